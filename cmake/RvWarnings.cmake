@@ -1,0 +1,11 @@
+# Project-wide compiler settings, applied to every target through rv_target_defaults().
+function(rv_target_defaults target)
+  target_compile_options(${target} PRIVATE -Wall -Wextra -Wpedantic -Wno-unused-parameter)
+  if(RV_NATIVE)
+    target_compile_options(${target} PRIVATE -march=native)
+  endif()
+  if(RV_SANITIZE)
+    target_compile_options(${target} PRIVATE -fsanitize=address,undefined -fno-omit-frame-pointer -fno-sanitize-recover=undefined)
+    target_link_options(${target} PRIVATE -fsanitize=address,undefined)
+  endif()
+endfunction()

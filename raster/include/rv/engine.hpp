@@ -1,0 +1,77 @@
+// The engine: for every cell of a window of a grid, the nearest site and the distance to it.
+//
+// Methods:
+//   exact        tile culling with provably safe distance bounds, then an exact argmin per cell.
+//                Zero cells whose site is farther than the true nearest. The default.
+//   hv_scan      the horizontal-vertical 3x3 scan of Liu, Zhao, Wang, Sun (2019): a horizontal
+//                cycle (forward rows top->bottom, left->right, neighbours Q1-Q4; backward rows
+//                bottom->top, right->left, Q5-Q8) then a vertical cycle (forward columns
+//                left->right, each top->bottom, neighbours Q1, Q4, Q6, Q2; backward columns
+//                right->left, each bottom->top, Q3, Q5, Q8, Q7). Exact distances to the
+//                candidates' real geometry; ownership not guaranteed exact (3x3 propagation
+//                cannot be), measured by validate().
+//   h_scan       the horizontal cycle alone (Shih & Wu 2004, the paper's baseline).
+//   brute_force  every cell against every site: the reference for validation.
+//
+// Determinism: the result is identical, cell for cell, for any thread count (the scans run a
+// pipelined wavefront that preserves the sequential order's semantics; the exact method's
+// result does not depend on order at all).
+// Ties (equal computed distance) go to the lower site index, in every method.
+//
+// Thread safety: compute() is reentrant; any number of computations may run at once.
+#pragma once
+
+#include <atomic>
+#include <chrono>
+#include <cstdint>
+#include <functional>
+#include <limits>
+#include <optional>
+#include <string>
+#include <string_view>
+
+#include "rv/grid.hpp"
+#include "rv/raster.hpp"
+#include "rv/seeds.hpp"
+
+namespace rv {
+
+enum class Method { exact, hv_scan, h_scan, brute_force };
+
+std::string_view to_string(Method m);
+// Throws rv::Error(invalid_argument) for an unknown name. Accepts "hv-scan" and "hv_scan".
+Method parse_method(std::string_view name);
+
+inline constexpr float kNoDistance = -1.0f;  // distance value of cells with no owner
+inline constexpr int32_t kNoSite = -1;
+
+struct ComputeOptions {
+  Method method = Method::exact;
+  int threads = 0;  // 0 = all hardware threads
+  // Cells farther than this from every seed get no owner (metric units: CRS units for planar).
+  double max_distance = std::numeric_limits<double>::infinity();
+  std::optional<Window> window;  // default: the whole grid
+  // Progress in [0, 1]; called from worker threads, never concurrently, at most ~100 times.
+  std::function<void(double)> progress;
+  // Polled by the workers; when it becomes true compute() throws rv::Error(cancelled).
+  const std::atomic<bool>* cancel = nullptr;
+};
+
+struct NearestField {
+  Raster<int32_t> site;    // nearest site index (into SeedSet::sites()), kNoSite where none
+  Raster<float> distance;  // distance to it in metric units, kNoDistance where none
+  double seconds = 0.0;    // wall time of the computation
+  int threads = 1;         // threads actually used
+};
+
+// Bytes the method needs for a window of `cells` cells and `sites` sites (result included).
+// Used to refuse a job before allocating anything.
+int64_t estimate_memory(Method m, int64_t cells, int64_t sites);
+
+// Computes the nearest-site field. Throws rv::Error(invalid_argument) for an invalid grid or
+// window, rv::Error(invalid_input) when the seed set has no sites, rv::Error(cancelled).
+NearestField compute(const SeedSet& seeds, const GridSpec& grid, const ComputeOptions& options);
+
+int resolve_threads(int requested);
+
+}  // namespace rv

@@ -1,0 +1,83 @@
+// Raster<T>: a window of a grid with one value of type T per cell, row-major, row 0 north.
+// A value type: copying copies the cells. Not synchronised: concurrent writers must write
+// disjoint cells.
+#pragma once
+
+#include <cstddef>
+#include <memory>
+#include <type_traits>
+#include <utility>
+#include <vector>
+
+#include "rv/grid.hpp"
+
+namespace rv {
+
+// An allocator that leaves trivially constructible values uninitialised on resize, so that a
+// large result buffer is first touched (and page-faulted) by the worker threads that fill it,
+// in parallel, instead of by one memset.
+template <class T>
+struct DefaultInitAllocator : std::allocator<T> {
+  template <class U>
+  struct rebind {
+    using other = DefaultInitAllocator<U>;
+  };
+  DefaultInitAllocator() = default;
+  template <class U>
+  DefaultInitAllocator(const DefaultInitAllocator<U>&) noexcept {}
+  template <class U>
+  void construct(U* p) noexcept(std::is_nothrow_default_constructible_v<U>) {
+    ::new (static_cast<void*>(p)) U;
+  }
+  template <class U, class... Args>
+  void construct(U* p, Args&&... args) {
+    std::allocator_traits<std::allocator<T>>::construct(static_cast<std::allocator<T>&>(*this), p,
+                                                        std::forward<Args>(args)...);
+  }
+};
+
+struct Uninitialized {};
+
+template <class T>
+class Raster {
+ public:
+  Raster() = default;
+  Raster(GridSpec grid, Window window, T fill = T{})
+      : grid_(std::move(grid)), window_(window),
+        cells_(static_cast<size_t>(window.cell_count()), fill) {}
+  Raster(GridSpec grid, T fill = T{}) : Raster(grid, grid.full_window(), fill) {}
+  // Cells left uninitialised: the caller must write every cell before reading it.
+  Raster(GridSpec grid, Window window, Uninitialized)
+      : grid_(std::move(grid)), window_(window) {
+    cells_.resize(static_cast<size_t>(window.cell_count()));
+  }
+
+  const GridSpec& grid() const { return grid_; }
+  // Which cells of grid() this raster holds; (col, row) accessors below are window-relative.
+  const Window& window() const { return window_; }
+  int64_t width() const { return window_.width; }
+  int64_t height() const { return window_.height; }
+  size_t size() const { return cells_.size(); }
+
+  T& at(int64_t col, int64_t row) { return cells_[index(col, row)]; }
+  const T& at(int64_t col, int64_t row) const { return cells_[index(col, row)]; }
+  T* row(int64_t r) { return cells_.data() + static_cast<size_t>(r) * window_.width; }
+  const T* row(int64_t r) const { return cells_.data() + static_cast<size_t>(r) * window_.width; }
+  T* data() { return cells_.data(); }
+  const T* data() const { return cells_.data(); }
+  using Storage = std::vector<T, DefaultInitAllocator<T>>;
+  Storage& cells() { return cells_; }
+  const Storage& cells() const { return cells_; }
+
+  bool operator==(const Raster&) const = default;
+
+ private:
+  size_t index(int64_t col, int64_t row) const {
+    return static_cast<size_t>(row) * static_cast<size_t>(window_.width) + static_cast<size_t>(col);
+  }
+  GridSpec grid_;
+  Window window_;
+  std::vector<T, DefaultInitAllocator<T>> cells_;
+};
+
+}  // namespace rv

@@ -1,0 +1,106 @@
+// The seed model: features (each with an owner) made of sites.
+//
+// A feature is one input geometry (a point, a line, a polygon or a collection of them) and
+// belongs to one owner (code 1..K). The engines work on *sites*, the atoms of a feature:
+//   - point:   a single position;
+//   - segment: the closed straight segment between two distinct positions (an edge of a line or of
+//              a polygon ring; on geodesic grids, the geodesic between them);
+//   - area:    the interior of a polygon feature; only ever assigned to cells whose centre lies
+//              inside it (see interior.hpp), at distance 0.
+// Coordinates are in the grid's CRS (x = easting or longitude, y = northing or latitude).
+//
+// Ordering invariant: sites are stored in feature order (and, inside a feature, in insertion
+// order). All engines break distance ties towards the lower site index, hence towards the lower
+// feature index, and (because owner codes are numbered by first appearance) the lower owner code.
+//
+// Not thread-safe for mutation; const access is safe from any number of threads.
+#pragma once
+
+#include <cstdint>
+#include <span>
+#include <string>
+#include <unordered_map>
+#include <vector>
+
+namespace rv {
+
+struct Vec2 {
+  double x = 0.0;
+  double y = 0.0;
+  bool operator==(const Vec2&) const = default;
+};
+
+enum class SiteKind : uint8_t { point, segment, area };
+
+struct Site {
+  Vec2 a;           // the point, or the segment's first end
+  Vec2 b;           // the segment's second end (== a for points and areas)
+  int32_t feature;  // 0-based feature index
+  SiteKind kind;
+};
+
+// A polygon ring; closure is implied (the last vertex is not a repeat of the first).
+using Ring = std::vector<Vec2>;
+
+// One polygon part: rings[0] is the outer ring, the rest are holes. Inside is decided by the
+// even-odd rule over all rings, so ring orientation does not matter.
+struct Polygon {
+  int32_t feature = 0;
+  int32_t area_site = 0;  // index of this feature's area site
+  std::vector<Ring> rings;
+};
+
+enum class GeometryKind : uint8_t { point, line, polygon, mixed };
+
+struct Feature {
+  int32_t owner = 0;                  // owner code, 1..owner_count()
+  GeometryKind kind = GeometryKind::point;
+  std::string source;                 // where it came from, for messages ("file.gpkg:layer:fid 7")
+};
+
+class SeedSet {
+ public:
+  // Registers an owner label and returns its code (1-based; the same label gets the same code).
+  int32_t owner_code(const std::string& label);
+  // Adds a feature owned by `owner` (a code from owner_code) and returns its 0-based index.
+  int32_t add_feature(int32_t owner, std::string source = {});
+
+  // Geometry of the most recently added feature (feature must be the last index; sites stay in
+  // feature order). Coordinates must be finite: otherwise rv::Error(invalid_input) naming the
+  // feature. Consecutive duplicate vertices are dropped; a line that collapses to one position
+  // becomes a point site. Returns the number of sites added.
+  int add_point(int32_t feature, Vec2 p);
+  int add_polyline(int32_t feature, std::span<const Vec2> vertices);
+  // Rings: outer first, then holes. Rings with fewer than 3 distinct vertices are dropped.
+  int add_polygon(int32_t feature, std::vector<Ring> rings);
+
+  const std::vector<Site>& sites() const { return sites_; }
+  const std::vector<Polygon>& polygons() const { return polygons_; }
+  const std::vector<Feature>& features() const { return features_; }
+  const std::vector<std::string>& owner_labels() const { return owner_labels_; }  // code-1 -> label
+  int32_t owner_count() const { return static_cast<int32_t>(owner_labels_.size()); }
+
+  int32_t site_feature(int32_t site) const { return sites_[site].feature; }
+  int32_t site_owner(int32_t site) const { return features_[sites_[site].feature].owner; }
+
+  // Bounding box of all vertices; {+inf, +inf, -inf, -inf} when empty.
+  struct Box {
+    double xmin, ymin, xmax, ymax;
+  };
+  Box bounds() const;
+
+  // Number of sites that take part in distance computations (points and segments).
+  int64_t geometric_site_count() const;
+
+ private:
+  void check_feature(int32_t feature) const;
+  void add_site(const Site& s);
+
+  std::vector<Site> sites_;
+  std::vector<Polygon> polygons_;
+  std::vector<Feature> features_;
+  std::vector<std::string> owner_labels_;
+  std::unordered_map<std::string, int32_t> owner_index_;
+};
+
+}  // namespace rv

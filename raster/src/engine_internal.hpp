@@ -1,0 +1,52 @@
+// Internal: what every method kernel receives, and the kernels themselves.
+#pragma once
+
+#include <atomic>
+#include <functional>
+#include <mutex>
+#include <vector>
+
+#include "rv/engine.hpp"
+#include "rv/planar.hpp"
+
+namespace rv::detail {
+
+// Throttled, serialised progress reporting plus cancellation polling.
+class Progress {
+ public:
+  Progress(std::function<void(double)> callback, const std::atomic<bool>* cancel, int64_t total)
+      : callback_(std::move(callback)), cancel_(cancel), total_(total > 0 ? total : 1) {}
+  // Adds `units` of work done (units are cells); throws rv::Error(cancelled) if cancellation was requested.
+  void advance(int64_t units);
+  void check_cancel() const;
+  // Changes the amount of work that means 100 %; call before any worker starts.
+  void set_total(int64_t total) { total_ = total > 0 ? total : 1; }
+
+ private:
+  std::function<void(double)> callback_;
+  const std::atomic<bool>* cancel_;
+  int64_t total_;
+  std::atomic<int64_t> done_{0};
+  std::atomic<int> last_percent_{-1};
+  std::mutex mutex_;
+};
+
+struct EngineContext {
+  const SeedSet& seeds;
+  const GridSpec& grid;
+  Window window;
+  std::vector<LocalSite> local;    // per site id (area sites hold their anchor point)
+  std::vector<int32_t> geometric;  // ids of point and segment sites, ascending
+  double max_key;                  // max_distance squared (planar key units)
+  int threads;
+  Progress* progress;
+};
+
+// Each kernel writes, for every cell of ctx.window, the nearest geometric site and its distance
+// (kNoSite / kNoDistance where the nearest is beyond max_distance). Interiors are applied after.
+void run_brute_force(const EngineContext& ctx, Raster<int32_t>& site, Raster<float>& distance);
+void run_exact(const EngineContext& ctx, Raster<int32_t>& site, Raster<float>& distance);
+void run_scan(const EngineContext& ctx, bool vertical_cycle, Raster<int32_t>& site,
+              Raster<float>& distance);
+
+}  // namespace rv::detail

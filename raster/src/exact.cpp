@@ -1,0 +1,387 @@
+// The exact method: hierarchical tile culling, then an exact argmin per cell.
+//
+// Why it is exact. For a block B of cell centres and any site s', every centre p in B has
+// d(p, nearest) <= d(p, s') <= max over B's four corner centres of d(., s') (distance to a convex
+// set is a convex function of p, so its maximum over a rectangle is at a corner). Call the
+// smallest such bound over the candidate sites U(B). A site s can be nearest (or tie with the
+// nearest) somewhere in B only if dist(s, rect(B)) <= U(B). Filtering with that test, with a
+// slack that covers floating-point rounding, never drops the site brute force would pick; the
+// final per-cell argmin uses the same planar_key() and the same tie rule (lower site index) as
+// brute force, so the result equals brute force bit for bit.
+//
+// Why it is fast. Blocks are refined top-down (64x64 tiles -> quadrants -> ... -> 8x8); most
+// blocks deep inside one Voronoi region end with a single candidate and are filled with one
+// distance evaluation per cell. Tiles are independent, so threads take them dynamically and the
+// result cannot depend on the thread count.
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <vector>
+
+#include "engine_internal.hpp"
+#include "parallel.hpp"
+#include "rv/error.hpp"
+
+namespace rv::detail {
+namespace {
+
+constexpr int64_t kTile = 64;      // top-level tile edge, cells
+constexpr int64_t kLeafCells = 64; // blocks this small (or smaller) are solved per cell
+
+struct Rect {  // local frame; x0 <= x1, y0 <= y1
+  double x0, y0, x1, y1;
+};
+
+inline double point_rect_key(double px, double py, const Rect& r) {
+  const double dx = std::max({r.x0 - px, 0.0, px - r.x1});
+  const double dy = std::max({r.y0 - py, 0.0, py - r.y1});
+  return dx * dx + dy * dy;
+}
+
+// Liang-Barsky: does the closed segment meet the closed rectangle?
+bool segment_meets_rect(const LocalSite& s, const Rect& r) {
+  double t0 = 0.0, t1 = 1.0;
+  const double p[4] = {-s.dx, s.dx, -s.dy, s.dy};
+  const double q[4] = {s.ax - r.x0, r.x1 - s.ax, s.ay - r.y0, r.y1 - s.ay};
+  for (int i = 0; i < 4; ++i) {
+    if (p[i] == 0.0) {
+      if (q[i] < 0.0) return false;
+    } else {
+      const double t = q[i] / p[i];
+      if (p[i] < 0.0) {
+        if (t > t1) return false;
+        t0 = std::max(t0, t);
+      } else {
+        if (t < t0) return false;
+        t1 = std::min(t1, t);
+      }
+    }
+  }
+  return t0 <= t1;
+}
+
+// Lower bound of the squared distance from the site to any point of the rectangle.
+double site_rect_key(const LocalSite& s, const Rect& r) {
+  if (s.inv_len2 == 0.0) return point_rect_key(s.ax, s.ay, r);
+  if (segment_meets_rect(s, r)) return 0.0;
+  // Disjoint convex sets: the closest pair has an endpoint of the segment or a rect corner.
+  double k = std::min(point_rect_key(s.ax, s.ay, r), point_rect_key(s.bx(), s.by(), r));
+  k = std::min(k, planar_key(r.x0, r.y0, s));
+  k = std::min(k, planar_key(r.x1, r.y0, s));
+  k = std::min(k, planar_key(r.x0, r.y1, s));
+  k = std::min(k, planar_key(r.x1, r.y1, s));
+  return k;
+}
+
+// Upper bound of the squared distance from the site to any point of the rectangle.
+inline double site_rect_max_key(const LocalSite& s, const Rect& r) {
+  return std::max(std::max(planar_key(r.x0, r.y0, s), planar_key(r.x1, r.y0, s)),
+                  std::max(planar_key(r.x0, r.y1, s), planar_key(r.x1, r.y1, s)));
+}
+
+// Uniform bucket grid over the geometric sites (segments registered in every bucket they cross).
+class BucketIndex {
+ public:
+  BucketIndex(const std::vector<LocalSite>& local, const std::vector<int32_t>& ids) {
+    double x0 = std::numeric_limits<double>::infinity(), y0 = x0, x1 = -x0, y1 = -x0;
+    for (int32_t id : ids) {
+      const LocalSite& s = local[id];
+      x0 = std::min({x0, s.ax, s.bx()});
+      x1 = std::max({x1, s.ax, s.bx()});
+      y0 = std::min({y0, s.ay, s.by()});
+      y1 = std::max({y1, s.ay, s.by()});
+    }
+    const double w = x1 - x0, h = y1 - y0;
+    const double n = std::max<double>(1.0, static_cast<double>(ids.size()) / 2.0);
+    double size;
+    if (w > 0.0 && h > 0.0)
+      size = std::sqrt(w * h / n);
+    else
+      size = std::max(w, h) / n;
+    if (!(size > 0.0)) size = 1.0;
+    nx_ = std::clamp<int64_t>(static_cast<int64_t>(w / size) + 1, 1, 1 << 14);
+    ny_ = std::clamp<int64_t>(static_cast<int64_t>(h / size) + 1, 1, 1 << 14);
+    x0_ = x0;
+    y0_ = y0;
+    sx_ = std::max(w / static_cast<double>(nx_), size * 1e-9);
+    sy_ = std::max(h / static_cast<double>(ny_), size * 1e-9);
+    if (w == 0.0) sx_ = size;
+    if (h == 0.0) sy_ = size;
+
+    std::vector<int64_t> counts(static_cast<size_t>(nx_ * ny_) + 1, 0);
+    auto visit = [&](const LocalSite& s, auto&& fn) {
+      const double ya = std::min(s.ay, s.by()), yb = std::max(s.ay, s.by());
+      const int64_t by0 = clamp_y(ya), by1 = clamp_y(yb);
+      for (int64_t by = by0; by <= by1; ++by) {
+        // x-range of the segment within this bucket row's band (inclusive of its edges).
+        const double band0 = y0_ + static_cast<double>(by) * sy_;
+        const double band1 = band0 + sy_;
+        double xa, xb;
+        if (s.dy == 0.0) {
+          xa = std::min(s.ax, s.bx());
+          xb = std::max(s.ax, s.bx());
+        } else {
+          double ta = (band0 - s.ay) / s.dy, tb = (band1 - s.ay) / s.dy;
+          if (ta > tb) std::swap(ta, tb);
+          ta = std::clamp(ta, 0.0, 1.0);
+          tb = std::clamp(tb, 0.0, 1.0);
+          xa = s.ax + ta * s.dx;
+          xb = s.ax + tb * s.dx;
+          if (xa > xb) std::swap(xa, xb);
+        }
+        // One bucket of slack on each side absorbs rounding in the band clipping.
+        const int64_t bx0 = std::max<int64_t>(clamp_x(xa) - 1, 0);
+        const int64_t bx1 = std::min<int64_t>(clamp_x(xb) + 1, nx_ - 1);
+        for (int64_t bx = bx0; bx <= bx1; ++bx) fn(by * nx_ + bx);
+      }
+    };
+    for (int32_t id : ids) visit(local[id], [&](int64_t b) { ++counts[b + 1]; });
+    for (size_t i = 1; i < counts.size(); ++i) counts[i] += counts[i - 1];
+    offsets_ = counts;
+    items_.resize(static_cast<size_t>(offsets_.back()));
+    std::vector<int64_t> fill(offsets_.begin(), offsets_.end() - 1);
+    for (int32_t id : ids) visit(local[id], [&](int64_t b) { items_[fill[b]++] = id; });
+  }
+
+  int64_t clamp_x(double x) const {
+    const double b = std::floor((x - x0_) / sx_);
+    return static_cast<int64_t>(std::clamp(b, 0.0, static_cast<double>(nx_ - 1)));
+  }
+  int64_t clamp_y(double y) const {
+    const double b = std::floor((y - y0_) / sy_);
+    return static_cast<int64_t>(std::clamp(b, 0.0, static_cast<double>(ny_ - 1)));
+  }
+
+  // Calls fn(site) for every site registered in buckets [bx0, bx1] x [by0, by1] (clamped).
+  template <class F>
+  void for_range(int64_t bx0, int64_t by0, int64_t bx1, int64_t by1, F&& fn) const {
+    bx0 = std::max<int64_t>(bx0, 0);
+    by0 = std::max<int64_t>(by0, 0);
+    bx1 = std::min(bx1, nx_ - 1);
+    by1 = std::min(by1, ny_ - 1);
+    for (int64_t by = by0; by <= by1; ++by)
+      for (int64_t bx = bx0; bx <= bx1; ++bx) {
+        const int64_t b = by * nx_ + bx;
+        for (int64_t i = offsets_[b]; i < offsets_[b + 1]; ++i) fn(items_[i]);
+      }
+  }
+
+  // Calls fn(site) for the sites of the first non-empty square ring of buckets around (x, y),
+  // and of the ring after it. Any site gives a valid upper bound; near ones give a tight one.
+  template <class F>
+  void near(double x, double y, F&& fn) const {
+    const int64_t cx = clamp_x(x), cy = clamp_y(y);
+    const int64_t max_ring = std::max(nx_, ny_);
+    int64_t found_at = -1;
+    for (int64_t ring = 0; ring <= max_ring; ++ring) {
+      bool any = false;
+      auto take = [&](int64_t bx, int64_t by) {
+        if (bx < 0 || by < 0 || bx >= nx_ || by >= ny_) return;
+        const int64_t b = by * nx_ + bx;
+        for (int64_t i = offsets_[b]; i < offsets_[b + 1]; ++i) {
+          fn(items_[i]);
+          any = true;
+        }
+      };
+      if (ring == 0) {
+        take(cx, cy);
+      } else {
+        for (int64_t bx = cx - ring; bx <= cx + ring; ++bx) {
+          take(bx, cy - ring);
+          take(bx, cy + ring);
+        }
+        for (int64_t by = cy - ring + 1; by <= cy + ring - 1; ++by) {
+          take(cx - ring, by);
+          take(cx + ring, by);
+        }
+      }
+      if (any && found_at < 0) found_at = ring;
+      if (found_at >= 0 && ring >= found_at + 1) return;
+    }
+  }
+
+  double x0() const { return x0_; }
+  double y0() const { return y0_; }
+  double sx() const { return sx_; }
+  double sy() const { return sy_; }
+
+ private:
+  double x0_, y0_, sx_, sy_;
+  int64_t nx_, ny_;
+  std::vector<int64_t> offsets_;
+  std::vector<int32_t> items_;
+};
+
+struct Worker {
+  std::vector<int32_t> stamp;  // per site id: last tile that collected it
+  int64_t stamp_value = 0;
+  std::vector<std::vector<int32_t>> levels;  // candidate lists per recursion depth
+  std::vector<LocalSite> gathered;
+  std::vector<double> px;
+  std::vector<double> best;
+  std::vector<int32_t> best_id;
+};
+
+class ExactSolver {
+ public:
+  ExactSolver(const EngineContext& ctx, Raster<int32_t>& site, Raster<float>& distance)
+      : ctx_(ctx), site_(site), distance_(distance), index_(ctx.local, ctx.geometric) {
+    // Absolute slack (in distance units) for rounding in bounds: far above the few ulps of the
+    // local-frame magnitudes the keys are computed from, far below anything that matters.
+    double scale = std::abs(ctx.grid.local_x(ctx.window.col0 + ctx.window.width)) +
+                   std::abs(ctx.grid.local_y(ctx.window.row0 + ctx.window.height)) + ctx.grid.res;
+    for (int32_t id : ctx.geometric) {
+      const LocalSite& s = ctx.local[id];
+      scale = std::max({scale, std::abs(s.ax), std::abs(s.ay), std::abs(s.bx()), std::abs(s.by())});
+    }
+    slack_ = scale * 1e-12;
+  }
+
+  void run() {
+    const Window& w = ctx_.window;
+    const int64_t tiles_x = (w.width + kTile - 1) / kTile;
+    const int64_t tiles_y = (w.height + kTile - 1) / kTile;
+    std::vector<Worker> workers(static_cast<size_t>(ctx_.threads));
+    parallel_for(ctx_.threads, tiles_x * tiles_y, [&](int64_t t, int worker) {
+      Worker& wk = workers[static_cast<size_t>(worker)];
+      if (wk.stamp.empty()) wk.stamp.assign(ctx_.local.size(), -1);
+      const int64_t c0 = (t % tiles_x) * kTile, r0 = (t / tiles_x) * kTile;
+      const int64_t c1 = std::min(c0 + kTile, w.width), r1 = std::min(r0 + kTile, w.height);
+      solve_tile(wk, c0, r0, c1, r1);
+      ctx_.progress->advance((c1 - c0) * (r1 - r0));
+    });
+  }
+
+ private:
+  Rect rect_of(int64_t c0, int64_t r0, int64_t c1, int64_t r1) const {
+    const Window& w = ctx_.window;
+    return Rect{ctx_.grid.local_x(w.col0 + c0), ctx_.grid.local_y(w.row0 + r1 - 1),
+                ctx_.grid.local_x(w.col0 + c1 - 1), ctx_.grid.local_y(w.row0 + r0)};
+  }
+
+  // The squared-distance bound a site's lower bound must not exceed to stay a candidate.
+  double keep_bound(double upper_key) const {
+    const double d = std::sqrt(std::min(upper_key, ctx_.max_key)) + slack_;
+    return d * d;
+  }
+
+  void solve_tile(Worker& wk, int64_t c0, int64_t r0, int64_t c1, int64_t r1) {
+    const Rect rect = rect_of(c0, r0, c1, r1);
+    double upper = std::numeric_limits<double>::infinity();
+    index_.near(0.5 * (rect.x0 + rect.x1), 0.5 * (rect.y0 + rect.y1), [&](int32_t id) {
+      upper = std::min(upper, site_rect_max_key(ctx_.local[id], rect));
+    });
+    const double bound = keep_bound(upper);
+    const double reach = std::sqrt(bound);
+    if (wk.levels.empty()) wk.levels.resize(16);
+    std::vector<int32_t>& cands = wk.levels[0];
+    cands.clear();
+    ++wk.stamp_value;
+    const auto stamp = static_cast<int32_t>(wk.stamp_value);
+    index_.for_range(index_.clamp_x(rect.x0 - reach) - 1, index_.clamp_y(rect.y0 - reach) - 1,
+                     index_.clamp_x(rect.x1 + reach) + 1, index_.clamp_y(rect.y1 + reach) + 1,
+                     [&](int32_t id) {
+                       if (wk.stamp[id] == stamp) return;
+                       wk.stamp[id] = stamp;
+                       if (site_rect_key(ctx_.local[id], rect) <= bound) cands.push_back(id);
+                     });
+    std::sort(cands.begin(), cands.end());
+    solve_block(wk, 0, c0, r0, c1, r1);
+  }
+
+  // Candidates for this block are wk.levels[depth]; they are in ascending site order.
+  void solve_block(Worker& wk, int depth, int64_t c0, int64_t r0, int64_t c1, int64_t r1) {
+    const std::vector<int32_t>& cands = wk.levels[depth];
+    if (cands.empty()) return fill_none(c0, r0, c1, r1);
+    std::vector<int32_t>& next = wk.levels[depth + 1];
+    const Rect rect = rect_of(c0, r0, c1, r1);
+    if (cands.size() > 1) {
+      double upper = std::numeric_limits<double>::infinity();
+      for (int32_t id : cands) upper = std::min(upper, site_rect_max_key(ctx_.local[id], rect));
+      const double bound = keep_bound(upper);
+      next.clear();
+      for (int32_t id : cands)
+        if (site_rect_key(ctx_.local[id], rect) <= bound) next.push_back(id);
+    } else {
+      next = cands;
+    }
+    const int64_t w = c1 - c0, h = r1 - r0;
+    if (next.size() <= 1 || w * h <= kLeafCells || depth + 2 >= static_cast<int>(wk.levels.size()))
+      return solve_cells(wk, next, c0, r0, c1, r1);
+    const int64_t cm = c0 + (w + 1) / 2, rm = r0 + (h + 1) / 2;
+    solve_block(wk, depth + 1, c0, r0, cm, rm);
+    if (cm < c1) solve_block(wk, depth + 1, cm, r0, c1, rm);
+    if (rm < r1) {
+      solve_block(wk, depth + 1, c0, rm, cm, r1);
+      if (cm < c1) solve_block(wk, depth + 1, cm, rm, c1, r1);
+    }
+  }
+
+  void fill_none(int64_t c0, int64_t r0, int64_t c1, int64_t r1) {
+    for (int64_t r = r0; r < r1; ++r) {
+      std::fill(site_.row(r) + c0, site_.row(r) + c1, kNoSite);
+      std::fill(distance_.row(r) + c0, distance_.row(r) + c1, kNoDistance);
+    }
+  }
+
+  // Exact per-cell argmin over `cands` (ascending ids; strict < keeps the lowest id on ties).
+  void solve_cells(Worker& wk, const std::vector<int32_t>& cands, int64_t c0, int64_t r0, int64_t c1,
+                   int64_t r1) {
+    if (cands.empty()) return fill_none(c0, r0, c1, r1);
+    const Window& win = ctx_.window;
+    const int64_t n = c1 - c0;
+    wk.px.resize(static_cast<size_t>(n));
+    wk.best.resize(static_cast<size_t>(n));
+    wk.best_id.resize(static_cast<size_t>(n));
+    for (int64_t i = 0; i < n; ++i) wk.px[i] = ctx_.grid.local_x(win.col0 + c0 + i);
+    wk.gathered.clear();
+    for (int32_t id : cands) wk.gathered.push_back(ctx_.local[id]);
+    const double max_key = ctx_.max_key;
+    double* best = wk.best.data();
+    int32_t* best_id = wk.best_id.data();
+    const double* px = wk.px.data();
+    for (int64_t r = r0; r < r1; ++r) {
+      const double py = ctx_.grid.local_y(win.row0 + r);
+      {
+        const LocalSite& s = wk.gathered[0];
+        const int32_t id = cands[0];
+        for (int64_t i = 0; i < n; ++i) {
+          best[i] = planar_key(px[i], py, s);
+          best_id[i] = id;
+        }
+      }
+      for (size_t j = 1; j < cands.size(); ++j) {
+        const LocalSite s = wk.gathered[j];
+        const int32_t id = cands[j];
+        for (int64_t i = 0; i < n; ++i) {
+          const double k = planar_key(px[i], py, s);
+          const bool lt = k < best[i];
+          best[i] = lt ? k : best[i];
+          best_id[i] = lt ? id : best_id[i];
+        }
+      }
+      int32_t* out_site = site_.row(r) + c0;
+      float* out_dist = distance_.row(r) + c0;
+      for (int64_t i = 0; i < n; ++i) {
+        const bool none = best[i] > max_key;
+        out_site[i] = none ? kNoSite : best_id[i];
+        out_dist[i] = none ? kNoDistance : static_cast<float>(std::sqrt(best[i]));
+      }
+    }
+  }
+
+  const EngineContext& ctx_;
+  Raster<int32_t>& site_;
+  Raster<float>& distance_;
+  BucketIndex index_;
+  double slack_ = 0.0;
+};
+
+}  // namespace
+
+void run_exact(const EngineContext& ctx, Raster<int32_t>& site, Raster<float>& distance) {
+  ExactSolver solver(ctx, site, distance);
+  solver.run();
+}
+
+}  // namespace rv::detail

@@ -1,0 +1,130 @@
+#include "rv/seeds.hpp"
+
+#include <cmath>
+#include <limits>
+
+#include "rv/error.hpp"
+
+namespace rv {
+namespace {
+
+bool finite(Vec2 p) { return std::isfinite(p.x) && std::isfinite(p.y); }
+
+}  // namespace
+
+int32_t SeedSet::owner_code(const std::string& label) {
+  auto [it, inserted] = owner_index_.try_emplace(label, static_cast<int32_t>(owner_labels_.size() + 1));
+  if (inserted) owner_labels_.push_back(label);
+  return it->second;
+}
+
+int32_t SeedSet::add_feature(int32_t owner, std::string source) {
+  if (owner < 1 || owner > owner_count())
+    throw Error(ErrorKind::internal, "add_feature: owner code " + std::to_string(owner) + " was never registered");
+  if (features_.size() >= static_cast<size_t>(std::numeric_limits<int32_t>::max()))
+    throw Error(ErrorKind::too_large, "too many seed features");
+  features_.push_back(Feature{owner, GeometryKind::point, std::move(source)});
+  return static_cast<int32_t>(features_.size() - 1);
+}
+
+void SeedSet::check_feature(int32_t feature) const {
+  // Sites must stay in feature order: only the newest feature may receive geometry.
+  if (feature < 0 || feature + 1 != static_cast<int32_t>(features_.size()))
+    throw Error(ErrorKind::internal, "seed geometry added out of feature order");
+}
+
+void SeedSet::add_site(const Site& s) {
+  if (sites_.size() >= static_cast<size_t>(std::numeric_limits<int32_t>::max() - 1))
+    throw Error(ErrorKind::too_large, "too many seed sites (more than 2^31 points and segments)");
+  sites_.push_back(s);
+}
+
+namespace {
+GeometryKind merge_kind(bool had_sites, GeometryKind old_kind, GeometryKind add) {
+  if (!had_sites || old_kind == add) return add;
+  return GeometryKind::mixed;
+}
+
+std::string describe(const Feature& f, int32_t index) {
+  return f.source.empty() ? "feature " + std::to_string(index + 1) : f.source;
+}
+}  // namespace
+
+int SeedSet::add_point(int32_t feature, Vec2 p) {
+  check_feature(feature);
+  if (!finite(p))
+    throw Error(ErrorKind::invalid_input, describe(features_[feature], feature) + ": non-finite coordinate");
+  const bool had = !sites_.empty() && sites_.back().feature == feature;
+  features_[feature].kind = merge_kind(had, features_[feature].kind, GeometryKind::point);
+  add_site(Site{p, p, feature, SiteKind::point});
+  return 1;
+}
+
+int SeedSet::add_polyline(int32_t feature, std::span<const Vec2> vertices) {
+  check_feature(feature);
+  for (const Vec2& v : vertices)
+    if (!finite(v))
+      throw Error(ErrorKind::invalid_input, describe(features_[feature], feature) + ": non-finite coordinate");
+  std::vector<Vec2> clean;
+  clean.reserve(vertices.size());
+  for (const Vec2& v : vertices)
+    if (clean.empty() || !(clean.back() == v)) clean.push_back(v);
+  if (clean.empty()) return 0;
+  if (clean.size() == 1) return add_point(feature, clean.front());
+  const bool had = !sites_.empty() && sites_.back().feature == feature;
+  features_[feature].kind = merge_kind(had, features_[feature].kind, GeometryKind::line);
+  for (size_t i = 0; i + 1 < clean.size(); ++i) add_site(Site{clean[i], clean[i + 1], feature, SiteKind::segment});
+  return static_cast<int>(clean.size() - 1);
+}
+
+int SeedSet::add_polygon(int32_t feature, std::vector<Ring> rings) {
+  check_feature(feature);
+  std::vector<Ring> kept;
+  for (Ring& ring : rings) {
+    Ring clean;
+    clean.reserve(ring.size());
+    for (const Vec2& v : ring) {
+      if (!finite(v))
+        throw Error(ErrorKind::invalid_input, describe(features_[feature], feature) + ": non-finite coordinate");
+      if (clean.empty() || !(clean.back() == v)) clean.push_back(v);
+    }
+    while (clean.size() > 1 && clean.back() == clean.front()) clean.pop_back();
+    if (clean.size() >= 3) kept.push_back(std::move(clean));
+  }
+  if (kept.empty()) return 0;
+  const bool had = !sites_.empty() && sites_.back().feature == feature;
+  features_[feature].kind = merge_kind(had, features_[feature].kind, GeometryKind::polygon);
+  int added = 0;
+  for (const Ring& ring : kept) {
+    for (size_t i = 0; i < ring.size(); ++i) {
+      add_site(Site{ring[i], ring[(i + 1) % ring.size()], feature, SiteKind::segment});
+      ++added;
+    }
+  }
+  const auto area = static_cast<int32_t>(sites_.size());
+  add_site(Site{kept[0][0], kept[0][0], feature, SiteKind::area});
+  polygons_.push_back(Polygon{feature, area, std::move(kept)});
+  return added + 1;
+}
+
+SeedSet::Box SeedSet::bounds() const {
+  const double inf = std::numeric_limits<double>::infinity();
+  Box b{inf, inf, -inf, -inf};
+  for (const Site& s : sites_) {
+    for (const Vec2& p : {s.a, s.b}) {
+      b.xmin = std::min(b.xmin, p.x);
+      b.ymin = std::min(b.ymin, p.y);
+      b.xmax = std::max(b.xmax, p.x);
+      b.ymax = std::max(b.ymax, p.y);
+    }
+  }
+  return b;
+}
+
+int64_t SeedSet::geometric_site_count() const {
+  int64_t n = 0;
+  for (const Site& s : sites_) n += s.kind != SiteKind::area;
+  return n;
+}
+
+}  // namespace rv

@@ -1,0 +1,276 @@
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+
+#include "rv/engine.hpp"
+#include "rv/error.hpp"
+#include "rv/validate.hpp"
+#include "seed_gen.hpp"
+
+namespace rv {
+namespace {
+
+NearestField run(const SeedSet& s, const GridSpec& g, Method m, int threads = 2,
+                 double max_distance = std::numeric_limits<double>::infinity()) {
+  ComputeOptions o;
+  o.method = m;
+  o.threads = threads;
+  o.max_distance = max_distance;
+  return compute(s, g, o);
+}
+
+GridSpec grid(int64_t w, int64_t h, double res = 1.0, double xmin = 0.0, double ymax = 0.0) {
+  GridSpec g;
+  g.xmin = xmin;
+  g.ymax = ymax == 0.0 ? static_cast<double>(h) * res : ymax;
+  g.res = res;
+  g.width = w;
+  g.height = h;
+  return g;
+}
+
+TEST(Engine, ExactMatchesBruteForceOnRandomPoints) {
+  for (uint32_t trial = 0; trial < 40; ++trial) {
+    std::mt19937 rng(trial);
+    const int w = 20 + static_cast<int>(rng() % 120), h = 20 + static_cast<int>(rng() % 120);
+    const int n = 1 + static_cast<int>(rng() % 200);
+    const GridSpec g = grid(w, h, 1.0 + (trial % 3));
+    // Seeds somewhat beyond the grid too.
+    SeedSet s = test::random_points(n, g.xmin - 10, g.ymin() - 10, g.xmax() + 10, g.ymax + 10, trial);
+    const NearestField exact = run(s, g, Method::exact);
+    const NearestField brute = run(s, g, Method::brute_force);
+    EXPECT_EQ(exact.site.cells(), brute.site.cells()) << "trial " << trial;
+    EXPECT_EQ(exact.distance.cells(), brute.distance.cells()) << "trial " << trial;
+  }
+}
+
+TEST(Engine, HvScanErrorBelowOneCellAndHScanMeasured) {
+  int h_trials_over_one = 0;
+  double worst_hv = 0.0;
+  for (uint32_t trial = 0; trial < 30; ++trial) {
+    const GridSpec g = grid(100, 100);
+    SeedSet s = test::random_points(20, 0.0, 0.0, 100.0, 100.0, 1000 + trial);
+    const NearestField brute = run(s, g, Method::brute_force);
+    const ValidationStats hv = compare_fields(s, run(s, g, Method::hv_scan), brute);
+    const ValidationStats hs = compare_fields(s, run(s, g, Method::h_scan), brute);
+    EXPECT_LT(hv.max_error_cells, 1.0) << "trial " << trial;
+    EXPECT_EQ(hv.nodata_mismatch, 0);
+    worst_hv = std::max(worst_hv, hv.max_error_cells);
+    if (hs.max_error_cells > 1.0) ++h_trials_over_one;
+  }
+  RecordProperty("hv_worst_error_cells", std::to_string(worst_hv));
+  RecordProperty("h_trials_over_one_cell", h_trials_over_one);
+}
+
+TEST(Engine, IdenticalForAnyThreadCount) {
+  const GridSpec g = grid(173, 129, 0.5);
+  SeedSet s = test::random_points(300, -5, -5, 90, 70, 7);
+  for (Method m : {Method::exact, Method::hv_scan, Method::h_scan}) {
+    const NearestField one = run(s, g, m, 1);
+    for (int t : {2, 7}) {
+      const NearestField many = run(s, g, m, t);
+      EXPECT_EQ(one.site.cells(), many.site.cells()) << to_string(m) << " threads " << t;
+      EXPECT_EQ(one.distance.cells(), many.distance.cells()) << to_string(m) << " threads " << t;
+    }
+  }
+}
+
+TEST(Engine, TiesGoToLowerSeedIndex) {
+  // Two seeds mirrored about the column of centres x = 5.5: that column is a tie.
+  const GridSpec g = grid(11, 5);
+  SeedSet s;
+  s.add_point(s.add_feature(s.owner_code("b")), {8.5, 2.5});
+  s.add_point(s.add_feature(s.owner_code("a")), {2.5, 2.5});
+  for (Method m : {Method::exact, Method::hv_scan, Method::h_scan, Method::brute_force}) {
+    const NearestField f = run(s, g, m);
+    for (int64_t r = 0; r < 5; ++r) {
+      EXPECT_EQ(f.site.at(5, r), 0) << to_string(m);  // the tie column: lower index 0
+      EXPECT_EQ(f.site.at(4, r), 1) << to_string(m);
+      EXPECT_EQ(f.site.at(6, r), 0) << to_string(m);
+    }
+  }
+}
+
+TEST(Engine, SeedsOutsideTheGridAndSharingACell) {
+  const GridSpec g = grid(40, 30);
+  SeedSet s;
+  s.add_point(s.add_feature(s.owner_code("far west")), {-3.0, 25.0});
+  s.add_point(s.add_feature(s.owner_code("north")), {30.0, 34.0});
+  s.add_point(s.add_feature(s.owner_code("in1")), {10.2, 10.2});
+  s.add_point(s.add_feature(s.owner_code("in2")), {10.7, 10.4});  // same cell as in1
+  s.add_point(s.add_feature(s.owner_code("east")), {45.0, 5.0});
+  const NearestField brute = run(s, g, Method::brute_force);
+  EXPECT_EQ(run(s, g, Method::exact).site.cells(), brute.site.cells());
+  const ValidationStats hv = compare_fields(s, run(s, g, Method::hv_scan), brute);
+  EXPECT_LT(hv.max_error_cells, 1.0);
+  // Every seed owns something: the far ones enter through the border.
+  std::vector<int> owned(5, 0);
+  for (int32_t id : brute.site.cells()) ++owned[id];
+  for (int i = 0; i < 5; ++i) EXPECT_GT(owned[i], 0) << i;
+}
+
+TEST(Engine, OneSeed) {
+  const GridSpec g = grid(17, 9, 2.0);
+  SeedSet s;
+  s.add_point(s.add_feature(s.owner_code("only")), {3.0, 4.0});
+  for (Method m : {Method::exact, Method::hv_scan, Method::h_scan, Method::brute_force}) {
+    const NearestField f = run(s, g, m);
+    for (int32_t id : f.site.cells()) EXPECT_EQ(id, 0);
+    // Distance at cell (0, 0): centre (1, 17).
+    EXPECT_FLOAT_EQ(f.distance.at(0, 0), static_cast<float>(std::hypot(1.0 - 3.0, 17.0 - 4.0)));
+  }
+}
+
+TEST(Engine, MaxDistanceLeavesFarCellsWithoutOwner) {
+  const GridSpec g = grid(50, 50);
+  SeedSet s = test::random_points(3, 10, 10, 40, 40, 5);
+  for (Method m : {Method::exact, Method::hv_scan, Method::brute_force}) {
+    const NearestField f = run(s, g, m, 2, 6.0);
+    int64_t none = 0;
+    for (size_t i = 0; i < f.site.size(); ++i) {
+      if (f.site.cells()[i] == kNoSite) {
+        ++none;
+        EXPECT_EQ(f.distance.cells()[i], kNoDistance);
+      } else {
+        EXPECT_LE(f.distance.cells()[i], 6.0f);
+      }
+    }
+    EXPECT_GT(none, 1000) << to_string(m);
+  }
+  EXPECT_EQ(run(s, g, Method::exact, 2, 6.0).site.cells(), run(s, g, Method::brute_force, 2, 6.0).site.cells());
+}
+
+TEST(Engine, LargeCoordinatesKeepPrecision) {
+  // A UTM-like grid: northings of 6e6 m, 0.1 m cells. Seeds 0.01 m apart must be told apart.
+  const GridSpec g = grid(64, 64, 0.1, 500000.0, 6000000.0);
+  SeedSet s;
+  s.add_point(s.add_feature(s.owner_code("a")), {500003.20, 5999996.80});
+  s.add_point(s.add_feature(s.owner_code("b")), {500003.21, 5999996.80});
+  const NearestField f = run(s, g, Method::exact);
+  EXPECT_EQ(f.site.cells(), run(s, g, Method::brute_force).site.cells());
+  // The bisector x = 500003.205 splits columns: col 32 has centre 500003.25 -> b; col 31 -> a.
+  EXPECT_EQ(f.site.at(31, 10), 0);
+  EXPECT_EQ(f.site.at(32, 10), 1);
+  // Distance at cell (32, 32): centre (500003.25, 5999996.75); to b: hypot(0.04, 0.05).
+  EXPECT_NEAR(f.distance.at(32, 32), std::hypot(0.04, 0.05), 1e-7);
+}
+
+TEST(Engine, LinesAndPolygonsExactMatchesBruteForce) {
+  for (uint32_t trial = 0; trial < 15; ++trial) {
+    std::mt19937_64 rng(trial);
+    std::uniform_real_distribution<double> u(-10.0, 110.0);
+    SeedSet s;
+    for (int f = 0; f < 12; ++f) {
+      const int32_t id = s.add_feature(s.owner_code(std::to_string(f % 4)));
+      std::vector<Vec2> pts;
+      const int k = 2 + static_cast<int>(rng() % 5);
+      const Vec2 c{u(rng), u(rng)};
+      for (int i = 0; i < k; ++i) pts.push_back({c.x + u(rng) / 8, c.y + u(rng) / 8});
+      if (f % 3 == 0) {
+        s.add_point(id, c);
+      } else if (f % 3 == 1) {
+        s.add_polyline(id, pts);
+      } else {
+        pts.push_back({c.x + 12, c.y});
+        s.add_polygon(id, {pts});
+      }
+    }
+    const GridSpec g = grid(100, 100, 1.0);
+    const NearestField brute = run(s, g, Method::brute_force);
+    const NearestField exact = run(s, g, Method::exact);
+    EXPECT_EQ(exact.site.cells(), brute.site.cells()) << trial;
+    EXPECT_EQ(exact.distance.cells(), brute.distance.cells()) << trial;
+    const ValidationStats hv = compare_fields(s, run(s, g, Method::hv_scan), brute);
+    RecordProperty("hv_lines_max_error_cells_" + std::to_string(trial), std::to_string(hv.max_error_cells));
+  }
+}
+
+TEST(Engine, ThinDiagonalLineSeedsEveryCellItCrosses) {
+  // A single long diagonal line and a point: the scans must not lose the line.
+  const GridSpec g = grid(64, 64);
+  SeedSet s;
+  const std::vector<Vec2> line{{0.3, 0.1}, {63.9, 63.7}};
+  s.add_polyline(s.add_feature(s.owner_code("line")), line);
+  s.add_point(s.add_feature(s.owner_code("pt")), {50.0, 10.0});
+  const NearestField brute = run(s, g, Method::brute_force);
+  for (Method m : {Method::exact, Method::hv_scan}) {
+    const ValidationStats v = compare_fields(s, run(s, g, m), brute);
+    EXPECT_EQ(v.wrong_cells, 0) << to_string(m);
+  }
+}
+
+TEST(Engine, PolygonInteriorsAreOwnedAtDistanceZero) {
+  const GridSpec g = grid(30, 30);
+  SeedSet s;
+  // A square 5..15 x 5..15 with a hole 8..12 x 8..12, and a point seed inside the hole.
+  s.add_polygon(s.add_feature(s.owner_code("land")),
+                {{{5, 5}, {15, 5}, {15, 15}, {5, 15}}, {{8, 8}, {12, 8}, {12, 12}, {8, 12}}});
+  s.add_point(s.add_feature(s.owner_code("rock")), {10.0, 10.0});
+  const NearestField f = run(s, g, Method::exact);
+  // Cell (6, 23): centre (6.5, 6.5) inside the ring, outside the hole.
+  EXPECT_EQ(s.site_feature(f.site.at(6, 23)), 0);
+  EXPECT_EQ(f.distance.at(6, 23), 0.0f);
+  // Cell (10, 19): centre (10.5, 10.5) in the hole: nearest is the rock at 0.707, not the land.
+  EXPECT_EQ(s.site_feature(f.site.at(10, 19)), 1);
+  EXPECT_NEAR(f.distance.at(10, 19), std::sqrt(0.5), 1e-6);
+  // Cell (20, 10): centre (20.5, 19.5), outside: distance to the boundary corner (15, 15).
+  EXPECT_NEAR(f.distance.at(20, 10), std::hypot(5.5, 4.5), 1e-5);
+  EXPECT_EQ(f.site.cells(), run(s, g, Method::brute_force).site.cells());
+}
+
+TEST(Engine, WindowsAgreeWithTheWholeGrid) {
+  const GridSpec g = grid(200, 150);
+  SeedSet s = test::random_points(500, -20, -20, 220, 170, 3);
+  const NearestField whole = run(s, g, Method::exact);
+  ComputeOptions o;
+  o.window = Window{37, 61, 90, 50};
+  const NearestField part = compute(s, g, o);
+  for (int64_t r = 0; r < 50; ++r)
+    for (int64_t c = 0; c < 90; ++c) {
+      ASSERT_EQ(part.site.at(c, r), whole.site.at(37 + c, 61 + r));
+      ASSERT_EQ(part.distance.at(c, r), whole.distance.at(37 + c, 61 + r));
+    }
+}
+
+TEST(Engine, BadInputIsRejectedWithAClearError) {
+  SeedSet empty;
+  EXPECT_THROW(run(empty, grid(5, 5), Method::exact), Error);
+  SeedSet s = test::random_points(2, 0, 0, 5, 5, 1);
+  GridSpec bad = grid(5, 5);
+  bad.res = -1;
+  EXPECT_THROW(run(s, bad, Method::exact), Error);
+  EXPECT_THROW(run(s, grid(5, 5), Method::exact, 1, -3.0), Error);
+  ComputeOptions o;
+  o.window = Window{3, 3, 5, 5};
+  EXPECT_THROW(compute(s, grid(5, 5), o), Error);
+  SeedSet nan;
+  const int32_t f = nan.add_feature(nan.owner_code("x"));
+  try {
+    nan.add_point(f, {std::nan(""), 1.0});
+    FAIL() << "NaN accepted";
+  } catch (const Error& e) {
+    EXPECT_EQ(e.kind(), ErrorKind::invalid_input);
+  }
+  EXPECT_EQ(parse_method("hv_scan"), Method::hv_scan);
+  EXPECT_THROW(parse_method("magic"), Error);
+}
+
+TEST(Engine, CancellationStopsTheComputation) {
+  SeedSet s = test::random_points(50, 0, 0, 300, 300, 9);
+  std::atomic<bool> cancel{true};
+  for (Method m : {Method::exact, Method::hv_scan, Method::brute_force}) {
+    ComputeOptions o;
+    o.method = m;
+    o.cancel = &cancel;
+    try {
+      compute(s, grid(300, 300), o);
+      FAIL() << "not cancelled";
+    } catch (const Error& e) {
+      EXPECT_EQ(e.kind(), ErrorKind::cancelled);
+    }
+  }
+}
+
+}  // namespace
+}  // namespace rv
