@@ -151,8 +151,11 @@ NearestField compute(const SeedSet& seeds, const GridSpec& grid, const ComputeOp
     case Method::h_scan: detail::run_scan(ctx, false, out.site, out.distance); break;
     case Method::hv_scan: detail::run_scan(ctx, true, out.site, out.distance); break;
   }
-  if (!seeds.polygons().empty())
-    detail::apply_interiors(build_interiors(seeds, grid, window), out.site, out.distance);
+  if (!seeds.polygons().empty()) {
+    const InteriorSpans spans = build_interiors(seeds, grid, window);
+    out.contested_cells = spans.contested_cells;
+    detail::apply_interiors(spans, out.site, out.distance);
+  }
   out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return out;
 }

@@ -61,6 +61,8 @@ struct NearestField {
   Raster<int32_t> site;    // nearest site index (into SeedSet::sites()), kNoSite where none
   Raster<float> distance;  // distance to it in metric units, kNoDistance where none
   double seconds = 0.0;    // wall time of the computation
+  // Cells whose centre lies inside polygons of two or more owners (decided for the lower code).
+  int64_t contested_cells = 0;
   int threads = 1;         // threads actually used
 };
 
