@@ -79,6 +79,56 @@ inline double site_rect_max_key(const LocalSite& s, const Rect& r) {
                   std::max(planar_key(r.x0, r.y1, s), planar_key(r.x1, r.y1, s)));
 }
 
+// A block of n cells (centres px[i], py[i]) against k candidate sites: the exact argmin
+// (strict <, candidates in ascending id order, so ties keep the lowest id) and its key. The loops
+// are written for the vectoriser; an AVX2 clone is picked at load time where the CPU has it.
+// Keys use exactly planar_key()'s arithmetic (-ffp-contract=off keeps it bit-identical).
+__attribute__((target_clones("avx2", "default"))) void argmin_block(
+    const LocalSite* __restrict sites, const int32_t* __restrict ids, int k,
+    const double* __restrict px, const double* __restrict py, int64_t n, double* __restrict best,
+    int32_t* __restrict best_id) {
+  for (int j = 0; j < k; ++j) {
+    const LocalSite s = sites[j];
+    const int32_t id = ids[j];
+    if (s.inv_len2 == 0.0) {
+      // A point: planar_key with t = 0.
+      if (j == 0) {
+        for (int64_t i = 0; i < n; ++i) {
+          const double ex = px[i] - s.ax, ey = py[i] - s.ay;
+          best[i] = ex * ex + ey * ey;
+          best_id[i] = id;
+        }
+      } else {
+        for (int64_t i = 0; i < n; ++i) {
+          const double ex = px[i] - s.ax, ey = py[i] - s.ay;
+          const double key = ex * ex + ey * ey;
+          const bool lt = key < best[i];
+          best[i] = lt ? key : best[i];
+          best_id[i] = lt ? id : best_id[i];
+        }
+      }
+    } else {
+      for (int64_t i = 0; i < n; ++i) {
+        const double key = planar_key(px[i], py[i], s);
+        const bool lt = j == 0 || key < best[i];
+        best[i] = lt ? key : best[i];
+        best_id[i] = lt ? id : best_id[i];
+      }
+    }
+  }
+}
+
+// Writes one row of results: site ids and Float32 distances (nothing beyond max_key).
+__attribute__((target_clones("avx2", "default"))) void write_row(
+    const double* __restrict best, const int32_t* __restrict best_id, int64_t n, double max_key,
+    int32_t* __restrict out_site, float* __restrict out_dist) {
+  for (int64_t i = 0; i < n; ++i) {
+    const bool none = best[i] > max_key;
+    out_site[i] = none ? kNoSite : best_id[i];
+    out_dist[i] = none ? kNoDistance : static_cast<float>(std::sqrt(best[i]));
+  }
+}
+
 // Uniform bucket grid over the geometric sites (segments registered in every bucket they cross).
 class BucketIndex {
  public:
@@ -217,7 +267,7 @@ struct Worker {
   int64_t stamp_value = 0;
   std::vector<std::vector<int32_t>> levels;  // candidate lists per recursion depth
   std::vector<LocalSite> gathered;
-  std::vector<double> px;
+  std::vector<double> px, py;
   std::vector<double> best;
   std::vector<int32_t> best_id;
 };
@@ -329,45 +379,25 @@ class ExactSolver {
                    int64_t r1) {
     if (cands.empty()) return fill_none(c0, r0, c1, r1);
     const Window& win = ctx_.window;
-    const int64_t n = c1 - c0;
-    wk.px.resize(static_cast<size_t>(n));
-    wk.best.resize(static_cast<size_t>(n));
-    wk.best_id.resize(static_cast<size_t>(n));
-    for (int64_t i = 0; i < n; ++i) wk.px[i] = ctx_.grid.local_x(win.col0 + c0 + i);
+    const int64_t w = c1 - c0, n = w * (r1 - r0);
+    if (static_cast<int64_t>(wk.px.size()) < n) {
+      wk.px.resize(static_cast<size_t>(n));
+      wk.py.resize(static_cast<size_t>(n));
+      wk.best.resize(static_cast<size_t>(n));
+      wk.best_id.resize(static_cast<size_t>(n));
+    }
+    double* __restrict px = wk.px.data();
+    double* __restrict py = wk.py.data();
+    for (int64_t c = c0; c < c1; ++c) px[c - c0] = ctx_.grid.local_x(win.col0 + c);
+    for (int64_t r = r0 + 1, i = w; r < r1; ++r, i += w) std::copy(px, px + w, px + i);
+    for (int64_t r = r0, i = 0; r < r1; ++r, i += w) std::fill(py + i, py + i + w, ctx_.grid.local_y(win.row0 + r));
     wk.gathered.clear();
     for (int32_t id : cands) wk.gathered.push_back(ctx_.local[id]);
-    const double max_key = ctx_.max_key;
-    double* best = wk.best.data();
-    int32_t* best_id = wk.best_id.data();
-    const double* px = wk.px.data();
-    for (int64_t r = r0; r < r1; ++r) {
-      const double py = ctx_.grid.local_y(win.row0 + r);
-      {
-        const LocalSite& s = wk.gathered[0];
-        const int32_t id = cands[0];
-        for (int64_t i = 0; i < n; ++i) {
-          best[i] = planar_key(px[i], py, s);
-          best_id[i] = id;
-        }
-      }
-      for (size_t j = 1; j < cands.size(); ++j) {
-        const LocalSite s = wk.gathered[j];
-        const int32_t id = cands[j];
-        for (int64_t i = 0; i < n; ++i) {
-          const double k = planar_key(px[i], py, s);
-          const bool lt = k < best[i];
-          best[i] = lt ? k : best[i];
-          best_id[i] = lt ? id : best_id[i];
-        }
-      }
-      int32_t* out_site = site_.row(r) + c0;
-      float* out_dist = distance_.row(r) + c0;
-      for (int64_t i = 0; i < n; ++i) {
-        const bool none = best[i] > max_key;
-        out_site[i] = none ? kNoSite : best_id[i];
-        out_dist[i] = none ? kNoDistance : static_cast<float>(std::sqrt(best[i]));
-      }
-    }
+    argmin_block(wk.gathered.data(), cands.data(), static_cast<int>(cands.size()), wk.px.data(),
+                 wk.py.data(), n, wk.best.data(), wk.best_id.data());
+    for (int64_t r = r0, i = 0; r < r1; ++r, i += w)
+      write_row(wk.best.data() + i, wk.best_id.data() + i, w, ctx_.max_key, site_.row(r) + c0,
+                distance_.row(r) + c0);
   }
 
   const EngineContext& ctx_;
