@@ -98,15 +98,20 @@ class TempOutput {
     const std::string temp_aux = temp_ + ".aux.xml";
     const std::string target_aux = target_ + ".aux.xml";
     // The sidecar first: once the new file is visible under its name, its sidecar already is.
-    if (exists(temp_aux)) {
+    const bool has_aux = exists(temp_aux);
+    if (has_aux) {
       if (VSIRename(temp_aux.c_str(), target_aux.c_str()) != 0)
         throw Error(ErrorKind::io, "cannot rename " + temp_aux + " to " + target_aux + ": " + std::strerror(errno));
     } else if (exists(target_aux)) {
       // A sidecar left by an earlier file of this name would describe the wrong raster.
       VSIUnlink(target_aux.c_str());
     }
-    if (VSIRename(temp_.c_str(), target_.c_str()) != 0)
-      throw Error(ErrorKind::io, "cannot rename " + temp_ + " to " + target_ + ": " + std::strerror(errno));
+    if (VSIRename(temp_.c_str(), target_.c_str()) != 0) {
+      const int err = errno;
+      // The new sidecar must not stay next to a file it does not describe.
+      if (has_aux) VSIUnlink(target_aux.c_str());
+      throw Error(ErrorKind::io, "cannot rename " + temp_ + " to " + target_ + ": " + std::strerror(err));
+    }
     committed_ = true;
   }
 
