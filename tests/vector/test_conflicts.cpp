@@ -3,7 +3,9 @@
 // ConflictPolicy::lower_code accepts overlaps and the engine resolves them.
 #include <gtest/gtest.h>
 
+#include <chrono>
 #include <cstdio>
+#include <sstream>
 #include <regex>
 
 #include "rv/engine.hpp"
@@ -103,6 +105,56 @@ TEST(Conflicts, LowerCodeAcceptsAndTheEngineResolves) {
   EXPECT_EQ(f.distance.at(col, row), 0.0f);
   // Inside B only: (5, 5) km.
   EXPECT_EQ(l.seeds.site_owner(f.site.at(50, 60 - 1 - 50)), 2);
+}
+
+// 10 000 squares in a checkerboard of two owners: every square touches four squares of the
+// other owner along an edge (the worst case for the envelope pre-filter: every candidate pair
+// goes to GEOS). No conflict; then one more square overlapping a cell is found and named.
+TEST(Conflicts, TenThousandTouchingFeaturesStayFast) {
+  test::ScratchDir dir;
+  const int n = 100;
+  const auto write = [&](const std::string& name, bool with_overlap) {
+    std::ostringstream f;
+    f.precision(12);
+    f << R"({"type": "FeatureCollection", "crs": {"type": "name", "properties": {"name": "urn:ogc:def:crs:EPSG::32633"}}, "features": [)";
+    const auto square = [&](const char* owner, double x, double y, double size) {
+      f << R"({"type": "Feature", "properties": {"owner": ")" << owner
+        << R"("}, "geometry": {"type": "Polygon", "coordinates": [[)" << "[" << x << "," << y << "],[" << x << ","
+        << y + size << "],[" << x + size << "," << y + size << "],[" << x + size << "," << y << "],[" << x << "," << y
+        << "]]]}}";
+    };
+    for (int i = 0; i < n; ++i)
+      for (int j = 0; j < n; ++j) {
+        if (i + j > 0) f << ",";
+        square((i + j) % 2 ? "A" : "B", kX0 + i * 100.0, kY0 + j * 100.0, 100.0);
+      }
+    if (with_overlap) {
+      f << ",";
+      square("C", kX0 + 5020.0, kY0 + 7020.0, 50.0);  // inside the square (50, 70)
+    }
+    f << "]}";
+    return dir.write(name, f.str());
+  };
+  SeedReadOptions o;
+  o.owner_field = "owner";
+  o.paths = {write("checker.geojson", false)};
+  const auto t0 = std::chrono::steady_clock::now();
+  const LoadedSeeds l = load_seeds(o);
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  EXPECT_EQ(l.report.features_read, n * n);
+  EXPECT_EQ(l.report.conflicts, 0);
+  RecordProperty("load_seconds_10k_touching", std::to_string(seconds));
+  std::printf("10 000 touching squares of two owners read and checked in %.2f s\n", seconds);
+  EXPECT_LT(seconds, 60.0);  // ~1.4 s on the 2-core development machine
+
+  o.paths = {write("checker_overlap.geojson", true)};
+  const std::string msg = expect_error(ErrorKind::conflict, [&] { load_seeds(o); },
+                                       {"checker_overlap:fid 5070", "checker_overlap:fid 10000", "'C'"});
+  const Vec2 p = location(msg);
+  EXPECT_GT(p.x, kX0 + 5020.0);
+  EXPECT_LT(p.x, kX0 + 5070.0);
+  EXPECT_GT(p.y, kY0 + 7020.0);
+  EXPECT_LT(p.y, kY0 + 7070.0);
 }
 
 }  // namespace

@@ -266,6 +266,40 @@ TEST(SeedReader, SelfIntersectingPolygonIsRepairedAndReported) {
   EXPECT_EQ(parts, 2);
 }
 
+TEST(SeedReader, PolygonRepairsAndUnrepairablePolygons) {
+  test::ScratchDir dir;
+  const auto feature = [](const std::string& owner, const std::string& rings) {
+    return R"({"type": "Feature", "properties": {"owner": ")" + owner +
+           R"("}, "geometry": {"type": "Polygon", "coordinates": )" + rings + "}}";
+  };
+  const auto collection = [](const std::string& features) {
+    return R"({"type": "FeatureCollection", "features": [)" + features + "]}";
+  };
+  // An unclosed ring (GDAL accepts it), a hole outside its shell, a degenerate hole.
+  const std::string fixable = dir.write(
+      "fixable.geojson",
+      collection(feature("A", "[[[0, 0], [0, 1], [1, 1], [1, 0]]]") + "," +
+                 feature("B", "[[[2, 2], [2, 3], [3, 3], [3, 2], [2, 2]], [[4, 4], [5, 4], [5, 5], [4, 4]]]") + "," +
+                 feature("C", "[[[6, 6], [6, 7], [7, 7], [6, 6]], [[6.2, 6.5], [6.3, 6.6], [6.2, 6.5]]]")));
+  const LoadedSeeds l = load({fixable});
+  EXPECT_EQ(l.report.polygons_repaired, 3);
+  const auto warned = [&](const std::string& a, const std::string& b) {
+    for (const std::string& w : l.report.warnings)
+      if (w.find(a) != std::string::npos && w.find(b) != std::string::npos) return true;
+    return false;
+  };
+  EXPECT_TRUE(warned("fixable.geojson:fixable:fid 0", "unclosed ring closed"));
+  EXPECT_TRUE(warned("fixable.geojson:fixable:fid 1", "repaired into 2 polygon(s)"));
+  EXPECT_TRUE(warned("fixable.geojson:fixable:fid 2", "degenerate hole dropped"));
+  EXPECT_EQ(l.seeds.polygons().size(), 4u);
+  // A polygon without area cannot be repaired into one.
+  const std::string flat = dir.write("flat.geojson", collection(feature("A", "[[[8, 8], [8, 9], [8, 8]]]")));
+  expect_error(ErrorKind::invalid_input, [&] { load({flat}); }, {"flat.geojson:flat:fid 0", "fewer than 3"});
+  const std::string spike =
+      dir.write("line_polygon.geojson", collection(feature("A", "[[[0, 0], [1, 1], [2, 2], [0, 0]]]")));
+  expect_error(ErrorKind::invalid_input, [&] { load({spike}); }, {"line_polygon.geojson:line_polygon:fid 0", "cannot be repaired"});
+}
+
 TEST(SeedReader, ConcurrentLoadsAgree) {
   const LoadedSeeds reference = load({fixture("coast.gpkg")}, "owner", kCoastLayers);
   std::vector<std::thread> threads;

@@ -56,6 +56,14 @@ const char* compression(GDALDriver* gtiff) {
   return list != nullptr && std::strstr(list, "ZSTD") != nullptr ? "ZSTD" : "DEFLATE";
 }
 
+// The level creation option for the chosen compression.
+void set_level(CPLStringList& co, const char* compress, int level) {
+  if (std::strcmp(compress, "ZSTD") == 0)
+    co.SetNameValue("ZSTD_LEVEL", std::to_string(level > 0 ? level : 3).c_str());
+  else if (level > 0)
+    co.SetNameValue("ZLEVEL", std::to_string(level).c_str());
+}
+
 std::string thread_option(int threads) { return threads <= 0 ? "ALL_CPUS" : std::to_string(threads); }
 
 std::string directory_of(const std::string& path) {
@@ -210,6 +218,7 @@ void write_plain(const std::string& path, const Raster<T>& raster, double nodata
   co.SetNameValue("BLOCKXSIZE", std::to_string(kBlock).c_str());
   co.SetNameValue("BLOCKYSIZE", std::to_string(kBlock).c_str());
   co.SetNameValue("COMPRESS", compression(gtiff));
+  set_level(co, compression(gtiff), options.compression_level);
   co.SetNameValue("PREDICTOR", PixelType<T>::predictor);
   co.SetNameValue("NUM_THREADS", thread_option(options.threads).c_str());
   co.SetNameValue("BIGTIFF", "IF_SAFER");
@@ -249,7 +258,13 @@ void write_cog(const std::string& path, const Raster<T>& raster, double nodata, 
   CPLStringList co;
   co.SetNameValue("BLOCKSIZE", std::to_string(kBlock).c_str());
   co.SetNameValue("COMPRESS", compression(gtiff));
+  // The COG driver names the level option LEVEL for every codec.
+  co.SetNameValue("LEVEL", std::to_string(options.compression_level > 0
+                                              ? options.compression_level
+                                              : (std::strcmp(compression(gtiff), "ZSTD") == 0 ? 3 : 6))
+                               .c_str());
   co.SetNameValue("PREDICTOR", "YES");  // the COG driver picks 2 for integers, 3 for floats
+  co.SetNameValue("OVERVIEW_PREDICTOR", "YES");
   co.SetNameValue("NUM_THREADS", thread_option(options.threads).c_str());
   co.SetNameValue("BIGTIFF", "IF_SAFER");
   // Owner codes must never be averaged into codes nobody owns.

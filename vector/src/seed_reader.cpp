@@ -198,8 +198,14 @@ class Reader {
         throw Error(ErrorKind::invalid_input, path + ": " + why + capture.suffix());
       }
       datasets_.emplace_back(ds);
-      for (std::string& w : capture.take_warnings()) out_.report.warnings.push_back(path + ": GDAL: " + w);
+      for (std::string& w : capture.take_warnings()) gdal_warning(path, w);
     }
+  }
+
+  // GDAL repeats some warnings (once when a driver sniffs the file, once when it reads it):
+  // each distinct text is reported once.
+  void gdal_warning(const std::string& where, const std::string& text) {
+    if (gdal_warnings_seen_.insert(text).second) out_.report.warnings.push_back(where + ": GDAL: " + text);
   }
 
   static std::string join(const std::vector<std::string>& v) {
@@ -303,7 +309,7 @@ class Reader {
     }
     if (!capture.last_error().empty())
       throw Error(ErrorKind::io, "reading layer " + layer_label(l) + " failed: " + capture.last_error());
-    for (std::string& w : capture.take_warnings()) out_.report.warnings.push_back(layer_label(l) + ": GDAL: " + w);
+    for (std::string& w : capture.take_warnings()) gdal_warning(layer_label(l), w);
   }
 
   static void check_vertices(const OGRGeometry& part, const std::string& source, bool geographic, const char* stage) {
@@ -486,6 +492,7 @@ class Reader {
   gdal::SrsPtr target_;
   std::vector<SeedPart> parts_;
   int64_t position_ = 0;
+  std::set<std::string> gdal_warnings_seen_;
 };
 
 }  // namespace
