@@ -160,6 +160,8 @@ TEST(RasterIo, CloudOptimizedWithOverviews) {
   write_geotiff(dir.file("owners_cog.tif"), owners, 0.0, o);
   GeoTiffOptions of;
   of.cloud_optimized = true;
+  of.units = "m";
+  of.metadata = {{"METHOD", "exact"}};
   write_geotiff(dir.file("distance_cog.tif"), distance, -1.0, of);
   EXPECT_EQ(files_in(dir.path()),
             (std::vector<std::string>{"distance_cog.tif", "owners_cog.tif", "owners_cog.tif.aux.xml"}));
@@ -183,6 +185,16 @@ TEST(RasterIo, CloudOptimizedWithOverviews) {
   auto dd = open(dir.file("distance_cog.tif"));
   EXPECT_STREQ(dd->GetMetadataItem("LAYOUT", "IMAGE_STRUCTURE"), "COG");
   EXPECT_GE(dd->GetRasterBand(1)->GetOverviewCount(), 1);
+  EXPECT_STREQ(dd->GetRasterBand(1)->GetUnitType(), "m");
+  EXPECT_STREQ(dd->GetRasterBand(1)->GetMetadataItem("METHOD"), "exact");
+  int has_nodata = 0;
+  EXPECT_EQ(dd->GetRasterBand(1)->GetNoDataValue(&has_nodata), -1.0);
+  EXPECT_TRUE(has_nodata);
+  double gt[6];
+  ASSERT_EQ(dd->GetGeoTransform(gt), CE_None);
+  EXPECT_DOUBLE_EQ(gt[0], grid.xmin);
+  EXPECT_DOUBLE_EQ(gt[3], grid.ymax);
+  EXPECT_TRUE(same_crs(read_grid(dir.file("distance_cog.tif")).crs, grid.crs));
 }
 
 TEST(RasterIo, FailedWritesLeaveNothingBehind) {

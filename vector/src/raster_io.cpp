@@ -295,10 +295,7 @@ void write_any(const std::string& path, const Raster<T>& raster, double nodata, 
   gdal::ErrorCapture capture;
   // The RAT lives in the PAM sidecar: make sure PAM is on for this thread whatever the
   // process configuration says.
-  CPLSetThreadLocalConfigOption("GDAL_PAM_ENABLED", "YES");
-  struct PamReset {
-    ~PamReset() { CPLSetThreadLocalConfigOption("GDAL_PAM_ENABLED", nullptr); }
-  } pam_reset;
+  gdal::ThreadConfigOption pam("GDAL_PAM_ENABLED", "YES");
   TempOutput out(path);
   if (options.cloud_optimized)
     write_cog(path, raster, nodata, options, out, capture);
