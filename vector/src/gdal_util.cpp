@@ -54,6 +54,18 @@ std::vector<std::string> ErrorCapture::take_warnings() {
   return out;
 }
 
+ThreadConfigOption::ThreadConfigOption(const char* key, const char* value) : key_(key) {
+  if (const char* old = CPLGetThreadLocalConfigOption(key, nullptr)) {
+    previous_ = old;
+    had_previous_ = true;
+  }
+  CPLSetThreadLocalConfigOption(key, value);
+}
+
+ThreadConfigOption::~ThreadConfigOption() {
+  CPLSetThreadLocalConfigOption(key_.c_str(), had_previous_ ? previous_.c_str() : nullptr);
+}
+
 namespace {
 // The thread-local options of a ConfinedScope and their values (see gdal_util.hpp for why).
 constexpr const char* kConfinedOptions[][2] = {
@@ -67,22 +79,14 @@ constexpr const char* kConfinedOptions[][2] = {
 }  // namespace
 
 ConfinedScope::ConfinedScope() {
-  for (const auto& [key, value] : kConfinedOptions) {
-    Saved s;
-    s.key = key;
-    if (const char* old = CPLGetThreadLocalConfigOption(key, nullptr)) {
-      s.was_set = true;
-      s.value = old;
-    }
-    saved_.push_back(std::move(s));
-    CPLSetThreadLocalConfigOption(key, value);
-  }
+  for (const auto& [key, value] : kConfinedOptions) options_.push_back(std::make_unique<ThreadConfigOption>(key, value));
   CPLHTTPPushFetchCallback(&ConfinedScope::refuse, this);
 }
 
 ConfinedScope::~ConfinedScope() {
   CPLHTTPPopFetchCallback();
-  for (const Saved& s : saved_) CPLSetThreadLocalConfigOption(s.key.c_str(), s.was_set ? s.value.c_str() : nullptr);
+  // The options are restored in reverse order, so that nested settings unwind correctly.
+  while (!options_.empty()) options_.pop_back();
 }
 
 CPLHTTPResult* ConfinedScope::refuse(const char* url, CSLConstList /*options*/, GDALProgressFunc /*progress*/,
