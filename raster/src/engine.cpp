@@ -158,6 +158,47 @@ std::vector<LocalSite> to_local_geodesic(const SeedSet& seeds, const GridSpec& g
   return out;
 }
 
+// Polygons for the interior test on a geodesic grid. Each ring is unwrapped in longitude so that
+// every edge goes the short way round, as the edge's geodesic does (a ring 179.8 .. -179.7 is
+// the small ring 179.8 .. 180.3, not one spanning the globe); holes are put in their outer
+// ring's turn. A ring whose longitudes wind once round the globe (it encloses a pole, like
+// Antarctica drawn -180 .. 180) is kept as given. Every polygon is then also given one turn
+// west and east, so cells with longitudes beyond 180 (or below -180) find it.
+std::vector<Polygon> geodesic_polygons(const SeedSet& seeds) {
+  using GeographicLib::Math;
+  std::vector<Polygon> out;
+  out.reserve(seeds.polygons().size() * 3);
+  for (Polygon poly : seeds.polygons()) {
+    double outer_raw = 0.0, outer_unwrapped = 0.0;
+    for (size_t k = 0; k < poly.rings.size(); ++k) {
+      Ring& ring = poly.rings[k];
+      double winding = 0.0;
+      for (size_t i = 0; i < ring.size(); ++i)
+        winding += Math::AngDiff(ring[i].x, ring[(i + 1) % ring.size()].x);
+      const bool encircles_pole = std::abs(winding) > 180.0;
+      if (k == 0) outer_raw = ring[0].x;
+      if (!encircles_pole) {
+        const double start = k == 0 ? ring[0].x : outer_unwrapped + Math::AngDiff(outer_raw, ring[0].x);
+        double prev_raw = ring[0].x;
+        ring[0].x = start;
+        for (size_t i = 1; i < ring.size(); ++i) {
+          const double raw = ring[i].x;
+          ring[i].x = ring[i - 1].x + Math::AngDiff(prev_raw, raw);
+          prev_raw = raw;
+        }
+      }
+      if (k == 0) outer_unwrapped = ring[0].x;
+    }
+    for (const double turn : {0.0, -360.0, 360.0}) {
+      Polygon moved = poly;
+      for (Ring& ring : moved.rings)
+        for (Vec2& v : ring) v.x += turn;
+      out.push_back(std::move(moved));
+    }
+  }
+  return out;
+}
+
 void check_geodesic_grid(const GridSpec& grid) {
   const double eps = 1e-9 * grid.res;
   if (!(grid.ymax <= 90.0 + eps) || !(grid.ymin() >= -90.0 - eps))
@@ -225,16 +266,11 @@ NearestField compute(const SeedSet& seeds, const GridSpec& grid, const ComputeOp
     case Method::hv_scan: detail::run_scan(ctx, true, out.site, out.distance); break;
   }
   if (!seeds.polygons().empty()) {
-    detail::apply_interiors(build_interiors(seeds, grid, window), out.site, out.distance);
-    if (geodesic) {
-      // Polygons given in another turn of longitude than the grid's cells (a polygon at -175
-      // on a grid running 170 .. 190): test the cells one turn west and east as well.
-      for (const double turn : {-360.0, 360.0}) {
-        GridSpec shifted = grid;
-        shifted.xmin += turn;
-        detail::apply_interiors(build_interiors(seeds, shifted, window), out.site, out.distance);
-      }
-    }
+    if (geodesic)
+      detail::apply_interiors(build_interiors(seeds, geodesic_polygons(seeds), grid, window), out.site,
+                              out.distance);
+    else
+      detail::apply_interiors(build_interiors(seeds, grid, window), out.site, out.distance);
   }
   out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return out;

@@ -26,8 +26,10 @@
 //     the grid may span at most 360 degrees of longitude;
 //   - polygon interiors are tested on longitude/latitude as given (edges are straight in
 //     degrees, not geodesics: exact for meridians and the equator, otherwise a difference of
-//     the order of the edge's sagitta near the poles); a polygon is also matched one turn east
-//     and west, so interiors work across the antimeridian;
+//     the order of the edge's sagitta, growing towards the poles). Rings are unwrapped so that
+//     each edge goes the short way round (as its geodesic does), except rings that wind round a
+//     pole, which are taken as given; each polygon is also matched one turn east and west, so
+//     interiors work across the antimeridian;
 //   - the exact method culls with chord (lower) and path-length (upper) bounds that are proven
 //     safe and compares exact geodesic distances, so it equals brute force cell for cell.
 //
