@@ -123,7 +123,16 @@ void GeoSites::prepare(const std::vector<Site>& sites, const SeedSet* seeds) {
       line.Position(0.5 * (p.ta + p.tb), lat, lon);
       ecef(lat, lon, p.ball.x, p.ball.y, p.ball.z);
       // Half the arc length, plus room for rounding of the middle point's ECEF position.
-      p.ball.r = 0.5 * (p.tb - p.ta) * (1.0 + 1e-12) + 1e-6;
+      const double l = (p.tb - p.ta) * (1.0 + 1e-12) + 1e-6;
+      p.ball.r = 0.5 * l;
+      const double ux = p.bx - p.ax, uy = p.by - p.ay, uz = p.bz - p.az;
+      const double c2 = ux * ux + uy * uy + uz * uz;
+      p.inv_len2 = c2 > 0.0 ? 1.0 / c2 : 0.0;
+      // Capsule radius (see geodesic_sites.hpp); l - c gets 1e-6 m of room for the rounding of
+      // c (ECEF ends, ~1e-9 m) and of the arc length (GeographicLib, ~1e-8 m).
+      const double c = std::sqrt(c2);
+      const double excess = std::max(l - c, 0.0) + 1e-6;
+      p.capsule = std::sqrt(0.25 * excess * excess + 0.25 * excess * (l + c)) + 1e-6;
       pieces_.push_back(p);
     }
   }
@@ -131,22 +140,28 @@ void GeoSites::prepare(const std::vector<Site>& sites, const SeedSet* seeds) {
 
 double GeoSites::lower_bound(const GeoCell& p, int32_t id) const {
   const GeoSite& s = sites_[static_cast<size_t>(id)];
-  if (!s.segment) return std::hypot(p.x - s.x, p.y - s.y, p.z - s.z);
+  if (!s.segment) return std::sqrt((p.x - s.x) * (p.x - s.x) + (p.y - s.y) * (p.y - s.y) + (p.z - s.z) * (p.z - s.z));
   double lb = std::numeric_limits<double>::infinity();
-  for (int32_t k = s.piece0; k < s.piece0 + s.piece_count; ++k) {
-    const GeoBall& b = pieces_[static_cast<size_t>(k)].ball;
-    lb = std::min(lb, std::hypot(p.x - b.x, p.y - b.y, p.z - b.z) - b.r);
-  }
+  for (int32_t k = s.piece0; k < s.piece0 + s.piece_count; ++k)
+    lb = std::min(lb, piece_lower_bound(pieces_[static_cast<size_t>(k)], p.x, p.y, p.z));
   return std::max(lb, 0.0);
 }
 
 double GeoSites::lower_bound(const EcefBox& box, int32_t id) const {
   const GeoSite& s = sites_[static_cast<size_t>(id)];
   if (!s.segment) return box_distance(box, s.x, s.y, s.z);
+  // Box as a ball around its centre (half-diagonal h): every cell of it is within h of the
+  // centre, so the capsule/ball bound from the centre minus h holds for all of them; the direct
+  // box-to-ball distance is another valid bound.
+  const double cx = 0.5 * (box.x0 + box.x1), cy = 0.5 * (box.y0 + box.y1), cz = 0.5 * (box.z0 + box.z1);
+  const double half = 0.5 * std::sqrt((box.x1 - box.x0) * (box.x1 - box.x0) + (box.y1 - box.y0) * (box.y1 - box.y0) +
+                                      (box.z1 - box.z0) * (box.z1 - box.z0));
   double lb = std::numeric_limits<double>::infinity();
   for (int32_t k = s.piece0; k < s.piece0 + s.piece_count; ++k) {
-    const GeoBall& b = pieces_[static_cast<size_t>(k)].ball;
-    lb = std::min(lb, box_distance(box, b.x, b.y, b.z) - b.r);
+    const GeoPiece& piece = pieces_[static_cast<size_t>(k)];
+    const double from_ball = box_distance(box, piece.ball.x, piece.ball.y, piece.ball.z) - piece.ball.r;
+    const double from_centre = piece_lower_bound(piece, cx, cy, cz) - half;
+    lb = std::min(lb, std::max(from_ball, from_centre));
   }
   return std::max(lb, 0.0);
 }
@@ -165,8 +180,7 @@ double GeoSites::distance(const GeoCell& p, int32_t id) const {
   int32_t first = s.piece0;
   double first_lb = std::numeric_limits<double>::infinity();
   for (int32_t k = s.piece0; k < s.piece0 + s.piece_count; ++k) {
-    const GeoBall& b = pieces_[static_cast<size_t>(k)].ball;
-    const double lb = std::hypot(p.x - b.x, p.y - b.y, p.z - b.z) - b.r;
+    const double lb = piece_lower_bound(pieces_[static_cast<size_t>(k)], p.x, p.y, p.z);
     if (lb < first_lb) {
       first_lb = lb;
       first = k;
@@ -176,8 +190,7 @@ double GeoSites::distance(const GeoCell& p, int32_t id) const {
   for (int32_t k = s.piece0; k < s.piece0 + s.piece_count; ++k) {
     if (k == first) continue;
     const GeoPiece& piece = pieces_[static_cast<size_t>(k)];
-    const GeoBall& b = piece.ball;
-    if (std::hypot(p.x - b.x, p.y - b.y, p.z - b.z) - b.r > best + kGeoSlack) continue;
+    if (piece_lower_bound(piece, p.x, p.y, p.z) > best + kGeoSlack) continue;
     best = std::min(best, piece_distance(p, line, piece));
   }
   return best;

@@ -7,6 +7,13 @@
 //          (centre c, radius r), every geodesic distance is >= dist(c, box) - r.
 //          A segment piece of arc length l whose middle point is M lies in the ball (M, l/2):
 //          every point of it is within arc length l/2 of M along the piece, and chord <= arc.
+//          It also lies in a thin capsule around its chord A-B (length c): a point X at arc
+//          length t from A has |XA| <= t and |XB| <= l - t, so |XA| + |XB| <= l: X is inside
+//          the spheroid with foci A, B and major axis l, whose points are within
+//          h = sqrt(((l - c)/2)^2 + (l^2 - c^2)/4) of the segment A-B (radial extent
+//          sqrt(l^2 - c^2)/2, overshoot beyond the foci (l - c)/2). For a 500 m coastline edge
+//          h is ~5 mm, so the capsule bound is nearly the exact 3-D distance to the edge.
+//          Both bounds hold; the larger is used.
 //   upper  Geodesic distance is the length of the shortest path, so any path bounds it. From a
 //          cell P to a cell C: along P's parallel to C's longitude (length rho(P) |dlon|, rho the
 //          parallel's radius N cos(lat)), then along the meridian to C's latitude (length <=
@@ -55,10 +62,24 @@ inline double box_distance(const EcefBox& b, double x, double y, double z) {
 
 struct GeoPiece {
   double ta, tb;     // arc length along the site's line, metres
-  double ax, ay, az; // ECEF of the piece's ends (for the starting guess)
+  double ax, ay, az; // ECEF of the piece's ends
   double bx, by, bz;
+  double inv_len2;   // 1 / |B - A|^2 (0 if the ends coincide in ECEF)
+  double capsule;    // every point of the piece is within this of the chord segment A-B
   GeoBall ball;      // contains every point of the piece
 };
+
+// Lower bound of the chord distance from (x, y, z) to any point of the piece.
+inline double piece_lower_bound(const GeoPiece& p, double x, double y, double z) {
+  const double ball = std::sqrt((x - p.ball.x) * (x - p.ball.x) + (y - p.ball.y) * (y - p.ball.y) +
+                                (z - p.ball.z) * (z - p.ball.z)) - p.ball.r;
+  const double ux = p.bx - p.ax, uy = p.by - p.ay, uz = p.bz - p.az;
+  double t = ((x - p.ax) * ux + (y - p.ay) * uy + (z - p.az) * uz) * p.inv_len2;
+  t = t < 0.0 ? 0.0 : (t > 1.0 ? 1.0 : t);
+  const double ex = x - (p.ax + t * ux), ey = y - (p.ay + t * uy), ez = z - (p.az + t * uz);
+  const double capsule = std::sqrt(ex * ex + ey * ey + ez * ez) - p.capsule;
+  return ball > capsule ? ball : capsule;
+}
 
 struct GeoSite {
   bool segment = false;
