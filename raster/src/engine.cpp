@@ -215,6 +215,13 @@ void check_geodesic_grid(const GridSpec& grid) {
 }  // namespace
 
 NearestField compute(const SeedSet& seeds, const GridSpec& grid, const ComputeOptions& options) {
+  NearestField out;
+  compute_into(seeds, grid, options, out);
+  return out;
+}
+
+void compute_into(const SeedSet& seeds, const GridSpec& grid, const ComputeOptions& options,
+                  NearestField& out) {
   const auto start = std::chrono::steady_clock::now();
   if (grid.width <= 0 || grid.height <= 0 || !(grid.res > 0.0) || !std::isfinite(grid.res))
     throw Error(ErrorKind::invalid_argument, "grid must have a positive size and resolution");
@@ -248,9 +255,11 @@ NearestField compute(const SeedSet& seeds, const GridSpec& grid, const ComputeOp
   else
     ctx.max_key = geodesic ? options.max_distance : options.max_distance * options.max_distance;
 
-  NearestField out;
-  out.site = Raster<int32_t>(grid, window, Uninitialized{});
-  out.distance = Raster<float>(grid, window, Uninitialized{});
+  if (!(out.site.grid() == grid) || !(out.site.window() == window)) {
+    out.site = Raster<int32_t>(grid, window, Uninitialized{});
+    out.distance = Raster<float>(grid, window, Uninitialized{});
+  }
+  out.contested_cells = 0;
   out.threads = ctx.threads;
   out.metric = options.metric;
   progress.check_cancel();
@@ -266,14 +275,12 @@ NearestField compute(const SeedSet& seeds, const GridSpec& grid, const ComputeOp
     case Method::hv_scan: detail::run_scan(ctx, true, out.site, out.distance); break;
   }
   if (!seeds.polygons().empty()) {
-    if (geodesic)
-      detail::apply_interiors(build_interiors(seeds, geodesic_polygons(seeds), grid, window), out.site,
-                              out.distance);
-    else
-      detail::apply_interiors(build_interiors(seeds, grid, window), out.site, out.distance);
+    const InteriorSpans spans = geodesic ? build_interiors(seeds, geodesic_polygons(seeds), grid, window)
+                                         : build_interiors(seeds, grid, window);
+    out.contested_cells = spans.contested_cells;
+    detail::apply_interiors(spans, out.site, out.distance);
   }
   out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  return out;
 }
 
 }  // namespace rv

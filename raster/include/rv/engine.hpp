@@ -82,6 +82,8 @@ struct NearestField {
                            // metres, rounded to float: relative rounding 6e-8, i.e. 6 mm at 100 km)
   MetricSpec metric;       // the metric the distances were measured in
   double seconds = 0.0;    // wall time of the computation
+  // Cells whose centre lies inside polygons of two or more owners (decided for the lower code).
+  int64_t contested_cells = 0;
   int threads = 1;         // threads actually used
 };
 
@@ -94,6 +96,11 @@ int64_t estimate_memory(Method m, int64_t cells, int64_t sites);
 // rv::Error(invalid_input) when the seed set has no sites (or, geodesic, a seed latitude beyond
 // +-90), rv::Error(cancelled).
 NearestField compute(const SeedSet& seeds, const GridSpec& grid, const ComputeOptions& options);
+
+// The same, writing into `out` and reusing its buffers when they already have the window's size
+// (a fresh buffer costs the kernel's page zeroing, about half the time of a large exact run).
+void compute_into(const SeedSet& seeds, const GridSpec& grid, const ComputeOptions& options,
+                  NearestField& out);
 
 int resolve_threads(int requested);
 

@@ -1,0 +1,20 @@
+// The one table that translates rv::ErrorKind at the entry points: the CLI's exit code and the
+// daemon's RFC 7807 problem+json status and type. Pure, thread-safe.
+#pragma once
+
+#include <string_view>
+
+#include "rv/error.hpp"
+
+namespace rv {
+
+struct ErrorInfo {
+  int exit_code;          // rvoronoi's process exit status
+  int http_status;        // HTTP status of the problem response
+  std::string_view type;  // problem "type" URI
+  std::string_view title; // problem "title"
+};
+
+const ErrorInfo& error_info(ErrorKind kind);
+
+}  // namespace rv

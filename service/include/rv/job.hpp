@@ -1,0 +1,82 @@
+// The engine façade: one computation from seed layers to result files, exactly as both the CLI
+// (`rvoronoi compute`) and the daemon (`POST /processes/voronoi/execution`) run it.
+//
+// Units: extent, margin and resolution are in grid-CRS units (degrees on geographic grids);
+// max_distance is in `distance_units` (metres/km/nmi on geodesic grids, CRS units or m/km/nmi
+// on projected grids with metric units).
+// Thread safety: run_job() is reentrant; jobs may run concurrently (each owns its data).
+#pragma once
+
+#include <array>
+#include <atomic>
+#include <cstdint>
+#include <functional>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "rv/engine.hpp"
+#include "rv/seed_reader.hpp"
+
+namespace rv {
+
+struct GridRequest {
+  std::optional<double> resolution;                // cell size; required unless `like` is given
+  std::optional<std::array<double, 4>> extent;     // xmin, ymin, xmax, ymax; default: from seeds
+  std::string like;                                // raster whose grid (extent, res, CRS) to reuse
+  std::optional<double> margin;                    // growth of the seeds' box; default 5 % of it
+};
+
+struct OutputRequest {
+  std::string ownership;        // Int32 owner codes GeoTIFF (required by the CLI)
+  std::string distance;         // Float32 distance GeoTIFF
+  std::string nearest_feature;  // Int32 1-based feature index GeoTIFF
+  std::string report;           // JSON report file
+  bool cloud_optimized = false; // write COGs (the daemon does)
+};
+
+struct JobSpec {
+  SeedReadOptions seeds;
+  GridRequest grid;
+  Method method = Method::exact;
+  int threads = 0;                   // 0 = all cores
+  std::string metric = "auto";       // auto | planar | geodesic
+  std::string distance_units;        // "" (CRS units / metres) | m | km | nmi
+  std::optional<double> max_distance;
+  bool validate = false;             // also run brute force and report the differences
+  OutputRequest outputs;
+};
+
+// Limits decided before anything big is allocated (config parsed once, see config.hpp).
+struct JobLimits {
+  int64_t max_cells = int64_t{1} << 34;
+  int64_t max_memory_bytes = 0;          // 0 = 80 % of physical memory
+  int64_t validate_max_cells = 4'000'000;  // brute-force validation refused above this
+};
+
+struct JobHooks {
+  // stage: "read", "compute", "validate", "write"; fraction in [0, 1] of that stage.
+  std::function<void(const std::string& stage, double fraction)> progress;
+  const std::atomic<bool>* cancel = nullptr;
+};
+
+struct JobResult {
+  nlohmann::json report;              // what --report writes (also returned to HTTP clients)
+  std::vector<std::string> files;     // outputs written, in the order of OutputRequest
+};
+
+// Runs the whole job. On any failure no output file of this job is left behind, and the error
+// is an rv::Error (kinds as in rv/error.hpp).
+JobResult run_job(const JobSpec& spec, const JobLimits& limits = {}, const JobHooks& hooks = {});
+
+// The grid a job would compute on, without computing it (for limits and dry runs).
+GridSpec plan_grid(const GridRequest& request, const LoadedSeeds& seeds);
+
+// Physical memory in bytes (0 if unknown).
+int64_t physical_memory_bytes();
+// Peak resident set size of this process so far, bytes.
+int64_t peak_rss_bytes();
+
+}  // namespace rv
