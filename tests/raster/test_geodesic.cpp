@@ -197,3 +197,62 @@ TEST(GeodesicMeasure, DegenerateSegmentIsAPoint) {
 
 }  // namespace
 }  // namespace rv
+
+// The culling bounds (internal): never above the distance they bound.
+#include "../../raster/src/geodesic_sites.hpp"
+
+namespace rv {
+namespace {
+
+TEST(GeodesicBounds, LowerBoundsNeverExceedTheDistance) {
+  std::mt19937_64 rng(11);
+  std::uniform_real_distribution<double> lon(-180, 180), lat(-89, 89), unit(0, 1);
+  std::vector<Site> sites;
+  for (int i = 0; i < 60; ++i) {
+    const Vec2 a{lon(rng), lat(rng)};
+    // Lengths from ~1 m to ~3000 km.
+    const double span = std::pow(10.0, -5.0 + 6.5 * unit(rng));
+    const Vec2 b{a.x + span * (unit(rng) - 0.5), std::clamp(a.y + span * (unit(rng) - 0.5), -90.0, 90.0)};
+    sites.push_back(Site{a, b, i, i % 4 == 0 ? SiteKind::point : SiteKind::segment});
+  }
+  const detail::GeoSites geo(wgs84(), sites);
+  int checked = 0;
+  for (size_t id = 0; id < sites.size(); ++id) {
+    const Site& s = sites[id];
+    for (int k = 0; k < 20; ++k) {
+      // Cells near the site (within a few times its size) and far away.
+      const double r = k < 15 ? std::pow(10.0, -4.0 + 5.0 * unit(rng)) : 60.0;
+      const double clon = s.a.x + r * (unit(rng) - 0.5);
+      const double clat = std::clamp(s.a.y + r * (unit(rng) - 0.5), -90.0, 90.0);
+      // A 4x4 block of cells around it, 0.001 degree apart.
+      detail::EcefBox box{1e300, -1e300, 1e300, -1e300, 1e300, -1e300};
+      double block_min = 1e300;
+      for (int i = 0; i < 4; ++i)
+        for (int j = 0; j < 4; ++j) {
+          const detail::GeoCell c = geo.cell(clon + 0.001 * i, std::clamp(clat - 0.001 * j, -90.0, 90.0));
+          const double d = geo.distance(c, static_cast<int32_t>(id));
+          EXPECT_LE(geo.lower_bound(c, static_cast<int32_t>(id)), d + 1e-8) << id;
+          block_min = std::min(block_min, d);
+          box = {std::min(box.x0, c.x), std::max(box.x1, c.x), std::min(box.y0, c.y),
+                 std::max(box.y1, c.y), std::min(box.z0, c.z), std::max(box.z1, c.z)};
+          ++checked;
+        }
+      EXPECT_LE(geo.lower_bound(box, static_cast<int32_t>(id)), block_min + 1e-8) << id;
+    }
+  }
+  EXPECT_EQ(checked, 60 * 20 * 16);
+}
+
+TEST(GeodesicBounds, CapsuleBoundIsTightForShortEdges) {
+  // A 500 m coastline edge: the lower bound from a cell 20 km away is within 1 m of the
+  // distance (chord vs arc over 20 km is ~2 cm; the capsule radius a few mm).
+  const std::vector<Site> sites{Site{{12.60, 55.60}, {12.605, 55.603}, 0, SiteKind::segment}};
+  const detail::GeoSites geo(wgs84(), sites);
+  const detail::GeoCell c = geo.cell(12.9, 55.55);
+  const double d = geo.distance(c, 0), lb = geo.lower_bound(c, 0);
+  EXPECT_LE(lb, d);
+  EXPECT_GT(lb, d - 1.0);
+}
+
+}  // namespace
+}  // namespace rv

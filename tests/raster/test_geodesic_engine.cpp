@@ -289,6 +289,31 @@ TEST(GeodesicEngine, ScansAreNearlyExact) {
   EXPECT_EQ(self.wrong_cells + self.tie_cells, 0);
 }
 
+TEST(GeodesicEngine, WindowsAgreeWithTheWholeGrid) {
+  const GridSpec g = geo_grid(178.0, 64.0, 0.05, 90, 70);
+  const SeedSet s = random_features(17, 176, 59, 184, 66, 15);
+  for (Method m : {Method::exact, Method::hv_scan}) {
+    const NearestField whole = run(s, g, m);
+    ComputeOptions o;
+    o.method = m;
+    o.metric = wgs84();
+    o.window = Window{20, 15, 41, 33};
+    const NearestField part = compute(s, g, o);
+    for (int64_t r = 0; r < 33; ++r)
+      for (int64_t c = 0; c < 41; ++c) {
+        if (m == Method::exact) {
+          ASSERT_EQ(part.site.at(c, r), whole.site.at(20 + c, 15 + r)) << c << "," << r;
+          ASSERT_EQ(part.distance.at(c, r), whole.distance.at(20 + c, 15 + r)) << c << "," << r;
+        }
+      }
+    if (m == Method::hv_scan) {
+      ComputeOptions b = o;
+      b.method = Method::brute_force;
+      EXPECT_LT(compare_fields(s, part, compute(s, g, b)).max_error_cells, 1.0);
+    }
+  }
+}
+
 TEST(GeodesicEngine, RefusesWhatItCannotMeasure) {
   SeedSet s;
   s.add_point(s.add_feature(s.owner_code("a")), {0.0, 0.0});
