@@ -7,10 +7,11 @@
 // inequality of the geodesic distance). A site s can be nearest anywhere in B only if its chord
 // lower bound to B's ECEF box is <= U. Sites are dropped only when the lower bound exceeds
 // min(U, max_distance) + kGeoSlack (slack covering rounding and GeographicLib's 15 nm), so the
-// site brute force picks is never dropped. Per cell, candidates are visited in increasing order
-// of their chord lower bound and skipped once the bound exceeds the best computed distance plus
-// the slack; the distances compared are computed by the same GeoSites::distance() as brute force
-// with the same tie rule (lower site index), so the result equals brute force bit for bit.
+// site brute force picks is never dropped. Per cell, the candidate with the smallest chord lower
+// bound is measured first, and any other only if its lower bound does not exceed the best
+// computed distance plus the slack; the distances compared are computed by the same
+// GeoSites::distance() as brute force with the same tie rule (lower site index), so the result
+// equals brute force bit for bit.
 //
 // Why it is (relatively) fast. A geodesic inverse problem costs ~1.5 us, so the method spends
 // its effort on never computing one it can avoid: deep inside a Voronoi region a block keeps one
@@ -37,7 +38,6 @@ constexpr int kProbes = 2;         // sites whose exact distance from a block's 
 struct GeoWorker {
   std::vector<std::vector<int32_t>> levels;  // candidate lists per recursion depth
   std::vector<double> lb;
-  std::vector<int32_t> order;
   std::vector<double> cell_lb;
 };
 
@@ -212,29 +212,22 @@ class GeodesicExactSolver {
     }
     const size_t n = cands.size();
     wk.cell_lb.resize(n);
-    wk.order.resize(n);
     for (int64_t r = r0; r < r1; ++r) {
       for (int64_t c = c0; c < c1; ++c) {
         const GeoCell p = cell_at(c, r);
+        size_t first = 0;
         for (size_t i = 0; i < n; ++i) {
           wk.cell_lb[i] = geo_.lower_bound(p, cands[i]);
-          wk.order[i] = static_cast<int32_t>(i);
+          if (wk.cell_lb[i] < wk.cell_lb[first]) first = i;
         }
-        // Insertion sort by lower bound (lists here are short).
-        for (size_t i = 1; i < n; ++i) {
-          const int32_t v = wk.order[i];
-          size_t j = i;
-          while (j > 0 && wk.cell_lb[static_cast<size_t>(wk.order[j - 1])] > wk.cell_lb[static_cast<size_t>(v)]) {
-            wk.order[j] = wk.order[j - 1];
-            --j;
-          }
-          wk.order[j] = v;
-        }
-        double best = std::numeric_limits<double>::infinity();
-        int32_t best_id = kNoSite;
-        for (size_t k = 0; k < n; ++k) {
-          const auto i = static_cast<size_t>(wk.order[k]);
-          if (wk.cell_lb[i] > best + kGeoSlack) break;  // this and all later ones are farther
+        // The candidate with the smallest lower bound is usually the nearest: measure it first,
+        // then only the candidates whose lower bound does not exclude them. Which ones get
+        // measured changes nothing in the result: an excluded candidate's computed distance
+        // exceeds the best one's, so the argmin (ties: lowest id) is brute force's.
+        double best = geo_.distance(p, cands[first]);
+        int32_t best_id = cands[first];
+        for (size_t i = 0; i < n; ++i) {
+          if (i == first || wk.cell_lb[i] > best + kGeoSlack) continue;
           const double d = geo_.distance(p, cands[i]);
           if (d < best || (d == best && cands[i] < best_id)) {
             best = d;
