@@ -264,7 +264,7 @@ double GeoSites::piece_distance(const GeoCell& p, const GeographicLib::GeodesicL
     } else {
       break;  // stationary
     }
-    if (hi - lo <= 1e-9 * std::max(1.0, hi)) break;  // minimiser pinned (or at an end)
+    if (hi - lo <= 1e-9 + 1e-15 * hi) break;  // minimiser pinned to a nanometre (or at an end)
     if (e.usable && std::abs(e.step * e.cos_w) < 2.0 * kConvergence) break;
     double next = t + e.step;
     if (!e.usable || !(next > lo && next < hi)) {
