@@ -35,6 +35,12 @@ constexpr double kConvergence = 1e-10;  // metres
 // stays positive (~90 degrees on the sphere; ellipsoidal corrections are ~f, i.e. ~0.2 degree).
 // 80 degrees, minus the piece's half-length (< 0.45 degree), leaves a wide margin.
 const double kConvexCos = std::cos(80.0 * Math::pi() / 180.0);
+// attains_at_vertex() needs the distance to grow into the edge with at least this slope
+// (|cos w| > 0.01: the geodesic to the cell leaves the vertex > 0.57 degree beyond square), and
+// the cell at least this far from the vertex, so that the search cannot stop before reaching
+// the vertex (its convergence test needs |step cos w| ~ s cos^2 w < 2e-10 m).
+constexpr double kVertexMinSlope = 0.01;
+constexpr double kVertexMinDistance = 1e-3;  // metres
 
 void check_metric(const MetricSpec& metric) {
   if (metric.kind != MetricSpec::geodesic)
@@ -101,6 +107,14 @@ void GeoSites::prepare(const std::vector<Site>& sites, const SeedSet* seeds) {
     const double length = line.Distance();
     if (!(length > 0.0)) continue;  // the two ends are one place (e.g. lon 180 and -180): a point
     g.segment = true;
+    g.lat_b = s.b.y;
+    g.lon_b = s.b.x;
+    g.length = length;
+    g.azi_a = line.Azimuth();
+    {
+      double lat_end, lon_end;
+      line.Position(length, lat_end, lon_end, g.azi_b);
+    }
     g.line = static_cast<int32_t>(lines_.size());
     lines_.push_back(line);
     const int n = std::max(1, static_cast<int>(std::ceil(length / kGeoPieceLength)));
@@ -166,16 +180,16 @@ double GeoSites::lower_bound(const EcefBox& box, int32_t id) const {
   return std::max(lb, 0.0);
 }
 
-double GeoSites::distance(const GeoCell& p, int32_t id) const {
+double GeoSites::distance(const GeoCell& p, int32_t id, GeoEnd* end) const {
   const GeoSite& s = sites_[static_cast<size_t>(id)];
+  if (end) end->valid = false;
   if (!s.segment) {
     double d;
     geod_.Inverse(p.lat, p.lon, s.lat, s.lon, d);
     return d;
   }
-  const GeographicLib::GeodesicLine& line = lines_[static_cast<size_t>(s.line)];
-  if (s.piece_count == 1) return piece_distance(p, line, pieces_[static_cast<size_t>(s.piece0)]);
-  // Several pieces: search the one whose ball is nearest first, then only the pieces that can
+  if (s.piece_count == 1) return piece_distance(p, s, pieces_[static_cast<size_t>(s.piece0)], end);
+  // Several pieces: search the one whose bound is nearest first, then only the pieces that can
   // still be nearer (their lower bound below the best distance so far).
   int32_t first = s.piece0;
   double first_lb = std::numeric_limits<double>::infinity();
@@ -186,14 +200,50 @@ double GeoSites::distance(const GeoCell& p, int32_t id) const {
       first = k;
     }
   }
-  double best = piece_distance(p, line, pieces_[static_cast<size_t>(first)]);
+  GeoEnd piece_end;
+  double best = piece_distance(p, s, pieces_[static_cast<size_t>(first)], end);
   for (int32_t k = s.piece0; k < s.piece0 + s.piece_count; ++k) {
     if (k == first) continue;
     const GeoPiece& piece = pieces_[static_cast<size_t>(k)];
     if (piece_lower_bound(piece, p.x, p.y, p.z) > best + kGeoSlack) continue;
-    best = std::min(best, piece_distance(p, line, piece));
+    const double d = piece_distance(p, s, piece, end ? &piece_end : nullptr);
+    if (d < best) {
+      best = d;
+      if (end) *end = piece_end;
+    }
   }
   return best;
+}
+
+bool GeoSites::convex_regime(const GeoCell& p, const GeoPiece& piece) const {
+  // Central angle between the cell and the piece's middle.
+  const GeoBall& mid = piece.ball;
+  const double dot = p.x * mid.x + p.y * mid.y + p.z * mid.z;
+  const double norms = std::hypot(p.x, p.y, p.z) * std::hypot(mid.x, mid.y, mid.z);
+  return dot > kConvexCos * norms;
+}
+
+bool GeoSites::attains_at_vertex(const GeoCell& p, int32_t id, const GeoEnd& end, double s) const {
+  const GeoSite& k = sites_[static_cast<size_t>(id)];
+  if (!end.valid || !k.segment || k.piece_count != 1 || !(s > kVertexMinDistance)) return false;
+  double azi;
+  double sign;
+  if (k.lat == end.lat && k.lon == end.lon) {
+    azi = k.azi_a;  // leaving the vertex into the edge
+    sign = -1.0;
+  } else if (k.lat_b == end.lat && k.lon_b == end.lon) {
+    azi = k.azi_b;  // arriving at the vertex along the edge
+    sign = 1.0;
+  } else {
+    return false;
+  }
+  if (!convex_regime(p, pieces_[static_cast<size_t>(k.piece0)])) return false;
+  double sin_w, cos_w;
+  Math::sincosd(Math::AngDiff(azi, end.azi_to_cell), sin_w, cos_w);
+  // The distance grows into the edge from the vertex with slope >= kVertexMinSlope; by
+  // convexity it grows everywhere along the edge, and the search (see piece_distance) then
+  // always ends by evaluating that vertex and returns its canonical distance.
+  return sign * cos_w > kVertexMinSlope;
 }
 
 // The minimum over t in [ta, tb] of the geodesic distance from X(t) (on the site's line) to p.
@@ -204,38 +254,62 @@ double GeoSites::distance(const GeoCell& p, int32_t id) const {
 // perpendicular in the plane (m12 = s, M12 = 1) and Newton-like on the ellipsoid. The bracket
 // [lo, hi] holds the minimiser of the convex function (cos w > 0: it lies ahead); steps leaving
 // it, or unusable steps (m12 <= 0 or M12 <= 0), become bisections.
-double GeoSites::piece_distance(const GeoCell& p, const GeographicLib::GeodesicLine& line,
-                                const GeoPiece& piece) const {
+//
+// Canonical ends: at the segment's own ends X is the vertex as given (not a position computed
+// along the line), and when the minimiser is pinned at such an end the result is the distance
+// evaluated there. Two edges sharing a vertex then return the same bits when both are nearest
+// at it, which lets the exact method settle such ties without searching the second edge.
+double GeoSites::piece_distance(const GeoCell& p, const GeoSite& site, const GeoPiece& piece,
+                                GeoEnd* end) const {
   GeodesicSegmentCounters& counters = geodesic_segment_counters();
   ++counters.calls;
+  if (end) end->valid = false;
+  const GeographicLib::GeodesicLine& line = lines_[static_cast<size_t>(site.line)];
+  const bool first_piece = piece.ta == 0.0;
+  const bool last_piece = piece.tb == site.length;
   double best = std::numeric_limits<double>::infinity();
   struct Eval {
-    double s, cos_w, step;
+    double s, cos_w, step, azi_to_cell;
     bool usable;
   };
   auto eval = [&](double t) {
     ++counters.evaluations;
     double lat, lon, azi;
-    line.Position(t, lat, lon, azi);
+    if (t == piece.ta && first_piece) {
+      lat = site.lat;
+      lon = site.lon;
+      azi = site.azi_a;
+    } else if (t == piece.tb && last_piece) {
+      lat = site.lat_b;
+      lon = site.lon_b;
+      azi = site.azi_b;
+    } else {
+      line.Position(t, lat, lon, azi);
+    }
     double s, azi1, azi2, m12, M12, M21;
     geod_.Inverse(lat, lon, p.lat, p.lon, s, azi1, azi2, m12, M12, M21);
     best = std::min(best, s);
     double sin_w, cos_w;
     Math::sincosd(Math::AngDiff(azi, azi1), sin_w, cos_w);
     const bool usable = m12 > 0.0 && M12 > 0.0;
-    return Eval{s, cos_w, usable ? m12 * cos_w / M12 : 0.0, usable};
+    return Eval{s, cos_w, usable ? m12 * cos_w / M12 : 0.0, azi1, usable};
   };
-
-  // Central angle between the cell and the piece's middle decides the regime.
-  const GeoBall& mid = piece.ball;
-  const double dot = p.x * mid.x + p.y * mid.y + p.z * mid.z;
-  const double norms = std::hypot(p.x, p.y, p.z) * std::hypot(mid.x, mid.y, mid.z);
-  const bool convex = dot > kConvexCos * norms;
+  // The result when the minimiser is pinned at an end: that end's value (canonical at vertices).
+  auto at_end = [&](const Eval& e, bool second) {
+    if (end && (second ? last_piece : first_piece)) {
+      end->valid = true;
+      end->lat = second ? site.lat_b : site.lat;
+      end->lon = second ? site.lon_b : site.lon;
+      end->azi_to_cell = e.azi_to_cell;
+    }
+    return e.s;
+  };
 
   double lo = piece.ta, hi = piece.tb;
   bool lo_seen = false, hi_seen = false;
+  Eval e_lo{}, e_hi{};
   double t;
-  if (convex) {
+  if (convex_regime(p, piece)) {
     // Start at the projection of P on the chord of the piece (a close guess for short pieces).
     const double ux = piece.bx - piece.ax, uy = piece.by - piece.ay, uz = piece.bz - piece.az;
     const double len2 = ux * ux + uy * uy + uz * uz;
@@ -247,9 +321,11 @@ double GeoSites::piece_distance(const GeoCell& p, const GeographicLib::GeodesicL
     // minimum is at an end unless the ends' slopes bracket an interior critical point.
     const Eval ea = eval(piece.ta);
     const Eval eb = eval(piece.tb);
-    if (best == 0.0) return 0.0;
-    if (!(ea.cos_w > 0.0 && eb.cos_w < 0.0)) return best;
+    if (ea.s == 0.0 || eb.s == 0.0) return 0.0;
+    if (!(ea.cos_w > 0.0 && eb.cos_w < 0.0)) return eb.s < ea.s ? at_end(eb, true) : at_end(ea, false);
     lo_seen = hi_seen = true;
+    e_lo = ea;
+    e_hi = eb;
     t = 0.5 * (lo + hi);
   }
   for (int it = 0; it < kMaxIterations; ++it) {
@@ -258,14 +334,16 @@ double GeoSites::piece_distance(const GeoCell& p, const GeographicLib::GeodesicL
     if (e.cos_w > 0.0) {
       lo = t;
       lo_seen = true;
+      e_lo = e;
     } else if (e.cos_w < 0.0) {
       hi = t;
       hi_seen = true;
+      e_hi = e;
     } else {
-      break;  // stationary
+      return best;  // stationary
     }
     if (hi - lo <= 1e-9 + 1e-15 * hi) break;  // minimiser pinned to a nanometre (or at an end)
-    if (e.usable && std::abs(e.step * e.cos_w) < 2.0 * kConvergence) break;
+    if (e.usable && std::abs(e.step * e.cos_w) < 2.0 * kConvergence) return best;
     double next = t + e.step;
     if (!e.usable || !(next > lo && next < hi)) {
       // Outside the bracket: try the bracket's end once (the minimum may sit at a segment end),
@@ -279,6 +357,17 @@ double GeoSites::piece_distance(const GeoCell& p, const GeographicLib::GeodesicL
       }
     }
     t = next;
+  }
+  if (hi_seen && hi == piece.ta) return at_end(e_hi, false);  // collapsed at the first end
+  if (lo_seen && lo == piece.tb) return at_end(e_lo, true);   // collapsed at the second end
+  // Pinned next to an end that was not evaluated yet: evaluate it, so that a minimiser at the
+  // end gives the end's (canonical) value.
+  if (lo == piece.ta && !lo_seen) {
+    const Eval e = eval(piece.ta);
+    if (e.cos_w <= 0.0) return at_end(e, false);
+  } else if (hi == piece.tb && !hi_seen) {
+    const Eval e = eval(piece.tb);
+    if (e.cos_w >= 0.0) return at_end(e, true);
   }
   return best;
 }

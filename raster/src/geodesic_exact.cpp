@@ -224,14 +224,23 @@ class GeodesicExactSolver {
         // then only the candidates whose lower bound does not exclude them. Which ones get
         // measured changes nothing in the result: an excluded candidate's computed distance
         // exceeds the best one's, so the argmin (ties: lowest id) is brute force's.
-        double best = geo_.distance(p, cands[first]);
+        // When the best distance is attained at an edge's end, an adjacent edge that is
+        // certainly nearest at the same vertex has exactly the same (canonical) distance: it
+        // is settled as a tie without a search (geodesic_sites.hpp, attains_at_vertex).
+        GeoEnd end, other_end;
+        double best = geo_.distance(p, cands[first], &end);
         int32_t best_id = cands[first];
         for (size_t i = 0; i < n; ++i) {
           if (i == first || wk.cell_lb[i] > best + kGeoSlack) continue;
-          const double d = geo_.distance(p, cands[i]);
+          if (geo_.attains_at_vertex(p, cands[i], end, best)) {
+            best_id = std::min(best_id, cands[i]);
+            continue;
+          }
+          const double d = geo_.distance(p, cands[i], &other_end);
           if (d < best || (d == best && cands[i] < best_id)) {
             best = d;
             best_id = cands[i];
+            end = other_end;
           }
         }
         put(c, r, best_id, best);

@@ -83,10 +83,22 @@ inline double piece_lower_bound(const GeoPiece& p, double x, double y, double z)
 
 struct GeoSite {
   bool segment = false;
-  double lat = 0.0, lon = 0.0;  // the point (segments: first end)
+  double lat = 0.0, lon = 0.0;  // the point (segments: first end), as given
   double x = 0.0, y = 0.0, z = 0.0;
+  // Segments: the second end as given, the length, and the azimuths of the edge (direction
+  // first -> second end) at both ends.
+  double lat_b = 0.0, lon_b = 0.0, length = 0.0, azi_a = 0.0, azi_b = 0.0;
   int32_t line = -1;            // index into lines (segments)
   int32_t piece0 = 0, piece_count = 0;
+};
+
+// Where a segment distance was attained, when it was at one of the segment's ends: the distance
+// is then the *canonical* vertex distance (the inverse problem from the vertex as given to the
+// cell, the same bits for every edge sharing that vertex).
+struct GeoEnd {
+  bool valid = false;
+  double lat = 0.0, lon = 0.0;  // the vertex
+  double azi_to_cell = 0.0;     // azimuth at the vertex of the geodesic to the cell
 };
 
 class GeoSites {
@@ -100,8 +112,14 @@ class GeoSites {
   GeoCell cell(double lon, double lat) const;
   void ecef(double lat, double lon, double& x, double& y, double& z) const;
 
-  // Geodesic distance in metres from the cell to the site (point or segment).
-  double distance(const GeoCell& p, int32_t id) const;
+  // Geodesic distance in metres from the cell to the site (point or segment). When `end` is
+  // given it says whether the distance was attained at an end of a segment (see GeoEnd).
+  double distance(const GeoCell& p, int32_t id, GeoEnd* end = nullptr) const;
+  // True when distance(p, id) certainly equals, bit for bit, the canonical distance `s` of the
+  // vertex `end` (computed for another edge): the vertex is an end of this single-piece edge,
+  // the cell is in the convex regime of the edge and the geodesic from the vertex to the cell
+  // leaves at more than ~90.6 degrees from the edge, so the search ends at that vertex.
+  bool attains_at_vertex(const GeoCell& p, int32_t id, const GeoEnd& end, double s) const;
   // Lower bounds of distance(): from one cell, and from any cell centre inside a box.
   double lower_bound(const GeoCell& p, int32_t id) const;
   double lower_bound(const EcefBox& box, int32_t id) const;
@@ -112,8 +130,8 @@ class GeoSites {
 
  private:
   void prepare(const std::vector<Site>& sites, const SeedSet* seeds);
-  double piece_distance(const GeoCell& p, const GeographicLib::GeodesicLine& line,
-                        const GeoPiece& piece) const;
+  double piece_distance(const GeoCell& p, const GeoSite& site, const GeoPiece& piece, GeoEnd* end) const;
+  bool convex_regime(const GeoCell& p, const GeoPiece& piece) const;
 
   GeographicLib::Geodesic geod_;
   double a_, e2_;
