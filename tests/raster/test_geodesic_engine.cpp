@@ -247,6 +247,30 @@ TEST(GeodesicEngine, PolygonEnclosingAPole) {
   }
 }
 
+TEST(GeodesicEngine, EdgesMeetingAtAVertexTieToTheLowerSite) {
+  // Two owners' lines meet at an apex; north of it both are nearest at the apex itself, at the
+  // same distance: the lower site (the first feature's edge) must own those cells in every
+  // method, which needs both edges to report bit-identical distances there.
+  SeedSet s;
+  s.add_polyline(s.add_feature(s.owner_code("west")), std::vector<Vec2>{{12.0, 55.0}, {12.5, 55.5}});
+  s.add_polyline(s.add_feature(s.owner_code("east")), std::vector<Vec2>{{12.5, 55.5}, {13.0, 55.0}});
+  const GridSpec g = geo_grid(12.3, 55.8, 0.01, 40, 40);
+  expect_exact_equals_brute(s, g, "apex");
+  const NearestField f = run(s, g, Method::exact);
+  const GeographicLib::Geodesic& geod = GeographicLib::Geodesic::WGS84();
+  int checked = 0;
+  for (int64_t r = 0; r < 20; ++r)      // lat 55.795 .. 55.605
+    for (int64_t c = 17; c < 23; ++c) {  // lon 12.475 .. 12.525
+      EXPECT_EQ(f.site.at(c, r), 0) << c << "," << r;
+      double d;
+      geod.Inverse(g.centre_y(r), g.centre_x(c), 55.5, 12.5, d);
+      EXPECT_NEAR(f.distance.at(c, r), d, d * 1e-7) << c << "," << r;
+      ++checked;
+    }
+  EXPECT_EQ(checked, 120);
+  EXPECT_EQ(run(s, g, Method::hv_scan).site.at(20, 5), 0);
+}
+
 TEST(GeodesicEngine, SyntheticCoastlines) {
   // Two states facing each other across a strait (Oresund-like, 55.5N 12.7E): land polygons
   // whose sea-facing edges are wiggly coastlines of many short edges, at 0.002 degrees.
