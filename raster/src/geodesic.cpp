@@ -41,6 +41,8 @@ const double kConvexCos = std::cos(80.0 * Math::pi() / 180.0);
 // the vertex (its convergence test needs |step cos w| ~ s cos^2 w < 2e-10 m).
 constexpr double kVertexMinSlope = 0.01;
 constexpr double kVertexMinDistance = 1e-3;  // metres
+// Chord length beyond which the angular (far-field) lower bound is also computed.
+constexpr double kFarChord = 1e6;  // metres
 
 void check_metric(const MetricSpec& metric) {
   if (metric.kind != MetricSpec::geodesic)
@@ -85,6 +87,7 @@ void GeoSites::prepare(const std::vector<Site>& sites, const SeedSet* seeds) {
   // oblate ellipsoid (a^2/b), at the equator for a prolate one (a(1-e^2) = b^2/a).
   const double b = a_ * std::sqrt(1.0 - e2_);
   max_meridian_radius_ = std::max(a_ * a_ / b, b * b / a_) * (1.0 + 1e-12);
+  inner_radius_ = std::min(a_, b) * (1.0 - 1e-12);
   sites_.resize(sites.size());
   for (size_t i = 0; i < sites.size(); ++i) {
     const Site& s = sites[i];
@@ -152,29 +155,52 @@ void GeoSites::prepare(const std::vector<Site>& sites, const SeedSet* seeds) {
   }
 }
 
+double GeoSites::angular_bound(double x, double y, double z, double qx, double qy, double qz, double h,
+                               double radius) const {
+  const double cx = y * qz - z * qy, cy = z * qx - x * qz, cz = x * qy - y * qx;
+  const double angle = std::atan2(std::sqrt(cx * cx + cy * cy + cz * cz), x * qx + y * qy + z * qz);
+  const double norm = std::sqrt(x * x + y * y + z * z);
+  const double spread = h > 0.0 ? std::asin(std::min(1.0, h / norm)) : 0.0;
+  // 1e-12 rad of room for the rounding of atan2 and asin (6e-6 m at the Earth's radius).
+  return inner_radius_ * (angle - spread - 1e-12) - radius;
+}
+
+double GeoSites::point_lower_bound(double sx, double sy, double sz, double x, double y, double z,
+                                   double h) const {
+  const double chord = std::sqrt((x - sx) * (x - sx) + (y - sy) * (y - sy) + (z - sz) * (z - sz)) - h;
+  if (!(chord > kFarChord)) return chord;
+  return std::max(chord, angular_bound(x, y, z, sx, sy, sz, h, 0.0));
+}
+
+double GeoSites::piece_lower_bound(const GeoPiece& p, double x, double y, double z, double h) const {
+  const double chord = piece_chord_bound(p, x, y, z) - h;
+  if (!(chord > kFarChord)) return chord;
+  return std::max(chord, angular_bound(x, y, z, p.ball.x, p.ball.y, p.ball.z, h, p.ball.r));
+}
+
 double GeoSites::lower_bound(const GeoCell& p, int32_t id) const {
   const GeoSite& s = sites_[static_cast<size_t>(id)];
-  if (!s.segment) return std::sqrt((p.x - s.x) * (p.x - s.x) + (p.y - s.y) * (p.y - s.y) + (p.z - s.z) * (p.z - s.z));
+  if (!s.segment) return std::max(point_lower_bound(s.x, s.y, s.z, p.x, p.y, p.z, 0.0), 0.0);
   double lb = std::numeric_limits<double>::infinity();
   for (int32_t k = s.piece0; k < s.piece0 + s.piece_count; ++k)
-    lb = std::min(lb, piece_lower_bound(pieces_[static_cast<size_t>(k)], p.x, p.y, p.z));
+    lb = std::min(lb, piece_lower_bound(pieces_[static_cast<size_t>(k)], p.x, p.y, p.z, 0.0));
   return std::max(lb, 0.0);
 }
 
 double GeoSites::lower_bound(const EcefBox& box, int32_t id) const {
   const GeoSite& s = sites_[static_cast<size_t>(id)];
-  if (!s.segment) return box_distance(box, s.x, s.y, s.z);
-  // Box as a ball around its centre (half-diagonal h): every cell of it is within h of the
-  // centre, so the capsule/ball bound from the centre minus h holds for all of them; the direct
-  // box-to-ball distance is another valid bound.
+  // The box is also used as a ball around its centre (half-diagonal h): every cell of it is
+  // within h of the centre. The direct box distance is another valid chord bound.
   const double cx = 0.5 * (box.x0 + box.x1), cy = 0.5 * (box.y0 + box.y1), cz = 0.5 * (box.z0 + box.z1);
   const double half = 0.5 * std::sqrt((box.x1 - box.x0) * (box.x1 - box.x0) + (box.y1 - box.y0) * (box.y1 - box.y0) +
                                       (box.z1 - box.z0) * (box.z1 - box.z0));
+  if (!s.segment)
+    return std::max({box_distance(box, s.x, s.y, s.z), point_lower_bound(s.x, s.y, s.z, cx, cy, cz, half), 0.0});
   double lb = std::numeric_limits<double>::infinity();
   for (int32_t k = s.piece0; k < s.piece0 + s.piece_count; ++k) {
     const GeoPiece& piece = pieces_[static_cast<size_t>(k)];
     const double from_ball = box_distance(box, piece.ball.x, piece.ball.y, piece.ball.z) - piece.ball.r;
-    const double from_centre = piece_lower_bound(piece, cx, cy, cz) - half;
+    const double from_centre = piece_lower_bound(piece, cx, cy, cz, half);
     lb = std::min(lb, std::max(from_ball, from_centre));
   }
   return std::max(lb, 0.0);
@@ -194,7 +220,7 @@ double GeoSites::distance(const GeoCell& p, int32_t id, GeoEnd* end) const {
   int32_t first = s.piece0;
   double first_lb = std::numeric_limits<double>::infinity();
   for (int32_t k = s.piece0; k < s.piece0 + s.piece_count; ++k) {
-    const double lb = piece_lower_bound(pieces_[static_cast<size_t>(k)], p.x, p.y, p.z);
+    const double lb = piece_lower_bound(pieces_[static_cast<size_t>(k)], p.x, p.y, p.z, 0.0);
     if (lb < first_lb) {
       first_lb = lb;
       first = k;
@@ -205,7 +231,7 @@ double GeoSites::distance(const GeoCell& p, int32_t id, GeoEnd* end) const {
   for (int32_t k = s.piece0; k < s.piece0 + s.piece_count; ++k) {
     if (k == first) continue;
     const GeoPiece& piece = pieces_[static_cast<size_t>(k)];
-    if (piece_lower_bound(piece, p.x, p.y, p.z) > best + kGeoSlack) continue;
+    if (piece_lower_bound(piece, p.x, p.y, p.z, 0.0) > best + kGeoSlack) continue;
     const double d = piece_distance(p, s, piece, end ? &piece_end : nullptr);
     if (d < best) {
       best = d;

@@ -14,6 +14,13 @@
 //          sqrt(l^2 - c^2)/2, overshoot beyond the foci (l - c)/2). For a 500 m coastline edge
 //          h is ~5 mm, so the capsule bound is nearly the exact 3-D distance to the edge.
 //          Both bounds hold; the larger is used.
+//          Far away (chord > 1000 km) the chord falls well short of the geodesic; then also:
+//          the ellipsoid lies outside the ball of its smaller semi-axis r (r = b when oblate),
+//          and the nearest-point projection onto that ball is 1-Lipschitz, so a path on the
+//          ellipsoid projects to a no longer path on the sphere of radius r between the same
+//          directions: geodesic >= r * angle(P, Q) (angle between ECEF vectors). A piece lies
+//          within angle (l/2)/r of its middle, and a set of cells within a ball of radius h
+//          around C within asin(h/|C|) of C's direction.
 //   upper  Geodesic distance is the length of the shortest path, so any path bounds it. From a
 //          cell P to a cell C: along P's parallel to C's longitude (length rho(P) |dlon|, rho the
 //          parallel's radius N cos(lat)), then along the meridian to C's latitude (length <=
@@ -70,7 +77,7 @@ struct GeoPiece {
 };
 
 // Lower bound of the chord distance from (x, y, z) to any point of the piece.
-inline double piece_lower_bound(const GeoPiece& p, double x, double y, double z) {
+inline double piece_chord_bound(const GeoPiece& p, double x, double y, double z) {
   const double ball = std::sqrt((x - p.ball.x) * (x - p.ball.x) + (y - p.ball.y) * (y - p.ball.y) +
                                 (z - p.ball.z) * (z - p.ball.z)) - p.ball.r;
   const double ux = p.bx - p.ax, uy = p.by - p.ay, uz = p.bz - p.az;
@@ -125,6 +132,11 @@ class GeoSites {
   double lower_bound(const EcefBox& box, int32_t id) const;
 
   double max_meridian_radius() const { return max_meridian_radius_; }
+  // Lower bound of the geodesic distance from any point within h of (x, y, z) (h = 0: the point
+  // itself; (x, y, z) on or near the ellipsoid) to any point of the piece; same for a point
+  // site at (sx, sy, sz).
+  double piece_lower_bound(const GeoPiece& p, double x, double y, double z, double h) const;
+  double point_lower_bound(double sx, double sy, double sz, double x, double y, double z, double h) const;
   const GeographicLib::Geodesic& geodesic() const { return geod_; }
   size_t size() const { return sites_.size(); }
 
@@ -134,8 +146,12 @@ class GeoSites {
   bool convex_regime(const GeoCell& p, const GeoPiece& piece) const;
 
   GeographicLib::Geodesic geod_;
+  // r * (angle(P, Q) - pad) - radius: the far-field bound (see the top of this file).
+  double angular_bound(double x, double y, double z, double qx, double qy, double qz, double h, double radius) const;
+
   double a_, e2_;
   double max_meridian_radius_;
+  double inner_radius_;  // min(a, b): the ellipsoid lies outside this ball
   std::vector<GeoSite> sites_;
   std::vector<GeoPiece> pieces_;
   std::vector<GeographicLib::GeodesicLine> lines_;

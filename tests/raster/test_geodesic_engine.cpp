@@ -299,6 +299,34 @@ TEST(GeodesicEngine, SyntheticCoastlines) {
   EXPECT_LT(hv.max_error_cells, 2.0);
 }
 
+TEST(GeodesicEngine, WholeGlobeWithFewSeeds) {
+  // A global 2-degree grid and a handful of seeds: nearest distances of thousands of km, cells
+  // nearly antipodal to some edges (the non-convex search path), both poles, the seam at 180.
+  SeedSet s;
+  s.add_point(s.add_feature(s.owner_code("a")), {10.0, 50.0});
+  s.add_point(s.add_feature(s.owner_code("b")), {-170.0, -50.5});  // ~antipodal to a
+  s.add_polyline(s.add_feature(s.owner_code("c")), std::vector<Vec2>{{100, 0}, {140, 20}, {-170, 10}});
+  s.add_polyline(s.add_feature(s.owner_code("d")), std::vector<Vec2>{{-60, -60}, {-20, -75}});
+  s.add_polygon(s.add_feature(s.owner_code("e")), {{{-100, 40}, {-80, 40}, {-80, 60}, {-100, 60}}});
+  const GridSpec g = geo_grid(-180.0, 90.0, 2.0, 180, 90);
+  expect_exact_equals_brute(s, g, "globe");
+  const NearestField f = run(s, g, Method::exact);
+  // Spot checks against GeographicLib at cells whose nearest seed is a point.
+  const GeographicLib::Geodesic& geod = GeographicLib::Geodesic::WGS84();
+  int checked = 0;
+  for (int64_t r = 0; r < g.height; r += 7)
+    for (int64_t c = 0; c < g.width; c += 11) {
+      const int32_t id = f.site.at(c, r);
+      if (id != 0 && id != 1) continue;
+      const Vec2 q = s.sites()[static_cast<size_t>(id)].a;
+      double d;
+      geod.Inverse(g.centre_y(r), g.centre_x(c), q.y, q.x, d);
+      EXPECT_NEAR(f.distance.at(c, r), d, d * 1e-7) << c << "," << r;
+      ++checked;
+    }
+  EXPECT_GT(checked, 20);
+}
+
 TEST(GeodesicEngine, ScansAreNearlyExact) {
   SeedSet s;
   std::mt19937_64 rng(7);
