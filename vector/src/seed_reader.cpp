@@ -182,9 +182,9 @@ class Reader {
     for (const std::string& d : options_.allowed_drivers) drivers.AddString(d.c_str());
     for (const std::string& path : options_.paths) {
       const std::string name = gdal::open_name(path);
-      // A zip is checked as the archive itself: "/vsizip/x.zip" exists only if x.zip does.
-      const std::string stat_name = name.rfind("/vsizip/", 0) == 0 && path.rfind("/vsi", 0) != 0 ? path : name;
-      if (!gdal::path_exists(stat_name) && !gdal::path_exists(name))
+      // The name as given: for a plain "x.zip" that is the archive itself, for /vsi names
+      // VSIStatL knows the virtual file system.
+      if (!gdal::path_exists(path))
         throw Error(ErrorKind::not_found, "seed file not found: " + path);
       gdal::ErrorCapture capture;
       GDALDataset* ds = GDALDataset::FromHandle(
@@ -239,10 +239,13 @@ class Reader {
         continue;
       }
       for (size_t n = 0; n < options_.layers.size(); ++n) {
-        if (OGRLayer* layer = ds.GetLayerByName(options_.layers[n].c_str())) {
-          add_layer(f, layer);
-          found[n] = true;
-        }
+        OGRLayer* layer = ds.GetLayerByName(options_.layers[n].c_str());
+        if (layer == nullptr) continue;
+        found[n] = true;
+        // A name given twice (or two names GDAL matches case-insensitively) reads the layer once.
+        bool already = false;
+        for (const LayerRef& l : layers_) already |= l.layer == layer;
+        if (!already) add_layer(f, layer);
       }
     }
     for (size_t n = 0; n < options_.layers.size(); ++n) {
