@@ -2,6 +2,8 @@
 #include <gtest/gtest.h>
 
 #include <GeographicLib/UTMUPS.hpp>
+#include <gdal_priv.h>
+#include <ogrsf_frmts.h>
 
 #include <cmath>
 #include <set>
@@ -298,6 +300,38 @@ TEST(SeedReader, PolygonRepairsAndUnrepairablePolygons) {
   const std::string spike =
       dir.write("line_polygon.geojson", collection(feature("A", "[[[0, 0], [1, 1], [2, 2], [0, 0]]]")));
   expect_error(ErrorKind::invalid_input, [&] { load({spike}); }, {"line_polygon.geojson:line_polygon:fid 0", "cannot be repaired"});
+}
+
+TEST(SeedReader, MeasuresAndZDroppedAndVsimemPaths) {
+  gdal_init();
+  // A GeoPackage in GDAL's in-memory file system, with XYM and XYZM geometry.
+  const std::string path = "/vsimem/rv_test_measured.gpkg";
+  {
+    std::unique_ptr<GDALDataset> ds(
+        GetGDALDriverManager()->GetDriverByName("GPKG")->Create(path.c_str(), 0, 0, 0, GDT_Unknown, nullptr));
+    ASSERT_TRUE(ds);
+    OGRSpatialReference utm;
+    utm.importFromEPSG(32633);
+    OGRLayer* layer = ds->CreateLayer("measured", &utm, wkbUnknown, nullptr);
+    OGRFieldDefn field("owner", OFTString);
+    ASSERT_EQ(layer->CreateField(&field), OGRERR_NONE);
+    for (const char* wkt : {"LINESTRING M (400000 6200000 5, 401000 6200000 7)", "POINT ZM (402000 6201000 3 4)"}) {
+      OGRFeature f(layer->GetLayerDefn());
+      f.SetField("owner", wkt);
+      OGRGeometry* g = nullptr;
+      ASSERT_EQ(OGRGeometryFactory::createFromWkt(wkt, nullptr, &g), OGRERR_NONE);
+      f.SetGeometryDirectly(g);
+      ASSERT_EQ(layer->CreateFeature(&f), OGRERR_NONE);
+    }
+  }
+  const LoadedSeeds l = load({path});
+  VSIUnlink(path.c_str());
+  ASSERT_EQ(l.seeds.sites().size(), 2u);
+  EXPECT_EQ(l.seeds.sites()[0].a, (Vec2{400000.0, 6200000.0}));
+  EXPECT_EQ(l.seeds.sites()[0].b, (Vec2{401000.0, 6200000.0}));
+  EXPECT_EQ(l.seeds.sites()[1].a, (Vec2{402000.0, 6201000.0}));
+  EXPECT_EQ(l.seeds.sites()[1].kind, SiteKind::point);
+  expect_error(ErrorKind::not_found, [] { load({"/vsimem/rv_test_nothing.gpkg"}); }, {"rv_test_nothing"});
 }
 
 TEST(SeedReader, ConcurrentLoadsAgree) {
