@@ -56,14 +56,19 @@ TEST(SeedReader, CoastIsTheSameFromGeoJsonGeoPackageAndZippedShapefile) {
     EXPECT_TRUE(l->crs.name.find("UTM zone 33N") != std::string::npos) << l->crs.name;
     EXPECT_FALSE(l->crs.geographic);
   }
-  // Owners by first appearance: A, B (points), A, C (lines), B, A (polygons).
+  // Owners by first appearance: A, B (points), A, C (lines), B, A (polygons). Features are
+  // stored grouped by owner code, in input order within an owner.
   EXPECT_EQ(json.seeds.owner_labels(), (std::vector<std::string>{"A", "B", "C"}));
   std::vector<int32_t> owners;
-  for (const Feature& f : json.seeds.features()) owners.push_back(f.owner);
-  EXPECT_EQ(owners, (std::vector<int32_t>{1, 2, 1, 3, 2, 1}));
-  // Sources name file, layer and fid.
-  EXPECT_NE(gpkg.seeds.features()[0].source.find("coast.gpkg:points:fid 1"), std::string::npos)
-      << gpkg.seeds.features()[0].source;
+  std::vector<std::string> sources;
+  for (const Feature& f : gpkg.seeds.features()) {
+    owners.push_back(f.owner);
+    sources.push_back(f.source.substr(f.source.find("coast.gpkg:")));  // file:layer:fid
+  }
+  EXPECT_EQ(owners, (std::vector<int32_t>{1, 1, 1, 2, 2, 3}));
+  EXPECT_EQ(sources, (std::vector<std::string>{"coast.gpkg:points:fid 1", "coast.gpkg:lines:fid 1",
+                                               "coast.gpkg:polygons:fid 2", "coast.gpkg:points:fid 2",
+                                               "coast.gpkg:polygons:fid 1", "coast.gpkg:lines:fid 2"}));
 }
 
 TEST(SeedReader, ZipWithoutLayerNamesReadsEveryShapefile) {
@@ -82,22 +87,29 @@ TEST(SeedReader, EveryGeometryTypeFromGeoJsonGeoPackageAndFlatGeobuf) {
 
   const SeedSet& s = json.seeds;
   ASSERT_EQ(s.features().size(), 8u);
-  const std::vector<GeometryKind> kinds = {GeometryKind::point,   GeometryKind::point, GeometryKind::line,
-                                           GeometryKind::line,    GeometryKind::polygon, GeometryKind::polygon,
-                                           GeometryKind::mixed,   GeometryKind::line};
+  // In owner order: the 3D line (input feature 8) shares owner "L" and follows the first line.
+  const std::vector<GeometryKind> kinds = {GeometryKind::point,   GeometryKind::point,   GeometryKind::line,
+                                           GeometryKind::line,    GeometryKind::line,    GeometryKind::polygon,
+                                           GeometryKind::polygon, GeometryKind::mixed};
   for (size_t i = 0; i < kinds.size(); ++i) EXPECT_EQ(s.features()[i].kind, kinds[i]) << "feature " << i;
   EXPECT_EQ(s.owner_labels(), (std::vector<std::string>{"P", "MP", "L", "ML", "H", "MPG", "GC"}));
-  EXPECT_EQ(s.features()[7].owner, 3);  // the 3D line shares owner "L"
+  EXPECT_EQ(s.features()[3].owner, 3);
+  EXPECT_NE(s.features()[3].source.find("all_types:fid 7"), std::string::npos) << s.features()[3].source;
   // 1 + 2 points, 2 + 2 segments, holed square 4 + 4 + area, two squares 2 x (4 + area),
   // collection point + segment, 3D line 1 segment.
   EXPECT_EQ(s.sites().size(), 29u);
   ASSERT_EQ(s.polygons().size(), 3u);
   EXPECT_EQ(s.polygons()[0].rings.size(), 2u);  // the hole is kept
-  // Z dropped: the last site is the 2D segment.
-  const Site& last = s.sites().back();
-  EXPECT_EQ(last.a, km(8, 3));
-  EXPECT_EQ(last.b, km(9, 3.5));
-  EXPECT_EQ(last.kind, SiteKind::segment);
+  // Z dropped: the 3D line's one site is the 2D segment.
+  int found = 0;
+  for (const Site& site : s.sites()) {
+    if (site.feature != 3) continue;
+    ++found;
+    EXPECT_EQ(site.a, km(8, 3));
+    EXPECT_EQ(site.b, km(9, 3.5));
+    EXPECT_EQ(site.kind, SiteKind::segment);
+  }
+  EXPECT_EQ(found, 1);
 }
 
 TEST(SeedReader, CurvesAreLinearised) {

@@ -10,9 +10,13 @@
 // feature with several parts: points -> point sites, lines -> segment sites per part, polygons ->
 // one SeedSet polygon per part (its ring edges plus an area site).
 //
-// Order (owner codes, tie-breaking): files in the order given; in each file its layers in dataset
-// order, or, when layers are named, the named layers in the order the names are given; features
-// in the layer's reading order.
+// Input order (owner codes by first appearance, position labels): files in the order given; in
+// each file its layers in dataset order, or, when layers are named, the named layers in the order
+// the names are given; features in the layer's reading order.
+// Stored order: SeedSet features are grouped by owner code, in input order within an owner
+// (Feature::source says where each came from). The engines break distance ties and resolve
+// overlapping polygon interiors towards the lower feature index; with this order that is always
+// the lower owner code, even where owners interleave in the input.
 //
 // Units: coordinates of the result are in the target CRS's units (metres for UTM, degrees with
 // x = longitude for geographic CRSs).
