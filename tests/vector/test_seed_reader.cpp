@@ -66,6 +66,7 @@ TEST(SeedReader, CoastIsTheSameFromGeoJsonGeoPackageAndZippedShapefile) {
     sources.push_back(f.source.substr(f.source.find("coast.gpkg:")));  // file:layer:fid
   }
   EXPECT_EQ(owners, (std::vector<int32_t>{1, 1, 1, 2, 2, 3}));
+  EXPECT_EQ(gpkg.input_position, (std::vector<int64_t>{1, 3, 6, 2, 5, 4}));
   EXPECT_EQ(sources, (std::vector<std::string>{"coast.gpkg:points:fid 1", "coast.gpkg:lines:fid 1",
                                                "coast.gpkg:polygons:fid 2", "coast.gpkg:points:fid 2",
                                                "coast.gpkg:polygons:fid 1", "coast.gpkg:lines:fid 2"}));
@@ -147,6 +148,7 @@ TEST(SeedReader, OwnersWithoutFieldArePositions) {
   // Positions count the input: an empty feature keeps its number.
   const LoadedSeeds e = load({fixture("empty_geometry.geojson")}, std::nullopt);
   EXPECT_EQ(e.seeds.owner_labels(), (std::vector<std::string>{"1", "3"}));
+  EXPECT_EQ(e.input_position, (std::vector<int64_t>{1, 3}));
   EXPECT_EQ(e.report.features_skipped_empty, 1);
   EXPECT_EQ(e.report.features_read, 2);
   ASSERT_FALSE(e.report.warnings.empty());

@@ -169,6 +169,7 @@ struct PendingPart {
 
 struct PendingFeature {
   int32_t owner = 0;
+  int64_t position = 0;  // 1-based, in the input
   std::string source;
   std::vector<PendingPart> parts;
 };
@@ -381,7 +382,7 @@ class Reader {
 
     const int32_t owner = out_.seeds.owner_code(label);
     const auto index = static_cast<int32_t>(pending_.size());
-    pending_.push_back(PendingFeature{owner, source, {}});
+    pending_.push_back(PendingFeature{owner, position_, source, {}});
     std::set<std::pair<double, double>> seen_points;
     for (auto& part : parts) {
       switch (wkbFlatten(part->getGeometryType())) {
@@ -424,6 +425,7 @@ class Reader {
       PendingFeature& f = pending_[k];
       const int32_t index = seeds.add_feature(f.owner, std::move(f.source));
       final_index[k] = index;
+      out_.input_position.push_back(f.position);
       for (PendingPart& part : f.parts) {
         if (part.dimension == 0)
           seeds.add_point(index, part.vertices.front());

@@ -78,6 +78,10 @@ struct LoadedSeeds {
   SeedSet seeds;
   CrsInfo crs;
   SeedReadReport report;
+  // SeedSet feature index -> 1-based position of that feature in the input (the numbering of
+  // position labels, counting skipped empty features). Features are stored grouped by owner, so
+  // this differs from index + 1 when an owner field interleaves owners.
+  std::vector<int64_t> input_position;
 };
 
 // Reads, reprojects into the target CRS (traditional GIS axis order), assigns owners (codes in
