@@ -6,9 +6,10 @@
 // Formats: any vector format GDAL/OGR reads (GeoJSON, GeoPackage, Shapefile, FlatGeobuf, KML,
 // ...). A plain path ending in ".zip" is opened through /vsizip/ (a zipped Shapefile, or several).
 // Geometry: Point, LineString, Polygon (holes), their Multi* forms and GeometryCollections of
-// them; curves are linearised (GDAL's default step), Z and M dropped. A multi-part feature is one
-// feature with several parts: points -> point sites, lines -> segment sites per part, polygons ->
-// one SeedSet polygon per part (its ring edges plus an area site).
+// them; curves are linearised (1 degree steps: chords within 3.8e-5 x radius of the arc), Z and
+// M dropped. A multi-part feature is one feature with several parts: points -> point sites,
+// lines -> segment sites per part, polygons -> one SeedSet polygon per part (its ring edges plus
+// an area site).
 //
 // Input order (owner codes by first appearance, position labels): files in the order given; in
 // each file its layers in dataset order, or, when layers are named, the named layers in the order
@@ -22,6 +23,7 @@
 // x = longitude for geographic CRSs).
 #pragma once
 
+#include <cstdint>
 #include <optional>
 #include <string>
 #include <vector>
@@ -30,7 +32,8 @@
 
 namespace rv {
 
-// Registers GDAL's drivers and sets process-wide GDAL options. Idempotent, thread-safe.
+// Registers GDAL's drivers; changes no process-wide GDAL option (every CRS this library
+// creates sets its own axis order). Idempotent, thread-safe.
 void gdal_init();
 
 enum class ConflictPolicy {
