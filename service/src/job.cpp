@@ -277,9 +277,10 @@ JobResult run_job(const JobSpec& spec, const JobLimits& limits, const JobHooks& 
     t = Clock::now();
     GeoTiffOptions o = common;
     o.categorical = true;
-    o.metadata["CONTENT"] = "1-based index of the nearest seed feature (0 = none)";
+    o.metadata["CONTENT"] = "1-based position of the nearest seed feature in the input (0 = none)";
     guard.add(spec.outputs.nearest_feature);
-    write_geotiff(spec.outputs.nearest_feature, feature_raster(loaded.seeds, field, spec.threads), 0.0, o);
+    write_geotiff(spec.outputs.nearest_feature,
+                  feature_raster(loaded.seeds, field, spec.threads, loaded.input_position), 0.0, o);
     write_times["nearest_feature"] = seconds_since(t);
     outputs["nearest_feature"] = spec.outputs.nearest_feature;
   }

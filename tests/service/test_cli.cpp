@@ -83,7 +83,7 @@ TEST_F(Cli, ComputeWritesGeoTiffsThatMatchTheEngine) {
   const Raster<int32_t> own = read_int32(path("own.tif"));
   EXPECT_EQ(own.width(), grid.width);
   EXPECT_EQ(own.cells(), owner_raster(seeds.seeds, f).cells());
-  EXPECT_EQ(read_int32(path("feat.tif")).cells(), feature_raster(seeds.seeds, f).cells());
+  EXPECT_EQ(read_int32(path("feat.tif")).cells(), feature_raster(seeds.seeds, f, 0, seeds.input_position).cells());
   EXPECT_EQ(read_float32(path("dist.tif")).cells(), f.distance.cells());
   EXPECT_EQ(read_category_labels(path("own.tif")), (std::vector<std::string>{"A", "B", "C"}));
 
@@ -94,6 +94,27 @@ TEST_F(Cli, ComputeWritesGeoTiffsThatMatchTheEngine) {
   EXPECT_GT(rep["peak_memory_bytes"].get<int64_t>(), 0);
   EXPECT_TRUE(rep["timings_s"].contains("compute"));
   EXPECT_TRUE(rep["timings_s"]["write"].contains("ownership"));
+}
+
+TEST_F(Cli, NearestFeatureNumbersFollowTheInputOrder) {
+  // Owners interleaved in the file (A, B, A): the reader stores features grouped by owner, but the
+  // nearest-feature raster still numbers them by their position in the input.
+  const std::string seeds = write("interleaved.geojson", R"({"type":"FeatureCollection",
+    "crs":{"type":"name","properties":{"name":"urn:ogc:def:crs:EPSG::32633"}},"features":[
+    {"type":"Feature","properties":{"o":"A"},"geometry":{"type":"Point","coordinates":[500000.5,6000000.5]}},
+    {"type":"Feature","properties":{"o":"B"},"geometry":{"type":"Point","coordinates":[500010.5,6000000.5]}},
+    {"type":"Feature","properties":{"o":"A"},"geometry":{"type":"Point","coordinates":[500020.5,6000000.5]}}]})");
+  const CliRun r = run("compute " + seeds + " --owner-field o --resolution 1 --extent 500000 6000000 500021 6000001 "
+                       "--ownership " + path("own.tif") + " --nearest-feature " + path("feat.tif") + " --quiet");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const Raster<int32_t> own = read_int32(path("own.tif"));
+  const Raster<int32_t> feat = read_int32(path("feat.tif"));
+  EXPECT_EQ(own.at(0, 0), 1);
+  EXPECT_EQ(feat.at(0, 0), 1);
+  EXPECT_EQ(own.at(10, 0), 2);
+  EXPECT_EQ(feat.at(10, 0), 2);
+  EXPECT_EQ(own.at(20, 0), 1);
+  EXPECT_EQ(feat.at(20, 0), 3);
 }
 
 TEST_F(Cli, ThreadCountDoesNotChangeTheFiles) {
