@@ -32,7 +32,7 @@ if [[ " $stages " == *" fuzz "* ]]; then
   t0=$(stamp)
   CC=clang-14 CXX=clang++-14 cmake -S . -B build-fuzz -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DRV_FUZZ=ON \
     -DRV_BUILD_TESTS=OFF >/dev/null
-  targets=$(cd tests/fuzz/corpus && ls)
+  targets=$(cat build-fuzz/fuzz_targets.txt)  # the targets tests/fuzz/CMakeLists.txt defines
   # shellcheck disable=SC2086
   cmake --build build-fuzz -j "$jobs" --target $targets
   t1=$(stamp)
