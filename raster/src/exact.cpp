@@ -81,12 +81,21 @@ inline double site_rect_max_key(const LocalSite& s, const Rect& r) {
                   std::max(planar_key(r.x0, r.y1, s), planar_key(r.x1, r.y1, s)));
 }
 
+// ThreadSanitizer instruments the ifunc resolver that target_clones generates, and the dynamic
+// loader runs that resolver before the TSan runtime is initialised: a crash at startup. TSan
+// builds therefore get the default clone only (same results: keys are bit-identical anyway).
+#if defined(__SANITIZE_THREAD__)
+#define RV_AVX2_CLONES
+#else
+#define RV_AVX2_CLONES __attribute__((target_clones("avx2", "default")))
+#endif
+
 // A block of w x h cells (centre x px[c], centre y py[r]) against k candidate sites: the exact
 // argmin per cell (strict <, candidates in ascending id order, so ties keep the lowest id),
 // written straight to the result rows (stride: cells between two rows). Loops are written for
 // the vectoriser; an AVX2 clone is picked at load time where the CPU has it. Keys use exactly
 // planar_key()'s arithmetic (-ffp-contract=off keeps them bit-identical to brute force).
-__attribute__((target_clones("avx2", "default"))) void argmin_block(
+RV_AVX2_CLONES void argmin_block(
     const LocalSite* __restrict sites, const int32_t* __restrict ids, int k,
     const double* __restrict px, int64_t w, const double* __restrict py, int64_t h,
     double max_key, double* __restrict best, int32_t* __restrict best_id,
