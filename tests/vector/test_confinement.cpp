@@ -145,6 +145,10 @@ class Confinement : public ::testing::Test {
  protected:
   void SetUp() override {
     gdal_init();
+    // The unconfined controls must reach the loopback listener directly, whatever proxy the
+    // machine running the tests is configured with.
+    for (const char* v : {"http_proxy", "https_proxy", "all_proxy", "HTTP_PROXY", "HTTPS_PROXY", "ALL_PROXY"})
+      ::unsetenv(v);
     dir_ = fs::temp_directory_path() / ("rv_confine_" + std::to_string(::getpid()) + "_" +
                                         ::testing::UnitTest::GetInstance()->current_test_info()->name());
     fs::create_directories(dir_);
