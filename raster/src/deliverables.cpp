@@ -7,6 +7,7 @@
 #include <map>
 #include <mutex>
 #include <numeric>
+#include <set>
 #include <unordered_map>
 
 #include "exact_other.hpp"
@@ -438,6 +439,7 @@ struct Crossing {
   int32_t owner_lo, owner_hi;
   BoundaryVertex v;
   bool sliver = false;
+  int32_t third = 0;  // sliver: the owner nearer than both at the A-B root
 };
 
 struct TripointSolver {
@@ -534,11 +536,11 @@ BoundaryResult extract_boundaries(const NearestField& field, const OwnerIndex& i
       if (o == 0) continue;
       if (c + 1 < W) {
         const int32_t q = owner(c + 1, r);
-        if (q != 0 && q != o) crossings.push_back(Crossing{edge_right(W, c, r), o, q, {}, false});
+        if (q != 0 && q != o) crossings.push_back(Crossing{edge_right(W, c, r), o, q, {}, false, 0});
       }
       if (r + 1 < H) {
         const int32_t q = owner(c, r + 1);
-        if (q != 0 && q != o) crossings.push_back(Crossing{edge_down(W, c, r), o, q, {}, false});
+        if (q != 0 && q != o) crossings.push_back(Crossing{edge_down(W, c, r), o, q, {}, false, 0});
       }
     }
   result.stats.crossings = static_cast<int64_t>(crossings.size());
@@ -568,17 +570,21 @@ BoundaryResult extract_boundaries(const NearestField& field, const OwnerIndex& i
       // A third owner nearer than both at the root means its region passes between the two
       // cell centres without holding a centre: A and B do not touch here, and the point is
       // not a boundary vertex (the gap is the truth at this resolution).
-      x.sliver = index.nearest(p).distance < v.distance - 4.0 * ftol - v.residual;
+      const auto nearest = index.nearest(p);
+      x.sliver = nearest.distance < v.distance - 4.0 * ftol - v.residual;
+      if (x.sliver) x.third = owner_of_site[static_cast<size_t>(nearest.site)];
     }
   });
   std::unordered_map<int64_t, int32_t> crossing_at;
   crossing_at.reserve(crossings.size() * 2);
+  std::unordered_map<int64_t, int32_t> sliver_at;  // edge -> the third owner passing between
   {
     std::vector<Crossing> kept;
     kept.reserve(crossings.size());
     for (Crossing& x : crossings) {
       if (x.sliver) {
         ++result.stats.sliver_crossings;
+        sliver_at.emplace(x.edge, x.third);
         continue;
       }
       crossing_at.emplace(x.edge, static_cast<int32_t>(kept.size()));
@@ -587,144 +593,193 @@ BoundaryResult extract_boundaries(const NearestField& field, const OwnerIndex& i
     crossings.swap(kept);
   }
 
-  // 2. Dual squares: links between crossings, and tripoints.
+  // 2. Dual squares: tripoints, then links between crossings and tripoints.
   std::vector<std::array<int32_t, 2>> links;  // node ids: crossings, then tripoints
   std::vector<int64_t> link_pair;             // owner_lo * 2^32 + owner_hi
   const auto ncross = static_cast<int32_t>(crossings.size());
   auto pair_key = [](int32_t a, int32_t b) {
     return (static_cast<int64_t>(std::min(a, b)) << 32) | static_cast<int64_t>(std::max(a, b));
   };
+  std::set<std::pair<int32_t, int32_t>> linked;  // a crossing is seen from both its squares
   auto add_link = [&](int32_t n1, int32_t n2, int64_t pair) {
+    if (!linked.emplace(std::min(n1, n2), std::max(n1, n2)).second) return;
     links.push_back({n1, n2});
     link_pair.push_back(pair);
   };
+  auto square_mid = [&](int64_t c, int64_t r) {
+    return Vec2{g.xmin + (static_cast<double>(c) + 1.0) * g.res, g.ymax - (static_cast<double>(r) + 1.0) * g.res};
+  };
+  auto corner_owners = [&](int64_t c, int64_t r) {
+    return std::array<int32_t, 4>{owner(c, r), owner(c + 1, r), owner(c + 1, r + 1), owner(c, r + 1)};
+  };
+
+  // 2a. Tripoints. Candidate squares: three or more corner owners, or a sliver edge (an owner
+  // passing between two centres adds itself to the square's owners). Each tripoint found is
+  // filed under the square it actually lies in, which need not be the square it was sought from.
   TripointSolver solver{index, ftol, 1e-6 * g.res};
   std::map<std::array<int32_t, 3>, std::vector<int32_t>> tripoints_by_owners;
-  auto find_or_add_tripoint = [&](const Tripoint& t) {
+  std::unordered_map<int64_t, std::vector<int32_t>> tripoints_in;  // square id -> tripoint ids
+  auto square_of = [&](Vec2 p) -> int64_t {
+    const double fc = std::floor((p.x - g.xmin) / g.res - 0.5), fr = std::floor((g.ymax - p.y) / g.res - 0.5);
+    if (!(fc >= 0.0 && fr >= 0.0 && fc < static_cast<double>(W - 1) && fr < static_cast<double>(H - 1))) return -1;
+    return static_cast<int64_t>(fr) * W + static_cast<int64_t>(fc);
+  };
+  auto add_tripoint = [&](const Tripoint& t) {
     auto& list = tripoints_by_owners[{t.owners[0], t.owners[1], t.owners[2]}];
     for (int32_t id : list) {
       const Vec2 q = result.tripoints[static_cast<size_t>(id)].p;
-      if (std::hypot(q.x - t.p.x, q.y - t.p.y) <= 1e-6 * g.res) return id;
+      if (std::hypot(q.x - t.p.x, q.y - t.p.y) <= 1e-6 * g.res) return;
     }
+    const int64_t sq = square_of(t.p);
+    if (sq < 0) return;  // outside the dual grid: no cell-centre square holds it
     const auto id = static_cast<int32_t>(result.tripoints.size());
     result.tripoints.push_back(t);
     list.push_back(id);
-    return id;
+    tripoints_in[sq].push_back(id);
   };
-
   for (int64_t r = 0; r + 1 < H; ++r)
     for (int64_t c = 0; c + 1 < W; ++c) {
-      const std::array<int32_t, 4> o{owner(c, r), owner(c + 1, r), owner(c + 1, r + 1), owner(c, r + 1)};
+      const auto o = corner_owners(c, r);
       if (o[0] == o[1] && o[1] == o[2] && o[2] == o[3]) continue;
-      const auto edges = square_edges(W, c, r);
-      std::array<int32_t, 4> x{-1, -1, -1, -1};
-      int n = 0;
-      for (int k = 0; k < 4; ++k) {
-        const auto it = crossing_at.find(edges[static_cast<size_t>(k)]);
-        if (it != crossing_at.end()) {
-          x[static_cast<size_t>(k)] = it->second;
-          ++n;
-        }
-      }
-      if (n == 0) continue;
       std::vector<int32_t> distinct;
       for (int32_t v : o)
         if (v != 0 && std::find(distinct.begin(), distinct.end(), v) == distinct.end()) distinct.push_back(v);
-      std::sort(distinct.begin(), distinct.end());
-      const Vec2 mid{g.xmin + (static_cast<double>(c) + 1.0) * g.res, g.ymax - (static_cast<double>(r) + 1.0) * g.res};
-
-      // Links crossings of the same owner pair when there are exactly two of them.
-      auto link_by_pair = [&](const std::vector<int>& which) {
-        for (size_t i = 0; i < which.size(); ++i)
-          for (size_t j = i + 1; j < which.size(); ++j) {
-            const Crossing& ci = crossings[static_cast<size_t>(x[static_cast<size_t>(which[i])])];
-            const Crossing& cj = crossings[static_cast<size_t>(x[static_cast<size_t>(which[j])])];
-            if (ci.owner_lo != cj.owner_lo || ci.owner_hi != cj.owner_hi) continue;
-            int same = 0;
-            for (int k : which) {
-              const Crossing& ck = crossings[static_cast<size_t>(x[static_cast<size_t>(k)])];
-              same += ck.owner_lo == ci.owner_lo && ck.owner_hi == ci.owner_hi;
-            }
-            if (same == 2) add_link(x[static_cast<size_t>(which[i])], x[static_cast<size_t>(which[j])], pair_key(ci.owner_lo, ci.owner_hi));
-          }
-      };
-      std::vector<int> present;
-      for (int k = 0; k < 4; ++k)
-        if (x[static_cast<size_t>(k)] >= 0) present.push_back(k);
-
-      if (distinct.size() == 2) {
-        if (n == 4) {
-          // Saddle A B / B A: the owner of the square's centre connects its two corners.
-          ++result.stats.saddles;
-          const auto h0 = index.nearest_of(mid, o[0]), h1 = index.nearest_of(mid, o[1]);
-          const bool centre_is_o0 = h0.distance < h1.distance || (h0.distance == h1.distance && h0.site < h1.site);
-          const int64_t pair = pair_key(o[0], o[1]);
-          if (centre_is_o0) {  // corners 1 and 3 are cut off
-            add_link(x[0], x[1], pair);
-            add_link(x[2], x[3], pair);
-          } else {             // corners 0 and 2 are cut off
-            add_link(x[3], x[0], pair);
-            add_link(x[1], x[2], pair);
-          }
-        } else {
-          link_by_pair(present);
+      if (!sliver_at.empty())
+        for (int64_t e : square_edges(W, c, r)) {
+          const auto it = sliver_at.find(e);
+          if (it != sliver_at.end() && std::find(distinct.begin(), distinct.end(), it->second) == distinct.end())
+            distinct.push_back(it->second);
         }
-        continue;
-      }
       if (distinct.size() < 3) continue;
-
-      // Three or more owners: the tripoints of every owner triple that converge near the square
-      // and have no fourth owner closer.
+      std::sort(distinct.begin(), distinct.end());
       ++result.stats.multi_owner_squares;
-      std::vector<int32_t> valid;  // tripoint ids
-      const Box2 near_box{mid.x - g.res, mid.y - g.res, mid.x + g.res, mid.y + g.res};
+      const Vec2 mid = square_mid(c, r);
+      const size_t before = result.tripoints.size();
       for (size_t i = 0; i < distinct.size(); ++i)
         for (size_t j = i + 1; j < distinct.size(); ++j)
           for (size_t k = j + 1; k < distinct.size(); ++k) {
             Tripoint t;
             if (!solver.solve({distinct[i], distinct[j], distinct[k]}, mid, g.res, t)) continue;
-            if (t.p.x < near_box.x0 || t.p.x > near_box.x1 || t.p.y < near_box.y0 || t.p.y > near_box.y1) continue;
+            if (std::abs(t.p.x - mid.x) > g.res || std::abs(t.p.y - mid.y) > g.res) continue;
             const auto any = index.nearest(t.p);
             if (any.distance < t.distance - 4.0 * ftol - t.residual) continue;  // another owner is nearer
-            const int32_t id = find_or_add_tripoint(t);
-            if (std::find(valid.begin(), valid.end(), id) == valid.end()) valid.push_back(id);
+            add_tripoint(t);
           }
-      if (valid.empty()) {
+      if (result.tripoints.size() == before && tripoints_in.find(r * W + c) == tripoints_in.end())
         ++result.stats.unresolved_tripoints;
-        link_by_pair(present);
-        continue;
+    }
+
+  // 2b. Links per square.
+  auto has = [](const Tripoint& t, int32_t a) { return t.owners[0] == a || t.owners[1] == a || t.owners[2] == a; };
+  // The nearest tripoint of `ids` that has both owners of the crossing, or -1.
+  auto nearest_tripoint = [&](const Crossing& cr, const std::vector<int32_t>& ids) {
+    int32_t best = -1;
+    double best_d = std::numeric_limits<double>::infinity();
+    for (int32_t id : ids) {
+      const Tripoint& t = result.tripoints[static_cast<size_t>(id)];
+      if (!has(t, cr.owner_lo) || !has(t, cr.owner_hi)) continue;
+      const double d = std::hypot(t.p.x - cr.v.p.x, t.p.y - cr.v.p.y);
+      if (d < best_d) {
+        best_d = d;
+        best = id;
       }
-      auto has = [](const Tripoint& t, int32_t a) { return t.owners[0] == a || t.owners[1] == a || t.owners[2] == a; };
+    }
+    return best;
+  };
+  for (int64_t r = 0; r + 1 < H; ++r)
+    for (int64_t c = 0; c + 1 < W; ++c) {
+      const auto o = corner_owners(c, r);
+      if (o[0] == o[1] && o[1] == o[2] && o[2] == o[3]) continue;
+      const auto edges = square_edges(W, c, r);
+      std::array<int32_t, 4> x{-1, -1, -1, -1};
+      std::vector<int> present;
+      for (int k = 0; k < 4; ++k) {
+        const auto it = crossing_at.find(edges[static_cast<size_t>(k)]);
+        if (it != crossing_at.end()) {
+          x[static_cast<size_t>(k)] = it->second;
+          present.push_back(k);
+        }
+      }
+      if (present.empty()) continue;
+      auto cross = [&](int k) -> const Crossing& { return crossings[static_cast<size_t>(x[static_cast<size_t>(k)])]; };
+      const auto here = tripoints_in.find(r * W + c);
       std::vector<int> unlinked;
-      for (int k : present) {
-        const Crossing& cr = crossings[static_cast<size_t>(x[static_cast<size_t>(k)])];
-        int32_t best = -1;
-        double best_d = std::numeric_limits<double>::infinity();
-        for (int32_t id : valid) {
-          const Tripoint& t = result.tripoints[static_cast<size_t>(id)];
-          if (!has(t, cr.owner_lo) || !has(t, cr.owner_hi)) continue;
-          const double d = std::hypot(t.p.x - cr.v.p.x, t.p.y - cr.v.p.y);
-          if (d < best_d) {
-            best_d = d;
-            best = id;
+      if (here != tripoints_in.end()) {
+        // Crossings end at the tripoint of their pair inside this square.
+        for (int k : present) {
+          const int32_t t = nearest_tripoint(cross(k), here->second);
+          if (t >= 0)
+            add_link(x[static_cast<size_t>(k)], ncross + t, pair_key(cross(k).owner_lo, cross(k).owner_hi));
+          else
+            unlinked.push_back(k);
+        }
+        // Two tripoints sharing two owners are joined by those owners' boundary.
+        const auto& ids = here->second;
+        for (size_t i = 0; i < ids.size(); ++i)
+          for (size_t j = i + 1; j < ids.size(); ++j) {
+            const Tripoint& ti = result.tripoints[static_cast<size_t>(ids[i])];
+            const Tripoint& tj = result.tripoints[static_cast<size_t>(ids[j])];
+            std::vector<int32_t> shared;
+            for (int32_t a : ti.owners)
+              if (has(tj, a)) shared.push_back(a);
+            if (shared.size() == 2) add_link(ncross + ids[i], ncross + ids[j], pair_key(shared[0], shared[1]));
           }
+      } else if (present.size() == 4 && o[0] == o[2] && o[1] == o[3] && o[0] != o[1]) {
+        // Saddle A B / B A: the owner of the square's centre connects its two corners.
+        ++result.stats.saddles;
+        const Vec2 mid = square_mid(c, r);
+        const auto h0 = index.nearest_of(mid, o[0]), h1 = index.nearest_of(mid, o[1]);
+        const bool centre_is_o0 = h0.distance < h1.distance || (h0.distance == h1.distance && h0.site < h1.site);
+        const int64_t pair = pair_key(o[0], o[1]);
+        if (centre_is_o0) {  // corners 1 and 3 are cut off
+          add_link(x[0], x[1], pair);
+          add_link(x[2], x[3], pair);
+        } else {             // corners 0 and 2 are cut off
+          add_link(x[3], x[0], pair);
+          add_link(x[1], x[2], pair);
         }
-        if (best >= 0)
-          add_link(x[static_cast<size_t>(k)], ncross + best, pair_key(cr.owner_lo, cr.owner_hi));
-        else
-          unlinked.push_back(k);
+        continue;
+      } else {
+        unlinked = present;
       }
-      link_by_pair(unlinked);
-      // Two tripoints sharing two owners are joined by those owners' boundary.
-      for (size_t i = 0; i < valid.size(); ++i)
-        for (size_t j = i + 1; j < valid.size(); ++j) {
-          const Tripoint& ti = result.tripoints[static_cast<size_t>(valid[i])];
-          const Tripoint& tj = result.tripoints[static_cast<size_t>(valid[j])];
-          std::vector<int32_t> shared;
-          for (int32_t a : ti.owners)
-            if (has(tj, a)) shared.push_back(a);
-          if (shared.size() == 2) add_link(ncross + valid[i], ncross + valid[j], pair_key(shared[0], shared[1]));
+      // Crossings of one pair, two in the square: joined. A lone crossing whose pair has a
+      // tripoint in a neighbouring square (its third owner passed between two centres): joined
+      // to that tripoint.
+      for (int k : unlinked) {
+        int same = 0, other = -1;
+        for (int m : unlinked)
+          if (m != k && cross(m).owner_lo == cross(k).owner_lo && cross(m).owner_hi == cross(k).owner_hi) {
+            ++same;
+            other = m;
+          }
+        const int64_t pair = pair_key(cross(k).owner_lo, cross(k).owner_hi);
+        if (same == 1) {
+          if (k < other) add_link(x[static_cast<size_t>(k)], x[static_cast<size_t>(other)], pair);
+          continue;
         }
+        if (same > 1) continue;
+        std::vector<int32_t> around;
+        for (int64_t dr = -1; dr <= 1; ++dr)
+          for (int64_t dc = -1; dc <= 1; ++dc) {
+            if ((dr == 0 && dc == 0) || r + dr < 0 || c + dc < 0 || r + dr + 1 >= H || c + dc + 1 >= W) continue;
+            const auto it = tripoints_in.find((r + dr) * W + (c + dc));
+            if (it != tripoints_in.end()) around.insert(around.end(), it->second.begin(), it->second.end());
+          }
+        // The line leaves the crossing into this square, so the tripoint lies on this square's
+        // side of the crossing's edge (edges: 0 top, 1 right, 2 bottom, 3 left).
+        const Vec2 e = cross(k).v.p;
+        std::erase_if(around, [&](int32_t id) {
+          const Vec2 q = result.tripoints[static_cast<size_t>(id)].p;
+          switch (k) {
+            case 0: return !(q.y < e.y);
+            case 1: return !(q.x < e.x);
+            case 2: return !(q.y > e.y);
+            default: return !(q.x > e.x);
+          }
+        });
+        const int32_t t = nearest_tripoint(cross(k), around);
+        if (t >= 0) add_link(x[static_cast<size_t>(k)], ncross + t, pair);
+      }
     }
 
   // 3. Chains per owner pair.

@@ -96,4 +96,26 @@ inline void check_boundaries(const SeedSet& s, const NearestField& field, const 
   }
 }
 
+// No two segments of the lines cross (they may only share end points: consecutive segments of
+// one line, or lines meeting at a tripoint). Quadratic: for small scenes.
+inline void check_no_crossings(const BoundaryResult& b) {
+  struct Seg {
+    Vec2 a, b;
+  };
+  std::vector<Seg> segs;
+  for (const BoundaryLine& line : b.lines)
+    for (size_t i = 1; i < line.vertices.size(); ++i) segs.push_back({line.vertices[i - 1].p, line.vertices[i].p});
+  auto orient = [](Vec2 p, Vec2 q, Vec2 r) { return (q.x - p.x) * (r.y - p.y) - (q.y - p.y) * (r.x - p.x); };
+  for (size_t i = 0; i < segs.size(); ++i)
+    for (size_t j = i + 1; j < segs.size(); ++j) {
+      const Seg &s = segs[i], &t = segs[j];
+      if (s.a == t.a || s.a == t.b || s.b == t.a || s.b == t.b) continue;
+      const double o1 = orient(s.a, s.b, t.a), o2 = orient(s.a, s.b, t.b);
+      const double o3 = orient(t.a, t.b, s.a), o4 = orient(t.a, t.b, s.b);
+      const bool cross = ((o1 > 0 && o2 < 0) || (o1 < 0 && o2 > 0)) && ((o3 > 0 && o4 < 0) || (o3 < 0 && o4 > 0));
+      ASSERT_FALSE(cross) << "segments (" << s.a.x << "," << s.a.y << ")-(" << s.b.x << "," << s.b.y << ") and ("
+                          << t.a.x << "," << t.a.y << ")-(" << t.b.x << "," << t.b.y << ") cross";
+    }
+}
+
 }  // namespace rv::test
