@@ -333,6 +333,23 @@ TEST(Deliverables, MarginMatchesBruteForce) {
         ASSERT_GE(m.at(c, r), 0.0f);
       }
   }
+  // Overlapping polygons of two owners (contested cells): margin 0 inside the overlap.
+  {
+    SeedSet s;
+    s.add_polygon(s.add_feature(s.owner_code("A")), {{{2, 2}, {14, 2}, {14, 12}, {2, 12}}});
+    s.add_polygon(s.add_feature(s.owner_code("B")), {{{10, 6}, {24, 6}, {24, 18}, {10, 18}}});
+    Fixture st(s, grid(30, 20));
+    ASSERT_GT(st.field.contested_cells, 0);
+    const Raster<float> m = margin_raster(st.field, st.index, 2);
+    for (int64_t r = 0; r < 20; ++r)
+      for (int64_t c = 0; c < 30; ++c) {
+        const Vec2 p{st.g.centre_x(c), st.g.centre_y(r)};
+        const double da = test::brute_owner_distance(s, p, 1), db = test::brute_owner_distance(s, p, 2);
+        const int32_t o = s.site_owner(st.field.site.at(c, r));
+        const double expect = o == 1 ? db - da : da - db;
+        ASSERT_NEAR(m.at(c, r), expect, 1e-4) << "cell " << c << "," << r;
+      }
+  }
   // One owner: no margin anywhere.
   const SeedSet one = points({{3, 3}});
   Fixture st(one, grid(10, 10));
