@@ -82,22 +82,32 @@ bool SiteMetric::inside_area(Vec2 p, int32_t area_site) const {
   return inside;
 }
 
-Box2 SiteMetric::site_box(int32_t site) const {
+Box3 SiteMetric::vertex_box(int32_t site) const {
   const Site& s = seeds_.sites()[static_cast<size_t>(site)];
+  Box3 b{std::min(s.a.x, s.b.x), std::min(s.a.y, s.b.y), 0.0, std::max(s.a.x, s.b.x), std::max(s.a.y, s.b.y), 0.0};
   if (s.kind == SiteKind::area) {
     const int32_t pi = polygon_of_site_[static_cast<size_t>(site)];
-    Box2 b{s.a.x, s.a.y, s.a.x, s.a.y};
     if (pi >= 0)
-      for (const Vec2& v : seeds_.polygons()[static_cast<size_t>(pi)].rings.front()) {
-        b.x0 = std::min(b.x0, v.x);
-        b.y0 = std::min(b.y0, v.y);
-        b.x1 = std::max(b.x1, v.x);
-        b.y1 = std::max(b.y1, v.y);
-      }
-    return b;
+      for (const Vec2& v : seeds_.polygons()[static_cast<size_t>(pi)].rings.front()) b.include({v.x, v.y, 0.0, v.x, v.y, 0.0});
   }
-  return Box2{std::min(s.a.x, s.b.x), std::min(s.a.y, s.b.y), std::max(s.a.x, s.b.x),
-              std::max(s.a.y, s.b.y)};
+  return b;
+}
+
+void Box3::include(const Box3& b) {
+  x0 = std::min(x0, b.x0);
+  y0 = std::min(y0, b.y0);
+  z0 = std::min(z0, b.z0);
+  x1 = std::max(x1, b.x1);
+  y1 = std::max(y1, b.y1);
+  z1 = std::max(z1, b.z1);
+}
+
+double SiteMetric::lower_bound(const Vec3& q, const Box3& b) {
+  const double dx = std::max({b.x0 - q.x, 0.0, q.x - b.x1});
+  const double dy = std::max({b.y0 - q.y, 0.0, q.y - b.y1});
+  const double dz = std::max({b.z0 - q.z, 0.0, q.z - b.z1});
+  // A relative shave keeps the bound below the site distance despite rounding.
+  return std::sqrt(dx * dx + dy * dy + dz * dz) * (1.0 - 1e-12);
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -127,11 +137,15 @@ double PlanarSiteMetric::distance(Vec2 p, int32_t site) const {
   return std::sqrt(planar_key(p.x - origin_.x, p.y - origin_.y, local_of(s, origin_)));
 }
 
-double PlanarSiteMetric::lower_bound(Vec2 p, const Box2& b) const {
-  const double dx = std::max({b.x0 - p.x, 0.0, p.x - b.x1});
-  const double dy = std::max({b.y0 - p.y, 0.0, p.y - b.y1});
-  // A relative shave keeps the bound below the site distance despite rounding.
-  return std::sqrt(dx * dx + dy * dy) * (1.0 - 1e-12);
+Vec3 PlanarSiteMetric::embed(Vec2 p) const { return Vec3{p.x - origin_.x, p.y - origin_.y, 0.0}; }
+
+Box3 PlanarSiteMetric::site_bounds(int32_t site) const {
+  Box3 b = vertex_box(site);
+  b.x0 -= origin_.x;
+  b.x1 -= origin_.x;
+  b.y0 -= origin_.y;
+  b.y1 -= origin_.y;
+  return b;
 }
 
 Vec2 PlanarSiteMetric::nearest_point(Vec2 p, int32_t site) const {
@@ -154,24 +168,18 @@ double PlanarSiteMetric::point_distance(Vec2 a, Vec2 b) const {
 
 struct OwnerIndex::Tree {
   struct Node {
-    Box2 box;
+    Box3 box;
     int32_t left = -1, right = -1;  // children; -1 for a leaf
     int32_t begin = 0, end = 0;     // leaf: range of ids
   };
   std::vector<Node> nodes;
   std::vector<int32_t> ids;
-  std::vector<Box2> boxes;  // per id position
+  std::vector<Box3> boxes;  // per id position
 
-  int32_t build(std::vector<std::pair<int32_t, Box2>>& items, int32_t begin, int32_t end) {
+  int32_t build(std::vector<std::pair<int32_t, Box3>>& items, int32_t begin, int32_t end) {
     Node n;
     n.box = items[static_cast<size_t>(begin)].second;
-    for (int32_t i = begin; i < end; ++i) {
-      const Box2& b = items[static_cast<size_t>(i)].second;
-      n.box.x0 = std::min(n.box.x0, b.x0);
-      n.box.y0 = std::min(n.box.y0, b.y0);
-      n.box.x1 = std::max(n.box.x1, b.x1);
-      n.box.y1 = std::max(n.box.y1, b.y1);
-    }
+    for (int32_t i = begin; i < end; ++i) n.box.include(items[static_cast<size_t>(i)].second);
     const auto index = static_cast<int32_t>(nodes.size());
     nodes.push_back(n);
     if (end - begin <= 4) {
@@ -183,12 +191,15 @@ struct OwnerIndex::Tree {
       nodes[static_cast<size_t>(index)].end = static_cast<int32_t>(ids.size());
       return index;
     }
-    const bool split_x = (n.box.x1 - n.box.x0) >= (n.box.y1 - n.box.y0);
+    const double ex = n.box.x1 - n.box.x0, ey = n.box.y1 - n.box.y0, ez = n.box.z1 - n.box.z0;
+    const int axis = ex >= ey && ex >= ez ? 0 : (ey >= ez ? 1 : 2);
     const int32_t mid = begin + (end - begin) / 2;
     std::nth_element(items.begin() + begin, items.begin() + mid, items.begin() + end,
                      [&](const auto& a, const auto& b) {
-                       return split_x ? a.second.x0 + a.second.x1 < b.second.x0 + b.second.x1
-                                      : a.second.y0 + a.second.y1 < b.second.y0 + b.second.y1;
+                       auto mid = [&](const Box3& x) {
+                         return axis == 0 ? x.x0 + x.x1 : (axis == 1 ? x.y0 + x.y1 : x.z0 + x.z1);
+                       };
+                       return mid(a.second) < mid(b.second);
                      });
     const int32_t l = build(items, begin, mid);
     const int32_t r = build(items, mid, end);
@@ -197,31 +208,31 @@ struct OwnerIndex::Tree {
     return index;
   }
 
-  void search(const SiteMetric& m, int32_t node, Vec2 p, Hit& best) const {
+  void search(const SiteMetric& m, int32_t node, Vec2 p, const Vec3& q, Hit& best) const {
     const Node& n = nodes[static_cast<size_t>(node)];
     if (n.left < 0) {
       for (int32_t i = n.begin; i < n.end; ++i) {
-        if (m.lower_bound(p, boxes[static_cast<size_t>(i)]) > best.distance) continue;
+        if (SiteMetric::lower_bound(q, boxes[static_cast<size_t>(i)]) > best.distance) continue;
         const int32_t id = ids[static_cast<size_t>(i)];
         const double d = m.distance(p, id);
         if (d < best.distance || (d == best.distance && id < best.site)) best = Hit{id, d};
       }
       return;
     }
-    const double ll = m.lower_bound(p, nodes[static_cast<size_t>(n.left)].box);
-    const double lr = m.lower_bound(p, nodes[static_cast<size_t>(n.right)].box);
+    const double ll = SiteMetric::lower_bound(q, nodes[static_cast<size_t>(n.left)].box);
+    const double lr = SiteMetric::lower_bound(q, nodes[static_cast<size_t>(n.right)].box);
     const int32_t first = ll <= lr ? n.left : n.right, second = ll <= lr ? n.right : n.left;
     const double lf = std::min(ll, lr), ls = std::max(ll, lr);
-    if (lf <= best.distance) search(m, first, p, best);
-    if (ls <= best.distance) search(m, second, p, best);
+    if (lf <= best.distance) search(m, first, p, q, best);
+    if (ls <= best.distance) search(m, second, p, q, best);
   }
 };
 
 OwnerIndex::OwnerIndex(const SiteMetric& metric) : metric_(metric) {
   const SeedSet& seeds = metric.seeds();
-  std::vector<std::vector<std::pair<int32_t, Box2>>> items(static_cast<size_t>(seeds.owner_count()));
+  std::vector<std::vector<std::pair<int32_t, Box3>>> items(static_cast<size_t>(seeds.owner_count()));
   for (int32_t i = 0; i < static_cast<int32_t>(seeds.sites().size()); ++i)
-    items[static_cast<size_t>(seeds.site_owner(i) - 1)].emplace_back(i, metric.site_box(i));
+    items[static_cast<size_t>(seeds.site_owner(i) - 1)].emplace_back(i, metric.site_bounds(i));
   for (auto& list : items) {
     auto tree = std::make_unique<Tree>();
     if (!list.empty()) tree->build(list, 0, static_cast<int32_t>(list.size()));
@@ -236,23 +247,24 @@ OwnerIndex::Hit OwnerIndex::nearest_of(Vec2 p, int32_t owner) const {
   Hit best;
   if (owner < 1 || owner > static_cast<int32_t>(trees_.size())) return best;
   const Tree& t = *trees_[static_cast<size_t>(owner - 1)];
-  if (!t.nodes.empty()) t.search(metric_, 0, p, best);
+  if (!t.nodes.empty()) t.search(metric_, 0, p, metric_.embed(p), best);
   return best;
 }
 
 OwnerIndex::Hit OwnerIndex::nearest_not_of(Vec2 p, int32_t owner) const {
   // Owners in order of their trees' lower bounds, so the first search makes the rest prune.
+  const Vec3 q = metric_.embed(p);
   std::vector<std::pair<double, int32_t>> order;
   order.reserve(trees_.size());
   for (size_t o = 0; o < trees_.size(); ++o) {
     if (static_cast<int32_t>(o) + 1 == owner || trees_[o]->nodes.empty()) continue;
-    order.emplace_back(metric_.lower_bound(p, trees_[o]->nodes[0].box), static_cast<int32_t>(o));
+    order.emplace_back(SiteMetric::lower_bound(q, trees_[o]->nodes[0].box), static_cast<int32_t>(o));
   }
   std::sort(order.begin(), order.end());
   Hit best;
   for (const auto& [lb, o] : order) {
     if (lb > best.distance) break;
-    trees_[static_cast<size_t>(o)]->search(metric_, 0, p, best);
+    trees_[static_cast<size_t>(o)]->search(metric_, 0, p, q, best);
   }
   return best;
 }

@@ -39,12 +39,23 @@
 
 namespace rv {
 
-// Axis-aligned box in grid-CRS coordinates (x0 <= x1, y0 <= y1).
-struct Box2 {
-  double x0, y0, x1, y1;
+// A point and an axis-aligned box in a metric's embedding space (see SiteMetric::embed).
+struct Vec3 {
+  double x = 0.0, y = 0.0, z = 0.0;
+};
+struct Box3 {
+  double x0, y0, z0, x1, y1, z1;  // x0 <= x1, y0 <= y1, z0 <= z1
+  void include(const Box3& b);
 };
 
 // The exact distance between a position and a site, plus what the searches need.
+//
+// Searches prune with an embedding: every position p maps to embed(p) in R^3 such that the
+// Euclidean distance between embed(p) and embed(q) never exceeds the metric distance between p
+// and q (planar: the plane itself, z = 0; geodesic: Earth-centred coordinates, where the chord
+// is never longer than the geodesic). site_bounds() is a box in that space holding the embedding
+// of every position of the site, so the Euclidean distance from embed(p) to the box is a valid
+// lower bound of distance(p, site).
 class SiteMetric {
  public:
   // Keeps a reference to `seeds`, which must outlive the metric. Builds the polygons' slab
@@ -59,17 +70,22 @@ class SiteMetric {
   // rule over its rings), +infinity outside (the polygon's rings are segment sites of the same
   // feature, which carry the distance outside).
   virtual double distance(Vec2 p, int32_t site) const = 0;
-  // A lower bound of the distance from p to every position in `box` (never above the true
-  // minimum). Used to prune searches; the tighter the faster, but validity is what matters.
-  virtual double lower_bound(Vec2 p, const Box2& box) const = 0;
   // The position of the site nearest to p (the basepoint that controls p). Area sites: p.
   virtual Vec2 nearest_point(Vec2 p, int32_t site) const = 0;
   // Distance between two positions (metric units).
   virtual double point_distance(Vec2 a, Vec2 b) const = 0;
+  // The embedding (see above).
+  virtual Vec3 embed(Vec2 p) const = 0;
+  // A box of the embedding space holding the whole site (area sites: their polygon).
+  virtual Box3 site_bounds(int32_t site) const = 0;
+
+  // Lower bound of the metric distance from the embedded position q to anything in the box.
+  static double lower_bound(const Vec3& q, const Box3& b);
 
   const SeedSet& seeds() const { return seeds_; }
-  // Box of the site's geometry (area sites: of the polygon's outer ring).
-  Box2 site_box(int32_t site) const;
+  // Box of the site's vertices in grid-CRS coordinates (area sites: of the polygon's outer
+  // ring), as {x0, y0, 0, x1, y1, 0}.
+  Box3 vertex_box(int32_t site) const;
   // Even-odd test of p against the polygon of an area site (polygon edges straight in the grid
   // CRS, as the engine's interiors). False for other site kinds.
   bool inside_area(Vec2 p, int32_t area_site) const;
@@ -88,9 +104,10 @@ class PlanarSiteMetric final : public SiteMetric {
  public:
   PlanarSiteMetric(const SeedSet& seeds, Vec2 origin);
   double distance(Vec2 p, int32_t site) const override;
-  double lower_bound(Vec2 p, const Box2& box) const override;
   Vec2 nearest_point(Vec2 p, int32_t site) const override;
   double point_distance(Vec2 a, Vec2 b) const override;
+  Vec3 embed(Vec2 p) const override;
+  Box3 site_bounds(int32_t site) const override;
 
  private:
   Vec2 origin_;
