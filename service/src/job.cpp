@@ -225,6 +225,10 @@ JobResult run_job(const JobSpec& spec, const JobLimits& limits, const JobHooks& 
       limit_metric.push_back(d.value / factor);
     }
   }
+  for (double d : limit_metric)
+    if (d > options.max_distance)
+      throw Error(ErrorKind::invalid_argument,
+                  "a limit distance exceeds the max distance: cells beyond it have no distance to draw the line in");
   if (!(deliver.simplify_cells >= 0.0) || !std::isfinite(deliver.simplify_cells))
     throw Error(ErrorKind::invalid_argument, "the simplification tolerance must be a non-negative number of cells");
   const int64_t cells = grid.cell_count();

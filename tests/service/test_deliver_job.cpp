@@ -165,6 +165,9 @@ TEST_F(DeliverJob, RefusesBadRequestsAndLeavesNothingBehind) {
   spec.outputs.limit_distances = {"-3nmi"};
   EXPECT_THROW(run_job(spec), Error);
   spec.outputs.limit_distances = {"1nmi"};
+  spec.max_distance = 1000.0;  // metres (the CRS's unit): the 1 nmi line would lie beyond it
+  EXPECT_THROW(run_job(spec), Error);
+  spec.max_distance.reset();
   spec.outputs.limits = path("l.shp");  // unknown vector format: fails after the ownership file was written
   EXPECT_THROW(run_job(spec), Error);
   EXPECT_EQ(std::distance(fs::directory_iterator(dir_), fs::directory_iterator()), 0);
