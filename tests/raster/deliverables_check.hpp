@@ -28,17 +28,23 @@ inline bool inside_polygon(Vec2 p, const Polygon& poly) {
   return in;
 }
 
+// Is p inside a polygon of `owner` (0: of any owner)?
+inline bool inside_any(const SeedSet& s, Vec2 p, int32_t owner) {
+  for (const Polygon& poly : s.polygons()) {
+    if (owner != 0 && s.features()[poly.feature].owner != owner) continue;
+    if (inside_polygon(p, poly)) return true;
+  }
+  return false;
+}
+
 // Planar distance from p to the nearest seed of `owner` (0: of any owner), by brute force.
 inline double brute_owner_distance(const SeedSet& s, Vec2 p, int32_t owner) {
+  if (inside_any(s, p, owner)) return 0.0;
   double best = std::numeric_limits<double>::infinity();
   for (const Site& site : s.sites()) {
     if (owner != 0 && s.features()[site.feature].owner != owner) continue;
     if (site.kind == SiteKind::area) continue;
     best = std::min(best, segment_distance(p, site.a, site.b));
-  }
-  for (const Polygon& poly : s.polygons()) {
-    if (owner != 0 && s.features()[poly.feature].owner != owner) continue;
-    if (inside_polygon(p, poly)) best = 0.0;
   }
   return best;
 }
