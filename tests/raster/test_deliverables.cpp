@@ -235,6 +235,27 @@ TEST(Deliverables, ManyOwnersTopology) {
   EXPECT_LE(dangling, ends_total / 50);
 }
 
+TEST(Deliverables, SameResultForAnyThreadCount) {
+  const SeedSet s = test::random_points(40, 0, 0, 60, 50, 77);
+  Fixture st(s, grid(60, 50));
+  BoundaryOptions one, two;
+  one.threads = 1;
+  two.threads = 2;
+  const BoundaryResult a = extract_boundaries(st.field, st.index, one), b = extract_boundaries(st.field, st.index, two);
+  ASSERT_EQ(a.lines.size(), b.lines.size());
+  for (size_t i = 0; i < a.lines.size(); ++i) {
+    ASSERT_EQ(a.lines[i].vertices.size(), b.lines[i].vertices.size());
+    for (size_t k = 0; k < a.lines[i].vertices.size(); ++k) ASSERT_EQ(a.lines[i].vertices[k].p, b.lines[i].vertices[k].p);
+  }
+  ASSERT_EQ(a.tripoints.size(), b.tripoints.size());
+  const std::vector<double> d{4.0};
+  LimitOptions l1, l2;
+  l1.threads = 1;
+  l2.threads = 2;
+  EXPECT_EQ(extract_limits(st.field, st.index, d, l1).vertices, extract_limits(st.field, st.index, d, l2).vertices);
+  EXPECT_EQ(margin_raster(st.field, st.index, 1).cells(), margin_raster(st.field, st.index, 2).cells());
+}
+
 TEST(Deliverables, LimitLinesAtTheRequestedDistance) {
   const SeedSet s = points({{20.3, 20.6}});
   Fixture st(s, grid(40, 40));

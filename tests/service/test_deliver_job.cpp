@@ -178,5 +178,23 @@ TEST_F(DeliverJob, RefusesBadRequestsAndLeavesNothingBehind) {
   EXPECT_DOUBLE_EQ(parse_limit_distance("3.5km").value, 3.5);
 }
 
+TEST_F(DeliverJob, CommandLineOptions) {
+  const std::string cmd = std::string(RV_BINARY) + " compute " + source("fixtures/demo_basepoints.geojson") +
+                          " --owner-field state --resolution 500 --threads 2 --quiet --ownership " + path("o.tif") +
+                          " --boundaries " + path("b.geojson") + " --tripoints " + path("t.gpkg") + " --limits " +
+                          path("l.geojson") + " --limit-distances 1nmi,2500 --limits-per-owner --regions " +
+                          path("r.geojson") + " --margin-raster " + path("m.tif") + " --preview " + path("p.png") +
+                          " --simplify 0.5 --report " + path("rep.json") + " > /dev/null 2>&1";
+  ASSERT_EQ(std::system(cmd.c_str()), 0);
+  for (const char* f : {"o.tif", "b.geojson", "t.gpkg", "l.geojson", "r.geojson", "m.tif", "p.png", "rep.json"})
+    EXPECT_TRUE(fs::exists(path(f))) << f;
+  std::ifstream in(path("rep.json"));
+  const nlohmann::json rep = nlohmann::json::parse(in);
+  EXPECT_TRUE(rep["deliverables"]["limits"]["per_owner"].get<bool>());
+  EXPECT_DOUBLE_EQ(rep["deliverables"]["limits"]["distances"][1].get<double>(), 2500.0);
+  EXPECT_LT(rep["deliverables"]["boundaries"]["vertices"].get<int>(),
+            rep["deliverables"]["boundaries"]["vertices_before_simplify"].get<int>());
+}
+
 }  // namespace
 }  // namespace rv
