@@ -53,7 +53,8 @@ int main(int argc, char** argv) {
     }
   }
   std::printf("| grid | sites | owners | exact s | boundaries s | lines | vertices | tripoints | max residual (cells) | "
-              "limits (2 distances) s | limit vertices | margin s |\n|---|---|---|---|---|---|---|---|---|---|---|---|\n");
+              "limits (2 distances) s | limit vertices | per owner s | per-owner vertices | margin s |\n"
+              "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
   for (int64_t n : sizes) {
     const SeedSet s = scene(owners, static_cast<double>(n), 42);
     GridSpec g;
@@ -79,12 +80,16 @@ int main(int argc, char** argv) {
     const LimitResult l = extract_limits(f, index, ds, lo);
     const double tl = since(t);
     t = std::chrono::steady_clock::now();
+    lo.per_owner = true;
+    const LimitResult lp = extract_limits(f, index, ds, lo);
+    const double tlp = since(t);
+    t = std::chrono::steady_clock::now();
     const Raster<float> m = margin_raster(f, index, threads);
     const double tm = since(t);
-    std::printf("| %lld² | %zu | %d | %.3f | %.3f | %zu | %lld | %zu | %.2e | %.3f | %lld | %.3f |\n",
+    std::printf("| %lld² | %zu | %d | %.3f | %.3f | %zu | %lld | %zu | %.2e | %.3f | %lld | %.3f | %lld | %.3f |\n",
                 static_cast<long long>(n), s.sites().size(), owners, f.seconds, tb, b.lines.size(),
                 static_cast<long long>(b.stats.vertices), b.tripoints.size(), b.stats.max_residual / g.res, tl,
-                static_cast<long long>(l.vertices), tm);
+                static_cast<long long>(l.vertices), tlp, static_cast<long long>(lp.vertices), tm);
     std::fflush(stdout);
   }
   return 0;

@@ -873,22 +873,50 @@ LimitResult extract_limits(const NearestField& field, const OwnerIndex& index, s
       };
       // Inside (d <= D) per cell. The Float32 field decides clear cases; cells within float
       // rounding of D, and (per owner) cells of other owners within reach, are measured exactly.
+      // Per owner, blocks of kBlock x kBlock cells are first settled as a whole where the
+      // distance at the block's centre is farther from D than the block's radius (distance is
+      // 1-Lipschitz), so exact queries are only spent near the line.
+      constexpr int64_t kBlock = 8;
       std::vector<uint8_t> inside(static_cast<size_t>(W * H), 0);
-      detail::parallel_for(threads, H, [&](int64_t r, int) {
-        for (int64_t c = 0; c < W; ++c) {
-          const int32_t s = field.site.at(c, r);
-          if (s == kNoSite) continue;  // beyond the field's max distance: outside every limit
-          const double d = field.distance.at(c, r);
-          const bool own = owner == 0 || owner_of_site[static_cast<size_t>(s)] == owner;
-          bool in;
-          if (own && std::abs(d - D) > 1e-6 * (D + cell)) {
-            in = d <= D;
-          } else if (!own && d > D + 1e-6 * (D + cell)) {
-            in = false;  // d_owner >= d > D
-          } else {
-            in = dist(centre(g, c, r)).distance <= D;
+      const int64_t bw = (W + kBlock - 1) / kBlock, bh = (H + kBlock - 1) / kBlock;
+      detail::parallel_for(threads, bh, [&](int64_t br, int) {
+        for (int64_t bc = 0; bc < bw; ++bc) {
+          const int64_t c0 = bc * kBlock, r0 = br * kBlock;
+          const int64_t c1 = std::min(W, c0 + kBlock), r1 = std::min(H, r0 + kBlock);
+          int settled = -1;  // -1: per cell; 0: all outside; 1: all inside
+          if (owner != 0) {
+            const Vec2 a = centre(g, c0, r0), b = centre(g, c1 - 1, r1 - 1);
+            const Vec2 mid{0.5 * (a.x + b.x), 0.5 * (a.y + b.y)};
+            double radius = 0.0;
+            for (const Vec2 q : {a, b, Vec2{a.x, b.y}, Vec2{b.x, a.y}})
+              radius = std::max(radius, metric.point_distance(mid, q));
+            // Corners bound a small block's extent exactly in the plane; 1 % covers the
+            // curvature of a longitude/latitude block.
+            radius = radius * 1.01 + 1e-6 * cell;
+            const double v = dist(mid).distance;
+            if (v - radius > D) settled = 0;
+            else if (v + radius < D) settled = 1;
           }
-          inside[static_cast<size_t>(r * W + c)] = in ? 1 : 0;
+          for (int64_t r = r0; r < r1; ++r)
+            for (int64_t c = c0; c < c1; ++c) {
+              const int32_t s = field.site.at(c, r);
+              if (s == kNoSite) continue;  // beyond the field's max distance: outside every limit
+              bool in;
+              if (settled >= 0) {
+                in = settled == 1;
+              } else {
+                const double d = field.distance.at(c, r);
+                const bool own = owner == 0 || owner_of_site[static_cast<size_t>(s)] == owner;
+                if (own && std::abs(d - D) > 1e-6 * (D + cell)) {
+                  in = d <= D;
+                } else if (!own && d > D + 1e-6 * (D + cell)) {
+                  in = false;  // d_owner >= d > D
+                } else {
+                  in = dist(centre(g, c, r)).distance <= D;
+                }
+              }
+              inside[static_cast<size_t>(r * W + c)] = in ? 1 : 0;
+            }
         }
       });
       auto in_at = [&](int64_t c, int64_t r) { return inside[static_cast<size_t>(r * W + c)] != 0; };
