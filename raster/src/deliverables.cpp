@@ -386,6 +386,16 @@ std::array<int64_t, 4> square_edges(int64_t w, int64_t c, int64_t r) {
   return {edge_right(w, c, r), edge_down(w, c + 1, r), edge_right(w, c, r + 1), edge_down(w, c, r)};
 }
 
+// The field's distances and ownership and the metric's must agree, or the roots are sought in
+// a different geometry than the one that decided the owners.
+void check_metric(const NearestField& field, const SiteMetric& metric) {
+  const bool geodesic_metric = dynamic_cast<const GeodesicSiteMetric*>(&metric) != nullptr;
+  if ((field.metric.kind == MetricSpec::geodesic) != geodesic_metric)
+    throw Error(ErrorKind::invalid_argument,
+                std::string("the deliverables' metric must be the field's (") +
+                    std::string(to_string(field.metric.kind)) + ")");
+}
+
 void check_whole_grid(const NearestField& field) {
   if (!(field.site.window() == field.site.grid().full_window()))
     throw Error(ErrorKind::invalid_argument, "deliverables need a field that covers the whole grid");
@@ -524,6 +534,7 @@ struct TripointSolver {
 BoundaryResult extract_boundaries(const NearestField& field, const OwnerIndex& index,
                                   const BoundaryOptions& options) {
   check_whole_grid(field);
+  check_metric(field, index.metric());
   const GridSpec& g = field.site.grid();
   const SiteMetric& metric = index.metric();
   const SeedSet& seeds = metric.seeds();
@@ -846,6 +857,7 @@ BoundaryResult extract_boundaries(const NearestField& field, const OwnerIndex& i
 LimitResult extract_limits(const NearestField& field, const OwnerIndex& index, std::span<const double> distances,
                            const LimitOptions& options) {
   check_whole_grid(field);
+  check_metric(field, index.metric());
   for (double d : distances)
     if (!std::isfinite(d) || d <= 0.0)
       throw Error(ErrorKind::invalid_argument, "limit distances must be positive finite numbers");
@@ -1000,11 +1012,13 @@ LimitResult extract_limits(const NearestField& field, const OwnerIndex& index, s
 // Margin.
 
 NearestField compute_other_owner(const SeedSet& seeds, const NearestField& own, int threads) {
+  if (own.metric.kind != MetricSpec::planar)
+    throw Error(ErrorKind::invalid_argument, "compute_other_owner culls with planar bounds: planar fields only");
   const GridSpec& grid = own.site.grid();
   const Window window = own.site.window();
   detail::Progress progress({}, nullptr, window.cell_count());
   detail::EngineContext ctx{seeds, grid, window, to_local(seeds, grid), {}, std::numeric_limits<double>::infinity(),
-                            resolve_threads(threads), &progress};
+                            resolve_threads(threads), &progress, nullptr};
   for (int32_t i = 0; i < static_cast<int32_t>(seeds.sites().size()); ++i)
     if (seeds.sites()[static_cast<size_t>(i)].kind != SiteKind::area) ctx.geometric.push_back(i);
   std::vector<int32_t> owner_of_site(seeds.sites().size());
@@ -1026,6 +1040,7 @@ NearestField compute_other_owner(const SeedSet& seeds, const NearestField& own, 
 
 Raster<float> margin_raster(const NearestField& field, const OwnerIndex& index, int threads) {
   const SiteMetric& metric = index.metric();
+  check_metric(field, metric);
   const SeedSet& seeds = metric.seeds();
   const GridSpec& g = field.site.grid();
   const Window w = field.site.window();

@@ -9,6 +9,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <memory>
 #include <optional>
 
 #include "rv/deliverables.hpp"
@@ -94,8 +95,11 @@ nlohmann::json seeds_json(const LoadedSeeds& loaded) {
           {"segments", segments},
           {"polygons", s.polygons().size()},
           {"owners", owners},
+          {"features_read", r.features_read},
           {"features_skipped_empty", r.features_skipped_empty},
           {"vertices_removed", r.vertices_removed},
+          {"points_removed", r.points_removed},
+          {"conflicts", r.conflicts},
           {"polygons_repaired", r.polygons_repaired},
           {"warnings", r.warnings}};
 }
@@ -341,7 +345,13 @@ JobResult run_job(const JobSpec& spec, const JobLimits& limits, const JobHooks& 
       exact_field = &exact_copy;
       deliver_times["exact_field"] = exact_copy.seconds;
     }
-    const PlanarSiteMetric metric(loaded.seeds, Vec2{grid.xmin, grid.ymax});
+    // The deliverables measure with the field's own metric.
+    std::unique_ptr<SiteMetric> metric_ptr;
+    if (exact_field->metric.kind == MetricSpec::geodesic)
+      metric_ptr = std::make_unique<GeodesicSiteMetric>(loaded.seeds, exact_field->metric);
+    else
+      metric_ptr = std::make_unique<PlanarSiteMetric>(loaded.seeds, Vec2{grid.xmin, grid.ymax});
+    const SiteMetric& metric = *metric_ptr;
     const OwnerIndex index(metric);
     VectorOutputOptions vo;
     vo.crs = loaded.crs.wkt;

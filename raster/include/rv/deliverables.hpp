@@ -2,8 +2,9 @@
 // between owners, tripoints, distance-limit lines, and the margin raster.
 //
 // Geometry is measured with an abstract exact metric (SiteMetric) so that the same extraction
-// runs on planar grids (PlanarSiteMetric, Euclidean distance in CRS units) and, once available,
-// geodesic grids. All positions are absolute grid-CRS coordinates (x = easting or longitude,
+// runs on planar grids (PlanarSiteMetric, Euclidean distance in CRS units) and geodesic grids
+// (GeodesicSiteMetric, metres on the ellipsoid, longitude/latitude grids). The metric must be
+// the one the field was computed with (rv::Error(invalid_argument) otherwise). All positions are absolute grid-CRS coordinates (x = easting or longitude,
 // y = northing or latitude); all distances are metric units (CRS units for planar).
 //
 // Method (why the vertices are exact): the raster only gives the topology. Every output vertex
@@ -33,7 +34,9 @@
 #include <vector>
 
 #include "rv/engine.hpp"
+#include "rv/geodesic.hpp"
 #include "rv/grid.hpp"
+#include "rv/metric.hpp"
 #include "rv/raster.hpp"
 #include "rv/seeds.hpp"
 
@@ -111,6 +114,25 @@ class PlanarSiteMetric final : public SiteMetric {
 
  private:
   Vec2 origin_;
+};
+
+// Geodesic distance (metres) on the ellipsoid of `metric`, with grid and seeds in longitude /
+// latitude degrees: point and segment distances are GeodesicMeasure's (the engines' own), the
+// embedding is Earth-centred coordinates (a chord never exceeds the geodesic). Keeps a
+// reference to `seeds`, which must outlive it.
+class GeodesicSiteMetric final : public SiteMetric {
+ public:
+  GeodesicSiteMetric(const SeedSet& seeds, const MetricSpec& metric);
+  ~GeodesicSiteMetric() override;
+  double distance(Vec2 p, int32_t site) const override;
+  Vec2 nearest_point(Vec2 p, int32_t site) const override;
+  double point_distance(Vec2 a, Vec2 b) const override;
+  Vec3 embed(Vec2 p) const override;
+  Box3 site_bounds(int32_t site) const override;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
 };
 
 // Exact nearest-site queries, restricted to one owner or excluding one owner. Keeps references
