@@ -366,6 +366,12 @@ TEST(GeodesicEngine, WindowsAgreeWithTheWholeGrid) {
   }
 }
 
+TEST(GeodesicEngine, MemoryEstimateCountsPreparedEdges) {
+  const int64_t planar = estimate_memory(Method::exact, 1000, 100000);
+  const int64_t geodesic = estimate_memory(Method::exact, 1000, 100000, MetricSpec::geodesic);
+  EXPECT_GT(geodesic - planar, 100000 * 500);  // a GeographicLib::GeodesicLine alone is ~0.5 KB
+}
+
 TEST(GeodesicEngine, RefusesWhatItCannotMeasure) {
   SeedSet s;
   s.add_point(s.add_feature(s.owner_code("a")), {0.0, 0.0});
