@@ -179,6 +179,41 @@ TEST_F(Cli, FailedWriteLeavesNothingBehind) {
   EXPECT_EQ(file_count(), 0u);
 }
 
+TEST_F(Cli, GeographicGridIsGeodesicInNauticalMiles) {
+  const char* shared = std::getenv("RV_SHARED_DIR");
+  const std::string gpkg = shared ? std::string(shared) + "/fixtures/oresund.gpkg" : "";
+  if (gpkg.empty() || !fs::exists(gpkg)) GTEST_SKIP() << "shared/fixtures/oresund.gpkg not found";
+  const CliRun r = run("compute " + gpkg + " --owner-field iso2 --resolution 0.01 --extent 12 55.3 13.2 56.3 "
+                       "--distance-units nmi --ownership " + path("own.tif") + " --distance " + path("d.tif") +
+                       " --report " + path("r.json") + " --quiet");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const nlohmann::json rep = nlohmann::json::parse(std::ifstream(path("r.json")));
+  EXPECT_EQ(rep["metric"], "geodesic");
+  EXPECT_EQ(rep["distance_units"], "nmi");
+  // The same grid in-process, in metres: the file holds metres / 1852.
+  gdal_init();
+  SeedReadOptions ro;
+  ro.paths = {gpkg};
+  ro.owner_field = "iso2";
+  const LoadedSeeds seeds = load_seeds(ro);
+  ComputeOptions co;
+  co.metric = resolve_metric(MetricRequest::automatic, true);
+  const NearestField f = compute(seeds.seeds, read_grid(path("own.tif")), co);
+  const Raster<float> d = read_float32(path("d.tif"));
+  ASSERT_EQ(d.size(), f.distance.size());
+  float max_nmi = 0;
+  for (size_t i = 0; i < d.size(); ++i) {
+    EXPECT_NEAR(d.cells()[i], f.distance.cells()[i] / 1852.0, 1e-5);
+    max_nmi = std::max(max_nmi, d.cells()[i]);
+  }
+  EXPECT_GT(max_nmi, 5.0f);   // the middle of the strait is several miles from both coasts
+  EXPECT_LT(max_nmi, 30.0f);
+  // Degrees are not distances: planar on this grid is refused.
+  expect_refused(run("compute " + gpkg + " --owner-field iso2 --resolution 0.01 --metric planar --ownership " +
+                     path("p.tif") + " --quiet"),
+                 2, "degrees");
+}
+
 TEST_F(Cli, HelpAndVersion) {
   EXPECT_EQ(run("--version").exit_code, 0);
   const CliRun h = run("--help");
