@@ -277,6 +277,17 @@ TEST_F(Confinement, GeoJsonCrsNamingAFileOrUrlReadsNothing) {
   EXPECT_TRUE(listener_.requests().empty());
 }
 
+TEST_F(Confinement, KmlNetworkLinkIsNotFollowed) {
+  // GDAL's "KML" driver (the one allowed; not LIBKML) reads placemarks and ignores NetworkLinks.
+  const std::string path = upload(
+      "link.kml", R"(<?xml version="1.0" encoding="UTF-8"?><kml xmlns="http://www.opengis.net/kml/2.2"><Document>)"
+                  R"(<NetworkLink><Link><href>)" + listener_.url("/more.kml") + R"(</href></Link></NetworkLink>)"
+                  R"(<Placemark><name>p</name><Point><coordinates>10,55</coordinates></Point></Placemark>)"
+                  R"(</Document></kml>)");
+  EXPECT_EQ(load_seeds(confined(path)).seeds.features().size(), 1u);
+  EXPECT_TRUE(listener_.requests().empty());
+}
+
 // A valid GeoPackage (one point layer) plus a layer that is a VirtualOGR table: on a connection
 // where that SQLite module exists, reading the table opens `target` with GDAL. GDAL 3.6 does not
 // register the module on GPKG connections (and ConfinedScope sets OGR_SQLITE_STATIC_VIRTUAL_OGR=NO
