@@ -110,7 +110,7 @@ LimitDistance parse_limit_distance(const std::string& text) {
   unit.erase(unit.find_last_not_of(" \t") + 1);
   if (end == begin || !std::isfinite(out.value) || out.value <= 0.0)
     throw Error(ErrorKind::invalid_argument, "limit distance '" + text + "' is not a positive number");
-  if (!unit.empty()) metres_per(unit);  // throws for an unknown unit
+  if (!unit.empty()) parse_distance_unit(unit);  // throws for an unknown unit
   out.unit = unit;
   return out;
 }
@@ -220,9 +220,11 @@ JobResult run_job(const JobSpec& spec, const JobLimits& limits, const JobHooks& 
   for (const std::string& text : deliver.limit_distances) {
     const LimitDistance d = parse_limit_distance(text);
     if (!d.unit.empty()) {
-      if (loaded.crs.wkt.empty())
+      if (!geodesic && loaded.crs.wkt.empty())
         throw Error(ErrorKind::invalid_argument, "limit distance '" + text + "' has a unit, but the seeds have no CRS");
-      limit_metric.push_back(d.value * metres_per(d.unit) / loaded.crs.linear_unit);
+      // Metric units: metres (geodesic) or CRS units (planar).
+      const double metric_unit_in_metres = geodesic ? 1.0 : loaded.crs.linear_unit;
+      limit_metric.push_back(d.value * metres_per_unit(parse_distance_unit(d.unit)) / metric_unit_in_metres);
     } else {
       limit_metric.push_back(d.value / factor);
     }
@@ -352,6 +354,9 @@ JobResult run_job(const JobSpec& spec, const JobLimits& limits, const JobHooks& 
       metric_ptr = std::make_unique<PlanarSiteMetric>(loaded.seeds, Vec2{grid.xmin, grid.ymax});
     const SiteMetric& metric = *metric_ptr;
     const OwnerIndex index(metric);
+    // One cell's length in metric units near the grid's centre (degrees are not metres).
+    const Vec2 mid{grid.centre_x(grid.width / 2), grid.centre_y(grid.height / 2)};
+    const double cell_length = metric.point_distance(mid, Vec2{mid.x + grid.res, mid.y});
     VectorOutputOptions vo;
     vo.crs = loaded.crs.wkt;
     vo.distance_factor = factor;
@@ -374,7 +379,7 @@ JobResult run_job(const JobSpec& spec, const JobLimits& limits, const JobHooks& 
                                       {"unresolved_tripoints", st.unresolved_tripoints},
                                       {"sliver_crossings", st.sliver_crossings},
                                       {"max_residual", st.max_residual * factor},
-                                      {"max_residual_cells", st.max_residual / grid.res},
+                                      {"max_residual_cells", st.max_residual / cell_length},
                                       {"simplify_cells", deliver.simplify_cells}};
       if (!deliver.boundaries.empty()) {
         guard.add(deliver.boundaries);
@@ -408,7 +413,7 @@ JobResult run_job(const JobSpec& spec, const JobLimits& limits, const JobHooks& 
                                   {"lines", limits.lines.size()},
                                   {"vertices", limits.vertices},
                                   {"max_residual", limits.max_residual * factor},
-                                  {"max_residual_cells", limits.max_residual / grid.res}};
+                                  {"max_residual_cells", limits.max_residual / cell_length}};
       deliver_times["limits"] = seconds_since(t);
     }
     progress("deliver", 0.5);
