@@ -222,9 +222,9 @@ JobResult run_job(const JobSpec& spec, const JobLimits& limits, const JobHooks& 
     if (!d.unit.empty()) {
       if (!geodesic && loaded.crs.wkt.empty())
         throw Error(ErrorKind::invalid_argument, "limit distance '" + text + "' has a unit, but the seeds have no CRS");
-      // Metric units: metres (geodesic) or CRS units (planar).
-      const double metric_unit_in_metres = geodesic ? 1.0 : loaded.crs.linear_unit;
-      limit_metric.push_back(d.value * metres_per_unit(parse_distance_unit(d.unit)) / metric_unit_in_metres);
+      // Metric units are metres on geodesic grids, CRS units on planar ones.
+      limit_metric.push_back(d.value * metres_per_unit(parse_distance_unit(d.unit)) /
+                             (geodesic ? 1.0 : loaded.crs.linear_unit));
     } else {
       limit_metric.push_back(d.value / factor);
     }
@@ -240,8 +240,8 @@ JobResult run_job(const JobSpec& spec, const JobLimits& limits, const JobHooks& 
     throw Error(ErrorKind::too_large, "the grid has " + std::to_string(cells) + " cells, over the limit of " +
                                           std::to_string(limits.max_cells));
   const int64_t sites = static_cast<int64_t>(loaded.seeds.sites().size());
-  int64_t need = estimate_memory(spec.method, cells, sites) + cells * 4;  // + one output raster
-  if (spec.validate) need += estimate_memory(Method::brute_force, cells, sites);
+  int64_t need = estimate_memory(spec.method, cells, sites, mp.metric.kind) + cells * 4;  // + one output raster
+  if (spec.validate) need += estimate_memory(Method::brute_force, cells, sites, mp.metric.kind);
   if (deliver.any_deliverable()) {
     need += cells * 4;                                                    // owner codes
     if (spec.method != Method::exact && spec.method != Method::brute_force) need += cells * 8;  // exact field
