@@ -240,6 +240,7 @@ def make_points_case(side, nseeds, work, rng_seed=2019):
     y = Y0 + rng.uniform(0, side, nseeds)
     c.nseeds = nseeds
     c.dir = d
+    c.field = "id"
     c.vector = os.path.join(d, "seeds.geojson")
     # GeoJSON with the (deprecated, still honoured by GDAL) crs member: RFC 7946 GeoJSON would be
     # WGS84, which rvoronoi would rightly treat as geographic.
@@ -334,16 +335,17 @@ class Result:
         self.wrong = self.max_dd = self.dwrong = self.max_derr = None
         self.note = ""
         self.outdir = None
+        self.lut = None  # raster value -> 1-based seed / owner index, where they differ
 
 
-def rvoronoi_cmd(exe, case, method, outdir, threads=None, owner_vector=None, want_labels=True):
+def rvoronoi_cmd(exe, case, method, outdir, threads=None, owner_vector=None):
     cmd = [exe, "compute", owner_vector or case.vector, "--resolution", repr(case.res), "--extent",
            *[repr(v) for v in case.extent], "--method", method, "--quiet",
            "--ownership", os.path.join(outdir, "own.tif"), "--distance", os.path.join(outdir, "dist.tif"),
            "--report", os.path.join(outdir, "report.json")]
-    if want_labels:
-        cmd += ["--nearest-feature", os.path.join(outdir, "nf.tif")]
-    if case.kind == "owners" and owner_vector is None:
+    # Two outputs, like the peers: ownership and distance. With one owner per point (owner field
+    # `id`, the seed's 1-based index) the ownership raster is also the nearest-seed label.
+    if owner_vector is None:
         cmd += ["--owner-field", case.field]
     if threads:
         cmd += ["--threads", str(threads)]
@@ -408,7 +410,13 @@ class Runner:
 
         self.repeat(case, res, lambda: rvoronoi_cmd(self.exe, case, method, res.outdir, threads), parse)
         if res.status == "ok":
-            res.labels = os.path.join(res.outdir, "nf.tif")
+            res.labels = os.path.join(res.outdir, "own.tif")
+            # Owner code -> seed / owner index (1-based), from the report's code table.
+            owners = res.report["seeds"]["owners"]
+            lut = np.zeros(max(o["code"] for o in owners) + 1, np.int64)
+            for o in owners:
+                lut[o["code"]] = int(o["label"]) if case.kind == "points" else case.owners.index(o["label"]) + 1
+            res.lut = lut
             res.distance = os.path.join(res.outdir, "dist.tif")
             res.dist_scale = 1.0 / case.cell_m()
             res.dist_f32 = True
@@ -525,7 +533,7 @@ r.out.gdal --quiet -f input=val output=labels.tif type=Int32
             res.labels = os.path.join(res.outdir, "labels.tif")
             res.dist_scale = 1.0 / case.cell_m()
             res.dist_f32 = True
-            res.note = "writes Float32, LZW; compute = SAGA's own tool time"
+            res.note = "writes Float32, LZW; compute = SAGA's own timer (whole seconds)"
         return res
 
 
@@ -533,7 +541,14 @@ r.out.gdal --quiet -f input=val output=labels.tif type=Int32
 # accuracy
 
 
-def evaluate_points(case, ref_labels, results):
+def labels_of(r, r0, r1):
+    lab = read_rows(r.labels, r0, r1, np.int64)
+    if r.lut is not None:
+        lab = r.lut[np.clip(lab, 0, len(r.lut) - 1)]
+    return lab - 1
+
+
+def evaluate_points(case, ref, results):
     """Point cases: true distances in float64 from the reference's nearest seed."""
     W, H = case.width, case.height
     chunk = max(1, 4_000_000 // W)
@@ -542,12 +557,14 @@ def evaluate_points(case, ref_labels, results):
     for r0 in range(0, H, chunk):
         r1 = min(H, r0 + chunk)
         cy = (np.arange(r0, r1, dtype=np.float64) + 0.5)[:, None]
-        ref = read_rows(ref_labels, r0, r1, np.int64) - 1
-        dtrue = np.hypot(cx[None, :] - case.sx[ref], cy - case.sy[ref])
+        ref_i = labels_of(ref, r0, r1)
+        if (ref_i < 0).any():
+            raise SystemExit(f"peers: the reference leaves cells without a seed on {case.name}")
+        dtrue = np.hypot(cx[None, :] - case.sx[ref_i], cy - case.sy[ref_i])
         for r in results:
             a = acc[id(r)]
             if r.labels:
-                lab = read_rows(r.labels, r0, r1, np.int64) - 1
+                lab = labels_of(r, r0, r1)
                 bad = (lab < 0) | (lab >= case.nseeds)
                 lab = np.where(bad, 0, lab)
                 dd = np.hypot(cx[None, :] - case.sx[lab], cy - case.sy[lab]) - dtrue
@@ -587,7 +604,7 @@ def evaluate_owners(case, owner_dist, results):
         for r in results:
             a = acc[id(r)]
             if r.labels:
-                lab = read_rows(r.labels, r0, r1, np.int64) - 1
+                lab = labels_of(r, r0, r1)
                 bad = (lab < 0) | (lab >= len(owner_dist))
                 lab = np.where(bad, 0, lab)
                 dd = np.take_along_axis(D, lab[None], 0)[0] - dtrue
@@ -704,7 +721,7 @@ def profile(runner, case, md):
     outdir = os.path.join(case.dir, "out", "perf")
     os.makedirs(outdir, exist_ok=True)
     data = os.path.join(outdir, "perf.data")
-    cmd = ["perf", "record", "-g", "-o", data, "--"] + rvoronoi_cmd(runner.exe, case, "exact", outdir, want_labels=False)
+    cmd = ["perf", "record", "-g", "-o", data, "--"] + rvoronoi_cmd(runner.exe, case, "exact", outdir)
     rc, wall, rss, out, err = run_child(cmd, runner.args.timeout, cwd=outdir)
     if rc != 0:
         md.append(f"perf record failed (exit {rc}): {err.strip()[-300:]}\n")
@@ -847,7 +864,6 @@ def main():
                                   label="rvoronoi brute-force (reference)" if small else "rvoronoi exact (reference run)")
             if ref.status != "ok":
                 raise SystemExit(f"peers: the reference run failed on {case.name}: {ref.status} {ref.note}")
-            ref_labels = ref.labels
             if small:
                 results.append(ref)
         else:
@@ -857,8 +873,7 @@ def main():
             for i, p in enumerate(case.owner_vectors):
                 od = os.path.join(case.dir, "out", f"ref_owner{i + 1}")
                 os.makedirs(od, exist_ok=True)
-                cmd = rvoronoi_cmd(runner.exe, case, "brute-force" if small else "exact", od, owner_vector=p,
-                                   want_labels=False)
+                cmd = rvoronoi_cmd(runner.exe, case, "brute-force" if small else "exact", od, owner_vector=p)
                 rc, wall, rss, out, err = run_child(cmd, args.timeout, cwd=od)
                 if rc != 0:
                     if case.geographic and "geodesic" in (err + out):
@@ -881,7 +896,7 @@ def main():
         results.append(runner.saga(case))
         measured = [r for r in results if r.status == "ok"]
         if case.kind == "points":
-            evaluate_points(case, ref_labels, measured)
+            evaluate_points(case, ref, measured)
         elif not case.pending:
             evaluate_owners(case, owner_dist, measured)
         else:
@@ -914,8 +929,7 @@ def main():
             t = rep["timings_s"]
             sec.append(f"; phases: read {t['read']:.3g} s, compute {t['compute']:.3g} s "
                        f"({t['compute'] / case.cells * 1e9:.2f} ns/cell), write ownership {t['write']['ownership']:.3g} s, "
-                       f"distance {t['write']['distance']:.3g} s, nearest-feature "
-                       f"{t['write'].get('nearest_feature', 0):.3g} s, total {t['total']:.3g} s.\n")
+                       f"distance {t['write']['distance']:.3g} s, total {t['total']:.3g} s.\n")
         sec.append(f"\nCase wall time, everything included: {time.perf_counter() - t_case:.0f} s.\n")
         text = "\n".join(sec)
         print(text, flush=True)
