@@ -135,11 +135,10 @@ TEST_F(Cli, RandomTrialsReproduceTable2Buckets) {
   const CliRun r = run("validate --random-seeds 20 --size 100 100 --trials 5 --seed 3");
   ASSERT_EQ(r.exit_code, 0) << r.output;
   const nlohmann::json j = nlohmann::json::parse(r.output);
-  EXPECT_EQ(j["methods"]["hv-scan"]["trials_max_error_0_to_1_cells"], 5);
-  const auto& h = j["methods"]["h-scan"];
-  EXPECT_EQ(h["trials_max_error_0_to_1_cells"].get<int>() + h["trials_max_error_1_to_3_cells"].get<int>() +
-                h["trials_max_error_over_3_cells"].get<int>(),
-            5);
+  EXPECT_EQ(j["buckets_cells"][2], ">3");
+  EXPECT_EQ(j["methods"]["hv-scan"]["trials_in_bucket"][0], 5);
+  const auto& h = j["methods"]["h-scan"]["trials_in_bucket"];
+  EXPECT_EQ(h[0].get<int>() + h[1].get<int>() + h[2].get<int>(), 5);
 }
 
 // Bad input: one clear line, a distinct non-zero exit code, and no output file left behind.
