@@ -713,8 +713,38 @@ def table(case, results, exact):
 # profile of the engine on the largest case
 
 
+def owner_of(frames):
+    """Which part of the program a sample belongs to: the first user frame that is not libc's,
+    the loader's or libstdc++'s (so memset/memcpy and kernel page faults are charged to the code
+    that called them; the kernel's frames only say how)."""
+    for ip, sym, dso in frames:
+        if dso.startswith("[kernel") or dso == "[unknown]":
+            continue
+        base = os.path.basename(dso)
+        if base.startswith(("libc.so", "libc-", "ld-linux", "libstdc++", "libm.so", "libgcc", "libpthread")):
+            continue
+        if "zstd" in base or base.startswith(("libz.", "libdeflate", "liblzma", "libjpeg", "liblerc")):
+            return "GeoTIFF compression (" + base.split(".so")[0] + ")"
+        if base.startswith(("libtiff", "libgdal", "libgeotiff")):
+            return "GDAL / libtiff (encoding, I/O)"
+        if base.startswith("libproj"):
+            return "PROJ (reprojection)"
+        if base.startswith(("libsqlite", "libgeos", "libspatialite", "libexpat", "libjson")):
+            return "GDAL/OGR reading the seeds"
+        if base == "rvoronoi" or base.startswith("librv"):
+            if re.search(r"Exact|argmin|solve|Solver|brute|scan|Scan|cull|bound", sym):
+                return "engine: exact computation"
+            if re.search(r"write|Write|tile|Tile|raster_io|GeoTiff", sym):
+                return "rvoronoi: handing tiles to GDAL"
+            if re.search(r"read|Read|load|Load|seed|Seed|ogr|OGR", sym):
+                return "rvoronoi: reading the seeds"
+            return "rvoronoi: other (" + sym[:40] + ")"
+        return "other (" + base + ")"
+    return "unattributed (no user caller in the call chain)"
+
+
 def profile(runner, case, md):
-    """perf record of one rvoronoi exact command on `case`; groups the samples by where they go."""
+    """perf record of one rvoronoi exact command on `case`; charges the samples to who asked."""
     if shutil.which("perf") is None:
         md.append("perf is not installed: no profile.\n")
         return
@@ -728,53 +758,95 @@ def profile(runner, case, md):
         return
     with open(os.path.join(outdir, "report.json")) as f:
         rep = json.load(f)
-    rep_txt = subprocess.run(["perf", "report", "-i", data, "--no-children", "--stdio", "-g", "none",
-                              "--sort", "dso,sym", "--percent-limit", "0"], capture_output=True, text=True).stdout
-    rows = []
-    for ln in rep_txt.splitlines():
-        m = re.match(r"\s*([\d.]+)%\s+(\S+)\s+\[(.)\]\s+(.*)", ln)
-        if m:
-            rows.append((float(m.group(1)), m.group(2), m.group(3), m.group(4).strip()))
-    groups = {}
-
-    def group(dso, kind, sym):
-        s = sym.lower()
-        if kind == "k":
-            if "clear_page" in s or "clear_huge" in s:
-                return "kernel: clear_page (zeroing fresh pages)"
-            if "fault" in s or "alloc_pages" in s or "rmqueue" in s or "lru" in s or "memcg" in s:
-                return "kernel: other page-fault / allocation work"
-            if "copy_user" in s or "filemap" in s or "write" in s or "ext4" in s or "xfs" in s or "iomap" in s:
-                return "kernel: file writes (page cache)"
-            return "kernel: other"
-        if "zstd" in dso or "zstd" in s or "deflate" in dso or "libz" in dso or "deflate" in s or "lzw" in s:
-            return "compression (GeoTIFF encoding)"
-        if "gdal" in dso or "tiff" in dso:
-            return "GDAL/libtiff other"
-        if "proj" in dso:
-            return "PROJ (reprojection)"
-        if "rvoronoi" in dso or "rv::" in sym:
-            return "rvoronoi engine and service"
-        if "libc" in dso or "libm" in dso or "stdc++" in dso:
-            return "libc/libm/libstdc++ (memcpy, memset, malloc)"
-        return "other: " + dso
-
-    for pct, dso, kind, sym in rows:
-        g = group(dso, kind, sym)
-        groups[g] = groups.get(g, 0.0) + pct
+    script = subprocess.run(["perf", "script", "-i", data, "-F", "comm,tid,ip,sym,dso"], capture_output=True,
+                            text=True, errors="replace").stdout
+    # Samples are blank-line separated: a header line, then frames "ip sym (dso)", leaf first.
+    table_ = {}
+    leaves = {}
+    total = 0
+    for block in script.split("\n\n"):
+        lines = [ln for ln in block.splitlines() if ln.strip()]
+        if len(lines) < 2:
+            continue
+        frames = []
+        for ln in lines[1:]:
+            m = re.match(r"\s*([0-9a-f]+)\s+(.*)\s+\((.*)\)\s*$", ln)
+            if m:
+                frames.append((m.group(1), m.group(2), m.group(3)))
+        if not frames:
+            continue
+        total += 1
+        who = owner_of(frames)
+        leaf_sym, leaf_dso = frames[0][1], frames[0][2]
+        if leaf_dso.startswith("[kernel"):
+            syms = " ".join(f[1] for f in frames if f[2].startswith("[kernel"))
+            if re.search(r"clear_page|folio_zero|clear_huge", syms):
+                how = "kernel: zeroing fresh pages"
+            elif "page_fault" in syms:
+                how = "kernel: other page-fault work"
+            else:
+                how = "kernel: other (syscalls, I/O)"
+        else:
+            how = "user"
+        row = table_.setdefault(who, {})
+        row[how] = row.get(how, 0) + 1
+        key = (leaf_sym if leaf_sym != "[unknown]" else "[unknown]", os.path.basename(leaf_dso))
+        leaves[key] = leaves.get(key, 0) + 1
+    hows = ["user", "kernel: zeroing fresh pages", "kernel: other page-fault work", "kernel: other (syscalls, I/O)"]
     t = rep["timings_s"]
-    md.append(f"Command: `{' '.join(shlex.quote(str(a)) for a in cmd)}` — wall {wall:.2f} s under perf, "
-              f"peak RSS {rss / 2**20:.0f} MiB.\n")
+    md.append(f"Command: `{' '.join(shlex.quote(str(a)) for a in cmd)}` — wall {wall:.2f} s under perf "
+              f"(both threads' samples: {total:,}), peak RSS {rss / 2**20:.0f} MiB.\n")
     md.append(f"rvoronoi's own phase timings in that run: read {t['read']:.3f} s, compute {t['compute']:.3f} s "
               f"({t['compute'] / case.cells * 1e9:.2f} ns/cell), write ownership {t['write']['ownership']:.3f} s, "
               f"write distance {t['write']['distance']:.3f} s, total {t['total']:.3f} s.\n")
-    md.append("| where the samples go (all threads, perf record -g, self time) | % of samples |\n|---|---|")
-    for g, p in sorted(groups.items(), key=lambda kv: -kv[1]):
-        if p >= 0.2:
-            md.append(f"| {g} | {p:.1f} |")
-    md.append("\nTop symbols (self):\n\n| % | DSO | symbol |\n|---|---|---|")
-    for pct, dso, kind, sym in rows[:15]:
-        md.append(f"| {pct:.1f} | {dso} | `{sym[:90]}` |")
+    md.append("Samples charged to the code that caused them (its first frame outside libc; kernel samples to the "
+              "user code whose page fault or system call they serve), % of all samples:\n")
+    md.append("| part of the command | " + " | ".join(hows) + " | total |\n|---|" + "---|" * (len(hows) + 1))
+    for who, row in sorted(table_.items(), key=lambda kv: -sum(kv[1].values())):
+        tot = sum(row.values())
+        if tot / max(total, 1) < 0.002:
+            continue
+        md.append(f"| {who} | " + " | ".join(f"{100 * row.get(h, 0) / total:.1f}" for h in hows)
+                  + f" | {100 * tot / total:.1f} |")
+    sums = [sum(r.get(h, 0) for r in table_.values()) for h in hows]
+    md.append("| **all** | " + " | ".join(f"**{100 * v / max(total, 1):.1f}**" for v in sums) + " | 100 |\n")
+    md.append("Top leaf functions (self time; libzstd has no symbols in Debian's package):\n")
+    md.append("| % | function | library |\n|---|---|---|")
+    for (sym, dso), n in sorted(leaves.items(), key=lambda kv: -kv[1])[:12]:
+        md.append(f"| {100 * n / total:.1f} | `{sym[:80]}` | {dso} |")
+    md.append("")
+    encoding_options(case, outdir, md)
+
+
+def encoding_options(case, outdir, md):
+    """How much of the write is the codec: the same distance raster re-encoded with GDAL under
+    other creation options (all threads, 256 x 256 tiles like rvoronoi's writer)."""
+    from osgeo import gdal
+
+    src = os.path.join(outdir, "dist.tif")
+    if not os.path.exists(src):
+        return
+    mem = gdal.Translate("", src, format="MEM")  # decode once, outside the timings
+    variants = [
+        ("ZSTD, PREDICTOR=3, ZSTD_LEVEL=9 (GDAL's default level)", ["COMPRESS=ZSTD", "PREDICTOR=3", "ZSTD_LEVEL=9"]),
+        ("ZSTD, PREDICTOR=3, ZSTD_LEVEL=1", ["COMPRESS=ZSTD", "PREDICTOR=3", "ZSTD_LEVEL=1"]),
+        ("DEFLATE, PREDICTOR=3, ZLEVEL=1", ["COMPRESS=DEFLATE", "PREDICTOR=3", "ZLEVEL=1"]),
+        ("LZW, PREDICTOR=3", ["COMPRESS=LZW", "PREDICTOR=3"]),
+        ("uncompressed", ["COMPRESS=NONE"]),
+    ]
+    md.append("Re-encoding rvoronoi's Float32 distance raster of this case with GDAL (CreateCopy from memory, "
+              "TILED=YES, 256×256, NUM_THREADS=ALL_CPUS), to see what the codec costs:\n")
+    md.append("| creation options | seconds | MiB on disk |\n|---|---|---|")
+    for name, co in variants:
+        dst = os.path.join(outdir, "reencode.tif")
+        t0 = time.perf_counter()
+        ds = gdal.GetDriverByName("GTiff").CreateCopy(
+            dst, mem, options=co + ["TILED=YES", "BLOCKXSIZE=256", "BLOCKYSIZE=256", "NUM_THREADS=ALL_CPUS",
+                                    "BIGTIFF=IF_SAFER"])
+        ds = None
+        dt = time.perf_counter() - t0
+        md.append(f"| {name} | {dt:.2f} | {os.path.getsize(dst) / 2**20:.1f} |")
+        os.remove(dst)
     md.append("")
 
 
