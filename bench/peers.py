@@ -721,7 +721,9 @@ def owner_of(frames):
         if dso.startswith("[kernel") or dso == "[unknown]":
             continue
         base = os.path.basename(dso)
-        if base.startswith(("libc.so", "libc-", "ld-linux", "libstdc++", "libm.so", "libgcc", "libpthread")):
+        if base.startswith("ld-linux"):
+            return "process start-up (dynamic loader: GDAL and its libraries)"
+        if base.startswith(("libc.so", "libc-", "libstdc++", "libm.so", "libgcc", "libpthread")):
             continue
         if "zstd" in base or base.startswith(("libz.", "libdeflate", "liblzma", "libjpeg", "liblerc")):
             return "GeoTIFF compression (" + base.split(".so")[0] + ")"
