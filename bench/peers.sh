@@ -33,8 +33,11 @@ if [ "$install" -eq 1 ]; then
     if [ "$(id -u)" -ne 0 ]; then sudo_cmd=(sudo); fi
     echo "peers: installing ${missing[*]}" >&2
     export DEBIAN_FRONTEND=noninteractive
+    t0=$SECONDS
     "${sudo_cmd[@]}" apt-get update -q
     "${sudo_cmd[@]}" apt-get install -y -q --no-install-recommends "${missing[@]}"
+    # CI's budget depends on this: say how long it took.
+    echo "peers: installed in $((SECONDS - t0)) s" >&2
   fi
 fi
 if [ "$install_only" -eq 1 ]; then exit 0; fi
