@@ -71,14 +71,25 @@ def median(v):
     return v[len(v) // 2] if v else None
 
 
+TIME = "/usr/bin/time"  # GNU time (package `time`)
+
+
 def run_child(cmd, timeout, cwd=None, env=None):
     """Runs cmd, returns (rc, wall_s, peak_rss_bytes, stdout, stderr). rc None on timeout.
 
-    os.wait4 gives this child's own rusage (ru_maxrss includes the descendants it waited for,
-    e.g. GRASS's modules), unlike RUSAGE_CHILDREN, which is the maximum over every child so far.
+    Peak memory comes from GNU time, which forks the command itself: a child forked straight from
+    this script inherits this script's high-water RSS (Linux keeps it across fork and exec), so
+    os.wait4's ru_maxrss would be at least this process's peak. GNU time's own footprint is a
+    megabyte or two. ru_maxrss includes the descendants the command waited for (GRASS modules).
+    Without GNU time, wait4's figure is used and is an upper bound.
     """
     out_path = os.path.join(cwd or ".", ".child_stdout")
     err_path = os.path.join(cwd or ".", ".child_stderr")
+    rss_path = os.path.join(cwd or ".", ".child_rss")
+    if os.path.exists(rss_path):
+        os.remove(rss_path)
+    if os.access(TIME, os.X_OK):
+        cmd = [TIME, "-f", "%M", "-o", rss_path] + list(cmd)
     with open(out_path, "wb") as fo, open(err_path, "wb") as fe:
         t0 = time.perf_counter()
         p = subprocess.Popen(cmd, stdout=fo, stderr=fe, cwd=cwd, env=env, start_new_session=True)
@@ -103,7 +114,14 @@ def run_child(cmd, timeout, cwd=None, env=None):
         out = f.read()
     with open(err_path, encoding="utf-8", errors="replace") as f:
         err = f.read()
-    return rc, wall, ru.ru_maxrss * 1024, out, err
+    rss = ru.ru_maxrss * 1024
+    if os.path.exists(rss_path):
+        with open(rss_path) as f:
+            lines = [ln.strip() for ln in f if ln.strip()]
+        # GNU time writes "Command exited with non-zero status N" before the figure on failure.
+        if lines and lines[-1].isdigit():
+            rss = int(lines[-1]) * 1024
+    return rc, wall, rss, out, err
 
 
 def write_tif(path, arr, gt, wkt, nodata=None):
@@ -951,6 +969,7 @@ def main():
         if wanted and name not in wanted:
             continue
         t_case = time.perf_counter()
+        load_start = os.getloadavg()[0]
         if spec[0] == "points":
             case = make_points_case(spec[1], spec[2], work)
         elif spec[0] == "coast":
@@ -1034,7 +1053,9 @@ def main():
             sec.append(f"; phases: read {t['read']:.3g} s, compute {t['compute']:.3g} s "
                        f"({t['compute'] / case.cells * 1e9:.2f} ns/cell), write ownership {t['write']['ownership']:.3g} s, "
                        f"distance {t['write']['distance']:.3g} s, total {t['total']:.3g} s.\n")
-        sec.append(f"\nCase wall time, everything included: {time.perf_counter() - t_case:.0f} s.\n")
+        sec.append(f"\nCase wall time, everything included: {time.perf_counter() - t_case:.0f} s. Load average "
+                   f"(1 min) at the start and end of the case: {load_start:.2f}, {os.getloadavg()[0]:.2f} "
+                   f"(the machine's {os.cpu_count()} cores are shared; other work inflates the timings).\n")
         text = "\n".join(sec)
         print(text, flush=True)
         md.append(text)
