@@ -90,8 +90,11 @@ nlohmann::json seeds_json(const LoadedSeeds& loaded) {
           {"segments", segments},
           {"polygons", s.polygons().size()},
           {"owners", owners},
+          {"features_read", r.features_read},
           {"features_skipped_empty", r.features_skipped_empty},
           {"vertices_removed", r.vertices_removed},
+          {"points_removed", r.points_removed},
+          {"conflicts", r.conflicts},
           {"polygons_repaired", r.polygons_repaired},
           {"warnings", r.warnings}};
 }
