@@ -1000,7 +1000,7 @@ def main():
                 rc, wall, rss, out, err = run_child(cmd, args.timeout, cwd=od)
                 if rc != 0:
                     if case.geographic and "geodesic" in (err + out):
-                        case.pending = "geodesic metric not in this build yet (main): " + err.strip().splitlines()[-1]
+                        case.pending = "rvoronoi compute refuses the geodesic metric in this build: " + err.strip().splitlines()[-1]
                         break
                     raise SystemExit(f"peers: reference run failed on {case.name}: {err.strip()}")
                 owner_dist.append(os.path.join(od, "dist.tif"))
