@@ -867,6 +867,21 @@ def profile(runner, case, md):
     encoding_options(case, outdir, md)
 
 
+def engine_warm(args, case, md):
+    """The engine alone, in process, fresh result buffers versus buffers reused (compute_into)."""
+    exe = args.engine_bench
+    if not os.access(exe, os.X_OK):
+        md.append(f"engine_bench not found at {exe}: no in-process measurement.\n")
+        return
+    cmd = [exe, "--methods", "exact", "--warm", "--repeats", "1", "--min-cells", str(case.cells), "--max-cells",
+           str(case.cells)]
+    rc, wall, rss, out, err = run_child(cmd, args.timeout, cwd=os.path.join(case.dir))
+    md.append("The engine alone, in process (`" + " ".join(cmd[1:]) + "`; its own random seeds of the same "
+              "count and grid): fresh result rasters, then `compute_into()` into the same buffers again.\n")
+    md.append(out.strip() if rc == 0 else f"engine_bench failed (exit {rc}): {err.strip()[-300:]}")
+    md.append("")
+
+
 def encoding_options(case, outdir, md):
     """How much of the write is the codec: the same distance raster re-encoded with GDAL under
     other creation options (all threads, 256 x 256 tiles like rvoronoi's writer)."""
@@ -915,6 +930,8 @@ def main():
     ap.add_argument("--cases", default=None, help="comma-separated case names to run (default: all)")
     ap.add_argument("--geodesic-reference", default=os.path.join(ROOT, "build", "bench", "geodesic_reference"),
                     help="tool giving geodesic reference distances while the CLI refuses the metric")
+    ap.add_argument("--engine-bench", default=os.path.join(ROOT, "build", "bench", "engine_bench"),
+                    help="in-process engine benchmark (for --profile: fresh versus reused buffers)")
     ap.add_argument("--profile", action="store_true", help="perf profile of rvoronoi exact on the largest case")
     ap.add_argument("--keep", action="store_true", help="keep the rasters written (default: delete per case)")
     ap.add_argument("--worker", nargs=3, metavar=("KIND", "SEEDS_TIF", "OUTDIR"), help=argparse.SUPPRESS)
@@ -1099,6 +1116,7 @@ def main():
     if args.profile and largest is not None:
         md.append(f"\n## Where the time goes: rvoronoi exact on the largest case ({largest.title})\n")
         profile(runner, largest, md)
+        engine_warm(args, largest, md)
         if not args.keep:
             shutil.rmtree(os.path.join(largest.dir, "out"), ignore_errors=True)
     md.append(f"\nTotal run: {(datetime.datetime.now(datetime.timezone.utc) - started).total_seconds():.0f} s.\n")
