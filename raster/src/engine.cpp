@@ -262,6 +262,12 @@ void compute_into(const SeedSet& seeds, const GridSpec& grid, const ComputeOptio
   out.contested_cells = 0;
   out.threads = ctx.threads;
   out.metric = options.metric;
+  std::optional<InteriorSpans> spans;
+  if (!seeds.polygons().empty()) {
+    spans.emplace(geodesic ? build_interiors(seeds, geodesic_polygons(seeds), grid, window)
+                           : build_interiors(seeds, grid, window));
+    ctx.interiors = &*spans;
+  }
   progress.check_cancel();
   switch (options.method) {
     case Method::brute_force: detail::run_brute_force(ctx, out.site, out.distance); break;
@@ -274,11 +280,9 @@ void compute_into(const SeedSet& seeds, const GridSpec& grid, const ComputeOptio
     case Method::h_scan: detail::run_scan(ctx, false, out.site, out.distance); break;
     case Method::hv_scan: detail::run_scan(ctx, true, out.site, out.distance); break;
   }
-  if (!seeds.polygons().empty()) {
-    const InteriorSpans spans = geodesic ? build_interiors(seeds, geodesic_polygons(seeds), grid, window)
-                                         : build_interiors(seeds, grid, window);
-    out.contested_cells = spans.contested_cells;
-    detail::apply_interiors(spans, out.site, out.distance);
+  if (spans) {
+    out.contested_cells = spans->contested_cells;
+    detail::apply_interiors(*spans, out.site, out.distance);
   }
   out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }

@@ -8,6 +8,7 @@
 
 #include "geodesic_sites.hpp"
 #include "rv/engine.hpp"
+#include "rv/interior.hpp"
 #include "rv/planar.hpp"
 
 namespace rv::detail {
@@ -43,6 +44,10 @@ struct EngineContext {
   Progress* progress;
   const GeoSites* geo = nullptr;   // set for the geodesic metric (then `local` serves only the
                                    // scans' seeding, with longitudes unwrapped around the grid)
+  // Polygon interiors of the window (null when there are no polygons). Kernels may skip the
+  // work for cells inside them: apply_interiors() gives those cells their area site afterwards,
+  // keeping only a lower site at distance exactly 0 (so a kernel must still report those).
+  const InteriorSpans* interiors = nullptr;
 };
 
 // The metric as the kernels see it: a per-cell position, a comparison key per (cell, site), and
