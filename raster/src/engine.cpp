@@ -123,6 +123,13 @@ std::vector<LocalSite> to_local(const SeedSet& seeds, const GridSpec& g) {
 }
 
 NearestField compute(const SeedSet& seeds, const GridSpec& grid, const ComputeOptions& options) {
+  NearestField out;
+  compute_into(seeds, grid, options, out);
+  return out;
+}
+
+void compute_into(const SeedSet& seeds, const GridSpec& grid, const ComputeOptions& options,
+                  NearestField& out) {
   const auto start = std::chrono::steady_clock::now();
   if (grid.width <= 0 || grid.height <= 0 || !(grid.res > 0.0) || !std::isfinite(grid.res))
     throw Error(ErrorKind::invalid_argument, "grid must have a positive size and resolution");
@@ -140,9 +147,11 @@ NearestField compute(const SeedSet& seeds, const GridSpec& grid, const ComputeOp
   ctx.max_key = std::isinf(options.max_distance) ? std::numeric_limits<double>::infinity()
                                                  : options.max_distance * options.max_distance;
 
-  NearestField out;
-  out.site = Raster<int32_t>(grid, window, Uninitialized{});
-  out.distance = Raster<float>(grid, window, Uninitialized{});
+  if (!(out.site.grid() == grid) || !(out.site.window() == window)) {
+    out.site = Raster<int32_t>(grid, window, Uninitialized{});
+    out.distance = Raster<float>(grid, window, Uninitialized{});
+  }
+  out.contested_cells = 0;
   out.threads = ctx.threads;
   progress.check_cancel();
   switch (options.method) {
@@ -151,10 +160,12 @@ NearestField compute(const SeedSet& seeds, const GridSpec& grid, const ComputeOp
     case Method::h_scan: detail::run_scan(ctx, false, out.site, out.distance); break;
     case Method::hv_scan: detail::run_scan(ctx, true, out.site, out.distance); break;
   }
-  if (!seeds.polygons().empty())
-    detail::apply_interiors(build_interiors(seeds, grid, window), out.site, out.distance);
+  if (!seeds.polygons().empty()) {
+    const InteriorSpans spans = build_interiors(seeds, grid, window);
+    out.contested_cells = spans.contested_cells;
+    detail::apply_interiors(spans, out.site, out.distance);
+  }
   out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  return out;
 }
 
 }  // namespace rv

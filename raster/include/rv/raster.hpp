@@ -5,6 +5,7 @@
 
 #include <cstddef>
 #include <memory>
+#include <new>
 #include <type_traits>
 #include <utility>
 #include <vector>
@@ -13,11 +14,19 @@
 
 namespace rv {
 
+namespace detail {
+// Large buffers: 2 MiB aligned and advised to use transparent huge pages (fewer page faults and
+// TLB misses when an engine writes blocks of rows far apart). Small ones: plain new.
+void* allocate_cells(size_t bytes);
+void free_cells(void* p, size_t bytes) noexcept;
+}  // namespace detail
+
 // An allocator that leaves trivially constructible values uninitialised on resize, so that a
 // large result buffer is first touched (and page-faulted) by the worker threads that fill it,
 // in parallel, instead of by one memset.
 template <class T>
-struct DefaultInitAllocator : std::allocator<T> {
+struct DefaultInitAllocator {
+  using value_type = T;
   template <class U>
   struct rebind {
     using other = DefaultInitAllocator<U>;
@@ -25,14 +34,20 @@ struct DefaultInitAllocator : std::allocator<T> {
   DefaultInitAllocator() = default;
   template <class U>
   DefaultInitAllocator(const DefaultInitAllocator<U>&) noexcept {}
+  T* allocate(size_t n) {
+    if (n > static_cast<size_t>(-1) / sizeof(T)) throw std::bad_alloc();
+    return static_cast<T*>(detail::allocate_cells(n * sizeof(T)));
+  }
+  void deallocate(T* p, size_t n) noexcept { detail::free_cells(p, n * sizeof(T)); }
+  template <class U>
+  bool operator==(const DefaultInitAllocator<U>&) const noexcept { return true; }
   template <class U>
   void construct(U* p) noexcept(std::is_nothrow_default_constructible_v<U>) {
     ::new (static_cast<void*>(p)) U;
   }
   template <class U, class... Args>
   void construct(U* p, Args&&... args) {
-    std::allocator_traits<std::allocator<T>>::construct(static_cast<std::allocator<T>&>(*this), p,
-                                                        std::forward<Args>(args)...);
+    ::new (static_cast<void*>(p)) U(std::forward<Args>(args)...);
   }
 };
 

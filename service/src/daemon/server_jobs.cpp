@@ -1,6 +1,8 @@
 #include "server_jobs.hpp"
 
 #include <cmath>
+#include <fstream>
+#include <regex>
 #include <system_error>
 
 #include "rv/error.hpp"
@@ -18,6 +20,30 @@ std::string seconds_text(double s) {
 void remove_dir(const std::filesystem::path& dir) {
   std::error_code ec;
   std::filesystem::remove_all(dir, ec);  // best effort: a leftover directory only costs disk
+}
+
+// Temporary name in the same directory, then rename: a reader never sees half a report.
+void write_file_atomically(const std::filesystem::path& path, const std::string& text) {
+  const std::filesystem::path tmp = path.parent_path() / ("." + path.filename().string() + ".tmp");
+  {
+    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
+    out << text;
+    out.flush();
+    if (!out) throw Error(ErrorKind::io, "cannot write " + tmp.filename().string());
+  }
+  std::error_code ec;
+  std::filesystem::rename(tmp, path, ec);
+  if (ec) {
+    std::filesystem::remove(tmp, ec);
+    throw Error(ErrorKind::io, "cannot rename the report into place");
+  }
+}
+
+// Seed paths in messages are ours (/vsimem/rvoronoi/<id>/seeds_<n>.<ext>); the client knows
+// its layers as seeds[n].
+std::string client_names(std::string message, const std::string& id) {
+  const std::regex vsi("(/vsizip/)?/vsimem/rvoronoi/" + id + "/seeds_([0-9]+)\\.[a-z]+");
+  return std::regex_replace(message, vsi, "seeds[$2]");
 }
 
 }  // namespace
@@ -152,7 +178,8 @@ void JobManager::run_task(Task& task) {
   // The ownership raster and the report are always written: the report is kept with the job
   // and the ownership raster carries the owner names (its attribute table).
   out.ownership = (dir / output_file_name("ownership")).string();
-  out.report = (dir / output_file_name("report")).string();
+  // The report is written below, by us: with file names instead of this server's paths.
+  out.report.clear();
   for (const std::string& o : rec.outputs) {
     if (o == "distance") out.distance = (dir / output_file_name("distance")).string();
   }
@@ -181,9 +208,15 @@ void JobManager::run_task(Task& task) {
     std::filesystem::create_directories(dir, ec);
     if (ec) throw Error(ErrorKind::io, "cannot create the job directory: " + ec.message());
     result = runner_(spec, limits_, hooks);
+    if (result.report.contains("outputs") && result.report["outputs"].is_object()) {
+      for (auto& [key, value] : result.report["outputs"].items()) {
+        if (value.is_string()) value = std::filesystem::path(value.get<std::string>()).filename().string();
+      }
+    }
+    write_file_atomically(dir / output_file_name("report"), result.report.dump(2) + "\n");
   } catch (const Error& e) {
     error_kind = e.kind();
-    error_message = e.what();
+    error_message = client_names(e.what(), id);
     // The seed reader names the feature at fault; say which input it came from.
     if (e.kind() == ErrorKind::invalid_input || e.kind() == ErrorKind::conflict) {
       error_message = "input 'seeds': " + error_message;

@@ -1,5 +1,16 @@
 // Writing and reading GeoTIFFs through GDAL. GDAL types stay behind this header.
-// Thread safety: functions may run concurrently on different files.
+//
+// Layout of a written file: one band, tiled 256x256, ZSTD compression (DEFLATE where this GDAL
+// lacks ZSTD) with the horizontal predictor (2) for Int32 and the floating-point predictor (3)
+// for Float32, BIGTIFF=IF_SAFER, compressed by `threads` threads. The geotransform is
+// {xmin, res, 0, ymax, 0, -res} of the raster's window (Raster::window() inside Raster::grid()),
+// the CRS is GridSpec::crs (any definition OSR understands; none written when empty).
+// Category labels go into a raster attribute table (columns Value: Integer, Owner: String) and
+// the band's category names; GDAL 3.6 keeps both in the PAM sidecar `<path>.aux.xml`, written
+// and renamed together with the file (a stale sidecar of an earlier file of that name is
+// removed). Units and metadata are stored in the TIFF itself.
+//
+// Thread safety: functions may run concurrently on different files. They call gdal_init().
 #pragma once
 
 #include <cstdint>
@@ -13,28 +24,40 @@
 namespace rv {
 
 struct GeoTiffOptions {
-  bool cloud_optimized = false;  // COG layout with overviews (nearest/mode for categorical bands)
+  bool cloud_optimized = false;  // COG layout with overviews (nearest for categorical bands,
+                                 // average otherwise), made by the COG driver
   bool categorical = false;      // owner codes: overviews never invent values
   int threads = 0;               // compression threads, 0 = all
   std::map<std::string, std::string> metadata;  // band metadata items (e.g. UNITS)
   std::string units;             // band unit type (e.g. "m", "nmi")
-  std::vector<std::string> category_labels;     // value i+1 -> label: written as a raster attribute table
+  std::vector<std::string> category_labels;     // value i+1 -> label: written as a raster attribute
+                                                // table; Int32 rasters only (else invalid_argument)
 };
 
-// Writes to `path` atomically (a temporary name in the same directory, then rename): a reader
-// never sees half a file, and on failure nothing is left behind. Nodata: 0 for Int32 owner
+// Writes to `path` atomically (a hidden temporary name in the same directory, then rename): a
+// reader never sees half a file, and on failure nothing is left behind. Nodata: 0 for Int32 owner
 // codes, -1 for Float32 distances (the engine's kNoDistance), as given by `nodata`.
+// The sidecar (when there are category labels) is renamed just before the file.
+// Throws rv::Error: io (cannot create, write or rename; the message carries GDAL's reason),
+// invalid_argument (empty raster, unparsable CRS, labels on a Float32 raster),
+// too_large (more than 2^31 columns or rows).
 void write_geotiff(const std::string& path, const Raster<int32_t>& raster, double nodata,
                    const GeoTiffOptions& options);
 void write_geotiff(const std::string& path, const Raster<float>& raster, double nodata,
                    const GeoTiffOptions& options);
 
-// Reads a GeoTIFF's grid (extent, cell size, CRS), for --like. Throws rv::Error(not_found,
-// invalid_input for rotated or non-square-cell rasters).
+// Reads a GeoTIFF's grid (extent, cell size, CRS as WKT2), for --like. Throws rv::Error(not_found,
+// invalid_input for rotated, south-up or non-square-cell rasters, or a file that is not a raster).
 GridSpec read_grid(const std::string& path);
 
-// Reads band 1 back (tests and validation).
+// Reads band 1 back (tests and validation), converted to the requested type by GDAL. The result's
+// grid is read_grid(path) and its window the whole grid.
 Raster<int32_t> read_int32(const std::string& path);
 Raster<float> read_float32(const std::string& path);
+
+// The category labels of band 1: label of value v at index v-1, from the raster attribute table
+// (columns Value and Owner) or, without one, the band's category names (index 0 = value 0 is
+// skipped). Empty when the file has neither.
+std::vector<std::string> read_category_labels(const std::string& path);
 
 }  // namespace rv

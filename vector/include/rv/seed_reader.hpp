@@ -1,6 +1,21 @@
 // Reading seed layers through GDAL/OGR into the core's SeedSet (GDAL types stay behind this
-// header). Thread safety: load_seeds() may run concurrently with itself (GDAL datasets are
-// opened per call); call rv::gdal_init() once before the first use.
+// header). Thread safety: load_seeds() may run concurrently with itself (GDAL datasets, CRS
+// objects and GEOS contexts are created per call); call rv::gdal_init() once before the first
+// use (load_seeds and describe_crs also call it; it is idempotent).
+//
+// Formats: any vector format GDAL/OGR reads (GeoJSON, GeoPackage, Shapefile, FlatGeobuf, KML,
+// ...). A plain path ending in ".zip" is opened through /vsizip/ (a zipped Shapefile, or several).
+// Geometry: Point, LineString, Polygon (holes), their Multi* forms and GeometryCollections of
+// them; curves are linearised (GDAL's default step), Z and M dropped. A multi-part feature is one
+// feature with several parts: points -> point sites, lines -> segment sites per part, polygons ->
+// one SeedSet polygon per part (its ring edges plus an area site).
+//
+// Order (owner codes, tie-breaking): files in the order given; in each file its layers in dataset
+// order, or, when layers are named, the named layers in the order the names are given; features
+// in the layer's reading order.
+//
+// Units: coordinates of the result are in the target CRS's units (metres for UTM, degrees with
+// x = longitude for geographic CRSs).
 #pragma once
 
 #include <optional>
@@ -21,9 +36,13 @@ enum class ConflictPolicy {
 
 struct SeedReadOptions {
   std::vector<std::string> paths;        // GDAL-openable names (files, /vsizip/..., /vsimem/...)
-  std::vector<std::string> layers;       // layer names to read; empty = every layer
-  std::optional<std::string> owner_field;
-  std::string target_crs;                // any definition OSR understands; empty = first layer's CRS
+  std::vector<std::string> layers;       // layer names to read; empty = every layer. Each name
+                                         // must exist in at least one of the files.
+  std::optional<std::string> owner_field;  // must exist in every layer read; null values are errors.
+                                           // Values are compared as text (GDAL's string form).
+  std::string target_crs;                // any definition OSR understands; empty = first layer's CRS.
+                                         // Layers without a CRS are accepted only when no layer
+                                         // has one and target_crs is empty (with a warning).
   ConflictPolicy on_conflict = ConflictPolicy::error;
   std::vector<std::string> allowed_drivers;  // empty = any vector driver
 };
@@ -38,10 +57,14 @@ struct CrsInfo {
 };
 
 struct SeedReadReport {
-  int64_t features_read = 0;
-  int64_t features_skipped_empty = 0;
+  int64_t features_read = 0;           // features that became seeds
+  int64_t features_skipped_empty = 0;  // null or empty geometry
   int64_t vertices_removed = 0;        // duplicate vertices / zero-length segments dropped
-  int64_t polygons_repaired = 0;
+  int64_t points_removed = 0;          // a point repeated inside one feature (multipoint)
+  int64_t polygons_repaired = 0;       // invalid polygon parts repaired (MakeValid), unclosed
+                                       // rings closed, degenerate holes dropped
+  int64_t conflicts = 0;               // pairs of parts of two owners that overlap or cross
+                                       // (only non-zero with ConflictPolicy::lower_code)
   std::vector<std::string> warnings;   // one line each
 };
 
@@ -53,10 +76,24 @@ struct LoadedSeeds {
 
 // Reads, reprojects into the target CRS (traditional GIS axis order), assigns owners (codes in
 // order of first appearance; without an owner field each feature is its own owner labelled by
-// its 1-based position), normalises and checks the seeds.
-// Throws rv::Error: not_found (file, layer, field), invalid_input (not a vector dataset, NaN,
-// latitude beyond ±90, missing owner value, unrepairable polygon, no features at all),
-// conflict (two owners overlap, with policy error).
+// its 1-based position in the input, counting every feature read including skipped empty ones),
+// normalises and checks the seeds. Feature::source is "<path as given>:<layer>:fid <fid>".
+//
+// Normalisation (reported in SeedReadReport): consecutive duplicate vertices / zero-length
+// segments and points repeated inside a feature are removed; unclosed rings are closed;
+// invalid polygons (self-intersection, holes outside the shell, ...) are repaired with GEOS
+// MakeValid when the result still has area (lower-dimensional leftovers such as collapsed
+// spikes are dropped), with a warning naming the feature. Null/empty geometries are skipped
+// with a warning. Same-owner geometry may cross or overlap freely. Geometry of two owners whose
+// interiors meet (polygons overlapping with positive area, crossing or collinear-overlapping
+// lines, a line or point inside another owner's polygon, coincident points) is a conflict;
+// merely touching (shared edge, line ending on a boundary) is not.
+//
+// Throws rv::Error: not_found (file, layer, field), invalid_input (not a vector dataset,
+// NaN/inf coordinate, latitude beyond ±90 on a geographic CRS, null owner value, unrepairable
+// polygon, a layer without CRS among layers with one, no features at all), invalid_argument
+// (unparsable target CRS, no paths), conflict (two owners overlap, with policy error: the
+// message names both features, their owners and a coordinate inside the intersection).
 LoadedSeeds load_seeds(const SeedReadOptions& options);
 
 // Describes a CRS given as any definition OSR understands (EPSG:32633, WKT, PROJ string).

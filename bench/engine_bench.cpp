@@ -1,0 +1,107 @@
+// Reproduces the rows of Table 1 of Liu, Zhao, Wang, Sun (2019) — grid size and seed count —
+// for h-scan, hv-scan, exact and (on the small rows) brute force, in one run on one machine.
+// Prints a markdown table with wall time (median of the repeats), ns per cell and ratios.
+//
+//   engine_bench [--quick] [--threads N] [--repeats N] [--max-cells N]
+#include <algorithm>
+#include <cstdio>
+#include <cstring>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "rv/engine.hpp"
+#include "rv/validate.hpp"
+
+using namespace rv;
+
+namespace {
+
+struct Row {
+  int64_t size;
+  int seeds;
+  double paper_brute_ms, paper_h_ms, paper_hv_ms;  // Table 1, i5-3337U, one thread (-1: not given)
+};
+
+SeedSet random_points(int n, double w, double h, uint64_t seed) {
+  std::mt19937_64 rng(seed);
+  std::uniform_real_distribution<double> ux(0, w), uy(0, h);
+  SeedSet s;
+  for (int i = 0; i < n; ++i) s.add_point(s.add_feature(s.owner_code(std::to_string(i + 1))), {ux(rng), uy(rng)});
+  return s;
+}
+
+double median(std::vector<double> v) {
+  std::sort(v.begin(), v.end());
+  return v[v.size() / 2];
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  bool quick = false;
+  int threads = 0, repeats = 3;
+  int64_t max_cells = int64_t{1} << 62;
+  for (int i = 1; i < argc; ++i) {
+    if (!std::strcmp(argv[i], "--quick")) quick = true;
+    else if (!std::strcmp(argv[i], "--threads") && i + 1 < argc) threads = std::atoi(argv[++i]);
+    else if (!std::strcmp(argv[i], "--repeats") && i + 1 < argc) repeats = std::atoi(argv[++i]);
+    else if (!std::strcmp(argv[i], "--max-cells") && i + 1 < argc) max_cells = std::atoll(argv[++i]);
+    else {
+      std::fprintf(stderr, "usage: engine_bench [--quick] [--threads N] [--repeats N] [--max-cells N]\n");
+      return 2;
+    }
+  }
+  std::vector<Row> rows = {{100, 20, 18, 19, 25},          {300, 50, 177, 109, 137},
+                           {1000, 100, 3232, 1230, 1518},  {1000, 1000, 23895, 1239, 1536},
+                           {3000, 10000, -1, 14375, 17066}, {10000, 50000, -1, 171055, 199673}};
+  if (quick) rows.resize(3);
+  const Method methods[] = {Method::exact, Method::h_scan, Method::hv_scan, Method::brute_force};
+  std::printf("| grid | seeds | method | ms (median) | ns/cell | × exact | paper ms (1 thread, i5-3337U) | wrong cells | max Δd (cells) |\n");
+  std::printf("|---|---|---|---|---|---|---|---|---|\n");
+  for (const Row& row : rows) {
+    const int64_t cells = row.size * row.size;
+    if (cells > max_cells) continue;
+    GridSpec g;
+    g.xmin = 0;
+    g.ymax = static_cast<double>(row.size);
+    g.res = 1;
+    g.width = g.height = row.size;
+    const SeedSet seeds = random_points(row.seeds, static_cast<double>(row.size), static_cast<double>(row.size), 2019);
+    double exact_ms = 0;
+    NearestField exact_field;
+    for (Method m : methods) {
+      // Brute force only where the paper ran it (up to 1000 x 1000).
+      if (m == Method::brute_force && row.paper_brute_ms < 0) continue;
+      const int reps = cells >= 9'000'000 ? 1 : repeats;
+      std::vector<double> ms;
+      NearestField f;
+      for (int r = 0; r < reps; ++r) {
+        ComputeOptions o;
+        o.method = m;
+        o.threads = threads;
+        f = compute(seeds, g, o);
+        ms.push_back(f.seconds * 1e3);
+      }
+      const double med = median(ms);
+      ValidationStats v;
+      if (m == Method::exact) {
+        exact_ms = med;
+        exact_field = std::move(f);
+      } else {
+        // exact == brute force cell for cell (asserted by the test suite), so it is the reference.
+        v = compare_fields(seeds, f, exact_field);
+      }
+      const double paper = m == Method::h_scan ? row.paper_h_ms
+                           : m == Method::hv_scan ? row.paper_hv_ms
+                           : m == Method::brute_force ? row.paper_brute_ms : -1;
+      std::printf("| %lldx%lld | %d | %s | %.1f | %.2f | %.1f | %s | %lld | %.3f |\n", (long long)row.size,
+                  (long long)row.size, row.seeds, std::string(to_string(m)).c_str(), med,
+                  med * 1e6 / static_cast<double>(cells), med / exact_ms,
+                  paper < 0 ? "—" : std::to_string(static_cast<int>(paper)).c_str(), (long long)v.wrong_cells,
+                  v.max_error_cells);
+      std::fflush(stdout);
+    }
+  }
+  return 0;
+}

@@ -1,0 +1,351 @@
+// The command line: `rvoronoi compute | validate | serve`. Parses arguments into the façade's
+// typed JobSpec, runs it, and translates rv::Error into an exit code through error_info().
+#include "rv/cli.hpp"
+
+#include <unistd.h>
+
+#include <cmath>
+#include <cstdio>
+#include <iostream>
+#include <mutex>
+#include <random>
+#include <sstream>
+
+#include "rv/error.hpp"
+#include "rv/error_map.hpp"
+#include "rv/job.hpp"
+#include "rv/server.hpp"
+#include "rv/validate.hpp"
+#include "rv/version.hpp"
+
+namespace rv {
+namespace {
+
+constexpr const char* kUsage = R"(rvoronoi — raster Voronoi diagrams (ownership and distance) for GIS
+
+usage:
+  rvoronoi compute SEEDS... --resolution R --ownership OWN.tif [options]
+  rvoronoi validate SEEDS... --resolution R [--methods M,M...] [grid options]
+  rvoronoi validate --random-seeds N --size W H [--trials T] [--methods M,M...] [--seed S]
+  rvoronoi serve [--listen HOST:PORT] [--data-dir DIR] [--config FILE]
+  rvoronoi --version | --help
+
+seeds (any vector format GDAL reads; .zip shapefiles too):
+  --layer NAME            read only this layer (repeatable; default: every layer)
+  --owner-field FIELD     features with the same value share an owner (default: one owner per feature)
+  --on-conflict POLICY    error (default) | lower-code: when two owners' geometry overlaps
+grid:
+  --resolution R          cell size in CRS units
+  --extent XMIN YMIN XMAX YMAX   (default: the seeds' box grown by --margin, snapped to cells)
+  --margin M              growth of the seeds' box, CRS units (default: 5 % of its larger side)
+  --crs CRS               grid CRS (EPSG:32633, WKT, ...); default: the first layer's
+  --like RASTER.tif       take extent, cell size and CRS from this raster
+computation:
+  --method M              exact (default) | hv-scan | h-scan | brute-force
+  --metric M              auto (default) | planar | geodesic
+  --threads N             worker threads (default: all cores)
+  --max-distance D        cells farther than D from every seed get no owner
+  --distance-units U      m | km | nmi (default: CRS units)
+  --validate              also run brute force and report every wrong cell
+outputs:
+  --ownership FILE.tif    owner code per cell (Int32, 0 = none)
+  --distance FILE.tif     distance to the nearest seed (Float32, -1 = none)
+  --nearest-feature F.tif 1-based index of the nearest seed feature (Int32)
+  --report FILE.json      grid, method, seeds, timings per phase, peak memory
+  --cog                   write Cloud-Optimized GeoTIFFs
+  --quiet                 no progress bar
+)";
+
+class Args {
+ public:
+  Args(int argc, char** argv, int first) {
+    for (int i = first; i < argc; ++i) items_.emplace_back(argv[i]);
+  }
+  bool done() const { return pos_ >= items_.size(); }
+  const std::string& peek() const { return items_[pos_]; }
+  std::string next() { return items_[pos_++]; }
+  std::string value(const std::string& opt) {
+    if (done()) throw Error(ErrorKind::invalid_argument, opt + " needs a value");
+    return next();
+  }
+  double number(const std::string& opt) {
+    const std::string v = value(opt);
+    char* end = nullptr;
+    const double d = std::strtod(v.c_str(), &end);
+    if (end == v.c_str() || *end != '\0' || !std::isfinite(d))
+      throw Error(ErrorKind::invalid_argument, opt + ": '" + v + "' is not a number");
+    return d;
+  }
+  int64_t integer(const std::string& opt) {
+    const std::string v = value(opt);
+    char* end = nullptr;
+    const long long n = std::strtoll(v.c_str(), &end, 10);
+    if (end == v.c_str() || *end != '\0')
+      throw Error(ErrorKind::invalid_argument, opt + ": '" + v + "' is not an integer");
+    return n;
+  }
+
+ private:
+  std::vector<std::string> items_;
+  size_t pos_ = 0;
+};
+
+std::vector<std::string> split(const std::string& s, char sep) {
+  std::vector<std::string> out;
+  std::stringstream ss(s);
+  for (std::string item; std::getline(ss, item, sep);)
+    if (!item.empty()) out.push_back(item);
+  return out;
+}
+
+// A one-line progress bar on stderr, redrawn when the percentage changes.
+class ProgressBar {
+ public:
+  explicit ProgressBar(bool enabled) : enabled_(enabled && ::isatty(STDERR_FILENO)) {}
+  ~ProgressBar() { finish(); }
+  void update(const std::string& stage, double fraction) {
+    if (!enabled_) return;
+    std::lock_guard lock(mutex_);
+    const int percent = static_cast<int>(fraction * 100.0 + 0.5);
+    if (stage == stage_ && percent == percent_) return;
+    stage_ = stage;
+    percent_ = percent;
+    const int filled = percent * 30 / 100;
+    std::fprintf(stderr, "\r%-8s [%s%s] %3d%%", stage.c_str(), std::string(filled, '#').c_str(),
+                 std::string(30 - filled, ' ').c_str(), percent);
+    std::fflush(stderr);
+    drawn_ = true;
+  }
+  void finish() {
+    if (drawn_) std::fprintf(stderr, "\r%60s\r", "");
+    drawn_ = false;
+  }
+
+ private:
+  bool enabled_;
+  bool drawn_ = false;
+  std::string stage_;
+  int percent_ = -1;
+  std::mutex mutex_;
+};
+
+struct CommonOptions {
+  JobSpec spec;
+  std::vector<Method> methods;  // validate
+  bool quiet = false;
+  int64_t random_seeds = 0, size_w = 0, size_h = 0, trials = 100;
+  uint64_t rng_seed = 1;
+};
+
+CommonOptions parse(Args& args, bool validate_mode) {
+  CommonOptions o;
+  JobSpec& s = o.spec;
+  while (!args.done()) {
+    const std::string a = args.next();
+    if (a == "--resolution") s.grid.resolution = args.number(a);
+    else if (a == "--extent") s.grid.extent = std::array<double, 4>{args.number(a), args.number(a), args.number(a), args.number(a)};
+    else if (a == "--margin") s.grid.margin = args.number(a);
+    else if (a == "--crs") s.seeds.target_crs = args.value(a);
+    else if (a == "--like") s.grid.like = args.value(a);
+    else if (a == "--layer") s.seeds.layers.push_back(args.value(a));
+    else if (a == "--owner-field") s.seeds.owner_field = args.value(a);
+    else if (a == "--on-conflict") {
+      const std::string v = args.value(a);
+      if (v == "error") s.seeds.on_conflict = ConflictPolicy::error;
+      else if (v == "lower-code") s.seeds.on_conflict = ConflictPolicy::lower_code;
+      else throw Error(ErrorKind::invalid_argument, "--on-conflict: expected error or lower-code, got '" + v + "'");
+    }
+    else if (a == "--method") s.method = parse_method(args.value(a));
+    else if (a == "--methods") for (const auto& m : split(args.value(a), ',')) o.methods.push_back(parse_method(m));
+    else if (a == "--metric") s.metric = args.value(a);
+    else if (a == "--threads") {
+      const int64_t n = args.integer(a);
+      if (n < 0 || n > 1024) throw Error(ErrorKind::invalid_argument, "--threads: expected 0..1024");
+      s.threads = static_cast<int>(n);
+    }
+    else if (a == "--max-distance") s.max_distance = args.number(a);
+    else if (a == "--distance-units") s.distance_units = args.value(a);
+    else if (a == "--validate") s.validate = true;
+    else if (a == "--ownership") s.outputs.ownership = args.value(a);
+    else if (a == "--distance") s.outputs.distance = args.value(a);
+    else if (a == "--nearest-feature") s.outputs.nearest_feature = args.value(a);
+    else if (a == "--report") s.outputs.report = args.value(a);
+    else if (a == "--cog") s.outputs.cloud_optimized = true;
+    else if (a == "--quiet") o.quiet = true;
+    else if (validate_mode && a == "--random-seeds") o.random_seeds = args.integer(a);
+    else if (validate_mode && a == "--size") { o.size_w = args.integer(a); o.size_h = args.integer(a); }
+    else if (validate_mode && a == "--trials") o.trials = args.integer(a);
+    else if (validate_mode && a == "--seed") o.rng_seed = static_cast<uint64_t>(args.integer(a));
+    else if (a.rfind("--", 0) == 0) throw Error(ErrorKind::invalid_argument, "unknown option " + a + " (see rvoronoi --help)");
+    else s.seeds.paths.push_back(a);
+  }
+  return o;
+}
+
+int cmd_compute(Args& args) {
+  CommonOptions o = parse(args, false);
+  if (o.spec.seeds.paths.empty()) throw Error(ErrorKind::invalid_argument, "compute: no seed file given");
+  if (o.spec.outputs.ownership.empty())
+    throw Error(ErrorKind::invalid_argument, "compute: --ownership FILE.tif is required");
+  ProgressBar bar(!o.quiet);
+  JobHooks hooks;
+  hooks.progress = [&](const std::string& stage, double f) { bar.update(stage, f); };
+  const JobResult r = run_job(o.spec, {}, hooks);
+  bar.finish();
+  const auto& g = r.report["grid"];
+  std::cout << "rvoronoi: " << g["width"] << "x" << g["height"] << " cells, method "
+            << r.report["method"].get<std::string>() << ", compute "
+            << r.report["timings_s"]["compute"].get<double>() << " s\n";
+  if (r.report.contains("validation"))
+    std::cout << "validation: " << r.report["validation"].dump() << "\n";
+  for (const auto& w : r.report["seeds"]["warnings"]) std::cerr << "warning: " << w.get<std::string>() << "\n";
+  for (const std::string& f : r.files) std::cout << "wrote " << f << "\n";
+  return 0;
+}
+
+// `rvoronoi serve`: the daemon (service/src/daemon, rv/server.hpp).
+int cmd_serve(Args& args) {
+  ServeOptions o;
+  while (!args.done()) {
+    const std::string opt = args.next();
+    if (opt == "--listen") o.listen = args.value(opt);
+    else if (opt == "--data-dir") o.data_dir = args.value(opt);
+    else if (opt == "--config") o.config_file = args.value(opt);
+    else throw Error(ErrorKind::invalid_argument, "serve: unknown option '" + opt + "'");
+  }
+  return serve_main(o);
+}
+
+nlohmann::json stats_json(const ValidationStats& v) {
+  nlohmann::json examples = nlohmann::json::array();
+  for (const WrongCell& w : v.examples)
+    examples.push_back({{"col", w.col}, {"row", w.row}, {"site", w.site}, {"nearest_site", w.reference}, {"error", w.error}});
+  return {{"cells", v.cells},           {"wrong_cells", v.wrong_cells},
+          {"wrong_owner_cells", v.wrong_owner_cells}, {"tie_cells", v.tie_cells},
+          {"nodata_mismatch", v.nodata_mismatch},     {"max_error", v.max_error},
+          {"max_error_cells", v.max_error_cells},     {"wrong_examples", examples}};
+}
+
+// The paper's Table 2: random point seeds on a W x H grid of unit cells, T trials; the largest
+// Δd of each trial counted in buckets [0, 1], (1, 3], > 3 cells.
+int random_trials(const CommonOptions& o) {
+  if (o.size_w <= 0 || o.size_h <= 0) throw Error(ErrorKind::invalid_argument, "--size W H must be positive");
+  if (o.random_seeds <= 0) throw Error(ErrorKind::invalid_argument, "--random-seeds must be positive");
+  if (o.trials <= 0) throw Error(ErrorKind::invalid_argument, "--trials must be positive");
+  std::vector<Method> methods = o.methods.empty() ? std::vector<Method>{Method::h_scan, Method::hv_scan} : o.methods;
+  GridSpec g;
+  g.xmin = 0;
+  g.ymax = static_cast<double>(o.size_h);
+  g.res = 1;
+  g.width = o.size_w;
+  g.height = o.size_h;
+  struct Tally {
+    int64_t le1 = 0, le3 = 0, gt3 = 0, wrong_cells = 0;
+    double worst = 0, seconds = 0;
+  };
+  std::vector<Tally> tally(methods.size());
+  double brute_seconds = 0;
+  std::mt19937_64 rng(o.rng_seed);
+  std::uniform_real_distribution<double> ux(0.0, static_cast<double>(o.size_w)), uy(0.0, static_cast<double>(o.size_h));
+  for (int64_t t = 0; t < o.trials; ++t) {
+    SeedSet seeds;
+    for (int64_t i = 0; i < o.random_seeds; ++i) {
+      const int32_t f = seeds.add_feature(seeds.owner_code(std::to_string(i + 1)));
+      seeds.add_point(f, {ux(rng), uy(rng)});
+    }
+    ComputeOptions co;
+    co.threads = o.spec.threads;
+    co.method = Method::brute_force;
+    const NearestField ref = compute(seeds, g, co);
+    brute_seconds += ref.seconds;
+    for (size_t m = 0; m < methods.size(); ++m) {
+      co.method = methods[m];
+      const NearestField f = compute(seeds, g, co);
+      const ValidationStats v = compare_fields(seeds, f, ref);
+      Tally& k = tally[m];
+      k.seconds += f.seconds;
+      k.wrong_cells += v.wrong_cells;
+      k.worst = std::max(k.worst, v.max_error_cells);
+      if (v.max_error_cells <= 1.0) ++k.le1;
+      else if (v.max_error_cells <= 3.0) ++k.le3;
+      else ++k.gt3;
+    }
+  }
+  nlohmann::json out;
+  out["grid"] = {{"width", o.size_w}, {"height", o.size_h}};
+  out["seeds"] = o.random_seeds;
+  out["trials"] = o.trials;
+  out["rng_seed"] = o.rng_seed;
+  out["brute_force_mean_seconds"] = brute_seconds / static_cast<double>(o.trials);
+  for (size_t m = 0; m < methods.size(); ++m) {
+    const Tally& k = tally[m];
+    out["methods"][std::string(to_string(methods[m]))] = {
+        {"trials_max_error_0_to_1_cells", k.le1}, {"trials_max_error_1_to_3_cells", k.le3},
+        {"trials_max_error_over_3_cells", k.gt3}, {"worst_error_cells", k.worst},
+        {"wrong_cells_total", k.wrong_cells},     {"mean_seconds", k.seconds / static_cast<double>(o.trials)}};
+  }
+  std::cout << out.dump(2) << "\n";
+  return 0;
+}
+
+int cmd_validate(Args& args) {
+  CommonOptions o = parse(args, true);
+  if (o.random_seeds > 0 || o.size_w > 0) return random_trials(o);
+  if (o.spec.seeds.paths.empty()) throw Error(ErrorKind::invalid_argument, "validate: no seed file given");
+  std::vector<Method> methods = o.methods.empty() ? std::vector<Method>{Method::exact, Method::hv_scan, Method::h_scan} : o.methods;
+  gdal_init();
+  const LoadedSeeds loaded = load_seeds(o.spec.seeds);
+  if (loaded.crs.geographic)
+    throw Error(ErrorKind::unsupported, "the geodesic metric is not available in this build");
+  const GridSpec grid = plan_grid(o.spec.grid, loaded);
+  ComputeOptions co;
+  co.threads = o.spec.threads;
+  if (o.spec.max_distance) co.max_distance = *o.spec.max_distance;
+  co.method = Method::brute_force;
+  const NearestField ref = compute(loaded.seeds, grid, co);
+  nlohmann::json out;
+  out["grid"] = {{"width", grid.width}, {"height", grid.height}, {"resolution", grid.res}};
+  out["reference"] = {{"method", "brute-force"}, {"seconds", ref.seconds}};
+  for (Method m : methods) {
+    co.method = m;
+    const NearestField f = compute(loaded.seeds, grid, co);
+    nlohmann::json j = stats_json(compare_fields(loaded.seeds, f, ref));
+    j["seconds"] = f.seconds;
+    out["methods"][std::string(to_string(m))] = j;
+  }
+  std::cout << out.dump(2) << "\n";
+  return 0;
+}
+
+}  // namespace
+
+int cli_main(int argc, char** argv) {
+  try {
+    if (argc < 2 || std::string(argv[1]) == "--help" || std::string(argv[1]) == "-h" ||
+        std::string(argv[1]) == "help") {
+      std::cout << kUsage;
+      return argc < 2 ? 2 : 0;
+    }
+    const std::string cmd = argv[1];
+    if (cmd == "--version") {
+      std::cout << "rvoronoi " << kVersion << "\n";
+      return 0;
+    }
+    Args args(argc, argv, 2);
+    if (cmd == "compute") return cmd_compute(args);
+    if (cmd == "validate") return cmd_validate(args);
+    if (cmd == "serve") return cmd_serve(args);
+    throw Error(ErrorKind::invalid_argument, "unknown command '" + cmd + "' (see rvoronoi --help)");
+  } catch (const Error& e) {
+    std::cerr << "rvoronoi: error: " << e.what() << "\n";
+    return error_info(e.kind()).exit_code;
+  } catch (const std::bad_alloc&) {
+    std::cerr << "rvoronoi: error: out of memory\n";
+    return error_info(ErrorKind::too_large).exit_code;
+  } catch (const std::exception& e) {
+    std::cerr << "rvoronoi: internal error: " << e.what() << "\n";
+    return error_info(ErrorKind::internal).exit_code;
+  }
+}
+
+}  // namespace rv

@@ -1,0 +1,308 @@
+#include "rv/job.hpp"
+
+#include <sys/resource.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+
+#include "rv/error.hpp"
+#include "rv/outputs.hpp"
+#include "rv/raster_io.hpp"
+#include "rv/validate.hpp"
+#include "rv/version.hpp"
+
+namespace rv {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double seconds_since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
+
+// Removes every file this job wrote unless the job finishes: a failed job leaves nothing behind.
+class OutputGuard {
+ public:
+  ~OutputGuard() {
+    if (committed_) return;
+    std::error_code ec;
+    for (const std::string& f : files_) {
+      std::filesystem::remove(f, ec);
+      std::filesystem::remove(f + ".aux.xml", ec);
+    }
+  }
+  void add(const std::string& f) { files_.push_back(f); }
+  void commit() { committed_ = true; }
+  const std::vector<std::string>& files() const { return files_; }
+
+ private:
+  std::vector<std::string> files_;
+  bool committed_ = false;
+};
+
+double metres_per(const std::string& unit) {
+  if (unit == "m") return 1.0;
+  if (unit == "km") return 1000.0;
+  if (unit == "nmi") return 1852.0;  // the international nautical mile
+  throw Error(ErrorKind::invalid_argument, "unknown distance unit '" + unit + "' (expected m, km or nmi)");
+}
+
+void write_text_atomically(const std::string& path, const std::string& text) {
+  const std::string tmp = path + ".tmp-" + std::to_string(::getpid());
+  {
+    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
+    if (!out) throw Error(ErrorKind::io, "cannot write " + path);
+    out << text;
+    out.flush();
+    if (!out) {
+      std::remove(tmp.c_str());
+      throw Error(ErrorKind::io, "cannot write " + path + " (disk full?)");
+    }
+  }
+  if (std::rename(tmp.c_str(), path.c_str()) != 0) {
+    std::remove(tmp.c_str());
+    throw Error(ErrorKind::io, "cannot write " + path);
+  }
+}
+
+nlohmann::json grid_json(const GridSpec& g, const CrsInfo& crs) {
+  return {{"width", g.width},       {"height", g.height}, {"cells", g.cell_count()},
+          {"xmin", g.xmin},         {"ymin", g.ymin()},   {"xmax", g.xmax()},
+          {"ymax", g.ymax},         {"resolution", g.res}, {"crs", crs.name},
+          {"geographic", crs.geographic}};
+}
+
+nlohmann::json seeds_json(const LoadedSeeds& loaded) {
+  const SeedSet& s = loaded.seeds;
+  int64_t points = 0, segments = 0;
+  for (const Site& site : s.sites()) {
+    points += site.kind == SiteKind::point;
+    segments += site.kind == SiteKind::segment;
+  }
+  nlohmann::json owners = nlohmann::json::array();
+  for (size_t i = 0; i < s.owner_labels().size(); ++i)
+    owners.push_back({{"code", i + 1}, {"label", s.owner_labels()[i]}});
+  const SeedReadReport& r = loaded.report;
+  return {{"features", s.features().size()},
+          {"points", points},
+          {"segments", segments},
+          {"polygons", s.polygons().size()},
+          {"owners", owners},
+          {"features_skipped_empty", r.features_skipped_empty},
+          {"vertices_removed", r.vertices_removed},
+          {"polygons_repaired", r.polygons_repaired},
+          {"warnings", r.warnings}};
+}
+
+}  // namespace
+
+int64_t physical_memory_bytes() {
+  const long pages = ::sysconf(_SC_PHYS_PAGES), size = ::sysconf(_SC_PAGESIZE);
+  return pages > 0 && size > 0 ? static_cast<int64_t>(pages) * size : 0;
+}
+
+int64_t peak_rss_bytes() {
+  rusage u{};
+  ::getrusage(RUSAGE_SELF, &u);
+  return static_cast<int64_t>(u.ru_maxrss) * 1024;
+}
+
+GridSpec plan_grid(const GridRequest& request, const LoadedSeeds& loaded) {
+  if (!request.like.empty()) {
+    GridSpec g = read_grid(request.like);
+    g.crs = loaded.crs.wkt;
+    return g;
+  }
+  if (!request.resolution)
+    throw Error(ErrorKind::invalid_argument, "a resolution is required (or --like a raster)");
+  const double res = *request.resolution;
+  if (!std::isfinite(res) || res <= 0.0)
+    throw Error(ErrorKind::invalid_argument, "resolution must be a positive number");
+  if (request.extent) {
+    const auto& e = *request.extent;
+    return make_grid(e[0], e[1], e[2], e[3], res, loaded.crs.wkt);
+  }
+  const SeedSet::Box b = loaded.seeds.bounds();
+  if (!std::isfinite(b.xmin)) throw Error(ErrorKind::invalid_input, "no seeds: cannot derive an extent");
+  const double margin = request.margin.value_or(0.05 * std::max(b.xmax - b.xmin, b.ymax - b.ymin));
+  if (!std::isfinite(margin) || margin < 0.0)
+    throw Error(ErrorKind::invalid_argument, "margin must be a non-negative number");
+  // A lone point (or a margin of 0) still needs one cell around it.
+  const double m = std::max(margin, 0.5 * res);
+  return make_aligned_grid(b.xmin - m, b.ymin - m, b.xmax + m, b.ymax + m, res, loaded.crs.wkt);
+}
+
+JobResult run_job(const JobSpec& spec, const JobLimits& limits, const JobHooks& hooks) {
+  const auto start = Clock::now();
+  auto progress = [&](const char* stage, double f) {
+    if (hooks.progress) hooks.progress(stage, f);
+  };
+  auto check_cancel = [&] {
+    if (hooks.cancel && hooks.cancel->load()) throw Error(ErrorKind::cancelled, "job dismissed");
+  };
+  gdal_init();
+  OutputGuard guard;
+  nlohmann::json report;
+  nlohmann::json timings;
+
+  // 1. Seeds.
+  progress("read", 0.0);
+  SeedReadOptions read = spec.seeds;
+  if (read.target_crs.empty() && !spec.grid.like.empty()) {
+    // Outputs must line up with the template raster, so the seeds go into its CRS.
+    read.target_crs = read_grid(spec.grid.like).crs;
+  }
+  auto t = Clock::now();
+  LoadedSeeds loaded = load_seeds(read);
+  timings["read"] = seconds_since(t);
+  progress("read", 1.0);
+  check_cancel();
+
+  // 2. Grid, metric, units, limits: everything is decided before the big allocations.
+  const GridSpec grid = plan_grid(spec.grid, loaded);
+  if (spec.metric != "auto" && spec.metric != "planar" && spec.metric != "geodesic")
+    throw Error(ErrorKind::invalid_argument, "unknown metric '" + spec.metric + "' (expected auto, planar or geodesic)");
+  if (loaded.crs.geographic && spec.metric == "planar")
+    throw Error(ErrorKind::invalid_argument,
+                "metric planar on a geographic (longitude/latitude) grid would measure distances in "
+                "degrees, which are not distances; use geodesic (the default) or a projected CRS");
+  const bool geodesic = spec.metric == "geodesic" || (spec.metric == "auto" && loaded.crs.geographic);
+  if (geodesic)
+    throw Error(ErrorKind::unsupported, "the geodesic metric is not available in this build");
+  // Planar distances come out in CRS units; convert when a unit is asked for.
+  double factor = 1.0;
+  std::string unit_name = "crs-units";
+  if (!spec.distance_units.empty()) {
+    if (loaded.crs.wkt.empty())
+      throw Error(ErrorKind::invalid_argument, "distance units need a CRS with known units; the seeds have none");
+    factor = loaded.crs.linear_unit / metres_per(spec.distance_units);
+    unit_name = spec.distance_units;
+  } else if (!loaded.crs.wkt.empty() && loaded.crs.linear_unit == 1.0) {
+    unit_name = "m";
+  }
+  ComputeOptions options;
+  options.method = spec.method;
+  options.threads = spec.threads;
+  if (spec.max_distance) {
+    if (!std::isfinite(*spec.max_distance) || *spec.max_distance < 0.0)
+      throw Error(ErrorKind::invalid_argument, "max distance must be a non-negative number");
+    options.max_distance = *spec.max_distance / factor;
+  }
+  const int64_t cells = grid.cell_count();
+  if (cells > limits.max_cells)
+    throw Error(ErrorKind::too_large, "the grid has " + std::to_string(cells) + " cells, over the limit of " +
+                                          std::to_string(limits.max_cells));
+  const int64_t sites = static_cast<int64_t>(loaded.seeds.sites().size());
+  int64_t need = estimate_memory(spec.method, cells, sites) + cells * 4;  // + one output raster
+  if (spec.validate) need += estimate_memory(Method::brute_force, cells, sites);
+  const int64_t budget = limits.max_memory_bytes > 0 ? limits.max_memory_bytes : physical_memory_bytes() / 10 * 8;
+  if (budget > 0 && need > budget)
+    throw Error(ErrorKind::too_large, "the job needs about " + std::to_string(need >> 20) + " MiB for " +
+                                          std::to_string(cells) + " cells, over the memory limit of " +
+                                          std::to_string(budget >> 20) + " MiB");
+  if (spec.validate && cells > limits.validate_max_cells)
+    throw Error(ErrorKind::too_large, "validate runs brute force, allowed up to " +
+                                          std::to_string(limits.validate_max_cells) + " cells; this grid has " +
+                                          std::to_string(cells));
+
+  // 3. Compute.
+  options.cancel = hooks.cancel;
+  options.progress = [&](double f) { progress("compute", f); };
+  const NearestField field = compute(loaded.seeds, grid, options);
+  timings["compute"] = field.seconds;
+
+  // 4. Validate against brute force.
+  if (spec.validate) {
+    t = Clock::now();
+    ComputeOptions brute = options;
+    brute.method = Method::brute_force;
+    brute.progress = [&](double f) { progress("validate", f); };
+    const NearestField reference = compute(loaded.seeds, grid, brute);
+    const ValidationStats v = compare_fields(loaded.seeds, field, reference);
+    report["validation"] = {{"reference", "brute-force"},
+                            {"cells", v.cells},
+                            {"wrong_cells", v.wrong_cells},
+                            {"wrong_owner_cells", v.wrong_owner_cells},
+                            {"tie_cells", v.tie_cells},
+                            {"nodata_mismatch", v.nodata_mismatch},
+                            {"max_error", v.max_error * factor},
+                            {"max_error_cells", v.max_error_cells},
+                            {"reference_seconds", reference.seconds}};
+    timings["validate"] = seconds_since(t);
+  }
+  check_cancel();
+
+  // 5. Write.
+  progress("write", 0.0);
+  GeoTiffOptions common;
+  common.cloud_optimized = spec.outputs.cloud_optimized;
+  common.threads = spec.threads;
+  nlohmann::json write_times;
+  nlohmann::json outputs;
+  if (!spec.outputs.ownership.empty()) {
+    t = Clock::now();
+    const Raster<int32_t> owners = owner_raster(loaded.seeds, field, spec.threads);
+    GeoTiffOptions o = common;
+    o.categorical = true;
+    o.category_labels = loaded.seeds.owner_labels();
+    o.metadata["CONTENT"] = "owner code of the nearest seed (0 = none)";
+    guard.add(spec.outputs.ownership);
+    write_geotiff(spec.outputs.ownership, owners, 0.0, o);
+    write_times["ownership"] = seconds_since(t);
+    outputs["ownership"] = spec.outputs.ownership;
+  }
+  progress("write", 0.4);
+  if (!spec.outputs.distance.empty()) {
+    t = Clock::now();
+    const Raster<float> dist = factor == 1.0 ? field.distance : scaled_distance(field, factor, spec.threads);
+    GeoTiffOptions o = common;
+    o.units = unit_name;
+    o.metadata["CONTENT"] = "distance to the nearest seed";
+    o.metadata["UNITS"] = unit_name;
+    o.metadata["METRIC"] = geodesic ? "geodesic" : "planar";
+    guard.add(spec.outputs.distance);
+    write_geotiff(spec.outputs.distance, dist, static_cast<double>(kNoDistance), o);
+    write_times["distance"] = seconds_since(t);
+    outputs["distance"] = spec.outputs.distance;
+  }
+  progress("write", 0.8);
+  if (!spec.outputs.nearest_feature.empty()) {
+    t = Clock::now();
+    GeoTiffOptions o = common;
+    o.categorical = true;
+    o.metadata["CONTENT"] = "1-based index of the nearest seed feature (0 = none)";
+    guard.add(spec.outputs.nearest_feature);
+    write_geotiff(spec.outputs.nearest_feature, feature_raster(loaded.seeds, field, spec.threads), 0.0, o);
+    write_times["nearest_feature"] = seconds_since(t);
+    outputs["nearest_feature"] = spec.outputs.nearest_feature;
+  }
+  timings["write"] = write_times;
+  timings["total"] = seconds_since(start);
+
+  report["rvoronoi"] = kVersion;
+  report["grid"] = grid_json(grid, loaded.crs);
+  report["method"] = to_string(spec.method);
+  report["metric"] = geodesic ? "geodesic" : "planar";
+  report["threads"] = field.threads;
+  report["distance_units"] = unit_name;
+  if (spec.max_distance) report["max_distance"] = *spec.max_distance;
+  report["seeds"] = seeds_json(loaded);
+  report["contested_cells"] = field.contested_cells;
+  report["timings_s"] = timings;
+  report["compute_ns_per_cell"] = field.seconds * 1e9 / static_cast<double>(std::max<int64_t>(cells, 1));
+  report["peak_memory_bytes"] = peak_rss_bytes();
+  report["outputs"] = outputs;
+
+  if (!spec.outputs.report.empty()) {
+    guard.add(spec.outputs.report);
+    write_text_atomically(spec.outputs.report, report.dump(2) + "\n");
+  }
+  progress("write", 1.0);
+  JobResult result{report, guard.files()};
+  guard.commit();
+  return result;
+}
+
+}  // namespace rv

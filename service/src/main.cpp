@@ -1,0 +1,3 @@
+#include "rv/cli.hpp"
+
+int main(int argc, char** argv) { return rv::cli_main(argc, argv); }

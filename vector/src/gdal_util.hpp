@@ -1,0 +1,70 @@
+// Internal helpers shared by the GDAL-facing sources of rv_vector: owning pointers for GDAL
+// objects, a scoped capture of GDAL's error messages, and the path rules (plain .zip ->
+// /vsizip/). Not part of the public API.
+#pragma once
+
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <cpl_error.h>
+#include <gdal_priv.h>
+#include <ogr_spatialref.h>
+
+#include "rv/seed_reader.hpp"
+
+namespace rv::gdal {
+
+struct DatasetCloser {
+  void operator()(GDALDataset* ds) const { GDALClose(GDALDataset::ToHandle(ds)); }
+};
+using DatasetPtr = std::unique_ptr<GDALDataset, DatasetCloser>;
+
+struct SrsReleaser {
+  void operator()(OGRSpatialReference* s) const { s->Release(); }
+};
+using SrsPtr = std::unique_ptr<OGRSpatialReference, SrsReleaser>;
+
+// Captures GDAL's messages on the calling thread while alive (GDAL's handler stack is
+// per-thread), so that they end up in rv::Error messages and report warnings instead of on
+// stderr. Nests: the previous handler is restored on destruction.
+class ErrorCapture {
+ public:
+  ErrorCapture();
+  ~ErrorCapture();
+  ErrorCapture(const ErrorCapture&) = delete;
+  ErrorCapture& operator=(const ErrorCapture&) = delete;
+
+  // The most recent CE_Failure/CE_Fatal message, or "" when none.
+  const std::string& last_error() const { return last_error_; }
+  // ": <last error>" or "" - for appending to a message.
+  std::string suffix() const { return last_error_.empty() ? std::string() : ": " + last_error_; }
+  // CE_Warning messages, in order (capped: a driver may warn once per feature).
+  std::vector<std::string> take_warnings();
+
+ private:
+  static void CPL_STDCALL handler(CPLErr cls, CPLErrorNum num, const char* msg);
+  std::string last_error_;
+  std::vector<std::string> warnings_;
+  int64_t dropped_warnings_ = 0;
+};
+
+// The name GDAL should open: a plain "x.zip" (or ".ZIP") becomes "/vsizip/x.zip"; anything
+// already under /vsi... is left alone.
+std::string open_name(const std::string& path);
+
+// True when `path` (as given by the user, before open_name) exists; /vsi paths are checked
+// through VSIStatL.
+bool path_exists(const std::string& path);
+
+// A CRS from any definition OSR understands, with the traditional GIS axis order
+// (x = easting/longitude). Returns null when it cannot be parsed.
+SrsPtr parse_srs(const std::string& definition);
+
+// WKT2 (2019) of a CRS, "" on failure.
+std::string to_wkt2(const OGRSpatialReference& srs);
+
+// The public description of a parsed CRS.
+CrsInfo crs_info(const OGRSpatialReference& srs);
+
+}  // namespace rv::gdal

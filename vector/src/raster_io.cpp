@@ -1,0 +1,375 @@
+// GeoTIFF writing and reading through GDAL. See rv/raster_io.hpp for the contract.
+//
+// Writing path (plain GeoTIFF): GTiff Create() on a temporary name next to the target, then one
+// WriteBlock() per 256x256 tile. WriteBlock bypasses GDAL's block cache: with NUM_THREADS the
+// GTiff driver hands each tile to its compression thread pool as it arrives, so a 1e8-cell
+// raster is compressed in parallel and never copied into the cache. The raster attribute table
+// and category names live in the PAM sidecar (<name>.aux.xml, GDAL 3.6 does not put a RAT inside
+// a GTiff): it is written next to the temporary file when the dataset closes and renamed with
+// it.
+//
+// Writing path (COG): the COG driver only implements CreateCopy(). The raster is wrapped without
+// a copy in a MEM dataset (DATAPOINTER) and copied; overviews are computed by the driver. The
+// RAT is added afterwards by opening the finished file read-only: PAM writes the sidecar without
+// touching the TIFF, so the COG layout stays intact.
+#include <atomic>
+#include <cinttypes>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <string>
+#include <vector>
+
+#include <unistd.h>
+
+#include <cpl_string.h>
+#include <cpl_vsi.h>
+#include <gdal_rat.h>
+
+#include "gdal_util.hpp"
+#include "rv/error.hpp"
+#include "rv/raster_io.hpp"
+
+namespace rv {
+namespace {
+
+constexpr int kBlock = 256;
+
+template <class T>
+struct PixelType;
+template <>
+struct PixelType<int32_t> {
+  static constexpr GDALDataType gdal = GDT_Int32;
+  static constexpr const char* predictor = "2";  // horizontal differencing
+  static constexpr const char* name = "Int32";
+};
+template <>
+struct PixelType<float> {
+  static constexpr GDALDataType gdal = GDT_Float32;
+  static constexpr const char* predictor = "3";  // floating-point predictor
+  static constexpr const char* name = "Float32";
+};
+
+// ZSTD when this GDAL's libtiff has it (faster than DEFLATE at a similar ratio), else DEFLATE.
+const char* compression(GDALDriver* gtiff) {
+  const char* list = gtiff->GetMetadataItem(GDAL_DMD_CREATIONOPTIONLIST);
+  return list != nullptr && std::strstr(list, "ZSTD") != nullptr ? "ZSTD" : "DEFLATE";
+}
+
+std::string thread_option(int threads) { return threads <= 0 ? "ALL_CPUS" : std::to_string(threads); }
+
+std::string directory_of(const std::string& path) {
+  const size_t slash = path.find_last_of('/');
+  return slash == std::string::npos ? std::string(".") : path.substr(0, slash == 0 ? 1 : slash);
+}
+
+std::string file_name_of(const std::string& path) {
+  const size_t slash = path.find_last_of('/');
+  return slash == std::string::npos ? path : path.substr(slash + 1);
+}
+
+// A hidden name in the target's directory, unique per process and call: rename() within one
+// directory is atomic, and concurrent writers never share a temporary file.
+std::string temp_name(const std::string& path) {
+  static std::atomic<uint64_t> counter{0};
+  const std::string dir = directory_of(path);
+  return (dir == "/" ? "" : dir) + "/." + file_name_of(path) + ".tmp-" + std::to_string(::getpid()) + "-" +
+         std::to_string(counter.fetch_add(1)) + ".tif";
+}
+
+bool exists(const std::string& path) { return gdal::path_exists(path); }
+
+// Removes the temporary file and its sidecar unless commit() succeeded.
+class TempOutput {
+ public:
+  explicit TempOutput(std::string target) : target_(std::move(target)), temp_(temp_name(target_)) {}
+  ~TempOutput() {
+    if (!committed_) {
+      VSIUnlink(temp_.c_str());
+      VSIUnlink((temp_ + ".aux.xml").c_str());
+    }
+  }
+  TempOutput(const TempOutput&) = delete;
+  TempOutput& operator=(const TempOutput&) = delete;
+
+  const std::string& temp() const { return temp_; }
+
+  void commit() {
+    const std::string temp_aux = temp_ + ".aux.xml";
+    const std::string target_aux = target_ + ".aux.xml";
+    // The sidecar first: once the new file is visible under its name, its sidecar already is.
+    if (exists(temp_aux)) {
+      if (VSIRename(temp_aux.c_str(), target_aux.c_str()) != 0)
+        throw Error(ErrorKind::io, "cannot rename " + temp_aux + " to " + target_aux + ": " + std::strerror(errno));
+    } else if (exists(target_aux)) {
+      // A sidecar left by an earlier file of this name would describe the wrong raster.
+      VSIUnlink(target_aux.c_str());
+    }
+    if (VSIRename(temp_.c_str(), target_.c_str()) != 0)
+      throw Error(ErrorKind::io, "cannot rename " + temp_ + " to " + target_ + ": " + std::strerror(errno));
+    committed_ = true;
+  }
+
+ private:
+  std::string target_;
+  std::string temp_;
+  bool committed_ = false;
+};
+
+void fail(const std::string& path, const std::string& what, const gdal::ErrorCapture& capture) {
+  throw Error(ErrorKind::io, "writing " + path + ": " + what + capture.suffix());
+}
+
+// Grid of the raster's window: the GeoTIFF covers the window, not the whole grid.
+void window_geotransform(const GridSpec& g, const Window& w, double gt[6]) {
+  gt[0] = g.xmin + static_cast<double>(w.col0) * g.res;
+  gt[1] = g.res;
+  gt[2] = 0.0;
+  gt[3] = g.ymax - static_cast<double>(w.row0) * g.res;
+  gt[4] = 0.0;
+  gt[5] = -g.res;
+}
+
+// Georeferencing, nodata, units and metadata: the same for the GTiff and the MEM source of a COG.
+void describe_dataset(GDALDataset& ds, const GridSpec& grid, const Window& window, double nodata,
+                      const GeoTiffOptions& options, const std::string& path, const gdal::ErrorCapture& capture) {
+  double gt[6];
+  window_geotransform(grid, window, gt);
+  if (ds.SetGeoTransform(gt) != CE_None) fail(path, "cannot set the geotransform", capture);
+  if (!grid.crs.empty()) {
+    gdal::SrsPtr srs = gdal::parse_srs(grid.crs);
+    if (!srs) throw Error(ErrorKind::invalid_argument, "writing " + path + ": the grid's CRS cannot be parsed");
+    if (ds.SetSpatialRef(srs.get()) != CE_None) fail(path, "cannot set the CRS", capture);
+  }
+  GDALRasterBand* band = ds.GetRasterBand(1);
+  if (band->SetNoDataValue(nodata) != CE_None) fail(path, "cannot set the nodata value", capture);
+  if (!options.units.empty()) band->SetUnitType(options.units.c_str());
+  for (const auto& [key, value] : options.metadata) band->SetMetadataItem(key.c_str(), value.c_str());
+}
+
+// Category labels: a RAT (Value, Owner) and the band's category names (index = value).
+void write_categories(GDALRasterBand& band, const std::vector<std::string>& labels, const std::string& path,
+                      const gdal::ErrorCapture& capture) {
+  if (labels.empty()) return;
+  GDALDefaultRasterAttributeTable rat;
+  rat.CreateColumn("Value", GFT_Integer, GFU_MinMax);
+  rat.CreateColumn("Owner", GFT_String, GFU_Name);
+  rat.SetTableType(GRTT_THEMATIC);
+  rat.SetRowCount(static_cast<int>(labels.size()));
+  CPLStringList names;
+  names.AddString("");  // value 0: nodata, no owner
+  for (size_t i = 0; i < labels.size(); ++i) {
+    rat.SetValue(static_cast<int>(i), 0, static_cast<int>(i + 1));
+    rat.SetValue(static_cast<int>(i), 1, labels[i].c_str());
+    names.AddString(labels[i].c_str());
+  }
+  if (band.SetDefaultRAT(&rat) != CE_None) fail(path, "cannot attach the raster attribute table", capture);
+  if (band.SetCategoryNames(names.List()) != CE_None) fail(path, "cannot set the category names", capture);
+}
+
+template <class T>
+void write_tiles(GDALRasterBand& band, const Raster<T>& raster, double nodata, const std::string& path,
+                 const gdal::ErrorCapture& capture) {
+  const int64_t width = raster.width(), height = raster.height();
+  std::vector<T> tile(static_cast<size_t>(kBlock) * kBlock);
+  for (int64_t by = 0; by * kBlock < height; ++by) {
+    for (int64_t bx = 0; bx * kBlock < width; ++bx) {
+      const int64_t x0 = bx * kBlock, y0 = by * kBlock;
+      const int64_t w = std::min<int64_t>(kBlock, width - x0), h = std::min<int64_t>(kBlock, height - y0);
+      // Edge tiles: the part outside the raster is padding, filled with nodata so that it
+      // compresses to nothing and never shows real-looking values.
+      if (w < kBlock || h < kBlock) std::fill(tile.begin(), tile.end(), static_cast<T>(nodata));
+      for (int64_t r = 0; r < h; ++r)
+        std::memcpy(tile.data() + r * kBlock, raster.row(y0 + r) + x0, static_cast<size_t>(w) * sizeof(T));
+      if (band.WriteBlock(static_cast<int>(bx), static_cast<int>(by), tile.data()) != CE_None)
+        fail(path, "cannot write tile (" + std::to_string(bx) + ", " + std::to_string(by) + ")", capture);
+    }
+  }
+}
+
+template <class T>
+void check_raster(const std::string& path, const Raster<T>& raster) {
+  if (raster.width() <= 0 || raster.height() <= 0 || raster.size() != static_cast<size_t>(raster.width() * raster.height()))
+    throw Error(ErrorKind::invalid_argument, "writing " + path + ": the raster is empty or inconsistent");
+  if (raster.width() > INT32_MAX || raster.height() > INT32_MAX)
+    throw Error(ErrorKind::too_large, "writing " + path + ": more than 2^31 columns or rows");
+}
+
+template <class T>
+void write_plain(const std::string& path, const Raster<T>& raster, double nodata, const GeoTiffOptions& options,
+                 TempOutput& out, gdal::ErrorCapture& capture) {
+  GDALDriver* gtiff = GetGDALDriverManager()->GetDriverByName("GTiff");
+  if (gtiff == nullptr) throw Error(ErrorKind::unsupported, "GDAL has no GTiff driver");
+  CPLStringList co;
+  co.SetNameValue("TILED", "YES");
+  co.SetNameValue("BLOCKXSIZE", std::to_string(kBlock).c_str());
+  co.SetNameValue("BLOCKYSIZE", std::to_string(kBlock).c_str());
+  co.SetNameValue("COMPRESS", compression(gtiff));
+  co.SetNameValue("PREDICTOR", PixelType<T>::predictor);
+  co.SetNameValue("NUM_THREADS", thread_option(options.threads).c_str());
+  co.SetNameValue("BIGTIFF", "IF_SAFER");
+  gdal::DatasetPtr ds(gtiff->Create(out.temp().c_str(), static_cast<int>(raster.width()),
+                                    static_cast<int>(raster.height()), 1, PixelType<T>::gdal, co.List()));
+  if (!ds) fail(path, "cannot create the file", capture);
+  describe_dataset(*ds, raster.grid(), raster.window(), nodata, options, path, capture);
+  GDALRasterBand* band = ds->GetRasterBand(1);
+  write_categories(*band, options.category_labels, path, capture);
+  write_tiles(*band, raster, nodata, path, capture);
+  ds->FlushCache(true);
+  if (!capture.last_error().empty()) fail(path, "flushing failed", capture);
+  ds.reset();  // closing writes the directory and the PAM sidecar
+  if (!capture.last_error().empty()) fail(path, "closing failed", capture);
+}
+
+template <class T>
+void write_cog(const std::string& path, const Raster<T>& raster, double nodata, const GeoTiffOptions& options,
+               TempOutput& out, gdal::ErrorCapture& capture) {
+  GDALDriver* mem = GetGDALDriverManager()->GetDriverByName("MEM");
+  GDALDriver* cog = GetGDALDriverManager()->GetDriverByName("COG");
+  GDALDriver* gtiff = GetGDALDriverManager()->GetDriverByName("GTiff");
+  if (mem == nullptr || cog == nullptr || gtiff == nullptr)
+    throw Error(ErrorKind::unsupported, "GDAL lacks the MEM, COG or GTiff driver");
+  gdal::DatasetPtr src(mem->Create("", static_cast<int>(raster.width()), static_cast<int>(raster.height()), 0,
+                                   PixelType<T>::gdal, nullptr));
+  if (!src) fail(path, "cannot create the in-memory source", capture);
+  // The MEM band reads the raster's own buffer: no copy of a possibly large raster.
+  char pointer[64] = {};
+  CPLPrintPointer(pointer, const_cast<T*>(raster.data()), sizeof(pointer) - 1);
+  CPLStringList band_options;
+  band_options.SetNameValue("DATAPOINTER", pointer);
+  if (src->AddBand(PixelType<T>::gdal, band_options.List()) != CE_None)
+    fail(path, "cannot wrap the raster in memory", capture);
+  describe_dataset(*src, raster.grid(), raster.window(), nodata, options, path, capture);
+
+  CPLStringList co;
+  co.SetNameValue("BLOCKSIZE", std::to_string(kBlock).c_str());
+  co.SetNameValue("COMPRESS", compression(gtiff));
+  co.SetNameValue("PREDICTOR", "YES");  // the COG driver picks 2 for integers, 3 for floats
+  co.SetNameValue("NUM_THREADS", thread_option(options.threads).c_str());
+  co.SetNameValue("BIGTIFF", "IF_SAFER");
+  // Owner codes must never be averaged into codes nobody owns.
+  co.SetNameValue("OVERVIEW_RESAMPLING", options.categorical ? "NEAREST" : "AVERAGE");
+  gdal::DatasetPtr dst(cog->CreateCopy(out.temp().c_str(), src.get(), FALSE, co.List(), nullptr, nullptr));
+  if (!dst) fail(path, "the COG driver failed", capture);
+  dst.reset();
+  if (!capture.last_error().empty()) fail(path, "closing failed", capture);
+  if (!options.category_labels.empty()) {
+    gdal::DatasetPtr done(GDALDataset::FromHandle(GDALOpenEx(out.temp().c_str(), GDAL_OF_RASTER | GDAL_OF_READONLY,
+                                                             nullptr, nullptr, nullptr)));
+    if (!done) fail(path, "cannot reopen the COG to attach its categories", capture);
+    write_categories(*done->GetRasterBand(1), options.category_labels, path, capture);
+    done.reset();
+    if (!capture.last_error().empty()) fail(path, "writing the sidecar failed", capture);
+    if (!exists(out.temp() + ".aux.xml")) fail(path, "the category sidecar was not written", capture);
+  }
+}
+
+template <class T>
+void write_any(const std::string& path, const Raster<T>& raster, double nodata, const GeoTiffOptions& options) {
+  gdal_init();
+  check_raster(path, raster);
+  if (!options.category_labels.empty() && PixelType<T>::gdal != GDT_Int32)
+    throw Error(ErrorKind::invalid_argument, "writing " + path + ": category labels need an Int32 raster");
+  const std::string dir = directory_of(path);
+  if (path.rfind("/vsi", 0) != 0 && !exists(dir)) throw Error(ErrorKind::io, "writing " + path + ": the directory " + dir + " does not exist");
+  gdal::ErrorCapture capture;
+  // The RAT lives in the PAM sidecar: make sure PAM is on for this thread whatever the
+  // process configuration says.
+  CPLSetThreadLocalConfigOption("GDAL_PAM_ENABLED", "YES");
+  struct PamReset {
+    ~PamReset() { CPLSetThreadLocalConfigOption("GDAL_PAM_ENABLED", nullptr); }
+  } pam_reset;
+  TempOutput out(path);
+  if (options.cloud_optimized)
+    write_cog(path, raster, nodata, options, out, capture);
+  else
+    write_plain(path, raster, nodata, options, out, capture);
+  out.commit();
+}
+
+struct OpenedRaster {
+  gdal::DatasetPtr ds;
+  GridSpec grid;
+};
+
+OpenedRaster open_raster(const std::string& path) {
+  gdal_init();
+  if (!exists(path)) throw Error(ErrorKind::not_found, "raster not found: " + path);
+  gdal::ErrorCapture capture;
+  OpenedRaster r;
+  r.ds.reset(GDALDataset::FromHandle(GDALOpenEx(path.c_str(), GDAL_OF_RASTER | GDAL_OF_READONLY, nullptr, nullptr, nullptr)));
+  if (!r.ds) throw Error(ErrorKind::invalid_input, path + ": not a raster GDAL can read" + capture.suffix());
+  if (r.ds->GetRasterCount() < 1) throw Error(ErrorKind::invalid_input, path + ": the raster has no bands");
+  double gt[6];
+  if (r.ds->GetGeoTransform(gt) != CE_None)
+    throw Error(ErrorKind::invalid_input, path + ": the raster has no geotransform");
+  if (gt[2] != 0.0 || gt[4] != 0.0) throw Error(ErrorKind::invalid_input, path + ": rotated rasters are not supported");
+  if (!(gt[1] > 0.0) || !(gt[5] < 0.0))
+    throw Error(ErrorKind::invalid_input, path + ": only north-up rasters (positive x step, negative y step) are supported");
+  if (std::abs(gt[1] + gt[5]) > 1e-9 * gt[1])
+    throw Error(ErrorKind::invalid_input, path + ": cells are not square (" + std::to_string(gt[1]) + " x " +
+                                              std::to_string(-gt[5]) + ")");
+  r.grid.xmin = gt[0];
+  r.grid.ymax = gt[3];
+  r.grid.res = gt[1];
+  r.grid.width = r.ds->GetRasterXSize();
+  r.grid.height = r.ds->GetRasterYSize();
+  if (const OGRSpatialReference* srs = r.ds->GetSpatialRef()) r.grid.crs = gdal::to_wkt2(*srs);
+  return r;
+}
+
+template <class T>
+Raster<T> read_band(const std::string& path) {
+  OpenedRaster r = open_raster(path);
+  gdal::ErrorCapture capture;
+  Raster<T> out(r.grid, r.grid.full_window(), Uninitialized{});
+  if (r.ds->GetRasterBand(1)->RasterIO(GF_Read, 0, 0, static_cast<int>(r.grid.width), static_cast<int>(r.grid.height),
+                                       out.data(), static_cast<int>(r.grid.width), static_cast<int>(r.grid.height),
+                                       PixelType<T>::gdal, 0, 0, nullptr) != CE_None)
+    throw Error(ErrorKind::io, "reading " + path + " failed" + capture.suffix());
+  return out;
+}
+
+}  // namespace
+
+void write_geotiff(const std::string& path, const Raster<int32_t>& raster, double nodata, const GeoTiffOptions& options) {
+  write_any(path, raster, nodata, options);
+}
+
+void write_geotiff(const std::string& path, const Raster<float>& raster, double nodata, const GeoTiffOptions& options) {
+  write_any(path, raster, nodata, options);
+}
+
+GridSpec read_grid(const std::string& path) { return open_raster(path).grid; }
+
+Raster<int32_t> read_int32(const std::string& path) { return read_band<int32_t>(path); }
+
+Raster<float> read_float32(const std::string& path) { return read_band<float>(path); }
+
+std::vector<std::string> read_category_labels(const std::string& path) {
+  OpenedRaster r = open_raster(path);
+  GDALRasterBand* band = r.ds->GetRasterBand(1);
+  std::vector<std::string> labels;
+  if (GDALRasterAttributeTable* rat = band->GetDefaultRAT()) {
+    int value_col = -1, name_col = -1;
+    for (int c = 0; c < rat->GetColumnCount(); ++c) {
+      if (rat->GetUsageOfCol(c) == GFU_Name || EQUAL(rat->GetNameOfCol(c), "Owner")) name_col = name_col < 0 ? c : name_col;
+      if (EQUAL(rat->GetNameOfCol(c), "Value")) value_col = c;
+    }
+    if (value_col >= 0 && name_col >= 0) {
+      for (int row = 0; row < rat->GetRowCount(); ++row) {
+        const int value = rat->GetValueAsInt(row, value_col);
+        if (value < 1 || value > 1'000'000'000) continue;
+        if (static_cast<size_t>(value) > labels.size()) labels.resize(static_cast<size_t>(value));
+        labels[static_cast<size_t>(value - 1)] = rat->GetValueAsString(row, name_col);
+      }
+      return labels;
+    }
+  }
+  if (char** names = band->GetCategoryNames()) {
+    for (int i = 1; names[0] != nullptr && names[i] != nullptr; ++i) labels.emplace_back(names[i]);
+  }
+  return labels;
+}
+
+}  // namespace rv

@@ -1,0 +1,481 @@
+// load_seeds(): GDAL/OGR datasets -> SeedSet. See rv/seed_reader.hpp for the contract.
+//
+// The pipeline per feature: owner label -> geometry linearised, 2D -> split into simple parts
+// (points, line strings, polygons) -> coordinates checked in the source CRS (finite, latitude)
+// -> reprojected -> checked again -> duplicates removed, polygons validated / repaired -> added
+// to the SeedSet. Conflicts between owners are looked for once every feature is in
+// (normalise.cpp).
+#include <cmath>
+#include <cstdio>
+#include <memory>
+#include <set>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include <cpl_string.h>
+#include <ogr_api.h>
+#include <ogrsf_frmts.h>
+
+#include "gdal_util.hpp"
+#include "normalise.hpp"
+#include "rv/error.hpp"
+#include "rv/seed_reader.hpp"
+
+namespace rv {
+namespace {
+
+using detail::SeedPart;
+
+struct CtDeleter {
+  void operator()(OGRCoordinateTransformation* ct) const { OGRCoordinateTransformation::DestroyCT(ct); }
+};
+using CtPtr = std::unique_ptr<OGRCoordinateTransformation, CtDeleter>;
+
+struct LayerRef {
+  size_t file = 0;          // index into options.paths
+  OGRLayer* layer = nullptr;  // owned by the dataset
+  std::string name;
+  gdal::SrsPtr srs;           // null: the layer has no CRS
+};
+
+std::string format_number(double v) {
+  char buf[48];
+  std::snprintf(buf, sizeof buf, "%.10g", v);
+  return buf;
+}
+
+std::string list_fields(OGRFeatureDefn* defn) {
+  std::string out;
+  for (int i = 0; i < defn->GetFieldCount(); ++i) {
+    if (!out.empty()) out += ", ";
+    out += defn->GetFieldDefn(i)->GetNameRef();
+  }
+  return out.empty() ? "(none)" : out;
+}
+
+std::string list_layers(GDALDataset& ds) {
+  std::string out;
+  for (int i = 0; i < ds.GetLayerCount(); ++i) {
+    if (!out.empty()) out += ", ";
+    out += ds.GetLayer(i)->GetName();
+  }
+  return out.empty() ? "(none)" : out;
+}
+
+// Splits a (linear, 2D) geometry into owned clones of its simple parts: points, line strings
+// and polygons, in the order they appear.
+void split_parts(const OGRGeometry& g, const std::string& source, std::vector<std::unique_ptr<OGRGeometry>>& out) {
+  if (g.IsEmpty()) return;
+  const OGRwkbGeometryType type = wkbFlatten(g.getGeometryType());
+  switch (type) {
+    case wkbPoint:
+      out.emplace_back(g.clone());
+      return;
+    case wkbLineString:
+      out.emplace_back(g.clone());
+      return;
+    case wkbLinearRing: {
+      auto line = std::make_unique<OGRLineString>();
+      line->addSubLineString(g.toLineString());
+      out.push_back(std::move(line));
+      return;
+    }
+    case wkbPolygon:
+      out.emplace_back(g.clone());
+      return;
+    case wkbTriangle:
+      out.emplace_back(OGRGeometryFactory::forceToPolygon(g.clone()));
+      return;
+    case wkbPolyhedralSurface:
+    case wkbTIN: {
+      std::unique_ptr<OGRGeometry> multi(OGRGeometryFactory::forceToMultiPolygon(g.clone()));
+      split_parts(*multi, source, out);
+      return;
+    }
+    default:
+      break;
+  }
+  if (OGR_GT_IsSubClassOf(type, wkbGeometryCollection)) {
+    const OGRGeometryCollection* c = g.toGeometryCollection();
+    for (int i = 0; i < c->getNumGeometries(); ++i) split_parts(*c->getGeometryRef(i), source, out);
+    return;
+  }
+  throw Error(ErrorKind::invalid_input,
+              source + ": unsupported geometry type " + OGRGeometryTypeToName(g.getGeometryType()));
+}
+
+template <class F>
+void for_each_vertex(const OGRGeometry& g, F&& f) {
+  switch (wkbFlatten(g.getGeometryType())) {
+    case wkbPoint:
+      if (!g.IsEmpty()) f(g.toPoint()->getX(), g.toPoint()->getY());
+      return;
+    case wkbLineString: {
+      const OGRLineString* l = g.toLineString();
+      for (int i = 0; i < l->getNumPoints(); ++i) f(l->getX(i), l->getY(i));
+      return;
+    }
+    case wkbPolygon:
+      for (const OGRLinearRing* r : *g.toPolygon())
+        for (int i = 0; i < r->getNumPoints(); ++i) f(r->getX(i), r->getY(i));
+      return;
+    default:
+      return;  // split_parts leaves only the three types above
+  }
+}
+
+std::vector<Vec2> vertices_of(const OGRSimpleCurve& c) {
+  std::vector<Vec2> v(static_cast<size_t>(c.getNumPoints()));
+  for (int i = 0; i < c.getNumPoints(); ++i) v[static_cast<size_t>(i)] = Vec2{c.getX(i), c.getY(i)};
+  return v;
+}
+
+std::unique_ptr<OGRLinearRing> make_ring(const std::vector<Vec2>& v) {
+  auto ring = std::make_unique<OGRLinearRing>();
+  ring->setNumPoints(static_cast<int>(v.size() + 1), FALSE);
+  for (size_t i = 0; i < v.size(); ++i) ring->setPoint(static_cast<int>(i), v[i].x, v[i].y);
+  ring->setPoint(static_cast<int>(v.size()), v.front().x, v.front().y);
+  return ring;
+}
+
+class Reader {
+ public:
+  Reader(const SeedReadOptions& options, LoadedSeeds& out) : options_(options), out_(out) {}
+
+  void run() {
+    if (options_.paths.empty()) throw Error(ErrorKind::invalid_argument, "no seed files given");
+    open_all();
+    select_layers();
+    choose_target();
+    for (LayerRef& layer : layers_) read_layer(layer);
+    if (out_.report.features_read == 0)
+      throw Error(ErrorKind::invalid_input,
+                  "no seed features: the layers read hold no non-empty geometry (" +
+                      std::to_string(out_.report.features_skipped_empty) + " empty skipped)");
+    detail::check_conflicts(parts_, out_.seeds, options_.on_conflict, out_.report);
+  }
+
+ private:
+  void open_all() {
+    CPLStringList drivers;
+    for (const std::string& d : options_.allowed_drivers) drivers.AddString(d.c_str());
+    for (const std::string& path : options_.paths) {
+      const std::string name = gdal::open_name(path);
+      // A zip is checked as the archive itself: "/vsizip/x.zip" exists only if x.zip does.
+      const std::string stat_name = name.rfind("/vsizip/", 0) == 0 && path.rfind("/vsi", 0) != 0 ? path : name;
+      if (!gdal::path_exists(stat_name) && !gdal::path_exists(name))
+        throw Error(ErrorKind::not_found, "seed file not found: " + path);
+      gdal::ErrorCapture capture;
+      GDALDataset* ds = GDALDataset::FromHandle(
+          GDALOpenEx(name.c_str(), GDAL_OF_VECTOR | GDAL_OF_READONLY,
+                     options_.allowed_drivers.empty() ? nullptr : drivers.List(), nullptr, nullptr));
+      if (ds == nullptr) {
+        std::string why = options_.allowed_drivers.empty()
+                              ? "not a vector dataset GDAL can read"
+                              : "not a vector dataset readable by the allowed drivers (" +
+                                    join(options_.allowed_drivers) + ")";
+        throw Error(ErrorKind::invalid_input, path + ": " + why + capture.suffix());
+      }
+      datasets_.emplace_back(ds);
+      for (std::string& w : capture.take_warnings()) out_.report.warnings.push_back(path + ": GDAL: " + w);
+    }
+  }
+
+  static std::string join(const std::vector<std::string>& v) {
+    std::string out;
+    for (const std::string& s : v) out += (out.empty() ? "" : ", ") + s;
+    return out;
+  }
+
+  void add_layer(size_t file, OGRLayer* layer) {
+    LayerRef ref;
+    ref.file = file;
+    ref.layer = layer;
+    ref.name = layer->GetName();
+    if (const OGRSpatialReference* s = layer->GetSpatialRef()) {
+      ref.srs.reset(s->Clone());
+      ref.srs->SetAxisMappingStrategy(OAMS_TRADITIONAL_GIS_ORDER);
+    }
+    layers_.push_back(std::move(ref));
+  }
+
+  // Every layer of every file in dataset order, or the named ones: per file, in the order the
+  // names are given. A name found in no file is an error.
+  void select_layers() {
+    std::vector<bool> found(options_.layers.size(), false);
+    for (size_t f = 0; f < datasets_.size(); ++f) {
+      GDALDataset& ds = *datasets_[f];
+      if (options_.layers.empty()) {
+        if (ds.GetLayerCount() == 0)
+          throw Error(ErrorKind::invalid_input, options_.paths[f] + ": the dataset has no vector layers");
+        for (int i = 0; i < ds.GetLayerCount(); ++i) add_layer(f, ds.GetLayer(i));
+        continue;
+      }
+      for (size_t n = 0; n < options_.layers.size(); ++n) {
+        if (OGRLayer* layer = ds.GetLayerByName(options_.layers[n].c_str())) {
+          add_layer(f, layer);
+          found[n] = true;
+        }
+      }
+    }
+    for (size_t n = 0; n < options_.layers.size(); ++n) {
+      if (found[n]) continue;
+      std::string available;
+      for (size_t f = 0; f < datasets_.size(); ++f)
+        available += (f ? "; " : "") + options_.paths[f] + ": " + list_layers(*datasets_[f]);
+      throw Error(ErrorKind::not_found, "layer '" + options_.layers[n] + "' not found (layers: " + available + ")");
+    }
+  }
+
+  std::string layer_label(const LayerRef& l) const { return options_.paths[l.file] + ":" + l.name; }
+
+  void choose_target() {
+    size_t without = 0;
+    for (const LayerRef& l : layers_) without += l.srs ? 0 : 1;
+    if (!options_.target_crs.empty()) {
+      target_ = gdal::parse_srs(options_.target_crs);
+      if (!target_) throw Error(ErrorKind::invalid_argument, "cannot parse the target CRS '" + options_.target_crs + "'");
+    } else if (without == 0) {
+      target_.reset(layers_.front().srs->Clone());
+      target_->SetAxisMappingStrategy(OAMS_TRADITIONAL_GIS_ORDER);
+    }
+    if (without > 0) {
+      const LayerRef* bare = nullptr;
+      for (const LayerRef& l : layers_)
+        if (!l.srs) { bare = &l; break; }
+      if (target_)
+        throw Error(ErrorKind::invalid_input,
+                    "layer " + layer_label(*bare) + " has no CRS, so it cannot be placed in the " +
+                        (options_.target_crs.empty() ? "other layers' CRS" : "target CRS") +
+                        " (layers without a CRS are accepted only when no layer has one and no target CRS is given)");
+      out_.report.warnings.push_back("no layer has a CRS: coordinates are used as they are, in unknown units");
+      return;  // out_.crs stays the default "unknown" description
+    }
+    out_.crs = gdal::crs_info(*target_);
+  }
+
+  void read_layer(LayerRef& l) {
+    gdal::ErrorCapture capture;
+    OGRFeatureDefn* defn = l.layer->GetLayerDefn();
+    int owner_index = -1;
+    if (options_.owner_field) {
+      owner_index = defn->GetFieldIndex(options_.owner_field->c_str());
+      if (owner_index < 0)
+        throw Error(ErrorKind::not_found, "owner field '" + *options_.owner_field + "' not found in layer " +
+                                              layer_label(l) + " (fields: " + list_fields(defn) + ")");
+    }
+    CtPtr ct;
+    if (target_ && l.srs && !l.srs->IsSame(target_.get())) {
+      ct.reset(OGRCreateCoordinateTransformation(l.srs.get(), target_.get()));
+      if (!ct)
+        throw Error(ErrorKind::invalid_input, "layer " + layer_label(l) + ": no transformation from its CRS (" +
+                                                  std::string(l.srs->GetName() ? l.srs->GetName() : "?") +
+                                                  ") to the target CRS" + capture.suffix());
+    }
+    const bool source_geographic = l.srs && l.srs->IsGeographic();
+    const bool target_geographic = target_ && target_->IsGeographic();
+    l.layer->ResetReading();
+    while (true) {
+      std::unique_ptr<OGRFeature> feature(l.layer->GetNextFeature());
+      if (!feature) break;
+      read_feature(l, *feature, owner_index, ct.get(), source_geographic, target_geographic);
+    }
+    if (!capture.last_error().empty())
+      throw Error(ErrorKind::io, "reading layer " + layer_label(l) + " failed: " + capture.last_error());
+    for (std::string& w : capture.take_warnings()) out_.report.warnings.push_back(layer_label(l) + ": GDAL: " + w);
+  }
+
+  static void check_vertices(const OGRGeometry& part, const std::string& source, bool geographic, const char* stage) {
+    for_each_vertex(part, [&](double x, double y) {
+      if (!std::isfinite(x) || !std::isfinite(y))
+        throw Error(ErrorKind::invalid_input, source + ": non-finite coordinate (" + format_number(x) + ", " +
+                                                  format_number(y) + ")" + stage);
+      if (geographic && std::abs(y) > 90.0)
+        throw Error(ErrorKind::invalid_input, source + ": latitude " + format_number(y) + " is beyond ±90" + stage +
+                                                  " (coordinate (" + format_number(x) + ", " + format_number(y) + "))");
+    });
+  }
+
+  void read_feature(const LayerRef& l, OGRFeature& f, int owner_index, OGRCoordinateTransformation* ct,
+                    bool source_geographic, bool target_geographic) {
+    ++position_;
+    const std::string source = layer_label(l) + ":fid " + std::to_string(f.GetFID());
+    const OGRGeometry* geometry = f.GetGeometryRef();
+    if (geometry == nullptr || geometry->IsEmpty()) {
+      ++out_.report.features_skipped_empty;
+      out_.report.warnings.push_back(source + ": " + (geometry ? "empty" : "null") + " geometry, skipped");
+      return;
+    }
+    std::string label;
+    if (owner_index >= 0) {
+      if (!f.IsFieldSetAndNotNull(owner_index))
+        throw Error(ErrorKind::invalid_input, source + ": the owner field '" + *options_.owner_field + "' is null or missing");
+      label = f.GetFieldAsString(owner_index);
+    } else {
+      label = std::to_string(position_);
+    }
+
+    // Curves become line strings (GDAL's default angular step), Z and M are dropped.
+    std::unique_ptr<OGRGeometry> linear(geometry->hasCurveGeometry(TRUE) ? geometry->getLinearGeometry()
+                                                                          : geometry->clone());
+    if (!linear) throw Error(ErrorKind::invalid_input, source + ": the curve geometry cannot be linearised");
+    linear->flattenTo2D();
+    linear->setMeasured(FALSE);
+    std::vector<std::unique_ptr<OGRGeometry>> parts;
+    split_parts(*linear, source, parts);
+
+    gdal::ErrorCapture capture;
+    for (auto& part : parts) {
+      check_vertices(*part, source, source_geographic, "");
+      if (ct != nullptr) {
+        if (part->transform(ct) != OGRERR_NONE)
+          throw Error(ErrorKind::invalid_input, source + ": cannot be reprojected into the target CRS" + capture.suffix());
+        check_vertices(*part, source, target_geographic, " after reprojection");
+      }
+    }
+
+    const int32_t owner = out_.seeds.owner_code(label);
+    const int32_t index = out_.seeds.add_feature(owner, source);
+    std::set<std::pair<double, double>> seen_points;
+    for (auto& part : parts) {
+      switch (wkbFlatten(part->getGeometryType())) {
+        case wkbPoint: {
+          const OGRPoint* p = part->toPoint();
+          if (!seen_points.emplace(p->getX(), p->getY()).second) {
+            ++out_.report.points_removed;
+            continue;
+          }
+          out_.seeds.add_point(index, Vec2{p->getX(), p->getY()});
+          keep_part(std::move(part), index, owner, 0, 1);
+          break;
+        }
+        case wkbLineString:
+          add_line(std::move(part), index, owner);
+          break;
+        case wkbPolygon:
+          add_polygon(std::move(part), index, owner, source);
+          break;
+        default:
+          throw Error(ErrorKind::internal, source + ": unexpected part type after splitting");
+      }
+    }
+    ++out_.report.features_read;
+  }
+
+  void keep_part(std::unique_ptr<OGRGeometry> g, int32_t feature, int32_t owner, int dimension, int64_t vertices) {
+    SeedPart part;
+    g->getEnvelope(&part.envelope);
+    part.geometry = std::move(g);
+    part.feature = feature;
+    part.owner = owner;
+    part.dimension = dimension;
+    part.vertices = vertices;
+    parts_.push_back(std::move(part));
+  }
+
+  void add_line(std::unique_ptr<OGRGeometry> g, int32_t feature, int32_t owner) {
+    std::vector<Vec2> v = vertices_of(*g->toLineString());
+    out_.report.vertices_removed += detail::remove_duplicate_vertices(v, false);
+    if (v.empty()) return;
+    out_.seeds.add_polyline(feature, v);
+    if (v.size() == 1) {
+      // A line of one repeated position is a point (the seed model does the same).
+      keep_part(std::make_unique<OGRPoint>(v[0].x, v[0].y), feature, owner, 0, 1);
+      return;
+    }
+    auto line = std::make_unique<OGRLineString>();
+    line->setNumPoints(static_cast<int>(v.size()), FALSE);
+    for (size_t i = 0; i < v.size(); ++i) line->setPoint(static_cast<int>(i), v[i].x, v[i].y);
+    keep_part(std::move(line), feature, owner, 1, static_cast<int64_t>(v.size()));
+  }
+
+  void add_polygon(std::unique_ptr<OGRGeometry> g, int32_t feature, int32_t owner, const std::string& source) {
+    const OGRPolygon* in = g->toPolygon();
+    std::vector<std::vector<Vec2>> rings;
+    std::vector<std::string> repairs;
+    for (int r = 0; r < in->getNumInteriorRings() + 1; ++r) {
+      const OGRLinearRing* ring = r == 0 ? in->getExteriorRing() : in->getInteriorRing(r - 1);
+      std::vector<Vec2> v = vertices_of(*ring);
+      if (v.size() >= 2 && !(v.front() == v.back())) repairs.push_back("unclosed ring closed");
+      out_.report.vertices_removed += detail::remove_duplicate_vertices(v, true);
+      if (v.size() < 3) {
+        if (r == 0)
+          throw Error(ErrorKind::invalid_input,
+                      source + ": polygon whose outer ring has fewer than 3 distinct vertices (no area)");
+        repairs.push_back("degenerate hole dropped");
+        continue;
+      }
+      rings.push_back(std::move(v));
+    }
+    auto clean = std::make_unique<OGRPolygon>();
+    for (const auto& v : rings) clean->addRingDirectly(make_ring(v).release());
+
+    std::vector<std::unique_ptr<OGRPolygon>> result;
+    {
+      gdal::ErrorCapture quiet;  // GEOS explains invalidity through warnings; we report our own
+      if (clean->IsValid()) {
+        result.push_back(std::move(clean));
+      } else {
+        std::unique_ptr<OGRGeometry> fixed(clean->MakeValid());
+        if (fixed) collect_polygons(*fixed, result);
+        if (result.empty())
+          throw Error(ErrorKind::invalid_input, source + ": invalid polygon that cannot be repaired into an area" +
+                                                    quiet.suffix());
+        repairs.push_back("invalid polygon (self-intersection or misplaced ring) repaired into " +
+                          std::to_string(result.size()) + " polygon(s)");
+      }
+    }
+    if (!repairs.empty()) {
+      ++out_.report.polygons_repaired;
+      std::string what;
+      for (const std::string& r : repairs) what += (what.empty() ? "" : "; ") + r;
+      out_.report.warnings.push_back(source + ": " + what);
+    }
+    for (auto& p : result) {
+      std::vector<Ring> seed_rings;
+      int64_t count = 0;
+      for (const OGRLinearRing* ring : *p) {
+        std::vector<Vec2> v = vertices_of(*ring);
+        detail::remove_duplicate_vertices(v, true);  // repair output: not counted as input noise
+        count += static_cast<int64_t>(v.size());
+        seed_rings.push_back(std::move(v));
+      }
+      out_.seeds.add_polygon(feature, std::move(seed_rings));
+      keep_part(std::move(p), feature, owner, 2, count);
+    }
+  }
+
+  // The polygons of MakeValid's output; lower-dimensional leftovers (collapsed spikes) dropped.
+  static void collect_polygons(const OGRGeometry& g, std::vector<std::unique_ptr<OGRPolygon>>& out) {
+    const OGRwkbGeometryType type = wkbFlatten(g.getGeometryType());
+    if (type == wkbPolygon) {
+      if (!g.IsEmpty() && g.toPolygon()->get_Area() > 0.0) out.emplace_back(g.toPolygon()->clone());
+      return;
+    }
+    if (OGR_GT_IsSubClassOf(type, wkbGeometryCollection)) {
+      const OGRGeometryCollection* c = g.toGeometryCollection();
+      for (int i = 0; i < c->getNumGeometries(); ++i) collect_polygons(*c->getGeometryRef(i), out);
+    }
+  }
+
+  const SeedReadOptions& options_;
+  LoadedSeeds& out_;
+  std::vector<gdal::DatasetPtr> datasets_;
+  std::vector<LayerRef> layers_;
+  gdal::SrsPtr target_;
+  std::vector<SeedPart> parts_;
+  int64_t position_ = 0;
+};
+
+}  // namespace
+
+LoadedSeeds load_seeds(const SeedReadOptions& options) {
+  gdal_init();
+  LoadedSeeds out;
+  Reader reader(options, out);
+  reader.run();
+  return out;
+}
+
+}  // namespace rv
