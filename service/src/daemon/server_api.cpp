@@ -127,23 +127,19 @@ json process_description(const std::string& base) {
       "description": "The seeds: a GeoJSON FeatureCollection, an array of them, or an uploaded GeoPackage, zipped Shapefile or FlatGeobuf as a base64 qualified value. References (href) are not accepted.",
       "minOccurs": 1, "maxOccurs": 1,
       "schema": {"oneOf": [
-        {"$ref": "#/$defs/featureCollection"},
-        {"$ref": "#/$defs/upload"},
-        {"type": "array", "minItems": 1, "items": {"oneOf": [{"$ref": "#/$defs/featureCollection"}, {"$ref": "#/$defs/upload"}]}}
-      ],
-      "$defs": {
-        "featureCollection": {"type": "object", "required": ["type", "features"],
-          "properties": {"type": {"const": "FeatureCollection"}, "features": {"type": "array"}}},
-        "upload": {"type": "object", "required": ["value", "mediaType"],
-          "properties": {"value": {"type": ["string", "object"]},
-            "mediaType": {"enum": ["application/geo+json", "application/geopackage+sqlite3", "application/zip", "application/flatgeobuf"]},
-            "encoding": {"const": "base64"}}}
-      }}
+        {"type": "object", "required": ["type", "features"],
+         "properties": {"type": {"type": "string", "enum": ["FeatureCollection"]}, "features": {"type": "array"}}},
+        {"type": "object", "required": ["value"],
+         "properties": {"value": {"oneOf": [{"type": "string"}, {"type": "object"}]},
+           "mediaType": {"type": "string", "enum": ["application/geo+json", "application/json", "application/geopackage+sqlite3", "application/zip", "application/flatgeobuf"]},
+           "encoding": {"type": "string", "enum": ["base64"]}}},
+        {"type": "array", "minItems": 1, "items": {"type": "object"}}
+      ]}
     },
     "ownerField": {"title": "Owner field", "description": "Attribute naming each feature's owner; without it every feature is its own owner.",
       "minOccurs": 0, "maxOccurs": 1, "schema": {"type": "string", "minLength": 1}},
     "resolution": {"title": "Cell size", "description": "Cell size in grid-CRS units (degrees on geographic grids).",
-      "minOccurs": 1, "maxOccurs": 1, "schema": {"type": "number", "exclusiveMinimum": 0}},
+      "minOccurs": 1, "maxOccurs": 1, "schema": {"type": "number", "minimum": 0, "exclusiveMinimum": true}},
     "extent": {"title": "Grid extent", "description": "xmin, ymin, xmax, ymax in the grid CRS; default: the seeds' box grown by 5 %. As an OGC bbox, its crs (if any) sets the grid CRS and must agree with the crs input.",
       "minOccurs": 0, "maxOccurs": 1, "schema": {"oneOf": [
         {"type": "array", "items": {"type": "number"}, "minItems": 4, "maxItems": 4},
@@ -158,7 +154,7 @@ json process_description(const std::string& base) {
       "minOccurs": 0, "maxOccurs": 1,
       "schema": {"type": "string", "enum": ["exact", "hv-scan", "hv_scan", "h-scan", "h_scan", "brute-force", "brute_force"], "default": "exact"}},
     "maxDistance": {"title": "Maximum distance", "description": "Cells farther than this from every seed get no owner, in distanceUnits.",
-      "minOccurs": 0, "maxOccurs": 1, "schema": {"type": "number", "exclusiveMinimum": 0}},
+      "minOccurs": 0, "maxOccurs": 1, "schema": {"type": "number", "minimum": 0, "exclusiveMinimum": true}},
     "distanceUnits": {"title": "Distance units", "minOccurs": 0, "maxOccurs": 1,
       "schema": {"type": "string", "enum": ["m", "km", "nmi"]}},
     "validate": {"title": "Validate", "description": "Also compute by brute force and report the differences (limited grid size).",
