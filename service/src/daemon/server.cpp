@@ -113,8 +113,12 @@ class Session : public std::enable_shared_from_this<Session> {
                                 std::to_string(shared_.config.http.max_body_bytes) + " bytes");
     }
     if (ec == beast::error::timeout) {
+      // tcp_stream has closed the socket already: nothing can be answered. A partial request
+      // is logged as 408 so that slow or stalled clients show up in the request log.
       if (parser_->got_some()) {
-        return protocol_error(408, "request-timeout", "Request timeout", "the request was not received in time");
+        status_ = 408;
+        method_ = parser_->is_header_done() ? std::string(parser_->get().method_string()) : "-";
+        log();
       }
       return close();
     }

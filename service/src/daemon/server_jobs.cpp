@@ -122,12 +122,28 @@ void JobManager::worker_loop() {
                        std::chrono::duration<double>(config_.jobs.job_timeout_s));
       running_.emplace(task.id, r);
     }
-    run_task(task);
+    JobRecord final_record;
+    try {
+      final_record = run_task(task);
+    } catch (const std::exception& e) {
+      // The store itself failed (disk full, database gone): the worker must survive it, and
+      // the client waiting on the job must still get an answer.
+      log_line("{\"time\":\"" + now_rfc3339() + "\",\"event\":\"job_store_failure\",\"job\":\"" + task.id +
+               "\",\"error\":" + nlohmann::json(e.what()).dump() + "}");
+      final_record.id = task.id;
+      final_record.process_id = "voronoi";
+      final_record.status = JobStatus::failed;
+      final_record.error_kind = std::string(to_string(ErrorKind::io));
+      final_record.message = std::string("the job store failed: ") + e.what();
+    }
     {
       std::lock_guard lock(mutex_);
       running_.erase(task.id);
     }
     idle_cv_.notify_all();
+    // Only now: whoever is told the job ended (a synchronous client) may act on it at once, and
+    // a dismissal then finds it finished, not running.
+    if (task.on_done) task.on_done(final_record);
   }
 }
 
@@ -159,7 +175,7 @@ void JobManager::update_progress(JobRecord& record, const std::string& stage, do
   store_.update(record);
 }
 
-void JobManager::run_task(Task& task) {
+JobRecord JobManager::run_task(Task& task) {
   const std::string& id = task.id;
   const std::filesystem::path dir = job_dir(id);
   std::shared_ptr<std::atomic<bool>> cancel;
@@ -169,7 +185,7 @@ void JobManager::run_task(Task& task) {
     cancel = running_.at(id).cancel;
     stored = store_.get(id);
   }
-  if (!stored) return;  // cannot happen: submit() inserted it
+  if (!stored) throw Error(ErrorKind::internal, "job " + id + " vanished from the store");
   JobRecord rec = *stored;
 
   JobSpec spec = task.execution.spec;
@@ -258,7 +274,7 @@ void JobManager::run_task(Task& task) {
       store_.update(rec);
     }
   }
-  if (task.on_done) task.on_done(rec);
+  return rec;
 }
 
 std::optional<JobRecord> JobManager::dismiss(const std::string& id) {

@@ -72,7 +72,8 @@ class JobManager {
 
   void worker_loop();
   void watchdog_loop();
-  void run_task(Task& task);
+  // Runs one job to its end and returns its final record.
+  JobRecord run_task(Task& task);
   void update_progress(JobRecord& record, const std::string& stage, double fraction, bool validate,
                        int& last_percent);
 
