@@ -53,6 +53,18 @@ std::vector<std::string> ErrorCapture::take_warnings() {
   return out;
 }
 
+ThreadConfigOption::ThreadConfigOption(const char* key, const char* value) : key_(key) {
+  if (const char* old = CPLGetThreadLocalConfigOption(key, nullptr)) {
+    previous_ = old;
+    had_previous_ = true;
+  }
+  CPLSetThreadLocalConfigOption(key, value);
+}
+
+ThreadConfigOption::~ThreadConfigOption() {
+  CPLSetThreadLocalConfigOption(key_.c_str(), had_previous_ ? previous_.c_str() : nullptr);
+}
+
 namespace {
 bool starts_with(const std::string& s, const char* prefix) { return s.rfind(prefix, 0) == 0; }
 

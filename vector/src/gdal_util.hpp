@@ -39,6 +39,8 @@ class ErrorCapture {
   const std::string& last_error() const { return last_error_; }
   // ": <last error>" or "" - for appending to a message.
   std::string suffix() const { return last_error_.empty() ? std::string() : ": " + last_error_; }
+  // Forgets the last error (to tell whether the next GDAL call failed).
+  void clear_error() { last_error_.clear(); }
   // CE_Warning messages, in order (capped: a driver may warn once per feature).
   std::vector<std::string> take_warnings();
 
@@ -47,6 +49,21 @@ class ErrorCapture {
   std::string last_error_;
   std::vector<std::string> warnings_;
   int64_t dropped_warnings_ = 0;
+};
+
+// Sets a GDAL configuration option for the calling thread while alive, then restores the
+// thread's previous value.
+class ThreadConfigOption {
+ public:
+  ThreadConfigOption(const char* key, const char* value);
+  ~ThreadConfigOption();
+  ThreadConfigOption(const ThreadConfigOption&) = delete;
+  ThreadConfigOption& operator=(const ThreadConfigOption&) = delete;
+
+ private:
+  std::string key_;
+  std::string previous_;
+  bool had_previous_ = false;
 };
 
 // The name GDAL should open: a plain "x.zip" (or ".ZIP") becomes "/vsizip/x.zip"; anything

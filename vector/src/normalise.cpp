@@ -176,6 +176,7 @@ void check_conflicts(std::vector<SeedPart>& parts, const SeedSet& seeds, Conflic
                    [&](size_t a, size_t b) { return parts[a].envelope.MinX < parts[b].envelope.MinX; });
   ConflictFinder finder(parts);
   std::vector<size_t> active;
+  int64_t unchecked = 0;
   for (size_t i : order) {
     const OGREnvelope& e = parts[i].envelope;
     // Drop parts that end west of this one: no later part (sorted by MinX) can meet them.
@@ -186,7 +187,16 @@ void check_conflicts(std::vector<SeedPart>& parts, const SeedSet& seeds, Conflic
       const SeedPart& other = parts[j];
       if (other.owner == parts[i].owner) continue;
       if (other.envelope.MaxY < e.MinY || other.envelope.MinY > e.MaxY) continue;
-      if (!finder.interiors_intersect(j, i)) continue;
+      quiet.clear_error();
+      const bool meet = finder.interiors_intersect(j, i);
+      if (!quiet.last_error().empty()) {
+        // GEOS refused the pair (e.g. a TopologyException): say so rather than pass it silently.
+        ++unchecked;
+        if (unchecked <= kMaxConflictLines)
+          report.warnings.push_back("could not check " + describe_feature(seeds, parts[j].feature) + " against " +
+                                    describe_feature(seeds, parts[i].feature) + " for overlap: " + quiet.last_error());
+      }
+      if (!meet) continue;
       // Report in input order (lower feature first) whatever order the sweep met them in.
       const SeedPart& a = parts[j].feature <= parts[i].feature ? parts[j] : parts[i];
       const SeedPart& b = &a == &parts[j] ? parts[i] : parts[j];
@@ -207,6 +217,8 @@ void check_conflicts(std::vector<SeedPart>& parts, const SeedSet& seeds, Conflic
     }
     active.push_back(i);
   }
+  if (unchecked > kMaxConflictLines)
+    report.warnings.push_back(std::to_string(unchecked - kMaxConflictLines) + " further pairs could not be checked");
   if (report.conflicts > kMaxConflictLines)
     report.warnings.push_back(std::to_string(report.conflicts - kMaxConflictLines) +
                               " further conflicts between owners not listed");

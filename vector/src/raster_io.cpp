@@ -56,6 +56,14 @@ const char* compression(GDALDriver* gtiff) {
   return list != nullptr && std::strstr(list, "ZSTD") != nullptr ? "ZSTD" : "DEFLATE";
 }
 
+// The level creation option for the chosen compression.
+void set_level(CPLStringList& co, const char* compress, int level) {
+  if (std::strcmp(compress, "ZSTD") == 0)
+    co.SetNameValue("ZSTD_LEVEL", std::to_string(level > 0 ? level : 3).c_str());
+  else if (level > 0)
+    co.SetNameValue("ZLEVEL", std::to_string(level).c_str());
+}
+
 std::string thread_option(int threads) { return threads <= 0 ? "ALL_CPUS" : std::to_string(threads); }
 
 std::string directory_of(const std::string& path) {
@@ -98,15 +106,20 @@ class TempOutput {
     const std::string temp_aux = temp_ + ".aux.xml";
     const std::string target_aux = target_ + ".aux.xml";
     // The sidecar first: once the new file is visible under its name, its sidecar already is.
-    if (exists(temp_aux)) {
+    const bool has_aux = exists(temp_aux);
+    if (has_aux) {
       if (VSIRename(temp_aux.c_str(), target_aux.c_str()) != 0)
         throw Error(ErrorKind::io, "cannot rename " + temp_aux + " to " + target_aux + ": " + std::strerror(errno));
     } else if (exists(target_aux)) {
       // A sidecar left by an earlier file of this name would describe the wrong raster.
       VSIUnlink(target_aux.c_str());
     }
-    if (VSIRename(temp_.c_str(), target_.c_str()) != 0)
-      throw Error(ErrorKind::io, "cannot rename " + temp_ + " to " + target_ + ": " + std::strerror(errno));
+    if (VSIRename(temp_.c_str(), target_.c_str()) != 0) {
+      const int err = errno;
+      // The new sidecar must not stay next to a file it does not describe.
+      if (has_aux) VSIUnlink(target_aux.c_str());
+      throw Error(ErrorKind::io, "cannot rename " + temp_ + " to " + target_ + ": " + std::strerror(err));
+    }
     committed_ = true;
   }
 
@@ -205,6 +218,7 @@ void write_plain(const std::string& path, const Raster<T>& raster, double nodata
   co.SetNameValue("BLOCKXSIZE", std::to_string(kBlock).c_str());
   co.SetNameValue("BLOCKYSIZE", std::to_string(kBlock).c_str());
   co.SetNameValue("COMPRESS", compression(gtiff));
+  set_level(co, compression(gtiff), options.compression_level);
   co.SetNameValue("PREDICTOR", PixelType<T>::predictor);
   co.SetNameValue("NUM_THREADS", thread_option(options.threads).c_str());
   co.SetNameValue("BIGTIFF", "IF_SAFER");
@@ -244,7 +258,13 @@ void write_cog(const std::string& path, const Raster<T>& raster, double nodata, 
   CPLStringList co;
   co.SetNameValue("BLOCKSIZE", std::to_string(kBlock).c_str());
   co.SetNameValue("COMPRESS", compression(gtiff));
+  // The COG driver names the level option LEVEL for every codec.
+  co.SetNameValue("LEVEL", std::to_string(options.compression_level > 0
+                                              ? options.compression_level
+                                              : (std::strcmp(compression(gtiff), "ZSTD") == 0 ? 3 : 6))
+                               .c_str());
   co.SetNameValue("PREDICTOR", "YES");  // the COG driver picks 2 for integers, 3 for floats
+  co.SetNameValue("OVERVIEW_PREDICTOR", "YES");
   co.SetNameValue("NUM_THREADS", thread_option(options.threads).c_str());
   co.SetNameValue("BIGTIFF", "IF_SAFER");
   // Owner codes must never be averaged into codes nobody owns.
@@ -275,10 +295,7 @@ void write_any(const std::string& path, const Raster<T>& raster, double nodata, 
   gdal::ErrorCapture capture;
   // The RAT lives in the PAM sidecar: make sure PAM is on for this thread whatever the
   // process configuration says.
-  CPLSetThreadLocalConfigOption("GDAL_PAM_ENABLED", "YES");
-  struct PamReset {
-    ~PamReset() { CPLSetThreadLocalConfigOption("GDAL_PAM_ENABLED", nullptr); }
-  } pam_reset;
+  gdal::ThreadConfigOption pam("GDAL_PAM_ENABLED", "YES");
   TempOutput out(path);
   if (options.cloud_optimized)
     write_cog(path, raster, nodata, options, out, capture);

@@ -63,10 +63,30 @@ std::string list_layers(GDALDataset& ds) {
   return out.empty() ? "(none)" : out;
 }
 
+// OGR flags a point whose coordinate is NaN as empty (WKB writes POINT EMPTY as (NaN, NaN)), so a
+// data error such as [NaN, 1.0] would pass for an empty geometry. A point counts as empty here
+// only when OGR says so and its coordinates are not half NaN; a partly-NaN point is kept so that
+// the coordinate check reports it.
+bool truly_empty(const OGRGeometry& g) {
+  const OGRwkbGeometryType type = wkbFlatten(g.getGeometryType());
+  if (type == wkbPoint) {
+    const OGRPoint* p = g.toPoint();
+    if (!p->IsEmpty()) return false;
+    return std::isnan(p->getX()) == std::isnan(p->getY());
+  }
+  if (OGR_GT_IsSubClassOf(type, wkbGeometryCollection)) {
+    const OGRGeometryCollection* c = g.toGeometryCollection();
+    for (int i = 0; i < c->getNumGeometries(); ++i)
+      if (!truly_empty(*c->getGeometryRef(i))) return false;
+    return true;
+  }
+  return g.IsEmpty() != 0;
+}
+
 // Splits a (linear, 2D) geometry into owned clones of its simple parts: points, line strings
 // and polygons, in the order they appear.
 void split_parts(const OGRGeometry& g, const std::string& source, std::vector<std::unique_ptr<OGRGeometry>>& out) {
-  if (g.IsEmpty()) return;
+  if (truly_empty(g)) return;
   const OGRwkbGeometryType type = wkbFlatten(g.getGeometryType());
   switch (type) {
     case wkbPoint:
@@ -108,8 +128,8 @@ void split_parts(const OGRGeometry& g, const std::string& source, std::vector<st
 template <class F>
 void for_each_vertex(const OGRGeometry& g, F&& f) {
   switch (wkbFlatten(g.getGeometryType())) {
-    case wkbPoint:
-      if (!g.IsEmpty()) f(g.toPoint()->getX(), g.toPoint()->getY());
+    case wkbPoint:  // split_parts keeps only non-empty (or partly NaN) points
+      f(g.toPoint()->getX(), g.toPoint()->getY());
       return;
     case wkbLineString: {
       const OGRLineString* l = g.toLineString();
@@ -178,8 +198,14 @@ class Reader {
         throw Error(ErrorKind::invalid_input, path + ": " + why + capture.suffix());
       }
       datasets_.emplace_back(ds);
-      for (std::string& w : capture.take_warnings()) out_.report.warnings.push_back(path + ": GDAL: " + w);
+      for (std::string& w : capture.take_warnings()) gdal_warning(path, w);
     }
+  }
+
+  // GDAL repeats some warnings (once when a driver sniffs the file, once when it reads it):
+  // each distinct text is reported once.
+  void gdal_warning(const std::string& where, const std::string& text) {
+    if (gdal_warnings_seen_.insert(text).second) out_.report.warnings.push_back(where + ": GDAL: " + text);
   }
 
   static std::string join(const std::vector<std::string>& v) {
@@ -244,7 +270,7 @@ class Reader {
       const LayerRef* bare = nullptr;
       for (const LayerRef& l : layers_)
         if (!l.srs) { bare = &l; break; }
-      if (target_)
+      if (target_ || without < layers_.size())
         throw Error(ErrorKind::invalid_input,
                     "layer " + layer_label(*bare) + " has no CRS, so it cannot be placed in the " +
                         (options_.target_crs.empty() ? "other layers' CRS" : "target CRS") +
@@ -283,7 +309,7 @@ class Reader {
     }
     if (!capture.last_error().empty())
       throw Error(ErrorKind::io, "reading layer " + layer_label(l) + " failed: " + capture.last_error());
-    for (std::string& w : capture.take_warnings()) out_.report.warnings.push_back(layer_label(l) + ": GDAL: " + w);
+    for (std::string& w : capture.take_warnings()) gdal_warning(layer_label(l), w);
   }
 
   static void check_vertices(const OGRGeometry& part, const std::string& source, bool geographic, const char* stage) {
@@ -302,7 +328,7 @@ class Reader {
     ++position_;
     const std::string source = layer_label(l) + ":fid " + std::to_string(f.GetFID());
     const OGRGeometry* geometry = f.GetGeometryRef();
-    if (geometry == nullptr || geometry->IsEmpty()) {
+    if (geometry == nullptr || truly_empty(*geometry)) {
       ++out_.report.features_skipped_empty;
       out_.report.warnings.push_back(source + ": " + (geometry ? "empty" : "null") + " geometry, skipped");
       return;
@@ -466,6 +492,7 @@ class Reader {
   gdal::SrsPtr target_;
   std::vector<SeedPart> parts_;
   int64_t position_ = 0;
+  std::set<std::string> gdal_warnings_seen_;
 };
 
 }  // namespace

@@ -35,9 +35,11 @@ enum class ConflictPolicy {
 };
 
 struct SeedReadOptions {
-  std::vector<std::string> paths;        // GDAL-openable names (files, /vsizip/..., /vsimem/...)
-  std::vector<std::string> layers;       // layer names to read; empty = every layer. Each name
-                                         // must exist in at least one of the files.
+  std::vector<std::string> paths;        // GDAL-openable names (files, /vsizip/..., /vsimem/...);
+                                         // a plain "x.zip" is opened as "/vsizip/x.zip"
+  std::vector<std::string> layers;       // layer names to read; empty = every layer. A name is
+                                         // read from every file that has it and must exist in
+                                         // at least one (else not_found).
   std::optional<std::string> owner_field;  // must exist in every layer read; null values are errors.
                                            // Values are compared as text (GDAL's string form).
   std::string target_crs;                // any definition OSR understands; empty = first layer's CRS.

@@ -1,0 +1,192 @@
+// The rvoronoi command line as a user runs it: the real binary, real files, exit codes.
+#include <gtest/gtest.h>
+
+#include <array>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <string>
+
+#include <nlohmann/json.hpp>
+
+#include "rv/engine.hpp"
+#include "rv/outputs.hpp"
+#include "rv/raster_io.hpp"
+#include "rv/seed_reader.hpp"
+
+namespace fs = std::filesystem;
+
+namespace rv {
+namespace {
+
+struct CliRun {
+  int exit_code;
+  std::string output;  // stdout and stderr together
+};
+
+CliRun run(const std::string& args) {
+  const std::string cmd = std::string(RV_BINARY) + " " + args + " 2>&1";
+  FILE* p = ::popen(cmd.c_str(), "r");
+  std::string out;
+  std::array<char, 4096> buf{};
+  for (size_t n; (n = std::fread(buf.data(), 1, buf.size(), p)) > 0;) out.append(buf.data(), n);
+  const int status = ::pclose(p);
+  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, out};
+}
+
+std::string source(const std::string& rel) { return std::string(std::getenv("RV_SOURCE_DIR")) + "/" + rel; }
+
+class Cli : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = fs::temp_directory_path() / ("rv_cli_" + std::to_string(::getpid()) + "_" +
+                                        ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    fs::remove_all(dir_);
+    fs::create_directories(dir_);
+  }
+  void TearDown() override { fs::remove_all(dir_); }
+  std::string path(const std::string& name) const { return (dir_ / name).string(); }
+  std::string write(const std::string& name, const std::string& text) const {
+    std::ofstream(path(name)) << text;
+    return path(name);
+  }
+  size_t file_count() const {
+    return static_cast<size_t>(std::distance(fs::directory_iterator(dir_), fs::directory_iterator()));
+  }
+  fs::path dir_;
+};
+
+const std::string kDemo = "fixtures/demo_basepoints.geojson";
+
+TEST_F(Cli, ComputeWritesGeoTiffsThatMatchTheEngine) {
+  const CliRun r = run("compute " + source(kDemo) + " --owner-field state --resolution 250 --ownership " +
+                    path("own.tif") + " --distance " + path("dist.tif") + " --nearest-feature " + path("feat.tif") +
+                    " --report " + path("report.json") + " --quiet");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+
+  // The same computation in-process.
+  gdal_init();
+  SeedReadOptions ro;
+  ro.paths = {source(kDemo)};
+  ro.owner_field = "state";
+  const LoadedSeeds seeds = load_seeds(ro);
+  const GridSpec grid = read_grid(path("own.tif"));
+  EXPECT_DOUBLE_EQ(grid.res, 250.0);
+  EXPECT_NE(grid.crs.find("UTM zone 33N"), std::string::npos);
+  // Extent: the seeds' box grown by 5 % and snapped outward to whole cells.
+  const SeedSet::Box b = seeds.seeds.bounds();
+  EXPECT_LE(grid.xmin, b.xmin);
+  EXPECT_GE(grid.ymax, b.ymax);
+  EXPECT_EQ(std::fmod(grid.xmin, 250.0), 0.0);
+  ComputeOptions co;
+  const NearestField f = compute(seeds.seeds, grid, co);
+  const Raster<int32_t> own = read_int32(path("own.tif"));
+  EXPECT_EQ(own.width(), grid.width);
+  EXPECT_EQ(own.cells(), owner_raster(seeds.seeds, f).cells());
+  EXPECT_EQ(read_int32(path("feat.tif")).cells(), feature_raster(seeds.seeds, f).cells());
+  EXPECT_EQ(read_float32(path("dist.tif")).cells(), f.distance.cells());
+  EXPECT_EQ(read_category_labels(path("own.tif")), (std::vector<std::string>{"A", "B", "C"}));
+
+  const nlohmann::json rep = nlohmann::json::parse(std::ifstream(path("report.json")));
+  EXPECT_EQ(rep["method"], "exact");
+  EXPECT_EQ(rep["grid"]["width"], grid.width);
+  EXPECT_EQ(rep["seeds"]["owners"][1]["label"], "B");
+  EXPECT_GT(rep["peak_memory_bytes"].get<int64_t>(), 0);
+  EXPECT_TRUE(rep["timings_s"].contains("compute"));
+  EXPECT_TRUE(rep["timings_s"]["write"].contains("ownership"));
+}
+
+TEST_F(Cli, ThreadCountDoesNotChangeTheFiles) {
+  for (const char* t : {"1", "7"}) {
+    const CliRun r = run("compute " + source(kDemo) + " --resolution 300 --method hv-scan --threads " + t +
+                      " --ownership " + path(std::string("own") + t + ".tif") + " --quiet");
+    ASSERT_EQ(r.exit_code, 0) << r.output;
+  }
+  EXPECT_EQ(read_int32(path("own1.tif")).cells(), read_int32(path("own7.tif")).cells());
+}
+
+TEST_F(Cli, MaxDistanceAndUnits) {
+  const CliRun r = run("compute " + source(kDemo) + " --resolution 500 --max-distance 3 --distance-units km --ownership " +
+                    path("own.tif") + " --distance " + path("d.tif") + " --quiet");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const Raster<float> d = read_float32(path("d.tif"));
+  const Raster<int32_t> o = read_int32(path("own.tif"));
+  int64_t none = 0;
+  for (size_t i = 0; i < d.size(); ++i) {
+    if (o.cells()[i] == 0) {
+      ++none;
+      EXPECT_EQ(d.cells()[i], kNoDistance);
+    } else {
+      EXPECT_LE(d.cells()[i], 3.0f);  // kilometres
+    }
+  }
+  EXPECT_GT(none, 0);
+}
+
+TEST_F(Cli, ValidateReportsZeroWrongCellsForExact) {
+  const CliRun r = run("validate " + source(kDemo) + " --resolution 400 --methods exact,hv-scan");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const nlohmann::json j = nlohmann::json::parse(r.output);
+  EXPECT_EQ(j["methods"]["exact"]["wrong_cells"], 0);
+  EXPECT_LT(j["methods"]["hv-scan"]["max_error_cells"].get<double>(), 1.0);
+}
+
+TEST_F(Cli, RandomTrialsReproduceTable2Buckets) {
+  const CliRun r = run("validate --random-seeds 20 --size 100 100 --trials 5 --seed 3");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const nlohmann::json j = nlohmann::json::parse(r.output);
+  EXPECT_EQ(j["buckets_cells"][2], ">3");
+  EXPECT_EQ(j["methods"]["hv-scan"]["trials_in_bucket"][0], 5);
+  const auto& h = j["methods"]["h-scan"]["trials_in_bucket"];
+  EXPECT_EQ(h[0].get<int>() + h[1].get<int>() + h[2].get<int>(), 5);
+}
+
+// Bad input: one clear line, a distinct non-zero exit code, and no output file left behind.
+void expect_refused(const CliRun& r, int code, const std::string& fragment) {
+  EXPECT_EQ(r.exit_code, code) << r.output;
+  EXPECT_NE(r.output.find(fragment), std::string::npos) << r.output;
+  EXPECT_EQ(std::count(r.output.begin(), r.output.end(), '\n'), 1) << r.output;
+}
+
+TEST_F(Cli, BadInputFailsCleanly) {
+  const std::string out = " --ownership " + path("own.tif") + " --distance " + path("d.tif") + " --quiet";
+  const std::string empty = write("empty.geojson", R"({"type":"FeatureCollection","features":[]})");
+  expect_refused(run("compute " + empty + " --resolution 10" + out), 3, "no seed");
+  expect_refused(run("compute " + path("missing.geojson") + " --resolution 10" + out), 4, "missing.geojson");
+  expect_refused(run("compute " + source(kDemo) + " --resolution 10 --extent 5 0 5 10" + out), 2, "xmin");
+  expect_refused(run("compute " + source(kDemo) + " --resolution -1" + out), 2, "resolution");
+  expect_refused(run("compute " + source(kDemo) + " --resolution 0" + out), 2, "resolution");
+  // 1e-4 m cells over ~50 km: ~2e17 cells, refused before any allocation.
+  expect_refused(run("compute " + source(kDemo) + " --resolution 0.0001" + out), 6, "limit");
+  const std::string nan = write("nan.geojson",
+      R"({"type":"FeatureCollection","features":[{"type":"Feature","properties":{},"geometry":{"type":"Point","coordinates":[1,1]}},)"
+      R"({"type":"Feature","properties":{},"geometry":{"type":"Point","coordinates":[NaN,2]}}]})");
+  const CliRun rn = run("compute " + nan + " --resolution 1" + out);
+  EXPECT_NE(rn.exit_code, 0) << rn.output;
+  expect_refused(run("compute " + source(kDemo) + " --resolution 10 --method magic" + out), 2, "magic");
+  expect_refused(run("compute " + source(kDemo) + " --resolution 10 --bogus" + out), 2, "--bogus");
+  expect_refused(run("compute " + source(kDemo) + " --resolution 10"), 2, "--ownership");
+  // Only the two input files written by this test remain: no partial outputs.
+  EXPECT_EQ(file_count(), 2u);
+}
+
+TEST_F(Cli, FailedWriteLeavesNothingBehind) {
+  // The distance output goes to a directory that does not exist: the ownership file written
+  // before it must be removed too.
+  const CliRun r = run("compute " + source(kDemo) + " --resolution 500 --ownership " + path("own.tif") +
+                    " --distance " + path("nodir/d.tif") + " --quiet");
+  EXPECT_EQ(r.exit_code, 9) << r.output;
+  EXPECT_EQ(file_count(), 0u);
+}
+
+TEST_F(Cli, HelpAndVersion) {
+  EXPECT_EQ(run("--version").exit_code, 0);
+  const CliRun h = run("--help");
+  EXPECT_EQ(h.exit_code, 0);
+  EXPECT_NE(h.output.find("rvoronoi compute"), std::string::npos);
+  EXPECT_EQ(run("").exit_code, 2);
+  EXPECT_EQ(run("frobnicate").exit_code, 2);
+}
+
+}  // namespace
+}  // namespace rv

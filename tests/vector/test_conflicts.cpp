@@ -1,0 +1,161 @@
+// Conflicts between owners: overlapping polygons, crossing lines, a line entering another
+// owner's polygon (errors naming both features and a location); touching is not a conflict;
+// ConflictPolicy::lower_code accepts overlaps and the engine resolves them.
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <cstdio>
+#include <sstream>
+#include <regex>
+
+#include "rv/engine.hpp"
+#include "rv/interior.hpp"
+#include "rv/seed_reader.hpp"
+#include "vector_test_util.hpp"
+
+namespace rv {
+namespace {
+
+using test::expect_error;
+using test::fixture;
+
+constexpr double kX0 = 400000.0, kY0 = 6200000.0;
+
+LoadedSeeds load(const std::string& name, ConflictPolicy policy = ConflictPolicy::error) {
+  SeedReadOptions o;
+  o.paths = {fixture(name)};
+  o.owner_field = "owner";
+  o.on_conflict = policy;
+  return load_seeds(o);
+}
+
+// The "(x, y)" after "at " in a conflict message.
+Vec2 location(const std::string& message) {
+  std::smatch m;
+  const std::regex re(R"(at \(([-0-9.eE+]+), ([-0-9.eE+]+)\))");
+  if (!std::regex_search(message, m, re)) {
+    ADD_FAILURE() << "no location in: " << message;
+    return {};
+  }
+  return Vec2{std::stod(m[1]), std::stod(m[2])};
+}
+
+TEST(Conflicts, OverlappingPolygonsNameBothFeaturesAndALocation) {
+  const std::string msg = expect_error(ErrorKind::conflict, [] { load("overlap.geojson"); },
+                                       {"overlap.geojson:overlap:fid 0", "overlap.geojson:overlap:fid 1", "'A'", "'B'",
+                                        "overlap area"});
+  const Vec2 p = location(msg);
+  // The overlap is the square (3..4, 3..4) km.
+  EXPECT_GT(p.x, kX0 + 3000.0);
+  EXPECT_LT(p.x, kX0 + 4000.0);
+  EXPECT_GT(p.y, kY0 + 3000.0);
+  EXPECT_LT(p.y, kY0 + 4000.0);
+}
+
+TEST(Conflicts, CrossingLinesReportTheCrossing) {
+  const std::string msg = expect_error(ErrorKind::conflict, [] { load("crossing_lines.geojson"); },
+                                       {"crossing_lines.geojson:crossing_lines:fid 0", "crossing_lines:fid 1", "cross"});
+  const Vec2 p = location(msg);
+  EXPECT_NEAR(p.x, kX0 + 2000.0, 1e-6);
+  EXPECT_NEAR(p.y, kY0 + 2000.0, 1e-6);
+}
+
+TEST(Conflicts, LineIntoAnotherOwnersPolygon) {
+  const std::string msg = expect_error(ErrorKind::conflict, [] { load("line_into_polygon.geojson"); },
+                                       {"line_into_polygon:fid 0", "line_into_polygon:fid 1"});
+  const Vec2 p = location(msg);
+  // Inside polygon A (0..4 km square), on the line y = 2 km.
+  EXPECT_GT(p.x, kX0 + 3000.0 - 1e-6);
+  EXPECT_LT(p.x, kX0 + 4000.0 + 1e-6);
+  EXPECT_NEAR(p.y, kY0 + 2000.0, 1e-6);
+}
+
+TEST(Conflicts, TouchingIsNotAConflict) {
+  const LoadedSeeds l = load("touching.geojson");
+  EXPECT_EQ(l.report.conflicts, 0);
+  EXPECT_EQ(l.seeds.owner_count(), 5);
+}
+
+TEST(Conflicts, WithoutOwnerFieldEveryFeatureIsAnOwner) {
+  // The same-owner line crossing polygon A in touching.geojson becomes a conflict when each
+  // feature is its own owner.
+  SeedReadOptions o;
+  o.paths = {fixture("touching.geojson")};
+  expect_error(ErrorKind::conflict, [&] { load_seeds(o); }, {"touching:fid 0", "touching:fid 5"});
+}
+
+TEST(Conflicts, LowerCodeAcceptsAndTheEngineResolves) {
+  const LoadedSeeds l = load("overlap.geojson", ConflictPolicy::lower_code);
+  EXPECT_EQ(l.report.conflicts, 1);
+  ASSERT_FALSE(l.report.warnings.empty());
+  EXPECT_NE(l.report.warnings[0].find("'A' takes the overlap"), std::string::npos) << l.report.warnings[0];
+
+  // 100 m cells over (0..6, 0..6) km.
+  GridSpec g = make_grid(kX0, kY0, kX0 + 6000.0, kY0 + 6000.0, 100.0, l.crs.wkt);
+  const InteriorSpans spans = build_interiors(l.seeds, g, g.full_window());
+  EXPECT_EQ(spans.contested_cells, 100);  // the 10 x 10 cells of the overlap
+  ComputeOptions co;
+  co.threads = 2;
+  const NearestField f = compute(l.seeds, g, co);
+  // Cell centre (3.55, 3.55) km is inside both: owner A (code 1), distance 0.
+  const int64_t col = 35, row = 60 - 1 - 35;
+  const int32_t site = f.site.at(col, row);
+  ASSERT_NE(site, kNoSite);
+  EXPECT_EQ(l.seeds.site_owner(site), 1);
+  EXPECT_EQ(f.distance.at(col, row), 0.0f);
+  // Inside B only: (5, 5) km.
+  EXPECT_EQ(l.seeds.site_owner(f.site.at(50, 60 - 1 - 50)), 2);
+}
+
+// 10 000 squares in a checkerboard of two owners: every square touches four squares of the
+// other owner along an edge (the worst case for the envelope pre-filter: every candidate pair
+// goes to GEOS). No conflict; then one more square overlapping a cell is found and named.
+TEST(Conflicts, TenThousandTouchingFeaturesStayFast) {
+  test::ScratchDir dir;
+  const int n = 100;
+  const auto write = [&](const std::string& name, bool with_overlap) {
+    std::ostringstream f;
+    f.precision(12);
+    f << R"({"type": "FeatureCollection", "crs": {"type": "name", "properties": {"name": "urn:ogc:def:crs:EPSG::32633"}}, "features": [)";
+    const auto square = [&](const char* owner, double x, double y, double size) {
+      f << R"({"type": "Feature", "properties": {"owner": ")" << owner
+        << R"("}, "geometry": {"type": "Polygon", "coordinates": [[)" << "[" << x << "," << y << "],[" << x << ","
+        << y + size << "],[" << x + size << "," << y + size << "],[" << x + size << "," << y << "],[" << x << "," << y
+        << "]]]}}";
+    };
+    for (int i = 0; i < n; ++i)
+      for (int j = 0; j < n; ++j) {
+        if (i + j > 0) f << ",";
+        square((i + j) % 2 ? "A" : "B", kX0 + i * 100.0, kY0 + j * 100.0, 100.0);
+      }
+    if (with_overlap) {
+      f << ",";
+      square("C", kX0 + 5020.0, kY0 + 7020.0, 50.0);  // inside the square (50, 70)
+    }
+    f << "]}";
+    return dir.write(name, f.str());
+  };
+  SeedReadOptions o;
+  o.owner_field = "owner";
+  o.paths = {write("checker.geojson", false)};
+  const auto t0 = std::chrono::steady_clock::now();
+  const LoadedSeeds l = load_seeds(o);
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  EXPECT_EQ(l.report.features_read, n * n);
+  EXPECT_EQ(l.report.conflicts, 0);
+  RecordProperty("load_seconds_10k_touching", std::to_string(seconds));
+  std::printf("10 000 touching squares of two owners read and checked in %.2f s\n", seconds);
+  EXPECT_LT(seconds, 60.0);  // ~1.4 s on the 2-core development machine
+
+  o.paths = {write("checker_overlap.geojson", true)};
+  const std::string msg = expect_error(ErrorKind::conflict, [&] { load_seeds(o); },
+                                       {"checker_overlap:fid 5070", "checker_overlap:fid 10000", "'C'"});
+  const Vec2 p = location(msg);
+  EXPECT_GT(p.x, kX0 + 5020.0);
+  EXPECT_LT(p.x, kX0 + 5070.0);
+  EXPECT_GT(p.y, kY0 + 7020.0);
+  EXPECT_LT(p.y, kY0 + 7070.0);
+}
+
+}  // namespace
+}  // namespace rv

@@ -1,0 +1,257 @@
+// GeoTIFF writing and reading: round trips checked through GDAL by content (size, geotransform,
+// CRS, nodata, values, layout, raster attribute table), COG overviews, atomic writes.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <set>
+
+#include <gdal_priv.h>
+#include <gdal_rat.h>
+#include <ogr_spatialref.h>
+
+#include "rv/raster_io.hpp"
+#include "rv/seed_reader.hpp"
+#include "vector_test_util.hpp"
+
+namespace rv {
+namespace {
+
+using test::expect_error;
+using test::ScratchDir;
+
+GridSpec utm_grid(int64_t w, int64_t h, double res = 200.0) {
+  GridSpec g;
+  g.xmin = 300000.0;
+  g.ymax = 6250000.0;
+  g.res = res;
+  g.width = w;
+  g.height = h;
+  g.crs = describe_crs("EPSG:32633").wkt;
+  return g;
+}
+
+std::vector<std::string> files_in(const std::filesystem::path& dir) {
+  std::vector<std::string> out;
+  for (const auto& e : std::filesystem::directory_iterator(dir)) out.push_back(e.path().filename().string());
+  std::sort(out.begin(), out.end());
+  return out;
+}
+
+std::unique_ptr<GDALDataset> open(const std::string& path) {
+  return std::unique_ptr<GDALDataset>(GDALDataset::Open(path.c_str(), GDAL_OF_RASTER | GDAL_OF_READONLY));
+}
+
+bool same_crs(const std::string& a, const std::string& b) {
+  OGRSpatialReference x, y;
+  if (x.SetFromUserInput(a.c_str()) != OGRERR_NONE || y.SetFromUserInput(b.c_str()) != OGRERR_NONE) return false;
+  return x.IsSame(&y) != 0;
+}
+
+TEST(RasterIo, Int32RoundTripWithCategories) {
+  gdal_init();
+  ScratchDir dir;
+  // A window of a larger grid: the file must be georeferenced as the window.
+  const GridSpec grid = utm_grid(1000, 800);
+  const Window window{300, 100, 517, 389};  // not a multiple of the 256 tile size
+  Raster<int32_t> r(grid, window, 0);
+  for (int64_t row = 0; row < r.height(); ++row)
+    for (int64_t col = 0; col < r.width(); ++col) r.at(col, row) = static_cast<int32_t>((col / 40 + row / 30) % 4);
+  GeoTiffOptions o;
+  o.categorical = true;
+  o.threads = 2;
+  o.units = "owner";
+  o.metadata = {{"SOURCE", "rvoronoi test"}};
+  o.category_labels = {"DK", "SE", "NO"};
+  const std::string path = dir.file("owners.tif");
+  write_geotiff(path, r, 0.0, o);
+  EXPECT_EQ(files_in(dir.path()), (std::vector<std::string>{"owners.tif", "owners.tif.aux.xml"}));
+
+  const GridSpec back = read_grid(path);
+  EXPECT_EQ(back.width, 517);
+  EXPECT_EQ(back.height, 389);
+  EXPECT_DOUBLE_EQ(back.res, 200.0);
+  EXPECT_DOUBLE_EQ(back.xmin, 300000.0 + 300 * 200.0);
+  EXPECT_DOUBLE_EQ(back.ymax, 6250000.0 - 100 * 200.0);
+  EXPECT_TRUE(same_crs(back.crs, grid.crs));
+  const Raster<int32_t> values = read_int32(path);
+  EXPECT_EQ(values.cells(), r.cells());
+  EXPECT_EQ(read_category_labels(path), o.category_labels);
+
+  // Through GDAL directly.
+  auto ds = open(path);
+  ASSERT_TRUE(ds);
+  GDALRasterBand* band = ds->GetRasterBand(1);
+  EXPECT_EQ(band->GetRasterDataType(), GDT_Int32);
+  int has_nodata = 0;
+  EXPECT_EQ(band->GetNoDataValue(&has_nodata), 0.0);
+  EXPECT_TRUE(has_nodata);
+  int bx = 0, by = 0;
+  band->GetBlockSize(&bx, &by);
+  EXPECT_EQ(bx, 256);
+  EXPECT_EQ(by, 256);
+  const std::string compression = ds->GetMetadataItem("COMPRESSION", "IMAGE_STRUCTURE");
+  EXPECT_TRUE(compression == "ZSTD" || compression == "DEFLATE") << compression;
+  EXPECT_STREQ(ds->GetMetadataItem("PREDICTOR", "IMAGE_STRUCTURE"), "2");
+  EXPECT_STREQ(band->GetUnitType(), "owner");
+  EXPECT_STREQ(band->GetMetadataItem("SOURCE"), "rvoronoi test");
+  GDALRasterAttributeTable* rat = band->GetDefaultRAT();
+  ASSERT_NE(rat, nullptr);
+  ASSERT_EQ(rat->GetColumnCount(), 2);
+  EXPECT_STREQ(rat->GetNameOfCol(0), "Value");
+  EXPECT_STREQ(rat->GetNameOfCol(1), "Owner");
+  ASSERT_EQ(rat->GetRowCount(), 3);
+  for (int i = 0; i < 3; ++i) {
+    EXPECT_EQ(rat->GetValueAsInt(i, 0), i + 1);
+    EXPECT_EQ(std::string(rat->GetValueAsString(i, 1)), o.category_labels[static_cast<size_t>(i)]);
+  }
+  char** names = band->GetCategoryNames();
+  ASSERT_NE(names, nullptr);
+  EXPECT_STREQ(names[2], "SE");
+  double gt[6];
+  ASSERT_EQ(ds->GetGeoTransform(gt), CE_None);
+  EXPECT_DOUBLE_EQ(gt[0], back.xmin);
+  EXPECT_DOUBLE_EQ(gt[1], 200.0);
+  EXPECT_EQ(gt[2], 0.0);
+  EXPECT_DOUBLE_EQ(gt[3], back.ymax);
+  EXPECT_EQ(gt[4], 0.0);
+  EXPECT_DOUBLE_EQ(gt[5], -200.0);
+}
+
+TEST(RasterIo, Float32RoundTrip) {
+  ScratchDir dir;
+  const GridSpec grid = utm_grid(300, 260, 50.0);
+  Raster<float> r(grid, -1.0f);
+  for (int64_t row = 0; row < r.height(); ++row)
+    for (int64_t col = 0; col < r.width(); ++col)
+      if ((col + row) % 7 != 0) r.at(col, row) = static_cast<float>(std::hypot(col * 50.0, row * 50.0) * 1.0001);
+  GeoTiffOptions o;
+  o.units = "m";
+  const std::string path = dir.file("distance.tif");
+  write_geotiff(path, r, -1.0, o);
+  EXPECT_EQ(files_in(dir.path()), (std::vector<std::string>{"distance.tif"}));  // no labels: no sidecar
+  const Raster<float> back = read_float32(path);
+  EXPECT_EQ(back.cells(), r.cells());
+  EXPECT_EQ(back.grid().width, 300);
+  EXPECT_TRUE(same_crs(back.grid().crs, grid.crs));
+  auto ds = open(path);
+  int has_nodata = 0;
+  EXPECT_EQ(ds->GetRasterBand(1)->GetNoDataValue(&has_nodata), -1.0);
+  EXPECT_TRUE(has_nodata);
+  EXPECT_EQ(ds->GetRasterBand(1)->GetRasterDataType(), GDT_Float32);
+  EXPECT_STREQ(ds->GetMetadataItem("PREDICTOR", "IMAGE_STRUCTURE"), "3");
+  EXPECT_STREQ(ds->GetRasterBand(1)->GetUnitType(), "m");
+  EXPECT_TRUE(read_category_labels(path).empty());
+}
+
+TEST(RasterIo, CloudOptimizedWithOverviews) {
+  ScratchDir dir;
+  const GridSpec grid = utm_grid(1500, 1100, 100.0);
+  Raster<int32_t> owners(grid, 0);
+  Raster<float> distance(grid, -1.0f);
+  for (int64_t row = 0; row < owners.height(); ++row)
+    for (int64_t col = 0; col < owners.width(); ++col) {
+      owners.at(col, row) = static_cast<int32_t>(1 + (col * 3 / owners.width()) + 3 * ((row / 97) % 2));  // 1..6
+      distance.at(col, row) = static_cast<float>((col % 100) * 10.0);
+    }
+  GeoTiffOptions o;
+  o.cloud_optimized = true;
+  o.categorical = true;
+  o.category_labels = {"a", "b", "c", "d", "e", "f"};
+  write_geotiff(dir.file("owners_cog.tif"), owners, 0.0, o);
+  GeoTiffOptions of;
+  of.cloud_optimized = true;
+  of.units = "m";
+  of.metadata = {{"METHOD", "exact"}};
+  write_geotiff(dir.file("distance_cog.tif"), distance, -1.0, of);
+  EXPECT_EQ(files_in(dir.path()),
+            (std::vector<std::string>{"distance_cog.tif", "owners_cog.tif", "owners_cog.tif.aux.xml"}));
+
+  EXPECT_EQ(read_int32(dir.file("owners_cog.tif")).cells(), owners.cells());
+  EXPECT_EQ(read_float32(dir.file("distance_cog.tif")).cells(), distance.cells());
+  EXPECT_EQ(read_category_labels(dir.file("owners_cog.tif")), o.category_labels);
+  auto ds = open(dir.file("owners_cog.tif"));
+  ASSERT_TRUE(ds);
+  EXPECT_STREQ(ds->GetMetadataItem("LAYOUT", "IMAGE_STRUCTURE"), "COG");
+  GDALRasterBand* band = ds->GetRasterBand(1);
+  ASSERT_GE(band->GetOverviewCount(), 1);
+  // Nearest resampling: every overview value is an owner code of the full resolution.
+  GDALRasterBand* ov = band->GetOverview(0);
+  std::vector<int32_t> ov_values(static_cast<size_t>(ov->GetXSize()) * ov->GetYSize());
+  ASSERT_EQ(ov->RasterIO(GF_Read, 0, 0, ov->GetXSize(), ov->GetYSize(), ov_values.data(), ov->GetXSize(),
+                         ov->GetYSize(), GDT_Int32, 0, 0, nullptr),
+            CE_None);
+  const std::set<int32_t> codes(ov_values.begin(), ov_values.end());
+  for (int32_t c : codes) EXPECT_TRUE(c >= 1 && c <= 6) << c;
+  auto dd = open(dir.file("distance_cog.tif"));
+  EXPECT_STREQ(dd->GetMetadataItem("LAYOUT", "IMAGE_STRUCTURE"), "COG");
+  EXPECT_GE(dd->GetRasterBand(1)->GetOverviewCount(), 1);
+  EXPECT_STREQ(dd->GetRasterBand(1)->GetUnitType(), "m");
+  EXPECT_STREQ(dd->GetRasterBand(1)->GetMetadataItem("METHOD"), "exact");
+  int has_nodata = 0;
+  EXPECT_EQ(dd->GetRasterBand(1)->GetNoDataValue(&has_nodata), -1.0);
+  EXPECT_TRUE(has_nodata);
+  double gt[6];
+  ASSERT_EQ(dd->GetGeoTransform(gt), CE_None);
+  EXPECT_DOUBLE_EQ(gt[0], grid.xmin);
+  EXPECT_DOUBLE_EQ(gt[3], grid.ymax);
+  EXPECT_TRUE(same_crs(read_grid(dir.file("distance_cog.tif")).crs, grid.crs));
+}
+
+TEST(RasterIo, FailedWritesLeaveNothingBehind) {
+  ScratchDir dir;
+  const GridSpec grid = utm_grid(64, 64);
+  Raster<int32_t> r(grid, 1);
+  GeoTiffOptions o;
+  o.category_labels = {"x"};
+  expect_error(ErrorKind::io, [&] { write_geotiff(dir.file("no/such/dir/out.tif"), r, 0.0, o); }, {"no/such/dir"});
+  EXPECT_TRUE(files_in(dir.path()).empty());
+  // The target name is taken by a directory: everything is written, the final rename fails, and
+  // the temporary file and its sidecar are removed.
+  std::filesystem::create_directory(dir.path() / "taken.tif");
+  std::filesystem::create_directory(dir.path() / "taken.tif" / "keep");
+  expect_error(ErrorKind::io, [&] { write_geotiff(dir.file("taken.tif"), r, 0.0, o); }, {"taken.tif"});
+  GeoTiffOptions cog = o;
+  cog.cloud_optimized = true;
+  expect_error(ErrorKind::io, [&] { write_geotiff(dir.file("taken.tif"), r, 0.0, cog); }, {"taken.tif"});
+  EXPECT_EQ(files_in(dir.path()), (std::vector<std::string>{"taken.tif"}));
+  // Labels on a float raster are refused before anything is written.
+  expect_error(ErrorKind::invalid_argument,
+               [&] { write_geotiff(dir.file("f.tif"), Raster<float>(grid, 0.0f), -1.0, o); });
+  EXPECT_FALSE(std::filesystem::exists(dir.path() / "f.tif"));
+}
+
+TEST(RasterIo, OverwriteReplacesFileAndStaleSidecar) {
+  ScratchDir dir;
+  const GridSpec grid = utm_grid(40, 30);
+  GeoTiffOptions labelled;
+  labelled.category_labels = {"A", "B"};
+  const std::string path = dir.file("o.tif");
+  write_geotiff(path, Raster<int32_t>(grid, 2), 0.0, labelled);
+  EXPECT_EQ(read_category_labels(path), labelled.category_labels);
+  write_geotiff(path, Raster<int32_t>(grid, 7), 0.0, {});
+  EXPECT_EQ(read_int32(path).at(5, 5), 7);
+  EXPECT_TRUE(read_category_labels(path).empty());
+  EXPECT_EQ(files_in(dir.path()), (std::vector<std::string>{"o.tif"}));
+}
+
+TEST(RasterIo, ReadGridErrors) {
+  ScratchDir dir;
+  expect_error(ErrorKind::not_found, [&] { read_grid(dir.file("none.tif")); }, {"none.tif"});
+  const std::string text = dir.write("t.tif", "not a tiff");
+  expect_error(ErrorKind::invalid_input, [&] { read_grid(text); }, {"t.tif"});
+  GDALDriver* gtiff = GetGDALDriverManager()->GetDriverByName("GTiff");
+  const auto make = [&](const std::string& name, const double gt[6]) {
+    std::unique_ptr<GDALDataset> ds(gtiff->Create(dir.file(name).c_str(), 8, 8, 1, GDT_Int32, nullptr));
+    ds->SetGeoTransform(const_cast<double*>(gt));
+    return dir.file(name);
+  };
+  const double rotated[6] = {0, 10, 1, 100, 1, -10};
+  const double oblong[6] = {0, 10, 0, 100, 0, -20};
+  const double south_up[6] = {0, 10, 0, 100, 0, 10};
+  expect_error(ErrorKind::invalid_input, [&] { read_grid(make("rot.tif", rotated)); }, {"rotated"});
+  expect_error(ErrorKind::invalid_input, [&] { read_grid(make("oblong.tif", oblong)); }, {"square"});
+  expect_error(ErrorKind::invalid_input, [&] { read_grid(make("south.tif", south_up)); }, {"north-up"});
+}
+
+}  // namespace
+}  // namespace rv
