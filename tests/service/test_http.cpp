@@ -17,6 +17,7 @@
 #include <thread>
 
 #include "http_client.hpp"
+#include "rv/error.hpp"
 #include "rv/job.hpp"
 #include "rv/raster_io.hpp"
 #include "rv/seed_reader.hpp"
@@ -473,6 +474,69 @@ TEST_F(Daemon, BodyAndHeaderLimits) {
   const Reply fat = http_request(port_, "GET", "/", "", {{"X-Padding", std::string(4096, 'x')}});
   expect_problem(fat, 431, "https://rvoronoi.dev/problems/request-header-fields-too-large");
   EXPECT_EQ(get(port_, "/health").status, 200);  // and the server is fine
+}
+
+// A raw connection for exchanges the Beast client would smooth over.
+class RawConnection {
+ public:
+  explicit RawConnection(unsigned short port) {
+    fd_ = ::socket(AF_INET, SOCK_STREAM, 0);
+    sockaddr_in a{};
+    a.sin_family = AF_INET;
+    a.sin_port = htons(port);
+    a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    connected_ = ::connect(fd_, reinterpret_cast<sockaddr*>(&a), sizeof a) == 0;
+    timeval tv{5, 0};
+    ::setsockopt(fd_, SOL_SOCKET, SO_RCVTIMEO, &tv, sizeof tv);
+  }
+  ~RawConnection() { ::close(fd_); }
+  bool connected() const { return connected_; }
+  void send(const std::string& text) { ASSERT_EQ(::send(fd_, text.data(), text.size(), MSG_NOSIGNAL), static_cast<ssize_t>(text.size())); }
+  // Reads until `marker` has arrived (or the peer closes / 5 s pass).
+  std::string read_until(const std::string& marker) {
+    std::string out;
+    char buf[4096];
+    while (out.find(marker) == std::string::npos) {
+      const ssize_t n = ::recv(fd_, buf, sizeof buf, 0);
+      if (n <= 0) break;
+      out.append(buf, static_cast<size_t>(n));
+    }
+    return out;
+  }
+
+ private:
+  int fd_ = -1;
+  bool connected_ = false;
+};
+
+TEST_F(Daemon, ExpectContinueAndOneServerPerDataDirectory) {
+  rv::ServerConfig c = test_config(dir_ / "data");
+  c.http.max_body_bytes = 1 << 20;
+  start(c);
+  const std::string body = demo_request().dump();
+  RawConnection conn(port_);
+  ASSERT_TRUE(conn.connected());
+  conn.send("POST /processes/voronoi/execution HTTP/1.1\r\nHost: t\r\nContent-Type: application/json\r\n"
+            "Expect: 100-continue\r\nContent-Length: " + std::to_string(body.size()) + "\r\n\r\n");
+  EXPECT_EQ(conn.read_until("\r\n\r\n").rfind("HTTP/1.1 100 Continue", 0), 0u);
+  conn.send(body);
+  const std::string answer = conn.read_until("\"report\"");
+  EXPECT_EQ(answer.rfind("HTTP/1.1 200", 0), 0u) << answer.substr(0, 200);
+  // Over the limit: refused from the header, before the client sends its body.
+  RawConnection big(port_);
+  big.send("POST /processes/voronoi/execution HTTP/1.1\r\nHost: t\r\nExpect: 100-continue\r\n"
+           "Content-Length: 5000000\r\n\r\n");
+  EXPECT_EQ(big.read_until("\r\n\r\n").rfind("HTTP/1.1 413", 0), 0u);
+
+  rv::Server second(c, real_runner());
+  try {
+    second.start();
+    ADD_FAILURE() << "a second server started on the same data directory";
+  } catch (const rv::Error& e) {
+    EXPECT_EQ(e.kind(), rv::ErrorKind::io);
+    EXPECT_NE(std::string(e.what()).find("in use"), std::string::npos) << e.what();
+  }
+  EXPECT_EQ(get(port_, "/health").status, 200);
 }
 
 // Opens a connection and sends `text` one byte per `interval`, on its own thread.

@@ -70,6 +70,28 @@ TEST(Config, DefaultsWorkAndKeysAreParsed) {
   EXPECT_GT(rv::effective_limits(d).max_memory_bytes, 0);  // resolved from physical memory
 }
 
+TEST(Config, TheExampleFileHoldsTheDefaults) {
+  const char* src = std::getenv("RV_SOURCE_DIR");
+  ASSERT_NE(src, nullptr);
+  const rv::ServerConfig e = rv::load_server_config(std::string(src) + "/service/serve-config.example.json");
+  const rv::ServerConfig d;
+  EXPECT_EQ(e.host, d.host);
+  EXPECT_EQ(e.port, d.port);
+  EXPECT_EQ(e.data_dir, d.data_dir);
+  EXPECT_EQ(e.http.max_body_bytes, d.http.max_body_bytes);
+  EXPECT_EQ(e.http.max_header_bytes, d.http.max_header_bytes);
+  EXPECT_EQ(e.http.request_timeout_s, d.http.request_timeout_s);
+  EXPECT_EQ(e.http.io_threads, d.http.io_threads);
+  EXPECT_EQ(e.jobs.workers, d.jobs.workers);
+  EXPECT_EQ(e.jobs.queue_length, d.jobs.queue_length);
+  EXPECT_EQ(e.jobs.threads_per_job, d.jobs.threads_per_job);
+  EXPECT_EQ(e.jobs.job_timeout_s, d.jobs.job_timeout_s);
+  EXPECT_EQ(e.jobs.shutdown_grace_s, d.jobs.shutdown_grace_s);
+  EXPECT_EQ(e.limits.max_cells, d.limits.max_cells);
+  EXPECT_EQ(e.limits.max_memory_bytes, d.limits.max_memory_bytes);
+  EXPECT_EQ(e.limits.validate_max_cells, d.limits.validate_max_cells);
+}
+
 TEST(Config, MistakesAreRefusedNamingTheKey) {
   EXPECT_NE(message_of([] { rv::parse_server_config(json::parse(R"({"jobs": {"worker": 2}})")); }).find("jobs.worker"),
             std::string::npos);

@@ -7,6 +7,8 @@
 // jobs, lets running jobs finish for jobs.shutdown_grace_s then cancels them, flushes the
 // responses in flight, joins every thread).
 //
+// One server per data directory (a lock file refuses a second). A Server is started at most
+// once; to restart, construct a new one on the same data directory.
 // Thread safety: start()/stop()/port() from one controlling thread. The server's own threads
 // never call back into the caller except through the JobRunner.
 #pragma once

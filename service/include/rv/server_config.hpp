@@ -1,7 +1,7 @@
 // The daemon's configuration: one JSON file parsed once, at startup, into these typed structs.
 // Every field has a default that works out of the box (`rvoronoi serve` with no file).
 //
-// File format (all keys optional; unknown keys are an error so that a typo is not silently
+// File format (service/serve-config.example.json has every key with its default; all keys optional; unknown keys are an error so that a typo is not silently
 // ignored):
 //   {
 //     "listen": "127.0.0.1:8080",          host:port; port 0 = an ephemeral port
@@ -14,6 +14,9 @@
 //     "limits": { "max_cells": 17179869184, "max_memory_bytes": 0,
 //                 "validate_max_cells": 4000000 }
 //   }
+// Memory: a queued job keeps its uploaded seed data in memory until it runs, so uploads can hold
+// up to about (workers + queue_length) x max_body_bytes; each running job may use
+// limits.max_memory_bytes (default: its share of 80 % of physical memory).
 // Units: bytes, seconds, cells. Thread safety: plain data, immutable after parsing.
 #pragma once
 

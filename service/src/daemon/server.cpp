@@ -2,6 +2,8 @@
 // sessions on strands, so that a slow or idle client costs a socket and a timer, never a thread.
 #include "rv/server.hpp"
 
+#include <fcntl.h>
+#include <sys/file.h>
 #include <unistd.h>
 
 #include <atomic>
@@ -97,6 +99,29 @@ class Session : public std::enable_shared_from_this<Session> {
     parser_->body_limit(static_cast<std::uint64_t>(shared_.config.http.max_body_bytes));
     // One deadline for the whole request: a client dribbling bytes cannot keep it open longer.
     stream_.expires_after(request_timeout());
+    http::async_read_header(stream_, buffer_, *parser_,
+                            beast::bind_front_handler(&Session::on_header, shared_from_this()));
+  }
+
+  // The header alone first: limits (a Content-Length over body_limit fails here already) are
+  // answered before the body is sent, and a client waiting on "Expect: 100-continue" (curl
+  // with an upload) is told to go on instead of waiting a second for nothing.
+  void on_header(beast::error_code ec, std::size_t bytes) {
+    if (ec) return on_read(ec, bytes);
+    const auto& req = parser_->get();
+    if (!parser_->is_done() && beast::iequals(req[http::field::expect], "100-continue")) {
+      auto res = std::make_shared<http::response<http::empty_body>>(http::status::continue_, req.version());
+      auto self = shared_from_this();
+      http::async_write(stream_, *res, [self, res](beast::error_code wec, std::size_t) {
+        if (wec) return self->close();
+        self->read_body();
+      });
+      return;
+    }
+    read_body();
+  }
+
+  void read_body() {
     http::async_read(stream_, buffer_, *parser_, beast::bind_front_handler(&Session::on_read, shared_from_this()));
   }
 
@@ -293,6 +318,7 @@ struct Server::Impl {
   std::vector<std::thread> threads;
   unsigned short port = 0;
   bool running = false;
+  int lock_fd = -1;  // flock()ed <data_dir>/lock: one server per data directory
 };
 
 Server::Server(ServerConfig config, JobRunner runner) : impl_(std::make_unique<Impl>()) {
@@ -310,6 +336,25 @@ void Server::start() {
   std::error_code fec;
   std::filesystem::create_directories(s.config.data_dir, fec);
   if (fec) throw Error(ErrorKind::io, "data directory '" + s.config.data_dir + "': " + fec.message());
+  // Two servers on one data directory would each take the other's running jobs for
+  // interrupted ones. The kernel drops the lock when the process dies, SIGKILL included.
+  const std::string lock_path = (std::filesystem::path(s.config.data_dir) / "lock").string();
+  s.lock_fd = ::open(lock_path.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
+  if (s.lock_fd < 0 || ::flock(s.lock_fd, LOCK_EX | LOCK_NB) != 0) {
+    if (s.lock_fd >= 0) ::close(s.lock_fd);
+    s.lock_fd = -1;
+    throw Error(ErrorKind::io, "data directory '" + s.config.data_dir + "' is in use by another rvoronoi serve");
+  }
+  struct LockGuard {  // released again if start() fails below
+    int& fd;
+    bool armed = true;
+    ~LockGuard() {
+      if (armed && fd >= 0) {
+        ::close(fd);
+        fd = -1;
+      }
+    }
+  } lock_guard{s.lock_fd};
   s.store = std::make_unique<JobStore>(std::filesystem::path(s.config.data_dir) / "jobs.sqlite");
   // Decision (documented in openapi.yaml): a job that was queued or running when the previous
   // process died cannot be resumed (its uploaded inputs lived in memory); it is failed with a
@@ -347,6 +392,7 @@ void Server::start() {
     s.threads.emplace_back([&ioc = s.ioc] { ioc.run(); });
   }
   s.running = true;
+  lock_guard.armed = false;
   daemon::log_line("{\"time\":\"" + daemon::now_rfc3339() + "\",\"event\":\"listening\",\"address\":" +
                    json_escape(s.config.host + ":" + std::to_string(s.port)) +
                    ",\"data_dir\":" + json_escape(s.config.data_dir) +
@@ -369,6 +415,13 @@ void Server::stop() {
   for (std::thread& t : s.threads) t.join();
   s.threads.clear();
   s.listener.reset();
+  s.api.reset();
+  s.jobs.reset();  // its workers are joined; the store closes after it
+  s.store.reset();
+  if (s.lock_fd >= 0) {
+    ::close(s.lock_fd);
+    s.lock_fd = -1;
+  }
   daemon::log_line("{\"time\":\"" + daemon::now_rfc3339() + "\",\"event\":\"stopped\"}");
 }
 

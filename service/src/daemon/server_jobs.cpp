@@ -141,6 +141,9 @@ void JobManager::worker_loop() {
       running_.erase(task.id);
     }
     idle_cv_.notify_all();
+    log_line("{\"time\":\"" + now_rfc3339() + "\",\"event\":\"job\",\"job\":\"" + task.id +
+             "\",\"status\":\"" + std::string(to_string(final_record.status)) + "\",\"message\":" +
+             nlohmann::json(final_record.message).dump() + "}");
     // Only now: whoever is told the job ended (a synchronous client) may act on it at once, and
     // a dismissal then finds it finished, not running.
     if (task.on_done) task.on_done(final_record);
