@@ -392,6 +392,24 @@ TEST_F(Daemon, DismissCancelsARunningJobAndAFullQueueIsBusy) {
   expect_problem(http_request(port_, "DELETE", "/jobs/0123456789abcdef0123456789abcdef"), 404, kOgc + "no-such-job");
 }
 
+TEST_F(Daemon, DismissingASynchronousJobAnswersItsClientWith409) {
+  start(test_config(dir_ / "data"));
+  json slow = demo_request(10);
+  slow["inputs"]["method"] = "brute-force";
+  Reply sync_reply;
+  std::thread client([&] { sync_reply = http_request(port_, "POST", "/processes/voronoi/execution", slow.dump()); });
+  std::string id;
+  for (auto until = Clock::now() + std::chrono::seconds(30); Clock::now() < until && id.empty();) {
+    const json list = get(port_, "/jobs?status=running").json();
+    if (!list["jobs"].empty()) id = list["jobs"][0]["jobID"];
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  ASSERT_FALSE(id.empty());
+  EXPECT_EQ(http_request(port_, "DELETE", "/jobs/" + id).status, 200);
+  client.join();
+  expect_problem(sync_reply, 409, "https://rvoronoi.dev/problems/dismissed", "dismissed");
+}
+
 TEST_F(Daemon, TimeLimitAndShutdownCancelRunningJobs) {
   rv::ServerConfig c = test_config(dir_ / "data");
   c.jobs.job_timeout_s = 0.3;

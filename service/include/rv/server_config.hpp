@@ -10,7 +10,7 @@
 //     "http": { "max_body_bytes": 67108864, "max_header_bytes": 16384,
 //               "request_timeout_s": 30, "io_threads": 2 },
 //     "jobs": { "workers": 2, "queue_length": 16, "threads_per_job": 0,
-//               "job_timeout_s": 3600, "shutdown_grace_s": 30 },
+//               "job_timeout_s": 3600, "shutdown_grace_s": 20 },
 //     "limits": { "max_cells": 17179869184, "max_memory_bytes": 0,
 //                 "validate_max_cells": 4000000 }
 //   }
@@ -41,7 +41,9 @@ struct JobsConfig {
   int queue_length = 16;      // jobs waiting for a worker; one more is refused with 503
   int threads_per_job = 0;    // engine threads per job; 0 = hardware threads / workers
   double job_timeout_s = 3600.0;   // a job running longer is cancelled and marked failed
-  double shutdown_grace_s = 30.0;  // SIGTERM: running jobs get this long, then are cancelled
+  // SIGTERM: running jobs get this long, then are cancelled. Below the 30 s a container runtime
+  // (docker stop, compose stop_grace_period) waits before SIGKILL, so cancellation finishes.
+  double shutdown_grace_s = 20.0;
 };
 
 struct ServerConfig {

@@ -382,6 +382,7 @@ void Server::start() {
                                    ec.message());
   }
   s.port = acceptor.local_endpoint().port();
+  s.config.port = s.port;  // links made without a Host header name the port really bound
 
   s.jobs = std::make_unique<daemon::JobManager>(*s.store, s.config, s.runner);
   s.api = std::make_unique<daemon::Api>(s.config, *s.store, *s.jobs);

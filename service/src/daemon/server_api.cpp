@@ -459,6 +459,9 @@ void Api::route(const Context& ctx, const std::shared_ptr<Respond>& respond) {
       auto on_done = [respond, raw, base, dir, path](const JobRecord& rec) {
         ApiResponse r;
         try {
+          // The client waiting here asked for this job; if someone dismissed it meanwhile,
+          // say so (409) rather than "no such job".
+          if (rec.status == JobStatus::dismissed) throw Error(ErrorKind::cancelled, rec.message);
           if (rec.status != JobStatus::successful) throw_no_results(rec);
           if (raw) {
             const std::string& o = rec.outputs.front();

@@ -175,7 +175,12 @@ void JobManager::update_progress(JobRecord& record, const std::string& stage, do
   record.progress = percent;
   record.message = "running: " + stage;
   record.updated = now_rfc3339();
-  store_.update(record);
+  try {
+    store_.update(record);
+  } catch (const std::exception&) {
+    // Progress is advisory, and this runs on an engine thread: a failed write must not end
+    // the computation. The final status is written (and its failure handled) by the worker.
+  }
 }
 
 JobRecord JobManager::run_task(Task& task) {
@@ -240,6 +245,9 @@ JobRecord JobManager::run_task(Task& task) {
     if (e.kind() == ErrorKind::invalid_input || e.kind() == ErrorKind::conflict) {
       error_message = "input 'seeds': " + error_message;
     }
+  } catch (const std::bad_alloc&) {
+    error_kind = ErrorKind::too_large;
+    error_message = "the job ran out of memory; use a coarser resolution or a smaller extent";
   } catch (const std::exception& e) {
     error_kind = ErrorKind::internal;
     error_message = e.what();
