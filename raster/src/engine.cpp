@@ -1,5 +1,8 @@
 #include "rv/engine.hpp"
 
+#include <GeographicLib/GeodesicLine.hpp>
+#include <GeographicLib/Math.hpp>
+
 #include <algorithm>
 #include <cmath>
 #include <thread>
@@ -40,8 +43,10 @@ int64_t estimate_memory(Method m, int64_t cells, int64_t sites) {
   // Result: int32 site + float32 distance per cell. Scans add a double key per cell.
   int64_t per_cell = 8;
   if (m == Method::hv_scan || m == Method::h_scan) per_cell += 8;
-  return cells * per_cell + sites * static_cast<int64_t>(sizeof(LocalSite) + sizeof(Site) + 16) +
-         (64 << 20);
+  // Per site: the planar form, and (geodesic) the prepared site, its line and usually one piece.
+  const auto per_site = static_cast<int64_t>(sizeof(LocalSite) + sizeof(Site) + 16 + sizeof(detail::GeoSite) +
+                                             sizeof(GeographicLib::GeodesicLine) + sizeof(detail::GeoPiece));
+  return cells * per_cell + sites * per_site + (64 << 20);
 }
 
 namespace detail {
@@ -65,18 +70,20 @@ void Progress::advance(int64_t units) {
   callback_(percent / 100.0);
 }
 
-void run_brute_force(const EngineContext& ctx, Raster<int32_t>& site, Raster<float>& distance) {
+namespace {
+
+template <class Ops>
+void brute_force(const EngineContext& ctx, const Ops ops, Raster<int32_t>& site, Raster<float>& distance) {
   const Window& w = ctx.window;
   parallel_for(ctx.threads, w.height, [&](int64_t r, int) {
-    const double py = ctx.grid.local_y(w.row0 + r);
     int32_t* out_site = site.row(r);
     float* out_dist = distance.row(r);
     for (int64_t c = 0; c < w.width; ++c) {
-      const double px = ctx.grid.local_x(w.col0 + c);
+      const typename Ops::Cell p = ops.cell(w.col0 + c, w.row0 + r);
       double best = std::numeric_limits<double>::infinity();
       int32_t best_site = kNoSite;
       for (int32_t id : ctx.geometric) {
-        const double k = planar_key(px, py, ctx.local[id]);
+        const double k = ops.key(p, id);
         if (k < best) {
           best = k;
           best_site = id;
@@ -87,17 +94,27 @@ void run_brute_force(const EngineContext& ctx, Raster<int32_t>& site, Raster<flo
         out_dist[c] = kNoDistance;
       } else {
         out_site[c] = best_site;
-        out_dist[c] = static_cast<float>(planar_distance_from_key(best));
+        out_dist[c] = static_cast<float>(Ops::distance(best));
       }
     }
     ctx.progress->advance(w.width);
   });
 }
 
+}  // namespace
+
+void run_brute_force(const EngineContext& ctx, Raster<int32_t>& site, Raster<float>& distance) {
+  if (ctx.geo)
+    brute_force(ctx, GeodesicOps{ctx}, site, distance);
+  else
+    brute_force(ctx, PlanarOps{ctx}, site, distance);
+}
+
 namespace {
 
 // Cells whose centre is inside a polygon belong to it at distance 0, unless a lower site is
-// also at distance exactly 0 there (the common tie rule).
+// also at distance exactly 0 there (the common tie rule). Applying several span sets one after
+// the other keeps that rule (the lowest site at distance 0 stays).
 void apply_interiors(const InteriorSpans& spans, Raster<int32_t>& site, Raster<float>& distance) {
   for (size_t r = 0; r < spans.rows.size(); ++r) {
     int32_t* s = site.row(static_cast<int64_t>(r));
@@ -122,6 +139,81 @@ std::vector<LocalSite> to_local(const SeedSet& seeds, const GridSpec& g) {
   return out;
 }
 
+namespace {
+
+// Geodesic grids: the scans seed cells from sites' positions in the grid frame, so longitudes
+// are moved by whole turns to lie within 180 degrees of the grid's middle meridian, and a
+// segment's second end is taken the short way round from its first (as its geodesic runs).
+std::vector<LocalSite> to_local_geodesic(const SeedSet& seeds, const GridSpec& g) {
+  using GeographicLib::Math;
+  const double middle = g.xmin + 0.5 * static_cast<double>(g.width) * g.res;
+  std::vector<LocalSite> out;
+  out.reserve(seeds.sites().size());
+  for (Site s : seeds.sites()) {
+    const double ax = middle + Math::AngDiff(middle, s.a.x);
+    s.b.x = ax + Math::AngDiff(s.a.x, s.b.x);
+    s.a.x = ax;
+    out.push_back(to_local(s, g));
+  }
+  return out;
+}
+
+// Polygons for the interior test on a geodesic grid. Each ring is unwrapped in longitude so that
+// every edge goes the short way round, as the edge's geodesic does (a ring 179.8 .. -179.7 is
+// the small ring 179.8 .. 180.3, not one spanning the globe); holes are put in their outer
+// ring's turn. A ring whose longitudes wind once round the globe (it encloses a pole, like
+// Antarctica drawn -180 .. 180) is kept as given. Every polygon is then also given one turn
+// west and east, so cells with longitudes beyond 180 (or below -180) find it.
+std::vector<Polygon> geodesic_polygons(const SeedSet& seeds) {
+  using GeographicLib::Math;
+  std::vector<Polygon> out;
+  out.reserve(seeds.polygons().size() * 3);
+  for (Polygon poly : seeds.polygons()) {
+    double outer_raw = 0.0, outer_unwrapped = 0.0;
+    for (size_t k = 0; k < poly.rings.size(); ++k) {
+      Ring& ring = poly.rings[k];
+      double winding = 0.0;
+      for (size_t i = 0; i < ring.size(); ++i)
+        winding += Math::AngDiff(ring[i].x, ring[(i + 1) % ring.size()].x);
+      const bool encircles_pole = std::abs(winding) > 180.0;
+      if (k == 0) outer_raw = ring[0].x;
+      if (!encircles_pole) {
+        const double start = k == 0 ? ring[0].x : outer_unwrapped + Math::AngDiff(outer_raw, ring[0].x);
+        double prev_raw = ring[0].x;
+        ring[0].x = start;
+        for (size_t i = 1; i < ring.size(); ++i) {
+          const double raw = ring[i].x;
+          ring[i].x = ring[i - 1].x + Math::AngDiff(prev_raw, raw);
+          prev_raw = raw;
+        }
+      }
+      if (k == 0) outer_unwrapped = ring[0].x;
+    }
+    for (const double turn : {0.0, -360.0, 360.0}) {
+      Polygon moved = poly;
+      for (Ring& ring : moved.rings)
+        for (Vec2& v : ring) v.x += turn;
+      out.push_back(std::move(moved));
+    }
+  }
+  return out;
+}
+
+void check_geodesic_grid(const GridSpec& grid) {
+  const double eps = 1e-9 * grid.res;
+  if (!(grid.ymax <= 90.0 + eps) || !(grid.ymin() >= -90.0 - eps))
+    throw Error(ErrorKind::invalid_argument,
+                "geodesic metric: the grid's latitudes must lie within [-90, 90] (grid spans " +
+                    std::to_string(grid.ymin()) + " .. " + std::to_string(grid.ymax) + ")");
+  if (!(static_cast<double>(grid.width) * grid.res <= 360.0 + eps))
+    throw Error(ErrorKind::invalid_argument,
+                "geodesic metric: the grid spans more than 360 degrees of longitude");
+  if (!std::isfinite(grid.xmin) || std::abs(grid.xmin) > 1080.0)
+    throw Error(ErrorKind::invalid_argument, "geodesic metric: the grid's west edge is not a longitude");
+}
+
+}  // namespace
+
 NearestField compute(const SeedSet& seeds, const GridSpec& grid, const ComputeOptions& options) {
   NearestField out;
   compute_into(seeds, grid, options, out);
@@ -138,14 +230,30 @@ void compute_into(const SeedSet& seeds, const GridSpec& grid, const ComputeOptio
   if (seeds.sites().empty()) throw Error(ErrorKind::invalid_input, "no seeds: the seed set is empty");
   if (std::isnan(options.max_distance) || options.max_distance < 0.0)
     throw Error(ErrorKind::invalid_argument, "max distance must be a non-negative number");
+  validate_metric(options.metric);
+  const bool geodesic = options.metric.kind == MetricSpec::geodesic;
+  std::optional<detail::GeoSites> geo;
+  if (geodesic) {
+    check_geodesic_grid(grid);
+    geo.emplace(options.metric, seeds);
+  }
 
   detail::Progress progress(options.progress, options.cancel, window.cell_count());
-  detail::EngineContext ctx{seeds, grid, window, to_local(seeds, grid), {}, 0.0,
-                            resolve_threads(options.threads), &progress};
+  detail::EngineContext ctx{seeds,
+                            grid,
+                            window,
+                            geodesic ? to_local_geodesic(seeds, grid) : to_local(seeds, grid),
+                            {},
+                            0.0,
+                            resolve_threads(options.threads),
+                            &progress,
+                            geo ? &*geo : nullptr};
   for (int32_t i = 0; i < static_cast<int32_t>(seeds.sites().size()); ++i)
     if (seeds.sites()[i].kind != SiteKind::area) ctx.geometric.push_back(i);
-  ctx.max_key = std::isinf(options.max_distance) ? std::numeric_limits<double>::infinity()
-                                                 : options.max_distance * options.max_distance;
+  if (std::isinf(options.max_distance))
+    ctx.max_key = std::numeric_limits<double>::infinity();
+  else
+    ctx.max_key = geodesic ? options.max_distance : options.max_distance * options.max_distance;
 
   if (!(out.site.grid() == grid) || !(out.site.window() == window)) {
     out.site = Raster<int32_t>(grid, window, Uninitialized{});
@@ -153,17 +261,28 @@ void compute_into(const SeedSet& seeds, const GridSpec& grid, const ComputeOptio
   }
   out.contested_cells = 0;
   out.threads = ctx.threads;
+  out.metric = options.metric;
+  std::optional<InteriorSpans> spans;
+  if (!seeds.polygons().empty()) {
+    spans.emplace(geodesic ? build_interiors(seeds, geodesic_polygons(seeds), grid, window)
+                           : build_interiors(seeds, grid, window));
+    ctx.interiors = &*spans;
+  }
   progress.check_cancel();
   switch (options.method) {
     case Method::brute_force: detail::run_brute_force(ctx, out.site, out.distance); break;
-    case Method::exact: detail::run_exact(ctx, out.site, out.distance); break;
+    case Method::exact:
+      if (geodesic)
+        detail::run_exact_geodesic(ctx, out.site, out.distance);
+      else
+        detail::run_exact(ctx, out.site, out.distance);
+      break;
     case Method::h_scan: detail::run_scan(ctx, false, out.site, out.distance); break;
     case Method::hv_scan: detail::run_scan(ctx, true, out.site, out.distance); break;
   }
-  if (!seeds.polygons().empty()) {
-    const InteriorSpans spans = build_interiors(seeds, grid, window);
-    out.contested_cells = spans.contested_cells;
-    detail::apply_interiors(spans, out.site, out.distance);
+  if (spans) {
+    out.contested_cells = spans->contested_cells;
+    detail::apply_interiors(*spans, out.site, out.distance);
   }
   out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }

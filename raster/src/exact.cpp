@@ -28,6 +28,7 @@ namespace {
 
 constexpr int64_t kTile = 64;      // top-level tile edge, cells
 constexpr size_t kDominanceMax = 16;  // candidate lists longer than this skip the O(k^2) test
+constexpr size_t kLeafCandidates = 8;  // ...when they have at most this many candidates
 constexpr int64_t kLeafCells = 1024; // blocks this small are solved per cell (32x32: fewest instructions measured, with the dominance test)
 
 struct Rect {  // local frame; x0 <= x1, y0 <= y1
@@ -73,6 +74,15 @@ double site_rect_key(const LocalSite& s, const Rect& r) {
   k = std::min(k, planar_key(r.x0, r.y1, s));
   k = std::min(k, planar_key(r.x1, r.y1, s));
   return k;
+}
+
+// A cheaper, looser lower bound: the squared distance from the site's bounding box to the
+// rectangle (never above site_rect_key, so it can reject but never wrongly keep).
+inline double site_box_rect_key(const LocalSite& s, const Rect& r) {
+  const double bx = s.ax + s.dx, by = s.ay + s.dy;
+  const double dx = std::max({r.x0 - std::max(s.ax, bx), 0.0, std::min(s.ax, bx) - r.x1});
+  const double dy = std::max({r.y0 - std::max(s.ay, by), 0.0, std::min(s.ay, by) - r.y1});
+  return dx * dx + dy * dy;
 }
 
 // Upper bound of the squared distance from the site to any point of the rectangle.
@@ -280,6 +290,7 @@ struct Worker {
   std::vector<double> px, py;
   std::vector<double> best;
   std::vector<int32_t> best_id;
+  std::vector<double> box_keys;
   std::array<double, 4 * 16> corner_keys;
 };
 
@@ -326,15 +337,46 @@ class ExactSolver {
     return d * d;
   }
 
+  // True when every cell of the block has its centre inside a polygon (one span per row).
+  bool fully_interior(int64_t c0, int64_t r0, int64_t c1, int64_t r1) const {
+    if (ctx_.interiors == nullptr) return false;
+    for (int64_t r = r0; r < r1; ++r) {
+      const std::vector<Span>& row = ctx_.interiors->rows[static_cast<size_t>(r)];
+      auto it = std::upper_bound(row.begin(), row.end(), c0, [](int64_t c, const Span& s) { return c < s.col0; });
+      if (it == row.begin() || std::prev(it)->col1 < c1) return false;
+    }
+    return true;
+  }
+
+  // Inside polygons every cell ends at distance 0 with its area site; the only thing left to
+  // find is a lower site at distance exactly 0 (which wins the tie). Only sites touching the
+  // block can be at distance 0 somewhere in it.
+  void solve_interior(Worker& wk, std::vector<int32_t>& zero, int64_t c0, int64_t r0, int64_t c1, int64_t r1) {
+    if (zero.empty()) return fill_none(c0, r0, c1, r1);
+    solve_cells(wk, zero, c0, r0, c1, r1, 0.0);
+  }
+
   void solve_tile(Worker& wk, int64_t c0, int64_t r0, int64_t c1, int64_t r1) {
     const Rect rect = rect_of(c0, r0, c1, r1);
+    if (wk.levels.empty()) wk.levels.resize(16);
+    if (fully_interior(c0, r0, c1, r1)) {
+      std::vector<int32_t>& zero = wk.levels[0];
+      zero.clear();
+      const double touch = keep_bound(0.0);
+      index_.for_range(index_.clamp_x(rect.x0) - 1, index_.clamp_y(rect.y0) - 1, index_.clamp_x(rect.x1) + 1,
+                       index_.clamp_y(rect.y1) + 1, [&](int32_t id) {
+                         if (site_rect_key(ctx_.local[id], rect) <= touch) zero.push_back(id);
+                       });
+      std::sort(zero.begin(), zero.end());
+      zero.erase(std::unique(zero.begin(), zero.end()), zero.end());
+      return solve_interior(wk, zero, c0, r0, c1, r1);
+    }
     double upper = std::numeric_limits<double>::infinity();
     index_.near(0.5 * (rect.x0 + rect.x1), 0.5 * (rect.y0 + rect.y1), [&](int32_t id) {
       upper = std::min(upper, site_rect_max_key(ctx_.local[id], rect));
     });
     const double bound = keep_bound(upper);
     const double reach = std::sqrt(bound);
-    if (wk.levels.empty()) wk.levels.resize(16);
     std::vector<int32_t>& cands = wk.levels[0];
     cands.clear();
     ++wk.stamp_value;
@@ -356,20 +398,45 @@ class ExactSolver {
     if (cands.empty()) return fill_none(c0, r0, c1, r1);
     std::vector<int32_t>& next = wk.levels[depth + 1];
     const Rect rect = rect_of(c0, r0, c1, r1);
-    if (cands.size() > 1) {
-      double upper = std::numeric_limits<double>::infinity();
-      for (int32_t id : cands) upper = std::min(upper, site_rect_max_key(ctx_.local[id], rect));
-      const double bound = keep_bound(upper);
+    if (fully_interior(c0, r0, c1, r1)) {
+      const double touch = keep_bound(0.0);
       next.clear();
       for (int32_t id : cands)
-        if (site_rect_key(ctx_.local[id], rect) <= bound) next.push_back(id);
+        if (site_rect_key(ctx_.local[id], rect) <= touch) next.push_back(id);
+      return solve_interior(wk, next, c0, r0, c1, r1);
+    }
+    if (cands.size() > 1) {
+      // Any candidate's largest corner key bounds every cell of the block; the few candidates
+      // nearest by the cheap box bound give a tight one without evaluating all of them (a dense
+      // coast brings hundreds of candidates per block).
+      wk.box_keys.resize(cands.size());
+      size_t near1 = 0, near2 = 0;
+      for (size_t j = 0; j < cands.size(); ++j) {
+        wk.box_keys[j] = site_box_rect_key(ctx_.local[cands[j]], rect);
+        if (wk.box_keys[j] < wk.box_keys[near1]) {
+          near2 = near1;
+          near1 = j;
+        } else if (j > 0 && (near2 == near1 || wk.box_keys[j] < wk.box_keys[near2])) {
+          near2 = j;
+        }
+      }
+      double upper = site_rect_max_key(ctx_.local[cands[near1]], rect);
+      if (near2 != near1) upper = std::min(upper, site_rect_max_key(ctx_.local[cands[near2]], rect));
+      const double bound = keep_bound(upper);
+      next.clear();
+      for (size_t j = 0; j < cands.size(); ++j)
+        if (wk.box_keys[j] <= bound && site_rect_key(ctx_.local[cands[j]], rect) <= bound) next.push_back(cands[j]);
       if (next.size() > 1 && next.size() <= kDominanceMax) drop_dominated_points(wk, next, rect);
     } else {
       next = cands;
     }
     const int64_t w = c1 - c0, h = r1 - r0;
-    if (next.size() <= 1 || w * h <= kLeafCells || depth + 2 >= static_cast<int>(wk.levels.size()))
-      return solve_cells(wk, next, c0, r0, c1, r1);
+    // Stop splitting when one candidate is left, or the block is small and has few candidates.
+    // Many candidates (a dense, wiggly coast: every segment of a stretch of coast is nearly
+    // equidistant from a distant block) keep splitting down to 2x2, where they cannot survive.
+    const bool small = w * h <= kLeafCells && next.size() <= kLeafCandidates;
+    if (next.size() <= 1 || small || w * h <= 4 || depth + 2 >= static_cast<int>(wk.levels.size()))
+      return solve_cells(wk, next, c0, r0, c1, r1, ctx_.max_key);
     const int64_t cm = c0 + (w + 1) / 2, rm = r0 + (h + 1) / 2;
     solve_block(wk, depth + 1, c0, r0, cm, rm);
     if (cm < c1) solve_block(wk, depth + 1, cm, r0, c1, rm);
@@ -428,7 +495,7 @@ class ExactSolver {
 
   // Exact per-cell argmin over `cands` (ascending ids; strict < keeps the lowest id on ties).
   void solve_cells(Worker& wk, const std::vector<int32_t>& cands, int64_t c0, int64_t r0, int64_t c1,
-                   int64_t r1) {
+                   int64_t r1, double max_key) {
     if (cands.empty()) return fill_none(c0, r0, c1, r1);
     const Window& win = ctx_.window;
     const int64_t w = c1 - c0, h = r1 - r0;
@@ -441,7 +508,7 @@ class ExactSolver {
     wk.gathered.clear();
     for (int32_t id : cands) wk.gathered.push_back(ctx_.local[id]);
     argmin_block(wk.gathered.data(), cands.data(), static_cast<int>(cands.size()), wk.px.data(), w,
-                 wk.py.data(), h, ctx_.max_key, wk.best.data(), wk.best_id.data(),
+                 wk.py.data(), h, max_key, wk.best.data(), wk.best_id.data(),
                  site_.row(r0) + c0, distance_.row(r0) + c0, win.width);
   }
 

@@ -83,13 +83,18 @@ bool InteriorSpans::empty() const {
 }
 
 InteriorSpans build_interiors(const SeedSet& seeds, const GridSpec& grid, const Window& window) {
+  return build_interiors(seeds, seeds.polygons(), grid, window);
+}
+
+InteriorSpans build_interiors(const SeedSet& seeds, const std::vector<Polygon>& polygons,
+                              const GridSpec& grid, const Window& window) {
   InteriorSpans result;
   result.window = window;
   result.rows.resize(static_cast<size_t>(window.height));
-  if (seeds.polygons().empty()) return result;
+  if (polygons.empty()) return result;
 
   std::vector<Crossing> scratch;
-  for (const Polygon& poly : seeds.polygons()) polygon_spans(poly, grid, window, result.rows, scratch);
+  for (const Polygon& poly : polygons) polygon_spans(poly, grid, window, result.rows, scratch);
 
   // Resolve overlaps per row: the lowest area site wins each cell.
   for (auto& row : result.rows) {

@@ -26,12 +26,17 @@ Raster<int32_t> owner_raster(const SeedSet& seeds, const NearestField& field, in
   return out;
 }
 
-Raster<int32_t> feature_raster(const SeedSet& seeds, const NearestField& field, int threads) {
+Raster<int32_t> feature_raster(const SeedSet& seeds, const NearestField& field, int threads,
+                               std::span<const int64_t> numbering) {
   Raster<int32_t> out(field.site.grid(), field.site.window(), Uninitialized{});
+  std::vector<int32_t> number_of_site(seeds.sites().size());
+  for (size_t i = 0; i < number_of_site.size(); ++i) {
+    const int32_t f = seeds.sites()[i].feature;
+    number_of_site[i] = numbering.empty() ? f + 1 : static_cast<int32_t>(numbering[static_cast<size_t>(f)]);
+  }
   const int32_t* s = field.site.data();
   int32_t* o = out.data();
-  const auto& sites = seeds.sites();
-  for_cells(out.height(), out.width(), threads, [&](int64_t i) { o[i] = s[i] == kNoSite ? 0 : sites[s[i]].feature + 1; });
+  for_cells(out.height(), out.width(), threads, [&](int64_t i) { o[i] = s[i] == kNoSite ? 0 : number_of_site[s[i]]; });
   return out;
 }
 

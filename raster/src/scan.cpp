@@ -26,6 +26,12 @@
 // segment crossing it, every cell of it, found by clipping the segment to each row band). Sites
 // that touch no cell of the window (outside it) enter through the border: each border cell also
 // starts with its exact nearest among those outside sites.
+//
+// Metric: the passes are templated on the metric's operations (engine_internal.hpp), so the
+// geodesic scan compares exact geodesic distances of the neighbours' candidates exactly as the
+// planar scan compares squared Euclidean distances. Seeding uses the sites' positions in the grid
+// frame (for geodesic grids: degrees, longitudes unwrapped around the grid), which only decides
+// where a site's identity enters the scan.
 #include <algorithm>
 #include <atomic>
 #include <cmath>
@@ -40,8 +46,10 @@ namespace {
 
 constexpr int64_t kChunk = 128;  // positions processed between two wavefront synchronisations
 
+template <class Ops>
 struct ScanState {
   const EngineContext& ctx;
+  Ops ops;
   int64_t width, height;
   Raster<int32_t>& site;
   std::vector<double> key;
@@ -49,8 +57,7 @@ struct ScanState {
   size_t at(int64_t c, int64_t r) const { return static_cast<size_t>(r * width + c); }
 
   double key_of(int64_t c, int64_t r, int32_t id) const {
-    return planar_key(ctx.grid.local_x(ctx.window.col0 + c), ctx.grid.local_y(ctx.window.row0 + r),
-                      ctx.local[id]);
+    return ops.key(ops.cell(ctx.window.col0 + c, ctx.window.row0 + r), id);
   }
 
   // Offers site `id` to cell (c, r): kept if strictly nearer, or equally near with a lower id.
@@ -105,7 +112,8 @@ bool touched_cells(const GridSpec& g, const Window& w, const LocalSite& s, F&& f
   return any;
 }
 
-void seed(ScanState& st) {
+template <class Ops>
+void seed(ScanState<Ops>& st) {
   const EngineContext& ctx = st.ctx;
   std::vector<int32_t> outside;
   for (int32_t id : ctx.geometric) {
@@ -124,10 +132,13 @@ void seed(ScanState& st) {
   Progress quiet(nullptr, nullptr, 1);
   for (const Window& strip : strips) {
     EngineContext sub{ctx.seeds, ctx.grid, strip, ctx.local, outside,
-                      std::numeric_limits<double>::infinity(), 1, &quiet};
+                      std::numeric_limits<double>::infinity(), 1, &quiet, ctx.geo};
     Raster<int32_t> s(ctx.grid, strip, Uninitialized{});
     Raster<float> d(ctx.grid, strip, Uninitialized{});
-    run_exact(sub, s, d);
+    if (ctx.geo)
+      run_exact_geodesic(sub, s, d);
+    else
+      run_exact(sub, s, d);
     for (int64_t r = 0; r < strip.height; ++r)
       for (int64_t c = 0; c < strip.width; ++c)
         st.offer(strip.col0 - w.col0 + c, strip.row0 - w.row0 + r, s.at(c, r));
@@ -139,7 +150,8 @@ struct PassShape {
   bool reversed;  // lines and positions walked from the far end
 };
 
-void run_pass(ScanState& st, PassShape shape, int threads) {
+template <class Ops>
+void run_pass(ScanState<Ops>& st, PassShape shape, int threads) {
   const int64_t lines = shape.columns ? st.width : st.height;
   const int64_t len = shape.columns ? st.height : st.width;
   // Map (line, position) in walk order to the cell's (col, row).
@@ -197,12 +209,11 @@ void run_pass(ScanState& st, PassShape shape, int threads) {
   });
 }
 
-}  // namespace
-
-void run_scan(const EngineContext& ctx, bool vertical_cycle, Raster<int32_t>& site,
-              Raster<float>& distance) {
+template <class Ops>
+void scan(const EngineContext& ctx, const Ops ops, bool vertical_cycle, Raster<int32_t>& site,
+          Raster<float>& distance) {
   const Window& w = ctx.window;
-  ScanState st{ctx, w.width, w.height, site, {}};
+  ScanState<Ops> st{ctx, ops, w.width, w.height, site, {}};
   std::fill(site.cells().begin(), site.cells().end(), kNoSite);
   st.key.assign(static_cast<size_t>(w.cell_count()), std::numeric_limits<double>::infinity());
   seed(st);
@@ -220,9 +231,19 @@ void run_scan(const EngineContext& ctx, bool vertical_cycle, Raster<int32_t>& si
       s[i] = kNoSite;
       d[i] = kNoDistance;
     } else {
-      d[i] = static_cast<float>(std::sqrt(st.key[i]));
+      d[i] = static_cast<float>(Ops::distance(st.key[i]));
     }
   }
+}
+
+}  // namespace
+
+void run_scan(const EngineContext& ctx, bool vertical_cycle, Raster<int32_t>& site,
+              Raster<float>& distance) {
+  if (ctx.geo)
+    scan(ctx, GeodesicOps{ctx}, vertical_cycle, site, distance);
+  else
+    scan(ctx, PlanarOps{ctx}, vertical_cycle, site, distance);
 }
 
 }  // namespace rv::detail

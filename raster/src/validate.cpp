@@ -3,6 +3,9 @@
 #include <algorithm>
 #include <cmath>
 
+#include <optional>
+
+#include "geodesic_sites.hpp"
 #include "rv/error.hpp"
 #include "rv/planar.hpp"
 
@@ -13,12 +16,21 @@ ValidationStats compare_fields(const SeedSet& seeds, const NearestField& test,
                                int max_examples) {
   if (!(test.site.grid() == reference.site.grid()) || !(test.site.window() == reference.site.window()))
     throw Error(ErrorKind::invalid_argument, "compare_fields: the two fields cover different cells");
+  if (!(test.metric == reference.metric))
+    throw Error(ErrorKind::invalid_argument, "compare_fields: the two fields were measured with different metrics");
   const GridSpec& g = test.site.grid();
   const Window& w = test.site.window();
-  const std::vector<LocalSite> local = to_local(seeds, g);
-  const double tol = tolerance_cells * g.res;
+  const bool geodesic = test.metric.kind == MetricSpec::geodesic;
+  const std::vector<LocalSite> local = geodesic ? std::vector<LocalSite>{} : to_local(seeds, g);
+  std::optional<detail::GeoSites> geo;
+  if (geodesic) geo.emplace(test.metric, seeds);
+  // One cell in metric units: res for planar; for geodesic the north-south size of a cell
+  // (res degrees of latitude) on a sphere of radius a, to within 0.7 % everywhere.
+  const double cell_size = geodesic ? g.res * 3.14159265358979323846 / 180.0 * test.metric.semi_major : g.res;
+  const double tol = tolerance_cells * cell_size;
   auto dist = [&](int32_t id, double px, double py) {
     if (seeds.sites()[id].kind == SiteKind::area) return 0.0;
+    if (geodesic) return geo->distance(geo->cell(px + g.xmin, py + g.ymax), id);
     return std::sqrt(planar_key(px, py, local[id]));
   };
   ValidationStats st;
@@ -45,7 +57,7 @@ ValidationStats compare_fields(const SeedSet& seeds, const NearestField& test,
         st.examples.push_back(WrongCell{c, r, a, b, err});
     }
   }
-  st.max_error_cells = st.max_error / g.res;
+  st.max_error_cells = st.max_error / cell_size;
   return st;
 }
 

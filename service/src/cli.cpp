@@ -232,13 +232,14 @@ std::string fmt(double v) {
   return s.str();
 }
 
-nlohmann::json stats_json(const ValidationStats& v) {
+// Distances (max_error, each example's error) in output units: `to_output` per metric unit.
+nlohmann::json stats_json(const ValidationStats& v, double to_output) {
   nlohmann::json examples = nlohmann::json::array();
   for (const WrongCell& w : v.examples)
-    examples.push_back({{"col", w.col}, {"row", w.row}, {"site", w.site}, {"nearest_site", w.reference}, {"error", w.error}});
+    examples.push_back({{"col", w.col}, {"row", w.row}, {"site", w.site}, {"nearest_site", w.reference}, {"error", w.error * to_output}});
   return {{"cells", v.cells},           {"wrong_cells", v.wrong_cells},
           {"wrong_owner_cells", v.wrong_owner_cells}, {"tie_cells", v.tie_cells},
-          {"nodata_mismatch", v.nodata_mismatch},     {"max_error", v.max_error},
+          {"nodata_mismatch", v.nodata_mismatch},     {"max_error", v.max_error * to_output},
           {"max_error_cells", v.max_error_cells},     {"wrong_examples", examples}};
 }
 
@@ -312,21 +313,23 @@ int cmd_validate(Args& args) {
   std::vector<Method> methods = o.methods.empty() ? std::vector<Method>{Method::exact, Method::hv_scan, Method::h_scan} : o.methods;
   gdal_init();
   const LoadedSeeds loaded = load_seeds(o.spec.seeds);
-  if (loaded.crs.geographic)
-    throw Error(ErrorKind::unsupported, "the geodesic metric is not available in this build");
+  const MetricPlan mp = plan_metric(o.spec.metric, o.spec.distance_units, loaded.crs);
   const GridSpec grid = plan_grid(o.spec.grid, loaded);
   ComputeOptions co;
+  co.metric = mp.metric;
   co.threads = o.spec.threads;
-  if (o.spec.max_distance) co.max_distance = *o.spec.max_distance;
+  if (o.spec.max_distance) co.max_distance = *o.spec.max_distance / mp.to_output;
   co.method = Method::brute_force;
   const NearestField ref = compute(loaded.seeds, grid, co);
   nlohmann::json out;
   out["grid"] = {{"width", grid.width}, {"height", grid.height}, {"resolution", grid.res}};
+  out["metric"] = std::string(to_string(mp.metric.kind));
+  out["distance_units"] = mp.unit;
   out["reference"] = {{"method", "brute-force"}, {"seconds", ref.seconds}};
   for (Method m : methods) {
     co.method = m;
     const NearestField f = compute(loaded.seeds, grid, co);
-    nlohmann::json j = stats_json(compare_fields(loaded.seeds, f, ref));
+    nlohmann::json j = stats_json(compare_fields(loaded.seeds, f, ref), mp.to_output);
     j["seconds"] = f.seconds;
     out["methods"][std::string(to_string(m))] = j;
   }

@@ -42,13 +42,6 @@ class OutputGuard {
   bool committed_ = false;
 };
 
-double metres_per(const std::string& unit) {
-  if (unit == "m") return 1.0;
-  if (unit == "km") return 1000.0;
-  if (unit == "nmi") return 1852.0;  // the international nautical mile
-  throw Error(ErrorKind::invalid_argument, "unknown distance unit '" + unit + "' (expected m, km or nmi)");
-}
-
 void write_text_atomically(const std::string& path, const std::string& text) {
   const std::string tmp = path + ".tmp-" + std::to_string(::getpid());
   {
@@ -90,8 +83,11 @@ nlohmann::json seeds_json(const LoadedSeeds& loaded) {
           {"segments", segments},
           {"polygons", s.polygons().size()},
           {"owners", owners},
+          {"features_read", r.features_read},
           {"features_skipped_empty", r.features_skipped_empty},
           {"vertices_removed", r.vertices_removed},
+          {"points_removed", r.points_removed},
+          {"conflicts", r.conflicts},
           {"polygons_repaired", r.polygons_repaired},
           {"warnings", r.warnings}};
 }
@@ -109,6 +105,24 @@ int64_t peak_rss_bytes() {
   return static_cast<int64_t>(u.ru_maxrss) * 1024;
 }
 
+MetricPlan plan_metric(const std::string& request, const std::string& units, const CrsInfo& crs) {
+  MetricPlan p;
+  p.metric = resolve_metric(parse_metric_request(request), crs.geographic, crs.semi_major, crs.flattening);
+  // The engines measure in metric units: metres for geodesic, CRS units for planar.
+  const double metric_unit_in_metres = p.metric.kind == MetricSpec::geodesic ? 1.0 : crs.linear_unit;
+  if (!units.empty()) {
+    if (p.metric.kind == MetricSpec::planar && crs.wkt.empty())
+      throw Error(ErrorKind::invalid_argument, "distance units need a CRS with known units; the seeds have none");
+    p.to_output = metric_unit_in_metres / metres_per_unit(parse_distance_unit(units));
+    p.unit = units;
+  } else if (p.metric.kind == MetricSpec::geodesic || (!crs.wkt.empty() && crs.linear_unit == 1.0)) {
+    p.unit = "m";
+  } else {
+    p.unit = crs.wkt.empty() ? "crs-units" : "crs-units (" + std::to_string(crs.linear_unit) + " m)";
+  }
+  return p;
+}
+
 GridSpec plan_grid(const GridRequest& request, const LoadedSeeds& loaded) {
   if (!request.like.empty()) {
     GridSpec g = read_grid(request.like);
@@ -122,7 +136,9 @@ GridSpec plan_grid(const GridRequest& request, const LoadedSeeds& loaded) {
     throw Error(ErrorKind::invalid_argument, "resolution must be a positive number");
   if (request.extent) {
     const auto& e = *request.extent;
-    return make_grid(e[0], e[1], e[2], e[3], res, loaded.crs.wkt);
+    // On geographic grids a west edge east of the east edge crosses the antimeridian.
+    const double east = loaded.crs.geographic ? unwrap_east_longitude(e[0], e[2]) : e[2];
+    return make_grid(e[0], e[1], east, e[3], res, loaded.crs.wkt);
   }
   const SeedSet::Box b = loaded.seeds.bounds();
   if (!std::isfinite(b.xmin)) throw Error(ErrorKind::invalid_input, "no seeds: cannot derive an extent");
@@ -162,27 +178,12 @@ JobResult run_job(const JobSpec& spec, const JobLimits& limits, const JobHooks& 
 
   // 2. Grid, metric, units, limits: everything is decided before the big allocations.
   const GridSpec grid = plan_grid(spec.grid, loaded);
-  if (spec.metric != "auto" && spec.metric != "planar" && spec.metric != "geodesic")
-    throw Error(ErrorKind::invalid_argument, "unknown metric '" + spec.metric + "' (expected auto, planar or geodesic)");
-  if (loaded.crs.geographic && spec.metric == "planar")
-    throw Error(ErrorKind::invalid_argument,
-                "metric planar on a geographic (longitude/latitude) grid would measure distances in "
-                "degrees, which are not distances; use geodesic (the default) or a projected CRS");
-  const bool geodesic = spec.metric == "geodesic" || (spec.metric == "auto" && loaded.crs.geographic);
-  if (geodesic)
-    throw Error(ErrorKind::unsupported, "the geodesic metric is not available in this build");
-  // Planar distances come out in CRS units; convert when a unit is asked for.
-  double factor = 1.0;
-  std::string unit_name = "crs-units";
-  if (!spec.distance_units.empty()) {
-    if (loaded.crs.wkt.empty())
-      throw Error(ErrorKind::invalid_argument, "distance units need a CRS with known units; the seeds have none");
-    factor = loaded.crs.linear_unit / metres_per(spec.distance_units);
-    unit_name = spec.distance_units;
-  } else if (!loaded.crs.wkt.empty() && loaded.crs.linear_unit == 1.0) {
-    unit_name = "m";
-  }
+  const MetricPlan mp = plan_metric(spec.metric, spec.distance_units, loaded.crs);
+  const bool geodesic = mp.metric.kind == MetricSpec::geodesic;
+  const double factor = mp.to_output;
+  const std::string& unit_name = mp.unit;
   ComputeOptions options;
+  options.metric = mp.metric;
   options.method = spec.method;
   options.threads = spec.threads;
   if (spec.max_distance) {
@@ -272,9 +273,10 @@ JobResult run_job(const JobSpec& spec, const JobLimits& limits, const JobHooks& 
     t = Clock::now();
     GeoTiffOptions o = common;
     o.categorical = true;
-    o.metadata["CONTENT"] = "1-based index of the nearest seed feature (0 = none)";
+    o.metadata["CONTENT"] = "1-based position of the nearest seed feature in the input (0 = none)";
     guard.add(spec.outputs.nearest_feature);
-    write_geotiff(spec.outputs.nearest_feature, feature_raster(loaded.seeds, field, spec.threads), 0.0, o);
+    write_geotiff(spec.outputs.nearest_feature,
+                  feature_raster(loaded.seeds, field, spec.threads, loaded.input_position), 0.0, o);
     write_times["nearest_feature"] = seconds_since(t);
     outputs["nearest_feature"] = spec.outputs.nearest_feature;
   }

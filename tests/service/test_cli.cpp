@@ -83,7 +83,7 @@ TEST_F(Cli, ComputeWritesGeoTiffsThatMatchTheEngine) {
   const Raster<int32_t> own = read_int32(path("own.tif"));
   EXPECT_EQ(own.width(), grid.width);
   EXPECT_EQ(own.cells(), owner_raster(seeds.seeds, f).cells());
-  EXPECT_EQ(read_int32(path("feat.tif")).cells(), feature_raster(seeds.seeds, f).cells());
+  EXPECT_EQ(read_int32(path("feat.tif")).cells(), feature_raster(seeds.seeds, f, 0, seeds.input_position).cells());
   EXPECT_EQ(read_float32(path("dist.tif")).cells(), f.distance.cells());
   EXPECT_EQ(read_category_labels(path("own.tif")), (std::vector<std::string>{"A", "B", "C"}));
 
@@ -94,6 +94,27 @@ TEST_F(Cli, ComputeWritesGeoTiffsThatMatchTheEngine) {
   EXPECT_GT(rep["peak_memory_bytes"].get<int64_t>(), 0);
   EXPECT_TRUE(rep["timings_s"].contains("compute"));
   EXPECT_TRUE(rep["timings_s"]["write"].contains("ownership"));
+}
+
+TEST_F(Cli, NearestFeatureNumbersFollowTheInputOrder) {
+  // Owners interleaved in the file (A, B, A): the reader stores features grouped by owner, but the
+  // nearest-feature raster still numbers them by their position in the input.
+  const std::string seeds = write("interleaved.geojson", R"({"type":"FeatureCollection",
+    "crs":{"type":"name","properties":{"name":"urn:ogc:def:crs:EPSG::32633"}},"features":[
+    {"type":"Feature","properties":{"o":"A"},"geometry":{"type":"Point","coordinates":[500000.5,6000000.5]}},
+    {"type":"Feature","properties":{"o":"B"},"geometry":{"type":"Point","coordinates":[500010.5,6000000.5]}},
+    {"type":"Feature","properties":{"o":"A"},"geometry":{"type":"Point","coordinates":[500020.5,6000000.5]}}]})");
+  const CliRun r = run("compute " + seeds + " --owner-field o --resolution 1 --extent 500000 6000000 500021 6000001 "
+                       "--ownership " + path("own.tif") + " --nearest-feature " + path("feat.tif") + " --quiet");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const Raster<int32_t> own = read_int32(path("own.tif"));
+  const Raster<int32_t> feat = read_int32(path("feat.tif"));
+  EXPECT_EQ(own.at(0, 0), 1);
+  EXPECT_EQ(feat.at(0, 0), 1);
+  EXPECT_EQ(own.at(10, 0), 2);
+  EXPECT_EQ(feat.at(10, 0), 2);
+  EXPECT_EQ(own.at(20, 0), 1);
+  EXPECT_EQ(feat.at(20, 0), 3);
 }
 
 TEST_F(Cli, ThreadCountDoesNotChangeTheFiles) {
@@ -177,6 +198,41 @@ TEST_F(Cli, FailedWriteLeavesNothingBehind) {
                     " --distance " + path("nodir/d.tif") + " --quiet");
   EXPECT_EQ(r.exit_code, 9) << r.output;
   EXPECT_EQ(file_count(), 0u);
+}
+
+TEST_F(Cli, GeographicGridIsGeodesicInNauticalMiles) {
+  const char* shared = std::getenv("RV_SHARED_DIR");
+  const std::string gpkg = shared ? std::string(shared) + "/fixtures/oresund.gpkg" : "";
+  if (gpkg.empty() || !fs::exists(gpkg)) GTEST_SKIP() << "shared/fixtures/oresund.gpkg not found";
+  const CliRun r = run("compute " + gpkg + " --owner-field iso2 --resolution 0.01 --extent 12 55.3 13.2 56.3 "
+                       "--distance-units nmi --ownership " + path("own.tif") + " --distance " + path("d.tif") +
+                       " --report " + path("r.json") + " --quiet");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const nlohmann::json rep = nlohmann::json::parse(std::ifstream(path("r.json")));
+  EXPECT_EQ(rep["metric"], "geodesic");
+  EXPECT_EQ(rep["distance_units"], "nmi");
+  // The same grid in-process, in metres: the file holds metres / 1852.
+  gdal_init();
+  SeedReadOptions ro;
+  ro.paths = {gpkg};
+  ro.owner_field = "iso2";
+  const LoadedSeeds seeds = load_seeds(ro);
+  ComputeOptions co;
+  co.metric = resolve_metric(MetricRequest::automatic, true);
+  const NearestField f = compute(seeds.seeds, read_grid(path("own.tif")), co);
+  const Raster<float> d = read_float32(path("d.tif"));
+  ASSERT_EQ(d.size(), f.distance.size());
+  float max_nmi = 0;
+  for (size_t i = 0; i < d.size(); ++i) {
+    EXPECT_NEAR(d.cells()[i], f.distance.cells()[i] / 1852.0, 1e-5);
+    max_nmi = std::max(max_nmi, d.cells()[i]);
+  }
+  EXPECT_GT(max_nmi, 5.0f);   // the middle of the strait is several miles from both coasts
+  EXPECT_LT(max_nmi, 30.0f);
+  // Degrees are not distances: planar on this grid is refused.
+  expect_refused(run("compute " + gpkg + " --owner-field iso2 --resolution 0.01 --metric planar --ownership " +
+                     path("p.tif") + " --quiet"),
+                 2, "degrees");
 }
 
 TEST_F(Cli, HelpAndVersion) {

@@ -107,6 +107,45 @@ TEST(Conflicts, LowerCodeAcceptsAndTheEngineResolves) {
   EXPECT_EQ(l.seeds.site_owner(f.site.at(50, 60 - 1 - 50)), 2);
 }
 
+// Owners interleaved in the input (A, B, A): the overlap of B's square and A's second square
+// still goes to A, the lower code, because features are stored grouped by owner.
+TEST(Conflicts, LowerCodeWinsEvenWhenOwnersInterleave) {
+  test::ScratchDir dir;
+  const auto feature = [](const char* owner, const std::string& geometry) {
+    return R"({"type": "Feature", "properties": {"owner": ")" + std::string(owner) + R"("}, "geometry": )" + geometry + "}";
+  };
+  const auto square = [](double u0, double v0, double u1, double v1) {
+    std::ostringstream g;
+    g.precision(12);
+    g << R"({"type": "Polygon", "coordinates": [[)";
+    const double pts[5][2] = {{u0, v0}, {u0, v1}, {u1, v1}, {u1, v0}, {u0, v0}};
+    for (int k = 0; k < 5; ++k)
+      g << (k ? "," : "") << "[" << kX0 + 1000.0 * pts[k][0] << "," << kY0 + 1000.0 * pts[k][1] << "]";
+    g << "]]}";
+    return g.str();
+  };
+  const std::string path = dir.write(
+      "interleaved.geojson",
+      R"({"type": "FeatureCollection", "crs": {"type": "name", "properties": {"name": "urn:ogc:def:crs:EPSG::32633"}}, "features": [)" +
+          feature("A", R"({"type": "Point", "coordinates": [400500, 6209500]})") + "," + feature("B", square(0, 0, 4, 4)) +
+          "," + feature("A", square(3, 3, 6, 6)) + "]}");
+  SeedReadOptions o;
+  o.paths = {path};
+  o.owner_field = "owner";
+  o.on_conflict = ConflictPolicy::lower_code;
+  const LoadedSeeds l = load_seeds(o);
+  EXPECT_EQ(l.report.conflicts, 1);
+  EXPECT_EQ(l.seeds.owner_labels(), (std::vector<std::string>{"A", "B"}));
+  const GridSpec g = make_grid(kX0, kY0, kX0 + 10000.0, kY0 + 10000.0, 100.0, l.crs.wkt);
+  ComputeOptions co;
+  co.threads = 2;
+  const NearestField f = compute(l.seeds, g, co);
+  EXPECT_EQ(l.seeds.site_owner(f.site.at(35, 100 - 1 - 35)), 1);  // (3.55, 3.55) km: in both squares
+  EXPECT_EQ(l.seeds.site_owner(f.site.at(20, 100 - 1 - 20)), 2);  // B only
+  ASSERT_FALSE(l.report.warnings.empty());
+  EXPECT_NE(l.report.warnings[0].find("'A' takes the overlap"), std::string::npos) << l.report.warnings[0];
+}
+
 // 10 000 squares in a checkerboard of two owners: every square touches four squares of the
 // other owner along an edge (the worst case for the envelope pre-filter: every candidate pair
 // goes to GEOS). No conflict; then one more square overlapping a cell is found and named.

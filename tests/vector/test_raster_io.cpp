@@ -4,6 +4,7 @@
 
 #include <filesystem>
 #include <set>
+#include <thread>
 
 #include <gdal_priv.h>
 #include <gdal_rat.h>
@@ -232,6 +233,34 @@ TEST(RasterIo, OverwriteReplacesFileAndStaleSidecar) {
   EXPECT_EQ(read_int32(path).at(5, 5), 7);
   EXPECT_TRUE(read_category_labels(path).empty());
   EXPECT_EQ(files_in(dir.path()), (std::vector<std::string>{"o.tif"}));
+}
+
+TEST(RasterIo, ConcurrentWritesToDifferentFiles) {
+  ScratchDir dir;
+  const GridSpec grid = utm_grid(700, 500);
+  std::vector<Raster<int32_t>> rasters;
+  for (int i = 0; i < 4; ++i) {
+    Raster<int32_t> r(grid, 0);
+    for (int64_t row = 0; row < r.height(); ++row)
+      for (int64_t col = 0; col < r.width(); ++col) r.at(col, row) = static_cast<int32_t>((col * (i + 1) + row) % 9);
+    rasters.push_back(std::move(r));
+  }
+  std::vector<std::thread> threads;
+  for (int i = 0; i < 4; ++i)
+    threads.emplace_back([&, i] {
+      GeoTiffOptions o;
+      o.threads = 1;
+      o.cloud_optimized = i % 2 == 1;
+      o.category_labels = {"l" + std::to_string(i)};
+      write_geotiff(dir.file("c" + std::to_string(i) + ".tif"), rasters[static_cast<size_t>(i)], 0.0, o);
+    });
+  for (auto& t : threads) t.join();
+  for (int i = 0; i < 4; ++i) {
+    const std::string path = dir.file("c" + std::to_string(i) + ".tif");
+    EXPECT_EQ(read_int32(path).cells(), rasters[static_cast<size_t>(i)].cells()) << i;
+    EXPECT_EQ(read_category_labels(path), (std::vector<std::string>{"l" + std::to_string(i)})) << i;
+  }
+  EXPECT_EQ(files_in(dir.path()).size(), 8u);  // four files, four sidecars, no temporaries
 }
 
 TEST(RasterIo, ReadGridErrors) {

@@ -197,7 +197,7 @@ void check_conflicts(std::vector<SeedPart>& parts, const SeedSet& seeds, Conflic
                                     describe_feature(seeds, parts[i].feature) + " for overlap: " + quiet.last_error());
       }
       if (!meet) continue;
-      // Report in input order (lower feature first) whatever order the sweep met them in.
+      // Report the lower feature first whatever order the sweep met them in.
       const SeedPart& a = parts[j].feature <= parts[i].feature ? parts[j] : parts[i];
       const SeedPart& b = &a == &parts[j] ? parts[i] : parts[j];
       if (policy == ConflictPolicy::error) {
@@ -207,12 +207,13 @@ void check_conflicts(std::vector<SeedPart>& parts, const SeedSet& seeds, Conflic
       }
       ++report.conflicts;
       if (report.conflicts <= kMaxConflictLines) {
-        // The engine breaks ties towards the lower site index: the earlier feature, whose
-        // owner was registered first (the lower code, unless owners interleave in the input).
+        // The engine breaks ties (and resolves overlapping interiors) towards the lower site
+        // index; features are stored grouped by owner code, so that is the lower code.
+        const int32_t lower = std::min(a.owner, b.owner);
         report.warnings.push_back("seeds of two owners " + std::string(verb(a.dimension, b.dimension)) + ": " +
                                   describe_feature(seeds, a.feature) + " and " + describe_feature(seeds, b.feature) +
-                                  " " + describe_intersection(a, b) + "; accepted (lower_code): the earlier feature's owner '" +
-                                  seeds.owner_labels()[a.owner - 1] + "' takes the overlap");
+                                  " " + describe_intersection(a, b) + "; accepted (lower_code): the lower code '" +
+                                  seeds.owner_labels()[lower - 1] + "' takes the overlap");
       }
     }
     active.push_back(i);

@@ -18,6 +18,21 @@
 // result does not depend on order at all).
 // Ties (equal computed distance) go to the lower site index, in every method.
 //
+// Metric (ComputeOptions::metric, see rv/metric.hpp): planar measures Euclidean distance in CRS
+// units; geodesic measures metres on the ellipsoid, with grid and seeds in longitude/latitude
+// degrees (see rv/geodesic.hpp). Every method works with both. Geodesic grids:
+//   - cell centres must lie within latitudes [-90, 90] (grids may reach a pole);
+//   - longitudes may run past 180 (a grid across the antimeridian has xmin + width*res > 180),
+//     the grid may span at most 360 degrees of longitude;
+//   - polygon interiors are tested on longitude/latitude as given (edges are straight in
+//     degrees, not geodesics: exact for meridians and the equator, otherwise a difference of
+//     the order of the edge's sagitta, growing towards the poles). Rings are unwrapped so that
+//     each edge goes the short way round (as its geodesic does), except rings that wind round a
+//     pole, which are taken as given; each polygon is also matched one turn east and west, so
+//     interiors work across the antimeridian;
+//   - the exact method culls with chord (lower) and path-length (upper) bounds that are proven
+//     safe and compares exact geodesic distances, so it equals brute force cell for cell.
+//
 // Thread safety: compute() is reentrant; any number of computations may run at once.
 #pragma once
 
@@ -31,6 +46,7 @@
 #include <string_view>
 
 #include "rv/grid.hpp"
+#include "rv/metric.hpp"
 #include "rv/raster.hpp"
 #include "rv/seeds.hpp"
 
@@ -48,7 +64,10 @@ inline constexpr int32_t kNoSite = -1;
 struct ComputeOptions {
   Method method = Method::exact;
   int threads = 0;  // 0 = all hardware threads
-  // Cells farther than this from every seed get no owner (metric units: CRS units for planar).
+  // The distance measured (default planar). Geodesic: coordinates are lon/lat degrees.
+  MetricSpec metric;
+  // Cells farther than this from every seed get no owner (metric units: CRS units for planar,
+  // metres for geodesic).
   double max_distance = std::numeric_limits<double>::infinity();
   std::optional<Window> window;  // default: the whole grid
   // Progress in [0, 1]; called from worker threads, never concurrently, at most ~100 times.
@@ -59,7 +78,9 @@ struct ComputeOptions {
 
 struct NearestField {
   Raster<int32_t> site;    // nearest site index (into SeedSet::sites()), kNoSite where none
-  Raster<float> distance;  // distance to it in metric units, kNoDistance where none
+  Raster<float> distance;  // distance to it in metric units, kNoDistance where none (geodesic:
+                           // metres, rounded to float: relative rounding 6e-8, i.e. 6 mm at 100 km)
+  MetricSpec metric;       // the metric the distances were measured in
   double seconds = 0.0;    // wall time of the computation
   // Cells whose centre lies inside polygons of two or more owners (decided for the lower code).
   int64_t contested_cells = 0;
@@ -70,8 +91,10 @@ struct NearestField {
 // Used to refuse a job before allocating anything.
 int64_t estimate_memory(Method m, int64_t cells, int64_t sites);
 
-// Computes the nearest-site field. Throws rv::Error(invalid_argument) for an invalid grid or
-// window, rv::Error(invalid_input) when the seed set has no sites, rv::Error(cancelled).
+// Computes the nearest-site field. Throws rv::Error(invalid_argument) for an invalid grid,
+// window or metric (geodesic: latitudes beyond +-90 or more than 360 degrees of longitude),
+// rv::Error(invalid_input) when the seed set has no sites (or, geodesic, a seed latitude beyond
+// +-90), rv::Error(cancelled).
 NearestField compute(const SeedSet& seeds, const GridSpec& grid, const ComputeOptions& options);
 
 // The same, writing into `out` and reusing its buffers when they already have the window's size

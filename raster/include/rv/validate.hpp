@@ -2,7 +2,9 @@
 //
 // The error of a cell is the paper's formula (2): Δd = Dist(assigned site, cell) − Dist(true
 // nearest site, cell), evaluated with exact (double) distances to the real geometry, not with
-// the Float32 distances stored in the rasters. Pure, thread-safe.
+// the Float32 distances stored in the rasters, in the fields' metric (NearestField::metric; both
+// fields must have the same). For the geodesic metric distances are metres and "one cell" means
+// res degrees of latitude on a sphere of radius a (res * pi/180 * a). Pure, thread-safe.
 #pragma once
 
 #include <cstdint>

@@ -71,6 +71,16 @@ struct JobResult {
 // is an rv::Error (kinds as in rv/error.hpp).
 JobResult run_job(const JobSpec& spec, const JobLimits& limits = {}, const JobHooks& hooks = {});
 
+// How distances are measured and reported: the metric the request and CRS resolve to
+// (--metric auto|planar|geodesic, see rv/metric.hpp) and the factor from metric units (CRS units
+// for planar, metres for geodesic) to the requested output units (--distance-units m|km|nmi).
+struct MetricPlan {
+  MetricSpec metric;
+  double to_output = 1.0;
+  std::string unit;  // name written into the distance raster's metadata and the report
+};
+MetricPlan plan_metric(const std::string& request, const std::string& units, const CrsInfo& crs);
+
 // The grid a job would compute on, without computing it (for limits and dry runs).
 GridSpec plan_grid(const GridRequest& request, const LoadedSeeds& seeds);
 

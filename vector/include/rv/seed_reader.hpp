@@ -6,18 +6,24 @@
 // Formats: any vector format GDAL/OGR reads (GeoJSON, GeoPackage, Shapefile, FlatGeobuf, KML,
 // ...). A plain path ending in ".zip" is opened through /vsizip/ (a zipped Shapefile, or several).
 // Geometry: Point, LineString, Polygon (holes), their Multi* forms and GeometryCollections of
-// them; curves are linearised (GDAL's default step), Z and M dropped. A multi-part feature is one
-// feature with several parts: points -> point sites, lines -> segment sites per part, polygons ->
-// one SeedSet polygon per part (its ring edges plus an area site).
+// them; curves are linearised (1 degree steps: chords within 3.8e-5 x radius of the arc), Z and
+// M dropped. A multi-part feature is one feature with several parts: points -> point sites,
+// lines -> segment sites per part, polygons -> one SeedSet polygon per part (its ring edges plus
+// an area site).
 //
-// Order (owner codes, tie-breaking): files in the order given; in each file its layers in dataset
-// order, or, when layers are named, the named layers in the order the names are given; features
-// in the layer's reading order.
+// Input order (owner codes by first appearance, position labels): files in the order given; in
+// each file its layers in dataset order, or, when layers are named, the named layers in the order
+// the names are given; features in the layer's reading order.
+// Stored order: SeedSet features are grouped by owner code, in input order within an owner
+// (Feature::source says where each came from). The engines break distance ties and resolve
+// overlapping polygon interiors towards the lower feature index; with this order that is always
+// the lower owner code, even where owners interleave in the input.
 //
 // Units: coordinates of the result are in the target CRS's units (metres for UTM, degrees with
 // x = longitude for geographic CRSs).
 #pragma once
 
+#include <cstdint>
 #include <optional>
 #include <string>
 #include <vector>
@@ -26,7 +32,8 @@
 
 namespace rv {
 
-// Registers GDAL's drivers and sets process-wide GDAL options. Idempotent, thread-safe.
+// Registers GDAL's drivers; changes no process-wide GDAL option (every CRS this library
+// creates sets its own axis order). Idempotent, thread-safe.
 void gdal_init();
 
 enum class ConflictPolicy {
@@ -74,6 +81,10 @@ struct LoadedSeeds {
   SeedSet seeds;
   CrsInfo crs;
   SeedReadReport report;
+  // SeedSet feature index -> 1-based position of that feature in the input (the numbering of
+  // position labels, counting skipped empty features). Features are stored grouped by owner, so
+  // this differs from index + 1 when an owner field interleaves owners.
+  std::vector<int64_t> input_position;
 };
 
 // Reads, reprojects into the target CRS (traditional GIS axis order), assigns owners (codes in

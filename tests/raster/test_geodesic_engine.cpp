@@ -1,0 +1,397 @@
+// The engine with the geodesic metric: distances at cells against GeographicLib directly,
+// geodesic vs planar ownership, exact == brute force (points, lines, polygons; any thread
+// count; across the antimeridian; up to a pole), scans, validation and refusals.
+#include <gtest/gtest.h>
+
+#include <GeographicLib/Geodesic.hpp>
+
+#include <cmath>
+#include <random>
+
+#include "rv/engine.hpp"
+#include "rv/error.hpp"
+#include "rv/geodesic.hpp"
+#include "rv/validate.hpp"
+
+namespace rv {
+namespace {
+
+MetricSpec wgs84() {
+  MetricSpec m;
+  m.kind = MetricSpec::geodesic;
+  return m;
+}
+
+NearestField run(const SeedSet& s, const GridSpec& g, Method m, int threads = 2,
+                 double max_distance = std::numeric_limits<double>::infinity(),
+                 MetricSpec metric = wgs84()) {
+  ComputeOptions o;
+  o.method = m;
+  o.threads = threads;
+  o.max_distance = max_distance;
+  o.metric = metric;
+  return compute(s, g, o);
+}
+
+GridSpec geo_grid(double xmin, double ymax, double res, int64_t w, int64_t h) {
+  GridSpec g;
+  g.xmin = xmin;
+  g.ymax = ymax;
+  g.res = res;
+  g.width = w;
+  g.height = h;
+  return g;
+}
+
+// Random features (points, lines, polygons) around a box of lon/lat, owners cycling over 4.
+SeedSet random_features(uint32_t seed, double lon0, double lat0, double lon1, double lat1, int features) {
+  std::mt19937_64 rng(seed);
+  std::uniform_real_distribution<double> ulon(lon0, lon1), ulat(lat0, lat1), off(-1.0, 1.0);
+  const double span = std::max(lon1 - lon0, lat1 - lat0) / 8.0;
+  SeedSet s;
+  for (int f = 0; f < features; ++f) {
+    const int32_t id = s.add_feature(s.owner_code(std::to_string(f % 4)));
+    const Vec2 c{ulon(rng), ulat(rng)};
+    std::vector<Vec2> pts;
+    const int k = 2 + static_cast<int>(rng() % 4);
+    for (int i = 0; i < k; ++i)
+      pts.push_back({c.x + off(rng) * span, std::clamp(c.y + off(rng) * span, -90.0, 90.0)});
+    if (f % 3 == 0) {
+      s.add_point(id, c);
+    } else if (f % 3 == 1) {
+      s.add_polyline(id, pts);
+    } else {
+      pts.push_back({c.x + span, c.y});
+      s.add_polygon(id, {pts});
+    }
+  }
+  return s;
+}
+
+void expect_exact_equals_brute(const SeedSet& s, const GridSpec& g, const std::string& what,
+                               double max_distance = std::numeric_limits<double>::infinity()) {
+  const NearestField brute = run(s, g, Method::brute_force, 2, max_distance);
+  const NearestField exact = run(s, g, Method::exact, 2, max_distance);
+  EXPECT_EQ(exact.site.cells(), brute.site.cells()) << what;
+  EXPECT_EQ(exact.distance.cells(), brute.distance.cells()) << what;
+  const ValidationStats st = compare_fields(s, exact, brute);
+  EXPECT_EQ(st.wrong_cells, 0) << what;
+  EXPECT_EQ(st.nodata_mismatch, 0) << what;
+}
+
+TEST(GeodesicEngine, CellDistancesMatchGeographicLib) {
+  // Point seeds spread over a wide area (equator to 70N): every cell's owner must be the argmin
+  // of GeographicLib's distances, and its distance that distance (to float rounding).
+  SeedSet s;
+  const Vec2 seeds[] = {{-5, 0.2}, {8, 12}, {20, 45}, {-12, 66}, {30, 70}, {2, 30}, {25, 5}};
+  for (int i = 0; i < 7; ++i) s.add_point(s.add_feature(s.owner_code(std::to_string(i))), seeds[i]);
+  const GridSpec g = geo_grid(-15.0, 75.0, 1.25, 40, 60);  // 15W..35E, 75N..0
+  const NearestField f = run(s, g, Method::exact);
+  const GeographicLib::Geodesic& geod = GeographicLib::Geodesic::WGS84();
+  for (int64_t r = 0; r < g.height; r += 3) {
+    for (int64_t c = 0; c < g.width; c += 3) {
+      double best = std::numeric_limits<double>::infinity();
+      int32_t best_id = -1;
+      for (int i = 0; i < 7; ++i) {
+        double d;
+        geod.Inverse(g.centre_y(r), g.centre_x(c), seeds[i].y, seeds[i].x, d);
+        if (d < best) {
+          best = d;
+          best_id = i;
+        }
+      }
+      EXPECT_EQ(f.site.at(c, r), best_id) << c << "," << r;
+      EXPECT_NEAR(f.distance.at(c, r), best, best * 1e-7 + 1e-3) << c << "," << r;
+    }
+  }
+}
+
+TEST(GeodesicEngine, GeodesicOwnerDiffersFromPlanarDegrees) {
+  // At 60N a degree of longitude is ~55.8 km and a degree of latitude ~111.4 km. The cell at
+  // (0.05, 59.95) is 1.0 degree below seed A and 1.4 degrees west of seed B: planar in degrees
+  // gives A; on the ellipsoid B is ~78 km away and A ~111 km, so B owns it.
+  SeedSet s;
+  s.add_point(s.add_feature(s.owner_code("A")), {0.05, 60.95});
+  s.add_point(s.add_feature(s.owner_code("B")), {1.45, 59.95});
+  const GridSpec g = geo_grid(0.0, 60.0, 0.1, 1, 1);
+  const NearestField geo = run(s, g, Method::exact);
+  const NearestField planar = run(s, g, Method::exact, 2, std::numeric_limits<double>::infinity(), MetricSpec{});
+  EXPECT_EQ(planar.site.at(0, 0), 0);
+  EXPECT_EQ(geo.site.at(0, 0), 1);
+  double dB;
+  GeographicLib::Geodesic::WGS84().Inverse(59.95, 0.05, 59.95, 1.45, dB);
+  EXPECT_NEAR(geo.distance.at(0, 0), dB, 0.01);
+  EXPECT_EQ(run(s, g, Method::brute_force).site.at(0, 0), 1);
+  EXPECT_EQ(run(s, g, Method::hv_scan).site.at(0, 0), 1);
+}
+
+TEST(GeodesicEngine, ExactMatchesBruteForceOnRandomFeatures) {
+  for (uint32_t trial = 0; trial < 8; ++trial) {
+    std::mt19937 rng(trial);
+    const double lat_top = -60.0 + static_cast<double>(rng() % 120);
+    const double res = 0.05 * (1 + trial % 3);
+    const GridSpec g = geo_grid(-20.0 + trial * 7.0, lat_top, res, 30 + rng() % 40, 20 + rng() % 40);
+    const SeedSet s = random_features(trial, g.xmin - 1, std::max(-89.0, g.ymin() - 1), g.xmax() + 1,
+                                      std::min(89.0, g.ymax + 1), 6 + static_cast<int>(rng() % 12));
+    expect_exact_equals_brute(s, g, "trial " + std::to_string(trial));
+  }
+}
+
+TEST(GeodesicEngine, ManyPointsExactMatchesBruteForce) {
+  // Enough sites for the culling to matter (most blocks end with one candidate).
+  SeedSet s;
+  std::mt19937_64 rng(99);
+  std::uniform_real_distribution<double> lon(-5, 15), lat(50, 62);
+  for (int i = 0; i < 150; ++i) s.add_point(s.add_feature(s.owner_code(std::to_string(i % 9))), {lon(rng), lat(rng)});
+  expect_exact_equals_brute(s, geo_grid(-3.0, 61.0, 0.15, 100, 70), "150 points");
+  expect_exact_equals_brute(s, geo_grid(-3.0, 61.0, 0.15, 100, 70), "150 points, 60 km limit", 60e3);
+}
+
+TEST(GeodesicEngine, IdenticalForAnyThreadCount) {
+  const GridSpec g = geo_grid(170.0, 20.0, 0.1, 97, 71);
+  const SeedSet s = random_features(5, 168, 10, 182, 22, 25);
+  for (Method m : {Method::exact, Method::hv_scan, Method::h_scan}) {
+    const NearestField one = run(s, g, m, 1);
+    for (int t : {2, 7}) {
+      const NearestField many = run(s, g, m, t);
+      EXPECT_EQ(one.site.cells(), many.site.cells()) << to_string(m) << " threads " << t;
+      EXPECT_EQ(one.distance.cells(), many.distance.cells()) << to_string(m) << " threads " << t;
+    }
+  }
+}
+
+TEST(GeodesicEngine, AntimeridianCrossingGrid) {
+  // Grid 175E .. 185E (= 175W); seeds given with longitudes in [-180, 180].
+  SeedSet s;
+  s.add_point(s.add_feature(s.owner_code("west")), {178.0, -17.0});
+  s.add_point(s.add_feature(s.owner_code("east")), {-178.0, -17.0});
+  s.add_polyline(s.add_feature(s.owner_code("reef")),
+                 std::vector<Vec2>{{179.5, -19.5}, {-179.5, -19.0}, {-177.0, -19.8}});
+  // A polygon straddling the antimeridian, written with longitudes in [-180, 180].
+  s.add_polygon(s.add_feature(s.owner_code("island")),
+                {{{179.8, -15.2}, {-179.7, -15.2}, {-179.7, -15.6}, {179.8, -15.6}}});
+  const GridSpec g = geo_grid(175.0, -14.0, 0.05, 200, 140);
+  expect_exact_equals_brute(s, g, "antimeridian");
+  const NearestField f = run(s, g, Method::exact);
+  // Cell at lon 181.025 (= -178.975), lat -17.025: nearest is "east" (~1 degree away), not
+  // "west" (3 degrees away; 177 degrees in raw longitude differences).
+  const int64_t c = 120, r = 60;
+  ASSERT_NEAR(g.centre_x(c), 181.025, 1e-9);
+  ASSERT_NEAR(g.centre_y(r), -17.025, 1e-9);
+  EXPECT_EQ(f.site.at(c, r), 1);
+  double d;
+  GeographicLib::Geodesic::WGS84().Inverse(-17.025, -178.975, -17.0, -178.0, d);
+  EXPECT_NEAR(f.distance.at(c, r), d, d * 1e-7 + 1e-3);
+  // The polygon's interior is owned on both sides of the antimeridian, at distance 0.
+  const int32_t island = s.polygons()[0].area_site;
+  ASSERT_EQ(s.sites()[island].kind, SiteKind::area);
+  const int64_t rp = 28;  // lat -15.425
+  EXPECT_EQ(f.site.at(97, rp), island);   // lon 179.875
+  EXPECT_EQ(f.site.at(103, rp), island);  // lon 180.175 = -179.825
+  EXPECT_EQ(f.distance.at(103, rp), 0.0f);
+  // The reef segment crossing the antimeridian is measured as the short geodesic.
+  const GeodesicMeasure measure(wgs84());
+  const int64_t rr = 104;  // lat -19.225
+  const Vec2 p{g.centre_x(100), g.centre_y(rr)};
+  const double dr = std::min(measure.segment_distance(p, {179.5, -19.5}, {-179.5, -19.0}),
+                             measure.segment_distance(p, {-179.5, -19.0}, {-177.0, -19.8}));
+  EXPECT_EQ(s.site_owner(f.site.at(100, rr)), 3);
+  EXPECT_NEAR(f.distance.at(100, rr), dr, dr * 1e-7 + 1e-3);
+}
+
+TEST(GeodesicEngine, GridReachingThePoles) {
+  SeedSet s;
+  s.add_point(s.add_feature(s.owner_code("a")), {0.0, 85.0});
+  s.add_point(s.add_feature(s.owner_code("b")), {120.0, 86.0});
+  s.add_point(s.add_feature(s.owner_code("c")), {-120.0, 84.0});
+  s.add_polyline(s.add_feature(s.owner_code("d")), std::vector<Vec2>{{60.0, 80.0}, {-150.0, 82.0}});
+  const GridSpec north = geo_grid(-180.0, 90.0, 2.0, 180, 8);  // the whole cap 74N .. 90N
+  expect_exact_equals_brute(s, north, "north cap");
+  const NearestField f = run(s, north, Method::exact);
+  // The row next to the pole: every cell at lat 89 is within ~1 degree of the pole; compare
+  // with GeographicLib directly at a few cells.
+  const GeographicLib::Geodesic& geod = GeographicLib::Geodesic::WGS84();
+  for (int64_t c : {0, 45, 90, 135}) {
+    double da, db, dc;
+    geod.Inverse(89.0, north.centre_x(c), 85.0, 0.0, da);
+    geod.Inverse(89.0, north.centre_x(c), 86.0, 120.0, db);
+    geod.Inverse(89.0, north.centre_x(c), 84.0, -120.0, dc);
+    const double dd = GeodesicMeasure(wgs84()).segment_distance({north.centre_x(c), 89.0}, {60.0, 80.0}, {-150.0, 82.0});
+    const double ref = std::min({da, db, dc, dd});
+    EXPECT_NEAR(f.distance.at(c, 0), ref, ref * 1e-7 + 1e-3) << c;
+  }
+  SeedSet south;
+  south.add_point(south.add_feature(south.owner_code("x")), {10.0, -80.0});
+  south.add_point(south.add_feature(south.owner_code("y")), {-170.0, -81.0});
+  south.add_polygon(south.add_feature(south.owner_code("z")), {{{40, -85}, {60, -85}, {60, -87}, {40, -87}}});
+  expect_exact_equals_brute(south, geo_grid(-180.0, -78.0, 0.5, 720, 24), "south pole");
+}
+
+TEST(GeodesicEngine, PolygonEnclosingAPole) {
+  // An Antarctica-like ring drawn the way EPSG:4326 data draws it: along the coast from -180 to
+  // 180, down the antimeridian to the pole and back. Its interior is everything south of the
+  // coast, at distance 0, and the ring must not be "unwrapped" into something else.
+  SeedSet s;
+  s.add_point(s.add_feature(s.owner_code("ship")), {0.0, -60.0});
+  s.add_polygon(s.add_feature(s.owner_code("ice")),
+                {{{-180, -75}, {-90, -74}, {0, -76}, {90, -75}, {180, -75}, {180, -90}, {-180, -90}}});
+  const GridSpec g = geo_grid(-180.0, -60.0, 2.0, 180, 15);  // 60S .. 90S
+  expect_exact_equals_brute(s, g, "pole-enclosing polygon");
+  const NearestField f = run(s, g, Method::exact);
+  const int32_t ice = s.polygons()[0].area_site;
+  for (int64_t c = 0; c < g.width; c += 7) {
+    EXPECT_EQ(f.site.at(c, 14), ice) << c;  // lat -89
+    EXPECT_EQ(f.site.at(c, 9), ice) << c;   // lat -79
+    EXPECT_EQ(f.distance.at(c, 9), 0.0f) << c;
+    EXPECT_NE(f.site.at(c, 0), ice) << c;   // lat -61, open sea
+  }
+}
+
+TEST(GeodesicEngine, EdgesMeetingAtAVertexTieToTheLowerSite) {
+  // Two owners' lines meet at an apex; north of it both are nearest at the apex itself, at the
+  // same distance: the lower site (the first feature's edge) must own those cells in every
+  // method, which needs both edges to report bit-identical distances there.
+  SeedSet s;
+  s.add_polyline(s.add_feature(s.owner_code("west")), std::vector<Vec2>{{12.0, 55.0}, {12.5, 55.5}});
+  s.add_polyline(s.add_feature(s.owner_code("east")), std::vector<Vec2>{{12.5, 55.5}, {13.0, 55.0}});
+  const GridSpec g = geo_grid(12.3, 55.8, 0.01, 40, 40);
+  expect_exact_equals_brute(s, g, "apex");
+  const NearestField f = run(s, g, Method::exact);
+  const GeographicLib::Geodesic& geod = GeographicLib::Geodesic::WGS84();
+  int checked = 0;
+  for (int64_t r = 0; r < 20; ++r)      // lat 55.795 .. 55.605
+    for (int64_t c = 17; c < 23; ++c) {  // lon 12.475 .. 12.525
+      EXPECT_EQ(f.site.at(c, r), 0) << c << "," << r;
+      double d;
+      geod.Inverse(g.centre_y(r), g.centre_x(c), 55.5, 12.5, d);
+      EXPECT_NEAR(f.distance.at(c, r), d, d * 1e-7) << c << "," << r;
+      ++checked;
+    }
+  EXPECT_EQ(checked, 120);
+  EXPECT_EQ(run(s, g, Method::hv_scan).site.at(20, 5), 0);
+}
+
+TEST(GeodesicEngine, SyntheticCoastlines) {
+  // Two states facing each other across a strait (Oresund-like, 55.5N 12.7E): land polygons
+  // whose sea-facing edges are wiggly coastlines of many short edges, at 0.002 degrees.
+  SeedSet s;
+  auto coast = [&](const std::string& owner, double lon0, double sign, uint32_t seed) {
+    std::mt19937_64 rng(seed);
+    std::uniform_real_distribution<double> wig(-0.004, 0.004);
+    std::vector<Vec2> line;
+    for (int i = 0; i <= 40; ++i) {
+      const double lat = 55.3 + i * 0.01;
+      line.push_back({lon0 + 0.03 * std::sin(i * 0.6) + wig(rng), lat});
+    }
+    std::vector<Vec2> ring = line;
+    ring.push_back({lon0 + sign * 0.3, line.back().y});
+    ring.push_back({lon0 + sign * 0.3, line.front().y});
+    s.add_polygon(s.add_feature(s.owner_code(owner)), {ring});
+  };
+  coast("DK", 12.6, -1.0, 1);
+  coast("SE", 12.9, 1.0, 2);
+  s.add_point(s.add_feature(s.owner_code("DK")), {12.72, 55.50});  // an island
+  const GridSpec g = geo_grid(12.5, 55.65, 0.002, 200, 100);
+  expect_exact_equals_brute(s, g, "coastlines");
+  const NearestField exact = run(s, g, Method::exact);
+  const ValidationStats hv = compare_fields(s, run(s, g, Method::hv_scan), exact);
+  RecordProperty("hv_coast_max_error_cells", std::to_string(hv.max_error_cells));
+  EXPECT_LT(hv.max_error_cells, 2.0);
+}
+
+TEST(GeodesicEngine, WholeGlobeWithFewSeeds) {
+  // A global 2-degree grid and a handful of seeds: nearest distances of thousands of km, cells
+  // nearly antipodal to some edges (the non-convex search path), both poles, the seam at 180.
+  SeedSet s;
+  s.add_point(s.add_feature(s.owner_code("a")), {10.0, 50.0});
+  s.add_point(s.add_feature(s.owner_code("b")), {-170.0, -50.5});  // ~antipodal to a
+  s.add_polyline(s.add_feature(s.owner_code("c")), std::vector<Vec2>{{100, 0}, {140, 20}, {-170, 10}});
+  s.add_polyline(s.add_feature(s.owner_code("d")), std::vector<Vec2>{{-60, -60}, {-20, -75}});
+  s.add_polygon(s.add_feature(s.owner_code("e")), {{{-100, 40}, {-80, 40}, {-80, 60}, {-100, 60}}});
+  const GridSpec g = geo_grid(-180.0, 90.0, 2.0, 180, 90);
+  expect_exact_equals_brute(s, g, "globe");
+  const NearestField f = run(s, g, Method::exact);
+  // Spot checks against GeographicLib at cells whose nearest seed is a point.
+  const GeographicLib::Geodesic& geod = GeographicLib::Geodesic::WGS84();
+  int checked = 0;
+  for (int64_t r = 0; r < g.height; r += 7)
+    for (int64_t c = 0; c < g.width; c += 11) {
+      const int32_t id = f.site.at(c, r);
+      if (id != 0 && id != 1) continue;
+      const Vec2 q = s.sites()[static_cast<size_t>(id)].a;
+      double d;
+      geod.Inverse(g.centre_y(r), g.centre_x(c), q.y, q.x, d);
+      EXPECT_NEAR(f.distance.at(c, r), d, d * 1e-7) << c << "," << r;
+      ++checked;
+    }
+  EXPECT_GT(checked, 20);
+}
+
+TEST(GeodesicEngine, ScansAreNearlyExact) {
+  SeedSet s;
+  std::mt19937_64 rng(7);
+  std::uniform_real_distribution<double> lon(0, 10), lat(40, 48);
+  for (int i = 0; i < 20; ++i) s.add_point(s.add_feature(s.owner_code(std::to_string(i))), {lon(rng), lat(rng)});
+  const GridSpec g = geo_grid(0.0, 48.0, 0.1, 100, 80);
+  const NearestField brute = run(s, g, Method::brute_force);
+  const ValidationStats hv = compare_fields(s, run(s, g, Method::hv_scan), brute);
+  EXPECT_LT(hv.max_error_cells, 1.0);
+  EXPECT_EQ(hv.nodata_mismatch, 0);
+  const ValidationStats self = compare_fields(s, brute, brute);
+  EXPECT_EQ(self.wrong_cells + self.tie_cells, 0);
+}
+
+TEST(GeodesicEngine, WindowsAgreeWithTheWholeGrid) {
+  const GridSpec g = geo_grid(178.0, 64.0, 0.05, 90, 70);
+  const SeedSet s = random_features(17, 176, 59, 184, 66, 15);
+  for (Method m : {Method::exact, Method::hv_scan}) {
+    const NearestField whole = run(s, g, m);
+    ComputeOptions o;
+    o.method = m;
+    o.metric = wgs84();
+    o.window = Window{20, 15, 41, 33};
+    const NearestField part = compute(s, g, o);
+    for (int64_t r = 0; r < 33; ++r)
+      for (int64_t c = 0; c < 41; ++c) {
+        if (m == Method::exact) {
+          ASSERT_EQ(part.site.at(c, r), whole.site.at(20 + c, 15 + r)) << c << "," << r;
+          ASSERT_EQ(part.distance.at(c, r), whole.distance.at(20 + c, 15 + r)) << c << "," << r;
+        }
+      }
+    if (m == Method::hv_scan) {
+      ComputeOptions b = o;
+      b.method = Method::brute_force;
+      EXPECT_LT(compare_fields(s, part, compute(s, g, b)).max_error_cells, 1.0);
+    }
+  }
+}
+
+TEST(GeodesicEngine, RefusesWhatItCannotMeasure) {
+  SeedSet s;
+  s.add_point(s.add_feature(s.owner_code("a")), {0.0, 0.0});
+  auto kind = [](auto&& f) {
+    try {
+      f();
+    } catch (const Error& e) {
+      return e.kind();
+    }
+    return ErrorKind::internal;
+  };
+  EXPECT_EQ(kind([&] { run(s, geo_grid(0, 91, 1, 5, 5), Method::exact); }), ErrorKind::invalid_argument);
+  EXPECT_EQ(kind([&] { run(s, geo_grid(0, -85, 1, 5, 6), Method::exact); }), ErrorKind::invalid_argument);
+  EXPECT_EQ(kind([&] { run(s, geo_grid(0, 10, 1, 361, 5), Method::exact); }), ErrorKind::invalid_argument);
+  SeedSet bad;
+  bad.add_point(bad.add_feature(bad.owner_code("a")), {0.0, 95.0});
+  EXPECT_EQ(kind([&] { run(bad, geo_grid(0, 10, 1, 5, 5), Method::exact); }), ErrorKind::invalid_input);
+  MetricSpec flat = wgs84();
+  flat.flattening = 0.2;
+  EXPECT_EQ(kind([&] { run(s, geo_grid(0, 10, 1, 5, 5), Method::exact, 1, INFINITY, flat); }),
+            ErrorKind::invalid_argument);
+  // Fields of different metrics cannot be compared.
+  const NearestField geo = run(s, geo_grid(0, 10, 1, 5, 5), Method::exact);
+  const NearestField planar = run(s, geo_grid(0, 10, 1, 5, 5), Method::exact, 1, INFINITY, MetricSpec{});
+  EXPECT_EQ(kind([&] { compare_fields(s, geo, planar); }), ErrorKind::invalid_argument);
+}
+
+}  // namespace
+}  // namespace rv
