@@ -208,6 +208,15 @@ def main():
                               "ownerField": "owner", "resolution": 250}}
             _, _, r = execute(s, one, expect=200)
             check("ownership" in json.loads(r), f"{name} upload computed")
+        # A geographic grid from an OGC CRS URI, geodesic distances in nautical miles.
+        geo = {"inputs": {"seeds": demo, "ownerField": "state", "resolution": 0.02,
+                          "crs": "http://www.opengis.net/def/crs/EPSG/0/4326", "metric": "geodesic",
+                          "maxDistance": 10, "distanceUnits": "nmi"},
+               "outputs": {"report": {}}}
+        _, _, g = execute(s, geo, expect=200)
+        g = json.loads(g)["report"]["value"]
+        check(g["metric"] == "geodesic" and g["grid"]["geographic"], f"geodesic job report: {g.get('grid')}")
+        check(g["distance_units"] == "nmi", f"distance units {g.get('distance_units')}")
         request(s, "GET", "/jobs", expect=200)
         request(s, "GET", "/jobs?limit=1&status=successful", expect=200)
         request(s, "GET", f"/jobs/{job1}", expect=200)
