@@ -7,6 +7,7 @@
 #include "rv/job.hpp"
 #include "rv/seed_reader.hpp"
 #include "rv/server.hpp"
+#include "server_util.hpp"
 
 namespace rv {
 
@@ -34,9 +35,10 @@ int serve_main(const ServeOptions& options) {
     server.start();
     int received = 0;
     sigwait(&signals, &received);
-    std::cerr << "{\"event\":\"signal\",\"signal\":\"" << (received == SIGTERM ? "SIGTERM" : "SIGINT")
-              << "\",\"action\":\"graceful shutdown: no new connections, queued jobs failed, running jobs get "
-              << config.jobs.shutdown_grace_s << " s then are cancelled\"}" << std::endl;
+    daemon::log_line("{\"time\":\"" + daemon::now_rfc3339() + "\",\"event\":\"signal\",\"signal\":\"" +
+                     (received == SIGTERM ? "SIGTERM" : "SIGINT") +
+                     "\",\"action\":\"graceful shutdown: no new connections, queued jobs failed, running jobs get " +
+                     nlohmann::json(config.jobs.shutdown_grace_s).dump() + " s, then are cancelled\"}");
     server.stop();
     return 0;
   } catch (const Error& e) {
