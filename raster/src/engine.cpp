@@ -39,13 +39,15 @@ int resolve_threads(int requested) {
   return hw == 0 ? 1 : static_cast<int>(std::min(hw, 256u));
 }
 
-int64_t estimate_memory(Method m, int64_t cells, int64_t sites) {
+int64_t estimate_memory(Method m, int64_t cells, int64_t sites, MetricSpec::Kind metric) {
   // Result: int32 site + float32 distance per cell. Scans add a double key per cell.
   int64_t per_cell = 8;
   if (m == Method::hv_scan || m == Method::h_scan) per_cell += 8;
   // Per site: the planar form, and (geodesic) the prepared site, its line and usually one piece.
-  const auto per_site = static_cast<int64_t>(sizeof(LocalSite) + sizeof(Site) + 16 + sizeof(detail::GeoSite) +
-                                             sizeof(GeographicLib::GeodesicLine) + sizeof(detail::GeoPiece));
+  auto per_site = static_cast<int64_t>(sizeof(LocalSite) + sizeof(Site) + 16);
+  if (metric == MetricSpec::geodesic)
+    per_site += static_cast<int64_t>(sizeof(detail::GeoSite) + sizeof(GeographicLib::GeodesicLine) +
+                                     sizeof(detail::GeoPiece));
   return cells * per_cell + sites * per_site + (64 << 20);
 }
 

@@ -270,6 +270,40 @@ class BucketIndex {
     }
   }
 
+  // Like near(), but only sites passing `keep` count as found (the others are still passed to
+  // fn, which filters them itself). Visits every ring when no site passes.
+  template <class Keep, class F>
+  void near_filtered(double x, double y, Keep&& keep, F&& fn) const {
+    const int64_t cx = clamp_x(x), cy = clamp_y(y);
+    const int64_t max_ring = std::max(nx_, ny_);
+    int64_t found_at = -1;
+    for (int64_t ring = 0; ring <= max_ring; ++ring) {
+      bool any = false;
+      auto take = [&](int64_t bx, int64_t by) {
+        if (bx < 0 || by < 0 || bx >= nx_ || by >= ny_) return;
+        const int64_t b = by * nx_ + bx;
+        for (int64_t i = offsets_[b]; i < offsets_[b + 1]; ++i) {
+          fn(items_[i]);
+          any = any || keep(items_[i]);
+        }
+      };
+      if (ring == 0) {
+        take(cx, cy);
+      } else {
+        for (int64_t bx = cx - ring; bx <= cx + ring; ++bx) {
+          take(bx, cy - ring);
+          take(bx, cy + ring);
+        }
+        for (int64_t by = cy - ring + 1; by <= cy + ring - 1; ++by) {
+          take(cx - ring, by);
+          take(cx + ring, by);
+        }
+      }
+      if (any && found_at < 0) found_at = ring;
+      if (found_at >= 0 && ring >= found_at + 1) return;
+    }
+  }
+
   double x0() const { return x0_; }
   double y0() const { return y0_; }
   double sx() const { return sx_; }
@@ -519,10 +553,219 @@ class ExactSolver {
   double slack_ = 0.0;
 };
 
+// The exact method with an owner filter: for each cell, the nearest site whose owner differs
+// from the owner of the cell's own nearest site (the margin raster's "other side").
+//
+// Why it stays exact: a block's cells may have several owners. For each owner O present, the
+// bound U_O(B) is the smallest corner-max distance over candidate sites not owned by O, and a
+// site s is kept when, for some present owner O != owner(s), its lower bound to the block is
+// within U_O(B). A cell of owner O has its true nearest non-O site within U_O(B), so that site
+// is never dropped; the per-cell argmin uses planar_key and the lower-id tie rule, as brute
+// force does over the filtered sites.
+class OtherOwnerSolver {
+ public:
+  OtherOwnerSolver(const EngineContext& ctx, const Raster<int32_t>& own,
+                   const std::vector<int32_t>& owner_of, Raster<int32_t>& site,
+                   Raster<float>& distance)
+      : ctx_(ctx), own_(own), owner_of_(owner_of), site_(site), distance_(distance),
+        index_(ctx.local, ctx.geometric) {
+    double scale = std::abs(ctx.grid.local_x(ctx.window.col0 + ctx.window.width)) +
+                   std::abs(ctx.grid.local_y(ctx.window.row0 + ctx.window.height)) + ctx.grid.res;
+    for (int32_t id : ctx.geometric) {
+      const LocalSite& s = ctx.local[id];
+      scale = std::max({scale, std::abs(s.ax), std::abs(s.ay), std::abs(s.bx()), std::abs(s.by())});
+    }
+    slack_ = scale * 1e-12;
+  }
+
+  void run() {
+    const Window& w = ctx_.window;
+    const int64_t tiles_x = (w.width + kTile - 1) / kTile;
+    const int64_t tiles_y = (w.height + kTile - 1) / kTile;
+    std::vector<Worker> workers(static_cast<size_t>(ctx_.threads));
+    std::vector<std::vector<int32_t>> owners(static_cast<size_t>(ctx_.threads));
+    parallel_for(ctx_.threads, tiles_x * tiles_y, [&](int64_t t, int worker) {
+      Worker& wk = workers[static_cast<size_t>(worker)];
+      if (wk.stamp.empty()) wk.stamp.assign(ctx_.local.size(), -1);
+      if (wk.levels.empty()) wk.levels.resize(16);
+      const int64_t c0 = (t % tiles_x) * kTile, r0 = (t / tiles_x) * kTile;
+      const int64_t c1 = std::min(c0 + kTile, w.width), r1 = std::min(r0 + kTile, w.height);
+      solve_tile(wk, owners[static_cast<size_t>(worker)], c0, r0, c1, r1);
+      ctx_.progress->advance((c1 - c0) * (r1 - r0));
+    });
+  }
+
+ private:
+  Rect rect_of(int64_t c0, int64_t r0, int64_t c1, int64_t r1) const {
+    const Window& w = ctx_.window;
+    return Rect{ctx_.grid.local_x(w.col0 + c0), ctx_.grid.local_y(w.row0 + r1 - 1),
+                ctx_.grid.local_x(w.col0 + c1 - 1), ctx_.grid.local_y(w.row0 + r0)};
+  }
+  double keep_bound(double upper_key) const {
+    if (upper_key == std::numeric_limits<double>::infinity()) return upper_key;
+    const double d = std::sqrt(upper_key) + slack_;
+    return d * d;
+  }
+  int32_t cell_owner(int64_t c, int64_t r) const {
+    const int32_t s = own_.at(c, r);
+    return s == kNoSite ? 0 : owner_of_[s];
+  }
+  // Distinct owners (> 0) of the block's cells, ascending; the block's cells are few (<= 64^2).
+  void owners_in(int64_t c0, int64_t r0, int64_t c1, int64_t r1, std::vector<int32_t>& out) const {
+    out.clear();
+    int32_t last = -1;
+    for (int64_t r = r0; r < r1; ++r)
+      for (int64_t c = c0; c < c1; ++c) {
+        const int32_t o = cell_owner(c, r);
+        if (o == 0 || o == last) continue;
+        last = o;
+        if (std::find(out.begin(), out.end(), o) == out.end()) out.push_back(o);
+      }
+    std::sort(out.begin(), out.end());
+  }
+
+  // Keeps the sites of `in` that can be the nearest other-owner site of some cell of the block.
+  void cull(const std::vector<int32_t>& owners, const std::vector<int32_t>& in, const Rect& rect,
+            std::vector<int32_t>& out, std::vector<double>& bounds) const {
+    bounds.assign(owners.size(), std::numeric_limits<double>::infinity());
+    for (int32_t id : in) {
+      const double mk = site_rect_max_key(ctx_.local[id], rect);
+      for (size_t i = 0; i < owners.size(); ++i)
+        if (owner_of_[id] != owners[i]) bounds[i] = std::min(bounds[i], mk);
+    }
+    for (double& b : bounds) b = keep_bound(b);
+    out.clear();
+    for (int32_t id : in) {
+      const double lo = site_rect_key(ctx_.local[id], rect);
+      for (size_t i = 0; i < owners.size(); ++i)
+        if (owner_of_[id] != owners[i] && lo <= bounds[i]) {
+          out.push_back(id);
+          break;
+        }
+    }
+  }
+
+  void solve_tile(Worker& wk, std::vector<int32_t>& owners, int64_t c0, int64_t r0, int64_t c1,
+                  int64_t r1) {
+    owners_in(c0, r0, c1, r1, owners);
+    if (owners.empty()) return fill_none(c0, r0, c1, r1);
+    const Rect rect = rect_of(c0, r0, c1, r1);
+    const double mx = 0.5 * (rect.x0 + rect.x1), my = 0.5 * (rect.y0 + rect.y1);
+    // Seed candidates: for each present owner, the sites near the tile centre up to one ring
+    // past the first ring holding a site of another owner.
+    std::vector<int32_t>& seed = wk.levels[0];
+    seed.clear();
+    ++wk.stamp_value;
+    auto stamp = static_cast<int32_t>(wk.stamp_value);
+    for (int32_t o : owners)
+      index_.near_filtered(mx, my, [&](int32_t id) { return owner_of_[id] != o; },
+                           [&](int32_t id) {
+                             if (wk.stamp[id] == stamp) return;
+                             wk.stamp[id] = stamp;
+                             seed.push_back(id);
+                           });
+    std::vector<double> bounds;
+    std::vector<int32_t> first;
+    cull(owners, seed, rect, first, bounds);
+    double widest = 0.0;
+    for (double b : bounds) widest = std::max(widest, b);
+    std::vector<int32_t>& cands = wk.levels[0];
+    cands.clear();
+    ++wk.stamp_value;
+    stamp = static_cast<int32_t>(wk.stamp_value);
+    if (widest == std::numeric_limits<double>::infinity()) {
+      // Some present owner has no other-owner site in reach of the ring search: only possible
+      // when no site of another owner exists at all; take every site (cull sorts it out).
+      for (int32_t id : ctx_.geometric) cands.push_back(id);
+    } else {
+      const double reach = std::sqrt(widest);
+      index_.for_range(index_.clamp_x(rect.x0 - reach) - 1, index_.clamp_y(rect.y0 - reach) - 1,
+                       index_.clamp_x(rect.x1 + reach) + 1, index_.clamp_y(rect.y1 + reach) + 1,
+                       [&](int32_t id) {
+                         if (wk.stamp[id] == stamp) return;
+                         wk.stamp[id] = stamp;
+                         cands.push_back(id);
+                       });
+    }
+    std::sort(cands.begin(), cands.end());
+    solve_block(wk, owners, 0, c0, r0, c1, r1);
+  }
+
+  void solve_block(Worker& wk, std::vector<int32_t>& owners, int depth, int64_t c0, int64_t r0,
+                   int64_t c1, int64_t r1) {
+    owners_in(c0, r0, c1, r1, owners);
+    if (owners.empty()) return fill_none(c0, r0, c1, r1);
+    std::vector<int32_t>& next = wk.levels[depth + 1];
+    std::vector<double> bounds;
+    cull(owners, wk.levels[depth], rect_of(c0, r0, c1, r1), next, bounds);
+    const int64_t w = c1 - c0, h = r1 - r0;
+    if (next.size() <= 1 || w * h <= kLeafCells || depth + 2 >= static_cast<int>(wk.levels.size()))
+      return solve_cells(wk, owners, next, c0, r0, c1, r1);
+    const int64_t cm = c0 + (w + 1) / 2, rm = r0 + (h + 1) / 2;
+    solve_block(wk, owners, depth + 1, c0, r0, cm, rm);
+    if (cm < c1) solve_block(wk, owners, depth + 1, cm, r0, c1, rm);
+    if (rm < r1) {
+      solve_block(wk, owners, depth + 1, c0, rm, cm, r1);
+      if (cm < c1) solve_block(wk, owners, depth + 1, cm, rm, c1, r1);
+    }
+  }
+
+  void fill_none(int64_t c0, int64_t r0, int64_t c1, int64_t r1) {
+    for (int64_t r = r0; r < r1; ++r) {
+      std::fill(site_.row(r) + c0, site_.row(r) + c1, kNoSite);
+      std::fill(distance_.row(r) + c0, distance_.row(r) + c1, kNoDistance);
+    }
+  }
+
+  // Per-cell argmin over the candidates of another owner (ascending ids, strict <).
+  void solve_cells(Worker& wk, const std::vector<int32_t>& owners, const std::vector<int32_t>& cands,
+                   int64_t c0, int64_t r0, int64_t c1, int64_t r1) {
+    const Window& win = ctx_.window;
+    for (int64_t r = r0; r < r1; ++r) {
+      const double py = ctx_.grid.local_y(win.row0 + r);
+      for (int64_t c = c0; c < c1; ++c) {
+        const int32_t o = cell_owner(c, r);
+        double best = std::numeric_limits<double>::infinity();
+        int32_t best_id = kNoSite;
+        if (o != 0) {
+          const double px = ctx_.grid.local_x(win.col0 + c);
+          for (int32_t id : cands) {
+            if (owner_of_[id] == o) continue;
+            const double k = planar_key(px, py, ctx_.local[id]);
+            if (k < best) {
+              best = k;
+              best_id = id;
+            }
+          }
+        }
+        site_.at(c, r) = best_id;
+        distance_.at(c, r) = best_id == kNoSite ? kNoDistance : static_cast<float>(std::sqrt(best));
+      }
+    }
+    (void)wk;
+    (void)owners;
+  }
+
+  const EngineContext& ctx_;
+  const Raster<int32_t>& own_;
+  const std::vector<int32_t>& owner_of_;
+  Raster<int32_t>& site_;
+  Raster<float>& distance_;
+  BucketIndex index_;
+  double slack_ = 0.0;
+};
+
 }  // namespace
 
 void run_exact(const EngineContext& ctx, Raster<int32_t>& site, Raster<float>& distance) {
   ExactSolver solver(ctx, site, distance);
+  solver.run();
+}
+
+void run_exact_other_owner(const EngineContext& ctx, const Raster<int32_t>& own,
+                           const std::vector<int32_t>& owner_of_site, Raster<int32_t>& site,
+                           Raster<float>& distance) {
+  OtherOwnerSolver solver(ctx, own, owner_of_site, site, distance);
   solver.run();
 }
 

@@ -54,6 +54,19 @@ outputs:
   --nearest-feature F.tif 1-based index of the nearest seed feature (Int32)
   --report FILE.json      grid, method, seeds, timings per phase, peak memory
   --cog                   write Cloud-Optimized GeoTIFFs
+maritime deliverables (exact: vertices placed on the equidistance locus, see README):
+  --boundaries FILE       boundary lines between owners, with each vertex's controlling
+                          seed features (.geojson, .json or .gpkg)
+  --tripoints FILE        points where three owners meet
+  --limits FILE           lines at --limit-distances from the seeds
+  --limit-distances LIST  e.g. 12nmi,24nmi,200nmi (units m, km, nmi; plain numbers are in
+                          --distance-units)
+  --limits-per-owner      one set of limit lines per owner (default: all owners together)
+  --regions FILE          one (multi)polygon per owner from the ownership raster
+  --margin-raster F.tif   distance to the nearest other owner minus the own distance (Float32)
+  --preview FILE.png      quicklook: ownership in colours with the boundary lines
+  --simplify CELLS        Douglas-Peucker tolerance for boundary and limit lines (default 0:
+                          every vertex kept; kept vertices always lie exactly on the lines)
   --quiet                 no progress bar
 )";
 
@@ -173,6 +186,15 @@ CommonOptions parse(Args& args, bool validate_mode) {
     else if (a == "--nearest-feature") s.outputs.nearest_feature = args.value(a);
     else if (a == "--report") s.outputs.report = args.value(a);
     else if (a == "--cog") s.outputs.cloud_optimized = true;
+    else if (a == "--boundaries") s.outputs.boundaries = args.value(a);
+    else if (a == "--tripoints") s.outputs.tripoints = args.value(a);
+    else if (a == "--limits") s.outputs.limits = args.value(a);
+    else if (a == "--limit-distances") for (const auto& d : split(args.value(a), ',')) s.outputs.limit_distances.push_back(d);
+    else if (a == "--limits-per-owner") s.outputs.limits_per_owner = true;
+    else if (a == "--regions") s.outputs.regions = args.value(a);
+    else if (a == "--margin-raster") s.outputs.margin = args.value(a);
+    else if (a == "--preview") s.outputs.preview = args.value(a);
+    else if (a == "--simplify") s.outputs.simplify_cells = args.number(a);
     else if (a == "--quiet") o.quiet = true;
     else if (validate_mode && a == "--random-seeds") o.random_seeds = args.integer(a);
     else if (validate_mode && a == "--size") { o.size_w = args.integer(a); o.size_h = args.integer(a); }

@@ -9,11 +9,16 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <memory>
+#include <optional>
 
+#include "rv/deliverables.hpp"
 #include "rv/error.hpp"
 #include "rv/outputs.hpp"
+#include "rv/preview.hpp"
 #include "rv/raster_io.hpp"
 #include "rv/validate.hpp"
+#include "rv/vector_writer.hpp"
 #include "rv/version.hpp"
 
 namespace rv {
@@ -93,6 +98,22 @@ nlohmann::json seeds_json(const LoadedSeeds& loaded) {
 }
 
 }  // namespace
+
+LimitDistance parse_limit_distance(const std::string& text) {
+  LimitDistance out;
+  out.text = text;
+  const char* begin = text.c_str();
+  char* end = nullptr;
+  out.value = std::strtod(begin, &end);
+  std::string unit(end == begin ? text : std::string(end));
+  unit.erase(0, unit.find_first_not_of(" \t"));
+  unit.erase(unit.find_last_not_of(" \t") + 1);
+  if (end == begin || !std::isfinite(out.value) || out.value <= 0.0)
+    throw Error(ErrorKind::invalid_argument, "limit distance '" + text + "' is not a positive number");
+  if (!unit.empty()) parse_distance_unit(unit);  // throws for an unknown unit
+  out.unit = unit;
+  return out;
+}
 
 int64_t physical_memory_bytes() {
   const long pages = ::sysconf(_SC_PHYS_PAGES), size = ::sysconf(_SC_PAGESIZE);
@@ -191,13 +212,42 @@ JobResult run_job(const JobSpec& spec, const JobLimits& limits, const JobHooks& 
       throw Error(ErrorKind::invalid_argument, "max distance must be a non-negative number");
     options.max_distance = *spec.max_distance / factor;
   }
+  // Limit distances, converted to metric units (CRS units on planar grids).
+  const OutputRequest& deliver = spec.outputs;
+  std::vector<double> limit_metric;
+  if (!deliver.limits.empty() && deliver.limit_distances.empty())
+    throw Error(ErrorKind::invalid_argument, "limit lines need limit distances (e.g. --limit-distances 12nmi,24nmi)");
+  for (const std::string& text : deliver.limit_distances) {
+    const LimitDistance d = parse_limit_distance(text);
+    if (!d.unit.empty()) {
+      if (!geodesic && loaded.crs.wkt.empty())
+        throw Error(ErrorKind::invalid_argument, "limit distance '" + text + "' has a unit, but the seeds have no CRS");
+      // Metric units are metres on geodesic grids, CRS units on planar ones.
+      limit_metric.push_back(d.value * metres_per_unit(parse_distance_unit(d.unit)) /
+                             (geodesic ? 1.0 : loaded.crs.linear_unit));
+    } else {
+      limit_metric.push_back(d.value / factor);
+    }
+  }
+  for (double d : limit_metric)
+    if (d > options.max_distance)
+      throw Error(ErrorKind::invalid_argument,
+                  "a limit distance exceeds the max distance: cells beyond it have no distance to draw the line in");
+  if (!(deliver.simplify_cells >= 0.0) || !std::isfinite(deliver.simplify_cells))
+    throw Error(ErrorKind::invalid_argument, "the simplification tolerance must be a non-negative number of cells");
   const int64_t cells = grid.cell_count();
   if (cells > limits.max_cells)
     throw Error(ErrorKind::too_large, "the grid has " + std::to_string(cells) + " cells, over the limit of " +
                                           std::to_string(limits.max_cells));
   const int64_t sites = static_cast<int64_t>(loaded.seeds.sites().size());
-  int64_t need = estimate_memory(spec.method, cells, sites) + cells * 4;  // + one output raster
-  if (spec.validate) need += estimate_memory(Method::brute_force, cells, sites);
+  int64_t need = estimate_memory(spec.method, cells, sites, mp.metric.kind) + cells * 4;  // + one output raster
+  if (spec.validate) need += estimate_memory(Method::brute_force, cells, sites, mp.metric.kind);
+  if (deliver.any_deliverable()) {
+    need += cells * 4;                                                    // owner codes
+    if (spec.method != Method::exact && spec.method != Method::brute_force) need += cells * 8;  // exact field
+    if (!deliver.margin.empty()) need += cells * 12;                      // other-owner field + margin
+    if (!deliver.limits.empty()) need += cells;                           // inside flags
+  }
   const int64_t budget = limits.max_memory_bytes > 0 ? limits.max_memory_bytes : physical_memory_bytes() / 10 * 8;
   if (budget > 0 && need > budget)
     throw Error(ErrorKind::too_large, "the job needs about " + std::to_string(need >> 20) + " MiB for " +
@@ -279,6 +329,133 @@ JobResult run_job(const JobSpec& spec, const JobLimits& limits, const JobHooks& 
                   feature_raster(loaded.seeds, field, spec.threads, loaded.input_position), 0.0, o);
     write_times["nearest_feature"] = seconds_since(t);
     outputs["nearest_feature"] = spec.outputs.nearest_feature;
+  }
+
+  // 6. Deliverables, from an exact field (a scan's ownership is not exact).
+  if (deliver.any_deliverable()) {
+    check_cancel();
+    progress("deliver", 0.0);
+    nlohmann::json deliver_times, deliver_report;
+    const NearestField* exact_field = &field;
+    NearestField exact_copy;
+    if (spec.method != Method::exact && spec.method != Method::brute_force) {
+      ComputeOptions eo = options;
+      eo.method = Method::exact;
+      eo.progress = nullptr;
+      exact_copy = compute(loaded.seeds, grid, eo);
+      exact_field = &exact_copy;
+      deliver_times["exact_field"] = exact_copy.seconds;
+    }
+    // The deliverables measure with the field's own metric.
+    std::unique_ptr<SiteMetric> metric_ptr;
+    if (exact_field->metric.kind == MetricSpec::geodesic)
+      metric_ptr = std::make_unique<GeodesicSiteMetric>(loaded.seeds, exact_field->metric);
+    else
+      metric_ptr = std::make_unique<PlanarSiteMetric>(loaded.seeds, Vec2{grid.xmin, grid.ymax});
+    const SiteMetric& metric = *metric_ptr;
+    const OwnerIndex index(metric);
+    VectorOutputOptions vo;
+    vo.crs = loaded.crs.wkt;
+    vo.distance_factor = factor;
+    vo.distance_units = unit_name;
+    BoundaryResult boundaries;
+    if (!deliver.boundaries.empty() || !deliver.tripoints.empty() || !deliver.preview.empty()) {
+      t = Clock::now();
+      BoundaryOptions bo;
+      bo.simplify_cells = deliver.simplify_cells;
+      bo.threads = spec.threads;
+      boundaries = extract_boundaries(*exact_field, index, bo);
+      const BoundaryStats& st = boundaries.stats;
+      deliver_report["boundaries"] = {{"lines", boundaries.lines.size()},
+                                      {"vertices", st.vertices},
+                                      {"vertices_before_simplify", st.vertices_before_simplify},
+                                      {"tripoints", boundaries.tripoints.size()},
+                                      {"crossings", st.crossings},
+                                      {"saddles", st.saddles},
+                                      {"multi_owner_squares", st.multi_owner_squares},
+                                      {"unresolved_tripoints", st.unresolved_tripoints},
+                                      {"sliver_crossings", st.sliver_crossings},
+                                      {"max_residual", st.max_residual * factor},
+                                      {"max_residual_cells", st.max_residual / grid.res},
+                                      {"simplify_cells", deliver.simplify_cells}};
+      if (!deliver.boundaries.empty()) {
+        guard.add(deliver.boundaries);
+        write_boundaries(deliver.boundaries, boundaries, metric, vo);
+        outputs["boundaries"] = deliver.boundaries;
+      }
+      if (!deliver.tripoints.empty()) {
+        guard.add(deliver.tripoints);
+        write_tripoints(deliver.tripoints, boundaries, metric, vo);
+        outputs["tripoints"] = deliver.tripoints;
+      }
+      deliver_times["boundaries"] = seconds_since(t);
+    }
+    progress("deliver", 0.3);
+    if (!deliver.limits.empty()) {
+      check_cancel();
+      t = Clock::now();
+      LimitOptions lo;
+      lo.per_owner = deliver.limits_per_owner;
+      lo.simplify_cells = deliver.simplify_cells;
+      lo.threads = spec.threads;
+      const LimitResult limits = extract_limits(*exact_field, index, limit_metric, lo);
+      guard.add(deliver.limits);
+      write_limits(deliver.limits, limits, loaded.seeds, vo);
+      outputs["limits"] = deliver.limits;
+      nlohmann::json ds = nlohmann::json::array();
+      for (double d : limit_metric) ds.push_back(d * factor);
+      deliver_report["limits"] = {{"distances", ds},
+                                  {"as_given", deliver.limit_distances},
+                                  {"per_owner", deliver.limits_per_owner},
+                                  {"lines", limits.lines.size()},
+                                  {"vertices", limits.vertices},
+                                  {"max_residual", limits.max_residual * factor},
+                                  {"max_residual_cells", limits.max_residual / grid.res}};
+      deliver_times["limits"] = seconds_since(t);
+    }
+    progress("deliver", 0.5);
+    std::optional<Raster<int32_t>> owner_codes;
+    if (!deliver.regions.empty() || !deliver.preview.empty())
+      owner_codes = owner_raster(loaded.seeds, *exact_field, spec.threads);
+    if (!deliver.regions.empty()) {
+      check_cancel();
+      t = Clock::now();
+      guard.add(deliver.regions);
+      const RegionStats rs = write_regions(deliver.regions, *owner_codes, loaded.seeds, vo);
+      outputs["regions"] = deliver.regions;
+      deliver_report["regions"] = {{"owners", rs.owners}, {"polygons", rs.polygons}};
+      deliver_times["regions"] = seconds_since(t);
+    }
+    progress("deliver", 0.7);
+    if (!deliver.margin.empty()) {
+      check_cancel();
+      t = Clock::now();
+      Raster<float> margin = margin_raster(*exact_field, index, spec.threads);
+      if (factor != 1.0)
+        for (float& v : margin.cells())
+          if (v != kNoDistance) v = static_cast<float>(v * factor);
+      GeoTiffOptions o = common;
+      o.units = unit_name;
+      o.metadata["CONTENT"] = "distance to the nearest seed of another owner minus distance to the own nearest seed";
+      o.metadata["UNITS"] = unit_name;
+      guard.add(deliver.margin);
+      write_geotiff(deliver.margin, margin, static_cast<double>(kNoDistance), o);
+      outputs["margin"] = deliver.margin;
+      deliver_times["margin"] = seconds_since(t);
+    }
+    progress("deliver", 0.9);
+    if (!deliver.preview.empty()) {
+      check_cancel();
+      t = Clock::now();
+      guard.add(deliver.preview);
+      const PreviewInfo pi = write_preview(deliver.preview, *owner_codes, &boundaries);
+      outputs["preview"] = deliver.preview;
+      deliver_report["preview"] = {{"width", pi.width}, {"height", pi.height}, {"cells_per_pixel", pi.step}};
+      deliver_times["preview"] = seconds_since(t);
+    }
+    progress("deliver", 1.0);
+    timings["deliverables"] = deliver_times;
+    report["deliverables"] = deliver_report;
   }
   timings["write"] = write_times;
   timings["total"] = seconds_since(start);

@@ -341,6 +341,34 @@ TEST(GeodesicEngine, ScansAreNearlyExact) {
   EXPECT_EQ(self.wrong_cells + self.tie_cells, 0);
 }
 
+TEST(GeodesicEngine, ScansAcrossTheAntimeridian) {
+  // Point seeds on both sides of 180, written in [-180, 180]: the scans must seed them into the
+  // right cells of a grid running 175 .. 185 (longitudes unwrapped around the grid).
+  SeedSet s;
+  std::mt19937_64 rng(3);
+  std::uniform_real_distribution<double> lon(176, 184), lat(-20, -12);
+  for (int i = 0; i < 25; ++i) {
+    double x = lon(rng);
+    if (x > 180.0) x -= 360.0;
+    s.add_point(s.add_feature(s.owner_code(std::to_string(i))), {x, lat(rng)});
+  }
+  const GridSpec g = geo_grid(175.0, -11.0, 0.1, 100, 100);
+  const NearestField brute = run(s, g, Method::brute_force);
+  const ValidationStats hv = compare_fields(s, run(s, g, Method::hv_scan), brute);
+  EXPECT_LT(hv.max_error_cells, 1.0);
+  EXPECT_EQ(hv.nodata_mismatch, 0);
+  RecordProperty("hv_antimeridian_wrong_cells", std::to_string(hv.wrong_cells));
+  // Each seed's own cell is owned by it (it was seeded there, not only via the border).
+  const NearestField h = run(s, g, Method::h_scan);
+  for (int32_t id = 0; id < 25; ++id) {
+    const Vec2 p = s.sites()[static_cast<size_t>(id)].a;
+    const double x = p.x < 0.0 ? p.x + 360.0 : p.x;
+    const auto c = static_cast<int64_t>((x - g.xmin) / g.res), r = static_cast<int64_t>((g.ymax - p.y) / g.res);
+    EXPECT_EQ(brute.site.at(c, r), id);
+    EXPECT_EQ(h.site.at(c, r), id);
+  }
+}
+
 TEST(GeodesicEngine, WindowsAgreeWithTheWholeGrid) {
   const GridSpec g = geo_grid(178.0, 64.0, 0.05, 90, 70);
   const SeedSet s = random_features(17, 176, 59, 184, 66, 15);
@@ -364,6 +392,12 @@ TEST(GeodesicEngine, WindowsAgreeWithTheWholeGrid) {
       EXPECT_LT(compare_fields(s, part, compute(s, g, b)).max_error_cells, 1.0);
     }
   }
+}
+
+TEST(GeodesicEngine, MemoryEstimateCountsPreparedEdges) {
+  const int64_t planar = estimate_memory(Method::exact, 1000, 100000);
+  const int64_t geodesic = estimate_memory(Method::exact, 1000, 100000, MetricSpec::geodesic);
+  EXPECT_GT(geodesic - planar, 100000 * 500);  // a GeographicLib::GeodesicLine alone is ~0.5 KB
 }
 
 TEST(GeodesicEngine, RefusesWhatItCannotMeasure) {

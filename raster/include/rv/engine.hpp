@@ -26,12 +26,15 @@
 //     the grid may span at most 360 degrees of longitude;
 //   - polygon interiors are tested on longitude/latitude as given (edges are straight in
 //     degrees, not geodesics: exact for meridians and the equator, otherwise a difference of
-//     the order of the edge's sagitta, growing towards the poles). Rings are unwrapped so that
+//     the order of the edge's sagitta, about L^2 tan(lat) / (8 R): 7 mm for a 500 m edge at
+//     55 degrees, 280 m for a 100 km one, growing towards the poles). Rings are unwrapped so that
 //     each edge goes the short way round (as its geodesic does), except rings that wind round a
 //     pole, which are taken as given; each polygon is also matched one turn east and west, so
 //     interiors work across the antimeridian;
 //   - the exact method culls with chord (lower) and path-length (upper) bounds that are proven
-//     safe and compares exact geodesic distances, so it equals brute force cell for cell.
+//     safe and compares exact geodesic distances, so it equals brute force cell for cell; it
+//     costs about one GeographicLib inverse problem per cell (~1.5 us), and is also the fastest
+//     geodesic method (the scans solve one for every neighbour candidate they compare).
 //
 // Thread safety: compute() is reentrant; any number of computations may run at once.
 #pragma once
@@ -89,7 +92,8 @@ struct NearestField {
 
 // Bytes the method needs for a window of `cells` cells and `sites` sites (result included).
 // Used to refuse a job before allocating anything.
-int64_t estimate_memory(Method m, int64_t cells, int64_t sites);
+// `metric`: geodesic adds ~0.7 KB per site (a prepared GeographicLib::GeodesicLine per edge).
+int64_t estimate_memory(Method m, int64_t cells, int64_t sites, MetricSpec::Kind metric = MetricSpec::planar);
 
 // Computes the nearest-site field. Throws rv::Error(invalid_argument) for an invalid grid,
 // window or metric (geodesic: latitudes beyond +-90 or more than 360 degrees of longitude),

@@ -50,6 +50,8 @@ class GeodesicMeasure {
   // Distance in metres between two (lon, lat) positions.
   double point_distance(Vec2 p, Vec2 q) const;
   // Distance in metres from p to the geodesic segment a-b (a == b: the point distance).
+  // Prepares the edge on every call (one more inverse problem); for many cells against the same
+  // edges use compute(). Throws rv::Error(invalid_argument) for a latitude beyond +-90.
   double segment_distance(Vec2 p, Vec2 a, Vec2 b) const;
 
  private:

@@ -35,7 +35,33 @@ struct OutputRequest {
   std::string nearest_feature;  // Int32 1-based feature index GeoTIFF
   std::string report;           // JSON report file
   bool cloud_optimized = false; // write COGs (the daemon does)
+
+  // Maritime deliverables (rv/deliverables.hpp). They are always computed from an exact field:
+  // with a scan method the job also runs the exact method for them.
+  std::string boundaries;       // boundary lines between owners (.geojson/.json/.gpkg)
+  std::string tripoints;        // points where three owners meet (.geojson/.json/.gpkg)
+  std::string limits;           // distance-limit lines (.geojson/.json/.gpkg); needs limit_distances
+  // Each "12nmi", "24 nmi", "500m", "3.5km" or a plain number in the job's distance units.
+  std::vector<std::string> limit_distances;
+  bool limits_per_owner = false;  // one line set per owner instead of one for all seeds
+  std::string regions;          // one multipolygon per owner (.geojson/.json/.gpkg)
+  std::string margin;           // Float32 GeoTIFF: other owner's distance minus own (-1 = none)
+  std::string preview;          // PNG quicklook of ownership with boundary lines
+  double simplify_cells = 0.0;  // Douglas-Peucker tolerance of boundary and limit lines, cells
+  bool any_deliverable() const {
+    return !boundaries.empty() || !tripoints.empty() || !limits.empty() || !regions.empty() || !margin.empty() ||
+           !preview.empty();
+  }
 };
+
+// A limit distance as given (e.g. "12nmi"): its value and unit ("" when plain). Throws
+// rv::Error(invalid_argument) for a malformed, non-positive or unknown-unit value.
+struct LimitDistance {
+  double value = 0.0;
+  std::string unit;  // "", "m", "km", "nmi"
+  std::string text;  // as given
+};
+LimitDistance parse_limit_distance(const std::string& text);
 
 struct JobSpec {
   SeedReadOptions seeds;
@@ -57,7 +83,7 @@ struct JobLimits {
 };
 
 struct JobHooks {
-  // stage: "read", "compute", "validate", "write"; fraction in [0, 1] of that stage.
+  // stage: "read", "compute", "validate", "write", "deliver"; fraction in [0, 1] of that stage.
   std::function<void(const std::string& stage, double fraction)> progress;
   const std::atomic<bool>* cancel = nullptr;
 };

@@ -161,7 +161,7 @@ void JobManager::update_progress(JobRecord& record, const std::string& stage, do
   } else if (stage == "validate") {
     lo = 50;
     hi = 90;
-  } else if (stage == "write") {
+  } else if (stage == "write" || stage == "deliver") {
     lo = 90;
     hi = 99;
   }

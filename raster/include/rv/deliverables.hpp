@@ -1,0 +1,276 @@
+// Maritime deliverables computed from an exact nearest-site field: boundary (median) lines
+// between owners, tripoints, distance-limit lines, and the margin raster.
+//
+// Geometry is measured with an abstract exact metric (SiteMetric) so that the same extraction
+// runs on planar grids (PlanarSiteMetric, Euclidean distance in CRS units) and geodesic grids
+// (GeodesicSiteMetric, metres on the ellipsoid, longitude/latitude grids). The metric must be
+// the one the field was computed with (rv::Error(invalid_argument) otherwise). All positions are absolute grid-CRS coordinates (x = easting or longitude,
+// y = northing or latitude); all distances are metric units (CRS units for planar).
+//
+// Method (why the vertices are exact): the raster only gives the topology. Every output vertex
+// is placed by root-finding with the exact metric:
+//   - a boundary vertex on the segment between two 4-neighbour cell centres owned by A and B is
+//     the root of f(t) = d_A(p(t)) - d_B(p(t)), where d_X is the distance to the nearest site of
+//     owner X, recomputed exactly at every evaluation (OwnerIndex: a bounding-volume hierarchy
+//     per owner, searched with the metric's lower bounds, so the controlling seed may change
+//     along the segment);
+//   - a limit vertex is the root of d(p(t)) - D (d: nearest site of any owner, or of one owner);
+//   - a tripoint solves d_A = d_B = d_C by Gauss-Newton from the dual square's centre.
+// Connectivity comes from marching squares on the dual grid of cell centres: a saddle square
+// (owners A B / B A) is resolved by the exact owner at the square's centre; squares with three
+// or more owners are joined through their tripoints.
+// Vertices are never moved: simplification (Douglas-Peucker) only drops vertices that lie within
+// the tolerance of the simplified line, so every kept vertex is an exact locus point.
+//
+// Thread safety: SiteMetric and OwnerIndex are immutable after construction; their const
+// functions may be called from any number of threads. The extraction functions are pure
+// (`threads` only splits the work and never changes the result).
+#pragma once
+
+#include <cstdint>
+#include <limits>
+#include <memory>
+#include <span>
+#include <vector>
+
+#include "rv/engine.hpp"
+#include "rv/geodesic.hpp"
+#include "rv/grid.hpp"
+#include "rv/metric.hpp"
+#include "rv/raster.hpp"
+#include "rv/seeds.hpp"
+
+namespace rv {
+
+// A point and an axis-aligned box in a metric's embedding space (see SiteMetric::embed).
+struct Vec3 {
+  double x = 0.0, y = 0.0, z = 0.0;
+};
+struct Box3 {
+  double x0, y0, z0, x1, y1, z1;  // x0 <= x1, y0 <= y1, z0 <= z1
+  void include(const Box3& b);
+};
+
+// The exact distance between a position and a site, plus what the searches need.
+//
+// Searches prune with an embedding: every position p maps to embed(p) in R^3 such that the
+// Euclidean distance between embed(p) and embed(q) never exceeds the metric distance between p
+// and q (planar: the plane itself, z = 0; geodesic: Earth-centred coordinates, where the chord
+// is never longer than the geodesic). site_bounds() is a box in that space holding the embedding
+// of every position of the site, so the Euclidean distance from embed(p) to the box is a valid
+// lower bound of distance(p, site).
+class SiteMetric {
+ public:
+  // Keeps a reference to `seeds`, which must outlive the metric. Builds the polygons' slab
+  // indices for the inside tests of area sites.
+  explicit SiteMetric(const SeedSet& seeds);
+  virtual ~SiteMetric();
+  SiteMetric(const SiteMetric&) = delete;
+  SiteMetric& operator=(const SiteMetric&) = delete;
+
+  // Exact distance (metric units, >= 0) from p to the site: point -> to the point; segment ->
+  // to the nearest point of the closed segment; area -> 0 when p is inside the polygon (even-odd
+  // rule over its rings), +infinity outside (the polygon's rings are segment sites of the same
+  // feature, which carry the distance outside).
+  virtual double distance(Vec2 p, int32_t site) const = 0;
+  // The position of the site nearest to p (the basepoint that controls p). Area sites: p.
+  virtual Vec2 nearest_point(Vec2 p, int32_t site) const = 0;
+  // Distance between two positions (metric units).
+  virtual double point_distance(Vec2 a, Vec2 b) const = 0;
+  // The embedding (see above).
+  virtual Vec3 embed(Vec2 p) const = 0;
+  // A box of the embedding space holding the whole site (area sites: their polygon).
+  virtual Box3 site_bounds(int32_t site) const = 0;
+
+  // Lower bound of the metric distance from the embedded position q to anything in the box.
+  static double lower_bound(const Vec3& q, const Box3& b);
+
+  const SeedSet& seeds() const { return seeds_; }
+  // Box of the site's vertices in grid-CRS coordinates (area sites: of the polygon's outer
+  // ring), as {x0, y0, 0, x1, y1, 0}.
+  Box3 vertex_box(int32_t site) const;
+  // Even-odd test of p against the polygon of an area site (polygon edges straight in the grid
+  // CRS, as the engine's interiors). False for other site kinds.
+  bool inside_area(Vec2 p, int32_t area_site) const;
+
+ private:
+  struct Slabs;
+  const SeedSet& seeds_;
+  std::vector<int32_t> polygon_of_site_;         // site -> index into seeds.polygons(), or -1
+  std::vector<std::unique_ptr<Slabs>> slabs_;    // per polygon
+};
+
+// Euclidean distance in CRS units. Computed relative to `origin` (use the grid's (xmin, ymax))
+// so that large coordinates such as UTM northings keep full precision. Keeps a reference to
+// `seeds`, which must outlive it.
+class PlanarSiteMetric final : public SiteMetric {
+ public:
+  PlanarSiteMetric(const SeedSet& seeds, Vec2 origin);
+  double distance(Vec2 p, int32_t site) const override;
+  Vec2 nearest_point(Vec2 p, int32_t site) const override;
+  double point_distance(Vec2 a, Vec2 b) const override;
+  Vec3 embed(Vec2 p) const override;
+  Box3 site_bounds(int32_t site) const override;
+
+ private:
+  Vec2 origin_;
+};
+
+// Geodesic distance (metres) on the ellipsoid of `metric`, with grid and seeds in longitude /
+// latitude degrees: point and segment distances are GeodesicMeasure's (the engines' own), the
+// embedding is Earth-centred coordinates (a chord never exceeds the geodesic). Keeps a
+// reference to `seeds`, which must outlive it.
+class GeodesicSiteMetric final : public SiteMetric {
+ public:
+  GeodesicSiteMetric(const SeedSet& seeds, const MetricSpec& metric);
+  ~GeodesicSiteMetric() override;
+  double distance(Vec2 p, int32_t site) const override;
+  Vec2 nearest_point(Vec2 p, int32_t site) const override;
+  double point_distance(Vec2 a, Vec2 b) const override;
+  Vec3 embed(Vec2 p) const override;
+  Box3 site_bounds(int32_t site) const override;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+// Exact nearest-site queries, restricted to one owner or excluding one owner. Keeps references
+// to the metric (and its seeds), which must outlive it.
+class OwnerIndex {
+ public:
+  explicit OwnerIndex(const SiteMetric& metric);
+  ~OwnerIndex();
+  OwnerIndex(OwnerIndex&&) noexcept;
+
+  struct Hit {
+    int32_t site = kNoSite;  // lowest site index among exact ties
+    double distance = std::numeric_limits<double>::infinity();
+  };
+  // Nearest site of owner `owner` (1..K); {kNoSite, inf} if the owner has no sites.
+  Hit nearest_of(Vec2 p, int32_t owner) const;
+  // Nearest site of any owner other than `owner` (owner 0: of any owner at all).
+  Hit nearest_not_of(Vec2 p, int32_t owner) const;
+  // Nearest site of any owner.
+  Hit nearest(Vec2 p) const { return nearest_not_of(p, 0); }
+
+  const SiteMetric& metric() const { return metric_; }
+
+ private:
+  struct Tree;
+  const SiteMetric& metric_;
+  std::vector<std::unique_ptr<Tree>> trees_;  // per owner code - 1
+};
+
+// One vertex of a boundary line: a point where the distances to the nearest sites of the two
+// owners are equal.
+struct BoundaryVertex {
+  Vec2 p;
+  int32_t site_a = kNoSite;  // controlling (nearest) site of owner_a at p
+  int32_t site_b = kNoSite;  // controlling site of owner_b
+  double distance = 0.0;     // distance to both (the mean of the two; they differ by residual)
+  double residual = 0.0;     // |d_a - d_b| at p, metric units
+};
+
+struct BoundaryLine {
+  int32_t owner_a = 0;  // owner_a < owner_b
+  int32_t owner_b = 0;
+  bool closed = false;  // a ring (first vertex repeated at the end)
+  std::vector<BoundaryVertex> vertices;
+};
+
+struct Tripoint {
+  Vec2 p;
+  int32_t owners[3] = {0, 0, 0};  // ascending
+  int32_t sites[3] = {kNoSite, kNoSite, kNoSite};  // controlling site of each owner
+  double distance = 0.0;  // mean distance to the three
+  double residual = 0.0;  // max pairwise difference of the three distances
+};
+
+struct BoundaryOptions {
+  // Douglas-Peucker tolerance in cells (0: keep every vertex). Only vertices within this
+  // distance of the simplified line are dropped; kept vertices are exact locus points.
+  double simplify_cells = 0.0;
+  // Root-finding tolerance along a cell-centre segment, in cells.
+  double tolerance_cells = 1e-9;
+  int threads = 0;
+};
+
+struct BoundaryStats {
+  int64_t crossings = 0;         // cell-centre segments with two different owners
+  // Crossings dropped because a third owner is nearer at the A-B equidistant point: its region
+  // passes between the two centres without holding one (below the grid's resolution there).
+  int64_t sliver_crossings = 0;
+  int64_t saddles = 0;           // dual squares A B / B A resolved by the centre's owner
+  int64_t multi_owner_squares = 0;  // dual squares with three or more owners
+  int64_t unresolved_tripoints = 0;  // such squares where no tripoint converged inside
+  double max_residual = 0.0;     // largest |d_a - d_b| over all vertices and tripoints
+  int64_t vertices_before_simplify = 0;
+  int64_t vertices = 0;
+};
+
+struct BoundaryResult {
+  std::vector<BoundaryLine> lines;
+  std::vector<Tripoint> tripoints;
+  BoundaryStats stats;
+};
+
+// Boundary lines and tripoints from an exact nearest-site field (method exact or brute force;
+// a scan's approximate ownership only gives topology, and crossings it brackets wrongly are
+// placed at the better end: use an exact field). `field` must cover the whole grid.
+// Throws rv::Error(invalid_argument) for a field that does not cover a whole grid.
+BoundaryResult extract_boundaries(const NearestField& field, const OwnerIndex& index,
+                                  const BoundaryOptions& options = {});
+
+struct LimitVertex {
+  Vec2 p;
+  int32_t site = kNoSite;  // controlling site at p
+  double residual = 0.0;   // |d(p) - D|, metric units
+};
+
+struct LimitLine {
+  double distance = 0.0;  // D, metric units
+  int32_t owner = 0;      // 0: distance to all owners' seeds; else to this owner's seeds only
+  bool closed = false;
+  std::vector<LimitVertex> vertices;
+};
+
+struct LimitOptions {
+  bool per_owner = false;  // false: one set of lines per distance, from all seeds together
+  double simplify_cells = 0.0;
+  double tolerance_cells = 1e-9;
+  int threads = 0;
+};
+
+struct LimitResult {
+  std::vector<LimitLine> lines;
+  double max_residual = 0.0;
+  int64_t vertices = 0;
+};
+
+// Lines at the given distances (metric units, > 0) from the seeds. Cells without an owner in
+// `field` (beyond its max distance) count as farther than any limit. Throws
+// rv::Error(invalid_argument) for a non-positive or non-finite distance.
+LimitResult extract_limits(const NearestField& field, const OwnerIndex& index,
+                           std::span<const double> distances, const LimitOptions& options = {});
+
+// For every cell owned by owner O: the distance to the nearest site of another owner, minus the
+// distance to its own nearest site (>= 0, metric units, Float32). kNoDistance (-1) where the
+// cell has no owner or the seed set has a single owner. A cell inside polygons of two owners
+// has margin 0. Planar fields use the exact engine's tile culling with an owner filter
+// (compute_other_owner); other metrics query `index` per cell.
+Raster<float> margin_raster(const NearestField& field, const OwnerIndex& index, int threads = 0);
+
+// The exact engine's culling, restricted per cell to sites whose owner differs from the owner
+// of the cell's site in `own` (planar metric, whole-grid or windowed field as computed by
+// compute()). Writes the nearest such site and its distance; kNoSite / kNoDistance where the
+// cell has no owner or no other owner exists. Cells inside another owner's polygon are not
+// special-cased here (see margin_raster). Result equals brute force over the filtered sites.
+NearestField compute_other_owner(const SeedSet& seeds, const NearestField& own, int threads = 0);
+
+// Douglas-Peucker on a polyline: indices of the vertices to keep (first and last always kept).
+// A vertex is dropped only if it lies within `tolerance` (same units as the coordinates) of the
+// segment that replaces it.
+std::vector<size_t> simplify_indices(std::span<const Vec2> points, double tolerance);
+
+}  // namespace rv

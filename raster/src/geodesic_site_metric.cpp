@@ -1,0 +1,116 @@
+#include <GeographicLib/Geocentric.hpp>
+#include <GeographicLib/Geodesic.hpp>
+#include <GeographicLib/GeodesicLine.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include "rv/deliverables.hpp"
+#include "rv/error.hpp"
+
+namespace rv {
+
+struct GeodesicSiteMetric::Impl {
+  explicit Impl(const MetricSpec& m)
+      : measure(m), geod(m.semi_major, m.flattening), earth(m.semi_major, m.flattening),
+        // The largest radius of curvature of the ellipsoid (a^2/b at the poles when oblate,
+        // a when prolate): no path moves faster in latitude or along a parallel than this.
+        k_max(m.flattening >= 0.0 ? m.semi_major / (1.0 - m.flattening) : m.semi_major) {}
+  GeodesicMeasure measure;
+  GeographicLib::Geodesic geod;
+  GeographicLib::Geocentric earth;
+  double k_max;
+};
+
+GeodesicSiteMetric::GeodesicSiteMetric(const SeedSet& seeds, const MetricSpec& metric)
+    : SiteMetric(seeds), impl_(std::make_unique<Impl>(metric)) {}
+
+GeodesicSiteMetric::~GeodesicSiteMetric() = default;
+
+double GeodesicSiteMetric::distance(Vec2 p, int32_t site) const {
+  const Site& s = seeds().sites()[static_cast<size_t>(site)];
+  switch (s.kind) {
+    case SiteKind::point: return impl_->measure.point_distance(p, s.a);
+    case SiteKind::segment: return impl_->measure.segment_distance(p, s.a, s.b);
+    case SiteKind::area: break;
+  }
+  return inside_area(p, site) ? 0.0 : std::numeric_limits<double>::infinity();
+}
+
+double GeodesicSiteMetric::point_distance(Vec2 a, Vec2 b) const { return impl_->measure.point_distance(a, b); }
+
+Vec3 GeodesicSiteMetric::embed(Vec2 p) const {
+  Vec3 q;
+  impl_->earth.Forward(std::clamp(p.y, -90.0, 90.0), p.x, 0.0, q.x, q.y, q.z);
+  return q;
+}
+
+namespace {
+Box3 ball_box(const Vec3& c, double r) { return Box3{c.x - r, c.y - r, c.z - r, c.x + r, c.y + r, c.z + r}; }
+}  // namespace
+
+Box3 GeodesicSiteMetric::site_bounds(int32_t site) const {
+  const Site& s = seeds().sites()[static_cast<size_t>(site)];
+  if (s.kind == SiteKind::point) return ball_box(embed(s.a), 0.0);
+  if (s.kind == SiteKind::segment) {
+    // Every point of the edge is within arc length l/2 of its middle point, and a chord is
+    // never longer than the arc: the edge lies in the ball (middle, l/2).
+    const GeographicLib::GeodesicLine line = impl_->geod.InverseLine(s.a.y, s.a.x, s.b.y, s.b.x);
+    const double l = line.Distance();
+    double lat = 0.0, lon = 0.0;
+    line.Position(0.5 * l, lat, lon);
+    return ball_box(embed(Vec2{lon, lat}), 0.5 * l * (1.0 + 1e-9) + 1e-6);
+  }
+  // An area: inside its vertices' longitude/latitude box (edges are straight in degrees). From
+  // the box's centre C, any position Q of the box is reached by a meridian arc (at most
+  // k_max * dlat) and a parallel arc (at most k_max * cos(lat) * dlon, lat the box's latitude
+  // nearest the equator), so the box lies in the ball (C, that length).
+  const Box3 v = vertex_box(site);
+  const double rad = M_PI / 180.0;
+  const double lat_c = 0.5 * (v.y0 + v.y1), lon_c = 0.5 * (v.x0 + v.x1);
+  const double min_abs_lat = (v.y0 <= 0.0 && v.y1 >= 0.0) ? 0.0 : std::min(std::abs(v.y0), std::abs(v.y1));
+  const double r = impl_->k_max * (0.5 * (v.y1 - v.y0) * rad + std::cos(min_abs_lat * rad) * 0.5 * (v.x1 - v.x0) * rad);
+  return ball_box(embed(Vec2{lon_c, lat_c}), r * (1.0 + 1e-9) + 1e-6);
+}
+
+Vec2 GeodesicSiteMetric::nearest_point(Vec2 p, int32_t site) const {
+  const Site& s = seeds().sites()[static_cast<size_t>(site)];
+  if (s.kind == SiteKind::area) return p;
+  if (s.kind == SiteKind::point) return s.a;
+  // Golden-section search along the edge for the point nearest p (for reporting basepoints;
+  // the distance itself comes from distance()).
+  const GeographicLib::GeodesicLine line = impl_->geod.InverseLine(s.a.y, s.a.x, s.b.y, s.b.x);
+  const double l = line.Distance();
+  auto at = [&](double t) {
+    double lat = 0.0, lon = 0.0;
+    line.Position(t, lat, lon);
+    return Vec2{lon, lat};
+  };
+  auto dist = [&](double t) { return impl_->measure.point_distance(p, at(t)); };
+  const double g = 0.5 * (std::sqrt(5.0) - 1.0);
+  double lo = 0.0, hi = l, x1 = hi - g * (hi - lo), x2 = lo + g * (hi - lo);
+  double f1 = dist(x1), f2 = dist(x2);
+  for (int i = 0; i < 80 && hi - lo > 1e-6; ++i) {
+    if (f1 < f2) {
+      hi = x2;
+      x2 = x1;
+      f2 = f1;
+      x1 = hi - g * (hi - lo);
+      f1 = dist(x1);
+    } else {
+      lo = x1;
+      x1 = x2;
+      f1 = f2;
+      x2 = lo + g * (hi - lo);
+      f2 = dist(x2);
+    }
+  }
+  const double t = 0.5 * (lo + hi);
+  const double ft = dist(t), fa = dist(0.0), fb = dist(l);
+  if (fa <= ft && fa <= fb) return s.a;
+  if (fb <= ft) return s.b;
+  return at(t);
+}
+
+}  // namespace rv

@@ -1,0 +1,239 @@
+#include <gtest/gtest.h>
+
+#include <gdal_alg.h>
+#include <gdal_priv.h>
+#include <ogrsf_frmts.h>
+#include <unistd.h>
+
+#include <filesystem>
+#include <map>
+#include <random>
+#include <sstream>
+
+#include "rv/deliverables.hpp"
+#include "rv/engine.hpp"
+#include "rv/error.hpp"
+#include "rv/outputs.hpp"
+#include "rv/seed_reader.hpp"
+#include "rv/vector_writer.hpp"
+
+namespace rv {
+namespace {
+
+namespace fs = std::filesystem;
+
+class VectorWriter : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    gdal_init();
+    dir_ = fs::temp_directory_path() / ("rv_vw_" + std::to_string(::getpid()) + "_" +
+                                        ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    fs::create_directories(dir_);
+  }
+  void TearDown() override { fs::remove_all(dir_); }
+  std::string path(const std::string& name) const { return (dir_ / name).string(); }
+  fs::path dir_;
+};
+
+struct Opened {
+  GDALDataset* ds = nullptr;
+  explicit Opened(const std::string& p) { ds = GDALDataset::Open(p.c_str(), GDAL_OF_VECTOR); }
+  ~Opened() {
+    if (ds) GDALClose(GDALDataset::ToHandle(ds));
+  }
+};
+
+// Three owners on a UTM-like grid: points and a line.
+struct Scene {
+  SeedSet seeds;
+  GridSpec g;
+  NearestField field;
+  std::unique_ptr<PlanarSiteMetric> metric;
+  std::unique_ptr<OwnerIndex> index;
+  Scene() {
+    const int32_t a = seeds.add_feature(seeds.owner_code("DK"));
+    seeds.add_point(a, {500100.0, 6100800.0});
+    const int32_t b = seeds.add_feature(seeds.owner_code("SE"));
+    const std::vector<Vec2> coast{{501500.0, 6100100.0}, {501700.0, 6100900.0}};
+    seeds.add_polyline(b, coast);
+    const int32_t c = seeds.add_feature(seeds.owner_code("DE"));
+    seeds.add_point(c, {500600.0, 6100050.0});
+    const int32_t d = seeds.add_feature(seeds.owner_code("DK"));
+    seeds.add_point(d, {500900.0, 6100950.0});
+    g.xmin = 500000.0;
+    g.ymax = 6101000.0;
+    g.res = 20.0;
+    g.width = 90;
+    g.height = 50;
+    g.crs = "EPSG:32633";
+    ComputeOptions o;
+    o.threads = 2;
+    field = compute(seeds, g, o);
+    metric = std::make_unique<PlanarSiteMetric>(seeds, Vec2{g.xmin, g.ymax});
+    index = std::make_unique<OwnerIndex>(*metric);
+  }
+};
+
+TEST_F(VectorWriter, BoundariesAndTripointsRoundTrip) {
+  Scene s;
+  const BoundaryResult b = extract_boundaries(s.field, *s.index);
+  ASSERT_EQ(b.tripoints.size(), 1u);
+  VectorOutputOptions o;
+  o.crs = "EPSG:32633";
+  o.distance_units = "m";
+  for (const std::string ext : {"geojson", "gpkg"}) {
+    const std::string bp = path("boundaries." + ext), tp = path("tripoints." + ext);
+    write_boundaries(bp, b, *s.metric, o);
+    write_tripoints(tp, b, *s.metric, o);
+    Opened in(bp);
+    ASSERT_NE(in.ds, nullptr) << bp;
+    OGRLayer* l = in.ds->GetLayer(0);
+    ASSERT_EQ(l->GetFeatureCount(), static_cast<GIntBig>(b.lines.size()));
+    l->ResetReading();
+    size_t i = 0;
+    for (OGRFeature* f; (f = l->GetNextFeature()) != nullptr; ++i) {
+      const BoundaryLine& line = b.lines[i];
+      EXPECT_EQ(f->GetFieldAsInteger("owner_a"), line.owner_a);
+      EXPECT_EQ(f->GetFieldAsInteger("owner_b"), line.owner_b);
+      EXPECT_EQ(std::string(f->GetFieldAsString("label_a")), s.seeds.owner_labels()[line.owner_a - 1]);
+      EXPECT_EQ(std::string(f->GetFieldAsString("label_b")), s.seeds.owner_labels()[line.owner_b - 1]);
+      auto* ls = f->GetGeometryRef()->toLineString();
+      ASSERT_EQ(ls->getNumPoints(), static_cast<int>(line.vertices.size()));
+      EXPECT_NEAR(ls->getX(0), line.vertices[0].p.x, 1e-6);
+      EXPECT_NEAR(ls->getY(0), line.vertices[0].p.y, 1e-6);
+      // Owner DK (1) has two features: the basepoint feature list names the controlling one.
+      // GeoJSON keeps integer lists; GeoPackage stores them as JSON text.
+      std::vector<int> fa;
+      const int idx = f->GetFieldIndex("features_a");
+      if (f->GetFieldDefnRef(idx)->GetType() == OFTIntegerList) {
+        int n = 0;
+        const int* list = f->GetFieldAsIntegerList(idx, &n);
+        fa.assign(list, list + n);
+      } else {
+        std::string text = f->GetFieldAsString(idx);
+        // "[1,2]" (JSON) or OGR's "(2:1,2)" rendering of a list.
+        if (text.front() == '(') text = text.substr(text.find(':') + 1);
+        for (char& ch : text)
+          if (ch == '[' || ch == ']' || ch == ',' || ch == ')') ch = ' ';
+        std::istringstream in(text);
+        for (int v; in >> v;) fa.push_back(v);
+      }
+      ASSERT_EQ(fa.size(), line.vertices.size());
+      for (size_t k = 0; k < fa.size(); ++k) EXPECT_EQ(fa[k], s.seeds.site_feature(line.vertices[k].site_a) + 1);
+      OGRFeature::DestroyFeature(f);
+    }
+    if (ext == "gpkg") {
+      OGRLayer* v = in.ds->GetLayerByName("boundary_vertices");
+      ASSERT_NE(v, nullptr);
+      GIntBig n = 0;
+      for (const auto& line : b.lines) n += static_cast<GIntBig>(line.vertices.size());
+      EXPECT_EQ(v->GetFeatureCount(), n);
+    }
+    Opened tin(tp);
+    ASSERT_NE(tin.ds, nullptr);
+    OGRLayer* tl = tin.ds->GetLayer(0);
+    ASSERT_EQ(tl->GetFeatureCount(), 1);
+    tl->ResetReading();
+    OGRFeature* f = tl->GetNextFeature();
+    ASSERT_NE(f, nullptr);
+    EXPECT_EQ(f->GetFieldAsInteger("owner_1"), 1);
+    EXPECT_EQ(f->GetFieldAsInteger("owner_2"), 2);
+    EXPECT_EQ(f->GetFieldAsInteger("owner_3"), 3);
+    EXPECT_EQ(std::string(f->GetFieldAsString("label_3")), "DE");
+    OGRFeature::DestroyFeature(f);
+  }
+  // No temporary files are left next to the outputs.
+  for (const auto& e : fs::directory_iterator(dir_)) EXPECT_NE(e.path().filename().string()[0], '.');
+  EXPECT_THROW(write_boundaries(path("b.shp"), b, *s.metric, o), Error);
+  EXPECT_THROW(write_boundaries(path("missing/dir/b.geojson"), b, *s.metric, o), Error);
+}
+
+TEST_F(VectorWriter, LimitsRoundTrip) {
+  Scene s;
+  const std::vector<double> d{100.0, 250.0};
+  LimitOptions lo;
+  lo.per_owner = true;
+  const LimitResult r = extract_limits(s.field, *s.index, d, lo);
+  VectorOutputOptions o;
+  o.crs = "EPSG:32633";
+  o.distance_factor = 1.0 / 1852.0;
+  o.distance_units = "nmi";
+  write_limits(path("limits.gpkg"), r, s.seeds, o);
+  Opened in(path("limits.gpkg"));
+  ASSERT_NE(in.ds, nullptr);
+  OGRLayer* l = in.ds->GetLayer(0);
+  EXPECT_EQ(l->GetFeatureCount(), static_cast<GIntBig>(r.lines.size()));
+  l->ResetReading();
+  OGRFeature* f = l->GetNextFeature();
+  ASSERT_NE(f, nullptr);
+  EXPECT_NEAR(f->GetFieldAsDouble("distance"), 100.0 / 1852.0, 1e-12);
+  EXPECT_EQ(std::string(f->GetFieldAsString("units")), "nmi");
+  EXPECT_EQ(f->GetFieldAsInteger("owner"), 1);
+  EXPECT_EQ(std::string(f->GetFieldAsString("label")), "DK");
+  OGRFeature::DestroyFeature(f);
+}
+
+// The regions cover every owned cell exactly once: areas add up per owner, and rasterising the
+// polygons back gives the ownership raster cell for cell.
+TEST_F(VectorWriter, RegionsCoverOwnedCellsExactlyOnce) {
+  for (uint32_t trial = 0; trial < 4; ++trial) {
+    std::mt19937 rng(trial);
+    std::uniform_real_distribution<double> ux(0, 60), uy(0, 45);
+    SeedSet seeds;
+    for (int i = 0; i < 25; ++i) {
+      const int32_t f = seeds.add_feature(seeds.owner_code("o" + std::to_string(1 + i % 4)));
+      seeds.add_point(f, {ux(rng), uy(rng)});
+    }
+    GridSpec g;
+    g.xmin = 0;
+    g.ymax = 45;
+    g.res = 1.0;
+    g.width = 60;
+    g.height = 45;
+    ComputeOptions co;
+    co.threads = 2;
+    co.max_distance = trial % 2 ? 6.0 : std::numeric_limits<double>::infinity();  // some nodata
+    const NearestField field = compute(seeds, g, co);
+    const Raster<int32_t> owners = owner_raster(seeds, field, 2);
+    const std::string p = path("regions_" + std::to_string(trial) + (trial % 2 ? ".gpkg" : ".geojson"));
+    const RegionStats st = write_regions(p, owners, seeds, {});
+    std::map<int32_t, int64_t> cells;
+    for (int32_t v : owners.cells())
+      if (v) ++cells[v];
+    EXPECT_EQ(st.owners, static_cast<int64_t>(cells.size()));
+
+    Opened in(p);
+    ASSERT_NE(in.ds, nullptr);
+    OGRLayer* l = in.ds->GetLayer(0);
+    EXPECT_EQ(l->GetFeatureCount(), static_cast<GIntBig>(cells.size()));
+    l->ResetReading();
+    for (OGRFeature* f; (f = l->GetNextFeature()) != nullptr;) {
+      const int32_t owner = f->GetFieldAsInteger("owner");
+      EXPECT_EQ(std::string(f->GetFieldAsString("label")), seeds.owner_labels()[owner - 1]);
+      const double area = f->GetGeometryRef()->toMultiPolygon()->get_Area();
+      EXPECT_NEAR(area, static_cast<double>(cells[owner]) * g.res * g.res, 1e-6) << "owner " << owner;
+      EXPECT_EQ(f->GetFieldAsInteger64("cells"), cells[owner]);
+      OGRFeature::DestroyFeature(f);
+    }
+    // Rasterise back.
+    GDALDriver* mem = GetGDALDriverManager()->GetDriverByName("MEM");
+    GDALDataset* back = mem->Create("", 60, 45, 1, GDT_Int32, nullptr);
+    double gt[6] = {0, 1, 0, 45, 0, -1};
+    back->SetGeoTransform(gt);
+    int band = 1;
+    OGRLayerH layer = OGRLayer::ToHandle(l);
+    char** opts = CSLSetNameValue(nullptr, "ATTRIBUTE", "owner");
+    ASSERT_EQ(GDALRasterizeLayers(GDALDataset::ToHandle(back), 1, &band, 1, &layer, nullptr, nullptr, nullptr, opts,
+                                  nullptr, nullptr),
+              CE_None);
+    CSLDestroy(opts);
+    std::vector<int32_t> got(60 * 45);
+    ASSERT_EQ(back->GetRasterBand(1)->RasterIO(GF_Read, 0, 0, 60, 45, got.data(), 60, 45, GDT_Int32, 0, 0, nullptr),
+              CE_None);
+    GDALClose(GDALDataset::ToHandle(back));
+    for (size_t i = 0; i < got.size(); ++i) ASSERT_EQ(got[i], owners.cells()[i]) << "cell " << i;
+  }
+}
+
+}  // namespace
+}  // namespace rv

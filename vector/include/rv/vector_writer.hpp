@@ -1,0 +1,58 @@
+// Writing the maritime deliverables (rv/deliverables.hpp) as vector files through GDAL/OGR, and
+// polygonising the ownership raster into regions. GDAL types stay behind this header.
+//
+// Formats by extension: .geojson / .json -> GeoJSON (one layer), .gpkg -> GeoPackage. Anything
+// else is rv::Error(invalid_argument). Every file is written atomically: a hidden temporary
+// name in the target's directory, then rename(); on failure nothing is left behind.
+// Coordinates are the grid CRS's (the layer carries that CRS when known); distances in
+// attributes are multiplied by `distance_factor` (metric units -> reported units).
+//
+// Thread safety: functions may run concurrently on different files; call gdal_init() first.
+#pragma once
+
+#include <cstdint>
+#include <string>
+
+#include "rv/deliverables.hpp"
+#include "rv/raster.hpp"
+#include "rv/seeds.hpp"
+
+namespace rv {
+
+struct VectorOutputOptions {
+  std::string crs;               // WKT (or any OSR definition); "" = no CRS
+  double distance_factor = 1.0;  // metric units -> distance_units
+  std::string distance_units;    // name written next to distances ("m", "nmi", "crs-units")
+};
+
+// Layer "boundaries" (LineString): owner_a, owner_b (codes, owner_a < owner_b), label_a,
+// label_b, closed (0/1), vertex_count, max_residual (distance units), features_a / features_b
+// (integer lists; GeoPackage stores them as JSON text: per vertex, the 1-based index of the seed feature of that owner that controls
+// it, the "basepoint" feature). GeoPackage files also get layer "boundary_vertices" (Point): per
+// vertex line (1-based feature id of the line), owner_a, owner_b, feature_a, feature_b,
+// basepoint_a_x/y, basepoint_b_x/y (the controlling position of each side's seed), distance,
+// residual.
+void write_boundaries(const std::string& path, const BoundaryResult& boundaries, const SiteMetric& metric,
+                      const VectorOutputOptions& options);
+
+// Layer "tripoints" (Point): owner_1..3, label_1..3, feature_1..3 (1-based), distance, residual.
+void write_tripoints(const std::string& path, const BoundaryResult& boundaries, const SiteMetric& metric,
+                     const VectorOutputOptions& options);
+
+// Layer "limits" (LineString): distance (in distance units), units, owner (0 = all owners),
+// label ("all" or the owner's label), closed (0/1), max_residual.
+void write_limits(const std::string& path, const LimitResult& limits, const SeedSet& seeds,
+                  const VectorOutputOptions& options);
+
+struct RegionStats {
+  int64_t owners = 0;    // features written (owners with at least one cell)
+  int64_t polygons = 0;  // polygon parts in all
+};
+
+// Layer "regions" (MultiPolygon): one feature per owner present in `owners` (codes 1..K, 0 =
+// nodata, excluded), from GDALPolygonize with 8-connectedness; fields owner, label, cells,
+// area (CRS units squared). Polygon edges follow cell edges exactly.
+RegionStats write_regions(const std::string& path, const Raster<int32_t>& owners, const SeedSet& seeds,
+                          const VectorOutputOptions& options);
+
+}  // namespace rv

@@ -1,0 +1,329 @@
+#include "rv/vector_writer.hpp"
+
+#include <unistd.h>
+
+#include <algorithm>
+#include <atomic>
+#include <cerrno>
+#include <cstring>
+#include <map>
+#include <sstream>
+
+#include <gdal_alg.h>
+#include <ogrsf_frmts.h>
+
+#include "gdal_util.hpp"
+#include "rv/error.hpp"
+
+namespace rv {
+namespace {
+
+std::string lower_extension(const std::string& path) {
+  const size_t slash = path.find_last_of('/');
+  const size_t dot = path.find_last_of('.');
+  if (dot == std::string::npos || (slash != std::string::npos && dot < slash)) return "";
+  std::string ext = path.substr(dot + 1);
+  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  return ext;
+}
+
+const char* driver_for(const std::string& path) {
+  const std::string ext = lower_extension(path);
+  if (ext == "geojson" || ext == "json") return "GeoJSON";
+  if (ext == "gpkg") return "GPKG";
+  throw Error(ErrorKind::invalid_argument,
+              "cannot tell the vector format of '" + path + "': use .geojson, .json or .gpkg");
+}
+
+// The file is built under a hidden temporary name in the same directory (keeping the
+// extension, which GeoPackage checks) and renamed into place only once GDAL closed it, so a
+// reader never sees a half-written file and a failure leaves nothing behind.
+class VectorFile {
+ public:
+  explicit VectorFile(const std::string& path) : target_(path) {
+    static std::atomic<uint64_t> counter{0};
+    const size_t slash = path.find_last_of('/');
+    const std::string dir = slash == std::string::npos ? "." : path.substr(0, slash == 0 ? 1 : slash);
+    const std::string name = slash == std::string::npos ? path : path.substr(slash + 1);
+    temp_ = (dir == "/" ? "" : dir) + "/." + name + ".tmp-" + std::to_string(::getpid()) + "-" +
+            std::to_string(counter.fetch_add(1)) + "." + lower_extension(path);
+    GDALDriver* driver = GetGDALDriverManager()->GetDriverByName(driver_for(path));
+    if (driver == nullptr) throw Error(ErrorKind::unsupported, std::string("GDAL has no ") + driver_for(path) + " driver");
+    ds_.reset(driver->Create(temp_.c_str(), 0, 0, 0, GDT_Unknown, nullptr));
+    if (!ds_) throw Error(ErrorKind::io, "cannot create " + path + capture_.suffix());
+  }
+  ~VectorFile() {
+    ds_.reset();
+    if (!committed_) VSIUnlink(temp_.c_str());
+  }
+  VectorFile(const VectorFile&) = delete;
+  VectorFile& operator=(const VectorFile&) = delete;
+
+  OGRLayer* layer(const char* name, OGRwkbGeometryType type, const std::string& crs) {
+    gdal::SrsPtr srs;
+    if (!crs.empty()) {
+      srs = gdal::parse_srs(crs);
+      if (!srs) throw Error(ErrorKind::invalid_argument, "cannot parse the output CRS");
+    }
+    OGRLayer* l = ds_->CreateLayer(name, srs.get(), type, nullptr);
+    if (l == nullptr) fail("cannot create layer " + std::string(name));
+    return l;
+  }
+  void field(OGRLayer* l, const char* name, OGRFieldType type) {
+    OGRFieldDefn def(name, type);
+    if (l->CreateField(&def) != OGRERR_NONE) fail(std::string("cannot create field ") + name);
+  }
+  void add(OGRLayer* l, OGRFeature* f) {
+    if (l->CreateFeature(f) != OGRERR_NONE) fail("cannot write a feature");
+  }
+  void begin() { ds_->StartTransaction(); }
+  void end() {
+    if (ds_->CommitTransaction() != OGRERR_NONE && ds_->TestCapability(ODsCTransactions)) fail("cannot commit");
+  }
+
+  void commit() {
+    // Closing flushes; a failure there (disk full) must not be renamed into place.
+    GDALDataset* raw = ds_.release();
+    CPLErrorReset();
+    const std::string before = capture_.last_error();
+    GDALClose(GDALDataset::ToHandle(raw));
+    if (capture_.last_error() != before || CPLGetLastErrorType() >= CE_Failure) fail("cannot finish the file");
+    if (VSIRename(temp_.c_str(), target_.c_str()) != 0)
+      throw Error(ErrorKind::io, "cannot rename " + temp_ + " to " + target_ + ": " + std::strerror(errno));
+    committed_ = true;
+  }
+
+ private:
+  [[noreturn]] void fail(const std::string& what) {
+    throw Error(ErrorKind::io, "writing " + target_ + ": " + what + capture_.suffix());
+  }
+  gdal::ErrorCapture capture_;
+  std::string target_, temp_;
+  gdal::DatasetPtr ds_;
+  bool committed_ = false;
+};
+
+struct FeatureDeleter {
+  void operator()(OGRFeature* f) const { OGRFeature::DestroyFeature(f); }
+};
+using FeaturePtr = std::unique_ptr<OGRFeature, FeatureDeleter>;
+
+std::string label_of(const SeedSet& s, int32_t owner) {
+  return owner >= 1 && owner <= s.owner_count() ? s.owner_labels()[static_cast<size_t>(owner - 1)] : std::string();
+}
+
+int feature_of(const SeedSet& s, int32_t site) { return site == kNoSite ? 0 : s.site_feature(site) + 1; }
+
+}  // namespace
+
+void write_boundaries(const std::string& path, const BoundaryResult& b, const SiteMetric& metric,
+                      const VectorOutputOptions& o) {
+  const SeedSet& s = metric.seeds();
+  VectorFile file(path);
+  const bool gpkg = std::string(driver_for(path)) == "GPKG";
+  OGRLayer* lines = file.layer("boundaries", wkbLineString, o.crs);
+  file.field(lines, "owner_a", OFTInteger);
+  file.field(lines, "owner_b", OFTInteger);
+  file.field(lines, "label_a", OFTString);
+  file.field(lines, "label_b", OFTString);
+  file.field(lines, "closed", OFTInteger);
+  file.field(lines, "vertex_count", OFTInteger);
+  file.field(lines, "max_residual", OFTReal);
+  file.field(lines, "units", OFTString);
+  file.field(lines, "features_a", OFTIntegerList);
+  file.field(lines, "features_b", OFTIntegerList);
+  OGRLayer* verts = nullptr;
+  if (gpkg) {
+    verts = file.layer("boundary_vertices", wkbPoint, o.crs);
+    for (const char* name : {"line", "owner_a", "owner_b", "feature_a", "feature_b"}) file.field(verts, name, OFTInteger);
+    for (const char* name : {"basepoint_a_x", "basepoint_a_y", "basepoint_b_x", "basepoint_b_y", "distance", "residual"})
+      file.field(verts, name, OFTReal);
+  }
+  file.begin();
+  int64_t line_id = 0;
+  for (const BoundaryLine& line : b.lines) {
+    ++line_id;
+    FeaturePtr f(OGRFeature::CreateFeature(lines->GetLayerDefn()));
+    OGRLineString ls;
+    std::vector<int> fa, fb;
+    double worst = 0.0;
+    for (const BoundaryVertex& v : line.vertices) {
+      ls.addPoint(v.p.x, v.p.y);
+      fa.push_back(feature_of(s, v.site_a));
+      fb.push_back(feature_of(s, v.site_b));
+      worst = std::max(worst, v.residual);
+    }
+    f->SetGeometry(&ls);
+    f->SetField("owner_a", line.owner_a);
+    f->SetField("owner_b", line.owner_b);
+    f->SetField("label_a", label_of(s, line.owner_a).c_str());
+    f->SetField("label_b", label_of(s, line.owner_b).c_str());
+    f->SetField("closed", line.closed ? 1 : 0);
+    f->SetField("vertex_count", static_cast<int>(line.vertices.size()));
+    f->SetField("max_residual", worst * o.distance_factor);
+    f->SetField("units", o.distance_units.c_str());
+    f->SetField("features_a", static_cast<int>(fa.size()), fa.data());
+    f->SetField("features_b", static_cast<int>(fb.size()), fb.data());
+    file.add(lines, f.get());
+    if (!verts) continue;
+    for (const BoundaryVertex& v : line.vertices) {
+      FeaturePtr pf(OGRFeature::CreateFeature(verts->GetLayerDefn()));
+      OGRPoint pt(v.p.x, v.p.y);
+      pf->SetGeometry(&pt);
+      pf->SetField("line", static_cast<int>(line_id));
+      pf->SetField("owner_a", line.owner_a);
+      pf->SetField("owner_b", line.owner_b);
+      pf->SetField("feature_a", feature_of(s, v.site_a));
+      pf->SetField("feature_b", feature_of(s, v.site_b));
+      if (v.site_a != kNoSite) {
+        const Vec2 q = metric.nearest_point(v.p, v.site_a);
+        pf->SetField("basepoint_a_x", q.x);
+        pf->SetField("basepoint_a_y", q.y);
+      }
+      if (v.site_b != kNoSite) {
+        const Vec2 q = metric.nearest_point(v.p, v.site_b);
+        pf->SetField("basepoint_b_x", q.x);
+        pf->SetField("basepoint_b_y", q.y);
+      }
+      pf->SetField("distance", v.distance * o.distance_factor);
+      pf->SetField("residual", v.residual * o.distance_factor);
+      file.add(verts, pf.get());
+    }
+  }
+  file.end();
+  file.commit();
+}
+
+void write_tripoints(const std::string& path, const BoundaryResult& b, const SiteMetric& metric,
+                     const VectorOutputOptions& o) {
+  const SeedSet& s = metric.seeds();
+  VectorFile file(path);
+  OGRLayer* l = file.layer("tripoints", wkbPoint, o.crs);
+  for (const char* name : {"owner_1", "owner_2", "owner_3"}) file.field(l, name, OFTInteger);
+  for (const char* name : {"label_1", "label_2", "label_3"}) file.field(l, name, OFTString);
+  for (const char* name : {"feature_1", "feature_2", "feature_3"}) file.field(l, name, OFTInteger);
+  file.field(l, "distance", OFTReal);
+  file.field(l, "residual", OFTReal);
+  file.field(l, "units", OFTString);
+  file.begin();
+  for (const Tripoint& t : b.tripoints) {
+    FeaturePtr f(OGRFeature::CreateFeature(l->GetLayerDefn()));
+    OGRPoint pt(t.p.x, t.p.y);
+    f->SetGeometry(&pt);
+    for (int i = 0; i < 3; ++i) {
+      const std::string k = std::to_string(i + 1);
+      f->SetField(("owner_" + k).c_str(), t.owners[i]);
+      f->SetField(("label_" + k).c_str(), label_of(s, t.owners[i]).c_str());
+      f->SetField(("feature_" + k).c_str(), feature_of(s, t.sites[i]));
+    }
+    f->SetField("distance", t.distance * o.distance_factor);
+    f->SetField("residual", t.residual * o.distance_factor);
+    f->SetField("units", o.distance_units.c_str());
+    file.add(l, f.get());
+  }
+  file.end();
+  file.commit();
+}
+
+void write_limits(const std::string& path, const LimitResult& limits, const SeedSet& s, const VectorOutputOptions& o) {
+  VectorFile file(path);
+  OGRLayer* l = file.layer("limits", wkbLineString, o.crs);
+  file.field(l, "distance", OFTReal);
+  file.field(l, "units", OFTString);
+  file.field(l, "owner", OFTInteger);
+  file.field(l, "label", OFTString);
+  file.field(l, "closed", OFTInteger);
+  file.field(l, "max_residual", OFTReal);
+  file.begin();
+  for (const LimitLine& line : limits.lines) {
+    FeaturePtr f(OGRFeature::CreateFeature(l->GetLayerDefn()));
+    OGRLineString ls;
+    double worst = 0.0;
+    for (const LimitVertex& v : line.vertices) {
+      ls.addPoint(v.p.x, v.p.y);
+      worst = std::max(worst, v.residual);
+    }
+    f->SetGeometry(&ls);
+    f->SetField("distance", line.distance * o.distance_factor);
+    f->SetField("units", o.distance_units.c_str());
+    f->SetField("owner", line.owner);
+    f->SetField("label", line.owner == 0 ? "all" : label_of(s, line.owner).c_str());
+    f->SetField("closed", line.closed ? 1 : 0);
+    f->SetField("max_residual", worst * o.distance_factor);
+    file.add(l, f.get());
+  }
+  file.end();
+  file.commit();
+}
+
+RegionStats write_regions(const std::string& path, const Raster<int32_t>& owners, const SeedSet& s,
+                          const VectorOutputOptions& o) {
+  gdal::ErrorCapture capture;
+  const GridSpec& g = owners.grid();
+  const Window& w = owners.window();
+  // The ownership raster as an in-memory GDAL band (nodata 0 masks the cells without owner).
+  GDALDriver* mem = GetGDALDriverManager()->GetDriverByName("MEM");
+  if (mem == nullptr) throw Error(ErrorKind::unsupported, "GDAL has no MEM driver");
+  gdal::DatasetPtr raster(mem->Create("", static_cast<int>(w.width), static_cast<int>(w.height), 1, GDT_Int32, nullptr));
+  if (!raster) throw Error(ErrorKind::io, "cannot create an in-memory raster" + capture.suffix());
+  double gt[6] = {g.xmin + static_cast<double>(w.col0) * g.res, g.res, 0.0,
+                  g.ymax - static_cast<double>(w.row0) * g.res, 0.0, -g.res};
+  raster->SetGeoTransform(gt);
+  GDALRasterBand* band = raster->GetRasterBand(1);
+  band->SetNoDataValue(0.0);
+  if (band->RasterIO(GF_Write, 0, 0, static_cast<int>(w.width), static_cast<int>(w.height),
+                     const_cast<int32_t*>(owners.data()), static_cast<int>(w.width), static_cast<int>(w.height),
+                     GDT_Int32, 0, 0, nullptr) != CE_None)
+    throw Error(ErrorKind::io, "cannot fill the in-memory raster" + capture.suffix());
+
+  GDALDriver* memv = GetGDALDriverManager()->GetDriverByName("Memory");
+  if (memv == nullptr) throw Error(ErrorKind::unsupported, "GDAL has no Memory vector driver");
+  gdal::DatasetPtr scratch(memv->Create("", 0, 0, 0, GDT_Unknown, nullptr));
+  OGRLayer* parts = scratch->CreateLayer("parts", nullptr, wkbPolygon, nullptr);
+  OGRFieldDefn owner_def("owner", OFTInteger);
+  parts->CreateField(&owner_def);
+  char** options = CSLSetNameValue(nullptr, "8CONNECTED", "8");
+  const CPLErr err = GDALPolygonize(band, band->GetMaskBand(), OGRLayer::ToHandle(parts), 0, options, nullptr, nullptr);
+  CSLDestroy(options);
+  if (err != CE_None) throw Error(ErrorKind::io, "polygonizing the ownership raster failed" + capture.suffix());
+
+  // One multipolygon per owner; parts are disjoint by construction (cells of one owner that
+  // touch by an edge or a corner are one part), so collecting them needs no union.
+  std::map<int32_t, std::unique_ptr<OGRMultiPolygon>> by_owner;
+  std::map<int32_t, int64_t> cells;
+  for (const int32_t v : owners.cells())
+    if (v != 0) ++cells[v];
+  RegionStats stats;
+  parts->ResetReading();
+  for (FeaturePtr f(parts->GetNextFeature()); f; f.reset(parts->GetNextFeature())) {
+    const int32_t owner = f->GetFieldAsInteger(0);
+    OGRGeometry* geom = f->GetGeometryRef();
+    if (owner == 0 || geom == nullptr) continue;
+    auto& mp = by_owner[owner];
+    if (!mp) mp = std::make_unique<OGRMultiPolygon>();
+    mp->addGeometry(geom);
+    ++stats.polygons;
+  }
+  VectorFile file(path);
+  OGRLayer* l = file.layer("regions", wkbMultiPolygon, o.crs);
+  file.field(l, "owner", OFTInteger);
+  file.field(l, "label", OFTString);
+  file.field(l, "cells", OFTInteger64);
+  file.field(l, "area", OFTReal);
+  file.begin();
+  for (auto& [owner, mp] : by_owner) {
+    FeaturePtr f(OGRFeature::CreateFeature(l->GetLayerDefn()));
+    f->SetField("owner", owner);
+    f->SetField("label", label_of(s, owner).c_str());
+    f->SetField("cells", static_cast<GIntBig>(cells[owner]));
+    f->SetField("area", static_cast<double>(cells[owner]) * g.res * g.res);
+    f->SetGeometryDirectly(mp.release());
+    file.add(l, f.get());
+    ++stats.owners;
+  }
+  file.end();
+  file.commit();
+  return stats;
+}
+
+}  // namespace rv
