@@ -2,7 +2,12 @@
 // for h-scan, hv-scan, exact and (on the small rows) brute force, in one run on one machine.
 // Prints a markdown table with wall time (median of the repeats), ns per cell and ratios.
 //
-//   engine_bench [--quick] [--threads N] [--repeats N] [--max-cells N]
+//   engine_bench [--quick] [--threads N] [--repeats N] [--min-cells N] [--max-cells N]
+//                [--methods exact,hv-scan,...] [--warm]
+//
+// --warm adds the time of compute_into() into the previous run's buffers: the computation
+// without the first-touch page faults of fresh result rasters (which, on a VM, can cost as much
+// as the computation itself).
 #include <algorithm>
 #include <cstdio>
 #include <cstring>
@@ -39,16 +44,31 @@ double median(std::vector<double> v) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  bool quick = false;
+  bool quick = false, warm = false;
   int threads = 0, repeats = 3;
-  int64_t max_cells = int64_t{1} << 62;
+  int64_t min_cells = 0, max_cells = int64_t{1} << 62;
+  std::vector<Method> methods = {Method::exact, Method::h_scan, Method::hv_scan, Method::brute_force};
   for (int i = 1; i < argc; ++i) {
     if (!std::strcmp(argv[i], "--quick")) quick = true;
     else if (!std::strcmp(argv[i], "--threads") && i + 1 < argc) threads = std::atoi(argv[++i]);
     else if (!std::strcmp(argv[i], "--repeats") && i + 1 < argc) repeats = std::atoi(argv[++i]);
     else if (!std::strcmp(argv[i], "--max-cells") && i + 1 < argc) max_cells = std::atoll(argv[++i]);
-    else {
-      std::fprintf(stderr, "usage: engine_bench [--quick] [--threads N] [--repeats N] [--max-cells N]\n");
+    else if (!std::strcmp(argv[i], "--min-cells") && i + 1 < argc) min_cells = std::atoll(argv[++i]);
+    else if (!std::strcmp(argv[i], "--warm")) warm = true;
+    else if (!std::strcmp(argv[i], "--methods") && i + 1 < argc) {
+      // Exact first: it is the reference the others are compared with.
+      methods = {Method::exact};
+      std::string list = argv[++i];
+      for (size_t start = 0; start <= list.size();) {
+        const size_t comma = std::min(list.find(',', start), list.size());
+        const Method m = parse_method(list.substr(start, comma - start));
+        if (m != Method::exact) methods.push_back(m);
+        start = comma + 1;
+      }
+    } else {
+      std::fprintf(stderr,
+                   "usage: engine_bench [--quick] [--threads N] [--repeats N] [--min-cells N] [--max-cells N] "
+                   "[--methods exact,hv-scan,...] [--warm]\n");
       return 2;
     }
   }
@@ -56,12 +76,12 @@ int main(int argc, char** argv) {
                            {1000, 100, 3232, 1230, 1518},  {1000, 1000, 23895, 1239, 1536},
                            {3000, 10000, -1, 14375, 17066}, {10000, 50000, -1, 171055, 199673}};
   if (quick) rows.resize(3);
-  const Method methods[] = {Method::exact, Method::h_scan, Method::hv_scan, Method::brute_force};
-  std::printf("| grid | seeds | method | ms (median) | ns/cell | × exact | paper ms (1 thread, i5-3337U) | wrong cells | max Δd (cells) |\n");
-  std::printf("|---|---|---|---|---|---|---|---|---|\n");
+  std::printf("| grid | seeds | method | ms (median) | ns/cell | warm ms (buffers reused) | warm ns/cell | × exact | "
+              "paper ms (1 thread, i5-3337U) | wrong cells | max Δd (cells) |\n");
+  std::printf("|---|---|---|---|---|---|---|---|---|---|---|\n");
   for (const Row& row : rows) {
     const int64_t cells = row.size * row.size;
-    if (cells > max_cells) continue;
+    if (cells > max_cells || cells < min_cells) continue;
     GridSpec g;
     g.xmin = 0;
     g.ymax = static_cast<double>(row.size);
@@ -84,6 +104,18 @@ int main(int argc, char** argv) {
         ms.push_back(f.seconds * 1e3);
       }
       const double med = median(ms);
+      double warm_ms = -1;
+      if (warm) {
+        std::vector<double> wms;
+        for (int r = 0; r < reps; ++r) {
+          ComputeOptions o;
+          o.method = m;
+          o.threads = threads;
+          compute_into(seeds, g, o, f);
+          wms.push_back(f.seconds * 1e3);
+        }
+        warm_ms = median(wms);
+      }
       ValidationStats v;
       if (m == Method::exact) {
         exact_ms = med;
@@ -95,9 +127,11 @@ int main(int argc, char** argv) {
       const double paper = m == Method::h_scan ? row.paper_h_ms
                            : m == Method::hv_scan ? row.paper_hv_ms
                            : m == Method::brute_force ? row.paper_brute_ms : -1;
-      std::printf("| %lldx%lld | %d | %s | %.1f | %.2f | %.1f | %s | %lld | %.3f |\n", (long long)row.size,
+      const std::string warm_txt = warm_ms < 0 ? "—" : std::to_string(warm_ms).substr(0, std::to_string(warm_ms).find('.') + 2);
+      const std::string warm_ns = warm_ms < 0 ? "—" : std::to_string(warm_ms * 1e6 / static_cast<double>(cells)).substr(0, 5);
+      std::printf("| %lldx%lld | %d | %s | %.1f | %.2f | %s | %s | %.1f | %s | %lld | %.3f |\n", (long long)row.size,
                   (long long)row.size, row.seeds, std::string(to_string(m)).c_str(), med,
-                  med * 1e6 / static_cast<double>(cells), med / exact_ms,
+                  med * 1e6 / static_cast<double>(cells), warm_txt.c_str(), warm_ns.c_str(), med / exact_ms,
                   paper < 0 ? "—" : std::to_string(static_cast<int>(paper)).c_str(), (long long)v.wrong_cells,
                   v.max_error_cells);
       std::fflush(stdout);

@@ -14,6 +14,7 @@
 #include "rv/error.hpp"
 #include "rv/error_map.hpp"
 #include "rv/job.hpp"
+#include "rv/server.hpp"
 #include "rv/validate.hpp"
 #include "rv/version.hpp"
 
@@ -227,6 +228,19 @@ int cmd_compute(Args& args) {
   return 0;
 }
 
+// `rvoronoi serve`: the daemon (service/src/daemon, rv/server.hpp).
+int cmd_serve(Args& args) {
+  ServeOptions o;
+  while (!args.done()) {
+    const std::string opt = args.next();
+    if (opt == "--listen") o.listen = args.value(opt);
+    else if (opt == "--data-dir") o.data_dir = args.value(opt);
+    else if (opt == "--config") o.config_file = args.value(opt);
+    else throw Error(ErrorKind::invalid_argument, "serve: unknown option '" + opt + "'");
+  }
+  return serve_main(o);
+}
+
 std::string fmt(double v) {
   std::ostringstream s;
   s << v;
@@ -364,6 +378,7 @@ int cli_main(int argc, char** argv) {
     Args args(argc, argv, 2);
     if (cmd == "compute") return cmd_compute(args);
     if (cmd == "validate") return cmd_validate(args);
+    if (cmd == "serve") return cmd_serve(args);
     throw Error(ErrorKind::invalid_argument, "unknown command '" + cmd + "' (see rvoronoi --help)");
   } catch (const Error& e) {
     std::cerr << "rvoronoi: error: " << e.what() << "\n";

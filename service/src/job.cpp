@@ -358,6 +358,9 @@ JobResult run_job(const JobSpec& spec, const JobLimits& limits, const JobHooks& 
       metric_ptr = std::make_unique<PlanarSiteMetric>(loaded.seeds, Vec2{grid.xmin, grid.ymax});
     const SiteMetric& metric = *metric_ptr;
     const OwnerIndex index(metric);
+    // One cell's length in metric units near the grid's centre (degrees are not metres).
+    const Vec2 mid{grid.centre_x(grid.width / 2), grid.centre_y(grid.height / 2)};
+    const double cell_length = metric.point_distance(mid, Vec2{mid.x + grid.res, mid.y});
     VectorOutputOptions vo;
     vo.crs = loaded.crs.wkt;
     vo.distance_factor = factor;
@@ -380,7 +383,7 @@ JobResult run_job(const JobSpec& spec, const JobLimits& limits, const JobHooks& 
                                       {"unresolved_tripoints", st.unresolved_tripoints},
                                       {"sliver_crossings", st.sliver_crossings},
                                       {"max_residual", st.max_residual * factor},
-                                      {"max_residual_cells", st.max_residual / grid.res},
+                                      {"max_residual_cells", st.max_residual / cell_length},
                                       {"simplify_cells", deliver.simplify_cells}};
       if (!deliver.boundaries.empty()) {
         guard.add(deliver.boundaries);
@@ -414,7 +417,7 @@ JobResult run_job(const JobSpec& spec, const JobLimits& limits, const JobHooks& 
                                   {"lines", limits.lines.size()},
                                   {"vertices", limits.vertices},
                                   {"max_residual", limits.max_residual * factor},
-                                  {"max_residual_cells", limits.max_residual / grid.res}};
+                                  {"max_residual_cells", limits.max_residual / cell_length}};
       deliver_times["limits"] = seconds_since(t);
     }
     progress("deliver", 0.5);

@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <set>
 #include <string>
 
 #include <nlohmann/json.hpp>
@@ -115,6 +116,33 @@ TEST_F(Cli, NearestFeatureNumbersFollowTheInputOrder) {
   EXPECT_EQ(feat.at(10, 0), 2);
   EXPECT_EQ(own.at(20, 0), 1);
   EXPECT_EQ(feat.at(20, 0), 3);
+}
+
+TEST_F(Cli, LikeTakesGridAndCrsFromARaster) {
+  // A template raster in another CRS (UTM 32N) with its own extent and cell size: the outputs
+  // must line up with it cell for cell, the seeds (UTM 33N) being reprojected into its CRS.
+  GridSpec like;
+  like.xmin = 710000;
+  like.ymax = 6200000;
+  like.res = 300;
+  like.width = 160;
+  like.height = 210;
+  like.crs = "EPSG:32632";
+  write_geotiff(path("like.tif"), Raster<int32_t>(like, 7), 0.0, GeoTiffOptions{});
+  const CliRun r = run("compute " + source(kDemo) + " --owner-field state --like " + path("like.tif") +
+                       " --ownership " + path("own.tif") + " --distance " + path("d.tif") + " --quiet");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const GridSpec got = read_grid(path("own.tif"));
+  EXPECT_DOUBLE_EQ(got.xmin, like.xmin);
+  EXPECT_DOUBLE_EQ(got.ymax, like.ymax);
+  EXPECT_DOUBLE_EQ(got.res, like.res);
+  EXPECT_EQ(got.width, like.width);
+  EXPECT_EQ(got.height, like.height);
+  EXPECT_NE(got.crs.find("UTM zone 32N"), std::string::npos);
+  // Every owner appears: the demo's coasts fall inside the template's extent once reprojected.
+  const Raster<int32_t> own = read_int32(path("own.tif"));
+  const std::set<int32_t> owners(own.cells().begin(), own.cells().end());
+  EXPECT_EQ(owners, (std::set<int32_t>{1, 2, 3}));
 }
 
 TEST_F(Cli, ThreadCountDoesNotChangeTheFiles) {

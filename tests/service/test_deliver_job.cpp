@@ -178,6 +178,41 @@ TEST_F(DeliverJob, RefusesBadRequestsAndLeavesNothingBehind) {
   EXPECT_DOUBLE_EQ(parse_limit_distance("3.5km").value, 3.5);
 }
 
+// The geographic Øresund fixture through the façade: geodesic metric chosen automatically, the
+// deliverables measured in metres, residuals below 1 cm.
+TEST_F(DeliverJob, GeodesicOresund) {
+  const char* shared = std::getenv("RV_SHARED_DIR");
+  const std::string gpkg = std::string(shared ? shared : "") + "/fixtures/oresund.gpkg";
+  if (!shared || !fs::exists(gpkg)) GTEST_SKIP() << "shared fixture missing";
+  JobSpec spec;
+  spec.seeds.paths = {gpkg};
+  spec.seeds.layers = {"states"};
+  spec.seeds.owner_field = "iso2";
+  spec.grid.resolution = 0.01;
+  spec.threads = 2;
+  spec.distance_units = "nmi";
+  spec.outputs.ownership = path("own.tif");
+  spec.outputs.boundaries = path("b.geojson");
+  spec.outputs.limits = path("l.gpkg");
+  spec.outputs.limit_distances = {"12nmi", "20000m"};
+  spec.outputs.margin = path("m.tif");
+  spec.outputs.regions = path("r.gpkg");
+  const JobResult r = run_job(spec);
+  EXPECT_EQ(r.report["metric"], "geodesic");
+  const auto& d = r.report["deliverables"];
+  EXPECT_GE(d["boundaries"]["lines"].get<int>(), 1);
+  EXPECT_LT(d["boundaries"]["max_residual"].get<double>() * 1852.0, 0.01);  // reported in nmi
+  EXPECT_LT(d["limits"]["max_residual"].get<double>() * 1852.0, 0.01);
+  EXPECT_NEAR(d["limits"]["distances"][0].get<double>(), 12.0, 1e-12);
+  EXPECT_NEAR(d["limits"]["distances"][1].get<double>(), 20000.0 / 1852.0, 1e-12);
+  EXPECT_EQ(d["regions"]["owners"].get<int>(), 2);
+  const Raster<float> m = read_float32(path("m.tif"));
+  float largest = 0.0f;
+  for (float v : m.cells()) largest = std::max(largest, v);
+  EXPECT_GT(largest, 1.0f);  // nmi: land far from the other state
+  EXPECT_LT(largest, 100.0f);
+}
+
 TEST_F(DeliverJob, CommandLineOptions) {
   const std::string cmd = std::string(RV_BINARY) + " compute " + source("fixtures/demo_basepoints.geojson") +
                           " --owner-field state --resolution 500 --threads 2 --quiet --ownership " + path("o.tif") +

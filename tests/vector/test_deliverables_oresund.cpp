@@ -168,10 +168,23 @@ TEST(OresundDeliverables, MedianLineAndTwelveMileLimitGeodesic) {
   ASSERT_FALSE(lim.lines.empty());
   for (const LimitLine& line : lim.lines)
     for (const LimitVertex& v : line.vertices) ASSERT_NEAR(brute(v.p, 0), 12 * 1852.0, 0.01);
+  // Margin on the geodesic grid (exact per-cell queries): non-negative where owned, checked
+  // against brute force on a sample of cells.
+  t = std::chrono::steady_clock::now();
+  const Raster<float> margin = margin_raster(f, index, 2);
+  const double tm = since(t);
+  for (int64_t row = 0; row < g.height; row += 23)
+    for (int64_t c = 0; c < g.width; c += 23) {
+      const int32_t site = f.site.at(c, row);
+      if (site == kNoSite) continue;
+      const Vec2 p{g.centre_x(c), g.centre_y(row)};
+      const int32_t own = s.site_owner(site);
+      ASSERT_NEAR(margin.at(c, row), brute(p, 3 - own) - brute(p, own), 0.05) << c << "," << row;
+    }
   std::printf("oresund geodesic 0.005 deg (%lldx%lld): compute %.3f s, boundaries %.3f s (%zu lines, %zu vertices on "
-              "the median, max residual %.2e m), 12 nmi limit %.3f s (%lld vertices)\n",
+              "the median, max residual %.2e m), 12 nmi limit %.3f s (%lld vertices), margin %.3f s\n",
               static_cast<long long>(g.width), static_cast<long long>(g.height), f.seconds, tb, r.lines.size(),
-              median->vertices.size(), r.stats.max_residual, tl, static_cast<long long>(lim.vertices));
+              median->vertices.size(), r.stats.max_residual, tl, static_cast<long long>(lim.vertices), tm);
 }
 
 }  // namespace

@@ -258,7 +258,9 @@ LimitResult extract_limits(const NearestField& field, const OwnerIndex& index,
 // distance to its own nearest site (>= 0, metric units, Float32). kNoDistance (-1) where the
 // cell has no owner or the seed set has a single owner. A cell inside polygons of two owners
 // has margin 0. Planar fields use the exact engine's tile culling with an owner filter
-// (compute_other_owner); other metrics query `index` per cell.
+// (compute_other_owner, margins from double distances); other metrics run the exact engine once
+// per owner, on the window of that owner's cells, over the other owners' seeds (margins from the
+// Float32 distances: a few millimetres of rounding at 100 km).
 Raster<float> margin_raster(const NearestField& field, const OwnerIndex& index, int threads = 0);
 
 // The exact engine's culling, restricted per cell to sites whose owner differs from the owner

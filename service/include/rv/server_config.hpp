@@ -1,0 +1,72 @@
+// The daemon's configuration: one JSON file parsed once, at startup, into these typed structs.
+// Every field has a default that works out of the box (`rvoronoi serve` with no file).
+//
+// File format (service/serve-config.example.json has every key with its default; all keys optional; unknown keys are an error so that a typo is not silently
+// ignored):
+//   {
+//     "listen": "127.0.0.1:8080",          host:port; port 0 = an ephemeral port
+//     "data_dir": "./rvoronoi-data",        job store (jobs.sqlite) and result files
+//     "public_url": "",                     base of absolute links; "" = from the Host header
+//     "http": { "max_body_bytes": 67108864, "max_header_bytes": 16384,
+//               "request_timeout_s": 30, "io_threads": 2 },
+//     "jobs": { "workers": 2, "queue_length": 16, "threads_per_job": 0,
+//               "job_timeout_s": 3600, "shutdown_grace_s": 20 },
+//     "limits": { "max_cells": 17179869184, "max_memory_bytes": 0,
+//                 "validate_max_cells": 4000000 }
+//   }
+// Memory: a queued job keeps its uploaded seed data in memory until it runs, so uploads can hold
+// up to about (workers + queue_length) x max_body_bytes; each running job may use
+// limits.max_memory_bytes (default: its share of 80 % of physical memory).
+// Units: bytes, seconds, cells. Thread safety: plain data, immutable after parsing.
+#pragma once
+
+#include <cstdint>
+#include <string>
+
+#include <nlohmann/json.hpp>
+
+#include "rv/job.hpp"
+
+namespace rv {
+
+struct HttpConfig {
+  int64_t max_body_bytes = int64_t{64} << 20;  // request bodies above this: 413
+  int64_t max_header_bytes = 16 * 1024;        // request headers above this: 431
+  double request_timeout_s = 30.0;  // reading one request / writing one response, whole
+  int io_threads = 2;               // threads running the network event loop
+};
+
+struct JobsConfig {
+  int workers = 2;            // jobs computed at the same time
+  int queue_length = 16;      // jobs waiting for a worker; one more is refused with 503
+  int threads_per_job = 0;    // engine threads per job; 0 = hardware threads / workers
+  double job_timeout_s = 3600.0;   // a job running longer is cancelled and marked failed
+  // SIGTERM: running jobs get this long, then are cancelled. Below the 30 s a container runtime
+  // (docker stop, compose stop_grace_period) waits before SIGKILL, so cancellation finishes.
+  double shutdown_grace_s = 20.0;
+};
+
+struct ServerConfig {
+  std::string host = "127.0.0.1";
+  int port = 8080;  // 0 = ephemeral (tests)
+  std::string data_dir = "./rvoronoi-data";
+  std::string public_url;  // e.g. "https://voronoi.example.org"; empty = http://<Host header>
+  HttpConfig http;
+  JobsConfig jobs;
+  JobLimits limits;  // per job; max_memory_bytes 0 = 80 % of physical memory / workers
+};
+
+// Parses "host:port" (IPv6 as "[::1]:8080") into config.host/config.port.
+// Throws rv::Error(invalid_argument).
+void parse_listen(const std::string& listen, ServerConfig& config);
+
+// Parses a configuration document. Throws rv::Error(invalid_argument) naming the key at fault.
+ServerConfig parse_server_config(const nlohmann::json& document);
+
+// Reads and parses a configuration file. Throws rv::Error(not_found / invalid_argument).
+ServerConfig load_server_config(const std::string& path);
+
+// The per-job limits the server actually applies (max_memory_bytes resolved when 0).
+JobLimits effective_limits(const ServerConfig& config);
+
+}  // namespace rv

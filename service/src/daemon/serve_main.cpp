@@ -1,0 +1,53 @@
+#include <pthread.h>
+#include <signal.h>
+
+#include <iostream>
+
+#include "rv/error_map.hpp"
+#include "rv/job.hpp"
+#include "rv/seed_reader.hpp"
+#include "rv/server.hpp"
+#include "server_util.hpp"
+
+namespace rv {
+
+int serve_main(const ServeOptions& options) {
+  try {
+    ServerConfig config = options.config_file.empty() ? ServerConfig{} : load_server_config(options.config_file);
+    if (!options.listen.empty()) parse_listen(options.listen, config);
+    if (!options.data_dir.empty()) config.data_dir = options.data_dir;
+    gdal_init();
+
+    // SIGTERM/SIGINT are blocked in every thread (the server's threads inherit the mask) and
+    // taken synchronously here: no async-signal-safety concerns, and the shutdown runs on an
+    // ordinary thread.
+    sigset_t signals;
+    sigemptyset(&signals);
+    sigaddset(&signals, SIGTERM);
+    sigaddset(&signals, SIGINT);
+    pthread_sigmask(SIG_BLOCK, &signals, nullptr);
+    // A client vanishing mid-response must cost an error code, not the process.
+    signal(SIGPIPE, SIG_IGN);
+
+    Server server(config, [](const JobSpec& spec, const JobLimits& limits, const JobHooks& hooks) {
+      return run_job(spec, limits, hooks);
+    });
+    server.start();
+    int received = 0;
+    sigwait(&signals, &received);
+    daemon::log_line("{\"time\":\"" + daemon::now_rfc3339() + "\",\"event\":\"signal\",\"signal\":\"" +
+                     (received == SIGTERM ? "SIGTERM" : "SIGINT") +
+                     "\",\"action\":\"graceful shutdown: no new connections, queued jobs failed, running jobs get " +
+                     nlohmann::json(config.jobs.shutdown_grace_s).dump() + " s, then are cancelled\"}");
+    server.stop();
+    return 0;
+  } catch (const Error& e) {
+    std::cerr << "rvoronoi serve: " << e.what() << std::endl;
+    return error_info(e.kind()).exit_code;
+  } catch (const std::exception& e) {
+    std::cerr << "rvoronoi serve: " << e.what() << std::endl;
+    return error_info(ErrorKind::internal).exit_code;
+  }
+}
+
+}  // namespace rv

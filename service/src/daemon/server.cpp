@@ -1,0 +1,429 @@
+// The HTTP transport of the daemon: Boost.Beast, asynchronous accept and per-connection
+// sessions on strands, so that a slow or idle client costs a socket and a timer, never a thread.
+#include "rv/server.hpp"
+
+#include <fcntl.h>
+#include <sys/file.h>
+#include <unistd.h>
+
+#include <atomic>
+#include <boost/asio/ip/tcp.hpp>
+#include <boost/asio/strand.hpp>
+#include <boost/beast/core.hpp>
+#include <boost/beast/http.hpp>
+#include <chrono>
+#include <filesystem>
+#include <memory>
+#include <thread>
+
+#include "rv/error.hpp"
+#include "rv/store_jobs.hpp"
+#include "server_api.hpp"
+#include "server_jobs.hpp"
+#include "server_util.hpp"
+
+namespace rv {
+namespace {
+
+namespace beast = boost::beast;
+namespace http = beast::http;
+namespace net = boost::asio;
+using tcp = net::ip::tcp;
+using daemon::ApiRequest;
+using daemon::ApiResponse;
+using daemon::FileSlice;
+
+// A Beast body that streams a slice of an open file with pread(), 64 KiB at a time: large
+// results (and GDAL's range reads of them) never sit in memory whole.
+struct FileSliceBody {
+  using value_type = FileSlice;
+  static std::uint64_t size(const value_type& body) { return body.length; }
+
+  class writer {
+   public:
+    using const_buffers_type = net::const_buffer;
+    template <bool isRequest, class Fields>
+    writer(const http::header<isRequest, Fields>&, const value_type& body) : body_(body) {}
+    void init(beast::error_code& ec) { ec = {}; }
+    boost::optional<std::pair<const_buffers_type, bool>> get(beast::error_code& ec) {
+      const uint64_t left = body_.length - done_;
+      if (left == 0) {
+        ec = {};
+        return boost::none;
+      }
+      const size_t want = static_cast<size_t>(std::min<uint64_t>(left, sizeof buffer_));
+      const ssize_t n = ::pread(body_.file->fd, buffer_, want, static_cast<off_t>(body_.offset + done_));
+      if (n <= 0) {
+        // The file shrank or the disk failed: end the connection rather than send garbage.
+        ec = beast::error_code(n < 0 ? errno : EIO, beast::system_category());
+        return boost::none;
+      }
+      done_ += static_cast<uint64_t>(n);
+      ec = {};
+      return std::make_pair(net::const_buffer(buffer_, static_cast<size_t>(n)), done_ < body_.length);
+    }
+
+   private:
+    const value_type& body_;
+    uint64_t done_ = 0;
+    char buffer_[64 * 1024];
+  };
+};
+
+struct Shared {
+  Shared(const ServerConfig& c, daemon::Api& a) : config(c), api(a) {}
+  const ServerConfig& config;
+  daemon::Api& api;
+  std::atomic<int> in_flight{0};  // requests handed to the Api whose response is not yet written
+};
+
+std::string json_escape(const std::string& s) { return nlohmann::json(s).dump(); }
+
+class Session : public std::enable_shared_from_this<Session> {
+ public:
+  Session(tcp::socket&& socket, Shared& shared) : stream_(std::move(socket)), shared_(shared) {}
+
+  void run() {
+    net::dispatch(stream_.get_executor(), beast::bind_front_handler(&Session::read_request, shared_from_this()));
+  }
+
+ private:
+  std::chrono::steady_clock::duration request_timeout() const {
+    return std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+        std::chrono::duration<double>(shared_.config.http.request_timeout_s));
+  }
+
+  void read_request() {
+    parser_.emplace();
+    parser_->header_limit(static_cast<std::uint32_t>(shared_.config.http.max_header_bytes));
+    parser_->body_limit(static_cast<std::uint64_t>(shared_.config.http.max_body_bytes));
+    // One deadline for the whole request: a client dribbling bytes cannot keep it open longer.
+    stream_.expires_after(request_timeout());
+    http::async_read_header(stream_, buffer_, *parser_,
+                            beast::bind_front_handler(&Session::on_header, shared_from_this()));
+  }
+
+  // The header alone first: limits (a Content-Length over body_limit fails here already) are
+  // answered before the body is sent, and a client waiting on "Expect: 100-continue" (curl
+  // with an upload) is told to go on instead of waiting a second for nothing.
+  void on_header(beast::error_code ec, std::size_t bytes) {
+    if (ec) return on_read(ec, bytes);
+    const auto& req = parser_->get();
+    if (!parser_->is_done() && beast::iequals(req[http::field::expect], "100-continue")) {
+      auto res = std::make_shared<http::response<http::empty_body>>(http::status::continue_, req.version());
+      auto self = shared_from_this();
+      http::async_write(stream_, *res, [self, res](beast::error_code wec, std::size_t) {
+        if (wec) return self->close();
+        self->read_body();
+      });
+      return;
+    }
+    read_body();
+  }
+
+  void read_body() {
+    http::async_read(stream_, buffer_, *parser_, beast::bind_front_handler(&Session::on_read, shared_from_this()));
+  }
+
+  void on_read(beast::error_code ec, std::size_t) {
+    started_ = std::chrono::steady_clock::now();
+    if (ec == http::error::end_of_stream) return close();
+    if (ec == http::error::header_limit) {
+      return protocol_error(431, "request-header-fields-too-large", "Request header fields too large",
+                            "the request headers exceed " + std::to_string(shared_.config.http.max_header_bytes) + " bytes");
+    }
+    if (ec == http::error::body_limit) {
+      return protocol_error(413, "payload-too-large", "Payload too large",
+                            "the request body exceeds this server's limit of " +
+                                std::to_string(shared_.config.http.max_body_bytes) + " bytes");
+    }
+    if (ec == beast::error::timeout) {
+      // tcp_stream has closed the socket already: nothing can be answered. A partial request
+      // is logged as 408 so that slow or stalled clients show up in the request log.
+      if (parser_->got_some()) {
+        status_ = 408;
+        method_ = parser_->is_header_done() ? std::string(parser_->get().method_string()) : "-";
+        log();
+      }
+      return close();
+    }
+    if (ec) {
+      if (ec.category() == beast::error_code(http::error::bad_target).category() || parser_->got_some()) {
+        return protocol_error(400, "bad-request", "Bad request", "malformed HTTP request: " + ec.message());
+      }
+      return close();
+    }
+
+    const auto& req = parser_->get();
+    method_ = std::string(req.method_string());
+    target_ = std::string(req.target());
+    keep_alive_ = req.keep_alive();
+    version_ = req.version();
+    ApiRequest api_req;
+    api_req.method = method_;
+    api_req.target = target_;
+    api_req.host = std::string(req[http::field::host]);
+    api_req.prefer = std::string(req["Prefer"]);
+    api_req.range = std::string(req[http::field::range]);
+    api_req.body = parser_->release().body();
+
+    // A synchronous execution answers when its job ends: no deadline while it runs (the job
+    // has its own time limit), a fresh one for writing the answer.
+    stream_.expires_never();
+    ++shared_.in_flight;
+    auto self = shared_from_this();
+    shared_.api.handle(api_req, [self](ApiResponse response) {
+      net::post(self->stream_.get_executor(),
+                [self, r = std::move(response)]() mutable { self->send(std::move(r)); });
+    });
+  }
+
+  void protocol_error(unsigned status, const char* slug, const char* title, const std::string& detail) {
+    method_ = parser_ && parser_->is_header_done() ? std::string(parser_->get().method_string()) : "-";
+    target_ = parser_ && parser_->is_header_done() ? std::string(parser_->get().target()) : "-";
+    keep_alive_ = false;
+    version_ = 11;
+    ++shared_.in_flight;
+    send(daemon::problem_response(status, std::string("https://rvoronoi.dev/problems/") + slug, title, detail, ""));
+  }
+
+  template <class Body>
+  void prepare(http::response<Body>& res, const ApiResponse& r) {
+    res.result(r.status);
+    res.version(version_);
+    res.set(http::field::server, "rvoronoi");
+    for (const auto& [name, value] : r.headers) res.set(name, value);
+    res.keep_alive(keep_alive_);
+  }
+
+  void send(ApiResponse r) {
+    status_ = r.status;
+    const bool head = method_ == "HEAD";
+    stream_.expires_after(request_timeout());
+    if (head) {
+      auto res = std::make_shared<http::response<http::empty_body>>();
+      prepare(*res, r);
+      res->content_length(r.file ? r.file->length : r.body.size());
+      return write(res);
+    }
+    if (r.file) {
+      auto res = std::make_shared<http::response<FileSliceBody>>();
+      prepare(*res, r);
+      res->body() = std::move(*r.file);
+      res->prepare_payload();
+      return write(res);
+    }
+    auto res = std::make_shared<http::response<http::string_body>>();
+    prepare(*res, r);
+    res->body() = std::move(r.body);
+    res->prepare_payload();
+    write(res);
+  }
+
+  template <class Message>
+  void write(std::shared_ptr<Message> res) {
+    auto self = shared_from_this();
+    http::async_write(stream_, *res, [self, res](beast::error_code ec, std::size_t) {
+      self->log();
+      --self->shared_.in_flight;
+      if (ec) return self->close();
+      if (!res->keep_alive()) return self->drain_and_close();
+      self->read_request();
+    });
+  }
+
+  void log() {
+    const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - started_).count();
+    char dur[32];
+    std::snprintf(dur, sizeof dur, "%.1f", ms);
+    daemon::log_line("{\"time\":\"" + daemon::now_rfc3339() + "\",\"method\":" + json_escape(method_) +
+                     ",\"path\":" + json_escape(target_.substr(0, 512)) + ",\"status\":" + std::to_string(status_) +
+                     ",\"ms\":" + dur + "}");
+  }
+
+  // After an early answer (413, 431) the client may still be sending: stop writing, read and
+  // discard for a moment, so that it receives our answer instead of a connection reset.
+  void drain_and_close() {
+    beast::error_code ec;
+    stream_.socket().shutdown(tcp::socket::shutdown_send, ec);
+    stream_.expires_after(std::chrono::seconds(2));
+    drain();
+  }
+  void drain() {
+    auto self = shared_from_this();
+    stream_.async_read_some(net::buffer(scratch_), [self](beast::error_code ec, std::size_t) {
+      if (ec) return self->close();
+      self->drain();
+    });
+  }
+
+  void close() {
+    beast::error_code ec;
+    stream_.socket().shutdown(tcp::socket::shutdown_both, ec);
+    stream_.socket().close(ec);
+  }
+
+  beast::tcp_stream stream_;
+  Shared& shared_;
+  beast::flat_buffer buffer_;
+  std::optional<http::request_parser<http::string_body>> parser_;
+  std::string method_ = "-";
+  std::string target_ = "-";
+  unsigned status_ = 0;
+  unsigned version_ = 11;
+  bool keep_alive_ = false;
+  std::chrono::steady_clock::time_point started_ = std::chrono::steady_clock::now();
+  char scratch_[4096];
+};
+
+class Listener : public std::enable_shared_from_this<Listener> {
+ public:
+  Listener(net::io_context& ioc, tcp::acceptor&& acceptor, Shared& shared)
+      : ioc_(ioc), acceptor_(std::move(acceptor)), shared_(shared) {}
+
+  void run() { accept(); }
+  void close() {
+    net::post(acceptor_.get_executor(), [self = shared_from_this()] {
+      beast::error_code ec;
+      self->acceptor_.close(ec);
+    });
+  }
+
+ private:
+  void accept() {
+    acceptor_.async_accept(net::make_strand(ioc_), beast::bind_front_handler(&Listener::on_accept, shared_from_this()));
+  }
+  void on_accept(beast::error_code ec, tcp::socket socket) {
+    if (ec == net::error::operation_aborted || !acceptor_.is_open()) return;
+    if (!ec) std::make_shared<Session>(std::move(socket), shared_)->run();
+    accept();
+  }
+
+  net::io_context& ioc_;
+  tcp::acceptor acceptor_;
+  Shared& shared_;
+};
+
+}  // namespace
+
+struct Server::Impl {
+  ServerConfig config;
+  JobRunner runner;
+  std::unique_ptr<JobStore> store;
+  std::unique_ptr<daemon::JobManager> jobs;
+  std::unique_ptr<daemon::Api> api;
+  std::unique_ptr<Shared> shared;
+  net::io_context ioc;
+  std::shared_ptr<Listener> listener;
+  std::vector<std::thread> threads;
+  unsigned short port = 0;
+  bool running = false;
+  int lock_fd = -1;  // flock()ed <data_dir>/lock: one server per data directory
+};
+
+Server::Server(ServerConfig config, JobRunner runner) : impl_(std::make_unique<Impl>()) {
+  impl_->config = std::move(config);
+  impl_->runner = std::move(runner);
+}
+
+Server::~Server() { stop(); }
+
+unsigned short Server::port() const { return impl_->port; }
+
+void Server::start() {
+  Impl& s = *impl_;
+  if (s.running) return;
+  std::error_code fec;
+  std::filesystem::create_directories(s.config.data_dir, fec);
+  if (fec) throw Error(ErrorKind::io, "data directory '" + s.config.data_dir + "': " + fec.message());
+  // Two servers on one data directory would each take the other's running jobs for
+  // interrupted ones. The kernel drops the lock when the process dies, SIGKILL included.
+  const std::string lock_path = (std::filesystem::path(s.config.data_dir) / "lock").string();
+  s.lock_fd = ::open(lock_path.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
+  if (s.lock_fd < 0 || ::flock(s.lock_fd, LOCK_EX | LOCK_NB) != 0) {
+    if (s.lock_fd >= 0) ::close(s.lock_fd);
+    s.lock_fd = -1;
+    throw Error(ErrorKind::io, "data directory '" + s.config.data_dir + "' is in use by another rvoronoi serve");
+  }
+  struct LockGuard {  // released again if start() fails below
+    int& fd;
+    bool armed = true;
+    ~LockGuard() {
+      if (armed && fd >= 0) {
+        ::close(fd);
+        fd = -1;
+      }
+    }
+  } lock_guard{s.lock_fd};
+  s.store = std::make_unique<JobStore>(std::filesystem::path(s.config.data_dir) / "jobs.sqlite");
+  // Decision (documented in openapi.yaml): a job that was queued or running when the previous
+  // process died cannot be resumed (its uploaded inputs lived in memory); it is failed with a
+  // message saying so, and whatever it had written is deleted.
+  const auto interrupted = s.store->fail_interrupted(
+      "the server stopped (crash or restart) before this job finished; resubmit it", daemon::now_rfc3339());
+  for (const std::string& id : interrupted) {
+    if (daemon::is_job_id(id)) {
+      std::error_code ec;
+      std::filesystem::remove_all(std::filesystem::path(s.config.data_dir) / "jobs" / id, ec);
+    }
+  }
+
+  beast::error_code ec;
+  const auto address = net::ip::make_address(s.config.host, ec);
+  if (ec) throw Error(ErrorKind::invalid_argument, "listen address '" + s.config.host + "': " + ec.message());
+  tcp::acceptor acceptor(s.ioc);
+  const tcp::endpoint endpoint(address, static_cast<unsigned short>(s.config.port));
+  acceptor.open(endpoint.protocol(), ec);
+  if (!ec) acceptor.set_option(net::socket_base::reuse_address(true), ec);
+  if (!ec) acceptor.bind(endpoint, ec);
+  if (!ec) acceptor.listen(net::socket_base::max_listen_connections, ec);
+  if (ec) {
+    throw Error(ErrorKind::io, "cannot listen on " + s.config.host + ":" + std::to_string(s.config.port) + ": " +
+                                   ec.message());
+  }
+  s.port = acceptor.local_endpoint().port();
+  s.config.port = s.port;  // links made without a Host header name the port really bound
+
+  s.jobs = std::make_unique<daemon::JobManager>(*s.store, s.config, s.runner);
+  s.api = std::make_unique<daemon::Api>(s.config, *s.store, *s.jobs);
+  s.shared = std::make_unique<Shared>(s.config, *s.api);
+  s.listener = std::make_shared<Listener>(s.ioc, std::move(acceptor), *s.shared);
+  s.listener->run();
+  for (int i = 0; i < std::max(1, s.config.http.io_threads); ++i) {
+    s.threads.emplace_back([&ioc = s.ioc] { ioc.run(); });
+  }
+  s.running = true;
+  lock_guard.armed = false;
+  daemon::log_line("{\"time\":\"" + daemon::now_rfc3339() + "\",\"event\":\"listening\",\"address\":" +
+                   json_escape(s.config.host + ":" + std::to_string(s.port)) +
+                   ",\"data_dir\":" + json_escape(s.config.data_dir) +
+                   ",\"interrupted_jobs_failed\":" + std::to_string(interrupted.size()) + "}");
+}
+
+void Server::stop() {
+  Impl& s = *impl_;
+  if (!s.running) return;
+  s.running = false;
+  s.listener->close();
+  // Running jobs get the grace period, then are cancelled; queued ones are failed at once.
+  s.jobs->shutdown(std::chrono::duration<double>(s.config.jobs.shutdown_grace_s));
+  // Let the answers already on their way (synchronous executions that just ended) be written.
+  const auto until = std::chrono::steady_clock::now() + std::chrono::seconds(2);
+  while (s.shared->in_flight.load() > 0 && std::chrono::steady_clock::now() < until) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  s.ioc.stop();
+  for (std::thread& t : s.threads) t.join();
+  s.threads.clear();
+  s.listener.reset();
+  s.api.reset();
+  s.jobs.reset();  // its workers are joined; the store closes after it
+  s.store.reset();
+  if (s.lock_fd >= 0) {
+    ::close(s.lock_fd);
+    s.lock_fd = -1;
+  }
+  daemon::log_line("{\"time\":\"" + daemon::now_rfc3339() + "\",\"event\":\"stopped\"}");
+}
+
+}  // namespace rv

@@ -1,0 +1,551 @@
+#include "server_api.hpp"
+
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cctype>
+#include <charconv>
+
+#include "rv/error.hpp"
+#include "rv/error_map.hpp"
+#include "server_util.hpp"
+
+namespace rv::daemon {
+namespace {
+
+using nlohmann::json;
+
+constexpr const char* kJson = "application/json";
+constexpr const char* kGeoTiff = "image/tiff; application=geotiff; profile=cloud-optimized";
+constexpr const char* kOgcExceptions = "http://www.opengis.net/def/exceptions/ogcapi-processes-1/1.0/";
+constexpr const char* kOgcRel = "http://www.opengis.net/def/rel/ogc/1.0/";
+
+// A not-found refined to one of the OGC exception types (no-such-process, no-such-job,
+// result-not-ready). Still an rv::Error(not_found): status and title come from the one table.
+class OgcNotFound : public Error {
+ public:
+  OgcNotFound(std::string ogc_type, const std::string& message)
+      : Error(ErrorKind::not_found, message), ogc_type_(std::move(ogc_type)) {}
+  const std::string& ogc_type() const { return ogc_type_; }
+
+ private:
+  std::string ogc_type_;
+};
+
+ApiResponse json_response(unsigned status, const json& body, const char* type = kJson) {
+  ApiResponse r;
+  r.status = status;
+  r.headers.emplace_back("Content-Type", type);
+  r.body = body.dump();
+  return r;
+}
+
+ApiResponse problem_from(const Error& e, const std::string& instance) {
+  const ErrorInfo& info = error_info(e.kind());
+  std::string type(info.type);
+  if (const auto* ogc = dynamic_cast<const OgcNotFound*>(&e)) type = kOgcExceptions + ogc->ogc_type();
+  return problem_response(static_cast<unsigned>(info.http_status), type, std::string(info.title), e.what(),
+                          instance);
+}
+
+ErrorKind parse_error_kind(const std::string& name) {
+  for (int k = 0; k <= static_cast<int>(ErrorKind::internal); ++k) {
+    if (to_string(static_cast<ErrorKind>(k)) == name) return static_cast<ErrorKind>(k);
+  }
+  return ErrorKind::internal;
+}
+
+std::string percent_decode(std::string_view s) {
+  std::string out;
+  for (size_t i = 0; i < s.size(); ++i) {
+    if (s[i] == '%' && i + 2 < s.size() && std::isxdigit(static_cast<unsigned char>(s[i + 1])) &&
+        std::isxdigit(static_cast<unsigned char>(s[i + 2]))) {
+      out += static_cast<char>(std::stoi(std::string(s.substr(i + 1, 2)), nullptr, 16));
+      i += 2;
+    } else {
+      out += s[i] == '+' ? ' ' : s[i];
+    }
+  }
+  return out;
+}
+
+std::vector<std::string> split(std::string_view s, char sep) {
+  std::vector<std::string> parts;
+  size_t start = 0;
+  for (;;) {
+    const size_t end = s.find(sep, start);
+    parts.emplace_back(s.substr(start, end == std::string_view::npos ? std::string_view::npos : end - start));
+    if (end == std::string_view::npos) return parts;
+    start = end + 1;
+  }
+}
+
+// A Host header is echoed into links: accept only what a host[:port] can contain.
+bool plausible_host(const std::string& h) {
+  return !h.empty() && h.size() < 256 && std::all_of(h.begin(), h.end(), [](char c) {
+    return std::isalnum(static_cast<unsigned char>(c)) || c == '.' || c == '-' || c == ':' || c == '[' ||
+           c == ']' || c == '_';
+  });
+}
+
+json link(const std::string& href, const std::string& rel, const std::string& type, const std::string& title = "") {
+  json l = {{"href", href}, {"rel", rel}, {"type", type}};
+  if (!title.empty()) l["title"] = title;
+  return l;
+}
+
+const char* output_media_type(const std::string& id) {
+  if (id == "report") return kJson;
+  if (id == "ownership.aux.xml") return "application/xml";
+  return kGeoTiff;
+}
+
+json process_summary(const std::string& base) {
+  return {
+      {"id", "voronoi"},
+      {"title", "Raster Voronoi diagram"},
+      {"description",
+       "For every cell of a raster grid, the owner of the nearest seed (points, lines or polygons) and "
+       "the distance to it; geodesic on longitude/latitude grids. Used for maritime boundary delimitation."},
+      {"version", "1.0.0"},
+      {"keywords", json::array({"voronoi", "raster", "nearest", "delimitation"})},
+      {"jobControlOptions", json::array({"sync-execute", "async-execute", "dismiss"})},
+      {"outputTransmission", json::array({"value", "reference"})},
+      {"links", json::array({link(base + "/processes/voronoi", "self", kJson, "process description"),
+                             link(base + "/processes/voronoi/execution", std::string(kOgcRel) + "execute", kJson,
+                                  "execute the process")})},
+  };
+}
+
+json process_description(const std::string& base) {
+  json d = process_summary(base);
+  static const json inputs = json::parse(R"json({
+    "seeds": {
+      "title": "Seed layers",
+      "description": "The seeds: a GeoJSON FeatureCollection, an array of them, or an uploaded GeoPackage, zipped Shapefile or FlatGeobuf as a base64 qualified value. References (href) are not accepted.",
+      "minOccurs": 1, "maxOccurs": 1,
+      "schema": {"oneOf": [
+        {"type": "object", "required": ["type", "features"],
+         "properties": {"type": {"type": "string", "enum": ["FeatureCollection"]}, "features": {"type": "array"}}},
+        {"type": "object", "required": ["value"],
+         "properties": {"value": {"oneOf": [{"type": "string"}, {"type": "object"}]},
+           "mediaType": {"type": "string", "enum": ["application/geo+json", "application/json", "application/geopackage+sqlite3", "application/zip", "application/flatgeobuf"]},
+           "encoding": {"type": "string", "enum": ["base64"]}}},
+        {"type": "array", "minItems": 1, "items": {"type": "object"}}
+      ]}
+    },
+    "ownerField": {"title": "Owner field", "description": "Attribute naming each feature's owner; without it every feature is its own owner.",
+      "minOccurs": 0, "maxOccurs": 1, "schema": {"type": "string", "minLength": 1}},
+    "resolution": {"title": "Cell size", "description": "Cell size in grid-CRS units (degrees on geographic grids).",
+      "minOccurs": 1, "maxOccurs": 1, "schema": {"type": "number", "minimum": 0, "exclusiveMinimum": true}},
+    "extent": {"title": "Grid extent", "description": "xmin, ymin, xmax, ymax in the grid CRS; default: the seeds' box grown by 5 %. As an OGC bbox, its crs (if any) sets the grid CRS and must agree with the crs input.",
+      "minOccurs": 0, "maxOccurs": 1, "schema": {"oneOf": [
+        {"type": "array", "items": {"type": "number"}, "minItems": 4, "maxItems": 4},
+        {"type": "object", "required": ["bbox"], "properties": {
+          "bbox": {"type": "array", "items": {"type": "number"}, "minItems": 4, "maxItems": 4},
+          "crs": {"type": "string"}}}]}},
+    "crs": {"title": "Grid CRS", "description": "EPSG:<code>, an OGC CRS URI or WKT; default: the first layer's CRS.",
+      "minOccurs": 0, "maxOccurs": 1, "schema": {"type": "string"}},
+    "metric": {"title": "Distance metric", "minOccurs": 0, "maxOccurs": 1,
+      "schema": {"type": "string", "enum": ["auto", "planar", "geodesic"], "default": "auto"}},
+    "method": {"title": "Method", "description": "exact (default, provably exact), hv-scan (Liu et al. 2019), h-scan, brute-force.",
+      "minOccurs": 0, "maxOccurs": 1,
+      "schema": {"type": "string", "enum": ["exact", "hv-scan", "hv_scan", "h-scan", "h_scan", "brute-force", "brute_force"], "default": "exact"}},
+    "maxDistance": {"title": "Maximum distance", "description": "Cells farther than this from every seed get no owner, in distanceUnits.",
+      "minOccurs": 0, "maxOccurs": 1, "schema": {"type": "number", "minimum": 0, "exclusiveMinimum": true}},
+    "distanceUnits": {"title": "Distance units", "minOccurs": 0, "maxOccurs": 1,
+      "schema": {"type": "string", "enum": ["m", "km", "nmi"]}},
+    "validate": {"title": "Validate", "description": "Also compute by brute force and report the differences (limited grid size).",
+      "minOccurs": 0, "maxOccurs": 1, "schema": {"type": "boolean", "default": false}}
+  })json");
+  static const json outputs = json::parse(R"json({
+    "ownership": {"title": "Ownership raster", "description": "Int32 owner codes (0 = none), a Cloud Optimized GeoTIFF with a raster attribute table (served also as ownership.aux.xml).",
+      "schema": {"type": "string", "contentEncoding": "binary", "contentMediaType": "image/tiff; application=geotiff; profile=cloud-optimized"}},
+    "distance": {"title": "Distance raster", "description": "Float32 distance to the nearest seed (-1 = none), a Cloud Optimized GeoTIFF.",
+      "schema": {"type": "string", "contentEncoding": "binary", "contentMediaType": "image/tiff; application=geotiff; profile=cloud-optimized"}},
+    "report": {"title": "Job report", "description": "What was computed: grid, seeds, method, timings, validation.",
+      "schema": {"type": "object", "contentMediaType": "application/json"}}
+  })json");
+  d["inputs"] = inputs;
+  d["outputs"] = outputs;
+  return d;
+}
+
+}  // namespace
+
+FileHandle::~FileHandle() {
+  if (fd >= 0) ::close(fd);
+}
+
+ApiResponse problem_response(unsigned status, const std::string& type, const std::string& title,
+                             const std::string& detail, const std::string& instance) {
+  json p = {{"type", type}, {"title", title}, {"status", status}, {"detail", detail}};
+  if (!instance.empty()) p["instance"] = instance;
+  return json_response(status, p, "application/problem+json");
+}
+
+struct Api::Context {
+  const ApiRequest& request;
+  std::string path;
+  std::map<std::string, std::vector<std::string>> query;
+  std::string base;  // scheme://host[:port], no trailing slash
+};
+
+Api::Api(const ServerConfig& config, JobStore& store, JobManager& jobs)
+    : config_(config), store_(store), jobs_(jobs) {}
+
+void Api::handle(const ApiRequest& request, Respond respond) {
+  auto shared = std::make_shared<Respond>(std::move(respond));
+  const std::string& target = request.target;
+  const size_t q = target.find('?');
+  Context ctx{request, target.substr(0, q), {}, {}};
+  if (q != std::string::npos) {
+    for (const std::string& pair : split(std::string_view(target).substr(q + 1), '&')) {
+      if (pair.empty()) continue;
+      const size_t eq = pair.find('=');
+      ctx.query[percent_decode(pair.substr(0, eq))].push_back(
+          eq == std::string::npos ? std::string() : percent_decode(pair.substr(eq + 1)));
+    }
+  }
+  if (!config_.public_url.empty()) {
+    ctx.base = config_.public_url;
+  } else if (plausible_host(request.host)) {
+    ctx.base = "http://" + request.host;
+  } else {
+    ctx.base = "http://" + config_.host + ":" + std::to_string(config_.port);
+  }
+  // Exactly one response: the handler either answered, or handed `shared` to a job.
+  try {
+    route(ctx, shared);
+  } catch (const Error& e) {
+    (*shared)(problem_from(e, ctx.path));
+  } catch (const json::exception& e) {
+    (*shared)(problem_from(Error(ErrorKind::invalid_argument, std::string("malformed JSON value: ") + e.what()),
+                           ctx.path));
+  } catch (const std::exception& e) {
+    (*shared)(problem_from(Error(ErrorKind::internal, e.what()), ctx.path));
+  }
+}
+
+namespace {
+
+json status_info(const JobRecord& r, const std::string& base) {
+  const std::string self = base + "/jobs/" + r.id;
+  json s = {{"processID", r.process_id}, {"type", "process"}, {"jobID", r.id},
+            {"status", std::string(to_string(r.status))}, {"message", r.message},
+            {"created", r.created}, {"updated", r.updated}, {"progress", r.progress}};
+  if (!r.started.empty()) s["started"] = r.started;
+  if (!r.finished.empty()) s["finished"] = r.finished;
+  json links = json::array({link(self, "self", kJson, "job status"), link(base + "/jobs", "up", kJson, "job list")});
+  if (r.status == JobStatus::successful) {
+    links.push_back(link(self + "/results", std::string(kOgcRel) + "results", kJson, "job results"));
+    for (const std::string& o : r.outputs) {
+      links.push_back(link(self + "/results/" + o, "enclosure", output_media_type(o), o));
+      if (o == "ownership") {
+        links.push_back(link(self + "/results/ownership.aux.xml", "describedby", "application/xml",
+                             "raster attribute table of ownership (GDAL PAM sidecar)"));
+      }
+    }
+  }
+  s["links"] = links;
+  return s;
+}
+
+json results_document(const JobRecord& r, const std::string& base) {
+  json doc = json::object();
+  for (size_t i = 0; i < r.outputs.size(); ++i) {
+    const std::string& o = r.outputs[i];
+    const bool by_value = i < r.transmission.size() && r.transmission[i] == "value";
+    if (by_value) {
+      doc[o] = {{"value", r.report}, {"mediaType", kJson}};
+    } else {
+      doc[o] = {{"href", base + "/jobs/" + r.id + "/results/" + o}, {"type", output_media_type(o)}};
+    }
+  }
+  return doc;
+}
+
+// The answer about a job that has no results to give.
+[[noreturn]] void throw_no_results(const JobRecord& r) {
+  switch (r.status) {
+    case JobStatus::accepted:
+    case JobStatus::running:
+      throw OgcNotFound("result-not-ready", "job " + r.id + " is " + std::string(to_string(r.status)) +
+                                                "; its results are not ready yet");
+    case JobStatus::failed:
+      throw Error(parse_error_kind(r.error_kind), r.message);
+    case JobStatus::dismissed:
+      throw OgcNotFound("no-such-job", "job " + r.id + " was dismissed; its results were deleted");
+    case JobStatus::successful:
+      break;
+  }
+  throw Error(ErrorKind::internal, "throw_no_results on a successful job");
+}
+
+JobRecord find_job(const JobStore& store, const std::string& id) {
+  if (!is_job_id(id)) throw OgcNotFound("no-such-job", "no job '" + id.substr(0, 64) + "'");
+  auto r = store.get(id);
+  if (!r) throw OgcNotFound("no-such-job", "no job '" + id + "'");
+  return *r;
+}
+
+// Parses a single "bytes=" range against a file of `size` bytes. Returns nullopt for a header
+// to ignore (several ranges, other units: the whole file is sent), throws the 416 marker
+// (length 0, offset size) for an unsatisfiable one.
+struct ByteRange {
+  uint64_t first = 0, last = 0;  // inclusive
+  bool satisfiable = true;
+};
+
+std::optional<ByteRange> parse_range(const std::string& header, uint64_t size) {
+  if (header.rfind("bytes=", 0) != 0) return std::nullopt;
+  const std::string spec = header.substr(6);
+  if (spec.find(',') != std::string::npos) return std::nullopt;
+  const size_t dash = spec.find('-');
+  if (dash == std::string::npos) return std::nullopt;
+  auto number = [](std::string_view s, uint64_t& v) {
+    if (s.empty()) return false;
+    const auto [p, ec] = std::from_chars(s.data(), s.data() + s.size(), v);
+    return ec == std::errc() && p == s.data() + s.size();
+  };
+  const std::string_view a = std::string_view(spec).substr(0, dash);
+  const std::string_view b = std::string_view(spec).substr(dash + 1);
+  ByteRange r;
+  uint64_t x = 0, y = 0;
+  if (a.empty()) {  // suffix: the last y bytes
+    if (!number(b, y)) return std::nullopt;
+    if (y == 0 || size == 0) return ByteRange{0, 0, false};
+    r.first = y >= size ? 0 : size - y;
+    r.last = size - 1;
+    return r;
+  }
+  if (!number(a, x)) return std::nullopt;
+  if (b.empty()) {
+    y = size == 0 ? 0 : size - 1;
+  } else if (!number(b, y) || y < x) {
+    return std::nullopt;  // syntactically invalid: ignored (RFC 9110 14.2)
+  }
+  if (x >= size) return ByteRange{0, 0, false};
+  r.first = x;
+  r.last = std::min(y, size - 1);
+  return r;
+}
+
+ApiResponse file_response(const std::string& path, const std::string& media_type, const std::string& range_header,
+                          const std::string& not_found_message) {
+  const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+  if (fd < 0) throw Error(ErrorKind::not_found, not_found_message);
+  auto handle = std::make_shared<FileHandle>(fd);
+  struct stat st {};
+  if (::fstat(fd, &st) != 0) throw Error(ErrorKind::io, "cannot stat a result file");
+  const uint64_t size = static_cast<uint64_t>(st.st_size);
+  ApiResponse r;
+  r.headers.emplace_back("Content-Type", media_type);
+  r.headers.emplace_back("Accept-Ranges", "bytes");
+  const auto mtime = std::chrono::system_clock::time_point(
+      std::chrono::duration_cast<std::chrono::system_clock::duration>(
+          std::chrono::seconds(st.st_mtim.tv_sec) + std::chrono::nanoseconds(st.st_mtim.tv_nsec)));
+  r.headers.emplace_back("Last-Modified", http_date(mtime));
+  // Result files never change once written (renamed into place): size and mtime identify them.
+  r.headers.emplace_back("ETag", "\"" + std::to_string(size) + "-" + std::to_string(st.st_mtim.tv_sec) + "." +
+                                     std::to_string(st.st_mtim.tv_nsec) + "\"");
+  FileSlice slice{handle, 0, size};
+  if (!range_header.empty()) {
+    if (const auto range = parse_range(range_header, size)) {
+      if (!range->satisfiable) {
+        ApiResponse p = problem_response(416, "https://rvoronoi.dev/problems/range-not-satisfiable",
+                                         "Range not satisfiable",
+                                         "the file has " + std::to_string(size) + " bytes; requested " + range_header,
+                                         "");
+        p.headers.emplace_back("Content-Range", "bytes */" + std::to_string(size));
+        p.headers.emplace_back("Accept-Ranges", "bytes");
+        return p;
+      }
+      r.status = 206;
+      slice.offset = range->first;
+      slice.length = range->last - range->first + 1;
+      r.headers.emplace_back("Content-Range", "bytes " + std::to_string(range->first) + "-" +
+                                                  std::to_string(range->last) + "/" + std::to_string(size));
+    }
+  }
+  r.file = slice;
+  return r;
+}
+
+ApiResponse method_not_allowed(const std::string& allow, const std::string& path) {
+  ApiResponse r = problem_response(405, "https://rvoronoi.dev/problems/method-not-allowed", "Method not allowed",
+                                   "allowed here: " + allow, path);
+  r.headers.emplace_back("Allow", allow);
+  return r;
+}
+
+}  // namespace
+
+void Api::route(const Context& ctx, const std::shared_ptr<Respond>& respond) {
+  const std::string& method = ctx.request.method;
+  const std::string& path = ctx.path;
+  const std::string& base = ctx.base;
+  const bool get = method == "GET" || method == "HEAD";
+  auto reply = [&](ApiResponse r) { (*respond)(std::move(r)); };
+  std::vector<std::string> seg;
+  for (const std::string& s : split(path, '/')) {
+    if (!s.empty()) seg.push_back(percent_decode(s));
+  }
+
+  if (seg.empty()) {
+    if (!get) return reply(method_not_allowed("GET, HEAD", path));
+    return reply(json_response(
+        200, {{"title", "rvoronoi"},
+              {"description", "Raster Voronoi diagrams for maritime boundary delimitation (OGC API - Processes 1.0)"},
+              {"links",
+               {link(base + "/", "self", kJson, "this document"),
+                link(base + "/api", "service-desc", "application/vnd.oai.openapi;version=3.0", "the API definition"),
+                link(base + "/conformance", std::string(kOgcRel) + "conformance", kJson, "conformance classes"),
+                link(base + "/processes", std::string(kOgcRel) + "processes", kJson, "processes"),
+                link(base + "/jobs", std::string(kOgcRel) + "job-list", kJson, "jobs"),
+                link(base + "/health", "status", kJson, "health")}}}));
+  }
+  const std::string& head = seg[0];
+  if (seg.size() == 1 && head == "conformance") {
+    if (!get) return reply(method_not_allowed("GET, HEAD", path));
+    const std::string c = "http://www.opengis.net/spec/ogcapi-processes-1/1.0/conf/";
+    return reply(json_response(200, {{"conformsTo",
+                                      {c + "core", c + "ogc-process-description", c + "json", c + "oas30",
+                                       c + "job-list", c + "dismiss"}}}));
+  }
+  if (seg.size() == 1 && head == "api") {
+    if (!get) return reply(method_not_allowed("GET, HEAD", path));
+    ApiResponse r;
+    r.headers.emplace_back("Content-Type", "application/vnd.oai.openapi;version=3.0");
+    r.body.assign(kOpenApiYaml, kOpenApiYamlSize);
+    return reply(std::move(r));
+  }
+  if (seg.size() == 1 && head == "health") {
+    if (!get) return reply(method_not_allowed("GET, HEAD", path));
+    return reply(json_response(200, {{"status", "ok"},
+                                     {"jobs", {{"running", jobs_.running_count()}, {"queued", jobs_.queued_count()}}},
+                                     {"workers", config_.jobs.workers},
+                                     {"queueLength", config_.jobs.queue_length}}));
+  }
+  if (head == "processes") {
+    if (seg.size() == 1) {
+      if (!get) return reply(method_not_allowed("GET, HEAD", path));
+      return reply(json_response(200, {{"processes", json::array({process_summary(base)})},
+                                       {"links", json::array({link(base + "/processes", "self", kJson, "processes")})}}));
+    }
+    if (seg[1] != "voronoi") throw OgcNotFound("no-such-process", "no process '" + seg[1].substr(0, 64) + "'");
+    if (seg.size() == 2) {
+      if (!get) return reply(method_not_allowed("GET, HEAD", path));
+      return reply(json_response(200, process_description(base)));
+    }
+    if (seg.size() == 3 && seg[2] == "execution") {
+      if (method != "POST") return reply(method_not_allowed("POST", path));
+      const json body = json::parse(ctx.request.body, nullptr, /*allow_exceptions=*/false);
+      if (body.is_discarded()) throw Error(ErrorKind::invalid_argument, "the request body is not valid JSON");
+      const std::string id = new_job_id();
+      Execution ex = parse_execution(body, id, config_);
+      const bool async = ctx.request.prefer.find("respond-async") != std::string::npos;
+      if (async) {
+        const JobRecord rec = jobs_.submit(id, std::move(ex));
+        ApiResponse r = json_response(201, status_info(rec, base));
+        r.headers.emplace_back("Location", base + "/jobs/" + id);
+        r.headers.emplace_back("Preference-Applied", "respond-async");
+        return reply(std::move(r));
+      }
+      const bool raw = ex.raw;
+      const std::string dir = jobs_.job_dir(id).string();
+      auto on_done = [respond, raw, base, dir, path](const JobRecord& rec) {
+        ApiResponse r;
+        try {
+          // The client waiting here asked for this job; if someone dismissed it meanwhile,
+          // say so (409) rather than "no such job".
+          if (rec.status == JobStatus::dismissed) throw Error(ErrorKind::cancelled, rec.message);
+          if (rec.status != JobStatus::successful) throw_no_results(rec);
+          if (raw) {
+            const std::string& o = rec.outputs.front();
+            r = file_response(dir + "/" + output_file_name(o), output_media_type(o), "",
+                              "the result file of job " + rec.id + " is missing");
+          } else {
+            r = json_response(200, results_document(rec, base));
+          }
+        } catch (const Error& e) {
+          r = problem_from(e, path);
+        }
+        r.headers.emplace_back("Link", "<" + base + "/jobs/" + rec.id + ">; rel=\"monitor\"");
+        (*respond)(std::move(r));
+      };
+      jobs_.submit(id, std::move(ex), on_done);
+      return;  // answered by on_done
+    }
+    throw Error(ErrorKind::not_found, "no resource " + path);
+  }
+  if (head == "jobs") {
+    if (seg.size() == 1) {
+      if (!get) return reply(method_not_allowed("GET, HEAD", path));
+      int limit = 100;
+      int offset = 0;
+      auto int_param = [&](const char* name, int lo, int hi, int& out) {
+        const auto it = ctx.query.find(name);
+        if (it == ctx.query.end()) return;
+        const std::string& v = it->second.front();
+        int x = 0;
+        const auto [p, ec] = std::from_chars(v.data(), v.data() + v.size(), x);
+        if (ec != std::errc() || p != v.data() + v.size() || x < lo || x > hi) {
+          throw Error(ErrorKind::invalid_argument, std::string("parameter '") + name + "' must be an integer in " +
+                                                       std::to_string(lo) + ".." + std::to_string(hi));
+        }
+        out = x;
+      };
+      int_param("limit", 1, 1000, limit);
+      int_param("offset", 0, 1'000'000'000, offset);
+      std::vector<JobStatus> statuses;
+      if (const auto it = ctx.query.find("status"); it != ctx.query.end()) {
+        for (const std::string& v : it->second) {
+          for (const std::string& s : split(v, ',')) statuses.push_back(parse_job_status(s));
+        }
+      }
+      json list = json::array();
+      const auto records = store_.list(limit, offset, statuses);
+      for (const JobRecord& r : records) list.push_back(status_info(r, base));
+      json links = json::array({link(base + "/jobs", "self", kJson, "job list")});
+      if (static_cast<int>(records.size()) == limit) {
+        links.push_back(link(base + "/jobs?limit=" + std::to_string(limit) + "&offset=" + std::to_string(offset + limit),
+                             "next", kJson, "next page"));
+      }
+      return reply(json_response(200, {{"jobs", list}, {"links", links}}));
+    }
+    const std::string& id = seg[1];
+    if (seg.size() == 2) {
+      if (method == "DELETE") {
+        find_job(store_, id);  // 404 for unknown ids, validated before anything else
+        const auto rec = jobs_.dismiss(id);
+        if (!rec) throw OgcNotFound("no-such-job", "no job '" + id + "'");
+        return reply(json_response(200, status_info(*rec, base)));
+      }
+      if (!get) return reply(method_not_allowed("GET, HEAD, DELETE", path));
+      return reply(json_response(200, status_info(find_job(store_, id), base)));
+    }
+    if (seg[2] != "results" || seg.size() > 4) throw Error(ErrorKind::not_found, "no resource " + path);
+    if (!get) return reply(method_not_allowed("GET, HEAD", path));
+    const JobRecord rec = find_job(store_, id);
+    if (rec.status != JobStatus::successful) throw_no_results(rec);
+    if (seg.size() == 3) return reply(json_response(200, results_document(rec, base)));
+    const std::string& output = seg[3];
+    const bool sidecar = output == "ownership.aux.xml";
+    const std::string file_of = sidecar ? "ownership" : output;
+    if (std::find(rec.outputs.begin(), rec.outputs.end(), file_of) == rec.outputs.end()) {
+      throw Error(ErrorKind::not_found, "job " + id + " has no output '" + output.substr(0, 64) +
+                                            "' (requested outputs only)");
+    }
+    // The file name is ours, never the client's: only the id (checked hex) and a fixed name.
+    std::string file = jobs_.job_dir(id).string() + "/" + output_file_name(file_of);
+    if (sidecar) file += ".aux.xml";
+    return reply(file_response(file, output_media_type(output), ctx.request.range,
+                               "job " + id + " has no file for output '" + output + "'"));
+  }
+  throw Error(ErrorKind::not_found, "no resource " + path.substr(0, 200));
+}
+
+}  // namespace rv::daemon

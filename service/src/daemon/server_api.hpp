@@ -1,0 +1,78 @@
+// The OGC API - Processes resources, independent of the HTTP transport: a request in, exactly
+// one response out (possibly later, from a worker thread, for synchronous execution).
+// rv::Error is translated into problem+json here, once, through error_info().
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <map>
+#include <memory>
+#include <optional>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "rv/server_config.hpp"
+#include "rv/store_jobs.hpp"
+#include "server_jobs.hpp"
+
+namespace rv::daemon {
+
+// An open file descriptor, closed when the last owner lets go.
+struct FileHandle {
+  explicit FileHandle(int f) : fd(f) {}
+  ~FileHandle();
+  FileHandle(const FileHandle&) = delete;
+  FileHandle& operator=(const FileHandle&) = delete;
+  int fd;
+};
+
+// Bytes [offset, offset + length) of an open file: the body of a (partial) file response.
+struct FileSlice {
+  std::shared_ptr<FileHandle> file;
+  uint64_t offset = 0;
+  uint64_t length = 0;
+};
+
+struct ApiRequest {
+  std::string method;  // "GET", "HEAD", "POST", "DELETE", ...
+  std::string target;  // origin-form request target, query included
+  std::string host;    // Host header
+  std::string prefer;  // Prefer header
+  std::string range;   // Range header
+  std::string body;
+};
+
+struct ApiResponse {
+  unsigned status = 200;
+  std::vector<std::pair<std::string, std::string>> headers;  // Content-Type included
+  std::string body;
+  std::optional<FileSlice> file;  // when set, the body comes from here instead of `body`
+};
+
+// Builds an RFC 7807 problem response (Content-Type application/problem+json).
+ApiResponse problem_response(unsigned status, const std::string& type, const std::string& title,
+                             const std::string& detail, const std::string& instance);
+
+using Respond = std::function<void(ApiResponse)>;
+
+class Api {
+ public:
+  Api(const ServerConfig& config, JobStore& store, JobManager& jobs);
+  // Calls `respond` exactly once, on this thread or (synchronous execution) a worker thread.
+  void handle(const ApiRequest& request, Respond respond);
+
+ private:
+  struct Context;
+  void route(const Context& ctx, const std::shared_ptr<Respond>& respond);
+
+  const ServerConfig& config_;
+  JobStore& store_;
+  JobManager& jobs_;
+};
+
+// The repository's openapi.yaml, embedded at build time.
+extern const char* const kOpenApiYaml;
+extern const std::size_t kOpenApiYamlSize;
+
+}  // namespace rv::daemon

@@ -1,0 +1,148 @@
+#include "rv/server_config.hpp"
+
+#include <fstream>
+#include <set>
+#include <sstream>
+#include <thread>
+
+#include <unistd.h>
+
+#include "rv/error.hpp"
+
+namespace rv {
+namespace {
+
+using nlohmann::json;
+
+[[noreturn]] void bad(const std::string& key, const std::string& why) {
+  throw Error(ErrorKind::invalid_argument, "configuration key '" + key + "': " + why);
+}
+
+// Rejects keys we do not know: a misspelt limit would otherwise silently keep its default.
+void check_keys(const json& object, const std::string& where, const std::set<std::string>& known) {
+  if (!object.is_object()) bad(where.empty() ? "(document)" : where, "must be a JSON object");
+  for (const auto& [key, value] : object.items()) {
+    if (!known.count(key)) bad(where.empty() ? key : where + "." + key, "unknown key");
+  }
+}
+
+int64_t get_int(const json& object, const std::string& where, const char* key, int64_t fallback,
+                int64_t min_value) {
+  if (!object.contains(key)) return fallback;
+  const json& v = object.at(key);
+  const std::string name = where + "." + key;
+  if (!v.is_number_integer()) bad(name, "must be an integer");
+  const int64_t x = v.get<int64_t>();
+  if (x < min_value) bad(name, "must be >= " + std::to_string(min_value));
+  return x;
+}
+
+double get_seconds(const json& object, const std::string& where, const char* key, double fallback) {
+  if (!object.contains(key)) return fallback;
+  const json& v = object.at(key);
+  const std::string name = where + "." + key;
+  if (!v.is_number()) bad(name, "must be a number of seconds");
+  const double x = v.get<double>();
+  if (!(x > 0.0) || x > 1e7) bad(name, "must be > 0 and at most 1e7 seconds");
+  return x;
+}
+
+std::string get_string(const json& object, const char* key, const std::string& fallback) {
+  if (!object.contains(key)) return fallback;
+  if (!object.at(key).is_string()) bad(key, "must be a string");
+  return object.at(key).get<std::string>();
+}
+
+}  // namespace
+
+void parse_listen(const std::string& listen, ServerConfig& config) {
+  std::string host;
+  std::string port;
+  if (!listen.empty() && listen.front() == '[') {
+    const auto close = listen.find(']');
+    if (close == std::string::npos || close + 1 >= listen.size() || listen[close + 1] != ':') {
+      bad("listen", "expected [ipv6]:port, got '" + listen + "'");
+    }
+    host = listen.substr(1, close - 1);
+    port = listen.substr(close + 2);
+  } else {
+    const auto colon = listen.rfind(':');
+    if (colon == std::string::npos) bad("listen", "expected host:port, got '" + listen + "'");
+    host = listen.substr(0, colon);
+    port = listen.substr(colon + 1);
+  }
+  if (host.empty()) bad("listen", "missing host in '" + listen + "'");
+  if (port.empty() || port.size() > 5 || port.find_first_not_of("0123456789") != std::string::npos ||
+      std::stoi(port) > 65535) {
+    bad("listen", "port must be 0..65535 in '" + listen + "'");
+  }
+  config.host = host;
+  config.port = std::stoi(port);
+}
+
+ServerConfig parse_server_config(const json& doc) {
+  ServerConfig c;
+  check_keys(doc, "", {"listen", "data_dir", "public_url", "http", "jobs", "limits"});
+  if (doc.contains("listen")) parse_listen(get_string(doc, "listen", ""), c);
+  c.data_dir = get_string(doc, "data_dir", c.data_dir);
+  if (c.data_dir.empty()) bad("data_dir", "must not be empty");
+  c.public_url = get_string(doc, "public_url", c.public_url);
+  while (!c.public_url.empty() && c.public_url.back() == '/') c.public_url.pop_back();
+  if (!c.public_url.empty() && c.public_url.rfind("http://", 0) != 0 &&
+      c.public_url.rfind("https://", 0) != 0) {
+    bad("public_url", "must start with http:// or https://");
+  }
+
+  if (doc.contains("http")) {
+    const json& h = doc.at("http");
+    check_keys(h, "http", {"max_body_bytes", "max_header_bytes", "request_timeout_s", "io_threads"});
+    c.http.max_body_bytes = get_int(h, "http", "max_body_bytes", c.http.max_body_bytes, 1024);
+    c.http.max_header_bytes = get_int(h, "http", "max_header_bytes", c.http.max_header_bytes, 512);
+    c.http.request_timeout_s = get_seconds(h, "http", "request_timeout_s", c.http.request_timeout_s);
+    c.http.io_threads = static_cast<int>(get_int(h, "http", "io_threads", c.http.io_threads, 1));
+  }
+  if (doc.contains("jobs")) {
+    const json& j = doc.at("jobs");
+    check_keys(j, "jobs", {"workers", "queue_length", "threads_per_job", "job_timeout_s", "shutdown_grace_s"});
+    c.jobs.workers = static_cast<int>(get_int(j, "jobs", "workers", c.jobs.workers, 1));
+    c.jobs.queue_length = static_cast<int>(get_int(j, "jobs", "queue_length", c.jobs.queue_length, 0));
+    c.jobs.threads_per_job = static_cast<int>(get_int(j, "jobs", "threads_per_job", c.jobs.threads_per_job, 0));
+    c.jobs.job_timeout_s = get_seconds(j, "jobs", "job_timeout_s", c.jobs.job_timeout_s);
+    c.jobs.shutdown_grace_s = get_seconds(j, "jobs", "shutdown_grace_s", c.jobs.shutdown_grace_s);
+  }
+  if (doc.contains("limits")) {
+    const json& l = doc.at("limits");
+    check_keys(l, "limits", {"max_cells", "max_memory_bytes", "validate_max_cells"});
+    c.limits.max_cells = get_int(l, "limits", "max_cells", c.limits.max_cells, 1);
+    c.limits.max_memory_bytes = get_int(l, "limits", "max_memory_bytes", c.limits.max_memory_bytes, 0);
+    c.limits.validate_max_cells = get_int(l, "limits", "validate_max_cells", c.limits.validate_max_cells, 0);
+  }
+  return c;
+}
+
+ServerConfig load_server_config(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw Error(ErrorKind::not_found, "configuration file '" + path + "' cannot be opened");
+  std::stringstream text;
+  text << in.rdbuf();
+  json doc = json::parse(text.str(), nullptr, /*allow_exceptions=*/false);
+  if (doc.is_discarded()) {
+    throw Error(ErrorKind::invalid_argument, "configuration file '" + path + "' is not valid JSON");
+  }
+  return parse_server_config(doc);
+}
+
+JobLimits effective_limits(const ServerConfig& config) {
+  JobLimits limits = config.limits;
+  if (limits.max_memory_bytes == 0) {
+    // Jobs run side by side: each may take its share of 80 % of the machine, so that a full
+    // worker pool cannot together exceed it.
+    const long pages = sysconf(_SC_PHYS_PAGES);
+    const long page_size = sysconf(_SC_PAGE_SIZE);
+    const int64_t physical = pages > 0 && page_size > 0 ? int64_t{pages} * page_size : 0;
+    if (physical > 0) limits.max_memory_bytes = physical / 10 * 8 / std::max(1, config.jobs.workers);
+  }
+  return limits;
+}
+
+}  // namespace rv

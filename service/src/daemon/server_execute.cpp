@@ -1,0 +1,377 @@
+#include "server_execute.hpp"
+
+#include <cpl_vsi.h>
+
+#include <algorithm>
+#include <cctype>
+#include <cmath>
+#include <set>
+#include <thread>
+
+#include "rv/error.hpp"
+#include "rv/grid.hpp"
+#include "server_util.hpp"
+
+namespace rv::daemon {
+namespace {
+
+using nlohmann::json;
+
+[[noreturn]] void bad(const std::string& input, const std::string& why) {
+  throw Error(ErrorKind::invalid_argument, "input '" + input + "': " + why);
+}
+
+std::string type_name(const json& v) { return v.type_name(); }
+
+// OGC inputs may be given bare or as a qualified value {"value": ..., "mediaType": ...}; for
+// the literal inputs both mean the same. References are refused: the server never fetches.
+const json& literal(const json& v, const std::string& input) {
+  if (v.is_object()) {
+    if (v.contains("href")) bad(input, "references (href) are not accepted; send the value itself");
+    if (v.contains("value")) return v.at("value");
+  }
+  return v;
+}
+
+double positive_number(const json& raw, const std::string& input) {
+  const json& v = literal(raw, input);
+  if (!v.is_number()) bad(input, "must be a number, got " + type_name(v));
+  const double x = v.get<double>();
+  if (!std::isfinite(x) || !(x > 0.0)) bad(input, "must be a finite number > 0");
+  return x;
+}
+
+std::string string_value(const json& raw, const std::string& input) {
+  const json& v = literal(raw, input);
+  if (!v.is_string()) bad(input, "must be a string, got " + type_name(v));
+  return v.get<std::string>();
+}
+
+bool starts_with_ci(std::string_view s, std::string_view prefix) {
+  if (s.size() < prefix.size()) return false;
+  for (size_t i = 0; i < prefix.size(); ++i) {
+    if (std::tolower(static_cast<unsigned char>(s[i])) != std::tolower(static_cast<unsigned char>(prefix[i]))) {
+      return false;
+    }
+  }
+  return true;
+}
+
+bool all_digits(std::string_view s) {
+  return !s.empty() && s.size() <= 9 &&
+         std::all_of(s.begin(), s.end(), [](char c) { return c >= '0' && c <= '9'; });
+}
+
+std::array<double, 4> bbox_values(const json& array, const std::string& input) {
+  if (!array.is_array() || array.size() != 4) {
+    bad(input, "must be [xmin, ymin, xmax, ymax] (4 numbers; 3-D boxes are not supported)");
+  }
+  std::array<double, 4> b{};
+  for (size_t i = 0; i < 4; ++i) {
+    if (!array[i].is_number()) bad(input, "coordinate " + std::to_string(i) + " is not a number");
+    b[i] = array[i].get<double>();
+    if (!std::isfinite(b[i])) bad(input, "coordinate " + std::to_string(i) + " is not finite");
+  }
+  if (!(b[0] < b[2]) || !(b[1] < b[3])) bad(input, "needs xmin < xmax and ymin < ymax");
+  return b;
+}
+
+bool has_prefix(std::string_view bytes, std::string_view magic) {
+  return bytes.size() >= magic.size() && bytes.substr(0, magic.size()) == magic;
+}
+
+struct SeedFormat {
+  const char* media_type;
+  const char* extension;
+  std::string_view magic;
+  const char* description;
+};
+
+constexpr std::string_view kSqliteMagic{"SQLite format 3\0", 16};
+const SeedFormat kUploadFormats[] = {
+    {"application/geopackage+sqlite3", "gpkg", kSqliteMagic, "a GeoPackage"},
+    {"application/zip", "zip", "PK\x03\x04", "a zip archive (zipped Shapefile)"},
+    {"application/flatgeobuf", "fgb", "fgb\x03", "a FlatGeobuf file"},
+};
+
+// Writes one element of `seeds` to /vsimem/ and returns the name GDAL opens it by, plus the
+// summary stored with the job.
+std::pair<std::string, json> stage_seed_layer(const json& item, const std::string& input,
+                                              size_t index, VsiMemFiles& files) {
+  const std::string base = "seeds_" + std::to_string(index);
+  if (item.is_object() && item.contains("href")) {
+    bad(input, "references (href) are not accepted; upload the data by value");
+  }
+  if (item.is_object() && item.value("type", "") == "FeatureCollection") {
+    if (!item.contains("features") || !item.at("features").is_array()) {
+      bad(input, "FeatureCollection without a \"features\" array");
+    }
+    const std::string path = files.write(base + ".geojson", item.dump());
+    return {path, json{{"type", "FeatureCollection"}, {"features", item.at("features").size()}}};
+  }
+  if (!item.is_object() || !item.contains("value")) {
+    bad(input, "expected a GeoJSON FeatureCollection or a qualified value "
+               "{\"value\", \"mediaType\", \"encoding\": \"base64\"}, got " +
+                   (item.is_object() ? std::string("an object of type '") + item.value("type", "") + "'"
+                                     : type_name(item)));
+  }
+  const std::string media = item.value("mediaType", "");
+  const json& value = item.at("value");
+  if (media.empty() || media == "application/geo+json" || media == "application/json") {
+    if (value.is_object()) return stage_seed_layer(value, input, index, files);
+    if (value.is_string()) {
+      const std::string path = files.write(base + ".geojson", value.get<std::string>());
+      return {path, json{{"mediaType", "application/geo+json"}, {"bytes", value.get<std::string>().size()}}};
+    }
+    bad(input, "GeoJSON value must be a FeatureCollection object or its text");
+  }
+  for (const SeedFormat& f : kUploadFormats) {
+    if (media != f.media_type) continue;
+    if (item.value("encoding", "") != "base64") bad(input, "binary uploads need \"encoding\": \"base64\"");
+    if (!value.is_string()) bad(input, "\"value\" must be the base64 text of " + std::string(f.description));
+    const std::string bytes = base64_decode(value.get_ref<const std::string&>(), "input '" + input + "'");
+    if (!has_prefix(bytes, f.magic)) {
+      throw Error(ErrorKind::invalid_input,
+                  "input '" + input + "': the uploaded data is not " + f.description + " (mediaType " + media + ")");
+    }
+    std::string path = files.write(base + "." + f.extension, bytes);
+    // A zipped Shapefile is read through GDAL's zip file system, entirely in memory.
+    if (std::string_view(f.extension) == "zip") path = "/vsizip/" + path;
+    return {path, json{{"mediaType", media}, {"bytes", bytes.size()}}};
+  }
+  bad(input, "unsupported mediaType '" + media +
+                 "' (accepted: application/geo+json, application/geopackage+sqlite3, application/zip, "
+                 "application/flatgeobuf)");
+}
+
+void parse_outputs(const json& body, Execution& ex) {
+  std::vector<std::pair<std::string, std::string>> chosen;
+  if (body.contains("outputs") && !body.at("outputs").empty()) {
+    const json& outputs = body.at("outputs");
+    if (!outputs.is_object()) bad("outputs", "must be an object keyed by output id");
+    for (const auto& [id, options] : outputs.items()) {
+      if (std::find_if(std::begin(kOutputIds), std::end(kOutputIds),
+                       [&](const char* k) { return id == k; }) == std::end(kOutputIds)) {
+        throw Error(ErrorKind::invalid_argument,
+                    "output '" + id + "': no such output (outputs: ownership, distance, report)");
+      }
+      const bool binary = id != "report";
+      std::string mode = binary ? "reference" : "value";
+      if (!options.is_object()) bad("outputs", "output '" + id + "' must map to an object");
+      if (options.contains("transmissionMode")) {
+        const json& m = options.at("transmissionMode");
+        if (!m.is_string() || (m != "value" && m != "reference")) {
+          throw Error(ErrorKind::invalid_argument,
+                      "output '" + id + "': transmissionMode must be \"value\" or \"reference\"");
+        }
+        mode = m.get<std::string>();
+      }
+      if (binary && mode == "value") {
+        throw Error(ErrorKind::invalid_argument,
+                    "output '" + id + "': GeoTIFF outputs are returned by reference only");
+      }
+      chosen.emplace_back(id, mode);
+    }
+  } else {
+    chosen = {{"ownership", "reference"}, {"distance", "reference"}, {"report", "value"}};
+  }
+  for (const char* id : kOutputIds) {
+    for (const auto& [cid, mode] : chosen) {
+      if (cid == id) {
+        ex.outputs.push_back(cid);
+        ex.transmission.push_back(mode);
+      }
+    }
+  }
+  if (body.contains("response")) {
+    const json& r = body.at("response");
+    if (r != "raw" && r != "document") bad("response", "must be \"raw\" or \"document\"");
+    ex.raw = r == "raw";
+  }
+  if (ex.raw && ex.outputs.size() != 1) {
+    throw Error(ErrorKind::unsupported,
+                "\"response\": \"raw\" needs exactly one requested output (multipart responses are "
+                "not supported); request one output or use \"document\"");
+  }
+}
+
+}  // namespace
+
+VsiMemFiles::~VsiMemFiles() {
+  for (const std::string& f : files_) VSIUnlink(f.c_str());
+}
+
+std::string VsiMemFiles::write(const std::string& name, std::string_view bytes) {
+  const std::string path = directory_ + "/" + name;
+  VSILFILE* fp = VSIFOpenL(path.c_str(), "wb");
+  if (fp == nullptr) throw Error(ErrorKind::io, "cannot create in-memory file " + path);
+  files_.push_back(path);
+  const size_t written = VSIFWriteL(bytes.data(), 1, bytes.size(), fp);
+  VSIFCloseL(fp);
+  if (written != bytes.size()) throw Error(ErrorKind::io, "cannot write in-memory file " + path);
+  return path;
+}
+
+std::string checked_crs(const json& raw, const std::string& input) {
+  const std::string s = string_value(raw, input);
+  // OGC CRS URIs name an authority and a code; they are translated here, never resolved.
+  for (const char* prefix : {"http://www.opengis.net/def/crs/EPSG/0/", "https://www.opengis.net/def/crs/EPSG/0/"}) {
+    if (starts_with_ci(s, prefix)) {
+      const std::string code = s.substr(std::string_view(prefix).size());
+      if (!all_digits(code)) bad(input, "EPSG URI without a numeric code: '" + s + "'");
+      return "EPSG:" + code;
+    }
+  }
+  for (const char* crs84 : {"http://www.opengis.net/def/crs/OGC/1.3/CRS84",
+                            "https://www.opengis.net/def/crs/OGC/1.3/CRS84", "OGC:CRS84",
+                            "urn:ogc:def:crs:OGC:1.3:CRS84"}) {
+    if (s == crs84) return "OGC:CRS84";
+  }
+  if (starts_with_ci(s, "EPSG:") && all_digits(s.substr(5))) return "EPSG:" + s.substr(5);
+  if (starts_with_ci(s, "urn:ogc:def:crs:EPSG::") && all_digits(s.substr(22))) return "EPSG:" + s.substr(22);
+  // WKT (1 or 2): a keyword then '['. Parsed by OSR from the text itself, no file access.
+  size_t k = 0;
+  while (k < s.size() && std::isupper(static_cast<unsigned char>(s[k]))) ++k;
+  if (k >= 4 && k < s.size() && s[k] == '[') return s;
+  bad(input, "CRS must be EPSG:<code>, an OGC CRS URI (http://www.opengis.net/def/crs/...) or WKT; got '" +
+                 s.substr(0, 80) + "'");
+}
+
+Execution parse_execution(const json& body, const std::string& job_id, const ServerConfig& config) {
+  if (!body.is_object()) bad("(body)", "the execute request must be a JSON object");
+  for (const auto& [key, value] : body.items()) {
+    if (key == "subscriber") {
+      throw Error(ErrorKind::unsupported, "callbacks (\"subscriber\") are not supported; poll /jobs/{jobId}");
+    }
+    if (key != "inputs" && key != "outputs" && key != "response") {
+      throw Error(ErrorKind::invalid_argument, "execute request: unknown member '" + key + "'");
+    }
+  }
+  if (!body.contains("inputs") || !body.at("inputs").is_object()) {
+    bad("inputs", "the execute request needs an \"inputs\" object");
+  }
+  const json& in = body.at("inputs");
+  Execution ex;
+  ex.inputs_summary = json::object();
+  ex.uploads = std::make_shared<VsiMemFiles>("/vsimem/rvoronoi/" + job_id);
+  JobSpec& spec = ex.spec;
+
+  static const std::set<std::string> known = {"seeds", "ownerField", "resolution", "extent", "crs",
+                                              "metric", "method", "maxDistance", "distanceUnits",
+                                              "validate"};
+  for (const auto& [key, value] : in.items()) {
+    if (!known.count(key)) {
+      throw Error(ErrorKind::invalid_argument,
+                  "unknown input '" + key + "' (see GET /processes/voronoi for the inputs)");
+    }
+  }
+
+  // seeds: one layer or an array of layers.
+  if (!in.contains("seeds")) bad("seeds", "is required");
+  {
+    const json& seeds = in.at("seeds");
+    json summary = json::array();
+    if (seeds.is_array()) {
+      if (seeds.empty()) bad("seeds", "the array of layers is empty");
+      for (size_t i = 0; i < seeds.size(); ++i) {
+        auto [path, s] = stage_seed_layer(seeds[i], "seeds[" + std::to_string(i) + "]", i, *ex.uploads);
+        spec.seeds.paths.push_back(path);
+        summary.push_back(s);
+      }
+    } else {
+      auto [path, s] = stage_seed_layer(seeds, "seeds", 0, *ex.uploads);
+      spec.seeds.paths.push_back(path);
+      summary.push_back(s);
+    }
+    ex.inputs_summary["seeds"] = summary;
+  }
+  spec.seeds.allowed_drivers = {"GeoJSON", "GPKG", "ESRI Shapefile", "FlatGeobuf"};
+
+  if (in.contains("ownerField")) {
+    const std::string f = string_value(in.at("ownerField"), "ownerField");
+    if (f.empty()) bad("ownerField", "must not be empty");
+    spec.seeds.owner_field = f;
+  }
+  if (!in.contains("resolution")) bad("resolution", "is required (cell size in grid-CRS units)");
+  spec.grid.resolution = positive_number(in.at("resolution"), "resolution");
+
+  std::string crs;
+  if (in.contains("crs")) crs = checked_crs(in.at("crs"), "crs");
+  if (in.contains("extent")) {
+    const json& e = literal(in.at("extent"), "extent");
+    if (e.is_object()) {
+      if (!e.contains("bbox")) bad("extent", "an object extent needs \"bbox\"");
+      spec.grid.extent = bbox_values(e.at("bbox"), "extent");
+      if (e.contains("crs")) {
+        const std::string bbox_crs = checked_crs(e.at("crs"), "extent.crs");
+        if (crs.empty()) {
+          crs = bbox_crs;  // the box defines the grid's CRS when no `crs` input is given
+        } else if (crs != bbox_crs) {
+          bad("extent", "the bbox CRS (" + bbox_crs + ") differs from the 'crs' input (" + crs +
+                            "); give the extent in the grid's CRS");
+        }
+      }
+    } else {
+      spec.grid.extent = bbox_values(e, "extent");
+    }
+  }
+  spec.seeds.target_crs = crs;
+
+  if (in.contains("metric")) {
+    spec.metric = string_value(in.at("metric"), "metric");
+    if (spec.metric != "auto" && spec.metric != "planar" && spec.metric != "geodesic") {
+      bad("metric", "must be auto, planar or geodesic, got '" + spec.metric + "'");
+    }
+  }
+  if (in.contains("method")) {
+    const std::string m = string_value(in.at("method"), "method");
+    try {
+      spec.method = parse_method(m);
+    } catch (const Error& e) {
+      bad("method", e.what());
+    }
+  }
+  if (in.contains("maxDistance")) spec.max_distance = positive_number(in.at("maxDistance"), "maxDistance");
+  if (in.contains("distanceUnits")) {
+    spec.distance_units = string_value(in.at("distanceUnits"), "distanceUnits");
+    if (spec.distance_units != "m" && spec.distance_units != "km" && spec.distance_units != "nmi") {
+      bad("distanceUnits", "must be m, km or nmi, got '" + spec.distance_units + "'");
+    }
+  }
+  if (in.contains("validate")) {
+    const json& v = literal(in.at("validate"), "validate");
+    if (!v.is_boolean()) bad("validate", "must be a boolean");
+    spec.validate = v.get<bool>();
+  }
+  for (const char* key : {"ownerField", "resolution", "extent", "crs", "metric", "method", "maxDistance",
+                          "distanceUnits", "validate"}) {
+    if (in.contains(key)) ex.inputs_summary[key] = in.at(key);
+  }
+
+  const int workers = std::max(1, config.jobs.workers);
+  spec.threads = config.jobs.threads_per_job > 0
+                     ? config.jobs.threads_per_job
+                     : std::max(1, static_cast<int>(std::thread::hardware_concurrency()) / workers);
+
+  // With an explicit extent the grid size is known now: refuse an oversized job before it is
+  // queued (run_job checks again, with the memory estimate, once the seeds are read).
+  if (spec.grid.extent) {
+    const auto& b = *spec.grid.extent;
+    const GridSpec g = make_grid(b[0], b[1], b[2], b[3], *spec.grid.resolution, "");
+    if (g.cell_count() > config.limits.max_cells) {
+      throw Error(ErrorKind::too_large, "input 'resolution': the grid would have " + std::to_string(g.width) +
+                                            " x " + std::to_string(g.height) + " cells, over this server's limit of " +
+                                            std::to_string(config.limits.max_cells));
+    }
+    if (spec.validate && g.cell_count() > config.limits.validate_max_cells) {
+      throw Error(ErrorKind::too_large, "input 'validate': brute-force validation is limited to " +
+                                            std::to_string(config.limits.validate_max_cells) +
+                                            " cells on this server; the grid has " +
+                                            std::to_string(g.cell_count()));
+    }
+  }
+  parse_outputs(body, ex);
+  return ex;
+}
+
+}  // namespace rv::daemon

@@ -1,0 +1,381 @@
+#include "server_jobs.hpp"
+
+#include <cmath>
+#include <fstream>
+#include <regex>
+#include <system_error>
+
+#include "rv/error.hpp"
+#include "server_util.hpp"
+
+namespace rv::daemon {
+namespace {
+
+std::string seconds_text(double s) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%g", s);
+  return buf;
+}
+
+void remove_dir(const std::filesystem::path& dir) {
+  std::error_code ec;
+  std::filesystem::remove_all(dir, ec);  // best effort: a leftover directory only costs disk
+}
+
+// Temporary name in the same directory, then rename: a reader never sees half a report.
+void write_file_atomically(const std::filesystem::path& path, const std::string& text) {
+  const std::filesystem::path tmp = path.parent_path() / ("." + path.filename().string() + ".tmp");
+  {
+    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
+    out << text;
+    out.flush();
+    if (!out) throw Error(ErrorKind::io, "cannot write " + tmp.filename().string());
+  }
+  std::error_code ec;
+  std::filesystem::rename(tmp, path, ec);
+  if (ec) {
+    std::filesystem::remove(tmp, ec);
+    throw Error(ErrorKind::io, "cannot rename the report into place");
+  }
+}
+
+// Seed paths in messages are ours (/vsimem/rvoronoi/<id>/seeds_<n>.<ext>); the client knows
+// its layers as seeds[n].
+std::string client_names(std::string message, const std::string& id) {
+  const std::regex vsi("(/vsizip/)?/vsimem/rvoronoi/" + id + "/seeds_([0-9]+)\\.[a-z]+");
+  return std::regex_replace(message, vsi, "seeds[$2]");
+}
+
+}  // namespace
+
+std::string output_file_name(const std::string& output_id) {
+  if (output_id == "ownership") return "ownership.tif";
+  if (output_id == "distance") return "distance.tif";
+  if (output_id == "report") return "report.json";
+  throw Error(ErrorKind::internal, "unknown output id " + output_id);
+}
+
+JobManager::JobManager(JobStore& store, const ServerConfig& config, JobRunner runner)
+    : store_(store), config_(config), runner_(std::move(runner)), limits_(effective_limits(config)) {
+  std::filesystem::create_directories(std::filesystem::path(config_.data_dir) / "jobs");
+  for (int i = 0; i < std::max(1, config_.jobs.workers); ++i) {
+    workers_.emplace_back([this] { worker_loop(); });
+  }
+  watchdog_ = std::thread([this] { watchdog_loop(); });
+}
+
+JobManager::~JobManager() { shutdown(std::chrono::duration<double>(0)); }
+
+std::filesystem::path JobManager::job_dir(const std::string& id) const {
+  if (!is_job_id(id)) throw Error(ErrorKind::internal, "job_dir: not a job id");
+  return std::filesystem::path(config_.data_dir) / "jobs" / id;
+}
+
+int JobManager::running_count() const {
+  std::lock_guard lock(mutex_);
+  return static_cast<int>(running_.size());
+}
+
+int JobManager::queued_count() const {
+  std::lock_guard lock(mutex_);
+  return static_cast<int>(queue_.size());
+}
+
+JobRecord JobManager::submit(const std::string& id, Execution execution, Done on_done) {
+  JobRecord rec;
+  rec.id = id;
+  rec.process_id = "voronoi";
+  rec.status = JobStatus::accepted;
+  rec.message = "queued";
+  rec.created = rec.updated = now_rfc3339();
+  rec.inputs = execution.inputs_summary;
+  rec.outputs = execution.outputs;
+  rec.transmission = execution.transmission;
+
+  std::lock_guard lock(mutex_);
+  if (stopping_) throw Error(ErrorKind::busy, "the server is shutting down; resubmit the job later");
+  // Capacity counts the workers too: a free worker takes a job even with queue_length 0.
+  const size_t capacity = static_cast<size_t>(config_.jobs.queue_length + std::max(1, config_.jobs.workers));
+  if (queue_.size() + running_.size() >= capacity) {
+    throw Error(ErrorKind::busy, "all " + std::to_string(config_.jobs.workers) + " workers are busy and " +
+                                     std::to_string(queue_.size()) + " jobs are waiting; retry later");
+  }
+  store_.insert(rec);
+  queue_.push_back(Task{id, std::move(execution), std::move(on_done)});
+  work_cv_.notify_one();
+  return rec;
+}
+
+void JobManager::worker_loop() {
+  for (;;) {
+    Task task;
+    {
+      std::unique_lock lock(mutex_);
+      work_cv_.wait(lock, [this] { return stopping_ || !queue_.empty(); });
+      if (queue_.empty()) return;  // stopping, nothing left
+      task = std::move(queue_.front());
+      queue_.pop_front();
+      Running r;
+      r.cancel = std::make_shared<std::atomic<bool>>(false);
+      r.deadline = std::chrono::steady_clock::now() +
+                   std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                       std::chrono::duration<double>(config_.jobs.job_timeout_s));
+      running_.emplace(task.id, r);
+    }
+    JobRecord final_record;
+    try {
+      final_record = run_task(task);
+    } catch (const std::exception& e) {
+      // The store itself failed (disk full, database gone): the worker must survive it, and
+      // the client waiting on the job must still get an answer.
+      log_line("{\"time\":\"" + now_rfc3339() + "\",\"event\":\"job_store_failure\",\"job\":\"" + task.id +
+               "\",\"error\":" + nlohmann::json(e.what()).dump() + "}");
+      final_record.id = task.id;
+      final_record.process_id = "voronoi";
+      final_record.status = JobStatus::failed;
+      final_record.error_kind = std::string(to_string(ErrorKind::io));
+      final_record.message = std::string("the job store failed: ") + e.what();
+    }
+    {
+      std::lock_guard lock(mutex_);
+      running_.erase(task.id);
+    }
+    idle_cv_.notify_all();
+    log_line("{\"time\":\"" + now_rfc3339() + "\",\"event\":\"job\",\"job\":\"" + task.id +
+             "\",\"status\":\"" + std::string(to_string(final_record.status)) + "\",\"message\":" +
+             nlohmann::json(final_record.message).dump() + "}");
+    // Only now: whoever is told the job ended (a synchronous client) may act on it at once, and
+    // a dismissal then finds it finished, not running.
+    if (task.on_done) task.on_done(final_record);
+  }
+}
+
+void JobManager::update_progress(JobRecord& record, const std::string& stage, double fraction,
+                                 bool validate, int& last_percent) {
+  // The stages' shares of the whole: reading and writing are short next to the computation;
+  // brute-force validation, when asked for, costs about as much as the computation.
+  double lo = 0, hi = 10;
+  if (stage == "compute") {
+    lo = 10;
+    hi = validate ? 50 : 90;
+  } else if (stage == "validate") {
+    lo = 50;
+    hi = 90;
+  } else if (stage == "write" || stage == "deliver") {
+    lo = 90;
+    hi = 99;
+  }
+  const double f = std::isfinite(fraction) ? std::clamp(fraction, 0.0, 1.0) : 0.0;
+  const int percent = static_cast<int>(lo + (hi - lo) * f);
+  if (percent <= last_percent) return;  // monotonic, and at most ~100 store writes per job
+  last_percent = percent;
+  std::lock_guard lock(mutex_);
+  const auto it = running_.find(record.id);
+  if (it == running_.end() || it->second.dismissed) return;
+  record.progress = percent;
+  record.message = "running: " + stage;
+  record.updated = now_rfc3339();
+  try {
+    store_.update(record);
+  } catch (const std::exception&) {
+    // Progress is advisory, and this runs on an engine thread: a failed write must not end
+    // the computation. The final status is written (and its failure handled) by the worker.
+  }
+}
+
+JobRecord JobManager::run_task(Task& task) {
+  const std::string& id = task.id;
+  const std::filesystem::path dir = job_dir(id);
+  std::shared_ptr<std::atomic<bool>> cancel;
+  std::optional<JobRecord> stored;
+  {
+    std::lock_guard lock(mutex_);
+    cancel = running_.at(id).cancel;
+    stored = store_.get(id);
+  }
+  if (!stored) throw Error(ErrorKind::internal, "job " + id + " vanished from the store");
+  JobRecord rec = *stored;
+
+  JobSpec spec = task.execution.spec;
+  OutputRequest& out = spec.outputs;
+  out.cloud_optimized = true;
+  // The ownership raster and the report are always written: the report is kept with the job
+  // and the ownership raster carries the owner names (its attribute table).
+  out.ownership = (dir / output_file_name("ownership")).string();
+  // The report is written below, by us: with file names instead of this server's paths.
+  out.report.clear();
+  for (const std::string& o : rec.outputs) {
+    if (o == "distance") out.distance = (dir / output_file_name("distance")).string();
+  }
+
+  rec.status = JobStatus::running;
+  rec.message = "running";
+  rec.started = rec.updated = now_rfc3339();
+  rec.progress = 0;
+  {
+    std::lock_guard lock(mutex_);
+    if (!running_.at(id).dismissed) store_.update(rec);
+  }
+
+  int last_percent = 0;
+  JobHooks hooks;
+  hooks.cancel = cancel.get();
+  hooks.progress = [&](const std::string& stage, double fraction) {
+    update_progress(rec, stage, fraction, spec.validate, last_percent);
+  };
+
+  std::optional<ErrorKind> error_kind;
+  std::string error_message;
+  JobResult result;
+  try {
+    std::error_code ec;
+    std::filesystem::create_directories(dir, ec);
+    if (ec) throw Error(ErrorKind::io, "cannot create the job directory: " + ec.message());
+    result = runner_(spec, limits_, hooks);
+    if (result.report.contains("outputs") && result.report["outputs"].is_object()) {
+      for (auto& [key, value] : result.report["outputs"].items()) {
+        if (value.is_string()) value = std::filesystem::path(value.get<std::string>()).filename().string();
+      }
+    }
+    write_file_atomically(dir / output_file_name("report"), result.report.dump(2) + "\n");
+  } catch (const Error& e) {
+    error_kind = e.kind();
+    error_message = client_names(e.what(), id);
+    // The seed reader names the feature at fault; say which input it came from.
+    if (e.kind() == ErrorKind::invalid_input || e.kind() == ErrorKind::conflict) {
+      error_message = "input 'seeds': " + error_message;
+    }
+  } catch (const std::bad_alloc&) {
+    error_kind = ErrorKind::too_large;
+    error_message = "the job ran out of memory; use a coarser resolution or a smaller extent";
+  } catch (const std::exception& e) {
+    error_kind = ErrorKind::internal;
+    error_message = e.what();
+  }
+  task.execution.uploads.reset();  // the in-memory seed files are no longer needed
+
+  {
+    std::lock_guard lock(mutex_);
+    const Running& r = running_.at(id);
+    if (r.dismissed) {
+      // dismiss() has recorded the status already; the files go whatever run_job returned.
+      remove_dir(dir);
+      rec = store_.get(id).value_or(rec);
+    } else {
+      rec.finished = rec.updated = now_rfc3339();
+      if (!error_kind) {
+        rec.status = JobStatus::successful;
+        rec.message = "finished";
+        rec.progress = 100;
+        rec.report = result.report;
+      } else {
+        rec.status = JobStatus::failed;
+        rec.error_kind = std::string(to_string(*error_kind));
+        rec.message = error_message;
+        if (r.timed_out) {
+          rec.error_kind = std::string(to_string(ErrorKind::too_large));
+          rec.message = "the job exceeded this server's time limit of " +
+                        seconds_text(config_.jobs.job_timeout_s) + " s and was cancelled";
+        } else if (r.shutdown) {
+          rec.error_kind = std::string(to_string(ErrorKind::busy));
+          rec.message = "the server shut down while the job was running; resubmit it";
+        }
+        remove_dir(dir);
+      }
+      store_.update(rec);
+    }
+  }
+  return rec;
+}
+
+std::optional<JobRecord> JobManager::dismiss(const std::string& id) {
+  std::optional<Task> dropped;
+  std::optional<JobRecord> rec;
+  {
+    std::lock_guard lock(mutex_);
+    rec = store_.get(id);
+    if (!rec) return std::nullopt;
+    if (rec->status == JobStatus::dismissed) return rec;
+    const std::string now = now_rfc3339();
+    for (auto it = queue_.begin(); it != queue_.end(); ++it) {
+      if (it->id == id) {
+        dropped = std::move(*it);
+        queue_.erase(it);
+        break;
+      }
+    }
+    if (const auto r = running_.find(id); r != running_.end()) {
+      r->second.dismissed = true;
+      r->second.cancel->store(true);
+      rec->message = "dismissed by the client; the computation was cancelled";
+    } else if (dropped) {
+      rec->message = "dismissed by the client before it started";
+    } else {
+      rec->message = "dismissed by the client; its results were deleted";
+      remove_dir(job_dir(id));
+    }
+    rec->status = JobStatus::dismissed;
+    rec->finished = rec->finished.empty() ? now : rec->finished;
+    rec->updated = now;
+    store_.update(*rec);
+  }
+  if (dropped && dropped->on_done) dropped->on_done(*rec);
+  return rec;
+}
+
+void JobManager::shutdown(std::chrono::duration<double> grace) {
+  std::vector<Task> dropped;
+  std::vector<JobRecord> dropped_records;
+  {
+    std::unique_lock lock(mutex_);
+    if (joined_) return;
+    stopping_ = true;
+    // Queued jobs' inputs live in memory and die with the process: fail them now, clearly.
+    const std::string now = now_rfc3339();
+    while (!queue_.empty()) {
+      Task t = std::move(queue_.front());
+      queue_.pop_front();
+      if (auto rec = store_.get(t.id)) {
+        rec->status = JobStatus::failed;
+        rec->error_kind = std::string(to_string(ErrorKind::busy));
+        rec->message = "the server shut down before the job started; resubmit it";
+        rec->finished = rec->updated = now;
+        store_.update(*rec);
+        dropped_records.push_back(*rec);
+        dropped.push_back(std::move(t));
+      }
+    }
+    work_cv_.notify_all();
+    idle_cv_.wait_for(lock, grace, [this] { return running_.empty(); });
+    for (auto& [id, r] : running_) {
+      r.shutdown = true;
+      r.cancel->store(true);
+    }
+  }
+  for (size_t i = 0; i < dropped.size(); ++i) {
+    if (dropped[i].on_done) dropped[i].on_done(dropped_records[i]);
+  }
+  for (std::thread& w : workers_) w.join();
+  {
+    std::lock_guard lock(mutex_);
+    joined_ = true;
+  }
+  watchdog_cv_.notify_all();
+  watchdog_.join();
+}
+
+void JobManager::watchdog_loop() {
+  std::unique_lock lock(mutex_);
+  while (!joined_) {
+    watchdog_cv_.wait_for(lock, std::chrono::milliseconds(100));
+    const auto now = std::chrono::steady_clock::now();
+    for (auto& [id, r] : running_) {
+      if (!r.timed_out && now > r.deadline) {
+        r.timed_out = true;
+        r.cancel->store(true);
+      }
+    }
+  }
+}
+
+}  // namespace rv::daemon

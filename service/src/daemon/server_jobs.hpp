@@ -1,0 +1,97 @@
+// The bounded worker pool that runs jobs, and the bookkeeping of their state in the JobStore.
+//
+// Queue: at most jobs.queue_length jobs wait; submit() beyond that throws rv::Error(busy).
+// Timeouts: a job running longer than jobs.job_timeout_s is cancelled and marked failed.
+// Dismissal: a queued job is dropped, a running job is cancelled through JobHooks::cancel; in
+// every case the job's status becomes "dismissed" at once and its files are deleted (by the
+// worker, for a running job, when run_job() returns).
+// Thread safety: every public member may be called from any thread.
+#pragma once
+
+#include <atomic>
+#include <chrono>
+#include <condition_variable>
+#include <deque>
+#include <filesystem>
+#include <functional>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <thread>
+#include <vector>
+
+#include "rv/server.hpp"
+#include "rv/store_jobs.hpp"
+#include "server_execute.hpp"
+
+namespace rv::daemon {
+
+// The file name of each output inside the job's directory.
+std::string output_file_name(const std::string& output_id);
+
+class JobManager {
+ public:
+  // Called on a worker thread once the job is finished (successful, failed or dismissed),
+  // with its final record.
+  using Done = std::function<void(const JobRecord&)>;
+
+  JobManager(JobStore& store, const ServerConfig& config, JobRunner runner);
+  ~JobManager();  // shutdown(0) if still running
+
+  // The directory of a job's result files (the id must satisfy is_job_id()).
+  std::filesystem::path job_dir(const std::string& id) const;
+
+  // Records the job as accepted and queues it. Throws rv::Error(busy) when the queue is full or
+  // the server is shutting down (nothing is recorded then).
+  JobRecord submit(const std::string& id, Execution execution, Done on_done = {});
+
+  // Dismisses a job; returns its record afterwards, or nullopt when there is no such job.
+  std::optional<JobRecord> dismiss(const std::string& id);
+
+  // Stops taking jobs, fails the queued ones, waits up to `grace` for the running ones, then
+  // cancels them and joins the workers. Idempotent.
+  void shutdown(std::chrono::duration<double> grace);
+
+  int running_count() const;
+  int queued_count() const;
+
+ private:
+  struct Task {
+    std::string id;
+    Execution execution;
+    Done on_done;
+  };
+  struct Running {
+    std::shared_ptr<std::atomic<bool>> cancel;
+    std::chrono::steady_clock::time_point deadline;
+    bool dismissed = false;
+    bool timed_out = false;
+    bool shutdown = false;
+  };
+
+  void worker_loop();
+  void watchdog_loop();
+  // Runs one job to its end and returns its final record.
+  JobRecord run_task(Task& task);
+  void update_progress(JobRecord& record, const std::string& stage, double fraction, bool validate,
+                       int& last_percent);
+
+  JobStore& store_;
+  const ServerConfig& config_;
+  JobRunner runner_;
+  JobLimits limits_;
+
+  mutable std::mutex mutex_;
+  std::condition_variable work_cv_;
+  std::condition_variable idle_cv_;
+  std::condition_variable watchdog_cv_;  // separate: a notify_one meant for a worker must not wake it
+  std::deque<Task> queue_;
+  std::map<std::string, Running> running_;
+  bool stopping_ = false;
+  bool joined_ = false;
+  std::vector<std::thread> workers_;
+  std::thread watchdog_;
+};
+
+}  // namespace rv::daemon

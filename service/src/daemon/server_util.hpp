@@ -1,0 +1,31 @@
+// Small helpers of the daemon: job ids, timestamps, base64, request log lines.
+// All functions are thread-safe.
+#pragma once
+
+#include <chrono>
+#include <string>
+#include <string_view>
+
+namespace rv::daemon {
+
+// 128 random bits from the kernel's CSPRNG (getrandom), as 32 lower-case hex digits.
+std::string new_job_id();
+// True iff `id` has the shape new_job_id() produces. Checked before an id reaches the file
+// system, so a crafted id can never name a path outside the data directory.
+bool is_job_id(std::string_view id);
+
+// RFC 3339 UTC with milliseconds: "2026-11-22T10:44:26.123Z".
+std::string rfc3339(std::chrono::system_clock::time_point t);
+std::string now_rfc3339();
+// IMF-fixdate for HTTP headers (Last-Modified): "Sun, 22 Nov 2026 10:44:26 GMT".
+std::string http_date(std::chrono::system_clock::time_point t);
+
+// Decodes standard base64 (RFC 4648, padding optional, whitespace ignored).
+// Throws rv::Error(invalid_argument) naming `what` on any other character.
+std::string base64_decode(std::string_view text, const std::string& what);
+
+// One structured (JSON) line on stderr, written with a single write() so that lines from
+// concurrent threads never interleave.
+void log_line(const std::string& json_line);
+
+}  // namespace rv::daemon

@@ -1,0 +1,307 @@
+#!/usr/bin/python3
+"""The real `rvoronoi serve` against its own openapi.yaml, and against GDAL's /vsicurl/.
+
+Every response this script receives is validated with python3-jsonschema against the schema
+that openapi.yaml gives for that path, method, status and media type, and every status must be
+documented there: the document and the server cannot drift apart. Request bodies are validated
+against the document too. GDAL (a client nobody here wrote) reads a result through /vsicurl/.
+Also: SIGKILL in the middle of a job and a restart; SIGTERM shuts down cleanly.
+
+usage: test_openapi.py RVORONOI_BINARY SOURCE_DIR
+"""
+import base64
+import json
+import os
+import re
+import shutil
+import signal
+import subprocess
+import sys
+import tempfile
+import threading
+import time
+import urllib.error
+import urllib.request
+
+import jsonschema
+import yaml
+from osgeo import gdal
+
+gdal.UseExceptions()
+
+BINARY, SOURCE = sys.argv[1], sys.argv[2]
+DOC = yaml.safe_load(open(os.path.join(SOURCE, "openapi.yaml"), encoding="utf-8"))
+RESOLVER = jsonschema.RefResolver.from_schema(DOC)
+FAILURES = []
+CHECKED = {"responses": 0}
+
+
+def check(condition, what):
+    if not condition:
+        FAILURES.append(what)
+        print("FAIL:", what, flush=True)
+
+
+def deref(node):
+    while isinstance(node, dict) and "$ref" in node:
+        _, node = RESOLVER.resolve(node["$ref"])
+    return node
+
+
+def validate(instance, schema, what):
+    try:
+        # OpenAPI 3.0 schemas are JSON Schema draft 4 with extensions (exclusiveMinimum: true).
+        jsonschema.Draft4Validator(schema, resolver=RESOLVER).validate(instance)
+    except jsonschema.ValidationError as e:
+        check(False, f"{what}: {e.message} at {list(e.absolute_path)}")
+
+
+def operation(path, method):
+    """The openapi.yaml operation for a concrete path (templates matched segment-wise)."""
+    parts = path.split("?")[0].strip("/").split("/") if path.strip("/") else []
+    for template, item in DOC["paths"].items():
+        tparts = template.strip("/").split("/") if template.strip("/") else []
+        if len(tparts) != len(parts):
+            continue
+        if all(t.startswith("{") or t == p for t, p in zip(tparts, parts)):
+            if method.lower() in item:
+                return template, item[method.lower()]
+    return None, None
+
+
+class Server:
+    def __init__(self, data_dir, config):
+        self.config_path = data_dir.rstrip("/") + ".json"
+        with open(self.config_path, "w") as f:
+            json.dump(config, f)
+        self.proc = subprocess.Popen(
+            [BINARY, "serve", "--listen", "127.0.0.1:0", "--data-dir", data_dir, "--config", self.config_path],
+            stderr=subprocess.PIPE, text=True)
+        first = json.loads(self.proc.stderr.readline())
+        self.port = int(first["address"].rsplit(":", 1)[1])
+        self.startup = first
+        self.log = []
+        self.reader = threading.Thread(target=self._drain, daemon=True)
+        self.reader.start()
+        self.base = f"http://127.0.0.1:{self.port}"
+
+    def _drain(self):
+        for line in self.proc.stderr:
+            self.log.append(line)
+
+    def stop(self, sig=signal.SIGTERM, timeout=30):
+        self.proc.send_signal(sig)
+        return self.proc.wait(timeout=timeout)
+
+
+def request(server, method, path, body=None, headers=None, expect=None, media=None):
+    """Sends a request, validates the response against openapi.yaml, returns (status, headers, bytes)."""
+    data = None
+    hdrs = dict(headers or {})
+    if body is not None:
+        data = json.dumps(body).encode() if not isinstance(body, bytes) else body
+        hdrs["Content-Type"] = "application/json"
+    req = urllib.request.Request(server.base + path, data=data, method=method, headers=hdrs)
+    try:
+        with urllib.request.urlopen(req, timeout=120) as r:
+            status, rh, payload = r.status, dict(r.headers), r.read()
+    except urllib.error.HTTPError as e:
+        status, rh, payload = e.code, dict(e.headers), e.read()
+    what = f"{method} {path} -> {status}"
+    if expect is not None:
+        check(status == expect, f"{what}: expected {expect}: {payload[:300]!r}")
+    template, op = operation(path, method if method != "HEAD" else "GET")
+    check(op is not None, f"{what}: path not in openapi.yaml")
+    if op is None:
+        return status, rh, payload
+    responses = op["responses"]
+    check(str(status) in responses, f"{what}: status not documented for {template}")
+    if str(status) not in responses:
+        return status, rh, payload
+    response = deref(responses[str(status)])
+    ctype = rh.get("Content-Type", "")
+    content = response.get("content", {})
+    if method == "HEAD" or not content:
+        return status, rh, payload
+    check(ctype in content, f"{what}: Content-Type {ctype!r} not documented ({list(content)})")
+    if ctype in content and (ctype.endswith("json")):
+        validate(json.loads(payload), content[ctype]["schema"], what)
+        CHECKED["responses"] += 1
+    return status, rh, payload
+
+
+def execute(server, body, prefer_async=False, expect=None):
+    validate(body, DOC["components"]["schemas"]["execute"], "execute request body")
+    headers = {"Prefer": "respond-async"} if prefer_async else {}
+    return request(server, "POST", "/processes/voronoi/execution", body, headers, expect)
+
+
+def wait_status(server, job, states, seconds=60):
+    end = time.time() + seconds
+    while time.time() < end:
+        _, _, p = request(server, "GET", f"/jobs/{job}", expect=200)
+        s = json.loads(p)
+        if s["status"] in states:
+            return s
+        time.sleep(0.05)
+    check(False, f"job {job} did not reach {states}")
+    return s
+
+
+def b64(path):
+    return base64.b64encode(open(path, "rb").read()).decode()
+
+
+def main():
+    tmp = tempfile.mkdtemp(prefix="rv_openapi_")
+    data = os.path.join(tmp, "data")
+    config = {"http": {"max_body_bytes": 1 << 20, "request_timeout_s": 10},
+              "jobs": {"workers": 1, "queue_length": 2, "threads_per_job": 1, "shutdown_grace_s": 2},
+              "limits": {"max_cells": 50_000_000, "validate_max_cells": 100_000}}
+    s = Server(data, config)
+    try:
+        # Discovery.
+        _, _, landing = request(s, "GET", "/", expect=200)
+        rels = {l["rel"] for l in json.loads(landing)["links"]}
+        check("service-desc" in rels, "landing page links the API definition")
+        request(s, "GET", "/conformance", expect=200)
+        _, h, api = request(s, "GET", "/api", expect=200)
+        check(api == open(os.path.join(SOURCE, "openapi.yaml"), "rb").read(), "/api serves openapi.yaml verbatim")
+        check(yaml.safe_load(api)["openapi"].startswith("3.0"), "/api is OpenAPI 3.0")
+        request(s, "GET", "/health", expect=200)
+        request(s, "GET", "/processes", expect=200)
+        _, _, desc = request(s, "GET", "/processes/voronoi", expect=200)
+        desc = json.loads(desc)
+        # The inputs the process description lists are exactly those openapi.yaml accepts.
+        check(set(desc["inputs"]) == set(DOC["components"]["schemas"]["voronoiInputs"]["properties"]),
+              "process description inputs == openapi.yaml voronoiInputs")
+        check(set(desc["outputs"]) == set(DOC["components"]["schemas"]["results"]["properties"]),
+              "process description outputs == openapi.yaml results")
+        request(s, "GET", "/processes/other", expect=404)
+
+        # Synchronous, GeoJSON by value.
+        demo = json.load(open(os.path.join(SOURCE, "fixtures", "demo_basepoints.geojson")))
+        body = {"inputs": {"seeds": demo, "ownerField": "state", "resolution": 2000}}
+        _, _, doc = execute(s, body, expect=200)
+        doc = json.loads(doc)
+        own_href = doc["ownership"]["href"]
+        job1 = own_href.split("/jobs/")[1].split("/")[0]
+
+        # Asynchronous: uploads of every accepted binary format, in one job.
+        fx = os.path.join(SOURCE, "fixtures")
+        upload = {"inputs": {"seeds": [
+            {"value": b64(os.path.join(fx, "coast.gpkg")), "mediaType": "application/geopackage+sqlite3", "encoding": "base64"},
+        ], "ownerField": "owner", "resolution": 100, "method": "hv-scan", "validate": True},
+            "outputs": {"ownership": {}, "report": {"transmissionMode": "reference"}}}
+        status, h, st = execute(s, upload, prefer_async=True, expect=201)
+        st = json.loads(st)
+        check(h.get("Location", "").endswith("/jobs/" + st["jobID"]), "Location header names the job")
+        done = wait_status(s, st["jobID"], {"successful", "failed"})
+        check(done["status"] == "successful", f"GeoPackage upload job: {done}")
+        _, _, res = request(s, "GET", f"/jobs/{st['jobID']}/results", expect=200)
+        res = json.loads(res)
+        check(set(res) == {"ownership", "report"} and "href" in res["report"], f"requested outputs only: {res}")
+        _, _, rep = request(s, "GET", f"/jobs/{st['jobID']}/results/report", expect=200)
+        check(json.loads(rep)["validation"]["wrong_cells"] >= 0, "report carries the validation")
+        for name, media in (("coast_shp.zip", "application/zip"), ("all_types.fgb", "application/flatgeobuf")):
+            one = {"inputs": {"seeds": {"value": b64(os.path.join(fx, name)), "mediaType": media, "encoding": "base64"},
+                              "ownerField": "owner", "resolution": 250}}
+            _, _, r = execute(s, one, expect=200)
+            check("ownership" in json.loads(r), f"{name} upload computed")
+        # A geographic grid from an OGC CRS URI, geodesic distances in nautical miles.
+        geo = {"inputs": {"seeds": demo, "ownerField": "state", "resolution": 0.02,
+                          "crs": "http://www.opengis.net/def/crs/EPSG/0/4326", "metric": "geodesic",
+                          "maxDistance": 10, "distanceUnits": "nmi"},
+               "outputs": {"report": {}}}
+        _, _, g = execute(s, geo, expect=200)
+        g = json.loads(g)["report"]["value"]
+        check(g["metric"] == "geodesic" and g["grid"]["geographic"], f"geodesic job report: {g.get('grid')}")
+        check(g["distance_units"] == "nmi", f"distance units {g.get('distance_units')}")
+        request(s, "GET", "/jobs", expect=200)
+        request(s, "GET", "/jobs?limit=1&status=successful", expect=200)
+        request(s, "GET", f"/jobs/{job1}", expect=200)
+        request(s, "GET", f"/jobs/{job1}/results", expect=200)
+
+        # Errors, each documented.
+        # (Invalid bodies are sent with request(): execute() would refuse them on our side.)
+        exe = "/processes/voronoi/execution"
+        request(s, "POST", exe, {"inputs": {"seeds": demo, "resolution": -1}}, expect=400)
+        request(s, "POST", exe, {"inputs": {"seeds": {"href": "http://example.org/x.geojson"}, "resolution": 1}},
+                expect=400)
+        request(s, "POST", exe, b"{not json", expect=400)
+        execute(s, {"inputs": {"seeds": demo, "ownerField": "state", "resolution": 1}}, expect=422)
+        request(s, "POST", "/processes/voronoi/execution", b"x" * (2 << 20), expect=413)
+        request(s, "GET", "/jobs/0123456789abcdef0123456789abcdef", expect=404)
+        request(s, "GET", "/jobs/0123456789abcdef0123456789abcdef/results", expect=404)
+        request(s, "DELETE", "/jobs/0123456789abcdef0123456789abcdef", expect=404)
+
+        # Files: range, outside range, HEAD.
+        own_path = own_href.split(str(s.port), 1)[1]
+        _, _, whole = request(s, "GET", own_path, expect=200)
+        _, h, part = request(s, "GET", own_path, headers={"Range": "bytes=0-99"}, expect=206)
+        check(part == whole[:100], "206 carries the requested bytes")
+        _, h, _ = request(s, "GET", own_path, headers={"Range": f"bytes={len(whole) + 1}-"}, expect=416)
+        check(h.get("Content-Range") == f"bytes */{len(whole)}", "416 names the size")
+        request(s, "HEAD", own_path, expect=200)
+
+        # GDAL's /vsicurl/ reads the result in place, sidecar (attribute table) included.
+        ds = gdal.Open("/vsicurl/" + own_href)
+        local = os.path.join(tmp, "own.tif")
+        open(local, "wb").write(whole)
+        ref = gdal.Open(local)
+        check((ds.RasterXSize, ds.RasterYSize) == (ref.RasterXSize, ref.RasterYSize), "vsicurl size")
+        check(ds.GetRasterBand(1).ReadRaster() == ref.GetRasterBand(1).ReadRaster(), "vsicurl pixels")
+        check(ds.GetGeoTransform() == ref.GetGeoTransform(), "vsicurl geotransform")
+        rat = ds.GetRasterBand(1).GetDefaultRAT()
+        check(rat is not None and rat.GetRowCount() == 3, "vsicurl finds the attribute table via ownership.aux.xml")
+        if rat is not None:
+            labels = sorted(rat.GetValueAsString(i, 1) for i in range(rat.GetRowCount()))
+            check(labels == ["A", "B", "C"], f"attribute table labels {labels}")
+        ds = None
+
+        # Dismiss, then SIGKILL during a running job, then restart.
+        slow = {"inputs": {"seeds": demo, "ownerField": "state", "resolution": 10, "method": "brute-force"}}
+        _, _, a = execute(s, slow, prefer_async=True, expect=201)
+        ja = json.loads(a)["jobID"]
+        wait_status(s, ja, {"running"})
+        _, _, d = request(s, "DELETE", f"/jobs/{ja}", expect=200)
+        check(json.loads(d)["status"] == "dismissed", "DELETE dismisses")
+        _, _, b = execute(s, slow, prefer_async=True, expect=201)
+        jb = json.loads(b)["jobID"]
+        running = wait_status(s, jb, {"running"})
+        request(s, "GET", f"/jobs/{jb}/results", expect=404)
+        check(0 <= running["progress"] <= 100, "progress in range")
+        s.stop(signal.SIGKILL)
+
+        s = Server(data, config)
+        check(s.startup.get("interrupted_jobs_failed") == 1, f"startup reports the interrupted job: {s.startup}")
+        st = wait_status(s, jb, {"failed"}, 5)
+        check("server stopped" in st["message"], f"interrupted job message: {st['message']}")
+        request(s, "GET", f"/jobs/{jb}/results", expect=500)
+        _, _, again = request(s, "GET", own_path, expect=200)
+        check(again == whole, "finished results survive SIGKILL and restart")
+        check(not os.path.exists(os.path.join(data, "jobs", jb)), "interrupted job's files removed")
+
+        # Request log: one JSON line per request.
+        time.sleep(0.2)
+        lines = [json.loads(l) for l in s.log if l.startswith("{")]
+        reqs = [l for l in lines if "method" in l]
+        check(reqs and all({"method", "path", "status", "ms"} <= set(l) for l in reqs), "structured request log")
+
+        # SIGTERM: graceful, exit status 0.
+        code = s.stop(signal.SIGTERM)
+        check(code == 0, f"exit status after SIGTERM: {code}")
+    finally:
+        if s.proc.poll() is None:
+            s.proc.kill()
+            s.proc.wait()
+        shutil.rmtree(tmp, ignore_errors=True)
+    print(f"{CHECKED['responses']} JSON responses validated against openapi.yaml")
+    if FAILURES:
+        print(f"{len(FAILURES)} failure(s)")
+        sys.exit(1)
+    print("ok")
+
+
+if __name__ == "__main__":
+    main()
