@@ -2,8 +2,8 @@
 // service/src/daemon/server_execute.hpp), then the confined seed loader on what it staged, as
 // a job would run it.
 //
-// Input: the bytes of a request body. Bodies that are not JSON are skipped (the HTTP layer
-// answers them itself); every JSON document goes to parse_execution().
+// Input: the bytes of a request body, parsed as the server does (parse_body_json: JSON nesting at
+// most kMaxBodyDepth levels); every document it accepts goes to parse_execution().
 // Findings: a crash or sanitizer report (deep nesting included: bodies are up to the configured
 // max_body_bytes, 64 MiB by default), an exception other than rv::Error (e.g. nlohmann's
 // type_error escaping a check), an rv::Error of an undocumented kind, or an Execution breaking
@@ -21,6 +21,7 @@
 #include "rv/seed_reader.hpp"
 #include "rv/server_config.hpp"
 #include "server_execute.hpp"
+#include "server_util.hpp"
 
 namespace {
 
@@ -41,8 +42,14 @@ extern "C" int LLVMFuzzerInitialize(int*, char***) {
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   if (size > 256 * 1024) return 0;
-  const nlohmann::json body = nlohmann::json::parse(data, data + size, nullptr, /*allow_exceptions=*/false);
-  if (body.is_discarded()) return 0;
+  // As the server parses bodies (depth-limited); what it refuses never reaches parse_execution.
+  nlohmann::json body;
+  try {
+    body = rv::daemon::parse_body_json(std::string_view(reinterpret_cast<const char*>(data), size));
+  } catch (const rv::Error& e) {
+    require(e.kind() == rv::ErrorKind::invalid_argument);
+    return 0;
+  }
   rv::ServerConfig config;
   config.limits.max_cells = int64_t{1} << 26;
   config.limits.validate_max_cells = 1 << 20;

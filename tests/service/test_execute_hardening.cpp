@@ -9,6 +9,7 @@
 #include "rv/error.hpp"
 #include "rv/server_config.hpp"
 #include "server_execute.hpp"
+#include "server_util.hpp"
 
 namespace rv::daemon {
 namespace {
@@ -44,6 +45,21 @@ TEST(ExecuteHardening, UploadsAreReadConfined) {
   EXPECT_TRUE(ex.spec.seeds.confined);
   ASSERT_EQ(ex.spec.seeds.paths.size(), 1u);
   EXPECT_EQ(ex.spec.seeds.paths[0].rfind("/vsimem/", 0), 0u) << ex.spec.seeds.paths[0];
+}
+
+TEST(ExecuteHardening, DeeplyNestedBodiesAreRefusedWhileParsing) {
+  // 100000 levels overflowed the stack in dump() before the limit.
+  const std::string deep = R"({"inputs":{"x":)" + std::string(100000, '[') + std::string(100000, ']') + "}}";
+  try {
+    parse_body_json(deep);
+    ADD_FAILURE() << "accepted";
+  } catch (const Error& e) {
+    EXPECT_EQ(e.kind(), ErrorKind::invalid_argument);
+    EXPECT_NE(std::string(e.what()).find("deeper than 64"), std::string::npos) << e.what();
+  }
+  const std::string ok = R"({"a":)" + std::string(60, '[') + std::string(60, ']') + "}";
+  EXPECT_NO_THROW(parse_body_json(ok));
+  EXPECT_THROW(parse_body_json("{not json"), Error);
 }
 
 }  // namespace

@@ -128,4 +128,18 @@ void log_line(const std::string& json_line) {
   }
 }
 
+nlohmann::json parse_body_json(std::string_view body) {
+  nlohmann::json doc = nlohmann::json::parse(
+      body,
+      [](int depth, nlohmann::json::parse_event_t, nlohmann::json&) {
+        if (depth > kMaxBodyDepth)
+          throw Error(ErrorKind::invalid_argument,
+                      "the request body nests deeper than " + std::to_string(kMaxBodyDepth) + " levels");
+        return true;
+      },
+      /*allow_exceptions=*/false);
+  if (doc.is_discarded()) throw Error(ErrorKind::invalid_argument, "the request body is not valid JSON");
+  return doc;
+}
+
 }  // namespace rv::daemon

@@ -6,6 +6,8 @@
 #include <string>
 #include <string_view>
 
+#include <nlohmann/json.hpp>
+
 namespace rv::daemon {
 
 // 128 random bits from the kernel's CSPRNG (getrandom), as 32 lower-case hex digits.
@@ -19,6 +21,12 @@ std::string rfc3339(std::chrono::system_clock::time_point t);
 std::string now_rfc3339();
 // IMF-fixdate for HTTP headers (Last-Modified): "Sun, 22 Nov 2026 10:44:26 GMT".
 std::string http_date(std::chrono::system_clock::time_point t);
+
+// A request body as JSON, nesting at most kMaxBodyDepth levels: nlohmann's dump() and the
+// execute parser recurse once per level, so a body of '[' would overflow the stack. GeoJSON
+// needs about 10 levels. Throws rv::Error(invalid_argument) for invalid JSON or deeper nesting.
+inline constexpr int kMaxBodyDepth = 64;
+nlohmann::json parse_body_json(std::string_view body);
 
 // Decodes standard base64 (RFC 4648, padding optional, whitespace ignored).
 // Throws rv::Error(invalid_argument) naming `what` on any other character.
