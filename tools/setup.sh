@@ -1,6 +1,9 @@
 #!/usr/bin/env bash
 # Installs the Debian 12 packages rvoronoi needs to build, test and run. Idempotent: packages
 # already present are not reinstalled, so a second run takes a second.
+# --sanitizers adds the toolchain of tools/test-sanitizers.sh: clang and its runtimes (libFuzzer,
+# ASan/UBSan for clang). GCC's ASan/UBSan/TSan runtimes come with build-essential. The daemon
+# image (docker/Dockerfile) does not pass it.
 set -euo pipefail
 
 packages=(
@@ -13,6 +16,10 @@ packages=(
   python3-jsonschema python3-yaml python3-numpy
   curl
 )
+
+if [ "${1:-}" = "--sanitizers" ]; then
+  packages+=(clang-14 libclang-rt-14-dev)
+fi
 
 missing=()
 for p in "${packages[@]}"; do

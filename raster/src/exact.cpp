@@ -91,12 +91,21 @@ inline double site_rect_max_key(const LocalSite& s, const Rect& r) {
                   std::max(planar_key(r.x0, r.y1, s), planar_key(r.x1, r.y1, s)));
 }
 
+// ThreadSanitizer instruments the ifunc resolver that target_clones generates, and the dynamic
+// loader runs that resolver before the TSan runtime is initialised: a crash at startup. TSan
+// builds therefore get the default clone only (same results: keys are bit-identical anyway).
+#if defined(__SANITIZE_THREAD__)
+#define RV_AVX2_CLONES
+#else
+#define RV_AVX2_CLONES __attribute__((target_clones("avx2", "default")))
+#endif
+
 // A block of w x h cells (centre x px[c], centre y py[r]) against k candidate sites: the exact
 // argmin per cell (strict <, candidates in ascending id order, so ties keep the lowest id),
 // written straight to the result rows (stride: cells between two rows). Loops are written for
 // the vectoriser; an AVX2 clone is picked at load time where the CPU has it. Keys use exactly
 // planar_key()'s arithmetic (-ffp-contract=off keeps them bit-identical to brute force).
-__attribute__((target_clones("avx2", "default"))) void argmin_block(
+RV_AVX2_CLONES void argmin_block(
     const LocalSite* __restrict sites, const int32_t* __restrict ids, int k,
     const double* __restrict px, int64_t w, const double* __restrict py, int64_t h,
     double max_key, double* __restrict best, int32_t* __restrict best_id,
@@ -149,6 +158,16 @@ __attribute__((target_clones("avx2", "default"))) void argmin_block(
   }
 }
 
+// Buckets along one axis: span / size + 1, at most 2^14. Clamped while still a double: a span
+// huge against the bucket size (seeds 1e30 apart along a thin line) or inf / inf (seeds at both
+// ends of the double range) must not reach the integer conversion, which would be undefined.
+int64_t bucket_count(double span, double size) {
+  constexpr double kMax = 1 << 14;
+  const double n = span / size;
+  if (!(n >= 0.0)) return 1;  // NaN
+  return static_cast<int64_t>(std::min(std::floor(n) + 1.0, kMax));
+}
+
 // Uniform bucket grid over the geometric sites (segments registered in every bucket they cross).
 class BucketIndex {
  public:
@@ -169,8 +188,8 @@ class BucketIndex {
     else
       size = std::max(w, h) / n;
     if (!(size > 0.0)) size = 1.0;
-    nx_ = std::clamp<int64_t>(static_cast<int64_t>(w / size) + 1, 1, 1 << 14);
-    ny_ = std::clamp<int64_t>(static_cast<int64_t>(h / size) + 1, 1, 1 << 14);
+    nx_ = bucket_count(w, size);
+    ny_ = bucket_count(h, size);
     x0_ = x0;
     y0_ = y0;
     sx_ = std::max(w / static_cast<double>(nx_), size * 1e-9);
@@ -213,13 +232,14 @@ class BucketIndex {
     for (int32_t id : ids) visit(local[id], [&](int64_t b) { items_[fill[b]++] = id; });
   }
 
-  int64_t clamp_x(double x) const {
-    const double b = std::floor((x - x0_) / sx_);
-    return static_cast<int64_t>(std::clamp(b, 0.0, static_cast<double>(nx_ - 1)));
-  }
-  int64_t clamp_y(double y) const {
-    const double b = std::floor((y - y0_) / sy_);
-    return static_cast<int64_t>(std::clamp(b, 0.0, static_cast<double>(ny_ - 1)));
+  int64_t clamp_x(double x) const { return clamp_bucket(std::floor((x - x0_) / sx_), nx_); }
+  int64_t clamp_y(double y) const { return clamp_bucket(std::floor((y - y0_) / sy_), ny_); }
+
+  // A bucket position clamped to [0, count - 1] before the integer conversion. NaN (inf / inf:
+  // only when the sites' extent overflowed, which leaves a single bucket) is bucket 0.
+  static int64_t clamp_bucket(double b, int64_t count) {
+    if (!(b > 0.0)) return 0;
+    return static_cast<int64_t>(std::min(b, static_cast<double>(count - 1)));
   }
 
   // Calls fn(site) for every site registered in buckets [bx0, bx1] x [by0, by1] (clamped).

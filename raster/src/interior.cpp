@@ -36,10 +36,14 @@ void polygon_spans(const Polygon& poly, const GridSpec& g, const Window& w,
       // Rows whose centre y satisfies (a.y <= y) != (b.y <= y): y in [lo, hi).
       const double lo = std::min(a.y, b.y), hi = std::max(a.y, b.y);
       // local_y(row) = -(row + 0.5) * res, decreasing with row.
-      auto r_first = static_cast<int64_t>(std::floor(-hi / g.res - 0.5)) - 1;
-      auto r_last = static_cast<int64_t>(std::ceil(-lo / g.res - 0.5)) + 1;
-      r_first = std::max(r_first, w.row0);
-      r_last = std::min(r_last, w.row0 + w.height - 1);
+      // Clamped to the window while still doubles: an edge far away against the cell size
+      // (1e20 cells) must not overflow the integer conversion.
+      const double window_first = static_cast<double>(w.row0);
+      const double window_last = static_cast<double>(w.row0 + w.height - 1);
+      const auto r_first = static_cast<int64_t>(
+          std::clamp(std::floor(-hi / g.res - 0.5) - 1.0, window_first, window_last + 1.0));
+      const auto r_last = static_cast<int64_t>(
+          std::clamp(std::ceil(-lo / g.res - 0.5) + 1.0, window_first - 1.0, window_last));
       for (int64_t r = r_first; r <= r_last; ++r) {
         const double y = g.local_y(r);
         if ((a.y <= y) == (b.y <= y)) continue;

@@ -82,14 +82,7 @@ class Args {
     if (done()) throw Error(ErrorKind::invalid_argument, opt + " needs a value");
     return next();
   }
-  double number(const std::string& opt) {
-    const std::string v = value(opt);
-    char* end = nullptr;
-    const double d = std::strtod(v.c_str(), &end);
-    if (end == v.c_str() || *end != '\0' || !std::isfinite(d))
-      throw Error(ErrorKind::invalid_argument, opt + ": '" + v + "' is not a number");
-    return d;
-  }
+  double number(const std::string& opt) { return parse_number_arg(opt, value(opt)); }
   int64_t integer(const std::string& opt) {
     const std::string v = value(opt);
     char* end = nullptr;
@@ -360,6 +353,15 @@ int cmd_validate(Args& args) {
 }
 
 }  // namespace
+
+double parse_number_arg(const std::string& option, const std::string& text) {
+  char* end = nullptr;
+  const double d = std::strtod(text.c_str(), &end);
+  // A string with an embedded NUL stops strtod early: the whole text must be consumed.
+  if (end == text.c_str() || end != text.c_str() + text.size() || !std::isfinite(d))
+    throw Error(ErrorKind::invalid_argument, option + ": '" + text + "' is not a number");
+  return d;
+}
 
 int cli_main(int argc, char** argv) {
   try {

@@ -187,6 +187,10 @@ JobResult run_job(const JobSpec& spec, const JobLimits& limits, const JobHooks& 
   // 1. Seeds.
   progress("read", 0.0);
   SeedReadOptions read = spec.seeds;
+  // The stricter of two limits, where 0 means none.
+  auto stricter = [](int64_t a, int64_t b) { return a <= 0 ? b : b <= 0 ? a : std::min(a, b); };
+  read.max_features = stricter(read.max_features, limits.max_features);
+  read.max_vertices = stricter(read.max_vertices, limits.max_vertices);
   if (read.target_crs.empty() && !spec.grid.like.empty()) {
     // Outputs must line up with the template raster, so the seeds go into its CRS.
     read.target_crs = read_grid(spec.grid.like).crs;

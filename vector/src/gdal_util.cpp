@@ -4,6 +4,7 @@
 #include <cctype>
 #include <mutex>
 
+#include <cpl_conv.h>
 #include <cpl_vsi.h>
 
 #include "rv/seed_reader.hpp"
@@ -63,6 +64,40 @@ ThreadConfigOption::ThreadConfigOption(const char* key, const char* value) : key
 
 ThreadConfigOption::~ThreadConfigOption() {
   CPLSetThreadLocalConfigOption(key_.c_str(), had_previous_ ? previous_.c_str() : nullptr);
+}
+
+namespace {
+// The thread-local options of a ConfinedScope and their values (see gdal_util.hpp for why).
+constexpr const char* kConfinedOptions[][2] = {
+    // A name no request can have: IsAllowedFilename() compares the whole /vsicurl/ name with it.
+    {"CPL_VSIL_CURL_ALLOWED_FILENAME", "/rvoronoi-confined/no-network"},
+    {"GDAL_HTTP_PROXY", "127.0.0.1:1"},
+    {"CPL_ALLOW_VSISTDIN", "NO"},
+    {"OGR_SQLITE_LOAD_EXTENSIONS", ""},
+    {"OGR_SQLITE_STATIC_VIRTUAL_OGR", "NO"},
+};
+}  // namespace
+
+ConfinedScope::ConfinedScope() {
+  for (const auto& [key, value] : kConfinedOptions) options_.push_back(std::make_unique<ThreadConfigOption>(key, value));
+  CPLHTTPPushFetchCallback(&ConfinedScope::refuse, this);
+}
+
+ConfinedScope::~ConfinedScope() {
+  CPLHTTPPopFetchCallback();
+  // The options are restored in reverse order, so that nested settings unwind correctly.
+  while (!options_.empty()) options_.pop_back();
+}
+
+CPLHTTPResult* ConfinedScope::refuse(const char* url, CSLConstList /*options*/, GDALProgressFunc /*progress*/,
+                                     void* /*progress_arg*/, CPLHTTPFetchWriteFunc /*write*/, void* /*write_arg*/,
+                                     void* self) {
+  static_cast<ConfinedScope*>(self)->refused_urls_.emplace_back(url != nullptr ? url : "");
+  // The result is freed by the caller with CPLHTTPDestroyResult, hence CPL allocation.
+  auto* result = static_cast<CPLHTTPResult*>(CPLCalloc(1, sizeof(CPLHTTPResult)));
+  result->nStatus = 1;
+  result->pszErrBuf = CPLStrdup("network access is disabled for uploaded data");
+  return result;
 }
 
 namespace {

@@ -8,6 +8,7 @@
 #include <vector>
 
 #include <cpl_error.h>
+#include <cpl_http.h>
 #include <gdal_priv.h>
 #include <ogr_spatialref.h>
 
@@ -64,6 +65,38 @@ class ThreadConfigOption {
   std::string key_;
   std::string previous_;
   bool had_previous_ = false;
+};
+
+// Shuts GDAL off from the network and from stdin on the calling thread while alive, for reading
+// untrusted uploads (SeedReadOptions::confined; the reasons are in rv/seed_reader.hpp):
+//  - every CPLHTTPFetch() is refused and its URL recorded (a thread-local fetch callback), which
+//    is how drivers fetch what a file links to (GeoJSON "crs" of type "link"/"url");
+//  - CPL_VSIL_CURL_ALLOWED_FILENAME names no real file, so /vsicurl/ and the cloud handlers built
+//    on it (/vsis3/, /vsigs/, /vsiaz/, ...) refuse every name before any request;
+//  - GDAL_HTTP_PROXY points at 127.0.0.1:1 (a privileged port nothing listens on), so curl-based
+//    handlers that skip the filename check (/vsicurl_streaming/ and its cloud siblings) connect
+//    nowhere;
+//  - CPL_ALLOW_VSISTDIN=NO, OGR_SQLITE_LOAD_EXTENSIONS empty (no SQLite extension loading),
+//    OGR_SQLITE_STATIC_VIRTUAL_OGR=NO (no VirtualOGR module, which opens any datasource a table
+//    definition names, on SQLite connections).
+// All options are set thread-locally (CPLSetThreadLocalConfigOption) and the previous
+// thread-local values are restored on destruction, so other threads and the CLI are unaffected.
+// Nests. Not copyable; must be destroyed on the thread that created it.
+class ConfinedScope {
+ public:
+  ConfinedScope();
+  ~ConfinedScope();
+  ConfinedScope(const ConfinedScope&) = delete;
+  ConfinedScope& operator=(const ConfinedScope&) = delete;
+
+  // URLs GDAL tried to fetch (and was refused), in order.
+  const std::vector<std::string>& refused_urls() const { return refused_urls_; }
+
+ private:
+  static CPLHTTPResult* refuse(const char* url, CSLConstList options, GDALProgressFunc progress, void* progress_arg,
+                               CPLHTTPFetchWriteFunc write, void* write_arg, void* self);
+  std::vector<std::unique_ptr<ThreadConfigOption>> options_;
+  std::vector<std::string> refused_urls_;
 };
 
 // The name GDAL should open: a plain "x.zip" (or ".ZIP") becomes "/vsizip/x.zip"; anything

@@ -8,9 +8,11 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <memory>
 #include <set>
 #include <string>
+#include <string_view>
 #include <utility>
 #include <vector>
 
@@ -162,6 +164,40 @@ std::unique_ptr<OGRLinearRing> make_ring(const std::vector<Vec2>& v) {
   return ring;
 }
 
+bool has_dotdot_component(const std::string& path) {
+  size_t start = 0;
+  while (start <= path.size()) {
+    const size_t end = std::min(path.find('/', start), path.size());
+    if (path.compare(start, end - start, "..") == 0) return true;
+    start = end + 1;
+  }
+  return false;
+}
+
+// A confined path names an in-memory file: "/vsimem/..." or a zip in memory, "/vsizip//vsimem/...".
+// Checked before GDAL sees the name, so that no other file system (disk, /vsicurl/, /vsistdin/,
+// /vsisubfile/ of a disk file, ...) can be reached through it.
+void check_confined_path(const std::string& path) {
+  std::string_view rest = path;
+  if (rest.rfind("/vsizip/", 0) == 0) rest.remove_prefix(std::strlen("/vsizip/"));
+  if (rest.rfind("/vsimem/", 0) != 0 || has_dotdot_component(path))
+    throw Error(ErrorKind::invalid_argument,
+                "confined seed reading accepts only in-memory files (/vsimem/... or /vsizip//vsimem/...), not '" +
+                    path + "'");
+}
+
+std::vector<std::string> effective_drivers(const SeedReadOptions& options) {
+  if (!options.confined) return options.allowed_drivers;
+  std::vector<std::string> out;
+  for (const char* d : kConfinedDrivers)
+    if (options.allowed_drivers.empty() ||
+        std::find(options.allowed_drivers.begin(), options.allowed_drivers.end(), d) != options.allowed_drivers.end())
+      out.emplace_back(d);
+  if (out.empty())
+    throw Error(ErrorKind::invalid_argument, "none of the allowed drivers may read confined (uploaded) data");
+  return out;
+}
+
 // A feature read and checked, waiting to be added to the SeedSet in owner order.
 struct PendingPart {
   int dimension = 0;          // 0 point, 1 line, 2 polygon
@@ -178,7 +214,8 @@ struct PendingFeature {
 
 class Reader {
  public:
-  Reader(const SeedReadOptions& options, LoadedSeeds& out) : options_(options), out_(out) {}
+  Reader(const SeedReadOptions& options, LoadedSeeds& out, const gdal::ConfinedScope* confinement)
+      : options_(options), out_(out), confinement_(confinement), drivers_(effective_drivers(options)) {}
 
   void run() {
     if (options_.paths.empty()) throw Error(ErrorKind::invalid_argument, "no seed files given");
@@ -186,6 +223,7 @@ class Reader {
     select_layers();
     choose_target();
     for (LayerRef& layer : layers_) read_layer(layer);
+    check_network(options_.paths.front());
     if (out_.report.features_read == 0)
       throw Error(ErrorKind::invalid_input,
                   "no seed features: the layers read hold no non-empty geometry (" +
@@ -195,10 +233,23 @@ class Reader {
   }
 
  private:
+  // Confined: a refused network access makes the input invalid, even when the driver carried on
+  // without what it wanted to fetch.
+  void check_network(const std::string& where) const {
+    if (confinement_ == nullptr || confinement_->refused_urls().empty()) return;
+    throw Error(ErrorKind::invalid_input, where + ": the data refers to a network resource (" +
+                                              confinement_->refused_urls().front() +
+                                              "); uploaded data must be self-contained");
+  }
+
+  // Reading errors: a broken upload is bad input; a failing local file is an I/O error.
+  ErrorKind read_error_kind() const { return options_.confined ? ErrorKind::invalid_input : ErrorKind::io; }
+
   void open_all() {
     CPLStringList drivers;
-    for (const std::string& d : options_.allowed_drivers) drivers.AddString(d.c_str());
+    for (const std::string& d : drivers_) drivers.AddString(d.c_str());
     for (const std::string& path : options_.paths) {
+      if (options_.confined) check_confined_path(path);
       const std::string name = gdal::open_name(path);
       // The name as given: for a plain "x.zip" that is the archive itself, for /vsi names
       // VSIStatL knows the virtual file system.
@@ -206,16 +257,16 @@ class Reader {
         throw Error(ErrorKind::not_found, "seed file not found: " + path);
       gdal::ErrorCapture capture;
       GDALDataset* ds = GDALDataset::FromHandle(
-          GDALOpenEx(name.c_str(), GDAL_OF_VECTOR | GDAL_OF_READONLY,
-                     options_.allowed_drivers.empty() ? nullptr : drivers.List(), nullptr, nullptr));
+          GDALOpenEx(name.c_str(), GDAL_OF_VECTOR | GDAL_OF_READONLY, drivers_.empty() ? nullptr : drivers.List(),
+                     nullptr, nullptr));
+      if (ds != nullptr) datasets_.emplace_back(ds);
+      check_network(path);
       if (ds == nullptr) {
-        std::string why = options_.allowed_drivers.empty()
-                              ? "not a vector dataset GDAL can read"
-                              : "not a vector dataset readable by the allowed drivers (" +
-                                    join(options_.allowed_drivers) + ")";
+        std::string why = drivers_.empty() ? "not a vector dataset GDAL can read"
+                                           : "not a vector dataset readable by the allowed drivers (" +
+                                                 join(drivers_) + ")";
         throw Error(ErrorKind::invalid_input, path + ": " + why + capture.suffix());
       }
-      datasets_.emplace_back(ds);
       for (std::string& w : capture.take_warnings()) gdal_warning(path, w);
     }
   }
@@ -322,15 +373,35 @@ class Reader {
     }
     const bool source_geographic = l.srs && l.srs->IsGeographic();
     const bool target_geographic = target_ && target_->IsGeographic();
+    if (options_.max_features > 0) {
+      // Refused up front when the driver knows the count cheaply (GPKG, Shapefile, FlatGeobuf).
+      const GIntBig count = l.layer->GetFeatureCount(FALSE);
+      if (count >= 0 && features_seen_ + count > options_.max_features) too_many_features(l);
+    }
     l.layer->ResetReading();
     while (true) {
       std::unique_ptr<OGRFeature> feature(l.layer->GetNextFeature());
+      check_network(layer_label(l));
       if (!feature) break;
+      if (options_.max_features > 0 && ++features_seen_ > options_.max_features) too_many_features(l);
       read_feature(l, *feature, owner_index, ct.get(), source_geographic, target_geographic);
     }
     if (!capture.last_error().empty())
-      throw Error(ErrorKind::io, "reading layer " + layer_label(l) + " failed: " + capture.last_error());
+      throw Error(read_error_kind(), "reading layer " + layer_label(l) + " failed: " + capture.last_error());
     for (std::string& w : capture.take_warnings()) gdal_warning(layer_label(l), w);
+  }
+
+  [[noreturn]] void too_many_features(const LayerRef& l) const {
+    throw Error(ErrorKind::too_large, "the seed data has more than " + std::to_string(options_.max_features) +
+                                          " features, the limit (reached in layer " + layer_label(l) + ")");
+  }
+
+  void count_vertices(const std::vector<std::unique_ptr<OGRGeometry>>& parts, const std::string& source) {
+    if (options_.max_vertices <= 0) return;
+    for (const auto& part : parts) for_each_vertex(*part, [&](double, double) { ++vertices_seen_; });
+    if (vertices_seen_ > options_.max_vertices)
+      throw Error(ErrorKind::too_large, "the seed data has more than " + std::to_string(options_.max_vertices) +
+                                            " vertices, the limit (reached at " + source + ")");
   }
 
   static void check_vertices(const OGRGeometry& part, const std::string& source, bool geographic, const char* stage) {
@@ -373,6 +444,7 @@ class Reader {
     linear->setMeasured(FALSE);
     std::vector<std::unique_ptr<OGRGeometry>> parts;
     split_parts(*linear, source, parts);
+    count_vertices(parts, source);
 
     gdal::ErrorCapture capture;
     for (auto& part : parts) {
@@ -541,6 +613,10 @@ class Reader {
 
   const SeedReadOptions& options_;
   LoadedSeeds& out_;
+  const gdal::ConfinedScope* confinement_;  // null: not confined
+  std::vector<std::string> drivers_;        // passed to GDALOpenEx; empty = any
+  int64_t features_seen_ = 0;               // counted only with a max_features limit
+  int64_t vertices_seen_ = 0;               // counted only with a max_vertices limit
   std::vector<gdal::DatasetPtr> datasets_;
   std::vector<LayerRef> layers_;
   gdal::SrsPtr target_;
@@ -555,7 +631,15 @@ class Reader {
 LoadedSeeds load_seeds(const SeedReadOptions& options) {
   gdal_init();
   LoadedSeeds out;
-  Reader reader(options, out);
+  if (!options.confined) {
+    Reader reader(options, out, nullptr);
+    reader.run();
+    return out;
+  }
+  // The scope covers everything the reader does with GDAL: opening, reading features and
+  // creating the coordinate transformation all happen inside it, on this thread.
+  gdal::ConfinedScope scope;
+  Reader reader(options, out, &scope);
   reader.run();
   return out;
 }

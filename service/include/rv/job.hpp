@@ -76,10 +76,16 @@ struct JobSpec {
 };
 
 // Limits decided before anything big is allocated (config parsed once, see config.hpp).
+// Each limit refused is an rv::Error(too_large) whose message names the limit and the value.
+// The feature and vertex limits are enforced by load_seeds while it reads (the stricter of these
+// and spec.seeds.max_features / max_vertices applies); the cell and memory limits once the grid
+// is planned, before anything grid-sized is allocated.
 struct JobLimits {
   int64_t max_cells = int64_t{1} << 34;
   int64_t max_memory_bytes = 0;          // 0 = 80 % of physical memory
   int64_t validate_max_cells = 4'000'000;  // brute-force validation refused above this
+  int64_t max_features = 10'000'000;     // seed features read (empty ones included); 0 = none
+  int64_t max_vertices = 100'000'000;    // seed vertices after linearising curves; 0 = none
 };
 
 struct JobHooks {

@@ -17,6 +17,11 @@ namespace {
 
 using nlohmann::json;
 
+// Deepest nesting accepted in a request body. GeoJSON needs about 10 levels (body, inputs,
+// seeds, features, feature, geometry, MultiPolygon coordinates); what is deeper is an attack on
+// the recursive parts (nlohmann's dump(), the execute parser), which would overflow the stack.
+constexpr int kMaxBodyDepth = 64;
+
 constexpr const char* kJson = "application/json";
 constexpr const char* kGeoTiff = "image/tiff; application=geotiff; profile=cloud-optimized";
 constexpr const char* kOgcExceptions = "http://www.opengis.net/def/exceptions/ogcapi-processes-1/1.0/";
@@ -442,7 +447,17 @@ void Api::route(const Context& ctx, const std::shared_ptr<Respond>& respond) {
     }
     if (seg.size() == 3 && seg[2] == "execution") {
       if (method != "POST") return reply(method_not_allowed("POST", path));
-      const json body = json::parse(ctx.request.body, nullptr, /*allow_exceptions=*/false);
+      // Nesting is bounded while parsing: nlohmann's dump() and the execute parser recurse once
+      // per level, and a 64 MiB body of '[' would overflow the stack (tests/fuzz/fuzz_execute).
+      const json body = json::parse(
+          ctx.request.body,
+          [](int depth, json::parse_event_t, json&) {
+            if (depth > kMaxBodyDepth)
+              throw Error(ErrorKind::invalid_argument,
+                          "the request body nests deeper than " + std::to_string(kMaxBodyDepth) + " levels");
+            return true;
+          },
+          /*allow_exceptions=*/false);
       if (body.is_discarded()) throw Error(ErrorKind::invalid_argument, "the request body is not valid JSON");
       const std::string id = new_job_id();
       Execution ex = parse_execution(body, id, config_);

@@ -76,6 +76,15 @@ std::array<double, 4> bbox_values(const json& array, const std::string& input) {
   return b;
 }
 
+// A string member of an object, or "" when it is absent or not a string: json::value() would
+// throw nlohmann's type_error for a member of another type ({"type": 5}), which is not an
+// rv::Error (found by tests/fuzz/fuzz_execute).
+std::string text_member(const json& object, const char* key) {
+  if (!object.is_object()) return {};
+  const auto it = object.find(key);
+  return it != object.end() && it->is_string() ? it->get<std::string>() : std::string();
+}
+
 bool has_prefix(std::string_view bytes, std::string_view magic) {
   return bytes.size() >= magic.size() && bytes.substr(0, magic.size()) == magic;
 }
@@ -102,7 +111,7 @@ std::pair<std::string, json> stage_seed_layer(const json& item, const std::strin
   if (item.is_object() && item.contains("href")) {
     bad(input, "references (href) are not accepted; upload the data by value");
   }
-  if (item.is_object() && item.value("type", "") == "FeatureCollection") {
+  if (item.is_object() && text_member(item, "type") == "FeatureCollection") {
     if (!item.contains("features") || !item.at("features").is_array()) {
       bad(input, "FeatureCollection without a \"features\" array");
     }
@@ -112,10 +121,10 @@ std::pair<std::string, json> stage_seed_layer(const json& item, const std::strin
   if (!item.is_object() || !item.contains("value")) {
     bad(input, "expected a GeoJSON FeatureCollection or a qualified value "
                "{\"value\", \"mediaType\", \"encoding\": \"base64\"}, got " +
-                   (item.is_object() ? std::string("an object of type '") + item.value("type", "") + "'"
+                   (item.is_object() ? std::string("an object of type '") + text_member(item, "type") + "'"
                                      : type_name(item)));
   }
-  const std::string media = item.value("mediaType", "");
+  const std::string media = text_member(item, "mediaType");
   const json& value = item.at("value");
   if (media.empty() || media == "application/geo+json" || media == "application/json") {
     if (value.is_object()) return stage_seed_layer(value, input, index, files);
@@ -127,7 +136,7 @@ std::pair<std::string, json> stage_seed_layer(const json& item, const std::strin
   }
   for (const SeedFormat& f : kUploadFormats) {
     if (media != f.media_type) continue;
-    if (item.value("encoding", "") != "base64") bad(input, "binary uploads need \"encoding\": \"base64\"");
+    if (text_member(item, "encoding") != "base64") bad(input, "binary uploads need \"encoding\": \"base64\"");
     if (!value.is_string()) bad(input, "\"value\" must be the base64 text of " + std::string(f.description));
     const std::string bytes = base64_decode(value.get_ref<const std::string&>(), "input '" + input + "'");
     if (!has_prefix(bytes, f.magic)) {
@@ -149,7 +158,9 @@ void parse_outputs(const json& body, Execution& ex) {
   if (body.contains("outputs") && !body.at("outputs").empty()) {
     const json& outputs = body.at("outputs");
     if (!outputs.is_object()) bad("outputs", "must be an object keyed by output id");
-    for (const auto& [id, options] : outputs.items()) {
+    for (const auto& item : outputs.items()) {
+      const std::string& id = item.key();
+      const json& options = item.value();
       if (std::find_if(std::begin(kOutputIds), std::end(kOutputIds),
                        [&](const char* k) { return id == k; }) == std::end(kOutputIds)) {
         throw Error(ErrorKind::invalid_argument,
@@ -286,6 +297,8 @@ Execution parse_execution(const json& body, const std::string& job_id, const Ser
     ex.inputs_summary["seeds"] = summary;
   }
   spec.seeds.allowed_drivers = {"GeoJSON", "GPKG", "ESRI Shapefile", "FlatGeobuf"};
+  // Uploads are untrusted: in-memory paths only, no network, no other files (rv/seed_reader.hpp).
+  spec.seeds.confined = true;
 
   if (in.contains("ownerField")) {
     const std::string f = string_value(in.at("ownerField"), "ownerField");

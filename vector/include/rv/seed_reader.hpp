@@ -53,8 +53,33 @@ struct SeedReadOptions {
                                          // Layers without a CRS are accepted only when no layer
                                          // has one and target_crs is empty (with a warning).
   ConflictPolicy on_conflict = ConflictPolicy::error;
-  std::vector<std::string> allowed_drivers;  // empty = any vector driver
+  std::vector<std::string> allowed_drivers;  // empty = any vector driver (confined: kConfinedDrivers)
+  bool confined = false;   // untrusted data (daemon uploads): see "Confinement" below
+  int64_t max_features = 0;  // > 0: more features than this (empty ones included) is too_large
+  int64_t max_vertices = 0;  // > 0: more vertices than this (after linearising curves) is too_large
 };
+
+// Confinement (SeedReadOptions::confined = true), for data a remote client uploaded. The CLI
+// leaves it off: it opens whatever local files and URLs its user names.
+//  - Paths: each must be an in-memory file, "/vsimem/..." or "/vsizip//vsimem/..." (a zip held in
+//    memory), without ".." components; anything else is invalid_argument before GDAL sees it.
+//  - Drivers: only kConfinedDrivers (the intersection with allowed_drivers when that is given).
+//    They read self-contained files; VRT, SQLite (VirtualOGR tables), GML (xlink resolution),
+//    WFS/OAPIF/ESRIJSON-over-HTTP and every other driver that dereferences paths or URLs named
+//    in the data are thereby excluded. KML means GDAL's "KML" driver (it ignores NetworkLinks),
+//    not "LIBKML".
+//  - Network: for the whole call the calling thread refuses every HTTP fetch GDAL attempts, and
+//    /vsicurl/-style access goes nowhere (details: ConfinedScope in vector/src/gdal_util.hpp).
+//    GDAL 3.6's GeoJSON driver fetches the URL of a "crs" member of type "link" or "url"; such a
+//    fetch, once refused, makes the input invalid_input (it would otherwise silently get a
+//    default CRS).
+//  - SQLite (GPKG): extension loading and the VirtualOGR module stay off for this thread.
+//  - Errors reading the data are invalid_input (it is the data that is broken), not io.
+// Limits (max_features, max_vertices) apply with or without confinement; they are checked while
+// reading, before the SeedSet is complete (a layer that reports its feature count cheaply is
+// refused before its first feature is read). The GeoJSON driver parses a whole file when it is
+// opened, so the byte size of uploads must be bounded by the caller (the daemon's body limit).
+inline constexpr const char* kConfinedDrivers[] = {"GeoJSON", "GPKG", "ESRI Shapefile", "FlatGeobuf", "KML"};
 
 struct CrsInfo {
   std::string wkt;            // the grid/seed CRS as WKT2 (empty: unknown, no CRS anywhere)
@@ -104,9 +129,12 @@ struct LoadedSeeds {
 //
 // Throws rv::Error: not_found (file, layer, field), invalid_input (not a vector dataset,
 // NaN/inf coordinate, latitude beyond ±90 on a geographic CRS, null owner value, unrepairable
-// polygon, a layer without CRS among layers with one, no features at all), invalid_argument
-// (unparsable target CRS, no paths), conflict (two owners overlap, with policy error: the
-// message names both features, their owners and a coordinate inside the intersection).
+// polygon, a layer without CRS among layers with one, no features at all; confined: data that
+// tries to reach the network, unreadable data), invalid_argument (unparsable target CRS, no
+// paths; confined: a path outside /vsimem/, no allowed driver left), too_large (over
+// max_features or max_vertices), conflict (two owners overlap, with policy error: the message
+// names both features, their owners and a coordinate inside the intersection), io (reading a
+// local file failed; never when confined).
 LoadedSeeds load_seeds(const SeedReadOptions& options);
 
 // Describes a CRS given as any definition OSR understands (EPSG:32633, WKT, PROJ string).

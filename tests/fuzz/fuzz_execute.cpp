@@ -1,0 +1,77 @@
+// Fuzz target: the daemon's execute request parser (OGC API - Processes execute JSON -> JobSpec,
+// service/src/daemon/server_execute.hpp), then the confined seed loader on what it staged, as
+// a job would run it.
+//
+// Input: the bytes of a request body. Bodies that are not JSON are skipped (the HTTP layer
+// answers them itself); every JSON document goes to parse_execution().
+// Findings: a crash or sanitizer report (deep nesting included: bodies are up to the configured
+// max_body_bytes, 64 MiB by default), an exception other than rv::Error (e.g. nlohmann's
+// type_error escaping a check), an rv::Error of an undocumented kind, or an Execution breaking
+// its contract: seed paths outside this job's /vsimem/ directory, outputs and transmission
+// modes out of step, a missing or non-positive resolution, a non-finite extent.
+#include <cmath>
+#include <cstdint>
+#include <cstdlib>
+#include <string>
+#include <string_view>
+
+#include <nlohmann/json.hpp>
+
+#include "rv/error.hpp"
+#include "rv/seed_reader.hpp"
+#include "rv/server_config.hpp"
+#include "server_execute.hpp"
+
+namespace {
+
+void require(bool ok) {
+  if (!ok) std::abort();
+}
+
+bool starts_with(std::string_view s, std::string_view prefix) { return s.substr(0, prefix.size()) == prefix; }
+
+constexpr const char* kJobId = "0123456789abcdef0123456789abcdef";
+
+}  // namespace
+
+extern "C" int LLVMFuzzerInitialize(int*, char***) {
+  rv::gdal_init();
+  return 0;
+}
+
+extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
+  if (size > 256 * 1024) return 0;
+  const nlohmann::json body = nlohmann::json::parse(data, data + size, nullptr, /*allow_exceptions=*/false);
+  if (body.is_discarded()) return 0;
+  rv::ServerConfig config;
+  config.limits.max_cells = int64_t{1} << 26;
+  config.limits.validate_max_cells = 1 << 20;
+  try {
+    const rv::daemon::Execution ex = rv::daemon::parse_execution(body, kJobId, config);
+    const std::string dir = std::string("/vsimem/rvoronoi/") + kJobId + "/";
+    require(!ex.spec.seeds.paths.empty());
+    for (const std::string& p : ex.spec.seeds.paths)
+      require(starts_with(p, dir) || starts_with(p, "/vsizip/" + dir));
+    require(ex.outputs.size() == ex.transmission.size() && !ex.outputs.empty());
+    require(ex.spec.grid.resolution && std::isfinite(*ex.spec.grid.resolution) && *ex.spec.grid.resolution > 0.0);
+    if (ex.spec.grid.extent)
+      for (double v : *ex.spec.grid.extent) require(std::isfinite(v));
+    // The job's first step, on the staged uploads: confined, with small limits.
+    rv::SeedReadOptions read = ex.spec.seeds;
+    read.confined = true;
+    read.max_features = 2000;
+    read.max_vertices = 20000;
+    try {
+      rv::load_seeds(read);
+    } catch (const rv::Error& e) {
+      const rv::ErrorKind k = e.kind();
+      require(k == rv::ErrorKind::invalid_input || k == rv::ErrorKind::invalid_argument ||
+              k == rv::ErrorKind::conflict || k == rv::ErrorKind::too_large || k == rv::ErrorKind::not_found);
+    }
+  } catch (const rv::Error& e) {
+    const rv::ErrorKind k = e.kind();
+    require(k == rv::ErrorKind::invalid_argument || k == rv::ErrorKind::invalid_input ||
+            k == rv::ErrorKind::unsupported || k == rv::ErrorKind::too_large);
+  }
+  return 0;
+}

@@ -1,0 +1,118 @@
+// The façade's limits (JobLimits): each one, when exceeded, is rv::Error(too_large) with a
+// message naming the limit, raised before the big allocations and leaving no output file.
+#include <gtest/gtest.h>
+
+#include <unistd.h>
+
+#include <cstdlib>
+#include <filesystem>
+#include <string>
+
+#include "rv/error.hpp"
+#include "rv/error_map.hpp"
+#include "rv/job.hpp"
+
+namespace fs = std::filesystem;
+
+namespace rv {
+namespace {
+
+class JobLimitsTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = fs::temp_directory_path() / ("rv_limits_" + std::to_string(::getpid()) + "_" +
+                                        ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    fs::create_directories(dir_);
+    // fixtures/demo_basepoints.geojson: 28 point features, UTM 33N.
+    spec_.seeds.paths = {std::string(std::getenv("RV_SOURCE_DIR")) + "/fixtures/demo_basepoints.geojson"};
+    spec_.seeds.owner_field = "state";
+    spec_.grid.resolution = 1000.0;
+    spec_.threads = 2;
+    spec_.outputs.ownership = (dir_ / "own.tif").string();
+    spec_.outputs.report = (dir_ / "report.json").string();
+  }
+  void TearDown() override { fs::remove_all(dir_); }
+
+  // Runs the job, expects too_large with every part in the message, and no file left behind.
+  std::string too_large(const JobLimits& limits, std::initializer_list<std::string> parts) {
+    std::string message;
+    try {
+      run_job(spec_, limits);
+      ADD_FAILURE() << "no rv::Error thrown";
+    } catch (const Error& e) {
+      message = e.what();
+      EXPECT_EQ(e.kind(), ErrorKind::too_large) << message;
+      for (const std::string& p : parts) EXPECT_NE(message.find(p), std::string::npos) << "'" << p << "' not in: " << message;
+    }
+    EXPECT_TRUE(fs::is_empty(dir_)) << "a refused job left files behind";
+    return message;
+  }
+
+  int64_t cells() {
+    const JobResult r = run_job(spec_);
+    fs::remove_all(dir_);
+    fs::create_directories(dir_);
+    return r.report["grid"]["cells"].get<int64_t>();
+  }
+
+  fs::path dir_;
+  JobSpec spec_;
+};
+
+TEST_F(JobLimitsTest, CellLimit) {
+  const int64_t n = cells();
+  ASSERT_GT(n, 1);
+  JobLimits limits;
+  limits.max_cells = n;
+  EXPECT_NO_THROW(run_job(spec_, limits));
+  fs::remove_all(dir_);
+  fs::create_directories(dir_);
+  limits.max_cells = n - 1;
+  too_large(limits, {std::to_string(n) + " cells", "limit of " + std::to_string(n - 1)});
+}
+
+TEST_F(JobLimitsTest, MemoryLimit) {
+  JobLimits limits;
+  limits.max_memory_bytes = 1 << 20;  // below the engines' fixed 64 MiB allowance
+  too_large(limits, {"MiB", "memory limit of 1 MiB"});
+}
+
+TEST_F(JobLimitsTest, ValidationCellLimit) {
+  spec_.validate = true;
+  JobLimits limits;
+  limits.validate_max_cells = 10;
+  too_large(limits, {"validate", "10 cells"});
+}
+
+TEST_F(JobLimitsTest, FeatureLimit) {
+  JobLimits limits;
+  limits.max_features = 27;
+  too_large(limits, {"more than 27 features"});
+  limits.max_features = 28;
+  EXPECT_NO_THROW(run_job(spec_, limits));
+}
+
+TEST_F(JobLimitsTest, VertexLimit) {
+  JobLimits limits;
+  limits.max_vertices = 27;
+  too_large(limits, {"more than 27 vertices"});
+}
+
+TEST_F(JobLimitsTest, TheStricterOfRequestAndServerLimitApplies) {
+  JobLimits limits;
+  limits.max_features = 100;
+  spec_.seeds.max_features = 10;  // the request's own limit is stricter
+  too_large(limits, {"more than 10 features"});
+  limits.max_features = 5;  // now the server's is
+  too_large(limits, {"more than 5 features"});
+  limits.max_features = 0;  // no server limit: the request's holds
+  too_large(limits, {"more than 10 features"});
+}
+
+TEST_F(JobLimitsTest, TooLargeMapsToItsOwnExitCodeAndStatus) {
+  EXPECT_EQ(error_info(ErrorKind::too_large).exit_code, 6);
+  EXPECT_EQ(error_info(ErrorKind::too_large).http_status, 422);
+}
+
+}  // namespace
+}  // namespace rv

@@ -1,0 +1,56 @@
+#!/usr/bin/env bash
+# The sanitizer stages of CI (run by .ci/run after tools/test.sh):
+#   1. the whole test suite built with GCC, AddressSanitizer + UndefinedBehaviorSanitizer
+#      (-DRV_SANITIZE=ON) in build-asan/; any report fails its test (options in tests/CMakeLists.txt);
+#   2. the libFuzzer targets of tests/fuzz built with clang (-DRV_FUZZ=ON) in build-fuzz/, each
+#      run for RV_FUZZ_SECONDS (default 25) from its seed corpus in tests/fuzz/corpus/<target>/.
+#      A crash, sanitizer report, leak or timeout fails CI; the input is kept under
+#      build-fuzz/artifacts/ to reproduce with `build-fuzz/tests/fuzz/<target> <file>`.
+# RV_SANITIZER_STAGES picks stages (default "asan fuzz"); tools/test-tsan.sh is the TSan stage.
+# Prints the wall time of each stage.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+bash tools/setup.sh --sanitizers
+jobs=$(nproc)
+stages=${RV_SANITIZER_STAGES:-asan fuzz}
+fuzz_seconds=${RV_FUZZ_SECONDS:-25}
+root=$PWD
+
+stamp() { date +%s; }
+
+if [[ " $stages " == *" asan "* ]]; then
+  t0=$(stamp)
+  cmake -S . -B build-asan -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DRV_SANITIZE=ON >/dev/null
+  cmake --build build-asan -j "$jobs"
+  t1=$(stamp)
+  ctest --test-dir build-asan --output-on-failure --timeout 900 -j "$jobs"
+  t2=$(stamp)
+  echo "sanitizers: asan+ubsan build $((t1 - t0)) s, tests $((t2 - t1)) s"
+fi
+
+if [[ " $stages " == *" fuzz "* ]]; then
+  t0=$(stamp)
+  CC=clang-14 CXX=clang++-14 cmake -S . -B build-fuzz -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DRV_FUZZ=ON \
+    -DRV_BUILD_TESTS=OFF >/dev/null
+  targets=$(cat build-fuzz/fuzz_targets.txt)  # the targets tests/fuzz/CMakeLists.txt defines
+  # shellcheck disable=SC2086
+  cmake --build build-fuzz -j "$jobs" --target $targets
+  t1=$(stamp)
+  echo "sanitizers: fuzz build $((t1 - t0)) s"
+  export LSAN_OPTIONS="suppressions=$root/tools/lsan.supp:print_suppressions=0"
+  export UBSAN_OPTIONS="print_stacktrace=1:halt_on_error=1"
+  export ASAN_OPTIONS="abort_on_error=1:detect_leaks=1"
+  for t in $targets; do
+    work="build-fuzz/corpus/$t"
+    mkdir -p "$work" build-fuzz/artifacts
+    s=$(stamp)
+    "build-fuzz/tests/fuzz/$t" -max_total_time="$fuzz_seconds" -timeout=20 -rss_limit_mb=2048 -print_final_stats=1 \
+      -artifact_prefix="build-fuzz/artifacts/$t-" "$work" "tests/fuzz/corpus/$t" 2>"build-fuzz/$t.log" || {
+      tail -n 60 "build-fuzz/$t.log"
+      echo "sanitizers: fuzz target $t FAILED (log: build-fuzz/$t.log)"
+      exit 1
+    }
+    runs=$(grep -o 'stat::number_of_executed_units: *[0-9]*' "build-fuzz/$t.log" | grep -o '[0-9]*$' || echo "?")
+    echo "sanitizers: fuzz $t $(($(stamp) - s)) s, $runs runs, no findings"
+  done
+fi
