@@ -1,13 +1,9 @@
 #!/usr/bin/env bash
-# Fresh machine to the main job: installs dependencies, builds, then runs rvoronoi on the
-# bundled fixture and says where the GeoTIFFs are.
+# Fresh machine to the main job: installs dependencies, builds, then starts the rvoronoi daemon
+# (OGC API - Processes on http://127.0.0.1:8080, job store and results under ./rvoronoi-data).
+# Extra arguments go to `rvoronoi serve` (e.g. --listen 127.0.0.1:9000 --config FILE).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash tools/setup.sh
 bash tools/build.sh
-out=${RV_OUT_DIR:-out}
-mkdir -p "$out"
-./build/service/rvoronoi compute fixtures/demo_basepoints.geojson --owner-field state \
-  --resolution 100 --ownership "$out/ownership.tif" --distance "$out/distance.tif" \
-  --report "$out/report.json"
-echo "GeoTIFFs: $(pwd)/$out/ownership.tif and $(pwd)/$out/distance.tif (report: $out/report.json)"
+exec ./build/service/rvoronoi serve --data-dir "${RV_DATA_DIR:-rvoronoi-data}" "$@"
