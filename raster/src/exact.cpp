@@ -260,34 +260,7 @@ class BucketIndex {
   // and of the ring after it. Any site gives a valid upper bound; near ones give a tight one.
   template <class F>
   void near(double x, double y, F&& fn) const {
-    const int64_t cx = clamp_x(x), cy = clamp_y(y);
-    const int64_t max_ring = std::max(nx_, ny_);
-    int64_t found_at = -1;
-    for (int64_t ring = 0; ring <= max_ring; ++ring) {
-      bool any = false;
-      auto take = [&](int64_t bx, int64_t by) {
-        if (bx < 0 || by < 0 || bx >= nx_ || by >= ny_) return;
-        const int64_t b = by * nx_ + bx;
-        for (int64_t i = offsets_[b]; i < offsets_[b + 1]; ++i) {
-          fn(items_[i]);
-          any = true;
-        }
-      };
-      if (ring == 0) {
-        take(cx, cy);
-      } else {
-        for (int64_t bx = cx - ring; bx <= cx + ring; ++bx) {
-          take(bx, cy - ring);
-          take(bx, cy + ring);
-        }
-        for (int64_t by = cy - ring + 1; by <= cy + ring - 1; ++by) {
-          take(cx - ring, by);
-          take(cx + ring, by);
-        }
-      }
-      if (any && found_at < 0) found_at = ring;
-      if (found_at >= 0 && ring >= found_at + 1) return;
-    }
+    near_filtered(x, y, [](int32_t) { return true; }, fn);
   }
 
   // Like near(), but only sites passing `keep` count as found (the others are still passed to
