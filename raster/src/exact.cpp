@@ -321,19 +321,23 @@ struct Worker {
   std::array<double, 4 * 16> corner_keys;
 };
 
+// Absolute slack (in distance units) for rounding in bounds: far above the few ulps of the
+// local-frame magnitudes the keys are computed from, far below anything that matters.
+double rounding_slack(const EngineContext& ctx) {
+  double scale = std::abs(ctx.grid.local_x(ctx.window.col0 + ctx.window.width)) +
+                 std::abs(ctx.grid.local_y(ctx.window.row0 + ctx.window.height)) + ctx.grid.res;
+  for (int32_t id : ctx.geometric) {
+    const LocalSite& s = ctx.local[id];
+    scale = std::max({scale, std::abs(s.ax), std::abs(s.ay), std::abs(s.bx()), std::abs(s.by())});
+  }
+  return scale * 1e-12;
+}
+
 class ExactSolver {
  public:
   ExactSolver(const EngineContext& ctx, Raster<int32_t>& site, Raster<float>& distance)
       : ctx_(ctx), site_(site), distance_(distance), index_(ctx.local, ctx.geometric) {
-    // Absolute slack (in distance units) for rounding in bounds: far above the few ulps of the
-    // local-frame magnitudes the keys are computed from, far below anything that matters.
-    double scale = std::abs(ctx.grid.local_x(ctx.window.col0 + ctx.window.width)) +
-                   std::abs(ctx.grid.local_y(ctx.window.row0 + ctx.window.height)) + ctx.grid.res;
-    for (int32_t id : ctx.geometric) {
-      const LocalSite& s = ctx.local[id];
-      scale = std::max({scale, std::abs(s.ax), std::abs(s.ay), std::abs(s.bx()), std::abs(s.by())});
-    }
-    slack_ = scale * 1e-12;
+    slack_ = rounding_slack(ctx);
   }
 
   void run() {
@@ -562,13 +566,7 @@ class OtherOwnerSolver {
                    Raster<float>& distance)
       : ctx_(ctx), own_(own), owner_of_(owner_of), site_(site), distance_(distance),
         index_(ctx.local, ctx.geometric) {
-    double scale = std::abs(ctx.grid.local_x(ctx.window.col0 + ctx.window.width)) +
-                   std::abs(ctx.grid.local_y(ctx.window.row0 + ctx.window.height)) + ctx.grid.res;
-    for (int32_t id : ctx.geometric) {
-      const LocalSite& s = ctx.local[id];
-      scale = std::max({scale, std::abs(s.ax), std::abs(s.ay), std::abs(s.bx()), std::abs(s.by())});
-    }
-    slack_ = scale * 1e-12;
+    slack_ = rounding_slack(ctx);
   }
 
   void run() {
