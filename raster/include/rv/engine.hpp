@@ -44,10 +44,12 @@
 #include <cstdint>
 #include <functional>
 #include <limits>
+#include <memory>
 #include <optional>
 #include <string>
 #include <string_view>
 
+#include "rv/geolocate.hpp"
 #include "rv/grid.hpp"
 #include "rv/metric.hpp"
 #include "rv/raster.hpp"
@@ -77,6 +79,15 @@ struct ComputeOptions {
   std::function<void(double)> progress;
   // Polled by the workers; when it becomes true compute() throws rv::Error(cancelled).
   const std::atomic<bool>* cancel = nullptr;
+  // Geodesic metric on a projected grid (rv/geolocate.hpp): the grid is in the projected CRS,
+  // the seeds in longitude/latitude degrees of its geographic base; every cell centre is located
+  // on the ellipsoid with this before measuring. Null for geographic grids and the planar metric
+  // (setting it with the planar metric is rv::Error(invalid_argument)).
+  std::shared_ptr<const Geolocator> geolocator;
+  // With a geolocator: the seeds' polygons in the grid's CRS (same area_site indices as
+  // SeedSet::polygons()), for the interior test, which is done in the grid's plane. Ignored
+  // otherwise.
+  std::shared_ptr<const std::vector<Polygon>> grid_polygons;
 };
 
 struct NearestField {
