@@ -389,6 +389,13 @@ std::array<int64_t, 4> square_edges(int64_t w, int64_t c, int64_t r) {
 // The field's distances and ownership and the metric's must agree, or the roots are sought in
 // a different geometry than the one that decided the owners.
 void check_metric(const NearestField& field, const SiteMetric& metric) {
+  // The site metrics measure at grid coordinates taken as degrees (geodesic) or CRS units
+  // (planar); neither locates a projected grid's positions on the ellipsoid, so roots sought
+  // with them would be in the wrong geometry.
+  if (field.geolocator)
+    throw Error(ErrorKind::unsupported,
+                "boundaries, tripoints, limit lines and margins are not available for the geodesic metric on a "
+                "projected grid yet; use a geographic (longitude/latitude) grid, or metric planar");
   const bool geodesic_metric = dynamic_cast<const GeodesicSiteMetric*>(&metric) != nullptr;
   if ((field.metric.kind == MetricSpec::geodesic) != geodesic_metric)
     throw Error(ErrorKind::invalid_argument,

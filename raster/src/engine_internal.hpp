@@ -48,7 +48,20 @@ struct EngineContext {
   // work for cells inside them: apply_interiors() gives those cells their area site afterwards,
   // keeping only a lower site at distance exactly 0 (so a kernel must still report those).
   const InteriorSpans* interiors = nullptr;
+  // Geodesic metric on a projected grid (ComputeOptions::geolocator): cell centres are in the
+  // grid's CRS and are located on the ellipsoid with this before measuring (GeodesicOps::cell,
+  // locate_centres). `geo` is then set too (seeds in longitude/latitude), `local` holds the
+  // sites placed in the grid's CRS (Geolocator::to_grid; a site outside the projection's domain
+  // gets infinite coordinates, i.e. touches no cell), and `interiors` come from the polygons
+  // in the grid's CRS. Null otherwise. Not owned; thread-safe by the Geolocator contract.
+  const Geolocator* geolocator = nullptr;
 };
+
+// Locates n cell centres (grid CRS) on the ellipsoid: lon/lat degrees. Throws
+// rv::Error(invalid_input) when the geolocator gives a non-finite position or a latitude
+// outside [-90, 90] (a geolocator that breaks its contract must not produce silent garbage).
+void locate_centres(const Geolocator& geolocator, const double* x, const double* y, double* lon,
+                    double* lat, size_t n);
 
 // The metric as the kernels see it: a per-cell position, a comparison key per (cell, site), and
 // the conversion of a key to a distance. Kernels are templated on these so that the planar
@@ -61,14 +74,25 @@ struct PlanarOps {
   Cell cell(int64_t col, int64_t row) const { return {ctx.grid.local_x(col), ctx.grid.local_y(row)}; }
   double key(const Cell& p, int32_t id) const { return planar_key(p.x, p.y, ctx.local[id]); }
   static double distance(double key) { return planar_distance_from_key(key); }
+  void cells(int64_t col0, int64_t row, int64_t n, Cell* out) const {
+    for (int64_t i = 0; i < n; ++i) out[i] = cell(col0 + i, row);
+  }
 };
 
 struct GeodesicOps {
   using Cell = GeoCell;
   const EngineContext& ctx;
+  // Geographic grids: the centre's own longitude/latitude. Projected grids: the centre located
+  // through the geolocator (one transformation per call; see cells() for a row at once).
   Cell cell(int64_t col, int64_t row) const {
-    return ctx.geo->cell(ctx.grid.centre_x(col), ctx.grid.centre_y(row));
+    const double x = ctx.grid.centre_x(col), y = ctx.grid.centre_y(row);
+    if (ctx.geolocator == nullptr) return ctx.geo->cell(x, y);
+    double lon, lat;
+    locate_centres(*ctx.geolocator, &x, &y, &lon, &lat, 1);
+    return ctx.geo->cell(lon, lat);
   }
+  // The n cells (col0 .. col0 + n - 1, row), located in one batch: equal to n calls of cell().
+  void cells(int64_t col0, int64_t row, int64_t n, Cell* out) const;
   double key(const Cell& p, int32_t id) const { return ctx.geo->distance(p, id); }
   static double distance(double key) { return key; }
 };

@@ -47,11 +47,8 @@ MetricSpec resolve_metric(MetricRequest requested, bool crs_is_geographic, doubl
       m.kind = MetricSpec::planar;
       break;
     case MetricRequest::geodesic:
-      if (!crs_is_geographic)
-        throw Error(ErrorKind::unsupported,
-                    "metric geodesic on a projected CRS is not supported: it needs the inverse "
-                    "projection of every cell centre, which the engine does not do; use a "
-                    "geographic (longitude/latitude) grid, or metric planar");
+      // On a projected CRS too: cell centres are then located on the ellipsoid by the caller's
+      // Geolocator (ComputeOptions::geolocator).
       m.kind = MetricSpec::geodesic;
       break;
   }

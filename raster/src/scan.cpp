@@ -30,8 +30,10 @@
 // Metric: the passes are templated on the metric's operations (engine_internal.hpp), so the
 // geodesic scan compares exact geodesic distances of the neighbours' candidates exactly as the
 // planar scan compares squared Euclidean distances. Seeding uses the sites' positions in the grid
-// frame (for geodesic grids: degrees, longitudes unwrapped around the grid), which only decides
-// where a site's identity enters the scan.
+// frame (for geodesic grids: degrees, longitudes unwrapped around the grid; for projected
+// geodesic grids: the sites placed in the grid's CRS by the geolocator), which only decides
+// where a site's identity enters the scan. On projected geodesic grids a cell's position is
+// located once per pass (not once per candidate).
 #include <algorithm>
 #include <atomic>
 #include <cmath>
@@ -56,16 +58,20 @@ struct ScanState {
 
   size_t at(int64_t c, int64_t r) const { return static_cast<size_t>(r * width + c); }
 
-  double key_of(int64_t c, int64_t r, int32_t id) const {
-    return ops.key(ops.cell(ctx.window.col0 + c, ctx.window.row0 + r), id);
-  }
-
   // Offers site `id` to cell (c, r): kept if strictly nearer, or equally near with a lower id.
   void offer(int64_t c, int64_t r, int32_t id) {
     const size_t i = at(c, r);
     int32_t* s = site.data();
     if (id == s[i] || id == kNoSite) return;
-    const double k = key_of(c, r, id);
+    offer_at(i, ops.cell(ctx.window.col0 + c, ctx.window.row0 + r), id);
+  }
+
+  // The same for a cell whose position p is already known (the passes compute it once for the
+  // four candidates: on a projected geodesic grid each position costs a transformation).
+  void offer_at(size_t i, const typename Ops::Cell& p, int32_t id) {
+    int32_t* s = site.data();
+    if (id == s[i] || id == kNoSite) return;
+    const double k = ops.key(p, id);
     if (k < key[i] || (k == key[i] && (s[i] == kNoSite || id < s[i]))) {
       key[i] = k;
       s[i] = id;
@@ -133,9 +139,15 @@ void seed(ScanState<Ops>& st) {
   for (const Window& strip : strips) {
     EngineContext sub{ctx.seeds, ctx.grid, strip, ctx.local, outside,
                       std::numeric_limits<double>::infinity(), 1, &quiet, ctx.geo};
+    sub.geolocator = ctx.geolocator;
     Raster<int32_t> s(ctx.grid, strip, Uninitialized{});
     Raster<float> d(ctx.grid, strip, Uninitialized{});
-    if (ctx.geo)
+    // Projected geodesic grids: the exact geodesic solver does not take the geolocator yet
+    // (see compute_into), so the strips, one cell wide, are solved by brute force, which gives
+    // the same nearest site.
+    if (ctx.geolocator != nullptr)
+      run_brute_force(sub, s, d);
+    else if (ctx.geo)
       run_exact_geodesic(sub, s, d);
     else
       run_exact(sub, s, d);
@@ -199,7 +211,17 @@ void run_pass(ScanState<Ops>& st, PassShape shape, int threads) {
         take(l - 1, i);
         take(l - 1, i + 1);
         take(l, i - 1);
-        for (int k = 0; k < n; ++k) st.offer(c, r, cand[k]);
+        const size_t at = st.at(c, r);
+        typename Ops::Cell p{};
+        bool located = false;
+        for (int k = 0; k < n; ++k) {
+          if (cand[k] == sites[at] || cand[k] == kNoSite) continue;
+          if (!located) {
+            p = st.ops.cell(st.ctx.window.col0 + c, st.ctx.window.row0 + r);
+            located = true;
+          }
+          st.offer_at(at, p, cand[k]);
+        }
       }
       std::atomic<int64_t>& mine = done[static_cast<size_t>(l)];
       mine.store(i1, std::memory_order_release);

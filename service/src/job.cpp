@@ -14,6 +14,7 @@
 
 #include "rv/deliverables.hpp"
 #include "rv/error.hpp"
+#include "rv/geolocator.hpp"
 #include "rv/outputs.hpp"
 #include "rv/preview.hpp"
 #include "rv/raster_io.hpp"
@@ -128,6 +129,10 @@ int64_t peak_rss_bytes() {
 
 MetricPlan plan_metric(const std::string& request, const std::string& units, const CrsInfo& crs) {
   MetricPlan p;
+  if (parse_metric_request(request) == MetricRequest::geodesic && crs.wkt.empty())
+    throw Error(ErrorKind::invalid_argument,
+                "metric geodesic needs a CRS (to know the ellipsoid and where the cells lie on it); the seeds have "
+                "none: give the layers a CRS, or use metric planar");
   p.metric = resolve_metric(parse_metric_request(request), crs.geographic, crs.semi_major, crs.flattening);
   // The engines measure in metric units: metres for geodesic, CRS units for planar.
   const double metric_unit_in_metres = p.metric.kind == MetricSpec::geodesic ? 1.0 : crs.linear_unit;
@@ -161,7 +166,9 @@ GridSpec plan_grid(const GridRequest& request, const LoadedSeeds& loaded) {
     const double east = loaded.crs.geographic ? unwrap_east_longitude(e[0], e[2]) : e[2];
     return make_grid(e[0], e[1], east, e[3], res, loaded.crs.wkt);
   }
-  const SeedSet::Box b = loaded.seeds.bounds();
+  // Seeds read in the grid CRS's geographic base (projected geodesic grids) are in degrees:
+  // the extent comes from their box in the grid CRS.
+  const SeedSet::Box b = loaded.grid_bounds.value_or(loaded.seeds.bounds());
   if (!std::isfinite(b.xmin)) throw Error(ErrorKind::invalid_input, "no seeds: cannot derive an extent");
   const double margin = request.margin.value_or(0.05 * std::max(b.xmax - b.xmin, b.ymax - b.ymin));
   if (!std::isfinite(margin) || margin < 0.0)
@@ -169,6 +176,22 @@ GridSpec plan_grid(const GridRequest& request, const LoadedSeeds& loaded) {
   // A lone point (or a margin of 0) still needs one cell around it.
   const double m = std::max(margin, 0.5 * res);
   return make_aligned_grid(b.xmin - m, b.ymin - m, b.xmax + m, b.ymax + m, res, loaded.crs.wkt);
+}
+
+SeedReadOptions seed_options_for_metric(SeedReadOptions read, const std::string& metric_request) {
+  // Geodesic measures in longitude/latitude: on a projected grid the seeds are read in its
+  // geographic base (the engine locates the cells there), auto never picks geodesic on one.
+  read.geographic_seeds = parse_metric_request(metric_request) == MetricRequest::geodesic;
+  return read;
+}
+
+void geolocate_grid(ComputeOptions& options, const LoadedSeeds& loaded) {
+  if (options.metric.kind != MetricSpec::geodesic || loaded.crs.geographic) return;
+  if (!loaded.geographic_base)
+    throw Error(ErrorKind::internal,
+                "geodesic metric on a projected grid, but the seeds were not read in longitude/latitude");
+  options.geolocator = std::make_shared<OsrGeolocator>(loaded.crs.wkt);
+  options.grid_polygons = loaded.grid_polygons;
 }
 
 JobResult run_job(const JobSpec& spec, const JobLimits& limits, const JobHooks& hooks) {
@@ -186,7 +209,7 @@ JobResult run_job(const JobSpec& spec, const JobLimits& limits, const JobHooks& 
 
   // 1. Seeds.
   progress("read", 0.0);
-  SeedReadOptions read = spec.seeds;
+  SeedReadOptions read = seed_options_for_metric(spec.seeds, spec.metric);
   // The stricter of two limits, where 0 means none.
   auto stricter = [](int64_t a, int64_t b) { return a <= 0 ? b : b <= 0 ? a : std::min(a, b); };
   read.max_features = stricter(read.max_features, limits.max_features);
@@ -211,6 +234,8 @@ JobResult run_job(const JobSpec& spec, const JobLimits& limits, const JobHooks& 
   options.metric = mp.metric;
   options.method = spec.method;
   options.threads = spec.threads;
+  geolocate_grid(options, loaded);
+  const bool located = options.geolocator != nullptr;  // geodesic on a projected grid
   if (spec.max_distance) {
     if (!std::isfinite(*spec.max_distance) || *spec.max_distance < 0.0)
       throw Error(ErrorKind::invalid_argument, "max distance must be a non-negative number");
@@ -237,6 +262,14 @@ JobResult run_job(const JobSpec& spec, const JobLimits& limits, const JobHooks& 
     if (d > options.max_distance)
       throw Error(ErrorKind::invalid_argument,
                   "a limit distance exceeds the max distance: cells beyond it have no distance to draw the line in");
+  // The deliverables' exact site metrics do not locate a projected grid's cells on the
+  // ellipsoid yet (rv/deliverables.hpp): refused before anything is computed. Regions and the
+  // preview need only the owner raster and work.
+  if (located && (!deliver.boundaries.empty() || !deliver.tripoints.empty() || !deliver.limits.empty() ||
+                  !deliver.margin.empty()))
+    throw Error(ErrorKind::unsupported,
+                "boundaries, tripoints, limit lines and margins are not available for the geodesic metric on a "
+                "projected grid yet; use a geographic (longitude/latitude) grid (--crs EPSG:4326), or metric planar");
   if (!(deliver.simplify_cells >= 0.0) || !std::isfinite(deliver.simplify_cells))
     throw Error(ErrorKind::invalid_argument, "the simplification tolerance must be a non-negative number of cells");
   const int64_t cells = grid.cell_count();
@@ -350,23 +383,31 @@ JobResult run_job(const JobSpec& spec, const JobLimits& limits, const JobHooks& 
       exact_field = &exact_copy;
       deliver_times["exact_field"] = exact_copy.seconds;
     }
-    // The deliverables measure with the field's own metric.
+    // The deliverables measure with the field's own metric. Projected geodesic grids have no
+    // site metric (only regions and the preview without lines get here, see above).
     std::unique_ptr<SiteMetric> metric_ptr;
-    if (exact_field->metric.kind == MetricSpec::geodesic)
-      metric_ptr = std::make_unique<GeodesicSiteMetric>(loaded.seeds, exact_field->metric);
-    else
-      metric_ptr = std::make_unique<PlanarSiteMetric>(loaded.seeds, Vec2{grid.xmin, grid.ymax});
-    const SiteMetric& metric = *metric_ptr;
-    const OwnerIndex index(metric);
-    // One cell's length in metric units near the grid's centre (degrees are not metres).
-    const Vec2 mid{grid.centre_x(grid.width / 2), grid.centre_y(grid.height / 2)};
-    const double cell_length = metric.point_distance(mid, Vec2{mid.x + grid.res, mid.y});
+    if (!located) {
+      if (exact_field->metric.kind == MetricSpec::geodesic)
+        metric_ptr = std::make_unique<GeodesicSiteMetric>(loaded.seeds, exact_field->metric);
+      else
+        metric_ptr = std::make_unique<PlanarSiteMetric>(loaded.seeds, Vec2{grid.xmin, grid.ymax});
+    }
+    std::optional<OwnerIndex> index_holder;
+    double cell_length = 0.0;
+    if (metric_ptr) {
+      index_holder.emplace(*metric_ptr);
+      // One cell's length in metric units near the grid's centre (degrees are not metres).
+      const Vec2 mid{grid.centre_x(grid.width / 2), grid.centre_y(grid.height / 2)};
+      cell_length = metric_ptr->point_distance(mid, Vec2{mid.x + grid.res, mid.y});
+    }
     VectorOutputOptions vo;
     vo.crs = loaded.crs.wkt;
     vo.distance_factor = factor;
     vo.distance_units = unit_name;
     BoundaryResult boundaries;
-    if (!deliver.boundaries.empty() || !deliver.tripoints.empty() || !deliver.preview.empty()) {
+    if (metric_ptr && (!deliver.boundaries.empty() || !deliver.tripoints.empty() || !deliver.preview.empty())) {
+      const SiteMetric& metric = *metric_ptr;
+      const OwnerIndex& index = *index_holder;
       t = Clock::now();
       BoundaryOptions bo;
       bo.simplify_cells = deliver.simplify_cells;
@@ -405,7 +446,7 @@ JobResult run_job(const JobSpec& spec, const JobLimits& limits, const JobHooks& 
       lo.per_owner = deliver.limits_per_owner;
       lo.simplify_cells = deliver.simplify_cells;
       lo.threads = spec.threads;
-      const LimitResult limits = extract_limits(*exact_field, index, limit_metric, lo);
+      const LimitResult limits = extract_limits(*exact_field, *index_holder, limit_metric, lo);
       guard.add(deliver.limits);
       write_limits(deliver.limits, limits, loaded.seeds, vo);
       outputs["limits"] = deliver.limits;
@@ -437,7 +478,7 @@ JobResult run_job(const JobSpec& spec, const JobLimits& limits, const JobHooks& 
     if (!deliver.margin.empty()) {
       check_cancel();
       t = Clock::now();
-      Raster<float> margin = margin_raster(*exact_field, index, spec.threads);
+      Raster<float> margin = margin_raster(*exact_field, *index_holder, spec.threads);
       if (factor != 1.0)
         for (float& v : margin.cells())
           if (v != kNoDistance) v = static_cast<float>(v * factor);
@@ -455,7 +496,7 @@ JobResult run_job(const JobSpec& spec, const JobLimits& limits, const JobHooks& 
       check_cancel();
       t = Clock::now();
       guard.add(deliver.preview);
-      const PreviewInfo pi = write_preview(deliver.preview, *owner_codes, &boundaries);
+      const PreviewInfo pi = write_preview(deliver.preview, *owner_codes, metric_ptr ? &boundaries : nullptr);
       outputs["preview"] = deliver.preview;
       deliver_report["preview"] = {{"width", pi.width}, {"height", pi.height}, {"cells_per_pixel", pi.step}};
       deliver_times["preview"] = seconds_since(t);
@@ -471,6 +512,8 @@ JobResult run_job(const JobSpec& spec, const JobLimits& limits, const JobHooks& 
   report["grid"] = grid_json(grid, loaded.crs);
   report["method"] = to_string(spec.method);
   report["metric"] = geodesic ? "geodesic" : "planar";
+  // Projected geodesic grids: where the cells were located and the seeds measured.
+  if (located) report["geodesic_crs"] = loaded.seed_crs.name;
   report["threads"] = field.threads;
   report["distance_units"] = unit_name;
   if (spec.max_distance) report["max_distance"] = *spec.max_distance;

@@ -59,7 +59,13 @@ TEST(Metric, ResolvePolicy) {
   } catch (const Error& e) {
     EXPECT_NE(std::string(e.what()).find("degrees"), std::string::npos) << e.what();
   }
-  EXPECT_EQ(kind_of([] { resolve_metric(MetricRequest::geodesic, false); }), ErrorKind::unsupported);
+  // Geodesic on a projected CRS is allowed (cell centres located by a Geolocator), with the
+  // CRS's ellipsoid; auto on a projected CRS stays planar (checked above).
+  const MetricSpec projected = resolve_metric(MetricRequest::geodesic, false, 6378388.0, 1 / 297.0);
+  EXPECT_EQ(projected.kind, MetricSpec::geodesic);
+  EXPECT_EQ(projected.semi_major, 6378388.0);
+  EXPECT_EQ(projected.flattening, 1 / 297.0);
+  EXPECT_EQ(kind_of([] { resolve_metric(MetricRequest::geodesic, false, 6e6, 0.5); }), ErrorKind::invalid_argument);
   EXPECT_EQ(kind_of([] { resolve_metric(MetricRequest::geodesic, true, -1.0, 0.0); }), ErrorKind::invalid_argument);
   EXPECT_EQ(kind_of([] { resolve_metric(MetricRequest::geodesic, true, 6e6, 0.5); }), ErrorKind::invalid_argument);
   EXPECT_EQ(parse_metric_request("auto"), MetricRequest::automatic);

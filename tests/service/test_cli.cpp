@@ -8,6 +8,8 @@
 #include <set>
 #include <string>
 
+#include <GeographicLib/UTMUPS.hpp>
+#include <gdal.h>
 #include <nlohmann/json.hpp>
 
 #include "rv/engine.hpp"
@@ -261,6 +263,116 @@ TEST_F(Cli, GeographicGridIsGeodesicInNauticalMiles) {
   expect_refused(run("compute " + gpkg + " --owner-field iso2 --resolution 0.01 --metric planar --ownership " +
                      path("p.tif") + " --quiet"),
                  2, "degrees");
+}
+
+TEST_F(Cli, ProjectedGridGeodesicMeasuresOnTheEllipsoid) {
+  const char* shared = std::getenv("RV_SHARED_DIR");
+  const std::string gpkg = shared ? std::string(shared) + "/fixtures/oresund.gpkg" : "";
+  if (gpkg.empty() || !fs::exists(gpkg)) GTEST_SKIP() << "shared/fixtures/oresund.gpkg not found";
+  // The strait on a UTM 33N grid of 2 km cells (the layer is EPSG:4326).
+  const std::string grid = gpkg + " --owner-field iso2 --crs EPSG:32633 --resolution 2000 "
+                                  "--extent 324000 6144000 376000 6230000 --quiet";
+  const CliRun r = run("compute " + grid + " --metric geodesic --method brute-force --distance-units nmi --ownership " +
+                       path("own.tif") + " --distance " + path("d.tif") + " --report " + path("r.json"));
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const nlohmann::json rep = nlohmann::json::parse(std::ifstream(path("r.json")));
+  EXPECT_EQ(rep["metric"], "geodesic");
+  EXPECT_EQ(rep["distance_units"], "nmi");
+  EXPECT_EQ(rep["grid"]["geographic"], false);
+  const GridSpec g = read_grid(path("own.tif"));
+  EXPECT_NE(g.crs.find("UTM zone 33N"), std::string::npos);
+  ASSERT_EQ(g.width, 26);
+  ASSERT_EQ(g.height, 43);
+  // The distance raster says its unit and metric (band metadata and unit type).
+  {
+    GDALDatasetH ds = GDALOpen(path("d.tif").c_str(), GA_ReadOnly);
+    ASSERT_NE(ds, nullptr);
+    GDALRasterBandH band = GDALGetRasterBand(ds, 1);
+    EXPECT_STREQ(GDALGetRasterUnitType(band), "nmi");
+    const char* units = GDALGetMetadataItem(band, "UNITS", nullptr);
+    const char* metric = GDALGetMetadataItem(band, "METRIC", nullptr);
+    EXPECT_STREQ(units ? units : "", "nmi");
+    EXPECT_STREQ(metric ? metric : "", "geodesic");
+    GDALClose(ds);
+  }
+  const Raster<int32_t> own = read_int32(path("own.tif"));
+  const Raster<float> dist = read_float32(path("d.tif"));
+
+  // Reference: a geographic computation at the same cell centres. Each sample centre is taken
+  // to longitude/latitude by GeographicLib (UTM 33N), and a one-cell longitude/latitude grid
+  // centred there is computed in-process with the seeds in their own CRS.
+  gdal_init();
+  SeedReadOptions ro;
+  ro.paths = {gpkg};
+  ro.owner_field = "iso2";
+  const LoadedSeeds seeds = load_seeds(ro);
+  ASSERT_TRUE(seeds.crs.geographic);
+  ComputeOptions co;
+  co.metric = resolve_metric(MetricRequest::geodesic, true);
+  co.method = Method::brute_force;
+  int sea = 0, compared = 0;
+  for (int64_t row = 1; row < g.height; row += 2)
+    for (int64_t col = 0; col < g.width; col += 2) {
+      double lat, lon;
+      GeographicLib::UTMUPS::Reverse(33, true, g.centre_x(col), g.centre_y(row), lat, lon);
+      GridSpec one;
+      one.res = 1e-6;
+      one.xmin = lon - 0.5 * one.res;
+      one.ymax = lat + 0.5 * one.res;
+      one.width = one.height = 1;
+      const NearestField ref = compute(seeds.seeds, one, co);
+      const int32_t owner = seeds.seeds.site_owner(ref.site.at(0, 0));
+      EXPECT_EQ(own.at(col, row), owner) << "cell " << col << "," << row;
+      const double metres = ref.distance.at(0, 0);
+      const float nmi = dist.at(col, row);
+      // 1 mm, plus the Float32 rounding of both rasters (relative 6e-8 each).
+      EXPECT_NEAR(nmi * 1852.0, metres, 1e-3 + metres * 2.4e-7) << "cell " << col << "," << row;
+      sea += metres > 0.0;
+      ++compared;
+    }
+  EXPECT_GT(compared, 150);
+  EXPECT_GT(sea, 40);
+
+  // Planar on the same grid: the projection's metres, unchanged by the geodesic option; auto on
+  // a projected grid is planar too.
+  const CliRun p = run("compute " + grid + " --metric planar --ownership " + path("pown.tif") + " --distance " +
+                       path("pd.tif") + " --report " + path("p.json"));
+  ASSERT_EQ(p.exit_code, 0) << p.output;
+  const CliRun a = run("compute " + grid + " --ownership " + path("aown.tif") + " --distance " + path("ad.tif") +
+                       " --report " + path("a.json"));
+  ASSERT_EQ(a.exit_code, 0) << a.output;
+  EXPECT_EQ(nlohmann::json::parse(std::ifstream(path("p.json")))["metric"], "planar");
+  EXPECT_EQ(nlohmann::json::parse(std::ifstream(path("a.json")))["metric"], "planar");
+  const Raster<float> planar = read_float32(path("pd.tif"));
+  EXPECT_EQ(planar.cells(), read_float32(path("ad.tif")).cells());
+  EXPECT_EQ(read_int32(path("pown.tif")).cells(), read_int32(path("aown.tif")).cells());
+  // Same seeds, read in UTM, planar in-process: the file is exactly the engine's planar field.
+  SeedReadOptions utm = ro;
+  utm.target_crs = "EPSG:32633";
+  const LoadedSeeds utm_seeds = load_seeds(utm);
+  ComputeOptions pc;
+  pc.method = Method::exact;
+  const NearestField pf = compute(utm_seeds.seeds, g, pc);
+  EXPECT_EQ(planar.cells(), pf.distance.cells());
+  // And the geodesic metres differ from the plane's (UTM scale 0.9996 and more off-centre).
+  double gap = 0.0;
+  for (size_t i = 0; i < planar.size(); ++i)
+    if (planar.cells()[i] > 0.0f) gap = std::max(gap, std::abs(planar.cells()[i] - dist.cells()[i] * 1852.0));
+  EXPECT_GT(gap, 1.0);
+
+  // validate works on it (its brute force measures geodesically too); the pending exact method
+  // is reported as unsupported, not fatal.
+  const CliRun v = run("validate " + grid + " --metric geodesic --methods hv-scan,exact");
+  ASSERT_EQ(v.exit_code, 0) << v.output;
+  const nlohmann::json vj = nlohmann::json::parse(v.output.substr(v.output.find('{')));
+  EXPECT_EQ(vj["metric"], "geodesic");
+  EXPECT_LT(vj["methods"]["hv-scan"]["max_error_cells"].get<double>(), 1.0);
+  EXPECT_TRUE(vj["methods"]["exact"].contains("unsupported"));
+  // Line deliverables are refused for it, before anything is written.
+  expect_refused(run("compute " + grid + " --metric geodesic --method brute-force --ownership " + path("x.tif") +
+                     " --boundaries " + path("b.geojson")),
+                 7, "projected");
+  EXPECT_FALSE(fs::exists(path("x.tif")));
 }
 
 TEST_F(Cli, HelpAndVersion) {

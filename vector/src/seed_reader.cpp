@@ -9,6 +9,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <limits>
 #include <memory>
 #include <set>
 #include <string>
@@ -230,6 +231,7 @@ class Reader {
                       std::to_string(out_.report.features_skipped_empty) + " empty skipped)");
     add_to_seed_set();
     detail::check_conflicts(parts_, out_.seeds, options_.on_conflict, out_.report);
+    if (grid_) place_in_grid();
   }
 
  private:
@@ -351,6 +353,75 @@ class Reader {
       return;  // out_.crs stays the default "unknown" description
     }
     out_.crs = gdal::crs_info(*target_);
+    out_.seed_crs = out_.crs;
+    if (options_.geographic_seeds && !target_->IsGeographic()) {
+      // The seeds go to the grid CRS's geographic base; the grid CRS is kept for place_in_grid.
+      gdal::SrsPtr base(target_->CloneGeogCS());
+      if (!base || !base->IsGeographic())
+        throw Error(ErrorKind::invalid_input, "the CRS " + out_.crs.name +
+                                                  " has no geographic base, so the seeds cannot be read in "
+                                                  "longitude/latitude on its ellipsoid");
+      base->SetAxisMappingStrategy(OAMS_TRADITIONAL_GIS_ORDER);
+      grid_ = std::move(target_);
+      target_ = std::move(base);
+      out_.geographic_base = true;
+      out_.seed_crs = gdal::crs_info(*target_);
+    }
+  }
+
+  // geographic_seeds: the polygons and the bounding box of the (normalised) seeds in the grid
+  // CRS, transformed vertex by vertex from the geographic base, so that the polygons match the
+  // SeedSet's one for one.
+  void place_in_grid() {
+    gdal::ErrorCapture capture;
+    CtPtr ct(OGRCreateCoordinateTransformation(target_.get(), grid_.get()));
+    if (!ct)
+      throw Error(ErrorKind::invalid_input,
+                  "no transformation from longitude/latitude to the grid CRS " + out_.crs.name + capture.suffix());
+    auto transform = [&](std::vector<Vec2>& v, const std::string& what) {
+      std::vector<double> x(v.size()), y(v.size());
+      std::vector<int> ok(v.size(), TRUE);
+      for (size_t i = 0; i < v.size(); ++i) {
+        x[i] = v[i].x;
+        y[i] = v[i].y;
+      }
+      if (!v.empty()) ct->Transform(static_cast<int>(v.size()), x.data(), y.data(), nullptr, nullptr, ok.data());
+      for (size_t i = 0; i < v.size(); ++i) {
+        if (!ok[i] || !std::isfinite(x[i]) || !std::isfinite(y[i]))
+          throw Error(ErrorKind::invalid_input, what + ": the vertex (" + format_number(v[i].x) + ", " +
+                                                    format_number(v[i].y) + ") cannot be placed in the grid CRS " +
+                                                    out_.crs.name + capture.suffix());
+        v[i] = Vec2{x[i], y[i]};
+      }
+    };
+    SeedSet::Box box{std::numeric_limits<double>::infinity(), std::numeric_limits<double>::infinity(),
+                     -std::numeric_limits<double>::infinity(), -std::numeric_limits<double>::infinity()};
+    auto include = [&](const std::vector<Vec2>& v) {
+      for (const Vec2& p : v) {
+        box.xmin = std::min(box.xmin, p.x);
+        box.ymin = std::min(box.ymin, p.y);
+        box.xmax = std::max(box.xmax, p.x);
+        box.ymax = std::max(box.ymax, p.y);
+      }
+    };
+    const SeedSet& seeds = out_.seeds;
+    auto polygons = std::make_shared<std::vector<Polygon>>(seeds.polygons());
+    for (Polygon& poly : *polygons)
+      for (Ring& ring : poly.rings) {
+        transform(ring, seeds.features()[static_cast<size_t>(poly.feature)].source);
+        include(ring);
+      }
+    // Points and segment ends (polygon rings are segments too, already included above).
+    std::vector<Vec2> ends;
+    for (const Site& site : seeds.sites()) {
+      if (site.kind == SiteKind::area) continue;
+      ends.push_back(site.a);
+      if (site.kind == SiteKind::segment) ends.push_back(site.b);
+    }
+    transform(ends, "a seed");
+    include(ends);
+    out_.grid_polygons = std::move(polygons);
+    out_.grid_bounds = box;
   }
 
   void read_layer(LayerRef& l) {
@@ -620,6 +691,7 @@ class Reader {
   std::vector<gdal::DatasetPtr> datasets_;
   std::vector<LayerRef> layers_;
   gdal::SrsPtr target_;
+  gdal::SrsPtr grid_;  // geographic_seeds on a projected target: the target (grid) CRS
   std::vector<SeedPart> parts_;      // for the conflict check; feature = index into pending_
   std::vector<PendingFeature> pending_;
   int64_t position_ = 0;

@@ -22,6 +22,11 @@
 // Vertices are never moved: simplification (Douglas-Peucker) only drops vertices that lie within
 // the tolerance of the simplified line, so every kept vertex is an exact locus point.
 //
+// Projected geodesic grids (a field computed with ComputeOptions::geolocator): the site metrics
+// do not locate grid positions on the ellipsoid, so extract_boundaries, extract_limits and
+// margin_raster refuse such fields with rv::Error(unsupported) (regions and previews, which only
+// need the owner raster, are not affected).
+//
 // Thread safety: SiteMetric and OwnerIndex are immutable after construction; their const
 // functions may be called from any number of threads. The extraction functions are pure
 // (`threads` only splits the work and never changes the result).

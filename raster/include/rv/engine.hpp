@@ -19,8 +19,20 @@
 // Ties (equal computed distance) go to the lower site index, in every method.
 //
 // Metric (ComputeOptions::metric, see rv/metric.hpp): planar measures Euclidean distance in CRS
-// units; geodesic measures metres on the ellipsoid, with grid and seeds in longitude/latitude
-// degrees (see rv/geodesic.hpp). Every method works with both. Geodesic grids:
+// units; geodesic measures metres on the ellipsoid, with seeds in longitude/latitude degrees
+// (see rv/geodesic.hpp) and the grid either in longitude/latitude too (a geographic grid) or in
+// a projected CRS whose cell centres a Geolocator locates on the ellipsoid (a projected geodesic
+// grid, below). Every method works with both metrics on geographic grids. Projected geodesic
+// grids (ComputeOptions::geolocator set):
+//   - each cell centre (x, y) of the grid is taken to (lon, lat) by the geolocator and measured
+//     there exactly as on a geographic grid; distances are metres on the ellipsoid;
+//   - the geographic-grid checks below (degrees) do not apply; a located latitude outside
+//     [-90, 90] or a non-finite position is rv::Error(invalid_input);
+//   - polygon interiors are tested in the grid's plane on ComputeOptions::grid_polygons (the
+//     seeds' polygons in the grid's CRS), as on planar grids;
+//   - brute force (one batch transformation per row) and the scans (one per cell and pass) work;
+//     the exact method is refused with rv::Error(unsupported) for now (pending).
+// Geographic geodesic grids:
 //   - cell centres must lie within latitudes [-90, 90] (grids may reach a pole);
 //   - longitudes may run past 180 (a grid across the antimeridian has xmin + width*res > 180),
 //     the grid may span at most 360 degrees of longitude;
@@ -69,7 +81,8 @@ inline constexpr int32_t kNoSite = -1;
 struct ComputeOptions {
   Method method = Method::exact;
   int threads = 0;  // 0 = all hardware threads
-  // The distance measured (default planar). Geodesic: coordinates are lon/lat degrees.
+  // The distance measured (default planar). Geodesic: seeds in lon/lat degrees, and the grid
+  // too unless a geolocator is given (below).
   MetricSpec metric;
   // Cells farther than this from every seed get no owner (metric units: CRS units for planar,
   // metres for geodesic).
@@ -82,11 +95,12 @@ struct ComputeOptions {
   // Geodesic metric on a projected grid (rv/geolocate.hpp): the grid is in the projected CRS,
   // the seeds in longitude/latitude degrees of its geographic base; every cell centre is located
   // on the ellipsoid with this before measuring. Null for geographic grids and the planar metric
-  // (setting it with the planar metric is rv::Error(invalid_argument)).
+  // (setting it with the planar metric is rv::Error(invalid_argument)). Shared: compute() only
+  // reads it, from several threads at once.
   std::shared_ptr<const Geolocator> geolocator;
-  // With a geolocator: the seeds' polygons in the grid's CRS (same area_site indices as
-  // SeedSet::polygons()), for the interior test, which is done in the grid's plane. Ignored
-  // otherwise.
+  // With a geolocator: the seeds' polygons in the grid's CRS (same order and area_site indices as
+  // SeedSet::polygons(), else rv::Error(invalid_argument); required when the seeds have
+  // polygons), for the interior test, which is done in the grid's plane. Ignored otherwise.
   std::shared_ptr<const std::vector<Polygon>> grid_polygons;
 };
 
@@ -95,6 +109,9 @@ struct NearestField {
   Raster<float> distance;  // distance to it in metric units, kNoDistance where none (geodesic:
                            // metres, rounded to float: relative rounding 6e-8, i.e. 6 mm at 100 km)
   MetricSpec metric;       // the metric the distances were measured in
+  // The geolocator the cells were located with (projected geodesic grids), null otherwise.
+  // The deliverables' exact metrics do not take a geolocator yet and refuse such fields.
+  std::shared_ptr<const Geolocator> geolocator;
   double seconds = 0.0;    // wall time of the computation
   // Cells whose centre lies inside polygons of two or more owners (decided for the lower code).
   int64_t contested_cells = 0;
@@ -107,9 +124,12 @@ struct NearestField {
 int64_t estimate_memory(Method m, int64_t cells, int64_t sites, MetricSpec::Kind metric = MetricSpec::planar);
 
 // Computes the nearest-site field. Throws rv::Error(invalid_argument) for an invalid grid,
-// window or metric (geodesic: latitudes beyond +-90 or more than 360 degrees of longitude),
+// window or metric (geodesic: latitudes beyond +-90 or more than 360 degrees of longitude; a
+// geolocator without the geodesic metric; missing or mismatched grid_polygons),
 // rv::Error(invalid_input) when the seed set has no sites (or, geodesic, a seed latitude beyond
-// +-90), rv::Error(cancelled).
+// +-90; projected geodesic: a cell centre the geolocator cannot locate),
+// rv::Error(unsupported) for the exact method on a projected geodesic grid (pending),
+// rv::Error(cancelled).
 NearestField compute(const SeedSet& seeds, const GridSpec& grid, const ComputeOptions& options);
 
 // The same, writing into `out` and reusing its buffers when they already have the window's size

@@ -7,10 +7,11 @@
 //             geodesics", J. Geodesy 87:43-55, 2013). Grid and seed coordinates are then
 //             longitude (x) and latitude (y) in degrees; distances are metres.
 //
-// Geodesic on a *projected* grid would need the inverse projection of every cell centre (PROJ),
-// which the core deliberately does not link. resolve_metric() therefore refuses that combination
-// with rv::Error(unsupported); the caller must reproject the grid to geographic coordinates or
-// choose planar.
+// Geodesic on a *projected* grid (UTM, a national grid, ...): the seeds are still longitude /
+// latitude degrees (of the CRS's geographic base), and every cell centre is taken to longitude /
+// latitude on the CRS's ellipsoid by a caller-supplied rv::Geolocator (rv/geolocate.hpp,
+// ComputeOptions::geolocator) before measuring. The core does not link PROJ; the vector layer
+// provides an OSR-backed Geolocator.
 //
 // All functions are pure and thread-safe.
 #pragma once
@@ -42,9 +43,10 @@ enum class MetricRequest { automatic, planar, geodesic };
 // Accepts "auto", "planar", "geodesic"; throws rv::Error(invalid_argument) otherwise.
 MetricRequest parse_metric_request(std::string_view name);
 
-// The policy: auto = geodesic on a geographic CRS, planar otherwise. Refusals:
-//   planar on a geographic CRS      -> rv::Error(invalid_argument): degrees are not a distance.
-//   geodesic on a projected CRS     -> rv::Error(unsupported): needs inverse projection (PROJ).
+// The policy: auto = geodesic on a geographic CRS, planar otherwise (auto never picks geodesic
+// on a projected CRS: the projection's own metres are what such a grid was made for).
+// geodesic on a projected CRS is allowed (the engine then needs a Geolocator, see above).
+// Refusal: planar on a geographic CRS -> rv::Error(invalid_argument): degrees are not a distance.
 // semi_major / flattening describe the CRS's ellipsoid (used for geodesic only).
 MetricSpec resolve_metric(MetricRequest requested, bool crs_is_geographic,
                           double semi_major = kWgs84SemiMajor,

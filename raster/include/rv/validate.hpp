@@ -4,7 +4,10 @@
 // nearest site, cell), evaluated with exact (double) distances to the real geometry, not with
 // the Float32 distances stored in the rasters, in the fields' metric (NearestField::metric; both
 // fields must have the same). For the geodesic metric distances are metres and "one cell" means
-// res degrees of latitude on a sphere of radius a (res * pi/180 * a). Pure, thread-safe.
+// res degrees of latitude on a sphere of radius a (res * pi/180 * a); on a projected grid
+// (NearestField::geolocator set, in both fields or neither, else rv::Error(invalid_argument))
+// cells are located with the test field's geolocator and "one cell" is the geodesic distance
+// between two neighbouring located centres in the middle of the window. Pure, thread-safe.
 #pragma once
 
 #include <cstdint>

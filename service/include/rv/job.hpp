@@ -106,6 +106,9 @@ JobResult run_job(const JobSpec& spec, const JobLimits& limits = {}, const JobHo
 // How distances are measured and reported: the metric the request and CRS resolve to
 // (--metric auto|planar|geodesic, see rv/metric.hpp) and the factor from metric units (CRS units
 // for planar, metres for geodesic) to the requested output units (--distance-units m|km|nmi).
+// Geodesic on a projected CRS measures metres on that CRS's ellipsoid (cells located by
+// geolocate_grid below). Throws rv::Error(invalid_argument) for geodesic without any CRS (no
+// ellipsoid to measure on) and the resolve_metric refusals.
 struct MetricPlan {
   MetricSpec metric;
   double to_output = 1.0;
@@ -113,8 +116,22 @@ struct MetricPlan {
 };
 MetricPlan plan_metric(const std::string& request, const std::string& units, const CrsInfo& crs);
 
-// The grid a job would compute on, without computing it (for limits and dry runs).
+// The grid a job would compute on, without computing it (for limits and dry runs). Its CRS is
+// seeds.crs; a default extent comes from the seeds' box in that CRS (grid_bounds when the seeds
+// were read in its geographic base).
 GridSpec plan_grid(const GridRequest& request, const LoadedSeeds& seeds);
+
+// Seed reading as a metric request needs it: "geodesic" reads the seeds in the geographic base
+// of the grid CRS (SeedReadOptions::geographic_seeds), which matters only when that CRS is
+// projected. Throws rv::Error(invalid_argument) for an unknown metric name.
+SeedReadOptions seed_options_for_metric(SeedReadOptions read, const std::string& metric_request);
+
+// Geodesic metric on a projected grid: sets options.geolocator (an OsrGeolocator from the grid
+// CRS to its geographic base) and options.grid_polygons from seeds read with
+// seed_options_for_metric. Does nothing for the planar metric or a geographic grid. Throws
+// rv::Error(internal) when the seeds were not read in the geographic base, and OsrGeolocator's
+// errors.
+void geolocate_grid(ComputeOptions& options, const LoadedSeeds& loaded);
 
 // Physical memory in bytes (0 if unknown).
 int64_t physical_memory_bytes();

@@ -24,6 +24,7 @@
 #pragma once
 
 #include <cstdint>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
@@ -57,6 +58,13 @@ struct SeedReadOptions {
   bool confined = false;   // untrusted data (daemon uploads): see "Confinement" below
   int64_t max_features = 0;  // > 0: more features than this (empty ones included) is too_large
   int64_t max_vertices = 0;  // > 0: more vertices than this (after linearising curves) is too_large
+  // For the geodesic metric on a projected grid: when the target CRS (the grid's: target_crs, or
+  // the first layer's) is projected, the seeds are read into its geographic base CRS instead
+  // (OSRCloneGeogCS: the same datum's longitude/latitude in degrees, x = longitude), which is
+  // where the engine measures. LoadedSeeds::crs still describes the target (grid) CRS, and
+  // LoadedSeeds::grid_polygons / grid_bounds give the seeds in it. No effect when the target is
+  // geographic or there is no CRS at all (LoadedSeeds::geographic_base stays false).
+  bool geographic_seeds = false;
 };
 
 // Confinement (SeedReadOptions::confined = true), for data a remote client uploaded. The CLI
@@ -103,8 +111,18 @@ struct SeedReadReport {
 };
 
 struct LoadedSeeds {
-  SeedSet seeds;
-  CrsInfo crs;
+  SeedSet seeds;  // in the target CRS, or in its geographic base when geographic_base is true
+  CrsInfo crs;    // the target (grid) CRS
+  // SeedReadOptions::geographic_seeds took effect: `seeds` are longitude/latitude degrees of
+  // the target CRS's geographic base (described by seed_crs), and the two members below hold
+  // what the grid needs in the target CRS.
+  bool geographic_base = false;
+  CrsInfo seed_crs;  // the CRS of `seeds`' coordinates (equal to crs unless geographic_base)
+  // geographic_base only: seeds.polygons() with every vertex transformed into the target CRS
+  // (same order, rings and area sites: ComputeOptions::grid_polygons), and the box of every
+  // vertex of the seeds in the target CRS (what seeds.bounds() gives otherwise).
+  std::shared_ptr<const std::vector<Polygon>> grid_polygons;
+  std::optional<SeedSet::Box> grid_bounds;
   SeedReadReport report;
   // SeedSet feature index -> 1-based position of that feature in the input (the numbering of
   // position labels, counting skipped empty features). Features are stored grouped by owner, so
@@ -126,6 +144,10 @@ struct LoadedSeeds {
 // interiors meet (polygons overlapping with positive area, crossing or collinear-overlapping
 // lines, a line or point inside another owner's polygon, coincident points) is a conflict;
 // merely touching (shared edge, line ending on a boundary) is not.
+//
+// geographic_seeds: normalisation and the conflict check run on the longitude/latitude
+// coordinates; the grid polygons are the normalised polygons transformed vertex by vertex (a
+// vertex that cannot be placed in the target CRS is invalid_input).
 //
 // Throws rv::Error: not_found (file, layer, field), invalid_input (not a vector dataset,
 // NaN/inf coordinate, latitude beyond ±90 on a geographic CRS, null owner value, unrepairable
