@@ -29,10 +29,17 @@ struct SiteMetric::Slabs {
   std::vector<std::vector<std::pair<Vec2, Vec2>>> edges;  // per slab
 };
 
-SiteMetric::SiteMetric(const SeedSet& seeds) : seeds_(seeds) {
+SiteMetric::SiteMetric(const SeedSet& seeds) : SiteMetric(seeds, seeds.polygons()) {}
+
+SiteMetric::SiteMetric(const SeedSet& seeds, const std::vector<Polygon>& polygons)
+    : seeds_(seeds), polygons_(polygons) {
+  if (polygons.size() != seeds.polygons().size())
+    throw Error(ErrorKind::invalid_argument, "site metric: the polygons must be the seeds' polygons one for one");
   polygon_of_site_.assign(seeds.sites().size(), -1);
-  for (size_t i = 0; i < seeds.polygons().size(); ++i) {
-    const Polygon& poly = seeds.polygons()[i];
+  for (size_t i = 0; i < polygons.size(); ++i) {
+    const Polygon& poly = polygons[i];
+    if (poly.area_site != seeds.polygons()[i].area_site)
+      throw Error(ErrorKind::invalid_argument, "site metric: polygon " + std::to_string(i) + " is not the seeds' polygon");
     polygon_of_site_[static_cast<size_t>(poly.area_site)] = static_cast<int32_t>(i);
     auto slabs = std::make_unique<Slabs>();
     double y0 = std::numeric_limits<double>::infinity(), y1 = -y0;
@@ -88,7 +95,7 @@ Box3 SiteMetric::vertex_box(int32_t site) const {
   if (s.kind == SiteKind::area) {
     const int32_t pi = polygon_of_site_[static_cast<size_t>(site)];
     if (pi >= 0)
-      for (const Vec2& v : seeds_.polygons()[static_cast<size_t>(pi)].rings.front()) b.include({v.x, v.y, 0.0, v.x, v.y, 0.0});
+      for (const Vec2& v : polygons_[static_cast<size_t>(pi)].rings.front()) b.include({v.x, v.y, 0.0, v.x, v.y, 0.0});
   }
   return b;
 }
@@ -389,14 +396,14 @@ std::array<int64_t, 4> square_edges(int64_t w, int64_t c, int64_t r) {
 // The field's distances and ownership and the metric's must agree, or the roots are sought in
 // a different geometry than the one that decided the owners.
 void check_metric(const NearestField& field, const SiteMetric& metric) {
-  // The site metrics measure at grid coordinates taken as degrees (geodesic) or CRS units
-  // (planar); neither locates a projected grid's positions on the ellipsoid, so roots sought
-  // with them would be in the wrong geometry.
-  if (field.geolocator)
-    throw Error(ErrorKind::unsupported,
-                "boundaries, tripoints, limit lines and margins are not available for the geodesic metric on a "
-                "projected grid yet; use a geographic (longitude/latitude) grid, or metric planar");
-  const bool geodesic_metric = dynamic_cast<const GeodesicSiteMetric*>(&metric) != nullptr;
+  // A projected geodesic field needs a metric that locates grid positions on the ellipsoid,
+  // and only such a field may use one.
+  const bool located_metric = dynamic_cast<const LocatedGeodesicSiteMetric*>(&metric) != nullptr;
+  if (static_cast<bool>(field.geolocator) != located_metric)
+    throw Error(ErrorKind::invalid_argument,
+                field.geolocator ? "a field of a projected geodesic grid needs a LocatedGeodesicSiteMetric"
+                                 : "a LocatedGeodesicSiteMetric measures fields of projected geodesic grids only");
+  const bool geodesic_metric = located_metric || dynamic_cast<const GeodesicSiteMetric*>(&metric) != nullptr;
   if ((field.metric.kind == MetricSpec::geodesic) != geodesic_metric)
     throw Error(ErrorKind::invalid_argument,
                 std::string("the deliverables' metric must be the field's (") +
@@ -1128,6 +1135,11 @@ Raster<float> margin_by_owner_runs(const NearestField& field, const SiteMetric& 
 Raster<float> margin_raster(const NearestField& field, const OwnerIndex& index, int threads) {
   const SiteMetric& metric = index.metric();
   check_metric(field, metric);
+  // The per-owner engine runs below would need the other owners' polygons in the grid's CRS
+  // and the exact method on a projected geodesic grid (pending).
+  if (field.geolocator)
+    throw Error(ErrorKind::unsupported, "the margin raster is not available for the geodesic metric on a projected "
+                                        "grid yet; use a geographic (longitude/latitude) grid, or metric planar");
   const SeedSet& seeds = metric.seeds();
   const GridSpec& g = field.site.grid();
   const Window w = field.site.window();

@@ -7,6 +7,7 @@
 #include <limits>
 
 #include "rv/deliverables.hpp"
+#include "engine_internal.hpp"
 #include "rv/error.hpp"
 
 namespace rv {
@@ -111,6 +112,62 @@ Vec2 GeodesicSiteMetric::nearest_point(Vec2 p, int32_t site) const {
   if (fa <= ft && fa <= fb) return s.a;
   if (fb <= ft) return s.b;
   return at(t);
+}
+
+}  // namespace rv
+
+namespace rv {
+
+LocatedGeodesicSiteMetric::LocatedGeodesicSiteMetric(const SeedSet& seeds, const MetricSpec& metric,
+                                                     std::shared_ptr<const Geolocator> geolocator,
+                                                     std::shared_ptr<const std::vector<Polygon>> grid_polygons)
+    : SiteMetric(seeds, grid_polygons ? *grid_polygons : seeds.polygons()),
+      grid_polygons_(std::move(grid_polygons)),
+      geolocator_(std::move(geolocator)),
+      geodesic_(seeds, metric),
+      earth_radius_(std::max(metric.semi_major, metric.semi_major * (1.0 - metric.flattening))) {
+  if (!geolocator_) throw Error(ErrorKind::invalid_argument, "LocatedGeodesicSiteMetric needs a geolocator");
+  // Without grid polygons the base would test degrees against grid coordinates.
+  if (!grid_polygons_ && !seeds.polygons().empty())
+    throw Error(ErrorKind::invalid_argument, "LocatedGeodesicSiteMetric: the seeds have polygons, so their copies in "
+                                             "the grid's CRS are needed");
+}
+
+Vec2 LocatedGeodesicSiteMetric::locate(Vec2 p) const {
+  Vec2 q;
+  detail::locate_centres(*geolocator_, &p.x, &p.y, &q.x, &q.y, 1);
+  return q;
+}
+
+double LocatedGeodesicSiteMetric::distance(Vec2 p, int32_t site) const {
+  if (seeds().sites()[static_cast<size_t>(site)].kind == SiteKind::area)
+    return inside_area(p, site) ? 0.0 : std::numeric_limits<double>::infinity();  // grid polygons
+  return geodesic_.distance(locate(p), site);
+}
+
+Vec2 LocatedGeodesicSiteMetric::nearest_point(Vec2 p, int32_t site) const {
+  if (seeds().sites()[static_cast<size_t>(site)].kind == SiteKind::area) return p;
+  const Vec2 q = geodesic_.nearest_point(locate(p), site);
+  Vec2 out;
+  geolocator_->to_grid(&q.x, &q.y, &out.x, &out.y, 1);
+  return out;
+}
+
+double LocatedGeodesicSiteMetric::point_distance(Vec2 a, Vec2 b) const {
+  return geodesic_.point_distance(locate(a), locate(b));
+}
+
+Vec3 LocatedGeodesicSiteMetric::embed(Vec2 p) const { return geodesic_.embed(locate(p)); }
+
+Box3 LocatedGeodesicSiteMetric::site_bounds(int32_t site) const {
+  if (seeds().sites()[static_cast<size_t>(site)].kind == SiteKind::area) {
+    // The whole ellipsoid (every embedded position has |x|, |y|, |z| <= max(a, b)): a bound of
+    // 0 that still has a finite centre for the index's tree building.
+    const double r = earth_radius_ * 1.01;
+    return Box3{-r, -r, -r, r, r, r};
+  }
+  // Points and edges are where the geodesic metric puts them, in longitude/latitude.
+  return geodesic_.site_bounds(site);
 }
 
 }  // namespace rv

@@ -262,14 +262,12 @@ JobResult run_job(const JobSpec& spec, const JobLimits& limits, const JobHooks& 
     if (d > options.max_distance)
       throw Error(ErrorKind::invalid_argument,
                   "a limit distance exceeds the max distance: cells beyond it have no distance to draw the line in");
-  // The deliverables' exact site metrics do not locate a projected grid's cells on the
-  // ellipsoid yet (rv/deliverables.hpp): refused before anything is computed. Regions and the
-  // preview need only the owner raster and work.
-  if (located && (!deliver.boundaries.empty() || !deliver.tripoints.empty() || !deliver.limits.empty() ||
-                  !deliver.margin.empty()))
+  // The margin raster is not available on a projected geodesic grid yet (rv/deliverables.hpp):
+  // refused before anything is computed.
+  if (located && !deliver.margin.empty())
     throw Error(ErrorKind::unsupported,
-                "boundaries, tripoints, limit lines and margins are not available for the geodesic metric on a "
-                "projected grid yet; use a geographic (longitude/latitude) grid (--crs EPSG:4326), or metric planar");
+                "the margin raster is not available for the geodesic metric on a projected grid yet; use a "
+                "geographic (longitude/latitude) grid (--crs EPSG:4326), or metric planar");
   if (!(deliver.simplify_cells >= 0.0) || !std::isfinite(deliver.simplify_cells))
     throw Error(ErrorKind::invalid_argument, "the simplification tolerance must be a non-negative number of cells");
   const int64_t cells = grid.cell_count();
@@ -383,31 +381,27 @@ JobResult run_job(const JobSpec& spec, const JobLimits& limits, const JobHooks& 
       exact_field = &exact_copy;
       deliver_times["exact_field"] = exact_copy.seconds;
     }
-    // The deliverables measure with the field's own metric. Projected geodesic grids have no
-    // site metric (only regions and the preview without lines get here, see above).
+    // The deliverables measure with the field's own metric (projected geodesic grids: located
+    // on the ellipsoid, positions and outputs in the grid's CRS).
     std::unique_ptr<SiteMetric> metric_ptr;
-    if (!located) {
-      if (exact_field->metric.kind == MetricSpec::geodesic)
-        metric_ptr = std::make_unique<GeodesicSiteMetric>(loaded.seeds, exact_field->metric);
-      else
-        metric_ptr = std::make_unique<PlanarSiteMetric>(loaded.seeds, Vec2{grid.xmin, grid.ymax});
-    }
-    std::optional<OwnerIndex> index_holder;
-    double cell_length = 0.0;
-    if (metric_ptr) {
-      index_holder.emplace(*metric_ptr);
-      // One cell's length in metric units near the grid's centre (degrees are not metres).
-      const Vec2 mid{grid.centre_x(grid.width / 2), grid.centre_y(grid.height / 2)};
-      cell_length = metric_ptr->point_distance(mid, Vec2{mid.x + grid.res, mid.y});
-    }
+    if (located)
+      metric_ptr = std::make_unique<LocatedGeodesicSiteMetric>(loaded.seeds, exact_field->metric, options.geolocator,
+                                                               options.grid_polygons);
+    else if (exact_field->metric.kind == MetricSpec::geodesic)
+      metric_ptr = std::make_unique<GeodesicSiteMetric>(loaded.seeds, exact_field->metric);
+    else
+      metric_ptr = std::make_unique<PlanarSiteMetric>(loaded.seeds, Vec2{grid.xmin, grid.ymax});
+    const SiteMetric& metric = *metric_ptr;
+    const OwnerIndex index(metric);
+    // One cell's length in metric units near the grid's centre (degrees are not metres).
+    const Vec2 mid{grid.centre_x(grid.width / 2), grid.centre_y(grid.height / 2)};
+    const double cell_length = metric.point_distance(mid, Vec2{mid.x + grid.res, mid.y});
     VectorOutputOptions vo;
     vo.crs = loaded.crs.wkt;
     vo.distance_factor = factor;
     vo.distance_units = unit_name;
     BoundaryResult boundaries;
-    if (metric_ptr && (!deliver.boundaries.empty() || !deliver.tripoints.empty() || !deliver.preview.empty())) {
-      const SiteMetric& metric = *metric_ptr;
-      const OwnerIndex& index = *index_holder;
+    if (!deliver.boundaries.empty() || !deliver.tripoints.empty() || !deliver.preview.empty()) {
       t = Clock::now();
       BoundaryOptions bo;
       bo.simplify_cells = deliver.simplify_cells;
@@ -446,7 +440,7 @@ JobResult run_job(const JobSpec& spec, const JobLimits& limits, const JobHooks& 
       lo.per_owner = deliver.limits_per_owner;
       lo.simplify_cells = deliver.simplify_cells;
       lo.threads = spec.threads;
-      const LimitResult limits = extract_limits(*exact_field, *index_holder, limit_metric, lo);
+      const LimitResult limits = extract_limits(*exact_field, index, limit_metric, lo);
       guard.add(deliver.limits);
       write_limits(deliver.limits, limits, loaded.seeds, vo);
       outputs["limits"] = deliver.limits;
@@ -478,7 +472,7 @@ JobResult run_job(const JobSpec& spec, const JobLimits& limits, const JobHooks& 
     if (!deliver.margin.empty()) {
       check_cancel();
       t = Clock::now();
-      Raster<float> margin = margin_raster(*exact_field, *index_holder, spec.threads);
+      Raster<float> margin = margin_raster(*exact_field, index, spec.threads);
       if (factor != 1.0)
         for (float& v : margin.cells())
           if (v != kNoDistance) v = static_cast<float>(v * factor);
@@ -496,7 +490,7 @@ JobResult run_job(const JobSpec& spec, const JobLimits& limits, const JobHooks& 
       check_cancel();
       t = Clock::now();
       guard.add(deliver.preview);
-      const PreviewInfo pi = write_preview(deliver.preview, *owner_codes, metric_ptr ? &boundaries : nullptr);
+      const PreviewInfo pi = write_preview(deliver.preview, *owner_codes, &boundaries);
       outputs["preview"] = deliver.preview;
       deliver_report["preview"] = {{"width", pi.width}, {"height", pi.height}, {"cells_per_pixel", pi.step}};
       deliver_times["preview"] = seconds_since(t);

@@ -12,6 +12,7 @@
 #include <memory>
 #include <vector>
 
+#include "rv/deliverables.hpp"
 #include "rv/engine.hpp"
 #include "rv/error.hpp"
 #include "rv/validate.hpp"
@@ -274,6 +275,64 @@ TEST(GeodesicProjected, InteriorsComeFromTheGridPolygons) {
   EXPECT_THROW(compute(seeds, g, o), Error);
   o.grid_polygons = std::make_shared<std::vector<Polygon>>();
   EXPECT_THROW(compute(seeds, g, o), Error);
+}
+
+TEST(GeodesicProjected, BoundaryVerticesAreEquidistantOnTheEllipsoid) {
+  // Two owners of two points each: the boundary vertices (grid CRS) located by GeographicLib
+  // are equidistant from the two owners' nearest points, measured directly.
+  SeedSet seeds;
+  const std::vector<Vec2> points = {{13.6, 55.1}, {13.8, 55.6}, {14.6, 55.2}, {14.4, 55.65}};
+  for (size_t i = 0; i < points.size(); ++i)
+    seeds.add_point(seeds.add_feature(seeds.owner_code(i < 2 ? "west" : "east")), points[i]);
+  const GridSpec g = utm_grid(40, 40);
+  const ComputeOptions o = projected_options(Method::brute_force);
+  const NearestField field = compute(seeds, g, o);
+  const LocatedGeodesicSiteMetric metric(seeds, o.metric, o.geolocator, nullptr);
+  const OwnerIndex index(metric);
+  const BoundaryResult b = extract_boundaries(field, index);
+  const GeographicLib::Geodesic& geod = GeographicLib::Geodesic::WGS84();
+  int vertices = 0;
+  for (const BoundaryLine& line : b.lines)
+    for (const BoundaryVertex& v : line.vertices) {
+      EXPECT_GE(v.p.x, g.xmin);  // grid coordinates
+      EXPECT_LE(v.p.x, g.xmax());
+      double lat, lon;
+      UTMUPS::Reverse(33, true, v.p.x, v.p.y, lat, lon);
+      double d[2] = {std::numeric_limits<double>::infinity(), std::numeric_limits<double>::infinity()};
+      for (size_t i = 0; i < points.size(); ++i) {
+        double s12;
+        geod.Inverse(lat, lon, points[i].y, points[i].x, s12);
+        d[i < 2 ? 0 : 1] = std::min(d[i < 2 ? 0 : 1], s12);
+      }
+      EXPECT_NEAR(d[0], d[1], 1e-3);
+      EXPECT_NEAR(v.distance, d[0], 1e-3);
+      ++vertices;
+    }
+  EXPECT_GT(vertices, 30);
+  // The controlling point is given in the grid's CRS.
+  const Vec2 q = metric.nearest_point(Vec2{g.centre_x(3), g.centre_y(3)}, field.site.at(3, 3));
+  double px, py;
+  int zone;
+  bool northp;
+  const Vec2& s = points[static_cast<size_t>(field.site.at(3, 3))];
+  UTMUPS::Forward(s.y, s.x, zone, northp, px, py, 33);
+  EXPECT_NEAR(q.x, px, 1e-3);
+  EXPECT_NEAR(q.y, py, 1e-3);
+
+  // A metric that does not locate, for a located field, and the reverse, are refused; the margin
+  // raster is not available for located fields yet.
+  const GeodesicSiteMetric plain(seeds, o.metric);
+  const OwnerIndex plain_index(plain);
+  EXPECT_THROW(extract_boundaries(field, plain_index), Error);
+  EXPECT_THROW(margin_raster(field, index), Error);
+  ComputeOptions geographic;
+  geographic.metric = o.metric;
+  GridSpec lonlat_grid;
+  lonlat_grid.xmin = 14.0;
+  lonlat_grid.ymax = 56.0;
+  lonlat_grid.res = 0.05;
+  lonlat_grid.width = lonlat_grid.height = 20;
+  EXPECT_THROW(extract_boundaries(compute(seeds, lonlat_grid, geographic), index), Error);
 }
 
 ErrorKind kind_of(const SeedSet& seeds, const GridSpec& g, const ComputeOptions& o) {

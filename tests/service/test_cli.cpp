@@ -12,6 +12,7 @@
 #include <gdal.h>
 #include <nlohmann/json.hpp>
 
+#include "rv/deliverables.hpp"
 #include "rv/engine.hpp"
 #include "rv/outputs.hpp"
 #include "rv/raster_io.hpp"
@@ -368,11 +369,45 @@ TEST_F(Cli, ProjectedGridGeodesicMeasuresOnTheEllipsoid) {
   EXPECT_EQ(vj["metric"], "geodesic");
   EXPECT_LT(vj["methods"]["hv-scan"]["max_error_cells"].get<double>(), 1.0);
   EXPECT_TRUE(vj["methods"]["exact"].contains("unsupported"));
-  // Line deliverables are refused for it, before anything is written.
-  expect_refused(run("compute " + grid + " --metric geodesic --method brute-force --ownership " + path("x.tif") +
-                     " --boundaries " + path("b.geojson")),
-                 7, "projected");
-  EXPECT_FALSE(fs::exists(path("x.tif")));
+  // Boundary and limit lines: vertices in the grid's CRS, on the loci measured on the ellipsoid.
+  // Checked independently: each vertex taken to longitude/latitude by GeographicLib and measured
+  // with the geographic metric on the seeds in their own CRS.
+  const CliRun dl = run("compute " + grid + " --metric geodesic --method brute-force --ownership " + path("x.tif") +
+                        " --boundaries " + path("b.geojson") + " --limits " + path("l.geojson") +
+                        " --limit-distances 3nmi --report " + path("x.json"));
+  ASSERT_EQ(dl.exit_code, 0) << dl.output;
+  const GeodesicSiteMetric geographic(seeds.seeds, co.metric);
+  const OwnerIndex index(geographic);
+  auto lonlat = [](const nlohmann::json& xy) {
+    double lat, lon;
+    GeographicLib::UTMUPS::Reverse(33, true, xy[0].get<double>(), xy[1].get<double>(), lat, lon);
+    return Vec2{lon, lat};
+  };
+  int vertices = 0;
+  const nlohmann::json lines = nlohmann::json::parse(std::ifstream(path("b.geojson")));
+  for (const auto& f : lines["features"]) {
+    const int32_t oa = f["properties"]["owner_a"], ob = f["properties"]["owner_b"];
+    for (const auto& xy : f["geometry"]["coordinates"]) {
+      EXPECT_GT(xy[0].get<double>(), 300000.0);  // grid CRS (UTM metres), not degrees
+      const Vec2 p = lonlat(xy);
+      EXPECT_NEAR(index.nearest_of(p, oa).distance, index.nearest_of(p, ob).distance, 1e-3);
+      ++vertices;
+    }
+  }
+  EXPECT_GT(vertices, 20);
+  int limit_vertices = 0;
+  const nlohmann::json limits = nlohmann::json::parse(std::ifstream(path("l.geojson")));
+  for (const auto& f : limits["features"])
+    for (const auto& xy : f["geometry"]["coordinates"]) {
+      EXPECT_NEAR(index.nearest(lonlat(xy)).distance, 3 * 1852.0, 1e-3);
+      ++limit_vertices;
+    }
+  EXPECT_GT(limit_vertices, 20);
+  // The margin raster is refused for it, before anything is written.
+  expect_refused(run("compute " + grid + " --metric geodesic --method brute-force --ownership " + path("y.tif") +
+                     " --margin-raster " + path("m.tif")),
+                 7, "margin");
+  EXPECT_FALSE(fs::exists(path("y.tif")));
 }
 
 TEST_F(Cli, HelpAndVersion) {

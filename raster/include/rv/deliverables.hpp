@@ -22,10 +22,9 @@
 // Vertices are never moved: simplification (Douglas-Peucker) only drops vertices that lie within
 // the tolerance of the simplified line, so every kept vertex is an exact locus point.
 //
-// Projected geodesic grids (a field computed with ComputeOptions::geolocator): the site metrics
-// do not locate grid positions on the ellipsoid, so extract_boundaries, extract_limits and
-// margin_raster refuse such fields with rv::Error(unsupported) (regions and previews, which only
-// need the owner raster, are not affected).
+// Projected geodesic grids (a field computed with ComputeOptions::geolocator) are measured with
+// LocatedGeodesicSiteMetric (grid positions located on the ellipsoid; output positions stay in
+// the grid's CRS); margin_raster refuses such fields with rv::Error(unsupported) for now.
 //
 // Thread safety: SiteMetric and OwnerIndex are immutable after construction; their const
 // functions may be called from any number of threads. The extraction functions are pure
@@ -98,9 +97,16 @@ class SiteMetric {
   // CRS, as the engine's interiors). False for other site kinds.
   bool inside_area(Vec2 p, int32_t area_site) const;
 
+ protected:
+  // The inside tests (and vertex boxes) on `polygons` instead of seeds.polygons(): the same
+  // polygons one for one (same area sites) in the grid's coordinates, else
+  // rv::Error(invalid_argument). Keeps a reference to `polygons`, which must outlive the metric.
+  SiteMetric(const SeedSet& seeds, const std::vector<Polygon>& polygons);
+
  private:
   struct Slabs;
   const SeedSet& seeds_;
+  const std::vector<Polygon>& polygons_;
   std::vector<int32_t> polygon_of_site_;         // site -> index into seeds.polygons(), or -1
   std::vector<std::unique_ptr<Slabs>> slabs_;    // per polygon
 };
@@ -138,6 +144,35 @@ class GeodesicSiteMetric final : public SiteMetric {
  private:
   struct Impl;
   std::unique_ptr<Impl> impl_;
+};
+
+// Geodesic distance (metres) on a projected grid: positions are grid-CRS coordinates (as the
+// field's), each located on the ellipsoid by `geolocator` and measured there with
+// GeodesicSiteMetric's distances to the seeds (longitude/latitude degrees). Area sites are
+// tested on `grid_polygons` (the seeds' polygons in the grid's CRS, one for one, as
+// ComputeOptions::grid_polygons); nearest_point() returns grid-CRS coordinates
+// (Geolocator::to_grid). The embedding is the located position's Earth-centred coordinates;
+// area sites get the whole ellipsoid's box (their located interior has no cheap safe bound,
+// and the inside test costs little). A position the geolocator cannot locate is
+// rv::Error(invalid_input). Keeps a reference to `seeds`, which must outlive it; shares the
+// geolocator and the polygons. Thread-safe as the others (the geolocator is, by contract).
+class LocatedGeodesicSiteMetric final : public SiteMetric {
+ public:
+  LocatedGeodesicSiteMetric(const SeedSet& seeds, const MetricSpec& metric,
+                            std::shared_ptr<const Geolocator> geolocator,
+                            std::shared_ptr<const std::vector<Polygon>> grid_polygons);
+  double distance(Vec2 p, int32_t site) const override;
+  Vec2 nearest_point(Vec2 p, int32_t site) const override;
+  double point_distance(Vec2 a, Vec2 b) const override;
+  Vec3 embed(Vec2 p) const override;
+  Box3 site_bounds(int32_t site) const override;
+
+ private:
+  Vec2 locate(Vec2 p) const;
+  std::shared_ptr<const std::vector<Polygon>> grid_polygons_;
+  std::shared_ptr<const Geolocator> geolocator_;
+  GeodesicSiteMetric geodesic_;
+  double earth_radius_;  // the larger semi-axis, metres
 };
 
 // Exact nearest-site queries, restricted to one owner or excluding one owner. Keeps references
