@@ -68,6 +68,12 @@ constexpr double kInterpCheck = 5e-6;         // metres: accepted error at the b
 constexpr double kInterpTie = 1e-4;           // metres: closer calls are decided exactly
 constexpr double kInterpMaxDistance = 1.2e7;  // metres: beyond, the antipode's kink is too near
 constexpr double kInterpMinChord = 1e-3;      // metres: a node on the seed cannot form d / chord
+// A segment whose nearest point is one of its ends over a whole block is that end, a point.
+// As geodesic.cpp's attains_at_vertex: the geodesic from the vertex to the cell must leave at
+// an angle whose cosine against the edge exceeds kVertexSlope (~90.6 degrees), the cell within
+// kVertexMaxDistance of the vertex (well inside the edge's convex regime).
+constexpr double kVertexSlope = 0.01;
+constexpr double kVertexMaxDistance = 5e6;    // metres
 
 // Lagrange weights of the cubic through t = 0, 1/3, 2/3, 1.
 inline void cubic_weights(double t, double w[4]) {
@@ -79,8 +85,9 @@ inline void cubic_weights(double t, double w[4]) {
 }
 
 struct Interpolant {
-  int32_t id;
-  double sx, sy, sz;  // the site's ECEF position
+  int32_t id;         // the site (a point, or a segment nearest at one of its ends throughout)
+  double lat, lon;    // the point measured from: the point site, or the segment's end
+  double sx, sy, sz;  // its ECEF position
   double q[4][4];     // d / chord at the nodes [row][col]
 };
 
@@ -275,6 +282,12 @@ class GeodesicExactSolver {
     if (points_only && level <= interp_block_ &&
         (next.size() <= kInterpMaxCandidates || !can_split || level <= kInterpMinBlock))
       return solve_interp(wk, next, c0, r0, c1, r1);
+    // Segments nearest at one of their ends throughout the block are points there.
+    if (!points_only && level <= interp_block_ && next.size() <= kInterpMaxCandidates) {
+      bool all = true;
+      for (int32_t id : next) all = all && interpolant(wk, c0, r0, id) != nullptr;
+      if (all) return solve_interp(wk, next, c0, r0, c1, r1);
+    }
     if (!points_only && (next.size() <= 1 || w * h <= kLeafCells)) return solve_cells(wk, next, c0, r0, c1, r1);
     if (!can_split) return solve_cells(wk, next, c0, r0, c1, r1);
     // Split at the grid-aligned middle of the block's level.
@@ -320,12 +333,26 @@ class GeodesicExactSolver {
     if (bx1 - bx0 < kInterpMinEdge || by1 - by0 < kInterpMinEdge) return false;
     const GeoSite& s = geo_.site(id);
     it.id = id;
-    it.sx = s.x;
-    it.sy = s.y;
-    it.sz = s.z;
+    if (!s.segment) {
+      it.lat = s.lat;
+      it.lon = s.lon;
+    } else if (!segment_end_throughout(s, bx0, by0, bx1, by1, it.lat, it.lon)) {
+      return false;
+    }
+    geo_.ecef(it.lat, it.lon, it.sx, it.sy, it.sz);
+    const GeographicLib::Geodesic& geod = geo_.geodesic();
+    // The exact distance at p: the point site's own (GeoSites::distance), or for a segment the
+    // inverse problem from its end, which is what the segment's distance is where it is nearest
+    // at that end (there it is canonical, and the close-call path recomputes it anyway).
+    auto exact = [&](const GeoCell& p) {
+      if (!s.segment) return geo_.distance(p, id);
+      double d;
+      geod.Inverse(it.lat, it.lon, p.lat, p.lon, d);
+      return d;
+    };
     auto value = [&](const GeoCell& p, double& q) {
-      const double d = geo_.distance(p, id);
-      const double dx = p.x - s.x, dy = p.y - s.y, dz = p.z - s.z;
+      const double d = exact(p);
+      const double dx = p.x - it.sx, dy = p.y - it.sy, dz = p.z - it.sz;
       const double chord = std::sqrt(dx * dx + dy * dy + dz * dz);
       if (!(d <= kInterpMaxDistance) || !(chord >= kInterpMinChord)) return false;
       q = d / chord;
@@ -340,9 +367,60 @@ class GeodesicExactSolver {
     double wt[4], wc[4];
     cubic_weights(0.5, wt);
     cubic_weights(0.5, wc);
-    const double dx = centre.x - s.x, dy = centre.y - s.y, dz = centre.z - s.z;
+    const double dx = centre.x - it.sx, dy = centre.y - it.sy, dz = centre.z - it.sz;
     const double approx = eval(it, wt, wc) * std::sqrt(dx * dx + dy * dy + dz * dz);
-    return std::abs(approx - geo_.distance(centre, id)) <= kInterpCheck;
+    return std::abs(approx - exact(centre)) <= kInterpCheck;
+  }
+
+  // True when, for every cell centre of the grid block [bx0, bx1) x [by0, by1), the nearest
+  // point of the (single-piece) segment is one of its ends; that end is returned.
+  //
+  // Why four corners suffice: the cells where the segment is nearest at its first end A are
+  // those whose geodesic from A leaves at an angle w with cos(w) < -kVertexSlope against the
+  // edge (geodesic.cpp, attains_at_vertex): a wedge at A bounded by two geodesics. A block is
+  // bounded by two meridians (geodesics) and two parallels, which bulge out of the geodesic
+  // between their ends by at most L^2 tan|lat| / (8 r) (L the parallel's length, r the parallel
+  // radius bound used here: the semi-minor axis); requiring every corner to lie deeper inside
+  // the wedge than that (an angle margin of bulge / distance) puts the whole block inside.
+  bool segment_end_throughout(const GeoSite& s, int64_t bx0, int64_t by0, int64_t bx1, int64_t by1, double& lat,
+                              double& lon) const {
+    if (s.piece_count != 1) return false;
+    const GridSpec& g = ctx_.grid;
+    const double lat_n = g.ymax - (static_cast<double>(by0) + 0.5) * g.res;
+    const double lat_s = g.ymax - (static_cast<double>(by1 - 1) + 0.5) * g.res;
+    const double max_abs_lat = std::max(std::abs(lat_n), std::abs(lat_s));
+    if (max_abs_lat > 85.0) return false;
+    constexpr double kRad = 3.14159265358979323846 / 180.0;
+    const double width = static_cast<double>(bx1 - 1 - bx0) * g.res * kRad * 6.4e6;  // >= parallel length
+    const double bulge = width * width * std::tan(max_abs_lat * kRad) / (8.0 * 6.35e6) + 1.0;
+    const GeographicLib::Geodesic& geod = geo_.geodesic();
+    const double corner_lat[2] = {lat_n, lat_s};
+    const double corner_lon[2] = {g.xmin + (static_cast<double>(bx0) + 0.5) * g.res,
+                                  g.xmin + (static_cast<double>(bx1 - 1) + 0.5) * g.res};
+    for (int end = 0; end < 2; ++end) {
+      const double vlat = end == 0 ? s.lat : s.lat_b, vlon = end == 0 ? s.lon : s.lon_b;
+      const double edge_azi = end == 0 ? s.azi_a : s.azi_b;
+      const double sign = end == 0 ? -1.0 : 1.0;
+      bool all = true;
+      for (int i = 0; i < 2 && all; ++i)
+        for (int j = 0; j < 2 && all; ++j) {
+          double d, azi1, azi2;
+          geod.Inverse(vlat, vlon, corner_lat[i], corner_lon[j], d, azi1, azi2);
+          if (!(d > bulge * 100.0) || !(d < kVertexMaxDistance)) {
+            all = false;
+            break;
+          }
+          double sin_w, cos_w;
+          GeographicLib::Math::sincosd(GeographicLib::Math::AngDiff(edge_azi, azi1), sin_w, cos_w);
+          all = sign * cos_w > kVertexSlope + bulge / d;
+        }
+      if (all) {
+        lat = vlat;
+        lon = vlon;
+        return true;
+      }
+    }
+    return false;
   }
 
   // Rows first, then columns: the same operations, in the same order, as solve_interp's
@@ -365,10 +443,11 @@ class GeodesicExactSolver {
     cubic_weights(static_cast<double>(gr - b0) / static_cast<double>(b1 - b0), w);
   }
 
-  // The value the method uses for candidate `id` at cell (c, r): the interpolated distance of a
-  // point site where its interpolant exists, else the exact distance. `exact` says which.
+  // The value the method uses for candidate `id` at cell (c, r): the interpolated distance where
+  // the site has an interpolant on the cell's block (a point site, or a segment nearest at one
+  // of its ends throughout the block), else the exact distance. `exact` says which.
   double value(GeoWorker& wk, int64_t c, int64_t r, int32_t id, bool& exact) const {
-    if (!geo_.site(id).segment) {
+    {
       if (const Interpolant* it = interpolant(wk, c, r, id)) {
         double wt[4], wc[4];
         weights_row(r, wt);
@@ -401,7 +480,7 @@ class GeodesicExactSolver {
     put(c, r, id_best, d_best);
   }
 
-  // A block inside one interpolation block whose candidates are all point sites.
+  // A block inside one interpolation block whose candidates all have an interpolant there.
   void solve_interp(GeoWorker& wk, const std::vector<int32_t>& cands, int64_t c0, int64_t r0, int64_t c1,
                     int64_t r1) {
     if (cands.empty()) return fill_none(c0, r0, c1, r1);
@@ -497,7 +576,7 @@ class GeodesicExactSolver {
         GeoEnd end, other_end;
         bool best_exact = true;
         double best;
-        if (geo_.site(cands[first]).segment)
+        if (geo_.site(cands[first]).segment && !interpolant(wk, c, r, cands[first]))
           best = geo_.distance(p, cands[first], &end);
         else
           best = value(wk, c, r, cands[first], best_exact);
@@ -509,7 +588,7 @@ class GeodesicExactSolver {
           const int32_t id = cands[i];
           bool exact = true;
           double d;
-          if (geo_.site(id).segment) {
+          if (geo_.site(id).segment && !interpolant(wk, c, r, id)) {
             if (best_exact && geo_.attains_at_vertex(p, id, end, best)) {
               best_id = std::min(best_id, id);
               continue;
