@@ -68,12 +68,16 @@ constexpr double kInterpCheck = 5e-6;         // metres: accepted error at the b
 constexpr double kInterpTie = 1e-4;           // metres: closer calls are decided exactly
 constexpr double kInterpMaxDistance = 1.2e7;  // metres: beyond, the antipode's kink is too near
 constexpr double kInterpMinChord = 1e-3;      // metres: a node on the seed cannot form d / chord
-// A segment whose nearest point is one of its ends over a whole block is that end, a point.
-// As geodesic.cpp's attains_at_vertex: the geodesic from the vertex to the cell must leave at
-// an angle whose cosine against the edge exceeds kVertexSlope (~90.6 degrees), the cell within
-// kVertexMaxDistance of the vertex (well inside the edge's convex regime).
+// A segment is nearest at one of its ends V when (geodesic.cpp, attains_at_vertex) the geodesic
+// from V to the cell leaves at an angle w against the edge with cos(w) beyond kVertexSlope
+// (~90.6 degrees), the cell well inside the edge's convex regime. Per cell this is tested with
+// the normal section's direction instead of the geodesic's (the projection of the chord V->P
+// onto V's tangent plane): within kVertexMaxChord the two directions differ by less than
+// (e^2 / 12) (d / N)^2 ~ 2e-5 rad, far inside the kVertexMargin added to the slope.
 constexpr double kVertexSlope = 0.01;
-constexpr double kVertexMaxDistance = 5e6;    // metres
+constexpr double kVertexMargin = 2e-3;
+constexpr double kVertexMaxChord = 1e6;       // metres
+constexpr double kVertexMinChord = 1.0;       // metres
 
 // Lagrange weights of the cubic through t = 0, 1/3, 2/3, 1.
 inline void cubic_weights(double t, double w[4]) {
@@ -84,8 +88,15 @@ inline void cubic_weights(double t, double w[4]) {
   w[3] = 4.5 * a * b * c;
 }
 
+// A segment's end as the per-cell vertex test sees it: position, ellipsoid normal, and the unit
+// tangent of the edge there (pointing from the first end to the second at both ends).
+struct SegmentEnd {
+  double lat, lon;
+  double x, y, z, nx, ny, nz, ex, ey, ez;
+};
+
 struct Interpolant {
-  int32_t id;         // the site (a point, or a segment nearest at one of its ends throughout)
+  int32_t id;         // the site (a point site, or a segment measured at one of its ends)
   double lat, lon;    // the point measured from: the point site, or the segment's end
   double sx, sy, sz;  // its ECEF position
   double q[4][4];     // d / chord at the nodes [row][col]
@@ -155,6 +166,28 @@ class GeodesicExactSolver {
       Math::sincosd(lon_[c], sin_[c], cos_[c]);
     }
     max_distance_ = ctx.max_key;  // geodesic keys are metres
+    ends_.resize(2 * geo_.size());
+    for (size_t i = 0; i < geo_.size(); ++i) {
+      const GeoSite& k = geo_.site(static_cast<int32_t>(i));
+      if (!k.segment) continue;
+      for (int e = 0; e < 2; ++e) {
+        SegmentEnd& v = ends_[2 * i + static_cast<size_t>(e)];
+        v.lat = e == 0 ? k.lat : k.lat_b;
+        v.lon = e == 0 ? k.lon : k.lon_b;
+        geo_.ecef(v.lat, v.lon, v.x, v.y, v.z);
+        double sp, cp, sl, cl, sa, ca;
+        Math::sincosd(v.lat, sp, cp);
+        Math::sincosd(v.lon, sl, cl);
+        Math::sincosd(e == 0 ? k.azi_a : k.azi_b, sa, ca);
+        v.nx = cp * cl;  // geodetic normal
+        v.ny = cp * sl;
+        v.nz = sp;
+        // east (-sl, cl, 0), north (-sp cl, -sp sl, cp)
+        v.ex = sa * -sl + ca * -sp * cl;
+        v.ey = sa * cl + ca * -sp * sl;
+        v.ez = ca * cp;
+      }
+    }
     // The interpolation block: the largest power of two (8 .. 64 cells) spanning at most
     // kInterpSpan degrees; coarser grids still get 8-cell blocks, which the centre check
     // rejects where the interpolant would not be accurate.
@@ -282,12 +315,6 @@ class GeodesicExactSolver {
     if (points_only && level <= interp_block_ &&
         (next.size() <= kInterpMaxCandidates || !can_split || level <= kInterpMinBlock))
       return solve_interp(wk, next, c0, r0, c1, r1);
-    // Segments nearest at one of their ends throughout the block are points there.
-    if (!points_only && level <= interp_block_ && next.size() <= kInterpMaxCandidates) {
-      bool all = true;
-      for (int32_t id : next) all = all && interpolant(wk, c0, r0, id) != nullptr;
-      if (all) return solve_interp(wk, next, c0, r0, c1, r1);
-    }
     if (!points_only && (next.size() <= 1 || w * h <= kLeafCells)) return solve_cells(wk, next, c0, r0, c1, r1);
     if (!can_split) return solve_cells(wk, next, c0, r0, c1, r1);
     // Split at the grid-aligned middle of the block's level.
@@ -305,16 +332,18 @@ class GeodesicExactSolver {
 
   // The interpolant of point site `id` on the grid-aligned interpolation block that contains
   // window cell (c, r), or null where it is rejected (the caller then measures exactly).
-  const Interpolant* interpolant(GeoWorker& wk, int64_t c, int64_t r, int32_t id) const {
+  // `end`: 0 for a point site, 1 / 2 for a segment's first / second end.
+  const Interpolant* interpolant(GeoWorker& wk, int64_t c, int64_t r, int32_t id, int end = 0) const {
     const int64_t S = interp_block_;
     const int64_t gc = ctx_.window.col0 + c, gr = ctx_.window.row0 + r;
     const int64_t bx0 = (gc / S) * S, by0 = (gr / S) * S;
-    const uint64_t key = (static_cast<uint64_t>((by0 % kTile) / S * (kTile / S) + (bx0 % kTile) / S) << 32) |
-                         static_cast<uint32_t>(id);
+    const uint64_t key = (static_cast<uint64_t>((by0 % kTile) / S * (kTile / S) + (bx0 % kTile) / S) << 34) |
+                         (static_cast<uint64_t>(static_cast<uint32_t>(id)) << 2) | static_cast<uint64_t>(end);
     auto it = wk.cache.find(key);
     if (it != wk.cache.end()) return it->second.get();
     auto made = std::make_unique<Interpolant>();
-    if (!build_interpolant(*made, bx0, by0, std::min(bx0 + S, ctx_.grid.width), std::min(by0 + S, ctx_.grid.height), id))
+    if (!build_interpolant(*made, bx0, by0, std::min(bx0 + S, ctx_.grid.width), std::min(by0 + S, ctx_.grid.height), id,
+                           end))
       made.reset();
     return wk.cache.emplace(key, std::move(made)).first->second.get();
   }
@@ -329,23 +358,25 @@ class GeodesicExactSolver {
     return geo_.cell(g.xmin + (gcol + 0.5) * g.res, g.ymax - (grow + 0.5) * g.res);
   }
 
-  bool build_interpolant(Interpolant& it, int64_t bx0, int64_t by0, int64_t bx1, int64_t by1, int32_t id) const {
+  bool build_interpolant(Interpolant& it, int64_t bx0, int64_t by0, int64_t bx1, int64_t by1, int32_t id,
+                         int end) const {
     if (bx1 - bx0 < kInterpMinEdge || by1 - by0 < kInterpMinEdge) return false;
     const GeoSite& s = geo_.site(id);
     it.id = id;
-    if (!s.segment) {
+    if (end == 0) {
       it.lat = s.lat;
       it.lon = s.lon;
-    } else if (!segment_end_throughout(s, bx0, by0, bx1, by1, it.lat, it.lon)) {
-      return false;
+    } else {
+      const SegmentEnd& v = ends_[2 * static_cast<size_t>(id) + static_cast<size_t>(end - 1)];
+      it.lat = v.lat;
+      it.lon = v.lon;
     }
     geo_.ecef(it.lat, it.lon, it.sx, it.sy, it.sz);
     const GeographicLib::Geodesic& geod = geo_.geodesic();
-    // The exact distance at p: the point site's own (GeoSites::distance), or for a segment the
-    // inverse problem from its end, which is what the segment's distance is where it is nearest
-    // at that end (there it is canonical, and the close-call path recomputes it anyway).
+    // The exact distance at p: the point site's own (GeoSites::distance), or the inverse problem
+    // from the segment's end, which is the segment's distance wherever it is nearest at that end.
     auto exact = [&](const GeoCell& p) {
-      if (!s.segment) return geo_.distance(p, id);
+      if (end == 0) return geo_.distance(p, id);
       double d;
       geod.Inverse(it.lat, it.lon, p.lat, p.lon, d);
       return d;
@@ -372,55 +403,24 @@ class GeodesicExactSolver {
     return std::abs(approx - exact(centre)) <= kInterpCheck;
   }
 
-  // True when, for every cell centre of the grid block [bx0, bx1) x [by0, by1), the nearest
-  // point of the (single-piece) segment is one of its ends; that end is returned.
-  //
-  // Why four corners suffice: the cells where the segment is nearest at its first end A are
-  // those whose geodesic from A leaves at an angle w with cos(w) < -kVertexSlope against the
-  // edge (geodesic.cpp, attains_at_vertex): a wedge at A bounded by two geodesics. A block is
-  // bounded by two meridians (geodesics) and two parallels, which bulge out of the geodesic
-  // between their ends by at most L^2 tan|lat| / (8 r) (L the parallel's length, r the parallel
-  // radius bound used here: the semi-minor axis); requiring every corner to lie deeper inside
-  // the wedge than that (an angle margin of bulge / distance) puts the whole block inside.
-  bool segment_end_throughout(const GeoSite& s, int64_t bx0, int64_t by0, int64_t bx1, int64_t by1, double& lat,
-                              double& lon) const {
-    if (s.piece_count != 1) return false;
-    const GridSpec& g = ctx_.grid;
-    const double lat_n = g.ymax - (static_cast<double>(by0) + 0.5) * g.res;
-    const double lat_s = g.ymax - (static_cast<double>(by1 - 1) + 0.5) * g.res;
-    const double max_abs_lat = std::max(std::abs(lat_n), std::abs(lat_s));
-    if (max_abs_lat > 85.0) return false;
-    constexpr double kRad = 3.14159265358979323846 / 180.0;
-    const double width = static_cast<double>(bx1 - 1 - bx0) * g.res * kRad * 6.4e6;  // >= parallel length
-    const double bulge = width * width * std::tan(max_abs_lat * kRad) / (8.0 * 6.35e6) + 1.0;
-    const GeographicLib::Geodesic& geod = geo_.geodesic();
-    const double corner_lat[2] = {lat_n, lat_s};
-    const double corner_lon[2] = {g.xmin + (static_cast<double>(bx0) + 0.5) * g.res,
-                                  g.xmin + (static_cast<double>(bx1 - 1) + 0.5) * g.res};
-    for (int end = 0; end < 2; ++end) {
-      const double vlat = end == 0 ? s.lat : s.lat_b, vlon = end == 0 ? s.lon : s.lon_b;
-      const double edge_azi = end == 0 ? s.azi_a : s.azi_b;
-      const double sign = end == 0 ? -1.0 : 1.0;
-      bool all = true;
-      for (int i = 0; i < 2 && all; ++i)
-        for (int j = 0; j < 2 && all; ++j) {
-          double d, azi1, azi2;
-          geod.Inverse(vlat, vlon, corner_lat[i], corner_lon[j], d, azi1, azi2);
-          if (!(d > bulge * 100.0) || !(d < kVertexMaxDistance)) {
-            all = false;
-            break;
-          }
-          double sin_w, cos_w;
-          GeographicLib::Math::sincosd(GeographicLib::Math::AngDiff(edge_azi, azi1), sin_w, cos_w);
-          all = sign * cos_w > kVertexSlope + bulge / d;
-        }
-      if (all) {
-        lat = vlat;
-        lon = vlon;
-        return true;
-      }
+  // 1 or 2 when single-piece segment `id` is certainly nearest at its first or second end from
+  // cell p (see kVertexSlope), 0 when that is not certain.
+  int segment_end_regime(const GeoCell& p, int32_t id) const {
+    if (geo_.site(id).piece_count != 1) return 0;
+    for (int e = 0; e < 2; ++e) {
+      const SegmentEnd& v = ends_[2 * static_cast<size_t>(id) + static_cast<size_t>(e)];
+      const double tx = p.x - v.x, ty = p.y - v.y, tz = p.z - v.z;
+      const double chord2 = tx * tx + ty * ty + tz * tz;
+      if (!(chord2 <= kVertexMaxChord * kVertexMaxChord)) return 0;
+      const double tn = tx * v.nx + ty * v.ny + tz * v.nz;
+      const double ux = tx - tn * v.nx, uy = ty - tn * v.ny, uz = tz - tn * v.nz;
+      const double len = std::sqrt(ux * ux + uy * uy + uz * uz);
+      if (!(len >= kVertexMinChord)) return 0;
+      const double cos_w = (ux * v.ex + uy * v.ey + uz * v.ez) / len;
+      // First end: the cell lies behind it (against the edge); second end: beyond it.
+      if ((e == 0 ? -cos_w : cos_w) > kVertexSlope + kVertexMargin) return e + 1;
     }
-    return false;
+    return 0;
   }
 
   // Rows first, then columns: the same operations, in the same order, as solve_interp's
@@ -446,20 +446,24 @@ class GeodesicExactSolver {
   // The value the method uses for candidate `id` at cell (c, r): the interpolated distance where
   // the site has an interpolant on the cell's block (a point site, or a segment nearest at one
   // of its ends throughout the block), else the exact distance. `exact` says which.
-  double value(GeoWorker& wk, int64_t c, int64_t r, int32_t id, bool& exact) const {
-    {
-      if (const Interpolant* it = interpolant(wk, c, r, id)) {
+  // `from` (optional) receives the interpolant used, null for an exact value.
+  double value(GeoWorker& wk, int64_t c, int64_t r, int32_t id, bool& exact, const Interpolant** from = nullptr) const {
+    if (from) *from = nullptr;
+    const GeoCell p = cell_at(c, r);
+    const int end = geo_.site(id).segment ? segment_end_regime(p, id) : 0;
+    if (!geo_.site(id).segment || end != 0) {
+      if (const Interpolant* it = interpolant(wk, c, r, id, end)) {
         double wt[4], wc[4];
         weights_row(r, wt);
         weights_col(c, wc);
-        const GeoCell p = cell_at(c, r);
         const double dx = p.x - it->sx, dy = p.y - it->sy, dz = p.z - it->sz;
         exact = false;
+        if (from) *from = it;
         return eval(*it, wt, wc) * std::sqrt(dx * dx + dy * dy + dz * dz);
       }
     }
     exact = true;
-    return geo_.distance(cell_at(c, r), id);
+    return geo_.distance(p, id);
   }
 
   // A close call between interpolated values: the exact distances of every candidate whose
@@ -480,7 +484,7 @@ class GeodesicExactSolver {
     put(c, r, id_best, d_best);
   }
 
-  // A block inside one interpolation block whose candidates all have an interpolant there.
+  // A block inside one interpolation block whose candidates are all point sites.
   void solve_interp(GeoWorker& wk, const std::vector<int32_t>& cands, int64_t c0, int64_t r0, int64_t c1,
                     int64_t r1) {
     if (cands.empty()) return fill_none(c0, r0, c1, r1);
@@ -573,13 +577,18 @@ class GeodesicExactSolver {
         // best distance is attained at an edge's end, an adjacent edge that is certainly
         // nearest at the same vertex has exactly the same (canonical) distance: it is settled
         // as a tie without a search (geodesic_sites.hpp, attains_at_vertex).
+        // Two edges nearest at the vertex they share both measure that vertex: their values
+        // are the same bits (same interpolation nodes), as brute force's canonical vertex
+        // distances are, so that is a true tie (lower id), not a close call.
         GeoEnd end, other_end;
         bool best_exact = true;
         double best;
-        if (geo_.site(cands[first]).segment && !interpolant(wk, c, r, cands[first]))
+        const Interpolant* best_from = nullptr;
+        const Interpolant* from = nullptr;
+        if (geo_.site(cands[first]).segment && segment_end_regime(p, cands[first]) == 0)
           best = geo_.distance(p, cands[first], &end);
         else
-          best = value(wk, c, r, cands[first], best_exact);
+          best = value(wk, c, r, cands[first], best_exact, &best_from);
         int32_t best_id = cands[first];
         double runner_up = std::numeric_limits<double>::infinity();
         bool runner_exact = true;
@@ -588,15 +597,20 @@ class GeodesicExactSolver {
           const int32_t id = cands[i];
           bool exact = true;
           double d;
-          if (geo_.site(id).segment && !interpolant(wk, c, r, id)) {
+          if (geo_.site(id).segment && segment_end_regime(p, id) == 0) {
             if (best_exact && geo_.attains_at_vertex(p, id, end, best)) {
               best_id = std::min(best_id, id);
               continue;
             }
             d = geo_.distance(p, id, &other_end);
           } else {
-            d = value(wk, c, r, id, exact);
+            d = value(wk, c, r, id, exact, &from);
             other_end.valid = false;
+          }
+          if (!exact && !best_exact && d == best && from->lat == best_from->lat && from->lon == best_from->lon &&
+              geo_.site(id).segment && geo_.site(best_id).segment) {
+            best_id = std::min(best_id, id);
+            continue;
           }
           if (d < best || (d == best && id < best_id)) {
             runner_up = best;
@@ -604,6 +618,7 @@ class GeodesicExactSolver {
             best = d;
             best_id = id;
             best_exact = exact;
+            best_from = exact ? nullptr : from;
             end = other_end;
           } else if (d < runner_up) {
             runner_up = d;
@@ -628,6 +643,7 @@ class GeodesicExactSolver {
   std::vector<double> lon_, cos_, sin_;  // per window column
   double max_distance_ = std::numeric_limits<double>::infinity();
   int64_t interp_block_ = kInterpMinBlock;  // interpolation block edge, cells (grid-aligned)
+  std::vector<SegmentEnd> ends_;            // per site: its two ends (segments only)
 };
 
 }  // namespace
