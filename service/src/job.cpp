@@ -382,6 +382,7 @@ JobResult run_job(const JobSpec& spec, const JobLimits& limits, const JobHooks& 
                                       {"multi_owner_squares", st.multi_owner_squares},
                                       {"unresolved_tripoints", st.unresolved_tripoints},
                                       {"sliver_crossings", st.sliver_crossings},
+                                      {"unresolved_slivers", st.unresolved_slivers},
                                       {"max_residual", st.max_residual * factor},
                                       {"max_residual_cells", st.max_residual / cell_length},
                                       {"simplify_cells", deliver.simplify_cells}};

@@ -48,13 +48,6 @@ std::string client_names(std::string message, const std::string& id) {
 
 }  // namespace
 
-std::string output_file_name(const std::string& output_id) {
-  if (output_id == "ownership") return "ownership.tif";
-  if (output_id == "distance") return "distance.tif";
-  if (output_id == "report") return "report.json";
-  throw Error(ErrorKind::internal, "unknown output id " + output_id);
-}
-
 JobManager::JobManager(JobStore& store, const ServerConfig& config, JobRunner runner)
     : store_(store), config_(config), runner_(std::move(runner)), limits_(effective_limits(config)) {
   std::filesystem::create_directories(std::filesystem::path(config_.data_dir) / "jobs");
@@ -91,6 +84,7 @@ JobRecord JobManager::submit(const std::string& id, Execution execution, Done on
   rec.inputs = execution.inputs_summary;
   rec.outputs = execution.outputs;
   rec.transmission = execution.transmission;
+  rec.formats = execution.formats;
 
   std::lock_guard lock(mutex_);
   if (stopping_) throw Error(ErrorKind::busy, "the server is shutting down; resubmit the job later");
@@ -201,11 +195,22 @@ JobRecord JobManager::run_task(Task& task) {
   out.cloud_optimized = true;
   // The ownership raster and the report are always written: the report is kept with the job
   // and the ownership raster carries the owner names (its attribute table).
-  out.ownership = (dir / output_file_name("ownership")).string();
+  out.ownership = (dir / output_file_name("ownership", "")).string();
   // The report is written below, by us: with file names instead of this server's paths.
   out.report.clear();
-  for (const std::string& o : rec.outputs) {
-    if (o == "distance") out.distance = (dir / output_file_name("distance")).string();
+  // Only the requested outputs get a path, so only they are computed. The file name (its
+  // extension) selects the format the façade writes.
+  for (size_t i = 0; i < rec.outputs.size(); ++i) {
+    const std::string& o = rec.outputs[i];
+    const std::string file = (dir / output_file_name(o, i < rec.formats.size() ? rec.formats[i] : "")).string();
+    if (o == "distance") out.distance = file;
+    else if (o == "nearestFeature") out.nearest_feature = file;
+    else if (o == "boundaries") out.boundaries = file;
+    else if (o == "tripoints") out.tripoints = file;
+    else if (o == "limits") out.limits = file;
+    else if (o == "regions") out.regions = file;
+    else if (o == "margin") out.margin = file;
+    else if (o == "preview") out.preview = file;
   }
 
   rec.status = JobStatus::running;
@@ -237,7 +242,7 @@ JobRecord JobManager::run_task(Task& task) {
         if (value.is_string()) value = std::filesystem::path(value.get<std::string>()).filename().string();
       }
     }
-    write_file_atomically(dir / output_file_name("report"), result.report.dump(2) + "\n");
+    write_file_atomically(dir / output_file_name("report", ""), result.report.dump(2) + "\n");
   } catch (const Error& e) {
     error_kind = e.kind();
     error_message = client_names(e.what(), id);
