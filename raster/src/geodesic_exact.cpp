@@ -98,9 +98,20 @@ struct SegmentEnd {
 struct Interpolant {
   int32_t id;         // the site (a point site, or a segment measured at one of its ends)
   double lat, lon;    // the point measured from: the point site, or the segment's end
-  double sx, sy, sz;  // its ECEF position
+  double sx, sy, sz;  // its ECEF position (line: a point of the edge's chord line)
+  bool line = false;  // q = d / distance to the chord line (direction u) instead of the chord
+  double ux = 0.0, uy = 0.0, uz = 0.0;
   double q[4][4];     // d / chord at the nodes [row][col]
 };
+
+// The normaliser of an interpolant at ECEF (x, y, z): the chord to its point, or for a segment's
+// interior the distance to the straight line through the edge's ends.
+inline double normaliser(const Interpolant& it, double x, double y, double z) {
+  const double dx = x - it.sx, dy = y - it.sy, dz = z - it.sz;
+  if (!it.line) return std::sqrt(dx * dx + dy * dy + dz * dz);
+  const double cx = dy * it.uz - dz * it.uy, cy = dz * it.ux - dx * it.uz, cz = dx * it.uy - dy * it.ux;
+  return std::sqrt(cx * cx + cy * cy + cz * cz);
+}
 
 struct GeoWorker {
   std::vector<std::vector<int32_t>> levels;  // candidate lists per recursion depth
@@ -363,6 +374,7 @@ class GeodesicExactSolver {
     if (bx1 - bx0 < kInterpMinEdge || by1 - by0 < kInterpMinEdge) return false;
     const GeoSite& s = geo_.site(id);
     it.id = id;
+    if (end == 3) return build_line_interpolant(it, bx0, by0, bx1, by1, id);
     if (end == 0) {
       it.lat = s.lat;
       it.lon = s.lon;
@@ -403,10 +415,91 @@ class GeodesicExactSolver {
     return std::abs(approx - exact(centre)) <= kInterpCheck;
   }
 
-  // 1 or 2 when single-piece segment `id` is certainly nearest at its first or second end from
-  // cell p (see kVertexSlope), 0 when that is not certain.
-  int segment_end_regime(const GeoCell& p, int32_t id) const {
+  // The interior of a segment: d_line(P), the distance to the edge's geodesic extended beyond
+  // both ends (far enough that every node's nearest point is inside), over the distance to the
+  // straight line through the ends' ECEF positions. Where the cell's nearest point of the edge
+  // is inside it (segment_regime 3) that is the segment's distance.
+  bool build_line_interpolant(Interpolant& it, int64_t bx0, int64_t by0, int64_t bx1, int64_t by1,
+                              int32_t id) const {
+    const GeoSite& s = geo_.site(id);
+    const SegmentEnd& va = ends_[2 * static_cast<size_t>(id)];
+    const SegmentEnd& vb = ends_[2 * static_cast<size_t>(id) + 1];
+    const double ux = vb.x - va.x, uy = vb.y - va.y, uz = vb.z - va.z;
+    const double len = std::sqrt(ux * ux + uy * uy + uz * uz);
+    if (!(len >= 1.0)) return false;
+    it.line = true;
+    it.lat = s.lat;
+    it.lon = s.lon;
+    it.sx = va.x;
+    it.sy = va.y;
+    it.sz = va.z;
+    it.ux = ux / len;
+    it.uy = uy / len;
+    it.uz = uz / len;
+    // The extension: a cell of the block whose nearest point is inside the edge has every other
+    // cell of the block within the block's diagonal d (its corners' chord, 1.25 d covering
+    // chord vs arc) of it, so their nearest points of the extended line lie within that of the
+    // edge; 1 km more for good measure. A node nearest at an end of the extension rejects the
+    // interpolant anyway.
+    const GeoCell c00 = cell_at_fraction(static_cast<double>(bx0), static_cast<double>(by0));
+    const GeoCell c11 = cell_at_fraction(static_cast<double>(bx1 - 1), static_cast<double>(by1 - 1));
+    const GeoCell c01 = cell_at_fraction(static_cast<double>(bx1 - 1), static_cast<double>(by0));
+    const GeoCell c10 = cell_at_fraction(static_cast<double>(bx0), static_cast<double>(by1 - 1));
+    auto chord = [](const GeoCell& a, const GeoCell& b) {
+      return std::sqrt((a.x - b.x) * (a.x - b.x) + (a.y - b.y) * (a.y - b.y) + (a.z - b.z) * (a.z - b.z));
+    };
+    const double diag = std::max(chord(c00, c11), chord(c01, c10));
+    const double ext = 1.25 * diag + 1000.0;
+    if (!(ext < 0.45 * kGeoPieceLength)) return false;
+    const GeographicLib::Geodesic& geod = geo_.geodesic();
+    Site extended;
+    extended.kind = SiteKind::segment;
+    extended.feature = 0;
+    double lat, lon;
+    geod.Direct(s.lat, s.lon, s.azi_a + 180.0, ext, lat, lon);
+    extended.a = Vec2{lon, lat};
+    geod.Direct(s.lat_b, s.lon_b, s.azi_b, ext, lat, lon);
+    extended.b = Vec2{lon, lat};
+    MetricSpec m;
+    m.kind = MetricSpec::geodesic;
+    m.semi_major = geod.EquatorialRadius();
+    m.flattening = geod.Flattening();
+    const GeoSites line(m, std::vector<Site>{extended});
+    bool ok = true;
+    auto exact = [&](const GeoCell& p) {
+      GeoEnd end;
+      const double d = line.distance(p, 0, &end);
+      if (end.valid) ok = false;  // nearest at an end of the extension: not the line's distance
+      return d;
+    };
+    for (int a = 0; a < 4 && ok; ++a)
+      for (int b = 0; b < 4 && ok; ++b) {
+        const GeoCell p = cell_at_fraction(node_at(bx0, bx1 - 1, b / 3.0), node_at(by0, by1 - 1, a / 3.0));
+        const double d = exact(p);
+        const double h = normaliser(it, p.x, p.y, p.z);
+        // The geodesic and the straight line through the ends vanish on slightly different
+        // curves, so d / h has a pole next to the edge: only blocks well away from it (every
+        // node at least half the block's diagonal from the line) are interpolated.
+        if (!(h >= 0.5 * diag + kInterpMinChord) || !(d <= kInterpMaxDistance)) return false;
+        it.q[a][b] = d / h;
+      }
+    if (!ok) return false;
+    const GeoCell centre = cell_at_fraction(node_at(bx0, bx1 - 1, 0.5), node_at(by0, by1 - 1, 0.5));
+    double wt[4], wc[4];
+    cubic_weights(0.5, wt);
+    cubic_weights(0.5, wc);
+    const double approx = eval(it, wt, wc) * normaliser(it, centre.x, centre.y, centre.z);
+    const double want = exact(centre);
+    return ok && std::abs(approx - want) <= kInterpCheck;
+  }
+
+  // For single-piece segment `id` seen from cell p: 1 or 2 when it is certainly nearest at its
+  // first or second end, 3 when certainly nearest at an interior point (the cell ahead of the
+  // first end and behind the second, so the convex distance along the edge has its minimum
+  // inside), 0 when neither is certain (see kVertexSlope).
+  int segment_regime(const GeoCell& p, int32_t id) const {
     if (geo_.site(id).piece_count != 1) return 0;
+    double cos_w[2];
     for (int e = 0; e < 2; ++e) {
       const SegmentEnd& v = ends_[2 * static_cast<size_t>(id) + static_cast<size_t>(e)];
       const double tx = p.x - v.x, ty = p.y - v.y, tz = p.z - v.z;
@@ -416,10 +509,13 @@ class GeodesicExactSolver {
       const double ux = tx - tn * v.nx, uy = ty - tn * v.ny, uz = tz - tn * v.nz;
       const double len = std::sqrt(ux * ux + uy * uy + uz * uz);
       if (!(len >= kVertexMinChord)) return 0;
-      const double cos_w = (ux * v.ex + uy * v.ey + uz * v.ez) / len;
-      // First end: the cell lies behind it (against the edge); second end: beyond it.
-      if ((e == 0 ? -cos_w : cos_w) > kVertexSlope + kVertexMargin) return e + 1;
+      cos_w[e] = (ux * v.ex + uy * v.ey + uz * v.ez) / len;
     }
+    constexpr double kSure = kVertexSlope + kVertexMargin;
+    // First end: the cell lies behind it (against the edge); second end: beyond it.
+    if (-cos_w[0] > kSure) return 1;
+    if (cos_w[1] > kSure) return 2;
+    if (cos_w[0] > kSure && -cos_w[1] > kSure) return 3;
     return 0;
   }
 
@@ -450,16 +546,15 @@ class GeodesicExactSolver {
   double value(GeoWorker& wk, int64_t c, int64_t r, int32_t id, bool& exact, const Interpolant** from = nullptr) const {
     if (from) *from = nullptr;
     const GeoCell p = cell_at(c, r);
-    const int end = geo_.site(id).segment ? segment_end_regime(p, id) : 0;
+    const int end = geo_.site(id).segment ? segment_regime(p, id) : 0;
     if (!geo_.site(id).segment || end != 0) {
       if (const Interpolant* it = interpolant(wk, c, r, id, end)) {
         double wt[4], wc[4];
         weights_row(r, wt);
         weights_col(c, wc);
-        const double dx = p.x - it->sx, dy = p.y - it->sy, dz = p.z - it->sz;
         exact = false;
         if (from) *from = it;
-        return eval(*it, wt, wc) * std::sqrt(dx * dx + dy * dy + dz * dz);
+        return eval(*it, wt, wc) * normaliser(*it, p.x, p.y, p.z);
       }
     }
     exact = true;
@@ -585,7 +680,7 @@ class GeodesicExactSolver {
         double best;
         const Interpolant* best_from = nullptr;
         const Interpolant* from = nullptr;
-        if (geo_.site(cands[first]).segment && segment_end_regime(p, cands[first]) == 0)
+        if (geo_.site(cands[first]).segment && segment_regime(p, cands[first]) == 0)
           best = geo_.distance(p, cands[first], &end);
         else
           best = value(wk, c, r, cands[first], best_exact, &best_from);
@@ -597,7 +692,7 @@ class GeodesicExactSolver {
           const int32_t id = cands[i];
           bool exact = true;
           double d;
-          if (geo_.site(id).segment && segment_end_regime(p, id) == 0) {
+          if (geo_.site(id).segment && segment_regime(p, id) == 0) {
             if (best_exact && geo_.attains_at_vertex(p, id, end, best)) {
               best_id = std::min(best_id, id);
               continue;
@@ -607,8 +702,8 @@ class GeodesicExactSolver {
             d = value(wk, c, r, id, exact, &from);
             other_end.valid = false;
           }
-          if (!exact && !best_exact && d == best && from->lat == best_from->lat && from->lon == best_from->lon &&
-              geo_.site(id).segment && geo_.site(best_id).segment) {
+          if (!exact && !best_exact && d == best && !from->line && !best_from->line && from->lat == best_from->lat &&
+              from->lon == best_from->lon && geo_.site(id).segment && geo_.site(best_id).segment) {
             best_id = std::min(best_id, id);
             continue;
           }

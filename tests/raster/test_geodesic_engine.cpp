@@ -197,6 +197,33 @@ TEST(GeodesicEngine, InterpolatedTiesGoToTheLowerSite) {
   for (int64_t r = 0; r < g.height; ++r) EXPECT_NE(f.site.at(600, r), 2);  // never the duplicate
 }
 
+// A coastline seen from offshore (20 .. 120 km): cells whose nearest point is inside an edge
+// use the edge's line interpolant, cells nearest at a vertex the vertex's. Owners equal brute
+// force's, distances to the last float bit, and match GeodesicMeasure's segment distance.
+TEST(GeodesicEngine, OffshoreCellsOfACoastline) {
+  SeedSet s;
+  std::vector<Vec2> coast_a, coast_b;
+  for (int i = 0; i <= 40; ++i) {
+    const double t = i / 40.0;
+    coast_a.push_back({3.0 + 2.0 * t, 60.0 + 0.02 * std::sin(9.0 * t)});       // ~5.6 km edges
+    coast_b.push_back({3.0 + 2.0 * t, 62.2 + 0.015 * std::cos(7.0 * t + 1)});  // opposite shore
+  }
+  s.add_polyline(s.add_feature(s.owner_code("south")), coast_a);
+  s.add_polyline(s.add_feature(s.owner_code("north")), coast_b);
+  const GridSpec g = geo_grid(3.1, 61.9, 0.006, 300, 267);  // 60.3N .. 61.9N
+  expect_exact_equals_brute(s, g, "offshore");
+  const NearestField f = run(s, g, Method::exact);
+  const GeodesicMeasure m(wgs84());
+  for (int64_t r = 0; r < g.height; r += 37)
+    for (int64_t c = 0; c < g.width; c += 41) {
+      const Vec2 p{g.centre_x(c), g.centre_y(r)};
+      double best = std::numeric_limits<double>::infinity();
+      for (const auto* line : {&coast_a, &coast_b})
+        for (size_t i = 0; i + 1 < line->size(); ++i) best = std::min(best, m.segment_distance(p, (*line)[i], (*line)[i + 1]));
+      EXPECT_NEAR(f.distance.at(c, r), best, best * 1.2e-7) << c << "," << r;
+    }
+}
+
 TEST(GeodesicEngine, GeodesicOwnerDiffersFromPlanarDegrees) {
   // At 60N a degree of longitude is ~55.8 km and a degree of latitude ~111.4 km. The cell at
   // (0.05, 59.95) is 1.0 degree below seed A and 1.4 degrees west of seed B: planar in degrees
