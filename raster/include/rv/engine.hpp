@@ -119,8 +119,12 @@ int64_t estimate_memory(Method m, int64_t cells, int64_t sites, MetricSpec::Kind
 // +-90), rv::Error(cancelled).
 NearestField compute(const SeedSet& seeds, const GridSpec& grid, const ComputeOptions& options);
 
-// The same, writing into `out` and reusing its buffers when they already have the window's size
-// (a fresh buffer costs the kernel's page zeroing, about half the time of a large exact run).
+// The same, writing into `out` and reusing its buffers whenever they are at least the window's
+// size, whatever grid or window they held before (a fresh buffer costs the kernel's page
+// zeroing, about half the time of a large exact run; a job streamed in strips computes every
+// strip into the same buffers). For the exact and brute-force methods the cells of a window
+// equal the same cells of the whole grid's result, bit for bit; the scans' do not (they
+// propagate inside the window).
 void compute_into(const SeedSet& seeds, const GridSpec& grid, const ComputeOptions& options,
                   NearestField& out);
 
