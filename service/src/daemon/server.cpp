@@ -110,8 +110,9 @@ class Session : public std::enable_shared_from_this<Session> {
   // with an upload) is told to go on instead of waiting a second for nothing.
   void on_header(beast::error_code ec, std::size_t bytes) {
     // Before the body: a client without a valid token cannot make us read (and hold) an upload,
-    // nor learn the body limit (a Content-Length over it fails the header read with body_limit).
-    if ((!ec || ec == http::error::body_limit) && parser_->is_header_done()) {
+    // nor learn the body limit. A Content-Length over it fails the header read with body_limit
+    // once every field is parsed (Beast checks it when the header ends), so the fields are there.
+    if ((!ec && parser_->is_header_done()) || ec == http::error::body_limit) {
       const auto& head = parser_->get();
       const auto target = head.target();
       const auto authorization = head[http::field::authorization];
