@@ -12,9 +12,11 @@ warm-up: at most max(32 MiB, 25 %) above it.
 Why that bound: after the warm-up every allocator arena, thread stack, GDAL driver and SQLite
 page cache exists; what may still grow is bounded by configuration, not by the number of
 requests (SQLite's cache is at most 2 MiB, glibc keeps at most a few MiB per arena, and the
-daemon trims the heap whenever no job runs). A leak of even one kilobyte per request would
-exceed it: the run makes tens of thousands of requests. The baseline is taken after the warm-up
-because the first requests initialise all of that once.
+daemon trims the heap whenever no job runs). What the bound catches: the run makes some 20 000
+requests and 2 000 jobs (on a loaded 2-core machine; more on a faster one), so a leak of 2 KiB
+per request, or of one job's grid buffers (about 25 KiB at this job's 41 x 50 cells), exceeds
+it. The baseline is taken after the warm-up because the first requests initialise all of that
+once; 25 % allows for a larger baseline on machines with more cores (more arenas and threads).
 
 Prints requests per second, p50/p99 latency per kind and overall, and the RSS figures.
 usage: test_load.py RVORONOI SOURCE_DIR [--sanitized]
