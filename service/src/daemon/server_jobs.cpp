@@ -145,19 +145,20 @@ void JobManager::worker_loop() {
       idle = running_.empty();
     }
     idle_cv_.notify_all();
-#ifdef __GLIBC__
-    // The job's grid-sized buffers are free now, but glibc keeps freed heap memory in the
-    // arenas (large blocks under its adaptive mmap threshold included) for reuse. A daemon idles
-    // most of the time: hand the memory back when no job runs, so that its resident size returns
-    // near its start instead of staying at the last peak (tests/service/test_load.py checks it).
-    if (idle) malloc_trim(0);
-#endif
     log_line("{\"time\":\"" + now_rfc3339() + "\",\"event\":\"job\",\"job\":\"" + task.id +
              "\",\"status\":\"" + std::string(to_string(final_record.status)) + "\",\"message\":" +
              nlohmann::json(final_record.message).dump() + "}");
     // Only now: whoever is told the job ended (a synchronous client) may act on it at once, and
     // a dismissal then finds it finished, not running.
     if (task.on_done) task.on_done(final_record);
+#ifdef __GLIBC__
+    // The job's grid-sized buffers are free now, but glibc keeps freed heap memory in the arenas
+    // (large blocks under its adaptive mmap threshold included) for reuse. A daemon idles most
+    // of the time: hand the memory back when no job runs, so that its resident size returns near
+    // its start instead of staying at the last peak (tests/service/test_load.py checks it).
+    // After the answer above, which need not wait for it.
+    if (idle) malloc_trim(0);
+#endif
   }
 }
 
