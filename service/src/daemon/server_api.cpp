@@ -56,20 +56,6 @@ ErrorKind parse_error_kind(const std::string& name) {
   return ErrorKind::internal;
 }
 
-std::string percent_decode(std::string_view s) {
-  std::string out;
-  for (size_t i = 0; i < s.size(); ++i) {
-    if (s[i] == '%' && i + 2 < s.size() && std::isxdigit(static_cast<unsigned char>(s[i + 1])) &&
-        std::isxdigit(static_cast<unsigned char>(s[i + 2]))) {
-      out += static_cast<char>(std::stoi(std::string(s.substr(i + 1, 2)), nullptr, 16));
-      i += 2;
-    } else {
-      out += s[i] == '+' ? ' ' : s[i];
-    }
-  }
-  return out;
-}
-
 std::vector<std::string> split(std::string_view s, char sep) {
   std::vector<std::string> parts;
   size_t start = 0;
@@ -429,10 +415,7 @@ void Api::route(const Context& ctx, const std::shared_ptr<Respond>& respond) {
   const std::string& base = ctx.base;
   const bool get = method == "GET" || method == "HEAD";
   auto reply = [&](ApiResponse r) { (*respond)(std::move(r)); };
-  std::vector<std::string> seg;
-  for (const std::string& s : split(path, '/')) {
-    if (!s.empty()) seg.push_back(percent_decode(s));
-  }
+  const std::vector<std::string> seg = path_segments(path);
 
   if (seg.empty()) {
     if (!get) return reply(method_not_allowed("GET, HEAD", path));

@@ -1,5 +1,7 @@
 #include "server_jobs.hpp"
 
+#include <malloc.h>
+
 #include <cmath>
 #include <fstream>
 #include <regex>
@@ -130,9 +132,11 @@ void JobManager::worker_loop() {
       final_record.error_kind = std::string(to_string(ErrorKind::io));
       final_record.message = std::string("the job store failed: ") + e.what();
     }
+    bool idle = false;
     {
       std::lock_guard lock(mutex_);
       running_.erase(task.id);
+      idle = running_.empty();
     }
     idle_cv_.notify_all();
     log_line("{\"time\":\"" + now_rfc3339() + "\",\"event\":\"job\",\"job\":\"" + task.id +
@@ -141,6 +145,14 @@ void JobManager::worker_loop() {
     // Only now: whoever is told the job ended (a synchronous client) may act on it at once, and
     // a dismissal then finds it finished, not running.
     if (task.on_done) task.on_done(final_record);
+#ifdef __GLIBC__
+    // The job's grid-sized buffers are free now, but glibc keeps freed heap memory in the arenas
+    // (large blocks under its adaptive mmap threshold included) for reuse. A daemon idles most
+    // of the time: hand the memory back when no job runs, so that its resident size returns near
+    // its start instead of staying at the last peak (tests/service/test_load.py checks it).
+    // After the answer above, which need not wait for it.
+    if (idle) malloc_trim(0);
+#endif
   }
 }
 
@@ -246,6 +258,13 @@ JobRecord JobManager::run_task(Task& task) {
   } catch (const Error& e) {
     error_kind = e.kind();
     error_message = client_names(e.what(), id);
+    // The job directory is this server's business: the client knows the files by output id.
+    for (size_t at; (at = error_message.find(dir.string() + "/")) != std::string::npos;) {
+      error_message.erase(at, dir.string().size() + 1);
+    }
+    // Reading happens in memory; an I/O failure is the result files (a full disk, a file size
+    // limit): say so first, GDAL's reason (e.g. "No space left on device") follows.
+    if (e.kind() == ErrorKind::io) error_message = "the job's results could not be written: " + error_message;
     // The seed reader names the feature at fault; say which input it came from.
     if (e.kind() == ErrorKind::invalid_input || e.kind() == ErrorKind::conflict) {
       error_message = "input 'seeds': " + error_message;
