@@ -2,7 +2,8 @@
 // the same grid of >= 1e6 cells. The planar run treats longitude/latitude degrees as plane
 // coordinates: it is the speed reference only (its owners are not the right ones).
 //
-//   geodesic_bench [--size N] [--threads T] [--points P] [--coast-vertices V]
+//   geodesic_bench [--size N] [--threads T] [--points P] [--coast-vertices V] [--no-scan]
+// (--no-scan goes last, or anywhere as a flag of its own: it skips the hv-scan rows)
 //
 // Scenarios: P random point seeds, and two coastlines of V vertices each (many short geodesic
 // edges, as real coastline data has) facing each other across a strait, near 55.5N.
@@ -24,11 +25,15 @@ struct Args {
   int threads = 1;
   int points = 100;
   int coast_vertices = 500;
+  bool scans = true;  // --no-scan: the exact method only
 };
 
 Args parse(int argc, char** argv) {
   Args a;
+  for (int i = 1; i < argc; ++i)
+    if (std::string(argv[i]) == "--no-scan") a.scans = false;
   for (int i = 1; i + 1 < argc; i += 2) {
+    if (std::string(argv[i]) == "--no-scan") --i, ++i;
     const std::string k = argv[i];
     const long v = std::strtol(argv[i + 1], nullptr, 10);
     if (k == "--size") a.size = v;
@@ -55,7 +60,7 @@ double run(const rv::SeedSet& s, const rv::GridSpec& g, rv::Method m, rv::Metric
   return ns;
 }
 
-void scenario(const char* name, const rv::SeedSet& s, const rv::GridSpec& g, int threads) {
+void scenario(const char* name, const rv::SeedSet& s, const rv::GridSpec& g, int threads, bool scans) {
   rv::MetricSpec geodesic;
   geodesic.kind = rv::MetricSpec::geodesic;
   const double planar_ns = run(s, g, rv::Method::exact, {}, threads);
@@ -63,23 +68,25 @@ void scenario(const char* name, const rv::SeedSet& s, const rv::GridSpec& g, int
   rv::NearestField exact;
   const double geo_ns = run(s, g, rv::Method::exact, geodesic, threads, &exact);
   const rv::GeodesicSegmentCounters counters = rv::geodesic_segment_counters();
-  const double planar_hv_ns = run(s, g, rv::Method::hv_scan, {}, threads);
   rv::NearestField hv;
-  const double geo_hv_ns = run(s, g, rv::Method::hv_scan, geodesic, threads, &hv);
-  const rv::ValidationStats st = rv::compare_fields(s, hv, exact);
+  const double planar_hv_ns = scans ? run(s, g, rv::Method::hv_scan, {}, threads) : 0.0;
+  const double geo_hv_ns = scans ? run(s, g, rv::Method::hv_scan, geodesic, threads, &hv) : 0.0;
+  const rv::ValidationStats st = scans ? rv::compare_fields(s, hv, exact) : rv::ValidationStats{};
   std::printf("%-12s %lldx%lld cells, %lld geometric sites, %d thread(s)\n", name,
               static_cast<long long>(g.width), static_cast<long long>(g.height),
               static_cast<long long>(s.geometric_site_count()), threads);
   std::printf("  exact    planar %8.1f ns/cell   geodesic %8.1f ns/cell   ratio %6.1f\n", planar_ns, geo_ns,
               geo_ns / planar_ns);
-  std::printf("  hv-scan  planar %8.1f ns/cell   geodesic %8.1f ns/cell   ratio %6.1f\n", planar_hv_ns,
-              geo_hv_ns, geo_hv_ns / planar_hv_ns);
+  if (scans)
+    std::printf("  hv-scan  planar %8.1f ns/cell   geodesic %8.1f ns/cell   ratio %6.1f\n", planar_hv_ns,
+                geo_hv_ns, geo_hv_ns / planar_hv_ns);
   if (counters.calls > 0)
     std::printf("  segment searches %lld, inverse problems per search %.2f (calling thread only)\n",
                 static_cast<long long>(counters.calls),
                 static_cast<double>(counters.evaluations) / static_cast<double>(counters.calls));
-  std::printf("  geodesic hv-scan vs exact: %lld wrong cells, max error %.3f m (%.3f cells)\n",
-              static_cast<long long>(st.wrong_cells), st.max_error, st.max_error_cells);
+  if (scans)
+    std::printf("  geodesic hv-scan vs exact: %lld wrong cells, max error %.3f m (%.3f cells)\n",
+                static_cast<long long>(st.wrong_cells), st.max_error, st.max_error_cells);
 }
 
 }  // namespace
@@ -100,7 +107,7 @@ int main(int argc, char** argv) {
     std::mt19937_64 rng(1);
     std::uniform_real_distribution<double> lon(g.xmin, g.xmax()), lat(g.ymin(), g.ymax);
     for (int i = 0; i < a.points; ++i) s.add_point(s.add_feature(s.owner_code(std::to_string(i % 7))), {lon(rng), lat(rng)});
-    scenario("points", s, g, a.threads);
+    scenario("points", s, g, a.threads, a.scans);
   }
   {
     rv::SeedSet s;
@@ -115,7 +122,7 @@ int main(int argc, char** argv) {
       }
       s.add_polyline(s.add_feature(s.owner_code(side == 0 ? "DK" : "SE")), line);
     }
-    scenario("coastlines", s, g, a.threads);
+    scenario("coastlines", s, g, a.threads, a.scans);
   }
   return 0;
 }

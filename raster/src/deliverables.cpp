@@ -474,9 +474,11 @@ struct Crossing {
   int64_t edge;
   int32_t owner_lo, owner_hi;
   BoundaryVertex v;
-  bool sliver = false;
-  int32_t third = 0;  // sliver: the owner nearer than both at the A-B root
 };
+
+// How deep the owners passing between two cell centres are followed (A | C D E ... | B): each
+// level finds one more owner between; beyond it the segment is dropped as unresolved.
+constexpr int kMaxSliverDepth = 8;
 
 struct TripointSolver {
   const OwnerIndex& index;
@@ -566,69 +568,89 @@ BoundaryResult extract_boundaries(const NearestField& field, const OwnerIndex& i
   };
 
   // 1. Crossings: every 4-neighbour pair of differently owned cells, placed on the locus.
-  std::vector<Crossing> crossings;
+  struct Segment {
+    int64_t edge;
+    int32_t from, to;  // owner of the first and the second cell centre
+  };
+  std::vector<Segment> segments;
   for (int64_t r = 0; r < H; ++r)
     for (int64_t c = 0; c < W; ++c) {
       const int32_t o = owner(c, r);
       if (o == 0) continue;
       if (c + 1 < W) {
         const int32_t q = owner(c + 1, r);
-        if (q != 0 && q != o) crossings.push_back(Crossing{edge_right(W, c, r), o, q, {}, false, 0});
+        if (q != 0 && q != o) segments.push_back(Segment{edge_right(W, c, r), o, q});
       }
       if (r + 1 < H) {
         const int32_t q = owner(c, r + 1);
-        if (q != 0 && q != o) crossings.push_back(Crossing{edge_down(W, c, r), o, q, {}, false, 0});
+        if (q != 0 && q != o) segments.push_back(Segment{edge_down(W, c, r), o, q});
       }
     }
-  result.stats.crossings = static_cast<int64_t>(crossings.size());
+  result.stats.crossings = static_cast<int64_t>(segments.size());
+  // A third owner nearer than both at the A-B root means its region passes between the two
+  // cell centres without holding one: A and B do not touch there. The segment then carries the
+  // A-C and C-B crossings instead (and so on, for more owners between): without them the
+  // sides of a region thinner than a cell would have no vertex until the region holds a
+  // centre, and the lines along it could not reach the tripoint at its tip (they dangled).
   const int64_t chunk = 256;
-  detail::parallel_for(threads, (static_cast<int64_t>(crossings.size()) + chunk - 1) / chunk, [&](int64_t k, int) {
-    const size_t end = std::min(crossings.size(), static_cast<size_t>((k + 1) * chunk));
+  const int64_t chunks = (static_cast<int64_t>(segments.size()) + chunk - 1) / chunk;
+  std::vector<std::vector<Crossing>> chunk_crossings(static_cast<size_t>(chunks));
+  std::vector<std::vector<std::pair<int64_t, int32_t>>> chunk_slivers(static_cast<size_t>(chunks));
+  std::vector<int64_t> chunk_unresolved(static_cast<size_t>(chunks), 0);
+  detail::parallel_for(threads, chunks, [&](int64_t k, int) {
+    auto& out = chunk_crossings[static_cast<size_t>(k)];
+    const size_t end = std::min(segments.size(), static_cast<size_t>((k + 1) * chunk));
     for (size_t i = static_cast<size_t>(k * chunk); i < end; ++i) {
-      Crossing& x = crossings[i];
-      const int64_t cell_id = x.edge / 2;
+      const Segment& sg = segments[i];
+      const int64_t cell_id = sg.edge / 2;
       const int64_t c = cell_id % W, r = cell_id / W;
       const Vec2 p0 = centre(g, c, r);
-      const Vec2 p1 = (x.edge % 2 == 0) ? centre(g, c + 1, r) : centre(g, c, r + 1);
-      const int32_t a = x.owner_lo, b = x.owner_hi;  // a owns p0, b owns p1 (not yet sorted)
-      auto f = [&](double t) {
+      const Vec2 p1 = (sg.edge % 2 == 0) ? centre(g, c + 1, r) : centre(g, c, r + 1);
+      // Owner x is nearest at t0, owner y at t1: place the x-y root, or split at the owner
+      // found nearer there. Appends in order of t.
+      auto place = [&](auto&& self, int32_t x, int32_t y, double t0, double t1, int depth) -> void {
+        auto f = [&](double t) {
+          const Vec2 p = lerp(p0, p1, t);
+          return index.nearest_of(p, x).distance - index.nearest_of(p, y).distance;
+        };
+        const double t = t0 + (t1 - t0) * find_root([&](double u) { return f(t0 + (t1 - t0) * u); }, f(t0), f(t1),
+                                                     ftol, 1e-15);
         const Vec2 p = lerp(p0, p1, t);
-        return index.nearest_of(p, a).distance - index.nearest_of(p, b).distance;
+        const auto hx = index.nearest_of(p, x), hy = index.nearest_of(p, y);
+        BoundaryVertex v{p, hx.site, hy.site, 0.5 * (hx.distance + hy.distance), std::abs(hx.distance - hy.distance)};
+        const auto nearest = index.nearest(p);
+        if (nearest.distance < v.distance - 4.0 * ftol - v.residual) {
+          const int32_t z = owner_of_site[static_cast<size_t>(nearest.site)];
+          if (depth == 0) chunk_slivers[static_cast<size_t>(k)].emplace_back(sg.edge, z);
+          if (depth >= kMaxSliverDepth) {
+            ++chunk_unresolved[static_cast<size_t>(k)];
+            return;
+          }
+          self(self, x, z, t0, t, depth + 1);
+          self(self, z, y, t, t1, depth + 1);
+          return;
+        }
+        if (x > y) std::swap(v.site_a, v.site_b);
+        out.push_back(Crossing{sg.edge, std::min(x, y), std::max(x, y), v});
       };
-      const double t = find_root(f, f(0.0), f(1.0), ftol, 1e-15);
-      const Vec2 p = lerp(p0, p1, t);
-      const auto ha = index.nearest_of(p, a), hb = index.nearest_of(p, b);
-      BoundaryVertex v{p, ha.site, hb.site, 0.5 * (ha.distance + hb.distance), std::abs(ha.distance - hb.distance)};
-      if (a > b) {
-        std::swap(x.owner_lo, x.owner_hi);
-        std::swap(v.site_a, v.site_b);
-      }
-      x.v = v;
-      // A third owner nearer than both at the root means its region passes between the two
-      // cell centres without holding a centre: A and B do not touch here, and the point is
-      // not a boundary vertex (the gap is the truth at this resolution).
-      const auto nearest = index.nearest(p);
-      x.sliver = nearest.distance < v.distance - 4.0 * ftol - v.residual;
-      if (x.sliver) x.third = owner_of_site[static_cast<size_t>(nearest.site)];
+      place(place, sg.from, sg.to, 0.0, 1.0, 0);
     }
   });
-  std::unordered_map<int64_t, int32_t> crossing_at;
-  crossing_at.reserve(crossings.size() * 2);
-  std::unordered_map<int64_t, int32_t> sliver_at;  // edge -> the third owner passing between
-  {
-    std::vector<Crossing> kept;
-    kept.reserve(crossings.size());
-    for (Crossing& x : crossings) {
-      if (x.sliver) {
-        ++result.stats.sliver_crossings;
-        sliver_at.emplace(x.edge, x.third);
-        continue;
-      }
-      crossing_at.emplace(x.edge, static_cast<int32_t>(kept.size()));
-      kept.push_back(x);
+  std::vector<Crossing> crossings;
+  // Edge -> its crossings: consecutive in `crossings` (first index, count), in order along it.
+  std::unordered_map<int64_t, std::pair<int32_t, int32_t>> crossings_on;
+  crossings_on.reserve(segments.size() * 2);
+  std::unordered_map<int64_t, int32_t> sliver_at;  // edge -> the (first) owner passing between
+  for (size_t k = 0; k < chunk_crossings.size(); ++k) {
+    for (const Crossing& x : chunk_crossings[k]) {
+      auto [it, fresh] = crossings_on.try_emplace(x.edge, static_cast<int32_t>(crossings.size()), 0);
+      ++it->second.second;
+      crossings.push_back(x);
     }
-    crossings.swap(kept);
+    for (const auto& [edge, third] : chunk_slivers[k]) sliver_at.emplace(edge, third);
+    result.stats.unresolved_slivers += chunk_unresolved[k];
   }
+  result.stats.sliver_crossings = static_cast<int64_t>(sliver_at.size());
 
   // 2. Dual squares: tripoints, then links between crossings and tripoints.
   std::vector<std::array<int32_t, 2>> links;  // node ids: crossings, then tripoints
@@ -656,9 +678,15 @@ BoundaryResult extract_boundaries(const NearestField& field, const OwnerIndex& i
   TripointSolver solver{index, ftol, 1e-6 * g.res};
   std::map<std::array<int32_t, 3>, std::vector<int32_t>> tripoints_by_owners;
   std::unordered_map<int64_t, std::vector<int32_t>> tripoints_in;  // square id -> tripoint ids
+  // A tripoint between the outermost cell centres and the grid's edge is filed under the
+  // border square next to it: the lines of the border squares end there, not half a cell short
+  // of it (dropping such tripoints left those lines dangling). Outside the grid: none.
   auto square_of = [&](Vec2 p) -> int64_t {
-    const double fc = std::floor((p.x - g.xmin) / g.res - 0.5), fr = std::floor((g.ymax - p.y) / g.res - 0.5);
-    if (!(fc >= 0.0 && fr >= 0.0 && fc < static_cast<double>(W - 1) && fr < static_cast<double>(H - 1))) return -1;
+    const double gc = (p.x - g.xmin) / g.res, gr = (g.ymax - p.y) / g.res;
+    if (!(gc >= 0.0 && gr >= 0.0 && gc <= static_cast<double>(W) && gr <= static_cast<double>(H))) return -1;
+    if (W < 2 || H < 2) return -1;
+    const double fc = std::clamp(std::floor(gc - 0.5), 0.0, static_cast<double>(W - 2));
+    const double fr = std::clamp(std::floor(gr - 0.5), 0.0, static_cast<double>(H - 2));
     return static_cast<int64_t>(fr) * W + static_cast<int64_t>(fc);
   };
   auto add_tripoint = [&](const Tripoint& t) {
@@ -728,27 +756,68 @@ BoundaryResult extract_boundaries(const NearestField& field, const OwnerIndex& i
       const auto o = corner_owners(c, r);
       if (o[0] == o[1] && o[1] == o[2] && o[2] == o[3]) continue;
       const auto edges = square_edges(W, c, r);
-      std::array<int32_t, 4> x{-1, -1, -1, -1};
-      std::vector<int> present;
+      // The crossings on the square's edges: (edge k, crossing id); an edge crossed by owners
+      // passing between its two centres carries several.
+      std::vector<std::pair<int, int32_t>> items;
+      std::array<int, 4> per_edge{0, 0, 0, 0};
       for (int k = 0; k < 4; ++k) {
-        const auto it = crossing_at.find(edges[static_cast<size_t>(k)]);
-        if (it != crossing_at.end()) {
-          x[static_cast<size_t>(k)] = it->second;
-          present.push_back(k);
-        }
+        const auto it = crossings_on.find(edges[static_cast<size_t>(k)]);
+        if (it == crossings_on.end()) continue;
+        for (int32_t i = 0; i < it->second.second; ++i) items.emplace_back(k, it->second.first + i);
+        per_edge[static_cast<size_t>(k)] = it->second.second;
       }
-      if (present.empty()) continue;
-      auto cross = [&](int k) -> const Crossing& { return crossings[static_cast<size_t>(x[static_cast<size_t>(k)])]; };
+      if (items.empty()) continue;
+      auto cross = [&](size_t item) -> const Crossing& { return crossings[static_cast<size_t>(items[item].second)]; };
+      auto node = [&](size_t item) { return items[item].second; };
       const auto here = tripoints_in.find(r * W + c);
-      std::vector<int> unlinked;
+      std::vector<size_t> unlinked;
       if (here != tripoints_in.end()) {
-        // Crossings end at the tripoint of their pair inside this square.
-        for (int k : present) {
-          const int32_t t = nearest_tripoint(cross(k), here->second);
-          if (t >= 0)
-            add_link(x[static_cast<size_t>(k)], ncross + t, pair_key(cross(k).owner_lo, cross(k).owner_hi));
+        // Crossings end at the nearest tripoint of their pair filed in this square. A tripoint
+        // filed here from the half cell beyond the outermost centres (see square_of) lies
+        // outside the square: the line may cross the square on its way there, so only the
+        // crossing nearest to it ends there, and the others are paired below.
+        const double x0 = g.centre_x(c), x1 = g.centre_x(c + 1), y0 = g.centre_y(r + 1), y1 = g.centre_y(r);
+        std::vector<int32_t> target(items.size(), -1);
+        std::map<std::pair<int32_t, int64_t>, size_t> nearest_to_outside;  // (tripoint, pair) -> item
+        for (size_t i = 0; i < items.size(); ++i) {
+          const int32_t t = nearest_tripoint(cross(i), here->second);
+          if (t < 0) continue;
+          target[i] = t;
+          const Vec2 q = result.tripoints[static_cast<size_t>(t)].p;
+          if (q.x >= x0 && q.x <= x1 && q.y >= y0 && q.y <= y1) continue;
+          const auto key = std::make_pair(t, pair_key(cross(i).owner_lo, cross(i).owner_hi));
+          auto [it, fresh] = nearest_to_outside.try_emplace(key, i);
+          auto dist = [&](size_t j) { return std::hypot(q.x - cross(j).v.p.x, q.y - cross(j).v.p.y); };
+          if (!fresh && dist(i) < dist(it->second)) it->second = i;
+        }
+        // The line to an outside tripoint that leaves the square through the edge facing it
+        // (the outermost centre line) entered it through another edge: with exactly one other
+        // crossing of the pair here, that one is joined to the crossing on the facing edge.
+        std::vector<bool> joined(items.size(), false);
+        for (const auto& [key, n] : nearest_to_outside) {
+          const Vec2 q = result.tripoints[static_cast<size_t>(key.first)].p;
+          const int k = items[n].first;
+          const bool facing = (k == 0 && q.y > y1) || (k == 1 && q.x > x1) || (k == 2 && q.y < y0) || (k == 3 && q.x < x0);
+          std::vector<size_t> same;
+          for (size_t i = 0; i < items.size(); ++i)
+            if (i != n && pair_key(cross(i).owner_lo, cross(i).owner_hi) == key.second) same.push_back(i);
+          if (facing && same.size() == 1) {
+            add_link(node(same[0]), node(n), key.second);
+            joined[same[0]] = true;
+          }
+        }
+        for (size_t i = 0; i < items.size(); ++i) {
+          if (joined[i]) continue;
+          const int32_t t = target[i];
+          bool ends_here = t >= 0;
+          if (ends_here) {
+            const auto it = nearest_to_outside.find({t, pair_key(cross(i).owner_lo, cross(i).owner_hi)});
+            ends_here = it == nearest_to_outside.end() || it->second == i;
+          }
+          if (ends_here)
+            add_link(node(i), ncross + t, pair_key(cross(i).owner_lo, cross(i).owner_hi));
           else
-            unlinked.push_back(k);
+            unlinked.push_back(i);
         }
         // Two tripoints sharing two owners are joined by those owners' boundary.
         const auto& ids = here->second;
@@ -761,7 +830,7 @@ BoundaryResult extract_boundaries(const NearestField& field, const OwnerIndex& i
               if (has(tj, a)) shared.push_back(a);
             if (shared.size() == 2) add_link(ncross + ids[i], ncross + ids[j], pair_key(shared[0], shared[1]));
           }
-      } else if (present.size() == 4 && o[0] == o[2] && o[1] == o[3] && o[0] != o[1]) {
+      } else if (per_edge == std::array<int, 4>{1, 1, 1, 1} && o[0] == o[2] && o[1] == o[3] && o[0] != o[1]) {
         // Saddle A B / B A: the owner of the square's centre connects its two corners.
         ++result.stats.saddles;
         const Vec2 mid = square_mid(c, r);
@@ -769,29 +838,31 @@ BoundaryResult extract_boundaries(const NearestField& field, const OwnerIndex& i
         const bool centre_is_o0 = h0.distance < h1.distance || (h0.distance == h1.distance && h0.site < h1.site);
         const int64_t pair = pair_key(o[0], o[1]);
         if (centre_is_o0) {  // corners 1 and 3 are cut off
-          add_link(x[0], x[1], pair);
-          add_link(x[2], x[3], pair);
+          add_link(node(0), node(1), pair);
+          add_link(node(2), node(3), pair);
         } else {             // corners 0 and 2 are cut off
-          add_link(x[3], x[0], pair);
-          add_link(x[1], x[2], pair);
+          add_link(node(3), node(0), pair);
+          add_link(node(1), node(2), pair);
         }
         continue;
       } else {
-        unlinked = present;
+        unlinked.resize(items.size());
+        std::iota(unlinked.begin(), unlinked.end(), size_t{0});
       }
       // Crossings of one pair, two in the square: joined. A lone crossing whose pair has a
       // tripoint in a neighbouring square (its third owner passed between two centres): joined
       // to that tripoint.
-      for (int k : unlinked) {
-        int same = 0, other = -1;
-        for (int m : unlinked)
+      for (size_t k : unlinked) {
+        int same = 0;
+        size_t other = 0;
+        for (size_t m : unlinked)
           if (m != k && cross(m).owner_lo == cross(k).owner_lo && cross(m).owner_hi == cross(k).owner_hi) {
             ++same;
             other = m;
           }
         const int64_t pair = pair_key(cross(k).owner_lo, cross(k).owner_hi);
         if (same == 1) {
-          if (k < other) add_link(x[static_cast<size_t>(k)], x[static_cast<size_t>(other)], pair);
+          if (k < other) add_link(node(k), node(other), pair);
           continue;
         }
         if (same > 1) continue;
@@ -805,9 +876,10 @@ BoundaryResult extract_boundaries(const NearestField& field, const OwnerIndex& i
         // The line leaves the crossing into this square, so the tripoint lies on this square's
         // side of the crossing's edge (edges: 0 top, 1 right, 2 bottom, 3 left).
         const Vec2 e = cross(k).v.p;
+        const int side = items[k].first;
         std::erase_if(around, [&](int32_t id) {
           const Vec2 q = result.tripoints[static_cast<size_t>(id)].p;
-          switch (k) {
+          switch (side) {
             case 0: return !(q.y < e.y);
             case 1: return !(q.x < e.x);
             case 2: return !(q.y > e.y);
@@ -815,7 +887,7 @@ BoundaryResult extract_boundaries(const NearestField& field, const OwnerIndex& i
           }
         });
         const int32_t t = nearest_tripoint(cross(k), around);
-        if (t >= 0) add_link(x[static_cast<size_t>(k)], ncross + t, pair);
+        if (t >= 0) add_link(node(k), ncross + t, pair);
       }
     }
 

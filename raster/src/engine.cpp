@@ -374,8 +374,9 @@ void compute_into(const SeedSet& seeds, const GridSpec& grid, const ComputeOptio
     ctx.max_key = geodesic ? options.max_distance : options.max_distance * options.max_distance;
 
   if (!(out.site.grid() == grid) || !(out.site.window() == window)) {
-    out.site = Raster<int32_t>(grid, window, Uninitialized{});
-    out.distance = Raster<float>(grid, window, Uninitialized{});
+    // Strips of a streamed job: the previous strip's buffers serve the next one.
+    out.site.retarget(grid, window);
+    out.distance.retarget(grid, window);
   }
   out.contested_cells = 0;
   out.threads = ctx.threads;

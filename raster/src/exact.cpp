@@ -16,6 +16,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstring>
 #include <limits>
 #include <vector>
 
@@ -100,59 +101,107 @@ inline double site_rect_max_key(const LocalSite& s, const Rect& r) {
 #define RV_AVX2_CLONES __attribute__((target_clones("avx2", "default")))
 #endif
 
+// GCC notes that returning a 32-byte vector from a function compiled without AVX has another
+// ABI than with it; these helpers have internal linkage and are always inlined into both clones
+// of argmin_block, so no call ever crosses that boundary. (GCC emits the note when it makes the
+// clones, at the end of the file, so the pragma stays on to the end.)
+#pragma GCC diagnostic ignored "-Wpsabi"
+
+// Cells per register block of argmin_block: two 4-wide double vectors.
+constexpr int64_t kLanes = 8;
+using V4 = double __attribute__((vector_size(32)));
+
+[[gnu::always_inline]] inline V4 load4(const double* p) {
+  V4 v;
+  std::memcpy(&v, p, sizeof(v));
+  return v;
+}
+[[gnu::always_inline]] inline void store4(double* p, V4 v) { std::memcpy(p, &v, sizeof(v)); }
+
+// planar_key() on four cells of one row at once, operation for operation (std::clamp(t, 0, 1)
+// is `t < 0 ? 0 : 1 < t ? 1 : t`), so every lane's key is bit-identical to the scalar one.
+[[gnu::always_inline]] inline V4 segment_key4(V4 x, double y, const LocalSite& s) {
+  V4 t = ((x - s.ax) * s.dx + (y - s.ay) * s.dy) * s.inv_len2;
+  const V4 zero = V4{} + 0.0, one = V4{} + 1.0;
+  t = t < zero ? zero : (one < t ? one : t);
+  const V4 ex = x - (s.ax + t * s.dx);
+  const V4 ey = y - (s.ay + t * s.dy);
+  return ex * ex + ey * ey;
+}
+
 // A block of w x h cells (centre x px[c], centre y py[r]) against k candidate sites: the exact
 // argmin per cell (strict <, candidates in ascending id order, so ties keep the lowest id),
-// written straight to the result rows (stride: cells between two rows). Loops are written for
-// the vectoriser; an AVX2 clone is picked at load time where the CPU has it. Keys use exactly
-// planar_key()'s arithmetic (-ffp-contract=off keeps them bit-identical to brute force).
+// written straight to the result rows (stride: cells between two rows).
+//
+// Why this shape: the cells of a row are taken eight at a time, and each group's best key and
+// id stay in registers while all k candidates pass (the earlier loop order, candidate-outer,
+// loaded and stored best[] and best_id[] once per candidate per cell). Ids ride along as doubles
+// (exact below 2^53), so one compare mask blends both. `px` must hold w rounded up to a multiple
+// of kLanes (the caller pads it); `best`/`best_id` the same. Keys use exactly planar_key()'s
+// arithmetic (-ffp-contract=off: no fused multiply-add), bit-identical to brute force; the
+// distance is planar_distance_from_key(), rounded to float, as everywhere. An AVX2 clone is
+// picked at load time where the CPU has it; the default clone runs the same vectors as SSE2 pairs.
 RV_AVX2_CLONES void argmin_block(
-    const LocalSite* __restrict sites, const int32_t* __restrict ids, int k,
+    const LocalSite* __restrict sites, const double* __restrict ids, int k,
     const double* __restrict px, int64_t w, const double* __restrict py, int64_t h,
-    double max_key, double* __restrict best, int32_t* __restrict best_id,
+    double max_key, double* __restrict best, double* __restrict best_id,
     int32_t* __restrict out_site, float* __restrict out_dist, int64_t stride) {
+  bool all_points = true;
+  for (int j = 0; j < k; ++j) all_points = all_points && sites[j].inv_len2 == 0.0;
   for (int64_t r = 0; r < h; ++r) {
     const double y = py[r];
-    for (int j = 0; j < k; ++j) {
-      const LocalSite s = sites[j];
-      const int32_t id = ids[j];
-      if (s.inv_len2 == 0.0) {
-        // A point: planar_key with t = 0.
-        const double ey = y - s.ay;
-        const double ey2 = ey * ey;
-        if (j == 0) {
-          for (int64_t c = 0; c < w; ++c) {
-            const double ex = px[c] - s.ax;
-            best[c] = ex * ex + ey2;
-            best_id[c] = id;
-          }
-        } else {
-          for (int64_t c = 0; c < w; ++c) {
-            const double ex = px[c] - s.ax;
-            const double key = ex * ex + ey2;
-            const bool lt = key < best[c];
-            best[c] = lt ? key : best[c];
-            best_id[c] = lt ? id : best_id[c];
-          }
+    for (int64_t c = 0; c < w; c += kLanes) {
+      const V4 x0 = load4(px + c), x1 = load4(px + c + 4);
+      V4 b0, b1, i0, i1;
+      if (all_points) {
+        // A point: planar_key with t = 0 is (x - ax)^2 + (y - ay)^2.
+        {
+          const double ey = y - sites[0].ay, ey2 = ey * ey;
+          const V4 e0 = x0 - sites[0].ax, e1 = x1 - sites[0].ax;
+          b0 = e0 * e0 + ey2;
+          b1 = e1 * e1 + ey2;
+          i0 = i1 = V4{} + ids[0];
+        }
+        for (int j = 1; j < k; ++j) {
+          const double ey = y - sites[j].ay, ey2 = ey * ey;
+          const V4 e0 = x0 - sites[j].ax, e1 = x1 - sites[j].ax;
+          const V4 k0 = e0 * e0 + ey2, k1 = e1 * e1 + ey2;
+          const V4 id = V4{} + ids[j];
+          const auto m0 = k0 < b0, m1 = k1 < b1;
+          b0 = m0 ? k0 : b0;
+          b1 = m1 ? k1 : b1;
+          i0 = m0 ? id : i0;
+          i1 = m1 ? id : i1;
         }
       } else {
-        for (int64_t c = 0; c < w; ++c) {
-          const double key = planar_key(px[c], y, s);
-          const bool lt = j == 0 || key < best[c];
-          best[c] = lt ? key : best[c];
-          best_id[c] = lt ? id : best_id[c];
+        b0 = segment_key4(x0, y, sites[0]);
+        b1 = segment_key4(x1, y, sites[0]);
+        i0 = i1 = V4{} + ids[0];
+        for (int j = 1; j < k; ++j) {
+          const V4 k0 = segment_key4(x0, y, sites[j]), k1 = segment_key4(x1, y, sites[j]);
+          const V4 id = V4{} + ids[j];
+          const auto m0 = k0 < b0, m1 = k1 < b1;
+          b0 = m0 ? k0 : b0;
+          b1 = m1 ? k1 : b1;
+          i0 = m0 ? id : i0;
+          i1 = m1 ? id : i1;
         }
       }
+      store4(best + c, b0);
+      store4(best + c + 4, b1);
+      store4(best_id + c, i0);
+      store4(best_id + c + 4, i1);
     }
     int32_t* __restrict os = out_site + r * stride;
     float* __restrict od = out_dist + r * stride;
     if (max_key == std::numeric_limits<double>::infinity()) {
-      for (int64_t c = 0; c < w; ++c) od[c] = static_cast<float>(std::sqrt(best[c]));
-      for (int64_t c = 0; c < w; ++c) os[c] = best_id[c];
+      for (int64_t c = 0; c < w; ++c) od[c] = static_cast<float>(planar_distance_from_key(best[c]));
+      for (int64_t c = 0; c < w; ++c) os[c] = static_cast<int32_t>(best_id[c]);
     } else {
       for (int64_t c = 0; c < w; ++c) {
         const bool none = best[c] > max_key;
-        od[c] = none ? kNoDistance : static_cast<float>(std::sqrt(best[c]));
-        os[c] = none ? kNoSite : best_id[c];
+        od[c] = none ? kNoDistance : static_cast<float>(planar_distance_from_key(best[c]));
+        os[c] = none ? kNoSite : static_cast<int32_t>(best_id[c]);
       }
     }
   }
@@ -316,7 +365,8 @@ struct Worker {
   std::vector<LocalSite> gathered;
   std::vector<double> px, py;
   std::vector<double> best;
-  std::vector<int32_t> best_id;
+  std::vector<double> best_id;
+  std::vector<double> gathered_ids;
   std::vector<double> box_keys;
   std::array<double, 4 * 16> corner_keys;
 };
@@ -530,15 +580,23 @@ class ExactSolver {
     if (cands.empty()) return fill_none(c0, r0, c1, r1);
     const Window& win = ctx_.window;
     const int64_t w = c1 - c0, h = r1 - r0;
-    wk.px.resize(static_cast<size_t>(std::max(w, kTile)));
+    // Rows padded to whole register blocks: the padding repeats the last centre (a real
+    // position, so no spurious overflow) and its results are never stored.
+    const int64_t padded = (w + kLanes - 1) / kLanes * kLanes;
+    wk.px.resize(static_cast<size_t>(std::max(padded, kTile)));
     wk.py.resize(static_cast<size_t>(std::max(h, kTile)));
-    wk.best.resize(static_cast<size_t>(std::max(w, kTile)));
-    wk.best_id.resize(static_cast<size_t>(std::max(w, kTile)));
+    wk.best.resize(static_cast<size_t>(std::max(padded, kTile)));
+    wk.best_id.resize(static_cast<size_t>(std::max(padded, kTile)));
     for (int64_t c = 0; c < w; ++c) wk.px[c] = ctx_.grid.local_x(win.col0 + c0 + c);
+    for (int64_t c = w; c < padded; ++c) wk.px[c] = wk.px[w - 1];
     for (int64_t r = 0; r < h; ++r) wk.py[r] = ctx_.grid.local_y(win.row0 + r0 + r);
     wk.gathered.clear();
-    for (int32_t id : cands) wk.gathered.push_back(ctx_.local[id]);
-    argmin_block(wk.gathered.data(), cands.data(), static_cast<int>(cands.size()), wk.px.data(), w,
+    wk.gathered_ids.clear();
+    for (int32_t id : cands) {
+      wk.gathered.push_back(ctx_.local[id]);
+      wk.gathered_ids.push_back(static_cast<double>(id));
+    }
+    argmin_block(wk.gathered.data(), wk.gathered_ids.data(), static_cast<int>(cands.size()), wk.px.data(), w,
                  wk.py.data(), h, max_key, wk.best.data(), wk.best_id.data(),
                  site_.row(r0) + c0, distance_.row(r0) + c0, win.width);
   }

@@ -139,6 +139,7 @@ class GeoSites {
   double point_lower_bound(double sx, double sy, double sz, double x, double y, double z, double h) const;
   const GeographicLib::Geodesic& geodesic() const { return geod_; }
   size_t size() const { return sites_.size(); }
+  const GeoSite& site(int32_t id) const { return sites_[static_cast<size_t>(id)]; }
 
  private:
   void prepare(const std::vector<Site>& sites, const SeedSet* seeds);

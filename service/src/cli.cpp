@@ -52,6 +52,8 @@ computation:
   --max-distance D        cells farther than D from every seed get no owner
   --distance-units U      m | km | nmi (default: CRS units)
   --validate              also run brute force and report every wrong cell
+  --strip-rows N          rows per strip when the job is streamed (0 = automatic, default;
+                          -1 = compute the whole field first); never changes the outputs
 outputs:
   --ownership FILE.tif    owner code per cell (Int32, 0 = none)
   --distance FILE.tif     distance to the nearest seed (Float32, -1 = none)
@@ -178,6 +180,7 @@ CommonOptions parse(Args& args, bool validate_mode) {
     else if (a == "--max-distance") s.max_distance = args.number(a);
     else if (a == "--distance-units") s.distance_units = args.value(a);
     else if (a == "--validate") s.validate = true;
+    else if (a == "--strip-rows") s.strip_rows = args.integer(a);
     else if (a == "--ownership") s.outputs.ownership = args.value(a);
     else if (a == "--distance") s.outputs.distance = args.value(a);
     else if (a == "--nearest-feature") s.outputs.nearest_feature = args.value(a);

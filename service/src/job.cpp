@@ -12,6 +12,7 @@
 #include <memory>
 #include <optional>
 
+#include "job_stream.hpp"
 #include "rv/deliverables.hpp"
 #include "rv/error.hpp"
 #include "rv/geolocator.hpp"
@@ -194,6 +195,68 @@ void geolocate_grid(ComputeOptions& options, const LoadedSeeds& loaded) {
   options.grid_polygons = loaded.grid_polygons;
 }
 
+namespace {
+
+// Strips of about this many cells (rounded up to whole GeoTIFF tile rows, so that strips go to
+// the encoder without a copy): large enough that the engine's per-call set-up (local sites,
+// bucket index, per-worker tables: about a millisecond for 50 000 sites) and the thread start-up
+// stay a few per cent of a strip's computation, small enough that two strips and their products
+// stay far below the whole field (10000 x 10000 cells: 14 strips of 768 rows; ownership and
+// distance hold about 180 MB in flight instead of 1.2 GB).
+constexpr int64_t kStripCells = int64_t{6} << 20;
+constexpr int64_t kTileRows = 256;  // GeoTiffStripWriter's tile height
+// Per streamed GeoTIFF besides its 256-row band buffer: GDAL's compression queue and tile.
+constexpr int64_t kWriterBytes = int64_t{8} << 20;
+
+}  // namespace
+
+JobPlan plan_job(const JobSpec& spec, const GridSpec& grid, int64_t sites, MetricSpec::Kind metric) {
+  JobPlan p;
+  const OutputRequest& out = spec.outputs;
+  const int64_t cells = grid.cell_count();
+  const int64_t int_rasters = !out.ownership.empty() + !out.nearest_feature.empty();
+  const int64_t rasters = int_rasters + !out.distance.empty();
+  if (spec.method != Method::exact && spec.method != Method::brute_force)
+    p.why_whole = "the scan methods propagate inside a window: a strip would differ from the whole grid";
+  else if (out.any_deliverable())
+    p.why_whole = "deliverables need the whole field";
+  else if (out.cloud_optimized)
+    p.why_whole = "a COG is made by copying a complete dataset";
+  else if (spec.validate)
+    p.why_whole = "validation compares whole fields";
+  else if (rasters == 0)
+    p.why_whole = "no raster output";
+  else if (spec.strip_rows < 0)
+    p.why_whole = "streaming turned off";
+  p.streamed = p.why_whole.empty();
+  if (p.streamed) {
+    const int64_t rows = spec.strip_rows > 0
+                             ? spec.strip_rows
+                             : (std::max<int64_t>(1, kStripCells / std::max<int64_t>(grid.width, 1)) + kTileRows - 1) /
+                                   kTileRows * kTileRows;
+    p.strip_rows = std::clamp<int64_t>(rows, 1, std::max<int64_t>(grid.height, 1));
+    p.strips = (grid.height + p.strip_rows - 1) / p.strip_rows;
+    const int64_t strip_cells = p.strip_rows * grid.width;
+    // Two strip buffers, each the engine's result plus one Int32 per integer product (the
+    // distance is converted in place), and per file a band of tile rows and GDAL's queue.
+    p.memory_bytes = estimate_memory(spec.method, 2 * strip_cells, sites, metric) + 2 * strip_cells * 4 * int_rasters +
+                     rasters * (kTileRows * grid.width * 4 + kWriterBytes);
+    return p;
+  }
+  p.strip_rows = grid.height;
+  p.strips = 1;
+  int64_t need = estimate_memory(spec.method, cells, sites, metric) + cells * 4;  // + one output raster
+  if (spec.validate) need += estimate_memory(Method::brute_force, cells, sites, metric);
+  if (out.any_deliverable()) {
+    need += cells * 4;  // owner codes
+    if (spec.method != Method::exact && spec.method != Method::brute_force) need += cells * 8;  // exact field
+    if (!out.margin.empty()) need += cells * 12;  // other-owner field + margin
+    if (!out.limits.empty()) need += cells;       // inside flags
+  }
+  p.memory_bytes = need;
+  return p;
+}
+
 JobResult run_job(const JobSpec& spec, const JobLimits& limits, const JobHooks& hooks) {
   const auto start = Clock::now();
   auto progress = [&](const char* stage, double f) {
@@ -275,14 +338,8 @@ JobResult run_job(const JobSpec& spec, const JobLimits& limits, const JobHooks& 
     throw Error(ErrorKind::too_large, "the grid has " + std::to_string(cells) + " cells, over the limit of " +
                                           std::to_string(limits.max_cells));
   const int64_t sites = static_cast<int64_t>(loaded.seeds.sites().size());
-  int64_t need = estimate_memory(spec.method, cells, sites, mp.metric.kind) + cells * 4;  // + one output raster
-  if (spec.validate) need += estimate_memory(Method::brute_force, cells, sites, mp.metric.kind);
-  if (deliver.any_deliverable()) {
-    need += cells * 4;                                                    // owner codes
-    if (spec.method != Method::exact && spec.method != Method::brute_force) need += cells * 8;  // exact field
-    if (!deliver.margin.empty()) need += cells * 12;                      // other-owner field + margin
-    if (!deliver.limits.empty()) need += cells;                           // inside flags
-  }
+  const JobPlan plan = plan_job(spec, grid, sites, mp.metric.kind);
+  const int64_t need = plan.memory_bytes;
   const int64_t budget = limits.max_memory_bytes > 0 ? limits.max_memory_bytes : physical_memory_bytes() / 10 * 8;
   if (budget > 0 && need > budget)
     throw Error(ErrorKind::too_large, "the job needs about " + std::to_string(need >> 20) + " MiB for " +
@@ -293,77 +350,122 @@ JobResult run_job(const JobSpec& spec, const JobLimits& limits, const JobHooks& 
                                           std::to_string(limits.validate_max_cells) + " cells; this grid has " +
                                           std::to_string(cells));
 
-  // 3. Compute.
-  options.cancel = hooks.cancel;
-  options.progress = [&](double f) { progress("compute", f); };
-  const NearestField field = compute(loaded.seeds, grid, options);
-  timings["compute"] = field.seconds;
-
-  // 4. Validate against brute force.
-  if (spec.validate) {
-    t = Clock::now();
-    ComputeOptions brute = options;
-    brute.method = Method::brute_force;
-    brute.progress = [&](double f) { progress("validate", f); };
-    const NearestField reference = compute(loaded.seeds, grid, brute);
-    const ValidationStats v = compare_fields(loaded.seeds, field, reference);
-    report["validation"] = {{"reference", "brute-force"},
-                            {"cells", v.cells},
-                            {"wrong_cells", v.wrong_cells},
-                            {"wrong_owner_cells", v.wrong_owner_cells},
-                            {"tie_cells", v.tie_cells},
-                            {"nodata_mismatch", v.nodata_mismatch},
-                            {"max_error", v.max_error * factor},
-                            {"max_error_cells", v.max_error_cells},
-                            {"reference_seconds", reference.seconds}};
-    timings["validate"] = seconds_since(t);
-  }
-  check_cancel();
-
-  // 5. Write.
-  progress("write", 0.0);
+  // How each raster GeoTIFF is described; the same on both paths.
   GeoTiffOptions common;
   common.cloud_optimized = spec.outputs.cloud_optimized;
   common.threads = spec.threads;
-  nlohmann::json write_times;
+  GeoTiffOptions ownership_options = common;
+  ownership_options.categorical = true;
+  ownership_options.category_labels = loaded.seeds.owner_labels();
+  ownership_options.metadata["CONTENT"] = "owner code of the nearest seed (0 = none)";
+  GeoTiffOptions distance_options = common;
+  distance_options.units = unit_name;
+  distance_options.metadata["CONTENT"] = "distance to the nearest seed";
+  distance_options.metadata["UNITS"] = unit_name;
+  distance_options.metadata["METRIC"] = geodesic ? "geodesic" : "planar";
+  GeoTiffOptions feature_options = common;
+  feature_options.categorical = true;
+  feature_options.metadata["CONTENT"] = "1-based position of the nearest seed feature in the input (0 = none)";
+
+  options.cancel = hooks.cancel;
+  nlohmann::json write_times = nlohmann::json::object();
   nlohmann::json outputs;
-  if (!spec.outputs.ownership.empty()) {
-    t = Clock::now();
-    const Raster<int32_t> owners = owner_raster(loaded.seeds, field, spec.threads);
-    GeoTiffOptions o = common;
-    o.categorical = true;
-    o.category_labels = loaded.seeds.owner_labels();
-    o.metadata["CONTENT"] = "owner code of the nearest seed (0 = none)";
-    guard.add(spec.outputs.ownership);
-    write_geotiff(spec.outputs.ownership, owners, 0.0, o);
-    write_times["ownership"] = seconds_since(t);
-    outputs["ownership"] = spec.outputs.ownership;
-  }
-  progress("write", 0.4);
-  if (!spec.outputs.distance.empty()) {
-    t = Clock::now();
-    const Raster<float> dist = factor == 1.0 ? field.distance : scaled_distance(field, factor, spec.threads);
-    GeoTiffOptions o = common;
-    o.units = unit_name;
-    o.metadata["CONTENT"] = "distance to the nearest seed";
-    o.metadata["UNITS"] = unit_name;
-    o.metadata["METRIC"] = geodesic ? "geodesic" : "planar";
-    guard.add(spec.outputs.distance);
-    write_geotiff(spec.outputs.distance, dist, static_cast<double>(kNoDistance), o);
-    write_times["distance"] = seconds_since(t);
-    outputs["distance"] = spec.outputs.distance;
-  }
-  progress("write", 0.8);
-  if (!spec.outputs.nearest_feature.empty()) {
-    t = Clock::now();
-    GeoTiffOptions o = common;
-    o.categorical = true;
-    o.metadata["CONTENT"] = "1-based position of the nearest seed feature in the input (0 = none)";
-    guard.add(spec.outputs.nearest_feature);
-    write_geotiff(spec.outputs.nearest_feature,
-                  feature_raster(loaded.seeds, field, spec.threads, loaded.input_position), 0.0, o);
-    write_times["nearest_feature"] = seconds_since(t);
-    outputs["nearest_feature"] = spec.outputs.nearest_feature;
+  double compute_seconds = 0.0;
+  int64_t contested_cells = 0;
+  int threads_used = 1;
+  NearestField field;  // the whole field (whole path only)
+  if (plan.streamed) {
+    // 3+5. Compute strip by strip, each strip encoded while the next is computed.
+    detail::StreamJob job;
+    job.seeds = &loaded.seeds;
+    job.grid = grid;
+    job.compute = options;
+    job.strip_rows = plan.strip_rows;
+    job.distance_factor = factor;
+    job.feature_numbering = loaded.input_position;
+    job.progress = [&](const char* stage, double f) { progress(stage, f); };
+    job.will_write = [&](const std::string& path) { guard.add(path); };
+    using Product = detail::StreamTarget::Product;
+    if (!spec.outputs.ownership.empty())
+      job.targets.push_back({Product::ownership, spec.outputs.ownership, ownership_options, "ownership"});
+    if (!spec.outputs.distance.empty())
+      job.targets.push_back({Product::distance, spec.outputs.distance, distance_options, "distance"});
+    if (!spec.outputs.nearest_feature.empty())
+      job.targets.push_back(
+          {Product::nearest_feature, spec.outputs.nearest_feature, feature_options, "nearest_feature"});
+    progress("compute", 0.0);
+    const detail::StreamStats st = detail::run_streamed(job);
+    compute_seconds = st.compute;
+    contested_cells = st.contested_cells;
+    threads_used = st.threads;
+    for (const auto& [name, seconds] : st.write) write_times[name] = seconds;
+    for (const detail::StreamTarget& t : job.targets) outputs[t.name] = t.path;
+    timings["compute"] = st.compute;
+    // compute and write overlap: their sum exceeds the wall time they took together.
+    timings["streamed"] = {{"strips", st.strips},
+                           {"rows_per_strip", plan.strip_rows},
+                           {"wall", st.wall},
+                           {"convert", st.convert},
+                           {"compute_waited_for_writer", st.compute_waited},
+                           {"writer_waited_for_compute", st.write_waited}};
+  } else {
+    // 3. Compute.
+    options.progress = [&](double f) { progress("compute", f); };
+    field = compute(loaded.seeds, grid, options);
+    compute_seconds = field.seconds;
+    contested_cells = field.contested_cells;
+    threads_used = field.threads;
+    timings["compute"] = field.seconds;
+
+    // 4. Validate against brute force.
+    if (spec.validate) {
+      t = Clock::now();
+      ComputeOptions brute = options;
+      brute.method = Method::brute_force;
+      brute.progress = [&](double f) { progress("validate", f); };
+      const NearestField reference = compute(loaded.seeds, grid, brute);
+      const ValidationStats v = compare_fields(loaded.seeds, field, reference);
+      report["validation"] = {{"reference", "brute-force"},
+                              {"cells", v.cells},
+                              {"wrong_cells", v.wrong_cells},
+                              {"wrong_owner_cells", v.wrong_owner_cells},
+                              {"tie_cells", v.tie_cells},
+                              {"nodata_mismatch", v.nodata_mismatch},
+                              {"max_error", v.max_error * factor},
+                              {"max_error_cells", v.max_error_cells},
+                              {"reference_seconds", reference.seconds}};
+      timings["validate"] = seconds_since(t);
+    }
+    check_cancel();
+
+    // 5. Write.
+    progress("write", 0.0);
+    if (!spec.outputs.ownership.empty()) {
+      t = Clock::now();
+      const Raster<int32_t> owners = owner_raster(loaded.seeds, field, spec.threads);
+      guard.add(spec.outputs.ownership);
+      write_geotiff(spec.outputs.ownership, owners, 0.0, ownership_options);
+      write_times["ownership"] = seconds_since(t);
+      outputs["ownership"] = spec.outputs.ownership;
+    }
+    progress("write", 0.4);
+    if (!spec.outputs.distance.empty()) {
+      t = Clock::now();
+      const Raster<float> dist = factor == 1.0 ? field.distance : scaled_distance(field, factor, spec.threads);
+      guard.add(spec.outputs.distance);
+      write_geotiff(spec.outputs.distance, dist, static_cast<double>(kNoDistance), distance_options);
+      write_times["distance"] = seconds_since(t);
+      outputs["distance"] = spec.outputs.distance;
+    }
+    progress("write", 0.8);
+    if (!spec.outputs.nearest_feature.empty()) {
+      t = Clock::now();
+      guard.add(spec.outputs.nearest_feature);
+      write_geotiff(spec.outputs.nearest_feature,
+                    feature_raster(loaded.seeds, field, spec.threads, loaded.input_position), 0.0, feature_options);
+      write_times["nearest_feature"] = seconds_since(t);
+      outputs["nearest_feature"] = spec.outputs.nearest_feature;
+    }
   }
 
   // 6. Deliverables, from an exact field (a scan's ownership is not exact).
@@ -417,6 +519,7 @@ JobResult run_job(const JobSpec& spec, const JobLimits& limits, const JobHooks& 
                                       {"multi_owner_squares", st.multi_owner_squares},
                                       {"unresolved_tripoints", st.unresolved_tripoints},
                                       {"sliver_crossings", st.sliver_crossings},
+                                      {"unresolved_slivers", st.unresolved_slivers},
                                       {"max_residual", st.max_residual * factor},
                                       {"max_residual_cells", st.max_residual / cell_length},
                                       {"simplify_cells", deliver.simplify_cells}};
@@ -508,13 +611,17 @@ JobResult run_job(const JobSpec& spec, const JobLimits& limits, const JobHooks& 
   report["metric"] = geodesic ? "geodesic" : "planar";
   // Projected geodesic grids: where the cells were located and the seeds measured.
   if (located) report["geodesic_crs"] = loaded.seed_crs.name;
-  report["threads"] = field.threads;
+  report["threads"] = threads_used;
   report["distance_units"] = unit_name;
   if (spec.max_distance) report["max_distance"] = *spec.max_distance;
   report["seeds"] = seeds_json(loaded);
-  report["contested_cells"] = field.contested_cells;
+  report["contested_cells"] = contested_cells;
+  report["streaming"] = plan.streamed ? nlohmann::json{{"streamed", true}, {"rows_per_strip", plan.strip_rows},
+                                                        {"strips", plan.strips}}
+                                      : nlohmann::json{{"streamed", false}, {"why_not", plan.why_whole}};
+  report["memory_estimate_bytes"] = plan.memory_bytes;
   report["timings_s"] = timings;
-  report["compute_ns_per_cell"] = field.seconds * 1e9 / static_cast<double>(std::max<int64_t>(cells, 1));
+  report["compute_ns_per_cell"] = compute_seconds * 1e9 / static_cast<double>(std::max<int64_t>(cells, 1));
   report["peak_memory_bytes"] = peak_rss_bytes();
   report["outputs"] = outputs;
 

@@ -59,7 +59,8 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     require(!ex.spec.seeds.paths.empty());
     for (const std::string& p : ex.spec.seeds.paths)
       require(starts_with(p, dir) || starts_with(p, "/vsizip/" + dir));
-    require(ex.outputs.size() == ex.transmission.size() && !ex.outputs.empty());
+    require(ex.outputs.size() == ex.transmission.size() && ex.outputs.size() == ex.formats.size() &&
+            !ex.outputs.empty());
     require(ex.spec.grid.resolution && std::isfinite(*ex.spec.grid.resolution) && *ex.spec.grid.resolution > 0.0);
     if (ex.spec.grid.extent)
       for (double v : *ex.spec.grid.extent) require(std::isfinite(v));

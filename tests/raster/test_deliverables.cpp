@@ -214,25 +214,65 @@ TEST(Deliverables, ManyOwnersTopology) {
       EXPECT_EQ(std::unique(pairs.begin(), pairs.end()), pairs.end()) << "two lines of one pair end at a tripoint";
       EXPECT_LE(pairs.size(), 3u);
     }
-    auto on_border = [&](Vec2 p) {
-      return p.x <= g.centre_x(0) + 1e-9 || p.x >= g.centre_x(g.width - 1) - 1e-9 || p.y >= g.centre_y(0) - 1e-9 ||
-             p.y <= g.centre_y(g.height - 1) + 1e-9;
-    };
-    auto at_tripoint = [&](Vec2 p) {
-      return std::any_of(r.tripoints.begin(), r.tripoints.end(), [&](const Tripoint& t) { return t.p == p; });
-    };
-    for (const BoundaryLine& line : r.lines) {
-      if (line.closed) continue;
-      for (const Vec2 end : {line.vertices.front().p, line.vertices.back().p}) {
-        ++ends_total;
-        if (!on_border(end) && !at_tripoint(end)) ++dangling;
+    dangling += test::dangling_ends(r, g, &ends_total);
+  }
+  // Every end is on the grid's border or at a tripoint. (Regions thinner than a cell used to
+  // leave their sides without vertices, and the lines along them dangled: 10 of 2804 ends here.)
+  std::printf("line ends %d, dangling %d\n", ends_total, dangling);
+  EXPECT_GT(ends_total, 1000);
+  EXPECT_EQ(dangling, 0);
+}
+
+// Many owners, mixed points and lines, several features per owner: regions thinner than a cell
+// are common, and their sides are lines too. Their vertices pass the equidistance checks like
+// every other, and lines no longer stop in the open along them.
+TEST(Deliverables, NoDanglingEndsWithRegionsThinnerThanACell) {
+  int dangling = 0, ends_total = 0;
+  int64_t sliver_vertices = 0, slivers = 0;
+  for (uint32_t trial = 0; trial < 16; ++trial) {
+    std::mt19937 rng(1000 + trial);
+    std::uniform_real_distribution<double> ux(-3, 53), uy(-3, 43);
+    SeedSet s;
+    const int owners = 6 + static_cast<int>(trial % 10);
+    for (int i = 0; i < 3 * owners; ++i) {
+      const int32_t f = s.add_feature(s.owner_code("o" + std::to_string(1 + i % owners)));
+      if (i % 4 == 0) {
+        std::vector<Vec2> line{{ux(rng), uy(rng)}};
+        for (int k = 0; k < 2; ++k) line.push_back({line.back().x + (ux(rng) - 25) / 5, line.back().y + (uy(rng) - 20) / 5});
+        // Lines of two owners that cross are seeds in conflict (distance 0 to both, where
+        // boundaries may end legitimately): keep the scene free of them.
+        auto orient = [](Vec2 p, Vec2 q, Vec2 r) { return (q.x - p.x) * (r.y - p.y) - (q.y - p.y) * (r.x - p.x); };
+        bool crosses = false;
+        for (const Site& site : s.sites())
+          for (size_t k = 1; k < line.size() && site.kind == SiteKind::segment; ++k) {
+            const Vec2 a = line[k - 1], b = line[k];
+            crosses |= (orient(a, b, site.a) > 0) != (orient(a, b, site.b) > 0) &&
+                       (orient(site.a, site.b, a) > 0) != (orient(site.a, site.b, b) > 0);
+          }
+        if (crosses) s.add_point(f, line.front());
+        else s.add_polyline(f, line);
+      } else {
+        s.add_point(f, {ux(rng), uy(rng)});
       }
     }
+    const GridSpec g = grid(50, 40);
+    Fixture st(s, g);
+    const BoundaryResult r = extract_boundaries(st.field, st.index);
+    SCOPED_TRACE("trial " + std::to_string(trial));
+    test::check_boundaries(s, st.field, r, 1e-3, &sliver_vertices);
+    test::check_no_crossings(r);
+    dangling += test::dangling_ends(r, g, &ends_total);
+    slivers += r.stats.sliver_crossings;
+    EXPECT_EQ(r.stats.unresolved_slivers, 0);
   }
-  // Ends that are neither tripoints nor on the border: where a third owner's region is thinner
-  // than a cell and no tripoint converges. Rare, and reported by the stats.
-  std::printf("line ends %d, dangling %d\n", ends_total, dangling);
-  EXPECT_LE(dangling, ends_total / 50);
+  std::printf("line ends %d, dangling %d, sliver segments %lld, vertices on them %lld\n", ends_total, dangling,
+              static_cast<long long>(slivers), static_cast<long long>(sliver_vertices));
+  EXPECT_GT(slivers, 20);           // the case this test is about occurs
+  EXPECT_GT(sliver_vertices, 20);   // and its sides are drawn
+  // Before the sides of thin regions were drawn: 6 dangling of 1662 ends. Left: 3 ends in one
+  // scene (trial 14) where line seeds of owners with several features meet in one square
+  // with an unresolved tripoint; not yet understood (see the closing note of issue 6).
+  EXPECT_LE(dangling, 3);
 }
 
 TEST(Deliverables, SameResultForAnyThreadCount) {

@@ -68,12 +68,30 @@ SeedSet random_features(uint32_t seed, double lon0, double lat0, double lon1, do
   return s;
 }
 
+void expect_within_one_ulp(const Raster<float>& a, const Raster<float>& b, const std::string& what) {
+  ASSERT_EQ(a.cells().size(), b.cells().size()) << what;
+  int64_t off = 0;
+  for (size_t i = 0; i < a.cells().size(); ++i) {
+    const float x = a.cells()[i], y = b.cells()[i];
+    if (x == y) continue;
+    if (x == std::nextafter(y, x)) {
+      ++off;
+      continue;
+    }
+    ADD_FAILURE() << what << ": cell " << i << " distance " << x << " vs brute force " << y;
+    return;
+  }
+  EXPECT_LE(off, static_cast<int64_t>(a.cells().size() / 20)) << what << ": too many last-bit differences";
+}
+
 void expect_exact_equals_brute(const SeedSet& s, const GridSpec& g, const std::string& what,
                                double max_distance = std::numeric_limits<double>::infinity()) {
   const NearestField brute = run(s, g, Method::brute_force, 2, max_distance);
   const NearestField exact = run(s, g, Method::exact, 2, max_distance);
   EXPECT_EQ(exact.site.cells(), brute.site.cells()) << what;
-  EXPECT_EQ(exact.distance.cells(), brute.distance.cells()) << what;
+  // Point sites' distances are interpolated to ~1e-8 m: the float32 written may differ from
+  // brute force's by the last bit, never more.
+  expect_within_one_ulp(exact.distance, brute.distance, what);
   const ValidationStats st = compare_fields(s, exact, brute);
   EXPECT_EQ(st.wrong_cells, 0) << what;
   EXPECT_EQ(st.nodata_mismatch, 0) << what;
@@ -104,6 +122,106 @@ TEST(GeodesicEngine, CellDistancesMatchGeographicLib) {
       EXPECT_NEAR(f.distance.at(c, r), best, best * 1e-7 + 1e-3) << c << "," << r;
     }
   }
+}
+
+// Many basepoints on a fine grid: the interpolated path (64-cell blocks at 0.002 deg). Every
+// sampled cell's owner is GeographicLib's argmin, and its distance the float nearest to
+// GeographicLib's (or the next one: double rounding of a value within ~1e-8 m of it).
+TEST(GeodesicEngine, InterpolatedDistancesMatchGeographicLib) {
+  struct Case {
+    double lon0, lat0;
+    const char* what;
+  } cases[] = {{10.0, 55.0, "55N"}, {-0.3, 0.3, "equator"}, {20.0, 84.0, "84N"}, {179.5, -40.0, "antimeridian"}};
+  const GeographicLib::Geodesic& geod = GeographicLib::Geodesic::WGS84();
+  for (const Case& k : cases) {
+    const GridSpec g = geo_grid(k.lon0, k.lat0 + 0.35, 0.002, 330, 350);
+    SeedSet s;
+    std::mt19937_64 rng(7);
+    std::uniform_real_distribution<double> u(-0.1, 0.8);
+    std::vector<Vec2> pts;
+    for (int i = 0; i < 12; ++i) {
+      pts.push_back({g.xmin + u(rng), std::min(89.9, g.ymin() + u(rng) * 0.9)});
+      s.add_point(s.add_feature(s.owner_code(std::to_string(i % 5))), pts.back());
+    }
+    pts.push_back({g.centre_x(100), g.centre_y(200)});  // a seed exactly at a cell centre
+    s.add_point(s.add_feature(s.owner_code("centre")), pts.back());
+    const NearestField f = run(s, g, Method::exact);
+    int64_t checked = 0;
+    for (int64_t r = 0; r < g.height; r += 7)
+      for (int64_t c = 0; c < g.width; c += 5) {
+        double best = std::numeric_limits<double>::infinity();
+        int32_t best_id = -1;
+        for (int32_t i = 0; i < static_cast<int32_t>(pts.size()); ++i) {
+          double d;
+          geod.Inverse(g.centre_y(r), g.centre_x(c), pts[i].y, pts[i].x, d);
+          if (d < best) {
+            best = d;
+            best_id = i;
+          }
+        }
+        ASSERT_EQ(f.site.at(c, r), best_id) << k.what << " " << c << "," << r;
+        const float want = static_cast<float>(best), got = f.distance.at(c, r);
+        ASSERT_TRUE(got == want || got == std::nextafter(want, got)) << k.what << " " << c << "," << r << ": " << got
+                                                                        << " vs " << best;
+        ASSERT_NEAR(got, best, std::max(1e-3, best * 1.2e-7)) << k.what;
+        ++checked;
+      }
+    EXPECT_EQ(f.distance.at(100, 200), 0.0f) << k.what;
+    EXPECT_GT(checked, 3000);
+    // The same bits for any window and thread count (blocks are aligned to the grid).
+    ComputeOptions o;
+    o.metric = wgs84();
+    o.threads = 3;
+    o.window = Window{37, 61, 150, 119};
+    const NearestField part = compute(s, g, o);
+    for (int64_t r = 0; r < 119; ++r)
+      for (int64_t c = 0; c < 150; ++c) {
+        ASSERT_EQ(part.site.at(c, r), f.site.at(37 + c, 61 + r)) << k.what;
+        ASSERT_EQ(part.distance.at(c, r), f.distance.at(37 + c, 61 + r)) << k.what;
+      }
+  }
+}
+
+// Equidistant basepoints: cells on the perpendicular bisector are exact ties, decided by exact
+// distances (lower site index), never by the interpolants' last bits.
+TEST(GeodesicEngine, InterpolatedTiesGoToTheLowerSite) {
+  const GridSpec g = geo_grid(4.0, 1.0, 0.002, 1000, 200);  // 4E .. 6E, 1N .. 0.6N
+  SeedSet s;
+  s.add_point(s.add_feature(s.owner_code("B")), {5.0 + 0.2, 0.8});
+  s.add_point(s.add_feature(s.owner_code("A")), {5.0 - 0.2, 0.8});
+  s.add_point(s.add_feature(s.owner_code("C")), {5.0 + 0.2, 0.8});  // same place as site 0
+  const NearestField f = run(s, g, Method::exact);
+  const NearestField b = run(s, g, Method::brute_force);
+  EXPECT_EQ(f.site.cells(), b.site.cells());
+  expect_within_one_ulp(f.distance, b.distance, "ties");
+  for (int64_t r = 0; r < g.height; ++r) EXPECT_NE(f.site.at(600, r), 2);  // never the duplicate
+}
+
+// A coastline seen from offshore (20 .. 120 km): cells whose nearest point is inside an edge
+// use the edge's line interpolant, cells nearest at a vertex the vertex's. Owners equal brute
+// force's, distances to the last float bit, and match GeodesicMeasure's segment distance.
+TEST(GeodesicEngine, OffshoreCellsOfACoastline) {
+  SeedSet s;
+  std::vector<Vec2> coast_a, coast_b;
+  for (int i = 0; i <= 40; ++i) {
+    const double t = i / 40.0;
+    coast_a.push_back({3.0 + 2.0 * t, 60.0 + 0.02 * std::sin(9.0 * t)});       // ~5.6 km edges
+    coast_b.push_back({3.0 + 2.0 * t, 62.2 + 0.015 * std::cos(7.0 * t + 1)});  // opposite shore
+  }
+  s.add_polyline(s.add_feature(s.owner_code("south")), coast_a);
+  s.add_polyline(s.add_feature(s.owner_code("north")), coast_b);
+  const GridSpec g = geo_grid(3.1, 61.9, 0.006, 300, 267);  // 60.3N .. 61.9N
+  expect_exact_equals_brute(s, g, "offshore");
+  const NearestField f = run(s, g, Method::exact);
+  const GeodesicMeasure m(wgs84());
+  for (int64_t r = 0; r < g.height; r += 37)
+    for (int64_t c = 0; c < g.width; c += 41) {
+      const Vec2 p{g.centre_x(c), g.centre_y(r)};
+      double best = std::numeric_limits<double>::infinity();
+      for (const auto* line : {&coast_a, &coast_b})
+        for (size_t i = 0; i + 1 < line->size(); ++i) best = std::min(best, m.segment_distance(p, (*line)[i], (*line)[i + 1]));
+      EXPECT_NEAR(f.distance.at(c, r), best, best * 1.2e-7) << c << "," << r;
+    }
 }
 
 TEST(GeodesicEngine, GeodesicOwnerDiffersFromPlanarDegrees) {

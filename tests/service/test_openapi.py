@@ -179,6 +179,7 @@ def main():
               "process description outputs == openapi.yaml results")
         request(s, "GET", "/processes/other", expect=404)
 
+        exe_path = "/processes/voronoi/execution"
         # Synchronous, GeoJSON by value.
         demo = json.load(open(os.path.join(SOURCE, "fixtures", "demo_basepoints.geojson")))
         body = {"inputs": {"seeds": demo, "ownerField": "state", "resolution": 2000}}
@@ -217,6 +218,34 @@ def main():
         g = json.loads(g)["report"]["value"]
         check(g["metric"] == "geodesic" and g["grid"]["geographic"], f"geodesic job report: {g.get('grid')}")
         check(g["distance_units"] == "nmi", f"distance units {g.get('distance_units')}")
+        # Every deliverable output, each fetched: its Content-Type must be documented, and the
+        # results document must validate with all of them in it.
+        outs = {k: {} for k in ("ownership", "distance", "nearestFeature", "report", "boundaries", "tripoints",
+                                "limits", "regions", "margin", "preview")}
+        outs["regions"] = {"format": {"mediaType": "application/geopackage+sqlite3"}}
+        deliver = {"inputs": {"seeds": demo, "ownerField": "state", "resolution": 1000,
+                              "limitDistances": ["2nmi", {"value": 5, "unit": "km"}], "limitsPerOwner": True},
+                   "outputs": outs}
+        _, _, st = execute(s, deliver, prefer_async=True, expect=201)
+        jd = json.loads(st)["jobID"]
+        check(wait_status(s, jd, {"successful", "failed"})["status"] == "successful", "deliverables job")
+        _, _, res = request(s, "GET", f"/jobs/{jd}/results", expect=200)
+        res = json.loads(res)
+        check(set(res) == set(outs), f"every requested output listed: {sorted(res)}")
+        expected = {"boundaries": "application/geo+json", "regions": "application/geopackage+sqlite3",
+                    "preview": "image/png", "margin": "image/tiff; application=geotiff; profile=cloud-optimized"}
+        for name in outs:
+            _, h, body = request(s, "GET", f"/jobs/{jd}/results/{name}", expect=200)
+            if name in expected:
+                check(h.get("Content-Type") == expected[name], f"{name} Content-Type {h.get('Content-Type')}")
+                check(res[name]["type"] == expected[name], f"{name} type in the results document")
+            check(len(body) > 0, f"{name} has content")
+        _, h, png = execute(s, {"inputs": {"seeds": demo, "ownerField": "state", "resolution": 1000},
+                                "outputs": {"preview": {}}, "response": "raw"}, expect=200)
+        check(h.get("Content-Type") == "image/png" and png[:8] == b"\x89PNG\r\n\x1a\n", "raw preview is a PNG")
+        request(s, "POST", exe_path, {"inputs": {"seeds": demo, "resolution": 1000, "limitDistances": ["12 parsecs"]},
+                                      "outputs": {"limits": {}}}, expect=400)
+
         request(s, "GET", "/jobs", expect=200)
         request(s, "GET", "/jobs?limit=1&status=successful", expect=200)
         request(s, "GET", f"/jobs/{job1}", expect=200)

@@ -2,6 +2,7 @@
 // the translation of execute requests.
 #include <cpl_vsi.h>
 #include <gtest/gtest.h>
+#include <sqlite3.h>
 
 #include <filesystem>
 #include <fstream>
@@ -135,6 +136,41 @@ TEST(Util, Base64AndTimestamps) {
   EXPECT_EQ(rv::daemon::http_date(t), "Tue, 14 Nov 2023 22:13:20 GMT");
 }
 
+// A database written before output formats were recorded gains the column on open; its jobs
+// read back with no formats (each output's default).
+TEST(Store, OpensADatabaseWithoutTheFormatsColumn) {
+  const auto dir = temp_dir("store_old");
+  const std::string id = rv::daemon::new_job_id();
+  {
+    sqlite3* db = nullptr;
+    ASSERT_EQ(sqlite3_open((dir / "jobs.sqlite").c_str(), &db), SQLITE_OK);
+    const std::string sql =
+        "CREATE TABLE jobs (id TEXT PRIMARY KEY, process_id TEXT NOT NULL, status TEXT NOT NULL,"
+        " message TEXT NOT NULL, error_kind TEXT NOT NULL, progress INTEGER NOT NULL,"
+        " created TEXT NOT NULL, started TEXT NOT NULL, finished TEXT NOT NULL,"
+        " updated TEXT NOT NULL, inputs TEXT NOT NULL, outputs TEXT NOT NULL,"
+        " transmission TEXT NOT NULL, report TEXT NOT NULL);"
+        "INSERT INTO jobs VALUES ('" + id + "', 'voronoi', 'successful', 'finished', '', 100,"
+        " '2026-01-01T00:00:00.000Z', '', '', '2026-01-01T00:00:00.000Z', '{}', '[\"ownership\"]',"
+        " '[\"reference\"]', '')";
+    ASSERT_EQ(sqlite3_exec(db, sql.c_str(), nullptr, nullptr, nullptr), SQLITE_OK);
+    sqlite3_close(db);
+  }
+  for (int reopen = 0; reopen < 2; ++reopen) {
+    rv::JobStore store(dir / "jobs.sqlite");
+    const auto got = store.get(id);
+    ASSERT_TRUE(got);
+    EXPECT_EQ(got->outputs, (std::vector<std::string>{"ownership"}));
+    EXPECT_TRUE(got->formats.empty());
+    rv::JobRecord updated = *got;
+    updated.formats = {"image/tiff; application=geotiff; profile=cloud-optimized"};
+    store.update(updated);
+    EXPECT_EQ(store.get(id)->formats, updated.formats);
+    updated.formats.clear();
+    store.update(updated);
+  }
+}
+
 TEST(Store, PersistsAcrossReopenAndFailsInterruptedJobs) {
   const auto dir = temp_dir("store");
   rv::JobRecord a;
@@ -144,6 +180,7 @@ TEST(Store, PersistsAcrossReopenAndFailsInterruptedJobs) {
   a.inputs = {{"resolution", 5}};
   a.outputs = {"ownership", "report"};
   a.transmission = {"reference", "value"};
+  a.formats = {"image/tiff; application=geotiff; profile=cloud-optimized", "application/json"};
   rv::JobRecord b = a;
   b.id = rv::daemon::new_job_id();
   b.created = "2026-01-02T00:00:00.000Z";
@@ -166,6 +203,7 @@ TEST(Store, PersistsAcrossReopenAndFailsInterruptedJobs) {
   EXPECT_EQ(got->report["grid"]["width"], 3);
   EXPECT_EQ(got->outputs, a.outputs);
   EXPECT_EQ(got->transmission, a.transmission);
+  EXPECT_EQ(got->formats, a.formats);
   EXPECT_EQ(got->inputs, a.inputs);
   EXPECT_FALSE(store.get(rv::daemon::new_job_id()));
   const auto list = store.list(10, 0);
@@ -313,6 +351,27 @@ TEST(Execute, OutputsResponseAndLimits) {
             ErrorKind::invalid_argument);
   EXPECT_EQ(kind_of([] { parse({{"seeds", fc()}, {"resolution", 1}}, {{"subscriber", json::object()}}); }),
             ErrorKind::unsupported);
+
+  // The deliverables: formats by media type, in output order, defaults where none is asked.
+  ex = parse({{"seeds", fc()}, {"resolution", 1}, {"limitDistances", {"12nmi", 24, {{"value", 3}, {"unit", "km"}}}},
+              {"limitsPerOwner", true}, {"simplify", 0.5}},
+             {{"outputs", {{"preview", json::object()},
+                           {"limits", {{"format", {{"mediaType", "Application/GeoPackage+SQLite3"}}}}},
+                           {"boundaries", json::object()},
+                           {"margin", {{"format", {{"mediaType", "image/tiff"}}}}},
+                           {"nearestFeature", json::object()}}}});
+  EXPECT_EQ(ex.outputs, (std::vector<std::string>{"nearestFeature", "boundaries", "limits", "margin", "preview"}));
+  EXPECT_EQ(ex.formats, (std::vector<std::string>{rv::daemon::kMediaGeoTiff, "application/geo+json",
+                                                  "application/geopackage+sqlite3", rv::daemon::kMediaGeoTiff,
+                                                  "image/png"}));
+  EXPECT_EQ(ex.spec.outputs.limit_distances, (std::vector<std::string>{"12nmi", "24", "3km"}));
+  EXPECT_TRUE(ex.spec.outputs.limits_per_owner);
+  EXPECT_DOUBLE_EQ(ex.spec.outputs.simplify_cells, 0.5);
+  EXPECT_EQ(rv::daemon::output_file_name("limits", "application/geopackage+sqlite3"), "limits.gpkg");
+  EXPECT_EQ(rv::daemon::output_file_name("boundaries", ""), "boundaries.geojson");
+  EXPECT_EQ(rv::daemon::output_file_name("nearestFeature", ""), "nearest_feature.tif");
+  EXPECT_EQ(kind_of([] { rv::daemon::output_file_name("preview", "application/json"); }), ErrorKind::internal);
+  EXPECT_EQ(kind_of([] { rv::daemon::output_media_type("preview", "image/jpeg"); }), ErrorKind::invalid_argument);
 
   rv::ServerConfig small;
   small.limits.max_cells = 10'000;

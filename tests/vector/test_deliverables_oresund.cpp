@@ -187,5 +187,42 @@ TEST(OresundDeliverables, MedianLineAndTwelveMileLimitGeodesic) {
               median->vertices.size(), r.stats.max_residual, tl, static_cast<long long>(lim.vertices), tm);
 }
 
+// The geographic grid of 0.002 degrees (600 x 501 cells), geodesic metric, owners by iso2: the
+// DK-SE boundary has no end in the open: it runs from grid edge to grid edge (two owners, no
+// tripoints), every vertex equidistant within 1 cm.
+TEST(OresundDeliverables, NoDanglingEndsOnTheFineGeographicGrid) {
+  const std::string path = oresund_path();
+  if (!std::filesystem::exists(path)) GTEST_SKIP() << "shared fixture missing: " << path;
+  gdal_init();
+  SeedReadOptions o;
+  o.paths = {path};
+  o.layers = {"states"};
+  o.owner_field = "iso2";
+  const LoadedSeeds l = load_seeds(o);
+  const SeedSet& s = l.seeds;
+  const SeedSet::Box b = s.bounds();
+  const GridSpec g = make_aligned_grid(b.xmin, b.ymin, b.xmax, b.ymax, 0.002, l.crs.wkt);
+  MetricSpec geodesic;
+  geodesic.kind = MetricSpec::geodesic;
+  ComputeOptions co;
+  co.threads = 2;
+  co.metric = geodesic;
+  const NearestField f = compute(s, g, co);
+  const GeodesicSiteMetric metric(s, geodesic);
+  const OwnerIndex index(metric);
+  BoundaryOptions bo;
+  bo.threads = 2;
+  const BoundaryResult r = extract_boundaries(f, index, bo);
+  ASSERT_FALSE(r.lines.empty());
+  int ends = 0;
+  EXPECT_EQ(test::dangling_ends(r, g, &ends), 0);
+  EXPECT_GE(ends, 2);
+  EXPECT_TRUE(r.tripoints.empty());
+  EXPECT_LT(r.stats.max_residual, 0.01);  // metres
+  std::printf("oresund geodesic 0.002 deg (%lldx%lld): %zu lines, %d ends, max residual %.2e m\n",
+              static_cast<long long>(g.width), static_cast<long long>(g.height), r.lines.size(), ends,
+              r.stats.max_residual);
+}
+
 }  // namespace
 }  // namespace rv

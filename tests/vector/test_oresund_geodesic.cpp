@@ -60,7 +60,13 @@ TEST(OresundGeodesic, ExactEqualsBruteForceAcrossTheStrait) {
     const ValidationStats v = compare_fields(loaded.seeds, part, brute, 0.0);
     EXPECT_EQ(v.wrong_cells, 0) << "window at " << w.col0 << "," << w.row0;
     EXPECT_EQ(v.nodata_mismatch, 0);
-    EXPECT_EQ(part.distance.cells(), brute.distance.cells());
+    EXPECT_EQ(part.site.cells(), brute.site.cells());
+    // Distances measured at a coastline vertex are interpolated (~1e-8 m): the float written
+    // may differ from brute force's in the last bit, never more.
+    for (size_t i = 0; i < part.distance.size(); ++i) {
+      const float x = part.distance.cells()[i], y = brute.distance.cells()[i];
+      ASSERT_TRUE(x == y || x == std::nextafter(y, x)) << i << ": " << x << " vs " << y;
+    }
     for (size_t i = 0; i < part.site.size(); ++i) {
       if (part.distance.cells()[i] > 0.0f) ++sea_cells;
       ++owners_seen[loaded.seeds.site_owner(part.site.cells()[i])];

@@ -263,6 +263,85 @@ TEST(RasterIo, ConcurrentWritesToDifferentFiles) {
   EXPECT_EQ(files_in(dir.path()).size(), 8u);  // four files, four sidecars, no temporaries
 }
 
+TEST(RasterIo, StripWriterEqualsWholeWrite) {
+  gdal_init();
+  ScratchDir dir;
+  // A window of a larger grid, neither side a multiple of the 256 tile size.
+  const GridSpec grid = utm_grid(900, 1000);
+  const Window window{37, 11, 601, 700};
+  Raster<int32_t> codes(grid, window, 0);
+  Raster<float> dist(grid, window, 0.0f);
+  for (int64_t row = 0; row < codes.height(); ++row)
+    for (int64_t col = 0; col < codes.width(); ++col) {
+      codes.at(col, row) = static_cast<int32_t>((col / 50 + row / 70) % 3);
+      dist.at(col, row) = (col + row) % 97 == 0 ? -1.0f : static_cast<float>(col * 0.25 + row * 1.5);
+    }
+  GeoTiffOptions labelled;
+  labelled.category_labels = {"A", "B"};
+  labelled.metadata["CONTENT"] = "owner";
+  GeoTiffOptions units;
+  units.units = "km";
+  units.metadata["UNITS"] = "km";
+  write_geotiff(dir.file("whole_i.tif"), codes, 0.0, labelled);
+  write_geotiff(dir.file("whole_f.tif"), dist, -1.0, units);
+  // 1 row, completing a buffered tile row, a whole tile row passed through plus a rest, the rest.
+  const std::vector<int64_t> strips{1, 255, 300, 7};
+  GeoTiffStripWriter<int32_t> wi(dir.file("strip_i.tif"), grid, window, 0.0, labelled);
+  GeoTiffStripWriter<float> wf(dir.file("strip_f.tif"), grid, window, -1.0, units);
+  int64_t row = 0;
+  for (const int64_t n : strips) {
+    wi.write_rows(codes.row(row), n);
+    wf.write_rows(dist.row(row), n);
+    row += n;
+  }
+  wi.write_rows(codes.row(row), codes.height() - row);
+  wf.write_rows(dist.row(row), dist.height() - row);
+  EXPECT_EQ(wi.rows_written(), codes.height());
+  EXPECT_FALSE(std::filesystem::exists(dir.path() / "strip_i.tif")) << "visible before finish()";
+  wi.finish();
+  wf.finish();
+  EXPECT_EQ(read_int32(dir.file("strip_i.tif")).cells(), read_int32(dir.file("whole_i.tif")).cells());
+  EXPECT_EQ(read_float32(dir.file("strip_f.tif")).cells(), read_float32(dir.file("whole_f.tif")).cells());
+  EXPECT_EQ(read_grid(dir.file("strip_i.tif")), read_grid(dir.file("whole_i.tif")));
+  EXPECT_EQ(read_category_labels(dir.file("strip_i.tif")), labelled.category_labels);
+  const auto ds = open(dir.file("strip_f.tif"));
+  EXPECT_STREQ(ds->GetRasterBand(1)->GetUnitType(), "km");
+  EXPECT_STREQ(ds->GetRasterBand(1)->GetMetadataItem("UNITS"), "km");
+  EXPECT_EQ(files_in(dir.path()), (std::vector<std::string>{"strip_f.tif", "strip_i.tif", "strip_i.tif.aux.xml",
+                                                            "whole_f.tif", "whole_i.tif", "whole_i.tif.aux.xml"}));
+}
+
+TEST(RasterIo, StripWriterLeavesNothingUnlessFinished) {
+  ScratchDir dir;
+  const GridSpec grid = utm_grid(300, 300);
+  const Raster<int32_t> r(grid, 3);
+  GeoTiffOptions labelled;
+  labelled.category_labels = {"x"};
+  {
+    GeoTiffStripWriter<int32_t> w(dir.file("a.tif"), grid, grid.full_window(), 0.0, labelled);
+    w.write_rows(r.data(), 260);  // one tile row encoded, four rows pending
+    EXPECT_FALSE(files_in(dir.path()).empty());  // the temporary file
+  }
+  EXPECT_TRUE(files_in(dir.path()).empty()) << "destroyed unfinished";
+  {
+    GeoTiffStripWriter<int32_t> w(dir.file("b.tif"), grid, grid.full_window(), 0.0, labelled);
+    w.write_rows(r.data(), 299);
+    expect_error(ErrorKind::invalid_argument, [&] { w.finish(); }, {"299 of 300 rows"});
+    expect_error(ErrorKind::invalid_argument, [&] { w.write_rows(r.data(), 2); }, {"more rows"});
+    w.abort();
+    EXPECT_TRUE(files_in(dir.path()).empty()) << "aborted";
+    w.abort();  // twice is harmless
+  }
+  GeoTiffOptions cog;
+  cog.cloud_optimized = true;
+  expect_error(ErrorKind::invalid_argument,
+               [&] { GeoTiffStripWriter<int32_t>(dir.file("c.tif"), grid, grid.full_window(), 0.0, cog); }, {"COG"});
+  expect_error(ErrorKind::io,
+               [&] { GeoTiffStripWriter<int32_t>(dir.file("no/dir/d.tif"), grid, grid.full_window(), 0.0, {}); },
+               {"no/dir"});
+  EXPECT_TRUE(files_in(dir.path()).empty());
+}
+
 TEST(RasterIo, ReadGridErrors) {
   ScratchDir dir;
   expect_error(ErrorKind::not_found, [&] { read_grid(dir.file("none.tif")); }, {"none.tif"});

@@ -1,7 +1,8 @@
 // GeoTIFF writing and reading through GDAL. See rv/raster_io.hpp for the contract.
 //
-// Writing path (plain GeoTIFF): GTiff Create() on a temporary name next to the target, then one
-// WriteBlock() per 256x256 tile. WriteBlock bypasses GDAL's block cache: with NUM_THREADS the
+// Writing path (plain GeoTIFF, GeoTiffStripWriter; write_geotiff feeds it the whole raster as one
+// strip): GTiff Create() on a temporary name next to the target, then one WriteBlock() per
+// 256x256 tile as soon as a band of 256 rows is complete. WriteBlock bypasses GDAL's block cache: with NUM_THREADS the
 // GTiff driver hands each tile to its compression thread pool as it arrives, so a 1e8-cell
 // raster is compressed in parallel and never copied into the cache. The raster attribute table
 // and category names live in the PAM sidecar (<name>.aux.xml, GDAL 3.6 does not put a RAT inside
@@ -185,37 +186,92 @@ void write_categories(GDALRasterBand& band, const std::vector<std::string>& labe
   if (band.SetCategoryNames(names.List()) != CE_None) fail(path, "cannot set the category names", capture);
 }
 
+// Checks shared by every writer, before anything is created: a usable size, labels only on
+// Int32, an existing target directory.
 template <class T>
-void write_tiles(GDALRasterBand& band, const Raster<T>& raster, double nodata, const std::string& path,
-                 const gdal::ErrorCapture& capture) {
-  const int64_t width = raster.width(), height = raster.height();
-  std::vector<T> tile(static_cast<size_t>(kBlock) * kBlock);
-  for (int64_t by = 0; by * kBlock < height; ++by) {
-    for (int64_t bx = 0; bx * kBlock < width; ++bx) {
-      const int64_t x0 = bx * kBlock, y0 = by * kBlock;
-      const int64_t w = std::min<int64_t>(kBlock, width - x0), h = std::min<int64_t>(kBlock, height - y0);
-      // Edge tiles: the part outside the raster is padding, filled with nodata so that it
-      // compresses to nothing and never shows real-looking values.
+void check_target(const std::string& path, const Window& window, const GeoTiffOptions& options) {
+  if (window.width <= 0 || window.height <= 0)
+    throw Error(ErrorKind::invalid_argument, "writing " + path + ": the raster is empty or inconsistent");
+  if (window.width > INT32_MAX || window.height > INT32_MAX)
+    throw Error(ErrorKind::too_large, "writing " + path + ": more than 2^31 columns or rows");
+  if (!options.category_labels.empty() && PixelType<T>::gdal != GDT_Int32)
+    throw Error(ErrorKind::invalid_argument, "writing " + path + ": category labels need an Int32 raster");
+  const std::string dir = directory_of(path);
+  if (path.rfind("/vsi", 0) != 0 && !exists(dir))
+    throw Error(ErrorKind::io, "writing " + path + ": the directory " + dir + " does not exist");
+}
+
+template <class T>
+void check_raster(const std::string& path, const Raster<T>& raster, const GeoTiffOptions& options) {
+  if (raster.size() != static_cast<size_t>(raster.width() * raster.height()))
+    throw Error(ErrorKind::invalid_argument, "writing " + path + ": the raster is empty or inconsistent");
+  check_target<T>(path, raster.window(), options);
+}
+
+}  // namespace
+
+// Everything one plain GeoTIFF being written needs. Member order matters: the dataset closes
+// (writing the TIFF directory and the PAM sidecar) before the temporary file's guard may remove
+// them.
+template <class T>
+struct GeoTiffStripWriter<T>::State {
+  State(const std::string& p, const Window& w, double nd, const GeoTiffOptions& o)
+      : path(p), window(w), nodata(nd), options(o), out(p) {}
+  std::string path;
+  Window window;
+  double nodata;
+  GeoTiffOptions options;
+  TempOutput out;
+  gdal::DatasetPtr ds;
+  GDALRasterBand* band = nullptr;
+  int64_t rows_written = 0;
+  // Rows of the current band of tiles (kBlock rows) that arrived in strips not ending on a tile
+  // boundary; allocated on first use, so strips of whole tile rows never copy.
+  std::vector<T> pending;
+  int64_t pending_rows = 0;
+  std::vector<T> tile;
+  bool failed = false;
+  bool finished = false;
+
+  // GDAL's error handlers and thread-local options are per thread: every public call installs
+  // its own, so that a writer may be handed from thread to thread.
+  struct Scope {
+    gdal::ErrorCapture capture;
+    // The RAT lives in the PAM sidecar: PAM must be on for this thread whatever the process
+    // configuration says, also when the dataset closes.
+    gdal::ThreadConfigOption pam{"GDAL_PAM_ENABLED", "YES"};
+  };
+
+  // Compresses one band of tiles: `h` rows (kBlock, or fewer in the last band) starting at
+  // `rows`, `stride` cells apart. Edge tiles: the part outside the raster is padding, filled
+  // with nodata so that it compresses to nothing and never shows real-looking values.
+  void write_band(const T* rows, int64_t h, int64_t stride, const gdal::ErrorCapture& capture) {
+    const int64_t by = rows_written / kBlock;
+    tile.resize(static_cast<size_t>(kBlock) * kBlock);
+    for (int64_t bx = 0; bx * kBlock < window.width; ++bx) {
+      const int64_t x0 = bx * kBlock;
+      const int64_t w = std::min<int64_t>(kBlock, window.width - x0);
       if (w < kBlock || h < kBlock) std::fill(tile.begin(), tile.end(), static_cast<T>(nodata));
       for (int64_t r = 0; r < h; ++r)
-        std::memcpy(tile.data() + r * kBlock, raster.row(y0 + r) + x0, static_cast<size_t>(w) * sizeof(T));
-      if (band.WriteBlock(static_cast<int>(bx), static_cast<int>(by), tile.data()) != CE_None)
+        std::memcpy(tile.data() + r * kBlock, rows + r * stride + x0, static_cast<size_t>(w) * sizeof(T));
+      // WriteBlock bypasses the block cache; GDAL copies the tile into its compression queue, so
+      // the buffer is free again when it returns.
+      if (band->WriteBlock(static_cast<int>(bx), static_cast<int>(by), tile.data()) != CE_None)
         fail(path, "cannot write tile (" + std::to_string(bx) + ", " + std::to_string(by) + ")", capture);
     }
+    rows_written += h;
   }
-}
+};
 
 template <class T>
-void check_raster(const std::string& path, const Raster<T>& raster) {
-  if (raster.width() <= 0 || raster.height() <= 0 || raster.size() != static_cast<size_t>(raster.width() * raster.height()))
-    throw Error(ErrorKind::invalid_argument, "writing " + path + ": the raster is empty or inconsistent");
-  if (raster.width() > INT32_MAX || raster.height() > INT32_MAX)
-    throw Error(ErrorKind::too_large, "writing " + path + ": more than 2^31 columns or rows");
-}
-
-template <class T>
-void write_plain(const std::string& path, const Raster<T>& raster, double nodata, const GeoTiffOptions& options,
-                 TempOutput& out, gdal::ErrorCapture& capture) {
+GeoTiffStripWriter<T>::GeoTiffStripWriter(const std::string& path, const GridSpec& grid, const Window& window,
+                                          double nodata, const GeoTiffOptions& options) {
+  gdal_init();
+  if (options.cloud_optimized)
+    throw Error(ErrorKind::invalid_argument, "writing " + path + ": a COG cannot be written strip by strip");
+  check_target<T>(path, window, options);
+  typename State::Scope scope;
+  auto state = std::make_unique<State>(path, window, nodata, options);
   GDALDriver* gtiff = GetGDALDriverManager()->GetDriverByName("GTiff");
   if (gtiff == nullptr) throw Error(ErrorKind::unsupported, "GDAL has no GTiff driver");
   CPLStringList co;
@@ -227,18 +283,107 @@ void write_plain(const std::string& path, const Raster<T>& raster, double nodata
   co.SetNameValue("PREDICTOR", PixelType<T>::predictor);
   co.SetNameValue("NUM_THREADS", thread_option(options.threads).c_str());
   co.SetNameValue("BIGTIFF", "IF_SAFER");
-  gdal::DatasetPtr ds(gtiff->Create(out.temp().c_str(), static_cast<int>(raster.width()),
-                                    static_cast<int>(raster.height()), 1, PixelType<T>::gdal, co.List()));
-  if (!ds) fail(path, "cannot create the file", capture);
-  describe_dataset(*ds, raster.grid(), raster.window(), nodata, options, path, capture);
-  GDALRasterBand* band = ds->GetRasterBand(1);
-  write_categories(*band, options.category_labels, path, capture);
-  write_tiles(*band, raster, nodata, path, capture);
-  ds->FlushCache(true);
-  if (!capture.last_error().empty()) fail(path, "flushing failed", capture);
-  ds.reset();  // closing writes the directory and the PAM sidecar
-  if (!capture.last_error().empty()) fail(path, "closing failed", capture);
+  state->ds.reset(gtiff->Create(state->out.temp().c_str(), static_cast<int>(window.width),
+                                static_cast<int>(window.height), 1, PixelType<T>::gdal, co.List()));
+  if (!state->ds) fail(path, "cannot create the file", scope.capture);
+  describe_dataset(*state->ds, grid, window, nodata, options, path, scope.capture);
+  state->band = state->ds->GetRasterBand(1);
+  write_categories(*state->band, options.category_labels, path, scope.capture);
+  state_ = std::move(state);
 }
+
+template <class T>
+GeoTiffStripWriter<T>::~GeoTiffStripWriter() {
+  abort();
+}
+
+template <class T>
+GeoTiffStripWriter<T>::GeoTiffStripWriter(GeoTiffStripWriter&&) noexcept = default;
+
+template <class T>
+GeoTiffStripWriter<T>& GeoTiffStripWriter<T>::operator=(GeoTiffStripWriter&& other) noexcept {
+  if (this != &other) {
+    abort();
+    state_ = std::move(other.state_);
+  }
+  return *this;
+}
+
+template <class T>
+int64_t GeoTiffStripWriter<T>::rows_written() const {
+  return state_ ? state_->rows_written + state_->pending_rows : 0;
+}
+
+template <class T>
+void GeoTiffStripWriter<T>::write_rows(const T* cells, int64_t rows) {
+  if (!state_ || state_->finished) throw Error(ErrorKind::invalid_argument, "GeoTIFF writer: already finished");
+  State& s = *state_;
+  if (s.failed) throw Error(ErrorKind::io, "writing " + s.path + ": an earlier write failed");
+  if (rows < 0 || rows > s.window.height - rows_written())
+    throw Error(ErrorKind::invalid_argument, "writing " + s.path + ": more rows than the raster has");
+  typename State::Scope scope;
+  s.failed = true;  // until this call returns normally
+  const int64_t width = s.window.width;
+  while (rows > 0) {
+    // Rows the current band of tiles holds: kBlock, or what is left of the raster.
+    const int64_t band_rows = std::min<int64_t>(kBlock, s.window.height - s.rows_written);
+    if (s.pending_rows == 0 && rows >= band_rows) {
+      s.write_band(cells, band_rows, width, scope.capture);
+      cells += band_rows * width;
+      rows -= band_rows;
+      continue;
+    }
+    const int64_t take = std::min(rows, band_rows - s.pending_rows);
+    s.pending.resize(static_cast<size_t>(kBlock * width));
+    std::memcpy(s.pending.data() + s.pending_rows * width, cells, static_cast<size_t>(take * width) * sizeof(T));
+    s.pending_rows += take;
+    cells += take * width;
+    rows -= take;
+    if (s.pending_rows == band_rows) {
+      s.pending_rows = 0;
+      s.write_band(s.pending.data(), band_rows, width, scope.capture);
+    }
+  }
+  s.failed = false;
+}
+
+template <class T>
+void GeoTiffStripWriter<T>::finish() {
+  if (!state_ || state_->finished) throw Error(ErrorKind::invalid_argument, "GeoTIFF writer: already finished");
+  State& s = *state_;
+  if (s.failed) throw Error(ErrorKind::io, "writing " + s.path + ": an earlier write failed");
+  if (rows_written() != s.window.height)
+    throw Error(ErrorKind::invalid_argument, "writing " + s.path + ": " + std::to_string(rows_written()) + " of " +
+                                                 std::to_string(s.window.height) + " rows written");
+  typename State::Scope scope;
+  s.failed = true;
+  s.ds->FlushCache(true);
+  if (!scope.capture.last_error().empty()) fail(s.path, "flushing failed", scope.capture);
+  s.band = nullptr;
+  s.ds.reset();  // closing writes the directory and the PAM sidecar
+  if (!scope.capture.last_error().empty()) fail(s.path, "closing failed", scope.capture);
+  s.out.commit();
+  s.failed = false;
+  s.finished = true;
+}
+
+template <class T>
+void GeoTiffStripWriter<T>::abort() noexcept {
+  if (!state_) return;
+  if (!state_->finished) {
+    // Closing flushes what was written (GDAL has no way to drop a dataset); the temporary
+    // file and its sidecar are then removed by the guard.
+    typename State::Scope scope;
+    state_->band = nullptr;
+    state_->ds.reset();
+  }
+  state_.reset();
+}
+
+template class GeoTiffStripWriter<int32_t>;
+template class GeoTiffStripWriter<float>;
+
+namespace {
 
 template <class T>
 void write_cog(const std::string& path, const Raster<T>& raster, double nodata, const GeoTiffOptions& options,
@@ -292,20 +437,20 @@ void write_cog(const std::string& path, const Raster<T>& raster, double nodata, 
 template <class T>
 void write_any(const std::string& path, const Raster<T>& raster, double nodata, const GeoTiffOptions& options) {
   gdal_init();
-  check_raster(path, raster);
-  if (!options.category_labels.empty() && PixelType<T>::gdal != GDT_Int32)
-    throw Error(ErrorKind::invalid_argument, "writing " + path + ": category labels need an Int32 raster");
-  const std::string dir = directory_of(path);
-  if (path.rfind("/vsi", 0) != 0 && !exists(dir)) throw Error(ErrorKind::io, "writing " + path + ": the directory " + dir + " does not exist");
+  check_raster(path, raster, options);
+  if (!options.cloud_optimized) {
+    // The plain layout is the strip writer's, fed the whole raster as one strip.
+    GeoTiffStripWriter<T> writer(path, raster.grid(), raster.window(), nodata, options);
+    writer.write_rows(raster.data(), raster.height());
+    writer.finish();
+    return;
+  }
   gdal::ErrorCapture capture;
   // The RAT lives in the PAM sidecar: make sure PAM is on for this thread whatever the
   // process configuration says.
   gdal::ThreadConfigOption pam("GDAL_PAM_ENABLED", "YES");
   TempOutput out(path);
-  if (options.cloud_optimized)
-    write_cog(path, raster, nodata, options, out, capture);
-  else
-    write_plain(path, raster, nodata, options, out, capture);
+  write_cog(path, raster, nodata, options, out, capture);
   out.commit();
 }
 

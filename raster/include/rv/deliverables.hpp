@@ -238,9 +238,11 @@ struct BoundaryOptions {
 
 struct BoundaryStats {
   int64_t crossings = 0;         // cell-centre segments with two different owners
-  // Crossings dropped because a third owner is nearer at the A-B equidistant point: its region
-  // passes between the two centres without holding one (below the grid's resolution there).
+  // Cell-centre segments where a third owner is nearer at the A-B equidistant point: its
+  // region passes between the two centres without holding one (thinner than a cell there). Such
+  // a segment carries the A-C and C-B crossings instead (and so on for more owners between).
   int64_t sliver_crossings = 0;
+  int64_t unresolved_slivers = 0;  // segments with more owners between than followed (dropped)
   int64_t saddles = 0;           // dual squares A B / B A resolved by the centre's owner
   int64_t multi_owner_squares = 0;  // dual squares with three or more owners
   int64_t unresolved_tripoints = 0;  // such squares where no tripoint converged inside

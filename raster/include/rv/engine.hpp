@@ -44,9 +44,16 @@
 //     pole, which are taken as given; each polygon is also matched one turn east and west, so
 //     interiors work across the antimeridian;
 //   - the exact method culls with chord (lower) and path-length (upper) bounds that are proven
-//     safe and compares exact geodesic distances, so it equals brute force cell for cell; it
-//     costs about one GeographicLib inverse problem per cell (~1.5 us), and is also the fastest
-//     geodesic method (the scans solve one for every neighbour candidate they compare).
+//     safe. Distances to point sites, and to segments from cells where a segment is certainly
+//     nearest at one of its ends, are interpolated on grid-aligned blocks (d / chord, bicubic
+//     from 16 inverse problems per block and site, checked at the block's centre; ~1e-8 m),
+//     other segment distances are exact; every close call (two candidates within 1e-4 m, or a
+//     distance within 1e-4 m of max_distance) is decided with exact distances and brute force's
+//     tie rule. So the owners equal brute force's cell for cell, and distances equal them to
+//     the last bit of the float32 (which may differ by one unit in the last place). Costs: a
+//     few tens of flops per cell and candidate where interpolated, one GeographicLib inverse
+//     problem (~1.5 us) per cell where a segment's interior is nearest. The scans solve one
+//     for every neighbour candidate they compare.
 //
 // Thread safety: compute() is reentrant; any number of computations may run at once.
 #pragma once
@@ -132,8 +139,12 @@ int64_t estimate_memory(Method m, int64_t cells, int64_t sites, MetricSpec::Kind
 // rv::Error(cancelled).
 NearestField compute(const SeedSet& seeds, const GridSpec& grid, const ComputeOptions& options);
 
-// The same, writing into `out` and reusing its buffers when they already have the window's size
-// (a fresh buffer costs the kernel's page zeroing, about half the time of a large exact run).
+// The same, writing into `out` and reusing its buffers whenever they are at least the window's
+// size, whatever grid or window they held before (a fresh buffer costs the kernel's page
+// zeroing, about half the time of a large exact run; a job streamed in strips computes every
+// strip into the same buffers). For the exact and brute-force methods the cells of a window
+// equal the same cells of the whole grid's result, bit for bit; the scans' do not (they
+// propagate inside the window).
 void compute_into(const SeedSet& seeds, const GridSpec& grid, const ComputeOptions& options,
                   NearestField& out);
 

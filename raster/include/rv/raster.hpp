@@ -67,6 +67,15 @@ class Raster {
     cells_.resize(static_cast<size_t>(window.cell_count()));
   }
 
+  // Makes this raster hold `window` of `grid`, keeping the buffer (and its already-faulted pages)
+  // when it is large enough: cell values are then unspecified, the caller must write every cell
+  // before reading it. For computing strip after strip into one buffer.
+  void retarget(GridSpec grid, Window window) {
+    grid_ = std::move(grid);
+    window_ = window;
+    cells_.resize(static_cast<size_t>(window.cell_count()));
+  }
+
   const GridSpec& grid() const { return grid_; }
   // Which cells of grid() this raster holds; (col, row) accessors below are window-relative.
   const Window& window() const { return window_; }

@@ -73,7 +73,39 @@ struct JobSpec {
   std::optional<double> max_distance;
   bool validate = false;             // also run brute force and report the differences
   OutputRequest outputs;
+  // Rows per strip on the streaming path (see JobPlan): 0 = chosen by run_job, > 0 = this many
+  // (clamped to the grid's height), < 0 = never stream (compute the whole field, then write;
+  // for comparisons). Never changes a cell of the outputs.
+  int64_t strip_rows = 0;
 };
+
+// How run_job computes and writes a job, decided from the request and the grid alone, before
+// anything grid-sized is allocated.
+//
+// Streamed: the grid is computed in strips of whole rows (ComputeOptions::window, into the same
+// buffers each time), and each strip is converted (owner codes, feature numbers, distance units)
+// and handed to a writer thread that encodes it into the GeoTIFFs (GeoTiffStripWriter) while the
+// engine computes the next strip; two strips are in flight at most. Memory is O(strip), not
+// O(grid), and the files are identical to the whole-field path's for any strip height and thread
+// count. A job is streamed when every output can be made from a strip alone:
+//   - method exact or brute-force: a window of these equals the same cells of the whole grid
+//     (the scans propagate inside the window, so a strip of them would differ);
+//   - no deliverable (boundaries, tripoints, limits, regions, margin, preview: they need the
+//     whole field, and the regions and preview the whole owner raster);
+//   - no COG (GDAL's COG driver only makes a copy of a complete dataset: CreateCopy);
+//   - no validate (it compares two whole fields; brute force is limited to small grids anyway);
+//   - at least one raster output (ownership, distance or nearest feature);
+//   - JobSpec::strip_rows >= 0.
+// Otherwise (the "whole" path) the field is computed whole, then each raster is made and written.
+struct JobPlan {
+  bool streamed = false;
+  int64_t strip_rows = 0;    // rows per strip when streamed; the grid's height otherwise
+  int64_t strips = 1;        // number of strips
+  int64_t memory_bytes = 0;  // estimated peak for the grid, checked against the memory limit
+  std::string why_whole;     // the first rule above the job breaks; "" when streamed
+};
+// `sites`: SeedSet::sites().size(); `metric`: the resolved metric's kind.
+JobPlan plan_job(const JobSpec& spec, const GridSpec& grid, int64_t sites, MetricSpec::Kind metric);
 
 // Limits decided before anything big is allocated (config parsed once, see config.hpp).
 // Each limit refused is an rv::Error(too_large) whose message names the limit and the value.

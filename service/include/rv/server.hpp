@@ -57,5 +57,8 @@ struct ServeOptions {
 // Returns the process exit status (error_info(kind).exit_code on a startup failure, with the
 // message on stderr).
 int serve_main(const ServeOptions& options);
+// The same with another job runner. Only the crash-safety tests use it (their test-only daemon,
+// tests/service/crash_daemon.cpp, pauses jobs at chosen stages); `rvoronoi serve` never does.
+int serve_main(const ServeOptions& options, JobRunner runner);
 
 }  // namespace rv

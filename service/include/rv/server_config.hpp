@@ -12,8 +12,14 @@
 //     "jobs": { "workers": 2, "queue_length": 16, "threads_per_job": 0,
 //               "job_timeout_s": 3600, "shutdown_grace_s": 20 },
 //     "limits": { "max_cells": 17179869184, "max_memory_bytes": 0,
-//                 "validate_max_cells": 4000000 }
+//                 "validate_max_cells": 4000000, "max_features": 10000000,
+//                 "max_vertices": 100000000 },
+//     "auth": { "tokens": [], "token_file": "" }
 //   }
+// Authentication: with no token configured (the default) every route is open. With at least one
+// (auth.tokens, and/or auth.token_file: one token per line, '#' comments and blank lines
+// ignored, read once at startup), every route except /, /conformance, /api and /health needs
+// "Authorization: Bearer <token>" naming one of them.
 // Memory: a queued job keeps its uploaded seed data in memory until it runs, so uploads can hold
 // up to about (workers + queue_length) x max_body_bytes; each running job may use
 // limits.max_memory_bytes (default: its share of 80 % of physical memory).
@@ -22,6 +28,7 @@
 
 #include <cstdint>
 #include <string>
+#include <vector>
 
 #include <nlohmann/json.hpp>
 
@@ -46,6 +53,14 @@ struct JobsConfig {
   double shutdown_grace_s = 20.0;
 };
 
+struct AuthConfig {
+  // Accepted bearer tokens, file tokens included (the file is read by parse_server_config).
+  // Empty = no authentication. Each is 16..4096 printable ASCII characters without spaces.
+  std::vector<std::string> tokens;
+  std::string token_file;  // as configured, for messages; "" = none
+  bool enabled() const { return !tokens.empty(); }
+};
+
 struct ServerConfig {
   std::string host = "127.0.0.1";
   int port = 8080;  // 0 = ephemeral (tests)
@@ -54,13 +69,16 @@ struct ServerConfig {
   HttpConfig http;
   JobsConfig jobs;
   JobLimits limits;  // per job; max_memory_bytes 0 = 80 % of physical memory / workers
+  AuthConfig auth;
 };
 
 // Parses "host:port" (IPv6 as "[::1]:8080") into config.host/config.port.
 // Throws rv::Error(invalid_argument).
 void parse_listen(const std::string& listen, ServerConfig& config);
 
-// Parses a configuration document. Throws rv::Error(invalid_argument) naming the key at fault.
+// Parses a configuration document (and reads auth.token_file). Throws rv::Error naming the key at
+// fault: invalid_argument, or not_found when the token file cannot be read. Messages never
+// contain a token.
 ServerConfig parse_server_config(const nlohmann::json& document);
 
 // Reads and parses a configuration file. Throws rv::Error(not_found / invalid_argument).

@@ -37,6 +37,9 @@ struct JobRecord {
   nlohmann::json inputs = nlohmann::json::object();   // the inputs as received (uploads summarised)
   std::vector<std::string> outputs;                   // output ids requested (ownership, ...)
   std::vector<std::string> transmission;              // per output: "value" or "reference"
+  // Per output: the media type its file was written as; may be shorter than `outputs` (jobs
+  // stored before formats were recorded), a missing entry meaning the output's default.
+  std::vector<std::string> formats;
   nlohmann::json report;                              // the job report, once successful
 };
 

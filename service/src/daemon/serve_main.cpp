@@ -12,6 +12,12 @@
 namespace rv {
 
 int serve_main(const ServeOptions& options) {
+  return serve_main(options, [](const JobSpec& spec, const JobLimits& limits, const JobHooks& hooks) {
+    return run_job(spec, limits, hooks);
+  });
+}
+
+int serve_main(const ServeOptions& options, JobRunner runner) {
   try {
     ServerConfig config = options.config_file.empty() ? ServerConfig{} : load_server_config(options.config_file);
     if (!options.listen.empty()) parse_listen(options.listen, config);
@@ -28,10 +34,11 @@ int serve_main(const ServeOptions& options) {
     pthread_sigmask(SIG_BLOCK, &signals, nullptr);
     // A client vanishing mid-response must cost an error code, not the process.
     signal(SIGPIPE, SIG_IGN);
+    // A result file over the process's file size limit (RLIMIT_FSIZE, e.g. ulimit -f in a
+    // container) must fail that job with EFBIG, not kill the daemon with SIGXFSZ.
+    signal(SIGXFSZ, SIG_IGN);
 
-    Server server(config, [](const JobSpec& spec, const JobLimits& limits, const JobHooks& hooks) {
-      return run_job(spec, limits, hooks);
-    });
+    Server server(config, std::move(runner));
     server.start();
     int received = 0;
     sigwait(&signals, &received);

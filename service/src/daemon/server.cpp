@@ -19,6 +19,7 @@
 #include "rv/error.hpp"
 #include "rv/store_jobs.hpp"
 #include "server_api.hpp"
+#include "server_auth.hpp"
 #include "server_jobs.hpp"
 #include "server_util.hpp"
 
@@ -71,9 +72,10 @@ struct FileSliceBody {
 };
 
 struct Shared {
-  Shared(const ServerConfig& c, daemon::Api& a) : config(c), api(a) {}
+  Shared(const ServerConfig& c, daemon::Api& a) : config(c), api(a), auth(c.auth) {}
   const ServerConfig& config;
   daemon::Api& api;
+  const daemon::Authenticator auth;
   std::atomic<int> in_flight{0};  // requests handed to the Api whose response is not yet written
 };
 
@@ -107,6 +109,18 @@ class Session : public std::enable_shared_from_this<Session> {
   // answered before the body is sent, and a client waiting on "Expect: 100-continue" (curl
   // with an upload) is told to go on instead of waiting a second for nothing.
   void on_header(beast::error_code ec, std::size_t bytes) {
+    // Before the body: a client without a valid token cannot make us read (and hold) an upload,
+    // nor learn the body limit. A Content-Length over it fails the header read with body_limit
+    // once every field is parsed (Beast checks it when the header ends), so the fields are there.
+    if ((!ec && parser_->is_header_done()) || ec == http::error::body_limit) {
+      const auto& head = parser_->get();
+      const auto target = head.target();
+      const auto authorization = head[http::field::authorization];
+      if (auto refusal = shared_.auth.check(std::string_view(target.data(), target.size()),
+                                            std::string_view(authorization.data(), authorization.size()))) {
+        return reject(std::move(*refusal));
+      }
+    }
     if (ec) return on_read(ec, bytes);
     const auto& req = parser_->get();
     if (!parser_->is_done() && beast::iequals(req[http::field::expect], "100-continue")) {
@@ -179,12 +193,19 @@ class Session : public std::enable_shared_from_this<Session> {
   }
 
   void protocol_error(unsigned status, const char* slug, const char* title, const std::string& detail) {
+    reject(daemon::problem_response(status, std::string("https://rvoronoi.dev/problems/") + slug, title, detail, ""));
+  }
+
+  // Answers without handing the request to the Api, then closes the connection (the client may
+  // still be sending a body we will not read).
+  void reject(daemon::ApiResponse response) {
+    started_ = std::chrono::steady_clock::now();
     method_ = parser_ && parser_->is_header_done() ? std::string(parser_->get().method_string()) : "-";
     target_ = parser_ && parser_->is_header_done() ? std::string(parser_->get().target()) : "-";
     keep_alive_ = false;
     version_ = 11;
     ++shared_.in_flight;
-    send(daemon::problem_response(status, std::string("https://rvoronoi.dev/problems/") + slug, title, detail, ""));
+    send(std::move(response));
   }
 
   template <class Body>
@@ -397,6 +418,7 @@ void Server::start() {
   daemon::log_line("{\"time\":\"" + daemon::now_rfc3339() + "\",\"event\":\"listening\",\"address\":" +
                    json_escape(s.config.host + ":" + std::to_string(s.port)) +
                    ",\"data_dir\":" + json_escape(s.config.data_dir) +
+                   ",\"auth\":\"" + (s.config.auth.enabled() ? "bearer" : "off") + "\"" +
                    ",\"interrupted_jobs_failed\":" + std::to_string(interrupted.size()) + "}");
 }
 

@@ -17,8 +17,7 @@ namespace {
 
 using nlohmann::json;
 
-constexpr const char* kJson = "application/json";
-constexpr const char* kGeoTiff = "image/tiff; application=geotiff; profile=cloud-optimized";
+constexpr const char* kJson = kMediaJson;
 constexpr const char* kOgcExceptions = "http://www.opengis.net/def/exceptions/ogcapi-processes-1/1.0/";
 constexpr const char* kOgcRel = "http://www.opengis.net/def/rel/ogc/1.0/";
 
@@ -57,20 +56,6 @@ ErrorKind parse_error_kind(const std::string& name) {
   return ErrorKind::internal;
 }
 
-std::string percent_decode(std::string_view s) {
-  std::string out;
-  for (size_t i = 0; i < s.size(); ++i) {
-    if (s[i] == '%' && i + 2 < s.size() && std::isxdigit(static_cast<unsigned char>(s[i + 1])) &&
-        std::isxdigit(static_cast<unsigned char>(s[i + 2]))) {
-      out += static_cast<char>(std::stoi(std::string(s.substr(i + 1, 2)), nullptr, 16));
-      i += 2;
-    } else {
-      out += s[i] == '+' ? ' ' : s[i];
-    }
-  }
-  return out;
-}
-
 std::vector<std::string> split(std::string_view s, char sep) {
   std::vector<std::string> parts;
   size_t start = 0;
@@ -96,10 +81,17 @@ json link(const std::string& href, const std::string& rel, const std::string& ty
   return l;
 }
 
-const char* output_media_type(const std::string& id) {
-  if (id == "report") return kJson;
+// The media type output `id` of job `r` was written as (the ownership raster's sidecar too).
+std::string media_of(const JobRecord& r, const std::string& id) {
   if (id == "ownership.aux.xml") return "application/xml";
-  return kGeoTiff;
+  for (size_t i = 0; i < r.outputs.size() && i < r.formats.size(); ++i)
+    if (r.outputs[i] == id) return r.formats[i];
+  return output_media_type(id, "");
+}
+
+// The file of output `id` of job `r` inside its directory.
+std::string file_of(const JobRecord& r, const std::string& id) {
+  return output_file_name(id, media_of(r, id));
 }
 
 json process_summary(const std::string& base) {
@@ -159,15 +151,49 @@ json process_description(const std::string& base) {
     "distanceUnits": {"title": "Distance units", "minOccurs": 0, "maxOccurs": 1,
       "schema": {"type": "string", "enum": ["m", "km", "nmi"]}},
     "validate": {"title": "Validate", "description": "Also compute by brute force and report the differences (limited grid size).",
-      "minOccurs": 0, "maxOccurs": 1, "schema": {"type": "boolean", "default": false}}
+      "minOccurs": 0, "maxOccurs": 1, "schema": {"type": "boolean", "default": false}},
+    "limitDistances": {"title": "Limit distances", "description": "Distances of the lines of the output 'limits' (required with it, refused without it): \"12nmi\", \"24 nmi\", \"500m\", \"3.5km\", a plain number in distanceUnits (CRS units or metres without), or {\"value\": 12, \"unit\": \"nmi\"}. Each > 0 and within maxDistance.",
+      "minOccurs": 0, "maxOccurs": 1,
+      "schema": {"type": "array", "minItems": 1, "maxItems": 64, "items": {"oneOf": [
+        {"type": "string", "pattern": "^ *[0-9.eE+]+ *(m|km|nmi)? *$"},
+        {"type": "number", "minimum": 0, "exclusiveMinimum": true},
+        {"type": "object", "required": ["value"], "properties": {
+          "value": {"type": "number", "minimum": 0, "exclusiveMinimum": true},
+          "unit": {"type": "string", "enum": ["m", "km", "nmi"]}}}]}}},
+    "limitsPerOwner": {"title": "Limits per owner", "description": "Output 'limits': one set of lines per owner (distance to that owner's seeds) instead of one set for all seeds.",
+      "minOccurs": 0, "maxOccurs": 1, "schema": {"type": "boolean", "default": false}},
+    "simplify": {"title": "Simplification tolerance", "description": "Douglas-Peucker tolerance of the boundary and limit lines, in cells; kept vertices stay exact locus points. 0 keeps every vertex.",
+      "minOccurs": 0, "maxOccurs": 1, "schema": {"type": "number", "minimum": 0, "default": 0}}
   })json");
   static const json outputs = json::parse(R"json({
     "ownership": {"title": "Ownership raster", "description": "Int32 owner codes (0 = none), a Cloud Optimized GeoTIFF with a raster attribute table (served also as ownership.aux.xml).",
       "schema": {"type": "string", "contentEncoding": "binary", "contentMediaType": "image/tiff; application=geotiff; profile=cloud-optimized"}},
     "distance": {"title": "Distance raster", "description": "Float32 distance to the nearest seed (-1 = none), a Cloud Optimized GeoTIFF.",
       "schema": {"type": "string", "contentEncoding": "binary", "contentMediaType": "image/tiff; application=geotiff; profile=cloud-optimized"}},
-    "report": {"title": "Job report", "description": "What was computed: grid, seeds, method, timings, validation.",
-      "schema": {"type": "object", "contentMediaType": "application/json"}}
+    "nearestFeature": {"title": "Nearest-feature raster", "description": "Int32 1-based position of the nearest seed feature in the input (0 = none), a Cloud Optimized GeoTIFF.",
+      "schema": {"type": "string", "contentEncoding": "binary", "contentMediaType": "image/tiff; application=geotiff; profile=cloud-optimized"}},
+    "report": {"title": "Job report", "description": "What was computed: grid, seeds, method, timings, validation, deliverables.",
+      "schema": {"type": "object", "contentMediaType": "application/json"}},
+    "boundaries": {"title": "Boundary (equidistance) lines", "description": "For every pair of owners that touch, the lines where the distances to both are equal, every vertex placed on the exact locus with the grid's metric. Line features with owner_a < owner_b (codes), label_a, label_b, closed, max_residual, units, and the controlling seed features per vertex (features_a, features_b); the GeoPackage adds a layer boundary_vertices with each vertex's basepoints. GeoJSON (default) or GeoPackage by format.mediaType.",
+      "schema": {"oneOf": [
+        {"type": "object", "contentMediaType": "application/geo+json"},
+        {"type": "string", "contentEncoding": "binary", "contentMediaType": "application/geopackage+sqlite3"}]}},
+    "tripoints": {"title": "Tripoints", "description": "Points equidistant from three owners' nearest seeds: owner_1..3, label_1..3, feature_1..3, distance, residual, units. GeoJSON (default) or GeoPackage.",
+      "schema": {"oneOf": [
+        {"type": "object", "contentMediaType": "application/geo+json"},
+        {"type": "string", "contentEncoding": "binary", "contentMediaType": "application/geopackage+sqlite3"}]}},
+    "limits": {"title": "Distance-limit lines", "description": "Lines at the distances of the input limitDistances from the seeds (all owners, or per owner with limitsPerOwner): distance, units, owner (0 = all), label, closed, max_residual. GeoJSON (default) or GeoPackage.",
+      "schema": {"oneOf": [
+        {"type": "object", "contentMediaType": "application/geo+json"},
+        {"type": "string", "contentEncoding": "binary", "contentMediaType": "application/geopackage+sqlite3"}]}},
+    "regions": {"title": "Ownership regions", "description": "One multipolygon per owner from the ownership raster (8-connected cells): owner, label, cells, area. GeoJSON (default) or GeoPackage.",
+      "schema": {"oneOf": [
+        {"type": "object", "contentMediaType": "application/geo+json"},
+        {"type": "string", "contentEncoding": "binary", "contentMediaType": "application/geopackage+sqlite3"}]}},
+    "margin": {"title": "Margin raster", "description": "Float32: distance to the nearest seed of another owner minus distance to the own nearest seed (>= 0; -1 = no owner or a single owner), in distanceUnits, a Cloud Optimized GeoTIFF.",
+      "schema": {"type": "string", "contentEncoding": "binary", "contentMediaType": "image/tiff; application=geotiff; profile=cloud-optimized"}},
+    "preview": {"title": "Quicklook", "description": "PNG of the ownership in distinct colours with the boundary lines in white; one pixel per cell, or per n x n cells (the smallest integer n keeping the long side within 2000 px; the report's deliverables.preview gives it).",
+      "schema": {"type": "string", "contentEncoding": "binary", "contentMediaType": "image/png"}}
   })json");
   d["inputs"] = inputs;
   d["outputs"] = outputs;
@@ -243,7 +269,7 @@ json status_info(const JobRecord& r, const std::string& base) {
   if (r.status == JobStatus::successful) {
     links.push_back(link(self + "/results", std::string(kOgcRel) + "results", kJson, "job results"));
     for (const std::string& o : r.outputs) {
-      links.push_back(link(self + "/results/" + o, "enclosure", output_media_type(o), o));
+      links.push_back(link(self + "/results/" + o, "enclosure", media_of(r, o), o));
       if (o == "ownership") {
         links.push_back(link(self + "/results/ownership.aux.xml", "describedby", "application/xml",
                              "raster attribute table of ownership (GDAL PAM sidecar)"));
@@ -262,7 +288,7 @@ json results_document(const JobRecord& r, const std::string& base) {
     if (by_value) {
       doc[o] = {{"value", r.report}, {"mediaType", kJson}};
     } else {
-      doc[o] = {{"href", base + "/jobs/" + r.id + "/results/" + o}, {"type", output_media_type(o)}};
+      doc[o] = {{"href", base + "/jobs/" + r.id + "/results/" + o}, {"type", media_of(r, o)}};
     }
   }
   return doc;
@@ -390,10 +416,7 @@ void Api::route(const Context& ctx, const std::shared_ptr<Respond>& respond) {
   const std::string& base = ctx.base;
   const bool get = method == "GET" || method == "HEAD";
   auto reply = [&](ApiResponse r) { (*respond)(std::move(r)); };
-  std::vector<std::string> seg;
-  for (const std::string& s : split(path, '/')) {
-    if (!s.empty()) seg.push_back(percent_decode(s));
-  }
+  const std::vector<std::string> seg = path_segments(path);
 
   if (seg.empty()) {
     if (!get) return reply(method_not_allowed("GET, HEAD", path));
@@ -465,7 +488,7 @@ void Api::route(const Context& ctx, const std::shared_ptr<Respond>& respond) {
           if (rec.status != JobStatus::successful) throw_no_results(rec);
           if (raw) {
             const std::string& o = rec.outputs.front();
-            r = file_response(dir + "/" + output_file_name(o), output_media_type(o), "",
+            r = file_response(dir + "/" + file_of(rec, o), media_of(rec, o), "",
                               "the result file of job " + rec.id + " is missing");
           } else {
             r = json_response(200, results_document(rec, base));
@@ -534,15 +557,15 @@ void Api::route(const Context& ctx, const std::shared_ptr<Respond>& respond) {
     if (seg.size() == 3) return reply(json_response(200, results_document(rec, base)));
     const std::string& output = seg[3];
     const bool sidecar = output == "ownership.aux.xml";
-    const std::string file_of = sidecar ? "ownership" : output;
-    if (std::find(rec.outputs.begin(), rec.outputs.end(), file_of) == rec.outputs.end()) {
+    const std::string output_id = sidecar ? "ownership" : output;
+    if (std::find(rec.outputs.begin(), rec.outputs.end(), output_id) == rec.outputs.end()) {
       throw Error(ErrorKind::not_found, "job " + id + " has no output '" + output.substr(0, 64) +
                                             "' (requested outputs only)");
     }
     // The file name is ours, never the client's: only the id (checked hex) and a fixed name.
-    std::string file = jobs_.job_dir(id).string() + "/" + output_file_name(file_of);
+    std::string file = jobs_.job_dir(id).string() + "/" + file_of(rec, output_id);
     if (sidecar) file += ".aux.xml";
-    return reply(file_response(file, output_media_type(output), ctx.request.range,
+    return reply(file_response(file, media_of(rec, output), ctx.request.range,
                                "job " + id + " has no file for output '" + output + "'"));
   }
   throw Error(ErrorKind::not_found, "no resource " + path.substr(0, 200));

@@ -53,6 +53,53 @@ std::string get_string(const json& object, const char* key, const std::string& f
   return object.at(key).get<std::string>();
 }
 
+// A token goes into an HTTP header: printable ASCII without spaces. A short one could be
+// guessed online, so 16 characters is the least accepted (`openssl rand -hex 32` gives 64).
+void add_token(const std::string& token, const std::string& where, AuthConfig& auth) {
+  // The messages say where the token is, never what it is: the error ends up in logs.
+  if (token.size() < 16 || token.size() > 4096) bad(where, "a token must have 16 to 4096 characters");
+  for (const char ch : token) {
+    if (ch < 0x21 || ch > 0x7e) bad(where, "a token may contain printable ASCII characters only, no spaces");
+  }
+  auth.tokens.push_back(token);
+}
+
+void parse_auth(const json& a, AuthConfig& auth) {
+  check_keys(a, "auth", {"tokens", "token_file"});
+  if (a.contains("tokens")) {
+    const json& list = a.at("tokens");
+    if (!list.is_array()) bad("auth.tokens", "must be an array of strings");
+    for (size_t i = 0; i < list.size(); ++i) {
+      const std::string where = "auth.tokens[" + std::to_string(i) + "]";
+      if (!list[i].is_string()) bad(where, "must be a string");
+      add_token(list[i].get<std::string>(), where, auth);
+    }
+  }
+  if (a.contains("token_file")) {
+    if (!a.at("token_file").is_string()) bad("auth.token_file", "must be a string");
+    auth.token_file = a.at("token_file").get<std::string>();
+    if (auth.token_file.empty()) return;
+    std::ifstream in(auth.token_file, std::ios::binary);
+    if (!in) {
+      throw Error(ErrorKind::not_found,
+                  "configuration key 'auth.token_file': '" + auth.token_file + "' cannot be opened");
+    }
+    std::string line;
+    int number = 0;
+    const size_t before = auth.tokens.size();
+    while (std::getline(in, line)) {
+      ++number;
+      if (!line.empty() && line.back() == '\r') line.pop_back();
+      const size_t first = line.find_first_not_of(" \t");
+      if (first == std::string::npos || line[first] == '#') continue;
+      const size_t last = line.find_last_not_of(" \t");
+      add_token(line.substr(first, last - first + 1), "auth.token_file line " + std::to_string(number), auth);
+    }
+    // A configured but empty file would silently leave the server open: refuse it.
+    if (auth.tokens.size() == before) bad("auth.token_file", "'" + auth.token_file + "' holds no token");
+  }
+}
+
 }  // namespace
 
 void parse_listen(const std::string& listen, ServerConfig& config) {
@@ -82,7 +129,7 @@ void parse_listen(const std::string& listen, ServerConfig& config) {
 
 ServerConfig parse_server_config(const json& doc) {
   ServerConfig c;
-  check_keys(doc, "", {"listen", "data_dir", "public_url", "http", "jobs", "limits"});
+  check_keys(doc, "", {"listen", "data_dir", "public_url", "http", "jobs", "limits", "auth"});
   if (doc.contains("listen")) parse_listen(get_string(doc, "listen", ""), c);
   c.data_dir = get_string(doc, "data_dir", c.data_dir);
   if (c.data_dir.empty()) bad("data_dir", "must not be empty");
@@ -112,11 +159,15 @@ ServerConfig parse_server_config(const json& doc) {
   }
   if (doc.contains("limits")) {
     const json& l = doc.at("limits");
-    check_keys(l, "limits", {"max_cells", "max_memory_bytes", "validate_max_cells"});
+    check_keys(l, "limits", {"max_cells", "max_memory_bytes", "validate_max_cells", "max_features", "max_vertices"});
     c.limits.max_cells = get_int(l, "limits", "max_cells", c.limits.max_cells, 1);
     c.limits.max_memory_bytes = get_int(l, "limits", "max_memory_bytes", c.limits.max_memory_bytes, 0);
     c.limits.validate_max_cells = get_int(l, "limits", "validate_max_cells", c.limits.validate_max_cells, 0);
+    // 0 = no limit of the server's own (the seed reader's limits, if any, still apply).
+    c.limits.max_features = get_int(l, "limits", "max_features", c.limits.max_features, 0);
+    c.limits.max_vertices = get_int(l, "limits", "max_vertices", c.limits.max_vertices, 0);
   }
+  if (doc.contains("auth")) parse_auth(doc.at("auth"), c.auth);
   return c;
 }
 

@@ -153,21 +153,63 @@ std::pair<std::string, json> stage_seed_layer(const json& item, const std::strin
                  "application/flatgeobuf)");
 }
 
+const std::vector<OutputInfo>& output_table() {
+  static const std::vector<OutputInfo> table = {
+      {"ownership", "ownership", {{kMediaGeoTiff, "tif"}}},
+      {"distance", "distance", {{kMediaGeoTiff, "tif"}}},
+      {"nearestFeature", "nearest_feature", {{kMediaGeoTiff, "tif"}}},
+      {"report", "report", {{kMediaJson, "json"}}, true},
+      {"boundaries", "boundaries", {{kMediaGeoJson, "geojson"}, {kMediaGeoPackage, "gpkg"}}},
+      {"tripoints", "tripoints", {{kMediaGeoJson, "geojson"}, {kMediaGeoPackage, "gpkg"}}},
+      {"limits", "limits", {{kMediaGeoJson, "geojson"}, {kMediaGeoPackage, "gpkg"}}},
+      {"regions", "regions", {{kMediaGeoJson, "geojson"}, {kMediaGeoPackage, "gpkg"}}},
+      {"margin", "margin", {{kMediaGeoTiff, "tif"}}},
+      {"preview", "preview", {{kMediaPng, "png"}}},
+  };
+  return table;
+}
+
+// Media types compare without case and blanks ("image/tiff;application=geotiff" is ours).
+std::string media_key(std::string_view m) {
+  std::string k;
+  for (char c : m)
+    if (!std::isspace(static_cast<unsigned char>(c))) k += static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return k;
+}
+
+std::string id_list() {
+  std::string s;
+  for (const char* id : kOutputIds) s += (s.empty() ? "" : ", ") + std::string(id);
+  return s;
+}
+
+// The media type an output request asks for: OGC's "format": {"mediaType": ...}, or "".
+std::string requested_media_type(const json& options, const std::string& id) {
+  if (!options.contains("format")) return {};
+  const json& f = options.at("format");
+  if (!f.is_object()) bad("outputs", "output '" + id + "': \"format\" must be an object {\"mediaType\": ...}");
+  if (!f.contains("mediaType")) return {};
+  if (!f.at("mediaType").is_string()) bad("outputs", "output '" + id + "': \"format.mediaType\" must be a string");
+  return f.at("mediaType").get<std::string>();
+}
+
 void parse_outputs(const json& body, Execution& ex) {
-  std::vector<std::pair<std::string, std::string>> chosen;
+  struct Chosen {
+    std::string id, mode, media;
+  };
+  std::vector<Chosen> chosen;
   if (body.contains("outputs") && !body.at("outputs").empty()) {
     const json& outputs = body.at("outputs");
     if (!outputs.is_object()) bad("outputs", "must be an object keyed by output id");
     for (const auto& item : outputs.items()) {
       const std::string& id = item.key();
       const json& options = item.value();
-      if (std::find_if(std::begin(kOutputIds), std::end(kOutputIds),
-                       [&](const char* k) { return id == k; }) == std::end(kOutputIds)) {
+      const OutputInfo* info = find_output(id);
+      if (info == nullptr) {
         throw Error(ErrorKind::invalid_argument,
-                    "output '" + id + "': no such output (outputs: ownership, distance, report)");
+                    "output '" + id.substr(0, 64) + "': no such output (outputs: " + id_list() + ")");
       }
-      const bool binary = id != "report";
-      std::string mode = binary ? "reference" : "value";
+      std::string mode = info->by_value ? "value" : "reference";
       if (!options.is_object()) bad("outputs", "output '" + id + "' must map to an object");
       if (options.contains("transmissionMode")) {
         const json& m = options.at("transmissionMode");
@@ -177,20 +219,23 @@ void parse_outputs(const json& body, Execution& ex) {
         }
         mode = m.get<std::string>();
       }
-      if (binary && mode == "value") {
+      if (!info->by_value && mode == "value") {
         throw Error(ErrorKind::invalid_argument,
-                    "output '" + id + "': GeoTIFF outputs are returned by reference only");
+                    "output '" + id + "': file outputs (GeoTIFF, GeoJSON, GeoPackage, PNG) are returned by reference only");
       }
-      chosen.emplace_back(id, mode);
+      chosen.push_back({id, mode, output_media_type(id, requested_media_type(options, id))});
     }
   } else {
-    chosen = {{"ownership", "reference"}, {"distance", "reference"}, {"report", "value"}};
+    chosen = {{"ownership", "reference", kMediaGeoTiff},
+              {"distance", "reference", kMediaGeoTiff},
+              {"report", "value", kMediaJson}};
   }
   for (const char* id : kOutputIds) {
-    for (const auto& [cid, mode] : chosen) {
-      if (cid == id) {
-        ex.outputs.push_back(cid);
-        ex.transmission.push_back(mode);
+    for (const Chosen& c : chosen) {
+      if (c.id == id) {
+        ex.outputs.push_back(c.id);
+        ex.transmission.push_back(c.mode);
+        ex.formats.push_back(c.media);
       }
     }
   }
@@ -206,7 +251,78 @@ void parse_outputs(const json& body, Execution& ex) {
   }
 }
 
+// limitDistances: an array of "12nmi", "24 nmi", "500m", "3.5km", plain numbers (in
+// distanceUnits), or {"value": 12, "unit": "nmi"}. Each is checked here with the façade's own
+// parser, so a bad one is a 400 before the job is queued.
+std::vector<std::string> limit_distances(const json& raw) {
+  const std::string input = "limitDistances";
+  const json& v = literal(raw, input);
+  const json items = v.is_array() ? v : json::array({v});
+  if (items.empty()) bad(input, "needs at least one distance");
+  if (items.size() > 64) bad(input, "at most 64 distances");
+  std::vector<std::string> out;
+  for (size_t i = 0; i < items.size(); ++i) {
+    const json& d = items[i];
+    const std::string at = input + "[" + std::to_string(i) + "]";
+    std::string text;
+    if (d.is_string()) {
+      text = d.get<std::string>();
+    } else if (d.is_number()) {
+      text = d.dump();
+    } else if (d.is_object() && d.contains("value") && d.at("value").is_number()) {
+      text = d.at("value").dump();
+      if (d.contains("unit")) {
+        if (!d.at("unit").is_string()) bad(at, "\"unit\" must be a string (m, km or nmi)");
+        text += d.at("unit").get<std::string>();
+      }
+    } else {
+      bad(at, "must be a string such as \"12nmi\", a number, or {\"value\": 12, \"unit\": \"nmi\"}");
+    }
+    try {
+      parse_limit_distance(text);
+    } catch (const Error& e) {
+      bad(at, e.what());
+    }
+    out.push_back(text);
+  }
+  return out;
+}
+
 }  // namespace
+
+const OutputInfo* find_output(std::string_view id) {
+  for (const OutputInfo& o : output_table())
+    if (id == o.id) return &o;
+  return nullptr;
+}
+
+std::string output_media_type(std::string_view id, std::string_view requested) {
+  const OutputInfo* info = find_output(id);
+  if (info == nullptr) throw Error(ErrorKind::invalid_argument, "output '" + std::string(id) + "': no such output");
+  if (requested.empty()) return info->formats.front().media_type;
+  const std::string key = media_key(requested);
+  std::string accepted;
+  for (const OutputFormat& f : info->formats) {
+    if (media_key(f.media_type) == key) return f.media_type;
+    // GeoTIFF may be asked for less precisely: every GeoTIFF this server writes is a COG.
+    if (std::string_view(f.media_type) == kMediaGeoTiff &&
+        (key == "image/tiff" || key == "image/tiff;application=geotiff")) {
+      return f.media_type;
+    }
+    accepted += (accepted.empty() ? "" : ", ") + std::string(f.media_type);
+  }
+  throw Error(ErrorKind::invalid_argument, "output '" + std::string(id) + "': format '" +
+                                               std::string(requested.substr(0, 80)) +
+                                               "' is not available (accepted: " + accepted + ")");
+}
+
+std::string output_file_name(std::string_view id, std::string_view media_type) {
+  const OutputInfo* info = find_output(id);
+  if (info == nullptr) throw Error(ErrorKind::internal, "unknown output id " + std::string(id));
+  for (const OutputFormat& f : info->formats)
+    if (media_type.empty() || media_type == f.media_type) return std::string(info->stem) + "." + f.extension;
+  throw Error(ErrorKind::internal, "output " + std::string(id) + " has no format " + std::string(media_type));
+}
 
 VsiMemFiles::~VsiMemFiles() {
   for (const std::string& f : files_) VSIUnlink(f.c_str());
@@ -269,7 +385,8 @@ Execution parse_execution(const json& body, const std::string& job_id, const Ser
 
   static const std::set<std::string> known = {"seeds", "ownerField", "resolution", "extent", "crs",
                                               "metric", "method", "maxDistance", "distanceUnits",
-                                              "validate"};
+                                              "validate", "limitDistances", "limitsPerOwner",
+                                              "simplify"};
   for (const auto& [key, value] : in.items()) {
     if (!known.count(key)) {
       throw Error(ErrorKind::invalid_argument,
@@ -356,8 +473,21 @@ Execution parse_execution(const json& body, const std::string& job_id, const Ser
     if (!v.is_boolean()) bad("validate", "must be a boolean");
     spec.validate = v.get<bool>();
   }
+  if (in.contains("limitDistances")) spec.outputs.limit_distances = limit_distances(in.at("limitDistances"));
+  if (in.contains("limitsPerOwner")) {
+    const json& v = literal(in.at("limitsPerOwner"), "limitsPerOwner");
+    if (!v.is_boolean()) bad("limitsPerOwner", "must be a boolean");
+    spec.outputs.limits_per_owner = v.get<bool>();
+  }
+  if (in.contains("simplify")) {
+    const json& v = literal(in.at("simplify"), "simplify");
+    if (!v.is_number() || !std::isfinite(v.get<double>()) || v.get<double>() < 0.0) {
+      bad("simplify", "must be a number of cells >= 0");
+    }
+    spec.outputs.simplify_cells = v.get<double>();
+  }
   for (const char* key : {"ownerField", "resolution", "extent", "crs", "metric", "method", "maxDistance",
-                          "distanceUnits", "validate"}) {
+                          "distanceUnits", "validate", "limitDistances", "limitsPerOwner", "simplify"}) {
     if (in.contains(key)) ex.inputs_summary[key] = in.at(key);
   }
 
@@ -384,6 +514,16 @@ Execution parse_execution(const json& body, const std::string& job_id, const Ser
     }
   }
   parse_outputs(body, ex);
+  // The limit inputs and the limits output go together: either alone is a mistake to report
+  // now, not a job that fails (or silently ignores an input) later.
+  const bool limits = std::find(ex.outputs.begin(), ex.outputs.end(), "limits") != ex.outputs.end();
+  if (limits && spec.outputs.limit_distances.empty()) {
+    bad("limitDistances", "is required with the output 'limits' (e.g. [\"12nmi\", \"24nmi\"])");
+  }
+  if (!limits && (in.contains("limitDistances") || in.contains("limitsPerOwner"))) {
+    bad(in.contains("limitDistances") ? "limitDistances" : "limitsPerOwner",
+        "applies to the output 'limits', which is not requested");
+  }
   return ex;
 }
 

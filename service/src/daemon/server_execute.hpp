@@ -33,12 +33,46 @@ class VsiMemFiles {
 };
 
 // The outputs of the process, in the order of OutputRequest.
-inline constexpr const char* kOutputIds[] = {"ownership", "distance", "report"};
+inline constexpr const char* kOutputIds[] = {"ownership", "distance", "nearestFeature", "report",
+                                             "boundaries", "tripoints", "limits", "regions",
+                                             "margin", "preview"};
+
+// Media types of the result files.
+inline constexpr const char* kMediaGeoTiff = "image/tiff; application=geotiff; profile=cloud-optimized";
+inline constexpr const char* kMediaJson = "application/json";
+inline constexpr const char* kMediaGeoJson = "application/geo+json";
+inline constexpr const char* kMediaGeoPackage = "application/geopackage+sqlite3";
+inline constexpr const char* kMediaPng = "image/png";
+
+// One output of the process: the media types it can be written as (the first is the default)
+// and the file name stem in the job's directory. The single place that knows which output is
+// which kind of file: execution, the job manager and the results endpoint all ask here.
+struct OutputFormat {
+  const char* media_type;
+  const char* extension;  // of the file in the job's directory, without the dot
+};
+struct OutputInfo {
+  const char* id;
+  const char* stem;
+  std::vector<OutputFormat> formats;
+  bool by_value = false;  // may be returned by value (the report); the rest are files, by reference
+};
+// The description of output `id`, or nullptr for an unknown id.
+const OutputInfo* find_output(std::string_view id);
+// The canonical media type of output `id` for a requested one (OGC "format": {"mediaType"}),
+// compared without case and blanks; "" asks for the default. Throws
+// rv::Error(invalid_argument) for an unknown output or a media type it cannot be written as.
+std::string output_media_type(std::string_view id, std::string_view requested);
+// The file name of output `id` written as `media_type` ("" = the output's default) inside the
+// job's directory. Throws rv::Error(internal) for an unknown id or media type (ids and media
+// types come from the store, checked when the job was accepted).
+std::string output_file_name(std::string_view id, std::string_view media_type);
 
 struct Execution {
   JobSpec spec;                           // outputs.* paths left empty (the job manager sets them)
   std::vector<std::string> outputs;       // requested output ids, in kOutputIds order
   std::vector<std::string> transmission;  // per output: "value" or "reference"
+  std::vector<std::string> formats;       // per output: its canonical media type
   bool raw = false;                       // "response": "raw" (one output, its bytes)
   nlohmann::json inputs_summary;          // the inputs as stored with the job (uploads summarised)
   std::shared_ptr<VsiMemFiles> uploads;   // keeps the seed files alive until the job ends

@@ -1,5 +1,7 @@
 #include "server_jobs.hpp"
 
+#include <malloc.h>
+
 #include <cmath>
 #include <fstream>
 #include <regex>
@@ -48,13 +50,6 @@ std::string client_names(std::string message, const std::string& id) {
 
 }  // namespace
 
-std::string output_file_name(const std::string& output_id) {
-  if (output_id == "ownership") return "ownership.tif";
-  if (output_id == "distance") return "distance.tif";
-  if (output_id == "report") return "report.json";
-  throw Error(ErrorKind::internal, "unknown output id " + output_id);
-}
-
 JobManager::JobManager(JobStore& store, const ServerConfig& config, JobRunner runner)
     : store_(store), config_(config), runner_(std::move(runner)), limits_(effective_limits(config)) {
   std::filesystem::create_directories(std::filesystem::path(config_.data_dir) / "jobs");
@@ -91,6 +86,7 @@ JobRecord JobManager::submit(const std::string& id, Execution execution, Done on
   rec.inputs = execution.inputs_summary;
   rec.outputs = execution.outputs;
   rec.transmission = execution.transmission;
+  rec.formats = execution.formats;
 
   std::lock_guard lock(mutex_);
   if (stopping_) throw Error(ErrorKind::busy, "the server is shutting down; resubmit the job later");
@@ -136,9 +132,11 @@ void JobManager::worker_loop() {
       final_record.error_kind = std::string(to_string(ErrorKind::io));
       final_record.message = std::string("the job store failed: ") + e.what();
     }
+    bool idle = false;
     {
       std::lock_guard lock(mutex_);
       running_.erase(task.id);
+      idle = running_.empty();
     }
     idle_cv_.notify_all();
     log_line("{\"time\":\"" + now_rfc3339() + "\",\"event\":\"job\",\"job\":\"" + task.id +
@@ -147,6 +145,14 @@ void JobManager::worker_loop() {
     // Only now: whoever is told the job ended (a synchronous client) may act on it at once, and
     // a dismissal then finds it finished, not running.
     if (task.on_done) task.on_done(final_record);
+#ifdef __GLIBC__
+    // The job's grid-sized buffers are free now, but glibc keeps freed heap memory in the arenas
+    // (large blocks under its adaptive mmap threshold included) for reuse. A daemon idles most
+    // of the time: hand the memory back when no job runs, so that its resident size returns near
+    // its start instead of staying at the last peak (tests/service/test_load.py checks it).
+    // After the answer above, which need not wait for it.
+    if (idle) malloc_trim(0);
+#endif
   }
 }
 
@@ -201,11 +207,22 @@ JobRecord JobManager::run_task(Task& task) {
   out.cloud_optimized = true;
   // The ownership raster and the report are always written: the report is kept with the job
   // and the ownership raster carries the owner names (its attribute table).
-  out.ownership = (dir / output_file_name("ownership")).string();
+  out.ownership = (dir / output_file_name("ownership", "")).string();
   // The report is written below, by us: with file names instead of this server's paths.
   out.report.clear();
-  for (const std::string& o : rec.outputs) {
-    if (o == "distance") out.distance = (dir / output_file_name("distance")).string();
+  // Only the requested outputs get a path, so only they are computed. The file name (its
+  // extension) selects the format the façade writes.
+  for (size_t i = 0; i < rec.outputs.size(); ++i) {
+    const std::string& o = rec.outputs[i];
+    const std::string file = (dir / output_file_name(o, i < rec.formats.size() ? rec.formats[i] : "")).string();
+    if (o == "distance") out.distance = file;
+    else if (o == "nearestFeature") out.nearest_feature = file;
+    else if (o == "boundaries") out.boundaries = file;
+    else if (o == "tripoints") out.tripoints = file;
+    else if (o == "limits") out.limits = file;
+    else if (o == "regions") out.regions = file;
+    else if (o == "margin") out.margin = file;
+    else if (o == "preview") out.preview = file;
   }
 
   rec.status = JobStatus::running;
@@ -237,10 +254,17 @@ JobRecord JobManager::run_task(Task& task) {
         if (value.is_string()) value = std::filesystem::path(value.get<std::string>()).filename().string();
       }
     }
-    write_file_atomically(dir / output_file_name("report"), result.report.dump(2) + "\n");
+    write_file_atomically(dir / output_file_name("report", ""), result.report.dump(2) + "\n");
   } catch (const Error& e) {
     error_kind = e.kind();
     error_message = client_names(e.what(), id);
+    // The job directory is this server's business: the client knows the files by output id.
+    for (size_t at; (at = error_message.find(dir.string() + "/")) != std::string::npos;) {
+      error_message.erase(at, dir.string().size() + 1);
+    }
+    // Reading happens in memory; an I/O failure is the result files (a full disk, a file size
+    // limit): say so first, GDAL's reason (e.g. "No space left on device") follows.
+    if (e.kind() == ErrorKind::io) error_message = "the job's results could not be written: " + error_message;
     // The seed reader names the feature at fault; say which input it came from.
     if (e.kind() == ErrorKind::invalid_input || e.kind() == ErrorKind::conflict) {
       error_message = "input 'seeds': " + error_message;

@@ -27,9 +27,6 @@
 
 namespace rv::daemon {
 
-// The file name of each output inside the job's directory.
-std::string output_file_name(const std::string& output_id);
-
 class JobManager {
  public:
   // Called on a worker thread once the job is finished (successful, failed or dismissed),

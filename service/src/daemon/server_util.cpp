@@ -4,6 +4,7 @@
 #include <unistd.h>
 
 #include <array>
+#include <cctype>
 #include <cerrno>
 #include <ctime>
 
@@ -140,6 +141,32 @@ nlohmann::json parse_body_json(std::string_view body) {
       /*allow_exceptions=*/false);
   if (doc.is_discarded()) throw Error(ErrorKind::invalid_argument, "the request body is not valid JSON");
   return doc;
+}
+
+std::string percent_decode(std::string_view s) {
+  std::string out;
+  for (size_t i = 0; i < s.size(); ++i) {
+    if (s[i] == '%' && i + 2 < s.size() && std::isxdigit(static_cast<unsigned char>(s[i + 1])) &&
+        std::isxdigit(static_cast<unsigned char>(s[i + 2]))) {
+      out += static_cast<char>(std::stoi(std::string(s.substr(i + 1, 2)), nullptr, 16));
+      i += 2;
+    } else {
+      out += s[i] == '+' ? ' ' : s[i];
+    }
+  }
+  return out;
+}
+
+std::vector<std::string> path_segments(std::string_view path) {
+  std::vector<std::string> seg;
+  size_t start = 0;
+  while (start <= path.size()) {
+    size_t end = path.find('/', start);
+    if (end == std::string_view::npos) end = path.size();
+    if (end > start) seg.push_back(percent_decode(path.substr(start, end - start)));
+    start = end + 1;
+  }
+  return seg;
 }
 
 }  // namespace rv::daemon

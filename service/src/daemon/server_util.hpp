@@ -5,6 +5,7 @@
 #include <chrono>
 #include <string>
 #include <string_view>
+#include <vector>
 
 #include <nlohmann/json.hpp>
 
@@ -31,6 +32,14 @@ nlohmann::json parse_body_json(std::string_view body);
 // Decodes standard base64 (RFC 4648, padding optional, whitespace ignored).
 // Throws rv::Error(invalid_argument) naming `what` on any other character.
 std::string base64_decode(std::string_view text, const std::string& what);
+
+// Decodes %XX escapes (and '+' as a space) of a URL path segment or query part; a malformed
+// escape is kept as it is.
+std::string percent_decode(std::string_view s);
+
+// The decoded, non-empty segments of a request path (no query): "/jobs//x/" -> {"jobs", "x"}.
+// The one spelling rule of the router and of the authentication's open resources.
+std::vector<std::string> path_segments(std::string_view path);
 
 // One structured (JSON) line on stderr, written with a single write() so that lines from
 // concurrent threads never interleave.

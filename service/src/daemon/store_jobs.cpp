@@ -51,7 +51,7 @@ class Statement {
 
 constexpr const char* kColumns =
     "id, process_id, status, message, error_kind, progress, created, started, finished, updated, "
-    "inputs, outputs, transmission, report";
+    "inputs, outputs, transmission, report, formats";
 
 JobRecord read_row(const Statement& s) {
   JobRecord r;
@@ -72,6 +72,8 @@ JobRecord read_row(const Statement& s) {
   if (transmission.is_array()) r.transmission = transmission.get<std::vector<std::string>>();
   const std::string report = s.text(13);
   if (!report.empty()) r.report = nlohmann::json::parse(report, nullptr, false);
+  const auto formats = nlohmann::json::parse(s.text(14), nullptr, false);
+  if (formats.is_array()) r.formats = formats.get<std::vector<std::string>>();
   return r;
 }
 
@@ -90,6 +92,7 @@ void bind_record(Statement& s, const JobRecord& r) {
   s.bind(12, nlohmann::json(r.outputs).dump());
   s.bind(13, nlohmann::json(r.transmission).dump());
   s.bind(14, r.report.is_null() ? std::string() : r.report.dump());
+  s.bind(15, nlohmann::json(r.formats).dump());
 }
 
 }  // namespace
@@ -125,8 +128,16 @@ JobStore::JobStore(const std::filesystem::path& db_path) {
         " message TEXT NOT NULL, error_kind TEXT NOT NULL, progress INTEGER NOT NULL,"
         " created TEXT NOT NULL, started TEXT NOT NULL, finished TEXT NOT NULL,"
         " updated TEXT NOT NULL, inputs TEXT NOT NULL, outputs TEXT NOT NULL,"
-        " transmission TEXT NOT NULL, report TEXT NOT NULL)");
+        " transmission TEXT NOT NULL, report TEXT NOT NULL, formats TEXT NOT NULL DEFAULT '[]')");
     exec("CREATE INDEX IF NOT EXISTS jobs_created ON jobs(created)");
+    // Databases written before the output formats were recorded lack the column; their jobs
+    // read back with no formats (each output's default, which is all they could have had).
+    bool has_formats = false;
+    {
+      Statement info(db_, "PRAGMA table_info(jobs)");
+      while (info.step()) has_formats = has_formats || info.text(1) == "formats";
+    }
+    if (!has_formats) exec("ALTER TABLE jobs ADD COLUMN formats TEXT NOT NULL DEFAULT '[]'");
   } catch (...) {
     sqlite3_close(db_);
     throw;
@@ -147,7 +158,7 @@ void JobStore::exec(const char* sql) const {
 void JobStore::insert(const JobRecord& job) {
   std::lock_guard lock(mutex_);
   Statement s(db_, (std::string("INSERT INTO jobs (") + kColumns +
-                    ") VALUES (?1,?2,?3,?4,?5,?6,?7,?8,?9,?10,?11,?12,?13,?14)").c_str());
+                    ") VALUES (?1,?2,?3,?4,?5,?6,?7,?8,?9,?10,?11,?12,?13,?14,?15)").c_str());
   bind_record(s, job);
   s.step();
 }
@@ -157,7 +168,7 @@ void JobStore::update(const JobRecord& job) {
   Statement s(db_,
               "UPDATE jobs SET process_id=?2, status=?3, message=?4, error_kind=?5, progress=?6,"
               " created=?7, started=?8, finished=?9, updated=?10, inputs=?11, outputs=?12,"
-              " transmission=?13, report=?14 WHERE id=?1");
+              " transmission=?13, report=?14, formats=?15 WHERE id=?1");
   bind_record(s, job);
   s.step();
 }

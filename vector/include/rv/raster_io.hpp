@@ -15,6 +15,7 @@
 
 #include <cstdint>
 #include <map>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -48,6 +49,54 @@ void write_geotiff(const std::string& path, const Raster<int32_t>& raster, doubl
                    const GeoTiffOptions& options);
 void write_geotiff(const std::string& path, const Raster<float>& raster, double nodata,
                    const GeoTiffOptions& options);
+
+// Writes one plain (not cloud-optimised) GeoTIFF strip by strip, top to bottom, for callers
+// that never hold the whole raster (the job façade's streaming path). The file is the one
+// write_geotiff() writes for the same cells (same layout, georeferencing, nodata, units,
+// metadata, categories): write_geotiff() itself goes through this class.
+//
+// Rows go in with write_rows() in order, in strips of any height (1 row .. the whole raster);
+// finish() then flushes, closes and renames into place (temporary name in the target's
+// directory, sidecar first, as write_geotiff). A writer destroyed or moved-over before finish()
+// succeeded, or after any call threw, removes its temporary file and sidecar: nothing is left.
+// Memory: strips that end on a 256-row tile boundary go straight to GDAL's compression queue;
+// otherwise one band of 256 rows x window.width cells is buffered.
+// Thread safety: none inside; a writer may be used from different threads one after the other
+// (every call installs its own GDAL error capture), ordered by the caller (e.g. a queue).
+// T: int32_t or float.
+template <class T>
+class GeoTiffStripWriter {
+ public:
+  // Creates the temporary file for a raster covering `window` of `grid`, describes it (CRS,
+  // geotransform, nodata, units, metadata, categories). Throws rv::Error like write_geotiff;
+  // invalid_argument for options.cloud_optimized (a COG needs the whole raster).
+  GeoTiffStripWriter(const std::string& path, const GridSpec& grid, const Window& window, double nodata,
+                     const GeoTiffOptions& options);
+  ~GeoTiffStripWriter();
+  GeoTiffStripWriter(GeoTiffStripWriter&&) noexcept;
+  GeoTiffStripWriter& operator=(GeoTiffStripWriter&&) noexcept;
+  GeoTiffStripWriter(const GeoTiffStripWriter&) = delete;
+  GeoTiffStripWriter& operator=(const GeoTiffStripWriter&) = delete;
+
+  // Appends `rows` whole rows below those already written: rows * window.width values,
+  // row-major, no padding. The caller's buffer is free again when the call returns. Throws
+  // invalid_argument (more rows than the raster has left, or after finish()), io.
+  void write_rows(const T* cells, int64_t rows);
+  // Rows accepted so far.
+  int64_t rows_written() const;
+  // Every row written: flush, close, rename into place. Throws invalid_argument when rows are
+  // missing, io when GDAL or the rename fails (nothing is left behind then).
+  void finish();
+  // Gives up: removes the temporary file now (what the destructor does). No-op after finish().
+  void abort() noexcept;
+
+ private:
+  struct State;
+  std::unique_ptr<State> state_;
+};
+
+extern template class GeoTiffStripWriter<int32_t>;
+extern template class GeoTiffStripWriter<float>;
 
 // Reads a GeoTIFF's grid (extent, cell size, CRS as WKT2), for --like. Throws rv::Error(not_found,
 // invalid_input for rotated, south-up or non-square-cell rasters, or a file that is not a raster).

@@ -1,0 +1,295 @@
+// The streaming path of run_job. See job_stream.hpp and rv/job.hpp (JobPlan) for the contract.
+//
+// Why this shape: at 1e8 cells the whole-field path spent more time having the kernel zero fresh
+// pages (the field, then an owner raster copy) and encoding than computing, one after the other.
+// Here the engine computes every strip into the same two buffers (compute_into reuses them, so
+// pages are faulted once per buffer, not once per cell), and the writer thread encodes strip k
+// while the engine computes strip k+1. Two buffers suffice: the engine never waits unless the
+// encoder is slower, and then a third buffer would only delay the wait.
+//
+// Determinism: strips are computed and written in row order, each strip's cells equal the
+// whole grid's (exact and brute force compute any window identically), and the conversion is
+// per cell, so the files do not depend on strip height or thread count.
+#include "job_stream.hpp"
+
+#include <algorithm>
+#include <array>
+#include <chrono>
+#include <condition_variable>
+#include <deque>
+#include <exception>
+#include <mutex>
+#include <optional>
+#include <thread>
+#include <variant>
+
+#include "rv/error.hpp"
+#include "rv/outputs.hpp"
+
+namespace rv::detail {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double seconds_since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
+
+// One strip buffer: the engine's field for its rows and the Int32 products made from it (the
+// distance is scaled in place).
+struct Strip {
+  NearestField field;
+  std::vector<int32_t> owners;
+  std::vector<int32_t> features;
+  int64_t row0 = 0;
+  int64_t rows = 0;
+};
+
+using AnyWriter = std::variant<GeoTiffStripWriter<int32_t>, GeoTiffStripWriter<float>>;
+
+AnyWriter open_writer(const StreamTarget& t, const GridSpec& grid) {
+  switch (t.product) {
+    case StreamTarget::Product::distance:
+      return GeoTiffStripWriter<float>(t.path, grid, grid.full_window(), static_cast<double>(kNoDistance), t.options);
+    case StreamTarget::Product::ownership:
+    case StreamTarget::Product::nearest_feature: break;
+  }
+  return GeoTiffStripWriter<int32_t>(t.path, grid, grid.full_window(), 0.0, t.options);
+}
+
+// The bounded hand-off between the computing thread and the writer thread.
+class Handoff {
+ public:
+  // Computing side: a free strip buffer, or nullopt once the writer has failed.
+  std::optional<int> take_free(double& waited) {
+    const auto t = Clock::now();
+    std::unique_lock lock(mutex_);
+    cv_.wait(lock, [&] { return error_ || !free_.empty(); });
+    waited += seconds_since(t);
+    if (error_) return std::nullopt;
+    const int k = free_.front();
+    free_.pop_front();
+    return k;
+  }
+  void put_filled(int k) {
+    {
+      std::lock_guard lock(mutex_);
+      filled_.push_back(k);
+    }
+    cv_.notify_all();
+  }
+  void close() {
+    {
+      std::lock_guard lock(mutex_);
+      closed_ = true;
+    }
+    cv_.notify_all();
+  }
+  // Stops the writer at its next wait (the computing side failed).
+  void stop() {
+    {
+      std::lock_guard lock(mutex_);
+      stopped_ = true;
+    }
+    cv_.notify_all();
+  }
+
+  // Writer side: the next filled strip; nullopt when closed and drained, or stopped.
+  std::optional<int> take_filled(double& waited) {
+    const auto t = Clock::now();
+    std::unique_lock lock(mutex_);
+    cv_.wait(lock, [&] { return stopped_ || closed_ || !filled_.empty(); });
+    waited += seconds_since(t);
+    if (stopped_ || filled_.empty()) return std::nullopt;
+    const int k = filled_.front();
+    filled_.pop_front();
+    return k;
+  }
+  void put_free(int k, int64_t rows) {
+    {
+      std::lock_guard lock(mutex_);
+      free_.push_back(k);
+      rows_written_ += rows;
+    }
+    cv_.notify_all();
+  }
+  void fail(std::exception_ptr e) {
+    {
+      std::lock_guard lock(mutex_);
+      error_ = std::move(e);
+    }
+    cv_.notify_all();
+  }
+  void finished() {
+    {
+      std::lock_guard lock(mutex_);
+      finished_ = true;
+    }
+    cv_.notify_all();
+  }
+
+  // Computing side, after close(): waits until the writer is done or failed, calling
+  // on_rows(rows written) whenever more rows are written. Rethrows the writer's error.
+  template <class F>
+  void wait_finished(F&& on_rows) {
+    std::unique_lock lock(mutex_);
+    int64_t seen = -1;
+    for (;;) {
+      cv_.wait(lock, [&] { return error_ || finished_ || rows_written_ != seen; });
+      if (error_) std::rethrow_exception(error_);
+      if (rows_written_ != seen) {
+        seen = rows_written_;
+        lock.unlock();
+        on_rows(seen);
+        lock.lock();
+      }
+      if (finished_) return;
+    }
+  }
+  std::exception_ptr error() {
+    std::lock_guard lock(mutex_);
+    return error_;
+  }
+  void add_free(int k) { free_.push_back(k); }
+
+ private:
+  std::mutex mutex_;
+  std::condition_variable cv_;
+  std::deque<int> free_, filled_;
+  bool closed_ = false, stopped_ = false, finished_ = false;
+  int64_t rows_written_ = 0;
+  std::exception_ptr error_;
+};
+
+}  // namespace
+
+StreamStats run_streamed(const StreamJob& job) {
+  const auto start = Clock::now();
+  const GridSpec& grid = job.grid;
+  const int64_t width = grid.width, height = grid.height;
+  const int64_t strip_rows = std::clamp<int64_t>(job.strip_rows, 1, height);
+  StreamStats stats;
+  stats.strips = (height + strip_rows - 1) / strip_rows;
+
+  bool want_owners = false, want_features = false;
+  for (const StreamTarget& t : job.targets) {
+    want_owners = want_owners || t.product == StreamTarget::Product::ownership;
+    want_features = want_features || t.product == StreamTarget::Product::nearest_feature;
+  }
+  const SiteCodes owner_codes = want_owners ? SiteCodes::owners(*job.seeds) : SiteCodes{};
+  const SiteCodes feature_codes = want_features ? SiteCodes::features(*job.seeds, job.feature_numbering) : SiteCodes{};
+
+  // Every file is created before the first strip is computed: an unwritable target fails at
+  // once, not after the computation.
+  std::vector<AnyWriter> writers;
+  writers.reserve(job.targets.size());
+  for (const StreamTarget& t : job.targets) {
+    job.will_write(t.path);
+    writers.push_back(open_writer(t, grid));
+  }
+  std::vector<double> write_seconds(job.targets.size(), 0.0);
+
+  std::array<Strip, 2> strips;
+  Handoff handoff;
+  for (int k = 0; k < static_cast<int>(strips.size()); ++k) handoff.add_free(k);
+
+  // The writer thread: encodes strips in order, then finishes every file in target order.
+  double write_waited = 0.0;
+  auto write_loop = [&] {
+    try {
+      while (const std::optional<int> k = handoff.take_filled(write_waited)) {
+        const Strip& s = strips[static_cast<size_t>(*k)];
+        for (size_t i = 0; i < writers.size(); ++i) {
+          const auto t = Clock::now();
+          switch (job.targets[i].product) {
+            case StreamTarget::Product::ownership:
+              std::get<GeoTiffStripWriter<int32_t>>(writers[i]).write_rows(s.owners.data(), s.rows);
+              break;
+            case StreamTarget::Product::nearest_feature:
+              std::get<GeoTiffStripWriter<int32_t>>(writers[i]).write_rows(s.features.data(), s.rows);
+              break;
+            case StreamTarget::Product::distance:
+              std::get<GeoTiffStripWriter<float>>(writers[i]).write_rows(s.field.distance.data(), s.rows);
+              break;
+          }
+          write_seconds[i] += seconds_since(t);
+        }
+        handoff.put_free(*k, s.rows);
+      }
+      // Closed and drained (a stop leaves rows missing; the writers then abort when destroyed).
+      bool complete = true;
+      for (const AnyWriter& w : writers)
+        complete = complete && std::visit([&](const auto& x) { return x.rows_written() == height; }, w);
+      if (!complete) return;
+      for (size_t i = 0; i < writers.size(); ++i) {
+        const auto t = Clock::now();
+        std::visit([](auto& x) { x.finish(); }, writers[i]);
+        write_seconds[i] += seconds_since(t);
+      }
+      handoff.finished();
+    } catch (...) {
+      handoff.fail(std::current_exception());
+    }
+  };
+
+  // Joins the writer on every way out; on an exception it is stopped first.
+  struct Joiner {
+    Handoff& handoff;
+    std::thread thread;
+    ~Joiner() {
+      if (!thread.joinable()) return;
+      handoff.stop();
+      thread.join();
+    }
+  } joiner{handoff, std::thread(write_loop)};
+
+  // Engine progress is per strip; the job's is over the grid, forwarded in whole percents.
+  int last_percent = -1;
+  auto report = [&](const char* stage, double fraction) {
+    const int percent = static_cast<int>(fraction * 100.0);
+    if (!job.progress || percent <= last_percent) return;
+    last_percent = percent;
+    job.progress(stage, percent / 100.0);
+  };
+
+  ComputeOptions options = job.compute;
+  for (int64_t row0 = 0; row0 < height; row0 += strip_rows) {
+    if (options.cancel && options.cancel->load()) throw Error(ErrorKind::cancelled, "job dismissed");
+    const std::optional<int> k = handoff.take_free(stats.compute_waited);
+    if (!k) std::rethrow_exception(handoff.error());
+    Strip& s = strips[static_cast<size_t>(*k)];
+    s.row0 = row0;
+    s.rows = std::min(strip_rows, height - row0);
+    options.window = Window{0, row0, width, s.rows};
+    options.progress = [&, row0, rows = s.rows](double f) {
+      report("compute", (static_cast<double>(row0) + f * static_cast<double>(rows)) / static_cast<double>(height));
+    };
+    compute_into(*job.seeds, grid, options, s.field);
+    stats.compute += s.field.seconds;
+    stats.contested_cells += s.field.contested_cells;
+    stats.threads = s.field.threads;
+    const auto t = Clock::now();
+    const int64_t n = s.rows * width;
+    if (want_owners) {
+      s.owners.resize(static_cast<size_t>(n));
+      owner_codes.apply(s.field.site.data(), s.owners.data(), n);
+    }
+    if (want_features) {
+      s.features.resize(static_cast<size_t>(n));
+      feature_codes.apply(s.field.site.data(), s.features.data(), n);
+    }
+    if (job.distance_factor != 1.0)
+      scale_distances(s.field.distance.data(), s.field.distance.data(), n, job.distance_factor);
+    stats.convert += seconds_since(t);
+    handoff.put_filled(*k);
+  }
+  handoff.close();
+  last_percent = -1;
+  handoff.wait_finished([&](int64_t rows) {
+    report("write", static_cast<double>(rows) / static_cast<double>(height));
+  });
+  joiner.thread.join();
+  stats.write_waited = write_waited;
+  for (size_t i = 0; i < job.targets.size(); ++i) stats.write[job.targets[i].name] = write_seconds[i];
+  stats.wall = seconds_since(start);
+  return stats;
+}
+
+}  // namespace rv::detail

@@ -1,0 +1,61 @@
+// Internal to run_job (rv/job.hpp): the streaming path. The grid is computed in strips of whole
+// rows on the calling thread and encoded into GeoTIFFs on one writer thread, two strips in
+// flight at most (a bounded hand-off), so that encoding strip k overlaps computing strip k+1.
+// Not part of the public API.
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <map>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "rv/engine.hpp"
+#include "rv/raster_io.hpp"
+
+namespace rv::detail {
+
+// One GeoTIFF of a streamed job.
+struct StreamTarget {
+  enum class Product { ownership, distance, nearest_feature };
+  Product product;
+  std::string path;
+  GeoTiffOptions options;  // never cloud_optimized
+  std::string name;        // key in the report's write timings
+};
+
+struct StreamJob {
+  const SeedSet* seeds = nullptr;
+  GridSpec grid;
+  ComputeOptions compute;            // window and progress are set per strip
+  int64_t strip_rows = 0;            // > 0
+  std::vector<StreamTarget> targets; // at least one; written in this order
+  double distance_factor = 1.0;      // metric units -> output units
+  std::span<const int64_t> feature_numbering;  // LoadedSeeds::input_position
+  // Job progress: ("compute", fraction of the grid computed), then ("write", fraction written).
+  // Called on the calling thread or the engine's workers, never concurrently.
+  std::function<void(const char* stage, double fraction)> progress;
+  // Called with each target's path before anything may appear under it (the job's guard).
+  std::function<void(const std::string& path)> will_write;
+};
+
+// What the streamed run measured; every time in seconds.
+struct StreamStats {
+  double compute = 0.0;         // the engine's own time, summed over strips
+  double convert = 0.0;         // site ids -> codes, unit scaling, on the computing thread
+  std::map<std::string, double> write;  // per target: encoding and finishing on the writer thread
+  double compute_waited = 0.0;  // the computing thread waiting for a free strip buffer
+  double write_waited = 0.0;    // the writer thread waiting for a computed strip
+  double wall = 0.0;            // from the first strip's start to the last file in place
+  int64_t strips = 0;
+  int64_t contested_cells = 0;
+  int threads = 1;              // the engine's
+};
+
+// Computes and writes. Throws what compute_into() and GeoTiffStripWriter throw; on any failure
+// (cancellation included) the writer thread is stopped and no target's file is left, apart from
+// those already renamed into place, which will_write() has announced to the caller's guard.
+StreamStats run_streamed(const StreamJob& job);
+
+}  // namespace rv::detail
