@@ -1207,8 +1207,8 @@ Raster<float> margin_by_owner_runs(const NearestField& field, const SiteMetric& 
 Raster<float> margin_raster(const NearestField& field, const OwnerIndex& index, int threads) {
   const SiteMetric& metric = index.metric();
   check_metric(field, metric);
-  // The per-owner engine runs below would need the other owners' polygons in the grid's CRS
-  // and the exact method on a projected geodesic grid (pending).
+  // The per-owner engine runs below would need the other owners' polygons in the grid's CRS,
+  // which the field does not carry.
   if (field.geolocator)
     throw Error(ErrorKind::unsupported, "the margin raster is not available for the geodesic metric on a projected "
                                         "grid yet; use a geographic (longitude/latitude) grid, or metric planar");

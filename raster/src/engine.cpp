@@ -333,15 +333,6 @@ void compute_into(const SeedSet& seeds, const GridSpec& grid, const ComputeOptio
   if (geolocator != nullptr && !geodesic)
     throw Error(ErrorKind::invalid_argument,
                 "a geolocator is only meaningful with the geodesic metric (planar measures in the grid's CRS)");
-  // PENDING (lead, geodesic_exact.cpp): the exact geodesic solver does not honour the
-  // geolocator yet (it takes grid coordinates as degrees). Until it does, the exact method is
-  // refused on projected geodesic grids, before anything is allocated; brute force and the
-  // scans work (the scans' border seeding uses brute force meanwhile, see scan.cpp). Remove
-  // this refusal when run_exact_geodesic uses ctx.geolocator.
-  if (geolocator != nullptr && options.method == Method::exact)
-    throw Error(ErrorKind::unsupported,
-                "method exact with the geodesic metric on a projected grid is pending; use method "
-                "brute-force or hv-scan, or a geographic (longitude/latitude) grid");
   std::optional<detail::GeoSites> geo;
   if (geodesic) {
     // A projected grid's extent is in its CRS units, not degrees: the degree checks do not apply;

@@ -60,6 +60,7 @@ constexpr int kProbes = 2;         // sites whose exact distance from a block's 
 
 // Interpolation of point-site distances (see the top of this file).
 constexpr double kInterpSpan = 0.13;          // degrees: largest block edge interpolated
+constexpr double kInterpSpanMetres = 14e3;    // the same on projected grids (~0.13 deg of latitude)
 constexpr int64_t kInterpMaxBlock = 64;       // cells
 constexpr int64_t kInterpMinBlock = 8;        // cells
 constexpr int64_t kInterpMinEdge = 4;         // a block clipped by the grid below this: per cell
@@ -113,11 +114,21 @@ inline double normaliser(const Interpolant& it, double x, double y, double z) {
   return std::sqrt(cx * cx + cy * cy + cz * cz);
 }
 
+// Projected geodesic grids: the located cell centres of the tile a worker is solving (cells
+// are not separable into per-row latitudes and per-column longitudes there).
+struct TileCells {
+  int64_t c0 = 0, r0 = 0, w = 0;  // window-relative origin and width
+  std::vector<double> lat, lon, x, y, z, rho;
+};
+// The tile the calling thread is solving (set by run() around each tile).
+thread_local const TileCells* tl_tile = nullptr;
+
 struct GeoWorker {
   std::vector<std::vector<int32_t>> levels;  // candidate lists per recursion depth
   std::vector<double> lb;
   std::vector<double> cell_lb;
   std::vector<const Interpolant*> interp;
+  TileCells tile;  // projected grids: the current tile's located centres
   // Interpolants of the current tile: key = interpolation block (grid-aligned) and site.
   std::unordered_map<uint64_t, std::unique_ptr<Interpolant>> cache;
   std::vector<double> wcol;                         // column weights, 4 per column
@@ -155,14 +166,22 @@ RV_GEO_CLONES void interp_row(const double* __restrict wcol, const double* __res
 class GeodesicExactSolver {
  public:
   GeodesicExactSolver(const EngineContext& ctx, Raster<int32_t>& site, Raster<float>& distance)
-      : ctx_(ctx), geo_(*ctx.geo), site_(site), distance_(distance) {
+      : ctx_(ctx), geo_(*ctx.geo), site_(site), distance_(distance), located_(ctx.geolocator != nullptr) {
     using GeographicLib::Math;
     const Window& w = ctx.window;
+    if (!located_) init_separable(w);
+    max_distance_ = ctx.max_key;  // geodesic keys are metres
+    init_segment_ends();
+    init_interp_block();
+  }
+
+  void init_separable(const Window& w) {
+    using GeographicLib::Math;
     lat_.resize(static_cast<size_t>(w.height));
     rho_.resize(lat_.size());
     z_.resize(lat_.size());
     for (int64_t r = 0; r < w.height; ++r) {
-      const double lat = ctx.grid.centre_y(w.row0 + r);
+      const double lat = ctx_.grid.centre_y(w.row0 + r);
       double x, y, z;
       geo_.ecef(lat, 0.0, x, y, z);  // at longitude 0: x = the parallel's radius
       lat_[r] = lat;
@@ -173,10 +192,13 @@ class GeodesicExactSolver {
     cos_.resize(lon_.size());
     sin_.resize(lon_.size());
     for (int64_t c = 0; c < w.width; ++c) {
-      lon_[c] = ctx.grid.centre_x(w.col0 + c);
+      lon_[c] = ctx_.grid.centre_x(w.col0 + c);
       Math::sincosd(lon_[c], sin_[c], cos_[c]);
     }
-    max_distance_ = ctx.max_key;  // geodesic keys are metres
+  }
+
+  void init_segment_ends() {
+    using GeographicLib::Math;
     ends_.resize(2 * geo_.size());
     for (size_t i = 0; i < geo_.size(); ++i) {
       const GeoSite& k = geo_.site(static_cast<int32_t>(i));
@@ -199,11 +221,26 @@ class GeodesicExactSolver {
         v.ez = ca * cp;
       }
     }
-    // The interpolation block: the largest power of two (8 .. 64 cells) spanning at most
-    // kInterpSpan degrees; coarser grids still get 8-cell blocks, which the centre check
-    // rejects where the interpolant would not be accurate.
+  }
+
+  // The interpolation block: the largest power of two (8 .. 64 cells) spanning at most
+  // kInterpSpan degrees (projected grids: kInterpSpanMetres, with the cell size measured on the
+  // ellipsoid at the grid's centre, so that it does not depend on the window); coarser grids
+  // still get 8-cell blocks, which the centre check rejects where inaccurate.
+  void init_interp_block() {
+    const GridSpec& g = ctx_.grid;
+    double limit = kInterpSpan, cell = g.res;
+    if (located_) {
+      const int64_t cc = std::min<int64_t>(g.width / 2, std::max<int64_t>(g.width - 2, 0)), rc = g.height / 2;
+      const GeoCell a = cell_at_fraction(static_cast<double>(cc), static_cast<double>(rc));
+      const GeoCell b = cell_at_fraction(static_cast<double>(cc) + 1.0, static_cast<double>(rc));
+      double d;
+      geo_.geodesic().Inverse(a.lat, a.lon, b.lat, b.lon, d);
+      cell = d;
+      limit = kInterpSpanMetres;
+    }
     interp_block_ = kInterpMinBlock;
-    while (interp_block_ * 2 <= kInterpMaxBlock && static_cast<double>(interp_block_ * 2) * ctx.grid.res <= kInterpSpan)
+    while (interp_block_ * 2 <= kInterpMaxBlock && static_cast<double>(interp_block_ * 2) * cell <= limit)
       interp_block_ *= 2;
   }
 
@@ -223,19 +260,84 @@ class GeodesicExactSolver {
       const int64_t r0 = std::max<int64_t>(gy - w.row0, 0), r1 = std::min(gy + kTile - w.row0, w.height);
       wk.levels[0] = ctx_.geometric;
       wk.cache.clear();
+      if (located_) locate_tile(wk.tile, c0, r0, c1, r1);
+      tl_tile = located_ ? &wk.tile : nullptr;
       solve_block(wk, 0, kTile, c0, r0, c1, r1);
+      tl_tile = nullptr;
       ctx_.progress->advance((c1 - c0) * (r1 - r0));
     });
   }
 
  private:
+  // Projected grids: every cell centre of the tile, through the geolocator (one batch per row).
+  void locate_tile(TileCells& t, int64_t c0, int64_t r0, int64_t c1, int64_t r1) const {
+    const Window& w = ctx_.window;
+    t.c0 = c0;
+    t.r0 = r0;
+    t.w = c1 - c0;
+    const auto n = static_cast<size_t>(t.w * (r1 - r0));
+    for (auto* v : {&t.lat, &t.lon, &t.x, &t.y, &t.z, &t.rho}) v->resize(n);
+    std::vector<double> gx(static_cast<size_t>(t.w)), gy(static_cast<size_t>(t.w));
+    for (int64_t r = r0; r < r1; ++r) {
+      for (int64_t c = c0; c < c1; ++c) {
+        gx[static_cast<size_t>(c - c0)] = ctx_.grid.centre_x(w.col0 + c);
+        gy[static_cast<size_t>(c - c0)] = ctx_.grid.centre_y(w.row0 + r);
+      }
+      const size_t at = static_cast<size_t>((r - r0) * t.w);
+      locate_centres(*ctx_.geolocator, gx.data(), gy.data(), &t.lon[at], &t.lat[at], static_cast<size_t>(t.w));
+      for (size_t i = at; i < at + static_cast<size_t>(t.w); ++i) {
+        geo_.ecef(t.lat[i], t.lon[i], t.x[i], t.y[i], t.z[i]);
+        t.rho[i] = std::hypot(t.x[i], t.y[i]);
+      }
+    }
+  }
+
   GeoCell cell_at(int64_t c, int64_t r) const {
+    if (located_) {
+      const TileCells& t = *tl_tile;
+      const auto i = static_cast<size_t>((r - t.r0) * t.w + (c - t.c0));
+      return GeoCell{t.lat[i], t.lon[i], t.x[i], t.y[i], t.z[i]};
+    }
     return GeoCell{lat_[r], lon_[c], rho_[r] * cos_[c], rho_[r] * sin_[c], z_[r]};
+  }
+
+  // Projected grids: the ECEF box of a block's located centres, and the largest parallel radius
+  // and longitude / latitude offsets from cell (cc, rc), by visiting every cell.
+  EcefBox located_box(int64_t c0, int64_t r0, int64_t c1, int64_t r1) const {
+    const TileCells& t = *tl_tile;
+    const double inf = std::numeric_limits<double>::infinity();
+    EcefBox b{inf, -inf, inf, -inf, inf, -inf};
+    for (int64_t r = r0; r < r1; ++r)
+      for (int64_t c = c0; c < c1; ++c) {
+        const auto i = static_cast<size_t>((r - t.r0) * t.w + (c - t.c0));
+        b.x0 = std::min(b.x0, t.x[i]);
+        b.x1 = std::max(b.x1, t.x[i]);
+        b.y0 = std::min(b.y0, t.y[i]);
+        b.y1 = std::max(b.y1, t.y[i]);
+        b.z0 = std::min(b.z0, t.z[i]);
+        b.z1 = std::max(b.z1, t.z[i]);
+      }
+    return b;
+  }
+  double located_reach(int64_t c0, int64_t r0, int64_t c1, int64_t r1, int64_t cc, int64_t rc) const {
+    const TileCells& t = *tl_tile;
+    const auto ic = static_cast<size_t>((rc - t.r0) * t.w + (cc - t.c0));
+    double rmax = 0.0, dlon = 0.0, dlat = 0.0;
+    for (int64_t r = r0; r < r1; ++r)
+      for (int64_t c = c0; c < c1; ++c) {
+        const auto i = static_cast<size_t>((r - t.r0) * t.w + (c - t.c0));
+        rmax = std::max(rmax, t.rho[i]);
+        dlon = std::max(dlon, std::abs(GeographicLib::Math::AngDiff(t.lon[ic], t.lon[i])));
+        dlat = std::max(dlat, std::abs(t.lat[i] - t.lat[ic]));
+      }
+    constexpr double kRad = 3.14159265358979323846 / 180.0;
+    return (rmax * dlon * kRad + geo_.max_meridian_radius() * dlat * kRad) * (1.0 + 1e-12);
   }
 
   // ECEF box of the cell centres of a block: x = rho cos(lon), y = rho sin(lon), z; interval
   // products over the block's rows and columns contain every centre.
   EcefBox box_of(int64_t c0, int64_t r0, int64_t c1, int64_t r1) const {
+    if (located_) return located_box(c0, r0, c1, r1);
     double rmin = rho_[r0], rmax = rho_[r0];
     for (int64_t r = r0 + 1; r < r1; ++r) {
       rmin = std::min(rmin, rho_[r]);
@@ -265,6 +367,7 @@ class GeodesicExactSolver {
   // cell's parallel (radius rho <= the block's largest) to the centre's meridian, then along
   // that meridian (radius of curvature <= max_meridian_radius).
   double reach_of(int64_t c0, int64_t r0, int64_t c1, int64_t r1, int64_t cc, int64_t rc) const {
+    if (located_) return located_reach(c0, r0, c1, r1, cc, rc);
     double rmax = 0.0;
     for (int64_t r = r0; r < r1; ++r) rmax = std::max(rmax, rho_[r]);
     constexpr double kRad = 3.14159265358979323846 / 180.0;
@@ -366,7 +469,11 @@ class GeodesicExactSolver {
   }
   GeoCell cell_at_fraction(double gcol, double grow) const {
     const GridSpec& g = ctx_.grid;
-    return geo_.cell(g.xmin + (gcol + 0.5) * g.res, g.ymax - (grow + 0.5) * g.res);
+    const double x = g.xmin + (gcol + 0.5) * g.res, y = g.ymax - (grow + 0.5) * g.res;
+    if (!located_) return geo_.cell(x, y);
+    double lon, lat;
+    locate_centres(*ctx_.geolocator, &x, &y, &lon, &lat, 1);
+    return geo_.cell(lon, lat);
   }
 
   bool build_interpolant(Interpolant& it, int64_t bx0, int64_t by0, int64_t bx1, int64_t by1, int32_t id,
@@ -599,9 +706,10 @@ class GeodesicExactSolver {
       double wt[4];
       weights_row(r, wt);
       for (int64_t c = 0; c < n; ++c) {
-        wk.cx[c] = rho_[r] * cos_[c0 + c];
-        wk.cy[c] = rho_[r] * sin_[c0 + c];
-        wk.cz[c] = z_[r];
+        const GeoCell p = cell_at(c0 + c, r);
+        wk.cx[c] = p.x;
+        wk.cy[c] = p.y;
+        wk.cz[c] = p.z;
         wk.best[c] = std::numeric_limits<double>::infinity();
         wk.second[c] = std::numeric_limits<double>::infinity();
         wk.best_id[c] = kNoSite;
@@ -738,6 +846,7 @@ class GeodesicExactSolver {
   std::vector<double> lon_, cos_, sin_;  // per window column
   double max_distance_ = std::numeric_limits<double>::infinity();
   int64_t interp_block_ = kInterpMinBlock;  // interpolation block edge, cells (grid-aligned)
+  bool located_ = false;                    // projected grid: cells located by ctx.geolocator
   std::vector<SegmentEnd> ends_;            // per site: its two ends (segments only)
 };
 

@@ -142,12 +142,7 @@ void seed(ScanState<Ops>& st) {
     sub.geolocator = ctx.geolocator;
     Raster<int32_t> s(ctx.grid, strip, Uninitialized{});
     Raster<float> d(ctx.grid, strip, Uninitialized{});
-    // Projected geodesic grids: the exact geodesic solver does not take the geolocator yet
-    // (see compute_into), so the strips, one cell wide, are solved by brute force, which gives
-    // the same nearest site.
-    if (ctx.geolocator != nullptr)
-      run_brute_force(sub, s, d);
-    else if (ctx.geo)
+    if (ctx.geo)
       run_exact_geodesic(sub, s, d);
     else
       run_exact(sub, s, d);

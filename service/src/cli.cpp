@@ -46,8 +46,8 @@ computation:
   --metric M              auto (default) | planar | geodesic. auto: geodesic on a longitude/
                           latitude CRS, planar on a projected one. geodesic on a projected CRS
                           locates each cell centre on the CRS's ellipsoid and measures metres
-                          there (method brute-force or hv-scan for now: exact is pending; the
-                          margin raster is refused for it, the other deliverables work)
+                          there (every method; the margin raster is refused for it, the other
+                          deliverables work)
   --threads N             worker threads (default: all cores)
   --max-distance D        cells farther than D from every seed get no owner
   --distance-units U      m | km | nmi (default: CRS units)

@@ -218,6 +218,42 @@ TEST(GeodesicProjected, HvScanStaysWithinOneCellOfBruteForce) {
   }
 }
 
+// The exact method on projected grids: cells located tile by tile, blocks culled with the
+// located centres' ECEF boxes, distances interpolated on grid-aligned blocks. Owners equal brute
+// force's, distances to the last float bit; any window and thread count gives the same bits.
+TEST(GeodesicProjected, ExactEqualsBruteForce) {
+  const SeedSet seeds = scattered_seeds(40);
+  for (const double res : {2000.0, 200.0}) {
+    GridSpec g = utm_grid(res == 2000.0 ? 60 : 180, res == 2000.0 ? 60 : 150);
+    g.res = res;
+    g.xmin = res == 2000.0 ? 400000.0 : 430000.0;
+    g.ymax = res == 2000.0 ? 6180000.0 : 6150000.0;
+    const NearestField brute = compute(seeds, g, projected_options(Method::brute_force));
+    ComputeOptions o = projected_options(Method::exact);
+    o.threads = 2;
+    const NearestField exact = compute(seeds, g, o);
+    EXPECT_EQ(exact.site.cells(), brute.site.cells()) << res;
+    int64_t off = 0;
+    for (size_t i = 0; i < exact.distance.size(); ++i) {
+      const float x = exact.distance.cells()[i], y = brute.distance.cells()[i];
+      if (x == y) continue;
+      ASSERT_EQ(x, std::nextafter(y, x)) << res << " cell " << i;
+      ++off;
+    }
+    EXPECT_LT(off, exact.distance.size() / 20) << res;
+    EXPECT_EQ(compare_fields(seeds, exact, brute).wrong_cells, 0) << res;
+    o.threads = 3;
+    o.window = Window{17, 23, 90, 70};
+    if (res == 2000.0) o.window = Window{7, 9, 40, 33};
+    const NearestField part = compute(seeds, g, o);
+    for (int64_t r = 0; r < o.window->height; ++r)
+      for (int64_t c = 0; c < o.window->width; ++c) {
+        ASSERT_EQ(part.site.at(c, r), exact.site.at(o.window->col0 + c, o.window->row0 + r)) << res;
+        ASSERT_EQ(part.distance.at(c, r), exact.distance.at(o.window->col0 + c, o.window->row0 + r)) << res;
+      }
+  }
+}
+
 TEST(GeodesicProjected, InteriorsComeFromTheGridPolygons) {
   // A rectangle in the grid (cell edges at x 430..460 km, y 6130..6160 km) and, as the seed, its
   // corners in longitude/latitude; plus a point owner outside it.
@@ -353,8 +389,8 @@ TEST(GeodesicProjected, Refusals) {
   ComputeOptions planar;
   planar.geolocator = std::make_shared<Utm33>();
   EXPECT_EQ(kind_of(seeds, g, planar), ErrorKind::invalid_argument);
-  // Exact on a projected geodesic grid: pending in the exact solver.
-  EXPECT_EQ(kind_of(seeds, g, projected_options(Method::exact)), ErrorKind::unsupported);
+  EXPECT_EQ(kind_of(seeds, g, projected_options(Method::exact, std::make_shared<BadLatitude>())),
+            ErrorKind::invalid_input);
   // A geolocator that returns a latitude beyond the pole.
   EXPECT_EQ(kind_of(seeds, g, projected_options(Method::brute_force, std::make_shared<BadLatitude>())),
             ErrorKind::invalid_input);

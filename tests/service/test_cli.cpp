@@ -361,14 +361,13 @@ TEST_F(Cli, ProjectedGridGeodesicMeasuresOnTheEllipsoid) {
     if (planar.cells()[i] > 0.0f) gap = std::max(gap, std::abs(planar.cells()[i] - dist.cells()[i] * 1852.0));
   EXPECT_GT(gap, 1.0);
 
-  // validate works on it (its brute force measures geodesically too); the pending exact method
-  // is reported as unsupported, not fatal.
+  // validate works on it (its brute force measures geodesically too), the exact method included.
   const CliRun v = run("validate " + grid + " --metric geodesic --methods hv-scan,exact");
   ASSERT_EQ(v.exit_code, 0) << v.output;
   const nlohmann::json vj = nlohmann::json::parse(v.output.substr(v.output.find('{')));
   EXPECT_EQ(vj["metric"], "geodesic");
   EXPECT_LT(vj["methods"]["hv-scan"]["max_error_cells"].get<double>(), 1.0);
-  EXPECT_TRUE(vj["methods"]["exact"].contains("unsupported"));
+  EXPECT_EQ(vj["methods"]["exact"]["wrong_cells"].get<int64_t>(), 0) << vj.dump();
   // Boundary and limit lines: vertices in the grid's CRS, on the loci measured on the ellipsoid.
   // Checked independently: each vertex taken to longitude/latitude by GeographicLib and measured
   // with the geographic metric on the seeds in their own CRS.

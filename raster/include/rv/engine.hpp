@@ -30,8 +30,10 @@
 //     [-90, 90] or a non-finite position is rv::Error(invalid_input);
 //   - polygon interiors are tested in the grid's plane on ComputeOptions::grid_polygons (the
 //     seeds' polygons in the grid's CRS), as on planar grids;
-//   - brute force (one batch transformation per row) and the scans (one per cell and pass) work;
-//     the exact method is refused with rv::Error(unsupported) for now (pending).
+//   - every method works: brute force (one batch transformation per row), the scans (one per
+//     cell and pass), and exact (one batch per row of each 128 x 128 tile, plus 17 single points
+//     per interpolation block and site; its interpolation blocks are sized to ~14 km on the
+//     ellipsoid from the cell size measured at the grid's centre).
 // Geographic geodesic grids:
 //   - cell centres must lie within latitudes [-90, 90] (grids may reach a pole);
 //   - longitudes may run past 180 (a grid across the antimeridian has xmin + width*res > 180),
@@ -135,7 +137,6 @@ int64_t estimate_memory(Method m, int64_t cells, int64_t sites, MetricSpec::Kind
 // geolocator without the geodesic metric; missing or mismatched grid_polygons),
 // rv::Error(invalid_input) when the seed set has no sites (or, geodesic, a seed latitude beyond
 // +-90; projected geodesic: a cell centre the geolocator cannot locate),
-// rv::Error(unsupported) for the exact method on a projected geodesic grid (pending),
 // rv::Error(cancelled).
 NearestField compute(const SeedSet& seeds, const GridSpec& grid, const ComputeOptions& options);
 
