@@ -1,43 +1,46 @@
 // The exact method for the geodesic metric: hierarchical block culling with provably safe
-// bounds (geodesic_sites.hpp), then a per-cell argmin of exact geodesic distances.
+// bounds (geodesic_sites.hpp), then a per-cell argmin over the candidates left.
 //
-// Why it is exact. For a block B of cells, C one of its cells and R(B) an upper bound of the
-// geodesic distance from C to any cell of B (the parallel-then-meridian path length), every cell
-// P of B has d(P, nearest) <= d(P, s') <= d(C, s') + R(B) =: U for any site s' (triangle
-// inequality of the geodesic distance). A site s can be nearest anywhere in B only if its chord
-// lower bound to B's ECEF box is <= U. Sites are dropped only when the lower bound exceeds
-// min(U, max_distance) + kGeoSlack (slack covering rounding and GeographicLib's 15 nm), so the
-// site brute force picks is never dropped. Per cell, the candidate with the smallest chord lower
-// bound is measured first, and any other only if its lower bound does not exceed the best
-// computed distance plus the slack; the distances compared are computed by the same
-// GeoSites::distance() as brute force with the same tie rule (lower site index), so the result
-// equals brute force bit for bit.
+// Why the owners are exact. For a block B of cells, C one of its cells and R(B) an upper bound
+// of the geodesic distance from C to any cell of B (the parallel-then-meridian path length),
+// every cell P of B has d(P, nearest) <= d(P, s') <= d(C, s') + R(B) =: U for any site s'
+// (triangle inequality). A site s can be nearest anywhere in B only if its chord lower bound to
+// B's ECEF box is <= U. Sites are dropped only when the lower bound exceeds min(U, max_distance)
+// + kGeoSlack (slack covering rounding and GeographicLib's 15 nm), so the site brute force picks
+// is never dropped. Per cell, a candidate is measured only if its lower bound does not exceed
+// the best value so far plus the slack. Values are exact distances (GeoSites::distance, as brute
+// force computes them) or interpolated ones (below) within ~1e-8 m of them; any comparison
+// closer than kInterpTie = 1e-4 m that involves an interpolated value is redone with exact
+// distances of every candidate within kInterpTie of the best, with brute force's tie rule
+// (lower site index). So the owners equal brute force's cell for cell, and the distances equal
+// them to the last bit of the float32 written (one unit in the last place at most).
 //
-// Why it is fast. A geodesic inverse problem costs ~1.5 us, so the method spends its effort on
-// never computing one it can avoid.
-//  - Blocks whose candidates are all point sites (basepoints) are *interpolated*: for each
-//    candidate s, q_s(P) = d(P, s) / |E(P) - E(s)| (geodesic distance over the ECEF chord) is a
-//    very smooth function of the cell position -- it tends to 1 + O(d^2 / R^2) at the seed and
-//    varies only with the ellipsoid's flattening elsewhere -- so a bicubic interpolant from 16
-//    exact inverse problems on a block of up to 64 x 64 cells reproduces it to ~1e-8 m
-//    (measured: 64 cells of 0.002 deg, seeds 0 .. 10 000 km away, latitudes 0 .. 88: at most
-//    1.5e-8 m; 32 cells of 0.05 deg: 5e-4 m). The chord is exact and costs a few flops per cell,
-//    so a cell's distance costs ~10 flops per candidate instead of an inverse problem.
-//    Guards: the block's span is limited (kInterpSpan), every block-candidate interpolant is
-//    checked against an exact inverse problem at the block's centre and rejected (the block is
-//    then solved cell by cell) when it is off by more than kInterpCheck = 5e-6 m; nodes near the
-//    seed's antipode (d > kInterpMaxDistance) or on the seed itself are rejected too. Measured,
-//    the worst error over a block is < 2x the error at its centre.
-//    Ownership stays exact: a cell whose two nearest interpolated candidates are within
-//    kInterpTie = 1e-4 m (20x the check bound, ~1e4x the measured error) of each other, or whose
-//    interpolated distance is within kInterpTie of max_distance, is decided by exact distances
-//    of every candidate within kInterpTie of the best, with brute force's tie rule. Distances are
-//    the interpolated ones (within ~1e-8 m of GeographicLib, far below float32's rounding).
-//    Blocks are aligned to the grid (not the window), so any window, and any thread count,
-//    computes the same bits as the whole grid.
-//  - Blocks with segment sites: deep inside a Voronoi region a block keeps one candidate and
-//    each cell costs one distance (the output), ~1 to 3 inverse problems (the interception
-//    iteration); near boundaries the per-cell lower bounds skip most candidates.
+// Why it is fast. A geodesic inverse problem costs ~1.5 us, so the method avoids them.
+//  - Interpolation: for a point p (a point site, or a segment's end where the segment is
+//    certainly nearest at that end), q(P) = d(P, p) / |E(P) - E(p)| (geodesic distance over the
+//    ECEF chord) is a very smooth function of the cell position -- it tends to 1 + O(d^2/R^2) at
+//    p and varies only with the ellipsoid's flattening elsewhere -- so a bicubic interpolant from
+//    16 exact inverse problems on a grid-aligned block of up to 64 x 64 cells reproduces it to
+//    ~1e-8 m (measured: 64 cells of 0.002 deg, points 0 .. 10 000 km away, latitudes 0 .. 88:
+//    at most 1.5e-8 m; 32 cells of 0.05 deg: 5e-4 m). Offshore of a segment (every node at least
+//    half the block's diagonal from it), the distance to the edge's geodesic extended beyond its
+//    ends over the distance to the straight line through its ends is interpolated the same way,
+//    for cells certainly nearest at an interior point of the edge. A cell's value then costs a
+//    few tens of flops per candidate.
+//    Guards: the block's span is limited (kInterpSpan degrees, kInterpSpanMetres on projected
+//    grids); every interpolant is checked against an exact value at the block's centre and
+//    rejected when off by more than kInterpCheck = 5e-6 m (measured, the worst error over a
+//    block is < 2x the error at its centre); nodes near the antipode (d > kInterpMaxDistance),
+//    on the point itself, or an extended edge nearest at its ends reject it too. Rejected
+//    interpolants leave those cells to exact distances.
+//  - Which part of a segment is nearest is decided per cell from ECEF vectors (segment_regime):
+//    the normal section's direction at the vertex stands in for the geodesic's, with a margin
+//    100x their largest difference within kVertexMaxChord.
+//  - Blocks, tiles and interpolation blocks are aligned to the grid, not to the window, so any
+//    window and any thread count computes the same bits as the whole grid (the basis of the
+//    streamed strips and of tiles computed apart).
+//  - Projected grids (ctx.geolocator): cell centres are located tile by tile in one batch per
+//    row; boxes and reach come from the located centres instead of separable rows and columns.
 // Blocks are independent and taken dynamically by threads.
 #include <algorithm>
 #include <cmath>
