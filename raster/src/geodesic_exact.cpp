@@ -20,7 +20,7 @@
 //    certainly nearest at that end), q(P) = d(P, p) / |E(P) - E(p)| (geodesic distance over the
 //    ECEF chord) is a very smooth function of the cell position -- it tends to 1 + O(d^2/R^2) at
 //    p and varies only with the ellipsoid's flattening elsewhere -- so a bicubic interpolant from
-//    16 exact inverse problems on a grid-aligned block of up to 64 x 64 cells reproduces it to
+//    16 exact inverse problems on a grid-aligned block of up to 128 x 128 cells reproduces it to
 //    ~1e-8 m (measured: 64 cells of 0.002 deg, points 0 .. 10 000 km away, latitudes 0 .. 88:
 //    at most 1.5e-8 m; 32 cells of 0.05 deg: 5e-4 m). Offshore of a segment (every node at least
 //    half the block's diagonal from it), the distance to the edge's geodesic extended beyond its
@@ -64,8 +64,12 @@ constexpr int kProbes = 2;         // sites whose exact distance from a block's 
 // Interpolation of point-site distances (see the top of this file).
 constexpr double kInterpSpan = 0.13;          // degrees: largest block edge interpolated
 constexpr double kInterpSpanMetres = 14e3;    // the same on projected grids (~0.13 deg of latitude)
-constexpr int64_t kInterpMaxBlock = 64;       // cells
+constexpr int64_t kInterpMaxBlock = 128;      // cells (= kTile)
+constexpr int64_t kInterpSolveBlock = 64;     // culling goes on down to blocks this small before
+                                              // the per-cell pass: fewer candidates per cell, while
+                                              // the interpolants stay those of the larger block
 constexpr int64_t kInterpMinBlock = 8;        // cells
+constexpr int64_t kLineNearBlock = 16;        // cells: edge interiors near the coast
 constexpr int64_t kInterpMinEdge = 4;         // a block clipped by the grid below this: per cell
 constexpr size_t kInterpMaxCandidates = 24;   // more candidates: subdivide (or per cell)
 constexpr double kInterpCheck = 5e-6;         // metres: accepted error at the block's centre
@@ -226,7 +230,7 @@ class GeodesicExactSolver {
     }
   }
 
-  // The interpolation block: the largest power of two (8 .. 64 cells) spanning at most
+  // The interpolation block: the largest power of two (8 .. 128 cells) spanning at most
   // kInterpSpan degrees (projected grids: kInterpSpanMetres, with the cell size measured on the
   // ellipsoid at the grid's centre, so that it does not depend on the window); coarser grids
   // still get 8-cell blocks, which the centre check rejects where inaccurate.
@@ -429,7 +433,7 @@ class GeodesicExactSolver {
     bool points_only = true;
     for (int32_t id : next) points_only = points_only && !geo_.site(id).segment;
     const bool can_split = level > 1 && depth + 2 < static_cast<int>(wk.levels.size());
-    if (points_only && level <= interp_block_ &&
+    if (points_only && level <= std::min(interp_block_, kInterpSolveBlock) &&
         (next.size() <= kInterpMaxCandidates || !can_split || level <= kInterpMinBlock))
       return solve_interp(wk, next, c0, r0, c1, r1);
     if (!points_only && (next.size() <= 1 || w * h <= kLeafCells)) return solve_cells(wk, next, c0, r0, c1, r1);
@@ -450,11 +454,15 @@ class GeodesicExactSolver {
   // The interpolant of point site `id` on the grid-aligned interpolation block that contains
   // window cell (c, r), or null where it is rejected (the caller then measures exactly).
   // `end`: 0 for a point site, 1 / 2 for a segment's first / second end.
-  const Interpolant* interpolant(GeoWorker& wk, int64_t c, int64_t r, int32_t id, int end = 0) const {
-    const int64_t S = interp_block_;
+  // `S`: the block edge (0: the interpolation block; kLineNearBlock for edge interiors near the
+  // coast, see value()).
+  const Interpolant* interpolant(GeoWorker& wk, int64_t c, int64_t r, int32_t id, int end = 0, int64_t S = 0) const {
+    const bool near = S != 0;
+    if (!near) S = interp_block_;
     const int64_t gc = ctx_.window.col0 + c, gr = ctx_.window.row0 + r;
     const int64_t bx0 = (gc / S) * S, by0 = (gr / S) * S;
-    const uint64_t key = (static_cast<uint64_t>((by0 % kTile) / S * (kTile / S) + (bx0 % kTile) / S) << 34) |
+    const uint64_t key = (static_cast<uint64_t>(near) << 63) |
+                         (static_cast<uint64_t>((by0 % kTile) / S * (kTile / S) + (bx0 % kTile) / S) << 34) |
                          (static_cast<uint64_t>(static_cast<uint32_t>(id)) << 2) | static_cast<uint64_t>(end);
     auto it = wk.cache.find(key);
     if (it != wk.cache.end()) return it->second.get();
@@ -604,9 +612,12 @@ class GeodesicExactSolver {
   }
 
   // For single-piece segment `id` seen from cell p: 1 or 2 when it is certainly nearest at its
-  // first or second end, 3 when certainly nearest at an interior point (the cell ahead of the
-  // first end and behind the second, so the convex distance along the edge has its minimum
-  // inside), 0 when neither is certain (see kVertexSlope).
+  // first or second end *and* brute force's search certainly returns that end's canonical
+  // distance (the slope test of attains_at_vertex, kVertexSlope); 4 or 5 when it is certainly
+  // nearest at that end but the search may stop a hair inside the edge (a value within its
+  // convergence tolerance, ~1e-9 m, not the same bits); 3 when certainly nearest at an interior
+  // point (the cell ahead of the first end and behind the second, so the convex distance along
+  // the edge has its minimum inside); 0 when none is certain (within kVertexMargin of a switch).
   int segment_regime(const GeoCell& p, int32_t id) const {
     if (geo_.site(id).piece_count != 1) return 0;
     double cos_w[2];
@@ -625,7 +636,9 @@ class GeodesicExactSolver {
     // First end: the cell lies behind it (against the edge); second end: beyond it.
     if (-cos_w[0] > kSure) return 1;
     if (cos_w[1] > kSure) return 2;
-    if (cos_w[0] > kSure && -cos_w[1] > kSure) return 3;
+    if (cos_w[0] > kVertexMargin && -cos_w[1] > kVertexMargin) return 3;
+    if (-cos_w[0] > kVertexMargin) return 4;
+    if (cos_w[1] > kVertexMargin) return 5;
     return 0;
   }
 
@@ -638,13 +651,15 @@ class GeodesicExactSolver {
   }
 
   // Weights of window cell column c / row r inside the interpolation block holding them.
-  void weights_col(int64_t c, double w[4]) const {
-    const int64_t S = interp_block_, gc = ctx_.window.col0 + c, b0 = (gc / S) * S;
+  void weights_col(int64_t c, double w[4], int64_t S = 0) const {
+    if (S == 0) S = interp_block_;
+    const int64_t gc = ctx_.window.col0 + c, b0 = (gc / S) * S;
     const int64_t b1 = std::min(b0 + S, ctx_.grid.width) - 1;
     cubic_weights(static_cast<double>(gc - b0) / static_cast<double>(b1 - b0), w);
   }
-  void weights_row(int64_t r, double w[4]) const {
-    const int64_t S = interp_block_, gr = ctx_.window.row0 + r, b0 = (gr / S) * S;
+  void weights_row(int64_t r, double w[4], int64_t S = 0) const {
+    if (S == 0) S = interp_block_;
+    const int64_t gr = ctx_.window.row0 + r, b0 = (gr / S) * S;
     const int64_t b1 = std::min(b0 + S, ctx_.grid.height) - 1;
     cubic_weights(static_cast<double>(gr - b0) / static_cast<double>(b1 - b0), w);
   }
@@ -653,18 +668,28 @@ class GeodesicExactSolver {
   // the site has an interpolant on the cell's block (a point site, or a segment nearest at one
   // of its ends throughout the block), else the exact distance. `exact` says which.
   // `from` (optional) receives the interpolant used, null for an exact value.
-  double value(GeoWorker& wk, int64_t c, int64_t r, int32_t id, bool& exact, const Interpolant** from = nullptr) const {
+  // `canonical` (optional): the value stands for brute force's bits of a vertex distance shared
+  // by the edges meeting there (regimes 1, 2), so equal values of two such edges are a tie.
+  double value(GeoWorker& wk, int64_t c, int64_t r, int32_t id, bool& exact, const Interpolant** from = nullptr,
+               bool* canonical = nullptr) const {
     if (from) *from = nullptr;
     const GeoCell p = cell_at(c, r);
-    const int end = geo_.site(id).segment ? segment_regime(p, id) : 0;
+    const int regime = geo_.site(id).segment ? segment_regime(p, id) : 0;
+    const int end = regime >= 4 ? regime - 3 : regime;
+    if (canonical) *canonical = regime == 1 || regime == 2;
     if (!geo_.site(id).segment || end != 0) {
-      if (const Interpolant* it = interpolant(wk, c, r, id, end)) {
-        double wt[4], wc[4];
-        weights_row(r, wt);
-        weights_col(c, wc);
-        exact = false;
-        if (from) *from = it;
-        return eval(*it, wt, wc) * normaliser(*it, p.x, p.y, p.z);
+      // An edge's interior near the coast: the interpolation block's line interpolant is
+      // refused within half its diagonal of the edge; smaller blocks reach closer.
+      for (const int64_t S : {int64_t{0}, end == 3 ? kLineNearBlock : int64_t{-1}}) {
+        if (S < 0) break;
+        if (const Interpolant* it = interpolant(wk, c, r, id, end, S)) {
+          double wt[4], wc[4];
+          weights_row(r, wt, S);
+          weights_col(c, wc, S);
+          exact = false;
+          if (from) *from = it;
+          return eval(*it, wt, wc) * normaliser(*it, p.x, p.y, p.z);
+        }
       }
     }
     exact = true;
@@ -791,10 +816,11 @@ class GeodesicExactSolver {
         double best;
         const Interpolant* best_from = nullptr;
         const Interpolant* from = nullptr;
+        bool best_canonical = false, canonical = false;
         if (geo_.site(cands[first]).segment && segment_regime(p, cands[first]) == 0)
           best = geo_.distance(p, cands[first], &end);
         else
-          best = value(wk, c, r, cands[first], best_exact, &best_from);
+          best = value(wk, c, r, cands[first], best_exact, &best_from, &best_canonical);
         int32_t best_id = cands[first];
         double runner_up = std::numeric_limits<double>::infinity();
         bool runner_exact = true;
@@ -810,11 +836,11 @@ class GeodesicExactSolver {
             }
             d = geo_.distance(p, id, &other_end);
           } else {
-            d = value(wk, c, r, id, exact, &from);
+            d = value(wk, c, r, id, exact, &from, &canonical);
             other_end.valid = false;
           }
-          if (!exact && !best_exact && d == best && !from->line && !best_from->line && from->lat == best_from->lat &&
-              from->lon == best_from->lon && geo_.site(id).segment && geo_.site(best_id).segment) {
+          if (!exact && !best_exact && d == best && canonical && best_canonical && from->lat == best_from->lat &&
+              from->lon == best_from->lon) {
             best_id = std::min(best_id, id);
             continue;
           }
@@ -825,6 +851,7 @@ class GeodesicExactSolver {
             best_id = id;
             best_exact = exact;
             best_from = exact ? nullptr : from;
+            best_canonical = !exact && canonical;
             end = other_end;
           } else if (d < runner_up) {
             runner_up = d;
