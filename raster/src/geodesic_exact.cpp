@@ -25,8 +25,9 @@
 //    at most 1.5e-8 m; 32 cells of 0.05 deg: 5e-4 m). Offshore of a segment (every node at least
 //    half the block's diagonal from it), the distance to the edge's geodesic extended beyond its
 //    ends over the distance to the straight line through its ends is interpolated the same way,
-//    for cells certainly nearest at an interior point of the edge. A cell's value then costs a
-//    few tens of flops per candidate.
+//    for cells certainly nearest at an interior point of the edge; nearer the coast, on
+//    16-cell blocks (kLineNearBlock), which reach to half their smaller diagonal. A cell's value
+//    then costs a few tens of flops per candidate.
 //    Guards: the block's span is limited (kInterpSpan degrees, kInterpSpanMetres on projected
 //    grids); every interpolant is checked against an exact value at the block's centre and
 //    rejected when off by more than kInterpCheck = 5e-6 m (measured, the worst error over a
@@ -35,7 +36,11 @@
 //    interpolants leave those cells to exact distances.
 //  - Which part of a segment is nearest is decided per cell from ECEF vectors (segment_regime):
 //    the normal section's direction at the vertex stands in for the geodesic's, with a margin
-//    100x their largest difference within kVertexMaxChord.
+//    (kVertexMargin) 100x their largest difference within kVertexMaxChord. Only cells within that
+//    margin of a switch between an end and the interior are measured exactly. Two edges sharing
+//    a vertex that both measure it are a tie (lower id) only where brute force's search
+//    certainly returns the canonical vertex distance for both (slope beyond kVertexSlope, as
+//    attains_at_vertex); elsewhere their equal values are a close call, decided exactly.
 //  - Blocks, tiles and interpolation blocks are aligned to the grid, not to the window, so any
 //    window and any thread count computes the same bits as the whole grid (the basis of the
 //    streamed strips and of tiles computed apart).
