@@ -6,6 +6,7 @@
 
 #include <cmath>
 #include <limits>
+#include <vector>
 
 #include "rv/deliverables.hpp"
 #include "rv/engine.hpp"
@@ -71,6 +72,38 @@ TEST(GeodesicDeliverables, TwoPointsBisectorWithinOneCentimetre) {
     ASSERT_LE(std::abs(d1 - d2), 0.01);
   }
   EXPECT_GT(b.lines[0].vertices.size(), 40u);
+}
+
+// Two parallel lines on the ellipsoid: meridian arcs at 10.00E and 10.20E (55.0N .. 55.6N), each
+// of 12 geodesic edges. By the ellipsoid's mirror symmetry in the meridian plane of 10.10E, the
+// median line between them, where both are nearest at an edge's interior, is that meridian: every
+// vertex there lies on 10.10E within a few millimetres and is equidistant within 1 cm.
+TEST(GeodesicDeliverables, TwoParallelLinesGiveTheMedianMidway) {
+  SeedSet s;
+  std::vector<Vec2> west, east;
+  for (int i = 0; i <= 12; ++i) {
+    west.push_back({10.0, 55.0 + 0.05 * i});
+    east.push_back({10.2, 55.0 + 0.05 * i});
+  }
+  s.add_polyline(s.add_feature(s.owner_code("west")), west);
+  s.add_polyline(s.add_feature(s.owner_code("east")), east);
+  const GridSpec g = geo_grid(9.95, 55.65, 0.004, 75, 175);  // 9.95E .. 10.25E, 55.65N .. 54.95N
+  const NearestField f = exact(s, g);
+  const GeodesicSiteMetric metric(s, wgs84());
+  const OwnerIndex index(metric);
+  const BoundaryResult b = extract_boundaries(f, index);
+  ASSERT_EQ(b.lines.size(), 1u);
+  const GeodesicMeasure m(wgs84());
+  int64_t inside = 0;
+  for (const BoundaryVertex& v : b.lines[0].vertices) {
+    ASSERT_LE(std::abs(brute(s, m, v.p, 1) - brute(s, m, v.p, 2)), 0.01) << v.p.x << "," << v.p.y;
+    if (v.p.y > 55.02 && v.p.y < 55.58) {
+      // 1e-7 degrees of longitude is ~6 mm here.
+      EXPECT_NEAR(v.p.x, 10.1, 1e-7) << v.p.y;
+      ++inside;
+    }
+  }
+  EXPECT_GT(inside, 100);
 }
 
 TEST(GeodesicDeliverables, TripointAndLimitsWithinOneCentimetre) {
