@@ -101,33 +101,55 @@ inline double site_rect_max_key(const LocalSite& s, const Rect& r) {
 #define RV_AVX2_CLONES __attribute__((target_clones("avx2", "default")))
 #endif
 
-// GCC notes that returning a 32-byte vector from a function compiled without AVX has another
-// ABI than with it; these helpers have internal linkage and are always inlined into both clones
-// of argmin_block, so no call ever crosses that boundary. (GCC emits the note when it makes the
-// clones, at the end of the file, so the pragma stays on to the end.)
-#pragma GCC diagnostic ignored "-Wpsabi"
-
 // Cells per register block of argmin_block: two 4-wide double vectors.
 constexpr int64_t kLanes = 8;
 using V4 = double __attribute__((vector_size(32)));
 
-[[gnu::always_inline]] inline V4 load4(const double* p) {
-  V4 v;
-  std::memcpy(&v, p, sizeof(v));
-  return v;
-}
-[[gnu::always_inline]] inline void store4(double* p, V4 v) { std::memcpy(p, &v, sizeof(v)); }
-
-// planar_key() on four cells of one row at once, operation for operation (std::clamp(t, 0, 1)
+// The vector steps of argmin_block are macros, not functions: a 32-byte vector passed to or
+// returned from a function compiled without AVX has another ABI than with AVX, which GCC notes
+// and clang refuses outright, and the default clone of argmin_block is compiled without AVX.
+//
+// Keys of candidate j for the eight cells x0, x1 of row y. A point: planar_key with t = 0,
+// (x - ax)^2 + (y - ay)^2. A segment: planar_key() operation for operation (std::clamp(t, 0, 1)
 // is `t < 0 ? 0 : 1 < t ? 1 : t`), so every lane's key is bit-identical to the scalar one.
-[[gnu::always_inline]] inline V4 segment_key4(V4 x, double y, const LocalSite& s) {
-  V4 t = ((x - s.ax) * s.dx + (y - s.ay) * s.dy) * s.inv_len2;
-  const V4 zero = V4{} + 0.0, one = V4{} + 1.0;
-  t = t < zero ? zero : (one < t ? one : t);
-  const V4 ex = x - (s.ax + t * s.dx);
-  const V4 ey = y - (s.ay + t * s.dy);
-  return ex * ex + ey * ey;
-}
+#define RV_POINT_KEYS(j, k0, k1)                                   \
+  do {                                                             \
+    const double ey_ = y - sites[j].ay, ey2_ = ey_ * ey_;          \
+    const V4 e0_ = x0 - sites[j].ax, e1_ = x1 - sites[j].ax;       \
+    (k0) = e0_ * e0_ + ey2_;                                       \
+    (k1) = e1_ * e1_ + ey2_;                                       \
+  } while (0)
+#define RV_SEGMENT_KEY(x, s, out)                                               \
+  do {                                                                          \
+    V4 t_ = (((x) - (s).ax) * (s).dx + (y - (s).ay) * (s).dy) * (s).inv_len2;   \
+    const V4 zero_ = V4{} + 0.0, one_ = V4{} + 1.0;                             \
+    t_ = t_ < zero_ ? zero_ : (one_ < t_ ? one_ : t_);                          \
+    const V4 ex_ = (x) - ((s).ax + t_ * (s).dx);                                \
+    const V4 ey_ = y - ((s).ay + t_ * (s).dy);                                  \
+    (out) = ex_ * ex_ + ey_ * ey_;                                              \
+  } while (0)
+#define RV_SEGMENT_KEYS(j, k0, k1)             \
+  do {                                         \
+    RV_SEGMENT_KEY(x0, sites[j], k0);          \
+    RV_SEGMENT_KEY(x1, sites[j], k1);          \
+  } while (0)
+// All k candidates over the eight cells: the best key and id stay in registers (strict <,
+// ascending ids: ties keep the lowest id).
+#define RV_ARGMIN_PASS(KEYS)                   \
+  do {                                         \
+    KEYS(0, b0, b1);                           \
+    i0 = i1 = V4{} + ids[0];                   \
+    for (int j = 1; j < k; ++j) {              \
+      V4 k0, k1;                               \
+      KEYS(j, k0, k1);                         \
+      const V4 id = V4{} + ids[j];             \
+      const auto m0 = k0 < b0, m1 = k1 < b1;   \
+      b0 = m0 ? k0 : b0;                       \
+      b1 = m1 ? k1 : b1;                       \
+      i0 = m0 ? id : i0;                       \
+      i1 = m1 ? id : i1;                       \
+    }                                          \
+  } while (0)
 
 // A block of w x h cells (centre x px[c], centre y py[r]) against k candidate sites: the exact
 // argmin per cell (strict <, candidates in ascending id order, so ties keep the lowest id),
@@ -151,46 +173,17 @@ RV_AVX2_CLONES void argmin_block(
   for (int64_t r = 0; r < h; ++r) {
     const double y = py[r];
     for (int64_t c = 0; c < w; c += kLanes) {
-      const V4 x0 = load4(px + c), x1 = load4(px + c + 4);
-      V4 b0, b1, i0, i1;
-      if (all_points) {
-        // A point: planar_key with t = 0 is (x - ax)^2 + (y - ay)^2.
-        {
-          const double ey = y - sites[0].ay, ey2 = ey * ey;
-          const V4 e0 = x0 - sites[0].ax, e1 = x1 - sites[0].ax;
-          b0 = e0 * e0 + ey2;
-          b1 = e1 * e1 + ey2;
-          i0 = i1 = V4{} + ids[0];
-        }
-        for (int j = 1; j < k; ++j) {
-          const double ey = y - sites[j].ay, ey2 = ey * ey;
-          const V4 e0 = x0 - sites[j].ax, e1 = x1 - sites[j].ax;
-          const V4 k0 = e0 * e0 + ey2, k1 = e1 * e1 + ey2;
-          const V4 id = V4{} + ids[j];
-          const auto m0 = k0 < b0, m1 = k1 < b1;
-          b0 = m0 ? k0 : b0;
-          b1 = m1 ? k1 : b1;
-          i0 = m0 ? id : i0;
-          i1 = m1 ? id : i1;
-        }
-      } else {
-        b0 = segment_key4(x0, y, sites[0]);
-        b1 = segment_key4(x1, y, sites[0]);
-        i0 = i1 = V4{} + ids[0];
-        for (int j = 1; j < k; ++j) {
-          const V4 k0 = segment_key4(x0, y, sites[j]), k1 = segment_key4(x1, y, sites[j]);
-          const V4 id = V4{} + ids[j];
-          const auto m0 = k0 < b0, m1 = k1 < b1;
-          b0 = m0 ? k0 : b0;
-          b1 = m1 ? k1 : b1;
-          i0 = m0 ? id : i0;
-          i1 = m1 ? id : i1;
-        }
-      }
-      store4(best + c, b0);
-      store4(best + c + 4, b1);
-      store4(best_id + c, i0);
-      store4(best_id + c + 4, i1);
+      V4 x0, x1, b0, b1, i0, i1;
+      std::memcpy(&x0, px + c, sizeof(x0));
+      std::memcpy(&x1, px + c + 4, sizeof(x1));
+      if (all_points)
+        RV_ARGMIN_PASS(RV_POINT_KEYS);
+      else
+        RV_ARGMIN_PASS(RV_SEGMENT_KEYS);
+      std::memcpy(best + c, &b0, sizeof(b0));
+      std::memcpy(best + c + 4, &b1, sizeof(b1));
+      std::memcpy(best_id + c, &i0, sizeof(i0));
+      std::memcpy(best_id + c + 4, &i1, sizeof(i1));
     }
     int32_t* __restrict os = out_site + r * stride;
     float* __restrict od = out_dist + r * stride;
