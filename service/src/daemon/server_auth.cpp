@@ -9,16 +9,6 @@ namespace {
 
 constexpr const char* kRealm = "Bearer realm=\"rvoronoi\"";
 
-bool iequals_prefix(std::string_view s, std::string_view prefix) {
-  if (s.size() < prefix.size()) return false;
-  for (size_t i = 0; i < prefix.size(); ++i) {
-    if (std::tolower(static_cast<unsigned char>(s[i])) != std::tolower(static_cast<unsigned char>(prefix[i]))) {
-      return false;
-    }
-  }
-  return true;
-}
-
 ApiResponse unauthorized(const std::string& detail, const std::string& challenge, std::string_view target) {
   // The path (not the query) as the instance, like every other problem of this server.
   const std::string path(target.substr(0, target.find('?')));
@@ -54,7 +44,7 @@ std::optional<ApiResponse> Authenticator::check(std::string_view target, std::st
     return unauthorized("this server needs a bearer token: send 'Authorization: Bearer <token>'", kRealm, target);
   }
   const std::string_view scheme = "Bearer ";
-  if (!iequals_prefix(authorization, scheme)) {
+  if (!starts_with_ci(authorization, scheme)) {
     return unauthorized("only bearer tokens are accepted: send 'Authorization: Bearer <token>'",
                         std::string(kRealm) + ", error=\"invalid_request\"", target);
   }

@@ -37,6 +37,10 @@ std::string base64_decode(std::string_view text, const std::string& what);
 // escape is kept as it is.
 std::string percent_decode(std::string_view s);
 
+// True when `s` begins with `prefix`, ASCII letters compared without case (HTTP scheme names,
+// CRS prefixes such as "epsg:").
+bool starts_with_ci(std::string_view s, std::string_view prefix);
+
 // The decoded, non-empty segments of a request path (no query): "/jobs//x/" -> {"jobs", "x"}.
 // The one spelling rule of the router and of the authentication's open resources.
 std::vector<std::string> path_segments(std::string_view path);
