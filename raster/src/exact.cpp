@@ -376,6 +376,13 @@ double rounding_slack(const EngineContext& ctx) {
   return scale * 1e-12;
 }
 
+// The rectangle of the cell centres of window cells [c0, c1) x [r0, r1), in local coordinates.
+Rect centres_rect(const EngineContext& ctx, int64_t c0, int64_t r0, int64_t c1, int64_t r1) {
+  const Window& w = ctx.window;
+  return Rect{ctx.grid.local_x(w.col0 + c0), ctx.grid.local_y(w.row0 + r1 - 1), ctx.grid.local_x(w.col0 + c1 - 1),
+              ctx.grid.local_y(w.row0 + r0)};
+}
+
 class ExactSolver {
  public:
   ExactSolver(const EngineContext& ctx, Raster<int32_t>& site, Raster<float>& distance)
@@ -399,11 +406,7 @@ class ExactSolver {
   }
 
  private:
-  Rect rect_of(int64_t c0, int64_t r0, int64_t c1, int64_t r1) const {
-    const Window& w = ctx_.window;
-    return Rect{ctx_.grid.local_x(w.col0 + c0), ctx_.grid.local_y(w.row0 + r1 - 1),
-                ctx_.grid.local_x(w.col0 + c1 - 1), ctx_.grid.local_y(w.row0 + r0)};
-  }
+  Rect rect_of(int64_t c0, int64_t r0, int64_t c1, int64_t r1) const { return centres_rect(ctx_, c0, r0, c1, r1); }
 
   // The squared-distance bound a site's lower bound must not exceed to stay a candidate.
   double keep_bound(double upper_key) const {
@@ -638,11 +641,7 @@ class OtherOwnerSolver {
   }
 
  private:
-  Rect rect_of(int64_t c0, int64_t r0, int64_t c1, int64_t r1) const {
-    const Window& w = ctx_.window;
-    return Rect{ctx_.grid.local_x(w.col0 + c0), ctx_.grid.local_y(w.row0 + r1 - 1),
-                ctx_.grid.local_x(w.col0 + c1 - 1), ctx_.grid.local_y(w.row0 + r0)};
-  }
+  Rect rect_of(int64_t c0, int64_t r0, int64_t c1, int64_t r1) const { return centres_rect(ctx_, c0, r0, c1, r1); }
   double keep_bound(double upper_key) const {
     if (upper_key == std::numeric_limits<double>::infinity()) return upper_key;
     const double d = std::sqrt(upper_key) + slack_;

@@ -144,7 +144,6 @@ struct GeoWorker {
   // Interpolants of the current tile: key = interpolation block (grid-aligned) and site.
   std::unordered_map<uint64_t, std::unique_ptr<Interpolant>> cache;
   std::vector<double> wcol;                         // column weights, 4 per column
-  std::vector<double> qrow;                         // per candidate: 4 row-combined node values
   std::vector<double> best, second, cx, cy, cz;     // per column of the block's row
   std::vector<int32_t> best_id;
 };
@@ -669,17 +668,19 @@ class GeodesicExactSolver {
     cubic_weights(static_cast<double>(gr - b0) / static_cast<double>(b1 - b0), w);
   }
 
-  // The value the method uses for candidate `id` at cell (c, r): the interpolated distance where
-  // the site has an interpolant on the cell's block (a point site, or a segment nearest at one
-  // of its ends throughout the block), else the exact distance. `exact` says which.
+  // Which part of site `id` is nearest from p (segment_regime; 0 for a point site).
+  int regime_of(const GeoCell& p, int32_t id) const { return geo_.site(id).segment ? segment_regime(p, id) : 0; }
+
+  // The value the method uses for candidate `id` at cell (c, r), whose centre is p and regime
+  // regime_of(p, id): the interpolated distance where the site has an interpolant on the cell's
+  // block (a point site; a segment's end or interior, as the regime says), else the exact
+  // distance. `exact` says which.
   // `from` (optional) receives the interpolant used, null for an exact value.
   // `canonical` (optional): the value stands for brute force's bits of a vertex distance shared
   // by the edges meeting there (regimes 1, 2), so equal values of two such edges are a tie.
-  double value(GeoWorker& wk, int64_t c, int64_t r, int32_t id, bool& exact, const Interpolant** from = nullptr,
-               bool* canonical = nullptr) const {
+  double value(GeoWorker& wk, int64_t c, int64_t r, const GeoCell& p, int32_t id, int regime, bool& exact,
+               const Interpolant** from = nullptr, bool* canonical = nullptr) const {
     if (from) *from = nullptr;
-    const GeoCell p = cell_at(c, r);
-    const int regime = geo_.site(id).segment ? segment_regime(p, id) : 0;
     const int end = regime >= 4 ? regime - 3 : regime;
     if (canonical) *canonical = regime == 1 || regime == 2;
     if (!geo_.site(id).segment || end != 0) {
@@ -709,7 +710,8 @@ class GeodesicExactSolver {
     int32_t id_best = kNoSite;
     for (int32_t id : cands) {
       bool exact = false;
-      if (geo_.lower_bound(p, id) > best + kGeoSlack || value(wk, c, r, id, exact) > best + kInterpTie) continue;
+      if (geo_.lower_bound(p, id) > best + kGeoSlack || value(wk, c, r, p, id, regime_of(p, id), exact) > best + kInterpTie)
+        continue;
       const double d = geo_.distance(p, id);
       if (d < d_best || (d == d_best && id < id_best)) {
         d_best = d;
@@ -789,9 +791,10 @@ class GeodesicExactSolver {
       for (int64_t r = r0; r < r1; ++r)
         for (int64_t c = c0; c < c1; ++c) {
           bool exact = false;
-          const double v = value(wk, c, r, id, exact);
+          const GeoCell p = cell_at(c, r);
+          const double v = value(wk, c, r, p, id, regime_of(p, id), exact);
           if (!exact && bounded && std::abs(v - max_distance_) <= kInterpTie)
-            put(c, r, id, geo_.distance(cell_at(c, r), id));
+            put(c, r, id, geo_.distance(p, id));
           else
             put(c, r, id, v);
         }
@@ -822,10 +825,11 @@ class GeodesicExactSolver {
         const Interpolant* best_from = nullptr;
         const Interpolant* from = nullptr;
         bool best_canonical = false, canonical = false;
-        if (geo_.site(cands[first]).segment && segment_regime(p, cands[first]) == 0)
+        const int first_regime = regime_of(p, cands[first]);
+        if (geo_.site(cands[first]).segment && first_regime == 0)
           best = geo_.distance(p, cands[first], &end);
         else
-          best = value(wk, c, r, cands[first], best_exact, &best_from, &best_canonical);
+          best = value(wk, c, r, p, cands[first], first_regime, best_exact, &best_from, &best_canonical);
         int32_t best_id = cands[first];
         double runner_up = std::numeric_limits<double>::infinity();
         bool runner_exact = true;
@@ -834,14 +838,15 @@ class GeodesicExactSolver {
           const int32_t id = cands[i];
           bool exact = true;
           double d;
-          if (geo_.site(id).segment && segment_regime(p, id) == 0) {
+          const int regime = regime_of(p, id);
+          if (geo_.site(id).segment && regime == 0) {
             if (best_exact && geo_.attains_at_vertex(p, id, end, best)) {
               best_id = std::min(best_id, id);
               continue;
             }
             d = geo_.distance(p, id, &other_end);
           } else {
-            d = value(wk, c, r, id, exact, &from, &canonical);
+            d = value(wk, c, r, p, id, regime, exact, &from, &canonical);
             other_end.valid = false;
           }
           if (!exact && !best_exact && d == best && canonical && best_canonical && from->lat == best_from->lat &&

@@ -12,6 +12,7 @@
 #include <memory>
 #include <optional>
 
+#include "atomic_file.hpp"
 #include "job_stream.hpp"
 #include "rv/deliverables.hpp"
 #include "rv/error.hpp"
@@ -48,24 +49,6 @@ class OutputGuard {
   std::vector<std::string> files_;
   bool committed_ = false;
 };
-
-void write_text_atomically(const std::string& path, const std::string& text) {
-  const std::string tmp = path + ".tmp-" + std::to_string(::getpid());
-  {
-    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
-    if (!out) throw Error(ErrorKind::io, "cannot write " + path);
-    out << text;
-    out.flush();
-    if (!out) {
-      std::remove(tmp.c_str());
-      throw Error(ErrorKind::io, "cannot write " + path + " (disk full?)");
-    }
-  }
-  if (std::rename(tmp.c_str(), path.c_str()) != 0) {
-    std::remove(tmp.c_str());
-    throw Error(ErrorKind::io, "cannot write " + path);
-  }
-}
 
 nlohmann::json grid_json(const GridSpec& g, const CrsInfo& crs) {
   return {{"width", g.width},       {"height", g.height}, {"cells", g.cell_count()},
@@ -627,7 +610,7 @@ JobResult run_job(const JobSpec& spec, const JobLimits& limits, const JobHooks& 
 
   if (!spec.outputs.report.empty()) {
     guard.add(spec.outputs.report);
-    write_text_atomically(spec.outputs.report, report.dump(2) + "\n");
+    write_file_atomically(spec.outputs.report, report.dump(2) + "\n");
   }
   progress("write", 1.0);
   JobResult result{report, guard.files()};

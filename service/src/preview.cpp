@@ -1,17 +1,14 @@
 #include "rv/preview.hpp"
 
-#include <unistd.h>
-
-#include <atomic>
 #include <cmath>
-#include <cstdio>
-#include <fstream>
+#include <string_view>
 #include <vector>
 
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "atomic_file.hpp"
 #include "rv/error.hpp"
 
 namespace rv {
@@ -79,22 +76,7 @@ PreviewInfo write_preview(const std::string& path, const Raster<int32_t>& owners
   }
   std::vector<uchar> png;
   if (!cv::imencode(".png", img, png)) throw Error(ErrorKind::io, "cannot encode the preview PNG");
-  static std::atomic<uint64_t> counter{0};
-  const std::string tmp = path + ".tmp-" + std::to_string(::getpid()) + "-" + std::to_string(counter.fetch_add(1));
-  {
-    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
-    if (!out) throw Error(ErrorKind::io, "cannot write " + path);
-    out.write(reinterpret_cast<const char*>(png.data()), static_cast<std::streamsize>(png.size()));
-    out.flush();
-    if (!out) {
-      std::remove(tmp.c_str());
-      throw Error(ErrorKind::io, "cannot write " + path + " (disk full?)");
-    }
-  }
-  if (std::rename(tmp.c_str(), path.c_str()) != 0) {
-    std::remove(tmp.c_str());
-    throw Error(ErrorKind::io, "cannot write " + path);
-  }
+  write_file_atomically(path, std::string_view(reinterpret_cast<const char*>(png.data()), png.size()));
   return info;
 }
 
