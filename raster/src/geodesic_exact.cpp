@@ -25,9 +25,10 @@
 //    at most 1.5e-8 m; 32 cells of 0.05 deg: 5e-4 m). Offshore of a segment (every node at least
 //    half the block's diagonal from it), the distance to the edge's geodesic extended beyond its
 //    ends over the distance to the straight line through its ends is interpolated the same way,
-//    for cells certainly nearest at an interior point of the edge; nearer the coast, on
-//    16-cell blocks (kLineNearBlock), which reach to half their smaller diagonal. A cell's value
-//    then costs a few tens of flops per candidate.
+//    for cells certainly nearest at an interior point of the edge; nearer the coast and across
+//    it, the signed distance to that geodesic minus the signed distance to a plane through the
+//    edge (additive form, build_line_interpolant). A cell's value then costs a few tens of
+//    flops per candidate.
 //    Guards: the block's span is limited (kInterpSpan degrees, kInterpSpanMetres on projected
 //    grids); every interpolant is checked against an exact value at the block's centre and
 //    rejected when off by more than kInterpCheck = 5e-6 m (measured, the worst error over a
@@ -38,9 +39,8 @@
 //    the normal section's direction at the vertex stands in for the geodesic's, with a margin
 //    (kVertexMargin) 100x their largest difference within kVertexMaxChord. Only cells within that
 //    margin of a switch between an end and the interior are measured exactly. Two edges sharing
-//    a vertex that both measure it are a tie (lower id) only where brute force's search
-//    certainly returns the canonical vertex distance for both (slope beyond kVertexSlope, as
-//    attains_at_vertex); elsewhere their equal values are a close call, decided exactly.
+//    a vertex that both measure it (beyond the margin) are a tie (lower id): brute force's
+//    search certainly returns the canonical vertex distance for both (see kVertexMargin).
 //  - Blocks, tiles and interpolation blocks are aligned to the grid, not to the window, so any
 //    window and any thread count computes the same bits as the whole grid (the basis of the
 //    streamed strips and of tiles computed apart).
@@ -74,20 +74,22 @@ constexpr int64_t kInterpSolveBlock = 64;     // culling goes on down to blocks 
                                               // the per-cell pass: fewer candidates per cell, while
                                               // the interpolants stay those of the larger block
 constexpr int64_t kInterpMinBlock = 8;        // cells
-constexpr int64_t kLineNearBlock = 16;        // cells: edge interiors near the coast
+constexpr double kAdditiveMinPlane = 0.1;     // metres: see build_line_interpolant
 constexpr int64_t kInterpMinEdge = 4;         // a block clipped by the grid below this: per cell
 constexpr size_t kInterpMaxCandidates = 24;   // more candidates: subdivide (or per cell)
 constexpr double kInterpCheck = 5e-6;         // metres: accepted error at the block's centre
 constexpr double kInterpTie = 1e-4;           // metres: closer calls are decided exactly
 constexpr double kInterpMaxDistance = 1.2e7;  // metres: beyond, the antipode's kink is too near
 constexpr double kInterpMinChord = 1e-3;      // metres: a node on the seed cannot form d / chord
-// A segment is nearest at one of its ends V when (geodesic.cpp, attains_at_vertex) the geodesic
-// from V to the cell leaves at an angle w against the edge with cos(w) beyond kVertexSlope
-// (~90.6 degrees), the cell well inside the edge's convex regime. Per cell this is tested with
-// the normal section's direction instead of the geodesic's (the projection of the chord V->P
-// onto V's tangent plane): within kVertexMaxChord the two directions differ by less than
-// (e^2 / 12) (d / N)^2 ~ 2e-5 rad, far inside the kVertexMargin added to the slope.
-constexpr double kVertexSlope = 0.01;
+// A segment is nearest at one of its ends V when the geodesic from V to the cell leaves at an
+// angle w against the edge with cos(w) <= 0 (first end; >= 0 at the second): by convexity the
+// distance then grows all along the edge. Per cell this is tested with the normal section's
+// direction instead of the geodesic's (the projection of the chord V->P onto V's tangent
+// plane): within kVertexMaxChord the two differ by less than (e^2 / 12) (d / N)^2 ~ 2e-5 rad,
+// far inside kVertexMargin. Beyond the margin brute force's search (GeoSites::piece_distance)
+// certainly returns V's canonical distance: every point of the edge then has |cos w| > 1.9e-3,
+// so its stopping test (s cos^2 w < 2e-10 m) cannot fire for a cell kVertexMinChord (1 m) or
+// more away (1 x 3.6e-6 m), and the search ends by evaluating V itself.
 constexpr double kVertexMargin = 2e-3;
 constexpr double kVertexMaxChord = 1e6;       // metres
 constexpr double kVertexMinChord = 1.0;       // metres
@@ -109,21 +111,28 @@ struct SegmentEnd {
 };
 
 struct Interpolant {
-  int32_t id;         // the site (a point site, or a segment measured at one of its ends)
-  double lat, lon;    // the point measured from: the point site, or the segment's end
-  double sx, sy, sz;  // its ECEF position (line: a point of the edge's chord line)
-  bool line = false;  // q = d / distance to the chord line (direction u) instead of the chord
-  double ux = 0.0, uy = 0.0, uz = 0.0;
-  double q[4][4];     // d / chord at the nodes [row][col]
+  int32_t id;         // the site (a point site, or a segment measured at an end or inside)
+  double lat, lon;    // the point measured from: the point site, or the segment's (first) end
+  double sx, sy, sz;  // its ECEF position
+  // Point form: q = d / chord to (sx, sy, sz), value q * chord. Additive form (an edge's
+  // interior, build_line_interpolant): q = signed d - h, h = n . (P - s) the signed distance to
+  // the plane through the edge's chord and the mean normal of its ends, value |h + q|.
+  bool additive = false;
+  double nx = 0.0, ny = 0.0, nz = 0.0;
+  double q[4][4];     // the interpolated quantity at the nodes [row][col]
 };
 
 // The normaliser of an interpolant at ECEF (x, y, z): the chord to its point, or for a segment's
-// interior the distance to the straight line through the edge's ends.
+// interior the signed distance to its plane.
 inline double normaliser(const Interpolant& it, double x, double y, double z) {
   const double dx = x - it.sx, dy = y - it.sy, dz = z - it.sz;
-  if (!it.line) return std::sqrt(dx * dx + dy * dy + dz * dz);
-  const double cx = dy * it.uz - dz * it.uy, cy = dz * it.ux - dx * it.uz, cz = dx * it.uy - dy * it.ux;
-  return std::sqrt(cx * cx + cy * cy + cz * cz);
+  if (it.additive) return dx * it.nx + dy * it.ny + dz * it.nz;
+  return std::sqrt(dx * dx + dy * dy + dz * dz);
+}
+
+// The distance an interpolant gives at ECEF (x, y, z) from its interpolated quantity q.
+inline double apply(const Interpolant& it, double q, double x, double y, double z) {
+  return it.additive ? std::abs(normaliser(it, x, y, z) + q) : q * normaliser(it, x, y, z);
 }
 
 // Projected geodesic grids: the located cell centres of the tile a worker is solving (cells
@@ -457,15 +466,12 @@ class GeodesicExactSolver {
 
   // The interpolant of point site `id` on the grid-aligned interpolation block that contains
   // window cell (c, r), or null where it is rejected (the caller then measures exactly).
-  // `end`: 0 for a point site, 1 / 2 for a segment's first / second end.
-  // `S`: the block edge (0: the interpolation block; kLineNearBlock for edge interiors near the
-  // coast, see value()).
-  const Interpolant* interpolant(GeoWorker& wk, int64_t c, int64_t r, int32_t id, int end = 0, int64_t S = 0) const {
-    const bool near = S != 0;
-    if (!near) S = interp_block_;
+  // `end`: 0 for a point site, 1 / 2 for a segment's first / second end, 3 for its interior.
+  const Interpolant* interpolant(GeoWorker& wk, int64_t c, int64_t r, int32_t id, int end = 0) const {
+    const int64_t S = interp_block_;
     const int64_t gc = ctx_.window.col0 + c, gr = ctx_.window.row0 + r;
     const int64_t bx0 = (gc / S) * S, by0 = (gr / S) * S;
-    const uint64_t key = (static_cast<uint64_t>(near) << 63) |
+    const uint64_t key =
                          (static_cast<uint64_t>((by0 % kTile) / S * (kTile / S) + (bx0 % kTile) / S) << 34) |
                          (static_cast<uint64_t>(static_cast<uint32_t>(id)) << 2) | static_cast<uint64_t>(end);
     auto it = wk.cache.find(key);
@@ -538,9 +544,18 @@ class GeodesicExactSolver {
   }
 
   // The interior of a segment: d_line(P), the distance to the edge's geodesic extended beyond
-  // both ends (far enough that every node's nearest point is inside), over the distance to the
-  // straight line through the ends' ECEF positions. Where the cell's nearest point of the edge
-  // is inside it (segment_regime 3) that is the segment's distance.
+  // both ends (far enough that every node's nearest point is inside). Where the cell's nearest
+  // point of the edge is inside it (segment_regime 3) that is the segment's distance.
+  // With h(P) the signed distance to the plane through the chord and the mean of the ends'
+  // normals, d_line carrying the sign of h is the signed distance to the curve, a smooth
+  // function across it, and so is its difference from the linear h: that difference
+  // (millimetres near the edge, O(x^3 / R^2) away from it) is interpolated, and the value is
+  // |h + q|. A node's side is taken from h, so nodes within kAdditiveMinPlane of the plane
+  // (where the extended geodesic, ~1 cm off the plane at most, could lie on the other side)
+  // reject the block. (A ratio d_line / distance-to-the-chord-line, as for points, has a pole
+  // next to the edge, where the two vanish on slightly different curves; measured on the
+  // geodesic_bench coastlines, its worst error offshore was 1e-5 m against 7.6e-9 m for this
+  // form, which also reaches across the edge.)
   bool build_line_interpolant(Interpolant& it, int64_t bx0, int64_t by0, int64_t bx1, int64_t by1,
                               int32_t id) const {
     const GeoSite& s = geo_.site(id);
@@ -549,15 +564,20 @@ class GeodesicExactSolver {
     const double ux = vb.x - va.x, uy = vb.y - va.y, uz = vb.z - va.z;
     const double len = std::sqrt(ux * ux + uy * uy + uz * uz);
     if (!(len >= 1.0)) return false;
-    it.line = true;
+    it.additive = true;
     it.lat = s.lat;
     it.lon = s.lon;
     it.sx = va.x;
     it.sy = va.y;
     it.sz = va.z;
-    it.ux = ux / len;
-    it.uy = uy / len;
-    it.uz = uz / len;
+    {
+      const double mx = va.nx + vb.nx, my = va.ny + vb.ny, mz = va.nz + vb.nz;
+      const double px = uy * mz - uz * my, py = uz * mx - ux * mz, pz = ux * my - uy * mx;
+      const double pn = std::sqrt(px * px + py * py + pz * pz);
+      it.nx = px / pn;
+      it.ny = py / pn;
+      it.nz = pz / pn;
+    }
     // The extension: a cell of the block whose nearest point is inside the edge has every other
     // cell of the block within the block's diagonal d (its corners' chord, 1.25 d covering
     // chord vs arc) of it, so their nearest points of the extended line lie within that of the
@@ -599,29 +619,24 @@ class GeodesicExactSolver {
         const GeoCell p = cell_at_fraction(node_at(bx0, bx1 - 1, b / 3.0), node_at(by0, by1 - 1, a / 3.0));
         const double d = exact(p);
         const double h = normaliser(it, p.x, p.y, p.z);
-        // The geodesic and the straight line through the ends vanish on slightly different
-        // curves, so d / h has a pole next to the edge: only blocks well away from it (every
-        // node at least half the block's diagonal from the line) are interpolated.
-        if (!(h >= 0.5 * diag + kInterpMinChord) || !(d <= kInterpMaxDistance)) return false;
-        it.q[a][b] = d / h;
+        if (!(d <= kInterpMaxDistance) || !(std::abs(h) >= kAdditiveMinPlane)) return false;
+        it.q[a][b] = (h > 0.0 ? d : -d) - h;
       }
     if (!ok) return false;
     const GeoCell centre = cell_at_fraction(node_at(bx0, bx1 - 1, 0.5), node_at(by0, by1 - 1, 0.5));
     double wt[4], wc[4];
     cubic_weights(0.5, wt);
     cubic_weights(0.5, wc);
-    const double approx = eval(it, wt, wc) * normaliser(it, centre.x, centre.y, centre.z);
+    const double approx = apply(it, eval(it, wt, wc), centre.x, centre.y, centre.z);
     const double want = exact(centre);
     return ok && std::abs(approx - want) <= kInterpCheck;
   }
 
   // For single-piece segment `id` seen from cell p: 1 or 2 when it is certainly nearest at its
-  // first or second end *and* brute force's search certainly returns that end's canonical
-  // distance (the slope test of attains_at_vertex, kVertexSlope); 4 or 5 when it is certainly
-  // nearest at that end but the search may stop a hair inside the edge (a value within its
-  // convergence tolerance, ~1e-9 m, not the same bits); 3 when certainly nearest at an interior
-  // point (the cell ahead of the first end and behind the second, so the convex distance along
-  // the edge has its minimum inside); 0 when none is certain (within kVertexMargin of a switch).
+  // first or second end (brute force's search then returns that end's canonical distance, see
+  // kVertexMargin); 3 when certainly nearest at an interior point (the cell ahead of the first
+  // end and behind the second, so the convex distance along the edge has its minimum inside); 0
+  // when none is certain (within kVertexMargin of a switch, or too near or too far).
   int segment_regime(const GeoCell& p, int32_t id) const {
     if (geo_.site(id).piece_count != 1) return 0;
     double cos_w[2];
@@ -636,13 +651,10 @@ class GeodesicExactSolver {
       if (!(len >= kVertexMinChord)) return 0;
       cos_w[e] = (ux * v.ex + uy * v.ey + uz * v.ez) / len;
     }
-    constexpr double kSure = kVertexSlope + kVertexMargin;
     // First end: the cell lies behind it (against the edge); second end: beyond it.
-    if (-cos_w[0] > kSure) return 1;
-    if (cos_w[1] > kSure) return 2;
+    if (-cos_w[0] > kVertexMargin) return 1;
+    if (cos_w[1] > kVertexMargin) return 2;
     if (cos_w[0] > kVertexMargin && -cos_w[1] > kVertexMargin) return 3;
-    if (-cos_w[0] > kVertexMargin) return 4;
-    if (cos_w[1] > kVertexMargin) return 5;
     return 0;
   }
 
@@ -655,14 +667,14 @@ class GeodesicExactSolver {
   }
 
   // Weights of window cell column c / row r inside the interpolation block holding them.
-  void weights_col(int64_t c, double w[4], int64_t S = 0) const {
-    if (S == 0) S = interp_block_;
+  void weights_col(int64_t c, double w[4]) const {
+    const int64_t S = interp_block_;
     const int64_t gc = ctx_.window.col0 + c, b0 = (gc / S) * S;
     const int64_t b1 = std::min(b0 + S, ctx_.grid.width) - 1;
     cubic_weights(static_cast<double>(gc - b0) / static_cast<double>(b1 - b0), w);
   }
-  void weights_row(int64_t r, double w[4], int64_t S = 0) const {
-    if (S == 0) S = interp_block_;
+  void weights_row(int64_t r, double w[4]) const {
+    const int64_t S = interp_block_;
     const int64_t gr = ctx_.window.row0 + r, b0 = (gr / S) * S;
     const int64_t b1 = std::min(b0 + S, ctx_.grid.height) - 1;
     cubic_weights(static_cast<double>(gr - b0) / static_cast<double>(b1 - b0), w);
@@ -681,21 +693,16 @@ class GeodesicExactSolver {
   double value(GeoWorker& wk, int64_t c, int64_t r, const GeoCell& p, int32_t id, int regime, bool& exact,
                const Interpolant** from = nullptr, bool* canonical = nullptr) const {
     if (from) *from = nullptr;
-    const int end = regime >= 4 ? regime - 3 : regime;
+    const int end = regime;
     if (canonical) *canonical = regime == 1 || regime == 2;
     if (!geo_.site(id).segment || end != 0) {
-      // An edge's interior near the coast: the interpolation block's line interpolant is
-      // refused within half its diagonal of the edge; smaller blocks reach closer.
-      for (const int64_t S : {int64_t{0}, end == 3 ? kLineNearBlock : int64_t{-1}}) {
-        if (S < 0) break;
-        if (const Interpolant* it = interpolant(wk, c, r, id, end, S)) {
-          double wt[4], wc[4];
-          weights_row(r, wt, S);
-          weights_col(c, wc, S);
-          exact = false;
-          if (from) *from = it;
-          return eval(*it, wt, wc) * normaliser(*it, p.x, p.y, p.z);
-        }
+      if (const Interpolant* it = interpolant(wk, c, r, id, end)) {
+        double wt[4], wc[4];
+        weights_row(r, wt);
+        weights_col(c, wc);
+        exact = false;
+        if (from) *from = it;
+        return apply(*it, eval(*it, wt, wc), p.x, p.y, p.z);
       }
     }
     exact = true;
