@@ -2,13 +2,21 @@
 // the same grid of >= 1e6 cells. The planar run treats longitude/latitude degrees as plane
 // coordinates: it is the speed reference only (its owners are not the right ones).
 //
-//   geodesic_bench [--size N] [--threads T] [--points P] [--coast-vertices V] [--no-scan]
-// (--no-scan goes last, or anywhere as a flag of its own: it skips the hv-scan rows)
+//   geodesic_bench [--size N] [--threads T] [--points P] [--coast-vertices V] [--repeats R]
+//                  [--no-scan]
+// (--no-scan skips the hv-scan rows)
+// Each exact run is repeated R times (default 1), alternating planar and geodesic; the medians
+// are printed, of wall time and of the process's CPU time (all threads: the work done, which
+// other load on a shared machine disturbs far less than the wall time).
 //
 // Scenarios: P random point seeds, and two coastlines of V vertices each (many short geodesic
 // edges, as real coastline data has) facing each other across a strait, near 55.5N.
+#include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <vector>
+
+#include <sys/resource.h>
 #include <cstdio>
 #include <cstdlib>
 #include <random>
@@ -26,20 +34,27 @@ struct Args {
   int points = 100;
   int coast_vertices = 500;
   bool scans = true;  // --no-scan: the exact method only
+  int repeats = 1;
 };
 
 Args parse(int argc, char** argv) {
   Args a;
-  for (int i = 1; i < argc; ++i)
-    if (std::string(argv[i]) == "--no-scan") a.scans = false;
-  for (int i = 1; i + 1 < argc; i += 2) {
-    if (std::string(argv[i]) == "--no-scan") --i, ++i;
+  for (int i = 1; i < argc; ++i) {
     const std::string k = argv[i];
-    const long v = std::strtol(argv[i + 1], nullptr, 10);
+    if (k == "--no-scan") {
+      a.scans = false;
+      continue;
+    }
+    if (i + 1 >= argc) {
+      std::fprintf(stderr, "option %s needs a value\n", k.c_str());
+      std::exit(2);
+    }
+    const long v = std::strtol(argv[++i], nullptr, 10);
     if (k == "--size") a.size = v;
     else if (k == "--threads") a.threads = static_cast<int>(v);
     else if (k == "--points") a.points = static_cast<int>(v);
     else if (k == "--coast-vertices") a.coast_vertices = static_cast<int>(v);
+    else if (k == "--repeats") a.repeats = std::max(1, static_cast<int>(v));
     else {
       std::fprintf(stderr, "unknown option %s\n", k.c_str());
       std::exit(2);
@@ -48,35 +63,68 @@ Args parse(int argc, char** argv) {
   return a;
 }
 
-double run(const rv::SeedSet& s, const rv::GridSpec& g, rv::Method m, rv::MetricSpec metric, int threads,
+// The process's CPU time (user + system, all threads), seconds.
+double cpu_seconds() {
+  rusage u{};
+  getrusage(RUSAGE_SELF, &u);
+  return static_cast<double>(u.ru_utime.tv_sec + u.ru_stime.tv_sec) +
+         1e-6 * static_cast<double>(u.ru_utime.tv_usec + u.ru_stime.tv_usec);
+}
+
+struct Timing {
+  double wall_ns = 0.0, cpu_ns = 0.0;  // per cell
+};
+
+Timing run(const rv::SeedSet& s, const rv::GridSpec& g, rv::Method m, rv::MetricSpec metric, int threads,
            rv::NearestField* keep = nullptr) {
   rv::ComputeOptions o;
   o.method = m;
   o.threads = threads;
   o.metric = metric;
+  const double cpu0 = cpu_seconds();
   rv::NearestField f = rv::compute(s, g, o);
-  const double ns = f.seconds * 1e9 / static_cast<double>(g.cell_count());
+  const double cells = static_cast<double>(g.cell_count());
+  const Timing t{f.seconds * 1e9 / cells, (cpu_seconds() - cpu0) * 1e9 / cells};
   if (keep) *keep = std::move(f);
-  return ns;
+  return t;
 }
 
-void scenario(const char* name, const rv::SeedSet& s, const rv::GridSpec& g, int threads, bool scans) {
+double median(std::vector<double> v) {
+  std::sort(v.begin(), v.end());
+  const size_t n = v.size();
+  return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+}
+
+void scenario(const char* name, const rv::SeedSet& s, const rv::GridSpec& g, int threads, bool scans,
+              int repeats) {
   rv::MetricSpec geodesic;
   geodesic.kind = rv::MetricSpec::geodesic;
-  const double planar_ns = run(s, g, rv::Method::exact, {}, threads);
-  rv::geodesic_segment_counters() = {};
+  std::vector<double> planar_wall, planar_cpu, geo_wall, geo_cpu, ratio_wall, ratio_cpu;
   rv::NearestField exact;
-  const double geo_ns = run(s, g, rv::Method::exact, geodesic, threads, &exact);
-  const rv::GeodesicSegmentCounters counters = rv::geodesic_segment_counters();
+  rv::GeodesicSegmentCounters counters;
+  for (int i = 0; i < repeats; ++i) {
+    const Timing p = run(s, g, rv::Method::exact, {}, threads);
+    rv::geodesic_segment_counters() = {};
+    const Timing q = run(s, g, rv::Method::exact, geodesic, threads, &exact);
+    counters = rv::geodesic_segment_counters();
+    planar_wall.push_back(p.wall_ns);
+    planar_cpu.push_back(p.cpu_ns);
+    geo_wall.push_back(q.wall_ns);
+    geo_cpu.push_back(q.cpu_ns);
+    ratio_wall.push_back(q.wall_ns / p.wall_ns);  // each pair ran back to back
+    ratio_cpu.push_back(q.cpu_ns / p.cpu_ns);
+  }
   rv::NearestField hv;
-  const double planar_hv_ns = scans ? run(s, g, rv::Method::hv_scan, {}, threads) : 0.0;
-  const double geo_hv_ns = scans ? run(s, g, rv::Method::hv_scan, geodesic, threads, &hv) : 0.0;
+  const double planar_hv_ns = scans ? run(s, g, rv::Method::hv_scan, {}, threads).wall_ns : 0.0;
+  const double geo_hv_ns = scans ? run(s, g, rv::Method::hv_scan, geodesic, threads, &hv).wall_ns : 0.0;
   const rv::ValidationStats st = scans ? rv::compare_fields(s, hv, exact) : rv::ValidationStats{};
   std::printf("%-12s %lldx%lld cells, %lld geometric sites, %d thread(s)\n", name,
               static_cast<long long>(g.width), static_cast<long long>(g.height),
               static_cast<long long>(s.geometric_site_count()), threads);
-  std::printf("  exact    planar %8.1f ns/cell   geodesic %8.1f ns/cell   ratio %6.1f\n", planar_ns, geo_ns,
-              geo_ns / planar_ns);
+  std::printf("  exact    planar %8.1f ns/cell   geodesic %8.1f ns/cell   ratio %6.1f   (wall, median of %d)\n",
+              median(planar_wall), median(geo_wall), median(ratio_wall), repeats);
+  std::printf("  exact    planar %8.1f ns/cell   geodesic %8.1f ns/cell   ratio %6.1f   (CPU time, all threads)\n",
+              median(planar_cpu), median(geo_cpu), median(ratio_cpu));
   if (scans)
     std::printf("  hv-scan  planar %8.1f ns/cell   geodesic %8.1f ns/cell   ratio %6.1f\n", planar_hv_ns,
                 geo_hv_ns, geo_hv_ns / planar_hv_ns);
@@ -107,7 +155,7 @@ int main(int argc, char** argv) {
     std::mt19937_64 rng(1);
     std::uniform_real_distribution<double> lon(g.xmin, g.xmax()), lat(g.ymin(), g.ymax);
     for (int i = 0; i < a.points; ++i) s.add_point(s.add_feature(s.owner_code(std::to_string(i % 7))), {lon(rng), lat(rng)});
-    scenario("points", s, g, a.threads, a.scans);
+    scenario("points", s, g, a.threads, a.scans, a.repeats);
   }
   {
     rv::SeedSet s;
@@ -122,7 +170,7 @@ int main(int argc, char** argv) {
       }
       s.add_polyline(s.add_feature(s.owner_code(side == 0 ? "DK" : "SE")), line);
     }
-    scenario("coastlines", s, g, a.threads, a.scans);
+    scenario("coastlines", s, g, a.threads, a.scans, a.repeats);
   }
   return 0;
 }

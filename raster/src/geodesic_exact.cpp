@@ -432,7 +432,7 @@ class GeodesicExactSolver {
         const GeoCell centre = cell_at(cc, rc);
         double upper = std::numeric_limits<double>::infinity();
         for (int k = 0; k < kProbes; ++k)
-          if (probe[k] >= 0) upper = std::min(upper, geo_.distance(centre, cands[static_cast<size_t>(probe[k])]));
+          if (probe[k] >= 0) upper = std::min(upper, probe_distance(wk, cc, rc, centre, cands[static_cast<size_t>(probe[k])]));
         bound = std::min(bound, upper + reach_of(c0, r0, c1, r1, cc, rc));
       }
       bound += kGeoSlack;
@@ -460,6 +460,18 @@ class GeodesicExactSolver {
     for (int j = 0; j < 2; ++j)
       for (int i = 0; i < 2; ++i)
         if (xs[i] < xs[i + 1] && ys[j] < ys[j + 1]) solve_block(wk, depth + 1, half, xs[i], ys[j], xs[i + 1], ys[j + 1]);
+  }
+
+  // An upper bound of the distance from window cell (c, r), centred at p, to site `id`: its
+  // interpolated value plus kInterpTie (interpolants are within ~1e-8 m, checked to
+  // kInterpCheck) where it has one, else the exact distance. Cheap where the block's
+  // interpolants exist, which the cells will use anyway.
+  double probe_distance(GeoWorker& wk, int64_t c, int64_t r, const GeoCell& p, int32_t id) const {
+    const int regime = regime_of(p, id);
+    if (geo_.site(id).segment && regime == 0) return geo_.distance(p, id);
+    bool exact = false;
+    const double v = value(wk, c, r, p, id, regime, exact);
+    return exact ? v : v + kInterpTie;
   }
 
   // ---- Interpolated point-site distances (see the top of this file) ----
