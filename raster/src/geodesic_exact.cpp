@@ -822,14 +822,32 @@ class GeodesicExactSolver {
     const size_t n = cands.size();
     wk.cell_lb.resize(n);
     for (int64_t r = r0; r < r1; ++r) {
+      size_t previous = n;  // the previous cell's nearest candidate (n: none yet)
+      GeoCell q{};
       for (int64_t c = c0; c < c1; ++c) {
         const GeoCell p = cell_at(c, r);
+        // cell_lb holds lower bounds that stay valid along the row: a bound computed at an
+        // earlier cell minus the way since, d(P) >= d(Q) - d(Q, P) (the geodesic distance is
+        // 1-Lipschitz; the step between neighbouring centres is their chord, grown by 1e-5 to
+        // cover the arc). Only candidates whose stale bound does not exclude them get a fresh
+        // one, which skips most of them on most cells.
         size_t first = 0;
-        for (size_t i = 0; i < n; ++i) {
-          wk.cell_lb[i] = geo_.lower_bound(p, cands[i]);
-          if (wk.cell_lb[i] < wk.cell_lb[first]) first = i;
+        if (previous == n) {
+          for (size_t i = 0; i < n; ++i) {
+            wk.cell_lb[i] = geo_.lower_bound(p, cands[i]);
+            if (wk.cell_lb[i] < wk.cell_lb[first]) first = i;
+          }
+        } else {
+          const double step =
+              std::sqrt((p.x - q.x) * (p.x - q.x) + (p.y - q.y) * (p.y - q.y) + (p.z - q.z) * (p.z - q.z)) *
+                  (1.0 + 1e-5) +
+              1e-9;
+          for (size_t i = 0; i < n; ++i) wk.cell_lb[i] -= step;
+          first = previous;
         }
-        // The candidate with the smallest lower bound is usually the nearest: measure it first,
+        q = p;
+        // The candidate with the smallest lower bound (along a row: the previous cell's nearest)
+        // is usually the nearest: measure it first,
         // then only the candidates whose lower bound does not exclude them (kGeoSlack exceeds
         // kInterpTie, so every candidate within kInterpTie of the best is measured). When the
         // best distance is attained at an edge's end, an adjacent edge that is certainly
@@ -852,8 +870,13 @@ class GeodesicExactSolver {
         int32_t best_id = cands[first];
         double runner_up = std::numeric_limits<double>::infinity();
         bool runner_exact = true;
+        size_t best_i = first;
         for (size_t i = 0; i < n; ++i) {
           if (i == first || wk.cell_lb[i] > best + kGeoSlack) continue;
+          if (previous != n) {
+            wk.cell_lb[i] = geo_.lower_bound(p, cands[i]);
+            if (wk.cell_lb[i] > best + kGeoSlack) continue;
+          }
           const int32_t id = cands[i];
           bool exact = true;
           double d;
@@ -878,6 +901,7 @@ class GeodesicExactSolver {
             runner_exact = best_exact;
             best = d;
             best_id = id;
+            best_i = i;
             best_exact = exact;
             best_from = exact ? nullptr : from;
             best_canonical = !exact && canonical;
@@ -887,6 +911,7 @@ class GeodesicExactSolver {
             runner_exact = exact;
           }
         }
+        previous = best_i;
         bool close_call = (!best_exact || !runner_exact) && runner_up - best <= kInterpTie;
         if (!best_exact && bounded && std::abs(best - max_distance_) <= kInterpTie) close_call = true;
         if (close_call)
