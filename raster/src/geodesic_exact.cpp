@@ -37,7 +37,7 @@
 //    interpolants leave those cells to exact distances.
 //  - Which part of a segment is nearest is decided per cell from ECEF vectors (segment_regime):
 //    the normal section's direction at the vertex stands in for the geodesic's, with a margin
-//    (kVertexMargin) 100x their largest difference within kVertexMaxChord. Only cells within that
+//    (kVertexMargin) 14x their largest difference within kVertexMaxChord. Only cells within that
 //    margin of a switch between an end and the interior are measured exactly. Two edges sharing
 //    a vertex that both measure it (beyond the margin) are a tie (lower id): brute force's
 //    search certainly returns the canonical vertex distance for both (see kVertexMargin).
@@ -85,12 +85,13 @@ constexpr double kInterpMinChord = 1e-3;      // metres: a node on the seed cann
 // angle w against the edge with cos(w) <= 0 (first end; >= 0 at the second): by convexity the
 // distance then grows all along the edge. Per cell this is tested with the normal section's
 // direction instead of the geodesic's (the projection of the chord V->P onto V's tangent
-// plane): within kVertexMaxChord the two differ by less than (e^2 / 12) (d / N)^2 ~ 2e-5 rad,
-// far inside kVertexMargin. Beyond the margin brute force's search (GeoSites::piece_distance)
-// certainly returns V's canonical distance: every point of the edge then has |cos w| > 1.9e-3,
+// plane): within kVertexMaxChord the two differ by less than (e^2 / 12) (d / N)^2 ~ 1.4e-5 rad,
+// 14x inside kVertexMargin. Beyond the margin brute force's search (GeoSites::piece_distance)
+// certainly returns V's canonical distance: every point of the edge then has |cos w| > 1.8e-4,
 // so its stopping test (s cos^2 w < 2e-10 m) cannot fire for a cell kVertexMinChord (1 m) or
-// more away (1 x 3.6e-6 m), and the search ends by evaluating V itself.
-constexpr double kVertexMargin = 2e-3;
+// more away (1 x 3.4e-8 m), and the search ends by evaluating V itself. (The margin decides
+// how many cells next to a switch are measured exactly: 2e-3 cost 10x more of them.)
+constexpr double kVertexMargin = 2e-4;
 constexpr double kVertexMaxChord = 1e6;       // metres
 constexpr double kVertexMinChord = 1.0;       // metres
 
