@@ -131,6 +131,14 @@ inline double normaliser(const Interpolant& it, double x, double y, double z) {
   return std::sqrt(dx * dx + dy * dy + dz * dz);
 }
 
+// A cell's weights inside its interpolation block (rows, columns).
+struct CellWeights {
+  double wt[4], wc[4];
+};
+
+// Marks an interpolant slot not looked up yet (GeodesicExactSolver::value).
+const Interpolant kNotLooked{};
+
 // The distance an interpolant gives at ECEF (x, y, z) from its interpolated quantity q.
 inline double apply(const Interpolant& it, double q, double x, double y, double z) {
   return it.additive ? std::abs(normaliser(it, x, y, z) + q) : q * normaliser(it, x, y, z);
@@ -150,6 +158,7 @@ struct GeoWorker {
   std::vector<double> lb;
   std::vector<double> cell_lb;
   std::vector<const Interpolant*> interp;
+  std::vector<const Interpolant*> slots;  // solve_cells: per candidate and end (value())
   TileCells tile;  // projected grids: the current tile's located centres
   // Interpolants of the current tile: key = interpolation block (grid-aligned) and site.
   std::unordered_map<uint64_t, std::unique_ptr<Interpolant>> cache;
@@ -703,19 +712,33 @@ class GeodesicExactSolver {
   // `from` (optional) receives the interpolant used, null for an exact value.
   // `canonical` (optional): the value stands for brute force's bits of a vertex distance shared
   // by the edges meeting there (regimes 1, 2), so equal values of two such edges are a tie.
+  // `cell` (optional): the cell's interpolation weights, computed once for all candidates;
+  // `slots` (optional): the candidate's interpolants by `end` (0..3) in the caller's leaf block
+  // (one interpolation block), kNotLooked until looked up, which saves the cache's hashing.
   double value(GeoWorker& wk, int64_t c, int64_t r, const GeoCell& p, int32_t id, int regime, bool& exact,
-               const Interpolant** from = nullptr, bool* canonical = nullptr) const {
+               const Interpolant** from = nullptr, bool* canonical = nullptr, const CellWeights* cell = nullptr,
+               const Interpolant** slots = nullptr) const {
     if (from) *from = nullptr;
     const int end = regime;
     if (canonical) *canonical = regime == 1 || regime == 2;
     if (!geo_.site(id).segment || end != 0) {
-      if (const Interpolant* it = interpolant(wk, c, r, id, end)) {
-        double wt[4], wc[4];
-        weights_row(r, wt);
-        weights_col(c, wc);
+      const Interpolant* it;
+      if (slots) {
+        if (slots[end] == &kNotLooked) slots[end] = interpolant(wk, c, r, id, end);
+        it = slots[end];
+      } else {
+        it = interpolant(wk, c, r, id, end);
+      }
+      if (it) {
+        CellWeights own;
+        if (!cell) {
+          weights_row(r, own.wt);
+          weights_col(c, own.wc);
+          cell = &own;
+        }
         exact = false;
         if (from) *from = it;
-        return apply(*it, eval(*it, wt, wc), p.x, p.y, p.z);
+        return apply(*it, eval(*it, cell->wt, cell->wc), p.x, p.y, p.z);
       }
     }
     exact = true;
@@ -806,18 +829,27 @@ class GeodesicExactSolver {
                    int64_t r1) {
     if (cands.empty()) return fill_none(c0, r0, c1, r1);
     const bool bounded = std::isfinite(max_distance_);
+    // Interpolants looked up once per candidate when the block lies in one interpolation block.
+    const int64_t S = interp_block_, gx = ctx_.window.col0, gy = ctx_.window.row0;
+    const bool one_block = (gx + c0) / S == (gx + c1 - 1) / S && (gy + r0) / S == (gy + r1 - 1) / S;
+    wk.slots.assign(one_block ? 4 * cands.size() : 0, &kNotLooked);
+    auto slots_of = [&](size_t i) { return one_block ? &wk.slots[4 * i] : nullptr; };
+    CellWeights cw;
     if (cands.size() == 1) {
       const int32_t id = cands[0];
-      for (int64_t r = r0; r < r1; ++r)
+      for (int64_t r = r0; r < r1; ++r) {
+        weights_row(r, cw.wt);
         for (int64_t c = c0; c < c1; ++c) {
           bool exact = false;
           const GeoCell p = cell_at(c, r);
-          const double v = value(wk, c, r, p, id, regime_of(p, id), exact);
+          weights_col(c, cw.wc);
+          const double v = value(wk, c, r, p, id, regime_of(p, id), exact, nullptr, nullptr, &cw, slots_of(0));
           if (!exact && bounded && std::abs(v - max_distance_) <= kInterpTie)
             put(c, r, id, geo_.distance(p, id));
           else
             put(c, r, id, v);
         }
+      }
       return;
     }
     const size_t n = cands.size();
@@ -825,8 +857,10 @@ class GeodesicExactSolver {
     for (int64_t r = r0; r < r1; ++r) {
       size_t previous = n;  // the previous cell's nearest candidate (n: none yet)
       GeoCell q{};
+      weights_row(r, cw.wt);
       for (int64_t c = c0; c < c1; ++c) {
         const GeoCell p = cell_at(c, r);
+        weights_col(c, cw.wc);
         // cell_lb holds lower bounds that stay valid along the row: a bound computed at an
         // earlier cell minus the way since, d(P) >= d(Q) - d(Q, P) (the geodesic distance is
         // 1-Lipschitz; the step between neighbouring centres is their chord, grown by 1e-5 to
@@ -867,7 +901,8 @@ class GeodesicExactSolver {
         if (geo_.site(cands[first]).segment && first_regime == 0)
           best = geo_.distance(p, cands[first], &end);
         else
-          best = value(wk, c, r, p, cands[first], first_regime, best_exact, &best_from, &best_canonical);
+          best = value(wk, c, r, p, cands[first], first_regime, best_exact, &best_from, &best_canonical, &cw,
+                       slots_of(first));
         int32_t best_id = cands[first];
         double runner_up = std::numeric_limits<double>::infinity();
         bool runner_exact = true;
@@ -889,7 +924,7 @@ class GeodesicExactSolver {
             }
             d = geo_.distance(p, id, &other_end);
           } else {
-            d = value(wk, c, r, p, id, regime, exact, &from, &canonical);
+            d = value(wk, c, r, p, id, regime, exact, &from, &canonical, &cw, slots_of(i));
             other_end.valid = false;
           }
           if (!exact && !best_exact && d == best && canonical && best_canonical && from->lat == best_from->lat &&
