@@ -159,6 +159,7 @@ struct GeoWorker {
   std::vector<double> cell_lb;
   std::vector<const Interpolant*> interp;
   std::vector<const Interpolant*> slots;  // solve_cells: per candidate and end (value())
+  std::vector<const GeoPiece*> pieces;     // solve_cells: per candidate, single pieces
   TileCells tile;  // projected grids: the current tile's located centres
   // Interpolants of the current tile: key = interpolation block (grid-aligned) and site.
   std::unordered_map<uint64_t, std::unique_ptr<Interpolant>> cache;
@@ -854,6 +855,15 @@ class GeodesicExactSolver {
     }
     const size_t n = cands.size();
     wk.cell_lb.resize(n);
+    // Per-cell lower bounds: single-piece edges inline (their chord bound), others through
+    // GeoSites. Any valid bound gives the same result: it only skips candidates that cannot
+    // come within kGeoSlack of the best.
+    wk.pieces.resize(n);
+    for (size_t i = 0; i < n; ++i) wk.pieces[i] = geo_.single_piece(cands[i]);
+    auto cell_lb = [&](const GeoCell& p, size_t i) {
+      if (const GeoPiece* piece = wk.pieces[i]) return std::max(piece_chord_bound(*piece, p.x, p.y, p.z), 0.0);
+      return geo_.lower_bound(p, cands[i]);
+    };
     for (int64_t r = r0; r < r1; ++r) {
       size_t previous = n;  // the previous cell's nearest candidate (n: none yet)
       GeoCell q{};
@@ -869,7 +879,7 @@ class GeodesicExactSolver {
         size_t first = 0;
         if (previous == n) {
           for (size_t i = 0; i < n; ++i) {
-            wk.cell_lb[i] = geo_.lower_bound(p, cands[i]);
+            wk.cell_lb[i] = cell_lb(p, i);
             if (wk.cell_lb[i] < wk.cell_lb[first]) first = i;
           }
         } else {
@@ -910,7 +920,7 @@ class GeodesicExactSolver {
         for (size_t i = 0; i < n; ++i) {
           if (i == first || wk.cell_lb[i] > best + kGeoSlack) continue;
           if (previous != n) {
-            wk.cell_lb[i] = geo_.lower_bound(p, cands[i]);
+            wk.cell_lb[i] = cell_lb(p, i);
             if (wk.cell_lb[i] > best + kGeoSlack) continue;
           }
           const int32_t id = cands[i];

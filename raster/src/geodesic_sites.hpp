@@ -139,6 +139,12 @@ class GeoSites {
   double point_lower_bound(double sx, double sy, double sz, double x, double y, double z, double h) const;
   const GeographicLib::Geodesic& geodesic() const { return geod_; }
   size_t size() const { return sites_.size(); }
+  // The one piece of a single-piece segment (its chord bound, piece_chord_bound, is a lower
+  // bound of distance() too, weaker than lower_bound() only beyond 1000 km); null otherwise.
+  const GeoPiece* single_piece(int32_t id) const {
+    const GeoSite& s = sites_[static_cast<size_t>(id)];
+    return s.segment && s.piece_count == 1 ? &pieces_[static_cast<size_t>(s.piece0)] : nullptr;
+  }
   const GeoSite& site(int32_t id) const { return sites_[static_cast<size_t>(id)]; }
 
  private:
