@@ -662,22 +662,27 @@ class GeodesicExactSolver {
   // when none is certain (within kVertexMargin of a switch, or too near or too far).
   int segment_regime(const GeoCell& p, int32_t id) const {
     if (geo_.site(id).piece_count != 1) return 0;
-    double cos_w[2];
+    // With t = P - V, n the normal and e the edge's unit tangent at V, the tangent-plane
+    // projection u = t - (t.n) n has u.e = t.e (e is in the plane) and |u|^2 = |t|^2 - (t.n)^2,
+    // so cos w = t.e / |u| is compared with the margin without a root: cos w > m <=> t.e > 0
+    // and (t.e)^2 > m^2 |u|^2.
+    double te[2], u2[2];
     for (int e = 0; e < 2; ++e) {
       const SegmentEnd& v = ends_[2 * static_cast<size_t>(id) + static_cast<size_t>(e)];
       const double tx = p.x - v.x, ty = p.y - v.y, tz = p.z - v.z;
       const double chord2 = tx * tx + ty * ty + tz * tz;
       if (!(chord2 <= kVertexMaxChord * kVertexMaxChord)) return 0;
       const double tn = tx * v.nx + ty * v.ny + tz * v.nz;
-      const double ux = tx - tn * v.nx, uy = ty - tn * v.ny, uz = tz - tn * v.nz;
-      const double len = std::sqrt(ux * ux + uy * uy + uz * uz);
-      if (!(len >= kVertexMinChord)) return 0;
-      cos_w[e] = (ux * v.ex + uy * v.ey + uz * v.ez) / len;
+      u2[e] = chord2 - tn * tn;
+      if (!(u2[e] >= kVertexMinChord * kVertexMinChord)) return 0;
+      te[e] = tx * v.ex + ty * v.ey + tz * v.ez;
     }
+    constexpr double m2 = kVertexMargin * kVertexMargin;
+    const bool beyond0 = te[0] * te[0] > m2 * u2[0], beyond1 = te[1] * te[1] > m2 * u2[1];
     // First end: the cell lies behind it (against the edge); second end: beyond it.
-    if (-cos_w[0] > kVertexMargin) return 1;
-    if (cos_w[1] > kVertexMargin) return 2;
-    if (cos_w[0] > kVertexMargin && -cos_w[1] > kVertexMargin) return 3;
+    if (te[0] < 0.0 && beyond0) return 1;
+    if (te[1] > 0.0 && beyond1) return 2;
+    if (te[0] > 0.0 && beyond0 && te[1] < 0.0 && beyond1) return 3;
     return 0;
   }
 

@@ -389,6 +389,24 @@ TEST(GeodesicEngine, EdgesMeetingAtAVertexTieToTheLowerSite) {
   EXPECT_EQ(run(s, g, Method::hv_scan).site.at(20, 5), 0);
 }
 
+TEST(GeodesicEngine, VertexSwitchesAtFineAndCoarseResolution) {
+  // Edges meeting at turns from 0.05 to 60 degrees: every vertex has a wedge of cells nearest at
+  // it, bounded by the perpendiculars where the nearest point switches to an edge's interior;
+  // the exact method decides those regimes per cell and interpolates each part. At 0.0001
+  // degrees (~6 x 11 m) many cells lie within metres of the switches and of the edges (the
+  // additive interpolant across an edge); at 0.01 degrees the same switches run 100 km out.
+  SeedSet s;
+  s.add_polyline(s.add_feature(s.owner_code("A")),
+                 std::vector<Vec2>{{12.000, 55.5000}, {12.004, 55.5010}, {12.008, 55.50195},
+                                   {12.012, 55.50290}, {12.014, 55.4990}, {12.019, 55.4995}});
+  s.add_polyline(s.add_feature(s.owner_code("B")), std::vector<Vec2>{{12.003, 55.4930}, {12.010, 55.4950}});
+  s.add_point(s.add_feature(s.owner_code("B")), {12.0165, 55.5040});
+  expect_exact_equals_brute(s, geo_grid(11.998, 55.5060, 0.0001, 240, 140), "fine");
+  expect_exact_equals_brute(s, geo_grid(11.0, 56.0, 0.01, 200, 100), "coarse");
+  // And inside a distance limit that cuts through the wedges.
+  expect_exact_equals_brute(s, geo_grid(11.998, 55.5060, 0.0001, 240, 140), "fine, limited", 300.0);
+}
+
 TEST(GeodesicEngine, SyntheticCoastlines) {
   // Two states facing each other across a strait (Oresund-like, 55.5N 12.7E): land polygons
   // whose sea-facing edges are wiggly coastlines of many short edges, at 0.002 degrees.
