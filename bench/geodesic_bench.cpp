@@ -3,7 +3,7 @@
 // coordinates: it is the speed reference only (its owners are not the right ones).
 //
 //   geodesic_bench [--size N] [--threads T] [--points P] [--coast-vertices V] [--repeats R]
-//                  [--no-scan]
+//                  [--only points|coastlines] [--no-scan]
 // (--no-scan skips the hv-scan rows)
 // Each exact run is repeated R times (default 1), alternating planar and geodesic; the medians
 // are printed, of wall time and of the process's CPU time (all threads: the work done, which
@@ -35,6 +35,7 @@ struct Args {
   int coast_vertices = 500;
   bool scans = true;  // --no-scan: the exact method only
   int repeats = 1;
+  std::string only;  // one scenario (empty: both)
 };
 
 Args parse(int argc, char** argv) {
@@ -48,6 +49,14 @@ Args parse(int argc, char** argv) {
     if (i + 1 >= argc) {
       std::fprintf(stderr, "option %s needs a value\n", k.c_str());
       std::exit(2);
+    }
+    if (k == "--only") {
+      a.only = argv[++i];
+      if (a.only != "points" && a.only != "coastlines") {
+        std::fprintf(stderr, "--only takes points or coastlines\n");
+        std::exit(2);
+      }
+      continue;
     }
     const long v = std::strtol(argv[++i], nullptr, 10);
     if (k == "--size") a.size = v;
@@ -150,14 +159,14 @@ int main(int argc, char** argv) {
   g.width = a.size;
   g.height = a.size;
 
-  {
+  if (a.only.empty() || a.only == "points") {
     rv::SeedSet s;
     std::mt19937_64 rng(1);
     std::uniform_real_distribution<double> lon(g.xmin, g.xmax()), lat(g.ymin(), g.ymax);
     for (int i = 0; i < a.points; ++i) s.add_point(s.add_feature(s.owner_code(std::to_string(i % 7))), {lon(rng), lat(rng)});
     scenario("points", s, g, a.threads, a.scans, a.repeats);
   }
-  {
+  if (a.only.empty() || a.only == "coastlines") {
     rv::SeedSet s;
     std::mt19937_64 rng(2);
     std::uniform_real_distribution<double> wig(-0.002, 0.002);

@@ -49,6 +49,7 @@
 // Blocks are independent and taken dynamically by threads.
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <limits>
 #include <memory>
 #include <unordered_map>
@@ -841,6 +842,11 @@ class GeodesicExactSolver {
     wk.slots.assign(one_block ? 4 * cands.size() : 0, &kNotLooked);
     auto slots_of = [&](size_t i) { return one_block ? &wk.slots[4 * i] : nullptr; };
     CellWeights cw;
+    wk.wcol.resize(static_cast<size_t>(4 * (c1 - c0)));
+    for (int64_t c = c0; c < c1; ++c) weights_col(c, &wk.wcol[static_cast<size_t>(4 * (c - c0))]);
+    auto column_weights = [&](int64_t c) {
+      std::memcpy(cw.wc, &wk.wcol[static_cast<size_t>(4 * (c - c0))], sizeof(cw.wc));
+    };
     if (cands.size() == 1) {
       const int32_t id = cands[0];
       for (int64_t r = r0; r < r1; ++r) {
@@ -848,7 +854,7 @@ class GeodesicExactSolver {
         for (int64_t c = c0; c < c1; ++c) {
           bool exact = false;
           const GeoCell p = cell_at(c, r);
-          weights_col(c, cw.wc);
+          column_weights(c);
           const double v = value(wk, c, r, p, id, regime_of(p, id), exact, nullptr, nullptr, &cw, slots_of(0));
           if (!exact && bounded && std::abs(v - max_distance_) <= kInterpTie)
             put(c, r, id, geo_.distance(p, id));
@@ -872,15 +878,17 @@ class GeodesicExactSolver {
     for (int64_t r = r0; r < r1; ++r) {
       size_t previous = n;  // the previous cell's nearest candidate (n: none yet)
       GeoCell q{};
+      const double parallel_step = located_ ? 0.0 : rho_[r] * ctx_.grid.res * (3.14159265358979323846 / 180.0) * (1.0 + 1e-12) + 1e-9;
       weights_row(r, cw.wt);
       for (int64_t c = c0; c < c1; ++c) {
         const GeoCell p = cell_at(c, r);
-        weights_col(c, cw.wc);
+        column_weights(c);
         // cell_lb holds lower bounds that stay valid along the row: a bound computed at an
         // earlier cell minus the way since, d(P) >= d(Q) - d(Q, P) (the geodesic distance is
-        // 1-Lipschitz; the step between neighbouring centres is their chord, grown by 1e-5 to
-        // cover the arc). Only candidates whose stale bound does not exclude them get a fresh
-        // one, which skips most of them on most cells.
+        // 1-Lipschitz). The step between neighbouring centres: on a geographic grid the arc of
+        // their parallel (no shorter than the geodesic between them), on a projected one their
+        // chord grown by 1e-5 to cover the arc. Only candidates whose stale bound does not
+        // exclude them get a fresh one, which skips most of them on most cells.
         size_t first = 0;
         if (previous == n) {
           for (size_t i = 0; i < n; ++i) {
@@ -889,9 +897,10 @@ class GeodesicExactSolver {
           }
         } else {
           const double step =
-              std::sqrt((p.x - q.x) * (p.x - q.x) + (p.y - q.y) * (p.y - q.y) + (p.z - q.z) * (p.z - q.z)) *
-                  (1.0 + 1e-5) +
-              1e-9;
+              located_ ? std::sqrt((p.x - q.x) * (p.x - q.x) + (p.y - q.y) * (p.y - q.y) + (p.z - q.z) * (p.z - q.z)) *
+                                 (1.0 + 1e-5) +
+                             1e-9
+                       : parallel_step;
           for (size_t i = 0; i < n; ++i) wk.cell_lb[i] -= step;
           first = previous;
         }
