@@ -866,13 +866,13 @@ class GeodesicExactSolver {
     }
     const size_t n = cands.size();
     wk.cell_lb.resize(n);
-    // Per-cell lower bounds: single-piece edges inline (their chord bound), others through
+    // Per-cell lower bounds: single-piece edges inline (their capsule bound), others through
     // GeoSites. Any valid bound gives the same result: it only skips candidates that cannot
     // come within kGeoSlack of the best.
     wk.pieces.resize(n);
     for (size_t i = 0; i < n; ++i) wk.pieces[i] = geo_.single_piece(cands[i]);
     auto cell_lb = [&](const GeoCell& p, size_t i) {
-      if (const GeoPiece* piece = wk.pieces[i]) return std::max(piece_chord_bound(*piece, p.x, p.y, p.z), 0.0);
+      if (const GeoPiece* piece = wk.pieces[i]) return std::max(piece_capsule_bound(*piece, p.x, p.y, p.z), 0.0);
       return geo_.lower_bound(p, cands[i]);
     };
     for (int64_t r = r0; r < r1; ++r) {

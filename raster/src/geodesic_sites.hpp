@@ -76,6 +76,15 @@ struct GeoPiece {
   GeoBall ball;      // contains every point of the piece
 };
 
+// The capsule part of piece_chord_bound alone (a valid, sometimes weaker bound with one root).
+inline double piece_capsule_bound(const GeoPiece& p, double x, double y, double z) {
+  const double ux = p.bx - p.ax, uy = p.by - p.ay, uz = p.bz - p.az;
+  double t = ((x - p.ax) * ux + (y - p.ay) * uy + (z - p.az) * uz) * p.inv_len2;
+  t = t < 0.0 ? 0.0 : (t > 1.0 ? 1.0 : t);
+  const double ex = x - (p.ax + t * ux), ey = y - (p.ay + t * uy), ez = z - (p.az + t * uz);
+  return std::sqrt(ex * ex + ey * ey + ez * ez) - p.capsule;
+}
+
 // Lower bound of the chord distance from (x, y, z) to any point of the piece.
 inline double piece_chord_bound(const GeoPiece& p, double x, double y, double z) {
   const double ball = std::sqrt((x - p.ball.x) * (x - p.ball.x) + (y - p.ball.y) * (y - p.ball.y) +
@@ -139,8 +148,9 @@ class GeoSites {
   double point_lower_bound(double sx, double sy, double sz, double x, double y, double z, double h) const;
   const GeographicLib::Geodesic& geodesic() const { return geod_; }
   size_t size() const { return sites_.size(); }
-  // The one piece of a single-piece segment (its chord bound, piece_chord_bound, is a lower
-  // bound of distance() too, weaker than lower_bound() only beyond 1000 km); null otherwise.
+  // The one piece of a single-piece segment (its chord bounds, piece_chord_bound and
+  // piece_capsule_bound, are lower bounds of distance() too, weaker than lower_bound()); null
+  // otherwise.
   const GeoPiece* single_piece(int32_t id) const {
     const GeoSite& s = sites_[static_cast<size_t>(id)];
     return s.segment && s.piece_count == 1 ? &pieces_[static_cast<size_t>(s.piece0)] : nullptr;
