@@ -877,18 +877,21 @@ class GeodesicExactSolver {
     };
     for (int64_t r = r0; r < r1; ++r) {
       size_t previous = n;  // the previous cell's nearest candidate (n: none yet)
+      double travel = 0.0;  // the way along the row since its first cell (an upper bound)
       GeoCell q{};
       const double parallel_step = located_ ? 0.0 : rho_[r] * ctx_.grid.res * (3.14159265358979323846 / 180.0) * (1.0 + 1e-12) + 1e-9;
       weights_row(r, cw.wt);
       for (int64_t c = c0; c < c1; ++c) {
         const GeoCell p = cell_at(c, r);
         column_weights(c);
-        // cell_lb holds lower bounds that stay valid along the row: a bound computed at an
-        // earlier cell minus the way since, d(P) >= d(Q) - d(Q, P) (the geodesic distance is
-        // 1-Lipschitz). The step between neighbouring centres: on a geographic grid the arc of
-        // their parallel (no shorter than the geodesic between them), on a projected one their
-        // chord grown by 1e-5 to cover the arc. Only candidates whose stale bound does not
-        // exclude them get a fresh one, which skips most of them on most cells.
+        // Lower bounds stay valid along the row: a bound computed at an earlier cell minus the
+        // way since, d(P) >= d(Q) - d(Q, P) (the geodesic distance is 1-Lipschitz). cell_lb
+        // holds each bound plus the travel when it was computed, so the stale bound is
+        // cell_lb - travel. The step between neighbouring centres: on a geographic grid the arc
+        // of their parallel (no shorter than the geodesic between them), on a projected one
+        // their chord grown by 1e-5 to cover the arc. Only candidates whose stale bound does not
+        // exclude them get a fresh one, which skips most of them on most cells. (Rounding in
+        // these sums, ~1e-9 m, is far inside kGeoSlack - kInterpTie.)
         size_t first = 0;
         if (previous == n) {
           for (size_t i = 0; i < n; ++i) {
@@ -901,7 +904,7 @@ class GeodesicExactSolver {
                                  (1.0 + 1e-5) +
                              1e-9
                        : parallel_step;
-          for (size_t i = 0; i < n; ++i) wk.cell_lb[i] -= step;
+          travel += step;
           first = previous;
         }
         q = p;
@@ -932,10 +935,11 @@ class GeodesicExactSolver {
         bool runner_exact = true;
         size_t best_i = first;
         for (size_t i = 0; i < n; ++i) {
-          if (i == first || wk.cell_lb[i] > best + kGeoSlack) continue;
+          if (i == first || wk.cell_lb[i] > best + kGeoSlack + travel) continue;
           if (previous != n) {
-            wk.cell_lb[i] = cell_lb(p, i);
-            if (wk.cell_lb[i] > best + kGeoSlack) continue;
+            const double lb = cell_lb(p, i);
+            wk.cell_lb[i] = lb + travel;
+            if (lb > best + kGeoSlack) continue;
           }
           const int32_t id = cands[i];
           bool exact = true;
