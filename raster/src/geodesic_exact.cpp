@@ -53,6 +53,7 @@
 #include <limits>
 #include <memory>
 #include <unordered_map>
+#include <utility>
 #include <vector>
 
 #include <GeographicLib/Math.hpp>
@@ -110,6 +111,7 @@ inline void cubic_weights(double t, double w[4]) {
 struct SegmentEnd {
   double lat, lon;
   double x, y, z, nx, ny, nz, ex, ey, ez;
+  int32_t vertex;  // the distinct vertex (same lat/lon bits: the same index for every edge at it)
 };
 
 struct Interpolant {
@@ -232,6 +234,12 @@ class GeodesicExactSolver {
   void init_segment_ends() {
     using GeographicLib::Math;
     ends_.resize(2 * geo_.size());
+    struct PairHash {
+      size_t operator()(const std::pair<uint64_t, uint64_t>& k) const {
+        return std::hash<uint64_t>()(k.first * 0x9e3779b97f4a7c15ULL ^ k.second);
+      }
+    };
+    std::unordered_map<std::pair<uint64_t, uint64_t>, int32_t, PairHash> vertices;
     for (size_t i = 0; i < geo_.size(); ++i) {
       const GeoSite& k = geo_.site(static_cast<int32_t>(i));
       if (!k.segment) continue;
@@ -239,6 +247,10 @@ class GeodesicExactSolver {
         SegmentEnd& v = ends_[2 * i + static_cast<size_t>(e)];
         v.lat = e == 0 ? k.lat : k.lat_b;
         v.lon = e == 0 ? k.lon : k.lon_b;
+        uint64_t lat_bits, lon_bits;
+        std::memcpy(&lat_bits, &v.lat, sizeof(lat_bits));
+        std::memcpy(&lon_bits, &v.lon, sizeof(lon_bits));
+        v.vertex = vertices.emplace(std::make_pair(lat_bits, lon_bits), static_cast<int32_t>(vertices.size())).first->second;
         geo_.ecef(v.lat, v.lon, v.x, v.y, v.z);
         double sp, cp, sl, cl, sa, ca;
         Math::sincosd(v.lat, sp, cp);
@@ -495,9 +507,13 @@ class GeodesicExactSolver {
     const int64_t S = interp_block_;
     const int64_t gc = ctx_.window.col0 + c, gr = ctx_.window.row0 + r;
     const int64_t bx0 = (gc / S) * S, by0 = (gr / S) * S;
-    const uint64_t key =
-                         (static_cast<uint64_t>((by0 % kTile) / S * (kTile / S) + (bx0 % kTile) / S) << 34) |
-                         (static_cast<uint64_t>(static_cast<uint32_t>(id)) << 2) | static_cast<uint64_t>(end);
+    // Edges meeting at a vertex measure it with one interpolant (same nodes, same bits): the
+    // key names the distinct vertex for ends (kind 1), the site for points (0) and interiors (3).
+    const bool vertex = end == 1 || end == 2;
+    const int32_t who = vertex ? ends_[2 * static_cast<size_t>(id) + static_cast<size_t>(end - 1)].vertex : id;
+    const uint64_t key = (static_cast<uint64_t>((by0 % kTile) / S * (kTile / S) + (bx0 % kTile) / S) << 34) |
+                         (static_cast<uint64_t>(static_cast<uint32_t>(who)) << 2) |
+                         static_cast<uint64_t>(vertex ? 1 : end);
     auto it = wk.cache.find(key);
     if (it != wk.cache.end()) return it->second.get();
     auto made = std::make_unique<Interpolant>();
