@@ -4,6 +4,9 @@
 //
 //   geodesic_bench [--size N] [--threads T] [--points P] [--coast-vertices V] [--repeats R]
 //                  [--only points|coastlines] [--no-scan]
+//                  [--seeds FILE --res DEG --extent XMIN YMIN XMAX YMAX]
+// --seeds: a third scenario (or the only one with --only file) on real data, any vector file
+// GDAL reads with longitude/latitude coordinates (e.g. the Oresund fixture), on the grid given.
 // (--no-scan skips the hv-scan rows)
 // Each exact run is repeated R times (default 1), alternating planar and geodesic; the medians
 // are printed, of wall time and of the process's CPU time (all threads: the work done, which
@@ -24,6 +27,7 @@
 
 #include "rv/engine.hpp"
 #include "rv/geodesic.hpp"
+#include "rv/seed_reader.hpp"
 #include "rv/validate.hpp"
 
 namespace {
@@ -35,7 +39,9 @@ struct Args {
   int coast_vertices = 500;
   bool scans = true;  // --no-scan: the exact method only
   int repeats = 1;
-  std::string only;  // one scenario (empty: both)
+  std::string only;  // one scenario (empty: all)
+  std::string seeds;  // --seeds: a file scenario
+  double res = 0.0, xmin = 0.0, ymin = 0.0, xmax = 0.0, ymax = 0.0;
 };
 
 Args parse(int argc, char** argv) {
@@ -52,10 +58,29 @@ Args parse(int argc, char** argv) {
     }
     if (k == "--only") {
       a.only = argv[++i];
-      if (a.only != "points" && a.only != "coastlines") {
-        std::fprintf(stderr, "--only takes points or coastlines\n");
+      if (a.only != "points" && a.only != "coastlines" && a.only != "file") {
+        std::fprintf(stderr, "--only takes points, coastlines or file\n");
         std::exit(2);
       }
+      continue;
+    }
+    if (k == "--seeds") {
+      a.seeds = argv[++i];
+      continue;
+    }
+    if (k == "--res") {
+      a.res = std::atof(argv[++i]);
+      continue;
+    }
+    if (k == "--extent") {
+      if (i + 4 >= argc) {
+        std::fprintf(stderr, "--extent takes XMIN YMIN XMAX YMAX\n");
+        std::exit(2);
+      }
+      a.xmin = std::atof(argv[++i]);
+      a.ymin = std::atof(argv[++i]);
+      a.xmax = std::atof(argv[++i]);
+      a.ymax = std::atof(argv[++i]);
       continue;
     }
     const long v = std::strtol(argv[++i], nullptr, 10);
@@ -180,6 +205,26 @@ int main(int argc, char** argv) {
       s.add_polyline(s.add_feature(s.owner_code(side == 0 ? "DK" : "SE")), line);
     }
     scenario("coastlines", s, g, a.threads, a.scans, a.repeats);
+  }
+  if (!a.seeds.empty() && (a.only.empty() || a.only == "file")) {
+    if (!(a.res > 0.0) || !(a.xmax > a.xmin) || !(a.ymax > a.ymin)) {
+      std::fprintf(stderr, "--seeds needs --res and --extent\n");
+      return 2;
+    }
+    rv::SeedReadOptions read;
+    read.paths = {a.seeds};
+    const rv::LoadedSeeds loaded = rv::load_seeds(read);
+    if (!loaded.crs.geographic) {
+      std::fprintf(stderr, "%s: the seeds' CRS is not longitude/latitude\n", a.seeds.c_str());
+      return 2;
+    }
+    rv::GridSpec f;
+    f.xmin = a.xmin;
+    f.ymax = a.ymax;
+    f.res = a.res;
+    f.width = static_cast<int64_t>(std::ceil((a.xmax - a.xmin) / a.res - 1e-9));
+    f.height = static_cast<int64_t>(std::ceil((a.ymax - a.ymin) / a.res - 1e-9));
+    scenario(a.seeds.c_str(), loaded.seeds, f, a.threads, a.scans, a.repeats);
   }
   return 0;
 }

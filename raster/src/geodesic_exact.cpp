@@ -591,8 +591,11 @@ class GeodesicExactSolver {
   // function across it, and so is its difference from the linear h: that difference
   // (millimetres near the edge, O(x^3 / R^2) away from it) is interpolated, and the value is
   // |h + q|. A node's side is taken from h, so nodes within kAdditiveMinPlane of the plane
-  // (where the extended geodesic, ~1 cm off the plane at most, could lie on the other side)
-  // reject the block. (A ratio d_line / distance-to-the-chord-line, as for points, has a pole
+  // (where the extended geodesic, ~1 cm off the plane along a short edge, could lie on the
+  // other side) reject the block. Along edges of tens of kilometres the geodesic leaves the
+  // plane by metres; a node given the wrong side then is off by 2 d >= 0.2 m, which moves the
+  // value at the block's centre by more than 7e-4 m (every node's weight there is at least
+  // 0.0039), so the centre check (kInterpCheck) rejects that block. (A ratio d_line / distance-to-the-chord-line, as for points, has a pole
   // next to the edge, where the two vanish on slightly different curves; measured on the
   // geodesic_bench coastlines, its worst error offshore was 1e-5 m against 7.6e-9 m for this
   // form, which also reaches across the edge.)
@@ -677,8 +680,11 @@ class GeodesicExactSolver {
   // kVertexMargin); 3 when certainly nearest at an interior point (the cell ahead of the first
   // end and behind the second, so the convex distance along the edge has its minimum inside); 0
   // when none is certain (within kVertexMargin of a switch, or too near or too far).
+  //
+  // Edges longer than a piece (kGeoPieceLength) too: brute force takes the minimum over the
+  // pieces, and the piece holding the vertex returns its canonical distance (the other pieces'
+  // minima are larger, the distance being convex along the edge), so the same argument holds.
   int segment_regime(const GeoCell& p, int32_t id) const {
-    if (geo_.site(id).piece_count != 1) return 0;
     // With t = P - V, n the normal and e the edge's unit tangent at V, the tangent-plane
     // projection u = t - (t.n) n has u.e = t.e (e is in the plane) and |u|^2 = |t|^2 - (t.n)^2,
     // so cos w = t.e / |u| is compared with the margin without a root: cos w > m <=> t.e > 0

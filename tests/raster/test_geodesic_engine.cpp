@@ -407,6 +407,19 @@ TEST(GeodesicEngine, VertexSwitchesAtFineAndCoarseResolution) {
   expect_exact_equals_brute(s, geo_grid(11.998, 55.5060, 0.0001, 240, 140), "fine, limited", 300.0);
 }
 
+TEST(GeodesicEngine, EdgesLongerThanAPiece) {
+  // Edges of 150 and 260 km (two and three pieces of kGeoPieceLength) meeting at a vertex,
+  // with short edges at their far ends: the exact method decides the vertex and interior
+  // regimes of the long edges per cell and interpolates them, as for short ones.
+  SeedSet s;
+  s.add_polyline(s.add_feature(s.owner_code("A")),
+                 std::vector<Vec2>{{10.00, 55.00}, {10.02, 55.01}, {12.40, 55.20}, {13.00, 56.50}, {13.02, 56.52}});
+  s.add_polyline(s.add_feature(s.owner_code("B")), std::vector<Vec2>{{11.50, 56.20}, {11.60, 56.25}});
+  s.add_point(s.add_feature(s.owner_code("B")), {12.20, 55.90});
+  expect_exact_equals_brute(s, geo_grid(9.8, 57.0, 0.02, 190, 110), "long edges");
+  expect_exact_equals_brute(s, geo_grid(12.30, 55.30, 0.001, 200, 200), "at the vertex of the long edges");
+}
+
 TEST(GeodesicEngine, SyntheticCoastlines) {
   // Two states facing each other across a strait (Oresund-like, 55.5N 12.7E): land polygons
   // whose sea-facing edges are wiggly coastlines of many short edges, at 0.002 degrees.
