@@ -424,6 +424,16 @@ class GeodesicExactSolver {
     const std::vector<int32_t>& cands = wk.levels[depth];
     if (cands.empty()) return fill_none(c0, r0, c1, r1);
     std::vector<int32_t>& next = wk.levels[depth + 1];
+    if (fully_interior(c0, r0, c1, r1)) {
+      // Every cell ends at distance 0 with its polygon's area site (apply_interiors); what is
+      // left to find is a lower site at distance exactly 0 there, which only sites touching
+      // the block (lower bound within kGeoSlack) can be.
+      const EcefBox box = box_of(c0, r0, c1, r1);
+      next.clear();
+      for (int32_t id : cands)
+        if (geo_.lower_bound(box, id) <= kGeoSlack) next.push_back(id);
+      return solve_zero(next, c0, r0, c1, r1);
+    }
     const bool bounded = std::isfinite(max_distance_);
     if (cands.size() > 1 || bounded) {
       const EcefBox box = box_of(c0, r0, c1, r1);
@@ -842,6 +852,38 @@ class GeodesicExactSolver {
       std::fill(site_.row(r) + c0, site_.row(r) + c1, kNoSite);
       std::fill(distance_.row(r) + c0, distance_.row(r) + c1, kNoDistance);
     }
+  }
+
+  // True when every cell of the block has its centre inside a polygon (one span per row).
+  bool fully_interior(int64_t c0, int64_t r0, int64_t c1, int64_t r1) const {
+    if (ctx_.interiors == nullptr) return false;
+    for (int64_t r = r0; r < r1; ++r) {
+      const std::vector<Span>& row = ctx_.interiors->rows[static_cast<size_t>(r)];
+      auto it = std::upper_bound(row.begin(), row.end(), c0, [](int64_t c, const Span& s) { return c < s.col0; });
+      if (it == row.begin() || std::prev(it)->col1 < c1) return false;
+    }
+    return true;
+  }
+
+  // A block inside polygons: per cell the lowest of `cands` at distance exactly 0 (as the
+  // float32 written, which apply_interiors compares), else no site; apply_interiors does the
+  // rest, exactly as after brute force.
+  void solve_zero(const std::vector<int32_t>& cands, int64_t c0, int64_t r0, int64_t c1, int64_t r1) {
+    if (cands.empty()) return fill_none(c0, r0, c1, r1);
+    for (int64_t r = r0; r < r1; ++r)
+      for (int64_t c = c0; c < c1; ++c) {
+        const GeoCell p = cell_at(c, r);
+        int32_t zero = kNoSite;
+        for (int32_t id : cands) {  // ascending: the first at distance 0 is the lowest
+          if (geo_.lower_bound(p, id) > kGeoSlack) continue;
+          if (static_cast<float>(geo_.distance(p, id)) == 0.0f) {
+            zero = id;
+            break;
+          }
+        }
+        site_.row(r)[c] = zero;
+        distance_.row(r)[c] = zero == kNoSite ? kNoDistance : 0.0f;
+      }
   }
 
   void put(int64_t c, int64_t r, int32_t id, double d) {

@@ -420,6 +420,30 @@ TEST(GeodesicEngine, EdgesLongerThanAPiece) {
   expect_exact_equals_brute(s, geo_grid(12.30, 55.30, 0.001, 200, 200), "at the vertex of the long edges");
 }
 
+TEST(GeodesicEngine, InsidePolygonsALowerSiteAtDistanceZeroWins) {
+  // Inside a polygon every cell gets distance 0 and the polygon's site, unless a lower site is
+  // at distance exactly 0 there: a basepoint exactly on a cell centre, and a line through cell
+  // centres (a meridian through them: the search meets them exactly). The exact method skips
+  // the work inside polygons but must still report those.
+  const GridSpec g = geo_grid(12.0, 56.0, 0.01, 120, 80);
+  SeedSet s;
+  s.add_point(s.add_feature(s.owner_code("A")), {g.centre_x(30), g.centre_y(20)});
+  s.add_polyline(s.add_feature(s.owner_code("A")),
+                 std::vector<Vec2>{{g.centre_x(50), g.centre_y(10)}, {g.centre_x(50), g.centre_y(40)}});
+  s.add_polygon(s.add_feature(s.owner_code("B")),
+                {std::vector<Vec2>{{12.05, 55.95}, {12.95, 55.97}, {12.90, 55.45}, {12.08, 55.40}}});
+  s.add_point(s.add_feature(s.owner_code("C")), {g.centre_x(70), g.centre_y(30)});  // higher: loses
+  s.add_point(s.add_feature(s.owner_code("C")), {13.15, 55.3});
+  expect_exact_equals_brute(s, g, "interior");
+  const NearestField f = run(s, g, Method::exact);
+  EXPECT_EQ(f.site.at(30, 20), 0);
+  EXPECT_EQ(f.distance.at(30, 20), 0.0f);
+  EXPECT_EQ(s.site_owner(f.site.at(50, 25)), s.site_owner(1));
+  EXPECT_EQ(f.distance.at(50, 25), 0.0f);
+  EXPECT_EQ(s.site_owner(f.site.at(70, 30)), s.owner_code("B"));
+  EXPECT_EQ(s.site_owner(f.site.at(60, 60)), s.owner_code("B"));
+}
+
 TEST(GeodesicEngine, SyntheticCoastlines) {
   // Two states facing each other across a strait (Oresund-like, 55.5N 12.7E): land polygons
   // whose sea-facing edges are wiggly coastlines of many short edges, at 0.002 degrees.
