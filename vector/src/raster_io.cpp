@@ -70,12 +70,13 @@ struct Encoding {
 };
 
 // Levels and predictors, from re-encoding the 1e8-cell rasters of bench/RESULTS-encoding.md on one
-// thread (Float32 distance, 419 MB raw):
-//   ZSTD 1: 1.0 s, 355 MB; with the floating-point predictor 2.1 s, 267 MB (the predictor costs
-//   more than the codec); ZSTD 6 + predictor: 5.7 s, 248 MB; ZSTD 9: 9.5 s, 248 MB (nothing more
-//   for 1.7x the time); ZSTD 12: 18 s, 247 MB.
-//   DEFLATE 1: 3.8 s with or without the predictor (355 / 262 MB: DEFLATE is as slow on raw floats
-//   as the predictor is, so the predictor is free there); DEFLATE 6: 8.1 s, 253 MB; 9: 35 s, 250 MB.
+// thread (Float32 distance, 419 MB raw; CPU seconds, medians of 3):
+//   ZSTD 1: 0.9 s, 355 MB; with the floating-point predictor 2.0 s, 267 MB (the predictor costs
+//   more than the codec); ZSTD 6 + predictor: 5.2 s, 248 MB; ZSTD 9: 9.2 s, 248 MB (nothing more
+//   for 1.8x the time); ZSTD 12: 20 s, 247 MB.
+//   DEFLATE 1: 4.0 s without the predictor, 3.4 s with it (355 / 262 MB: DEFLATE is no faster on
+//   raw floats, so the predictor comes free there); DEFLATE 6: 7.7 s, 253 MB; DEFLATE 9: 35 s,
+//   250 MB.
 // Hence fast = ZSTD 1 without the float predictor, small = level 6 with it (the knee: level 9 and
 // above buy under 1 %), deflate = level 1 with predictors (level 6 doubles the time for 4 %).
 constexpr int kFastZstdLevel = 1;
@@ -85,7 +86,7 @@ constexpr int kSmallDeflateLevel = 6;  // small without ZSTD
 
 // The one place a compression profile becomes codec, level and predictor (rv/raster_io.hpp has
 // the profiles' contract). Integer codes always get the horizontal-differencing predictor (2).
-// Without ZSTD, fast is the deflate profile: DEFLATE costs the same with the float predictor.
+// Without ZSTD, fast is the deflate profile: DEFLATE is no slower with the float predictor.
 Encoding encoding_for(Compression c, bool floating, bool zstd) {
   const int predictor = floating ? 3 : 2;
   switch (c) {
