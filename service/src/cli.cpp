@@ -55,11 +55,17 @@ computation:
   --strip-rows N          rows per strip when the job is streamed (0 = automatic, default;
                           -1 = compute the whole field first); never changes the outputs
 outputs:
-  --ownership FILE.tif    owner code per cell (Int32, 0 = none)
+  --ownership FILE.tif    owner code per cell (0 = none; Byte up to 255 owners, UInt16 up to
+                          65535, else Int32)
   --distance FILE.tif     distance to the nearest seed (Float32, -1 = none)
-  --nearest-feature F.tif 1-based index of the nearest seed feature (Int32)
+  --nearest-feature F.tif 1-based index of the nearest seed feature (0 = none; type as ownership)
   --report FILE.json      grid, method, seeds, timings per phase, peak memory
   --cog                   write Cloud-Optimized GeoTIFFs
+  --compression PROFILE   how every GeoTIFF is compressed (all lossless):
+                            fast     ZSTD 1, no predictor on the distance (default)
+                            small    ZSTD 6 with predictors: smallest files, slower
+                            deflate  DEFLATE 1 with predictors, for readers without ZSTD
+                            none     uncompressed
 maritime deliverables (exact: vertices placed on the equidistance locus, see README):
   --boundaries FILE       boundary lines between owners, with each vertex's controlling
                           seed features (.geojson, .json or .gpkg)
@@ -186,6 +192,14 @@ CommonOptions parse(Args& args, bool validate_mode) {
     else if (a == "--nearest-feature") s.outputs.nearest_feature = args.value(a);
     else if (a == "--report") s.outputs.report = args.value(a);
     else if (a == "--cog") s.outputs.cloud_optimized = true;
+    else if (a == "--compression") {
+      const std::string v = args.value(a);
+      try {
+        s.outputs.compression = parse_compression(v);
+      } catch (const Error& e) {
+        throw Error(e.kind(), "--compression: " + std::string(e.what()));
+      }
+    }
     else if (a == "--boundaries") s.outputs.boundaries = args.value(a);
     else if (a == "--tripoints") s.outputs.tripoints = args.value(a);
     else if (a == "--limits") s.outputs.limits = args.value(a);

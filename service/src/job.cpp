@@ -229,6 +229,8 @@ JobPlan plan_job(const JobSpec& spec, const GridSpec& grid, int64_t sites, Metri
   p.strip_rows = grid.height;
   p.strips = 1;
   int64_t need = estimate_memory(spec.method, cells, sites, metric) + cells * 4;  // + one output raster
+  // A COG of codes in a narrower type is copied from a narrowed copy (at most 2 bytes a cell).
+  if (out.cloud_optimized && int_rasters > 0) need += cells * 2;
   if (spec.validate) need += estimate_memory(Method::brute_force, cells, sites, metric);
   if (out.any_deliverable()) {
     need += cells * 4;  // owner codes
@@ -333,13 +335,17 @@ JobResult run_job(const JobSpec& spec, const JobLimits& limits, const JobHooks& 
                                           std::to_string(limits.validate_max_cells) + " cells; this grid has " +
                                           std::to_string(cells));
 
-  // How each raster GeoTIFF is described; the same on both paths.
+  // How each raster GeoTIFF is described; the same on both paths. The code rasters state their
+  // largest code, so that they are written in the narrowest type that holds it (owner codes are
+  // 1..K; feature numbers at most the largest input position).
   GeoTiffOptions common;
   common.cloud_optimized = spec.outputs.cloud_optimized;
   common.threads = spec.threads;
+  common.compression = spec.outputs.compression;
   GeoTiffOptions ownership_options = common;
   ownership_options.categorical = true;
   ownership_options.category_labels = loaded.seeds.owner_labels();
+  ownership_options.max_code = loaded.seeds.owner_count();
   ownership_options.metadata["CONTENT"] = "owner code of the nearest seed (0 = none)";
   GeoTiffOptions distance_options = common;
   distance_options.units = unit_name;
@@ -348,6 +354,9 @@ JobResult run_job(const JobSpec& spec, const JobLimits& limits, const JobHooks& 
   distance_options.metadata["METRIC"] = geodesic ? "geodesic" : "planar";
   GeoTiffOptions feature_options = common;
   feature_options.categorical = true;
+  feature_options.max_code = loaded.input_position.empty()
+                                 ? static_cast<int64_t>(loaded.seeds.features().size())
+                                 : *std::max_element(loaded.input_position.begin(), loaded.input_position.end());
   feature_options.metadata["CONTENT"] = "1-based position of the nearest seed feature in the input (0 = none)";
 
   options.cancel = hooks.cancel;
@@ -596,6 +605,7 @@ JobResult run_job(const JobSpec& spec, const JobLimits& limits, const JobHooks& 
   if (located) report["geodesic_crs"] = loaded.seed_crs.name;
   report["threads"] = threads_used;
   report["distance_units"] = unit_name;
+  report["compression"] = to_string(spec.outputs.compression);
   if (spec.max_distance) report["max_distance"] = *spec.max_distance;
   report["seeds"] = seeds_json(loaded);
   report["contested_cells"] = contested_cells;

@@ -1,8 +1,10 @@
 // The rvoronoi command line as a user runs it: the real binary, real files, exit codes.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <array>
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <set>
@@ -217,9 +219,106 @@ TEST_F(Cli, BadInputFailsCleanly) {
   EXPECT_NE(rn.exit_code, 0) << rn.output;
   expect_refused(run("compute " + source(kDemo) + " --resolution 10 --method magic" + out), 2, "magic");
   expect_refused(run("compute " + source(kDemo) + " --resolution 10 --bogus" + out), 2, "--bogus");
+  expect_refused(run("compute " + source(kDemo) + " --resolution 10 --compression zip" + out), 2,
+                 "--compression: unknown compression profile 'zip'");
+  expect_refused(run("compute " + source(kDemo) + " --resolution 10" + out + " --compression"), 2, "--compression");
   expect_refused(run("compute " + source(kDemo) + " --resolution 10"), 2, "--ownership");
   // Only the two input files written by this test remain: no partial outputs.
   EXPECT_EQ(file_count(), 2u);
+}
+
+// A GeoTIFF's layout as GDAL reports it: data type, COMPRESSION, PREDICTOR and LAYOUT of the
+// IMAGE_STRUCTURE domain ("-" when absent).
+struct TiffLayout {
+  std::string type, compression, predictor, layout;
+};
+TiffLayout layout_of(const std::string& path) {
+  GDALDatasetH ds = GDALOpen(path.c_str(), GA_ReadOnly);
+  if (ds == nullptr) return {"(unreadable)", "", "", ""};
+  auto item = [&](const char* key) {
+    const char* v = GDALGetMetadataItem(ds, key, "IMAGE_STRUCTURE");
+    return std::string(v == nullptr ? "-" : v);
+  };
+  TiffLayout l{GDALGetDataTypeName(GDALGetRasterDataType(GDALGetRasterBand(ds, 1))), item("COMPRESSION"),
+               item("PREDICTOR"), item("LAYOUT")};
+  GDALClose(ds);
+  return l;
+}
+
+TEST_F(Cli, CompressionProfileReachesEveryGeoTiff) {
+  gdal_init();
+  const char* list = GDALGetMetadataItem(GDALGetDriverByName("GTiff"), GDAL_DMD_CREATIONOPTIONLIST, nullptr);
+  const bool has_zstd = list != nullptr && std::strstr(list, "ZSTD") != nullptr;
+  const std::string zstd = has_zstd ? "ZSTD" : "DEFLATE";
+  const std::string fast_float = has_zstd ? "-" : "3";  // without ZSTD, fast is the deflate profile
+  const std::string base = "compute " + source(kDemo) + " --owner-field state --resolution 400 --quiet";
+  auto outputs = [&](const std::string& tag) {
+    return " --ownership " + path(tag + "_own.tif") + " --distance " + path(tag + "_dist.tif") + " --nearest-feature " +
+           path(tag + "_feat.tif") + " --report " + path(tag + ".json");
+  };
+  struct Case {
+    std::string args, codec, int_predictor, float_predictor;
+  };
+  // The default is fast: no floating-point predictor.
+  const Case cases[] = {{"", zstd, "2", fast_float},
+                        {"--compression fast", zstd, "2", fast_float},
+                        {"--compression small", zstd, "2", "3"},
+                        {"--compression deflate", "DEFLATE", "2", "3"},
+                        {"--compression none", "-", "-", "-"},
+                        {"--compression small --cog", zstd, "2", "3"},
+                        {"--compression none --cog", "-", "-", "-"}};
+  for (size_t i = 0; i < std::size(cases); ++i) {
+    const Case& c = cases[i];
+    SCOPED_TRACE(c.args);
+    const std::string tag = "c" + std::to_string(i);
+    const CliRun r = run(base + " " + c.args + outputs(tag));
+    ASSERT_EQ(r.exit_code, 0) << r.output;
+    const bool cog = c.args.find("--cog") != std::string::npos;
+    for (const char* product : {"_own.tif", "_feat.tif", "_dist.tif"}) {
+      const TiffLayout l = layout_of(path(tag + product));
+      const bool floating = std::string(product) == "_dist.tif";
+      // Three owners and 28 features: one byte per code.
+      EXPECT_EQ(l.type, floating ? "Float32" : "Byte") << product;
+      EXPECT_EQ(l.compression, c.codec) << product;
+      EXPECT_EQ(l.predictor, floating ? c.float_predictor : c.int_predictor) << product;
+      EXPECT_EQ(l.layout, cog ? "COG" : "-") << product;
+    }
+    // Lossless: every profile writes the default's values.
+    EXPECT_EQ(read_int32(path(tag + "_own.tif")).cells(), read_int32(path("c0_own.tif")).cells());
+    EXPECT_EQ(read_int32(path(tag + "_feat.tif")).cells(), read_int32(path("c0_feat.tif")).cells());
+    EXPECT_EQ(read_float32(path(tag + "_dist.tif")).cells(), read_float32(path("c0_dist.tif")).cells());
+    EXPECT_EQ(read_category_labels(path(tag + "_own.tif")), (std::vector<std::string>{"A", "B", "C"}));
+    const nlohmann::json rep = nlohmann::json::parse(std::ifstream(path(tag + ".json")));
+    EXPECT_EQ(rep["compression"], c.args.empty() ? "fast" : c.args.substr(14, c.args.find(' ', 14) - 14));
+  }
+}
+
+TEST_F(Cli, CodeRastersAreUInt16AboveTwoHundredFiftyFiveOwners) {
+  // 300 points, each its own owner and feature, on a line: codes up to 300 need UInt16.
+  std::string features;
+  for (int i = 0; i < 300; ++i)
+    features += std::string(i ? "," : "") + R"({"type":"Feature","properties":{"id":)" + std::to_string(i + 1) +
+                R"(},"geometry":{"type":"Point","coordinates":[)" + std::to_string(500000.5 + 3.0 * i) + ",6000000.5]}}";
+  const std::string seeds = write("line.geojson", R"({"type":"FeatureCollection",
+    "crs":{"type":"name","properties":{"name":"urn:ogc:def:crs:EPSG::32633"}},"features":[)" + features + "]}");
+  for (const char* cog : {"", " --cog"}) {
+    SCOPED_TRACE(cog);
+    const CliRun r = run("compute " + seeds + " --owner-field id --resolution 1 --extent 500000 5999990 500900 6000010"
+                         " --ownership " + path("own.tif") + " --nearest-feature " + path("feat.tif") + cog + " --quiet");
+    ASSERT_EQ(r.exit_code, 0) << r.output;
+    EXPECT_EQ(layout_of(path("own.tif")).type, "UInt16");
+    EXPECT_EQ(layout_of(path("feat.tif")).type, "UInt16");
+    gdal_init();
+    SeedReadOptions ro;
+    ro.paths = {seeds};
+    ro.owner_field = "id";
+    const LoadedSeeds loaded = load_seeds(ro);
+    const NearestField f = compute(loaded.seeds, read_grid(path("own.tif")), ComputeOptions{});
+    const Raster<int32_t> own = read_int32(path("own.tif"));
+    EXPECT_EQ(own.cells(), owner_raster(loaded.seeds, f).cells());
+    EXPECT_EQ(*std::max_element(own.cells().begin(), own.cells().end()), 300);
+    EXPECT_EQ(read_int32(path("feat.tif")).cells(), feature_raster(loaded.seeds, f, 0, loaded.input_position).cells());
+  }
 }
 
 TEST_F(Cli, FailedWriteLeavesNothingBehind) {
@@ -414,6 +513,7 @@ TEST_F(Cli, HelpAndVersion) {
   const CliRun h = run("--help");
   EXPECT_EQ(h.exit_code, 0);
   EXPECT_NE(h.output.find("rvoronoi compute"), std::string::npos);
+  EXPECT_NE(h.output.find("--compression PROFILE"), std::string::npos);
   EXPECT_EQ(run("").exit_code, 2);
   EXPECT_EQ(run("frobnicate").exit_code, 2);
 }

@@ -47,6 +47,31 @@ TEST(ExecuteHardening, UploadsAreReadConfined) {
   EXPECT_EQ(ex.spec.seeds.paths[0].rfind("/vsimem/", 0), 0u) << ex.spec.seeds.paths[0];
 }
 
+TEST(ExecuteHardening, CompressionIsOneOfTheProfiles) {
+  const json base = json::parse(R"({"inputs":{"resolution":10,"seeds":{"type":"FeatureCollection","features":[]}}})");
+  EXPECT_EQ(parse_execution(base, kId, ServerConfig{}).spec.outputs.compression, Compression::fast);
+  for (const Compression c : {Compression::fast, Compression::small, Compression::deflate, Compression::none}) {
+    json body = base;
+    body["inputs"]["compression"] = std::string(to_string(c));
+    const Execution ex = parse_execution(body, kId, ServerConfig{});
+    EXPECT_EQ(ex.spec.outputs.compression, c);
+    EXPECT_EQ(ex.inputs_summary["compression"], to_string(c));
+    body["inputs"]["compression"] = {{"value", std::string(to_string(c))}};  // a qualified value
+    EXPECT_EQ(parse_execution(body, kId, ServerConfig{}).spec.outputs.compression, c);
+  }
+  for (const json& bad : {json("zip"), json("FAST"), json(""), json(3), json::array({"fast"})}) {
+    json body = base;
+    body["inputs"]["compression"] = bad;
+    try {
+      parse_execution(body, kId, ServerConfig{});
+      ADD_FAILURE() << "accepted " << bad.dump();
+    } catch (const Error& e) {
+      EXPECT_EQ(e.kind(), ErrorKind::invalid_argument);
+      EXPECT_NE(std::string(e.what()).find("input 'compression'"), std::string::npos) << e.what();
+    }
+  }
+}
+
 TEST(ExecuteHardening, DeeplyNestedBodiesAreRefusedWhileParsing) {
   // 100000 levels overflowed the stack in dump() before the limit.
   const std::string deep = R"({"inputs":{"x":)" + std::string(100000, '[') + std::string(100000, ']') + "}}";

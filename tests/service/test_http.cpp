@@ -314,6 +314,11 @@ TEST_F(Daemon, ErrorsAreProblemsNamingTheInput) {
   expect_problem(http_request(port_, "POST", exec, bad.dump()), 400,
                  "http://www.opengis.net/def/exceptions/ogcapi-processes-1/1.0/invalid-parameter",
                  "input 'resolution'");
+  json bad_compression = demo_request();
+  bad_compression["inputs"]["compression"] = "lzw";
+  expect_problem(http_request(port_, "POST", exec, bad_compression.dump()), 400,
+                 "http://www.opengis.net/def/exceptions/ogcapi-processes-1/1.0/invalid-parameter",
+                 "input 'compression': unknown compression profile 'lzw'");
   // The feature at fault, named by the seed reader, reaches the client with the input's name.
   json null_owner = {{"inputs", {{"seeds", json::parse(read_file(source_dir() + "/fixtures/null_owner.geojson"))},
                                  {"ownerField", "owner"}, {"resolution", 1000}}}};

@@ -288,6 +288,23 @@ def main():
             check(labels == ["A", "B", "C"], f"attribute table labels {labels}")
         ds = None
 
+        # The compression input reaches the COGs; the code raster of three owners is Byte.
+        info = gdal.Info(ref, format="json")
+        check(info["bands"][0]["type"] == "Byte", f"ownership of three owners is Byte: {info['bands'][0]['type']}")
+        ref = None
+        for profile, codec, predictor in (("deflate", "DEFLATE", "3"), ("none", None, None)):
+            _, _, r = execute(s, {"inputs": {"seeds": demo, "ownerField": "state", "resolution": 2000,
+                                             "compression": profile},
+                                  "outputs": {"distance": {}}, "response": "raw"}, expect=200)
+            local = os.path.join(tmp, f"dist_{profile}.tif")
+            open(local, "wb").write(r)
+            d = gdal.Open(local)
+            meta = d.GetMetadata("IMAGE_STRUCTURE")
+            check(meta.get("COMPRESSION") == codec and meta.get("PREDICTOR") == predictor
+                  and meta.get("LAYOUT") == "COG", f"compression {profile}: {meta}")
+            d = None
+        request(s, "POST", exe, {"inputs": {"seeds": demo, "resolution": 2000, "compression": "lzw"}}, expect=400)
+
         # Dismiss, then SIGKILL during a running job, then restart.
         slow = {"inputs": {"seeds": demo, "ownerField": "state", "resolution": 10, "method": "brute-force"}}
         _, _, a = execute(s, slow, prefer_async=True, expect=201)

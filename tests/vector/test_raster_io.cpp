@@ -2,7 +2,9 @@
 // CRS, nodata, values, layout, raster attribute table), COG overviews, atomic writes.
 #include <gtest/gtest.h>
 
+#include <cstring>
 #include <filesystem>
+#include <map>
 #include <set>
 #include <thread>
 
@@ -139,7 +141,8 @@ TEST(RasterIo, Float32RoundTrip) {
   EXPECT_EQ(ds->GetRasterBand(1)->GetNoDataValue(&has_nodata), -1.0);
   EXPECT_TRUE(has_nodata);
   EXPECT_EQ(ds->GetRasterBand(1)->GetRasterDataType(), GDT_Float32);
-  EXPECT_STREQ(ds->GetMetadataItem("PREDICTOR", "IMAGE_STRUCTURE"), "3");
+  // The default profile (fast) leaves the floating-point predictor out.
+  EXPECT_EQ(ds->GetMetadataItem("PREDICTOR", "IMAGE_STRUCTURE"), nullptr);
   EXPECT_STREQ(ds->GetRasterBand(1)->GetUnitType(), "m");
   EXPECT_TRUE(read_category_labels(path).empty());
 }
@@ -339,6 +342,183 @@ TEST(RasterIo, StripWriterLeavesNothingUnlessFinished) {
   expect_error(ErrorKind::io,
                [&] { GeoTiffStripWriter<int32_t>(dir.file("no/dir/d.tif"), grid, grid.full_window(), 0.0, {}); },
                {"no/dir"});
+  EXPECT_TRUE(files_in(dir.path()).empty());
+}
+
+// What each compression profile must produce, as GDAL reports it from the file's
+// IMAGE_STRUCTURE metadata (nullptr: the item is absent, i.e. no compression / no predictor).
+struct ProfileExpectation {
+  Compression profile;
+  const char* codec;
+  const char* int_predictor;
+  const char* float_predictor;
+};
+
+std::vector<ProfileExpectation> profile_expectations() {
+  gdal_init();
+  const char* list = GetGDALDriverManager()->GetDriverByName("GTiff")->GetMetadataItem(GDAL_DMD_CREATIONOPTIONLIST);
+  const bool zstd = list != nullptr && std::strstr(list, "ZSTD") != nullptr;
+  const char* best = zstd ? "ZSTD" : "DEFLATE";
+  // Without ZSTD, fast is the deflate profile (float predictor included).
+  return {{Compression::fast, best, "2", zstd ? nullptr : "3"},
+          {Compression::small, best, "2", "3"},
+          {Compression::deflate, "DEFLATE", "2", "3"},
+          {Compression::none, nullptr, nullptr, nullptr}};
+}
+
+std::string item(GDALDataset& ds, const char* key) {
+  const char* v = ds.GetMetadataItem(key, "IMAGE_STRUCTURE");
+  return v == nullptr ? "(absent)" : v;
+}
+std::string text_or_absent(const char* v) { return v == nullptr ? "(absent)" : v; }
+
+TEST(RasterIo, CompressionProfilesSetCodecAndPredictorAndKeepEveryValue) {
+  ScratchDir dir;
+  // Windows of tiles, partly edge tiles; codes in runs and a smooth distance, like the engine's.
+  const GridSpec grid = utm_grid(700, 530, 10.0);
+  Raster<int32_t> codes(grid, 0);
+  Raster<float> dist(grid, -1.0f);
+  for (int64_t row = 0; row < grid.height; ++row)
+    for (int64_t col = 0; col < grid.width; ++col) {
+      codes.at(col, row) = static_cast<int32_t>((col / 90 + 7 * (row / 60)) % 300);  // needs UInt16
+      if ((col * 7 + row * 3) % 101 != 0) dist.at(col, row) = static_cast<float>(std::hypot(col - 350.5, row - 260.25) * 10.0);
+    }
+  std::map<std::string, uintmax_t> float_size;
+  for (const ProfileExpectation& e : profile_expectations()) {
+    for (const bool cog : {false, true}) {
+      const std::string tag = std::string(to_string(e.profile)) + (cog ? "_cog" : "");
+      SCOPED_TRACE(tag);
+      GeoTiffOptions o;
+      o.compression = e.profile;
+      o.cloud_optimized = cog;
+      GeoTiffOptions oi = o;
+      oi.categorical = true;
+      oi.max_code = 299;
+      const std::string ip = dir.file("i_" + tag + ".tif"), fp = dir.file("f_" + tag + ".tif");
+      write_geotiff(ip, codes, 0.0, oi);
+      write_geotiff(fp, dist, -1.0, o);
+      const auto di = open(ip), df = open(fp);
+      ASSERT_TRUE(di && df);
+      EXPECT_EQ(item(*di, "COMPRESSION"), text_or_absent(e.codec));
+      EXPECT_EQ(item(*df, "COMPRESSION"), text_or_absent(e.codec));
+      EXPECT_EQ(item(*di, "PREDICTOR"), text_or_absent(e.int_predictor));
+      EXPECT_EQ(item(*df, "PREDICTOR"), text_or_absent(e.float_predictor));
+      EXPECT_EQ(item(*di, "LAYOUT"), cog ? "COG" : "(absent)");
+      EXPECT_EQ(di->GetRasterBand(1)->GetRasterDataType(), GDT_UInt16);
+      EXPECT_EQ(df->GetRasterBand(1)->GetRasterDataType(), GDT_Float32);
+      if (cog) {
+        // Overviews are encoded like the full resolution.
+        ASSERT_GE(df->GetRasterBand(1)->GetOverviewCount(), 1);
+        EXPECT_EQ(di->GetRasterBand(1)->GetOverviewCount(), df->GetRasterBand(1)->GetOverviewCount());
+      }
+      EXPECT_EQ(read_int32(ip).cells(), codes.cells());
+      EXPECT_EQ(read_float32(fp).cells(), dist.cells());
+      if (!cog) float_size[tag] = std::filesystem::file_size(fp);
+    }
+  }
+  // The levels and predictors are really applied: uncompressed holds every byte, the size-first
+  // profile beats the fast one on a smooth Float32 raster.
+  EXPECT_GE(float_size["none"], static_cast<uintmax_t>(grid.cell_count() * 4));
+  EXPECT_LT(float_size["fast"], float_size["none"]);
+  EXPECT_LT(float_size["small"], float_size["fast"]);
+  EXPECT_LT(float_size["deflate"], float_size["none"]);
+}
+
+TEST(RasterIo, CompressionProfileNames) {
+  for (const Compression c : {Compression::fast, Compression::small, Compression::deflate, Compression::none})
+    EXPECT_EQ(parse_compression(to_string(c)), c);
+  EXPECT_EQ(to_string(GeoTiffOptions{}.compression), "fast");
+  for (const char* bad : {"", "FAST", "zstd", "fast ", "lzw"})
+    expect_error(ErrorKind::invalid_argument, [&] { parse_compression(bad); }, {"fast, small, deflate or none"});
+}
+
+GDALDataType type_of(const std::string& path) {
+  const auto ds = open(path);
+  return ds ? ds->GetRasterBand(1)->GetRasterDataType() : GDT_Unknown;
+}
+
+TEST(RasterIo, CodeRastersTakeTheNarrowestTypeThatHoldsMaxCode) {
+  ScratchDir dir;
+  const GridSpec grid = utm_grid(300, 270);
+  struct Case {
+    int64_t max_code;
+    GDALDataType type;
+  };
+  // Each side of both boundaries, 0 (no owner at all) and no stated range.
+  const Case cases[] = {{0, GDT_Byte},       {255, GDT_Byte},       {256, GDT_UInt16},
+                        {65535, GDT_UInt16}, {65536, GDT_Int32},    {INT32_MAX, GDT_Int32},
+                        {-1, GDT_Int32}};
+  for (const Case& c : cases) {
+    SCOPED_TRACE(c.max_code);
+    // Values spread over [0, max_code], both ends included (any Int32 code without a range).
+    Raster<int32_t> r(grid, 0);
+    const int64_t top = c.max_code < 0 ? 70000 : c.max_code;
+    for (int64_t i = 0; i < grid.cell_count(); ++i)
+      r.cells()[static_cast<size_t>(i)] = static_cast<int32_t>(i % 5 == 0 ? 0 : (i * 7919 + i / 1000) % (top + 1));
+    r.at(299, 269) = static_cast<int32_t>(top);
+    r.at(298, 269) = static_cast<int32_t>(std::max<int64_t>(0, top - 1));
+    GeoTiffOptions o;
+    o.max_code = c.max_code;
+    o.category_labels = {"a"};
+    const std::string name = std::to_string(c.max_code);
+    write_geotiff(dir.file("w" + name + ".tif"), r, 0.0, o);
+    GeoTiffOptions cog = o;
+    cog.cloud_optimized = true;
+    write_geotiff(dir.file("c" + name + ".tif"), r, 0.0, cog);
+    // The strip writer with strips that do and do not end on a tile row.
+    GeoTiffStripWriter<int32_t> w(dir.file("s" + name + ".tif"), grid, grid.full_window(), 0.0, o);
+    w.write_rows(r.row(0), 100);
+    w.write_rows(r.row(100), 170);
+    w.finish();
+    for (const char* kind : {"w", "c", "s"}) {
+      const std::string path = dir.file(kind + name + ".tif");
+      EXPECT_EQ(type_of(path), c.type) << path;
+      EXPECT_EQ(read_int32(path).cells(), r.cells()) << path;
+      EXPECT_EQ(read_category_labels(path), o.category_labels) << path;
+    }
+  }
+}
+
+TEST(RasterIo, CodesOutsideTheStatedRangeAreRefused) {
+  ScratchDir dir;
+  const GridSpec grid = utm_grid(300, 300);
+  for (const int64_t max_code : {int64_t{255}, int64_t{65535}, int64_t{100000}}) {
+    SCOPED_TRACE(max_code);
+    for (const int32_t wrong : {static_cast<int32_t>(max_code + 1), -1}) {
+      Raster<int32_t> r(grid, 1);
+      // In the last, partial band of tiles; in the vectorised part of a tile row (column 280 of
+      // the tile from 256) or in its remainder (295).
+      r.at(wrong < 0 ? 295 : 280, 270) = wrong;
+      GeoTiffOptions o;
+      o.max_code = max_code;
+      o.category_labels = {"x"};
+      expect_error(ErrorKind::invalid_argument, [&] { write_geotiff(dir.file("a.tif"), r, 0.0, o); },
+                   {"0.." + std::to_string(max_code)});
+      GeoTiffOptions cog = o;
+      cog.cloud_optimized = true;
+      expect_error(ErrorKind::invalid_argument, [&] { write_geotiff(dir.file("b.tif"), r, 0.0, cog); },
+                   {"0.." + std::to_string(max_code)});
+      {
+        GeoTiffStripWriter<int32_t> w(dir.file("c.tif"), grid, grid.full_window(), 0.0, o);
+        w.write_rows(r.row(0), 256);
+        expect_error(ErrorKind::invalid_argument, [&] { w.write_rows(r.row(256), 44); },
+                     {"0.." + std::to_string(max_code)});
+        expect_error(ErrorKind::io, [&] { w.finish(); }, {"earlier write failed"});
+      }
+      EXPECT_TRUE(files_in(dir.path()).empty());
+    }
+  }
+  GeoTiffOptions o;
+  o.max_code = 10;
+  // The nodata value must be a code of the range; a range on a Float32 raster is a mistake.
+  expect_error(ErrorKind::invalid_argument, [&] { write_geotiff(dir.file("n.tif"), Raster<int32_t>(grid, 1), 11.0, o); },
+               {"nodata"});
+  expect_error(ErrorKind::invalid_argument, [&] { write_geotiff(dir.file("n.tif"), Raster<int32_t>(grid, 1), -1.0, o); },
+               {"nodata"});
+  expect_error(ErrorKind::invalid_argument,
+               [&] { write_geotiff(dir.file("f.tif"), Raster<float>(grid, 1.0f), 0.0, o); }, {"integer"});
+  o.max_code = int64_t{1} << 31;
+  expect_error(ErrorKind::invalid_argument, [&] { write_geotiff(dir.file("m.tif"), Raster<int32_t>(grid, 1), 0.0, o); });
   EXPECT_TRUE(files_in(dir.path()).empty());
 }
 

@@ -10,15 +10,22 @@
 // it.
 //
 // Writing path (COG): the COG driver only implements CreateCopy(). The raster is wrapped without
-// a copy in a MEM dataset (DATAPOINTER) and copied; overviews are computed by the driver. The
-// RAT is added afterwards by opening the finished file read-only: PAM writes the sidecar without
-// touching the TIFF, so the COG layout stays intact.
+// a copy in a MEM dataset (DATAPOINTER; codes going into a narrower type are narrowed into a
+// smaller copy first) and copied; overviews are computed by the driver. The RAT is added
+// afterwards by opening the finished file read-only: PAM writes the sidecar without touching the
+// TIFF, so the COG layout stays intact.
+//
+// Both paths take their compression creation options from encoding_for(), the one place a
+// profile (rv::Compression) becomes codec, level and predictor.
+#include <algorithm>
 #include <atomic>
 #include <cinttypes>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
 #include <cstring>
 #include <string>
+#include <type_traits>
 #include <vector>
 
 #include <unistd.h>
@@ -41,33 +48,115 @@ struct PixelType;
 template <>
 struct PixelType<int32_t> {
   static constexpr GDALDataType gdal = GDT_Int32;
-  static constexpr const char* predictor = "2";  // horizontal differencing
-  static constexpr const char* name = "Int32";
+  static constexpr bool floating = false;
 };
 template <>
 struct PixelType<float> {
   static constexpr GDALDataType gdal = GDT_Float32;
-  static constexpr const char* predictor = "3";  // floating-point predictor
-  static constexpr const char* name = "Float32";
+  static constexpr bool floating = true;
 };
 
-// ZSTD when this GDAL's libtiff has it (faster than DEFLATE at a similar ratio), else DEFLATE.
-const char* compression(GDALDriver* gtiff) {
+// Whether this GDAL's libtiff can write ZSTD (libtiff >= 4.0.10 built with libzstd).
+bool has_zstd(GDALDriver* gtiff) {
   const char* list = gtiff->GetMetadataItem(GDAL_DMD_CREATIONOPTIONLIST);
-  return list != nullptr && std::strstr(list, "ZSTD") != nullptr ? "ZSTD" : "DEFLATE";
+  return list != nullptr && std::strstr(list, "ZSTD") != nullptr;
 }
 
-// ZSTD level 1: re-encoding the 1e8-cell distance raster of bench/RESULTS.md took 3.2 s at
-// level 1 against 35.5 s at GDAL's default 9, for an 8 % larger file; writing is most of what a
-// user waits for once the engine is fast, so speed wins.
-constexpr int kDefaultZstdLevel = 1;
+// What one file is encoded with.
+struct Encoding {
+  const char* codec;  // GDAL's COMPRESS value: "ZSTD", "DEFLATE" or "NONE"
+  int level;          // codec level (unused for NONE)
+  int predictor;      // TIFF predictor: 1 none, 2 horizontal differencing, 3 floating point
+};
 
-// The level creation option for the chosen compression.
-void set_level(CPLStringList& co, const char* compress, int level) {
-  if (std::strcmp(compress, "ZSTD") == 0)
-    co.SetNameValue("ZSTD_LEVEL", std::to_string(level > 0 ? level : kDefaultZstdLevel).c_str());
-  else if (level > 0)
-    co.SetNameValue("ZLEVEL", std::to_string(level).c_str());
+// Levels and predictors, from re-encoding the 1e8-cell rasters of bench/RESULTS-encoding.md on one
+// thread (Float32 distance, 419 MB raw; CPU seconds, medians of 3):
+//   ZSTD 1: 0.9 s, 355 MB; with the floating-point predictor 2.0 s, 267 MB (the predictor costs
+//   more than the codec); ZSTD 6 + predictor: 5.2 s, 248 MB; ZSTD 9: 9.2 s, 248 MB (nothing more
+//   for 1.8x the time); ZSTD 12: 20 s, 247 MB.
+//   DEFLATE 1: 4.0 s without the predictor, 3.4 s with it (355 / 262 MB: DEFLATE is no faster on
+//   raw floats, so the predictor comes free there); DEFLATE 6: 7.7 s, 253 MB; DEFLATE 9: 35 s,
+//   250 MB.
+// Hence fast = ZSTD 1 without the float predictor, small = level 6 with it (the knee: level 9 and
+// above buy under 1 %), deflate = level 1 with predictors (level 6 doubles the time for 4 %).
+constexpr int kFastZstdLevel = 1;
+constexpr int kSmallZstdLevel = 6;
+constexpr int kDeflateLevel = 1;
+constexpr int kSmallDeflateLevel = 6;  // small without ZSTD
+
+// The one place a compression profile becomes codec, level and predictor (rv/raster_io.hpp has
+// the profiles' contract). Integer codes always get the horizontal-differencing predictor (2).
+// Without ZSTD, fast is the deflate profile: DEFLATE is no slower with the float predictor.
+Encoding encoding_for(Compression c, bool floating, bool zstd) {
+  const int predictor = floating ? 3 : 2;
+  switch (c) {
+    case Compression::fast:
+      if (zstd) return {"ZSTD", kFastZstdLevel, floating ? 1 : 2};
+      return {"DEFLATE", kDeflateLevel, predictor};
+    case Compression::small:
+      return zstd ? Encoding{"ZSTD", kSmallZstdLevel, predictor} : Encoding{"DEFLATE", kSmallDeflateLevel, predictor};
+    case Compression::deflate: return {"DEFLATE", kDeflateLevel, predictor};
+    case Compression::none: return {"NONE", 0, 1};
+  }
+  throw Error(ErrorKind::internal, "unknown compression profile");
+}
+
+// The encoding as the GTiff driver's creation options.
+void set_gtiff_encoding(CPLStringList& co, const Encoding& e) {
+  co.SetNameValue("COMPRESS", e.codec);
+  if (std::strcmp(e.codec, "ZSTD") == 0) co.SetNameValue("ZSTD_LEVEL", std::to_string(e.level).c_str());
+  if (std::strcmp(e.codec, "DEFLATE") == 0) co.SetNameValue("ZLEVEL", std::to_string(e.level).c_str());
+  if (e.predictor != 1) co.SetNameValue("PREDICTOR", std::to_string(e.predictor).c_str());
+}
+
+// The same encoding as the COG driver's options: it names the level LEVEL for every codec and
+// the predictor by name; overviews are encoded like the full resolution.
+void set_cog_encoding(CPLStringList& co, const Encoding& e) {
+  co.SetNameValue("COMPRESS", e.codec);
+  co.SetNameValue("OVERVIEW_COMPRESS", e.codec);
+  if (std::strcmp(e.codec, "NONE") != 0) co.SetNameValue("LEVEL", std::to_string(e.level).c_str());
+  const char* predictor = e.predictor == 2 ? "STANDARD" : e.predictor == 3 ? "FLOATING_POINT" : "NO";
+  co.SetNameValue("PREDICTOR", predictor);
+  co.SetNameValue("OVERVIEW_PREDICTOR", predictor);
+}
+
+// The file's data type: T, or for integer rasters with a stated range the narrowest type that
+// holds [0, max_code] (owner codes of up to 255 owners take a quarter of the bytes to encode).
+template <class T>
+GDALDataType file_type(const GeoTiffOptions& options) {
+  if constexpr (PixelType<T>::floating) {
+    return PixelType<T>::gdal;
+  } else {
+    if (options.max_code < 0) return GDT_Int32;
+    if (options.max_code <= UINT8_MAX) return GDT_Byte;
+    if (options.max_code <= UINT16_MAX) return GDT_UInt16;
+    return GDT_Int32;
+  }
+}
+
+// Copies n codes into the file's type, each checked against [0, max]: false when one lies
+// outside (a negative code wraps to a large unsigned one). The check makes a caller's wrong
+// max_code an error instead of silently wrapped codes, at no extra pass over the cells. The
+// inner loop has a fixed count so that GCC vectorises it at -O2 (its "very cheap" cost model
+// only takes loops without a remainder): 0.3 instead of 0.6 ns a cell.
+template <class Out>
+bool store_codes(const int32_t* __restrict in, Out* __restrict out, int64_t n, uint32_t max) {
+  constexpr int64_t kChunk = 32;
+  uint32_t over = 0;
+  int64_t i = 0;
+  for (; i + kChunk <= n; i += kChunk) {
+    for (int64_t j = 0; j < kChunk; ++j) {
+      const auto v = static_cast<uint32_t>(in[i + j]);
+      over |= static_cast<uint32_t>(v > max);
+      out[i + j] = static_cast<Out>(v);
+    }
+  }
+  for (; i < n; ++i) {
+    const auto v = static_cast<uint32_t>(in[i]);
+    over |= static_cast<uint32_t>(v > max);
+    out[i] = static_cast<Out>(v);
+  }
+  return over == 0;
 }
 
 std::string thread_option(int threads) { return threads <= 0 ? "ALL_CPUS" : std::to_string(threads); }
@@ -186,26 +275,40 @@ void write_categories(GDALRasterBand& band, const std::vector<std::string>& labe
   if (band.SetCategoryNames(names.List()) != CE_None) fail(path, "cannot set the category names", capture);
 }
 
-// Checks shared by every writer, before anything is created: a usable size, labels only on
-// Int32, an existing target directory.
+// Checks shared by every writer, before anything is created: a usable size, labels and a code
+// range only on integer rasters, nodata inside the range, an existing target directory.
 template <class T>
-void check_target(const std::string& path, const Window& window, const GeoTiffOptions& options) {
+void check_target(const std::string& path, const Window& window, double nodata, const GeoTiffOptions& options) {
   if (window.width <= 0 || window.height <= 0)
     throw Error(ErrorKind::invalid_argument, "writing " + path + ": the raster is empty or inconsistent");
   if (window.width > INT32_MAX || window.height > INT32_MAX)
     throw Error(ErrorKind::too_large, "writing " + path + ": more than 2^31 columns or rows");
-  if (!options.category_labels.empty() && PixelType<T>::gdal != GDT_Int32)
-    throw Error(ErrorKind::invalid_argument, "writing " + path + ": category labels need an Int32 raster");
+  if (!options.category_labels.empty() && PixelType<T>::floating)
+    throw Error(ErrorKind::invalid_argument, "writing " + path + ": category labels need an integer raster");
+  if (options.max_code >= 0) {
+    if (PixelType<T>::floating)
+      throw Error(ErrorKind::invalid_argument, "writing " + path + ": a code range needs an integer raster");
+    if (options.max_code > INT32_MAX)
+      throw Error(ErrorKind::invalid_argument, "writing " + path + ": max_code above 2^31-1");
+    if (!(nodata >= 0.0 && nodata <= static_cast<double>(options.max_code) && nodata == std::floor(nodata)))
+      throw Error(ErrorKind::invalid_argument, "writing " + path + ": the nodata value is not a code in 0.." +
+                                                   std::to_string(options.max_code));
+  }
   const std::string dir = directory_of(path);
   if (path.rfind("/vsi", 0) != 0 && !exists(dir))
     throw Error(ErrorKind::io, "writing " + path + ": the directory " + dir + " does not exist");
 }
 
 template <class T>
-void check_raster(const std::string& path, const Raster<T>& raster, const GeoTiffOptions& options) {
+void check_raster(const std::string& path, const Raster<T>& raster, double nodata, const GeoTiffOptions& options) {
   if (raster.size() != static_cast<size_t>(raster.width() * raster.height()))
     throw Error(ErrorKind::invalid_argument, "writing " + path + ": the raster is empty or inconsistent");
-  check_target<T>(path, raster.window(), options);
+  check_target<T>(path, raster.window(), nodata, options);
+}
+
+[[noreturn]] void out_of_range(const std::string& path, int64_t max_code) {
+  throw Error(ErrorKind::invalid_argument,
+              "writing " + path + ": a value outside the stated code range 0.." + std::to_string(max_code));
 }
 
 }  // namespace
@@ -216,11 +319,12 @@ void check_raster(const std::string& path, const Raster<T>& raster, const GeoTif
 template <class T>
 struct GeoTiffStripWriter<T>::State {
   State(const std::string& p, const Window& w, double nd, const GeoTiffOptions& o)
-      : path(p), window(w), nodata(nd), options(o), out(p) {}
+      : path(p), window(w), nodata(nd), options(o), type(file_type<T>(o)), out(p) {}
   std::string path;
   Window window;
   double nodata;
   GeoTiffOptions options;
+  GDALDataType type;  // the file's data type (T, or narrower codes)
   TempOutput out;
   gdal::DatasetPtr ds;
   GDALRasterBand* band = nullptr;
@@ -229,7 +333,10 @@ struct GeoTiffStripWriter<T>::State {
   // boundary; allocated on first use, so strips of whole tile rows never copy.
   std::vector<T> pending;
   int64_t pending_rows = 0;
+  // One tile in the file's type: only the one `type` needs is ever allocated.
   std::vector<T> tile;
+  std::vector<uint16_t> tile16;
+  std::vector<uint8_t> tile8;
   bool failed = false;
   bool finished = false;
 
@@ -243,23 +350,51 @@ struct GeoTiffStripWriter<T>::State {
   };
 
   // Compresses one band of tiles: `h` rows (kBlock, or fewer in the last band) starting at
-  // `rows`, `stride` cells apart. Edge tiles: the part outside the raster is padding, filled
-  // with nodata so that it compresses to nothing and never shows real-looking values.
+  // `rows`, `stride` cells apart, converted to the file's type on the way into the tile.
   void write_band(const T* rows, int64_t h, int64_t stride, const gdal::ErrorCapture& capture) {
+    if constexpr (PixelType<T>::floating) {
+      write_band_as(rows, h, stride, tile, capture);
+    } else {
+      switch (type) {
+        case GDT_Byte: write_band_as(rows, h, stride, tile8, capture); break;
+        case GDT_UInt16: write_band_as(rows, h, stride, tile16, capture); break;
+        default: write_band_as(rows, h, stride, tile, capture); break;
+      }
+    }
+  }
+
+  // Edge tiles: the part outside the raster is padding, filled with nodata so that it compresses
+  // to nothing and never shows real-looking values.
+  template <class Out>
+  void write_band_as(const T* rows, int64_t h, int64_t stride, std::vector<Out>& buffer,
+                     const gdal::ErrorCapture& capture) {
     const int64_t by = rows_written / kBlock;
-    tile.resize(static_cast<size_t>(kBlock) * kBlock);
+    buffer.resize(static_cast<size_t>(kBlock) * kBlock);
     for (int64_t bx = 0; bx * kBlock < window.width; ++bx) {
       const int64_t x0 = bx * kBlock;
       const int64_t w = std::min<int64_t>(kBlock, window.width - x0);
-      if (w < kBlock || h < kBlock) std::fill(tile.begin(), tile.end(), static_cast<T>(nodata));
-      for (int64_t r = 0; r < h; ++r)
-        std::memcpy(tile.data() + r * kBlock, rows + r * stride + x0, static_cast<size_t>(w) * sizeof(T));
+      if (w < kBlock || h < kBlock) std::fill(buffer.begin(), buffer.end(), static_cast<Out>(nodata));
+      for (int64_t r = 0; r < h; ++r) store(rows + r * stride + x0, buffer.data() + r * kBlock, w);
       // WriteBlock bypasses the block cache; GDAL copies the tile into its compression queue, so
       // the buffer is free again when it returns.
-      if (band->WriteBlock(static_cast<int>(bx), static_cast<int>(by), tile.data()) != CE_None)
+      if (band->WriteBlock(static_cast<int>(bx), static_cast<int>(by), buffer.data()) != CE_None)
         fail(path, "cannot write tile (" + std::to_string(bx) + ", " + std::to_string(by) + ")", capture);
     }
     rows_written += h;
+  }
+
+  // n cells into the file's type; codes are checked against the stated range.
+  template <class Out>
+  void store(const T* in, Out* out, int64_t n) const {
+    if constexpr (std::is_same_v<Out, T>) {
+      if (PixelType<T>::floating || options.max_code < 0) {
+        std::memcpy(out, in, static_cast<size_t>(n) * sizeof(T));
+        return;
+      }
+    }
+    if constexpr (!PixelType<T>::floating) {
+      if (!store_codes(in, out, n, static_cast<uint32_t>(options.max_code))) out_of_range(path, options.max_code);
+    }
   }
 };
 
@@ -269,7 +404,7 @@ GeoTiffStripWriter<T>::GeoTiffStripWriter(const std::string& path, const GridSpe
   gdal_init();
   if (options.cloud_optimized)
     throw Error(ErrorKind::invalid_argument, "writing " + path + ": a COG cannot be written strip by strip");
-  check_target<T>(path, window, options);
+  check_target<T>(path, window, nodata, options);
   typename State::Scope scope;
   auto state = std::make_unique<State>(path, window, nodata, options);
   GDALDriver* gtiff = GetGDALDriverManager()->GetDriverByName("GTiff");
@@ -278,13 +413,11 @@ GeoTiffStripWriter<T>::GeoTiffStripWriter(const std::string& path, const GridSpe
   co.SetNameValue("TILED", "YES");
   co.SetNameValue("BLOCKXSIZE", std::to_string(kBlock).c_str());
   co.SetNameValue("BLOCKYSIZE", std::to_string(kBlock).c_str());
-  co.SetNameValue("COMPRESS", compression(gtiff));
-  set_level(co, compression(gtiff), options.compression_level);
-  co.SetNameValue("PREDICTOR", PixelType<T>::predictor);
+  set_gtiff_encoding(co, encoding_for(options.compression, PixelType<T>::floating, has_zstd(gtiff)));
   co.SetNameValue("NUM_THREADS", thread_option(options.threads).c_str());
   co.SetNameValue("BIGTIFF", "IF_SAFER");
   state->ds.reset(gtiff->Create(state->out.temp().c_str(), static_cast<int>(window.width),
-                                static_cast<int>(window.height), 1, PixelType<T>::gdal, co.List()));
+                                static_cast<int>(window.height), 1, state->type, co.List()));
   if (!state->ds) fail(path, "cannot create the file", scope.capture);
   describe_dataset(*state->ds, grid, window, nodata, options, path, scope.capture);
   state->band = state->ds->GetRasterBand(1);
@@ -393,28 +526,44 @@ void write_cog(const std::string& path, const Raster<T>& raster, double nodata, 
   GDALDriver* gtiff = GetGDALDriverManager()->GetDriverByName("GTiff");
   if (mem == nullptr || cog == nullptr || gtiff == nullptr)
     throw Error(ErrorKind::unsupported, "GDAL lacks the MEM, COG or GTiff driver");
-  gdal::DatasetPtr src(mem->Create("", static_cast<int>(raster.width()), static_cast<int>(raster.height()), 0,
-                                   PixelType<T>::gdal, nullptr));
+  // The MEM band reads a buffer in the file's type: the raster's own (no copy of a possibly large
+  // raster) unless its codes go into a narrower type, then a narrowed copy of a half or a quarter
+  // of its size. The COG driver writes the source's type.
+  const GDALDataType type = file_type<T>(options);
+  const int64_t n = raster.width() * raster.height();
+  const void* cells = raster.data();
+  std::vector<uint8_t> cells8;
+  std::vector<uint16_t> cells16;
+  if constexpr (!PixelType<T>::floating) {
+    const auto max = static_cast<uint32_t>(options.max_code);
+    bool in_range = true;
+    if (type == GDT_Byte) {
+      cells8.resize(static_cast<size_t>(n));
+      in_range = store_codes(raster.data(), cells8.data(), n, max);
+      cells = cells8.data();
+    } else if (type == GDT_UInt16) {
+      cells16.resize(static_cast<size_t>(n));
+      in_range = store_codes(raster.data(), cells16.data(), n, max);
+      cells = cells16.data();
+    } else if (options.max_code >= 0) {
+      in_range = std::all_of(raster.cells().begin(), raster.cells().end(),
+                             [max](int32_t v) { return static_cast<uint32_t>(v) <= max; });
+    }
+    if (!in_range) out_of_range(path, options.max_code);
+  }
+  gdal::DatasetPtr src(
+      mem->Create("", static_cast<int>(raster.width()), static_cast<int>(raster.height()), 0, type, nullptr));
   if (!src) fail(path, "cannot create the in-memory source", capture);
-  // The MEM band reads the raster's own buffer: no copy of a possibly large raster.
   char pointer[64] = {};
-  CPLPrintPointer(pointer, const_cast<T*>(raster.data()), sizeof(pointer) - 1);
+  CPLPrintPointer(pointer, const_cast<void*>(cells), sizeof(pointer) - 1);
   CPLStringList band_options;
   band_options.SetNameValue("DATAPOINTER", pointer);
-  if (src->AddBand(PixelType<T>::gdal, band_options.List()) != CE_None)
-    fail(path, "cannot wrap the raster in memory", capture);
+  if (src->AddBand(type, band_options.List()) != CE_None) fail(path, "cannot wrap the raster in memory", capture);
   describe_dataset(*src, raster.grid(), raster.window(), nodata, options, path, capture);
 
   CPLStringList co;
   co.SetNameValue("BLOCKSIZE", std::to_string(kBlock).c_str());
-  co.SetNameValue("COMPRESS", compression(gtiff));
-  // The COG driver names the level option LEVEL for every codec.
-  co.SetNameValue("LEVEL", std::to_string(options.compression_level > 0
-                                              ? options.compression_level
-                                              : (std::strcmp(compression(gtiff), "ZSTD") == 0 ? kDefaultZstdLevel : 6))
-                               .c_str());
-  co.SetNameValue("PREDICTOR", "YES");  // the COG driver picks 2 for integers, 3 for floats
-  co.SetNameValue("OVERVIEW_PREDICTOR", "YES");
+  set_cog_encoding(co, encoding_for(options.compression, PixelType<T>::floating, has_zstd(gtiff)));
   co.SetNameValue("NUM_THREADS", thread_option(options.threads).c_str());
   co.SetNameValue("BIGTIFF", "IF_SAFER");
   // Owner codes must never be averaged into codes nobody owns.
@@ -437,7 +586,7 @@ void write_cog(const std::string& path, const Raster<T>& raster, double nodata, 
 template <class T>
 void write_any(const std::string& path, const Raster<T>& raster, double nodata, const GeoTiffOptions& options) {
   gdal_init();
-  check_raster(path, raster, options);
+  check_raster(path, raster, nodata, options);
   if (!options.cloud_optimized) {
     // The plain layout is the strip writer's, fed the whole raster as one strip.
     GeoTiffStripWriter<T> writer(path, raster.grid(), raster.window(), nodata, options);
@@ -498,6 +647,23 @@ Raster<T> read_band(const std::string& path) {
 }
 
 }  // namespace
+
+std::string_view to_string(Compression c) {
+  switch (c) {
+    case Compression::fast: return "fast";
+    case Compression::small: return "small";
+    case Compression::deflate: return "deflate";
+    case Compression::none: return "none";
+  }
+  return "?";
+}
+
+Compression parse_compression(std::string_view name) {
+  for (Compression c : {Compression::fast, Compression::small, Compression::deflate, Compression::none})
+    if (name == to_string(c)) return c;
+  throw Error(ErrorKind::invalid_argument, "unknown compression profile '" + std::string(name.substr(0, 64)) +
+                                               "' (expected fast, small, deflate or none)");
+}
 
 void write_geotiff(const std::string& path, const Raster<int32_t>& raster, double nodata, const GeoTiffOptions& options) {
   write_any(path, raster, nodata, options);

@@ -18,6 +18,7 @@
 #include <nlohmann/json.hpp>
 
 #include "rv/engine.hpp"
+#include "rv/raster_io.hpp"
 #include "rv/seed_reader.hpp"
 
 namespace rv {
@@ -30,11 +31,14 @@ struct GridRequest {
 };
 
 struct OutputRequest {
-  std::string ownership;        // Int32 owner codes GeoTIFF (required by the CLI)
+  // The code rasters (ownership, nearest feature) are written in the narrowest integer type that
+  // holds every code: Byte up to 255 owners / features, UInt16 up to 65535, else Int32.
+  std::string ownership;        // owner codes GeoTIFF, nodata 0 (required by the CLI)
   std::string distance;         // Float32 distance GeoTIFF
-  std::string nearest_feature;  // Int32 1-based feature index GeoTIFF
+  std::string nearest_feature;  // 1-based feature position GeoTIFF, nodata 0
   std::string report;           // JSON report file
   bool cloud_optimized = false; // write COGs (the daemon does)
+  Compression compression = Compression::fast;  // every GeoTIFF of the job (rv/raster_io.hpp)
 
   // Maritime deliverables (rv/deliverables.hpp). They are always computed from an exact field:
   // with a scan method the job also runs the exact method for them.

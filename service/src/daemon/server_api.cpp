@@ -162,15 +162,18 @@ json process_description(const std::string& base) {
           "unit": {"type": "string", "enum": ["m", "km", "nmi"]}}}]}}},
     "limitsPerOwner": {"title": "Limits per owner", "description": "Output 'limits': one set of lines per owner (distance to that owner's seeds) instead of one set for all seeds.",
       "minOccurs": 0, "maxOccurs": 1, "schema": {"type": "boolean", "default": false}},
+    "compression": {"title": "GeoTIFF compression", "description": "How the raster outputs are compressed, all lossless: fast (default; ZSTD level 1, no predictor on Float32), small (ZSTD level 6 with predictors: the smallest files, slower), deflate (DEFLATE level 1 with predictors, for readers without ZSTD), none (uncompressed).",
+      "minOccurs": 0, "maxOccurs": 1,
+      "schema": {"type": "string", "enum": ["fast", "small", "deflate", "none"], "default": "fast"}},
     "simplify": {"title": "Simplification tolerance", "description": "Douglas-Peucker tolerance of the boundary and limit lines, in cells; kept vertices stay exact locus points. 0 keeps every vertex.",
       "minOccurs": 0, "maxOccurs": 1, "schema": {"type": "number", "minimum": 0, "default": 0}}
   })json");
   static const json outputs = json::parse(R"json({
-    "ownership": {"title": "Ownership raster", "description": "Int32 owner codes (0 = none), a Cloud Optimized GeoTIFF with a raster attribute table (served also as ownership.aux.xml).",
+    "ownership": {"title": "Ownership raster", "description": "Owner codes (0 = none) in the narrowest integer type that holds them (Byte up to 255 owners, UInt16 up to 65535, else Int32), a Cloud Optimized GeoTIFF with a raster attribute table (served also as ownership.aux.xml).",
       "schema": {"type": "string", "contentEncoding": "binary", "contentMediaType": "image/tiff; application=geotiff; profile=cloud-optimized"}},
     "distance": {"title": "Distance raster", "description": "Float32 distance to the nearest seed (-1 = none), a Cloud Optimized GeoTIFF.",
       "schema": {"type": "string", "contentEncoding": "binary", "contentMediaType": "image/tiff; application=geotiff; profile=cloud-optimized"}},
-    "nearestFeature": {"title": "Nearest-feature raster", "description": "Int32 1-based position of the nearest seed feature in the input (0 = none), a Cloud Optimized GeoTIFF.",
+    "nearestFeature": {"title": "Nearest-feature raster", "description": "1-based position of the nearest seed feature in the input (0 = none), in the narrowest integer type that holds them (Byte, UInt16 or Int32), a Cloud Optimized GeoTIFF.",
       "schema": {"type": "string", "contentEncoding": "binary", "contentMediaType": "image/tiff; application=geotiff; profile=cloud-optimized"}},
     "report": {"title": "Job report", "description": "What was computed: grid, seeds, method, timings, validation, deliverables.",
       "schema": {"type": "object", "contentMediaType": "application/json"}},

@@ -376,7 +376,7 @@ Execution parse_execution(const json& body, const std::string& job_id, const Ser
   static const std::set<std::string> known = {"seeds", "ownerField", "resolution", "extent", "crs",
                                               "metric", "method", "maxDistance", "distanceUnits",
                                               "validate", "limitDistances", "limitsPerOwner",
-                                              "simplify"};
+                                              "simplify", "compression"};
   for (const auto& [key, value] : in.items()) {
     if (!known.count(key)) {
       throw Error(ErrorKind::invalid_argument,
@@ -476,8 +476,17 @@ Execution parse_execution(const json& body, const std::string& job_id, const Ser
     }
     spec.outputs.simplify_cells = v.get<double>();
   }
+  if (in.contains("compression")) {
+    const std::string c = string_value(in.at("compression"), "compression");
+    try {
+      spec.outputs.compression = parse_compression(c);
+    } catch (const Error& e) {
+      bad("compression", e.what());
+    }
+  }
   for (const char* key : {"ownerField", "resolution", "extent", "crs", "metric", "method", "maxDistance",
-                          "distanceUnits", "validate", "limitDistances", "limitsPerOwner", "simplify"}) {
+                          "distanceUnits", "validate", "limitDistances", "limitsPerOwner", "simplify",
+                          "compression"}) {
     if (in.contains(key)) ex.inputs_summary[key] = in.at(key);
   }
 

@@ -1,10 +1,12 @@
 // Writing and reading GeoTIFFs through GDAL. GDAL types stay behind this header.
 //
-// Layout of a written file: one band, tiled 256x256, ZSTD compression (level 3 unless
-// compression_level says otherwise (default level 1); DEFLATE where this GDAL lacks ZSTD) with the horizontal predictor (2) for Int32 and the floating-point predictor (3)
-// for Float32, BIGTIFF=IF_SAFER, compressed by `threads` threads. The geotransform is
-// {xmin, res, 0, ymax, 0, -res} of the raster's window (Raster::window() inside Raster::grid()),
-// the CRS is GridSpec::crs (any definition OSR understands; none written when empty).
+// Layout of a written file: one band, tiled 256x256, compressed as GeoTiffOptions::compression
+// says (a profile, below), BIGTIFF=IF_SAFER, compressed by `threads` threads. Data type: Float32
+// for float rasters; Int32 for integer rasters, or the narrowest of Byte / UInt16 / Int32 that
+// holds every value when the caller states the largest (GeoTiffOptions::max_code). The
+// geotransform is {xmin, res, 0, ymax, 0, -res} of the raster's window (Raster::window() inside
+// Raster::grid()), the CRS is GridSpec::crs (any definition OSR understands; none written when
+// empty).
 // Category labels go into a raster attribute table (columns Value: Integer, Owner: String) and
 // the band's category names; GDAL 3.6 keeps both in the PAM sidecar `<path>.aux.xml`, written
 // and renamed together with the file (a stale sidecar of an earlier file of that name is
@@ -17,6 +19,7 @@
 #include <map>
 #include <memory>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "rv/grid.hpp"
@@ -24,27 +27,52 @@
 
 namespace rv {
 
+// How a GeoTIFF is compressed: a few named profiles (the CLI's --compression, the daemon's input
+// "compression"). Each profile is one decision of codec, level and predictor per data type, made
+// in one place (raster_io.cpp) for the plain GeoTIFF and the COG alike. Every profile is lossless.
+// Times and sizes on the 1e8-cell benchmark: bench/RESULTS-encoding.md.
+//   fast     (default) ZSTD level 1; horizontal-differencing predictor (2) on integer rasters, no
+//            predictor on Float32: the floating-point predictor (3) costs more time than the ZSTD
+//            pass itself, for a distance raster about a quarter smaller.
+//   small    ZSTD level 6 with predictors 2 (integers) and 3 (Float32): the smallest files worth
+//            their time (higher levels shrink them by under 1 %); about 5x fast's encoding time.
+//   deflate  DEFLATE level 1 with predictors 2 and 3: for readers whose libtiff lacks ZSTD
+//            (libtiff < 4.0.10, GDAL < 2.3, some non-GDAL tools).
+//   none     uncompressed: the fastest to write and the largest.
+// Where this GDAL's libtiff lacks ZSTD, fast is the deflate profile and small DEFLATE level 6 with
+// predictors 2 and 3.
+enum class Compression { fast, small, deflate, none };
+
+std::string_view to_string(Compression c);
+// The profile named `name` (exactly one of the names above). Throws rv::Error(invalid_argument)
+// naming the accepted profiles for anything else.
+Compression parse_compression(std::string_view name);
+
 struct GeoTiffOptions {
   bool cloud_optimized = false;  // COG layout with overviews (nearest for categorical bands,
                                  // average otherwise), made by the COG driver
   bool categorical = false;      // owner codes: overviews never invent values
   int threads = 0;               // compression threads, 0 = all
-  int compression_level = 0;     // 0 = ours: ZSTD 1 (GDAL's default 9 costs ~11x the time for
-                                 // ~8% smaller distance rasters), DEFLATE 6; else ZSTD 1..22 /
-                                 // DEFLATE 1..12, passed to GDAL as given
+  Compression compression = Compression::fast;
+  // Integer rasters only (else invalid_argument): the largest value the caller will write, or -1
+  // (default) for an Int32 file holding any value. With 0 <= max_code <= 2^31-1 the file gets the
+  // narrowest type that holds [0, max_code]: Byte up to 255, UInt16 up to 65535, Int32 above; every
+  // value written and the nodata value must then lie in [0, max_code], else the write throws
+  // invalid_argument (nothing is left behind). For owner codes 1..K and feature numbers.
+  int64_t max_code = -1;
   std::map<std::string, std::string> metadata;  // band metadata items (e.g. UNITS)
   std::string units;             // band unit type (e.g. "m", "nmi")
   std::vector<std::string> category_labels;     // value i+1 -> label: written as a raster attribute
-                                                // table; Int32 rasters only (else invalid_argument)
+                                                // table; integer rasters only (else invalid_argument)
 };
 
 // Writes to `path` atomically (a hidden temporary name in the same directory, then rename): a
-// reader never sees half a file, and on failure nothing is left behind. Nodata: 0 for Int32 owner
-// codes, -1 for Float32 distances (the engine's kNoDistance), as given by `nodata`.
+// reader never sees half a file, and on failure nothing is left behind. Nodata: 0 for integer
+// owner codes, -1 for Float32 distances (the engine's kNoDistance), as given by `nodata`.
 // The sidecar (when there are category labels) is renamed just before the file.
 // Throws rv::Error: io (cannot create, write or rename; the message carries GDAL's reason),
-// invalid_argument (empty raster, unparsable CRS, labels on a Float32 raster),
-// too_large (more than 2^31 columns or rows).
+// invalid_argument (empty raster, unparsable CRS, labels or max_code on a Float32 raster, a
+// value or the nodata value outside [0, max_code]), too_large (more than 2^31 columns or rows).
 void write_geotiff(const std::string& path, const Raster<int32_t>& raster, double nodata,
                    const GeoTiffOptions& options);
 void write_geotiff(const std::string& path, const Raster<float>& raster, double nodata,
@@ -80,7 +108,8 @@ class GeoTiffStripWriter {
 
   // Appends `rows` whole rows below those already written: rows * window.width values,
   // row-major, no padding. The caller's buffer is free again when the call returns. Throws
-  // invalid_argument (more rows than the raster has left, or after finish()), io.
+  // invalid_argument (more rows than the raster has left, or after finish(), or a value outside
+  // [0, options.max_code]: the writer has then failed, see above), io.
   void write_rows(const T* cells, int64_t rows);
   // Rows accepted so far.
   int64_t rows_written() const;
@@ -102,8 +131,9 @@ extern template class GeoTiffStripWriter<float>;
 // invalid_input for rotated, south-up or non-square-cell rasters, or a file that is not a raster).
 GridSpec read_grid(const std::string& path);
 
-// Reads band 1 back (tests and validation), converted to the requested type by GDAL. The result's
-// grid is read_grid(path) and its window the whole grid.
+// Reads band 1 back (tests and validation), converted to the requested type by GDAL (so
+// read_int32 reads Byte, UInt16 and Int32 code rasters alike). The result's grid is
+// read_grid(path) and its window the whole grid.
 Raster<int32_t> read_int32(const std::string& path);
 Raster<float> read_float32(const std::string& path);
 
