@@ -169,6 +169,7 @@ struct GeoWorker {
   std::vector<double> wcol;                         // column weights, 4 per column
   std::vector<double> best, second, cx, cy, cz;     // per column of the block's row
   std::vector<int32_t> best_id;
+  std::vector<unsigned char> close;  // solve_interp: cells decided exactly
 };
 
 #if defined(__SANITIZE_THREAD__)
@@ -818,32 +819,55 @@ class GeodesicExactSolver {
     for (int64_t c = 0; c < n; ++c) weights_col(c0 + c, &wk.wcol[static_cast<size_t>(4 * c)]);
     for (auto* v : {&wk.best, &wk.second, &wk.cx, &wk.cy, &wk.cz}) v->resize(static_cast<size_t>(n));
     wk.best_id.resize(static_cast<size_t>(n));
+    wk.close.resize(static_cast<size_t>(n));
     const bool bounded = std::isfinite(max_distance_);
     for (int64_t r = r0; r < r1; ++r) {
       double wt[4];
       weights_row(r, wt);
-      for (int64_t c = 0; c < n; ++c) {
-        const GeoCell p = cell_at(c0 + c, r);
-        wk.cx[c] = p.x;
-        wk.cy[c] = p.y;
-        wk.cz[c] = p.z;
-        wk.best[c] = std::numeric_limits<double>::infinity();
-        wk.second[c] = std::numeric_limits<double>::infinity();
-        wk.best_id[c] = kNoSite;
+      if (located_) {
+        for (int64_t c = 0; c < n; ++c) {
+          const GeoCell p = cell_at(c0 + c, r);
+          wk.cx[c] = p.x;
+          wk.cy[c] = p.y;
+          wk.cz[c] = p.z;
+        }
+      } else {  // cell_at's arithmetic, a row at a time
+        const double rho = rho_[static_cast<size_t>(r)], z = z_[static_cast<size_t>(r)];
+        const double* cs = &cos_[static_cast<size_t>(c0)];
+        const double* sn = &sin_[static_cast<size_t>(c0)];
+        for (int64_t c = 0; c < n; ++c) {
+          wk.cx[c] = rho * cs[c];
+          wk.cy[c] = rho * sn[c];
+          wk.cz[c] = z;
+        }
       }
+      std::fill(wk.best.begin(), wk.best.begin() + n, std::numeric_limits<double>::infinity());
+      std::fill(wk.second.begin(), wk.second.begin() + n, std::numeric_limits<double>::infinity());
+      std::fill(wk.best_id.begin(), wk.best_id.begin() + n, kNoSite);
       for (const Interpolant* it : wk.interp) {
         double qr[4];
         for (int b = 0; b < 4; ++b) qr[b] = wt[0] * it->q[0][b] + wt[1] * it->q[1][b] + wt[2] * it->q[2][b] + wt[3] * it->q[3][b];
         interp_row(wk.wcol.data(), qr, it->sx, it->sy, it->sz, it->id, wk.cx.data(), wk.cy.data(), wk.cz.data(), n,
                    wk.best.data(), wk.second.data(), wk.best_id.data());
       }
+      // Every cell as put() would write it, without branches; then the close calls (rare)
+      // are decided exactly and overwrite theirs.
+      int32_t* site_row = site_.row(r) + c0;
+      float* distance_row = distance_.row(r) + c0;
+      unsigned char* close = wk.close.data();
+      unsigned char any = 0;
       for (int64_t c = 0; c < n; ++c) {
         const double b = wk.best[c];
-        if (wk.second[c] - b <= kInterpTie || (bounded && std::abs(b - max_distance_) <= kInterpTie))
-          resolve_exactly(wk, cands, c0 + c, r, b);
-        else
-          put(c0 + c, r, wk.best_id[c], b);
+        const bool tie = wk.second[c] - b <= kInterpTie || (bounded && std::abs(b - max_distance_) <= kInterpTie);
+        close[c] = tie;
+        any |= static_cast<unsigned char>(tie);
+        const bool none = wk.best_id[c] == kNoSite || b > max_distance_;
+        site_row[c] = none ? kNoSite : wk.best_id[c];
+        distance_row[c] = none ? kNoDistance : static_cast<float>(b);
       }
+      if (any)
+        for (int64_t c = 0; c < n; ++c)
+          if (close[c]) resolve_exactly(wk, cands, c0 + c, r, wk.best[c]);
     }
   }
 
