@@ -416,13 +416,7 @@ class ExactSolver {
 
   // True when every cell of the block has its centre inside a polygon (one span per row).
   bool fully_interior(int64_t c0, int64_t r0, int64_t c1, int64_t r1) const {
-    if (ctx_.interiors == nullptr) return false;
-    for (int64_t r = r0; r < r1; ++r) {
-      const std::vector<Span>& row = ctx_.interiors->rows[static_cast<size_t>(r)];
-      auto it = std::upper_bound(row.begin(), row.end(), c0, [](int64_t c, const Span& s) { return c < s.col0; });
-      if (it == row.begin() || std::prev(it)->col1 < c1) return false;
-    }
-    return true;
+    return ctx_.interiors != nullptr && ctx_.interiors->covers(c0, r0, c1, r1);
   }
 
   // Inside polygons every cell ends at distance 0 with its area site; the only thing left to

@@ -86,6 +86,16 @@ bool InteriorSpans::empty() const {
   return true;
 }
 
+bool InteriorSpans::covers(int64_t c0, int64_t r0, int64_t c1, int64_t r1) const {
+  for (int64_t r = r0; r < r1; ++r) {
+    const std::vector<Span>& row = rows[static_cast<size_t>(r)];
+    // The last span starting at or before c0 must reach c1 (spans are disjoint and sorted).
+    auto it = std::upper_bound(row.begin(), row.end(), c0, [](int64_t c, const Span& s) { return c < s.col0; });
+    if (it == row.begin() || std::prev(it)->col1 < c1) return false;
+  }
+  return true;
+}
+
 InteriorSpans build_interiors(const SeedSet& seeds, const GridSpec& grid, const Window& window) {
   return build_interiors(seeds, seeds.polygons(), grid, window);
 }

@@ -30,6 +30,9 @@ struct InteriorSpans {
   int64_t contested_cells = 0;          // cells claimed by polygons of two or more owners
   int64_t cell_count() const;           // cells inside any polygon
   bool empty() const;
+  // True when every cell of window-relative columns [c0, c1) x rows [r0, r1) (non-empty, inside
+  // the window) has its centre inside a polygon: one span covers each row's columns.
+  bool covers(int64_t c0, int64_t r0, int64_t c1, int64_t r1) const;
 };
 
 InteriorSpans build_interiors(const SeedSet& seeds, const GridSpec& grid, const Window& window);
