@@ -77,6 +77,7 @@ constexpr int64_t kInterpSolveBlock = 64;     // culling goes on down to blocks 
                                               // the interpolants stay those of the larger block
 constexpr int64_t kInterpMinBlock = 8;        // cells
 constexpr double kAdditiveMinPlane = 0.1;     // metres: see build_line_interpolant
+constexpr double kAdditiveMinValue = 1.0;     // metres: see value()
 constexpr int64_t kInterpMinEdge = 4;         // a block clipped by the grid below this: per cell
 constexpr size_t kInterpMaxCandidates = 24;   // more candidates: subdivide (or per cell)
 constexpr double kInterpCheck = 5e-6;         // metres: accepted error at the block's centre
@@ -776,9 +777,15 @@ class GeodesicExactSolver {
           weights_col(c, own.wc);
           cell = &own;
         }
-        exact = false;
-        if (from) *from = it;
-        return apply(*it, eval(*it, cell->wt, cell->wc), p.x, p.y, p.z);
+        const double v = apply(*it, eval(*it, cell->wt, cell->wc), p.x, p.y, p.z);
+        // The additive form's error is absolute (~1e-8 m): within kAdditiveMinValue of the edge
+        // it would be more than the last bit of the float32 written, so those few cells are
+        // measured exactly.
+        if (!it->additive || v >= kAdditiveMinValue) {
+          exact = false;
+          if (from) *from = it;
+          return v;
+        }
       }
     }
     exact = true;
