@@ -208,7 +208,7 @@ double GeoSites::lower_bound(const EcefBox& box, int32_t id) const {
 
 double GeoSites::distance(const GeoCell& p, int32_t id, GeoEnd* end) const {
   const GeoSite& s = sites_[static_cast<size_t>(id)];
-  if (end) end->valid = false;
+  if (end) *end = GeoEnd{};
   if (!s.segment) {
     double d;
     geod_.Inverse(p.lat, p.lon, s.lat, s.lon, d);
@@ -291,7 +291,7 @@ double GeoSites::piece_distance(const GeoCell& p, const GeoSite& site, const Geo
                                 GeoEnd* end) const {
   GeodesicSegmentCounters& counters = geodesic_segment_counters();
   ++counters.calls;
-  if (end) end->valid = false;
+  if (end) *end = GeoEnd{};
   const GeographicLib::GeodesicLine& line = lines_[static_cast<size_t>(site.line)];
   const bool first_piece = piece.ta == 0.0;
   const bool last_piece = piece.tb == site.length;
@@ -316,9 +316,10 @@ double GeoSites::piece_distance(const GeoCell& p, const GeoSite& site, const Geo
     }
     double s, azi1, azi2, m12, M12, M21;
     geod_.Inverse(lat, lon, p.lat, p.lon, s, azi1, azi2, m12, M12, M21);
-    best = std::min(best, s);
     double sin_w, cos_w;
     Math::sincosd(Math::AngDiff(azi, azi1), sin_w, cos_w);
+    if (s < best && end) end->sin_w = sin_w;
+    best = std::min(best, s);
     const bool usable = m12 > 0.0 && M12 > 0.0;
     return Eval{s, cos_w, usable ? m12 * cos_w / M12 : 0.0, azi1, usable};
   };

@@ -75,7 +75,6 @@ constexpr int64_t kInterpSolveBlock = 64;     // culling goes on down to blocks 
                                               // the per-cell pass: fewer candidates per cell, while
                                               // the interpolants stay those of the larger block
 constexpr int64_t kInterpMinBlock = 8;        // cells
-constexpr double kAdditiveMinPlane = 0.1;     // metres: see build_line_interpolant
 constexpr double kAdditiveMinValue = 1.0;     // metres: see value()
 constexpr int64_t kInterpMinEdge = 4;         // a block clipped by the grid below this: per cell
 constexpr size_t kInterpMaxCandidates = 24;   // more candidates: subdivide (or per cell)
@@ -601,15 +600,13 @@ class GeodesicExactSolver {
   // normals, d_line carrying the sign of h is the signed distance to the curve, a smooth
   // function across it, and so is its difference from the linear h: that difference
   // (millimetres near the edge, O(x^3 / R^2) away from it) is interpolated, and the value is
-  // |h + q|. A node's side is taken from h, so nodes within kAdditiveMinPlane of the plane
-  // (where the extended geodesic, ~1 cm off the plane along a short edge, could lie on the
-  // other side) reject the block. Along edges of tens of kilometres the geodesic leaves the
-  // plane by metres; a node given the wrong side then is off by 2 d >= 0.2 m, which moves the
-  // value at the block's centre by more than 7e-4 m (every node's weight there is at least
-  // 0.0039), so the centre check (kInterpCheck) rejects that block. (A ratio d_line / distance-to-the-chord-line, as for points, has a pole
-  // next to the edge, where the two vanish on slightly different curves; measured on the
-  // geodesic_bench coastlines, its worst error offshore was 1e-5 m against 7.6e-9 m for this
-  // form, which also reaches across the edge.)
+  // |h + q|. A node's side is the geodesic's own (the sign of sin w where the search found the
+  // nearest point, GeoEnd::sin_w), not the plane's: the geodesic leaves the plane by up to
+  // metres along long edges, so the plane could put a node on the wrong side of it. (A ratio
+  // d_line / distance to the chord line, as for points, has a pole next to the edge, where the
+  // two vanish on slightly different curves; measured on the geodesic_bench coastlines, its
+  // worst error offshore was 1e-5 m against 7.6e-9 m for this form, which also reaches across
+  // the edge.)
   bool build_line_interpolant(Interpolant& it, int64_t bx0, int64_t by0, int64_t bx1, int64_t by1,
                               int32_t id) const {
     const GeoSite& s = geo_.site(id);
@@ -662,10 +659,12 @@ class GeodesicExactSolver {
     m.flattening = geod.Flattening();
     const GeoSites line(m, std::vector<Site>{extended});
     bool ok = true;
+    double side = 0.0;  // the last node's: > 0 right of the edge, < 0 left (GeoEnd::sin_w)
     auto exact = [&](const GeoCell& p) {
       GeoEnd end;
       const double d = line.distance(p, 0, &end);
       if (end.valid) ok = false;  // nearest at an end of the extension: not the line's distance
+      side = end.sin_w;
       return d;
     };
     for (int a = 0; a < 4 && ok; ++a)
@@ -673,8 +672,11 @@ class GeodesicExactSolver {
         const GeoCell p = cell_at_fraction(node_at(bx0, bx1 - 1, b / 3.0), node_at(by0, by1 - 1, a / 3.0));
         const double d = exact(p);
         const double h = normaliser(it, p.x, p.y, p.z);
-        if (!(d <= kInterpMaxDistance) || !(std::abs(h) >= kAdditiveMinPlane)) return false;
-        it.q[a][b] = (h > 0.0 ? d : -d) - h;
+        // The side comes from the geodesic itself: the direction to the node at its nearest
+        // point is square to the edge, sin w = +-1. A node on the line (d below a millimetre)
+        // or not square to it (an unconverged search) rejects the block.
+        if (!(d <= kInterpMaxDistance) || !(d >= kInterpMinChord) || !(std::abs(side) >= 0.5)) return false;
+        it.q[a][b] = (side > 0.0 ? d : -d) - h;
       }
     if (!ok) return false;
     const GeoCell centre = cell_at_fraction(node_at(bx0, bx1 - 1, 0.5), node_at(by0, by1 - 1, 0.5));

@@ -115,6 +115,10 @@ struct GeoEnd {
   bool valid = false;
   double lat = 0.0, lon = 0.0;  // the vertex
   double azi_to_cell = 0.0;     // azimuth at the vertex of the geodesic to the cell
+  // Whatever the valid flag: at the point of the edge measured nearest, the sine of the angle
+  // from the edge's direction to the geodesic toward the cell (+1 for a cell square to the
+  // right of the edge, -1 to the left; 0 if nothing was measured).
+  double sin_w = 0.0;
 };
 
 class GeoSites {
