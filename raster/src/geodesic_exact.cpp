@@ -81,7 +81,8 @@ constexpr size_t kInterpMaxCandidates = 24;   // more candidates: subdivide (or 
 constexpr double kInterpCheck = 5e-6;         // metres: accepted error at the block's centre
 constexpr double kInterpTie = 1e-4;           // metres: closer calls are decided exactly
 constexpr double kInterpMaxDistance = 1.2e7;  // metres: beyond, the antipode's kink is too near
-constexpr double kInterpMinChord = 1e-3;      // metres: a node on the seed cannot form d / chord
+constexpr double kInterpMinChord = 1e-3;      // metres: a node on the seed (or on an edge)
+                                              // cannot form d / chord (or a side)
 // A segment is nearest at one of its ends V when the geodesic from V to the cell leaves at an
 // angle w against the edge with cos(w) <= 0 (first end; >= 0 at the second): by convexity the
 // distance then grows all along the edge. Per cell this is tested with the normal section's
@@ -501,17 +502,16 @@ class GeodesicExactSolver {
   // kInterpCheck) where it has one, else the exact distance. Cheap where the block's
   // interpolants exist, which the cells will use anyway.
   double probe_distance(GeoWorker& wk, int64_t c, int64_t r, const GeoCell& p, int32_t id) const {
-    const int regime = regime_of(p, id);
-    if (geo_.site(id).segment && regime == 0) return geo_.distance(p, id);
     bool exact = false;
-    const double v = value(wk, c, r, p, id, regime, exact);
+    const double v = value(wk, c, r, p, id, regime_of(p, id), exact);
     return exact ? v : v + kInterpTie;
   }
 
-  // ---- Interpolated point-site distances (see the top of this file) ----
+  // ---- Interpolated distances (see the top of this file) ----
 
-  // The interpolant of point site `id` on the grid-aligned interpolation block that contains
-  // window cell (c, r), or null where it is rejected (the caller then measures exactly).
+  // The interpolant of site `id` (`end` says which part) on the grid-aligned interpolation
+  // block that contains window cell (c, r), or null where it is rejected (the caller then
+  // measures exactly).
   // `end`: 0 for a point site, 1 / 2 for a segment's first / second end, 3 for its interior.
   const Interpolant* interpolant(GeoWorker& wk, int64_t c, int64_t r, int32_t id, int end = 0) const {
     const int64_t S = interp_block_;
@@ -761,15 +761,15 @@ class GeodesicExactSolver {
                const Interpolant** from = nullptr, bool* canonical = nullptr, const CellWeights* cell = nullptr,
                const Interpolant** slots = nullptr) const {
     if (from) *from = nullptr;
-    const int end = regime;
     if (canonical) *canonical = regime == 1 || regime == 2;
-    if (!geo_.site(id).segment || end != 0) {
+    // The regime is interpolant()'s `end`: 0 a point site (a segment's 0 is measured exactly).
+    if (!geo_.site(id).segment || regime != 0) {
       const Interpolant* it;
       if (slots) {
-        if (slots[end] == &kNotLooked) slots[end] = interpolant(wk, c, r, id, end);
-        it = slots[end];
+        if (slots[regime] == &kNotLooked) slots[regime] = interpolant(wk, c, r, id, regime);
+        it = slots[regime];
       } else {
-        it = interpolant(wk, c, r, id, end);
+        it = interpolant(wk, c, r, id, regime);
       }
       if (it) {
         CellWeights own;
