@@ -156,6 +156,14 @@ struct TileCells {
 // The tile the calling thread is solving (set by run() around each tile).
 thread_local const TileCells* tl_tile = nullptr;
 
+// One point-site candidate of solve_interp on the current row: its interpolated quantity
+// already reduced over the row weights (qr), its ECEF point, and its id (a double: exact below
+// 2^53, so one compare mask blends both value and id).
+struct RowCandidate {
+  double qr[4];
+  double sx, sy, sz, id;
+};
+
 struct GeoWorker {
   std::vector<std::vector<int32_t>> levels;  // candidate lists per recursion depth
   std::vector<double> lb;
@@ -168,8 +176,9 @@ struct GeoWorker {
   std::unordered_map<uint64_t, std::unique_ptr<Interpolant>> cache;
   std::vector<double> wcol;                         // column weights, 4 per column
   std::vector<double> best, second, cx, cy, cz;     // per column of the block's row
-  std::vector<int32_t> best_id;
-  std::vector<unsigned char> close;  // solve_interp: cells decided exactly
+  std::vector<double> best_id;
+  std::vector<double> wsoa;          // solve_interp: column weights, weight b of column c at b * stride + c
+  std::vector<RowCandidate> row_cands;  // solve_interp: the candidates on the current row
 };
 
 #if defined(__SANITIZE_THREAD__)
@@ -178,24 +187,88 @@ struct GeoWorker {
 #define RV_GEO_CLONES __attribute__((target_clones("avx2", "default")))
 #endif
 
-// One row of a block against one interpolated candidate: d = chord * (sum_b wcol[4c+b] qr[b]),
-// keeping per cell the best and second-best value and the best's id (strict <: candidates come
-// in ascending id order, so equal values keep the lower id). Written for the vectoriser.
-RV_GEO_CLONES void interp_row(const double* __restrict wcol, const double* __restrict qr, double sx, double sy,
-                              double sz, int32_t id, const double* __restrict cx, const double* __restrict cy,
-                              const double* __restrict cz, int64_t n, double* __restrict best,
-                              double* __restrict second, int32_t* __restrict best_id) {
-  const double q0 = qr[0], q1 = qr[1], q2 = qr[2], q3 = qr[3];
-  for (int64_t c = 0; c < n; ++c) {
-    const double q = wcol[4 * c] * q0 + wcol[4 * c + 1] * q1 + wcol[4 * c + 2] * q2 + wcol[4 * c + 3] * q3;
-    const double dx = cx[c] - sx, dy = cy[c] - sy, dz = cz[c] - sz;
-    const double d = q * std::sqrt(dx * dx + dy * dy + dz * dz);
-    const bool lt = d < best[c];
-    const double b = best[c];
-    second[c] = lt ? b : (d < second[c] ? d : second[c]);
-    best[c] = lt ? d : b;
-    best_id[c] = lt ? id : best_id[c];
+// Cells per step of interp_argmin_row: one 4-wide double vector.
+constexpr int64_t kRowLanes = 4;
+using GeoV4 = double __attribute__((vector_size(32)));
+
+// One row of a block against all its point-site candidates: per cell the smallest and second
+// smallest squared value (q * chord)^2, q = sum_b w_b qr_b, and the id of the smallest (strict
+// <: candidates come in ascending id order, so equal values keep the lower id).
+//
+// Why this shape: the cells are taken four at a time and all k candidates pass while the
+// best, second and id stay in registers (candidate-outer loops loaded and stored them once per
+// candidate per cell); squared values need no square root per candidate (the one root per cell
+// is taken by the caller). The column weights come as four arrays (w + b * stride: weight b of
+// every column), the cells' ECEF positions as three; every array holds n rounded up to a
+// multiple of kRowLanes. Vectors stay inside this function (a 32-byte vector crossing a
+// function boundary has another ABI with and without AVX).
+RV_GEO_CLONES void interp_argmin_row(const RowCandidate* __restrict cand, int k, const double* __restrict w,
+                                     int64_t stride, const double* __restrict cx, const double* __restrict cy,
+                                     const double* __restrict cz, int64_t n, double* __restrict best2,
+                                     double* __restrict second2, double* __restrict best_id) {
+  const double inf = std::numeric_limits<double>::infinity();
+  for (int64_t c = 0; c < n; c += kRowLanes) {
+    GeoV4 a0, a1, a2, a3, x, y, z;
+    std::memcpy(&a0, w + c, sizeof(a0));
+    std::memcpy(&a1, w + stride + c, sizeof(a1));
+    std::memcpy(&a2, w + 2 * stride + c, sizeof(a2));
+    std::memcpy(&a3, w + 3 * stride + c, sizeof(a3));
+    std::memcpy(&x, cx + c, sizeof(x));
+    std::memcpy(&y, cy + c, sizeof(y));
+    std::memcpy(&z, cz + c, sizeof(z));
+    GeoV4 b = GeoV4{} + inf, s = b, id = GeoV4{} + static_cast<double>(kNoSite);
+    for (int j = 0; j < k; ++j) {
+      const RowCandidate& p = cand[j];
+      const GeoV4 q = a0 * p.qr[0] + a1 * p.qr[1] + a2 * p.qr[2] + a3 * p.qr[3];
+      const GeoV4 dx = x - p.sx, dy = y - p.sy, dz = z - p.sz;
+      const GeoV4 key = (q * q) * (dx * dx + dy * dy + dz * dz);
+      const auto lt = key < b;
+      const GeoV4 hi = lt ? b : key;  // what is not the new best competes for second
+      s = hi < s ? hi : s;
+      b = lt ? key : b;
+      id = lt ? GeoV4{} + p.id : id;
+    }
+    std::memcpy(best2 + c, &b, sizeof(b));
+    std::memcpy(second2 + c, &s, sizeof(s));
+    std::memcpy(best_id + c, &id, sizeof(id));
   }
+}
+
+// The outputs of one row of interp_argmin_row's cells (at least one candidate, so every cell
+// has a best id): the distance root(best2), left in best2 for the close calls; the site and
+// distance as put() writes them (no site beyond max_distance); and second2[c] = 1 where the
+// call is too close for interpolated values (the two smallest within kInterpTie, or the best
+// within kInterpTie of max_distance), else 0. Returns whether any cell is close.
+//
+// The close test runs on squares, without a second root: s - b <= t implies
+// s^2 - b^2 = (s - b)(s + b) <= 2 t s, so (s^2 - b^2)^2 <= 4 t^2 s^2 holds for every close call
+// (and for a few calls up to 2 t apart, which are decided exactly too: harmless).
+// Written as loops the vectoriser takes (one root per cell, no branches); the cells beyond a
+// distance limit are fixed afterwards, since a select between converted floats is not taken.
+RV_GEO_CLONES bool interp_store_row(double* __restrict best2, double* __restrict second2,
+                                    const double* __restrict best_id, int64_t n, double max_distance,
+                                    int32_t* __restrict site_row, float* __restrict distance_row) {
+  constexpr double kTie2x4 = 4.0 * kInterpTie * kInterpTie;
+  constexpr double inf = std::numeric_limits<double>::infinity();
+  const double limit_tie = max_distance == inf ? -1.0 : kInterpTie;  // no limit: never close to it
+  int64_t any = 0;
+  for (int64_t c = 0; c < n; ++c) {
+    const double b2 = best2[c], s2 = second2[c], gap = s2 - b2;
+    const double b = std::sqrt(b2);
+    best2[c] = b;
+    const int64_t tie = ((s2 < inf) & (gap * gap <= kTie2x4 * s2)) | (std::abs(b - max_distance) <= limit_tie);
+    second2[c] = tie ? 1.0 : 0.0;
+    any |= tie;
+  }
+  for (int64_t c = 0; c < n; ++c) site_row[c] = static_cast<int32_t>(best_id[c]);
+  for (int64_t c = 0; c < n; ++c) distance_row[c] = static_cast<float>(best2[c]);
+  if (max_distance < inf)
+    for (int64_t c = 0; c < n; ++c)
+      if (best2[c] > max_distance) {
+        site_row[c] = kNoSite;
+        distance_row[c] = kNoDistance;
+      }
+  return any != 0;
 }
 
 class GeodesicExactSolver {
@@ -823,59 +896,56 @@ class GeodesicExactSolver {
       wk.interp.push_back(it);
     }
     const int64_t n = c1 - c0;
-    wk.wcol.resize(static_cast<size_t>(4 * n));
-    for (int64_t c = 0; c < n; ++c) weights_col(c0 + c, &wk.wcol[static_cast<size_t>(4 * c)]);
-    for (auto* v : {&wk.best, &wk.second, &wk.cx, &wk.cy, &wk.cz}) v->resize(static_cast<size_t>(n));
-    wk.best_id.resize(static_cast<size_t>(n));
-    wk.close.resize(static_cast<size_t>(n));
-    const bool bounded = std::isfinite(max_distance_);
+    const int64_t stride = (n + kRowLanes - 1) / kRowLanes * kRowLanes;  // padded: whole vectors
+    wk.wsoa.assign(static_cast<size_t>(4 * stride), 0.0);
+    for (int64_t c = 0; c < n; ++c) {
+      double w[4];
+      weights_col(c0 + c, w);
+      for (int b = 0; b < 4; ++b) wk.wsoa[static_cast<size_t>(b * stride + c)] = w[b];
+    }
+    for (auto* v : {&wk.best, &wk.second, &wk.cx, &wk.cy, &wk.cz, &wk.best_id}) v->assign(static_cast<size_t>(stride), 0.0);
+    wk.row_cands.resize(wk.interp.size());
     for (int64_t r = r0; r < r1; ++r) {
       double wt[4];
       weights_row(r, wt);
+      double* __restrict cx = wk.cx.data();
+      double* __restrict cy = wk.cy.data();
+      double* __restrict cz = wk.cz.data();
       if (located_) {
         for (int64_t c = 0; c < n; ++c) {
           const GeoCell p = cell_at(c0 + c, r);
-          wk.cx[c] = p.x;
-          wk.cy[c] = p.y;
-          wk.cz[c] = p.z;
+          cx[c] = p.x;
+          cy[c] = p.y;
+          cz[c] = p.z;
         }
       } else {  // cell_at's arithmetic, a row at a time
         const double rho = rho_[static_cast<size_t>(r)], z = z_[static_cast<size_t>(r)];
         const double* cs = &cos_[static_cast<size_t>(c0)];
         const double* sn = &sin_[static_cast<size_t>(c0)];
         for (int64_t c = 0; c < n; ++c) {
-          wk.cx[c] = rho * cs[c];
-          wk.cy[c] = rho * sn[c];
-          wk.cz[c] = z;
+          cx[c] = rho * cs[c];
+          cy[c] = rho * sn[c];
+          cz[c] = z;
         }
       }
-      std::fill(wk.best.begin(), wk.best.begin() + n, std::numeric_limits<double>::infinity());
-      std::fill(wk.second.begin(), wk.second.begin() + n, std::numeric_limits<double>::infinity());
-      std::fill(wk.best_id.begin(), wk.best_id.begin() + n, kNoSite);
-      for (const Interpolant* it : wk.interp) {
-        double qr[4];
-        for (int b = 0; b < 4; ++b) qr[b] = wt[0] * it->q[0][b] + wt[1] * it->q[1][b] + wt[2] * it->q[2][b] + wt[3] * it->q[3][b];
-        interp_row(wk.wcol.data(), qr, it->sx, it->sy, it->sz, it->id, wk.cx.data(), wk.cy.data(), wk.cz.data(), n,
-                   wk.best.data(), wk.second.data(), wk.best_id.data());
+      for (size_t j = 0; j < wk.interp.size(); ++j) {
+        const Interpolant* it = wk.interp[j];
+        RowCandidate& rc = wk.row_cands[j];
+        for (int b = 0; b < 4; ++b)
+          rc.qr[b] = wt[0] * it->q[0][b] + wt[1] * it->q[1][b] + wt[2] * it->q[2][b] + wt[3] * it->q[3][b];
+        rc.sx = it->sx;
+        rc.sy = it->sy;
+        rc.sz = it->sz;
+        rc.id = static_cast<double>(it->id);
       }
+      interp_argmin_row(wk.row_cands.data(), static_cast<int>(wk.row_cands.size()), wk.wsoa.data(), stride, cx, cy,
+                        cz, n, wk.best.data(), wk.second.data(), wk.best_id.data());
       // Every cell as put() would write it, without branches; then the close calls (rare)
       // are decided exactly and overwrite theirs.
-      int32_t* site_row = site_.row(r) + c0;
-      float* distance_row = distance_.row(r) + c0;
-      unsigned char* close = wk.close.data();
-      unsigned char any = 0;
-      for (int64_t c = 0; c < n; ++c) {
-        const double b = wk.best[c];
-        const bool tie = wk.second[c] - b <= kInterpTie || (bounded && std::abs(b - max_distance_) <= kInterpTie);
-        close[c] = tie;
-        any |= static_cast<unsigned char>(tie);
-        const bool none = wk.best_id[c] == kNoSite || b > max_distance_;
-        site_row[c] = none ? kNoSite : wk.best_id[c];
-        distance_row[c] = none ? kNoDistance : static_cast<float>(b);
-      }
-      if (any)
+      if (interp_store_row(wk.best.data(), wk.second.data(), wk.best_id.data(), n, max_distance_, site_.row(r) + c0,
+                           distance_.row(r) + c0))
         for (int64_t c = 0; c < n; ++c)
-          if (close[c]) resolve_exactly(wk, cands, c0 + c, r, wk.best[c]);
+          if (wk.second[static_cast<size_t>(c)] != 0.0) resolve_exactly(wk, cands, c0 + c, r, wk.best[static_cast<size_t>(c)]);
     }
   }
 

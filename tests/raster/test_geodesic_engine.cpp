@@ -183,18 +183,28 @@ TEST(GeodesicEngine, InterpolatedDistancesMatchGeographicLib) {
 }
 
 // Equidistant basepoints: cells on the perpendicular bisector are exact ties, decided by exact
-// distances (lower site index), never by the interpolants' last bits.
+// distances (lower site index), never by the interpolants' last bits. Dyadic cells (2^-9
+// degrees) put a column of cell centres exactly on the bisector meridian of two basepoints
+// 0.25 degrees either side of it on one parallel, so every cell of that column is a tie.
 TEST(GeodesicEngine, InterpolatedTiesGoToTheLowerSite) {
-  const GridSpec g = geo_grid(4.0, 1.0, 0.002, 1000, 200);  // 4E .. 6E, 1N .. 0.6N
+  const double res = 1.0 / 512.0;
+  const GridSpec g = geo_grid(4.0, 1.0, res, 1024, 200);  // 4E .. 6E, 1N .. 0.61N
+  const double mid = 4.0 + 512.5 * res;                    // column 512's centre, exact
   SeedSet s;
-  s.add_point(s.add_feature(s.owner_code("B")), {5.0 + 0.2, 0.8});
-  s.add_point(s.add_feature(s.owner_code("A")), {5.0 - 0.2, 0.8});
-  s.add_point(s.add_feature(s.owner_code("C")), {5.0 + 0.2, 0.8});  // same place as site 0
+  s.add_point(s.add_feature(s.owner_code("B")), {mid + 0.25, 0.8});
+  s.add_point(s.add_feature(s.owner_code("A")), {mid - 0.25, 0.8});
+  s.add_point(s.add_feature(s.owner_code("C")), {mid + 0.25, 0.8});  // same place as site 0
   const NearestField f = run(s, g, Method::exact);
   const NearestField b = run(s, g, Method::brute_force);
   EXPECT_EQ(f.site.cells(), b.site.cells());
   expect_within_one_ulp(f.distance, b.distance, "ties");
-  for (int64_t r = 0; r < g.height; ++r) EXPECT_NE(f.site.at(600, r), 2);  // never the duplicate
+  for (int64_t r = 0; r < g.height; ++r) {
+    ASSERT_EQ(b.site.at(512, r), 0) << "brute force: the bisector is a tie, row " << r;
+    EXPECT_EQ(f.site.at(512, r), 0) << "row " << r;
+    EXPECT_EQ(f.site.at(513, r), 0) << "row " << r;  // east of the bisector: site 0, never 2
+    EXPECT_EQ(f.site.at(511, r), 1) << "row " << r;
+  }
+  for (int32_t v : f.site.cells()) EXPECT_NE(v, 2);  // never the duplicate
 }
 
 // A coastline seen from offshore (20 .. 120 km): cells whose nearest point is inside an edge
