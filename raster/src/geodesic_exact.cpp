@@ -156,12 +156,21 @@ struct TileCells {
 // The tile the calling thread is solving (set by run() around each tile).
 thread_local const TileCells* tl_tile = nullptr;
 
-// One point-site candidate of solve_interp on the current row: its interpolated quantity
-// already reduced over the row weights (qr), its ECEF point, and its id (a double: exact below
-// 2^53, so one compare mask blends both value and id).
+// One candidate of solve_interp on the current row: its interpolated quantity already reduced
+// over the row weights (qr), its interpolant's point and plane normal (additive form), its id
+// and its tag (the distinct vertex it measures, -1 for anything else; doubles, exact below
+// 2^53, so one compare mask blends them with the values).
 struct RowCandidate {
   double qr[4];
-  double sx, sy, sz, id;
+  double sx, sy, sz, nx, ny, nz, id, tag;
+};
+
+// A segment whose form changes inside the block: its two ends as segment_regime sees them and
+// its three interpolants (first end, second end, interior), each with has = 1 or 0 (none).
+struct RowSegment {
+  RowCandidate part[3];
+  double has[3];
+  double end[2][9];  // x, y, z, nx, ny, nz, ex, ey, ez
 };
 
 struct GeoWorker {
@@ -175,10 +184,16 @@ struct GeoWorker {
   // Interpolants of the current tile: key = interpolation block (grid-aligned) and site.
   std::unordered_map<uint64_t, std::unique_ptr<Interpolant>> cache;
   std::vector<double> wcol;                         // column weights, 4 per column
-  std::vector<double> best, second, cx, cy, cz;     // per column of the block's row
+  std::vector<double> best, second, best_q, best_c2, cx, cy, cz;  // per column of the block's row
   std::vector<double> best_id;
-  std::vector<double> wsoa;          // solve_interp: column weights, weight b of column c at b * stride + c
-  std::vector<RowCandidate> row_cands;  // solve_interp: the candidates on the current row
+  std::vector<double> wsoa;  // solve_interp: column weights, weight b of column c at b * stride + c
+  std::vector<RowCandidate> row_points, row_additive;  // solve_interp: the candidates on the current row
+  std::vector<RowSegment> row_segments;                // ... those whose form changes in the block
+  std::vector<const Interpolant*> interp_additive;     // solve_interp: the additive interpolants
+  std::vector<int32_t> interp_id, interp_additive_id;  // ... and the candidate each stands for
+  std::vector<int32_t> changing;                       // ... the segments whose form changes
+  std::vector<std::array<const Interpolant*, 3>> changing_interp;  // ... and their interpolants
+  std::vector<double> force;                           // ... per column: 1 where a cell needs the per-cell method
 };
 
 #if defined(__SANITIZE_THREAD__)
@@ -191,22 +206,53 @@ struct GeoWorker {
 constexpr int64_t kRowLanes = 4;
 using GeoV4 = double __attribute__((vector_size(32)));
 
-// One row of a block against all its point-site candidates: per cell the smallest and second
-// smallest squared value (q * chord)^2, q = sum_b w_b qr_b, and the id of the smallest (strict
-// <: candidates come in ascending id order, so equal values keep the lower id).
+// Takes one value (squared: key) into the running results of four cells: a smaller key becomes
+// the best (the old best competes for second); an equal key of the same vertex (tag >= 0) is
+// the canonical tie of the per-cell method: the lower id, and no second.
+#define RV_GEO_TAKE(key, tag, idv, qv, c2v)                          \
+  do {                                                               \
+    const auto tie_ = ((key) == b) & ((tag) == btag) & ((tag) >= zero); \
+    const auto lt_ = (key) < b;                                      \
+    const GeoV4 hi_ = lt_ ? b : (key);                               \
+    s = tie_ ? s : (hi_ < s ? hi_ : s);                              \
+    id = tie_ ? ((idv) < id ? (idv) : id) : (lt_ ? (idv) : id);      \
+    b = lt_ ? (key) : b;                                             \
+    btag = lt_ ? (tag) : btag;                                       \
+    bq = lt_ ? (qv) : bq;                                            \
+    bc2 = lt_ ? (c2v) : bc2;                                         \
+  } while (0)
+#define RV_GEO_Q(p) (a0 * (p).qr[0] + a1 * (p).qr[1] + a2 * (p).qr[2] + a3 * (p).qr[3])
+
+// One row of a block against all its interpolated candidates: per cell the smallest and second
+// smallest squared value and, for the smallest, its id and the two factors its value is made
+// of, exactly as apply() makes it: the point form's value is q * root(chord^2), with
+// q = sum_b w_b qr_b; the additive form's is |h + q| (recorded as q = |h + q|, chord^2 = 1, so
+// q * root(1) gives the same bits). Candidates pass in any order: equal squared values of
+// different interpolants leave a gap of 0, a close call the caller decides by the per-cell
+// method, and those of one vertex tie as RV_GEO_TAKE says, order-free.
+// Segments whose form changes in the block (segs) get segment_regime's test per cell, with
+// its operations, and the value of the form it picks; force[c] = 1 where a cell's regime is 0
+// (measured exactly by the per-cell method), its form has no interpolant, or an additive value
+// is under kAdditiveMinValue (which value() measures exactly): the caller solves those cells
+// by the per-cell method.
 //
-// Why this shape: the cells are taken four at a time and all k candidates pass while the
-// best, second and id stay in registers (candidate-outer loops loaded and stored them once per
-// candidate per cell); squared values need no square root per candidate (the one root per cell
-// is taken by the caller). The column weights come as four arrays (w + b * stride: weight b of
-// every column), the cells' ECEF positions as three; every array holds n rounded up to a
-// multiple of kRowLanes. Vectors stay inside this function (a 32-byte vector crossing a
-// function boundary has another ABI with and without AVX).
-RV_GEO_CLONES void interp_argmin_row(const RowCandidate* __restrict cand, int k, const double* __restrict w,
+// Why this shape: the cells are taken four at a time and every candidate passes while the
+// running results stay in registers (candidate-outer loops loaded and stored them once per
+// candidate per cell); squared values need no root per candidate (the caller takes one per
+// cell). The column weights come as four arrays (w + b * stride: weight b of every column),
+// the cells' ECEF positions as three; every array holds n rounded up to a multiple of
+// kRowLanes. Vectors stay inside this function (a 32-byte vector crossing a function boundary
+// has another ABI with and without AVX).
+RV_GEO_CLONES void interp_argmin_row(const RowCandidate* __restrict points, int kp,
+                                     const RowCandidate* __restrict additive, int ka,
+                                     const RowSegment* __restrict segs, int ks, const double* __restrict w,
                                      int64_t stride, const double* __restrict cx, const double* __restrict cy,
                                      const double* __restrict cz, int64_t n, double* __restrict best2,
-                                     double* __restrict second2, double* __restrict best_id) {
+                                     double* __restrict second2, double* __restrict best_id,
+                                     double* __restrict best_q, double* __restrict best_c2, double* __restrict force) {
   const double inf = std::numeric_limits<double>::infinity();
+  constexpr double m2 = kVertexMargin * kVertexMargin;
+  constexpr double max2 = kVertexMaxChord * kVertexMaxChord, min2 = kVertexMinChord * kVertexMinChord;
   for (int64_t c = 0; c < n; c += kRowLanes) {
     GeoV4 a0, a1, a2, a3, x, y, z;
     std::memcpy(&a0, w + c, sizeof(a0));
@@ -216,55 +262,113 @@ RV_GEO_CLONES void interp_argmin_row(const RowCandidate* __restrict cand, int k,
     std::memcpy(&x, cx + c, sizeof(x));
     std::memcpy(&y, cy + c, sizeof(y));
     std::memcpy(&z, cz + c, sizeof(z));
-    GeoV4 b = GeoV4{} + inf, s = b, id = GeoV4{} + static_cast<double>(kNoSite);
-    for (int j = 0; j < k; ++j) {
-      const RowCandidate& p = cand[j];
-      const GeoV4 q = a0 * p.qr[0] + a1 * p.qr[1] + a2 * p.qr[2] + a3 * p.qr[3];
+    const GeoV4 zero = GeoV4{}, one = GeoV4{} + 1.0, none = GeoV4{} - 1.0;
+    GeoV4 b = GeoV4{} + inf, s = b, id = GeoV4{} + static_cast<double>(kNoSite), btag = none, bq = zero, bc2 = zero;
+    GeoV4 need = zero;
+    for (int j = 0; j < kp; ++j) {
+      const RowCandidate& p = points[j];
+      const GeoV4 q = RV_GEO_Q(p);
       const GeoV4 dx = x - p.sx, dy = y - p.sy, dz = z - p.sz;
-      const GeoV4 key = (q * q) * (dx * dx + dy * dy + dz * dz);
-      const auto lt = key < b;
-      const GeoV4 hi = lt ? b : key;  // what is not the new best competes for second
-      s = hi < s ? hi : s;
-      b = lt ? key : b;
-      id = lt ? GeoV4{} + p.id : id;
+      const GeoV4 c2 = dx * dx + dy * dy + dz * dz;
+      const GeoV4 key = (q * q) * c2;
+      const GeoV4 tag = GeoV4{} + p.tag, idv = GeoV4{} + p.id;
+      RV_GEO_TAKE(key, tag, idv, q, c2);
+    }
+    for (int j = 0; j < ka; ++j) {
+      const RowCandidate& p = additive[j];
+      const GeoV4 q = RV_GEO_Q(p);
+      const GeoV4 dx = x - p.sx, dy = y - p.sy, dz = z - p.sz;
+      const GeoV4 h = dx * p.nx + dy * p.ny + dz * p.nz + q;
+      const GeoV4 v = h < zero ? -h : h;
+      const GeoV4 key = v * v;
+      const GeoV4 idv = GeoV4{} + p.id;
+      RV_GEO_TAKE(key, none, idv, v, one);
+    }
+    for (int j = 0; j < ks; ++j) {
+      const RowSegment& g = segs[j];
+      GeoV4 te[2], u2[2];
+      auto valid = (x == x);  // all lanes true
+      for (int e = 0; e < 2; ++e) {
+        const double* v = g.end[e];
+        const GeoV4 tx = x - v[0], ty = y - v[1], tz = z - v[2];
+        const GeoV4 chord2 = tx * tx + ty * ty + tz * tz;
+        const GeoV4 tn = tx * v[3] + ty * v[4] + tz * v[5];
+        u2[e] = chord2 - tn * tn;
+        te[e] = tx * v[6] + ty * v[7] + tz * v[8];
+        valid = valid & (chord2 <= GeoV4{} + max2) & (u2[e] >= GeoV4{} + min2);
+      }
+      const auto beyond0 = te[0] * te[0] > (GeoV4{} + m2) * u2[0], beyond1 = te[1] * te[1] > (GeoV4{} + m2) * u2[1];
+      const auto r1 = (te[0] < zero) & beyond0;
+      const auto r2 = ~r1 & (te[1] > zero) & beyond1;
+      const auto r3 = ~r1 & ~r2 & (te[0] > zero) & beyond0 & (te[1] < zero) & beyond1;
+      const RowCandidate& pa = g.part[0];
+      const RowCandidate& pb = g.part[1];
+      const RowCandidate& pi = g.part[2];
+      const GeoV4 qa = RV_GEO_Q(pa), qb = RV_GEO_Q(pb), qi = RV_GEO_Q(pi);
+      const GeoV4 ax = x - pa.sx, ay = y - pa.sy, az = z - pa.sz;
+      const GeoV4 bx = x - pb.sx, by = y - pb.sy, bz = z - pb.sz;
+      const GeoV4 ix = x - pi.sx, iy = y - pi.sy, iz = z - pi.sz;
+      const GeoV4 ca = ax * ax + ay * ay + az * az, cb = bx * bx + by * by + bz * bz;
+      const GeoV4 h = ix * pi.nx + iy * pi.ny + iz * pi.nz + qi;
+      const GeoV4 vi = h < zero ? -h : h;
+      const GeoV4 q = r1 ? qa : (r2 ? qb : vi);
+      const GeoV4 c2 = r1 ? ca : (r2 ? cb : one);
+      const auto missing = (r1 & (GeoV4{} + g.has[0] == zero)) | (r2 & (GeoV4{} + g.has[1] == zero)) |
+                           (r3 & ((GeoV4{} + g.has[2] == zero) | (vi < GeoV4{} + kAdditiveMinValue)));
+      const auto exact = ~valid | ~(r1 | r2 | r3) | missing;
+      need = exact ? one : need;
+      const GeoV4 key = exact ? GeoV4{} + inf : (q * q) * c2;
+      const GeoV4 tag = r1 ? GeoV4{} + pa.tag : (r2 ? GeoV4{} + pb.tag : none);
+      const GeoV4 idv = GeoV4{} + pa.id;
+      RV_GEO_TAKE(key, tag, idv, q, c2);
     }
     std::memcpy(best2 + c, &b, sizeof(b));
     std::memcpy(second2 + c, &s, sizeof(s));
     std::memcpy(best_id + c, &id, sizeof(id));
+    std::memcpy(best_q + c, &bq, sizeof(bq));
+    std::memcpy(best_c2 + c, &bc2, sizeof(bc2));
+    std::memcpy(force + c, &need, sizeof(need));
   }
 }
+#undef RV_GEO_TAKE
+#undef RV_GEO_Q
 
 // The outputs of one row of interp_argmin_row's cells (at least one candidate, so every cell
-// has a best id): the distance root(best2), left in best2 for the close calls; the site and
-// distance as put() writes them (no site beyond max_distance); and second2[c] = 1 where the
-// call is too close for interpolated values (the two smallest within kInterpTie, or the best
-// within kInterpTie of max_distance), else 0. Returns whether any cell is close.
+// has a best id): the best's value q * root(chord^2) (apply()'s bits), left in best_q; the site
+// and distance as put() writes them (no site beyond max_distance); and second2[c] = 1 where
+// the call may be too close for interpolated values (the two smallest within kInterpTie, or the
+// best within kInterpTie of max_distance) or force[c] is set, else 0. Returns whether any cell
+// is flagged.
 //
 // The close test runs on squares, without a second root: s - b <= t implies
-// s^2 - b^2 = (s - b)(s + b) <= 2 t s, so (s^2 - b^2)^2 <= 4 t^2 s^2 holds for every close call
-// (and for a few calls up to 2 t apart, which are decided exactly too: harmless).
+// s^2 - b^2 = (s - b)(s + b) <= 2 t s, so (s^2 - b^2)^2 <= 4 t^2 s^2 holds for every close call.
+// It also flags a few calls up to 2 t apart; the caller decides every flagged cell with the
+// per-cell method, so those get exactly what that method gives them.
 // Written as loops the vectoriser takes (one root per cell, no branches); the cells beyond a
 // distance limit are fixed afterwards, since a select between converted floats is not taken.
-RV_GEO_CLONES bool interp_store_row(double* __restrict best2, double* __restrict second2,
-                                    const double* __restrict best_id, int64_t n, double max_distance,
-                                    int32_t* __restrict site_row, float* __restrict distance_row) {
+RV_GEO_CLONES bool interp_store_row(const double* __restrict best2, double* __restrict second2,
+                                    const double* __restrict best_id, double* __restrict best_q,
+                                    const double* __restrict best_c2, const double* __restrict force, int64_t n,
+                                    double max_distance, int32_t* __restrict site_row,
+                                    float* __restrict distance_row) {
   constexpr double kTie2x4 = 4.0 * kInterpTie * kInterpTie;
   constexpr double inf = std::numeric_limits<double>::infinity();
   const double limit_tie = max_distance == inf ? -1.0 : kInterpTie;  // no limit: never close to it
   int64_t any = 0;
   for (int64_t c = 0; c < n; ++c) {
     const double b2 = best2[c], s2 = second2[c], gap = s2 - b2;
-    const double b = std::sqrt(b2);
-    best2[c] = b;
-    const int64_t tie = ((s2 < inf) & (gap * gap <= kTie2x4 * s2)) | (std::abs(b - max_distance) <= limit_tie);
+    const double v = best_q[c] * std::sqrt(best_c2[c]);
+    best_q[c] = v;
+    const int64_t tie = ((s2 < inf) & (gap * gap <= kTie2x4 * s2)) | (std::abs(v - max_distance) <= limit_tie) |
+                        (force[c] != 0.0);
     second2[c] = tie ? 1.0 : 0.0;
     any |= tie;
   }
   for (int64_t c = 0; c < n; ++c) site_row[c] = static_cast<int32_t>(best_id[c]);
-  for (int64_t c = 0; c < n; ++c) distance_row[c] = static_cast<float>(best2[c]);
+  for (int64_t c = 0; c < n; ++c) distance_row[c] = static_cast<float>(best_q[c]);
   if (max_distance < inf)
     for (int64_t c = 0; c < n; ++c)
-      if (best2[c] > max_distance) {
+      if (best_q[c] > max_distance) {
         site_row[c] = kNoSite;
         distance_row[c] = kNoDistance;
       }
@@ -557,7 +661,7 @@ class GeodesicExactSolver {
     if (points_only && level <= std::min(interp_block_, kInterpSolveBlock) &&
         (next.size() <= kInterpMaxCandidates || !can_split || level <= kInterpMinBlock))
       return solve_interp(wk, next, c0, r0, c1, r1);
-    if (!points_only && (next.size() <= 1 || w * h <= kLeafCells)) return solve_cells(wk, next, c0, r0, c1, r1);
+    if (!points_only && (next.size() <= 1 || w * h <= kLeafCells)) return solve_leaf(wk, next, c0, r0, c1, r1);
     if (!can_split) return solve_cells(wk, next, c0, r0, c1, r1);
     // Split at the grid-aligned middle of the block's level.
     const Window& win = ctx_.window;
@@ -885,16 +989,157 @@ class GeodesicExactSolver {
     put(c, r, id_best, d_best);
   }
 
+  // What segment_regime can give for segment `id` at the cells of a block whose centres lie
+  // within `radius` of the ECEF point (cx, cy, cz): `certain` is the regime every cell
+  // certainly has (0: not certain), `possible` a bit per regime 1..3 that some cell may have
+  // (bit r - 1; a regime whose bit is clear occurs at no cell).
+  //
+  // Why the bounds hold: with t = P - V, te = t.e moves by at most |P - C| <= radius from its
+  // value at the centre (e is a unit vector), and so does |u| = |t - (t.n) n| (a projection:
+  // 1-Lipschitz); |t| likewise. |u| >= |te| (e lies in the tangent plane). So the per-cell test
+  // (cos w = te / |u| against kVertexMargin) is settled for the whole block wherever the
+  // centre's margin exceeds (1 + m) radius; the levels are widened by kRegimeSlack and the
+  // chord limits moved inwards so that the per-cell test's rounding cannot disagree: a certain
+  // regime is the one every cell's own test gives, bit for bit the per-cell method's values.
+  struct BlockRegime {
+    int certain = 0;
+    unsigned possible = 7;
+  };
+  BlockRegime block_regime(double cx, double cy, double cz, double radius, int32_t id) const {
+    constexpr double kRegimeSlack = 1e-3;  // metres
+    const double m = kVertexMargin * (1.0 + 1e-9);
+    const double grow = radius * (1.0 + m) + kRegimeSlack;
+    double te[2], u[2];
+    bool settled = true;  // both ends' chord and |u| limits hold at every cell
+    for (int e = 0; e < 2; ++e) {
+      const SegmentEnd& v = ends_[2 * static_cast<size_t>(id) + static_cast<size_t>(e)];
+      const double tx = cx - v.x, ty = cy - v.y, tz = cz - v.z;
+      const double chord = std::sqrt(tx * tx + ty * ty + tz * tz);
+      const double tn = tx * v.nx + ty * v.ny + tz * v.nz;
+      u[e] = std::sqrt(std::max(chord * chord - tn * tn, 0.0));
+      te[e] = tx * v.ex + ty * v.ey + tz * v.ez;
+      if (!(chord + radius + kRegimeSlack <= kVertexMaxChord * (1.0 - 1e-9))) settled = false;
+      if (!(std::abs(te[e]) - radius - kRegimeSlack >= kVertexMinChord)) settled = false;
+    }
+    BlockRegime out;
+    // Bounds over the block: te in [te - radius, te + radius]; -te - m|u| >= -te - m u - grow.
+    const bool behind0 = -te[0] - m * u[0] > grow, beyond1 = te[1] - m * u[1] > grow;
+    const bool ahead0 = te[0] - m * u[0] > grow, before1 = -te[1] - m * u[1] > grow;
+    if (settled) {
+      if (behind0)
+        out.certain = 1;
+      else if (beyond1 && te[0] - radius > kRegimeSlack)  // and certainly not behind end 0
+        out.certain = 2;
+      else if (ahead0 && before1)
+        out.certain = 3;
+    }
+    // Regime 1 needs te0 < 0, 2 needs te1 > 0, 3 needs te0 > 0 and te1 < 0 somewhere.
+    out.possible = 0;
+    if (te[0] - radius < 0.0) out.possible |= 1u;
+    if (te[1] + radius > 0.0) out.possible |= 2u;
+    if (te[0] + radius > 0.0 && te[1] - radius < 0.0) out.possible |= 4u;
+    return out;
+  }
+
+  // A leaf block of sites of any kind: its interpolants where the candidates that can win
+  // certainly keep one form over the whole block (gather_interpolants), else cell by cell
+  // (solve_cells).
+  void solve_leaf(GeoWorker& wk, const std::vector<int32_t>& cands, int64_t c0, int64_t r0, int64_t c1, int64_t r1) {
+    const int64_t S = interp_block_, gx = ctx_.window.col0, gy = ctx_.window.row0;
+    const bool one_block = (gx + c0) / S == (gx + c1 - 1) / S && (gy + r0) / S == (gy + r1 - 1) / S;
+    if (cands.empty() || !one_block || cands.size() > kInterpMaxCandidates || !gather_interpolants(wk, cands, c0, r0, c1, r1))
+      return solve_cells(wk, cands, c0, r0, c1, r1);
+    solve_interp_rows(wk, cands, c0, r0, c1, r1);
+  }
+
+  // wk.interp / wk.interp_additive: the interpolants of the candidates over the block (which
+  // lies in one interpolation block), each once; wk.changing: the segments whose form is not
+  // certain over the block (block_regime; an edge's interior within kAdditiveMinValue of the
+  // block), with all three of their interpolants, chosen per cell. False when a point site or
+  // a segment of certain form has no interpolant there.
+  // Two edges measuring the vertex they share use one interpolant: the same bits, a tie that
+  // the per-cell method gives to the lower id without a close call; keeping the first
+  // (candidates ascend) does the same.
+  bool gather_interpolants(GeoWorker& wk, const std::vector<int32_t>& cands, int64_t c0, int64_t r0, int64_t c1,
+                           int64_t r1) {
+    wk.interp.clear();
+    wk.interp_additive.clear();
+    wk.interp_id.clear();
+    wk.interp_additive_id.clear();
+    wk.changing.clear();
+    wk.changing_interp.clear();
+    // The block's centre cell and a radius holding every cell centre of the block (the box's
+    // half diagonal, from its middle).
+    bool have_box = false;
+    EcefBox box{};
+    double mx = 0.0, my = 0.0, mz = 0.0, radius = 0.0;
+    auto the_box = [&]() {
+      if (have_box) return;
+      box = box_of(c0, r0, c1, r1);
+      mx = 0.5 * (box.x0 + box.x1);
+      my = 0.5 * (box.y0 + box.y1);
+      mz = 0.5 * (box.z0 + box.z1);
+      const double hx = 0.5 * (box.x1 - box.x0), hy = 0.5 * (box.y1 - box.y0), hz = 0.5 * (box.z1 - box.z0);
+      radius = std::sqrt(hx * hx + hy * hy + hz * hz) * (1.0 + 1e-12) + 1e-9;
+      have_box = true;
+    };
+    for (int32_t id : cands) {
+      int regime = 0;
+      if (geo_.site(id).segment) {
+        the_box();
+        const BlockRegime br = block_regime(mx, my, mz, radius, id);
+        regime = br.certain;
+        // value() measures additive values under kAdditiveMinValue exactly; none may be here.
+        if (regime == 3) {
+          const GeoPiece* piece = geo_.single_piece(id);
+          const double lb = piece ? piece_capsule_bound(*piece, mx, my, mz) - radius : geo_.lower_bound(box, id);
+          if (!(lb > kAdditiveMinValue + kGeoSlack)) regime = 0;
+        }
+        if (regime == 0) {
+          // Only the forms some cell may take are built (interpolants cost 17 inverse
+          // problems); a cell that takes another is forced to the per-cell method.
+          wk.changing.push_back(id);
+          wk.changing_interp.push_back({(br.possible & 1u) ? interpolant(wk, c0, r0, id, 1) : nullptr,
+                                        (br.possible & 2u) ? interpolant(wk, c0, r0, id, 2) : nullptr,
+                                        (br.possible & 4u) ? interpolant(wk, c0, r0, id, 3) : nullptr});
+          continue;
+        }
+      }
+      const Interpolant* it = interpolant(wk, c0, r0, id, regime);
+      if (!it) return false;
+      // (An interpolant shared by a vertex's edges carries the id of the edge that built it:
+      // the candidate's own id is kept beside it.)
+      auto& list = it->additive ? wk.interp_additive : wk.interp;
+      if (std::find(list.begin(), list.end(), it) != list.end()) continue;
+      list.push_back(it);
+      (it->additive ? wk.interp_additive_id : wk.interp_id).push_back(id);
+    }
+    return true;
+  }
+
+  // The distinct vertex interpolant `it` measures for candidate `id` (ends 1, 2), or -1.
+  double tag_of(const Interpolant* it, int32_t id) const {
+    if (!it || it->additive || !geo_.site(id).segment) return -1.0;
+    for (int e = 0; e < 2; ++e) {
+      const SegmentEnd& v = ends_[2 * static_cast<size_t>(id) + static_cast<size_t>(e)];
+      if (v.lat == it->lat && v.lon == it->lon) return static_cast<double>(v.vertex);
+    }
+    return -1.0;
+  }
+
   // A block inside one interpolation block whose candidates are all point sites.
   void solve_interp(GeoWorker& wk, const std::vector<int32_t>& cands, int64_t c0, int64_t r0, int64_t c1,
                     int64_t r1) {
     if (cands.empty()) return fill_none(c0, r0, c1, r1);
-    wk.interp.clear();
-    for (int32_t id : cands) {
-      const Interpolant* it = interpolant(wk, c0, r0, id);
-      if (!it) return solve_cells(wk, cands, c0, r0, c1, r1);  // measured cell by cell instead
-      wk.interp.push_back(it);
-    }
+    if (!gather_interpolants(wk, cands, c0, r0, c1, r1)) return solve_cells(wk, cands, c0, r0, c1, r1);
+    solve_interp_rows(wk, cands, c0, r0, c1, r1);
+  }
+
+  // Every cell of the block from the interpolants gathered (gather_interpolants), a row at a
+  // time; cells whose call may be close are then solved by the per-cell method, so every cell
+  // gets what solve_cells would give it.
+  void solve_interp_rows(GeoWorker& wk, const std::vector<int32_t>& cands, int64_t c0, int64_t r0, int64_t c1,
+                         int64_t r1) {
     const int64_t n = c1 - c0;
     const int64_t stride = (n + kRowLanes - 1) / kRowLanes * kRowLanes;  // padded: whole vectors
     wk.wsoa.assign(static_cast<size_t>(4 * stride), 0.0);
@@ -903,8 +1148,20 @@ class GeodesicExactSolver {
       weights_col(c0 + c, w);
       for (int b = 0; b < 4; ++b) wk.wsoa[static_cast<size_t>(b * stride + c)] = w[b];
     }
-    for (auto* v : {&wk.best, &wk.second, &wk.cx, &wk.cy, &wk.cz, &wk.best_id}) v->assign(static_cast<size_t>(stride), 0.0);
-    wk.row_cands.resize(wk.interp.size());
+    for (auto* v : {&wk.best, &wk.second, &wk.best_q, &wk.best_c2, &wk.cx, &wk.cy, &wk.cz, &wk.best_id, &wk.force})
+      v->assign(static_cast<size_t>(stride), 0.0);
+    wk.row_points.resize(wk.interp.size());
+    wk.row_additive.resize(wk.interp_additive.size());
+    wk.row_segments.resize(wk.changing.size());
+    for (size_t j = 0; j < wk.changing.size(); ++j) {
+      RowSegment& g = wk.row_segments[j];
+      for (int e = 0; e < 2; ++e) {
+        const SegmentEnd& v = ends_[2 * static_cast<size_t>(wk.changing[j]) + static_cast<size_t>(e)];
+        const double src[9] = {v.x, v.y, v.z, v.nx, v.ny, v.nz, v.ex, v.ey, v.ez};
+        std::memcpy(g.end[e], src, sizeof(src));
+      }
+      for (int k = 0; k < 3; ++k) g.has[k] = wk.changing_interp[j][static_cast<size_t>(k)] ? 1.0 : 0.0;
+    }
     for (int64_t r = r0; r < r1; ++r) {
       double wt[4];
       weights_row(r, wt);
@@ -928,24 +1185,40 @@ class GeodesicExactSolver {
           cz[c] = z;
         }
       }
-      for (size_t j = 0; j < wk.interp.size(); ++j) {
-        const Interpolant* it = wk.interp[j];
-        RowCandidate& rc = wk.row_cands[j];
+      // eval()'s row step, the same operations in the same order.
+      auto reduce = [&](const Interpolant* it, int32_t id, RowCandidate& rc) {
+        rc.id = static_cast<double>(id);
+        rc.tag = tag_of(it, id);
+        if (!it) {  // a form without an interpolant: its cells are forced to the per-cell method
+          rc = RowCandidate{{0.0, 0.0, 0.0, 0.0}, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, rc.id, -1.0};
+          return;
+        }
         for (int b = 0; b < 4; ++b)
           rc.qr[b] = wt[0] * it->q[0][b] + wt[1] * it->q[1][b] + wt[2] * it->q[2][b] + wt[3] * it->q[3][b];
         rc.sx = it->sx;
         rc.sy = it->sy;
         rc.sz = it->sz;
-        rc.id = static_cast<double>(it->id);
-      }
-      interp_argmin_row(wk.row_cands.data(), static_cast<int>(wk.row_cands.size()), wk.wsoa.data(), stride, cx, cy,
-                        cz, n, wk.best.data(), wk.second.data(), wk.best_id.data());
-      // Every cell as put() would write it, without branches; then the close calls (rare)
-      // are decided exactly and overwrite theirs.
-      if (interp_store_row(wk.best.data(), wk.second.data(), wk.best_id.data(), n, max_distance_, site_.row(r) + c0,
-                           distance_.row(r) + c0))
+        rc.nx = it->nx;
+        rc.ny = it->ny;
+        rc.nz = it->nz;
+      };
+      for (size_t j = 0; j < wk.interp.size(); ++j) reduce(wk.interp[j], wk.interp_id[j], wk.row_points[j]);
+      for (size_t j = 0; j < wk.interp_additive.size(); ++j)
+        reduce(wk.interp_additive[j], wk.interp_additive_id[j], wk.row_additive[j]);
+      for (size_t j = 0; j < wk.changing.size(); ++j)
+        for (size_t k = 0; k < 3; ++k) reduce(wk.changing_interp[j][k], wk.changing[j], wk.row_segments[j].part[k]);
+      interp_argmin_row(wk.row_points.data(), static_cast<int>(wk.row_points.size()), wk.row_additive.data(),
+                        static_cast<int>(wk.row_additive.size()), wk.row_segments.data(),
+                        static_cast<int>(wk.row_segments.size()), wk.wsoa.data(), stride, cx, cy, cz, n, wk.best.data(),
+                        wk.second.data(), wk.best_id.data(), wk.best_q.data(), wk.best_c2.data(), wk.force.data());
+      // Every cell as put() would write it, without branches; then the flagged cells (rare)
+      // are solved by the per-cell method and overwrite theirs.
+      const bool flagged =
+          interp_store_row(wk.best.data(), wk.second.data(), wk.best_id.data(), wk.best_q.data(), wk.best_c2.data(),
+                           wk.force.data(), n, max_distance_, site_.row(r) + c0, distance_.row(r) + c0);
+      if (flagged)
         for (int64_t c = 0; c < n; ++c)
-          if (wk.second[static_cast<size_t>(c)] != 0.0) resolve_exactly(wk, cands, c0 + c, r, wk.best[static_cast<size_t>(c)]);
+          if (wk.second[static_cast<size_t>(c)] != 0.0) solve_cells(wk, cands, c0 + c, r, c0 + c + 1, r + 1);
     }
   }
 
