@@ -1150,11 +1150,26 @@ class GeodesicExactSolver {
     }
     for (auto* v : {&wk.best, &wk.second, &wk.best_q, &wk.best_c2, &wk.cx, &wk.cy, &wk.cz, &wk.best_id, &wk.force})
       v->assign(static_cast<size_t>(stride), 0.0);
+    // What stays the same on every row; the rows fill in qr.
+    auto fixed_part = [&](const Interpolant* it, int32_t id, RowCandidate& rc) {
+      rc = RowCandidate{{0.0, 0.0, 0.0, 0.0}, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, static_cast<double>(id), tag_of(it, id)};
+      if (!it) return;  // a form without an interpolant: its cells are forced to the per-cell method
+      rc.sx = it->sx;
+      rc.sy = it->sy;
+      rc.sz = it->sz;
+      rc.nx = it->nx;
+      rc.ny = it->ny;
+      rc.nz = it->nz;
+    };
     wk.row_points.resize(wk.interp.size());
     wk.row_additive.resize(wk.interp_additive.size());
     wk.row_segments.resize(wk.changing.size());
+    for (size_t j = 0; j < wk.interp.size(); ++j) fixed_part(wk.interp[j], wk.interp_id[j], wk.row_points[j]);
+    for (size_t j = 0; j < wk.interp_additive.size(); ++j)
+      fixed_part(wk.interp_additive[j], wk.interp_additive_id[j], wk.row_additive[j]);
     for (size_t j = 0; j < wk.changing.size(); ++j) {
       RowSegment& g = wk.row_segments[j];
+      for (size_t k = 0; k < 3; ++k) fixed_part(wk.changing_interp[j][k], wk.changing[j], g.part[k]);
       for (int e = 0; e < 2; ++e) {
         const SegmentEnd& v = ends_[2 * static_cast<size_t>(wk.changing[j]) + static_cast<size_t>(e)];
         const double src[9] = {v.x, v.y, v.z, v.nx, v.ny, v.nz, v.ex, v.ey, v.ez};
@@ -1186,27 +1201,15 @@ class GeodesicExactSolver {
         }
       }
       // eval()'s row step, the same operations in the same order.
-      auto reduce = [&](const Interpolant* it, int32_t id, RowCandidate& rc) {
-        rc.id = static_cast<double>(id);
-        rc.tag = tag_of(it, id);
-        if (!it) {  // a form without an interpolant: its cells are forced to the per-cell method
-          rc = RowCandidate{{0.0, 0.0, 0.0, 0.0}, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, rc.id, -1.0};
-          return;
-        }
-        for (int b = 0; b < 4; ++b)
-          rc.qr[b] = wt[0] * it->q[0][b] + wt[1] * it->q[1][b] + wt[2] * it->q[2][b] + wt[3] * it->q[3][b];
-        rc.sx = it->sx;
-        rc.sy = it->sy;
-        rc.sz = it->sz;
-        rc.nx = it->nx;
-        rc.ny = it->ny;
-        rc.nz = it->nz;
+      auto reduce = [&](const Interpolant* it, RowCandidate& rc) {
+        if (it)
+          for (int b = 0; b < 4; ++b)
+            rc.qr[b] = wt[0] * it->q[0][b] + wt[1] * it->q[1][b] + wt[2] * it->q[2][b] + wt[3] * it->q[3][b];
       };
-      for (size_t j = 0; j < wk.interp.size(); ++j) reduce(wk.interp[j], wk.interp_id[j], wk.row_points[j]);
-      for (size_t j = 0; j < wk.interp_additive.size(); ++j)
-        reduce(wk.interp_additive[j], wk.interp_additive_id[j], wk.row_additive[j]);
+      for (size_t j = 0; j < wk.interp.size(); ++j) reduce(wk.interp[j], wk.row_points[j]);
+      for (size_t j = 0; j < wk.interp_additive.size(); ++j) reduce(wk.interp_additive[j], wk.row_additive[j]);
       for (size_t j = 0; j < wk.changing.size(); ++j)
-        for (size_t k = 0; k < 3; ++k) reduce(wk.changing_interp[j][k], wk.changing[j], wk.row_segments[j].part[k]);
+        for (size_t k = 0; k < 3; ++k) reduce(wk.changing_interp[j][k], wk.row_segments[j].part[k]);
       interp_argmin_row(wk.row_points.data(), static_cast<int>(wk.row_points.size()), wk.row_additive.data(),
                         static_cast<int>(wk.row_additive.size()), wk.row_segments.data(),
                         static_cast<int>(wk.row_segments.size()), wk.wsoa.data(), stride, cx, cy, cz, n, wk.best.data(),
