@@ -142,9 +142,13 @@ struct CellWeights {
 // Marks an interpolant slot not looked up yet (GeodesicExactSolver::value).
 const Interpolant kNotLooked{};
 
-// The distance an interpolant gives at ECEF (x, y, z) from its interpolated quantity q.
+// The distance an interpolant gives at ECEF (x, y, z) from its interpolated quantity q. The
+// point form is root(q^2 chord^2) (q > 0), not q * root(chord^2): the row kernels compare the
+// squares and take this root of the best alone, and every path must give a cell the same bits.
 inline double apply(const Interpolant& it, double q, double x, double y, double z) {
-  return it.additive ? std::abs(normaliser(it, x, y, z) + q) : q * normaliser(it, x, y, z);
+  if (it.additive) return std::abs(normaliser(it, x, y, z) + q);
+  const double dx = x - it.sx, dy = y - it.sy, dz = z - it.sz;
+  return std::sqrt((q * q) * (dx * dx + dy * dy + dz * dz));
 }
 
 // Projected geodesic grids: the located cell centres of the tile a worker is solving (cells
@@ -171,6 +175,18 @@ struct RowSegment {
   RowCandidate part[3];
   double has[3];
   double end[2][9];  // x, y, z, nx, ny, nz, ex, ey, ez
+};
+
+// Where the row kernels find a row's cell positions: cos_lon / sin_lon (the row's columns, padded
+// to whole vectors) with the parallel's radius rho and height z, or, when cos_lon is null, the
+// located positions x, y, z_of (padded likewise).
+struct RowPositions {
+  const double* cos_lon = nullptr;
+  const double* sin_lon = nullptr;
+  double rho = 0.0, z = 0.0;
+  const double* x = nullptr;
+  const double* y = nullptr;
+  const double* z_of = nullptr;
 };
 
 struct GeoWorker {
@@ -221,13 +237,77 @@ using GeoV4 = double __attribute__((vector_size(32)));
     bq = lt_ ? (qv) : bq;                                            \
     bc2 = lt_ ? (c2v) : bc2;                                         \
   } while (0)
+// RV_GEO_TAKE for a value that ties with nothing (tag -1: a point site, an interior).
+#define RV_GEO_TAKE_PLAIN(key, idv, qv, c2v) \
+  do {                                       \
+    const auto lt_ = (key) < b;              \
+    const GeoV4 hi_ = lt_ ? b : (key);       \
+    s = hi_ < s ? hi_ : s;                   \
+    id = lt_ ? (idv) : id;                   \
+    b = lt_ ? (key) : b;                     \
+    btag = lt_ ? none : btag;                \
+    bq = lt_ ? (qv) : bq;                    \
+    bc2 = lt_ ? (c2v) : bc2;                 \
+  } while (0)
 #define RV_GEO_Q(p) (a0 * (p).qr[0] + a1 * (p).qr[1] + a2 * (p).qr[2] + a3 * (p).qr[3])
 
+// The ECEF positions of cells c .. c + 3 of the row into x, y, z: on a geographic grid from the
+// row's parallel (rho, zc) and the columns' cos / sin (cell_at's arithmetic), else from the
+// located positions cx, cy, cz.
+#define RV_GEO_POSITIONS(c)                 \
+  do {                                      \
+    if (pos.cos_lon) {                      \
+      GeoV4 cv_, sv_;                       \
+      std::memcpy(&cv_, pos.cos_lon + (c), sizeof(cv_)); \
+      std::memcpy(&sv_, pos.sin_lon + (c), sizeof(sv_)); \
+      x = pos.rho * cv_;                    \
+      y = pos.rho * sv_;                    \
+      z = GeoV4{} + pos.z;                  \
+    } else {                                \
+      std::memcpy(&x, pos.x + (c), sizeof(x)); \
+      std::memcpy(&y, pos.y + (c), sizeof(y)); \
+      std::memcpy(&z, pos.z_of + (c), sizeof(z)); \
+    }                                       \
+  } while (0)
+
+// interp_argmin_row for the commonest block: point-form candidates only, none of them a vertex
+// (no ties by tag, nothing forced), the best's value being root(best2). Fewer running vectors
+// than the general kernel: they all stay in registers.
+RV_GEO_CLONES void interp_argmin_points(const RowCandidate* __restrict points, int kp, const double* __restrict w,
+                                        int64_t stride, const RowPositions& pos, int64_t n, double* __restrict best2,
+                                        double* __restrict second2, double* __restrict best_id) {
+  const double inf = std::numeric_limits<double>::infinity();
+  for (int64_t c = 0; c < n; c += kRowLanes) {
+    GeoV4 a0, a1, a2, a3, x, y, z;
+    std::memcpy(&a0, w + c, sizeof(a0));
+    std::memcpy(&a1, w + stride + c, sizeof(a1));
+    std::memcpy(&a2, w + 2 * stride + c, sizeof(a2));
+    std::memcpy(&a3, w + 3 * stride + c, sizeof(a3));
+    RV_GEO_POSITIONS(c);
+    GeoV4 b = GeoV4{} + inf, s = b, id = GeoV4{} + static_cast<double>(kNoSite);
+    for (int j = 0; j < kp; ++j) {
+      const RowCandidate& p = points[j];
+      const GeoV4 q = a0 * p.qr[0] + a1 * p.qr[1] + a2 * p.qr[2] + a3 * p.qr[3];
+      const GeoV4 dx = x - p.sx, dy = y - p.sy, dz = z - p.sz;
+      const GeoV4 c2 = dx * dx + dy * dy + dz * dz;
+      const GeoV4 key = (q * q) * c2;
+      const auto lt = key < b;
+      const GeoV4 hi = lt ? b : key;
+      s = hi < s ? hi : s;
+      b = lt ? key : b;
+      id = lt ? GeoV4{} + p.id : id;
+    }
+    std::memcpy(best2 + c, &b, sizeof(b));
+    std::memcpy(second2 + c, &s, sizeof(s));
+    std::memcpy(best_id + c, &id, sizeof(id));
+  }
+}
+
 // One row of a block against all its interpolated candidates: per cell the smallest and second
-// smallest squared value and, for the smallest, its id and the two factors its value is made
-// of, exactly as apply() makes it: the point form's value is q * root(chord^2), with
-// q = sum_b w_b qr_b; the additive form's is |h + q| (recorded as q = |h + q|, chord^2 = 1, so
-// q * root(1) gives the same bits). Candidates pass in any order: equal squared values of
+// smallest squared value and, for the smallest, its id and two factors its value is made of,
+// exactly as apply() makes it: the point form's value is root(q^2 chord^2), with
+// q = sum_b w_b qr_b (recorded as 1 and the square); the additive form's is |h + q| (recorded
+// as |h + q| and 1); the value is then best_q * root(best_c2), the same bits. Candidates pass in any order: equal squared values of
 // different interpolants leave a gap of 0, a close call the caller decides by the per-cell
 // method, and those of one vertex tie as RV_GEO_TAKE says, order-free.
 // Segments whose form changes in the block (segs) get segment_regime's test per cell, with
@@ -240,14 +320,13 @@ using GeoV4 = double __attribute__((vector_size(32)));
 // running results stay in registers (candidate-outer loops loaded and stored them once per
 // candidate per cell); squared values need no root per candidate (the caller takes one per
 // cell). The column weights come as four arrays (w + b * stride: weight b of every column),
-// the cells' ECEF positions as three; every array holds n rounded up to a multiple of
-// kRowLanes. Vectors stay inside this function (a 32-byte vector crossing a function boundary
+// the cells' ECEF positions as RowPositions says; every array holds n rounded up to a multiple
+// of kRowLanes. Vectors stay inside this function (a 32-byte vector crossing a function boundary
 // has another ABI with and without AVX).
 RV_GEO_CLONES void interp_argmin_row(const RowCandidate* __restrict points, int kp,
                                      const RowCandidate* __restrict additive, int ka,
                                      const RowSegment* __restrict segs, int ks, const double* __restrict w,
-                                     int64_t stride, const double* __restrict cx, const double* __restrict cy,
-                                     const double* __restrict cz, int64_t n, double* __restrict best2,
+                                     int64_t stride, const RowPositions& pos, int64_t n, double* __restrict best2,
                                      double* __restrict second2, double* __restrict best_id,
                                      double* __restrict best_q, double* __restrict best_c2, double* __restrict force) {
   const double inf = std::numeric_limits<double>::infinity();
@@ -259,9 +338,7 @@ RV_GEO_CLONES void interp_argmin_row(const RowCandidate* __restrict points, int 
     std::memcpy(&a1, w + stride + c, sizeof(a1));
     std::memcpy(&a2, w + 2 * stride + c, sizeof(a2));
     std::memcpy(&a3, w + 3 * stride + c, sizeof(a3));
-    std::memcpy(&x, cx + c, sizeof(x));
-    std::memcpy(&y, cy + c, sizeof(y));
-    std::memcpy(&z, cz + c, sizeof(z));
+    RV_GEO_POSITIONS(c);
     const GeoV4 zero = GeoV4{}, one = GeoV4{} + 1.0, none = GeoV4{} - 1.0;
     GeoV4 b = GeoV4{} + inf, s = b, id = GeoV4{} + static_cast<double>(kNoSite), btag = none, bq = zero, bc2 = zero;
     GeoV4 need = zero;
@@ -271,8 +348,13 @@ RV_GEO_CLONES void interp_argmin_row(const RowCandidate* __restrict points, int 
       const GeoV4 dx = x - p.sx, dy = y - p.sy, dz = z - p.sz;
       const GeoV4 c2 = dx * dx + dy * dy + dz * dz;
       const GeoV4 key = (q * q) * c2;
-      const GeoV4 tag = GeoV4{} + p.tag, idv = GeoV4{} + p.id;
-      RV_GEO_TAKE(key, tag, idv, q, c2);
+      const GeoV4 idv = GeoV4{} + p.id;
+      if (p.tag < 0.0)
+        RV_GEO_TAKE_PLAIN(key, idv, one, key);
+      else {
+        const GeoV4 tag = GeoV4{} + p.tag;
+        RV_GEO_TAKE(key, tag, idv, one, key);
+      }
     }
     for (int j = 0; j < ka; ++j) {
       const RowCandidate& p = additive[j];
@@ -282,7 +364,7 @@ RV_GEO_CLONES void interp_argmin_row(const RowCandidate* __restrict points, int 
       const GeoV4 v = h < zero ? -h : h;
       const GeoV4 key = v * v;
       const GeoV4 idv = GeoV4{} + p.id;
-      RV_GEO_TAKE(key, none, idv, v, one);
+      RV_GEO_TAKE_PLAIN(key, idv, v, one);
     }
     for (int j = 0; j < ks; ++j) {
       const RowSegment& g = segs[j];
@@ -311,15 +393,17 @@ RV_GEO_CLONES void interp_argmin_row(const RowCandidate* __restrict points, int 
       const GeoV4 ca = ax * ax + ay * ay + az * az, cb = bx * bx + by * by + bz * bz;
       const GeoV4 h = ix * pi.nx + iy * pi.ny + iz * pi.nz + qi;
       const GeoV4 vi = h < zero ? -h : h;
-      const GeoV4 q = r1 ? qa : (r2 ? qb : vi);
-      const GeoV4 c2 = r1 ? ca : (r2 ? cb : one);
+      const GeoV4 pq = r1 ? qa : qb, pc = r1 ? ca : cb;  // a vertex: the point form
+      const GeoV4 pkey = (pq * pq) * pc;
+      const auto vertex = r1 | r2;
       const auto missing = (r1 & (GeoV4{} + g.has[0] == zero)) | (r2 & (GeoV4{} + g.has[1] == zero)) |
                            (r3 & ((GeoV4{} + g.has[2] == zero) | (vi < GeoV4{} + kAdditiveMinValue)));
       const auto exact = ~valid | ~(r1 | r2 | r3) | missing;
       need = exact ? one : need;
-      const GeoV4 key = exact ? GeoV4{} + inf : (q * q) * c2;
+      const GeoV4 key = exact ? GeoV4{} + inf : (vertex ? pkey : vi * vi);
       const GeoV4 tag = r1 ? GeoV4{} + pa.tag : (r2 ? GeoV4{} + pb.tag : none);
       const GeoV4 idv = GeoV4{} + pa.id;
+      const GeoV4 q = vertex ? one : vi, c2 = vertex ? key : one;
       RV_GEO_TAKE(key, tag, idv, q, c2);
     }
     std::memcpy(best2 + c, &b, sizeof(b));
@@ -331,10 +415,13 @@ RV_GEO_CLONES void interp_argmin_row(const RowCandidate* __restrict points, int 
   }
 }
 #undef RV_GEO_TAKE
+#undef RV_GEO_TAKE_PLAIN
+#undef RV_GEO_POSITIONS
 #undef RV_GEO_Q
 
 // The outputs of one row of interp_argmin_row's cells (at least one candidate, so every cell
-// has a best id): the best's value q * root(chord^2) (apply()'s bits), left in best_q; the site
+// has a best id): the best's value best_q * root(best_c2), or root(best2) without best_c2
+// (interp_argmin_points; apply()'s bits either way), left in best_q; the site
 // and distance as put() writes them (no site beyond max_distance); and second2[c] = 1 where
 // the call may be too close for interpolated values (the two smallest within kInterpTie, or the
 // best within kInterpTie of max_distance) or force[c] is set, else 0. Returns whether any cell
@@ -355,14 +442,23 @@ RV_GEO_CLONES bool interp_store_row(const double* __restrict best2, double* __re
   constexpr double inf = std::numeric_limits<double>::infinity();
   const double limit_tie = max_distance == inf ? -1.0 : kInterpTie;  // no limit: never close to it
   int64_t any = 0;
-  for (int64_t c = 0; c < n; ++c) {
-    const double b2 = best2[c], s2 = second2[c], gap = s2 - b2;
-    const double v = best_q[c] * std::sqrt(best_c2[c]);
-    best_q[c] = v;
-    const int64_t tie = ((s2 < inf) & (gap * gap <= kTie2x4 * s2)) | (std::abs(v - max_distance) <= limit_tie) |
-                        (force[c] != 0.0);
-    second2[c] = tie ? 1.0 : 0.0;
-    any |= tie;
+  if (best_c2) {
+    for (int64_t c = 0; c < n; ++c) {
+      const double b2 = best2[c], s2 = second2[c], gap = s2 - b2, v = best_q[c] * std::sqrt(best_c2[c]);
+      best_q[c] = v;
+      const int64_t tie = ((s2 < inf) & (gap * gap <= kTie2x4 * s2)) | (std::abs(v - max_distance) <= limit_tie) |
+                          (force[c] != 0.0);
+      second2[c] = tie ? 1.0 : 0.0;
+      any |= tie;
+    }
+  } else {  // nothing forced
+    for (int64_t c = 0; c < n; ++c) {
+      const double b2 = best2[c], s2 = second2[c], gap = s2 - b2, v = std::sqrt(b2);
+      best_q[c] = v;
+      const int64_t tie = ((s2 < inf) & (gap * gap <= kTie2x4 * s2)) | (std::abs(v - max_distance) <= limit_tie);
+      second2[c] = tie ? 1.0 : 0.0;
+      any |= tie;
+    }
   }
   for (int64_t c = 0; c < n; ++c) site_row[c] = static_cast<int32_t>(best_id[c]);
   for (int64_t c = 0; c < n; ++c) distance_row[c] = static_cast<float>(best_q[c]);
@@ -401,8 +497,10 @@ class GeodesicExactSolver {
       z_[r] = z;
     }
     lon_.resize(static_cast<size_t>(w.width));
-    cos_.resize(lon_.size());
-    sin_.resize(lon_.size());
+    // Padded to whole vectors of the row kernels, which read up to kRowLanes - 1 past the end
+    // (lanes never written out).
+    cos_.assign(lon_.size() + kRowLanes, 0.0);
+    sin_.assign(lon_.size() + kRowLanes, 0.0);
     for (int64_t c = 0; c < w.width; ++c) {
       lon_[c] = ctx_.grid.centre_x(w.col0 + c);
       Math::sincosd(lon_[c], sin_[c], cos_[c]);
@@ -1177,28 +1275,27 @@ class GeodesicExactSolver {
       }
       for (int k = 0; k < 3; ++k) g.has[k] = wk.changing_interp[j][static_cast<size_t>(k)] ? 1.0 : 0.0;
     }
+    bool plain = wk.row_additive.empty() && wk.row_segments.empty();  // interp_argmin_points can do it
+    for (const RowCandidate& rc : wk.row_points) plain = plain && rc.tag < 0.0;
     for (int64_t r = r0; r < r1; ++r) {
       double wt[4];
       weights_row(r, wt);
-      double* __restrict cx = wk.cx.data();
-      double* __restrict cy = wk.cy.data();
-      double* __restrict cz = wk.cz.data();
+      RowPositions pos;
       if (located_) {
         for (int64_t c = 0; c < n; ++c) {
           const GeoCell p = cell_at(c0 + c, r);
-          cx[c] = p.x;
-          cy[c] = p.y;
-          cz[c] = p.z;
+          wk.cx[static_cast<size_t>(c)] = p.x;
+          wk.cy[static_cast<size_t>(c)] = p.y;
+          wk.cz[static_cast<size_t>(c)] = p.z;
         }
-      } else {  // cell_at's arithmetic, a row at a time
-        const double rho = rho_[static_cast<size_t>(r)], z = z_[static_cast<size_t>(r)];
-        const double* cs = &cos_[static_cast<size_t>(c0)];
-        const double* sn = &sin_[static_cast<size_t>(c0)];
-        for (int64_t c = 0; c < n; ++c) {
-          cx[c] = rho * cs[c];
-          cy[c] = rho * sn[c];
-          cz[c] = z;
-        }
+        pos.x = wk.cx.data();
+        pos.y = wk.cy.data();
+        pos.z_of = wk.cz.data();
+      } else {
+        pos.cos_lon = &cos_[static_cast<size_t>(c0)];
+        pos.sin_lon = &sin_[static_cast<size_t>(c0)];
+        pos.rho = rho_[static_cast<size_t>(r)];
+        pos.z = z_[static_cast<size_t>(r)];
       }
       // eval()'s row step, the same operations in the same order.
       auto reduce = [&](const Interpolant* it, RowCandidate& rc) {
@@ -1210,15 +1307,20 @@ class GeodesicExactSolver {
       for (size_t j = 0; j < wk.interp_additive.size(); ++j) reduce(wk.interp_additive[j], wk.row_additive[j]);
       for (size_t j = 0; j < wk.changing.size(); ++j)
         for (size_t k = 0; k < 3; ++k) reduce(wk.changing_interp[j][k], wk.row_segments[j].part[k]);
+      if (plain)
+        interp_argmin_points(wk.row_points.data(), static_cast<int>(wk.row_points.size()), wk.wsoa.data(), stride, pos,
+                             n, wk.best.data(), wk.second.data(), wk.best_id.data());
+      else
       interp_argmin_row(wk.row_points.data(), static_cast<int>(wk.row_points.size()), wk.row_additive.data(),
                         static_cast<int>(wk.row_additive.size()), wk.row_segments.data(),
-                        static_cast<int>(wk.row_segments.size()), wk.wsoa.data(), stride, cx, cy, cz, n, wk.best.data(),
+                        static_cast<int>(wk.row_segments.size()), wk.wsoa.data(), stride, pos, n, wk.best.data(),
                         wk.second.data(), wk.best_id.data(), wk.best_q.data(), wk.best_c2.data(), wk.force.data());
       // Every cell as put() would write it, without branches; then the flagged cells (rare)
       // are solved by the per-cell method and overwrite theirs.
       const bool flagged =
-          interp_store_row(wk.best.data(), wk.second.data(), wk.best_id.data(), wk.best_q.data(), wk.best_c2.data(),
-                           wk.force.data(), n, max_distance_, site_.row(r) + c0, distance_.row(r) + c0);
+          interp_store_row(wk.best.data(), wk.second.data(), wk.best_id.data(), wk.best_q.data(),
+                           plain ? nullptr : wk.best_c2.data(), wk.force.data(), n, max_distance_, site_.row(r) + c0,
+                           distance_.row(r) + c0);
       if (flagged)
         for (int64_t c = 0; c < n; ++c)
           if (wk.second[static_cast<size_t>(c)] != 0.0) solve_cells(wk, cands, c0 + c, r, c0 + c + 1, r + 1);
