@@ -78,6 +78,12 @@ constexpr int64_t kInterpMinBlock = 8;        // cells
 constexpr double kAdditiveMinValue = 1.0;     // metres: see value()
 constexpr int64_t kInterpMinEdge = 4;         // a block clipped by the grid below this: per cell
 constexpr size_t kInterpMaxCandidates = 24;   // more candidates: subdivide (or per cell)
+// Leaves with segments take the row kernels only where interpolation blocks are this large: the
+// kernels need every candidate's interpolants (17 inverse problems each), which the per-cell
+// method builds only for candidates its bounds cannot exclude; on smaller blocks (coarse grids)
+// those extra builds cost more than the kernels save (measured: Øresund at 0.002 deg, 64-cell
+// blocks, 90 -> 110 ns per cell; at 0.0004 deg, 128-cell blocks, 18.5 -> 12.8).
+constexpr int64_t kLeafKernelMinBlock = 128;
 constexpr double kInterpCheck = 5e-6;         // metres: accepted error at the block's centre
 constexpr double kInterpTie = 1e-4;           // metres: closer calls are decided exactly
 constexpr double kInterpMaxDistance = 1.2e7;  // metres: beyond, the antipode's kink is too near
@@ -1145,7 +1151,7 @@ class GeodesicExactSolver {
   void solve_leaf(GeoWorker& wk, const std::vector<int32_t>& cands, int64_t c0, int64_t r0, int64_t c1, int64_t r1) {
     const int64_t S = interp_block_, gx = ctx_.window.col0, gy = ctx_.window.row0;
     const bool one_block = (gx + c0) / S == (gx + c1 - 1) / S && (gy + r0) / S == (gy + r1 - 1) / S;
-    if (cands.empty() || !one_block || cands.size() > kInterpMaxCandidates || !gather_interpolants(wk, cands, c0, r0, c1, r1))
+    if (S < kLeafKernelMinBlock || cands.empty() || !one_block || cands.size() > kInterpMaxCandidates || !gather_interpolants(wk, cands, c0, r0, c1, r1))
       return solve_cells(wk, cands, c0, r0, c1, r1);
     solve_interp_rows(wk, cands, c0, r0, c1, r1);
   }

@@ -577,6 +577,35 @@ TEST(GeodesicEngine, WindowsAgreeWithTheWholeGrid) {
   }
 }
 
+// On fine grids (interpolation blocks of 128 cells) leaves of segments are solved by the row
+// kernels, and cells whose call is close by the per-cell method; windows cut those leaves
+// anywhere, so every cell must get the same bits whichever path and block shape solve it.
+TEST(GeodesicEngine, FineGridWindowsAgreeWithTheWholeGrid) {
+  const GridSpec g = geo_grid(11.90, 55.60, 0.0005, 420, 300);  // 0.0005 deg: 128-cell blocks
+  SeedSet s = random_features(29, 11.95, 55.47, 12.08, 55.58, 14);
+  s.add_polyline(s.add_feature(s.owner_code("coast")),
+                 std::vector<Vec2>{{11.90, 55.52}, {11.93, 55.5230}, {11.95, 55.5205}, {11.97, 55.5260},
+                                   {11.99, 55.5240}, {12.02, 55.5290}, {12.06, 55.5270}, {12.11, 55.5310}});
+  for (double limit : {std::numeric_limits<double>::infinity(), 2500.0}) {
+    const NearestField whole = run(s, g, Method::exact, 2, limit);
+    for (const Window& w : {Window{37, 61, 211, 150}, Window{129, 0, 291, 97}, Window{0, 203, 420, 97}}) {
+      ComputeOptions o;
+      o.method = Method::exact;
+      o.metric = wgs84();
+      o.threads = 1;
+      o.max_distance = limit;
+      o.window = w;
+      const NearestField part = compute(s, g, o);
+      for (int64_t r = 0; r < w.height; ++r)
+        for (int64_t c = 0; c < w.width; ++c) {
+          ASSERT_EQ(part.site.at(c, r), whole.site.at(w.col0 + c, w.row0 + r)) << c << "," << r << " limit " << limit;
+          ASSERT_EQ(part.distance.at(c, r), whole.distance.at(w.col0 + c, w.row0 + r))
+              << c << "," << r << " limit " << limit;
+        }
+    }
+  }
+}
+
 TEST(GeodesicEngine, MemoryEstimateCountsPreparedEdges) {
   const int64_t planar = estimate_memory(Method::exact, 1000, 100000);
   const int64_t geodesic = estimate_memory(Method::exact, 1000, 100000, MetricSpec::geodesic);
