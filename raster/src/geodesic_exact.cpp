@@ -40,6 +40,16 @@
 //    margin of a switch between an end and the interior are measured exactly. Two edges sharing
 //    a vertex that both measure it (beyond the margin) are a tie (lower id): brute force's
 //    search certainly returns the canonical vertex distance for both (see kVertexMargin).
+//  - Row kernels: a leaf block whose candidates all have interpolants there is solved a row
+//    at a time, four cells per vector, every candidate passing while the running best, second
+//    and id stay in registers, on squared values (one root per cell: point-form values are
+//    root(q^2 chord^2) on every path). Point-site leaves always; leaves with segments on fine
+//    grids (kLeafKernelMinBlock), where a segment of certain form over the leaf (block_regime:
+//    the per-cell test settled from the leaf's centre and radius) uses one interpolant and one
+//    whose form changes inside it gets segment_regime's test per cell in the kernel. Cells
+//    the kernels cannot settle (a possible close call, a regime measured exactly, a value
+//    under kAdditiveMinValue) go through the per-cell method, so every cell gets that method's
+//    bits whichever path solves it.
 //  - Blocks, tiles and interpolation blocks are aligned to the grid, not to the window, so any
 //    window and any thread count computes the same bits as the whole grid (the basis of the
 //    streamed strips and of tiles computed apart).
