@@ -267,11 +267,16 @@ using GeoV4 = double __attribute__((vector_size(32)));
   } while (0)
 #define RV_GEO_Q(p) (a0 * (p).qr[0] + a1 * (p).qr[1] + a2 * (p).qr[2] + a3 * (p).qr[3])
 
-// The ECEF positions of cells c .. c + 3 of the row into x, y, z: on a geographic grid from the
-// row's parallel (rho, zc) and the columns' cos / sin (cell_at's arithmetic), else from the
-// located positions cx, cy, cz.
-#define RV_GEO_POSITIONS(c)                 \
+// Cells c .. c + 3 of the row: their column weights into a0 .. a3 (w + b * stride: weight b of
+// every column), their ECEF positions into x, y, z: on a geographic grid from the row's
+// parallel (pos.rho, pos.z) and the columns' cos / sin (cell_at's arithmetic), else from the
+// located positions.
+#define RV_GEO_CELLS(c)                     \
   do {                                      \
+    std::memcpy(&a0, w + (c), sizeof(a0));  \
+    std::memcpy(&a1, w + stride + (c), sizeof(a1)); \
+    std::memcpy(&a2, w + 2 * stride + (c), sizeof(a2)); \
+    std::memcpy(&a3, w + 3 * stride + (c), sizeof(a3)); \
     if (pos.cos_lon) {                      \
       GeoV4 cv_, sv_;                       \
       std::memcpy(&cv_, pos.cos_lon + (c), sizeof(cv_)); \
@@ -295,11 +300,7 @@ RV_GEO_CLONES void interp_argmin_points(const RowCandidate* __restrict points, i
   const double inf = std::numeric_limits<double>::infinity();
   for (int64_t c = 0; c < n; c += kRowLanes) {
     GeoV4 a0, a1, a2, a3, x, y, z;
-    std::memcpy(&a0, w + c, sizeof(a0));
-    std::memcpy(&a1, w + stride + c, sizeof(a1));
-    std::memcpy(&a2, w + 2 * stride + c, sizeof(a2));
-    std::memcpy(&a3, w + 3 * stride + c, sizeof(a3));
-    RV_GEO_POSITIONS(c);
+    RV_GEO_CELLS(c);
     GeoV4 b = GeoV4{} + inf, s = b, id = GeoV4{} + static_cast<double>(kNoSite);
     for (int j = 0; j < kp; ++j) {
       const RowCandidate& p = points[j];
@@ -350,11 +351,7 @@ RV_GEO_CLONES void interp_argmin_row(const RowCandidate* __restrict points, int 
   constexpr double max2 = kVertexMaxChord * kVertexMaxChord, min2 = kVertexMinChord * kVertexMinChord;
   for (int64_t c = 0; c < n; c += kRowLanes) {
     GeoV4 a0, a1, a2, a3, x, y, z;
-    std::memcpy(&a0, w + c, sizeof(a0));
-    std::memcpy(&a1, w + stride + c, sizeof(a1));
-    std::memcpy(&a2, w + 2 * stride + c, sizeof(a2));
-    std::memcpy(&a3, w + 3 * stride + c, sizeof(a3));
-    RV_GEO_POSITIONS(c);
+    RV_GEO_CELLS(c);
     const GeoV4 zero = GeoV4{}, one = GeoV4{} + 1.0, none = GeoV4{} - 1.0;
     GeoV4 b = GeoV4{} + inf, s = b, id = GeoV4{} + static_cast<double>(kNoSite), btag = none, bq = zero, bc2 = zero;
     GeoV4 need = zero;
@@ -432,7 +429,7 @@ RV_GEO_CLONES void interp_argmin_row(const RowCandidate* __restrict points, int 
 }
 #undef RV_GEO_TAKE
 #undef RV_GEO_TAKE_PLAIN
-#undef RV_GEO_POSITIONS
+#undef RV_GEO_CELLS
 #undef RV_GEO_Q
 
 // The outputs of one row of interp_argmin_row's cells (at least one candidate, so every cell
