@@ -1355,8 +1355,28 @@ class GeodesicExactSolver {
   // A block inside polygons: per cell the lowest of `cands` at distance exactly 0 (as the
   // float32 written, which apply_interiors compares), else no site; apply_interiors does the
   // rest, exactly as after brute force.
+  // Large blocks are split first, each part keeping the candidates that touch its own box: a
+  // polygon's interior block touched at one corner by a coastline edge then costs a few boxes,
+  // not a lower bound per cell. (Both filters are lower bounds of the distance, so a candidate
+  // dropped cannot be at distance 0 in that part.)
   void solve_zero(const std::vector<int32_t>& cands, int64_t c0, int64_t r0, int64_t c1, int64_t r1) {
     if (cands.empty()) return fill_none(c0, r0, c1, r1);
+    const int64_t w = c1 - c0, h = r1 - r0;
+    if (w * h > kLeafCells) {
+      const int64_t cm = c0 + (w + 1) / 2, rm = r0 + (h + 1) / 2;
+      const int64_t xs[3] = {c0, cm, c1}, ys[3] = {r0, rm, r1};
+      std::vector<int32_t> part;
+      for (int j = 0; j < 2; ++j)
+        for (int i = 0; i < 2; ++i) {
+          if (xs[i] >= xs[i + 1] || ys[j] >= ys[j + 1]) continue;
+          const EcefBox box = box_of(xs[i], ys[j], xs[i + 1], ys[j + 1]);
+          part.clear();
+          for (int32_t id : cands)
+            if (geo_.lower_bound(box, id) <= kGeoSlack) part.push_back(id);
+          solve_zero(part, xs[i], ys[j], xs[i + 1], ys[j + 1]);
+        }
+      return;
+    }
     for (int64_t r = r0; r < r1; ++r)
       for (int64_t c = c0; c < c1; ++c) {
         const GeoCell p = cell_at(c, r);
