@@ -1179,8 +1179,8 @@ class GeodesicExactSolver {
     wk.interp_additive_id.clear();
     wk.changing.clear();
     wk.changing_interp.clear();
-    // The block's centre cell and a radius holding every cell centre of the block (the box's
-    // half diagonal, from its middle).
+    // The middle of the block's ECEF box and a radius holding every cell centre of the block
+    // (the box's half diagonal, grown for rounding).
     bool have_box = false;
     EcefBox box{};
     double mx = 0.0, my = 0.0, mz = 0.0, radius = 0.0;
