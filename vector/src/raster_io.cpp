@@ -537,14 +537,15 @@ void write_cog(const std::string& path, const Raster<T>& raster, double nodata, 
   if constexpr (!PixelType<T>::floating) {
     const auto max = static_cast<uint32_t>(options.max_code);
     bool in_range = true;
+    auto narrow = [&](auto& copy) {
+      copy.resize(static_cast<size_t>(n));
+      in_range = store_codes(raster.data(), copy.data(), n, max);
+      cells = copy.data();
+    };
     if (type == GDT_Byte) {
-      cells8.resize(static_cast<size_t>(n));
-      in_range = store_codes(raster.data(), cells8.data(), n, max);
-      cells = cells8.data();
+      narrow(cells8);
     } else if (type == GDT_UInt16) {
-      cells16.resize(static_cast<size_t>(n));
-      in_range = store_codes(raster.data(), cells16.data(), n, max);
-      cells = cells16.data();
+      narrow(cells16);
     } else if (options.max_code >= 0) {
       in_range = std::all_of(raster.cells().begin(), raster.cells().end(),
                              [max](int32_t v) { return static_cast<uint32_t>(v) <= max; });
