@@ -5,6 +5,7 @@
 //   engine_bench [--quick] [--threads N] [--repeats N] [--min-cells N] [--max-cells N]
 //                [--methods exact,hv-scan,...] [--warm] [--strip-rows N]
 //
+// --repeats N: runs per row (default 3; rows of 9e6 cells or more run once unless it is given).
 // --warm adds the time of compute_into() into the previous run's buffers: the computation
 // without the first-touch page faults of fresh result rasters (which, on a VM, can cost as much
 // as the computation itself).
@@ -12,6 +13,7 @@
 // time, into one reused result (what `rvoronoi compute` does when it streams), prints the summed
 // time on a line under the table and checks the strips against the whole grid cell for cell.
 #include <algorithm>
+#include <chrono>
 #include <cstdio>
 #include <cstring>
 #include <random>
@@ -47,7 +49,7 @@ double median(std::vector<double> v) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  bool quick = false, warm = false;
+  bool quick = false, warm = false, repeats_given = false;
   int threads = 0, repeats = 3;
   int64_t min_cells = 0, max_cells = int64_t{1} << 62, strip_rows = 0;
   std::string strip_lines;
@@ -56,7 +58,10 @@ int main(int argc, char** argv) {
   for (int i = 1; i < argc; ++i) {
     if (!std::strcmp(argv[i], "--quick")) quick = true;
     else if (!std::strcmp(argv[i], "--threads") && i + 1 < argc) threads = std::atoi(argv[++i]);
-    else if (!std::strcmp(argv[i], "--repeats") && i + 1 < argc) repeats = std::atoi(argv[++i]);
+    else if (!std::strcmp(argv[i], "--repeats") && i + 1 < argc) {
+      repeats = std::max(1, std::atoi(argv[++i]));
+      repeats_given = true;
+    }
     else if (!std::strcmp(argv[i], "--max-cells") && i + 1 < argc) max_cells = std::atoll(argv[++i]);
     else if (!std::strcmp(argv[i], "--min-cells") && i + 1 < argc) min_cells = std::atoll(argv[++i]);
     else if (!std::strcmp(argv[i], "--warm")) warm = true;
@@ -99,7 +104,7 @@ int main(int argc, char** argv) {
     for (Method m : methods) {
       // Brute force only where the paper ran it (up to 1000 x 1000).
       if (m == Method::brute_force && row.paper_brute_ms < 0) continue;
-      const int reps = cells >= 9'000'000 ? 1 : repeats;
+      const int reps = cells >= 9'000'000 && !repeats_given ? 1 : repeats;
       std::vector<double> ms;
       NearestField f;
       for (int r = 0; r < reps; ++r) {
@@ -125,13 +130,19 @@ int main(int argc, char** argv) {
       if (strip_rows > 0 && (m == Method::exact || m == Method::brute_force)) {
         std::vector<double> sms;
         bool same = true;
-        for (int r = 0; r < reps; ++r) {
-          NearestField strip;
-          double total = 0;
+        // With --warm the strips' buffer is faulted by one untimed pass first, as a streamed
+        // command's buffers are after its first strips.
+        NearestField strip;
+        for (int r = warm ? -1 : 0; r < reps; ++r) {
+          // As a streamed job does: the seeds prepared once (timed), shared by the strips.
+          ComputeOptions base;
+          base.method = m;
+          base.threads = threads;
+          const auto t0 = std::chrono::steady_clock::now();
+          base.prepared = prepare(seeds, g, base);
+          double total = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
           for (int64_t row0 = 0; row0 < g.height; row0 += strip_rows) {
-            ComputeOptions o;
-            o.method = m;
-            o.threads = threads;
+            ComputeOptions o = base;
             o.window = Window{0, row0, g.width, std::min(strip_rows, g.height - row0)};
             compute_into(seeds, g, o, strip);
             total += strip.seconds;
@@ -139,7 +150,7 @@ int main(int argc, char** argv) {
             same = same && std::equal(strip.site.data(), strip.site.data() + n, f.site.row(row0)) &&
                    std::memcmp(strip.distance.data(), f.distance.row(row0), n * sizeof(float)) == 0;
           }
-          sms.push_back(total * 1e3);
+          if (r >= 0) sms.push_back(total * 1e3);
         }
         const double sm = median(sms);
         char line[256];

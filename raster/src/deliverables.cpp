@@ -1103,10 +1103,10 @@ NearestField compute_other_owner(const SeedSet& seeds, const NearestField& own, 
   const GridSpec& grid = own.site.grid();
   const Window window = own.site.window();
   detail::Progress progress({}, nullptr, window.cell_count());
-  detail::EngineContext ctx{seeds, grid, window, to_local(seeds, grid), {}, std::numeric_limits<double>::infinity(),
+  const std::vector<LocalSite> local = to_local(seeds, grid);
+  const std::vector<int32_t> geometric = detail::geometric_sites(seeds);
+  detail::EngineContext ctx{seeds, grid, window, local, geometric, std::numeric_limits<double>::infinity(),
                             resolve_threads(threads), &progress, nullptr};
-  for (int32_t i = 0; i < static_cast<int32_t>(seeds.sites().size()); ++i)
-    if (seeds.sites()[static_cast<size_t>(i)].kind != SiteKind::area) ctx.geometric.push_back(i);
   std::vector<int32_t> owner_of_site(seeds.sites().size());
   for (size_t i = 0; i < owner_of_site.size(); ++i) owner_of_site[i] = seeds.site_owner(static_cast<int32_t>(i));
   const auto start = std::chrono::steady_clock::now();

@@ -10,6 +10,7 @@
 #include <thread>
 #include <vector>
 
+#include "bucket_index.hpp"
 #include "engine_internal.hpp"
 #include "parallel.hpp"
 #include "rv/error.hpp"
@@ -317,23 +318,39 @@ NearestField compute(const SeedSet& seeds, const GridSpec& grid, const ComputeOp
   return out;
 }
 
-void compute_into(const SeedSet& seeds, const GridSpec& grid, const ComputeOptions& options,
-                  NearestField& out) {
-  const auto start = std::chrono::steady_clock::now();
+namespace detail {
+
+std::vector<int32_t> geometric_sites(const SeedSet& seeds) {
+  std::vector<int32_t> ids;
+  for (int32_t i = 0; i < static_cast<int32_t>(seeds.sites().size()); ++i)
+    if (seeds.sites()[static_cast<size_t>(i)].kind != SiteKind::area) ids.push_back(i);
+  return ids;
+}
+
+double site_scale(const std::vector<LocalSite>& local, const std::vector<int32_t>& ids) {
+  double scale = 0.0;
+  for (int32_t id : ids) {
+    const LocalSite& s = local[static_cast<size_t>(id)];
+    scale = std::max({scale, std::abs(s.ax), std::abs(s.ay), std::abs(s.bx()), std::abs(s.by())});
+  }
+  return scale;
+}
+
+}  // namespace detail
+
+namespace {
+
+// The checks prepare() and compute() share: the grid, the seeds, the metric and the geolocator.
+void check_inputs(const SeedSet& seeds, const GridSpec& grid, const ComputeOptions& options) {
   if (grid.width <= 0 || grid.height <= 0 || !(grid.res > 0.0) || !std::isfinite(grid.res))
     throw Error(ErrorKind::invalid_argument, "grid must have a positive size and resolution");
-  const Window window = options.window.value_or(grid.full_window());
-  if (!grid.contains(window)) throw Error(ErrorKind::invalid_argument, "window lies outside the grid");
   if (seeds.sites().empty()) throw Error(ErrorKind::invalid_input, "no seeds: the seed set is empty");
-  if (std::isnan(options.max_distance) || options.max_distance < 0.0)
-    throw Error(ErrorKind::invalid_argument, "max distance must be a non-negative number");
   validate_metric(options.metric);
   const bool geodesic = options.metric.kind == MetricSpec::geodesic;
   const Geolocator* geolocator = options.geolocator.get();
   if (geolocator != nullptr && !geodesic)
     throw Error(ErrorKind::invalid_argument,
                 "a geolocator is only meaningful with the geodesic metric (planar measures in the grid's CRS)");
-  std::optional<detail::GeoSites> geo;
   if (geodesic) {
     // A projected grid's extent is in its CRS units, not degrees: the degree checks do not apply;
     // every located centre is checked instead (detail::locate_centres).
@@ -341,24 +358,67 @@ void compute_into(const SeedSet& seeds, const GridSpec& grid, const ComputeOptio
       check_geodesic_grid(grid);
     else
       check_grid_polygons(seeds, options.grid_polygons.get());
-    geo.emplace(options.metric, seeds);
+  }
+}
+
+}  // namespace
+
+PreparedSeeds::~PreparedSeeds() = default;
+
+std::shared_ptr<const PreparedSeeds> prepare(const SeedSet& seeds, const GridSpec& grid, const ComputeOptions& options) {
+  check_inputs(seeds, grid, options);
+  const bool geodesic = options.metric.kind == MetricSpec::geodesic;
+  const Geolocator* geolocator = options.geolocator.get();
+  auto p = std::make_shared<PreparedSeeds>();
+  p->seeds = &seeds;
+  p->site_count = seeds.sites().size();
+  p->grid = grid;
+  p->metric = options.metric;
+  p->geolocator = geolocator;
+  p->local = geolocator != nullptr ? to_local_projected(seeds, grid, *geolocator)
+             : geodesic            ? to_local_geodesic(seeds, grid)
+                                   : to_local(seeds, grid);
+  p->geometric = detail::geometric_sites(seeds);
+  if (geodesic) p->geo.emplace(options.metric, seeds);
+  // Only the planar exact method culls with the bucket index.
+  if (!geodesic && options.method == Method::exact)
+    p->index = std::make_unique<const detail::BucketIndex>(p->local, p->geometric);
+  p->site_scale = detail::site_scale(p->local, p->geometric);
+  return p;
+}
+
+void compute_into(const SeedSet& seeds, const GridSpec& grid, const ComputeOptions& options,
+                  NearestField& out) {
+  const auto start = std::chrono::steady_clock::now();
+  check_inputs(seeds, grid, options);
+  const Window window = options.window.value_or(grid.full_window());
+  if (!grid.contains(window)) throw Error(ErrorKind::invalid_argument, "window lies outside the grid");
+  if (std::isnan(options.max_distance) || options.max_distance < 0.0)
+    throw Error(ErrorKind::invalid_argument, "max distance must be a non-negative number");
+  const bool geodesic = options.metric.kind == MetricSpec::geodesic;
+  const Geolocator* geolocator = options.geolocator.get();
+  std::shared_ptr<const PreparedSeeds> prepared = options.prepared;
+  if (prepared == nullptr) {
+    prepared = prepare(seeds, grid, options);
+  } else if (prepared->seeds != &seeds || prepared->site_count != seeds.sites().size() || !(prepared->grid == grid) ||
+             !(prepared->metric == options.metric) || prepared->geolocator != geolocator) {
+    throw Error(ErrorKind::invalid_argument,
+                "the prepared seeds were made for another seed set, grid, metric or geolocator");
   }
 
   detail::Progress progress(options.progress, options.cancel, window.cell_count());
   detail::EngineContext ctx{seeds,
                             grid,
                             window,
-                            geolocator != nullptr ? to_local_projected(seeds, grid, *geolocator)
-                            : geodesic            ? to_local_geodesic(seeds, grid)
-                                                  : to_local(seeds, grid),
-                            {},
+                            prepared->local,
+                            prepared->geometric,
                             0.0,
                             resolve_threads(options.threads),
                             &progress,
-                            geo ? &*geo : nullptr};
+                            prepared->geo ? &*prepared->geo : nullptr};
   ctx.geolocator = geolocator;
-  for (int32_t i = 0; i < static_cast<int32_t>(seeds.sites().size()); ++i)
-    if (seeds.sites()[i].kind != SiteKind::area) ctx.geometric.push_back(i);
+  ctx.index = prepared->index.get();
+  ctx.site_scale = prepared->site_scale;
   if (std::isinf(options.max_distance))
     ctx.max_key = std::numeric_limits<double>::infinity();
   else

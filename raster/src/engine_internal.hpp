@@ -3,7 +3,9 @@
 
 #include <atomic>
 #include <functional>
+#include <memory>
 #include <mutex>
+#include <optional>
 #include <vector>
 
 #include "geodesic_sites.hpp"
@@ -33,12 +35,14 @@ class Progress {
   std::mutex mutex_;
 };
 
+class BucketIndex;
+
 struct EngineContext {
   const SeedSet& seeds;
   const GridSpec& grid;
   Window window;
-  std::vector<LocalSite> local;    // per site id (area sites hold their anchor point)
-  std::vector<int32_t> geometric;  // ids of point and segment sites, ascending
+  const std::vector<LocalSite>& local;    // per site id (area sites hold their anchor point)
+  const std::vector<int32_t>& geometric;  // ids of point and segment sites, ascending
   double max_key;                  // max_distance in key units (planar: squared; geodesic: metres)
   int threads;
   Progress* progress;
@@ -55,7 +59,44 @@ struct EngineContext {
   // gets infinite coordinates, i.e. touches no cell), and `interiors` come from the polygons
   // in the grid's CRS. Null otherwise. Not owned; thread-safe by the Geolocator contract.
   const Geolocator* geolocator = nullptr;
+  // The planar exact method's index over exactly `geometric` in `local`, from rv::PreparedSeeds;
+  // null: the solver builds its own (contexts over a subset of the sites must leave it null).
+  const BucketIndex* index = nullptr;
+  // Largest absolute coordinate of a site of `geometric` in `local` (for rounding slacks); < 0:
+  // not known, the solver measures it.
+  double site_scale = -1.0;
 };
+
+// Ids of the point and segment sites (everything but area sites), ascending.
+std::vector<int32_t> geometric_sites(const SeedSet& seeds);
+
+// Largest absolute local coordinate of the sites `ids` (segment ends included).
+double site_scale(const std::vector<LocalSite>& local, const std::vector<int32_t>& ids);
+
+}  // namespace rv::detail
+
+namespace rv {
+
+// What rv::prepare() makes (see rv/engine.hpp): everything of a computation that does not depend
+// on the window. Immutable once made.
+class PreparedSeeds {
+ public:
+  const SeedSet* seeds = nullptr;  // identity of the seed set it was made from
+  size_t site_count = 0;
+  GridSpec grid;
+  MetricSpec metric;
+  const Geolocator* geolocator = nullptr;
+  std::vector<LocalSite> local;
+  std::vector<int32_t> geometric;
+  std::optional<detail::GeoSites> geo;              // geodesic metric
+  std::unique_ptr<const detail::BucketIndex> index;  // planar metric
+  double site_scale = 0.0;
+  ~PreparedSeeds();
+};
+
+}  // namespace rv
+
+namespace rv::detail {
 
 // Locates n cell centres (grid CRS) on the ellipsoid: lon/lat degrees. Throws
 // rv::Error(invalid_input) when the geolocator gives a non-finite position or a latitude

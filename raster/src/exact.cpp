@@ -18,8 +18,15 @@
 #include <cmath>
 #include <cstring>
 #include <limits>
+#include <optional>
 #include <vector>
 
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#define RV_STREAM_STORES 1
+#endif
+
+#include "bucket_index.hpp"
 #include "engine_internal.hpp"
 #include "parallel.hpp"
 #include "rv/error.hpp"
@@ -36,9 +43,10 @@ struct Rect {  // local frame; x0 <= x1, y0 <= y1
   double x0, y0, x1, y1;
 };
 
+// (Two-argument std::max: the initializer-list form compiled to a loop, a few % of the engine.)
 inline double point_rect_key(double px, double py, const Rect& r) {
-  const double dx = std::max({r.x0 - px, 0.0, px - r.x1});
-  const double dy = std::max({r.y0 - py, 0.0, py - r.y1});
+  const double dx = std::max(std::max(r.x0 - px, 0.0), px - r.x1);
+  const double dy = std::max(std::max(r.y0 - py, 0.0), py - r.y1);
   return dx * dx + dy * dy;
 }
 
@@ -64,9 +72,15 @@ bool segment_meets_rect(const LocalSite& s, const Rect& r) {
   return t0 <= t1;
 }
 
+double segment_rect_key(const LocalSite& s, const Rect& r);
+
 // Lower bound of the squared distance from the site to any point of the rectangle.
-double site_rect_key(const LocalSite& s, const Rect& r) {
+inline double site_rect_key(const LocalSite& s, const Rect& r) {
   if (s.inv_len2 == 0.0) return point_rect_key(s.ax, s.ay, r);
+  return segment_rect_key(s, r);
+}
+
+double segment_rect_key(const LocalSite& s, const Rect& r) {
   if (segment_meets_rect(s, r)) return 0.0;
   // Disjoint convex sets: the closest pair has an endpoint of the segment or a rect corner.
   double k = std::min(point_rect_key(s.ax, s.ay, r), point_rect_key(s.bx(), s.by(), r));
@@ -81,8 +95,8 @@ double site_rect_key(const LocalSite& s, const Rect& r) {
 // rectangle (never above site_rect_key, so it can reject but never wrongly keep).
 inline double site_box_rect_key(const LocalSite& s, const Rect& r) {
   const double bx = s.ax + s.dx, by = s.ay + s.dy;
-  const double dx = std::max({r.x0 - std::max(s.ax, bx), 0.0, std::min(s.ax, bx) - r.x1});
-  const double dy = std::max({r.y0 - std::max(s.ay, by), 0.0, std::min(s.ay, by) - r.y1});
+  const double dx = std::max(std::max(r.x0 - std::max(s.ax, bx), 0.0), std::min(s.ax, bx) - r.x1);
+  const double dy = std::max(std::max(r.y0 - std::max(s.ay, by), 0.0), std::min(s.ay, by) - r.y1);
   return dx * dx + dy * dy;
 }
 
@@ -100,6 +114,51 @@ inline double site_rect_max_key(const LocalSite& s, const Rect& r) {
 #else
 #define RV_AVX2_CLONES __attribute__((target_clones("avx2", "default")))
 #endif
+
+// Results of a window larger than this (bytes of site ids and distances together) are written
+// with non-temporal stores: such a window is far larger than the caches, nothing reads its cells
+// again before they have left them, and a normal store first reads the cache line it writes.
+// On the 1e8-cell benchmark (50 000 points) that read was about 40 % of the engine's time.
+constexpr int64_t kStreamBytes = int64_t{4} << 20;
+
+// Copies n results of a row from scratch (td, ti) to their place in the result rasters (od, os).
+// With `stream`, the part of the row whose addresses allow it goes with non-temporal stores; the
+// caller runs store_fence() before another thread may read those cells.
+inline void put_row(float* __restrict od, int32_t* __restrict os, const float* __restrict td,
+                    const int32_t* __restrict ti, int64_t n, bool stream) {
+#if defined(RV_STREAM_STORES)
+  if (stream) {
+    int64_t c = 0;
+    for (; c < n && (reinterpret_cast<uintptr_t>(od + c) & 15) != 0; ++c) {
+      od[c] = td[c];
+      os[c] = ti[c];
+    }
+    if ((reinterpret_cast<uintptr_t>(os + c) & 15) == 0) {
+      for (; c + 4 <= n; c += 4) {
+        _mm_stream_ps(od + c, _mm_loadu_ps(td + c));
+        _mm_stream_si128(reinterpret_cast<__m128i*>(os + c),
+                         _mm_loadu_si128(reinterpret_cast<const __m128i*>(ti + c)));
+      }
+    }
+    for (; c < n; ++c) {
+      od[c] = td[c];
+      os[c] = ti[c];
+    }
+    return;
+  }
+#endif
+  (void)stream;
+  std::memcpy(od, td, static_cast<size_t>(n) * sizeof(float));
+  std::memcpy(os, ti, static_cast<size_t>(n) * sizeof(int32_t));
+}
+
+// Orders this thread's non-temporal stores before its later stores (the release that hands the
+// cells to another thread): they are weakly ordered otherwise.
+inline void store_fence() {
+#if defined(RV_STREAM_STORES)
+  _mm_sfence();
+#endif
+}
 
 // Cells per register block of argmin_block: two 4-wide double vectors.
 constexpr int64_t kLanes = 8;
@@ -159,15 +218,17 @@ using V4 = double __attribute__((vector_size(32)));
 // id stay in registers while all k candidates pass (the earlier loop order, candidate-outer,
 // loaded and stored best[] and best_id[] once per candidate per cell). Ids ride along as doubles
 // (exact below 2^53), so one compare mask blends both. `px` must hold w rounded up to a multiple
-// of kLanes (the caller pads it); `best`/`best_id` the same. Keys use exactly planar_key()'s
+// of kLanes (the caller pads it); `best`/`best_id` the same, and `td`/`ti` w; `stream` as for
+// put_row(). Keys use exactly planar_key()'s
 // arithmetic (-ffp-contract=off: no fused multiply-add), bit-identical to brute force; the
 // distance is planar_distance_from_key(), rounded to float, as everywhere. An AVX2 clone is
 // picked at load time where the CPU has it; the default clone runs the same vectors as SSE2 pairs.
 RV_AVX2_CLONES void argmin_block(
     const LocalSite* __restrict sites, const double* __restrict ids, int k,
     const double* __restrict px, int64_t w, const double* __restrict py, int64_t h,
-    double max_key, double* __restrict best, double* __restrict best_id,
-    int32_t* __restrict out_site, float* __restrict out_dist, int64_t stride) {
+    double max_key, double* __restrict best, double* __restrict best_id, float* __restrict td,
+    int32_t* __restrict ti, int32_t* __restrict out_site, float* __restrict out_dist, int64_t stride,
+    bool stream) {
   bool all_points = true;
   for (int j = 0; j < k; ++j) all_points = all_points && sites[j].inv_len2 == 0.0;
   for (int64_t r = 0; r < h; ++r) {
@@ -185,171 +246,19 @@ RV_AVX2_CLONES void argmin_block(
       std::memcpy(best_id + c, &i0, sizeof(i0));
       std::memcpy(best_id + c + 4, &i1, sizeof(i1));
     }
-    int32_t* __restrict os = out_site + r * stride;
-    float* __restrict od = out_dist + r * stride;
     if (max_key == std::numeric_limits<double>::infinity()) {
-      for (int64_t c = 0; c < w; ++c) od[c] = static_cast<float>(planar_distance_from_key(best[c]));
-      for (int64_t c = 0; c < w; ++c) os[c] = static_cast<int32_t>(best_id[c]);
+      for (int64_t c = 0; c < w; ++c) td[c] = static_cast<float>(planar_distance_from_key(best[c]));
+      for (int64_t c = 0; c < w; ++c) ti[c] = static_cast<int32_t>(best_id[c]);
     } else {
       for (int64_t c = 0; c < w; ++c) {
         const bool none = best[c] > max_key;
-        od[c] = none ? kNoDistance : static_cast<float>(planar_distance_from_key(best[c]));
-        os[c] = none ? kNoSite : static_cast<int32_t>(best_id[c]);
+        td[c] = none ? kNoDistance : static_cast<float>(planar_distance_from_key(best[c]));
+        ti[c] = none ? kNoSite : static_cast<int32_t>(best_id[c]);
       }
     }
+    put_row(out_dist + r * stride, out_site + r * stride, td, ti, w, stream);
   }
 }
-
-// Buckets along one axis: span / size + 1, at most 2^14. Clamped while still a double: a span
-// huge against the bucket size (seeds 1e30 apart along a thin line) or inf / inf (seeds at both
-// ends of the double range) must not reach the integer conversion, which would be undefined.
-int64_t bucket_count(double span, double size) {
-  constexpr double kMax = 1 << 14;
-  const double n = span / size;
-  if (!(n >= 0.0)) return 1;  // NaN
-  return static_cast<int64_t>(std::min(std::floor(n) + 1.0, kMax));
-}
-
-// Uniform bucket grid over the geometric sites (segments registered in every bucket they cross).
-class BucketIndex {
- public:
-  BucketIndex(const std::vector<LocalSite>& local, const std::vector<int32_t>& ids) {
-    double x0 = std::numeric_limits<double>::infinity(), y0 = x0, x1 = -x0, y1 = -x0;
-    for (int32_t id : ids) {
-      const LocalSite& s = local[id];
-      x0 = std::min({x0, s.ax, s.bx()});
-      x1 = std::max({x1, s.ax, s.bx()});
-      y0 = std::min({y0, s.ay, s.by()});
-      y1 = std::max({y1, s.ay, s.by()});
-    }
-    const double w = x1 - x0, h = y1 - y0;
-    const double n = std::max<double>(1.0, static_cast<double>(ids.size()) / 2.0);
-    double size;
-    if (w > 0.0 && h > 0.0)
-      size = std::sqrt(w * h / n);
-    else
-      size = std::max(w, h) / n;
-    if (!(size > 0.0)) size = 1.0;
-    nx_ = bucket_count(w, size);
-    ny_ = bucket_count(h, size);
-    x0_ = x0;
-    y0_ = y0;
-    sx_ = std::max(w / static_cast<double>(nx_), size * 1e-9);
-    sy_ = std::max(h / static_cast<double>(ny_), size * 1e-9);
-    if (w == 0.0) sx_ = size;
-    if (h == 0.0) sy_ = size;
-
-    std::vector<int64_t> counts(static_cast<size_t>(nx_ * ny_) + 1, 0);
-    auto visit = [&](const LocalSite& s, auto&& fn) {
-      const double ya = std::min(s.ay, s.by()), yb = std::max(s.ay, s.by());
-      const int64_t by0 = clamp_y(ya), by1 = clamp_y(yb);
-      for (int64_t by = by0; by <= by1; ++by) {
-        // x-range of the segment within this bucket row's band (inclusive of its edges).
-        const double band0 = y0_ + static_cast<double>(by) * sy_;
-        const double band1 = band0 + sy_;
-        double xa, xb;
-        if (s.dy == 0.0) {
-          xa = std::min(s.ax, s.bx());
-          xb = std::max(s.ax, s.bx());
-        } else {
-          double ta = (band0 - s.ay) / s.dy, tb = (band1 - s.ay) / s.dy;
-          if (ta > tb) std::swap(ta, tb);
-          ta = std::clamp(ta, 0.0, 1.0);
-          tb = std::clamp(tb, 0.0, 1.0);
-          xa = s.ax + ta * s.dx;
-          xb = s.ax + tb * s.dx;
-          if (xa > xb) std::swap(xa, xb);
-        }
-        // One bucket of slack on each side absorbs rounding in the band clipping.
-        const int64_t bx0 = std::max<int64_t>(clamp_x(xa) - 1, 0);
-        const int64_t bx1 = std::min<int64_t>(clamp_x(xb) + 1, nx_ - 1);
-        for (int64_t bx = bx0; bx <= bx1; ++bx) fn(by * nx_ + bx);
-      }
-    };
-    for (int32_t id : ids) visit(local[id], [&](int64_t b) { ++counts[b + 1]; });
-    for (size_t i = 1; i < counts.size(); ++i) counts[i] += counts[i - 1];
-    offsets_ = counts;
-    items_.resize(static_cast<size_t>(offsets_.back()));
-    std::vector<int64_t> fill(offsets_.begin(), offsets_.end() - 1);
-    for (int32_t id : ids) visit(local[id], [&](int64_t b) { items_[fill[b]++] = id; });
-  }
-
-  int64_t clamp_x(double x) const { return clamp_bucket(std::floor((x - x0_) / sx_), nx_); }
-  int64_t clamp_y(double y) const { return clamp_bucket(std::floor((y - y0_) / sy_), ny_); }
-
-  // A bucket position clamped to [0, count - 1] before the integer conversion. NaN (inf / inf:
-  // only when the sites' extent overflowed, which leaves a single bucket) is bucket 0.
-  static int64_t clamp_bucket(double b, int64_t count) {
-    if (!(b > 0.0)) return 0;
-    return static_cast<int64_t>(std::min(b, static_cast<double>(count - 1)));
-  }
-
-  // Calls fn(site) for every site registered in buckets [bx0, bx1] x [by0, by1] (clamped).
-  template <class F>
-  void for_range(int64_t bx0, int64_t by0, int64_t bx1, int64_t by1, F&& fn) const {
-    bx0 = std::max<int64_t>(bx0, 0);
-    by0 = std::max<int64_t>(by0, 0);
-    bx1 = std::min(bx1, nx_ - 1);
-    by1 = std::min(by1, ny_ - 1);
-    for (int64_t by = by0; by <= by1; ++by)
-      for (int64_t bx = bx0; bx <= bx1; ++bx) {
-        const int64_t b = by * nx_ + bx;
-        for (int64_t i = offsets_[b]; i < offsets_[b + 1]; ++i) fn(items_[i]);
-      }
-  }
-
-  // Calls fn(site) for the sites of the first non-empty square ring of buckets around (x, y),
-  // and of the ring after it. Any site gives a valid upper bound; near ones give a tight one.
-  template <class F>
-  void near(double x, double y, F&& fn) const {
-    near_filtered(x, y, [](int32_t) { return true; }, fn);
-  }
-
-  // Like near(), but only sites passing `keep` count as found (the others are still passed to
-  // fn, which filters them itself). Visits every ring when no site passes.
-  template <class Keep, class F>
-  void near_filtered(double x, double y, Keep&& keep, F&& fn) const {
-    const int64_t cx = clamp_x(x), cy = clamp_y(y);
-    const int64_t max_ring = std::max(nx_, ny_);
-    int64_t found_at = -1;
-    for (int64_t ring = 0; ring <= max_ring; ++ring) {
-      bool any = false;
-      auto take = [&](int64_t bx, int64_t by) {
-        if (bx < 0 || by < 0 || bx >= nx_ || by >= ny_) return;
-        const int64_t b = by * nx_ + bx;
-        for (int64_t i = offsets_[b]; i < offsets_[b + 1]; ++i) {
-          fn(items_[i]);
-          any = any || keep(items_[i]);
-        }
-      };
-      if (ring == 0) {
-        take(cx, cy);
-      } else {
-        for (int64_t bx = cx - ring; bx <= cx + ring; ++bx) {
-          take(bx, cy - ring);
-          take(bx, cy + ring);
-        }
-        for (int64_t by = cy - ring + 1; by <= cy + ring - 1; ++by) {
-          take(cx - ring, by);
-          take(cx + ring, by);
-        }
-      }
-      if (any && found_at < 0) found_at = ring;
-      if (found_at >= 0 && ring >= found_at + 1) return;
-    }
-  }
-
-  double x0() const { return x0_; }
-  double y0() const { return y0_; }
-  double sx() const { return sx_; }
-  double sy() const { return sy_; }
-
- private:
-  double x0_, y0_, sx_, sy_;
-  int64_t nx_, ny_;
-  std::vector<int64_t> offsets_;
-  std::vector<int32_t> items_;
-};
 
 struct Worker {
   std::vector<int32_t> stamp;  // per site id: last tile that collected it
@@ -359,21 +268,21 @@ struct Worker {
   std::vector<double> px, py;
   std::vector<double> best;
   std::vector<double> best_id;
+  std::vector<float> dist_row;
+  std::vector<int32_t> site_row;
   std::vector<double> gathered_ids;
   std::vector<double> box_keys;
   std::array<double, 4 * 16> corner_keys;
+  std::array<double, 4 * 16> corner_margins;
 };
 
 // Absolute slack (in distance units) for rounding in bounds: far above the few ulps of the
 // local-frame magnitudes the keys are computed from, far below anything that matters.
 double rounding_slack(const EngineContext& ctx) {
-  double scale = std::abs(ctx.grid.local_x(ctx.window.col0 + ctx.window.width)) +
-                 std::abs(ctx.grid.local_y(ctx.window.row0 + ctx.window.height)) + ctx.grid.res;
-  for (int32_t id : ctx.geometric) {
-    const LocalSite& s = ctx.local[id];
-    scale = std::max({scale, std::abs(s.ax), std::abs(s.ay), std::abs(s.bx()), std::abs(s.by())});
-  }
-  return scale * 1e-12;
+  const double scale = std::abs(ctx.grid.local_x(ctx.window.col0 + ctx.window.width)) +
+                       std::abs(ctx.grid.local_y(ctx.window.row0 + ctx.window.height)) + ctx.grid.res;
+  const double sites = ctx.site_scale >= 0.0 ? ctx.site_scale : site_scale(ctx.local, ctx.geometric);
+  return std::max(scale, sites) * 1e-12;
 }
 
 // The rectangle of the cell centres of window cells [c0, c1) x [r0, r1), in local coordinates.
@@ -383,11 +292,19 @@ Rect centres_rect(const EngineContext& ctx, int64_t c0, int64_t r0, int64_t c1, 
               ctx.grid.local_y(w.row0 + r0)};
 }
 
+// An index over the context's sites unless it brings one (rv::PreparedSeeds).
+std::optional<BucketIndex> own_index(const EngineContext& ctx) {
+  if (ctx.index != nullptr) return std::nullopt;
+  return std::optional<BucketIndex>(std::in_place, ctx.local, ctx.geometric);
+}
+
 class ExactSolver {
  public:
   ExactSolver(const EngineContext& ctx, Raster<int32_t>& site, Raster<float>& distance)
-      : ctx_(ctx), site_(site), distance_(distance), index_(ctx.local, ctx.geometric) {
+      : ctx_(ctx), site_(site), distance_(distance), own_index_(own_index(ctx)),
+        index_(ctx.index != nullptr ? *ctx.index : *own_index_) {
     slack_ = rounding_slack(ctx);
+    stream_ = ctx.window.cell_count() * int64_t{sizeof(int32_t) + sizeof(float)} > kStreamBytes;
   }
 
   void run() {
@@ -401,6 +318,7 @@ class ExactSolver {
       const int64_t c0 = (t % tiles_x) * kTile, r0 = (t / tiles_x) * kTile;
       const int64_t c1 = std::min(c0 + kTile, w.width), r1 = std::min(r0 + kTile, w.height);
       solve_tile(wk, c0, r0, c1, r1);
+      if (stream_) store_fence();
       ctx_.progress->advance((c1 - c0) * (r1 - r0));
     });
   }
@@ -524,12 +442,14 @@ class ExactSolver {
   void drop_dominated_points(Worker& wk, std::vector<int32_t>& cands, const Rect& rect) const {
     const size_t k = cands.size();
     double* corner = wk.corner_keys.data();
+    double* margin = wk.corner_margins.data();  // dominance_margin() of each corner key
     for (size_t j = 0; j < k; ++j) {
       const LocalSite& s = ctx_.local[cands[j]];
       corner[4 * j + 0] = planar_key(rect.x0, rect.y0, s);
       corner[4 * j + 1] = planar_key(rect.x1, rect.y0, s);
       corner[4 * j + 2] = planar_key(rect.x0, rect.y1, s);
       corner[4 * j + 3] = planar_key(rect.x1, rect.y1, s);
+      for (int q = 0; q < 4; ++q) margin[4 * j + q] = dominance_margin(corner[4 * j + q]);
     }
     size_t kept = 0;
     for (size_t j = 0; j < k; ++j) {
@@ -539,15 +459,17 @@ class ExactSolver {
           if (i == j || ctx_.local[cands[i]].inv_len2 != 0.0) continue;
           bool all = true;
           for (int q = 0; q < 4 && all; ++q) {
-            const double a = corner[4 * i + q], b = corner[4 * j + q];
-            all = b - a > dominance_margin(b);
+            all = corner[4 * j + q] - corner[4 * i + q] > margin[4 * j + q];
           }
           dominated = all;
         }
       }
       if (!dominated) {
         cands[kept] = cands[j];
-        for (int q = 0; q < 4; ++q) corner[4 * kept + q] = corner[4 * j + q];
+        for (int q = 0; q < 4; ++q) {
+          corner[4 * kept + q] = corner[4 * j + q];
+          margin[4 * kept + q] = margin[4 * j + q];
+        }
         ++kept;
       }
     }
@@ -577,6 +499,8 @@ class ExactSolver {
     wk.py.resize(static_cast<size_t>(std::max(h, kTile)));
     wk.best.resize(static_cast<size_t>(std::max(padded, kTile)));
     wk.best_id.resize(static_cast<size_t>(std::max(padded, kTile)));
+    wk.dist_row.resize(static_cast<size_t>(std::max(padded, kTile)));
+    wk.site_row.resize(static_cast<size_t>(std::max(padded, kTile)));
     for (int64_t c = 0; c < w; ++c) wk.px[c] = ctx_.grid.local_x(win.col0 + c0 + c);
     for (int64_t c = w; c < padded; ++c) wk.px[c] = wk.px[w - 1];
     for (int64_t r = 0; r < h; ++r) wk.py[r] = ctx_.grid.local_y(win.row0 + r0 + r);
@@ -587,15 +511,17 @@ class ExactSolver {
       wk.gathered_ids.push_back(static_cast<double>(id));
     }
     argmin_block(wk.gathered.data(), wk.gathered_ids.data(), static_cast<int>(cands.size()), wk.px.data(), w,
-                 wk.py.data(), h, max_key, wk.best.data(), wk.best_id.data(),
-                 site_.row(r0) + c0, distance_.row(r0) + c0, win.width);
+                 wk.py.data(), h, max_key, wk.best.data(), wk.best_id.data(), wk.dist_row.data(),
+                 wk.site_row.data(), site_.row(r0) + c0, distance_.row(r0) + c0, win.width, stream_);
   }
 
   const EngineContext& ctx_;
   Raster<int32_t>& site_;
   Raster<float>& distance_;
-  BucketIndex index_;
+  std::optional<BucketIndex> own_index_;  // when the context brings none
+  const BucketIndex& index_;
   double slack_ = 0.0;
+  bool stream_ = false;  // results go with non-temporal stores (kStreamBytes)
 };
 
 // The exact method with an owner filter: for each cell, the nearest site whose owner differs
@@ -613,7 +539,7 @@ class OtherOwnerSolver {
                    const std::vector<int32_t>& owner_of, Raster<int32_t>& site,
                    Raster<float>& distance)
       : ctx_(ctx), own_(own), owner_of_(owner_of), site_(site), distance_(distance),
-        index_(ctx.local, ctx.geometric) {
+        own_index_(own_index(ctx)), index_(ctx.index != nullptr ? *ctx.index : *own_index_) {
     slack_ = rounding_slack(ctx);
   }
 
@@ -786,7 +712,8 @@ class OtherOwnerSolver {
   const std::vector<int32_t>& owner_of_;
   Raster<int32_t>& site_;
   Raster<float>& distance_;
-  BucketIndex index_;
+  std::optional<BucketIndex> own_index_;  // when the context brings none
+  const BucketIndex& index_;
   double slack_ = 0.0;
 };
 

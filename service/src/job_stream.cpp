@@ -250,6 +250,8 @@ StreamStats run_streamed(const StreamJob& job) {
   };
 
   ComputeOptions options = job.compute;
+  // Every strip shares one preparation of the seeds (sites in the grid's frame, the index).
+  if (options.prepared == nullptr) options.prepared = prepare(*job.seeds, grid, options);
   for (int64_t row0 = 0; row0 < height; row0 += strip_rows) {
     if (options.cancel && options.cancel->load()) throw Error(ErrorKind::cancelled, "job dismissed");
     const std::optional<int> k = handoff.take_free(stats.compute_waited);

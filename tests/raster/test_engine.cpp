@@ -233,6 +233,102 @@ TEST(Engine, WindowsAgreeWithTheWholeGrid) {
     }
 }
 
+// More than 4 MiB of results (site ids and distances): the exact method writes such windows with
+// non-temporal stores. An odd width puts rows at every alignment, so the unaligned head and tail
+// of each row's store are exercised as well as the aligned body; a window from an odd column
+// and a distance limit take the other paths through the same stores.
+TEST(Engine, LargeWindowsMatchBruteForceThroughTheStreamingStores) {
+  const GridSpec g = grid(1023, 601, 2.0, 1000.0, 5000.0);
+  SeedSet s = test::random_points(150, g.xmin - 50, g.ymin() - 50, g.xmax() + 50, g.ymax + 50, 77);
+  std::mt19937_64 rng(77);
+  std::uniform_real_distribution<double> ux(g.xmin, g.xmax()), uy(g.ymin(), g.ymax);
+  for (int f = 0; f < 6; ++f) {
+    std::vector<Vec2> line;
+    for (int i = 0; i < 4; ++i) line.push_back({ux(rng), uy(rng)});
+    s.add_polyline(s.add_feature(s.owner_code("line" + std::to_string(f))), line);
+  }
+  ASSERT_GT(g.width * g.height * 8, int64_t{4} << 20);
+  const NearestField brute = run(s, g, Method::brute_force);
+  const NearestField exact = run(s, g, Method::exact);
+  EXPECT_EQ(exact.site.cells(), brute.site.cells());
+  EXPECT_EQ(exact.distance.cells(), brute.distance.cells());
+
+  ComputeOptions o;
+  o.window = Window{3, 1, 1019, 597};
+  o.max_distance = 40.0;
+  const NearestField part = compute(s, g, o);
+  const NearestField limited = run(s, g, Method::brute_force, 2, 40.0);
+  int64_t none = 0;
+  for (int64_t r = 0; r < 597; ++r)
+    for (int64_t c = 0; c < 1019; ++c) {
+      ASSERT_EQ(part.site.at(c, r), limited.site.at(3 + c, 1 + r)) << c << "," << r;
+      ASSERT_EQ(part.distance.at(c, r), limited.distance.at(3 + c, 1 + r)) << c << "," << r;
+      none += part.site.at(c, r) == kNoSite;
+    }
+  EXPECT_GT(none, 0);  // the limit leaves some cells without an owner
+}
+
+// prepare() once, then any window from it: the cells equal the whole grid's; a preparation for
+// another seed set, grid or metric is refused, not silently used.
+TEST(Engine, PreparedSeedsServeEveryWindowOfTheirGridOnly) {
+  const GridSpec g = grid(300, 200);
+  SeedSet s = test::random_points(400, -20, -20, 320, 220, 5);
+  const NearestField whole = run(s, g, Method::exact);
+  ComputeOptions o;
+  o.threads = 2;
+  o.prepared = prepare(s, g, o);
+  NearestField strip;
+  for (int64_t row0 = 0; row0 < g.height; row0 += 37) {
+    o.window = Window{0, row0, g.width, std::min<int64_t>(37, g.height - row0)};
+    compute_into(s, g, o, strip);
+    for (int64_t r = 0; r < o.window->height; ++r)
+      for (int64_t c = 0; c < g.width; ++c) {
+        ASSERT_EQ(strip.site.at(c, r), whole.site.at(c, row0 + r));
+        ASSERT_EQ(strip.distance.at(c, r), whole.distance.at(c, row0 + r));
+      }
+  }
+  // Brute force with a preparation made for the exact method (no index needed): same cells.
+  o.window.reset();
+  o.method = Method::brute_force;
+  EXPECT_EQ(compute(s, g, o).site.cells(), whole.site.cells());
+
+  auto refused = [](const SeedSet& seeds, const GridSpec& gs, const ComputeOptions& opt) {
+    try {
+      compute(seeds, gs, opt);
+    } catch (const Error& e) {
+      return e.kind() == ErrorKind::invalid_argument;
+    }
+    return false;
+  };
+  o.method = Method::exact;
+  const SeedSet copy = s;
+  EXPECT_TRUE(refused(copy, g, o));               // another seed set object
+  EXPECT_TRUE(refused(s, grid(300, 201), o));      // another grid
+
+  // Geodesic: the prepared sites (with their geodesic preparation) serve a window too.
+  const GridSpec lonlat = grid(40, 30, 0.05, 10.0, 56.0);
+  const SeedSet near_sea = test::random_points(30, 9.9, 54.4, 12.1, 56.1, 6);
+  ComputeOptions geo;
+  geo.metric.kind = MetricSpec::geodesic;
+  const NearestField geo_whole = compute(near_sea, lonlat, geo);
+  geo.prepared = prepare(near_sea, lonlat, geo);
+  geo.window = Window{5, 7, 30, 20};
+  const NearestField geo_part = compute(near_sea, lonlat, geo);
+  for (int64_t r = 0; r < 20; ++r)
+    for (int64_t c = 0; c < 30; ++c) {
+      ASSERT_EQ(geo_part.site.at(c, r), geo_whole.site.at(5 + c, 7 + r));
+      ASSERT_EQ(geo_part.distance.at(c, r), geo_whole.distance.at(5 + c, 7 + r));
+    }
+  ComputeOptions other_ellipsoid = geo;
+  other_ellipsoid.metric.semi_major = 6378000.0;
+  EXPECT_TRUE(refused(near_sea, lonlat, other_ellipsoid));  // another metric
+  SeedSet more = s;
+  ComputeOptions for_more = o;
+  for_more.prepared = prepare(more, g, o);
+  more.add_point(more.add_feature(more.owner_code("late")), {5.0, 5.0});
+  EXPECT_TRUE(refused(more, g, for_more));         // the seed set changed size after prepare()
+}
+
 TEST(Engine, BadInputIsRejectedWithAClearError) {
   SeedSet empty;
   EXPECT_THROW(run(empty, grid(5, 5), Method::exact), Error);

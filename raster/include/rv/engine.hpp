@@ -87,6 +87,8 @@ Method parse_method(std::string_view name);
 inline constexpr float kNoDistance = -1.0f;  // distance value of cells with no owner
 inline constexpr int32_t kNoSite = -1;
 
+class PreparedSeeds;  // see prepare() below
+
 struct ComputeOptions {
   Method method = Method::exact;
   int threads = 0;  // 0 = all hardware threads
@@ -111,6 +113,10 @@ struct ComputeOptions {
   // SeedSet::polygons(), else rv::Error(invalid_argument); required when the seeds have
   // polygons), for the interior test, which is done in the grid's plane. Ignored otherwise.
   std::shared_ptr<const std::vector<Polygon>> grid_polygons;
+  // Optional: what prepare() made for these seeds, grid and metric. Windows of one grid computed
+  // one after the other (a streamed job's strips, a tiled job's tiles) share it instead of each
+  // preparing again (for 50 000 points about 3 ms per call, on one thread).
+  std::shared_ptr<const PreparedSeeds> prepared;
 };
 
 struct NearestField {
@@ -148,6 +154,15 @@ NearestField compute(const SeedSet& seeds, const GridSpec& grid, const ComputeOp
 // propagate inside the window).
 void compute_into(const SeedSet& seeds, const GridSpec& grid, const ComputeOptions& options,
                   NearestField& out);
+
+// Prepares `seeds` for computing windows of `grid` with options.metric (and options.geolocator):
+// the sites placed in the grid's frame and the spatial index the exact method culls with. Pass
+// the result as ComputeOptions::prepared to every compute()/compute_into() over that grid. The
+// seed set must outlive the result and stay unchanged while it is used; compute() refuses a
+// prepared set made for another seed set object, site count, grid, metric or geolocator
+// (rv::Error(invalid_argument)). Same errors as compute() for the seeds and metric. The result is
+// immutable: any number of threads and computations may share it.
+std::shared_ptr<const PreparedSeeds> prepare(const SeedSet& seeds, const GridSpec& grid, const ComputeOptions& options);
 
 int resolve_threads(int requested);
 
