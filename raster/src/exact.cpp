@@ -265,11 +265,14 @@ struct Worker {
   int64_t stamp_value = 0;
   std::vector<std::vector<int32_t>> levels;  // candidate lists per recursion depth
   std::vector<LocalSite> gathered;
-  std::vector<double> px, py;
-  std::vector<double> best;
-  std::vector<double> best_id;
-  std::vector<float> dist_row;
-  std::vector<int32_t> site_row;
+  // Row scratch of argmin_block, one block row (at most a tile wide, padded to whole register
+  // blocks). Cache-line aligned: with the default heap alignment the 32-byte stores of `best`
+  // straddled lines, and a 1-thread run spent about half its time on them.
+  alignas(64) std::array<double, kTile> px, py;
+  alignas(64) std::array<double, kTile> best;
+  alignas(64) std::array<double, kTile> best_id;
+  alignas(64) std::array<float, kTile> dist_row;
+  alignas(64) std::array<int32_t, kTile> site_row;
   std::vector<double> gathered_ids;
   std::vector<double> box_keys;
   std::array<double, 4 * 16> corner_keys;
@@ -318,8 +321,11 @@ class ExactSolver {
       const int64_t c0 = (t % tiles_x) * kTile, r0 = (t / tiles_x) * kTile;
       const int64_t c1 = std::min(c0 + kTile, w.width), r1 = std::min(r0 + kTile, w.height);
       solve_tile(wk, c0, r0, c1, r1);
-      if (stream_) store_fence();
       ctx_.progress->advance((c1 - c0) * (r1 - r0));
+    }, [&](int) {
+      // Once per worker, not per tile: a fence waits until the worker's non-temporal stores
+      // have reached memory, and per 64 x 64 tile that wait doubled a 1-thread run.
+      if (stream_) store_fence();
     });
   }
 
@@ -378,11 +384,14 @@ class ExactSolver {
                        if (site_rect_key(ctx_.local[id], rect) <= bound) cands.push_back(id);
                      });
     std::sort(cands.begin(), cands.end());
-    solve_block(wk, 0, c0, r0, c1, r1);
+    solve_block(wk, 0, c0, r0, c1, r1, true);
   }
 
-  // Candidates for this block are wk.levels[depth]; they are in ascending site order.
-  void solve_block(Worker& wk, int depth, int64_t c0, int64_t r0, int64_t c1, int64_t r1) {
+  // Candidates for this block are wk.levels[depth]; they are in ascending site order. `culled`:
+  // they were already culled against this very block (the tile's gather, whose bound from the
+  // sites around the tile's centre is as tight as the one below), so only the dominance test
+  // remains to do.
+  void solve_block(Worker& wk, int depth, int64_t c0, int64_t r0, int64_t c1, int64_t r1, bool culled = false) {
     const std::vector<int32_t>& cands = wk.levels[depth];
     if (cands.empty()) return fill_none(c0, r0, c1, r1);
     std::vector<int32_t>& next = wk.levels[depth + 1];
@@ -394,7 +403,10 @@ class ExactSolver {
         if (site_rect_key(ctx_.local[id], rect) <= touch) next.push_back(id);
       return solve_interior(wk, next, c0, r0, c1, r1);
     }
-    if (cands.size() > 1) {
+    if (culled) {
+      next = cands;
+      if (next.size() > 1 && next.size() <= kDominanceMax) drop_dominated_points(wk, next, rect);
+    } else if (cands.size() > 1) {
       // Any candidate's largest corner key bounds every cell of the block; the few candidates
       // nearest by the cheap box bound give a tight one without evaluating all of them (a dense
       // coast brings hundreds of candidates per block).
@@ -495,12 +507,7 @@ class ExactSolver {
     // Rows padded to whole register blocks: the padding repeats the last centre (a real
     // position, so no spurious overflow) and its results are never stored.
     const int64_t padded = (w + kLanes - 1) / kLanes * kLanes;
-    wk.px.resize(static_cast<size_t>(std::max(padded, kTile)));
-    wk.py.resize(static_cast<size_t>(std::max(h, kTile)));
-    wk.best.resize(static_cast<size_t>(std::max(padded, kTile)));
-    wk.best_id.resize(static_cast<size_t>(std::max(padded, kTile)));
-    wk.dist_row.resize(static_cast<size_t>(std::max(padded, kTile)));
-    wk.site_row.resize(static_cast<size_t>(std::max(padded, kTile)));
+    static_assert(kTile % kLanes == 0, "a padded block row must fit the scratch");
     for (int64_t c = 0; c < w; ++c) wk.px[c] = ctx_.grid.local_x(win.col0 + c0 + c);
     for (int64_t c = w; c < padded; ++c) wk.px[c] = wk.px[w - 1];
     for (int64_t r = 0; r < h; ++r) wk.py[r] = ctx_.grid.local_y(win.row0 + r0 + r);

@@ -8,16 +8,22 @@
 #include <exception>
 #include <mutex>
 #include <thread>
+#include <utility>
 #include <vector>
 
 namespace rv::detail {
 
-// Runs f(task, worker) for task in [0, n) on `threads` threads (the caller is worker 0).
-// The first exception thrown by any task is rethrown after all workers have stopped; once one
-// task has thrown, no new tasks start.
-template <class F>
-void parallel_for(int threads, int64_t n, F&& f) {
+// Runs f(task, worker) for task in [0, n) on `threads` threads (the caller is worker 0), then
+// finish(worker) once on each worker's own thread after its last task (also when a task threw;
+// finish must not throw). The first exception thrown by any task is rethrown after all workers
+// have stopped; once one task has thrown, no new tasks start.
+template <class F, class Finish>
+void parallel_for(int threads, int64_t n, F&& f, Finish&& finish) {
   if (threads <= 1 || n <= 1) {
+    struct AtEnd {
+      Finish& finish;
+      ~AtEnd() { finish(0); }
+    } at_end{finish};
     for (int64_t i = 0; i < n; ++i) f(i, 0);
     return;
   }
@@ -33,6 +39,7 @@ void parallel_for(int threads, int64_t n, F&& f) {
       if (!error) error = std::current_exception();
       failed = true;
     }
+    finish(worker);
   };
   const int extra = static_cast<int>(std::min<int64_t>(threads, n)) - 1;
   std::vector<std::thread> pool;
@@ -41,6 +48,11 @@ void parallel_for(int threads, int64_t n, F&& f) {
   work(0);
   for (auto& t : pool) t.join();
   if (error) std::rethrow_exception(error);
+}
+
+template <class F>
+void parallel_for(int threads, int64_t n, F&& f) {
+  parallel_for(threads, n, std::forward<F>(f), [](int) {});
 }
 
 }  // namespace rv::detail
