@@ -21,11 +21,7 @@
 #include <optional>
 #include <vector>
 
-#if defined(__SSE2__)
-#include <emmintrin.h>
-#define RV_STREAM_STORES 1
-#endif
-
+#include "aligned.hpp"
 #include "bucket_index.hpp"
 #include "engine_internal.hpp"
 #include "parallel.hpp"
@@ -114,51 +110,6 @@ inline double site_rect_max_key(const LocalSite& s, const Rect& r) {
 #else
 #define RV_AVX2_CLONES __attribute__((target_clones("avx2", "default")))
 #endif
-
-// Results of a window larger than this (bytes of site ids and distances together) are written
-// with non-temporal stores: such a window is far larger than the caches, nothing reads its cells
-// again before they have left them, and a normal store first reads the cache line it writes.
-// On the 1e8-cell benchmark (50 000 points) that read was about 40 % of the engine's time.
-constexpr int64_t kStreamBytes = int64_t{4} << 20;
-
-// Copies n results of a row from scratch (td, ti) to their place in the result rasters (od, os).
-// With `stream`, the part of the row whose addresses allow it goes with non-temporal stores; the
-// caller runs store_fence() before another thread may read those cells.
-inline void put_row(float* __restrict od, int32_t* __restrict os, const float* __restrict td,
-                    const int32_t* __restrict ti, int64_t n, bool stream) {
-#if defined(RV_STREAM_STORES)
-  if (stream) {
-    int64_t c = 0;
-    for (; c < n && (reinterpret_cast<uintptr_t>(od + c) & 15) != 0; ++c) {
-      od[c] = td[c];
-      os[c] = ti[c];
-    }
-    if ((reinterpret_cast<uintptr_t>(os + c) & 15) == 0) {
-      for (; c + 4 <= n; c += 4) {
-        _mm_stream_ps(od + c, _mm_loadu_ps(td + c));
-        _mm_stream_si128(reinterpret_cast<__m128i*>(os + c),
-                         _mm_loadu_si128(reinterpret_cast<const __m128i*>(ti + c)));
-      }
-    }
-    for (; c < n; ++c) {
-      od[c] = td[c];
-      os[c] = ti[c];
-    }
-    return;
-  }
-#endif
-  (void)stream;
-  std::memcpy(od, td, static_cast<size_t>(n) * sizeof(float));
-  std::memcpy(os, ti, static_cast<size_t>(n) * sizeof(int32_t));
-}
-
-// Orders this thread's non-temporal stores before its later stores (the release that hands the
-// cells to another thread): they are weakly ordered otherwise.
-inline void store_fence() {
-#if defined(RV_STREAM_STORES)
-  _mm_sfence();
-#endif
-}
 
 // Cells per register block of argmin_block: two 4-wide double vectors.
 constexpr int64_t kLanes = 8;
@@ -307,7 +258,7 @@ class ExactSolver {
       : ctx_(ctx), site_(site), distance_(distance), own_index_(own_index(ctx)),
         index_(ctx.index != nullptr ? *ctx.index : *own_index_) {
     slack_ = rounding_slack(ctx);
-    stream_ = ctx.window.cell_count() * int64_t{sizeof(int32_t) + sizeof(float)} > kStreamBytes;
+    stream_ = streams_results(ctx.window);
   }
 
   void run() {
@@ -528,7 +479,7 @@ class ExactSolver {
   std::optional<BucketIndex> own_index_;  // when the context brings none
   const BucketIndex& index_;
   double slack_ = 0.0;
-  bool stream_ = false;  // results go with non-temporal stores (kStreamBytes)
+  bool stream_ = false;  // results go with non-temporal stores (streams_results())
 };
 
 // The exact method with an owner filter: for each cell, the nearest site whose owner differs

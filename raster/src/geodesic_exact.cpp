@@ -67,6 +67,7 @@
 
 #include <GeographicLib/Math.hpp>
 
+#include "aligned.hpp"
 #include "engine_internal.hpp"
 #include "parallel.hpp"
 
@@ -215,17 +216,20 @@ struct GeoWorker {
   TileCells tile;  // projected grids: the current tile's located centres
   // Interpolants of the current tile: key = interpolation block (grid-aligned) and site.
   std::unordered_map<uint64_t, std::unique_ptr<Interpolant>> cache;
-  std::vector<double> wcol;                         // column weights, 4 per column
-  std::vector<double> best, second, best_q, best_c2, cx, cy, cz;  // per column of the block's row
-  std::vector<double> best_id;
-  std::vector<double> wsoa;  // solve_interp: column weights, weight b of column c at b * stride + c
+  // Row scratch of the kernels: cache-line aligned (aligned.hpp).
+  AlignedVector<double> wcol;                         // column weights, 4 per column
+  AlignedVector<double> best, second, best_q, best_c2, cx, cy, cz;  // per column of the block's row
+  AlignedVector<double> best_id;
+  AlignedVector<double> wsoa;  // solve_interp: column weights, weight b of column c at b * stride + c
   std::vector<RowCandidate> row_points, row_additive;  // solve_interp: the candidates on the current row
   std::vector<RowSegment> row_segments;                // ... those whose form changes in the block
   std::vector<const Interpolant*> interp_additive;     // solve_interp: the additive interpolants
   std::vector<int32_t> interp_id, interp_additive_id;  // ... and the candidate each stands for
   std::vector<int32_t> changing;                       // ... the segments whose form changes
   std::vector<std::array<const Interpolant*, 3>> changing_interp;  // ... and their interpolants
-  std::vector<double> force;                           // ... per column: 1 where a cell needs the per-cell method
+  AlignedVector<int32_t> site_row;                     // ... the row's results before they go out
+  AlignedVector<float> distance_row;
+  AlignedVector<double> force;                         // ... per column: 1 where a cell needs the per-cell method
 };
 
 #if defined(__SANITIZE_THREAD__)
@@ -492,6 +496,7 @@ class GeodesicExactSolver {
     const Window& w = ctx.window;
     if (!located_) init_separable(w);
     max_distance_ = ctx.max_key;  // geodesic keys are metres
+    stream_ = streams_results(w);
     init_segment_ends();
     init_interp_block();
   }
@@ -598,6 +603,8 @@ class GeodesicExactSolver {
       solve_block(wk, 0, kTile, c0, r0, c1, r1);
       tl_tile = nullptr;
       ctx_.progress->advance((c1 - c0) * (r1 - r0));
+    }, [&](int) {
+      if (stream_) store_fence();  // this worker's non-temporal stores, before the join
     });
   }
 
@@ -1259,6 +1266,8 @@ class GeodesicExactSolver {
       weights_col(c0 + c, w);
       for (int b = 0; b < 4; ++b) wk.wsoa[static_cast<size_t>(b * stride + c)] = w[b];
     }
+    wk.site_row.resize(static_cast<size_t>(stride));
+    wk.distance_row.resize(static_cast<size_t>(stride));
     for (auto* v : {&wk.best, &wk.second, &wk.best_q, &wk.best_c2, &wk.cx, &wk.cy, &wk.cz, &wk.best_id, &wk.force})
       v->assign(static_cast<size_t>(stride), 0.0);
     // What stays the same on every row; the rows fill in qr.
@@ -1329,11 +1338,14 @@ class GeodesicExactSolver {
                         static_cast<int>(wk.row_segments.size()), wk.wsoa.data(), stride, pos, n, wk.best.data(),
                         wk.second.data(), wk.best_id.data(), wk.best_q.data(), wk.best_c2.data(), wk.force.data());
       // Every cell as put() would write it, without branches; then the flagged cells (rare)
-      // are solved by the per-cell method and overwrite theirs.
+      // are solved by the per-cell method and overwrite theirs. A row without them goes out
+      // with non-temporal stores when the window is large (put_row).
       const bool flagged =
           interp_store_row(wk.best.data(), wk.second.data(), wk.best_id.data(), wk.best_q.data(),
-                           plain ? nullptr : wk.best_c2.data(), wk.force.data(), n, max_distance_, site_.row(r) + c0,
-                           distance_.row(r) + c0);
+                           plain ? nullptr : wk.best_c2.data(), wk.force.data(), n, max_distance_,
+                           wk.site_row.data(), wk.distance_row.data());
+      put_row(distance_.row(r) + c0, site_.row(r) + c0, wk.distance_row.data(), wk.site_row.data(), n,
+              stream_ && !flagged);
       if (flagged)
         for (int64_t c = 0; c < n; ++c)
           if (wk.second[static_cast<size_t>(c)] != 0.0) solve_cells(wk, cands, c0 + c, r, c0 + c + 1, r + 1);
@@ -1562,8 +1574,10 @@ class GeodesicExactSolver {
   Raster<int32_t>& site_;
   Raster<float>& distance_;
   std::vector<double> lat_, rho_, z_;  // per window row
-  std::vector<double> lon_, cos_, sin_;  // per window column
+  std::vector<double> lon_;
+  AlignedVector<double> cos_, sin_;  // per window column (loaded as vectors by the row kernels)
   double max_distance_ = std::numeric_limits<double>::infinity();
+  bool stream_ = false;  // rows of the row kernels go out with non-temporal stores (put_row)
   int64_t interp_block_ = kInterpMinBlock;  // interpolation block edge, cells (grid-aligned)
   bool located_ = false;                    // projected grid: cells located by ctx.geolocator
   std::vector<SegmentEnd> ends_;            // per site: its two ends (segments only)
