@@ -606,6 +606,34 @@ TEST(GeodesicEngine, FineGridWindowsAgreeWithTheWholeGrid) {
   }
 }
 
+// A whole grid with more than 4 MiB of results writes its rows with non-temporal stores; its
+// windows here are smaller and do not. Their cells must be the same bits.
+TEST(GeodesicEngine, StreamedWholeGridEqualsItsUnstreamedWindows) {
+  const GridSpec g = geo_grid(11.90, 55.60, 0.0005, 1031, 521);
+  ASSERT_GT(g.width * g.height * 8, int64_t{4} << 20);
+  SeedSet s = random_features(40, 11.92, 55.36, 12.40, 55.59, 21);
+  s.add_polyline(s.add_feature(s.owner_code("coast")),
+                 std::vector<Vec2>{{11.90, 55.52}, {11.97, 55.5260}, {12.06, 55.5270}, {12.31, 55.5310}});
+  for (double limit : {std::numeric_limits<double>::infinity(), 2500.0}) {
+    const NearestField whole = run(s, g, Method::exact, 2, limit);
+    for (const Window& w : {Window{3, 5, 517, 260}, Window{514, 260, 517, 261}}) {
+      ComputeOptions o;
+      o.method = Method::exact;
+      o.metric = wgs84();
+      o.threads = 2;
+      o.max_distance = limit;
+      o.window = w;
+      const NearestField part = compute(s, g, o);
+      for (int64_t r = 0; r < w.height; ++r)
+        for (int64_t c = 0; c < w.width; ++c) {
+          ASSERT_EQ(part.site.at(c, r), whole.site.at(w.col0 + c, w.row0 + r)) << c << "," << r << " limit " << limit;
+          ASSERT_EQ(part.distance.at(c, r), whole.distance.at(w.col0 + c, w.row0 + r))
+              << c << "," << r << " limit " << limit;
+        }
+    }
+  }
+}
+
 TEST(GeodesicEngine, MemoryEstimateCountsPreparedEdges) {
   const int64_t planar = estimate_memory(Method::exact, 1000, 100000);
   const int64_t geodesic = estimate_memory(Method::exact, 1000, 100000, MetricSpec::geodesic);
