@@ -737,8 +737,9 @@ def streamed_phases(t):
             f"writer, the writer {st['writer_waited_for_compute']:.3g} s for the engine)")
 
 
-def goals(case, results):
-    """The issue's goals, checked against this run's numbers on its largest point case."""
+def goals(case, results, engine=(None, None)):
+    """The issue's goals, checked against this run's numbers on its largest point case. `engine`:
+    the engine alone in process (fresh, warm seconds), from engine_alone()."""
     by = {r.tool: r for r in results}
     ex, sp = by.get("rvoronoi exact"), by.get("SciPy distance_transform_edt (indices)")
     out = [f"\n## The goals, on the largest point case of this run ({case.title})\n"]
@@ -768,6 +769,13 @@ def goals(case, results):
                    f"{sp.command_s / ex.command_s:.2g}× in the whole command (goal: at least 100×, and exact). "
                    f"SciPy's answer, measured to cell centres, has {sp.wrong:,} wrong cells (max Δd "
                    f"{sp.max_dd or 0:.3g} cells).")
+        fresh, warm = engine
+        if warm:
+            out.append(f"- The engine alone, in process with nothing else running (as SciPy's transform is timed): "
+                       f"{warm:.3g} s into reused buffers, {sp.compute_s / warm:.0f}× SciPy's compute; "
+                       f"{fresh:.3g} s into fresh ones (the first touch of {case.cells * 8 / 1e6:.0f} MB of "
+                       f"result pages included), {sp.compute_s / fresh:.0f}×. In the command the engine "
+                       f"shares the 2 cores with the GeoTIFF encoders, hence the slower compute above.")
     elif sp is not None:
         out.append(f"- SciPy: {sp.status} {sp.note}")
     out.append("- The paper's horizontal + vertical scan took 199.7 s for 10000×10000 with 50 000 seeds on an "
@@ -886,19 +894,29 @@ def profile(runner, case, md):
     encoding_options(case, outdir, md)
 
 
-def engine_warm(args, case, md):
-    """The engine alone, in process, fresh result buffers versus buffers reused (compute_into)."""
+def engine_alone(args, case):
+    """The engine alone, in process: fresh result buffers versus buffers reused (compute_into).
+    Returns (markdown lines, fresh seconds, warm seconds); the seconds are None when it did not run."""
     exe = args.engine_bench
     if not os.access(exe, os.X_OK):
-        md.append(f"engine_bench not found at {exe}: no in-process measurement.\n")
-        return
-    cmd = [exe, "--methods", "exact", "--warm", "--repeats", "1", "--min-cells", str(case.cells), "--max-cells",
+        return [f"engine_bench not found at {exe}: no in-process measurement.\n"], None, None
+    repeats = "1" if args.quick else "5"
+    cmd = [exe, "--methods", "exact", "--warm", "--repeats", repeats, "--min-cells", str(case.cells), "--max-cells",
            str(case.cells)]
     rc, wall, rss, out, err = run_child(cmd, args.timeout, cwd=os.path.join(case.dir))
-    md.append("The engine alone, in process (`" + " ".join(cmd[1:]) + "`; its own random seeds of the same "
-              "count and grid): fresh result rasters, then `compute_into()` into the same buffers again.\n")
-    md.append(out.strip() if rc == 0 else f"engine_bench failed (exit {rc}): {err.strip()[-300:]}")
-    md.append("")
+    lines = ["The engine alone, in process (`" + " ".join(cmd[1:]) + "`; its own random seeds of the same "
+             "count and grid, nothing else running in the process): fresh result rasters, then "
+             "`compute_into()` into the same buffers again; medians of the repeats.\n",
+             out.strip() if rc == 0 else f"engine_bench failed (exit {rc}): {err.strip()[-300:]}", ""]
+    fresh = warm = None
+    for row in out.splitlines():
+        cols = [c.strip() for c in row.split("|")]
+        if rc == 0 and len(cols) > 7 and cols[3] == "exact":
+            try:
+                fresh, warm = float(cols[4]) / 1e3, float(cols[6]) / 1e3
+            except ValueError:
+                pass
+    return lines, fresh, warm
 
 
 def encoding_options(case, outdir, md):
@@ -1151,14 +1169,16 @@ def main():
                 p = os.path.join(case.dir, f)
                 if os.path.exists(p) and case.kind == "points":
                     os.remove(p)
+    engine_md, engine_fresh, engine_warm = [], None, None
     if largest is not None:
-        md.append(goals(largest, largest_results))
+        engine_md, engine_fresh, engine_warm = engine_alone(args, largest)
+        md.append(goals(largest, largest_results, (engine_fresh, engine_warm)))
     if args.profile and largest is not None:
         md.append(f"\n## Where the time goes: rvoronoi exact on the largest case ({largest.title})\n")
         profile(runner, largest, md)
-        engine_warm(args, largest, md)
         if not args.keep:
             shutil.rmtree(os.path.join(largest.dir, "out"), ignore_errors=True)
+    md.extend(engine_md)
     md.append(f"\nTotal run: {(datetime.datetime.now(datetime.timezone.utc) - started).total_seconds():.0f} s.\n")
     with open(results_md, "w") as f:
         f.write("\n".join(md))
