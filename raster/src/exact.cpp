@@ -335,13 +335,17 @@ class ExactSolver {
                        if (site_rect_key(ctx_.local[id], rect) <= bound) cands.push_back(id);
                      });
     std::sort(cands.begin(), cands.end());
-    solve_block(wk, 0, c0, r0, c1, r1, true);
+    // Points only: the tile's bound is as tight as solve_block's, a second cull would find
+    // nothing to drop (measured: a third of solve_block's time on 50 000 points). With segments
+    // the box-key bound below may be tighter; not measured, so they keep it.
+    bool points = true;
+    for (int32_t id : cands) points = points && ctx_.local[id].inv_len2 == 0.0;
+    solve_block(wk, 0, c0, r0, c1, r1, points);
   }
 
   // Candidates for this block are wk.levels[depth]; they are in ascending site order. `culled`:
-  // they were already culled against this very block (the tile's gather, whose bound from the
-  // sites around the tile's centre is as tight as the one below), so only the dominance test
-  // remains to do.
+  // they were already culled against this very block (the tile's gather), so only the dominance
+  // test remains to do.
   void solve_block(Worker& wk, int depth, int64_t c0, int64_t r0, int64_t c1, int64_t r1, bool culled = false) {
     const std::vector<int32_t>& cands = wk.levels[depth];
     if (cands.empty()) return fill_none(c0, r0, c1, r1);
