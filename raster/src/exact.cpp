@@ -21,7 +21,7 @@
 #include <optional>
 #include <vector>
 
-#include "aligned.hpp"
+#include "kernel_memory.hpp"
 #include "bucket_index.hpp"
 #include "engine_internal.hpp"
 #include "parallel.hpp"

@@ -67,7 +67,7 @@
 
 #include <GeographicLib/Math.hpp>
 
-#include "aligned.hpp"
+#include "kernel_memory.hpp"
 #include "engine_internal.hpp"
 #include "parallel.hpp"
 
@@ -216,7 +216,7 @@ struct GeoWorker {
   TileCells tile;  // projected grids: the current tile's located centres
   // Interpolants of the current tile: key = interpolation block (grid-aligned) and site.
   std::unordered_map<uint64_t, std::unique_ptr<Interpolant>> cache;
-  // Row scratch of the kernels: cache-line aligned (aligned.hpp).
+  // Row scratch of the kernels: cache-line aligned (kernel_memory.hpp).
   AlignedVector<double> wcol;                         // column weights, 4 per column
   AlignedVector<double> best, second, best_q, best_c2, cx, cy, cz;  // per column of the block's row
   AlignedVector<double> best_id;

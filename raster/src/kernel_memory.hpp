@@ -1,9 +1,10 @@
 // Internal: memory helpers of the kernels. Storage aligned to a cache line for their scratch
 // rows, and the non-temporal copy of finished result rows.
 //
-// Why aligned scratch: the kernels load and store 32-byte vectors at offsets that are multiples of 32 bytes from
-// a row's start. From the default heap (16-byte alignment) every other such access straddles two
-// cache lines; on the exact method's row scratch that cost a 1-thread run half its time.
+// Why aligned scratch: the kernels load and store 32-byte vectors at offsets that are multiples
+// of 32 bytes from a row's start. From the default heap (16-byte alignment) every other such
+// access straddles two cache lines; on the exact method's row scratch that cost a 1-thread run
+// half its time.
 #pragma once
 
 #include <cstddef>
