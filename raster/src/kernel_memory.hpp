@@ -10,7 +10,6 @@
 #include <cstddef>
 #include <cstdint>
 #include <cstring>
-#include <new>
 #include <vector>
 
 #if defined(__SSE2__)
@@ -19,35 +18,15 @@
 #endif
 
 #include "rv/grid.hpp"
+#include "rv/raster.hpp"
 
 namespace rv::detail {
 
-inline constexpr std::size_t kCacheLine = 64;
-
+// A vector whose first element starts a cache line (rv::DefaultInitAllocator: small buffers come
+// cache-line aligned, large ones huge-page aligned). Its elements are default-initialised:
+// resize() leaves new doubles unset, so scratch that must start at zero is filled with assign().
 template <class T>
-struct CacheAligned {
-  using value_type = T;
-  template <class U>
-  struct rebind {
-    using other = CacheAligned<U>;
-  };
-  CacheAligned() = default;
-  template <class U>
-  CacheAligned(const CacheAligned<U>&) noexcept {}
-  T* allocate(std::size_t n) {
-    if (n > static_cast<std::size_t>(-1) / sizeof(T)) throw std::bad_alloc();
-    return static_cast<T*>(::operator new(n * sizeof(T), std::align_val_t{kCacheLine}));
-  }
-  void deallocate(T* p, std::size_t) noexcept { ::operator delete(p, std::align_val_t{kCacheLine}); }
-  template <class U>
-  bool operator==(const CacheAligned<U>&) const noexcept {
-    return true;
-  }
-};
-
-// A vector whose first element starts a cache line.
-template <class T>
-using AlignedVector = std::vector<T, CacheAligned<T>>;
+using AlignedVector = std::vector<T, DefaultInitAllocator<T>>;
 
 // Results of a window larger than this (bytes of site ids and distances together) are written
 // with non-temporal stores: such a window is far larger than the caches, nothing reads its cells

@@ -1,5 +1,6 @@
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <random>
 
@@ -7,6 +8,7 @@
 #include "rv/error.hpp"
 #include "rv/validate.hpp"
 #include "seed_gen.hpp"
+#include "window_check.hpp"
 
 namespace rv {
 namespace {
@@ -225,12 +227,7 @@ TEST(Engine, WindowsAgreeWithTheWholeGrid) {
   const NearestField whole = run(s, g, Method::exact);
   ComputeOptions o;
   o.window = Window{37, 61, 90, 50};
-  const NearestField part = compute(s, g, o);
-  for (int64_t r = 0; r < 50; ++r)
-    for (int64_t c = 0; c < 90; ++c) {
-      ASSERT_EQ(part.site.at(c, r), whole.site.at(37 + c, 61 + r));
-      ASSERT_EQ(part.distance.at(c, r), whole.distance.at(37 + c, 61 + r));
-    }
+  EXPECT_TRUE(test::window_matches(compute(s, g, o), whole));
 }
 
 // More than 4 MiB of results (site ids and distances): the exact method writes such windows with
@@ -257,15 +254,9 @@ TEST(Engine, LargeWindowsMatchBruteForceThroughTheStreamingStores) {
   o.window = Window{3, 1, 1019, 597};
   o.max_distance = 40.0;
   const NearestField part = compute(s, g, o);
-  const NearestField limited = run(s, g, Method::brute_force, 2, 40.0);
-  int64_t none = 0;
-  for (int64_t r = 0; r < 597; ++r)
-    for (int64_t c = 0; c < 1019; ++c) {
-      ASSERT_EQ(part.site.at(c, r), limited.site.at(3 + c, 1 + r)) << c << "," << r;
-      ASSERT_EQ(part.distance.at(c, r), limited.distance.at(3 + c, 1 + r)) << c << "," << r;
-      none += part.site.at(c, r) == kNoSite;
-    }
-  EXPECT_GT(none, 0);  // the limit leaves some cells without an owner
+  EXPECT_TRUE(test::window_matches(part, run(s, g, Method::brute_force, 2, 40.0)));
+  // The limit leaves some cells without an owner.
+  EXPECT_GT(std::count(part.site.cells().begin(), part.site.cells().end(), kNoSite), 0);
 }
 
 // prepare() once, then any window from it: the cells equal the whole grid's; a preparation for
@@ -281,11 +272,7 @@ TEST(Engine, PreparedSeedsServeEveryWindowOfTheirGridOnly) {
   for (int64_t row0 = 0; row0 < g.height; row0 += 37) {
     o.window = Window{0, row0, g.width, std::min<int64_t>(37, g.height - row0)};
     compute_into(s, g, o, strip);
-    for (int64_t r = 0; r < o.window->height; ++r)
-      for (int64_t c = 0; c < g.width; ++c) {
-        ASSERT_EQ(strip.site.at(c, r), whole.site.at(c, row0 + r));
-        ASSERT_EQ(strip.distance.at(c, r), whole.distance.at(c, row0 + r));
-      }
+    EXPECT_TRUE(test::window_matches(strip, whole)) << "strip at row " << row0;
   }
   // Brute force with a preparation made for the exact method (no index needed): same cells.
   o.window.reset();
@@ -313,12 +300,7 @@ TEST(Engine, PreparedSeedsServeEveryWindowOfTheirGridOnly) {
   const NearestField geo_whole = compute(near_sea, lonlat, geo);
   geo.prepared = prepare(near_sea, lonlat, geo);
   geo.window = Window{5, 7, 30, 20};
-  const NearestField geo_part = compute(near_sea, lonlat, geo);
-  for (int64_t r = 0; r < 20; ++r)
-    for (int64_t c = 0; c < 30; ++c) {
-      ASSERT_EQ(geo_part.site.at(c, r), geo_whole.site.at(5 + c, 7 + r));
-      ASSERT_EQ(geo_part.distance.at(c, r), geo_whole.distance.at(5 + c, 7 + r));
-    }
+  EXPECT_TRUE(test::window_matches(compute(near_sea, lonlat, geo), geo_whole));
   ComputeOptions other_ellipsoid = geo;
   other_ellipsoid.metric.semi_major = 6378000.0;
   EXPECT_TRUE(refused(near_sea, lonlat, other_ellipsoid));  // another metric

@@ -12,6 +12,7 @@
 #include "rv/error.hpp"
 #include "rv/geodesic.hpp"
 #include "rv/validate.hpp"
+#include "window_check.hpp"
 
 namespace rv {
 namespace {
@@ -580,30 +581,30 @@ TEST(GeodesicEngine, WindowsAgreeWithTheWholeGrid) {
 // On fine grids (interpolation blocks of 128 cells) leaves of segments are solved by the row
 // kernels, and cells whose call is close by the per-cell method; windows cut those leaves
 // anywhere, so every cell must get the same bits whichever path and block shape solve it.
+// The exact method on each window (with `threads`) equals the whole grid's result (2 threads),
+// without and with a distance limit.
+void expect_windows_match(const SeedSet& s, const GridSpec& g, std::initializer_list<Window> windows, int threads) {
+  for (double limit : {std::numeric_limits<double>::infinity(), 2500.0}) {
+    const NearestField whole = run(s, g, Method::exact, 2, limit);
+    for (const Window& w : windows) {
+      ComputeOptions o;
+      o.method = Method::exact;
+      o.metric = wgs84();
+      o.threads = threads;
+      o.max_distance = limit;
+      o.window = w;
+      EXPECT_TRUE(test::window_matches(compute(s, g, o), whole)) << "limit " << limit;
+    }
+  }
+}
+
 TEST(GeodesicEngine, FineGridWindowsAgreeWithTheWholeGrid) {
   const GridSpec g = geo_grid(11.90, 55.60, 0.0005, 420, 300);  // 0.0005 deg: 128-cell blocks
   SeedSet s = random_features(29, 11.95, 55.47, 12.08, 55.58, 14);
   s.add_polyline(s.add_feature(s.owner_code("coast")),
                  std::vector<Vec2>{{11.90, 55.52}, {11.93, 55.5230}, {11.95, 55.5205}, {11.97, 55.5260},
                                    {11.99, 55.5240}, {12.02, 55.5290}, {12.06, 55.5270}, {12.11, 55.5310}});
-  for (double limit : {std::numeric_limits<double>::infinity(), 2500.0}) {
-    const NearestField whole = run(s, g, Method::exact, 2, limit);
-    for (const Window& w : {Window{37, 61, 211, 150}, Window{129, 0, 291, 97}, Window{0, 203, 420, 97}}) {
-      ComputeOptions o;
-      o.method = Method::exact;
-      o.metric = wgs84();
-      o.threads = 1;
-      o.max_distance = limit;
-      o.window = w;
-      const NearestField part = compute(s, g, o);
-      for (int64_t r = 0; r < w.height; ++r)
-        for (int64_t c = 0; c < w.width; ++c) {
-          ASSERT_EQ(part.site.at(c, r), whole.site.at(w.col0 + c, w.row0 + r)) << c << "," << r << " limit " << limit;
-          ASSERT_EQ(part.distance.at(c, r), whole.distance.at(w.col0 + c, w.row0 + r))
-              << c << "," << r << " limit " << limit;
-        }
-    }
-  }
+  expect_windows_match(s, g, {Window{37, 61, 211, 150}, Window{129, 0, 291, 97}, Window{0, 203, 420, 97}}, 1);
 }
 
 // A whole grid with more than 4 MiB of results writes its rows with non-temporal stores; its
@@ -614,24 +615,7 @@ TEST(GeodesicEngine, StreamedWholeGridEqualsItsUnstreamedWindows) {
   SeedSet s = random_features(40, 11.92, 55.36, 12.40, 55.59, 21);
   s.add_polyline(s.add_feature(s.owner_code("coast")),
                  std::vector<Vec2>{{11.90, 55.52}, {11.97, 55.5260}, {12.06, 55.5270}, {12.31, 55.5310}});
-  for (double limit : {std::numeric_limits<double>::infinity(), 2500.0}) {
-    const NearestField whole = run(s, g, Method::exact, 2, limit);
-    for (const Window& w : {Window{3, 5, 517, 260}, Window{514, 260, 517, 261}}) {
-      ComputeOptions o;
-      o.method = Method::exact;
-      o.metric = wgs84();
-      o.threads = 2;
-      o.max_distance = limit;
-      o.window = w;
-      const NearestField part = compute(s, g, o);
-      for (int64_t r = 0; r < w.height; ++r)
-        for (int64_t c = 0; c < w.width; ++c) {
-          ASSERT_EQ(part.site.at(c, r), whole.site.at(w.col0 + c, w.row0 + r)) << c << "," << r << " limit " << limit;
-          ASSERT_EQ(part.distance.at(c, r), whole.distance.at(w.col0 + c, w.row0 + r))
-              << c << "," << r << " limit " << limit;
-        }
-    }
-  }
+  expect_windows_match(s, g, {Window{3, 5, 517, 260}, Window{514, 260, 517, 261}}, 2);
 }
 
 TEST(GeodesicEngine, MemoryEstimateCountsPreparedEdges) {

@@ -16,7 +16,8 @@ namespace rv {
 
 namespace detail {
 // Large buffers: 2 MiB aligned and advised to use transparent huge pages (fewer page faults and
-// TLB misses when an engine writes blocks of rows far apart). Small ones: plain new.
+// TLB misses when an engine writes blocks of rows far apart). Small ones: new, aligned to a
+// 64-byte cache line (kernel scratch rows take 32-byte vectors at 32-byte offsets).
 void* allocate_cells(size_t bytes);
 void free_cells(void* p, size_t bytes) noexcept;
 }  // namespace detail
