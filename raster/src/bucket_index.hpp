@@ -1,6 +1,6 @@
 // Internal: a uniform bucket grid over the point and segment sites, in the grid's local frame.
-// Built once per prepared seed set (rv::PreparedSeeds) and then only read, from any number of
-// threads at once.
+// Built once per prepared seed set (rv::PreparedSeeds), or by a solver whose context brings none,
+// and then only read, from any number of threads at once.
 #pragma once
 
 #include <algorithm>

@@ -274,8 +274,8 @@ class ExactSolver {
       solve_tile(wk, c0, r0, c1, r1);
       ctx_.progress->advance((c1 - c0) * (r1 - r0));
     }, [&](int) {
-      // Once per worker, not per tile: a fence waits until the worker's non-temporal stores
-      // have reached memory, and per 64 x 64 tile that wait doubled a 1-thread run.
+      // Once per worker: only another thread reads the cells, after the join, so fencing per
+      // tile would only wait for the stores to drain more often.
       if (stream_) store_fence();
     });
   }

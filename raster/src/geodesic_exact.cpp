@@ -1268,8 +1268,11 @@ class GeodesicExactSolver {
     }
     wk.site_row.resize(static_cast<size_t>(stride));
     wk.distance_row.resize(static_cast<size_t>(stride));
-    for (auto* v : {&wk.best, &wk.second, &wk.best_q, &wk.best_c2, &wk.cx, &wk.cy, &wk.cz, &wk.best_id, &wk.force})
-      v->assign(static_cast<size_t>(stride), 0.0);
+    // The kernels write every lane of their outputs before anything reads them; the located
+    // positions are read in the padding lanes too, so those start at zero.
+    for (auto* v : {&wk.best, &wk.second, &wk.best_q, &wk.best_c2, &wk.best_id, &wk.force})
+      v->resize(static_cast<size_t>(stride));
+    for (auto* v : {&wk.cx, &wk.cy, &wk.cz}) v->assign(static_cast<size_t>(stride), 0.0);
     // What stays the same on every row; the rows fill in qr.
     auto fixed_part = [&](const Interpolant* it, int32_t id, RowCandidate& rc) {
       rc = RowCandidate{{0.0, 0.0, 0.0, 0.0}, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, static_cast<double>(id), tag_of(it, id)};
