@@ -226,9 +226,9 @@ struct Worker {
   alignas(64) std::array<int32_t, kTile> site_row;
   std::vector<double> gathered_ids;
   std::vector<double> box_keys;
-  std::array<double, 4 * 16> corner_keys;
-  std::array<double, 4 * 16> corner_margins;
-  std::array<bool, 16> corner_point;  // drop_dominated_points: the candidate is a point
+  std::array<double, 4 * kDominanceMax> corner_keys;
+  std::array<double, 4 * kDominanceMax> corner_margins;
+  std::array<bool, kDominanceMax> corner_point;  // drop_dominated_points: the candidate is a point
 };
 
 // Absolute slack (in distance units) for rounding in bounds: far above the few ulps of the
