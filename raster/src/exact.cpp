@@ -412,6 +412,9 @@ class ExactSolver {
     double* corner = wk.corner_keys.data();
     double* margin = wk.corner_margins.data();  // dominance_margin() of each corner key
     bool* point = wk.corner_point.data();
+    size_t points = 0;
+    for (size_t j = 0; j < k; ++j) points += ctx_.local[cands[j]].inv_len2 == 0.0;
+    if (points < 2) return;  // only a point dominates a point
     for (size_t j = 0; j < k; ++j) {
       const LocalSite& s = ctx_.local[cands[j]];
       point[j] = s.inv_len2 == 0.0;
@@ -429,13 +432,12 @@ class ExactSolver {
       const double* cj = corner + 4 * j;
       const double* mj = margin + 4 * j;
       bool dominated = false;
-      for (size_t i = 0; i < k; ++i) {
+      for (size_t i = 0; i < k && point[j]; ++i) {  // (segments are never dropped)
         const double* ci = corner + 4 * i;
         const bool all = (cj[0] - ci[0] > mj[0]) & (cj[1] - ci[1] > mj[1]) & (cj[2] - ci[2] > mj[2]) &
                          (cj[3] - ci[3] > mj[3]);
         dominated |= all & point[i] & (i != j);
       }
-      dominated &= point[j];
       if (!dominated) {
         cands[kept] = cands[j];
         point[kept] = point[j];
