@@ -424,9 +424,12 @@ class ExactSolver {
       corner[4 * j + 3] = planar_key(rect.x1, rect.y1, s);
       for (int q = 0; q < 4; ++q) margin[4 * j + q] = dominance_margin(corner[4 * j + q]);
     }
-    // Every pair is tested without early exits: the outcomes are data-dependent coin flips, and
-    // the mispredicted branches of the earlier early-exit loops cost more than the tests they
-    // skipped (perf annotate: most of this function's samples sat on them).
+    // Each point is tested against every other without early exits: the outcomes are
+    // data-dependent coin flips, and the mispredicted branches of the earlier early-exit loops
+    // cost more than the tests they skipped (perf annotate put the largest share of this
+    // function's samples on them). Entries below `kept` are survivors, those between it and j
+    // the originals of candidates already decided, dropped ones included: being dominated by a
+    // dropped candidate is still sound, since whatever dropped it is nearer still.
     size_t kept = 0;
     for (size_t j = 0; j < k; ++j) {
       const double* cj = corner + 4 * j;
