@@ -365,8 +365,11 @@ void check_inputs(const SeedSet& seeds, const GridSpec& grid, const ComputeOptio
 
 PreparedSeeds::~PreparedSeeds() = default;
 
-std::shared_ptr<const PreparedSeeds> prepare(const SeedSet& seeds, const GridSpec& grid, const ComputeOptions& options) {
-  check_inputs(seeds, grid, options);
+namespace {
+
+// prepare() without the input checks: for callers that have just made them.
+std::shared_ptr<const PreparedSeeds> prepare_checked(const SeedSet& seeds, const GridSpec& grid,
+                                                     const ComputeOptions& options) {
   const bool geodesic = options.metric.kind == MetricSpec::geodesic;
   const Geolocator* geolocator = options.geolocator.get();
   auto p = std::make_shared<PreparedSeeds>();
@@ -387,6 +390,14 @@ std::shared_ptr<const PreparedSeeds> prepare(const SeedSet& seeds, const GridSpe
   return p;
 }
 
+}  // namespace
+
+std::shared_ptr<const PreparedSeeds> prepare(const SeedSet& seeds, const GridSpec& grid,
+                                             const ComputeOptions& options) {
+  check_inputs(seeds, grid, options);
+  return prepare_checked(seeds, grid, options);
+}
+
 void compute_into(const SeedSet& seeds, const GridSpec& grid, const ComputeOptions& options,
                   NearestField& out) {
   const auto start = std::chrono::steady_clock::now();
@@ -399,7 +410,7 @@ void compute_into(const SeedSet& seeds, const GridSpec& grid, const ComputeOptio
   const Geolocator* geolocator = options.geolocator.get();
   std::shared_ptr<const PreparedSeeds> prepared = options.prepared;
   if (prepared == nullptr) {
-    prepared = prepare(seeds, grid, options);
+    prepared = prepare_checked(seeds, grid, options);
   } else if (prepared->seeds != &seeds || prepared->site_count != seeds.sites().size() || !(prepared->grid == grid) ||
              !(prepared->metric == options.metric) || prepared->geolocator != geolocator) {
     throw Error(ErrorKind::invalid_argument,

@@ -413,11 +413,13 @@ class ExactSolver {
     double* margin = wk.corner_margins.data();  // dominance_margin() of each corner key
     bool* point = wk.corner_point.data();
     size_t points = 0;
-    for (size_t j = 0; j < k; ++j) points += ctx_.local[cands[j]].inv_len2 == 0.0;
+    for (size_t j = 0; j < k; ++j) {
+      point[j] = ctx_.local[cands[j]].inv_len2 == 0.0;
+      points += point[j];
+    }
     if (points < 2) return;  // only a point dominates a point
     for (size_t j = 0; j < k; ++j) {
       const LocalSite& s = ctx_.local[cands[j]];
-      point[j] = s.inv_len2 == 0.0;
       corner[4 * j + 0] = planar_key(rect.x0, rect.y0, s);
       corner[4 * j + 1] = planar_key(rect.x1, rect.y0, s);
       corner[4 * j + 2] = planar_key(rect.x0, rect.y1, s);
