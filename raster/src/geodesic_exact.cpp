@@ -20,20 +20,26 @@
 //    certainly nearest at that end), q(P) = d(P, p) / |E(P) - E(p)| (geodesic distance over the
 //    ECEF chord) is a very smooth function of the cell position -- it tends to 1 + O(d^2/R^2) at
 //    p and varies only with the ellipsoid's flattening elsewhere -- so a bicubic interpolant from
-//    16 exact inverse problems on a grid-aligned block of up to 128 x 128 cells reproduces it to
-//    ~1e-8 m (measured: 64 cells of 0.002 deg, points 0 .. 10 000 km away, latitudes 0 .. 88:
-//    at most 1.5e-8 m; 32 cells of 0.05 deg: 5e-4 m). For cells certainly nearest at an interior
-//    point of an edge, the signed distance to the edge's geodesic (extended beyond its ends)
-//    minus the signed distance to a plane through the edge is interpolated the same way
+//    16 exact inverse problems on a grid-aligned block reproduces it closely. Measured (bicubic
+//    fits of q on blocks at latitudes 0 .. 88, points 0 .. 11 900 km away in 8 directions, 33 x 33
+//    cells checked per block): worst error 8.6e-8 m on blocks of 0.128 deg, 4.4e-6 m on blocks
+//    of 0.35 deg (above 1e-6 m only for points beyond 10 000 km; 1.7e-11 of the distance at
+//    most, far below the float32 written), against kInterpTie = 1e-4 m; 32 cells of 0.05 deg
+//    (1.6 deg): 5e-4 m. Point-form blocks are therefore up to 0.35 deg (512 cells; 16 tiles,
+//    which share them across threads: SharedInterpolants). For cells certainly nearest at an
+//    interior point of an edge, the signed distance to the edge's geodesic (extended beyond its
+//    ends) minus the signed distance to a plane through the edge is interpolated the same way
 //    (additive form, build_line_interpolant: smooth across the edge, worst error measured
-//    7.6e-9 m; values under kAdditiveMinValue are measured exactly). A cell's value then costs
-//    a few tens of flops per candidate.
-//    Guards: the block's span is limited (kInterpSpan degrees, kInterpSpanMetres on projected
+//    7.6e-9 m; values under kAdditiveMinValue are measured exactly) on its own blocks of up to
+//    0.13 deg (128 cells): the extended edge must stay one piece. A cell's value then costs a
+//    few tens of flops per candidate.
+//    Guards: the blocks' spans are limited (kPointSpan, kLineSpan; in metres on projected
 //    grids); every interpolant is checked against an exact value at the block's centre and
-//    rejected when off by more than kInterpCheck = 5e-6 m (measured, the worst error over a
-//    block is < 2x the error at its centre); nodes near the antipode (d > kInterpMaxDistance),
-//    on the point itself, or an extended edge nearest at its ends reject it too. Rejected
-//    interpolants leave those cells to exact distances.
+//    rejected when off by more than kInterpCheck = 5e-6 m (the worst centre error measured above
+//    is 2.5e-6 m: the check catches a fit that breaks, it does not bound the error by itself);
+//    nodes near the antipode (d > kInterpMaxDistance), on the point itself, or an extended edge
+//    nearest at its ends reject it too. Rejected interpolants leave those cells to exact
+//    distances.
 //  - Which part of a segment is nearest is decided per cell from ECEF vectors (segment_regime):
 //    the normal section's direction at the vertex stands in for the geodesic's, with a margin
 //    (kVertexMargin) 14x their largest difference within kVertexMaxChord. Only cells within that
@@ -60,7 +66,9 @@
 #include <cmath>
 #include <cstring>
 #include <limits>
+#include <map>
 #include <memory>
+#include <mutex>
 #include <unordered_map>
 #include <utility>
 #include <vector>
@@ -79,9 +87,17 @@ constexpr int64_t kLeafCells = 64; // blocks this small (or smaller) are solved 
 constexpr int kProbes = 2;         // sites whose exact distance from a block's centre give U
 
 // Interpolation of point-site distances (see the top of this file).
-constexpr double kInterpSpan = 0.13;          // degrees: largest block edge interpolated
-constexpr double kInterpSpanMetres = 14e3;    // the same on projected grids (~0.13 deg of latitude)
-constexpr int64_t kInterpMaxBlock = 128;      // cells (= kTile)
+// Two block sizes: the point form (point sites, segments' ends) is so smooth that blocks of
+// up to 0.35 degrees (512 cells, 16 tiles) keep it within 2e-6 m (5e-11 relative; measured,
+// see the top of this file), which makes its 17 inverse problems rare; the additive form
+// (edges' interiors) keeps 0.13 degrees (128 cells): its extended edge must stay one piece
+// (build_line_interpolant), and its error is absolute.
+constexpr double kPointSpan = 0.35;           // degrees: largest point-form block edge
+constexpr double kPointSpanMetres = 38e3;     // the same on projected grids (~0.35 deg of latitude)
+constexpr int64_t kPointMaxBlock = 512;       // cells (4 x kTile: shared between tiles)
+constexpr double kLineSpan = 0.13;            // degrees: largest additive-form block edge
+constexpr double kLineSpanMetres = 14e3;      // the same on projected grids (~0.13 deg of latitude)
+constexpr int64_t kLineMaxBlock = 128;        // cells (= kTile)
 constexpr int64_t kInterpSolveBlock = 64;     // culling goes on down to blocks this small before
                                               // the per-cell pass: fewer candidates per cell, while
                                               // the interpolants stay those of the larger block
@@ -89,7 +105,7 @@ constexpr int64_t kInterpMinBlock = 8;        // cells
 constexpr double kAdditiveMinValue = 1.0;     // metres: see value()
 constexpr int64_t kInterpMinEdge = 4;         // a block clipped by the grid below this: per cell
 constexpr size_t kInterpMaxCandidates = 24;   // more candidates: subdivide (or per cell)
-// Leaves with segments take the row kernels only where interpolation blocks are this large: the
+// Leaves with segments take the row kernels only where line blocks are this large: the
 // kernels need every candidate's interpolants (17 inverse problems each), which the per-cell
 // method builds only for candidates its bounds cannot exclude; on smaller blocks (coarse grids)
 // those extra builds cost more than the kernels save (measured: Øresund at 0.002 deg, 64-cell
@@ -151,9 +167,10 @@ inline double normaliser(const Interpolant& it, double x, double y, double z) {
   return std::sqrt(dx * dx + dy * dy + dz * dz);
 }
 
-// A cell's weights inside its interpolation block (rows, columns).
+// A cell's weights inside its interpolation blocks (rows, columns): the point form's block
+// (wt, wc) and the additive form's (lt, lc).
 struct CellWeights {
-  double wt[4], wc[4];
+  double wt[4], wc[4], lt[4], lc[4];
 };
 
 // Marks an interpolant slot not looked up yet (GeodesicExactSolver::value).
@@ -214,13 +231,17 @@ struct GeoWorker {
   std::vector<const Interpolant*> slots;  // solve_cells: per candidate and end (value())
   std::vector<const GeoPiece*> pieces;     // solve_cells: per candidate, single pieces
   TileCells tile;  // projected grids: the current tile's located centres
-  // Interpolants of the current tile: key = interpolation block (grid-aligned) and site.
-  std::unordered_map<uint64_t, std::unique_ptr<Interpolant>> cache;
+  // Interpolants looked up by the current tile: key = interpolation block (tile-relative) and
+  // site; the entries they come from (SharedInterpolants) held until the tile is done.
+  std::unordered_map<uint64_t, const Interpolant*> cache;
+  std::vector<std::shared_ptr<const void>> held;
   // Row scratch of the kernels: cache-line aligned (kernel_memory.hpp).
-  AlignedVector<double> wcol;                         // column weights, 4 per column
+  AlignedVector<double> wcol;  // column weights, 8 per column (CellWeights' wc, lc)
   AlignedVector<double> best, second, best_q, best_c2, cx, cy, cz;  // per column of the block's row
   AlignedVector<double> best_id;
-  AlignedVector<double> wsoa;  // solve_interp: column weights, weight b of column c at b * stride + c
+  // solve_interp: column weights, weight b of column c at b * stride + c (b = 0 .. 3 in the point
+  // form's block, 4 .. 7 in the additive form's)
+  AlignedVector<double> wsoa;
   std::vector<RowCandidate> row_points, row_additive;  // solve_interp: the candidates on the current row
   std::vector<RowSegment> row_segments;                // ... those whose form changes in the block
   std::vector<const Interpolant*> interp_additive;     // solve_interp: the additive interpolants
@@ -230,6 +251,53 @@ struct GeoWorker {
   AlignedVector<int32_t> site_row;                     // ... the row's results before they go out
   AlignedVector<float> distance_row;
   AlignedVector<double> force;                         // ... per column: 1 where a cell needs the per-cell method
+};
+
+// The interpolants of one run, shared by its workers: an interpolation block may hold many
+// tiles (kPointMaxBlock > kTile), taken by any thread, and all of them use the one built
+// first. Each is built once: a thread asking for one that another is building waits for it
+// (std::call_once) rather than repeating its 17 inverse problems; it never changes after, and
+// its bits do not depend on which thread built it. Rows of blocks above the tiles being started
+// are dropped (drop_rows_before); a worker still using an entry holds it (shared_ptr).
+// Thread safety: every member may be called from any worker at any time.
+class SharedInterpolants {
+ public:
+  struct Entry {
+    std::once_flag built;
+    std::unique_ptr<Interpolant> it;  // after `built`: null where the interpolant is rejected
+  };
+  // The entry of block column bx in block row by, for `who` (a site, or a distinct vertex) and
+  // `kind` (interpolant()'s end, 1 for both ends), made empty on first use.
+  std::shared_ptr<Entry> entry(int64_t bx, int64_t by, int32_t who, int kind) {
+    const Key k{bx, who, kind};
+    std::lock_guard lock(mutex_);
+    std::shared_ptr<Entry>& e = rows_[by][k];
+    if (!e) e = std::make_shared<Entry>();
+    return e;
+  }
+  // Forgets the blocks of rows < by.
+  void drop_rows_before(int64_t by) {
+    std::lock_guard lock(mutex_);
+    rows_.erase(rows_.begin(), rows_.lower_bound(by));
+  }
+
+ private:
+  struct Key {
+    int64_t bx;
+    int32_t who;
+    int kind;
+    bool operator==(const Key& o) const { return bx == o.bx && who == o.who && kind == o.kind; }
+  };
+  struct KeyHash {
+    size_t operator()(const Key& k) const {
+      const uint64_t h = (static_cast<uint64_t>(k.bx) * 0x9e3779b97f4a7c15ULL) ^
+                         (static_cast<uint64_t>(static_cast<uint32_t>(k.who)) << 2) ^
+                         static_cast<uint64_t>(k.kind);
+      return std::hash<uint64_t>()(h);
+    }
+  };
+  std::mutex mutex_;
+  std::map<int64_t, std::unordered_map<Key, std::shared_ptr<Entry>, KeyHash>> rows_;
 };
 
 #if defined(__SANITIZE_THREAD__)
@@ -270,6 +338,7 @@ using GeoV4 = double __attribute__((vector_size(32)));
     bc2 = lt_ ? (c2v) : bc2;                 \
   } while (0)
 #define RV_GEO_Q(p) (a0 * (p).qr[0] + a1 * (p).qr[1] + a2 * (p).qr[2] + a3 * (p).qr[3])
+#define RV_GEO_QL(p) (l0 * (p).qr[0] + l1 * (p).qr[1] + l2 * (p).qr[2] + l3 * (p).qr[3])
 
 // Cells c .. c + 3 of the row: their column weights into a0 .. a3 (w + b * stride: weight b of
 // every column), their ECEF positions into x, y, z: on a geographic grid from the row's
@@ -328,11 +397,11 @@ RV_GEO_CLONES void interp_argmin_points(const RowCandidate* __restrict points, i
 // smallest squared value and, for the smallest, its id and two factors its value is made of,
 // exactly as apply() makes it: the point form's value is root(q^2 chord^2), with
 // q = sum_b w_b qr_b (recorded as 1 and the square); the additive form's is |h + q| (recorded
-// as |h + q| and 1); the value is then best_q * root(best_c2), the same bits. Candidates pass in any order: equal squared values of
-// different interpolants leave a gap of 0, a close call the caller decides by the per-cell
-// method, and those of one vertex tie as RV_GEO_TAKE says, order-free.
-// Segments whose form changes in the block (segs) get segment_regime's test per cell, with
-// its operations, and the value of the form it picks; force[c] = 1 where a cell's regime is 0
+// as |h + q| and 1); the value is then best_q * root(best_c2), the same bits. Candidates pass in
+// any order: equal squared values of different interpolants leave a gap of 0, a close call the
+// caller decides by the per-cell method, and those of one vertex tie as RV_GEO_TAKE says,
+// order-free. Segments whose form changes in the block (segs) get segment_regime's test per cell,
+// with its operations, and the value of the form it picks; force[c] = 1 where a cell's regime is 0
 // (measured exactly by the per-cell method), its form has no interpolant, or an additive value
 // is under kAdditiveMinValue (which value() measures exactly): the caller solves those cells
 // by the per-cell method.
@@ -340,8 +409,10 @@ RV_GEO_CLONES void interp_argmin_points(const RowCandidate* __restrict points, i
 // Why this shape: the cells are taken four at a time and every candidate passes while the
 // running results stay in registers (candidate-outer loops loaded and stored them once per
 // candidate per cell); squared values need no root per candidate (the caller takes one per
-// cell). The column weights come as four arrays (w + b * stride: weight b of every column),
-// the cells' ECEF positions as RowPositions says; every array holds n rounded up to a multiple
+// cell). The column weights come as eight arrays (w + b * stride: weight b of every column,
+// b = 0 .. 3 in the point form's block, 4 .. 7 in the additive form's: a point site or a
+// segment's end uses the first four, an edge's interior the last four), the cells' ECEF
+// positions as RowPositions says; every array holds n rounded up to a multiple
 // of kRowLanes. Vectors stay inside this function (a 32-byte vector crossing a function boundary
 // has another ABI with and without AVX).
 RV_GEO_CLONES void interp_argmin_row(const RowCandidate* __restrict points, int kp,
@@ -354,8 +425,12 @@ RV_GEO_CLONES void interp_argmin_row(const RowCandidate* __restrict points, int 
   constexpr double m2 = kVertexMargin * kVertexMargin;
   constexpr double max2 = kVertexMaxChord * kVertexMaxChord, min2 = kVertexMinChord * kVertexMinChord;
   for (int64_t c = 0; c < n; c += kRowLanes) {
-    GeoV4 a0, a1, a2, a3, x, y, z;
+    GeoV4 a0, a1, a2, a3, x, y, z, l0, l1, l2, l3;
     RV_GEO_CELLS(c);
+    std::memcpy(&l0, w + 4 * stride + c, sizeof(l0));
+    std::memcpy(&l1, w + 5 * stride + c, sizeof(l1));
+    std::memcpy(&l2, w + 6 * stride + c, sizeof(l2));
+    std::memcpy(&l3, w + 7 * stride + c, sizeof(l3));
     const GeoV4 zero = GeoV4{}, one = GeoV4{} + 1.0, none = GeoV4{} - 1.0;
     GeoV4 b = GeoV4{} + inf, s = b, id = GeoV4{} + static_cast<double>(kNoSite), btag = none, bq = zero, bc2 = zero;
     GeoV4 need = zero;
@@ -375,7 +450,7 @@ RV_GEO_CLONES void interp_argmin_row(const RowCandidate* __restrict points, int 
     }
     for (int j = 0; j < ka; ++j) {
       const RowCandidate& p = additive[j];
-      const GeoV4 q = RV_GEO_Q(p);
+      const GeoV4 q = RV_GEO_QL(p);
       const GeoV4 dx = x - p.sx, dy = y - p.sy, dz = z - p.sz;
       const GeoV4 h = dx * p.nx + dy * p.ny + dz * p.nz + q;
       const GeoV4 v = h < zero ? -h : h;
@@ -403,7 +478,7 @@ RV_GEO_CLONES void interp_argmin_row(const RowCandidate* __restrict points, int 
       const RowCandidate& pa = g.part[0];
       const RowCandidate& pb = g.part[1];
       const RowCandidate& pi = g.part[2];
-      const GeoV4 qa = RV_GEO_Q(pa), qb = RV_GEO_Q(pb), qi = RV_GEO_Q(pi);
+      const GeoV4 qa = RV_GEO_Q(pa), qb = RV_GEO_Q(pb), qi = RV_GEO_QL(pi);
       const GeoV4 ax = x - pa.sx, ay = y - pa.sy, az = z - pa.sz;
       const GeoV4 bx = x - pb.sx, by = y - pb.sy, bz = z - pb.sz;
       const GeoV4 ix = x - pi.sx, iy = y - pi.sy, iz = z - pi.sz;
@@ -435,6 +510,7 @@ RV_GEO_CLONES void interp_argmin_row(const RowCandidate* __restrict points, int 
 #undef RV_GEO_TAKE_PLAIN
 #undef RV_GEO_CELLS
 #undef RV_GEO_Q
+#undef RV_GEO_QL
 
 // The outputs of one row of interp_argmin_row's cells (at least one candidate, so every cell
 // has a best id): the best's value best_q * root(best_c2), or root(best2) without best_c2
@@ -561,13 +637,14 @@ class GeodesicExactSolver {
     }
   }
 
-  // The interpolation block: the largest power of two (8 .. 128 cells) spanning at most
-  // kInterpSpan degrees (projected grids: kInterpSpanMetres, with the cell size measured on the
-  // ellipsoid at the grid's centre, so that it does not depend on the window); coarser grids
-  // still get 8-cell blocks, which the centre check rejects where inaccurate.
+  // The interpolation blocks of each form: the largest power of two (8 .. kPointMaxBlock or
+  // kLineMaxBlock cells) spanning at most kPointSpan or kLineSpan degrees (projected grids: the
+  // spans in metres, with the cell size measured on the ellipsoid at the grid's centre, so that
+  // it does not depend on the window); coarser grids still get 8-cell blocks, which the centre
+  // check rejects where inaccurate. The line block divides the point block (powers of two).
   void init_interp_block() {
     const GridSpec& g = ctx_.grid;
-    double limit = kInterpSpan, cell = g.res;
+    double cell = g.res;
     if (located_) {
       const int64_t cc = std::min<int64_t>(g.width / 2, std::max<int64_t>(g.width - 2, 0)), rc = g.height / 2;
       const GeoCell a = cell_at_fraction(static_cast<double>(cc), static_cast<double>(rc));
@@ -575,11 +652,15 @@ class GeodesicExactSolver {
       double d;
       geo_.geodesic().Inverse(a.lat, a.lon, b.lat, b.lon, d);
       cell = d;
-      limit = kInterpSpanMetres;
     }
-    interp_block_ = kInterpMinBlock;
-    while (interp_block_ * 2 <= kInterpMaxBlock && static_cast<double>(interp_block_ * 2) * cell <= limit)
-      interp_block_ *= 2;
+    auto block = [&](int64_t most, double span_degrees, double span_metres) {
+      const double limit = located_ ? span_metres : span_degrees;
+      int64_t b = kInterpMinBlock;
+      while (b * 2 <= most && static_cast<double>(b * 2) * cell <= limit) b *= 2;
+      return b;
+    };
+    point_block_ = block(kPointMaxBlock, kPointSpan, kPointSpanMetres);
+    line_block_ = block(kLineMaxBlock, kLineSpan, kLineSpanMetres);
   }
 
   void run() {
@@ -598,6 +679,10 @@ class GeodesicExactSolver {
       const int64_t r0 = std::max<int64_t>(gy - w.row0, 0), r1 = std::min(gy + kTile - w.row0, w.height);
       wk.levels[0] = ctx_.geometric;
       wk.cache.clear();
+      wk.held.clear();
+      // Tiles start in row order: blocks ending a tile row and more above this one are done
+      // with (a straggler still needing one would only build it again).
+      shared_.drop_rows_before(gy - kTile - point_block_);
       if (located_) locate_tile(wk.tile, c0, r0, c1, r1);
       tl_tile = located_ ? &wk.tile : nullptr;
       solve_block(wk, 0, kTile, c0, r0, c1, r1);
@@ -776,7 +861,7 @@ class GeodesicExactSolver {
     bool points_only = true;
     for (int32_t id : next) points_only = points_only && !geo_.site(id).segment;
     const bool can_split = level > 1 && depth + 2 < static_cast<int>(wk.levels.size());
-    if (points_only && level <= std::min(interp_block_, kInterpSolveBlock) &&
+    if (points_only && level <= std::min(point_block_, kInterpSolveBlock) &&
         (next.size() <= kInterpMaxCandidates || !can_split || level <= kInterpMinBlock))
       return solve_interp(wk, next, c0, r0, c1, r1);
     if (!points_only && (next.size() <= 1 || w * h <= kLeafCells)) return solve_leaf(wk, next, c0, r0, c1, r1);
@@ -809,7 +894,7 @@ class GeodesicExactSolver {
   // measures exactly).
   // `end`: 0 for a point site, 1 / 2 for a segment's first / second end, 3 for its interior.
   const Interpolant* interpolant(GeoWorker& wk, int64_t c, int64_t r, int32_t id, int end = 0) const {
-    const int64_t S = interp_block_;
+    const int64_t S = end == 3 ? line_block_ : point_block_;
     const int64_t gc = ctx_.window.col0 + c, gr = ctx_.window.row0 + r;
     const int64_t bx0 = (gc / S) * S, by0 = (gr / S) * S;
     // Edges meeting at a vertex measure it with one interpolant (same nodes, same bits): the
@@ -820,12 +905,17 @@ class GeodesicExactSolver {
                          (static_cast<uint64_t>(static_cast<uint32_t>(who)) << 2) |
                          static_cast<uint64_t>(vertex ? 1 : end);
     auto it = wk.cache.find(key);
-    if (it != wk.cache.end()) return it->second.get();
-    auto made = std::make_unique<Interpolant>();
-    if (!build_interpolant(*made, bx0, by0, std::min(bx0 + S, ctx_.grid.width), std::min(by0 + S, ctx_.grid.height), id,
-                           end))
-      made.reset();
-    return wk.cache.emplace(key, std::move(made)).first->second.get();
+    if (it != wk.cache.end()) return it->second;
+    std::shared_ptr<SharedInterpolants::Entry> e = shared_.entry(bx0, by0, who, vertex ? 1 : end);
+    std::call_once(e->built, [&] {
+      auto made = std::make_unique<Interpolant>();
+      if (build_interpolant(*made, bx0, by0, std::min(bx0 + S, ctx_.grid.width),
+                            std::min(by0 + S, ctx_.grid.height), id, end))
+        e->it = std::move(made);
+    });
+    const Interpolant* got = e->it.get();
+    wk.held.push_back(std::move(e));
+    return wk.cache.emplace(key, got).first->second;
   }
 
   // Node positions: grid-relative fractional rows/columns at 0, 1/3, 2/3, 1 of the block's
@@ -1025,18 +1115,27 @@ class GeodesicExactSolver {
     return wc[0] * qr[0] + wc[1] * qr[1] + wc[2] * qr[2] + wc[3] * qr[3];
   }
 
-  // Weights of window cell column c / row r inside the interpolation block holding them.
-  void weights_col(int64_t c, double w[4]) const {
-    const int64_t S = interp_block_;
+  // Weights of window cell column c / row r inside the interpolation block of S cells holding
+  // them.
+  void weights_col(int64_t c, int64_t S, double w[4]) const {
     const int64_t gc = ctx_.window.col0 + c, b0 = (gc / S) * S;
     const int64_t b1 = std::min(b0 + S, ctx_.grid.width) - 1;
     cubic_weights(static_cast<double>(gc - b0) / static_cast<double>(b1 - b0), w);
   }
-  void weights_row(int64_t r, double w[4]) const {
-    const int64_t S = interp_block_;
+  void weights_row(int64_t r, int64_t S, double w[4]) const {
     const int64_t gr = ctx_.window.row0 + r, b0 = (gr / S) * S;
     const int64_t b1 = std::min(b0 + S, ctx_.grid.height) - 1;
     cubic_weights(static_cast<double>(gr - b0) / static_cast<double>(b1 - b0), w);
+  }
+
+  // Both forms' weights of row r, and of column c (into wc, lc).
+  void cell_weights_row(int64_t r, CellWeights& cw) const {
+    weights_row(r, point_block_, cw.wt);
+    weights_row(r, line_block_, cw.lt);
+  }
+  void cell_weights_col(int64_t c, double wc[4], double lc[4]) const {
+    weights_col(c, point_block_, wc);
+    weights_col(c, line_block_, lc);
   }
 
   // Which part of site `id` is nearest from p (segment_regime; 0 for a point site).
@@ -1069,11 +1168,12 @@ class GeodesicExactSolver {
       if (it) {
         CellWeights own;
         if (!cell) {
-          weights_row(r, own.wt);
-          weights_col(c, own.wc);
+          cell_weights_row(r, own);
+          cell_weights_col(c, own.wc, own.lc);
           cell = &own;
         }
-        const double v = apply(*it, eval(*it, cell->wt, cell->wc), p.x, p.y, p.z);
+        const double v = it->additive ? apply(*it, eval(*it, cell->lt, cell->lc), p.x, p.y, p.z)
+                                      : apply(*it, eval(*it, cell->wt, cell->wc), p.x, p.y, p.z);
         // The additive form's error is absolute (~1e-8 m): within kAdditiveMinValue of the edge
         // it would be more than the last bit of the float32 written, so those few cells are
         // measured exactly.
@@ -1163,7 +1263,8 @@ class GeodesicExactSolver {
   // certainly keep one form over the whole block (gather_interpolants), else cell by cell
   // (solve_cells).
   void solve_leaf(GeoWorker& wk, const std::vector<int32_t>& cands, int64_t c0, int64_t r0, int64_t c1, int64_t r1) {
-    const int64_t S = interp_block_, gx = ctx_.window.col0, gy = ctx_.window.row0;
+    // (In one line block is in one point block: the line block divides the point block.)
+    const int64_t S = line_block_, gx = ctx_.window.col0, gy = ctx_.window.row0;
     const bool one_block = (gx + c0) / S == (gx + c1 - 1) / S && (gy + r0) / S == (gy + r1 - 1) / S;
     if (S < kLeafKernelMinBlock || cands.empty() || !one_block || cands.size() > kInterpMaxCandidates || !gather_interpolants(wk, cands, c0, r0, c1, r1))
       return solve_cells(wk, cands, c0, r0, c1, r1);
@@ -1260,11 +1361,14 @@ class GeodesicExactSolver {
                          int64_t r1) {
     const int64_t n = c1 - c0;
     const int64_t stride = (n + kRowLanes - 1) / kRowLanes * kRowLanes;  // padded: whole vectors
-    wk.wsoa.assign(static_cast<size_t>(4 * stride), 0.0);
+    wk.wsoa.assign(static_cast<size_t>(8 * stride), 0.0);
     for (int64_t c = 0; c < n; ++c) {
-      double w[4];
-      weights_col(c0 + c, w);
-      for (int b = 0; b < 4; ++b) wk.wsoa[static_cast<size_t>(b * stride + c)] = w[b];
+      double w[4], l[4];
+      cell_weights_col(c0 + c, w, l);
+      for (int b = 0; b < 4; ++b) {
+        wk.wsoa[static_cast<size_t>(b * stride + c)] = w[b];
+        wk.wsoa[static_cast<size_t>((4 + b) * stride + c)] = l[b];
+      }
     }
     wk.site_row.resize(static_cast<size_t>(stride));
     wk.distance_row.resize(static_cast<size_t>(stride));
@@ -1303,8 +1407,8 @@ class GeodesicExactSolver {
     bool plain = wk.row_additive.empty() && wk.row_segments.empty();  // interp_argmin_points can do it
     for (const RowCandidate& rc : wk.row_points) plain = plain && rc.tag < 0.0;
     for (int64_t r = r0; r < r1; ++r) {
-      double wt[4];
-      weights_row(r, wt);
+      CellWeights rw;
+      cell_weights_row(r, rw);
       RowPositions pos;
       if (located_) {
         for (int64_t c = 0; c < n; ++c) {
@@ -1324,9 +1428,11 @@ class GeodesicExactSolver {
       }
       // eval()'s row step, the same operations in the same order.
       auto reduce = [&](const Interpolant* it, RowCandidate& rc) {
-        if (it)
-          for (int b = 0; b < 4; ++b)
-            rc.qr[b] = wt[0] * it->q[0][b] + wt[1] * it->q[1][b] + wt[2] * it->q[2][b] + wt[3] * it->q[3][b];
+        if (!it) return;
+        const double* wt = it->additive ? rw.lt : rw.wt;
+        for (int b = 0; b < 4; ++b)
+          rc.qr[b] =
+              wt[0] * it->q[0][b] + wt[1] * it->q[1][b] + wt[2] * it->q[2][b] + wt[3] * it->q[3][b];
       };
       for (size_t j = 0; j < wk.interp.size(); ++j) reduce(wk.interp[j], wk.row_points[j]);
       for (size_t j = 0; j < wk.interp_additive.size(); ++j) reduce(wk.interp_additive[j], wk.row_additive[j]);
@@ -1423,20 +1529,25 @@ class GeodesicExactSolver {
     if (cands.empty()) return fill_none(c0, r0, c1, r1);
     const bool bounded = std::isfinite(max_distance_);
     // Interpolants looked up once per candidate when the block lies in one interpolation block.
-    const int64_t S = interp_block_, gx = ctx_.window.col0, gy = ctx_.window.row0;
+    // (In one line block is in one point block: the line block divides the point block.)
+    const int64_t S = line_block_, gx = ctx_.window.col0, gy = ctx_.window.row0;
     const bool one_block = (gx + c0) / S == (gx + c1 - 1) / S && (gy + r0) / S == (gy + r1 - 1) / S;
     wk.slots.assign(one_block ? 4 * cands.size() : 0, &kNotLooked);
     auto slots_of = [&](size_t i) { return one_block ? &wk.slots[4 * i] : nullptr; };
     CellWeights cw;
-    wk.wcol.resize(static_cast<size_t>(4 * (c1 - c0)));
-    for (int64_t c = c0; c < c1; ++c) weights_col(c, &wk.wcol[static_cast<size_t>(4 * (c - c0))]);
+    wk.wcol.resize(static_cast<size_t>(8 * (c1 - c0)));
+    for (int64_t c = c0; c < c1; ++c) {
+      double* at = &wk.wcol[static_cast<size_t>(8 * (c - c0))];
+      cell_weights_col(c, at, at + 4);
+    }
     auto column_weights = [&](int64_t c) {
-      std::memcpy(cw.wc, &wk.wcol[static_cast<size_t>(4 * (c - c0))], sizeof(cw.wc));
+      std::memcpy(cw.wc, &wk.wcol[static_cast<size_t>(8 * (c - c0))], sizeof(cw.wc));
+      std::memcpy(cw.lc, &wk.wcol[static_cast<size_t>(8 * (c - c0) + 4)], sizeof(cw.lc));
     };
     if (cands.size() == 1) {
       const int32_t id = cands[0];
       for (int64_t r = r0; r < r1; ++r) {
-        weights_row(r, cw.wt);
+        cell_weights_row(r, cw);
         for (int64_t c = c0; c < c1; ++c) {
           bool exact = false;
           const GeoCell p = cell_at(c, r);
@@ -1466,7 +1577,7 @@ class GeodesicExactSolver {
       double travel = 0.0;  // the way along the row since its first cell (an upper bound)
       GeoCell q{};
       const double parallel_step = located_ ? 0.0 : rho_[r] * ctx_.grid.res * (3.14159265358979323846 / 180.0) * (1.0 + 1e-12) + 1e-9;
-      weights_row(r, cw.wt);
+      cell_weights_row(r, cw);
       for (int64_t c = c0; c < c1; ++c) {
         const GeoCell p = cell_at(c, r);
         column_weights(c);
@@ -1581,7 +1692,9 @@ class GeodesicExactSolver {
   AlignedVector<double> cos_, sin_;  // per window column (loaded as vectors by the row kernels)
   double max_distance_ = std::numeric_limits<double>::infinity();
   bool stream_ = false;  // rows of the row kernels go out with non-temporal stores (put_row)
-  int64_t interp_block_ = kInterpMinBlock;  // interpolation block edge, cells (grid-aligned)
+  int64_t point_block_ = kInterpMinBlock;   // interpolation block edges, cells (grid-aligned):
+  int64_t line_block_ = kInterpMinBlock;    // the point form's and the additive form's
+  mutable SharedInterpolants shared_;       // the interpolants built so far (any worker)
   bool located_ = false;                    // projected grid: cells located by ctx.geolocator
   std::vector<SegmentEnd> ends_;            // per site: its two ends (segments only)
 };

@@ -578,7 +578,7 @@ TEST(GeodesicEngine, WindowsAgreeWithTheWholeGrid) {
   }
 }
 
-// On fine grids (interpolation blocks of 128 cells) leaves of segments are solved by the row
+// On fine grids (line interpolation blocks of 128 cells) leaves of segments are solved by the row
 // kernels, and cells whose call is close by the per-cell method; windows cut those leaves
 // anywhere, so every cell must get the same bits whichever path and block shape solve it.
 // The exact method on each window (with `threads`) equals the whole grid's result (2 threads),
@@ -599,7 +599,7 @@ void expect_windows_match(const SeedSet& s, const GridSpec& g, std::initializer_
 }
 
 TEST(GeodesicEngine, FineGridWindowsAgreeWithTheWholeGrid) {
-  const GridSpec g = geo_grid(11.90, 55.60, 0.0005, 420, 300);  // 0.0005 deg: 128-cell blocks
+  const GridSpec g = geo_grid(11.90, 55.60, 0.0005, 420, 300);  // 0.0005 deg: 128-cell line blocks
   SeedSet s = random_features(29, 11.95, 55.47, 12.08, 55.58, 14);
   s.add_polyline(s.add_feature(s.owner_code("coast")),
                  std::vector<Vec2>{{11.90, 55.52}, {11.93, 55.5230}, {11.95, 55.5205}, {11.97, 55.5260},
@@ -616,6 +616,46 @@ TEST(GeodesicEngine, StreamedWholeGridEqualsItsUnstreamedWindows) {
   s.add_polyline(s.add_feature(s.owner_code("coast")),
                  std::vector<Vec2>{{11.90, 55.52}, {11.97, 55.5260}, {12.06, 55.5270}, {12.31, 55.5310}});
   expect_windows_match(s, g, {Window{3, 5, 517, 260}, Window{514, 260, 517, 261}}, 2);
+}
+
+// At 0.0004 degrees an interpolation block is 512 x 512 cells, 16 tiles that any thread may
+// take, all using the interpolants the first of them built. Windows of the whole grid's result
+// straddling block edges (columns and rows 512, 1024) against brute force on those windows:
+// points, a coastline offshore and a polygon; owners equal, distances within the last bit.
+TEST(GeodesicEngine, InterpolationBlocksSharedByTilesMatchBruteForce) {
+  const GridSpec g = geo_grid(12.0, 56.0, 0.0004, 1300, 1100);  // 12.0 .. 12.52E, 55.56 .. 56.0N
+  SeedSet s;
+  std::mt19937_64 rng(11);
+  std::uniform_real_distribution<double> lon(11.95, 12.57), lat(55.5, 56.05);
+  for (int i = 0; i < 14; ++i)
+    s.add_point(s.add_feature(s.owner_code(std::to_string(i % 3))), {lon(rng), lat(rng)});
+  std::vector<Vec2> coast;
+  for (int i = 0; i <= 30; ++i)
+    coast.push_back(
+        {12.05 + 0.015 * i, 55.74 + 0.01 * std::sin(0.9 * i) + 0.002 * (i % 3)});  // ~1 km edges
+  s.add_polyline(s.add_feature(s.owner_code("coast")), coast);
+  s.add_polygon(
+      s.add_feature(s.owner_code("island")),
+      {{{12.30, 55.90}, {12.33, 55.905}, {12.335, 55.92}, {12.31, 55.93}, {12.30, 55.90}}});
+  for (int threads : {2, 3}) {
+    const NearestField whole = run(s, g, Method::exact, threads);
+    for (const Window& w :
+         {Window{470, 480, 90, 70}, Window{990, 500, 70, 60}, Window{480, 1000, 80, 60}}) {
+      ComputeOptions o;
+      o.method = Method::brute_force;
+      o.metric = wgs84();
+      o.threads = 2;
+      o.window = w;
+      const NearestField brute = compute(s, g, o);
+      o.method = Method::exact;
+      o.threads = threads;
+      const NearestField part = compute(s, g, o);
+      const std::string what = "window " + std::to_string(w.col0) + "," + std::to_string(w.row0);
+      EXPECT_EQ(part.site.cells(), brute.site.cells()) << what;
+      expect_within_one_ulp(part.distance, brute.distance, what);
+      EXPECT_TRUE(test::window_matches(part, whole)) << what;
+    }
+  }
 }
 
 TEST(GeodesicEngine, MemoryEstimateCountsPreparedEdges) {
