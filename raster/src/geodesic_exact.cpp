@@ -201,6 +201,7 @@ thread_local const TileCells* tl_tile = nullptr;
 struct RowCandidate {
   double qr[4];
   double sx, sy, sz, nx, ny, nz, id, tag;
+  double dz2;  // interp_argmin_points on a geographic grid: (z - sz)^2 of the row's z
 };
 
 // A segment whose form changes inside the block: its two ends as segment_regime sees them and
@@ -371,26 +372,43 @@ RV_GEO_CLONES void interp_argmin_points(const RowCandidate* __restrict points, i
                                         int64_t stride, const RowPositions& pos, int64_t n, double* __restrict best2,
                                         double* __restrict second2, double* __restrict best_id) {
   const double inf = std::numeric_limits<double>::infinity();
+  // One candidate into the running results; c2 = dx^2 + dy^2 + dz^2 in that order (apply()'s).
+#define RV_GEO_POINT(dz2_expr)                                                 \
+  do {                                                                         \
+    const GeoV4 q = a0 * p.qr[0] + a1 * p.qr[1] + a2 * p.qr[2] + a3 * p.qr[3]; \
+    const GeoV4 dx = x - p.sx, dy = y - p.sy;                                  \
+    const GeoV4 c2 = dx * dx + dy * dy + (dz2_expr);                           \
+    const GeoV4 key = (q * q) * c2;                                            \
+    const auto lt = key < b;                                                   \
+    const GeoV4 hi = lt ? b : key;                                             \
+    s = hi < s ? hi : s;                                                       \
+    b = lt ? key : b;                                                          \
+    const GeoV4 idv = {p.id, p.id, p.id, p.id};                                \
+    id = lt ? idv : id;                                                        \
+  } while (0)
   for (int64_t c = 0; c < n; c += kRowLanes) {
     GeoV4 a0, a1, a2, a3, x, y, z;
     RV_GEO_CELLS(c);
     GeoV4 b = GeoV4{} + inf, s = b, id = GeoV4{} + static_cast<double>(kNoSite);
-    for (int j = 0; j < kp; ++j) {
-      const RowCandidate& p = points[j];
-      const GeoV4 q = a0 * p.qr[0] + a1 * p.qr[1] + a2 * p.qr[2] + a3 * p.qr[3];
-      const GeoV4 dx = x - p.sx, dy = y - p.sy, dz = z - p.sz;
-      const GeoV4 c2 = dx * dx + dy * dy + dz * dz;
-      const GeoV4 key = (q * q) * c2;
-      const auto lt = key < b;
-      const GeoV4 hi = lt ? b : key;
-      s = hi < s ? hi : s;
-      b = lt ? key : b;
-      id = lt ? GeoV4{} + p.id : id;
+    if (pos.cos_lon) {
+      // A geographic grid's row is one parallel: every cell has the same z, and each
+      // candidate's dz^2 comes with it (the same bits as computed here).
+      for (int j = 0; j < kp; ++j) {
+        const RowCandidate& p = points[j];
+        RV_GEO_POINT(p.dz2);
+      }
+    } else {
+      for (int j = 0; j < kp; ++j) {
+        const RowCandidate& p = points[j];
+        const GeoV4 dz = z - p.sz;
+        RV_GEO_POINT(dz * dz);
+      }
     }
     std::memcpy(best2 + c, &b, sizeof(b));
     std::memcpy(second2 + c, &s, sizeof(s));
     std::memcpy(best_id + c, &id, sizeof(id));
   }
+#undef RV_GEO_POINT
 }
 
 // One row of a block against all its interpolated candidates: per cell the smallest and second
@@ -514,7 +532,7 @@ RV_GEO_CLONES void interp_argmin_row(const RowCandidate* __restrict points, int 
 
 // The outputs of one row of interp_argmin_row's cells (at least one candidate, so every cell
 // has a best id): the best's value best_q * root(best_c2), or root(best2) without best_c2
-// (interp_argmin_points; apply()'s bits either way), left in best_q; the site
+// (interp_argmin_points; apply()'s bits either way; best_q is scratch); the site
 // and distance as put() writes them (no site beyond max_distance); and second2[c] = 1 where
 // the call may be too close for interpolated values (the two smallest within kInterpTie, or the
 // best within kInterpTie of max_distance) or force[c] is set, else 0. Returns whether any cell
@@ -526,6 +544,7 @@ RV_GEO_CLONES void interp_argmin_row(const RowCandidate* __restrict points, int 
 // per-cell method, so those get exactly what that method gives them.
 // Written as loops the vectoriser takes (one root per cell, no branches); the cells beyond a
 // distance limit are fixed afterwards, since a select between converted floats is not taken.
+// The commonest case (interp_argmin_points, no limit) is one pass.
 RV_GEO_CLONES bool interp_store_row(const double* __restrict best2, double* __restrict second2,
                                     const double* __restrict best_id, double* __restrict best_q,
                                     const double* __restrict best_c2, const double* __restrict force, int64_t n,
@@ -544,6 +563,16 @@ RV_GEO_CLONES bool interp_store_row(const double* __restrict best2, double* __re
       second2[c] = tie ? 1.0 : 0.0;
       any |= tie;
     }
+  } else if (max_distance == inf) {  // nothing forced, no limit: one pass
+    for (int64_t c = 0; c < n; ++c) {
+      const double b2 = best2[c], s2 = second2[c], gap = s2 - b2;
+      const int64_t tie = (s2 < inf) & (gap * gap <= kTie2x4 * s2);
+      second2[c] = tie ? 1.0 : 0.0;
+      any |= tie;
+      site_row[c] = static_cast<int32_t>(best_id[c]);
+      distance_row[c] = static_cast<float>(std::sqrt(b2));
+    }
+    return any != 0;
   } else {  // nothing forced
     for (int64_t c = 0; c < n; ++c) {
       const double b2 = best2[c], s2 = second2[c], gap = s2 - b2, v = std::sqrt(b2);
@@ -1379,8 +1408,10 @@ class GeodesicExactSolver {
     for (auto* v : {&wk.cx, &wk.cy, &wk.cz}) v->assign(static_cast<size_t>(stride), 0.0);
     // What stays the same on every row; the rows fill in qr.
     auto fixed_part = [&](const Interpolant* it, int32_t id, RowCandidate& rc) {
-      rc = RowCandidate{{0.0, 0.0, 0.0, 0.0}, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, static_cast<double>(id), tag_of(it, id)};
-      if (!it) return;  // a form without an interpolant: its cells are forced to the per-cell method
+      rc = RowCandidate{{0.0, 0.0, 0.0, 0.0}, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, static_cast<double>(id),
+                        tag_of(it, id),       0.0};
+      if (!it)
+        return;  // a form without an interpolant: its cells are forced to the per-cell method
       rc.sx = it->sx;
       rc.sy = it->sy;
       rc.sz = it->sz;
@@ -1434,7 +1465,11 @@ class GeodesicExactSolver {
           rc.qr[b] =
               wt[0] * it->q[0][b] + wt[1] * it->q[1][b] + wt[2] * it->q[2][b] + wt[3] * it->q[3][b];
       };
-      for (size_t j = 0; j < wk.interp.size(); ++j) reduce(wk.interp[j], wk.row_points[j]);
+      for (size_t j = 0; j < wk.interp.size(); ++j) {
+        reduce(wk.interp[j], wk.row_points[j]);
+        const double dz = pos.z - wk.row_points[j].sz;
+        wk.row_points[j].dz2 = dz * dz;
+      }
       for (size_t j = 0; j < wk.interp_additive.size(); ++j) reduce(wk.interp_additive[j], wk.row_additive[j]);
       for (size_t j = 0; j < wk.changing.size(); ++j)
         for (size_t k = 0; k < 3; ++k) reduce(wk.changing_interp[j][k], wk.row_segments[j].part[k]);
