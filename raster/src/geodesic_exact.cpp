@@ -1146,13 +1146,14 @@ class GeodesicExactSolver {
 
   // Weights of window cell column c / row r inside the interpolation block of S cells holding
   // them.
+  // (S is a power of two: the block's first cell is a mask away, not a division.)
   void weights_col(int64_t c, int64_t S, double w[4]) const {
-    const int64_t gc = ctx_.window.col0 + c, b0 = (gc / S) * S;
+    const int64_t gc = ctx_.window.col0 + c, b0 = gc & ~(S - 1);
     const int64_t b1 = std::min(b0 + S, ctx_.grid.width) - 1;
     cubic_weights(static_cast<double>(gc - b0) / static_cast<double>(b1 - b0), w);
   }
   void weights_row(int64_t r, int64_t S, double w[4]) const {
-    const int64_t gr = ctx_.window.row0 + r, b0 = (gr / S) * S;
+    const int64_t gr = ctx_.window.row0 + r, b0 = gr & ~(S - 1);
     const int64_t b1 = std::min(b0 + S, ctx_.grid.height) - 1;
     cubic_weights(static_cast<double>(gr - b0) / static_cast<double>(b1 - b0), w);
   }
@@ -1390,13 +1391,17 @@ class GeodesicExactSolver {
                          int64_t r1) {
     const int64_t n = c1 - c0;
     const int64_t stride = (n + kRowLanes - 1) / kRowLanes * kRowLanes;  // padded: whole vectors
+    // The additive form's weights only where an edge's interior is a candidate (interp_argmin_row
+    // reads all eight arrays, so they are there, zero, in any case).
+    const bool lines = !wk.interp_additive.empty() || !wk.changing.empty();
     wk.wsoa.assign(static_cast<size_t>(8 * stride), 0.0);
     for (int64_t c = 0; c < n; ++c) {
       double w[4], l[4];
-      cell_weights_col(c0 + c, w, l);
+      weights_col(c0 + c, point_block_, w);
+      if (lines) weights_col(c0 + c, line_block_, l);
       for (int b = 0; b < 4; ++b) {
         wk.wsoa[static_cast<size_t>(b * stride + c)] = w[b];
-        wk.wsoa[static_cast<size_t>((4 + b) * stride + c)] = l[b];
+        if (lines) wk.wsoa[static_cast<size_t>((4 + b) * stride + c)] = l[b];
       }
     }
     wk.site_row.resize(static_cast<size_t>(stride));
@@ -1439,7 +1444,8 @@ class GeodesicExactSolver {
     for (const RowCandidate& rc : wk.row_points) plain = plain && rc.tag < 0.0;
     for (int64_t r = r0; r < r1; ++r) {
       CellWeights rw;
-      cell_weights_row(r, rw);
+      weights_row(r, point_block_, rw.wt);
+      if (lines) weights_row(r, line_block_, rw.lt);
       RowPositions pos;
       if (located_) {
         for (int64_t c = 0; c < n; ++c) {
