@@ -31,7 +31,7 @@
 //    ends) minus the signed distance to a plane through the edge is interpolated the same way
 //    (additive form, build_line_interpolant: smooth across the edge, worst error measured
 //    7.6e-9 m; values under kAdditiveMinValue are measured exactly) on its own blocks of up to
-//    0.13 deg (128 cells): the extended edge must stay one piece. A cell's value then costs a
+//    0.13 deg (256 cells): the extended edge must stay one piece. A cell's value then costs a
 //    few tens of flops per candidate.
 //    Guards: the blocks' spans are limited (kPointSpan, kLineSpan; in metres on projected
 //    grids); every interpolant is checked against an exact value at the block's centre and
@@ -83,21 +83,26 @@ namespace rv::detail {
 namespace {
 
 constexpr int64_t kTile = 128;     // top-level tile edge, cells (tiles aligned to the grid)
-constexpr int64_t kLeafCells = 64; // blocks this small (or smaller) are solved per cell
+// Blocks with segments this small (or smaller) are leaves, solved by the row kernels or per cell.
+// 16 x 16 rather than 8 x 8: a leaf's set-up (interpolants gathered, weights, one reduction per
+// row and candidate) is spread over 4x the cells, for a few more candidates per cell (measured,
+// alternated runs: geodesic_bench coastlines ratio 3.6 -> 3.4, Oresund at 0.0004 deg 4.4 -> 4.2).
+constexpr int64_t kLeafCells = 256;
 constexpr int kProbes = 2;         // sites whose exact distance from a block's centre give U
 
 // Interpolation of point-site distances (see the top of this file).
 // Two block sizes: the point form (point sites, segments' ends) is so smooth that blocks of
-// up to 0.35 degrees (512 cells, 16 tiles) keep it within 2e-6 m (5e-11 relative; measured,
+// up to 0.35 degrees (512 cells, 16 tiles) keep it within 4.4e-6 m (1.7e-11 relative; measured,
 // see the top of this file), which makes its 17 inverse problems rare; the additive form
-// (edges' interiors) keeps 0.13 degrees (128 cells): its extended edge must stay one piece
-// (build_line_interpolant), and its error is absolute.
+// (edges' interiors) keeps blocks of up to 0.13 degrees (256 cells): its extended edge must
+// stay one piece (build_line_interpolant), and its error is absolute.
 constexpr double kPointSpan = 0.35;           // degrees: largest point-form block edge
 constexpr double kPointSpanMetres = 38e3;     // the same on projected grids (~0.35 deg of latitude)
 constexpr int64_t kPointMaxBlock = 512;       // cells (4 x kTile: shared between tiles)
 constexpr double kLineSpan = 0.13;            // degrees: largest additive-form block edge
 constexpr double kLineSpanMetres = 14e3;      // the same on projected grids (~0.13 deg of latitude)
-constexpr int64_t kLineMaxBlock = 128;        // cells (= kTile)
+constexpr int64_t kLineMaxBlock = 256;        // cells (2 x kTile, shared between tiles; cells
+                                              // over 0.0005 deg get smaller blocks: kLineSpan)
 constexpr int64_t kInterpSolveBlock = 64;     // culling goes on down to blocks this small before
                                               // the per-cell pass: fewer candidates per cell, while
                                               // the interpolants stay those of the larger block
