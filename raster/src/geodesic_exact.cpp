@@ -29,10 +29,12 @@
 //    which share them across threads: SharedInterpolants). For cells certainly nearest at an
 //    interior point of an edge, the signed distance to the edge's geodesic (extended beyond its
 //    ends) minus the signed distance to a plane through the edge is interpolated the same way
-//    (additive form, build_line_interpolant: smooth across the edge, worst error measured
-//    7.6e-9 m; values under kAdditiveMinValue are measured exactly) on its own blocks of up to
-//    0.13 deg (256 cells): the extended edge must stay one piece. A cell's value then costs a
-//    few tens of flops per candidate.
+//    (additive form, build_line_interpolant: smooth across the edge) on its own blocks of up to
+//    0.17 deg (256 cells): the extended edge must stay one piece. Worst error measured (9 x 9
+//    cells per block, every block of geodesic_bench's coastlines and of the Oresund fixture):
+//    7.2e-9 m on blocks of 0.08 deg, 7.6e-8 m on 0.16 deg, 8.8e-8 m on 0.169 deg; values under
+//    kAdditiveMinValue (4 m, where a float32's last place is 4.8e-7 m) are measured exactly.
+//    A cell's value then costs a few tens of flops per candidate.
 //    Guards: the blocks' spans are limited (kPointSpan, kLineSpan; in metres on projected
 //    grids); every interpolant is checked against an exact value at the block's centre and
 //    rejected when off by more than kInterpCheck = 5e-6 m (the worst centre error measured above
@@ -94,20 +96,20 @@ constexpr int kProbes = 2;         // sites whose exact distance from a block's 
 // Two block sizes: the point form (point sites, segments' ends) is so smooth that blocks of
 // up to 0.35 degrees (512 cells, 16 tiles) keep it within 4.4e-6 m (1.7e-11 relative; measured,
 // see the top of this file), which makes its 17 inverse problems rare; the additive form
-// (edges' interiors) keeps blocks of up to 0.13 degrees (256 cells): its extended edge must
+// (edges' interiors) keeps blocks of up to 0.17 degrees (256 cells): its extended edge must
 // stay one piece (build_line_interpolant), and its error is absolute.
 constexpr double kPointSpan = 0.35;           // degrees: largest point-form block edge
 constexpr double kPointSpanMetres = 38e3;     // the same on projected grids (~0.35 deg of latitude)
 constexpr int64_t kPointMaxBlock = 512;       // cells (4 x kTile: shared between tiles)
-constexpr double kLineSpan = 0.13;            // degrees: largest additive-form block edge
-constexpr double kLineSpanMetres = 14e3;      // the same on projected grids (~0.13 deg of latitude)
+constexpr double kLineSpan = 0.17;            // degrees: largest additive-form block edge
+constexpr double kLineSpanMetres = 18.5e3;    // the same on projected grids (~0.17 deg of latitude)
 constexpr int64_t kLineMaxBlock = 256;        // cells (2 x kTile, shared between tiles; cells
-                                              // over 0.0005 deg get smaller blocks: kLineSpan)
+                                              // over 0.00066 deg get smaller blocks: kLineSpan)
 constexpr int64_t kInterpSolveBlock = 64;     // culling goes on down to blocks this small before
                                               // the per-cell pass: fewer candidates per cell, while
                                               // the interpolants stay those of the larger block
 constexpr int64_t kInterpMinBlock = 8;        // cells
-constexpr double kAdditiveMinValue = 1.0;     // metres: see value()
+constexpr double kAdditiveMinValue = 4.0;     // metres: see value()
 constexpr int64_t kInterpMinEdge = 4;         // a block clipped by the grid below this: per cell
 constexpr size_t kInterpMaxCandidates = 24;   // more candidates: subdivide (or per cell)
 // Leaves with segments take the row kernels only where line blocks are this large: the
@@ -1209,8 +1211,8 @@ class GeodesicExactSolver {
         }
         const double v = it->additive ? apply(*it, eval(*it, cell->lt, cell->lc), p.x, p.y, p.z)
                                       : apply(*it, eval(*it, cell->wt, cell->wc), p.x, p.y, p.z);
-        // The additive form's error is absolute (~1e-8 m): within kAdditiveMinValue of the edge
-        // it would be more than the last bit of the float32 written, so those few cells are
+        // The additive form's error is absolute (up to ~1e-7 m): within kAdditiveMinValue of the
+        // edge it could reach the last bit of the float32 written, so those few cells are
         // measured exactly.
         if (!it->additive || v >= kAdditiveMinValue) {
           exact = false;

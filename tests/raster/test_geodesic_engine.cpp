@@ -618,42 +618,60 @@ TEST(GeodesicEngine, StreamedWholeGridEqualsItsUnstreamedWindows) {
   expect_windows_match(s, g, {Window{3, 5, 517, 260}, Window{514, 260, 517, 261}}, 2);
 }
 
-// At 0.0004 degrees an interpolation block is 512 x 512 cells, 16 tiles that any thread may
-// take, all using the interpolants the first of them built. Windows of the whole grid's result
-// straddling block edges (columns and rows 512, 1024) against brute force on those windows:
-// points, a coastline offshore and a polygon; owners equal, distances within the last bit.
+// On fine grids a point-form interpolation block is 512 x 512 cells, 16 tiles that any thread
+// may take, all using the interpolants the first of them built, and a line block 256 x 256.
+// Windows of the whole grid's result straddling block edges against brute force on those
+// windows: points, a coastline offshore and a polygon; owners equal, distances within the last
+// bit. 0.0004 deg: blocks of 0.2 and 0.1 deg; 0.00064 deg: 0.33 and 0.16 deg, near the largest
+// spans allowed (kPointSpan, kLineSpan).
 TEST(GeodesicEngine, InterpolationBlocksSharedByTilesMatchBruteForce) {
-  const GridSpec g = geo_grid(12.0, 56.0, 0.0004, 1300, 1100);  // 12.0 .. 12.52E, 55.56 .. 56.0N
-  SeedSet s;
-  std::mt19937_64 rng(11);
-  std::uniform_real_distribution<double> lon(11.95, 12.57), lat(55.5, 56.05);
-  for (int i = 0; i < 14; ++i)
-    s.add_point(s.add_feature(s.owner_code(std::to_string(i % 3))), {lon(rng), lat(rng)});
-  std::vector<Vec2> coast;
-  for (int i = 0; i <= 30; ++i)
-    coast.push_back(
-        {12.05 + 0.015 * i, 55.74 + 0.01 * std::sin(0.9 * i) + 0.002 * (i % 3)});  // ~1 km edges
-  s.add_polyline(s.add_feature(s.owner_code("coast")), coast);
-  s.add_polygon(
-      s.add_feature(s.owner_code("island")),
-      {{{12.30, 55.90}, {12.33, 55.905}, {12.335, 55.92}, {12.31, 55.93}, {12.30, 55.90}}});
-  for (int threads : {2, 3}) {
-    const NearestField whole = run(s, g, Method::exact, threads);
-    for (const Window& w :
-         {Window{470, 480, 90, 70}, Window{990, 500, 70, 60}, Window{480, 1000, 80, 60}}) {
-      ComputeOptions o;
-      o.method = Method::brute_force;
-      o.metric = wgs84();
-      o.threads = 2;
-      o.window = w;
-      const NearestField brute = compute(s, g, o);
-      o.method = Method::exact;
-      o.threads = threads;
-      const NearestField part = compute(s, g, o);
-      const std::string what = "window " + std::to_string(w.col0) + "," + std::to_string(w.row0);
-      EXPECT_EQ(part.site.cells(), brute.site.cells()) << what;
-      expect_within_one_ulp(part.distance, brute.distance, what);
-      EXPECT_TRUE(test::window_matches(part, whole)) << what;
+  struct Case {
+    double res;
+    int64_t w, h;
+    std::vector<Window> windows;
+  } cases[] = {
+      {0.0004,
+       1300,
+       1100,
+       {Window{470, 480, 90, 70}, Window{990, 500, 70, 60}, Window{480, 1000, 80, 60}}},
+      {0.00064,
+       800,
+       680,
+       {Window{470, 480, 90, 70}, Window{200, 230, 100, 60}, Window{720, 600, 70, 60}}},
+  };
+  for (const Case& k : cases) {
+    const GridSpec g = geo_grid(12.0, 56.0, k.res, k.w, k.h);  // 12.0 .. 12.52E, 55.56 .. 56.0N
+    SeedSet s;
+    std::mt19937_64 rng(11);
+    std::uniform_real_distribution<double> lon(11.95, 12.57), lat(55.5, 56.05);
+    for (int i = 0; i < 14; ++i)
+      s.add_point(s.add_feature(s.owner_code(std::to_string(i % 3))), {lon(rng), lat(rng)});
+    std::vector<Vec2> coast;
+    for (int i = 0; i <= 30; ++i)
+      coast.push_back(
+          {12.05 + 0.015 * i, 55.74 + 0.01 * std::sin(0.9 * i) + 0.002 * (i % 3)});  // ~1 km edges
+    s.add_polyline(s.add_feature(s.owner_code("coast")), coast);
+    s.add_polygon(
+        s.add_feature(s.owner_code("island")),
+        {{{12.30, 55.90}, {12.33, 55.905}, {12.335, 55.92}, {12.31, 55.93}, {12.30, 55.90}}});
+    for (int threads : {2, 3}) {
+      const NearestField whole = run(s, g, Method::exact, threads);
+      for (const Window& w : k.windows) {
+        ComputeOptions o;
+        o.method = Method::brute_force;
+        o.metric = wgs84();
+        o.threads = 2;
+        o.window = w;
+        const NearestField brute = compute(s, g, o);
+        o.method = Method::exact;
+        o.threads = threads;
+        const NearestField part = compute(s, g, o);
+        const std::string what = "res " + std::to_string(k.res) + " window " +
+                                 std::to_string(w.col0) + "," + std::to_string(w.row0);
+        EXPECT_EQ(part.site.cells(), brute.site.cells()) << what;
+        expect_within_one_ulp(part.distance, brute.distance, what);
+        EXPECT_TRUE(test::window_matches(part, whole)) << what;
+      }
     }
   }
 }
