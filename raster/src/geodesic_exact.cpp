@@ -1447,6 +1447,22 @@ class GeodesicExactSolver {
       }
       for (int k = 0; k < 3; ++k) g.has[k] = wk.changing_interp[j][static_cast<size_t>(k)] ? 1.0 : 0.0;
     }
+    // A vertex's tag only matters against a segment whose form changes in the block and that
+    // measures the same vertex (the points are distinct interpolants: gather_interpolants keeps
+    // one per vertex): the others are taken as plain points, which the points' kernel can do
+    // when nothing else is left (the same results: with distinct tags, equal values are a close
+    // call either way).
+    for (RowCandidate& rc : wk.row_points) {
+      if (rc.tag < 0.0) continue;
+      bool shared = false;
+      for (int32_t id : wk.changing)
+        for (int e = 0; e < 2; ++e)
+          shared =
+              shared ||
+              static_cast<double>(
+                  ends_[2 * static_cast<size_t>(id) + static_cast<size_t>(e)].vertex) == rc.tag;
+      if (!shared) rc.tag = -1.0;
+    }
     bool plain = wk.row_additive.empty() && wk.row_segments.empty();  // interp_argmin_points can do it
     for (const RowCandidate& rc : wk.row_points) plain = plain && rc.tag < 0.0;
     for (int64_t r = r0; r < r1; ++r) {
