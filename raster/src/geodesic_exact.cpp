@@ -274,8 +274,9 @@ class SharedInterpolants {
     std::once_flag built;
     std::unique_ptr<Interpolant> it;  // after `built`: null where the interpolant is rejected
   };
-  // The entry of block column bx in block row by, for `who` (a site, or a distinct vertex) and
-  // `kind` (interpolant()'s end, 1 for both ends), made empty on first use.
+  // The entry of the block whose first cell is grid column bx, row by (a point-form or a line
+  // block: `kind` tells them apart), for `who` (a site, or a distinct vertex) and `kind`
+  // (interpolant()'s end, 1 for both ends), made empty on first use.
   std::shared_ptr<Entry> entry(int64_t bx, int64_t by, int32_t who, int kind) {
     const Key k{bx, who, kind};
     std::lock_guard lock(mutex_);
@@ -283,7 +284,7 @@ class SharedInterpolants {
     if (!e) e = std::make_shared<Entry>();
     return e;
   }
-  // Forgets the blocks of rows < by.
+  // Forgets the blocks whose first row is above grid row `by`.
   void drop_rows_before(int64_t by) {
     std::lock_guard lock(mutex_);
     rows_.erase(rows_.begin(), rows_.lower_bound(by));
