@@ -578,8 +578,8 @@ TEST(GeodesicEngine, WindowsAgreeWithTheWholeGrid) {
   }
 }
 
-// On fine grids (line interpolation blocks of 128 cells) leaves of segments are solved by the row
-// kernels, and cells whose call is close by the per-cell method; windows cut those leaves
+// On fine grids (line interpolation blocks of 128 cells or more) leaves of segments are solved by
+// the row kernels, and cells whose call is close by the per-cell method; windows cut those leaves
 // anywhere, so every cell must get the same bits whichever path and block shape solve it.
 // The exact method on each window (with `threads`) equals the whole grid's result (2 threads),
 // without and with a distance limit.
@@ -599,7 +599,7 @@ void expect_windows_match(const SeedSet& s, const GridSpec& g, std::initializer_
 }
 
 TEST(GeodesicEngine, FineGridWindowsAgreeWithTheWholeGrid) {
-  const GridSpec g = geo_grid(11.90, 55.60, 0.0005, 420, 300);  // 0.0005 deg: 128-cell line blocks
+  const GridSpec g = geo_grid(11.90, 55.60, 0.0005, 420, 300);  // 0.0005 deg: 256-cell line blocks
   SeedSet s = random_features(29, 11.95, 55.47, 12.08, 55.58, 14);
   s.add_polyline(s.add_feature(s.owner_code("coast")),
                  std::vector<Vec2>{{11.90, 55.52}, {11.93, 55.5230}, {11.95, 55.5205}, {11.97, 55.5260},
