@@ -30,10 +30,11 @@
 //    interior point of an edge, the signed distance to the edge's geodesic (extended beyond its
 //    ends) minus the signed distance to a plane through the edge is interpolated the same way
 //    (additive form, build_line_interpolant: smooth across the edge) on its own blocks of up to
-//    0.17 deg (256 cells): the extended edge must stay one piece. Worst error measured (9 x 9
+//    0.21 deg (512 cells): the extended edge must stay one piece. Worst error measured (9 x 9
 //    cells per block, every block of geodesic_bench's coastlines and of the Oresund fixture):
-//    7.2e-9 m on blocks of 0.08 deg, 7.6e-8 m on 0.16 deg, 8.8e-8 m on 0.169 deg; values under
-//    kAdditiveMinValue (4 m, where a float32's last place is 4.8e-7 m) are measured exactly.
+//    7.2e-9 m on blocks of 0.08 deg, 7.6e-8 m on 0.16 deg, 8.8e-8 m on 0.169 deg, 1.9e-7 m on
+//    0.205 deg, 2.2e-7 m on 0.209 deg; values under kAdditiveMinValue (8 m, where a float32's
+//    last place is 9.5e-7 m) are measured exactly.
 //    A cell's value then costs a few tens of flops per candidate.
 //    Guards: the blocks' spans are limited (kPointSpan, kLineSpan; in metres on projected
 //    grids); every interpolant is checked against an exact value at the block's centre and
@@ -96,20 +97,20 @@ constexpr int kProbes = 2;         // sites whose exact distance from a block's 
 // Two block sizes: the point form (point sites, segments' ends) is so smooth that blocks of
 // up to 0.35 degrees (512 cells, 16 tiles) keep it within 4.4e-6 m (1.7e-11 relative; measured,
 // see the top of this file), which makes its 17 inverse problems rare; the additive form
-// (edges' interiors) keeps blocks of up to 0.17 degrees (256 cells): its extended edge must
+// (edges' interiors) keeps blocks of up to 0.21 degrees (512 cells): its extended edge must
 // stay one piece (build_line_interpolant), and its error is absolute.
 constexpr double kPointSpan = 0.35;           // degrees: largest point-form block edge
 constexpr double kPointSpanMetres = 38e3;     // the same on projected grids (~0.35 deg of latitude)
 constexpr int64_t kPointMaxBlock = 512;       // cells (4 x kTile: shared between tiles)
-constexpr double kLineSpan = 0.17;            // degrees: largest additive-form block edge
-constexpr double kLineSpanMetres = 18.5e3;    // the same on projected grids (~0.17 deg of latitude)
-constexpr int64_t kLineMaxBlock = 256;        // cells (2 x kTile, shared between tiles; cells
-                                              // over 0.00066 deg get smaller blocks: kLineSpan)
+constexpr double kLineSpan = 0.21;            // degrees: largest additive-form block edge
+constexpr double kLineSpanMetres = 23e3;      // the same on projected grids (~0.21 deg of latitude)
+constexpr int64_t kLineMaxBlock = 512;        // cells (4 x kTile, shared between tiles; cells
+                                              // over 0.00041 deg get smaller blocks: kLineSpan)
 constexpr int64_t kInterpSolveBlock = 64;     // culling goes on down to blocks this small before
                                               // the per-cell pass: fewer candidates per cell, while
                                               // the interpolants stay those of the larger block
 constexpr int64_t kInterpMinBlock = 8;        // cells
-constexpr double kAdditiveMinValue = 4.0;     // metres: see value()
+constexpr double kAdditiveMinValue = 8.0;     // metres: see value()
 constexpr int64_t kInterpMinEdge = 4;         // a block clipped by the grid below this: per cell
 constexpr size_t kInterpMaxCandidates = 24;   // more candidates: subdivide (or per cell)
 // Leaves with segments take the row kernels only where line blocks are this large: the

@@ -619,11 +619,11 @@ TEST(GeodesicEngine, StreamedWholeGridEqualsItsUnstreamedWindows) {
 }
 
 // On fine grids a point-form interpolation block is 512 x 512 cells, 16 tiles that any thread
-// may take, all using the interpolants the first of them built, and a line block 256 x 256.
+// may take, all using the interpolants the first of them built, and a line block up to that.
 // Windows of the whole grid's result straddling block edges against brute force on those
 // windows: points, a coastline offshore and a polygon; owners equal, distances within the last
-// bit. 0.0004 deg: blocks of 0.2 and 0.1 deg; 0.00064 deg: 0.33 and 0.16 deg, near the largest
-// spans allowed (kPointSpan, kLineSpan).
+// bit. 0.0004 deg: blocks of 0.2 and 0.2 deg (512 cells both); 0.00064 deg: 0.33 and 0.16 deg
+// (512 and 256 cells); near the largest spans allowed (kPointSpan 0.35, kLineSpan 0.21).
 TEST(GeodesicEngine, InterpolationBlocksSharedByTilesMatchBruteForce) {
   struct Case {
     double res;
