@@ -439,8 +439,8 @@ class ExactSolver {
       bool dominated = false;
       for (size_t i = 0; i < k && point[j]; ++i) {  // (segments are never dropped)
         const double* ci = corner + 4 * i;
-        const bool all = (cj[0] - ci[0] > mj[0]) & (cj[1] - ci[1] > mj[1]) & (cj[2] - ci[2] > mj[2]) &
-                         (cj[3] - ci[3] > mj[3]);
+        const bool all = (cj[0] - ci[0] > mj[0]) & (cj[1] - ci[1] > mj[1]) &
+                         (cj[2] - ci[2] > mj[2]) & (cj[3] - ci[3] > mj[3]);
         dominated |= all & point[i] & (i != j);
       }
       if (!dominated) {

@@ -232,36 +232,6 @@ struct RowPositions {
   const double* z_of = nullptr;
 };
 
-struct GeoWorker {
-  std::vector<std::vector<int32_t>> levels;  // candidate lists per recursion depth
-  std::vector<double> lb;
-  std::vector<double> cell_lb;
-  std::vector<const Interpolant*> interp;
-  std::vector<const Interpolant*> slots;  // solve_cells: per candidate and end (value())
-  std::vector<const GeoPiece*> pieces;     // solve_cells: per candidate, single pieces
-  TileCells tile;  // projected grids: the current tile's located centres
-  // Interpolants looked up by the current tile: key = interpolation block (tile-relative) and
-  // site; the entries they come from (SharedInterpolants) held until the tile is done.
-  std::unordered_map<uint64_t, const Interpolant*> cache;
-  std::vector<std::shared_ptr<const void>> held;
-  // Row scratch of the kernels: cache-line aligned (kernel_memory.hpp).
-  AlignedVector<double> wcol;  // column weights, 8 per column (CellWeights' wc, lc)
-  AlignedVector<double> best, second, best_q, best_c2, cx, cy, cz;  // per column of the block's row
-  AlignedVector<double> best_id;
-  // solve_interp: column weights, weight b of column c at b * stride + c (b = 0 .. 3 in the point
-  // form's block, 4 .. 7 in the additive form's)
-  AlignedVector<double> wsoa;
-  std::vector<RowCandidate> row_points, row_additive;  // solve_interp: the candidates on the current row
-  std::vector<RowSegment> row_segments;                // ... those whose form changes in the block
-  std::vector<const Interpolant*> interp_additive;     // solve_interp: the additive interpolants
-  std::vector<int32_t> interp_id, interp_additive_id;  // ... and the candidate each stands for
-  std::vector<int32_t> changing;                       // ... the segments whose form changes
-  std::vector<std::array<const Interpolant*, 3>> changing_interp;  // ... and their interpolants
-  AlignedVector<int32_t> site_row;                     // ... the row's results before they go out
-  AlignedVector<float> distance_row;
-  AlignedVector<double> force;                         // ... per column: 1 where a cell needs the per-cell method
-};
-
 // The interpolants of one run, shared by its workers: an interpolation block may hold many
 // tiles (kPointMaxBlock > kTile), taken by any thread, and all of them use the one built
 // first. Each is built once: a thread asking for one that another is building waits for it
@@ -308,6 +278,37 @@ class SharedInterpolants {
   };
   std::mutex mutex_;
   std::map<int64_t, std::unordered_map<Key, std::shared_ptr<Entry>, KeyHash>> rows_;
+};
+
+struct GeoWorker {
+  std::vector<std::vector<int32_t>> levels;  // candidate lists per recursion depth
+  std::vector<double> lb;
+  std::vector<double> cell_lb;
+  std::vector<const Interpolant*> interp;
+  std::vector<const Interpolant*> slots;  // solve_cells: per candidate and end (value())
+  std::vector<const GeoPiece*> pieces;    // solve_cells: per candidate, single pieces
+  TileCells tile;                         // projected grids: the current tile's located centres
+  // Interpolants looked up by the current tile: key = interpolation block (tile-relative) and
+  // site; the entries they come from (SharedInterpolants) held until the tile is done.
+  std::unordered_map<uint64_t, const Interpolant*> cache;
+  std::vector<std::shared_ptr<SharedInterpolants::Entry>> held;
+  // Row scratch of the kernels: cache-line aligned (kernel_memory.hpp).
+  AlignedVector<double> wcol;  // column weights, 8 per column (CellWeights' wc, lc)
+  AlignedVector<double> best, second, best_q, best_c2, cx, cy, cz;  // per column of the block's row
+  AlignedVector<double> best_id;
+  // solve_interp: column weights, weight b of column c at b * stride + c (b = 0 .. 3 in the point
+  // form's block, 4 .. 7 in the additive form's)
+  AlignedVector<double> wsoa;
+  std::vector<RowCandidate> row_points,
+      row_additive;                      // solve_interp: the candidates on the current row
+  std::vector<RowSegment> row_segments;  // ... those whose form changes in the block
+  std::vector<const Interpolant*> interp_additive;     // solve_interp: the additive interpolants
+  std::vector<int32_t> interp_id, interp_additive_id;  // ... and the candidate each stands for
+  std::vector<int32_t> changing;                       // ... the segments whose form changes
+  std::vector<std::array<const Interpolant*, 3>> changing_interp;  // ... and their interpolants
+  AlignedVector<int32_t> site_row;  // ... the row's results before they go out
+  AlignedVector<float> distance_row;
+  AlignedVector<double> force;  // ... per column: 1 where a cell needs the per-cell method
 };
 
 #if defined(__SANITIZE_THREAD__)
@@ -1498,6 +1499,7 @@ class GeodesicExactSolver {
       };
       for (size_t j = 0; j < wk.interp.size(); ++j) {
         reduce(wk.interp[j], wk.row_points[j]);
+        if (located_) continue;  // (dz2 serves geographic rows only)
         const double dz = pos.z - wk.row_points[j].sz;
         wk.row_points[j].dz2 = dz * dz;
       }

@@ -183,9 +183,10 @@ namespace {
 // Strips of about this many cells (rounded up to whole GeoTIFF tile rows, so that strips go to
 // the encoder without a copy). The seeds are prepared once for all strips (rv::prepare), so a
 // strip costs little more than its cells: engine_bench --warm --strip-rows 64, 1e8 cells and
-// 50 000 points, computes 64-row strips in 242 ms against 186 ms for the whole grid. Small strips keep memory low
-// and fault fewer fresh pages (first touches are slow on a VM): 10000 x 10000 cells go in 40
-// strips of 256 rows, peak RSS 210 MB instead of 330 MB with 768-row strips.
+// 50 000 points, computes 64-row strips in 242 ms against 186 ms for the whole grid. Small
+// strips keep memory low and fault fewer fresh pages (first touches are slow on a VM):
+// 10000 x 10000 cells go in 40 strips of 256 rows, peak RSS 210 MB instead of 330 MB with
+// 768-row strips.
 constexpr int64_t kStripCells = int64_t{2} << 20;
 constexpr int64_t kTileRows = 256;  // GeoTiffStripWriter's tile height
 // Per streamed GeoTIFF besides its 256-row band buffer: GDAL's compression queue and tile.
