@@ -310,18 +310,20 @@ class ExactSolver {
       std::vector<int32_t>& zero = wk.levels[0];
       zero.clear();
       const double touch = keep_bound(0.0);
-      index_.for_range(index_.clamp_x(rect.x0) - 1, index_.clamp_y(rect.y0) - 1, index_.clamp_x(rect.x1) + 1,
-                       index_.clamp_y(rect.y1) + 1, [&](int32_t id) {
-                         if (site_rect_key(ctx_.local[id], rect) <= touch) zero.push_back(id);
+      index_.for_range(index_.clamp_x(rect.x0) - 1, index_.clamp_y(rect.y0) - 1,
+                       index_.clamp_x(rect.x1) + 1, index_.clamp_y(rect.y1) + 1,
+                       [&](const BucketIndex::Entry& e) {
+                         if (site_rect_key(e.site, rect) <= touch) zero.push_back(e.id);
                        });
       std::sort(zero.begin(), zero.end());
       zero.erase(std::unique(zero.begin(), zero.end()), zero.end());
       return solve_interior(wk, zero, c0, r0, c1, r1);
     }
     double upper = std::numeric_limits<double>::infinity();
-    index_.near(0.5 * (rect.x0 + rect.x1), 0.5 * (rect.y0 + rect.y1), [&](int32_t id) {
-      upper = std::min(upper, site_rect_max_key(ctx_.local[id], rect));
-    });
+    index_.near(0.5 * (rect.x0 + rect.x1), 0.5 * (rect.y0 + rect.y1),
+                [&](const BucketIndex::Entry& e) {
+                  upper = std::min(upper, site_rect_max_key(e.site, rect));
+                });
     const double bound = keep_bound(upper);
     const double reach = std::sqrt(bound);
     std::vector<int32_t>& cands = wk.levels[0];
@@ -330,10 +332,13 @@ class ExactSolver {
     const auto stamp = static_cast<int32_t>(wk.stamp_value);
     index_.for_range(index_.clamp_x(rect.x0 - reach) - 1, index_.clamp_y(rect.y0 - reach) - 1,
                      index_.clamp_x(rect.x1 + reach) + 1, index_.clamp_y(rect.y1 + reach) + 1,
-                     [&](int32_t id) {
-                       if (wk.stamp[id] == stamp) return;
-                       wk.stamp[id] = stamp;
-                       if (site_rect_key(ctx_.local[id], rect) <= bound) cands.push_back(id);
+                     [&](const BucketIndex::Entry& e) {
+                       // Only an entry registered in several buckets can come twice.
+                       if (e.shared) {
+                         if (wk.stamp[e.id] == stamp) return;
+                         wk.stamp[e.id] = stamp;
+                       }
+                       if (site_rect_key(e.site, rect) <= bound) cands.push_back(e.id);
                      });
     std::sort(cands.begin(), cands.end());
     // Points only: the tile's bound is as tight as solve_block's, a second cull would find
@@ -594,12 +599,13 @@ class OtherOwnerSolver {
     ++wk.stamp_value;
     auto stamp = static_cast<int32_t>(wk.stamp_value);
     for (int32_t o : owners)
-      index_.near_filtered(mx, my, [&](int32_t id) { return owner_of_[id] != o; },
-                           [&](int32_t id) {
-                             if (wk.stamp[id] == stamp) return;
-                             wk.stamp[id] = stamp;
-                             seed.push_back(id);
-                           });
+      index_.near_filtered(
+          mx, my, [&](const BucketIndex::Entry& e) { return owner_of_[e.id] != o; },
+          [&](const BucketIndex::Entry& e) {
+            if (wk.stamp[e.id] == stamp) return;
+            wk.stamp[e.id] = stamp;
+            seed.push_back(e.id);
+          });
     std::vector<double> bounds;
     std::vector<int32_t> first;
     cull(owners, seed, rect, first, bounds);
@@ -617,10 +623,10 @@ class OtherOwnerSolver {
       const double reach = std::sqrt(widest);
       index_.for_range(index_.clamp_x(rect.x0 - reach) - 1, index_.clamp_y(rect.y0 - reach) - 1,
                        index_.clamp_x(rect.x1 + reach) + 1, index_.clamp_y(rect.y1 + reach) + 1,
-                       [&](int32_t id) {
-                         if (wk.stamp[id] == stamp) return;
-                         wk.stamp[id] = stamp;
-                         cands.push_back(id);
+                       [&](const BucketIndex::Entry& e) {
+                         if (wk.stamp[e.id] == stamp) return;
+                         wk.stamp[e.id] = stamp;
+                         cands.push_back(e.id);
                        });
     }
     std::sort(cands.begin(), cands.end());

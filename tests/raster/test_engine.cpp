@@ -4,6 +4,7 @@
 #include <cmath>
 #include <random>
 
+#include "../../raster/src/bucket_index.hpp"
 #include "rv/engine.hpp"
 #include "rv/error.hpp"
 #include "rv/validate.hpp"
@@ -30,6 +31,51 @@ GridSpec grid(int64_t w, int64_t h, double res = 1.0, double xmin = 0.0, double 
   g.width = w;
   g.height = h;
   return g;
+}
+
+// The exact engine skips the duplicate check for entries not marked `shared`: a range query must
+// meet such an entry exactly once, and every entry must carry its site's own values.
+TEST(BucketIndex, EntriesCarryTheirSitesAndOnlySharedOnesRepeat) {
+  std::vector<LocalSite> local;
+  auto point = [&](double x, double y) { local.push_back(LocalSite{x, y, 0.0, 0.0, 0.0}); };
+  auto segment = [&](double ax, double ay, double bx, double by) {
+    const double dx = bx - ax, dy = by - ay;
+    local.push_back(LocalSite{ax, ay, dx, dy, 1.0 / (dx * dx + dy * dy)});
+  };
+  std::mt19937_64 rng(7);
+  std::uniform_real_distribution<double> u(0.0, 100.0);
+  for (int i = 0; i < 200; ++i) point(u(rng), -u(rng));
+  segment(0.0, -50.0, 100.0, -50.0);   // horizontal, across every bucket column
+  segment(10.0, -90.0, 90.0, -10.0);   // diagonal
+  segment(40.0, -40.0, 40.5, -40.25);  // short: may stay in one bucket
+  point(100.0, -100.0);                // on the extent's corner
+  std::vector<int32_t> ids(local.size());
+  for (size_t i = 0; i < ids.size(); ++i) ids[i] = static_cast<int32_t>(i);
+  const detail::BucketIndex index(local, ids);
+
+  std::vector<int> seen(local.size(), 0);
+  std::vector<bool> shared(local.size(), false);
+  index.for_range(0, 0, 1 << 20, 1 << 20, [&](const detail::BucketIndex::Entry& e) {
+    ASSERT_GE(e.id, 0);
+    ASSERT_LT(e.id, static_cast<int32_t>(local.size()));
+    const LocalSite& s = local[static_cast<size_t>(e.id)];
+    EXPECT_EQ(e.site.ax, s.ax);
+    EXPECT_EQ(e.site.ay, s.ay);
+    EXPECT_EQ(e.site.dx, s.dx);
+    EXPECT_EQ(e.site.dy, s.dy);
+    EXPECT_EQ(e.site.inv_len2, s.inv_len2);
+    ++seen[static_cast<size_t>(e.id)];
+    shared[static_cast<size_t>(e.id)] = e.shared;
+  });
+  for (size_t i = 0; i < local.size(); ++i) {
+    ASSERT_GE(seen[i], 1) << "site " << i;
+    EXPECT_EQ(shared[i], seen[i] > 1) << "site " << i;
+    if (local[i].inv_len2 == 0.0) {
+      EXPECT_EQ(seen[i], 1) << "point " << i;
+    }
+  }
+  EXPECT_TRUE(shared[200]);  // the horizontal segment crosses several buckets
+  EXPECT_TRUE(shared[201]);
 }
 
 TEST(Engine, ExactMatchesBruteForceOnRandomPoints) {
