@@ -25,15 +25,18 @@ inline int64_t bucket_count(double span, double size) {
 
 // Uniform bucket grid over the geometric sites (segments registered in every bucket they cross).
 //
-// Each bucket holds copies of its sites, not only their ids: a query walks its buckets' entries
-// in memory order. With ids alone every visit was a load from the site array in input order, a
-// cache miss per site on large seed sets (perf put half of the exact engine's tile gathering on
-// those two loads, 50 000 points).
+// A bucket's entries carry a point's coordinates, not only its id: a query over random points
+// then walks memory in order. With ids alone every visit was a load from the site array in input
+// order, a cache miss per site on large point sets (perf put half of the exact engine's tile
+// gathering on those loads, 50 000 points). Segments keep only their id (an entry per bucket
+// crossed: copies would multiply the index's memory by about six for coastlines, which come in
+// input order along the coast and were not measured faster with them).
 class BucketIndex {
  public:
   struct Entry {
-    LocalSite site;
+    double ax, ay;  // a point's coordinates (LocalSite::ax, ay); unset for a segment
     int32_t id;
+    bool point;   // the site is a point (LocalSite::inv_len2 == 0)
     bool shared;  // registered in more than one bucket: a query over several buckets may meet it
                   // twice
   };
@@ -107,7 +110,10 @@ class BucketIndex {
     std::vector<int64_t> fill(offsets_.begin(), offsets_.end() - 1);
     for (size_t i = 0; i < ids.size(); ++i)
       visit(local[ids[i]], [&](int64_t b) {
-        entries_[fill[b]++] = Entry{local[ids[i]], ids[i], buckets_of[i] > 1};
+        const LocalSite& s = local[ids[i]];
+        const bool point = s.inv_len2 == 0.0;
+        entries_[fill[b]++] =
+            Entry{point ? s.ax : 0.0, point ? s.ay : 0.0, ids[i], point, buckets_of[i] > 1};
       });
   }
 

@@ -47,8 +47,11 @@ int64_t estimate_memory(Method m, int64_t cells, int64_t sites, MetricSpec::Kind
   // Result: int32 site + float32 distance per cell. Scans add a double key per cell.
   int64_t per_cell = 8;
   if (m == Method::hv_scan || m == Method::h_scan) per_cell += 8;
-  // Per site: the planar form, and (geodesic) the prepared site, its line and usually one piece.
-  auto per_site = static_cast<int64_t>(sizeof(LocalSite) + sizeof(Site) + 16);
+  // Per site: the planar form, its entries in the bucket index (one for a point, about four for
+  // a segment, which is registered in every bucket it crosses plus one on each side), and
+  // (geodesic) the prepared site, its line and usually one piece.
+  auto per_site = static_cast<int64_t>(sizeof(LocalSite) + sizeof(Site) +
+                                       4 * sizeof(detail::BucketIndex::Entry));
   if (metric == MetricSpec::geodesic)
     per_site += static_cast<int64_t>(sizeof(detail::GeoSite) + sizeof(GeographicLib::GeodesicLine) +
                                      sizeof(detail::GeoPiece));

@@ -284,6 +284,15 @@ class ExactSolver {
  private:
   Rect rect_of(int64_t c0, int64_t r0, int64_t c1, int64_t r1) const { return centres_rect(ctx_, c0, r0, c1, r1); }
 
+  // An index entry's site: a point from the entry itself (no load from the site array), a
+  // segment from the site array.
+  LocalSite site_of(const BucketIndex::Entry& e) const {
+    return e.point ? LocalSite{e.ax, e.ay, 0.0, 0.0, 0.0} : ctx_.local[e.id];
+  }
+  double entry_rect_key(const BucketIndex::Entry& e, const Rect& r) const {
+    return e.point ? point_rect_key(e.ax, e.ay, r) : segment_rect_key(ctx_.local[e.id], r);
+  }
+
   // The squared-distance bound a site's lower bound must not exceed to stay a candidate.
   double keep_bound(double upper_key) const {
     const double d = std::sqrt(std::min(upper_key, ctx_.max_key)) + slack_;
@@ -313,7 +322,7 @@ class ExactSolver {
       index_.for_range(index_.clamp_x(rect.x0) - 1, index_.clamp_y(rect.y0) - 1,
                        index_.clamp_x(rect.x1) + 1, index_.clamp_y(rect.y1) + 1,
                        [&](const BucketIndex::Entry& e) {
-                         if (site_rect_key(e.site, rect) <= touch) zero.push_back(e.id);
+                         if (entry_rect_key(e, rect) <= touch) zero.push_back(e.id);
                        });
       std::sort(zero.begin(), zero.end());
       zero.erase(std::unique(zero.begin(), zero.end()), zero.end());
@@ -322,7 +331,7 @@ class ExactSolver {
     double upper = std::numeric_limits<double>::infinity();
     index_.near(0.5 * (rect.x0 + rect.x1), 0.5 * (rect.y0 + rect.y1),
                 [&](const BucketIndex::Entry& e) {
-                  upper = std::min(upper, site_rect_max_key(e.site, rect));
+                  upper = std::min(upper, site_rect_max_key(site_of(e), rect));
                 });
     const double bound = keep_bound(upper);
     const double reach = std::sqrt(bound);
@@ -338,7 +347,7 @@ class ExactSolver {
                          if (wk.stamp[e.id] == stamp) return;
                          wk.stamp[e.id] = stamp;
                        }
-                       if (site_rect_key(e.site, rect) <= bound) cands.push_back(e.id);
+                       if (entry_rect_key(e, rect) <= bound) cands.push_back(e.id);
                      });
     std::sort(cands.begin(), cands.end());
     // Points only: the tile's bound is as tight as solve_block's, a second cull would find
