@@ -109,13 +109,12 @@ class BucketIndex {
     offsets_ = counts;
     entries_.resize(static_cast<size_t>(offsets_.back()));
     std::vector<int64_t> fill(offsets_.begin(), offsets_.end() - 1);
-    for (size_t i = 0; i < ids.size(); ++i)
-      visit(local[ids[i]], [&](int64_t b) {
-        const LocalSite& s = local[ids[i]];
-        const bool point = s.inv_len2 == 0.0;
-        entries_[fill[b]++] =
-            Entry{point ? s.ax : 0.0, point ? s.ay : 0.0, ids[i], point, buckets_of[i] > 1};
-      });
+    for (size_t i = 0; i < ids.size(); ++i) {
+      const LocalSite& s = local[ids[i]];
+      const bool point = s.inv_len2 == 0.0;
+      const Entry e{point ? s.ax : 0.0, point ? s.ay : 0.0, ids[i], point, buckets_of[i] > 1};
+      visit(s, [&](int64_t b) { entries_[fill[b]++] = e; });
+    }
   }
 
   int64_t clamp_x(double x) const { return clamp_bucket(std::floor((x - x0_) / sx_), nx_); }

@@ -289,9 +289,6 @@ class ExactSolver {
   LocalSite site_of(const BucketIndex::Entry& e) const {
     return e.point ? LocalSite{e.ax, e.ay, 0.0, 0.0, 0.0} : ctx_.local[e.id];
   }
-  double entry_rect_key(const BucketIndex::Entry& e, const Rect& r) const {
-    return e.point ? point_rect_key(e.ax, e.ay, r) : segment_rect_key(ctx_.local[e.id], r);
-  }
 
   // The squared-distance bound a site's lower bound must not exceed to stay a candidate.
   double keep_bound(double upper_key) const {
@@ -322,7 +319,7 @@ class ExactSolver {
       index_.for_range(index_.clamp_x(rect.x0) - 1, index_.clamp_y(rect.y0) - 1,
                        index_.clamp_x(rect.x1) + 1, index_.clamp_y(rect.y1) + 1,
                        [&](const BucketIndex::Entry& e) {
-                         if (entry_rect_key(e, rect) <= touch) zero.push_back(e.id);
+                         if (site_rect_key(site_of(e), rect) <= touch) zero.push_back(e.id);
                        });
       std::sort(zero.begin(), zero.end());
       zero.erase(std::unique(zero.begin(), zero.end()), zero.end());
@@ -347,7 +344,7 @@ class ExactSolver {
                          if (wk.stamp[e.id] == stamp) return;
                          wk.stamp[e.id] = stamp;
                        }
-                       if (entry_rect_key(e, rect) <= bound) cands.push_back(e.id);
+                       if (site_rect_key(site_of(e), rect) <= bound) cands.push_back(e.id);
                      });
     std::sort(cands.begin(), cands.end());
     // Points only: the tile's bound is as tight as solve_block's, a second cull would find
