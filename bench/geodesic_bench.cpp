@@ -160,13 +160,17 @@ void scenario(const char* name, const rv::SeedSet& s, const rv::GridSpec& g, int
   std::printf("%-12s %lldx%lld cells, %lld geometric sites, %d thread(s)\n", name,
               static_cast<long long>(g.width), static_cast<long long>(g.height),
               static_cast<long long>(s.geometric_site_count()), threads);
-  std::printf("  exact    planar %8.1f ns/cell   geodesic %8.1f ns/cell   ratio %6.1f   (wall, median of %d)\n",
-              median(planar_wall), median(geo_wall), median(ratio_wall), repeats);
-  std::printf("  exact    planar %8.1f ns/cell   geodesic %8.1f ns/cell   ratio %6.1f   (CPU time, all threads)\n",
-              median(planar_cpu), median(geo_cpu), median(ratio_cpu));
+  std::printf(
+      "  exact    planar %8.2f ns/cell   geodesic %8.2f ns/cell   ratio %6.2f   (wall, median of "
+      "%d)\n",
+      median(planar_wall), median(geo_wall), median(ratio_wall), repeats);
+  std::printf(
+      "  exact    planar %8.2f ns/cell   geodesic %8.2f ns/cell   ratio %6.2f   (CPU time, all "
+      "threads)\n",
+      median(planar_cpu), median(geo_cpu), median(ratio_cpu));
   if (scans)
-    std::printf("  hv-scan  planar %8.1f ns/cell   geodesic %8.1f ns/cell   ratio %6.1f\n", planar_hv_ns,
-                geo_hv_ns, geo_hv_ns / planar_hv_ns);
+    std::printf("  hv-scan  planar %8.2f ns/cell   geodesic %8.2f ns/cell   ratio %6.2f\n",
+                planar_hv_ns, geo_hv_ns, geo_hv_ns / planar_hv_ns);
   if (counters.calls > 0)
     std::printf("  segment searches %lld, inverse problems per search %.2f (calling thread only)\n",
                 static_cast<long long>(counters.calls),

@@ -102,15 +102,6 @@ inline double site_rect_max_key(const LocalSite& s, const Rect& r) {
                   std::max(planar_key(r.x0, r.y1, s), planar_key(r.x1, r.y1, s)));
 }
 
-// ThreadSanitizer instruments the ifunc resolver that target_clones generates, and the dynamic
-// loader runs that resolver before the TSan runtime is initialised: a crash at startup. TSan
-// builds therefore get the default clone only (same results: keys are bit-identical anyway).
-#if defined(__SANITIZE_THREAD__)
-#define RV_AVX2_CLONES
-#else
-#define RV_AVX2_CLONES __attribute__((target_clones("avx2", "default")))
-#endif
-
 // Cells per register block of argmin_block: two 4-wide double vectors.
 constexpr int64_t kLanes = 8;
 using V4 = double __attribute__((vector_size(32)));
@@ -172,14 +163,16 @@ using V4 = double __attribute__((vector_size(32)));
 // of kLanes (the caller pads it); `best`/`best_id` the same, and `td`/`ti` w; `stream` as for
 // put_row(). Keys use exactly planar_key()'s
 // arithmetic (-ffp-contract=off: no fused multiply-add), bit-identical to brute force; the
-// distance is planar_distance_from_key(), rounded to float, as everywhere. An AVX2 clone is
-// picked at load time where the CPU has it; the default clone runs the same vectors as SSE2 pairs.
-RV_AVX2_CLONES void argmin_block(
-    const LocalSite* __restrict sites, const double* __restrict ids, int k,
-    const double* __restrict px, int64_t w, const double* __restrict py, int64_t h,
-    double max_key, double* __restrict best, double* __restrict best_id, float* __restrict td,
-    int32_t* __restrict ti, int32_t* __restrict out_site, float* __restrict out_dist, int64_t stride,
-    bool stream) {
+// distance is planar_distance_from_key(), rounded to float, as everywhere. An AVX-512 or AVX2
+// clone is picked at load time where the CPU has it (RV_KERNEL_CLONES); the default clone runs
+// the same vectors as SSE2 pairs.
+RV_KERNEL_CLONES void argmin_block(const LocalSite* __restrict sites, const double* __restrict ids,
+                                   int k, const double* __restrict px, int64_t w,
+                                   const double* __restrict py, int64_t h, double max_key,
+                                   double* __restrict best, double* __restrict best_id,
+                                   float* __restrict td, int32_t* __restrict ti,
+                                   int32_t* __restrict out_site, float* __restrict out_dist,
+                                   int64_t stride, bool stream) {
   bool all_points = true;
   for (int j = 0; j < k; ++j) all_points = all_points && sites[j].inv_len2 == 0.0;
   for (int64_t r = 0; r < h; ++r) {

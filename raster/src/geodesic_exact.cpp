@@ -311,12 +311,6 @@ struct GeoWorker {
   AlignedVector<double> force;  // ... per column: 1 where a cell needs the per-cell method
 };
 
-#if defined(__SANITIZE_THREAD__)
-#define RV_GEO_CLONES
-#else
-#define RV_GEO_CLONES __attribute__((target_clones("avx2", "default")))
-#endif
-
 // Cells per step of interp_argmin_row: one 4-wide double vector.
 constexpr int64_t kRowLanes = 4;
 using GeoV4 = double __attribute__((vector_size(32)));
@@ -378,9 +372,11 @@ using GeoV4 = double __attribute__((vector_size(32)));
 // interp_argmin_row for the commonest block: point-form candidates only, none of them a vertex
 // (no ties by tag, nothing forced), the best's value being root(best2). Fewer running vectors
 // than the general kernel: they all stay in registers.
-RV_GEO_CLONES void interp_argmin_points(const RowCandidate* __restrict points, int kp, const double* __restrict w,
-                                        int64_t stride, const RowPositions& pos, int64_t n, double* __restrict best2,
-                                        double* __restrict second2, double* __restrict best_id) {
+RV_KERNEL_CLONES void interp_argmin_points(const RowCandidate* __restrict points, int kp,
+                                           const double* __restrict w, int64_t stride,
+                                           const RowPositions& pos, int64_t n,
+                                           double* __restrict best2, double* __restrict second2,
+                                           double* __restrict best_id) {
   const double inf = std::numeric_limits<double>::infinity();
   // One candidate into the running results; c2 = dx^2 + dy^2 + dz^2 in that order (apply()'s).
 #define RV_GEO_POINT(dz2_expr)                                                 \
@@ -443,12 +439,14 @@ RV_GEO_CLONES void interp_argmin_points(const RowCandidate* __restrict points, i
 // positions as RowPositions says; every array holds n rounded up to a multiple
 // of kRowLanes. Vectors stay inside this function (a 32-byte vector crossing a function boundary
 // has another ABI with and without AVX).
-RV_GEO_CLONES void interp_argmin_row(const RowCandidate* __restrict points, int kp,
-                                     const RowCandidate* __restrict additive, int ka,
-                                     const RowSegment* __restrict segs, int ks, const double* __restrict w,
-                                     int64_t stride, const RowPositions& pos, int64_t n, double* __restrict best2,
-                                     double* __restrict second2, double* __restrict best_id,
-                                     double* __restrict best_q, double* __restrict best_c2, double* __restrict force) {
+RV_KERNEL_CLONES void interp_argmin_row(const RowCandidate* __restrict points, int kp,
+                                        const RowCandidate* __restrict additive, int ka,
+                                        const RowSegment* __restrict segs, int ks,
+                                        const double* __restrict w, int64_t stride,
+                                        const RowPositions& pos, int64_t n,
+                                        double* __restrict best2, double* __restrict second2,
+                                        double* __restrict best_id, double* __restrict best_q,
+                                        double* __restrict best_c2, double* __restrict force) {
   const double inf = std::numeric_limits<double>::infinity();
   constexpr double m2 = kVertexMargin * kVertexMargin;
   constexpr double max2 = kVertexMaxChord * kVertexMaxChord, min2 = kVertexMinChord * kVertexMinChord;
@@ -555,11 +553,12 @@ RV_GEO_CLONES void interp_argmin_row(const RowCandidate* __restrict points, int 
 // Written as loops the vectoriser takes (one root per cell, no branches); the cells beyond a
 // distance limit are fixed afterwards, since a select between converted floats is not taken.
 // The commonest case (interp_argmin_points, no limit) is one pass.
-RV_GEO_CLONES bool interp_store_row(const double* __restrict best2, double* __restrict second2,
-                                    const double* __restrict best_id, double* __restrict best_q,
-                                    const double* __restrict best_c2, const double* __restrict force, int64_t n,
-                                    double max_distance, int32_t* __restrict site_row,
-                                    float* __restrict distance_row) {
+RV_KERNEL_CLONES bool interp_store_row(const double* __restrict best2, double* __restrict second2,
+                                       const double* __restrict best_id, double* __restrict best_q,
+                                       const double* __restrict best_c2,
+                                       const double* __restrict force, int64_t n,
+                                       double max_distance, int32_t* __restrict site_row,
+                                       float* __restrict distance_row) {
   constexpr double kTie2x4 = 4.0 * kInterpTie * kInterpTie;
   constexpr double inf = std::numeric_limits<double>::infinity();
   const double limit_tie = max_distance == inf ? -1.0 : kInterpTie;  // no limit: never close to it

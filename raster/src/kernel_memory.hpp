@@ -1,5 +1,6 @@
 // Internal: memory helpers of the kernels. Storage aligned to a cache line for their scratch
-// rows, and the non-temporal copy of finished result rows.
+// rows, the non-temporal copy of finished result rows, and the CPU-specific clones of the row
+// kernels.
 //
 // Why aligned scratch: the kernels load and store 32-byte vectors at offsets that are multiples
 // of 32 bytes from a row's start. From the default heap (16-byte alignment) every other such
@@ -19,6 +20,23 @@
 
 #include "rv/grid.hpp"
 #include "rv/raster.hpp"
+
+// The row kernels' clones, one picked at load time for the CPU (an ifunc): x86-64-v4 (AVX-512;
+// 1e8 cells and 50 000 points, 1 thread: 5 % faster than the AVX2 clone on an AMD EPYC), AVX2,
+// and the default. Every clone computes bit-identical keys (-ffp-contract=off: no fused
+// multiply-add in any), so the choice changes speed only.
+//
+// Builds with sanitizers test the other clones: ThreadSanitizer instruments the ifunc resolver,
+// which the dynamic loader runs before the TSan runtime is initialised (a crash at startup), so
+// TSan builds get the default clone only; AddressSanitizer builds leave out the x86-64-v4 clone,
+// so that the CI's sanitizer stage runs the AVX2 clone where the main stage runs x86-64-v4.
+#if defined(__SANITIZE_THREAD__)
+#define RV_KERNEL_CLONES
+#elif defined(__SANITIZE_ADDRESS__)
+#define RV_KERNEL_CLONES __attribute__((target_clones("avx2", "default")))
+#else
+#define RV_KERNEL_CLONES __attribute__((target_clones("arch=x86-64-v4", "avx2", "default")))
+#endif
 
 namespace rv::detail {
 
