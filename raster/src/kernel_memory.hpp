@@ -23,8 +23,9 @@
 
 // The row kernels' clones, one picked at load time for the CPU (an ifunc): x86-64-v4 (AVX-512;
 // on an AMD EPYC, 1e8 cells and 50 000 points, medians of 6 alternated runs against the AVX2
-// clone: 2 threads 163 -> 149 ms, 1 thread 265 -> 260 ms), AVX2, and the default. Every clone computes bit-identical keys (-ffp-contract=off: no fused
-// multiply-add in any), so the choice changes speed only.
+// clone: 2 threads 163 -> 149 ms, 1 thread 265 -> 260 ms), AVX2, and the default. Every clone
+// computes bit-identical keys and distances (-ffp-contract=off: no fused multiply-add in any),
+// so the choice changes speed only.
 //
 // Builds with sanitizers test the other clones: ThreadSanitizer instruments the ifunc resolver,
 // which the dynamic loader runs before the TSan runtime is initialised (a crash at startup), so
