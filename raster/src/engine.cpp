@@ -151,18 +151,31 @@ namespace {
 // Cells whose centre is inside a polygon belong to it at distance 0, unless a lower site is
 // also at distance exactly 0 there (the common tie rule). Applying several span sets one after
 // the other keeps that rule (the lowest site at distance 0 stays).
-void apply_interiors(const InteriorSpans& spans, Raster<int32_t>& site, Raster<float>& distance) {
-  for (size_t r = 0; r < spans.rows.size(); ++r) {
-    int32_t* s = site.row(static_cast<int64_t>(r));
-    float* d = distance.row(static_cast<int64_t>(r));
-    for (const Span& span : spans.rows[r]) {
-      for (int64_t c = span.col0; c < span.col1; ++c) {
-        if (d[c] == 0.0f && s[c] != kNoSite && s[c] < span.site) continue;
-        s[c] = span.site;
-        d[c] = 0.0f;
+//
+// Why branch-free and in parallel: on coastline grids a large share of the cells is land (the
+// Oresund fixture: most of Scania and Zealand), and this pass ran on one thread with a branch
+// per cell after the engine's threads had finished; on that grid it was about a fifth of the
+// planar method's time at 2 threads. Rows are independent, so the result cannot depend on the
+// thread count.
+void apply_interiors(const InteriorSpans& spans, int threads, Raster<int32_t>& site,
+                     Raster<float>& distance) {
+  constexpr int64_t kRowsPerTask = 64;
+  const auto rows = static_cast<int64_t>(spans.rows.size());
+  parallel_for(threads, (rows + kRowsPerTask - 1) / kRowsPerTask, [&](int64_t task, int) {
+    for (int64_t r = task * kRowsPerTask; r < std::min(rows, (task + 1) * kRowsPerTask); ++r) {
+      int32_t* __restrict s = site.row(r);
+      float* __restrict d = distance.row(r);
+      for (const Span& span : spans.rows[static_cast<size_t>(r)]) {
+        const int32_t area = span.site;
+        for (int64_t c = span.col0; c < span.col1; ++c) {
+          const int32_t was = s[c];
+          const bool lower_tie = (d[c] == 0.0f) & (was != kNoSite) & (was < area);
+          s[c] = lower_tie ? was : area;
+          d[c] = 0.0f;
+        }
       }
     }
-  }
+  });
 }
 
 }  // namespace
@@ -470,7 +483,7 @@ void compute_into(const SeedSet& seeds, const GridSpec& grid, const ComputeOptio
   }
   if (spans) {
     out.contested_cells = spans->contested_cells;
-    detail::apply_interiors(*spans, out.site, out.distance);
+    detail::apply_interiors(*spans, ctx.threads, out.site, out.distance);
   }
   out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }

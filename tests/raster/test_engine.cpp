@@ -267,6 +267,41 @@ TEST(Engine, PolygonInteriorsAreOwnedAtDistanceZero) {
   EXPECT_EQ(f.site.cells(), run(s, g, Method::brute_force).site.cells());
 }
 
+// Interior cells are given their area site by a pass over rows split between threads. Two
+// overlapping polygons over many row blocks, a line inside one of them through cell centres
+// (added first: a lower site at distance exactly 0, which keeps its cells), a point outside.
+TEST(Engine, PolygonInteriorsIdenticalForAnyThreadCountAndTieRule) {
+  const GridSpec g = grid(150, 300);
+  SeedSet s;
+  // Row 100's centres are at y = 199.5; the line runs along it from x = 30 to x = 90.
+  const std::vector<Vec2> road{{30.0, 199.5}, {90.0, 199.5}};
+  s.add_polyline(s.add_feature(s.owner_code("road")), road);
+  s.add_polygon(s.add_feature(s.owner_code("a")), {{{10, 10}, {100, 10}, {100, 250}, {10, 250}}});
+  s.add_polygon(s.add_feature(s.owner_code("b")), {{{60, 40}, {140, 40}, {140, 290}, {60, 290}}});
+  s.add_point(s.add_feature(s.owner_code("rock")), {5.0, 295.0});
+  const NearestField brute = run(s, g, Method::brute_force, 1);
+  for (Method m : {Method::exact, Method::hv_scan, Method::brute_force}) {
+    const NearestField one = run(s, g, m, 1);
+    for (int t : {2, 7}) {
+      const NearestField many = run(s, g, m, t);
+      EXPECT_EQ(one.site.cells(), many.site.cells()) << to_string(m) << " threads " << t;
+      EXPECT_EQ(one.distance.cells(), many.distance.cells()) << to_string(m) << " threads " << t;
+    }
+  }
+  const NearestField exact = run(s, g, Method::exact, 7);
+  EXPECT_EQ(exact.site.cells(), brute.site.cells());
+  EXPECT_EQ(exact.distance.cells(), brute.distance.cells());
+  // (column, row) -> centre (c + 0.5, 299.5 - r).
+  EXPECT_EQ(s.site_feature(exact.site.at(50, 100)), 0);  // on the line, inside a: the line
+  EXPECT_EQ(exact.distance.at(50, 100), 0.0f);
+  EXPECT_EQ(s.site_feature(exact.site.at(50, 101)), 1);  // half a cell off the line: a
+  EXPECT_EQ(exact.distance.at(50, 101), 0.0f);
+  EXPECT_EQ(s.site_feature(exact.site.at(80, 150)), 1);  // in a and b: the lower polygon
+  EXPECT_EQ(s.site_feature(exact.site.at(120, 20)), 2);  // in b only
+  EXPECT_EQ(exact.distance.at(120, 20), 0.0f);
+  EXPECT_EQ(s.site_feature(exact.site.at(2, 2)), 3);  // outside: the rock
+  EXPECT_GT(exact.distance.at(2, 2), 0.0f);
+}
 TEST(Engine, WindowsAgreeWithTheWholeGrid) {
   const GridSpec g = grid(200, 150);
   SeedSet s = test::random_points(500, -20, -20, 220, 170, 3);
