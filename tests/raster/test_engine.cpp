@@ -111,10 +111,10 @@ TEST(Engine, HvScanErrorBelowOneCellAndHScanMeasured) {
   RecordProperty("h_trials_over_one_cell", h_trials_over_one);
 }
 
-TEST(Engine, IdenticalForAnyThreadCount) {
-  const GridSpec g = grid(173, 129, 0.5);
-  SeedSet s = test::random_points(300, -5, -5, 90, 70, 7);
-  for (Method m : {Method::exact, Method::hv_scan, Method::h_scan}) {
+// Each method computes the same owners and distances on 1, 2 and 7 threads.
+void expect_same_for_any_thread_count(const SeedSet& s, const GridSpec& g,
+                                      std::initializer_list<Method> methods) {
+  for (Method m : methods) {
     const NearestField one = run(s, g, m, 1);
     for (int t : {2, 7}) {
       const NearestField many = run(s, g, m, t);
@@ -122,6 +122,12 @@ TEST(Engine, IdenticalForAnyThreadCount) {
       EXPECT_EQ(one.distance.cells(), many.distance.cells()) << to_string(m) << " threads " << t;
     }
   }
+}
+
+TEST(Engine, IdenticalForAnyThreadCount) {
+  const GridSpec g = grid(173, 129, 0.5);
+  SeedSet s = test::random_points(300, -5, -5, 90, 70, 7);
+  expect_same_for_any_thread_count(s, g, {Method::exact, Method::hv_scan, Method::h_scan});
 }
 
 TEST(Engine, TiesGoToLowerSeedIndex) {
@@ -280,14 +286,7 @@ TEST(Engine, PolygonInteriorsIdenticalForAnyThreadCountAndTieRule) {
   s.add_polygon(s.add_feature(s.owner_code("b")), {{{60, 40}, {140, 40}, {140, 290}, {60, 290}}});
   s.add_point(s.add_feature(s.owner_code("rock")), {5.0, 295.0});
   const NearestField brute = run(s, g, Method::brute_force, 1);
-  for (Method m : {Method::exact, Method::hv_scan, Method::brute_force}) {
-    const NearestField one = run(s, g, m, 1);
-    for (int t : {2, 7}) {
-      const NearestField many = run(s, g, m, t);
-      EXPECT_EQ(one.site.cells(), many.site.cells()) << to_string(m) << " threads " << t;
-      EXPECT_EQ(one.distance.cells(), many.distance.cells()) << to_string(m) << " threads " << t;
-    }
-  }
+  expect_same_for_any_thread_count(s, g, {Method::exact, Method::hv_scan, Method::brute_force});
   const NearestField exact = run(s, g, Method::exact, 7);
   EXPECT_EQ(exact.site.cells(), brute.site.cells());
   EXPECT_EQ(exact.distance.cells(), brute.distance.cells());
