@@ -153,9 +153,11 @@ namespace {
 // the other keeps that rule (the lowest site at distance 0 stays).
 //
 // Why branch-free and in parallel: on coastline grids a large share of the cells is land (the
-// Oresund fixture: most of Scania and Zealand), and this pass ran on one thread with a branch
-// per cell after the engine's threads had finished; on that grid it was about a fifth of the
-// planar method's time at 2 threads. Rows are independent, so the result cannot depend on the
+// Oresund fixture: most of Scania and Zealand). This pass used to run on one thread, with a
+// branch per cell, after the engine's threads had finished; perf put it at about a tenth of
+// the planar method's time at 1 thread on that grid. Branch-free, GCC vectorises it; on the
+// job's threads, the planar method there went from 4.03 to 3.63 ns per cell at 2 threads
+// (medians of 5 alternated runs). Rows are independent, so the result cannot depend on the
 // thread count.
 void apply_interiors(const InteriorSpans& spans, int threads, Raster<int32_t>& site,
                      Raster<float>& distance) {
