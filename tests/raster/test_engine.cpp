@@ -293,7 +293,7 @@ TEST(Engine, PolygonInteriorsIdenticalForAnyThreadCountAndTieRule) {
   // (column, row) -> centre (c + 0.5, 299.5 - r).
   EXPECT_EQ(s.site_feature(exact.site.at(50, 100)), 0);  // on the line, inside a: the line
   EXPECT_EQ(exact.distance.at(50, 100), 0.0f);
-  EXPECT_EQ(s.site_feature(exact.site.at(50, 101)), 1);  // half a cell off the line: a
+  EXPECT_EQ(s.site_feature(exact.site.at(50, 101)), 1);  // a cell below the line: a
   EXPECT_EQ(exact.distance.at(50, 101), 0.0f);
   EXPECT_EQ(s.site_feature(exact.site.at(80, 150)), 1);  // in a and b: the lower polygon
   EXPECT_EQ(s.site_feature(exact.site.at(120, 20)), 2);  // in b only
@@ -301,6 +301,7 @@ TEST(Engine, PolygonInteriorsIdenticalForAnyThreadCountAndTieRule) {
   EXPECT_EQ(s.site_feature(exact.site.at(2, 2)), 3);  // outside: the rock
   EXPECT_GT(exact.distance.at(2, 2), 0.0f);
 }
+
 TEST(Engine, WindowsAgreeWithTheWholeGrid) {
   const GridSpec g = grid(200, 150);
   SeedSet s = test::random_points(500, -20, -20, 220, 170, 3);
