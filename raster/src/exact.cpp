@@ -96,6 +96,13 @@ inline double site_box_rect_key(const LocalSite& s, const Rect& r) {
   return dx * dx + dy * dy;
 }
 
+// Upper bound of the squared distance from the point to any point of the rectangle.
+inline double point_rect_max_key(double px, double py, const Rect& r) {
+  const double dx = std::max(std::abs(r.x0 - px), std::abs(r.x1 - px));
+  const double dy = std::max(std::abs(r.y0 - py), std::abs(r.y1 - py));
+  return dx * dx + dy * dy;
+}
+
 // Upper bound of the squared distance from the site to any point of the rectangle.
 inline double site_rect_max_key(const LocalSite& s, const Rect& r) {
   return std::max(std::max(planar_key(r.x0, r.y0, s), planar_key(r.x1, r.y0, s)),
@@ -204,6 +211,41 @@ RV_KERNEL_CLONES void argmin_block(const LocalSite* __restrict sites, const doub
   }
 }
 
+// Point candidates of a block, structure of arrays (the point-only path of ExactSolver): the
+// coordinates are copied once per tile, so the culls below read them contiguously instead of
+// loading each 40-byte LocalSite through its id (a cache miss in a large seed set), and their
+// loops vectorise. Ids ride as doubles, as argmin_block wants them (exact below 2^53).
+struct PointCands {
+  AlignedVector<double> x, y, id;
+  size_t size() const { return id.size(); }
+  void resize(size_t n) {
+    x.resize(n);
+    y.resize(n);
+    id.resize(n);
+  }
+  void assign(const PointCands& o) {
+    x.assign(o.x.begin(), o.x.end());
+    y.assign(o.y.begin(), o.y.end());
+    id.assign(o.id.begin(), o.id.end());
+  }
+};
+
+// dominated[j] = 1 when some candidate i has a key smaller than j's by more than `margin` at all
+// four corners (c0..c3: each candidate's key at one corner); 0 otherwise. A candidate never
+// dominates itself (0 > margin is false, margin > 0). Loop order i outer, j inner: the inner
+// loop is elementwise over j and vectorises (the clones' 4- or 8-wide compares).
+RV_KERNEL_CLONES void dominated_flags(const double* __restrict c0, const double* __restrict c1,
+                                      const double* __restrict c2, const double* __restrict c3,
+                                      int k, double margin, int64_t* __restrict dominated) {
+  for (int j = 0; j < k; ++j) dominated[j] = 0;
+  for (int i = 0; i < k; ++i) {
+    const double a0 = c0[i] + margin, a1 = c1[i] + margin, a2 = c2[i] + margin, a3 = c3[i] + margin;
+    for (int j = 0; j < k; ++j)
+      dominated[j] |=
+          static_cast<int64_t>((c0[j] > a0) & (c1[j] > a1) & (c2[j] > a2) & (c3[j] > a3));
+  }
+}
+
 struct Worker {
   std::vector<int32_t> stamp;  // per site id: last tile that collected it
   int64_t stamp_value = 0;
@@ -222,6 +264,11 @@ struct Worker {
   std::array<double, 4 * kDominanceMax> corner_keys;
   std::array<double, 4 * kDominanceMax> corner_margins;
   std::array<bool, kDominanceMax> corner_point;  // drop_dominated_points: the candidate is a point
+  // The point-only path: candidates per recursion depth, and drop_dominated_soa's scratch.
+  std::vector<PointCands> point_levels;
+  alignas(64) std::array<double, kDominanceMax> soa_corner[4];
+  alignas(64) std::array<int64_t, kDominanceMax> soa_dominated;
+  AlignedVector<double> point_keys;
 };
 
 // Absolute slack (in distance units) for rounding in bounds: far above the few ulps of the
@@ -345,7 +392,110 @@ class ExactSolver {
     // the box-key bound below may be tighter; not measured, so they keep it.
     bool points = true;
     for (int32_t id : cands) points = points && ctx_.local[id].inv_len2 == 0.0;
+    if (points && ctx_.interiors == nullptr) return solve_point_tile(wk, cands, c0, r0, c1, r1);
     solve_block(wk, 0, c0, r0, c1, r1, points);
+  }
+
+  // The point-only path: the same culls, dominance test and leaves as solve_block, over the
+  // tile's candidates copied once into PointCands. Taken when every candidate of the tile is a
+  // point and no polygon interiors exist (so no block is fully interior). Which sites survive a
+  // cull never changes the result, only the work: every cull here is sound, and the leaves run
+  // the same argmin_block.
+  void solve_point_tile(Worker& wk, const std::vector<int32_t>& cands, int64_t c0, int64_t r0,
+                        int64_t c1, int64_t r1) {
+    if (wk.point_levels.size() < wk.levels.size()) wk.point_levels.resize(wk.levels.size());
+    PointCands& p = wk.point_levels[0];
+    p.resize(cands.size());
+    for (size_t j = 0; j < cands.size(); ++j) {
+      const LocalSite& s = ctx_.local[cands[j]];
+      p.x[j] = s.ax;
+      p.y[j] = s.ay;
+      p.id[j] = static_cast<double>(cands[j]);
+    }
+    solve_point_block(wk, 0, c0, r0, c1, r1, true);
+  }
+
+  void solve_point_block(Worker& wk, int depth, int64_t c0, int64_t r0, int64_t c1, int64_t r1,
+                         bool culled) {
+    const PointCands& cands = wk.point_levels[depth];
+    const size_t k = cands.size();
+    if (k == 0) return fill_none(c0, r0, c1, r1);
+    PointCands& next = wk.point_levels[depth + 1];
+    const Rect rect = rect_of(c0, r0, c1, r1);
+    if (culled || k == 1) {
+      next.assign(cands);
+    } else {
+      // For a point the box key is its exact lower bound; the two nearest by it give the upper
+      // bound, as in solve_block.
+      wk.point_keys.resize(k);
+      double* keys = wk.point_keys.data();
+      for (size_t j = 0; j < k; ++j) keys[j] = point_rect_key(cands.x[j], cands.y[j], rect);
+      size_t near1 = 0, near2 = 0;
+      for (size_t j = 1; j < k; ++j) {
+        if (keys[j] < keys[near1]) {
+          near2 = near1;
+          near1 = j;
+        } else if (near2 == near1 || keys[j] < keys[near2]) {
+          near2 = j;
+        }
+      }
+      double upper = point_rect_max_key(cands.x[near1], cands.y[near1], rect);
+      if (near2 != near1)
+        upper = std::min(upper, point_rect_max_key(cands.x[near2], cands.y[near2], rect));
+      const double bound = keep_bound(upper);
+      next.resize(k);
+      size_t n = 0;
+      for (size_t j = 0; j < k; ++j) {
+        next.x[n] = cands.x[j];
+        next.y[n] = cands.y[j];
+        next.id[n] = cands.id[j];
+        n += keys[j] <= bound;
+      }
+      next.resize(n);
+    }
+    if (next.size() > 1 && next.size() <= kDominanceMax) drop_dominated_soa(wk, next, rect);
+    const int64_t w = c1 - c0, h = r1 - r0;
+    // The leaf rule of solve_block.
+    const bool small = w * h <= kLeafCells && next.size() <= kLeafCandidates;
+    if (next.size() <= 1 || small || w * h <= 4 ||
+        depth + 2 >= static_cast<int>(wk.point_levels.size()))
+      return solve_point_cells(wk, next, c0, r0, c1, r1);
+    const int64_t cm = c0 + (w + 1) / 2, rm = r0 + (h + 1) / 2;
+    solve_point_block(wk, depth + 1, c0, r0, cm, rm, false);
+    if (cm < c1) solve_point_block(wk, depth + 1, cm, r0, c1, rm, false);
+    if (rm < r1) {
+      solve_point_block(wk, depth + 1, c0, rm, cm, r1, false);
+      if (cm < c1) solve_point_block(wk, depth + 1, cm, rm, c1, r1, false);
+    }
+  }
+
+  // drop_dominated_points for PointCands (all points): one margin for the whole block, that of
+  // its largest corner key (dominance_margin grows with the key, so it covers every corner; the
+  // per-corner margins cost four square roots per candidate).
+  void drop_dominated_soa(Worker& wk, PointCands& p, const Rect& rect) const {
+    const size_t k = p.size();
+    double* c[4] = {wk.soa_corner[0].data(), wk.soa_corner[1].data(), wk.soa_corner[2].data(),
+                    wk.soa_corner[3].data()};
+    double largest = 0.0;
+    for (size_t j = 0; j < k; ++j) {
+      const LocalSite s{p.x[j], p.y[j], 0.0, 0.0, 0.0};
+      c[0][j] = planar_key(rect.x0, rect.y0, s);
+      c[1][j] = planar_key(rect.x1, rect.y0, s);
+      c[2][j] = planar_key(rect.x0, rect.y1, s);
+      c[3][j] = planar_key(rect.x1, rect.y1, s);
+      largest = std::max(std::max(largest, std::max(c[0][j], c[1][j])), std::max(c[2][j], c[3][j]));
+    }
+    int64_t* dominated = wk.soa_dominated.data();
+    dominated_flags(c[0], c[1], c[2], c[3], static_cast<int>(k), dominance_margin(largest),
+                    dominated);
+    size_t kept = 0;
+    for (size_t j = 0; j < k; ++j) {
+      p.x[kept] = p.x[j];
+      p.y[kept] = p.y[j];
+      p.id[kept] = p.id[j];
+      kept += dominated[j] == 0;
+    }
+    p.resize(kept);
   }
 
   // Candidates for this block are wk.levels[depth]; they are in ascending site order. `culled`:
@@ -474,6 +624,28 @@ class ExactSolver {
   void solve_cells(Worker& wk, const std::vector<int32_t>& cands, int64_t c0, int64_t r0, int64_t c1,
                    int64_t r1, double max_key) {
     if (cands.empty()) return fill_none(c0, r0, c1, r1);
+    wk.gathered.clear();
+    wk.gathered_ids.clear();
+    for (int32_t id : cands) {
+      wk.gathered.push_back(ctx_.local[id]);
+      wk.gathered_ids.push_back(static_cast<double>(id));
+    }
+    argmin_gathered(wk, c0, r0, c1, r1, max_key);
+  }
+
+  // The same for PointCands (ascending ids too: every step above keeps the tile's order).
+  void solve_point_cells(Worker& wk, const PointCands& cands, int64_t c0, int64_t r0, int64_t c1,
+                         int64_t r1) {
+    if (cands.size() == 0) return fill_none(c0, r0, c1, r1);
+    wk.gathered.resize(cands.size());
+    for (size_t j = 0; j < cands.size(); ++j)
+      wk.gathered[j] = LocalSite{cands.x[j], cands.y[j], 0.0, 0.0, 0.0};
+    wk.gathered_ids.assign(cands.id.begin(), cands.id.end());
+    argmin_gathered(wk, c0, r0, c1, r1, ctx_.max_key);
+  }
+
+  // argmin_block over wk.gathered / wk.gathered_ids for window cells [c0, c1) x [r0, r1).
+  void argmin_gathered(Worker& wk, int64_t c0, int64_t r0, int64_t c1, int64_t r1, double max_key) {
     const Window& win = ctx_.window;
     const int64_t w = c1 - c0, h = r1 - r0;
     // Rows padded to whole register blocks: the padding repeats the last centre (a real
@@ -483,15 +655,10 @@ class ExactSolver {
     for (int64_t c = 0; c < w; ++c) wk.px[c] = ctx_.grid.local_x(win.col0 + c0 + c);
     for (int64_t c = w; c < padded; ++c) wk.px[c] = wk.px[w - 1];
     for (int64_t r = 0; r < h; ++r) wk.py[r] = ctx_.grid.local_y(win.row0 + r0 + r);
-    wk.gathered.clear();
-    wk.gathered_ids.clear();
-    for (int32_t id : cands) {
-      wk.gathered.push_back(ctx_.local[id]);
-      wk.gathered_ids.push_back(static_cast<double>(id));
-    }
-    argmin_block(wk.gathered.data(), wk.gathered_ids.data(), static_cast<int>(cands.size()), wk.px.data(), w,
-                 wk.py.data(), h, max_key, wk.best.data(), wk.best_id.data(), wk.dist_row.data(),
-                 wk.site_row.data(), site_.row(r0) + c0, distance_.row(r0) + c0, win.width, stream_);
+    argmin_block(wk.gathered.data(), wk.gathered_ids.data(), static_cast<int>(wk.gathered.size()),
+                 wk.px.data(), w, wk.py.data(), h, max_key, wk.best.data(), wk.best_id.data(),
+                 wk.dist_row.data(), wk.site_row.data(), site_.row(r0) + c0, distance_.row(r0) + c0,
+                 win.width, stream_);
   }
 
   const EngineContext& ctx_;

@@ -93,6 +93,34 @@ TEST(Engine, ExactMatchesBruteForceOnRandomPoints) {
   }
 }
 
+// Points on a half-cell lattice, duplicates included: many cell centres are exactly equidistant
+// from two or more points (ties the lower index must win), and many blocks have points equally
+// near at some corners, which is where the dominance test's margin decides. Grids of several
+// 64x64 tiles, so the point-only path runs its tile, quadrant and leaf culls; with and without a
+// distance limit; on a UTM-like origin too, where the keys' rounding is largest.
+TEST(Engine, ExactMatchesBruteForceOnLatticePointsWithTies) {
+  for (uint32_t trial = 0; trial < 12; ++trial) {
+    std::mt19937 rng(500 + trial);
+    const int w = 130 + static_cast<int>(rng() % 90), h = 130 + static_cast<int>(rng() % 90);
+    const bool utm = trial % 3 == 2;
+    const GridSpec g = grid(w, h, 1.0, utm ? 500000.0 : 0.0, utm ? 6000000.0 : 0.0);
+    const int n = 20 + static_cast<int>(rng() % 300);
+    SeedSet s;
+    for (int i = 0; i < n; ++i) {
+      const double x =
+          g.xmin + 0.5 * static_cast<double>(static_cast<int>(rng() % (2 * w + 20)) - 10);
+      const double y =
+          g.ymin() + 0.5 * static_cast<double>(static_cast<int>(rng() % (2 * h + 20)) - 10);
+      s.add_point(s.add_feature(s.owner_code("p" + std::to_string(i % 7))), {x, y});
+    }
+    const double limit = trial % 2 == 0 ? std::numeric_limits<double>::infinity() : 9.0;
+    const NearestField exact = run(s, g, Method::exact, 2, limit);
+    const NearestField brute = run(s, g, Method::brute_force, 2, limit);
+    EXPECT_EQ(exact.site.cells(), brute.site.cells()) << "trial " << trial;
+    EXPECT_EQ(exact.distance.cells(), brute.distance.cells()) << "trial " << trial;
+  }
+}
+
 TEST(Engine, HvScanErrorBelowOneCellAndHScanMeasured) {
   int h_trials_over_one = 0;
   double worst_hv = 0.0;
