@@ -215,6 +215,11 @@ RV_KERNEL_CLONES void argmin_block(const LocalSite* __restrict sites, const doub
 // coordinates are copied once per tile, so the culls below read them contiguously instead of
 // loading each 40-byte LocalSite through its id (a cache miss in a large seed set), and their
 // loops vectorise. Ids ride as doubles, as argmin_block wants them (exact below 2^53).
+struct TilePoint {
+  int32_t id;
+  double x, y;
+};
+
 struct PointCands {
   AlignedVector<double> x, y, id;
   size_t size() const { return id.size(); }
@@ -264,7 +269,9 @@ struct Worker {
   std::array<double, 4 * kDominanceMax> corner_keys;
   std::array<double, 4 * kDominanceMax> corner_margins;
   std::array<bool, kDominanceMax> corner_point;  // drop_dominated_points: the candidate is a point
-  // The point-only path: candidates per recursion depth, and drop_dominated_soa's scratch.
+  // The point-only path: the tile's candidates as the index gave them, candidates per recursion
+  // depth, and drop_dominated_soa's scratch.
+  std::vector<TilePoint> tile_points;
   std::vector<PointCands> point_levels;
   alignas(64) std::array<double, kDominanceMax> soa_corner[4];
   alignas(64) std::array<int64_t, kDominanceMax> soa_dominated;
@@ -374,6 +381,8 @@ class ExactSolver {
     const double reach = std::sqrt(bound);
     std::vector<int32_t>& cands = wk.levels[0];
     cands.clear();
+    wk.tile_points.clear();
+    bool points = true;  // every candidate is a point
     ++wk.stamp_value;
     const auto stamp = static_cast<int32_t>(wk.stamp_value);
     index_.for_range(index_.clamp_x(rect.x0 - reach) - 1, index_.clamp_y(rect.y0 - reach) - 1,
@@ -384,33 +393,36 @@ class ExactSolver {
                          if (wk.stamp[e.id] == stamp) return;
                          wk.stamp[e.id] = stamp;
                        }
-                       if (site_rect_key(site_of(e), rect) <= bound) cands.push_back(e.id);
+                       if (site_rect_key(site_of(e), rect) > bound) return;
+                       cands.push_back(e.id);
+                       points = points && e.point;
+                       if (e.point) wk.tile_points.push_back(TilePoint{e.id, e.ax, e.ay});
                      });
+    // The index entries carry a point's coordinates: the point-only path never loads the site
+    // array (random accesses into it, one per candidate, were a sixth of this function's time).
+    if (points && ctx_.interiors == nullptr) return solve_point_tile(wk, c0, r0, c1, r1);
     std::sort(cands.begin(), cands.end());
     // Points only: the tile's bound is as tight as solve_block's, a second cull would find
     // nothing to drop (measured: a third of solve_block's time on 50 000 points). With segments
     // the box-key bound below may be tighter; not measured, so they keep it.
-    bool points = true;
-    for (int32_t id : cands) points = points && ctx_.local[id].inv_len2 == 0.0;
-    if (points && ctx_.interiors == nullptr) return solve_point_tile(wk, cands, c0, r0, c1, r1);
     solve_block(wk, 0, c0, r0, c1, r1, points);
   }
 
   // The point-only path: the same culls, dominance test and leaves as solve_block, over the
-  // tile's candidates copied once into PointCands. Taken when every candidate of the tile is a
-  // point and no polygon interiors exist (so no block is fully interior). Which sites survive a
-  // cull never changes the result, only the work: every cull here is sound, and the leaves run
-  // the same argmin_block.
-  void solve_point_tile(Worker& wk, const std::vector<int32_t>& cands, int64_t c0, int64_t r0,
-                        int64_t c1, int64_t r1) {
+  // tile's candidates (wk.tile_points) copied once into PointCands in ascending id order. Taken
+  // when every candidate of the tile is a point and no polygon interiors exist (so no block is
+  // fully interior). Which sites survive a cull never changes the result, only the work: every
+  // cull here is sound, and the leaves run the same argmin_block.
+  void solve_point_tile(Worker& wk, int64_t c0, int64_t r0, int64_t c1, int64_t r1) {
     if (wk.point_levels.size() < wk.levels.size()) wk.point_levels.resize(wk.levels.size());
+    std::sort(wk.tile_points.begin(), wk.tile_points.end(),
+              [](const TilePoint& a, const TilePoint& b) { return a.id < b.id; });
     PointCands& p = wk.point_levels[0];
-    p.resize(cands.size());
-    for (size_t j = 0; j < cands.size(); ++j) {
-      const LocalSite& s = ctx_.local[cands[j]];
-      p.x[j] = s.ax;
-      p.y[j] = s.ay;
-      p.id[j] = static_cast<double>(cands[j]);
+    p.resize(wk.tile_points.size());
+    for (size_t j = 0; j < wk.tile_points.size(); ++j) {
+      p.x[j] = wk.tile_points[j].x;
+      p.y[j] = wk.tile_points[j].y;
+      p.id[j] = static_cast<double>(wk.tile_points[j].id);
     }
     solve_point_block(wk, 0, c0, r0, c1, r1, true);
   }
