@@ -112,6 +112,7 @@ inline double site_rect_max_key(const LocalSite& s, const Rect& r) {
 // Cells per register block of argmin_block: two 4-wide double vectors.
 constexpr int64_t kLanes = 8;
 using V4 = double __attribute__((vector_size(32)));
+using V8 = double __attribute__((vector_size(64)));
 
 // The vector steps of argmin_block are macros, not functions: a 32-byte vector passed to or
 // returned from a function compiled without AVX has another ABI than with AVX, which GCC notes
@@ -188,10 +189,30 @@ RV_KERNEL_CLONES void argmin_block(const LocalSite* __restrict sites, const doub
       V4 x0, x1, b0, b1, i0, i1;
       std::memcpy(&x0, px + c, sizeof(x0));
       std::memcpy(&x1, px + c + 4, sizeof(x1));
-      if (all_points)
-        RV_ARGMIN_PASS(RV_POINT_KEYS);
-      else
-        RV_ARGMIN_PASS(RV_SEGMENT_KEYS);
+      if (all_points) {
+        // Points: one 8-wide vector per step (a single AVX-512 register in that clone, two
+        // halves in the others), the same operations per lane as RV_POINT_KEYS.
+        V8 x, b, id;
+        std::memcpy(&x, px + c, sizeof(x));
+        {
+          const double ey = y - sites[0].ay, ey2 = ey * ey;
+          const V8 e = x - sites[0].ax;
+          b = e * e + ey2;
+          id = V8{} + ids[0];
+        }
+        for (int j = 1; j < k; ++j) {
+          const double ey = y - sites[j].ay, ey2 = ey * ey;
+          const V8 e = x - sites[j].ax;
+          const V8 key = e * e + ey2;
+          const auto m = key < b;
+          b = m ? key : b;
+          id = m ? V8{} + ids[j] : id;
+        }
+        std::memcpy(best + c, &b, sizeof(b));
+        std::memcpy(best_id + c, &id, sizeof(id));
+        continue;
+      }
+      RV_ARGMIN_PASS(RV_SEGMENT_KEYS);
       std::memcpy(best + c, &b0, sizeof(b0));
       std::memcpy(best + c + 4, &b1, sizeof(b1));
       std::memcpy(best_id + c, &i0, sizeof(i0));
