@@ -311,9 +311,14 @@ struct GeoWorker {
   AlignedVector<double> force;  // ... per column: 1 where a cell needs the per-cell method
 };
 
-// Cells per step of interp_argmin_row: one 4-wide double vector.
+// Cells per step of interp_argmin_row: one 4-wide double vector; of interp_argmin_points: one
+// 8-wide vector (a single register in the AVX-512 clone). Rows are padded to whole steps of both.
 constexpr int64_t kRowLanes = 4;
+constexpr int64_t kPointLanes = 8;
+constexpr int64_t kRowPad = 8;
+static_assert(kRowPad % kRowLanes == 0 && kRowPad % kPointLanes == 0, "rows padded to whole steps");
 using GeoV4 = double __attribute__((vector_size(32)));
+using GeoV8 = double __attribute__((vector_size(64)));
 
 // Takes one value (squared: key) into the running results of four cells: a smaller key becomes
 // the best (the old best competes for second); an equal key of the same vertex (tag >= 0) is
@@ -349,24 +354,24 @@ using GeoV4 = double __attribute__((vector_size(32)));
 // every column), their ECEF positions into x, y, z: on a geographic grid from the row's
 // parallel (pos.rho, pos.z) and the columns' cos / sin (cell_at's arithmetic), else from the
 // located positions.
-#define RV_GEO_CELLS(c)                     \
-  do {                                      \
-    std::memcpy(&a0, w + (c), sizeof(a0));  \
-    std::memcpy(&a1, w + stride + (c), sizeof(a1)); \
-    std::memcpy(&a2, w + 2 * stride + (c), sizeof(a2)); \
-    std::memcpy(&a3, w + 3 * stride + (c), sizeof(a3)); \
-    if (pos.cos_lon) {                      \
-      GeoV4 cv_, sv_;                       \
+#define RV_GEO_CELLS(c)                                  \
+  do {                                                   \
+    std::memcpy(&a0, w + (c), sizeof(a0));               \
+    std::memcpy(&a1, w + stride + (c), sizeof(a1));      \
+    std::memcpy(&a2, w + 2 * stride + (c), sizeof(a2));  \
+    std::memcpy(&a3, w + 3 * stride + (c), sizeof(a3));  \
+    if (pos.cos_lon) {                                   \
+      decltype(x) cv_, sv_;                              \
       std::memcpy(&cv_, pos.cos_lon + (c), sizeof(cv_)); \
       std::memcpy(&sv_, pos.sin_lon + (c), sizeof(sv_)); \
-      x = pos.rho * cv_;                    \
-      y = pos.rho * sv_;                    \
-      z = GeoV4{} + pos.z;                  \
-    } else {                                \
-      std::memcpy(&x, pos.x + (c), sizeof(x)); \
-      std::memcpy(&y, pos.y + (c), sizeof(y)); \
-      std::memcpy(&z, pos.z_of + (c), sizeof(z)); \
-    }                                       \
+      x = pos.rho * cv_;                                 \
+      y = pos.rho * sv_;                                 \
+      z = decltype(z){} + pos.z;                         \
+    } else {                                             \
+      std::memcpy(&x, pos.x + (c), sizeof(x));           \
+      std::memcpy(&y, pos.y + (c), sizeof(y));           \
+      std::memcpy(&z, pos.z_of + (c), sizeof(z));        \
+    }                                                    \
   } while (0)
 
 // interp_argmin_row for the commonest block: point-form candidates only, none of them a vertex
@@ -381,21 +386,21 @@ RV_KERNEL_CLONES void interp_argmin_points(const RowCandidate* __restrict points
   // One candidate into the running results; c2 = dx^2 + dy^2 + dz^2 in that order (apply()'s).
 #define RV_GEO_POINT(dz2_expr)                                                 \
   do {                                                                         \
-    const GeoV4 q = a0 * p.qr[0] + a1 * p.qr[1] + a2 * p.qr[2] + a3 * p.qr[3]; \
-    const GeoV4 dx = x - p.sx, dy = y - p.sy;                                  \
-    const GeoV4 c2 = dx * dx + dy * dy + (dz2_expr);                           \
-    const GeoV4 key = (q * q) * c2;                                            \
+    const GeoV8 q = a0 * p.qr[0] + a1 * p.qr[1] + a2 * p.qr[2] + a3 * p.qr[3]; \
+    const GeoV8 dx = x - p.sx, dy = y - p.sy;                                  \
+    const GeoV8 c2 = dx * dx + dy * dy + (dz2_expr);                           \
+    const GeoV8 key = (q * q) * c2;                                            \
     const auto lt = key < b;                                                   \
-    const GeoV4 hi = lt ? b : key;                                             \
+    const GeoV8 hi = lt ? b : key;                                             \
     s = hi < s ? hi : s;                                                       \
     b = lt ? key : b;                                                          \
-    const GeoV4 idv = {p.id, p.id, p.id, p.id};                                \
+    const GeoV8 idv = GeoV8{} + p.id;                                          \
     id = lt ? idv : id;                                                        \
   } while (0)
-  for (int64_t c = 0; c < n; c += kRowLanes) {
-    GeoV4 a0, a1, a2, a3, x, y, z;
+  for (int64_t c = 0; c < n; c += kPointLanes) {
+    GeoV8 a0, a1, a2, a3, x, y, z;
     RV_GEO_CELLS(c);
-    GeoV4 b = GeoV4{} + inf, s = b, id = GeoV4{} + static_cast<double>(kNoSite);
+    GeoV8 b = GeoV8{} + inf, s = b, id = GeoV8{} + static_cast<double>(kNoSite);
     if (pos.cos_lon) {
       // A geographic grid's row is one parallel: every cell has the same z, and each
       // candidate's dz^2 comes with it (the same bits as computed here).
@@ -406,7 +411,7 @@ RV_KERNEL_CLONES void interp_argmin_points(const RowCandidate* __restrict points
     } else {
       for (int j = 0; j < kp; ++j) {
         const RowCandidate& p = points[j];
-        const GeoV4 dz = z - p.sz;
+        const GeoV8 dz = z - p.sz;
         RV_GEO_POINT(dz * dz);
       }
     }
@@ -437,7 +442,7 @@ RV_KERNEL_CLONES void interp_argmin_points(const RowCandidate* __restrict points
 // b = 0 .. 3 in the point form's block, 4 .. 7 in the additive form's: a point site or a
 // segment's end uses the first four, an edge's interior the last four), the cells' ECEF
 // positions as RowPositions says; every array holds n rounded up to a multiple
-// of kRowLanes. Vectors stay inside this function (a 32-byte vector crossing a function boundary
+// of kRowPad. Vectors stay inside this function (a 32-byte vector crossing a function boundary
 // has another ABI with and without AVX).
 RV_KERNEL_CLONES void interp_argmin_row(const RowCandidate* __restrict points, int kp,
                                         const RowCandidate* __restrict additive, int ka,
@@ -629,10 +634,10 @@ class GeodesicExactSolver {
       z_[r] = z;
     }
     lon_.resize(static_cast<size_t>(w.width));
-    // Padded to whole vectors of the row kernels, which read up to kRowLanes - 1 past the end
+    // Padded to whole vectors of the row kernels, which read up to kRowPad - 1 past the end
     // (lanes never written out).
-    cos_.assign(lon_.size() + kRowLanes, 0.0);
-    sin_.assign(lon_.size() + kRowLanes, 0.0);
+    cos_.assign(lon_.size() + kRowPad, 0.0);
+    sin_.assign(lon_.size() + kRowPad, 0.0);
     for (int64_t c = 0; c < w.width; ++c) {
       lon_[c] = ctx_.grid.centre_x(w.col0 + c);
       Math::sincosd(lon_[c], sin_[c], cos_[c]);
@@ -1399,7 +1404,7 @@ class GeodesicExactSolver {
   void solve_interp_rows(GeoWorker& wk, const std::vector<int32_t>& cands, int64_t c0, int64_t r0, int64_t c1,
                          int64_t r1) {
     const int64_t n = c1 - c0;
-    const int64_t stride = (n + kRowLanes - 1) / kRowLanes * kRowLanes;  // padded: whole vectors
+    const int64_t stride = (n + kRowPad - 1) / kRowPad * kRowPad;  // padded: whole vectors
     // The additive form's weights only where an edge's interior is a candidate (interp_argmin_row
     // reads all eight arrays, so they are there, zero, in any case).
     const bool lines = !wk.interp_additive.empty() || !wk.changing.empty();
