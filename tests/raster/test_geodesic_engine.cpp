@@ -455,6 +455,39 @@ TEST(GeodesicEngine, InsidePolygonsALowerSiteAtDistanceZeroWins) {
   EXPECT_EQ(s.site_owner(f.site.at(60, 60)), s.owner_code("B"));
 }
 
+TEST(GeodesicEngine, InsidePolygonsALowerSiteAtDistanceZeroWinsOnAFineGrid) {
+  // The same rule where the interpolated row kernels run (cells of 0.001 deg: line blocks of 128
+  // cells). Cells within metres of the line are flagged for exact treatment; inside the polygon
+  // they only need to know whether a lower site is at distance exactly 0, and the line, added
+  // first, is at distance 0 on its own column.
+  const GridSpec g = geo_grid(12.0, 56.0, 0.001, 300, 200);
+  SeedSet s;
+  s.add_polyline(
+      s.add_feature(s.owner_code("line")),
+      std::vector<Vec2>{{g.centre_x(150), g.centre_y(40)}, {g.centre_x(150), g.centre_y(160)}});
+  s.add_polyline(s.add_feature(s.owner_code("diagonal")),
+                 std::vector<Vec2>{{12.02, 55.85}, {12.09, 55.98}, {12.13, 55.86}});
+  s.add_polygon(
+      s.add_feature(s.owner_code("land")),
+      {std::vector<Vec2>{{12.05, 55.99}, {12.28, 55.985}, {12.27, 55.83}, {12.06, 55.82}}});
+  s.add_point(s.add_feature(s.owner_code("buoy")), {12.25, 55.81});
+  expect_exact_equals_brute(s, g, "fine interior");
+  const NearestField f = run(s, g, Method::exact);
+  int64_t line_cells = 0, land_cells = 0;
+  for (int64_t r = 40; r <= 160; ++r) {
+    // The polygon spans rows 10 .. 170 at this column. The line's cells inside it keep the line
+    // where the search measures it at exactly 0 (most rows; elsewhere it finds a few nanometres,
+    // as brute force does, and the polygon wins), at distance 0 either way.
+    EXPECT_EQ(f.distance.at(150, r), 0.0f) << "row " << r;
+    line_cells += f.site.at(150, r) == 0;
+    // Their neighbours are inside too, a cell (about 63 m) from the line: the polygon's.
+    land_cells += s.site_owner(f.site.at(151, r)) == s.owner_code("land");
+  }
+  RecordProperty("line_cells_at_zero", static_cast<int>(line_cells));
+  EXPECT_GT(line_cells, 90);
+  EXPECT_EQ(land_cells, 121);
+}
+
 TEST(GeodesicEngine, SyntheticCoastlines) {
   // Two states facing each other across a strait (Oresund-like, 55.5N 12.7E): land polygons
   // whose sea-facing edges are wiggly coastlines of many short edges, at 0.002 degrees.
