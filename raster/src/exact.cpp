@@ -262,17 +262,17 @@ struct Worker {
   alignas(64) std::array<float, kTile> dist_row;
   alignas(64) std::array<int32_t, kTile> site_row;
   std::vector<double> gathered_ids;
-  std::vector<double> box_keys;
-  std::array<double, 4 * kDominanceMax> corner_keys;
-  std::array<double, 4 * kDominanceMax> corner_margins;
-  std::array<bool, kDominanceMax> corner_point;  // drop_dominated_points: the candidate is a point
+  std::vector<double> box_keys;  // a block's lower bounds per candidate (both paths)
   // The point-only path: the tile's candidates as the index gave them, candidates per recursion
-  // depth, and drop_dominated_soa's scratch.
+  // depth.
   std::vector<TilePoint> tile_points;
   std::vector<PointCands> point_levels;
-  alignas(64) std::array<double, kDominanceMax> soa_corner[4];
-  alignas(64) std::array<int64_t, kDominanceMax> soa_dominated;
-  AlignedVector<double> point_keys;
+  // dominated_points' scratch: the points' coordinates (the generic path gathers them), their
+  // place in the candidate list, their keys at the block's corners, and the flags.
+  std::array<double, kDominanceMax> dom_x, dom_y;
+  std::array<size_t, kDominanceMax> dom_at;
+  alignas(64) std::array<double, kDominanceMax> dom_corner[4];
+  alignas(64) std::array<int64_t, kDominanceMax> dom_flags;
 };
 
 // Absolute slack (in distance units) for rounding in bounds: far above the few ulps of the
@@ -436,18 +436,11 @@ class ExactSolver {
     } else {
       // For a point the box key is its exact lower bound; the two nearest by it give the upper
       // bound, as in solve_block.
-      wk.point_keys.resize(k);
-      double* keys = wk.point_keys.data();
+      wk.box_keys.resize(k);
+      double* keys = wk.box_keys.data();
       for (size_t j = 0; j < k; ++j) keys[j] = point_rect_key(cands.x[j], cands.y[j], rect);
-      size_t near1 = 0, near2 = 0;
-      for (size_t j = 1; j < k; ++j) {
-        if (keys[j] < keys[near1]) {
-          near2 = near1;
-          near1 = j;
-        } else if (near2 == near1 || keys[j] < keys[near2]) {
-          near2 = j;
-        }
-      }
+      size_t near1, near2;
+      two_smallest(keys, k, near1, near2);
       double upper = point_rect_max_key(cands.x[near1], cands.y[near1], rect);
       if (near2 != near1)
         upper = std::min(upper, point_rect_max_key(cands.x[near2], cands.y[near2], rect));
@@ -463,42 +456,18 @@ class ExactSolver {
       next.resize(n);
     }
     if (next.size() > 1 && next.size() <= kDominanceMax) drop_dominated_soa(wk, next, rect);
-    const int64_t w = c1 - c0, h = r1 - r0;
-    // The leaf rule of solve_block.
-    const bool small = w * h <= kLeafCells && next.size() <= kLeafCandidates;
-    if (next.size() <= 1 || small || w * h <= 4 ||
-        depth + 2 >= static_cast<int>(wk.point_levels.size()))
+    if (is_leaf(wk, c1 - c0, r1 - r0, next.size(), depth))
       return solve_point_cells(wk, next, c0, r0, c1, r1);
-    const int64_t cm = c0 + (w + 1) / 2, rm = r0 + (h + 1) / 2;
-    solve_point_block(wk, depth + 1, c0, r0, cm, rm, false);
-    if (cm < c1) solve_point_block(wk, depth + 1, cm, r0, c1, rm, false);
-    if (rm < r1) {
-      solve_point_block(wk, depth + 1, c0, rm, cm, r1, false);
-      if (cm < c1) solve_point_block(wk, depth + 1, cm, rm, c1, r1, false);
-    }
+    for_quadrants(c0, r0, c1, r1, [&](int64_t a0, int64_t b0, int64_t a1, int64_t b1) {
+      solve_point_block(wk, depth + 1, a0, b0, a1, b1, false);
+    });
   }
 
-  // drop_dominated_points for PointCands (all points): one margin for the whole block, that of
-  // its largest corner key (dominance_margin grows with the key, so it covers every corner; the
-  // per-corner margins cost four square roots per candidate).
+  // drop_dominated_points for PointCands (all points).
   void drop_dominated_soa(Worker& wk, PointCands& p, const Rect& rect) const {
-    const size_t k = p.size();
-    double* c[4] = {wk.soa_corner[0].data(), wk.soa_corner[1].data(), wk.soa_corner[2].data(),
-                    wk.soa_corner[3].data()};
-    double largest = 0.0;
-    for (size_t j = 0; j < k; ++j) {
-      const LocalSite s{p.x[j], p.y[j], 0.0, 0.0, 0.0};
-      c[0][j] = planar_key(rect.x0, rect.y0, s);
-      c[1][j] = planar_key(rect.x1, rect.y0, s);
-      c[2][j] = planar_key(rect.x0, rect.y1, s);
-      c[3][j] = planar_key(rect.x1, rect.y1, s);
-      largest = std::max(std::max(largest, std::max(c[0][j], c[1][j])), std::max(c[2][j], c[3][j]));
-    }
-    int64_t* dominated = wk.soa_dominated.data();
-    dominated_flags(c[0], c[1], c[2], c[3], static_cast<int>(k), dominance_margin(largest),
-                    dominated);
+    const int64_t* dominated = dominated_points(wk, p.x.data(), p.y.data(), p.size(), rect);
     size_t kept = 0;
-    for (size_t j = 0; j < k; ++j) {
+    for (size_t j = 0; j < p.size(); ++j) {
       p.x[kept] = p.x[j];
       p.y[kept] = p.y[j];
       p.id[kept] = p.id[j];
@@ -530,16 +499,10 @@ class ExactSolver {
       // nearest by the cheap box bound give a tight one without evaluating all of them (a dense
       // coast brings hundreds of candidates per block).
       wk.box_keys.resize(cands.size());
-      size_t near1 = 0, near2 = 0;
-      for (size_t j = 0; j < cands.size(); ++j) {
+      for (size_t j = 0; j < cands.size(); ++j)
         wk.box_keys[j] = site_box_rect_key(ctx_.local[cands[j]], rect);
-        if (wk.box_keys[j] < wk.box_keys[near1]) {
-          near2 = near1;
-          near1 = j;
-        } else if (j > 0 && (near2 == near1 || wk.box_keys[j] < wk.box_keys[near2])) {
-          near2 = j;
-        }
-      }
+      size_t near1, near2;
+      two_smallest(wk.box_keys.data(), cands.size(), near1, near2);
       double upper = site_rect_max_key(ctx_.local[cands[near1]], rect);
       if (near2 != near1) upper = std::min(upper, site_rect_max_key(ctx_.local[cands[near2]], rect));
       const double bound = keep_bound(upper);
@@ -550,19 +513,44 @@ class ExactSolver {
     } else {
       next = cands;
     }
-    const int64_t w = c1 - c0, h = r1 - r0;
-    // Stop splitting when one candidate is left, or the block is small and has few candidates.
-    // Many candidates (a dense, wiggly coast: every segment of a stretch of coast is nearly
-    // equidistant from a distant block) keep splitting down to 2x2, where they cannot survive.
-    const bool small = w * h <= kLeafCells && next.size() <= kLeafCandidates;
-    if (next.size() <= 1 || small || w * h <= 4 || depth + 2 >= static_cast<int>(wk.levels.size()))
+    if (is_leaf(wk, c1 - c0, r1 - r0, next.size(), depth))
       return solve_cells(wk, next, c0, r0, c1, r1, ctx_.max_key);
-    const int64_t cm = c0 + (w + 1) / 2, rm = r0 + (h + 1) / 2;
-    solve_block(wk, depth + 1, c0, r0, cm, rm);
-    if (cm < c1) solve_block(wk, depth + 1, cm, r0, c1, rm);
+    for_quadrants(c0, r0, c1, r1, [&](int64_t a0, int64_t b0, int64_t a1, int64_t b1) {
+      solve_block(wk, depth + 1, a0, b0, a1, b1);
+    });
+  }
+
+  // The indices of the two smallest of keys[0 .. k) (k >= 1; near2 == near1 when k == 1).
+  static void two_smallest(const double* keys, size_t k, size_t& near1, size_t& near2) {
+    near1 = near2 = 0;
+    for (size_t j = 1; j < k; ++j) {
+      if (keys[j] < keys[near1]) {
+        near2 = near1;
+        near1 = j;
+      } else if (near2 == near1 || keys[j] < keys[near2]) {
+        near2 = j;
+      }
+    }
+  }
+
+  // Stop splitting when one candidate is left, or the block is small and has few candidates.
+  // Many candidates (a dense, wiggly coast: every segment of a stretch of coast is nearly
+  // equidistant from a distant block) keep splitting down to 2x2, where they cannot survive.
+  static bool is_leaf(const Worker& wk, int64_t w, int64_t h, size_t candidates, int depth) {
+    const bool small = w * h <= kLeafCells && candidates <= kLeafCandidates;
+    return candidates <= 1 || small || w * h <= 4 ||
+           depth + 2 >= static_cast<int>(wk.levels.size());
+  }
+
+  // f(c0, r0, c1, r1) for each non-empty quadrant of the block, in row-major order.
+  template <class F>
+  static void for_quadrants(int64_t c0, int64_t r0, int64_t c1, int64_t r1, F&& f) {
+    const int64_t cm = c0 + (c1 - c0 + 1) / 2, rm = r0 + (r1 - r0 + 1) / 2;
+    f(c0, r0, cm, rm);
+    if (cm < c1) f(cm, r0, c1, rm);
     if (rm < r1) {
-      solve_block(wk, depth + 1, c0, rm, cm, r1);
-      if (cm < c1) solve_block(wk, depth + 1, cm, rm, c1, r1);
+      f(c0, rm, cm, r1);
+      if (cm < c1) f(cm, rm, c1, r1);
     }
   }
 
@@ -571,52 +559,45 @@ class ExactSolver {
   // is nearer at every cell centre in it and j cannot win there, not even by a tie. (For
   // segments the difference is not affine, so they are never dropped here.)
   void drop_dominated_points(Worker& wk, std::vector<int32_t>& cands, const Rect& rect) const {
-    const size_t k = cands.size();
-    double* corner = wk.corner_keys.data();
-    double* margin = wk.corner_margins.data();  // dominance_margin() of each corner key
-    bool* point = wk.corner_point.data();
     size_t points = 0;
-    for (size_t j = 0; j < k; ++j) {
-      point[j] = ctx_.local[cands[j]].inv_len2 == 0.0;
-      points += point[j];
+    for (size_t j = 0; j < cands.size(); ++j) {
+      const LocalSite& s = ctx_.local[cands[j]];
+      if (s.inv_len2 != 0.0) continue;
+      wk.dom_x[points] = s.ax;
+      wk.dom_y[points] = s.ay;
+      wk.dom_at[points++] = j;
     }
     if (points < 2) return;  // only a point dominates a point
+    const int64_t* dominated = dominated_points(wk, wk.dom_x.data(), wk.dom_y.data(), points, rect);
+    for (size_t i = 0; i < points; ++i)
+      if (dominated[i] != 0) cands[wk.dom_at[i]] = -1;
+    cands.erase(std::remove(cands.begin(), cands.end(), -1), cands.end());
+  }
+
+  // For k <= kDominanceMax points (x[j], y[j]) of a block: flags[j] != 0 where another of them
+  // is nearer at all four corners by more than dominance_margin (drop_dominated_points says why
+  // that is enough). One margin for the block, that of its largest corner key: the margin grows
+  // with the key, so it covers every corner, and per-corner margins cost four square roots per
+  // point. Every point is tested against every other without early exits (dominated_flags,
+  // vectorised): the outcomes are data-dependent coin flips, and mispredicted early exits cost
+  // more than the tests they skipped. Being dominated by a point that is itself dominated is
+  // still sound: whatever dominates that one is nearer still. The flags are wk.dom_flags.
+  const int64_t* dominated_points(Worker& wk, const double* x, const double* y, size_t k,
+                                  const Rect& rect) const {
+    double* c[4] = {wk.dom_corner[0].data(), wk.dom_corner[1].data(), wk.dom_corner[2].data(),
+                    wk.dom_corner[3].data()};
+    double largest = 0.0;
     for (size_t j = 0; j < k; ++j) {
-      const LocalSite& s = ctx_.local[cands[j]];
-      corner[4 * j + 0] = planar_key(rect.x0, rect.y0, s);
-      corner[4 * j + 1] = planar_key(rect.x1, rect.y0, s);
-      corner[4 * j + 2] = planar_key(rect.x0, rect.y1, s);
-      corner[4 * j + 3] = planar_key(rect.x1, rect.y1, s);
-      for (int q = 0; q < 4; ++q) margin[4 * j + q] = dominance_margin(corner[4 * j + q]);
+      const LocalSite s{x[j], y[j], 0.0, 0.0, 0.0};
+      c[0][j] = planar_key(rect.x0, rect.y0, s);
+      c[1][j] = planar_key(rect.x1, rect.y0, s);
+      c[2][j] = planar_key(rect.x0, rect.y1, s);
+      c[3][j] = planar_key(rect.x1, rect.y1, s);
+      largest = std::max(std::max(largest, std::max(c[0][j], c[1][j])), std::max(c[2][j], c[3][j]));
     }
-    // Each point is tested against every other without early exits: the outcomes are
-    // data-dependent coin flips, and the mispredicted branches of the earlier early-exit loops
-    // cost more than the tests they skipped (perf annotate put the largest share of this
-    // function's samples on them). Entries below `kept` are survivors, those between it and j
-    // the originals of candidates already decided, dropped ones included: being dominated by a
-    // dropped candidate is still sound, since whatever dropped it is nearer still.
-    size_t kept = 0;
-    for (size_t j = 0; j < k; ++j) {
-      const double* cj = corner + 4 * j;
-      const double* mj = margin + 4 * j;
-      bool dominated = false;
-      for (size_t i = 0; i < k && point[j]; ++i) {  // (segments are never dropped)
-        const double* ci = corner + 4 * i;
-        const bool all = (cj[0] - ci[0] > mj[0]) & (cj[1] - ci[1] > mj[1]) &
-                         (cj[2] - ci[2] > mj[2]) & (cj[3] - ci[3] > mj[3]);
-        dominated |= all & point[i] & (i != j);
-      }
-      if (!dominated) {
-        cands[kept] = cands[j];
-        point[kept] = point[j];
-        for (int q = 0; q < 4; ++q) {
-          corner[4 * kept + q] = corner[4 * j + q];
-          margin[4 * kept + q] = margin[4 * j + q];
-        }
-        ++kept;
-      }
-    }
-    cands.resize(kept);
+    dominated_flags(c[0], c[1], c[2], c[3], static_cast<int>(k), dominance_margin(largest),
+                    wk.dom_flags.data());
+    return wk.dom_flags.data();
   }
 
   // How much two computed keys near `key` may differ through rounding alone (generous).

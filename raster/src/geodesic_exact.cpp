@@ -315,7 +315,7 @@ struct GeoWorker {
 // 8-wide vector (a single register in the AVX-512 clone). Rows are padded to whole steps of both.
 constexpr int64_t kRowLanes = 4;
 constexpr int64_t kPointLanes = 8;
-constexpr int64_t kRowPad = 8;
+constexpr int64_t kRowPad = std::max(kRowLanes, kPointLanes);
 static_assert(kRowPad % kRowLanes == 0 && kRowPad % kPointLanes == 0, "rows padded to whole steps");
 using GeoV4 = double __attribute__((vector_size(32)));
 using GeoV8 = double __attribute__((vector_size(64)));
