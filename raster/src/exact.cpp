@@ -297,6 +297,18 @@ std::optional<BucketIndex> own_index(const EngineContext& ctx) {
   return std::optional<BucketIndex>(std::in_place, ctx.local, ctx.geometric);
 }
 
+// f(c0, r0, c1, r1) for each non-empty quadrant of the block, in row-major order.
+template <class F>
+void for_quadrants(int64_t c0, int64_t r0, int64_t c1, int64_t r1, F&& f) {
+  const int64_t cm = c0 + (c1 - c0 + 1) / 2, rm = r0 + (r1 - r0 + 1) / 2;
+  f(c0, r0, cm, rm);
+  if (cm < c1) f(cm, r0, c1, rm);
+  if (rm < r1) {
+    f(c0, rm, cm, r1);
+    if (cm < c1) f(cm, rm, c1, r1);
+  }
+}
+
 class ExactSolver {
  public:
   ExactSolver(const EngineContext& ctx, Raster<int32_t>& site, Raster<float>& distance)
@@ -540,18 +552,6 @@ class ExactSolver {
     const bool small = w * h <= kLeafCells && candidates <= kLeafCandidates;
     return candidates <= 1 || small || w * h <= 4 ||
            depth + 2 >= static_cast<int>(wk.levels.size());
-  }
-
-  // f(c0, r0, c1, r1) for each non-empty quadrant of the block, in row-major order.
-  template <class F>
-  static void for_quadrants(int64_t c0, int64_t r0, int64_t c1, int64_t r1, F&& f) {
-    const int64_t cm = c0 + (c1 - c0 + 1) / 2, rm = r0 + (r1 - r0 + 1) / 2;
-    f(c0, r0, cm, rm);
-    if (cm < c1) f(cm, r0, c1, rm);
-    if (rm < r1) {
-      f(c0, rm, cm, r1);
-      if (cm < c1) f(cm, rm, c1, r1);
-    }
   }
 
   // For two point sites, d(p, j)^2 - d(p, i)^2 is an affine function of p, so if site i is
@@ -799,13 +799,9 @@ class OtherOwnerSolver {
     const int64_t w = c1 - c0, h = r1 - r0;
     if (next.size() <= 1 || w * h <= kLeafCells || depth + 2 >= static_cast<int>(wk.levels.size()))
       return solve_cells(wk, owners, next, c0, r0, c1, r1);
-    const int64_t cm = c0 + (w + 1) / 2, rm = r0 + (h + 1) / 2;
-    solve_block(wk, owners, depth + 1, c0, r0, cm, rm);
-    if (cm < c1) solve_block(wk, owners, depth + 1, cm, r0, c1, rm);
-    if (rm < r1) {
-      solve_block(wk, owners, depth + 1, c0, rm, cm, r1);
-      if (cm < c1) solve_block(wk, owners, depth + 1, cm, rm, c1, r1);
-    }
+    for_quadrants(c0, r0, c1, r1, [&](int64_t a0, int64_t b0, int64_t a1, int64_t b1) {
+      solve_block(wk, owners, depth + 1, a0, b0, a1, b1);
+    });
   }
 
   void fill_none(int64_t c0, int64_t r0, int64_t c1, int64_t r1) {
