@@ -734,7 +734,8 @@ def streamed_phases(t):
         return ""
     return (f" (streamed: {st['strips']} strips of {st['rows_per_strip']} rows, compute and write overlapped in "
             f"{st['wall']:.3g} s of wall time; the engine waited {st['compute_waited_for_writer']:.3g} s for the "
-            f"writer, the writer {st['writer_waited_for_compute']:.3g} s for the engine)")
+            f"writers, the writers (one thread per file, the longest wait) {st['writer_waited_for_compute']:.3g} s "
+            f"for the engine)")
 
 
 def goals(case, results, engine=(None, None)):
@@ -753,11 +754,17 @@ def goals(case, results, engine=(None, None)):
                f"with 50 000 seeds on 2 cores).")
     st = t.get("streamed")
     if st:
+        # The writers run side by side (one thread per file), so their times overlap each other
+        # as well as the engine's: what encoding adds to the command is the overlapped phase's
+        # wall time beyond the engine's own.
+        extra = max(st["wall"] - ex.compute_s, 0.0)
         out.append(f"- The whole command: {ex.command_s:.3g} s, streamed in {st['strips']} strips of "
                    f"{st['rows_per_strip']} rows: the engine computed for {ex.compute_s:.3g} s "
-                   f"({100 * ex.compute_s / ex.command_s:.0f} % of the command) while a writer thread encoded the "
-                   f"GeoTIFFs (ownership + distance) for {writes:.3g} s ({100 * writes / ex.command_s:.0f} %); "
-                   f"the two overlapped in {st['wall']:.3g} s of wall time, reading the seeds took {t['read']:.3g} s "
+                   f"({100 * ex.compute_s / ex.command_s:.0f} % of the command) while one writer thread per file "
+                   f"encoded the GeoTIFFs side by side (ownership {t['write']['ownership']:.3g} s, distance "
+                   f"{t['write']['distance']:.3g} s); the two overlapped in {st['wall']:.3g} s of wall time, so "
+                   f"encoding kept the command going {extra:.3g} s beyond the computation "
+                   f"({100 * extra / ex.command_s:.0f} % of the command); reading the seeds took {t['read']:.3g} s "
                    f"(goal: not dominated by encoding).")
     else:
         out.append(f"- The whole command: {ex.command_s:.3g} s, of which GeoTIFF writing (ownership + distance) "

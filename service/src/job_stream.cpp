@@ -3,9 +3,9 @@
 // Why this shape: at 1e8 cells the whole-field path spent more time having the kernel zero fresh
 // pages (the field, then an owner raster copy) and encoding than computing, one after the other.
 // Here the engine computes every strip into the same two buffers (compute_into reuses them, so
-// pages are faulted once per buffer, not once per cell), and the writer thread encodes strip k
-// while the engine computes strip k+1. Two buffers suffice: the engine never waits unless the
-// encoder is slower, and then a third buffer would only delay the wait.
+// pages are faulted once per buffer, not once per cell), and the writer threads (one per file)
+// encode strip k while the engine computes strip k+1. Two buffers suffice: the engine never waits
+// unless the encoder is slower, and then a third buffer would only delay the wait.
 //
 // Determinism: strips are computed and written in row order, each strip's cells equal the
 // whole grid's (exact and brute force compute any window identically), and the conversion is
@@ -23,6 +23,7 @@
 #include <optional>
 #include <thread>
 #include <variant>
+#include <vector>
 
 #include <sys/resource.h>
 #include <unistd.h>
@@ -36,7 +37,7 @@ namespace {
 using Clock = std::chrono::steady_clock;
 double seconds_since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
 
-// The writer thread's nice value. The engine's threads and the encoders compete for the same
+// The writer threads' nice value. The engine's threads and the encoders compete for the same
 // cores; with equal priority the engine ran about 1.7x slower than alone (1e8 cells, 2 cores),
 // and strips waited for nothing faster to happen. At a lower priority the encoders use the time
 // the engine leaves (it waits for a free strip buffer anyway when they are the slower side): on
@@ -77,10 +78,14 @@ AnyWriter open_writer(const StreamTarget& t, const GridSpec& grid) {
   return GeoTiffStripWriter<int32_t>(t.path, grid, grid.full_window(), 0.0, t.options);
 }
 
-// The bounded hand-off between the computing thread and the writer thread.
+// The bounded hand-off between the computing thread and the writer threads (one per file).
+// Every writer takes every strip, in the order the strips were filled; a strip buffer is free
+// again once the last writer is done with it.
 class Handoff {
  public:
-  // Computing side: a free strip buffer, or nullopt once the writer has failed.
+  explicit Handoff(int writers) : writers_(writers) {}
+
+  // Computing side: a free strip buffer, or nullopt once a writer has failed.
   std::optional<int> take_free(double& waited) {
     const auto t = Clock::now();
     std::unique_lock lock(mutex_);
@@ -94,7 +99,8 @@ class Handoff {
   void put_filled(int k) {
     {
       std::lock_guard lock(mutex_);
-      filled_.push_back(k);
+      order_.push_back(k);
+      pending_[static_cast<size_t>(k)] = writers_;
     }
     cv_.notify_all();
   }
@@ -105,7 +111,7 @@ class Handoff {
     }
     cv_.notify_all();
   }
-  // Stops the writer at its next wait (the computing side failed).
+  // Stops the writers at their next wait (the computing side failed).
   void stop() {
     {
       std::lock_guard lock(mutex_);
@@ -114,20 +120,21 @@ class Handoff {
     cv_.notify_all();
   }
 
-  // Writer side: the next filled strip; nullopt when closed and drained, or stopped.
-  std::optional<int> take_filled(double& waited) {
+  // Writer side: the strip filled `seq`-th (0, 1, ...); nullopt when closed and drained, or
+  // stopped.
+  std::optional<int> take_filled(size_t seq, double& waited) {
     const auto t = Clock::now();
     std::unique_lock lock(mutex_);
-    cv_.wait(lock, [&] { return stopped_ || closed_ || !filled_.empty(); });
+    cv_.wait(lock, [&] { return stopped_ || closed_ || seq < order_.size(); });
     waited += seconds_since(t);
-    if (stopped_ || filled_.empty()) return std::nullopt;
-    const int k = filled_.front();
-    filled_.pop_front();
-    return k;
+    if (stopped_ || seq >= order_.size()) return std::nullopt;
+    return order_[seq];
   }
-  void put_free(int k, int64_t rows) {
+  // Writer side: done with strip buffer k (its rows are in the writer's file).
+  void put_done(int k, int64_t rows) {
     {
       std::lock_guard lock(mutex_);
+      if (--pending_[static_cast<size_t>(k)] > 0) return;
       free_.push_back(k);
       rows_written_ += rows;
     }
@@ -136,26 +143,27 @@ class Handoff {
   void fail(std::exception_ptr e) {
     {
       std::lock_guard lock(mutex_);
-      error_ = std::move(e);
+      if (!error_) error_ = std::move(e);
     }
     cv_.notify_all();
   }
+  // Writer side: its file is complete and in place.
   void finished() {
     {
       std::lock_guard lock(mutex_);
-      finished_ = true;
+      ++finished_;
     }
     cv_.notify_all();
   }
 
-  // Computing side, after close(): waits until the writer is done or failed, calling
-  // on_rows(rows written) whenever more rows are written. Rethrows the writer's error.
+  // Computing side, after close(): waits until every writer is done or one failed, calling
+  // on_rows(rows written by all) whenever more rows are written. Rethrows a writer's error.
   template <class F>
   void wait_finished(F&& on_rows) {
     std::unique_lock lock(mutex_);
     int64_t seen = -1;
     for (;;) {
-      cv_.wait(lock, [&] { return error_ || finished_ || rows_written_ != seen; });
+      cv_.wait(lock, [&] { return error_ || finished_ == writers_ || rows_written_ != seen; });
       if (error_) std::rethrow_exception(error_);
       if (rows_written_ != seen) {
         seen = rows_written_;
@@ -163,20 +171,27 @@ class Handoff {
         on_rows(seen);
         lock.lock();
       }
-      if (finished_) return;
+      if (finished_ == writers_) return;
     }
   }
   std::exception_ptr error() {
     std::lock_guard lock(mutex_);
     return error_;
   }
-  void add_free(int k) { free_.push_back(k); }
+  void add_free(int k) {
+    free_.push_back(k);
+    if (pending_.size() <= static_cast<size_t>(k)) pending_.resize(static_cast<size_t>(k) + 1, 0);
+  }
 
  private:
+  const int writers_;
   std::mutex mutex_;
   std::condition_variable cv_;
-  std::deque<int> free_, filled_;
-  bool closed_ = false, stopped_ = false, finished_ = false;
+  std::deque<int> free_;
+  std::vector<int> order_;    // strip buffers in the order they were filled
+  std::vector<int> pending_;  // per strip buffer: writers not yet done with it
+  bool closed_ = false, stopped_ = false;
+  int finished_ = 0;
   int64_t rows_written_ = 0;
   std::exception_ptr error_;
 };
@@ -210,59 +225,60 @@ StreamStats run_streamed(const StreamJob& job) {
   std::vector<double> write_seconds(job.targets.size(), 0.0);
 
   std::array<Strip, 2> strips;
-  Handoff handoff;
+  Handoff handoff(static_cast<int>(writers.size()));
   for (int k = 0; k < static_cast<int>(strips.size()); ++k) handoff.add_free(k);
 
-  // The writer thread: encodes strips in order, then finishes every file in target order.
-  double write_waited = 0.0;
-  auto write_loop = [&] {
+  // One writer thread per file: each encodes every strip in order into its file, then finishes
+  // it. The files are independent GDAL datasets, so they are encoded side by side (one thread
+  // handing both files' tiles to GDAL was the command's serial part: 1e8 cells, see
+  // bench/RESULTS-encoding.md).
+  std::vector<double> write_waited(writers.size(), 0.0);
+  auto write_loop = [&](size_t i) {
     lower_priority();
     try {
-      while (const std::optional<int> k = handoff.take_filled(write_waited)) {
+      for (size_t seq = 0;; ++seq) {
+        const std::optional<int> k = handoff.take_filled(seq, write_waited[i]);
+        if (!k) break;
         const Strip& s = strips[static_cast<size_t>(*k)];
-        for (size_t i = 0; i < writers.size(); ++i) {
-          const auto t = Clock::now();
-          switch (job.targets[i].product) {
-            case StreamTarget::Product::ownership:
-              std::get<GeoTiffStripWriter<int32_t>>(writers[i]).write_rows(s.owners.data(), s.rows);
-              break;
-            case StreamTarget::Product::nearest_feature:
-              std::get<GeoTiffStripWriter<int32_t>>(writers[i]).write_rows(s.features.data(), s.rows);
-              break;
-            case StreamTarget::Product::distance:
-              std::get<GeoTiffStripWriter<float>>(writers[i]).write_rows(s.field.distance.data(), s.rows);
-              break;
-          }
-          write_seconds[i] += seconds_since(t);
-        }
-        handoff.put_free(*k, s.rows);
-      }
-      // Closed and drained (a stop leaves rows missing; the writers then abort when destroyed).
-      bool complete = true;
-      for (const AnyWriter& w : writers)
-        complete = complete && std::visit([&](const auto& x) { return x.rows_written() == height; }, w);
-      if (!complete) return;
-      for (size_t i = 0; i < writers.size(); ++i) {
         const auto t = Clock::now();
-        std::visit([](auto& x) { x.finish(); }, writers[i]);
+        switch (job.targets[i].product) {
+          case StreamTarget::Product::ownership:
+            std::get<GeoTiffStripWriter<int32_t>>(writers[i]).write_rows(s.owners.data(), s.rows);
+            break;
+          case StreamTarget::Product::nearest_feature:
+            std::get<GeoTiffStripWriter<int32_t>>(writers[i]).write_rows(s.features.data(), s.rows);
+            break;
+          case StreamTarget::Product::distance:
+            std::get<GeoTiffStripWriter<float>>(writers[i])
+                .write_rows(s.field.distance.data(), s.rows);
+            break;
+        }
         write_seconds[i] += seconds_since(t);
+        handoff.put_done(*k, s.rows);
       }
+      // Closed and drained (a stop leaves rows missing; the writer then aborts when destroyed).
+      if (std::visit([&](const auto& x) { return x.rows_written() != height; }, writers[i])) return;
+      const auto t = Clock::now();
+      std::visit([](auto& x) { x.finish(); }, writers[i]);
+      write_seconds[i] += seconds_since(t);
       handoff.finished();
     } catch (...) {
       handoff.fail(std::current_exception());
     }
   };
 
-  // Joins the writer on every way out; on an exception it is stopped first.
+  // Joins the writers on every way out; on an exception they are stopped first.
   struct Joiner {
     Handoff& handoff;
-    std::thread thread;
-    ~Joiner() {
-      if (!thread.joinable()) return;
+    std::vector<std::thread> threads;
+    ~Joiner() { join(); }
+    void join() {
       handoff.stop();
-      thread.join();
+      for (std::thread& t : threads)
+        if (t.joinable()) t.join();
     }
-  } joiner{handoff, std::thread(write_loop)};
+  } joiner{handoff, {}};
+  for (size_t i = 0; i < writers.size(); ++i) joiner.threads.emplace_back(write_loop, i);
 
   // Engine progress is per strip; the job's is over the grid, forwarded in whole percents.
   int last_percent = -1;
@@ -311,8 +327,9 @@ StreamStats run_streamed(const StreamJob& job) {
   handoff.wait_finished([&](int64_t rows) {
     report("write", static_cast<double>(rows) / static_cast<double>(height));
   });
-  joiner.thread.join();
-  stats.write_waited = write_waited;
+  joiner.join();
+  // The writers wait side by side: the longest wait is the time the files waited for the engine.
+  stats.write_waited = *std::max_element(write_waited.begin(), write_waited.end());
   for (size_t i = 0; i < job.targets.size(); ++i) stats.write[job.targets[i].name] = write_seconds[i];
   stats.wall = seconds_since(start);
   return stats;

@@ -1,6 +1,7 @@
 // Internal to run_job (rv/job.hpp): the streaming path. The grid is computed in strips of whole
-// rows on the calling thread and encoded into GeoTIFFs on one writer thread, two strips in
-// flight at most (a bounded hand-off), so that encoding strip k overlaps computing strip k+1.
+// rows on the calling thread and encoded into GeoTIFFs by one writer thread per file, two strips
+// in flight at most (a bounded hand-off), so that encoding strip k overlaps computing strip k+1
+// and the files are encoded side by side.
 // Not part of the public API.
 #pragma once
 
@@ -44,9 +45,9 @@ struct StreamJob {
 struct StreamStats {
   double compute = 0.0;         // the engine's own time, summed over strips
   double convert = 0.0;         // site ids -> codes, unit scaling, on the computing thread
-  std::map<std::string, double> write;  // per target: encoding and finishing on the writer thread
+  std::map<std::string, double> write;  // per target: encoding and finishing on its writer thread
   double compute_waited = 0.0;  // the computing thread waiting for a free strip buffer
-  double write_waited = 0.0;    // the writer thread waiting for a computed strip
+  double write_waited = 0.0;    // the writer threads waiting for a computed strip (the longest)
   double wall = 0.0;            // from the first strip's start to the last file in place
   int64_t strips = 0;
   int64_t contested_cells = 0;
@@ -54,7 +55,7 @@ struct StreamStats {
 };
 
 // Computes and writes. Throws what compute_into() and GeoTiffStripWriter throw; on any failure
-// (cancellation included) the writer thread is stopped and no target's file is left, apart from
+// (cancellation included) the writer threads are stopped and no target's file is left, apart from
 // those already renamed into place, which will_write() has announced to the caller's guard.
 StreamStats run_streamed(const StreamJob& job);
 
