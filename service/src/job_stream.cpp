@@ -125,16 +125,20 @@ class Handoff {
   std::optional<int> take_filled(size_t seq, double& waited) {
     const auto t = Clock::now();
     std::unique_lock lock(mutex_);
-    cv_.wait(lock, [&] { return stopped_ || closed_ || seq < order_.size(); });
+    cv_.wait(lock, [&] { return stopped_ || closed_ || seq < first_ + order_.size(); });
     waited += seconds_since(t);
-    if (stopped_ || seq >= order_.size()) return std::nullopt;
-    return order_[seq];
+    if (stopped_ || seq >= first_ + order_.size()) return std::nullopt;
+    return order_[seq - first_];
   }
   // Writer side: done with strip buffer k (its rows are in the writer's file).
   void put_done(int k, int64_t rows) {
     {
       std::lock_guard lock(mutex_);
       if (--pending_[static_cast<size_t>(k)] > 0) return;
+      // Every writer takes the strips in fill order, so the last one done with a strip is done
+      // with every earlier strip: this is the oldest strip in flight.
+      order_.pop_front();
+      ++first_;
       free_.push_back(k);
       rows_written_ += rows;
     }
@@ -188,7 +192,8 @@ class Handoff {
   std::mutex mutex_;
   std::condition_variable cv_;
   std::deque<int> free_;
-  std::vector<int> order_;    // strip buffers in the order they were filled
+  std::deque<int> order_;     // strips in flight (filled, some writer not done), in fill order
+  size_t first_ = 0;          // the fill sequence number of order_.front()
   std::vector<int> pending_;  // per strip buffer: writers not yet done with it
   bool closed_ = false, stopped_ = false;
   int finished_ = 0;
