@@ -1,0 +1,154 @@
+// Internal to the streaming path (job_stream.cpp): the bounded hand-off of strip buffers
+// between the thread that computes strips and the writer threads, one per file. Not part of the
+// public API.
+//
+// Contract: the computing side takes a free buffer (take_free), fills it and hands it over
+// (put_filled); close() after the last strip, then wait_finished(). Writer i takes the strips
+// by fill sequence number 0, 1, ... (take_filled), writes each into its file, gives it back
+// (put_done), and after the last one calls finished(); on an error it calls fail(). A buffer is
+// free again only when every writer has given it back, so the writers are never more than the
+// number of buffers apart. The first error is kept: take_free then returns nullopt and
+// wait_finished rethrows it. stop() (the computing side failed) makes every waiting writer's
+// take_filled return nullopt. Every member is thread safe; add_free() is for set-up, before
+// other threads use the object.
+#pragma once
+
+#include <chrono>
+#include <condition_variable>
+#include <cstddef>
+#include <cstdint>
+#include <deque>
+#include <exception>
+#include <mutex>
+#include <optional>
+#include <vector>
+
+namespace rv::detail {
+
+class StripHandoff {
+  using Clock = std::chrono::steady_clock;
+  static double seconds_since(Clock::time_point t) {
+    return std::chrono::duration<double>(Clock::now() - t).count();
+  }
+
+ public:
+  explicit StripHandoff(int writers) : writers_(writers) {}
+
+  // Computing side: a free strip buffer, or nullopt once a writer has failed. `waited` grows by
+  // the seconds spent waiting.
+  std::optional<int> take_free(double& waited) {
+    const auto t = Clock::now();
+    std::unique_lock lock(mutex_);
+    cv_.wait(lock, [&] { return error_ || !free_.empty(); });
+    waited += seconds_since(t);
+    if (error_) return std::nullopt;
+    const int k = free_.front();
+    free_.pop_front();
+    return k;
+  }
+  void put_filled(int k) {
+    {
+      std::lock_guard lock(mutex_);
+      order_.push_back(k);
+      pending_[static_cast<size_t>(k)] = writers_;
+    }
+    cv_.notify_all();
+  }
+  void close() {
+    {
+      std::lock_guard lock(mutex_);
+      closed_ = true;
+    }
+    cv_.notify_all();
+  }
+  // Stops the writers at their next wait (the computing side failed).
+  void stop() {
+    {
+      std::lock_guard lock(mutex_);
+      stopped_ = true;
+    }
+    cv_.notify_all();
+  }
+
+  // Writer side: the strip filled `seq`-th (0, 1, ...); nullopt when closed and drained, or
+  // stopped.
+  std::optional<int> take_filled(size_t seq, double& waited) {
+    const auto t = Clock::now();
+    std::unique_lock lock(mutex_);
+    cv_.wait(lock, [&] { return stopped_ || closed_ || seq < first_ + order_.size(); });
+    waited += seconds_since(t);
+    if (stopped_ || seq >= first_ + order_.size()) return std::nullopt;
+    return order_[seq - first_];
+  }
+  // Writer side: done with strip buffer k (its rows are in the writer's file).
+  void put_done(int k, int64_t rows) {
+    {
+      std::lock_guard lock(mutex_);
+      if (--pending_[static_cast<size_t>(k)] > 0) return;
+      // Every writer takes the strips in fill order, so the last one done with a strip is done
+      // with every earlier strip: this is the oldest strip in flight.
+      order_.pop_front();
+      ++first_;
+      free_.push_back(k);
+      rows_written_ += rows;
+    }
+    cv_.notify_all();
+  }
+  void fail(std::exception_ptr e) {
+    {
+      std::lock_guard lock(mutex_);
+      if (!error_) error_ = std::move(e);
+    }
+    cv_.notify_all();
+  }
+  // Writer side: its file is complete and in place.
+  void finished() {
+    {
+      std::lock_guard lock(mutex_);
+      ++finished_;
+    }
+    cv_.notify_all();
+  }
+
+  // Computing side, after close(): waits until every writer is done or one failed, calling
+  // on_rows(rows written by all) whenever more rows are written. Rethrows a writer's error.
+  template <class F>
+  void wait_finished(F&& on_rows) {
+    std::unique_lock lock(mutex_);
+    int64_t seen = -1;
+    for (;;) {
+      cv_.wait(lock, [&] { return error_ || finished_ == writers_ || rows_written_ != seen; });
+      if (error_) std::rethrow_exception(error_);
+      if (rows_written_ != seen) {
+        seen = rows_written_;
+        lock.unlock();
+        on_rows(seen);
+        lock.lock();
+      }
+      if (finished_ == writers_) return;
+    }
+  }
+  std::exception_ptr error() {
+    std::lock_guard lock(mutex_);
+    return error_;
+  }
+  void add_free(int k) {
+    free_.push_back(k);
+    if (pending_.size() <= static_cast<size_t>(k)) pending_.resize(static_cast<size_t>(k) + 1, 0);
+  }
+
+ private:
+  const int writers_;
+  std::mutex mutex_;
+  std::condition_variable cv_;
+  std::deque<int> free_;
+  std::deque<int> order_;     // strips in flight (filled, some writer not done), in fill order
+  size_t first_ = 0;          // the fill sequence number of order_.front()
+  std::vector<int> pending_;  // per strip buffer: writers not yet done with it
+  bool closed_ = false, stopped_ = false;
+  int finished_ = 0;
+  int64_t rows_written_ = 0;
+  std::exception_ptr error_;
+};
+
+}  // namespace rv::detail

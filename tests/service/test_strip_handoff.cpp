@@ -1,0 +1,172 @@
+// The streaming path's hand-off of strip buffers between the computing thread and one writer
+// thread per file (service/src/strip_handoff.hpp), driven directly: every writer sees every
+// strip in fill order, a buffer comes back to the computing side only when every writer is done
+// with it, and a writer's failure or the computing side's stop ends the stream without a hang
+// (a hang fails the test by CTest's timeout).
+#include <gtest/gtest.h>
+
+#include <array>
+#include <atomic>
+#include <optional>
+#include <stdexcept>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "strip_handoff.hpp"
+
+namespace rv::detail {
+namespace {
+
+constexpr int kBuffers = 2;
+
+// What a writer saw: the strip numbers it read out of the buffers, in the order it took them.
+struct Seen {
+  std::vector<int> strips;
+  bool finished = false;
+};
+
+// The computing side: fills `strips` strips into kBuffers buffers (each buffer holds the number
+// of the strip in it), checks that no buffer it gets back is still wanted by a writer, closes and
+// waits. Returns the number of strips it filled before the hand-off refused a buffer.
+int produce(StripHandoff& h, std::array<std::atomic<int>, kBuffers>& buffer,
+            std::array<std::atomic<int>, kBuffers>& readers_left, int strips, int writers) {
+  double waited = 0.0;
+  for (int s = 0; s < strips; ++s) {
+    const std::optional<int> k = h.take_free(waited);
+    if (!k) return s;
+    // Every writer has given this buffer back: none may still be reading it.
+    EXPECT_EQ(readers_left[static_cast<size_t>(*k)].load(), 0) << "strip " << s;
+    buffer[static_cast<size_t>(*k)] = s;
+    readers_left[static_cast<size_t>(*k)] = writers;
+    h.put_filled(*k);
+  }
+  h.close();
+  return strips;
+}
+
+// A writer: takes every strip in turn; `fail_at` >= 0 makes it fail on that strip.
+void consume(StripHandoff& h, std::array<std::atomic<int>, kBuffers>& buffer,
+             std::array<std::atomic<int>, kBuffers>& readers_left, Seen& seen, int fail_at) {
+  double waited = 0.0;
+  try {
+    for (size_t seq = 0;; ++seq) {
+      const std::optional<int> k = h.take_filled(seq, waited);
+      if (!k) return;
+      const int strip = buffer[static_cast<size_t>(*k)].load();
+      if (strip == fail_at) throw std::runtime_error("cannot write strip " + std::to_string(strip));
+      seen.strips.push_back(strip);
+      std::this_thread::yield();  // let the others overtake, or fall behind
+      --readers_left[static_cast<size_t>(*k)];
+      h.put_done(*k, 10);
+    }
+  } catch (...) {
+    h.fail(std::current_exception());
+    return;
+  }
+}
+
+TEST(StripHandoff, EveryWriterSeesEveryStripInOrderAndBuffersComeBackOnlyWhenAllAreDone) {
+  for (const int writers : {1, 2, 3}) {
+    SCOPED_TRACE("writers " + std::to_string(writers));
+    constexpr int kStrips = 200;
+    StripHandoff h(writers);
+    for (int k = 0; k < kBuffers; ++k) h.add_free(k);
+    std::array<std::atomic<int>, kBuffers> buffer{}, readers_left{};
+    std::vector<Seen> seen(static_cast<size_t>(writers));
+    std::vector<std::thread> threads;
+    for (int i = 0; i < writers; ++i)
+      threads.emplace_back([&, i] {
+        consume(h, buffer, readers_left, seen[static_cast<size_t>(i)], -1);
+        h.finished();
+      });
+    EXPECT_EQ(produce(h, buffer, readers_left, kStrips, writers), kStrips);
+    std::vector<int64_t> rows;
+    h.wait_finished([&](int64_t r) { rows.push_back(r); });
+    for (std::thread& t : threads) t.join();
+    for (const Seen& s : seen) {
+      ASSERT_EQ(s.strips.size(), static_cast<size_t>(kStrips));
+      for (int i = 0; i < kStrips; ++i) EXPECT_EQ(s.strips[static_cast<size_t>(i)], i);
+    }
+    // Rows count when every writer has a strip: they only grow, and end at all of them.
+    ASSERT_FALSE(rows.empty());
+    for (size_t i = 1; i < rows.size(); ++i) EXPECT_GT(rows[i], rows[i - 1]);
+    EXPECT_EQ(rows.back(), int64_t{10} * kStrips);
+    EXPECT_EQ(h.error(), nullptr);
+  }
+}
+
+TEST(StripHandoff, AWriterFailingMidStreamStopsTheComputingSideWithItsError) {
+  constexpr int kStrips = 50, kFailAt = 7;
+  StripHandoff h(3);
+  for (int k = 0; k < kBuffers; ++k) h.add_free(k);
+  std::array<std::atomic<int>, kBuffers> buffer{}, readers_left{};
+  std::vector<Seen> seen(3);
+  std::vector<std::thread> threads;
+  for (int i = 0; i < 3; ++i)
+    threads.emplace_back([&, i] {
+      consume(h, buffer, readers_left, seen[static_cast<size_t>(i)], i == 1 ? kFailAt : -1);
+    });
+  // The failing writer never gives strip kFailAt back, so at most kBuffers more are filled.
+  const int filled = produce(h, buffer, readers_left, kStrips, 3);
+  EXPECT_GE(filled, kFailAt + 1);
+  EXPECT_LE(filled, kFailAt + kBuffers);
+  ASSERT_NE(h.error(), nullptr);
+  try {
+    std::rethrow_exception(h.error());
+  } catch (const std::runtime_error& e) {
+    EXPECT_EQ(std::string(e.what()), "cannot write strip " + std::to_string(kFailAt));
+  }
+  // What the job does next: stop the writers still waiting for strips, join them.
+  h.stop();
+  for (std::thread& t : threads) t.join();
+  EXPECT_EQ(seen[1].strips.size(), static_cast<size_t>(kFailAt));
+  for (const Seen& s : seen) EXPECT_LE(s.strips.size(), static_cast<size_t>(filled));
+}
+
+TEST(StripHandoff, WaitFinishedRethrowsAnErrorAfterTheLastStrip) {
+  // Every strip written, then one writer fails while finishing its file (a rename, say): the
+  // computing side, already waiting, gets that error, not a hang.
+  StripHandoff h(2);
+  for (int k = 0; k < kBuffers; ++k) h.add_free(k);
+  std::array<std::atomic<int>, kBuffers> buffer{}, readers_left{};
+  std::vector<Seen> seen(2);
+  std::vector<std::thread> threads;
+  threads.emplace_back([&] {
+    consume(h, buffer, readers_left, seen[0], -1);
+    h.finished();
+  });
+  threads.emplace_back([&] {
+    consume(h, buffer, readers_left, seen[1], -1);
+    h.fail(std::make_exception_ptr(std::runtime_error("rename failed")));
+  });
+  EXPECT_EQ(produce(h, buffer, readers_left, 20, 2), 20);
+  EXPECT_THROW(h.wait_finished([](int64_t) {}), std::runtime_error);
+  for (std::thread& t : threads) t.join();
+  EXPECT_EQ(seen[0].strips.size(), 20u);
+  EXPECT_EQ(seen[1].strips.size(), 20u);
+}
+
+TEST(StripHandoff, StopReleasesWritersWaitingForStrips) {
+  StripHandoff h(2);
+  for (int k = 0; k < kBuffers; ++k) h.add_free(k);
+  std::array<std::atomic<int>, kBuffers> buffer{}, readers_left{};
+  std::vector<Seen> seen(2);
+  std::vector<std::thread> threads;
+  for (int i = 0; i < 2; ++i)
+    threads.emplace_back(
+        [&, i] { consume(h, buffer, readers_left, seen[static_cast<size_t>(i)], -1); });
+  double waited = 0.0;
+  const std::optional<int> k = h.take_free(waited);
+  ASSERT_TRUE(k);
+  buffer[static_cast<size_t>(*k)] = 0;
+  readers_left[static_cast<size_t>(*k)] = 2;
+  h.put_filled(*k);
+  h.stop();  // the computing side failed after one strip: the writers wait for a second
+  for (std::thread& t : threads) t.join();
+  for (const Seen& s : seen) EXPECT_LE(s.strips.size(), 1u);
+  EXPECT_EQ(h.error(), nullptr);
+}
+
+}  // namespace
+}  // namespace rv::detail
