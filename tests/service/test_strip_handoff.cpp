@@ -66,25 +66,46 @@ void consume(StripHandoff& h, std::array<std::atomic<int>, kBuffers>& buffer,
   }
 }
 
+// A hand-off with its buffers free, what the buffers hold, and per writer what it saw.
+struct Rig {
+  explicit Rig(int writers) : h(writers), seen(static_cast<size_t>(writers)) {
+    for (int k = 0; k < kBuffers; ++k) h.add_free(k);
+  }
+  // Writer i's thread: consume() (failing at `fail_at` if >= 0), then `then` (finished(), a
+  // failure of its own, or nothing).
+  template <class Then>
+  void start(int i, int fail_at, Then then) {
+    threads.emplace_back([this, i, fail_at, then] {
+      consume(h, buffer, readers_left, seen[static_cast<size_t>(i)], fail_at);
+      then(h);
+    });
+  }
+  int produce(int strips) {
+    return rv::detail::produce(h, buffer, readers_left, strips, static_cast<int>(seen.size()));
+  }
+  void join() {
+    for (std::thread& t : threads) t.join();
+  }
+  StripHandoff h;
+  std::array<std::atomic<int>, kBuffers> buffer{}, readers_left{};
+  std::vector<Seen> seen;
+  std::vector<std::thread> threads;
+};
+
+const auto kFinish = [](StripHandoff& h) { h.finished(); };
+const auto kNothing = [](StripHandoff&) {};
+
 TEST(StripHandoff, EveryWriterSeesEveryStripInOrderAndBuffersComeBackOnlyWhenAllAreDone) {
   for (const int writers : {1, 2, 3}) {
     SCOPED_TRACE("writers " + std::to_string(writers));
     constexpr int kStrips = 200;
-    StripHandoff h(writers);
-    for (int k = 0; k < kBuffers; ++k) h.add_free(k);
-    std::array<std::atomic<int>, kBuffers> buffer{}, readers_left{};
-    std::vector<Seen> seen(static_cast<size_t>(writers));
-    std::vector<std::thread> threads;
-    for (int i = 0; i < writers; ++i)
-      threads.emplace_back([&, i] {
-        consume(h, buffer, readers_left, seen[static_cast<size_t>(i)], -1);
-        h.finished();
-      });
-    EXPECT_EQ(produce(h, buffer, readers_left, kStrips, writers), kStrips);
+    Rig rig(writers);
+    for (int i = 0; i < writers; ++i) rig.start(i, -1, kFinish);
+    EXPECT_EQ(rig.produce(kStrips), kStrips);
     std::vector<int64_t> rows;
-    h.wait_finished([&](int64_t r) { rows.push_back(r); });
-    for (std::thread& t : threads) t.join();
-    for (const Seen& s : seen) {
+    rig.h.wait_finished([&](int64_t r) { rows.push_back(r); });
+    rig.join();
+    for (const Seen& s : rig.seen) {
       ASSERT_EQ(s.strips.size(), static_cast<size_t>(kStrips));
       for (int i = 0; i < kStrips; ++i) EXPECT_EQ(s.strips[static_cast<size_t>(i)], i);
     }
@@ -92,80 +113,58 @@ TEST(StripHandoff, EveryWriterSeesEveryStripInOrderAndBuffersComeBackOnlyWhenAll
     ASSERT_FALSE(rows.empty());
     for (size_t i = 1; i < rows.size(); ++i) EXPECT_GT(rows[i], rows[i - 1]);
     EXPECT_EQ(rows.back(), int64_t{10} * kStrips);
-    EXPECT_EQ(h.error(), nullptr);
+    EXPECT_EQ(rig.h.error(), nullptr);
   }
 }
 
 TEST(StripHandoff, AWriterFailingMidStreamStopsTheComputingSideWithItsError) {
   constexpr int kStrips = 50, kFailAt = 7;
-  StripHandoff h(3);
-  for (int k = 0; k < kBuffers; ++k) h.add_free(k);
-  std::array<std::atomic<int>, kBuffers> buffer{}, readers_left{};
-  std::vector<Seen> seen(3);
-  std::vector<std::thread> threads;
-  for (int i = 0; i < 3; ++i)
-    threads.emplace_back([&, i] {
-      consume(h, buffer, readers_left, seen[static_cast<size_t>(i)], i == 1 ? kFailAt : -1);
-    });
+  Rig rig(3);
+  for (int i = 0; i < 3; ++i) rig.start(i, i == 1 ? kFailAt : -1, kNothing);
   // The failing writer never gives strip kFailAt back, so at most kBuffers more are filled.
-  const int filled = produce(h, buffer, readers_left, kStrips, 3);
+  const int filled = rig.produce(kStrips);
   EXPECT_GE(filled, kFailAt + 1);
   EXPECT_LE(filled, kFailAt + kBuffers);
-  ASSERT_NE(h.error(), nullptr);
+  ASSERT_NE(rig.h.error(), nullptr);
   try {
-    std::rethrow_exception(h.error());
+    std::rethrow_exception(rig.h.error());
   } catch (const std::runtime_error& e) {
     EXPECT_EQ(std::string(e.what()), "cannot write strip " + std::to_string(kFailAt));
   }
   // What the job does next: stop the writers still waiting for strips, join them.
-  h.stop();
-  for (std::thread& t : threads) t.join();
-  EXPECT_EQ(seen[1].strips.size(), static_cast<size_t>(kFailAt));
-  for (const Seen& s : seen) EXPECT_LE(s.strips.size(), static_cast<size_t>(filled));
+  rig.h.stop();
+  rig.join();
+  EXPECT_EQ(rig.seen[1].strips.size(), static_cast<size_t>(kFailAt));
+  for (const Seen& s : rig.seen) EXPECT_LE(s.strips.size(), static_cast<size_t>(filled));
 }
 
 TEST(StripHandoff, WaitFinishedRethrowsAnErrorAfterTheLastStrip) {
   // Every strip written, then one writer fails while finishing its file (a rename, say): the
   // computing side, already waiting, gets that error, not a hang.
-  StripHandoff h(2);
-  for (int k = 0; k < kBuffers; ++k) h.add_free(k);
-  std::array<std::atomic<int>, kBuffers> buffer{}, readers_left{};
-  std::vector<Seen> seen(2);
-  std::vector<std::thread> threads;
-  threads.emplace_back([&] {
-    consume(h, buffer, readers_left, seen[0], -1);
-    h.finished();
-  });
-  threads.emplace_back([&] {
-    consume(h, buffer, readers_left, seen[1], -1);
+  Rig rig(2);
+  rig.start(0, -1, kFinish);
+  rig.start(1, -1, [](StripHandoff& h) {
     h.fail(std::make_exception_ptr(std::runtime_error("rename failed")));
   });
-  EXPECT_EQ(produce(h, buffer, readers_left, 20, 2), 20);
-  EXPECT_THROW(h.wait_finished([](int64_t) {}), std::runtime_error);
-  for (std::thread& t : threads) t.join();
-  EXPECT_EQ(seen[0].strips.size(), 20u);
-  EXPECT_EQ(seen[1].strips.size(), 20u);
+  EXPECT_EQ(rig.produce(20), 20);
+  EXPECT_THROW(rig.h.wait_finished([](int64_t) {}), std::runtime_error);
+  rig.join();
+  for (const Seen& s : rig.seen) EXPECT_EQ(s.strips.size(), 20u);
 }
 
 TEST(StripHandoff, StopReleasesWritersWaitingForStrips) {
-  StripHandoff h(2);
-  for (int k = 0; k < kBuffers; ++k) h.add_free(k);
-  std::array<std::atomic<int>, kBuffers> buffer{}, readers_left{};
-  std::vector<Seen> seen(2);
-  std::vector<std::thread> threads;
-  for (int i = 0; i < 2; ++i)
-    threads.emplace_back(
-        [&, i] { consume(h, buffer, readers_left, seen[static_cast<size_t>(i)], -1); });
+  Rig rig(2);
+  for (int i = 0; i < 2; ++i) rig.start(i, -1, kNothing);
   double waited = 0.0;
-  const std::optional<int> k = h.take_free(waited);
+  const std::optional<int> k = rig.h.take_free(waited);
   ASSERT_TRUE(k);
-  buffer[static_cast<size_t>(*k)] = 0;
-  readers_left[static_cast<size_t>(*k)] = 2;
-  h.put_filled(*k);
-  h.stop();  // the computing side failed after one strip: the writers wait for a second
-  for (std::thread& t : threads) t.join();
-  for (const Seen& s : seen) EXPECT_LE(s.strips.size(), 1u);
-  EXPECT_EQ(h.error(), nullptr);
+  rig.buffer[static_cast<size_t>(*k)] = 0;
+  rig.readers_left[static_cast<size_t>(*k)] = 2;
+  rig.h.put_filled(*k);
+  rig.h.stop();  // the computing side failed after one strip: the writers wait for a second
+  rig.join();
+  for (const Seen& s : rig.seen) EXPECT_LE(s.strips.size(), 1u);
+  EXPECT_EQ(rig.h.error(), nullptr);
 }
 
 }  // namespace
