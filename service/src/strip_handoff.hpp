@@ -111,7 +111,8 @@ class StripHandoff {
   }
 
   // Computing side, after close(): waits until every writer is done or one failed, calling
-  // on_rows(rows written by all) whenever more rows are written. Rethrows a writer's error.
+  // on_rows(rows written by all) whenever more rows are written, the last time with all of
+  // them. Rethrows a writer's error.
   template <class F>
   void wait_finished(F&& on_rows) {
     std::unique_lock lock(mutex_);
@@ -119,13 +120,17 @@ class StripHandoff {
     for (;;) {
       cv_.wait(lock, [&] { return error_ || finished_ == writers_ || rows_written_ != seen; });
       if (error_) std::rethrow_exception(error_);
+      // Read before on_rows() lets go of the lock: when every writer has finished, the rows
+      // read now are the last ones, and are reported before returning. (Testing "finished"
+      // after on_rows could return without ever reporting the last strip's rows.)
+      const bool done = finished_ == writers_;
       if (rows_written_ != seen) {
         seen = rows_written_;
         lock.unlock();
         on_rows(seen);
         lock.lock();
       }
-      if (finished_ == writers_) return;
+      if (done) return;
     }
   }
   std::exception_ptr error() {

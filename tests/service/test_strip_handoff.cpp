@@ -23,12 +23,11 @@ constexpr int kBuffers = 2;
 // What a writer saw: the strip numbers it read out of the buffers, in the order it took them.
 struct Seen {
   std::vector<int> strips;
-  bool finished = false;
 };
 
 // The computing side: fills `strips` strips into kBuffers buffers (each buffer holds the number
-// of the strip in it), checks that no buffer it gets back is still wanted by a writer, closes and
-// waits. Returns the number of strips it filled before the hand-off refused a buffer.
+// of the strip in it), checks that no buffer it gets back is still wanted by a writer, then
+// closes. Returns the number of strips it filled before the hand-off refused a buffer.
 int produce(StripHandoff& h, std::array<std::atomic<int>, kBuffers>& buffer,
             std::array<std::atomic<int>, kBuffers>& readers_left, int strips, int writers) {
   double waited = 0.0;
@@ -71,6 +70,11 @@ struct Rig {
   explicit Rig(int writers) : h(writers), seen(static_cast<size_t>(writers)) {
     for (int k = 0; k < kBuffers; ++k) h.add_free(k);
   }
+  // A test that ends early (a failed ASSERT) still leaves no thread running.
+  ~Rig() {
+    h.stop();
+    join();
+  }
   // Writer i's thread: consume() (failing at `fail_at` if >= 0), then `then` (finished(), a
   // failure of its own, or nothing).
   template <class Then>
@@ -84,7 +88,8 @@ struct Rig {
     return rv::detail::produce(h, buffer, readers_left, strips, static_cast<int>(seen.size()));
   }
   void join() {
-    for (std::thread& t : threads) t.join();
+    for (std::thread& t : threads)
+      if (t.joinable()) t.join();
   }
   StripHandoff h;
   std::array<std::atomic<int>, kBuffers> buffer{}, readers_left{};
