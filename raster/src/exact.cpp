@@ -468,7 +468,7 @@ class ExactSolver {
       next.resize(n);
     }
     if (next.size() > 1 && next.size() <= kDominanceMax) drop_dominated_soa(wk, next, rect);
-    if (is_leaf(wk, c1 - c0, r1 - r0, next.size(), depth))
+    if (is_leaf(c1 - c0, r1 - r0, next.size(), depth, wk.point_levels.size()))
       return solve_point_cells(wk, next, c0, r0, c1, r1);
     for_quadrants(c0, r0, c1, r1, [&](int64_t a0, int64_t b0, int64_t a1, int64_t b1) {
       solve_point_block(wk, depth + 1, a0, b0, a1, b1, false);
@@ -525,7 +525,7 @@ class ExactSolver {
     } else {
       next = cands;
     }
-    if (is_leaf(wk, c1 - c0, r1 - r0, next.size(), depth))
+    if (is_leaf(c1 - c0, r1 - r0, next.size(), depth, wk.levels.size()))
       return solve_cells(wk, next, c0, r0, c1, r1, ctx_.max_key);
     for_quadrants(c0, r0, c1, r1, [&](int64_t a0, int64_t b0, int64_t a1, int64_t b1) {
       solve_block(wk, depth + 1, a0, b0, a1, b1);
@@ -548,10 +548,10 @@ class ExactSolver {
   // Stop splitting when one candidate is left, or the block is small and has few candidates.
   // Many candidates (a dense, wiggly coast: every segment of a stretch of coast is nearly
   // equidistant from a distant block) keep splitting down to 2x2, where they cannot survive.
-  static bool is_leaf(const Worker& wk, int64_t w, int64_t h, size_t candidates, int depth) {
+  // `depths`: the number of candidate lists per recursion depth the caller has.
+  static bool is_leaf(int64_t w, int64_t h, size_t candidates, int depth, size_t depths) {
     const bool small = w * h <= kLeafCells && candidates <= kLeafCandidates;
-    return candidates <= 1 || small || w * h <= 4 ||
-           depth + 2 >= static_cast<int>(wk.levels.size());
+    return candidates <= 1 || small || w * h <= 4 || depth + 2 >= static_cast<int>(depths);
   }
 
   // For two point sites, d(p, j)^2 - d(p, i)^2 is an affine function of p, so if site i is

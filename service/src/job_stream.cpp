@@ -33,7 +33,6 @@ namespace rv::detail {
 namespace {
 
 using Clock = std::chrono::steady_clock;
-double seconds_since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
 
 // The writer threads' nice value. The engine's threads and the encoders compete for the same
 // cores; with equal priority the engine ran about 1.7x slower than alone (1e8 cells, 2 cores),

@@ -25,11 +25,13 @@
 
 namespace rv::detail {
 
+// Seconds from t to now, on the clock the streaming path times its phases with.
+inline double seconds_since(std::chrono::steady_clock::time_point t) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
+}
+
 class StripHandoff {
   using Clock = std::chrono::steady_clock;
-  static double seconds_since(Clock::time_point t) {
-    return std::chrono::duration<double>(Clock::now() - t).count();
-  }
 
  public:
   explicit StripHandoff(int writers) : writers_(writers) {}

@@ -61,7 +61,6 @@ void consume(StripHandoff& h, std::array<std::atomic<int>, kBuffers>& buffer,
     }
   } catch (...) {
     h.fail(std::current_exception());
-    return;
   }
 }
 
