@@ -111,85 +111,109 @@ inline double site_rect_max_key(const LocalSite& s, const Rect& r) {
                   std::max(planar_key(r.x0, r.y1, s), planar_key(r.x1, r.y1, s)));
 }
 
-// Cells per register block of argmin_block: one 8-wide double vector (a single register in the
-// AVX-512 clone, two in the AVX2 clone, four in the default one). Measured against two 4-wide
-// vectors on an AMD EPYC (alternated runs): 1e8 cells and 50 000 points, 2 threads, 136 -> 119
-// ms; the Oresund coastline, 1 thread, 5.78 -> 5.06 ns/cell.
+// Cells per register block of argmin_block, at most: one 8-wide double vector in the x86-64-v4
+// version (a single AVX-512 register), 4-wide in the AVX2 one, 2-wide in the default
+// (RV_LANE_KERNEL). Rows are padded to this. 8 lanes against two 4-wide vectors on an AMD EPYC
+// with AVX-512 (alternated runs): 1e8 cells and 50 000 points, 2 threads, 136 -> 119 ms; the
+// Oresund coastline, 1 thread, 5.78 -> 5.06 ns/cell.
 constexpr int64_t kLanes = 8;
-using V8 = double __attribute__((vector_size(64)));
 
 // The vector steps of argmin_block are macros, not functions: a vector passed to or returned
 // from a function compiled without AVX has another ABI than with AVX, which GCC notes and clang
-// refuses outright, and the default clone of argmin_block is compiled without AVX.
+// refuses outright, and the default version of argmin_block is compiled without AVX.
 //
-// Keys of candidate j for the eight cells x of row y. A point: planar_key with t = 0,
-// (x - ax)^2 + (y - ay)^2. A segment: planar_key() operation for operation (std::clamp(t, 0, 1)
-// is `t < 0 ? 0 : 1 < t ? 1 : t`), so every lane's key is bit-identical to the scalar one.
-#define RV_POINT_KEY(j, out)                              \
-  do {                                                    \
-    const double ey_ = y - sites[j].ay, ey2_ = ey_ * ey_; \
-    const V8 e_ = x - sites[j].ax;                        \
-    (out) = e_ * e_ + ey2_;                               \
+// Keys of candidate j for the cells xv of row y (V: the version's vector type). A point:
+// planar_key with t = 0, (x - ax)^2 + (y - ay)^2. A segment: planar_key() operation for
+// operation (std::clamp(t, 0, 1) is `t < 0 ? 0 : 1 < t ? 1 : t`), so every lane's key is
+// bit-identical to the scalar one.
+#define RV_POINT_KEY(j, xv, out)   \
+  do {                             \
+    const V e_ = (xv)-sites[j].ax; \
+    (out) = e_ * e_ + ey2_;        \
   } while (0)
-#define RV_SEGMENT_KEY(j, out)                                         \
+#define RV_POINT_ROW(j) const double ey_ = y - sites[j].ay, ey2_ = ey_ * ey_
+#define RV_SEGMENT_KEY(j, xv, out)                                     \
   do {                                                                 \
     const LocalSite& s_ = sites[j];                                    \
-    V8 t_ = ((x - s_.ax) * s_.dx + (y - s_.ay) * s_.dy) * s_.inv_len2; \
-    const V8 zero_ = V8{} + 0.0, one_ = V8{} + 1.0;                    \
+    V t_ = (((xv)-s_.ax) * s_.dx + (y - s_.ay) * s_.dy) * s_.inv_len2; \
+    const V zero_ = V{} + 0.0, one_ = V{} + 1.0;                       \
     t_ = t_ < zero_ ? zero_ : (one_ < t_ ? one_ : t_);                 \
-    const V8 ex_ = x - (s_.ax + t_ * s_.dx);                           \
-    const V8 ey_ = y - (s_.ay + t_ * s_.dy);                           \
+    const V ex_ = (xv) - (s_.ax + t_ * s_.dx);                         \
+    const V ey_ = y - (s_.ay + t_ * s_.dy);                            \
     (out) = ex_ * ex_ + ey_ * ey_;                                     \
   } while (0)
-// All k candidates over the eight cells: the best key and id stay in registers (strict <,
-// ascending ids: ties keep the lowest id).
-#define RV_ARGMIN_PASS(KEY)        \
-  do {                             \
-    KEY(0, b);                     \
-    id = V8{} + ids[0];            \
-    for (int j = 1; j < k; ++j) {  \
-      V8 key;                      \
-      KEY(j, key);                 \
-      const auto m = key < b;      \
-      b = m ? key : b;             \
-      id = m ? V8{} + ids[j] : id; \
-    }                              \
+#define RV_SEGMENT_ROW(j) \
+  do {                    \
+  } while (0)
+// All k candidates over the U vectors' cells: the best keys and ids stay in registers (strict
+// <, ascending ids: ties keep the lowest id). U independent vectors per candidate: the compare
+// and blend of one vector's running best wait on the previous candidate's, and with one 4-wide
+// vector that chain, not the arithmetic, set the pace.
+#define RV_ARGMIN_PASS(KEY, ROW)    \
+  do {                              \
+    {                               \
+      ROW(0);                       \
+      for (int u = 0; u < U; ++u) { \
+        KEY(0, x[u], b[u]);         \
+        id[u] = V{} + ids[0];       \
+      }                             \
+    }                               \
+    for (int j = 1; j < k; ++j) {   \
+      ROW(j);                       \
+      const V idv = V{} + ids[j];   \
+      for (int u = 0; u < U; ++u) { \
+        V key;                      \
+        KEY(j, x[u], key);          \
+        const auto m = key < b[u];  \
+        b[u] = m ? key : b[u];      \
+        id[u] = m ? idv : id[u];    \
+      }                             \
+    }                               \
   } while (0)
 
 // A block of w x h cells (centre x px[c], centre y py[r]) against k candidate sites: the exact
 // argmin per cell (strict <, candidates in ascending id order, so ties keep the lowest id),
 // written straight to the result rows (stride: cells between two rows).
 //
-// Why this shape: the cells of a row are taken eight at a time, and each group's best key and
+// Why this shape: the cells of a row are taken a vector at a time, and each group's best key and
 // id stay in registers while all k candidates pass (the earlier loop order, candidate-outer,
 // loaded and stored best[] and best_id[] once per candidate per cell). Ids ride along as doubles
 // (exact below 2^53), so one compare mask blends both. `px` must hold w rounded up to a multiple
 // of kLanes (the caller pads it); `best`/`best_id` the same, and `td`/`ti` w; `stream` as for
 // put_row(). Keys use exactly planar_key()'s
 // arithmetic (-ffp-contract=off: no fused multiply-add), bit-identical to brute force; the
-// distance is planar_distance_from_key(), rounded to float, as everywhere. An AVX-512 or AVX2
-// clone is picked at load time where the CPU has it (RV_KERNEL_CLONES); the default clone runs
-// the same vectors as SSE2 pairs.
-RV_KERNEL_CLONES void argmin_block(const LocalSite* __restrict sites, const double* __restrict ids,
-                                   int k, const double* __restrict px, int64_t w,
-                                   const double* __restrict py, int64_t h, double max_key,
-                                   double* __restrict best, double* __restrict best_id,
-                                   float* __restrict td, int32_t* __restrict ti,
-                                   int32_t* __restrict out_site, float* __restrict out_dist,
-                                   int64_t stride, bool stream) {
+// distance is planar_distance_from_key(), rounded to float, as everywhere. The version for the
+// CPU's instruction set is picked at load time (RV_LANE_KERNEL).
+template <class V>
+RV_LANES_INLINE void argmin_block_lanes(const LocalSite* __restrict sites,
+                                        const double* __restrict ids, int k,
+                                        const double* __restrict px, int64_t w,
+                                        const double* __restrict py, int64_t h, double max_key,
+                                        double* __restrict best, double* __restrict best_id,
+                                        float* __restrict td, int32_t* __restrict ti,
+                                        int32_t* __restrict out_site, float* __restrict out_dist,
+                                        int64_t stride, bool stream) {
+  // Vectors per step: 8 cells either way where the registers allow (16 of them with AVX2).
+  constexpr int U = kLanesOf<V> >= kLanes ? 1 : 2;
+  static_assert(kLanes % (U * kLanesOf<V>) == 0, "padded rows are whole steps");
   bool all_points = true;
   for (int j = 0; j < k; ++j) all_points = all_points && sites[j].inv_len2 == 0.0;
   for (int64_t r = 0; r < h; ++r) {
     const double y = py[r];
-    for (int64_t c = 0; c < w; c += kLanes) {
-      V8 x, b, id;
-      std::memcpy(&x, px + c, sizeof(x));
+    for (int64_t c = 0; c < w; c += U * kLanesOf<V>) {
+      // Loaded and stored one vector at a time: a block copy of the array went through the
+      // stack in 16-byte pieces, and each 32-byte load of it waited for those stores (no
+      // store forwarding), a fifth of the kernel's time.
+      V x[U], b[U], id[U];
+      for (int u = 0; u < U; ++u) std::memcpy(&x[u], px + c + u * kLanesOf<V>, sizeof(V));
       if (all_points)
-        RV_ARGMIN_PASS(RV_POINT_KEY);
+        RV_ARGMIN_PASS(RV_POINT_KEY, RV_POINT_ROW);
       else
-        RV_ARGMIN_PASS(RV_SEGMENT_KEY);
-      std::memcpy(best + c, &b, sizeof(b));
-      std::memcpy(best_id + c, &id, sizeof(id));
+        RV_ARGMIN_PASS(RV_SEGMENT_KEY, RV_SEGMENT_ROW);
+      for (int u = 0; u < U; ++u) {
+        std::memcpy(best + c + u * kLanesOf<V>, &b[u], sizeof(V));
+        std::memcpy(best_id + c + u * kLanesOf<V>, &id[u], sizeof(V));
+      }
     }
     if (max_key == std::numeric_limits<double>::infinity()) {
       for (int64_t c = 0; c < w; ++c) td[c] = static_cast<float>(planar_distance_from_key(best[c]));
@@ -204,9 +228,19 @@ RV_KERNEL_CLONES void argmin_block(const LocalSite* __restrict sites, const doub
     put_row(out_dist + r * stride, out_site + r * stride, td, ti, w, stream);
   }
 }
+RV_LANE_KERNEL(void, argmin_block,
+               (const LocalSite* __restrict sites, const double* __restrict ids, int k,
+                const double* __restrict px, int64_t w, const double* __restrict py, int64_t h,
+                double max_key, double* __restrict best, double* __restrict best_id,
+                float* __restrict td, int32_t* __restrict ti, int32_t* __restrict out_site,
+                float* __restrict out_dist, int64_t stride, bool stream),
+               (sites, ids, k, px, w, py, h, max_key, best, best_id, td, ti, out_site, out_dist,
+                stride, stream))
 #undef RV_ARGMIN_PASS
 #undef RV_SEGMENT_KEY
 #undef RV_POINT_KEY
+#undef RV_POINT_ROW
+#undef RV_SEGMENT_ROW
 
 // Point candidates of a block, structure of arrays (the point-only path of ExactSolver): the
 // coordinates are copied once per tile, so the culls below read them contiguously instead of

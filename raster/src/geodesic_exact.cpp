@@ -312,13 +312,13 @@ struct GeoWorker {
 };
 
 // Cells per step of interp_argmin_row: one 4-wide double vector; of interp_argmin_points: one
-// 8-wide vector (a single register in the AVX-512 clone). Rows are padded to whole steps of both.
+// vector of its version (RV_LANE_KERNEL: 8 lanes in a single AVX-512 register, 4 with AVX2, 2
+// by default), at most kPointLanes. Rows are padded to whole steps of both.
 constexpr int64_t kRowLanes = 4;
 constexpr int64_t kPointLanes = 8;
 constexpr int64_t kRowPad = std::max(kRowLanes, kPointLanes);
 static_assert(kRowPad % kRowLanes == 0 && kRowPad % kPointLanes == 0, "rows padded to whole steps");
-using GeoV4 = double __attribute__((vector_size(32)));
-using GeoV8 = double __attribute__((vector_size(64)));
+using GeoV4 = VecD4;
 
 // Takes one value (squared: key) into the running results of four cells: a smaller key becomes
 // the best (the old best competes for second); an equal key of the same vertex (tag >= 0) is
@@ -376,31 +376,33 @@ using GeoV8 = double __attribute__((vector_size(64)));
 
 // interp_argmin_row for the commonest block: point-form candidates only, none of them a vertex
 // (no ties by tag, nothing forced), the best's value being root(best2). Fewer running vectors
-// than the general kernel: they all stay in registers.
-RV_KERNEL_CLONES void interp_argmin_points(const RowCandidate* __restrict points, int kp,
-                                           const double* __restrict w, int64_t stride,
-                                           const RowPositions& pos, int64_t n,
-                                           double* __restrict best2, double* __restrict second2,
-                                           double* __restrict best_id) {
+// than the general kernel: they all stay in registers. V: the version's vector type.
+template <class V>
+RV_LANES_INLINE void interp_argmin_points_lanes(const RowCandidate* __restrict points, int kp,
+                                                const double* __restrict w, int64_t stride,
+                                                const RowPositions& pos, int64_t n,
+                                                double* __restrict best2,
+                                                double* __restrict second2,
+                                                double* __restrict best_id) {
   const double inf = std::numeric_limits<double>::infinity();
   // One candidate into the running results; c2 = dx^2 + dy^2 + dz^2 in that order (apply()'s).
-#define RV_GEO_POINT(dz2_expr)                                                 \
-  do {                                                                         \
-    const GeoV8 q = a0 * p.qr[0] + a1 * p.qr[1] + a2 * p.qr[2] + a3 * p.qr[3]; \
-    const GeoV8 dx = x - p.sx, dy = y - p.sy;                                  \
-    const GeoV8 c2 = dx * dx + dy * dy + (dz2_expr);                           \
-    const GeoV8 key = (q * q) * c2;                                            \
-    const auto lt = key < b;                                                   \
-    const GeoV8 hi = lt ? b : key;                                             \
-    s = hi < s ? hi : s;                                                       \
-    b = lt ? key : b;                                                          \
-    const GeoV8 idv = GeoV8{} + p.id;                                          \
-    id = lt ? idv : id;                                                        \
+#define RV_GEO_POINT(dz2_expr)                                             \
+  do {                                                                     \
+    const V q = a0 * p.qr[0] + a1 * p.qr[1] + a2 * p.qr[2] + a3 * p.qr[3]; \
+    const V dx = x - p.sx, dy = y - p.sy;                                  \
+    const V c2 = dx * dx + dy * dy + (dz2_expr);                           \
+    const V key = (q * q) * c2;                                            \
+    const auto lt = key < b;                                               \
+    const V hi = lt ? b : key;                                             \
+    s = hi < s ? hi : s;                                                   \
+    b = lt ? key : b;                                                      \
+    const V idv = V{} + p.id;                                              \
+    id = lt ? idv : id;                                                    \
   } while (0)
-  for (int64_t c = 0; c < n; c += kPointLanes) {
-    GeoV8 a0, a1, a2, a3, x, y, z;
+  for (int64_t c = 0; c < n; c += kLanesOf<V>) {
+    V a0, a1, a2, a3, x, y, z;
     RV_GEO_CELLS(c);
-    GeoV8 b = GeoV8{} + inf, s = b, id = GeoV8{} + static_cast<double>(kNoSite);
+    V b = V{} + inf, s = b, id = V{} + static_cast<double>(kNoSite);
     if (pos.cos_lon) {
       // A geographic grid's row is one parallel: every cell has the same z, and each
       // candidate's dz^2 comes with it (the same bits as computed here).
@@ -411,7 +413,7 @@ RV_KERNEL_CLONES void interp_argmin_points(const RowCandidate* __restrict points
     } else {
       for (int j = 0; j < kp; ++j) {
         const RowCandidate& p = points[j];
-        const GeoV8 dz = z - p.sz;
+        const V dz = z - p.sz;
         RV_GEO_POINT(dz * dz);
       }
     }
@@ -421,6 +423,11 @@ RV_KERNEL_CLONES void interp_argmin_points(const RowCandidate* __restrict points
   }
 #undef RV_GEO_POINT
 }
+RV_LANE_KERNEL(void, interp_argmin_points,
+               (const RowCandidate* __restrict points, int kp, const double* __restrict w,
+                int64_t stride, const RowPositions& pos, int64_t n, double* __restrict best2,
+                double* __restrict second2, double* __restrict best_id),
+               (points, kp, w, stride, pos, n, best2, second2, best_id))
 
 // One row of a block against all its interpolated candidates: per cell the smallest and second
 // smallest squared value and, for the smallest, its id and two factors its value is made of,

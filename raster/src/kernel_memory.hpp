@@ -39,7 +39,47 @@
 #define RV_KERNEL_CLONES __attribute__((target_clones("arch=x86-64-v4", "avx2", "default")))
 #endif
 
+// Kernels written for one vector width per instruction set: `name` defined once per version
+// (GCC's function multiversioning, the same ifunc pick as RV_KERNEL_CLONES), each running the
+// template name##_lanes<V> with V the widest double vector its registers hold: 8 lanes
+// (x86-64-v4), 4 (AVX2), 2 (the default, SSE2). A template body is inlined into each version
+// (RV_LANES_INLINE) and compiled for its instruction set.
+//
+// Why not one 8-wide body in target_clones: GCC 12 lowers a 64-byte vector's compares and
+// selects in the AVX2 clone through the stack, element by element. On an AMD EPYC without
+// AVX-512 (Zen 3; alternated runs, 2 threads) that clone made the planar exact method 2.6x
+// slower (1e8 cells, 50 000 points, warm: 614-665 against 230-258 ms here) and 4x on
+// coastlines (geodesic_bench: 94 against 21-24 ns/cell), and the geodesic one 3x on points.
+// The lanes of every width compute the same operations on the same operands, so every version
+// gives the same bits.
+#define RV_LANES_INLINE __attribute__((always_inline)) inline
+#define RV_LANE_VERSION(target_, lanes_, ret, name, params, args) \
+  __attribute__((target(target_))) ret name params {              \
+    return name##_lanes<::rv::detail::VecD##lanes_> args;         \
+  }
+#if defined(__SANITIZE_THREAD__)
+#define RV_LANE_KERNEL(ret, name, params, args) \
+  ret name params { return name##_lanes<::rv::detail::VecD2> args; }
+#elif defined(__SANITIZE_ADDRESS__)
+#define RV_LANE_KERNEL(ret, name, params, args)       \
+  RV_LANE_VERSION("avx2", 4, ret, name, params, args) \
+  RV_LANE_VERSION("default", 2, ret, name, params, args)
+#else
+#define RV_LANE_KERNEL(ret, name, params, args)                 \
+  RV_LANE_VERSION("arch=x86-64-v4", 8, ret, name, params, args) \
+  RV_LANE_VERSION("avx2", 4, ret, name, params, args)           \
+  RV_LANE_VERSION("default", 2, ret, name, params, args)
+#endif
+
 namespace rv::detail {
+
+// Double vectors of 2, 4 and 8 lanes (GCC vector extensions), for RV_LANE_KERNEL.
+using VecD2 = double __attribute__((vector_size(16)));
+using VecD4 = double __attribute__((vector_size(32)));
+using VecD8 = double __attribute__((vector_size(64)));
+// Lanes of a vector type.
+template <class V>
+inline constexpr int64_t kLanesOf = static_cast<int64_t>(sizeof(V) / sizeof(double));
 
 // A vector whose first element starts a cache line (rv::DefaultInitAllocator: small buffers come
 // cache-line aligned, large ones huge-page aligned). Its elements are default-initialised:
