@@ -72,6 +72,7 @@
 #include <map>
 #include <memory>
 #include <mutex>
+#include <type_traits>
 #include <unordered_map>
 #include <utility>
 #include <vector>
@@ -311,14 +312,18 @@ struct GeoWorker {
   AlignedVector<double> force;  // ... per column: 1 where a cell needs the per-cell method
 };
 
-// Cells per step of interp_argmin_row: one 4-wide double vector; of interp_argmin_points: one
-// vector of its version (RV_LANE_KERNEL: 8 lanes in a single AVX-512 register, 4 with AVX2, 2
-// by default), at most kPointLanes. Rows are padded to whole steps of both.
+// Cells per step of the row kernels, at most: one vector of their version (RV_LANE_KERNEL: 8
+// lanes in a single AVX-512 register, 4 with AVX2, 2 by default), and at most 4 for
+// interp_argmin_row (RowVec). Rows are padded to whole steps of both.
 constexpr int64_t kRowLanes = 4;
 constexpr int64_t kPointLanes = 8;
 constexpr int64_t kRowPad = std::max(kRowLanes, kPointLanes);
 static_assert(kRowPad % kRowLanes == 0 && kRowPad % kPointLanes == 0, "rows padded to whole steps");
-using GeoV4 = VecD4;
+// interp_argmin_row's vector in the version for V: V, but no wider than 4 lanes. 8 lanes were
+// 1.5x slower with AVX-512 (measured: geodesic_bench coastlines, 130 against 82 ns/cell, 1
+// thread); its running values outnumber the registers.
+template <class V>
+using RowVec = std::conditional_t<(kLanesOf<V> > kRowLanes), VecD4, V>;
 
 // Takes one value (squared: key) into the running results of four cells: a smaller key becomes
 // the best (the old best competes for second); an equal key of the same vertex (tag >= 0) is
@@ -442,8 +447,8 @@ RV_LANE_KERNEL(void, interp_argmin_points,
 // is under kAdditiveMinValue (which value() measures exactly): the caller solves those cells
 // by the per-cell method.
 //
-// Why this shape: the cells are taken four at a time and every candidate passes while the
-// running results stay in registers (candidate-outer loops loaded and stored them once per
+// Why this shape: the cells are taken a vector at a time (RowVec) and every candidate passes while
+// the running results stay in registers (candidate-outer loops loaded and stored them once per
 // candidate per cell); squared values need no root per candidate (the caller takes one per
 // cell). The column weights come as eight arrays (w + b * stride: weight b of every column,
 // b = 0 .. 3 in the point form's block, 4 .. 7 in the additive form's: a point site or a
@@ -451,18 +456,20 @@ RV_LANE_KERNEL(void, interp_argmin_points,
 // positions as RowPositions says; every array holds n rounded up to a multiple
 // of kRowPad. Vectors stay inside this function (a 32-byte vector crossing a function boundary
 // has another ABI with and without AVX).
-RV_KERNEL_CLONES void interp_argmin_row(const RowCandidate* __restrict points, int kp,
-                                        const RowCandidate* __restrict additive, int ka,
-                                        const RowSegment* __restrict segs, int ks,
-                                        const double* __restrict w, int64_t stride,
-                                        const RowPositions& pos, int64_t n,
-                                        double* __restrict best2, double* __restrict second2,
-                                        double* __restrict best_id, double* __restrict best_q,
-                                        double* __restrict best_c2, double* __restrict force) {
+template <class V>
+RV_LANES_INLINE void interp_argmin_row_lanes(const RowCandidate* __restrict points, int kp,
+                                             const RowCandidate* __restrict additive, int ka,
+                                             const RowSegment* __restrict segs, int ks,
+                                             const double* __restrict w, int64_t stride,
+                                             const RowPositions& pos, int64_t n,
+                                             double* __restrict best2, double* __restrict second2,
+                                             double* __restrict best_id, double* __restrict best_q,
+                                             double* __restrict best_c2, double* __restrict force) {
+  using GeoV4 = RowVec<V>;  // (the name the RV_GEO_* macros use)
   const double inf = std::numeric_limits<double>::infinity();
   constexpr double m2 = kVertexMargin * kVertexMargin;
   constexpr double max2 = kVertexMaxChord * kVertexMaxChord, min2 = kVertexMinChord * kVertexMinChord;
-  for (int64_t c = 0; c < n; c += kRowLanes) {
+  for (int64_t c = 0; c < n; c += kLanesOf<GeoV4>) {
     GeoV4 a0, a1, a2, a3, x, y, z, l0, l1, l2, l3;
     RV_GEO_CELLS(c);
     std::memcpy(&l0, w + 4 * stride + c, sizeof(l0));
@@ -544,6 +551,15 @@ RV_KERNEL_CLONES void interp_argmin_row(const RowCandidate* __restrict points, i
     std::memcpy(force + c, &need, sizeof(need));
   }
 }
+RV_LANE_KERNEL(void, interp_argmin_row,
+               (const RowCandidate* __restrict points, int kp,
+                const RowCandidate* __restrict additive, int ka, const RowSegment* __restrict segs,
+                int ks, const double* __restrict w, int64_t stride, const RowPositions& pos,
+                int64_t n, double* __restrict best2, double* __restrict second2,
+                double* __restrict best_id, double* __restrict best_q, double* __restrict best_c2,
+                double* __restrict force),
+               (points, kp, additive, ka, segs, ks, w, stride, pos, n, best2, second2, best_id,
+                best_q, best_c2, force))
 #undef RV_GEO_TAKE
 #undef RV_GEO_TAKE_PLAIN
 #undef RV_GEO_CELLS
