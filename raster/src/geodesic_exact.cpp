@@ -295,7 +295,7 @@ struct GeoWorker {
   std::vector<std::shared_ptr<SharedInterpolants::Entry>> held;
   // Row scratch of the kernels: cache-line aligned (kernel_memory.hpp).
   AlignedVector<double> wcol;  // column weights, 8 per column (CellWeights' wc, lc)
-  AlignedVector<double> best, second, best_q, best_c2, cx, cy, cz;  // per column of the block's row
+  AlignedVector<double> best, second, value, cx, cy, cz;  // per column of the block's row
   AlignedVector<double> best_id;
   // solve_interp: column weights, weight b of column c at b * stride + c (b = 0 .. 3 in the point
   // form's block, 4 .. 7 in the additive form's)
@@ -328,29 +328,25 @@ using RowVec = std::conditional_t<(kLanesOf<V> > kRowLanes), VecD4, V>;
 // Takes one value (squared: key) into the running results of four cells: a smaller key becomes
 // the best (the old best competes for second); an equal key of the same vertex (tag >= 0) is
 // the canonical tie of the per-cell method: the lower id, and no second.
-#define RV_GEO_TAKE(key, tag, idv, qv, c2v)                          \
-  do {                                                               \
+#define RV_GEO_TAKE(key, tag, idv)                                      \
+  do {                                                                  \
     const auto tie_ = ((key) == b) & ((tag) == btag) & ((tag) >= zero); \
-    const auto lt_ = (key) < b;                                      \
-    const GeoV4 hi_ = lt_ ? b : (key);                               \
-    s = tie_ ? s : (hi_ < s ? hi_ : s);                              \
-    id = tie_ ? ((idv) < id ? (idv) : id) : (lt_ ? (idv) : id);      \
-    b = lt_ ? (key) : b;                                             \
-    btag = lt_ ? (tag) : btag;                                       \
-    bq = lt_ ? (qv) : bq;                                            \
-    bc2 = lt_ ? (c2v) : bc2;                                         \
+    const auto lt_ = (key) < b;                                         \
+    const GeoV4 hi_ = lt_ ? b : (key);                                  \
+    s = tie_ ? s : (hi_ < s ? hi_ : s);                                 \
+    id = tie_ ? ((idv) < id ? (idv) : id) : (lt_ ? (idv) : id);         \
+    b = lt_ ? (key) : b;                                                \
+    btag = lt_ ? (tag) : btag;                                          \
   } while (0)
 // RV_GEO_TAKE for a value that ties with nothing (tag -1: a point site, an interior).
-#define RV_GEO_TAKE_PLAIN(key, idv, qv, c2v) \
-  do {                                       \
-    const auto lt_ = (key) < b;              \
-    const GeoV4 hi_ = lt_ ? b : (key);       \
-    s = hi_ < s ? hi_ : s;                   \
-    id = lt_ ? (idv) : id;                   \
-    b = lt_ ? (key) : b;                     \
-    btag = lt_ ? none : btag;                \
-    bq = lt_ ? (qv) : bq;                    \
-    bc2 = lt_ ? (c2v) : bc2;                 \
+#define RV_GEO_TAKE_PLAIN(key, idv)    \
+  do {                                 \
+    const auto lt_ = (key) < b;        \
+    const GeoV4 hi_ = lt_ ? b : (key); \
+    s = hi_ < s ? hi_ : s;             \
+    id = lt_ ? (idv) : id;             \
+    b = lt_ ? (key) : b;               \
+    btag = lt_ ? none : btag;          \
   } while (0)
 #define RV_GEO_Q(p) (a0 * (p).qr[0] + a1 * (p).qr[1] + a2 * (p).qr[2] + a3 * (p).qr[3])
 #define RV_GEO_QL(p) (l0 * (p).qr[0] + l1 * (p).qr[1] + l2 * (p).qr[2] + l3 * (p).qr[3])
@@ -435,10 +431,13 @@ RV_LANE_KERNEL(void, interp_argmin_points,
                (points, kp, w, stride, pos, n, best2, second2, best_id))
 
 // One row of a block against all its interpolated candidates: per cell the smallest and second
-// smallest squared value and, for the smallest, its id and two factors its value is made of,
-// exactly as apply() makes it: the point form's value is root(q^2 chord^2), with
-// q = sum_b w_b qr_b (recorded as 1 and the square); the additive form's is |h + q| (recorded
-// as |h + q| and 1); the value is then best_q * root(best_c2), the same bits. Candidates pass in
+// smallest squared value and the smallest's id. The smallest's value is the root of its square,
+// with apply()'s bits: the point form's value is root(q^2 chord^2), the square's own root, with
+// q = sum_b w_b qr_b; the additive form's is v = |h + q|, and root(v * v) = v exactly (in binary
+// floating point the correctly rounded root of a correctly rounded square is the absolute
+// value, without overflow or underflow; checked on 4e8 random doubles of 2^-10 .. 2^50 too).
+// So no factors of the value are carried (they were two more running vectors and two more
+// blends per candidate, spilled with AVX2's 16 registers). Candidates pass in
 // any order: equal squared values of different interpolants leave a gap of 0, a close call the
 // caller decides by the per-cell method, and those of one vertex tie as RV_GEO_TAKE says,
 // order-free. Segments whose form changes in the block (segs) get segment_regime's test per cell,
@@ -463,8 +462,7 @@ RV_LANES_INLINE void interp_argmin_row_lanes(const RowCandidate* __restrict poin
                                              const double* __restrict w, int64_t stride,
                                              const RowPositions& pos, int64_t n,
                                              double* __restrict best2, double* __restrict second2,
-                                             double* __restrict best_id, double* __restrict best_q,
-                                             double* __restrict best_c2, double* __restrict force) {
+                                             double* __restrict best_id, double* __restrict force) {
   using GeoV4 = RowVec<V>;  // (the name the RV_GEO_* macros use)
   const double inf = std::numeric_limits<double>::infinity();
   constexpr double m2 = kVertexMargin * kVertexMargin;
@@ -477,7 +475,7 @@ RV_LANES_INLINE void interp_argmin_row_lanes(const RowCandidate* __restrict poin
     std::memcpy(&l2, w + 6 * stride + c, sizeof(l2));
     std::memcpy(&l3, w + 7 * stride + c, sizeof(l3));
     const GeoV4 zero = GeoV4{}, one = GeoV4{} + 1.0, none = GeoV4{} - 1.0;
-    GeoV4 b = GeoV4{} + inf, s = b, id = GeoV4{} + static_cast<double>(kNoSite), btag = none, bq = zero, bc2 = zero;
+    GeoV4 b = GeoV4{} + inf, s = b, id = GeoV4{} + static_cast<double>(kNoSite), btag = none;
     GeoV4 need = zero;
     for (int j = 0; j < kp; ++j) {
       const RowCandidate& p = points[j];
@@ -487,10 +485,10 @@ RV_LANES_INLINE void interp_argmin_row_lanes(const RowCandidate* __restrict poin
       const GeoV4 key = (q * q) * c2;
       const GeoV4 idv = GeoV4{} + p.id;
       if (p.tag < 0.0)
-        RV_GEO_TAKE_PLAIN(key, idv, one, key);
+        RV_GEO_TAKE_PLAIN(key, idv);
       else {
         const GeoV4 tag = GeoV4{} + p.tag;
-        RV_GEO_TAKE(key, tag, idv, one, key);
+        RV_GEO_TAKE(key, tag, idv);
       }
     }
     for (int j = 0; j < ka; ++j) {
@@ -501,7 +499,7 @@ RV_LANES_INLINE void interp_argmin_row_lanes(const RowCandidate* __restrict poin
       const GeoV4 v = h < zero ? -h : h;
       const GeoV4 key = v * v;
       const GeoV4 idv = GeoV4{} + p.id;
-      RV_GEO_TAKE_PLAIN(key, idv, v, one);
+      RV_GEO_TAKE_PLAIN(key, idv);
     }
     for (int j = 0; j < ks; ++j) {
       const RowSegment& g = segs[j];
@@ -540,14 +538,11 @@ RV_LANES_INLINE void interp_argmin_row_lanes(const RowCandidate* __restrict poin
       const GeoV4 key = exact ? GeoV4{} + inf : (vertex ? pkey : vi * vi);
       const GeoV4 tag = r1 ? GeoV4{} + pa.tag : (r2 ? GeoV4{} + pb.tag : none);
       const GeoV4 idv = GeoV4{} + pa.id;
-      const GeoV4 q = vertex ? one : vi, c2 = vertex ? key : one;
-      RV_GEO_TAKE(key, tag, idv, q, c2);
+      RV_GEO_TAKE(key, tag, idv);
     }
     std::memcpy(best2 + c, &b, sizeof(b));
     std::memcpy(second2 + c, &s, sizeof(s));
     std::memcpy(best_id + c, &id, sizeof(id));
-    std::memcpy(best_q + c, &bq, sizeof(bq));
-    std::memcpy(best_c2 + c, &bc2, sizeof(bc2));
     std::memcpy(force + c, &need, sizeof(need));
   }
 }
@@ -556,23 +551,22 @@ RV_LANE_KERNEL(void, interp_argmin_row,
                 const RowCandidate* __restrict additive, int ka, const RowSegment* __restrict segs,
                 int ks, const double* __restrict w, int64_t stride, const RowPositions& pos,
                 int64_t n, double* __restrict best2, double* __restrict second2,
-                double* __restrict best_id, double* __restrict best_q, double* __restrict best_c2,
-                double* __restrict force),
+                double* __restrict best_id, double* __restrict force),
                (points, kp, additive, ka, segs, ks, w, stride, pos, n, best2, second2, best_id,
-                best_q, best_c2, force))
+                force))
 #undef RV_GEO_TAKE
 #undef RV_GEO_TAKE_PLAIN
 #undef RV_GEO_CELLS
 #undef RV_GEO_Q
 #undef RV_GEO_QL
 
-// The outputs of one row of interp_argmin_row's cells (at least one candidate, so every cell
-// has a best id): the best's value best_q * root(best_c2), or root(best2) without best_c2
-// (interp_argmin_points; apply()'s bits either way; best_q is scratch); the site
+// The outputs of one row of the row kernels' cells (at least one candidate, so every cell has
+// a best id): the best's value root(best2) (apply()'s bits, see interp_argmin_row); the site
 // and distance as put() writes them (no site beyond max_distance); and second2[c] = 1 where
 // the call may be too close for interpolated values (the two smallest within kInterpTie, or the
-// best within kInterpTie of max_distance) or force[c] is set, else 0. Returns whether any cell
-// is flagged.
+// best within kInterpTie of max_distance) or force[c] is set (force: null for
+// interp_argmin_points, which forces nothing), else 0. Returns whether any cell is flagged.
+// value: scratch of n.
 //
 // The close test runs on squares, without a second root: s - b <= t implies
 // s^2 - b^2 = (s - b)(s + b) <= 2 t s, so (s^2 - b^2)^2 <= 4 t^2 s^2 holds for every close call.
@@ -580,27 +574,16 @@ RV_LANE_KERNEL(void, interp_argmin_row,
 // per-cell method, so those get exactly what that method gives them.
 // Written as loops the vectoriser takes (one root per cell, no branches); the cells beyond a
 // distance limit are fixed afterwards, since a select between converted floats is not taken.
-// The commonest case (interp_argmin_points, no limit) is one pass.
+// The commonest case (nothing forced, no limit) is one pass.
 RV_KERNEL_CLONES bool interp_store_row(const double* __restrict best2, double* __restrict second2,
-                                       const double* __restrict best_id, double* __restrict best_q,
-                                       const double* __restrict best_c2,
+                                       const double* __restrict best_id, double* __restrict value,
                                        const double* __restrict force, int64_t n,
                                        double max_distance, int32_t* __restrict site_row,
                                        float* __restrict distance_row) {
   constexpr double kTie2x4 = 4.0 * kInterpTie * kInterpTie;
   constexpr double inf = std::numeric_limits<double>::infinity();
-  const double limit_tie = max_distance == inf ? -1.0 : kInterpTie;  // no limit: never close to it
   int64_t any = 0;
-  if (best_c2) {
-    for (int64_t c = 0; c < n; ++c) {
-      const double b2 = best2[c], s2 = second2[c], gap = s2 - b2, v = best_q[c] * std::sqrt(best_c2[c]);
-      best_q[c] = v;
-      const int64_t tie = ((s2 < inf) & (gap * gap <= kTie2x4 * s2)) | (std::abs(v - max_distance) <= limit_tie) |
-                          (force[c] != 0.0);
-      second2[c] = tie ? 1.0 : 0.0;
-      any |= tie;
-    }
-  } else if (max_distance == inf) {  // nothing forced, no limit: one pass
+  if (max_distance == inf) {  // no limit: one pass
     for (int64_t c = 0; c < n; ++c) {
       const double b2 = best2[c], s2 = second2[c], gap = s2 - b2;
       const int64_t tie = (s2 < inf) & (gap * gap <= kTie2x4 * s2);
@@ -609,24 +592,32 @@ RV_KERNEL_CLONES bool interp_store_row(const double* __restrict best2, double* _
       site_row[c] = static_cast<int32_t>(best_id[c]);
       distance_row[c] = static_cast<float>(std::sqrt(b2));
     }
-    return any != 0;
-  } else {  // nothing forced
+  } else {
     for (int64_t c = 0; c < n; ++c) {
       const double b2 = best2[c], s2 = second2[c], gap = s2 - b2, v = std::sqrt(b2);
-      best_q[c] = v;
-      const int64_t tie = ((s2 < inf) & (gap * gap <= kTie2x4 * s2)) | (std::abs(v - max_distance) <= limit_tie);
+      value[c] = v;
+      const int64_t tie =
+          ((s2 < inf) & (gap * gap <= kTie2x4 * s2)) | (std::abs(v - max_distance) <= kInterpTie);
       second2[c] = tie ? 1.0 : 0.0;
       any |= tie;
     }
-  }
-  for (int64_t c = 0; c < n; ++c) site_row[c] = static_cast<int32_t>(best_id[c]);
-  for (int64_t c = 0; c < n; ++c) distance_row[c] = static_cast<float>(best_q[c]);
-  if (max_distance < inf)
+    for (int64_t c = 0; c < n; ++c) site_row[c] = static_cast<int32_t>(best_id[c]);
+    for (int64_t c = 0; c < n; ++c) distance_row[c] = static_cast<float>(value[c]);
     for (int64_t c = 0; c < n; ++c)
-      if (best_q[c] > max_distance) {
+      if (value[c] > max_distance) {
         site_row[c] = kNoSite;
         distance_row[c] = kNoDistance;
       }
+  }
+  if (force) {
+    int64_t forced = 0;
+    for (int64_t c = 0; c < n; ++c) {
+      const int64_t f = force[c] != 0.0;
+      second2[c] = f ? 1.0 : second2[c];
+      forced |= f;
+    }
+    any |= forced;
+  }
   return any != 0;
 }
 
@@ -1445,7 +1436,7 @@ class GeodesicExactSolver {
     wk.distance_row.resize(static_cast<size_t>(stride));
     // The kernels write every lane of their outputs before anything reads them; the located
     // positions are read in the padding lanes too, so those start at zero.
-    for (auto* v : {&wk.best, &wk.second, &wk.best_q, &wk.best_c2, &wk.best_id, &wk.force})
+    for (auto* v : {&wk.best, &wk.second, &wk.value, &wk.best_id, &wk.force})
       v->resize(static_cast<size_t>(stride));
     for (auto* v : {&wk.cx, &wk.cy, &wk.cz}) v->assign(static_cast<size_t>(stride), 0.0);
     // What stays the same on every row; the rows fill in qr.
@@ -1537,17 +1528,18 @@ class GeodesicExactSolver {
         interp_argmin_points(wk.row_points.data(), static_cast<int>(wk.row_points.size()), wk.wsoa.data(), stride, pos,
                              n, wk.best.data(), wk.second.data(), wk.best_id.data());
       else
-      interp_argmin_row(wk.row_points.data(), static_cast<int>(wk.row_points.size()), wk.row_additive.data(),
-                        static_cast<int>(wk.row_additive.size()), wk.row_segments.data(),
-                        static_cast<int>(wk.row_segments.size()), wk.wsoa.data(), stride, pos, n, wk.best.data(),
-                        wk.second.data(), wk.best_id.data(), wk.best_q.data(), wk.best_c2.data(), wk.force.data());
+        interp_argmin_row(wk.row_points.data(), static_cast<int>(wk.row_points.size()),
+                          wk.row_additive.data(), static_cast<int>(wk.row_additive.size()),
+                          wk.row_segments.data(), static_cast<int>(wk.row_segments.size()),
+                          wk.wsoa.data(), stride, pos, n, wk.best.data(), wk.second.data(),
+                          wk.best_id.data(), wk.force.data());
       // Every cell as put() would write it, without branches; then the flagged cells (rare)
       // are solved by the per-cell method and overwrite theirs. A row without them goes out
       // with non-temporal stores when the window is large (put_row).
       const bool flagged =
-          interp_store_row(wk.best.data(), wk.second.data(), wk.best_id.data(), wk.best_q.data(),
-                           plain ? nullptr : wk.best_c2.data(), wk.force.data(), n, max_distance_,
-                           wk.site_row.data(), wk.distance_row.data());
+          interp_store_row(wk.best.data(), wk.second.data(), wk.best_id.data(), wk.value.data(),
+                           plain ? nullptr : wk.force.data(), n, max_distance_, wk.site_row.data(),
+                           wk.distance_row.data());
       put_row(distance_.row(r) + c0, site_.row(r) + c0, wk.distance_row.data(), wk.site_row.data(), n,
               stream_ && !flagged);
       // A flagged cell whose centre is inside a polygon ends at distance 0 with its area site
