@@ -98,34 +98,45 @@ inline bool streams_results(const Window& window) {
   return window.cell_count() * int64_t{sizeof(int32_t) + sizeof(float)} > kStreamBytes;
 }
 
+#if defined(RV_STREAM_STORES)
+// n 4-byte values from src to dst with non-temporal stores: 4-byte ones up to dst's first 16-byte
+// boundary and after its last, 16-byte ones between. An ordinary store into a line that is also
+// written around the cache costs a read of that line and a flush of the partial one: on a grid
+// whose rows are not 16-byte multiples (3474 cells of 4 bytes: every other row starts 8 bytes
+// off) ordinary stores at the ends made the planar method twice as slow per cell as on one of
+// 3300.
+template <class T>
+inline void stream_values(T* __restrict dst, const T* __restrict src, int64_t n) {
+  static_assert(sizeof(T) == 4, "4-byte values");
+  auto one = [&](int64_t c) {
+    int bits;
+    std::memcpy(&bits, src + c, sizeof(bits));
+    _mm_stream_si32(reinterpret_cast<int*>(dst + c), bits);
+  };
+  int64_t c = 0;
+  for (; c < n && (reinterpret_cast<uintptr_t>(dst + c) & 15) != 0; ++c) one(c);
+  for (; c + 4 <= n; c += 4)
+    _mm_stream_si128(reinterpret_cast<__m128i*>(dst + c),
+                     _mm_loadu_si128(reinterpret_cast<const __m128i*>(src + c)));
+  for (; c < n; ++c) one(c);
+}
+#endif
+
 // Copies n results of a row from scratch (td, ti) to their place in the result rasters (od, os).
-// With `stream`, the part of the row whose addresses allow it goes with non-temporal stores; the
-// caller runs store_fence() before another thread may read those cells.
+// With `stream`, they go with non-temporal stores (stream_values); the caller runs
+// store_fence() before another thread may read those cells.
+//
+// With stream, the distances go first, then the ids, not the two interleaved 16 bytes at a time:
+// the two rasters are huge-page aligned, so od + c and os + c are the same distance from a 4 KiB
+// boundary, and interleaved streaming stores to two such addresses were 2-3x slower on an AMD
+// EPYC of family 25 (Zen 3; bench/store_bench, bench/RESULTS-stores.md). The exact method on
+// 1e8 cells and 50 000 points, warm, 2 threads, alternated runs: 266-282 -> 176-209 ms.
 inline void put_row(float* __restrict od, int32_t* __restrict os, const float* __restrict td,
                     const int32_t* __restrict ti, int64_t n, bool stream) {
 #if defined(RV_STREAM_STORES)
   if (stream) {
-    // The cells before the first 16-byte boundary and after the last go with 4-byte
-    // non-temporal stores too: an ordinary store into a line that is also written around the
-    // cache costs a read of that line and a flush of the partial one. On a grid whose rows are
-    // not 16-byte multiples (3474 cells of 4 bytes: every other row starts 8 bytes off) the
-    // ordinary stores made the planar method twice as slow per cell as on one of 3300.
-    auto one = [&](int64_t c) {
-      int bits;
-      std::memcpy(&bits, td + c, sizeof(bits));
-      _mm_stream_si32(reinterpret_cast<int*>(od + c), bits);
-      _mm_stream_si32(reinterpret_cast<int*>(os + c), ti[c]);
-    };
-    int64_t c = 0;
-    for (; c < n && (reinterpret_cast<uintptr_t>(od + c) & 15) != 0; ++c) one(c);
-    if ((reinterpret_cast<uintptr_t>(os + c) & 15) == 0) {
-      for (; c + 4 <= n; c += 4) {
-        _mm_stream_ps(od + c, _mm_loadu_ps(td + c));
-        _mm_stream_si128(reinterpret_cast<__m128i*>(os + c),
-                         _mm_loadu_si128(reinterpret_cast<const __m128i*>(ti + c)));
-      }
-    }
-    for (; c < n; ++c) one(c);
+    stream_values(od, td, n);
+    stream_values(os, ti, n);
     return;
   }
 #endif
