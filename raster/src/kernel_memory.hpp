@@ -130,7 +130,7 @@ inline void stream_values(T* __restrict dst, const T* __restrict src, int64_t n)
 // the two rasters are huge-page aligned, so od + c and os + c are the same distance from a 4 KiB
 // boundary, and interleaved streaming stores to two such addresses were 2-3x slower on an AMD
 // EPYC of family 25 (Zen 3; bench/store_bench, bench/RESULTS-stores.md). The exact method on
-// 1e8 cells and 50 000 points, warm, 2 threads, alternated runs: 266-282 -> 176-209 ms.
+// 1e8 cells and 50 000 points, warm, 2 threads, alternated runs: 275-288 -> 179-210 ms.
 inline void put_row(float* __restrict od, int32_t* __restrict os, const float* __restrict td,
                     const int32_t* __restrict ti, int64_t n, bool stream) {
 #if defined(RV_STREAM_STORES)
