@@ -21,6 +21,7 @@
 #include <vector>
 
 #include <sys/resource.h>
+#include <cstdint>
 #include <cstdio>
 #include <cstdlib>
 #include <random>
@@ -124,6 +125,22 @@ Timing run(const rv::SeedSet& s, const rv::GridSpec& g, rv::Method m, rv::Metric
   return Timing{into.seconds * 1e9 / cells, (cpu_seconds() - cpu0) * 1e9 / cells};
 }
 
+// FNV-1a over the field's site ids and distance bits, row by row: two builds that print the same
+// digest for a scenario computed the same field, bit for bit (A/B runs of a change that must not
+// alter results).
+uint64_t digest(const rv::NearestField& f) {
+  uint64_t h = 1469598103934665603ULL;
+  auto mix = [&](const void* p, size_t n) {
+    const auto* b = static_cast<const unsigned char*>(p);
+    for (size_t i = 0; i < n; ++i) h = (h ^ b[i]) * 1099511628211ULL;
+  };
+  for (int64_t r = 0; r < f.site.height(); ++r) {
+    mix(f.site.row(r), static_cast<size_t>(f.site.width()) * sizeof(int32_t));
+    mix(f.distance.row(r), static_cast<size_t>(f.distance.width()) * sizeof(float));
+  }
+  return h;
+}
+
 double median(std::vector<double> v) {
   std::sort(v.begin(), v.end());
   const size_t n = v.size();
@@ -175,6 +192,8 @@ void scenario(const char* name, const rv::SeedSet& s, const rv::GridSpec& g, int
     std::printf("  segment searches %lld, inverse problems per search %.2f (calling thread only)\n",
                 static_cast<long long>(counters.calls),
                 static_cast<double>(counters.evaluations) / static_cast<double>(counters.calls));
+  std::printf("  field digests: planar %016llx, geodesic %016llx\n",
+              static_cast<unsigned long long>(digest(planar)), static_cast<unsigned long long>(digest(exact)));
   if (scans)
     std::printf("  geodesic hv-scan vs exact: %lld wrong cells, max error %.3f m (%.3f cells)\n",
                 static_cast<long long>(st.wrong_cells), st.max_error, st.max_error_cells);

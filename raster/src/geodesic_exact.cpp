@@ -86,7 +86,7 @@
 namespace rv::detail {
 namespace {
 
-constexpr int64_t kTile = 128;     // top-level tile edge, cells (tiles aligned to the grid)
+constexpr int64_t kTile = 256;     // top-level tile edge, cells (tiles aligned to the grid)
 // Blocks with segments this small (or smaller) are leaves, solved by the row kernels or per cell.
 // 16 x 16 rather than 8 x 8: a leaf's set-up (interpolants gathered, weights, one reduction per
 // row and candidate) is spread over 4x the cells, for a few more candidates per cell (measured,
@@ -297,9 +297,6 @@ struct GeoWorker {
   AlignedVector<double> wcol;  // column weights, 8 per column (CellWeights' wc, lc)
   AlignedVector<double> best, second, value, cx, cy, cz;  // per column of the block's row
   AlignedVector<double> best_id;
-  // solve_interp: column weights, weight b of column c at b * stride + c (b = 0 .. 3 in the point
-  // form's block, 4 .. 7 in the additive form's)
-  AlignedVector<double> wsoa;
   std::vector<RowCandidate> row_points,
       row_additive;                      // solve_interp: the candidates on the current row
   std::vector<RowSegment> row_segments;  // ... those whose form changes in the block
@@ -632,6 +629,26 @@ class GeodesicExactSolver {
     stream_ = streams_results(w);
     init_segment_ends();
     init_interp_block();
+    init_column_weights(w);
+  }
+
+  // The row kernels' column weights for every column of the window, weight b of window column c
+  // at b * wstride_ + c: b = 0 .. 3 in the point form's interpolation block, 4 .. 7 in the
+  // additive form's (weights_col's values). They depend on the column alone, so they are made
+  // once here rather than per leaf. Zeros pad kRowPad past the last column: the kernels read
+  // whole vectors.
+  void init_column_weights(const Window& w) {
+    wstride_ = (w.width + 2 * kRowPad - 1) / kRowPad * kRowPad;
+    wcols_.assign(static_cast<size_t>(8 * wstride_), 0.0);
+    for (int64_t c = 0; c < w.width; ++c) {
+      double pw[4], lw[4];
+      weights_col(c, point_block_, pw);
+      weights_col(c, line_block_, lw);
+      for (int b = 0; b < 4; ++b) {
+        wcols_[static_cast<size_t>(b * wstride_ + c)] = pw[b];
+        wcols_[static_cast<size_t>((4 + b) * wstride_ + c)] = lw[b];
+      }
+    }
   }
 
   void init_separable(const Window& w) {
@@ -1419,19 +1436,8 @@ class GeodesicExactSolver {
                          int64_t r1) {
     const int64_t n = c1 - c0;
     const int64_t stride = (n + kRowPad - 1) / kRowPad * kRowPad;  // padded: whole vectors
-    // The additive form's weights only where an edge's interior is a candidate (interp_argmin_row
-    // reads all eight arrays, so they are there, zero, in any case).
     const bool lines = !wk.interp_additive.empty() || !wk.changing.empty();
-    wk.wsoa.assign(static_cast<size_t>(8 * stride), 0.0);
-    for (int64_t c = 0; c < n; ++c) {
-      double w[4], l[4];
-      weights_col(c0 + c, point_block_, w);
-      if (lines) weights_col(c0 + c, line_block_, l);
-      for (int b = 0; b < 4; ++b) {
-        wk.wsoa[static_cast<size_t>(b * stride + c)] = w[b];
-        if (lines) wk.wsoa[static_cast<size_t>((4 + b) * stride + c)] = l[b];
-      }
-    }
+    const double* wcols = &wcols_[static_cast<size_t>(c0)];  // the window's (init_column_weights)
     wk.site_row.resize(static_cast<size_t>(stride));
     wk.distance_row.resize(static_cast<size_t>(stride));
     // The kernels write every lane of their outputs before anything reads them; the located
@@ -1525,13 +1531,13 @@ class GeodesicExactSolver {
       for (size_t j = 0; j < wk.changing.size(); ++j)
         for (size_t k = 0; k < 3; ++k) reduce(wk.changing_interp[j][k], wk.row_segments[j].part[k]);
       if (plain)
-        interp_argmin_points(wk.row_points.data(), static_cast<int>(wk.row_points.size()), wk.wsoa.data(), stride, pos,
+        interp_argmin_points(wk.row_points.data(), static_cast<int>(wk.row_points.size()), wcols, wstride_, pos,
                              n, wk.best.data(), wk.second.data(), wk.best_id.data());
       else
         interp_argmin_row(wk.row_points.data(), static_cast<int>(wk.row_points.size()),
                           wk.row_additive.data(), static_cast<int>(wk.row_additive.size()),
                           wk.row_segments.data(), static_cast<int>(wk.row_segments.size()),
-                          wk.wsoa.data(), stride, pos, n, wk.best.data(), wk.second.data(),
+                          wcols, wstride_, pos, n, wk.best.data(), wk.second.data(),
                           wk.best_id.data(), wk.force.data());
       // Every cell as put() would write it, without branches; then the flagged cells (rare)
       // are solved by the per-cell method and overwrite theirs. A row without them goes out
@@ -1787,6 +1793,8 @@ class GeodesicExactSolver {
   std::vector<double> lat_, rho_, z_;  // per window row
   std::vector<double> lon_;
   AlignedVector<double> cos_, sin_;  // per window column (loaded as vectors by the row kernels)
+  AlignedVector<double> wcols_;      // per window column: its eight weights (init_column_weights)
+  int64_t wstride_ = 0;
   double max_distance_ = std::numeric_limits<double>::infinity();
   bool stream_ = false;  // rows of the row kernels go out with non-temporal stores (put_row)
   int64_t point_block_ = kInterpMinBlock;   // interpolation block edges, cells (grid-aligned):
