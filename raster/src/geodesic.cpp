@@ -27,9 +27,6 @@ using GeographicLib::Math;
 constexpr unsigned kLineCaps =
     Geodesic::LATITUDE | Geodesic::LONGITUDE | Geodesic::AZIMUTH | Geodesic::DISTANCE_IN | Geodesic::DISTANCE;
 constexpr int kMaxIterations = 100;
-// The iteration stops when the distance at the current point exceeds the minimum by less than
-// this (estimated as |cos w * dt| / 2, the second-order excess of a convex function).
-constexpr double kConvergence = 1e-10;  // metres
 // Cosine of the largest central angle between a cell and a piece's middle for which the fast
 // (convex) path is used. The distance along a geodesic is convex while the geodesic scale M12
 // stays positive (~90 degrees on the sphere; ellipsoidal corrections are ~f, i.e. ~0.2 degree).
@@ -372,7 +369,7 @@ double GeoSites::piece_distance(const GeoCell& p, const GeoSite& site, const Geo
       return best;  // stationary
     }
     if (hi - lo <= 1e-9 + 1e-15 * hi) break;  // minimiser pinned to a nanometre (or at an end)
-    if (e.usable && std::abs(e.step * e.cos_w) < 2.0 * kConvergence) return best;
+    if (e.usable && std::abs(e.step * e.cos_w) < 2.0 * kGeoConvergence) return best;
     double next = t + e.step;
     if (!e.usable || !(next > lo && next < hi)) {
       // Outside the bracket: try the bracket's end once (the minimum may sit at a segment end),

@@ -45,10 +45,10 @@
 //    distances.
 //  - Which part of a segment is nearest is decided per cell from ECEF vectors (segment_regime):
 //    the normal section's direction at the vertex stands in for the geodesic's, with a margin
-//    (kVertexMargin) 14x their largest difference within kVertexMaxChord. Only cells within that
-//    margin of a switch between an end and the interior are measured exactly. Two edges sharing
-//    a vertex that both measure it (beyond the margin) are a tie (lower id): brute force's
-//    search certainly returns the canonical vertex distance for both (see kVertexMargin).
+//    (RV_GEO_BEYOND) that covers their difference and brute force's stopping test. Only cells
+//    within that margin of a switch between an end and the interior are measured exactly. Two
+//    edges sharing a vertex that both measure it (beyond the margin) are a tie (lower id): brute
+//    force's search certainly returns the canonical vertex distance for both (RV_GEO_BEYOND).
 //  - Row kernels: a leaf block whose candidates all have interpolants there is solved a row
 //    at a time, four cells per vector, every candidate passing while the running best, second
 //    and id stay in registers, on squared values (one root per cell: point-form values are
@@ -128,16 +128,43 @@ constexpr double kInterpMinChord = 1e-3;      // metres: a node on the seed (or 
 // A segment is nearest at one of its ends V when the geodesic from V to the cell leaves at an
 // angle w against the edge with cos(w) <= 0 (first end; >= 0 at the second): by convexity the
 // distance then grows all along the edge. Per cell this is tested with the normal section's
-// direction instead of the geodesic's (the projection of the chord V->P onto V's tangent
-// plane): within kVertexMaxChord the two differ by less than (e^2 / 12) (d / N)^2 ~ 1.4e-5 rad,
-// 14x inside kVertexMargin. Beyond the margin brute force's search (GeoSites::piece_distance)
-// certainly returns V's canonical distance: every point of the edge then has |cos w| > 1.8e-4,
-// so its stopping test (s cos^2 w < 2e-10 m) cannot fire for a cell kVertexMinChord (1 m) or
-// more away (1 x 3.4e-8 m), and the search ends by evaluating V itself. (The margin decides
-// how many cells next to a switch are measured exactly: 2e-3 cost 10x more of them.)
-constexpr double kVertexMargin = 2e-4;
+// direction instead of the geodesic's (the projection u of the chord t = P - V onto V's tangent
+// plane, with te = t . e along the edge's tangent e: cos w_ns = te / |u|), beyond a margin
+// (RV_GEO_BEYOND) that makes two things certain:
+//  - the geodesic's cos w has the sign of the normal section's. The two directions differ by at
+//    most eps(d) = (e^2 / 12) (d / a)^2 (measured: 1.01-1.02x that over 200 000 random pairs at
+//    each of 1 km .. 2000 km; 1.4e-5 rad at 1000 km), and |cos w_geo - cos w_ns| <= eps;
+//  - brute force's search (GeoSites::piece_distance) returns V's canonical distance: its
+//    stopping test, |step cos w| = (m12 / M12) cos^2 w < 2 kGeoConvergence, cannot fire at a
+//    point of the edge before V is evaluated. Along the edge away from the cell s and |cos w|
+//    only grow (convexity), and m12 / M12 >= 0.98 s within kVertexMaxChord, so it is enough
+//    that s cos^2 w_geo >= k0 = 2 kGeoConvergence / 0.98 at V.
+// With a safety factor of 16 on k0 (4 on cos w), k = 16 k0: cos^2 w_ns >= 2 k / s + 2 eps^2
+// gives |cos w_ns| >= sqrt(k / s) + eps, so |cos w_geo| >= sqrt(k / s) >= 4 sqrt(k0 / s). As
+// s >= |chord| >= |u|, it holds when te^2 >= 4 k |u| and te^2 >= 4 eps^2 u^2, i.e.
+// te^4 >= kVertexStop4 u^2 with kVertexStop4 = 16 k^2, and te^2 >= K2 chord^4 u^2 with
+// K2 = 4 (1.1 (e^2 / 12) / a^2)^2 (1.1 covers the measured 1.02 and d vs chord): no root, no
+// division, the same operations in the per-cell test and the row kernel. The band it leaves
+// around a switch is narrow: |cos w_ns| ~ 1.1e-4 at 1 m, 1.1e-6 at 10 km, 3e-5 at 1000 km
+// (a constant 2e-4 before, 7x the bound at 1000 km: on the Oresund fixture at 0.00038 deg it
+// sent 9 350 cells per run to the per-cell method, 74 now).
+constexpr double kVertexStop4 = 16.0 * (16.0 * 2.0 * kGeoConvergence / 0.98) * (16.0 * 2.0 * kGeoConvergence / 0.98);
 constexpr double kVertexMaxChord = 1e6;       // metres
 constexpr double kVertexMinChord = 1.0;       // metres
+
+// K2 of the margin above for an ellipsoid (semi-major axis a, flattening f), 1 / m^4.
+inline double vertex_k2(double a, double f) {
+  const double e2 = std::abs(f * (2.0 - f));
+  const double eps = 1.1 * (e2 / 12.0) / (a * a);
+  return 4.0 * eps * eps;
+}
+
+// The margin test at one end (see kVertexStop4): te, u2 = |u|^2 and c2 = |t|^2 of the cell as
+// segment_regime computes them, k2 = K2; doubles or a row kernel's vectors (the same operations
+// either way; a macro, as a 32-byte vector returned by a function has another ABI with and
+// without AVX).
+#define RV_GEO_BEYOND(te, u2, c2, k2) \
+  ((((te) * (te)) * ((te) * (te)) > kVertexStop4 * (u2)) & (((te) * (te)) > ((k2) * ((c2) * (c2))) * (u2)))
 
 // Lagrange weights of the cubic through t = 0, 1/3, 2/3, 1.
 inline void cubic_weights(double t, double w[4]) {
@@ -294,7 +321,6 @@ struct GeoWorker {
   std::unordered_map<uint64_t, const Interpolant*> cache;
   std::vector<std::shared_ptr<SharedInterpolants::Entry>> held;
   // Row scratch of the kernels: cache-line aligned (kernel_memory.hpp).
-  AlignedVector<double> wcol;  // column weights, 8 per column (CellWeights' wc, lc)
   AlignedVector<double> best, second, value, cx, cy, cz;  // per column of the block's row
   AlignedVector<double> best_id;
   std::vector<RowCandidate> row_points,
@@ -459,10 +485,11 @@ RV_LANES_INLINE void interp_argmin_row_lanes(const RowCandidate* __restrict poin
                                              const double* __restrict w, int64_t stride,
                                              const RowPositions& pos, int64_t n,
                                              double* __restrict best2, double* __restrict second2,
-                                             double* __restrict best_id, double* __restrict force) {
+                                             double* __restrict best_id, double* __restrict force,
+                                             double k2) {
   using GeoV4 = RowVec<V>;  // (the name the RV_GEO_* macros use)
   const double inf = std::numeric_limits<double>::infinity();
-  constexpr double m2 = kVertexMargin * kVertexMargin;
+  const GeoV4 k2v = GeoV4{} + k2;
   constexpr double max2 = kVertexMaxChord * kVertexMaxChord, min2 = kVertexMinChord * kVertexMinChord;
   for (int64_t c = 0; c < n; c += kLanesOf<GeoV4>) {
     GeoV4 a0, a1, a2, a3, x, y, z, l0, l1, l2, l3;
@@ -500,18 +527,18 @@ RV_LANES_INLINE void interp_argmin_row_lanes(const RowCandidate* __restrict poin
     }
     for (int j = 0; j < ks; ++j) {
       const RowSegment& g = segs[j];
-      GeoV4 te[2], u2[2];
+      GeoV4 te[2], u2[2], c2[2];
       auto valid = (x == x);  // all lanes true
       for (int e = 0; e < 2; ++e) {
         const double* v = g.end[e];
         const GeoV4 tx = x - v[0], ty = y - v[1], tz = z - v[2];
-        const GeoV4 chord2 = tx * tx + ty * ty + tz * tz;
+        c2[e] = tx * tx + ty * ty + tz * tz;
         const GeoV4 tn = tx * v[3] + ty * v[4] + tz * v[5];
-        u2[e] = chord2 - tn * tn;
+        u2[e] = c2[e] - tn * tn;
         te[e] = tx * v[6] + ty * v[7] + tz * v[8];
-        valid = valid & (chord2 <= GeoV4{} + max2) & (u2[e] >= GeoV4{} + min2);
+        valid = valid & (c2[e] <= GeoV4{} + max2) & (u2[e] >= GeoV4{} + min2);
       }
-      const auto beyond0 = te[0] * te[0] > (GeoV4{} + m2) * u2[0], beyond1 = te[1] * te[1] > (GeoV4{} + m2) * u2[1];
+      const auto beyond0 = RV_GEO_BEYOND(te[0], u2[0], c2[0], k2v), beyond1 = RV_GEO_BEYOND(te[1], u2[1], c2[1], k2v);
       const auto r1 = (te[0] < zero) & beyond0;
       const auto r2 = ~r1 & (te[1] > zero) & beyond1;
       const auto r3 = ~r1 & ~r2 & (te[0] > zero) & beyond0 & (te[1] < zero) & beyond1;
@@ -548,9 +575,9 @@ RV_LANE_KERNEL(void, interp_argmin_row,
                 const RowCandidate* __restrict additive, int ka, const RowSegment* __restrict segs,
                 int ks, const double* __restrict w, int64_t stride, const RowPositions& pos,
                 int64_t n, double* __restrict best2, double* __restrict second2,
-                double* __restrict best_id, double* __restrict force),
+                double* __restrict best_id, double* __restrict force, double k2),
                (points, kp, additive, ka, segs, ks, w, stride, pos, n, best2, second2, best_id,
-                force))
+                force, k2))
 #undef RV_GEO_TAKE
 #undef RV_GEO_TAKE_PLAIN
 #undef RV_GEO_CELLS
@@ -626,6 +653,7 @@ class GeodesicExactSolver {
     const Window& w = ctx.window;
     if (!located_) init_separable(w);
     max_distance_ = ctx.max_key;  // geodesic keys are metres
+    k2_ = vertex_k2(geo_.geodesic().EquatorialRadius(), geo_.geodesic().Flattening());
     stream_ = streams_results(w);
     init_segment_ends();
     init_interp_block();
@@ -1149,9 +1177,9 @@ class GeodesicExactSolver {
 
   // For single-piece segment `id` seen from cell p: 1 or 2 when it is certainly nearest at its
   // first or second end (brute force's search then returns that end's canonical distance, see
-  // kVertexMargin); 3 when certainly nearest at an interior point (the cell ahead of the first
+  // RV_GEO_BEYOND); 3 when certainly nearest at an interior point (the cell ahead of the first
   // end and behind the second, so the convex distance along the edge has its minimum inside); 0
-  // when none is certain (within kVertexMargin of a switch, or too near or too far).
+  // when none is certain (within RV_GEO_BEYOND's margin of a switch, or too near or too far).
   //
   // Edges longer than a piece (kGeoPieceLength) too: brute force takes the minimum over the
   // pieces, and the piece holding the vertex returns its canonical distance (the other pieces'
@@ -1161,19 +1189,18 @@ class GeodesicExactSolver {
     // projection u = t - (t.n) n has u.e = t.e (e is in the plane) and |u|^2 = |t|^2 - (t.n)^2,
     // so cos w = t.e / |u| is compared with the margin without a root: cos w > m <=> t.e > 0
     // and (t.e)^2 > m^2 |u|^2.
-    double te[2], u2[2];
+    double te[2], u2[2], c2[2];
     for (int e = 0; e < 2; ++e) {
       const SegmentEnd& v = ends_[2 * static_cast<size_t>(id) + static_cast<size_t>(e)];
       const double tx = p.x - v.x, ty = p.y - v.y, tz = p.z - v.z;
-      const double chord2 = tx * tx + ty * ty + tz * tz;
-      if (!(chord2 <= kVertexMaxChord * kVertexMaxChord)) return 0;
+      c2[e] = tx * tx + ty * ty + tz * tz;
+      if (!(c2[e] <= kVertexMaxChord * kVertexMaxChord)) return 0;
       const double tn = tx * v.nx + ty * v.ny + tz * v.nz;
-      u2[e] = chord2 - tn * tn;
+      u2[e] = c2[e] - tn * tn;
       if (!(u2[e] >= kVertexMinChord * kVertexMinChord)) return 0;
       te[e] = tx * v.ex + ty * v.ey + tz * v.ez;
     }
-    constexpr double m2 = kVertexMargin * kVertexMargin;
-    const bool beyond0 = te[0] * te[0] > m2 * u2[0], beyond1 = te[1] * te[1] > m2 * u2[1];
+    const bool beyond0 = RV_GEO_BEYOND(te[0], u2[0], c2[0], k2_), beyond1 = RV_GEO_BEYOND(te[1], u2[1], c2[1], k2_);
     // First end: the cell lies behind it (against the edge); second end: beyond it.
     if (te[0] < 0.0 && beyond0) return 1;
     if (te[1] > 0.0 && beyond1) return 2;
@@ -1289,9 +1316,10 @@ class GeodesicExactSolver {
   //
   // Why the bounds hold: with t = P - V, te = t.e moves by at most |P - C| <= radius from its
   // value at the centre (e is a unit vector), and so does |u| = |t - (t.n) n| (a projection:
-  // 1-Lipschitz); |t| likewise. |u| >= |te| (e lies in the tangent plane). So the per-cell test
-  // (cos w = te / |u| against kVertexMargin) is settled for the whole block wherever the
-  // centre's margin exceeds (1 + m) radius; the levels are widened by kRegimeSlack and the
+  // 1-Lipschitz); |t| likewise. |u| >= |te| (e lies in the tangent plane). The per-cell test
+  // (RV_GEO_BEYOND) is |te| > M(|u|, |t|) = max(kVertexStop4^(1/4) sqrt(|u|), sqrt(K2) |t|^2 |u|),
+  // which grows with |u| and |t|: it holds at every cell wherever |te| - radius exceeds M at
+  // |u| + radius and |t| + radius. The levels are widened by kRegimeSlack (and M by 1e-9) and the
   // chord limits moved inwards so that the per-cell test's rounding cannot disagree: a certain
   // regime is the one every cell's own test gives, bit for bit the per-cell method's values.
   struct BlockRegime {
@@ -1300,24 +1328,26 @@ class GeodesicExactSolver {
   };
   BlockRegime block_regime(double cx, double cy, double cz, double radius, int32_t id) const {
     constexpr double kRegimeSlack = 1e-3;  // metres
-    const double m = kVertexMargin * (1.0 + 1e-9);
-    const double grow = radius * (1.0 + m) + kRegimeSlack;
-    double te[2], u[2];
+    const double stop = std::sqrt(std::sqrt(kVertexStop4)), angle = std::sqrt(k2_);
+    const double grow = radius + kRegimeSlack;
+    double te[2], mu[2];
     bool settled = true;  // both ends' chord and |u| limits hold at every cell
     for (int e = 0; e < 2; ++e) {
       const SegmentEnd& v = ends_[2 * static_cast<size_t>(id) + static_cast<size_t>(e)];
       const double tx = cx - v.x, ty = cy - v.y, tz = cz - v.z;
       const double chord = std::sqrt(tx * tx + ty * ty + tz * tz);
       const double tn = tx * v.nx + ty * v.ny + tz * v.nz;
-      u[e] = std::sqrt(std::max(chord * chord - tn * tn, 0.0));
+      const double u = std::sqrt(std::max(chord * chord - tn * tn, 0.0)) + radius;
+      const double t = chord + radius;
+      mu[e] = std::max(stop * std::sqrt(u), angle * t * t * u) * (1.0 + 1e-9);
       te[e] = tx * v.ex + ty * v.ey + tz * v.ez;
       if (!(chord + radius + kRegimeSlack <= kVertexMaxChord * (1.0 - 1e-9))) settled = false;
       if (!(std::abs(te[e]) - radius - kRegimeSlack >= kVertexMinChord)) settled = false;
     }
     BlockRegime out;
-    // Bounds over the block: te in [te - radius, te + radius]; -te - m|u| >= -te - m u - grow.
-    const bool behind0 = -te[0] - m * u[0] > grow, beyond1 = te[1] - m * u[1] > grow;
-    const bool ahead0 = te[0] - m * u[0] > grow, before1 = -te[1] - m * u[1] > grow;
+    // Bounds over the block: te in [te - radius, te + radius], and every cell's M below mu.
+    const bool behind0 = -te[0] - mu[0] > grow, beyond1 = te[1] - mu[1] > grow;
+    const bool ahead0 = te[0] - mu[0] > grow, before1 = -te[1] - mu[1] > grow;
     if (settled) {
       if (behind0)
         out.certain = 1;
@@ -1491,6 +1521,7 @@ class GeodesicExactSolver {
       if (!shared) rc.tag = -1.0;
     }
     bool plain = wk.row_additive.empty() && wk.row_segments.empty();  // interp_argmin_points can do it
+    bool cells_ready = false, one_block = false;  // the per-cell method's set-up (flagged cells)
     for (const RowCandidate& rc : wk.row_points) plain = plain && rc.tag < 0.0;
     for (int64_t r = r0; r < r1; ++r) {
       CellWeights rw;
@@ -1538,7 +1569,7 @@ class GeodesicExactSolver {
                           wk.row_additive.data(), static_cast<int>(wk.row_additive.size()),
                           wk.row_segments.data(), static_cast<int>(wk.row_segments.size()),
                           wcols, wstride_, pos, n, wk.best.data(), wk.second.data(),
-                          wk.best_id.data(), wk.force.data());
+                          wk.best_id.data(), wk.force.data(), k2_);
       // Every cell as put() would write it, without branches; then the flagged cells (rare)
       // are solved by the per-cell method and overwrite theirs. A row without them goes out
       // with non-temporal stores when the window is large (put_row).
@@ -1553,13 +1584,21 @@ class GeodesicExactSolver {
       // that site with lower bounds and rarely an exact distance, where the per-cell method
       // measures every candidate exactly. (On the Oresund coastline at 0.0004 deg a quarter of
       // the flagged cells are on land: cells within kAdditiveMinValue of an edge, both sides.)
+      // The per-cell method's set-up is made once per leaf, at its first such cell: the leaf lies
+      // in one interpolation block, so its candidates' interpolants are looked up once.
       if (flagged)
         for (int64_t c = 0; c < n; ++c) {
           if (wk.second[static_cast<size_t>(c)] == 0.0) continue;
-          if (fully_interior(c0 + c, r, c0 + c + 1, r + 1))
+          if (fully_interior(c0 + c, r, c0 + c + 1, r + 1)) {
             solve_zero(cands, c0 + c, r, c0 + c + 1, r + 1);
-          else
-            solve_cells(wk, cands, c0 + c, r, c0 + c + 1, r + 1);
+            continue;
+          }
+          if (!cells_ready) {
+            one_block = in_one_line_block(c0, r0, c1, r1);
+            cells_setup(wk, cands, one_block);
+            cells_ready = true;
+          }
+          solve_cells_row(wk, cands, one_block, r, c0 + c, c0 + c + 1);
         }
     }
   }
@@ -1630,159 +1669,172 @@ class GeodesicExactSolver {
   void solve_cells(GeoWorker& wk, const std::vector<int32_t>& cands, int64_t c0, int64_t r0, int64_t c1,
                    int64_t r1) {
     if (cands.empty()) return fill_none(c0, r0, c1, r1);
-    const bool bounded = std::isfinite(max_distance_);
-    // Interpolants looked up once per candidate when the block lies in one interpolation block.
-    // (In one line block is in one point block: the line block divides the point block.)
+    const bool one_block = in_one_line_block(c0, r0, c1, r1);
+    cells_setup(wk, cands, one_block);
+    for (int64_t r = r0; r < r1; ++r) solve_cells_row(wk, cands, one_block, r, c0, c1);
+  }
+
+  // Whether the cells [c0, c1) x [r0, r1) lie in one interpolation block of each form (in one
+  // line block is in one point block: the line block divides the point block), so that a
+  // candidate's interpolants are the same for all of them.
+  bool in_one_line_block(int64_t c0, int64_t r0, int64_t c1, int64_t r1) const {
     const int64_t S = line_block_, gx = ctx_.window.col0, gy = ctx_.window.row0;
-    const bool one_block = (gx + c0) / S == (gx + c1 - 1) / S && (gy + r0) / S == (gy + r1 - 1) / S;
-    wk.slots.assign(one_block ? 4 * cands.size() : 0, &kNotLooked);
+    return (gx + c0) / S == (gx + c1 - 1) / S && (gy + r0) / S == (gy + r1 - 1) / S;
+  }
+
+  // The per-cell method's scratch for `cands` (non-empty): interpolant slots per candidate and
+  // end when the cells to solve lie in one interpolation block (one_block), looked up once for
+  // all of them, and each candidate's single piece. solve_cells_row then solves any of those
+  // cells.
+  void cells_setup(GeoWorker& wk, const std::vector<int32_t>& cands, bool one_block) const {
+    const size_t n = cands.size();
+    wk.slots.assign(one_block ? 4 * n : 0, &kNotLooked);
+    wk.cell_lb.resize(n);
+    wk.pieces.resize(n);
+    for (size_t i = 0; i < n; ++i) wk.pieces[i] = geo_.single_piece(cands[i]);
+  }
+
+  // Cells [c0, c1) of row r by the per-cell method, after cells_setup(wk, cands, one_block).
+  void solve_cells_row(GeoWorker& wk, const std::vector<int32_t>& cands, bool one_block, int64_t r, int64_t c0,
+                       int64_t c1) {
+    const bool bounded = std::isfinite(max_distance_);
     auto slots_of = [&](size_t i) { return one_block ? &wk.slots[4 * i] : nullptr; };
     CellWeights cw;
-    wk.wcol.resize(static_cast<size_t>(8 * (c1 - c0)));
-    for (int64_t c = c0; c < c1; ++c) {
-      double* at = &wk.wcol[static_cast<size_t>(8 * (c - c0))];
-      cell_weights_col(c, at, at + 4);
-    }
+    cell_weights_row(r, cw);
+    // The column weights are the window's (init_column_weights: weights_col's values).
     auto column_weights = [&](int64_t c) {
-      std::memcpy(cw.wc, &wk.wcol[static_cast<size_t>(8 * (c - c0))], sizeof(cw.wc));
-      std::memcpy(cw.lc, &wk.wcol[static_cast<size_t>(8 * (c - c0) + 4)], sizeof(cw.lc));
+      for (int b = 0; b < 4; ++b) {
+        cw.wc[b] = wcols_[static_cast<size_t>(b * wstride_ + c)];
+        cw.lc[b] = wcols_[static_cast<size_t>((4 + b) * wstride_ + c)];
+      }
     };
     if (cands.size() == 1) {
       const int32_t id = cands[0];
-      for (int64_t r = r0; r < r1; ++r) {
-        cell_weights_row(r, cw);
-        for (int64_t c = c0; c < c1; ++c) {
-          bool exact = false;
-          const GeoCell p = cell_at(c, r);
-          column_weights(c);
-          const double v = value(wk, c, r, p, id, regime_of(p, id), exact, nullptr, nullptr, &cw, slots_of(0));
-          if (!exact && bounded && std::abs(v - max_distance_) <= kInterpTie)
-            put(c, r, id, geo_.distance(p, id));
-          else
-            put(c, r, id, v);
-        }
+      for (int64_t c = c0; c < c1; ++c) {
+        bool exact = false;
+        const GeoCell p = cell_at(c, r);
+        column_weights(c);
+        const double v = value(wk, c, r, p, id, regime_of(p, id), exact, nullptr, nullptr, &cw, slots_of(0));
+        if (!exact && bounded && std::abs(v - max_distance_) <= kInterpTie)
+          put(c, r, id, geo_.distance(p, id));
+        else
+          put(c, r, id, v);
       }
       return;
     }
     const size_t n = cands.size();
-    wk.cell_lb.resize(n);
     // Per-cell lower bounds: single-piece edges inline (their capsule bound), others through
     // GeoSites. Any valid bound gives the same result: it only skips candidates that cannot
     // come within kGeoSlack of the best.
-    wk.pieces.resize(n);
-    for (size_t i = 0; i < n; ++i) wk.pieces[i] = geo_.single_piece(cands[i]);
     auto cell_lb = [&](const GeoCell& p, size_t i) {
       if (const GeoPiece* piece = wk.pieces[i]) return std::max(piece_capsule_bound(*piece, p.x, p.y, p.z), 0.0);
       return geo_.lower_bound(p, cands[i]);
     };
-    for (int64_t r = r0; r < r1; ++r) {
-      size_t previous = n;  // the previous cell's nearest candidate (n: none yet)
-      double travel = 0.0;  // the way along the row since its first cell (an upper bound)
-      GeoCell q{};
-      const double parallel_step = located_ ? 0.0 : rho_[r] * ctx_.grid.res * (3.14159265358979323846 / 180.0) * (1.0 + 1e-12) + 1e-9;
-      cell_weights_row(r, cw);
-      for (int64_t c = c0; c < c1; ++c) {
-        const GeoCell p = cell_at(c, r);
-        column_weights(c);
-        // Lower bounds stay valid along the row: a bound computed at an earlier cell minus the
-        // way since, d(P) >= d(Q) - d(Q, P) (the geodesic distance is 1-Lipschitz). cell_lb
-        // holds each bound plus the travel when it was computed, so the stale bound is
-        // cell_lb - travel. The step between neighbouring centres: on a geographic grid the arc
-        // of their parallel (no shorter than the geodesic between them), on a projected one
-        // their chord grown by 1e-5 to cover the arc. Only candidates whose stale bound does not
-        // exclude them get a fresh one, which skips most of them on most cells. (Rounding in
-        // these sums, ~1e-9 m, is far inside kGeoSlack - kInterpTie.)
-        size_t first = 0;
-        if (previous == n) {
-          for (size_t i = 0; i < n; ++i) {
-            wk.cell_lb[i] = cell_lb(p, i);
-            if (wk.cell_lb[i] < wk.cell_lb[first]) first = i;
-          }
-        } else {
-          const double step =
-              located_ ? std::sqrt((p.x - q.x) * (p.x - q.x) + (p.y - q.y) * (p.y - q.y) + (p.z - q.z) * (p.z - q.z)) *
-                                 (1.0 + 1e-5) +
-                             1e-9
-                       : parallel_step;
-          travel += step;
-          first = previous;
-        }
-        q = p;
-        // The candidate with the smallest lower bound (along a row: the previous cell's nearest)
-        // is usually the nearest: measure it first,
-        // then only the candidates whose lower bound does not exclude them (kGeoSlack exceeds
-        // kInterpTie, so every candidate within kInterpTie of the best is measured). When the
-        // best distance is attained at an edge's end, an adjacent edge that is certainly
-        // nearest at the same vertex has exactly the same (canonical) distance: it is settled
-        // as a tie without a search (geodesic_sites.hpp, attains_at_vertex).
-        // Two edges nearest at the vertex they share both measure that vertex: their values
-        // are the same bits (same interpolation nodes), as brute force's canonical vertex
-        // distances are, so that is a true tie (lower id), not a close call.
-        GeoEnd end, other_end;
-        bool best_exact = true;
-        double best;
-        const Interpolant* best_from = nullptr;
-        const Interpolant* from = nullptr;
-        bool best_canonical = false, canonical = false;
-        const int first_regime = regime_of(p, cands[first]);
-        if (geo_.site(cands[first]).segment && first_regime == 0)
-          best = geo_.distance(p, cands[first], &end);
-        else
-          best = value(wk, c, r, p, cands[first], first_regime, best_exact, &best_from, &best_canonical, &cw,
-                       slots_of(first));
-        int32_t best_id = cands[first];
-        double runner_up = std::numeric_limits<double>::infinity();
-        bool runner_exact = true;
-        size_t best_i = first;
+    size_t previous = n;  // the previous cell's nearest candidate (n: none yet)
+    double travel = 0.0;  // the way along the row since its first cell (an upper bound)
+    GeoCell q{};
+    const double parallel_step = located_ ? 0.0 : rho_[r] * ctx_.grid.res * (3.14159265358979323846 / 180.0) * (1.0 + 1e-12) + 1e-9;
+    for (int64_t c = c0; c < c1; ++c) {
+      const GeoCell p = cell_at(c, r);
+      column_weights(c);
+      // Lower bounds stay valid along the row: a bound computed at an earlier cell minus the
+      // way since, d(P) >= d(Q) - d(Q, P) (the geodesic distance is 1-Lipschitz). cell_lb
+      // holds each bound plus the travel when it was computed, so the stale bound is
+      // cell_lb - travel. The step between neighbouring centres: on a geographic grid the arc
+      // of their parallel (no shorter than the geodesic between them), on a projected one
+      // their chord grown by 1e-5 to cover the arc. Only candidates whose stale bound does not
+      // exclude them get a fresh one, which skips most of them on most cells. (Rounding in
+      // these sums, ~1e-9 m, is far inside kGeoSlack - kInterpTie.)
+      size_t first = 0;
+      if (previous == n) {
         for (size_t i = 0; i < n; ++i) {
-          if (i == first || wk.cell_lb[i] > best + kGeoSlack + travel) continue;
-          if (previous != n) {
-            const double lb = cell_lb(p, i);
-            wk.cell_lb[i] = lb + travel;
-            if (lb > best + kGeoSlack) continue;
-          }
-          const int32_t id = cands[i];
-          bool exact = true;
-          double d;
-          const int regime = regime_of(p, id);
-          if (geo_.site(id).segment && regime == 0) {
-            if (best_exact && geo_.attains_at_vertex(p, id, end, best)) {
-              best_id = std::min(best_id, id);
-              continue;
-            }
-            d = geo_.distance(p, id, &other_end);
-          } else {
-            d = value(wk, c, r, p, id, regime, exact, &from, &canonical, &cw, slots_of(i));
-            other_end.valid = false;
-          }
-          if (!exact && !best_exact && d == best && canonical && best_canonical && from->lat == best_from->lat &&
-              from->lon == best_from->lon) {
+          wk.cell_lb[i] = cell_lb(p, i);
+          if (wk.cell_lb[i] < wk.cell_lb[first]) first = i;
+        }
+      } else {
+        const double step =
+            located_ ? std::sqrt((p.x - q.x) * (p.x - q.x) + (p.y - q.y) * (p.y - q.y) + (p.z - q.z) * (p.z - q.z)) *
+                               (1.0 + 1e-5) +
+                           1e-9
+                     : parallel_step;
+        travel += step;
+        first = previous;
+      }
+      q = p;
+      // The candidate with the smallest lower bound (along a row: the previous cell's nearest)
+      // is usually the nearest: measure it first,
+      // then only the candidates whose lower bound does not exclude them (kGeoSlack exceeds
+      // kInterpTie, so every candidate within kInterpTie of the best is measured). When the
+      // best distance is attained at an edge's end, an adjacent edge that is certainly
+      // nearest at the same vertex has exactly the same (canonical) distance: it is settled
+      // as a tie without a search (geodesic_sites.hpp, attains_at_vertex).
+      // Two edges nearest at the vertex they share both measure that vertex: their values
+      // are the same bits (same interpolation nodes), as brute force's canonical vertex
+      // distances are, so that is a true tie (lower id), not a close call.
+      GeoEnd end, other_end;
+      bool best_exact = true;
+      double best;
+      const Interpolant* best_from = nullptr;
+      const Interpolant* from = nullptr;
+      bool best_canonical = false, canonical = false;
+      const int first_regime = regime_of(p, cands[first]);
+      if (geo_.site(cands[first]).segment && first_regime == 0)
+        best = geo_.distance(p, cands[first], &end);
+      else
+        best = value(wk, c, r, p, cands[first], first_regime, best_exact, &best_from, &best_canonical, &cw,
+                     slots_of(first));
+      int32_t best_id = cands[first];
+      double runner_up = std::numeric_limits<double>::infinity();
+      bool runner_exact = true;
+      size_t best_i = first;
+      for (size_t i = 0; i < n; ++i) {
+        if (i == first || wk.cell_lb[i] > best + kGeoSlack + travel) continue;
+        if (previous != n) {
+          const double lb = cell_lb(p, i);
+          wk.cell_lb[i] = lb + travel;
+          if (lb > best + kGeoSlack) continue;
+        }
+        const int32_t id = cands[i];
+        bool exact = true;
+        double d;
+        const int regime = regime_of(p, id);
+        if (geo_.site(id).segment && regime == 0) {
+          if (best_exact && geo_.attains_at_vertex(p, id, end, best)) {
             best_id = std::min(best_id, id);
             continue;
           }
-          if (d < best || (d == best && id < best_id)) {
-            runner_up = best;
-            runner_exact = best_exact;
-            best = d;
-            best_id = id;
-            best_i = i;
-            best_exact = exact;
-            best_from = exact ? nullptr : from;
-            best_canonical = !exact && canonical;
-            end = other_end;
-          } else if (d < runner_up) {
-            runner_up = d;
-            runner_exact = exact;
-          }
+          d = geo_.distance(p, id, &other_end);
+        } else {
+          d = value(wk, c, r, p, id, regime, exact, &from, &canonical, &cw, slots_of(i));
+          other_end.valid = false;
         }
-        previous = best_i;
-        bool close_call = (!best_exact || !runner_exact) && runner_up - best <= kInterpTie;
-        if (!best_exact && bounded && std::abs(best - max_distance_) <= kInterpTie) close_call = true;
-        if (close_call)
-          resolve_exactly(wk, cands, c, r, best);
-        else
-          put(c, r, best_id, best);
+        if (!exact && !best_exact && d == best && canonical && best_canonical && from->lat == best_from->lat &&
+            from->lon == best_from->lon) {
+          best_id = std::min(best_id, id);
+          continue;
+        }
+        if (d < best || (d == best && id < best_id)) {
+          runner_up = best;
+          runner_exact = best_exact;
+          best = d;
+          best_id = id;
+          best_i = i;
+          best_exact = exact;
+          best_from = exact ? nullptr : from;
+          best_canonical = !exact && canonical;
+          end = other_end;
+        } else if (d < runner_up) {
+          runner_up = d;
+          runner_exact = exact;
+        }
       }
+      previous = best_i;
+      bool close_call = (!best_exact || !runner_exact) && runner_up - best <= kInterpTie;
+      if (!best_exact && bounded && std::abs(best - max_distance_) <= kInterpTie) close_call = true;
+      if (close_call)
+        resolve_exactly(wk, cands, c, r, best);
+      else
+        put(c, r, best_id, best);
     }
   }
 
@@ -1801,6 +1853,7 @@ class GeodesicExactSolver {
   int64_t line_block_ = kInterpMinBlock;    // the point form's and the additive form's
   mutable SharedInterpolants shared_;       // the interpolants built so far (any worker)
   bool located_ = false;                    // projected grid: cells located by ctx.geolocator
+  double k2_ = 0.0;                         // RV_GEO_BEYOND's K2 for the grid's ellipsoid
   std::vector<SegmentEnd> ends_;            // per site: its two ends (segments only)
 };
 
@@ -1810,5 +1863,7 @@ void run_exact_geodesic(const EngineContext& ctx, Raster<int32_t>& site, Raster<
   GeodesicExactSolver solver(ctx, site, distance);
   solver.run();
 }
+
+#undef RV_GEO_BEYOND
 
 }  // namespace rv::detail

@@ -44,6 +44,11 @@ namespace rv::detail {
 // Added to every culling comparison: covers rounding in bounds and GeographicLib's error
 // (15 nm) with a wide margin while costing nothing measurable.
 inline constexpr double kGeoSlack = 1e-3;  // metres
+// The segment search (GeoSites::piece_distance) stops when the distance at its current point
+// exceeds the minimum by less than this (estimated as |cos w * dt| / 2, the second-order excess
+// of a convex function): its test is |dt cos w| < 2 kGeoConvergence. The exact method's vertex
+// margin depends on it (geodesic_exact.cpp, kVertexStop4).
+inline constexpr double kGeoConvergence = 1e-10;  // metres
 // Edges are searched and bounded in pieces no longer than this.
 inline constexpr double kGeoPieceLength = 100e3;  // metres
 

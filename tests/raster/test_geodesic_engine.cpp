@@ -5,6 +5,7 @@
 
 #include <GeographicLib/Geodesic.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <random>
 
@@ -416,6 +417,38 @@ TEST(GeodesicEngine, VertexSwitchesAtFineAndCoarseResolution) {
   expect_exact_equals_brute(s, geo_grid(11.0, 56.0, 0.01, 200, 100), "coarse");
   // And inside a distance limit that cuts through the wedges.
   expect_exact_equals_brute(s, geo_grid(11.998, 55.5060, 0.0001, 240, 140), "fine, limited", 300.0);
+}
+
+TEST(GeodesicEngine, VertexMarginHoldsRightAtTheSwitches) {
+  // The per-cell test of which part of an edge is nearest (geodesic_exact.cpp, kVertexStop4)
+  // leaves a band of |cos w| ~ 1.1e-4 / sqrt(d / 1 m) around each switch between a vertex and an
+  // edge's interior: outside it the cell is taken as nearest at the vertex (a tie between the
+  // two edges there, to the lower id) or at the interior without measuring, which holds only
+  // if brute force's search returns the vertex's canonical distance there too. Grids of
+  // millimetre to metre cells straddle the perpendicular to the second edge at its first vertex,
+  // 3 m to 300 km out, so that the band and both sides of it are many cells wide.
+  SeedSet s;
+  const Vec2 v0{12.0, 55.5}, v{12.01, 55.502}, v2{12.02, 55.499};
+  s.add_polyline(s.add_feature(s.owner_code("A")), std::vector<Vec2>{v0, v, v2});
+  s.add_point(s.add_feature(s.owner_code("B")), {11.0, 50.0});  // far: no effect but a candidate
+  const GeographicLib::Geodesic& geod = GeographicLib::Geodesic::WGS84();
+  double s12, azi1, azi2;
+  geod.Inverse(v.y, v.x, v2.y, v2.x, s12, azi1, azi2);
+  for (const double d : {3.0, 100.0, 2e3, 3e4, 3e5}) {
+    double lat, lon;
+    geod.Direct(v.y, v.x, azi1 - 90.0, d, lat, lon);  // on the perpendicular, north of the line
+    const double band = 1.1e-4 * std::sqrt(d);        // metres either side of it
+    const double res = band / 4.0 / 111e3;             // degrees: ~4 cells per band
+    const GridSpec g = geo_grid(lon - 20.5 * res, lat + 20.5 * res, res, 41, 41);
+    const std::string what = "perpendicular at " + std::to_string(d) + " m";
+    expect_exact_equals_brute(s, g, what);
+    // Both sides of the switch are in the grid: the vertex (the lower edge, id 0, ties) and the
+    // second edge's interior (id 1).
+    const NearestField f = run(s, g, Method::exact);
+    const auto& sites = f.site.cells();
+    EXPECT_GT(std::count(sites.begin(), sites.end(), 0), 100) << what;
+    EXPECT_GT(std::count(sites.begin(), sites.end(), 1), 100) << what;
+  }
 }
 
 TEST(GeodesicEngine, EdgesLongerThanAPiece) {
