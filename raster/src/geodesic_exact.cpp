@@ -28,18 +28,20 @@
 //    (1.6 deg): 5e-4 m. Point-form blocks are therefore up to 0.35 deg (512 cells; 16 tiles,
 //    which share them across threads: SharedInterpolants). For cells certainly nearest at an
 //    interior point of an edge, the signed distance to the edge's geodesic (extended beyond its
-//    ends) minus the signed distance to a plane through the edge is interpolated the same way
-//    (additive form, build_line_interpolant: smooth across the edge) on its own blocks of up to
-//    0.21 deg (512 cells): the extended edge must stay one piece. Worst error measured (9 x 9
-//    cells per block, every block of geodesic_bench's coastlines and of the Oresund fixture):
-//    7.2e-9 m on blocks of 0.08 deg, 7.6e-8 m on 0.16 deg, 8.8e-8 m on 0.169 deg, 1.9e-7 m on
-//    0.205 deg, 2.2e-7 m on 0.209 deg; values under kAdditiveMinValue (8 m, where a float32's
-//    last place is 9.5e-7 m) are measured exactly.
+//    ends) minus a cubic of the signed distance to a plane through the edge (normaliser()) is
+//    interpolated the same way (additive form, build_line_interpolant: smooth across the edge)
+//    on its own blocks of up to 0.21 deg (512 cells): the extended edge must stay one piece.
+//    Worst error measured (9 x 9 cells per block, every block of geodesic_bench's coastlines and
+//    of the Oresund fixture at 0.00015 .. 0.0004 deg): 3.8e-9 m on blocks of 0.077 deg, 9.7e-9 m
+//    on 0.154 deg, 2.4e-8 m on 0.195 deg, 3.1e-8 m on 0.205 deg (with the plane's distance alone,
+//    as before the cubic term: 6.1e-9, 6.1e-8, 1.6e-7, 1.9e-7 m); values under kAdditiveMinValue
+//    (2 m, where a float32's last place is 2.4e-7 m, 7x the worst) are measured exactly.
 //    A cell's value then costs a few tens of flops per candidate.
 //    Guards: the blocks' spans are limited (kPointSpan, kLineSpan; in metres on projected
 //    grids); every interpolant is checked against an exact value at the block's centre and
 //    rejected when off by more than kInterpCheck = 5e-6 m (the worst centre error measured above
-//    is 2.5e-6 m: the check catches a fit that breaks, it does not bound the error by itself);
+//    is 2.5e-6 m: the check catches a fit that breaks, it does not bound the error by itself),
+//    the additive form's by more than kInterpCheckAdditive = 6e-8 m;
 //    nodes near the antipode (d > kInterpMaxDistance), on the point itself, or an extended edge
 //    nearest at its ends reject it too. Rejected interpolants leave those cells to exact
 //    distances.
@@ -111,7 +113,7 @@ constexpr int64_t kInterpSolveBlock = 64;     // culling goes on down to blocks 
                                               // the per-cell pass: fewer candidates per cell, while
                                               // the interpolants stay those of the larger block
 constexpr int64_t kInterpMinBlock = 8;        // cells
-constexpr double kAdditiveMinValue = 8.0;     // metres: see value()
+constexpr double kAdditiveMinValue = 2.0;     // metres: see value()
 constexpr int64_t kInterpMinEdge = 4;         // a block clipped by the grid below this: per cell
 constexpr size_t kInterpMaxCandidates = 24;   // more candidates: subdivide (or per cell)
 // Leaves with segments take the row kernels only where line blocks are this large: the
@@ -121,6 +123,10 @@ constexpr size_t kInterpMaxCandidates = 24;   // more candidates: subdivide (or 
 // blocks, 90 -> 110 ns per cell; at 0.0004 deg, 128-cell blocks, 18.5 -> 12.8).
 constexpr int64_t kLeafKernelMinBlock = 128;
 constexpr double kInterpCheck = 5e-6;         // metres: accepted error at the block's centre
+constexpr double kInterpCheckAdditive = 6e-8; // ... for the additive form, whose values are used
+                                              // down to kAdditiveMinValue (worst centre error
+                                              // measured 1.8e-8 m; a cell's worst, 3.1e-8 m, was
+                                              // under twice its block's centre error)
 constexpr double kInterpTie = 1e-4;           // metres: closer calls are decided exactly
 constexpr double kInterpMaxDistance = 1.2e7;  // metres: beyond, the antipode's kink is too near
 constexpr double kInterpMinChord = 1e-3;      // metres: a node on the seed (or on an edge)
@@ -188,18 +194,26 @@ struct Interpolant {
   double lat, lon;    // the point measured from: the point site, or the segment's (first) end
   double sx, sy, sz;  // its ECEF position
   // Point form: q = d / chord to (sx, sy, sz), value q * chord. Additive form (an edge's
-  // interior, build_line_interpolant): q = signed d - h, h = n . (P - s) the signed distance to
-  // the plane through the edge's chord and the mean normal of its ends, value |h + q|.
+  // interior, build_line_interpolant): q = signed d - h, h = g + k3 g^3 with g = n . (P - s) the
+  // signed distance to the plane through the edge's chord and the mean normal of its ends,
+  // value |h + q|.
   bool additive = false;
   double nx = 0.0, ny = 0.0, nz = 0.0;
+  double k3 = 0.0;    // additive form: 1 / (6 R^2), R the radius of curvature across the edge
   double q[4][4];     // the interpolated quantity at the nodes [row][col]
 };
 
 // The normaliser of an interpolant at ECEF (x, y, z): the chord to its point, or for a segment's
-// interior the signed distance to its plane.
+// interior h = g + k3 g^3 from the signed distance g to its plane. (On a sphere of radius R the
+// distance to the great circle is R asin(g / R) = g + g^3 / (6 R^2) + ...: the cubic term leaves
+// q ten times smaller and smoother, so the bicubic fits it ten times closer; the row kernels
+// compute it with the same operations.)
 inline double normaliser(const Interpolant& it, double x, double y, double z) {
   const double dx = x - it.sx, dy = y - it.sy, dz = z - it.sz;
-  if (it.additive) return dx * it.nx + dy * it.ny + dz * it.nz;
+  if (it.additive) {
+    const double g = dx * it.nx + dy * it.ny + dz * it.nz;
+    return g + (it.k3 * (g * g)) * g;
+  }
   return std::sqrt(dx * dx + dy * dy + dz * dz);
 }
 
@@ -236,7 +250,7 @@ thread_local const TileCells* tl_tile = nullptr;
 // 2^53, so one compare mask blends them with the values).
 struct RowCandidate {
   double qr[4];
-  double sx, sy, sz, nx, ny, nz, id, tag;
+  double sx, sy, sz, nx, ny, nz, id, tag, k3;
   double dz2;  // interp_argmin_points on a geographic grid: (z - sz)^2 of the row's z
 };
 
@@ -519,7 +533,8 @@ RV_LANES_INLINE void interp_argmin_row_lanes(const RowCandidate* __restrict poin
       const RowCandidate& p = additive[j];
       const GeoV4 q = RV_GEO_QL(p);
       const GeoV4 dx = x - p.sx, dy = y - p.sy, dz = z - p.sz;
-      const GeoV4 h = dx * p.nx + dy * p.ny + dz * p.nz + q;
+      const GeoV4 g = dx * p.nx + dy * p.ny + dz * p.nz;
+      const GeoV4 h = (g + (p.k3 * (g * g)) * g) + q;  // normaliser() + q
       const GeoV4 v = h < zero ? -h : h;
       const GeoV4 key = v * v;
       const GeoV4 idv = GeoV4{} + p.id;
@@ -550,7 +565,8 @@ RV_LANES_INLINE void interp_argmin_row_lanes(const RowCandidate* __restrict poin
       const GeoV4 bx = x - pb.sx, by = y - pb.sy, bz = z - pb.sz;
       const GeoV4 ix = x - pi.sx, iy = y - pi.sy, iz = z - pi.sz;
       const GeoV4 ca = ax * ax + ay * ay + az * az, cb = bx * bx + by * by + bz * bz;
-      const GeoV4 h = ix * pi.nx + iy * pi.ny + iz * pi.nz + qi;
+      const GeoV4 gi = ix * pi.nx + iy * pi.ny + iz * pi.nz;
+      const GeoV4 h = (gi + (pi.k3 * (gi * gi)) * gi) + qi;  // normaliser() + q
       const GeoV4 vi = h < zero ? -h : h;
       const GeoV4 pq = r1 ? qa : qb, pc = r1 ? ca : cb;  // a vertex: the point form
       const GeoV4 pkey = (pq * pq) * pc;
@@ -1116,6 +1132,20 @@ class GeodesicExactSolver {
       it.ny = py / pn;
       it.nz = pz / pn;
     }
+    {
+      // R: the normal section's radius across the edge (azimuth + 90 degrees) at its middle
+      // latitude, 1 / R = cos^2(a) / M + sin^2(a) / N.
+      using GeographicLib::Math;
+      const double a = geo_.geodesic().EquatorialRadius(), f = geo_.geodesic().Flattening();
+      const double e2 = f * (2.0 - f);
+      double sp, cp, sa, ca;
+      Math::sincosd(0.5 * (s.lat + s.lat_b), sp, cp);
+      Math::sincosd(s.azi_a + 90.0, sa, ca);
+      const double w2 = 1.0 - e2 * sp * sp;
+      const double n_radius = a / std::sqrt(w2), m_radius = a * (1.0 - e2) / (w2 * std::sqrt(w2));
+      const double inv = ca * ca / m_radius + sa * sa / n_radius;
+      it.k3 = inv * inv / 6.0;
+    }
     // The extension: a cell of the block whose nearest point is inside the edge has every other
     // cell of the block within the block's diagonal d (its corners' chord, 1.25 d covering
     // chord vs arc) of it, so their nearest points of the extended line lie within that of the
@@ -1172,7 +1202,7 @@ class GeodesicExactSolver {
     cubic_weights(0.5, wc);
     const double approx = apply(it, eval(it, wt, wc), centre.x, centre.y, centre.z);
     const double want = exact(centre);
-    return ok && std::abs(approx - want) <= kInterpCheck;
+    return ok && std::abs(approx - want) <= kInterpCheckAdditive;
   }
 
   // For single-piece segment `id` seen from cell p: 1 or 2 when it is certainly nearest at its
@@ -1276,7 +1306,7 @@ class GeodesicExactSolver {
         }
         const double v = it->additive ? apply(*it, eval(*it, cell->lt, cell->lc), p.x, p.y, p.z)
                                       : apply(*it, eval(*it, cell->wt, cell->wc), p.x, p.y, p.z);
-        // The additive form's error is absolute (up to ~1e-7 m): within kAdditiveMinValue of the
+        // The additive form's error is absolute (up to ~3e-8 m): within kAdditiveMinValue of the
         // edge it could reach the last bit of the float32 written, so those few cells are
         // measured exactly.
         if (!it->additive || v >= kAdditiveMinValue) {
@@ -1478,7 +1508,7 @@ class GeodesicExactSolver {
     // What stays the same on every row; the rows fill in qr.
     auto fixed_part = [&](const Interpolant* it, int32_t id, RowCandidate& rc) {
       rc = RowCandidate{{0.0, 0.0, 0.0, 0.0}, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, static_cast<double>(id),
-                        tag_of(it, id),       0.0};
+                        tag_of(it, id),       0.0, 0.0};
       if (!it)
         return;  // a form without an interpolant: its cells are forced to the per-cell method
       rc.sx = it->sx;
@@ -1487,6 +1517,7 @@ class GeodesicExactSolver {
       rc.nx = it->nx;
       rc.ny = it->ny;
       rc.nz = it->nz;
+      rc.k3 = it->k3;
     };
     wk.row_points.resize(wk.interp.size());
     wk.row_additive.resize(wk.interp_additive.size());
