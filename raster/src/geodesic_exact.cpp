@@ -95,6 +95,7 @@ constexpr int64_t kTile = 256;     // top-level tile edge, cells (tiles aligned 
 // alternated runs: geodesic_bench coastlines ratio 3.6 -> 3.4, Oresund at 0.0004 deg 4.4 -> 4.2).
 constexpr int64_t kLeafCells = 256;
 constexpr int kProbes = 2;         // sites whose exact distance from a block's centre give U
+constexpr double kChordReachSpan = 1.0;  // degrees: blocks up to this take reach_of's chord bound
 
 // Interpolation of point-site distances (see the top of this file).
 // Two block sizes: the point form (point sites, segments' ends) is so smooth that blocks of
@@ -670,6 +671,11 @@ class GeodesicExactSolver {
     if (!located_) init_separable(w);
     max_distance_ = ctx.max_key;  // geodesic keys are metres
     k2_ = vertex_k2(geo_.geodesic().EquatorialRadius(), geo_.geodesic().Flattening());
+    {
+      const double a = geo_.geodesic().EquatorialRadius(), f = geo_.geodesic().Flattening();
+      const double b = a * (1.0 - f);
+      reach_rho_ = 0.99 * std::min(a, b) * std::min(a, b) / std::max(a, b);
+    }
     stream_ = streams_results(w);
     init_segment_ends();
     init_interp_block();
@@ -908,7 +914,18 @@ class GeodesicExactSolver {
 
   // Upper bound of the geodesic distance from cell (cc, rc) to any cell of the block: along the
   // cell's parallel (radius rho <= the block's largest) to the centre's meridian, then along
-  // that meridian (radius of curvature <= max_meridian_radius).
+  // that meridian (radius of curvature <= max_meridian_radius). On blocks up to kChordReachSpan
+  // degrees a second bound, from the longest chord, is usually a quarter tighter, and the
+  // smaller of the two is taken: the plane through both points and the ellipsoid's normal at the
+  // centre cell cuts the ellipsoid in an ellipse whose curvature is at most 1 / rho with rho =
+  // b^2 / a (an ellipse's least radius of curvature is B^2 / A, and every such plane section has
+  // B >= b, A <= a, shrunk by at most 1e-5 where the plane misses the centre: reach_rho_ takes
+  // 0.99 of it), so the arc between them, a path on the ellipsoid no shorter than the geodesic,
+  // is at most 2 rho asin(chord / (2 rho)) long (Schur: a curve whose curvature is at most a
+  // circle's has no longer arc over the same chord). The longest chord from the centre cell is
+  // to a corner: along a parallel the chord grows with the longitude difference, and along a
+  // meridian arc of under a degree its square is convex (its second derivative along the arc is
+  // 2 (1 + (P - C) . P'') >= 2 (1 - |P - C| / M_min) > 0).
   double reach_of(int64_t c0, int64_t r0, int64_t c1, int64_t r1, int64_t cc, int64_t rc) const {
     if (located_) return located_reach(c0, r0, c1, r1, cc, rc);
     double rmax = 0.0;
@@ -916,7 +933,20 @@ class GeodesicExactSolver {
     constexpr double kRad = 3.14159265358979323846 / 180.0;
     const double dlon = std::max(lon_[cc] - lon_[c0], lon_[c1 - 1] - lon_[cc]) * kRad;
     const double dlat = std::max(lat_[r0] - lat_[rc], lat_[rc] - lat_[r1 - 1]) * kRad;
-    return (rmax * dlon + geo_.max_meridian_radius() * dlat) * (1.0 + 1e-12);
+    const double path = (rmax * dlon + geo_.max_meridian_radius() * dlat) * (1.0 + 1e-12);
+    const double span = static_cast<double>(std::max(c1 - c0, r1 - r0)) * ctx_.grid.res;
+    if (!(span <= kChordReachSpan)) return path;
+    const GeoCell centre = cell_at(cc, rc);
+    double c2 = 0.0;
+    for (const int64_t c : {c0, c1 - 1})
+      for (const int64_t r : {r0, r1 - 1}) {
+        const GeoCell p = cell_at(c, r);
+        const double dx = p.x - centre.x, dy = p.y - centre.y, dz = p.z - centre.z;
+        c2 = std::max(c2, dx * dx + dy * dy + dz * dz);
+      }
+    const double chord = std::sqrt(c2) * (1.0 + 1e-12) + 1e-9;
+    const double arc = 2.0 * reach_rho_ * std::asin(std::min(1.0, chord / (2.0 * reach_rho_)));
+    return std::min(path, arc * (1.0 + 1e-12) + 1e-9);
   }
 
   void solve_block(GeoWorker& wk, int depth, int64_t level, int64_t c0, int64_t r0, int64_t c1, int64_t r1) {
@@ -1885,6 +1915,7 @@ class GeodesicExactSolver {
   mutable SharedInterpolants shared_;       // the interpolants built so far (any worker)
   bool located_ = false;                    // projected grid: cells located by ctx.geolocator
   double k2_ = 0.0;                         // RV_GEO_BEYOND's K2 for the grid's ellipsoid
+  double reach_rho_ = 0.0;                  // reach_of: 0.99 b^2 / a, metres
   std::vector<SegmentEnd> ends_;            // per site: its two ends (segments only)
 };
 
