@@ -95,6 +95,8 @@ constexpr int64_t kTile = 256;     // top-level tile edge, cells (tiles aligned 
 // alternated runs: geodesic_bench coastlines ratio 3.6 -> 3.4, Oresund at 0.0004 deg 4.4 -> 4.2).
 constexpr int64_t kLeafCells = 256;
 constexpr int kProbes = 2;         // sites whose exact distance from a block's centre give U
+constexpr size_t kDominanceMax = 24;  // leaves with more candidates skip drop_dominated (O(k^2))
+constexpr size_t kDominators = 4;     // candidates tried as dominators by drop_dominated
 constexpr double kChordReachSpan = 1.0;  // degrees: blocks up to this take reach_of's chord bound
 
 // Interpolation of point-site distances (see the top of this file).
@@ -323,10 +325,19 @@ class SharedInterpolants {
   std::map<int64_t, std::unordered_map<Key, std::shared_ptr<Entry>, KeyHash>> rows_;
 };
 
+// A candidate of point form over a block (drop_dominated): its index in the block's list, the
+// ECEF point its distance is measured from, the largest chord from it to the block's box and
+// the bound beta on geodesic / chord there.
+struct Anchor {
+  size_t index;
+  double x, y, z, cmax, beta;
+};
+
 struct GeoWorker {
   std::vector<std::vector<int32_t>> levels;  // candidate lists per recursion depth
   std::vector<double> lb;
   std::vector<double> cell_lb;
+  std::vector<Anchor> anchors;  // drop_dominated
   std::vector<const Interpolant*> interp;
   std::vector<const Interpolant*> slots;  // solve_cells: per candidate and end (value())
   std::vector<const GeoPiece*> pieces;    // solve_cells: per candidate, single pieces
@@ -1009,10 +1020,13 @@ class GeodesicExactSolver {
     bool points_only = true;
     for (int32_t id : next) points_only = points_only && !geo_.site(id).segment;
     const bool can_split = level > 1 && depth + 2 < static_cast<int>(wk.levels.size());
-    if (points_only && level <= std::min(point_block_, kInterpSolveBlock) &&
-        (next.size() <= kInterpMaxCandidates || !can_split || level <= kInterpMinBlock))
-      return solve_interp(wk, next, c0, r0, c1, r1);
-    if (!points_only && (next.size() <= 1 || w * h <= kLeafCells)) return solve_leaf(wk, next, c0, r0, c1, r1);
+    const bool interp_leaf = points_only && level <= std::min(point_block_, kInterpSolveBlock) &&
+                             (next.size() <= kInterpMaxCandidates || !can_split || level <= kInterpMinBlock);
+    const bool segment_leaf = !points_only && (next.size() <= 1 || w * h <= kLeafCells);
+    if ((interp_leaf || segment_leaf || !can_split) && next.size() >= 2 && next.size() <= kDominanceMax)
+      drop_dominated(wk, next, c0, r0, c1, r1);
+    if (interp_leaf) return solve_interp(wk, next, c0, r0, c1, r1);
+    if (segment_leaf) return solve_leaf(wk, next, c0, r0, c1, r1);
     if (!can_split) return solve_cells(wk, next, c0, r0, c1, r1);
     // Split at the grid-aligned middle of the block's level.
     const Window& win = ctx_.window;
@@ -1023,6 +1037,90 @@ class GeodesicExactSolver {
     for (int j = 0; j < 2; ++j)
       for (int i = 0; i < 2; ++i)
         if (xs[i] < xs[i + 1] && ys[j] < ys[j + 1]) solve_block(wk, depth + 1, half, xs[i], ys[j], xs[i + 1], ys[j + 1]);
+  }
+
+  // Drops from `cands` (a leaf's candidates) every candidate of point form over the block that
+  // another of point form beats by more than kGeoSlack at every cell of the block, so that the
+  // row kernels and the interpolants skip it. Point form: a point site, or a segment certainly
+  // nearest at one end over the block (block_regime), whose distance is then that vertex's.
+  //
+  // Why it is exact. For a candidate j of point form at S_j, d_j(P) >= |P - S_j| (the chord). For
+  // i at S_i, d_i(P) <= beta_i |P - S_i|, beta_i = (2 rho / c) asin(c / (2 rho)) at the largest
+  // chord c from S_i to the block's ECEF box: the plane through P, S_i and the Earth's centre
+  // cuts the ellipsoid in an ellipse of semi-axes a and B >= b, whose curvature is at most
+  // a / b^2 = 1 / rho, and over that chord such an arc is no longer than a circle's of radius
+  // rho (Schur); reach_rho_ takes 0.99 of it. So d_j - d_i > M = kGeoSlack wherever
+  // |P - S_j|^2 - beta_i^2 |P - S_i|^2 > 2 beta_i M c + M^2. The left side is a concave
+  // quadratic of P (beta_i >= 1), so its least value over the box is at one of the box's eight
+  // corners, which hold every cell centre of the block. A candidate dropped that way is never
+  // the nearest, never within kInterpTie of it (kGeoSlack is 10x that, far beyond the
+  // interpolants' error), nor a lower id at distance 0 in a polygon (solve_zero): the cells get
+  // the bits they would get with it. A dominator may be dropped itself later: whatever beats it
+  // beats the other by more still. Up to kDominators of the candidates with the shortest
+  // largest chords are tried as dominators of every other.
+  void drop_dominated(GeoWorker& wk, std::vector<int32_t>& cands, int64_t c0, int64_t r0, int64_t c1,
+                      int64_t r1) const {
+    const EcefBox box = box_of(c0, r0, c1, r1);
+    const double mx = 0.5 * (box.x0 + box.x1), my = 0.5 * (box.y0 + box.y1), mz = 0.5 * (box.z0 + box.z1);
+    const double hx = 0.5 * (box.x1 - box.x0), hy = 0.5 * (box.y1 - box.y0), hz = 0.5 * (box.z1 - box.z0);
+    const double radius = std::sqrt(hx * hx + hy * hy + hz * hz) * (1.0 + 1e-12) + 1e-9;
+    const double corner[8][3] = {{box.x0, box.y0, box.z0}, {box.x1, box.y0, box.z0}, {box.x0, box.y1, box.z0},
+                                 {box.x1, box.y1, box.z0}, {box.x0, box.y0, box.z1}, {box.x1, box.y0, box.z1},
+                                 {box.x0, box.y1, box.z1}, {box.x1, box.y1, box.z1}};
+    const size_t k = cands.size();
+    wk.anchors.clear();
+    for (size_t i = 0; i < k; ++i) {
+      const int32_t id = cands[i];
+      const GeoSite& site = geo_.site(id);
+      Anchor a{i, 0.0, 0.0, 0.0, 0.0, 0.0};
+      if (!site.segment) {
+        a.x = site.x;
+        a.y = site.y;
+        a.z = site.z;
+      } else {
+        const int regime = block_regime(mx, my, mz, radius, id).certain;
+        if (regime != 1 && regime != 2) continue;
+        const SegmentEnd& v = ends_[2 * static_cast<size_t>(id) + static_cast<size_t>(regime - 1)];
+        a.x = v.x;
+        a.y = v.y;
+        a.z = v.z;
+      }
+      double c2 = 0.0;
+      for (const auto& b : corner)
+        c2 = std::max(c2, (b[0] - a.x) * (b[0] - a.x) + (b[1] - a.y) * (b[1] - a.y) + (b[2] - a.z) * (b[2] - a.z));
+      a.cmax = std::sqrt(c2) * (1.0 + 1e-12) + 1e-9;
+      a.beta = a.cmax < 2.0 * reach_rho_
+                   ? (2.0 * reach_rho_ / a.cmax) * std::asin(a.cmax / (2.0 * reach_rho_)) * (1.0 + 1e-12)
+                   : std::numeric_limits<double>::infinity();
+      wk.anchors.push_back(a);
+    }
+    if (wk.anchors.size() < 2) return;
+    // The dominators: the anchors with the shortest largest chords.
+    const size_t nd = std::min(kDominators, wk.anchors.size());
+    std::partial_sort(wk.anchors.begin(), wk.anchors.begin() + static_cast<std::ptrdiff_t>(nd), wk.anchors.end(),
+                      [](const Anchor& u, const Anchor& v) { return u.cmax < v.cmax; });
+    constexpr double m = kGeoSlack;
+    bool any = false;
+    for (const Anchor& j : wk.anchors) {
+      for (size_t t = 0; t < nd; ++t) {
+        const Anchor& i = wk.anchors[t];
+        if (i.index == j.index || !std::isfinite(i.beta)) continue;
+        const double b2 = i.beta * i.beta, need = 2.0 * i.beta * m * i.cmax + m * m;
+        double least = std::numeric_limits<double>::infinity();
+        for (const auto& b : corner) {
+          const double dj = (b[0] - j.x) * (b[0] - j.x) + (b[1] - j.y) * (b[1] - j.y) + (b[2] - j.z) * (b[2] - j.z);
+          const double di = (b[0] - i.x) * (b[0] - i.x) + (b[1] - i.y) * (b[1] - i.y) + (b[2] - i.z) * (b[2] - i.z);
+          // (1e-14 of the squares covers their rounding, ~1e-16 each.)
+          least = std::min(least, dj - b2 * di - 1e-14 * (dj + b2 * di));
+        }
+        if (least > need) {
+          cands[j.index] = -1;
+          any = true;
+          break;
+        }
+      }
+    }
+    if (any) cands.erase(std::remove(cands.begin(), cands.end(), -1), cands.end());
   }
 
   // An upper bound of the distance from window cell (c, r), centred at p, to site `id`: its

@@ -3,6 +3,7 @@
 // count; across the antimeridian; up to a pole), scans, validation and refusals.
 #include <gtest/gtest.h>
 
+#include <GeographicLib/Geocentric.hpp>
 #include <GeographicLib/Geodesic.hpp>
 
 #include <algorithm>
@@ -449,6 +450,37 @@ TEST(GeodesicEngine, VertexMarginHoldsRightAtTheSwitches) {
     EXPECT_GT(std::count(sites.begin(), sites.end(), 0), 100) << what;
     EXPECT_GT(std::count(sites.begin(), sites.end(), 1), 100) << what;
   }
+}
+
+TEST(GeodesicEngine, DominanceKeepsASiteNearerByGeodesicThanByChord) {
+  // A leaf's candidates of point form are dropped where another beats them everywhere
+  // (drop_dominated), with geodesic distance bounded above by beta x chord. 300 km north and east
+  // of a millimetre block, the geodesic exceeds the chord by ~27.6 m, 0.11 m more to the north
+  // (the meridian's smaller radius of curvature): B, east, is 30 mm nearer by geodesic yet ~80 mm
+  // farther by chord. Measured by chords alone (beta = 1) B would be dropped and A win.
+  const GeographicLib::Geodesic& geod = GeographicLib::Geodesic::WGS84();
+  const double lat0 = 55.0, lon0 = 12.0;
+  double lat_a, lon_a, lat_b, lon_b, d_a, d_b;
+  geod.Direct(lat0, lon0, 0.0, 300e3, lat_a, lon_a);
+  geod.Direct(lat0, lon0, 90.0, 300e3 - 30e-3, lat_b, lon_b);
+  SeedSet s;
+  s.add_point(s.add_feature(s.owner_code("A")), {lon_a, lat_a});
+  s.add_point(s.add_feature(s.owner_code("B")), {lon_b, lat_b});
+  const double res = 1e-8;  // ~1 mm
+  const GridSpec g = geo_grid(lon0 - 1.5 * res, lat0 + 1.5 * res, res, 3, 3);
+  geod.Inverse(g.centre_y(1), g.centre_x(1), lat_a, lon_a, d_a);
+  geod.Inverse(g.centre_y(1), g.centre_x(1), lat_b, lon_b, d_b);
+  ASSERT_LT(d_b, d_a - 25e-3);
+  // The chords say the opposite.
+  const GeographicLib::Geocentric& ecef = GeographicLib::Geocentric::WGS84();
+  double px, py, pz, ax, ay, az, bx, by, bz;
+  ecef.Forward(g.centre_y(1), g.centre_x(1), 0.0, px, py, pz);
+  ecef.Forward(lat_a, lon_a, 0.0, ax, ay, az);
+  ecef.Forward(lat_b, lon_b, 0.0, bx, by, bz);
+  ASSERT_GT(std::hypot(bx - px, by - py, bz - pz), std::hypot(ax - px, ay - py, az - pz) + 50e-3);
+  expect_exact_equals_brute(s, g, "north and east");
+  const NearestField f = run(s, g, Method::exact);
+  for (const int32_t site : f.site.cells()) EXPECT_EQ(site, 1);
 }
 
 TEST(GeodesicEngine, EdgesLongerThanAPiece) {
