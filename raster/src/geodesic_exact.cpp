@@ -32,10 +32,11 @@
 //    interpolated the same way (additive form, build_line_interpolant: smooth across the edge)
 //    on its own blocks of up to 0.21 deg (512 cells): the extended edge must stay one piece.
 //    Worst error measured (9 x 9 cells per block, every block of geodesic_bench's coastlines and
-//    of the Oresund fixture at 0.00015 .. 0.0004 deg): 3.8e-9 m on blocks of 0.077 deg, 9.7e-9 m
+//    of the Oresund fixture at 0.00015 .. 0.0004 deg): 4.0e-9 m on blocks of 0.077 deg, 1.1e-8 m
 //    on 0.154 deg, 2.4e-8 m on 0.195 deg, 3.1e-8 m on 0.205 deg (with the plane's distance alone,
 //    as before the cubic term: 6.1e-9, 6.1e-8, 1.6e-7, 1.9e-7 m); values under kAdditiveMinValue
-//    (2 m, where a float32's last place is 2.4e-7 m, 7x the worst) are measured exactly.
+//    (2 m, where a float32's last place is 2.4e-7 m, 7x the worst) are measured exactly. Its
+//    nodes are measured with LineFoot (one inverse problem each).
 //    A cell's value then costs a few tens of flops per candidate.
 //    Guards: the blocks' spans are limited (kPointSpan, kLineSpan; in metres on projected
 //    grids); every interpolant is checked against an exact value at the block's centre and
@@ -79,6 +80,7 @@
 #include <utility>
 #include <vector>
 
+#include <GeographicLib/GeodesicLine.hpp>
 #include <GeographicLib/Math.hpp>
 
 #include "kernel_memory.hpp"
@@ -672,6 +674,84 @@ RV_KERNEL_CLONES bool interp_store_row(const double* __restrict best2, double* _
   }
   return any != 0;
 }
+
+// The distance from a point to a geodesic line (the extended edge of an additive interpolant,
+// between its ends a and b), for the interpolants' nodes: one inverse problem per point instead
+// of GeoSites::distance's search (~1.75 of them, each with a position on the line).
+//
+// The foot of the point on the line is taken from a cubic model of the line in ECEF (through
+// its positions at 0, 1/3, 2/3 and 1 of its length, at most ~2e-4 m off the line over 100 km:
+// the cubic interpolation error of an arc of radius R, L^4 / (24 R^3) x 0.012), where the
+// point's chord to the model is least (Newton's method on the model). The geodesic foot lies
+// within c f (c / R)^2 of that (~1e-4 m at c = 10 km: the chord's minimiser moves only with the
+// ellipsoid's departure from a sphere), so the distance from the line point there, minus the
+// second-order excess of the convex distance, m12 cos^2 w / (2 M12) (the value the search's
+// Newton step heads for), is the minimum to far below the nodes' needs: within 3.5e-9 m of
+// the search on every node of the Oresund fixture at 0.0002 .. 0.002 deg and of the synthetic
+// coastlines, GeographicLib's own ~1e-8 m. `side` gets sin w there, as GeoEnd::sin_w.
+// Thread safety: const after construction.
+class LineFoot {
+ public:
+  LineFoot(const GeoSites& geo, const Site& line)
+      : geod_(geo.geodesic()),
+        line_(geod_.InverseLine(line.a.y, line.a.x, line.b.y, line.b.x,
+                                GeographicLib::Geodesic::LATITUDE | GeographicLib::Geodesic::LONGITUDE |
+                                    GeographicLib::Geodesic::AZIMUTH | GeographicLib::Geodesic::DISTANCE_IN)),
+        length_(line_.Distance()) {
+    for (int k = 0; k < 4; ++k) {
+      double lat, lon, azi;
+      line_.Position(length_ * k / 3.0, lat, lon, azi);
+      geo.ecef(lat, lon, x_[k][0], x_[k][1], x_[k][2]);
+    }
+  }
+
+  // The distance d from p to the line and sin w at its foot; false where the foot is not
+  // inside the line (nearest at an end) or the line's geometry there is unusable.
+  bool distance(const GeoCell& p, double& d, double& sin_w) const {
+    const double ux = x_[3][0] - x_[0][0], uy = x_[3][1] - x_[0][1], uz = x_[3][2] - x_[0][2];
+    const double len2 = ux * ux + uy * uy + uz * uz;
+    if (!(len2 > 0.0)) return false;
+    double u = ((p.x - x_[0][0]) * ux + (p.y - x_[0][1]) * uy + (p.z - x_[0][2]) * uz) / len2;
+    for (int iter = 0; iter < 8; ++iter) {
+      // The model X(u) = sum w_k(u) x_k (Lagrange weights at 0, 1/3, 2/3, 1), X' and X''.
+      const double a = u, b = u - 1.0 / 3.0, c = u - 2.0 / 3.0, e = u - 1.0;
+      const double w0[4] = {-4.5 * b * c * e, 13.5 * a * c * e, -13.5 * a * b * e, 4.5 * a * b * c};
+      const double w1[4] = {-4.5 * (c * e + b * e + b * c), 13.5 * (c * e + a * e + a * c),
+                            -13.5 * (b * e + a * e + a * b), 4.5 * (b * c + a * c + a * b)};
+      const double w2[4] = {-9.0 * (b + c + e), 27.0 * (a + c + e), -27.0 * (a + b + e), 9.0 * (a + b + c)};
+      double x[3] = {0.0, 0.0, 0.0}, d1[3] = {0.0, 0.0, 0.0}, d2[3] = {0.0, 0.0, 0.0};
+      for (int k = 0; k < 4; ++k)
+        for (int q = 0; q < 3; ++q) {
+          x[q] += w0[k] * x_[k][q];
+          d1[q] += w1[k] * x_[k][q];
+          d2[q] += w2[k] * x_[k][q];
+        }
+      const double dx = x[0] - p.x, dy = x[1] - p.y, dz = x[2] - p.z;
+      const double g = dx * d1[0] + dy * d1[1] + dz * d1[2];
+      const double slope = d1[0] * d1[0] + d1[1] * d1[1] + d1[2] * d1[2] + dx * d2[0] + dy * d2[1] + dz * d2[2];
+      if (!(slope > 0.0)) return false;
+      const double step = g / slope;
+      u -= step;
+      if (std::abs(step) * length_ < 1e-7) break;
+    }
+    if (!(u > 1e-6 && u < 1.0 - 1e-6)) return false;
+    double lat, lon, azi;
+    line_.Position(u * length_, lat, lon, azi);
+    double s12, azi1, azi2, m12, big_m12, big_m21;
+    geod_.Inverse(lat, lon, p.lat, p.lon, s12, azi1, azi2, m12, big_m12, big_m21);
+    if (!(m12 > 0.0 && big_m12 > 0.0)) return false;
+    double cos_w;
+    GeographicLib::Math::sincosd(GeographicLib::Math::AngDiff(azi, azi1), sin_w, cos_w);
+    d = s12 - m12 * cos_w * cos_w / (2.0 * big_m12);
+    return true;
+  }
+
+ private:
+  const GeographicLib::Geodesic& geod_;
+  GeographicLib::GeodesicLine line_;
+  double length_;
+  double x_[4][3];  // ECEF of the line at 0, 1/3, 2/3, 1 of its length
+};
 
 class GeodesicExactSolver {
  public:
@@ -1305,6 +1385,7 @@ class GeodesicExactSolver {
     const GeoSites line(m, std::vector<Site>{extended});
     bool ok = true;
     double side = 0.0;  // the last node's: > 0 right of the edge, < 0 left (GeoEnd::sin_w)
+    // The check at the block's centre measures with brute force's search on the extended line.
     auto exact = [&](const GeoCell& p) {
       GeoEnd end;
       const double d = line.distance(p, 0, &end);
@@ -1312,10 +1393,18 @@ class GeodesicExactSolver {
       side = end.sin_w;
       return d;
     };
+    // The nodes with one inverse problem each instead of the search's ~1.75 (LineFoot).
+    const LineFoot foot(geo_, extended);
+    auto node = [&](const GeoCell& p) {
+      double d;
+      if (!foot.distance(p, d, side)) ok = false;
+      return d;
+    };
     for (int a = 0; a < 4 && ok; ++a)
       for (int b = 0; b < 4 && ok; ++b) {
         const GeoCell p = cell_at_fraction(node_at(bx0, bx1 - 1, b / 3.0), node_at(by0, by1 - 1, a / 3.0));
-        const double d = exact(p);
+        const double d = node(p);
+        if (!ok) return false;
         const double h = normaliser(it, p.x, p.y, p.z);
         // The side comes from the geodesic itself: the direction to the node at its nearest
         // point is square to the edge, sin w = +-1. A node on the line (d below a millimetre)
