@@ -184,13 +184,11 @@ double GeoSites::lower_bound(const GeoCell& p, int32_t id) const {
   return std::max(lb, 0.0);
 }
 
-double GeoSites::lower_bound(const EcefBox& box, int32_t id) const {
+double GeoSites::lower_bound(const EcefBox& box, const BoxBall& ball, int32_t id) const {
   const GeoSite& s = sites_[static_cast<size_t>(id)];
   // The box is also used as a ball around its centre (half-diagonal h): every cell of it is
   // within h of the centre. The direct box distance is another valid chord bound.
-  const double cx = 0.5 * (box.x0 + box.x1), cy = 0.5 * (box.y0 + box.y1), cz = 0.5 * (box.z0 + box.z1);
-  const double half = 0.5 * std::sqrt((box.x1 - box.x0) * (box.x1 - box.x0) + (box.y1 - box.y0) * (box.y1 - box.y0) +
-                                      (box.z1 - box.z0) * (box.z1 - box.z0));
+  const double cx = ball.x, cy = ball.y, cz = ball.z, half = ball.half;
   if (!s.segment)
     return std::max({box_distance(box, s.x, s.y, s.z), point_lower_bound(s.x, s.y, s.z, cx, cy, cz, half), 0.0});
   double lb = std::numeric_limits<double>::infinity();

@@ -779,6 +779,12 @@ class GeodesicExactSolver {
   // once here rather than per leaf. Zeros pad kRowPad past the last column: the kernels read
   // whole vectors.
   void init_column_weights(const Window& w) {
+    // (And each row's, eight per row: cell_weights_row.)
+    wrows_.resize(static_cast<size_t>(8 * w.height));
+    for (int64_t r = 0; r < w.height; ++r) {
+      weights_row(r, point_block_, &wrows_[static_cast<size_t>(8 * r)]);
+      weights_row(r, line_block_, &wrows_[static_cast<size_t>(8 * r + 4)]);
+    }
     wstride_ = (w.width + 2 * kRowPad - 1) / kRowPad * kRowPad;
     wcols_.assign(static_cast<size_t>(8 * wstride_), 0.0);
     for (int64_t c = 0; c < w.width; ++c) {
@@ -1065,8 +1071,9 @@ class GeodesicExactSolver {
         probe[k] = -1;
         probe_lb[k] = std::numeric_limits<double>::infinity();
       }
+      const BoxBall ball = box_ball(box);
       for (size_t i = 0; i < cands.size(); ++i) {
-        const double lb = geo_.lower_bound(box, cands[i]);
+        const double lb = geo_.lower_bound(box, ball, cands[i]);
         wk.lb[i] = lb;
         for (int k = 0; k < kProbes; ++k) {
           if (lb < probe_lb[k]) {
@@ -1479,8 +1486,9 @@ class GeodesicExactSolver {
 
   // Both forms' weights of row r, and of column c (into wc, lc).
   void cell_weights_row(int64_t r, CellWeights& cw) const {
-    weights_row(r, point_block_, cw.wt);
-    weights_row(r, line_block_, cw.lt);
+    const double* w = &wrows_[static_cast<size_t>(8 * r)];
+    std::memcpy(cw.wt, w, sizeof(cw.wt));
+    std::memcpy(cw.lt, w + 4, sizeof(cw.lt));
   }
   void cell_weights_col(int64_t c, double wc[4], double lc[4]) const {
     weights_col(c, point_block_, wc);
@@ -1713,7 +1721,6 @@ class GeodesicExactSolver {
                          int64_t r1) {
     const int64_t n = c1 - c0;
     const int64_t stride = (n + kRowPad - 1) / kRowPad * kRowPad;  // padded: whole vectors
-    const bool lines = !wk.interp_additive.empty() || !wk.changing.empty();
     const double* wcols = &wcols_[static_cast<size_t>(c0)];  // the window's (init_column_weights)
     wk.site_row.resize(static_cast<size_t>(stride));
     wk.distance_row.resize(static_cast<size_t>(stride));
@@ -1773,8 +1780,7 @@ class GeodesicExactSolver {
     for (const RowCandidate& rc : wk.row_points) plain = plain && rc.tag < 0.0;
     for (int64_t r = r0; r < r1; ++r) {
       CellWeights rw;
-      weights_row(r, point_block_, rw.wt);
-      if (lines) weights_row(r, line_block_, rw.lt);
+      cell_weights_row(r, rw);
       RowPositions pos;
       if (located_) {
         for (int64_t c = 0; c < n; ++c) {
@@ -2094,6 +2100,7 @@ class GeodesicExactSolver {
   std::vector<double> lon_;
   AlignedVector<double> cos_, sin_;  // per window column (loaded as vectors by the row kernels)
   AlignedVector<double> wcols_;      // per window column: its eight weights (init_column_weights)
+  std::vector<double> wrows_;        // per window row: its eight weights (cell_weights_row)
   int64_t wstride_ = 0;
   double max_distance_ = std::numeric_limits<double>::infinity();
   bool stream_ = false;  // rows of the row kernels go out with non-temporal stores (put_row)

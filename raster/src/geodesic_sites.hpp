@@ -65,6 +65,17 @@ struct GeoBall {
   double x, y, z, r;
 };
 
+// An ECEF box seen as a ball: its middle and half diagonal (every point of it is within `half`
+// of the middle), for GeoSites::lower_bound over many sites from one box.
+struct BoxBall {
+  double x, y, z, half;
+};
+inline BoxBall box_ball(const EcefBox& b) {
+  return BoxBall{0.5 * (b.x0 + b.x1), 0.5 * (b.y0 + b.y1), 0.5 * (b.z0 + b.z1),
+                 0.5 * std::sqrt((b.x1 - b.x0) * (b.x1 - b.x0) + (b.y1 - b.y0) * (b.y1 - b.y0) +
+                                 (b.z1 - b.z0) * (b.z1 - b.z0))};
+}
+
 inline double box_distance(const EcefBox& b, double x, double y, double z) {
   const double dx = x < b.x0 ? b.x0 - x : (x > b.x1 ? x - b.x1 : 0.0);
   const double dy = y < b.y0 ? b.y0 - y : (y > b.y1 ? y - b.y1 : 0.0);
@@ -147,7 +158,9 @@ class GeoSites {
   bool attains_at_vertex(const GeoCell& p, int32_t id, const GeoEnd& end, double s) const;
   // Lower bounds of distance(): from one cell, and from any cell centre inside a box.
   double lower_bound(const GeoCell& p, int32_t id) const;
-  double lower_bound(const EcefBox& box, int32_t id) const;
+  double lower_bound(const EcefBox& box, int32_t id) const { return lower_bound(box, box_ball(box), id); }
+  // The same with the box's ball made once (box_ball(box)) for many sites.
+  double lower_bound(const EcefBox& box, const BoxBall& ball, int32_t id) const;
 
   double max_meridian_radius() const { return max_meridian_radius_; }
   // Lower bound of the geodesic distance from any point within h of (x, y, z) (h = 0: the point
