@@ -25,7 +25,7 @@
 //    cells checked per block): worst error 8.6e-8 m on blocks of 0.128 deg, 4.4e-6 m on blocks
 //    of 0.35 deg (above 1e-6 m only for points beyond 10 000 km; 1.7e-11 of the distance at
 //    most, far below the float32 written), against kInterpTie = 1e-4 m; 32 cells of 0.05 deg
-//    (1.6 deg): 5e-4 m. Point-form blocks are therefore up to 0.35 deg (512 cells; 16 tiles,
+//    (1.6 deg): 5e-4 m. Point-form blocks are therefore up to 0.35 deg (512 cells; 4 tiles,
 //    which share them across threads: SharedInterpolants). For cells certainly nearest at an
 //    interior point of an edge, the signed distance to the edge's geodesic (extended beyond its
 //    ends) minus a cubic of the signed distance to a plane through the edge (normaliser()) is
@@ -90,7 +90,9 @@
 namespace rv::detail {
 namespace {
 
-constexpr int64_t kTile = 256;     // top-level tile edge, cells (tiles aligned to the grid)
+constexpr int64_t kTile = 256;     // top-level tile edge, cells (tiles aligned to the grid; 128
+                                   // before: 256 computes the same bits with a quarter of the
+                                   // top-level lower bounds, all sites against each tile)
 // Blocks with segments this small (or smaller) are leaves, solved by the row kernels or per cell.
 // 16 x 16 rather than 8 x 8: a leaf's set-up (interpolants gathered, weights, one reduction per
 // row and candidate) is spread over 4x the cells, for a few more candidates per cell (measured,
@@ -103,16 +105,16 @@ constexpr double kChordReachSpan = 1.0;  // degrees: blocks up to this take reac
 
 // Interpolation of point-site distances (see the top of this file).
 // Two block sizes: the point form (point sites, segments' ends) is so smooth that blocks of
-// up to 0.35 degrees (512 cells, 16 tiles) keep it within 4.4e-6 m (1.7e-11 relative; measured,
+// up to 0.35 degrees (512 cells, 4 tiles) keep it within 4.4e-6 m (1.7e-11 relative; measured,
 // see the top of this file), which makes its 17 inverse problems rare; the additive form
 // (edges' interiors) keeps blocks of up to 0.21 degrees (512 cells): its extended edge must
 // stay one piece (build_line_interpolant), and its error is absolute.
 constexpr double kPointSpan = 0.35;           // degrees: largest point-form block edge
 constexpr double kPointSpanMetres = 38e3;     // the same on projected grids (~0.35 deg of latitude)
-constexpr int64_t kPointMaxBlock = 512;       // cells (4 x kTile: shared between tiles)
+constexpr int64_t kPointMaxBlock = 512;       // cells (2 x kTile: shared between tiles)
 constexpr double kLineSpan = 0.21;            // degrees: largest additive-form block edge
 constexpr double kLineSpanMetres = 23e3;      // the same on projected grids (~0.21 deg of latitude)
-constexpr int64_t kLineMaxBlock = 512;        // cells (4 x kTile, shared between tiles; cells
+constexpr int64_t kLineMaxBlock = 512;        // cells (2 x kTile, shared between tiles; cells
                                               // over 0.00041 deg get smaller blocks: kLineSpan)
 constexpr int64_t kInterpSolveBlock = 64;     // culling goes on down to blocks this small before
                                               // the per-cell pass: fewer candidates per cell, while
