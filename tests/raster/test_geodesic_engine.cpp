@@ -483,6 +483,30 @@ TEST(GeodesicEngine, DominanceKeepsASiteNearerByGeodesicThanByChord) {
   for (const int32_t site : f.site.cells()) EXPECT_EQ(site, 1);
 }
 
+TEST(GeodesicEngine, CellsNearAnEdgeAreMeasuredExactly) {
+  // The additive interpolant of an edge's interior is within ~3e-8 m on 0.2-degree blocks
+  // (geodesic_exact.cpp), more than the float32 written resolves near the edge: under
+  // kAdditiveMinValue (2 m) cells are measured exactly. 30 short oblique edges, each between two
+  // cell centres of a 0.0004-degree grid moved 1.5e-7 degrees north, pass about 1.2 cm from the
+  // centres along their diagonals, over line blocks 512 cells wide: to the last bit those
+  // distances must be brute force's. (Interpolated there, as with kAdditiveMinValue at 1 cm,
+  // 5 of them are off by more than one unit in the last place.)
+  const double res = 0.0004;
+  const GridSpec g = geo_grid(12.0, 55.5, res, 1024, 64);
+  SeedSet s;
+  for (int i = 0; i < 30; ++i) {
+    const int64_t c = 8 + 34 * i, r = 8 + 17 * (i % 2);
+    s.add_polyline(s.add_feature(s.owner_code("A")),
+                   std::vector<Vec2>{{g.centre_x(c), g.centre_y(r) + 1.5e-7},
+                                     {g.centre_x(c + 20), g.centre_y(r + 20) + 1.5e-7}});
+  }
+  expect_exact_equals_brute(s, g, "diagonal edges");
+  const NearestField f = run(s, g, Method::brute_force);
+  int64_t close = 0;
+  for (const float d : f.distance.cells()) close += d < 0.1f;
+  EXPECT_GT(close, 500);
+}
+
 TEST(GeodesicEngine, EdgesLongerThanAPiece) {
   // Edges of 150 and 260 km (two and three pieces of kGeoPieceLength) meeting at a vertex,
   // with short edges at their far ends: the exact method decides the vertex and interior

@@ -4,6 +4,7 @@
 
 #include <cmath>
 #include <filesystem>
+#include <set>
 
 #include <GeographicLib/Geodesic.hpp>
 #include <GeographicLib/GeodesicLine.hpp>
@@ -103,6 +104,46 @@ TEST(OresundGeodesic, ExactEqualsBruteForceAcrossTheStrait) {
       ++checked;
     }
   EXPECT_GT(checked, 5);
+}
+
+TEST(OresundGeodesic, ExactEqualsBruteForceOnTheBenchmarkGrid) {
+  // The grid of bench/geodesic_bench's Øresund scenario (0.00038°, 3474 x 2953 cells), where the
+  // row kernels run over every interpolant form (line blocks of 512 cells): windows across the
+  // coast where most edges meet (on Zealand's west coast, 17 and 14 edges owning cells of 64 x
+  // 64, both states near Helsingør), exact (each window alone: the same bits as the whole grid)
+  // against brute force, site for site and to the last bit of the distance.
+  const std::string path = oresund();
+  if (path.empty() || !std::filesystem::exists(path)) GTEST_SKIP() << "shared/fixtures/oresund.gpkg not found";
+  gdal_init();
+  SeedReadOptions ro;
+  ro.paths = {path};
+  ro.owner_field = "iso2";
+  const LoadedSeeds loaded = load_seeds(ro);
+  const MetricSpec metric = resolve_metric(MetricRequest::automatic, true, loaded.crs.semi_major, loaded.crs.flattening);
+  GridSpec g = make_grid(11.94, 55.238, 13.26, 56.36, 0.00038, loaded.crs.wkt);
+  ASSERT_EQ(g.width, 3474);
+  int64_t sea = 0, near_edge = 0;
+  std::set<int32_t> sites;
+  for (const Window w : {Window{160, 1728, 64, 64}, Window{2304, 1280, 64, 64}, Window{1770, 840, 64, 64}}) {
+    ComputeOptions o;
+    o.metric = metric;
+    o.window = w;
+    const NearestField exact = compute(loaded.seeds, g, o);
+    o.method = Method::brute_force;
+    const NearestField brute = compute(loaded.seeds, g, o);
+    EXPECT_EQ(exact.site.cells(), brute.site.cells()) << "window at " << w.col0 << "," << w.row0;
+    for (size_t i = 0; i < exact.distance.size(); ++i) {
+      const float x = exact.distance.cells()[i], y = brute.distance.cells()[i];
+      ASSERT_TRUE(x == y || x == std::nextafter(y, x)) << i << ": " << x << " vs " << y;
+      if (x > 0.0f) ++sea;
+      if (x > 0.0f && x < 100.0f) ++near_edge;
+      sites.insert(exact.site.cells()[i]);
+    }
+  }
+  // The windows hold sea and land, cells within 100 m of the coast and many coastline edges.
+  EXPECT_GT(sea, 4000);
+  EXPECT_GT(near_edge, 1000);
+  EXPECT_GT(sites.size(), 30u);
 }
 
 }  // namespace
