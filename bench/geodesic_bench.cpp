@@ -193,7 +193,8 @@ void scenario(const char* name, const rv::SeedSet& s, const rv::GridSpec& g, int
                 static_cast<long long>(counters.calls),
                 static_cast<double>(counters.evaluations) / static_cast<double>(counters.calls));
   std::printf("  field digests: planar %016llx, geodesic %016llx\n",
-              static_cast<unsigned long long>(digest(planar)), static_cast<unsigned long long>(digest(exact)));
+              static_cast<unsigned long long>(digest(planar)),
+              static_cast<unsigned long long>(digest(exact)));
   if (scans)
     std::printf("  geodesic hv-scan vs exact: %lld wrong cells, max error %.3f m (%.3f cells)\n",
                 static_cast<long long>(st.wrong_cells), st.max_error, st.max_error_cells);

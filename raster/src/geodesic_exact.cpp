@@ -90,17 +90,17 @@
 namespace rv::detail {
 namespace {
 
-constexpr int64_t kTile = 256;     // top-level tile edge, cells (tiles aligned to the grid; 128
-                                   // before: 256 computes the same bits with a quarter of the
-                                   // top-level lower bounds, all sites against each tile)
+constexpr int64_t kTile = 256;  // top-level tile edge, cells (tiles aligned to the grid; 128
+                                // before: 256 computes the same bits with a quarter of the
+                                // top-level lower bounds, all sites against each tile)
 // Blocks with segments this small (or smaller) are leaves, solved by the row kernels or per cell.
 // 16 x 16 rather than 8 x 8: a leaf's set-up (interpolants gathered, weights, one reduction per
 // row and candidate) is spread over 4x the cells, for a few more candidates per cell (measured,
 // alternated runs: geodesic_bench coastlines ratio 3.6 -> 3.4, Oresund at 0.0004 deg 4.4 -> 4.2).
 constexpr int64_t kLeafCells = 256;
 constexpr int kProbes = 2;         // sites whose exact distance from a block's centre give U
-constexpr size_t kDominanceMax = 24;  // leaves with more candidates skip drop_dominated (O(k^2))
-constexpr size_t kDominators = 4;     // candidates tried as dominators by drop_dominated
+constexpr size_t kDominanceMax = 24;     // leaves with more candidates skip drop_dominated (O(k^2))
+constexpr size_t kDominators = 4;        // candidates tried as dominators by drop_dominated
 constexpr double kChordReachSpan = 1.0;  // degrees: blocks up to this take reach_of's chord bound
 
 // Interpolation of point-site distances (see the top of this file).
@@ -130,10 +130,10 @@ constexpr size_t kInterpMaxCandidates = 24;   // more candidates: subdivide (or 
 // blocks, 90 -> 110 ns per cell; at 0.0004 deg, 128-cell blocks, 18.5 -> 12.8).
 constexpr int64_t kLeafKernelMinBlock = 128;
 constexpr double kInterpCheck = 5e-6;         // metres: accepted error at the block's centre
-constexpr double kInterpCheckAdditive = 6e-8; // ... for the additive form, whose values are used
-                                              // down to kAdditiveMinValue (worst centre error
-                                              // measured 1.8e-8 m; a cell's worst, 3.1e-8 m, was
-                                              // under twice its block's centre error)
+constexpr double kInterpCheckAdditive = 6e-8;  // ... for the additive form, whose values are used
+                                               // down to kAdditiveMinValue (worst centre error
+                                               // measured 1.8e-8 m; a cell's worst, 3.1e-8 m, was
+                                               // under twice its block's centre error)
 constexpr double kInterpTie = 1e-4;           // metres: closer calls are decided exactly
 constexpr double kInterpMaxDistance = 1.2e7;  // metres: beyond, the antipode's kink is too near
 constexpr double kInterpMinChord = 1e-3;      // metres: a node on the seed (or on an edge)
@@ -161,7 +161,8 @@ constexpr double kInterpMinChord = 1e-3;      // metres: a node on the seed (or 
 // around a switch is narrow: |cos w_ns| ~ 1.1e-4 at 1 m, 1.1e-6 at 10 km, 3e-5 at 1000 km
 // (a constant 2e-4 before, 7x the bound at 1000 km: on the Oresund fixture at 0.00038 deg it
 // sent 9 350 cells per run to the per-cell method, 74 now).
-constexpr double kVertexStop4 = 16.0 * (16.0 * 2.0 * kGeoConvergence / 0.98) * (16.0 * 2.0 * kGeoConvergence / 0.98);
+constexpr double kVertexStop4 =
+    16.0 * (16.0 * 2.0 * kGeoConvergence / 0.98) * (16.0 * 2.0 * kGeoConvergence / 0.98);
 constexpr double kVertexMaxChord = 1e6;       // metres
 constexpr double kVertexMinChord = 1.0;       // metres
 
@@ -176,8 +177,9 @@ inline double vertex_k2(double a, double f) {
 // segment_regime computes them, k2 = K2; doubles or a row kernel's vectors (the same operations
 // either way; a macro, as a 32-byte vector returned by a function has another ABI with and
 // without AVX).
-#define RV_GEO_BEYOND(te, u2, c2, k2) \
-  ((((te) * (te)) * ((te) * (te)) > kVertexStop4 * (u2)) & (((te) * (te)) > ((k2) * ((c2) * (c2))) * (u2)))
+#define RV_GEO_BEYOND(te, u2, c2, k2)                      \
+  ((((te) * (te)) * ((te) * (te)) > kVertexStop4 * (u2)) & \
+   (((te) * (te)) > ((k2) * ((c2) * (c2))) * (u2)))
 
 // Lagrange weights of the cubic through t = 0, 1/3, 2/3, 1.
 inline void cubic_weights(double t, double w[4]) {
@@ -509,14 +511,11 @@ RV_LANE_KERNEL(void, interp_argmin_points,
 // of kRowPad. Vectors stay inside this function (a 32-byte vector crossing a function boundary
 // has another ABI with and without AVX).
 template <class V>
-RV_LANES_INLINE void interp_argmin_row_lanes(const RowCandidate* __restrict points, int kp,
-                                             const RowCandidate* __restrict additive, int ka,
-                                             const RowSegment* __restrict segs, int ks,
-                                             const double* __restrict w, int64_t stride,
-                                             const RowPositions& pos, int64_t n,
-                                             double* __restrict best2, double* __restrict second2,
-                                             double* __restrict best_id, double* __restrict force,
-                                             double k2) {
+RV_LANES_INLINE void interp_argmin_row_lanes(
+    const RowCandidate* __restrict points, int kp, const RowCandidate* __restrict additive, int ka,
+    const RowSegment* __restrict segs, int ks, const double* __restrict w, int64_t stride,
+    const RowPositions& pos, int64_t n, double* __restrict best2, double* __restrict second2,
+    double* __restrict best_id, double* __restrict force, double k2) {
   using GeoV4 = RowVec<V>;  // (the name the RV_GEO_* macros use)
   const double inf = std::numeric_limits<double>::infinity();
   const GeoV4 k2v = GeoV4{} + k2;
@@ -569,7 +568,8 @@ RV_LANES_INLINE void interp_argmin_row_lanes(const RowCandidate* __restrict poin
         te[e] = tx * v[6] + ty * v[7] + tz * v[8];
         valid = valid & (c2[e] <= GeoV4{} + max2) & (u2[e] >= GeoV4{} + min2);
       }
-      const auto beyond0 = RV_GEO_BEYOND(te[0], u2[0], c2[0], k2v), beyond1 = RV_GEO_BEYOND(te[1], u2[1], c2[1], k2v);
+      const auto beyond0 = RV_GEO_BEYOND(te[0], u2[0], c2[0], k2v),
+                 beyond1 = RV_GEO_BEYOND(te[1], u2[1], c2[1], k2v);
       const auto r1 = (te[0] < zero) & beyond0;
       const auto r2 = ~r1 & (te[1] > zero) & beyond1;
       const auto r3 = ~r1 & ~r2 & (te[0] > zero) & beyond0 & (te[1] < zero) & beyond1;
@@ -696,9 +696,10 @@ class LineFoot {
  public:
   LineFoot(const GeoSites& geo, const Site& line)
       : geod_(geo.geodesic()),
-        line_(geod_.InverseLine(line.a.y, line.a.x, line.b.y, line.b.x,
-                                GeographicLib::Geodesic::LATITUDE | GeographicLib::Geodesic::LONGITUDE |
-                                    GeographicLib::Geodesic::AZIMUTH | GeographicLib::Geodesic::DISTANCE_IN)),
+        line_(geod_.InverseLine(
+            line.a.y, line.a.x, line.b.y, line.b.x,
+            GeographicLib::Geodesic::LATITUDE | GeographicLib::Geodesic::LONGITUDE |
+                GeographicLib::Geodesic::AZIMUTH | GeographicLib::Geodesic::DISTANCE_IN)),
         length_(line_.Distance()) {
     for (int k = 0; k < 4; ++k) {
       double lat, lon, azi;
@@ -720,7 +721,8 @@ class LineFoot {
       const double w0[4] = {-4.5 * b * c * e, 13.5 * a * c * e, -13.5 * a * b * e, 4.5 * a * b * c};
       const double w1[4] = {-4.5 * (c * e + b * e + b * c), 13.5 * (c * e + a * e + a * c),
                             -13.5 * (b * e + a * e + a * b), 4.5 * (b * c + a * c + a * b)};
-      const double w2[4] = {-9.0 * (b + c + e), 27.0 * (a + c + e), -27.0 * (a + b + e), 9.0 * (a + b + c)};
+      const double w2[4] = {-9.0 * (b + c + e), 27.0 * (a + c + e), -27.0 * (a + b + e),
+                            9.0 * (a + b + c)};
       double x[3] = {0.0, 0.0, 0.0}, d1[3] = {0.0, 0.0, 0.0}, d2[3] = {0.0, 0.0, 0.0};
       for (int k = 0; k < 4; ++k)
         for (int q = 0; q < 3; ++q) {
@@ -730,7 +732,8 @@ class LineFoot {
         }
       const double dx = x[0] - p.x, dy = x[1] - p.y, dz = x[2] - p.z;
       const double g = dx * d1[0] + dy * d1[1] + dz * d1[2];
-      const double slope = d1[0] * d1[0] + d1[1] * d1[1] + d1[2] * d1[2] + dx * d2[0] + dy * d2[1] + dz * d2[2];
+      const double slope =
+          d1[0] * d1[0] + d1[1] * d1[1] + d1[2] * d1[2] + dx * d2[0] + dy * d2[1] + dz * d2[2];
       if (!(slope > 0.0)) return false;
       const double step = g / slope;
       u -= step;
@@ -1109,10 +1112,12 @@ class GeodesicExactSolver {
     bool points_only = true;
     for (int32_t id : next) points_only = points_only && !geo_.site(id).segment;
     const bool can_split = level > 1 && depth + 2 < static_cast<int>(wk.levels.size());
-    const bool interp_leaf = points_only && level <= std::min(point_block_, kInterpSolveBlock) &&
-                             (next.size() <= kInterpMaxCandidates || !can_split || level <= kInterpMinBlock);
+    const bool interp_leaf =
+        points_only && level <= std::min(point_block_, kInterpSolveBlock) &&
+        (next.size() <= kInterpMaxCandidates || !can_split || level <= kInterpMinBlock);
     const bool segment_leaf = !points_only && (next.size() <= 1 || w * h <= kLeafCells);
-    if ((interp_leaf || segment_leaf || !can_split) && next.size() >= 2 && next.size() <= kDominanceMax)
+    if ((interp_leaf || segment_leaf || !can_split) && next.size() >= 2 &&
+        next.size() <= kDominanceMax)
       drop_dominated(wk, next, c0, r0, c1, r1);
     if (interp_leaf) return solve_interp(wk, next, c0, r0, c1, r1);
     if (segment_leaf) return solve_leaf(wk, next, c0, r0, c1, r1);
@@ -1147,14 +1152,17 @@ class GeodesicExactSolver {
   // the bits they would get with it. A dominator may be dropped itself later: whatever beats it
   // beats the other by more still. Up to kDominators of the candidates with the shortest
   // largest chords are tried as dominators of every other.
-  void drop_dominated(GeoWorker& wk, std::vector<int32_t>& cands, int64_t c0, int64_t r0, int64_t c1,
-                      int64_t r1) const {
+  void drop_dominated(GeoWorker& wk, std::vector<int32_t>& cands, int64_t c0, int64_t r0,
+                      int64_t c1, int64_t r1) const {
     const EcefBox box = box_of(c0, r0, c1, r1);
-    const double mx = 0.5 * (box.x0 + box.x1), my = 0.5 * (box.y0 + box.y1), mz = 0.5 * (box.z0 + box.z1);
-    const double hx = 0.5 * (box.x1 - box.x0), hy = 0.5 * (box.y1 - box.y0), hz = 0.5 * (box.z1 - box.z0);
+    const double mx = 0.5 * (box.x0 + box.x1), my = 0.5 * (box.y0 + box.y1),
+                 mz = 0.5 * (box.z0 + box.z1);
+    const double hx = 0.5 * (box.x1 - box.x0), hy = 0.5 * (box.y1 - box.y0),
+                 hz = 0.5 * (box.z1 - box.z0);
     const double radius = std::sqrt(hx * hx + hy * hy + hz * hz) * (1.0 + 1e-12) + 1e-9;
-    const double corner[8][3] = {{box.x0, box.y0, box.z0}, {box.x1, box.y0, box.z0}, {box.x0, box.y1, box.z0},
-                                 {box.x1, box.y1, box.z0}, {box.x0, box.y0, box.z1}, {box.x1, box.y0, box.z1},
+    const double corner[8][3] = {{box.x0, box.y0, box.z0}, {box.x1, box.y0, box.z0},
+                                 {box.x0, box.y1, box.z0}, {box.x1, box.y1, box.z0},
+                                 {box.x0, box.y0, box.z1}, {box.x1, box.y0, box.z1},
                                  {box.x0, box.y1, box.z1}, {box.x1, box.y1, box.z1}};
     const size_t k = cands.size();
     wk.anchors.clear();
@@ -1176,17 +1184,20 @@ class GeodesicExactSolver {
       }
       double c2 = 0.0;
       for (const auto& b : corner)
-        c2 = std::max(c2, (b[0] - a.x) * (b[0] - a.x) + (b[1] - a.y) * (b[1] - a.y) + (b[2] - a.z) * (b[2] - a.z));
+        c2 = std::max(c2, (b[0] - a.x) * (b[0] - a.x) + (b[1] - a.y) * (b[1] - a.y) +
+                              (b[2] - a.z) * (b[2] - a.z));
       a.cmax = std::sqrt(c2) * (1.0 + 1e-12) + 1e-9;
-      a.beta = a.cmax < 2.0 * reach_rho_
-                   ? (2.0 * reach_rho_ / a.cmax) * std::asin(a.cmax / (2.0 * reach_rho_)) * (1.0 + 1e-12)
-                   : std::numeric_limits<double>::infinity();
+      a.beta =
+          a.cmax < 2.0 * reach_rho_
+              ? (2.0 * reach_rho_ / a.cmax) * std::asin(a.cmax / (2.0 * reach_rho_)) * (1.0 + 1e-12)
+              : std::numeric_limits<double>::infinity();
       wk.anchors.push_back(a);
     }
     if (wk.anchors.size() < 2) return;
     // The dominators: the anchors with the shortest largest chords.
     const size_t nd = std::min(kDominators, wk.anchors.size());
-    std::partial_sort(wk.anchors.begin(), wk.anchors.begin() + static_cast<std::ptrdiff_t>(nd), wk.anchors.end(),
+    std::partial_sort(wk.anchors.begin(), wk.anchors.begin() + static_cast<std::ptrdiff_t>(nd),
+                      wk.anchors.end(),
                       [](const Anchor& u, const Anchor& v) { return u.cmax < v.cmax; });
     constexpr double m = kGeoSlack;
     bool any = false;
@@ -1197,8 +1208,10 @@ class GeodesicExactSolver {
         const double b2 = i.beta * i.beta, need = 2.0 * i.beta * m * i.cmax + m * m;
         double least = std::numeric_limits<double>::infinity();
         for (const auto& b : corner) {
-          const double dj = (b[0] - j.x) * (b[0] - j.x) + (b[1] - j.y) * (b[1] - j.y) + (b[2] - j.z) * (b[2] - j.z);
-          const double di = (b[0] - i.x) * (b[0] - i.x) + (b[1] - i.y) * (b[1] - i.y) + (b[2] - i.z) * (b[2] - i.z);
+          const double dj = (b[0] - j.x) * (b[0] - j.x) + (b[1] - j.y) * (b[1] - j.y) +
+                            (b[2] - j.z) * (b[2] - j.z);
+          const double di = (b[0] - i.x) * (b[0] - i.x) + (b[1] - i.y) * (b[1] - i.y) +
+                            (b[2] - i.z) * (b[2] - i.z);
           // (1e-14 of the squares covers their rounding, ~1e-16 each.)
           least = std::min(least, dj - b2 * di - 1e-14 * (dj + b2 * di));
         }
@@ -1456,7 +1469,8 @@ class GeodesicExactSolver {
       if (!(u2[e] >= kVertexMinChord * kVertexMinChord)) return 0;
       te[e] = tx * v.ex + ty * v.ey + tz * v.ez;
     }
-    const bool beyond0 = RV_GEO_BEYOND(te[0], u2[0], c2[0], k2_), beyond1 = RV_GEO_BEYOND(te[1], u2[1], c2[1], k2_);
+    const bool beyond0 = RV_GEO_BEYOND(te[0], u2[0], c2[0], k2_),
+               beyond1 = RV_GEO_BEYOND(te[1], u2[1], c2[1], k2_);
     // First end: the cell lies behind it (against the edge); second end: beyond it.
     if (te[0] < 0.0 && beyond0) return 1;
     if (te[1] > 0.0 && beyond1) return 2;
@@ -1818,14 +1832,14 @@ class GeodesicExactSolver {
       for (size_t j = 0; j < wk.changing.size(); ++j)
         for (size_t k = 0; k < 3; ++k) reduce(wk.changing_interp[j][k], wk.row_segments[j].part[k]);
       if (plain)
-        interp_argmin_points(wk.row_points.data(), static_cast<int>(wk.row_points.size()), wcols, wstride_, pos,
-                             n, wk.best.data(), wk.second.data(), wk.best_id.data());
+        interp_argmin_points(wk.row_points.data(), static_cast<int>(wk.row_points.size()), wcols,
+                             wstride_, pos, n, wk.best.data(), wk.second.data(), wk.best_id.data());
       else
         interp_argmin_row(wk.row_points.data(), static_cast<int>(wk.row_points.size()),
                           wk.row_additive.data(), static_cast<int>(wk.row_additive.size()),
-                          wk.row_segments.data(), static_cast<int>(wk.row_segments.size()),
-                          wcols, wstride_, pos, n, wk.best.data(), wk.second.data(),
-                          wk.best_id.data(), wk.force.data(), k2_);
+                          wk.row_segments.data(), static_cast<int>(wk.row_segments.size()), wcols,
+                          wstride_, pos, n, wk.best.data(), wk.second.data(), wk.best_id.data(),
+                          wk.force.data(), k2_);
       // Every cell as put() would write it, without branches; then the flagged cells (rare)
       // are solved by the per-cell method and overwrite theirs. A row without them goes out
       // with non-temporal stores when the window is large (put_row).
@@ -1951,8 +1965,8 @@ class GeodesicExactSolver {
   }
 
   // Cells [c0, c1) of row r by the per-cell method, after cells_setup(wk, cands, one_block).
-  void solve_cells_row(GeoWorker& wk, const std::vector<int32_t>& cands, bool one_block, int64_t r, int64_t c0,
-                       int64_t c1) {
+  void solve_cells_row(GeoWorker& wk, const std::vector<int32_t>& cands, bool one_block, int64_t r,
+                       int64_t c0, int64_t c1) {
     const bool bounded = std::isfinite(max_distance_);
     auto slots_of = [&](size_t i) { return one_block ? &wk.slots[4 * i] : nullptr; };
     CellWeights cw;
@@ -1970,7 +1984,8 @@ class GeodesicExactSolver {
         bool exact = false;
         const GeoCell p = cell_at(c, r);
         column_weights(c);
-        const double v = value(wk, c, r, p, id, regime_of(p, id), exact, nullptr, nullptr, &cw, slots_of(0));
+        const double v =
+            value(wk, c, r, p, id, regime_of(p, id), exact, nullptr, nullptr, &cw, slots_of(0));
         if (!exact && bounded && std::abs(v - max_distance_) <= kInterpTie)
           put(c, r, id, geo_.distance(p, id));
         else
@@ -1989,7 +2004,10 @@ class GeodesicExactSolver {
     size_t previous = n;  // the previous cell's nearest candidate (n: none yet)
     double travel = 0.0;  // the way along the row since its first cell (an upper bound)
     GeoCell q{};
-    const double parallel_step = located_ ? 0.0 : rho_[r] * ctx_.grid.res * (3.14159265358979323846 / 180.0) * (1.0 + 1e-12) + 1e-9;
+    const double parallel_step =
+        located_
+            ? 0.0
+            : rho_[r] * ctx_.grid.res * (3.14159265358979323846 / 180.0) * (1.0 + 1e-12) + 1e-9;
     for (int64_t c = c0; c < c1; ++c) {
       const GeoCell p = cell_at(c, r);
       column_weights(c);
@@ -2008,11 +2026,12 @@ class GeodesicExactSolver {
           if (wk.cell_lb[i] < wk.cell_lb[first]) first = i;
         }
       } else {
-        const double step =
-            located_ ? std::sqrt((p.x - q.x) * (p.x - q.x) + (p.y - q.y) * (p.y - q.y) + (p.z - q.z) * (p.z - q.z)) *
-                               (1.0 + 1e-5) +
-                           1e-9
-                     : parallel_step;
+        const double step = located_
+                                ? std::sqrt((p.x - q.x) * (p.x - q.x) + (p.y - q.y) * (p.y - q.y) +
+                                            (p.z - q.z) * (p.z - q.z)) *
+                                          (1.0 + 1e-5) +
+                                      1e-9
+                                : parallel_step;
         travel += step;
         first = previous;
       }
@@ -2037,8 +2056,8 @@ class GeodesicExactSolver {
       if (geo_.site(cands[first]).segment && first_regime == 0)
         best = geo_.distance(p, cands[first], &end);
       else
-        best = value(wk, c, r, p, cands[first], first_regime, best_exact, &best_from, &best_canonical, &cw,
-                     slots_of(first));
+        best = value(wk, c, r, p, cands[first], first_regime, best_exact, &best_from,
+                     &best_canonical, &cw, slots_of(first));
       int32_t best_id = cands[first];
       double runner_up = std::numeric_limits<double>::infinity();
       bool runner_exact = true;
@@ -2064,8 +2083,8 @@ class GeodesicExactSolver {
           d = value(wk, c, r, p, id, regime, exact, &from, &canonical, &cw, slots_of(i));
           other_end.valid = false;
         }
-        if (!exact && !best_exact && d == best && canonical && best_canonical && from->lat == best_from->lat &&
-            from->lon == best_from->lon) {
+        if (!exact && !best_exact && d == best && canonical && best_canonical &&
+            from->lat == best_from->lat && from->lon == best_from->lon) {
           best_id = std::min(best_id, id);
           continue;
         }

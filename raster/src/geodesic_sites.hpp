@@ -158,7 +158,9 @@ class GeoSites {
   bool attains_at_vertex(const GeoCell& p, int32_t id, const GeoEnd& end, double s) const;
   // Lower bounds of distance(): from one cell, and from any cell centre inside a box.
   double lower_bound(const GeoCell& p, int32_t id) const;
-  double lower_bound(const EcefBox& box, int32_t id) const { return lower_bound(box, box_ball(box), id); }
+  double lower_bound(const EcefBox& box, int32_t id) const {
+    return lower_bound(box, box_ball(box), id);
+  }
   // The same with the box's ball made once (box_ball(box)) for many sites.
   double lower_bound(const EcefBox& box, const BoxBall& ball, int32_t id) const;
 

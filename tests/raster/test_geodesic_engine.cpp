@@ -439,7 +439,7 @@ TEST(GeodesicEngine, VertexMarginHoldsRightAtTheSwitches) {
     double lat, lon;
     geod.Direct(v.y, v.x, azi1 - 90.0, d, lat, lon);  // on the perpendicular, north of the line
     const double band = 1.1e-4 * std::sqrt(d);        // metres either side of it
-    const double res = band / 4.0 / 111e3;             // degrees: ~4 cells per band
+    const double res = band / 4.0 / 111e3;            // degrees: ~4 cells per band
     const GridSpec g = geo_grid(lon - 20.5 * res, lat + 20.5 * res, res, 41, 41);
     const std::string what = "perpendicular at " + std::to_string(d) + " m";
     expect_exact_equals_brute(s, g, what);

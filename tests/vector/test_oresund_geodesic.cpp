@@ -127,12 +127,14 @@ TEST(OresundGeodesic, ExactEqualsBruteForceOnTheBenchmarkGrid) {
   const std::optional<LoadedSeeds> seeds = load_oresund();
   if (!seeds) GTEST_SKIP() << "shared/fixtures/oresund.gpkg not found";
   const LoadedSeeds& loaded = *seeds;
-  const MetricSpec metric = resolve_metric(MetricRequest::automatic, true, loaded.crs.semi_major, loaded.crs.flattening);
+  const MetricSpec metric =
+      resolve_metric(MetricRequest::automatic, true, loaded.crs.semi_major, loaded.crs.flattening);
   GridSpec g = make_grid(11.94, 55.238, 13.26, 56.36, 0.00038, loaded.crs.wkt);
   ASSERT_EQ(g.width, 3474);
   int64_t sea = 0, near_edge = 0;
   std::set<int32_t> sites;
-  for (const Window w : {Window{160, 1728, 64, 64}, Window{2304, 1280, 64, 64}, Window{1770, 840, 64, 64}}) {
+  for (const Window w :
+       {Window{160, 1728, 64, 64}, Window{2304, 1280, 64, 64}, Window{1770, 840, 64, 64}}) {
     ComputeOptions o;
     o.metric = metric;
     o.window = w;
