@@ -9,6 +9,7 @@ set -euo pipefail
 packages=(
   build-essential cmake ninja-build pkg-config
   libgdal-dev gdal-bin python3-gdal
+  libtiff-dev libzstd-dev libdeflate-dev
   libgeographiclib-dev
   libgtest-dev libgmock-dev
   libboost-dev libsqlite3-dev nlohmann-json3-dev

@@ -189,8 +189,9 @@ namespace {
 // 768-row strips.
 constexpr int64_t kStripCells = int64_t{2} << 20;
 constexpr int64_t kTileRows = 256;  // GeoTiffStripWriter's tile height
-// Per streamed GeoTIFF besides its 256-row band buffer: GDAL's compression queue and tile.
-constexpr int64_t kWriterBytes = int64_t{8} << 20;
+// Per streamed GeoTIFF besides its 256-row band buffer: GeoTiffStripWriter's encoded tiles in
+// flight and a raw tile per encoding thread (vector/src/raster_io.cpp, kChunkTiles).
+constexpr int64_t kWriterBytes = int64_t{12} << 20;
 
 }  // namespace
 
@@ -222,7 +223,7 @@ JobPlan plan_job(const JobSpec& spec, const GridSpec& grid, int64_t sites, Metri
     p.strips = (grid.height + p.strip_rows - 1) / p.strip_rows;
     const int64_t strip_cells = p.strip_rows * grid.width;
     // Two strip buffers, each the engine's result plus one Int32 per integer product (the
-    // distance is converted in place), and per file a band of tile rows and GDAL's queue.
+    // distance is converted in place), and per file a band of tile rows and the tiles in flight.
     p.memory_bytes = estimate_memory(spec.method, 2 * strip_cells, sites, metric) + 2 * strip_cells * 4 * int_rasters +
                      rasters * (kTileRows * grid.width * 4 + kWriterBytes);
     return p;

@@ -1,13 +1,14 @@
 // GeoTIFF writing and reading through GDAL. See rv/raster_io.hpp for the contract.
 //
 // Writing path (plain GeoTIFF, GeoTiffStripWriter; write_geotiff feeds it the whole raster as one
-// strip): GTiff Create() on a temporary name next to the target, then one WriteBlock() per
-// 256x256 tile as soon as a band of 256 rows is complete. WriteBlock bypasses GDAL's block cache: with NUM_THREADS the
-// GTiff driver hands each tile to its compression thread pool as it arrives, so a 1e8-cell
-// raster is compressed in parallel and never copied into the cache. The raster attribute table
-// and category names live in the PAM sidecar (<name>.aux.xml, GDAL 3.6 does not put a RAT inside
-// a GTiff): it is written next to the temporary file when the dataset closes and renamed with
-// it.
+// strip): GTiff Create() on a temporary name next to the target with SPARSE_OK, so that GDAL
+// writes the header, georeferencing, metadata and compression tags with every tile empty, and
+// closes (writing the PAM sidecar, which holds the raster attribute table and category names:
+// GDAL 3.6 does not put a RAT inside a GTiff). Each band of 256 rows is then cut into tiles that
+// are predicted and compressed here, `threads` at a time, and appended raw with libtiff
+// (tiff_tiles.hpp). GDAL's own path (WriteBlock with NUM_THREADS) gave every tile a fresh
+// in-memory TIFF and codec state in its compression pool; on the 1e8-cell case its allocations
+// and copies cost more CPU than ZSTD itself on the owner codes (bench/RESULTS-encoding.md).
 //
 // Writing path (COG): the COG driver only implements CreateCopy(). The raster is wrapped without
 // a copy in a MEM dataset (DATAPOINTER; codes going into a narrower type are narrowed into a
@@ -24,7 +25,10 @@
 #include <cstdint>
 #include <cstdio>
 #include <cstring>
+#include <exception>
+#include <memory>
 #include <string>
+#include <thread>
 #include <type_traits>
 #include <vector>
 
@@ -37,11 +41,17 @@
 #include "gdal_util.hpp"
 #include "rv/error.hpp"
 #include "rv/raster_io.hpp"
+#include "tiff_tiles.hpp"
 
 namespace rv {
 namespace {
 
 constexpr int kBlock = 256;
+// The strip writer's tiles in flight: at most kChunkTiles encoded tiles (each at most about 257
+// KiB, ZSTD's bound on a Float32 tile) and one raw tile per encoding thread, at most
+// kMaxEncoders of them: about 10 MiB per file at most (the job planner's kWriterBytes).
+constexpr int64_t kChunkTiles = 24;
+constexpr int kMaxEncoders = 16;
 
 template <class T>
 struct PixelType;
@@ -326,17 +336,19 @@ struct GeoTiffStripWriter<T>::State {
   GeoTiffOptions options;
   GDALDataType type;  // the file's data type (T, or narrower codes)
   TempOutput out;
-  gdal::DatasetPtr ds;
-  GDALRasterBand* band = nullptr;
   int64_t rows_written = 0;
   // Rows of the current band of tiles (kBlock rows) that arrived in strips not ending on a tile
   // boundary; allocated on first use, so strips of whole tile rows never copy.
   std::vector<T> pending;
   int64_t pending_rows = 0;
-  // One tile in the file's type: only the one `type` needs is ever allocated.
-  std::vector<T> tile;
-  std::vector<uint16_t> tile16;
-  std::vector<uint8_t> tile8;
+  // The tiles' encoding (tiff_tiles.hpp): GDAL made the file with every tile empty, the tiles are
+  // encoded here, `threads` at a time, and appended raw.
+  detail::TileFormat format;
+  std::unique_ptr<detail::RawTileFile> file;
+  int threads = 1;
+  std::vector<detail::TileCompressor> compressors;  // one per thread
+  std::vector<std::vector<uint8_t>> scratch;        // one raw tile per thread
+  std::vector<std::vector<uint8_t>> encoded;        // the chunk's encoded tiles
   bool failed = false;
   bool finished = false;
 
@@ -349,38 +361,79 @@ struct GeoTiffStripWriter<T>::State {
     gdal::ThreadConfigOption pam{"GDAL_PAM_ENABLED", "YES"};
   };
 
-  // Compresses one band of tiles: `h` rows (kBlock, or fewer in the last band) starting at
-  // `rows`, `stride` cells apart, converted to the file's type on the way into the tile.
-  void write_band(const T* rows, int64_t h, int64_t stride, const gdal::ErrorCapture& capture) {
+  // Encodes and appends one band of tiles: `h` rows (kBlock, or fewer in the last band) starting
+  // at `rows`, `stride` cells apart, converted to the file's type on the way into each tile.
+  // Tiles go in chunks of a few per thread: each thread fills, predicts and compresses its
+  // tiles of the chunk, then the chunk is appended in order, so the file does not depend on the
+  // thread count and memory stays at a chunk of encoded tiles.
+  void write_band(const T* rows, int64_t h, int64_t stride) {
+    const int64_t by = rows_written / kBlock;
+    const int64_t across = file->tiles_across();
+    const int64_t chunk = std::min<int64_t>(across, kChunkTiles);
+    encoded.resize(static_cast<size_t>(chunk));
+    for (int64_t first = 0; first < across; first += chunk) {
+      const int64_t n = std::min(chunk, across - first);
+      const int workers = static_cast<int>(std::min<int64_t>(threads, n));
+      auto work = [&](int t) {
+        for (int64_t i = t; i < n; i += workers) {
+          uint8_t* tile = scratch[static_cast<size_t>(t)].data();
+          fill_tile(rows, h, stride, (first + i) * kBlock, tile);
+          compressors[static_cast<size_t>(t)].encode(tile, encoded[static_cast<size_t>(i)]);
+        }
+      };
+      if (workers == 1) {
+        work(0);
+      } else {
+        std::vector<std::exception_ptr> errors(static_cast<size_t>(workers));
+        std::vector<std::thread> helpers;
+        for (int t = 1; t < workers; ++t)
+          helpers.emplace_back([&, t] {
+            try {
+              work(t);
+            } catch (...) {
+              errors[static_cast<size_t>(t)] = std::current_exception();
+            }
+          });
+        try {
+          work(0);
+        } catch (...) {
+          errors[0] = std::current_exception();
+        }
+        for (std::thread& helper : helpers) helper.join();
+        for (const std::exception_ptr& e : errors)
+          if (e) std::rethrow_exception(e);
+      }
+      for (int64_t i = 0; i < n; ++i) file->append(first + i, by, encoded[static_cast<size_t>(i)]);
+    }
+    rows_written += h;
+  }
+
+  // The tile whose left column is x0, in the file's type. Edge tiles: the part outside the
+  // raster is padding, filled with nodata so that it compresses to nothing and never shows
+  // real-looking values.
+  void fill_tile(const T* rows, int64_t h, int64_t stride, int64_t x0, uint8_t* tile) const {
     if constexpr (PixelType<T>::floating) {
-      write_band_as(rows, h, stride, tile, capture);
+      fill_tile_as(rows, h, stride, x0, reinterpret_cast<T*>(tile));
     } else {
       switch (type) {
-        case GDT_Byte: write_band_as(rows, h, stride, tile8, capture); break;
-        case GDT_UInt16: write_band_as(rows, h, stride, tile16, capture); break;
-        default: write_band_as(rows, h, stride, tile, capture); break;
+        case GDT_Byte:
+          fill_tile_as(rows, h, stride, x0, tile);
+          break;
+        case GDT_UInt16:
+          fill_tile_as(rows, h, stride, x0, reinterpret_cast<uint16_t*>(tile));
+          break;
+        default:
+          fill_tile_as(rows, h, stride, x0, reinterpret_cast<T*>(tile));
+          break;
       }
     }
   }
 
-  // Edge tiles: the part outside the raster is padding, filled with nodata so that it compresses
-  // to nothing and never shows real-looking values.
   template <class Out>
-  void write_band_as(const T* rows, int64_t h, int64_t stride, std::vector<Out>& buffer,
-                     const gdal::ErrorCapture& capture) {
-    const int64_t by = rows_written / kBlock;
-    buffer.resize(static_cast<size_t>(kBlock) * kBlock);
-    for (int64_t bx = 0; bx * kBlock < window.width; ++bx) {
-      const int64_t x0 = bx * kBlock;
-      const int64_t w = std::min<int64_t>(kBlock, window.width - x0);
-      if (w < kBlock || h < kBlock) std::fill(buffer.begin(), buffer.end(), static_cast<Out>(nodata));
-      for (int64_t r = 0; r < h; ++r) store(rows + r * stride + x0, buffer.data() + r * kBlock, w);
-      // WriteBlock bypasses the block cache; GDAL copies the tile into its compression queue, so
-      // the buffer is free again when it returns.
-      if (band->WriteBlock(static_cast<int>(bx), static_cast<int>(by), buffer.data()) != CE_None)
-        fail(path, "cannot write tile (" + std::to_string(bx) + ", " + std::to_string(by) + ")", capture);
-    }
-    rows_written += h;
+  void fill_tile_as(const T* rows, int64_t h, int64_t stride, int64_t x0, Out* tile) const {
+    const int64_t w = std::min<int64_t>(kBlock, window.width - x0);
+    if (w < kBlock || h < kBlock) std::fill(tile, tile + kBlock * kBlock, static_cast<Out>(nodata));
+    for (int64_t r = 0; r < h; ++r) store(rows + r * stride + x0, tile + r * kBlock, w);
   }
 
   // n cells into the file's type; codes are checked against the stated range.
@@ -413,15 +466,38 @@ GeoTiffStripWriter<T>::GeoTiffStripWriter(const std::string& path, const GridSpe
   co.SetNameValue("TILED", "YES");
   co.SetNameValue("BLOCKXSIZE", std::to_string(kBlock).c_str());
   co.SetNameValue("BLOCKYSIZE", std::to_string(kBlock).c_str());
-  set_gtiff_encoding(co, encoding_for(options.compression, PixelType<T>::floating, has_zstd(gtiff)));
-  co.SetNameValue("NUM_THREADS", thread_option(options.threads).c_str());
+  const Encoding encoding =
+      encoding_for(options.compression, PixelType<T>::floating, has_zstd(gtiff));
+  set_gtiff_encoding(co, encoding);
   co.SetNameValue("BIGTIFF", "IF_SAFER");
-  state->ds.reset(gtiff->Create(state->out.temp().c_str(), static_cast<int>(window.width),
-                                static_cast<int>(window.height), 1, state->type, co.List()));
-  if (!state->ds) fail(path, "cannot create the file", scope.capture);
-  describe_dataset(*state->ds, grid, window, nodata, options, path, scope.capture);
-  state->band = state->ds->GetRasterBand(1);
-  write_categories(*state->band, options.category_labels, path, scope.capture);
+  co.SetNameValue("SPARSE_OK", "TRUE");  // every tile stays empty until appended below
+  {
+    gdal::DatasetPtr ds(gtiff->Create(state->out.temp().c_str(), static_cast<int>(window.width),
+                                      static_cast<int>(window.height), 1, state->type, co.List()));
+    if (!ds) fail(path, "cannot create the file", scope.capture);
+    describe_dataset(*ds, grid, window, nodata, options, path, scope.capture);
+    write_categories(*ds->GetRasterBand(1), options.category_labels, path, scope.capture);
+    ds.reset();  // closing writes the directory (no tile yet) and the PAM sidecar
+    if (!scope.capture.last_error().empty()) fail(path, "closing failed", scope.capture);
+  }
+  detail::TileFormat& f = state->format;
+  f.codec = std::strcmp(encoding.codec, "ZSTD") == 0      ? detail::TileCodec::zstd
+            : std::strcmp(encoding.codec, "DEFLATE") == 0 ? detail::TileCodec::deflate
+                                                          : detail::TileCodec::none;
+  f.level = encoding.level;
+  f.predictor = encoding.predictor;
+  f.sample_bytes = GDALGetDataTypeSizeBytes(state->type);
+  f.floating = PixelType<T>::floating;
+  f.width = f.height = kBlock;
+  state->file = std::make_unique<detail::RawTileFile>(state->out.temp(), f, path);
+  const int hardware = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  state->threads =
+      std::min(options.threads <= 0 ? hardware : std::min(options.threads, hardware), kMaxEncoders);
+  for (int t = 0; t < state->threads; ++t) {
+    state->compressors.emplace_back(f);
+    state->scratch.emplace_back(static_cast<size_t>(kBlock) * kBlock *
+                                static_cast<size_t>(f.sample_bytes));
+  }
   state_ = std::move(state);
 }
 
@@ -461,7 +537,7 @@ void GeoTiffStripWriter<T>::write_rows(const T* cells, int64_t rows) {
     // Rows the current band of tiles holds: kBlock, or what is left of the raster.
     const int64_t band_rows = std::min<int64_t>(kBlock, s.window.height - s.rows_written);
     if (s.pending_rows == 0 && rows >= band_rows) {
-      s.write_band(cells, band_rows, width, scope.capture);
+      s.write_band(cells, band_rows, width);
       cells += band_rows * width;
       rows -= band_rows;
       continue;
@@ -474,7 +550,7 @@ void GeoTiffStripWriter<T>::write_rows(const T* cells, int64_t rows) {
     rows -= take;
     if (s.pending_rows == band_rows) {
       s.pending_rows = 0;
-      s.write_band(s.pending.data(), band_rows, width, scope.capture);
+      s.write_band(s.pending.data(), band_rows, width);
     }
   }
   s.failed = false;
@@ -490,11 +566,8 @@ void GeoTiffStripWriter<T>::finish() {
                                                  std::to_string(s.window.height) + " rows written");
   typename State::Scope scope;
   s.failed = true;
-  s.ds->FlushCache(true);
-  if (!scope.capture.last_error().empty()) fail(s.path, "flushing failed", scope.capture);
-  s.band = nullptr;
-  s.ds.reset();  // closing writes the directory and the PAM sidecar
-  if (!scope.capture.last_error().empty()) fail(s.path, "closing failed", scope.capture);
+  s.file->close();  // the tile index; the directory and the sidecar were written at creation
+  s.file.reset();
   s.out.commit();
   s.failed = false;
   s.finished = true;
@@ -504,11 +577,10 @@ template <class T>
 void GeoTiffStripWriter<T>::abort() noexcept {
   if (!state_) return;
   if (!state_->finished) {
-    // Closing flushes what was written (GDAL has no way to drop a dataset); the temporary
-    // file and its sidecar are then removed by the guard.
+    // Closing flushes what was written; the temporary file and its sidecar are then removed by
+    // the guard.
     typename State::Scope scope;
-    state_->band = nullptr;
-    state_->ds.reset();
+    state_->file.reset();
   }
   state_.reset();
 }

@@ -1,0 +1,93 @@
+// Tiles of a tiled GeoTIFF encoded here and appended raw (internal to rv_vector).
+//
+// GDAL creates and describes the file (georeferencing, nodata, metadata, compression and
+// predictor tags) with every tile left empty (SPARSE_OK); TileCompressor then applies the TIFF
+// predictor and codec to each tile in the caller's threads, and RawTileFile appends the bytes
+// with libtiff (TIFFWriteRawTile) and rewrites only the tile offset and byte count arrays at the
+// end. Every tile holds what libtiff's own encoder would put there, the same predictor and codec
+// over the same bytes; only the ZSTD frames differ in their headers (a one-shot frame records
+// the tile's size), and both decode alike. What it saves: GDAL's compression pool gives each
+// tile a fresh in-memory TIFF and codec state, whose allocations and copies cost more than ZSTD
+// itself on owner codes (bench/RESULTS-encoding.md).
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+struct tiff;
+struct ZSTD_CCtx_s;
+struct libdeflate_compressor;
+
+namespace rv::detail {
+
+enum class TileCodec { none, zstd, deflate };
+
+// How every tile of one file is encoded; must agree with the file's tags (RawTileFile checks).
+struct TileFormat {
+  TileCodec codec = TileCodec::none;
+  int level = 0;          // codec level (ZSTD 1..22, DEFLATE 1..12); unused for none
+  int predictor = 1;      // TIFF predictor: 1 none, 2 horizontal differencing, 3 floating point
+  int sample_bytes = 1;   // 1, 2 or 4
+  bool floating = false;  // IEEE float samples (predictor 3 only applies to them)
+  int width = 256, height = 256;  // tile size in samples
+};
+
+// Predictor then codec for one tile. One per thread: it owns the codec's state, reused from tile
+// to tile. Not thread-safe; movable.
+class TileCompressor {
+ public:
+  explicit TileCompressor(const TileFormat& format);
+  ~TileCompressor();
+  TileCompressor(TileCompressor&& other) noexcept;
+  TileCompressor& operator=(TileCompressor&&) = delete;
+  TileCompressor(const TileCompressor&) = delete;
+  TileCompressor& operator=(const TileCompressor&) = delete;
+
+  // `tile`: width * height samples, row-major, native byte order (little-endian files only);
+  // the predictor works in place, so its contents are undefined afterwards. `out` receives the
+  // bytes to store for the tile. Throws rv::Error(internal) when the codec fails.
+  void encode(uint8_t* tile, std::vector<uint8_t>& out);
+
+ private:
+  TileFormat format_;
+  ZSTD_CCtx_s* zstd_ = nullptr;
+  libdeflate_compressor* deflate_ = nullptr;
+  std::vector<uint8_t> row_;  // predictor 3's row scratch
+};
+
+// A tiled TIFF opened for update through GDAL's virtual file layer (any path GDAL can write,
+// /vsimem/ included), to which encoded tiles are appended. Not thread-safe.
+class RawTileFile {
+ public:
+  // Opens `path` (written by GDAL, not open elsewhere) and checks that its layout is the one the
+  // tiles will be encoded for: tiled, one band, `format`'s tile size, sample size and kind,
+  // compression and predictor tags, and the host's byte order. Throws rv::Error(io) naming
+  // `display` (the user's name for the file) with libtiff's reason.
+  RawTileFile(const std::string& path, const TileFormat& format, const std::string& display);
+  ~RawTileFile();  // closes without reporting (the caller removes a file it gave up)
+  RawTileFile(const RawTileFile&) = delete;
+  RawTileFile& operator=(const RawTileFile&) = delete;
+
+  // Tiles across the image.
+  int64_t tiles_across() const { return tiles_across_; }
+  // Appends the encoded bytes of tile (bx, by). Throws rv::Error(io).
+  void append(int64_t bx, int64_t by, const std::vector<uint8_t>& bytes);
+  // Writes the tile arrays and closes. Throws rv::Error(io).
+  void close();
+
+ private:
+  [[noreturn]] void fail(const std::string& what);
+
+  tiff* tif_ = nullptr;
+  void* file_ = nullptr;  // the VSILFILE under tif_
+  std::string display_;
+  std::string errors_;  // libtiff's error messages for this handle
+  int64_t tiles_across_ = 0;
+  int64_t tiles_down_ = 0;
+
+  friend struct RawTileFileAccess;
+};
+
+}  // namespace rv::detail
