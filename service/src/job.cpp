@@ -222,9 +222,10 @@ JobPlan plan_job(const JobSpec& spec, const GridSpec& grid, int64_t sites, Metri
     p.strip_rows = std::clamp<int64_t>(rows, 1, std::max<int64_t>(grid.height, 1));
     p.strips = (grid.height + p.strip_rows - 1) / p.strip_rows;
     const int64_t strip_cells = p.strip_rows * grid.width;
-    // Two strip buffers, each the engine's result plus one Int32 per integer product (the
-    // distance is converted in place), and per file a band of tile rows and the tiles in flight.
-    p.memory_bytes = estimate_memory(spec.method, 2 * strip_cells, sites, metric) + 2 * strip_cells * 4 * int_rasters +
+    // Two strip buffers (the engine's result; the distance is scaled in place), one Int32 strip
+    // of codes per integer product (made by its writer), and per file a band of tile rows and
+    // the tiles in flight.
+    p.memory_bytes = estimate_memory(spec.method, 2 * strip_cells, sites, metric) + strip_cells * 4 * int_rasters +
                      rasters * (kTileRows * grid.width * 4 + kWriterBytes);
     return p;
   }

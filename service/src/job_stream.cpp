@@ -53,12 +53,12 @@ void lower_priority() {
 #endif
 }
 
-// One strip buffer: the engine's field for its rows and the Int32 products made from it (the
-// distance is scaled in place).
+// One strip buffer: the engine's field for its rows (the distance is scaled in place). The code
+// rasters (owner, feature) are made from its sites by the writer of each file, on its own thread:
+// on the engine's thread that pass was serial time between two strips (0.14 s of a 0.2 s
+// computation at 1e8 cells).
 struct Strip {
   NearestField field;
-  std::vector<int32_t> owners;
-  std::vector<int32_t> features;
   int64_t row0 = 0;
   int64_t rows = 0;
 };
@@ -114,6 +114,13 @@ StreamStats run_streamed(const StreamJob& job) {
   std::vector<double> write_waited(writers.size(), 0.0);
   auto write_loop = [&](size_t i) {
     lower_priority();
+    std::vector<int32_t> codes;  // this file's codes of the strip in hand (code rasters only)
+    auto coded = [&](const SiteCodes& table, const Strip& s) {
+      const int64_t n = s.rows * width;
+      codes.resize(static_cast<size_t>(n));
+      table.apply(s.field.site.data(), codes.data(), n);
+      return codes.data();
+    };
     try {
       for (size_t seq = 0;; ++seq) {
         const std::optional<int> k = handoff.take_filled(seq, write_waited[i]);
@@ -122,10 +129,10 @@ StreamStats run_streamed(const StreamJob& job) {
         const auto t = Clock::now();
         switch (job.targets[i].product) {
           case StreamTarget::Product::ownership:
-            std::get<GeoTiffStripWriter<int32_t>>(writers[i]).write_rows(s.owners.data(), s.rows);
+            std::get<GeoTiffStripWriter<int32_t>>(writers[i]).write_rows(coded(owner_codes, s), s.rows);
             break;
           case StreamTarget::Product::nearest_feature:
-            std::get<GeoTiffStripWriter<int32_t>>(writers[i]).write_rows(s.features.data(), s.rows);
+            std::get<GeoTiffStripWriter<int32_t>>(writers[i]).write_rows(coded(feature_codes, s), s.rows);
             break;
           case StreamTarget::Product::distance:
             std::get<GeoTiffStripWriter<float>>(writers[i])
@@ -188,14 +195,6 @@ StreamStats run_streamed(const StreamJob& job) {
     stats.threads = s.field.threads;
     const auto t = Clock::now();
     const int64_t n = s.rows * width;
-    if (want_owners) {
-      s.owners.resize(static_cast<size_t>(n));
-      owner_codes.apply(s.field.site.data(), s.owners.data(), n);
-    }
-    if (want_features) {
-      s.features.resize(static_cast<size_t>(n));
-      feature_codes.apply(s.field.site.data(), s.features.data(), n);
-    }
     if (job.distance_factor != 1.0)
       scale_distances(s.field.distance.data(), s.field.distance.data(), n, job.distance_factor);
     stats.convert += seconds_since(t);

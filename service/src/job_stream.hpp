@@ -44,8 +44,9 @@ struct StreamJob {
 // What the streamed run measured; every time in seconds.
 struct StreamStats {
   double compute = 0.0;         // the engine's own time, summed over strips
-  double convert = 0.0;         // site ids -> codes, unit scaling, on the computing thread
-  std::map<std::string, double> write;  // per target: encoding and finishing on its writer thread
+  double convert = 0.0;         // distance unit scaling, on the computing thread
+  std::map<std::string, double> write;  // per target: site ids -> codes (code rasters), encoding
+                                        // and finishing, on its writer thread
   double compute_waited = 0.0;  // the computing thread waiting for a free strip buffer
   double write_waited = 0.0;    // the writer threads waiting for a computed strip (the longest)
   double wall = 0.0;            // from the first strip's start to the last file in place

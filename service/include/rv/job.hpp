@@ -87,11 +87,12 @@ struct JobSpec {
 // anything grid-sized is allocated.
 //
 // Streamed: the grid is computed in strips of whole rows (ComputeOptions::window, into the same
-// buffers each time), and each strip is converted (owner codes, feature numbers, distance units)
-// and handed to the writer threads, one per file, that encode it into the GeoTIFFs
-// (GeoTiffStripWriter) side by side while the engine computes the next strip; two strips are
-// in flight at most. Memory is O(strip), not O(grid), and the files are identical to the
-// whole-field path's for any strip height and thread count. A job is streamed when every output can be made from a strip alone:
+// buffers each time), its distances converted to the requested unit, and handed to the writer
+// threads, one per file, that make their codes from its sites (owner codes, feature numbers) and
+// encode it into the GeoTIFFs (GeoTiffStripWriter) side by side while the engine computes the
+// next strip; two strips are in flight at most. Memory is O(strip), not O(grid), and the files
+// are identical to the whole-field path's for any strip height and thread count. A job is
+// streamed when every output can be made from a strip alone:
 //   - method exact or brute-force: a window of these equals the same cells of the whole grid
 //     (the scans propagate inside the window, so a strip of them would differ);
 //   - no deliverable (boundaries, tripoints, limits, regions, margin, preview: they need the
