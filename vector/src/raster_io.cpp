@@ -3,12 +3,13 @@
 // Writing path (plain GeoTIFF, GeoTiffStripWriter; write_geotiff feeds it the whole raster as one
 // strip): GTiff Create() on a temporary name next to the target with SPARSE_OK, so that GDAL
 // writes the header, georeferencing, metadata and compression tags with every tile empty, and
-// closes (writing the PAM sidecar, which holds the raster attribute table and category names:
-// GDAL 3.6 does not put a RAT inside a GTiff). Each band of 256 rows is then cut into tiles that
-// are predicted and compressed here, `threads` at a time, and appended raw with libtiff
-// (tiff_tiles.hpp). GDAL's own path (WriteBlock with NUM_THREADS) gave every tile a fresh
-// in-memory TIFF and codec state in its compression pool; on the 1e8-cell case its allocations
-// and copies cost more CPU than ZSTD itself on the owner codes (bench/RESULTS-encoding.md).
+// closes. The first rows written reopen it read-only to attach the categories (raster attribute
+// table and category names, in the PAM sidecar: GDAL 3.6 does not put a RAT inside a GTiff).
+// Each band of 256 rows is then cut into tiles that are predicted and compressed here, `threads`
+// at a time, and appended raw with libtiff (tiff_tiles.hpp). GDAL's own path (WriteBlock with
+// NUM_THREADS) gave every tile a fresh in-memory TIFF and codec state in its compression pool;
+// on the 1e8-cell case its allocations and copies cost more CPU than ZSTD itself on the owner
+// codes (bench/RESULTS-encoding.md).
 //
 // Writing path (COG): the COG driver only implements CreateCopy(). The raster is wrapped without
 // a copy in a MEM dataset (DATAPOINTER; codes going into a narrower type are narrowed into a
@@ -285,6 +286,19 @@ void write_categories(GDALRasterBand& band, const std::vector<std::string>& labe
   if (band.SetCategoryNames(names.List()) != CE_None) fail(path, "cannot set the category names", capture);
 }
 
+// The categories of the written file `temp` (`path` for messages): it is opened read-only, so
+// that PAM writes the sidecar and the TIFF stays as it is.
+void attach_categories(const std::string& temp, const std::vector<std::string>& labels, const std::string& path,
+                       const gdal::ErrorCapture& capture) {
+  gdal::DatasetPtr done(
+      GDALDataset::FromHandle(GDALOpenEx(temp.c_str(), GDAL_OF_RASTER | GDAL_OF_READONLY, nullptr, nullptr, nullptr)));
+  if (!done) fail(path, "cannot reopen the file to attach its categories", capture);
+  write_categories(*done->GetRasterBand(1), labels, path, capture);
+  done.reset();
+  if (!capture.last_error().empty()) fail(path, "writing the sidecar failed", capture);
+  if (!exists(temp + ".aux.xml")) fail(path, "the category sidecar was not written", capture);
+}
+
 // Checks shared by every writer, before anything is created: a usable size, labels and a code
 // range only on integer rasters, nodata inside the range, an existing target directory.
 template <class T>
@@ -349,6 +363,7 @@ struct GeoTiffStripWriter<T>::State {
   std::vector<detail::TileCompressor> compressors;  // one per thread
   std::vector<std::vector<uint8_t>> scratch;        // one raw tile per thread
   std::vector<std::vector<uint8_t>> encoded;        // the chunk's encoded tiles
+  bool categories_pending = false;  // the sidecar is written by the first write_rows()
   bool failed = false;
   bool finished = false;
 
@@ -476,8 +491,7 @@ GeoTiffStripWriter<T>::GeoTiffStripWriter(const std::string& path, const GridSpe
                                       static_cast<int>(window.height), 1, state->type, co.List()));
     if (!ds) fail(path, "cannot create the file", scope.capture);
     describe_dataset(*ds, grid, window, nodata, options, path, scope.capture);
-    write_categories(*ds->GetRasterBand(1), options.category_labels, path, scope.capture);
-    ds.reset();  // closing writes the directory (no tile yet) and the PAM sidecar
+    ds.reset();  // closing writes the directory, no tile yet
     if (!scope.capture.last_error().empty()) fail(path, "closing failed", scope.capture);
   }
   detail::TileFormat& f = state->format;
@@ -489,6 +503,7 @@ GeoTiffStripWriter<T>::GeoTiffStripWriter(const std::string& path, const GridSpe
   f.sample_bytes = GDALGetDataTypeSizeBytes(state->type);
   f.floating = PixelType<T>::floating;
   f.width = f.height = kBlock;
+  state->categories_pending = !options.category_labels.empty();
   state->file = std::make_unique<detail::RawTileFile>(state->out.temp(), f, path);
   const int hardware = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
   state->threads =
@@ -532,6 +547,13 @@ void GeoTiffStripWriter<T>::write_rows(const T* cells, int64_t rows) {
     throw Error(ErrorKind::invalid_argument, "writing " + s.path + ": more rows than the raster has");
   typename State::Scope scope;
   s.failed = true;  // until this call returns normally
+  if (s.categories_pending) {
+    // On the first rows, not at creation: the caller's thread that writes rows (a streamed job's
+    // writer thread) then builds the sidecar while the engine computes, instead of the job
+    // waiting for it before the first strip (0.3 s for 50 000 owners).
+    attach_categories(s.out.temp(), s.options.category_labels, s.path, scope.capture);
+    s.categories_pending = false;
+  }
   const int64_t width = s.window.width;
   while (rows > 0) {
     // Rows the current band of tiles holds: kBlock, or what is left of the raster.
@@ -645,15 +667,7 @@ void write_cog(const std::string& path, const Raster<T>& raster, double nodata, 
   if (!dst) fail(path, "the COG driver failed", capture);
   dst.reset();
   if (!capture.last_error().empty()) fail(path, "closing failed", capture);
-  if (!options.category_labels.empty()) {
-    gdal::DatasetPtr done(GDALDataset::FromHandle(GDALOpenEx(out.temp().c_str(), GDAL_OF_RASTER | GDAL_OF_READONLY,
-                                                             nullptr, nullptr, nullptr)));
-    if (!done) fail(path, "cannot reopen the COG to attach its categories", capture);
-    write_categories(*done->GetRasterBand(1), options.category_labels, path, capture);
-    done.reset();
-    if (!capture.last_error().empty()) fail(path, "writing the sidecar failed", capture);
-    if (!exists(out.temp() + ".aux.xml")) fail(path, "the category sidecar was not written", capture);
-  }
+  if (!options.category_labels.empty()) attach_categories(out.temp(), options.category_labels, path, capture);
 }
 
 template <class T>

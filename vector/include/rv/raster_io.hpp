@@ -87,8 +87,9 @@ void write_geotiff(const std::string& path, const Raster<float>& raster, double 
 // finish() then flushes, closes and renames into place (temporary name in the target's
 // directory, sidecar first, as write_geotiff). A writer destroyed or moved-over before finish()
 // succeeded, or after any call threw, removes its temporary file and sidecar: nothing is left.
-// Memory: strips that end on a 256-row tile boundary go straight to GDAL's compression queue;
-// otherwise one band of 256 rows x window.width cells is buffered.
+// Memory: strips that end on a 256-row tile boundary are encoded from the caller's buffer;
+// otherwise one band of 256 rows x window.width cells is buffered. Besides: up to 24 encoded
+// tiles and one raw tile per encoding thread (at most 16 threads).
 // Thread safety: none inside; a writer may be used from different threads one after the other
 // (every call installs its own GDAL error capture), ordered by the caller (e.g. a queue).
 // T: int32_t or float.
@@ -96,8 +97,9 @@ template <class T>
 class GeoTiffStripWriter {
  public:
   // Creates the temporary file for a raster covering `window` of `grid`, describes it (CRS,
-  // geotransform, nodata, units, metadata, categories). Throws rv::Error like write_geotiff;
-  // invalid_argument for options.cloud_optimized (a COG needs the whole raster).
+  // geotransform, nodata, units, metadata; the categories follow with the first rows, on the
+  // thread that writes them). Throws rv::Error like write_geotiff; invalid_argument for
+  // options.cloud_optimized (a COG needs the whole raster).
   GeoTiffStripWriter(const std::string& path, const GridSpec& grid, const Window& window, double nodata,
                      const GeoTiffOptions& options);
   ~GeoTiffStripWriter();
