@@ -65,14 +65,18 @@ struct Strip {
 
 using AnyWriter = std::variant<GeoTiffStripWriter<int32_t>, GeoTiffStripWriter<float>>;
 
-AnyWriter open_writer(const StreamTarget& t, const GridSpec& grid) {
+// `encoders`: the file's tile-encoding threads.
+AnyWriter open_writer(const StreamTarget& t, const GridSpec& grid, int encoders) {
+  GeoTiffOptions options = t.options;
+  options.threads = encoders;
   switch (t.product) {
     case StreamTarget::Product::distance:
-      return GeoTiffStripWriter<float>(t.path, grid, grid.full_window(), static_cast<double>(kNoDistance), t.options);
+      return GeoTiffStripWriter<float>(t.path, grid, grid.full_window(),
+                                       static_cast<double>(kNoDistance), options);
     case StreamTarget::Product::ownership:
     case StreamTarget::Product::nearest_feature: break;
   }
-  return GeoTiffStripWriter<int32_t>(t.path, grid, grid.full_window(), 0.0, t.options);
+  return GeoTiffStripWriter<int32_t>(t.path, grid, grid.full_window(), 0.0, options);
 }
 
 }  // namespace
@@ -95,11 +99,18 @@ StreamStats run_streamed(const StreamJob& job) {
 
   // Every file is created before the first strip is computed: an unwritable target fails at
   // once, not after the computation.
+  // The files are encoded side by side, one writer thread each: each gets an equal share of the
+  // job's threads to encode its tiles with (at least one), so that they do not ask for the cores
+  // several times over. With one encoder the writer thread encodes alone and never waits for a
+  // helper at the end of a chunk of tiles.
+  const int hardware = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  const int job_threads = job.compute.threads > 0 ? job.compute.threads : hardware;
+  const int encoders = std::max(1, job_threads / std::max(1, static_cast<int>(job.targets.size())));
   std::vector<AnyWriter> writers;
   writers.reserve(job.targets.size());
   for (const StreamTarget& t : job.targets) {
     job.will_write(t.path);
-    writers.push_back(open_writer(t, grid));
+    writers.push_back(open_writer(t, grid, encoders));
   }
   std::vector<double> write_seconds(job.targets.size(), 0.0);
 
