@@ -21,7 +21,8 @@
 namespace rv {
 namespace {
 
-constexpr const char* kUsage = R"(rvoronoi — raster Voronoi diagrams (ownership and distance) for GIS
+constexpr const char* kUsage =
+    R"(rvoronoi — raster Voronoi diagrams (ownership and distance) for GIS
 
 usage:
   rvoronoi compute SEEDS... --resolution R --ownership OWN.tif [options]
@@ -62,7 +63,7 @@ outputs:
   --report FILE.json      grid, method, seeds, timings per phase, peak memory
   --cog                   write Cloud-Optimized GeoTIFFs
   --compression PROFILE   how every GeoTIFF is compressed (all lossless):
-                            fast     ZSTD 1, no predictor on the distance (default)
+                            fast     ZSTD 1 on codes, the distance uncompressed (default)
                             small    ZSTD 6 with predictors: smallest files, slower
                             deflate  DEFLATE 1 with predictors, for readers without ZSTD
                             none     uncompressed

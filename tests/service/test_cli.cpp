@@ -250,23 +250,24 @@ TEST_F(Cli, CompressionProfileReachesEveryGeoTiff) {
   const char* list = GDALGetMetadataItem(GDALGetDriverByName("GTiff"), GDAL_DMD_CREATIONOPTIONLIST, nullptr);
   const bool has_zstd = list != nullptr && std::strstr(list, "ZSTD") != nullptr;
   const std::string zstd = has_zstd ? "ZSTD" : "DEFLATE";
-  const std::string fast_float = has_zstd ? "-" : "3";  // without ZSTD, fast is the deflate profile
+
   const std::string base = "compute " + source(kDemo) + " --owner-field state --resolution 400 --quiet";
   auto outputs = [&](const std::string& tag) {
     return " --ownership " + path(tag + "_own.tif") + " --distance " + path(tag + "_dist.tif") + " --nearest-feature " +
            path(tag + "_feat.tif") + " --report " + path(tag + ".json");
   };
   struct Case {
-    std::string args, codec, int_predictor, float_predictor;
+    std::string args, int_codec, float_codec, int_predictor, float_predictor;
   };
-  // The default is fast: no floating-point predictor.
-  const Case cases[] = {{"", zstd, "2", fast_float},
-                        {"--compression fast", zstd, "2", fast_float},
-                        {"--compression small", zstd, "2", "3"},
-                        {"--compression deflate", "DEFLATE", "2", "3"},
-                        {"--compression none", "-", "-", "-"},
-                        {"--compression small --cog", zstd, "2", "3"},
-                        {"--compression none --cog", "-", "-", "-"}};
+  // The default is fast: codes compressed, the Float32 distance uncompressed.
+  const Case cases[] = {{"", zstd, "-", "2", "-"},
+                        {"--compression fast", zstd, "-", "2", "-"},
+                        {"--compression small", zstd, zstd, "2", "3"},
+                        {"--compression deflate", "DEFLATE", "DEFLATE", "2", "3"},
+                        {"--compression none", "-", "-", "-", "-"},
+                        {"--compression fast --cog", zstd, "-", "2", "-"},
+                        {"--compression small --cog", zstd, zstd, "2", "3"},
+                        {"--compression none --cog", "-", "-", "-", "-"}};
   for (size_t i = 0; i < std::size(cases); ++i) {
     const Case& c = cases[i];
     SCOPED_TRACE(c.args);
@@ -279,7 +280,7 @@ TEST_F(Cli, CompressionProfileReachesEveryGeoTiff) {
       const bool floating = std::string(product) == "_dist.tif";
       // Three owners and 28 features: one byte per code.
       EXPECT_EQ(l.type, floating ? "Float32" : "Byte") << product;
-      EXPECT_EQ(l.compression, c.codec) << product;
+      EXPECT_EQ(l.compression, floating ? c.float_codec : c.int_codec) << product;
       EXPECT_EQ(l.predictor, floating ? c.float_predictor : c.int_predictor) << product;
       EXPECT_EQ(l.layout, cog ? "COG" : "-") << product;
     }

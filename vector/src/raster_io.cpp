@@ -3,8 +3,9 @@
 // Writing path (plain GeoTIFF, GeoTiffStripWriter; write_geotiff feeds it the whole raster as one
 // strip): GTiff Create() on a temporary name next to the target with SPARSE_OK, so that GDAL
 // writes the header, georeferencing, metadata and compression tags with every tile empty, and
-// closes. The first rows written reopen it read-only to attach the categories (raster attribute
-// table and category names, in the PAM sidecar: GDAL 3.6 does not put a RAT inside a GTiff).
+// closes. A thread of the writer's own then reopens it read-only to attach the categories (raster
+// attribute table and category names, in the PAM sidecar: GDAL 3.6 does not put a RAT inside a
+// GTiff) while the tiles are written.
 // Each band of 256 rows is then cut into tiles that are predicted and compressed here, `threads`
 // at a time, and appended raw with libtiff (tiff_tiles.hpp). GDAL's own path (WriteBlock with
 // NUM_THREADS) gave every tile a fresh in-memory TIFF and codec state in its compression pool;
@@ -88,8 +89,12 @@ struct Encoding {
 //   DEFLATE 1: 4.0 s without the predictor, 3.4 s with it (355 / 262 MB: DEFLATE is no faster on
 //   raw floats, so the predictor comes free there); DEFLATE 6: 7.7 s, 253 MB; DEFLATE 9: 35 s,
 //   250 MB.
-// Hence fast = ZSTD 1 without the float predictor, small = level 6 with it (the knee: level 9 and
-// above buy under 1 %), deflate = level 1 with predictors (level 6 doubles the time for 4 %).
+// Hence small = ZSTD level 6 with predictors (the knee: level 9 and above buy under 1 %), deflate =
+// level 1 with predictors (level 6 doubles the time for 4 %). fast writes Float32 uncompressed:
+// ZSTD 1 spends 0.6 CPU seconds of Huffman coding per 1e8 distances to save 11 % (ZSTD's
+// negative levels code no literals and save nothing), and on the 1e8-cell command that codec was
+// what kept it going past the computation (bench/RESULTS-encoding.md, sixteenth session). Codes
+// keep ZSTD 1 with predictor 2: 33x smaller for a fraction of that time.
 constexpr int kFastZstdLevel = 1;
 constexpr int kSmallZstdLevel = 6;
 constexpr int kDeflateLevel = 1;
@@ -97,13 +102,13 @@ constexpr int kSmallDeflateLevel = 6;  // small without ZSTD
 
 // The one place a compression profile becomes codec, level and predictor (rv/raster_io.hpp has
 // the profiles' contract). Integer codes always get the horizontal-differencing predictor (2).
-// Without ZSTD, fast is the deflate profile: DEFLATE is no slower with the float predictor.
+// Without ZSTD, fast codes get DEFLATE 1.
 Encoding encoding_for(Compression c, bool floating, bool zstd) {
   const int predictor = floating ? 3 : 2;
   switch (c) {
     case Compression::fast:
-      if (zstd) return {"ZSTD", kFastZstdLevel, floating ? 1 : 2};
-      return {"DEFLATE", kDeflateLevel, predictor};
+      if (floating) return {"NONE", 0, 1};
+      return zstd ? Encoding{"ZSTD", kFastZstdLevel, 2} : Encoding{"DEFLATE", kDeflateLevel, 2};
     case Compression::small:
       return zstd ? Encoding{"ZSTD", kSmallZstdLevel, predictor} : Encoding{"DEFLATE", kSmallDeflateLevel, predictor};
     case Compression::deflate: return {"DEFLATE", kDeflateLevel, predictor};
@@ -362,8 +367,25 @@ struct GeoTiffStripWriter<T>::State {
   int threads = 1;
   std::vector<detail::TileCompressor> compressors;  // one per thread
   std::vector<std::vector<uint8_t>> scratch;        // one raw tile per thread
-  std::vector<std::vector<uint8_t>> encoded;        // the chunk's encoded tiles
-  bool categories_pending = false;  // the sidecar is written by the first write_rows()
+  std::vector<std::vector<uint8_t>> encoded;        // the chunk's encoded tiles (several threads)
+  std::vector<size_t> sizes;                        // ... and their sizes
+  std::vector<uint8_t> encoded_single;              // the encoded tile (one thread)
+  // The categories' sidecar, built on a thread of its own from creation on (0.28 s of GDAL's PAM
+  // serialisation for 50 000 owners, otherwise in the way of the first strip or of the tiles):
+  // GDAL opens the file read-only and reads only its directory, which the tiles appended at the
+  // end never touch until close(). finish() joins it; the destructor too, before `out` removes
+  // the files.
+  struct Sidecar {
+    std::thread thread;
+    std::exception_ptr error;
+    Sidecar() = default;
+    Sidecar(const Sidecar&) = delete;
+    Sidecar& operator=(const Sidecar&) = delete;
+    ~Sidecar() { join(); }
+    void join() {
+      if (thread.joinable()) thread.join();
+    }
+  } sidecar;
   bool failed = false;
   bool finished = false;
 
@@ -378,14 +400,25 @@ struct GeoTiffStripWriter<T>::State {
 
   // Encodes and appends one band of tiles: `h` rows (kBlock, or fewer in the last band) starting
   // at `rows`, `stride` cells apart, converted to the file's type on the way into each tile.
-  // Tiles go in chunks of a few per thread: each thread fills, predicts and compresses its
-  // tiles of the chunk, then the chunk is appended in order, so the file does not depend on the
-  // thread count and memory stays at a chunk of encoded tiles.
+  // One encoder: tile by tile, each appended as soon as it is encoded (an uncompressed tile
+  // straight from the scratch tile). Several: in chunks of a few tiles per thread; each thread
+  // fills, predicts and compresses its tiles of the chunk into the chunk's buffers, then the
+  // chunk is appended in order. Either way the file does not depend on the thread count.
   void write_band(const T* rows, int64_t h, int64_t stride) {
     const int64_t by = rows_written / kBlock;
     const int64_t across = file->tiles_across();
+    if (threads == 1) {
+      for (int64_t bx = 0; bx < across; ++bx) {
+        uint8_t* tile = scratch[0].data();
+        fill_tile(rows, h, stride, bx * kBlock, tile);
+        file->append(bx, by, compressors[0].encode(tile, encoded_single));
+      }
+      rows_written += h;
+      return;
+    }
     const int64_t chunk = std::min<int64_t>(across, kChunkTiles);
     encoded.resize(static_cast<size_t>(chunk));
+    sizes.resize(static_cast<size_t>(chunk));
     for (int64_t first = 0; first < across; first += chunk) {
       const int64_t n = std::min(chunk, across - first);
       const int workers = static_cast<int>(std::min<int64_t>(threads, n));
@@ -393,32 +426,37 @@ struct GeoTiffStripWriter<T>::State {
         for (int64_t i = t; i < n; i += workers) {
           uint8_t* tile = scratch[static_cast<size_t>(t)].data();
           fill_tile(rows, h, stride, (first + i) * kBlock, tile);
-          compressors[static_cast<size_t>(t)].encode(tile, encoded[static_cast<size_t>(i)]);
+          std::vector<uint8_t>& out = encoded[static_cast<size_t>(i)];
+          const detail::EncodedTile e = compressors[static_cast<size_t>(t)].encode(tile, out);
+          // The scratch tile is reused for this thread's next tile: keep what it holds.
+          if (e.data != out.data()) {
+            if (out.size() < e.size) out.resize(e.size);
+            std::memcpy(out.data(), e.data, e.size);
+          }
+          sizes[static_cast<size_t>(i)] = e.size;
         }
       };
-      if (workers == 1) {
+      std::vector<std::exception_ptr> errors(static_cast<size_t>(workers));
+      std::vector<std::thread> helpers;
+      for (int t = 1; t < workers; ++t)
+        helpers.emplace_back([&, t] {
+          try {
+            work(t);
+          } catch (...) {
+            errors[static_cast<size_t>(t)] = std::current_exception();
+          }
+        });
+      try {
         work(0);
-      } else {
-        std::vector<std::exception_ptr> errors(static_cast<size_t>(workers));
-        std::vector<std::thread> helpers;
-        for (int t = 1; t < workers; ++t)
-          helpers.emplace_back([&, t] {
-            try {
-              work(t);
-            } catch (...) {
-              errors[static_cast<size_t>(t)] = std::current_exception();
-            }
-          });
-        try {
-          work(0);
-        } catch (...) {
-          errors[0] = std::current_exception();
-        }
-        for (std::thread& helper : helpers) helper.join();
-        for (const std::exception_ptr& e : errors)
-          if (e) std::rethrow_exception(e);
+      } catch (...) {
+        errors[0] = std::current_exception();
       }
-      for (int64_t i = 0; i < n; ++i) file->append(first + i, by, encoded[static_cast<size_t>(i)]);
+      for (std::thread& helper : helpers) helper.join();
+      for (const std::exception_ptr& e : errors)
+        if (e) std::rethrow_exception(e);
+      for (int64_t i = 0; i < n; ++i)
+        file->append(first + i, by,
+                     {encoded[static_cast<size_t>(i)].data(), sizes[static_cast<size_t>(i)]});
     }
     rows_written += h;
   }
@@ -503,8 +541,18 @@ GeoTiffStripWriter<T>::GeoTiffStripWriter(const std::string& path, const GridSpe
   f.sample_bytes = GDALGetDataTypeSizeBytes(state->type);
   f.floating = PixelType<T>::floating;
   f.width = f.height = kBlock;
-  state->categories_pending = !options.category_labels.empty();
   state->file = std::make_unique<detail::RawTileFile>(state->out.temp(), f, path);
+  if (!options.category_labels.empty()) {
+    State* st = state.get();
+    st->sidecar.thread = std::thread([st] {
+      try {
+        typename State::Scope own;
+        attach_categories(st->out.temp(), st->options.category_labels, st->path, own.capture);
+      } catch (...) {
+        st->sidecar.error = std::current_exception();
+      }
+    });
+  }
   const int hardware = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
   state->threads =
       std::min(options.threads <= 0 ? hardware : std::min(options.threads, hardware), kMaxEncoders);
@@ -547,13 +595,6 @@ void GeoTiffStripWriter<T>::write_rows(const T* cells, int64_t rows) {
     throw Error(ErrorKind::invalid_argument, "writing " + s.path + ": more rows than the raster has");
   typename State::Scope scope;
   s.failed = true;  // until this call returns normally
-  if (s.categories_pending) {
-    // On the first rows, not at creation: the caller's thread that writes rows (a streamed job's
-    // writer thread) then builds the sidecar while the engine computes, instead of the job
-    // waiting for it before the first strip (0.3 s for 50 000 owners).
-    attach_categories(s.out.temp(), s.options.category_labels, s.path, scope.capture);
-    s.categories_pending = false;
-  }
   const int64_t width = s.window.width;
   while (rows > 0) {
     // Rows the current band of tiles holds: kBlock, or what is left of the raster.
@@ -588,7 +629,9 @@ void GeoTiffStripWriter<T>::finish() {
                                                  std::to_string(s.window.height) + " rows written");
   typename State::Scope scope;
   s.failed = true;
-  s.file->close();  // the tile index; the directory and the sidecar were written at creation
+  s.sidecar.join();
+  if (s.sidecar.error) std::rethrow_exception(s.sidecar.error);
+  s.file->close();  // the tile index; the directory was written at creation
   s.file.reset();
   s.out.commit();
   s.failed = false;

@@ -63,7 +63,7 @@ TileCompressor::TileCompressor(TileCompressor&& other) noexcept
       deflate_(std::exchange(other.deflate_, nullptr)),
       row_(std::move(other.row_)) {}
 
-void TileCompressor::encode(uint8_t* tile, std::vector<uint8_t>& out) {
+EncodedTile TileCompressor::encode(uint8_t* tile, std::vector<uint8_t>& out) {
   const int w = format_.width, h = format_.height, bytes = format_.sample_bytes;
   const size_t row_bytes = static_cast<size_t>(w) * static_cast<size_t>(bytes);
   const size_t n = row_bytes * static_cast<size_t>(h);
@@ -86,25 +86,26 @@ void TileCompressor::encode(uint8_t* tile, std::vector<uint8_t>& out) {
     for (int r = 0; r < h; ++r)
       float_predict_row(tile + static_cast<size_t>(r) * row_bytes, w, bytes, row_.data());
   }
+  // `out` only grows: resizing it down and up again would zero the bytes each time.
   switch (format_.codec) {
     case TileCodec::none:
-      out.assign(tile, tile + n);
-      return;
+      return {tile, n};
     case TileCodec::zstd: {
-      out.resize(ZSTD_compressBound(n));
-      const size_t got = ZSTD_compressCCtx(zstd_, out.data(), out.size(), tile, n, format_.level);
+      const size_t bound = ZSTD_compressBound(n);
+      if (out.size() < bound) out.resize(bound);
+      const size_t got = ZSTD_compressCCtx(zstd_, out.data(), bound, tile, n, format_.level);
       if (ZSTD_isError(got)) codec_failed(ZSTD_getErrorName(got));
-      out.resize(got);
-      return;
+      return {out.data(), got};
     }
     case TileCodec::deflate: {
-      out.resize(libdeflate_zlib_compress_bound(deflate_, n));
-      const size_t got = libdeflate_zlib_compress(deflate_, tile, n, out.data(), out.size());
+      const size_t bound = libdeflate_zlib_compress_bound(deflate_, n);
+      if (out.size() < bound) out.resize(bound);
+      const size_t got = libdeflate_zlib_compress(deflate_, tile, n, out.data(), bound);
       if (got == 0) codec_failed("DEFLATE output over its bound");
-      out.resize(got);
-      return;
+      return {out.data(), got};
     }
   }
+  codec_failed("unknown codec");
 }
 
 // libtiff's I/O goes through GDAL's virtual file layer, so that every path GDAL writes (a
@@ -207,13 +208,13 @@ RawTileFile::~RawTileFile() {
   if (file_ != nullptr) VSIFCloseL(static_cast<VSILFILE*>(file_));
 }
 
-void RawTileFile::append(int64_t bx, int64_t by, const std::vector<uint8_t>& bytes) {
+void RawTileFile::append(int64_t bx, int64_t by, EncodedTile bytes) {
   if (bx < 0 || by < 0 || bx >= tiles_across_ || by >= tiles_down_) fail("tile index out of range");
   const auto index = static_cast<uint32_t>(by * tiles_across_ + bx);
   // TIFFWriteRawTile does not write through the pointer; its signature is not const.
-  void* data = const_cast<uint8_t*>(bytes.data());
-  if (TIFFWriteRawTile(tif_, index, data, static_cast<tmsize_t>(bytes.size())) !=
-      static_cast<tmsize_t>(bytes.size()))
+  void* data = const_cast<uint8_t*>(bytes.data);
+  if (TIFFWriteRawTile(tif_, index, data, static_cast<tmsize_t>(bytes.size)) !=
+      static_cast<tmsize_t>(bytes.size))
     fail("cannot write tile (" + std::to_string(bx) + ", " + std::to_string(by) + ")");
 }
 

@@ -24,6 +24,12 @@ namespace rv::detail {
 
 enum class TileCodec { none, zstd, deflate };
 
+// An encoded tile: `size` bytes at `data` (in the tile itself or in the caller's buffer).
+struct EncodedTile {
+  const uint8_t* data = nullptr;
+  size_t size = 0;
+};
+
 // How every tile of one file is encoded; must agree with the file's tags (RawTileFile checks).
 struct TileFormat {
   TileCodec codec = TileCodec::none;
@@ -46,9 +52,11 @@ class TileCompressor {
   TileCompressor& operator=(const TileCompressor&) = delete;
 
   // `tile`: width * height samples, row-major, native byte order (little-endian files only);
-  // the predictor works in place, so its contents are undefined afterwards. `out` receives the
-  // bytes to store for the tile. Throws rv::Error(internal) when the codec fails.
-  void encode(uint8_t* tile, std::vector<uint8_t>& out);
+  // the predictor works in place. Returns the bytes to store: the tile itself without a codec
+  // (no copy), else the front of `out` (grown as needed, never shrunk; only the returned bytes are
+  // meaningful). Valid until the next call with the same tile or buffer. Throws
+  // rv::Error(internal) when the codec fails.
+  EncodedTile encode(uint8_t* tile, std::vector<uint8_t>& out);
 
  private:
   TileFormat format_;
@@ -73,7 +81,7 @@ class RawTileFile {
   // Tiles across the image.
   int64_t tiles_across() const { return tiles_across_; }
   // Appends the encoded bytes of tile (bx, by). Throws rv::Error(io).
-  void append(int64_t bx, int64_t by, const std::vector<uint8_t>& bytes);
+  void append(int64_t bx, int64_t by, EncodedTile bytes);
   // Writes the tile arrays and closes. Throws rv::Error(io).
   void close();
 

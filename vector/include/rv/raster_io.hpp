@@ -31,16 +31,18 @@ namespace rv {
 // "compression"). Each profile is one decision of codec, level and predictor per data type, made
 // in one place (raster_io.cpp) for the plain GeoTIFF and the COG alike. Every profile is lossless.
 // Times and sizes on the 1e8-cell benchmark: bench/RESULTS-encoding.md.
-//   fast     (default) ZSTD level 1; horizontal-differencing predictor (2) on integer rasters, no
-//            predictor on Float32: the floating-point predictor (3) costs more time than the ZSTD
-//            pass itself, for a distance raster about a quarter smaller.
+//   fast     (default) integer rasters ZSTD level 1 with the horizontal-differencing predictor (2);
+//            Float32 rasters uncompressed: no lossless codec GDAL reads shrinks a distance raster
+//            by more than a tenth for less CPU time than the whole computation (ZSTD 1: 11 %;
+//            with the floating-point predictor 3: 34 %, at 3x that time; the survey is in
+//            bench/RESULTS-encoding.md).
 //   small    ZSTD level 6 with predictors 2 (integers) and 3 (Float32): the smallest files worth
 //            their time (higher levels shrink them by under 1 %); about 5x fast's encoding time.
 //   deflate  DEFLATE level 1 with predictors 2 and 3: for readers whose libtiff lacks ZSTD
 //            (libtiff < 4.0.10, GDAL < 2.3, some non-GDAL tools).
 //   none     uncompressed: the fastest to write and the largest.
-// Where this GDAL's libtiff lacks ZSTD, fast is the deflate profile and small DEFLATE level 6 with
-// predictors 2 and 3.
+// Where this GDAL's libtiff lacks ZSTD, fast codes take DEFLATE level 1 and small is DEFLATE level
+// 6 with predictors 2 and 3.
 enum class Compression { fast, small, deflate, none };
 
 std::string_view to_string(Compression c);
@@ -97,9 +99,10 @@ template <class T>
 class GeoTiffStripWriter {
  public:
   // Creates the temporary file for a raster covering `window` of `grid`, describes it (CRS,
-  // geotransform, nodata, units, metadata; the categories follow with the first rows, on the
-  // thread that writes them). Throws rv::Error like write_geotiff; invalid_argument for
-  // options.cloud_optimized (a COG needs the whole raster).
+  // geotransform, nodata, units, metadata; the categories on a thread of the writer's own, joined
+  // by finish() or the destructor). Throws rv::Error like write_geotiff (finish() throws what the
+  // categories' thread met); invalid_argument for options.cloud_optimized (a COG needs the whole
+  // raster).
   GeoTiffStripWriter(const std::string& path, const GridSpec& grid, const Window& window, double nodata,
                      const GeoTiffOptions& options);
   ~GeoTiffStripWriter();
