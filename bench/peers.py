@@ -947,10 +947,11 @@ def encoding_options(case, outdir, md):
     variants = [
         ("ZSTD, PREDICTOR=3, ZSTD_LEVEL=9 (GDAL's default level)", ["COMPRESS=ZSTD", "PREDICTOR=3", "ZSTD_LEVEL=9"]),
         ("ZSTD, PREDICTOR=3, ZSTD_LEVEL=1", ["COMPRESS=ZSTD", "PREDICTOR=3", "ZSTD_LEVEL=1"]),
-        ("ZSTD, no predictor, ZSTD_LEVEL=1 (rvoronoi's default, --compression fast)", ["COMPRESS=ZSTD", "ZSTD_LEVEL=1"]),
+        ("ZSTD, no predictor, ZSTD_LEVEL=1 (rvoronoi's default before the sixteenth session)",
+         ["COMPRESS=ZSTD", "ZSTD_LEVEL=1"]),
         ("DEFLATE, PREDICTOR=3, ZLEVEL=1", ["COMPRESS=DEFLATE", "PREDICTOR=3", "ZLEVEL=1"]),
         ("LZW, PREDICTOR=3", ["COMPRESS=LZW", "PREDICTOR=3"]),
-        ("uncompressed", ["COMPRESS=NONE"]),
+        ("uncompressed (rvoronoi's default, --compression fast)", ["COMPRESS=NONE"]),
     ]
     md.append("Re-encoding rvoronoi's Float32 distance raster of this case with GDAL (CreateCopy from memory, "
               "TILED=YES, 256×256, NUM_THREADS=ALL_CPUS), to see what the codec costs:\n")
