@@ -99,13 +99,12 @@ StreamStats run_streamed(const StreamJob& job) {
 
   // Every file is created before the first strip is computed: an unwritable target fails at
   // once, not after the computation.
-  // The files are encoded side by side, one writer thread each: each gets an equal share of the
-  // job's threads to encode its tiles with (at least one), so that they do not ask for the cores
-  // several times over. With one encoder the writer thread encodes alone and never waits for a
-  // helper at the end of a chunk of tiles.
+  // The files are encoded side by side, one writer thread each, and each may use all of the
+  // job's threads to compress its tiles: a static share starved the slow file (a Float32
+  // distance with the floating-point predictor, `small`: 1e8 cells, 4.9 -> 6.8 s) while the other
+  // core idled once the owner codes were done. (An uncompressed file uses one: GeoTiffStripWriter.)
   const int hardware = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
-  const int job_threads = job.compute.threads > 0 ? job.compute.threads : hardware;
-  const int encoders = std::max(1, job_threads / std::max(1, static_cast<int>(job.targets.size())));
+  const int encoders = job.compute.threads > 0 ? job.compute.threads : hardware;
   std::vector<AnyWriter> writers;
   writers.reserve(job.targets.size());
   for (const StreamTarget& t : job.targets) {

@@ -556,6 +556,8 @@ GeoTiffStripWriter<T>::GeoTiffStripWriter(const std::string& path, const GridSpe
   const int hardware = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
   state->threads =
       std::min(options.threads <= 0 ? hardware : std::min(options.threads, hardware), kMaxEncoders);
+  // Uncompressed tiles are only copied: helpers would add copies, not speed.
+  if (f.codec == detail::TileCodec::none) state->threads = 1;
   for (int t = 0; t < state->threads; ++t) {
     state->compressors.emplace_back(f);
     state->scratch.emplace_back(static_cast<size_t>(kBlock) * kBlock *

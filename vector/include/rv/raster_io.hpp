@@ -54,7 +54,7 @@ struct GeoTiffOptions {
   bool cloud_optimized = false;  // COG layout with overviews (nearest for categorical bands,
                                  // average otherwise), made by the COG driver
   bool categorical = false;      // owner codes: overviews never invent values
-  int threads = 0;               // compression threads, 0 = all
+  int threads = 0;               // compression threads, 0 = all (one for uncompressed files)
   Compression compression = Compression::fast;
   // Integer rasters only (else invalid_argument): the largest value the caller will write, or -1
   // (default) for an Int32 file holding any value. With 0 <= max_code <= 2^31-1 the file gets the
