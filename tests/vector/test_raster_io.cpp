@@ -21,17 +21,7 @@ namespace {
 
 using test::expect_error;
 using test::ScratchDir;
-
-GridSpec utm_grid(int64_t w, int64_t h, double res = 200.0) {
-  GridSpec g;
-  g.xmin = 300000.0;
-  g.ymax = 6250000.0;
-  g.res = res;
-  g.width = w;
-  g.height = h;
-  g.crs = describe_crs("EPSG:32633").wkt;
-  return g;
-}
+using test::utm_grid;
 
 std::vector<std::string> files_in(const std::filesystem::path& dir) {
   std::vector<std::string> out;

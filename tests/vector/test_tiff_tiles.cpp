@@ -27,16 +27,7 @@ namespace {
 using test::expect_error;
 using test::ScratchDir;
 
-GridSpec grid_of(int64_t w, int64_t h) {
-  GridSpec g;
-  g.xmin = 500000.0;
-  g.ymax = 6200000.0;
-  g.res = 25.0;
-  g.width = w;
-  g.height = h;
-  g.crs = describe_crs("EPSG:32632").wkt;
-  return g;
-}
+GridSpec grid_of(int64_t w, int64_t h) { return test::utm_grid(w, h, 25.0, 32, 500000.0, 6200000.0); }
 
 std::unique_ptr<GDALDataset> open(const std::string& path) {
   return std::unique_ptr<GDALDataset>(

@@ -11,9 +11,18 @@
 #include <string>
 
 #include "rv/error.hpp"
+#include "rv/grid.hpp"
+#include "rv/seed_reader.hpp"
 #include "rv/seeds.hpp"
 
 namespace rv::test {
+
+// A w x h grid of `res` metres in UTM zone `zone` N (WGS 84), its north-west corner at (xmin, ymax).
+inline GridSpec utm_grid(int64_t w, int64_t h, double res = 200.0, int zone = 33, double xmin = 300000.0,
+                         double ymax = 6250000.0) {
+  return GridSpec{.xmin = xmin, .ymax = ymax, .res = res, .width = w, .height = h,
+                  .crs = describe_crs("EPSG:326" + std::to_string(zone)).wkt};
+}
 
 inline std::filesystem::path source_dir() {
   const char* env = std::getenv("RV_SOURCE_DIR");
