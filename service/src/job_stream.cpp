@@ -100,9 +100,9 @@ StreamStats run_streamed(const StreamJob& job) {
   // Every file is created before the first strip is computed: an unwritable target fails at
   // once, not after the computation.
   // The files are encoded side by side, one writer thread each, and each may use all of the
-  // job's threads to compress its tiles: a static share starved the slow file (a Float32
-  // distance with the floating-point predictor, `small`: 1e8 cells, 4.9 -> 6.8 s) while the other
-  // core idled once the owner codes were done. (An uncompressed file uses one: GeoTiffStripWriter.)
+  // job's threads to compress its tiles: a static share would leave the slow file (a Float32
+  // distance with the floating-point predictor, `small`) one thread while the other core idles
+  // once the owner codes are done. (An uncompressed file uses one: GeoTiffStripWriter.)
   const int hardware = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
   const int encoders = job.compute.threads > 0 ? job.compute.threads : hardware;
   std::vector<AnyWriter> writers;
