@@ -157,6 +157,16 @@ struct RawTileFileAccess {
 RawTileFile::RawTileFile(const std::string& path, const TileFormat& format,
                          const std::string& display)
     : display_(display) {
+  // A constructor that throws runs no destructor: what open() got is released here.
+  try {
+    open(path, format);
+  } catch (...) {
+    release();
+    throw;
+  }
+}
+
+void RawTileFile::open(const std::string& path, const TileFormat& format) {
   using A = RawTileFileAccess;
   file_ = VSIFOpenL(path.c_str(), "r+b");
   if (file_ == nullptr) fail("cannot reopen the file to write its tiles");
@@ -203,9 +213,13 @@ RawTileFile::RawTileFile(const std::string& path, const TileFormat& format,
   tiles_down_ = (static_cast<int64_t>(height) + tile_h - 1) / tile_h;
 }
 
-RawTileFile::~RawTileFile() {
+RawTileFile::~RawTileFile() { release(); }
+
+void RawTileFile::release() noexcept {
   if (tif_ != nullptr) TIFFClose(tif_);
+  tif_ = nullptr;
   if (file_ != nullptr) VSIFCloseL(static_cast<VSILFILE*>(file_));
+  file_ = nullptr;
 }
 
 void RawTileFile::append(int64_t bx, int64_t by, EncodedTile bytes) {

@@ -86,6 +86,8 @@ class RawTileFile {
   void close();
 
  private:
+  void open(const std::string& path, const TileFormat& format);
+  void release() noexcept;  // closes whatever is open, without reporting
   [[noreturn]] void fail(const std::string& what);
 
   tiff* tif_ = nullptr;
