@@ -65,18 +65,14 @@ struct Strip {
 
 using AnyWriter = std::variant<GeoTiffStripWriter<int32_t>, GeoTiffStripWriter<float>>;
 
-// `encoders`: the file's tile-encoding threads.
-AnyWriter open_writer(const StreamTarget& t, const GridSpec& grid, int encoders) {
-  GeoTiffOptions options = t.options;
-  options.threads = encoders;
+AnyWriter open_writer(const StreamTarget& t, const GridSpec& grid) {
   switch (t.product) {
     case StreamTarget::Product::distance:
-      return GeoTiffStripWriter<float>(t.path, grid, grid.full_window(),
-                                       static_cast<double>(kNoDistance), options);
+      return GeoTiffStripWriter<float>(t.path, grid, grid.full_window(), static_cast<double>(kNoDistance), t.options);
     case StreamTarget::Product::ownership:
     case StreamTarget::Product::nearest_feature: break;
   }
-  return GeoTiffStripWriter<int32_t>(t.path, grid, grid.full_window(), 0.0, options);
+  return GeoTiffStripWriter<int32_t>(t.path, grid, grid.full_window(), 0.0, t.options);
 }
 
 }  // namespace
@@ -100,16 +96,14 @@ StreamStats run_streamed(const StreamJob& job) {
   // Every file is created before the first strip is computed: an unwritable target fails at
   // once, not after the computation.
   // The files are encoded side by side, one writer thread each, and each may use all of the
-  // job's threads to compress its tiles: a static share would leave the slow file (a Float32
-  // distance with the floating-point predictor, `small`) one thread while the other core idles
-  // once the owner codes are done. (An uncompressed file uses one: GeoTiffStripWriter.)
-  const int hardware = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
-  const int encoders = job.compute.threads > 0 ? job.compute.threads : hardware;
+  // job's threads (its options.threads) to compress its tiles: a static share would leave the
+  // slow file (a Float32 distance with the floating-point predictor, `small`) one thread while
+  // the other core idles once the owner codes are done. (An uncompressed file uses one.)
   std::vector<AnyWriter> writers;
   writers.reserve(job.targets.size());
   for (const StreamTarget& t : job.targets) {
     job.will_write(t.path);
-    writers.push_back(open_writer(t, grid, encoders));
+    writers.push_back(open_writer(t, grid));
   }
   std::vector<double> write_seconds(job.targets.size(), 0.0);
 

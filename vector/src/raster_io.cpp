@@ -76,10 +76,20 @@ bool has_zstd(GDALDriver* gtiff) {
 
 // What one file is encoded with.
 struct Encoding {
-  const char* codec;  // GDAL's COMPRESS value: "ZSTD", "DEFLATE" or "NONE"
-  int level;          // codec level (unused for NONE)
-  int predictor;      // TIFF predictor: 1 none, 2 horizontal differencing, 3 floating point
+  detail::TileCodec codec;
+  int level;      // codec level (unused for none)
+  int predictor;  // TIFF predictor: 1 none, 2 horizontal differencing, 3 floating point
 };
+
+// The codec as GDAL's COMPRESS value.
+const char* gdal_codec(detail::TileCodec c) {
+  switch (c) {
+    case detail::TileCodec::zstd: return "ZSTD";
+    case detail::TileCodec::deflate: return "DEFLATE";
+    case detail::TileCodec::none: break;
+  }
+  return "NONE";
+}
 
 // Levels and predictors, from re-encoding the 1e8-cell rasters of bench/RESULTS-encoding.md on one
 // thread (Float32 distance, 419 MB raw; CPU seconds, medians of 3):
@@ -107,30 +117,32 @@ Encoding encoding_for(Compression c, bool floating, bool zstd) {
   const int predictor = floating ? 3 : 2;
   switch (c) {
     case Compression::fast:
-      if (floating) return {"NONE", 0, 1};
-      return zstd ? Encoding{"ZSTD", kFastZstdLevel, 2} : Encoding{"DEFLATE", kDeflateLevel, 2};
+      if (floating) return {detail::TileCodec::none, 0, 1};
+      return zstd ? Encoding{detail::TileCodec::zstd, kFastZstdLevel, 2}
+                  : Encoding{detail::TileCodec::deflate, kDeflateLevel, 2};
     case Compression::small:
-      return zstd ? Encoding{"ZSTD", kSmallZstdLevel, predictor} : Encoding{"DEFLATE", kSmallDeflateLevel, predictor};
-    case Compression::deflate: return {"DEFLATE", kDeflateLevel, predictor};
-    case Compression::none: return {"NONE", 0, 1};
+      return zstd ? Encoding{detail::TileCodec::zstd, kSmallZstdLevel, predictor}
+                  : Encoding{detail::TileCodec::deflate, kSmallDeflateLevel, predictor};
+    case Compression::deflate: return {detail::TileCodec::deflate, kDeflateLevel, predictor};
+    case Compression::none: return {detail::TileCodec::none, 0, 1};
   }
   throw Error(ErrorKind::internal, "unknown compression profile");
 }
 
 // The encoding as the GTiff driver's creation options.
 void set_gtiff_encoding(CPLStringList& co, const Encoding& e) {
-  co.SetNameValue("COMPRESS", e.codec);
-  if (std::strcmp(e.codec, "ZSTD") == 0) co.SetNameValue("ZSTD_LEVEL", std::to_string(e.level).c_str());
-  if (std::strcmp(e.codec, "DEFLATE") == 0) co.SetNameValue("ZLEVEL", std::to_string(e.level).c_str());
+  co.SetNameValue("COMPRESS", gdal_codec(e.codec));
+  if (e.codec == detail::TileCodec::zstd) co.SetNameValue("ZSTD_LEVEL", std::to_string(e.level).c_str());
+  if (e.codec == detail::TileCodec::deflate) co.SetNameValue("ZLEVEL", std::to_string(e.level).c_str());
   if (e.predictor != 1) co.SetNameValue("PREDICTOR", std::to_string(e.predictor).c_str());
 }
 
 // The same encoding as the COG driver's options: it names the level LEVEL for every codec and
 // the predictor by name; overviews are encoded like the full resolution.
 void set_cog_encoding(CPLStringList& co, const Encoding& e) {
-  co.SetNameValue("COMPRESS", e.codec);
-  co.SetNameValue("OVERVIEW_COMPRESS", e.codec);
-  if (std::strcmp(e.codec, "NONE") != 0) co.SetNameValue("LEVEL", std::to_string(e.level).c_str());
+  co.SetNameValue("COMPRESS", gdal_codec(e.codec));
+  co.SetNameValue("OVERVIEW_COMPRESS", gdal_codec(e.codec));
+  if (e.codec != detail::TileCodec::none) co.SetNameValue("LEVEL", std::to_string(e.level).c_str());
   const char* predictor = e.predictor == 2 ? "STANDARD" : e.predictor == 3 ? "FLOATING_POINT" : "NO";
   co.SetNameValue("PREDICTOR", predictor);
   co.SetNameValue("OVERVIEW_PREDICTOR", predictor);
@@ -362,7 +374,6 @@ struct GeoTiffStripWriter<T>::State {
   int64_t pending_rows = 0;
   // The tiles' encoding (tiff_tiles.hpp): GDAL made the file with every tile empty, the tiles are
   // encoded here, `threads` at a time, and appended raw.
-  detail::TileFormat format;
   std::unique_ptr<detail::RawTileFile> file;
   int threads = 1;
   std::vector<detail::TileCompressor> compressors;  // one per thread
@@ -426,14 +437,10 @@ struct GeoTiffStripWriter<T>::State {
         for (int64_t i = t; i < n; i += workers) {
           uint8_t* tile = scratch[static_cast<size_t>(t)].data();
           fill_tile(rows, h, stride, (first + i) * kBlock, tile);
-          std::vector<uint8_t>& out = encoded[static_cast<size_t>(i)];
-          const detail::EncodedTile e = compressors[static_cast<size_t>(t)].encode(tile, out);
-          // The scratch tile is reused for this thread's next tile: keep what it holds.
-          if (e.data != out.data()) {
-            if (out.size() < e.size) out.resize(e.size);
-            std::memcpy(out.data(), e.data, e.size);
-          }
-          sizes[static_cast<size_t>(i)] = e.size;
+          // Compressed (an uncompressed file has one encoder), so the bytes are in the
+          // chunk's buffer, not in the scratch tile this thread reuses.
+          sizes[static_cast<size_t>(i)] =
+              compressors[static_cast<size_t>(t)].encode(tile, encoded[static_cast<size_t>(i)]).size;
         }
       };
       std::vector<std::exception_ptr> errors(static_cast<size_t>(workers));
@@ -532,10 +539,8 @@ GeoTiffStripWriter<T>::GeoTiffStripWriter(const std::string& path, const GridSpe
     ds.reset();  // closing writes the directory, no tile yet
     if (!scope.capture.last_error().empty()) fail(path, "closing failed", scope.capture);
   }
-  detail::TileFormat& f = state->format;
-  f.codec = std::strcmp(encoding.codec, "ZSTD") == 0      ? detail::TileCodec::zstd
-            : std::strcmp(encoding.codec, "DEFLATE") == 0 ? detail::TileCodec::deflate
-                                                          : detail::TileCodec::none;
+  detail::TileFormat f;
+  f.codec = encoding.codec;
   f.level = encoding.level;
   f.predictor = encoding.predictor;
   f.sample_bytes = GDALGetDataTypeSizeBytes(state->type);

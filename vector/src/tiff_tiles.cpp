@@ -1,9 +1,9 @@
 // Tile encoding and raw tile appending. See tiff_tiles.hpp for the contract.
 #include "tiff_tiles.hpp"
 
+#include <bit>
 #include <cstdarg>
 #include <cstdio>
-#include <cstring>
 #include <utility>
 
 #include <cpl_vsi.h>
@@ -197,12 +197,7 @@ void RawTileFile::open(const std::string& path, const TileFormat& format) {
   const uint16_t want_format = format.floating                     ? SAMPLEFORMAT_IEEEFP
                                : sample_format == SAMPLEFORMAT_INT ? SAMPLEFORMAT_INT
                                                                    : SAMPLEFORMAT_UINT;
-  const bool little_endian_host = [] {
-    const uint16_t probe = 1;
-    uint8_t first = 0;
-    std::memcpy(&first, &probe, 1);
-    return first == 1;
-  }();
+  constexpr bool little_endian_host = std::endian::native == std::endian::little;
   if (!TIFFIsTiled(tif_) || spp != 1 || tile_w != static_cast<uint32_t>(format.width) ||
       tile_h != static_cast<uint32_t>(format.height) || bits != 8 * format.sample_bytes ||
       sample_format != want_format || compression != want_compression ||
