@@ -99,8 +99,9 @@ template <class T>
 class GeoTiffStripWriter {
  public:
   // Creates the temporary file for a raster covering `window` of `grid`, describes it (CRS,
-  // geotransform, nodata, units, metadata; the categories on a thread of the writer's own, joined
-  // by finish() or the destructor). Throws rv::Error like write_geotiff (finish() throws what the
+  // geotransform, nodata, units, metadata; the categories on a thread of the writer's own that
+  // the first write_rows() starts, so it runs at that caller's scheduling priority, joined by
+  // finish() or the destructor). Throws rv::Error like write_geotiff (finish() throws what the
   // categories' thread met); invalid_argument for options.cloud_optimized (a COG needs the whole
   // raster).
   GeoTiffStripWriter(const std::string& path, const GridSpec& grid, const Window& window, double nodata,
