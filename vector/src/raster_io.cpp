@@ -390,9 +390,9 @@ struct GeoTiffStripWriter<T>::State {
   // created by the thread that writes the rows and inherits that thread's scheduling priority:
   // a streamed job lowers its writers' priority so that the engine keeps the cores, and a
   // sidecar created by the job's main thread ran at the engine's priority instead. On 1e8 cells
-  // with 50 000 owners (2 cores) it took a core from the engine for 0.27 s: the engine's time
-  // in the command, medians of 6 alternated runs, 0.37 s with it against 0.29 s at the writers'
-  // priority, the command's time after reading unchanged (0.94 s).
+  // with 50 000 owners (2 cores) it took a core from the engine for 0.27 s. Medians of 7
+  // alternated runs: the engine's time in the command fell from 0.239 to 0.209 s, and the rest
+  // of the command (reading excluded) from 0.575 to 0.557 s (bench/RESULTS-encoding.md).
   struct Sidecar {
     std::thread thread;
     bool started = false;
