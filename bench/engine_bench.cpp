@@ -16,10 +16,10 @@
 #include <chrono>
 #include <cstdio>
 #include <cstring>
-#include <random>
 #include <string>
 #include <vector>
 
+#include "bench_case.hpp"
 #include "rv/engine.hpp"
 #include "rv/validate.hpp"
 
@@ -32,14 +32,6 @@ struct Row {
   int seeds;
   double paper_brute_ms, paper_h_ms, paper_hv_ms;  // Table 1, i5-3337U, one thread (-1: not given)
 };
-
-SeedSet random_points(int n, double w, double h, uint64_t seed) {
-  std::mt19937_64 rng(seed);
-  std::uniform_real_distribution<double> ux(0, w), uy(0, h);
-  SeedSet s;
-  for (int i = 0; i < n; ++i) s.add_point(s.add_feature(s.owner_code(std::to_string(i + 1))), {ux(rng), uy(rng)});
-  return s;
-}
 
 double median(std::vector<double> v) {
   std::sort(v.begin(), v.end());
@@ -93,12 +85,9 @@ int main(int argc, char** argv) {
   for (const Row& row : rows) {
     const int64_t cells = row.size * row.size;
     if (cells > max_cells || cells < min_cells) continue;
-    GridSpec g;
-    g.xmin = 0;
-    g.ymax = static_cast<double>(row.size);
-    g.res = 1;
-    g.width = g.height = row.size;
-    const SeedSet seeds = random_points(row.seeds, static_cast<double>(row.size), static_cast<double>(row.size), 2019);
+    const GridSpec g = bench::square_grid(row.size);
+    const SeedSet seeds = bench::random_points(row.seeds, static_cast<double>(row.size),
+                                               static_cast<double>(row.size), 2019);
     double exact_ms = 0;
     NearestField exact_field;
     for (Method m : methods) {

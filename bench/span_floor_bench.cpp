@@ -2,10 +2,11 @@
 // row's cells were already split into spans of one Voronoi region (issue 7). The engine's exact
 // method finds candidates per 64x64 tile and runs an argmin per leaf; a method that scan-converts
 // the Voronoi diagram instead knows each cell's site from its span, and its cell loop is one pass
-// of key, root, conversion and store. This measures that pass alone, on the issue's largest point
-// case (10000 x 10000 cells, 50 000 random points, the engine_bench seeds), with the spans taken
-// from the engine's own result; building the spans (a Delaunay triangulation, the boundaries of
-// each row) is not timed, so the number is a floor for such a method, not its cost.
+// of key, root, conversion and store (the engine's own put_row). This measures that pass alone, on
+// the issue's largest point case (10000 x 10000 cells, 50 000 random points, the engine_bench
+// seeds), with the spans taken from the engine's own result; building the spans (a Delaunay
+// triangulation, the boundaries of each row) is not timed, so the number is a floor for such a
+// method, not its cost.
 //
 //   span_floor_bench [--threads N] [--repeats N]
 //
@@ -14,7 +15,6 @@
 // the engine's sites and distances bit for bit (same key arithmetic: -ffp-contract=off; the
 // distance is the double root rounded to float). Exit status 1 if it does not.
 #include <immintrin.h>
-#include <sys/mman.h>
 
 #include <algorithm>
 #include <chrono>
@@ -22,11 +22,11 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
-#include <random>
-#include <string>
 #include <thread>
 #include <vector>
 
+#include "../raster/src/kernel_memory.hpp"
+#include "bench_case.hpp"
 #include "rv/engine.hpp"
 
 using namespace rv;
@@ -42,17 +42,7 @@ struct Span {
   int32_t site;
 };
 
-// The seeds of engine_bench: the same generator, count, extent and seed give the same points.
-SeedSet random_points(int n, double w, double h, uint64_t seed) {
-  std::mt19937_64 rng(seed);
-  std::uniform_real_distribution<double> ux(0, w), uy(0, h);
-  SeedSet s;
-  for (int i = 0; i < n; ++i)
-    s.add_point(s.add_feature(s.owner_code(std::to_string(i + 1))), {ux(rng), uy(rng)});
-  return s;
-}
-
-using VecD4 = double __attribute__((vector_size(32)));
+using detail::VecD4;
 using VecF4 = float __attribute__((vector_size(16)));
 using VecI4 = int32_t __attribute__((vector_size(16)));
 
@@ -88,26 +78,6 @@ __attribute__((target("avx2"))) void span_row(const Span* sp, const Span* end, c
   }
 }
 
-// n 4-byte values with non-temporal stores, as the engine's put_row writes a finished row.
-void stream_row(void* dst, const void* src, int64_t n) {
-  auto* d = static_cast<int*>(dst);
-  const auto* s = static_cast<const int*>(src);
-  int64_t c = 0;
-  for (; c < n && (reinterpret_cast<uintptr_t>(d + c) & 15) != 0; ++c) _mm_stream_si32(d + c, s[c]);
-  for (; c + 4 <= n; c += 4)
-    _mm_stream_si128(reinterpret_cast<__m128i*>(d + c),
-                     _mm_loadu_si128(reinterpret_cast<const __m128i*>(s + c)));
-  for (; c < n; ++c) _mm_stream_si32(d + c, s[c]);
-}
-
-void* faulted_cells(size_t bytes) {
-  void* p = std::aligned_alloc(size_t{2} << 20, bytes);
-  if (p == nullptr) std::exit(2);
-  madvise(p, bytes, MADV_HUGEPAGE);
-  std::memset(p, 0, bytes);
-  return p;
-}
-
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -128,12 +98,8 @@ int main(int argc, char** argv) {
   }
   threads = std::max(threads, 1);
   repeats = std::max(repeats, 1);
-  GridSpec g;
-  g.xmin = 0;
-  g.ymax = static_cast<double>(kSize);
-  g.res = 1;
-  g.width = g.height = kSize;
-  const SeedSet seeds = random_points(kSeeds, kSize, kSize, 2019);
+  const GridSpec g = bench::square_grid(kSize);
+  const SeedSet seeds = bench::random_points(kSeeds, kSize, kSize, 2019);  // engine_bench's
   ComputeOptions o;
   o.method = Method::exact;
   o.threads = threads;
@@ -163,9 +129,9 @@ int main(int argc, char** argv) {
     ay[i] = seeds.sites()[i].a.y - g.ymax;
   }
   for (int64_t c = 0; c < kSize; ++c) px[c] = g.local_x(c);
-  const size_t bytes = static_cast<size_t>(kSize * kSize) * 4;
-  auto* dist = static_cast<float*>(faulted_cells(bytes));
-  auto* site = static_cast<int32_t*>(faulted_cells(bytes));
+  // Laid out as the engine's results (huge-page aligned), and faulted by the fill.
+  Raster<float> dist(g, 0.0f);
+  Raster<int32_t> site(g, 0);
 
   std::vector<double> ms;
   for (int rep = 0; rep < repeats; ++rep) {
@@ -180,23 +146,21 @@ int main(int argc, char** argv) {
             const std::vector<Span>& row = spans[static_cast<size_t>(r)];
             span_row(row.data(), row.data() + row.size(), ax.data(), ay.data(), g.local_y(r),
                      px.data(), td.data(), ti.data());
-            stream_row(dist + r * kSize, td.data(), kSize);
-            stream_row(site + r * kSize, ti.data(), kSize);
+            detail::put_row(dist.row(r), site.row(r), td.data(), ti.data(), kSize, true);
           }
-        _mm_sfence();
+        detail::store_fence();
       });
     for (std::thread& th : pool) th.join();
     ms.push_back(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() *
                  1e3);
   }
   std::sort(ms.begin(), ms.end());
-  const bool same = std::memcmp(site, f.site.data(), bytes) == 0 &&
-                    std::memcmp(dist, f.distance.data(), bytes) == 0;
+  const size_t bytes = static_cast<size_t>(kSize * kSize) * 4;
+  const bool same = std::memcmp(site.data(), f.site.data(), bytes) == 0 &&
+                    std::memcmp(dist.data(), f.distance.data(), bytes) == 0;
   std::printf(
       "span cell loop, %d threads: median %.1f ms, min %.1f ms (%d repeats); "
       "identical to the engine: %s\n",
       threads, ms[ms.size() / 2], ms.front(), repeats, same ? "yes" : "NO");
-  std::free(dist);
-  std::free(site);
   return same ? 0 : 1;
 }
