@@ -127,4 +127,24 @@ int64_t SeedSet::geometric_site_count() const {
   return n;
 }
 
+int64_t SeedSet::memory_bytes() const {
+  constexpr auto block = static_cast<int64_t>(sizeof(void*));
+  auto text = [&](const std::string& s) {
+    return static_cast<int64_t>(sizeof(std::string)) + (s.capacity() > 15 ? static_cast<int64_t>(s.capacity()) + block : 0);
+  };
+  int64_t bytes = static_cast<int64_t>(sizeof(SeedSet)) + static_cast<int64_t>(sites_.capacity() * sizeof(Site));
+  bytes += static_cast<int64_t>(polygons_.capacity() * sizeof(Polygon));
+  for (const Polygon& p : polygons_) {
+    bytes += static_cast<int64_t>(p.rings.capacity() * sizeof(Ring)) + block;
+    for (const Ring& r : p.rings) bytes += static_cast<int64_t>(r.capacity() * sizeof(Vec2)) + block;
+  }
+  bytes += static_cast<int64_t>(features_.capacity() * sizeof(Feature));
+  for (const Feature& f : features_) bytes += text(f.source) - static_cast<int64_t>(sizeof(std::string));
+  for (const std::string& label : owner_labels_) {
+    // The label, its copy as the index's key, the index node and its bucket.
+    bytes += 2 * text(label) + static_cast<int64_t>(sizeof(int32_t)) + 3 * block;
+  }
+  return bytes;
+}
+
 }  // namespace rv

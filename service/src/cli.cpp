@@ -14,7 +14,9 @@
 #include "rv/error.hpp"
 #include "rv/error_map.hpp"
 #include "rv/job.hpp"
+#include "rv/json_text.hpp"
 #include "rv/server.hpp"
+#include "rv/text.hpp"
 #include "rv/validate.hpp"
 #include "rv/version.hpp"
 
@@ -244,8 +246,8 @@ int cmd_compute(Args& args) {
             << r.report["method"].get<std::string>() << ", compute "
             << r.report["timings_s"]["compute"].get<double>() << " s\n";
   if (r.report.contains("validation"))
-    std::cout << "validation: " << r.report["validation"].dump() << "\n";
-  for (const auto& w : r.report["seeds"]["warnings"]) std::cerr << "warning: " << w.get<std::string>() << "\n";
+    std::cout << "validation: " << json_text(r.report["validation"]) << "\n";
+  for (const auto& w : r.report["seeds"]["warnings"]) std::cerr << "warning: " << valid_utf8(w.get<std::string>()) << "\n";
   for (const std::string& f : r.files) std::cout << "wrote " << f << "\n";
   return 0;
 }
@@ -339,7 +341,7 @@ int random_trials(const CommonOptions& o) {
         {"trials_in_bucket", {k.le1, k.le3, k.gt3}}, {"worst_error_cells", k.worst},
         {"wrong_cells_total", k.wrong_cells},     {"mean_seconds", k.seconds / static_cast<double>(o.trials)}};
   }
-  std::cout << out.dump(2) << "\n";
+  std::cout << json_text(out, 2) << "\n";
   return 0;
 }
 
@@ -380,7 +382,7 @@ int cmd_validate(Args& args) {
     j["seconds"] = f.seconds;
     out["methods"][std::string(to_string(m))] = j;
   }
-  std::cout << out.dump(2) << "\n";
+  std::cout << json_text(out, 2) << "\n";
   return 0;
 }
 
@@ -413,13 +415,17 @@ int cli_main(int argc, char** argv) {
     if (cmd == "serve") return cmd_serve(args);
     throw Error(ErrorKind::invalid_argument, "unknown command '" + cmd + "' (see rvoronoi --help)");
   } catch (const Error& e) {
-    std::cerr << "rvoronoi: error: " << e.what() << "\n";
+    // One line, valid UTF-8 whatever a file name or a GDAL message held (rv/text.hpp).
+    std::cerr << "rvoronoi: error: " << valid_utf8(e.what()) << "\n";
     return error_info(e.kind()).exit_code;
   } catch (const std::bad_alloc&) {
     std::cerr << "rvoronoi: error: out of memory\n";
     return error_info(ErrorKind::too_large).exit_code;
   } catch (const std::exception& e) {
-    std::cerr << "rvoronoi: internal error: " << e.what() << "\n";
+    std::cerr << "rvoronoi: internal error: " << valid_utf8(e.what()) << "\n";
+    return error_info(ErrorKind::internal).exit_code;
+  } catch (...) {
+    std::cerr << "rvoronoi: internal error: unknown exception\n";
     return error_info(ErrorKind::internal).exit_code;
   }
 }

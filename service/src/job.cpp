@@ -1,6 +1,5 @@
 #include "rv/job.hpp"
 
-#include <sys/resource.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -14,9 +13,11 @@
 
 #include "atomic_file.hpp"
 #include "job_stream.hpp"
+#include "memory_watch.hpp"
 #include "rv/deliverables.hpp"
 #include "rv/error.hpp"
 #include "rv/geolocator.hpp"
+#include "rv/json_text.hpp"
 #include "rv/outputs.hpp"
 #include "rv/preview.hpp"
 #include "rv/raster_io.hpp"
@@ -82,6 +83,11 @@ nlohmann::json seeds_json(const LoadedSeeds& loaded) {
           {"warnings", r.warnings}};
 }
 
+// The memory a job may use: the configured limit, else 80 % of physical memory (0 = unknown).
+int64_t memory_budget(const JobLimits& limits) {
+  return limits.max_memory_bytes > 0 ? limits.max_memory_bytes : physical_memory_bytes() / 10 * 8;
+}
+
 }  // namespace
 
 LimitDistance parse_limit_distance(const std::string& text) {
@@ -103,12 +109,6 @@ LimitDistance parse_limit_distance(const std::string& text) {
 int64_t physical_memory_bytes() {
   const long pages = ::sysconf(_SC_PHYS_PAGES), size = ::sysconf(_SC_PAGESIZE);
   return pages > 0 && size > 0 ? static_cast<int64_t>(pages) * size : 0;
-}
-
-int64_t peak_rss_bytes() {
-  rusage u{};
-  ::getrusage(RUSAGE_SELF, &u);
-  return static_cast<int64_t>(u.ru_maxrss) * 1024;
 }
 
 MetricPlan plan_metric(const std::string& request, const std::string& units, const CrsInfo& crs) {
@@ -154,12 +154,25 @@ GridSpec plan_grid(const GridRequest& request, const LoadedSeeds& loaded) {
   // the extent comes from their box in the grid CRS.
   const SeedSet::Box b = loaded.grid_bounds.value_or(loaded.seeds.bounds());
   if (!std::isfinite(b.xmin)) throw Error(ErrorKind::invalid_input, "no seeds: cannot derive an extent");
-  const double margin = request.margin.value_or(0.05 * std::max(b.xmax - b.xmin, b.ymax - b.ymin));
-  if (!std::isfinite(margin) || margin < 0.0)
+  if (request.margin && !(std::isfinite(*request.margin) && *request.margin >= 0.0))
     throw Error(ErrorKind::invalid_argument, "margin must be a non-negative number");
+  const double span = std::max(b.xmax - b.xmin, b.ymax - b.ymin);
+  const double margin = request.margin.value_or(0.05 * span);
+  if (!std::isfinite(span) || !std::isfinite(margin))
+    throw Error(ErrorKind::invalid_input, "the seeds' extent is too large to derive a grid from; give an extent");
   // A lone point (or a margin of 0) still needs one cell around it.
   const double m = std::max(margin, 0.5 * res);
-  return make_aligned_grid(b.xmin - m, b.ymin - m, b.xmax + m, b.ymax + m, res, loaded.crs.wkt);
+  GridSpec g = make_aligned_grid(b.xmin - m, b.ymin - m, b.xmax + m, b.ymax + m, res, loaded.crs.wkt);
+  if (loaded.crs.geographic && (g.ymin() < -90.0 || g.ymax > 90.0)) {
+    // The margin must not carry a default grid past a pole (seeds at or near ±90): latitudes
+    // beyond it name no place. The grid keeps whole cells on the same lattice, within ±90.
+    const double south = std::max(g.ymin(), std::ceil(-90.0 / res) * res);
+    const double north = std::min(g.ymax, std::floor(90.0 / res) * res);
+    if (!(south < north))
+      throw Error(ErrorKind::invalid_argument, "the resolution is too coarse for a grid between the poles");
+    g = make_grid(g.xmin, south, g.xmax(), north, res, loaded.crs.wkt);
+  }
+  return g;
 }
 
 SeedReadOptions seed_options_for_metric(SeedReadOptions read, const std::string& metric_request) {
@@ -195,7 +208,17 @@ constexpr int64_t kWriterBytes = int64_t{12} << 20;
 
 }  // namespace
 
-JobPlan plan_job(const JobSpec& spec, const GridSpec& grid, int64_t sites, MetricSpec::Kind metric) {
+int64_t seed_memory_bytes(const LoadedSeeds& loaded) {
+  int64_t bytes = loaded.seeds.memory_bytes() + static_cast<int64_t>(loaded.input_position.capacity() * sizeof(int64_t));
+  if (loaded.grid_polygons) {
+    for (const Polygon& p : *loaded.grid_polygons)
+      for (const Ring& r : p.rings) bytes += static_cast<int64_t>(r.capacity() * sizeof(Vec2) + sizeof(Ring));
+  }
+  return bytes;
+}
+
+JobPlan plan_job(const JobSpec& spec, const GridSpec& grid, int64_t sites, MetricSpec::Kind metric,
+                 int64_t seed_bytes) {
   JobPlan p;
   const OutputRequest& out = spec.outputs;
   const int64_t cells = grid.cell_count();
@@ -226,7 +249,7 @@ JobPlan plan_job(const JobSpec& spec, const GridSpec& grid, int64_t sites, Metri
     // of codes per integer product (made by its writer), and per file a band of tile rows and
     // the tiles in flight.
     p.memory_bytes = estimate_memory(spec.method, 2 * strip_cells, sites, metric) + strip_cells * 4 * int_rasters +
-                     rasters * (kTileRows * grid.width * 4 + kWriterBytes);
+                     rasters * (kTileRows * grid.width * 4 + kWriterBytes) + seed_bytes;
     return p;
   }
   p.strip_rows = grid.height;
@@ -241,7 +264,7 @@ JobPlan plan_job(const JobSpec& spec, const GridSpec& grid, int64_t sites, Metri
     if (!out.margin.empty()) need += cells * 12;  // other-owner field + margin
     if (!out.limits.empty()) need += cells;       // inside flags
   }
-  p.memory_bytes = need;
+  p.memory_bytes = need + seed_bytes;
   return p;
 }
 
@@ -254,6 +277,7 @@ JobResult run_job(const JobSpec& spec, const JobLimits& limits, const JobHooks& 
     if (hooks.cancel && hooks.cancel->load()) throw Error(ErrorKind::cancelled, "job dismissed");
   };
   gdal_init();
+  detail::MemoryWatch memory;
   OutputGuard guard;
   nlohmann::json report;
   nlohmann::json timings;
@@ -265,6 +289,8 @@ JobResult run_job(const JobSpec& spec, const JobLimits& limits, const JobHooks& 
   auto stricter = [](int64_t a, int64_t b) { return a <= 0 ? b : b <= 0 ? a : std::min(a, b); };
   read.max_features = stricter(read.max_features, limits.max_features);
   read.max_vertices = stricter(read.max_vertices, limits.max_vertices);
+  read.max_input_bytes = stricter(read.max_input_bytes, limits.max_input_bytes);
+  read.max_memory_bytes = stricter(read.max_memory_bytes, memory_budget(limits));
   if (read.target_crs.empty() && !spec.grid.like.empty()) {
     // Outputs must line up with the template raster, so the seeds go into its CRS.
     read.target_crs = read_grid(spec.grid.like).crs;
@@ -326,9 +352,9 @@ JobResult run_job(const JobSpec& spec, const JobLimits& limits, const JobHooks& 
     throw Error(ErrorKind::too_large, "the grid has " + std::to_string(cells) + " cells, over the limit of " +
                                           std::to_string(limits.max_cells));
   const int64_t sites = static_cast<int64_t>(loaded.seeds.sites().size());
-  const JobPlan plan = plan_job(spec, grid, sites, mp.metric.kind);
+  const JobPlan plan = plan_job(spec, grid, sites, mp.metric.kind, seed_memory_bytes(loaded));
   const int64_t need = plan.memory_bytes;
-  const int64_t budget = limits.max_memory_bytes > 0 ? limits.max_memory_bytes : physical_memory_bytes() / 10 * 8;
+  const int64_t budget = memory_budget(limits);
   if (budget > 0 && need > budget)
     throw Error(ErrorKind::too_large, "the job needs about " + std::to_string(need >> 20) + " MiB for " +
                                           std::to_string(cells) + " cells, over the memory limit of " +
@@ -618,12 +644,14 @@ JobResult run_job(const JobSpec& spec, const JobLimits& limits, const JobHooks& 
   report["memory_estimate_bytes"] = plan.memory_bytes;
   report["timings_s"] = timings;
   report["compute_ns_per_cell"] = compute_seconds * 1e9 / static_cast<double>(std::max<int64_t>(cells, 1));
-  report["peak_memory_bytes"] = peak_rss_bytes();
+  // The job's own peak, not the process's (a daemon's high-water mark is its largest job ever).
+  report["peak_memory_bytes"] = memory.peak_growth();
+  report["peak_memory_shared"] = memory.shared();
   report["outputs"] = outputs;
 
   if (!spec.outputs.report.empty()) {
     guard.add(spec.outputs.report);
-    write_file_atomically(spec.outputs.report, report.dump(2) + "\n");
+    write_file_atomically(spec.outputs.report, json_text(report, 2) + "\n");
   }
   progress("write", 1.0);
   JobResult result{report, guard.files()};

@@ -226,9 +226,11 @@ TEST(SeedReader, InputErrors) {
   g.ymax = 4;
   write_geotiff(dir.file("r.tif"), Raster<int32_t>(g, 1), 0, {});
   expect_error(ErrorKind::invalid_input, [&] { load({dir.file("r.tif")}); }, {"r.tif", "not a vector dataset"});
-  expect_error(ErrorKind::not_found, [] { load({fixture("coast.gpkg")}, "owner", {"harbours"}); },
+  // A layer or field the data does not have is a bad argument (400 in the daemon), not a missing
+  // resource: the data is there.
+  expect_error(ErrorKind::invalid_argument, [] { load({fixture("coast.gpkg")}, "owner", {"harbours"}); },
                {"'harbours'", "points, lines, polygons"});
-  expect_error(ErrorKind::not_found, [] { load({fixture("coast.gpkg")}, "country"); }, {"'country'", "owner"});
+  expect_error(ErrorKind::invalid_argument, [] { load({fixture("coast.gpkg")}, "country"); }, {"'country'", "owner"});
   expect_error(ErrorKind::invalid_input, [] { load({fixture("null_owner.geojson")}); },
                {"null_owner.geojson:null_owner:fid 1", "null or missing"});
   expect_error(ErrorKind::invalid_argument, [] { load({fixture("coast.gpkg")}, "owner", {}, "EPSG:999999"); });

@@ -2,6 +2,7 @@
 
 #include "gdal_util.hpp"
 #include "rv/error.hpp"
+#include "rv/text.hpp"
 #include "rv/seed_reader.hpp"
 
 namespace rv {
@@ -22,7 +23,7 @@ CrsInfo crs_info(const OGRSpatialReference& srs) {
     if (std::isfinite(unit) && unit > 0.0) info.linear_unit = unit;
   }
   const char* name = srs.GetName();
-  info.name = name != nullptr ? name : "";
+  info.name = escape_utf8(name != nullptr ? name : "");  // a .prj or WKT names it: outside text
   return info;
 }
 
@@ -32,7 +33,7 @@ CrsInfo describe_crs(const std::string& definition) {
   gdal_init();
   if (definition.empty()) throw Error(ErrorKind::invalid_argument, "empty CRS definition");
   gdal::SrsPtr srs = gdal::parse_srs(definition);
-  if (!srs) throw Error(ErrorKind::invalid_argument, "cannot parse the CRS definition '" + definition + "'");
+  if (!srs) throw Error(ErrorKind::invalid_argument, "cannot parse the CRS definition '" + quote_input(definition) + "'");
   return gdal::crs_info(*srs);
 }
 

@@ -8,6 +8,7 @@
 #include <cpl_vsi.h>
 
 #include "rv/seed_reader.hpp"
+#include "rv/text.hpp"
 
 namespace rv {
 
@@ -33,7 +34,9 @@ ErrorCapture::~ErrorCapture() { CPLPopErrorHandler(); }
 void CPL_STDCALL ErrorCapture::handler(CPLErr cls, CPLErrorNum /*num*/, const char* msg) {
   auto* self = static_cast<ErrorCapture*>(CPLGetErrorHandlerUserData());
   if (self == nullptr) return;
-  const std::string text = msg != nullptr ? msg : "";
+  // GDAL quotes the data it chokes on (schema SQL, field names, mutated bytes): its messages are
+  // text from outside, made valid UTF-8 here, where they enter.
+  const std::string text = escape_utf8(msg != nullptr ? msg : "");
   if (cls == CE_Failure || cls == CE_Fatal) {
     self->last_error_ = text;
   } else if (cls == CE_Warning) {

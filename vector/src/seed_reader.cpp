@@ -22,9 +22,11 @@
 #include <ogrsf_frmts.h>
 
 #include "gdal_util.hpp"
+#include "input_scan.hpp"
 #include "normalise.hpp"
 #include "rv/error.hpp"
 #include "rv/seed_reader.hpp"
+#include "rv/text.hpp"
 
 namespace rv {
 namespace {
@@ -55,7 +57,7 @@ std::string list_fields(OGRFeatureDefn* defn) {
   std::string out;
   for (int i = 0; i < defn->GetFieldCount(); ++i) {
     if (!out.empty()) out += ", ";
-    out += defn->GetFieldDefn(i)->GetNameRef();
+    out += escape_utf8(defn->GetFieldDefn(i)->GetNameRef());
   }
   return out.empty() ? "(none)" : out;
 }
@@ -64,7 +66,7 @@ std::string list_layers(GDALDataset& ds) {
   std::string out;
   for (int i = 0; i < ds.GetLayerCount(); ++i) {
     if (!out.empty()) out += ", ";
-    out += ds.GetLayer(i)->GetName();
+    out += escape_utf8(ds.GetLayer(i)->GetName());
   }
   return out.empty() ? "(none)" : out;
 }
@@ -149,6 +151,50 @@ void for_each_vertex(const OGRGeometry& g, F&& f) {
     default:
       return;  // split_parts leaves only the three types above
   }
+}
+
+// An upper bound of the vertices `g` has once linearised with kArcStepDegrees: a circular arc
+// (three control points of a CircularString) becomes at most 360 / kArcStepDegrees + 1 vertices.
+int64_t vertex_bound(const OGRGeometry& g) {
+  constexpr auto kArcVertices = static_cast<int64_t>(360.0 / kArcStepDegrees) + 1;
+  const OGRwkbGeometryType type = wkbFlatten(g.getGeometryType());
+  switch (type) {
+    case wkbPoint:
+      return 1;
+    case wkbLineString:
+    case wkbLinearRing:
+      return g.toSimpleCurve()->getNumPoints();
+    case wkbCircularString: {
+      const int64_t points = g.toSimpleCurve()->getNumPoints();
+      return points < 3 ? points : (points - 1) / 2 * kArcVertices + 1;
+    }
+    case wkbCompoundCurve: {
+      int64_t n = 0;
+      for (const OGRCurve* c : *g.toCompoundCurve()) n += vertex_bound(*c);
+      return n;
+    }
+    case wkbPolygon:
+    case wkbCurvePolygon:
+    case wkbTriangle: {
+      int64_t n = 0;
+      for (const OGRCurve* ring : *g.toCurvePolygon()) n += vertex_bound(*ring);
+      return n;
+    }
+    case wkbPolyhedralSurface:
+    case wkbTIN: {
+      int64_t n = 0;
+      for (const OGRPolygon* p : *g.toPolyhedralSurface()) n += vertex_bound(*p);
+      return n;
+    }
+    default:
+      break;
+  }
+  if (OGR_GT_IsSubClassOf(type, wkbGeometryCollection)) {
+    int64_t n = 0;
+    for (const OGRGeometry* part : *g.toGeometryCollection()) n += vertex_bound(*part);
+    return n;
+  }
+  return 0;
 }
 
 std::vector<Vec2> vertices_of(const OGRSimpleCurve& c) {
@@ -253,11 +299,19 @@ class Reader {
     for (const std::string& path : options_.paths) {
       if (options_.confined) check_confined_path(path);
       const std::string name = gdal::open_name(path);
+      const std::string label = valid_utf8(path);
       // The name as given: for a plain "x.zip" that is the archive itself, for /vsi names
-      // VSIStatL knows the virtual file system.
-      if (!gdal::path_exists(path))
-        throw Error(ErrorKind::not_found, "seed file not found: " + path);
+      // VSIStatL knows the virtual file system. Confined paths are the caller's own in-memory
+      // files: one that does not open is a damaged upload (a truncated zip), not a missing file.
+      if (!gdal::path_exists(path)) {
+        if (options_.confined)
+          throw Error(ErrorKind::invalid_input, label + ": the data cannot be opened (a truncated or damaged file?)");
+        throw Error(ErrorKind::not_found, "seed file not found: " + label);
+      }
       gdal::ErrorCapture capture;
+      // Before any driver builds a geometry: what the input really holds (input_scan.hpp).
+      detail::scan_input(name, label,
+                         {options_.max_input_bytes, options_.max_features, declared_vertex_limit()}, tally_);
       GDALDataset* ds = GDALDataset::FromHandle(
           GDALOpenEx(name.c_str(), GDAL_OF_VECTOR | GDAL_OF_READONLY, drivers_.empty() ? nullptr : drivers.List(),
                      nullptr, nullptr));
@@ -267,9 +321,9 @@ class Reader {
         std::string why = drivers_.empty() ? "not a vector dataset GDAL can read"
                                            : "not a vector dataset readable by the allowed drivers (" +
                                                  join(drivers_) + ")";
-        throw Error(ErrorKind::invalid_input, path + ": " + why + capture.suffix());
+        throw Error(ErrorKind::invalid_input, label + ": " + why + capture.suffix());
       }
-      for (std::string& w : capture.take_warnings()) gdal_warning(path, w);
+      for (std::string& w : capture.take_warnings()) gdal_warning(label, w);
     }
   }
 
@@ -289,7 +343,7 @@ class Reader {
     LayerRef ref;
     ref.file = file;
     ref.layer = layer;
-    ref.name = layer->GetName();
+    ref.name = escape_utf8(layer->GetName());  // for messages and Feature::source only
     if (const OGRSpatialReference* s = layer->GetSpatialRef()) {
       ref.srs.reset(s->Clone());
       ref.srs->SetAxisMappingStrategy(OAMS_TRADITIONAL_GIS_ORDER);
@@ -305,7 +359,7 @@ class Reader {
       GDALDataset& ds = *datasets_[f];
       if (options_.layers.empty()) {
         if (ds.GetLayerCount() == 0)
-          throw Error(ErrorKind::invalid_input, options_.paths[f] + ": the dataset has no vector layers");
+          throw Error(ErrorKind::invalid_input, valid_utf8(options_.paths[f]) + ": the dataset has no vector layers");
         for (int i = 0; i < ds.GetLayerCount(); ++i) add_layer(f, ds.GetLayer(i));
         continue;
       }
@@ -323,19 +377,23 @@ class Reader {
       if (found[n]) continue;
       std::string available;
       for (size_t f = 0; f < datasets_.size(); ++f)
-        available += (f ? "; " : "") + options_.paths[f] + ": " + list_layers(*datasets_[f]);
-      throw Error(ErrorKind::not_found, "layer '" + options_.layers[n] + "' not found (layers: " + available + ")");
+        available += (f ? "; " : "") + valid_utf8(options_.paths[f]) + ": " + list_layers(*datasets_[f]);
+      // The data is there; the name asked for does not match it: a bad argument, not a missing file.
+      throw Error(ErrorKind::invalid_argument,
+                  "layer '" + quote_input(options_.layers[n]) + "' not found (layers: " + available + ")");
     }
   }
 
-  std::string layer_label(const LayerRef& l) const { return options_.paths[l.file] + ":" + l.name; }
+  // File names are bytes too (the CLI's user may name any file): valid_utf8 keeps the common
+  // case as typed.
+  std::string layer_label(const LayerRef& l) const { return valid_utf8(options_.paths[l.file]) + ":" + l.name; }
 
   void choose_target() {
     size_t without = 0;
     for (const LayerRef& l : layers_) without += l.srs ? 0 : 1;
     if (!options_.target_crs.empty()) {
       target_ = gdal::parse_srs(options_.target_crs);
-      if (!target_) throw Error(ErrorKind::invalid_argument, "cannot parse the target CRS '" + options_.target_crs + "'");
+      if (!target_) throw Error(ErrorKind::invalid_argument, "cannot parse the target CRS '" + quote_input(options_.target_crs) + "'");
     } else if (without == 0) {
       target_.reset(layers_.front().srs->Clone());
       target_->SetAxisMappingStrategy(OAMS_TRADITIONAL_GIS_ORDER);
@@ -431,15 +489,16 @@ class Reader {
     if (options_.owner_field) {
       owner_index = defn->GetFieldIndex(options_.owner_field->c_str());
       if (owner_index < 0)
-        throw Error(ErrorKind::not_found, "owner field '" + *options_.owner_field + "' not found in layer " +
-                                              layer_label(l) + " (fields: " + list_fields(defn) + ")");
+        throw Error(ErrorKind::invalid_argument, "owner field '" + quote_input(*options_.owner_field) +
+                                                     "' not found in layer " + layer_label(l) +
+                                                     " (fields: " + list_fields(defn) + ")");
     }
     CtPtr ct;
     if (target_ && l.srs && !l.srs->IsSame(target_.get())) {
       ct.reset(OGRCreateCoordinateTransformation(l.srs.get(), target_.get()));
       if (!ct)
         throw Error(ErrorKind::invalid_input, "layer " + layer_label(l) + ": no transformation from its CRS (" +
-                                                  std::string(l.srs->GetName() ? l.srs->GetName() : "?") +
+                                                  escape_utf8(l.srs->GetName() ? l.srs->GetName() : "?") +
                                                   ") to the target CRS" + capture.suffix());
     }
     const bool source_geographic = l.srs && l.srs->IsGeographic();
@@ -467,12 +526,30 @@ class Reader {
                                           " features, the limit (reached in layer " + layer_label(l) + ")");
   }
 
-  void count_vertices(const std::vector<std::unique_ptr<OGRGeometry>>& parts, const std::string& source) {
-    if (options_.max_vertices <= 0) return;
-    for (const auto& part : parts) for_each_vertex(*part, [&](double, double) { ++vertices_seen_; });
-    if (vertices_seen_ > options_.max_vertices)
+  // The vertex limit that declared counts are held to: max_vertices, or fewer when the memory
+  // limit allows fewer (0 = none).
+  int64_t declared_vertex_limit() const {
+    int64_t limit = options_.max_vertices;
+    if (options_.max_memory_bytes > 0) {
+      const int64_t by_memory = std::max<int64_t>(1, options_.max_memory_bytes / kReadingBytesPerVertex);
+      limit = limit > 0 ? std::min(limit, by_memory) : by_memory;
+    }
+    return limit;
+  }
+
+  // Counted on the geometry as the driver returned it, before anything is copied: a feature over
+  // the limit costs what the driver built, nothing more.
+  void count_vertices(const OGRGeometry& geometry, const std::string& source) {
+    vertices_seen_ += vertex_bound(geometry);
+    if (options_.max_vertices > 0 && vertices_seen_ > options_.max_vertices)
       throw Error(ErrorKind::too_large, "the seed data has more than " + std::to_string(options_.max_vertices) +
                                             " vertices, the limit (reached at " + source + ")");
+    if (options_.max_memory_bytes > 0 && vertices_seen_ > options_.max_memory_bytes / kReadingBytesPerVertex)
+      throw Error(ErrorKind::too_large,
+                  "reading the seed data needs more than the memory limit of " +
+                      std::to_string(options_.max_memory_bytes >> 20) + " MiB (" + std::to_string(vertices_seen_) +
+                      " vertices at about " + std::to_string(kReadingBytesPerVertex) + " bytes each, reached at " +
+                      source + ")");
   }
 
   static void check_vertices(const OGRGeometry& part, const std::string& source, bool geographic, const char* stage) {
@@ -480,6 +557,10 @@ class Reader {
       if (!std::isfinite(x) || !std::isfinite(y))
         throw Error(ErrorKind::invalid_input, source + ": non-finite coordinate (" + format_number(x) + ", " +
                                                   format_number(y) + ")" + stage);
+      if (std::abs(x) > kMaxSeedCoordinate || std::abs(y) > kMaxSeedCoordinate)
+        throw Error(ErrorKind::invalid_input, source + ": coordinate (" + format_number(x) + ", " + format_number(y) +
+                                                  ")" + stage + " is beyond ±" + format_number(kMaxSeedCoordinate) +
+                                                  " CRS units, where no grid can hold it (is the CRS right?)");
       if (geographic && std::abs(y) > 90.0)
         throw Error(ErrorKind::invalid_input, source + ": latitude " + format_number(y) + " is beyond ±90" + stage +
                                                   " (coordinate (" + format_number(x) + ", " + format_number(y) + "))");
@@ -499,8 +580,12 @@ class Reader {
     std::string label;
     if (owner_index >= 0) {
       if (!f.IsFieldSetAndNotNull(owner_index))
-        throw Error(ErrorKind::invalid_input, source + ": the owner field '" + *options_.owner_field + "' is null or missing");
-      label = f.GetFieldAsString(owner_index);
+        throw Error(ErrorKind::invalid_input,
+                    source + ": the owner field '" + valid_utf8(*options_.owner_field) + "' is null or missing");
+      // Owner values are outside text: escaped here, once. The escape is injective, so owners
+      // still differ exactly when their raw bytes differ, and every later use (raster
+      // attribute table, report, vector outputs) has valid UTF-8.
+      label = escape_utf8(f.GetFieldAsString(owner_index));
     } else {
       label = std::to_string(position_);
     }
@@ -508,6 +593,7 @@ class Reader {
     // Curves become line strings with a 1 degree angular step: the chords stay within
     // 3.8e-5 x radius of the arc (4 cm for a 1 km radius), where GDAL's default 4 degrees
     // would leave 0.6 m - a visible shift of a boundary at fine cell sizes. Z and M are dropped.
+    count_vertices(*geometry, source);
     std::unique_ptr<OGRGeometry> linear(geometry->hasCurveGeometry(TRUE) ? geometry->getLinearGeometry(kArcStepDegrees)
                                                                           : geometry->clone());
     if (!linear) throw Error(ErrorKind::invalid_input, source + ": the curve geometry cannot be linearised");
@@ -515,7 +601,6 @@ class Reader {
     linear->setMeasured(FALSE);
     std::vector<std::unique_ptr<OGRGeometry>> parts;
     split_parts(*linear, source, parts);
-    count_vertices(parts, source);
 
     gdal::ErrorCapture capture;
     for (auto& part : parts) {
@@ -687,7 +772,8 @@ class Reader {
   const gdal::ConfinedScope* confinement_;  // null: not confined
   std::vector<std::string> drivers_;        // passed to GDALOpenEx; empty = any
   int64_t features_seen_ = 0;               // counted only with a max_features limit
-  int64_t vertices_seen_ = 0;               // counted only with a max_vertices limit
+  int64_t vertices_seen_ = 0;               // vertex_bound() of every feature read so far
+  detail::InputTally tally_;                // what the inputs declared before they were opened
   std::vector<gdal::DatasetPtr> datasets_;
   std::vector<LayerRef> layers_;
   gdal::SrsPtr target_;

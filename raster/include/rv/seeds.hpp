@@ -92,6 +92,10 @@ class SeedSet {
   // Number of sites that take part in distance computations (points and segments).
   int64_t geometric_site_count() const;
 
+  // Bytes this seed set holds on the heap and inline (sites, polygons, features, labels and the
+  // label index), for memory estimates. Allocator overhead is counted as one pointer per block.
+  int64_t memory_bytes() const;
+
  private:
   void check_feature(int32_t feature) const;
   void add_site(const Site& s);

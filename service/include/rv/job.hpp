@@ -106,23 +106,33 @@ struct JobPlan {
   bool streamed = false;
   int64_t strip_rows = 0;    // rows per strip when streamed; the grid's height otherwise
   int64_t strips = 1;        // number of strips
-  int64_t memory_bytes = 0;  // estimated peak for the grid, checked against the memory limit
+  int64_t memory_bytes = 0;  // estimated peak for the grid and the seeds, checked against the memory limit
   std::string why_whole;     // the first rule above the job breaks; "" when streamed
 };
-// `sites`: SeedSet::sites().size(); `metric`: the resolved metric's kind.
-JobPlan plan_job(const JobSpec& spec, const GridSpec& grid, int64_t sites, MetricSpec::Kind metric);
+// `sites`: SeedSet::sites().size(); `metric`: the resolved metric's kind; `seed_bytes`: what the
+// loaded seeds hold (seed_memory_bytes), part of the estimate since they live as long as the job.
+JobPlan plan_job(const JobSpec& spec, const GridSpec& grid, int64_t sites, MetricSpec::Kind metric,
+                 int64_t seed_bytes = 0);
+
+// The memory the loaded seeds hold: the SeedSet, the grid-CRS copy of the polygons (projected
+// geodesic grids) and the input positions.
+int64_t seed_memory_bytes(const LoadedSeeds& loaded);
 
 // Limits decided before anything big is allocated (config parsed once, see config.hpp).
 // Each limit refused is an rv::Error(too_large) whose message names the limit and the value.
-// The feature and vertex limits are enforced by load_seeds while it reads (the stricter of these
-// and spec.seeds.max_features / max_vertices applies); the cell and memory limits once the grid
-// is planned, before anything grid-sized is allocated.
+// The feature, vertex and input-byte limits are enforced by load_seeds while it reads (the
+// stricter of these and spec.seeds' own applies), and so is the memory limit for reading (at
+// kReadingBytesPerVertex a vertex); the cell and memory limits once the grid is planned, before
+// anything grid-sized is allocated.
 struct JobLimits {
   int64_t max_cells = int64_t{1} << 34;
   int64_t max_memory_bytes = 0;          // 0 = 80 % of physical memory
   int64_t validate_max_cells = 4'000'000;  // brute-force validation refused above this
   int64_t max_features = 10'000'000;     // seed features read (empty ones included); 0 = none
   int64_t max_vertices = 100'000'000;    // seed vertices after linearising curves; 0 = none
+  // Bytes inflated from zip archives of seeds, counted while inflating (a 300 KB zip can hold
+  // gigabytes); 0 = none.
+  int64_t max_input_bytes = int64_t{2} << 30;
 };
 
 struct JobHooks {
@@ -172,7 +182,5 @@ void geolocate_grid(ComputeOptions& options, const LoadedSeeds& loaded);
 
 // Physical memory in bytes (0 if unknown).
 int64_t physical_memory_bytes();
-// Peak resident set size of this process so far, bytes.
-int64_t peak_rss_bytes();
 
 }  // namespace rv

@@ -13,7 +13,7 @@
 //               "job_timeout_s": 3600, "shutdown_grace_s": 20 },
 //     "limits": { "max_cells": 17179869184, "max_memory_bytes": 0,
 //                 "validate_max_cells": 4000000, "max_features": 10000000,
-//                 "max_vertices": 100000000 },
+//                 "max_vertices": 100000000, "max_input_bytes": 2147483648 },
 //     "auth": { "tokens": [], "token_file": "" }
 //   }
 // Authentication: with no token configured (the default) every route is open. With at least one

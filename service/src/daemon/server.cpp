@@ -17,6 +17,7 @@
 #include <thread>
 
 #include "rv/error.hpp"
+#include "rv/json_text.hpp"
 #include "rv/store_jobs.hpp"
 #include "server_api.hpp"
 #include "server_auth.hpp"
@@ -79,7 +80,7 @@ struct Shared {
   std::atomic<int> in_flight{0};  // requests handed to the Api whose response is not yet written
 };
 
-std::string json_escape(const std::string& s) { return nlohmann::json(s).dump(); }
+std::string json_escape(const std::string& s) { return json_text(nlohmann::json(s)); }
 
 class Session : public std::enable_shared_from_this<Session> {
  public:
@@ -177,7 +178,9 @@ class Session : public std::enable_shared_from_this<Session> {
     api_req.method = method_;
     api_req.target = target_;
     api_req.host = std::string(req[http::field::host]);
-    api_req.prefer = std::string(req["Prefer"]);
+    // Every Prefer header, as one list (RFC 9110 5.3: fields of a list may be split).
+    for (auto [it, end] = req.equal_range("Prefer"); it != end; ++it)
+      api_req.prefer += (api_req.prefer.empty() ? "" : ",") + std::string(it->value());
     api_req.range = std::string(req[http::field::range]);
     api_req.body = parser_->release().body();
 
@@ -258,7 +261,7 @@ class Session : public std::enable_shared_from_this<Session> {
     char dur[32];
     std::snprintf(dur, sizeof dur, "%.1f", ms);
     daemon::log_line("{\"time\":\"" + daemon::now_rfc3339() + "\",\"method\":" + json_escape(method_) +
-                     ",\"path\":" + json_escape(target_.substr(0, 512)) + ",\"status\":" + std::to_string(status_) +
+                     ",\"path\":" + json_escape(daemon::loggable_target(target_)) + ",\"status\":" + std::to_string(status_) +
                      ",\"ms\":" + dur + "}");
   }
 
@@ -411,7 +414,21 @@ void Server::start() {
   s.listener = std::make_shared<Listener>(s.ioc, std::move(acceptor), *s.shared);
   s.listener->run();
   for (int i = 0; i < std::max(1, s.config.http.io_threads); ++i) {
-    s.threads.emplace_back([&ioc = s.ioc] { ioc.run(); });
+    s.threads.emplace_back([&ioc = s.ioc] {
+      // A handler that throws would end run() and, on this thread, the process (terminate).
+      // The Api turns every error into an answer; this is the net below it: log, keep serving.
+      for (;;) {
+        try {
+          ioc.run();
+          return;
+        } catch (const std::exception& e) {
+          daemon::log_line("{\"time\":\"" + daemon::now_rfc3339() + "\",\"event\":\"handler_exception\",\"error\":" +
+                           json_escape(e.what()) + "}");
+        } catch (...) {
+          daemon::log_line("{\"time\":\"" + daemon::now_rfc3339() + "\",\"event\":\"handler_exception\"}");
+        }
+      }
+    });
   }
   s.running = true;
   lock_guard.armed = false;

@@ -10,6 +10,8 @@
 
 #include "rv/error.hpp"
 #include "rv/error_map.hpp"
+#include "rv/json_text.hpp"
+#include "rv/text.hpp"
 #include "server_util.hpp"
 
 namespace rv::daemon {
@@ -37,7 +39,7 @@ ApiResponse json_response(unsigned status, const json& body, const char* type = 
   ApiResponse r;
   r.status = status;
   r.headers.emplace_back("Content-Type", type);
-  r.body = body.dump();
+  r.body = json_text(body);
   return r;
 }
 
@@ -211,9 +213,14 @@ FileHandle::~FileHandle() {
 
 ApiResponse problem_response(unsigned status, const std::string& type, const std::string& title,
                              const std::string& detail, const std::string& instance) {
-  json p = {{"type", type}, {"title", title}, {"status", status}, {"detail", detail}};
-  if (!instance.empty()) p["instance"] = instance;
-  return json_response(status, p, "application/problem+json");
+  // A detail may quote what a client sent or a file held: one line a person can read, not an
+  // echo of the upload (quote_input makes it valid UTF-8 and cuts it at kMaxProblemDetail).
+  json p = {{"type", type}, {"title", title}, {"status", status}, {"detail", quote_input(detail, kMaxProblemDetail)}};
+  if (!instance.empty()) p["instance"] = quote_input(instance, 256);
+  ApiResponse r = json_response(status, p, "application/problem+json");
+  // RFC 9110 10.2.3: a client told to come back later is told when.
+  if (status == 503) r.headers.emplace_back("Retry-After", std::to_string(kRetryAfterSeconds));
+  return r;
 }
 
 struct Api::Context {
@@ -246,17 +253,38 @@ void Api::handle(const ApiRequest& request, Respond respond) {
   } else {
     ctx.base = "http://" + config_.host + ":" + std::to_string(config_.port);
   }
-  // Exactly one response: the handler either answered, or handed `shared` to a job.
+  // Exactly one response: the handler either answered, or handed `shared` to a job. Whatever
+  // the handler throws becomes a problem here; nothing leaves this function but the answer.
+  ApiResponse problem;
   try {
-    route(ctx, shared);
-  } catch (const Error& e) {
-    (*shared)(problem_from(e, ctx.path));
-  } catch (const json::exception& e) {
-    (*shared)(problem_from(Error(ErrorKind::invalid_argument, std::string("malformed JSON value: ") + e.what()),
-                           ctx.path));
-  } catch (const std::exception& e) {
-    (*shared)(problem_from(Error(ErrorKind::internal, e.what()), ctx.path));
+    try {
+      route(ctx, shared);
+      return;
+    } catch (const Error& e) {
+      problem = problem_from(e, ctx.path);
+    } catch (const json::exception& e) {
+      problem = problem_from(Error(ErrorKind::invalid_argument, std::string("malformed JSON value: ") + e.what()),
+                             ctx.path);
+    } catch (const std::bad_alloc&) {
+      problem = problem_from(Error(ErrorKind::too_large, "the server ran out of memory for this request"), ctx.path);
+    } catch (const std::exception& e) {
+      problem = problem_from(Error(ErrorKind::internal, e.what()), ctx.path);
+    } catch (...) {
+      problem = problem_from(Error(ErrorKind::internal, "unknown exception"), ctx.path);
+    }
+  } catch (...) {
+    problem = last_resort_problem();
   }
+  (*shared)(std::move(problem));
+}
+
+ApiResponse last_resort_problem() {
+  ApiResponse r;
+  r.status = 500;
+  r.headers.emplace_back("Content-Type", "application/problem+json");
+  r.body = R"({"type":"https://rvoronoi.dev/problems/internal","title":"Internal error","status":500,)"
+           R"("detail":"the server could not describe this error"})";
+  return r;
 }
 
 namespace {
@@ -472,7 +500,7 @@ void Api::route(const Context& ctx, const std::shared_ptr<Respond>& respond) {
       const json body = parse_body_json(ctx.request.body);
       const std::string id = new_job_id();
       Execution ex = parse_execution(body, id, config_);
-      const bool async = ctx.request.prefer.find("respond-async") != std::string::npos;
+      const bool async = prefers_respond_async(ctx.request.prefer);
       if (async) {
         const JobRecord rec = jobs_.submit(id, std::move(ex));
         ApiResponse r = json_response(201, status_info(rec, base));
@@ -527,9 +555,13 @@ void Api::route(const Context& ctx, const std::shared_ptr<Respond>& respond) {
       int_param("limit", 1, 1000, limit);
       int_param("offset", 0, 1'000'000'000, offset);
       std::vector<JobStatus> statuses;
+      std::string status_filter;  // the filter as the next page's link repeats it
       if (const auto it = ctx.query.find("status"); it != ctx.query.end()) {
         for (const std::string& v : it->second) {
-          for (const std::string& s : split(v, ',')) statuses.push_back(parse_job_status(s));
+          for (const std::string& s : split(v, ',')) {
+            statuses.push_back(parse_job_status(s));
+            status_filter += (status_filter.empty() ? "" : ",") + std::string(to_string(statuses.back()));
+          }
         }
       }
       json list = json::array();
@@ -537,8 +569,9 @@ void Api::route(const Context& ctx, const std::shared_ptr<Respond>& respond) {
       for (const JobRecord& r : records) list.push_back(status_info(r, base));
       json links = json::array({link(base + "/jobs", "self", kJson, "job list")});
       if (static_cast<int>(records.size()) == limit) {
-        links.push_back(link(base + "/jobs?limit=" + std::to_string(limit) + "&offset=" + std::to_string(offset + limit),
-                             "next", kJson, "next page"));
+        std::string next = base + "/jobs?limit=" + std::to_string(limit);
+        if (!status_filter.empty()) next += "&status=" + status_filter;
+        links.push_back(link(next + "&offset=" + std::to_string(offset + limit), "next", kJson, "next page"));
       }
       return reply(json_response(200, {{"jobs", list}, {"links", links}}));
     }

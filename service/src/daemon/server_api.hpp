@@ -50,9 +50,14 @@ struct ApiResponse {
   std::optional<FileSlice> file;  // when set, the body comes from here instead of `body`
 };
 
-// Builds an RFC 7807 problem response (Content-Type application/problem+json).
+// Builds an RFC 7807 problem response (Content-Type application/problem+json). The detail is
+// made valid UTF-8 and cut to kMaxProblemDetail bytes; a 503 carries Retry-After.
+inline constexpr std::size_t kMaxProblemDetail = 2048;
+inline constexpr int kRetryAfterSeconds = 5;
 ApiResponse problem_response(unsigned status, const std::string& type, const std::string& title,
                              const std::string& detail, const std::string& instance);
+// A fixed 500 problem that cannot fail to build: for when describing an error failed too.
+ApiResponse last_resort_problem();
 
 using Respond = std::function<void(ApiResponse)>;
 

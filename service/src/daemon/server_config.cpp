@@ -159,13 +159,15 @@ ServerConfig parse_server_config(const json& doc) {
   }
   if (doc.contains("limits")) {
     const json& l = doc.at("limits");
-    check_keys(l, "limits", {"max_cells", "max_memory_bytes", "validate_max_cells", "max_features", "max_vertices"});
+    check_keys(l, "limits", {"max_cells", "max_memory_bytes", "validate_max_cells", "max_features", "max_vertices",
+                                  "max_input_bytes"});
     c.limits.max_cells = get_int(l, "limits", "max_cells", c.limits.max_cells, 1);
     c.limits.max_memory_bytes = get_int(l, "limits", "max_memory_bytes", c.limits.max_memory_bytes, 0);
     c.limits.validate_max_cells = get_int(l, "limits", "validate_max_cells", c.limits.validate_max_cells, 0);
     // 0 = no limit of the server's own (the seed reader's limits, if any, still apply).
     c.limits.max_features = get_int(l, "limits", "max_features", c.limits.max_features, 0);
     c.limits.max_vertices = get_int(l, "limits", "max_vertices", c.limits.max_vertices, 0);
+    c.limits.max_input_bytes = get_int(l, "limits", "max_input_bytes", c.limits.max_input_bytes, 0);
   }
   if (doc.contains("auth")) parse_auth(doc.at("auth"), c.auth);
   return c;

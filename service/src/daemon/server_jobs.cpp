@@ -8,6 +8,8 @@
 #include <system_error>
 
 #include "rv/error.hpp"
+#include "rv/json_text.hpp"
+#include "rv/text.hpp"
 #include "server_util.hpp"
 
 namespace rv::daemon {
@@ -46,6 +48,17 @@ void write_file_atomically(const std::filesystem::path& path, const std::string&
 std::string client_names(std::string message, const std::string& id) {
   const std::regex vsi("(/vsizip/)?/vsimem/rvoronoi/" + id + "/seeds_([0-9]+)\\.[a-z]+");
   return std::regex_replace(message, vsi, "seeds[$2]");
+}
+
+// Tells a waiting client that its job ended. The callback builds an answer and must not take a
+// worker (or the thread that dismissed the job) down with it if that fails: logged, dropped.
+void notify_done(const JobManager::Done& on_done, const JobRecord& record) {
+  if (!on_done) return;
+  try {
+    on_done(record);
+  } catch (...) {
+    log_line("{\"time\":\"" + now_rfc3339() + "\",\"event\":\"answer_failed\",\"job\":\"" + record.id + "\"}");
+  }
 }
 
 }  // namespace
@@ -121,16 +134,23 @@ void JobManager::worker_loop() {
     JobRecord final_record;
     try {
       final_record = run_task(task);
-    } catch (const std::exception& e) {
+    } catch (...) {
       // The store itself failed (disk full, database gone): the worker must survive it, and
       // the client waiting on the job must still get an answer.
+      std::string what = "unknown exception";
+      try {
+        throw;
+      } catch (const std::exception& e) {
+        what = e.what();
+      } catch (...) {
+      }
       log_line("{\"time\":\"" + now_rfc3339() + "\",\"event\":\"job_store_failure\",\"job\":\"" + task.id +
-               "\",\"error\":" + nlohmann::json(e.what()).dump() + "}");
+               "\",\"error\":" + json_text(what) + "}");
       final_record.id = task.id;
       final_record.process_id = "voronoi";
       final_record.status = JobStatus::failed;
       final_record.error_kind = std::string(to_string(ErrorKind::io));
-      final_record.message = std::string("the job store failed: ") + e.what();
+      final_record.message = valid_utf8("the job store failed: " + what);
     }
     bool idle = false;
     {
@@ -141,10 +161,10 @@ void JobManager::worker_loop() {
     idle_cv_.notify_all();
     log_line("{\"time\":\"" + now_rfc3339() + "\",\"event\":\"job\",\"job\":\"" + task.id +
              "\",\"status\":\"" + std::string(to_string(final_record.status)) + "\",\"message\":" +
-             nlohmann::json(final_record.message).dump() + "}");
+             json_text(final_record.message) + "}");
     // Only now: whoever is told the job ended (a synchronous client) may act on it at once, and
     // a dismissal then finds it finished, not running.
-    if (task.on_done) task.on_done(final_record);
+    notify_done(task.on_done, final_record);
 #ifdef __GLIBC__
     // The job's grid-sized buffers are free now, but glibc keeps freed heap memory in the arenas
     // (large blocks under its adaptive mmap threshold included) for reuse. A daemon idles most
@@ -254,10 +274,10 @@ JobRecord JobManager::run_task(Task& task) {
         if (value.is_string()) value = std::filesystem::path(value.get<std::string>()).filename().string();
       }
     }
-    write_file_atomically(dir / output_file_name("report", ""), result.report.dump(2) + "\n");
+    write_file_atomically(dir / output_file_name("report", ""), json_text(result.report, 2) + "\n");
   } catch (const Error& e) {
     error_kind = e.kind();
-    error_message = client_names(e.what(), id);
+    error_message = client_names(valid_utf8(e.what()), id);
     // The job directory is this server's business: the client knows the files by output id.
     for (size_t at; (at = error_message.find(dir.string() + "/")) != std::string::npos;) {
       error_message.erase(at, dir.string().size() + 1);
@@ -274,7 +294,10 @@ JobRecord JobManager::run_task(Task& task) {
     error_message = "the job ran out of memory; use a coarser resolution or a smaller extent";
   } catch (const std::exception& e) {
     error_kind = ErrorKind::internal;
-    error_message = e.what();
+    error_message = valid_utf8(e.what());
+  } catch (...) {
+    error_kind = ErrorKind::internal;
+    error_message = "unknown exception";
   }
   task.execution.uploads.reset();  // the in-memory seed files are no longer needed
 
@@ -343,7 +366,7 @@ std::optional<JobRecord> JobManager::dismiss(const std::string& id) {
     rec->updated = now;
     store_.update(*rec);
   }
-  if (dropped && dropped->on_done) dropped->on_done(*rec);
+  if (dropped) notify_done(dropped->on_done, *rec);
   return rec;
 }
 
@@ -376,9 +399,7 @@ void JobManager::shutdown(std::chrono::duration<double> grace) {
       r.cancel->store(true);
     }
   }
-  for (size_t i = 0; i < dropped.size(); ++i) {
-    if (dropped[i].on_done) dropped[i].on_done(dropped_records[i]);
-  }
+  for (size_t i = 0; i < dropped.size(); ++i) notify_done(dropped[i].on_done, dropped_records[i]);
   for (std::thread& w : workers_) w.join();
   {
     std::lock_guard lock(mutex_);

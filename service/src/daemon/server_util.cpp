@@ -9,6 +9,7 @@
 #include <ctime>
 
 #include "rv/error.hpp"
+#include "rv/text.hpp"
 
 namespace rv::daemon {
 
@@ -167,6 +168,59 @@ std::vector<std::string> path_segments(std::string_view path) {
     start = end + 1;
   }
   return seg;
+}
+
+namespace {
+std::string_view trim(std::string_view s) {
+  while (!s.empty() && (s.front() == ' ' || s.front() == '\t')) s.remove_prefix(1);
+  while (!s.empty() && (s.back() == ' ' || s.back() == '\t')) s.remove_suffix(1);
+  return s;
+}
+bool equals_ci(std::string_view a, std::string_view b) { return a.size() == b.size() && starts_with_ci(a, b); }
+}  // namespace
+
+bool prefers_respond_async(std::string_view prefer) {
+  size_t start = 0;
+  while (start <= prefer.size()) {
+    const size_t end = std::min(prefer.find(',', start), prefer.size());
+    // A preference is a token, optionally "=value", then ";parameters".
+    std::string_view item = prefer.substr(start, end - start);
+    item = item.substr(0, std::min(item.find(';'), item.find('=')));
+    if (equals_ci(trim(item), "respond-async")) return true;
+    start = end + 1;
+  }
+  return false;
+}
+
+std::string loggable_target(std::string_view target) {
+  static constexpr std::string_view kSecrets[] = {"access_token", "token", "api_key", "apikey", "key",
+                                                  "password", "secret", "auth", "authorization"};
+  std::string out(target.substr(0, target.find('?')));
+  const size_t q = target.find('?');
+  if (q != std::string_view::npos) {
+    out += '?';
+    const std::string_view query = target.substr(q + 1);
+    size_t start = 0;
+    bool first = true;
+    while (start <= query.size()) {
+      const size_t end = std::min(query.find('&', start), query.size());
+      const std::string_view pair = query.substr(start, end - start);
+      const size_t eq = pair.find('=');
+      const std::string name = percent_decode(pair.substr(0, eq));
+      bool secret = false;
+      for (std::string_view s : kSecrets) secret = secret || equals_ci(name, s);
+      if (!first) out += '&';
+      first = false;
+      if (secret && eq != std::string_view::npos) {
+        out.append(pair.substr(0, eq));
+        out += "=REDACTED";
+      } else {
+        out.append(pair);
+      }
+      start = end + 1;
+    }
+  }
+  return quote_input(out, 512);
 }
 
 bool starts_with_ci(std::string_view s, std::string_view prefix) {

@@ -41,6 +41,14 @@ std::string percent_decode(std::string_view s);
 // CRS prefixes such as "epsg:").
 bool starts_with_ci(std::string_view s, std::string_view prefix);
 
+// True when a Prefer header (RFC 7240; several headers joined with ',') holds the preference
+// respond-async, its name compared without case as the RFC requires.
+bool prefers_respond_async(std::string_view prefer);
+
+// The request target as the request log shows it: the query's secrets (access_token, token,
+// api_key, key, password, ...) replaced by "REDACTED", the whole cut to 512 bytes and valid UTF-8.
+std::string loggable_target(std::string_view target);
+
 // The decoded, non-empty segments of a request path (no query): "/jobs//x/" -> {"jobs", "x"}.
 // The one spelling rule of the router and of the authentication's open resources.
 std::vector<std::string> path_segments(std::string_view path);

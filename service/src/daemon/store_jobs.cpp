@@ -2,9 +2,12 @@
 
 #include <sqlite3.h>
 
+#include <algorithm>
 #include <array>
 
 #include "rv/error.hpp"
+#include "rv/json_text.hpp"
+#include "rv/text.hpp"
 
 namespace rv {
 namespace {
@@ -36,12 +39,17 @@ class Statement {
     throw Error(rc == SQLITE_CONSTRAINT ? ErrorKind::internal : ErrorKind::io,
                 std::string("job store: ") + sqlite3_errmsg(db_));
   }
+  // A text column as stored: bytes (SQLite does not check UTF-8).
   std::string text(int col) const {
     const auto* p = sqlite3_column_text(stmt_, col);
     return p ? std::string(reinterpret_cast<const char*>(p),
                            static_cast<size_t>(sqlite3_column_bytes(stmt_, col)))
              : std::string();
   }
+  // A text column for display. Records of older builds may hold bytes that are not UTF-8 (a GDAL
+  // message quoting a damaged upload): they are escaped on the way out, as they would have been
+  // on the way in (rv/text.hpp); text written by this build is valid and comes back unchanged.
+  std::string display_text(int col) const { return valid_utf8(text(col)); }
   int64_t integer(int col) const { return sqlite3_column_int64(stmt_, col); }
 
  private:
@@ -53,27 +61,43 @@ constexpr const char* kColumns =
     "id, process_id, status, message, error_kind, progress, created, started, finished, updated, "
     "inputs, outputs, transmission, report, formats";
 
+// The strings of a stored JSON array; anything else (a damaged column) reads as none.
+std::vector<std::string> string_list(const nlohmann::json& doc) {
+  std::vector<std::string> out;
+  if (!doc.is_array()) return out;
+  for (const auto& item : doc)
+    if (item.is_string()) out.push_back(item.get<std::string>());
+  return out;
+}
+
 JobRecord read_row(const Statement& s) {
   JobRecord r;
-  r.id = s.text(0);
-  r.process_id = s.text(1);
-  r.status = parse_job_status(s.text(2));
-  r.message = s.text(3);
-  r.error_kind = s.text(4);
-  r.progress = static_cast<int>(s.integer(5));
-  r.created = s.text(6);
-  r.started = s.text(7);
-  r.finished = s.text(8);
-  r.updated = s.text(9);
-  r.inputs = nlohmann::json::parse(s.text(10), nullptr, false);
-  const auto outputs = nlohmann::json::parse(s.text(11), nullptr, false);
-  if (outputs.is_array()) r.outputs = outputs.get<std::vector<std::string>>();
-  const auto transmission = nlohmann::json::parse(s.text(12), nullptr, false);
-  if (transmission.is_array()) r.transmission = transmission.get<std::vector<std::string>>();
+  // Every column is read so that a damaged or older record still opens: the worst it can do is
+  // show an empty field, never fail the request (or the listing) that reads it.
+  r.id = s.display_text(0);
+  r.process_id = s.display_text(1);
+  try {
+    r.status = parse_job_status(s.text(2));
+  } catch (const Error&) {
+    r.status = JobStatus::failed;
+  }
+  r.message = s.display_text(3);
+  r.error_kind = s.display_text(4);
+  r.progress = static_cast<int>(std::clamp<int64_t>(s.integer(5), 0, 100));
+  r.created = s.display_text(6);
+  r.started = s.display_text(7);
+  r.finished = s.display_text(8);
+  r.updated = s.display_text(9);
+  r.inputs = parse_stored_json(s.text(10));
+  if (!r.inputs.is_object()) r.inputs = nlohmann::json::object();
+  r.outputs = string_list(parse_stored_json(s.text(11)));
+  r.transmission = string_list(parse_stored_json(s.text(12)));
   const std::string report = s.text(13);
-  if (!report.empty()) r.report = nlohmann::json::parse(report, nullptr, false);
-  const auto formats = nlohmann::json::parse(s.text(14), nullptr, false);
-  if (formats.is_array()) r.formats = formats.get<std::vector<std::string>>();
+  if (!report.empty()) {
+    r.report = parse_stored_json(report);
+    if (r.report.is_discarded()) r.report = nullptr;
+  }
+  r.formats = string_list(parse_stored_json(s.text(14)));
   return r;
 }
 
@@ -81,18 +105,18 @@ void bind_record(Statement& s, const JobRecord& r) {
   s.bind(1, r.id);
   s.bind(2, r.process_id);
   s.bind(3, std::string(to_string(r.status)));
-  s.bind(4, r.message);
+  s.bind(4, valid_utf8(r.message));
   s.bind(5, r.error_kind);
   s.bind(6, int64_t{r.progress});
   s.bind(7, r.created);
   s.bind(8, r.started);
   s.bind(9, r.finished);
   s.bind(10, r.updated);
-  s.bind(11, r.inputs.dump());
-  s.bind(12, nlohmann::json(r.outputs).dump());
-  s.bind(13, nlohmann::json(r.transmission).dump());
-  s.bind(14, r.report.is_null() ? std::string() : r.report.dump());
-  s.bind(15, nlohmann::json(r.formats).dump());
+  s.bind(11, json_text(r.inputs));
+  s.bind(12, json_text(nlohmann::json(r.outputs)));
+  s.bind(13, json_text(nlohmann::json(r.transmission)));
+  s.bind(14, r.report.is_null() ? std::string() : json_text(r.report));
+  s.bind(15, json_text(nlohmann::json(r.formats)));
 }
 
 }  // namespace

@@ -58,6 +58,10 @@ struct SeedReadOptions {
   bool confined = false;   // untrusted data (daemon uploads): see "Confinement" below
   int64_t max_features = 0;  // > 0: more features than this (empty ones included) is too_large
   int64_t max_vertices = 0;  // > 0: more vertices than this (after linearising curves) is too_large
+  int64_t max_input_bytes = 0;   // > 0: zip archives whose members inflate to more than this
+                                 // (all together, counted while inflating) are too_large
+  int64_t max_memory_bytes = 0;  // > 0: seeds whose reading would need more than this, estimated
+                                 // at kReadingBytesPerVertex a vertex, are too_large
   // For the geodesic metric on a projected grid: when the target CRS (the grid's: target_crs, or
   // the first layer's) is projected, the seeds are read into its geographic base CRS instead
   // (OSRCloneGeogCS: the same datum's longitude/latitude in degrees, x = longitude), which is
@@ -83,11 +87,29 @@ struct SeedReadOptions {
 //    default CRS).
 //  - SQLite (GPKG): extension loading and the VirtualOGR module stay off for this thread.
 //  - Errors reading the data are invalid_input (it is the data that is broken), not io.
-// Limits (max_features, max_vertices) apply with or without confinement; they are checked while
-// reading, before the SeedSet is complete (a layer that reports its feature count cheaply is
-// refused before its first feature is read). The GeoJSON driver parses a whole file when it is
-// opened, so the byte size of uploads must be bounded by the caller (the daemon's body limit).
+// Limits (max_features, max_vertices, max_input_bytes, max_memory_bytes) apply with or without
+// confinement, in this order, each before the work it bounds:
+//  - before a driver opens a zip archive, its members are inflated once and counted (bytes), and
+//    the record headers of every Shapefile in it (or of a plain .shp) are read for the features
+//    and vertices they declare (vector/src/input_scan.hpp): a bomb is refused having used one
+//    chunk of memory;
+//  - a layer that reports its feature count cheaply (GPKG, Shapefile, FlatGeobuf) is refused
+//    before its first feature is read;
+//  - each feature's vertices are counted on the geometry the driver returned, before it is
+//    copied, linearised (a circular arc counts as the 361 vertices it may become) or split.
+// The GeoJSON driver parses a whole file when it is opened, so the byte size of uploads must be
+// bounded by the caller (the daemon's body limit). What a driver builds for one feature is not
+// bounded by anything but the bytes it reads (uncompressed formats: the file's size).
 inline constexpr const char* kConfinedDrivers[] = {"GeoJSON", "GPKG", "ESRI Shapefile", "FlatGeobuf", "KML"};
+
+// The memory seed reading needs per vertex, for SeedReadOptions::max_memory_bytes: the geometry
+// the driver built, the reader's copies of it (checked parts, the conflict check's index) and the
+// SeedSet. Measured on the worst case, many single points (bench/README.md, "seed reading").
+inline constexpr int64_t kReadingBytesPerVertex = 400;
+
+// Seed coordinates beyond this magnitude (in the CRS's units) are invalid_input: far beyond any
+// planet, they would overflow squared distances (at 1.3e154) and the grid's cell arithmetic.
+inline constexpr double kMaxSeedCoordinate = 1e12;
 
 struct CrsInfo {
   std::string wkt;            // the grid/seed CRS as WKT2 (empty: unknown, no CRS anywhere)
@@ -134,6 +156,9 @@ struct LoadedSeeds {
 // order of first appearance; without an owner field each feature is its own owner labelled by
 // its 1-based position in the input, counting every feature read including skipped empty ones),
 // normalises and checks the seeds. Feature::source is "<path as given>:<layer>:fid <fid>".
+// Text read from the data (owner values, layer and field names, GDAL's messages) is outside text:
+// it is escaped where it is read (escape_utf8, rv/text.hpp), so owner labels, sources, warnings
+// and messages are valid UTF-8, and owners whose raw values differ stay distinct.
 //
 // Normalisation (reported in SeedReadReport): consecutive duplicate vertices / zero-length
 // segments and points repeated inside a feature are removed; unclosed rings are closed;
@@ -149,12 +174,15 @@ struct LoadedSeeds {
 // coordinates; the grid polygons are the normalised polygons transformed vertex by vertex (a
 // vertex that cannot be placed in the target CRS is invalid_input).
 //
-// Throws rv::Error: not_found (file, layer, field), invalid_input (not a vector dataset,
-// NaN/inf coordinate, latitude beyond ±90 on a geographic CRS, null owner value, unrepairable
+// Throws rv::Error: not_found (a file; never when confined: an in-memory file that does not
+// open is invalid_input), invalid_argument (a layer or owner field the data does not have),
+// invalid_input (not a vector dataset, NaN/inf coordinate or one beyond kMaxSeedCoordinate,
+// latitude beyond ±90 on a geographic CRS, null owner value, unrepairable
 // polygon, a layer without CRS among layers with one, no features at all; confined: data that
 // tries to reach the network, unreadable data), invalid_argument (unparsable target CRS, no
 // paths; confined: a path outside /vsimem/, no allowed driver left), too_large (over
-// max_features or max_vertices), conflict (two owners overlap, with policy error: the message
+// max_features, max_vertices, max_input_bytes or max_memory_bytes: the message names the
+// limit), conflict (two owners overlap, with policy error: the message
 // names both features, their owners and a coordinate inside the intersection), io (reading a
 // local file failed; never when confined).
 LoadedSeeds load_seeds(const SeedReadOptions& options);
