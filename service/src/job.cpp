@@ -79,6 +79,7 @@ nlohmann::json seeds_json(const LoadedSeeds& loaded) {
           {"vertices_removed", r.vertices_removed},
           {"points_removed", r.points_removed},
           {"conflicts", r.conflicts},
+          {"vertices_read", r.vertices_read},
           {"polygons_repaired", r.polygons_repaired},
           {"warnings", r.warnings}};
 }
@@ -641,7 +642,8 @@ JobResult run_job(const JobSpec& spec, const JobLimits& limits, const JobHooks& 
   report["streaming"] = plan.streamed ? nlohmann::json{{"streamed", true}, {"rows_per_strip", plan.strip_rows},
                                                         {"strips", plan.strips}}
                                       : nlohmann::json{{"streamed", false}, {"why_not", plan.why_whole}};
-  report["memory_estimate_bytes"] = plan.memory_bytes;
+  // The peak is the larger of reading the seeds and computing with them (the seeds included).
+  report["memory_estimate_bytes"] = std::max(plan.memory_bytes, loaded.report.reading_bytes);
   report["timings_s"] = timings;
   report["compute_ns_per_cell"] = compute_seconds * 1e9 / static_cast<double>(std::max<int64_t>(cells, 1));
   // The job's own peak, not the process's (a daemon's high-water mark is its largest job ever).

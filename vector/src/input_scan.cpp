@@ -18,8 +18,10 @@
 #include <cpl_conv.h>
 #include <cpl_string.h>
 #include <cpl_vsi.h>
+#include <sqlite3.h>
 
 #include "rv/error.hpp"
+#include "rv/seed_reader.hpp"
 #include "rv/text.hpp"
 
 namespace rv::detail {
@@ -106,12 +108,15 @@ class ShapefileRecords {
                                             " features, the limit (" + label_ + " holds more records)");
     if (n < 4) return;
     int64_t vertices = 0;
+    bool points = false;
     switch (little_endian32(c)) {
       case 1: case 11: case 21:  // point, pointZ, pointM
         vertices = 1;
+        points = true;
         break;
       case 8: case 18: case 28:  // multipoint
         if (n >= 40) vertices = little_endian32(c + 36);
+        points = true;
         break;
       case 3: case 5: case 13: case 15: case 23: case 25: case 31:  // polyline, polygon, multipatch
         if (n >= 44) vertices = little_endian32(c + 40);
@@ -119,12 +124,20 @@ class ShapefileRecords {
       default:
         break;  // null shapes and unknown types carry no vertices the driver would build
     }
-    tally_.declared_vertices += std::max<int64_t>(vertices, 0);
+    vertices = std::max<int64_t>(vertices, 0);
+    tally_.declared_vertices += vertices;
+    if (points) tally_.declared_points += vertices;
+    const std::string where = label_ + ": record " + std::to_string(tally_.declared_features) + " declares " +
+                              std::to_string(vertices) + " vertices; refused before reading it";
     if (limits_.max_vertices > 0 && tally_.declared_vertices > limits_.max_vertices)
-      throw Error(ErrorKind::too_large,
-                  "the seed data has more than " + std::to_string(limits_.max_vertices) + " vertices, the limit (" +
-                      label_ + ": record " + std::to_string(tally_.declared_features) + " declares " +
-                      std::to_string(vertices) + "; refused before reading it)");
+      throw Error(ErrorKind::too_large, "the seed data has more than " + std::to_string(limits_.max_vertices) +
+                                            " vertices, the limit (" + where + ")");
+    const int64_t need = reading_bytes(tally_.declared_features, tally_.declared_points,
+                                       tally_.declared_vertices - tally_.declared_points);
+    if (limits_.max_reading_bytes > 0 && need > limits_.max_reading_bytes)
+      throw Error(ErrorKind::too_large, "reading the seed data would need about " + std::to_string(need >> 20) +
+                                            " MiB, over the memory limit of " +
+                                            std::to_string(limits_.max_reading_bytes >> 20) + " MiB (" + where + ")");
   }
 
   std::string label_;
@@ -160,12 +173,78 @@ void stream_file(const std::string& path, const std::string& label, bool archive
                                               " bytes, the limit (reached in " + label + ")");
     }
     if (shp) shp->feed(chunk.data(), n);
-    if (n < chunk.size()) {
-      // A short read is the end, or a damaged stream: a damaged one the driver would fail on too.
-      if (VSIFEofL(file.get()) == 0)
-        throw Error(ErrorKind::invalid_input, label + ": cannot be inflated (a damaged archive?)");
-      return;
+    // A short read is the end of what the reader delivers, which is what a driver would get:
+    // a damaged stream ends early for both, and the driver says what it lacks.
+    if (n < chunk.size()) return;
+  }
+}
+
+struct SqliteCloser {
+  void operator()(sqlite3* db) const { sqlite3_close(db); }
+};
+
+// An untrusted SQLite database held in memory (/vsimem/): refused when it has a view or a table
+// with a generated column. The bytes are inspected in place, read-only (sqlite3_deserialize).
+void check_sqlite_schema(const std::string& path, const std::string& label) {
+  vsi_l_offset size = 0;
+  GByte* bytes = VSIGetMemFileBuffer(path.c_str(), &size, FALSE);
+  if (bytes == nullptr || size < 100 || std::memcmp(bytes, "SQLite format 3", 16) != 0) return;
+  int steps = 0;  // outlives the connection below
+  sqlite3* raw = nullptr;
+  if (sqlite3_open_v2(":memory:", &raw, SQLITE_OPEN_READWRITE, nullptr) != SQLITE_OK) {
+    sqlite3_close(raw);
+    throw Error(ErrorKind::internal, "cannot open an SQLite connection to check " + label);
+  }
+  std::unique_ptr<sqlite3, SqliteCloser> db(raw);
+  // The schema queries below are small; the handler stops them should the file make them not.
+  sqlite3_progress_handler(
+      db.get(), 1000, [](void* count) { return ++*static_cast<int*>(count) > 10000 ? 1 : 0; }, &steps);
+  if (sqlite3_deserialize(db.get(), "main", bytes, static_cast<sqlite3_int64>(size), static_cast<sqlite3_int64>(size),
+                          SQLITE_DESERIALIZE_READONLY) != SQLITE_OK)
+    return;  // not a database SQLite can read: GDAL will say so
+  auto refuse = [&](const std::string& what) {
+    throw Error(ErrorKind::invalid_input,
+                label + ": " + what + "; uploaded GeoPackages must hold plain tables (SQLite computes views and "
+                                      "generated columns while reading, without bounds)");
+  };
+  std::vector<std::string> tables;
+  {
+    sqlite3_stmt* stmt = nullptr;
+    if (sqlite3_prepare_v2(db.get(), "SELECT type, name FROM sqlite_master WHERE type IN ('view', 'table')", -1, &stmt,
+                           nullptr) != SQLITE_OK) {
+      sqlite3_finalize(stmt);
+      return;  // a schema SQLite cannot read: GDAL will say so
     }
+    while (sqlite3_step(stmt) == SQLITE_ROW) {
+      const auto* type = reinterpret_cast<const char*>(sqlite3_column_text(stmt, 0));
+      const auto* name = reinterpret_cast<const char*>(sqlite3_column_text(stmt, 1));
+      const std::string n = name != nullptr ? name : "";
+      if (type != nullptr && std::strcmp(type, "view") == 0) {
+        sqlite3_finalize(stmt);
+        refuse("it defines the view '" + quote_input(n) + "'");
+      }
+      tables.push_back(n);
+    }
+    sqlite3_finalize(stmt);
+  }
+  for (const std::string& table : tables) {
+    sqlite3_stmt* stmt = nullptr;
+    if (sqlite3_prepare_v2(db.get(), "SELECT name, hidden FROM pragma_table_xinfo(?1)", -1, &stmt, nullptr) != SQLITE_OK) {
+      sqlite3_finalize(stmt);
+      continue;
+    }
+    sqlite3_bind_text(stmt, 1, table.c_str(), static_cast<int>(table.size()), SQLITE_TRANSIENT);
+    while (sqlite3_step(stmt) == SQLITE_ROW) {
+      // hidden: 2 = generated VIRTUAL, 3 = generated STORED (computed on write, but a database
+      // written elsewhere may hold anything in them: only the definition is trusted here).
+      if (sqlite3_column_int(stmt, 1) >= 2) {
+        const auto* column = reinterpret_cast<const char*>(sqlite3_column_text(stmt, 0));
+        const std::string c = column != nullptr ? column : "";
+        sqlite3_finalize(stmt);
+        refuse("the table '" + quote_input(table) + "' has the generated column '" + quote_input(c) + "'");
+      }
+    }
+    sqlite3_finalize(stmt);
   }
 }
 
@@ -174,6 +253,7 @@ void stream_file(const std::string& path, const std::string& label, bool archive
 void scan_input(const std::string& name, const std::string& label, const InputLimits& limits, InputTally& tally) {
   if (name.rfind("/vsizip/", 0) != 0) {
     if (ends_with_ci(name, ".shp")) stream_file(name, label, false, limits, tally);
+    if (limits.untrusted && name.rfind("/vsimem/", 0) == 0) check_sqlite_schema(name, label);
     return;
   }
   // Every member, in the archive's order; directories end in '/' in GDAL's listing.

@@ -155,11 +155,13 @@ void for_each_vertex(const OGRGeometry& g, F&& f) {
 
 // An upper bound of the vertices `g` has once linearised with kArcStepDegrees: a circular arc
 // (three control points of a CircularString) becomes at most 360 / kArcStepDegrees + 1 vertices.
-int64_t vertex_bound(const OGRGeometry& g) {
+// Points are counted apart (`points`), as they cost more to read (seed_reader.hpp).
+int64_t vertex_bound(const OGRGeometry& g, int64_t& points) {
   constexpr auto kArcVertices = static_cast<int64_t>(360.0 / kArcStepDegrees) + 1;
   const OGRwkbGeometryType type = wkbFlatten(g.getGeometryType());
   switch (type) {
     case wkbPoint:
+      ++points;
       return 1;
     case wkbLineString:
     case wkbLinearRing:
@@ -170,20 +172,20 @@ int64_t vertex_bound(const OGRGeometry& g) {
     }
     case wkbCompoundCurve: {
       int64_t n = 0;
-      for (const OGRCurve* c : *g.toCompoundCurve()) n += vertex_bound(*c);
+      for (const OGRCurve* c : *g.toCompoundCurve()) n += vertex_bound(*c, points);
       return n;
     }
     case wkbPolygon:
     case wkbCurvePolygon:
     case wkbTriangle: {
       int64_t n = 0;
-      for (const OGRCurve* ring : *g.toCurvePolygon()) n += vertex_bound(*ring);
+      for (const OGRCurve* ring : *g.toCurvePolygon()) n += vertex_bound(*ring, points);
       return n;
     }
     case wkbPolyhedralSurface:
     case wkbTIN: {
       int64_t n = 0;
-      for (const OGRPolygon* p : *g.toPolyhedralSurface()) n += vertex_bound(*p);
+      for (const OGRPolygon* p : *g.toPolyhedralSurface()) n += vertex_bound(*p, points);
       return n;
     }
     default:
@@ -191,7 +193,7 @@ int64_t vertex_bound(const OGRGeometry& g) {
   }
   if (OGR_GT_IsSubClassOf(type, wkbGeometryCollection)) {
     int64_t n = 0;
-    for (const OGRGeometry* part : *g.toGeometryCollection()) n += vertex_bound(*part);
+    for (const OGRGeometry* part : *g.toGeometryCollection()) n += vertex_bound(*part, points);
     return n;
   }
   return 0;
@@ -311,7 +313,9 @@ class Reader {
       gdal::ErrorCapture capture;
       // Before any driver builds a geometry: what the input really holds (input_scan.hpp).
       detail::scan_input(name, label,
-                         {options_.max_input_bytes, options_.max_features, declared_vertex_limit()}, tally_);
+                         {options_.max_input_bytes, options_.max_features, options_.max_vertices,
+                          options_.max_memory_bytes, options_.confined},
+                         tally_);
       GDALDataset* ds = GDALDataset::FromHandle(
           GDALOpenEx(name.c_str(), GDAL_OF_VECTOR | GDAL_OF_READONLY, drivers_.empty() ? nullptr : drivers.List(),
                      nullptr, nullptr));
@@ -526,30 +530,21 @@ class Reader {
                                           " features, the limit (reached in layer " + layer_label(l) + ")");
   }
 
-  // The vertex limit that declared counts are held to: max_vertices, or fewer when the memory
-  // limit allows fewer (0 = none).
-  int64_t declared_vertex_limit() const {
-    int64_t limit = options_.max_vertices;
-    if (options_.max_memory_bytes > 0) {
-      const int64_t by_memory = std::max<int64_t>(1, options_.max_memory_bytes / kReadingBytesPerVertex);
-      limit = limit > 0 ? std::min(limit, by_memory) : by_memory;
-    }
-    return limit;
-  }
-
   // Counted on the geometry as the driver returned it, before anything is copied: a feature over
   // the limit costs what the driver built, nothing more.
   void count_vertices(const OGRGeometry& geometry, const std::string& source) {
-    vertices_seen_ += vertex_bound(geometry);
-    if (options_.max_vertices > 0 && vertices_seen_ > options_.max_vertices)
+    SeedReadReport& r = out_.report;
+    int64_t points = 0;
+    r.vertices_read += vertex_bound(geometry, points);
+    points_seen_ += points;
+    r.reading_bytes = reading_bytes(features_seen_for_memory_ += 1, points_seen_, r.vertices_read - points_seen_);
+    if (options_.max_vertices > 0 && r.vertices_read > options_.max_vertices)
       throw Error(ErrorKind::too_large, "the seed data has more than " + std::to_string(options_.max_vertices) +
                                             " vertices, the limit (reached at " + source + ")");
-    if (options_.max_memory_bytes > 0 && vertices_seen_ > options_.max_memory_bytes / kReadingBytesPerVertex)
-      throw Error(ErrorKind::too_large,
-                  "reading the seed data needs more than the memory limit of " +
-                      std::to_string(options_.max_memory_bytes >> 20) + " MiB (" + std::to_string(vertices_seen_) +
-                      " vertices at about " + std::to_string(kReadingBytesPerVertex) + " bytes each, reached at " +
-                      source + ")");
+    if (options_.max_memory_bytes > 0 && r.reading_bytes > options_.max_memory_bytes)
+      throw Error(ErrorKind::too_large, "reading the seed data needs more than the memory limit of " +
+                                            std::to_string(options_.max_memory_bytes >> 20) + " MiB (" +
+                                            std::to_string(r.vertices_read) + " vertices, reached at " + source + ")");
   }
 
   static void check_vertices(const OGRGeometry& part, const std::string& source, bool geographic, const char* stage) {
@@ -772,7 +767,8 @@ class Reader {
   const gdal::ConfinedScope* confinement_;  // null: not confined
   std::vector<std::string> drivers_;        // passed to GDALOpenEx; empty = any
   int64_t features_seen_ = 0;               // counted only with a max_features limit
-  int64_t vertices_seen_ = 0;               // vertex_bound() of every feature read so far
+  int64_t points_seen_ = 0;                 // of SeedReadReport::vertices_read, those of points
+  int64_t features_seen_for_memory_ = 0;    // non-empty features counted by count_vertices
   detail::InputTally tally_;                // what the inputs declared before they were opened
   std::vector<gdal::DatasetPtr> datasets_;
   std::vector<LayerRef> layers_;

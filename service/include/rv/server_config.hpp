@@ -8,7 +8,7 @@
 //     "data_dir": "./rvoronoi-data",        job store (jobs.sqlite) and result files
 //     "public_url": "",                     base of absolute links; "" = from the Host header
 //     "http": { "max_body_bytes": 67108864, "max_header_bytes": 16384,
-//               "request_timeout_s": 30, "io_threads": 2 },
+//               "request_timeout_s": 30, "io_threads": 2, "max_connections": 0 },
 //     "jobs": { "workers": 2, "queue_length": 16, "threads_per_job": 0,
 //               "job_timeout_s": 3600, "shutdown_grace_s": 20 },
 //     "limits": { "max_cells": 17179869184, "max_memory_bytes": 0,
@@ -41,6 +41,9 @@ struct HttpConfig {
   int64_t max_header_bytes = 16 * 1024;        // request headers above this: 431
   double request_timeout_s = 30.0;  // reading one request / writing one response, whole
   int io_threads = 2;               // threads running the network event loop
+  // Connections open at once; beyond it a new connection replaces the one that has waited
+  // longest for its request (503 when every one is busy). 0 = from the open-file limit.
+  int64_t max_connections = 0;
 };
 
 struct JobsConfig {

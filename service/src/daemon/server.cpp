@@ -8,6 +8,8 @@
 
 #include <atomic>
 #include <boost/asio/ip/tcp.hpp>
+#include <boost/asio/steady_timer.hpp>
+#include <boost/asio/write.hpp>
 #include <boost/asio/strand.hpp>
 #include <boost/beast/core.hpp>
 #include <boost/beast/http.hpp>
@@ -21,6 +23,7 @@
 #include "rv/store_jobs.hpp"
 #include "server_api.hpp"
 #include "server_auth.hpp"
+#include "server_connections.hpp"
 #include "server_jobs.hpp"
 #include "server_util.hpp"
 
@@ -73,11 +76,13 @@ struct FileSliceBody {
 };
 
 struct Shared {
-  Shared(const ServerConfig& c, daemon::Api& a) : config(c), api(a), auth(c.auth) {}
+  Shared(const ServerConfig& c, daemon::Api& a)
+      : config(c), api(a), auth(c.auth), connections(daemon::connection_cap(c.http.max_connections)) {}
   const ServerConfig& config;
   daemon::Api& api;
   const daemon::Authenticator auth;
   std::atomic<int> in_flight{0};  // requests handed to the Api whose response is not yet written
+  daemon::ConnectionTable connections;
 };
 
 std::string json_escape(const std::string& s) { return json_text(nlohmann::json(s)); }
@@ -85,8 +90,15 @@ std::string json_escape(const std::string& s) { return json_text(nlohmann::json(
 class Session : public std::enable_shared_from_this<Session> {
  public:
   Session(tcp::socket&& socket, Shared& shared) : stream_(std::move(socket)), shared_(shared) {}
+  ~Session() { shared_.connections.remove(id_); }
 
   void run() {
+    // Evicting a session closes its socket on its strand; its pending read then ends it.
+    id_ = shared_.connections.add([weak = weak_from_this(), executor = stream_.get_executor()] {
+      net::post(executor, [weak] {
+        if (auto self = weak.lock()) self->close();
+      });
+    });
     net::dispatch(stream_.get_executor(), beast::bind_front_handler(&Session::read_request, shared_from_this()));
   }
 
@@ -97,6 +109,7 @@ class Session : public std::enable_shared_from_this<Session> {
   }
 
   void read_request() {
+    shared_.connections.set_waiting(id_, true);
     parser_.emplace();
     parser_->header_limit(static_cast<std::uint32_t>(shared_.config.http.max_header_bytes));
     parser_->body_limit(static_cast<std::uint64_t>(shared_.config.http.max_body_bytes));
@@ -169,6 +182,7 @@ class Session : public std::enable_shared_from_this<Session> {
       return close();
     }
 
+    shared_.connections.set_waiting(id_, false);
     const auto& req = parser_->get();
     method_ = std::string(req.method_string());
     target_ = std::string(req.target());
@@ -298,12 +312,13 @@ class Session : public std::enable_shared_from_this<Session> {
   bool keep_alive_ = false;
   std::chrono::steady_clock::time_point started_ = std::chrono::steady_clock::now();
   char scratch_[4096];
+  daemon::ConnectionTable::Id id_ = 0;
 };
 
 class Listener : public std::enable_shared_from_this<Listener> {
  public:
   Listener(net::io_context& ioc, tcp::acceptor&& acceptor, Shared& shared)
-      : ioc_(ioc), acceptor_(std::move(acceptor)), shared_(shared) {}
+      : ioc_(ioc), acceptor_(std::move(acceptor)), shared_(shared), backoff_(ioc) {}
 
   void run() { accept(); }
   void close() {
@@ -319,13 +334,64 @@ class Listener : public std::enable_shared_from_this<Listener> {
   }
   void on_accept(beast::error_code ec, tcp::socket socket) {
     if (ec == net::error::operation_aborted || !acceptor_.is_open()) return;
-    if (!ec) std::make_shared<Session>(std::move(socket), shared_)->run();
+    if (ec == net::error::no_descriptors || ec == beast::errc::too_many_files_open_in_system ||
+        ec == net::error::no_buffer_space || ec == net::error::no_memory) {
+      // Out of descriptors (or kernel memory): accepting again at once would fail again, in a
+      // tight loop. Free a descriptor by closing the connection that has waited longest, wait a
+      // moment, then accept again; the pending connections wait in the kernel's backlog.
+      shared_.connections.evict_oldest_waiting();
+      log_backoff(ec);
+      backoff_.expires_after(kAcceptBackoff);
+      backoff_.async_wait([self = shared_from_this()](beast::error_code wec) {
+        if (!wec) self->accept();
+      });
+      return;
+    }
+    if (!ec) {
+      if (shared_.connections.make_room()) {
+        std::make_shared<Session>(std::move(socket), shared_)->run();
+      } else {
+        refuse_busy(socket);
+      }
+    }
     accept();
   }
+
+  // Every connection is busy with a request: answer this one 503 at once and close it. A fresh
+  // socket's send buffer is empty, so the short answer is written without blocking.
+  static void refuse_busy(tcp::socket& socket) {
+    static const std::string answer =
+        "HTTP/1.1 503 Service Unavailable\r\nServer: rvoronoi\r\nContent-Type: application/problem+json\r\n"
+        "Retry-After: " + std::to_string(daemon::kRetryAfterSeconds) + "\r\nConnection: close\r\nContent-Length: " +
+        std::to_string(kBusyBody.size()) + "\r\n\r\n" + std::string(kBusyBody);
+    beast::error_code ec;
+    socket.non_blocking(true, ec);
+    net::write(socket, net::buffer(answer), ec);
+    socket.shutdown(tcp::socket::shutdown_both, ec);
+    socket.close(ec);
+  }
+
+  void log_backoff(const beast::error_code& ec) {
+    const auto now = std::chrono::steady_clock::now();
+    ++backoffs_;
+    if (now - last_log_ < std::chrono::seconds(1)) return;  // one line a second at most
+    last_log_ = now;
+    daemon::log_line("{\"time\":\"" + daemon::now_rfc3339() + "\",\"event\":\"accept_backoff\",\"error\":" +
+                     json_escape(ec.message()) + ",\"backoffs\":" + std::to_string(backoffs_) +
+                     ",\"connections\":" + std::to_string(shared_.connections.size()) + "}");
+  }
+
+  static constexpr auto kAcceptBackoff = std::chrono::milliseconds(50);
+  static constexpr std::string_view kBusyBody =
+      R"({"type":"https://rvoronoi.dev/problems/busy","title":"Server busy","status":503,)"
+      R"("detail":"every connection this server accepts is busy with a request; retry later"})";
 
   net::io_context& ioc_;
   tcp::acceptor acceptor_;
   Shared& shared_;
+  net::steady_timer backoff_;
+  std::chrono::steady_clock::time_point last_log_{};
+  int64_t backoffs_ = 0;
 };
 
 }  // namespace

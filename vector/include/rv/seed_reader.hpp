@@ -60,8 +60,9 @@ struct SeedReadOptions {
   int64_t max_vertices = 0;  // > 0: more vertices than this (after linearising curves) is too_large
   int64_t max_input_bytes = 0;   // > 0: zip archives whose members inflate to more than this
                                  // (all together, counted while inflating) are too_large
-  int64_t max_memory_bytes = 0;  // > 0: seeds whose reading would need more than this, estimated
-                                 // at kReadingBytesPerVertex a vertex, are too_large
+  int64_t max_memory_bytes = 0;  // > 0: seeds whose reading would need more than this
+                                 // (reading_bytes(), from declared counts and while reading) are
+                                 // too_large
   // For the geodesic metric on a projected grid: when the target CRS (the grid's: target_crs, or
   // the first layer's) is projected, the seeds are read into its geographic base CRS instead
   // (OSRCloneGeogCS: the same datum's longitude/latitude in degrees, x = longitude), which is
@@ -102,10 +103,17 @@ struct SeedReadOptions {
 // bounded by anything but the bytes it reads (uncompressed formats: the file's size).
 inline constexpr const char* kConfinedDrivers[] = {"GeoJSON", "GPKG", "ESRI Shapefile", "FlatGeobuf", "KML"};
 
-// The memory seed reading needs per vertex, for SeedReadOptions::max_memory_bytes: the geometry
-// the driver built, the reader's copies of it (checked parts, the conflict check's index) and the
-// SeedSet. Measured on the worst case, many single points (bench/README.md, "seed reading").
-inline constexpr int64_t kReadingBytesPerVertex = 400;
+// The memory seed reading needs at its peak, for SeedReadOptions::max_memory_bytes and the job's
+// memory estimate: the geometry the driver built, the reader's copies of it (checked parts, the
+// conflict check's index) and the SeedSet. A point (alone or in a multipoint) is a part of its
+// own, with its own copies: it costs more than a vertex of a line or polygon ring. The figures
+// are the measured peaks rounded up (bench/README.md, "Seed reading memory").
+inline constexpr int64_t kReadingBytesPerPoint = 700;
+inline constexpr int64_t kReadingBytesPerVertex = 320;  // of lines and polygon rings
+inline constexpr int64_t kReadingBytesPerFeature = 200;
+constexpr int64_t reading_bytes(int64_t features, int64_t points, int64_t vertices) {
+  return features * kReadingBytesPerFeature + points * kReadingBytesPerPoint + vertices * kReadingBytesPerVertex;
+}
 
 // Seed coordinates beyond this magnitude (in the CRS's units) are invalid_input: far beyond any
 // planet, they would overflow squared distances (at 1.3e154) and the grid's cell arithmetic.
@@ -127,6 +135,9 @@ struct SeedReadReport {
   int64_t points_removed = 0;          // a point repeated inside one feature (multipoint)
   int64_t polygons_repaired = 0;       // invalid polygon parts repaired (MakeValid), unclosed
                                        // rings closed, degenerate holes dropped
+  int64_t vertices_read = 0;           // vertices of the features as read (curves: the bound of
+                                       // what linearising makes of them), before any cleaning
+  int64_t reading_bytes = 0;           // reading_bytes() of what was read: the reading's peak
   int64_t conflicts = 0;               // pairs of parts of two owners that overlap or cross
                                        // (only non-zero with ConflictPolicy::lower_code)
   std::vector<std::string> warnings;   // one line each

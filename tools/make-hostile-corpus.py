@@ -1,0 +1,53 @@
+#!/usr/bin/python3
+"""Writes the hostile upload classes of issue 28 (tests/service/hostile_inputs.py) into the seed
+corpora of the fuzz_upload_* targets (tests/fuzz/corpus/fuzz_upload_<format>/), small enough for
+libFuzzer to mutate: the bombs with fewer points and bytes than in the daemon's test, still over
+the fuzz targets' limits (20 000 vertices, 8 MiB inflated). Run again after changing a builder;
+the files are committed.
+
+usage: tools/make-hostile-corpus.py
+"""
+import os
+import sys
+
+root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+sys.path.insert(0, os.path.join(root, "tests", "service"))
+import hostile_inputs as hi  # noqa: E402
+
+corpus = {
+    "gpkg": {
+        "owner_invalid_utf8.gpkg": hi.gpkg_owner_values((b"A\x80", b"A", b"B")),
+        "column_invalid_utf8.gpkg": hi.gpkg_column_named(b"o\x80"),
+        "schema_invalid_utf8.gpkg": hi.gpkg_broken_schema(),
+        "endless_view.gpkg": hi.gpkg_view_layer(),
+    },
+    "zip": {
+        "points.zip": hi.zipped_points(),
+        "points_invalid_utf8.zip": hi.zipped_points(raw_first=b"A\x80"),
+        "multipoint_bomb.zip": hi.shapefile_multipoint_bomb(200_000),
+        "inflates_16mib.zip": hi.zip_of_zeros(16 << 20),
+        "truncated.zip": hi.zip_truncated(),
+        "random.zip": hi.zip_random(),
+    },
+    "fgb": {
+        "points.fgb": hi.fgb(),
+        "names_invalid_utf8.fgb": hi.fgb_with_raw_text(b"s\x80\xffte"),
+        **{f"mutant_{i}.fgb": m for i, m in enumerate(hi.fgb_mutants(4, seed=7))},
+    },
+    "kml": {
+        "names_invalid_utf8.kml": hi.kml_with_raw_names(b"A\x80"),
+        "points.kml": hi.kml_with_raw_names(b"A"),
+    },
+    "geojson": {
+        "owner_invalid_utf8.geojson": hi.geojson_with_raw_owner(b"A\x80\xff"),
+        "owner_backslash_x.geojson": hi.geojson_with_raw_owner(b"A\\\\x80"),
+    },
+}
+
+for fmt, files in corpus.items():
+    directory = os.path.join(root, "tests", "fuzz", "corpus", "fuzz_upload_" + fmt)
+    os.makedirs(directory, exist_ok=True)
+    for name, data in files.items():
+        with open(os.path.join(directory, name), "wb") as f:
+            f.write(data)
+        print(f"{directory}/{name}: {len(data)} bytes")
