@@ -9,8 +9,12 @@
 #include <set>
 
 #include "rv/error.hpp"
+#include "rv/json_text.hpp"
 #include "rv/server_config.hpp"
 #include "rv/store_jobs.hpp"
+#include "rv/text.hpp"
+#include "server_api.hpp"
+#include "server_connections.hpp"
 #include "server_execute.hpp"
 #include "server_util.hpp"
 
@@ -91,6 +95,10 @@ TEST(Config, TheExampleFileHoldsTheDefaults) {
   EXPECT_EQ(e.limits.max_cells, d.limits.max_cells);
   EXPECT_EQ(e.limits.max_memory_bytes, d.limits.max_memory_bytes);
   EXPECT_EQ(e.limits.validate_max_cells, d.limits.validate_max_cells);
+  EXPECT_EQ(e.limits.max_features, d.limits.max_features);
+  EXPECT_EQ(e.limits.max_vertices, d.limits.max_vertices);
+  EXPECT_EQ(e.limits.max_input_bytes, d.limits.max_input_bytes);
+  EXPECT_EQ(e.http.max_connections, d.http.max_connections);
 }
 
 TEST(Config, MistakesAreRefusedNamingTheKey) {
@@ -169,6 +177,127 @@ TEST(Store, OpensADatabaseWithoutTheFormatsColumn) {
     updated.formats.clear();
     store.update(updated);
   }
+}
+
+// A store written by an older build may hold bytes that are not UTF-8 in any text column (the
+// message quoted a damaged upload) and JSON columns that hold them too: the record opens, its
+// text is escaped, and everything about it can be written out as JSON again.
+TEST(Store, RecordsWithInvalidUtf8OpenEscaped) {
+  const auto dir = temp_dir("store_utf8");
+  const std::string id = rv::daemon::new_job_id();
+  { rv::JobStore create(dir / "jobs.sqlite"); }
+  {
+    sqlite3* db = nullptr;
+    ASSERT_EQ(sqlite3_open((dir / "jobs.sqlite").c_str(), &db), SQLITE_OK);
+    const std::string sql =
+        "INSERT INTO jobs VALUES ('" + id + "', 'voronoi', 'failed', CAST(x'6e65617220225c78383022' || x'80ff' AS TEXT),"
+        " 'no-such-kind', 900, '2026-01-01T00:00:00.000Z', '', '', '2026-01-01T00:00:00.000Z',"
+        " CAST('{\"ownerField\": \"o' || x'80' || '\"}' AS TEXT), '[\"ownership\", 5]', 'not json',"
+        " CAST('{\"owners\": [\"A' || x'80' || '\"]}' AS TEXT), '[]')";
+    char* err = nullptr;
+    ASSERT_EQ(sqlite3_exec(db, sql.c_str(), nullptr, nullptr, &err), SQLITE_OK) << (err ? err : "");
+    sqlite3_close(db);
+  }
+  rv::JobStore store(dir / "jobs.sqlite");
+  const auto got = store.get(id);
+  ASSERT_TRUE(got);
+  EXPECT_EQ(got->message, "near \"\\\\x80\"\\x80\\xFF");  // typed "\x80" kept apart from the bytes
+  EXPECT_TRUE(rv::is_valid_utf8(got->message));
+  EXPECT_EQ(got->progress, 100);
+  EXPECT_EQ(got->inputs.at("ownerField"), "o\\x80");
+  EXPECT_EQ(got->outputs, (std::vector<std::string>{"ownership"}));
+  EXPECT_TRUE(got->transmission.empty());
+  EXPECT_EQ(got->report.at("owners").at(0), "A\\x80");
+  const auto listed = store.list(10, 0);
+  ASSERT_EQ(listed.size(), 1u);
+  EXPECT_EQ(listed[0].message, got->message);
+  rv::JobRecord again = *got;
+  store.update(again);  // and it writes back
+  EXPECT_EQ(store.get(id)->message, got->message);
+}
+
+TEST(JsonText, InvalidUtf8IsWrittenEscapedNeverThrown) {
+  json doc = {{"label", std::string("A\x80")}, {"list", {std::string("\xff"), 1}}};
+  doc[std::string("k\xc3")] = "v";
+  EXPECT_THROW(doc.dump(), json::type_error);  // what used to abort the daemon
+  const std::string text = rv::json_text(doc);
+  const json back = json::parse(text);
+  EXPECT_EQ(back.at("label"), "A\\x80");
+  EXPECT_EQ(back.at("list").at(0), "\\xFF");
+  EXPECT_EQ(back.at("k\\xC3"), "v");
+  // Valid documents are written exactly as dump() writes them.
+  const json ok = {{"a", "\xc3\x98"}, {"b", {1, 2}}};
+  EXPECT_EQ(rv::json_text(ok, 2), ok.dump(2));
+  // Stored JSON text with raw bytes parses, the bytes escaped inside its strings.
+  EXPECT_EQ(rv::parse_stored_json(std::string("{\"a\": \"x\x80\"}")).at("a"), "x\\x80");
+  EXPECT_TRUE(rv::parse_stored_json("{").is_discarded());
+}
+
+TEST(Util, PreferIsReadAsRfc7240Says) {
+  using rv::daemon::prefers_respond_async;
+  EXPECT_TRUE(prefers_respond_async("respond-async"));
+  EXPECT_TRUE(prefers_respond_async("Respond-Async"));
+  EXPECT_TRUE(prefers_respond_async("wait=10, RESPOND-ASYNC"));
+  EXPECT_TRUE(prefers_respond_async(" respond-async ; x=1"));
+  EXPECT_TRUE(prefers_respond_async("return=minimal,respond-async"));
+  EXPECT_FALSE(prefers_respond_async(""));
+  EXPECT_FALSE(prefers_respond_async("wait=10"));
+  EXPECT_FALSE(prefers_respond_async("respond-asynchronously"));
+  EXPECT_FALSE(prefers_respond_async("x=respond-async"));
+}
+
+TEST(Util, SecretsInQueryStringsAreNotLogged) {
+  using rv::daemon::loggable_target;
+  EXPECT_EQ(loggable_target("/jobs?limit=2&access_token=abc"), "/jobs?limit=2&access_token=REDACTED");
+  EXPECT_EQ(loggable_target("/jobs?API_KEY=x&status=failed"), "/jobs?API_KEY=REDACTED&status=failed");
+  EXPECT_EQ(loggable_target("/jobs?acc%65ss_token=abc"), "/jobs?acc%65ss_token=REDACTED");
+  EXPECT_EQ(loggable_target("/jobs/abc/results"), "/jobs/abc/results");
+  EXPECT_EQ(loggable_target("/jobs?tokenize=1"), "/jobs?tokenize=1");
+  const std::string long_target = "/x?q=" + std::string(5000, 'a');
+  EXPECT_LT(loggable_target(long_target).size(), 600u);
+  EXPECT_TRUE(rv::is_valid_utf8(loggable_target("/j\xff?x=\x80")));
+}
+
+TEST(Api, ProblemsAreShortValidAndSay503sRetryAfter) {
+  const auto p = rv::daemon::problem_response(400, "t", "T", "crs '" + std::string(700000, 'W') + "\x80'", "/x");
+  EXPECT_LT(p.body.size(), rv::daemon::kMaxProblemDetail + 512);
+  const json doc = json::parse(p.body);
+  EXPECT_NE(doc.at("detail").get<std::string>().find("(700007 bytes)"), std::string::npos);
+  bool retry = false;
+  for (const auto& [name, value] : rv::daemon::problem_response(503, "t", "T", "busy", "").headers)
+    retry = retry || (name == "Retry-After" && value == std::to_string(rv::daemon::kRetryAfterSeconds));
+  EXPECT_TRUE(retry);
+  for (const auto& [name, value] : p.headers) EXPECT_NE(name, "Retry-After");
+  EXPECT_NO_THROW(json::parse(rv::daemon::last_resort_problem().body));
+}
+
+TEST(Connections, TheLongestWaitingConnectionMakesRoomAndBusyOnesStay) {
+  rv::daemon::ConnectionTable table(3);
+  std::vector<int> closed;
+  auto closer = [&](int n) { return [&closed, n] { closed.push_back(n); }; };
+  const auto a = table.add(closer(1));
+  const auto b = table.add(closer(2));
+  const auto c = table.add(closer(3));
+  table.set_waiting(a, false);  // a request in progress: never evicted
+  table.set_waiting(b, false);
+  table.set_waiting(b, true);   // waiting again since now: younger than c
+  EXPECT_TRUE(table.make_room());
+  EXPECT_EQ(closed, (std::vector<int>{3}));
+  table.remove(c);
+  const auto d = table.add(closer(4));
+  table.set_waiting(d, false);
+  EXPECT_TRUE(table.make_room());  // b is the only one waiting
+  EXPECT_EQ(closed, (std::vector<int>{3, 2}));
+  table.remove(b);
+  const auto e = table.add(closer(5));
+  table.set_waiting(e, false);
+  EXPECT_FALSE(table.make_room());  // a, d, e all busy: the newcomer is refused
+  table.remove(e);
+  EXPECT_TRUE(table.make_room());  // below the cap again
+  EXPECT_EQ(table.size(), 2u);
+  EXPECT_FALSE(table.evict_oldest_waiting());
+  EXPECT_EQ(rv::daemon::connection_cap(77), 77u);
+  EXPECT_GE(rv::daemon::connection_cap(0), 8u);
 }
 
 TEST(Store, PersistsAcrossReopenAndFailsInterruptedJobs) {
