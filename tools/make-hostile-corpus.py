@@ -1,12 +1,15 @@
 #!/usr/bin/python3
-"""Writes the hostile upload classes of issue 28 (tests/service/hostile_inputs.py) into the seed
-corpora of the fuzz_upload_* targets (tests/fuzz/corpus/fuzz_upload_<format>/), small enough for
-libFuzzer to mutate: the bombs with fewer points and bytes than in the daemon's test, still over
-the fuzz targets' limits (20 000 vertices, 8 MiB inflated). Run again after changing a builder;
-the files are committed.
+"""Writes the hostile input classes of issue 28 (tests/service/hostile_inputs.py) into the seed
+corpora of the fuzz targets: uploads of each format into tests/fuzz/corpus/fuzz_upload_<format>/,
+whole execute requests into tests/fuzz/corpus/fuzz_execute/. Small enough for libFuzzer to
+mutate: the bombs with fewer points and bytes than in the daemon's test, still over the fuzz
+targets' limits (20 000 vertices, 8 MiB inflated). Run again after changing a builder; the files
+are committed.
 
 usage: tools/make-hostile-corpus.py
 """
+import base64
+import json
 import os
 import sys
 
@@ -51,3 +54,36 @@ for fmt, files in corpus.items():
         with open(os.path.join(directory, name), "wb") as f:
             f.write(data)
         print(f"{directory}/{name}: {len(data)} bytes")
+
+
+def feature_collection(points):
+    return {"type": "FeatureCollection", "features": [
+        {"type": "Feature", "properties": {"state": s}, "geometry": {"type": "Point", "coordinates": c}}
+        for s, c in points]}
+
+
+def upload(data, media):
+    return {"value": base64.b64encode(data).decode(), "mediaType": media, "encoding": "base64"}
+
+
+requests = {
+    "long_crs": {"inputs": {"seeds": feature_collection([("A", [10, 55]), ("B", [11, 55])]), "resolution": 0.1,
+                            "ownerField": "state", "crs": "PROJCS[" + "W" * 100000}},
+    "huge_coordinates": {"inputs": {"seeds": feature_collection([("N", [1e308, 1e308]), ("S", [-1e308, -1e308])]),
+                                    "resolution": 1000, "ownerField": "state"}},
+    "both_poles": {"inputs": {"seeds": feature_collection([("N", [0, 90]), ("S", [10, -90])]), "resolution": 5,
+                              "ownerField": "state"}},
+    "zip_bomb_small": {"inputs": {"seeds": upload(hi.shapefile_multipoint_bomb(200_000), "application/zip"),
+                                  "resolution": 100}},
+    "gpkg_owner_invalid_utf8": {"inputs": {"seeds": upload(hi.gpkg_owner_values((b"A\x80", b"A", b"B")),
+                                                           "application/geopackage+sqlite3"),
+                                           "resolution": 100, "ownerField": "state"}},
+    "truncated_zip_missing_field": {"inputs": {"seeds": upload(hi.zip_truncated(), "application/zip"),
+                                               "resolution": 100, "ownerField": "nope"}},
+}
+directory = os.path.join(root, "tests", "fuzz", "corpus", "fuzz_execute")
+for name, request in requests.items():
+    text = json.dumps(request)
+    with open(os.path.join(directory, name), "w") as f:
+        f.write(text)
+    print(f"{directory}/{name}: {len(text)} bytes")

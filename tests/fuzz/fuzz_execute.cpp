@@ -8,7 +8,8 @@
 // max_body_bytes, 64 MiB by default), an exception other than rv::Error (e.g. nlohmann's
 // type_error escaping a check), an rv::Error of an undocumented kind, or an Execution breaking
 // its contract: seed paths outside this job's /vsimem/ directory, outputs and transmission
-// modes out of step, a missing or non-positive resolution, a non-finite extent.
+// modes out of step, a missing or non-positive resolution, a non-finite extent; a message or
+// owner label that is not valid UTF-8; not_found for an upload (it is bad input: 400).
 #include <cmath>
 #include <cstdint>
 #include <cstdlib>
@@ -20,6 +21,7 @@
 #include "rv/error.hpp"
 #include "rv/seed_reader.hpp"
 #include "rv/server_config.hpp"
+#include "rv/text.hpp"
 #include "server_execute.hpp"
 #include "server_util.hpp"
 
@@ -69,14 +71,19 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     read.confined = true;
     read.max_features = 2000;
     read.max_vertices = 20000;
+    read.max_input_bytes = 8 << 20;
+    read.max_memory_bytes = 64 << 20;
     try {
-      rv::load_seeds(read);
+      for (const std::string& label : rv::load_seeds(read).seeds.owner_labels()) require(rv::is_valid_utf8(label));
     } catch (const rv::Error& e) {
+      // Never not_found: the staged files are the server's own; a broken upload is bad input.
       const rv::ErrorKind k = e.kind();
       require(k == rv::ErrorKind::invalid_input || k == rv::ErrorKind::invalid_argument ||
-              k == rv::ErrorKind::conflict || k == rv::ErrorKind::too_large || k == rv::ErrorKind::not_found);
+              k == rv::ErrorKind::conflict || k == rv::ErrorKind::too_large);
+      require(rv::is_valid_utf8(e.what()));
     }
   } catch (const rv::Error& e) {
+    require(rv::is_valid_utf8(e.what()));
     const rv::ErrorKind k = e.kind();
     require(k == rv::ErrorKind::invalid_argument || k == rv::ErrorKind::invalid_input ||
             k == rv::ErrorKind::unsupported || k == rv::ErrorKind::too_large);
