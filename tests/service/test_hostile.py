@@ -408,12 +408,17 @@ def small_ones(tmp):
     if long_job:
         d.request("DELETE", f"/jobs/{long_job}", None, AUTH)
         wait_job(d, long_job)
+    # A dismissed job is "dismissed" at once; its worker is free once the cancellation lands.
+    end = time.time() + 30
+    while time.time() < end and (strict_json(get(d, "/health")[2], "health") or {}).get("jobs", {}).get("running"):
+        time.sleep(0.02)
 
     # The job's own peak memory: a small job after a large one does not report the large one's.
     big = post(d, body(demo, resolution=20))
     small = post(d, body(demo, resolution=2000))
     peaks = []
     for status, _, payload in (big, small):
+        check(status == 200, f"peak job: {status} {payload[:200]}")
         doc = strict_json(payload, "peak job")
         job = doc["ownership"]["href"].split("/jobs/")[1].split("/")[0] if status == 200 else None
         report = strict_json(get(d, f"/jobs/{job}/results/report")[2], "peak report") if job else {}

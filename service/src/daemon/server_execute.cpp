@@ -10,6 +10,7 @@
 
 #include "rv/error.hpp"
 #include "rv/grid.hpp"
+#include "rv/text.hpp"
 #include "server_util.hpp"
 
 namespace rv::daemon {
@@ -335,7 +336,7 @@ std::string checked_crs(const json& raw, const std::string& input) {
   for (const char* prefix : {"http://www.opengis.net/def/crs/EPSG/0/", "https://www.opengis.net/def/crs/EPSG/0/"}) {
     if (starts_with_ci(s, prefix)) {
       const std::string code = s.substr(std::string_view(prefix).size());
-      if (!all_digits(code)) bad(input, "EPSG URI without a numeric code: '" + s + "'");
+      if (!all_digits(code)) bad(input, "EPSG URI without a numeric code: '" + quote_input(s) + "'");
       return "EPSG:" + code;
     }
   }
