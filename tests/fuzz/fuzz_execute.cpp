@@ -74,7 +74,8 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     read.max_input_bytes = 8 << 20;
     read.max_memory_bytes = 64 << 20;
     try {
-      for (const std::string& label : rv::load_seeds(read).seeds.owner_labels()) require(rv::is_valid_utf8(label));
+      const rv::LoadedSeeds loaded = rv::load_seeds(read);
+      for (const std::string& label : loaded.seeds.owner_labels()) require(rv::is_valid_utf8(label));
     } catch (const rv::Error& e) {
       // Never not_found: the staged files are the server's own; a broken upload is bad input.
       const rv::ErrorKind k = e.kind();

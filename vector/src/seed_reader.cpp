@@ -784,6 +784,9 @@ class Reader {
 
 LoadedSeeds load_seeds(const SeedReadOptions& options) {
   gdal_init();
+  // Whatever GDAL says outside the reader's own captures (choosing layers, closing datasets) is
+  // kept off stderr: in the daemon that is the structured log, and the text is the data's.
+  gdal::ErrorCapture quiet;
   LoadedSeeds out;
   if (!options.confined) {
     Reader reader(options, out, nullptr);
