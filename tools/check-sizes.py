@@ -1,0 +1,153 @@
+#!/usr/bin/python3
+"""The house's size limits (issue 29): no function in raster/, vector/ or service/ longer than
+--max-function lines (default 120) and no source file longer than --max-file lines (default
+1000). Prints every violation and exits 1 if there is one; --report lists the largest
+functions and files whatever the limits.
+
+A function is a brace block opened at namespace or class scope whose header (the text since the
+previous ';', '{' or '}' at that scope) has a parameter list and is not a class, struct, union,
+enum, namespace, or initialiser. Its length runs from the header's first line to the closing
+brace, lambdas and local classes inside it included. Comments and string literals (raw ones
+too) are skipped when braces are matched.
+
+usage: tools/check-sizes.py [--max-function N] [--max-file N] [--report] [DIR...]
+"""
+import os
+import re
+import sys
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+SOURCE_EXT = (".cpp", ".hpp", ".h", ".cc")
+NOT_FUNCTION = re.compile(r"\b(class|struct|union|enum|namespace)\b|=\s*$|^\s*(extern\s+\"C\")")
+
+
+def strip_code(text):
+    """The text with comments and string/char literals blanked (newlines kept)."""
+    out = []
+    i, n = 0, len(text)
+    while i < n:
+        c = text[i]
+        if text.startswith("//", i):
+            j = text.find("\n", i)
+            j = n if j < 0 else j
+            out.append(" " * (j - i))
+            i = j
+        elif text.startswith("/*", i):
+            j = text.find("*/", i + 2)
+            j = n if j < 0 else j + 2
+            out.append(re.sub(r"[^\n]", " ", text[i:j]))
+            i = j
+        elif c == "R" and text.startswith('R"', i) and (i == 0 or not (text[i - 1].isalnum() or text[i - 1] == "_")):
+            m = re.match(r'R"([^(\s]*)\(', text[i:])
+            if not m:
+                out.append(c)
+                i += 1
+                continue
+            end = text.find(")" + m.group(1) + '"', i)
+            j = n if end < 0 else end + len(m.group(1)) + 2
+            out.append(re.sub(r"[^\n]", " ", text[i:j]))
+            i = j
+        elif c in "\"'":
+            j = i + 1
+            while j < n and text[j] != c:
+                j += 2 if text[j] == "\\" else 1
+            j = min(j + 1, n)
+            out.append(re.sub(r"[^\n]", " ", text[i:j]))
+            i = j
+        else:
+            out.append(c)
+            i += 1
+    return "".join(out)
+
+
+def functions(path):
+    """(name, first line, line count) of every function definition in the file."""
+    code = strip_code(open(path, encoding="utf-8", errors="replace").read())
+    found = []
+    stack = []  # per open brace: True when it is a declaration scope (namespace, class, ...)
+    header_start = 0  # offset where the current header begins at a declaration scope
+    depth_fn = None  # index into stack of the function being measured
+    fn_start = 0
+    for i, c in enumerate(code):
+        if c in ";{}" and (not stack or stack[-1]):
+            pass
+        if c == "{":
+            in_decl = not stack or stack[-1]
+            if in_decl and depth_fn is None:
+                header = code[header_start:i]
+                is_fn = "(" in header and ")" in header and not NOT_FUNCTION.search(header.strip())
+                if is_fn:
+                    stack.append(False)
+                    depth_fn = len(stack) - 1
+                    fn_start = header_start + (len(header) - len(header.lstrip()))
+                    name = re.findall(r"([~\w:]+)\s*\(", header)
+                    fn_name = name[0] if name else "?"
+                    continue
+                stack.append(True)
+                header_start = i + 1
+            else:
+                stack.append(False)
+        elif c == "}":
+            if not stack:
+                continue
+            stack.pop()
+            if depth_fn is not None and len(stack) == depth_fn:
+                first = code.count("\n", 0, fn_start) + 1
+                last = code.count("\n", 0, i) + 1
+                found.append((fn_name, first, last - first + 1))
+                depth_fn = None
+            if not stack or stack[-1]:
+                header_start = i + 1
+        elif c == ";" and (not stack or stack[-1]) and depth_fn is None:
+            header_start = i + 1
+    return found
+
+
+def main():
+    args = sys.argv[1:]
+    max_fn, max_file, report = 120, 1000, False
+    dirs = []
+    while args:
+        a = args.pop(0)
+        if a == "--max-function":
+            max_fn = int(args.pop(0))
+        elif a == "--max-file":
+            max_file = int(args.pop(0))
+        elif a == "--report":
+            report = True
+        else:
+            dirs.append(a)
+    dirs = dirs or ["raster", "vector", "service"]
+    long_files, long_fns = [], []
+    for d in dirs:
+        for dirpath, _, names in os.walk(os.path.join(ROOT, d)):
+            for name in sorted(names):
+                if not name.endswith(SOURCE_EXT):
+                    continue
+                path = os.path.join(dirpath, name)
+                rel = os.path.relpath(path, ROOT)
+                lines = open(path, encoding="utf-8", errors="replace").read().count("\n")
+                if lines > max_file or report:
+                    long_files.append((lines, rel))
+                for fn, line, count in functions(path):
+                    if count > max_fn or report:
+                        long_fns.append((count, f"{rel}:{line}", fn))
+    long_files.sort(reverse=True)
+    long_fns.sort(reverse=True)
+    if report:
+        print(f"files over {max_file} lines: {sum(1 for n, _ in long_files if n > max_file)}; "
+              f"functions over {max_fn} lines: {sum(1 for n, _, _ in long_fns if n > max_fn)}")
+        for n, rel in long_files[:15]:
+            print(f"  file {n:5d}  {rel}")
+        for n, where, fn in long_fns[:25]:
+            print(f"  function {n:4d}  {where}  {fn}")
+        return 0
+    for n, rel in long_files:
+        print(f"{rel}: {n} lines, over the limit of {max_file}")
+    for n, where, fn in long_fns:
+        print(f"{where}: function {fn} has {n} lines, over the limit of {max_fn}")
+    return 1 if long_files or long_fns else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
