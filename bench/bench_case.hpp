@@ -27,8 +27,7 @@ inline SeedSet random_points(int n, double w, double h, uint64_t seed) {
   std::mt19937_64 rng(seed);
   std::uniform_real_distribution<double> ux(0, w), uy(0, h);
   SeedSet s;
-  for (int i = 0; i < n; ++i)
-    s.add_point(s.add_feature(s.owner_code(std::to_string(i + 1))), {ux(rng), uy(rng)});
+  for (int i = 0; i < n; ++i) s.add_point(s.add_feature(s.owner_code(std::to_string(i + 1))), {ux(rng), uy(rng)});
   return s;
 }
 

@@ -43,10 +43,14 @@ int main(int argc, char** argv) {
   int segments = 40000, threads = 0;
   int64_t width = 4000, height = 2500;
   for (int i = 1; i < argc; ++i) {
-    if (!std::strcmp(argv[i], "--segments") && i + 1 < argc) segments = std::atoi(argv[++i]);
-    else if (!std::strcmp(argv[i], "--width") && i + 1 < argc) width = std::atoll(argv[++i]);
-    else if (!std::strcmp(argv[i], "--height") && i + 1 < argc) height = std::atoll(argv[++i]);
-    else if (!std::strcmp(argv[i], "--threads") && i + 1 < argc) threads = std::atoi(argv[++i]);
+    if (!std::strcmp(argv[i], "--segments") && i + 1 < argc)
+      segments = std::atoi(argv[++i]);
+    else if (!std::strcmp(argv[i], "--width") && i + 1 < argc)
+      width = std::atoll(argv[++i]);
+    else if (!std::strcmp(argv[i], "--height") && i + 1 < argc)
+      height = std::atoll(argv[++i]);
+    else if (!std::strcmp(argv[i], "--threads") && i + 1 < argc)
+      threads = std::atoi(argv[++i]);
     else {
       std::fprintf(stderr, "usage: coast_bench [--segments N] [--width W] [--height H] [--threads N]\n");
       return 2;
@@ -62,14 +66,17 @@ int main(int argc, char** argv) {
   SeedSet seeds;
   const double w = static_cast<double>(width), h = static_cast<double>(height);
   // Owner A: an island left of centre; owner B: two islands on the right. Segments split 50/25/25.
-  seeds.add_polygon(seeds.add_feature(seeds.owner_code("A")), {wiggly_ring(0.3 * w, 0.5 * h, 0.2 * h, segments / 2, rng)});
+  seeds.add_polygon(seeds.add_feature(seeds.owner_code("A")),
+                    {wiggly_ring(0.3 * w, 0.5 * h, 0.2 * h, segments / 2, rng)});
   const int32_t b = seeds.owner_code("B");
   seeds.add_polygon(seeds.add_feature(b), {wiggly_ring(0.75 * w, 0.3 * h, 0.12 * h, segments / 4, rng)});
   seeds.add_polygon(seeds.add_feature(b), {wiggly_ring(0.75 * w, 0.75 * h, 0.12 * h, segments / 4, rng)});
 
   std::printf("coastline case: %lld x %lld cells (%.1e), %lld segments, 2 owners\n\n", (long long)width,
               (long long)height, static_cast<double>(width * height), (long long)seeds.geometric_site_count());
-  std::printf("| method | seconds | ns/cell | × exact | wrong cells | wrong owner cells | max Δd (cells) |\n|---|---|---|---|---|---|---|\n");
+  std::printf(
+      "| method | seconds | ns/cell | × exact | wrong cells | wrong owner cells | max Δd (cells) "
+      "|\n|---|---|---|---|---|---|---|\n");
   ComputeOptions o;
   o.threads = threads;
   o.method = Method::exact;

@@ -45,16 +45,18 @@ int main(int argc, char** argv) {
   for (int i = 1; i < argc; ++i) {
     if (!std::strcmp(argv[i], "--sizes") && i + 1 < argc) {
       sizes.clear();
-      for (char* tok = std::strtok(argv[++i], ","); tok; tok = std::strtok(nullptr, ",")) sizes.push_back(std::atoll(tok));
+      for (char* tok = std::strtok(argv[++i], ","); tok; tok = std::strtok(nullptr, ","))
+        sizes.push_back(std::atoll(tok));
     } else if (!std::strcmp(argv[i], "--owners") && i + 1 < argc) {
       owners = std::atoi(argv[++i]);
     } else if (!std::strcmp(argv[i], "--threads") && i + 1 < argc) {
       threads = std::atoi(argv[++i]);
     }
   }
-  std::printf("| grid | sites | owners | exact s | boundaries s | lines | vertices | tripoints | max residual (cells) | "
-              "limits (2 distances) s | limit vertices | per owner s | per-owner vertices | margin s |\n"
-              "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
+  std::printf(
+      "| grid | sites | owners | exact s | boundaries s | lines | vertices | tripoints | max residual (cells) | "
+      "limits (2 distances) s | limit vertices | per owner s | per-owner vertices | margin s |\n"
+      "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
   for (int64_t n : sizes) {
     const SeedSet s = scene(owners, static_cast<double>(n), 42);
     GridSpec g;

@@ -48,16 +48,21 @@ int main(int argc, char** argv) {
   bool strips_differ = false;
   std::vector<Method> methods = {Method::exact, Method::h_scan, Method::hv_scan, Method::brute_force};
   for (int i = 1; i < argc; ++i) {
-    if (!std::strcmp(argv[i], "--quick")) quick = true;
-    else if (!std::strcmp(argv[i], "--threads") && i + 1 < argc) threads = std::atoi(argv[++i]);
+    if (!std::strcmp(argv[i], "--quick"))
+      quick = true;
+    else if (!std::strcmp(argv[i], "--threads") && i + 1 < argc)
+      threads = std::atoi(argv[++i]);
     else if (!std::strcmp(argv[i], "--repeats") && i + 1 < argc) {
       repeats = std::max(1, std::atoi(argv[++i]));
       repeats_given = true;
-    }
-    else if (!std::strcmp(argv[i], "--max-cells") && i + 1 < argc) max_cells = std::atoll(argv[++i]);
-    else if (!std::strcmp(argv[i], "--min-cells") && i + 1 < argc) min_cells = std::atoll(argv[++i]);
-    else if (!std::strcmp(argv[i], "--warm")) warm = true;
-    else if (!std::strcmp(argv[i], "--strip-rows") && i + 1 < argc) strip_rows = std::atoll(argv[++i]);
+    } else if (!std::strcmp(argv[i], "--max-cells") && i + 1 < argc)
+      max_cells = std::atoll(argv[++i]);
+    else if (!std::strcmp(argv[i], "--min-cells") && i + 1 < argc)
+      min_cells = std::atoll(argv[++i]);
+    else if (!std::strcmp(argv[i], "--warm"))
+      warm = true;
+    else if (!std::strcmp(argv[i], "--strip-rows") && i + 1 < argc)
+      strip_rows = std::atoll(argv[++i]);
     else if (!std::strcmp(argv[i], "--methods") && i + 1 < argc) {
       // Exact first: it is the reference the others are compared with.
       methods = {Method::exact};
@@ -75,19 +80,20 @@ int main(int argc, char** argv) {
       return 2;
     }
   }
-  std::vector<Row> rows = {{100, 20, 18, 19, 25},          {300, 50, 177, 109, 137},
-                           {1000, 100, 3232, 1230, 1518},  {1000, 1000, 23895, 1239, 1536},
+  std::vector<Row> rows = {{100, 20, 18, 19, 25},           {300, 50, 177, 109, 137},
+                           {1000, 100, 3232, 1230, 1518},   {1000, 1000, 23895, 1239, 1536},
                            {3000, 10000, -1, 14375, 17066}, {10000, 50000, -1, 171055, 199673}};
   if (quick) rows.resize(3);
-  std::printf("| grid | seeds | method | ms (median) | ns/cell | warm ms (buffers reused) | warm ns/cell | × exact | "
-              "paper ms (1 thread, i5-3337U) | wrong cells | max Δd (cells) |\n");
+  std::printf(
+      "| grid | seeds | method | ms (median) | ns/cell | warm ms (buffers reused) | warm ns/cell | × exact | "
+      "paper ms (1 thread, i5-3337U) | wrong cells | max Δd (cells) |\n");
   std::printf("|---|---|---|---|---|---|---|---|---|---|---|\n");
   for (const Row& row : rows) {
     const int64_t cells = row.size * row.size;
     if (cells > max_cells || cells < min_cells) continue;
     const GridSpec g = bench::square_grid(row.size);
-    const SeedSet seeds = bench::random_points(row.seeds, static_cast<double>(row.size),
-                                               static_cast<double>(row.size), 2019);
+    const SeedSet seeds =
+        bench::random_points(row.seeds, static_cast<double>(row.size), static_cast<double>(row.size), 2019);
     double exact_ms = 0;
     NearestField exact_field;
     for (Method m : methods) {
@@ -146,8 +152,8 @@ int main(int argc, char** argv) {
         std::snprintf(line, sizeof(line),
                       "\n%lldx%lld %s in strips of %lld rows (one reused buffer): %.1f ms, %.2f ns/cell; "
                       "identical to the whole grid: %s",
-                      (long long)row.size, (long long)row.size, std::string(to_string(m)).c_str(), (long long)strip_rows,
-                      sm, sm * 1e6 / static_cast<double>(cells), same ? "yes" : "NO");
+                      (long long)row.size, (long long)row.size, std::string(to_string(m)).c_str(),
+                      (long long)strip_rows, sm, sm * 1e6 / static_cast<double>(cells), same ? "yes" : "NO");
         strip_lines += line;
         if (!same) strips_differ = true;
       }
@@ -159,11 +165,14 @@ int main(int argc, char** argv) {
         // exact == brute force cell for cell (asserted by the test suite), so it is the reference.
         v = compare_fields(seeds, f, exact_field);
       }
-      const double paper = m == Method::h_scan ? row.paper_h_ms
-                           : m == Method::hv_scan ? row.paper_hv_ms
-                           : m == Method::brute_force ? row.paper_brute_ms : -1;
-      const std::string warm_txt = warm_ms < 0 ? "—" : std::to_string(warm_ms).substr(0, std::to_string(warm_ms).find('.') + 2);
-      const std::string warm_ns = warm_ms < 0 ? "—" : std::to_string(warm_ms * 1e6 / static_cast<double>(cells)).substr(0, 5);
+      const double paper = m == Method::h_scan        ? row.paper_h_ms
+                           : m == Method::hv_scan     ? row.paper_hv_ms
+                           : m == Method::brute_force ? row.paper_brute_ms
+                                                      : -1;
+      const std::string warm_txt =
+          warm_ms < 0 ? "—" : std::to_string(warm_ms).substr(0, std::to_string(warm_ms).find('.') + 2);
+      const std::string warm_ns =
+          warm_ms < 0 ? "—" : std::to_string(warm_ms * 1e6 / static_cast<double>(cells)).substr(0, 5);
       std::printf("| %lldx%lld | %d | %s | %.1f | %.2f | %s | %s | %.1f | %s | %lld | %.3f |\n", (long long)row.size,
                   (long long)row.size, row.seeds, std::string(to_string(m)).c_str(), med,
                   med * 1e6 / static_cast<double>(cells), warm_txt.c_str(), warm_ns.c_str(), med / exact_ms,

@@ -41,7 +41,7 @@ struct Args {
   int coast_vertices = 500;
   bool scans = true;  // --no-scan: the exact method only
   int repeats = 1;
-  std::string only;  // one scenario (empty: all)
+  std::string only;   // one scenario (empty: all)
   std::string seeds;  // --seeds: a file scenario
   double res = 0.0, xmin = 0.0, ymin = 0.0, xmax = 0.0, ymax = 0.0;
 };
@@ -86,11 +86,16 @@ Args parse(int argc, char** argv) {
       continue;
     }
     const long v = std::strtol(argv[++i], nullptr, 10);
-    if (k == "--size") a.size = v;
-    else if (k == "--threads") a.threads = static_cast<int>(v);
-    else if (k == "--points") a.points = static_cast<int>(v);
-    else if (k == "--coast-vertices") a.coast_vertices = static_cast<int>(v);
-    else if (k == "--repeats") a.repeats = std::max(1, static_cast<int>(v));
+    if (k == "--size")
+      a.size = v;
+    else if (k == "--threads")
+      a.threads = static_cast<int>(v);
+    else if (k == "--points")
+      a.points = static_cast<int>(v);
+    else if (k == "--coast-vertices")
+      a.coast_vertices = static_cast<int>(v);
+    else if (k == "--repeats")
+      a.repeats = std::max(1, static_cast<int>(v));
     else {
       std::fprintf(stderr, "unknown option %s\n", k.c_str());
       std::exit(2);
@@ -147,8 +152,7 @@ double median(std::vector<double> v) {
   return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
 }
 
-void scenario(const char* name, const rv::SeedSet& s, const rv::GridSpec& g, int threads, bool scans,
-              int repeats) {
+void scenario(const char* name, const rv::SeedSet& s, const rv::GridSpec& g, int threads, bool scans, int repeats) {
   rv::MetricSpec geodesic;
   geodesic.kind = rv::MetricSpec::geodesic;
   std::vector<double> planar_wall, planar_cpu, geo_wall, geo_cpu, ratio_wall, ratio_cpu;
@@ -174,9 +178,8 @@ void scenario(const char* name, const rv::SeedSet& s, const rv::GridSpec& g, int
   const double planar_hv_ns = scans ? run(s, g, rv::Method::hv_scan, {}, threads, hv).wall_ns : 0.0;
   const double geo_hv_ns = scans ? run(s, g, rv::Method::hv_scan, geodesic, threads, hv).wall_ns : 0.0;
   const rv::ValidationStats st = scans ? rv::compare_fields(s, hv, exact) : rv::ValidationStats{};
-  std::printf("%-12s %lldx%lld cells, %lld geometric sites, %d thread(s)\n", name,
-              static_cast<long long>(g.width), static_cast<long long>(g.height),
-              static_cast<long long>(s.geometric_site_count()), threads);
+  std::printf("%-12s %lldx%lld cells, %lld geometric sites, %d thread(s)\n", name, static_cast<long long>(g.width),
+              static_cast<long long>(g.height), static_cast<long long>(s.geometric_site_count()), threads);
   std::printf(
       "  exact    planar %8.2f ns/cell   geodesic %8.2f ns/cell   ratio %6.2f   (wall, median of "
       "%d)\n",
@@ -186,14 +189,13 @@ void scenario(const char* name, const rv::SeedSet& s, const rv::GridSpec& g, int
       "threads)\n",
       median(planar_cpu), median(geo_cpu), median(ratio_cpu));
   if (scans)
-    std::printf("  hv-scan  planar %8.2f ns/cell   geodesic %8.2f ns/cell   ratio %6.2f\n",
-                planar_hv_ns, geo_hv_ns, geo_hv_ns / planar_hv_ns);
+    std::printf("  hv-scan  planar %8.2f ns/cell   geodesic %8.2f ns/cell   ratio %6.2f\n", planar_hv_ns, geo_hv_ns,
+                geo_hv_ns / planar_hv_ns);
   if (counters.calls > 0)
     std::printf("  segment searches %lld, inverse problems per search %.2f (calling thread only)\n",
                 static_cast<long long>(counters.calls),
                 static_cast<double>(counters.evaluations) / static_cast<double>(counters.calls));
-  std::printf("  field digests: planar %016llx, geodesic %016llx\n",
-              static_cast<unsigned long long>(digest(planar)),
+  std::printf("  field digests: planar %016llx, geodesic %016llx\n", static_cast<unsigned long long>(digest(planar)),
               static_cast<unsigned long long>(digest(exact)));
   if (scans)
     std::printf("  geodesic hv-scan vs exact: %lld wrong cells, max error %.3f m (%.3f cells)\n",
@@ -217,7 +219,8 @@ int main(int argc, char** argv) {
     rv::SeedSet s;
     std::mt19937_64 rng(1);
     std::uniform_real_distribution<double> lon(g.xmin, g.xmax()), lat(g.ymin(), g.ymax);
-    for (int i = 0; i < a.points; ++i) s.add_point(s.add_feature(s.owner_code(std::to_string(i % 7))), {lon(rng), lat(rng)});
+    for (int i = 0; i < a.points; ++i)
+      s.add_point(s.add_feature(s.owner_code(std::to_string(i % 7))), {lon(rng), lat(rng)});
     scenario("points", s, g, a.threads, a.scans, a.repeats);
   }
   if (a.only.empty() || a.only == "coastlines") {

@@ -31,8 +31,8 @@ int main(int argc, char** argv) {
     grid.crs = loaded.crs.wkt;
     rv::ComputeOptions options;
     options.method = rv::parse_method(argv[7]);
-    options.metric = rv::resolve_metric(rv::MetricRequest::geodesic, true, loaded.crs.semi_major,
-                                        loaded.crs.flattening);
+    options.metric =
+        rv::resolve_metric(rv::MetricRequest::geodesic, true, loaded.crs.semi_major, loaded.crs.flattening);
     const rv::NearestField field = rv::compute(loaded.seeds, grid, options);
     rv::GeoTiffOptions out;
     out.units = "m";

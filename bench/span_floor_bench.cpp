@@ -49,9 +49,8 @@ using VecI4 = int32_t __attribute__((vector_size(16)));
 // One row's spans into row scratch (td, ti): 4 cells at a time, the last vector of a span moved
 // back to end at the span's end (it rewrites cells of the same span with the same values), so
 // only spans shorter than 4 cells take the scalar loop.
-__attribute__((target("avx2"))) void span_row(const Span* sp, const Span* end, const double* ax,
-                                              const double* ay, double y, const double* px,
-                                              float* td, int32_t* ti) {
+__attribute__((target("avx2"))) void span_row(const Span* sp, const Span* end, const double* ax, const double* ay,
+                                              double y, const double* px, float* td, int32_t* ti) {
   for (; sp != end; ++sp) {
     const double a = ax[sp->site], ey = y - ay[sp->site], ey2 = ey * ey;
     if (sp->c1 - sp->c0 >= 4) {
@@ -62,8 +61,8 @@ __attribute__((target("avx2"))) void span_row(const Span* sp, const Span* end, c
         std::memcpy(&x, px + c, sizeof(x));
         const VecD4 e = x - a;
         const VecD4 key = e * e + ey2;
-        const VecF4 d = __builtin_convertvector(
-            reinterpret_cast<VecD4>(_mm256_sqrt_pd(reinterpret_cast<__m256d>(key))), VecF4);
+        const VecF4 d =
+            __builtin_convertvector(reinterpret_cast<VecD4>(_mm256_sqrt_pd(reinterpret_cast<__m256d>(key))), VecF4);
         std::memcpy(td + c, &d, sizeof(d));
         std::memcpy(ti + c, &id, sizeof(id));
         if (c + 4 >= sp->c1) break;
@@ -119,8 +118,8 @@ int main(int argc, char** argv) {
       }
     count += spans[r].size();
   }
-  std::printf("spans: %zu, %.1f per row, %.1f cells each\n", count,
-              static_cast<double>(count) / kSize, static_cast<double>(kSize * kSize) / count);
+  std::printf("spans: %zu, %.1f per row, %.1f cells each\n", count, static_cast<double>(count) / kSize,
+              static_cast<double>(kSize * kSize) / count);
 
   // Sites and cell centres in the engine's local frame (relative to the grid origin).
   std::vector<double> ax(seeds.sites().size()), ay(ax.size()), px(kSize);
@@ -144,20 +143,19 @@ int main(int argc, char** argv) {
         for (int64_t band = t; band * kBandRows < kSize; band += threads)
           for (int64_t r = band * kBandRows; r < std::min(kSize, (band + 1) * kBandRows); ++r) {
             const std::vector<Span>& row = spans[static_cast<size_t>(r)];
-            span_row(row.data(), row.data() + row.size(), ax.data(), ay.data(), g.local_y(r),
-                     px.data(), td.data(), ti.data());
+            span_row(row.data(), row.data() + row.size(), ax.data(), ay.data(), g.local_y(r), px.data(), td.data(),
+                     ti.data());
             detail::put_row(dist.row(r), site.row(r), td.data(), ti.data(), kSize, true);
           }
         detail::store_fence();
       });
     for (std::thread& th : pool) th.join();
-    ms.push_back(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() *
-                 1e3);
+    ms.push_back(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() * 1e3);
   }
   std::sort(ms.begin(), ms.end());
   const size_t bytes = static_cast<size_t>(kSize * kSize) * 4;
-  const bool same = std::memcmp(site.data(), f.site.data(), bytes) == 0 &&
-                    std::memcmp(dist.data(), f.distance.data(), bytes) == 0;
+  const bool same =
+      std::memcmp(site.data(), f.site.data(), bytes) == 0 && std::memcmp(dist.data(), f.distance.data(), bytes) == 0;
   std::printf(
       "span cell loop, %d threads: median %.1f ms, min %.1f ms (%d repeats); "
       "identical to the engine: %s\n",

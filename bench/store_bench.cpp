@@ -88,8 +88,7 @@ void fill_interleaved16(const Buffers& b, int64_t c0, int64_t c1, float d, int32
   if constexpr (kStream) _mm_sfence();
 }
 
-__attribute__((target("avx"))) void fill_nt32(const Buffers& b, int64_t c0, int64_t c1, float d,
-                                              int32_t s) {
+__attribute__((target("avx"))) void fill_nt32(const Buffers& b, int64_t c0, int64_t c1, float d, int32_t s) {
   const __m256 dv = _mm256_set1_ps(d);
   const __m256i sv = _mm256_set1_epi32(s);
   for (int64_t c = c0; c < c1; c += 8) {
@@ -127,10 +126,14 @@ int main(int argc, char** argv) {
   int64_t offset = 0;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
-    if (a == "--cells" && i + 1 < argc) cells = std::atoll(argv[++i]);
-    else if (a == "--threads" && i + 1 < argc) threads = std::atoi(argv[++i]);
-    else if (a == "--repeats" && i + 1 < argc) repeats = std::atoi(argv[++i]);
-    else if (a == "--offset" && i + 1 < argc) offset = std::atoll(argv[++i]);
+    if (a == "--cells" && i + 1 < argc)
+      cells = std::atoll(argv[++i]);
+    else if (a == "--threads" && i + 1 < argc)
+      threads = std::atoi(argv[++i]);
+    else if (a == "--repeats" && i + 1 < argc)
+      repeats = std::atoi(argv[++i]);
+    else if (a == "--offset" && i + 1 < argc)
+      offset = std::atoll(argv[++i]);
     else {
       std::fprintf(stderr, "usage: store_bench [--cells N] [--threads N] [--repeats N] [--offset B]\n");
       return 2;
@@ -146,14 +149,14 @@ int main(int argc, char** argv) {
   Buffers b;
   b.cells = cells;
   b.distance = static_cast<float*>(faulted(static_cast<size_t>(cells) * sizeof(float), 0));
-  b.site = static_cast<int32_t*>(
-      faulted(static_cast<size_t>(cells) * sizeof(int32_t), static_cast<size_t>(offset)));
+  b.site = static_cast<int32_t*>(faulted(static_cast<size_t>(cells) * sizeof(int32_t), static_cast<size_t>(offset)));
   const bool avx = __builtin_cpu_supports("avx");
 
-  std::printf("%lld cells (%.0f MB written per repeat), %d thread(s), %d repeats, ids %lld bytes "
-              "off the distances' alignment\n\n",
-              static_cast<long long>(cells), static_cast<double>(cells) * 8 / 1e6, threads, repeats,
-              static_cast<long long>(offset));
+  std::printf(
+      "%lld cells (%.0f MB written per repeat), %d thread(s), %d repeats, ids %lld bytes "
+      "off the distances' alignment\n\n",
+      static_cast<long long>(cells), static_cast<double>(cells) * 8 / 1e6, threads, repeats,
+      static_cast<long long>(offset));
   std::printf("| stores | ms (median) | ms (min - max) | ns/cell | GB/s |\n|---|---|---|---|---|\n");
   const struct {
     const char* name;
@@ -171,8 +174,7 @@ int main(int argc, char** argv) {
     const std::vector<double> ms = run(b, k.fill, threads, repeats);
     const double med = ms[ms.size() / 2];
     std::printf("| %s | %.1f | %.1f - %.1f | %.3f | %.1f |\n", k.name, med, ms.front(), ms.back(),
-                med * 1e6 / static_cast<double>(cells),
-                static_cast<double>(cells) * 8 / (med * 1e-3) / 1e9);
+                med * 1e6 / static_cast<double>(cells), static_cast<double>(cells) * 8 / (med * 1e-3) / 1e9);
   }
   return 0;
 }

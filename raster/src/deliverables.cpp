@@ -39,7 +39,8 @@ SiteMetric::SiteMetric(const SeedSet& seeds, const std::vector<Polygon>& polygon
   for (size_t i = 0; i < polygons.size(); ++i) {
     const Polygon& poly = polygons[i];
     if (poly.area_site != seeds.polygons()[i].area_site)
-      throw Error(ErrorKind::invalid_argument, "site metric: polygon " + std::to_string(i) + " is not the seeds' polygon");
+      throw Error(ErrorKind::invalid_argument,
+                  "site metric: polygon " + std::to_string(i) + " is not the seeds' polygon");
     polygon_of_site_[static_cast<size_t>(poly.area_site)] = static_cast<int32_t>(i);
     auto slabs = std::make_unique<Slabs>();
     double y0 = std::numeric_limits<double>::infinity(), y1 = -y0;
@@ -120,8 +121,7 @@ double SiteMetric::lower_bound(const Vec3& q, const Box3& b) {
 // ---------------------------------------------------------------------------------------------
 // PlanarSiteMetric.
 
-PlanarSiteMetric::PlanarSiteMetric(const SeedSet& seeds, Vec2 origin)
-    : SiteMetric(seeds), origin_(origin) {}
+PlanarSiteMetric::PlanarSiteMetric(const SeedSet& seeds, Vec2 origin) : SiteMetric(seeds), origin_(origin) {}
 
 namespace {
 // The site in the frame relative to `o` (as the engine's LocalSite, whatever the grid).
@@ -139,8 +139,7 @@ LocalSite local_of(const Site& s, Vec2 o) {
 
 double PlanarSiteMetric::distance(Vec2 p, int32_t site) const {
   const Site& s = seeds().sites()[static_cast<size_t>(site)];
-  if (s.kind == SiteKind::area)
-    return inside_area(p, site) ? 0.0 : std::numeric_limits<double>::infinity();
+  if (s.kind == SiteKind::area) return inside_area(p, site) ? 0.0 : std::numeric_limits<double>::infinity();
   return std::sqrt(planar_key(p.x - origin_.x, p.y - origin_.y, local_of(s, origin_)));
 }
 
@@ -165,9 +164,7 @@ Vec2 PlanarSiteMetric::nearest_point(Vec2 p, int32_t site) const {
   return Vec2{origin_.x + l.ax + t * l.dx, origin_.y + l.ay + t * l.dy};
 }
 
-double PlanarSiteMetric::point_distance(Vec2 a, Vec2 b) const {
-  return std::hypot(a.x - b.x, a.y - b.y);
-}
+double PlanarSiteMetric::point_distance(Vec2 a, Vec2 b) const { return std::hypot(a.x - b.x, a.y - b.y); }
 
 // ---------------------------------------------------------------------------------------------
 // OwnerIndex: one bounding-volume hierarchy per owner, searched depth-first nearest child first
@@ -201,13 +198,11 @@ struct OwnerIndex::Tree {
     const double ex = n.box.x1 - n.box.x0, ey = n.box.y1 - n.box.y0, ez = n.box.z1 - n.box.z0;
     const int axis = ex >= ey && ex >= ez ? 0 : (ey >= ez ? 1 : 2);
     const int32_t mid = begin + (end - begin) / 2;
-    std::nth_element(items.begin() + begin, items.begin() + mid, items.begin() + end,
-                     [&](const auto& a, const auto& b) {
-                       auto mid = [&](const Box3& x) {
-                         return axis == 0 ? x.x0 + x.x1 : (axis == 1 ? x.y0 + x.y1 : x.z0 + x.z1);
-                       };
-                       return mid(a.second) < mid(b.second);
-                     });
+    std::nth_element(
+        items.begin() + begin, items.begin() + mid, items.begin() + end, [&](const auto& a, const auto& b) {
+          auto mid = [&](const Box3& x) { return axis == 0 ? x.x0 + x.x1 : (axis == 1 ? x.y0 + x.y1 : x.z0 + x.z1); };
+          return mid(a.second) < mid(b.second);
+        });
     const int32_t l = build(items, begin, mid);
     const int32_t r = build(items, mid, end);
     nodes[static_cast<size_t>(index)].left = l;
@@ -405,9 +400,8 @@ void check_metric(const NearestField& field, const SiteMetric& metric) {
                                  : "a LocatedGeodesicSiteMetric measures fields of projected geodesic grids only");
   const bool geodesic_metric = located_metric || dynamic_cast<const GeodesicSiteMetric*>(&metric) != nullptr;
   if ((field.metric.kind == MetricSpec::geodesic) != geodesic_metric)
-    throw Error(ErrorKind::invalid_argument,
-                std::string("the deliverables' metric must be the field's (") +
-                    std::string(to_string(field.metric.kind)) + ")");
+    throw Error(ErrorKind::invalid_argument, std::string("the deliverables' metric must be the field's (") +
+                                                 std::string(to_string(field.metric.kind)) + ")");
 }
 
 void check_whole_grid(const NearestField& field) {
@@ -482,8 +476,8 @@ constexpr int kMaxSliverDepth = 8;
 
 struct TripointSolver {
   const OwnerIndex& index;
-  double ftol;   // metric units
-  double step;   // finite-difference step, CRS units
+  double ftol;  // metric units
+  double step;  // finite-difference step, CRS units
 
   // Solves d_X = d_Y = d_Z from `start` (Gauss-Newton, numeric Jacobian, step halving).
   bool solve(const std::array<int32_t, 3>& o, Vec2 start, double max_move, Tripoint& out) const {
@@ -547,8 +541,7 @@ struct TripointSolver {
 
 }  // namespace
 
-BoundaryResult extract_boundaries(const NearestField& field, const OwnerIndex& index,
-                                  const BoundaryOptions& options) {
+BoundaryResult extract_boundaries(const NearestField& field, const OwnerIndex& index, const BoundaryOptions& options) {
   check_whole_grid(field);
   check_metric(field, index.metric());
   const GridSpec& g = field.site.grid();
@@ -613,8 +606,8 @@ BoundaryResult extract_boundaries(const NearestField& field, const OwnerIndex& i
           const Vec2 p = lerp(p0, p1, t);
           return index.nearest_of(p, x).distance - index.nearest_of(p, y).distance;
         };
-        const double t = t0 + (t1 - t0) * find_root([&](double u) { return f(t0 + (t1 - t0) * u); }, f(t0), f(t1),
-                                                     ftol, 1e-15);
+        const double t =
+            t0 + (t1 - t0) * find_root([&](double u) { return f(t0 + (t1 - t0) * u); }, f(t0), f(t1), ftol, 1e-15);
         const Vec2 p = lerp(p0, p1, t);
         const auto hx = index.nearest_of(p, x), hy = index.nearest_of(p, y);
         BoundaryVertex v{p, hx.site, hy.site, 0.5 * (hx.distance + hy.distance), std::abs(hx.distance - hy.distance)};
@@ -797,7 +790,8 @@ BoundaryResult extract_boundaries(const NearestField& field, const OwnerIndex& i
         for (const auto& [key, n] : nearest_to_outside) {
           const Vec2 q = result.tripoints[static_cast<size_t>(key.first)].p;
           const int k = items[n].first;
-          const bool facing = (k == 0 && q.y > y1) || (k == 1 && q.x > x1) || (k == 2 && q.y < y0) || (k == 3 && q.x < x0);
+          const bool facing =
+              (k == 0 && q.y > y1) || (k == 1 && q.x > x1) || (k == 2 && q.y < y0) || (k == 3 && q.x < x0);
           std::vector<size_t> same;
           for (size_t i = 0; i < items.size(); ++i)
             if (i != n && pair_key(cross(i).owner_lo, cross(i).owner_hi) == key.second) same.push_back(i);
@@ -840,7 +834,7 @@ BoundaryResult extract_boundaries(const NearestField& field, const OwnerIndex& i
         if (centre_is_o0) {  // corners 1 and 3 are cut off
           add_link(node(0), node(1), pair);
           add_link(node(2), node(3), pair);
-        } else {             // corners 0 and 2 are cut off
+        } else {  // corners 0 and 2 are cut off
           add_link(node(3), node(0), pair);
           add_link(node(1), node(2), pair);
         }
@@ -880,10 +874,14 @@ BoundaryResult extract_boundaries(const NearestField& field, const OwnerIndex& i
         std::erase_if(around, [&](int32_t id) {
           const Vec2 q = result.tripoints[static_cast<size_t>(id)].p;
           switch (side) {
-            case 0: return !(q.y < e.y);
-            case 1: return !(q.x < e.x);
-            case 2: return !(q.y > e.y);
-            default: return !(q.x > e.x);
+            case 0:
+              return !(q.y < e.y);
+            case 1:
+              return !(q.x < e.x);
+            case 2:
+              return !(q.y > e.y);
+            default:
+              return !(q.x > e.x);
           }
         });
         const int32_t t = nearest_tripoint(cross(k), around);
@@ -926,7 +924,8 @@ BoundaryResult extract_boundaries(const NearestField& field, const OwnerIndex& i
     result.stats.vertices += static_cast<int64_t>(line.vertices.size());
     result.lines.push_back(std::move(line));
   }
-  for (const Tripoint& t : result.tripoints) result.stats.max_residual = std::max(result.stats.max_residual, t.residual);
+  for (const Tripoint& t : result.tripoints)
+    result.stats.max_residual = std::max(result.stats.max_residual, t.residual);
   // Deterministic order: by owner pair, then by first vertex.
   std::stable_sort(result.lines.begin(), result.lines.end(), [](const BoundaryLine& a, const BoundaryLine& b) {
     if (a.owner_a != b.owner_a) return a.owner_a < b.owner_a;
@@ -966,9 +965,7 @@ LimitResult extract_limits(const NearestField& field, const OwnerIndex& index, s
 
   for (double D : distances)
     for (int32_t owner : owners_to_do) {
-      auto dist = [&](Vec2 p) {
-        return owner == 0 ? index.nearest(p) : index.nearest_of(p, owner);
-      };
+      auto dist = [&](Vec2 p) { return owner == 0 ? index.nearest(p) : index.nearest_of(p, owner); };
       // Inside (d <= D) per cell. The Float32 field decides clear cases; cells within float
       // rounding of D, and (per owner) cells of other owners within reach, are measured exactly.
       // Per owner, blocks of kBlock x kBlock cells are first settled as a whole where the
@@ -992,8 +989,10 @@ LimitResult extract_limits(const NearestField& field, const OwnerIndex& index, s
             // curvature of a longitude/latitude block.
             radius = radius * 1.01 + 1e-6 * cell;
             const double v = dist(mid).distance;
-            if (v - radius > D) settled = 0;
-            else if (v + radius < D) settled = 1;
+            if (v - radius > D)
+              settled = 0;
+            else if (v + radius < D)
+              settled = 1;
           }
           for (int64_t r = r0; r < r1; ++r)
             for (int64_t c = c0; c < c1; ++c) {
@@ -1062,7 +1061,8 @@ LimitResult extract_limits(const NearestField& field, const OwnerIndex& index, s
             links.push_back({x[static_cast<size_t>(present[0])], x[static_cast<size_t>(present[1])]});
           } else if (present.size() == 4) {
             // Saddle: the centre's side decides which diagonal pair of corners is connected.
-            const Vec2 mid{g.xmin + (static_cast<double>(c) + 1.0) * g.res, g.ymax - (static_cast<double>(r) + 1.0) * g.res};
+            const Vec2 mid{g.xmin + (static_cast<double>(c) + 1.0) * g.res,
+                           g.ymax - (static_cast<double>(r) + 1.0) * g.res};
             const bool centre_in = dist(mid).distance <= D;
             if (centre_in == in[0]) {  // corners 0 and 2 connected: cut off 1 and 3
               links.push_back({x[0], x[1]});
@@ -1073,7 +1073,8 @@ LimitResult extract_limits(const NearestField& field, const OwnerIndex& index, s
             }
           }
         }
-      const Chains chains = chain_links(static_cast<int32_t>(verts.size()), links, std::vector<bool>(verts.size(), false));
+      const Chains chains =
+          chain_links(static_cast<int32_t>(verts.size()), links, std::vector<bool>(verts.size(), false));
       const double tol = options.simplify_cells * g.res;
       for (size_t k = 0; k < chains.node_lists.size(); ++k) {
         LimitLine line;
@@ -1105,8 +1106,9 @@ NearestField compute_other_owner(const SeedSet& seeds, const NearestField& own, 
   detail::Progress progress({}, nullptr, window.cell_count());
   const std::vector<LocalSite> local = to_local(seeds, grid);
   const std::vector<int32_t> geometric = detail::geometric_sites(seeds);
-  detail::EngineContext ctx{seeds, grid, window, local, geometric, std::numeric_limits<double>::infinity(),
-                            resolve_threads(threads), &progress, nullptr};
+  detail::EngineContext ctx{
+      seeds,     grid,   window, local, geometric, std::numeric_limits<double>::infinity(), resolve_threads(threads),
+      &progress, nullptr};
   std::vector<int32_t> owner_of_site(seeds.sites().size());
   for (size_t i = 0; i < owner_of_site.size(); ++i) owner_of_site[i] = seeds.site_owner(static_cast<int32_t>(i));
   const auto start = std::chrono::steady_clock::now();
@@ -1152,8 +1154,10 @@ SeedSet seeds_without(const SeedSet& seeds, int32_t excluded) {
     for (int32_t i : sites_of[f]) {
       const Site& site = seeds.sites()[static_cast<size_t>(i)];
       if (ring_edge[static_cast<size_t>(i)] || site.kind == SiteKind::area) continue;
-      if (site.kind == SiteKind::point) out.add_point(nf, site.a);
-      else out.add_polyline(nf, std::vector<Vec2>{site.a, site.b});
+      if (site.kind == SiteKind::point)
+        out.add_point(nf, site.a);
+      else
+        out.add_polyline(nf, std::vector<Vec2>{site.a, site.b});
     }
   }
   return out;
@@ -1210,8 +1214,9 @@ Raster<float> margin_raster(const NearestField& field, const OwnerIndex& index, 
   // The per-owner engine runs below would need the other owners' polygons in the grid's CRS,
   // which the field does not carry.
   if (field.geolocator)
-    throw Error(ErrorKind::unsupported, "the margin raster is not available for the geodesic metric on a projected "
-                                        "grid yet; use a geographic (longitude/latitude) grid, or metric planar");
+    throw Error(ErrorKind::unsupported,
+                "the margin raster is not available for the geodesic metric on a projected "
+                "grid yet; use a geographic (longitude/latitude) grid, or metric planar");
   const SeedSet& seeds = metric.seeds();
   const GridSpec& g = field.site.grid();
   const Window w = field.site.window();

@@ -20,10 +20,14 @@ namespace rv {
 
 std::string_view to_string(Method m) {
   switch (m) {
-    case Method::exact: return "exact";
-    case Method::hv_scan: return "hv-scan";
-    case Method::h_scan: return "h-scan";
-    case Method::brute_force: return "brute-force";
+    case Method::exact:
+      return "exact";
+    case Method::hv_scan:
+      return "hv-scan";
+    case Method::h_scan:
+      return "h-scan";
+    case Method::brute_force:
+      return "brute-force";
   }
   return "exact";
 }
@@ -50,19 +54,17 @@ int64_t estimate_memory(Method m, int64_t cells, int64_t sites, MetricSpec::Kind
   // Per site: the planar form, its entries in the bucket index (one for a point, about four for
   // a segment, which is registered in every bucket it crosses plus one on each side), and
   // (geodesic) the prepared site, its line and usually one piece.
-  auto per_site = static_cast<int64_t>(sizeof(LocalSite) + sizeof(Site) +
-                                       4 * sizeof(detail::BucketIndex::Entry));
+  auto per_site = static_cast<int64_t>(sizeof(LocalSite) + sizeof(Site) + 4 * sizeof(detail::BucketIndex::Entry));
   if (metric == MetricSpec::geodesic)
-    per_site += static_cast<int64_t>(sizeof(detail::GeoSite) + sizeof(GeographicLib::GeodesicLine) +
-                                     sizeof(detail::GeoPiece));
+    per_site +=
+        static_cast<int64_t>(sizeof(detail::GeoSite) + sizeof(GeographicLib::GeodesicLine) + sizeof(detail::GeoPiece));
   return cells * per_cell + sites * per_site + (64 << 20);
 }
 
 namespace detail {
 
 void Progress::check_cancel() const {
-  if (cancel_ && cancel_->load(std::memory_order_relaxed))
-    throw Error(ErrorKind::cancelled, "computation cancelled");
+  if (cancel_ && cancel_->load(std::memory_order_relaxed)) throw Error(ErrorKind::cancelled, "computation cancelled");
 }
 
 void Progress::advance(int64_t units) {
@@ -116,15 +118,15 @@ void brute_force(const EngineContext& ctx, const Ops ops, Raster<int32_t>& site,
 
 }  // namespace
 
-void locate_centres(const Geolocator& geolocator, const double* x, const double* y, double* lon,
-                    double* lat, size_t n) {
+void locate_centres(const Geolocator& geolocator, const double* x, const double* y, double* lon, double* lat,
+                    size_t n) {
   geolocator.to_lonlat(x, y, lon, lat, n);
   for (size_t i = 0; i < n; ++i)
     if (!std::isfinite(lon[i]) || !(std::abs(lat[i]) <= 90.0))
-      throw Error(ErrorKind::invalid_input,
-                  "geodesic metric: the cell centre (" + std::to_string(x[i]) + ", " + std::to_string(y[i]) +
-                      ") of the projected grid has no longitude/latitude (located at " + std::to_string(lon[i]) +
-                      ", " + std::to_string(lat[i]) + ")");
+      throw Error(ErrorKind::invalid_input, "geodesic metric: the cell centre (" + std::to_string(x[i]) + ", " +
+                                                std::to_string(y[i]) +
+                                                ") of the projected grid has no longitude/latitude (located at " +
+                                                std::to_string(lon[i]) + ", " + std::to_string(lat[i]) + ")");
 }
 
 void GeodesicOps::cells(int64_t col0, int64_t row, int64_t n, Cell* out) const {
@@ -159,8 +161,7 @@ namespace {
 // job's threads, the planar method there went from 4.03 to 3.63 ns per cell at 2 threads
 // (medians of 5 alternated runs). Rows are independent, so the result cannot depend on the
 // thread count.
-void apply_interiors(const InteriorSpans& spans, int threads, Raster<int32_t>& site,
-                     Raster<float>& distance) {
+void apply_interiors(const InteriorSpans& spans, int threads, Raster<int32_t>& site, Raster<float>& distance) {
   constexpr int64_t kRowsPerTask = 64;
   const auto rows = static_cast<int64_t>(spans.rows.size());
   parallel_for(threads, (rows + kRowsPerTask - 1) / kRowsPerTask, [&](int64_t task, int) {
@@ -224,8 +225,7 @@ std::vector<Polygon> geodesic_polygons(const SeedSet& seeds) {
     for (size_t k = 0; k < poly.rings.size(); ++k) {
       Ring& ring = poly.rings[k];
       double winding = 0.0;
-      for (size_t i = 0; i < ring.size(); ++i)
-        winding += Math::AngDiff(ring[i].x, ring[(i + 1) % ring.size()].x);
+      for (size_t i = 0; i < ring.size(); ++i) winding += Math::AngDiff(ring[i].x, ring[(i + 1) % ring.size()].x);
       const bool encircles_pole = std::abs(winding) > 180.0;
       if (k == 0) outer_raw = ring[0].x;
       if (!encircles_pole) {
@@ -305,14 +305,14 @@ void check_grid_polygons(const SeedSet& seeds, const std::vector<Polygon>* grid_
                 "geodesic metric on a projected grid: the seeds have polygons, so their copies in the grid's CRS "
                 "(ComputeOptions::grid_polygons) are needed for the interior test");
   if (grid_polygons->size() != seeds.polygons().size())
-    throw Error(ErrorKind::invalid_argument,
-                "geodesic metric on a projected grid: grid_polygons has " + std::to_string(grid_polygons->size()) +
-                    " polygons, the seeds " + std::to_string(seeds.polygons().size()));
+    throw Error(ErrorKind::invalid_argument, "geodesic metric on a projected grid: grid_polygons has " +
+                                                 std::to_string(grid_polygons->size()) + " polygons, the seeds " +
+                                                 std::to_string(seeds.polygons().size()));
   for (size_t i = 0; i < grid_polygons->size(); ++i)
     if ((*grid_polygons)[i].area_site != seeds.polygons()[i].area_site)
-      throw Error(ErrorKind::invalid_argument,
-                  "geodesic metric on a projected grid: grid_polygons[" + std::to_string(i) +
-                      "] is not the seeds' polygon of the same index (area sites differ)");
+      throw Error(ErrorKind::invalid_argument, "geodesic metric on a projected grid: grid_polygons[" +
+                                                   std::to_string(i) +
+                                                   "] is not the seeds' polygon of the same index (area sites differ)");
 }
 
 void check_geodesic_grid(const GridSpec& grid) {
@@ -322,8 +322,7 @@ void check_geodesic_grid(const GridSpec& grid) {
                 "geodesic metric: the grid's latitudes must lie within [-90, 90] (grid spans " +
                     std::to_string(grid.ymin()) + " .. " + std::to_string(grid.ymax) + ")");
   if (!(static_cast<double>(grid.width) * grid.res <= 360.0 + eps))
-    throw Error(ErrorKind::invalid_argument,
-                "geodesic metric: the grid spans more than 360 degrees of longitude");
+    throw Error(ErrorKind::invalid_argument, "geodesic metric: the grid spans more than 360 degrees of longitude");
   if (!std::isfinite(grid.xmin) || std::abs(grid.xmin) > 1080.0)
     throw Error(ErrorKind::invalid_argument, "geodesic metric: the grid's west edge is not a longitude");
 }
@@ -416,8 +415,7 @@ std::shared_ptr<const PreparedSeeds> prepare(const SeedSet& seeds, const GridSpe
   return prepare_checked(seeds, grid, options);
 }
 
-void compute_into(const SeedSet& seeds, const GridSpec& grid, const ComputeOptions& options,
-                  NearestField& out) {
+void compute_into(const SeedSet& seeds, const GridSpec& grid, const ComputeOptions& options, NearestField& out) {
   const auto start = std::chrono::steady_clock::now();
   check_inputs(seeds, grid, options);
   const Window window = options.window.value_or(grid.full_window());
@@ -473,15 +471,21 @@ void compute_into(const SeedSet& seeds, const GridSpec& grid, const ComputeOptio
   }
   progress.check_cancel();
   switch (options.method) {
-    case Method::brute_force: detail::run_brute_force(ctx, out.site, out.distance); break;
+    case Method::brute_force:
+      detail::run_brute_force(ctx, out.site, out.distance);
+      break;
     case Method::exact:
       if (geodesic)
         detail::run_exact_geodesic(ctx, out.site, out.distance);
       else
         detail::run_exact(ctx, out.site, out.distance);
       break;
-    case Method::h_scan: detail::run_scan(ctx, false, out.site, out.distance); break;
-    case Method::hv_scan: detail::run_scan(ctx, true, out.site, out.distance); break;
+    case Method::h_scan:
+      detail::run_scan(ctx, false, out.site, out.distance);
+      break;
+    case Method::hv_scan:
+      detail::run_scan(ctx, true, out.site, out.distance);
+      break;
   }
   if (spans) {
     out.contested_cells = spans->contested_cells;

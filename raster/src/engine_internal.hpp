@@ -43,11 +43,11 @@ struct EngineContext {
   Window window;
   const std::vector<LocalSite>& local;    // per site id (area sites hold their anchor point)
   const std::vector<int32_t>& geometric;  // ids of point and segment sites, ascending
-  double max_key;                  // max_distance in key units (planar: squared; geodesic: metres)
+  double max_key;                         // max_distance in key units (planar: squared; geodesic: metres)
   int threads;
   Progress* progress;
-  const GeoSites* geo = nullptr;   // set for the geodesic metric (then `local` serves only the
-                                   // scans' seeding, with longitudes unwrapped around the grid)
+  const GeoSites* geo = nullptr;  // set for the geodesic metric (then `local` serves only the
+                                  // scans' seeding, with longitudes unwrapped around the grid)
   // Polygon interiors of the window (null when there are no polygons). Kernels may skip the
   // work for cells inside them: apply_interiors() gives those cells their area site afterwards,
   // keeping only a lower site at distance exactly 0 (so a kernel must still report those).
@@ -88,7 +88,7 @@ class PreparedSeeds {
   const Geolocator* geolocator = nullptr;
   std::vector<LocalSite> local;
   std::vector<int32_t> geometric;
-  std::optional<detail::GeoSites> geo;              // geodesic metric
+  std::optional<detail::GeoSites> geo;               // geodesic metric
   std::unique_ptr<const detail::BucketIndex> index;  // planar metric
   double site_scale = 0.0;
   ~PreparedSeeds();
@@ -101,8 +101,7 @@ namespace rv::detail {
 // Locates n cell centres (grid CRS) on the ellipsoid: lon/lat degrees. Throws
 // rv::Error(invalid_input) when the geolocator gives a non-finite position or a latitude
 // outside [-90, 90] (a geolocator that breaks its contract must not produce silent garbage).
-void locate_centres(const Geolocator& geolocator, const double* x, const double* y, double* lon,
-                    double* lat, size_t n);
+void locate_centres(const Geolocator& geolocator, const double* x, const double* y, double* lon, double* lat, size_t n);
 
 // The metric as the kernels see it: a per-cell position, a comparison key per (cell, site), and
 // the conversion of a key to a distance. Kernels are templated on these so that the planar
@@ -143,7 +142,6 @@ struct GeodesicOps {
 void run_brute_force(const EngineContext& ctx, Raster<int32_t>& site, Raster<float>& distance);
 void run_exact(const EngineContext& ctx, Raster<int32_t>& site, Raster<float>& distance);
 void run_exact_geodesic(const EngineContext& ctx, Raster<int32_t>& site, Raster<float>& distance);
-void run_scan(const EngineContext& ctx, bool vertical_cycle, Raster<int32_t>& site,
-              Raster<float>& distance);
+void run_scan(const EngineContext& ctx, bool vertical_cycle, Raster<int32_t>& site, Raster<float>& distance);
 
 }  // namespace rv::detail

@@ -23,19 +23,21 @@
 #include <optional>
 #include <vector>
 
-#include "kernel_memory.hpp"
 #include "bucket_index.hpp"
 #include "engine_internal.hpp"
+#include "kernel_memory.hpp"
 #include "parallel.hpp"
 #include "rv/error.hpp"
 
 namespace rv::detail {
 namespace {
 
-constexpr int64_t kTile = 64;      // top-level tile edge, cells
-constexpr size_t kDominanceMax = 16;  // candidate lists longer than this skip the O(k^2) test
+constexpr int64_t kTile = 64;          // top-level tile edge, cells
+constexpr size_t kDominanceMax = 16;   // candidate lists longer than this skip the O(k^2) test
 constexpr size_t kLeafCandidates = 8;  // ...when they have at most this many candidates
-constexpr int64_t kLeafCells = 1024; // blocks this small are solved per cell (32x32: fewest instructions measured, with the dominance test)
+// Blocks this small are solved per cell (32 x 32: the fewest instructions counted, with the
+// dominance test).
+constexpr int64_t kLeafCells = 1024;
 
 struct Rect {  // local frame; x0 <= x1, y0 <= y1
   double x0, y0, x1, y1;
@@ -185,14 +187,11 @@ constexpr int64_t kLanes = 8;
 // distance is planar_distance_from_key(), rounded to float, as everywhere. The version for the
 // CPU's instruction set is picked at load time (RV_LANE_KERNEL).
 template <class V>
-RV_LANES_INLINE void argmin_block_lanes(const LocalSite* __restrict sites,
-                                        const double* __restrict ids, int k,
-                                        const double* __restrict px, int64_t w,
-                                        const double* __restrict py, int64_t h, double max_key,
-                                        double* __restrict best, double* __restrict best_id,
-                                        float* __restrict td, int32_t* __restrict ti,
-                                        int32_t* __restrict out_site, float* __restrict out_dist,
-                                        int64_t stride, bool stream) {
+RV_LANES_INLINE void argmin_block_lanes(const LocalSite* __restrict sites, const double* __restrict ids, int k,
+                                        const double* __restrict px, int64_t w, const double* __restrict py, int64_t h,
+                                        double max_key, double* __restrict best, double* __restrict best_id,
+                                        float* __restrict td, int32_t* __restrict ti, int32_t* __restrict out_site,
+                                        float* __restrict out_dist, int64_t stride, bool stream) {
   // Vectors per step: 8 cells either way where the registers allow (16 of them with AVX2).
   constexpr int U = kLanesOf<V> >= kLanes ? 1 : 2;
   static_assert(kLanes % (U * kLanesOf<V>) == 0, "padded rows are whole steps");
@@ -229,13 +228,11 @@ RV_LANES_INLINE void argmin_block_lanes(const LocalSite* __restrict sites,
   }
 }
 RV_LANE_KERNEL(void, argmin_block,
-               (const LocalSite* __restrict sites, const double* __restrict ids, int k,
-                const double* __restrict px, int64_t w, const double* __restrict py, int64_t h,
-                double max_key, double* __restrict best, double* __restrict best_id,
-                float* __restrict td, int32_t* __restrict ti, int32_t* __restrict out_site,
+               (const LocalSite* __restrict sites, const double* __restrict ids, int k, const double* __restrict px,
+                int64_t w, const double* __restrict py, int64_t h, double max_key, double* __restrict best,
+                double* __restrict best_id, float* __restrict td, int32_t* __restrict ti, int32_t* __restrict out_site,
                 float* __restrict out_dist, int64_t stride, bool stream),
-               (sites, ids, k, px, w, py, h, max_key, best, best_id, td, ti, out_site, out_dist,
-                stride, stream))
+               (sites, ids, k, px, w, py, h, max_key, best, best_id, td, ti, out_site, out_dist, stride, stream))
 #undef RV_ARGMIN_PASS
 #undef RV_SEGMENT_KEY
 #undef RV_POINT_KEY
@@ -271,14 +268,13 @@ struct PointCands {
 // dominates itself (0 > margin is false, margin > 0). Loop order i outer, j inner: the inner
 // loop is elementwise over j and vectorises (the clones' 4- or 8-wide compares).
 RV_KERNEL_CLONES void dominated_flags(const double* __restrict c0, const double* __restrict c1,
-                                      const double* __restrict c2, const double* __restrict c3,
-                                      int k, double margin, int64_t* __restrict dominated) {
+                                      const double* __restrict c2, const double* __restrict c3, int k, double margin,
+                                      int64_t* __restrict dominated) {
   for (int j = 0; j < k; ++j) dominated[j] = 0;
   for (int i = 0; i < k; ++i) {
     const double a0 = c0[i] + margin, a1 = c1[i] + margin, a2 = c2[i] + margin, a3 = c3[i] + margin;
     for (int j = 0; j < k; ++j)
-      dominated[j] |=
-          static_cast<int64_t>((c0[j] > a0) & (c1[j] > a1) & (c2[j] > a2) & (c3[j] > a3));
+      dominated[j] |= static_cast<int64_t>((c0[j] > a0) & (c1[j] > a1) & (c2[j] > a2) & (c3[j] > a3));
   }
 }
 
@@ -346,7 +342,10 @@ void for_quadrants(int64_t c0, int64_t r0, int64_t c1, int64_t r1, F&& f) {
 class ExactSolver {
  public:
   ExactSolver(const EngineContext& ctx, Raster<int32_t>& site, Raster<float>& distance)
-      : ctx_(ctx), site_(site), distance_(distance), own_index_(own_index(ctx)),
+      : ctx_(ctx),
+        site_(site),
+        distance_(distance),
+        own_index_(own_index(ctx)),
         index_(ctx.index != nullptr ? *ctx.index : *own_index_) {
     slack_ = rounding_slack(ctx);
     stream_ = streams_results(ctx.window);
@@ -357,18 +356,21 @@ class ExactSolver {
     const int64_t tiles_x = (w.width + kTile - 1) / kTile;
     const int64_t tiles_y = (w.height + kTile - 1) / kTile;
     std::vector<Worker> workers(static_cast<size_t>(ctx_.threads));
-    parallel_for(ctx_.threads, tiles_x * tiles_y, [&](int64_t t, int worker) {
-      Worker& wk = workers[static_cast<size_t>(worker)];
-      if (wk.stamp.empty()) wk.stamp.assign(ctx_.local.size(), -1);
-      const int64_t c0 = (t % tiles_x) * kTile, r0 = (t / tiles_x) * kTile;
-      const int64_t c1 = std::min(c0 + kTile, w.width), r1 = std::min(r0 + kTile, w.height);
-      solve_tile(wk, c0, r0, c1, r1);
-      ctx_.progress->advance((c1 - c0) * (r1 - r0));
-    }, [&](int) {
-      // Once per worker: only another thread reads the cells, after the join, so fencing per
-      // tile would only wait for the stores to drain more often.
-      if (stream_) store_fence();
-    });
+    parallel_for(
+        ctx_.threads, tiles_x * tiles_y,
+        [&](int64_t t, int worker) {
+          Worker& wk = workers[static_cast<size_t>(worker)];
+          if (wk.stamp.empty()) wk.stamp.assign(ctx_.local.size(), -1);
+          const int64_t c0 = (t % tiles_x) * kTile, r0 = (t / tiles_x) * kTile;
+          const int64_t c1 = std::min(c0 + kTile, w.width), r1 = std::min(r0 + kTile, w.height);
+          solve_tile(wk, c0, r0, c1, r1);
+          ctx_.progress->advance((c1 - c0) * (r1 - r0));
+        },
+        [&](int) {
+          // Once per worker: only another thread reads the cells, after the join, so fencing per
+          // tile would only wait for the stores to drain more often.
+          if (stream_) store_fence();
+        });
   }
 
  private:
@@ -406,9 +408,8 @@ class ExactSolver {
       std::vector<int32_t>& zero = wk.levels[0];
       zero.clear();
       const double touch = keep_bound(0.0);
-      index_.for_range(index_.clamp_x(rect.x0) - 1, index_.clamp_y(rect.y0) - 1,
-                       index_.clamp_x(rect.x1) + 1, index_.clamp_y(rect.y1) + 1,
-                       [&](const BucketIndex::Entry& e) {
+      index_.for_range(index_.clamp_x(rect.x0) - 1, index_.clamp_y(rect.y0) - 1, index_.clamp_x(rect.x1) + 1,
+                       index_.clamp_y(rect.y1) + 1, [&](const BucketIndex::Entry& e) {
                          if (site_rect_key(site_of(e), rect) <= touch) zero.push_back(e.id);
                        });
       std::sort(zero.begin(), zero.end());
@@ -417,9 +418,7 @@ class ExactSolver {
     }
     double upper = std::numeric_limits<double>::infinity();
     index_.near(0.5 * (rect.x0 + rect.x1), 0.5 * (rect.y0 + rect.y1),
-                [&](const BucketIndex::Entry& e) {
-                  upper = std::min(upper, site_rect_max_key(site_of(e), rect));
-                });
+                [&](const BucketIndex::Entry& e) { upper = std::min(upper, site_rect_max_key(site_of(e), rect)); });
     const double bound = keep_bound(upper);
     const double reach = std::sqrt(bound);
     std::vector<int32_t>& cands = wk.levels[0];
@@ -470,8 +469,7 @@ class ExactSolver {
     solve_point_block(wk, 0, c0, r0, c1, r1, true);
   }
 
-  void solve_point_block(Worker& wk, int depth, int64_t c0, int64_t r0, int64_t c1, int64_t r1,
-                         bool culled) {
+  void solve_point_block(Worker& wk, int depth, int64_t c0, int64_t r0, int64_t c1, int64_t r1, bool culled) {
     const PointCands& cands = wk.point_levels[depth];
     const size_t k = cands.size();
     if (k == 0) return fill_none(c0, r0, c1, r1);
@@ -488,8 +486,7 @@ class ExactSolver {
       size_t near1, near2;
       two_smallest(keys, k, near1, near2);
       double upper = point_rect_max_key(cands.x[near1], cands.y[near1], rect);
-      if (near2 != near1)
-        upper = std::min(upper, point_rect_max_key(cands.x[near2], cands.y[near2], rect));
+      if (near2 != near1) upper = std::min(upper, point_rect_max_key(cands.x[near2], cands.y[near2], rect));
       const double bound = keep_bound(upper);
       next.resize(k);
       size_t n = 0;
@@ -545,8 +542,7 @@ class ExactSolver {
       // nearest by the cheap box bound give a tight one without evaluating all of them (a dense
       // coast brings hundreds of candidates per block).
       wk.box_keys.resize(cands.size());
-      for (size_t j = 0; j < cands.size(); ++j)
-        wk.box_keys[j] = site_box_rect_key(ctx_.local[cands[j]], rect);
+      for (size_t j = 0; j < cands.size(); ++j) wk.box_keys[j] = site_box_rect_key(ctx_.local[cands[j]], rect);
       size_t near1, near2;
       two_smallest(wk.box_keys.data(), cands.size(), near1, near2);
       double upper = site_rect_max_key(ctx_.local[cands[near1]], rect);
@@ -561,9 +557,8 @@ class ExactSolver {
     }
     if (is_leaf(c1 - c0, r1 - r0, next.size(), depth, wk.levels.size()))
       return solve_cells(wk, next, c0, r0, c1, r1, ctx_.max_key);
-    for_quadrants(c0, r0, c1, r1, [&](int64_t a0, int64_t b0, int64_t a1, int64_t b1) {
-      solve_block(wk, depth + 1, a0, b0, a1, b1);
-    });
+    for_quadrants(c0, r0, c1, r1,
+                  [&](int64_t a0, int64_t b0, int64_t a1, int64_t b1) { solve_block(wk, depth + 1, a0, b0, a1, b1); });
   }
 
   // The indices of the two smallest of keys[0 .. k) (k >= 1; near2 == near1 when k == 1).
@@ -616,10 +611,8 @@ class ExactSolver {
   // vectorised): the outcomes are data-dependent coin flips, and mispredicted early exits cost
   // more than the tests they skipped. Being dominated by a point that is itself dominated is
   // still sound: whatever dominates that one is nearer still. The flags are wk.dom_flags.
-  const int64_t* dominated_points(Worker& wk, const double* x, const double* y, size_t k,
-                                  const Rect& rect) const {
-    double* c[4] = {wk.dom_corner[0].data(), wk.dom_corner[1].data(), wk.dom_corner[2].data(),
-                    wk.dom_corner[3].data()};
+  const int64_t* dominated_points(Worker& wk, const double* x, const double* y, size_t k, const Rect& rect) const {
+    double* c[4] = {wk.dom_corner[0].data(), wk.dom_corner[1].data(), wk.dom_corner[2].data(), wk.dom_corner[3].data()};
     double largest = 0.0;
     for (size_t j = 0; j < k; ++j) {
       const LocalSite s{x[j], y[j], 0.0, 0.0, 0.0};
@@ -629,8 +622,7 @@ class ExactSolver {
       c[3][j] = planar_key(rect.x1, rect.y1, s);
       largest = std::max(std::max(largest, std::max(c[0][j], c[1][j])), std::max(c[2][j], c[3][j]));
     }
-    dominated_flags(c[0], c[1], c[2], c[3], static_cast<int>(k), dominance_margin(largest),
-                    wk.dom_flags.data());
+    dominated_flags(c[0], c[1], c[2], c[3], static_cast<int>(k), dominance_margin(largest), wk.dom_flags.data());
     return wk.dom_flags.data();
   }
 
@@ -645,8 +637,8 @@ class ExactSolver {
   }
 
   // Exact per-cell argmin over `cands` (ascending ids; strict < keeps the lowest id on ties).
-  void solve_cells(Worker& wk, const std::vector<int32_t>& cands, int64_t c0, int64_t r0, int64_t c1,
-                   int64_t r1, double max_key) {
+  void solve_cells(Worker& wk, const std::vector<int32_t>& cands, int64_t c0, int64_t r0, int64_t c1, int64_t r1,
+                   double max_key) {
     if (cands.empty()) return fill_none(c0, r0, c1, r1);
     wk.gathered.clear();
     wk.gathered_ids.clear();
@@ -658,12 +650,10 @@ class ExactSolver {
   }
 
   // The same for PointCands (ascending ids too: every step above keeps the tile's order).
-  void solve_point_cells(Worker& wk, const PointCands& cands, int64_t c0, int64_t r0, int64_t c1,
-                         int64_t r1) {
+  void solve_point_cells(Worker& wk, const PointCands& cands, int64_t c0, int64_t r0, int64_t c1, int64_t r1) {
     if (cands.size() == 0) return fill_none(c0, r0, c1, r1);
     wk.gathered.resize(cands.size());
-    for (size_t j = 0; j < cands.size(); ++j)
-      wk.gathered[j] = LocalSite{cands.x[j], cands.y[j], 0.0, 0.0, 0.0};
+    for (size_t j = 0; j < cands.size(); ++j) wk.gathered[j] = LocalSite{cands.x[j], cands.y[j], 0.0, 0.0, 0.0};
     wk.gathered_ids.assign(cands.id.begin(), cands.id.end());
     argmin_gathered(wk, c0, r0, c1, r1, ctx_.max_key);
   }
@@ -679,10 +669,9 @@ class ExactSolver {
     for (int64_t c = 0; c < w; ++c) wk.px[c] = ctx_.grid.local_x(win.col0 + c0 + c);
     for (int64_t c = w; c < padded; ++c) wk.px[c] = wk.px[w - 1];
     for (int64_t r = 0; r < h; ++r) wk.py[r] = ctx_.grid.local_y(win.row0 + r0 + r);
-    argmin_block(wk.gathered.data(), wk.gathered_ids.data(), static_cast<int>(wk.gathered.size()),
-                 wk.px.data(), w, wk.py.data(), h, max_key, wk.best.data(), wk.best_id.data(),
-                 wk.dist_row.data(), wk.site_row.data(), site_.row(r0) + c0, distance_.row(r0) + c0,
-                 win.width, stream_);
+    argmin_block(wk.gathered.data(), wk.gathered_ids.data(), static_cast<int>(wk.gathered.size()), wk.px.data(), w,
+                 wk.py.data(), h, max_key, wk.best.data(), wk.best_id.data(), wk.dist_row.data(), wk.site_row.data(),
+                 site_.row(r0) + c0, distance_.row(r0) + c0, win.width, stream_);
   }
 
   const EngineContext& ctx_;
@@ -705,11 +694,15 @@ class ExactSolver {
 // force does over the filtered sites.
 class OtherOwnerSolver {
  public:
-  OtherOwnerSolver(const EngineContext& ctx, const Raster<int32_t>& own,
-                   const std::vector<int32_t>& owner_of, Raster<int32_t>& site,
-                   Raster<float>& distance)
-      : ctx_(ctx), own_(own), owner_of_(owner_of), site_(site), distance_(distance),
-        own_index_(own_index(ctx)), index_(ctx.index != nullptr ? *ctx.index : *own_index_) {
+  OtherOwnerSolver(const EngineContext& ctx, const Raster<int32_t>& own, const std::vector<int32_t>& owner_of,
+                   Raster<int32_t>& site, Raster<float>& distance)
+      : ctx_(ctx),
+        own_(own),
+        owner_of_(owner_of),
+        site_(site),
+        distance_(distance),
+        own_index_(own_index(ctx)),
+        index_(ctx.index != nullptr ? *ctx.index : *own_index_) {
     slack_ = rounding_slack(ctx);
   }
 
@@ -776,8 +769,7 @@ class OtherOwnerSolver {
     }
   }
 
-  void solve_tile(Worker& wk, std::vector<int32_t>& owners, int64_t c0, int64_t r0, int64_t c1,
-                  int64_t r1) {
+  void solve_tile(Worker& wk, std::vector<int32_t>& owners, int64_t c0, int64_t r0, int64_t c1, int64_t r1) {
     owners_in(c0, r0, c1, r1, owners);
     if (owners.empty()) return fill_none(c0, r0, c1, r1);
     const Rect rect = rect_of(c0, r0, c1, r1);
@@ -823,8 +815,8 @@ class OtherOwnerSolver {
     solve_block(wk, owners, 0, c0, r0, c1, r1);
   }
 
-  void solve_block(Worker& wk, std::vector<int32_t>& owners, int depth, int64_t c0, int64_t r0,
-                   int64_t c1, int64_t r1) {
+  void solve_block(Worker& wk, std::vector<int32_t>& owners, int depth, int64_t c0, int64_t r0, int64_t c1,
+                   int64_t r1) {
     owners_in(c0, r0, c1, r1, owners);
     if (owners.empty()) return fill_none(c0, r0, c1, r1);
     std::vector<int32_t>& next = wk.levels[depth + 1];
@@ -846,8 +838,8 @@ class OtherOwnerSolver {
   }
 
   // Per-cell argmin over the candidates of another owner (ascending ids, strict <).
-  void solve_cells(Worker& wk, const std::vector<int32_t>& owners, const std::vector<int32_t>& cands,
-                   int64_t c0, int64_t r0, int64_t c1, int64_t r1) {
+  void solve_cells(Worker& wk, const std::vector<int32_t>& owners, const std::vector<int32_t>& cands, int64_t c0,
+                   int64_t r0, int64_t c1, int64_t r1) {
     const Window& win = ctx_.window;
     for (int64_t r = r0; r < r1; ++r) {
       const double py = ctx_.grid.local_y(win.row0 + r);
@@ -892,8 +884,7 @@ void run_exact(const EngineContext& ctx, Raster<int32_t>& site, Raster<float>& d
 }
 
 void run_exact_other_owner(const EngineContext& ctx, const Raster<int32_t>& own,
-                           const std::vector<int32_t>& owner_of_site, Raster<int32_t>& site,
-                           Raster<float>& distance) {
+                           const std::vector<int32_t>& owner_of_site, Raster<int32_t>& site, Raster<float>& distance) {
   OtherOwnerSolver solver(ctx, own, owner_of_site, site, distance);
   solver.run();
 }

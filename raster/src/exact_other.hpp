@@ -11,7 +11,6 @@ namespace rv::detail {
 // from the owner of own's site at that cell; kNoSite / kNoDistance where own has no site or no
 // such site exists. `own` covers ctx.window (window-relative indexing).
 void run_exact_other_owner(const EngineContext& ctx, const Raster<int32_t>& own,
-                           const std::vector<int32_t>& owner_of_site, Raster<int32_t>& site,
-                           Raster<float>& distance);
+                           const std::vector<int32_t>& owner_of_site, Raster<int32_t>& site, Raster<float>& distance);
 
 }  // namespace rv::detail

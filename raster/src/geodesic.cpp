@@ -162,8 +162,7 @@ double GeoSites::angular_bound(double x, double y, double z, double qx, double q
   return inner_radius_ * (angle - spread - 1e-12) - radius;
 }
 
-double GeoSites::point_lower_bound(double sx, double sy, double sz, double x, double y, double z,
-                                   double h) const {
+double GeoSites::point_lower_bound(double sx, double sy, double sz, double x, double y, double z, double h) const {
   const double chord = std::sqrt((x - sx) * (x - sx) + (y - sy) * (y - sy) + (z - sz) * (z - sz)) - h;
   if (!(chord > kFarChord)) return chord;
   return std::max(chord, angular_bound(x, y, z, sx, sy, sz, h, 0.0));
@@ -282,8 +281,7 @@ bool GeoSites::attains_at_vertex(const GeoCell& p, int32_t id, const GeoEnd& end
 // along the line), and when the minimiser is pinned at such an end the result is the distance
 // evaluated there. Two edges sharing a vertex then return the same bits when both are nearest
 // at it, which lets the exact method settle such ties without searching the second edge.
-double GeoSites::piece_distance(const GeoCell& p, const GeoSite& site, const GeoPiece& piece,
-                                GeoEnd* end) const {
+double GeoSites::piece_distance(const GeoCell& p, const GeoSite& site, const GeoPiece& piece, GeoEnd* end) const {
   GeodesicSegmentCounters& counters = geodesic_segment_counters();
   ++counters.calls;
   if (end) *end = GeoEnd{};

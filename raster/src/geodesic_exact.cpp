@@ -87,8 +87,8 @@
 #include <GeographicLib/GeodesicLine.hpp>
 #include <GeographicLib/Math.hpp>
 
-#include "kernel_memory.hpp"
 #include "engine_internal.hpp"
+#include "kernel_memory.hpp"
 #include "parallel.hpp"
 
 namespace rv::detail {
@@ -102,7 +102,7 @@ constexpr int64_t kTile = 256;  // top-level tile edge, cells (tiles aligned to 
 // row and candidate) is spread over 4x the cells, for a few more candidates per cell (measured,
 // alternated runs: geodesic_bench coastlines ratio 3.6 -> 3.4, Oresund at 0.0004 deg 4.4 -> 4.2).
 constexpr int64_t kLeafCells = 256;
-constexpr int kProbes = 2;         // sites whose exact distance from a block's centre give U
+constexpr int kProbes = 2;               // sites whose exact distance from a block's centre give U
 constexpr size_t kDominanceMax = 24;     // leaves with more candidates skip drop_dominated (O(k^2))
 constexpr size_t kDominators = 4;        // candidates tried as dominators by drop_dominated
 constexpr double kChordReachSpan = 1.0;  // degrees: blocks up to this take reach_of's chord bound
@@ -113,35 +113,35 @@ constexpr double kChordReachSpan = 1.0;  // degrees: blocks up to this take reac
 // see the top of this file), which makes its 17 inverse problems rare; the additive form
 // (edges' interiors) keeps blocks of up to 0.21 degrees (512 cells): its extended edge must
 // stay one piece (build_line_interpolant), and its error is absolute.
-constexpr double kPointSpan = 0.35;           // degrees: largest point-form block edge
-constexpr double kPointSpanMetres = 38e3;     // the same on projected grids (~0.35 deg of latitude)
-constexpr int64_t kPointMaxBlock = 512;       // cells (2 x kTile: shared between tiles)
-constexpr double kLineSpan = 0.21;            // degrees: largest additive-form block edge
-constexpr double kLineSpanMetres = 23e3;      // the same on projected grids (~0.21 deg of latitude)
-constexpr int64_t kLineMaxBlock = 512;        // cells (2 x kTile, shared between tiles; cells
-                                              // over 0.00041 deg get smaller blocks: kLineSpan)
-constexpr int64_t kInterpSolveBlock = 64;     // culling goes on down to blocks this small before
-                                              // the per-cell pass: fewer candidates per cell, while
-                                              // the interpolants stay those of the larger block
-constexpr int64_t kInterpMinBlock = 8;        // cells
-constexpr double kAdditiveMinValue = 2.0;     // metres: see value()
-constexpr int64_t kInterpMinEdge = 4;         // a block clipped by the grid below this: per cell
-constexpr size_t kInterpMaxCandidates = 24;   // more candidates: subdivide (or per cell)
+constexpr double kPointSpan = 0.35;          // degrees: largest point-form block edge
+constexpr double kPointSpanMetres = 38e3;    // the same on projected grids (~0.35 deg of latitude)
+constexpr int64_t kPointMaxBlock = 512;      // cells (2 x kTile: shared between tiles)
+constexpr double kLineSpan = 0.21;           // degrees: largest additive-form block edge
+constexpr double kLineSpanMetres = 23e3;     // the same on projected grids (~0.21 deg of latitude)
+constexpr int64_t kLineMaxBlock = 512;       // cells (2 x kTile, shared between tiles; cells
+                                             // over 0.00041 deg get smaller blocks: kLineSpan)
+constexpr int64_t kInterpSolveBlock = 64;    // culling goes on down to blocks this small before
+                                             // the per-cell pass: fewer candidates per cell, while
+                                             // the interpolants stay those of the larger block
+constexpr int64_t kInterpMinBlock = 8;       // cells
+constexpr double kAdditiveMinValue = 2.0;    // metres: see value()
+constexpr int64_t kInterpMinEdge = 4;        // a block clipped by the grid below this: per cell
+constexpr size_t kInterpMaxCandidates = 24;  // more candidates: subdivide (or per cell)
 // Leaves with segments take the row kernels only where line blocks are this large: the
 // kernels need every candidate's interpolants (17 inverse problems each), which the per-cell
 // method builds only for candidates its bounds cannot exclude; on smaller blocks (coarse grids)
 // those extra builds cost more than the kernels save (measured: Øresund at 0.002 deg, 64-cell
 // blocks, 90 -> 110 ns per cell; at 0.0004 deg, 128-cell blocks, 18.5 -> 12.8).
 constexpr int64_t kLeafKernelMinBlock = 128;
-constexpr double kInterpCheck = 5e-6;         // metres: accepted error at the block's centre
+constexpr double kInterpCheck = 5e-6;          // metres: accepted error at the block's centre
 constexpr double kInterpCheckAdditive = 6e-8;  // ... for the additive form, whose values are used
                                                // down to kAdditiveMinValue (worst centre error
                                                // measured 1.8e-8 m; a cell's worst, 3.1e-8 m, was
                                                // under twice its block's centre error)
-constexpr double kInterpTie = 1e-4;           // metres: closer calls are decided exactly
-constexpr double kInterpMaxDistance = 1.2e7;  // metres: beyond, the antipode's kink is too near
-constexpr double kInterpMinChord = 1e-3;      // metres: a node on the seed (or on an edge)
-                                              // cannot form d / chord (or a side)
+constexpr double kInterpTie = 1e-4;            // metres: closer calls are decided exactly
+constexpr double kInterpMaxDistance = 1.2e7;   // metres: beyond, the antipode's kink is too near
+constexpr double kInterpMinChord = 1e-3;       // metres: a node on the seed (or on an edge)
+                                               // cannot form d / chord (or a side)
 // A segment is nearest at one of its ends V when the geodesic from V to the cell leaves at an
 // angle w against the edge with cos(w) <= 0 (first end; >= 0 at the second): by convexity the
 // distance then grows all along the edge. Per cell this is tested with the normal section's
@@ -165,10 +165,9 @@ constexpr double kInterpMinChord = 1e-3;      // metres: a node on the seed (or 
 // around a switch is narrow: |cos w_ns| ~ 1.1e-4 at 1 m, 1.1e-6 at 10 km, 3e-5 at 1000 km
 // (a constant 2e-4 before, 7x the bound at 1000 km: on the Oresund fixture at 0.00038 deg it
 // sent 9 350 cells per run to the per-cell method, 74 now).
-constexpr double kVertexStop4 =
-    16.0 * (16.0 * 2.0 * kGeoConvergence / 0.98) * (16.0 * 2.0 * kGeoConvergence / 0.98);
-constexpr double kVertexMaxChord = 1e6;       // metres
-constexpr double kVertexMinChord = 1.0;       // metres
+constexpr double kVertexStop4 = 16.0 * (16.0 * 2.0 * kGeoConvergence / 0.98) * (16.0 * 2.0 * kGeoConvergence / 0.98);
+constexpr double kVertexMaxChord = 1e6;  // metres
+constexpr double kVertexMinChord = 1.0;  // metres
 
 // K2 of the margin above for an ellipsoid (semi-major axis a, flattening f), 1 / m^4.
 inline double vertex_k2(double a, double f) {
@@ -181,9 +180,8 @@ inline double vertex_k2(double a, double f) {
 // segment_regime computes them, k2 = K2; doubles or a row kernel's vectors (the same operations
 // either way; a macro, as a 32-byte vector returned by a function has another ABI with and
 // without AVX).
-#define RV_GEO_BEYOND(te, u2, c2, k2)                      \
-  ((((te) * (te)) * ((te) * (te)) > kVertexStop4 * (u2)) & \
-   (((te) * (te)) > ((k2) * ((c2) * (c2))) * (u2)))
+#define RV_GEO_BEYOND(te, u2, c2, k2) \
+  ((((te) * (te)) * ((te) * (te)) > kVertexStop4 * (u2)) & (((te) * (te)) > ((k2) * ((c2) * (c2))) * (u2)))
 
 // Lagrange weights of the cubic through t = 0, 1/3, 2/3, 1.
 inline void cubic_weights(double t, double w[4]) {
@@ -212,8 +210,8 @@ struct Interpolant {
   // value |h + q|.
   bool additive = false;
   double nx = 0.0, ny = 0.0, nz = 0.0;
-  double k3 = 0.0;    // additive form: 1 / (6 R^2), R the radius of curvature across the edge
-  double q[4][4];     // the interpolated quantity at the nodes [row][col]
+  double k3 = 0.0;  // additive form: 1 / (6 R^2), R the radius of curvature across the edge
+  double q[4][4];   // the interpolated quantity at the nodes [row][col]
 };
 
 // The normaliser of an interpolant at ECEF (x, y, z): the chord to its point, or for a segment's
@@ -338,8 +336,7 @@ class SharedInterpolants {
   struct KeyHash {
     size_t operator()(const Key& k) const {
       const uint64_t h = (static_cast<uint64_t>(k.bx) * 0x9e3779b97f4a7c15ULL) ^
-                         (static_cast<uint64_t>(static_cast<uint32_t>(k.who)) << 2) ^
-                         static_cast<uint64_t>(k.kind);
+                         (static_cast<uint64_t>(static_cast<uint32_t>(k.who)) << 2) ^ static_cast<uint64_t>(k.kind);
       return std::hash<uint64_t>()(h);
     }
   };
@@ -372,18 +369,18 @@ struct GeoWorker {
   AlignedVector<double> best, second, value, cx, cy, cz;  // per column of the block's row
   AlignedVector<double> best_id;
   std::vector<RowCandidate> row_points,
-      row_additive;                      // solve_interp: the candidates on the current row
-  std::vector<RowSegment> row_segments;  // ... those whose form changes in the block
-  std::vector<RowMasked> row_masked;     // ... those of them that one end's test decides
-  std::vector<int32_t> masked;           // gather_interpolants: those segments,
-  std::vector<const Interpolant*> masked_interp;  // their interiors' interpolants
-  std::vector<int> masked_near;          // and the deciding end: 0 first, 1 second, 2 neither
-  std::vector<size_t> masked_order;      // solve_interp_rows: row_masked[i] is masked[masked_order[i]]
+      row_additive;                                    // solve_interp: the candidates on the current row
+  std::vector<RowSegment> row_segments;                // ... those whose form changes in the block
+  std::vector<RowMasked> row_masked;                   // ... those of them that one end's test decides
+  std::vector<int32_t> masked;                         // gather_interpolants: those segments,
+  std::vector<const Interpolant*> masked_interp;       // their interiors' interpolants
+  std::vector<int> masked_near;                        // and the deciding end: 0 first, 1 second, 2 neither
+  std::vector<size_t> masked_order;                    // solve_interp_rows: row_masked[i] is masked[masked_order[i]]
   std::vector<const Interpolant*> interp_additive;     // solve_interp: the additive interpolants
   std::vector<int32_t> interp_id, interp_additive_id;  // ... and the candidate each stands for
   std::vector<int32_t> changing;                       // ... the segments whose form changes
   std::vector<std::array<const Interpolant*, 3>> changing_interp;  // ... and their interpolants
-  AlignedVector<int32_t> site_row;  // ... the row's results before they go out
+  AlignedVector<int32_t> site_row;                                 // ... the row's results before they go out
   AlignedVector<float> distance_row;
   AlignedVector<double> force;  // ... per column: 1 where a cell needs the per-cell method
 };
@@ -456,10 +453,8 @@ using RowVec = std::conditional_t<(kLanesOf<V> > kRowLanes), VecD4, V>;
 // than the general kernel: they all stay in registers. V: the version's vector type.
 template <class V>
 RV_LANES_INLINE void interp_argmin_points_lanes(const RowCandidate* __restrict points, int kp,
-                                                const double* __restrict w, int64_t stride,
-                                                const RowPositions& pos, int64_t n,
-                                                double* __restrict best2,
-                                                double* __restrict second2,
+                                                const double* __restrict w, int64_t stride, const RowPositions& pos,
+                                                int64_t n, double* __restrict best2, double* __restrict second2,
                                                 double* __restrict best_id) {
   const double inf = std::numeric_limits<double>::infinity();
   // One candidate into the running results; c2 = dx^2 + dy^2 + dz^2 in that order (apply()'s).
@@ -501,9 +496,9 @@ RV_LANES_INLINE void interp_argmin_points_lanes(const RowCandidate* __restrict p
 #undef RV_GEO_POINT
 }
 RV_LANE_KERNEL(void, interp_argmin_points,
-               (const RowCandidate* __restrict points, int kp, const double* __restrict w,
-                int64_t stride, const RowPositions& pos, int64_t n, double* __restrict best2,
-                double* __restrict second2, double* __restrict best_id),
+               (const RowCandidate* __restrict points, int kp, const double* __restrict w, int64_t stride,
+                const RowPositions& pos, int64_t n, double* __restrict best2, double* __restrict second2,
+                double* __restrict best_id),
                (points, kp, w, stride, pos, n, best2, second2, best_id))
 
 // One row of a block against all its interpolated candidates: per cell the smallest and second
@@ -532,12 +527,13 @@ RV_LANE_KERNEL(void, interp_argmin_points,
 // of kRowPad. Vectors stay inside this function (a 32-byte vector crossing a function boundary
 // has another ABI with and without AVX).
 template <class V>
-RV_LANES_INLINE void interp_argmin_row_lanes(
-    const RowCandidate* __restrict points, int kp, const RowCandidate* __restrict additive, int ka,
-    const RowSegment* __restrict segs, int ks, const RowMasked* __restrict masked, const int* km,
-    const double* __restrict w, int64_t stride, const RowPositions& pos, int64_t n,
-    double* __restrict best2, double* __restrict second2, double* __restrict best_id,
-    double* __restrict force, double k2) {
+RV_LANES_INLINE void interp_argmin_row_lanes(const RowCandidate* __restrict points, int kp,
+                                             const RowCandidate* __restrict additive, int ka,
+                                             const RowSegment* __restrict segs, int ks,
+                                             const RowMasked* __restrict masked, const int* km,
+                                             const double* __restrict w, int64_t stride, const RowPositions& pos,
+                                             int64_t n, double* __restrict best2, double* __restrict second2,
+                                             double* __restrict best_id, double* __restrict force, double k2) {
   using GeoV4 = RowVec<V>;  // (the name the RV_GEO_* macros use)
   const double inf = std::numeric_limits<double>::infinity();
   const GeoV4 k2v = GeoV4{} + k2;
@@ -622,8 +618,7 @@ RV_LANES_INLINE void interp_argmin_row_lanes(
         te[e] = tx * v[6] + ty * v[7] + tz * v[8];
         valid = valid & (c2[e] <= GeoV4{} + max2) & (u2[e] >= GeoV4{} + min2);
       }
-      const auto beyond0 = RV_GEO_BEYOND(te[0], u2[0], c2[0], k2v),
-                 beyond1 = RV_GEO_BEYOND(te[1], u2[1], c2[1], k2v);
+      const auto beyond0 = RV_GEO_BEYOND(te[0], u2[0], c2[0], k2v), beyond1 = RV_GEO_BEYOND(te[1], u2[1], c2[1], k2v);
       const auto r1 = (te[0] < zero) & beyond0;
       const auto r2 = ~r1 & (te[1] > zero) & beyond1;
       const auto r3 = ~r1 & ~r2 & (te[0] > zero) & beyond0 & (te[1] < zero) & beyond1;
@@ -657,14 +652,12 @@ RV_LANES_INLINE void interp_argmin_row_lanes(
   }
 }
 RV_LANE_KERNEL(void, interp_argmin_row,
-               (const RowCandidate* __restrict points, int kp,
-                const RowCandidate* __restrict additive, int ka, const RowSegment* __restrict segs,
-                int ks, const RowMasked* __restrict masked, const int* km,
+               (const RowCandidate* __restrict points, int kp, const RowCandidate* __restrict additive, int ka,
+                const RowSegment* __restrict segs, int ks, const RowMasked* __restrict masked, const int* km,
                 const double* __restrict w, int64_t stride, const RowPositions& pos, int64_t n,
                 double* __restrict best2, double* __restrict second2, double* __restrict best_id,
                 double* __restrict force, double k2),
-               (points, kp, additive, ka, segs, ks, masked, km, w, stride, pos, n, best2, second2,
-                best_id, force, k2))
+               (points, kp, additive, ka, segs, ks, masked, km, w, stride, pos, n, best2, second2, best_id, force, k2))
 #undef RV_GEO_TAKE
 #undef RV_GEO_TAKE_PLAIN
 #undef RV_GEO_CELLS
@@ -688,9 +681,8 @@ RV_LANE_KERNEL(void, interp_argmin_row,
 // The commonest case (nothing forced, no limit) is one pass.
 RV_KERNEL_CLONES bool interp_store_row(const double* __restrict best2, double* __restrict second2,
                                        const double* __restrict best_id, double* __restrict value,
-                                       const double* __restrict force, int64_t n,
-                                       double max_distance, int32_t* __restrict site_row,
-                                       float* __restrict distance_row) {
+                                       const double* __restrict force, int64_t n, double max_distance,
+                                       int32_t* __restrict site_row, float* __restrict distance_row) {
   constexpr double kTie2x4 = 4.0 * kInterpTie * kInterpTie;
   constexpr double inf = std::numeric_limits<double>::infinity();
   int64_t any = 0;
@@ -707,8 +699,7 @@ RV_KERNEL_CLONES bool interp_store_row(const double* __restrict best2, double* _
     for (int64_t c = 0; c < n; ++c) {
       const double b2 = best2[c], s2 = second2[c], gap = s2 - b2, v = std::sqrt(b2);
       value[c] = v;
-      const int64_t tie =
-          ((s2 < inf) & (gap * gap <= kTie2x4 * s2)) | (std::abs(v - max_distance) <= kInterpTie);
+      const int64_t tie = ((s2 < inf) & (gap * gap <= kTie2x4 * s2)) | (std::abs(v - max_distance) <= kInterpTie);
       second2[c] = tie ? 1.0 : 0.0;
       any |= tie;
     }
@@ -751,10 +742,9 @@ class LineFoot {
  public:
   LineFoot(const GeoSites& geo, const Site& line)
       : geod_(geo.geodesic()),
-        line_(geod_.InverseLine(
-            line.a.y, line.a.x, line.b.y, line.b.x,
-            GeographicLib::Geodesic::LATITUDE | GeographicLib::Geodesic::LONGITUDE |
-                GeographicLib::Geodesic::AZIMUTH | GeographicLib::Geodesic::DISTANCE_IN)),
+        line_(geod_.InverseLine(line.a.y, line.a.x, line.b.y, line.b.x,
+                                GeographicLib::Geodesic::LATITUDE | GeographicLib::Geodesic::LONGITUDE |
+                                    GeographicLib::Geodesic::AZIMUTH | GeographicLib::Geodesic::DISTANCE_IN)),
         length_(line_.Distance()) {
     for (int k = 0; k < 4; ++k) {
       double lat, lon, azi;
@@ -776,8 +766,7 @@ class LineFoot {
       const double w0[4] = {-4.5 * b * c * e, 13.5 * a * c * e, -13.5 * a * b * e, 4.5 * a * b * c};
       const double w1[4] = {-4.5 * (c * e + b * e + b * c), 13.5 * (c * e + a * e + a * c),
                             -13.5 * (b * e + a * e + a * b), 4.5 * (b * c + a * c + a * b)};
-      const double w2[4] = {-9.0 * (b + c + e), 27.0 * (a + c + e), -27.0 * (a + b + e),
-                            9.0 * (a + b + c)};
+      const double w2[4] = {-9.0 * (b + c + e), 27.0 * (a + c + e), -27.0 * (a + b + e), 9.0 * (a + b + c)};
       double x[3] = {0.0, 0.0, 0.0}, d1[3] = {0.0, 0.0, 0.0}, d2[3] = {0.0, 0.0, 0.0};
       for (int k = 0; k < 4; ++k)
         for (int q = 0; q < 3; ++q) {
@@ -787,8 +776,7 @@ class LineFoot {
         }
       const double dx = x[0] - p.x, dy = x[1] - p.y, dz = x[2] - p.z;
       const double g = dx * d1[0] + dy * d1[1] + dz * d1[2];
-      const double slope =
-          d1[0] * d1[0] + d1[1] * d1[1] + d1[2] * d1[2] + dx * d2[0] + dy * d2[1] + dz * d2[2];
+      const double slope = d1[0] * d1[0] + d1[1] * d1[1] + d1[2] * d1[2] + dx * d2[0] + dy * d2[1] + dz * d2[2];
       if (!(slope > 0.0)) return false;
       const double step = g / slope;
       u -= step;
@@ -901,7 +889,8 @@ class GeodesicExactSolver {
         uint64_t lat_bits, lon_bits;
         std::memcpy(&lat_bits, &v.lat, sizeof(lat_bits));
         std::memcpy(&lon_bits, &v.lon, sizeof(lon_bits));
-        v.vertex = vertices.emplace(std::make_pair(lat_bits, lon_bits), static_cast<int32_t>(vertices.size())).first->second;
+        v.vertex =
+            vertices.emplace(std::make_pair(lat_bits, lon_bits), static_cast<int32_t>(vertices.size())).first->second;
         geo_.ecef(v.lat, v.lon, v.x, v.y, v.z);
         double sp, cp, sl, cl, sa, ca;
         Math::sincosd(v.lat, sp, cp);
@@ -952,26 +941,29 @@ class GeodesicExactSolver {
     const int64_t ty0 = w.row0 / kTile, ty1 = (w.row0 + w.height - 1) / kTile;
     const int64_t ntx = tx1 - tx0 + 1, nty = ty1 - ty0 + 1;
     std::vector<GeoWorker> workers(static_cast<size_t>(ctx_.threads));
-    parallel_for(ctx_.threads, ntx * nty, [&](int64_t t, int worker) {
-      GeoWorker& wk = workers[static_cast<size_t>(worker)];
-      if (wk.levels.empty()) wk.levels.resize(20);
-      const int64_t gx = (tx0 + t % ntx) * kTile, gy = (ty0 + t / ntx) * kTile;
-      const int64_t c0 = std::max<int64_t>(gx - w.col0, 0), c1 = std::min(gx + kTile - w.col0, w.width);
-      const int64_t r0 = std::max<int64_t>(gy - w.row0, 0), r1 = std::min(gy + kTile - w.row0, w.height);
-      wk.levels[0] = ctx_.geometric;
-      wk.cache.clear();
-      wk.held.clear();
-      // Tiles start in row order: blocks ending a tile row and more above this one are done
-      // with (a straggler still needing one would only build it again).
-      shared_.drop_rows_before(gy - kTile - point_block_);
-      if (located_) locate_tile(wk.tile, c0, r0, c1, r1);
-      tl_tile = located_ ? &wk.tile : nullptr;
-      solve_block(wk, 0, kTile, c0, r0, c1, r1);
-      tl_tile = nullptr;
-      ctx_.progress->advance((c1 - c0) * (r1 - r0));
-    }, [&](int) {
-      if (stream_) store_fence();  // this worker's non-temporal stores, before the join
-    });
+    parallel_for(
+        ctx_.threads, ntx * nty,
+        [&](int64_t t, int worker) {
+          GeoWorker& wk = workers[static_cast<size_t>(worker)];
+          if (wk.levels.empty()) wk.levels.resize(20);
+          const int64_t gx = (tx0 + t % ntx) * kTile, gy = (ty0 + t / ntx) * kTile;
+          const int64_t c0 = std::max<int64_t>(gx - w.col0, 0), c1 = std::min(gx + kTile - w.col0, w.width);
+          const int64_t r0 = std::max<int64_t>(gy - w.row0, 0), r1 = std::min(gy + kTile - w.row0, w.height);
+          wk.levels[0] = ctx_.geometric;
+          wk.cache.clear();
+          wk.held.clear();
+          // Tiles start in row order: blocks ending a tile row and more above this one are done
+          // with (a straggler still needing one would only build it again).
+          shared_.drop_rows_before(gy - kTile - point_block_);
+          if (located_) locate_tile(wk.tile, c0, r0, c1, r1);
+          tl_tile = located_ ? &wk.tile : nullptr;
+          solve_block(wk, 0, kTile, c0, r0, c1, r1);
+          tl_tile = nullptr;
+          ctx_.progress->advance((c1 - c0) * (r1 - r0));
+        },
+        [&](int) {
+          if (stream_) store_fence();  // this worker's non-temporal stores, before the join
+        });
   }
 
  private:
@@ -1153,7 +1145,8 @@ class GeodesicExactSolver {
         const GeoCell centre = cell_at(cc, rc);
         double upper = std::numeric_limits<double>::infinity();
         for (int k = 0; k < kProbes; ++k)
-          if (probe[k] >= 0) upper = std::min(upper, probe_distance(wk, cc, rc, centre, cands[static_cast<size_t>(probe[k])]));
+          if (probe[k] >= 0)
+            upper = std::min(upper, probe_distance(wk, cc, rc, centre, cands[static_cast<size_t>(probe[k])]));
         bound = std::min(bound, upper + reach_of(c0, r0, c1, r1, cc, rc));
       }
       bound += kGeoSlack;
@@ -1167,12 +1160,10 @@ class GeodesicExactSolver {
     bool points_only = true;
     for (int32_t id : next) points_only = points_only && !geo_.site(id).segment;
     const bool can_split = level > 1 && depth + 2 < static_cast<int>(wk.levels.size());
-    const bool interp_leaf =
-        points_only && level <= std::min(point_block_, kInterpSolveBlock) &&
-        (next.size() <= kInterpMaxCandidates || !can_split || level <= kInterpMinBlock);
+    const bool interp_leaf = points_only && level <= std::min(point_block_, kInterpSolveBlock) &&
+                             (next.size() <= kInterpMaxCandidates || !can_split || level <= kInterpMinBlock);
     const bool segment_leaf = !points_only && (next.size() <= 1 || w * h <= kLeafCells);
-    if ((interp_leaf || segment_leaf || !can_split) && next.size() >= 2 &&
-        next.size() <= kDominanceMax)
+    if ((interp_leaf || segment_leaf || !can_split) && next.size() >= 2 && next.size() <= kDominanceMax)
       drop_dominated(wk, next, c0, r0, c1, r1);
     if (interp_leaf) return solve_interp(wk, next, c0, r0, c1, r1);
     if (segment_leaf) return solve_leaf(wk, next, c0, r0, c1, r1);
@@ -1185,7 +1176,8 @@ class GeodesicExactSolver {
     const int64_t xs[3] = {c0, cm, c1}, ys[3] = {r0, rm, r1};
     for (int j = 0; j < 2; ++j)
       for (int i = 0; i < 2; ++i)
-        if (xs[i] < xs[i + 1] && ys[j] < ys[j + 1]) solve_block(wk, depth + 1, half, xs[i], ys[j], xs[i + 1], ys[j + 1]);
+        if (xs[i] < xs[i + 1] && ys[j] < ys[j + 1])
+          solve_block(wk, depth + 1, half, xs[i], ys[j], xs[i + 1], ys[j + 1]);
   }
 
   // Drops from `cands` (a leaf's candidates) every candidate of point form over the block that
@@ -1207,17 +1199,14 @@ class GeodesicExactSolver {
   // the bits they would get with it. A dominator may be dropped itself later: whatever beats it
   // beats the other by more still. Up to kDominators of the candidates with the shortest
   // largest chords are tried as dominators of every other.
-  void drop_dominated(GeoWorker& wk, std::vector<int32_t>& cands, int64_t c0, int64_t r0,
-                      int64_t c1, int64_t r1) const {
+  void drop_dominated(GeoWorker& wk, std::vector<int32_t>& cands, int64_t c0, int64_t r0, int64_t c1,
+                      int64_t r1) const {
     const EcefBox box = box_of(c0, r0, c1, r1);
-    const double mx = 0.5 * (box.x0 + box.x1), my = 0.5 * (box.y0 + box.y1),
-                 mz = 0.5 * (box.z0 + box.z1);
-    const double hx = 0.5 * (box.x1 - box.x0), hy = 0.5 * (box.y1 - box.y0),
-                 hz = 0.5 * (box.z1 - box.z0);
+    const double mx = 0.5 * (box.x0 + box.x1), my = 0.5 * (box.y0 + box.y1), mz = 0.5 * (box.z0 + box.z1);
+    const double hx = 0.5 * (box.x1 - box.x0), hy = 0.5 * (box.y1 - box.y0), hz = 0.5 * (box.z1 - box.z0);
     const double radius = std::sqrt(hx * hx + hy * hy + hz * hz) * (1.0 + 1e-12) + 1e-9;
-    const double corner[8][3] = {{box.x0, box.y0, box.z0}, {box.x1, box.y0, box.z0},
-                                 {box.x0, box.y1, box.z0}, {box.x1, box.y1, box.z0},
-                                 {box.x0, box.y0, box.z1}, {box.x1, box.y0, box.z1},
+    const double corner[8][3] = {{box.x0, box.y0, box.z0}, {box.x1, box.y0, box.z0}, {box.x0, box.y1, box.z0},
+                                 {box.x1, box.y1, box.z0}, {box.x0, box.y0, box.z1}, {box.x1, box.y0, box.z1},
                                  {box.x0, box.y1, box.z1}, {box.x1, box.y1, box.z1}};
     const size_t k = cands.size();
     wk.anchors.clear();
@@ -1239,20 +1228,17 @@ class GeodesicExactSolver {
       }
       double c2 = 0.0;
       for (const auto& b : corner)
-        c2 = std::max(c2, (b[0] - a.x) * (b[0] - a.x) + (b[1] - a.y) * (b[1] - a.y) +
-                              (b[2] - a.z) * (b[2] - a.z));
+        c2 = std::max(c2, (b[0] - a.x) * (b[0] - a.x) + (b[1] - a.y) * (b[1] - a.y) + (b[2] - a.z) * (b[2] - a.z));
       a.cmax = std::sqrt(c2) * (1.0 + 1e-12) + 1e-9;
-      a.beta =
-          a.cmax < 2.0 * reach_rho_
-              ? (2.0 * reach_rho_ / a.cmax) * std::asin(a.cmax / (2.0 * reach_rho_)) * (1.0 + 1e-12)
-              : std::numeric_limits<double>::infinity();
+      a.beta = a.cmax < 2.0 * reach_rho_
+                   ? (2.0 * reach_rho_ / a.cmax) * std::asin(a.cmax / (2.0 * reach_rho_)) * (1.0 + 1e-12)
+                   : std::numeric_limits<double>::infinity();
       wk.anchors.push_back(a);
     }
     if (wk.anchors.size() < 2) return;
     // The dominators: the anchors with the shortest largest chords.
     const size_t nd = std::min(kDominators, wk.anchors.size());
-    std::partial_sort(wk.anchors.begin(), wk.anchors.begin() + static_cast<std::ptrdiff_t>(nd),
-                      wk.anchors.end(),
+    std::partial_sort(wk.anchors.begin(), wk.anchors.begin() + static_cast<std::ptrdiff_t>(nd), wk.anchors.end(),
                       [](const Anchor& u, const Anchor& v) { return u.cmax < v.cmax; });
     constexpr double m = kGeoSlack;
     bool any = false;
@@ -1263,10 +1249,8 @@ class GeodesicExactSolver {
         const double b2 = i.beta * i.beta, need = 2.0 * i.beta * m * i.cmax + m * m;
         double least = std::numeric_limits<double>::infinity();
         for (const auto& b : corner) {
-          const double dj = (b[0] - j.x) * (b[0] - j.x) + (b[1] - j.y) * (b[1] - j.y) +
-                            (b[2] - j.z) * (b[2] - j.z);
-          const double di = (b[0] - i.x) * (b[0] - i.x) + (b[1] - i.y) * (b[1] - i.y) +
-                            (b[2] - i.z) * (b[2] - i.z);
+          const double dj = (b[0] - j.x) * (b[0] - j.x) + (b[1] - j.y) * (b[1] - j.y) + (b[2] - j.z) * (b[2] - j.z);
+          const double di = (b[0] - i.x) * (b[0] - i.x) + (b[1] - i.y) * (b[1] - i.y) + (b[2] - i.z) * (b[2] - i.z);
           // (1e-14 of the squares covers their rounding, ~1e-16 each.)
           least = std::min(least, dj - b2 * di - 1e-14 * (dj + b2 * di));
         }
@@ -1312,8 +1296,8 @@ class GeodesicExactSolver {
     std::shared_ptr<SharedInterpolants::Entry> e = shared_.entry(bx0, by0, who, vertex ? 1 : end);
     std::call_once(e->built, [&] {
       auto made = std::make_unique<Interpolant>();
-      if (build_interpolant(*made, bx0, by0, std::min(bx0 + S, ctx_.grid.width),
-                            std::min(by0 + S, ctx_.grid.height), id, end))
+      if (build_interpolant(*made, bx0, by0, std::min(bx0 + S, ctx_.grid.width), std::min(by0 + S, ctx_.grid.height),
+                            id, end))
         e->it = std::move(made);
     });
     const Interpolant* got = e->it.get();
@@ -1395,8 +1379,7 @@ class GeodesicExactSolver {
   // two vanish on slightly different curves; measured on the geodesic_bench coastlines, its
   // worst error offshore was 1e-5 m against 7.6e-9 m for this form, which also reaches across
   // the edge.)
-  bool build_line_interpolant(Interpolant& it, int64_t bx0, int64_t by0, int64_t bx1, int64_t by1,
-                              int32_t id) const {
+  bool build_line_interpolant(Interpolant& it, int64_t bx0, int64_t by0, int64_t bx1, int64_t by1, int32_t id) const {
     const GeoSite& s = geo_.site(id);
     const SegmentEnd& va = ends_[2 * static_cast<size_t>(id)];
     const SegmentEnd& vb = ends_[2 * static_cast<size_t>(id) + 1];
@@ -1524,8 +1507,7 @@ class GeodesicExactSolver {
       if (!(u2[e] >= kVertexMinChord * kVertexMinChord)) return 0;
       te[e] = tx * v.ex + ty * v.ey + tz * v.ez;
     }
-    const bool beyond0 = RV_GEO_BEYOND(te[0], u2[0], c2[0], k2_),
-               beyond1 = RV_GEO_BEYOND(te[1], u2[1], c2[1], k2_);
+    const bool beyond0 = RV_GEO_BEYOND(te[0], u2[0], c2[0], k2_), beyond1 = RV_GEO_BEYOND(te[1], u2[1], c2[1], k2_);
     // First end: the cell lies behind it (against the edge); second end: beyond it.
     if (te[0] < 0.0 && beyond0) return 1;
     if (te[1] > 0.0 && beyond1) return 2;
@@ -1537,7 +1519,8 @@ class GeodesicExactSolver {
   // vectorised path, so that every path gives a cell the same bits.
   static double eval(const Interpolant& it, const double wt[4], const double wc[4]) {
     double qr[4];
-    for (int b = 0; b < 4; ++b) qr[b] = wt[0] * it.q[0][b] + wt[1] * it.q[1][b] + wt[2] * it.q[2][b] + wt[3] * it.q[3][b];
+    for (int b = 0; b < 4; ++b)
+      qr[b] = wt[0] * it.q[0][b] + wt[1] * it.q[1][b] + wt[2] * it.q[2][b] + wt[3] * it.q[3][b];
     return wc[0] * qr[0] + wc[1] * qr[1] + wc[2] * qr[2] + wc[3] * qr[3];
   }
 
@@ -1624,7 +1607,8 @@ class GeodesicExactSolver {
     int32_t id_best = kNoSite;
     for (int32_t id : cands) {
       bool exact = false;
-      if (geo_.lower_bound(p, id) > best + kGeoSlack || value(wk, c, r, p, id, regime_of(p, id), exact) > best + kInterpTie)
+      if (geo_.lower_bound(p, id) > best + kGeoSlack ||
+          value(wk, c, r, p, id, regime_of(p, id), exact) > best + kInterpTie)
         continue;
       const double d = geo_.distance(p, id);
       if (d < d_best || (d == d_best && id < id_best)) {
@@ -1704,7 +1688,8 @@ class GeodesicExactSolver {
     // (In one line block is in one point block: the line block divides the point block.)
     const int64_t S = line_block_, gx = ctx_.window.col0, gy = ctx_.window.row0;
     const bool one_block = (gx + c0) / S == (gx + c1 - 1) / S && (gy + r0) / S == (gy + r1 - 1) / S;
-    if (S < kLeafKernelMinBlock || cands.empty() || !one_block || cands.size() > kInterpMaxCandidates || !gather_interpolants(wk, cands, c0, r0, c1, r1))
+    if (S < kLeafKernelMinBlock || cands.empty() || !one_block || cands.size() > kInterpMaxCandidates ||
+        !gather_interpolants(wk, cands, c0, r0, c1, r1))
       return solve_cells(wk, cands, c0, r0, c1, r1);
     solve_interp_rows(wk, cands, c0, r0, c1, r1);
   }
@@ -1760,9 +1745,12 @@ class GeodesicExactSolver {
           // block (or neither's is needed: inside everywhere, only near the edge): the
           // interior masked by it, and that end's vertex as a point candidate of its own.
           int near = -1;
-          if (br.possible == (1u | 4u) && br.before_b) near = 0;
-          else if (br.possible == (2u | 4u) && br.ahead_a) near = 1;
-          else if (br.possible == 4u && br.ahead_a && br.before_b) near = 2;
+          if (br.possible == (1u | 4u) && br.before_b)
+            near = 0;
+          else if (br.possible == (2u | 4u) && br.ahead_a)
+            near = 1;
+          else if (br.possible == 4u && br.ahead_a && br.before_b)
+            near = 2;
           if (near >= 0) {
             if (near < 2) {
               const Interpolant* vt = interpolant(wk, c0, r0, id, near + 1);
@@ -1809,8 +1797,7 @@ class GeodesicExactSolver {
   }
 
   // A block inside one interpolation block whose candidates are all point sites.
-  void solve_interp(GeoWorker& wk, const std::vector<int32_t>& cands, int64_t c0, int64_t r0, int64_t c1,
-                    int64_t r1) {
+  void solve_interp(GeoWorker& wk, const std::vector<int32_t>& cands, int64_t c0, int64_t r0, int64_t c1, int64_t r1) {
     if (cands.empty()) return fill_none(c0, r0, c1, r1);
     if (!gather_interpolants(wk, cands, c0, r0, c1, r1)) return solve_cells(wk, cands, c0, r0, c1, r1);
     solve_interp_rows(wk, cands, c0, r0, c1, r1);
@@ -1823,20 +1810,18 @@ class GeodesicExactSolver {
                          int64_t r1) {
     const int64_t n = c1 - c0;
     const int64_t stride = (n + kRowPad - 1) / kRowPad * kRowPad;  // padded: whole vectors
-    const double* wcols = &wcols_[static_cast<size_t>(c0)];  // the window's (init_column_weights)
+    const double* wcols = &wcols_[static_cast<size_t>(c0)];        // the window's (init_column_weights)
     wk.site_row.resize(static_cast<size_t>(stride));
     wk.distance_row.resize(static_cast<size_t>(stride));
     // The kernels write every lane of their outputs before anything reads them; the located
     // positions are read in the padding lanes too, so those start at zero.
-    for (auto* v : {&wk.best, &wk.second, &wk.value, &wk.best_id, &wk.force})
-      v->resize(static_cast<size_t>(stride));
+    for (auto* v : {&wk.best, &wk.second, &wk.value, &wk.best_id, &wk.force}) v->resize(static_cast<size_t>(stride));
     for (auto* v : {&wk.cx, &wk.cy, &wk.cz}) v->assign(static_cast<size_t>(stride), 0.0);
     // What stays the same on every row; the rows fill in qr.
     auto fixed_part = [&](const Interpolant* it, int32_t id, RowCandidate& rc) {
       rc = RowCandidate{{0.0, 0.0, 0.0, 0.0}, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, static_cast<double>(id),
                         tag_of(it, id),       0.0, 0.0};
-      if (!it)
-        return;  // a form without an interpolant: its cells are forced to the per-cell method
+      if (!it) return;  // a form without an interpolant: its cells are forced to the per-cell method
       rc.sx = it->sx;
       rc.sy = it->sy;
       rc.sz = it->sz;
@@ -1890,14 +1875,12 @@ class GeodesicExactSolver {
       bool shared = false;
       for (int32_t id : wk.changing)
         for (int e = 0; e < 2; ++e)
-          shared =
-              shared ||
-              static_cast<double>(
-                  ends_[2 * static_cast<size_t>(id) + static_cast<size_t>(e)].vertex) == rc.tag;
+          shared = shared ||
+                   static_cast<double>(ends_[2 * static_cast<size_t>(id) + static_cast<size_t>(e)].vertex) == rc.tag;
       if (!shared) rc.tag = -1.0;
     }
-    bool plain = wk.row_additive.empty() && wk.row_segments.empty() &&
-                 wk.row_masked.empty();  // interp_argmin_points can do it
+    // interp_argmin_points can do the row alone.
+    bool plain = wk.row_additive.empty() && wk.row_segments.empty() && wk.row_masked.empty();
     bool cells_ready = false, one_block = false;  // the per-cell method's set-up (flagged cells)
     for (const RowCandidate& rc : wk.row_points) plain = plain && rc.tag < 0.0;
     for (int64_t r = r0; r < r1; ++r) {
@@ -1925,8 +1908,7 @@ class GeodesicExactSolver {
         if (!it) return;
         const double* wt = it->additive ? rw.lt : rw.wt;
         for (int b = 0; b < 4; ++b)
-          rc.qr[b] =
-              wt[0] * it->q[0][b] + wt[1] * it->q[1][b] + wt[2] * it->q[2][b] + wt[3] * it->q[3][b];
+          rc.qr[b] = wt[0] * it->q[0][b] + wt[1] * it->q[1][b] + wt[2] * it->q[2][b] + wt[3] * it->q[3][b];
       };
       for (size_t j = 0; j < wk.interp.size(); ++j) {
         reduce(wk.interp[j], wk.row_points[j]);
@@ -1940,22 +1922,19 @@ class GeodesicExactSolver {
       for (size_t j = 0; j < wk.changing.size(); ++j)
         for (size_t k = 0; k < 3; ++k) reduce(wk.changing_interp[j][k], wk.row_segments[j].part[k]);
       if (plain)
-        interp_argmin_points(wk.row_points.data(), static_cast<int>(wk.row_points.size()), wcols,
-                             wstride_, pos, n, wk.best.data(), wk.second.data(), wk.best_id.data());
+        interp_argmin_points(wk.row_points.data(), static_cast<int>(wk.row_points.size()), wcols, wstride_, pos, n,
+                             wk.best.data(), wk.second.data(), wk.best_id.data());
       else
-        interp_argmin_row(wk.row_points.data(), static_cast<int>(wk.row_points.size()),
-                          wk.row_additive.data(), static_cast<int>(wk.row_additive.size()),
-                          wk.row_segments.data(), static_cast<int>(wk.row_segments.size()),
-                          wk.row_masked.data(), km, wcols,
-                          wstride_, pos, n, wk.best.data(), wk.second.data(), wk.best_id.data(),
-                          wk.force.data(), k2_);
+        interp_argmin_row(wk.row_points.data(), static_cast<int>(wk.row_points.size()), wk.row_additive.data(),
+                          static_cast<int>(wk.row_additive.size()), wk.row_segments.data(),
+                          static_cast<int>(wk.row_segments.size()), wk.row_masked.data(), km, wcols, wstride_, pos, n,
+                          wk.best.data(), wk.second.data(), wk.best_id.data(), wk.force.data(), k2_);
       // Every cell as put() would write it, without branches; then the flagged cells (rare)
       // are solved by the per-cell method and overwrite theirs. A row without them goes out
       // with non-temporal stores when the window is large (put_row).
-      const bool flagged =
-          interp_store_row(wk.best.data(), wk.second.data(), wk.best_id.data(), wk.value.data(),
-                           plain ? nullptr : wk.force.data(), n, max_distance_, wk.site_row.data(),
-                           wk.distance_row.data());
+      const bool flagged = interp_store_row(wk.best.data(), wk.second.data(), wk.best_id.data(), wk.value.data(),
+                                            plain ? nullptr : wk.force.data(), n, max_distance_, wk.site_row.data(),
+                                            wk.distance_row.data());
       put_row(distance_.row(r) + c0, site_.row(r) + c0, wk.distance_row.data(), wk.site_row.data(), n,
               stream_ && !flagged);
       // A flagged cell whose centre is inside a polygon ends at distance 0 with its area site
@@ -2045,8 +2024,7 @@ class GeodesicExactSolver {
   // interpolated value where they have one (so a cell gets the same value whichever path solves
   // it), segments their exact distance; a close call involving an interpolated value is decided
   // by exact distances (resolve_exactly).
-  void solve_cells(GeoWorker& wk, const std::vector<int32_t>& cands, int64_t c0, int64_t r0, int64_t c1,
-                   int64_t r1) {
+  void solve_cells(GeoWorker& wk, const std::vector<int32_t>& cands, int64_t c0, int64_t r0, int64_t c1, int64_t r1) {
     if (cands.empty()) return fill_none(c0, r0, c1, r1);
     const bool one_block = in_one_line_block(c0, r0, c1, r1);
     cells_setup(wk, cands, one_block);
@@ -2074,8 +2052,8 @@ class GeodesicExactSolver {
   }
 
   // Cells [c0, c1) of row r by the per-cell method, after cells_setup(wk, cands, one_block).
-  void solve_cells_row(GeoWorker& wk, const std::vector<int32_t>& cands, bool one_block, int64_t r,
-                       int64_t c0, int64_t c1) {
+  void solve_cells_row(GeoWorker& wk, const std::vector<int32_t>& cands, bool one_block, int64_t r, int64_t c0,
+                       int64_t c1) {
     const bool bounded = std::isfinite(max_distance_);
     auto slots_of = [&](size_t i) { return one_block ? &wk.slots[4 * i] : nullptr; };
     CellWeights cw;
@@ -2093,8 +2071,7 @@ class GeodesicExactSolver {
         bool exact = false;
         const GeoCell p = cell_at(c, r);
         column_weights(c);
-        const double v =
-            value(wk, c, r, p, id, regime_of(p, id), exact, nullptr, nullptr, &cw, slots_of(0));
+        const double v = value(wk, c, r, p, id, regime_of(p, id), exact, nullptr, nullptr, &cw, slots_of(0));
         if (!exact && bounded && std::abs(v - max_distance_) <= kInterpTie)
           put(c, r, id, geo_.distance(p, id));
         else
@@ -2114,9 +2091,7 @@ class GeodesicExactSolver {
     double travel = 0.0;  // the way along the row since its first cell (an upper bound)
     GeoCell q{};
     const double parallel_step =
-        located_
-            ? 0.0
-            : rho_[r] * ctx_.grid.res * (3.14159265358979323846 / 180.0) * (1.0 + 1e-12) + 1e-9;
+        located_ ? 0.0 : rho_[r] * ctx_.grid.res * (3.14159265358979323846 / 180.0) * (1.0 + 1e-12) + 1e-9;
     for (int64_t c = c0; c < c1; ++c) {
       const GeoCell p = cell_at(c, r);
       column_weights(c);
@@ -2135,12 +2110,11 @@ class GeodesicExactSolver {
           if (wk.cell_lb[i] < wk.cell_lb[first]) first = i;
         }
       } else {
-        const double step = located_
-                                ? std::sqrt((p.x - q.x) * (p.x - q.x) + (p.y - q.y) * (p.y - q.y) +
-                                            (p.z - q.z) * (p.z - q.z)) *
-                                          (1.0 + 1e-5) +
-                                      1e-9
-                                : parallel_step;
+        const double step =
+            located_ ? std::sqrt((p.x - q.x) * (p.x - q.x) + (p.y - q.y) * (p.y - q.y) + (p.z - q.z) * (p.z - q.z)) *
+                               (1.0 + 1e-5) +
+                           1e-9
+                     : parallel_step;
         travel += step;
         first = previous;
       }
@@ -2165,8 +2139,8 @@ class GeodesicExactSolver {
       if (geo_.site(cands[first]).segment && first_regime == 0)
         best = geo_.distance(p, cands[first], &end);
       else
-        best = value(wk, c, r, p, cands[first], first_regime, best_exact, &best_from,
-                     &best_canonical, &cw, slots_of(first));
+        best = value(wk, c, r, p, cands[first], first_regime, best_exact, &best_from, &best_canonical, &cw,
+                     slots_of(first));
       int32_t best_id = cands[first];
       double runner_up = std::numeric_limits<double>::infinity();
       bool runner_exact = true;
@@ -2192,8 +2166,8 @@ class GeodesicExactSolver {
           d = value(wk, c, r, p, id, regime, exact, &from, &canonical, &cw, slots_of(i));
           other_end.valid = false;
         }
-        if (!exact && !best_exact && d == best && canonical && best_canonical &&
-            from->lat == best_from->lat && from->lon == best_from->lon) {
+        if (!exact && !best_exact && d == best && canonical && best_canonical && from->lat == best_from->lat &&
+            from->lon == best_from->lon) {
           best_id = std::min(best_id, id);
           continue;
         }
@@ -2233,14 +2207,14 @@ class GeodesicExactSolver {
   std::vector<double> wrows_;        // per window row: its eight weights (cell_weights_row)
   int64_t wstride_ = 0;
   double max_distance_ = std::numeric_limits<double>::infinity();
-  bool stream_ = false;  // rows of the row kernels go out with non-temporal stores (put_row)
-  int64_t point_block_ = kInterpMinBlock;   // interpolation block edges, cells (grid-aligned):
-  int64_t line_block_ = kInterpMinBlock;    // the point form's and the additive form's
-  mutable SharedInterpolants shared_;       // the interpolants built so far (any worker)
-  bool located_ = false;                    // projected grid: cells located by ctx.geolocator
-  double k2_ = 0.0;                         // RV_GEO_BEYOND's K2 for the grid's ellipsoid
-  double reach_rho_ = 0.0;                  // reach_of: 0.99 b^2 / a, metres
-  std::vector<SegmentEnd> ends_;            // per site: its two ends (segments only)
+  bool stream_ = false;                    // rows of the row kernels go out with non-temporal stores (put_row)
+  int64_t point_block_ = kInterpMinBlock;  // interpolation block edges, cells (grid-aligned):
+  int64_t line_block_ = kInterpMinBlock;   // the point form's and the additive form's
+  mutable SharedInterpolants shared_;      // the interpolants built so far (any worker)
+  bool located_ = false;                   // projected grid: cells located by ctx.geolocator
+  double k2_ = 0.0;                        // RV_GEO_BEYOND's K2 for the grid's ellipsoid
+  double reach_rho_ = 0.0;                 // reach_of: 0.99 b^2 / a, metres
+  std::vector<SegmentEnd> ends_;           // per site: its two ends (segments only)
 };
 
 }  // namespace

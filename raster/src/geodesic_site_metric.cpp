@@ -6,15 +6,17 @@
 #include <cmath>
 #include <limits>
 
-#include "rv/deliverables.hpp"
 #include "engine_internal.hpp"
+#include "rv/deliverables.hpp"
 #include "rv/error.hpp"
 
 namespace rv {
 
 struct GeodesicSiteMetric::Impl {
   explicit Impl(const MetricSpec& m)
-      : measure(m), geod(m.semi_major, m.flattening), earth(m.semi_major, m.flattening),
+      : measure(m),
+        geod(m.semi_major, m.flattening),
+        earth(m.semi_major, m.flattening),
         // The largest radius of curvature of the ellipsoid (a^2/b at the poles when oblate,
         // a when prolate): no path moves faster in latitude or along a parallel than this.
         k_max(m.flattening >= 0.0 ? m.semi_major / (1.0 - m.flattening) : m.semi_major) {}
@@ -32,9 +34,12 @@ GeodesicSiteMetric::~GeodesicSiteMetric() = default;
 double GeodesicSiteMetric::distance(Vec2 p, int32_t site) const {
   const Site& s = seeds().sites()[static_cast<size_t>(site)];
   switch (s.kind) {
-    case SiteKind::point: return impl_->measure.point_distance(p, s.a);
-    case SiteKind::segment: return impl_->measure.segment_distance(p, s.a, s.b);
-    case SiteKind::area: break;
+    case SiteKind::point:
+      return impl_->measure.point_distance(p, s.a);
+    case SiteKind::segment:
+      return impl_->measure.segment_distance(p, s.a, s.b);
+    case SiteKind::area:
+      break;
   }
   return inside_area(p, site) ? 0.0 : std::numeric_limits<double>::infinity();
 }
@@ -129,8 +134,9 @@ LocatedGeodesicSiteMetric::LocatedGeodesicSiteMetric(const SeedSet& seeds, const
   if (!geolocator_) throw Error(ErrorKind::invalid_argument, "LocatedGeodesicSiteMetric needs a geolocator");
   // Without grid polygons the base would test degrees against grid coordinates.
   if (!grid_polygons_ && !seeds.polygons().empty())
-    throw Error(ErrorKind::invalid_argument, "LocatedGeodesicSiteMetric: the seeds have polygons, so their copies in "
-                                             "the grid's CRS are needed");
+    throw Error(ErrorKind::invalid_argument,
+                "LocatedGeodesicSiteMetric: the seeds have polygons, so their copies in "
+                "the grid's CRS are needed");
 }
 
 Vec2 LocatedGeodesicSiteMetric::locate(Vec2 p) const {

@@ -71,9 +71,9 @@ struct BoxBall {
   double x, y, z, half;
 };
 inline BoxBall box_ball(const EcefBox& b) {
-  return BoxBall{0.5 * (b.x0 + b.x1), 0.5 * (b.y0 + b.y1), 0.5 * (b.z0 + b.z1),
-                 0.5 * std::sqrt((b.x1 - b.x0) * (b.x1 - b.x0) + (b.y1 - b.y0) * (b.y1 - b.y0) +
-                                 (b.z1 - b.z0) * (b.z1 - b.z0))};
+  return BoxBall{
+      0.5 * (b.x0 + b.x1), 0.5 * (b.y0 + b.y1), 0.5 * (b.z0 + b.z1),
+      0.5 * std::sqrt((b.x1 - b.x0) * (b.x1 - b.x0) + (b.y1 - b.y0) * (b.y1 - b.y0) + (b.z1 - b.z0) * (b.z1 - b.z0))};
 }
 
 inline double box_distance(const EcefBox& b, double x, double y, double z) {
@@ -84,12 +84,12 @@ inline double box_distance(const EcefBox& b, double x, double y, double z) {
 }
 
 struct GeoPiece {
-  double ta, tb;     // arc length along the site's line, metres
-  double ax, ay, az; // ECEF of the piece's ends
+  double ta, tb;      // arc length along the site's line, metres
+  double ax, ay, az;  // ECEF of the piece's ends
   double bx, by, bz;
-  double inv_len2;   // 1 / |B - A|^2 (0 if the ends coincide in ECEF)
-  double capsule;    // every point of the piece is within this of the chord segment A-B
-  GeoBall ball;      // contains every point of the piece
+  double inv_len2;  // 1 / |B - A|^2 (0 if the ends coincide in ECEF)
+  double capsule;   // every point of the piece is within this of the chord segment A-B
+  GeoBall ball;     // contains every point of the piece
 };
 
 // The capsule part of piece_chord_bound alone (a valid, sometimes weaker bound with one root).
@@ -103,8 +103,9 @@ inline double piece_capsule_bound(const GeoPiece& p, double x, double y, double 
 
 // Lower bound of the chord distance from (x, y, z) to any point of the piece.
 inline double piece_chord_bound(const GeoPiece& p, double x, double y, double z) {
-  const double ball = std::sqrt((x - p.ball.x) * (x - p.ball.x) + (y - p.ball.y) * (y - p.ball.y) +
-                                (z - p.ball.z) * (z - p.ball.z)) - p.ball.r;
+  const double ball =
+      std::sqrt((x - p.ball.x) * (x - p.ball.x) + (y - p.ball.y) * (y - p.ball.y) + (z - p.ball.z) * (z - p.ball.z)) -
+      p.ball.r;
   const double ux = p.bx - p.ax, uy = p.by - p.ay, uz = p.bz - p.az;
   double t = ((x - p.ax) * ux + (y - p.ay) * uy + (z - p.az) * uz) * p.inv_len2;
   t = t < 0.0 ? 0.0 : (t > 1.0 ? 1.0 : t);
@@ -120,7 +121,7 @@ struct GeoSite {
   // Segments: the second end as given, the length, and the azimuths of the edge (direction
   // first -> second end) at both ends.
   double lat_b = 0.0, lon_b = 0.0, length = 0.0, azi_a = 0.0, azi_b = 0.0;
-  int32_t line = -1;            // index into lines (segments)
+  int32_t line = -1;  // index into lines (segments)
   int32_t piece0 = 0, piece_count = 0;
 };
 
@@ -158,9 +159,7 @@ class GeoSites {
   bool attains_at_vertex(const GeoCell& p, int32_t id, const GeoEnd& end, double s) const;
   // Lower bounds of distance(): from one cell, and from any cell centre inside a box.
   double lower_bound(const GeoCell& p, int32_t id) const;
-  double lower_bound(const EcefBox& box, int32_t id) const {
-    return lower_bound(box, box_ball(box), id);
-  }
+  double lower_bound(const EcefBox& box, int32_t id) const { return lower_bound(box, box_ball(box), id); }
   // The same with the box's ball made once (box_ball(box)) for many sites.
   double lower_bound(const EcefBox& box, const BoxBall& ball, int32_t id) const;
 

@@ -41,8 +41,7 @@ GridSpec make_grid(double xmin, double ymin, double xmax, double ymax, double re
   return g;
 }
 
-GridSpec make_aligned_grid(double xmin, double ymin, double xmax, double ymax, double res,
-                           std::string crs) {
+GridSpec make_aligned_grid(double xmin, double ymin, double xmax, double ymax, double res, std::string crs) {
   check_extent(xmin, ymin, xmax, ymax, res);
   const double x0 = std::floor(xmin / res) * res;
   const double y1 = std::ceil(ymax / res) * res;

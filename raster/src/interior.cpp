@@ -24,8 +24,8 @@ int64_t first_col_at_or_after(const GridSpec& g, const Window& w, double x) {
 }
 
 // Adds the spans of one polygon to `out` (unresolved: may overlap other polygons' spans).
-void polygon_spans(const Polygon& poly, const GridSpec& g, const Window& w,
-                   std::vector<std::vector<Span>>& out, std::vector<Crossing>& scratch) {
+void polygon_spans(const Polygon& poly, const GridSpec& g, const Window& w, std::vector<std::vector<Span>>& out,
+                   std::vector<Crossing>& scratch) {
   scratch.clear();
   for (const Ring& ring : poly.rings) {
     for (size_t i = 0; i < ring.size(); ++i) {
@@ -40,10 +40,10 @@ void polygon_spans(const Polygon& poly, const GridSpec& g, const Window& w,
       // (1e20 cells) must not overflow the integer conversion.
       const double window_first = static_cast<double>(w.row0);
       const double window_last = static_cast<double>(w.row0 + w.height - 1);
-      const auto r_first = static_cast<int64_t>(
-          std::clamp(std::floor(-hi / g.res - 0.5) - 1.0, window_first, window_last + 1.0));
-      const auto r_last = static_cast<int64_t>(
-          std::clamp(std::ceil(-lo / g.res - 0.5) + 1.0, window_first - 1.0, window_last));
+      const auto r_first =
+          static_cast<int64_t>(std::clamp(std::floor(-hi / g.res - 0.5) - 1.0, window_first, window_last + 1.0));
+      const auto r_last =
+          static_cast<int64_t>(std::clamp(std::ceil(-lo / g.res - 0.5) + 1.0, window_first - 1.0, window_last));
       for (int64_t r = r_first; r <= r_last; ++r) {
         const double y = g.local_y(r);
         if ((a.y <= y) == (b.y <= y)) continue;
@@ -52,9 +52,8 @@ void polygon_spans(const Polygon& poly, const GridSpec& g, const Window& w,
       }
     }
   }
-  std::sort(scratch.begin(), scratch.end(), [](const Crossing& p, const Crossing& q) {
-    return p.row != q.row ? p.row < q.row : p.x < q.x;
-  });
+  std::sort(scratch.begin(), scratch.end(),
+            [](const Crossing& p, const Crossing& q) { return p.row != q.row ? p.row < q.row : p.x < q.x; });
   for (size_t i = 0; i + 1 < scratch.size();) {
     const int64_t row = scratch[i].row;
     size_t j = i;
@@ -100,8 +99,8 @@ InteriorSpans build_interiors(const SeedSet& seeds, const GridSpec& grid, const 
   return build_interiors(seeds, seeds.polygons(), grid, window);
 }
 
-InteriorSpans build_interiors(const SeedSet& seeds, const std::vector<Polygon>& polygons,
-                              const GridSpec& grid, const Window& window) {
+InteriorSpans build_interiors(const SeedSet& seeds, const std::vector<Polygon>& polygons, const GridSpec& grid,
+                              const Window& window) {
   InteriorSpans result;
   result.window = window;
   result.rows.resize(static_cast<size_t>(window.height));
@@ -113,9 +112,8 @@ InteriorSpans build_interiors(const SeedSet& seeds, const std::vector<Polygon>& 
   // Resolve overlaps per row: the lowest area site wins each cell.
   for (auto& row : result.rows) {
     if (row.size() < 2) continue;
-    std::sort(row.begin(), row.end(), [](const Span& a, const Span& b) {
-      return a.site != b.site ? a.site < b.site : a.col0 < b.col0;
-    });
+    std::sort(row.begin(), row.end(),
+              [](const Span& a, const Span& b) { return a.site != b.site ? a.site < b.site : a.col0 < b.col0; });
     std::map<int64_t, Span> covered;  // col0 -> span, disjoint
     for (const Span& s : row) {
       int64_t c = s.col0;
@@ -129,8 +127,7 @@ InteriorSpans build_interiors(const SeedSet& seeds, const std::vector<Polygon>& 
         if (it->second.col0 > c) covered.emplace(c, Span{c, it->second.col0, s.site});
         const int64_t overlap_end = std::min(it->second.col1, s.col1);
         const int64_t overlap_begin = std::max(it->second.col0, c);
-        if (overlap_end > overlap_begin &&
-            seeds.site_owner(it->second.site) != seeds.site_owner(s.site))
+        if (overlap_end > overlap_begin && seeds.site_owner(it->second.site) != seeds.site_owner(s.site))
           result.contested_cells += overlap_end - overlap_begin;
         c = std::max(c, it->second.col1);
         ++it;

@@ -54,9 +54,7 @@
 // gives the same bits.
 #define RV_LANES_INLINE __attribute__((always_inline)) inline
 #define RV_LANE_VERSION(target_, lanes_, ret, name, params, args) \
-  __attribute__((target(target_))) ret name params {              \
-    return name##_lanes<::rv::detail::VecD##lanes_> args;         \
-  }
+  __attribute__((target(target_))) ret name params { return name##_lanes<::rv::detail::VecD##lanes_> args; }
 #if defined(__SANITIZE_THREAD__)
 #define RV_LANE_KERNEL(ret, name, params, args) \
   ret name params { return name##_lanes<::rv::detail::VecD2> args; }
@@ -116,8 +114,7 @@ inline void stream_values(T* __restrict dst, const T* __restrict src, int64_t n)
   int64_t c = 0;
   for (; c < n && (reinterpret_cast<uintptr_t>(dst + c) & 15) != 0; ++c) one(c);
   for (; c + 4 <= n; c += 4)
-    _mm_stream_si128(reinterpret_cast<__m128i*>(dst + c),
-                     _mm_loadu_si128(reinterpret_cast<const __m128i*>(src + c)));
+    _mm_stream_si128(reinterpret_cast<__m128i*>(dst + c), _mm_loadu_si128(reinterpret_cast<const __m128i*>(src + c)));
   for (; c < n; ++c) one(c);
 }
 #endif

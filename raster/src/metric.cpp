@@ -6,14 +6,13 @@
 
 namespace rv {
 
-std::string_view to_string(MetricSpec::Kind kind) {
-  return kind == MetricSpec::geodesic ? "geodesic" : "planar";
-}
+std::string_view to_string(MetricSpec::Kind kind) { return kind == MetricSpec::geodesic ? "geodesic" : "planar"; }
 
 void validate_metric(const MetricSpec& metric) {
   if (metric.kind == MetricSpec::planar) return;
   if (!std::isfinite(metric.semi_major) || !(metric.semi_major > 0.0))
-    throw Error(ErrorKind::invalid_argument, "geodesic metric: the ellipsoid's semi-major axis must be a positive number of metres");
+    throw Error(ErrorKind::invalid_argument,
+                "geodesic metric: the ellipsoid's semi-major axis must be a positive number of metres");
   // GeographicLib::Geodesic uses series in the third flattening that are accurate for |f| <= 0.01;
   // every terrestrial ellipsoid is far inside that range.
   if (!std::isfinite(metric.flattening) || std::abs(metric.flattening) > 0.01)
@@ -28,8 +27,7 @@ MetricRequest parse_metric_request(std::string_view name) {
               "unknown metric '" + std::string(name) + "' (expected auto, planar or geodesic)");
 }
 
-MetricSpec resolve_metric(MetricRequest requested, bool crs_is_geographic, double semi_major,
-                          double flattening) {
+MetricSpec resolve_metric(MetricRequest requested, bool crs_is_geographic, double semi_major, double flattening) {
   MetricSpec m;
   m.semi_major = semi_major;
   m.flattening = flattening;
@@ -60,30 +58,33 @@ DistanceUnit parse_distance_unit(std::string_view name) {
   if (name == "m") return DistanceUnit::m;
   if (name == "km") return DistanceUnit::km;
   if (name == "nmi") return DistanceUnit::nmi;
-  throw Error(ErrorKind::invalid_argument,
-              "unknown distance unit '" + std::string(name) + "' (expected m, km or nmi)");
+  throw Error(ErrorKind::invalid_argument, "unknown distance unit '" + std::string(name) + "' (expected m, km or nmi)");
 }
 
 std::string_view to_string(DistanceUnit unit) {
   switch (unit) {
-    case DistanceUnit::m: return "m";
-    case DistanceUnit::km: return "km";
-    case DistanceUnit::nmi: return "nmi";
+    case DistanceUnit::m:
+      return "m";
+    case DistanceUnit::km:
+      return "km";
+    case DistanceUnit::nmi:
+      return "nmi";
   }
   return "m";
 }
 
 double metres_per_unit(DistanceUnit unit) {
   switch (unit) {
-    case DistanceUnit::m: return 1.0;
-    case DistanceUnit::km: return 1000.0;
-    case DistanceUnit::nmi: return 1852.0;
+    case DistanceUnit::m:
+      return 1.0;
+    case DistanceUnit::km:
+      return 1000.0;
+    case DistanceUnit::nmi:
+      return 1852.0;
   }
   return 1.0;
 }
 
-double unwrap_east_longitude(double west, double east) {
-  return east < west ? east + 360.0 : east;
-}
+double unwrap_east_longitude(double west, double east) { return east < west ? east + 360.0 : east; }
 
 }  // namespace rv

@@ -88,9 +88,7 @@ bool touched_cells(const GridSpec& g, const Window& w, const LocalSite& s, F&& f
   const double ub = s.bx() / g.res - static_cast<double>(w.col0);
   const double vb = -s.by() / g.res - static_cast<double>(w.row0);
   const auto W = static_cast<double>(w.width), H = static_cast<double>(w.height);
-  if (std::max(ua, ub) < 0.0 || std::min(ua, ub) > W || std::max(va, vb) < 0.0 ||
-      std::min(va, vb) > H)
-    return false;
+  if (std::max(ua, ub) < 0.0 || std::min(ua, ub) > W || std::max(va, vb) < 0.0 || std::min(va, vb) > H) return false;
   bool any = false;
   const auto r0 = static_cast<int64_t>(std::clamp(std::floor(std::min(va, vb)), 0.0, H - 1.0));
   const auto r1 = static_cast<int64_t>(std::clamp(std::floor(std::max(va, vb)), 0.0, H - 1.0));
@@ -123,8 +121,8 @@ void seed(ScanState<Ops>& st) {
   const EngineContext& ctx = st.ctx;
   std::vector<int32_t> outside;
   for (int32_t id : ctx.geometric) {
-    const bool inside = touched_cells(ctx.grid, ctx.window, ctx.local[id],
-                                      [&](int64_t c, int64_t r) { st.offer(c, r, id); });
+    const bool inside =
+        touched_cells(ctx.grid, ctx.window, ctx.local[id], [&](int64_t c, int64_t r) { st.offer(c, r, id); });
     if (!inside) outside.push_back(id);
   }
   if (outside.empty()) return;
@@ -137,8 +135,8 @@ void seed(ScanState<Ops>& st) {
                             {w.col0 + w.width - 1, w.row0, 1, w.height}};
   Progress quiet(nullptr, nullptr, 1);
   for (const Window& strip : strips) {
-    EngineContext sub{ctx.seeds, ctx.grid, strip, ctx.local, outside,
-                      std::numeric_limits<double>::infinity(), 1, &quiet, ctx.geo};
+    EngineContext sub{ctx.seeds, ctx.grid, strip,  ctx.local, outside, std::numeric_limits<double>::infinity(),
+                      1,         &quiet,   ctx.geo};
     sub.geolocator = ctx.geolocator;
     Raster<int32_t> s(ctx.grid, strip, Uninitialized{});
     Raster<float> d(ctx.grid, strip, Uninitialized{});
@@ -147,8 +145,7 @@ void seed(ScanState<Ops>& st) {
     else
       run_exact(sub, s, d);
     for (int64_t r = 0; r < strip.height; ++r)
-      for (int64_t c = 0; c < strip.width; ++c)
-        st.offer(strip.col0 - w.col0 + c, strip.row0 - w.row0 + r, s.at(c, r));
+      for (int64_t c = 0; c < strip.width; ++c) st.offer(strip.col0 - w.col0 + c, strip.row0 - w.row0 + r, s.at(c, r));
   }
 }
 
@@ -255,8 +252,7 @@ void scan(const EngineContext& ctx, const Ops ops, bool vertical_cycle, Raster<i
 
 }  // namespace
 
-void run_scan(const EngineContext& ctx, bool vertical_cycle, Raster<int32_t>& site,
-              Raster<float>& distance) {
+void run_scan(const EngineContext& ctx, bool vertical_cycle, Raster<int32_t>& site, Raster<float>& distance) {
   if (ctx.geo)
     scan(ctx, GeodesicOps{ctx}, vertical_cycle, site, distance);
   else

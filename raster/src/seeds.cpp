@@ -130,7 +130,8 @@ int64_t SeedSet::geometric_site_count() const {
 int64_t SeedSet::memory_bytes() const {
   constexpr auto block = static_cast<int64_t>(sizeof(void*));
   auto text = [&](const std::string& s) {
-    return static_cast<int64_t>(sizeof(std::string)) + (s.capacity() > 15 ? static_cast<int64_t>(s.capacity()) + block : 0);
+    return static_cast<int64_t>(sizeof(std::string)) +
+           (s.capacity() > 15 ? static_cast<int64_t>(s.capacity()) + block : 0);
   };
   int64_t bytes = static_cast<int64_t>(sizeof(SeedSet)) + static_cast<int64_t>(sites_.capacity() * sizeof(Site));
   bytes += static_cast<int64_t>(polygons_.capacity() * sizeof(Polygon));

@@ -12,9 +12,8 @@
 
 namespace rv {
 
-ValidationStats compare_fields(const SeedSet& seeds, const NearestField& test,
-                               const NearestField& reference, double tolerance_cells,
-                               int max_examples) {
+ValidationStats compare_fields(const SeedSet& seeds, const NearestField& test, const NearestField& reference,
+                               double tolerance_cells, int max_examples) {
   if (!(test.site.grid() == reference.site.grid()) || !(test.site.window() == reference.site.window()))
     throw Error(ErrorKind::invalid_argument, "compare_fields: the two fields cover different cells");
   if (!(test.metric == reference.metric))
@@ -74,8 +73,7 @@ ValidationStats compare_fields(const SeedSet& seeds, const NearestField& test,
       ++st.wrong_cells;
       if (seeds.site_owner(a) != seeds.site_owner(b)) ++st.wrong_owner_cells;
       st.max_error = std::max(st.max_error, err);
-      if (static_cast<int>(st.examples.size()) < max_examples)
-        st.examples.push_back(WrongCell{c, r, a, b, err});
+      if (static_cast<int>(st.examples.size()) < max_examples) st.examples.push_back(WrongCell{c, r, a, b, err});
     }
   }
   st.max_error_cells = st.max_error / cell_size;

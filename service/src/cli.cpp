@@ -165,36 +165,56 @@ CommonOptions parse(Args& args, bool validate_mode) {
   JobSpec& s = o.spec;
   while (!args.done()) {
     const std::string a = args.next();
-    if (a == "--resolution") s.grid.resolution = args.number(a);
-    else if (a == "--extent") s.grid.extent = std::array<double, 4>{args.number(a), args.number(a), args.number(a), args.number(a)};
-    else if (a == "--margin") s.grid.margin = args.number(a);
-    else if (a == "--crs") s.seeds.target_crs = args.value(a);
-    else if (a == "--like") s.grid.like = args.value(a);
-    else if (a == "--layer") s.seeds.layers.push_back(args.value(a));
-    else if (a == "--owner-field") s.seeds.owner_field = args.value(a);
+    if (a == "--resolution")
+      s.grid.resolution = args.number(a);
+    else if (a == "--extent")
+      s.grid.extent = std::array<double, 4>{args.number(a), args.number(a), args.number(a), args.number(a)};
+    else if (a == "--margin")
+      s.grid.margin = args.number(a);
+    else if (a == "--crs")
+      s.seeds.target_crs = args.value(a);
+    else if (a == "--like")
+      s.grid.like = args.value(a);
+    else if (a == "--layer")
+      s.seeds.layers.push_back(args.value(a));
+    else if (a == "--owner-field")
+      s.seeds.owner_field = args.value(a);
     else if (a == "--on-conflict") {
       const std::string v = args.value(a);
-      if (v == "error") s.seeds.on_conflict = ConflictPolicy::error;
-      else if (v == "lower-code") s.seeds.on_conflict = ConflictPolicy::lower_code;
-      else throw Error(ErrorKind::invalid_argument, "--on-conflict: expected error or lower-code, got '" + v + "'");
-    }
-    else if (a == "--method") s.method = parse_method(args.value(a));
-    else if (a == "--methods") for (const auto& m : split(args.value(a), ',')) o.methods.push_back(parse_method(m));
-    else if (a == "--metric") s.metric = args.value(a);
+      if (v == "error")
+        s.seeds.on_conflict = ConflictPolicy::error;
+      else if (v == "lower-code")
+        s.seeds.on_conflict = ConflictPolicy::lower_code;
+      else
+        throw Error(ErrorKind::invalid_argument, "--on-conflict: expected error or lower-code, got '" + v + "'");
+    } else if (a == "--method")
+      s.method = parse_method(args.value(a));
+    else if (a == "--methods")
+      for (const auto& m : split(args.value(a), ',')) o.methods.push_back(parse_method(m));
+    else if (a == "--metric")
+      s.metric = args.value(a);
     else if (a == "--threads") {
       const int64_t n = args.integer(a);
       if (n < 0 || n > 1024) throw Error(ErrorKind::invalid_argument, "--threads: expected 0..1024");
       s.threads = static_cast<int>(n);
-    }
-    else if (a == "--max-distance") s.max_distance = args.number(a);
-    else if (a == "--distance-units") s.distance_units = args.value(a);
-    else if (a == "--validate") s.validate = true;
-    else if (a == "--strip-rows") s.strip_rows = args.integer(a);
-    else if (a == "--ownership") s.outputs.ownership = args.value(a);
-    else if (a == "--distance") s.outputs.distance = args.value(a);
-    else if (a == "--nearest-feature") s.outputs.nearest_feature = args.value(a);
-    else if (a == "--report") s.outputs.report = args.value(a);
-    else if (a == "--cog") s.outputs.cloud_optimized = true;
+    } else if (a == "--max-distance")
+      s.max_distance = args.number(a);
+    else if (a == "--distance-units")
+      s.distance_units = args.value(a);
+    else if (a == "--validate")
+      s.validate = true;
+    else if (a == "--strip-rows")
+      s.strip_rows = args.integer(a);
+    else if (a == "--ownership")
+      s.outputs.ownership = args.value(a);
+    else if (a == "--distance")
+      s.outputs.distance = args.value(a);
+    else if (a == "--nearest-feature")
+      s.outputs.nearest_feature = args.value(a);
+    else if (a == "--report")
+      s.outputs.report = args.value(a);
+    else if (a == "--cog")
+      s.outputs.cloud_optimized = true;
     else if (a == "--compression") {
       const std::string v = args.value(a);
       try {
@@ -202,21 +222,35 @@ CommonOptions parse(Args& args, bool validate_mode) {
       } catch (const Error& e) {
         throw Error(e.kind(), "--compression: " + std::string(e.what()));
       }
-    }
-    else if (a == "--boundaries") s.outputs.boundaries = args.value(a);
-    else if (a == "--tripoints") s.outputs.tripoints = args.value(a);
-    else if (a == "--limits") s.outputs.limits = args.value(a);
-    else if (a == "--limit-distances") for (const auto& d : split(args.value(a), ',')) s.outputs.limit_distances.push_back(d);
-    else if (a == "--limits-per-owner") s.outputs.limits_per_owner = true;
-    else if (a == "--regions") s.outputs.regions = args.value(a);
-    else if (a == "--margin-raster") s.outputs.margin = args.value(a);
-    else if (a == "--preview") s.outputs.preview = args.value(a);
-    else if (a == "--simplify") s.outputs.simplify_cells = args.number(a);
-    else if (a == "--quiet") o.quiet = true;
-    else if (validate_mode && a == "--random-seeds") o.random_seeds = args.integer(a);
-    else if (validate_mode && a == "--size") { o.size_w = args.integer(a); o.size_h = args.integer(a); }
-    else if (validate_mode && a == "--trials") o.trials = args.integer(a);
-    else if (validate_mode && a == "--seed") o.rng_seed = static_cast<uint64_t>(args.integer(a));
+    } else if (a == "--boundaries")
+      s.outputs.boundaries = args.value(a);
+    else if (a == "--tripoints")
+      s.outputs.tripoints = args.value(a);
+    else if (a == "--limits")
+      s.outputs.limits = args.value(a);
+    else if (a == "--limit-distances")
+      for (const auto& d : split(args.value(a), ',')) s.outputs.limit_distances.push_back(d);
+    else if (a == "--limits-per-owner")
+      s.outputs.limits_per_owner = true;
+    else if (a == "--regions")
+      s.outputs.regions = args.value(a);
+    else if (a == "--margin-raster")
+      s.outputs.margin = args.value(a);
+    else if (a == "--preview")
+      s.outputs.preview = args.value(a);
+    else if (a == "--simplify")
+      s.outputs.simplify_cells = args.number(a);
+    else if (a == "--quiet")
+      o.quiet = true;
+    else if (validate_mode && a == "--random-seeds")
+      o.random_seeds = args.integer(a);
+    else if (validate_mode && a == "--size") {
+      o.size_w = args.integer(a);
+      o.size_h = args.integer(a);
+    } else if (validate_mode && a == "--trials")
+      o.trials = args.integer(a);
+    else if (validate_mode && a == "--seed")
+      o.rng_seed = static_cast<uint64_t>(args.integer(a));
     else if (validate_mode && a == "--buckets") {
       const auto v = split(args.value(a), ',');
       char* e1 = nullptr;
@@ -224,9 +258,10 @@ CommonOptions parse(Args& args, bool validate_mode) {
       if (v.size() == 2) o.buckets = {std::strtod(v[0].c_str(), &e1), std::strtod(v[1].c_str(), &e2)};
       if (v.size() != 2 || *e1 || *e2 || !(o.buckets[0] > 0 && o.buckets[1] > o.buckets[0]))
         throw Error(ErrorKind::invalid_argument, "--buckets: expected two increasing limits in cells, e.g. 1,3");
-    }
-    else if (a.rfind("--", 0) == 0) throw Error(ErrorKind::invalid_argument, "unknown option " + a + " (see rvoronoi --help)");
-    else s.seeds.paths.push_back(a);
+    } else if (a.rfind("--", 0) == 0)
+      throw Error(ErrorKind::invalid_argument, "unknown option " + a + " (see rvoronoi --help)");
+    else
+      s.seeds.paths.push_back(a);
   }
   return o;
 }
@@ -243,11 +278,11 @@ int cmd_compute(Args& args) {
   bar.finish();
   const auto& g = r.report["grid"];
   std::cout << "rvoronoi: " << g["width"] << "x" << g["height"] << " cells, method "
-            << r.report["method"].get<std::string>() << ", compute "
-            << r.report["timings_s"]["compute"].get<double>() << " s\n";
-  if (r.report.contains("validation"))
-    std::cout << "validation: " << json_text(r.report["validation"]) << "\n";
-  for (const auto& w : r.report["seeds"]["warnings"]) std::cerr << "warning: " << valid_utf8(w.get<std::string>()) << "\n";
+            << r.report["method"].get<std::string>() << ", compute " << r.report["timings_s"]["compute"].get<double>()
+            << " s\n";
+  if (r.report.contains("validation")) std::cout << "validation: " << json_text(r.report["validation"]) << "\n";
+  for (const auto& w : r.report["seeds"]["warnings"])
+    std::cerr << "warning: " << valid_utf8(w.get<std::string>()) << "\n";
   for (const std::string& f : r.files) std::cout << "wrote " << f << "\n";
   return 0;
 }
@@ -257,10 +292,14 @@ int cmd_serve(Args& args) {
   ServeOptions o;
   while (!args.done()) {
     const std::string opt = args.next();
-    if (opt == "--listen") o.listen = args.value(opt);
-    else if (opt == "--data-dir") o.data_dir = args.value(opt);
-    else if (opt == "--config") o.config_file = args.value(opt);
-    else throw Error(ErrorKind::invalid_argument, "serve: unknown option '" + opt + "'");
+    if (opt == "--listen")
+      o.listen = args.value(opt);
+    else if (opt == "--data-dir")
+      o.data_dir = args.value(opt);
+    else if (opt == "--config")
+      o.config_file = args.value(opt);
+    else
+      throw Error(ErrorKind::invalid_argument, "serve: unknown option '" + opt + "'");
   }
   return serve_main(o);
 }
@@ -275,11 +314,19 @@ std::string fmt(double v) {
 nlohmann::json stats_json(const ValidationStats& v, double to_output) {
   nlohmann::json examples = nlohmann::json::array();
   for (const WrongCell& w : v.examples)
-    examples.push_back({{"col", w.col}, {"row", w.row}, {"site", w.site}, {"nearest_site", w.reference}, {"error", w.error * to_output}});
-  return {{"cells", v.cells},           {"wrong_cells", v.wrong_cells},
-          {"wrong_owner_cells", v.wrong_owner_cells}, {"tie_cells", v.tie_cells},
-          {"nodata_mismatch", v.nodata_mismatch},     {"max_error", v.max_error * to_output},
-          {"max_error_cells", v.max_error_cells},     {"wrong_examples", examples}};
+    examples.push_back({{"col", w.col},
+                        {"row", w.row},
+                        {"site", w.site},
+                        {"nearest_site", w.reference},
+                        {"error", w.error * to_output}});
+  return {{"cells", v.cells},
+          {"wrong_cells", v.wrong_cells},
+          {"wrong_owner_cells", v.wrong_owner_cells},
+          {"tie_cells", v.tie_cells},
+          {"nodata_mismatch", v.nodata_mismatch},
+          {"max_error", v.max_error * to_output},
+          {"max_error_cells", v.max_error_cells},
+          {"wrong_examples", examples}};
 }
 
 // The paper's Table 2: random point seeds on a W x H grid of unit cells, T trials; the largest
@@ -323,9 +370,12 @@ int random_trials(const CommonOptions& o) {
       k.seconds += f.seconds;
       k.wrong_cells += v.wrong_cells;
       k.worst = std::max(k.worst, v.max_error_cells);
-      if (v.max_error_cells <= o.buckets[0]) ++k.le1;
-      else if (v.max_error_cells <= o.buckets[1]) ++k.le3;
-      else ++k.gt3;
+      if (v.max_error_cells <= o.buckets[0])
+        ++k.le1;
+      else if (v.max_error_cells <= o.buckets[1])
+        ++k.le3;
+      else
+        ++k.gt3;
     }
   }
   nlohmann::json out;
@@ -333,13 +383,15 @@ int random_trials(const CommonOptions& o) {
   out["seeds"] = o.random_seeds;
   out["trials"] = o.trials;
   out["rng_seed"] = o.rng_seed;
-  out["buckets_cells"] = {"0-" + fmt(o.buckets[0]), fmt(o.buckets[0]) + "-" + fmt(o.buckets[1]), ">" + fmt(o.buckets[1])};
+  out["buckets_cells"] = {"0-" + fmt(o.buckets[0]), fmt(o.buckets[0]) + "-" + fmt(o.buckets[1]),
+                          ">" + fmt(o.buckets[1])};
   out["brute_force_mean_seconds"] = brute_seconds / static_cast<double>(o.trials);
   for (size_t m = 0; m < methods.size(); ++m) {
     const Tally& k = tally[m];
-    out["methods"][std::string(to_string(methods[m]))] = {
-        {"trials_in_bucket", {k.le1, k.le3, k.gt3}}, {"worst_error_cells", k.worst},
-        {"wrong_cells_total", k.wrong_cells},     {"mean_seconds", k.seconds / static_cast<double>(o.trials)}};
+    out["methods"][std::string(to_string(methods[m]))] = {{"trials_in_bucket", {k.le1, k.le3, k.gt3}},
+                                                          {"worst_error_cells", k.worst},
+                                                          {"wrong_cells_total", k.wrong_cells},
+                                                          {"mean_seconds", k.seconds / static_cast<double>(o.trials)}};
   }
   std::cout << json_text(out, 2) << "\n";
   return 0;
@@ -349,7 +401,8 @@ int cmd_validate(Args& args) {
   CommonOptions o = parse(args, true);
   if (o.random_seeds > 0 || o.size_w > 0) return random_trials(o);
   if (o.spec.seeds.paths.empty()) throw Error(ErrorKind::invalid_argument, "validate: no seed file given");
-  std::vector<Method> methods = o.methods.empty() ? std::vector<Method>{Method::exact, Method::hv_scan, Method::h_scan} : o.methods;
+  std::vector<Method> methods =
+      o.methods.empty() ? std::vector<Method>{Method::exact, Method::hv_scan, Method::h_scan} : o.methods;
   gdal_init();
   const LoadedSeeds loaded = load_seeds(seed_options_for_metric(o.spec.seeds, o.spec.metric));
   const MetricPlan mp = plan_metric(o.spec.metric, o.spec.distance_units, loaded.crs);

@@ -7,8 +7,10 @@ const ErrorInfo& error_info(ErrorKind kind) {
   // tell a bad input from a full disk. Problem types reuse OGC API - Processes URIs where the
   // standard names one.
   static const ErrorInfo table[] = {
-      /* invalid_argument */ {2, 400, "http://www.opengis.net/def/exceptions/ogcapi-processes-1/1.0/invalid-parameter", "Invalid parameter"},
-      /* invalid_input */ {3, 400, "http://www.opengis.net/def/exceptions/ogcapi-processes-1/1.0/invalid-input", "Invalid input"},
+      /* invalid_argument */ {2, 400, "http://www.opengis.net/def/exceptions/ogcapi-processes-1/1.0/invalid-parameter",
+                              "Invalid parameter"},
+      /* invalid_input */
+      {3, 400, "http://www.opengis.net/def/exceptions/ogcapi-processes-1/1.0/invalid-input", "Invalid input"},
       /* not_found */ {4, 404, "http://www.opengis.net/def/exceptions/ogcapi-processes-1/1.0/not-found", "Not found"},
       /* conflict */ {5, 400, "https://rvoronoi.dev/problems/seed-conflict", "Seeds of two owners overlap"},
       /* too_large */ {6, 422, "https://rvoronoi.dev/problems/too-large", "Request exceeds a limit"},

@@ -52,10 +52,11 @@ class OutputGuard {
 };
 
 nlohmann::json grid_json(const GridSpec& g, const CrsInfo& crs) {
-  return {{"width", g.width},       {"height", g.height}, {"cells", g.cell_count()},
-          {"xmin", g.xmin},         {"ymin", g.ymin()},   {"xmax", g.xmax()},
-          {"ymax", g.ymax},         {"resolution", g.res}, {"crs", crs.name},
-          {"geographic", crs.geographic}};
+  return {{"width", g.width},        {"height", g.height},
+          {"cells", g.cell_count()}, {"xmin", g.xmin},
+          {"ymin", g.ymin()},        {"xmax", g.xmax()},
+          {"ymax", g.ymax},          {"resolution", g.res},
+          {"crs", crs.name},         {"geographic", crs.geographic}};
 }
 
 nlohmann::json seeds_json(const LoadedSeeds& loaded) {
@@ -140,8 +141,7 @@ GridSpec plan_grid(const GridRequest& request, const LoadedSeeds& loaded) {
     g.crs = loaded.crs.wkt;
     return g;
   }
-  if (!request.resolution)
-    throw Error(ErrorKind::invalid_argument, "a resolution is required (or --like a raster)");
+  if (!request.resolution) throw Error(ErrorKind::invalid_argument, "a resolution is required (or --like a raster)");
   const double res = *request.resolution;
   if (!std::isfinite(res) || res <= 0.0)
     throw Error(ErrorKind::invalid_argument, "resolution must be a positive number");
@@ -210,7 +210,8 @@ constexpr int64_t kWriterBytes = int64_t{12} << 20;
 }  // namespace
 
 int64_t seed_memory_bytes(const LoadedSeeds& loaded) {
-  int64_t bytes = loaded.seeds.memory_bytes() + static_cast<int64_t>(loaded.input_position.capacity() * sizeof(int64_t));
+  int64_t bytes =
+      loaded.seeds.memory_bytes() + static_cast<int64_t>(loaded.input_position.capacity() * sizeof(int64_t));
   if (loaded.grid_polygons) {
     for (const Polygon& p : *loaded.grid_polygons)
       for (const Ring& r : p.rings) bytes += static_cast<int64_t>(r.capacity() * sizeof(Vec2) + sizeof(Ring));
@@ -260,7 +261,7 @@ JobPlan plan_job(const JobSpec& spec, const GridSpec& grid, int64_t sites, Metri
   if (out.cloud_optimized && int_rasters > 0) need += cells * 2;
   if (spec.validate) need += estimate_memory(Method::brute_force, cells, sites, metric);
   if (out.any_deliverable()) {
-    need += cells * 4;  // owner codes
+    need += cells * 4;                                                                          // owner codes
     if (spec.method != Method::exact && spec.method != Method::brute_force) need += cells * 8;  // exact field
     if (!out.margin.empty()) need += cells * 12;  // other-owner field + margin
     if (!out.limits.empty()) need += cells;       // inside flags
@@ -639,9 +640,9 @@ JobResult run_job(const JobSpec& spec, const JobLimits& limits, const JobHooks& 
   if (spec.max_distance) report["max_distance"] = *spec.max_distance;
   report["seeds"] = seeds_json(loaded);
   report["contested_cells"] = contested_cells;
-  report["streaming"] = plan.streamed ? nlohmann::json{{"streamed", true}, {"rows_per_strip", plan.strip_rows},
-                                                        {"strips", plan.strips}}
-                                      : nlohmann::json{{"streamed", false}, {"why_not", plan.why_whole}};
+  report["streaming"] =
+      plan.streamed ? nlohmann::json{{"streamed", true}, {"rows_per_strip", plan.strip_rows}, {"strips", plan.strips}}
+                    : nlohmann::json{{"streamed", false}, {"why_not", plan.why_whole}};
   // The peak is the larger of reading the seeds and computing with them (the seeds included).
   report["memory_estimate_bytes"] = std::max(plan.memory_bytes, loaded.report.reading_bytes);
   report["timings_s"] = timings;

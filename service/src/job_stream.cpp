@@ -70,7 +70,8 @@ AnyWriter open_writer(const StreamTarget& t, const GridSpec& grid) {
     case StreamTarget::Product::distance:
       return GeoTiffStripWriter<float>(t.path, grid, grid.full_window(), static_cast<double>(kNoDistance), t.options);
     case StreamTarget::Product::ownership:
-    case StreamTarget::Product::nearest_feature: break;
+    case StreamTarget::Product::nearest_feature:
+      break;
   }
   return GeoTiffStripWriter<int32_t>(t.path, grid, grid.full_window(), 0.0, t.options);
 }
@@ -139,8 +140,7 @@ StreamStats run_streamed(const StreamJob& job) {
             std::get<GeoTiffStripWriter<int32_t>>(writers[i]).write_rows(coded(feature_codes, s), s.rows);
             break;
           case StreamTarget::Product::distance:
-            std::get<GeoTiffStripWriter<float>>(writers[i])
-                .write_rows(s.field.distance.data(), s.rows);
+            std::get<GeoTiffStripWriter<float>>(writers[i]).write_rows(s.field.distance.data(), s.rows);
             break;
         }
         write_seconds[i] += seconds_since(t);
@@ -206,9 +206,8 @@ StreamStats run_streamed(const StreamJob& job) {
   }
   handoff.close();
   last_percent = -1;
-  handoff.wait_finished([&](int64_t rows) {
-    report("write", static_cast<double>(rows) / static_cast<double>(height));
-  });
+  handoff.wait_finished(
+      [&](int64_t rows) { report("write", static_cast<double>(rows) / static_cast<double>(height)); });
   joiner.join();
   // The writers wait side by side: the longest wait is the time the files waited for the engine.
   stats.write_waited = *std::max_element(write_waited.begin(), write_waited.end());

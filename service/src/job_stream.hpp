@@ -29,10 +29,10 @@ struct StreamTarget {
 struct StreamJob {
   const SeedSet* seeds = nullptr;
   GridSpec grid;
-  ComputeOptions compute;            // window and progress are set per strip
-  int64_t strip_rows = 0;            // > 0
-  std::vector<StreamTarget> targets; // at least one; written in this order
-  double distance_factor = 1.0;      // metric units -> output units
+  ComputeOptions compute;                      // window and progress are set per strip
+  int64_t strip_rows = 0;                      // > 0
+  std::vector<StreamTarget> targets;           // at least one; written in this order
+  double distance_factor = 1.0;                // metric units -> output units
   std::span<const int64_t> feature_numbering;  // LoadedSeeds::input_position
   // Job progress: ("compute", fraction of the grid computed), then ("write", fraction written).
   // Called on the calling thread or the engine's workers, never concurrently.
@@ -43,16 +43,16 @@ struct StreamJob {
 
 // What the streamed run measured; every time in seconds.
 struct StreamStats {
-  double compute = 0.0;         // the engine's own time, summed over strips
-  double convert = 0.0;         // distance unit scaling, on the computing thread
+  double compute = 0.0;                 // the engine's own time, summed over strips
+  double convert = 0.0;                 // distance unit scaling, on the computing thread
   std::map<std::string, double> write;  // per target: site ids -> codes (code rasters), encoding
                                         // and finishing, on its writer thread
-  double compute_waited = 0.0;  // the computing thread waiting for a free strip buffer
-  double write_waited = 0.0;    // the writer threads waiting for a computed strip (the longest)
-  double wall = 0.0;            // from the first strip's start to the last file in place
+  double compute_waited = 0.0;          // the computing thread waiting for a free strip buffer
+  double write_waited = 0.0;            // the writer threads waiting for a computed strip (the longest)
+  double wall = 0.0;                    // from the first strip's start to the last file in place
   int64_t strips = 0;
   int64_t contested_cells = 0;
-  int threads = 1;              // the engine's
+  int threads = 1;  // the engine's
 };
 
 // Computes and writes. Throws what compute_into() and GeoTiffStripWriter throw; on any failure

@@ -59,8 +59,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     const rv::daemon::Execution ex = rv::daemon::parse_execution(body, kJobId, config);
     const std::string dir = std::string("/vsimem/rvoronoi/") + kJobId + "/";
     require(!ex.spec.seeds.paths.empty());
-    for (const std::string& p : ex.spec.seeds.paths)
-      require(starts_with(p, dir) || starts_with(p, "/vsizip/" + dir));
+    for (const std::string& p : ex.spec.seeds.paths) require(starts_with(p, dir) || starts_with(p, "/vsizip/" + dir));
     require(ex.outputs.size() == ex.transmission.size() && ex.outputs.size() == ex.formats.size() &&
             !ex.outputs.empty());
     require(ex.spec.grid.resolution && std::isfinite(*ex.spec.grid.resolution) && *ex.spec.grid.resolution > 0.0);

@@ -88,8 +88,8 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   } catch (const rv::Error& e) {
     require(rv::is_valid_utf8(e.what()));
     const rv::ErrorKind k = e.kind();
-    require(k == rv::ErrorKind::invalid_input || k == rv::ErrorKind::invalid_argument ||
-            k == rv::ErrorKind::conflict || k == rv::ErrorKind::too_large);
+    require(k == rv::ErrorKind::invalid_input || k == rv::ErrorKind::invalid_argument || k == rv::ErrorKind::conflict ||
+            k == rv::ErrorKind::too_large);
     answer_parses(e);
   }
   VSIUnlink(kFile.c_str());

@@ -70,8 +70,9 @@ TEST(Deliverables, TwoPointsGiveThePerpendicularBisector) {
   }
   // Continuous: no gap wider than a cell diagonal, from one side of the grid to the other.
   for (size_t i = 1; i < line.vertices.size(); ++i)
-    EXPECT_LE(std::hypot(line.vertices[i].p.x - line.vertices[i - 1].p.x, line.vertices[i].p.y - line.vertices[i - 1].p.y),
-              std::sqrt(2.0) * res + 1e-9);
+    EXPECT_LE(
+        std::hypot(line.vertices[i].p.x - line.vertices[i - 1].p.x, line.vertices[i].p.y - line.vertices[i - 1].p.y),
+        std::sqrt(2.0) * res + 1e-9);
   const Vec2 first = line.vertices.front().p, last = line.vertices.back().p;
   auto at_border = [&](Vec2 p) {
     return p.x <= st.g.centre_x(0) + res || p.x >= st.g.centre_x(39) - res || p.y >= st.g.centre_y(0) - res ||
@@ -92,9 +93,11 @@ TEST(Deliverables, ThreePointsMeetAtTheCircumcentre) {
   const Vec2 A = s.sites()[0].a, B = s.sites()[1].a, C = s.sites()[2].a;
   const double d = 2 * (A.x * (B.y - C.y) + B.x * (C.y - A.y) + C.x * (A.y - B.y));
   const double ux = ((A.x * A.x + A.y * A.y) * (B.y - C.y) + (B.x * B.x + B.y * B.y) * (C.y - A.y) +
-                     (C.x * C.x + C.y * C.y) * (A.y - B.y)) / d;
+                     (C.x * C.x + C.y * C.y) * (A.y - B.y)) /
+                    d;
   const double uy = ((A.x * A.x + A.y * A.y) * (C.x - B.x) + (B.x * B.x + B.y * B.y) * (A.x - C.x) +
-                     (C.x * C.x + C.y * C.y) * (B.x - A.x)) / d;
+                     (C.x * C.x + C.y * C.y) * (B.x - A.x)) /
+                    d;
   const Tripoint& t = b.tripoints[0];
   EXPECT_NEAR(t.p.x, ux, 1e-3);
   EXPECT_NEAR(t.p.y, uy, 1e-3);
@@ -158,7 +161,8 @@ TEST(Deliverables, RandomMixedSeedsPassTheEquidistanceChecks) {
       const int32_t f = s.add_feature(s.owner_code("o" + std::to_string(1 + i % owners)));
       if (i % 3 == 0) {
         std::vector<Vec2> line{{ux(rng), uy(rng)}};
-        for (int k = 0; k < 3; ++k) line.push_back({line.back().x + (ux(rng) - 30) / 4, line.back().y + (uy(rng) - 22) / 4});
+        for (int k = 0; k < 3; ++k)
+          line.push_back({line.back().x + (ux(rng) - 30) / 4, line.back().y + (uy(rng) - 22) / 4});
         s.add_polyline(f, line);
       } else {
         s.add_point(f, {ux(rng), uy(rng)});
@@ -238,7 +242,8 @@ TEST(Deliverables, NoDanglingEndsWithRegionsThinnerThanACell) {
       const int32_t f = s.add_feature(s.owner_code("o" + std::to_string(1 + i % owners)));
       if (i % 4 == 0) {
         std::vector<Vec2> line{{ux(rng), uy(rng)}};
-        for (int k = 0; k < 2; ++k) line.push_back({line.back().x + (ux(rng) - 25) / 5, line.back().y + (uy(rng) - 20) / 5});
+        for (int k = 0; k < 2; ++k)
+          line.push_back({line.back().x + (ux(rng) - 25) / 5, line.back().y + (uy(rng) - 20) / 5});
         // Lines of two owners that cross are seeds in conflict (distance 0 to both, where
         // boundaries may end legitimately): keep the scene free of them.
         auto orient = [](Vec2 p, Vec2 q, Vec2 r) { return (q.x - p.x) * (r.y - p.y) - (q.y - p.y) * (r.x - p.x); };
@@ -249,8 +254,10 @@ TEST(Deliverables, NoDanglingEndsWithRegionsThinnerThanACell) {
             crosses |= (orient(a, b, site.a) > 0) != (orient(a, b, site.b) > 0) &&
                        (orient(site.a, site.b, a) > 0) != (orient(site.a, site.b, b) > 0);
           }
-        if (crosses) s.add_point(f, line.front());
-        else s.add_polyline(f, line);
+        if (crosses)
+          s.add_point(f, line.front());
+        else
+          s.add_polyline(f, line);
       } else {
         s.add_point(f, {ux(rng), uy(rng)});
       }
@@ -267,8 +274,8 @@ TEST(Deliverables, NoDanglingEndsWithRegionsThinnerThanACell) {
   }
   std::printf("line ends %d, dangling %d, sliver segments %lld, vertices on them %lld\n", ends_total, dangling,
               static_cast<long long>(slivers), static_cast<long long>(sliver_vertices));
-  EXPECT_GT(slivers, 20);           // the case this test is about occurs
-  EXPECT_GT(sliver_vertices, 20);   // and its sides are drawn
+  EXPECT_GT(slivers, 20);          // the case this test is about occurs
+  EXPECT_GT(sliver_vertices, 20);  // and its sides are drawn
   // Before the sides of thin regions were drawn: 6 dangling of 1662 ends. Left: 3 ends in one
   // scene (trial 14) where line seeds of owners with several features meet in one square
   // with an unresolved tripoint; not yet understood (see the closing note of issue 6).
@@ -285,7 +292,8 @@ TEST(Deliverables, SameResultForAnyThreadCount) {
   ASSERT_EQ(a.lines.size(), b.lines.size());
   for (size_t i = 0; i < a.lines.size(); ++i) {
     ASSERT_EQ(a.lines[i].vertices.size(), b.lines[i].vertices.size());
-    for (size_t k = 0; k < a.lines[i].vertices.size(); ++k) ASSERT_EQ(a.lines[i].vertices[k].p, b.lines[i].vertices[k].p);
+    for (size_t k = 0; k < a.lines[i].vertices.size(); ++k)
+      ASSERT_EQ(a.lines[i].vertices[k].p, b.lines[i].vertices[k].p);
   }
   ASSERT_EQ(a.tripoints.size(), b.tripoints.size());
   const std::vector<double> d{4.0};
@@ -303,8 +311,7 @@ TEST(Deliverables, LimitLinesAtTheRequestedDistance) {
   const LimitResult r = extract_limits(st.field, st.index, d);
   ASSERT_EQ(r.lines.size(), 1u);
   EXPECT_TRUE(r.lines[0].closed);
-  for (const LimitVertex& v : r.lines[0].vertices)
-    EXPECT_NEAR(std::hypot(v.p.x - 20.3, v.p.y - 20.6), 10.0, 1e-6);
+  for (const LimitVertex& v : r.lines[0].vertices) EXPECT_NEAR(std::hypot(v.p.x - 20.3, v.p.y - 20.6), 10.0, 1e-6);
   EXPECT_GT(r.lines[0].vertices.size(), 40u);
 
   // Random seeds, all owners and per owner.

@@ -107,10 +107,8 @@ TEST(Engine, ExactMatchesBruteForceOnLatticePointsWithTies) {
     const int n = 20 + static_cast<int>(rng() % 300);
     SeedSet s;
     for (int i = 0; i < n; ++i) {
-      const double x =
-          g.xmin + 0.5 * static_cast<double>(static_cast<int>(rng() % (2 * w + 20)) - 10);
-      const double y =
-          g.ymin() + 0.5 * static_cast<double>(static_cast<int>(rng() % (2 * h + 20)) - 10);
+      const double x = g.xmin + 0.5 * static_cast<double>(static_cast<int>(rng() % (2 * w + 20)) - 10);
+      const double y = g.ymin() + 0.5 * static_cast<double>(static_cast<int>(rng() % (2 * h + 20)) - 10);
       s.add_point(s.add_feature(s.owner_code("p" + std::to_string(i % 7))), {x, y});
     }
     const double limit = trial % 2 == 0 ? std::numeric_limits<double>::infinity() : 9.0;
@@ -140,8 +138,7 @@ TEST(Engine, HvScanErrorBelowOneCellAndHScanMeasured) {
 }
 
 // Each method computes the same owners and distances on 1, 2 and 7 threads.
-void expect_same_for_any_thread_count(const SeedSet& s, const GridSpec& g,
-                                      std::initializer_list<Method> methods) {
+void expect_same_for_any_thread_count(const SeedSet& s, const GridSpec& g, std::initializer_list<Method> methods) {
   for (Method m : methods) {
     const NearestField one = run(s, g, m, 1);
     for (int t : {2, 7}) {
@@ -398,8 +395,8 @@ TEST(Engine, PreparedSeedsServeEveryWindowOfTheirGridOnly) {
   };
   o.method = Method::exact;
   const SeedSet copy = s;
-  EXPECT_TRUE(refused(copy, g, o));               // another seed set object
-  EXPECT_TRUE(refused(s, grid(300, 201), o));      // another grid
+  EXPECT_TRUE(refused(copy, g, o));            // another seed set object
+  EXPECT_TRUE(refused(s, grid(300, 201), o));  // another grid
 
   // Geodesic: the prepared sites (with their geodesic preparation) serve a window too.
   const GridSpec lonlat = grid(40, 30, 0.05, 10.0, 56.0);
@@ -417,7 +414,7 @@ TEST(Engine, PreparedSeedsServeEveryWindowOfTheirGridOnly) {
   ComputeOptions for_more = o;
   for_more.prepared = prepare(more, g, o);
   more.add_point(more.add_feature(more.owner_code("late")), {5.0, 5.0});
-  EXPECT_TRUE(refused(more, g, for_more));         // the seed set changed size after prepare()
+  EXPECT_TRUE(refused(more, g, for_more));  // the seed set changed size after prepare()
 }
 
 TEST(Engine, BadInputIsRejectedWithAClearError) {

@@ -26,8 +26,7 @@ MetricSpec wgs84() {
 }
 
 NearestField run(const SeedSet& s, const GridSpec& g, Method m, int threads = 2,
-                 double max_distance = std::numeric_limits<double>::infinity(),
-                 MetricSpec metric = wgs84()) {
+                 double max_distance = std::numeric_limits<double>::infinity(), MetricSpec metric = wgs84()) {
   ComputeOptions o;
   o.method = m;
   o.threads = threads;
@@ -57,8 +56,7 @@ SeedSet random_features(uint32_t seed, double lon0, double lat0, double lon1, do
     const Vec2 c{ulon(rng), ulat(rng)};
     std::vector<Vec2> pts;
     const int k = 2 + static_cast<int>(rng() % 4);
-    for (int i = 0; i < k; ++i)
-      pts.push_back({c.x + off(rng) * span, std::clamp(c.y + off(rng) * span, -90.0, 90.0)});
+    for (int i = 0; i < k; ++i) pts.push_back({c.x + off(rng) * span, std::clamp(c.y + off(rng) * span, -90.0, 90.0)});
     if (f % 3 == 0) {
       s.add_point(id, c);
     } else if (f % 3 == 1) {
@@ -164,8 +162,8 @@ TEST(GeodesicEngine, InterpolatedDistancesMatchGeographicLib) {
         }
         ASSERT_EQ(f.site.at(c, r), best_id) << k.what << " " << c << "," << r;
         const float want = static_cast<float>(best), got = f.distance.at(c, r);
-        ASSERT_TRUE(got == want || got == std::nextafter(want, got)) << k.what << " " << c << "," << r << ": " << got
-                                                                        << " vs " << best;
+        ASSERT_TRUE(got == want || got == std::nextafter(want, got))
+            << k.what << " " << c << "," << r << ": " << got << " vs " << best;
         ASSERT_NEAR(got, best, std::max(1e-3, best * 1.2e-7)) << k.what;
         ++checked;
       }
@@ -192,7 +190,7 @@ TEST(GeodesicEngine, InterpolatedDistancesMatchGeographicLib) {
 TEST(GeodesicEngine, InterpolatedTiesGoToTheLowerSite) {
   const double res = 1.0 / 512.0;
   const GridSpec g = geo_grid(4.0, 1.0, res, 1024, 200);  // 4E .. 6E, 1N .. 0.61N
-  const double mid = 4.0 + 512.5 * res;                    // column 512's centre, exact
+  const double mid = 4.0 + 512.5 * res;                   // column 512's centre, exact
   SeedSet s;
   s.add_point(s.add_feature(s.owner_code("B")), {mid + 0.25, 0.8});
   s.add_point(s.add_feature(s.owner_code("A")), {mid - 0.25, 0.8});
@@ -232,7 +230,8 @@ TEST(GeodesicEngine, OffshoreCellsOfACoastline) {
       const Vec2 p{g.centre_x(c), g.centre_y(r)};
       double best = std::numeric_limits<double>::infinity();
       for (const auto* line : {&coast_a, &coast_b})
-        for (size_t i = 0; i + 1 < line->size(); ++i) best = std::min(best, m.segment_distance(p, (*line)[i], (*line)[i + 1]));
+        for (size_t i = 0; i + 1 < line->size(); ++i)
+          best = std::min(best, m.segment_distance(p, (*line)[i], (*line)[i + 1]));
       EXPECT_NEAR(f.distance.at(c, r), best, best * 1.2e-7) << c << "," << r;
     }
 }
@@ -316,7 +315,7 @@ TEST(GeodesicEngine, AntimeridianCrossingGrid) {
   // The polygon's interior is owned on both sides of the antimeridian, at distance 0.
   const int32_t island = s.polygons()[0].area_site;
   ASSERT_EQ(s.sites()[island].kind, SiteKind::area);
-  const int64_t rp = 28;  // lat -15.425
+  const int64_t rp = 28;                  // lat -15.425
   EXPECT_EQ(f.site.at(97, rp), island);   // lon 179.875
   EXPECT_EQ(f.site.at(103, rp), island);  // lon 180.175 = -179.825
   EXPECT_EQ(f.distance.at(103, rp), 0.0f);
@@ -347,7 +346,8 @@ TEST(GeodesicEngine, GridReachingThePoles) {
     geod.Inverse(89.0, north.centre_x(c), 85.0, 0.0, da);
     geod.Inverse(89.0, north.centre_x(c), 86.0, 120.0, db);
     geod.Inverse(89.0, north.centre_x(c), 84.0, -120.0, dc);
-    const double dd = GeodesicMeasure(wgs84()).segment_distance({north.centre_x(c), 89.0}, {60.0, 80.0}, {-150.0, 82.0});
+    const double dd =
+        GeodesicMeasure(wgs84()).segment_distance({north.centre_x(c), 89.0}, {60.0, 80.0}, {-150.0, 82.0});
     const double ref = std::min({da, db, dc, dd});
     EXPECT_NEAR(f.distance.at(c, 0), ref, ref * 1e-7 + 1e-3) << c;
   }
@@ -374,7 +374,7 @@ TEST(GeodesicEngine, PolygonEnclosingAPole) {
     EXPECT_EQ(f.site.at(c, 14), ice) << c;  // lat -89
     EXPECT_EQ(f.site.at(c, 9), ice) << c;   // lat -79
     EXPECT_EQ(f.distance.at(c, 9), 0.0f) << c;
-    EXPECT_NE(f.site.at(c, 0), ice) << c;   // lat -61, open sea
+    EXPECT_NE(f.site.at(c, 0), ice) << c;  // lat -61, open sea
   }
 }
 
@@ -390,7 +390,7 @@ TEST(GeodesicEngine, EdgesMeetingAtAVertexTieToTheLowerSite) {
   const NearestField f = run(s, g, Method::exact);
   const GeographicLib::Geodesic& geod = GeographicLib::Geodesic::WGS84();
   int checked = 0;
-  for (int64_t r = 0; r < 20; ++r)      // lat 55.795 .. 55.605
+  for (int64_t r = 0; r < 20; ++r)       // lat 55.795 .. 55.605
     for (int64_t c = 17; c < 23; ++c) {  // lon 12.475 .. 12.525
       EXPECT_EQ(f.site.at(c, r), 0) << c << "," << r;
       double d;
@@ -409,9 +409,12 @@ TEST(GeodesicEngine, VertexSwitchesAtFineAndCoarseResolution) {
   // degrees (~6 x 11 m) many cells lie within metres of the switches and of the edges (the
   // additive interpolant across an edge); at 0.01 degrees the same switches run 100 km out.
   SeedSet s;
-  s.add_polyline(s.add_feature(s.owner_code("A")),
-                 std::vector<Vec2>{{12.000, 55.5000}, {12.004, 55.5010}, {12.008, 55.50195},
-                                   {12.012, 55.50290}, {12.014, 55.4990}, {12.019, 55.4995}});
+  s.add_polyline(s.add_feature(s.owner_code("A")), std::vector<Vec2>{{12.000, 55.5000},
+                                                                     {12.004, 55.5010},
+                                                                     {12.008, 55.50195},
+                                                                     {12.012, 55.50290},
+                                                                     {12.014, 55.4990},
+                                                                     {12.019, 55.4995}});
   s.add_polyline(s.add_feature(s.owner_code("B")), std::vector<Vec2>{{12.003, 55.4930}, {12.010, 55.4950}});
   s.add_point(s.add_feature(s.owner_code("B")), {12.0165, 55.5040});
   expect_exact_equals_brute(s, geo_grid(11.998, 55.5060, 0.0001, 240, 140), "fine");
@@ -496,9 +499,9 @@ TEST(GeodesicEngine, CellsNearAnEdgeAreMeasuredExactly) {
   SeedSet s;
   for (int i = 0; i < 30; ++i) {
     const int64_t c = 8 + 34 * i, r = 8 + 17 * (i % 2);
-    s.add_polyline(s.add_feature(s.owner_code("A")),
-                   std::vector<Vec2>{{g.centre_x(c), g.centre_y(r) + 1.5e-7},
-                                     {g.centre_x(c + 20), g.centre_y(r + 20) + 1.5e-7}});
+    s.add_polyline(
+        s.add_feature(s.owner_code("A")),
+        std::vector<Vec2>{{g.centre_x(c), g.centre_y(r) + 1.5e-7}, {g.centre_x(c + 20), g.centre_y(r + 20) + 1.5e-7}});
   }
   expect_exact_equals_brute(s, g, "diagonal edges");
   const NearestField f = run(s, g, Method::brute_force);
@@ -551,14 +554,12 @@ TEST(GeodesicEngine, InsidePolygonsALowerSiteAtDistanceZeroWinsOnAFineGrid) {
   // first, is at distance 0 on its own column.
   const GridSpec g = geo_grid(12.0, 56.0, 0.001, 300, 200);
   SeedSet s;
-  s.add_polyline(
-      s.add_feature(s.owner_code("line")),
-      std::vector<Vec2>{{g.centre_x(150), g.centre_y(40)}, {g.centre_x(150), g.centre_y(160)}});
+  s.add_polyline(s.add_feature(s.owner_code("line")),
+                 std::vector<Vec2>{{g.centre_x(150), g.centre_y(40)}, {g.centre_x(150), g.centre_y(160)}});
   s.add_polyline(s.add_feature(s.owner_code("diagonal")),
                  std::vector<Vec2>{{12.02, 55.85}, {12.09, 55.98}, {12.13, 55.86}});
-  s.add_polygon(
-      s.add_feature(s.owner_code("land")),
-      {std::vector<Vec2>{{12.05, 55.99}, {12.28, 55.985}, {12.27, 55.83}, {12.06, 55.82}}});
+  s.add_polygon(s.add_feature(s.owner_code("land")),
+                {std::vector<Vec2>{{12.05, 55.99}, {12.28, 55.985}, {12.27, 55.83}, {12.06, 55.82}}});
   s.add_point(s.add_feature(s.owner_code("buoy")), {12.25, 55.81});
   expect_exact_equals_brute(s, g, "fine interior");
   const NearestField f = run(s, g, Method::exact);
@@ -723,9 +724,14 @@ void expect_windows_match(const SeedSet& s, const GridSpec& g, std::initializer_
 TEST(GeodesicEngine, FineGridWindowsAgreeWithTheWholeGrid) {
   const GridSpec g = geo_grid(11.90, 55.60, 0.0005, 420, 300);  // 0.0005 deg: 256-cell line blocks
   SeedSet s = random_features(29, 11.95, 55.47, 12.08, 55.58, 14);
-  s.add_polyline(s.add_feature(s.owner_code("coast")),
-                 std::vector<Vec2>{{11.90, 55.52}, {11.93, 55.5230}, {11.95, 55.5205}, {11.97, 55.5260},
-                                   {11.99, 55.5240}, {12.02, 55.5290}, {12.06, 55.5270}, {12.11, 55.5310}});
+  s.add_polyline(s.add_feature(s.owner_code("coast")), std::vector<Vec2>{{11.90, 55.52},
+                                                                         {11.93, 55.5230},
+                                                                         {11.95, 55.5205},
+                                                                         {11.97, 55.5260},
+                                                                         {11.99, 55.5240},
+                                                                         {12.02, 55.5290},
+                                                                         {12.06, 55.5270},
+                                                                         {12.11, 55.5310}});
   expect_windows_match(s, g, {Window{37, 61, 211, 150}, Window{129, 0, 291, 97}, Window{0, 203, 420, 97}}, 1);
 }
 
@@ -752,30 +758,21 @@ TEST(GeodesicEngine, InterpolationBlocksSharedByTilesMatchBruteForce) {
     int64_t w, h;
     std::vector<Window> windows;
   } cases[] = {
-      {0.0004,
-       1300,
-       1100,
-       {Window{470, 480, 90, 70}, Window{990, 500, 70, 60}, Window{480, 1000, 80, 60}}},
-      {0.00064,
-       800,
-       680,
-       {Window{470, 480, 90, 70}, Window{200, 230, 100, 60}, Window{720, 600, 70, 60}}},
+      {0.0004, 1300, 1100, {Window{470, 480, 90, 70}, Window{990, 500, 70, 60}, Window{480, 1000, 80, 60}}},
+      {0.00064, 800, 680, {Window{470, 480, 90, 70}, Window{200, 230, 100, 60}, Window{720, 600, 70, 60}}},
   };
   for (const Case& k : cases) {
     const GridSpec g = geo_grid(12.0, 56.0, k.res, k.w, k.h);  // 12.0 .. 12.52E, 55.56 .. 56.0N
     SeedSet s;
     std::mt19937_64 rng(11);
     std::uniform_real_distribution<double> lon(11.95, 12.57), lat(55.5, 56.05);
-    for (int i = 0; i < 14; ++i)
-      s.add_point(s.add_feature(s.owner_code(std::to_string(i % 3))), {lon(rng), lat(rng)});
+    for (int i = 0; i < 14; ++i) s.add_point(s.add_feature(s.owner_code(std::to_string(i % 3))), {lon(rng), lat(rng)});
     std::vector<Vec2> coast;
     for (int i = 0; i <= 30; ++i)
-      coast.push_back(
-          {12.05 + 0.015 * i, 55.74 + 0.01 * std::sin(0.9 * i) + 0.002 * (i % 3)});  // ~1 km edges
+      coast.push_back({12.05 + 0.015 * i, 55.74 + 0.01 * std::sin(0.9 * i) + 0.002 * (i % 3)});  // ~1 km edges
     s.add_polyline(s.add_feature(s.owner_code("coast")), coast);
-    s.add_polygon(
-        s.add_feature(s.owner_code("island")),
-        {{{12.30, 55.90}, {12.33, 55.905}, {12.335, 55.92}, {12.31, 55.93}, {12.30, 55.90}}});
+    s.add_polygon(s.add_feature(s.owner_code("island")),
+                  {{{12.30, 55.90}, {12.33, 55.905}, {12.335, 55.92}, {12.31, 55.93}, {12.30, 55.90}}});
     for (int threads : {2, 3}) {
       const NearestField whole = run(s, g, Method::exact, threads);
       for (const Window& w : k.windows) {
@@ -788,8 +785,8 @@ TEST(GeodesicEngine, InterpolationBlocksSharedByTilesMatchBruteForce) {
         o.method = Method::exact;
         o.threads = threads;
         const NearestField part = compute(s, g, o);
-        const std::string what = "res " + std::to_string(k.res) + " window " +
-                                 std::to_string(w.col0) + "," + std::to_string(w.row0);
+        const std::string what =
+            "res " + std::to_string(k.res) + " window " + std::to_string(w.col0) + "," + std::to_string(w.row0);
         EXPECT_EQ(part.site.cells(), brute.site.cells()) << what;
         expect_within_one_ulp(part.distance, brute.distance, what);
         EXPECT_TRUE(test::window_matches(part, whole)) << what;

@@ -75,7 +75,8 @@ GridSpec utm_grid(int64_t width = 50, int64_t height = 50) {
   return g;
 }
 
-ComputeOptions projected_options(Method method, std::shared_ptr<const Geolocator> geolocator = std::make_shared<Utm33>()) {
+ComputeOptions projected_options(Method method,
+                                 std::shared_ptr<const Geolocator> geolocator = std::make_shared<Utm33>()) {
   ComputeOptions o;
   o.method = method;
   o.metric = resolve_metric(MetricRequest::geodesic, false);

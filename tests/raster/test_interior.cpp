@@ -17,8 +17,7 @@ GridSpec grid10() {
 
 TEST(Interior, SquareWithHole) {
   SeedSet s;
-  s.add_polygon(s.add_feature(s.owner_code("a")),
-                {{{1, 1}, {9, 1}, {9, 9}, {1, 9}}, {{4, 4}, {6, 4}, {6, 6}, {4, 6}}});
+  s.add_polygon(s.add_feature(s.owner_code("a")), {{{1, 1}, {9, 1}, {9, 9}, {1, 9}}, {{4, 4}, {6, 4}, {6, 6}, {4, 6}}});
   const InteriorSpans sp = build_interiors(s, grid10(), grid10().full_window());
   // 8x8 cells minus the 2x2 hole.
   EXPECT_EQ(sp.cell_count(), 64 - 4);

@@ -59,25 +59,11 @@ TEST(PaperFigure2, HScanMissesCellsThatHvScanRepairs) {
       "......B.",
   });
   const std::vector<std::string> exact = {
-      "aaaaaaaa",
-      "aaaaaaaa",
-      "aaaaaaac",
-      "aaaaaccb",
-      "aaacccbb",
-      "acccccbb",
-      "cccccbbb",
-      "ccccbbbb",
+      "aaaaaaaa", "aaaaaaaa", "aaaaaaac", "aaaaaccb", "aaacccbb", "acccccbb", "cccccbbb", "ccccbbbb",
   };
   // h-scan: A's identity never reaches (7, 1) and (6, 2), to A's upper right (region II).
   const std::vector<std::string> horizontal = {
-      "aaaaaaaa",
-      "aaaaaaac",
-      "aaaaaacc",
-      "aaaaaccb",
-      "aaacccbb",
-      "acccccbb",
-      "cccccbbb",
-      "ccccbbbb",
+      "aaaaaaaa", "aaaaaaac", "aaaaaacc", "aaaaaccb", "aaacccbb", "acccccbb", "cccccbbb", "ccccbbbb",
   };
   ComputeOptions o;
   o.threads = 1;

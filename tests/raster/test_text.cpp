@@ -72,8 +72,8 @@ TEST(Text, ValidityFollowsRfc3629) {
   EXPECT_TRUE(is_valid_utf8("\xed\x9f\xbf"));          // U+D7FF, just below the surrogates
   EXPECT_TRUE(is_valid_utf8("\xf4\x8f\xbf\xbf"));      // U+10FFFF
   for (const char* bad : {"\x80", "o\x80", "\xc0\x80", "\xc1\xbf", "\xe0\x80\x80", "\xe0\x9f\xbf", "\xed\xa0\x80",
-                          "\xed\xbf\xbf", "\xf0\x80\x80\x80", "\xf4\x90\x80\x80", "\xf5\x80\x80\x80", "\xff",
-                          "\xc3", "\xe2\x82", "\xf0\x9f\x8c", "\xc3\x28"}) {
+                          "\xed\xbf\xbf", "\xf0\x80\x80\x80", "\xf4\x90\x80\x80", "\xf5\x80\x80\x80", "\xff", "\xc3",
+                          "\xe2\x82", "\xf0\x9f\x8c", "\xc3\x28"}) {
     EXPECT_FALSE(is_valid_utf8(bad)) << "accepted " << escape_utf8(bad);
   }
   std::mt19937_64 rng(7);

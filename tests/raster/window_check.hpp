@@ -17,10 +17,9 @@ inline ::testing::AssertionResult window_matches(const NearestField& part, const
     for (int64_t c = 0; c < w.width; ++c) {
       const int64_t gc = w.col0 + c - all.col0, gr = w.row0 + r - all.row0;
       if (part.site.at(c, r) != whole.site.at(gc, gr) || part.distance.at(c, r) != whole.distance.at(gc, gr))
-        return ::testing::AssertionFailure()
-               << "window cell (" << c << ", " << r << "): site " << part.site.at(c, r) << " distance "
-               << part.distance.at(c, r) << ", whole grid: site " << whole.site.at(gc, gr) << " distance "
-               << whole.distance.at(gc, gr);
+        return ::testing::AssertionFailure() << "window cell (" << c << ", " << r << "): site " << part.site.at(c, r)
+                                             << " distance " << part.distance.at(c, r) << ", whole grid: site "
+                                             << whole.site.at(gc, gr) << " distance " << whole.distance.at(gc, gr);
     }
   return ::testing::AssertionSuccess();
 }

@@ -45,9 +45,12 @@ int main(int argc, char** argv) {
   rv::ServeOptions options;
   for (int i = 1; i + 1 < argc; i += 2) {
     const std::string opt = argv[i];
-    if (opt == "--listen") options.listen = argv[i + 1];
-    else if (opt == "--data-dir") options.data_dir = argv[i + 1];
-    else if (opt == "--config") options.config_file = argv[i + 1];
+    if (opt == "--listen")
+      options.listen = argv[i + 1];
+    else if (opt == "--data-dir")
+      options.data_dir = argv[i + 1];
+    else if (opt == "--config")
+      options.config_file = argv[i + 1];
     else {
       std::cerr << "rv_crash_daemon: unknown option " << opt << "\n";
       return 2;
@@ -59,8 +62,7 @@ int main(int argc, char** argv) {
   const fs::path pause_dir = dir_env ? dir_env : "";
   auto held = std::make_shared<std::atomic<bool>>(false);
 
-  return rv::serve_main(options, [=](const rv::JobSpec& spec, const rv::JobLimits& limits,
-                                     const rv::JobHooks& hooks) {
+  return rv::serve_main(options, [=](const rv::JobSpec& spec, const rv::JobLimits& limits, const rv::JobHooks& hooks) {
     rv::JobHooks wrapped = hooks;
     wrapped.progress = [=, inner = hooks.progress](const std::string& stage, double fraction) {
       // Engine threads report concurrently: only the first report of the stage holds.

@@ -26,8 +26,7 @@ struct Reply {
 };
 
 inline Reply http_request(unsigned short port, const std::string& method, const std::string& target,
-                          const std::string& body = "",
-                          const std::map<std::string, std::string>& headers = {}) {
+                          const std::string& body = "", const std::map<std::string, std::string>& headers = {}) {
   namespace beast = boost::beast;
   namespace http = beast::http;
   namespace net = boost::asio;

@@ -86,9 +86,12 @@ json polygon_seeds(int vertices) {
   }
   ring.push_back(ring[0]);
   json seeds = demo_seeds();
-  seeds["features"] = json::array(
-      {{{"type", "Feature"}, {"properties", {{"state", "A"}}}, {"geometry", {{"type", "Polygon"}, {"coordinates", {ring}}}}},
-       {{"type", "Feature"}, {"properties", {{"state", "B"}}}, {"geometry", {{"type", "Point"}, {"coordinates", {340000.0, 6150000.0}}}}}});
+  seeds["features"] = json::array({{{"type", "Feature"},
+                                    {"properties", {{"state", "A"}}},
+                                    {"geometry", {{"type", "Polygon"}, {"coordinates", {ring}}}}},
+                                   {{"type", "Feature"},
+                                    {"properties", {{"state", "B"}}},
+                                    {"geometry", {{"type", "Point"}, {"coordinates", {340000.0, 6150000.0}}}}}});
   return seeds;
 }
 
@@ -115,9 +118,8 @@ class Access : public ::testing::Test {
  protected:
   void SetUp() override {
     rv::gdal_init();
-    dir_ = fs::temp_directory_path() /
-           ("rv_access_" + std::to_string(::getpid()) + "_" +
-            ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    dir_ = fs::temp_directory_path() / ("rv_access_" + std::to_string(::getpid()) + "_" +
+                                        ::testing::UnitTest::GetInstance()->current_test_info()->name());
     fs::remove_all(dir_);
     fs::create_directories(dir_);
   }
@@ -131,9 +133,8 @@ class Access : public ::testing::Test {
     config["data_dir"] = (dir_ / "data").string();
     if (!config.contains("jobs")) config["jobs"] = {{"workers", 1}, {"queue_length", 4}, {"threads_per_job", 1}};
     rv::ServerConfig c = rv::parse_server_config(config);
-    server_ = std::make_unique<rv::Server>(c, [](const rv::JobSpec& s, const rv::JobLimits& l, const rv::JobHooks& h) {
-      return rv::run_job(s, l, h);
-    });
+    server_ = std::make_unique<rv::Server>(
+        c, [](const rv::JobSpec& s, const rv::JobLimits& l, const rv::JobHooks& h) { return rv::run_job(s, l, h); });
     server_->start();
     port_ = server_->port();
   }
@@ -153,28 +154,34 @@ TEST(AccessConfig, TokensFromTheListAndTheFile) {
     std::ofstream out(file);
     out << "# tokens of the GIS pipeline\n\n  " << kOtherToken << "  \r\n";
   }
-  const rv::ServerConfig c = rv::parse_server_config(
-      json{{"auth", {{"tokens", {kToken}}, {"token_file", file.string()}}}});
+  const rv::ServerConfig c =
+      rv::parse_server_config(json{{"auth", {{"tokens", {kToken}}, {"token_file", file.string()}}}});
   EXPECT_TRUE(c.auth.enabled());
   EXPECT_EQ(c.auth.tokens, (std::vector<std::string>{kToken, kOtherToken}));
   EXPECT_FALSE(rv::parse_server_config(json::object()).auth.enabled());
   EXPECT_FALSE(rv::parse_server_config(json{{"auth", {{"tokens", json::array()}}}}).auth.enabled());
 
   // Mistakes are refused, naming the key, never the token.
-  const std::string short_token = error_of([] { rv::parse_server_config(json{{"auth", {{"tokens", {"shortsecret"}}}}}); });
+  const std::string short_token = error_of([] {
+    rv::parse_server_config(json{{"auth", {{"tokens", {"shortsecret"}}}}});
+  });
   EXPECT_NE(short_token.find("auth.tokens[0]"), std::string::npos) << short_token;
   EXPECT_EQ(short_token.find("shortsecret"), std::string::npos) << short_token;
   const std::string spaced = error_of([] {
     rv::parse_server_config(json{{"auth", {{"tokens", {"a token with spaces in it"}}}}});
   });
   EXPECT_EQ(spaced.find("with spaces"), std::string::npos) << spaced;
-  EXPECT_NE(error_of([] { rv::parse_server_config(json{{"auth", {{"token", "x"}}}}); }).find("auth.token"),
+  EXPECT_NE(error_of([] {
+              rv::parse_server_config(json{{"auth", {{"token", "x"}}}});
+            }).find("auth.token"),
             std::string::npos);
   {
     std::ofstream out(file);
     out << "# only a comment\n";
   }
-  EXPECT_NE(error_of([&] { rv::parse_server_config(json{{"auth", {{"token_file", file.string()}}}}); }).find("no token"),
+  EXPECT_NE(error_of([&] {
+              rv::parse_server_config(json{{"auth", {{"token_file", file.string()}}}});
+            }).find("no token"),
             std::string::npos);
   fs::remove(file);
   try {
@@ -186,12 +193,13 @@ TEST(AccessConfig, TokensFromTheListAndTheFile) {
 }
 
 TEST(AccessConfig, FeatureAndVertexLimitsAreParsedAndExampleHoldsDefaults) {
-  const rv::ServerConfig c =
-      rv::parse_server_config(json{{"limits", {{"max_features", 7}, {"max_vertices", 0}}}});
+  const rv::ServerConfig c = rv::parse_server_config(json{{"limits", {{"max_features", 7}, {"max_vertices", 0}}}});
   EXPECT_EQ(c.limits.max_features, 7);
   EXPECT_EQ(c.limits.max_vertices, 0);
   EXPECT_EQ(rv::effective_limits(c).max_features, 7);
-  EXPECT_NE(error_of([] { rv::parse_server_config(json{{"limits", {{"max_features", -1}}}}); }).find("limits.max_features"),
+  EXPECT_NE(error_of([] {
+              rv::parse_server_config(json{{"limits", {{"max_features", -1}}}});
+            }).find("limits.max_features"),
             std::string::npos);
   const rv::ServerConfig e = rv::load_server_config(source_dir() + "/service/serve-config.example.json");
   const rv::ServerConfig d;
@@ -357,7 +365,8 @@ TEST_F(Access, FeatureAndVertexLimitsFromTheConfigRefuseUploadsBeforeComputing) 
                          {"encoding", "base64"}}},
                        {"ownerField", "owner"},
                        {"resolution", 1.0}}}};
-  expect_problem(call("POST", "/processes/voronoi/execution", "", gpkg.dump()), 422, "too-large", "features, the limit");
+  expect_problem(call("POST", "/processes/voronoi/execution", "", gpkg.dump()), 422, "too-large",
+                 "features, the limit");
 
   // Asynchronously: the job fails in its read stage, its status naming the limit.
   const Reply a = call("POST", "/processes/voronoi/execution", "", over_features.dump(), {{"Prefer", "respond-async"}});

@@ -10,8 +10,8 @@
 #include <set>
 #include <string>
 
-#include <GeographicLib/UTMUPS.hpp>
 #include <gdal.h>
+#include <GeographicLib/UTMUPS.hpp>
 #include <nlohmann/json.hpp>
 
 #include "rv/deliverables.hpp"
@@ -66,8 +66,8 @@ const std::string kDemo = "fixtures/demo_basepoints.geojson";
 
 TEST_F(Cli, ComputeWritesGeoTiffsThatMatchTheEngine) {
   const CliRun r = run("compute " + source(kDemo) + " --owner-field state --resolution 250 --ownership " +
-                    path("own.tif") + " --distance " + path("dist.tif") + " --nearest-feature " + path("feat.tif") +
-                    " --report " + path("report.json") + " --quiet");
+                       path("own.tif") + " --distance " + path("dist.tif") + " --nearest-feature " + path("feat.tif") +
+                       " --report " + path("report.json") + " --quiet");
   ASSERT_EQ(r.exit_code, 0) << r.output;
 
   // The same computation in-process.
@@ -110,8 +110,10 @@ TEST_F(Cli, NearestFeatureNumbersFollowTheInputOrder) {
     {"type":"Feature","properties":{"o":"A"},"geometry":{"type":"Point","coordinates":[500000.5,6000000.5]}},
     {"type":"Feature","properties":{"o":"B"},"geometry":{"type":"Point","coordinates":[500010.5,6000000.5]}},
     {"type":"Feature","properties":{"o":"A"},"geometry":{"type":"Point","coordinates":[500020.5,6000000.5]}}]})");
-  const CliRun r = run("compute " + seeds + " --owner-field o --resolution 1 --extent 500000 6000000 500021 6000001 "
-                       "--ownership " + path("own.tif") + " --nearest-feature " + path("feat.tif") + " --quiet");
+  const CliRun r = run("compute " + seeds +
+                       " --owner-field o --resolution 1 --extent 500000 6000000 500021 6000001 "
+                       "--ownership " +
+                       path("own.tif") + " --nearest-feature " + path("feat.tif") + " --quiet");
   ASSERT_EQ(r.exit_code, 0) << r.output;
   const Raster<int32_t> own = read_int32(path("own.tif"));
   const Raster<int32_t> feat = read_int32(path("feat.tif"));
@@ -153,15 +155,16 @@ TEST_F(Cli, LikeTakesGridAndCrsFromARaster) {
 TEST_F(Cli, ThreadCountDoesNotChangeTheFiles) {
   for (const char* t : {"1", "7"}) {
     const CliRun r = run("compute " + source(kDemo) + " --resolution 300 --method hv-scan --threads " + t +
-                      " --ownership " + path(std::string("own") + t + ".tif") + " --quiet");
+                         " --ownership " + path(std::string("own") + t + ".tif") + " --quiet");
     ASSERT_EQ(r.exit_code, 0) << r.output;
   }
   EXPECT_EQ(read_int32(path("own1.tif")).cells(), read_int32(path("own7.tif")).cells());
 }
 
 TEST_F(Cli, MaxDistanceAndUnits) {
-  const CliRun r = run("compute " + source(kDemo) + " --resolution 500 --max-distance 3 --distance-units km --ownership " +
-                    path("own.tif") + " --distance " + path("d.tif") + " --quiet");
+  const CliRun r =
+      run("compute " + source(kDemo) + " --resolution 500 --max-distance 3 --distance-units km --ownership " +
+          path("own.tif") + " --distance " + path("d.tif") + " --quiet");
   ASSERT_EQ(r.exit_code, 0) << r.output;
   const Raster<float> d = read_float32(path("d.tif"));
   const Raster<int32_t> o = read_int32(path("own.tif"));
@@ -212,7 +215,8 @@ TEST_F(Cli, BadInputFailsCleanly) {
   expect_refused(run("compute " + source(kDemo) + " --resolution 0" + out), 2, "resolution");
   // 1e-4 m cells over ~50 km: ~2e17 cells, refused before any allocation.
   expect_refused(run("compute " + source(kDemo) + " --resolution 0.0001" + out), 6, "limit");
-  const std::string nan = write("nan.geojson",
+  const std::string nan = write(
+      "nan.geojson",
       R"({"type":"FeatureCollection","features":[{"type":"Feature","properties":{},"geometry":{"type":"Point","coordinates":[1,1]}},)"
       R"({"type":"Feature","properties":{},"geometry":{"type":"Point","coordinates":[NaN,2]}}]})");
   const CliRun rn = run("compute " + nan + " --resolution 1" + out);
@@ -299,13 +303,17 @@ TEST_F(Cli, CodeRastersAreUInt16AboveTwoHundredFiftyFiveOwners) {
   std::string features;
   for (int i = 0; i < 300; ++i)
     features += std::string(i ? "," : "") + R"({"type":"Feature","properties":{"id":)" + std::to_string(i + 1) +
-                R"(},"geometry":{"type":"Point","coordinates":[)" + std::to_string(500000.5 + 3.0 * i) + ",6000000.5]}}";
+                R"(},"geometry":{"type":"Point","coordinates":[)" + std::to_string(500000.5 + 3.0 * i) +
+                ",6000000.5]}}";
   const std::string seeds = write("line.geojson", R"({"type":"FeatureCollection",
-    "crs":{"type":"name","properties":{"name":"urn:ogc:def:crs:EPSG::32633"}},"features":[)" + features + "]}");
+    "crs":{"type":"name","properties":{"name":"urn:ogc:def:crs:EPSG::32633"}},"features":[)" +
+                                                      features + "]}");
   for (const char* cog : {"", " --cog"}) {
     SCOPED_TRACE(cog);
-    const CliRun r = run("compute " + seeds + " --owner-field id --resolution 1 --extent 500000 5999990 500900 6000010"
-                         " --ownership " + path("own.tif") + " --nearest-feature " + path("feat.tif") + cog + " --quiet");
+    const CliRun r = run("compute " + seeds +
+                         " --owner-field id --resolution 1 --extent 500000 5999990 500900 6000010"
+                         " --ownership " +
+                         path("own.tif") + " --nearest-feature " + path("feat.tif") + cog + " --quiet");
     ASSERT_EQ(r.exit_code, 0) << r.output;
     EXPECT_EQ(layout_of(path("own.tif")).type, "UInt16");
     EXPECT_EQ(layout_of(path("feat.tif")).type, "UInt16");
@@ -326,7 +334,7 @@ TEST_F(Cli, FailedWriteLeavesNothingBehind) {
   // The distance output goes to a directory that does not exist: the ownership file written
   // before it must be removed too.
   const CliRun r = run("compute " + source(kDemo) + " --resolution 500 --ownership " + path("own.tif") +
-                    " --distance " + path("nodir/d.tif") + " --quiet");
+                       " --distance " + path("nodir/d.tif") + " --quiet");
   EXPECT_EQ(r.exit_code, 9) << r.output;
   EXPECT_EQ(file_count(), 0u);
 }
@@ -335,9 +343,10 @@ TEST_F(Cli, GeographicGridIsGeodesicInNauticalMiles) {
   const char* shared = std::getenv("RV_SHARED_DIR");
   const std::string gpkg = shared ? std::string(shared) + "/fixtures/oresund.gpkg" : "";
   if (gpkg.empty() || !fs::exists(gpkg)) GTEST_SKIP() << "shared/fixtures/oresund.gpkg not found";
-  const CliRun r = run("compute " + gpkg + " --owner-field iso2 --resolution 0.01 --extent 12 55.3 13.2 56.3 "
-                       "--distance-units nmi --ownership " + path("own.tif") + " --distance " + path("d.tif") +
-                       " --report " + path("r.json") + " --quiet");
+  const CliRun r = run("compute " + gpkg +
+                       " --owner-field iso2 --resolution 0.01 --extent 12 55.3 13.2 56.3 "
+                       "--distance-units nmi --ownership " +
+                       path("own.tif") + " --distance " + path("d.tif") + " --report " + path("r.json") + " --quiet");
   ASSERT_EQ(r.exit_code, 0) << r.output;
   const nlohmann::json rep = nlohmann::json::parse(std::ifstream(path("r.json")));
   EXPECT_EQ(rep["metric"], "geodesic");
@@ -358,7 +367,7 @@ TEST_F(Cli, GeographicGridIsGeodesicInNauticalMiles) {
     EXPECT_NEAR(d.cells()[i], f.distance.cells()[i] / 1852.0, 1e-5);
     max_nmi = std::max(max_nmi, d.cells()[i]);
   }
-  EXPECT_GT(max_nmi, 5.0f);   // the middle of the strait is several miles from both coasts
+  EXPECT_GT(max_nmi, 5.0f);  // the middle of the strait is several miles from both coasts
   EXPECT_LT(max_nmi, 30.0f);
   // Degrees are not distances: planar on this grid is refused.
   expect_refused(run("compute " + gpkg + " --owner-field iso2 --resolution 0.01 --metric planar --ownership " +
@@ -371,8 +380,9 @@ TEST_F(Cli, ProjectedGridGeodesicMeasuresOnTheEllipsoid) {
   const std::string gpkg = shared ? std::string(shared) + "/fixtures/oresund.gpkg" : "";
   if (gpkg.empty() || !fs::exists(gpkg)) GTEST_SKIP() << "shared/fixtures/oresund.gpkg not found";
   // The strait on a UTM 33N grid of 2 km cells (the layer is EPSG:4326).
-  const std::string grid = gpkg + " --owner-field iso2 --crs EPSG:32633 --resolution 2000 "
-                                  "--extent 324000 6144000 376000 6230000 --quiet";
+  const std::string grid = gpkg +
+                           " --owner-field iso2 --crs EPSG:32633 --resolution 2000 "
+                           "--extent 324000 6144000 376000 6230000 --quiet";
   const CliRun r = run("compute " + grid + " --metric geodesic --method brute-force --distance-units nmi --ownership " +
                        path("own.tif") + " --distance " + path("d.tif") + " --report " + path("r.json"));
   ASSERT_EQ(r.exit_code, 0) << r.output;

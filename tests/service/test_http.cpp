@@ -163,9 +163,9 @@ TEST_F(Daemon, DiscoveryEndpoints) {
   std::set<std::string> rels;
   const json landing_doc = landing.json();
   for (const json& l : landing_doc["links"]) rels.insert(l["rel"].get<std::string>());
-  for (const char* rel : {"self", "service-desc", "http://www.opengis.net/def/rel/ogc/1.0/conformance",
-                          "http://www.opengis.net/def/rel/ogc/1.0/processes",
-                          "http://www.opengis.net/def/rel/ogc/1.0/job-list"}) {
+  for (const char* rel :
+       {"self", "service-desc", "http://www.opengis.net/def/rel/ogc/1.0/conformance",
+        "http://www.opengis.net/def/rel/ogc/1.0/processes", "http://www.opengis.net/def/rel/ogc/1.0/job-list"}) {
     EXPECT_TRUE(rels.count(rel)) << rel;
   }
   const json conf = get(port_, "/conformance").json();
@@ -192,7 +192,8 @@ TEST_F(Daemon, DiscoveryEndpoints) {
   expect_problem(get(port_, "/processes/nope"), 404, kOgc + "no-such-process");
   expect_problem(get(port_, "/jobs/0123456789abcdef0123456789abcdef"), 404, kOgc + "no-such-job");
   expect_problem(get(port_, "/jobs/..%2F..%2Fetc"), 404, kOgc + "no-such-job");
-  expect_problem(get(port_, "/nothing/here"), 404, "http://www.opengis.net/def/exceptions/ogcapi-processes-1/1.0/not-found");
+  expect_problem(get(port_, "/nothing/here"), 404,
+                 "http://www.opengis.net/def/exceptions/ogcapi-processes-1/1.0/not-found");
   const Reply wrong = http_request(port_, "DELETE", "/processes");
   EXPECT_EQ(wrong.status, 405);
   EXPECT_EQ(wrong.header("allow"), "GET, HEAD");
@@ -244,8 +245,8 @@ TEST_F(Daemon, SyncExecutionEqualsTheFacade) {
 TEST_F(Daemon, AsyncExecutionRangesAndJobList) {
   start(test_config(dir_ / "data"));
   const Reference ref = facade_reference(dir_, 2000);
-  const Reply created = http_request(port_, "POST", "/processes/voronoi/execution", demo_request().dump(),
-                                     {{"Prefer", "respond-async"}});
+  const Reply created =
+      http_request(port_, "POST", "/processes/voronoi/execution", demo_request().dump(), {{"Prefer", "respond-async"}});
   ASSERT_EQ(created.status, 201) << created.body;
   const json s0 = created.json();
   const std::string id = s0["jobID"];
@@ -283,7 +284,8 @@ TEST_F(Daemon, AsyncExecutionRangesAndJobList) {
   EXPECT_EQ(tail.body, whole.body.substr(size - 10));
   const Reply open_end = get(port_, own_path, {{"Range", "bytes=" + std::to_string(size - 5) + "-"}});
   EXPECT_EQ(open_end.body, whole.body.substr(size - 5));
-  const Reply outside = get(port_, own_path, {{"Range", "bytes=" + std::to_string(size) + "-" + std::to_string(size + 10)}});
+  const Reply outside =
+      get(port_, own_path, {{"Range", "bytes=" + std::to_string(size) + "-" + std::to_string(size + 10)}});
   EXPECT_EQ(outside.status, 416);
   EXPECT_EQ(outside.header("content-range"), "bytes */" + std::to_string(size));
   const Reply head = http_request(port_, "HEAD", own_path);
@@ -320,14 +322,17 @@ TEST_F(Daemon, ErrorsAreProblemsNamingTheInput) {
                  "http://www.opengis.net/def/exceptions/ogcapi-processes-1/1.0/invalid-parameter",
                  "input 'compression': unknown compression profile 'lzw'");
   // The feature at fault, named by the seed reader, reaches the client with the input's name.
-  json null_owner = {{"inputs", {{"seeds", json::parse(read_file(source_dir() + "/fixtures/null_owner.geojson"))},
-                                 {"ownerField", "owner"}, {"resolution", 1000}}}};
+  json null_owner = {{"inputs",
+                      {{"seeds", json::parse(read_file(source_dir() + "/fixtures/null_owner.geojson"))},
+                       {"ownerField", "owner"},
+                       {"resolution", 1000}}}};
   const Reply r = http_request(port_, "POST", exec, null_owner.dump());
   expect_problem(r, 400, "http://www.opengis.net/def/exceptions/ogcapi-processes-1/1.0/invalid-input", "seeds[0]");
   EXPECT_NE(r.body.find("fid"), std::string::npos) << r.body;
   EXPECT_EQ(r.body.find("/vsimem"), std::string::npos) << r.body;
   // Over the grid limits: 422, from the estimate, before any allocation.
-  expect_problem(http_request(port_, "POST", exec, demo_request(1).dump()), 422, "https://rvoronoi.dev/problems/too-large");
+  expect_problem(http_request(port_, "POST", exec, demo_request(1).dump()), 422,
+                 "https://rvoronoi.dev/problems/too-large");
   // Async: the job fails, its results answer with the same problem.
   const Reply a = http_request(port_, "POST", exec, demo_request(1).dump(), {{"Prefer", "respond-async"}});
   ASSERT_EQ(a.status, 201);
@@ -355,8 +360,8 @@ TEST_F(Daemon, DismissCancelsARunningJobAndAFullQueueIsBusy) {
   start(c);
   json slow = demo_request(10);  // ~21 million cells
   slow["inputs"]["method"] = "brute-force";
-  const Reply created = http_request(port_, "POST", "/processes/voronoi/execution", slow.dump(),
-                                     {{"Prefer", "respond-async"}});
+  const Reply created =
+      http_request(port_, "POST", "/processes/voronoi/execution", slow.dump(), {{"Prefer", "respond-async"}});
   ASSERT_EQ(created.status, 201) << created.body;
   const std::string id = created.json()["jobID"];
   const json running = wait_for(port_, id, {"running", "successful", "failed"}, 30);
@@ -432,10 +437,12 @@ TEST_F(Daemon, TimeLimitAndShutdownCancelRunningJobs) {
   c.jobs.job_timeout_s = 3600;
   c.jobs.shutdown_grace_s = 0.2;
   start(c);
-  const std::string a = http_request(port_, "POST", "/processes/voronoi/execution", slow.dump(),
-                                     {{"Prefer", "respond-async"}}).json()["jobID"];
-  const std::string b = http_request(port_, "POST", "/processes/voronoi/execution", slow.dump(),
-                                     {{"Prefer", "respond-async"}}).json()["jobID"];
+  const std::string a =
+      http_request(port_, "POST", "/processes/voronoi/execution", slow.dump(), {{"Prefer", "respond-async"}})
+          .json()["jobID"];
+  const std::string b =
+      http_request(port_, "POST", "/processes/voronoi/execution", slow.dump(), {{"Prefer", "respond-async"}})
+          .json()["jobID"];
   wait_for(port_, a, {"running"}, 30);
   const auto t1 = Clock::now();
   server_->stop();
@@ -514,7 +521,9 @@ class RawConnection {
   }
   ~RawConnection() { ::close(fd_); }
   bool connected() const { return connected_; }
-  void send(const std::string& text) { ASSERT_EQ(::send(fd_, text.data(), text.size(), MSG_NOSIGNAL), static_cast<ssize_t>(text.size())); }
+  void send(const std::string& text) {
+    ASSERT_EQ(::send(fd_, text.data(), text.size(), MSG_NOSIGNAL), static_cast<ssize_t>(text.size()));
+  }
   // Reads until `marker` has arrived (or the peer closes / 5 s pass).
   std::string read_until(const std::string& marker) {
     std::string out;
@@ -539,16 +548,19 @@ TEST_F(Daemon, ExpectContinueAndOneServerPerDataDirectory) {
   const std::string body = demo_request().dump();
   RawConnection conn(port_);
   ASSERT_TRUE(conn.connected());
-  conn.send("POST /processes/voronoi/execution HTTP/1.1\r\nHost: t\r\nContent-Type: application/json\r\n"
-            "Expect: 100-continue\r\nContent-Length: " + std::to_string(body.size()) + "\r\n\r\n");
+  conn.send(
+      "POST /processes/voronoi/execution HTTP/1.1\r\nHost: t\r\nContent-Type: application/json\r\n"
+      "Expect: 100-continue\r\nContent-Length: " +
+      std::to_string(body.size()) + "\r\n\r\n");
   EXPECT_EQ(conn.read_until("\r\n\r\n").rfind("HTTP/1.1 100 Continue", 0), 0u);
   conn.send(body);
   const std::string answer = conn.read_until("\"report\"");
   EXPECT_EQ(answer.rfind("HTTP/1.1 200", 0), 0u) << answer.substr(0, 200);
   // Over the limit: refused from the header, before the client sends its body.
   RawConnection big(port_);
-  big.send("POST /processes/voronoi/execution HTTP/1.1\r\nHost: t\r\nExpect: 100-continue\r\n"
-           "Content-Length: 5000000\r\n\r\n");
+  big.send(
+      "POST /processes/voronoi/execution HTTP/1.1\r\nHost: t\r\nExpect: 100-continue\r\n"
+      "Content-Length: 5000000\r\n\r\n");
   EXPECT_EQ(big.read_until("\r\n\r\n").rfind("HTTP/1.1 413", 0), 0u);
 
   rv::Server second(c, real_runner());
@@ -616,8 +628,8 @@ TEST_F(Daemon, SlowClientsDoNotBlockOthersAndAreCutOff) {
   start(c);
   std::vector<std::unique_ptr<Dribbler>> slow;
   for (int i = 0; i < 5; ++i) {
-    slow.push_back(std::make_unique<Dribbler>(port_, "GET /health HTTP/1.1\r\nHost: x\r\n\r\n",
-                                              std::chrono::milliseconds(1000)));
+    slow.push_back(
+        std::make_unique<Dribbler>(port_, "GET /health HTTP/1.1\r\nHost: x\r\n\r\n", std::chrono::milliseconds(1000)));
     ASSERT_TRUE(slow.back()->connected());
   }
   std::this_thread::sleep_for(std::chrono::milliseconds(300));

@@ -122,9 +122,8 @@ class DaemonDeliverables : public ::testing::Test {
  protected:
   void SetUp() override {
     rv::gdal_init();
-    dir_ = fs::temp_directory_path() /
-           ("rv_http_deliver_" + std::to_string(::getpid()) + "_" +
-            ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    dir_ = fs::temp_directory_path() / ("rv_http_deliver_" + std::to_string(::getpid()) + "_" +
+                                        ::testing::UnitTest::GetInstance()->current_test_info()->name());
     fs::remove_all(dir_);
     fs::create_directories(dir_);
     start();
@@ -149,9 +148,9 @@ class DaemonDeliverables : public ::testing::Test {
   }
   Reply get(const std::string& target) { return http_request(port_, "GET", target); }
   Reply post(const json& body, bool async = false) {
-    return http_request(port_, "POST", kExec, body.dump(),
-                        async ? std::map<std::string, std::string>{{"Prefer", "respond-async"}}
-                              : std::map<std::string, std::string>{});
+    return http_request(
+        port_, "POST", kExec, body.dump(),
+        async ? std::map<std::string, std::string>{{"Prefer", "respond-async"}} : std::map<std::string, std::string>{});
   }
   json wait_done(const std::string& id) {
     const auto until = std::chrono::steady_clock::now() + std::chrono::seconds(60);
@@ -261,11 +260,12 @@ TEST_F(DaemonDeliverables, EveryOutputAsyncCheckedByContent) {
   // Tripoints (GeoPackage, as requested): one, at the circumcentre of the three seeds.
   fetch(results, "tripoints", "application/geopackage+sqlite3", "t.gpkg");
   {
-    const double ax = seeds[0].x, ay = seeds[0].y, bx = seeds[1].x, by = seeds[1].y, cx = seeds[2].x,
-                 cy = seeds[2].y;
+    const double ax = seeds[0].x, ay = seeds[0].y, bx = seeds[1].x, by = seeds[1].y, cx = seeds[2].x, cy = seeds[2].y;
     const double d = 2.0 * (ax * (by - cy) + bx * (cy - ay) + cx * (ay - by));
-    const double ux = ((ax * ax + ay * ay) * (by - cy) + (bx * bx + by * by) * (cy - ay) + (cx * cx + cy * cy) * (ay - by)) / d;
-    const double uy = ((ax * ax + ay * ay) * (cx - bx) + (bx * bx + by * by) * (ax - cx) + (cx * cx + cy * cy) * (bx - ax)) / d;
+    const double ux =
+        ((ax * ax + ay * ay) * (by - cy) + (bx * bx + by * by) * (cy - ay) + (cx * cx + cy * cy) * (ay - by)) / d;
+    const double uy =
+        ((ax * ax + ay * ay) * (cx - bx) + (bx * bx + by * by) * (ax - cx) + (cx * cx + cy * cy) * (bx - ax)) / d;
     GDALDataset* ds = GDALDataset::Open((dir_ / "t.gpkg").c_str(), GDAL_OF_VECTOR);
     ASSERT_NE(ds, nullptr);
     OGRLayer* l = ds->GetLayerByName("tripoints");

@@ -42,7 +42,8 @@ class JobLimitsTest : public ::testing::Test {
     } catch (const Error& e) {
       message = e.what();
       EXPECT_EQ(e.kind(), ErrorKind::too_large) << message;
-      for (const std::string& p : parts) EXPECT_NE(message.find(p), std::string::npos) << "'" << p << "' not in: " << message;
+      for (const std::string& p : parts)
+        EXPECT_NE(message.find(p), std::string::npos) << "'" << p << "' not in: " << message;
     }
     EXPECT_TRUE(fs::is_empty(dir_)) << "a refused job left files behind";
     return message;

@@ -141,7 +141,8 @@ TEST_F(StreamJob, StreamedFilesEqualWholeFieldFiles) {
           EXPECT_EQ(r.report["streaming"]["rows_per_strip"].get<int64_t>(), want_rows);
         }
         EXPECT_EQ(r.report["contested_cells"], ref.report["contested_cells"]);
-        EXPECT_EQ(r.files, (std::vector<std::string>{s.outputs.ownership, s.outputs.distance, s.outputs.nearest_feature}));
+        EXPECT_EQ(r.files,
+                  (std::vector<std::string>{s.outputs.ownership, s.outputs.distance, s.outputs.nearest_feature}));
         expect_same_outputs(s, whole);
         fs::remove_all(dir_ / sub);
       }

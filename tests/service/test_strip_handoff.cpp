@@ -147,9 +147,7 @@ TEST(StripHandoff, WaitFinishedRethrowsAnErrorAfterTheLastStrip) {
   // computing side, already waiting, gets that error, not a hang.
   Rig rig(2);
   rig.start(0, -1, kFinish);
-  rig.start(1, -1, [](StripHandoff& h) {
-    h.fail(std::make_exception_ptr(std::runtime_error("rename failed")));
-  });
+  rig.start(1, -1, [](StripHandoff& h) { h.fail(std::make_exception_ptr(std::runtime_error("rename failed"))); });
   EXPECT_EQ(rig.produce(20), 20);
   EXPECT_THROW(rig.h.wait_finished([](int64_t) {}), std::runtime_error);
   rig.join();

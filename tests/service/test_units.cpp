@@ -125,9 +125,8 @@ TEST(Util, JobIdsAre128RandomBitsInHex) {
     ids.insert(id);
   }
   EXPECT_EQ(ids.size(), 1000u);
-  for (const char* bad : {"", "../../etc/passwd", "0123456789ABCDEF0123456789abcdef",
-                          "0123456789abcdef0123456789abcde", "0123456789abcdef0123456789abcdef0",
-                          "0123456789abcdef/123456789abcdef"}) {
+  for (const char* bad : {"", "../../etc/passwd", "0123456789ABCDEF0123456789abcdef", "0123456789abcdef0123456789abcde",
+                          "0123456789abcdef0123456789abcdef0", "0123456789abcdef/123456789abcdef"}) {
     EXPECT_FALSE(rv::daemon::is_job_id(bad)) << bad;
   }
 }
@@ -158,7 +157,9 @@ TEST(Store, OpensADatabaseWithoutTheFormatsColumn) {
         " created TEXT NOT NULL, started TEXT NOT NULL, finished TEXT NOT NULL,"
         " updated TEXT NOT NULL, inputs TEXT NOT NULL, outputs TEXT NOT NULL,"
         " transmission TEXT NOT NULL, report TEXT NOT NULL);"
-        "INSERT INTO jobs VALUES ('" + id + "', 'voronoi', 'successful', 'finished', '', 100,"
+        "INSERT INTO jobs VALUES ('" +
+        id +
+        "', 'voronoi', 'successful', 'finished', '', 100,"
         " '2026-01-01T00:00:00.000Z', '', '', '2026-01-01T00:00:00.000Z', '{}', '[\"ownership\"]',"
         " '[\"reference\"]', '')";
     ASSERT_EQ(sqlite3_exec(db, sql.c_str(), nullptr, nullptr, nullptr), SQLITE_OK);
@@ -189,11 +190,11 @@ TEST(Store, RecordsWithInvalidUtf8OpenEscaped) {
   {
     sqlite3* db = nullptr;
     ASSERT_EQ(sqlite3_open((dir / "jobs.sqlite").c_str(), &db), SQLITE_OK);
-    const std::string sql =
-        "INSERT INTO jobs VALUES ('" + id + "', 'voronoi', 'failed', CAST(x'6e65617220225c78383022' || x'80ff' AS TEXT),"
-        " 'no-such-kind', 900, '2026-01-01T00:00:00.000Z', '', '', '2026-01-01T00:00:00.000Z',"
-        " CAST('{\"ownerField\": \"o' || x'80' || '\"}' AS TEXT), '[\"ownership\", 5]', 'not json',"
-        " CAST('{\"owners\": [\"A' || x'80' || '\"]}' AS TEXT), '[]')";
+    const std::string sql = "INSERT INTO jobs VALUES ('" + id +
+                            "', 'voronoi', 'failed', CAST(x'6e65617220225c78383022' || x'80ff' AS TEXT),"
+                            " 'no-such-kind', 900, '2026-01-01T00:00:00.000Z', '', '', '2026-01-01T00:00:00.000Z',"
+                            " CAST('{\"ownerField\": \"o' || x'80' || '\"}' AS TEXT), '[\"ownership\", 5]', 'not json',"
+                            " CAST('{\"owners\": [\"A' || x'80' || '\"]}' AS TEXT), '[]')";
     char* err = nullptr;
     ASSERT_EQ(sqlite3_exec(db, sql.c_str(), nullptr, nullptr, &err), SQLITE_OK) << (err ? err : "");
     sqlite3_close(db);
@@ -280,7 +281,7 @@ TEST(Connections, TheLongestWaitingConnectionMakesRoomAndBusyOnesStay) {
   const auto c = table.add(closer(3));
   table.set_waiting(a, false);  // a request in progress: never evicted
   table.set_waiting(b, false);
-  table.set_waiting(b, true);   // waiting again since now: younger than c
+  table.set_waiting(b, true);  // waiting again since now: younger than c
   EXPECT_TRUE(table.make_room());
   EXPECT_EQ(closed, (std::vector<int>{3}));
   table.remove(c);
@@ -363,10 +364,15 @@ rv::daemon::Execution parse(const json& inputs, json extra = json::object()) {
 }
 
 TEST(Execute, GeoJsonGoesToVsimemAndInputsMapToTheJobSpec) {
-  json in = {{"seeds", fc()}, {"ownerField", "owner"}, {"resolution", 0.5},
+  json in = {{"seeds", fc()},
+             {"ownerField", "owner"},
+             {"resolution", 0.5},
              {"extent", {{"bbox", {-1, -1, 1, 1}}, {"crs", "http://www.opengis.net/def/crs/EPSG/0/32633"}}},
-             {"metric", "planar"}, {"method", "hv-scan"}, {"maxDistance", 100},
-             {"distanceUnits", "km"}, {"validate", true}};
+             {"metric", "planar"},
+             {"method", "hv-scan"},
+             {"maxDistance", 100},
+             {"distanceUnits", "km"},
+             {"validate", true}};
   std::string path;
   {
     const auto ex = parse(in);
@@ -399,16 +405,17 @@ TEST(Execute, GeoJsonGoesToVsimemAndInputsMapToTheJobSpec) {
 TEST(Execute, UploadsAreDecodedCheckedAndNamed) {
   // A zip with the right magic is staged under /vsizip/ (contents are GDAL's business).
   const std::string zip_b64 = "UEsDBAAAAAA=";  // "PK\3\4" + 4 zero bytes
-  auto ex = parse({{"seeds", json::array({fc(), {{"value", zip_b64}, {"mediaType", "application/zip"},
-                                                  {"encoding", "base64"}}})},
-                   {"resolution", 1}});
+  auto ex = parse(
+      {{"seeds", json::array({fc(), {{"value", zip_b64}, {"mediaType", "application/zip"}, {"encoding", "base64"}}})},
+       {"resolution", 1}});
   ASSERT_EQ(ex.spec.seeds.paths.size(), 2u);
   EXPECT_EQ(ex.spec.seeds.paths[1].rfind("/vsizip//vsimem/rvoronoi/", 0), 0u);
   EXPECT_EQ(ex.inputs_summary["seeds"][1]["bytes"], 8);
   // Wrong content for the media type: invalid_input naming the element.
   const std::string msg = message_of([&] {
-    parse({{"seeds", json::array({fc(), {{"value", zip_b64}, {"mediaType", "application/geopackage+sqlite3"},
-                                         {"encoding", "base64"}}})},
+    parse({{"seeds",
+            json::array(
+                {fc(), {{"value", zip_b64}, {"mediaType", "application/geopackage+sqlite3"}, {"encoding", "base64"}}})},
            {"resolution", 1}});
   });
   EXPECT_NE(msg.find("seeds[1]"), std::string::npos) << msg;
@@ -421,8 +428,9 @@ TEST(Execute, UploadsAreDecodedCheckedAndNamed) {
 }
 
 TEST(Execute, NothingMakesTheServerFetchOrOpenAPath) {
-  EXPECT_NE(message_of([] { parse({{"seeds", {{"href", "http://example.org/seeds.geojson"}}}, {"resolution", 1}}); })
-                .find("href"),
+  EXPECT_NE(message_of([] {
+              parse({{"seeds", {{"href", "http://example.org/seeds.geojson"}}}, {"resolution", 1}});
+            }).find("href"),
             std::string::npos);
   EXPECT_EQ(kind_of([] { parse({{"seeds", "/etc/passwd"}, {"resolution", 1}}); }), ErrorKind::invalid_argument);
   for (const char* crs : {"/etc/passwd", "+init=epsg:4326", "http://example.org/crs.wkt", "EPSG:4326; rm"}) {
@@ -454,8 +462,11 @@ TEST(Execute, BadInputsAreNamed) {
       {{{"seeds", fc()}, {"resolution", 1}, {"colour", "red"}}, "unknown input 'colour'"},
       {{{"seeds", json::array()}, {"resolution", 1}}, "input 'seeds'"},
       {{{"seeds", {{"type", "Feature"}}}, {"resolution", 1}}, "input 'seeds'"},
-      {{{"seeds", fc()}, {"resolution", 1}, {"crs", "EPSG:4326"},
-        {"extent", {{"bbox", {0, 0, 1, 1}}, {"crs", "EPSG:3857"}}}}, "input 'extent'"},
+      {{{"seeds", fc()},
+        {"resolution", 1},
+        {"crs", "EPSG:4326"},
+        {"extent", {{"bbox", {0, 0, 1, 1}}, {"crs", "EPSG:3857"}}}},
+       "input 'extent'"},
   };
   for (const Case& c : cases) {
     const std::string m = message_of([&] { parse(c.inputs); });
@@ -469,30 +480,43 @@ TEST(Execute, OutputsResponseAndLimits) {
                    {"response", "document"}});
   EXPECT_EQ(ex.outputs, (std::vector<std::string>{"ownership", "report"}));
   EXPECT_EQ(ex.transmission, (std::vector<std::string>{"reference", "reference"}));
-  EXPECT_TRUE(parse({{"seeds", fc()}, {"resolution", 1}}, {{"outputs", {{"distance", json::object()}}}, {"response", "raw"}}).raw);
-  EXPECT_EQ(kind_of([] { parse({{"seeds", fc()}, {"resolution", 1}}, {{"response", "raw"}}); }), ErrorKind::unsupported);
-  EXPECT_EQ(kind_of([] { parse({{"seeds", fc()}, {"resolution", 1}}, {{"outputs", {{"nearest", json::object()}}}}); }),
-            ErrorKind::invalid_argument);
+  EXPECT_TRUE(
+      parse({{"seeds", fc()}, {"resolution", 1}}, {{"outputs", {{"distance", json::object()}}}, {"response", "raw"}})
+          .raw);
   EXPECT_EQ(kind_of([] {
-              parse({{"seeds", fc()}, {"resolution", 1}},
-                    {{"outputs", {{"ownership", {{"transmissionMode", "value"}}}}}});
+              parse({{"seeds", fc()}, {"resolution", 1}}, {{"response", "raw"}});
+            }),
+            ErrorKind::unsupported);
+  EXPECT_EQ(kind_of([] {
+              parse({{"seeds", fc()}, {"resolution", 1}}, {{"outputs", {{"nearest", json::object()}}}});
             }),
             ErrorKind::invalid_argument);
-  EXPECT_EQ(kind_of([] { parse({{"seeds", fc()}, {"resolution", 1}}, {{"subscriber", json::object()}}); }),
+  EXPECT_EQ(
+      kind_of([] {
+        parse({{"seeds", fc()}, {"resolution", 1}}, {{"outputs", {{"ownership", {{"transmissionMode", "value"}}}}}});
+      }),
+      ErrorKind::invalid_argument);
+  EXPECT_EQ(kind_of([] {
+              parse({{"seeds", fc()}, {"resolution", 1}}, {{"subscriber", json::object()}});
+            }),
             ErrorKind::unsupported);
 
   // The deliverables: formats by media type, in output order, defaults where none is asked.
-  ex = parse({{"seeds", fc()}, {"resolution", 1}, {"limitDistances", {"12nmi", 24, {{"value", 3}, {"unit", "km"}}}},
-              {"limitsPerOwner", true}, {"simplify", 0.5}},
-             {{"outputs", {{"preview", json::object()},
-                           {"limits", {{"format", {{"mediaType", "Application/GeoPackage+SQLite3"}}}}},
-                           {"boundaries", json::object()},
-                           {"margin", {{"format", {{"mediaType", "image/tiff"}}}}},
-                           {"nearestFeature", json::object()}}}});
+  ex = parse({{"seeds", fc()},
+              {"resolution", 1},
+              {"limitDistances", {"12nmi", 24, {{"value", 3}, {"unit", "km"}}}},
+              {"limitsPerOwner", true},
+              {"simplify", 0.5}},
+             {{"outputs",
+               {{"preview", json::object()},
+                {"limits", {{"format", {{"mediaType", "Application/GeoPackage+SQLite3"}}}}},
+                {"boundaries", json::object()},
+                {"margin", {{"format", {{"mediaType", "image/tiff"}}}}},
+                {"nearestFeature", json::object()}}}});
   EXPECT_EQ(ex.outputs, (std::vector<std::string>{"nearestFeature", "boundaries", "limits", "margin", "preview"}));
-  EXPECT_EQ(ex.formats, (std::vector<std::string>{rv::daemon::kMediaGeoTiff, "application/geo+json",
-                                                  "application/geopackage+sqlite3", rv::daemon::kMediaGeoTiff,
-                                                  "image/png"}));
+  EXPECT_EQ(ex.formats,
+            (std::vector<std::string>{rv::daemon::kMediaGeoTiff, "application/geo+json",
+                                      "application/geopackage+sqlite3", rv::daemon::kMediaGeoTiff, "image/png"}));
   EXPECT_EQ(ex.spec.outputs.limit_distances, (std::vector<std::string>{"12nmi", "24", "3km"}));
   EXPECT_TRUE(ex.spec.outputs.limits_per_owner);
   EXPECT_DOUBLE_EQ(ex.spec.outputs.simplify_cells, 0.5);
@@ -507,7 +531,8 @@ TEST(Execute, OutputsResponseAndLimits) {
   small.limits.validate_max_cells = 100;
   const json big = {{"inputs", {{"seeds", fc()}, {"resolution", 0.001}, {"extent", {0, 0, 1, 1}}}}};
   EXPECT_EQ(kind_of([&] { rv::daemon::parse_execution(big, rv::daemon::new_job_id(), small); }), ErrorKind::too_large);
-  const json validate = {{"inputs", {{"seeds", fc()}, {"resolution", 0.05}, {"extent", {0, 0, 1, 1}}, {"validate", true}}}};
+  const json validate = {
+      {"inputs", {{"seeds", fc()}, {"resolution", 0.05}, {"extent", {0, 0, 1, 1}}, {"validate", true}}}};
   const std::string m = message_of([&] { rv::daemon::parse_execution(validate, rv::daemon::new_job_id(), small); });
   EXPECT_NE(m.find("input 'validate'"), std::string::npos) << m;
 }

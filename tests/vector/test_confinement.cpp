@@ -211,8 +211,8 @@ class Confinement : public ::testing::Test {
 
 // An OGR VRT whose one layer is layer `layer` of the datasource `src`.
 std::string vrt(const std::string& src, const std::string& layer) {
-  return "<OGRVRTDataSource><OGRVRTLayer name=\"evil\"><SrcDataSource>" + src + "</SrcDataSource><SrcLayer>" +
-         layer + "</SrcLayer></OGRVRTLayer></OGRVRTDataSource>";
+  return "<OGRVRTDataSource><OGRVRTLayer name=\"evil\"><SrcDataSource>" + src + "</SrcDataSource><SrcLayer>" + layer +
+         "</SrcLayer></OGRVRTLayer></OGRVRTDataSource>";
 }
 
 TEST_F(Confinement, VrtReadingALocalFileIsRefusedAndTheFileIsNotOpened) {
@@ -246,10 +246,9 @@ TEST_F(Confinement, GeoJsonCrsLinkIsRefusedAndNoRequestIsMade) {
   for (const std::string& crs :
        {R"({"type":"link","properties":{"href":")" + listener_.url("/crs.wkt") + R"(","type":"ogcwkt"}})",
         R"({"type":"url","properties":{"url":")" + listener_.url("/crs") + R"("}})"}) {
-    const std::string path =
-        upload("crs.geojson", R"({"type":"FeatureCollection","crs":)" + crs +
-                                  R"(,"features":[{"type":"Feature","properties":{},)"
-                                  R"("geometry":{"type":"Point","coordinates":[1,2]}}]})");
+    const std::string path = upload("crs.geojson", R"({"type":"FeatureCollection","crs":)" + crs +
+                                                       R"(,"features":[{"type":"Feature","properties":{},)"
+                                                       R"("geometry":{"type":"Point","coordinates":[1,2]}}]})");
     const std::string msg = expect_error(ErrorKind::invalid_input, confined(path));
     EXPECT_NE(msg.find("network resource"), std::string::npos) << msg;
     EXPECT_TRUE(listener_.requests().empty()) << crs;
@@ -281,9 +280,11 @@ TEST_F(Confinement, KmlNetworkLinkIsNotFollowed) {
   // GDAL's "KML" driver (the one allowed; not LIBKML) reads placemarks and ignores NetworkLinks.
   const std::string path = upload(
       "link.kml", R"(<?xml version="1.0" encoding="UTF-8"?><kml xmlns="http://www.opengis.net/kml/2.2"><Document>)"
-                  R"(<NetworkLink><Link><href>)" + listener_.url("/more.kml") + R"(</href></Link></NetworkLink>)"
-                  R"(<Placemark><name>p</name><Point><coordinates>10,55</coordinates></Point></Placemark>)"
-                  R"(</Document></kml>)");
+                  R"(<NetworkLink><Link><href>)" +
+                      listener_.url("/more.kml") +
+                      R"(</href></Link></NetworkLink>)"
+                      R"(<Placemark><name>p</name><Point><coordinates>10,55</coordinates></Point></Placemark>)"
+                      R"(</Document></kml>)");
   EXPECT_EQ(load_seeds(confined(path)).seeds.features().size(), 1u);
   EXPECT_TRUE(listener_.requests().empty());
 }
@@ -326,7 +327,8 @@ std::string virtual_ogr_gpkg(const fs::path& dir, const std::string& target) {
 }
 
 TEST_F(Confinement, GeoPackageVirtualOgrTableIsRefusedAndReadsNothing) {
-  for (const std::string& target : {secret_, "/vsicurl/" + listener_.url("/seeds.geojson"), std::string("/etc/passwd")}) {
+  for (const std::string& target :
+       {secret_, "/vsicurl/" + listener_.url("/seeds.geojson"), std::string("/etc/passwd")}) {
     const std::string path = upload("evil.gpkg", virtual_ogr_gpkg(dir_, target));
     watch_->events();  // building the file above is not an access by the reader
     expect_error(ErrorKind::invalid_input, confined(path));
@@ -337,9 +339,9 @@ TEST_F(Confinement, GeoPackageVirtualOgrTableIsRefusedAndReadsNothing) {
 
 TEST_F(Confinement, OnlyInMemoryPathsAreAccepted) {
   const std::string fixture = source_dir() + "/fixtures/demo_basepoints.geojson";
-  for (const std::string& path : {fixture, secret_, std::string("/vsimem/../") + secret_,
-                                  "/vsizip/" + source_dir() + "/fixtures/coast_shp.zip", "/vsicurl/" + listener_.url("/x"),
-                                  std::string("/vsistdin/"), "/vsisubfile/0_100," + secret_}) {
+  for (const std::string& path :
+       {fixture, secret_, std::string("/vsimem/../") + secret_, "/vsizip/" + source_dir() + "/fixtures/coast_shp.zip",
+        "/vsicurl/" + listener_.url("/x"), std::string("/vsistdin/"), "/vsisubfile/0_100," + secret_}) {
     expect_error(ErrorKind::invalid_argument, confined(path));
   }
   EXPECT_EQ(watch_->events(), 0);
@@ -358,9 +360,9 @@ TEST_F(Confinement, SelfContainedUploadsOfEveryAllowedFormatLoad) {
     std::string fixture, name;
     size_t features;
   };
-  for (const Case& c : {Case{"demo_basepoints.geojson", "a.geojson", 0}, Case{"coast.gpkg", "a.gpkg", 6},
-                        Case{"all_types.fgb", "a.fgb", 8}, Case{"placemarks.kml", "a.kml", 3},
-                        Case{"coast_shp.zip", "a.zip", 6}}) {
+  for (const Case& c :
+       {Case{"demo_basepoints.geojson", "a.geojson", 0}, Case{"coast.gpkg", "a.gpkg", 6},
+        Case{"all_types.fgb", "a.fgb", 8}, Case{"placemarks.kml", "a.kml", 3}, Case{"coast_shp.zip", "a.zip", 6}}) {
     std::string path = upload(c.name, read_file(source_dir() + "/fixtures/" + c.fixture));
     if (c.name == "a.zip") path = "/vsizip/" + path;
     SeedReadOptions o = confined(path);

@@ -5,8 +5,8 @@
 
 #include <chrono>
 #include <cstdio>
-#include <sstream>
 #include <regex>
+#include <sstream>
 
 #include "rv/engine.hpp"
 #include "rv/interior.hpp"
@@ -41,9 +41,9 @@ Vec2 location(const std::string& message) {
 }
 
 TEST(Conflicts, OverlappingPolygonsNameBothFeaturesAndALocation) {
-  const std::string msg = expect_error(ErrorKind::conflict, [] { load("overlap.geojson"); },
-                                       {"overlap.geojson:overlap:fid 0", "overlap.geojson:overlap:fid 1", "'A'", "'B'",
-                                        "overlap area"});
+  const std::string msg =
+      expect_error(ErrorKind::conflict, [] { load("overlap.geojson"); },
+                   {"overlap.geojson:overlap:fid 0", "overlap.geojson:overlap:fid 1", "'A'", "'B'", "overlap area"});
   const Vec2 p = location(msg);
   // The overlap is the square (3..4, 3..4) km.
   EXPECT_GT(p.x, kX0 + 3000.0);
@@ -53,8 +53,9 @@ TEST(Conflicts, OverlappingPolygonsNameBothFeaturesAndALocation) {
 }
 
 TEST(Conflicts, CrossingLinesReportTheCrossing) {
-  const std::string msg = expect_error(ErrorKind::conflict, [] { load("crossing_lines.geojson"); },
-                                       {"crossing_lines.geojson:crossing_lines:fid 0", "crossing_lines:fid 1", "cross"});
+  const std::string msg =
+      expect_error(ErrorKind::conflict, [] { load("crossing_lines.geojson"); },
+                   {"crossing_lines.geojson:crossing_lines:fid 0", "crossing_lines:fid 1", "cross"});
   const Vec2 p = location(msg);
   EXPECT_NEAR(p.x, kX0 + 2000.0, 1e-6);
   EXPECT_NEAR(p.y, kY0 + 2000.0, 1e-6);
@@ -112,7 +113,8 @@ TEST(Conflicts, LowerCodeAcceptsAndTheEngineResolves) {
 TEST(Conflicts, LowerCodeWinsEvenWhenOwnersInterleave) {
   test::ScratchDir dir;
   const auto feature = [](const char* owner, const std::string& geometry) {
-    return R"({"type": "Feature", "properties": {"owner": ")" + std::string(owner) + R"("}, "geometry": )" + geometry + "}";
+    return R"({"type": "Feature", "properties": {"owner": ")" + std::string(owner) + R"("}, "geometry": )" + geometry +
+           "}";
   };
   const auto square = [](double u0, double v0, double u1, double v1) {
     std::ostringstream g;
@@ -127,8 +129,8 @@ TEST(Conflicts, LowerCodeWinsEvenWhenOwnersInterleave) {
   const std::string path = dir.write(
       "interleaved.geojson",
       R"({"type": "FeatureCollection", "crs": {"type": "name", "properties": {"name": "urn:ogc:def:crs:EPSG::32633"}}, "features": [)" +
-          feature("A", R"({"type": "Point", "coordinates": [400500, 6209500]})") + "," + feature("B", square(0, 0, 4, 4)) +
-          "," + feature("A", square(3, 3, 6, 6)) + "]}");
+          feature("A", R"({"type": "Point", "coordinates": [400500, 6209500]})") + "," +
+          feature("B", square(0, 0, 4, 4)) + "," + feature("A", square(3, 3, 6, 6)) + "]}");
   SeedReadOptions o;
   o.paths = {path};
   o.owner_field = "owner";
@@ -158,9 +160,9 @@ TEST(Conflicts, TenThousandTouchingFeaturesStayFast) {
     f << R"({"type": "FeatureCollection", "crs": {"type": "name", "properties": {"name": "urn:ogc:def:crs:EPSG::32633"}}, "features": [)";
     const auto square = [&](const char* owner, double x, double y, double size) {
       f << R"({"type": "Feature", "properties": {"owner": ")" << owner
-        << R"("}, "geometry": {"type": "Polygon", "coordinates": [[)" << "[" << x << "," << y << "],[" << x << ","
-        << y + size << "],[" << x + size << "," << y + size << "],[" << x + size << "," << y << "],[" << x << "," << y
-        << "]]]}}";
+        << R"("}, "geometry": {"type": "Polygon", "coordinates": [[)"
+        << "[" << x << "," << y << "],[" << x << "," << y + size << "],[" << x + size << "," << y + size << "],["
+        << x + size << "," << y << "],[" << x << "," << y << "]]]}}";
     };
     for (int i = 0; i < n; ++i)
       for (int j = 0; j < n; ++j) {

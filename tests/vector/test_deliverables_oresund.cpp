@@ -93,11 +93,11 @@ TEST(OresundDeliverables, MedianLineAndTwelveMileLimitOnUtm) {
   t = std::chrono::steady_clock::now();
   const Raster<float> m = margin_raster(f, index, 2);
   const double tm = since(t);
-  std::printf("oresund UTM 200 m (%lldx%lld, %zu sites): boundaries %.3f s (%zu lines, %zu vertices on the median, "
-              "max residual %.2e m), 12 nmi limit %.3f s (%zu lines, %lld vertices), margin %.3f s\n",
-              static_cast<long long>(g.width), static_cast<long long>(g.height), s.sites().size(), tb, r.lines.size(),
-              median->vertices.size(), r.stats.max_residual, tl, lim.lines.size(),
-              static_cast<long long>(lim.vertices), tm);
+  std::printf(
+      "oresund UTM 200 m (%lldx%lld, %zu sites): boundaries %.3f s (%zu lines, %zu vertices on the median, "
+      "max residual %.2e m), 12 nmi limit %.3f s (%zu lines, %lld vertices), margin %.3f s\n",
+      static_cast<long long>(g.width), static_cast<long long>(g.height), s.sites().size(), tb, r.lines.size(),
+      median->vertices.size(), r.stats.max_residual, tl, lim.lines.size(), static_cast<long long>(lim.vertices), tm);
   (void)dk;
   (void)se;
 }
@@ -181,10 +181,11 @@ TEST(OresundDeliverables, MedianLineAndTwelveMileLimitGeodesic) {
       const int32_t own = s.site_owner(site);
       ASSERT_NEAR(margin.at(c, row), brute(p, 3 - own) - brute(p, own), 0.05) << c << "," << row;
     }
-  std::printf("oresund geodesic 0.005 deg (%lldx%lld): compute %.3f s, boundaries %.3f s (%zu lines, %zu vertices on "
-              "the median, max residual %.2e m), 12 nmi limit %.3f s (%lld vertices), margin %.3f s\n",
-              static_cast<long long>(g.width), static_cast<long long>(g.height), f.seconds, tb, r.lines.size(),
-              median->vertices.size(), r.stats.max_residual, tl, static_cast<long long>(lim.vertices), tm);
+  std::printf(
+      "oresund geodesic 0.005 deg (%lldx%lld): compute %.3f s, boundaries %.3f s (%zu lines, %zu vertices on "
+      "the median, max residual %.2e m), 12 nmi limit %.3f s (%lld vertices), margin %.3f s\n",
+      static_cast<long long>(g.width), static_cast<long long>(g.height), f.seconds, tb, r.lines.size(),
+      median->vertices.size(), r.stats.max_residual, tl, static_cast<long long>(lim.vertices), tm);
 }
 
 // The geographic grid of 0.002 degrees (600 x 501 cells), geodesic metric, owners by iso2: the

@@ -6,8 +6,8 @@
 
 #include <cmath>
 #include <cstdlib>
-#include <filesystem>
 #include <cstring>
+#include <filesystem>
 #include <string>
 #include <vector>
 
@@ -30,8 +30,9 @@ std::string fixture(const std::string& name) {
 std::string geojson(int n, int ring = 0) {
   std::string f;
   for (int i = 0; i < n; ++i)
-    f += std::string(f.empty() ? "" : ",") + R"({"type":"Feature","properties":{},"geometry":{"type":"Point","coordinates":[)" +
-         std::to_string(i * 10) + ",0]}}";
+    f += std::string(f.empty() ? "" : ",") +
+         R"({"type":"Feature","properties":{},"geometry":{"type":"Point","coordinates":[)" + std::to_string(i * 10) +
+         ",0]}}";
   if (ring > 0) {
     std::string c;
     for (int i = 0; i < ring; ++i) {
@@ -39,8 +40,8 @@ std::string geojson(int n, int ring = 0) {
       c += "[" + std::to_string(50 + 10 * std::cos(a)) + "," + std::to_string(50 + 10 * std::sin(a)) + "],";
     }
     c += "[60,50]";
-    f += std::string(f.empty() ? "" : ",") + R"({"type":"Feature","properties":{},"geometry":{"type":"Polygon","coordinates":[[)" +
-         c + "]]}}";
+    f += std::string(f.empty() ? "" : ",") +
+         R"({"type":"Feature","properties":{},"geometry":{"type":"Polygon","coordinates":[[)" + c + "]]}}";
   }
   return R"({"type":"FeatureCollection","features":[)" + f + "]}";
 }
@@ -82,10 +83,11 @@ TEST_F(Limits, FeaturesOverTheLimitAreTooLarge) {
 }
 
 TEST_F(Limits, EmptyFeaturesCountTowardsTheFeatureLimit) {
-  SeedReadOptions o = options(R"({"type":"FeatureCollection","features":[)"
-                              R"({"type":"Feature","properties":{},"geometry":null},)"
-                              R"({"type":"Feature","properties":{},"geometry":null},)"
-                              R"({"type":"Feature","properties":{},"geometry":{"type":"Point","coordinates":[1,2]}}]})");
+  SeedReadOptions o =
+      options(R"({"type":"FeatureCollection","features":[)"
+              R"({"type":"Feature","properties":{},"geometry":null},)"
+              R"({"type":"Feature","properties":{},"geometry":null},)"
+              R"({"type":"Feature","properties":{},"geometry":{"type":"Point","coordinates":[1,2]}}]})");
   o.max_features = 2;
   too_large(o);
   o.max_features = 3;
@@ -163,9 +165,9 @@ std::string multipoint_zip(const std::string& zip, int32_t points) {
   // dBASE III: header (32), one character field "state" of width 1 (32), terminator, one record.
   std::string dbf(32, '\0');
   dbf[0] = 3;
-  dbf[4] = 1;                       // one record
-  dbf[8] = 32 + 32 + 1;             // header length
-  dbf[10] = 2;                      // record length: deletion flag + 1 character
+  dbf[4] = 1;            // one record
+  dbf[8] = 32 + 32 + 1;  // header length
+  dbf[10] = 2;           // record length: deletion flag + 1 character
   std::string field(32, '\0');
   std::memcpy(field.data(), "state", 5);
   field[11] = 'C';

@@ -118,10 +118,10 @@ TEST_F(OresundTest, LandBelongsToItsStateAndSeaToTheNearer) {
                                     burn.data(), nullptr, nullptr, nullptr),
             CE_None);
   std::vector<int32_t> land(static_cast<size_t>(g.cell_count()));
-  ASSERT_EQ(mem->GetRasterBand(1)->RasterIO(GF_Read, 0, 0, static_cast<int>(g.width), static_cast<int>(g.height),
-                                            land.data(), static_cast<int>(g.width), static_cast<int>(g.height), GDT_Int32,
-                                            0, 0, nullptr),
-            CE_None);
+  ASSERT_EQ(
+      mem->GetRasterBand(1)->RasterIO(GF_Read, 0, 0, static_cast<int>(g.width), static_cast<int>(g.height), land.data(),
+                                      static_cast<int>(g.width), static_cast<int>(g.height), GDT_Int32, 0, 0, nullptr),
+      CE_None);
 
   int64_t land_cells[3] = {0, 0, 0}, land_wrong = 0, sea_cells[3] = {0, 0, 0}, unowned = 0;
   int64_t sea_checked = 0, sea_wrong = 0;
@@ -151,11 +151,12 @@ TEST_F(OresundTest, LandBelongsToItsStateAndSeaToTheNearer) {
       worst_distance_diff = std::max(worst_distance_diff, std::abs(f.distance.at(col, row) - std::min(d_dk, d_se)));
     }
   }
-  std::printf("oresund %lldx%lld at 200 m: land DK %lld SE %lld, sea DK %lld SE %lld, sea cells checked %lld, "
-              "worst distance difference to GEOS %.4f m\n",
-              static_cast<long long>(g.width), static_cast<long long>(g.height), static_cast<long long>(land_cells[1]),
-              static_cast<long long>(land_cells[2]), static_cast<long long>(sea_cells[1]),
-              static_cast<long long>(sea_cells[2]), static_cast<long long>(sea_checked), worst_distance_diff);
+  std::printf(
+      "oresund %lldx%lld at 200 m: land DK %lld SE %lld, sea DK %lld SE %lld, sea cells checked %lld, "
+      "worst distance difference to GEOS %.4f m\n",
+      static_cast<long long>(g.width), static_cast<long long>(g.height), static_cast<long long>(land_cells[1]),
+      static_cast<long long>(land_cells[2]), static_cast<long long>(sea_cells[1]), static_cast<long long>(sea_cells[2]),
+      static_cast<long long>(sea_checked), worst_distance_diff);
   EXPECT_EQ(unowned, 0);
   EXPECT_EQ(land_wrong, 0);
   EXPECT_GT(land_cells[1], 10000);  // Zealand's north-east and Skåne's west: both substantial
@@ -181,10 +182,11 @@ TEST_F(OresundTest, ExactEqualsBruteForce) {
   RecordProperty("brute_force_seconds", std::to_string(brute.seconds));
   RecordProperty("hv_max_error_cells", std::to_string(hv.max_error_cells));
   RecordProperty("hv_wrong_cells", std::to_string(hv.wrong_cells));
-  std::printf("oresund 200 m: exact %.3f s, brute force %.3f s; hv-scan %lld wrong cells (%lld with another owner), "
-              "max error %.4f cells\n",
-              exact.seconds, brute.seconds, static_cast<long long>(hv.wrong_cells),
-              static_cast<long long>(hv.wrong_owner_cells), hv.max_error_cells);
+  std::printf(
+      "oresund 200 m: exact %.3f s, brute force %.3f s; hv-scan %lld wrong cells (%lld with another owner), "
+      "max error %.4f cells\n",
+      exact.seconds, brute.seconds, static_cast<long long>(hv.wrong_cells),
+      static_cast<long long>(hv.wrong_owner_cells), hv.max_error_cells);
 }
 
 }  // namespace

@@ -48,7 +48,8 @@ TEST(OresundGeodesic, ExactEqualsBruteForceAcrossTheStrait) {
   if (!seeds) GTEST_SKIP() << "shared/fixtures/oresund.gpkg not found";
   const LoadedSeeds& loaded = *seeds;
   ASSERT_TRUE(loaded.crs.geographic);
-  const MetricSpec metric = resolve_metric(MetricRequest::automatic, true, loaded.crs.semi_major, loaded.crs.flattening);
+  const MetricSpec metric =
+      resolve_metric(MetricRequest::automatic, true, loaded.crs.semi_major, loaded.crs.flattening);
   ASSERT_EQ(metric.kind, MetricSpec::geodesic);
 
   GridSpec g = make_grid(12.0, 55.3, 13.2, 56.3, 0.002, loaded.crs.wkt);
@@ -133,8 +134,7 @@ TEST(OresundGeodesic, ExactEqualsBruteForceOnTheBenchmarkGrid) {
   ASSERT_EQ(g.width, 3474);
   int64_t sea = 0, near_edge = 0;
   std::set<int32_t> sites;
-  for (const Window w :
-       {Window{160, 1728, 64, 64}, Window{2304, 1280, 64, 64}, Window{1770, 840, 64, 64}}) {
+  for (const Window w : {Window{160, 1728, 64, 64}, Window{2304, 1280, 64, 64}, Window{1770, 840, 64, 64}}) {
     ComputeOptions o;
     o.metric = metric;
     o.window = w;

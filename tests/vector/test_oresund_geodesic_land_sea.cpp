@@ -77,15 +77,16 @@ TEST(OresundGeodesicLandSea, OwnershipAndDistanceOnTheEllipsoid) {
                                     burn.data(), nullptr, nullptr, nullptr),
             CE_None);
   std::vector<int32_t> land(static_cast<size_t>(g.cell_count()));
-  ASSERT_EQ(mem->GetRasterBand(1)->RasterIO(GF_Read, 0, 0, static_cast<int>(g.width), static_cast<int>(g.height),
-                                            land.data(), static_cast<int>(g.width), static_cast<int>(g.height),
-                                            GDT_Int32, 0, 0, nullptr),
-            CE_None);
+  ASSERT_EQ(
+      mem->GetRasterBand(1)->RasterIO(GF_Read, 0, 0, static_cast<int>(g.width), static_cast<int>(g.height), land.data(),
+                                      static_cast<int>(g.width), static_cast<int>(g.height), GDT_Int32, 0, 0, nullptr),
+      CE_None);
 
   // Edges per owner, for the brute-force reference.
   std::vector<std::pair<Vec2, Vec2>> edges[3];
   for (const Site& s : l.seeds.sites())
-    if (s.kind == SiteKind::segment) edges[l.seeds.features()[static_cast<size_t>(s.feature)].owner].push_back({s.a, s.b});
+    if (s.kind == SiteKind::segment)
+      edges[l.seeds.features()[static_cast<size_t>(s.feature)].owner].push_back({s.a, s.b});
   const GeodesicMeasure measure(o.metric);
 
   int64_t land_cells[3] = {0, 0, 0}, land_wrong = 0, sea_cells[3] = {0, 0, 0}, unowned = 0;
@@ -117,12 +118,13 @@ TEST(OresundGeodesicLandSea, OwnershipAndDistanceOnTheEllipsoid) {
       worst_relative = std::max(worst_relative, std::abs(f.distance.at(col, row) - nearest) / nearest);
     }
   }
-  std::printf("oresund geodesic %lldx%lld at 0.002 deg: exact %.2f s; land DK %lld SE %lld, sea DK %lld SE %lld, "
-              "sea cells checked %lld, worst relative distance difference %.2e\n",
-              static_cast<long long>(g.width), static_cast<long long>(g.height), f.seconds,
-              static_cast<long long>(land_cells[1]), static_cast<long long>(land_cells[2]),
-              static_cast<long long>(sea_cells[1]), static_cast<long long>(sea_cells[2]),
-              static_cast<long long>(sea_checked), worst_relative);
+  std::printf(
+      "oresund geodesic %lldx%lld at 0.002 deg: exact %.2f s; land DK %lld SE %lld, sea DK %lld SE %lld, "
+      "sea cells checked %lld, worst relative distance difference %.2e\n",
+      static_cast<long long>(g.width), static_cast<long long>(g.height), f.seconds,
+      static_cast<long long>(land_cells[1]), static_cast<long long>(land_cells[2]),
+      static_cast<long long>(sea_cells[1]), static_cast<long long>(sea_cells[2]), static_cast<long long>(sea_checked),
+      worst_relative);
   EXPECT_EQ(unowned, 0);
   EXPECT_EQ(land_wrong, 0);
   EXPECT_GT(land_cells[1], 10000);

@@ -113,8 +113,9 @@ TEST_F(OutsideText, FieldAndLayerNamesInMessagesAreEscaped) {
 TEST_F(OutsideText, GdalMessagesQuotingBrokenDataAreEscaped) {
   const std::string path = gpkg(dir_.file("schema.gpkg"), "seeds", "state", {"A", "B"});
   // SQLite's parser stops at the bytes and quotes them in its message, which GDAL passes on.
-  exec(path, "PRAGMA writable_schema=1; UPDATE sqlite_master SET sql = replace(sql, '\"state\" TEXT)', "
-             "'\"state\" TEXT) ' || CAST(x'80ff' AS TEXT)) WHERE name = 'seeds'");
+  exec(path,
+       "PRAGMA writable_schema=1; UPDATE sqlite_master SET sql = replace(sql, '\"state\" TEXT)', "
+       "'\"state\" TEXT) ' || CAST(x'80ff' AS TEXT)) WHERE name = 'seeds'");
   SeedReadOptions o;
   o.paths = {path};
   const Error e = error_of(o);
@@ -125,7 +126,8 @@ TEST_F(OutsideText, GdalMessagesQuotingBrokenDataAreEscaped) {
 
 TEST_F(OutsideText, UntrustedGeoPackagesWithViewsOrGeneratedColumnsAreRefused) {
   const std::string viewed = gpkg(dir_.file("view.gpkg"), "seeds", "state", {"A", "B"});
-  exec(viewed, "CREATE VIEW endless AS WITH RECURSIVE c(n) AS (SELECT 1 UNION ALL SELECT n + 1 FROM c) SELECT n FROM c");
+  exec(viewed,
+       "CREATE VIEW endless AS WITH RECURSIVE c(n) AS (SELECT 1 UNION ALL SELECT n + 1 FROM c) SELECT n FROM c");
   const std::string generated = gpkg(dir_.file("generated.gpkg"), "seeds", "state", {"A", "B"});
   exec(generated, "CREATE TABLE big (id INTEGER PRIMARY KEY, blob AS (zeroblob(1000000000)) VIRTUAL)");
   SeedReadOptions o;

@@ -312,7 +312,7 @@ TEST(RasterIo, StripWriterLeavesNothingUnlessFinished) {
   labelled.category_labels = {"x"};
   {
     GeoTiffStripWriter<int32_t> w(dir.file("a.tif"), grid, grid.full_window(), 0.0, labelled);
-    w.write_rows(r.data(), 260);  // one tile row encoded, four rows pending
+    w.write_rows(r.data(), 260);                 // one tile row encoded, four rows pending
     EXPECT_FALSE(files_in(dir.path()).empty());  // the temporary file
   }
   EXPECT_TRUE(files_in(dir.path()).empty()) << "destroyed unfinished";
@@ -372,7 +372,8 @@ TEST(RasterIo, CompressionProfilesSetCodecAndPredictorAndKeepEveryValue) {
   for (int64_t row = 0; row < grid.height; ++row)
     for (int64_t col = 0; col < grid.width; ++col) {
       codes.at(col, row) = static_cast<int32_t>((col / 90 + 7 * (row / 60)) % 300);  // needs UInt16
-      if ((col * 7 + row * 3) % 101 != 0) dist.at(col, row) = static_cast<float>(std::hypot(col - 350.5, row - 260.25) * 10.0);
+      if ((col * 7 + row * 3) % 101 != 0)
+        dist.at(col, row) = static_cast<float>(std::hypot(col - 350.5, row - 260.25) * 10.0);
     }
   std::map<std::string, uintmax_t> float_size;
   for (const ProfileExpectation& e : profile_expectations()) {
@@ -436,9 +437,8 @@ TEST(RasterIo, CodeRastersTakeTheNarrowestTypeThatHoldsMaxCode) {
     GDALDataType type;
   };
   // Each side of both boundaries, 0 (no owner at all) and no stated range.
-  const Case cases[] = {{0, GDT_Byte},       {255, GDT_Byte},       {256, GDT_UInt16},
-                        {65535, GDT_UInt16}, {65536, GDT_Int32},    {INT32_MAX, GDT_Int32},
-                        {-1, GDT_Int32}};
+  const Case cases[] = {{0, GDT_Byte},      {255, GDT_Byte},        {256, GDT_UInt16}, {65535, GDT_UInt16},
+                        {65536, GDT_Int32}, {INT32_MAX, GDT_Int32}, {-1, GDT_Int32}};
   for (const Case& c : cases) {
     SCOPED_TRACE(c.max_code);
     // Values spread over [0, max_code], both ends included (any Int32 code without a range).
@@ -502,14 +502,15 @@ TEST(RasterIo, CodesOutsideTheStatedRangeAreRefused) {
   GeoTiffOptions o;
   o.max_code = 10;
   // The nodata value must be a code of the range; a range on a Float32 raster is a mistake.
-  expect_error(ErrorKind::invalid_argument, [&] { write_geotiff(dir.file("n.tif"), Raster<int32_t>(grid, 1), 11.0, o); },
-               {"nodata"});
-  expect_error(ErrorKind::invalid_argument, [&] { write_geotiff(dir.file("n.tif"), Raster<int32_t>(grid, 1), -1.0, o); },
-               {"nodata"});
+  expect_error(ErrorKind::invalid_argument,
+               [&] { write_geotiff(dir.file("n.tif"), Raster<int32_t>(grid, 1), 11.0, o); }, {"nodata"});
+  expect_error(ErrorKind::invalid_argument,
+               [&] { write_geotiff(dir.file("n.tif"), Raster<int32_t>(grid, 1), -1.0, o); }, {"nodata"});
   expect_error(ErrorKind::invalid_argument,
                [&] { write_geotiff(dir.file("f.tif"), Raster<float>(grid, 1.0f), 0.0, o); }, {"integer"});
   o.max_code = int64_t{1} << 31;
-  expect_error(ErrorKind::invalid_argument, [&] { write_geotiff(dir.file("m.tif"), Raster<int32_t>(grid, 1), 0.0, o); });
+  expect_error(ErrorKind::invalid_argument,
+               [&] { write_geotiff(dir.file("m.tif"), Raster<int32_t>(grid, 1), 0.0, o); });
   EXPECT_TRUE(files_in(dir.path()).empty());
 }
 

@@ -1,9 +1,9 @@
 // Reading seed layers: formats, geometry types, owners, CRS, normalisation, input errors.
 #include <gtest/gtest.h>
 
-#include <GeographicLib/UTMUPS.hpp>
 #include <gdal_priv.h>
 #include <ogrsf_frmts.h>
+#include <GeographicLib/UTMUPS.hpp>
 
 #include <cmath>
 #include <set>
@@ -89,8 +89,8 @@ TEST(SeedReader, EveryGeometryTypeFromGeoJsonGeoPackageAndFlatGeobuf) {
   const SeedSet& s = json.seeds;
   ASSERT_EQ(s.features().size(), 8u);
   // In owner order: the 3D line (input feature 8) shares owner "L" and follows the first line.
-  const std::vector<GeometryKind> kinds = {GeometryKind::point,   GeometryKind::point,   GeometryKind::line,
-                                           GeometryKind::line,    GeometryKind::line,    GeometryKind::polygon,
+  const std::vector<GeometryKind> kinds = {GeometryKind::point,   GeometryKind::point, GeometryKind::line,
+                                           GeometryKind::line,    GeometryKind::line,  GeometryKind::polygon,
                                            GeometryKind::polygon, GeometryKind::mixed};
   for (size_t i = 0; i < kinds.size(); ++i) EXPECT_EQ(s.features()[i].kind, kinds[i]) << "feature " << i;
   EXPECT_EQ(s.owner_labels(), (std::vector<std::string>{"P", "MP", "L", "ML", "H", "MPG", "GC"}));
@@ -144,7 +144,8 @@ TEST(SeedReader, KmlPlacemarksReprojected) {
 TEST(SeedReader, OwnersWithoutFieldArePositions) {
   const LoadedSeeds l = load({fixture("coast.gpkg")}, std::nullopt, kCoastLayers);
   EXPECT_EQ(l.seeds.owner_labels(), (std::vector<std::string>{"1", "2", "3", "4", "5", "6"}));
-  for (size_t i = 0; i < l.seeds.features().size(); ++i) EXPECT_EQ(l.seeds.features()[i].owner, static_cast<int32_t>(i + 1));
+  for (size_t i = 0; i < l.seeds.features().size(); ++i)
+    EXPECT_EQ(l.seeds.features()[i].owner, static_cast<int32_t>(i + 1));
   // Positions count the input: an empty feature keeps its number.
   const LoadedSeeds e = load({fixture("empty_geometry.geojson")}, std::nullopt);
   EXPECT_EQ(e.seeds.owner_labels(), (std::vector<std::string>{"1", "3"}));
@@ -191,7 +192,7 @@ TEST(SeedReader, DescribeCrs) {
   EXPECT_EQ(utm.name, "WGS 84 / UTM zone 33N");
   EXPECT_DOUBLE_EQ(utm.linear_unit, 1.0);
   EXPECT_NE(utm.wkt.find("PROJCRS"), std::string::npos);  // WKT2
-  const CrsInfo feet = describe_crs("EPSG:2263");           // NAD83 / New York Long Island (ftUS)
+  const CrsInfo feet = describe_crs("EPSG:2263");         // NAD83 / New York Long Island (ftUS)
   EXPECT_NEAR(feet.linear_unit, 1200.0 / 3937.0, 1e-12);
   EXPECT_NEAR(feet.semi_major, 6378137.0, 1e-9);  // GRS80
   EXPECT_NEAR(1.0 / feet.flattening, 298.257222101, 1e-6);
@@ -208,7 +209,10 @@ TEST(SeedReader, LayersWithoutCrs) {
   bool warned = false;
   for (const std::string& w : l.report.warnings) warned |= w.find("no layer has a CRS") != std::string::npos;
   EXPECT_TRUE(warned);
-  expect_error(ErrorKind::invalid_input, [] { load({fixture("other_crs.gpkg"), fixture("no_crs_shp.zip")}); },
+  expect_error(ErrorKind::invalid_input,
+               [] {
+                 load({fixture("other_crs.gpkg"), fixture("no_crs_shp.zip")});
+               },
                {"no_crs_shp.zip:plain", "has no CRS"});
   expect_error(ErrorKind::invalid_input, [] { load({fixture("no_crs_shp.zip")}, "owner", {}, "EPSG:32633"); },
                {"has no CRS"});
@@ -241,9 +245,10 @@ TEST(SeedReader, InputErrors) {
                                geometry + "} ] }");
   };
   const std::string utm = R"("crs": {"type": "name", "properties": {"name": "urn:ogc:def:crs:EPSG::32633"}},)";
-  expect_error(ErrorKind::invalid_input,
-               [&] { load({geojson("nan_line.geojson", R"({"type": "LineString", "coordinates": [[1, 2], [NaN, 3]]})", utm)}); },
-               {"nan_line.geojson:nan_line:fid 0", "non-finite"});
+  expect_error(
+      ErrorKind::invalid_input,
+      [&] { load({geojson("nan_line.geojson", R"({"type": "LineString", "coordinates": [[1, 2], [NaN, 3]]})", utm)}); },
+      {"nan_line.geojson:nan_line:fid 0", "non-finite"});
   // OGR flags a point with a NaN coordinate as empty; it must still be an error, not a skip.
   expect_error(ErrorKind::invalid_input,
                [&] { load({geojson("nan_point.geojson", R"({"type": "Point", "coordinates": [NaN, 3]})", utm)}); },
@@ -252,9 +257,10 @@ TEST(SeedReader, InputErrors) {
                [&] { load({geojson("inf.geojson", R"({"type": "Point", "coordinates": [Infinity, 3]})", utm)}); },
                {"inf.geojson", "non-finite"});
   // GeoJSON without "crs" is WGS 84 longitude/latitude.
-  expect_error(ErrorKind::invalid_input,
-               [&] { load({geojson("lat.geojson", R"({"type": "LineString", "coordinates": [[10, 50], [10, 91]]})")}); },
-               {"lat.geojson:lat:fid 0", "latitude 91"});
+  expect_error(
+      ErrorKind::invalid_input,
+      [&] { load({geojson("lat.geojson", R"({"type": "LineString", "coordinates": [[10, 50], [10, 91]]})")}); },
+      {"lat.geojson:lat:fid 0", "latitude 91"});
   expect_error(ErrorKind::invalid_input,
                [&] { load({geojson("only_empty.geojson", R"({"type": "Point", "coordinates": []})", utm)}); },
                {"no seed features"});
@@ -315,7 +321,8 @@ TEST(SeedReader, PolygonRepairsAndUnrepairablePolygons) {
   expect_error(ErrorKind::invalid_input, [&] { load({flat}); }, {"flat.geojson:flat:fid 0", "fewer than 3"});
   const std::string spike =
       dir.write("line_polygon.geojson", collection(feature("A", "[[[0, 0], [1, 1], [2, 2], [0, 0]]]")));
-  expect_error(ErrorKind::invalid_input, [&] { load({spike}); }, {"line_polygon.geojson:line_polygon:fid 0", "cannot be repaired"});
+  expect_error(ErrorKind::invalid_input, [&] { load({spike}); },
+               {"line_polygon.geojson:line_polygon:fid 0", "cannot be repaired"});
 }
 
 TEST(SeedReader, MeasuresAndZDroppedAndVsimemPaths) {

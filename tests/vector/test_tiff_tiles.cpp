@@ -30,8 +30,7 @@ using test::ScratchDir;
 GridSpec grid_of(int64_t w, int64_t h) { return test::utm_grid(w, h, 25.0, 32, 500000.0, 6200000.0); }
 
 std::unique_ptr<GDALDataset> open(const std::string& path) {
-  return std::unique_ptr<GDALDataset>(
-      GDALDataset::Open(path.c_str(), GDAL_OF_RASTER | GDAL_OF_READONLY));
+  return std::unique_ptr<GDALDataset>(GDALDataset::Open(path.c_str(), GDAL_OF_RASTER | GDAL_OF_READONLY));
 }
 
 // Band 1's cells as raw bytes in the file's own type: equal bytes mean equal values, NaN payloads
@@ -44,8 +43,8 @@ std::vector<uint8_t> raw_cells(const std::string& path) {
   const GDALDataType t = b->GetRasterDataType();
   std::vector<uint8_t> out(static_cast<size_t>(ds->GetRasterXSize()) * ds->GetRasterYSize() *
                            GDALGetDataTypeSizeBytes(t));
-  EXPECT_EQ(b->RasterIO(GF_Read, 0, 0, ds->GetRasterXSize(), ds->GetRasterYSize(), out.data(),
-                        ds->GetRasterXSize(), ds->GetRasterYSize(), t, 0, 0),
+  EXPECT_EQ(b->RasterIO(GF_Read, 0, 0, ds->GetRasterXSize(), ds->GetRasterYSize(), out.data(), ds->GetRasterXSize(),
+                        ds->GetRasterYSize(), t, 0, 0),
             CE_None);
   return out;
 }
@@ -66,8 +65,7 @@ Raster<int32_t> codes_for(const GridSpec& grid, int64_t max_code) {
       if ((col + row) % 17 == 0) v = top;  // top next to small values: wrapping differences
       if ((col * 3 + row) % 29 == 0) v = 0;
       int32_t code = static_cast<int32_t>(v);
-      if (any && (col + 2 * row) % 13 == 0)
-        code = (col % 2 == 0) ? INT32_MIN : -static_cast<int32_t>(col + 1);
+      if (any && (col + 2 * row) % 13 == 0) code = (col % 2 == 0) ? INT32_MIN : -static_cast<int32_t>(col + 1);
       r.at(col, row) = code;
     }
   return r;
@@ -87,9 +85,8 @@ Raster<float> distances_for(const GridSpec& grid) {
   for (int64_t row = 0; row < grid.height; ++row)
     for (int64_t col = 0; col < grid.width; ++col) {
       const int64_t k = col * 31 + row * 7;
-      r.at(col, row) = k % 53 == 0
-                           ? specials[(k / 53) % 7]
-                           : static_cast<float>(std::hypot(col - 140.25, row - 77.5) * 25.0);
+      r.at(col, row) =
+          k % 53 == 0 ? specials[(k / 53) % 7] : static_cast<float>(std::hypot(col - 140.25, row - 77.5) * 25.0);
     }
   return r;
 }
@@ -100,8 +97,7 @@ TEST(TiffTiles, EveryProfileAndTypeDecodesBitForBit) {
   // Neither side a multiple of the tile size: edge tiles in both directions, 2 x 2 tiles.
   const GridSpec grid = grid_of(300, 290);
   const Raster<float> dist = distances_for(grid);
-  for (const Compression c :
-       {Compression::fast, Compression::small, Compression::deflate, Compression::none}) {
+  for (const Compression c : {Compression::fast, Compression::small, Compression::deflate, Compression::none}) {
     for (const int64_t max_code : {int64_t{200}, int64_t{60000}, int64_t{-1}}) {
       const std::string tag = std::string(to_string(c)) + "_" + std::to_string(max_code);
       SCOPED_TRACE(tag);
@@ -172,16 +168,14 @@ TEST(TiffTiles, AFileLaidOutOtherwiseIsRefused) {
   gdal_init();
   ScratchDir dir;
   GDALDriver* gtiff = GetGDALDriverManager()->GetDriverByName("GTiff");
-  const auto make = [&](const std::string& name, const char* compress, const char* block,
-                        GDALDataType type) {
+  const auto make = [&](const std::string& name, const char* compress, const char* block, GDALDataType type) {
     CPLStringList co;
     co.SetNameValue("TILED", "YES");
     co.SetNameValue("BLOCKXSIZE", block);
     co.SetNameValue("BLOCKYSIZE", block);
     co.SetNameValue("COMPRESS", compress);
     co.SetNameValue("SPARSE_OK", "TRUE");
-    std::unique_ptr<GDALDataset> ds(
-        gtiff->Create(dir.file(name).c_str(), 300, 300, 1, type, co.List()));
+    std::unique_ptr<GDALDataset> ds(gtiff->Create(dir.file(name).c_str(), 300, 300, 1, type, co.List()));
     EXPECT_TRUE(ds);
     return dir.file(name);
   };
@@ -191,23 +185,18 @@ TEST(TiffTiles, AFileLaidOutOtherwiseIsRefused) {
   zstd16.sample_bytes = 2;
   // The layout it was made for opens; another codec, tile size, type or predictor is refused.
   { detail::RawTileFile ok(make("ok.tif", "ZSTD", "256", GDT_UInt16), zstd16, "ok.tif"); }
-  for (const auto& [name, path] : std::vector<std::pair<std::string, std::string>>{
-           {"deflate", make("d.tif", "DEFLATE", "256", GDT_UInt16)},
-           {"tiles", make("t.tif", "ZSTD", "128", GDT_UInt16)},
-           {"type", make("y.tif", "ZSTD", "256", GDT_Int32)},
-           {"float", make("f.tif", "ZSTD", "256", GDT_Float32)}}) {
+  for (const auto& [name, path] :
+       std::vector<std::pair<std::string, std::string>>{{"deflate", make("d.tif", "DEFLATE", "256", GDT_UInt16)},
+                                                        {"tiles", make("t.tif", "ZSTD", "128", GDT_UInt16)},
+                                                        {"type", make("y.tif", "ZSTD", "256", GDT_Int32)},
+                                                        {"float", make("f.tif", "ZSTD", "256", GDT_Float32)}}) {
     SCOPED_TRACE(name);
-    expect_error(ErrorKind::io, [&] { detail::RawTileFile bad(path, zstd16, "shown.tif"); },
-                 {"shown.tif", "layout"});
+    expect_error(ErrorKind::io, [&] { detail::RawTileFile bad(path, zstd16, "shown.tif"); }, {"shown.tif", "layout"});
   }
   detail::TileFormat predicted = zstd16;
   predicted.predictor = 2;
-  expect_error(ErrorKind::io,
-               [&] { detail::RawTileFile bad(dir.file("ok.tif"), predicted, "p.tif"); },
-               {"layout"});
-  expect_error(ErrorKind::io,
-               [&] { detail::RawTileFile bad(dir.file("none.tif"), zstd16, "none.tif"); },
-               {"none.tif"});
+  expect_error(ErrorKind::io, [&] { detail::RawTileFile bad(dir.file("ok.tif"), predicted, "p.tif"); }, {"layout"});
+  expect_error(ErrorKind::io, [&] { detail::RawTileFile bad(dir.file("none.tif"), zstd16, "none.tif"); }, {"none.tif"});
 }
 
 }  // namespace

@@ -36,8 +36,8 @@ GridSpec fixture_grid(const LoadedSeeds& l, double res = 97.0) {
 }
 
 TEST(VectorEngine, ExactEqualsBruteForceOnFixtures) {
-  for (const char* name : {"all_types.geojson", "hole.geojson", "touching.geojson", "curves.gpkg",
-                           "self_intersecting.geojson"}) {
+  for (const char* name :
+       {"all_types.geojson", "hole.geojson", "touching.geojson", "curves.gpkg", "self_intersecting.geojson"}) {
     const LoadedSeeds l = load({fixture(name)});
     const GridSpec g = fixture_grid(l);
     const NearestField exact = run(l.seeds, g, Method::exact);
@@ -51,8 +51,8 @@ TEST(VectorEngine, ExactEqualsBruteForceOnFixtures) {
 
 TEST(VectorEngine, SameResultFromEveryFormat) {
   const std::vector<std::string> layers = {"points", "lines", "polygons"};
-  const LoadedSeeds json = load({fixture("coast_points.geojson"), fixture("coast_lines.geojson"),
-                                 fixture("coast_polygons.geojson")});
+  const LoadedSeeds json =
+      load({fixture("coast_points.geojson"), fixture("coast_lines.geojson"), fixture("coast_polygons.geojson")});
   const LoadedSeeds gpkg = load({fixture("coast.gpkg")}, layers);
   const LoadedSeeds shp = load({fixture("coast_shp.zip")}, layers);
   const GridSpec g = fixture_grid(json);
@@ -82,7 +82,7 @@ TEST(VectorEngine, HoleBelongsToTheNearestSeed) {
   EXPECT_EQ(distance_at(2.0, 5.0), 0.0f);
   EXPECT_EQ(owner_at(5.0, 5.0), "islet");  // the hole's middle
   EXPECT_EQ(owner_at(4.5, 5.5), "islet");
-  EXPECT_EQ(owner_at(3.2, 5.0), "land");   // in the hole, 0.25 km from the inner ring
+  EXPECT_EQ(owner_at(3.2, 5.0), "land");  // in the hole, 0.25 km from the inner ring
   EXPECT_NEAR(distance_at(3.2, 5.0), 250.0f, 1e-3);
 }
 

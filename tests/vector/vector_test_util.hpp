@@ -20,7 +20,11 @@ namespace rv::test {
 // A w x h grid of `res` metres in UTM zone `zone` N (WGS 84), its north-west corner at (xmin, ymax).
 inline GridSpec utm_grid(int64_t w, int64_t h, double res = 200.0, int zone = 33, double xmin = 300000.0,
                          double ymax = 6250000.0) {
-  return GridSpec{.xmin = xmin, .ymax = ymax, .res = res, .width = w, .height = h,
+  return GridSpec{.xmin = xmin,
+                  .ymax = ymax,
+                  .res = res,
+                  .width = w,
+                  .height = h,
                   .crs = describe_crs("EPSG:326" + std::to_string(zone)).wkt};
 }
 
@@ -63,7 +67,8 @@ inline std::string expect_error(ErrorKind kind, const std::function<void()>& f,
     f();
   } catch (const Error& e) {
     EXPECT_EQ(to_string(e.kind()), to_string(kind)) << e.what();
-    for (const std::string& p : parts) EXPECT_NE(std::string(e.what()).find(p), std::string::npos) << "'" << p << "' not in: " << e.what();
+    for (const std::string& p : parts)
+      EXPECT_NE(std::string(e.what()).find(p), std::string::npos) << "'" << p << "' not in: " << e.what();
     return e.what();
   }
   ADD_FAILURE() << "no rv::Error(" << to_string(kind) << ") thrown";

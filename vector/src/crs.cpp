@@ -2,8 +2,8 @@
 
 #include "gdal_util.hpp"
 #include "rv/error.hpp"
-#include "rv/text.hpp"
 #include "rv/seed_reader.hpp"
+#include "rv/text.hpp"
 
 namespace rv {
 namespace gdal {
@@ -33,7 +33,8 @@ CrsInfo describe_crs(const std::string& definition) {
   gdal_init();
   if (definition.empty()) throw Error(ErrorKind::invalid_argument, "empty CRS definition");
   gdal::SrsPtr srs = gdal::parse_srs(definition);
-  if (!srs) throw Error(ErrorKind::invalid_argument, "cannot parse the CRS definition '" + quote_input(definition) + "'");
+  if (!srs)
+    throw Error(ErrorKind::invalid_argument, "cannot parse the CRS definition '" + quote_input(definition) + "'");
   return gdal::crs_info(*srs);
 }
 

@@ -82,7 +82,8 @@ constexpr const char* kConfinedOptions[][2] = {
 }  // namespace
 
 ConfinedScope::ConfinedScope() {
-  for (const auto& [key, value] : kConfinedOptions) options_.push_back(std::make_unique<ThreadConfigOption>(key, value));
+  for (const auto& [key, value] : kConfinedOptions)
+    options_.push_back(std::make_unique<ThreadConfigOption>(key, value));
   CPLHTTPPushFetchCallback(&ConfinedScope::refuse, this);
 }
 
@@ -130,8 +131,7 @@ SrsPtr parse_srs(const std::string& definition) {
   ErrorCapture quiet;
   // The limitations forbid reading files or URLs named in the definition: a CRS option of a
   // request must not make the process open arbitrary paths.
-  if (srs->SetFromUserInput(definition.c_str(), OGRSpatialReference::SET_FROM_USER_INPUT_LIMITATIONS) !=
-      OGRERR_NONE)
+  if (srs->SetFromUserInput(definition.c_str(), OGRSpatialReference::SET_FROM_USER_INPUT_LIMITATIONS) != OGRERR_NONE)
     return nullptr;
   return srs;
 }

@@ -7,9 +7,9 @@
 // thread-local cache keyed by the geolocator's serial number, without locking.
 #include "rv/geolocator.hpp"
 
+#include <algorithm>
 #include <array>
 #include <atomic>
-#include <algorithm>
 #include <cmath>
 #include <cstdio>
 
@@ -57,13 +57,15 @@ OsrGeolocator::OsrGeolocator(const std::string& grid_crs)
   if (!impl_->geographic || !impl_->geographic->IsGeographic())
     throw Error(ErrorKind::invalid_argument,
                 "the grid CRS has no geographic base CRS (no datum/ellipsoid), so its cells cannot be located on "
-                "an ellipsoid" + capture.suffix());
+                "an ellipsoid" +
+                    capture.suffix());
   impl_->geographic->SetAxisMappingStrategy(OAMS_TRADITIONAL_GIS_ORDER);
   // GeographicLib takes degrees; OSR returns the base CRS's own angular unit.
   const double unit = impl_->geographic->GetAngularUnits(nullptr);
   if (!(std::abs(unit - M_PI / 180.0) < 1e-12))
-    throw Error(ErrorKind::unsupported, "the grid CRS's geographic base measures angles in a unit other than "
-                                        "degrees, which the geodesic metric does not take");
+    throw Error(ErrorKind::unsupported,
+                "the grid CRS's geographic base measures angles in a unit other than "
+                "degrees, which the geodesic metric does not take");
   geographic_wkt_ = gdal::to_wkt2(*impl_->geographic);
   geographic_info_ = gdal::crs_info(*impl_->geographic);
   local();  // builds this thread's pair now: a CRS PROJ cannot transform fails here, not mid-run
@@ -122,8 +124,8 @@ void OsrGeolocator::transform(bool inverse, const double* in_x, const double* in
     ct.Transform(static_cast<int>(count), out_x + start, out_y + start, nullptr, nullptr, ok.data());
     for (size_t i = 0; i < count; ++i) {
       const size_t k = start + i;
-      const bool bad = !ok[i] || !std::isfinite(out_x[k]) || !std::isfinite(out_y[k]) ||
-                       (!inverse && !(std::abs(out_y[k]) <= 90.0));
+      const bool bad =
+          !ok[i] || !std::isfinite(out_x[k]) || !std::isfinite(out_y[k]) || (!inverse && !(std::abs(out_y[k]) <= 90.0));
       if (bad)
         throw Error(ErrorKind::invalid_input,
                     std::string(inverse ? "the longitude/latitude " : "the grid position ") +

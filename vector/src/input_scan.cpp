@@ -32,7 +32,9 @@ constexpr size_t kChunk = 256 * 1024;
 bool ends_with_ci(std::string_view s, std::string_view suffix) {
   return s.size() >= suffix.size() &&
          std::equal(suffix.begin(), suffix.end(), s.end() - static_cast<std::ptrdiff_t>(suffix.size()),
-                    [](char a, char b) { return std::tolower(static_cast<unsigned char>(a)) == std::tolower(static_cast<unsigned char>(b)); });
+                    [](char a, char b) {
+                      return std::tolower(static_cast<unsigned char>(a)) == std::tolower(static_cast<unsigned char>(b));
+                    });
 }
 
 uint32_t big_endian32(const unsigned char* p) {
@@ -110,15 +112,25 @@ class ShapefileRecords {
     int64_t vertices = 0;
     bool points = false;
     switch (little_endian32(c)) {
-      case 1: case 11: case 21:  // point, pointZ, pointM
+      case 1:
+      case 11:
+      case 21:  // point, pointZ, pointM
         vertices = 1;
         points = true;
         break;
-      case 8: case 18: case 28:  // multipoint
+      case 8:
+      case 18:
+      case 28:  // multipoint
         if (n >= 40) vertices = little_endian32(c + 36);
         points = true;
         break;
-      case 3: case 5: case 13: case 15: case 23: case 25: case 31:  // polyline, polygon, multipatch
+      case 3:
+      case 5:
+      case 13:
+      case 15:
+      case 23:
+      case 25:
+      case 31:  // polyline, polygon, multipatch
         if (n >= 44) vertices = little_endian32(c + 40);
         break;
       default:
@@ -204,8 +216,9 @@ void check_sqlite_schema(const std::string& path, const std::string& label) {
     return;  // not a database SQLite can read: GDAL will say so
   auto refuse = [&](const std::string& what) {
     throw Error(ErrorKind::invalid_input,
-                label + ": " + what + "; uploaded GeoPackages must hold plain tables (SQLite computes views and "
-                                      "generated columns while reading, without bounds)");
+                label + ": " + what +
+                    "; uploaded GeoPackages must hold plain tables (SQLite computes views and "
+                    "generated columns while reading, without bounds)");
   };
   std::vector<std::string> tables;
   {
@@ -229,7 +242,8 @@ void check_sqlite_schema(const std::string& path, const std::string& label) {
   }
   for (const std::string& table : tables) {
     sqlite3_stmt* stmt = nullptr;
-    if (sqlite3_prepare_v2(db.get(), "SELECT name, hidden FROM pragma_table_xinfo(?1)", -1, &stmt, nullptr) != SQLITE_OK) {
+    if (sqlite3_prepare_v2(db.get(), "SELECT name, hidden FROM pragma_table_xinfo(?1)", -1, &stmt, nullptr) !=
+        SQLITE_OK) {
       sqlite3_finalize(stmt);
       continue;
     }
@@ -259,8 +273,8 @@ void scan_input(const std::string& name, const std::string& label, const InputLi
   // Every member, in the archive's order; directories end in '/' in GDAL's listing.
   const CPLStringList members(VSIReadDirRecursive(name.c_str()));
   if (members.size() > kMaxArchiveMembers)
-    throw Error(ErrorKind::invalid_input, label + ": the archive has more than " +
-                                              std::to_string(kMaxArchiveMembers) + " members");
+    throw Error(ErrorKind::invalid_input,
+                label + ": the archive has more than " + std::to_string(kMaxArchiveMembers) + " members");
   for (int i = 0; i < members.size(); ++i) {
     const std::string member = members[i];
     if (member.empty() || member.back() == '/') continue;

@@ -24,11 +24,11 @@
 namespace rv::detail {
 
 struct InputLimits {
-  int64_t max_bytes = 0;     // > 0: inflated bytes of an archive's members, all archives together
-  int64_t max_features = 0;  // > 0: records declared by Shapefiles, together with earlier inputs
-  int64_t max_vertices = 0;  // > 0: vertices declared by Shapefiles, together with earlier inputs
+  int64_t max_bytes = 0;          // > 0: inflated bytes of an archive's members, all archives together
+  int64_t max_features = 0;       // > 0: records declared by Shapefiles, together with earlier inputs
+  int64_t max_vertices = 0;       // > 0: vertices declared by Shapefiles, together with earlier inputs
   int64_t max_reading_bytes = 0;  // > 0: reading_bytes() of the declared counts (seed_reader.hpp)
-  bool untrusted = false;    // the SQLite schema check above (confined reading)
+  bool untrusted = false;         // the SQLite schema check above (confined reading)
 };
 
 // Running totals over the inputs of one load_seeds() call.

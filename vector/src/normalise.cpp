@@ -180,9 +180,9 @@ void check_conflicts(std::vector<SeedPart>& parts, const SeedSet& seeds, Conflic
   for (size_t i : order) {
     const OGREnvelope& e = parts[i].envelope;
     // Drop parts that end west of this one: no later part (sorted by MinX) can meet them.
-    active.erase(std::remove_if(active.begin(), active.end(),
-                                [&](size_t k) { return parts[k].envelope.MaxX < e.MinX; }),
-                 active.end());
+    active.erase(
+        std::remove_if(active.begin(), active.end(), [&](size_t k) { return parts[k].envelope.MaxX < e.MinX; }),
+        active.end());
     for (size_t j : active) {
       const SeedPart& other = parts[j];
       if (other.owner == parts[i].owner) continue;

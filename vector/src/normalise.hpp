@@ -47,7 +47,6 @@ int64_t remove_duplicate_vertices(std::vector<Vec2>& vertices, bool ring);
 // parts) decides. Policy error: throws rv::Error(conflict) for the first pair found, naming both
 // features (Feature::source), their owners and a coordinate inside the intersection. Policy
 // lower_code: counts the pairs in report.conflicts and adds warning lines for the first few.
-void check_conflicts(std::vector<SeedPart>& parts, const SeedSet& seeds, ConflictPolicy policy,
-                     SeedReadReport& report);
+void check_conflicts(std::vector<SeedPart>& parts, const SeedSet& seeds, ConflictPolicy policy, SeedReadReport& report);
 
 }  // namespace rv::detail

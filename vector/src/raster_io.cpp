@@ -84,9 +84,12 @@ struct Encoding {
 // The codec as GDAL's COMPRESS value.
 const char* gdal_codec(detail::TileCodec c) {
   switch (c) {
-    case detail::TileCodec::zstd: return "ZSTD";
-    case detail::TileCodec::deflate: return "DEFLATE";
-    case detail::TileCodec::none: break;
+    case detail::TileCodec::zstd:
+      return "ZSTD";
+    case detail::TileCodec::deflate:
+      return "DEFLATE";
+    case detail::TileCodec::none:
+      break;
   }
   return "NONE";
 }
@@ -123,8 +126,10 @@ Encoding encoding_for(Compression c, bool floating, bool zstd) {
     case Compression::small:
       return zstd ? Encoding{detail::TileCodec::zstd, kSmallZstdLevel, predictor}
                   : Encoding{detail::TileCodec::deflate, kSmallDeflateLevel, predictor};
-    case Compression::deflate: return {detail::TileCodec::deflate, kDeflateLevel, predictor};
-    case Compression::none: return {detail::TileCodec::none, 0, 1};
+    case Compression::deflate:
+      return {detail::TileCodec::deflate, kDeflateLevel, predictor};
+    case Compression::none:
+      return {detail::TileCodec::none, 0, 1};
   }
   throw Error(ErrorKind::internal, "unknown compression profile");
 }
@@ -332,8 +337,8 @@ void check_target(const std::string& path, const Window& window, double nodata, 
     if (options.max_code > INT32_MAX)
       throw Error(ErrorKind::invalid_argument, "writing " + path + ": max_code above 2^31-1");
     if (!(nodata >= 0.0 && nodata <= static_cast<double>(options.max_code) && nodata == std::floor(nodata)))
-      throw Error(ErrorKind::invalid_argument, "writing " + path + ": the nodata value is not a code in 0.." +
-                                                   std::to_string(options.max_code));
+      throw Error(ErrorKind::invalid_argument,
+                  "writing " + path + ": the nodata value is not a code in 0.." + std::to_string(options.max_code));
   }
   const std::string dir = directory_of(path);
   if (path.rfind("/vsi", 0) != 0 && !exists(dir))
@@ -483,8 +488,7 @@ struct GeoTiffStripWriter<T>::State {
       for (const std::exception_ptr& e : errors)
         if (e) std::rethrow_exception(e);
       for (int64_t i = 0; i < n; ++i)
-        file->append(first + i, by,
-                     {encoded[static_cast<size_t>(i)].data(), sizes[static_cast<size_t>(i)]});
+        file->append(first + i, by, {encoded[static_cast<size_t>(i)].data(), sizes[static_cast<size_t>(i)]});
     }
     rows_written += h;
   }
@@ -547,8 +551,7 @@ GeoTiffStripWriter<T>::GeoTiffStripWriter(const std::string& path, const GridSpe
   co.SetNameValue("TILED", "YES");
   co.SetNameValue("BLOCKXSIZE", std::to_string(kBlock).c_str());
   co.SetNameValue("BLOCKYSIZE", std::to_string(kBlock).c_str());
-  const Encoding encoding =
-      encoding_for(options.compression, PixelType<T>::floating, has_zstd(gtiff));
+  const Encoding encoding = encoding_for(options.compression, PixelType<T>::floating, has_zstd(gtiff));
   set_gtiff_encoding(co, encoding);
   co.SetNameValue("BIGTIFF", "IF_SAFER");
   co.SetNameValue("SPARSE_OK", "TRUE");  // every tile stays empty until appended below
@@ -569,14 +572,12 @@ GeoTiffStripWriter<T>::GeoTiffStripWriter(const std::string& path, const GridSpe
   f.width = f.height = kBlock;
   state->file = std::make_unique<detail::RawTileFile>(state->out.temp(), f, path);
   const int hardware = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
-  state->threads =
-      std::min(options.threads <= 0 ? hardware : std::min(options.threads, hardware), kMaxEncoders);
+  state->threads = std::min(options.threads <= 0 ? hardware : std::min(options.threads, hardware), kMaxEncoders);
   // Uncompressed tiles are only copied: helpers would add copies, not speed.
   if (f.codec == detail::TileCodec::none) state->threads = 1;
   for (int t = 0; t < state->threads; ++t) {
     state->compressors.emplace_back(f);
-    state->scratch.emplace_back(static_cast<size_t>(kBlock) * kBlock *
-                                static_cast<size_t>(f.sample_bytes));
+    state->scratch.emplace_back(static_cast<size_t>(kBlock) * kBlock * static_cast<size_t>(f.sample_bytes));
   }
   state_ = std::move(state);
 }
@@ -761,7 +762,8 @@ OpenedRaster open_raster(const std::string& path) {
   if (!exists(path)) throw Error(ErrorKind::not_found, "raster not found: " + path);
   gdal::ErrorCapture capture;
   OpenedRaster r;
-  r.ds.reset(GDALDataset::FromHandle(GDALOpenEx(path.c_str(), GDAL_OF_RASTER | GDAL_OF_READONLY, nullptr, nullptr, nullptr)));
+  r.ds.reset(
+      GDALDataset::FromHandle(GDALOpenEx(path.c_str(), GDAL_OF_RASTER | GDAL_OF_READONLY, nullptr, nullptr, nullptr)));
   if (!r.ds) throw Error(ErrorKind::invalid_input, path + ": not a raster GDAL can read" + capture.suffix());
   if (r.ds->GetRasterCount() < 1) throw Error(ErrorKind::invalid_input, path + ": the raster has no bands");
   double gt[6];
@@ -769,10 +771,11 @@ OpenedRaster open_raster(const std::string& path) {
     throw Error(ErrorKind::invalid_input, path + ": the raster has no geotransform");
   if (gt[2] != 0.0 || gt[4] != 0.0) throw Error(ErrorKind::invalid_input, path + ": rotated rasters are not supported");
   if (!(gt[1] > 0.0) || !(gt[5] < 0.0))
-    throw Error(ErrorKind::invalid_input, path + ": only north-up rasters (positive x step, negative y step) are supported");
+    throw Error(ErrorKind::invalid_input,
+                path + ": only north-up rasters (positive x step, negative y step) are supported");
   if (std::abs(gt[1] + gt[5]) > 1e-9 * gt[1])
-    throw Error(ErrorKind::invalid_input, path + ": cells are not square (" + std::to_string(gt[1]) + " x " +
-                                              std::to_string(-gt[5]) + ")");
+    throw Error(ErrorKind::invalid_input,
+                path + ": cells are not square (" + std::to_string(gt[1]) + " x " + std::to_string(-gt[5]) + ")");
   r.grid.xmin = gt[0];
   r.grid.ymax = gt[3];
   r.grid.res = gt[1];
@@ -798,10 +801,14 @@ Raster<T> read_band(const std::string& path) {
 
 std::string_view to_string(Compression c) {
   switch (c) {
-    case Compression::fast: return "fast";
-    case Compression::small: return "small";
-    case Compression::deflate: return "deflate";
-    case Compression::none: return "none";
+    case Compression::fast:
+      return "fast";
+    case Compression::small:
+      return "small";
+    case Compression::deflate:
+      return "deflate";
+    case Compression::none:
+      return "none";
   }
   return "?";
 }
@@ -813,7 +820,8 @@ Compression parse_compression(std::string_view name) {
                                                "' (expected fast, small, deflate or none)");
 }
 
-void write_geotiff(const std::string& path, const Raster<int32_t>& raster, double nodata, const GeoTiffOptions& options) {
+void write_geotiff(const std::string& path, const Raster<int32_t>& raster, double nodata,
+                   const GeoTiffOptions& options) {
   write_any(path, raster, nodata, options);
 }
 
@@ -834,7 +842,8 @@ std::vector<std::string> read_category_labels(const std::string& path) {
   if (GDALRasterAttributeTable* rat = band->GetDefaultRAT()) {
     int value_col = -1, name_col = -1;
     for (int c = 0; c < rat->GetColumnCount(); ++c) {
-      if (rat->GetUsageOfCol(c) == GFU_Name || EQUAL(rat->GetNameOfCol(c), "Owner")) name_col = name_col < 0 ? c : name_col;
+      if (rat->GetUsageOfCol(c) == GFU_Name || EQUAL(rat->GetNameOfCol(c), "Owner"))
+        name_col = name_col < 0 ? c : name_col;
       if (EQUAL(rat->GetNameOfCol(c), "Value")) value_col = c;
     }
     if (value_col >= 0 && name_col >= 0) {

@@ -41,10 +41,10 @@ struct CtDeleter {
 using CtPtr = std::unique_ptr<OGRCoordinateTransformation, CtDeleter>;
 
 struct LayerRef {
-  size_t file = 0;          // index into options.paths
+  size_t file = 0;            // index into options.paths
   OGRLayer* layer = nullptr;  // owned by the dataset
   std::string name;
-  gdal::SrsPtr srs;           // null: the layer has no CRS
+  gdal::SrsPtr srs;  // null: the layer has no CRS
 };
 
 std::string format_number(double v) {
@@ -230,9 +230,9 @@ void check_confined_path(const std::string& path) {
   std::string_view rest = path;
   if (rest.rfind("/vsizip/", 0) == 0) rest.remove_prefix(std::strlen("/vsizip/"));
   if (rest.rfind("/vsimem/", 0) != 0 || has_dotdot_component(path))
-    throw Error(ErrorKind::invalid_argument,
-                "confined seed reading accepts only in-memory files (/vsimem/... or /vsizip//vsimem/...), not '" +
-                    path + "'");
+    throw Error(
+        ErrorKind::invalid_argument,
+        "confined seed reading accepts only in-memory files (/vsimem/... or /vsizip//vsimem/...), not '" + path + "'");
 }
 
 std::vector<std::string> effective_drivers(const SeedReadOptions& options) {
@@ -249,7 +249,7 @@ std::vector<std::string> effective_drivers(const SeedReadOptions& options) {
 
 // A feature read and checked, waiting to be added to the SeedSet in owner order.
 struct PendingPart {
-  int dimension = 0;          // 0 point, 1 line, 2 polygon
+  int dimension = 0;           // 0 point, 1 line, 2 polygon
   std::vector<Vec2> vertices;  // point (1) or line vertices
   std::vector<Ring> rings;     // polygon: outer ring first
 };
@@ -274,9 +274,8 @@ class Reader {
     for (LayerRef& layer : layers_) read_layer(layer);
     check_network(options_.paths.front());
     if (out_.report.features_read == 0)
-      throw Error(ErrorKind::invalid_input,
-                  "no seed features: the layers read hold no non-empty geometry (" +
-                      std::to_string(out_.report.features_skipped_empty) + " empty skipped)");
+      throw Error(ErrorKind::invalid_input, "no seed features: the layers read hold no non-empty geometry (" +
+                                                std::to_string(out_.report.features_skipped_empty) + " empty skipped)");
     add_to_seed_set();
     detail::check_conflicts(parts_, out_.seeds, options_.on_conflict, out_.report);
     if (grid_) place_in_grid();
@@ -316,15 +315,15 @@ class Reader {
                          {options_.max_input_bytes, options_.max_features, options_.max_vertices,
                           options_.max_memory_bytes, options_.confined},
                          tally_);
-      GDALDataset* ds = GDALDataset::FromHandle(
-          GDALOpenEx(name.c_str(), GDAL_OF_VECTOR | GDAL_OF_READONLY, drivers_.empty() ? nullptr : drivers.List(),
-                     nullptr, nullptr));
+      GDALDataset* ds =
+          GDALDataset::FromHandle(GDALOpenEx(name.c_str(), GDAL_OF_VECTOR | GDAL_OF_READONLY,
+                                             drivers_.empty() ? nullptr : drivers.List(), nullptr, nullptr));
       if (ds != nullptr) datasets_.emplace_back(ds);
       check_network(path);
       if (ds == nullptr) {
-        std::string why = drivers_.empty() ? "not a vector dataset GDAL can read"
-                                           : "not a vector dataset readable by the allowed drivers (" +
-                                                 join(drivers_) + ")";
+        std::string why = drivers_.empty()
+                              ? "not a vector dataset GDAL can read"
+                              : "not a vector dataset readable by the allowed drivers (" + join(drivers_) + ")";
         throw Error(ErrorKind::invalid_input, label + ": " + why + capture.suffix());
       }
       for (std::string& w : capture.take_warnings()) gdal_warning(label, w);
@@ -397,7 +396,9 @@ class Reader {
     for (const LayerRef& l : layers_) without += l.srs ? 0 : 1;
     if (!options_.target_crs.empty()) {
       target_ = gdal::parse_srs(options_.target_crs);
-      if (!target_) throw Error(ErrorKind::invalid_argument, "cannot parse the target CRS '" + quote_input(options_.target_crs) + "'");
+      if (!target_)
+        throw Error(ErrorKind::invalid_argument,
+                    "cannot parse the target CRS '" + quote_input(options_.target_crs) + "'");
     } else if (without == 0) {
       target_.reset(layers_.front().srs->Clone());
       target_->SetAxisMappingStrategy(OAMS_TRADITIONAL_GIS_ORDER);
@@ -405,7 +406,10 @@ class Reader {
     if (without > 0) {
       const LayerRef* bare = nullptr;
       for (const LayerRef& l : layers_)
-        if (!l.srs) { bare = &l; break; }
+        if (!l.srs) {
+          bare = &l;
+          break;
+        }
       if (target_ || without < layers_.size())
         throw Error(ErrorKind::invalid_input,
                     "layer " + layer_label(*bare) + " has no CRS, so it cannot be placed in the " +
@@ -550,8 +554,8 @@ class Reader {
   static void check_vertices(const OGRGeometry& part, const std::string& source, bool geographic, const char* stage) {
     for_each_vertex(part, [&](double x, double y) {
       if (!std::isfinite(x) || !std::isfinite(y))
-        throw Error(ErrorKind::invalid_input, source + ": non-finite coordinate (" + format_number(x) + ", " +
-                                                  format_number(y) + ")" + stage);
+        throw Error(ErrorKind::invalid_input,
+                    source + ": non-finite coordinate (" + format_number(x) + ", " + format_number(y) + ")" + stage);
       if (std::abs(x) > kMaxSeedCoordinate || std::abs(y) > kMaxSeedCoordinate)
         throw Error(ErrorKind::invalid_input, source + ": coordinate (" + format_number(x) + ", " + format_number(y) +
                                                   ")" + stage + " is beyond ±" + format_number(kMaxSeedCoordinate) +
@@ -590,7 +594,7 @@ class Reader {
     // would leave 0.6 m - a visible shift of a boundary at fine cell sizes. Z and M are dropped.
     count_vertices(*geometry, source);
     std::unique_ptr<OGRGeometry> linear(geometry->hasCurveGeometry(TRUE) ? geometry->getLinearGeometry(kArcStepDegrees)
-                                                                          : geometry->clone());
+                                                                         : geometry->clone());
     if (!linear) throw Error(ErrorKind::invalid_input, source + ": the curve geometry cannot be linearised");
     linear->flattenTo2D();
     linear->setMeasured(FALSE);
@@ -602,7 +606,8 @@ class Reader {
       check_vertices(*part, source, source_geographic, "");
       if (ct != nullptr) {
         if (part->transform(ct) != OGRERR_NONE)
-          throw Error(ErrorKind::invalid_input, source + ": cannot be reprojected into the target CRS" + capture.suffix());
+          throw Error(ErrorKind::invalid_input,
+                      source + ": cannot be reprojected into the target CRS" + capture.suffix());
         check_vertices(*part, source, target_geographic, " after reprojection");
       }
     }
@@ -723,8 +728,8 @@ class Reader {
         std::unique_ptr<OGRGeometry> fixed(clean->MakeValid());
         if (fixed) collect_polygons(*fixed, result);
         if (result.empty())
-          throw Error(ErrorKind::invalid_input, source + ": invalid polygon that cannot be repaired into an area" +
-                                                    quiet.suffix());
+          throw Error(ErrorKind::invalid_input,
+                      source + ": invalid polygon that cannot be repaired into an area" + quiet.suffix());
         repairs.push_back("invalid polygon (self-intersection or misplaced ring) repaired into " +
                           std::to_string(result.size()) + " polygon(s)");
       }
@@ -773,8 +778,8 @@ class Reader {
   std::vector<gdal::DatasetPtr> datasets_;
   std::vector<LayerRef> layers_;
   gdal::SrsPtr target_;
-  gdal::SrsPtr grid_;  // geographic_seeds on a projected target: the target (grid) CRS
-  std::vector<SeedPart> parts_;      // for the conflict check; feature = index into pending_
+  gdal::SrsPtr grid_;            // geographic_seeds on a projected target: the target (grid) CRS
+  std::vector<SeedPart> parts_;  // for the conflict check; feature = index into pending_
   std::vector<PendingFeature> pending_;
   int64_t position_ = 0;
   std::set<std::string> gdal_warnings_seen_;

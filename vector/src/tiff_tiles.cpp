@@ -48,8 +48,7 @@ TileCompressor::TileCompressor(const TileFormat& format) : format_(format) {
     deflate_ = libdeflate_alloc_compressor(format_.level);
     if (deflate_ == nullptr) throw std::bad_alloc();
   }
-  if (format_.predictor == 3)
-    row_.resize(static_cast<size_t>(format_.width * format_.sample_bytes));
+  if (format_.predictor == 3) row_.resize(static_cast<size_t>(format_.width * format_.sample_bytes));
 }
 
 TileCompressor::~TileCompressor() {
@@ -83,8 +82,7 @@ EncodedTile TileCompressor::encode(uint8_t* tile, std::vector<uint8_t>& out) {
       }
     }
   } else if (format_.predictor == 3) {
-    for (int r = 0; r < h; ++r)
-      float_predict_row(tile + static_cast<size_t>(r) * row_bytes, w, bytes, row_.data());
+    for (int r = 0; r < h; ++r) float_predict_row(tile + static_cast<size_t>(r) * row_bytes, w, bytes, row_.data());
   }
   // `out` only grows: resizing it down and up again would zero the bytes each time.
   switch (format_.codec) {
@@ -154,8 +152,7 @@ struct RawTileFileAccess {
   static int on_warning(TIFF*, void*, const char*, const char*, va_list) { return 1; }
 };
 
-RawTileFile::RawTileFile(const std::string& path, const TileFormat& format,
-                         const std::string& display)
+RawTileFile::RawTileFile(const std::string& path, const TileFormat& format, const std::string& display)
     : display_(display) {
   // A constructor that throws runs no destructor: what open() got is released here.
   try {
@@ -174,8 +171,8 @@ void RawTileFile::open(const std::string& path, const TileFormat& format) {
   if (opts == nullptr) throw std::bad_alloc();
   TIFFOpenOptionsSetErrorHandlerExtR(opts, &A::on_error, this);
   TIFFOpenOptionsSetWarningHandlerExtR(opts, &A::on_warning, this);
-  tif_ = TIFFClientOpenExt(path.c_str(), "r+m", static_cast<thandle_t>(file_), &A::read, &A::write,
-                           &A::seek, &A::close, &A::size, &A::map, &A::unmap, opts);
+  tif_ = TIFFClientOpenExt(path.c_str(), "r+m", static_cast<thandle_t>(file_), &A::read, &A::write, &A::seek, &A::close,
+                           &A::size, &A::map, &A::unmap, opts);
   TIFFOpenOptionsFree(opts);
   if (tif_ == nullptr) fail("libtiff cannot open it for update");
   uint32_t width = 0, height = 0, tile_w = 0, tile_h = 0;
@@ -188,9 +185,7 @@ void RawTileFile::open(const std::string& path, const TileFormat& format) {
   TIFFGetFieldDefaulted(tif_, TIFFTAG_SAMPLESPERPIXEL, &spp);
   TIFFGetFieldDefaulted(tif_, TIFFTAG_SAMPLEFORMAT, &sample_format);
   TIFFGetFieldDefaulted(tif_, TIFFTAG_COMPRESSION, &compression);
-  if (compression != COMPRESSION_NONE &&
-      TIFFGetFieldDefaulted(tif_, TIFFTAG_PREDICTOR, &predictor) != 1)
-    predictor = 1;
+  if (compression != COMPRESSION_NONE && TIFFGetFieldDefaulted(tif_, TIFFTAG_PREDICTOR, &predictor) != 1) predictor = 1;
   const uint16_t want_compression = format.codec == TileCodec::zstd      ? COMPRESSION_ZSTD
                                     : format.codec == TileCodec::deflate ? COMPRESSION_ADOBE_DEFLATE
                                                                          : COMPRESSION_NONE;
@@ -200,9 +195,8 @@ void RawTileFile::open(const std::string& path, const TileFormat& format) {
   constexpr bool little_endian_host = std::endian::native == std::endian::little;
   if (!TIFFIsTiled(tif_) || spp != 1 || tile_w != static_cast<uint32_t>(format.width) ||
       tile_h != static_cast<uint32_t>(format.height) || bits != 8 * format.sample_bytes ||
-      sample_format != want_format || compression != want_compression ||
-      predictor != format.predictor || TIFFIsByteSwapped(tif_) != 0 || !little_endian_host ||
-      width == 0 || height == 0)
+      sample_format != want_format || compression != want_compression || predictor != format.predictor ||
+      TIFFIsByteSwapped(tif_) != 0 || !little_endian_host || width == 0 || height == 0)
     fail("its layout is not the one its tiles are encoded for");
   tiles_across_ = (static_cast<int64_t>(width) + tile_w - 1) / tile_w;
   tiles_down_ = (static_cast<int64_t>(height) + tile_h - 1) / tile_h;
@@ -222,8 +216,7 @@ void RawTileFile::append(int64_t bx, int64_t by, EncodedTile bytes) {
   const auto index = static_cast<uint32_t>(by * tiles_across_ + bx);
   // TIFFWriteRawTile does not write through the pointer; its signature is not const.
   void* data = const_cast<uint8_t*>(bytes.data);
-  if (TIFFWriteRawTile(tif_, index, data, static_cast<tmsize_t>(bytes.size)) !=
-      static_cast<tmsize_t>(bytes.size))
+  if (TIFFWriteRawTile(tif_, index, data, static_cast<tmsize_t>(bytes.size)) != static_cast<tmsize_t>(bytes.size))
     fail("cannot write tile (" + std::to_string(bx) + ", " + std::to_string(by) + ")");
 }
 
@@ -240,8 +233,7 @@ void RawTileFile::close() {
 }
 
 void RawTileFile::fail(const std::string& what) {
-  throw Error(ErrorKind::io,
-              "writing " + display_ + ": " + what + (errors_.empty() ? "" : " (" + errors_ + ")"));
+  throw Error(ErrorKind::io, "writing " + display_ + ": " + what + (errors_.empty() ? "" : " (" + errors_ + ")"));
 }
 
 }  // namespace rv::detail

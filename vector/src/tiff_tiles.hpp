@@ -33,10 +33,10 @@ struct EncodedTile {
 // How every tile of one file is encoded; must agree with the file's tags (RawTileFile checks).
 struct TileFormat {
   TileCodec codec = TileCodec::none;
-  int level = 0;          // codec level (ZSTD 1..22, DEFLATE 1..12); unused for none
-  int predictor = 1;      // TIFF predictor: 1 none, 2 horizontal differencing, 3 floating point
-  int sample_bytes = 1;   // 1, 2 or 4
-  bool floating = false;  // IEEE float samples (predictor 3 only applies to them)
+  int level = 0;                  // codec level (ZSTD 1..22, DEFLATE 1..12); unused for none
+  int predictor = 1;              // TIFF predictor: 1 none, 2 horizontal differencing, 3 floating point
+  int sample_bytes = 1;           // 1, 2 or 4
+  bool floating = false;          // IEEE float samples (predictor 3 only applies to them)
   int width = 256, height = 256;  // tile size in samples
 };
 

@@ -23,7 +23,8 @@ std::string lower_extension(const std::string& path) {
   const size_t dot = path.find_last_of('.');
   if (dot == std::string::npos || (slash != std::string::npos && dot < slash)) return "";
   std::string ext = path.substr(dot + 1);
-  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  std::transform(ext.begin(), ext.end(), ext.begin(),
+                 [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
   return ext;
 }
 
@@ -48,7 +49,8 @@ class VectorFile {
     temp_ = (dir == "/" ? "" : dir) + "/." + name + ".tmp-" + std::to_string(::getpid()) + "-" +
             std::to_string(counter.fetch_add(1)) + "." + lower_extension(path);
     GDALDriver* driver = GetGDALDriverManager()->GetDriverByName(driver_for(path));
-    if (driver == nullptr) throw Error(ErrorKind::unsupported, std::string("GDAL has no ") + driver_for(path) + " driver");
+    if (driver == nullptr)
+      throw Error(ErrorKind::unsupported, std::string("GDAL has no ") + driver_for(path) + " driver");
     ds_.reset(driver->Create(temp_.c_str(), 0, 0, 0, GDT_Unknown, nullptr));
     if (!ds_) throw Error(ErrorKind::io, "cannot create " + path + capture_.suffix());
   }
@@ -135,8 +137,10 @@ void write_boundaries(const std::string& path, const BoundaryResult& b, const Si
   OGRLayer* verts = nullptr;
   if (gpkg) {
     verts = file.layer("boundary_vertices", wkbPoint, o.crs);
-    for (const char* name : {"line", "owner_a", "owner_b", "feature_a", "feature_b"}) file.field(verts, name, OFTInteger);
-    for (const char* name : {"basepoint_a_x", "basepoint_a_y", "basepoint_b_x", "basepoint_b_y", "distance", "residual"})
+    for (const char* name : {"line", "owner_a", "owner_b", "feature_a", "feature_b"})
+      file.field(verts, name, OFTInteger);
+    for (const char* name :
+         {"basepoint_a_x", "basepoint_a_y", "basepoint_b_x", "basepoint_b_y", "distance", "residual"})
       file.field(verts, name, OFTReal);
   }
   file.begin();
@@ -264,10 +268,11 @@ RegionStats write_regions(const std::string& path, const Raster<int32_t>& owners
   // The ownership raster as an in-memory GDAL band (nodata 0 masks the cells without owner).
   GDALDriver* mem = GetGDALDriverManager()->GetDriverByName("MEM");
   if (mem == nullptr) throw Error(ErrorKind::unsupported, "GDAL has no MEM driver");
-  gdal::DatasetPtr raster(mem->Create("", static_cast<int>(w.width), static_cast<int>(w.height), 1, GDT_Int32, nullptr));
+  gdal::DatasetPtr raster(
+      mem->Create("", static_cast<int>(w.width), static_cast<int>(w.height), 1, GDT_Int32, nullptr));
   if (!raster) throw Error(ErrorKind::io, "cannot create an in-memory raster" + capture.suffix());
   double gt[6] = {g.xmin + static_cast<double>(w.col0) * g.res, g.res, 0.0,
-                  g.ymax - static_cast<double>(w.row0) * g.res, 0.0, -g.res};
+                  g.ymax - static_cast<double>(w.row0) * g.res, 0.0,   -g.res};
   raster->SetGeoTransform(gt);
   GDALRasterBand* band = raster->GetRasterBand(1);
   band->SetNoDataValue(0.0);

@@ -4,8 +4,9 @@
 // Geometry is measured with an abstract exact metric (SiteMetric) so that the same extraction
 // runs on planar grids (PlanarSiteMetric, Euclidean distance in CRS units) and geodesic grids
 // (GeodesicSiteMetric, metres on the ellipsoid, longitude/latitude grids). The metric must be
-// the one the field was computed with (rv::Error(invalid_argument) otherwise). All positions are absolute grid-CRS coordinates (x = easting or longitude,
-// y = northing or latitude); all distances are metric units (CRS units for planar).
+// the one the field was computed with (rv::Error(invalid_argument) otherwise). All positions are absolute grid-CRS
+// coordinates (x = easting or longitude, y = northing or latitude); all distances are metric units (CRS units for
+// planar).
 //
 // Method (why the vertices are exact): the raster only gives the topology. Every output vertex
 // is placed by root-finding with the exact metric:
@@ -107,8 +108,8 @@ class SiteMetric {
   struct Slabs;
   const SeedSet& seeds_;
   const std::vector<Polygon>& polygons_;
-  std::vector<int32_t> polygon_of_site_;         // site -> index into seeds.polygons(), or -1
-  std::vector<std::unique_ptr<Slabs>> slabs_;    // per polygon
+  std::vector<int32_t> polygon_of_site_;       // site -> index into seeds.polygons(), or -1
+  std::vector<std::unique_ptr<Slabs>> slabs_;  // per polygon
 };
 
 // Euclidean distance in CRS units. Computed relative to `origin` (use the grid's (xmin, ymax))
@@ -221,10 +222,10 @@ struct BoundaryLine {
 
 struct Tripoint {
   Vec2 p;
-  int32_t owners[3] = {0, 0, 0};  // ascending
+  int32_t owners[3] = {0, 0, 0};                   // ascending
   int32_t sites[3] = {kNoSite, kNoSite, kNoSite};  // controlling site of each owner
-  double distance = 0.0;  // mean distance to the three
-  double residual = 0.0;  // max pairwise difference of the three distances
+  double distance = 0.0;                           // mean distance to the three
+  double residual = 0.0;                           // max pairwise difference of the three distances
 };
 
 struct BoundaryOptions {
@@ -237,16 +238,16 @@ struct BoundaryOptions {
 };
 
 struct BoundaryStats {
-  int64_t crossings = 0;         // cell-centre segments with two different owners
+  int64_t crossings = 0;  // cell-centre segments with two different owners
   // Cell-centre segments where a third owner is nearer at the A-B equidistant point: its
   // region passes between the two centres without holding one (thinner than a cell there). Such
   // a segment carries the A-C and C-B crossings instead (and so on for more owners between).
   int64_t sliver_crossings = 0;
-  int64_t unresolved_slivers = 0;  // segments with more owners between than followed (dropped)
-  int64_t saddles = 0;           // dual squares A B / B A resolved by the centre's owner
-  int64_t multi_owner_squares = 0;  // dual squares with three or more owners
+  int64_t unresolved_slivers = 0;    // segments with more owners between than followed (dropped)
+  int64_t saddles = 0;               // dual squares A B / B A resolved by the centre's owner
+  int64_t multi_owner_squares = 0;   // dual squares with three or more owners
   int64_t unresolved_tripoints = 0;  // such squares where no tripoint converged inside
-  double max_residual = 0.0;     // largest |d_a - d_b| over all vertices and tripoints
+  double max_residual = 0.0;         // largest |d_a - d_b| over all vertices and tripoints
   int64_t vertices_before_simplify = 0;
   int64_t vertices = 0;
 };
@@ -293,8 +294,8 @@ struct LimitResult {
 // Lines at the given distances (metric units, > 0) from the seeds. Cells without an owner in
 // `field` (beyond its max distance) count as farther than any limit. Throws
 // rv::Error(invalid_argument) for a non-positive or non-finite distance.
-LimitResult extract_limits(const NearestField& field, const OwnerIndex& index,
-                           std::span<const double> distances, const LimitOptions& options = {});
+LimitResult extract_limits(const NearestField& field, const OwnerIndex& index, std::span<const double> distances,
+                           const LimitOptions& options = {});
 
 // For every cell owned by owner O: the distance to the nearest site of another owner, minus the
 // distance to its own nearest site (>= 0, metric units, Float32). kNoDistance (-1) where the

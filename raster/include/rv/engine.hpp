@@ -127,10 +127,10 @@ struct NearestField {
   // The geolocator the cells were located with (projected geodesic grids), null otherwise.
   // The deliverables measure such fields with LocatedGeodesicSiteMetric (rv/deliverables.hpp).
   std::shared_ptr<const Geolocator> geolocator;
-  double seconds = 0.0;    // wall time of the computation
+  double seconds = 0.0;  // wall time of the computation
   // Cells whose centre lies inside polygons of two or more owners (decided for the lower code).
   int64_t contested_cells = 0;
-  int threads = 1;         // threads actually used
+  int threads = 1;  // threads actually used
 };
 
 // Bytes the method needs for a window of `cells` cells and `sites` sites (result included).
@@ -152,8 +152,7 @@ NearestField compute(const SeedSet& seeds, const GridSpec& grid, const ComputeOp
 // strip into the same buffers). For the exact and brute-force methods the cells of a window
 // equal the same cells of the whole grid's result, bit for bit; the scans' do not (they
 // propagate inside the window).
-void compute_into(const SeedSet& seeds, const GridSpec& grid, const ComputeOptions& options,
-                  NearestField& out);
+void compute_into(const SeedSet& seeds, const GridSpec& grid, const ComputeOptions& options, NearestField& out);
 
 // Prepares `seeds` for computing windows of `grid` with options.metric (and options.geolocator):
 // the sites placed in the grid's frame and the spatial index the exact method culls with. Pass

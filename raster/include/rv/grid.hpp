@@ -25,12 +25,12 @@ struct Window {
 };
 
 struct GridSpec {
-  double xmin = 0.0;  // west edge of column 0, CRS units
-  double ymax = 0.0;  // north edge of row 0, CRS units
-  double res = 1.0;   // cell size, CRS units, > 0 (square cells)
-  int64_t width = 0;  // number of columns, > 0
-  int64_t height = 0; // number of rows, > 0
-  std::string crs;    // the CRS as WKT (or empty: unknown). Opaque to the core.
+  double xmin = 0.0;   // west edge of column 0, CRS units
+  double ymax = 0.0;   // north edge of row 0, CRS units
+  double res = 1.0;    // cell size, CRS units, > 0 (square cells)
+  int64_t width = 0;   // number of columns, > 0
+  int64_t height = 0;  // number of rows, > 0
+  std::string crs;     // the CRS as WKT (or empty: unknown). Opaque to the core.
 
   double xmax() const { return xmin + static_cast<double>(width) * res; }
   double ymin() const { return ymax - static_cast<double>(height) * res; }
@@ -62,7 +62,6 @@ GridSpec make_grid(double xmin, double ymin, double xmax, double ymax, double re
 
 // Like make_grid, but snaps the extent outward to multiples of res (an aligned grid), used for
 // extents derived from the seeds' bounding box.
-GridSpec make_aligned_grid(double xmin, double ymin, double xmax, double ymax, double res,
-                           std::string crs);
+GridSpec make_aligned_grid(double xmin, double ymin, double xmax, double ymax, double res, std::string crs);
 
 }  // namespace rv

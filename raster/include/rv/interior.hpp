@@ -40,7 +40,7 @@ InteriorSpans build_interiors(const SeedSet& seeds, const GridSpec& grid, const 
 // The same for a replacement list of polygons (their area_site indices refer to seeds' sites;
 // the same site may appear in several polygons, e.g. copies of a polygon one turn of longitude
 // apart on geodesic grids).
-InteriorSpans build_interiors(const SeedSet& seeds, const std::vector<Polygon>& polygons,
-                              const GridSpec& grid, const Window& window);
+InteriorSpans build_interiors(const SeedSet& seeds, const std::vector<Polygon>& polygons, const GridSpec& grid,
+                              const Window& window);
 
 }  // namespace rv

@@ -27,9 +27,9 @@ inline constexpr double kWgs84Flattening = 1.0 / 298.257223563;  // dimensionles
 struct MetricSpec {
   enum Kind { planar, geodesic };
   Kind kind = planar;
-  double semi_major = kWgs84SemiMajor;    // metres, geodesic only; finite, > 0
-  double flattening = kWgs84Flattening;   // geodesic only; |f| <= 0.01 (GeographicLib::Geodesic's
-                                          // accuracy range: errors of 15 nm for WGS84)
+  double semi_major = kWgs84SemiMajor;   // metres, geodesic only; finite, > 0
+  double flattening = kWgs84Flattening;  // geodesic only; |f| <= 0.01 (GeographicLib::Geodesic's
+                                         // accuracy range: errors of 15 nm for WGS84)
   bool operator==(const MetricSpec&) const = default;
 };
 
@@ -48,8 +48,7 @@ MetricRequest parse_metric_request(std::string_view name);
 // geodesic on a projected CRS is allowed (the engine then needs a Geolocator, see above).
 // Refusal: planar on a geographic CRS -> rv::Error(invalid_argument): degrees are not a distance.
 // semi_major / flattening describe the CRS's ellipsoid (used for geodesic only).
-MetricSpec resolve_metric(MetricRequest requested, bool crs_is_geographic,
-                          double semi_major = kWgs84SemiMajor,
+MetricSpec resolve_metric(MetricRequest requested, bool crs_is_geographic, double semi_major = kWgs84SemiMajor,
                           double flattening = kWgs84Flattening);
 
 // Units for reported distances (--distance-units m|km|nmi). The engines always return metric

@@ -41,7 +41,9 @@ struct DefaultInitAllocator {
   }
   void deallocate(T* p, size_t n) noexcept { detail::free_cells(p, n * sizeof(T)); }
   template <class U>
-  bool operator==(const DefaultInitAllocator<U>&) const noexcept { return true; }
+  bool operator==(const DefaultInitAllocator<U>&) const noexcept {
+    return true;
+  }
   template <class U>
   void construct(U* p) noexcept(std::is_nothrow_default_constructible_v<U>) {
     ::new (static_cast<void*>(p)) U;
@@ -59,12 +61,10 @@ class Raster {
  public:
   Raster() = default;
   Raster(GridSpec grid, Window window, T fill = T{})
-      : grid_(std::move(grid)), window_(window),
-        cells_(static_cast<size_t>(window.cell_count()), fill) {}
+      : grid_(std::move(grid)), window_(window), cells_(static_cast<size_t>(window.cell_count()), fill) {}
   Raster(GridSpec grid, T fill = T{}) : Raster(grid, grid.full_window(), fill) {}
   // Cells left uninitialised: the caller must write every cell before reading it.
-  Raster(GridSpec grid, Window window, Uninitialized)
-      : grid_(std::move(grid)), window_(window) {
+  Raster(GridSpec grid, Window window, Uninitialized) : grid_(std::move(grid)), window_(window) {
     cells_.resize(static_cast<size_t>(window.cell_count()));
   }
 

@@ -53,9 +53,9 @@ struct Polygon {
 enum class GeometryKind : uint8_t { point, line, polygon, mixed };
 
 struct Feature {
-  int32_t owner = 0;                  // owner code, 1..owner_count()
+  int32_t owner = 0;  // owner code, 1..owner_count()
   GeometryKind kind = GeometryKind::point;
-  std::string source;                 // where it came from, for messages ("file.gpkg:layer:fid 7")
+  std::string source;  // where it came from, for messages ("file.gpkg:layer:fid 7")
 };
 
 class SeedSet {

@@ -9,10 +9,10 @@
 namespace rv {
 
 struct ErrorInfo {
-  int exit_code;          // rvoronoi's process exit status
-  int http_status;        // HTTP status of the problem response
-  std::string_view type;  // problem "type" URI
-  std::string_view title; // problem "title"
+  int exit_code;           // rvoronoi's process exit status
+  int http_status;         // HTTP status of the problem response
+  std::string_view type;   // problem "type" URI
+  std::string_view title;  // problem "title"
 };
 
 const ErrorInfo& error_info(ErrorKind kind);

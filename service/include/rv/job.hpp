@@ -24,34 +24,34 @@
 namespace rv {
 
 struct GridRequest {
-  std::optional<double> resolution;                // cell size; required unless `like` is given
-  std::optional<std::array<double, 4>> extent;     // xmin, ymin, xmax, ymax; default: from seeds
-  std::string like;                                // raster whose grid (extent, res, CRS) to reuse
-  std::optional<double> margin;                    // growth of the seeds' box; default 5 % of it
+  std::optional<double> resolution;             // cell size; required unless `like` is given
+  std::optional<std::array<double, 4>> extent;  // xmin, ymin, xmax, ymax; default: from seeds
+  std::string like;                             // raster whose grid (extent, res, CRS) to reuse
+  std::optional<double> margin;                 // growth of the seeds' box; default 5 % of it
 };
 
 struct OutputRequest {
   // The code rasters (ownership, nearest feature) are written in the narrowest integer type that
   // holds every code: Byte up to 255 owners / features, UInt16 up to 65535, else Int32.
-  std::string ownership;        // owner codes GeoTIFF, nodata 0 (required by the CLI)
-  std::string distance;         // Float32 distance GeoTIFF
-  std::string nearest_feature;  // 1-based feature position GeoTIFF, nodata 0
-  std::string report;           // JSON report file
-  bool cloud_optimized = false; // write COGs (the daemon does)
+  std::string ownership;                        // owner codes GeoTIFF, nodata 0 (required by the CLI)
+  std::string distance;                         // Float32 distance GeoTIFF
+  std::string nearest_feature;                  // 1-based feature position GeoTIFF, nodata 0
+  std::string report;                           // JSON report file
+  bool cloud_optimized = false;                 // write COGs (the daemon does)
   Compression compression = Compression::fast;  // every GeoTIFF of the job (rv/raster_io.hpp)
 
   // Maritime deliverables (rv/deliverables.hpp). They are always computed from an exact field:
   // with a scan method the job also runs the exact method for them.
-  std::string boundaries;       // boundary lines between owners (.geojson/.json/.gpkg)
-  std::string tripoints;        // points where three owners meet (.geojson/.json/.gpkg)
-  std::string limits;           // distance-limit lines (.geojson/.json/.gpkg); needs limit_distances
+  std::string boundaries;  // boundary lines between owners (.geojson/.json/.gpkg)
+  std::string tripoints;   // points where three owners meet (.geojson/.json/.gpkg)
+  std::string limits;      // distance-limit lines (.geojson/.json/.gpkg); needs limit_distances
   // Each "12nmi", "24 nmi", "500m", "3.5km" or a plain number in the job's distance units.
   std::vector<std::string> limit_distances;
   bool limits_per_owner = false;  // one line set per owner instead of one for all seeds
-  std::string regions;          // one multipolygon per owner (.geojson/.json/.gpkg)
-  std::string margin;           // Float32 GeoTIFF: other owner's distance minus own (-1 = none)
-  std::string preview;          // PNG quicklook of ownership with boundary lines
-  double simplify_cells = 0.0;  // Douglas-Peucker tolerance of boundary and limit lines, cells
+  std::string regions;            // one multipolygon per owner (.geojson/.json/.gpkg)
+  std::string margin;             // Float32 GeoTIFF: other owner's distance minus own (-1 = none)
+  std::string preview;            // PNG quicklook of ownership with boundary lines
+  double simplify_cells = 0.0;    // Douglas-Peucker tolerance of boundary and limit lines, cells
   bool any_deliverable() const {
     return !boundaries.empty() || !tripoints.empty() || !limits.empty() || !regions.empty() || !margin.empty() ||
            !preview.empty();
@@ -71,11 +71,11 @@ struct JobSpec {
   SeedReadOptions seeds;
   GridRequest grid;
   Method method = Method::exact;
-  int threads = 0;                   // 0 = all cores
-  std::string metric = "auto";       // auto | planar | geodesic
-  std::string distance_units;        // "" (CRS units / metres) | m | km | nmi
+  int threads = 0;              // 0 = all cores
+  std::string metric = "auto";  // auto | planar | geodesic
+  std::string distance_units;   // "" (CRS units / metres) | m | km | nmi
   std::optional<double> max_distance;
-  bool validate = false;             // also run brute force and report the differences
+  bool validate = false;  // also run brute force and report the differences
   OutputRequest outputs;
   // Rows per strip on the streaming path (see JobPlan): 0 = chosen by run_job, > 0 = this many
   // (clamped to the grid's height), < 0 = never stream (compute the whole field, then write;
@@ -126,10 +126,10 @@ int64_t seed_memory_bytes(const LoadedSeeds& loaded);
 // anything grid-sized is allocated.
 struct JobLimits {
   int64_t max_cells = int64_t{1} << 34;
-  int64_t max_memory_bytes = 0;          // 0 = 80 % of physical memory
+  int64_t max_memory_bytes = 0;            // 0 = 80 % of physical memory
   int64_t validate_max_cells = 4'000'000;  // brute-force validation refused above this
-  int64_t max_features = 10'000'000;     // seed features read (empty ones included); 0 = none
-  int64_t max_vertices = 100'000'000;    // seed vertices after linearising curves; 0 = none
+  int64_t max_features = 10'000'000;       // seed features read (empty ones included); 0 = none
+  int64_t max_vertices = 100'000'000;      // seed vertices after linearising curves; 0 = none
   // Bytes inflated from zip archives of seeds, counted while inflating (a 300 KB zip can hold
   // gigabytes); 0 = none.
   int64_t max_input_bytes = int64_t{2} << 30;
@@ -142,8 +142,8 @@ struct JobHooks {
 };
 
 struct JobResult {
-  nlohmann::json report;              // what --report writes (also returned to HTTP clients)
-  std::vector<std::string> files;     // outputs written, in the order of OutputRequest
+  nlohmann::json report;           // what --report writes (also returned to HTTP clients)
+  std::vector<std::string> files;  // outputs written, in the order of OutputRequest
 };
 
 // Runs the whole job. On any failure no output file of this job is left behind, and the error

@@ -25,9 +25,9 @@ struct PreviewOptions {
 };
 
 struct PreviewInfo {
-  int width = 0;    // pixels
+  int width = 0;  // pixels
   int height = 0;
-  int64_t step = 1; // cells per pixel along each axis
+  int64_t step = 1;  // cells per pixel along each axis
 };
 
 // Blue, green, red of owner `owner` (> 0); {0, 0, 0} for 0.
@@ -35,7 +35,7 @@ std::array<uint8_t, 3> owner_colour(int32_t owner);
 
 // Writes the PNG. `boundaries` may be null (no lines drawn). Throws rv::Error(io) when the file
 // cannot be written, rv::Error(invalid_argument) for max_side < 16.
-PreviewInfo write_preview(const std::string& path, const Raster<int32_t>& owners,
-                          const BoundaryResult* boundaries, const PreviewOptions& options = {});
+PreviewInfo write_preview(const std::string& path, const Raster<int32_t>& owners, const BoundaryResult* boundaries,
+                          const PreviewOptions& options = {});
 
 }  // namespace rv

@@ -48,7 +48,7 @@ class Server {
 
 // `rvoronoi serve`: command-line values override the config file's (empty = not given).
 struct ServeOptions {
-  std::string listen;       // "host:port"
+  std::string listen;  // "host:port"
   std::string data_dir;
   std::string config_file;  // JSON, see server_config.hpp
 };

@@ -1,8 +1,8 @@
 // The daemon's configuration: one JSON file parsed once, at startup, into these typed structs.
 // Every field has a default that works out of the box (`rvoronoi serve` with no file).
 //
-// File format (service/serve-config.example.json has every key with its default; all keys optional; unknown keys are an error so that a typo is not silently
-// ignored):
+// File format (service/serve-config.example.json has every key with its default; all keys optional; unknown keys are an
+// error so that a typo is not silently ignored):
 //   {
 //     "listen": "127.0.0.1:8080",          host:port; port 0 = an ephemeral port
 //     "data_dir": "./rvoronoi-data",        job store (jobs.sqlite) and result files
@@ -39,18 +39,18 @@ namespace rv {
 struct HttpConfig {
   int64_t max_body_bytes = int64_t{64} << 20;  // request bodies above this: 413
   int64_t max_header_bytes = 16 * 1024;        // request headers above this: 431
-  double request_timeout_s = 30.0;  // reading one request / writing one response, whole
-  int io_threads = 2;               // threads running the network event loop
+  double request_timeout_s = 30.0;             // reading one request / writing one response, whole
+  int io_threads = 2;                          // threads running the network event loop
   // Connections open at once; beyond it a new connection replaces the one that has waited
   // longest for its request (503 when every one is busy). 0 = from the open-file limit.
   int64_t max_connections = 0;
 };
 
 struct JobsConfig {
-  int workers = 2;            // jobs computed at the same time
-  int queue_length = 16;      // jobs waiting for a worker; one more is refused with 503
-  int threads_per_job = 0;    // engine threads per job; 0 = hardware threads / workers
-  double job_timeout_s = 3600.0;   // a job running longer is cancelled and marked failed
+  int workers = 2;                // jobs computed at the same time
+  int queue_length = 16;          // jobs waiting for a worker; one more is refused with 503
+  int threads_per_job = 0;        // engine threads per job; 0 = hardware threads / workers
+  double job_timeout_s = 3600.0;  // a job running longer is cancelled and marked failed
   // SIGTERM: running jobs get this long, then are cancelled. Below the 30 s a container runtime
   // (docker stop, compose stop_grace_period) waits before SIGKILL, so cancellation finishes.
   double shutdown_grace_s = 20.0;

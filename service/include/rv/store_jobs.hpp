@@ -34,13 +34,13 @@ struct JobRecord {
   int progress = 0;        // 0..100
   // RFC 3339 UTC timestamps ("2026-01-02T03:04:05.678Z"); empty = not yet.
   std::string created, started, finished, updated;
-  nlohmann::json inputs = nlohmann::json::object();   // the inputs as received (uploads summarised)
-  std::vector<std::string> outputs;                   // output ids requested (ownership, ...)
-  std::vector<std::string> transmission;              // per output: "value" or "reference"
+  nlohmann::json inputs = nlohmann::json::object();  // the inputs as received (uploads summarised)
+  std::vector<std::string> outputs;                  // output ids requested (ownership, ...)
+  std::vector<std::string> transmission;             // per output: "value" or "reference"
   // Per output: the media type its file was written as; may be shorter than `outputs` (jobs
   // stored before formats were recorded), a missing entry meaning the output's default.
   std::vector<std::string> formats;
-  nlohmann::json report;                              // the job report, once successful
+  nlohmann::json report;  // the job report, once successful
 };
 
 class JobStore {

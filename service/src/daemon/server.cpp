@@ -9,8 +9,8 @@
 #include <atomic>
 #include <boost/asio/ip/tcp.hpp>
 #include <boost/asio/steady_timer.hpp>
-#include <boost/asio/write.hpp>
 #include <boost/asio/strand.hpp>
+#include <boost/asio/write.hpp>
 #include <boost/beast/core.hpp>
 #include <boost/beast/http.hpp>
 #include <chrono>
@@ -157,8 +157,9 @@ class Session : public std::enable_shared_from_this<Session> {
     started_ = std::chrono::steady_clock::now();
     if (ec == http::error::end_of_stream) return close();
     if (ec == http::error::header_limit) {
-      return protocol_error(431, "request-header-fields-too-large", "Request header fields too large",
-                            "the request headers exceed " + std::to_string(shared_.config.http.max_header_bytes) + " bytes");
+      return protocol_error(
+          431, "request-header-fields-too-large", "Request header fields too large",
+          "the request headers exceed " + std::to_string(shared_.config.http.max_header_bytes) + " bytes");
     }
     if (ec == http::error::body_limit) {
       return protocol_error(413, "payload-too-large", "Payload too large",
@@ -204,8 +205,7 @@ class Session : public std::enable_shared_from_this<Session> {
     ++shared_.in_flight;
     auto self = shared_from_this();
     shared_.api.handle(api_req, [self](ApiResponse response) {
-      net::post(self->stream_.get_executor(),
-                [self, r = std::move(response)]() mutable { self->send(std::move(r)); });
+      net::post(self->stream_.get_executor(), [self, r = std::move(response)]() mutable { self->send(std::move(r)); });
     });
   }
 
@@ -275,8 +275,8 @@ class Session : public std::enable_shared_from_this<Session> {
     char dur[32];
     std::snprintf(dur, sizeof dur, "%.1f", ms);
     daemon::log_line("{\"time\":\"" + daemon::now_rfc3339() + "\",\"method\":" + json_escape(method_) +
-                     ",\"path\":" + json_escape(daemon::loggable_target(target_)) + ",\"status\":" + std::to_string(status_) +
-                     ",\"ms\":" + dur + "}");
+                     ",\"path\":" + json_escape(daemon::loggable_target(target_)) +
+                     ",\"status\":" + std::to_string(status_) + ",\"ms\":" + dur + "}");
   }
 
   // After an early answer (413, 431) the client may still be sending: stop writing, read and
@@ -362,8 +362,10 @@ class Listener : public std::enable_shared_from_this<Listener> {
   static void refuse_busy(tcp::socket& socket) {
     static const std::string answer =
         "HTTP/1.1 503 Service Unavailable\r\nServer: rvoronoi\r\nContent-Type: application/problem+json\r\n"
-        "Retry-After: " + std::to_string(daemon::kRetryAfterSeconds) + "\r\nConnection: close\r\nContent-Length: " +
-        std::to_string(kBusyBody.size()) + "\r\n\r\n" + std::string(kBusyBody);
+        "Retry-After: " +
+        std::to_string(daemon::kRetryAfterSeconds) +
+        "\r\nConnection: close\r\nContent-Length: " + std::to_string(kBusyBody.size()) + "\r\n\r\n" +
+        std::string(kBusyBody);
     beast::error_code ec;
     socket.non_blocking(true, ec);
     net::write(socket, net::buffer(answer), ec);
@@ -468,8 +470,8 @@ void Server::start() {
   if (!ec) acceptor.bind(endpoint, ec);
   if (!ec) acceptor.listen(net::socket_base::max_listen_connections, ec);
   if (ec) {
-    throw Error(ErrorKind::io, "cannot listen on " + s.config.host + ":" + std::to_string(s.config.port) + ": " +
-                                   ec.message());
+    throw Error(ErrorKind::io,
+                "cannot listen on " + s.config.host + ":" + std::to_string(s.config.port) + ": " + ec.message());
   }
   s.port = acceptor.local_endpoint().port();
   s.config.port = s.port;  // links made without a Host header name the port really bound
@@ -488,8 +490,8 @@ void Server::start() {
           ioc.run();
           return;
         } catch (const std::exception& e) {
-          daemon::log_line("{\"time\":\"" + daemon::now_rfc3339() + "\",\"event\":\"handler_exception\",\"error\":" +
-                           json_escape(e.what()) + "}");
+          daemon::log_line("{\"time\":\"" + daemon::now_rfc3339() +
+                           "\",\"event\":\"handler_exception\",\"error\":" + json_escape(e.what()) + "}");
         } catch (...) {
           daemon::log_line("{\"time\":\"" + daemon::now_rfc3339() + "\",\"event\":\"handler_exception\"}");
         }
@@ -499,10 +501,9 @@ void Server::start() {
   s.running = true;
   lock_guard.armed = false;
   daemon::log_line("{\"time\":\"" + daemon::now_rfc3339() + "\",\"event\":\"listening\",\"address\":" +
-                   json_escape(s.config.host + ":" + std::to_string(s.port)) +
-                   ",\"data_dir\":" + json_escape(s.config.data_dir) +
-                   ",\"auth\":\"" + (s.config.auth.enabled() ? "bearer" : "off") + "\"" +
-                   ",\"interrupted_jobs_failed\":" + std::to_string(interrupted.size()) + "}");
+                   json_escape(s.config.host + ":" + std::to_string(s.port)) + ",\"data_dir\":" +
+                   json_escape(s.config.data_dir) + ",\"auth\":\"" + (s.config.auth.enabled() ? "bearer" : "off") +
+                   "\"" + ",\"interrupted_jobs_failed\":" + std::to_string(interrupted.size()) + "}");
 }
 
 void Server::stop() {

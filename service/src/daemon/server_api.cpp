@@ -47,8 +47,7 @@ ApiResponse problem_from(const Error& e, const std::string& instance) {
   const ErrorInfo& info = error_info(e.kind());
   std::string type(info.type);
   if (const auto* ogc = dynamic_cast<const OgcNotFound*>(&e)) type = kOgcExceptions + ogc->ogc_type();
-  return problem_response(static_cast<unsigned>(info.http_status), type, std::string(info.title), e.what(),
-                          instance);
+  return problem_response(static_cast<unsigned>(info.http_status), type, std::string(info.title), e.what(), instance);
 }
 
 ErrorKind parse_error_kind(const std::string& name) {
@@ -72,8 +71,8 @@ std::vector<std::string> split(std::string_view s, char sep) {
 // A Host header is echoed into links: accept only what a host[:port] can contain.
 bool plausible_host(const std::string& h) {
   return !h.empty() && h.size() < 256 && std::all_of(h.begin(), h.end(), [](char c) {
-    return std::isalnum(static_cast<unsigned char>(c)) || c == '.' || c == '-' || c == ':' || c == '[' ||
-           c == ']' || c == '_';
+    return std::isalnum(static_cast<unsigned char>(c)) || c == '.' || c == '-' || c == ':' || c == '[' || c == ']' ||
+           c == '_';
   });
 }
 
@@ -92,9 +91,7 @@ std::string media_of(const JobRecord& r, const std::string& id) {
 }
 
 // The file of output `id` of job `r` inside its directory.
-std::string file_of(const JobRecord& r, const std::string& id) {
-  return output_file_name(id, media_of(r, id));
-}
+std::string file_of(const JobRecord& r, const std::string& id) { return output_file_name(id, media_of(r, id)); }
 
 json process_summary(const std::string& base) {
   return {
@@ -230,8 +227,7 @@ struct Api::Context {
   std::string base;  // scheme://host[:port], no trailing slash
 };
 
-Api::Api(const ServerConfig& config, JobStore& store, JobManager& jobs)
-    : config_(config), store_(store), jobs_(jobs) {}
+Api::Api(const ServerConfig& config, JobStore& store, JobManager& jobs) : config_(config), store_(store), jobs_(jobs) {}
 
 void Api::handle(const ApiRequest& request, Respond respond) {
   auto shared = std::make_shared<Respond>(std::move(respond));
@@ -263,8 +259,8 @@ void Api::handle(const ApiRequest& request, Respond respond) {
     } catch (const Error& e) {
       problem = problem_from(e, ctx.path);
     } catch (const json::exception& e) {
-      problem = problem_from(Error(ErrorKind::invalid_argument, std::string("malformed JSON value: ") + e.what()),
-                             ctx.path);
+      problem =
+          problem_from(Error(ErrorKind::invalid_argument, std::string("malformed JSON value: ") + e.what()), ctx.path);
     } catch (const std::bad_alloc&) {
       problem = problem_from(Error(ErrorKind::too_large, "the server ran out of memory for this request"), ctx.path);
     } catch (const std::exception& e) {
@@ -291,9 +287,14 @@ namespace {
 
 json status_info(const JobRecord& r, const std::string& base) {
   const std::string self = base + "/jobs/" + r.id;
-  json s = {{"processID", r.process_id}, {"type", "process"}, {"jobID", r.id},
-            {"status", std::string(to_string(r.status))}, {"message", r.message},
-            {"created", r.created}, {"updated", r.updated}, {"progress", r.progress}};
+  json s = {{"processID", r.process_id},
+            {"type", "process"},
+            {"jobID", r.id},
+            {"status", std::string(to_string(r.status))},
+            {"message", r.message},
+            {"created", r.created},
+            {"updated", r.updated},
+            {"progress", r.progress}};
   if (!r.started.empty()) s["started"] = r.started;
   if (!r.finished.empty()) s["finished"] = r.finished;
   json links = json::array({link(self, "self", kJson, "job status"), link(base + "/jobs", "up", kJson, "job list")});
@@ -330,8 +331,8 @@ json results_document(const JobRecord& r, const std::string& base) {
   switch (r.status) {
     case JobStatus::accepted:
     case JobStatus::running:
-      throw OgcNotFound("result-not-ready", "job " + r.id + " is " + std::string(to_string(r.status)) +
-                                                "; its results are not ready yet");
+      throw OgcNotFound("result-not-ready",
+                        "job " + r.id + " is " + std::string(to_string(r.status)) + "; its results are not ready yet");
     case JobStatus::failed:
       throw Error(parse_error_kind(r.error_kind), r.message);
     case JobStatus::dismissed:
@@ -402,8 +403,8 @@ ApiResponse file_response(const std::string& path, const std::string& media_type
   ApiResponse r;
   r.headers.emplace_back("Content-Type", media_type);
   r.headers.emplace_back("Accept-Ranges", "bytes");
-  const auto mtime = std::chrono::system_clock::time_point(
-      std::chrono::duration_cast<std::chrono::system_clock::duration>(
+  const auto mtime =
+      std::chrono::system_clock::time_point(std::chrono::duration_cast<std::chrono::system_clock::duration>(
           std::chrono::seconds(st.st_mtim.tv_sec) + std::chrono::nanoseconds(st.st_mtim.tv_nsec)));
   r.headers.emplace_back("Last-Modified", http_date(mtime));
   // Result files never change once written (renamed into place): size and mtime identify them.
@@ -413,10 +414,9 @@ ApiResponse file_response(const std::string& path, const std::string& media_type
   if (!range_header.empty()) {
     if (const auto range = parse_range(range_header, size)) {
       if (!range->satisfiable) {
-        ApiResponse p = problem_response(416, "https://rvoronoi.dev/problems/range-not-satisfiable",
-                                         "Range not satisfiable",
-                                         "the file has " + std::to_string(size) + " bytes; requested " + range_header,
-                                         "");
+        ApiResponse p =
+            problem_response(416, "https://rvoronoi.dev/problems/range-not-satisfiable", "Range not satisfiable",
+                             "the file has " + std::to_string(size) + " bytes; requested " + range_header, "");
         p.headers.emplace_back("Content-Range", "bytes */" + std::to_string(size));
         p.headers.emplace_back("Accept-Ranges", "bytes");
         return p;
@@ -466,9 +466,9 @@ void Api::route(const Context& ctx, const std::shared_ptr<Respond>& respond) {
   if (seg.size() == 1 && head == "conformance") {
     if (!get) return reply(method_not_allowed("GET, HEAD", path));
     const std::string c = "http://www.opengis.net/spec/ogcapi-processes-1/1.0/conf/";
-    return reply(json_response(200, {{"conformsTo",
-                                      {c + "core", c + "ogc-process-description", c + "json", c + "oas30",
-                                       c + "job-list", c + "dismiss"}}}));
+    return reply(json_response(
+        200, {{"conformsTo",
+               {c + "core", c + "ogc-process-description", c + "json", c + "oas30", c + "job-list", c + "dismiss"}}}));
   }
   if (seg.size() == 1 && head == "api") {
     if (!get) return reply(method_not_allowed("GET, HEAD", path));
@@ -487,8 +487,9 @@ void Api::route(const Context& ctx, const std::shared_ptr<Respond>& respond) {
   if (head == "processes") {
     if (seg.size() == 1) {
       if (!get) return reply(method_not_allowed("GET, HEAD", path));
-      return reply(json_response(200, {{"processes", json::array({process_summary(base)})},
-                                       {"links", json::array({link(base + "/processes", "self", kJson, "processes")})}}));
+      return reply(
+          json_response(200, {{"processes", json::array({process_summary(base)})},
+                              {"links", json::array({link(base + "/processes", "self", kJson, "processes")})}}));
     }
     if (seg[1] != "voronoi") throw OgcNotFound("no-such-process", "no process '" + seg[1].substr(0, 64) + "'");
     if (seg.size() == 2) {
@@ -595,8 +596,8 @@ void Api::route(const Context& ctx, const std::shared_ptr<Respond>& respond) {
     const bool sidecar = output == "ownership.aux.xml";
     const std::string output_id = sidecar ? "ownership" : output;
     if (std::find(rec.outputs.begin(), rec.outputs.end(), output_id) == rec.outputs.end()) {
-      throw Error(ErrorKind::not_found, "job " + id + " has no output '" + output.substr(0, 64) +
-                                            "' (requested outputs only)");
+      throw Error(ErrorKind::not_found,
+                  "job " + id + " has no output '" + output.substr(0, 64) + "' (requested outputs only)");
     }
     // The file name is ours, never the client's: only the id (checked hex) and a fixed name.
     std::string file = jobs_.job_dir(id).string() + "/" + file_of(rec, output_id);

@@ -12,8 +12,8 @@ constexpr const char* kRealm = "Bearer realm=\"rvoronoi\"";
 ApiResponse unauthorized(const std::string& detail, const std::string& challenge, std::string_view target) {
   // The path (not the query) as the instance, like every other problem of this server.
   const std::string path(target.substr(0, target.find('?')));
-  ApiResponse r = problem_response(401, "https://rvoronoi.dev/problems/unauthorized", "Unauthorized", detail,
-                                   path.substr(0, 200));
+  ApiResponse r =
+      problem_response(401, "https://rvoronoi.dev/problems/unauthorized", "Unauthorized", detail, path.substr(0, 200));
   r.headers.emplace_back("WWW-Authenticate", challenge);
   return r;
 }

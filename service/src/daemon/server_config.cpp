@@ -26,8 +26,7 @@ void check_keys(const json& object, const std::string& where, const std::set<std
   }
 }
 
-int64_t get_int(const json& object, const std::string& where, const char* key, int64_t fallback,
-                int64_t min_value) {
+int64_t get_int(const json& object, const std::string& where, const char* key, int64_t fallback, int64_t min_value) {
   if (!object.contains(key)) return fallback;
   const json& v = object.at(key);
   const std::string name = where + "." + key;
@@ -135,8 +134,7 @@ ServerConfig parse_server_config(const json& doc) {
   if (c.data_dir.empty()) bad("data_dir", "must not be empty");
   c.public_url = get_string(doc, "public_url", c.public_url);
   while (!c.public_url.empty() && c.public_url.back() == '/') c.public_url.pop_back();
-  if (!c.public_url.empty() && c.public_url.rfind("http://", 0) != 0 &&
-      c.public_url.rfind("https://", 0) != 0) {
+  if (!c.public_url.empty() && c.public_url.rfind("http://", 0) != 0 && c.public_url.rfind("https://", 0) != 0) {
     bad("public_url", "must start with http:// or https://");
   }
 
@@ -160,8 +158,9 @@ ServerConfig parse_server_config(const json& doc) {
   }
   if (doc.contains("limits")) {
     const json& l = doc.at("limits");
-    check_keys(l, "limits", {"max_cells", "max_memory_bytes", "validate_max_cells", "max_features", "max_vertices",
-                                  "max_input_bytes"});
+    check_keys(
+        l, "limits",
+        {"max_cells", "max_memory_bytes", "validate_max_cells", "max_features", "max_vertices", "max_input_bytes"});
     c.limits.max_cells = get_int(l, "limits", "max_cells", c.limits.max_cells, 1);
     c.limits.max_memory_bytes = get_int(l, "limits", "max_memory_bytes", c.limits.max_memory_bytes, 0);
     c.limits.validate_max_cells = get_int(l, "limits", "validate_max_cells", c.limits.validate_max_cells, 0);

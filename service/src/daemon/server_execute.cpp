@@ -49,8 +49,7 @@ std::string string_value(const json& raw, const std::string& input) {
 }
 
 bool all_digits(std::string_view s) {
-  return !s.empty() && s.size() <= 9 &&
-         std::all_of(s.begin(), s.end(), [](char c) { return c >= '0' && c <= '9'; });
+  return !s.empty() && s.size() <= 9 && std::all_of(s.begin(), s.end(), [](char c) { return c >= '0' && c <= '9'; });
 }
 
 std::array<double, 4> bbox_values(const json& array, const std::string& input) {
@@ -96,8 +95,8 @@ const SeedFormat kUploadFormats[] = {
 
 // Writes one element of `seeds` to /vsimem/ and returns the name GDAL opens it by, plus the
 // summary stored with the job.
-std::pair<std::string, json> stage_seed_layer(const json& item, const std::string& input,
-                                              size_t index, VsiMemFiles& files) {
+std::pair<std::string, json> stage_seed_layer(const json& item, const std::string& input, size_t index,
+                                              VsiMemFiles& files) {
   const std::string base = "seeds_" + std::to_string(index);
   if (item.is_object() && item.contains("href")) {
     bad(input, "references (href) are not accepted; upload the data by value");
@@ -110,10 +109,11 @@ std::pair<std::string, json> stage_seed_layer(const json& item, const std::strin
     return {path, json{{"type", "FeatureCollection"}, {"features", item.at("features").size()}}};
   }
   if (!item.is_object() || !item.contains("value")) {
-    bad(input, "expected a GeoJSON FeatureCollection or a qualified value "
-               "{\"value\", \"mediaType\", \"encoding\": \"base64\"}, got " +
-                   (item.is_object() ? std::string("an object of type '") + text_member(item, "type") + "'"
-                                     : type_name(item)));
+    bad(input,
+        "expected a GeoJSON FeatureCollection or a qualified value "
+        "{\"value\", \"mediaType\", \"encoding\": \"base64\"}, got " +
+            (item.is_object() ? std::string("an object of type '") + text_member(item, "type") + "'"
+                              : type_name(item)));
   }
   const std::string media = text_member(item, "mediaType");
   const json& value = item.at("value");
@@ -164,7 +164,8 @@ const std::vector<OutputInfo>& output_table() {
 std::string media_key(std::string_view m) {
   std::string k;
   for (char c : m)
-    if (!std::isspace(static_cast<unsigned char>(c))) k += static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+    if (!std::isspace(static_cast<unsigned char>(c)))
+      k += static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
   return k;
 }
 
@@ -211,8 +212,9 @@ void parse_outputs(const json& body, Execution& ex) {
         mode = m.get<std::string>();
       }
       if (!info->by_value && mode == "value") {
-        throw Error(ErrorKind::invalid_argument,
-                    "output '" + id + "': file outputs (GeoTIFF, GeoJSON, GeoPackage, PNG) are returned by reference only");
+        throw Error(
+            ErrorKind::invalid_argument,
+            "output '" + id + "': file outputs (GeoTIFF, GeoJSON, GeoPackage, PNG) are returned by reference only");
       }
       chosen.push_back({id, mode, output_media_type(id, requested_media_type(options, id))});
     }
@@ -340,9 +342,9 @@ std::string checked_crs(const json& raw, const std::string& input) {
       return "EPSG:" + code;
     }
   }
-  for (const char* crs84 : {"http://www.opengis.net/def/crs/OGC/1.3/CRS84",
-                            "https://www.opengis.net/def/crs/OGC/1.3/CRS84", "OGC:CRS84",
-                            "urn:ogc:def:crs:OGC:1.3:CRS84"}) {
+  for (const char* crs84 :
+       {"http://www.opengis.net/def/crs/OGC/1.3/CRS84", "https://www.opengis.net/def/crs/OGC/1.3/CRS84", "OGC:CRS84",
+        "urn:ogc:def:crs:OGC:1.3:CRS84"}) {
     if (s == crs84) return "OGC:CRS84";
   }
   if (starts_with_ci(s, "EPSG:") && all_digits(s.substr(5))) return "EPSG:" + s.substr(5);
@@ -374,10 +376,10 @@ Execution parse_execution(const json& body, const std::string& job_id, const Ser
   ex.uploads = std::make_shared<VsiMemFiles>("/vsimem/rvoronoi/" + job_id);
   JobSpec& spec = ex.spec;
 
-  static const std::set<std::string> known = {"seeds", "ownerField", "resolution", "extent", "crs",
-                                              "metric", "method", "maxDistance", "distanceUnits",
-                                              "validate", "limitDistances", "limitsPerOwner",
-                                              "simplify", "compression"};
+  static const std::set<std::string> known = {"seeds",         "ownerField", "resolution",     "extent",
+                                              "crs",           "metric",     "method",         "maxDistance",
+                                              "distanceUnits", "validate",   "limitDistances", "limitsPerOwner",
+                                              "simplify",      "compression"};
   for (const auto& [key, value] : in.items()) {
     if (!known.count(key)) {
       throw Error(ErrorKind::invalid_argument,
@@ -486,8 +488,7 @@ Execution parse_execution(const json& body, const std::string& job_id, const Ser
     }
   }
   for (const char* key : {"ownerField", "resolution", "extent", "crs", "metric", "method", "maxDistance",
-                          "distanceUnits", "validate", "limitDistances", "limitsPerOwner", "simplify",
-                          "compression"}) {
+                          "distanceUnits", "validate", "limitDistances", "limitsPerOwner", "simplify", "compression"}) {
     if (in.contains(key)) ex.inputs_summary[key] = in.at(key);
   }
 
@@ -502,15 +503,14 @@ Execution parse_execution(const json& body, const std::string& job_id, const Ser
     const auto& b = *spec.grid.extent;
     const GridSpec g = make_grid(b[0], b[1], b[2], b[3], *spec.grid.resolution, "");
     if (g.cell_count() > config.limits.max_cells) {
-      throw Error(ErrorKind::too_large, "input 'resolution': the grid would have " + std::to_string(g.width) +
-                                            " x " + std::to_string(g.height) + " cells, over this server's limit of " +
+      throw Error(ErrorKind::too_large, "input 'resolution': the grid would have " + std::to_string(g.width) + " x " +
+                                            std::to_string(g.height) + " cells, over this server's limit of " +
                                             std::to_string(config.limits.max_cells));
     }
     if (spec.validate && g.cell_count() > config.limits.validate_max_cells) {
       throw Error(ErrorKind::too_large, "input 'validate': brute-force validation is limited to " +
                                             std::to_string(config.limits.validate_max_cells) +
-                                            " cells on this server; the grid has " +
-                                            std::to_string(g.cell_count()));
+                                            " cells on this server; the grid has " + std::to_string(g.cell_count()));
     }
   }
   parse_outputs(body, ex);

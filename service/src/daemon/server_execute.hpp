@@ -33,9 +33,8 @@ class VsiMemFiles {
 };
 
 // The outputs of the process, in the order of OutputRequest.
-inline constexpr const char* kOutputIds[] = {"ownership", "distance", "nearestFeature", "report",
-                                             "boundaries", "tripoints", "limits", "regions",
-                                             "margin", "preview"};
+inline constexpr const char* kOutputIds[] = {"ownership", "distance", "nearestFeature", "report", "boundaries",
+                                             "tripoints", "limits",   "regions",        "margin", "preview"};
 
 // Media types of the result files.
 inline constexpr const char* kMediaGeoTiff = "image/tiff; application=geotiff; profile=cloud-optimized";
@@ -82,8 +81,7 @@ struct Execution {
 // invalid_input (seed data of the wrong kind, naming the input and its position),
 // unsupported (multipart raw responses, callbacks), too_large (grid over the configured limits
 // when extent and resolution make it known up front).
-Execution parse_execution(const nlohmann::json& body, const std::string& job_id,
-                          const ServerConfig& config);
+Execution parse_execution(const nlohmann::json& body, const std::string& job_id, const ServerConfig& config);
 
 // The checked CRS definition of an input value. Throws rv::Error(invalid_argument).
 std::string checked_crs(const nlohmann::json& value, const std::string& input);

@@ -126,9 +126,8 @@ void JobManager::worker_loop() {
       queue_.pop_front();
       Running r;
       r.cancel = std::make_shared<std::atomic<bool>>(false);
-      r.deadline = std::chrono::steady_clock::now() +
-                   std::chrono::duration_cast<std::chrono::steady_clock::duration>(
-                       std::chrono::duration<double>(config_.jobs.job_timeout_s));
+      r.deadline = std::chrono::steady_clock::now() + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                                                          std::chrono::duration<double>(config_.jobs.job_timeout_s));
       running_.emplace(task.id, r);
     }
     JobRecord final_record;
@@ -159,9 +158,8 @@ void JobManager::worker_loop() {
       idle = running_.empty();
     }
     idle_cv_.notify_all();
-    log_line("{\"time\":\"" + now_rfc3339() + "\",\"event\":\"job\",\"job\":\"" + task.id +
-             "\",\"status\":\"" + std::string(to_string(final_record.status)) + "\",\"message\":" +
-             json_text(final_record.message) + "}");
+    log_line("{\"time\":\"" + now_rfc3339() + "\",\"event\":\"job\",\"job\":\"" + task.id + "\",\"status\":\"" +
+             std::string(to_string(final_record.status)) + "\",\"message\":" + json_text(final_record.message) + "}");
     // Only now: whoever is told the job ended (a synchronous client) may act on it at once, and
     // a dismissal then finds it finished, not running.
     notify_done(task.on_done, final_record);
@@ -176,8 +174,8 @@ void JobManager::worker_loop() {
   }
 }
 
-void JobManager::update_progress(JobRecord& record, const std::string& stage, double fraction,
-                                 bool validate, int& last_percent) {
+void JobManager::update_progress(JobRecord& record, const std::string& stage, double fraction, bool validate,
+                                 int& last_percent) {
   // The stages' shares of the whole: reading and writing are short next to the computation;
   // brute-force validation, when asked for, costs about as much as the computation.
   double lo = 0, hi = 10;
@@ -235,14 +233,22 @@ JobRecord JobManager::run_task(Task& task) {
   for (size_t i = 0; i < rec.outputs.size(); ++i) {
     const std::string& o = rec.outputs[i];
     const std::string file = (dir / output_file_name(o, i < rec.formats.size() ? rec.formats[i] : "")).string();
-    if (o == "distance") out.distance = file;
-    else if (o == "nearestFeature") out.nearest_feature = file;
-    else if (o == "boundaries") out.boundaries = file;
-    else if (o == "tripoints") out.tripoints = file;
-    else if (o == "limits") out.limits = file;
-    else if (o == "regions") out.regions = file;
-    else if (o == "margin") out.margin = file;
-    else if (o == "preview") out.preview = file;
+    if (o == "distance")
+      out.distance = file;
+    else if (o == "nearestFeature")
+      out.nearest_feature = file;
+    else if (o == "boundaries")
+      out.boundaries = file;
+    else if (o == "tripoints")
+      out.tripoints = file;
+    else if (o == "limits")
+      out.limits = file;
+    else if (o == "regions")
+      out.regions = file;
+    else if (o == "margin")
+      out.margin = file;
+    else if (o == "preview")
+      out.preview = file;
   }
 
   rec.status = JobStatus::running;
@@ -321,8 +327,8 @@ JobRecord JobManager::run_task(Task& task) {
         rec.message = error_message;
         if (r.timed_out) {
           rec.error_kind = std::string(to_string(ErrorKind::too_large));
-          rec.message = "the job exceeded this server's time limit of " +
-                        seconds_text(config_.jobs.job_timeout_s) + " s and was cancelled";
+          rec.message = "the job exceeded this server's time limit of " + seconds_text(config_.jobs.job_timeout_s) +
+                        " s and was cancelled";
         } else if (r.shutdown) {
           rec.error_kind = std::string(to_string(ErrorKind::busy));
           rec.message = "the server shut down while the job was running; resubmit it";

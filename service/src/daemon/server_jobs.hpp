@@ -71,8 +71,7 @@ class JobManager {
   void watchdog_loop();
   // Runs one job to its end and returns its final record.
   JobRecord run_task(Task& task);
-  void update_progress(JobRecord& record, const std::string& stage, double fraction, bool validate,
-                       int& last_percent);
+  void update_progress(JobRecord& record, const std::string& stage, double fraction, bool validate, int& last_percent);
 
   JobStore& store_;
   const ServerConfig& config_;

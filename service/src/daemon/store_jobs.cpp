@@ -12,8 +12,7 @@
 namespace rv {
 namespace {
 
-constexpr std::array<std::string_view, 5> kStatusNames = {"accepted", "running", "successful",
-                                                          "failed", "dismissed"};
+constexpr std::array<std::string_view, 5> kStatusNames = {"accepted", "running", "successful", "failed", "dismissed"};
 
 // RAII for one prepared statement; column/bind helpers keep the SQL call sites readable.
 class Statement {
@@ -42,8 +41,7 @@ class Statement {
   // A text column as stored: bytes (SQLite does not check UTF-8).
   std::string text(int col) const {
     const auto* p = sqlite3_column_text(stmt_, col);
-    return p ? std::string(reinterpret_cast<const char*>(p),
-                           static_cast<size_t>(sqlite3_column_bytes(stmt_, col)))
+    return p ? std::string(reinterpret_cast<const char*>(p), static_cast<size_t>(sqlite3_column_bytes(stmt_, col)))
              : std::string();
   }
   // A text column for display. Records of older builds may hold bytes that are not UTF-8 (a GDAL
@@ -131,8 +129,7 @@ JobStatus parse_job_status(std::string_view name) {
 }
 
 JobStore::JobStore(const std::filesystem::path& db_path) {
-  if (sqlite3_open_v2(db_path.c_str(), &db_,
-                      SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE | SQLITE_OPEN_FULLMUTEX,
+  if (sqlite3_open_v2(db_path.c_str(), &db_, SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE | SQLITE_OPEN_FULLMUTEX,
                       nullptr) != SQLITE_OK) {
     const std::string why = db_ ? sqlite3_errmsg(db_) : "out of memory";
     sqlite3_close(db_);
@@ -182,7 +179,8 @@ void JobStore::exec(const char* sql) const {
 void JobStore::insert(const JobRecord& job) {
   std::lock_guard lock(mutex_);
   Statement s(db_, (std::string("INSERT INTO jobs (") + kColumns +
-                    ") VALUES (?1,?2,?3,?4,?5,?6,?7,?8,?9,?10,?11,?12,?13,?14,?15)").c_str());
+                    ") VALUES (?1,?2,?3,?4,?5,?6,?7,?8,?9,?10,?11,?12,?13,?14,?15)")
+                       .c_str());
   bind_record(s, job);
   s.step();
 }

@@ -57,13 +57,12 @@ class OsrGeolocator final : public Geolocator {
   struct Impl;
   struct PerThread;
   PerThread& local() const;
-  void transform(bool inverse, const double* in_x, const double* in_y, double* out_x, double* out_y,
-                 size_t n) const;
+  void transform(bool inverse, const double* in_x, const double* in_y, double* out_x, double* out_y, size_t n) const;
 
   std::unique_ptr<Impl> impl_;
   std::string geographic_wkt_;
   CrsInfo geographic_info_;
-  const uint64_t serial_;  // unique per geolocator for the thread-local cache (never reused)
+  const uint64_t serial_;     // unique per geolocator for the thread-local cache (never reused)
   mutable std::mutex mutex_;  // guards per_thread_ (taken only on a thread's first call)
   mutable std::unordered_map<std::thread::id, std::unique_ptr<PerThread>> per_thread_;
 };

@@ -63,7 +63,7 @@ struct GeoTiffOptions {
   // invalid_argument (nothing is left behind). For owner codes 1..K and feature numbers.
   int64_t max_code = -1;
   std::map<std::string, std::string> metadata;  // band metadata items (e.g. UNITS)
-  std::string units;             // band unit type (e.g. "m", "nmi")
+  std::string units;                            // band unit type (e.g. "m", "nmi")
   std::vector<std::string> category_labels;     // value i+1 -> label: written as a raster attribute
                                                 // table; integer rasters only (else invalid_argument)
 };
@@ -77,8 +77,7 @@ struct GeoTiffOptions {
 // value or the nodata value outside [0, max_code]), too_large (more than 2^31 columns or rows).
 void write_geotiff(const std::string& path, const Raster<int32_t>& raster, double nodata,
                    const GeoTiffOptions& options);
-void write_geotiff(const std::string& path, const Raster<float>& raster, double nodata,
-                   const GeoTiffOptions& options);
+void write_geotiff(const std::string& path, const Raster<float>& raster, double nodata, const GeoTiffOptions& options);
 
 // Writes one plain (not cloud-optimised) GeoTIFF strip by strip, top to bottom, for callers
 // that never hold the whole raster (the job façade's streaming path). The file is the one

@@ -43,26 +43,26 @@ enum class ConflictPolicy {
 };
 
 struct SeedReadOptions {
-  std::vector<std::string> paths;        // GDAL-openable names (files, /vsizip/..., /vsimem/...);
-                                         // a plain "x.zip" is opened as "/vsizip/x.zip"
-  std::vector<std::string> layers;       // layer names to read; empty = every layer. A name is
-                                         // read from every file that has it and must exist in
-                                         // at least one (else not_found).
+  std::vector<std::string> paths;          // GDAL-openable names (files, /vsizip/..., /vsimem/...);
+                                           // a plain "x.zip" is opened as "/vsizip/x.zip"
+  std::vector<std::string> layers;         // layer names to read; empty = every layer. A name is
+                                           // read from every file that has it and must exist in
+                                           // at least one (else not_found).
   std::optional<std::string> owner_field;  // must exist in every layer read; null values are errors.
                                            // Values are compared as text (GDAL's string form).
-  std::string target_crs;                // any definition OSR understands; empty = first layer's CRS.
-                                         // Layers without a CRS are accepted only when no layer
-                                         // has one and target_crs is empty (with a warning).
+  std::string target_crs;                  // any definition OSR understands; empty = first layer's CRS.
+                                           // Layers without a CRS are accepted only when no layer
+                                           // has one and target_crs is empty (with a warning).
   ConflictPolicy on_conflict = ConflictPolicy::error;
   std::vector<std::string> allowed_drivers;  // empty = any vector driver (confined: kConfinedDrivers)
-  bool confined = false;   // untrusted data (daemon uploads): see "Confinement" below
-  int64_t max_features = 0;  // > 0: more features than this (empty ones included) is too_large
-  int64_t max_vertices = 0;  // > 0: more vertices than this (after linearising curves) is too_large
-  int64_t max_input_bytes = 0;   // > 0: zip archives whose members inflate to more than this
-                                 // (all together, counted while inflating) are too_large
-  int64_t max_memory_bytes = 0;  // > 0: seeds whose reading would need more than this
-                                 // (reading_bytes(), from declared counts and while reading) are
-                                 // too_large
+  bool confined = false;                     // untrusted data (daemon uploads): see "Confinement" below
+  int64_t max_features = 0;                  // > 0: more features than this (empty ones included) is too_large
+  int64_t max_vertices = 0;                  // > 0: more vertices than this (after linearising curves) is too_large
+  int64_t max_input_bytes = 0;               // > 0: zip archives whose members inflate to more than this
+                                             // (all together, counted while inflating) are too_large
+  int64_t max_memory_bytes = 0;              // > 0: seeds whose reading would need more than this
+                                             // (reading_bytes(), from declared counts and while reading) are
+                                             // too_large
   // For the geodesic metric on a projected grid: when the target CRS (the grid's: target_crs, or
   // the first layer's) is projected, the seeds are read into its geographic base CRS instead
   // (OSRCloneGeogCS: the same datum's longitude/latitude in degrees, x = longitude), which is
@@ -120,12 +120,12 @@ constexpr int64_t reading_bytes(int64_t features, int64_t points, int64_t vertic
 inline constexpr double kMaxSeedCoordinate = 1e12;
 
 struct CrsInfo {
-  std::string wkt;            // the grid/seed CRS as WKT2 (empty: unknown, no CRS anywhere)
-  bool geographic = false;    // longitude/latitude
-  double semi_major = 6378137.0;       // metres, of the CRS's ellipsoid
+  std::string wkt;                // the grid/seed CRS as WKT2 (empty: unknown, no CRS anywhere)
+  bool geographic = false;        // longitude/latitude
+  double semi_major = 6378137.0;  // metres, of the CRS's ellipsoid
   double flattening = 1.0 / 298.257223563;
-  double linear_unit = 1.0;   // metres per CRS unit (projected); 1 for unknown
-  std::string name;           // human-readable name, e.g. "WGS 84 / UTM zone 33N"
+  double linear_unit = 1.0;  // metres per CRS unit (projected); 1 for unknown
+  std::string name;          // human-readable name, e.g. "WGS 84 / UTM zone 33N"
 };
 
 struct SeedReadReport {

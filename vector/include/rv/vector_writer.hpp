@@ -27,11 +27,10 @@ struct VectorOutputOptions {
 
 // Layer "boundaries" (LineString): owner_a, owner_b (codes, owner_a < owner_b), label_a,
 // label_b, closed (0/1), vertex_count, max_residual (distance units), features_a / features_b
-// (integer lists; GeoPackage stores them as JSON text: per vertex, the 1-based index of the seed feature of that owner that controls
-// it, the "basepoint" feature). GeoPackage files also get layer "boundary_vertices" (Point): per
-// vertex line (1-based feature id of the line), owner_a, owner_b, feature_a, feature_b,
-// basepoint_a_x/y, basepoint_b_x/y (the controlling position of each side's seed), distance,
-// residual.
+// (integer lists; GeoPackage stores them as JSON text: per vertex, the 1-based index of the seed feature of that owner
+// that controls it, the "basepoint" feature). GeoPackage files also get layer "boundary_vertices" (Point): per vertex
+// line (1-based feature id of the line), owner_a, owner_b, feature_a, feature_b, basepoint_a_x/y, basepoint_b_x/y (the
+// controlling position of each side's seed), distance, residual.
 void write_boundaries(const std::string& path, const BoundaryResult& boundaries, const SiteMetric& metric,
                       const VectorOutputOptions& options);
 
