@@ -15,6 +15,7 @@ packages=(
   libboost-dev libsqlite3-dev nlohmann-json3-dev
   libopencv-dev
   python3-jsonschema python3-yaml python3-numpy
+  clang-format-14
   curl
 )
 
