@@ -16,7 +16,11 @@ section here; each section fails on the build before the fix.
    in the log, Retry-After on 503, the job's own peak memory, a 700 KB crs not echoed, seeds at
    +-1e308, points at both poles.
 
-usage: test_hostile.py RVORONOI SOURCE_DIR
+usage: test_hostile.py RVORONOI SOURCE_DIR [--sanitized]
+--sanitized (ASan/UBSan builds): the descriptor section runs with the automatic cap only. With the
+cap above the descriptors the daemon does run out of them, and then the sanitizer runtime itself
+cannot open what it needs to check an address (UBSan's vptr check reports "invalid vptr,
+memory cannot be printed" for Boost's error categories); the plain build covers that case.
 """
 import base64
 import json
@@ -34,6 +38,7 @@ import hostile_inputs as hi  # noqa: E402
 from daemon_harness import Daemon  # noqa: E402
 
 RVORONOI, SOURCE = sys.argv[1], sys.argv[2]
+SANITIZED = "--sanitized" in sys.argv[3:]
 FAILURES = []
 TOKEN = "hostile-test-token-0123456789abcdef"
 AUTH = {"Authorization": f"Bearer {TOKEN}"}
@@ -333,8 +338,9 @@ def descriptors(tmp):
     def low_nofile():
         resource.setrlimit(resource.RLIMIT_NOFILE, (64, 64))
 
-    for label, http in (("connections above the descriptors", {"max_connections": 100000, "request_timeout_s": 30}),
-                        ("automatic cap", {"request_timeout_s": 30})):
+    variants = [("connections above the descriptors", {"max_connections": 100000, "request_timeout_s": 30}),
+                ("automatic cap", {"request_timeout_s": 30})]
+    for label, http in variants[1:] if SANITIZED else variants:
         d = Daemon([RVORONOI, "serve"], os.path.join(tmp, "fd-" + str(len(label))), {"http": http},
                    preexec_fn=low_nofile)
         idle = []

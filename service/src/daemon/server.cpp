@@ -13,6 +13,7 @@
 #include <boost/asio/write.hpp>
 #include <boost/beast/core.hpp>
 #include <boost/beast/http.hpp>
+#include <cerrno>
 #include <chrono>
 #include <filesystem>
 #include <memory>
@@ -334,8 +335,10 @@ class Listener : public std::enable_shared_from_this<Listener> {
   }
   void on_accept(beast::error_code ec, tcp::socket socket) {
     if (ec == net::error::operation_aborted || !acceptor_.is_open()) return;
-    if (ec == net::error::no_descriptors || ec == beast::errc::too_many_files_open_in_system ||
-        ec == net::error::no_buffer_space || ec == net::error::no_memory) {
+    // accept() fails only with system errors: the errno is compared directly (comparing with
+    // error conditions goes through Boost's category objects, which UBSan's vptr check rejects).
+    const int errno_value = ec ? ec.value() : 0;
+    if (errno_value == EMFILE || errno_value == ENFILE || errno_value == ENOBUFS || errno_value == ENOMEM) {
       // Out of descriptors (or kernel memory): accepting again at once would fail again, in a
       // tight loop. Free a descriptor by closing the connection that has waited longest, wait a
       // moment, then accept again; the pending connections wait in the kernel's backlog.
