@@ -15,6 +15,7 @@
 #include "rv/error_map.hpp"
 #include "rv/job.hpp"
 #include "rv/json_text.hpp"
+#include "rv/options.hpp"
 #include "rv/server.hpp"
 #include "rv/text.hpp"
 #include "rv/validate.hpp"
@@ -23,7 +24,7 @@
 namespace rv {
 namespace {
 
-constexpr const char* kUsage =
+constexpr const char* kUsageHead =
     R"(rvoronoi — raster Voronoi diagrams (ownership and distance) for GIS
 
 usage:
@@ -33,57 +34,38 @@ usage:
                     [--buckets A,B]
   rvoronoi serve [--listen HOST:PORT] [--data-dir DIR] [--config FILE]
   rvoronoi --version | --help
-
-seeds (any vector format GDAL reads; .zip shapefiles too):
-  --layer NAME            read only this layer (repeatable; default: every layer)
-  --owner-field FIELD     features with the same value share an owner (default: one owner per feature)
-  --on-conflict POLICY    error (default) | lower-code: when two owners' geometry overlaps
-grid:
-  --resolution R          cell size in CRS units
-  --extent XMIN YMIN XMAX YMAX   (default: the seeds' box grown by --margin, snapped to cells)
-  --margin M              growth of the seeds' box, CRS units (default: 5 % of its larger side)
-  --crs CRS               grid CRS (EPSG:32633, WKT, ...); default: the first layer's
-  --like RASTER.tif       take extent, cell size and CRS from this raster
-computation:
-  --method M              exact (default) | hv-scan | h-scan | brute-force
-  --metric M              auto (default) | planar | geodesic. auto: geodesic on a longitude/
-                          latitude CRS, planar on a projected one. geodesic on a projected CRS
-                          locates each cell centre on the CRS's ellipsoid and measures metres
-                          there (every method; the margin raster is refused for it, the other
-                          deliverables work)
-  --threads N             worker threads (default: all cores)
-  --max-distance D        cells farther than D from every seed get no owner
-  --distance-units U      m | km | nmi (default: CRS units)
-  --validate              also run brute force and report every wrong cell
-  --strip-rows N          rows per strip when the job is streamed (0 = automatic, default;
-                          -1 = compute the whole field first); never changes the outputs
-outputs:
-  --ownership FILE.tif    owner code per cell (0 = none; Byte up to 255 owners, UInt16 up to
-                          65535, else Int32)
-  --distance FILE.tif     distance to the nearest seed (Float32, -1 = none)
-  --nearest-feature F.tif 1-based index of the nearest seed feature (0 = none; type as ownership)
-  --report FILE.json      grid, method, seeds, timings per phase, peak memory
-  --cog                   write Cloud-Optimized GeoTIFFs
-  --compression PROFILE   how every GeoTIFF is compressed (all lossless):
-                            fast     ZSTD 1 on codes, the distance uncompressed (default)
-                            small    ZSTD 6 with predictors: smallest files, slower
-                            deflate  DEFLATE 1 with predictors, for readers without ZSTD
-                            none     uncompressed
-maritime deliverables (exact: vertices placed on the equidistance locus, see README):
-  --boundaries FILE       boundary lines between owners, with each vertex's controlling
-                          seed features (.geojson, .json or .gpkg)
-  --tripoints FILE        points where three owners meet
-  --limits FILE           lines at --limit-distances from the seeds
-  --limit-distances LIST  e.g. 12nmi,24nmi,200nmi (units m, km, nmi; plain numbers are in
-                          --distance-units)
-  --limits-per-owner      one set of limit lines per owner (default: all owners together)
-  --regions FILE          one (multi)polygon per owner from the ownership raster
-  --margin-raster F.tif   distance to the nearest other owner minus the own distance (Float32)
-  --preview FILE.png      quicklook: ownership in colours with the boundary lines
-  --simplify CELLS        Douglas-Peucker tolerance for boundary and limit lines (default 0:
-                          every vertex kept; kept vertices always lie exactly on the lines)
-  --quiet                 no progress bar
 )";
+
+// The sections of --help: the option table's (rv/options.hpp), then the CLI's own.
+struct HelpSection {
+  const char* section;
+  const char* heading;
+};
+constexpr HelpSection kHelpSections[] = {
+    {"seeds", "seeds (any vector format GDAL reads; .zip shapefiles too):"},
+    {"grid", "grid:"},
+    {"computation", "computation:"},
+    {"outputs", "outputs:"},
+    {"deliverables", "maritime deliverables (exact: vertices placed on the equidistance locus, see README):"},
+};
+
+constexpr const char* kCliOnlyHelp =
+    R"(other:
+  --quiet                 no progress bar
+validate:
+  --methods M,M...        methods compared with brute force (default: exact,hv-scan,h-scan)
+  --random-seeds N        the paper's Table 2: N random point seeds on a --size W H grid
+  --size W H              grid of W x H unit cells for --random-seeds
+  --trials T              random trials (default 100)
+  --seed S                random seed of the first trial (default 1)
+  --buckets A,B           Table 2's error buckets in cells (default 1,3)
+)";
+
+std::string usage() {
+  std::string out = kUsageHead;
+  for (const HelpSection& h : kHelpSections) out += std::string("\n") + h.heading + "\n" + options_help(h.section);
+  return out + "\n" + kCliOnlyHelp;
+}
 
 class Args {
  public:
@@ -97,7 +79,6 @@ class Args {
     if (done()) throw Error(ErrorKind::invalid_argument, opt + " needs a value");
     return next();
   }
-  double number(const std::string& opt) { return parse_number_arg(opt, value(opt)); }
   int64_t integer(const std::string& opt) {
     const std::string v = value(opt);
     char* end = nullptr;
@@ -162,106 +143,40 @@ struct CommonOptions {
 
 CommonOptions parse(Args& args, bool validate_mode) {
   CommonOptions o;
-  JobSpec& s = o.spec;
   while (!args.done()) {
     const std::string a = args.next();
-    if (a == "--resolution")
-      s.grid.resolution = args.number(a);
-    else if (a == "--extent")
-      s.grid.extent = std::array<double, 4>{args.number(a), args.number(a), args.number(a), args.number(a)};
-    else if (a == "--margin")
-      s.grid.margin = args.number(a);
-    else if (a == "--crs")
-      s.seeds.target_crs = args.value(a);
-    else if (a == "--like")
-      s.grid.like = args.value(a);
-    else if (a == "--layer")
-      s.seeds.layers.push_back(args.value(a));
-    else if (a == "--owner-field")
-      s.seeds.owner_field = args.value(a);
-    else if (a == "--on-conflict") {
-      const std::string v = args.value(a);
-      if (v == "error")
-        s.seeds.on_conflict = ConflictPolicy::error;
-      else if (v == "lower-code")
-        s.seeds.on_conflict = ConflictPolicy::lower_code;
-      else
-        throw Error(ErrorKind::invalid_argument, "--on-conflict: expected error or lower-code, got '" + v + "'");
-    } else if (a == "--method")
-      s.method = parse_method(args.value(a));
-    else if (a == "--methods")
-      for (const auto& m : split(args.value(a), ',')) o.methods.push_back(parse_method(m));
-    else if (a == "--metric")
-      s.metric = args.value(a);
-    else if (a == "--threads") {
-      const int64_t n = args.integer(a);
-      if (n < 0 || n > 1024) throw Error(ErrorKind::invalid_argument, "--threads: expected 0..1024");
-      s.threads = static_cast<int>(n);
-    } else if (a == "--max-distance")
-      s.max_distance = args.number(a);
-    else if (a == "--distance-units")
-      s.distance_units = args.value(a);
-    else if (a == "--validate")
-      s.validate = true;
-    else if (a == "--strip-rows")
-      s.strip_rows = args.integer(a);
-    else if (a == "--ownership")
-      s.outputs.ownership = args.value(a);
-    else if (a == "--distance")
-      s.outputs.distance = args.value(a);
-    else if (a == "--nearest-feature")
-      s.outputs.nearest_feature = args.value(a);
-    else if (a == "--report")
-      s.outputs.report = args.value(a);
-    else if (a == "--cog")
-      s.outputs.cloud_optimized = true;
-    else if (a == "--compression") {
-      const std::string v = args.value(a);
-      try {
-        s.outputs.compression = parse_compression(v);
-      } catch (const Error& e) {
-        throw Error(e.kind(), "--compression: " + std::string(e.what()));
-      }
-    } else if (a == "--boundaries")
-      s.outputs.boundaries = args.value(a);
-    else if (a == "--tripoints")
-      s.outputs.tripoints = args.value(a);
-    else if (a == "--limits")
-      s.outputs.limits = args.value(a);
-    else if (a == "--limit-distances")
-      for (const auto& d : split(args.value(a), ',')) s.outputs.limit_distances.push_back(d);
-    else if (a == "--limits-per-owner")
-      s.outputs.limits_per_owner = true;
-    else if (a == "--regions")
-      s.outputs.regions = args.value(a);
-    else if (a == "--margin-raster")
-      s.outputs.margin = args.value(a);
-    else if (a == "--preview")
-      s.outputs.preview = args.value(a);
-    else if (a == "--simplify")
-      s.outputs.simplify_cells = args.number(a);
-    else if (a == "--quiet")
+    if (a.rfind("--", 0) != 0) {
+      o.spec.seeds.paths.push_back(a);
+      continue;
+    }
+    // The job's options come from the one table; what follows is the CLI's own.
+    if (const OptionSpec* option = find_flag(std::string_view(a).substr(2))) {
+      std::vector<std::string> words;
+      for (int i = 0; i < option_arity(*option); ++i) words.push_back(args.value(a));
+      option->apply(o.spec, parse_cli_value(*option, words));
+    } else if (a == "--quiet") {
       o.quiet = true;
-    else if (validate_mode && a == "--random-seeds")
+    } else if (validate_mode && a == "--methods") {
+      for (const auto& m : split(args.value(a), ',')) o.methods.push_back(parse_method(m));
+    } else if (validate_mode && a == "--random-seeds") {
       o.random_seeds = args.integer(a);
-    else if (validate_mode && a == "--size") {
+    } else if (validate_mode && a == "--size") {
       o.size_w = args.integer(a);
       o.size_h = args.integer(a);
-    } else if (validate_mode && a == "--trials")
+    } else if (validate_mode && a == "--trials") {
       o.trials = args.integer(a);
-    else if (validate_mode && a == "--seed")
+    } else if (validate_mode && a == "--seed") {
       o.rng_seed = static_cast<uint64_t>(args.integer(a));
-    else if (validate_mode && a == "--buckets") {
+    } else if (validate_mode && a == "--buckets") {
       const auto v = split(args.value(a), ',');
       char* e1 = nullptr;
       char* e2 = nullptr;
       if (v.size() == 2) o.buckets = {std::strtod(v[0].c_str(), &e1), std::strtod(v[1].c_str(), &e2)};
       if (v.size() != 2 || *e1 || *e2 || !(o.buckets[0] > 0 && o.buckets[1] > o.buckets[0]))
         throw Error(ErrorKind::invalid_argument, "--buckets: expected two increasing limits in cells, e.g. 1,3");
-    } else if (a.rfind("--", 0) == 0)
-      throw Error(ErrorKind::invalid_argument, "unknown option " + a + " (see rvoronoi --help)");
-    else
-      s.seeds.paths.push_back(a);
+    } else {
+      throw Error(ErrorKind::invalid_argument, "unknown option " + quote_input(a) + " (see rvoronoi --help)");
+    }
   }
   return o;
 }
@@ -441,20 +356,11 @@ int cmd_validate(Args& args) {
 
 }  // namespace
 
-double parse_number_arg(const std::string& option, const std::string& text) {
-  char* end = nullptr;
-  const double d = std::strtod(text.c_str(), &end);
-  // A string with an embedded NUL stops strtod early: the whole text must be consumed.
-  if (end == text.c_str() || end != text.c_str() + text.size() || !std::isfinite(d))
-    throw Error(ErrorKind::invalid_argument, option + ": '" + text + "' is not a number");
-  return d;
-}
-
 int cli_main(int argc, char** argv) {
   try {
     if (argc < 2 || std::string(argv[1]) == "--help" || std::string(argv[1]) == "-h" ||
         std::string(argv[1]) == "help") {
-      std::cout << kUsage;
+      std::cout << usage();
       return argc < 2 ? 2 : 0;
     }
     const std::string cmd = argv[1];

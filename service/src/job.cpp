@@ -113,20 +113,20 @@ int64_t physical_memory_bytes() {
   return pages > 0 && size > 0 ? static_cast<int64_t>(pages) * size : 0;
 }
 
-MetricPlan plan_metric(const std::string& request, const std::string& units, const CrsInfo& crs) {
+MetricPlan plan_metric(MetricRequest request, std::optional<DistanceUnit> units, const CrsInfo& crs) {
   MetricPlan p;
-  if (parse_metric_request(request) == MetricRequest::geodesic && crs.wkt.empty())
+  if (request == MetricRequest::geodesic && crs.wkt.empty())
     throw Error(ErrorKind::invalid_argument,
                 "metric geodesic needs a CRS (to know the ellipsoid and where the cells lie on it); the seeds have "
                 "none: give the layers a CRS, or use metric planar");
-  p.metric = resolve_metric(parse_metric_request(request), crs.geographic, crs.semi_major, crs.flattening);
+  p.metric = resolve_metric(request, crs.geographic, crs.semi_major, crs.flattening);
   // The engines measure in metric units: metres for geodesic, CRS units for planar.
   const double metric_unit_in_metres = p.metric.kind == MetricSpec::geodesic ? 1.0 : crs.linear_unit;
-  if (!units.empty()) {
+  if (units) {
     if (p.metric.kind == MetricSpec::planar && crs.wkt.empty())
       throw Error(ErrorKind::invalid_argument, "distance units need a CRS with known units; the seeds have none");
-    p.to_output = metric_unit_in_metres / metres_per_unit(parse_distance_unit(units));
-    p.unit = units;
+    p.to_output = metric_unit_in_metres / metres_per_unit(*units);
+    p.unit = std::string(to_string(*units));
   } else if (p.metric.kind == MetricSpec::geodesic || (!crs.wkt.empty() && crs.linear_unit == 1.0)) {
     p.unit = "m";
   } else {
@@ -176,10 +176,10 @@ GridSpec plan_grid(const GridRequest& request, const LoadedSeeds& loaded) {
   return g;
 }
 
-SeedReadOptions seed_options_for_metric(SeedReadOptions read, const std::string& metric_request) {
+SeedReadOptions seed_options_for_metric(SeedReadOptions read, MetricRequest metric_request) {
   // Geodesic measures in longitude/latitude: on a projected grid the seeds are read in its
   // geographic base (the engine locates the cells there), auto never picks geodesic on one.
-  read.geographic_seeds = parse_metric_request(metric_request) == MetricRequest::geodesic;
+  read.geographic_seeds = metric_request == MetricRequest::geodesic;
   return read;
 }
 

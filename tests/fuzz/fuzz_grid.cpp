@@ -2,7 +2,7 @@
 //
 // Input: whitespace-separated tokens, like a shell splits the command line:
 //   XMIN YMIN XMAX YMAX RES [MARGIN [X Y]...]
-// Each token goes through parse_number_arg (the CLI's --extent/--resolution/--margin reader).
+// Each token goes through the CLI's reading of an --extent coordinate (rv/options.hpp).
 // With the numbers: make_grid (--extent), make_aligned_grid, and plan_grid both with the extent
 // and with an extent derived from point seeds (the X Y pairs) grown by MARGIN.
 // Findings: a crash, a sanitizer report, an exception other than rv::Error, an rv::Error of an
@@ -13,10 +13,10 @@
 #include <string>
 #include <vector>
 
-#include "rv/cli.hpp"
 #include "rv/error.hpp"
 #include "rv/grid.hpp"
 #include "rv/job.hpp"
+#include "rv/options.hpp"
 
 namespace {
 
@@ -67,7 +67,8 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   std::vector<double> v;
   for (size_t i = 0; i < tokens.size() && i < 64; ++i) {
     try {
-      const double d = rv::parse_number_arg("--extent", tokens[i]);
+      const std::vector<std::string> words(4, tokens[i]);
+      const double d = rv::parse_cli_value(*rv::find_flag("extent"), words).box[0];
       require(std::isfinite(d));
       v.push_back(d);
     } catch (const rv::Error& e) {

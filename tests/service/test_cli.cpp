@@ -224,7 +224,7 @@ TEST_F(Cli, BadInputFailsCleanly) {
   expect_refused(run("compute " + source(kDemo) + " --resolution 10 --method magic" + out), 2, "magic");
   expect_refused(run("compute " + source(kDemo) + " --resolution 10 --bogus" + out), 2, "--bogus");
   expect_refused(run("compute " + source(kDemo) + " --resolution 10 --compression zip" + out), 2,
-                 "--compression: unknown compression profile 'zip'");
+                 "--compression: must be one of fast, small, deflate, none, got 'zip'");
   expect_refused(run("compute " + source(kDemo) + " --resolution 10" + out + " --compression"), 2, "--compression");
   expect_refused(run("compute " + source(kDemo) + " --resolution 10"), 2, "--ownership");
   // Only the two input files written by this test remain: no partial outputs.

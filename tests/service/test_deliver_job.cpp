@@ -190,7 +190,7 @@ TEST_F(DeliverJob, GeodesicOresund) {
   spec.seeds.owner_field = "iso2";
   spec.grid.resolution = 0.01;
   spec.threads = 2;
-  spec.distance_units = "nmi";
+  spec.distance_units = DistanceUnit::nmi;
   spec.outputs.ownership = path("own.tif");
   spec.outputs.boundaries = path("b.geojson");
   spec.outputs.limits = path("l.gpkg");

@@ -320,7 +320,7 @@ TEST_F(Daemon, ErrorsAreProblemsNamingTheInput) {
   bad_compression["inputs"]["compression"] = "lzw";
   expect_problem(http_request(port_, "POST", exec, bad_compression.dump()), 400,
                  "http://www.opengis.net/def/exceptions/ogcapi-processes-1/1.0/invalid-parameter",
-                 "input 'compression': unknown compression profile 'lzw'");
+                 "input 'compression': must be one of fast, small, deflate, none, got 'lzw'");
   // The feature at fault, named by the seed reader, reaches the client with the input's name.
   json null_owner = {{"inputs",
                       {{"seeds", json::parse(read_file(source_dir() + "/fixtures/null_owner.geojson"))},

@@ -48,6 +48,26 @@ def deref(node):
     return node
 
 
+SCHEMA_KEYS = ("type", "enum", "default", "minimum", "maximum", "exclusiveMinimum", "minLength", "minItems",
+               "maxItems", "required")
+
+
+def schema_core(node):
+    """What a schema says about values (references resolved, descriptions and titles dropped)."""
+    node = deref(node)
+    if isinstance(node, list):
+        return [schema_core(n) for n in node]
+    if not isinstance(node, dict):
+        return node
+    out = {k: node[k] for k in SCHEMA_KEYS if k in node}
+    for k in ("items", "oneOf"):
+        if k in node:
+            out[k] = schema_core(node[k])
+    if "properties" in node:
+        out["properties"] = {name: schema_core(v) for name, v in node["properties"].items()}
+    return out
+
+
 def validate(instance, schema, what):
     try:
         # OpenAPI 3.0 schemas are JSON Schema draft 4 with extensions (exclusiveMinimum: true).
@@ -175,6 +195,17 @@ def main():
         # The inputs the process description lists are exactly those openapi.yaml accepts.
         check(set(desc["inputs"]) == set(DOC["components"]["schemas"]["voronoiInputs"]["properties"]),
               "process description inputs == openapi.yaml voronoiInputs")
+        # ... and each input's schema (made from the option table, rv/options.hpp) says what
+        # openapi.yaml says of it: types, allowed values, defaults, bounds.
+        documented = DOC["components"]["schemas"]["voronoiInputs"]["properties"]
+        for name, entry in desc["inputs"].items():
+            if name == "seeds" or name not in documented:
+                continue
+            mine, theirs = schema_core(entry["schema"]), schema_core(documented[name])
+            check(mine == theirs, f"input {name}: process description {mine} != openapi.yaml {theirs}")
+        required = set(DOC["components"]["schemas"]["voronoiInputs"]["required"])
+        check({n for n, e in desc["inputs"].items() if e["minOccurs"] == 1} == required,
+              f"required inputs agree with openapi.yaml: {required}")
         check(set(desc["outputs"]) == set(DOC["components"]["schemas"]["results"]["properties"]),
               "process description outputs == openapi.yaml results")
         request(s, "GET", "/processes/other", expect=404)

@@ -42,7 +42,7 @@ class StreamJob : public ::testing::Test {
     s.seeds.paths = {fixture("demo_basepoints.geojson")};
     s.seeds.owner_field = "state";
     s.grid.resolution = 150.0;
-    s.distance_units = "km";  // the distance is converted per strip
+    s.distance_units = DistanceUnit::km;  // the distance is converted per strip
     return with_outputs(s, sub);
   }
   // fixtures/coast.gpkg: points, lines and polygons (interiors at distance 0) of two owners.

@@ -388,10 +388,10 @@ TEST(Execute, GeoJsonGoesToVsimemAndInputsMapToTheJobSpec) {
               (std::vector<std::string>{"GeoJSON", "GPKG", "ESRI Shapefile", "FlatGeobuf"}));
     EXPECT_DOUBLE_EQ(*ex.spec.grid.resolution, 0.5);
     EXPECT_EQ(*ex.spec.grid.extent, (std::array<double, 4>{-1, -1, 1, 1}));
-    EXPECT_EQ(ex.spec.metric, "planar");
+    EXPECT_EQ(ex.spec.metric, rv::MetricRequest::planar);
     EXPECT_EQ(ex.spec.method, rv::Method::hv_scan);
     EXPECT_DOUBLE_EQ(*ex.spec.max_distance, 100);
-    EXPECT_EQ(ex.spec.distance_units, "km");
+    EXPECT_EQ(ex.spec.distance_units, rv::DistanceUnit::km);
     EXPECT_TRUE(ex.spec.validate);
     EXPECT_EQ(ex.outputs, (std::vector<std::string>{"ownership", "distance", "report"}));
     EXPECT_EQ(ex.transmission, (std::vector<std::string>{"reference", "reference", "value"}));

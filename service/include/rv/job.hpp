@@ -71,9 +71,9 @@ struct JobSpec {
   SeedReadOptions seeds;
   GridRequest grid;
   Method method = Method::exact;
-  int threads = 0;              // 0 = all cores
-  std::string metric = "auto";  // auto | planar | geodesic
-  std::string distance_units;   // "" (CRS units / metres) | m | km | nmi
+  int threads = 0;  // 0 = all cores
+  MetricRequest metric = MetricRequest::automatic;
+  std::optional<DistanceUnit> distance_units;  // none: CRS units (planar) or metres (geodesic)
   std::optional<double> max_distance;
   bool validate = false;  // also run brute force and report the differences
   OutputRequest outputs;
@@ -161,17 +161,17 @@ struct MetricPlan {
   double to_output = 1.0;
   std::string unit;  // name written into the distance raster's metadata and the report
 };
-MetricPlan plan_metric(const std::string& request, const std::string& units, const CrsInfo& crs);
+MetricPlan plan_metric(MetricRequest request, std::optional<DistanceUnit> units, const CrsInfo& crs);
 
 // The grid a job would compute on, without computing it (for limits and dry runs). Its CRS is
 // seeds.crs; a default extent comes from the seeds' box in that CRS (grid_bounds when the seeds
 // were read in its geographic base).
 GridSpec plan_grid(const GridRequest& request, const LoadedSeeds& seeds);
 
-// Seed reading as a metric request needs it: "geodesic" reads the seeds in the geographic base
-// of the grid CRS (SeedReadOptions::geographic_seeds), which matters only when that CRS is
-// projected. Throws rv::Error(invalid_argument) for an unknown metric name.
-SeedReadOptions seed_options_for_metric(SeedReadOptions read, const std::string& metric_request);
+// Seed reading as a metric request needs it: geodesic reads the seeds in the geographic base of
+// the grid CRS (SeedReadOptions::geographic_seeds), which matters only when that CRS is
+// projected.
+SeedReadOptions seed_options_for_metric(SeedReadOptions read, MetricRequest metric_request);
 
 // Geodesic metric on a projected grid: sets options.geolocator (an OsrGeolocator from the grid
 // CRS to its geographic base) and options.grid_polygons from seeds read with

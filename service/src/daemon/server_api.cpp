@@ -11,6 +11,7 @@
 #include "rv/error.hpp"
 #include "rv/error_map.hpp"
 #include "rv/json_text.hpp"
+#include "rv/options.hpp"
 #include "rv/text.hpp"
 #include "server_util.hpp"
 
@@ -126,46 +127,7 @@ json process_description(const std::string& base) {
            "encoding": {"type": "string", "enum": ["base64"]}}},
         {"type": "array", "minItems": 1, "items": {"type": "object"}}
       ]}
-    },
-    "ownerField": {"title": "Owner field", "description": "Attribute naming each feature's owner; without it every feature is its own owner.",
-      "minOccurs": 0, "maxOccurs": 1, "schema": {"type": "string", "minLength": 1}},
-    "resolution": {"title": "Cell size", "description": "Cell size in grid-CRS units (degrees on geographic grids).",
-      "minOccurs": 1, "maxOccurs": 1, "schema": {"type": "number", "minimum": 0, "exclusiveMinimum": true}},
-    "extent": {"title": "Grid extent", "description": "xmin, ymin, xmax, ymax in the grid CRS; default: the seeds' box grown by 5 %. As an OGC bbox, its crs (if any) sets the grid CRS and must agree with the crs input.",
-      "minOccurs": 0, "maxOccurs": 1, "schema": {"oneOf": [
-        {"type": "array", "items": {"type": "number"}, "minItems": 4, "maxItems": 4},
-        {"type": "object", "required": ["bbox"], "properties": {
-          "bbox": {"type": "array", "items": {"type": "number"}, "minItems": 4, "maxItems": 4},
-          "crs": {"type": "string"}}}]}},
-    "crs": {"title": "Grid CRS", "description": "EPSG:<code>, an OGC CRS URI or WKT; default: the first layer's CRS.",
-      "minOccurs": 0, "maxOccurs": 1, "schema": {"type": "string"}},
-    "metric": {"title": "Distance metric", "description": "auto: geodesic on a longitude/latitude grid CRS, planar on a projected one; geodesic on a projected grid CRS measures on its ellipsoid at each located cell centre.",
-      "minOccurs": 0, "maxOccurs": 1,
-      "schema": {"type": "string", "enum": ["auto", "planar", "geodesic"], "default": "auto"}},
-    "method": {"title": "Method", "description": "exact (default, provably exact), hv-scan (Liu et al. 2019), h-scan, brute-force.",
-      "minOccurs": 0, "maxOccurs": 1,
-      "schema": {"type": "string", "enum": ["exact", "hv-scan", "hv_scan", "h-scan", "h_scan", "brute-force", "brute_force"], "default": "exact"}},
-    "maxDistance": {"title": "Maximum distance", "description": "Cells farther than this from every seed get no owner, in distanceUnits.",
-      "minOccurs": 0, "maxOccurs": 1, "schema": {"type": "number", "minimum": 0, "exclusiveMinimum": true}},
-    "distanceUnits": {"title": "Distance units", "minOccurs": 0, "maxOccurs": 1,
-      "schema": {"type": "string", "enum": ["m", "km", "nmi"]}},
-    "validate": {"title": "Validate", "description": "Also compute by brute force and report the differences (limited grid size).",
-      "minOccurs": 0, "maxOccurs": 1, "schema": {"type": "boolean", "default": false}},
-    "limitDistances": {"title": "Limit distances", "description": "Distances of the lines of the output 'limits' (required with it, refused without it): \"12nmi\", \"24 nmi\", \"500m\", \"3.5km\", a plain number in distanceUnits (CRS units or metres without), or {\"value\": 12, \"unit\": \"nmi\"}. Each > 0 and within maxDistance.",
-      "minOccurs": 0, "maxOccurs": 1,
-      "schema": {"type": "array", "minItems": 1, "maxItems": 64, "items": {"oneOf": [
-        {"type": "string", "pattern": "^ *[0-9.eE+]+ *(m|km|nmi)? *$"},
-        {"type": "number", "minimum": 0, "exclusiveMinimum": true},
-        {"type": "object", "required": ["value"], "properties": {
-          "value": {"type": "number", "minimum": 0, "exclusiveMinimum": true},
-          "unit": {"type": "string", "enum": ["m", "km", "nmi"]}}}]}}},
-    "limitsPerOwner": {"title": "Limits per owner", "description": "Output 'limits': one set of lines per owner (distance to that owner's seeds) instead of one set for all seeds.",
-      "minOccurs": 0, "maxOccurs": 1, "schema": {"type": "boolean", "default": false}},
-    "compression": {"title": "GeoTIFF compression", "description": "How the raster outputs are compressed, all lossless: fast (default; the code rasters ZSTD level 1 with predictor 2, Float32 rasters uncompressed: no lossless codec saves more than a tenth of a distance raster cheaply), small (ZSTD level 6 with predictors: the smallest files, slower), deflate (DEFLATE level 1 with predictors, for readers without ZSTD), none (uncompressed).",
-      "minOccurs": 0, "maxOccurs": 1,
-      "schema": {"type": "string", "enum": ["fast", "small", "deflate", "none"], "default": "fast"}},
-    "simplify": {"title": "Simplification tolerance", "description": "Douglas-Peucker tolerance of the boundary and limit lines, in cells; kept vertices stay exact locus points. 0 keeps every vertex.",
-      "minOccurs": 0, "maxOccurs": 1, "schema": {"type": "number", "minimum": 0, "default": 0}}
+    }
   })json");
   static const json outputs = json::parse(R"json({
     "ownership": {"title": "Ownership raster", "description": "Owner codes (0 = none) in the narrowest integer type that holds them (Byte up to 255 owners, UInt16 up to 65535, else Int32), a Cloud Optimized GeoTIFF with a raster attribute table (served also as ownership.aux.xml).",
@@ -197,7 +159,12 @@ json process_description(const std::string& base) {
     "preview": {"title": "Quicklook", "description": "PNG of the ownership in distinct colours with the boundary lines in white; one pixel per cell, or per n x n cells (the smallest integer n keeping the long side within 2000 px; the report's deliverables.preview gives it).",
       "schema": {"type": "string", "contentEncoding": "binary", "contentMediaType": "image/png"}}
   })json");
-  d["inputs"] = inputs;
+  // The seeds are the daemon's own input (uploads); every other one comes from the option
+  // table, in its order (rv/options.hpp).
+  json all = inputs;
+  for (const OptionSpec& o : job_options())
+    if (!o.input.empty()) all[std::string(o.input)] = process_input_description(o);
+  d["inputs"] = all;
   d["outputs"] = outputs;
   return d;
 }

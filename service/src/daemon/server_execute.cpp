@@ -10,6 +10,7 @@
 
 #include "rv/error.hpp"
 #include "rv/grid.hpp"
+#include "rv/options.hpp"
 #include "rv/text.hpp"
 #include "server_util.hpp"
 
@@ -34,14 +35,6 @@ const json& literal(const json& v, const std::string& input) {
   return v;
 }
 
-double positive_number(const json& raw, const std::string& input) {
-  const json& v = literal(raw, input);
-  if (!v.is_number()) bad(input, "must be a number, got " + type_name(v));
-  const double x = v.get<double>();
-  if (!std::isfinite(x) || !(x > 0.0)) bad(input, "must be a finite number > 0");
-  return x;
-}
-
 std::string string_value(const json& raw, const std::string& input) {
   const json& v = literal(raw, input);
   if (!v.is_string()) bad(input, "must be a string, got " + type_name(v));
@@ -50,20 +43,6 @@ std::string string_value(const json& raw, const std::string& input) {
 
 bool all_digits(std::string_view s) {
   return !s.empty() && s.size() <= 9 && std::all_of(s.begin(), s.end(), [](char c) { return c >= '0' && c <= '9'; });
-}
-
-std::array<double, 4> bbox_values(const json& array, const std::string& input) {
-  if (!array.is_array() || array.size() != 4) {
-    bad(input, "must be [xmin, ymin, xmax, ymax] (4 numbers; 3-D boxes are not supported)");
-  }
-  std::array<double, 4> b{};
-  for (size_t i = 0; i < 4; ++i) {
-    if (!array[i].is_number()) bad(input, "coordinate " + std::to_string(i) + " is not a number");
-    b[i] = array[i].get<double>();
-    if (!std::isfinite(b[i])) bad(input, "coordinate " + std::to_string(i) + " is not finite");
-  }
-  if (!(b[0] < b[2]) || !(b[1] < b[3])) bad(input, "needs xmin < xmax and ymin < ymax");
-  return b;
 }
 
 // A string member of an object, or "" when it is absent or not a string: json::value() would
@@ -244,43 +223,6 @@ void parse_outputs(const json& body, Execution& ex) {
   }
 }
 
-// limitDistances: an array of "12nmi", "24 nmi", "500m", "3.5km", plain numbers (in
-// distanceUnits), or {"value": 12, "unit": "nmi"}. Each is checked here with the façade's own
-// parser, so a bad one is a 400 before the job is queued.
-std::vector<std::string> limit_distances(const json& raw) {
-  const std::string input = "limitDistances";
-  const json& v = literal(raw, input);
-  const json items = v.is_array() ? v : json::array({v});
-  if (items.empty()) bad(input, "needs at least one distance");
-  if (items.size() > 64) bad(input, "at most 64 distances");
-  std::vector<std::string> out;
-  for (size_t i = 0; i < items.size(); ++i) {
-    const json& d = items[i];
-    const std::string at = input + "[" + std::to_string(i) + "]";
-    std::string text;
-    if (d.is_string()) {
-      text = d.get<std::string>();
-    } else if (d.is_number()) {
-      text = d.dump();
-    } else if (d.is_object() && d.contains("value") && d.at("value").is_number()) {
-      text = d.at("value").dump();
-      if (d.contains("unit")) {
-        if (!d.at("unit").is_string()) bad(at, "\"unit\" must be a string (m, km or nmi)");
-        text += d.at("unit").get<std::string>();
-      }
-    } else {
-      bad(at, "must be a string such as \"12nmi\", a number, or {\"value\": 12, \"unit\": \"nmi\"}");
-    }
-    try {
-      parse_limit_distance(text);
-    } catch (const Error& e) {
-      bad(at, e.what());
-    }
-    out.push_back(text);
-  }
-  return out;
-}
-
 }  // namespace
 
 const OutputInfo* find_output(std::string_view id) {
@@ -357,173 +299,124 @@ std::string checked_crs(const json& raw, const std::string& input) {
                  s.substr(0, 80) + "'");
 }
 
-Execution parse_execution(const json& body, const std::string& job_id, const ServerConfig& config) {
+namespace {
+
+void check_body_members(const json& body) {
   if (!body.is_object()) bad("(body)", "the execute request must be a JSON object");
   for (const auto& [key, value] : body.items()) {
     if (key == "subscriber") {
       throw Error(ErrorKind::unsupported, "callbacks (\"subscriber\") are not supported; poll /jobs/{jobId}");
     }
     if (key != "inputs" && key != "outputs" && key != "response") {
-      throw Error(ErrorKind::invalid_argument, "execute request: unknown member '" + key + "'");
+      throw Error(ErrorKind::invalid_argument, "execute request: unknown member '" + quote_input(key) + "'");
     }
   }
   if (!body.contains("inputs") || !body.at("inputs").is_object()) {
     bad("inputs", "the execute request needs an \"inputs\" object");
   }
-  const json& in = body.at("inputs");
-  Execution ex;
-  ex.inputs_summary = json::object();
-  ex.uploads = std::make_shared<VsiMemFiles>("/vsimem/rvoronoi/" + job_id);
-  JobSpec& spec = ex.spec;
+}
 
-  static const std::set<std::string> known = {"seeds",         "ownerField", "resolution",     "extent",
-                                              "crs",           "metric",     "method",         "maxDistance",
-                                              "distanceUnits", "validate",   "limitDistances", "limitsPerOwner",
-                                              "simplify",      "compression"};
-  for (const auto& [key, value] : in.items()) {
-    if (!known.count(key)) {
-      throw Error(ErrorKind::invalid_argument,
-                  "unknown input '" + key + "' (see GET /processes/voronoi for the inputs)");
-    }
-  }
-
-  // seeds: one layer or an array of layers.
+// seeds: one layer or an array of layers, staged in /vsimem/.
+void stage_seeds(const json& in, Execution& ex) {
   if (!in.contains("seeds")) bad("seeds", "is required");
-  {
-    const json& seeds = in.at("seeds");
-    json summary = json::array();
-    if (seeds.is_array()) {
-      if (seeds.empty()) bad("seeds", "the array of layers is empty");
-      for (size_t i = 0; i < seeds.size(); ++i) {
-        auto [path, s] = stage_seed_layer(seeds[i], "seeds[" + std::to_string(i) + "]", i, *ex.uploads);
-        spec.seeds.paths.push_back(path);
-        summary.push_back(s);
-      }
-    } else {
-      auto [path, s] = stage_seed_layer(seeds, "seeds", 0, *ex.uploads);
-      spec.seeds.paths.push_back(path);
+  const json& seeds = in.at("seeds");
+  json summary = json::array();
+  if (seeds.is_array()) {
+    if (seeds.empty()) bad("seeds", "the array of layers is empty");
+    for (size_t i = 0; i < seeds.size(); ++i) {
+      auto [path, s] = stage_seed_layer(seeds[i], "seeds[" + std::to_string(i) + "]", i, *ex.uploads);
+      ex.spec.seeds.paths.push_back(path);
       summary.push_back(s);
     }
-    ex.inputs_summary["seeds"] = summary;
+  } else {
+    auto [path, s] = stage_seed_layer(seeds, "seeds", 0, *ex.uploads);
+    ex.spec.seeds.paths.push_back(path);
+    summary.push_back(s);
   }
-  spec.seeds.allowed_drivers = {"GeoJSON", "GPKG", "ESRI Shapefile", "FlatGeobuf"};
+  ex.inputs_summary["seeds"] = summary;
+  ex.spec.seeds.allowed_drivers = {"GeoJSON", "GPKG", "ESRI Shapefile", "FlatGeobuf"};
   // Uploads are untrusted: in-memory paths only, no network, no other files (rv/seed_reader.hpp).
-  spec.seeds.confined = true;
+  ex.spec.seeds.confined = true;
+}
 
-  if (in.contains("ownerField")) {
-    const std::string f = string_value(in.at("ownerField"), "ownerField");
-    if (f.empty()) bad("ownerField", "must not be empty");
-    spec.seeds.owner_field = f;
+// Every other input, through the option table (rv/options.hpp). CRS definitions from a client
+// are restricted further (checked_crs: no definition that names a file or URL to open).
+void apply_inputs(const json& in, Execution& ex) {
+  std::string bbox_crs;
+  for (const auto& [key, value] : in.items()) {
+    if (key == "seeds") continue;
+    const OptionSpec* option = find_input(key);
+    if (option == nullptr) {
+      throw Error(ErrorKind::invalid_argument,
+                  "unknown input '" + quote_input(key) + "' (see GET /processes/voronoi for the inputs)");
+    }
+    OptionValue v = parse_input_value(*option, value);
+    if (key == "crs") v.text = checked_crs(value, "crs");
+    if (!v.box_crs.empty()) bbox_crs = checked_crs(v.box_crs, "extent.crs");
+    option->apply(ex.spec, v);
+    ex.inputs_summary[key] = value;
   }
-  if (!in.contains("resolution")) bad("resolution", "is required (cell size in grid-CRS units)");
-  spec.grid.resolution = positive_number(in.at("resolution"), "resolution");
+  if (in.contains("resolution") == false) bad("resolution", "is required (cell size in grid-CRS units)");
+  // The box defines the grid's CRS when no `crs` input is given; both must agree otherwise.
+  std::string& crs = ex.spec.seeds.target_crs;
+  if (!bbox_crs.empty()) {
+    if (crs.empty()) {
+      crs = bbox_crs;
+    } else if (crs != bbox_crs) {
+      bad("extent", "the bbox CRS (" + bbox_crs + ") differs from the 'crs' input (" + crs +
+                        "); give the extent in the grid's CRS");
+    }
+  }
+}
 
-  std::string crs;
-  if (in.contains("crs")) crs = checked_crs(in.at("crs"), "crs");
-  if (in.contains("extent")) {
-    const json& e = literal(in.at("extent"), "extent");
-    if (e.is_object()) {
-      if (!e.contains("bbox")) bad("extent", "an object extent needs \"bbox\"");
-      spec.grid.extent = bbox_values(e.at("bbox"), "extent");
-      if (e.contains("crs")) {
-        const std::string bbox_crs = checked_crs(e.at("crs"), "extent.crs");
-        if (crs.empty()) {
-          crs = bbox_crs;  // the box defines the grid's CRS when no `crs` input is given
-        } else if (crs != bbox_crs) {
-          bad("extent", "the bbox CRS (" + bbox_crs + ") differs from the 'crs' input (" + crs +
-                            "); give the extent in the grid's CRS");
-        }
-      }
-    } else {
-      spec.grid.extent = bbox_values(e, "extent");
-    }
+// With an explicit extent the grid size is known now: refuse an oversized job before it is
+// queued (run_job checks again, with the memory estimate, once the seeds are read).
+void check_grid_limits(const JobSpec& spec, const ServerConfig& config) {
+  if (!spec.grid.extent) return;
+  const auto& b = *spec.grid.extent;
+  const GridSpec g = make_grid(b[0], b[1], b[2], b[3], *spec.grid.resolution, "");
+  if (g.cell_count() > config.limits.max_cells) {
+    throw Error(ErrorKind::too_large, "input 'resolution': the grid would have " + std::to_string(g.width) + " x " +
+                                          std::to_string(g.height) + " cells, over this server's limit of " +
+                                          std::to_string(config.limits.max_cells));
   }
-  spec.seeds.target_crs = crs;
+  if (spec.validate && g.cell_count() > config.limits.validate_max_cells) {
+    throw Error(ErrorKind::too_large, "input 'validate': brute-force validation is limited to " +
+                                          std::to_string(config.limits.validate_max_cells) +
+                                          " cells on this server; the grid has " + std::to_string(g.cell_count()));
+  }
+}
 
-  if (in.contains("metric")) {
-    spec.metric = string_value(in.at("metric"), "metric");
-    if (spec.metric != "auto" && spec.metric != "planar" && spec.metric != "geodesic") {
-      bad("metric", "must be auto, planar or geodesic, got '" + spec.metric + "'");
-    }
-  }
-  if (in.contains("method")) {
-    const std::string m = string_value(in.at("method"), "method");
-    try {
-      spec.method = parse_method(m);
-    } catch (const Error& e) {
-      bad("method", e.what());
-    }
-  }
-  if (in.contains("maxDistance")) spec.max_distance = positive_number(in.at("maxDistance"), "maxDistance");
-  if (in.contains("distanceUnits")) {
-    spec.distance_units = string_value(in.at("distanceUnits"), "distanceUnits");
-    if (spec.distance_units != "m" && spec.distance_units != "km" && spec.distance_units != "nmi") {
-      bad("distanceUnits", "must be m, km or nmi, got '" + spec.distance_units + "'");
-    }
-  }
-  if (in.contains("validate")) {
-    const json& v = literal(in.at("validate"), "validate");
-    if (!v.is_boolean()) bad("validate", "must be a boolean");
-    spec.validate = v.get<bool>();
-  }
-  if (in.contains("limitDistances")) spec.outputs.limit_distances = limit_distances(in.at("limitDistances"));
-  if (in.contains("limitsPerOwner")) {
-    const json& v = literal(in.at("limitsPerOwner"), "limitsPerOwner");
-    if (!v.is_boolean()) bad("limitsPerOwner", "must be a boolean");
-    spec.outputs.limits_per_owner = v.get<bool>();
-  }
-  if (in.contains("simplify")) {
-    const json& v = literal(in.at("simplify"), "simplify");
-    if (!v.is_number() || !std::isfinite(v.get<double>()) || v.get<double>() < 0.0) {
-      bad("simplify", "must be a number of cells >= 0");
-    }
-    spec.outputs.simplify_cells = v.get<double>();
-  }
-  if (in.contains("compression")) {
-    const std::string c = string_value(in.at("compression"), "compression");
-    try {
-      spec.outputs.compression = parse_compression(c);
-    } catch (const Error& e) {
-      bad("compression", e.what());
-    }
-  }
-  for (const char* key : {"ownerField", "resolution", "extent", "crs", "metric", "method", "maxDistance",
-                          "distanceUnits", "validate", "limitDistances", "limitsPerOwner", "simplify", "compression"}) {
-    if (in.contains(key)) ex.inputs_summary[key] = in.at(key);
-  }
-
-  const int workers = std::max(1, config.jobs.workers);
-  spec.threads = config.jobs.threads_per_job > 0
-                     ? config.jobs.threads_per_job
-                     : std::max(1, static_cast<int>(std::thread::hardware_concurrency()) / workers);
-
-  // With an explicit extent the grid size is known now: refuse an oversized job before it is
-  // queued (run_job checks again, with the memory estimate, once the seeds are read).
-  if (spec.grid.extent) {
-    const auto& b = *spec.grid.extent;
-    const GridSpec g = make_grid(b[0], b[1], b[2], b[3], *spec.grid.resolution, "");
-    if (g.cell_count() > config.limits.max_cells) {
-      throw Error(ErrorKind::too_large, "input 'resolution': the grid would have " + std::to_string(g.width) + " x " +
-                                            std::to_string(g.height) + " cells, over this server's limit of " +
-                                            std::to_string(config.limits.max_cells));
-    }
-    if (spec.validate && g.cell_count() > config.limits.validate_max_cells) {
-      throw Error(ErrorKind::too_large, "input 'validate': brute-force validation is limited to " +
-                                            std::to_string(config.limits.validate_max_cells) +
-                                            " cells on this server; the grid has " + std::to_string(g.cell_count()));
-    }
-  }
-  parse_outputs(body, ex);
-  // The limit inputs and the limits output go together: either alone is a mistake to report
-  // now, not a job that fails (or silently ignores an input) later.
+// The limit inputs and the limits output go together: either alone is a mistake to report
+// now, not a job that fails (or silently ignores an input) later.
+void check_limits_pairing(const json& in, const Execution& ex) {
   const bool limits = std::find(ex.outputs.begin(), ex.outputs.end(), "limits") != ex.outputs.end();
-  if (limits && spec.outputs.limit_distances.empty()) {
+  if (limits && ex.spec.outputs.limit_distances.empty()) {
     bad("limitDistances", "is required with the output 'limits' (e.g. [\"12nmi\", \"24nmi\"])");
   }
   if (!limits && (in.contains("limitDistances") || in.contains("limitsPerOwner"))) {
     bad(in.contains("limitDistances") ? "limitDistances" : "limitsPerOwner",
         "applies to the output 'limits', which is not requested");
   }
+}
+
+}  // namespace
+
+Execution parse_execution(const json& body, const std::string& job_id, const ServerConfig& config) {
+  check_body_members(body);
+  const json& in = body.at("inputs");
+  Execution ex;
+  ex.inputs_summary = json::object();
+  ex.uploads = std::make_shared<VsiMemFiles>("/vsimem/rvoronoi/" + job_id);
+  stage_seeds(in, ex);
+  apply_inputs(in, ex);
+  const int workers = std::max(1, config.jobs.workers);
+  ex.spec.threads = config.jobs.threads_per_job > 0
+                        ? config.jobs.threads_per_job
+                        : std::max(1, static_cast<int>(std::thread::hardware_concurrency()) / workers);
+  check_grid_limits(ex.spec, config);
+  parse_outputs(body, ex);
+  check_limits_pairing(in, ex);
   return ex;
 }
 
