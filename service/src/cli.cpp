@@ -318,21 +318,17 @@ int cmd_validate(Args& args) {
   if (o.spec.seeds.paths.empty()) throw Error(ErrorKind::invalid_argument, "validate: no seed file given");
   std::vector<Method> methods =
       o.methods.empty() ? std::vector<Method>{Method::exact, Method::hv_scan, Method::h_scan} : o.methods;
-  gdal_init();
-  const LoadedSeeds loaded = load_seeds(seed_options_for_metric(o.spec.seeds, o.spec.metric));
-  const MetricPlan mp = plan_metric(o.spec.metric, o.spec.distance_units, loaded.crs);
-  const GridSpec grid = plan_grid(o.spec.grid, loaded);
-  ComputeOptions co;
-  co.metric = mp.metric;
-  co.threads = o.spec.threads;
-  geolocate_grid(co, loaded);  // geodesic on a projected grid: cells located on the ellipsoid
-  if (o.spec.max_distance) co.max_distance = *o.spec.max_distance / mp.to_output;
+  // The set-up is the job's own first stage (read the seeds, plan the grid and the metric).
+  const PreparedJob job = prepare_job(o.spec);
+  const LoadedSeeds& loaded = job.loaded;
+  const GridSpec& grid = job.grid;
+  ComputeOptions co = job.compute;
   co.method = Method::brute_force;
   const NearestField ref = compute(loaded.seeds, grid, co);
   nlohmann::json out;
   out["grid"] = {{"width", grid.width}, {"height", grid.height}, {"resolution", grid.res}};
-  out["metric"] = std::string(to_string(mp.metric.kind));
-  out["distance_units"] = mp.unit;
+  out["metric"] = std::string(to_string(job.metric.kind));
+  out["distance_units"] = job.unit;
   out["reference"] = {{"method", "brute-force"}, {"seconds", ref.seconds}};
   for (Method m : methods) {
     co.method = m;
@@ -346,7 +342,7 @@ int cmd_validate(Args& args) {
       out["methods"][std::string(to_string(m))] = {{"unsupported", e.what()}};
       continue;
     }
-    nlohmann::json j = stats_json(compare_fields(loaded.seeds, f, ref), mp.to_output);
+    nlohmann::json j = stats_json(compare_fields(loaded.seeds, f, ref), job.to_output);
     j["seconds"] = f.seconds;
     out["methods"][std::string(to_string(m))] = j;
   }

@@ -12,6 +12,7 @@
 #include <optional>
 
 #include "atomic_file.hpp"
+#include "job_run.hpp"
 #include "job_stream.hpp"
 #include "memory_watch.hpp"
 #include "rv/deliverables.hpp"
@@ -27,29 +28,6 @@
 
 namespace rv {
 namespace {
-
-using Clock = std::chrono::steady_clock;
-double seconds_since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
-
-// Removes every file this job wrote unless the job finishes: a failed job leaves nothing behind.
-class OutputGuard {
- public:
-  ~OutputGuard() {
-    if (committed_) return;
-    std::error_code ec;
-    for (const std::string& f : files_) {
-      std::filesystem::remove(f, ec);
-      std::filesystem::remove(f + ".aux.xml", ec);
-    }
-  }
-  void add(const std::string& f) { files_.push_back(f); }
-  void commit() { committed_ = true; }
-  const std::vector<std::string>& files() const { return files_; }
-
- private:
-  std::vector<std::string> files_;
-  bool committed_ = false;
-};
 
 nlohmann::json grid_json(const GridSpec& g, const CrsInfo& crs) {
   return {{"width", g.width},        {"height", g.height},
@@ -270,25 +248,14 @@ JobPlan plan_job(const JobSpec& spec, const GridSpec& grid, int64_t sites, Metri
   return p;
 }
 
-JobResult run_job(const JobSpec& spec, const JobLimits& limits, const JobHooks& hooks) {
-  const auto start = Clock::now();
-  auto progress = [&](const char* stage, double f) {
-    if (hooks.progress) hooks.progress(stage, f);
-  };
-  auto check_cancel = [&] {
-    if (hooks.cancel && hooks.cancel->load()) throw Error(ErrorKind::cancelled, "job dismissed");
-  };
-  gdal_init();
-  detail::MemoryWatch memory;
-  OutputGuard guard;
-  nlohmann::json report;
-  nlohmann::json timings;
+namespace {
 
-  // 1. Seeds.
-  progress("read", 0.0);
+// The stricter of two limits, where 0 means none.
+int64_t stricter(int64_t a, int64_t b) { return a <= 0 ? b : b <= 0 ? a : std::min(a, b); }
+
+// Stage "read": the seeds with the job's limits and the memory limit for reading.
+LoadedSeeds read_seeds(const JobSpec& spec, const JobLimits& limits) {
   SeedReadOptions read = seed_options_for_metric(spec.seeds, spec.metric);
-  // The stricter of two limits, where 0 means none.
-  auto stricter = [](int64_t a, int64_t b) { return a <= 0 ? b : b <= 0 ? a : std::min(a, b); };
   read.max_features = stricter(read.max_features, limits.max_features);
   read.max_vertices = stricter(read.max_vertices, limits.max_vertices);
   read.max_input_bytes = stricter(read.max_input_bytes, limits.max_input_bytes);
@@ -297,368 +264,290 @@ JobResult run_job(const JobSpec& spec, const JobLimits& limits, const JobHooks& 
     // Outputs must line up with the template raster, so the seeds go into its CRS.
     read.target_crs = read_grid(spec.grid.like).crs;
   }
-  auto t = Clock::now();
-  LoadedSeeds loaded = load_seeds(read);
-  timings["read"] = seconds_since(t);
-  progress("read", 1.0);
-  check_cancel();
+  return load_seeds(read);
+}
 
-  // 2. Grid, metric, units, limits: everything is decided before the big allocations.
-  const GridSpec grid = plan_grid(spec.grid, loaded);
-  const MetricPlan mp = plan_metric(spec.metric, spec.distance_units, loaded.crs);
-  const bool geodesic = mp.metric.kind == MetricSpec::geodesic;
-  const double factor = mp.to_output;
-  const std::string& unit_name = mp.unit;
-  ComputeOptions options;
-  options.metric = mp.metric;
-  options.method = spec.method;
-  options.threads = spec.threads;
-  geolocate_grid(options, loaded);
-  const bool located = options.geolocator != nullptr;  // geodesic on a projected grid
-  if (spec.max_distance) {
-    if (!std::isfinite(*spec.max_distance) || *spec.max_distance < 0.0)
-      throw Error(ErrorKind::invalid_argument, "max distance must be a non-negative number");
-    options.max_distance = *spec.max_distance / factor;
-  }
-  // Limit distances, converted to metric units (CRS units on planar grids).
-  const OutputRequest& deliver = spec.outputs;
-  std::vector<double> limit_metric;
-  if (!deliver.limits.empty() && deliver.limit_distances.empty())
+// The limit lines' distances in metric units (metres on geodesic grids, CRS units on planar).
+std::vector<double> limit_distances_in_metric_units(const JobSpec& spec, const PreparedJob& job) {
+  const OutputRequest& out = spec.outputs;
+  if (!out.limits.empty() && out.limit_distances.empty())
     throw Error(ErrorKind::invalid_argument, "limit lines need limit distances (e.g. --limit-distances 12nmi,24nmi)");
-  for (const std::string& text : deliver.limit_distances) {
+  const bool geodesic = job.metric.kind == MetricSpec::geodesic;
+  std::vector<double> metric;
+  for (const std::string& text : out.limit_distances) {
     const LimitDistance d = parse_limit_distance(text);
-    if (!d.unit.empty()) {
-      if (!geodesic && loaded.crs.wkt.empty())
-        throw Error(ErrorKind::invalid_argument, "limit distance '" + text + "' has a unit, but the seeds have no CRS");
-      // Metric units are metres on geodesic grids, CRS units on planar ones.
-      limit_metric.push_back(d.value * metres_per_unit(parse_distance_unit(d.unit)) /
-                             (geodesic ? 1.0 : loaded.crs.linear_unit));
-    } else {
-      limit_metric.push_back(d.value / factor);
+    if (d.unit.empty()) {
+      metric.push_back(d.value / job.to_output);
+      continue;
     }
+    if (!geodesic && job.loaded.crs.wkt.empty())
+      throw Error(ErrorKind::invalid_argument, "limit distance '" + text + "' has a unit, but the seeds have no CRS");
+    metric.push_back(d.value * metres_per_unit(parse_distance_unit(d.unit)) /
+                     (geodesic ? 1.0 : job.loaded.crs.linear_unit));
   }
-  for (double d : limit_metric)
-    if (d > options.max_distance)
+  for (double d : metric)
+    if (d > job.compute.max_distance)
       throw Error(ErrorKind::invalid_argument,
                   "a limit distance exceeds the max distance: cells beyond it have no distance to draw the line in");
-  // The margin raster is not available on a projected geodesic grid yet (rv/deliverables.hpp):
-  // refused before anything is computed.
-  if (located && !deliver.margin.empty())
+  return metric;
+}
+
+// Requests refused before anything is computed, and the limits of the planned job.
+void check_plan(const JobSpec& spec, const JobLimits& limits, const PreparedJob& job) {
+  const OutputRequest& out = spec.outputs;
+  // The margin raster is not available on a projected geodesic grid yet (rv/deliverables.hpp).
+  if (job.located() && !out.margin.empty())
     throw Error(ErrorKind::unsupported,
                 "the margin raster is not available for the geodesic metric on a projected grid yet; use a "
                 "geographic (longitude/latitude) grid (--crs EPSG:4326), or metric planar");
-  if (!(deliver.simplify_cells >= 0.0) || !std::isfinite(deliver.simplify_cells))
+  if (!(out.simplify_cells >= 0.0) || !std::isfinite(out.simplify_cells))
     throw Error(ErrorKind::invalid_argument, "the simplification tolerance must be a non-negative number of cells");
-  const int64_t cells = grid.cell_count();
+  const int64_t cells = job.grid.cell_count();
   if (cells > limits.max_cells)
     throw Error(ErrorKind::too_large, "the grid has " + std::to_string(cells) + " cells, over the limit of " +
                                           std::to_string(limits.max_cells));
-  const int64_t sites = static_cast<int64_t>(loaded.seeds.sites().size());
-  const JobPlan plan = plan_job(spec, grid, sites, mp.metric.kind, seed_memory_bytes(loaded));
-  const int64_t need = plan.memory_bytes;
   const int64_t budget = memory_budget(limits);
-  if (budget > 0 && need > budget)
-    throw Error(ErrorKind::too_large, "the job needs about " + std::to_string(need >> 20) + " MiB for " +
-                                          std::to_string(cells) + " cells, over the memory limit of " +
+  if (budget > 0 && job.plan.memory_bytes > budget)
+    throw Error(ErrorKind::too_large, "the job needs about " + std::to_string(job.plan.memory_bytes >> 20) +
+                                          " MiB for " + std::to_string(cells) + " cells, over the memory limit of " +
                                           std::to_string(budget >> 20) + " MiB");
   if (spec.validate && cells > limits.validate_max_cells)
     throw Error(ErrorKind::too_large, "validate runs brute force, allowed up to " +
                                           std::to_string(limits.validate_max_cells) + " cells; this grid has " +
                                           std::to_string(cells));
+}
 
-  // How each raster GeoTIFF is described; the same on both paths. The code rasters state their
-  // largest code, so that they are written in the narrowest type that holds it (owner codes are
-  // 1..K; feature numbers at most the largest input position).
-  GeoTiffOptions common;
-  common.cloud_optimized = spec.outputs.cloud_optimized;
-  common.threads = spec.threads;
-  common.compression = spec.outputs.compression;
-  GeoTiffOptions ownership_options = common;
-  ownership_options.categorical = true;
-  ownership_options.category_labels = loaded.seeds.owner_labels();
-  ownership_options.max_code = loaded.seeds.owner_count();
-  ownership_options.metadata["CONTENT"] = "owner code of the nearest seed (0 = none)";
-  GeoTiffOptions distance_options = common;
-  distance_options.units = unit_name;
-  distance_options.metadata["CONTENT"] = "distance to the nearest seed";
-  distance_options.metadata["UNITS"] = unit_name;
-  distance_options.metadata["METRIC"] = geodesic ? "geodesic" : "planar";
-  GeoTiffOptions feature_options = common;
-  feature_options.categorical = true;
-  feature_options.max_code = loaded.input_position.empty()
-                                 ? static_cast<int64_t>(loaded.seeds.features().size())
-                                 : *std::max_element(loaded.input_position.begin(), loaded.input_position.end());
-  feature_options.metadata["CONTENT"] = "1-based position of the nearest seed feature in the input (0 = none)";
+}  // namespace
 
-  options.cancel = hooks.cancel;
-  nlohmann::json write_times = nlohmann::json::object();
-  nlohmann::json outputs;
-  double compute_seconds = 0.0;
-  int64_t contested_cells = 0;
-  int threads_used = 1;
-  NearestField field;  // the whole field (whole path only)
-  if (plan.streamed) {
-    // 3+5. Compute strip by strip, each strip encoded while the next is computed.
-    detail::StreamJob job;
-    job.seeds = &loaded.seeds;
-    job.grid = grid;
-    job.compute = options;
-    job.strip_rows = plan.strip_rows;
-    job.distance_factor = factor;
-    job.feature_numbering = loaded.input_position;
-    job.progress = [&](const char* stage, double f) { progress(stage, f); };
-    job.will_write = [&](const std::string& path) { guard.add(path); };
-    using Product = detail::StreamTarget::Product;
-    if (!spec.outputs.ownership.empty())
-      job.targets.push_back({Product::ownership, spec.outputs.ownership, ownership_options, "ownership"});
-    if (!spec.outputs.distance.empty())
-      job.targets.push_back({Product::distance, spec.outputs.distance, distance_options, "distance"});
-    if (!spec.outputs.nearest_feature.empty())
-      job.targets.push_back(
-          {Product::nearest_feature, spec.outputs.nearest_feature, feature_options, "nearest_feature"});
-    progress("compute", 0.0);
-    const detail::StreamStats st = detail::run_streamed(job);
-    compute_seconds = st.compute;
-    contested_cells = st.contested_cells;
-    threads_used = st.threads;
-    for (const auto& [name, seconds] : st.write) write_times[name] = seconds;
-    for (const detail::StreamTarget& t : job.targets) outputs[t.name] = t.path;
-    timings["compute"] = st.compute;
-    // compute and write overlap: their sum exceeds the wall time they took together.
-    timings["streamed"] = {{"strips", st.strips},
-                           {"rows_per_strip", plan.strip_rows},
-                           {"wall", st.wall},
-                           {"convert", st.convert},
-                           {"compute_waited_for_writer", st.compute_waited},
-                           {"writer_waited_for_compute", st.write_waited}};
-  } else {
-    // 3. Compute.
-    options.progress = [&](double f) { progress("compute", f); };
-    field = compute(loaded.seeds, grid, options);
-    compute_seconds = field.seconds;
-    contested_cells = field.contested_cells;
-    threads_used = field.threads;
-    timings["compute"] = field.seconds;
+PreparedJob prepare_job(const JobSpec& spec, const JobLimits& limits, const JobHooks& hooks) {
+  gdal_init();
+  PreparedJob job;
+  if (hooks.progress) hooks.progress("read", 0.0);
+  const auto t = detail::Clock::now();
+  job.loaded = read_seeds(spec, limits);
+  job.read_seconds = detail::seconds_since(t);
+  if (hooks.progress) hooks.progress("read", 1.0);
+  if (hooks.cancel && hooks.cancel->load()) throw Error(ErrorKind::cancelled, "job dismissed");
 
-    // 4. Validate against brute force.
-    if (spec.validate) {
-      t = Clock::now();
-      ComputeOptions brute = options;
-      brute.method = Method::brute_force;
-      brute.progress = [&](double f) { progress("validate", f); };
-      const NearestField reference = compute(loaded.seeds, grid, brute);
-      const ValidationStats v = compare_fields(loaded.seeds, field, reference);
-      report["validation"] = {{"reference", "brute-force"},
-                              {"cells", v.cells},
-                              {"wrong_cells", v.wrong_cells},
-                              {"wrong_owner_cells", v.wrong_owner_cells},
-                              {"tie_cells", v.tie_cells},
-                              {"nodata_mismatch", v.nodata_mismatch},
-                              {"max_error", v.max_error * factor},
-                              {"max_error_cells", v.max_error_cells},
-                              {"reference_seconds", reference.seconds}};
-      timings["validate"] = seconds_since(t);
-    }
-    check_cancel();
-
-    // 5. Write.
-    progress("write", 0.0);
-    if (!spec.outputs.ownership.empty()) {
-      t = Clock::now();
-      const Raster<int32_t> owners = owner_raster(loaded.seeds, field, spec.threads);
-      guard.add(spec.outputs.ownership);
-      write_geotiff(spec.outputs.ownership, owners, 0.0, ownership_options);
-      write_times["ownership"] = seconds_since(t);
-      outputs["ownership"] = spec.outputs.ownership;
-    }
-    progress("write", 0.4);
-    if (!spec.outputs.distance.empty()) {
-      t = Clock::now();
-      const Raster<float> dist = factor == 1.0 ? field.distance : scaled_distance(field, factor, spec.threads);
-      guard.add(spec.outputs.distance);
-      write_geotiff(spec.outputs.distance, dist, static_cast<double>(kNoDistance), distance_options);
-      write_times["distance"] = seconds_since(t);
-      outputs["distance"] = spec.outputs.distance;
-    }
-    progress("write", 0.8);
-    if (!spec.outputs.nearest_feature.empty()) {
-      t = Clock::now();
-      guard.add(spec.outputs.nearest_feature);
-      write_geotiff(spec.outputs.nearest_feature,
-                    feature_raster(loaded.seeds, field, spec.threads, loaded.input_position), 0.0, feature_options);
-      write_times["nearest_feature"] = seconds_since(t);
-      outputs["nearest_feature"] = spec.outputs.nearest_feature;
-    }
+  // Grid, metric, units, limits: everything is decided before the big allocations.
+  job.grid = plan_grid(spec.grid, job.loaded);
+  const MetricPlan mp = plan_metric(spec.metric, spec.distance_units, job.loaded.crs);
+  job.metric = mp.metric;
+  job.to_output = mp.to_output;
+  job.unit = mp.unit;
+  job.compute.metric = mp.metric;
+  job.compute.method = spec.method;
+  job.compute.threads = spec.threads;
+  job.compute.cancel = hooks.cancel;
+  geolocate_grid(job.compute, job.loaded);
+  if (spec.max_distance) {
+    if (!std::isfinite(*spec.max_distance) || *spec.max_distance < 0.0)
+      throw Error(ErrorKind::invalid_argument, "max distance must be a non-negative number");
+    job.compute.max_distance = *spec.max_distance / job.to_output;
   }
+  job.limit_distances = limit_distances_in_metric_units(spec, job);
+  job.plan = plan_job(spec, job.grid, static_cast<int64_t>(job.loaded.seeds.sites().size()), mp.metric.kind,
+                      seed_memory_bytes(job.loaded));
+  check_plan(spec, limits, job);
+  return job;
+}
 
-  // 6. Deliverables, from an exact field (a scan's ownership is not exact).
-  if (deliver.any_deliverable()) {
-    check_cancel();
-    progress("deliver", 0.0);
-    nlohmann::json deliver_times, deliver_report;
-    const NearestField* exact_field = &field;
-    NearestField exact_copy;
-    if (spec.method != Method::exact && spec.method != Method::brute_force) {
-      ComputeOptions eo = options;
-      eo.method = Method::exact;
-      eo.progress = nullptr;
-      exact_copy = compute(loaded.seeds, grid, eo);
-      exact_field = &exact_copy;
-      deliver_times["exact_field"] = exact_copy.seconds;
-    }
-    // The deliverables measure with the field's own metric (projected geodesic grids: located
-    // on the ellipsoid, positions and outputs in the grid's CRS).
-    std::unique_ptr<SiteMetric> metric_ptr;
-    if (located)
-      metric_ptr = std::make_unique<LocatedGeodesicSiteMetric>(loaded.seeds, exact_field->metric, options.geolocator,
-                                                               options.grid_polygons);
-    else if (exact_field->metric.kind == MetricSpec::geodesic)
-      metric_ptr = std::make_unique<GeodesicSiteMetric>(loaded.seeds, exact_field->metric);
-    else
-      metric_ptr = std::make_unique<PlanarSiteMetric>(loaded.seeds, Vec2{grid.xmin, grid.ymax});
-    const SiteMetric& metric = *metric_ptr;
-    const OwnerIndex index(metric);
-    // One cell's length in metric units near the grid's centre (degrees are not metres).
-    const Vec2 mid{grid.centre_x(grid.width / 2), grid.centre_y(grid.height / 2)};
-    const double cell_length = metric.point_distance(mid, Vec2{mid.x + grid.res, mid.y});
-    VectorOutputOptions vo;
-    vo.crs = loaded.crs.wkt;
-    vo.distance_factor = factor;
-    vo.distance_units = unit_name;
-    BoundaryResult boundaries;
-    if (!deliver.boundaries.empty() || !deliver.tripoints.empty() || !deliver.preview.empty()) {
-      t = Clock::now();
-      BoundaryOptions bo;
-      bo.simplify_cells = deliver.simplify_cells;
-      bo.threads = spec.threads;
-      boundaries = extract_boundaries(*exact_field, index, bo);
-      const BoundaryStats& st = boundaries.stats;
-      deliver_report["boundaries"] = {{"lines", boundaries.lines.size()},
-                                      {"vertices", st.vertices},
-                                      {"vertices_before_simplify", st.vertices_before_simplify},
-                                      {"tripoints", boundaries.tripoints.size()},
-                                      {"crossings", st.crossings},
-                                      {"saddles", st.saddles},
-                                      {"multi_owner_squares", st.multi_owner_squares},
-                                      {"unresolved_tripoints", st.unresolved_tripoints},
-                                      {"sliver_crossings", st.sliver_crossings},
-                                      {"unresolved_slivers", st.unresolved_slivers},
-                                      {"max_residual", st.max_residual * factor},
-                                      {"max_residual_cells", st.max_residual / cell_length},
-                                      {"simplify_cells", deliver.simplify_cells}};
-      if (!deliver.boundaries.empty()) {
-        guard.add(deliver.boundaries);
-        write_boundaries(deliver.boundaries, boundaries, metric, vo);
-        outputs["boundaries"] = deliver.boundaries;
-      }
-      if (!deliver.tripoints.empty()) {
-        guard.add(deliver.tripoints);
-        write_tripoints(deliver.tripoints, boundaries, metric, vo);
-        outputs["tripoints"] = deliver.tripoints;
-      }
-      deliver_times["boundaries"] = seconds_since(t);
-    }
-    progress("deliver", 0.3);
-    if (!deliver.limits.empty()) {
-      check_cancel();
-      t = Clock::now();
-      LimitOptions lo;
-      lo.per_owner = deliver.limits_per_owner;
-      lo.simplify_cells = deliver.simplify_cells;
-      lo.threads = spec.threads;
-      const LimitResult limits = extract_limits(*exact_field, index, limit_metric, lo);
-      guard.add(deliver.limits);
-      write_limits(deliver.limits, limits, loaded.seeds, vo);
-      outputs["limits"] = deliver.limits;
-      nlohmann::json ds = nlohmann::json::array();
-      for (double d : limit_metric) ds.push_back(d * factor);
-      deliver_report["limits"] = {{"distances", ds},
-                                  {"as_given", deliver.limit_distances},
-                                  {"per_owner", deliver.limits_per_owner},
-                                  {"lines", limits.lines.size()},
-                                  {"vertices", limits.vertices},
-                                  {"max_residual", limits.max_residual * factor},
-                                  {"max_residual_cells", limits.max_residual / cell_length}};
-      deliver_times["limits"] = seconds_since(t);
-    }
-    progress("deliver", 0.5);
-    std::optional<Raster<int32_t>> owner_codes;
-    if (!deliver.regions.empty() || !deliver.preview.empty())
-      owner_codes = owner_raster(loaded.seeds, *exact_field, spec.threads);
-    if (!deliver.regions.empty()) {
-      check_cancel();
-      t = Clock::now();
-      guard.add(deliver.regions);
-      const RegionStats rs = write_regions(deliver.regions, *owner_codes, loaded.seeds, vo);
-      outputs["regions"] = deliver.regions;
-      deliver_report["regions"] = {{"owners", rs.owners}, {"polygons", rs.polygons}};
-      deliver_times["regions"] = seconds_since(t);
-    }
-    progress("deliver", 0.7);
-    if (!deliver.margin.empty()) {
-      check_cancel();
-      t = Clock::now();
-      Raster<float> margin = margin_raster(*exact_field, index, spec.threads);
-      if (factor != 1.0)
-        for (float& v : margin.cells())
-          if (v != kNoDistance) v = static_cast<float>(v * factor);
-      GeoTiffOptions o = common;
-      o.units = unit_name;
-      o.metadata["CONTENT"] = "distance to the nearest seed of another owner minus distance to the own nearest seed";
-      o.metadata["UNITS"] = unit_name;
-      guard.add(deliver.margin);
-      write_geotiff(deliver.margin, margin, static_cast<double>(kNoDistance), o);
-      outputs["margin"] = deliver.margin;
-      deliver_times["margin"] = seconds_since(t);
-    }
-    progress("deliver", 0.9);
-    if (!deliver.preview.empty()) {
-      check_cancel();
-      t = Clock::now();
-      guard.add(deliver.preview);
-      const PreviewInfo pi = write_preview(deliver.preview, *owner_codes, &boundaries);
-      outputs["preview"] = deliver.preview;
-      deliver_report["preview"] = {{"width", pi.width}, {"height", pi.height}, {"cells_per_pixel", pi.step}};
-      deliver_times["preview"] = seconds_since(t);
-    }
-    progress("deliver", 1.0);
-    timings["deliverables"] = deliver_times;
-    report["deliverables"] = deliver_report;
+namespace {
+
+// How each raster GeoTIFF is described; the same on both paths. The code rasters state their
+// largest code, so that they are written in the narrowest type that holds it (owner codes are
+// 1..K; feature numbers at most the largest input position).
+struct RasterTargets {
+  GeoTiffOptions ownership, distance, feature;
+};
+
+RasterTargets raster_targets(const JobSpec& spec, const PreparedJob& job) {
+  const LoadedSeeds& loaded = job.loaded;
+  RasterTargets t{detail::raster_options(spec), detail::raster_options(spec), detail::raster_options(spec)};
+  t.ownership.categorical = true;
+  t.ownership.category_labels = loaded.seeds.owner_labels();
+  t.ownership.max_code = loaded.seeds.owner_count();
+  t.ownership.metadata["CONTENT"] = "owner code of the nearest seed (0 = none)";
+  t.distance.units = job.unit;
+  t.distance.metadata["CONTENT"] = "distance to the nearest seed";
+  t.distance.metadata["UNITS"] = job.unit;
+  t.distance.metadata["METRIC"] = job.metric.kind == MetricSpec::geodesic ? "geodesic" : "planar";
+  t.feature.categorical = true;
+  t.feature.max_code = loaded.input_position.empty()
+                           ? static_cast<int64_t>(loaded.seeds.features().size())
+                           : *std::max_element(loaded.input_position.begin(), loaded.input_position.end());
+  t.feature.metadata["CONTENT"] = "1-based position of the nearest seed feature in the input (0 = none)";
+  return t;
+}
+
+// Stages "compute" and "write" together: strip by strip, each strip encoded while the next is
+// computed (JobPlan::streamed).
+void compute_streamed(detail::JobRun& run, const PreparedJob& job, const RasterTargets& targets) {
+  const JobSpec& spec = run.spec;
+  detail::StreamJob stream;
+  stream.seeds = &job.loaded.seeds;
+  stream.grid = job.grid;
+  stream.compute = job.compute;
+  stream.strip_rows = job.plan.strip_rows;
+  stream.distance_factor = job.to_output;
+  stream.feature_numbering = job.loaded.input_position;
+  stream.progress = [&](const char* stage, double f) { run.progress(stage, f); };
+  stream.will_write = [&](const std::string& path) { run.will_write(path); };
+  using Product = detail::StreamTarget::Product;
+  if (!spec.outputs.ownership.empty())
+    stream.targets.push_back({Product::ownership, spec.outputs.ownership, targets.ownership, "ownership"});
+  if (!spec.outputs.distance.empty())
+    stream.targets.push_back({Product::distance, spec.outputs.distance, targets.distance, "distance"});
+  if (!spec.outputs.nearest_feature.empty())
+    stream.targets.push_back(
+        {Product::nearest_feature, spec.outputs.nearest_feature, targets.feature, "nearest_feature"});
+  run.progress("compute", 0.0);
+  const detail::StreamStats st = detail::run_streamed(stream);
+  run.compute_seconds = st.compute;
+  run.contested_cells = st.contested_cells;
+  run.threads_used = st.threads;
+  for (const auto& [name, seconds] : st.write) run.write_times[name] = seconds;
+  for (const detail::StreamTarget& t : stream.targets) run.wrote(t.name, t.path);
+  run.timings["compute"] = st.compute;
+  // compute and write overlap: their sum exceeds the wall time they took together.
+  run.timings["streamed"] = {{"strips", st.strips},
+                             {"rows_per_strip", job.plan.strip_rows},
+                             {"wall", st.wall},
+                             {"convert", st.convert},
+                             {"compute_waited_for_writer", st.compute_waited},
+                             {"writer_waited_for_compute", st.write_waited}};
+}
+
+// Stage "compute": the whole field.
+NearestField compute_whole(detail::JobRun& run, const PreparedJob& job) {
+  ComputeOptions options = job.compute;
+  options.progress = [&](double f) { run.progress("compute", f); };
+  NearestField field = compute(job.loaded.seeds, job.grid, options);
+  run.compute_seconds = field.seconds;
+  run.contested_cells = field.contested_cells;
+  run.threads_used = field.threads;
+  run.timings["compute"] = field.seconds;
+  return field;
+}
+
+// Stage "validate": the field against brute force.
+void validate_stage(detail::JobRun& run, const PreparedJob& job, const NearestField& field) {
+  if (!run.spec.validate) return;
+  detail::timed(run.timings, "validate", [&] {
+    ComputeOptions brute = job.compute;
+    brute.method = Method::brute_force;
+    brute.progress = [&](double f) { run.progress("validate", f); };
+    const NearestField reference = compute(job.loaded.seeds, job.grid, brute);
+    const ValidationStats v = compare_fields(job.loaded.seeds, field, reference);
+    run.report["validation"] = {{"reference", "brute-force"},
+                                {"cells", v.cells},
+                                {"wrong_cells", v.wrong_cells},
+                                {"wrong_owner_cells", v.wrong_owner_cells},
+                                {"tie_cells", v.tie_cells},
+                                {"nodata_mismatch", v.nodata_mismatch},
+                                {"max_error", v.max_error * job.to_output},
+                                {"max_error_cells", v.max_error_cells},
+                                {"reference_seconds", reference.seconds}};
+  });
+  run.check_cancel();
+}
+
+// Stage "write": the rasters of the whole field.
+void write_rasters(detail::JobRun& run, const PreparedJob& job, const NearestField& field,
+                   const RasterTargets& targets) {
+  const JobSpec& spec = run.spec;
+  const SeedSet& seeds = job.loaded.seeds;
+  run.progress("write", 0.0);
+  if (!spec.outputs.ownership.empty()) {
+    detail::timed(run.write_times, "ownership", [&] {
+      const Raster<int32_t> owners = owner_raster(seeds, field, spec.threads);
+      run.will_write(spec.outputs.ownership);
+      write_geotiff(spec.outputs.ownership, owners, 0.0, targets.ownership);
+    });
+    run.wrote("ownership", spec.outputs.ownership);
   }
-  timings["write"] = write_times;
-  timings["total"] = seconds_since(start);
+  run.progress("write", 0.4);
+  if (!spec.outputs.distance.empty()) {
+    detail::timed(run.write_times, "distance", [&] {
+      const double f = job.to_output;
+      const Raster<float> dist = f == 1.0 ? field.distance : scaled_distance(field, f, spec.threads);
+      run.will_write(spec.outputs.distance);
+      write_geotiff(spec.outputs.distance, dist, static_cast<double>(kNoDistance), targets.distance);
+    });
+    run.wrote("distance", spec.outputs.distance);
+  }
+  run.progress("write", 0.8);
+  if (!spec.outputs.nearest_feature.empty()) {
+    detail::timed(run.write_times, "nearest_feature", [&] {
+      run.will_write(spec.outputs.nearest_feature);
+      write_geotiff(spec.outputs.nearest_feature, feature_raster(seeds, field, spec.threads, job.loaded.input_position),
+                    0.0, targets.feature);
+    });
+    run.wrote("nearest_feature", spec.outputs.nearest_feature);
+  }
+}
 
+// Stage "report": what was computed, how, from what, and what it cost.
+void assemble_report(detail::JobRun& run, const PreparedJob& job, const detail::MemoryWatch& memory,
+                     detail::Clock::time_point start) {
+  const JobSpec& spec = run.spec;
+  const LoadedSeeds& loaded = job.loaded;
+  const JobPlan& plan = job.plan;
+  nlohmann::json& report = run.report;
+  run.timings["write"] = run.write_times;
+  run.timings["total"] = detail::seconds_since(start);
   report["rvoronoi"] = kVersion;
-  report["grid"] = grid_json(grid, loaded.crs);
+  report["grid"] = grid_json(job.grid, loaded.crs);
   report["method"] = to_string(spec.method);
-  report["metric"] = geodesic ? "geodesic" : "planar";
+  report["metric"] = job.metric.kind == MetricSpec::geodesic ? "geodesic" : "planar";
   // Projected geodesic grids: where the cells were located and the seeds measured.
-  if (located) report["geodesic_crs"] = loaded.seed_crs.name;
-  report["threads"] = threads_used;
-  report["distance_units"] = unit_name;
+  if (job.located()) report["geodesic_crs"] = loaded.seed_crs.name;
+  report["threads"] = run.threads_used;
+  report["distance_units"] = job.unit;
   report["compression"] = to_string(spec.outputs.compression);
   if (spec.max_distance) report["max_distance"] = *spec.max_distance;
   report["seeds"] = seeds_json(loaded);
-  report["contested_cells"] = contested_cells;
+  report["contested_cells"] = run.contested_cells;
   report["streaming"] =
       plan.streamed ? nlohmann::json{{"streamed", true}, {"rows_per_strip", plan.strip_rows}, {"strips", plan.strips}}
                     : nlohmann::json{{"streamed", false}, {"why_not", plan.why_whole}};
   // The peak is the larger of reading the seeds and computing with them (the seeds included).
   report["memory_estimate_bytes"] = std::max(plan.memory_bytes, loaded.report.reading_bytes);
-  report["timings_s"] = timings;
-  report["compute_ns_per_cell"] = compute_seconds * 1e9 / static_cast<double>(std::max<int64_t>(cells, 1));
+  report["timings_s"] = run.timings;
+  const auto cells = static_cast<double>(std::max<int64_t>(job.grid.cell_count(), 1));
+  report["compute_ns_per_cell"] = run.compute_seconds * 1e9 / cells;
   // The job's own peak, not the process's (a daemon's high-water mark is its largest job ever).
   report["peak_memory_bytes"] = memory.peak_growth();
   report["peak_memory_shared"] = memory.shared();
-  report["outputs"] = outputs;
+  report["outputs"] = run.outputs;
+}
 
-  if (!spec.outputs.report.empty()) {
-    guard.add(spec.outputs.report);
-    write_file_atomically(spec.outputs.report, json_text(report, 2) + "\n");
+}  // namespace
+
+JobResult run_job(const JobSpec& spec, const JobLimits& limits, const JobHooks& hooks) {
+  const auto start = detail::Clock::now();
+  detail::MemoryWatch memory;
+  detail::JobRun run(spec, limits, hooks);
+  const PreparedJob job = prepare_job(spec, limits, hooks);
+  run.timings["read"] = job.read_seconds;
+  const RasterTargets targets = raster_targets(spec, job);
+  NearestField field;  // the whole field (whole path only)
+  if (job.plan.streamed) {
+    compute_streamed(run, job, targets);
+  } else {
+    field = compute_whole(run, job);
+    validate_stage(run, job, field);
+    write_rasters(run, job, field, targets);
   }
-  progress("write", 1.0);
-  JobResult result{report, guard.files()};
-  guard.commit();
+  detail::deliver(run, job, field);
+  assemble_report(run, job, memory, start);
+  if (!spec.outputs.report.empty()) {
+    run.will_write(spec.outputs.report);
+    write_file_atomically(spec.outputs.report, json_text(run.report, 2) + "\n");
+  }
+  run.progress("write", 1.0);
+  JobResult result{run.report, run.guard.files()};
+  run.guard.commit();
   return result;
 }
 

@@ -103,7 +103,7 @@ void MemoryWatch::sample_loop() {
   }
 }
 
-int64_t MemoryWatch::peak_growth() {
+int64_t MemoryWatch::peak_growth() const {
   int64_t peak = std::max(peak_.load(), resident_bytes());
   if (hwm_reset_ && !shared_) peak = std::max(peak, status_field("VmHWM:"));
   return std::max<int64_t>(0, peak - start_);

@@ -32,7 +32,7 @@ class MemoryWatch {
   // Resident bytes when the watch started.
   int64_t resident_at_start() const { return start_; }
   // The highest resident size seen so far minus resident_at_start() (>= 0).
-  int64_t peak_growth();
+  int64_t peak_growth() const;
   // True when another watch was active at some time during this one's life: the growth may
   // include the other jobs' memory, and no kernel high-water mark was used.
   bool shared() const { return shared_.load(); }

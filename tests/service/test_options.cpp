@@ -50,14 +50,20 @@ TEST(Options, EachOptionIsDeclaredOnceAndComplete) {
   std::set<std::string_view> flags, inputs;
   for (const OptionSpec& o : job_options()) {
     EXPECT_FALSE(o.flag.empty() && o.input.empty()) << o.title;
-    if (!o.flag.empty()) EXPECT_TRUE(flags.insert(o.flag).second) << o.flag;
-    if (!o.input.empty()) EXPECT_TRUE(inputs.insert(o.input).second) << o.input;
+    if (!o.flag.empty()) {
+      EXPECT_TRUE(flags.insert(o.flag).second) << o.flag;
+    }
+    if (!o.input.empty()) {
+      EXPECT_TRUE(inputs.insert(o.input).second) << o.input;
+    }
     EXPECT_NE(o.apply, nullptr) << o.title;
     EXPECT_FALSE(o.help.empty()) << o.title;
     EXPECT_FALSE(o.title.empty());
     EXPECT_EQ(o.type == OptionType::choice, !o.choices.empty()) << o.title;
     EXPECT_EQ(o.type == OptionType::flag, o.metavar.empty()) << o.title;
-    if (o.type == OptionType::file) EXPECT_TRUE(o.input.empty()) << "files are the CLI's: " << o.flag;
+    if (o.type == OptionType::file) {
+      EXPECT_TRUE(o.input.empty()) << "files are the CLI's: " << o.flag;
+    }
   }
   // The process inputs of the voronoi process, besides the seeds: the API's ids stay as they are.
   EXPECT_EQ(inputs, (std::set<std::string_view>{"ownerField", "resolution", "extent", "crs", "metric", "method",

@@ -146,9 +146,32 @@ struct JobResult {
   std::vector<std::string> files;  // outputs written, in the order of OutputRequest
 };
 
-// Runs the whole job. On any failure no output file of this job is left behind, and the error
-// is an rv::Error (kinds as in rv/error.hpp).
+// Runs the whole job, as a pipeline of stages: prepare_job (read the seeds, plan), compute (the
+// whole field, or strips streamed to the writers), validate, write the rasters, the deliverables,
+// the report; each stage reports progress, honours cancellation and records its time. On any
+// failure no output file of this job is left behind, and the error is an rv::Error (kinds as in
+// rv/error.hpp).
 JobResult run_job(const JobSpec& spec, const JobLimits& limits = {}, const JobHooks& hooks = {});
+
+// A job read and planned: everything decided before anything grid-sized is allocated. The first
+// stage of run_job, and all of `rvoronoi validate`'s set-up.
+struct PreparedJob {
+  LoadedSeeds loaded;
+  GridSpec grid;
+  MetricSpec metric;                    // resolved (auto made planar or geodesic)
+  double to_output = 1.0;               // metric units -> the requested distance units
+  std::string unit;                     // name of the output unit ("m", "nmi", "crs-units")
+  ComputeOptions compute;               // method, metric, threads, max distance (metric units), geolocator
+  std::vector<double> limit_distances;  // the limit lines' distances in metric units
+  JobPlan plan;
+  double read_seconds = 0.0;
+  bool located() const { return compute.geolocator != nullptr; }  // geodesic on a projected grid
+};
+
+// Reads the seeds with the job's limits (and the memory limit for reading), then plans the grid,
+// the metric and units, the limit distances and the memory, and checks every limit (cells,
+// memory, validation size). Progress stage "read". Throws rv::Error as run_job does.
+PreparedJob prepare_job(const JobSpec& spec, const JobLimits& limits = {}, const JobHooks& hooks = {});
 
 // How distances are measured and reported: the metric the request and CRS resolve to
 // (--metric auto|planar|geodesic, see rv/metric.hpp) and the factor from metric units (CRS units

@@ -1,0 +1,89 @@
+// One run of a job as a pipeline of stages (service/src/job.cpp drives them): prepare (read the
+// seeds, plan the grid and the memory), compute the field whole or stream it in strips, write the
+// rasters, the deliverables (job_deliver.cpp), the report. JobRun is what the stages share:
+// progress and cancellation, the files written so far (removed unless the job completes), and
+// the report's timings and outputs, recorded the same way by every stage. Internal to rv_service.
+// Thread safety: one JobRun per job, used from the thread that runs it (progress callbacks may
+// come from engine threads, as JobHooks allows).
+#pragma once
+
+#include <chrono>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "rv/error.hpp"
+#include "rv/job.hpp"
+#include "rv/raster_io.hpp"
+
+namespace rv::detail {
+
+// Removes every file this job wrote unless the job finishes: a failed job leaves nothing behind.
+class OutputGuard {
+ public:
+  ~OutputGuard() {
+    if (committed_) return;
+    std::error_code ec;
+    for (const std::string& f : files_) {
+      std::filesystem::remove(f, ec);
+      std::filesystem::remove(f + ".aux.xml", ec);
+    }
+  }
+  void add(const std::string& f) { files_.push_back(f); }
+  void commit() { committed_ = true; }
+  const std::vector<std::string>& files() const { return files_; }
+
+ private:
+  std::vector<std::string> files_;
+  bool committed_ = false;
+};
+
+using Clock = std::chrono::steady_clock;
+inline double seconds_since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
+
+struct JobRun {
+  JobRun(const JobSpec& s, const JobLimits& l, const JobHooks& h) : spec(s), limits(l), hooks(h) {}
+
+  const JobSpec& spec;
+  const JobLimits& limits;
+  const JobHooks& hooks;
+  OutputGuard guard;
+  nlohmann::json report = nlohmann::json::object();
+  nlohmann::json timings = nlohmann::json::object();      // seconds per stage
+  nlohmann::json write_times = nlohmann::json::object();  // seconds per raster written
+  nlohmann::json outputs = nlohmann::json::object();      // output name -> path
+  double compute_seconds = 0.0;
+  int64_t contested_cells = 0;
+  int threads_used = 1;
+
+  void progress(const char* stage, double fraction) const {
+    if (hooks.progress) hooks.progress(stage, fraction);
+  }
+  void check_cancel() const {
+    if (hooks.cancel && hooks.cancel->load()) throw Error(ErrorKind::cancelled, "job dismissed");
+  }
+  // A file the job is about to write: removed again unless the job completes.
+  void will_write(const std::string& path) { guard.add(path); }
+  // The file of output `name`, written: listed in the report's outputs.
+  void wrote(const std::string& name, const std::string& path) { outputs[name] = path; }
+};
+
+// Runs f() and records its wall time in seconds as into[name].
+template <class F>
+void timed(nlohmann::json& into, const char* name, F&& f) {
+  const auto t = Clock::now();
+  f();
+  into[name] = seconds_since(t);
+}
+
+// What every GeoTIFF of the job shares: COG or not, threads, compression.
+GeoTiffOptions raster_options(const JobSpec& spec);
+
+// The maritime deliverables of the job (boundaries, tripoints, limits, regions, margin, preview),
+// from the exact field `field` of `job`: each written to its file, counted in the report's
+// "deliverables", timed in timings["deliverables"]. Nothing when none is requested.
+void deliver(JobRun& run, const PreparedJob& job, const NearestField& field);
+
+}  // namespace rv::detail
