@@ -408,171 +408,221 @@ ApiResponse method_not_allowed(const std::string& allow, const std::string& path
 
 }  // namespace
 
-void Api::route(const Context& ctx, const std::shared_ptr<Respond>& respond) {
-  const std::string& method = ctx.request.method;
-  const std::string& path = ctx.path;
-  const std::string& base = ctx.base;
-  const bool get = method == "GET" || method == "HEAD";
-  auto reply = [&](ApiResponse r) { (*respond)(std::move(r)); };
-  const std::vector<std::string> seg = path_segments(path);
+namespace {
 
-  if (seg.empty()) {
-    if (!get) return reply(method_not_allowed("GET, HEAD", path));
-    return reply(json_response(
-        200, {{"title", "rvoronoi"},
-              {"description", "Raster Voronoi diagrams for maritime boundary delimitation (OGC API - Processes 1.0)"},
-              {"links",
-               {link(base + "/", "self", kJson, "this document"),
-                link(base + "/api", "service-desc", "application/vnd.oai.openapi;version=3.0", "the API definition"),
-                link(base + "/conformance", std::string(kOgcRel) + "conformance", kJson, "conformance classes"),
-                link(base + "/processes", std::string(kOgcRel) + "processes", kJson, "processes"),
-                link(base + "/jobs", std::string(kOgcRel) + "job-list", kJson, "jobs"),
-                link(base + "/health", "status", kJson, "health")}}}));
+// The resources of the API: a path pattern ("*" matches one segment), the methods it answers,
+// and its action. route() finds the resource, answers 405 with Allow for another method, and
+// runs the action; one thin action per resource.
+struct Resource {
+  std::vector<std::string_view> pattern;
+  std::string_view allow;
+  void (Api::*action)(const Api::Request&, const std::vector<std::string>&) const;
+};
+
+bool matches(const std::vector<std::string_view>& pattern, const std::vector<std::string>& seg) {
+  if (pattern.size() != seg.size()) return false;
+  for (size_t i = 0; i < seg.size(); ++i)
+    if (pattern[i] != "*" && pattern[i] != seg[i]) return false;
+  return true;
+}
+
+bool allowed(std::string_view allow, const std::string& method) {
+  size_t start = 0;
+  while (start < allow.size()) {
+    const size_t end = std::min(allow.find(',', start), allow.size());
+    std::string_view m = allow.substr(start, end - start);
+    while (!m.empty() && m.front() == ' ') m.remove_prefix(1);
+    if (m == method) return true;
+    start = end + 1;
   }
-  const std::string& head = seg[0];
-  if (seg.size() == 1 && head == "conformance") {
-    if (!get) return reply(method_not_allowed("GET, HEAD", path));
-    const std::string c = "http://www.opengis.net/spec/ogcapi-processes-1/1.0/conf/";
-    return reply(json_response(
-        200, {{"conformsTo",
-               {c + "core", c + "ogc-process-description", c + "json", c + "oas30", c + "job-list", c + "dismiss"}}}));
+  return false;
+}
+
+// A query parameter as an integer in [lo, hi], or `fallback` when it is absent.
+int int_param(const std::map<std::string, std::vector<std::string>>& query, const char* name, int lo, int hi,
+              int fallback) {
+  const auto it = query.find(name);
+  if (it == query.end()) return fallback;
+  const std::string& v = it->second.front();
+  int x = 0;
+  const auto [p, ec] = std::from_chars(v.data(), v.data() + v.size(), x);
+  if (ec != std::errc() || p != v.data() + v.size() || x < lo || x > hi) {
+    throw Error(ErrorKind::invalid_argument, std::string("parameter '") + name + "' must be an integer in " +
+                                                 std::to_string(lo) + ".." + std::to_string(hi));
   }
-  if (seg.size() == 1 && head == "api") {
-    if (!get) return reply(method_not_allowed("GET, HEAD", path));
+  return x;
+}
+
+}  // namespace
+
+void Api::route(const Context& ctx, const std::shared_ptr<Respond>& respond) {
+  static const std::vector<Resource> resources = {
+      {{}, "GET, HEAD", &Api::landing},
+      {{"conformance"}, "GET, HEAD", &Api::conformance},
+      {{"api"}, "GET, HEAD", &Api::api_document},
+      {{"health"}, "GET, HEAD", &Api::health},
+      {{"processes"}, "GET, HEAD", &Api::process_list},
+      {{"processes", "*"}, "GET, HEAD", &Api::process},
+      {{"processes", "*", "execution"}, "POST", &Api::execute},
+      {{"jobs"}, "GET, HEAD", &Api::job_list},
+      {{"jobs", "*"}, "GET, HEAD, DELETE", &Api::job},
+      {{"jobs", "*", "results"}, "GET, HEAD", &Api::results},
+      {{"jobs", "*", "results", "*"}, "GET, HEAD", &Api::result_file},
+  };
+  const Request req{ctx, respond};
+  const std::vector<std::string> seg = path_segments(ctx.path);
+  // An unknown process is "no such process" whatever follows it (OGC's exception type).
+  if (seg.size() >= 2 && seg[0] == "processes" && seg[1] != "voronoi")
+    throw OgcNotFound("no-such-process", "no process '" + seg[1].substr(0, 64) + "'");
+  for (const Resource& r : resources) {
+    if (!matches(r.pattern, seg)) continue;
+    if (!allowed(r.allow, ctx.request.method)) return req.reply(method_not_allowed(std::string(r.allow), ctx.path));
+    return (this->*r.action)(req, seg);
+  }
+  throw Error(ErrorKind::not_found, "no resource " + ctx.path.substr(0, 200));
+}
+
+void Api::landing(const Request& req, const std::vector<std::string>&) const {
+  const std::string& base = req.ctx.base;
+  req.reply(json_response(
+      200, {{"title", "rvoronoi"},
+            {"description", "Raster Voronoi diagrams for maritime boundary delimitation (OGC API - Processes 1.0)"},
+            {"links",
+             {link(base + "/", "self", kJson, "this document"),
+              link(base + "/api", "service-desc", "application/vnd.oai.openapi;version=3.0", "the API definition"),
+              link(base + "/conformance", std::string(kOgcRel) + "conformance", kJson, "conformance classes"),
+              link(base + "/processes", std::string(kOgcRel) + "processes", kJson, "processes"),
+              link(base + "/jobs", std::string(kOgcRel) + "job-list", kJson, "jobs"),
+              link(base + "/health", "status", kJson, "health")}}}));
+}
+
+void Api::conformance(const Request& req, const std::vector<std::string>&) const {
+  const std::string c = "http://www.opengis.net/spec/ogcapi-processes-1/1.0/conf/";
+  req.reply(json_response(
+      200, {{"conformsTo",
+             {c + "core", c + "ogc-process-description", c + "json", c + "oas30", c + "job-list", c + "dismiss"}}}));
+}
+
+void Api::api_document(const Request& req, const std::vector<std::string>&) const {
+  ApiResponse r;
+  r.headers.emplace_back("Content-Type", "application/vnd.oai.openapi;version=3.0");
+  r.body.assign(kOpenApiYaml, kOpenApiYamlSize);
+  req.reply(std::move(r));
+}
+
+void Api::health(const Request& req, const std::vector<std::string>&) const {
+  req.reply(json_response(200, {{"status", "ok"},
+                                {"jobs", {{"running", jobs_.running_count()}, {"queued", jobs_.queued_count()}}},
+                                {"workers", config_.jobs.workers},
+                                {"queueLength", config_.jobs.queue_length}}));
+}
+
+void Api::process_list(const Request& req, const std::vector<std::string>&) const {
+  const std::string& base = req.ctx.base;
+  req.reply(json_response(200, {{"processes", json::array({process_summary(base)})},
+                                {"links", json::array({link(base + "/processes", "self", kJson, "processes")})}}));
+}
+
+void Api::process(const Request& req, const std::vector<std::string>&) const {
+  req.reply(json_response(200, process_description(req.ctx.base)));
+}
+
+void Api::execute(const Request& req, const std::vector<std::string>&) const {
+  const std::string& base = req.ctx.base;
+  const json body = parse_body_json(req.ctx.request.body);
+  const std::string id = new_job_id();
+  Execution ex = parse_execution(body, id, config_);
+  if (prefers_respond_async(req.ctx.request.prefer)) {
+    const JobRecord rec = jobs_.submit(id, std::move(ex));
+    ApiResponse r = json_response(201, status_info(rec, base));
+    r.headers.emplace_back("Location", base + "/jobs/" + id);
+    r.headers.emplace_back("Preference-Applied", "respond-async");
+    return req.reply(std::move(r));
+  }
+  const bool raw = ex.raw;
+  const std::string dir = jobs_.job_dir(id).string();
+  auto on_done = [respond = req.respond, raw, base, dir, path = req.ctx.path](const JobRecord& rec) {
     ApiResponse r;
-    r.headers.emplace_back("Content-Type", "application/vnd.oai.openapi;version=3.0");
-    r.body.assign(kOpenApiYaml, kOpenApiYamlSize);
-    return reply(std::move(r));
-  }
-  if (seg.size() == 1 && head == "health") {
-    if (!get) return reply(method_not_allowed("GET, HEAD", path));
-    return reply(json_response(200, {{"status", "ok"},
-                                     {"jobs", {{"running", jobs_.running_count()}, {"queued", jobs_.queued_count()}}},
-                                     {"workers", config_.jobs.workers},
-                                     {"queueLength", config_.jobs.queue_length}}));
-  }
-  if (head == "processes") {
-    if (seg.size() == 1) {
-      if (!get) return reply(method_not_allowed("GET, HEAD", path));
-      return reply(
-          json_response(200, {{"processes", json::array({process_summary(base)})},
-                              {"links", json::array({link(base + "/processes", "self", kJson, "processes")})}}));
-    }
-    if (seg[1] != "voronoi") throw OgcNotFound("no-such-process", "no process '" + seg[1].substr(0, 64) + "'");
-    if (seg.size() == 2) {
-      if (!get) return reply(method_not_allowed("GET, HEAD", path));
-      return reply(json_response(200, process_description(base)));
-    }
-    if (seg.size() == 3 && seg[2] == "execution") {
-      if (method != "POST") return reply(method_not_allowed("POST", path));
-      const json body = parse_body_json(ctx.request.body);
-      const std::string id = new_job_id();
-      Execution ex = parse_execution(body, id, config_);
-      const bool async = prefers_respond_async(ctx.request.prefer);
-      if (async) {
-        const JobRecord rec = jobs_.submit(id, std::move(ex));
-        ApiResponse r = json_response(201, status_info(rec, base));
-        r.headers.emplace_back("Location", base + "/jobs/" + id);
-        r.headers.emplace_back("Preference-Applied", "respond-async");
-        return reply(std::move(r));
+    try {
+      // The client waiting here asked for this job; if someone dismissed it meanwhile, say so
+      // (409) rather than "no such job".
+      if (rec.status == JobStatus::dismissed) throw Error(ErrorKind::cancelled, rec.message);
+      if (rec.status != JobStatus::successful) throw_no_results(rec);
+      if (raw) {
+        const std::string& o = rec.outputs.front();
+        r = file_response(dir + "/" + file_of(rec, o), media_of(rec, o), "",
+                          "the result file of job " + rec.id + " is missing");
+      } else {
+        r = json_response(200, results_document(rec, base));
       }
-      const bool raw = ex.raw;
-      const std::string dir = jobs_.job_dir(id).string();
-      auto on_done = [respond, raw, base, dir, path](const JobRecord& rec) {
-        ApiResponse r;
-        try {
-          // The client waiting here asked for this job; if someone dismissed it meanwhile,
-          // say so (409) rather than "no such job".
-          if (rec.status == JobStatus::dismissed) throw Error(ErrorKind::cancelled, rec.message);
-          if (rec.status != JobStatus::successful) throw_no_results(rec);
-          if (raw) {
-            const std::string& o = rec.outputs.front();
-            r = file_response(dir + "/" + file_of(rec, o), media_of(rec, o), "",
-                              "the result file of job " + rec.id + " is missing");
-          } else {
-            r = json_response(200, results_document(rec, base));
-          }
-        } catch (const Error& e) {
-          r = problem_from(e, path);
-        }
-        r.headers.emplace_back("Link", "<" + base + "/jobs/" + rec.id + ">; rel=\"monitor\"");
-        (*respond)(std::move(r));
-      };
-      jobs_.submit(id, std::move(ex), on_done);
-      return;  // answered by on_done
+    } catch (const Error& e) {
+      r = problem_from(e, path);
     }
-    throw Error(ErrorKind::not_found, "no resource " + path);
+    r.headers.emplace_back("Link", "<" + base + "/jobs/" + rec.id + ">; rel=\"monitor\"");
+    (*respond)(std::move(r));
+  };
+  jobs_.submit(id, std::move(ex), on_done);  // answered by on_done
+}
+
+void Api::job_list(const Request& req, const std::vector<std::string>&) const {
+  const std::string& base = req.ctx.base;
+  const int limit = int_param(req.ctx.query, "limit", 1, 1000, 100);
+  const int offset = int_param(req.ctx.query, "offset", 0, 1'000'000'000, 0);
+  std::vector<JobStatus> statuses;
+  std::string status_filter;  // the filter as the next page's link repeats it
+  if (const auto it = req.ctx.query.find("status"); it != req.ctx.query.end()) {
+    for (const std::string& v : it->second) {
+      for (const std::string& s : split(v, ',')) {
+        statuses.push_back(parse_job_status(s));
+        status_filter += (status_filter.empty() ? "" : ",") + std::string(to_string(statuses.back()));
+      }
+    }
   }
-  if (head == "jobs") {
-    if (seg.size() == 1) {
-      if (!get) return reply(method_not_allowed("GET, HEAD", path));
-      int limit = 100;
-      int offset = 0;
-      auto int_param = [&](const char* name, int lo, int hi, int& out) {
-        const auto it = ctx.query.find(name);
-        if (it == ctx.query.end()) return;
-        const std::string& v = it->second.front();
-        int x = 0;
-        const auto [p, ec] = std::from_chars(v.data(), v.data() + v.size(), x);
-        if (ec != std::errc() || p != v.data() + v.size() || x < lo || x > hi) {
-          throw Error(ErrorKind::invalid_argument, std::string("parameter '") + name + "' must be an integer in " +
-                                                       std::to_string(lo) + ".." + std::to_string(hi));
-        }
-        out = x;
-      };
-      int_param("limit", 1, 1000, limit);
-      int_param("offset", 0, 1'000'000'000, offset);
-      std::vector<JobStatus> statuses;
-      std::string status_filter;  // the filter as the next page's link repeats it
-      if (const auto it = ctx.query.find("status"); it != ctx.query.end()) {
-        for (const std::string& v : it->second) {
-          for (const std::string& s : split(v, ',')) {
-            statuses.push_back(parse_job_status(s));
-            status_filter += (status_filter.empty() ? "" : ",") + std::string(to_string(statuses.back()));
-          }
-        }
-      }
-      json list = json::array();
-      const auto records = store_.list(limit, offset, statuses);
-      for (const JobRecord& r : records) list.push_back(status_info(r, base));
-      json links = json::array({link(base + "/jobs", "self", kJson, "job list")});
-      if (static_cast<int>(records.size()) == limit) {
-        std::string next = base + "/jobs?limit=" + std::to_string(limit);
-        if (!status_filter.empty()) next += "&status=" + status_filter;
-        links.push_back(link(next + "&offset=" + std::to_string(offset + limit), "next", kJson, "next page"));
-      }
-      return reply(json_response(200, {{"jobs", list}, {"links", links}}));
-    }
-    const std::string& id = seg[1];
-    if (seg.size() == 2) {
-      if (method == "DELETE") {
-        find_job(store_, id);  // 404 for unknown ids, validated before anything else
-        const auto rec = jobs_.dismiss(id);
-        if (!rec) throw OgcNotFound("no-such-job", "no job '" + id + "'");
-        return reply(json_response(200, status_info(*rec, base)));
-      }
-      if (!get) return reply(method_not_allowed("GET, HEAD, DELETE", path));
-      return reply(json_response(200, status_info(find_job(store_, id), base)));
-    }
-    if (seg[2] != "results" || seg.size() > 4) throw Error(ErrorKind::not_found, "no resource " + path);
-    if (!get) return reply(method_not_allowed("GET, HEAD", path));
-    const JobRecord rec = find_job(store_, id);
-    if (rec.status != JobStatus::successful) throw_no_results(rec);
-    if (seg.size() == 3) return reply(json_response(200, results_document(rec, base)));
-    const std::string& output = seg[3];
-    const bool sidecar = output == "ownership.aux.xml";
-    const std::string output_id = sidecar ? "ownership" : output;
-    if (std::find(rec.outputs.begin(), rec.outputs.end(), output_id) == rec.outputs.end()) {
-      throw Error(ErrorKind::not_found,
-                  "job " + id + " has no output '" + output.substr(0, 64) + "' (requested outputs only)");
-    }
-    // The file name is ours, never the client's: only the id (checked hex) and a fixed name.
-    std::string file = jobs_.job_dir(id).string() + "/" + file_of(rec, output_id);
-    if (sidecar) file += ".aux.xml";
-    return reply(file_response(file, media_of(rec, output), ctx.request.range,
-                               "job " + id + " has no file for output '" + output + "'"));
+  json list = json::array();
+  const auto records = store_.list(limit, offset, statuses);
+  for (const JobRecord& r : records) list.push_back(status_info(r, base));
+  json links = json::array({link(base + "/jobs", "self", kJson, "job list")});
+  if (static_cast<int>(records.size()) == limit) {
+    std::string next = base + "/jobs?limit=" + std::to_string(limit);
+    if (!status_filter.empty()) next += "&status=" + status_filter;
+    links.push_back(link(next + "&offset=" + std::to_string(offset + limit), "next", kJson, "next page"));
   }
-  throw Error(ErrorKind::not_found, "no resource " + path.substr(0, 200));
+  req.reply(json_response(200, {{"jobs", list}, {"links", links}}));
+}
+
+void Api::job(const Request& req, const std::vector<std::string>& seg) const {
+  const std::string& id = seg[1];
+  if (req.ctx.request.method == "DELETE") {
+    find_job(store_, id);  // 404 for unknown ids, validated before anything else
+    const auto rec = jobs_.dismiss(id);
+    if (!rec) throw OgcNotFound("no-such-job", "no job '" + id + "'");
+    return req.reply(json_response(200, status_info(*rec, req.ctx.base)));
+  }
+  req.reply(json_response(200, status_info(find_job(store_, id), req.ctx.base)));
+}
+
+void Api::results(const Request& req, const std::vector<std::string>& seg) const {
+  const JobRecord rec = find_job(store_, seg[1]);
+  if (rec.status != JobStatus::successful) throw_no_results(rec);
+  req.reply(json_response(200, results_document(rec, req.ctx.base)));
+}
+
+void Api::result_file(const Request& req, const std::vector<std::string>& seg) const {
+  const std::string& id = seg[1];
+  const JobRecord rec = find_job(store_, id);
+  if (rec.status != JobStatus::successful) throw_no_results(rec);
+  const std::string& output = seg[3];
+  const bool sidecar = output == "ownership.aux.xml";
+  const std::string output_id = sidecar ? "ownership" : output;
+  if (std::find(rec.outputs.begin(), rec.outputs.end(), output_id) == rec.outputs.end()) {
+    throw Error(ErrorKind::not_found,
+                "job " + id + " has no output '" + output.substr(0, 64) + "' (requested outputs only)");
+  }
+  // The file name is ours, never the client's: only the id (checked hex) and a fixed name.
+  std::string file = jobs_.job_dir(id).string() + "/" + file_of(rec, output_id);
+  if (sidecar) file += ".aux.xml";
+  req.reply(file_response(file, media_of(rec, output), req.ctx.request.range,
+                          "job " + id + " has no file for output '" + output + "'"));
 }
 
 }  // namespace rv::daemon

@@ -67,9 +67,28 @@ class Api {
   // Calls `respond` exactly once, on this thread or (synchronous execution) a worker thread.
   void handle(const ApiRequest& request, Respond respond);
 
- private:
   struct Context;
+  // What an action answers to: the parsed request and the one way to answer it.
+  struct Request {
+    const Context& ctx;
+    std::shared_ptr<Respond> respond;
+    void reply(ApiResponse r) const { (*respond)(std::move(r)); }
+  };
+
+ private:
   void route(const Context& ctx, const std::shared_ptr<Respond>& respond);
+  // One action per resource (the paths are in route()).
+  void landing(const Request& req, const std::vector<std::string>& seg) const;
+  void conformance(const Request& req, const std::vector<std::string>& seg) const;
+  void api_document(const Request& req, const std::vector<std::string>& seg) const;
+  void health(const Request& req, const std::vector<std::string>& seg) const;
+  void process_list(const Request& req, const std::vector<std::string>& seg) const;
+  void process(const Request& req, const std::vector<std::string>& seg) const;
+  void execute(const Request& req, const std::vector<std::string>& seg) const;
+  void job_list(const Request& req, const std::vector<std::string>& seg) const;
+  void job(const Request& req, const std::vector<std::string>& seg) const;
+  void results(const Request& req, const std::vector<std::string>& seg) const;
+  void result_file(const Request& req, const std::vector<std::string>& seg) const;
 
   const ServerConfig& config_;
   JobStore& store_;
