@@ -207,6 +207,84 @@ void JobManager::update_progress(JobRecord& record, const std::string& stage, do
   }
 }
 
+namespace {
+
+// The job as the façade runs it: every file in the job's directory, COGs, only the requested
+// outputs (the file name's extension selects the format). The ownership raster is always
+// written (it carries the owner names, its attribute table); the report is written by the
+// worker, with file names instead of this server's paths.
+JobSpec spec_in_directory(const Execution& execution, const JobRecord& rec, const std::filesystem::path& dir) {
+  JobSpec spec = execution.spec;
+  OutputRequest& out = spec.outputs;
+  out.cloud_optimized = true;
+  out.ownership = (dir / output_file_name("ownership", "")).string();
+  out.report.clear();
+  std::map<std::string, std::string*> paths = {
+      {"distance", &out.distance},     {"nearestFeature", &out.nearest_feature},
+      {"boundaries", &out.boundaries}, {"tripoints", &out.tripoints},
+      {"limits", &out.limits},         {"regions", &out.regions},
+      {"margin", &out.margin},         {"preview", &out.preview}};
+  for (size_t i = 0; i < rec.outputs.size(); ++i) {
+    const auto it = paths.find(rec.outputs[i]);
+    if (it == paths.end()) continue;  // ownership and report: above
+    *it->second = (dir / output_file_name(rec.outputs[i], i < rec.formats.size() ? rec.formats[i] : "")).string();
+  }
+  return spec;
+}
+
+// How a job ended, before it is recorded.
+struct Outcome {
+  std::optional<ErrorKind> error_kind;
+  std::string message;
+  JobResult result;
+};
+
+// The message of a failed job as its client should read it.
+std::string client_message(const Error& e, const std::string& id, const std::filesystem::path& dir) {
+  std::string message = client_names(valid_utf8(e.what()), id);
+  // The job directory is this server's business: the client knows the files by output id.
+  for (size_t at; (at = message.find(dir.string() + "/")) != std::string::npos;)
+    message.erase(at, dir.string().size() + 1);
+  // Reading happens in memory; an I/O failure is the result files (a full disk, a file size
+  // limit): say so first, GDAL's reason (e.g. "No space left on device") follows.
+  if (e.kind() == ErrorKind::io) message = "the job's results could not be written: " + message;
+  // The seed reader names the feature at fault; say which input it came from.
+  if (e.kind() == ErrorKind::invalid_input || e.kind() == ErrorKind::conflict) message = "input 'seeds': " + message;
+  return message;
+}
+
+// Runs the job; every exception becomes an Outcome (none leaves a worker).
+Outcome execute(const JobRunner& runner, const JobSpec& spec, const JobLimits& limits, const JobHooks& hooks,
+                const std::string& id, const std::filesystem::path& dir) {
+  Outcome o;
+  try {
+    std::error_code ec;
+    std::filesystem::create_directories(dir, ec);
+    if (ec) throw Error(ErrorKind::io, "cannot create the job directory: " + ec.message());
+    o.result = runner(spec, limits, hooks);
+    if (o.result.report.contains("outputs") && o.result.report["outputs"].is_object()) {
+      for (auto& [key, value] : o.result.report["outputs"].items())
+        if (value.is_string()) value = std::filesystem::path(value.get<std::string>()).filename().string();
+    }
+    write_file_atomically(dir / output_file_name("report", ""), json_text(o.result.report, 2) + "\n");
+  } catch (const Error& e) {
+    o.error_kind = e.kind();
+    o.message = client_message(e, id, dir);
+  } catch (const std::bad_alloc&) {
+    o.error_kind = ErrorKind::too_large;
+    o.message = "the job ran out of memory; use a coarser resolution or a smaller extent";
+  } catch (const std::exception& e) {
+    o.error_kind = ErrorKind::internal;
+    o.message = valid_utf8(e.what());
+  } catch (...) {
+    o.error_kind = ErrorKind::internal;
+    o.message = "unknown exception";
+  }
+  return o;
+}
+
+}  // namespace
+
 JobRecord JobManager::run_task(Task& task) {
   const std::string& id = task.id;
   const std::filesystem::path dir = job_dir(id);
@@ -219,37 +297,7 @@ JobRecord JobManager::run_task(Task& task) {
   }
   if (!stored) throw Error(ErrorKind::internal, "job " + id + " vanished from the store");
   JobRecord rec = *stored;
-
-  JobSpec spec = task.execution.spec;
-  OutputRequest& out = spec.outputs;
-  out.cloud_optimized = true;
-  // The ownership raster and the report are always written: the report is kept with the job
-  // and the ownership raster carries the owner names (its attribute table).
-  out.ownership = (dir / output_file_name("ownership", "")).string();
-  // The report is written below, by us: with file names instead of this server's paths.
-  out.report.clear();
-  // Only the requested outputs get a path, so only they are computed. The file name (its
-  // extension) selects the format the façade writes.
-  for (size_t i = 0; i < rec.outputs.size(); ++i) {
-    const std::string& o = rec.outputs[i];
-    const std::string file = (dir / output_file_name(o, i < rec.formats.size() ? rec.formats[i] : "")).string();
-    if (o == "distance")
-      out.distance = file;
-    else if (o == "nearestFeature")
-      out.nearest_feature = file;
-    else if (o == "boundaries")
-      out.boundaries = file;
-    else if (o == "tripoints")
-      out.tripoints = file;
-    else if (o == "limits")
-      out.limits = file;
-    else if (o == "regions")
-      out.regions = file;
-    else if (o == "margin")
-      out.margin = file;
-    else if (o == "preview")
-      out.preview = file;
-  }
+  const JobSpec spec = spec_in_directory(task.execution, rec, dir);
 
   rec.status = JobStatus::running;
   rec.message = "running";
@@ -266,79 +314,43 @@ JobRecord JobManager::run_task(Task& task) {
   hooks.progress = [&](const std::string& stage, double fraction) {
     update_progress(rec, stage, fraction, spec.validate, last_percent);
   };
-
-  std::optional<ErrorKind> error_kind;
-  std::string error_message;
-  JobResult result;
-  try {
-    std::error_code ec;
-    std::filesystem::create_directories(dir, ec);
-    if (ec) throw Error(ErrorKind::io, "cannot create the job directory: " + ec.message());
-    result = runner_(spec, limits_, hooks);
-    if (result.report.contains("outputs") && result.report["outputs"].is_object()) {
-      for (auto& [key, value] : result.report["outputs"].items()) {
-        if (value.is_string()) value = std::filesystem::path(value.get<std::string>()).filename().string();
-      }
-    }
-    write_file_atomically(dir / output_file_name("report", ""), json_text(result.report, 2) + "\n");
-  } catch (const Error& e) {
-    error_kind = e.kind();
-    error_message = client_names(valid_utf8(e.what()), id);
-    // The job directory is this server's business: the client knows the files by output id.
-    for (size_t at; (at = error_message.find(dir.string() + "/")) != std::string::npos;) {
-      error_message.erase(at, dir.string().size() + 1);
-    }
-    // Reading happens in memory; an I/O failure is the result files (a full disk, a file size
-    // limit): say so first, GDAL's reason (e.g. "No space left on device") follows.
-    if (e.kind() == ErrorKind::io) error_message = "the job's results could not be written: " + error_message;
-    // The seed reader names the feature at fault; say which input it came from.
-    if (e.kind() == ErrorKind::invalid_input || e.kind() == ErrorKind::conflict) {
-      error_message = "input 'seeds': " + error_message;
-    }
-  } catch (const std::bad_alloc&) {
-    error_kind = ErrorKind::too_large;
-    error_message = "the job ran out of memory; use a coarser resolution or a smaller extent";
-  } catch (const std::exception& e) {
-    error_kind = ErrorKind::internal;
-    error_message = valid_utf8(e.what());
-  } catch (...) {
-    error_kind = ErrorKind::internal;
-    error_message = "unknown exception";
-  }
+  Outcome outcome = execute(runner_, spec, limits_, hooks, id, dir);
   task.execution.uploads.reset();  // the in-memory seed files are no longer needed
-
-  {
-    std::lock_guard lock(mutex_);
-    const Running& r = running_.at(id);
-    if (r.dismissed) {
-      // dismiss() has recorded the status already; the files go whatever run_job returned.
-      remove_dir(dir);
-      rec = store_.get(id).value_or(rec);
-    } else {
-      rec.finished = rec.updated = now_rfc3339();
-      if (!error_kind) {
-        rec.status = JobStatus::successful;
-        rec.message = "finished";
-        rec.progress = 100;
-        rec.report = result.report;
-      } else {
-        rec.status = JobStatus::failed;
-        rec.error_kind = std::string(to_string(*error_kind));
-        rec.message = error_message;
-        if (r.timed_out) {
-          rec.error_kind = std::string(to_string(ErrorKind::too_large));
-          rec.message = "the job exceeded this server's time limit of " + seconds_text(config_.jobs.job_timeout_s) +
-                        " s and was cancelled";
-        } else if (r.shutdown) {
-          rec.error_kind = std::string(to_string(ErrorKind::busy));
-          rec.message = "the server shut down while the job was running; resubmit it";
-        }
-        remove_dir(dir);
-      }
-      store_.update(rec);
-    }
-  }
+  record_end(rec, outcome.error_kind, outcome.message, outcome.result.report, dir);
   return rec;
+}
+
+void JobManager::record_end(JobRecord& rec, const std::optional<ErrorKind>& error_kind, const std::string& message,
+                            const nlohmann::json& report, const std::filesystem::path& dir) {
+  std::lock_guard lock(mutex_);
+  const Running& r = running_.at(rec.id);
+  if (r.dismissed) {
+    // dismiss() has recorded the status already; the files go whatever run_job returned.
+    remove_dir(dir);
+    rec = store_.get(rec.id).value_or(rec);
+    return;
+  }
+  rec.finished = rec.updated = now_rfc3339();
+  if (!error_kind) {
+    rec.status = JobStatus::successful;
+    rec.message = "finished";
+    rec.progress = 100;
+    rec.report = report;
+  } else {
+    rec.status = JobStatus::failed;
+    rec.error_kind = std::string(to_string(*error_kind));
+    rec.message = message;
+    if (r.timed_out) {
+      rec.error_kind = std::string(to_string(ErrorKind::too_large));
+      rec.message = "the job exceeded this server's time limit of " + seconds_text(config_.jobs.job_timeout_s) +
+                    " s and was cancelled";
+    } else if (r.shutdown) {
+      rec.error_kind = std::string(to_string(ErrorKind::busy));
+      rec.message = "the server shut down while the job was running; resubmit it";
+    }
+    remove_dir(dir);
+  }
+  store_.update(rec);
 }
 
 std::optional<JobRecord> JobManager::dismiss(const std::string& id) {

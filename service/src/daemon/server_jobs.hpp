@@ -21,6 +21,7 @@
 #include <thread>
 #include <vector>
 
+#include "rv/error.hpp"
 #include "rv/server.hpp"
 #include "rv/store_jobs.hpp"
 #include "server_execute.hpp"
@@ -71,6 +72,10 @@ class JobManager {
   void watchdog_loop();
   // Runs one job to its end and returns its final record.
   JobRecord run_task(Task& task);
+  // Records how the job ended (unless it was dismissed meanwhile), removing its files if it
+  // failed; `rec` becomes the final record.
+  void record_end(JobRecord& rec, const std::optional<ErrorKind>& error_kind, const std::string& message,
+                  const nlohmann::json& report, const std::filesystem::path& dir);
   void update_progress(JobRecord& record, const std::string& stage, double fraction, bool validate, int& last_percent);
 
   JobStore& store_;
