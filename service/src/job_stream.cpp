@@ -78,84 +78,127 @@ AnyWriter open_writer(const StreamTarget& t, const GridSpec& grid) {
 
 }  // namespace
 
+namespace {
+
+// What the engine's thread and the writer threads of one streamed job share.
+struct StreamState {
+  const StreamJob& job;
+  int64_t width = 0, height = 0;
+  SiteCodes owner_codes, feature_codes;  // made only when a file needs them
+  std::vector<AnyWriter> writers;        // one per target
+  std::array<Strip, 2> strips;
+  StripHandoff handoff;
+  std::vector<double> write_seconds, write_waited;  // per writer
+
+  StreamState(const StreamJob& j, int files) : job(j), handoff(files) {}
+};
+
+// The writer thread of file `i`: encodes every strip in order into its file, then finishes it.
+// The files are independent GDAL datasets, so they are encoded side by side (one thread handing
+// both files' tiles to GDAL was the command's serial part: 1e8 cells, see
+// bench/RESULTS-encoding.md).
+void write_file(StreamState& st, size_t i) {
+  lower_priority();
+  const StreamTarget& target = st.job.targets[i];
+  std::vector<int32_t> codes;  // this file's codes of the strip in hand (code rasters only)
+  auto coded = [&](const SiteCodes& table, const Strip& s) {
+    const int64_t n = s.rows * st.width;
+    codes.resize(static_cast<size_t>(n));
+    table.apply(s.field.site.data(), codes.data(), n);
+    return codes.data();
+  };
+  try {
+    for (size_t seq = 0;; ++seq) {
+      const std::optional<int> k = st.handoff.take_filled(seq, st.write_waited[i]);
+      if (!k) break;
+      const Strip& s = st.strips[static_cast<size_t>(*k)];
+      const auto t = Clock::now();
+      switch (target.product) {
+        case StreamTarget::Product::ownership:
+          std::get<GeoTiffStripWriter<int32_t>>(st.writers[i]).write_rows(coded(st.owner_codes, s), s.rows);
+          break;
+        case StreamTarget::Product::nearest_feature:
+          std::get<GeoTiffStripWriter<int32_t>>(st.writers[i]).write_rows(coded(st.feature_codes, s), s.rows);
+          break;
+        case StreamTarget::Product::distance:
+          std::get<GeoTiffStripWriter<float>>(st.writers[i]).write_rows(s.field.distance.data(), s.rows);
+          break;
+      }
+      st.write_seconds[i] += seconds_since(t);
+      st.handoff.put_done(*k, s.rows);
+    }
+    // Closed and drained (a stop leaves rows missing; the writer then aborts when destroyed).
+    if (std::visit([&](const auto& x) { return x.rows_written() != st.height; }, st.writers[i])) return;
+    const auto t = Clock::now();
+    std::visit([](auto& x) { x.finish(); }, st.writers[i]);
+    st.write_seconds[i] += seconds_since(t);
+    st.handoff.finished();
+  } catch (...) {
+    st.handoff.fail(std::current_exception());
+  }
+}
+
+// The engine's side: every strip computed into a free buffer, its distances converted, handed
+// to the writers. `report` forwards progress over the whole grid.
+template <class Report>
+void compute_strips(StreamState& st, int64_t strip_rows, StreamStats& stats, Report&& report) {
+  const StreamJob& job = st.job;
+  ComputeOptions options = job.compute;
+  // Every strip shares one preparation of the seeds (sites in the grid's frame, the index).
+  if (options.prepared == nullptr) options.prepared = prepare(*job.seeds, job.grid, options);
+  for (int64_t row0 = 0; row0 < st.height; row0 += strip_rows) {
+    if (options.cancel && options.cancel->load()) throw Error(ErrorKind::cancelled, "job dismissed");
+    const std::optional<int> k = st.handoff.take_free(stats.compute_waited);
+    if (!k) std::rethrow_exception(st.handoff.error());
+    Strip& s = st.strips[static_cast<size_t>(*k)];
+    s.row0 = row0;
+    s.rows = std::min(strip_rows, st.height - row0);
+    options.window = Window{0, row0, st.width, s.rows};
+    options.progress = [&, row0, rows = s.rows](double f) {
+      report("compute", (static_cast<double>(row0) + f * static_cast<double>(rows)) / static_cast<double>(st.height));
+    };
+    compute_into(*job.seeds, job.grid, options, s.field);
+    stats.compute += s.field.seconds;
+    stats.contested_cells += s.field.contested_cells;
+    stats.threads = s.field.threads;
+    const auto t = Clock::now();
+    if (job.distance_factor != 1.0)
+      scale_distances(s.field.distance.data(), s.field.distance.data(), s.rows * st.width, job.distance_factor);
+    stats.convert += seconds_since(t);
+    st.handoff.put_filled(*k);
+  }
+}
+
+}  // namespace
+
 StreamStats run_streamed(const StreamJob& job) {
   const auto start = Clock::now();
-  const GridSpec& grid = job.grid;
-  const int64_t width = grid.width, height = grid.height;
-  const int64_t strip_rows = std::clamp<int64_t>(job.strip_rows, 1, height);
+  StreamState st(job, static_cast<int>(job.targets.size()));
+  st.width = job.grid.width;
+  st.height = job.grid.height;
+  const int64_t strip_rows = std::clamp<int64_t>(job.strip_rows, 1, st.height);
   StreamStats stats;
-  stats.strips = (height + strip_rows - 1) / strip_rows;
-
+  stats.strips = (st.height + strip_rows - 1) / strip_rows;
   bool want_owners = false, want_features = false;
   for (const StreamTarget& t : job.targets) {
     want_owners = want_owners || t.product == StreamTarget::Product::ownership;
     want_features = want_features || t.product == StreamTarget::Product::nearest_feature;
   }
-  const SiteCodes owner_codes = want_owners ? SiteCodes::owners(*job.seeds) : SiteCodes{};
-  const SiteCodes feature_codes = want_features ? SiteCodes::features(*job.seeds, job.feature_numbering) : SiteCodes{};
-
+  if (want_owners) st.owner_codes = SiteCodes::owners(*job.seeds);
+  if (want_features) st.feature_codes = SiteCodes::features(*job.seeds, job.feature_numbering);
   // Every file is created before the first strip is computed: an unwritable target fails at
-  // once, not after the computation.
-  // The files are encoded side by side, one writer thread each, and each may use all of the
-  // job's threads (its options.threads) to compress its tiles: a static share would leave the
-  // slow file (a Float32 distance with the floating-point predictor, `small`) one thread while
-  // the other core idles once the owner codes are done. (An uncompressed file uses one.)
-  std::vector<AnyWriter> writers;
-  writers.reserve(job.targets.size());
+  // once, not after the computation. Each file's writer may use all of the job's threads (its
+  // options.threads) to compress its tiles: a static share would leave the slow file (a Float32
+  // distance with the floating-point predictor, `small`) one thread while the other core idles
+  // once the owner codes are done. (An uncompressed file uses one.)
+  st.writers.reserve(job.targets.size());
   for (const StreamTarget& t : job.targets) {
     job.will_write(t.path);
-    writers.push_back(open_writer(t, grid));
+    st.writers.push_back(open_writer(t, job.grid));
   }
-  std::vector<double> write_seconds(job.targets.size(), 0.0);
-
-  std::array<Strip, 2> strips;
-  StripHandoff handoff(static_cast<int>(writers.size()));
-  for (int k = 0; k < static_cast<int>(strips.size()); ++k) handoff.add_free(k);
-
-  // One writer thread per file: each encodes every strip in order into its file, then finishes
-  // it. The files are independent GDAL datasets, so they are encoded side by side (one thread
-  // handing both files' tiles to GDAL was the command's serial part: 1e8 cells, see
-  // bench/RESULTS-encoding.md).
-  std::vector<double> write_waited(writers.size(), 0.0);
-  auto write_loop = [&](size_t i) {
-    lower_priority();
-    std::vector<int32_t> codes;  // this file's codes of the strip in hand (code rasters only)
-    auto coded = [&](const SiteCodes& table, const Strip& s) {
-      const int64_t n = s.rows * width;
-      codes.resize(static_cast<size_t>(n));
-      table.apply(s.field.site.data(), codes.data(), n);
-      return codes.data();
-    };
-    try {
-      for (size_t seq = 0;; ++seq) {
-        const std::optional<int> k = handoff.take_filled(seq, write_waited[i]);
-        if (!k) break;
-        const Strip& s = strips[static_cast<size_t>(*k)];
-        const auto t = Clock::now();
-        switch (job.targets[i].product) {
-          case StreamTarget::Product::ownership:
-            std::get<GeoTiffStripWriter<int32_t>>(writers[i]).write_rows(coded(owner_codes, s), s.rows);
-            break;
-          case StreamTarget::Product::nearest_feature:
-            std::get<GeoTiffStripWriter<int32_t>>(writers[i]).write_rows(coded(feature_codes, s), s.rows);
-            break;
-          case StreamTarget::Product::distance:
-            std::get<GeoTiffStripWriter<float>>(writers[i]).write_rows(s.field.distance.data(), s.rows);
-            break;
-        }
-        write_seconds[i] += seconds_since(t);
-        handoff.put_done(*k, s.rows);
-      }
-      // Closed and drained (a stop leaves rows missing; the writer then aborts when destroyed).
-      if (std::visit([&](const auto& x) { return x.rows_written() != height; }, writers[i])) return;
-      const auto t = Clock::now();
-      std::visit([](auto& x) { x.finish(); }, writers[i]);
-      write_seconds[i] += seconds_since(t);
-      handoff.finished();
-    } catch (...) {
-      handoff.fail(std::current_exception());
-    }
-  };
+  st.write_seconds.assign(job.targets.size(), 0.0);
+  st.write_waited.assign(job.targets.size(), 0.0);
+  for (int k = 0; k < static_cast<int>(st.strips.size()); ++k) st.handoff.add_free(k);
 
   // Joins the writers on every way out; on an exception they are stopped first.
   struct Joiner {
@@ -167,8 +210,8 @@ StreamStats run_streamed(const StreamJob& job) {
       for (std::thread& t : threads)
         if (t.joinable()) t.join();
     }
-  } joiner{handoff, {}};
-  for (size_t i = 0; i < writers.size(); ++i) joiner.threads.emplace_back(write_loop, i);
+  } joiner{st.handoff, {}};
+  for (size_t i = 0; i < st.writers.size(); ++i) joiner.threads.emplace_back([&st, i] { write_file(st, i); });
 
   // Engine progress is per strip; the job's is over the grid, forwarded in whole percents.
   int last_percent = -1;
@@ -178,40 +221,15 @@ StreamStats run_streamed(const StreamJob& job) {
     last_percent = percent;
     job.progress(stage, percent / 100.0);
   };
-
-  ComputeOptions options = job.compute;
-  // Every strip shares one preparation of the seeds (sites in the grid's frame, the index).
-  if (options.prepared == nullptr) options.prepared = prepare(*job.seeds, grid, options);
-  for (int64_t row0 = 0; row0 < height; row0 += strip_rows) {
-    if (options.cancel && options.cancel->load()) throw Error(ErrorKind::cancelled, "job dismissed");
-    const std::optional<int> k = handoff.take_free(stats.compute_waited);
-    if (!k) std::rethrow_exception(handoff.error());
-    Strip& s = strips[static_cast<size_t>(*k)];
-    s.row0 = row0;
-    s.rows = std::min(strip_rows, height - row0);
-    options.window = Window{0, row0, width, s.rows};
-    options.progress = [&, row0, rows = s.rows](double f) {
-      report("compute", (static_cast<double>(row0) + f * static_cast<double>(rows)) / static_cast<double>(height));
-    };
-    compute_into(*job.seeds, grid, options, s.field);
-    stats.compute += s.field.seconds;
-    stats.contested_cells += s.field.contested_cells;
-    stats.threads = s.field.threads;
-    const auto t = Clock::now();
-    const int64_t n = s.rows * width;
-    if (job.distance_factor != 1.0)
-      scale_distances(s.field.distance.data(), s.field.distance.data(), n, job.distance_factor);
-    stats.convert += seconds_since(t);
-    handoff.put_filled(*k);
-  }
-  handoff.close();
+  compute_strips(st, strip_rows, stats, report);
+  st.handoff.close();
   last_percent = -1;
-  handoff.wait_finished(
-      [&](int64_t rows) { report("write", static_cast<double>(rows) / static_cast<double>(height)); });
+  st.handoff.wait_finished(
+      [&](int64_t rows) { report("write", static_cast<double>(rows) / static_cast<double>(st.height)); });
   joiner.join();
   // The writers wait side by side: the longest wait is the time the files waited for the engine.
-  stats.write_waited = *std::max_element(write_waited.begin(), write_waited.end());
-  for (size_t i = 0; i < job.targets.size(); ++i) stats.write[job.targets[i].name] = write_seconds[i];
+  stats.write_waited = *std::max_element(st.write_waited.begin(), st.write_waited.end());
+  for (size_t i = 0; i < job.targets.size(); ++i) stats.write[job.targets[i].name] = st.write_seconds[i];
   stats.wall = seconds_since(start);
   return stats;
 }
