@@ -1,0 +1,620 @@
+// Boundaries and tripoints (extract_boundaries, rv/deliverables.hpp) as a pipeline of stages:
+// crossings on the edges between differently owned cells, tripoints in the dual squares, links
+// between them per square, chains of links into lines.
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <limits>
+#include <map>
+#include <numeric>
+#include <set>
+#include <unordered_map>
+#include <vector>
+
+#include "line_tools.hpp"
+#include "parallel.hpp"
+#include "rv/deliverables.hpp"
+#include "rv/error.hpp"
+
+namespace rv {
+
+using detail::cell_metric;
+using detail::centre;
+using detail::chain_links;
+using detail::Chains;
+using detail::check_metric;
+using detail::check_whole_grid;
+using detail::edge_down;
+using detail::edge_right;
+using detail::find_root;
+using detail::lerp;
+using detail::square_edges;
+
+// ---------------------------------------------------------------------------------------------
+// Boundaries and tripoints.
+
+namespace {
+
+struct Crossing {
+  int64_t edge;
+  int32_t owner_lo, owner_hi;
+  BoundaryVertex v;
+};
+
+// How deep the owners passing between two cell centres are followed (A | C D E ... | B): each
+// level finds one more owner between; beyond it the segment is dropped as unresolved.
+constexpr int kMaxSliverDepth = 8;
+
+struct TripointSolver {
+  const OwnerIndex& index;
+  double ftol;  // metric units
+  double step;  // finite-difference step, CRS units
+
+  // Solves d_X = d_Y = d_Z from `start` (Gauss-Newton, numeric Jacobian, step halving).
+  bool solve(const std::array<int32_t, 3>& o, Vec2 start, double max_move, Tripoint& out) const {
+    auto eval = [&](Vec2 p, std::array<double, 2>& f, std::array<OwnerIndex::Hit, 3>* hits) {
+      const auto a = index.nearest_of(p, o[0]), b = index.nearest_of(p, o[1]), c = index.nearest_of(p, o[2]);
+      f = {a.distance - b.distance, a.distance - c.distance};
+      if (hits) *hits = {a, b, c};
+      return std::isfinite(f[0]) && std::isfinite(f[1]);
+    };
+    Vec2 p = start;
+    std::array<double, 2> f;
+    if (!eval(p, f, nullptr)) return false;
+    for (int iter = 0; iter < 60; ++iter) {
+      const double norm = std::max(std::abs(f[0]), std::abs(f[1]));
+      if (norm <= ftol) {
+        std::array<OwnerIndex::Hit, 3> h;
+        eval(p, f, &h);
+        out.p = p;
+        for (int k = 0; k < 3; ++k) {
+          out.owners[k] = o[static_cast<size_t>(k)];
+          out.sites[k] = h[static_cast<size_t>(k)].site;
+        }
+        out.distance = (h[0].distance + h[1].distance + h[2].distance) / 3.0;
+        out.residual = std::max({std::abs(h[0].distance - h[1].distance), std::abs(h[0].distance - h[2].distance),
+                                 std::abs(h[1].distance - h[2].distance)});
+        return true;
+      }
+      std::array<double, 2> fx, fy;
+      if (!eval(Vec2{p.x + step, p.y}, fx, nullptr) || !eval(Vec2{p.x, p.y + step}, fy, nullptr)) return false;
+      const double j00 = (fx[0] - f[0]) / step, j01 = (fy[0] - f[0]) / step;
+      const double j10 = (fx[1] - f[1]) / step, j11 = (fy[1] - f[1]) / step;
+      const double det = j00 * j11 - j01 * j10;
+      if (!(std::abs(det) > 0.0) || !std::isfinite(det)) return false;
+      double dx = (-f[0] * j11 + f[1] * j01) / det;
+      double dy = (-j00 * f[1] + j10 * f[0]) / det;
+      const double len = std::hypot(dx, dy);
+      if (len > max_move) {
+        dx *= max_move / len;
+        dy *= max_move / len;
+      }
+      // Step halving: accept the first step that reduces the residual.
+      bool moved = false;
+      for (int h = 0; h < 30; ++h) {
+        const Vec2 q{p.x + dx, p.y + dy};
+        std::array<double, 2> fq;
+        if (eval(q, fq, nullptr) && std::max(std::abs(fq[0]), std::abs(fq[1])) < norm) {
+          p = q;
+          f = fq;
+          moved = true;
+          break;
+        }
+        dx *= 0.5;
+        dy *= 0.5;
+      }
+      if (!moved) return false;
+      if (std::hypot(p.x - start.x, p.y - start.y) > 4.0 * max_move) return false;
+    }
+    return false;
+  }
+};
+
+// What every stage of one extraction reads: the field, the metric's index, the grid and the
+// tolerance, and each cell's owner.
+struct BoundaryGrid {
+  const NearestField& field;
+  const OwnerIndex& index;
+  const GridSpec& g;
+  int64_t W, H;
+  int threads;
+  double ftol;
+  std::vector<int32_t> owner_of_site;
+
+  int32_t owner(int64_t c, int64_t r) const {
+    const int32_t s = field.site.at(c, r);
+    return s == kNoSite ? 0 : owner_of_site[static_cast<size_t>(s)];
+  }
+  // The owners of dual square (c, r)'s corners: (c,r), (c+1,r), (c+1,r+1), (c,r+1).
+  std::array<int32_t, 4> corner_owners(int64_t c, int64_t r) const {
+    return {owner(c, r), owner(c + 1, r), owner(c + 1, r + 1), owner(c, r + 1)};
+  }
+  static bool uniform(const std::array<int32_t, 4>& o) { return o[0] == o[1] && o[1] == o[2] && o[2] == o[3]; }
+};
+
+int64_t pair_key(int32_t a, int32_t b) {
+  return (static_cast<int64_t>(std::min(a, b)) << 32) | static_cast<int64_t>(std::max(a, b));
+}
+
+// ---- Stage 1: crossings ------------------------------------------------------------------------
+// Every 4-neighbour pair of differently owned cells, placed on the locus.
+
+struct CrossingSet {
+  std::vector<Crossing> crossings;
+  // Edge -> its crossings: consecutive in `crossings` (first index, count), in order along it.
+  std::unordered_map<int64_t, std::pair<int32_t, int32_t>> on_edge;
+  std::unordered_map<int64_t, int32_t> sliver_at;  // edge -> the (first) owner passing between
+};
+
+struct Segment {
+  int64_t edge;
+  int32_t from, to;  // owner of the first and the second cell centre
+};
+
+// The edges of rows [row0, row1) whose two cells have different owners.
+std::vector<Segment> owner_changes(const BoundaryGrid& b, int64_t row0, int64_t row1) {
+  std::vector<Segment> segments;
+  for (int64_t r = row0; r < row1; ++r)
+    for (int64_t c = 0; c < b.W; ++c) {
+      const int32_t o = b.owner(c, r);
+      if (o == 0) continue;
+      if (c + 1 < b.W) {
+        const int32_t q = b.owner(c + 1, r);
+        if (q != 0 && q != o) segments.push_back(Segment{edge_right(b.W, c, r), o, q});
+      }
+      if (r + 1 < b.H) {
+        const int32_t q = b.owner(c, r + 1);
+        if (q != 0 && q != o) segments.push_back(Segment{edge_down(b.W, c, r), o, q});
+      }
+    }
+  return segments;
+}
+
+// The crossings of one segment, in order along it. A third owner nearer than both at the A-B
+// root means its region passes between the two cell centres without holding one: A and B do not
+// touch there. The segment then carries the A-C and C-B crossings instead (and so on, for more
+// owners between): without them the sides of a region thinner than a cell would have no vertex
+// until the region holds a centre, and the lines along it could not reach the tripoint at its
+// tip (they dangled).
+void place_crossings(const BoundaryGrid& b, const Segment& sg, std::vector<Crossing>& out,
+                     std::vector<std::pair<int64_t, int32_t>>& slivers, int64_t& unresolved) {
+  const int64_t cell_id = sg.edge / 2;
+  const int64_t c = cell_id % b.W, r = cell_id / b.W;
+  const Vec2 p0 = centre(b.g, c, r);
+  const Vec2 p1 = (sg.edge % 2 == 0) ? centre(b.g, c + 1, r) : centre(b.g, c, r + 1);
+  const OwnerIndex& index = b.index;
+  const double ftol = b.ftol;
+  // Owner x is nearest at t0, owner y at t1: place the x-y root, or split at the owner found
+  // nearer there. Appends in order of t.
+  auto place = [&](auto&& self, int32_t x, int32_t y, double t0, double t1, int depth) -> void {
+    auto f = [&](double t) {
+      const Vec2 p = lerp(p0, p1, t);
+      return index.nearest_of(p, x).distance - index.nearest_of(p, y).distance;
+    };
+    const double t =
+        t0 + (t1 - t0) * find_root([&](double u) { return f(t0 + (t1 - t0) * u); }, f(t0), f(t1), ftol, 1e-15);
+    const Vec2 p = lerp(p0, p1, t);
+    const auto hx = index.nearest_of(p, x), hy = index.nearest_of(p, y);
+    BoundaryVertex v{p, hx.site, hy.site, 0.5 * (hx.distance + hy.distance), std::abs(hx.distance - hy.distance)};
+    const auto nearest = index.nearest(p);
+    if (nearest.distance < v.distance - 4.0 * ftol - v.residual) {
+      const int32_t z = b.owner_of_site[static_cast<size_t>(nearest.site)];
+      if (depth == 0) slivers.emplace_back(sg.edge, z);
+      if (depth >= kMaxSliverDepth) {
+        ++unresolved;
+        return;
+      }
+      self(self, x, z, t0, t, depth + 1);
+      self(self, z, y, t, t1, depth + 1);
+      return;
+    }
+    if (x > y) std::swap(v.site_a, v.site_b);
+    out.push_back(Crossing{sg.edge, std::min(x, y), std::max(x, y), v});
+  };
+  place(place, sg.from, sg.to, 0.0, 1.0, 0);
+}
+
+CrossingSet find_crossings(const BoundaryGrid& b, int64_t row0, int64_t row1, BoundaryStats& stats) {
+  const std::vector<Segment> segments = owner_changes(b, row0, row1);
+  stats.crossings += static_cast<int64_t>(segments.size());
+  // In chunks on the threads, gathered in chunk order: the result does not depend on them.
+  const int64_t chunk = 256;
+  const int64_t chunks = (static_cast<int64_t>(segments.size()) + chunk - 1) / chunk;
+  std::vector<std::vector<Crossing>> chunk_crossings(static_cast<size_t>(chunks));
+  std::vector<std::vector<std::pair<int64_t, int32_t>>> chunk_slivers(static_cast<size_t>(chunks));
+  std::vector<int64_t> chunk_unresolved(static_cast<size_t>(chunks), 0);
+  detail::parallel_for(b.threads, chunks, [&](int64_t k, int) {
+    const size_t end = std::min(segments.size(), static_cast<size_t>((k + 1) * chunk));
+    for (size_t i = static_cast<size_t>(k * chunk); i < end; ++i)
+      place_crossings(b, segments[i], chunk_crossings[static_cast<size_t>(k)], chunk_slivers[static_cast<size_t>(k)],
+                      chunk_unresolved[static_cast<size_t>(k)]);
+  });
+  CrossingSet x;
+  x.on_edge.reserve(segments.size() * 2);
+  for (size_t k = 0; k < chunk_crossings.size(); ++k) {
+    for (const Crossing& cr : chunk_crossings[k]) {
+      auto [it, fresh] = x.on_edge.try_emplace(cr.edge, static_cast<int32_t>(x.crossings.size()), 0);
+      ++it->second.second;
+      x.crossings.push_back(cr);
+    }
+    for (const auto& [edge, third] : chunk_slivers[k]) x.sliver_at.emplace(edge, third);
+    stats.unresolved_slivers += chunk_unresolved[k];
+  }
+  stats.sliver_crossings += static_cast<int64_t>(x.sliver_at.size());
+  return x;
+}
+
+// ---- Stage 2: tripoints ------------------------------------------------------------------------
+// Candidate squares: three or more corner owners, or a sliver edge (an owner passing between
+// two centres adds itself to the square's owners). Each tripoint found is filed under the square
+// it actually lies in, which need not be the square it was sought from.
+
+struct TripointSet {
+  std::vector<Tripoint> tripoints;
+  std::map<std::array<int32_t, 3>, std::vector<int32_t>> by_owners;
+  std::unordered_map<int64_t, std::vector<int32_t>> in_square;  // square id -> tripoint ids
+};
+
+// The square a tripoint is filed under. A tripoint between the outermost cell centres and the
+// grid's edge is filed under the border square next to it: the lines of the border squares end
+// there, not half a cell short of it (dropping such tripoints left those lines dangling).
+// Outside the grid: none (-1).
+int64_t square_of(const BoundaryGrid& b, Vec2 p) {
+  const GridSpec& g = b.g;
+  const double gc = (p.x - g.xmin) / g.res, gr = (g.ymax - p.y) / g.res;
+  if (!(gc >= 0.0 && gr >= 0.0 && gc <= static_cast<double>(b.W) && gr <= static_cast<double>(b.H))) return -1;
+  if (b.W < 2 || b.H < 2) return -1;
+  const double fc = std::clamp(std::floor(gc - 0.5), 0.0, static_cast<double>(b.W - 2));
+  const double fr = std::clamp(std::floor(gr - 0.5), 0.0, static_cast<double>(b.H - 2));
+  return static_cast<int64_t>(fr) * b.W + static_cast<int64_t>(fc);
+}
+
+void add_tripoint(const BoundaryGrid& b, TripointSet& set, const Tripoint& t) {
+  auto& list = set.by_owners[{t.owners[0], t.owners[1], t.owners[2]}];
+  for (int32_t id : list) {
+    const Vec2 q = set.tripoints[static_cast<size_t>(id)].p;
+    if (std::hypot(q.x - t.p.x, q.y - t.p.y) <= 1e-6 * b.g.res) return;
+  }
+  const int64_t sq = square_of(b, t.p);
+  if (sq < 0) return;  // outside the dual grid: no cell-centre square holds it
+  const auto id = static_cast<int32_t>(set.tripoints.size());
+  set.tripoints.push_back(t);
+  list.push_back(id);
+  set.in_square[sq].push_back(id);
+}
+
+// The distinct owners of square (c, r): its corners', and those passing between its centres.
+std::vector<int32_t> square_owners(const BoundaryGrid& b, const CrossingSet& x, int64_t c, int64_t r,
+                                   const std::array<int32_t, 4>& corners) {
+  std::vector<int32_t> distinct;
+  for (int32_t v : corners)
+    if (v != 0 && std::find(distinct.begin(), distinct.end(), v) == distinct.end()) distinct.push_back(v);
+  if (!x.sliver_at.empty())
+    for (int64_t e : square_edges(b.W, c, r)) {
+      const auto it = x.sliver_at.find(e);
+      if (it != x.sliver_at.end() && std::find(distinct.begin(), distinct.end(), it->second) == distinct.end())
+        distinct.push_back(it->second);
+    }
+  std::sort(distinct.begin(), distinct.end());
+  return distinct;
+}
+
+TripointSet find_tripoints(const BoundaryGrid& b, const CrossingSet& x, int64_t row0, int64_t row1,
+                           BoundaryStats& stats) {
+  const TripointSolver solver{b.index, b.ftol, 1e-6 * b.g.res};
+  const double res = b.g.res;
+  TripointSet set;
+  for (int64_t r = row0; r < row1 && r + 1 < b.H; ++r)
+    for (int64_t c = 0; c + 1 < b.W; ++c) {
+      const auto corners = b.corner_owners(c, r);
+      if (BoundaryGrid::uniform(corners)) continue;
+      const std::vector<int32_t> distinct = square_owners(b, x, c, r, corners);
+      if (distinct.size() < 3) continue;
+      ++stats.multi_owner_squares;
+      const Vec2 mid = detail::square_mid(b.g, c, r);
+      const size_t before = set.tripoints.size();
+      for (size_t i = 0; i < distinct.size(); ++i)
+        for (size_t j = i + 1; j < distinct.size(); ++j)
+          for (size_t k = j + 1; k < distinct.size(); ++k) {
+            Tripoint t;
+            if (!solver.solve({distinct[i], distinct[j], distinct[k]}, mid, res, t)) continue;
+            if (std::abs(t.p.x - mid.x) > res || std::abs(t.p.y - mid.y) > res) continue;
+            const auto any = b.index.nearest(t.p);
+            if (any.distance < t.distance - 4.0 * b.ftol - t.residual) continue;  // another owner is nearer
+            add_tripoint(b, set, t);
+          }
+      if (set.tripoints.size() == before && set.in_square.find(r * b.W + c) == set.in_square.end())
+        ++stats.unresolved_tripoints;
+    }
+  return set;
+}
+
+// ---- Stage 3: links ----------------------------------------------------------------------------
+// Per dual square, the crossings on its edges are joined to each other or to the square's
+// tripoints; the nodes are crossings (ids 0..n-1), then tripoints (n + tripoint id).
+
+struct Links {
+  std::vector<std::array<int32_t, 2>> links;
+  std::vector<int64_t> pair;                     // pair_key of each link's owners
+  std::set<std::pair<int32_t, int32_t>> linked;  // a crossing is seen from both its squares
+  void add(int32_t n1, int32_t n2, int64_t p) {
+    if (!linked.emplace(std::min(n1, n2), std::max(n1, n2)).second) return;
+    links.push_back({n1, n2});
+    pair.push_back(p);
+  }
+};
+
+bool has(const Tripoint& t, int32_t a) { return t.owners[0] == a || t.owners[1] == a || t.owners[2] == a; }
+
+// The nearest tripoint of `ids` that has both owners of the crossing, or -1.
+int32_t nearest_tripoint(const TripointSet& set, const Crossing& cr, const std::vector<int32_t>& ids) {
+  int32_t best = -1;
+  double best_d = std::numeric_limits<double>::infinity();
+  for (int32_t id : ids) {
+    const Tripoint& t = set.tripoints[static_cast<size_t>(id)];
+    if (!has(t, cr.owner_lo) || !has(t, cr.owner_hi)) continue;
+    const double d = std::hypot(t.p.x - cr.v.p.x, t.p.y - cr.v.p.y);
+    if (d < best_d) {
+      best_d = d;
+      best = id;
+    }
+  }
+  return best;
+}
+
+// One square being linked: its crossings (edge k of the square, crossing id), in edge order.
+struct SquareLinks {
+  const BoundaryGrid& b;
+  const CrossingSet& x;
+  const TripointSet& t;
+  Links& out;
+  int64_t c, r;
+  std::vector<std::pair<int, int32_t>> items;
+  int32_t ncross;
+
+  const Crossing& cross(size_t item) const { return x.crossings[static_cast<size_t>(items[item].second)]; }
+  int32_t node(size_t item) const { return items[item].second; }
+  int64_t pair_of(size_t item) const { return pair_key(cross(item).owner_lo, cross(item).owner_hi); }
+
+  // Crossings end at the nearest tripoint of their pair filed in this square. A tripoint filed
+  // here from the half cell beyond the outermost centres (see square_of) lies outside the square:
+  // the line may cross the square on its way there, so only the crossing nearest to it ends
+  // there, and the others are returned to be paired.
+  std::vector<size_t> at_tripoints(const std::vector<int32_t>& here) {
+    const GridSpec& g = b.g;
+    const double x0 = g.centre_x(c), x1 = g.centre_x(c + 1), y0 = g.centre_y(r + 1), y1 = g.centre_y(r);
+    std::vector<int32_t> target(items.size(), -1);
+    std::map<std::pair<int32_t, int64_t>, size_t> nearest_to_outside;  // (tripoint, pair) -> item
+    for (size_t i = 0; i < items.size(); ++i) {
+      const int32_t tp = nearest_tripoint(t, cross(i), here);
+      if (tp < 0) continue;
+      target[i] = tp;
+      const Vec2 q = t.tripoints[static_cast<size_t>(tp)].p;
+      if (q.x >= x0 && q.x <= x1 && q.y >= y0 && q.y <= y1) continue;
+      auto [it, fresh] = nearest_to_outside.try_emplace({tp, pair_of(i)}, i);
+      auto dist = [&](size_t j) { return std::hypot(q.x - cross(j).v.p.x, q.y - cross(j).v.p.y); };
+      if (!fresh && dist(i) < dist(it->second)) it->second = i;
+    }
+    // The line to an outside tripoint that leaves the square through the edge facing it (the
+    // outermost centre line) entered it through another edge: with exactly one other crossing
+    // of the pair here, that one is joined to the crossing on the facing edge.
+    std::vector<bool> joined(items.size(), false);
+    for (const auto& [key, n] : nearest_to_outside) {
+      const Vec2 q = t.tripoints[static_cast<size_t>(key.first)].p;
+      const int k = items[n].first;
+      const bool facing = (k == 0 && q.y > y1) || (k == 1 && q.x > x1) || (k == 2 && q.y < y0) || (k == 3 && q.x < x0);
+      std::vector<size_t> same;
+      for (size_t i = 0; i < items.size(); ++i)
+        if (i != n && pair_of(i) == key.second) same.push_back(i);
+      if (facing && same.size() == 1) {
+        out.add(node(same[0]), node(n), key.second);
+        joined[same[0]] = true;
+      }
+    }
+    std::vector<size_t> unlinked;
+    for (size_t i = 0; i < items.size(); ++i) {
+      if (joined[i]) continue;
+      bool ends_here = target[i] >= 0;
+      if (ends_here) {
+        const auto it = nearest_to_outside.find({target[i], pair_of(i)});
+        ends_here = it == nearest_to_outside.end() || it->second == i;
+      }
+      if (ends_here)
+        out.add(node(i), ncross + target[i], pair_of(i));
+      else
+        unlinked.push_back(i);
+    }
+    // Two tripoints sharing two owners are joined by those owners' boundary.
+    for (size_t i = 0; i < here.size(); ++i)
+      for (size_t j = i + 1; j < here.size(); ++j) {
+        const Tripoint& ti = t.tripoints[static_cast<size_t>(here[i])];
+        const Tripoint& tj = t.tripoints[static_cast<size_t>(here[j])];
+        std::vector<int32_t> shared;
+        for (int32_t a : ti.owners)
+          if (has(tj, a)) shared.push_back(a);
+        if (shared.size() == 2) out.add(ncross + here[i], ncross + here[j], pair_key(shared[0], shared[1]));
+      }
+    return unlinked;
+  }
+
+  // Saddle A B / B A: the owner of the square's centre connects its two corners.
+  void saddle(const std::array<int32_t, 4>& o) {
+    const Vec2 mid = detail::square_mid(b.g, c, r);
+    const auto h0 = b.index.nearest_of(mid, o[0]), h1 = b.index.nearest_of(mid, o[1]);
+    const bool centre_is_o0 = h0.distance < h1.distance || (h0.distance == h1.distance && h0.site < h1.site);
+    const int64_t pair = pair_key(o[0], o[1]);
+    if (centre_is_o0) {  // corners 1 and 3 are cut off
+      out.add(node(0), node(1), pair);
+      out.add(node(2), node(3), pair);
+    } else {  // corners 0 and 2 are cut off
+      out.add(node(3), node(0), pair);
+      out.add(node(1), node(2), pair);
+    }
+  }
+
+  // The tripoints filed in the 8 squares around this one.
+  std::vector<int32_t> tripoints_around() const {
+    std::vector<int32_t> around;
+    for (int64_t dr = -1; dr <= 1; ++dr)
+      for (int64_t dc = -1; dc <= 1; ++dc) {
+        if ((dr == 0 && dc == 0) || r + dr < 0 || c + dc < 0 || r + dr + 1 >= b.H || c + dc + 1 >= b.W) continue;
+        const auto it = t.in_square.find((r + dr) * b.W + (c + dc));
+        if (it != t.in_square.end()) around.insert(around.end(), it->second.begin(), it->second.end());
+      }
+    return around;
+  }
+
+  // Crossings of one pair, two in the square: joined. A lone crossing whose pair has a tripoint
+  // in a neighbouring square (its third owner passed between two centres): joined to that
+  // tripoint.
+  void pair_up(const std::vector<size_t>& unlinked) {
+    for (size_t k : unlinked) {
+      int same = 0;
+      size_t other = 0;
+      for (size_t m : unlinked)
+        if (m != k && cross(m).owner_lo == cross(k).owner_lo && cross(m).owner_hi == cross(k).owner_hi) {
+          ++same;
+          other = m;
+        }
+      const int64_t pair = pair_of(k);
+      if (same == 1) {
+        if (k < other) out.add(node(k), node(other), pair);
+        continue;
+      }
+      if (same > 1) continue;
+      std::vector<int32_t> around = tripoints_around();
+      // The line leaves the crossing into this square, so the tripoint lies on this square's
+      // side of the crossing's edge (edges: 0 top, 1 right, 2 bottom, 3 left).
+      const Vec2 e = cross(k).v.p;
+      const int side = items[k].first;
+      std::erase_if(around, [&](int32_t id) {
+        const Vec2 q = t.tripoints[static_cast<size_t>(id)].p;
+        switch (side) {
+          case 0:
+            return !(q.y < e.y);
+          case 1:
+            return !(q.x < e.x);
+          case 2:
+            return !(q.y > e.y);
+          default:
+            return !(q.x > e.x);
+        }
+      });
+      const int32_t tp = nearest_tripoint(t, cross(k), around);
+      if (tp >= 0) out.add(node(k), ncross + tp, pair);
+    }
+  }
+};
+
+Links link_squares(const BoundaryGrid& b, const CrossingSet& x, const TripointSet& t, int64_t row0, int64_t row1,
+                   BoundaryStats& stats) {
+  Links out;
+  const auto ncross = static_cast<int32_t>(x.crossings.size());
+  for (int64_t r = row0; r < row1 && r + 1 < b.H; ++r)
+    for (int64_t c = 0; c + 1 < b.W; ++c) {
+      const auto o = b.corner_owners(c, r);
+      if (BoundaryGrid::uniform(o)) continue;
+      SquareLinks sq{b, x, t, out, c, r, {}, ncross};
+      const auto edges = square_edges(b.W, c, r);
+      // The crossings on the square's edges; an edge crossed by owners passing between its two
+      // centres carries several.
+      std::array<int, 4> per_edge{0, 0, 0, 0};
+      for (int k = 0; k < 4; ++k) {
+        const auto it = x.on_edge.find(edges[static_cast<size_t>(k)]);
+        if (it == x.on_edge.end()) continue;
+        for (int32_t i = 0; i < it->second.second; ++i) sq.items.emplace_back(k, it->second.first + i);
+        per_edge[static_cast<size_t>(k)] = it->second.second;
+      }
+      if (sq.items.empty()) continue;
+      const auto here = t.in_square.find(r * b.W + c);
+      std::vector<size_t> unlinked;
+      if (here != t.in_square.end()) {
+        unlinked = sq.at_tripoints(here->second);
+      } else if (per_edge == std::array<int, 4>{1, 1, 1, 1} && o[0] == o[2] && o[1] == o[3] && o[0] != o[1]) {
+        ++stats.saddles;
+        sq.saddle(o);
+        continue;
+      } else {
+        unlinked.resize(sq.items.size());
+        std::iota(unlinked.begin(), unlinked.end(), size_t{0});
+      }
+      sq.pair_up(unlinked);
+    }
+  return out;
+}
+
+// ---- Stage 4: chains ---------------------------------------------------------------------------
+// The links chained into lines per owner pair, simplified, in a deterministic order.
+
+std::vector<BoundaryLine> chain_lines(const CrossingSet& x, const TripointSet& t, const Links& links, double tol,
+                                      BoundaryStats& stats) {
+  const auto ncross = static_cast<int32_t>(x.crossings.size());
+  const auto ntri = static_cast<int32_t>(t.tripoints.size());
+  std::vector<bool> terminal(static_cast<size_t>(ncross + ntri), false);
+  for (int32_t i = 0; i < ntri; ++i) terminal[static_cast<size_t>(ncross + i)] = true;
+  const Chains chains = chain_links(ncross + ntri, links.links, terminal);
+  std::vector<BoundaryLine> lines;
+  for (size_t k = 0; k < chains.node_lists.size(); ++k) {
+    const int64_t pair = links.pair[static_cast<size_t>(chains.first_link[k])];
+    BoundaryLine line;
+    line.owner_a = static_cast<int32_t>(pair >> 32);
+    line.owner_b = static_cast<int32_t>(pair & 0xffffffff);
+    line.closed = chains.closed[k];
+    std::vector<BoundaryVertex> all;
+    for (int32_t node : chains.node_lists[k]) {
+      if (node < ncross) {
+        all.push_back(x.crossings[static_cast<size_t>(node)].v);
+        continue;
+      }
+      const Tripoint& tp = t.tripoints[static_cast<size_t>(node - ncross)];
+      BoundaryVertex v{tp.p, kNoSite, kNoSite, tp.distance, tp.residual};
+      for (int i = 0; i < 3; ++i) {
+        if (tp.owners[i] == line.owner_a) v.site_a = tp.sites[i];
+        if (tp.owners[i] == line.owner_b) v.site_b = tp.sites[i];
+      }
+      all.push_back(v);
+    }
+    stats.vertices_before_simplify += static_cast<int64_t>(all.size());
+    std::vector<Vec2> pts;
+    pts.reserve(all.size());
+    for (const auto& v : all) pts.push_back(v.p);
+    for (size_t i : simplify_indices(pts, tol)) line.vertices.push_back(all[i]);
+    for (const auto& v : line.vertices) stats.max_residual = std::max(stats.max_residual, v.residual);
+    stats.vertices += static_cast<int64_t>(line.vertices.size());
+    lines.push_back(std::move(line));
+  }
+  // Deterministic order: by owner pair, then by first vertex.
+  std::stable_sort(lines.begin(), lines.end(), [](const BoundaryLine& a, const BoundaryLine& b) {
+    if (a.owner_a != b.owner_a) return a.owner_a < b.owner_a;
+    if (a.owner_b != b.owner_b) return a.owner_b < b.owner_b;
+    const Vec2 pa = a.vertices.front().p, pb = b.vertices.front().p;
+    return pa.y != pb.y ? pa.y > pb.y : pa.x < pb.x;
+  });
+  return lines;
+}
+
+}  // namespace
+
+BoundaryResult extract_boundaries(const NearestField& field, const OwnerIndex& index, const BoundaryOptions& options) {
+  check_whole_grid(field);
+  check_metric(field, index.metric());
+  const GridSpec& g = field.site.grid();
+  const double ftol = std::max(options.tolerance_cells, 1e-15) * cell_metric(g, index.metric());
+  const BoundaryGrid b{field,    index,
+                       g,        g.width,
+                       g.height, resolve_threads(options.threads),
+                       ftol,     detail::owner_of_sites(index.metric().seeds())};
+  // The stages take rows [row0, row1): the shape streaming needs (a strip in, pieces of line out,
+  // joined across strip edges by the chains); here they get the whole grid at once.
+  BoundaryResult result;
+  const CrossingSet crossings = find_crossings(b, 0, b.H, result.stats);
+  TripointSet tripoints = find_tripoints(b, crossings, 0, b.H, result.stats);
+  const Links links = link_squares(b, crossings, tripoints, 0, b.H, result.stats);
+  result.lines = chain_lines(crossings, tripoints, links, options.simplify_cells * g.res, result.stats);
+  for (const Tripoint& t : tripoints.tripoints)
+    result.stats.max_residual = std::max(result.stats.max_residual, t.residual);
+  result.tripoints = std::move(tripoints.tripoints);
+  return result;
+}
+
+}  // namespace rv

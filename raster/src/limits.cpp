@@ -1,0 +1,254 @@
+// Distance-limit lines (extract_limits, rv/deliverables.hpp) as a pipeline of stages: which cells
+// lie inside the limit, the crossings on the edges between inside and outside, links per square,
+// chains of links into lines.
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <limits>
+#include <map>
+#include <numeric>
+#include <set>
+#include <unordered_map>
+#include <vector>
+
+#include "line_tools.hpp"
+#include "parallel.hpp"
+#include "rv/deliverables.hpp"
+#include "rv/error.hpp"
+
+namespace rv {
+
+using detail::cell_metric;
+using detail::centre;
+using detail::chain_links;
+using detail::Chains;
+using detail::check_metric;
+using detail::check_whole_grid;
+using detail::edge_down;
+using detail::edge_right;
+using detail::find_root;
+using detail::lerp;
+using detail::square_edges;
+
+// ---------------------------------------------------------------------------------------------
+// Distance-limit lines.
+
+namespace {
+
+// What every stage of one extraction reads.
+struct LimitGrid {
+  const NearestField& field;
+  const OwnerIndex& index;
+  const SiteMetric& metric;
+  const GridSpec& g;
+  int64_t W, H;
+  int threads;
+  double cell;  // one cell in metric units
+  double ftol;
+  std::vector<int32_t> owner_of_site;
+};
+
+// The distance whose level D is drawn: to any seed (owner 0), or to one owner's.
+struct Target {
+  const LimitGrid& grid;
+  int32_t owner;
+  double D;
+  OwnerIndex::Hit at(Vec2 p) const { return owner == 0 ? grid.index.nearest(p) : grid.index.nearest_of(p, owner); }
+};
+
+// ---- Stage 1: inside -------------------------------------------------------------------------
+// Inside (d <= D) per cell. The Float32 field decides clear cases; cells within float rounding
+// of D, and (per owner) cells of other owners within reach, are measured exactly. Per owner,
+// blocks of kBlock x kBlock cells are first settled as a whole where the distance at the
+// block's centre is farther from D than the block's radius (distance is 1-Lipschitz), so exact
+// queries are only spent near the line.
+constexpr int64_t kBlock = 8;
+
+// -1: decide per cell; 0: the whole block is outside; 1: inside.
+int settle_block(const Target& t, int64_t c0, int64_t r0, int64_t c1, int64_t r1) {
+  if (t.owner == 0) return -1;
+  const LimitGrid& lg = t.grid;
+  const Vec2 a = centre(lg.g, c0, r0), b = centre(lg.g, c1 - 1, r1 - 1);
+  const Vec2 mid{0.5 * (a.x + b.x), 0.5 * (a.y + b.y)};
+  double radius = 0.0;
+  for (const Vec2 q : {a, b, Vec2{a.x, b.y}, Vec2{b.x, a.y}})
+    radius = std::max(radius, lg.metric.point_distance(mid, q));
+  // Corners bound a small block's extent exactly in the plane; 1 % covers the curvature of a
+  // longitude/latitude block.
+  radius = radius * 1.01 + 1e-6 * lg.cell;
+  const double v = t.at(mid).distance;
+  if (v - radius > t.D) return 0;
+  if (v + radius < t.D) return 1;
+  return -1;
+}
+
+bool cell_inside(const Target& t, int64_t c, int64_t r, int32_t s) {
+  const LimitGrid& lg = t.grid;
+  const double d = lg.field.distance.at(c, r);
+  const bool own = t.owner == 0 || lg.owner_of_site[static_cast<size_t>(s)] == t.owner;
+  if (own && std::abs(d - t.D) > 1e-6 * (t.D + lg.cell)) return d <= t.D;
+  if (!own && d > t.D + 1e-6 * (t.D + lg.cell)) return false;  // d_owner >= d > D
+  return t.at(centre(lg.g, c, r)).distance <= t.D;
+}
+
+std::vector<uint8_t> inside_flags(const Target& t) {
+  const LimitGrid& lg = t.grid;
+  std::vector<uint8_t> inside(static_cast<size_t>(lg.W * lg.H), 0);
+  const int64_t bw = (lg.W + kBlock - 1) / kBlock, bh = (lg.H + kBlock - 1) / kBlock;
+  detail::parallel_for(lg.threads, bh, [&](int64_t br, int) {
+    for (int64_t bc = 0; bc < bw; ++bc) {
+      const int64_t c0 = bc * kBlock, r0 = br * kBlock;
+      const int64_t c1 = std::min(lg.W, c0 + kBlock), r1 = std::min(lg.H, r0 + kBlock);
+      const int settled = settle_block(t, c0, r0, c1, r1);
+      for (int64_t r = r0; r < r1; ++r)
+        for (int64_t c = c0; c < c1; ++c) {
+          const int32_t s = lg.field.site.at(c, r);
+          if (s == kNoSite) continue;  // beyond the field's max distance: outside every limit
+          const bool in = settled >= 0 ? settled == 1 : cell_inside(t, c, r, s);
+          inside[static_cast<size_t>(r * lg.W + c)] = in ? 1 : 0;
+        }
+    }
+  });
+  return inside;
+}
+
+// ---- Stage 2: crossings ----------------------------------------------------------------------
+// Every edge between an inside and an outside cell, its vertex placed at distance D.
+
+struct LimitCrossings {
+  std::vector<int64_t> edges;
+  std::vector<LimitVertex> verts;           // per edge
+  std::unordered_map<int64_t, int32_t> at;  // edge -> index
+};
+
+LimitCrossings limit_crossings(const Target& t, const std::vector<uint8_t>& inside) {
+  const LimitGrid& lg = t.grid;
+  const int64_t W = lg.W, H = lg.H;
+  auto in_at = [&](int64_t c, int64_t r) { return inside[static_cast<size_t>(r * W + c)] != 0; };
+  LimitCrossings x;
+  for (int64_t r = 0; r < H; ++r)
+    for (int64_t c = 0; c < W; ++c) {
+      if (c + 1 < W && in_at(c, r) != in_at(c + 1, r)) x.edges.push_back(edge_right(W, c, r));
+      if (r + 1 < H && in_at(c, r) != in_at(c, r + 1)) x.edges.push_back(edge_down(W, c, r));
+    }
+  x.verts.resize(x.edges.size());
+  const int64_t chunk = 256;
+  detail::parallel_for(lg.threads, (static_cast<int64_t>(x.edges.size()) + chunk - 1) / chunk, [&](int64_t k, int) {
+    const size_t end = std::min(x.edges.size(), static_cast<size_t>((k + 1) * chunk));
+    for (size_t i = static_cast<size_t>(k * chunk); i < end; ++i) {
+      const int64_t id = x.edges[i] / 2;
+      const int64_t c = id % W, r = id / W;
+      const Vec2 p0 = centre(lg.g, c, r);
+      const Vec2 p1 = (x.edges[i] % 2 == 0) ? centre(lg.g, c + 1, r) : centre(lg.g, c, r + 1);
+      auto f = [&](double u) { return t.at(lerp(p0, p1, u)).distance - t.D; };
+      const double u = find_root(f, f(0.0), f(1.0), lg.ftol, 1e-15);
+      const Vec2 p = lerp(p0, p1, u);
+      const auto h = t.at(p);
+      x.verts[i] = LimitVertex{p, h.site, std::abs(h.distance - t.D)};
+    }
+  });
+  x.at.reserve(x.edges.size() * 2);
+  for (size_t i = 0; i < x.edges.size(); ++i) x.at.emplace(x.edges[i], static_cast<int32_t>(i));
+  return x;
+}
+
+// ---- Stage 3: links --------------------------------------------------------------------------
+// Per dual square, its two crossings joined; a saddle's four by the side of its centre.
+
+std::vector<std::array<int32_t, 2>> limit_links(const Target& t, const std::vector<uint8_t>& inside,
+                                                const LimitCrossings& x) {
+  const LimitGrid& lg = t.grid;
+  const int64_t W = lg.W, H = lg.H;
+  auto in_at = [&](int64_t c, int64_t r) { return inside[static_cast<size_t>(r * W + c)] != 0; };
+  std::vector<std::array<int32_t, 2>> links;
+  for (int64_t r = 0; r + 1 < H; ++r)
+    for (int64_t c = 0; c + 1 < W; ++c) {
+      const std::array<bool, 4> in{in_at(c, r), in_at(c + 1, r), in_at(c + 1, r + 1), in_at(c, r + 1)};
+      if (in[0] == in[1] && in[1] == in[2] && in[2] == in[3]) continue;
+      const auto sq = square_edges(W, c, r);
+      std::array<int32_t, 4> n;
+      std::vector<int> present;
+      for (int k = 0; k < 4; ++k) {
+        const auto it = x.at.find(sq[static_cast<size_t>(k)]);
+        n[static_cast<size_t>(k)] = it == x.at.end() ? -1 : it->second;
+        if (it != x.at.end()) present.push_back(k);
+      }
+      if (present.size() == 2) {
+        links.push_back({n[static_cast<size_t>(present[0])], n[static_cast<size_t>(present[1])]});
+      } else if (present.size() == 4) {
+        // Saddle: the centre's side decides which diagonal pair of corners is connected.
+        const bool centre_in = t.at(detail::square_mid(lg.g, c, r)).distance <= t.D;
+        if (centre_in == in[0]) {  // corners 0 and 2 connected: cut off 1 and 3
+          links.push_back({n[0], n[1]});
+          links.push_back({n[2], n[3]});
+        } else {
+          links.push_back({n[3], n[0]});
+          links.push_back({n[1], n[2]});
+        }
+      }
+    }
+  return links;
+}
+
+// ---- Stage 4: chains -------------------------------------------------------------------------
+
+void chain_limit_lines(const Target& t, const LimitCrossings& x, const std::vector<std::array<int32_t, 2>>& links,
+                       double tol, LimitResult& result) {
+  const Chains chains =
+      chain_links(static_cast<int32_t>(x.verts.size()), links, std::vector<bool>(x.verts.size(), false));
+  for (size_t k = 0; k < chains.node_lists.size(); ++k) {
+    LimitLine line;
+    line.distance = t.D;
+    line.owner = t.owner;
+    line.closed = chains.closed[k];
+    std::vector<Vec2> pts;
+    for (int32_t n : chains.node_lists[k]) pts.push_back(x.verts[static_cast<size_t>(n)].p);
+    for (size_t i : simplify_indices(pts, tol)) {
+      const LimitVertex& v = x.verts[static_cast<size_t>(chains.node_lists[k][i])];
+      line.vertices.push_back(v);
+      result.max_residual = std::max(result.max_residual, v.residual);
+    }
+    result.vertices += static_cast<int64_t>(line.vertices.size());
+    result.lines.push_back(std::move(line));
+  }
+}
+
+}  // namespace
+
+LimitResult extract_limits(const NearestField& field, const OwnerIndex& index, std::span<const double> distances,
+                           const LimitOptions& options) {
+  check_whole_grid(field);
+  check_metric(field, index.metric());
+  for (double d : distances)
+    if (!std::isfinite(d) || d <= 0.0)
+      throw Error(ErrorKind::invalid_argument, "limit distances must be positive finite numbers");
+  const GridSpec& g = field.site.grid();
+  const SiteMetric& metric = index.metric();
+  const double cell = cell_metric(g, metric);
+  const LimitGrid lg{field,
+                     index,
+                     metric,
+                     g,
+                     g.width,
+                     g.height,
+                     resolve_threads(options.threads),
+                     cell,
+                     std::max(options.tolerance_cells, 1e-15) * cell,
+                     detail::owner_of_sites(metric.seeds())};
+  std::vector<int32_t> owners = {0};
+  if (options.per_owner) {
+    owners.clear();
+    for (int32_t o = 1; o <= metric.seeds().owner_count(); ++o) owners.push_back(o);
+  }
+  LimitResult result;
+  for (double D : distances)
+    for (int32_t owner : owners) {
+      const Target t{lg, owner, D};
+      const std::vector<uint8_t> inside = inside_flags(t);
+      const LimitCrossings x = limit_crossings(t, inside);
+      chain_limit_lines(t, x, limit_links(t, inside, x), options.simplify_cells * g.res, result);
+    }
+  return result;
+}
+
+}  // namespace rv

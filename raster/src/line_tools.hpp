@@ -1,0 +1,95 @@
+// The machinery the deliverables share (boundaries.cpp, limits.cpp, margin.cpp): positions of
+// cell centres, root finding along a segment, the grid's edges and dual squares, chaining links
+// into lines, and the checks every deliverable makes of its field. Internal to rv_raster.
+// Thread safety: pure functions.
+#pragma once
+
+#include <array>
+#include <cmath>
+#include <cstdint>
+#include <vector>
+
+#include "rv/deliverables.hpp"
+
+namespace rv::detail {
+
+inline Vec2 centre(const GridSpec& g, int64_t col, int64_t row) { return Vec2{g.centre_x(col), g.centre_y(row)}; }
+inline Vec2 lerp(Vec2 a, Vec2 b, double t) { return Vec2{a.x + t * (b.x - a.x), a.y + t * (b.y - a.y)}; }
+// The centre of dual square (c, r): the grid corner shared by cells (c, r) .. (c + 1, r + 1).
+inline Vec2 square_mid(const GridSpec& g, int64_t c, int64_t r) {
+  return Vec2{g.xmin + (static_cast<double>(c) + 1.0) * g.res, g.ymax - (static_cast<double>(r) + 1.0) * g.res};
+}
+
+// A root of f on [0, 1] given f(0) <= 0 <= f(1) (or the reverse): the Illinois variant of
+// regula falsi, with a bisection step whenever the bracket failed to halve, so convergence is
+// superlinear on smooth stretches and never worse than bisection where the controlling seed
+// changes. Stops when |f| <= ftol or the bracket is below t_tol. If f does not change sign the
+// end with the smaller |f| is returned.
+template <class F>
+double find_root(F&& f, double f0, double f1, double ftol, double t_tol) {
+  if (std::abs(f0) <= ftol) return 0.0;
+  if (std::abs(f1) <= ftol) return 1.0;
+  if ((f0 < 0.0) == (f1 < 0.0)) return std::abs(f0) <= std::abs(f1) ? 0.0 : 1.0;
+  double a = 0.0, b = 1.0, fa = f0, fb = f1;
+  int side = 0;
+  double width = 1.0;
+  for (int iter = 0; iter < 200; ++iter) {
+    double t;
+    if (iter % 3 == 2 && (b - a) > 0.5 * width) {
+      t = 0.5 * (a + b);  // the last steps did not halve the bracket
+    } else {
+      t = (a * fb - b * fa) / (fb - fa);
+      if (!(t > a && t < b)) t = 0.5 * (a + b);
+    }
+    if (iter % 3 == 2) width = b - a;
+    const double ft = f(t);
+    if (std::abs(ft) <= ftol) return t;
+    if ((ft < 0.0) == (fa < 0.0)) {
+      a = t;
+      fa = ft;
+      if (side == -1) fb *= 0.5;
+      side = -1;
+    } else {
+      b = t;
+      fb = ft;
+      if (side == 1) fa *= 0.5;
+      side = 1;
+    }
+    if (b - a <= t_tol) break;
+  }
+  return std::abs(fa) <= std::abs(fb) ? a : b;
+}
+
+// Links between graph nodes; chains them into polylines. A chain starts and stops at terminal
+// nodes (tripoints, or nodes of degree other than 2); what is left are closed rings.
+struct Chains {
+  std::vector<std::vector<int32_t>> node_lists;
+  std::vector<bool> closed;
+  std::vector<int32_t> first_link;  // the link each chain started with (its pair tag)
+};
+
+Chains chain_links(int32_t node_count, const std::vector<std::array<int32_t, 2>>& links,
+                   const std::vector<bool>& always_terminal);
+
+// Grid edges between 4-neighbour cell centres: id 2*(row*W + col) joins (col,row)-(col+1,row),
+// id 2*(row*W + col) + 1 joins (col,row)-(col,row+1).
+inline int64_t edge_right(int64_t w, int64_t c, int64_t r) { return 2 * (r * w + c); }
+inline int64_t edge_down(int64_t w, int64_t c, int64_t r) { return 2 * (r * w + c) + 1; }
+
+// The four edges of dual square (c, r), in order top, right, bottom, left; corner k lies between
+// edge k-1 and edge k (corners: 0 = (c,r), 1 = (c+1,r), 2 = (c+1,r+1), 3 = (c,r+1)).
+inline std::array<int64_t, 4> square_edges(int64_t w, int64_t c, int64_t r) {
+  return {edge_right(w, c, r), edge_down(w, c + 1, r), edge_right(w, c, r + 1), edge_down(w, c, r)};
+}
+
+// The field's distances and ownership and the metric's must agree, or the roots are sought in
+// a different geometry than the one that decided the owners. Throws rv::Error(invalid_argument).
+void check_metric(const NearestField& field, const SiteMetric& metric);
+// Deliverables need the whole grid. Throws rv::Error(invalid_argument).
+void check_whole_grid(const NearestField& field);
+// Metric length of one cell near the grid centre: the scale of every tolerance.
+double cell_metric(const GridSpec& g, const SiteMetric& m);
+// The owner code of every site of `seeds`.
+std::vector<int32_t> owner_of_sites(const SeedSet& seeds);
+
+}  // namespace rv::detail

@@ -1,0 +1,269 @@
+// SiteMetric's area sites and boxes, PlanarSiteMetric and OwnerIndex (rv/deliverables.hpp): how
+// the deliverables measure a point's distance to a seed site, and find an owner's nearest site.
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <limits>
+#include <vector>
+
+#include "rv/deliverables.hpp"
+#include "rv/error.hpp"
+#include "rv/planar.hpp"
+
+namespace rv {
+
+// ---------------------------------------------------------------------------------------------
+// SiteMetric: area sites and boxes.
+
+// Polygon edges bucketed into horizontal slabs, so that an inside test looks at the edges of
+// one slab only (coastline polygons have 1e4..1e6 edges; the boundary searches test the
+// polygons of both owners at every evaluation).
+struct SiteMetric::Slabs {
+  double y0 = 0.0, height = 1.0;
+  int64_t count = 1;
+  std::vector<std::vector<std::pair<Vec2, Vec2>>> edges;  // per slab
+};
+
+SiteMetric::SiteMetric(const SeedSet& seeds) : SiteMetric(seeds, seeds.polygons()) {}
+
+SiteMetric::SiteMetric(const SeedSet& seeds, const std::vector<Polygon>& polygons)
+    : seeds_(seeds), polygons_(polygons) {
+  if (polygons.size() != seeds.polygons().size())
+    throw Error(ErrorKind::invalid_argument, "site metric: the polygons must be the seeds' polygons one for one");
+  polygon_of_site_.assign(seeds.sites().size(), -1);
+  for (size_t i = 0; i < polygons.size(); ++i) {
+    const Polygon& poly = polygons[i];
+    if (poly.area_site != seeds.polygons()[i].area_site)
+      throw Error(ErrorKind::invalid_argument,
+                  "site metric: polygon " + std::to_string(i) + " is not the seeds' polygon");
+    polygon_of_site_[static_cast<size_t>(poly.area_site)] = static_cast<int32_t>(i);
+    auto slabs = std::make_unique<Slabs>();
+    double y0 = std::numeric_limits<double>::infinity(), y1 = -y0;
+    size_t n = 0;
+    for (const Ring& ring : poly.rings) {
+      n += ring.size();
+      for (const Vec2& v : ring) {
+        y0 = std::min(y0, v.y);
+        y1 = std::max(y1, v.y);
+      }
+    }
+    slabs->count = std::clamp<int64_t>(static_cast<int64_t>(n / 8), 1, 4096);
+    slabs->y0 = y0;
+    slabs->height = std::max((y1 - y0) / static_cast<double>(slabs->count), 1e-300);
+    slabs->edges.resize(static_cast<size_t>(slabs->count));
+    auto slab_of = [&](double y) {
+      const double s = std::floor((y - slabs->y0) / slabs->height);
+      return static_cast<int64_t>(std::clamp(s, 0.0, static_cast<double>(slabs->count - 1)));
+    };
+    for (const Ring& ring : poly.rings)
+      for (size_t k = 0; k < ring.size(); ++k) {
+        const Vec2 a = ring[k], b = ring[(k + 1) % ring.size()];
+        if (a.y == b.y) continue;  // horizontal edges never cross a horizontal ray
+        for (int64_t s = slab_of(std::min(a.y, b.y)); s <= slab_of(std::max(a.y, b.y)); ++s)
+          slabs->edges[static_cast<size_t>(s)].emplace_back(a, b);
+      }
+    slabs_.push_back(std::move(slabs));
+  }
+}
+
+SiteMetric::~SiteMetric() = default;
+
+bool SiteMetric::inside_area(Vec2 p, int32_t area_site) const {
+  const int32_t pi = polygon_of_site_[static_cast<size_t>(area_site)];
+  if (pi < 0) return false;
+  const Slabs& sl = *slabs_[static_cast<size_t>(pi)];
+  const double s = std::floor((p.y - sl.y0) / sl.height);
+  if (!(s >= 0.0) || s >= static_cast<double>(sl.count)) return false;
+  bool inside = false;
+  for (const auto& [a, b] : sl.edges[static_cast<size_t>(s)]) {
+    // Half-open in y, so a vertex on the ray counts once (the scanline convention).
+    if ((a.y > p.y) != (b.y > p.y)) {
+      const double x = a.x + (p.y - a.y) * (b.x - a.x) / (b.y - a.y);
+      if (p.x < x) inside = !inside;
+    }
+  }
+  return inside;
+}
+
+Box3 SiteMetric::vertex_box(int32_t site) const {
+  const Site& s = seeds_.sites()[static_cast<size_t>(site)];
+  Box3 b{std::min(s.a.x, s.b.x), std::min(s.a.y, s.b.y), 0.0, std::max(s.a.x, s.b.x), std::max(s.a.y, s.b.y), 0.0};
+  if (s.kind == SiteKind::area) {
+    const int32_t pi = polygon_of_site_[static_cast<size_t>(site)];
+    if (pi >= 0)
+      for (const Vec2& v : polygons_[static_cast<size_t>(pi)].rings.front()) b.include({v.x, v.y, 0.0, v.x, v.y, 0.0});
+  }
+  return b;
+}
+
+void Box3::include(const Box3& b) {
+  x0 = std::min(x0, b.x0);
+  y0 = std::min(y0, b.y0);
+  z0 = std::min(z0, b.z0);
+  x1 = std::max(x1, b.x1);
+  y1 = std::max(y1, b.y1);
+  z1 = std::max(z1, b.z1);
+}
+
+double SiteMetric::lower_bound(const Vec3& q, const Box3& b) {
+  const double dx = std::max({b.x0 - q.x, 0.0, q.x - b.x1});
+  const double dy = std::max({b.y0 - q.y, 0.0, q.y - b.y1});
+  const double dz = std::max({b.z0 - q.z, 0.0, q.z - b.z1});
+  // A relative shave keeps the bound below the site distance despite rounding.
+  return std::sqrt(dx * dx + dy * dy + dz * dz) * (1.0 - 1e-12);
+}
+
+// ---------------------------------------------------------------------------------------------
+// PlanarSiteMetric.
+
+PlanarSiteMetric::PlanarSiteMetric(const SeedSet& seeds, Vec2 origin) : SiteMetric(seeds), origin_(origin) {}
+
+namespace {
+// The site in the frame relative to `o` (as the engine's LocalSite, whatever the grid).
+LocalSite local_of(const Site& s, Vec2 o) {
+  LocalSite l;
+  l.ax = s.a.x - o.x;
+  l.ay = s.a.y - o.y;
+  l.dx = (s.b.x - o.x) - l.ax;
+  l.dy = (s.b.y - o.y) - l.ay;
+  const double len2 = l.dx * l.dx + l.dy * l.dy;
+  l.inv_len2 = (s.kind == SiteKind::segment && len2 > 0.0) ? 1.0 / len2 : 0.0;
+  return l;
+}
+}  // namespace
+
+double PlanarSiteMetric::distance(Vec2 p, int32_t site) const {
+  const Site& s = seeds().sites()[static_cast<size_t>(site)];
+  if (s.kind == SiteKind::area) return inside_area(p, site) ? 0.0 : std::numeric_limits<double>::infinity();
+  return std::sqrt(planar_key(p.x - origin_.x, p.y - origin_.y, local_of(s, origin_)));
+}
+
+Vec3 PlanarSiteMetric::embed(Vec2 p) const { return Vec3{p.x - origin_.x, p.y - origin_.y, 0.0}; }
+
+Box3 PlanarSiteMetric::site_bounds(int32_t site) const {
+  Box3 b = vertex_box(site);
+  b.x0 -= origin_.x;
+  b.x1 -= origin_.x;
+  b.y0 -= origin_.y;
+  b.y1 -= origin_.y;
+  return b;
+}
+
+Vec2 PlanarSiteMetric::nearest_point(Vec2 p, int32_t site) const {
+  const Site& s = seeds().sites()[static_cast<size_t>(site)];
+  if (s.kind == SiteKind::area) return p;
+  if (s.kind == SiteKind::point) return s.a;
+  const LocalSite l = local_of(s, origin_);
+  double t = ((p.x - origin_.x - l.ax) * l.dx + (p.y - origin_.y - l.ay) * l.dy) * l.inv_len2;
+  t = std::clamp(t, 0.0, 1.0);
+  return Vec2{origin_.x + l.ax + t * l.dx, origin_.y + l.ay + t * l.dy};
+}
+
+double PlanarSiteMetric::point_distance(Vec2 a, Vec2 b) const { return std::hypot(a.x - b.x, a.y - b.y); }
+
+// ---------------------------------------------------------------------------------------------
+// OwnerIndex: one bounding-volume hierarchy per owner, searched depth-first nearest child first
+// and pruned by the metric's lower bound. Exact whenever lower_bound() is a valid bound.
+
+struct OwnerIndex::Tree {
+  struct Node {
+    Box3 box;
+    int32_t left = -1, right = -1;  // children; -1 for a leaf
+    int32_t begin = 0, end = 0;     // leaf: range of ids
+  };
+  std::vector<Node> nodes;
+  std::vector<int32_t> ids;
+  std::vector<Box3> boxes;  // per id position
+
+  int32_t build(std::vector<std::pair<int32_t, Box3>>& items, int32_t begin, int32_t end) {
+    Node n;
+    n.box = items[static_cast<size_t>(begin)].second;
+    for (int32_t i = begin; i < end; ++i) n.box.include(items[static_cast<size_t>(i)].second);
+    const auto index = static_cast<int32_t>(nodes.size());
+    nodes.push_back(n);
+    if (end - begin <= 4) {
+      nodes[static_cast<size_t>(index)].begin = static_cast<int32_t>(ids.size());
+      for (int32_t i = begin; i < end; ++i) {
+        ids.push_back(items[static_cast<size_t>(i)].first);
+        boxes.push_back(items[static_cast<size_t>(i)].second);
+      }
+      nodes[static_cast<size_t>(index)].end = static_cast<int32_t>(ids.size());
+      return index;
+    }
+    const double ex = n.box.x1 - n.box.x0, ey = n.box.y1 - n.box.y0, ez = n.box.z1 - n.box.z0;
+    const int axis = ex >= ey && ex >= ez ? 0 : (ey >= ez ? 1 : 2);
+    const int32_t mid = begin + (end - begin) / 2;
+    std::nth_element(
+        items.begin() + begin, items.begin() + mid, items.begin() + end, [&](const auto& a, const auto& b) {
+          auto mid = [&](const Box3& x) { return axis == 0 ? x.x0 + x.x1 : (axis == 1 ? x.y0 + x.y1 : x.z0 + x.z1); };
+          return mid(a.second) < mid(b.second);
+        });
+    const int32_t l = build(items, begin, mid);
+    const int32_t r = build(items, mid, end);
+    nodes[static_cast<size_t>(index)].left = l;
+    nodes[static_cast<size_t>(index)].right = r;
+    return index;
+  }
+
+  void search(const SiteMetric& m, int32_t node, Vec2 p, const Vec3& q, Hit& best) const {
+    const Node& n = nodes[static_cast<size_t>(node)];
+    if (n.left < 0) {
+      for (int32_t i = n.begin; i < n.end; ++i) {
+        if (SiteMetric::lower_bound(q, boxes[static_cast<size_t>(i)]) > best.distance) continue;
+        const int32_t id = ids[static_cast<size_t>(i)];
+        const double d = m.distance(p, id);
+        if (d < best.distance || (d == best.distance && id < best.site)) best = Hit{id, d};
+      }
+      return;
+    }
+    const double ll = SiteMetric::lower_bound(q, nodes[static_cast<size_t>(n.left)].box);
+    const double lr = SiteMetric::lower_bound(q, nodes[static_cast<size_t>(n.right)].box);
+    const int32_t first = ll <= lr ? n.left : n.right, second = ll <= lr ? n.right : n.left;
+    const double lf = std::min(ll, lr), ls = std::max(ll, lr);
+    if (lf <= best.distance) search(m, first, p, q, best);
+    if (ls <= best.distance) search(m, second, p, q, best);
+  }
+};
+
+OwnerIndex::OwnerIndex(const SiteMetric& metric) : metric_(metric) {
+  const SeedSet& seeds = metric.seeds();
+  std::vector<std::vector<std::pair<int32_t, Box3>>> items(static_cast<size_t>(seeds.owner_count()));
+  for (int32_t i = 0; i < static_cast<int32_t>(seeds.sites().size()); ++i)
+    items[static_cast<size_t>(seeds.site_owner(i) - 1)].emplace_back(i, metric.site_bounds(i));
+  for (auto& list : items) {
+    auto tree = std::make_unique<Tree>();
+    if (!list.empty()) tree->build(list, 0, static_cast<int32_t>(list.size()));
+    trees_.push_back(std::move(tree));
+  }
+}
+
+OwnerIndex::~OwnerIndex() = default;
+OwnerIndex::OwnerIndex(OwnerIndex&&) noexcept = default;
+
+OwnerIndex::Hit OwnerIndex::nearest_of(Vec2 p, int32_t owner) const {
+  Hit best;
+  if (owner < 1 || owner > static_cast<int32_t>(trees_.size())) return best;
+  const Tree& t = *trees_[static_cast<size_t>(owner - 1)];
+  if (!t.nodes.empty()) t.search(metric_, 0, p, metric_.embed(p), best);
+  return best;
+}
+
+OwnerIndex::Hit OwnerIndex::nearest_not_of(Vec2 p, int32_t owner) const {
+  // Owners in order of their trees' lower bounds, so the first search makes the rest prune.
+  const Vec3 q = metric_.embed(p);
+  std::vector<std::pair<double, int32_t>> order;
+  order.reserve(trees_.size());
+  for (size_t o = 0; o < trees_.size(); ++o) {
+    if (static_cast<int32_t>(o) + 1 == owner || trees_[o]->nodes.empty()) continue;
+    order.emplace_back(SiteMetric::lower_bound(q, trees_[o]->nodes[0].box), static_cast<int32_t>(o));
+  }
+  std::sort(order.begin(), order.end());
+  Hit best;
+  for (const auto& [lb, o] : order) {
+    if (lb > best.distance) break;
+    trees_[static_cast<size_t>(o)]->search(metric_, 0, p, q, best);
+  }
+  return best;
+}
+
+}  // namespace rv
