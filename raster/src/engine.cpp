@@ -156,11 +156,9 @@ namespace {
 //
 // Why branch-free and in parallel: on coastline grids a large share of the cells is land (the
 // Oresund fixture: most of Scania and Zealand). This pass used to run on one thread, with a
-// branch per cell, after the engine's threads had finished; perf put it at about a tenth of
-// the planar method's time at 1 thread on that grid. Branch-free, GCC vectorises it; on the
-// job's threads, the planar method there went from 4.03 to 3.63 ns per cell at 2 threads
-// (medians of 5 alternated runs). Rows are independent, so the result cannot depend on the
-// thread count.
+// branch per cell, after the engine's threads had finished, a visible share of the planar
+// method's time on such grids (bench/RESULTS-kernels.md). Branch-free, GCC vectorises it; rows
+// are independent, so the result cannot depend on the thread count.
 void apply_interiors(const InteriorSpans& spans, int threads, Raster<int32_t>& site, Raster<float>& distance) {
   constexpr int64_t kRowsPerTask = 64;
   const auto rows = static_cast<int64_t>(spans.rows.size());

@@ -9,7 +9,8 @@
 // final per-cell argmin uses the same planar_key() and the same tie rule (lower site index) as
 // brute force, so the result equals brute force bit for bit.
 //
-// Why it is fast. Blocks are refined top-down (64x64 tiles -> quadrants -> ... -> 8x8); most
+// Why it is fast. Blocks are refined top-down (64 x 64 tiles -> quadrants -> ... -> leaves of
+// kLeafCells, 32 x 32, or fewer candidates: is_leaf); most
 // blocks deep inside one Voronoi region end with a single candidate and are filled with one
 // distance evaluation per cell. Tiles are independent, so threads take them dynamically and the
 // result cannot depend on the thread count. Tiles whose candidates are all points (and seeds
@@ -115,9 +116,8 @@ inline double site_rect_max_key(const LocalSite& s, const Rect& r) {
 
 // Cells per register block of argmin_block, at most: one 8-wide double vector in the x86-64-v4
 // version (a single AVX-512 register), 4-wide in the AVX2 one, 2-wide in the default
-// (RV_LANE_KERNEL). Rows are padded to this. 8 lanes against two 4-wide vectors on an AMD EPYC
-// with AVX-512 (alternated runs): 1e8 cells and 50 000 points, 2 threads, 136 -> 119 ms; the
-// Oresund coastline, 1 thread, 5.78 -> 5.06 ns/cell.
+// (RV_LANE_KERNEL). Rows are padded to this. One 8-wide register was faster than two 4-wide
+// ones with AVX-512 (bench/RESULTS-kernels.md).
 constexpr int64_t kLanes = 8;
 
 // The vector steps of argmin_block are macros, not functions: a vector passed to or returned
@@ -149,8 +149,7 @@ constexpr int64_t kLanes = 8;
   } while (0)
 // All k candidates over the U vectors' cells: the best keys and ids stay in registers (strict
 // <, ascending ids: ties keep the lowest id). With AVX2, U = 2 (8 cells per step, as in the
-// x86-64-v4 version): 1e8 cells, 50 000 points, 1 thread, 449-552 against 497-582 ms with one
-// 4-wide vector (three alternated runs on a Zen 3: within the noise, not slower).
+// x86-64-v4 version; not slower than one 4-wide vector: bench/RESULTS-kernels.md).
 #define RV_ARGMIN_PASS(KEY, ROW)    \
   do {                              \
     {                               \

@@ -15,7 +15,7 @@
 // (lower site index). So the owners equal brute force's cell for cell, and the distances equal
 // them to the last bit of the float32 written (one unit in the last place at most).
 //
-// Why it is fast. A geodesic inverse problem costs ~1.5 us, so the method avoids them.
+// Why it is fast. A geodesic inverse problem costs thousands of flops, so the method avoids them.
 //  - Interpolation: for a point p (a point site, or a segment's end where the segment is
 //    certainly nearest at that end), q(P) = d(P, p) / |E(P) - E(p)| (geodesic distance over the
 //    ECEF chord) is a very smooth function of the cell position -- it tends to 1 + O(d^2/R^2) at
@@ -61,8 +61,8 @@
 //    whose form changes inside it gets segment_regime's test per cell in the kernel; where only
 //    one end's test can change its form over the leaf (RowMasked), the edge is its interior
 //    masked by that test plus that vertex as a point candidate of its own, which costs about
-//    half as much per cell (most such edges on coastlines: 1 thread, Oresund at 0.00038 deg,
-//    16.9 -> 15.3 ns per cell). Dominated candidates are dropped first (drop_dominated). Cells
+//    half as much per cell (most such edges on coastlines: bench/RESULTS-geodesic.md). Dominated
+//    candidates are dropped first (drop_dominated). Cells
 //    the kernels cannot settle (a possible close call, a regime measured exactly, a value
 //    under kAdditiveMinValue) go through the per-cell method, so every cell gets that method's
 //    bits whichever path solves it.
@@ -99,8 +99,8 @@ constexpr int64_t kTile = 256;  // top-level tile edge, cells (tiles aligned to 
                                 // top-level lower bounds, all sites against each tile)
 // Blocks with segments this small (or smaller) are leaves, solved by the row kernels or per cell.
 // 16 x 16 rather than 8 x 8: a leaf's set-up (interpolants gathered, weights, one reduction per
-// row and candidate) is spread over 4x the cells, for a few more candidates per cell (measured,
-// alternated runs: geodesic_bench coastlines ratio 3.6 -> 3.4, Oresund at 0.0004 deg 4.4 -> 4.2).
+// row and candidate) is spread over 4x the cells, for a few more candidates per cell (faster on
+// coastlines: bench/RESULTS-kernels.md).
 constexpr int64_t kLeafCells = 256;
 constexpr int kProbes = 2;               // sites whose exact distance from a block's centre give U
 constexpr size_t kDominanceMax = 24;     // leaves with more candidates skip drop_dominated (O(k^2))
@@ -130,8 +130,7 @@ constexpr size_t kInterpMaxCandidates = 24;  // more candidates: subdivide (or p
 // Leaves with segments take the row kernels only where line blocks are this large: the
 // kernels need every candidate's interpolants (17 inverse problems each), which the per-cell
 // method builds only for candidates its bounds cannot exclude; on smaller blocks (coarse grids)
-// those extra builds cost more than the kernels save (measured: Øresund at 0.002 deg, 64-cell
-// blocks, 90 -> 110 ns per cell; at 0.0004 deg, 128-cell blocks, 18.5 -> 12.8).
+// those extra builds cost more than the kernels save (bench/RESULTS-kernels.md).
 constexpr int64_t kLeafKernelMinBlock = 128;
 constexpr double kInterpCheck = 5e-6;          // metres: accepted error at the block's centre
 constexpr double kInterpCheckAdditive = 6e-8;  // ... for the additive form, whose values are used
@@ -393,8 +392,7 @@ constexpr int64_t kPointLanes = 8;
 constexpr int64_t kRowPad = std::max(kRowLanes, kPointLanes);
 static_assert(kRowPad % kRowLanes == 0 && kRowPad % kPointLanes == 0, "rows padded to whole steps");
 // interp_argmin_row's vector in the version for V: V, but no wider than 4 lanes. 8 lanes were
-// 1.5x slower with AVX-512 (measured: geodesic_bench coastlines, 130 against 82 ns/cell, 1
-// thread); its running values outnumber the registers.
+// slower with AVX-512 (bench/RESULTS-kernels.md): its running values outnumber the registers.
 template <class V>
 using RowVec = std::conditional_t<(kLanesOf<V> > kRowLanes), VecD4, V>;
 

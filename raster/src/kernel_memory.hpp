@@ -22,8 +22,8 @@
 #include "rv/raster.hpp"
 
 // The row kernels' clones, one picked at load time for the CPU (an ifunc): x86-64-v4 (AVX-512;
-// on an AMD EPYC, 1e8 cells and 50 000 points, medians of 6 alternated runs against the AVX2
-// clone: 2 threads 163 -> 149 ms, 1 thread 265 -> 260 ms), AVX2, and the default. Every clone
+// faster than the AVX2 clone where the CPU has it: bench/RESULTS-kernels.md), AVX2, and the
+// default. Every clone
 // computes bit-identical keys and distances (-ffp-contract=off: no fused multiply-add in any),
 // so the choice changes speed only.
 //
@@ -46,10 +46,8 @@
 // (RV_LANES_INLINE) and compiled for its instruction set.
 //
 // Why not one 8-wide body in target_clones: GCC 12 lowers a 64-byte vector's compares and
-// selects in the AVX2 clone through the stack, element by element. On an AMD EPYC without
-// AVX-512 (Zen 3; alternated runs, 2 threads) that clone made the planar exact method 2.6x
-// slower (1e8 cells, 50 000 points, warm: 614-665 against 230-258 ms here) and 4x on
-// coastlines (geodesic_bench: 94 against 21-24 ns/cell), and the geodesic one 3x on points.
+// selects in the AVX2 clone through the stack, element by element: on a CPU without AVX-512
+// that clone made both exact methods several times slower (bench/RESULTS-kernels.md).
 // The lanes of every width compute the same operations on the same operands, so every version
 // gives the same bits.
 #define RV_LANES_INLINE __attribute__((always_inline)) inline
@@ -125,9 +123,9 @@ inline void stream_values(T* __restrict dst, const T* __restrict src, int64_t n)
 //
 // With stream, the distances go first, then the ids, not the two interleaved 16 bytes at a time:
 // the two rasters are huge-page aligned, so od + c and os + c are the same distance from a 4 KiB
-// boundary, and interleaved streaming stores to two such addresses were 2-3x slower on an AMD
-// EPYC of family 25 (Zen 3; bench/store_bench, bench/RESULTS-stores.md). The exact method on
-// 1e8 cells and 50 000 points, warm, 2 threads, alternated runs: 275-288 -> 179-210 ms.
+// boundary, and interleaved streaming stores to two such addresses were several times slower on
+// an AMD EPYC of family 25 (Zen 3; bench/store_bench, bench/RESULTS-stores.md; the exact method
+// with the two orders: bench/RESULTS-kernels.md).
 inline void put_row(float* __restrict od, int32_t* __restrict os, const float* __restrict td,
                     const int32_t* __restrict ti, int64_t n, bool stream) {
 #if defined(RV_STREAM_STORES)

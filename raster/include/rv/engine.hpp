@@ -31,9 +31,10 @@
 //   - polygon interiors are tested in the grid's plane on ComputeOptions::grid_polygons (the
 //     seeds' polygons in the grid's CRS), as on planar grids;
 //   - every method works: brute force (one batch transformation per row), the scans (one per
-//     cell and pass), and exact (one batch per row of each 128 x 128 tile, plus 17 single points
-//     per interpolation block and site; its interpolation blocks are sized to ~14 km on the
-//     ellipsoid from the cell size measured at the grid's centre).
+//     cell and pass), and exact (one batch per row of each 256 x 256 tile, plus 17 single points
+//     per interpolation block and site; its interpolation blocks are sized from the cell size
+//     measured at the grid's centre to at most 38 km on the ellipsoid for points and 23 km for
+//     edges, as 0.35 and 0.21 degrees are on geographic grids).
 // Geographic geodesic grids:
 //   - cell centres must lie within latitudes [-90, 90] (grids may reach a pole);
 //   - longitudes may run past 180 (a grid across the antimeridian has xmin + width*res > 180),
@@ -54,8 +55,8 @@
 //     tie rule. So the owners equal brute force's cell for cell, and distances equal them to
 //     the last bit of the float32 (which may differ by one unit in the last place). Costs: a
 //     few tens of flops per cell and candidate where interpolated, one GeographicLib inverse
-//     problem (~1.5 us) per cell where a segment's interior is nearest. The scans solve one
-//     for every neighbour candidate they compare.
+//     problem (thousands of flops) per cell where a segment's interior is nearest. The scans
+//     solve one for every neighbour candidate they compare.
 //
 // Thread safety: compute() is reentrant; any number of computations may run at once.
 #pragma once
@@ -115,7 +116,7 @@ struct ComputeOptions {
   std::shared_ptr<const std::vector<Polygon>> grid_polygons;
   // Optional: what prepare() made for these seeds, grid and metric. Windows of one grid computed
   // one after the other (a streamed job's strips, a tiled job's tiles) share it instead of each
-  // preparing again (for 50 000 points about 3 ms per call, on one thread).
+  // preparing again.
   std::shared_ptr<const PreparedSeeds> prepared;
 };
 

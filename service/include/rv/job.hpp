@@ -118,7 +118,8 @@ JobPlan plan_job(const JobSpec& spec, const GridSpec& grid, int64_t sites, Metri
 // geodesic grids) and the input positions.
 int64_t seed_memory_bytes(const LoadedSeeds& loaded);
 
-// Limits decided before anything big is allocated (config parsed once, see config.hpp).
+// Limits decided before anything big is allocated (the daemon's come from its configuration,
+// rv/server_config.hpp).
 // Each limit refused is an rv::Error(too_large) whose message names the limit and the value.
 // The feature, vertex and input-byte limits are enforced by load_seeds while it reads (the
 // stricter of these and spec.seeds' own applies), and so is the memory limit for reading (at
