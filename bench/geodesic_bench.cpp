@@ -28,8 +28,8 @@
 #include <string>
 
 #include "rv/engine.hpp"
+#include "rv/gdal/seed_reader.hpp"
 #include "rv/geodesic.hpp"
-#include "rv/seed_reader.hpp"
 #include "rv/validate.hpp"
 
 namespace {

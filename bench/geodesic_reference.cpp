@@ -9,8 +9,8 @@
 #include <string>
 
 #include "rv/engine.hpp"
-#include "rv/raster_io.hpp"
-#include "rv/seed_reader.hpp"
+#include "rv/gdal/raster_io.hpp"
+#include "rv/gdal/seed_reader.hpp"
 
 int main(int argc, char** argv) {
   if (argc != 9) {

@@ -17,13 +17,13 @@
 #include "memory_watch.hpp"
 #include "rv/deliverables.hpp"
 #include "rv/error.hpp"
-#include "rv/geolocator.hpp"
+#include "rv/gdal/osr_geolocator.hpp"
+#include "rv/gdal/raster_io.hpp"
+#include "rv/gdal/vector_writer.hpp"
 #include "rv/json_text.hpp"
 #include "rv/outputs.hpp"
 #include "rv/preview.hpp"
-#include "rv/raster_io.hpp"
 #include "rv/validate.hpp"
-#include "rv/vector_writer.hpp"
 #include "rv/version.hpp"
 
 namespace rv {

@@ -5,10 +5,10 @@
 
 #include "job_run.hpp"
 #include "rv/deliverables.hpp"
+#include "rv/gdal/raster_io.hpp"
+#include "rv/gdal/vector_writer.hpp"
 #include "rv/outputs.hpp"
 #include "rv/preview.hpp"
-#include "rv/raster_io.hpp"
-#include "rv/vector_writer.hpp"
 
 namespace rv::detail {
 namespace {

@@ -15,8 +15,8 @@
 #include <nlohmann/json.hpp>
 
 #include "rv/error.hpp"
+#include "rv/gdal/raster_io.hpp"
 #include "rv/job.hpp"
-#include "rv/raster_io.hpp"
 
 namespace rv::detail {
 

@@ -13,7 +13,7 @@
 #include <vector>
 
 #include "rv/engine.hpp"
-#include "rv/raster_io.hpp"
+#include "rv/gdal/raster_io.hpp"
 
 namespace rv::detail {
 

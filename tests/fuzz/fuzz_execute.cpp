@@ -19,7 +19,7 @@
 #include <nlohmann/json.hpp>
 
 #include "rv/error.hpp"
-#include "rv/seed_reader.hpp"
+#include "rv/gdal/seed_reader.hpp"
 #include "rv/server_config.hpp"
 #include "rv/text.hpp"
 #include "server_execute.hpp"

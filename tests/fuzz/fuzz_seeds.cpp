@@ -16,8 +16,8 @@
 
 #include "rv/engine.hpp"
 #include "rv/error.hpp"
+#include "rv/gdal/seed_reader.hpp"
 #include "rv/grid.hpp"
-#include "rv/seed_reader.hpp"
 #include "rv/text.hpp"
 
 namespace {

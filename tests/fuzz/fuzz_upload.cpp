@@ -19,8 +19,8 @@
 
 #include "rv/error.hpp"
 #include "rv/error_map.hpp"
+#include "rv/gdal/seed_reader.hpp"
 #include "rv/json_text.hpp"
-#include "rv/seed_reader.hpp"
 #include "rv/text.hpp"
 #include "server_api.hpp"
 

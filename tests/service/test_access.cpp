@@ -19,8 +19,8 @@
 
 #include "http_client.hpp"
 #include "rv/error.hpp"
+#include "rv/gdal/seed_reader.hpp"
 #include "rv/job.hpp"
-#include "rv/seed_reader.hpp"
 #include "rv/server.hpp"
 #include "rv/server_config.hpp"
 #include "server_auth.hpp"

@@ -16,9 +16,9 @@
 
 #include "rv/deliverables.hpp"
 #include "rv/engine.hpp"
+#include "rv/gdal/raster_io.hpp"
+#include "rv/gdal/seed_reader.hpp"
 #include "rv/outputs.hpp"
-#include "rv/raster_io.hpp"
-#include "rv/seed_reader.hpp"
 
 namespace fs = std::filesystem;
 

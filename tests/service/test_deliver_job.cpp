@@ -12,10 +12,10 @@
 
 #include "../raster/deliverables_check.hpp"
 #include "rv/error.hpp"
+#include "rv/gdal/raster_io.hpp"
 #include "rv/job.hpp"
 #include "rv/outputs.hpp"
 #include "rv/preview.hpp"
-#include "rv/raster_io.hpp"
 
 namespace fs = std::filesystem;
 

@@ -18,9 +18,9 @@
 
 #include "http_client.hpp"
 #include "rv/error.hpp"
+#include "rv/gdal/raster_io.hpp"
+#include "rv/gdal/seed_reader.hpp"
 #include "rv/job.hpp"
-#include "rv/raster_io.hpp"
-#include "rv/seed_reader.hpp"
 #include "rv/server.hpp"
 #include "rv/store_jobs.hpp"
 

@@ -17,9 +17,9 @@
 #include <thread>
 
 #include "http_client.hpp"
+#include "rv/gdal/raster_io.hpp"
 #include "rv/job.hpp"
 #include "rv/preview.hpp"
-#include "rv/raster_io.hpp"
 #include "rv/server.hpp"
 
 namespace {

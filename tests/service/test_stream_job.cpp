@@ -16,8 +16,8 @@
 #include <gdal_priv.h>
 
 #include "rv/error.hpp"
+#include "rv/gdal/raster_io.hpp"
 #include "rv/job.hpp"
-#include "rv/raster_io.hpp"
 
 namespace fs = std::filesystem;
 

@@ -36,7 +36,7 @@
 #include <ogrsf_frmts.h>
 
 #include "rv/error.hpp"
-#include "rv/seed_reader.hpp"
+#include "rv/gdal/seed_reader.hpp"
 
 namespace fs = std::filesystem;
 

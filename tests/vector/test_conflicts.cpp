@@ -9,8 +9,8 @@
 #include <sstream>
 
 #include "rv/engine.hpp"
+#include "rv/gdal/seed_reader.hpp"
 #include "rv/interior.hpp"
-#include "rv/seed_reader.hpp"
 #include "vector_test_util.hpp"
 
 namespace rv {

@@ -13,9 +13,9 @@
 #include "../raster/deliverables_check.hpp"
 #include "rv/deliverables.hpp"
 #include "rv/engine.hpp"
+#include "rv/gdal/seed_reader.hpp"
 #include "rv/geodesic.hpp"
 #include "rv/outputs.hpp"
-#include "rv/seed_reader.hpp"
 
 namespace rv {
 namespace {

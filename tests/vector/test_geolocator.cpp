@@ -11,8 +11,8 @@
 #include <vector>
 
 #include "rv/error.hpp"
-#include "rv/geolocator.hpp"
-#include "rv/seed_reader.hpp"
+#include "rv/gdal/osr_geolocator.hpp"
+#include "rv/gdal/seed_reader.hpp"
 
 namespace rv {
 namespace {

@@ -16,7 +16,7 @@
 #include <ogrsf_frmts.h>
 
 #include "rv/error.hpp"
-#include "rv/seed_reader.hpp"
+#include "rv/gdal/seed_reader.hpp"
 
 namespace rv {
 namespace {

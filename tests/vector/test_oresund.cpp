@@ -13,7 +13,7 @@
 #include <ogrsf_frmts.h>
 
 #include "rv/engine.hpp"
-#include "rv/seed_reader.hpp"
+#include "rv/gdal/seed_reader.hpp"
 #include "rv/validate.hpp"
 
 namespace rv {

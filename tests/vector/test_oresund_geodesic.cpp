@@ -11,7 +11,7 @@
 #include <GeographicLib/GeodesicLine.hpp>
 
 #include "rv/engine.hpp"
-#include "rv/seed_reader.hpp"
+#include "rv/gdal/seed_reader.hpp"
 #include "rv/validate.hpp"
 
 namespace rv {

@@ -16,9 +16,9 @@
 #include <ogrsf_frmts.h>
 
 #include "rv/engine.hpp"
+#include "rv/gdal/seed_reader.hpp"
 #include "rv/geodesic.hpp"
 #include "rv/metric.hpp"
-#include "rv/seed_reader.hpp"
 
 namespace rv {
 namespace {

@@ -16,7 +16,7 @@
 #include <cpl_vsi.h>
 
 #include "rv/error.hpp"
-#include "rv/seed_reader.hpp"
+#include "rv/gdal/seed_reader.hpp"
 #include "rv/text.hpp"
 #include "vector_test_util.hpp"
 

@@ -12,8 +12,8 @@
 #include <gdal_rat.h>
 #include <ogr_spatialref.h>
 
-#include "rv/raster_io.hpp"
-#include "rv/seed_reader.hpp"
+#include "rv/gdal/raster_io.hpp"
+#include "rv/gdal/seed_reader.hpp"
 #include "vector_test_util.hpp"
 
 namespace rv {

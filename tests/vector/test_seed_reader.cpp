@@ -11,8 +11,8 @@
 
 #include "rv/engine.hpp"
 #include "rv/error.hpp"
-#include "rv/raster_io.hpp"
-#include "rv/seed_reader.hpp"
+#include "rv/gdal/raster_io.hpp"
+#include "rv/gdal/seed_reader.hpp"
 #include "vector_test_util.hpp"
 
 namespace rv {

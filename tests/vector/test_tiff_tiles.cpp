@@ -16,8 +16,8 @@
 #include <cpl_vsi.h>
 #include <gdal_priv.h>
 
-#include "rv/raster_io.hpp"
-#include "rv/seed_reader.hpp"
+#include "rv/gdal/raster_io.hpp"
+#include "rv/gdal/seed_reader.hpp"
 #include "tiff_tiles.hpp"
 #include "vector_test_util.hpp"
 

@@ -3,7 +3,7 @@
 #include <gtest/gtest.h>
 
 #include "rv/engine.hpp"
-#include "rv/seed_reader.hpp"
+#include "rv/gdal/seed_reader.hpp"
 #include "rv/validate.hpp"
 #include "vector_test_util.hpp"
 

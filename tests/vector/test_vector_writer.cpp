@@ -13,9 +13,9 @@
 #include "rv/deliverables.hpp"
 #include "rv/engine.hpp"
 #include "rv/error.hpp"
+#include "rv/gdal/seed_reader.hpp"
+#include "rv/gdal/vector_writer.hpp"
 #include "rv/outputs.hpp"
-#include "rv/seed_reader.hpp"
-#include "rv/vector_writer.hpp"
 
 namespace rv {
 namespace {

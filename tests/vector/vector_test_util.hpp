@@ -11,8 +11,8 @@
 #include <string>
 
 #include "rv/error.hpp"
+#include "rv/gdal/seed_reader.hpp"
 #include "rv/grid.hpp"
-#include "rv/seed_reader.hpp"
 #include "rv/seeds.hpp"
 
 namespace rv::test {

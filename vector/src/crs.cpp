@@ -2,7 +2,7 @@
 
 #include "gdal_util.hpp"
 #include "rv/error.hpp"
-#include "rv/seed_reader.hpp"
+#include "rv/gdal/seed_reader.hpp"
 #include "rv/text.hpp"
 
 namespace rv {

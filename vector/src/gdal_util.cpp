@@ -7,7 +7,7 @@
 #include <cpl_conv.h>
 #include <cpl_vsi.h>
 
-#include "rv/seed_reader.hpp"
+#include "rv/gdal/seed_reader.hpp"
 #include "rv/text.hpp"
 
 namespace rv {

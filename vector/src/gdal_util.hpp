@@ -12,7 +12,7 @@
 #include <gdal_priv.h>
 #include <ogr_spatialref.h>
 
-#include "rv/seed_reader.hpp"
+#include "rv/gdal/seed_reader.hpp"
 
 namespace rv::gdal {
 
@@ -68,7 +68,7 @@ class ThreadConfigOption {
 };
 
 // Shuts GDAL off from the network and from stdin on the calling thread while alive, for reading
-// untrusted uploads (SeedReadOptions::confined; the reasons are in rv/seed_reader.hpp):
+// untrusted uploads (SeedReadOptions::confined; the reasons are in rv/gdal/seed_reader.hpp):
 //  - every CPLHTTPFetch() is refused and its URL recorded (a thread-local fetch callback), which
 //    is how drivers fetch what a file links to (GeoJSON "crs" of type "link"/"url");
 //  - CPL_VSIL_CURL_ALLOWED_FILENAME names no real file, so /vsicurl/ and the cloud handlers built

@@ -1,11 +1,11 @@
-// OsrGeolocator: see rv/geolocator.hpp for the contract.
+// OsrGeolocator: see rv/gdal/osr_geolocator.hpp for the contract.
 //
 // Why one transformation per thread: OGRCoordinateTransformation::Transform is not const and
 // PROJ objects carry per-call state, so sharing one between threads needs a lock around every
 // batch, which the engine's threads would then contend for on each cell. Instead each thread
 // builds its own pair on first use (under the lock, once) and finds it afterwards through a
 // thread-local cache keyed by the geolocator's serial number, without locking.
-#include "rv/geolocator.hpp"
+#include "rv/gdal/osr_geolocator.hpp"
 
 #include <algorithm>
 #include <array>

@@ -21,7 +21,7 @@
 #include <sqlite3.h>
 
 #include "rv/error.hpp"
-#include "rv/seed_reader.hpp"
+#include "rv/gdal/seed_reader.hpp"
 #include "rv/text.hpp"
 
 namespace rv::detail {

@@ -22,7 +22,7 @@
 
 #include <ogr_geometry.h>
 
-#include "rv/seed_reader.hpp"
+#include "rv/gdal/seed_reader.hpp"
 #include "rv/seeds.hpp"
 
 namespace rv::detail {

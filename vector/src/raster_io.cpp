@@ -1,4 +1,4 @@
-// GeoTIFF writing and reading through GDAL. See rv/raster_io.hpp for the contract.
+// GeoTIFF writing and reading through GDAL. See rv/gdal/raster_io.hpp for the contract.
 //
 // Writing path (plain GeoTIFF, GeoTiffStripWriter; write_geotiff feeds it the whole raster as one
 // strip): GTiff Create() on a temporary name next to the target with SPARSE_OK, so that GDAL
@@ -42,7 +42,7 @@
 
 #include "gdal_util.hpp"
 #include "rv/error.hpp"
-#include "rv/raster_io.hpp"
+#include "rv/gdal/raster_io.hpp"
 #include "tiff_tiles.hpp"
 
 namespace rv {
@@ -113,7 +113,7 @@ constexpr int kSmallZstdLevel = 6;
 constexpr int kDeflateLevel = 1;
 constexpr int kSmallDeflateLevel = 6;  // small without ZSTD
 
-// The one place a compression profile becomes codec, level and predictor (rv/raster_io.hpp has
+// The one place a compression profile becomes codec, level and predictor (rv/gdal/raster_io.hpp has
 // the profiles' contract). Integer codes always get the horizontal-differencing predictor (2).
 // Without ZSTD, fast codes get DEFLATE 1.
 Encoding encoding_for(Compression c, bool floating, bool zstd) {

@@ -1,4 +1,4 @@
-// load_seeds(): GDAL/OGR datasets -> SeedSet. See rv/seed_reader.hpp for the contract.
+// load_seeds(): GDAL/OGR datasets -> SeedSet. See rv/gdal/seed_reader.hpp for the contract.
 //
 // The pipeline per feature: owner label -> geometry linearised, 2D -> split into simple parts
 // (points, line strings, polygons) -> coordinates checked in the source CRS (finite, latitude)
@@ -25,7 +25,7 @@
 #include "input_scan.hpp"
 #include "normalise.hpp"
 #include "rv/error.hpp"
-#include "rv/seed_reader.hpp"
+#include "rv/gdal/seed_reader.hpp"
 #include "rv/text.hpp"
 
 namespace rv {

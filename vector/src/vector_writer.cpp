@@ -1,4 +1,4 @@
-#include "rv/vector_writer.hpp"
+#include "rv/gdal/vector_writer.hpp"
 
 #include <unistd.h>
 

@@ -18,8 +18,8 @@
 #include <nlohmann/json.hpp>
 
 #include "rv/engine.hpp"
-#include "rv/raster_io.hpp"
-#include "rv/seed_reader.hpp"
+#include "rv/gdal/raster_io.hpp"
+#include "rv/gdal/seed_reader.hpp"
 
 namespace rv {
 
@@ -38,7 +38,7 @@ struct OutputRequest {
   std::string nearest_feature;                  // 1-based feature position GeoTIFF, nodata 0
   std::string report;                           // JSON report file
   bool cloud_optimized = false;                 // write COGs (the daemon does)
-  Compression compression = Compression::fast;  // every GeoTIFF of the job (rv/raster_io.hpp)
+  Compression compression = Compression::fast;  // every GeoTIFF of the job (rv/gdal/raster_io.hpp)
 
   // Maritime deliverables (rv/deliverables.hpp). They are always computed from an exact field:
   // with a scan method the job also runs the exact method for them.

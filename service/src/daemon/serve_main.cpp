@@ -4,8 +4,8 @@
 #include <iostream>
 
 #include "rv/error_map.hpp"
+#include "rv/gdal/seed_reader.hpp"
 #include "rv/job.hpp"
-#include "rv/seed_reader.hpp"
 #include "rv/server.hpp"
 #include "server_util.hpp"
 

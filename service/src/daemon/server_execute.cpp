@@ -335,7 +335,7 @@ void stage_seeds(const json& in, Execution& ex) {
   }
   ex.inputs_summary["seeds"] = summary;
   ex.spec.seeds.allowed_drivers = {"GeoJSON", "GPKG", "ESRI Shapefile", "FlatGeobuf"};
-  // Uploads are untrusted: in-memory paths only, no network, no other files (rv/seed_reader.hpp).
+  // Uploads are untrusted: in-memory paths only, no network, no other files (rv/gdal/seed_reader.hpp).
   ex.spec.seeds.confined = true;
 }
 

@@ -26,8 +26,8 @@
 #include <thread>
 #include <unordered_map>
 
+#include "rv/gdal/seed_reader.hpp"
 #include "rv/geolocate.hpp"
-#include "rv/seed_reader.hpp"
 
 namespace rv {
 
