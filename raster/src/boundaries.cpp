@@ -12,9 +12,9 @@
 #include <vector>
 
 #include "line_tools.hpp"
-#include "parallel.hpp"
 #include "rv/deliverables.hpp"
 #include "rv/error.hpp"
+#include "rv/parallel.hpp"
 
 namespace rv {
 

@@ -12,9 +12,9 @@
 
 #include "bucket_index.hpp"
 #include "engine_internal.hpp"
-#include "parallel.hpp"
 #include "rv/error.hpp"
 #include "rv/interior.hpp"
+#include "rv/parallel.hpp"
 
 namespace rv {
 

@@ -27,8 +27,8 @@
 #include "bucket_index.hpp"
 #include "engine_internal.hpp"
 #include "kernel_memory.hpp"
-#include "parallel.hpp"
 #include "rv/error.hpp"
+#include "rv/parallel.hpp"
 
 namespace rv::detail {
 namespace {

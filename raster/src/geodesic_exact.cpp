@@ -89,7 +89,7 @@
 
 #include "engine_internal.hpp"
 #include "kernel_memory.hpp"
-#include "parallel.hpp"
+#include "rv/parallel.hpp"
 
 namespace rv::detail {
 namespace {

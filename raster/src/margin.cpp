@@ -9,9 +9,9 @@
 
 #include "exact_other.hpp"
 #include "line_tools.hpp"
-#include "parallel.hpp"
 #include "rv/deliverables.hpp"
 #include "rv/error.hpp"
+#include "rv/parallel.hpp"
 #include "rv/planar.hpp"
 
 namespace rv {

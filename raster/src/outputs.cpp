@@ -1,6 +1,6 @@
 #include "rv/outputs.hpp"
 
-#include "parallel.hpp"
+#include "rv/parallel.hpp"
 
 namespace rv {
 namespace {

@@ -41,7 +41,7 @@
 #include <vector>
 
 #include "engine_internal.hpp"
-#include "parallel.hpp"
+#include "rv/parallel.hpp"
 
 namespace rv::detail {
 namespace {

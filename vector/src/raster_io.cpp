@@ -43,6 +43,7 @@
 #include "gdal_util.hpp"
 #include "rv/error.hpp"
 #include "rv/gdal/raster_io.hpp"
+#include "rv/parallel.hpp"
 #include "tiff_tiles.hpp"
 
 namespace rv {
@@ -458,35 +459,16 @@ struct GeoTiffStripWriter<T>::State {
     sizes.resize(static_cast<size_t>(chunk));
     for (int64_t first = 0; first < across; first += chunk) {
       const int64_t n = std::min(chunk, across - first);
-      const int workers = static_cast<int>(std::min<int64_t>(threads, n));
-      auto work = [&](int t) {
-        for (int64_t i = t; i < n; i += workers) {
-          uint8_t* tile = scratch[static_cast<size_t>(t)].data();
-          fill_tile(rows, h, stride, (first + i) * kBlock, tile);
-          // Compressed (an uncompressed file has one encoder), so the bytes are in the
-          // chunk's buffer, not in the scratch tile this thread reuses.
-          sizes[static_cast<size_t>(i)] =
-              compressors[static_cast<size_t>(t)].encode(tile, encoded[static_cast<size_t>(i)]).size;
-        }
-      };
-      std::vector<std::exception_ptr> errors(static_cast<size_t>(workers));
-      std::vector<std::thread> helpers;
-      for (int t = 1; t < workers; ++t)
-        helpers.emplace_back([&, t] {
-          try {
-            work(t);
-          } catch (...) {
-            errors[static_cast<size_t>(t)] = std::current_exception();
-          }
-        });
-      try {
-        work(0);
-      } catch (...) {
-        errors[0] = std::current_exception();
-      }
-      for (std::thread& helper : helpers) helper.join();
-      for (const std::exception_ptr& e : errors)
-        if (e) std::rethrow_exception(e);
+      // Each worker has its own codec and scratch tile; a tile's bytes do not depend on which
+      // worker encoded it.
+      detail::parallel_for(threads, n, [&](int64_t i, int worker) {
+        uint8_t* tile = scratch[static_cast<size_t>(worker)].data();
+        fill_tile(rows, h, stride, (first + i) * kBlock, tile);
+        // Compressed (an uncompressed file has one encoder), so the bytes are in the chunk's
+        // buffer, not in the scratch tile this worker reuses.
+        sizes[static_cast<size_t>(i)] =
+            compressors[static_cast<size_t>(worker)].encode(tile, encoded[static_cast<size_t>(i)]).size;
+      });
       for (int64_t i = 0; i < n; ++i)
         file->append(first + i, by, {encoded[static_cast<size_t>(i)].data(), sizes[static_cast<size_t>(i)]});
     }
@@ -571,8 +553,8 @@ GeoTiffStripWriter<T>::GeoTiffStripWriter(const std::string& path, const GridSpe
   f.floating = PixelType<T>::floating;
   f.width = f.height = kBlock;
   state->file = std::make_unique<detail::RawTileFile>(state->out.temp(), f, path);
-  const int hardware = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
-  state->threads = std::min(options.threads <= 0 ? hardware : std::min(options.threads, hardware), kMaxEncoders);
+  // No more encoders than hardware threads, whatever was asked (each holds a codec and a tile).
+  state->threads = std::min({resolve_threads(options.threads), resolve_threads(0), kMaxEncoders});
   // Uncompressed tiles are only copied: helpers would add copies, not speed.
   if (f.codec == detail::TileCodec::none) state->threads = 1;
   for (int t = 0; t < state->threads; ++t) {

@@ -74,6 +74,7 @@
 #include "rv/geolocate.hpp"
 #include "rv/grid.hpp"
 #include "rv/metric.hpp"
+#include "rv/parallel.hpp"
 #include "rv/raster.hpp"
 #include "rv/seeds.hpp"
 
@@ -163,7 +164,5 @@ void compute_into(const SeedSet& seeds, const GridSpec& grid, const ComputeOptio
 // (rv::Error(invalid_argument)). Same errors as compute() for the seeds and metric. The result is
 // immutable: any number of threads and computations may share it.
 std::shared_ptr<const PreparedSeeds> prepare(const SeedSet& seeds, const GridSpec& grid, const ComputeOptions& options);
-
-int resolve_threads(int requested);
 
 }  // namespace rv

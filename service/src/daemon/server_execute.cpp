@@ -11,6 +11,7 @@
 #include "rv/error.hpp"
 #include "rv/grid.hpp"
 #include "rv/options.hpp"
+#include "rv/parallel.hpp"
 #include "rv/text.hpp"
 #include "server_util.hpp"
 
@@ -411,9 +412,8 @@ Execution parse_execution(const json& body, const std::string& job_id, const Ser
   stage_seeds(in, ex);
   apply_inputs(in, ex);
   const int workers = std::max(1, config.jobs.workers);
-  ex.spec.threads = config.jobs.threads_per_job > 0
-                        ? config.jobs.threads_per_job
-                        : std::max(1, static_cast<int>(std::thread::hardware_concurrency()) / workers);
+  ex.spec.threads =
+      config.jobs.threads_per_job > 0 ? config.jobs.threads_per_job : std::max(1, resolve_threads(0) / workers);
   check_grid_limits(ex.spec, config);
   parse_outputs(body, ex);
   check_limits_pairing(in, ex);

@@ -1,6 +1,11 @@
-// Internal: a minimal fork-join pool for the engines. Tasks are handed out dynamically; results
-// must not depend on which thread runs which task (the engines guarantee that by writing
-// disjoint cells with order-independent values, or by the scans' explicit wavefront).
+// The one way the product runs work in parallel, and the one rule for how many threads: a
+// minimal fork-join (parallel_for) over tasks handed out dynamically, on threads started for the
+// call. Results must not depend on which thread runs which task (the engines write disjoint
+// cells with order-independent values, or follow the scans' explicit wavefront; the GeoTIFF
+// encoder gives each worker its own codec and scratch, indexed by the worker number).
+// Long-lived threads (the daemon's workers, a streamed job's writers) are not this: they are
+// roles, not shares of one computation.
+// Thread safety: parallel_for may be called from any thread, also from inside a task.
 #pragma once
 
 #include <atomic>
@@ -10,6 +15,14 @@
 #include <thread>
 #include <utility>
 #include <vector>
+
+namespace rv {
+
+// The threads a computation uses: `requested` when > 0 (at most 256), else every hardware thread
+// (1 when unknown). Every option "threads = 0 means all cores" resolves through here.
+int resolve_threads(int requested);
+
+}  // namespace rv
 
 namespace rv::detail {
 
