@@ -18,17 +18,7 @@
 
 namespace rv {
 
-using detail::cell_metric;
-using detail::centre;
-using detail::chain_links;
-using detail::Chains;
-using detail::check_metric;
-using detail::check_whole_grid;
-using detail::edge_down;
-using detail::edge_right;
-using detail::find_root;
-using detail::lerp;
-using detail::square_edges;
+using namespace line_tools;  // the deliverables' own toolkit (line_tools.hpp)
 
 // ---------------------------------------------------------------------------------------------
 // Boundaries and tripoints.
@@ -311,7 +301,7 @@ TripointSet find_tripoints(const BoundaryGrid& b, const CrossingSet& x, int64_t 
       const std::vector<int32_t> distinct = square_owners(b, x, c, r, corners);
       if (distinct.size() < 3) continue;
       ++stats.multi_owner_squares;
-      const Vec2 mid = detail::square_mid(b.g, c, r);
+      const Vec2 mid = square_mid(b.g, c, r);
       const size_t before = set.tripoints.size();
       for (size_t i = 0; i < distinct.size(); ++i)
         for (size_t j = i + 1; j < distinct.size(); ++j)
@@ -439,7 +429,7 @@ struct SquareLinks {
 
   // Saddle A B / B A: the owner of the square's centre connects its two corners.
   void saddle(const std::array<int32_t, 4>& o) {
-    const Vec2 mid = detail::square_mid(b.g, c, r);
+    const Vec2 mid = square_mid(b.g, c, r);
     const auto h0 = b.index.nearest_of(mid, o[0]), h1 = b.index.nearest_of(mid, o[1]);
     const bool centre_is_o0 = h0.distance < h1.distance || (h0.distance == h1.distance && h0.site < h1.site);
     const int64_t pair = pair_key(o[0], o[1]);
@@ -603,7 +593,7 @@ BoundaryResult extract_boundaries(const NearestField& field, const OwnerIndex& i
   const BoundaryGrid b{field,    index,
                        g,        g.width,
                        g.height, resolve_threads(options.threads),
-                       ftol,     detail::owner_of_sites(index.metric().seeds())};
+                       ftol,     owner_of_sites(index.metric().seeds())};
   // The stages take rows [row0, row1): the shape streaming needs (a strip in, pieces of line out,
   // joined across strip edges by the chains); here they get the whole grid at once.
   BoundaryResult result;

@@ -18,17 +18,7 @@
 
 namespace rv {
 
-using detail::cell_metric;
-using detail::centre;
-using detail::chain_links;
-using detail::Chains;
-using detail::check_metric;
-using detail::check_whole_grid;
-using detail::edge_down;
-using detail::edge_right;
-using detail::find_root;
-using detail::lerp;
-using detail::square_edges;
+using namespace line_tools;  // the deliverables' own toolkit (line_tools.hpp)
 
 // ---------------------------------------------------------------------------------------------
 // Distance-limit lines.
@@ -177,7 +167,7 @@ std::vector<std::array<int32_t, 2>> limit_links(const Target& t, const std::vect
         links.push_back({n[static_cast<size_t>(present[0])], n[static_cast<size_t>(present[1])]});
       } else if (present.size() == 4) {
         // Saddle: the centre's side decides which diagonal pair of corners is connected.
-        const bool centre_in = t.at(detail::square_mid(lg.g, c, r)).distance <= t.D;
+        const bool centre_in = t.at(square_mid(lg.g, c, r)).distance <= t.D;
         if (centre_in == in[0]) {  // corners 0 and 2 connected: cut off 1 and 3
           links.push_back({n[0], n[1]});
           links.push_back({n[2], n[3]});
@@ -234,7 +224,7 @@ LimitResult extract_limits(const NearestField& field, const OwnerIndex& index, s
                      resolve_threads(options.threads),
                      cell,
                      std::max(options.tolerance_cells, 1e-15) * cell,
-                     detail::owner_of_sites(metric.seeds())};
+                     owner_of_sites(metric.seeds())};
   std::vector<int32_t> owners = {0};
   if (options.per_owner) {
     owners.clear();

@@ -7,7 +7,7 @@
 
 #include "rv/error.hpp"
 
-namespace rv::detail {
+namespace rv::line_tools {
 
 Chains chain_links(int32_t node_count, const std::vector<std::array<int32_t, 2>>& links,
                    const std::vector<bool>& always_terminal) {
@@ -92,7 +92,7 @@ std::vector<int32_t> owner_of_sites(const SeedSet& seeds) {
   return owner;
 }
 
-}  // namespace rv::detail
+}  // namespace rv::line_tools
 
 namespace rv {
 

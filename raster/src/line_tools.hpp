@@ -1,6 +1,7 @@
 // The machinery the deliverables share (boundaries.cpp, limits.cpp, margin.cpp): positions of
 // cell centres, root finding along a segment, the grid's edges and dual squares, chaining links
-// into lines, and the checks every deliverable makes of its field. Internal to rv_raster.
+// into lines, and the checks every deliverable makes of its field. Internal to rv_raster; the
+// files that use it bring the namespace in whole (using namespace rv::line_tools).
 // Thread safety: pure functions.
 #pragma once
 
@@ -11,7 +12,7 @@
 
 #include "rv/deliverables.hpp"
 
-namespace rv::detail {
+namespace rv::line_tools {
 
 inline Vec2 centre(const GridSpec& g, int64_t col, int64_t row) { return Vec2{g.centre_x(col), g.centre_y(row)}; }
 inline Vec2 lerp(Vec2 a, Vec2 b, double t) { return Vec2{a.x + t * (b.x - a.x), a.y + t * (b.y - a.y)}; }
@@ -92,4 +93,4 @@ double cell_metric(const GridSpec& g, const SiteMetric& m);
 // The owner code of every site of `seeds`.
 std::vector<int32_t> owner_of_sites(const SeedSet& seeds);
 
-}  // namespace rv::detail
+}  // namespace rv::line_tools

@@ -16,17 +16,7 @@
 
 namespace rv {
 
-using detail::cell_metric;
-using detail::centre;
-using detail::chain_links;
-using detail::Chains;
-using detail::check_metric;
-using detail::check_whole_grid;
-using detail::edge_down;
-using detail::edge_right;
-using detail::find_root;
-using detail::lerp;
-using detail::square_edges;
+using namespace line_tools;  // the deliverables' own toolkit (line_tools.hpp)
 
 // ---------------------------------------------------------------------------------------------
 // Margin.
@@ -42,7 +32,7 @@ NearestField compute_other_owner(const SeedSet& seeds, const NearestField& own, 
   detail::EngineContext ctx{
       seeds,     grid,   window, local, geometric, std::numeric_limits<double>::infinity(), resolve_threads(threads),
       &progress, nullptr};
-  const std::vector<int32_t> owner_of_site = detail::owner_of_sites(seeds);
+  const std::vector<int32_t> owner_of_site = owner_of_sites(seeds);
   const auto start = std::chrono::steady_clock::now();
   NearestField out;
   out.site = Raster<int32_t>(grid, window, Uninitialized{});
@@ -104,7 +94,7 @@ Raster<float> margin_by_owner_runs(const NearestField& field, const SiteMetric& 
   const GridSpec& g = field.site.grid();
   const Window w = field.site.window();
   Raster<float> out(g, w, kNoDistance);
-  const std::vector<int32_t> owner_of_site = detail::owner_of_sites(seeds);
+  const std::vector<int32_t> owner_of_site = owner_of_sites(seeds);
   const int32_t k = seeds.owner_count();
   // Window (field-relative) of each owner's cells.
   std::vector<std::array<int64_t, 4>> box(static_cast<size_t>(k) + 1, {w.width, w.height, -1, -1});
@@ -154,7 +144,7 @@ Raster<float> margin_raster(const NearestField& field, const OwnerIndex& index, 
   Raster<float> out(g, w, kNoDistance);
   if (seeds.owner_count() <= 1) return out;
   const int nthreads = resolve_threads(threads);
-  const std::vector<int32_t> owner_of_site = detail::owner_of_sites(seeds);
+  const std::vector<int32_t> owner_of_site = owner_of_sites(seeds);
   // Polygons per owner, for cells inside another owner's polygon too (contested: margin 0).
   std::vector<int32_t> area_sites;
   for (const Polygon& p : seeds.polygons()) area_sites.push_back(p.area_site);

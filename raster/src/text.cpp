@@ -34,6 +34,12 @@ size_t sequence_length(std::string_view s, size_t i) {
 
 constexpr char kHexDigits[] = "0123456789ABCDEF";
 
+void append_hex(std::string& out, std::string_view prefix, unsigned char b) {
+  out += prefix;
+  out += kHexDigits[b >> 4];
+  out += kHexDigits[b & 15];
+}
+
 int hex_value(char c) {
   if (c >= '0' && c <= '9') return c - '0';
   if (c >= 'A' && c <= 'F') return c - 'A' + 10;
@@ -58,10 +64,7 @@ std::string escape_utf8(std::string_view bytes) {
   for (size_t i = 0; i < bytes.size();) {
     const size_t n = sequence_length(bytes, i);
     if (n == 0) {
-      const auto b = static_cast<unsigned char>(bytes[i]);
-      out += "\\x";
-      out += kHexDigits[b >> 4];
-      out += kHexDigits[b & 15];
+      append_hex(out, "\\x", static_cast<unsigned char>(bytes[i]));
       ++i;
       continue;
     }
@@ -87,10 +90,7 @@ std::string replace_invalid_utf8(std::string_view bytes, std::string_view prefix
   for (size_t i = 0; i < bytes.size();) {
     const size_t n = sequence_length(bytes, i);
     if (n == 0) {
-      const auto b = static_cast<unsigned char>(bytes[i]);
-      out += prefix;
-      out += kHexDigits[b >> 4];
-      out += kHexDigits[b & 15];
+      append_hex(out, prefix, static_cast<unsigned char>(bytes[i]));
       ++i;
       continue;
     }
