@@ -4,7 +4,7 @@
 #include <cmath>
 #include <random>
 
-#include "../../raster/src/bucket_index.hpp"
+#include "bucket_index.hpp"
 #include "rv/engine.hpp"
 #include "rv/error.hpp"
 #include "rv/validate.hpp"

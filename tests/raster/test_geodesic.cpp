@@ -205,7 +205,7 @@ TEST(GeodesicMeasure, DegenerateSegmentIsAPoint) {
 }  // namespace rv
 
 // The culling bounds (internal): never above the distance they bound.
-#include "../../raster/src/geodesic_sites.hpp"
+#include "geodesic_sites.hpp"
 
 namespace rv {
 namespace {

@@ -14,6 +14,7 @@
 #include <GeographicLib/UTMUPS.hpp>
 #include <nlohmann/json.hpp>
 
+#include "fixtures.hpp"
 #include "rv/deliverables.hpp"
 #include "rv/engine.hpp"
 #include "rv/gdal/raster_io.hpp"
@@ -40,7 +41,7 @@ CliRun run(const std::string& args) {
   return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, out};
 }
 
-std::string source(const std::string& rel) { return std::string(std::getenv("RV_SOURCE_DIR")) + "/" + rel; }
+std::string source(const std::string& rel) { return (test::source_dir() / rel).string(); }
 
 class Cli : public ::testing::Test {
  protected:
@@ -340,9 +341,8 @@ TEST_F(Cli, FailedWriteLeavesNothingBehind) {
 }
 
 TEST_F(Cli, GeographicGridIsGeodesicInNauticalMiles) {
-  const char* shared = std::getenv("RV_SHARED_DIR");
-  const std::string gpkg = shared ? std::string(shared) + "/fixtures/oresund.gpkg" : "";
-  if (gpkg.empty() || !fs::exists(gpkg)) GTEST_SKIP() << "shared/fixtures/oresund.gpkg not found";
+  const std::string gpkg = test::shared_fixture("oresund.gpkg");
+  if (gpkg.empty()) GTEST_SKIP() << "shared/fixtures/oresund.gpkg not found";
   const CliRun r = run("compute " + gpkg +
                        " --owner-field iso2 --resolution 0.01 --extent 12 55.3 13.2 56.3 "
                        "--distance-units nmi --ownership " +
@@ -376,9 +376,8 @@ TEST_F(Cli, GeographicGridIsGeodesicInNauticalMiles) {
 }
 
 TEST_F(Cli, ProjectedGridGeodesicMeasuresOnTheEllipsoid) {
-  const char* shared = std::getenv("RV_SHARED_DIR");
-  const std::string gpkg = shared ? std::string(shared) + "/fixtures/oresund.gpkg" : "";
-  if (gpkg.empty() || !fs::exists(gpkg)) GTEST_SKIP() << "shared/fixtures/oresund.gpkg not found";
+  const std::string gpkg = test::shared_fixture("oresund.gpkg");
+  if (gpkg.empty()) GTEST_SKIP() << "shared/fixtures/oresund.gpkg not found";
   // The strait on a UTM 33N grid of 2 km cells (the layer is EPSG:4326).
   const std::string grid = gpkg +
                            " --owner-field iso2 --crs EPSG:32633 --resolution 2000 "

@@ -10,7 +10,8 @@
 
 #include <opencv2/imgcodecs.hpp>
 
-#include "../raster/deliverables_check.hpp"
+#include "deliverables_check.hpp"
+#include "fixtures.hpp"
 #include "rv/error.hpp"
 #include "rv/gdal/raster_io.hpp"
 #include "rv/job.hpp"
@@ -22,7 +23,7 @@ namespace fs = std::filesystem;
 namespace rv {
 namespace {
 
-std::string source(const std::string& rel) { return std::string(std::getenv("RV_SOURCE_DIR")) + "/" + rel; }
+std::string source(const std::string& rel) { return (test::source_dir() / rel).string(); }
 
 class DeliverJob : public ::testing::Test {
  protected:
@@ -181,9 +182,8 @@ TEST_F(DeliverJob, RefusesBadRequestsAndLeavesNothingBehind) {
 // The geographic Øresund fixture through the façade: geodesic metric chosen automatically, the
 // deliverables measured in metres, residuals below 1 cm.
 TEST_F(DeliverJob, GeodesicOresund) {
-  const char* shared = std::getenv("RV_SHARED_DIR");
-  const std::string gpkg = std::string(shared ? shared : "") + "/fixtures/oresund.gpkg";
-  if (!shared || !fs::exists(gpkg)) GTEST_SKIP() << "shared fixture missing";
+  const std::string gpkg = test::shared_fixture("oresund.gpkg");
+  if (gpkg.empty()) GTEST_SKIP() << "shared fixture missing";
   JobSpec spec;
   spec.seeds.paths = {gpkg};
   spec.seeds.layers = {"states"};

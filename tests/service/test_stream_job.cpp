@@ -21,10 +21,12 @@
 
 namespace fs = std::filesystem;
 
+#include "fixtures.hpp"
+
 namespace rv {
 namespace {
 
-std::string fixture(const std::string& name) { return std::string(std::getenv("RV_SOURCE_DIR")) + "/fixtures/" + name; }
+using test::fixture;
 
 class StreamJob : public ::testing::Test {
  protected:

@@ -40,13 +40,12 @@
 
 namespace fs = std::filesystem;
 
+#include "fixtures.hpp"
+
 namespace rv {
 namespace {
 
-std::string source_dir() {
-  const char* env = std::getenv("RV_SOURCE_DIR");
-  return env != nullptr ? env : fs::path(__FILE__).parent_path().parent_path().parent_path().string();
-}
+std::string source_dir() { return rv::test::source_dir().string(); }
 
 std::string read_file(const std::string& path) {
   std::ifstream in(path, std::ios::binary);

@@ -10,23 +10,19 @@
 #include <filesystem>
 #include <limits>
 
-#include "../raster/deliverables_check.hpp"
+#include "deliverables_check.hpp"
 #include "rv/deliverables.hpp"
 #include "rv/engine.hpp"
 #include "rv/gdal/seed_reader.hpp"
 #include "rv/geodesic.hpp"
 #include "rv/outputs.hpp"
 
+#include "fixtures.hpp"
+
 namespace rv {
 namespace {
 
-std::string oresund_path() {
-  const char* shared = std::getenv("RV_SHARED_DIR");
-  const std::filesystem::path dir = shared != nullptr && *shared != '\0'
-                                        ? std::filesystem::path(shared)
-                                        : std::filesystem::path(__FILE__).parent_path() / "../../../shared";
-  return (dir / "fixtures" / "oresund.gpkg").string();
-}
+std::string oresund_path() { return test::shared_fixture("oresund.gpkg"); }
 
 double since(std::chrono::steady_clock::time_point t) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();

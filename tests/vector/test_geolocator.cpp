@@ -14,15 +14,14 @@
 #include "rv/gdal/osr_geolocator.hpp"
 #include "rv/gdal/seed_reader.hpp"
 
+#include "fixtures.hpp"
+
 namespace rv {
 namespace {
 
-std::string source(const std::string& rel) { return std::string(std::getenv("RV_SOURCE_DIR")) + "/" + rel; }
+std::string source(const std::string& rel) { return (test::source_dir() / rel).string(); }
 
-std::string oresund() {
-  const char* shared = std::getenv("RV_SHARED_DIR");
-  return shared ? std::string(shared) + "/fixtures/oresund.gpkg" : std::string();
-}
+std::string oresund() { return test::shared_fixture("oresund.gpkg"); }
 
 template <class F>
 ErrorKind kind_of(F&& f) {

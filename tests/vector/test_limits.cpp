@@ -18,13 +18,12 @@
 #include "rv/error.hpp"
 #include "rv/gdal/seed_reader.hpp"
 
+#include "fixtures.hpp"
+
 namespace rv {
 namespace {
 
-std::string fixture(const std::string& name) {
-  const char* env = std::getenv("RV_SOURCE_DIR");
-  return (std::filesystem::path(env != nullptr ? env : ".") / "fixtures" / name).string();
-}
+using test::fixture;
 
 // n point features, plus one polygon feature with `ring` vertices when ring > 0.
 std::string geojson(int n, int ring = 0) {

@@ -16,16 +16,12 @@
 #include "rv/gdal/seed_reader.hpp"
 #include "rv/validate.hpp"
 
+#include "fixtures.hpp"
+
 namespace rv {
 namespace {
 
-std::string oresund_path() {
-  const char* shared = std::getenv("RV_SHARED_DIR");
-  const std::filesystem::path dir = shared != nullptr && *shared != '\0'
-                                        ? std::filesystem::path(shared)
-                                        : std::filesystem::path(__FILE__).parent_path() / "../../../shared";
-  return (dir / "fixtures" / "oresund.gpkg").string();
-}
+std::string oresund_path() { return test::shared_fixture("oresund.gpkg"); }
 
 struct Oresund {
   LoadedSeeds loaded;

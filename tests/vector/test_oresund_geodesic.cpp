@@ -14,13 +14,12 @@
 #include "rv/gdal/seed_reader.hpp"
 #include "rv/validate.hpp"
 
+#include "fixtures.hpp"
+
 namespace rv {
 namespace {
 
-std::string oresund() {
-  const char* shared = std::getenv("RV_SHARED_DIR");
-  return shared ? std::string(shared) + "/fixtures/oresund.gpkg" : std::string();
-}
+std::string oresund() { return test::shared_fixture("oresund.gpkg"); }
 
 // The fixture's seeds, owners from iso2; nothing when the shared fixture is missing.
 std::optional<LoadedSeeds> load_oresund() {

@@ -10,6 +10,7 @@
 #include <initializer_list>
 #include <string>
 
+#include "fixtures.hpp"
 #include "rv/error.hpp"
 #include "rv/gdal/seed_reader.hpp"
 #include "rv/grid.hpp"
@@ -27,14 +28,6 @@ inline GridSpec utm_grid(int64_t w, int64_t h, double res = 200.0, int zone = 33
                   .height = h,
                   .crs = describe_crs("EPSG:326" + std::to_string(zone)).wkt};
 }
-
-inline std::filesystem::path source_dir() {
-  const char* env = std::getenv("RV_SOURCE_DIR");
-  if (env != nullptr && *env != '\0') return env;
-  return std::filesystem::path(__FILE__).parent_path().parent_path().parent_path();
-}
-
-inline std::string fixture(const std::string& name) { return (source_dir() / "fixtures" / name).string(); }
 
 // A fresh directory under the system temp dir, removed with everything in it on destruction.
 class ScratchDir {
