@@ -88,6 +88,7 @@
 #include <GeographicLib/Math.hpp>
 
 #include "engine_internal.hpp"
+#include "geodesic_regime.hpp"
 #include "kernel_memory.hpp"
 #include "rv/parallel.hpp"
 
@@ -141,47 +142,6 @@ constexpr double kInterpTie = 1e-4;            // metres: closer calls are decid
 constexpr double kInterpMaxDistance = 1.2e7;   // metres: beyond, the antipode's kink is too near
 constexpr double kInterpMinChord = 1e-3;       // metres: a node on the seed (or on an edge)
                                                // cannot form d / chord (or a side)
-// A segment is nearest at one of its ends V when the geodesic from V to the cell leaves at an
-// angle w against the edge with cos(w) <= 0 (first end; >= 0 at the second): by convexity the
-// distance then grows all along the edge. Per cell this is tested with the normal section's
-// direction instead of the geodesic's (the projection u of the chord t = P - V onto V's tangent
-// plane, with te = t . e along the edge's tangent e: cos w_ns = te / |u|), beyond a margin
-// (RV_GEO_BEYOND) that makes two things certain:
-//  - the geodesic's cos w has the sign of the normal section's. The two directions differ by at
-//    most eps(d) = (e^2 / 12) (d / a)^2 (measured: 1.01-1.02x that over 200 000 random pairs at
-//    each of 1 km .. 2000 km; 1.4e-5 rad at 1000 km), and |cos w_geo - cos w_ns| <= eps;
-//  - brute force's search (GeoSites::piece_distance) returns V's canonical distance: its
-//    stopping test, |step cos w| = (m12 / M12) cos^2 w < 2 kGeoConvergence, cannot fire at a
-//    point of the edge before V is evaluated. Along the edge away from the cell s and |cos w|
-//    only grow (convexity), and m12 / M12 >= 0.98 s within kVertexMaxChord, so it is enough
-//    that s cos^2 w_geo >= k0 = 2 kGeoConvergence / 0.98 at V.
-// With a safety factor of 16 on k0 (4 on cos w), k = 16 k0: cos^2 w_ns >= 2 k / s + 2 eps^2
-// gives |cos w_ns| >= sqrt(k / s) + eps, so |cos w_geo| >= sqrt(k / s) >= 4 sqrt(k0 / s). As
-// s >= |chord| >= |u|, it holds when te^2 >= 4 k |u| and te^2 >= 4 eps^2 u^2, i.e.
-// te^4 >= kVertexStop4 u^2 with kVertexStop4 = 16 k^2, and te^2 >= K2 chord^4 u^2 with
-// K2 = 4 (1.1 (e^2 / 12) / a^2)^2 (1.1 covers the measured 1.02 and d vs chord): no root, no
-// division, the same operations in the per-cell test and the row kernel. The band it leaves
-// around a switch is narrow: |cos w_ns| ~ 1.1e-4 at 1 m, 1.1e-6 at 10 km, 3e-5 at 1000 km
-// (a constant 2e-4 before, 7x the bound at 1000 km: on the Oresund fixture at 0.00038 deg it
-// sent 9 350 cells per run to the per-cell method, 74 now).
-constexpr double kVertexStop4 = 16.0 * (16.0 * 2.0 * kGeoConvergence / 0.98) * (16.0 * 2.0 * kGeoConvergence / 0.98);
-constexpr double kVertexMaxChord = 1e6;  // metres
-constexpr double kVertexMinChord = 1.0;  // metres
-
-// K2 of the margin above for an ellipsoid (semi-major axis a, flattening f), 1 / m^4.
-inline double vertex_k2(double a, double f) {
-  const double e2 = std::abs(f * (2.0 - f));
-  const double eps = 1.1 * (e2 / 12.0) / (a * a);
-  return 4.0 * eps * eps;
-}
-
-// The margin test at one end (see kVertexStop4): te, u2 = |u|^2 and c2 = |t|^2 of the cell as
-// segment_regime computes them, k2 = K2; doubles or a row kernel's vectors (the same operations
-// either way; a macro, as a 32-byte vector returned by a function has another ABI with and
-// without AVX).
-#define RV_GEO_BEYOND(te, u2, c2, k2) \
-  ((((te) * (te)) * ((te) * (te)) > kVertexStop4 * (u2)) & (((te) * (te)) > ((k2) * ((c2) * (c2))) * (u2)))
-
 // Lagrange weights of the cubic through t = 0, 1/3, 2/3, 1.
 inline void cubic_weights(double t, double w[4]) {
   const double a = t, b = t - 1.0 / 3.0, c = t - 2.0 / 3.0, d = t - 1.0;
@@ -190,14 +150,6 @@ inline void cubic_weights(double t, double w[4]) {
   w[2] = -13.5 * a * b * d;
   w[3] = 4.5 * a * b * c;
 }
-
-// A segment's end as the per-cell vertex test sees it: position, ellipsoid normal, and the unit
-// tangent of the edge there (pointing from the first end to the second at both ends).
-struct SegmentEnd {
-  double lat, lon;
-  double x, y, z, nx, ny, nz, ex, ey, ez;
-  int32_t vertex;  // the distinct vertex (same lat/lon bits: the same index for every edge at it)
-};
 
 struct Interpolant {
   int32_t id;         // the site (a point site, or a segment measured at an end or inside)
@@ -251,8 +203,6 @@ struct TileCells {
   int64_t c0 = 0, r0 = 0, w = 0;  // window-relative origin and width
   std::vector<double> lat, lon, x, y, z, rho;
 };
-// The tile the calling thread is solving (set by run() around each tile).
-thread_local const TileCells* tl_tile = nullptr;
 
 // One candidate of solve_interp on the current row: its interpolated quantity already reduced
 // over the row weights (qr), its interpolant's point and plane normal (additive form), its id
@@ -802,19 +752,22 @@ class LineFoot {
 class GeodesicExactSolver {
  public:
   GeodesicExactSolver(const EngineContext& ctx, Raster<int32_t>& site, Raster<float>& distance)
-      : ctx_(ctx), geo_(*ctx.geo), site_(site), distance_(distance), located_(ctx.geolocator != nullptr) {
+      : ctx_(ctx),
+        geo_(*ctx.geo),
+        site_(site),
+        distance_(distance),
+        located_(ctx.geolocator != nullptr),
+        regimes_(*ctx.geo) {
     using GeographicLib::Math;
     const Window& w = ctx.window;
     if (!located_) init_separable(w);
     max_distance_ = ctx.max_key;  // geodesic keys are metres
-    k2_ = vertex_k2(geo_.geodesic().EquatorialRadius(), geo_.geodesic().Flattening());
     {
       const double a = geo_.geodesic().EquatorialRadius(), f = geo_.geodesic().Flattening();
       const double b = a * (1.0 - f);
       reach_rho_ = 0.99 * std::min(a, b) * std::min(a, b) / std::max(a, b);
     }
     stream_ = streams_results(w);
-    init_segment_ends();
     init_interp_block();
     init_column_weights(w);
   }
@@ -868,43 +821,6 @@ class GeodesicExactSolver {
     }
   }
 
-  void init_segment_ends() {
-    using GeographicLib::Math;
-    ends_.resize(2 * geo_.size());
-    struct PairHash {
-      size_t operator()(const std::pair<uint64_t, uint64_t>& k) const {
-        return std::hash<uint64_t>()(k.first * 0x9e3779b97f4a7c15ULL ^ k.second);
-      }
-    };
-    std::unordered_map<std::pair<uint64_t, uint64_t>, int32_t, PairHash> vertices;
-    for (size_t i = 0; i < geo_.size(); ++i) {
-      const GeoSite& k = geo_.site(static_cast<int32_t>(i));
-      if (!k.segment) continue;
-      for (int e = 0; e < 2; ++e) {
-        SegmentEnd& v = ends_[2 * i + static_cast<size_t>(e)];
-        v.lat = e == 0 ? k.lat : k.lat_b;
-        v.lon = e == 0 ? k.lon : k.lon_b;
-        uint64_t lat_bits, lon_bits;
-        std::memcpy(&lat_bits, &v.lat, sizeof(lat_bits));
-        std::memcpy(&lon_bits, &v.lon, sizeof(lon_bits));
-        v.vertex =
-            vertices.emplace(std::make_pair(lat_bits, lon_bits), static_cast<int32_t>(vertices.size())).first->second;
-        geo_.ecef(v.lat, v.lon, v.x, v.y, v.z);
-        double sp, cp, sl, cl, sa, ca;
-        Math::sincosd(v.lat, sp, cp);
-        Math::sincosd(v.lon, sl, cl);
-        Math::sincosd(e == 0 ? k.azi_a : k.azi_b, sa, ca);
-        v.nx = cp * cl;  // geodetic normal
-        v.ny = cp * sl;
-        v.nz = sp;
-        // east (-sl, cl, 0), north (-sp cl, -sp sl, cp)
-        v.ex = sa * -sl + ca * -sp * cl;
-        v.ey = sa * cl + ca * -sp * sl;
-        v.ez = ca * cp;
-      }
-    }
-  }
-
   // The interpolation blocks of each form: the largest power of two (8 .. kPointMaxBlock or
   // kLineMaxBlock cells) spanning at most kPointSpan or kLineSpan degrees (projected grids: the
   // spans in metres, with the cell size measured on the ellipsoid at the grid's centre, so that
@@ -954,9 +870,7 @@ class GeodesicExactSolver {
           // with (a straggler still needing one would only build it again).
           shared_.drop_rows_before(gy - kTile - point_block_);
           if (located_) locate_tile(wk.tile, c0, r0, c1, r1);
-          tl_tile = located_ ? &wk.tile : nullptr;
           solve_block(wk, 0, kTile, c0, r0, c1, r1);
-          tl_tile = nullptr;
           ctx_.progress->advance((c1 - c0) * (r1 - r0));
         },
         [&](int) {
@@ -988,9 +902,9 @@ class GeodesicExactSolver {
     }
   }
 
-  GeoCell cell_at(int64_t c, int64_t r) const {
+  GeoCell cell_at(const GeoWorker& wk, int64_t c, int64_t r) const {
     if (located_) {
-      const TileCells& t = *tl_tile;
+      const TileCells& t = wk.tile;
       const auto i = static_cast<size_t>((r - t.r0) * t.w + (c - t.c0));
       return GeoCell{t.lat[i], t.lon[i], t.x[i], t.y[i], t.z[i]};
     }
@@ -999,8 +913,8 @@ class GeodesicExactSolver {
 
   // Projected grids: the ECEF box of a block's located centres, and the largest parallel radius
   // and longitude / latitude offsets from cell (cc, rc), by visiting every cell.
-  EcefBox located_box(int64_t c0, int64_t r0, int64_t c1, int64_t r1) const {
-    const TileCells& t = *tl_tile;
+  EcefBox located_box(const GeoWorker& wk, int64_t c0, int64_t r0, int64_t c1, int64_t r1) const {
+    const TileCells& t = wk.tile;
     const double inf = std::numeric_limits<double>::infinity();
     EcefBox b{inf, -inf, inf, -inf, inf, -inf};
     for (int64_t r = r0; r < r1; ++r)
@@ -1015,8 +929,9 @@ class GeodesicExactSolver {
       }
     return b;
   }
-  double located_reach(int64_t c0, int64_t r0, int64_t c1, int64_t r1, int64_t cc, int64_t rc) const {
-    const TileCells& t = *tl_tile;
+  double located_reach(const GeoWorker& wk, int64_t c0, int64_t r0, int64_t c1, int64_t r1, int64_t cc,
+                       int64_t rc) const {
+    const TileCells& t = wk.tile;
     const auto ic = static_cast<size_t>((rc - t.r0) * t.w + (cc - t.c0));
     double rmax = 0.0, dlon = 0.0, dlat = 0.0;
     for (int64_t r = r0; r < r1; ++r)
@@ -1032,8 +947,8 @@ class GeodesicExactSolver {
 
   // ECEF box of the cell centres of a block: x = rho cos(lon), y = rho sin(lon), z; interval
   // products over the block's rows and columns contain every centre.
-  EcefBox box_of(int64_t c0, int64_t r0, int64_t c1, int64_t r1) const {
-    if (located_) return located_box(c0, r0, c1, r1);
+  EcefBox box_of(const GeoWorker& wk, int64_t c0, int64_t r0, int64_t c1, int64_t r1) const {
+    if (located_) return located_box(wk, c0, r0, c1, r1);
     double rmin = rho_[r0], rmax = rho_[r0];
     for (int64_t r = r0 + 1; r < r1; ++r) {
       rmin = std::min(rmin, rho_[r]);
@@ -1073,8 +988,8 @@ class GeodesicExactSolver {
   // to a corner: along a parallel the chord grows with the longitude difference, and along a
   // meridian arc of under a degree its square is convex (its second derivative along the arc is
   // 2 (1 + (P - C) . P'') >= 2 (1 - |P - C| / M_min) > 0).
-  double reach_of(int64_t c0, int64_t r0, int64_t c1, int64_t r1, int64_t cc, int64_t rc) const {
-    if (located_) return located_reach(c0, r0, c1, r1, cc, rc);
+  double reach_of(const GeoWorker& wk, int64_t c0, int64_t r0, int64_t c1, int64_t r1, int64_t cc, int64_t rc) const {
+    if (located_) return located_reach(wk, c0, r0, c1, r1, cc, rc);
     double rmax = 0.0;
     for (int64_t r = r0; r < r1; ++r) rmax = std::max(rmax, rho_[r]);
     constexpr double kRad = 3.14159265358979323846 / 180.0;
@@ -1083,11 +998,11 @@ class GeodesicExactSolver {
     const double path = (rmax * dlon + geo_.max_meridian_radius() * dlat) * (1.0 + 1e-12);
     const double span = static_cast<double>(std::max(c1 - c0, r1 - r0)) * ctx_.grid.res;
     if (!(span <= kChordReachSpan)) return path;
-    const GeoCell centre = cell_at(cc, rc);
+    const GeoCell centre = cell_at(wk, cc, rc);
     double c2 = 0.0;
     for (const int64_t c : {c0, c1 - 1})
       for (const int64_t r : {r0, r1 - 1}) {
-        const GeoCell p = cell_at(c, r);
+        const GeoCell p = cell_at(wk, c, r);
         const double dx = p.x - centre.x, dy = p.y - centre.y, dz = p.z - centre.z;
         c2 = std::max(c2, dx * dx + dy * dy + dz * dz);
       }
@@ -1104,15 +1019,15 @@ class GeodesicExactSolver {
       // Every cell ends at distance 0 with its polygon's area site (apply_interiors); what is
       // left to find is a lower site at distance exactly 0 there, which only sites touching
       // the block (lower bound within kGeoSlack) can be.
-      const EcefBox box = box_of(c0, r0, c1, r1);
+      const EcefBox box = box_of(wk, c0, r0, c1, r1);
       next.clear();
       for (int32_t id : cands)
         if (geo_.lower_bound(box, id) <= kGeoSlack) next.push_back(id);
-      return solve_zero(next, c0, r0, c1, r1);
+      return solve_zero(wk, next, c0, r0, c1, r1);
     }
     const bool bounded = std::isfinite(max_distance_);
     if (cands.size() > 1 || bounded) {
-      const EcefBox box = box_of(c0, r0, c1, r1);
+      const EcefBox box = box_of(wk, c0, r0, c1, r1);
       wk.lb.resize(cands.size());
       // The kProbes candidates with the smallest lower bounds give the upper bound U.
       int32_t probe[kProbes];
@@ -1140,12 +1055,12 @@ class GeodesicExactSolver {
       double bound = max_distance_;
       if (cands.size() > 1) {
         const int64_t cc = c0 + (c1 - c0) / 2, rc = r0 + (r1 - r0) / 2;
-        const GeoCell centre = cell_at(cc, rc);
+        const GeoCell centre = cell_at(wk, cc, rc);
         double upper = std::numeric_limits<double>::infinity();
         for (int k = 0; k < kProbes; ++k)
           if (probe[k] >= 0)
             upper = std::min(upper, probe_distance(wk, cc, rc, centre, cands[static_cast<size_t>(probe[k])]));
-        bound = std::min(bound, upper + reach_of(c0, r0, c1, r1, cc, rc));
+        bound = std::min(bound, upper + reach_of(wk, c0, r0, c1, r1, cc, rc));
       }
       bound += kGeoSlack;
       next.clear();
@@ -1199,7 +1114,7 @@ class GeodesicExactSolver {
   // largest chords are tried as dominators of every other.
   void drop_dominated(GeoWorker& wk, std::vector<int32_t>& cands, int64_t c0, int64_t r0, int64_t c1,
                       int64_t r1) const {
-    const EcefBox box = box_of(c0, r0, c1, r1);
+    const EcefBox box = box_of(wk, c0, r0, c1, r1);
     const double mx = 0.5 * (box.x0 + box.x1), my = 0.5 * (box.y0 + box.y1), mz = 0.5 * (box.z0 + box.z1);
     const double hx = 0.5 * (box.x1 - box.x0), hy = 0.5 * (box.y1 - box.y0), hz = 0.5 * (box.z1 - box.z0);
     const double radius = std::sqrt(hx * hx + hy * hy + hz * hz) * (1.0 + 1e-12) + 1e-9;
@@ -1217,9 +1132,9 @@ class GeodesicExactSolver {
         a.y = site.y;
         a.z = site.z;
       } else {
-        const int regime = block_regime(mx, my, mz, radius, id).certain;
-        if (regime != 1 && regime != 2) continue;
-        const SegmentEnd& v = ends_[2 * static_cast<size_t>(id) + static_cast<size_t>(regime - 1)];
+        const Regime regime = regimes_.over_block(mx, my, mz, radius, id).certain;
+        if (!at_vertex(regime)) continue;
+        const SegmentEnd& v = regimes_.end(id, end_of(regime));
         a.x = v.x;
         a.y = v.y;
         a.z = v.z;
@@ -1285,7 +1200,7 @@ class GeodesicExactSolver {
     // Edges meeting at a vertex measure it with one interpolant (same nodes, same bits): the
     // key names the distinct vertex for ends (kind 1), the site for points (0) and interiors (3).
     const bool vertex = end == 1 || end == 2;
-    const int32_t who = vertex ? ends_[2 * static_cast<size_t>(id) + static_cast<size_t>(end - 1)].vertex : id;
+    const int32_t who = vertex ? regimes_.end(id, end - 1).vertex : id;
     const uint64_t key = (static_cast<uint64_t>((by0 % kTile) / S * (kTile / S) + (bx0 % kTile) / S) << 34) |
                          (static_cast<uint64_t>(static_cast<uint32_t>(who)) << 2) |
                          static_cast<uint64_t>(vertex ? 1 : end);
@@ -1327,7 +1242,7 @@ class GeodesicExactSolver {
       it.lat = s.lat;
       it.lon = s.lon;
     } else {
-      const SegmentEnd& v = ends_[2 * static_cast<size_t>(id) + static_cast<size_t>(end - 1)];
+      const SegmentEnd& v = regimes_.end(id, end - 1);
       it.lat = v.lat;
       it.lon = v.lon;
     }
@@ -1379,8 +1294,8 @@ class GeodesicExactSolver {
   // the edge.)
   bool build_line_interpolant(Interpolant& it, int64_t bx0, int64_t by0, int64_t bx1, int64_t by1, int32_t id) const {
     const GeoSite& s = geo_.site(id);
-    const SegmentEnd& va = ends_[2 * static_cast<size_t>(id)];
-    const SegmentEnd& vb = ends_[2 * static_cast<size_t>(id) + 1];
+    const SegmentEnd& va = regimes_.end(id, 0);
+    const SegmentEnd& vb = regimes_.end(id, 1);
     const double ux = vb.x - va.x, uy = vb.y - va.y, uz = vb.z - va.z;
     const double len = std::sqrt(ux * ux + uy * uy + uz * uz);
     if (!(len >= 1.0)) return false;
@@ -1480,39 +1395,6 @@ class GeodesicExactSolver {
     return ok && std::abs(approx - want) <= kInterpCheckAdditive;
   }
 
-  // For single-piece segment `id` seen from cell p: 1 or 2 when it is certainly nearest at its
-  // first or second end (brute force's search then returns that end's canonical distance, see
-  // RV_GEO_BEYOND); 3 when certainly nearest at an interior point (the cell ahead of the first
-  // end and behind the second, so the convex distance along the edge has its minimum inside); 0
-  // when none is certain (within RV_GEO_BEYOND's margin of a switch, or too near or too far).
-  //
-  // Edges longer than a piece (kGeoPieceLength) too: brute force takes the minimum over the
-  // pieces, and the piece holding the vertex returns its canonical distance (the other pieces'
-  // minima are larger, the distance being convex along the edge), so the same argument holds.
-  int segment_regime(const GeoCell& p, int32_t id) const {
-    // With t = P - V, n the normal and e the edge's unit tangent at V, the tangent-plane
-    // projection u = t - (t.n) n has u.e = t.e (e is in the plane) and |u|^2 = |t|^2 - (t.n)^2,
-    // so cos w = t.e / |u| is compared with the margin without a root: cos w > m <=> t.e > 0
-    // and (t.e)^2 > m^2 |u|^2.
-    double te[2], u2[2], c2[2];
-    for (int e = 0; e < 2; ++e) {
-      const SegmentEnd& v = ends_[2 * static_cast<size_t>(id) + static_cast<size_t>(e)];
-      const double tx = p.x - v.x, ty = p.y - v.y, tz = p.z - v.z;
-      c2[e] = tx * tx + ty * ty + tz * tz;
-      if (!(c2[e] <= kVertexMaxChord * kVertexMaxChord)) return 0;
-      const double tn = tx * v.nx + ty * v.ny + tz * v.nz;
-      u2[e] = c2[e] - tn * tn;
-      if (!(u2[e] >= kVertexMinChord * kVertexMinChord)) return 0;
-      te[e] = tx * v.ex + ty * v.ey + tz * v.ez;
-    }
-    const bool beyond0 = RV_GEO_BEYOND(te[0], u2[0], c2[0], k2_), beyond1 = RV_GEO_BEYOND(te[1], u2[1], c2[1], k2_);
-    // First end: the cell lies behind it (against the edge); second end: beyond it.
-    if (te[0] < 0.0 && beyond0) return 1;
-    if (te[1] > 0.0 && beyond1) return 2;
-    if (te[0] > 0.0 && beyond0 && te[1] < 0.0 && beyond1) return 3;
-    return 0;
-  }
-
   // Rows first, then columns: the same operations, in the same order, as solve_interp's
   // vectorised path, so that every path gives a cell the same bits.
   static double eval(const Interpolant& it, const double wt[4], const double wc[4]) {
@@ -1547,8 +1429,11 @@ class GeodesicExactSolver {
     weights_col(c, line_block_, lc);
   }
 
-  // Which part of site `id` is nearest from p (segment_regime; 0 for a point site).
-  int regime_of(const GeoCell& p, int32_t id) const { return geo_.site(id).segment ? segment_regime(p, id) : 0; }
+  // Which part of site `id` is nearest from p (SegmentRegimes::at; uncertain, the index of the
+  // point form, for a point site).
+  Regime regime_of(const GeoCell& p, int32_t id) const {
+    return geo_.site(id).segment ? regimes_.at(p, id) : Regime::uncertain;
+  }
 
   // The value the method uses for candidate `id` at cell (c, r), whose centre is p and regime
   // regime_of(p, id): the interpolated distance where the site has an interpolant on the cell's
@@ -1556,23 +1441,25 @@ class GeodesicExactSolver {
   // distance. `exact` says which.
   // `from` (optional) receives the interpolant used, null for an exact value.
   // `canonical` (optional): the value stands for brute force's bits of a vertex distance shared
-  // by the edges meeting there (regimes 1, 2), so equal values of two such edges are a tie.
+  // by the edges meeting there (at_vertex), so equal values of two such edges are a tie.
   // `cell` (optional): the cell's interpolation weights, computed once for all candidates;
   // `slots` (optional): the candidate's interpolants by `end` (0..3) in the caller's leaf block
   // (one interpolation block), kNotLooked until looked up, which saves the cache's hashing.
-  double value(GeoWorker& wk, int64_t c, int64_t r, const GeoCell& p, int32_t id, int regime, bool& exact,
+  double value(GeoWorker& wk, int64_t c, int64_t r, const GeoCell& p, int32_t id, Regime regime, bool& exact,
                const Interpolant** from = nullptr, bool* canonical = nullptr, const CellWeights* cell = nullptr,
                const Interpolant** slots = nullptr) const {
     if (from) *from = nullptr;
-    if (canonical) *canonical = regime == 1 || regime == 2;
-    // The regime is interpolant()'s `end`: 0 a point site (a segment's 0 is measured exactly).
-    if (!geo_.site(id).segment || regime != 0) {
+    if (canonical) *canonical = at_vertex(regime);
+    // The regime is interpolant()'s `end`: uncertain a point site's point form (a segment's is
+    // measured exactly).
+    if (!geo_.site(id).segment || regime != Regime::uncertain) {
+      const int end = index_of(regime);
       const Interpolant* it;
       if (slots) {
-        if (slots[regime] == &kNotLooked) slots[regime] = interpolant(wk, c, r, id, regime);
-        it = slots[regime];
+        if (slots[end] == &kNotLooked) slots[end] = interpolant(wk, c, r, id, end);
+        it = slots[end];
       } else {
-        it = interpolant(wk, c, r, id, regime);
+        it = interpolant(wk, c, r, id, end);
       }
       if (it) {
         CellWeights own;
@@ -1600,7 +1487,7 @@ class GeodesicExactSolver {
   // A close call between interpolated values: the exact distances of every candidate whose
   // value is within kInterpTie of the best decide, with brute force's rule (lowest id on ties).
   void resolve_exactly(GeoWorker& wk, const std::vector<int32_t>& cands, int64_t c, int64_t r, double best) {
-    const GeoCell p = cell_at(c, r);
+    const GeoCell p = cell_at(wk, c, r);
     double d_best = std::numeric_limits<double>::infinity();
     int32_t id_best = kNoSite;
     for (int32_t id : cands) {
@@ -1615,68 +1502,6 @@ class GeodesicExactSolver {
       }
     }
     put(c, r, id_best, d_best);
-  }
-
-  // What segment_regime can give for segment `id` at the cells of a block whose centres lie
-  // within `radius` of the ECEF point (cx, cy, cz): `certain` is the regime every cell
-  // certainly has (0: not certain), `possible` a bit per regime 1..3 that some cell may have
-  // (bit r - 1; a regime whose bit is clear occurs at no cell).
-  //
-  // Why the bounds hold: with t = P - V, te = t.e moves by at most |P - C| <= radius from its
-  // value at the centre (e is a unit vector), and so does |u| = |t - (t.n) n| (a projection:
-  // 1-Lipschitz); |t| likewise. |u| >= |te| (e lies in the tangent plane). The per-cell test
-  // (RV_GEO_BEYOND) is |te| > M(|u|, |t|) = max(kVertexStop4^(1/4) sqrt(|u|), sqrt(K2) |t|^2 |u|),
-  // which grows with |u| and |t|: it holds at every cell wherever |te| - radius exceeds M at
-  // |u| + radius and |t| + radius. The levels are widened by kRegimeSlack (and M by 1e-9) and the
-  // chord limits moved inwards so that the per-cell test's rounding cannot disagree: a certain
-  // regime is the one every cell's own test gives, bit for bit the per-cell method's values.
-  struct BlockRegime {
-    int certain = 0;
-    unsigned possible = 7;
-    // Every cell certainly ahead of the first end beyond the margin (its test there settled:
-    // te > 0, beyond it, the chord limits held), or behind the second end likewise: the other
-    // end's test alone then decides a cell's regime.
-    bool ahead_a = false, before_b = false;
-  };
-  BlockRegime block_regime(double cx, double cy, double cz, double radius, int32_t id) const {
-    constexpr double kRegimeSlack = 1e-3;  // metres
-    const double stop = std::sqrt(std::sqrt(kVertexStop4)), angle = std::sqrt(k2_);
-    const double grow = radius + kRegimeSlack;
-    double te[2], mu[2];
-    bool settled_end[2] = {true, true};  // each end's chord and |u| limits hold at every cell
-    for (int e = 0; e < 2; ++e) {
-      const SegmentEnd& v = ends_[2 * static_cast<size_t>(id) + static_cast<size_t>(e)];
-      const double tx = cx - v.x, ty = cy - v.y, tz = cz - v.z;
-      const double chord = std::sqrt(tx * tx + ty * ty + tz * tz);
-      const double tn = tx * v.nx + ty * v.ny + tz * v.nz;
-      const double u = std::sqrt(std::max(chord * chord - tn * tn, 0.0)) + radius;
-      const double t = chord + radius;
-      mu[e] = std::max(stop * std::sqrt(u), angle * t * t * u) * (1.0 + 1e-9);
-      te[e] = tx * v.ex + ty * v.ey + tz * v.ez;
-      if (!(chord + radius + kRegimeSlack <= kVertexMaxChord * (1.0 - 1e-9))) settled_end[e] = false;
-      if (!(std::abs(te[e]) - radius - kRegimeSlack >= kVertexMinChord)) settled_end[e] = false;
-    }
-    const bool settled = settled_end[0] && settled_end[1];
-    BlockRegime out;
-    // Bounds over the block: te in [te - radius, te + radius], and every cell's M below mu.
-    const bool behind0 = -te[0] - mu[0] > grow, beyond1 = te[1] - mu[1] > grow;
-    const bool ahead0 = te[0] - mu[0] > grow, before1 = -te[1] - mu[1] > grow;
-    out.ahead_a = settled_end[0] && ahead0;
-    out.before_b = settled_end[1] && before1;
-    if (settled) {
-      if (behind0)
-        out.certain = 1;
-      else if (beyond1 && te[0] - radius > kRegimeSlack)  // and certainly not behind end 0
-        out.certain = 2;
-      else if (ahead0 && before1)
-        out.certain = 3;
-    }
-    // Regime 1 needs te0 < 0, 2 needs te1 > 0, 3 needs te0 > 0 and te1 < 0 somewhere.
-    out.possible = 0;
-    if (te[0] - radius < 0.0) out.possible |= 1u;
-    if (te[1] + radius > 0.0) out.possible |= 2u;
-    if (te[0] + radius > 0.0 && te[1] - radius < 0.0) out.possible |= 4u;
-    return out;
   }
 
   // A leaf block of sites of any kind: its interpolants where the candidates that can win
@@ -1718,7 +1543,7 @@ class GeodesicExactSolver {
     double mx = 0.0, my = 0.0, mz = 0.0, radius = 0.0;
     auto the_box = [&]() {
       if (have_box) return;
-      box = box_of(c0, r0, c1, r1);
+      box = box_of(wk, c0, r0, c1, r1);
       mx = 0.5 * (box.x0 + box.x1);
       my = 0.5 * (box.y0 + box.y1);
       mz = 0.5 * (box.z0 + box.z1);
@@ -1727,18 +1552,18 @@ class GeodesicExactSolver {
       have_box = true;
     };
     for (int32_t id : cands) {
-      int regime = 0;
+      Regime regime = Regime::uncertain;
       if (geo_.site(id).segment) {
         the_box();
-        const BlockRegime br = block_regime(mx, my, mz, radius, id);
+        const BlockRegime br = regimes_.over_block(mx, my, mz, radius, id);
         regime = br.certain;
         // value() measures additive values under kAdditiveMinValue exactly; none may be here.
-        if (regime == 3) {
+        if (regime == Regime::interior) {
           const GeoPiece* piece = geo_.single_piece(id);
           const double lb = piece ? piece_capsule_bound(*piece, mx, my, mz) - radius : geo_.lower_bound(box, id);
-          if (!(lb > kAdditiveMinValue + kGeoSlack)) regime = 0;
+          if (!(lb > kAdditiveMinValue + kGeoSlack)) regime = Regime::uncertain;
         }
-        if (regime == 0) {
+        if (regime == Regime::uncertain) {
           // One end's test settles the cell's form where the other end's is settled over the
           // block (or neither's is needed: inside everywhere, only near the edge): the
           // interior masked by it, and that end's vertex as a point candidate of its own.
@@ -1772,7 +1597,7 @@ class GeodesicExactSolver {
           continue;
         }
       }
-      const Interpolant* it = interpolant(wk, c0, r0, id, regime);
+      const Interpolant* it = interpolant(wk, c0, r0, id, index_of(regime));
       if (!it) return false;
       // (An interpolant shared by a vertex's edges carries the id of the edge that built it:
       // the candidate's own id is kept beside it.)
@@ -1788,7 +1613,7 @@ class GeodesicExactSolver {
   double tag_of(const Interpolant* it, int32_t id) const {
     if (!it || it->additive || !geo_.site(id).segment) return -1.0;
     for (int e = 0; e < 2; ++e) {
-      const SegmentEnd& v = ends_[2 * static_cast<size_t>(id) + static_cast<size_t>(e)];
+      const SegmentEnd& v = regimes_.end(id, e);
       if (v.lat == it->lat && v.lon == it->lon) return static_cast<double>(v.vertex);
     }
     return -1.0;
@@ -1838,7 +1663,7 @@ class GeodesicExactSolver {
       RowSegment& g = wk.row_segments[j];
       for (size_t k = 0; k < 3; ++k) fixed_part(wk.changing_interp[j][k], wk.changing[j], g.part[k]);
       for (int e = 0; e < 2; ++e) {
-        const SegmentEnd& v = ends_[2 * static_cast<size_t>(wk.changing[j]) + static_cast<size_t>(e)];
+        const SegmentEnd& v = regimes_.end(wk.changing[j], e);
         const double src[9] = {v.x, v.y, v.z, v.nx, v.ny, v.nz, v.ex, v.ey, v.ez};
         std::memcpy(g.end[e], src, sizeof(src));
       }
@@ -1858,7 +1683,7 @@ class GeodesicExactSolver {
           fixed_part(wk.masked_interp[j], wk.masked[j], g.part);
           g.has = wk.masked_interp[j] ? 1.0 : 0.0;
           if (grp < 2) {
-            const SegmentEnd& v = ends_[2 * static_cast<size_t>(wk.masked[j]) + static_cast<size_t>(grp)];
+            const SegmentEnd& v = regimes_.end(wk.masked[j], grp);
             const double src[9] = {v.x, v.y, v.z, v.nx, v.ny, v.nz, v.ex, v.ey, v.ez};
             std::memcpy(g.end, src, sizeof(src));
           }
@@ -1872,9 +1697,7 @@ class GeodesicExactSolver {
       if (rc.tag < 0.0) continue;
       bool shared = false;
       for (int32_t id : wk.changing)
-        for (int e = 0; e < 2; ++e)
-          shared = shared ||
-                   static_cast<double>(ends_[2 * static_cast<size_t>(id) + static_cast<size_t>(e)].vertex) == rc.tag;
+        for (int e = 0; e < 2; ++e) shared = shared || static_cast<double>(regimes_.end(id, e).vertex) == rc.tag;
       if (!shared) rc.tag = -1.0;
     }
     // interp_argmin_points can do the row alone.
@@ -1887,7 +1710,7 @@ class GeodesicExactSolver {
       RowPositions pos;
       if (located_) {
         for (int64_t c = 0; c < n; ++c) {
-          const GeoCell p = cell_at(c0 + c, r);
+          const GeoCell p = cell_at(wk, c0 + c, r);
           wk.cx[static_cast<size_t>(c)] = p.x;
           wk.cy[static_cast<size_t>(c)] = p.y;
           wk.cz[static_cast<size_t>(c)] = p.z;
@@ -1926,7 +1749,7 @@ class GeodesicExactSolver {
         interp_argmin_row(wk.row_points.data(), static_cast<int>(wk.row_points.size()), wk.row_additive.data(),
                           static_cast<int>(wk.row_additive.size()), wk.row_segments.data(),
                           static_cast<int>(wk.row_segments.size()), wk.row_masked.data(), km, wcols, wstride_, pos, n,
-                          wk.best.data(), wk.second.data(), wk.best_id.data(), wk.force.data(), k2_);
+                          wk.best.data(), wk.second.data(), wk.best_id.data(), wk.force.data(), regimes_.k2());
       // Every cell as put() would write it, without branches; then the flagged cells (rare)
       // are solved by the per-cell method and overwrite theirs. A row without them goes out
       // with non-temporal stores when the window is large (put_row).
@@ -1946,7 +1769,7 @@ class GeodesicExactSolver {
         for (int64_t c = 0; c < n; ++c) {
           if (wk.second[static_cast<size_t>(c)] == 0.0) continue;
           if (fully_interior(c0 + c, r, c0 + c + 1, r + 1)) {
-            solve_zero(cands, c0 + c, r, c0 + c + 1, r + 1);
+            solve_zero(wk, cands, c0 + c, r, c0 + c + 1, r + 1);
             continue;
           }
           if (!cells_ready) {
@@ -1978,7 +1801,8 @@ class GeodesicExactSolver {
   // polygon's interior block touched at one corner by a coastline edge then costs a few boxes,
   // not a lower bound per cell. (Both filters are lower bounds of the distance, so a candidate
   // dropped cannot be at distance 0 in that part.)
-  void solve_zero(const std::vector<int32_t>& cands, int64_t c0, int64_t r0, int64_t c1, int64_t r1) {
+  void solve_zero(const GeoWorker& wk, const std::vector<int32_t>& cands, int64_t c0, int64_t r0, int64_t c1,
+                  int64_t r1) {
     if (cands.empty()) return fill_none(c0, r0, c1, r1);
     const int64_t w = c1 - c0, h = r1 - r0;
     if (w * h > kLeafCells) {
@@ -1988,17 +1812,17 @@ class GeodesicExactSolver {
       for (int j = 0; j < 2; ++j)
         for (int i = 0; i < 2; ++i) {
           if (xs[i] >= xs[i + 1] || ys[j] >= ys[j + 1]) continue;
-          const EcefBox box = box_of(xs[i], ys[j], xs[i + 1], ys[j + 1]);
+          const EcefBox box = box_of(wk, xs[i], ys[j], xs[i + 1], ys[j + 1]);
           part.clear();
           for (int32_t id : cands)
             if (geo_.lower_bound(box, id) <= kGeoSlack) part.push_back(id);
-          solve_zero(part, xs[i], ys[j], xs[i + 1], ys[j + 1]);
+          solve_zero(wk, part, xs[i], ys[j], xs[i + 1], ys[j + 1]);
         }
       return;
     }
     for (int64_t r = r0; r < r1; ++r)
       for (int64_t c = c0; c < c1; ++c) {
-        const GeoCell p = cell_at(c, r);
+        const GeoCell p = cell_at(wk, c, r);
         int32_t zero = kNoSite;
         for (int32_t id : cands) {  // ascending: the first at distance 0 is the lowest
           if (geo_.lower_bound(p, id) > kGeoSlack) continue;
@@ -2067,7 +1891,7 @@ class GeodesicExactSolver {
       const int32_t id = cands[0];
       for (int64_t c = c0; c < c1; ++c) {
         bool exact = false;
-        const GeoCell p = cell_at(c, r);
+        const GeoCell p = cell_at(wk, c, r);
         column_weights(c);
         const double v = value(wk, c, r, p, id, regime_of(p, id), exact, nullptr, nullptr, &cw, slots_of(0));
         if (!exact && bounded && std::abs(v - max_distance_) <= kInterpTie)
@@ -2091,7 +1915,7 @@ class GeodesicExactSolver {
     const double parallel_step =
         located_ ? 0.0 : rho_[r] * ctx_.grid.res * (3.14159265358979323846 / 180.0) * (1.0 + 1e-12) + 1e-9;
     for (int64_t c = c0; c < c1; ++c) {
-      const GeoCell p = cell_at(c, r);
+      const GeoCell p = cell_at(wk, c, r);
       column_weights(c);
       // Lower bounds stay valid along the row: a bound computed at an earlier cell minus the
       // way since, d(P) >= d(Q) - d(Q, P) (the geodesic distance is 1-Lipschitz). cell_lb
@@ -2133,8 +1957,8 @@ class GeodesicExactSolver {
       const Interpolant* best_from = nullptr;
       const Interpolant* from = nullptr;
       bool best_canonical = false, canonical = false;
-      const int first_regime = regime_of(p, cands[first]);
-      if (geo_.site(cands[first]).segment && first_regime == 0)
+      const Regime first_regime = regime_of(p, cands[first]);
+      if (geo_.site(cands[first]).segment && first_regime == Regime::uncertain)
         best = geo_.distance(p, cands[first], &end);
       else
         best = value(wk, c, r, p, cands[first], first_regime, best_exact, &best_from, &best_canonical, &cw,
@@ -2153,8 +1977,8 @@ class GeodesicExactSolver {
         const int32_t id = cands[i];
         bool exact = true;
         double d;
-        const int regime = regime_of(p, id);
-        if (geo_.site(id).segment && regime == 0) {
+        const Regime regime = regime_of(p, id);
+        if (geo_.site(id).segment && regime == Regime::uncertain) {
           if (best_exact && geo_.attains_at_vertex(p, id, end, best)) {
             best_id = std::min(best_id, id);
             continue;
@@ -2210,9 +2034,8 @@ class GeodesicExactSolver {
   int64_t line_block_ = kInterpMinBlock;   // the point form's and the additive form's
   mutable SharedInterpolants shared_;      // the interpolants built so far (any worker)
   bool located_ = false;                   // projected grid: cells located by ctx.geolocator
-  double k2_ = 0.0;                        // RV_GEO_BEYOND's K2 for the grid's ellipsoid
   double reach_rho_ = 0.0;                 // reach_of: 0.99 b^2 / a, metres
-  std::vector<SegmentEnd> ends_;           // per site: its two ends (segments only)
+  SegmentRegimes regimes_;                 // the segments' ends and their regimes
 };
 
 }  // namespace
