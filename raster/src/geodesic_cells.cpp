@@ -43,6 +43,12 @@ double GeodesicExactSolver::value(GeoWorker& wk, int64_t c, int64_t r, const Geo
   return geo_.distance(p, id);
 }
 
+double GeodesicExactSolver::probe_distance(GeoWorker& wk, int64_t c, int64_t r, const GeoCell& p, int32_t id) const {
+  bool exact = false;
+  const double v = value(wk, c, r, p, id, regime_of(p, id), exact);
+  return exact ? v : v + kInterpTie;
+}
+
 void GeodesicExactSolver::resolve_exactly(GeoWorker& wk, const std::vector<int32_t>& cands, int64_t c, int64_t r,
                                           double best) {
   const GeoCell p = cell_at(wk, c, r);

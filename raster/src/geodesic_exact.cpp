@@ -446,12 +446,6 @@ void GeodesicExactSolver::drop_dominated(GeoWorker& wk, std::vector<int32_t>& ca
   if (any) cands.erase(std::remove(cands.begin(), cands.end(), -1), cands.end());
 }
 
-double GeodesicExactSolver::probe_distance(GeoWorker& wk, int64_t c, int64_t r, const GeoCell& p, int32_t id) const {
-  bool exact = false;
-  const double v = value(wk, c, r, p, id, regime_of(p, id), exact);
-  return exact ? v : v + kInterpTie;
-}
-
 void GeodesicExactSolver::solve_zero(const GeoWorker& wk, const std::vector<int32_t>& cands, int64_t c0, int64_t r0,
                                      int64_t c1, int64_t r1) {
   if (cands.empty()) return fill_none(c0, r0, c1, r1);

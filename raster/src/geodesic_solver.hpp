@@ -35,6 +35,11 @@
 #include "kernel_memory.hpp"
 #include "rv/parallel.hpp"
 
+// The solver's helpers split out of a hot loop for reading are inlined back into it: each is
+// defined, and called, in one file only. (The solver's members have external linkage, so the
+// compiler would not inline a helper called once as it did a file-local one.)
+#define RV_GEO_INLINE __attribute__((always_inline)) inline
+
 namespace rv::detail {
 
 inline constexpr int64_t kTile = 256;  // top-level tile edge, cells (tiles aligned to the grid; 128
@@ -180,7 +185,8 @@ class GeodesicExactSolver {
   // the bits they would get with it. A dominator may be dropped itself later: whatever beats it
   // beats the other by more still. Up to kDominators of the candidates with the shortest
   // largest chords are tried as dominators of every other.
-  void drop_dominated(GeoWorker& wk, std::vector<int32_t>& cands, int64_t c0, int64_t r0, int64_t c1, int64_t r1) const;
+  RV_GEO_INLINE void drop_dominated(GeoWorker& wk, std::vector<int32_t>& cands, int64_t c0, int64_t r0, int64_t c1,
+                                    int64_t r1) const;
 
   // An upper bound of the distance from window cell (c, r), centred at p, to site `id`: its
   // interpolated value plus kInterpTie (interpolants are within ~1e-8 m, checked to
@@ -263,9 +269,9 @@ class GeodesicExactSolver {
   // `cell` (optional): the cell's interpolation weights, computed once for all candidates;
   // `slots` (optional): the candidate's interpolants by `end` (0..3) in the caller's leaf block
   // (one interpolation block), kNotLooked until looked up, which saves the cache's hashing.
-  double value(GeoWorker& wk, int64_t c, int64_t r, const GeoCell& p, int32_t id, Regime regime, bool& exact,
-               const Interpolant** from = nullptr, bool* canonical = nullptr, const CellWeights* cell = nullptr,
-               const Interpolant** slots = nullptr) const;
+  RV_GEO_INLINE double value(GeoWorker& wk, int64_t c, int64_t r, const GeoCell& p, int32_t id, Regime regime,
+                             bool& exact, const Interpolant** from = nullptr, bool* canonical = nullptr,
+                             const CellWeights* cell = nullptr, const Interpolant** slots = nullptr) const;
 
   // A close call between interpolated values: the exact distances of every candidate whose
   // value is within kInterpTie of the best decide, with brute force's rule (lowest id on ties).
@@ -312,9 +318,9 @@ class GeodesicExactSolver {
   bool rows_setup(GeoWorker& wk, int km[3]) const;
   // Row r's cells [c0, c0 + n) as the kernels read them: located centres in wk (projected
   // grids) or the row's and columns' trigonometry (geographic ones).
-  RowPositions row_positions(GeoWorker& wk, int64_t r, int64_t c0, int64_t n) const;
+  RV_GEO_INLINE RowPositions row_positions(GeoWorker& wk, int64_t r, int64_t c0, int64_t n) const;
   // Each candidate's interpolant reduced to the row of weights rw (eval()'s row step).
-  void reduce_to_row(GeoWorker& wk, const CellWeights& rw, const RowPositions& pos) const;
+  RV_GEO_INLINE void reduce_to_row(GeoWorker& wk, const CellWeights& rw, const RowPositions& pos) const;
   // The cells of row r the kernels flagged (wk.second != 0), solved by the per-cell method (or
   // solve_zero inside polygons); the per-cell set-up is made at the leaf's first such cell.
   struct FlaggedCells {
@@ -377,9 +383,10 @@ class GeodesicExactSolver {
 
   // solve_cells_row's parts. The row kernels' column weights of window column c into cw.wc and
   // cw.lc (init_column_weights).
-  void column_weights(int64_t c, CellWeights& cw) const;
+  RV_GEO_INLINE void column_weights(int64_t c, CellWeights& cw) const;
   // A lower bound of candidate cands[i]'s distance at p, metres (cells_setup's pieces).
-  double cell_bound(const GeoWorker& wk, const std::vector<int32_t>& cands, const GeoCell& p, size_t i) const;
+  RV_GEO_INLINE double cell_bound(const GeoWorker& wk, const std::vector<int32_t>& cands, const GeoCell& p,
+                                  size_t i) const;
   // The nearest of `cands` at cell (c, r), centre p: its distance, id and index in cands, and
   // whether the call is close (exact distances must decide it: resolve_exactly). cands[first]
   // is measured first; wk.cell_lb holds the candidates' lower bounds, each plus the travel
@@ -390,8 +397,9 @@ class GeodesicExactSolver {
     size_t index;
     bool close;
   };
-  CellCall call_cell(GeoWorker& wk, const std::vector<int32_t>& cands, bool one_block, const GeoCell& p, int64_t c,
-                     int64_t r, const CellWeights& cw, size_t first, bool stale, double travel);
+  RV_GEO_INLINE CellCall call_cell(GeoWorker& wk, const std::vector<int32_t>& cands, bool one_block, const GeoCell& p,
+                                   int64_t c, int64_t r, const CellWeights& cw, size_t first, bool stale,
+                                   double travel);
 
   const EngineContext& ctx_;
   const GeoSites& geo_;
