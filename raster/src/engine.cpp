@@ -329,6 +329,14 @@ void check_geodesic_grid(const GridSpec& grid) {
 
 NearestField compute(const SeedSet& seeds, const GridSpec& grid, const ComputeOptions& options) {
   NearestField out;
+  if (options.mask != nullptr) {
+    // The cells a mask leaves out have no earlier value here: no site.
+    const Window window = options.window.value_or(grid.full_window());
+    if (grid.contains(window)) {
+      out.site = Raster<int32_t>(grid, window, kNoSite);
+      out.distance = Raster<float>(grid, window, kNoDistance);
+    }
+  }
   compute_into(seeds, grid, options, out);
   return out;
 }
@@ -449,6 +457,14 @@ void compute_into(const SeedSet& seeds, const GridSpec& grid, const ComputeOptio
   else
     ctx.max_key = geodesic ? options.max_distance : options.max_distance * options.max_distance;
 
+  if (options.mask != nullptr) {
+    if (options.method != Method::exact) throw Error(ErrorKind::invalid_argument, "a cell mask needs the exact method");
+    if (!options.mask->fits(window))
+      throw Error(ErrorKind::invalid_argument, "the cell mask does not fit the window (one row of sorted spans each)");
+    if (!(out.site.grid() == grid) || !(out.site.window() == window))
+      throw Error(ErrorKind::invalid_argument, "a cell mask needs the earlier field of this grid and window in `out`");
+    ctx.mask = options.mask.get();
+  }
   if (!(out.site.grid() == grid) || !(out.site.window() == window)) {
     // Strips of a streamed job: the previous strip's buffers serve the next one.
     out.site.retarget(grid, window);

@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "geodesic_sites.hpp"
+#include "rv/cell_mask.hpp"
 #include "rv/engine.hpp"
 #include "rv/interior.hpp"
 #include "rv/planar.hpp"
@@ -65,6 +66,10 @@ struct EngineContext {
   // Largest absolute coordinate of a site of `geometric` in `local` (for rounding slacks); < 0:
   // not known, the solver measures it.
   double site_scale = -1.0;
+  // Cells the kernel must produce (ComputeOptions::mask, rv/cell_mask.hpp); null: every cell of
+  // the window. Honoured by the exact methods (culling.hpp), which skip tiles and blocks without a
+  // masked cell; a kernel may write other cells too, with their values. Not owned.
+  const CellMask* mask = nullptr;
 };
 
 // Ids of the point and segment sites (everything but area sites), ascending.

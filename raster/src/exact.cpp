@@ -25,6 +25,7 @@
 #include <vector>
 
 #include "bucket_index.hpp"
+#include "culling.hpp"
 #include "engine_internal.hpp"
 #include "kernel_memory.hpp"
 #include "rv/error.hpp"
@@ -33,7 +34,7 @@
 namespace rv::detail {
 namespace {
 
-constexpr int64_t kTile = 64;          // top-level tile edge, cells
+constexpr int64_t kPlanarTile = 64;    // top-level tile edge, cells (tiles aligned to the grid)
 constexpr size_t kDominanceMax = 16;   // candidate lists longer than this skip the O(k^2) test
 constexpr size_t kLeafCandidates = 8;  // ...when they have at most this many candidates
 // Blocks this small are solved per cell (32 x 32: the fewest instructions counted, with the
@@ -277,7 +278,7 @@ RV_KERNEL_CLONES void dominated_flags(const double* __restrict c0, const double*
   }
 }
 
-struct Worker {
+struct PlanarWorker {
   std::vector<int32_t> stamp;  // per site id: last tile that collected it
   int64_t stamp_value = 0;
   std::vector<std::vector<int32_t>> levels;  // candidate lists per recursion depth
@@ -285,11 +286,11 @@ struct Worker {
   // Row scratch of argmin_block, one block row (at most a tile wide, padded to whole register
   // blocks). Cache-line aligned: with the default heap alignment the 32-byte stores of `best`
   // straddled lines, and a 1-thread run spent about half its time on them.
-  alignas(64) std::array<double, kTile> px, py;
-  alignas(64) std::array<double, kTile> best;
-  alignas(64) std::array<double, kTile> best_id;
-  alignas(64) std::array<float, kTile> dist_row;
-  alignas(64) std::array<int32_t, kTile> site_row;
+  alignas(64) std::array<double, kPlanarTile> px, py;
+  alignas(64) std::array<double, kPlanarTile> best;
+  alignas(64) std::array<double, kPlanarTile> best_id;
+  alignas(64) std::array<float, kPlanarTile> dist_row;
+  alignas(64) std::array<int32_t, kPlanarTile> site_row;
   std::vector<double> gathered_ids;
   std::vector<double> box_keys;  // a block's lower bounds per candidate (both paths)
   // The point-only path: the tile's candidates as the index gave them, candidates per recursion
@@ -302,6 +303,7 @@ struct Worker {
   std::array<size_t, kDominanceMax> dom_at;
   alignas(64) std::array<double, kDominanceMax> dom_corner[4];
   alignas(64) std::array<int64_t, kDominanceMax> dom_flags;
+  bool top_culled = false;  // the tile's candidates (depth 0) are already culled against it
 };
 
 // Absolute slack (in distance units) for rounding in bounds: far above the few ulps of the
@@ -326,85 +328,38 @@ std::optional<BucketIndex> own_index(const EngineContext& ctx) {
   return std::optional<BucketIndex>(std::in_place, ctx.local, ctx.geometric);
 }
 
-// f(c0, r0, c1, r1) for each non-empty quadrant of the block, in row-major order.
-template <class F>
-void for_quadrants(int64_t c0, int64_t r0, int64_t c1, int64_t r1, F&& f) {
-  const int64_t cm = c0 + (c1 - c0 + 1) / 2, rm = r0 + (r1 - r0 + 1) / 2;
-  f(c0, r0, cm, rm);
-  if (cm < c1) f(cm, r0, c1, rm);
-  if (rm < r1) {
-    f(c0, rm, cm, r1);
-    if (cm < c1) f(cm, rm, c1, r1);
-  }
-}
-
+// The planar exact method, a policy of the culling skeleton (culling.hpp) over any sites; tiles
+// whose candidates are all points (and seeds without polygons) go through PointPath instead.
 class ExactSolver {
  public:
+  using Worker = PlanarWorker;
+  static constexpr bool kInteriors = true;
+  static constexpr int64_t kTile = kPlanarTile;
+
   ExactSolver(const EngineContext& ctx, Raster<int32_t>& site, Raster<float>& distance)
       : ctx_(ctx),
         site_(site),
         distance_(distance),
         own_index_(own_index(ctx)),
-        index_(ctx.index != nullptr ? *ctx.index : *own_index_) {
+        index_(ctx.index != nullptr ? *ctx.index : *own_index_),
+        points_{*this} {
     slack_ = rounding_slack(ctx);
     stream_ = streams_results(ctx.window);
   }
 
-  void run() {
-    const Window& w = ctx_.window;
-    const int64_t tiles_x = (w.width + kTile - 1) / kTile;
-    const int64_t tiles_y = (w.height + kTile - 1) / kTile;
-    std::vector<Worker> workers(static_cast<size_t>(ctx_.threads));
-    parallel_for(
-        ctx_.threads, tiles_x * tiles_y,
-        [&](int64_t t, int worker) {
-          Worker& wk = workers[static_cast<size_t>(worker)];
-          if (wk.stamp.empty()) wk.stamp.assign(ctx_.local.size(), -1);
-          const int64_t c0 = (t % tiles_x) * kTile, r0 = (t / tiles_x) * kTile;
-          const int64_t c1 = std::min(c0 + kTile, w.width), r1 = std::min(r0 + kTile, w.height);
-          solve_tile(wk, c0, r0, c1, r1);
-          ctx_.progress->advance((c1 - c0) * (r1 - r0));
-        },
-        [&](int) {
-          // Once per worker: only another thread reads the cells, after the join, so fencing per
-          // tile would only wait for the stores to drain more often.
-          if (stream_) store_fence();
-        });
-  }
+  void run() { run_tiles(ctx_, *this); }
 
- private:
-  Rect rect_of(int64_t c0, int64_t r0, int64_t c1, int64_t r1) const { return centres_rect(ctx_, c0, r0, c1, r1); }
+  // ---- The skeleton's policy ----
 
-  // An index entry's site: a point from the entry itself (no load from the site array), a
-  // segment from the site array.
-  LocalSite site_of(const BucketIndex::Entry& e) const {
-    return e.point ? LocalSite{e.ax, e.ay, 0.0, 0.0, 0.0} : ctx_.local[e.id];
-  }
-
-  // The squared-distance bound a site's lower bound must not exceed to stay a candidate.
-  double keep_bound(double upper_key) const {
-    const double d = std::sqrt(std::min(upper_key, ctx_.max_key)) + slack_;
-    return d * d;
-  }
-
-  // True when every cell of the block has its centre inside a polygon (one span per row).
-  bool fully_interior(int64_t c0, int64_t r0, int64_t c1, int64_t r1) const {
-    return ctx_.interiors != nullptr && ctx_.interiors->covers(c0, r0, c1, r1);
-  }
-
-  // Inside polygons every cell ends at distance 0 with its area site; the only thing left to
-  // find is a lower site at distance exactly 0 (which wins the tie). Only sites touching the
-  // block can be at distance 0 somewhere in it.
-  void solve_interior(Worker& wk, std::vector<int32_t>& zero, int64_t c0, int64_t r0, int64_t c1, int64_t r1) {
-    if (zero.empty()) return fill_none(c0, r0, c1, r1);
-    solve_cells(wk, zero, c0, r0, c1, r1, 0.0);
-  }
-
-  void solve_tile(Worker& wk, int64_t c0, int64_t r0, int64_t c1, int64_t r1) {
-    const Rect rect = rect_of(c0, r0, c1, r1);
-    if (wk.levels.empty()) wk.levels.resize(16);
-    if (fully_interior(c0, r0, c1, r1)) {
-      std::vector<int32_t>& zero = wk.levels[0];
+  // Gathers the tile's candidates from the index: those within the bound of the sites near its
+  // centre. A fully interior tile keeps the sites touching it and is solved here, a tile of
+  // points alone (no polygons) goes the point path.
+  bool start_tile(Worker& wk, const Block& t) {
+    if (wk.stamp.empty()) wk.stamp.assign(ctx_.local.size(), -1);
+    if (wk.levels.empty()) wk.levels.resize(kDepths);
+    const Rect rect = rect_of(t);
+    if (fully_interior(ctx_, t)) {
+      std::vector<int32_t>& zero = wk.levels[1];
       zero.clear();
       const double touch = keep_bound(0.0);
       index_.for_range(index_.clamp_x(rect.x0) - 1, index_.clamp_y(rect.y0) - 1, index_.clamp_x(rect.x1) + 1,
@@ -413,7 +368,8 @@ class ExactSolver {
                        });
       std::sort(zero.begin(), zero.end());
       zero.erase(std::unique(zero.begin(), zero.end()), zero.end());
-      return solve_interior(wk, zero, c0, r0, c1, r1);
+      solve_zero(wk, zero, t);
+      return false;
     }
     double upper = std::numeric_limits<double>::infinity();
     index_.near(0.5 * (rect.x0 + rect.x1), 0.5 * (rect.y0 + rect.y1),
@@ -441,99 +397,41 @@ class ExactSolver {
                      });
     // The index entries carry a point's coordinates: the point-only path never loads the site
     // array (random accesses into it, one per candidate, were a sixth of this function's time).
-    if (points && ctx_.interiors == nullptr) return solve_point_tile(wk, c0, r0, c1, r1);
+    if (points && ctx_.interiors == nullptr) {
+      start_point_tile(wk);
+      solve_block(ctx_, points_, wk, 0, t);
+      return false;
+    }
     std::sort(cands.begin(), cands.end());
-    // Points only: the tile's bound is as tight as solve_block's, a second cull would find
-    // nothing to drop (measured: a third of solve_block's time on 50 000 points). With segments
-    // the box-key bound below may be tighter; not measured, so they keep it.
-    solve_block(wk, 0, c0, r0, c1, r1, points);
+    // Points only: the tile's bound is as tight as cull's, a second cull would find nothing to
+    // drop. With segments the box-key bound of cull may be tighter, so they take it.
+    wk.top_culled = points;
+    return true;
   }
 
-  // The point-only path: the same culls, dominance test and leaves as solve_block, over the
-  // tile's candidates (wk.tile_points) copied once into PointCands in ascending id order. Taken
-  // when every candidate of the tile is a point and no polygon interiors exist (so no block is
-  // fully interior). Which sites survive a cull never changes the result, only the work: every
-  // cull here is sound, and the leaves run the same argmin_block.
-  void solve_point_tile(Worker& wk, int64_t c0, int64_t r0, int64_t c1, int64_t r1) {
-    if (wk.point_levels.size() < wk.levels.size()) wk.point_levels.resize(wk.levels.size());
-    std::sort(wk.tile_points.begin(), wk.tile_points.end(),
-              [](const TilePoint& a, const TilePoint& b) { return a.id < b.id; });
-    PointCands& p = wk.point_levels[0];
-    p.resize(wk.tile_points.size());
-    for (size_t j = 0; j < wk.tile_points.size(); ++j) {
-      p.x[j] = wk.tile_points[j].x;
-      p.y[j] = wk.tile_points[j].y;
-      p.id[j] = static_cast<double>(wk.tile_points[j].id);
-    }
-    solve_point_block(wk, 0, c0, r0, c1, r1, true);
-  }
+  bool empty(Worker& wk, int depth, const Block&) const { return wk.levels[depth].empty(); }
 
-  void solve_point_block(Worker& wk, int depth, int64_t c0, int64_t r0, int64_t c1, int64_t r1, bool culled) {
-    const PointCands& cands = wk.point_levels[depth];
-    const size_t k = cands.size();
-    if (k == 0) return fill_none(c0, r0, c1, r1);
-    PointCands& next = wk.point_levels[depth + 1];
-    const Rect rect = rect_of(c0, r0, c1, r1);
-    if (culled || k == 1) {
-      next.assign(cands);
-    } else {
-      // For a point the box key is its exact lower bound; the two nearest by it give the upper
-      // bound, as in solve_block.
-      wk.box_keys.resize(k);
-      double* keys = wk.box_keys.data();
-      for (size_t j = 0; j < k; ++j) keys[j] = point_rect_key(cands.x[j], cands.y[j], rect);
-      size_t near1, near2;
-      two_smallest(keys, k, near1, near2);
-      double upper = point_rect_max_key(cands.x[near1], cands.y[near1], rect);
-      if (near2 != near1) upper = std::min(upper, point_rect_max_key(cands.x[near2], cands.y[near2], rect));
-      const double bound = keep_bound(upper);
-      next.resize(k);
-      size_t n = 0;
-      for (size_t j = 0; j < k; ++j) {
-        next.x[n] = cands.x[j];
-        next.y[n] = cands.y[j];
-        next.id[n] = cands.id[j];
-        n += keys[j] <= bound;
-      }
-      next.resize(n);
-    }
-    if (next.size() > 1 && next.size() <= kDominanceMax) drop_dominated_soa(wk, next, rect);
-    if (is_leaf(c1 - c0, r1 - r0, next.size(), depth, wk.point_levels.size()))
-      return solve_point_cells(wk, next, c0, r0, c1, r1);
-    for_quadrants(c0, r0, c1, r1, [&](int64_t a0, int64_t b0, int64_t a1, int64_t b1) {
-      solve_point_block(wk, depth + 1, a0, b0, a1, b1, false);
-    });
-  }
-
-  // drop_dominated_points for PointCands (all points).
-  void drop_dominated_soa(Worker& wk, PointCands& p, const Rect& rect) const {
-    const int64_t* dominated = dominated_points(wk, p.x.data(), p.y.data(), p.size(), rect);
-    size_t kept = 0;
-    for (size_t j = 0; j < p.size(); ++j) {
-      p.x[kept] = p.x[j];
-      p.y[kept] = p.y[j];
-      p.id[kept] = p.id[j];
-      kept += dominated[j] == 0;
-    }
-    p.resize(kept);
-  }
-
-  // Candidates for this block are wk.levels[depth]; they are in ascending site order. `culled`:
-  // they were already culled against this very block (the tile's gather), so only the dominance
-  // test remains to do.
-  void solve_block(Worker& wk, int depth, int64_t c0, int64_t r0, int64_t c1, int64_t r1, bool culled = false) {
-    const std::vector<int32_t>& cands = wk.levels[depth];
-    if (cands.empty()) return fill_none(c0, r0, c1, r1);
+  // Inside polygons every cell ends at distance 0 with its area site; the only thing left to
+  // find is a lower site at distance exactly 0 (which wins the tie). Only sites touching the
+  // block can be at distance 0 somewhere in it.
+  void solve_interior(Worker& wk, int depth, const Block& b) {
+    const Rect rect = rect_of(b);
+    const double touch = keep_bound(0.0);
     std::vector<int32_t>& next = wk.levels[depth + 1];
-    const Rect rect = rect_of(c0, r0, c1, r1);
-    if (fully_interior(c0, r0, c1, r1)) {
-      const double touch = keep_bound(0.0);
-      next.clear();
-      for (int32_t id : cands)
-        if (site_rect_key(ctx_.local[id], rect) <= touch) next.push_back(id);
-      return solve_interior(wk, next, c0, r0, c1, r1);
-    }
-    if (culled) {
+    next.clear();
+    for (int32_t id : wk.levels[depth])
+      if (site_rect_key(ctx_.local[id], rect) <= touch) next.push_back(id);
+    solve_zero(wk, next, b);
+  }
+
+  // Candidates of the block are wk.levels[depth], in ascending site order. At the top of a tile
+  // gathered by points alone (top_culled) they were culled against this very block, so only the
+  // dominance test remains to do.
+  BlockStep cull(Worker& wk, int depth, const Block& b) {
+    const std::vector<int32_t>& cands = wk.levels[depth];
+    std::vector<int32_t>& next = wk.levels[depth + 1];
+    const Rect rect = rect_of(b);
+    if (depth == 0 && wk.top_culled) {
       next = cands;
       if (next.size() > 1 && next.size() <= kDominanceMax) drop_dominated_points(wk, next, rect);
     } else if (cands.size() > 1) {
@@ -554,10 +452,125 @@ class ExactSolver {
     } else {
       next = cands;
     }
-    if (is_leaf(c1 - c0, r1 - r0, next.size(), depth, wk.levels.size()))
-      return solve_cells(wk, next, c0, r0, c1, r1, ctx_.max_key);
-    for_quadrants(c0, r0, c1, r1,
-                  [&](int64_t a0, int64_t b0, int64_t a1, int64_t b1) { solve_block(wk, depth + 1, a0, b0, a1, b1); });
+    return is_leaf(b, next.size(), depth) ? BlockStep::leaf : BlockStep::split;
+  }
+
+  void solve_leaf(Worker& wk, int depth, const Block& b) { solve_cells(wk, wk.levels[depth], b, ctx_.max_key); }
+
+  template <class F>
+  void split(const Block& b, F&& f) const {
+    split_middle(b, std::forward<F>(f));
+  }
+
+  void fill_none(const Block& b) { detail::fill_none(site_, distance_, b); }
+
+  // Once per worker: only another thread reads the cells, after the join, so fencing per tile
+  // would only wait for the stores to drain more often.
+  void workers_done(Worker&) const {
+    if (stream_) store_fence();
+  }
+
+ private:
+  // The point-only path: the same culls, dominance test and leaves as the generic one, over the
+  // tile's candidates (wk.tile_points) copied once into PointCands in ascending id order. Taken
+  // when every candidate of the tile is a point and no polygon interiors exist (so no block is
+  // fully interior). Which sites survive a cull never changes the result, only the work: every
+  // cull here is sound, and the leaves run the same argmin_block.
+  struct PointPath {
+    using Worker = PlanarWorker;
+    static constexpr bool kInteriors = false;
+    ExactSolver& s;
+
+    bool empty(Worker& wk, int depth, const Block&) const { return wk.point_levels[depth].size() == 0; }
+    BlockStep cull(Worker& wk, int depth, const Block& b) const { return s.cull_points(wk, depth, b); }
+    void solve_leaf(Worker& wk, int depth, const Block& b) const { s.solve_point_cells(wk, wk.point_levels[depth], b); }
+    template <class F>
+    void split(const Block& b, F&& f) const {
+      split_middle(b, std::forward<F>(f));
+    }
+    void fill_none(const Block& b) const { s.fill_none(b); }
+  };
+
+  static constexpr int kDepths = 16;  // candidate lists per recursion depth
+
+  Rect rect_of(const Block& b) const { return centres_rect(ctx_, b.c0, b.r0, b.c1, b.r1); }
+
+  // An index entry's site: a point from the entry itself (no load from the site array), a
+  // segment from the site array.
+  LocalSite site_of(const BucketIndex::Entry& e) const {
+    return e.point ? LocalSite{e.ax, e.ay, 0.0, 0.0, 0.0} : ctx_.local[e.id];
+  }
+
+  // The squared-distance bound a site's lower bound must not exceed to stay a candidate.
+  double keep_bound(double upper_key) const {
+    const double d = std::sqrt(std::min(upper_key, ctx_.max_key)) + slack_;
+    return d * d;
+  }
+
+  // A fully interior block's cells: the lowest of `zero` at distance exactly 0, else no site.
+  void solve_zero(Worker& wk, const std::vector<int32_t>& zero, const Block& b) {
+    if (zero.empty()) return fill_none(b);
+    solve_cells(wk, zero, b, 0.0);
+  }
+
+  // The tile's points (wk.tile_points) into the point path's first list, ascending ids.
+  void start_point_tile(Worker& wk) const {
+    if (wk.point_levels.size() < wk.levels.size()) wk.point_levels.resize(wk.levels.size());
+    std::sort(wk.tile_points.begin(), wk.tile_points.end(),
+              [](const TilePoint& a, const TilePoint& b) { return a.id < b.id; });
+    PointCands& p = wk.point_levels[0];
+    p.resize(wk.tile_points.size());
+    for (size_t j = 0; j < wk.tile_points.size(); ++j) {
+      p.x[j] = wk.tile_points[j].x;
+      p.y[j] = wk.tile_points[j].y;
+      p.id[j] = static_cast<double>(wk.tile_points[j].id);
+    }
+  }
+
+  // cull for PointCands: the tile's own list (depth 0) was culled against the tile already.
+  BlockStep cull_points(Worker& wk, int depth, const Block& b) const {
+    const PointCands& cands = wk.point_levels[depth];
+    const size_t k = cands.size();
+    PointCands& next = wk.point_levels[depth + 1];
+    const Rect rect = rect_of(b);
+    if (depth == 0 || k == 1) {
+      next.assign(cands);
+    } else {
+      // For a point the box key is its exact lower bound; the two nearest by it give the upper
+      // bound, as in cull.
+      wk.box_keys.resize(k);
+      double* keys = wk.box_keys.data();
+      for (size_t j = 0; j < k; ++j) keys[j] = point_rect_key(cands.x[j], cands.y[j], rect);
+      size_t near1, near2;
+      two_smallest(keys, k, near1, near2);
+      double upper = point_rect_max_key(cands.x[near1], cands.y[near1], rect);
+      if (near2 != near1) upper = std::min(upper, point_rect_max_key(cands.x[near2], cands.y[near2], rect));
+      const double bound = keep_bound(upper);
+      next.resize(k);
+      size_t n = 0;
+      for (size_t j = 0; j < k; ++j) {
+        next.x[n] = cands.x[j];
+        next.y[n] = cands.y[j];
+        next.id[n] = cands.id[j];
+        n += keys[j] <= bound;
+      }
+      next.resize(n);
+    }
+    if (next.size() > 1 && next.size() <= kDominanceMax) drop_dominated_soa(wk, next, rect);
+    return is_leaf(b, next.size(), depth) ? BlockStep::leaf : BlockStep::split;
+  }
+
+  // drop_dominated_points for PointCands (all points).
+  void drop_dominated_soa(Worker& wk, PointCands& p, const Rect& rect) const {
+    const int64_t* dominated = dominated_points(wk, p.x.data(), p.y.data(), p.size(), rect);
+    size_t kept = 0;
+    for (size_t j = 0; j < p.size(); ++j) {
+      p.x[kept] = p.x[j];
+      p.y[kept] = p.y[j];
+      p.id[kept] = p.id[j];
+      kept += dominated[j] == 0;
+    }
+    p.resize(kept);
   }
 
   // The indices of the two smallest of keys[0 .. k) (k >= 1; near2 == near1 when k == 1).
@@ -576,10 +589,9 @@ class ExactSolver {
   // Stop splitting when one candidate is left, or the block is small and has few candidates.
   // Many candidates (a dense, wiggly coast: every segment of a stretch of coast is nearly
   // equidistant from a distant block) keep splitting down to 2x2, where they cannot survive.
-  // `depths`: the number of candidate lists per recursion depth the caller has.
-  static bool is_leaf(int64_t w, int64_t h, size_t candidates, int depth, size_t depths) {
-    const bool small = w * h <= kLeafCells && candidates <= kLeafCandidates;
-    return candidates <= 1 || small || w * h <= 4 || depth + 2 >= static_cast<int>(depths);
+  static bool is_leaf(const Block& b, size_t candidates, int depth) {
+    const bool small = b.cells() <= kLeafCells && candidates <= kLeafCandidates;
+    return candidates <= 1 || small || b.cells() <= 4 || depth + 2 >= kDepths;
   }
 
   // For two point sites, d(p, j)^2 - d(p, i)^2 is an affine function of p, so if site i is
@@ -628,49 +640,41 @@ class ExactSolver {
   // How much two computed keys near `key` may differ through rounding alone (generous).
   double dominance_margin(double key) const { return key * 1e-12 + slack_ * slack_ + 2.0 * slack_ * std::sqrt(key); }
 
-  void fill_none(int64_t c0, int64_t r0, int64_t c1, int64_t r1) {
-    for (int64_t r = r0; r < r1; ++r) {
-      std::fill(site_.row(r) + c0, site_.row(r) + c1, kNoSite);
-      std::fill(distance_.row(r) + c0, distance_.row(r) + c1, kNoDistance);
-    }
-  }
-
   // Exact per-cell argmin over `cands` (ascending ids; strict < keeps the lowest id on ties).
-  void solve_cells(Worker& wk, const std::vector<int32_t>& cands, int64_t c0, int64_t r0, int64_t c1, int64_t r1,
-                   double max_key) {
-    if (cands.empty()) return fill_none(c0, r0, c1, r1);
+  void solve_cells(Worker& wk, const std::vector<int32_t>& cands, const Block& b, double max_key) {
+    if (cands.empty()) return fill_none(b);
     wk.gathered.clear();
     wk.gathered_ids.clear();
     for (int32_t id : cands) {
       wk.gathered.push_back(ctx_.local[id]);
       wk.gathered_ids.push_back(static_cast<double>(id));
     }
-    argmin_gathered(wk, c0, r0, c1, r1, max_key);
+    argmin_gathered(wk, b, max_key);
   }
 
   // The same for PointCands (ascending ids too: every step above keeps the tile's order).
-  void solve_point_cells(Worker& wk, const PointCands& cands, int64_t c0, int64_t r0, int64_t c1, int64_t r1) {
-    if (cands.size() == 0) return fill_none(c0, r0, c1, r1);
+  void solve_point_cells(Worker& wk, const PointCands& cands, const Block& b) {
+    if (cands.size() == 0) return fill_none(b);
     wk.gathered.resize(cands.size());
     for (size_t j = 0; j < cands.size(); ++j) wk.gathered[j] = LocalSite{cands.x[j], cands.y[j], 0.0, 0.0, 0.0};
     wk.gathered_ids.assign(cands.id.begin(), cands.id.end());
-    argmin_gathered(wk, c0, r0, c1, r1, ctx_.max_key);
+    argmin_gathered(wk, b, ctx_.max_key);
   }
 
-  // argmin_block over wk.gathered / wk.gathered_ids for window cells [c0, c1) x [r0, r1).
-  void argmin_gathered(Worker& wk, int64_t c0, int64_t r0, int64_t c1, int64_t r1, double max_key) {
+  // argmin_block over wk.gathered / wk.gathered_ids for the block's cells.
+  void argmin_gathered(Worker& wk, const Block& b, double max_key) {
     const Window& win = ctx_.window;
-    const int64_t w = c1 - c0, h = r1 - r0;
+    const int64_t w = b.width(), h = b.height();
     // Rows padded to whole register blocks: the padding repeats the last centre (a real
     // position, so no spurious overflow) and its results are never stored.
     const int64_t padded = (w + kLanes - 1) / kLanes * kLanes;
-    static_assert(kTile % kLanes == 0, "a padded block row must fit the scratch");
-    for (int64_t c = 0; c < w; ++c) wk.px[c] = ctx_.grid.local_x(win.col0 + c0 + c);
+    static_assert(kPlanarTile % kLanes == 0, "a padded block row must fit the scratch");
+    for (int64_t c = 0; c < w; ++c) wk.px[c] = ctx_.grid.local_x(win.col0 + b.c0 + c);
     for (int64_t c = w; c < padded; ++c) wk.px[c] = wk.px[w - 1];
-    for (int64_t r = 0; r < h; ++r) wk.py[r] = ctx_.grid.local_y(win.row0 + r0 + r);
+    for (int64_t r = 0; r < h; ++r) wk.py[r] = ctx_.grid.local_y(win.row0 + b.r0 + r);
     argmin_block(wk.gathered.data(), wk.gathered_ids.data(), static_cast<int>(wk.gathered.size()), wk.px.data(), w,
                  wk.py.data(), h, max_key, wk.best.data(), wk.best_id.data(), wk.dist_row.data(), wk.site_row.data(),
-                 site_.row(r0) + c0, distance_.row(r0) + c0, win.width, stream_);
+                 site_.row(b.r0) + b.c0, distance_.row(b.r0) + b.c0, win.width, stream_);
   }
 
   const EngineContext& ctx_;
@@ -678,12 +682,14 @@ class ExactSolver {
   Raster<float>& distance_;
   std::optional<BucketIndex> own_index_;  // when the context brings none
   const BucketIndex& index_;
+  PointPath points_;
   double slack_ = 0.0;
   bool stream_ = false;  // results go with non-temporal stores (streams_results())
 };
 
-// The exact method with an owner filter: for each cell, the nearest site whose owner differs
-// from the owner of the cell's own nearest site (the margin raster's "other side").
+// The exact method with an owner filter, a policy of the culling skeleton: for each cell, the
+// nearest site whose owner differs from the owner of the cell's own nearest site (the margin
+// raster's "other side").
 //
 // Why it stays exact: a block's cells may have several owners. For each owner O present, the
 // bound U_O(B) is the smallest corner-max distance over candidate sites not owned by O, and a
@@ -693,6 +699,17 @@ class ExactSolver {
 // force does over the filtered sites.
 class OtherOwnerSolver {
  public:
+  struct Worker {
+    std::vector<int32_t> stamp;  // per site id: last gather that collected it
+    int64_t stamp_value = 0;
+    std::vector<std::vector<int32_t>> levels;  // candidate lists per recursion depth
+    std::vector<int32_t> owners;               // the current block's owners (empty())
+    std::vector<int32_t> seed;                 // the tile's first gather
+    std::vector<double> bounds;                // per owner: U_O(B) as a keep bound
+  };
+  static constexpr bool kInteriors = false;  // a cell inside its own polygon still has another side
+  static constexpr int64_t kTile = kPlanarTile;
+
   OtherOwnerSolver(const EngineContext& ctx, const Raster<int32_t>& own, const std::vector<int32_t>& owner_of,
                    Raster<int32_t>& site, Raster<float>& distance)
       : ctx_(ctx),
@@ -705,93 +722,37 @@ class OtherOwnerSolver {
     slack_ = rounding_slack(ctx);
   }
 
-  void run() {
-    const Window& w = ctx_.window;
-    const int64_t tiles_x = (w.width + kTile - 1) / kTile;
-    const int64_t tiles_y = (w.height + kTile - 1) / kTile;
-    std::vector<Worker> workers(static_cast<size_t>(ctx_.threads));
-    std::vector<std::vector<int32_t>> owners(static_cast<size_t>(ctx_.threads));
-    parallel_for(ctx_.threads, tiles_x * tiles_y, [&](int64_t t, int worker) {
-      Worker& wk = workers[static_cast<size_t>(worker)];
-      if (wk.stamp.empty()) wk.stamp.assign(ctx_.local.size(), -1);
-      if (wk.levels.empty()) wk.levels.resize(16);
-      const int64_t c0 = (t % tiles_x) * kTile, r0 = (t / tiles_x) * kTile;
-      const int64_t c1 = std::min(c0 + kTile, w.width), r1 = std::min(r0 + kTile, w.height);
-      solve_tile(wk, owners[static_cast<size_t>(worker)], c0, r0, c1, r1);
-      ctx_.progress->advance((c1 - c0) * (r1 - r0));
-    });
-  }
+  void run() { run_tiles(ctx_, *this); }
 
- private:
-  Rect rect_of(int64_t c0, int64_t r0, int64_t c1, int64_t r1) const { return centres_rect(ctx_, c0, r0, c1, r1); }
-  double keep_bound(double upper_key) const {
-    if (upper_key == std::numeric_limits<double>::infinity()) return upper_key;
-    const double d = std::sqrt(upper_key) + slack_;
-    return d * d;
-  }
-  int32_t cell_owner(int64_t c, int64_t r) const {
-    const int32_t s = own_.at(c, r);
-    return s == kNoSite ? 0 : owner_of_[s];
-  }
-  // Distinct owners (> 0) of the block's cells, ascending; the block's cells are few (<= 64^2).
-  void owners_in(int64_t c0, int64_t r0, int64_t c1, int64_t r1, std::vector<int32_t>& out) const {
-    out.clear();
-    int32_t last = -1;
-    for (int64_t r = r0; r < r1; ++r)
-      for (int64_t c = c0; c < c1; ++c) {
-        const int32_t o = cell_owner(c, r);
-        if (o == 0 || o == last) continue;
-        last = o;
-        if (std::find(out.begin(), out.end(), o) == out.end()) out.push_back(o);
-      }
-    std::sort(out.begin(), out.end());
-  }
+  // ---- The skeleton's policy ----
 
-  // Keeps the sites of `in` that can be the nearest other-owner site of some cell of the block.
-  void cull(const std::vector<int32_t>& owners, const std::vector<int32_t>& in, const Rect& rect,
-            std::vector<int32_t>& out, std::vector<double>& bounds) const {
-    bounds.assign(owners.size(), std::numeric_limits<double>::infinity());
-    for (int32_t id : in) {
-      const double mk = site_rect_max_key(ctx_.local[id], rect);
-      for (size_t i = 0; i < owners.size(); ++i)
-        if (owner_of_[id] != owners[i]) bounds[i] = std::min(bounds[i], mk);
+  // Seed candidates: for each owner of the tile's cells, the sites near the tile centre up to one
+  // ring past the first ring holding a site of another owner; their bounds give the reach of the
+  // tile's gather.
+  bool start_tile(Worker& wk, const Block& t) {
+    if (wk.stamp.empty()) wk.stamp.assign(ctx_.local.size(), -1);
+    if (wk.levels.empty()) wk.levels.resize(kDepths);
+    owners_in(t, wk.owners);
+    if (wk.owners.empty()) {
+      fill_none(t);
+      return false;
     }
-    for (double& b : bounds) b = keep_bound(b);
-    out.clear();
-    for (int32_t id : in) {
-      const double lo = site_rect_key(ctx_.local[id], rect);
-      for (size_t i = 0; i < owners.size(); ++i)
-        if (owner_of_[id] != owners[i] && lo <= bounds[i]) {
-          out.push_back(id);
-          break;
-        }
-    }
-  }
-
-  void solve_tile(Worker& wk, std::vector<int32_t>& owners, int64_t c0, int64_t r0, int64_t c1, int64_t r1) {
-    owners_in(c0, r0, c1, r1, owners);
-    if (owners.empty()) return fill_none(c0, r0, c1, r1);
-    const Rect rect = rect_of(c0, r0, c1, r1);
+    const Rect rect = rect_of(t);
     const double mx = 0.5 * (rect.x0 + rect.x1), my = 0.5 * (rect.y0 + rect.y1);
-    // Seed candidates: for each present owner, the sites near the tile centre up to one ring
-    // past the first ring holding a site of another owner.
-    std::vector<int32_t>& seed = wk.levels[0];
-    seed.clear();
+    wk.seed.clear();
     ++wk.stamp_value;
     auto stamp = static_cast<int32_t>(wk.stamp_value);
-    for (int32_t o : owners)
+    for (int32_t o : wk.owners)
       index_.near_filtered(
           mx, my, [&](const BucketIndex::Entry& e) { return owner_of_[e.id] != o; },
           [&](const BucketIndex::Entry& e) {
             if (wk.stamp[e.id] == stamp) return;
             wk.stamp[e.id] = stamp;
-            seed.push_back(e.id);
+            wk.seed.push_back(e.id);
           });
-    std::vector<double> bounds;
-    std::vector<int32_t> first;
-    cull(owners, seed, rect, first, bounds);
+    cull_into(wk, wk.seed, rect, wk.levels[1]);
     double widest = 0.0;
-    for (double b : bounds) widest = std::max(widest, b);
+    for (double b : wk.bounds) widest = std::max(widest, b);
     std::vector<int32_t>& cands = wk.levels[0];
     cands.clear();
     ++wk.stamp_value;
@@ -811,38 +772,29 @@ class OtherOwnerSolver {
                        });
     }
     std::sort(cands.begin(), cands.end());
-    solve_block(wk, owners, 0, c0, r0, c1, r1);
+    return true;
   }
 
-  void solve_block(Worker& wk, std::vector<int32_t>& owners, int depth, int64_t c0, int64_t r0, int64_t c1,
-                   int64_t r1) {
-    owners_in(c0, r0, c1, r1, owners);
-    if (owners.empty()) return fill_none(c0, r0, c1, r1);
+  // Nothing to find where no cell has an owner; the block's owners are kept for cull.
+  bool empty(Worker& wk, int, const Block& b) const {
+    owners_in(b, wk.owners);
+    return wk.owners.empty();
+  }
+
+  BlockStep cull(Worker& wk, int depth, const Block& b) const {
     std::vector<int32_t>& next = wk.levels[depth + 1];
-    std::vector<double> bounds;
-    cull(owners, wk.levels[depth], rect_of(c0, r0, c1, r1), next, bounds);
-    const int64_t w = c1 - c0, h = r1 - r0;
-    if (next.size() <= 1 || w * h <= kLeafCells || depth + 2 >= static_cast<int>(wk.levels.size()))
-      return solve_cells(wk, owners, next, c0, r0, c1, r1);
-    for_quadrants(c0, r0, c1, r1, [&](int64_t a0, int64_t b0, int64_t a1, int64_t b1) {
-      solve_block(wk, owners, depth + 1, a0, b0, a1, b1);
-    });
-  }
-
-  void fill_none(int64_t c0, int64_t r0, int64_t c1, int64_t r1) {
-    for (int64_t r = r0; r < r1; ++r) {
-      std::fill(site_.row(r) + c0, site_.row(r) + c1, kNoSite);
-      std::fill(distance_.row(r) + c0, distance_.row(r) + c1, kNoDistance);
-    }
+    cull_into(wk, wk.levels[depth], rect_of(b), next);
+    const bool leaf = next.size() <= 1 || b.cells() <= kLeafCells || depth + 2 >= kDepths;
+    return leaf ? BlockStep::leaf : BlockStep::split;
   }
 
   // Per-cell argmin over the candidates of another owner (ascending ids, strict <).
-  void solve_cells(Worker& wk, const std::vector<int32_t>& owners, const std::vector<int32_t>& cands, int64_t c0,
-                   int64_t r0, int64_t c1, int64_t r1) {
+  void solve_leaf(Worker& wk, int depth, const Block& b) {
+    const std::vector<int32_t>& cands = wk.levels[depth];
     const Window& win = ctx_.window;
-    for (int64_t r = r0; r < r1; ++r) {
+    for (int64_t r = b.r0; r < b.r1; ++r) {
       const double py = ctx_.grid.local_y(win.row0 + r);
-      for (int64_t c = c0; c < c1; ++c) {
+      for (int64_t c = b.c0; c < b.c1; ++c) {
         const int32_t o = cell_owner(c, r);
         double best = std::numeric_limits<double>::infinity();
         int32_t best_id = kNoSite;
@@ -861,8 +813,63 @@ class OtherOwnerSolver {
         distance_.at(c, r) = best_id == kNoSite ? kNoDistance : static_cast<float>(std::sqrt(best));
       }
     }
-    (void)wk;
-    (void)owners;
+  }
+
+  template <class F>
+  void split(const Block& b, F&& f) const {
+    split_middle(b, std::forward<F>(f));
+  }
+
+  void fill_none(const Block& b) { detail::fill_none(site_, distance_, b); }
+  void workers_done(Worker&) const {}
+
+ private:
+  static constexpr int kDepths = 16;
+
+  Rect rect_of(const Block& b) const { return centres_rect(ctx_, b.c0, b.r0, b.c1, b.r1); }
+  double keep_bound(double upper_key) const {
+    if (upper_key == std::numeric_limits<double>::infinity()) return upper_key;
+    const double d = std::sqrt(upper_key) + slack_;
+    return d * d;
+  }
+  int32_t cell_owner(int64_t c, int64_t r) const {
+    const int32_t s = own_.at(c, r);
+    return s == kNoSite ? 0 : owner_of_[s];
+  }
+  // Distinct owners (> 0) of the block's cells, ascending.
+  void owners_in(const Block& b, std::vector<int32_t>& out) const {
+    out.clear();
+    int32_t last = -1;
+    for (int64_t r = b.r0; r < b.r1; ++r)
+      for (int64_t c = b.c0; c < b.c1; ++c) {
+        const int32_t o = cell_owner(c, r);
+        if (o == 0 || o == last) continue;
+        last = o;
+        if (std::find(out.begin(), out.end(), o) == out.end()) out.push_back(o);
+      }
+    std::sort(out.begin(), out.end());
+  }
+
+  // Keeps the sites of `in` that can be the nearest other-owner site of some cell of the block
+  // (owners wk.owners); wk.bounds gets each owner's keep bound.
+  void cull_into(Worker& wk, const std::vector<int32_t>& in, const Rect& rect, std::vector<int32_t>& out) const {
+    const std::vector<int32_t>& owners = wk.owners;
+    wk.bounds.assign(owners.size(), std::numeric_limits<double>::infinity());
+    for (int32_t id : in) {
+      const double mk = site_rect_max_key(ctx_.local[id], rect);
+      for (size_t i = 0; i < owners.size(); ++i)
+        if (owner_of_[id] != owners[i]) wk.bounds[i] = std::min(wk.bounds[i], mk);
+    }
+    for (double& b : wk.bounds) b = keep_bound(b);
+    out.clear();
+    for (int32_t id : in) {
+      const double lo = site_rect_key(ctx_.local[id], rect);
+      for (size_t i = 0; i < owners.size(); ++i)
+        if (owner_of_[id] != owners[i] && lo <= wk.bounds[i]) {
+          out.push_back(id);
+          break;
+        }
+    }
   }
 
   const EngineContext& ctx_;

@@ -162,35 +162,19 @@ void GeodesicExactSolver::init_interp_block() {
   line_block_ = block(kLineMaxBlock, kLineSpan, kLineSpanMetres);
 }
 
-void GeodesicExactSolver::run() {
-  const Window& w = ctx_.window;
-  // Tiles (and every block inside them) are aligned to the grid, not to the window, so that
-  // the interpolation blocks -- hence the computed bits -- do not depend on the window.
-  const int64_t tx0 = w.col0 / kTile, tx1 = (w.col0 + w.width - 1) / kTile;
-  const int64_t ty0 = w.row0 / kTile, ty1 = (w.row0 + w.height - 1) / kTile;
-  const int64_t ntx = tx1 - tx0 + 1, nty = ty1 - ty0 + 1;
-  std::vector<GeoWorker> workers(static_cast<size_t>(ctx_.threads));
-  parallel_for(
-      ctx_.threads, ntx * nty,
-      [&](int64_t t, int worker) {
-        GeoWorker& wk = workers[static_cast<size_t>(worker)];
-        if (wk.levels.empty()) wk.levels.resize(20);
-        const int64_t gx = (tx0 + t % ntx) * kTile, gy = (ty0 + t / ntx) * kTile;
-        const int64_t c0 = std::max<int64_t>(gx - w.col0, 0), c1 = std::min(gx + kTile - w.col0, w.width);
-        const int64_t r0 = std::max<int64_t>(gy - w.row0, 0), r1 = std::min(gy + kTile - w.row0, w.height);
-        wk.levels[0] = ctx_.geometric;
-        wk.cache.clear();
-        wk.held.clear();
-        // Tiles start in row order: blocks ending a tile row and more above this one are done
-        // with (a straggler still needing one would only build it again).
-        shared_.drop_rows_before(gy - kTile - point_block_);
-        if (located_) locate_tile(wk.tile, c0, r0, c1, r1);
-        solve_block(wk, 0, kTile, c0, r0, c1, r1);
-        ctx_.progress->advance((c1 - c0) * (r1 - r0));
-      },
-      [&](int) {
-        if (stream_) store_fence();  // this worker's non-temporal stores, before the join
-      });
+void GeodesicExactSolver::run() { run_tiles(ctx_, *this); }
+
+bool GeodesicExactSolver::start_tile(GeoWorker& wk, const Block& t) {
+  if (wk.levels.empty()) wk.levels.resize(kDepths);
+  wk.levels[0] = ctx_.geometric;
+  wk.cache.clear();
+  wk.held.clear();
+  // Tiles start in row order: blocks ending a tile row and more above this one are done
+  // with (a straggler still needing one would only build it again).
+  const int64_t gy = (ctx_.window.row0 + t.r0) / kTile * kTile;
+  shared_.drop_rows_before(gy - kTile - point_block_);
+  if (located_) locate_tile(wk.tile, t.c0, t.r0, t.c1, t.r1);
+  return true;
 }
 
 void GeodesicExactSolver::locate_tile(TileCells& t, int64_t c0, int64_t r0, int64_t c1, int64_t r1) const {
@@ -299,21 +283,22 @@ double GeodesicExactSolver::reach_of(const GeoWorker& wk, int64_t c0, int64_t r0
   return std::min(path, arc * (1.0 + 1e-12) + 1e-9);
 }
 
-void GeodesicExactSolver::solve_block(GeoWorker& wk, int depth, int64_t level, int64_t c0, int64_t r0, int64_t c1,
-                                      int64_t r1) {
-  const std::vector<int32_t>& cands = wk.levels[depth];
-  if (cands.empty()) return fill_none(c0, r0, c1, r1);
+void GeodesicExactSolver::solve_interior(GeoWorker& wk, int depth, const Block& b) {
+  // Every cell ends at distance 0 with its polygon's area site (apply_interiors); what is
+  // left to find is a lower site at distance exactly 0 there, which only sites touching
+  // the block (lower bound within kGeoSlack) can be.
+  const EcefBox box = box_of(wk, b.c0, b.r0, b.c1, b.r1);
   std::vector<int32_t>& next = wk.levels[depth + 1];
-  if (fully_interior(c0, r0, c1, r1)) {
-    // Every cell ends at distance 0 with its polygon's area site (apply_interiors); what is
-    // left to find is a lower site at distance exactly 0 there, which only sites touching
-    // the block (lower bound within kGeoSlack) can be.
-    const EcefBox box = box_of(wk, c0, r0, c1, r1);
-    next.clear();
-    for (int32_t id : cands)
-      if (geo_.lower_bound(box, id) <= kGeoSlack) next.push_back(id);
-    return solve_zero(wk, next, c0, r0, c1, r1);
-  }
+  next.clear();
+  for (int32_t id : wk.levels[depth])
+    if (geo_.lower_bound(box, id) <= kGeoSlack) next.push_back(id);
+  solve_zero(wk, next, b.c0, b.r0, b.c1, b.r1);
+}
+
+BlockStep GeodesicExactSolver::cull(GeoWorker& wk, int depth, const Block& b) {
+  const std::vector<int32_t>& cands = wk.levels[depth];
+  std::vector<int32_t>& next = wk.levels[depth + 1];
+  const int64_t c0 = b.c0, r0 = b.r0, c1 = b.c1, r1 = b.r1;
   const bool bounded = std::isfinite(max_distance_);
   if (cands.size() > 1 || bounded) {
     const EcefBox box = box_of(wk, c0, r0, c1, r1);
@@ -358,27 +343,31 @@ void GeodesicExactSolver::solve_block(GeoWorker& wk, int depth, int64_t level, i
   } else {
     next = cands;
   }
-  const int64_t w = c1 - c0, h = r1 - r0;
+  // Which leaf, if any: the row kernels over interpolants (points only, inside an interpolation
+  // block), a segment leaf, or the per-cell method where the block cannot be split further.
   bool points_only = true;
   for (int32_t id : next) points_only = points_only && !geo_.site(id).segment;
-  const bool can_split = level > 1 && depth + 2 < static_cast<int>(wk.levels.size());
+  const int64_t level = b.level;
+  const bool can_split = level > 1 && depth + 2 < kDepths;
   const bool interp_leaf = points_only && level <= std::min(point_block_, kInterpSolveBlock) &&
                            (next.size() <= kInterpMaxCandidates || !can_split || level <= kInterpMinBlock);
-  const bool segment_leaf = !points_only && (next.size() <= 1 || w * h <= kLeafCells);
+  const bool segment_leaf = !points_only && (next.size() <= 1 || b.cells() <= kLeafCells);
+  wk.leaf = interp_leaf ? LeafKind::interpolants : segment_leaf ? LeafKind::segments : LeafKind::cells;
   if ((interp_leaf || segment_leaf || !can_split) && next.size() >= 2 && next.size() <= kDominanceMax)
     drop_dominated(wk, next, c0, r0, c1, r1);
-  if (interp_leaf) return solve_interp(wk, next, c0, r0, c1, r1);
-  if (segment_leaf) return solve_leaf(wk, next, c0, r0, c1, r1);
-  if (!can_split) return solve_cells(wk, next, c0, r0, c1, r1);
-  // Split at the grid-aligned middle of the block's level.
-  const Window& win = ctx_.window;
-  const int64_t half = level / 2;
-  const int64_t cm = std::clamp(((win.col0 + c0) / level) * level + half - win.col0, c0, c1);
-  const int64_t rm = std::clamp(((win.row0 + r0) / level) * level + half - win.row0, r0, r1);
-  const int64_t xs[3] = {c0, cm, c1}, ys[3] = {r0, rm, r1};
-  for (int j = 0; j < 2; ++j)
-    for (int i = 0; i < 2; ++i)
-      if (xs[i] < xs[i + 1] && ys[j] < ys[j + 1]) solve_block(wk, depth + 1, half, xs[i], ys[j], xs[i + 1], ys[j + 1]);
+  return interp_leaf || segment_leaf || !can_split ? BlockStep::leaf : BlockStep::split;
+}
+
+void GeodesicExactSolver::solve_leaf(GeoWorker& wk, int depth, const Block& b) {
+  const std::vector<int32_t>& cands = wk.levels[depth];
+  switch (wk.leaf) {
+    case LeafKind::interpolants:
+      return solve_interp(wk, cands, b.c0, b.r0, b.c1, b.r1);
+    case LeafKind::segments:
+      return solve_segment_leaf(wk, cands, b.c0, b.r0, b.c1, b.r1);
+    case LeafKind::cells:
+      return solve_cells(wk, cands, b.c0, b.r0, b.c1, b.r1);
+  }
 }
 
 void GeodesicExactSolver::drop_dominated(GeoWorker& wk, std::vector<int32_t>& cands, int64_t c0, int64_t r0, int64_t c1,

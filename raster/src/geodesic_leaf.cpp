@@ -4,8 +4,8 @@
 
 namespace rv::detail {
 
-void GeodesicExactSolver::solve_leaf(GeoWorker& wk, const std::vector<int32_t>& cands, int64_t c0, int64_t r0,
-                                     int64_t c1, int64_t r1) {
+void GeodesicExactSolver::solve_segment_leaf(GeoWorker& wk, const std::vector<int32_t>& cands, int64_t c0, int64_t r0,
+                                             int64_t c1, int64_t r1) {
   // (In one line block is in one point block: the line block divides the point block.)
   const int64_t S = line_block_, gx = ctx_.window.col0, gy = ctx_.window.row0;
   const bool one_block = (gx + c0) / S == (gx + c1 - 1) / S && (gy + r0) / S == (gy + r1 - 1) / S;

@@ -28,6 +28,7 @@
 #include <GeographicLib/GeodesicLine.hpp>
 #include <GeographicLib/Math.hpp>
 
+#include "culling.hpp"
 #include "engine_internal.hpp"
 #include "geodesic_interpolant.hpp"
 #include "geodesic_kernels.hpp"
@@ -42,9 +43,9 @@
 
 namespace rv::detail {
 
-inline constexpr int64_t kTile = 256;  // top-level tile edge, cells (tiles aligned to the grid; 128
-                                       // before: 256 computes the same bits with a quarter of the
-                                       // top-level lower bounds, all sites against each tile)
+inline constexpr int64_t kGeoTile = 256;  // top-level tile edge, cells (tiles aligned to the grid; 128
+                                          // before: 256 computes the same bits with a quarter of the
+                                          // top-level lower bounds, all sites against each tile)
 // Blocks with segments this small (or smaller) are leaves, solved by the row kernels or per cell.
 // 16 x 16 rather than 8 x 8: a leaf's set-up (interpolants gathered, weights, one reduction per
 // row and candidate) is spread over 4x the cells, for a few more candidates per cell (faster on
@@ -70,7 +71,11 @@ struct Anchor {
   double x, y, z, cmax, beta;
 };
 
+// The leaf a block's cull chose (GeodesicExactSolver::cull).
+enum class LeafKind { interpolants, segments, cells };
+
 struct GeoWorker {
+  LeafKind leaf = LeafKind::cells;           // set by cull for solve_leaf
   std::vector<std::vector<int32_t>> levels;  // candidate lists per recursion depth
   std::vector<double> lb;
   std::vector<double> cell_lb;
@@ -125,6 +130,30 @@ class GeodesicExactSolver {
 
   void run();
 
+  // ---- The culling skeleton's policy (culling.hpp) ----
+  using Worker = GeoWorker;
+  static constexpr bool kInteriors = true;
+  static constexpr int64_t kTile = kGeoTile;
+  static constexpr int kDepths = 20;  // candidate lists per recursion depth
+  // A tile's set-up: every site a candidate, the worker's interpolant cache emptied, shared
+  // interpolants of finished tile rows dropped, projected grids' centres located.
+  bool start_tile(GeoWorker& wk, const Block& t);
+  bool empty(GeoWorker& wk, int depth, const Block&) const { return wk.levels[depth].empty(); }
+  void solve_interior(GeoWorker& wk, int depth, const Block& b);
+  // The candidates within the bound U + reach (kProbes exact probes from the block's centre, the
+  // reach of reach_of) of the lower bounds; the leaf kind chosen (wk.leaf) and dominated
+  // candidates of a leaf dropped.
+  BlockStep cull(GeoWorker& wk, int depth, const Block& b);
+  void solve_leaf(GeoWorker& wk, int depth, const Block& b);
+  template <class F>
+  void split(const Block& b, F&& f) const {
+    split_aligned(ctx_.window, b, std::forward<F>(f));
+  }
+  void fill_none(const Block& b) { detail::fill_none(site_, distance_, b); }
+  void workers_done(GeoWorker&) const {
+    if (stream_) store_fence();  // this worker's non-temporal stores, before the join
+  }
+
  private:
   // Projected grids: every cell centre of the tile, through the geolocator (one batch per row).
   void locate_tile(TileCells& t, int64_t c0, int64_t r0, int64_t c1, int64_t r1) const;
@@ -163,8 +192,6 @@ class GeodesicExactSolver {
   // meridian arc of under a degree its square is convex (its second derivative along the arc is
   // 2 (1 + (P - C) . P'') >= 2 (1 - |P - C| / M_min) > 0).
   double reach_of(const GeoWorker& wk, int64_t c0, int64_t r0, int64_t c1, int64_t r1, int64_t cc, int64_t rc) const;
-
-  void solve_block(GeoWorker& wk, int depth, int64_t level, int64_t c0, int64_t r0, int64_t c1, int64_t r1);
 
   // Drops from `cands` (a leaf's candidates) every candidate of point form over the block that
   // another of point form beats by more than kGeoSlack at every cell of the block, so that the
@@ -280,7 +307,8 @@ class GeodesicExactSolver {
   // A leaf block of sites of any kind: its interpolants where the candidates that can win
   // certainly keep one form over the whole block (gather_interpolants), else cell by cell
   // (solve_cells).
-  void solve_leaf(GeoWorker& wk, const std::vector<int32_t>& cands, int64_t c0, int64_t r0, int64_t c1, int64_t r1);
+  void solve_segment_leaf(GeoWorker& wk, const std::vector<int32_t>& cands, int64_t c0, int64_t r0, int64_t c1,
+                          int64_t r1);
 
   // wk.interp / wk.interp_additive: the interpolants of the candidates over the block (which
   // lies in one interpolation block), each once; wk.changing: the segments whose form is not
@@ -329,16 +357,11 @@ class GeodesicExactSolver {
   void solve_flagged_row(GeoWorker& wk, const std::vector<int32_t>& cands, int64_t c0, int64_t r0, int64_t c1,
                          int64_t r1, int64_t r, FlaggedCells& state);
 
-  void fill_none(int64_t c0, int64_t r0, int64_t c1, int64_t r1) {
-    for (int64_t r = r0; r < r1; ++r) {
-      std::fill(site_.row(r) + c0, site_.row(r) + c1, kNoSite);
-      std::fill(distance_.row(r) + c0, distance_.row(r) + c1, kNoDistance);
-    }
-  }
+  void fill_none(int64_t c0, int64_t r0, int64_t c1, int64_t r1) { fill_none(Block{c0, r0, c1, r1, 0}); }
 
   // True when every cell of the block has its centre inside a polygon (one span per row).
   bool fully_interior(int64_t c0, int64_t r0, int64_t c1, int64_t r1) const {
-    return ctx_.interiors != nullptr && ctx_.interiors->covers(c0, r0, c1, r1);
+    return detail::fully_interior(ctx_, Block{c0, r0, c1, r1, 0});
   }
 
   // A block inside polygons: per cell the lowest of `cands` at distance exactly 0 (as the

@@ -71,6 +71,7 @@
 #include <string>
 #include <string_view>
 
+#include "rv/cell_mask.hpp"
 #include "rv/geolocate.hpp"
 #include "rv/grid.hpp"
 #include "rv/metric.hpp"
@@ -119,6 +120,13 @@ struct ComputeOptions {
   // one after the other (a streamed job's strips, a tiled job's tiles) share it instead of each
   // preparing again.
   std::shared_ptr<const PreparedSeeds> prepared;
+  // Optional: the cells to compute (rv/cell_mask.hpp, window-relative; CellMask::fits the window,
+  // else rv::Error(invalid_argument)). compute_into then writes at least these cells, each with
+  // the value it gets without the mask, and may leave any other cell as `out` held it: pass the
+  // field of an earlier computation of this grid and window, which `out` must already hold (else
+  // invalid_argument). compute() starts from no site everywhere. Only the exact method takes a
+  // mask (others: invalid_argument). The edits of a finished job recompute only what changes.
+  std::shared_ptr<const CellMask> mask;
 };
 
 struct NearestField {
