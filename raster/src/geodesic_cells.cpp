@@ -43,6 +43,15 @@ double GeodesicExactSolver::value(GeoWorker& wk, int64_t c, int64_t r, const Geo
   return geo_.distance(p, id);
 }
 
+double GeodesicExactSolver::value_at(GeoWorker& wk, int64_t c, int64_t r, int32_t id, bool& exact,
+                                     bool* additive) const {
+  const GeoCell p = cell_at(wk, c, r);
+  const Interpolant* from = nullptr;
+  const double v = value(wk, c, r, p, id, regime_of(p, id), exact, &from);
+  if (additive) *additive = from != nullptr && from->additive;
+  return v;
+}
+
 double GeodesicExactSolver::probe_distance(GeoWorker& wk, int64_t c, int64_t r, const GeoCell& p, int32_t id) const {
   bool exact = false;
   const double v = value(wk, c, r, p, id, regime_of(p, id), exact);

@@ -130,6 +130,13 @@ class GeodesicExactSolver {
 
   void run();
 
+  // The value the method takes for site `id` at window cell (c, r) of a geographic grid: the
+  // interpolated one where an interpolant of the cell's regime serves (exact = false; additive,
+  // if given, says which form), else the exact distance (exact = true). Metres. wk's interpolant
+  // cache serves one tile at a time: clear wk.cache and wk.held before a cell of another tile.
+  // For tests of the parts.
+  double value_at(GeoWorker& wk, int64_t c, int64_t r, int32_t id, bool& exact, bool* additive = nullptr) const;
+
   // ---- The culling skeleton's policy (culling.hpp) ----
   using Worker = GeoWorker;
   static constexpr bool kInteriors = true;
