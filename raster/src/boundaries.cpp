@@ -11,12 +11,14 @@
 #include <unordered_map>
 #include <vector>
 
+#include "boundary_stages.hpp"
 #include "line_tools.hpp"
 #include "rv/deliverables.hpp"
 #include "rv/error.hpp"
 #include "rv/parallel.hpp"
 
 namespace rv {
+namespace boundary_stages {
 
 using namespace line_tools;  // the deliverables' own toolkit (line_tools.hpp)
 
@@ -24,12 +26,6 @@ using namespace line_tools;  // the deliverables' own toolkit (line_tools.hpp)
 // Boundaries and tripoints.
 
 namespace {
-
-struct Crossing {
-  int64_t edge;
-  int32_t owner_lo, owner_hi;
-  BoundaryVertex v;
-};
 
 // How deep the owners passing between two cell centres are followed (A | C D E ... | B): each
 // level finds one more owner between; beyond it the segment is dropped as unresolved.
@@ -100,41 +96,8 @@ struct TripointSolver {
   }
 };
 
-// What every stage of one extraction reads: the field, the metric's index, the grid and the
-// tolerance, and each cell's owner.
-struct BoundaryGrid {
-  const NearestField& field;
-  const OwnerIndex& index;
-  const GridSpec& g;
-  int64_t W, H;
-  int threads;
-  double ftol;
-  std::vector<int32_t> owner_of_site;
-
-  int32_t owner(int64_t c, int64_t r) const {
-    const int32_t s = field.site.at(c, r);
-    return s == kNoSite ? 0 : owner_of_site[static_cast<size_t>(s)];
-  }
-  // The owners of dual square (c, r)'s corners: (c,r), (c+1,r), (c+1,r+1), (c,r+1).
-  std::array<int32_t, 4> corner_owners(int64_t c, int64_t r) const {
-    return {owner(c, r), owner(c + 1, r), owner(c + 1, r + 1), owner(c, r + 1)};
-  }
-  static bool uniform(const std::array<int32_t, 4>& o) { return o[0] == o[1] && o[1] == o[2] && o[2] == o[3]; }
-};
-
-int64_t pair_key(int32_t a, int32_t b) {
-  return (static_cast<int64_t>(std::min(a, b)) << 32) | static_cast<int64_t>(std::max(a, b));
-}
-
 // ---- Stage 1: crossings ------------------------------------------------------------------------
 // Every 4-neighbour pair of differently owned cells, placed on the locus.
-
-struct CrossingSet {
-  std::vector<Crossing> crossings;
-  // Edge -> its crossings: consecutive in `crossings` (first index, count), in order along it.
-  std::unordered_map<int64_t, std::pair<int32_t, int32_t>> on_edge;
-  std::unordered_map<int64_t, int32_t> sliver_at;  // edge -> the (first) owner passing between
-};
 
 struct Segment {
   int64_t edge;
@@ -204,6 +167,8 @@ void place_crossings(const BoundaryGrid& b, const Segment& sg, std::vector<Cross
   place(place, sg.from, sg.to, 0.0, 1.0, 0);
 }
 
+}  // namespace
+
 CrossingSet find_crossings(const BoundaryGrid& b, int64_t row0, int64_t row1, BoundaryStats& stats) {
   const std::vector<Segment> segments = owner_changes(b, row0, row1);
   stats.crossings += static_cast<int64_t>(segments.size());
@@ -234,16 +199,12 @@ CrossingSet find_crossings(const BoundaryGrid& b, int64_t row0, int64_t row1, Bo
   return x;
 }
 
+namespace {
+
 // ---- Stage 2: tripoints ------------------------------------------------------------------------
 // Candidate squares: three or more corner owners, or a sliver edge (an owner passing between
 // two centres adds itself to the square's owners). Each tripoint found is filed under the square
 // it actually lies in, which need not be the square it was sought from.
-
-struct TripointSet {
-  std::vector<Tripoint> tripoints;
-  std::map<std::array<int32_t, 3>, std::vector<int32_t>> by_owners;
-  std::unordered_map<int64_t, std::vector<int32_t>> in_square;  // square id -> tripoint ids
-};
 
 // The square a tripoint is filed under. A tripoint between the outermost cell centres and the
 // grid's edge is filed under the border square next to it: the lines of the border squares end
@@ -289,6 +250,8 @@ std::vector<int32_t> square_owners(const BoundaryGrid& b, const CrossingSet& x, 
   return distinct;
 }
 
+}  // namespace
+
 TripointSet find_tripoints(const BoundaryGrid& b, const CrossingSet& x, int64_t row0, int64_t row1,
                            BoundaryStats& stats) {
   const TripointSolver solver{b.index, b.ftol, 1e-6 * b.g.res};
@@ -319,20 +282,11 @@ TripointSet find_tripoints(const BoundaryGrid& b, const CrossingSet& x, int64_t 
   return set;
 }
 
+namespace {
+
 // ---- Stage 3: links ----------------------------------------------------------------------------
 // Per dual square, the crossings on its edges are joined to each other or to the square's
 // tripoints; the nodes are crossings (ids 0..n-1), then tripoints (n + tripoint id).
-
-struct Links {
-  std::vector<std::array<int32_t, 2>> links;
-  std::vector<int64_t> pair;                     // pair_key of each link's owners
-  std::set<std::pair<int32_t, int32_t>> linked;  // a crossing is seen from both its squares
-  void add(int32_t n1, int32_t n2, int64_t p) {
-    if (!linked.emplace(std::min(n1, n2), std::max(n1, n2)).second) return;
-    links.push_back({n1, n2});
-    pair.push_back(p);
-  }
-};
 
 bool has(const Tripoint& t, int32_t a) { return t.owners[0] == a || t.owners[1] == a || t.owners[2] == a; }
 
@@ -496,6 +450,8 @@ struct SquareLinks {
   }
 };
 
+}  // namespace
+
 Links link_squares(const BoundaryGrid& b, const CrossingSet& x, const TripointSet& t, int64_t row0, int64_t row1,
                    BoundaryStats& stats) {
   Links out;
@@ -583,7 +539,9 @@ std::vector<BoundaryLine> chain_lines(const CrossingSet& x, const TripointSet& t
   return lines;
 }
 
-}  // namespace
+}  // namespace boundary_stages
+
+using namespace boundary_stages;
 
 BoundaryResult extract_boundaries(const NearestField& field, const OwnerIndex& index, const BoundaryOptions& options) {
   check_whole_grid(field);

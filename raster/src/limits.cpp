@@ -11,12 +11,14 @@
 #include <unordered_map>
 #include <vector>
 
+#include "limit_stages.hpp"
 #include "line_tools.hpp"
 #include "rv/deliverables.hpp"
 #include "rv/error.hpp"
 #include "rv/parallel.hpp"
 
 namespace rv {
+namespace limit_stages {
 
 using namespace line_tools;  // the deliverables' own toolkit (line_tools.hpp)
 
@@ -24,27 +26,6 @@ using namespace line_tools;  // the deliverables' own toolkit (line_tools.hpp)
 // Distance-limit lines.
 
 namespace {
-
-// What every stage of one extraction reads.
-struct LimitGrid {
-  const NearestField& field;
-  const OwnerIndex& index;
-  const SiteMetric& metric;
-  const GridSpec& g;
-  int64_t W, H;
-  int threads;
-  double cell;  // one cell in metric units
-  double ftol;
-  std::vector<int32_t> owner_of_site;
-};
-
-// The distance whose level D is drawn: to any seed (owner 0), or to one owner's.
-struct Target {
-  const LimitGrid& grid;
-  int32_t owner;
-  double D;
-  OwnerIndex::Hit at(Vec2 p) const { return owner == 0 ? grid.index.nearest(p) : grid.index.nearest_of(p, owner); }
-};
 
 // ---- Stage 1: inside -------------------------------------------------------------------------
 // Inside (d <= D) per cell. The Float32 field decides clear cases; cells within float rounding
@@ -81,14 +62,18 @@ bool cell_inside(const Target& t, int64_t c, int64_t r, int32_t s) {
   return t.at(centre(lg.g, c, r)).distance <= t.D;
 }
 
-std::vector<uint8_t> inside_flags(const Target& t) {
+}  // namespace
+
+void inside_flags(const Target& t, int64_t row0, int64_t row1, std::vector<uint8_t>& inside) {
   const LimitGrid& lg = t.grid;
-  std::vector<uint8_t> inside(static_cast<size_t>(lg.W * lg.H), 0);
-  const int64_t bw = (lg.W + kBlock - 1) / kBlock, bh = (lg.H + kBlock - 1) / kBlock;
-  detail::parallel_for(lg.threads, bh, [&](int64_t br, int) {
+  inside.resize(static_cast<size_t>(lg.W * lg.H), 0);
+  const int64_t bw = (lg.W + kBlock - 1) / kBlock, b0 = row0 / kBlock, b1 = (row1 + kBlock - 1) / kBlock;
+  detail::parallel_for(lg.threads, b1 - b0, [&](int64_t k, int) {
+    const int64_t br = b0 + k;
     for (int64_t bc = 0; bc < bw; ++bc) {
-      const int64_t c0 = bc * kBlock, r0 = br * kBlock;
-      const int64_t c1 = std::min(lg.W, c0 + kBlock), r1 = std::min(lg.H, r0 + kBlock);
+      // Blocks stay aligned to the grid; a strip clips them to its rows.
+      const int64_t c0 = bc * kBlock, r0 = std::max(br * kBlock, row0);
+      const int64_t c1 = std::min(lg.W, c0 + kBlock), r1 = std::min({lg.H, br * kBlock + kBlock, row1});
       const int settled = settle_block(t, c0, r0, c1, r1);
       for (int64_t r = r0; r < r1; ++r)
         for (int64_t c = c0; c < c1; ++c) {
@@ -99,24 +84,17 @@ std::vector<uint8_t> inside_flags(const Target& t) {
         }
     }
   });
-  return inside;
 }
 
 // ---- Stage 2: crossings ----------------------------------------------------------------------
 // Every edge between an inside and an outside cell, its vertex placed at distance D.
 
-struct LimitCrossings {
-  std::vector<int64_t> edges;
-  std::vector<LimitVertex> verts;           // per edge
-  std::unordered_map<int64_t, int32_t> at;  // edge -> index
-};
-
-LimitCrossings limit_crossings(const Target& t, const std::vector<uint8_t>& inside) {
+LimitCrossings limit_crossings(const Target& t, const std::vector<uint8_t>& inside, int64_t row0, int64_t row1) {
   const LimitGrid& lg = t.grid;
   const int64_t W = lg.W, H = lg.H;
   auto in_at = [&](int64_t c, int64_t r) { return inside[static_cast<size_t>(r * W + c)] != 0; };
   LimitCrossings x;
-  for (int64_t r = 0; r < H; ++r)
+  for (int64_t r = row0; r < row1; ++r)
     for (int64_t c = 0; c < W; ++c) {
       if (c + 1 < W && in_at(c, r) != in_at(c + 1, r)) x.edges.push_back(edge_right(W, c, r));
       if (r + 1 < H && in_at(c, r) != in_at(c, r + 1)) x.edges.push_back(edge_down(W, c, r));
@@ -146,12 +124,12 @@ LimitCrossings limit_crossings(const Target& t, const std::vector<uint8_t>& insi
 // Per dual square, its two crossings joined; a saddle's four by the side of its centre.
 
 std::vector<std::array<int32_t, 2>> limit_links(const Target& t, const std::vector<uint8_t>& inside,
-                                                const LimitCrossings& x) {
+                                                const LimitCrossings& x, int64_t row0, int64_t row1) {
   const LimitGrid& lg = t.grid;
   const int64_t W = lg.W, H = lg.H;
   auto in_at = [&](int64_t c, int64_t r) { return inside[static_cast<size_t>(r * W + c)] != 0; };
   std::vector<std::array<int32_t, 2>> links;
-  for (int64_t r = 0; r + 1 < H; ++r)
+  for (int64_t r = row0; r < row1 && r + 1 < H; ++r)
     for (int64_t c = 0; c + 1 < W; ++c) {
       const std::array<bool, 4> in{in_at(c, r), in_at(c + 1, r), in_at(c + 1, r + 1), in_at(c, r + 1)};
       if (in[0] == in[1] && in[1] == in[2] && in[2] == in[3]) continue;
@@ -203,7 +181,9 @@ void chain_limit_lines(const Target& t, const LimitCrossings& x, const std::vect
   }
 }
 
-}  // namespace
+}  // namespace limit_stages
+
+using namespace limit_stages;
 
 LimitResult extract_limits(const NearestField& field, const OwnerIndex& index, std::span<const double> distances,
                            const LimitOptions& options) {
@@ -234,9 +214,11 @@ LimitResult extract_limits(const NearestField& field, const OwnerIndex& index, s
   for (double D : distances)
     for (int32_t owner : owners) {
       const Target t{lg, owner, D};
-      const std::vector<uint8_t> inside = inside_flags(t);
-      const LimitCrossings x = limit_crossings(t, inside);
-      chain_limit_lines(t, x, limit_links(t, inside, x), options.simplify_cells * g.res, result);
+      // The stages take rows [row0, row1), the shape streaming needs; here the whole grid.
+      std::vector<uint8_t> inside;
+      inside_flags(t, 0, lg.H, inside);
+      const LimitCrossings x = limit_crossings(t, inside, 0, lg.H);
+      chain_limit_lines(t, x, limit_links(t, inside, x, 0, lg.H), options.simplify_cells * g.res, result);
     }
   return result;
 }

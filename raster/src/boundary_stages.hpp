@@ -1,0 +1,103 @@
+// The stages of boundary extraction (extract_boundaries, rv/deliverables.hpp), each a function
+// of its own over rows [row0, row1) of the field -- the shape streaming needs: a strip of the
+// field in, pieces of line out -- and a last stage that joins the pieces into lines:
+//
+//   find_crossings   every 4-neighbour pair of differently owned cells of rows [row0, row1)
+//                    (horizontal edges of those rows, vertical edges down from them), placed on
+//                    the equidistance locus; owners passing between two centres (slivers) add
+//                    their own crossings
+//   find_tripoints   the points equidistant from three owners in the dual squares whose top row
+//                    is in [row0, row1), each filed under the square it lies in
+//   link_squares     per dual square of those rows, its crossings joined to each other or to its
+//                    tripoints (nodes: crossings 0..n-1, then tripoints n + id)
+//   chain_lines      the links chained into lines per owner pair (ending at tripoints, the grid's
+//                    edge, or closed), simplified with Douglas-Peucker at `tol` CRS units, in a
+//                    deterministic order
+//
+// Internal to rv_raster (tests reach it by name). Thread safety: pure functions of their
+// arguments; find_crossings runs on b.threads threads, with a result independent of them.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <map>
+#include <set>
+#include <unordered_map>
+#include <utility>
+#include <vector>
+
+#include "rv/deliverables.hpp"
+
+namespace rv::boundary_stages {
+
+// A point of the equidistance locus between owners owner_lo < owner_hi on grid edge `edge`
+// (line_tools.hpp's edge ids).
+struct Crossing {
+  int64_t edge;
+  int32_t owner_lo, owner_hi;
+  BoundaryVertex v;
+};
+
+// What every stage of one extraction reads: the field, the metric's index, the grid and the
+// tolerance, and each cell's owner.
+struct BoundaryGrid {
+  const NearestField& field;
+  const OwnerIndex& index;
+  const GridSpec& g;
+  int64_t W, H;
+  int threads;
+  double ftol;
+  std::vector<int32_t> owner_of_site;
+
+  int32_t owner(int64_t c, int64_t r) const {
+    const int32_t s = field.site.at(c, r);
+    return s == kNoSite ? 0 : owner_of_site[static_cast<size_t>(s)];
+  }
+  // The owners of dual square (c, r)'s corners: (c,r), (c+1,r), (c+1,r+1), (c,r+1).
+  std::array<int32_t, 4> corner_owners(int64_t c, int64_t r) const {
+    return {owner(c, r), owner(c + 1, r), owner(c + 1, r + 1), owner(c, r + 1)};
+  }
+  static bool uniform(const std::array<int32_t, 4>& o) { return o[0] == o[1] && o[1] == o[2] && o[2] == o[3]; }
+};
+
+// Crossings of a range of rows, grouped by edge.
+struct CrossingSet {
+  std::vector<Crossing> crossings;
+  // Edge -> its crossings: consecutive in `crossings` (first index, count), in order along it.
+  std::unordered_map<int64_t, std::pair<int32_t, int32_t>> on_edge;
+  std::unordered_map<int64_t, int32_t> sliver_at;  // edge -> the (first) owner passing between
+};
+
+// Tripoints of a range of squares: by owner triple and by the square they lie in.
+struct TripointSet {
+  std::vector<Tripoint> tripoints;
+  std::map<std::array<int32_t, 3>, std::vector<int32_t>> by_owners;
+  std::unordered_map<int64_t, std::vector<int32_t>> in_square;  // square id -> tripoint ids
+};
+
+// Links between nodes (crossings, then tripoints), each once, with its owner pair's key.
+struct Links {
+  std::vector<std::array<int32_t, 2>> links;
+  std::vector<int64_t> pair;                     // pair_key of each link's owners
+  std::set<std::pair<int32_t, int32_t>> linked;  // a crossing is seen from both its squares
+  void add(int32_t n1, int32_t n2, int64_t p) {
+    if (!linked.emplace(std::min(n1, n2), std::max(n1, n2)).second) return;
+    links.push_back({n1, n2});
+    pair.push_back(p);
+  }
+};
+
+// A key for the unordered pair of owners {a, b}.
+inline int64_t pair_key(int32_t a, int32_t b) {
+  return (static_cast<int64_t>(std::min(a, b)) << 32) | static_cast<int64_t>(std::max(a, b));
+}
+
+CrossingSet find_crossings(const BoundaryGrid& b, int64_t row0, int64_t row1, BoundaryStats& stats);
+TripointSet find_tripoints(const BoundaryGrid& b, const CrossingSet& x, int64_t row0, int64_t row1,
+                           BoundaryStats& stats);
+Links link_squares(const BoundaryGrid& b, const CrossingSet& x, const TripointSet& t, int64_t row0, int64_t row1,
+                   BoundaryStats& stats);
+std::vector<BoundaryLine> chain_lines(const CrossingSet& x, const TripointSet& t, const Links& links, double tol,
+                                      BoundaryStats& stats);
+
+}  // namespace rv::boundary_stages

@@ -1,0 +1,66 @@
+// The stages of distance-limit lines (extract_limits, rv/deliverables.hpp), each a function of
+// its own over rows [row0, row1) of the field -- the shape streaming needs -- and a last stage
+// that joins the pieces into lines:
+//
+//   inside_flags       per cell of the rows, whether it lies within distance D of the target
+//                      (all seeds, or one owner's), decided exactly near the line
+//   limit_crossings    every edge between an inside and an outside cell of the rows (horizontal
+//                      edges of those rows, vertical edges down from them: row1's flags must be
+//                      there too), its vertex placed at distance D
+//   limit_links        per dual square whose top row is in the rows, its crossings joined (a
+//                      saddle's four by the side of its centre)
+//   chain_limit_lines  the links chained into lines (closed rings, or ending at the grid's
+//                      edge), simplified with Douglas-Peucker at `tol` CRS units
+//
+// Internal to rv_raster (tests reach it by name). Thread safety: pure functions of their
+// arguments but for the outputs named; inside_flags and limit_crossings run on the grid's
+// threads, with results independent of them.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <unordered_map>
+#include <vector>
+
+#include "rv/deliverables.hpp"
+
+namespace rv::limit_stages {
+
+// What every stage of one extraction reads.
+struct LimitGrid {
+  const NearestField& field;
+  const OwnerIndex& index;
+  const SiteMetric& metric;
+  const GridSpec& g;
+  int64_t W, H;
+  int threads;
+  double cell;  // one cell in metric units
+  double ftol;
+  std::vector<int32_t> owner_of_site;
+};
+
+// The distance whose level D is drawn: to any seed (owner 0), or to one owner's.
+struct Target {
+  const LimitGrid& grid;
+  int32_t owner;
+  double D;
+  OwnerIndex::Hit at(Vec2 p) const { return owner == 0 ? grid.index.nearest(p) : grid.index.nearest_of(p, owner); }
+};
+
+// The crossings of a range of rows: their edges, vertices, and each edge's index.
+struct LimitCrossings {
+  std::vector<int64_t> edges;
+  std::vector<LimitVertex> verts;           // per edge
+  std::unordered_map<int64_t, int32_t> at;  // edge -> index
+};
+
+// Rows [row0, row1) of `inside` (W x H flags, row-major; resized to that if smaller): 1 inside.
+void inside_flags(const Target& t, int64_t row0, int64_t row1, std::vector<uint8_t>& inside);
+LimitCrossings limit_crossings(const Target& t, const std::vector<uint8_t>& inside, int64_t row0, int64_t row1);
+std::vector<std::array<int32_t, 2>> limit_links(const Target& t, const std::vector<uint8_t>& inside,
+                                                const LimitCrossings& x, int64_t row0, int64_t row1);
+// Appends the lines to result.lines (and its vertex count and largest residual).
+void chain_limit_lines(const Target& t, const LimitCrossings& x, const std::vector<std::array<int32_t, 2>>& links,
+                       double tol, LimitResult& result);
+
+}  // namespace rv::limit_stages

@@ -1,0 +1,243 @@
+// The stages of boundary extraction (raster/src/boundary_stages.hpp), each on its own, on fields
+// whose lines are known in closed form: three basepoints (three bisectors meeting at the
+// circumcentre) and two (one bisector). Every stage also runs over strips of rows, the shape
+// streaming feeds it: the strips' pieces together are the whole field's.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <tuple>
+#include <vector>
+
+#include "boundary_stages.hpp"
+#include "line_tools.hpp"
+#include "rv/deliverables.hpp"
+#include "rv/engine.hpp"
+
+namespace rv::boundary_stages {
+namespace {
+
+// Basepoints (one owner each) on a grid of 100 x 100 unit cells, and what the stages read.
+struct Case {
+  SeedSet seeds;
+  GridSpec grid;
+  NearestField field;
+  PlanarSiteMetric metric;
+  OwnerIndex index;
+  BoundaryGrid b;
+
+  explicit Case(const std::vector<Vec2>& points)
+      : seeds(make_seeds(points)),
+        grid(make_grid()),
+        field(compute(seeds, grid, ComputeOptions{})),
+        metric(seeds, Vec2{0.0, 100.0}),
+        index(metric),
+        b{field, index, grid, grid.width, grid.height, 2, 1e-9, line_tools::owner_of_sites(seeds)} {}
+
+  static SeedSet make_seeds(const std::vector<Vec2>& points) {
+    SeedSet s;
+    for (size_t i = 0; i < points.size(); ++i)
+      s.add_point(s.add_feature(s.owner_code(std::string(1, static_cast<char>('A' + i)))), points[i]);
+    return s;
+  }
+  static GridSpec make_grid() {
+    GridSpec g;
+    g.xmin = 0.0;
+    g.ymax = 100.0;
+    g.res = 1.0;
+    g.width = 100;
+    g.height = 100;
+    return g;
+  }
+  double d(Vec2 p, size_t i) const {
+    const Vec2 s = seeds.sites()[i].a;
+    return std::hypot(p.x - s.x, p.y - s.y);
+  }
+};
+
+const std::vector<Vec2> kThree{{20.3, 40.1}, {81.7, 44.6}, {47.2, 88.9}};
+
+// The circumcentre of the three points: equidistant from all.
+Vec2 circumcentre(const std::vector<Vec2>& p) {
+  const double ax = p[0].x, ay = p[0].y, bx = p[1].x, by = p[1].y, cx = p[2].x, cy = p[2].y;
+  const double d = 2.0 * (ax * (by - cy) + bx * (cy - ay) + cx * (ay - by));
+  const double a2 = ax * ax + ay * ay, b2 = bx * bx + by * by, c2 = cx * cx + cy * cy;
+  return Vec2{(a2 * (by - cy) + b2 * (cy - ay) + c2 * (ay - by)) / d,
+              (a2 * (cx - bx) + b2 * (ax - cx) + c2 * (bx - ax)) / d};
+}
+
+// A crossing as comparable data: edge, owners, position.
+using Key = std::tuple<int64_t, int32_t, int32_t, double, double>;
+std::vector<Key> keys(const CrossingSet& x) {
+  std::vector<Key> k;
+  for (const Crossing& c : x.crossings) k.emplace_back(c.edge, c.owner_lo, c.owner_hi, c.v.p.x, c.v.p.y);
+  std::sort(k.begin(), k.end());
+  return k;
+}
+
+TEST(BoundaryStages, CrossingsLieOnTheBisectorsOfTheirOwners) {
+  const Case k(kThree);
+  BoundaryStats stats;
+  const CrossingSet x = find_crossings(k.b, 0, k.grid.height, stats);
+  ASSERT_GT(x.crossings.size(), 100u);
+  for (const Crossing& c : x.crossings) {
+    ASSERT_LT(c.owner_lo, c.owner_hi);
+    // Owners are codes 1..3 of points 0..2: equidistant from the two, to the tolerance.
+    const double da = k.d(c.v.p, static_cast<size_t>(c.owner_lo - 1)),
+                 db = k.d(c.v.p, static_cast<size_t>(c.owner_hi - 1));
+    EXPECT_NEAR(da, db, 1e-6) << "edge " << c.edge;
+    // And on its edge, between the two cell centres.
+    const int64_t cell = c.edge / 2, col = cell % 100, row = cell / 100;
+    const Vec2 p0 = line_tools::centre(k.grid, col, row);
+    const Vec2 p1 =
+        c.edge % 2 == 0 ? line_tools::centre(k.grid, col + 1, row) : line_tools::centre(k.grid, col, row + 1);
+    EXPECT_GE(c.v.p.x, std::min(p0.x, p1.x) - 1e-9);
+    EXPECT_LE(c.v.p.x, std::max(p0.x, p1.x) + 1e-9);
+    EXPECT_GE(c.v.p.y, std::min(p0.y, p1.y) - 1e-9);
+    EXPECT_LE(c.v.p.y, std::max(p0.y, p1.y) + 1e-9);
+    // Every edge between differently owned cells has its crossing, filed under it.
+    ASSERT_NE(x.on_edge.find(c.edge), x.on_edge.end());
+  }
+  int64_t changes = 0;
+  for (int64_t r = 0; r < 100; ++r)
+    for (int64_t c = 0; c < 100; ++c) {
+      changes += c + 1 < 100 && k.b.owner(c, r) != k.b.owner(c + 1, r);
+      changes += r + 1 < 100 && k.b.owner(c, r) != k.b.owner(c, r + 1);
+    }
+  EXPECT_EQ(static_cast<int64_t>(x.crossings.size()), changes);
+  EXPECT_EQ(stats.crossings, changes);
+}
+
+TEST(BoundaryStages, StripsOfCrossingsAreTheWholeFieldsCrossings) {
+  const Case k(kThree);
+  BoundaryStats whole_stats, strip_stats;
+  const std::vector<Key> whole = keys(find_crossings(k.b, 0, 100, whole_stats));
+  std::vector<Key> strips;
+  for (int64_t r0 = 0; r0 < 100; r0 += 37) {
+    const std::vector<Key> part = keys(find_crossings(k.b, r0, std::min<int64_t>(r0 + 37, 100), strip_stats));
+    strips.insert(strips.end(), part.begin(), part.end());
+  }
+  std::sort(strips.begin(), strips.end());
+  EXPECT_EQ(strips, whole);
+  EXPECT_EQ(strip_stats.crossings, whole_stats.crossings);
+}
+
+TEST(BoundaryStages, TheTripointIsTheCircumcentreInItsSquare) {
+  const Case k(kThree);
+  BoundaryStats stats;
+  const CrossingSet x = find_crossings(k.b, 0, 100, stats);
+  const TripointSet t = find_tripoints(k.b, x, 0, 100, stats);
+  ASSERT_EQ(t.tripoints.size(), 1u);
+  const Tripoint& tp = t.tripoints[0];
+  const Vec2 cc = circumcentre(kThree);
+  EXPECT_NEAR(tp.p.x, cc.x, 1e-6);
+  EXPECT_NEAR(tp.p.y, cc.y, 1e-6);
+  EXPECT_EQ(tp.owners[0], 1);
+  EXPECT_EQ(tp.owners[1], 2);
+  EXPECT_EQ(tp.owners[2], 3);
+  EXPECT_NEAR(tp.distance, k.d(cc, 0), 1e-6);
+  // Filed under the square holding it, and by its owners.
+  const int64_t c = static_cast<int64_t>(std::floor(cc.x - 0.5)), r = static_cast<int64_t>(std::floor(99.5 - cc.y));
+  ASSERT_EQ(t.in_square.count(r * 100 + c), 1u);
+  EXPECT_EQ(t.by_owners.count({1, 2, 3}), 1u);
+  // A strip of rows without the tripoint's square finds none; the strip holding it finds it.
+  BoundaryStats s2;
+  EXPECT_TRUE(find_tripoints(k.b, x, 0, r, s2).tripoints.empty());
+  EXPECT_EQ(find_tripoints(k.b, x, r, r + 1, s2).tripoints.size(), 1u);
+}
+
+TEST(BoundaryStages, LinksJoinEachCrossingToItsNeighboursAlongTheLine) {
+  const Case k(kThree);
+  BoundaryStats stats;
+  const CrossingSet x = find_crossings(k.b, 0, 100, stats);
+  const TripointSet t = find_tripoints(k.b, x, 0, 100, stats);
+  const Links links = link_squares(k.b, x, t, 0, 100, stats);
+  const auto n = static_cast<int32_t>(x.crossings.size());
+  std::vector<int> degree(static_cast<size_t>(n) + t.tripoints.size(), 0);
+  for (size_t i = 0; i < links.links.size(); ++i) {
+    const auto [a, b] = links.links[i];
+    ++degree[static_cast<size_t>(a)];
+    ++degree[static_cast<size_t>(b)];
+    // A link joins two nodes of one owner pair (a tripoint belongs to three).
+    if (a < n && b < n) {
+      EXPECT_EQ(x.crossings[static_cast<size_t>(a)].owner_lo, x.crossings[static_cast<size_t>(b)].owner_lo);
+      EXPECT_EQ(x.crossings[static_cast<size_t>(a)].owner_hi, x.crossings[static_cast<size_t>(b)].owner_hi);
+    }
+  }
+  // The tripoint ends three lines; a crossing is inside a line (2) or at the grid's edge (1).
+  EXPECT_EQ(degree[static_cast<size_t>(n)], 3);
+  int ends = 0;
+  for (int32_t i = 0; i < n; ++i) {
+    EXPECT_TRUE(degree[static_cast<size_t>(i)] == 1 || degree[static_cast<size_t>(i)] == 2) << i;
+    ends += degree[static_cast<size_t>(i)] == 1;
+  }
+  EXPECT_EQ(ends, 3);  // the three bisectors each reach the grid's edge once
+}
+
+// Links of strips of squares, joined as the last stage joins pieces (each link once).
+Links strip_links(const Case& k, const CrossingSet& x, const TripointSet& t, int64_t rows) {
+  Links joined;
+  BoundaryStats stats;
+  for (int64_t r0 = 0; r0 < 100; r0 += rows) {
+    const Links part = link_squares(k.b, x, t, r0, std::min<int64_t>(r0 + rows, 100), stats);
+    for (size_t i = 0; i < part.links.size(); ++i) joined.add(part.links[i][0], part.links[i][1], part.pair[i]);
+  }
+  return joined;
+}
+
+TEST(BoundaryStages, ChainsAreTheBisectorsFromTheTripointToTheGridsEdge) {
+  const Case k(kThree);
+  BoundaryStats stats;
+  const CrossingSet x = find_crossings(k.b, 0, 100, stats);
+  const TripointSet t = find_tripoints(k.b, x, 0, 100, stats);
+  const Links links = link_squares(k.b, x, t, 0, 100, stats);
+  const std::vector<BoundaryLine> lines = chain_lines(x, t, links, 0.0, stats);
+  ASSERT_EQ(lines.size(), 3u);
+  const Vec2 cc = circumcentre(kThree);
+  for (const BoundaryLine& line : lines) {
+    EXPECT_FALSE(line.closed);
+    ASSERT_GE(line.vertices.size(), 10u);
+    for (const BoundaryVertex& v : line.vertices)
+      EXPECT_NEAR(k.d(v.p, static_cast<size_t>(line.owner_a - 1)), k.d(v.p, static_cast<size_t>(line.owner_b - 1)),
+                  1e-6);
+    // One end at the tripoint, the other on the grid's outermost cell centres.
+    const Vec2 a = line.vertices.front().p, b = line.vertices.back().p;
+    const bool a_tri = std::hypot(a.x - cc.x, a.y - cc.y) < 1e-6, b_tri = std::hypot(b.x - cc.x, b.y - cc.y) < 1e-6;
+    EXPECT_NE(a_tri, b_tri);
+    const Vec2 e = a_tri ? b : a;
+    EXPECT_TRUE(e.x <= 0.5 + 1e-9 || e.x >= 99.5 - 1e-9 || e.y <= 0.5 + 1e-9 || e.y >= 99.5 - 1e-9)
+        << e.x << ", " << e.y;
+  }
+  // Simplified at half a cell, a straight bisector keeps its two ends alone.
+  BoundaryStats s2;
+  for (const BoundaryLine& line : chain_lines(x, t, links, 0.5, s2)) EXPECT_EQ(line.vertices.size(), 2u);
+}
+
+TEST(BoundaryStages, PiecesOfStripsChainIntoTheWholeFieldsLines) {
+  for (const std::vector<Vec2>& points : {kThree, std::vector<Vec2>{{30.0, 35.5}, {64.2, 61.0}}}) {
+    const Case k(points);
+    BoundaryStats stats;
+    const CrossingSet x = find_crossings(k.b, 0, 100, stats);
+    const TripointSet t = find_tripoints(k.b, x, 0, 100, stats);
+    const Links whole = link_squares(k.b, x, t, 0, 100, stats);
+    for (int64_t rows : {1, 13, 50}) {
+      const Links joined = strip_links(k, x, t, rows);
+      EXPECT_EQ(joined.linked, whole.linked) << rows << " rows a strip";
+      BoundaryStats s1, s2;
+      const std::vector<BoundaryLine> a = chain_lines(x, t, whole, 0.0, s1), b = chain_lines(x, t, joined, 0.0, s2);
+      ASSERT_EQ(a.size(), b.size());
+      ASSERT_EQ(a.size(), points.size() == 3 ? 3u : 1u);
+      for (size_t i = 0; i < a.size(); ++i) {
+        ASSERT_EQ(a[i].vertices.size(), b[i].vertices.size());
+        for (size_t j = 0; j < a[i].vertices.size(); ++j) {
+          EXPECT_EQ(a[i].vertices[j].p.x, b[i].vertices[j].p.x);
+          EXPECT_EQ(a[i].vertices[j].p.y, b[i].vertices[j].p.y);
+        }
+      }
+    }
+  }
+}
+
+}  // namespace
+}  // namespace rv::boundary_stages

@@ -1,0 +1,148 @@
+// The stages of distance-limit lines (raster/src/limit_stages.hpp), each on its own, on fields
+// whose limits are known in closed form: circles around basepoints. Every stage also runs over
+// strips of rows, the shape streaming feeds it: the strips' pieces together are the whole's.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <vector>
+
+#include "limit_stages.hpp"
+#include "line_tools.hpp"
+#include "rv/deliverables.hpp"
+#include "rv/engine.hpp"
+
+namespace rv::limit_stages {
+namespace {
+
+// Basepoints on a grid of 120 x 100 unit cells (owner A: the first, B: the others).
+struct Case {
+  SeedSet seeds;
+  GridSpec grid;
+  NearestField field;
+  PlanarSiteMetric metric;
+  OwnerIndex index;
+  LimitGrid lg;
+
+  explicit Case(const std::vector<Vec2>& points)
+      : seeds(make_seeds(points)),
+        grid(make_grid()),
+        field(compute(seeds, grid, ComputeOptions{})),
+        metric(seeds, Vec2{0.0, 100.0}),
+        index(metric),
+        lg{field, index, metric, grid, grid.width, grid.height, 2, 1.0, 1e-9, line_tools::owner_of_sites(seeds)} {}
+
+  static SeedSet make_seeds(const std::vector<Vec2>& points) {
+    SeedSet s;
+    for (size_t i = 0; i < points.size(); ++i) s.add_point(s.add_feature(s.owner_code(i == 0 ? "A" : "B")), points[i]);
+    return s;
+  }
+  static GridSpec make_grid() {
+    GridSpec g;
+    g.xmin = 0.0;
+    g.ymax = 100.0;
+    g.res = 1.0;
+    g.width = 120;
+    g.height = 100;
+    return g;
+  }
+  // Distance to the nearest of the points of `owner` (0: all).
+  double d(Vec2 p, int32_t owner) const {
+    double best = 1e300;
+    for (size_t i = 0; i < seeds.sites().size(); ++i) {
+      if (owner != 0 && (owner == 1) != (i == 0)) continue;
+      const Vec2 s = seeds.sites()[i].a;
+      best = std::min(best, std::hypot(p.x - s.x, p.y - s.y));
+    }
+    return best;
+  }
+};
+
+const std::vector<Vec2> kPoints{{40.3, 50.2}, {85.6, 47.1}};
+
+TEST(LimitStages, InsideIsWithinTheDistanceForAllSeedsAndPerOwner) {
+  const Case k(kPoints);
+  for (int32_t owner : {0, 1, 2}) {
+    const Target t{k.lg, owner, 17.25};
+    std::vector<uint8_t> inside;
+    inside_flags(t, 0, k.grid.height, inside);
+    int64_t in = 0;
+    for (int64_t r = 0; r < k.grid.height; ++r)
+      for (int64_t c = 0; c < k.grid.width; ++c) {
+        const bool expected = k.d(line_tools::centre(k.grid, c, r), owner) <= 17.25;
+        ASSERT_EQ(inside[static_cast<size_t>(r * k.grid.width + c)] != 0, expected) << owner << ": " << c << ", " << r;
+        in += expected;
+      }
+    EXPECT_GT(in, 800);
+    // Strips of rows fill the same flags.
+    std::vector<uint8_t> strips;
+    for (int64_t r0 = 0; r0 < k.grid.height; r0 += 11) inside_flags(t, r0, std::min<int64_t>(r0 + 11, 100), strips);
+    EXPECT_EQ(strips, inside) << owner;
+  }
+}
+
+TEST(LimitStages, CrossingsLieAtTheDistanceOnTheirEdges) {
+  const Case k(kPoints);
+  const Target t{k.lg, 0, 17.25};
+  std::vector<uint8_t> inside;
+  inside_flags(t, 0, 100, inside);
+  const LimitCrossings x = limit_crossings(t, inside, 0, 100);
+  ASSERT_GT(x.edges.size(), 100u);
+  ASSERT_EQ(x.verts.size(), x.edges.size());
+  for (size_t i = 0; i < x.edges.size(); ++i) {
+    EXPECT_NEAR(k.d(x.verts[i].p, 0), 17.25, 1e-6);
+    EXPECT_EQ(x.at.at(x.edges[i]), static_cast<int32_t>(i));
+  }
+  // Strips' crossings are the whole's, in the same order.
+  std::vector<int64_t> edges;
+  for (int64_t r0 = 0; r0 < 100; r0 += 9) {
+    const LimitCrossings part = limit_crossings(t, inside, r0, std::min<int64_t>(r0 + 9, 100));
+    edges.insert(edges.end(), part.edges.begin(), part.edges.end());
+  }
+  EXPECT_EQ(edges, x.edges);
+}
+
+TEST(LimitStages, LinksAndChainsCloseEachCircle) {
+  const Case k(kPoints);
+  for (int32_t owner : {0, 1}) {
+    const Target t{k.lg, owner, 17.25};
+    std::vector<uint8_t> inside;
+    inside_flags(t, 0, 100, inside);
+    const LimitCrossings x = limit_crossings(t, inside, 0, 100);
+    const auto links = limit_links(t, inside, x, 0, 100);
+    // Every crossing of a circle inside the grid has two links.
+    std::vector<int> degree(x.verts.size(), 0);
+    for (const auto& l : links) {
+      ++degree[static_cast<size_t>(l[0])];
+      ++degree[static_cast<size_t>(l[1])];
+    }
+    for (int n : degree) EXPECT_EQ(n, 2);
+    // Links of strips of squares, together, are the whole's.
+    std::vector<std::array<int32_t, 2>> joined;
+    for (int64_t r0 = 0; r0 < 100; r0 += 7) {
+      const auto part = limit_links(t, inside, x, r0, std::min<int64_t>(r0 + 7, 100));
+      joined.insert(joined.end(), part.begin(), part.end());
+    }
+    EXPECT_EQ(joined, links);
+    LimitResult result;
+    chain_limit_lines(t, x, links, 0.0, result);
+    // Owner A's circle alone; all seeds: two circles (17.25 apart of 45.4: disjoint).
+    ASSERT_EQ(result.lines.size(), owner == 0 ? 2u : 1u);
+    for (const LimitLine& line : result.lines) {
+      EXPECT_TRUE(line.closed);
+      EXPECT_EQ(line.owner, owner);
+      EXPECT_EQ(line.distance, 17.25);
+      EXPECT_GT(line.vertices.size(), 40u);
+      for (const LimitVertex& v : line.vertices) EXPECT_NEAR(k.d(v.p, owner), 17.25, 1e-6);
+    }
+    EXPECT_LE(result.max_residual, 1e-6);
+    // Simplified at a cell, a circle of radius 17 keeps fewer vertices, each still on it.
+    LimitResult coarse;
+    chain_limit_lines(t, x, links, 1.0, coarse);
+    ASSERT_EQ(coarse.lines.size(), result.lines.size());
+    EXPECT_LT(coarse.vertices, result.vertices / 2);
+  }
+}
+
+}  // namespace
+}  // namespace rv::limit_stages
