@@ -4,6 +4,8 @@
 
 #include <cstring>
 #include <filesystem>
+#include <fstream>
+#include <iterator>
 #include <map>
 #include <set>
 #include <thread>
@@ -302,6 +304,104 @@ TEST(RasterIo, StripWriterEqualsWholeWrite) {
   EXPECT_STREQ(ds->GetRasterBand(1)->GetMetadataItem("UNITS"), "km");
   EXPECT_EQ(files_in(dir.path()), (std::vector<std::string>{"strip_f.tif", "strip_i.tif", "strip_i.tif.aux.xml",
                                                             "whole_f.tif", "whole_i.tif", "whole_i.tif.aux.xml"}));
+}
+
+template <class T>
+Raster<T> read_raster(const std::string& path) {
+  if constexpr (std::is_same_v<T, float>)
+    return read_float32(path);
+  else
+    return read_int32(path);
+}
+
+std::string file_bytes(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+}
+
+// An earlier file's tiles copied into a new one (the edits of a finished job): the copied tiles
+// hold the earlier file's cells whatever the caller passes for them, the others the new cells;
+// copying every tile of unchanged cells gives the very bytes of the earlier file.
+template <class T>
+void check_copied_tiles(const GeoTiffOptions& options, double nodata) {
+  ScratchDir dir;
+  const GridSpec grid = utm_grid(700, 600);  // 3 x 3 tiles, the last ones partial
+  Raster<T> earlier(grid, T{0}), changed(grid, T{0});
+  for (int64_t r = 0; r < 600; ++r)
+    for (int64_t c = 0; c < 700; ++c) {
+      earlier.at(c, r) = static_cast<T>((c / 40 + 3 * (r / 30)) % 7 + 1);
+      const bool edited = (c / 256 == 1 && r / 256 == 1) || (c / 256 == 2 && r / 256 == 2);
+      changed.at(c, r) = edited ? static_cast<T>((c + r) % 5 + 1) : earlier.at(c, r);
+    }
+  write_geotiff(dir.file("earlier.tif"), earlier, nodata, options);
+  auto copy_flags = [](int64_t by, auto&& keep) {
+    std::vector<bool> flags(3);
+    for (int64_t bx = 0; bx < 3; ++bx) flags[static_cast<size_t>(bx)] = keep(bx, by);
+    return flags;
+  };
+  auto unedited = [](int64_t bx, int64_t by) { return !((bx == 1 && by == 1) || (bx == 2 && by == 2)); };
+  // The new cells; every tile no edit touched is copied.
+  {
+    GeoTiffStripWriter<T> w(dir.file("new.tif"), grid, grid.full_window(), nodata, options);
+    w.take_tiles_from(dir.file("earlier.tif"));
+    for (int64_t by = 0; by < 3; ++by) w.write_band(changed.row(by * 256), copy_flags(by, unedited));
+    w.finish();
+  }
+  EXPECT_EQ(read_raster<T>(dir.file("new.tif")).cells(), changed.cells());
+  // The copied tiles' cells are not read: spoiled here, they still hold the earlier cells.
+  Raster<T> spoiled = changed;
+  for (int64_t r = 0; r < 600; ++r)
+    for (int64_t c = 0; c < 700; ++c)
+      if (unedited(c / 256, r / 256)) spoiled.at(c, r) = T{3};
+  {
+    GeoTiffStripWriter<T> w(dir.file("spoiled.tif"), grid, grid.full_window(), nodata, options);
+    w.take_tiles_from(dir.file("earlier.tif"));
+    for (int64_t by = 0; by < 3; ++by) w.write_band(spoiled.row(by * 256), copy_flags(by, unedited));
+    w.finish();
+  }
+  EXPECT_EQ(read_raster<T>(dir.file("spoiled.tif")).cells(), changed.cells());
+  // Everything copied, mixed with write_rows: the earlier file, byte for byte.
+  {
+    GeoTiffStripWriter<T> w(dir.file("same.tif"), grid, grid.full_window(), nodata, options);
+    w.take_tiles_from(dir.file("earlier.tif"));
+    w.write_band(earlier.row(0), copy_flags(0, [](int64_t, int64_t) { return true; }));
+    w.write_rows(earlier.row(256), 256);
+    w.write_band(earlier.row(512), copy_flags(2, [](int64_t bx, int64_t) { return bx != 1; }));
+    w.finish();
+  }
+  EXPECT_EQ(file_bytes(dir.file("same.tif")), file_bytes(dir.file("earlier.tif")));
+  // Refused: another layout, other cells, a band not at a tile row, flags of another count.
+  GeoTiffOptions other = options;
+  // (A codec of another name: ZSTD levels share their tags, and a tile of either decodes alike.)
+  other.compression = options.compression == Compression::deflate ? Compression::none : Compression::deflate;
+  write_geotiff(dir.file("other_layout.tif"), earlier, nodata, other);
+  const GridSpec shifted = utm_grid(700, 600, 200.0, 33, 300200.0);
+  write_geotiff(dir.file("other_cells.tif"), Raster<T>(shifted, T{1}), nodata, options);
+  GeoTiffStripWriter<T> w(dir.file("refused.tif"), grid, grid.full_window(), nodata, options);
+  expect_error(ErrorKind::invalid_argument, [&] { w.write_band(earlier.row(0), std::vector<bool>(3)); },
+               {"no earlier file"});
+  expect_error(ErrorKind::invalid_argument, [&] { w.take_tiles_from(dir.file("other_layout.tif")); },
+               {"other_layout.tif", "layout"});
+  expect_error(ErrorKind::invalid_argument, [&] { w.take_tiles_from(dir.file("other_cells.tif")); },
+               {"other_cells.tif", "other cells"});
+  w.take_tiles_from(dir.file("earlier.tif"));
+  expect_error(ErrorKind::invalid_argument, [&] { w.write_band(earlier.row(0), std::vector<bool>(4)); },
+               {"one copy flag per tile"});
+  w.write_rows(earlier.row(0), 10);
+  expect_error(ErrorKind::invalid_argument, [&] { w.write_band(earlier.row(10), std::vector<bool>(3)); }, {"tile row"});
+}
+
+TEST(RasterIo, StripWriterCopiesTheEncodedTilesOfAnEarlierFile) {
+  gdal_init();
+  GeoTiffOptions codes;
+  codes.max_code = 9;  // a Byte file
+  check_copied_tiles<int32_t>(codes, 0.0);
+  codes.compression = Compression::small;
+  check_copied_tiles<int32_t>(codes, 0.0);
+  GeoTiffOptions distances;
+  check_copied_tiles<float>(distances, -1.0);  // uncompressed
+  distances.compression = Compression::deflate;
+  check_copied_tiles<float>(distances, -1.0);
 }
 
 TEST(RasterIo, StripWriterLeavesNothingUnlessFinished) {

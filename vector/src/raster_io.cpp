@@ -381,6 +381,12 @@ struct GeoTiffStripWriter<T>::State {
   // The tiles' encoding (tiff_tiles.hpp): GDAL made the file with every tile empty, the tiles are
   // encoded here, `threads` at a time, and appended raw.
   std::unique_ptr<detail::RawTileFile> file;
+  detail::TileFormat format;
+  GridSpec grid;
+  // An earlier file whose tiles write_band() copies where told (take_tiles_from), and the bytes
+  // of the tile being copied.
+  std::unique_ptr<detail::RawTileFile> earlier;
+  std::vector<uint8_t> earlier_tile;
   int threads = 1;
   std::vector<detail::TileCompressor> compressors;  // one per thread
   std::vector<std::vector<uint8_t>> scratch;        // one raw tile per thread
@@ -442,11 +448,19 @@ struct GeoTiffStripWriter<T>::State {
   // straight from the scratch tile). Several: in chunks of a few tiles per thread; each thread
   // fills, predicts and compresses its tiles of the chunk into the chunk's buffers, then the
   // chunk is appended in order. Either way the file does not depend on the thread count.
-  void write_band(const T* rows, int64_t h, int64_t stride) {
+  // With `copy` (one flag per tile across), the flagged tiles' bytes come from the earlier file
+  // instead, unchanged, and their cells are not read.
+  void write_band(const T* rows, int64_t h, int64_t stride, const std::vector<bool>* copy = nullptr) {
     const int64_t by = rows_written / kBlock;
     const int64_t across = file->tiles_across();
+    auto copied = [&](int64_t bx) { return copy != nullptr && (*copy)[static_cast<size_t>(bx)]; };
+    auto append_copy = [&](int64_t bx) { file->append(bx, by, earlier->read(bx, by, earlier_tile)); };
     if (threads == 1) {
       for (int64_t bx = 0; bx < across; ++bx) {
+        if (copied(bx)) {
+          append_copy(bx);
+          continue;
+        }
         uint8_t* tile = scratch[0].data();
         fill_tile(rows, h, stride, bx * kBlock, tile);
         file->append(bx, by, compressors[0].encode(tile, encoded_single));
@@ -462,6 +476,7 @@ struct GeoTiffStripWriter<T>::State {
       // Each worker has its own codec and scratch tile; a tile's bytes do not depend on which
       // worker encoded it.
       detail::parallel_for(threads, n, [&](int64_t i, int worker) {
+        if (copied(first + i)) return;
         uint8_t* tile = scratch[static_cast<size_t>(worker)].data();
         fill_tile(rows, h, stride, (first + i) * kBlock, tile);
         // Compressed (an uncompressed file has one encoder), so the bytes are in the chunk's
@@ -469,8 +484,12 @@ struct GeoTiffStripWriter<T>::State {
         sizes[static_cast<size_t>(i)] =
             compressors[static_cast<size_t>(worker)].encode(tile, encoded[static_cast<size_t>(i)]).size;
       });
-      for (int64_t i = 0; i < n; ++i)
-        file->append(first + i, by, {encoded[static_cast<size_t>(i)].data(), sizes[static_cast<size_t>(i)]});
+      for (int64_t i = 0; i < n; ++i) {
+        if (copied(first + i))
+          append_copy(first + i);
+        else
+          file->append(first + i, by, {encoded[static_cast<size_t>(i)].data(), sizes[static_cast<size_t>(i)]});
+      }
     }
     rows_written += h;
   }
@@ -553,6 +572,8 @@ GeoTiffStripWriter<T>::GeoTiffStripWriter(const std::string& path, const GridSpe
   f.floating = PixelType<T>::floating;
   f.width = f.height = kBlock;
   state->file = std::make_unique<detail::RawTileFile>(state->out.temp(), f, path);
+  state->format = f;
+  state->grid = grid;
   // No more encoders than hardware threads, whatever was asked (each holds a codec and a tile).
   state->threads = std::min({resolve_threads(options.threads), resolve_threads(0), kMaxEncoders});
   // Uncompressed tiles are only copied: helpers would add copies, not speed.
@@ -617,6 +638,47 @@ void GeoTiffStripWriter<T>::write_rows(const T* cells, int64_t rows) {
       s.write_band(s.pending.data(), band_rows, width);
     }
   }
+  s.failed = false;
+}
+
+template <class T>
+void GeoTiffStripWriter<T>::take_tiles_from(const std::string& earlier) {
+  if (!state_ || state_->finished) throw Error(ErrorKind::invalid_argument, "GeoTIFF writer: already finished");
+  State& s = *state_;
+  typename State::Scope scope;
+  // The same cells: extent and cell size of the window (the layout is RawTileFile's check).
+  const GridSpec g = read_grid(earlier);
+  const GridSpec& grid = s.grid;
+  const double xmin = grid.xmin + static_cast<double>(s.window.col0) * grid.res;
+  const double ymax = grid.ymax - static_cast<double>(s.window.row0) * grid.res;
+  if (g.width != s.window.width || g.height != s.window.height || g.res != grid.res || g.xmin != xmin || g.ymax != ymax)
+    throw Error(ErrorKind::invalid_argument,
+                "writing " + s.path + ": " + earlier + " covers other cells than this file (extent or cell size)");
+  try {
+    s.earlier = std::make_unique<detail::RawTileFile>(earlier, s.format, earlier, detail::RawTileFile::Access::read);
+  } catch (const Error& e) {
+    throw Error(ErrorKind::invalid_argument, "writing " + s.path + ": its tiles cannot be copied from " + earlier +
+                                                 ", whose layout (data type, compression, predictor, tiles) differs or "
+                                                 "cannot be read: " +
+                                                 e.what());
+  }
+}
+
+template <class T>
+void GeoTiffStripWriter<T>::write_band(const T* cells, const std::vector<bool>& copy) {
+  if (!state_ || state_->finished) throw Error(ErrorKind::invalid_argument, "GeoTIFF writer: already finished");
+  State& s = *state_;
+  if (s.failed) throw Error(ErrorKind::io, "writing " + s.path + ": an earlier write failed");
+  if (!s.earlier) throw Error(ErrorKind::invalid_argument, "writing " + s.path + ": no earlier file to copy from");
+  if (s.pending_rows != 0 || s.rows_written >= s.window.height)
+    throw Error(ErrorKind::invalid_argument, "writing " + s.path + ": a band must start on a tile row");
+  if (copy.size() != static_cast<size_t>(s.file->tiles_across()))
+    throw Error(ErrorKind::invalid_argument, "writing " + s.path + ": one copy flag per tile across, " +
+                                                 std::to_string(s.file->tiles_across()) + " of them");
+  typename State::Scope scope;
+  s.failed = true;  // until this call returns normally
+  s.start_sidecar();
+  s.write_band(cells, std::min<int64_t>(kBlock, s.window.height - s.rows_written), s.window.width, &copy);
   s.failed = false;
 }
 

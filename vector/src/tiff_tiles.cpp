@@ -152,29 +152,30 @@ struct RawTileFileAccess {
   static int on_warning(TIFF*, void*, const char*, const char*, va_list) { return 1; }
 };
 
-RawTileFile::RawTileFile(const std::string& path, const TileFormat& format, const std::string& display)
-    : display_(display) {
+RawTileFile::RawTileFile(const std::string& path, const TileFormat& format, const std::string& display, Access access)
+    : display_(display), verb_(access == Access::read ? "reading" : "writing") {
   // A constructor that throws runs no destructor: what open() got is released here.
   try {
-    open(path, format);
+    open(path, format, access);
   } catch (...) {
     release();
     throw;
   }
 }
 
-void RawTileFile::open(const std::string& path, const TileFormat& format) {
+void RawTileFile::open(const std::string& path, const TileFormat& format, Access access) {
   using A = RawTileFileAccess;
-  file_ = VSIFOpenL(path.c_str(), "r+b");
-  if (file_ == nullptr) fail("cannot reopen the file to write its tiles");
+  const bool update = access == Access::update;
+  file_ = VSIFOpenL(path.c_str(), update ? "r+b" : "rb");
+  if (file_ == nullptr) fail(update ? "cannot reopen the file to write its tiles" : "cannot open the file");
   TIFFOpenOptions* opts = TIFFOpenOptionsAlloc();
   if (opts == nullptr) throw std::bad_alloc();
   TIFFOpenOptionsSetErrorHandlerExtR(opts, &A::on_error, this);
   TIFFOpenOptionsSetWarningHandlerExtR(opts, &A::on_warning, this);
-  tif_ = TIFFClientOpenExt(path.c_str(), "r+m", static_cast<thandle_t>(file_), &A::read, &A::write, &A::seek, &A::close,
-                           &A::size, &A::map, &A::unmap, opts);
+  tif_ = TIFFClientOpenExt(path.c_str(), update ? "r+m" : "rm", static_cast<thandle_t>(file_), &A::read, &A::write,
+                           &A::seek, &A::close, &A::size, &A::map, &A::unmap, opts);
   TIFFOpenOptionsFree(opts);
-  if (tif_ == nullptr) fail("libtiff cannot open it for update");
+  if (tif_ == nullptr) fail(update ? "libtiff cannot open it for update" : "libtiff cannot open it");
   uint32_t width = 0, height = 0, tile_w = 0, tile_h = 0;
   uint16_t bits = 0, spp = 0, sample_format = 0, compression = 0, predictor = 1;
   TIFFGetField(tif_, TIFFTAG_IMAGEWIDTH, &width);
@@ -198,6 +199,8 @@ void RawTileFile::open(const std::string& path, const TileFormat& format) {
       sample_format != want_format || compression != want_compression || predictor != format.predictor ||
       TIFFIsByteSwapped(tif_) != 0 || !little_endian_host || width == 0 || height == 0)
     fail("its layout is not the one its tiles are encoded for");
+  width_ = width;
+  height_ = height;
   tiles_across_ = (static_cast<int64_t>(width) + tile_w - 1) / tile_w;
   tiles_down_ = (static_cast<int64_t>(height) + tile_h - 1) / tile_h;
 }
@@ -220,6 +223,18 @@ void RawTileFile::append(int64_t bx, int64_t by, EncodedTile bytes) {
     fail("cannot write tile (" + std::to_string(bx) + ", " + std::to_string(by) + ")");
 }
 
+EncodedTile RawTileFile::read(int64_t bx, int64_t by, std::vector<uint8_t>& buf) {
+  const std::string name = "tile (" + std::to_string(bx) + ", " + std::to_string(by) + ")";
+  if (bx < 0 || by < 0 || bx >= tiles_across_ || by >= tiles_down_) fail(name + " is out of range");
+  const auto index = static_cast<uint32_t>(by * tiles_across_ + bx);
+  const uint64_t size = TIFFGetStrileByteCount(tif_, index);
+  if (size == 0) fail(name + " is empty");
+  if (buf.size() < size) buf.resize(size);
+  if (TIFFReadRawTile(tif_, index, buf.data(), static_cast<tmsize_t>(size)) != static_cast<tmsize_t>(size))
+    fail("cannot read " + name);
+  return {buf.data(), size};
+}
+
 void RawTileFile::close() {
   // TIFFFlush rewrites only the tile offset and byte count arrays when nothing else changed
   // (TIFFForceStrileArrayWriting), else the whole directory.
@@ -233,7 +248,8 @@ void RawTileFile::close() {
 }
 
 void RawTileFile::fail(const std::string& what) {
-  throw Error(ErrorKind::io, "writing " + display_ + ": " + what + (errors_.empty() ? "" : " (" + errors_ + ")"));
+  throw Error(ErrorKind::io,
+              std::string(verb_) + " " + display_ + ": " + what + (errors_.empty() ? "" : " (" + errors_ + ")"));
 }
 
 }  // namespace rv::detail

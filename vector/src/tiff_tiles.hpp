@@ -65,28 +65,38 @@ class TileCompressor {
   std::vector<uint8_t> row_;  // predictor 3's row scratch
 };
 
-// A tiled TIFF opened for update through GDAL's virtual file layer (any path GDAL can write,
-// /vsimem/ included), to which encoded tiles are appended. Not thread-safe.
+// A tiled TIFF opened through GDAL's virtual file layer (any path GDAL can write, /vsimem/
+// included): for update, to which encoded tiles are appended, or read-only, from which a tile's
+// encoded bytes are read as they are (an earlier file whose unchanged tiles a new one copies).
+// Not thread-safe.
 class RawTileFile {
  public:
-  // Opens `path` (written by GDAL, not open elsewhere) and checks that its layout is the one the
-  // tiles will be encoded for: tiled, one band, `format`'s tile size, sample size and kind,
-  // compression and predictor tags, and the host's byte order. Throws rv::Error(io) naming
+  enum class Access { update, read };
+  // Opens `path` (written by GDAL, not open elsewhere for update) and checks that its layout is
+  // the one the tiles are encoded for: tiled, one band, `format`'s tile size, sample size and
+  // kind, compression and predictor tags, and the host's byte order. Throws rv::Error(io) naming
   // `display` (the user's name for the file) with libtiff's reason.
-  RawTileFile(const std::string& path, const TileFormat& format, const std::string& display);
+  RawTileFile(const std::string& path, const TileFormat& format, const std::string& display,
+              Access access = Access::update);
   ~RawTileFile();  // closes without reporting (the caller removes a file it gave up)
   RawTileFile(const RawTileFile&) = delete;
   RawTileFile& operator=(const RawTileFile&) = delete;
 
   // Tiles across the image.
   int64_t tiles_across() const { return tiles_across_; }
-  // Appends the encoded bytes of tile (bx, by). Throws rv::Error(io).
+  // The image's size in samples.
+  int64_t width() const { return width_; }
+  int64_t height() const { return height_; }
+  // Appends the encoded bytes of tile (bx, by) (Access::update). Throws rv::Error(io).
   void append(int64_t bx, int64_t by, EncodedTile bytes);
+  // The encoded bytes of tile (bx, by) as stored, into `buf` (grown as needed): valid until the
+  // next call with it. Throws rv::Error(io) for a tile out of range, empty (sparse) or unreadable.
+  EncodedTile read(int64_t bx, int64_t by, std::vector<uint8_t>& buf);
   // Writes the tile arrays and closes. Throws rv::Error(io).
   void close();
 
  private:
-  void open(const std::string& path, const TileFormat& format);
+  void open(const std::string& path, const TileFormat& format, Access access);
   void release() noexcept;  // closes whatever is open, without reporting
   [[noreturn]] void fail(const std::string& what);
 
@@ -96,6 +106,8 @@ class RawTileFile {
   std::string errors_;  // libtiff's error messages for this handle
   int64_t tiles_across_ = 0;
   int64_t tiles_down_ = 0;
+  int64_t width_ = 0, height_ = 0;
+  const char* verb_ = "writing";  // for messages: "reading" an earlier file
 
   friend struct RawTileFileAccess;
 };

@@ -118,6 +118,20 @@ class GeoTiffStripWriter {
   void write_rows(const T* cells, int64_t rows);
   // Rows accepted so far.
   int64_t rows_written() const;
+
+  // Tiles already encoded: the edits of a finished job copy the tiles no edit touched from the
+  // earlier job's file instead of encoding them again. take_tiles_from() opens `earlier`, a
+  // GeoTIFF this class wrote for the same cells (extent, cell size) with the same layout (data
+  // type, tile size, compression, predictor); else invalid_argument, and the writer is unchanged.
+  // write_band() then appends one band of tiles -- the next 256 rows, or the rows left -- at a
+  // band's start (no partial band pending; else invalid_argument): from `cells` (the band's rows,
+  // as write_rows takes them) where copy[bx] is false, and as the earlier file's bytes of the same
+  // tile, unchanged, where it is true (those cells of `cells` are not read). One flag per tile
+  // across (ceil(width / 256)). The file is the one write_rows() would write from the same cells
+  // where the copied tiles hold the earlier file's cells. Throws as write_rows, and io where the
+  // earlier file's tile cannot be read.
+  void take_tiles_from(const std::string& earlier);
+  void write_band(const T* cells, const std::vector<bool>& copy);
   // Every row written: flush, close, rename into place. Throws invalid_argument when rows are
   // missing, io when GDAL or the rename fails (nothing is left behind then).
   void finish();
