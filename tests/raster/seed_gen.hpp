@@ -1,11 +1,64 @@
-// Test helpers: seed sets generated from code (random, with a fixed seed for reproducibility).
+// Test helpers of the raster tests: grids and seed sets made from code (random ones with a fixed
+// seed for reproducibility), and a planar field of basepoints with what the deliverables read.
 #pragma once
 
+#include <cmath>
+#include <limits>
 #include <random>
+#include <string>
+#include <vector>
 
+#include "rv/deliverables.hpp"
+#include "rv/engine.hpp"
 #include "rv/seeds.hpp"
 
 namespace rv::test {
+
+// A grid of w x h square cells of `res` CRS units, its north-west corner at (xmin, ymax); by
+// default ymax = h * res, so that the grid's south-west corner is (xmin, 0). No CRS.
+inline GridSpec grid_of(int64_t w, int64_t h, double res = 1.0, double xmin = 0.0,
+                        double ymax = std::numeric_limits<double>::quiet_NaN()) {
+  GridSpec g;
+  g.xmin = xmin;
+  g.ymax = std::isnan(ymax) ? static_cast<double>(h) * res : ymax;
+  g.res = res;
+  g.width = w;
+  g.height = h;
+  return g;
+}
+
+// Basepoints, points[i] owned by owners[i] (labels; owners may be longer), computed exactly on `grid` (planar), with
+// the metric and owner index the deliverables take.
+struct PointsField {
+  SeedSet seeds;
+  GridSpec grid;
+  NearestField field;
+  PlanarSiteMetric metric;
+  OwnerIndex index;
+
+  PointsField(const std::vector<Vec2>& points, const std::vector<std::string>& owners, const GridSpec& g)
+      : seeds(make(points, owners)),
+        grid(g),
+        field(compute(seeds, grid, ComputeOptions{})),
+        metric(seeds, Vec2{g.xmin, g.ymax}),
+        index(metric) {}
+
+  // The distance from p to the nearest point of owner code `owner` (0: of any owner).
+  double distance(Vec2 p, int32_t owner = 0) const {
+    double best = std::numeric_limits<double>::infinity();
+    for (const Site& s : seeds.sites())
+      if (owner == 0 || seeds.features()[static_cast<size_t>(s.feature)].owner == owner)
+        best = std::min(best, std::hypot(p.x - s.a.x, p.y - s.a.y));
+    return best;
+  }
+
+ private:
+  static SeedSet make(const std::vector<Vec2>& points, const std::vector<std::string>& owners) {
+    SeedSet s;
+    for (size_t i = 0; i < points.size(); ++i) s.add_point(s.add_feature(s.owner_code(owners[i])), points[i]);
+    return s;
+  }
+};
 
 // n point seeds, uniform over [x0, x1] x [y0, y1], each its own owner.
 inline SeedSet random_points(int n, double x0, double y0, double x1, double y1, uint32_t seed) {

@@ -14,46 +14,19 @@
 #include "line_tools.hpp"
 #include "rv/deliverables.hpp"
 #include "rv/engine.hpp"
+#include "seed_gen.hpp"
 
 namespace rv::boundary_stages {
 namespace {
 
-// Basepoints (one owner each) on a grid of 100 x 100 unit cells, and what the stages read.
-struct Case {
-  SeedSet seeds;
-  GridSpec grid;
-  NearestField field;
-  PlanarSiteMetric metric;
-  OwnerIndex index;
+// Basepoints (owners A, B, C in order) on a grid of 100 x 100 unit cells, and what the stages read.
+struct Case : test::PointsField {
   BoundaryGrid b;
-
   explicit Case(const std::vector<Vec2>& points)
-      : seeds(make_seeds(points)),
-        grid(make_grid()),
-        field(compute(seeds, grid, ComputeOptions{})),
-        metric(seeds, Vec2{0.0, 100.0}),
-        index(metric),
+      : PointsField(points, {"A", "B", "C"}, test::grid_of(100, 100)),
         b{field, index, grid, grid.width, grid.height, 2, 1e-9, line_tools::owner_of_sites(seeds)} {}
-
-  static SeedSet make_seeds(const std::vector<Vec2>& points) {
-    SeedSet s;
-    for (size_t i = 0; i < points.size(); ++i)
-      s.add_point(s.add_feature(s.owner_code(std::string(1, static_cast<char>('A' + i)))), points[i]);
-    return s;
-  }
-  static GridSpec make_grid() {
-    GridSpec g;
-    g.xmin = 0.0;
-    g.ymax = 100.0;
-    g.res = 1.0;
-    g.width = 100;
-    g.height = 100;
-    return g;
-  }
-  double d(Vec2 p, size_t i) const {
-    const Vec2 s = seeds.sites()[i].a;
-    return std::hypot(p.x - s.x, p.y - s.y);
-  }
+  // Distance to point i.
+  double d(Vec2 p, size_t i) const { return distance(p, static_cast<int32_t>(i + 1)); }
 };
 
 const std::vector<Vec2> kThree{{20.3, 40.1}, {81.7, 44.6}, {47.2, 88.9}};

@@ -12,6 +12,7 @@
 #include "rv/cell_mask.hpp"
 #include "rv/engine.hpp"
 #include "rv/error.hpp"
+#include "seed_gen.hpp"
 
 namespace rv {
 namespace {
@@ -128,16 +129,6 @@ SeedSet planar_seeds(int64_t w, int64_t h, uint32_t seed) {
   return s;
 }
 
-GridSpec planar_grid(int64_t w, int64_t h) {
-  GridSpec g;
-  g.xmin = 0.0;
-  g.ymax = static_cast<double>(h);
-  g.res = 1.0;
-  g.width = w;
-  g.height = h;
-  return g;
-}
-
 // Coastline-like lines and basepoints in degrees around 12E 55N, on a grid of 0.002 degrees.
 SeedSet geodesic_seeds(uint32_t seed) {
   std::mt19937_64 rng(seed);
@@ -156,15 +147,7 @@ SeedSet geodesic_seeds(uint32_t seed) {
   return s;
 }
 
-GridSpec geodesic_grid() {
-  GridSpec g;
-  g.xmin = 11.8;
-  g.ymax = 55.5;
-  g.res = 0.002;
-  g.width = 700;
-  g.height = 500;
-  return g;
-}
+GridSpec geodesic_grid() { return test::grid_of(700, 500, 0.002, 11.8, 55.5); }
 
 // Rectangles and single-row spans of the window, random.
 CellMask random_mask(const Window& w, uint32_t seed) {
@@ -213,7 +196,7 @@ int64_t check_masked(const NearestField& masked, const NearestField& full, const
 }
 
 TEST(MaskedCompute, PlanarMaskedCellsEqualTheFullComputation) {
-  const GridSpec g = planar_grid(300, 260);
+  const GridSpec g = test::grid_of(300, 260);
   for (uint32_t trial = 0; trial < 4; ++trial) {
     const SeedSet s = planar_seeds(g.width, g.height, trial);
     ComputeOptions o;
@@ -250,7 +233,7 @@ TEST(MaskedCompute, GeodesicMaskedCellsEqualTheFullComputation) {
 TEST(MaskedCompute, AWindowAndAnEarlierFieldGiveTheWholeResult) {
   // The edits' use: `out` holds the earlier field, with the cells an edit changes spoiled; the
   // masked computation over those cells restores the full result exactly, in a window too.
-  const GridSpec g = planar_grid(300, 260);
+  const GridSpec g = test::grid_of(300, 260);
   const SeedSet s = planar_seeds(g.width, g.height, 9);
   ComputeOptions o;
   o.threads = 2;
@@ -271,7 +254,7 @@ TEST(MaskedCompute, AWindowAndAnEarlierFieldGiveTheWholeResult) {
 }
 
 TEST(MaskedCompute, AMaskIsRefusedWhereItCannotHold) {
-  const GridSpec g = planar_grid(80, 60);
+  const GridSpec g = test::grid_of(80, 60);
   const SeedSet s = planar_seeds(g.width, g.height, 1);
   ComputeOptions o;
   o.mask = std::make_shared<const CellMask>(CellMask::none(g.full_window()));

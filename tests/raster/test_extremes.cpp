@@ -8,19 +8,12 @@
 
 #include "rv/engine.hpp"
 #include "rv/validate.hpp"
+#include "seed_gen.hpp"
 
 namespace rv {
 namespace {
 
-GridSpec grid16() {
-  GridSpec g;
-  g.xmin = 0.0;
-  g.ymax = 16.0;
-  g.res = 1.0;
-  g.width = 16;
-  g.height = 16;
-  return g;
-}
+GridSpec grid16() { return test::grid_of(16, 16); }
 
 NearestField run(const SeedSet& s, const GridSpec& g, Method m) {
   ComputeOptions o;

@@ -17,6 +17,7 @@
 
 #include "geodesic_solver.hpp"
 #include "rv/engine.hpp"
+#include "seed_gen.hpp"
 
 namespace rv::detail {
 namespace {
@@ -108,12 +109,7 @@ TEST(GeodesicInterpolant, TheSolversValuesAreWithinTheirAccuracy) {
   const int32_t b = seeds.add_feature(seeds.owner_code("B"));
   const std::vector<Vec2> coast{{12.1, 54.7}, {12.5, 54.82}, {12.52, 54.83}, {12.9, 54.75}, {13.2, 54.9}};
   seeds.add_polyline(b, coast);
-  GridSpec g;
-  g.xmin = 12.0;
-  g.ymax = 55.5;
-  g.res = 0.002;
-  g.width = 600;
-  g.height = 400;
+  const GridSpec g = test::grid_of(600, 400, 0.002, 12.0, 55.5);
   MetricSpec m;
   m.kind = MetricSpec::geodesic;
   const GeoSites geo(m, seeds);

@@ -1,19 +1,12 @@
 #include <gtest/gtest.h>
 
 #include "rv/interior.hpp"
+#include "seed_gen.hpp"
 
 namespace rv {
 namespace {
 
-GridSpec grid10() {
-  GridSpec g;
-  g.xmin = 0;
-  g.ymax = 10;
-  g.res = 1;
-  g.width = 10;
-  g.height = 10;
-  return g;
-}
+GridSpec grid10() { return test::grid_of(10, 10); }
 
 TEST(Interior, SquareWithHole) {
   SeedSet s;

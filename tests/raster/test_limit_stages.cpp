@@ -11,51 +11,19 @@
 #include "line_tools.hpp"
 #include "rv/deliverables.hpp"
 #include "rv/engine.hpp"
+#include "seed_gen.hpp"
 
 namespace rv::limit_stages {
 namespace {
 
-// Basepoints on a grid of 120 x 100 unit cells (owner A: the first, B: the others).
-struct Case {
-  SeedSet seeds;
-  GridSpec grid;
-  NearestField field;
-  PlanarSiteMetric metric;
-  OwnerIndex index;
+// Basepoints on a grid of 120 x 100 unit cells (owner A: the first, B: the others), and what the
+// stages read.
+struct Case : test::PointsField {
   LimitGrid lg;
-
   explicit Case(const std::vector<Vec2>& points)
-      : seeds(make_seeds(points)),
-        grid(make_grid()),
-        field(compute(seeds, grid, ComputeOptions{})),
-        metric(seeds, Vec2{0.0, 100.0}),
-        index(metric),
+      : PointsField(points, {"A", "B", "B"}, test::grid_of(120, 100)),
         lg{field, index, metric, grid, grid.width, grid.height, 2, 1.0, 1e-9, line_tools::owner_of_sites(seeds)} {}
-
-  static SeedSet make_seeds(const std::vector<Vec2>& points) {
-    SeedSet s;
-    for (size_t i = 0; i < points.size(); ++i) s.add_point(s.add_feature(s.owner_code(i == 0 ? "A" : "B")), points[i]);
-    return s;
-  }
-  static GridSpec make_grid() {
-    GridSpec g;
-    g.xmin = 0.0;
-    g.ymax = 100.0;
-    g.res = 1.0;
-    g.width = 120;
-    g.height = 100;
-    return g;
-  }
-  // Distance to the nearest of the points of `owner` (0: all).
-  double d(Vec2 p, int32_t owner) const {
-    double best = 1e300;
-    for (size_t i = 0; i < seeds.sites().size(); ++i) {
-      if (owner != 0 && (owner == 1) != (i == 0)) continue;
-      const Vec2 s = seeds.sites()[i].a;
-      best = std::min(best, std::hypot(p.x - s.x, p.y - s.y));
-    }
-    return best;
-  }
+  double d(Vec2 p, int32_t owner) const { return distance(p, owner); }
 };
 
 const std::vector<Vec2> kPoints{{40.3, 50.2}, {85.6, 47.1}};

@@ -15,15 +15,7 @@
 namespace rv {
 namespace {
 
-GridSpec grid(int64_t w, int64_t h) {
-  GridSpec g;
-  g.xmin = 0.0;
-  g.ymax = static_cast<double>(h);
-  g.res = 1.0;
-  g.width = w;
-  g.height = h;
-  return g;
-}
+GridSpec grid(int64_t w, int64_t h) { return test::grid_of(w, h); }
 
 constexpr Method kMethods[] = {Method::exact, Method::hv_scan, Method::h_scan, Method::brute_force};
 
