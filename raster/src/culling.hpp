@@ -12,7 +12,8 @@
 //     bool empty(Worker&, int depth, const Block&);            // nothing can be nearest here
 //     void solve_interior(Worker&, int depth, const Block&);   // every centre inside a polygon
 //     BlockStep cull(Worker&, int depth, const Block&);        // depth's candidates -> depth + 1
-//     void solve_leaf(Worker&, int depth, const Block&);       // exact per cell, depth's list
+//     void solve_leaf(Worker&, int depth, const Block&);       // exact per cell, over the list
+//                                                               // cull made (depth + 1 of cull's)
 //     void split(const Block&, F&& each_part);                 // split_middle or split_aligned
 //     void fill_none(const Block&);                            // rv::detail::fill_none on its rasters
 //     void workers_done(Worker&);                  // a worker's end (fences for streamed stores)
@@ -32,6 +33,10 @@
 // Which sites survive a cull never changes a result, only the work: every cull must be sound
 // (keep every site that can be the nearest, or tie with it, at some cell of the block), and the
 // leaves compute exact per-cell minima with the lower-id tie rule, as brute force does.
+//
+// Thread safety: run_tiles calls the policy from ctx.threads threads at once, each with a Worker
+// of its own; during the run a policy only reads its other members, but for its output rasters
+// (each thread its own tiles' cells) and what it shares safely by its own contract.
 #pragma once
 
 #include <algorithm>
