@@ -78,8 +78,9 @@ void inside_flags(const Target& t, int64_t row0, int64_t row1, std::vector<uint8
       for (int64_t r = r0; r < r1; ++r)
         for (int64_t c = c0; c < c1; ++c) {
           const int32_t s = lg.field.site.at(c, r);
-          if (s == kNoSite) continue;  // beyond the field's max distance: outside every limit
-          const bool in = settled >= 0 ? settled == 1 : cell_inside(t, c, r, s);
+          // No site: beyond the field's max distance, outside every limit. (Every flag of the
+          // rows is written: a strip's buffer may hold an earlier strip's.)
+          const bool in = s != kNoSite && (settled >= 0 ? settled == 1 : cell_inside(t, c, r, s));
           inside[static_cast<size_t>(r * lg.W + c)] = in ? 1 : 0;
         }
     }

@@ -27,7 +27,8 @@ inline GridSpec grid_of(int64_t w, int64_t h, double res = 1.0, double xmin = 0.
   return g;
 }
 
-// Basepoints, points[i] owned by owners[i] (labels; owners may be longer), computed exactly on `grid` (planar), with
+// Basepoints, points[i] owned by owners[i] (labels; owners may be longer), computed exactly on `grid` (planar; no
+// site beyond max_distance), with
 // the metric and owner index the deliverables take.
 struct PointsField {
   SeedSet seeds;
@@ -36,10 +37,11 @@ struct PointsField {
   PlanarSiteMetric metric;
   OwnerIndex index;
 
-  PointsField(const std::vector<Vec2>& points, const std::vector<std::string>& owners, const GridSpec& g)
+  PointsField(const std::vector<Vec2>& points, const std::vector<std::string>& owners, const GridSpec& g,
+              double max_distance = std::numeric_limits<double>::infinity())
       : seeds(make(points, owners)),
         grid(g),
-        field(compute(seeds, grid, ComputeOptions{})),
+        field(compute(seeds, grid, options(max_distance))),
         metric(seeds, Vec2{g.xmin, g.ymax}),
         index(metric) {}
 
@@ -53,6 +55,11 @@ struct PointsField {
   }
 
  private:
+  static ComputeOptions options(double max_distance) {
+    ComputeOptions o;
+    o.max_distance = max_distance;
+    return o;
+  }
   static SeedSet make(const std::vector<Vec2>& points, const std::vector<std::string>& owners) {
     SeedSet s;
     for (size_t i = 0; i < points.size(); ++i) s.add_point(s.add_feature(s.owner_code(owners[i])), points[i]);

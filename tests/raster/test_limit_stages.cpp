@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <vector>
 
 #include "limit_stages.hpp"
@@ -20,8 +21,8 @@ namespace {
 // stages read.
 struct Case : test::PointsField {
   LimitGrid lg;
-  explicit Case(const std::vector<Vec2>& points)
-      : PointsField(points, {"A", "B", "B"}, test::grid_of(120, 100)),
+  explicit Case(const std::vector<Vec2>& points, double max_distance = std::numeric_limits<double>::infinity())
+      : PointsField(points, {"A", "B", "B"}, test::grid_of(120, 100), max_distance),
         lg{field, index, metric, grid, grid.width, grid.height, 2, 1.0, 1e-9, line_tools::owner_of_sites(seeds)} {}
   double d(Vec2 p, int32_t owner) const { return distance(p, owner); }
 };
@@ -42,11 +43,28 @@ TEST(LimitStages, InsideIsWithinTheDistanceForAllSeedsAndPerOwner) {
         in += expected;
       }
     EXPECT_GT(in, 800);
-    // Strips of rows fill the same flags.
-    std::vector<uint8_t> strips;
+    // Strips of rows fill the same flags, also over a buffer holding other flags.
+    std::vector<uint8_t> strips(inside.size(), 1);
     for (int64_t r0 = 0; r0 < k.grid.height; r0 += 11) inside_flags(t, r0, std::min<int64_t>(r0 + 11, 100), strips);
     EXPECT_EQ(strips, inside) << owner;
   }
+}
+
+TEST(LimitStages, CellsBeyondTheFieldsMaxDistanceAreOutsideInEveryStrip) {
+  // The field has no site beyond 20: a limit at 25 is drawn where the field ends.
+  const Case k(kPoints, 20.0);
+  const Target t{k.lg, 0, 25.0};
+  std::vector<uint8_t> strips(static_cast<size_t>(k.grid.cell_count()), 1);  // another strip's flags
+  for (int64_t r0 = 0; r0 < k.grid.height; r0 += 13) inside_flags(t, r0, std::min<int64_t>(r0 + 13, 100), strips);
+  int64_t in = 0;
+  for (int64_t r = 0; r < k.grid.height; ++r)
+    for (int64_t c = 0; c < k.grid.width; ++c) {
+      const bool expected = k.field.site.at(c, r) != kNoSite;  // within 20, hence within 25
+      ASSERT_EQ(strips[static_cast<size_t>(r * k.grid.width + c)] != 0, expected) << c << ", " << r;
+      in += expected;
+    }
+  EXPECT_GT(in, 1000);
+  EXPECT_LT(in, k.grid.cell_count() / 2);
 }
 
 TEST(LimitStages, CrossingsLieAtTheDistanceOnTheirEdges) {
