@@ -13,21 +13,27 @@
 namespace rv {
 
 struct GeodesicSiteMetric::Impl {
-  explicit Impl(const MetricSpec& m)
+  Impl(const SeedSet& seeds, const MetricSpec& m)
       : measure(m),
+        sites(m, seeds),
         geod(m.semi_major, m.flattening),
         earth(m.semi_major, m.flattening),
         // The largest radius of curvature of the ellipsoid (a^2/b at the poles when oblate,
         // a when prolate): no path moves faster in latitude or along a parallel than this.
         k_max(m.flattening >= 0.0 ? m.semi_major / (1.0 - m.flattening) : m.semi_major) {}
   GeodesicMeasure measure;
+  // Every site prepared once, as the engine prepares them (its segments' geodesic lines and
+  // pieces): a segment's distance is then its search alone, where GeodesicMeasure prepares the
+  // edge on every call (most of the boundaries' time went there), and the lines are measured by
+  // the very arithmetic that decided the field.
+  detail::GeoSites sites;
   GeographicLib::Geodesic geod;
   GeographicLib::Geocentric earth;
   double k_max;
 };
 
 GeodesicSiteMetric::GeodesicSiteMetric(const SeedSet& seeds, const MetricSpec& metric)
-    : SiteMetric(seeds), impl_(std::make_unique<Impl>(metric)) {}
+    : SiteMetric(seeds), impl_(std::make_unique<Impl>(seeds, metric)) {}
 
 GeodesicSiteMetric::~GeodesicSiteMetric() = default;
 
@@ -37,7 +43,8 @@ double GeodesicSiteMetric::distance(Vec2 p, int32_t site) const {
     case SiteKind::point:
       return impl_->measure.point_distance(p, s.a);
     case SiteKind::segment:
-      return impl_->measure.segment_distance(p, s.a, s.b);
+      if (!(p.y >= -90.0 && p.y <= 90.0)) throw Error(ErrorKind::invalid_argument, "latitude outside [-90, 90]");
+      return impl_->sites.distance(impl_->sites.cell(p.x, p.y), site);
     case SiteKind::area:
       break;
   }

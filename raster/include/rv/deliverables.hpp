@@ -129,9 +129,10 @@ class PlanarSiteMetric final : public SiteMetric {
 };
 
 // Geodesic distance (metres) on the ellipsoid of `metric`, with grid and seeds in longitude /
-// latitude degrees: point and segment distances are GeodesicMeasure's (the engines' own), the
-// embedding is Earth-centred coordinates (a chord never exceeds the geodesic). Keeps a
-// reference to `seeds`, which must outlive it.
+// latitude degrees: point and segment distances are the engines' own (every site prepared once
+// at construction, as the engine prepares them), the embedding is Earth-centred coordinates (a
+// chord never exceeds the geodesic). Keeps a reference to `seeds`, which must outlive it.
+// Throws rv::Error(invalid_input) for a seed latitude outside [-90, 90].
 class GeodesicSiteMetric final : public SiteMetric {
  public:
   GeodesicSiteMetric(const SeedSet& seeds, const MetricSpec& metric);
