@@ -137,19 +137,31 @@ void place_crossings(const BoundaryGrid& b, const Segment& sg, std::vector<Cross
   const Vec2 p1 = (sg.edge % 2 == 0) ? centre(b.g, c + 1, r) : centre(b.g, c, r + 1);
   const OwnerIndex& index = b.index;
   const double ftol = b.ftol;
+  // Each owner's site found last is the next query's hint (OwnerIndex::nearest_of): along one
+  // cell edge the nearest site of an owner rarely changes. The cells' own sites start them.
+  // Hints change the work, never a result.
+  std::unordered_map<int32_t, int32_t> hint;
+  hint[sg.from] = b.field.site.at(c, r);
+  hint[sg.to] = sg.edge % 2 == 0 ? b.field.site.at(c + 1, r) : b.field.site.at(c, r + 1);
+  auto nearest_of = [&](Vec2 p, int32_t owner) {
+    auto [it, fresh] = hint.try_emplace(owner, kNoSite);
+    const OwnerIndex::Hit h = index.nearest_of(p, owner, it->second);
+    it->second = h.site;
+    return h;
+  };
   // Owner x is nearest at t0, owner y at t1: place the x-y root, or split at the owner found
   // nearer there. Appends in order of t.
   auto place = [&](auto&& self, int32_t x, int32_t y, double t0, double t1, int depth) -> void {
     auto f = [&](double t) {
       const Vec2 p = lerp(p0, p1, t);
-      return index.nearest_of(p, x).distance - index.nearest_of(p, y).distance;
+      return nearest_of(p, x).distance - nearest_of(p, y).distance;
     };
     const double t =
         t0 + (t1 - t0) * find_root([&](double u) { return f(t0 + (t1 - t0) * u); }, f(t0), f(t1), ftol, 1e-15);
     const Vec2 p = lerp(p0, p1, t);
-    const auto hx = index.nearest_of(p, x), hy = index.nearest_of(p, y);
+    const auto hx = nearest_of(p, x), hy = nearest_of(p, y);
     BoundaryVertex v{p, hx.site, hy.site, 0.5 * (hx.distance + hy.distance), std::abs(hx.distance - hy.distance)};
-    const auto nearest = index.nearest(p);
+    const auto nearest = index.nearest(p, hx.distance <= hy.distance ? hx : hy);
     if (nearest.distance < v.distance - 4.0 * ftol - v.residual) {
       const int32_t z = b.owner_of_site[static_cast<size_t>(nearest.site)];
       if (depth == 0) slivers.emplace_back(sg.edge, z);

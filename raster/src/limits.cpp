@@ -109,10 +109,17 @@ LimitCrossings limit_crossings(const Target& t, const std::vector<uint8_t>& insi
       const int64_t c = id % W, r = id / W;
       const Vec2 p0 = centre(lg.g, c, r);
       const Vec2 p1 = (x.edges[i] % 2 == 0) ? centre(lg.g, c + 1, r) : centre(lg.g, c, r + 1);
-      auto f = [&](double u) { return t.at(lerp(p0, p1, u)).distance - t.D; };
+      // The inside cell's site starts the hints; each query's site is the next one's.
+      const int64_t ci = (x.edges[i] % 2 == 0) ? c + 1 : c, ri = (x.edges[i] % 2 == 0) ? r : r + 1;
+      int32_t hint = inside[static_cast<size_t>(r * W + c)] != 0 ? lg.field.site.at(c, r) : lg.field.site.at(ci, ri);
+      auto f = [&](double u) {
+        const auto h = t.at(lerp(p0, p1, u), hint);
+        hint = h.site;
+        return h.distance - t.D;
+      };
       const double u = find_root(f, f(0.0), f(1.0), lg.ftol, 1e-15);
       const Vec2 p = lerp(p0, p1, u);
-      const auto h = t.at(p);
+      const auto h = t.at(p, hint);
       x.verts[i] = LimitVertex{p, h.site, std::abs(h.distance - t.D)};
     }
   });

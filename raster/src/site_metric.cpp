@@ -240,15 +240,21 @@ OwnerIndex::OwnerIndex(const SiteMetric& metric) : metric_(metric) {
 OwnerIndex::~OwnerIndex() = default;
 OwnerIndex::OwnerIndex(OwnerIndex&&) noexcept = default;
 
-OwnerIndex::Hit OwnerIndex::nearest_of(Vec2 p, int32_t owner) const {
+OwnerIndex::Hit OwnerIndex::nearest_of(Vec2 p, int32_t owner, int32_t hint) const {
   Hit best;
   if (owner < 1 || owner > static_cast<int32_t>(trees_.size())) return best;
+  // The hint's distance is a bound from the start: the search then prunes nearly everything it
+  // would have measured before finding it. Its tie rule keeps the lowest index whatever the
+  // start, so the result is the one without a hint.
+  const SeedSet& seeds = metric_.seeds();
+  if (hint >= 0 && hint < static_cast<int32_t>(seeds.sites().size()) && seeds.site_owner(hint) == owner)
+    best = Hit{hint, metric_.distance(p, hint)};
   const Tree& t = *trees_[static_cast<size_t>(owner - 1)];
   if (!t.nodes.empty()) t.search(metric_, 0, p, metric_.embed(p), best);
   return best;
 }
 
-OwnerIndex::Hit OwnerIndex::nearest_not_of(Vec2 p, int32_t owner) const {
+OwnerIndex::Hit OwnerIndex::nearest_not_of(Vec2 p, int32_t owner, Hit known) const {
   // Owners in order of their trees' lower bounds, so the first search makes the rest prune.
   const Vec3 q = metric_.embed(p);
   std::vector<std::pair<double, int32_t>> order;
@@ -258,7 +264,11 @@ OwnerIndex::Hit OwnerIndex::nearest_not_of(Vec2 p, int32_t owner) const {
     order.emplace_back(SiteMetric::lower_bound(q, trees_[o]->nodes[0].box), static_cast<int32_t>(o));
   }
   std::sort(order.begin(), order.end());
+  // A known hit is a bound from the start (see nearest_of); it must not be of `owner`.
   Hit best;
+  if (known.site >= 0 && known.site < static_cast<int32_t>(metric_.seeds().sites().size()) &&
+      metric_.seeds().site_owner(known.site) != owner)
+    best = known;
   for (const auto& [lb, o] : order) {
     if (lb > best.distance) break;
     trees_[static_cast<size_t>(o)]->search(metric_, 0, p, q, best);

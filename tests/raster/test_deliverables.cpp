@@ -459,5 +459,58 @@ TEST(Deliverables, OwnerIndexMatchesBruteForce) {
   }
 }
 
+TEST(Deliverables, OwnerIndexHintsChangeNoResult) {
+  // Owners of 5 sites each (ties included: two sites at one place), geodesic and planar: any
+  // hint -- the right site, another of the owner, one of another owner, none -- and any known
+  // hit give the very hit of the plain query.
+  SeedSet s;
+  std::mt19937 rng(4);
+  std::uniform_real_distribution<double> lon(11.0, 13.0), lat(54.5, 56.0);
+  for (int o = 0; o < 6; ++o) {
+    const int32_t code = s.owner_code(std::to_string(o));
+    for (int k = 0; k < 5; ++k) {
+      const Vec2 a{lon(rng), lat(rng)};
+      const int32_t f = s.add_feature(code);
+      if (k == 4) {
+        s.add_point(f, s.sites().back().a);  // a tie with the previous site
+      } else if (k % 2 == 0) {
+        s.add_point(f, a);
+      } else {
+        const std::vector<Vec2> line{a, {a.x + 0.1, a.y + 0.05}};
+        s.add_polyline(f, line);
+      }
+    }
+  }
+  MetricSpec geodesic;
+  geodesic.kind = MetricSpec::geodesic;
+  const GeodesicSiteMetric gm(s, geodesic);
+  const PlanarSiteMetric pm(s, Vec2{11.0, 56.0});
+  for (const SiteMetric* m : {static_cast<const SiteMetric*>(&gm), static_cast<const SiteMetric*>(&pm)}) {
+    const OwnerIndex index(*m);
+    const auto sites = static_cast<int32_t>(s.sites().size());
+    for (int i = 0; i < 60; ++i) {
+      const Vec2 p{lon(rng), lat(rng)};
+      for (int32_t o = 1; o <= s.owner_count(); ++o) {
+        const OwnerIndex::Hit plain = index.nearest_of(p, o);
+        for (int32_t hint = -1; hint < sites; ++hint) {
+          const OwnerIndex::Hit h = index.nearest_of(p, o, hint);
+          ASSERT_EQ(h.site, plain.site) << "owner " << o << " hint " << hint;
+          ASSERT_EQ(h.distance, plain.distance);
+        }
+      }
+      const OwnerIndex::Hit plain = index.nearest(p);
+      for (int32_t known = 0; known < sites; ++known) {
+        const OwnerIndex::Hit h = index.nearest(p, OwnerIndex::Hit{known, m->distance(p, known)});
+        ASSERT_EQ(h.site, plain.site) << "known " << known;
+        ASSERT_EQ(h.distance, plain.distance);
+        const int32_t not_of = s.site_owner(known);
+        const OwnerIndex::Hit other = index.nearest_not_of(p, not_of);
+        // A known hit of the excluded owner is ignored.
+        EXPECT_EQ(index.nearest_not_of(p, not_of, OwnerIndex::Hit{known, m->distance(p, known)}).site, other.site);
+      }
+    }
+  }
+}
+
 }  // namespace
 }  // namespace rv

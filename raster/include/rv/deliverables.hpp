@@ -189,12 +189,19 @@ class OwnerIndex {
     int32_t site = kNoSite;  // lowest site index among exact ties
     double distance = std::numeric_limits<double>::infinity();
   };
-  // Nearest site of owner `owner` (1..K); {kNoSite, inf} if the owner has no sites.
-  Hit nearest_of(Vec2 p, int32_t owner) const;
-  // Nearest site of any owner other than `owner` (owner 0: of any owner at all).
-  Hit nearest_not_of(Vec2 p, int32_t owner) const;
+  // Nearest site of owner `owner` (1..K); {kNoSite, inf} if the owner has no sites. `hint`: a
+  // site likely to be the nearest (e.g. the one found at a point nearby), measured first so that
+  // the search prunes with its distance; the result is the same with any hint or none (a hint
+  // not of `owner` is ignored).
+  Hit nearest_of(Vec2 p, int32_t owner, int32_t hint = kNoSite) const;
+  // Nearest site of any owner other than `owner` (owner 0: of any owner at all). `known`: a hit
+  // already measured at p (metric().distance(p, known.site) == known.distance, a site not of
+  // `owner`), used as the starting bound; the result is the same with or without it.
+  Hit nearest_not_of(Vec2 p, int32_t owner, Hit known) const;
+  Hit nearest_not_of(Vec2 p, int32_t owner) const { return nearest_not_of(p, owner, Hit{}); }
   // Nearest site of any owner.
-  Hit nearest(Vec2 p) const { return nearest_not_of(p, 0); }
+  Hit nearest(Vec2 p, Hit known) const { return nearest_not_of(p, 0, known); }
+  Hit nearest(Vec2 p) const { return nearest_not_of(p, 0, Hit{}); }
 
   const SiteMetric& metric() const { return metric_; }
 
