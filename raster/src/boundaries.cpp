@@ -104,10 +104,26 @@ struct Segment {
   int32_t from, to;  // owner of the first and the second cell centre
 };
 
+// f(r, out) for each row of [row0, row1) on the grid's threads, in chunks of rows, each chunk
+// appending to its own list; the lists joined in row order (the result does not depend on the
+// threads). For the scans over every cell or square, whose finds are few.
+template <class T, class F>
+std::vector<T> scan_rows(const BoundaryGrid& b, int64_t row0, int64_t row1, F&& f) {
+  constexpr int64_t kRowsPerChunk = 32;
+  const int64_t chunks = std::max<int64_t>(0, (row1 - row0 + kRowsPerChunk - 1) / kRowsPerChunk);
+  std::vector<std::vector<T>> found(static_cast<size_t>(chunks));
+  detail::parallel_for(b.threads, chunks, [&](int64_t k, int) {
+    const int64_t r0 = row0 + k * kRowsPerChunk, r1 = std::min(row1, r0 + kRowsPerChunk);
+    for (int64_t r = r0; r < r1; ++r) f(r, found[static_cast<size_t>(k)]);
+  });
+  std::vector<T> all;
+  for (auto& part : found) all.insert(all.end(), part.begin(), part.end());
+  return all;
+}
+
 // The edges of rows [row0, row1) whose two cells have different owners.
 std::vector<Segment> owner_changes(const BoundaryGrid& b, int64_t row0, int64_t row1) {
-  std::vector<Segment> segments;
-  for (int64_t r = row0; r < row1; ++r)
+  return scan_rows<Segment>(b, row0, row1, [&](int64_t r, std::vector<Segment>& segments) {
     for (int64_t c = 0; c < b.W; ++c) {
       const int32_t o = b.owner(c, r);
       if (o == 0) continue;
@@ -120,7 +136,17 @@ std::vector<Segment> owner_changes(const BoundaryGrid& b, int64_t row0, int64_t 
         if (q != 0 && q != o) segments.push_back(Segment{edge_down(b.W, c, r), o, q});
       }
     }
-  return segments;
+  });
+}
+
+// The dual squares whose top row is in [row0, row1) and whose four corners do not all have one
+// owner, as (c, r), in row-major order.
+std::vector<std::array<int64_t, 2>> mixed_squares(const BoundaryGrid& b, int64_t row0, int64_t row1) {
+  return scan_rows<std::array<int64_t, 2>>(b, row0, std::min(row1, b.H - 1),
+                                           [&](int64_t r, std::vector<std::array<int64_t, 2>>& out) {
+                                             for (int64_t c = 0; c + 1 < b.W; ++c)
+                                               if (!BoundaryGrid::uniform(b.corner_owners(c, r))) out.push_back({c, r});
+                                           });
 }
 
 // The crossings of one segment, in order along it. A third owner nearer than both at the A-B
@@ -137,17 +163,24 @@ void place_crossings(const BoundaryGrid& b, const Segment& sg, std::vector<Cross
   const Vec2 p1 = (sg.edge % 2 == 0) ? centre(b.g, c + 1, r) : centre(b.g, c, r + 1);
   const OwnerIndex& index = b.index;
   const double ftol = b.ftol;
-  // Each owner's site found last is the next query's hint (OwnerIndex::nearest_of): along one
-  // cell edge the nearest site of an owner rarely changes. The cells' own sites start them.
-  // Hints change the work, never a result.
+  // Every query is on the segment p0-p1: per owner, the few sites that can be nearest anywhere on
+  // it are gathered once (OwnerIndex::candidates_of, from a ball around its middle holding the
+  // segment, 1 % wider for the curvature of a longitude/latitude segment), and each query
+  // measures only those: the same hits as nearest_of. The cells' own sites bound the gathering.
+  const SiteMetric& metric = index.metric();
+  const Vec2 mid = lerp(p0, p1, 0.5);
+  const double reach = 1.01 * std::max(metric.point_distance(mid, p0), metric.point_distance(mid, p1)) + 1e-9;
   std::unordered_map<int32_t, int32_t> hint;
   hint[sg.from] = b.field.site.at(c, r);
   hint[sg.to] = sg.edge % 2 == 0 ? b.field.site.at(c + 1, r) : b.field.site.at(c, r + 1);
+  std::unordered_map<int32_t, std::vector<int32_t>> candidates;
   auto nearest_of = [&](Vec2 p, int32_t owner) {
-    auto [it, fresh] = hint.try_emplace(owner, kNoSite);
-    const OwnerIndex::Hit h = index.nearest_of(p, owner, it->second);
-    it->second = h.site;
-    return h;
+    auto [it, fresh] = candidates.try_emplace(owner);
+    if (fresh) {
+      const auto h = hint.find(owner);
+      index.candidates_of(mid, reach, owner, h == hint.end() ? kNoSite : h->second, it->second);
+    }
+    return index.nearest_among(p, it->second);
   };
   // Owner x is nearest at t0, owner y at t1: place the x-y root, or split at the owner found
   // nearer there. Appends in order of t.
@@ -164,6 +197,7 @@ void place_crossings(const BoundaryGrid& b, const Segment& sg, std::vector<Cross
     const auto nearest = index.nearest(p, hx.distance <= hy.distance ? hx : hy);
     if (nearest.distance < v.distance - 4.0 * ftol - v.residual) {
       const int32_t z = b.owner_of_site[static_cast<size_t>(nearest.site)];
+      hint.try_emplace(z, nearest.site);
       if (depth == 0) slivers.emplace_back(sg.edge, z);
       if (depth >= kMaxSliverDepth) {
         ++unresolved;
@@ -269,28 +303,26 @@ TripointSet find_tripoints(const BoundaryGrid& b, const CrossingSet& x, int64_t 
   const TripointSolver solver{b.index, b.ftol, 1e-6 * b.g.res};
   const double res = b.g.res;
   TripointSet set;
-  for (int64_t r = row0; r < row1 && r + 1 < b.H; ++r)
-    for (int64_t c = 0; c + 1 < b.W; ++c) {
-      const auto corners = b.corner_owners(c, r);
-      if (BoundaryGrid::uniform(corners)) continue;
-      const std::vector<int32_t> distinct = square_owners(b, x, c, r, corners);
-      if (distinct.size() < 3) continue;
-      ++stats.multi_owner_squares;
-      const Vec2 mid = square_mid(b.g, c, r);
-      const size_t before = set.tripoints.size();
-      for (size_t i = 0; i < distinct.size(); ++i)
-        for (size_t j = i + 1; j < distinct.size(); ++j)
-          for (size_t k = j + 1; k < distinct.size(); ++k) {
-            Tripoint t;
-            if (!solver.solve({distinct[i], distinct[j], distinct[k]}, mid, res, t)) continue;
-            if (std::abs(t.p.x - mid.x) > res || std::abs(t.p.y - mid.y) > res) continue;
-            const auto any = b.index.nearest(t.p);
-            if (any.distance < t.distance - 4.0 * b.ftol - t.residual) continue;  // another owner is nearer
-            add_tripoint(b, set, t);
-          }
-      if (set.tripoints.size() == before && set.in_square.find(r * b.W + c) == set.in_square.end())
-        ++stats.unresolved_tripoints;
-    }
+  for (const auto& [c, r] : mixed_squares(b, row0, row1)) {
+    const auto corners = b.corner_owners(c, r);
+    const std::vector<int32_t> distinct = square_owners(b, x, c, r, corners);
+    if (distinct.size() < 3) continue;
+    ++stats.multi_owner_squares;
+    const Vec2 mid = square_mid(b.g, c, r);
+    const size_t before = set.tripoints.size();
+    for (size_t i = 0; i < distinct.size(); ++i)
+      for (size_t j = i + 1; j < distinct.size(); ++j)
+        for (size_t k = j + 1; k < distinct.size(); ++k) {
+          Tripoint t;
+          if (!solver.solve({distinct[i], distinct[j], distinct[k]}, mid, res, t)) continue;
+          if (std::abs(t.p.x - mid.x) > res || std::abs(t.p.y - mid.y) > res) continue;
+          const auto any = b.index.nearest(t.p);
+          if (any.distance < t.distance - 4.0 * b.ftol - t.residual) continue;  // another owner is nearer
+          add_tripoint(b, set, t);
+        }
+    if (set.tripoints.size() == before && set.in_square.find(r * b.W + c) == set.in_square.end())
+      ++stats.unresolved_tripoints;
+  }
   return set;
 }
 
@@ -468,36 +500,34 @@ Links link_squares(const BoundaryGrid& b, const CrossingSet& x, const TripointSe
                    BoundaryStats& stats) {
   Links out;
   const auto ncross = static_cast<int32_t>(x.crossings.size());
-  for (int64_t r = row0; r < row1 && r + 1 < b.H; ++r)
-    for (int64_t c = 0; c + 1 < b.W; ++c) {
-      const auto o = b.corner_owners(c, r);
-      if (BoundaryGrid::uniform(o)) continue;
-      SquareLinks sq{b, x, t, out, c, r, {}, ncross};
-      const auto edges = square_edges(b.W, c, r);
-      // The crossings on the square's edges; an edge crossed by owners passing between its two
-      // centres carries several.
-      std::array<int, 4> per_edge{0, 0, 0, 0};
-      for (int k = 0; k < 4; ++k) {
-        const auto it = x.on_edge.find(edges[static_cast<size_t>(k)]);
-        if (it == x.on_edge.end()) continue;
-        for (int32_t i = 0; i < it->second.second; ++i) sq.items.emplace_back(k, it->second.first + i);
-        per_edge[static_cast<size_t>(k)] = it->second.second;
-      }
-      if (sq.items.empty()) continue;
-      const auto here = t.in_square.find(r * b.W + c);
-      std::vector<size_t> unlinked;
-      if (here != t.in_square.end()) {
-        unlinked = sq.at_tripoints(here->second);
-      } else if (per_edge == std::array<int, 4>{1, 1, 1, 1} && o[0] == o[2] && o[1] == o[3] && o[0] != o[1]) {
-        ++stats.saddles;
-        sq.saddle(o);
-        continue;
-      } else {
-        unlinked.resize(sq.items.size());
-        std::iota(unlinked.begin(), unlinked.end(), size_t{0});
-      }
-      sq.pair_up(unlinked);
+  for (const auto& [c, r] : mixed_squares(b, row0, row1)) {
+    const auto o = b.corner_owners(c, r);
+    SquareLinks sq{b, x, t, out, c, r, {}, ncross};
+    const auto edges = square_edges(b.W, c, r);
+    // The crossings on the square's edges; an edge crossed by owners passing between its two
+    // centres carries several.
+    std::array<int, 4> per_edge{0, 0, 0, 0};
+    for (int k = 0; k < 4; ++k) {
+      const auto it = x.on_edge.find(edges[static_cast<size_t>(k)]);
+      if (it == x.on_edge.end()) continue;
+      for (int32_t i = 0; i < it->second.second; ++i) sq.items.emplace_back(k, it->second.first + i);
+      per_edge[static_cast<size_t>(k)] = it->second.second;
     }
+    if (sq.items.empty()) continue;
+    const auto here = t.in_square.find(r * b.W + c);
+    std::vector<size_t> unlinked;
+    if (here != t.in_square.end()) {
+      unlinked = sq.at_tripoints(here->second);
+    } else if (per_edge == std::array<int, 4>{1, 1, 1, 1} && o[0] == o[2] && o[1] == o[3] && o[0] != o[1]) {
+      ++stats.saddles;
+      sq.saddle(o);
+      continue;
+    } else {
+      unlinked.resize(sq.items.size());
+      std::iota(unlinked.begin(), unlinked.end(), size_t{0});
+    }
+    sq.pair_up(unlinked);
+  }
   return out;
 }
 

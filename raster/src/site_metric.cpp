@@ -205,6 +205,20 @@ struct OwnerIndex::Tree {
     return index;
   }
 
+  // The ids whose box lies within `bound` of q (lower_bound), in tree order.
+  void within(int32_t node, const Vec3& q, double bound, std::vector<int32_t>& out) const {
+    const Node& n = nodes[static_cast<size_t>(node)];
+    if (SiteMetric::lower_bound(q, n.box) > bound) return;
+    if (n.left < 0) {
+      for (int32_t i = n.begin; i < n.end; ++i)
+        if (SiteMetric::lower_bound(q, boxes[static_cast<size_t>(i)]) <= bound)
+          out.push_back(ids[static_cast<size_t>(i)]);
+      return;
+    }
+    within(n.left, q, bound, out);
+    within(n.right, q, bound, out);
+  }
+
   void search(const SiteMetric& m, int32_t node, Vec2 p, const Vec3& q, Hit& best) const {
     const Node& n = nodes[static_cast<size_t>(node)];
     if (n.left < 0) {
@@ -251,6 +265,36 @@ OwnerIndex::Hit OwnerIndex::nearest_of(Vec2 p, int32_t owner, int32_t hint) cons
     best = Hit{hint, metric_.distance(p, hint)};
   const Tree& t = *trees_[static_cast<size_t>(owner - 1)];
   if (!t.nodes.empty()) t.search(metric_, 0, p, metric_.embed(p), best);
+  return best;
+}
+
+void OwnerIndex::candidates_of(Vec2 centre, double reach, int32_t owner, int32_t hint,
+                               std::vector<int32_t>& out) const {
+  out.clear();
+  if (owner < 1 || owner > static_cast<int32_t>(trees_.size())) return;
+  const Tree& t = *trees_[static_cast<size_t>(owner - 1)];
+  if (t.nodes.empty()) return;
+  // At a position p within `reach` of the centre: the nearest is within d(centre, hint) + reach
+  // (the distance to a site is 1-Lipschitz), and a site whose box is farther than that plus
+  // reach from the centre's embedding is farther than it from p's (the embedding does not
+  // lengthen distances): it can neither be nearest nor tie.
+  const SeedSet& seeds = metric_.seeds();
+  const bool valid = hint >= 0 && hint < static_cast<int32_t>(seeds.sites().size()) && seeds.site_owner(hint) == owner;
+  const double at_centre = valid ? metric_.distance(centre, hint) : nearest_of(centre, owner).distance;
+  if (!std::isfinite(at_centre)) {  // nothing bounds it: every site of the owner
+    t.within(0, metric_.embed(centre), std::numeric_limits<double>::infinity(), out);
+  } else {
+    t.within(0, metric_.embed(centre), at_centre + 2.0 * reach, out);
+  }
+  std::sort(out.begin(), out.end());
+}
+
+OwnerIndex::Hit OwnerIndex::nearest_among(Vec2 p, const std::vector<int32_t>& sites) const {
+  Hit best;
+  for (int32_t id : sites) {
+    const double d = metric_.distance(p, id);
+    if (d < best.distance) best = Hit{id, d};
+  }
   return best;
 }
 

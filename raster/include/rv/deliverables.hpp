@@ -199,6 +199,15 @@ class OwnerIndex {
   // `owner`), used as the starting bound; the result is the same with or without it.
   Hit nearest_not_of(Vec2 p, int32_t owner, Hit known) const;
   Hit nearest_not_of(Vec2 p, int32_t owner) const { return nearest_not_of(p, owner, Hit{}); }
+  // The sites of `owner` that can be nearest to, or tie with the nearest at, some position within
+  // metric distance `reach` of `centre` (ascending indices, into `out`): every other site's lower
+  // bound from the ball exceeds the distance of `hint` (or of the nearest, without a valid hint)
+  // at the centre plus twice the reach. nearest_among(p, out) then equals nearest_of(p, owner) for
+  // every such p, and measures only these (usually one or two): for many queries along a short
+  // path (roots along a cell edge).
+  void candidates_of(Vec2 centre, double reach, int32_t owner, int32_t hint, std::vector<int32_t>& out) const;
+  // The nearest of `sites` (ascending indices) to p: the lowest index among exact ties.
+  Hit nearest_among(Vec2 p, const std::vector<int32_t>& sites) const;
   // Nearest site of any owner.
   Hit nearest(Vec2 p, Hit known) const { return nearest_not_of(p, 0, known); }
   Hit nearest(Vec2 p) const { return nearest_not_of(p, 0, Hit{}); }
