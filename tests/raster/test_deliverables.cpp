@@ -498,6 +498,25 @@ TEST(Deliverables, OwnerIndexHintsChangeNoResult) {
           ASSERT_EQ(h.distance, plain.distance);
         }
       }
+      // Candidates gathered for a short path around p (a few hundred metres) serve every point
+      // of it: nearest_among over them is nearest_of, whatever hint bounded the gathering.
+      const double step = 0.004;  // degrees (planar: units of the same size)
+      for (int32_t o = 1; o <= s.owner_count(); ++o)
+        for (const int32_t hint : {static_cast<int32_t>(kNoSite), static_cast<int32_t>(5 * (o - 1)),
+                                   static_cast<int32_t>(5 * (o - 1) + 2)}) {
+          const Vec2 a{p.x - step, p.y - 0.5 * step}, b{p.x + step, p.y + 0.5 * step};
+          const Vec2 mid{0.5 * (a.x + b.x), 0.5 * (a.y + b.y)};
+          const double reach = 1.01 * std::max(m->point_distance(mid, a), m->point_distance(mid, b)) + 1e-9;
+          std::vector<int32_t> cands;
+          index.candidates_of(mid, reach, o, hint, cands);
+          ASSERT_FALSE(cands.empty());
+          for (double t = 0.0; t <= 1.0; t += 0.125) {
+            const Vec2 q{a.x + t * (b.x - a.x), a.y + t * (b.y - a.y)};
+            const OwnerIndex::Hit want = index.nearest_of(q, o), got = index.nearest_among(q, cands);
+            ASSERT_EQ(got.site, want.site) << "owner " << o << " hint " << hint << " t " << t;
+            ASSERT_EQ(got.distance, want.distance);
+          }
+        }
       const OwnerIndex::Hit plain = index.nearest(p);
       for (int32_t known = 0; known < sites; ++known) {
         const OwnerIndex::Hit h = index.nearest(p, OwnerIndex::Hit{known, m->distance(p, known)});
