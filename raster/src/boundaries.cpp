@@ -104,26 +104,9 @@ struct Segment {
   int32_t from, to;  // owner of the first and the second cell centre
 };
 
-// f(r, out) for each row of [row0, row1) on the grid's threads, in chunks of rows, each chunk
-// appending to its own list; the lists joined in row order (the result does not depend on the
-// threads). For the scans over every cell or square, whose finds are few.
-template <class T, class F>
-std::vector<T> scan_rows(const BoundaryGrid& b, int64_t row0, int64_t row1, F&& f) {
-  constexpr int64_t kRowsPerChunk = 32;
-  const int64_t chunks = std::max<int64_t>(0, (row1 - row0 + kRowsPerChunk - 1) / kRowsPerChunk);
-  std::vector<std::vector<T>> found(static_cast<size_t>(chunks));
-  detail::parallel_for(b.threads, chunks, [&](int64_t k, int) {
-    const int64_t r0 = row0 + k * kRowsPerChunk, r1 = std::min(row1, r0 + kRowsPerChunk);
-    for (int64_t r = r0; r < r1; ++r) f(r, found[static_cast<size_t>(k)]);
-  });
-  std::vector<T> all;
-  for (auto& part : found) all.insert(all.end(), part.begin(), part.end());
-  return all;
-}
-
 // The edges of rows [row0, row1) whose two cells have different owners.
 std::vector<Segment> owner_changes(const BoundaryGrid& b, int64_t row0, int64_t row1) {
-  return scan_rows<Segment>(b, row0, row1, [&](int64_t r, std::vector<Segment>& segments) {
+  return scan_rows<Segment>(b.threads, row0, row1, [&](int64_t r, std::vector<Segment>& segments) {
     for (int64_t c = 0; c < b.W; ++c) {
       const int32_t o = b.owner(c, r);
       if (o == 0) continue;
@@ -142,7 +125,7 @@ std::vector<Segment> owner_changes(const BoundaryGrid& b, int64_t row0, int64_t 
 // The dual squares whose top row is in [row0, row1) and whose four corners do not all have one
 // owner, as (c, r), in row-major order.
 std::vector<std::array<int64_t, 2>> mixed_squares(const BoundaryGrid& b, int64_t row0, int64_t row1) {
-  return scan_rows<std::array<int64_t, 2>>(b, row0, std::min(row1, b.H - 1),
+  return scan_rows<std::array<int64_t, 2>>(b.threads, row0, std::min(row1, b.H - 1),
                                            [&](int64_t r, std::vector<std::array<int64_t, 2>>& out) {
                                              for (int64_t c = 0; c + 1 < b.W; ++c)
                                                if (!BoundaryGrid::uniform(b.corner_owners(c, r))) out.push_back({c, r});

@@ -95,11 +95,12 @@ LimitCrossings limit_crossings(const Target& t, const std::vector<uint8_t>& insi
   const int64_t W = lg.W, H = lg.H;
   auto in_at = [&](int64_t c, int64_t r) { return inside[static_cast<size_t>(r * W + c)] != 0; };
   LimitCrossings x;
-  for (int64_t r = row0; r < row1; ++r)
+  x.edges = scan_rows<int64_t>(lg.threads, row0, row1, [&](int64_t r, std::vector<int64_t>& edges) {
     for (int64_t c = 0; c < W; ++c) {
-      if (c + 1 < W && in_at(c, r) != in_at(c + 1, r)) x.edges.push_back(edge_right(W, c, r));
-      if (r + 1 < H && in_at(c, r) != in_at(c, r + 1)) x.edges.push_back(edge_down(W, c, r));
+      if (c + 1 < W && in_at(c, r) != in_at(c + 1, r)) edges.push_back(edge_right(W, c, r));
+      if (r + 1 < H && in_at(c, r) != in_at(c, r + 1)) edges.push_back(edge_down(W, c, r));
     }
+  });
   x.verts.resize(x.edges.size());
   const int64_t chunk = 256;
   detail::parallel_for(lg.threads, (static_cast<int64_t>(x.edges.size()) + chunk - 1) / chunk, [&](int64_t k, int) {
@@ -136,8 +137,8 @@ std::vector<std::array<int32_t, 2>> limit_links(const Target& t, const std::vect
   const LimitGrid& lg = t.grid;
   const int64_t W = lg.W, H = lg.H;
   auto in_at = [&](int64_t c, int64_t r) { return inside[static_cast<size_t>(r * W + c)] != 0; };
-  std::vector<std::array<int32_t, 2>> links;
-  for (int64_t r = row0; r < row1 && r + 1 < H; ++r)
+  using Link = std::array<int32_t, 2>;
+  return scan_rows<Link>(lg.threads, row0, std::min(row1, H - 1), [&](int64_t r, std::vector<Link>& links) {
     for (int64_t c = 0; c + 1 < W; ++c) {
       const std::array<bool, 4> in{in_at(c, r), in_at(c + 1, r), in_at(c + 1, r + 1), in_at(c, r + 1)};
       if (in[0] == in[1] && in[1] == in[2] && in[2] == in[3]) continue;
@@ -163,7 +164,7 @@ std::vector<std::array<int32_t, 2>> limit_links(const Target& t, const std::vect
         }
       }
     }
-  return links;
+  });
 }
 
 // ---- Stage 4: chains -------------------------------------------------------------------------

@@ -5,12 +5,14 @@
 // Thread safety: pure functions.
 #pragma once
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <cstdint>
 #include <vector>
 
 #include "rv/deliverables.hpp"
+#include "rv/parallel.hpp"
 
 namespace rv::line_tools {
 
@@ -59,6 +61,23 @@ double find_root(F&& f, double f0, double f1, double ftol, double t_tol) {
     if (b - a <= t_tol) break;
   }
   return std::abs(fa) <= std::abs(fb) ? a : b;
+}
+
+// f(r, out) for each row of [row0, row1) on `threads` threads, in chunks of rows, each chunk
+// appending to its own list; the lists joined in row order, so the result does not depend on the
+// threads. For the scans over every cell or square of a field, whose finds are few.
+template <class T, class F>
+std::vector<T> scan_rows(int threads, int64_t row0, int64_t row1, F&& f) {
+  constexpr int64_t kRowsPerChunk = 32;
+  const int64_t chunks = std::max<int64_t>(0, (row1 - row0 + kRowsPerChunk - 1) / kRowsPerChunk);
+  std::vector<std::vector<T>> found(static_cast<size_t>(chunks));
+  detail::parallel_for(threads, chunks, [&](int64_t k, int) {
+    const int64_t r0 = row0 + k * kRowsPerChunk, r1 = std::min(row1, r0 + kRowsPerChunk);
+    for (int64_t r = r0; r < r1; ++r) f(r, found[static_cast<size_t>(k)]);
+  });
+  std::vector<T> all;
+  for (auto& part : found) all.insert(all.end(), part.begin(), part.end());
+  return all;
 }
 
 // Links between graph nodes; chains them into polylines. A chain starts and stops at terminal
