@@ -280,7 +280,9 @@ void OwnerIndex::candidates_of(Vec2 centre, double reach, int32_t owner, int32_t
   // lengthen distances): it can neither be nearest nor tie.
   const SeedSet& seeds = metric_.seeds();
   const bool valid = hint >= 0 && hint < static_cast<int32_t>(seeds.sites().size()) && seeds.site_owner(hint) == owner;
-  const double at_centre = valid ? metric_.distance(centre, hint) : nearest_of(centre, owner).distance;
+  double at_centre = valid ? metric_.distance(centre, hint) : std::numeric_limits<double>::infinity();
+  // (An area site's distance is infinite outside its polygon: the nearest then gives the bound.)
+  if (!std::isfinite(at_centre)) at_centre = nearest_of(centre, owner, valid ? hint : kNoSite).distance;
   if (!std::isfinite(at_centre)) {  // nothing bounds it: every site of the owner
     t.within(0, metric_.embed(centre), std::numeric_limits<double>::infinity(), out);
   } else {

@@ -459,6 +459,40 @@ TEST(Deliverables, OwnerIndexMatchesBruteForce) {
   }
 }
 
+TEST(Deliverables, CandidatesAroundAPolygonsEdgeAreFewAndExact) {
+  // A land border: owner A's polygon (its area site is at distance 0 inside, infinite outside)
+  // beside owner B's many points. Gathered from A's area site as the hint just outside the
+  // polygon, the candidates are A's edges near there, not all of A's sites, and serve exactly.
+  SeedSet s;
+  const int32_t a = s.add_feature(s.owner_code("A"));
+  std::vector<Vec2> ring;
+  for (int k = 0; k < 40; ++k) {
+    const double w = 2.0 * 3.14159265358979323846 * k / 40.0;
+    ring.push_back({50.0 + 30.0 * std::cos(w), 50.0 + 30.0 * std::sin(w)});
+  }
+  s.add_polygon(a, {ring});
+  const int32_t b = s.owner_code("B");
+  for (int k = 0; k < 30; ++k) s.add_point(s.add_feature(b), {100.0 + k, 10.0 + 3.0 * k});
+  const PlanarSiteMetric m(s, Vec2{0.0, 100.0});
+  const OwnerIndex index(m);
+  int32_t area = kNoSite, a_sites = 0;
+  for (int32_t i = 0; i < static_cast<int32_t>(s.sites().size()); ++i) {
+    if (s.site_owner(i) != 1) continue;
+    ++a_sites;
+    if (s.sites()[static_cast<size_t>(i)].kind == SiteKind::area) area = i;
+  }
+  ASSERT_NE(area, kNoSite);
+  const Vec2 mid{81.0, 50.5};  // just outside the ring's east side
+  std::vector<int32_t> cands;
+  index.candidates_of(mid, 0.6, 1, area, cands);
+  EXPECT_LT(static_cast<int32_t>(cands.size()), a_sites / 4);
+  for (double t = -1.0; t <= 1.0; t += 0.25) {
+    const Vec2 q{mid.x + 0.5 * t, mid.y + 0.3 * t};
+    EXPECT_EQ(index.nearest_among(q, cands).site, index.nearest_of(q, 1).site) << t;
+    EXPECT_EQ(index.nearest_among(q, cands).distance, index.nearest_of(q, 1).distance) << t;
+  }
+}
+
 TEST(Deliverables, OwnerIndexHintsChangeNoResult) {
   // Owners of 5 sites each (ties included: two sites at one place), geodesic and planar: any
   // hint -- the right site, another of the owner, one of another owner, none -- and any known
