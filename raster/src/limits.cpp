@@ -105,22 +105,31 @@ LimitCrossings limit_crossings(const Target& t, const std::vector<uint8_t>& insi
   const int64_t chunk = 256;
   detail::parallel_for(lg.threads, (static_cast<int64_t>(x.edges.size()) + chunk - 1) / chunk, [&](int64_t k, int) {
     const size_t end = std::min(x.edges.size(), static_cast<size_t>((k + 1) * chunk));
+    std::vector<int32_t> cands;
     for (size_t i = static_cast<size_t>(k * chunk); i < end; ++i) {
       const int64_t id = x.edges[i] / 2;
       const int64_t c = id % W, r = id / W;
       const Vec2 p0 = centre(lg.g, c, r);
       const Vec2 p1 = (x.edges[i] % 2 == 0) ? centre(lg.g, c + 1, r) : centre(lg.g, c, r + 1);
-      // The inside cell's site starts the hints; each query's site is the next one's.
+      // Every query is on the edge: the sites that can be nearest anywhere on it are gathered
+      // once (OwnerIndex::candidates_of, candidates_not_of; a ball around its middle holding the
+      // edge, 1 % wider for a longitude/latitude edge's curvature), bounded by the inside cell's
+      // site, and each query measures only those: the same hits as Target::at.
       const int64_t ci = (x.edges[i] % 2 == 0) ? c + 1 : c, ri = (x.edges[i] % 2 == 0) ? r : r + 1;
-      int32_t hint = inside[static_cast<size_t>(r * W + c)] != 0 ? lg.field.site.at(c, r) : lg.field.site.at(ci, ri);
-      auto f = [&](double u) {
-        const auto h = t.at(lerp(p0, p1, u), hint);
-        hint = h.site;
-        return h.distance - t.D;
-      };
+      const int32_t hint =
+          inside[static_cast<size_t>(r * W + c)] != 0 ? lg.field.site.at(c, r) : lg.field.site.at(ci, ri);
+      const Vec2 mid = lerp(p0, p1, 0.5);
+      const double reach = 1.01 * std::max(lg.metric.point_distance(mid, p0), lg.metric.point_distance(mid, p1)) + 1e-9;
+      if (t.owner != 0)
+        lg.index.candidates_of(mid, reach, t.owner, hint, cands);
+      else
+        lg.index.candidates_not_of(
+            mid, reach, 0, hint == kNoSite ? OwnerIndex::Hit{} : OwnerIndex::Hit{hint, lg.metric.distance(mid, hint)},
+            cands);
+      auto f = [&](double u) { return lg.index.nearest_among(lerp(p0, p1, u), cands).distance - t.D; };
       const double u = find_root(f, f(0.0), f(1.0), lg.ftol, 1e-15);
       const Vec2 p = lerp(p0, p1, u);
-      const auto h = t.at(p, hint);
+      const auto h = lg.index.nearest_among(p, cands);
       x.verts[i] = LimitVertex{p, h.site, std::abs(h.distance - t.D)};
     }
   });

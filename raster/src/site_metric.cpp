@@ -291,6 +291,22 @@ void OwnerIndex::candidates_of(Vec2 centre, double reach, int32_t owner, int32_t
   std::sort(out.begin(), out.end());
 }
 
+void OwnerIndex::candidates_not_of(Vec2 centre, double reach, int32_t owner, Hit known,
+                                   std::vector<int32_t>& out) const {
+  out.clear();
+  // The bound as in candidates_of: the nearest is within the known hit's distance (or the
+  // nearest's) plus reach of any position within reach of the centre.
+  const SeedSet& seeds = metric_.seeds();
+  const bool valid = known.site >= 0 && known.site < static_cast<int32_t>(seeds.sites().size()) &&
+                     seeds.site_owner(known.site) != owner && std::isfinite(known.distance);
+  const double at_centre = valid ? known.distance : nearest_not_of(centre, owner).distance;
+  const double bound = std::isfinite(at_centre) ? at_centre + 2.0 * reach : std::numeric_limits<double>::infinity();
+  const Vec3 q = metric_.embed(centre);
+  for (size_t o = 0; o < trees_.size(); ++o)
+    if (static_cast<int32_t>(o) + 1 != owner && !trees_[o]->nodes.empty()) trees_[o]->within(0, q, bound, out);
+  std::sort(out.begin(), out.end());
+}
+
 OwnerIndex::Hit OwnerIndex::nearest_among(Vec2 p, const std::vector<int32_t>& sites) const {
   Hit best;
   for (int32_t id : sites) {

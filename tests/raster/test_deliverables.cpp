@@ -551,6 +551,25 @@ TEST(Deliverables, OwnerIndexHintsChangeNoResult) {
             ASSERT_EQ(got.distance, want.distance);
           }
         }
+      // The same for the sites of every owner but one (0: all owners), from a known hit or none.
+      for (int32_t not_of = 0; not_of <= s.owner_count(); ++not_of) {
+        const Vec2 a{p.x - step, p.y + 0.5 * step}, b{p.x + step, p.y - 0.5 * step};
+        const Vec2 mid{0.5 * (a.x + b.x), 0.5 * (a.y + b.y)};
+        const double reach = 1.01 * std::max(m->point_distance(mid, a), m->point_distance(mid, b)) + 1e-9;
+        for (const bool with_known : {false, true}) {
+          const int32_t k = (not_of * 7) % sites;
+          OwnerIndex::Hit known;
+          if (with_known && s.site_owner(k) != not_of) known = OwnerIndex::Hit{k, m->distance(mid, k)};
+          std::vector<int32_t> cands;
+          index.candidates_not_of(mid, reach, not_of, known, cands);
+          for (double t = 0.0; t <= 1.0; t += 0.125) {
+            const Vec2 q{a.x + t * (b.x - a.x), a.y + t * (b.y - a.y)};
+            const OwnerIndex::Hit want = index.nearest_not_of(q, not_of), got = index.nearest_among(q, cands);
+            ASSERT_EQ(got.site, want.site) << "not of " << not_of << " t " << t;
+            ASSERT_EQ(got.distance, want.distance);
+          }
+        }
+      }
       const OwnerIndex::Hit plain = index.nearest(p);
       for (int32_t known = 0; known < sites; ++known) {
         const OwnerIndex::Hit h = index.nearest(p, OwnerIndex::Hit{known, m->distance(p, known)});

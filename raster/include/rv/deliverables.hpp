@@ -206,6 +206,10 @@ class OwnerIndex {
   // every such p, and measures only these (usually one or two): for many queries along a short
   // path (roots along a cell edge).
   void candidates_of(Vec2 centre, double reach, int32_t owner, int32_t hint, std::vector<int32_t>& out) const;
+  // The same for the sites of every owner but `owner` (0: of all owners), the bound from
+  // `known` (a hit measured at the centre, as nearest_not_of takes it) or else from the nearest:
+  // nearest_among(p, out) then equals nearest_not_of(p, owner) within `reach` of the centre.
+  void candidates_not_of(Vec2 centre, double reach, int32_t owner, Hit known, std::vector<int32_t>& out) const;
   // The nearest of `sites` (ascending indices) to p: the lowest index among exact ties.
   Hit nearest_among(Vec2 p, const std::vector<int32_t>& sites) const;
   // Nearest site of any owner.
