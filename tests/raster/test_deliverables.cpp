@@ -459,6 +459,70 @@ TEST(Deliverables, OwnerIndexMatchesBruteForce) {
   }
 }
 
+TEST(Deliverables, DegenerateTripointsArePlacedAndEveryLineEndsAtOne) {
+  // Randomised degenerate cases on a 60 x 60 grid: 4-6 cocircular basepoints of as many owners
+  // (every triple meets at the centre), four owners meeting at a point (a square of points), a
+  // tripoint within a cell of the grid's edge or outside it, two tripoints within a cell of
+  // each other. No tripoint may be left unplaced, and every line that is not closed ends at a
+  // tripoint or at the outermost cell centres.
+  std::mt19937_64 rng(1);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  constexpr double kTau = 6.283185307179586;
+  const GridSpec g = test::grid_of(60, 60);
+  int64_t tripoints = 0;
+  for (int trial = 0; trial < 160; ++trial) {
+    SeedSet s;
+    auto add = [&](int k, Vec2 p) { s.add_point(s.add_feature(s.owner_code(std::to_string(k))), p); };
+    switch (trial % 4) {
+      case 0: {  // cocircular, the centre on a cell centre or a grid corner
+        const int n = 4 + trial % 3;
+        const double cx = 20 + std::floor(u(rng) * 20) + (trial % 8 < 4 ? 0.5 : 0.0);
+        const double cy = 20 + std::floor(u(rng) * 20) + (trial % 16 < 8 ? 0.5 : 0.0);
+        const double radius = 5 + 10 * u(rng), phase = u(rng);
+        for (int k = 0; k < n; ++k)
+          add(k, {cx + radius * std::cos(phase + kTau * k / n), cy + radius * std::sin(phase + kTau * k / n)});
+        break;
+      }
+      case 1: {  // four owners meeting at one point
+        const double cx = 15 + std::floor(u(rng) * 30) + 0.5 * (trial % 2);
+        const double cy = 15 + std::floor(u(rng) * 30) + 0.5 * ((trial / 2) % 2), d = 3 + std::floor(u(rng) * 8);
+        int k = 0;
+        for (int i : {-1, 1})
+          for (int j : {-1, 1}) add(k++, {cx + i * d, cy + j * d});
+        break;
+      }
+      case 2:  // the tripoint near or beyond the grid's bottom edge
+        add(0, {10 + 30 * u(rng), -5 - 10 * u(rng)});
+        add(1, {30 + 20 * u(rng), 10 + 20 * u(rng)});
+        add(2, {20 * u(rng), 10 + 20 * u(rng)});
+        break;
+      default: {  // two tripoints within a cell: four points nearly cocircular
+        const double radius = 8 + 5 * u(rng), eps = 0.3 * u(rng);
+        const double angle[4] = {0.3, 1.9, 3.4, 4.9};
+        for (int k = 0; k < 4; ++k)
+          add(k, {30 + (radius + (k == 0 ? eps : 0)) * std::cos(angle[k]),
+                  30 + (radius + (k == 0 ? eps : 0)) * std::sin(angle[k])});
+      }
+    }
+    const NearestField f = compute(s, g, ComputeOptions{});
+    const PlanarSiteMetric m(s, Vec2{0.0, 60.0});
+    const OwnerIndex index(m);
+    const BoundaryResult b = extract_boundaries(f, index);
+    EXPECT_EQ(b.stats.unresolved_tripoints, 0) << "trial " << trial;
+    EXPECT_EQ(b.stats.unresolved_slivers, 0) << "trial " << trial;
+    tripoints += static_cast<int64_t>(b.tripoints.size());
+    for (const BoundaryLine& line : b.lines) {
+      if (line.closed) continue;
+      for (const BoundaryVertex* v : {&line.vertices.front(), &line.vertices.back()}) {
+        bool ends = v->p.x <= 0.5 + 1e-9 || v->p.x >= 59.5 - 1e-9 || v->p.y <= 0.5 + 1e-9 || v->p.y >= 59.5 - 1e-9;
+        for (const Tripoint& t : b.tripoints) ends = ends || std::hypot(t.p.x - v->p.x, t.p.y - v->p.y) < 1e-6;
+        EXPECT_TRUE(ends) << "trial " << trial << ": a line ends at (" << v->p.x << ", " << v->p.y << ")";
+      }
+    }
+  }
+  EXPECT_GT(tripoints, 300);
+}
+
 TEST(Deliverables, CandidatesAroundAPolygonsEdgeAreFewAndExact) {
   // A land border: owner A's polygon (its area site is at distance 0 inside, infinite outside)
   // beside owner B's many points. Gathered from A's area site as the hint just outside the
