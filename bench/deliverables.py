@@ -1,0 +1,106 @@
+#!/usr/bin/python3
+"""The analyst's whole job, timed: `rvoronoi compute` with every deliverable (ownership raster,
+boundaries, tripoints, limits at 12 and 24 nmi, regions) on real coasts, geodesic, phase by
+phase from the command's report, with each run's peak memory (its own high-water mark, from
+wait4). One or more binaries, alternated round by round; medians over the rounds.
+
+Cases (../shared/fixtures):
+  oresund   the Øresund pair (2 owners, 598 edges) at 0.0002 deg: 6,601 x 5,601 = 3.7e7 cells
+  baltic    the western Baltic (4 owners, land borders, overlaps to the lower code) at 0.0005 deg:
+            14,300 x 6,102 = 8.7e7 cells
+  --quick   the same at 4x the cell size (16x fewer cells)
+
+usage:
+  bench/deliverables.py [--rounds N] [--quick] [--cases oresund,baltic] LABEL=BINARY ...
+e.g.
+  bench/deliverables.py --rounds 3 old=/tmp/old/rvoronoi new=build/service/rvoronoi
+Debian's /usr/bin/python3. Run it on an otherwise idle machine (no build beside it). Checks that
+every variant wrote the same deliverables, byte for byte, and says so.
+"""
+import filecmp
+import json
+import os
+import statistics
+import subprocess
+import sys
+import tempfile
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+SHARED = os.environ.get("RV_SHARED_DIR", os.path.join(ROOT, "..", "shared"))
+CASES = {
+    "oresund": (["oresund.gpkg", "--owner-field", "iso2"], 0.0002),
+    "baltic": (["baltic_west.gpkg", "--owner-field", "iso2", "--on-conflict", "lower-code"], 0.0005),
+}
+OUTPUTS = {"boundaries": "b.geojson", "tripoints": "t.geojson", "limits": "l.geojson", "regions": "r.geojson"}
+PHASES = ("compute", "boundaries", "limits", "regions", "total")
+
+
+def run(binary, case, quick, out):
+    args, res = CASES[case]
+    os.makedirs(out, exist_ok=True)
+    cmd = [binary, "compute", os.path.join(SHARED, "fixtures", args[0])] + args[1:] + [
+        "--resolution", repr(res * 4 if quick else res), "--threads", "2", "--quiet",
+        "--ownership", os.path.join(out, "o.tif"), "--limit-distances", "12nmi,24nmi",
+        "--report", os.path.join(out, "report.json")]
+    for flag, name in OUTPUTS.items():
+        cmd += [f"--{flag}", os.path.join(out, name)]
+    # (The Baltic's overlapping land borders are warned about on stderr, shown only on failure.)
+    errors = os.path.join(out, "stderr.txt")
+    with open(errors, "w") as err:
+        proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=err)
+        _, status, usage = os.wait4(proc.pid, 0)
+    if status != 0:
+        sys.exit(f"{binary} failed on {case} (status {status}): {open(errors).read()}")
+    report = json.load(open(os.path.join(out, "report.json")))
+    t = report["timings_s"]
+    row = {"compute": t["compute"], "total": t["total"], "peak_mib": usage.ru_maxrss / 1024.0}
+    for name in ("boundaries", "limits", "regions"):
+        row[name] = t["deliverables"][name]
+    b = report["deliverables"]["boundaries"]
+    row["unresolved_tripoints"] = b["unresolved_tripoints"]
+    row["max_residual_m"] = max(b["max_residual"], report["deliverables"]["limits"]["max_residual"])
+    row["cells"] = report["grid"]["cells"]
+    return row
+
+
+def main():
+    argv = sys.argv[1:]
+    rounds, quick, cases, variants = 3, False, ["oresund", "baltic"], []
+    while argv:
+        a = argv.pop(0)
+        if a == "--rounds":
+            rounds = int(argv.pop(0))
+        elif a == "--quick":
+            quick = True
+        elif a == "--cases":
+            cases = argv.pop(0).split(",")
+        elif "=" in a:
+            variants.append(tuple(a.split("=", 1)))
+        else:
+            sys.exit(__doc__)
+    if not variants or any(c not in CASES for c in cases):
+        sys.exit(__doc__)
+    with tempfile.TemporaryDirectory() as tmp:
+        for case in cases:
+            rows = {label: [] for label, _ in variants}
+            for r in range(rounds):
+                for label, binary in variants:
+                    rows[label].append(run(binary, case, quick, os.path.join(tmp, case, label)))
+            same = all(filecmp.cmp(os.path.join(tmp, case, variants[0][0], f), os.path.join(tmp, case, label, f),
+                                   shallow=False) for label, _ in variants[1:] for f in OUTPUTS.values())
+            cells = rows[variants[0][0]][0]["cells"]
+            print(f"\n{case}: {cells:.3g} cells, {rounds} alternated rounds, medians (s); deliverables "
+                  f"{'identical' if same else 'DIFFER'} across variants\n")
+            print("| variant | " + " | ".join(PHASES) + " | deliverables / compute | peak MiB | unresolved tripoints | max residual m |")
+            print("|---" * (len(PHASES) + 5) + "|")
+            for label, _ in variants:
+                med = {k: statistics.median(x[k] for x in rows[label]) for k in PHASES + ("peak_mib",)}
+                deliver = med["boundaries"] + med["limits"] + med["regions"]
+                last = rows[label][-1]
+                print(f"| {label} | " + " | ".join(f"{med[k]:.3f}" for k in PHASES) +
+                      f" | {deliver / med['compute']:.1f} | {med['peak_mib']:.0f} | {last['unresolved_tripoints']} | "
+                      f"{last['max_residual_m']:.2g} |")
+
+
+if __name__ == "__main__":
+    main()
