@@ -168,14 +168,26 @@ void place_crossings(const BoundaryGrid& b, const Segment& sg, std::vector<Cross
   // Owner x is nearest at t0, owner y at t1: place the x-y root, or split at the owner found
   // nearer there. Appends in order of t.
   auto place = [&](auto&& self, int32_t x, int32_t y, double t0, double t1, int depth) -> void {
+    // The last position measured and its hits: the root is usually the last position the search
+    // measured, whose hits are then not measured again.
+    Vec2 last{std::numeric_limits<double>::quiet_NaN(), 0.0};
+    OwnerIndex::Hit last_x, last_y;
+    auto hits = [&](Vec2 p) {
+      if (!(p.x == last.x && p.y == last.y)) {
+        last = p;
+        last_x = nearest_of(p, x);
+        last_y = nearest_of(p, y);
+      }
+    };
     auto f = [&](double t) {
-      const Vec2 p = lerp(p0, p1, t);
-      return nearest_of(p, x).distance - nearest_of(p, y).distance;
+      hits(lerp(p0, p1, t));
+      return last_x.distance - last_y.distance;
     };
     const double t =
         t0 + (t1 - t0) * find_root([&](double u) { return f(t0 + (t1 - t0) * u); }, f(t0), f(t1), ftol, 1e-15);
     const Vec2 p = lerp(p0, p1, t);
-    const auto hx = nearest_of(p, x), hy = nearest_of(p, y);
+    hits(p);
+    const OwnerIndex::Hit hx = last_x, hy = last_y;
     BoundaryVertex v{p, hx.site, hy.site, 0.5 * (hx.distance + hy.distance), std::abs(hx.distance - hy.distance)};
     const auto nearest = index.nearest(p, hx.distance <= hy.distance ? hx : hy);
     if (nearest.distance < v.distance - 4.0 * ftol - v.residual) {

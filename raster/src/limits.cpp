@@ -126,10 +126,20 @@ LimitCrossings limit_crossings(const Target& t, const std::vector<uint8_t>& insi
         lg.index.candidates_not_of(
             mid, reach, 0, hint == kNoSite ? OwnerIndex::Hit{} : OwnerIndex::Hit{hint, lg.metric.distance(mid, hint)},
             cands);
-      auto f = [&](double u) { return lg.index.nearest_among(lerp(p0, p1, u), cands).distance - t.D; };
+      // The root is usually the last position measured: its hit is kept, not measured again.
+      Vec2 last{std::numeric_limits<double>::quiet_NaN(), 0.0};
+      OwnerIndex::Hit last_hit;
+      auto hit = [&](Vec2 p) {
+        if (!(p.x == last.x && p.y == last.y)) {
+          last = p;
+          last_hit = lg.index.nearest_among(p, cands);
+        }
+        return last_hit;
+      };
+      auto f = [&](double u) { return hit(lerp(p0, p1, u)).distance - t.D; };
       const double u = find_root(f, f(0.0), f(1.0), lg.ftol, 1e-15);
       const Vec2 p = lerp(p0, p1, u);
-      const auto h = lg.index.nearest_among(p, cands);
+      const auto h = hit(p);
       x.verts[i] = LimitVertex{p, h.site, std::abs(h.distance - t.D)};
     }
   });
