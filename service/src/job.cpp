@@ -460,9 +460,10 @@ void write_rasters(detail::JobRun& run, const PreparedJob& job, const NearestFie
   run.progress("write", 0.0);
   if (!spec.outputs.ownership.empty()) {
     detail::timed(run.write_times, "ownership", [&] {
-      const Raster<int32_t> owners = owner_raster(seeds, field, spec.threads);
+      Raster<int32_t> owners = owner_raster(seeds, field, spec.threads);
       run.will_write(spec.outputs.ownership);
       write_geotiff(spec.outputs.ownership, owners, 0.0, targets.ownership);
+      if (!spec.outputs.regions.empty() || !spec.outputs.preview.empty()) run.owner_codes = std::move(owners);
     });
     run.wrote("ownership", spec.outputs.ownership);
   }

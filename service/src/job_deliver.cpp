@@ -183,8 +183,10 @@ void deliver(JobRun& run, const PreparedJob& job, const NearestField& computed) 
   run.progress("deliver", 0.3);
   limits_stage(c);
   run.progress("deliver", 0.5);
-  std::optional<Raster<int32_t>> owner_codes;
-  if (!c.out().regions.empty() || !c.out().preview.empty())
+  // The owner raster the write stage kept, or made here.
+  std::optional<Raster<int32_t>> owner_codes = std::move(run.owner_codes);
+  run.owner_codes.reset();
+  if (!owner_codes && (!c.out().regions.empty() || !c.out().preview.empty()))
     owner_codes = owner_raster(job.loaded.seeds, *field, run.spec.threads);
   if (owner_codes) regions_stage(c, *owner_codes);
   run.progress("deliver", 0.7);

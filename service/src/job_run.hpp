@@ -9,6 +9,7 @@
 
 #include <chrono>
 #include <filesystem>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -57,6 +58,9 @@ struct JobRun {
   double compute_seconds = 0.0;
   int64_t contested_cells = 0;
   int threads_used = 1;
+  // The owner raster, kept by the stage that made it (write) for the stages after it that read
+  // it (regions, preview) instead of each making it again; empty otherwise.
+  std::optional<Raster<int32_t>> owner_codes;
 
   void progress(const char* stage, double fraction) const {
     if (hooks.progress) hooks.progress(stage, fraction);
