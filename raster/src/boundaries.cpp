@@ -148,11 +148,10 @@ void place_crossings(const BoundaryGrid& b, const Segment& sg, std::vector<Cross
   const double ftol = b.ftol;
   // Every query is on the segment p0-p1: per owner, the few sites that can be nearest anywhere on
   // it are gathered once (OwnerIndex::candidates_of, from a ball around its middle holding the
-  // segment, 1 % wider for the curvature of a longitude/latitude segment), and each query
-  // measures only those: the same hits as nearest_of. The cells' own sites bound the gathering.
-  const SiteMetric& metric = index.metric();
+  // segment: edge_reach), and each query measures only those: the same hits as nearest_of. The
+  // cells' own sites bound the gathering.
   const Vec2 mid = lerp(p0, p1, 0.5);
-  const double reach = 1.01 * std::max(metric.point_distance(mid, p0), metric.point_distance(mid, p1)) + 1e-9;
+  const double reach = edge_reach(index.metric(), mid, p0, p1);
   std::unordered_map<int32_t, int32_t> hint;
   hint[sg.from] = b.field.site.at(c, r);
   hint[sg.to] = sg.edge % 2 == 0 ? b.field.site.at(c + 1, r) : b.field.site.at(c, r + 1);

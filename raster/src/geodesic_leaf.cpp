@@ -6,11 +6,8 @@ namespace rv::detail {
 
 void GeodesicExactSolver::solve_segment_leaf(GeoWorker& wk, const std::vector<int32_t>& cands, int64_t c0, int64_t r0,
                                              int64_t c1, int64_t r1) {
-  // (In one line block is in one point block: the line block divides the point block.)
-  const int64_t S = line_block_, gx = ctx_.window.col0, gy = ctx_.window.row0;
-  const bool one_block = (gx + c0) / S == (gx + c1 - 1) / S && (gy + r0) / S == (gy + r1 - 1) / S;
-  if (S < kLeafKernelMinBlock || cands.empty() || !one_block || cands.size() > kInterpMaxCandidates ||
-      !gather_interpolants(wk, cands, c0, r0, c1, r1))
+  if (line_block_ < kLeafKernelMinBlock || cands.empty() || !in_one_line_block(c0, r0, c1, r1) ||
+      cands.size() > kInterpMaxCandidates || !gather_interpolants(wk, cands, c0, r0, c1, r1))
     return solve_cells(wk, cands, c0, r0, c1, r1);
   solve_interp_rows(wk, cands, c0, r0, c1, r1);
 }

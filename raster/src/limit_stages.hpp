@@ -45,13 +45,6 @@ struct Target {
   int32_t owner;
   double D;
   OwnerIndex::Hit at(Vec2 p) const { return owner == 0 ? grid.index.nearest(p) : grid.index.nearest_of(p, owner); }
-  // The same, measuring `hint` (a site likely nearest, e.g. found at a point nearby; kNoSite:
-  // none) first: the same result with less work (OwnerIndex::nearest_of).
-  OwnerIndex::Hit at(Vec2 p, int32_t hint) const {
-    if (owner != 0) return grid.index.nearest_of(p, owner, hint);
-    if (hint == kNoSite) return grid.index.nearest(p);
-    return grid.index.nearest(p, OwnerIndex::Hit{hint, grid.metric.distance(p, hint)});
-  }
 };
 
 // The crossings of a range of rows: their edges, vertices, and each edge's index.

@@ -113,13 +113,13 @@ LimitCrossings limit_crossings(const Target& t, const std::vector<uint8_t>& insi
       const Vec2 p1 = (x.edges[i] % 2 == 0) ? centre(lg.g, c + 1, r) : centre(lg.g, c, r + 1);
       // Every query is on the edge: the sites that can be nearest anywhere on it are gathered
       // once (OwnerIndex::candidates_of, candidates_not_of; a ball around its middle holding the
-      // edge, 1 % wider for a longitude/latitude edge's curvature), bounded by the inside cell's
-      // site, and each query measures only those: the same hits as Target::at.
+      // edge: edge_reach), bounded by the inside cell's site, and each query measures only
+      // those: the same hits as Target::at.
       const int64_t ci = (x.edges[i] % 2 == 0) ? c + 1 : c, ri = (x.edges[i] % 2 == 0) ? r : r + 1;
       const int32_t hint =
           inside[static_cast<size_t>(r * W + c)] != 0 ? lg.field.site.at(c, r) : lg.field.site.at(ci, ri);
       const Vec2 mid = lerp(p0, p1, 0.5);
-      const double reach = 1.01 * std::max(lg.metric.point_distance(mid, p0), lg.metric.point_distance(mid, p1)) + 1e-9;
+      const double reach = edge_reach(lg.metric, mid, p0, p1);
       if (t.owner != 0)
         lg.index.candidates_of(mid, reach, t.owner, hint, cands);
       else

@@ -80,6 +80,13 @@ std::vector<T> scan_rows(int threads, int64_t row0, int64_t row1, F&& f) {
   return all;
 }
 
+// The metric radius of a ball around `mid`, the middle of the short path p0-p1 between two
+// neighbouring cell centres, that holds every position lerp(p0, p1, t) of it: the larger distance
+// to an end, 1 % wider for the curvature of a longitude/latitude path (OwnerIndex::candidates_of).
+inline double edge_reach(const SiteMetric& m, Vec2 mid, Vec2 p0, Vec2 p1) {
+  return 1.01 * std::max(m.point_distance(mid, p0), m.point_distance(mid, p1)) + 1e-9;
+}
+
 // Links between graph nodes; chains them into polylines. A chain starts and stops at terminal
 // nodes (tripoints, or nodes of degree other than 2); what is left are closed rings.
 struct Chains {

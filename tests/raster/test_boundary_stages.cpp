@@ -40,6 +40,18 @@ Vec2 circumcentre(const std::vector<Vec2>& p) {
               (a2 * (cx - bx) + b2 * (ax - cx) + c2 * (bx - ax)) / d};
 }
 
+// The first three stages over the whole field.
+struct Stages {
+  BoundaryStats stats;
+  CrossingSet x;
+  TripointSet t;
+  Links links;
+  explicit Stages(const Case& k)
+      : x(find_crossings(k.b, 0, 100, stats)),
+        t(find_tripoints(k.b, x, 0, 100, stats)),
+        links(link_squares(k.b, x, t, 0, 100, stats)) {}
+};
+
 // A crossing as comparable data: edge, owners, position.
 using Key = std::tuple<int64_t, int32_t, int32_t, double, double>;
 std::vector<Key> keys(const CrossingSet& x) {
@@ -122,10 +134,10 @@ TEST(BoundaryStages, TheTripointIsTheCircumcentreInItsSquare) {
 
 TEST(BoundaryStages, LinksJoinEachCrossingToItsNeighboursAlongTheLine) {
   const Case k(kThree);
-  BoundaryStats stats;
-  const CrossingSet x = find_crossings(k.b, 0, 100, stats);
-  const TripointSet t = find_tripoints(k.b, x, 0, 100, stats);
-  const Links links = link_squares(k.b, x, t, 0, 100, stats);
+  const Stages st(k);
+  const CrossingSet& x = st.x;
+  const TripointSet& t = st.t;
+  const Links& links = st.links;
   const auto n = static_cast<int32_t>(x.crossings.size());
   std::vector<int> degree(static_cast<size_t>(n) + t.tripoints.size(), 0);
   for (size_t i = 0; i < links.links.size(); ++i) {
@@ -161,10 +173,11 @@ Links strip_links(const Case& k, const CrossingSet& x, const TripointSet& t, int
 
 TEST(BoundaryStages, ChainsAreTheBisectorsFromTheTripointToTheGridsEdge) {
   const Case k(kThree);
-  BoundaryStats stats;
-  const CrossingSet x = find_crossings(k.b, 0, 100, stats);
-  const TripointSet t = find_tripoints(k.b, x, 0, 100, stats);
-  const Links links = link_squares(k.b, x, t, 0, 100, stats);
+  Stages st(k);
+  const CrossingSet& x = st.x;
+  const TripointSet& t = st.t;
+  const Links& links = st.links;
+  BoundaryStats& stats = st.stats;
   const std::vector<BoundaryLine> lines = chain_lines(x, t, links, 0.0, stats);
   ASSERT_EQ(lines.size(), 3u);
   const Vec2 cc = circumcentre(kThree);
@@ -190,10 +203,10 @@ TEST(BoundaryStages, ChainsAreTheBisectorsFromTheTripointToTheGridsEdge) {
 TEST(BoundaryStages, PiecesOfStripsChainIntoTheWholeFieldsLines) {
   for (const std::vector<Vec2>& points : {kThree, std::vector<Vec2>{{30.0, 35.5}, {64.2, 61.0}}}) {
     const Case k(points);
-    BoundaryStats stats;
-    const CrossingSet x = find_crossings(k.b, 0, 100, stats);
-    const TripointSet t = find_tripoints(k.b, x, 0, 100, stats);
-    const Links whole = link_squares(k.b, x, t, 0, 100, stats);
+    const Stages st(k);
+    const CrossingSet& x = st.x;
+    const TripointSet& t = st.t;
+    const Links& whole = st.links;
     for (int64_t rows : {1, 13, 50}) {
       const Links joined = strip_links(k, x, t, rows);
       EXPECT_EQ(joined.linked, whole.linked) << rows << " rows a strip";

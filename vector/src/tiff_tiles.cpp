@@ -199,8 +199,6 @@ void RawTileFile::open(const std::string& path, const TileFormat& format, Access
       sample_format != want_format || compression != want_compression || predictor != format.predictor ||
       TIFFIsByteSwapped(tif_) != 0 || !little_endian_host || width == 0 || height == 0)
     fail("its layout is not the one its tiles are encoded for");
-  width_ = width;
-  height_ = height;
   tiles_across_ = (static_cast<int64_t>(width) + tile_w - 1) / tile_w;
   tiles_down_ = (static_cast<int64_t>(height) + tile_h - 1) / tile_h;
 }

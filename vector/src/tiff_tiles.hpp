@@ -84,9 +84,6 @@ class RawTileFile {
 
   // Tiles across the image.
   int64_t tiles_across() const { return tiles_across_; }
-  // The image's size in samples.
-  int64_t width() const { return width_; }
-  int64_t height() const { return height_; }
   // Appends the encoded bytes of tile (bx, by) (Access::update). Throws rv::Error(io).
   void append(int64_t bx, int64_t by, EncodedTile bytes);
   // The encoded bytes of tile (bx, by) as stored, into `buf` (grown as needed): valid until the
@@ -106,7 +103,6 @@ class RawTileFile {
   std::string errors_;  // libtiff's error messages for this handle
   int64_t tiles_across_ = 0;
   int64_t tiles_down_ = 0;
-  int64_t width_ = 0, height_ = 0;
   const char* verb_ = "writing";  // for messages: "reading" an earlier file
 
   friend struct RawTileFileAccess;
