@@ -107,15 +107,17 @@ struct Segment {
 // The edges of rows [row0, row1) whose two cells have different owners.
 std::vector<Segment> owner_changes(const BoundaryGrid& b, int64_t row0, int64_t row1) {
   return scan_rows<Segment>(b.threads, row0, row1, [&](int64_t r, std::vector<Segment>& segments) {
+    const int32_t* here = b.rows.site_row(r);
+    const int32_t* below = r + 1 < b.H ? b.rows.site_row(r + 1) : nullptr;
     for (int64_t c = 0; c < b.W; ++c) {
-      const int32_t o = b.owner(c, r);
+      const int32_t o = b.owner_code(here[c]);
       if (o == 0) continue;
       if (c + 1 < b.W) {
-        const int32_t q = b.owner(c + 1, r);
+        const int32_t q = b.owner_code(here[c + 1]);
         if (q != 0 && q != o) segments.push_back(Segment{edge_right(b.W, c, r), o, q});
       }
-      if (r + 1 < b.H) {
-        const int32_t q = b.owner(c, r + 1);
+      if (below != nullptr) {
+        const int32_t q = b.owner_code(below[c]);
         if (q != 0 && q != o) segments.push_back(Segment{edge_down(b.W, c, r), o, q});
       }
     }
@@ -125,11 +127,18 @@ std::vector<Segment> owner_changes(const BoundaryGrid& b, int64_t row0, int64_t 
 // The dual squares whose top row is in [row0, row1) and whose four corners do not all have one
 // owner, as (c, r), in row-major order.
 std::vector<std::array<int64_t, 2>> mixed_squares(const BoundaryGrid& b, int64_t row0, int64_t row1) {
-  return scan_rows<std::array<int64_t, 2>>(b.threads, row0, std::min(row1, b.H - 1),
-                                           [&](int64_t r, std::vector<std::array<int64_t, 2>>& out) {
-                                             for (int64_t c = 0; c + 1 < b.W; ++c)
-                                               if (!BoundaryGrid::uniform(b.corner_owners(c, r))) out.push_back({c, r});
-                                           });
+  return scan_rows<std::array<int64_t, 2>>(
+      b.threads, row0, std::min(row1, b.H - 1), [&](int64_t r, std::vector<std::array<int64_t, 2>>& out) {
+        const int32_t* here = b.rows.site_row(r);
+        const int32_t* below = b.rows.site_row(r + 1);
+        // Sites equal means owners equal: the owner lookups only where sites differ.
+        for (int64_t c = 0; c + 1 < b.W; ++c) {
+          if (here[c] == here[c + 1] && here[c] == below[c] && here[c] == below[c + 1]) continue;
+          const int32_t o = b.owner_code(here[c]);
+          if (o != b.owner_code(here[c + 1]) || o != b.owner_code(below[c]) || o != b.owner_code(below[c + 1]))
+            out.push_back({c, r});
+        }
+      });
 }
 
 // The crossings of one segment, in order along it. A third owner nearer than both at the A-B
@@ -153,8 +162,8 @@ void place_crossings(const BoundaryGrid& b, const Segment& sg, std::vector<Cross
   const Vec2 mid = lerp(p0, p1, 0.5);
   const double reach = edge_reach(index.metric(), mid, p0, p1);
   std::unordered_map<int32_t, int32_t> hint;
-  hint[sg.from] = b.field.site.at(c, r);
-  hint[sg.to] = sg.edge % 2 == 0 ? b.field.site.at(c + 1, r) : b.field.site.at(c, r + 1);
+  hint[sg.from] = b.rows.site(c, r);
+  hint[sg.to] = sg.edge % 2 == 0 ? b.rows.site(c + 1, r) : b.rows.site(c, r + 1);
   std::unordered_map<int32_t, std::vector<int32_t>> candidates;
   auto nearest_of = [&](Vec2 p, int32_t owner) {
     auto [it, fresh] = candidates.try_emplace(owner);
@@ -209,7 +218,7 @@ void place_crossings(const BoundaryGrid& b, const Segment& sg, std::vector<Cross
 
 }  // namespace
 
-CrossingSet find_crossings(const BoundaryGrid& b, int64_t row0, int64_t row1, BoundaryStats& stats) {
+void find_crossings(const BoundaryGrid& b, int64_t row0, int64_t row1, CrossingSet& x, BoundaryStats& stats) {
   const std::vector<Segment> segments = owner_changes(b, row0, row1);
   stats.crossings += static_cast<int64_t>(segments.size());
   // In chunks on the threads, gathered in chunk order: the result does not depend on them.
@@ -224,8 +233,7 @@ CrossingSet find_crossings(const BoundaryGrid& b, int64_t row0, int64_t row1, Bo
       place_crossings(b, segments[i], chunk_crossings[static_cast<size_t>(k)], chunk_slivers[static_cast<size_t>(k)],
                       chunk_unresolved[static_cast<size_t>(k)]);
   });
-  CrossingSet x;
-  x.on_edge.reserve(segments.size() * 2);
+  const size_t slivers_before = x.sliver_at.size();
   for (size_t k = 0; k < chunk_crossings.size(); ++k) {
     for (const Crossing& cr : chunk_crossings[k]) {
       auto [it, fresh] = x.on_edge.try_emplace(cr.edge, static_cast<int32_t>(x.crossings.size()), 0);
@@ -235,8 +243,7 @@ CrossingSet find_crossings(const BoundaryGrid& b, int64_t row0, int64_t row1, Bo
     for (const auto& [edge, third] : chunk_slivers[k]) x.sliver_at.emplace(edge, third);
     stats.unresolved_slivers += chunk_unresolved[k];
   }
-  stats.sliver_crossings += static_cast<int64_t>(x.sliver_at.size());
-  return x;
+  stats.sliver_crossings += static_cast<int64_t>(x.sliver_at.size() - slivers_before);
 }
 
 namespace {
@@ -312,12 +319,10 @@ bool line_ends_inside(const BoundaryGrid& b, const CrossingSet& x, int64_t c, in
 
 }  // namespace
 
-TripointSet find_tripoints(const BoundaryGrid& b, const CrossingSet& x, int64_t row0, int64_t row1,
-                           BoundaryStats& stats) {
+void find_tripoints(const BoundaryGrid& b, const CrossingSet& x, int64_t row0, int64_t row1, TripointSet& set,
+                    std::vector<std::array<int64_t, 2>>& unplaced, BoundaryStats& stats) {
   const TripointSolver solver{b.index, b.ftol, 1e-6 * b.g.res};
   const double res = b.g.res;
-  TripointSet set;
-  std::vector<std::array<int64_t, 2>> unplaced;  // multi-owner squares where no tripoint converged
   for (const auto& [c, r] : mixed_squares(b, row0, row1)) {
     const auto corners = b.corner_owners(c, r);
     const std::vector<int32_t> distinct = square_owners(b, x, c, r, corners);
@@ -337,6 +342,10 @@ TripointSet find_tripoints(const BoundaryGrid& b, const CrossingSet& x, int64_t 
         }
     if (set.tripoints.size() == before) unplaced.push_back({c, r});
   }
+}
+
+void count_unresolved(const BoundaryGrid& b, const CrossingSet& x, const TripointSet& set,
+                      const std::vector<std::array<int64_t, 2>>& unplaced, BoundaryStats& stats) {
   // A square whose search placed nothing is a defect only if a line must end inside it and no
   // tripoint is filed under it (found from a neighbouring square, checked once all are done): a
   // square crossed by two lines that meet outside it has three owners at its corners and every
@@ -344,7 +353,6 @@ TripointSet find_tripoints(const BoundaryGrid& b, const CrossingSet& x, int64_t 
   for (const auto& [c, r] : unplaced)
     if (set.in_square.find(r * b.W + c) == set.in_square.end() && line_ends_inside(b, x, c, r))
       ++stats.unresolved_tripoints;
-  return set;
 }
 
 namespace {
@@ -379,7 +387,6 @@ struct SquareLinks {
   Links& out;
   int64_t c, r;
   std::vector<std::pair<int, int32_t>> items;
-  int32_t ncross;
 
   const Crossing& cross(size_t item) const { return x.crossings[static_cast<size_t>(items[item].second)]; }
   int32_t node(size_t item) const { return items[item].second; }
@@ -429,7 +436,7 @@ struct SquareLinks {
         ends_here = it == nearest_to_outside.end() || it->second == i;
       }
       if (ends_here)
-        out.add(node(i), ncross + target[i], pair_of(i));
+        out.add(node(i), tripoint_node(target[i]), pair_of(i));
       else
         unlinked.push_back(i);
     }
@@ -441,7 +448,7 @@ struct SquareLinks {
         std::vector<int32_t> shared;
         for (int32_t a : ti.owners)
           if (has(tj, a)) shared.push_back(a);
-        if (shared.size() == 2) out.add(ncross + here[i], ncross + here[j], pair_key(shared[0], shared[1]));
+        if (shared.size() == 2) out.add(tripoint_node(here[i]), tripoint_node(here[j]), pair_key(shared[0], shared[1]));
       }
     return unlinked;
   }
@@ -510,7 +517,7 @@ struct SquareLinks {
         }
       });
       const int32_t tp = nearest_tripoint(t, cross(k), around);
-      if (tp >= 0) out.add(node(k), ncross + tp, pair);
+      if (tp >= 0) out.add(node(k), tripoint_node(tp), pair);
     }
   }
 };
@@ -520,10 +527,9 @@ struct SquareLinks {
 Links link_squares(const BoundaryGrid& b, const CrossingSet& x, const TripointSet& t, int64_t row0, int64_t row1,
                    BoundaryStats& stats) {
   Links out;
-  const auto ncross = static_cast<int32_t>(x.crossings.size());
   for (const auto& [c, r] : mixed_squares(b, row0, row1)) {
     const auto o = b.corner_owners(c, r);
-    SquareLinks sq{b, x, t, out, c, r, {}, ncross};
+    SquareLinks sq{b, x, t, out, c, r, {}};
     const auto edges = square_edges(b.W, c, r);
     // The crossings on the square's edges; an edge crossed by owners passing between its two
     // centres carries several.
@@ -561,7 +567,12 @@ std::vector<BoundaryLine> chain_lines(const CrossingSet& x, const TripointSet& t
   const auto ntri = static_cast<int32_t>(t.tripoints.size());
   std::vector<bool> terminal(static_cast<size_t>(ncross + ntri), false);
   for (int32_t i = 0; i < ntri; ++i) terminal[static_cast<size_t>(ncross + i)] = true;
-  const Chains chains = chain_links(ncross + ntri, links.links, terminal);
+  // Tripoints are numbered after the crossings.
+  std::vector<std::array<int32_t, 2>> numbered(links.links);
+  for (auto& l : numbered)
+    for (int32_t& n : l)
+      if (n < 0) n = ncross + (-1 - n);
+  const Chains chains = chain_links(ncross + ntri, numbered, terminal);
   std::vector<BoundaryLine> lines;
   for (size_t k = 0; k < chains.node_lists.size(); ++k) {
     const int64_t pair = links.pair[static_cast<size_t>(chains.first_link[k])];
@@ -603,29 +614,5 @@ std::vector<BoundaryLine> chain_lines(const CrossingSet& x, const TripointSet& t
 }
 
 }  // namespace boundary_stages
-
-using namespace boundary_stages;
-
-BoundaryResult extract_boundaries(const NearestField& field, const OwnerIndex& index, const BoundaryOptions& options) {
-  check_whole_grid(field);
-  check_metric(field, index.metric());
-  const GridSpec& g = field.site.grid();
-  const double ftol = std::max(options.tolerance_cells, 1e-15) * cell_metric(g, index.metric());
-  const BoundaryGrid b{field,    index,
-                       g,        g.width,
-                       g.height, resolve_threads(options.threads),
-                       ftol,     owner_of_sites(index.metric().seeds())};
-  // The stages take rows [row0, row1): the shape streaming needs (a strip in, pieces of line out,
-  // joined across strip edges by the chains); here they get the whole grid at once.
-  BoundaryResult result;
-  const CrossingSet crossings = find_crossings(b, 0, b.H, result.stats);
-  TripointSet tripoints = find_tripoints(b, crossings, 0, b.H, result.stats);
-  const Links links = link_squares(b, crossings, tripoints, 0, b.H, result.stats);
-  result.lines = chain_lines(crossings, tripoints, links, options.simplify_cells * g.res, result.stats);
-  for (const Tripoint& t : tripoints.tripoints)
-    result.stats.max_residual = std::max(result.stats.max_residual, t.residual);
-  result.tripoints = std::move(tripoints.tripoints);
-  return result;
-}
 
 }  // namespace rv

@@ -26,6 +26,7 @@
 #include <utility>
 #include <vector>
 
+#include "line_tools.hpp"
 #include "rv/deliverables.hpp"
 
 namespace rv::boundary_stages {
@@ -38,10 +39,11 @@ struct Crossing {
   BoundaryVertex v;
 };
 
-// What every stage of one extraction reads: the field, the metric's index, the grid and the
+// What every stage of one extraction reads: the field's rows (line_tools::FieldRows: a whole
+// field, or the rows of a streamed one the stages are at), the metric's index, the grid and the
 // tolerance, and each cell's owner.
 struct BoundaryGrid {
-  const NearestField& field;
+  line_tools::FieldRows rows;
   const OwnerIndex& index;
   const GridSpec& g;
   int64_t W, H;
@@ -49,10 +51,8 @@ struct BoundaryGrid {
   double ftol;
   std::vector<int32_t> owner_of_site;
 
-  int32_t owner(int64_t c, int64_t r) const {
-    const int32_t s = field.site.at(c, r);
-    return s == kNoSite ? 0 : owner_of_site[static_cast<size_t>(s)];
-  }
+  int32_t owner(int64_t c, int64_t r) const { return owner_code(rows.site(c, r)); }
+  int32_t owner_code(int32_t site) const { return site == kNoSite ? 0 : owner_of_site[static_cast<size_t>(site)]; }
   // The owners of dual square (c, r)'s corners: (c,r), (c+1,r), (c+1,r+1), (c,r+1).
   std::array<int32_t, 4> corner_owners(int64_t c, int64_t r) const {
     return {owner(c, r), owner(c + 1, r), owner(c + 1, r + 1), owner(c, r + 1)};
@@ -75,7 +75,9 @@ struct TripointSet {
   std::unordered_map<int64_t, std::vector<int32_t>> in_square;  // square id -> tripoint ids
 };
 
-// Links between nodes (crossings, then tripoints), each once, with its owner pair's key.
+// Links between nodes, each once, with its owner pair's key. A node is a crossing (its index,
+// >= 0) or a tripoint (tripoint_node(id) < 0: the number of crossings is known only once the
+// last strip is in; chain_lines numbers the tripoints after them).
 struct Links {
   std::vector<std::array<int32_t, 2>> links;
   std::vector<int64_t> pair;                     // pair_key of each link's owners
@@ -87,14 +89,26 @@ struct Links {
   }
 };
 
+inline int32_t tripoint_node(int32_t id) { return -1 - id; }
+
 // A key for the unordered pair of owners {a, b}.
 inline int64_t pair_key(int32_t a, int32_t b) {
   return (static_cast<int64_t>(std::min(a, b)) << 32) | static_cast<int64_t>(std::max(a, b));
 }
 
-CrossingSet find_crossings(const BoundaryGrid& b, int64_t row0, int64_t row1, BoundaryStats& stats);
-TripointSet find_tripoints(const BoundaryGrid& b, const CrossingSet& x, int64_t row0, int64_t row1,
-                           BoundaryStats& stats);
+// Appends the crossings of rows [row0, row1) (rows up to row1 read) to `x`.
+void find_crossings(const BoundaryGrid& b, int64_t row0, int64_t row1, CrossingSet& x, BoundaryStats& stats);
+// Appends the tripoints of the squares of rows [row0, row1) to `t` (a tripoint already in `t`
+// is not added again), and to `unplaced` the multi-owner squares where none converged. Reads
+// the crossings of rows up to row1.
+void find_tripoints(const BoundaryGrid& b, const CrossingSet& x, int64_t row0, int64_t row1, TripointSet& t,
+                    std::vector<std::array<int64_t, 2>>& unplaced, BoundaryStats& stats);
+// Once every square is searched: the unplaced squares that a line must end in and that hold no
+// tripoint (found from a neighbouring square) are counted as unresolved tripoints.
+void count_unresolved(const BoundaryGrid& b, const CrossingSet& x, const TripointSet& t,
+                      const std::vector<std::array<int64_t, 2>>& unplaced, BoundaryStats& stats);
+// The links of the squares of rows [row0, row1): reads the crossings of rows up to row1 and the
+// tripoints filed in squares of rows up to row1 (found from squares up to row1 + 1).
 Links link_squares(const BoundaryGrid& b, const CrossingSet& x, const TripointSet& t, int64_t row0, int64_t row1,
                    BoundaryStats& stats);
 std::vector<BoundaryLine> chain_lines(const CrossingSet& x, const TripointSet& t, const Links& links, double tol,

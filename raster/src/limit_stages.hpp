@@ -22,13 +22,15 @@
 #include <unordered_map>
 #include <vector>
 
+#include "line_tools.hpp"
 #include "rv/deliverables.hpp"
 
 namespace rv::limit_stages {
 
-// What every stage of one extraction reads.
+// What every stage of one extraction reads (rows: line_tools::FieldRows, a whole field or the
+// rows of a streamed one the stages are at).
 struct LimitGrid {
-  const NearestField& field;
+  line_tools::FieldRows rows;
   const OwnerIndex& index;
   const SiteMetric& metric;
   const GridSpec& g;
@@ -54,11 +56,27 @@ struct LimitCrossings {
   std::unordered_map<int64_t, int32_t> at;  // edge -> index
 };
 
-// Rows [row0, row1) of `inside` (W x H flags, row-major; resized to that if smaller): 1 inside.
-void inside_flags(const Target& t, int64_t row0, int64_t row1, std::vector<uint8_t>& inside);
-LimitCrossings limit_crossings(const Target& t, const std::vector<uint8_t>& inside, int64_t row0, int64_t row1);
-std::vector<std::array<int32_t, 2>> limit_links(const Target& t, const std::vector<uint8_t>& inside,
-                                                const LimitCrossings& x, int64_t row0, int64_t row1);
+// The inside flags of rows [row0, row1()), row-major over the grid's width: 1 inside.
+struct InsideRows {
+  int64_t width = 0;
+  int64_t row0 = 0;
+  std::vector<uint8_t> flags;
+  int64_t row1() const { return width == 0 ? row0 : row0 + static_cast<int64_t>(flags.size()) / width; }
+  bool at(int64_t c, int64_t r) const { return flags[static_cast<size_t>((r - row0) * width + c)] != 0; }
+  // Forgets the rows before r.
+  void drop_before(int64_t r);
+};
+
+// Appends the flags of rows [row0, row1) to `inside`, which must end at row0 (or be empty: it
+// then starts there).
+void inside_flags(const Target& t, int64_t row0, int64_t row1, InsideRows& inside);
+// The crossings of rows [row0, row1); reads the flags of rows up to row1.
+LimitCrossings limit_crossings(const Target& t, const InsideRows& inside, int64_t row0, int64_t row1);
+// Appends the crossings of `part` (the rows after those of `x`) to `x`.
+void append(LimitCrossings& x, LimitCrossings&& part);
+// The links of the squares of rows [row0, row1); reads flags and crossings of rows up to row1.
+std::vector<std::array<int32_t, 2>> limit_links(const Target& t, const InsideRows& inside, const LimitCrossings& x,
+                                                int64_t row0, int64_t row1);
 // Appends the lines to result.lines (and its vertex count and largest residual).
 void chain_limit_lines(const Target& t, const LimitCrossings& x, const std::vector<std::array<int32_t, 2>>& links,
                        double tol, LimitResult& result);

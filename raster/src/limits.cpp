@@ -55,7 +55,7 @@ int settle_block(const Target& t, int64_t c0, int64_t r0, int64_t c1, int64_t r1
 
 bool cell_inside(const Target& t, int64_t c, int64_t r, int32_t s) {
   const LimitGrid& lg = t.grid;
-  const double d = lg.field.distance.at(c, r);
+  const double d = lg.rows.distance(c, r);
   const bool own = t.owner == 0 || lg.owner_of_site[static_cast<size_t>(s)] == t.owner;
   if (own && std::abs(d - t.D) > 1e-6 * (t.D + lg.cell)) return d <= t.D;
   if (!own && d > t.D + 1e-6 * (t.D + lg.cell)) return false;  // d_owner >= d > D
@@ -64,9 +64,23 @@ bool cell_inside(const Target& t, int64_t c, int64_t r, int32_t s) {
 
 }  // namespace
 
-void inside_flags(const Target& t, int64_t row0, int64_t row1, std::vector<uint8_t>& inside) {
+void InsideRows::drop_before(int64_t r) {
+  r = std::clamp(r, row0, row1());
+  flags.erase(flags.begin(), flags.begin() + static_cast<std::ptrdiff_t>((r - row0) * width));
+  row0 = r;
+}
+
+void inside_flags(const Target& t, int64_t row0, int64_t row1, InsideRows& inside) {
   const LimitGrid& lg = t.grid;
-  inside.resize(static_cast<size_t>(lg.W * lg.H), 0);
+  if (inside.flags.empty()) {
+    inside.width = lg.W;
+    inside.row0 = row0;
+  }
+  if (inside.row1() != row0 || row1 < row0)
+    throw Error(ErrorKind::invalid_argument, "inside flags are appended in row order");
+  const size_t base = inside.flags.size();
+  inside.flags.resize(base + static_cast<size_t>((row1 - row0) * lg.W));
+  uint8_t* out = inside.flags.data() + base;
   const int64_t bw = (lg.W + kBlock - 1) / kBlock, b0 = row0 / kBlock, b1 = (row1 + kBlock - 1) / kBlock;
   detail::parallel_for(lg.threads, b1 - b0, [&](int64_t k, int) {
     const int64_t br = b0 + k;
@@ -77,11 +91,10 @@ void inside_flags(const Target& t, int64_t row0, int64_t row1, std::vector<uint8
       const int settled = settle_block(t, c0, r0, c1, r1);
       for (int64_t r = r0; r < r1; ++r)
         for (int64_t c = c0; c < c1; ++c) {
-          const int32_t s = lg.field.site.at(c, r);
-          // No site: beyond the field's max distance, outside every limit. (Every flag of the
-          // rows is written: a strip's buffer may hold an earlier strip's.)
+          const int32_t s = lg.rows.site(c, r);
+          // No site: beyond the field's max distance, outside every limit.
           const bool in = s != kNoSite && (settled >= 0 ? settled == 1 : cell_inside(t, c, r, s));
-          inside[static_cast<size_t>(r * lg.W + c)] = in ? 1 : 0;
+          out[static_cast<size_t>((r - row0) * lg.W + c)] = in ? 1 : 0;
         }
     }
   });
@@ -90,10 +103,10 @@ void inside_flags(const Target& t, int64_t row0, int64_t row1, std::vector<uint8
 // ---- Stage 2: crossings ----------------------------------------------------------------------
 // Every edge between an inside and an outside cell, its vertex placed at distance D.
 
-LimitCrossings limit_crossings(const Target& t, const std::vector<uint8_t>& inside, int64_t row0, int64_t row1) {
+LimitCrossings limit_crossings(const Target& t, const InsideRows& inside, int64_t row0, int64_t row1) {
   const LimitGrid& lg = t.grid;
   const int64_t W = lg.W, H = lg.H;
-  auto in_at = [&](int64_t c, int64_t r) { return inside[static_cast<size_t>(r * W + c)] != 0; };
+  auto in_at = [&](int64_t c, int64_t r) { return inside.at(c, r); };
   LimitCrossings x;
   x.edges = scan_rows<int64_t>(lg.threads, row0, row1, [&](int64_t r, std::vector<int64_t>& edges) {
     for (int64_t c = 0; c < W; ++c) {
@@ -116,8 +129,7 @@ LimitCrossings limit_crossings(const Target& t, const std::vector<uint8_t>& insi
       // edge: edge_reach), bounded by the inside cell's site, and each query measures only
       // those: the same hits as Target::at.
       const int64_t ci = (x.edges[i] % 2 == 0) ? c + 1 : c, ri = (x.edges[i] % 2 == 0) ? r : r + 1;
-      const int32_t hint =
-          inside[static_cast<size_t>(r * W + c)] != 0 ? lg.field.site.at(c, r) : lg.field.site.at(ci, ri);
+      const int32_t hint = inside.at(c, r) ? lg.rows.site(c, r) : lg.rows.site(ci, ri);
       const Vec2 mid = lerp(p0, p1, 0.5);
       const double reach = edge_reach(lg.metric, mid, p0, p1);
       if (t.owner != 0)
@@ -148,14 +160,21 @@ LimitCrossings limit_crossings(const Target& t, const std::vector<uint8_t>& insi
   return x;
 }
 
+void append(LimitCrossings& x, LimitCrossings&& part) {
+  const auto base = static_cast<int32_t>(x.edges.size());
+  for (size_t i = 0; i < part.edges.size(); ++i) x.at.emplace(part.edges[i], base + static_cast<int32_t>(i));
+  x.edges.insert(x.edges.end(), part.edges.begin(), part.edges.end());
+  x.verts.insert(x.verts.end(), part.verts.begin(), part.verts.end());
+}
+
 // ---- Stage 3: links --------------------------------------------------------------------------
 // Per dual square, its two crossings joined; a saddle's four by the side of its centre.
 
-std::vector<std::array<int32_t, 2>> limit_links(const Target& t, const std::vector<uint8_t>& inside,
-                                                const LimitCrossings& x, int64_t row0, int64_t row1) {
+std::vector<std::array<int32_t, 2>> limit_links(const Target& t, const InsideRows& inside, const LimitCrossings& x,
+                                                int64_t row0, int64_t row1) {
   const LimitGrid& lg = t.grid;
   const int64_t W = lg.W, H = lg.H;
-  auto in_at = [&](int64_t c, int64_t r) { return inside[static_cast<size_t>(r * W + c)] != 0; };
+  auto in_at = [&](int64_t c, int64_t r) { return inside.at(c, r); };
   using Link = std::array<int32_t, 2>;
   return scan_rows<Link>(lg.threads, row0, std::min(row1, H - 1), [&](int64_t r, std::vector<Link>& links) {
     for (int64_t c = 0; c + 1 < W; ++c) {
@@ -210,45 +229,5 @@ void chain_limit_lines(const Target& t, const LimitCrossings& x, const std::vect
 }
 
 }  // namespace limit_stages
-
-using namespace limit_stages;
-
-LimitResult extract_limits(const NearestField& field, const OwnerIndex& index, std::span<const double> distances,
-                           const LimitOptions& options) {
-  check_whole_grid(field);
-  check_metric(field, index.metric());
-  for (double d : distances)
-    if (!std::isfinite(d) || d <= 0.0)
-      throw Error(ErrorKind::invalid_argument, "limit distances must be positive finite numbers");
-  const GridSpec& g = field.site.grid();
-  const SiteMetric& metric = index.metric();
-  const double cell = cell_metric(g, metric);
-  const LimitGrid lg{field,
-                     index,
-                     metric,
-                     g,
-                     g.width,
-                     g.height,
-                     resolve_threads(options.threads),
-                     cell,
-                     std::max(options.tolerance_cells, 1e-15) * cell,
-                     owner_of_sites(metric.seeds())};
-  std::vector<int32_t> owners = {0};
-  if (options.per_owner) {
-    owners.clear();
-    for (int32_t o = 1; o <= metric.seeds().owner_count(); ++o) owners.push_back(o);
-  }
-  LimitResult result;
-  for (double D : distances)
-    for (int32_t owner : owners) {
-      const Target t{lg, owner, D};
-      // The stages take rows [row0, row1), the shape streaming needs; here the whole grid.
-      std::vector<uint8_t> inside;
-      inside_flags(t, 0, lg.H, inside);
-      const LimitCrossings x = limit_crossings(t, inside, 0, lg.H);
-      chain_limit_lines(t, x, limit_links(t, inside, x, 0, lg.H), options.simplify_cells * g.res, result);
-    }
-  return result;
-}
 
 }  // namespace rv

@@ -59,6 +59,36 @@ Chains chain_links(int32_t node_count, const std::vector<std::array<int32_t, 2>>
   return out;
 }
 
+void FieldRows::set_strip(const NearestField& strip) {
+  const Window w = strip.site.window();
+  if (w.col0 != 0 || w.width != strip.site.grid().width || !(strip.distance.window() == w) ||
+      (started_ && (w.width != width_ || w.row0 != strip_row1_)))
+    throw Error(ErrorKind::invalid_argument, "strips of a field must be whole rows of the grid, in order");
+  if (!started_) carry_row0_ = w.row0;
+  started_ = true;
+  strip_ = &strip;
+  width_ = w.width;
+  strip_row0_ = w.row0;
+  strip_row1_ = w.row0 + w.height;
+}
+
+void FieldRows::keep_from(int64_t from) {
+  from = std::clamp(from, carry_row0_, strip_row1_);
+  const auto n = static_cast<size_t>((strip_row1_ - from) * width_);
+  std::vector<int32_t> site(n);
+  std::vector<float> distance(n);
+  for (int64_t r = from; r < strip_row1_; ++r) {
+    const auto at = static_cast<size_t>((r - from) * width_);
+    std::copy_n(site_row(r), width_, site.begin() + static_cast<std::ptrdiff_t>(at));
+    std::copy_n(distance_row(r), width_, distance.begin() + static_cast<std::ptrdiff_t>(at));
+  }
+  carry_site_ = std::move(site);
+  carry_distance_ = std::move(distance);
+  carry_row0_ = from;
+  strip_row0_ = strip_row1_;  // the strip in hand is now all carried (or dropped)
+  strip_ = nullptr;
+}
+
 void check_metric(const NearestField& field, const SiteMetric& metric) {
   // A projected geodesic field needs a metric that locates grid positions on the ellipsoid,
   // and only such a field may use one.

@@ -87,6 +87,40 @@ inline double edge_reach(const SiteMetric& m, Vec2 mid, Vec2 p0, Vec2 p1) {
   return 1.01 * std::max(m.point_distance(mid, p0), m.point_distance(mid, p1)) + 1e-9;
 }
 
+// The rows of a field the stages read, by absolute grid row: one whole field, or (a streamed
+// extraction) the strip in hand preceded by the rows kept from the strips before it. Holds a
+// pointer to the strip, which must stay alive and unchanged until the next set_strip().
+class FieldRows {
+ public:
+  FieldRows() = default;
+  FieldRows(const NearestField& whole) { set_strip(whole); }  // NOLINT: a whole field converts
+  // The next strip: full rows of the grid, starting at row1() (or any row when nothing is
+  // held). Throws rv::Error(invalid_argument) for a strip of other columns or out of order.
+  void set_strip(const NearestField& strip);
+  // Copies rows [from, row1()) (from >= row0()) so that they outlive the strip in hand.
+  void keep_from(int64_t from);
+  int64_t row0() const { return carry_row0_; }  // the first row held
+  int64_t row1() const { return strip_row1_; }  // one past the last
+  const int32_t* site_row(int64_t r) const {
+    return r >= strip_row0_ ? strip_->site.row(r - strip_row0_) : carry_site_.data() + (r - carry_row0_) * width_;
+  }
+  const float* distance_row(int64_t r) const {
+    return r >= strip_row0_ ? strip_->distance.row(r - strip_row0_)
+                            : carry_distance_.data() + (r - carry_row0_) * width_;
+  }
+  int32_t site(int64_t c, int64_t r) const { return site_row(r)[c]; }
+  float distance(int64_t c, int64_t r) const { return distance_row(r)[c]; }
+
+ private:
+  const NearestField* strip_ = nullptr;
+  bool started_ = false;
+  int64_t width_ = 0;
+  int64_t strip_row0_ = 0, strip_row1_ = 0;
+  int64_t carry_row0_ = 0;  // carry rows are [carry_row0_, strip_row0_)
+  std::vector<int32_t> carry_site_;
+  std::vector<float> carry_distance_;
+};
+
 // Links between graph nodes; chains them into polylines. A chain starts and stops at terminal
 // nodes (tripoints, or nodes of degree other than 2); what is left are closed rings.
 struct Chains {

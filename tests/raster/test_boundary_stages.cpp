@@ -40,6 +40,22 @@ Vec2 circumcentre(const std::vector<Vec2>& p) {
               (a2 * (cx - bx) + b2 * (ax - cx) + c2 * (bx - ax)) / d};
 }
 
+// The crossings of rows [r0, r1) alone.
+CrossingSet crossings_of(const BoundaryGrid& b, int64_t r0, int64_t r1, BoundaryStats& stats) {
+  CrossingSet x;
+  find_crossings(b, r0, r1, x, stats);
+  return x;
+}
+
+// The tripoints of the squares of rows [r0, r1) alone.
+TripointSet tripoints_of(const BoundaryGrid& b, const CrossingSet& x, int64_t r0, int64_t r1, BoundaryStats& stats) {
+  TripointSet t;
+  std::vector<std::array<int64_t, 2>> unplaced;
+  find_tripoints(b, x, r0, r1, t, unplaced, stats);
+  count_unresolved(b, x, t, unplaced, stats);
+  return t;
+}
+
 // The first three stages over the whole field.
 struct Stages {
   BoundaryStats stats;
@@ -47,8 +63,8 @@ struct Stages {
   TripointSet t;
   Links links;
   explicit Stages(const Case& k)
-      : x(find_crossings(k.b, 0, 100, stats)),
-        t(find_tripoints(k.b, x, 0, 100, stats)),
+      : x(crossings_of(k.b, 0, 100, stats)),
+        t(tripoints_of(k.b, x, 0, 100, stats)),
         links(link_squares(k.b, x, t, 0, 100, stats)) {}
 };
 
@@ -64,7 +80,7 @@ std::vector<Key> keys(const CrossingSet& x) {
 TEST(BoundaryStages, CrossingsLieOnTheBisectorsOfTheirOwners) {
   const Case k(kThree);
   BoundaryStats stats;
-  const CrossingSet x = find_crossings(k.b, 0, k.grid.height, stats);
+  const CrossingSet x = crossings_of(k.b, 0, k.grid.height, stats);
   ASSERT_GT(x.crossings.size(), 100u);
   for (const Crossing& c : x.crossings) {
     ASSERT_LT(c.owner_lo, c.owner_hi);
@@ -97,10 +113,10 @@ TEST(BoundaryStages, CrossingsLieOnTheBisectorsOfTheirOwners) {
 TEST(BoundaryStages, StripsOfCrossingsAreTheWholeFieldsCrossings) {
   const Case k(kThree);
   BoundaryStats whole_stats, strip_stats;
-  const std::vector<Key> whole = keys(find_crossings(k.b, 0, 100, whole_stats));
+  const std::vector<Key> whole = keys(crossings_of(k.b, 0, 100, whole_stats));
   std::vector<Key> strips;
   for (int64_t r0 = 0; r0 < 100; r0 += 37) {
-    const std::vector<Key> part = keys(find_crossings(k.b, r0, std::min<int64_t>(r0 + 37, 100), strip_stats));
+    const std::vector<Key> part = keys(crossings_of(k.b, r0, std::min<int64_t>(r0 + 37, 100), strip_stats));
     strips.insert(strips.end(), part.begin(), part.end());
   }
   std::sort(strips.begin(), strips.end());
@@ -111,8 +127,8 @@ TEST(BoundaryStages, StripsOfCrossingsAreTheWholeFieldsCrossings) {
 TEST(BoundaryStages, TheTripointIsTheCircumcentreInItsSquare) {
   const Case k(kThree);
   BoundaryStats stats;
-  const CrossingSet x = find_crossings(k.b, 0, 100, stats);
-  const TripointSet t = find_tripoints(k.b, x, 0, 100, stats);
+  const CrossingSet x = crossings_of(k.b, 0, 100, stats);
+  const TripointSet t = tripoints_of(k.b, x, 0, 100, stats);
   ASSERT_EQ(t.tripoints.size(), 1u);
   const Tripoint& tp = t.tripoints[0];
   const Vec2 cc = circumcentre(kThree);
@@ -128,8 +144,8 @@ TEST(BoundaryStages, TheTripointIsTheCircumcentreInItsSquare) {
   EXPECT_EQ(t.by_owners.count({1, 2, 3}), 1u);
   // A strip of rows without the tripoint's square finds none; the strip holding it finds it.
   BoundaryStats s2;
-  EXPECT_TRUE(find_tripoints(k.b, x, 0, r, s2).tripoints.empty());
-  EXPECT_EQ(find_tripoints(k.b, x, r, r + 1, s2).tripoints.size(), 1u);
+  EXPECT_TRUE(tripoints_of(k.b, x, 0, r, s2).tripoints.empty());
+  EXPECT_EQ(tripoints_of(k.b, x, r, r + 1, s2).tripoints.size(), 1u);
 }
 
 TEST(BoundaryStages, LinksJoinEachCrossingToItsNeighboursAlongTheLine) {
@@ -141,7 +157,10 @@ TEST(BoundaryStages, LinksJoinEachCrossingToItsNeighboursAlongTheLine) {
   const auto n = static_cast<int32_t>(x.crossings.size());
   std::vector<int> degree(static_cast<size_t>(n) + t.tripoints.size(), 0);
   for (size_t i = 0; i < links.links.size(); ++i) {
-    const auto [a, b] = links.links[i];
+    // Tripoints are the negative nodes; numbered after the crossings here, as the chains do.
+    auto [a, b] = links.links[i];
+    if (a < 0) a = n + tripoint_node(a);
+    if (b < 0) b = n + tripoint_node(b);
     ++degree[static_cast<size_t>(a)];
     ++degree[static_cast<size_t>(b)];
     // A link joins two nodes of one owner pair (a tripoint belongs to three).

@@ -12,6 +12,7 @@
 #include "line_tools.hpp"
 #include "rv/deliverables.hpp"
 #include "rv/engine.hpp"
+#include "rv/error.hpp"
 #include "seed_gen.hpp"
 
 namespace rv::limit_stages {
@@ -33,20 +34,27 @@ TEST(LimitStages, InsideIsWithinTheDistanceForAllSeedsAndPerOwner) {
   const Case k(kPoints);
   for (int32_t owner : {0, 1, 2}) {
     const Target t{k.lg, owner, 17.25};
-    std::vector<uint8_t> inside;
+    InsideRows inside;
     inside_flags(t, 0, k.grid.height, inside);
     int64_t in = 0;
     for (int64_t r = 0; r < k.grid.height; ++r)
       for (int64_t c = 0; c < k.grid.width; ++c) {
         const bool expected = k.d(line_tools::centre(k.grid, c, r), owner) <= 17.25;
-        ASSERT_EQ(inside[static_cast<size_t>(r * k.grid.width + c)] != 0, expected) << owner << ": " << c << ", " << r;
+        ASSERT_EQ(inside.at(c, r), expected) << owner << ": " << c << ", " << r;
         in += expected;
       }
     EXPECT_GT(in, 800);
-    // Strips of rows fill the same flags, also over a buffer holding other flags.
-    std::vector<uint8_t> strips(inside.size(), 1);
+    // Strips of rows appended one after another make the same flags.
+    InsideRows strips;
     for (int64_t r0 = 0; r0 < k.grid.height; r0 += 11) inside_flags(t, r0, std::min<int64_t>(r0 + 11, 100), strips);
-    EXPECT_EQ(strips, inside) << owner;
+    EXPECT_EQ(strips.flags, inside.flags) << owner;
+    // Rows dropped from the front keep the others where they were.
+    strips.drop_before(40);
+    EXPECT_EQ(strips.row0, 40);
+    EXPECT_EQ(strips.row1(), 100);
+    for (int64_t c = 0; c < k.grid.width; ++c) ASSERT_EQ(strips.at(c, 57), inside.at(c, 57));
+    // Flags are appended in row order only.
+    EXPECT_THROW(inside_flags(t, 10, 20, strips), Error);
   }
 }
 
@@ -54,13 +62,13 @@ TEST(LimitStages, CellsBeyondTheFieldsMaxDistanceAreOutsideInEveryStrip) {
   // The field has no site beyond 20: a limit at 25 is drawn where the field ends.
   const Case k(kPoints, 20.0);
   const Target t{k.lg, 0, 25.0};
-  std::vector<uint8_t> strips(static_cast<size_t>(k.grid.cell_count()), 1);  // another strip's flags
+  InsideRows strips;
   for (int64_t r0 = 0; r0 < k.grid.height; r0 += 13) inside_flags(t, r0, std::min<int64_t>(r0 + 13, 100), strips);
   int64_t in = 0;
   for (int64_t r = 0; r < k.grid.height; ++r)
     for (int64_t c = 0; c < k.grid.width; ++c) {
       const bool expected = k.field.site.at(c, r) != kNoSite;  // within 20, hence within 25
-      ASSERT_EQ(strips[static_cast<size_t>(r * k.grid.width + c)] != 0, expected) << c << ", " << r;
+      ASSERT_EQ(strips.at(c, r), expected) << c << ", " << r;
       in += expected;
     }
   EXPECT_GT(in, 1000);
@@ -70,7 +78,7 @@ TEST(LimitStages, CellsBeyondTheFieldsMaxDistanceAreOutsideInEveryStrip) {
 TEST(LimitStages, CrossingsLieAtTheDistanceOnTheirEdges) {
   const Case k(kPoints);
   const Target t{k.lg, 0, 17.25};
-  std::vector<uint8_t> inside;
+  InsideRows inside;
   inside_flags(t, 0, 100, inside);
   const LimitCrossings x = limit_crossings(t, inside, 0, 100);
   ASSERT_GT(x.edges.size(), 100u);
@@ -92,7 +100,7 @@ TEST(LimitStages, LinksAndChainsCloseEachCircle) {
   const Case k(kPoints);
   for (int32_t owner : {0, 1}) {
     const Target t{k.lg, owner, 17.25};
-    std::vector<uint8_t> inside;
+    InsideRows inside;
     inside_flags(t, 0, 100, inside);
     const LimitCrossings x = limit_crossings(t, inside, 0, 100);
     const auto links = limit_links(t, inside, x, 0, 100);

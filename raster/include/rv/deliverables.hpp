@@ -318,6 +318,50 @@ struct LimitResult {
 LimitResult extract_limits(const NearestField& field, const OwnerIndex& index, std::span<const double> distances,
                            const LimitOptions& options = {});
 
+// What StripLines extracts: boundaries and tripoints (extract_boundaries), and limit lines at
+// the given distances (extract_limits).
+struct LineRequest {
+  bool boundaries = false;
+  BoundaryOptions boundary;
+  std::vector<double> limit_distances;  // metric units, > 0; none: no limit lines
+  LimitOptions limit;
+};
+
+// Boundaries, tripoints and limit lines taken in strip by strip from an exact field that is
+// computed in strips (a streamed job: the whole field never exists). The result equals
+// extract_boundaries' and extract_limits' on the whole field, vertex for vertex, whatever the
+// strips' heights: each stage runs over the rows whose neighbours have arrived, a few rows
+// behind the last strip, and the pieces are chained into lines once the last row is in.
+// Memory: a few rows of the field (copied from each strip before the next) and the lines'
+// pieces, in proportion to the lines' length, not to the grid.
+// Keeps references to `index` (and its metric and seeds); `grid` is copied.
+// Thread safety: one StripLines per extraction, used from one thread at a time; it runs its
+// stages on request.*.threads threads.
+class StripLines {
+ public:
+  // Throws rv::Error(invalid_argument) for a non-positive or non-finite limit distance.
+  StripLines(const GridSpec& grid, const OwnerIndex& index, const LineRequest& request);
+  ~StripLines();
+  StripLines(StripLines&&) noexcept;
+  StripLines& operator=(StripLines&&) noexcept;
+
+  // The next strip: whole rows of the grid, the first at row 0, each starting where the last
+  // ended; its metric the index's. The strip is read during the call only. Throws
+  // rv::Error(invalid_argument) otherwise (nothing taken in). After any other exception (the
+  // stages' own) the extraction cannot go on.
+  void add(const NearestField& strip);
+  // Rows taken in so far.
+  int64_t rows() const;
+  // After the last row: the lines. Throws rv::Error(invalid_argument) when rows are missing.
+  // Each may be called once.
+  BoundaryResult take_boundaries();
+  LimitResult take_limits();
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
 // For every cell owned by owner O: the distance to the nearest site of another owner, minus the
 // distance to its own nearest site (>= 0, metric units, Float32). kNoDistance (-1) where the
 // cell has no owner or the seed set has a single owner. A cell inside polygons of two owners

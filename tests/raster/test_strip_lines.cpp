@@ -1,0 +1,186 @@
+// StripLines (rv/deliverables.hpp): boundaries, tripoints and limit lines taken in strip by
+// strip equal the whole field's, vertex for vertex, for every strip height (one row, a few, more
+// than the stages' lags, uneven), planar and geodesic, with polygons, lines, points, four owners
+// and a max distance; strips out of order and early requests are refused.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <random>
+#include <vector>
+
+#include "rv/deliverables.hpp"
+#include "rv/engine.hpp"
+#include "rv/error.hpp"
+#include "seed_gen.hpp"
+
+namespace rv {
+namespace {
+
+// Points, lines and a polygon (an island) of four owners, spread over [0, 60] x [0, 45].
+SeedSet mixed_seeds(uint32_t seed, double scale = 1.0, Vec2 origin = {0.0, 0.0}) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> ux(2, 58), uy(2, 43);
+  auto at = [&](double x, double y) { return Vec2{origin.x + x * scale, origin.y + y * scale}; };
+  SeedSet s;
+  for (int i = 0; i < 16; ++i) {
+    const int32_t f = s.add_feature(s.owner_code("o" + std::to_string(1 + i % 4)));
+    const double x = ux(rng), y = uy(rng);
+    if (i % 4 == 1) {
+      const std::vector<Vec2> line{at(x, y), at(x + 3.1, y + 1.7), at(x + 4.2, y - 2.3)};
+      s.add_polyline(f, line);
+    } else if (i == 6) {
+      s.add_polygon(f, {{at(x, y), at(x + 4.5, y), at(x + 4.0, y + 3.5), at(x, y + 3.0), at(x, y)}});
+    } else {
+      s.add_point(f, at(x, y));
+    }
+  }
+  return s;
+}
+
+struct Case {
+  SeedSet seeds;
+  GridSpec grid;
+  ComputeOptions compute;
+  std::unique_ptr<SiteMetric> metric;
+  std::unique_ptr<OwnerIndex> index;
+  NearestField whole;
+  LineRequest request;
+
+  Case(SeedSet s, GridSpec g, bool geodesic, double max_distance) : seeds(std::move(s)), grid(g) {
+    compute.threads = 2;
+    compute.max_distance = max_distance;
+    if (geodesic) {
+      compute.metric.kind = MetricSpec::geodesic;
+      metric = std::make_unique<GeodesicSiteMetric>(seeds, compute.metric);
+    } else {
+      metric = std::make_unique<PlanarSiteMetric>(seeds, Vec2{g.xmin, g.ymax});
+    }
+    index = std::make_unique<OwnerIndex>(*metric);
+    whole = rv::compute(seeds, grid, compute);
+    request.boundaries = true;
+    request.boundary.threads = 2;
+    request.limit.threads = 2;
+    request.limit.per_owner = false;
+  }
+
+  // The lines from strips of the given heights (cycled until the grid is covered).
+  StripLines strips(const std::vector<int64_t>& heights) const {
+    StripLines lines(grid, *index, request);
+    NearestField strip;
+    ComputeOptions o = compute;
+    for (int64_t row0 = 0, k = 0; row0 < grid.height; ++k) {
+      const int64_t h = std::min(heights[static_cast<size_t>(k) % heights.size()], grid.height - row0);
+      o.window = Window{0, row0, grid.width, h};
+      compute_into(seeds, grid, o, strip);
+      lines.add(strip);
+      row0 += h;
+    }
+    return lines;
+  }
+};
+
+void expect_same(const BoundaryResult& a, const BoundaryResult& b) {
+  ASSERT_EQ(a.lines.size(), b.lines.size());
+  for (size_t i = 0; i < a.lines.size(); ++i) {
+    EXPECT_EQ(a.lines[i].owner_a, b.lines[i].owner_a);
+    EXPECT_EQ(a.lines[i].owner_b, b.lines[i].owner_b);
+    EXPECT_EQ(a.lines[i].closed, b.lines[i].closed);
+    ASSERT_EQ(a.lines[i].vertices.size(), b.lines[i].vertices.size()) << "line " << i;
+    for (size_t k = 0; k < a.lines[i].vertices.size(); ++k) {
+      const BoundaryVertex &u = a.lines[i].vertices[k], &v = b.lines[i].vertices[k];
+      ASSERT_EQ(u.p, v.p) << "line " << i << " vertex " << k;
+      ASSERT_EQ(u.site_a, v.site_a);
+      ASSERT_EQ(u.site_b, v.site_b);
+      ASSERT_EQ(u.distance, v.distance);
+    }
+  }
+  ASSERT_EQ(a.tripoints.size(), b.tripoints.size());
+  for (size_t i = 0; i < a.tripoints.size(); ++i) EXPECT_EQ(a.tripoints[i].p, b.tripoints[i].p);
+  EXPECT_EQ(a.stats.crossings, b.stats.crossings);
+  EXPECT_EQ(a.stats.sliver_crossings, b.stats.sliver_crossings);
+  EXPECT_EQ(a.stats.saddles, b.stats.saddles);
+  EXPECT_EQ(a.stats.multi_owner_squares, b.stats.multi_owner_squares);
+  EXPECT_EQ(a.stats.unresolved_tripoints, b.stats.unresolved_tripoints);
+  EXPECT_EQ(a.stats.vertices, b.stats.vertices);
+  EXPECT_EQ(a.stats.max_residual, b.stats.max_residual);
+}
+
+void expect_same(const LimitResult& a, const LimitResult& b) {
+  ASSERT_EQ(a.lines.size(), b.lines.size());
+  for (size_t i = 0; i < a.lines.size(); ++i) {
+    EXPECT_EQ(a.lines[i].distance, b.lines[i].distance);
+    EXPECT_EQ(a.lines[i].owner, b.lines[i].owner);
+    EXPECT_EQ(a.lines[i].closed, b.lines[i].closed);
+    ASSERT_EQ(a.lines[i].vertices.size(), b.lines[i].vertices.size()) << "line " << i;
+    for (size_t k = 0; k < a.lines[i].vertices.size(); ++k) {
+      ASSERT_EQ(a.lines[i].vertices[k].p, b.lines[i].vertices[k].p) << "line " << i << " vertex " << k;
+      ASSERT_EQ(a.lines[i].vertices[k].site, b.lines[i].vertices[k].site);
+    }
+  }
+  EXPECT_EQ(a.vertices, b.vertices);
+  EXPECT_EQ(a.max_residual, b.max_residual);
+}
+
+void check_every_strip_height(Case& k, std::vector<double> limits) {
+  k.request.limit_distances = limits;
+  for (bool per_owner : {false, true}) {
+    k.request.limit.per_owner = per_owner;
+    const BoundaryResult whole_b = extract_boundaries(k.whole, *k.index, k.request.boundary);
+    const LimitResult whole_l = extract_limits(k.whole, *k.index, limits, k.request.limit);
+    ASSERT_GT(whole_b.lines.size(), 3u);
+    ASSERT_GT(whole_b.tripoints.size(), 0u);
+    ASSERT_GT(whole_l.lines.size(), 0u);
+    for (const std::vector<int64_t>& heights : std::vector<std::vector<int64_t>>{{1}, {2}, {3}, {5, 1, 9}, {64}}) {
+      SCOPED_TRACE("strips of " + std::to_string(heights.front()) + " rows, per owner " + std::to_string(per_owner));
+      StripLines lines = k.strips(heights);
+      EXPECT_EQ(lines.rows(), k.grid.height);
+      expect_same(lines.take_boundaries(), whole_b);
+      expect_same(lines.take_limits(), whole_l);
+    }
+  }
+}
+
+TEST(StripLines, PlanarStripsGiveTheWholeFieldsLines) {
+  for (uint32_t seed : {3u, 11u}) {
+    Case k(mixed_seeds(seed), test::grid_of(60, 45), false, std::numeric_limits<double>::infinity());
+    check_every_strip_height(k, {2.5, 6.0});
+  }
+}
+
+TEST(StripLines, StripsWithAMaxDistanceGiveTheWholeFieldsLines) {
+  // Cells beyond 9 units have no owner: lines stop there, limits beyond it follow the field's end.
+  Case k(mixed_seeds(5), test::grid_of(60, 45), false, 9.0);
+  check_every_strip_height(k, {4.0, 12.0});
+}
+
+TEST(StripLines, GeodesicStripsGiveTheWholeFieldsLines) {
+  // Degrees around 12 E 55 N: 0.02 degree cells (about 1.3 x 2.2 km).
+  Case k(mixed_seeds(7, 0.02, {11.4, 54.6}), GridSpec{11.4, 55.5, 0.02, 60, 45}, true,
+         std::numeric_limits<double>::infinity());
+  check_every_strip_height(k, {3000.0, 8000.0});
+}
+
+TEST(StripLines, StripsOutOfOrderAndEarlyRequestsAreRefused) {
+  Case k(mixed_seeds(3), test::grid_of(60, 45), false, std::numeric_limits<double>::infinity());
+  k.request.limit_distances = {3.0};
+  StripLines lines(k.grid, *k.index, k.request);
+  NearestField strip;
+  ComputeOptions o = k.compute;
+  o.window = Window{0, 10, k.grid.width, 5};  // not row 0
+  compute_into(k.seeds, k.grid, o, strip);
+  EXPECT_THROW(lines.add(strip), Error);
+  o.window = Window{0, 0, 30, 5};  // not whole rows
+  compute_into(k.seeds, k.grid, o, strip);
+  EXPECT_THROW(lines.add(strip), Error);
+  o.window = Window{0, 0, k.grid.width, 5};
+  compute_into(k.seeds, k.grid, o, strip);
+  lines.add(strip);
+  EXPECT_EQ(lines.rows(), 5);
+  EXPECT_THROW(lines.take_boundaries(), Error);  // rows missing
+  EXPECT_THROW(lines.add(strip), Error);         // the same rows again
+  EXPECT_THROW(StripLines(k.grid, *k.index, LineRequest{false, {}, {0.0}, {}}), Error);
+}
+
+}  // namespace
+}  // namespace rv
