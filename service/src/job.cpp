@@ -185,6 +185,27 @@ constexpr int64_t kTileRows = 256;  // GeoTiffStripWriter's tile height
 // flight and a raw tile per encoding thread (vector/src/raster_io.cpp, kChunkTiles).
 constexpr int64_t kWriterBytes = int64_t{12} << 20;
 
+// What a streamed job's deliverables hold besides the strips: the margin of a strip (the other
+// owner's field and the margin), a few rows kept per line set, the preview's sample, the owner
+// raster's file for regions when not asked for (one more writer), and the lines' pieces, which
+// grow with the lines' length, not the grid's area: taken as kLineBytes per cell of the grid's
+// width and height per line set (boundaries; each limit distance, times the owners per owner).
+constexpr int64_t kLineBytes = 2048;
+
+int64_t deliverables_memory(const JobSpec& spec, const GridSpec& grid, int64_t strip_cells) {
+  const OutputRequest& out = spec.outputs;
+  int64_t bytes = 0;
+  if (!out.margin.empty()) bytes += strip_cells * 12 + kTileRows * grid.width * 4 + kWriterBytes;
+  if (!out.regions.empty() && out.ownership.empty())
+    bytes += strip_cells * 4 + kTileRows * grid.width * 4 + kWriterBytes;
+  if (!out.preview.empty()) bytes += int64_t{2000} * 2000 * 4;
+  const int64_t line_sets =
+      (!out.boundaries.empty() || !out.tripoints.empty() || !out.preview.empty()) +
+      (out.limits.empty() ? 0 : static_cast<int64_t>(std::max<size_t>(out.limit_distances.size(), 1)));
+  bytes += line_sets * ((grid.width + grid.height) * kLineBytes + 8 * grid.width * 9);
+  return bytes;
+}
+
 }  // namespace
 
 int64_t seed_memory_bytes(const LoadedSeeds& loaded) {
@@ -206,13 +227,11 @@ JobPlan plan_job(const JobSpec& spec, const GridSpec& grid, int64_t sites, Metri
   const int64_t rasters = int_rasters + !out.distance.empty();
   if (spec.method != Method::exact && spec.method != Method::brute_force)
     p.why_whole = "the scan methods propagate inside a window: a strip would differ from the whole grid";
-  else if (out.any_deliverable())
-    p.why_whole = "deliverables need the whole field";
   else if (out.cloud_optimized)
     p.why_whole = "a COG is made by copying a complete dataset";
   else if (spec.validate)
     p.why_whole = "validation compares whole fields";
-  else if (rasters == 0)
+  else if (rasters == 0 && !out.any_deliverable())
     p.why_whole = "no raster output";
   else if (spec.strip_rows < 0)
     p.why_whole = "streaming turned off";
@@ -230,6 +249,7 @@ JobPlan plan_job(const JobSpec& spec, const GridSpec& grid, int64_t sites, Metri
     // the tiles in flight.
     p.memory_bytes = estimate_memory(spec.method, 2 * strip_cells, sites, metric) + strip_cells * 4 * int_rasters +
                      rasters * (kTileRows * grid.width * 4 + kWriterBytes) + seed_bytes;
+    if (out.any_deliverable()) p.memory_bytes += deliverables_memory(spec, grid, strip_cells);
     return p;
   }
   p.strip_rows = grid.height;
@@ -384,6 +404,13 @@ RasterTargets raster_targets(const JobSpec& spec, const PreparedJob& job) {
 // computed (JobPlan::streamed).
 void compute_streamed(detail::JobRun& run, const PreparedJob& job, const RasterTargets& targets) {
   const JobSpec& spec = run.spec;
+  // The deliverables take each strip in as it is computed; regions are polygonized from the
+  // ownership GeoTIFF, written for them beside the regions' file when not asked for.
+  std::optional<detail::StripDeliverables> deliverables;
+  std::string ownership_file = spec.outputs.ownership, scratch_ownership;
+  if (spec.outputs.any_deliverable()) deliverables.emplace(run, job, true);
+  if (!spec.outputs.regions.empty() && ownership_file.empty())
+    ownership_file = scratch_ownership = spec.outputs.regions + ".ownership.tmp.tif";
   detail::StreamJob stream;
   stream.seeds = &job.loaded.seeds;
   stream.grid = job.grid;
@@ -393,9 +420,10 @@ void compute_streamed(detail::JobRun& run, const PreparedJob& job, const RasterT
   stream.feature_numbering = job.loaded.input_position;
   stream.progress = [&](const char* stage, double f) { run.progress(stage, f); };
   stream.will_write = [&](const std::string& path) { run.will_write(path); };
+  if (deliverables) stream.on_strip = [&](const NearestField& strip) { deliverables->add(strip); };
   using Product = detail::StreamTarget::Product;
-  if (!spec.outputs.ownership.empty())
-    stream.targets.push_back({Product::ownership, spec.outputs.ownership, targets.ownership, "ownership"});
+  if (!ownership_file.empty())
+    stream.targets.push_back({Product::ownership, ownership_file, targets.ownership, "ownership"});
   if (!spec.outputs.distance.empty())
     stream.targets.push_back({Product::distance, spec.outputs.distance, targets.distance, "distance"});
   if (!spec.outputs.nearest_feature.empty())
@@ -407,13 +435,24 @@ void compute_streamed(detail::JobRun& run, const PreparedJob& job, const RasterT
   run.contested_cells = st.contested_cells;
   run.threads_used = st.threads;
   for (const auto& [name, seconds] : st.write) run.write_times[name] = seconds;
-  for (const detail::StreamTarget& t : stream.targets) run.wrote(t.name, t.path);
+  for (const detail::StreamTarget& t : stream.targets)
+    if (t.path != scratch_ownership) run.wrote(t.name, t.path);
   run.timings["compute"] = st.compute;
+  if (deliverables) {
+    deliverables->finish(ownership_file, nullptr);
+    if (!scratch_ownership.empty()) {
+      std::error_code ec;
+      std::filesystem::remove(scratch_ownership, ec);
+      std::filesystem::remove(scratch_ownership + ".aux.xml", ec);
+      run.write_times.erase("ownership");
+    }
+  }
   // compute and write overlap: their sum exceeds the wall time they took together.
   run.timings["streamed"] = {{"strips", st.strips},
                              {"rows_per_strip", job.plan.strip_rows},
                              {"wall", st.wall},
                              {"convert", st.convert},
+                             {"deliverables_in_strips", st.deliverables},
                              {"compute_waited_for_writer", st.compute_waited},
                              {"writer_waited_for_compute", st.write_waited}};
 }
@@ -540,7 +579,7 @@ JobResult run_job(const JobSpec& spec, const JobLimits& limits, const JobHooks& 
     validate_stage(run, job, field);
     write_rasters(run, job, field, targets);
   }
-  detail::deliver(run, job, field);
+  if (!job.plan.streamed) detail::deliver(run, job, field);
   assemble_report(run, job, memory, start);
   if (!spec.outputs.report.empty()) {
     run.will_write(spec.outputs.report);

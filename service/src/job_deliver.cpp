@@ -1,5 +1,8 @@
-// The deliverables stage of a job (job_run.hpp): one function per deliverable, each writing its
-// file, its counts into the report and its time into timings["deliverables"].
+// The deliverables stage of a job (job_run.hpp): the lines taken in strip by strip as the exact
+// field goes by (a streamed job never holds it whole; the whole path feeds it as one strip), each
+// deliverable then written to its file, its counts into the report and its time into
+// timings["deliverables"].
+#include <map>
 #include <memory>
 #include <optional>
 
@@ -13,42 +16,136 @@
 namespace rv::detail {
 namespace {
 
-// What every deliverable of one job measures with and reports in.
-struct DeliverContext {
-  JobRun& run;
-  const PreparedJob& job;
-  const NearestField& field;  // exact
-  const SiteMetric& metric;
-  const OwnerIndex& index;
-  double cell_length;  // one cell in metric units near the grid's centre (degrees are not metres)
-  VectorOutputOptions vector;
-  nlohmann::json times = nlohmann::json::object();
-  nlohmann::json report = nlohmann::json::object();
-  const OutputRequest& out() const { return run.spec.outputs; }
-};
-
 // The deliverables measure with the field's own metric (projected geodesic grids: located on
 // the ellipsoid, positions and outputs in the grid's CRS).
-std::unique_ptr<SiteMetric> site_metric(const PreparedJob& job, const NearestField& field) {
+std::unique_ptr<SiteMetric> site_metric(const PreparedJob& job) {
   const SeedSet& seeds = job.loaded.seeds;
   if (job.located())
-    return std::make_unique<LocatedGeodesicSiteMetric>(seeds, field.metric, job.compute.geolocator,
+    return std::make_unique<LocatedGeodesicSiteMetric>(seeds, job.compute.metric, job.compute.geolocator,
                                                        job.compute.grid_polygons);
-  if (field.metric.kind == MetricSpec::geodesic) return std::make_unique<GeodesicSiteMetric>(seeds, field.metric);
+  if (job.compute.metric.kind == MetricSpec::geodesic)
+    return std::make_unique<GeodesicSiteMetric>(seeds, job.compute.metric);
   return std::make_unique<PlanarSiteMetric>(seeds, Vec2{job.grid.xmin, job.grid.ymax});
 }
 
-BoundaryResult boundaries_stage(DeliverContext& c) {
-  const OutputRequest& out = c.out();
+std::vector<int32_t> owner_of_sites(const SeedSet& seeds) {
+  std::vector<int32_t> owner(seeds.sites().size());
+  for (size_t i = 0; i < owner.size(); ++i) owner[i] = seeds.site_owner(static_cast<int32_t>(i));
+  return owner;
+}
+
+}  // namespace
+
+struct StripDeliverables::State {
+  JobRun& run;
+  const PreparedJob& job;
+  bool streamed;
+  std::unique_ptr<SiteMetric> metric;
+  std::unique_ptr<OwnerIndex> index;
+  double cell_length = 0.0;  // one cell in metric units near the grid's centre (degrees are not metres)
+  std::vector<int32_t> owner_of_site;
+  std::optional<StripLines> boundaries, limits;
+  std::optional<PreviewSample> preview;
+  std::optional<GeoTiffStripWriter<float>> margin_writer;  // streamed
+  std::map<int32_t, int64_t> owner_cells;                  // streamed regions: cells per owner
+  double boundary_seconds = 0.0, limit_seconds = 0.0, margin_seconds = 0.0;
+  VectorOutputOptions vector;
+  nlohmann::json times = nlohmann::json::object();
+  nlohmann::json report = nlohmann::json::object();
+
+  State(JobRun& r, const PreparedJob& j, bool s) : run(r), job(j), streamed(s) {}
+  const OutputRequest& out() const { return run.spec.outputs; }
+};
+
+StripDeliverables::StripDeliverables(JobRun& run, const PreparedJob& job, bool streamed)
+    : st_(std::make_unique<State>(run, job, streamed)) {
+  State& s = *st_;
+  const OutputRequest& out = s.out();
+  const GridSpec& g = job.grid;
+  s.metric = site_metric(job);
+  s.index = std::make_unique<OwnerIndex>(*s.metric);
+  const Vec2 mid{g.centre_x(g.width / 2), g.centre_y(g.height / 2)};
+  s.cell_length = s.metric->point_distance(mid, Vec2{mid.x + g.res, mid.y});
+  s.owner_of_site = owner_of_sites(job.loaded.seeds);
+  s.vector.crs = job.loaded.crs.wkt;
+  s.vector.distance_factor = job.to_output;
+  s.vector.distance_units = job.unit;
+  s.vector.threads = run.spec.threads;
+  if (!out.boundaries.empty() || !out.tripoints.empty() || !out.preview.empty()) {
+    LineRequest r;
+    r.boundaries = true;
+    r.boundary.simplify_cells = out.simplify_cells;
+    r.boundary.threads = run.spec.threads;
+    s.boundaries.emplace(g, *s.index, r);
+  }
+  if (!out.limits.empty()) {
+    LineRequest r;
+    r.limit_distances = job.limit_distances;
+    r.limit.per_owner = out.limits_per_owner;
+    r.limit.simplify_cells = out.simplify_cells;
+    r.limit.threads = run.spec.threads;
+    s.limits.emplace(g, *s.index, r);
+  }
+  if (!out.preview.empty()) s.preview.emplace(g, g.full_window());
+  if (streamed && !out.margin.empty()) {
+    run.will_write(out.margin);
+    s.margin_writer.emplace(out.margin, g, g.full_window(), static_cast<double>(kNoDistance), margin_options(run, job));
+  }
+}
+
+StripDeliverables::~StripDeliverables() = default;
+
+GeoTiffOptions StripDeliverables::margin_options(const JobRun& run, const PreparedJob& job) {
+  GeoTiffOptions o = raster_options(run.spec);
+  o.units = job.unit;
+  o.metadata["CONTENT"] = "distance to the nearest seed of another owner minus distance to the own nearest seed";
+  o.metadata["UNITS"] = job.unit;
+  return o;
+}
+
+void StripDeliverables::add(const NearestField& strip) {
+  State& s = *st_;
+  const OutputRequest& out = s.out();
+  s.run.check_cancel();
+  auto seconds = [](auto&& f) {
+    const auto t = Clock::now();
+    f();
+    return seconds_since(t);
+  };
+  if (s.boundaries) s.boundary_seconds += seconds([&] { s.boundaries->add(strip); });
+  if (s.limits) s.limit_seconds += seconds([&] { s.limits->add(strip); });
+  if (s.preview) s.preview->add_rows(strip.site.data(), strip.site.window().row0, strip.site.height(), s.owner_of_site);
+  if (s.streamed && !out.regions.empty())
+    for (const int32_t site : strip.site.cells())
+      if (site != kNoSite) ++s.owner_cells[s.owner_of_site[static_cast<size_t>(site)]];
+  if (!out.margin.empty()) {
+    s.margin_seconds += seconds([&] {
+      Raster<float> margin = margin_raster(strip, *s.index, s.run.spec.threads);
+      if (s.job.to_output != 1.0)
+        for (float& v : margin.cells())
+          if (v != kNoDistance) v = static_cast<float>(v * s.job.to_output);
+      if (s.margin_writer) {
+        s.margin_writer->write_rows(margin.data(), margin.height());
+      } else {
+        s.run.will_write(out.margin);
+        write_geotiff(out.margin, margin, static_cast<double>(kNoDistance), margin_options(s.run, s.job));
+      }
+    });
+  }
+}
+
+void StripDeliverables::finish(const std::string& ownership_file, const Raster<int32_t>* owner_codes) {
+  State& s = *st_;
+  const OutputRequest& out = s.out();
+  JobRun& run = s.run;
+  run.check_cancel();
+  run.progress("deliver", 0.0);
   BoundaryResult boundaries;
-  if (out.boundaries.empty() && out.tripoints.empty() && out.preview.empty()) return boundaries;
-  timed(c.times, "boundaries", [&] {
-    BoundaryOptions bo;
-    bo.simplify_cells = out.simplify_cells;
-    bo.threads = c.run.spec.threads;
-    boundaries = extract_boundaries(c.field, c.index, bo);
+  if (s.boundaries) {
+    const auto t = Clock::now();
+    boundaries = s.boundaries->take_boundaries();
     const BoundaryStats& st = boundaries.stats;
-    c.report["boundaries"] = {{"lines", boundaries.lines.size()},
+    s.report["boundaries"] = {{"lines", boundaries.lines.size()},
                               {"vertices", st.vertices},
                               {"vertices_before_simplify", st.vertices_before_simplify},
                               {"tripoints", boundaries.tripoints.size()},
@@ -58,92 +155,74 @@ BoundaryResult boundaries_stage(DeliverContext& c) {
                               {"unresolved_tripoints", st.unresolved_tripoints},
                               {"sliver_crossings", st.sliver_crossings},
                               {"unresolved_slivers", st.unresolved_slivers},
-                              {"max_residual", st.max_residual * c.job.to_output},
-                              {"max_residual_cells", st.max_residual / c.cell_length},
+                              {"max_residual", st.max_residual * s.job.to_output},
+                              {"max_residual_cells", st.max_residual / s.cell_length},
                               {"simplify_cells", out.simplify_cells}};
     if (!out.boundaries.empty()) {
-      c.run.will_write(out.boundaries);
-      write_boundaries(out.boundaries, boundaries, c.metric, c.vector);
-      c.run.wrote("boundaries", out.boundaries);
+      run.will_write(out.boundaries);
+      write_boundaries(out.boundaries, boundaries, *s.metric, s.vector);
+      run.wrote("boundaries", out.boundaries);
     }
     if (!out.tripoints.empty()) {
-      c.run.will_write(out.tripoints);
-      write_tripoints(out.tripoints, boundaries, c.metric, c.vector);
-      c.run.wrote("tripoints", out.tripoints);
+      run.will_write(out.tripoints);
+      write_tripoints(out.tripoints, boundaries, *s.metric, s.vector);
+      run.wrote("tripoints", out.tripoints);
     }
-  });
-  return boundaries;
-}
-
-void limits_stage(DeliverContext& c) {
-  const OutputRequest& out = c.out();
-  if (out.limits.empty()) return;
-  c.run.check_cancel();
-  timed(c.times, "limits", [&] {
-    LimitOptions lo;
-    lo.per_owner = out.limits_per_owner;
-    lo.simplify_cells = out.simplify_cells;
-    lo.threads = c.run.spec.threads;
-    const LimitResult limits = extract_limits(c.field, c.index, c.job.limit_distances, lo);
-    c.run.will_write(out.limits);
-    write_limits(out.limits, limits, c.job.loaded.seeds, c.vector);
-    c.run.wrote("limits", out.limits);
+    s.times["boundaries"] = s.boundary_seconds + seconds_since(t);
+  }
+  run.progress("deliver", 0.3);
+  if (s.limits) {
+    run.check_cancel();
+    const auto t = Clock::now();
+    const LimitResult limits = s.limits->take_limits();
+    run.will_write(out.limits);
+    write_limits(out.limits, limits, s.job.loaded.seeds, s.vector);
+    run.wrote("limits", out.limits);
     nlohmann::json distances = nlohmann::json::array();
-    for (double d : c.job.limit_distances) distances.push_back(d * c.job.to_output);
-    c.report["limits"] = {{"distances", distances},
+    for (double d : s.job.limit_distances) distances.push_back(d * s.job.to_output);
+    s.report["limits"] = {{"distances", distances},
                           {"as_given", out.limit_distances},
                           {"per_owner", out.limits_per_owner},
                           {"lines", limits.lines.size()},
                           {"vertices", limits.vertices},
-                          {"max_residual", limits.max_residual * c.job.to_output},
-                          {"max_residual_cells", limits.max_residual / c.cell_length}};
-  });
+                          {"max_residual", limits.max_residual * s.job.to_output},
+                          {"max_residual_cells", limits.max_residual / s.cell_length}};
+    s.times["limits"] = s.limit_seconds + seconds_since(t);
+  }
+  run.progress("deliver", 0.5);
+  if (!out.regions.empty()) {
+    run.check_cancel();
+    timed(s.times, "regions", [&] {
+      run.will_write(out.regions);
+      const RegionStats rs =
+          owner_codes != nullptr
+              ? write_regions(out.regions, *owner_codes, s.job.loaded.seeds, s.vector)
+              : write_regions_from_file(out.regions, ownership_file, s.owner_cells, s.job.loaded.seeds, s.vector);
+      run.wrote("regions", out.regions);
+      s.report["regions"] = {{"owners", rs.owners}, {"polygons", rs.polygons}};
+    });
+  }
+  run.progress("deliver", 0.7);
+  if (!out.margin.empty()) {
+    const auto t = Clock::now();
+    if (s.margin_writer) s.margin_writer->finish();
+    run.wrote("margin", out.margin);
+    s.times["margin"] = s.margin_seconds + seconds_since(t);
+  }
+  run.progress("deliver", 0.9);
+  if (s.preview) {
+    run.check_cancel();
+    timed(s.times, "preview", [&] {
+      run.will_write(out.preview);
+      const PreviewInfo pi = write_preview(out.preview, *s.preview, &boundaries);
+      run.wrote("preview", out.preview);
+      s.report["preview"] = {{"width", pi.width}, {"height", pi.height}, {"cells_per_pixel", pi.step}};
+    });
+  }
+  run.progress("deliver", 1.0);
+  for (auto& [k, v] : s.times.items()) run.timings["deliverables"][k] = v;
+  run.report["deliverables"] = s.report;
 }
-
-void regions_stage(DeliverContext& c, const Raster<int32_t>& owner_codes) {
-  const OutputRequest& out = c.out();
-  if (out.regions.empty()) return;
-  c.run.check_cancel();
-  timed(c.times, "regions", [&] {
-    c.run.will_write(out.regions);
-    const RegionStats rs = write_regions(out.regions, owner_codes, c.job.loaded.seeds, c.vector);
-    c.run.wrote("regions", out.regions);
-    c.report["regions"] = {{"owners", rs.owners}, {"polygons", rs.polygons}};
-  });
-}
-
-void margin_stage(DeliverContext& c) {
-  const OutputRequest& out = c.out();
-  if (out.margin.empty()) return;
-  c.run.check_cancel();
-  timed(c.times, "margin", [&] {
-    Raster<float> margin = margin_raster(c.field, c.index, c.run.spec.threads);
-    if (c.job.to_output != 1.0)
-      for (float& v : margin.cells())
-        if (v != kNoDistance) v = static_cast<float>(v * c.job.to_output);
-    GeoTiffOptions o = raster_options(c.run.spec);
-    o.units = c.job.unit;
-    o.metadata["CONTENT"] = "distance to the nearest seed of another owner minus distance to the own nearest seed";
-    o.metadata["UNITS"] = c.job.unit;
-    c.run.will_write(out.margin);
-    write_geotiff(out.margin, margin, static_cast<double>(kNoDistance), o);
-    c.run.wrote("margin", out.margin);
-  });
-}
-
-void preview_stage(DeliverContext& c, const Raster<int32_t>& owner_codes, const BoundaryResult& boundaries) {
-  const OutputRequest& out = c.out();
-  if (out.preview.empty()) return;
-  c.run.check_cancel();
-  timed(c.times, "preview", [&] {
-    c.run.will_write(out.preview);
-    const PreviewInfo pi = write_preview(out.preview, owner_codes, &boundaries);
-    c.run.wrote("preview", out.preview);
-    c.report["preview"] = {{"width", pi.width}, {"height", pi.height}, {"cells_per_pixel", pi.step}};
-  });
-}
-
-}  // namespace
 
 GeoTiffOptions raster_options(const JobSpec& spec) {
   GeoTiffOptions o;
@@ -156,8 +235,6 @@ GeoTiffOptions raster_options(const JobSpec& spec) {
 void deliver(JobRun& run, const PreparedJob& job, const NearestField& computed) {
   if (!run.spec.outputs.any_deliverable()) return;
   run.check_cancel();
-  run.progress("deliver", 0.0);
-  nlohmann::json times = nlohmann::json::object();
   // From an exact field: a scan's ownership is not exact, so the exact method runs for them.
   const NearestField* field = &computed;
   NearestField exact;
@@ -167,35 +244,16 @@ void deliver(JobRun& run, const PreparedJob& job, const NearestField& computed) 
     eo.progress = nullptr;
     exact = compute(job.loaded.seeds, job.grid, eo);
     field = &exact;
-    times["exact_field"] = exact.seconds;
+    run.timings["deliverables"]["exact_field"] = exact.seconds;
   }
-  const std::unique_ptr<SiteMetric> metric = site_metric(job, *field);
-  const OwnerIndex index(*metric);
-  const GridSpec& g = job.grid;
-  const Vec2 mid{g.centre_x(g.width / 2), g.centre_y(g.height / 2)};
-  DeliverContext c{run, job, *field, *metric, index, metric->point_distance(mid, Vec2{mid.x + g.res, mid.y}), {}};
-  c.times = times;
-  c.vector.crs = job.loaded.crs.wkt;
-  c.vector.distance_factor = job.to_output;
-  c.vector.distance_units = job.unit;
-
-  const BoundaryResult boundaries = boundaries_stage(c);
-  run.progress("deliver", 0.3);
-  limits_stage(c);
-  run.progress("deliver", 0.5);
+  StripDeliverables d(run, job, false);
+  d.add(*field);
   // The owner raster the write stage kept, or made here.
   std::optional<Raster<int32_t>> owner_codes = std::move(run.owner_codes);
   run.owner_codes.reset();
-  if (!owner_codes && (!c.out().regions.empty() || !c.out().preview.empty()))
+  if (!owner_codes && !run.spec.outputs.regions.empty())
     owner_codes = owner_raster(job.loaded.seeds, *field, run.spec.threads);
-  if (owner_codes) regions_stage(c, *owner_codes);
-  run.progress("deliver", 0.7);
-  margin_stage(c);
-  run.progress("deliver", 0.9);
-  if (owner_codes) preview_stage(c, *owner_codes, boundaries);
-  run.progress("deliver", 1.0);
-  run.timings["deliverables"] = c.times;
-  run.report["deliverables"] = c.report;
+  d.finish("", owner_codes ? &*owner_codes : nullptr);
 }
 
 }  // namespace rv::detail

@@ -9,6 +9,7 @@
 
 #include <chrono>
 #include <filesystem>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
@@ -85,9 +86,29 @@ void timed(nlohmann::json& into, const char* name, F&& f) {
 // What every GeoTIFF of the job shares: COG or not, threads, compression.
 GeoTiffOptions raster_options(const JobSpec& spec);
 
-// The maritime deliverables of the job (boundaries, tripoints, limits, regions, margin, preview),
-// from the exact field `field` of `job`: each written to its file, counted in the report's
-// "deliverables", timed in timings["deliverables"]. Nothing when none is requested.
+// The maritime deliverables of a job (boundaries, tripoints, limits, regions, margin, preview)
+// from its exact field taken in strip by strip (a streamed job), or as one whole field: each
+// written to its file, counted in the report's "deliverables", timed in
+// timings["deliverables"]. Construct before the first strip (the margin's file is created then,
+// so that an unwritable target fails before anything is computed); add() every strip in order,
+// on one thread (the engine's, between strips), with distances in metric units; then finish().
+class StripDeliverables {
+ public:
+  StripDeliverables(JobRun& run, const PreparedJob& job, bool streamed);
+  ~StripDeliverables();
+  void add(const NearestField& strip);
+  // Writes every requested deliverable. Regions come from `owner_codes` (the whole owner
+  // raster) when given, else from the ownership GeoTIFF `ownership_file` the streamed job wrote.
+  void finish(const std::string& ownership_file, const Raster<int32_t>* owner_codes);
+
+ private:
+  static GeoTiffOptions margin_options(const JobRun& run, const PreparedJob& job);
+  struct State;
+  std::unique_ptr<State> st_;
+};
+
+// The deliverables of a job computed whole, from its field (a scan's: the exact field is
+// computed for them). Nothing when none is requested.
 void deliver(JobRun& run, const PreparedJob& job, const NearestField& field);
 
 }  // namespace rv::detail

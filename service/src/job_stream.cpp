@@ -161,6 +161,11 @@ void compute_strips(StreamState& st, int64_t strip_rows, StreamStats& stats, Rep
     stats.compute += s.field.seconds;
     stats.contested_cells += s.field.contested_cells;
     stats.threads = s.field.threads;
+    if (job.on_strip) {
+      const auto t = Clock::now();
+      job.on_strip(s.field);
+      stats.deliverables += seconds_since(t);
+    }
     const auto t = Clock::now();
     if (job.distance_factor != 1.0)
       scale_distances(s.field.distance.data(), s.field.distance.data(), s.rows * st.width, job.distance_factor);
@@ -228,7 +233,7 @@ StreamStats run_streamed(const StreamJob& job) {
       [&](int64_t rows) { report("write", static_cast<double>(rows) / static_cast<double>(st.height)); });
   joiner.join();
   // The writers wait side by side: the longest wait is the time the files waited for the engine.
-  stats.write_waited = *std::max_element(st.write_waited.begin(), st.write_waited.end());
+  if (!st.write_waited.empty()) stats.write_waited = *std::max_element(st.write_waited.begin(), st.write_waited.end());
   for (size_t i = 0; i < job.targets.size(); ++i) stats.write[job.targets[i].name] = st.write_seconds[i];
   stats.wall = seconds_since(start);
   return stats;

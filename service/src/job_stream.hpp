@@ -31,7 +31,7 @@ struct StreamJob {
   GridSpec grid;
   ComputeOptions compute;                      // window and progress are set per strip
   int64_t strip_rows = 0;                      // > 0
-  std::vector<StreamTarget> targets;           // at least one; written in this order
+  std::vector<StreamTarget> targets;           // written in this order; none: on_strip alone
   double distance_factor = 1.0;                // metric units -> output units
   std::span<const int64_t> feature_numbering;  // LoadedSeeds::input_position
   // Job progress: ("compute", fraction of the grid computed), then ("write", fraction written).
@@ -39,12 +39,16 @@ struct StreamJob {
   std::function<void(const char* stage, double fraction)> progress;
   // Called with each target's path before anything may appear under it (the job's guard).
   std::function<void(const std::string& path)> will_write;
+  // Called with each strip as computed (distances in metric units), on the computing thread,
+  // before the writers see it; may be empty. What it throws stops the job as a failed strip would.
+  std::function<void(const NearestField& strip)> on_strip;
 };
 
 // What the streamed run measured; every time in seconds.
 struct StreamStats {
   double compute = 0.0;                 // the engine's own time, summed over strips
   double convert = 0.0;                 // distance unit scaling, on the computing thread
+  double deliverables = 0.0;            // on_strip, on the computing thread
   std::map<std::string, double> write;  // per target: site ids -> codes (code rasters), encoding
                                         // and finishing, on its writer thread
   double compute_waited = 0.0;          // the computing thread waiting for a free strip buffer

@@ -27,15 +27,33 @@ std::array<uint8_t, 3> owner_colour(int32_t owner) {
   return {c[0], c[1], c[2]};
 }
 
-PreviewInfo write_preview(const std::string& path, const Raster<int32_t>& owners, const BoundaryResult* boundaries,
-                          const PreviewOptions& options) {
+PreviewSample::PreviewSample(const GridSpec& grid, const Window& window, const PreviewOptions& options)
+    : grid_(grid), window_(window) {
   if (options.max_side < 16) throw Error(ErrorKind::invalid_argument, "preview size must be at least 16 pixels");
-  const int64_t w = owners.width(), h = owners.height();
-  PreviewInfo info;
-  info.step = std::max<int64_t>(1, (std::max(w, h) + options.max_side - 1) / options.max_side);
-  info.width = static_cast<int>((w + info.step - 1) / info.step);
-  info.height = static_cast<int>((h + info.step - 1) / info.step);
+  const int64_t w = window.width, h = window.height;
+  info_.step = std::max<int64_t>(1, (std::max(w, h) + options.max_side - 1) / options.max_side);
+  info_.width = static_cast<int>((w + info_.step - 1) / info_.step);
+  info_.height = static_cast<int>((h + info_.step - 1) / info_.step);
+  codes_.assign(static_cast<size_t>(info_.width) * static_cast<size_t>(info_.height), 0);
+}
 
+void PreviewSample::add_rows(const int32_t* values, int64_t row0, int64_t rows, std::span<const int32_t> code_of) {
+  const int64_t w = window_.width, h = window_.height, step = info_.step;
+  for (int y = 0; y < info_.height; ++y) {
+    // Nearest sampling: the cell at the centre of the pixel's block of step x step cells.
+    const int64_t r = std::min<int64_t>(h - 1, y * step + step / 2);
+    if (r < row0 || r >= row0 + rows) continue;
+    const int32_t* row = values + (r - row0) * w;
+    int32_t* out = codes_.data() + static_cast<size_t>(y) * static_cast<size_t>(info_.width);
+    for (int x = 0; x < info_.width; ++x) {
+      const int32_t v = row[std::min<int64_t>(w - 1, x * step + step / 2)];
+      out[x] = code_of.empty() ? v : v < 0 ? 0 : code_of[static_cast<size_t>(v)];
+    }
+  }
+}
+
+PreviewInfo write_preview(const std::string& path, const PreviewSample& sample, const BoundaryResult* boundaries) {
+  const PreviewInfo& info = sample.info_;
   std::vector<std::array<uint8_t, 3>> palette;
   auto colour = [&](int32_t o) {
     if (o <= 0) return std::array<uint8_t, 3>{0, 0, 0};
@@ -48,19 +66,16 @@ PreviewInfo write_preview(const std::string& path, const Raster<int32_t>& owners
   };
   cv::Mat img(info.height, info.width, CV_8UC3);
   for (int y = 0; y < info.height; ++y) {
-    // Nearest sampling: the cell at the centre of the pixel's block of step x step cells.
-    const int64_t r = std::min<int64_t>(h - 1, y * info.step + info.step / 2);
-    const int32_t* row = owners.row(r);
+    const int32_t* row = sample.codes_.data() + static_cast<size_t>(y) * static_cast<size_t>(info.width);
     auto* out = img.ptr<cv::Vec3b>(y);
     for (int x = 0; x < info.width; ++x) {
-      const int64_t c = std::min<int64_t>(w - 1, x * info.step + info.step / 2);
-      const auto col = colour(row[c]);
+      const auto col = colour(row[x]);
       out[x] = cv::Vec3b(col[0], col[1], col[2]);
     }
   }
   if (boundaries) {
-    const GridSpec& g = owners.grid();
-    const Window& win = owners.window();
+    const GridSpec& g = sample.grid_;
+    const Window& win = sample.window_;
     constexpr int kShift = 4;  // sub-pixel precision of cv::polylines
     const double scale = static_cast<double>(1 << kShift) / static_cast<double>(info.step);
     for (const BoundaryLine& line : boundaries->lines) {
@@ -78,6 +93,13 @@ PreviewInfo write_preview(const std::string& path, const Raster<int32_t>& owners
   if (!cv::imencode(".png", img, png)) throw Error(ErrorKind::io, "cannot encode the preview PNG");
   write_file_atomically(path, std::string_view(reinterpret_cast<const char*>(png.data()), png.size()));
   return info;
+}
+
+PreviewInfo write_preview(const std::string& path, const Raster<int32_t>& owners, const BoundaryResult* boundaries,
+                          const PreviewOptions& options) {
+  PreviewSample sample(owners.grid(), owners.window(), options);
+  sample.add_rows(owners.data(), 0, owners.height());
+  return write_preview(path, sample, boundaries);
 }
 
 }  // namespace rv

@@ -7,8 +7,8 @@
 // by fill sequence number 0, 1, ... (take_filled), writes each into its file, gives it back
 // (put_done), and after the last one calls finished(); on an error it calls fail(). A buffer is
 // free again only when every writer has given it back, so the writers are never more than the
-// number of buffers apart. The first error is kept: take_free then returns nullopt and
-// wait_finished rethrows it. stop() (the computing side failed) makes every waiting writer's
+// number of buffers apart (with no writers at all, put_filled frees it at once). The first error is kept: take_free
+// then returns nullopt and wait_finished rethrows it. stop() (the computing side failed) makes every waiting writer's
 // take_filled return nullopt. Every member is thread safe; add_free() is for set-up, before
 // other threads use the object.
 #pragma once
@@ -51,8 +51,12 @@ class StripHandoff {
   void put_filled(int k) {
     {
       std::lock_guard lock(mutex_);
-      order_.push_back(k);
-      pending_[static_cast<size_t>(k)] = writers_;
+      if (writers_ == 0) {  // nothing to write (a job of deliverables alone): free at once
+        free_.push_back(k);
+      } else {
+        order_.push_back(k);
+        pending_[static_cast<size_t>(k)] = writers_;
+      }
     }
     cv_.notify_all();
   }

@@ -6,14 +6,17 @@
 
 #include <unistd.h>
 
+#include <algorithm>
 #include <atomic>
 #include <cstdlib>
 #include <filesystem>
+#include <fstream>
 #include <map>
 #include <memory>
 #include <string>
 
 #include <gdal_priv.h>
+#include <ogrsf_frmts.h>
 
 #include "rv/error.hpp"
 #include "rv/gdal/raster_io.hpp"
@@ -277,6 +280,19 @@ TEST_F(StreamJob, PlanSaysWhenAndHowMuch) {
   GridSpec tall = g;
   tall.height = 100000;
   EXPECT_EQ(plan_job(s, tall, sites, MetricSpec::planar).memory_bytes, streamed.memory_bytes);
+  // Deliverables stream too: their strips and a share for the lines, which grow with the
+  // grid's sides (the lines' length), not with its area.
+  JobSpec lines = s;
+  lines.outputs.boundaries = "b.gpkg";
+  lines.outputs.regions = "r.gpkg";
+  lines.outputs.margin = "m.tif";
+  lines.outputs.limits = "l.gpkg";
+  lines.outputs.limit_distances = {"12nmi", "24nmi"};
+  const JobPlan with_lines = plan_job(lines, g, sites, MetricSpec::planar);
+  EXPECT_TRUE(with_lines.streamed) << with_lines.why_whole;
+  EXPECT_GT(with_lines.memory_bytes, streamed.memory_bytes);
+  EXPECT_LT(with_lines.memory_bytes, whole.memory_bytes / 2);
+  EXPECT_LT(plan_job(lines, tall, sites, MetricSpec::planar).memory_bytes, 3 * with_lines.memory_bytes);
   EXPECT_GT(plan_job(off, tall, sites, MetricSpec::planar).memory_bytes, 9 * whole.memory_bytes);
   // Every rule that keeps a job whole.
   auto why = [&](auto change) {
@@ -288,10 +304,110 @@ TEST_F(StreamJob, PlanSaysWhenAndHowMuch) {
     return p.why_whole;
   };
   EXPECT_NE(why([](JobSpec& x) { x.method = Method::hv_scan; }).find("scan"), std::string::npos);
-  EXPECT_NE(why([](JobSpec& x) { x.outputs.regions = "r.geojson"; }).find("deliverables"), std::string::npos);
   EXPECT_NE(why([](JobSpec& x) { x.outputs.cloud_optimized = true; }).find("COG"), std::string::npos);
   EXPECT_NE(why([](JobSpec& x) { x.validate = true; }).find("validation"), std::string::npos);
   EXPECT_NE(why([](JobSpec& x) { x.outputs = {}; }).find("no raster"), std::string::npos);
+}
+
+// Every layer's features as text: fields and geometry (WKT at full precision), in order.
+std::vector<std::string> vector_content(const std::string& path) {
+  std::unique_ptr<GDALDataset> d(GDALDataset::Open(path.c_str(), GDAL_OF_VECTOR | GDAL_OF_READONLY));
+  EXPECT_TRUE(d) << path;
+  std::vector<std::string> out;
+  if (!d) return out;
+  for (OGRLayer* layer : d->GetLayers()) {
+    out.push_back(std::string("layer ") + layer->GetName());
+    layer->ResetReading();
+    for (OGRFeature* f = layer->GetNextFeature(); f != nullptr; f = layer->GetNextFeature()) {
+      std::string row;
+      for (int i = 0; i < f->GetFieldCount(); ++i) row += std::string(f->GetFieldAsString(i)) + "|";
+      if (const OGRGeometry* geom = f->GetGeometryRef()) {
+        OGRWktOptions wkt;
+        wkt.precision = 17;
+        wkt.round = false;
+        row += geom->exportToWkt(wkt);
+      }
+      out.push_back(row);
+      OGRFeature::DestroyFeature(f);
+    }
+  }
+  return out;
+}
+
+std::string file_bytes(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  return std::string(std::istreambuf_iterator<char>(in), {});
+}
+
+TEST_F(StreamJob, StreamedDeliverablesEqualWholeFieldDeliverables) {
+  gdal_init();
+  auto with_deliverables = [&](JobSpec s, const std::string& sub) {
+    const fs::path d = dir_ / sub;
+    s.outputs.boundaries = (d / "b.gpkg").string();
+    s.outputs.tripoints = (d / "t.gpkg").string();
+    s.outputs.limits = (d / "l.gpkg").string();
+    s.outputs.limit_distances = {"0.9km", "2km"};
+    s.outputs.regions = (d / "r.gpkg").string();
+    s.outputs.margin = (d / "m.tif").string();
+    s.outputs.preview = (d / "p.png").string();
+    return s;
+  };
+  for (const bool coast : {false, true}) {
+    JobSpec whole = with_deliverables(coast ? coast_spec("whole") : points_spec("whole"), "whole");
+    whole.strip_rows = -1;
+    whole.threads = 2;
+    const JobResult ref = run_job(whole);
+    ASSERT_FALSE(ref.report["streaming"]["streamed"].get<bool>());
+    const auto& b = ref.report["deliverables"]["boundaries"];
+    ASSERT_GT(b["vertices"].get<int64_t>(), 100);
+    if (!coast) {
+      ASSERT_GT(b["tripoints"].get<int64_t>(), 0);
+    }
+    EXPECT_EQ(b["unresolved_tripoints"].get<int64_t>(), 0);
+    for (const int64_t rows : {int64_t{1}, int64_t{7}, int64_t{0}}) {
+      SCOPED_TRACE("coast " + std::to_string(coast) + ", strip rows " + std::to_string(rows));
+      const std::string sub = "s" + std::to_string(rows);
+      JobSpec s = with_deliverables(coast ? coast_spec(sub) : points_spec(sub), sub);
+      s.strip_rows = rows;
+      s.threads = 2;
+      if (rows == 7) s.outputs.ownership.clear();  // regions from an ownership file of their own
+      const JobResult r = run_job(s);
+      ASSERT_TRUE(r.report["streaming"]["streamed"].get<bool>());
+      EXPECT_EQ(r.report["deliverables"], ref.report["deliverables"]);
+      for (const auto& [a, z] :
+           {std::pair{s.outputs.boundaries, whole.outputs.boundaries},
+            std::pair{s.outputs.tripoints, whole.outputs.tripoints}, std::pair{s.outputs.limits, whole.outputs.limits},
+            std::pair{s.outputs.regions, whole.outputs.regions}}) {
+        const auto va = vector_content(a), vz = vector_content(z);
+        EXPECT_GT(va.size(), 1u) << a;
+        EXPECT_EQ(va, vz) << a;
+      }
+      expect_same_geotiff(s.outputs.margin, whole.outputs.margin);
+      EXPECT_EQ(file_bytes(s.outputs.preview), file_bytes(whole.outputs.preview));
+      // Nothing but the requested files is left (the regions' ownership file is removed).
+      std::vector<std::string> left;
+      for (const auto& e : fs::directory_iterator(dir_ / sub)) left.push_back(e.path().filename().string());
+      std::sort(left.begin(), left.end());
+      std::vector<std::string> want = {"b.gpkg", "dist.tif", "feat.tif", "l.gpkg",
+                                       "m.tif",  "p.png",    "r.gpkg",   "t.gpkg"};
+      if (rows != 7) want.insert(want.end(), {"own.tif", "own.tif.aux.xml"});  // its categories beside it
+      std::sort(want.begin(), want.end());
+      EXPECT_EQ(left, want);
+    }
+  }
+}
+
+TEST_F(StreamJob, DeliverablesAloneStreamWithoutARasterFile) {
+  JobSpec s = points_spec("lines");
+  s.outputs.ownership.clear();
+  s.outputs.distance.clear();
+  s.outputs.nearest_feature.clear();
+  s.outputs.boundaries = (dir_ / "lines" / "b.geojson").string();
+  s.strip_rows = 16;
+  const JobResult r = run_job(s);
+  EXPECT_TRUE(r.report["streaming"]["streamed"].get<bool>());
+  EXPECT_GT(r.report["deliverables"]["boundaries"]["lines"].get<int64_t>(), 2);
+  EXPECT_EQ(r.files, std::vector<std::string>{s.outputs.boundaries});
 }
 
 TEST_F(StreamJob, MemoryLimitCountsTheStreamedFootprint) {

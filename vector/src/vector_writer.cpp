@@ -3,6 +3,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <array>
 #include <atomic>
 #include <cerrno>
 #include <cstring>
@@ -14,6 +15,7 @@
 
 #include "gdal_util.hpp"
 #include "rv/error.hpp"
+#include "rv/parallel.hpp"
 
 namespace rv {
 namespace {
@@ -143,6 +145,22 @@ void write_boundaries(const std::string& path, const BoundaryResult& b, const Si
          {"basepoint_a_x", "basepoint_a_y", "basepoint_b_x", "basepoint_b_y", "distance", "residual"})
       file.field(verts, name, OFTReal);
   }
+  // The basepoints (each vertex's controlling positions): geodesic projections onto segments,
+  // the dearest part of the file, measured on the threads before the serial writing.
+  std::vector<std::array<Vec2, 2>> basepoints;
+  if (verts) {
+    std::vector<const BoundaryVertex*> all;
+    for (const BoundaryLine& line : b.lines)
+      for (const BoundaryVertex& v : line.vertices) all.push_back(&v);
+    basepoints.resize(all.size());
+    detail::parallel_for(resolve_threads(o.threads), static_cast<int64_t>(all.size()), [&](int64_t i, int) {
+      const BoundaryVertex& v = *all[static_cast<size_t>(i)];
+      auto& q = basepoints[static_cast<size_t>(i)];
+      if (v.site_a != kNoSite) q[0] = metric.nearest_point(v.p, v.site_a);
+      if (v.site_b != kNoSite) q[1] = metric.nearest_point(v.p, v.site_b);
+    });
+  }
+  size_t vertex_id = 0;
   file.begin();
   int64_t line_id = 0;
   for (const BoundaryLine& line : b.lines) {
@@ -179,15 +197,14 @@ void write_boundaries(const std::string& path, const BoundaryResult& b, const Si
       pf->SetField("owner_b", line.owner_b);
       pf->SetField("feature_a", feature_of(s, v.site_a));
       pf->SetField("feature_b", feature_of(s, v.site_b));
+      const auto& q = basepoints[vertex_id++];
       if (v.site_a != kNoSite) {
-        const Vec2 q = metric.nearest_point(v.p, v.site_a);
-        pf->SetField("basepoint_a_x", q.x);
-        pf->SetField("basepoint_a_y", q.y);
+        pf->SetField("basepoint_a_x", q[0].x);
+        pf->SetField("basepoint_a_y", q[0].y);
       }
       if (v.site_b != kNoSite) {
-        const Vec2 q = metric.nearest_point(v.p, v.site_b);
-        pf->SetField("basepoint_b_x", q.x);
-        pf->SetField("basepoint_b_y", q.y);
+        pf->SetField("basepoint_b_x", q[1].x);
+        pf->SetField("basepoint_b_y", q[1].y);
       }
       pf->SetField("distance", v.distance * o.distance_factor);
       pf->SetField("residual", v.residual * o.distance_factor);
@@ -260,27 +277,13 @@ void write_limits(const std::string& path, const LimitResult& limits, const Seed
   file.commit();
 }
 
-RegionStats write_regions(const std::string& path, const Raster<int32_t>& owners, const SeedSet& s,
-                          const VectorOutputOptions& o) {
-  gdal::ErrorCapture capture;
-  const GridSpec& g = owners.grid();
-  const Window& w = owners.window();
-  // The ownership raster as an in-memory GDAL band (nodata 0 masks the cells without owner).
-  GDALDriver* mem = GetGDALDriverManager()->GetDriverByName("MEM");
-  if (mem == nullptr) throw Error(ErrorKind::unsupported, "GDAL has no MEM driver");
-  gdal::DatasetPtr raster(
-      mem->Create("", static_cast<int>(w.width), static_cast<int>(w.height), 1, GDT_Int32, nullptr));
-  if (!raster) throw Error(ErrorKind::io, "cannot create an in-memory raster" + capture.suffix());
-  double gt[6] = {g.xmin + static_cast<double>(w.col0) * g.res, g.res, 0.0,
-                  g.ymax - static_cast<double>(w.row0) * g.res, 0.0,   -g.res};
-  raster->SetGeoTransform(gt);
-  GDALRasterBand* band = raster->GetRasterBand(1);
-  band->SetNoDataValue(0.0);
-  if (band->RasterIO(GF_Write, 0, 0, static_cast<int>(w.width), static_cast<int>(w.height),
-                     const_cast<int32_t*>(owners.data()), static_cast<int>(w.width), static_cast<int>(w.height),
-                     GDT_Int32, 0, 0, nullptr) != CE_None)
-    throw Error(ErrorKind::io, "cannot fill the in-memory raster" + capture.suffix());
+namespace {
 
+// The regions of an ownership band (nodata 0 masks the cells without owner), polygonized with
+// 8-connectedness; `cells`: each owner's cell count; `res`: the cell size.
+RegionStats polygonize_regions(const std::string& path, GDALRasterBand* band, const std::map<int32_t, int64_t>& cells,
+                               double res, const SeedSet& s, const VectorOutputOptions& o,
+                               const gdal::ErrorCapture& capture) {
   GDALDriver* memv = GetGDALDriverManager()->GetDriverByName("Memory");
   if (memv == nullptr) throw Error(ErrorKind::unsupported, "GDAL has no Memory vector driver");
   gdal::DatasetPtr scratch(memv->Create("", 0, 0, 0, GDT_Unknown, nullptr));
@@ -295,9 +298,6 @@ RegionStats write_regions(const std::string& path, const Raster<int32_t>& owners
   // One multipolygon per owner; parts are disjoint by construction (cells of one owner that
   // touch by an edge or a corner are one part), so collecting them needs no union.
   std::map<int32_t, std::unique_ptr<OGRMultiPolygon>> by_owner;
-  std::map<int32_t, int64_t> cells;
-  for (const int32_t v : owners.cells())
-    if (v != 0) ++cells[v];
   RegionStats stats;
   parts->ResetReading();
   for (FeaturePtr f(parts->GetNextFeature()); f; f.reset(parts->GetNextFeature())) {
@@ -317,11 +317,13 @@ RegionStats write_regions(const std::string& path, const Raster<int32_t>& owners
   file.field(l, "area", OFTReal);
   file.begin();
   for (auto& [owner, mp] : by_owner) {
+    const auto n = cells.find(owner);
+    const int64_t count = n == cells.end() ? 0 : n->second;
     FeaturePtr f(OGRFeature::CreateFeature(l->GetLayerDefn()));
     f->SetField("owner", owner);
     f->SetField("label", label_of(s, owner).c_str());
-    f->SetField("cells", static_cast<GIntBig>(cells[owner]));
-    f->SetField("area", static_cast<double>(cells[owner]) * g.res * g.res);
+    f->SetField("cells", static_cast<GIntBig>(count));
+    f->SetField("area", static_cast<double>(count) * res * res);
     f->SetGeometryDirectly(mp.release());
     file.add(l, f.get());
     ++stats.owners;
@@ -329,6 +331,53 @@ RegionStats write_regions(const std::string& path, const Raster<int32_t>& owners
   file.end();
   file.commit();
   return stats;
+}
+
+}  // namespace
+
+RegionStats write_regions(const std::string& path, const Raster<int32_t>& owners, const SeedSet& s,
+                          const VectorOutputOptions& o) {
+  gdal::ErrorCapture capture;
+  const GridSpec& g = owners.grid();
+  const Window& w = owners.window();
+  // The ownership raster as an in-memory GDAL band.
+  GDALDriver* mem = GetGDALDriverManager()->GetDriverByName("MEM");
+  if (mem == nullptr) throw Error(ErrorKind::unsupported, "GDAL has no MEM driver");
+  gdal::DatasetPtr raster(
+      mem->Create("", static_cast<int>(w.width), static_cast<int>(w.height), 1, GDT_Int32, nullptr));
+  if (!raster) throw Error(ErrorKind::io, "cannot create an in-memory raster" + capture.suffix());
+  double gt[6] = {g.xmin + static_cast<double>(w.col0) * g.res, g.res, 0.0,
+                  g.ymax - static_cast<double>(w.row0) * g.res, 0.0,   -g.res};
+  raster->SetGeoTransform(gt);
+  GDALRasterBand* band = raster->GetRasterBand(1);
+  band->SetNoDataValue(0.0);
+  if (band->RasterIO(GF_Write, 0, 0, static_cast<int>(w.width), static_cast<int>(w.height),
+                     const_cast<int32_t*>(owners.data()), static_cast<int>(w.width), static_cast<int>(w.height),
+                     GDT_Int32, 0, 0, nullptr) != CE_None)
+    throw Error(ErrorKind::io, "cannot fill the in-memory raster" + capture.suffix());
+  std::map<int32_t, int64_t> cells;
+  for (const int32_t v : owners.cells())
+    if (v != 0) ++cells[v];
+  return polygonize_regions(path, band, cells, g.res, s, o, capture);
+}
+
+RegionStats write_regions_from_file(const std::string& path, const std::string& ownership,
+                                    const std::map<int32_t, int64_t>& cells, const SeedSet& s,
+                                    const VectorOutputOptions& o) {
+  gdal::ErrorCapture capture;
+  // The codes alone are read: the categories' sidecar (.aux.xml) is neither read nor rewritten.
+  struct NoPam {
+    NoPam() { CPLSetThreadLocalConfigOption("GDAL_PAM_ENABLED", "NO"); }
+    ~NoPam() { CPLSetThreadLocalConfigOption("GDAL_PAM_ENABLED", nullptr); }
+  } no_pam;
+  gdal::DatasetPtr raster(GDALDataset::Open(ownership.c_str(), GDAL_OF_RASTER | GDAL_OF_READONLY));
+  if (!raster) throw Error(ErrorKind::io, "cannot open the ownership raster " + ownership + capture.suffix());
+  double gt[6];
+  if (raster->GetGeoTransform(gt) != CE_None)
+    throw Error(ErrorKind::io, "the ownership raster " + ownership + " has no geotransform");
+  GDALRasterBand* band = raster->GetRasterBand(1);
+  if (band == nullptr) throw Error(ErrorKind::io, "the ownership raster " + ownership + " has no band");
+  return polygonize_regions(path, band, cells, gt[1], s, o, capture);
 }
 
 }  // namespace rv

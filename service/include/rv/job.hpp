@@ -90,16 +90,17 @@ struct JobSpec {
 // buffers each time), its distances converted to the requested unit, and handed to the writer
 // threads, one per file, that make their codes from its sites (owner codes, feature numbers) and
 // encode it into the GeoTIFFs (GeoTiffStripWriter) side by side while the engine computes the
-// next strip; two strips are in flight at most. Memory is O(strip), not O(grid), and the files
-// are identical to the whole-field path's for any strip height and thread count. A job is
-// streamed when every output can be made from a strip alone:
+// next strip; two strips are in flight at most. The deliverables take each strip in on the
+// computing thread before the writers see it (rv::StripLines for the lines, a strip of margin, the
+// preview's sample) and are written after the last strip; regions are polygonized from the
+// ownership GeoTIFF (written beside them for the purpose when not asked for, then removed).
+// Memory is O(strip) plus the lines' length, not O(grid), and every file is identical to the
+// whole-field path's for any strip height and thread count. A job is streamed when:
 //   - method exact or brute-force: a window of these equals the same cells of the whole grid
 //     (the scans propagate inside the window, so a strip of them would differ);
-//   - no deliverable (boundaries, tripoints, limits, regions, margin, preview: they need the
-//     whole field, and the regions and preview the whole owner raster);
 //   - no COG (GDAL's COG driver only makes a copy of a complete dataset: CreateCopy);
 //   - no validate (it compares two whole fields; brute force is limited to small grids anyway);
-//   - at least one raster output (ownership, distance or nearest feature);
+//   - at least one raster output (ownership, distance or nearest feature) or deliverable;
 //   - JobSpec::strip_rows >= 0.
 // Otherwise (the "whole" path) the field is computed whole, then each raster is made and written.
 struct JobPlan {

@@ -13,7 +13,9 @@
 
 #include <array>
 #include <cstdint>
+#include <span>
 #include <string>
+#include <vector>
 
 #include "rv/deliverables.hpp"
 #include "rv/raster.hpp"
@@ -33,8 +35,30 @@ struct PreviewInfo {
 // Blue, green, red of owner `owner` (> 0); {0, 0, 0} for 0.
 std::array<uint8_t, 3> owner_colour(int32_t owner);
 
+// The cells a preview shows, collected as rows of owner codes go by (a streamed job never holds
+// the whole raster): per pixel, the cell at the centre of its block of step x step cells.
+// Throws rv::Error(invalid_argument) for max_side < 16.
+class PreviewSample {
+ public:
+  PreviewSample(const GridSpec& grid, const Window& window, const PreviewOptions& options = {});
+  // Rows [row0, row0 + rows) of the window (window-relative, in order, whole rows): values[i]
+  // is the owner code, or with `code_of` the index into it of the owner code (a site index;
+  // negative: no owner).
+  void add_rows(const int32_t* values, int64_t row0, int64_t rows, std::span<const int32_t> code_of = {});
+  const PreviewInfo& info() const { return info_; }
+
+ private:
+  friend PreviewInfo write_preview(const std::string&, const PreviewSample&, const BoundaryResult*);
+  GridSpec grid_;
+  Window window_;
+  PreviewInfo info_;
+  std::vector<int32_t> codes_;  // info_.height x info_.width
+};
+
 // Writes the PNG. `boundaries` may be null (no lines drawn). Throws rv::Error(io) when the file
-// cannot be written, rv::Error(invalid_argument) for max_side < 16.
+// cannot be written.
+PreviewInfo write_preview(const std::string& path, const PreviewSample& sample, const BoundaryResult* boundaries);
+// The same from a whole owner raster. Throws rv::Error(invalid_argument) for max_side < 16.
 PreviewInfo write_preview(const std::string& path, const Raster<int32_t>& owners, const BoundaryResult* boundaries,
                           const PreviewOptions& options = {});
 

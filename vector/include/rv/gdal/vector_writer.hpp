@@ -11,6 +11,7 @@
 #pragma once
 
 #include <cstdint>
+#include <map>
 #include <string>
 
 #include "rv/deliverables.hpp"
@@ -23,6 +24,7 @@ struct VectorOutputOptions {
   std::string crs;               // WKT (or any OSR definition); "" = no CRS
   double distance_factor = 1.0;  // metric units -> distance_units
   std::string distance_units;    // name written next to distances ("m", "nmi", "crs-units")
+  int threads = 0;               // for what is measured while writing (basepoints); 0 = all cores
 };
 
 // Layer "boundaries" (LineString): owner_a, owner_b (codes, owner_a < owner_b), label_a,
@@ -53,5 +55,12 @@ struct RegionStats {
 // area (CRS units squared). Polygon edges follow cell edges exactly.
 RegionStats write_regions(const std::string& path, const Raster<int32_t>& owners, const SeedSet& seeds,
                           const VectorOutputOptions& options);
+// The same from an ownership GeoTIFF (band 1, owner codes, nodata 0) read block by block, as a
+// streamed job wrote it: memory in proportion to the regions' outlines, not to the grid.
+// `cells`: each owner's number of cells (counted while the strips went by). Throws
+// rv::Error(io) when the file cannot be read.
+RegionStats write_regions_from_file(const std::string& path, const std::string& ownership,
+                                    const std::map<int32_t, int64_t>& cells, const SeedSet& seeds,
+                                    const VectorOutputOptions& options);
 
 }  // namespace rv
