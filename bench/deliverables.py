@@ -8,6 +8,7 @@ Cases (../shared/fixtures):
   oresund   the Øresund pair (2 owners, 598 edges) at 0.0002 deg: 6,601 x 5,601 = 3.7e7 cells
   baltic    the western Baltic (4 owners, land borders, overlaps to the lower code) at 0.0005 deg:
             14,300 x 6,102 = 8.7e7 cells
+  baltic1e9 the same at 0.000148 deg: about 1.0e9 cells (not run unless named in --cases)
   --quick   the same at 4x the cell size (16x fewer cells)
 
 usage:
@@ -30,6 +31,8 @@ SHARED = os.environ.get("RV_SHARED_DIR", os.path.join(ROOT, "..", "shared"))
 CASES = {
     "oresund": (["oresund.gpkg", "--owner-field", "iso2"], 0.0002),
     "baltic": (["baltic_west.gpkg", "--owner-field", "iso2", "--on-conflict", "lower-code"], 0.0005),
+    # The same coast at 1e9 cells (48,615 x 20,743): the streamed job's memory at scale.
+    "baltic1e9": (["baltic_west.gpkg", "--owner-field", "iso2", "--on-conflict", "lower-code"], 0.000148),
 }
 OUTPUTS = {"boundaries": "b.geojson", "tripoints": "t.geojson", "limits": "l.geojson", "regions": "r.geojson"}
 PHASES = ("compute", "boundaries", "limits", "regions", "total")
