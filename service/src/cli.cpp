@@ -354,6 +354,7 @@ int cmd_validate(Args& args) {
 
 int cli_main(int argc, char** argv) {
   try {
+    bound_block_cache();
     if (argc < 2 || std::string(argv[1]) == "--help" || std::string(argv[1]) == "-h" ||
         std::string(argv[1]) == "help") {
       std::cout << usage();

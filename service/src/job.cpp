@@ -10,6 +10,7 @@
 #include <fstream>
 #include <memory>
 #include <optional>
+#include <string_view>
 
 #include "atomic_file.hpp"
 #include "job_run.hpp"
@@ -191,6 +192,7 @@ constexpr int64_t kWriterBytes = int64_t{12} << 20;
 // grow with the lines' length, not the grid's area: taken as kLineBytes per cell of the grid's
 // width and height per line set (boundaries; each limit distance, times the owners per owner).
 constexpr int64_t kLineBytes = 2048;
+constexpr int64_t kRegionBytes = 12 << 10;
 
 int64_t deliverables_memory(const JobSpec& spec, const GridSpec& grid, int64_t strip_cells) {
   const OutputRequest& out = spec.outputs;
@@ -198,6 +200,9 @@ int64_t deliverables_memory(const JobSpec& spec, const GridSpec& grid, int64_t s
   if (!out.margin.empty()) bytes += strip_cells * 12 + kTileRows * grid.width * 4 + kWriterBytes;
   if (!out.regions.empty() && out.ownership.empty())
     bytes += strip_cells * 4 + kTileRows * grid.width * 4 + kWriterBytes;
+  // Polygonizing the ownership raster holds the regions' outlines, cell edge by cell edge: about
+  // 0.7 GB at 48,312 x 20,609 cells of the western Baltic (bench/RESULTS-deliverables.md).
+  if (!out.regions.empty()) bytes += (grid.width + grid.height) * kRegionBytes;
   if (!out.preview.empty()) bytes += int64_t{2000} * 2000 * 4;
   const int64_t line_sets =
       (!out.boundaries.empty() || !out.tripoints.empty() || !out.preview.empty()) +
@@ -227,8 +232,6 @@ JobPlan plan_job(const JobSpec& spec, const GridSpec& grid, int64_t sites, Metri
   const int64_t rasters = int_rasters + !out.distance.empty();
   if (spec.method != Method::exact && spec.method != Method::brute_force)
     p.why_whole = "the scan methods propagate inside a window: a strip would differ from the whole grid";
-  else if (out.cloud_optimized)
-    p.why_whole = "a COG is made by copying a complete dataset";
   else if (spec.validate)
     p.why_whole = "validation compares whole fields";
   else if (rasters == 0 && !out.any_deliverable())
@@ -250,6 +253,8 @@ JobPlan plan_job(const JobSpec& spec, const GridSpec& grid, int64_t sites, Metri
     p.memory_bytes = estimate_memory(spec.method, 2 * strip_cells, sites, metric) + strip_cells * 4 * int_rasters +
                      rasters * (kTileRows * grid.width * 4 + kWriterBytes) + seed_bytes;
     if (out.any_deliverable()) p.memory_bytes += deliverables_memory(spec, grid, strip_cells);
+    // A COG is copied from the strips' file through GDAL's block cache (bounded by the programs).
+    if (out.cloud_optimized) p.memory_bytes += kBlockCacheBytes;
     return p;
   }
   p.strip_rows = grid.height;
@@ -418,33 +423,57 @@ void compute_streamed(detail::JobRun& run, const PreparedJob& job, const RasterT
   stream.strip_rows = job.plan.strip_rows;
   stream.distance_factor = job.to_output;
   stream.feature_numbering = job.loaded.input_position;
-  stream.progress = [&](const char* stage, double f) { run.progress(stage, f); };
+  // With COGs the files are written by the copies after the strips: the stage "write" is theirs.
+  stream.progress = [&](const char* stage, double f) {
+    if (!(spec.outputs.cloud_optimized && std::string_view(stage) == "write")) run.progress(stage, f);
+  };
   stream.will_write = [&](const std::string& path) { run.will_write(path); };
   if (deliverables) stream.on_strip = [&](const NearestField& strip) { deliverables->add(strip); };
+  // A COG is copied from the plain tiled GeoTIFF the strips went into (detail::cog_stage_path),
+  // once every strip is in.
   using Product = detail::StreamTarget::Product;
-  if (!ownership_file.empty())
-    stream.targets.push_back({Product::ownership, ownership_file, targets.ownership, "ownership"});
-  if (!spec.outputs.distance.empty())
-    stream.targets.push_back({Product::distance, spec.outputs.distance, targets.distance, "distance"});
+  auto target = [&](Product product, const std::string& path, GeoTiffOptions options, const char* name) {
+    const bool cog = options.cloud_optimized && path != scratch_ownership;
+    options.cloud_optimized = false;
+    stream.targets.push_back({product, cog ? detail::cog_stage_path(path) : path, options, name});
+  };
+  if (!ownership_file.empty()) target(Product::ownership, ownership_file, targets.ownership, "ownership");
+  if (!spec.outputs.distance.empty()) target(Product::distance, spec.outputs.distance, targets.distance, "distance");
   if (!spec.outputs.nearest_feature.empty())
-    stream.targets.push_back(
-        {Product::nearest_feature, spec.outputs.nearest_feature, targets.feature, "nearest_feature"});
+    target(Product::nearest_feature, spec.outputs.nearest_feature, targets.feature, "nearest_feature");
   run.progress("compute", 0.0);
   const detail::StreamStats st = detail::run_streamed(stream);
   run.compute_seconds = st.compute;
   run.contested_cells = st.contested_cells;
   run.threads_used = st.threads;
   for (const auto& [name, seconds] : st.write) run.write_times[name] = seconds;
-  for (const detail::StreamTarget& t : stream.targets)
-    if (t.path != scratch_ownership) run.wrote(t.name, t.path);
   run.timings["compute"] = st.compute;
   if (deliverables) {
-    deliverables->finish(ownership_file, nullptr);
+    const bool staged = spec.outputs.cloud_optimized && ownership_file != scratch_ownership;
+    deliverables->finish(staged ? detail::cog_stage_path(ownership_file) : ownership_file, nullptr);
     if (!scratch_ownership.empty()) {
-      std::error_code ec;
-      std::filesystem::remove(scratch_ownership, ec);
-      std::filesystem::remove(scratch_ownership + ".aux.xml", ec);
+      detail::remove_raster_file(scratch_ownership);
       run.write_times.erase("ownership");
+    }
+  }
+  size_t copied = 0;
+  for (const detail::StreamTarget& t : stream.targets) {
+    if (t.path == scratch_ownership) continue;
+    if (spec.outputs.cloud_optimized) {
+      const std::string final_path = detail::cog_final_path(t.path);
+      const GeoTiffOptions& o = t.product == Product::ownership  ? targets.ownership
+                                : t.product == Product::distance ? targets.distance
+                                                                 : targets.feature;
+      run.check_cancel();
+      detail::timed(run.write_times, (std::string(t.name) + "_cog").c_str(), [&] {
+        run.will_write(final_path);
+        copy_to_cog(t.path, final_path, o);
+        detail::remove_raster_file(t.path);
+      });
+      run.wrote(t.name, final_path);
+      run.progress("write", static_cast<double>(++copied) / static_cast<double>(stream.targets.size()));
+    } else {
+      run.wrote(t.name, t.path);
     }
   }
   // compute and write overlap: their sum exceeds the wall time they took together.

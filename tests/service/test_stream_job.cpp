@@ -304,7 +304,6 @@ TEST_F(StreamJob, PlanSaysWhenAndHowMuch) {
     return p.why_whole;
   };
   EXPECT_NE(why([](JobSpec& x) { x.method = Method::hv_scan; }).find("scan"), std::string::npos);
-  EXPECT_NE(why([](JobSpec& x) { x.outputs.cloud_optimized = true; }).find("COG"), std::string::npos);
   EXPECT_NE(why([](JobSpec& x) { x.validate = true; }).find("validation"), std::string::npos);
   EXPECT_NE(why([](JobSpec& x) { x.outputs = {}; }).find("no raster"), std::string::npos);
 }
@@ -395,6 +394,37 @@ TEST_F(StreamJob, StreamedDeliverablesEqualWholeFieldDeliverables) {
       EXPECT_EQ(left, want);
     }
   }
+}
+
+TEST_F(StreamJob, StreamedCogsEqualWholeFieldCogs) {
+  gdal_init();
+  JobSpec whole = points_spec("whole");
+  whole.outputs.cloud_optimized = true;
+  whole.outputs.margin = (dir_ / "whole" / "m.tif").string();
+  whole.outputs.regions = (dir_ / "whole" / "r.gpkg").string();
+  whole.strip_rows = -1;
+  run_job(whole);
+  JobSpec s = points_spec("s");
+  s.outputs.cloud_optimized = true;
+  s.outputs.margin = (dir_ / "s" / "m.tif").string();
+  s.outputs.regions = (dir_ / "s" / "r.gpkg").string();
+  s.strip_rows = 7;
+  const JobResult r = run_job(s);
+  ASSERT_TRUE(r.report["streaming"]["streamed"].get<bool>());
+  expect_same_outputs(s, whole);
+  expect_same_geotiff(s.outputs.margin, whole.outputs.margin);
+  EXPECT_EQ(vector_content(s.outputs.regions), vector_content(whole.outputs.regions));
+  for (const std::string& f : {s.outputs.ownership, s.outputs.distance, s.outputs.nearest_feature, s.outputs.margin}) {
+    const auto d = open(f);
+    ASSERT_TRUE(d) << f;
+    EXPECT_STREQ(d->GetMetadataItem("LAYOUT", "IMAGE_STRUCTURE"), "COG") << f;
+    EXPECT_GT(d->GetRasterBand(1)->GetOverviewCount(), 0) << f;
+  }
+  // The strips' own files are gone; what is left is what was asked for (and the categories).
+  std::vector<std::string> left;
+  for (const auto& e : fs::directory_iterator(dir_ / "s")) left.push_back(e.path().filename().string());
+  std::sort(left.begin(), left.end());
+  EXPECT_EQ(left, (std::vector<std::string>{"dist.tif", "feat.tif", "m.tif", "own.tif", "own.tif.aux.xml", "r.gpkg"}));
 }
 
 TEST_F(StreamJob, DeliverablesAloneStreamWithoutARasterFile) {

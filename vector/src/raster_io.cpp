@@ -718,14 +718,31 @@ template class GeoTiffStripWriter<float>;
 
 namespace {
 
+// The COG driver's copy of `src` into out.temp(), then the categories beside it.
+void cog_copy(const std::string& path, GDALDataset& src, bool floating, const GeoTiffOptions& options, TempOutput& out,
+              gdal::ErrorCapture& capture) {
+  GDALDriver* cog = GetGDALDriverManager()->GetDriverByName("COG");
+  GDALDriver* gtiff = GetGDALDriverManager()->GetDriverByName("GTiff");
+  if (cog == nullptr || gtiff == nullptr) throw Error(ErrorKind::unsupported, "GDAL lacks the COG or GTiff driver");
+  CPLStringList co;
+  co.SetNameValue("BLOCKSIZE", std::to_string(kBlock).c_str());
+  set_cog_encoding(co, encoding_for(options.compression, floating, has_zstd(gtiff)));
+  co.SetNameValue("NUM_THREADS", thread_option(options.threads).c_str());
+  co.SetNameValue("BIGTIFF", "IF_SAFER");
+  // Owner codes must never be averaged into codes nobody owns.
+  co.SetNameValue("OVERVIEW_RESAMPLING", options.categorical ? "NEAREST" : "AVERAGE");
+  gdal::DatasetPtr dst(cog->CreateCopy(out.temp().c_str(), &src, FALSE, co.List(), nullptr, nullptr));
+  if (!dst) fail(path, "the COG driver failed", capture);
+  dst.reset();
+  if (!capture.last_error().empty()) fail(path, "closing failed", capture);
+  if (!options.category_labels.empty()) attach_categories(out.temp(), options.category_labels, path, capture);
+}
+
 template <class T>
 void write_cog(const std::string& path, const Raster<T>& raster, double nodata, const GeoTiffOptions& options,
                TempOutput& out, gdal::ErrorCapture& capture) {
   GDALDriver* mem = GetGDALDriverManager()->GetDriverByName("MEM");
-  GDALDriver* cog = GetGDALDriverManager()->GetDriverByName("COG");
-  GDALDriver* gtiff = GetGDALDriverManager()->GetDriverByName("GTiff");
-  if (mem == nullptr || cog == nullptr || gtiff == nullptr)
-    throw Error(ErrorKind::unsupported, "GDAL lacks the MEM, COG or GTiff driver");
+  if (mem == nullptr) throw Error(ErrorKind::unsupported, "GDAL lacks the MEM driver");
   // The MEM band reads a buffer in the file's type: the raster's own (no copy of a possibly large
   // raster) unless its codes go into a narrower type, then a narrowed copy of a half or a quarter
   // of its size. The COG driver writes the source's type.
@@ -762,18 +779,7 @@ void write_cog(const std::string& path, const Raster<T>& raster, double nodata, 
   if (src->AddBand(type, band_options.List()) != CE_None) fail(path, "cannot wrap the raster in memory", capture);
   describe_dataset(*src, raster.grid(), raster.window(), nodata, options, path, capture);
 
-  CPLStringList co;
-  co.SetNameValue("BLOCKSIZE", std::to_string(kBlock).c_str());
-  set_cog_encoding(co, encoding_for(options.compression, PixelType<T>::floating, has_zstd(gtiff)));
-  co.SetNameValue("NUM_THREADS", thread_option(options.threads).c_str());
-  co.SetNameValue("BIGTIFF", "IF_SAFER");
-  // Owner codes must never be averaged into codes nobody owns.
-  co.SetNameValue("OVERVIEW_RESAMPLING", options.categorical ? "NEAREST" : "AVERAGE");
-  gdal::DatasetPtr dst(cog->CreateCopy(out.temp().c_str(), src.get(), FALSE, co.List(), nullptr, nullptr));
-  if (!dst) fail(path, "the COG driver failed", capture);
-  dst.reset();
-  if (!capture.last_error().empty()) fail(path, "closing failed", capture);
-  if (!options.category_labels.empty()) attach_categories(out.temp(), options.category_labels, path, capture);
+  cog_copy(path, *src, PixelType<T>::floating, options, out, capture);
 }
 
 template <class T>
@@ -795,6 +801,34 @@ void write_any(const std::string& path, const Raster<T>& raster, double nodata, 
   write_cog(path, raster, nodata, options, out, capture);
   out.commit();
 }
+
+}  // namespace
+
+void bound_block_cache() {
+  gdal_init();
+  if (CPLGetConfigOption("GDAL_CACHEMAX", nullptr) != nullptr) return;
+  if (GDALGetCacheMax64() > kBlockCacheBytes) GDALSetCacheMax64(kBlockCacheBytes);
+}
+
+void copy_to_cog(const std::string& source, const std::string& path, const GeoTiffOptions& options) {
+  gdal_init();
+  gdal::ErrorCapture capture;
+  gdal::ThreadConfigOption pam("GDAL_PAM_ENABLED", "YES");
+  gdal::DatasetPtr src;
+  {
+    // The source's codes alone: its categories' sidecar is not read (they are attached anew).
+    gdal::ThreadConfigOption no_pam("GDAL_PAM_ENABLED", "NO");
+    src.reset(GDALDataset::Open(source.c_str(), GDAL_OF_RASTER | GDAL_OF_READONLY));
+  }
+  if (!src || src->GetRasterCount() != 1) fail(path, "cannot open the streamed raster " + source, capture);
+  const bool floating = src->GetRasterBand(1)->GetRasterDataType() == GDT_Float32;
+  TempOutput out(path);
+  cog_copy(path, *src, floating, options, out, capture);
+  src.reset();
+  out.commit();
+}
+
+namespace {
 
 struct OpenedRaster {
   gdal::DatasetPtr ds;

@@ -2,8 +2,11 @@
 #include "tiff_tiles.hpp"
 
 #include <bit>
+#include <cerrno>
 #include <cstdarg>
 #include <cstdio>
+#include <cstring>
+#include <string>
 #include <utility>
 
 #include <cpl_vsi.h>
@@ -217,8 +220,13 @@ void RawTileFile::append(int64_t bx, int64_t by, EncodedTile bytes) {
   const auto index = static_cast<uint32_t>(by * tiles_across_ + bx);
   // TIFFWriteRawTile does not write through the pointer; its signature is not const.
   void* data = const_cast<uint8_t*>(bytes.data);
-  if (TIFFWriteRawTile(tif_, index, data, static_cast<tmsize_t>(bytes.size)) != static_cast<tmsize_t>(bytes.size))
-    fail("cannot write tile (" + std::to_string(bx) + ", " + std::to_string(by) + ")");
+  errno = 0;
+  if (TIFFWriteRawTile(tif_, index, data, static_cast<tmsize_t>(bytes.size)) != static_cast<tmsize_t>(bytes.size)) {
+    // The system's reason (a full disk, a file size limit) says more than libtiff's.
+    const int e = errno;
+    fail("cannot write tile (" + std::to_string(bx) + ", " + std::to_string(by) + ")" +
+         (e != 0 ? std::string(": ") + std::strerror(e) : std::string()));
+  }
 }
 
 EncodedTile RawTileFile::read(int64_t bx, int64_t by, std::vector<uint8_t>& buf) {

@@ -366,10 +366,7 @@ RegionStats write_regions_from_file(const std::string& path, const std::string& 
                                     const VectorOutputOptions& o) {
   gdal::ErrorCapture capture;
   // The codes alone are read: the categories' sidecar (.aux.xml) is neither read nor rewritten.
-  struct NoPam {
-    NoPam() { CPLSetThreadLocalConfigOption("GDAL_PAM_ENABLED", "NO"); }
-    ~NoPam() { CPLSetThreadLocalConfigOption("GDAL_PAM_ENABLED", nullptr); }
-  } no_pam;
+  gdal::ThreadConfigOption no_pam("GDAL_PAM_ENABLED", "NO");
   gdal::DatasetPtr raster(GDALDataset::Open(ownership.c_str(), GDAL_OF_RASTER | GDAL_OF_READONLY));
   if (!raster) throw Error(ErrorKind::io, "cannot open the ownership raster " + ownership + capture.suffix());
   double gt[6];

@@ -94,11 +94,13 @@ struct JobSpec {
 // computing thread before the writers see it (rv::StripLines for the lines, a strip of margin, the
 // preview's sample) and are written after the last strip; regions are polygonized from the
 // ownership GeoTIFF (written beside them for the purpose when not asked for, then removed).
+// A COG is made once every strip is in: GDAL's COG driver only copies a complete dataset, so the
+// strips go into a plain tiled GeoTIFF beside it that the driver then copies block by block
+// (copy_to_cog) and that is removed.
 // Memory is O(strip) plus the lines' length, not O(grid), and every file is identical to the
 // whole-field path's for any strip height and thread count. A job is streamed when:
 //   - method exact or brute-force: a window of these equals the same cells of the whole grid
 //     (the scans propagate inside the window, so a strip of them would differ);
-//   - no COG (GDAL's COG driver only makes a copy of a complete dataset: CreateCopy);
 //   - no validate (it compares two whole fields; brute force is limited to small grids anyway);
 //   - at least one raster output (ownership, distance or nearest feature) or deliverable;
 //   - JobSpec::strip_rows >= 0.

@@ -146,6 +146,21 @@ class GeoTiffStripWriter {
 extern template class GeoTiffStripWriter<int32_t>;
 extern template class GeoTiffStripWriter<float>;
 
+// GDAL's block cache holds what GDAL reads and writes through it (the COG copies above); by
+// default it may grow to 5 % of physical memory. The programs bound it (not the library, which
+// leaves an embedding application's GDAL settings alone): bound_block_cache() lowers it to
+// kBlockCacheBytes unless the user set GDAL_CACHEMAX. Call before GDAL reads anything.
+inline constexpr int64_t kBlockCacheBytes = int64_t{256} << 20;
+void bound_block_cache();
+
+// A COG at `path` made from `source`, a GeoTIFF GeoTiffStripWriter wrote (a streamed job's):
+// the same cells, type, georeferencing, nodata, units and metadata, with `options`' compression,
+// overviews and categories, as write_geotiff would make it from the same cells (GDAL's COG
+// driver re-encodes the tiles: it reads the source block by block, so memory stays bounded by
+// its block cache, and builds the overviews in a temporary file beside the target). Atomic as
+// write_geotiff; `source` is left in place. Throws rv::Error(io) as write_geotiff does.
+void copy_to_cog(const std::string& source, const std::string& path, const GeoTiffOptions& options);
+
 // Reads a GeoTIFF's grid (extent, cell size, CRS as WKT2), for --like. Throws rv::Error(not_found,
 // invalid_input for rotated, south-up or non-square-cell rasters, or a file that is not a raster).
 GridSpec read_grid(const std::string& path);
