@@ -254,7 +254,9 @@ JobPlan plan_job(const JobSpec& spec, const GridSpec& grid, int64_t sites, Metri
                      rasters * (kTileRows * grid.width * 4 + kWriterBytes) + seed_bytes;
     if (out.any_deliverable()) p.memory_bytes += deliverables_memory(spec, grid, strip_cells);
     // A COG is copied from the strips' file through GDAL's block cache (bounded by the programs).
-    if (out.cloud_optimized) p.memory_bytes += kBlockCacheBytes;
+    // It holds at most what passes through it: the rasters and their overviews.
+    if (out.cloud_optimized)
+      p.memory_bytes += std::min(kBlockCacheBytes, 2 * cells * 4 * (rasters + !out.margin.empty()));
     return p;
   }
   p.strip_rows = grid.height;

@@ -292,7 +292,8 @@ TEST_F(StreamJob, PlanSaysWhenAndHowMuch) {
   EXPECT_TRUE(with_lines.streamed) << with_lines.why_whole;
   EXPECT_GT(with_lines.memory_bytes, streamed.memory_bytes);
   EXPECT_LT(with_lines.memory_bytes, whole.memory_bytes / 2);
-  EXPECT_LT(plan_job(lines, tall, sites, MetricSpec::planar).memory_bytes, 3 * with_lines.memory_bytes);
+  // Ten times the rows: far from ten times the memory (the lines' share grows with the sides).
+  EXPECT_LT(plan_job(lines, tall, sites, MetricSpec::planar).memory_bytes, 6 * with_lines.memory_bytes);
   EXPECT_GT(plan_job(off, tall, sites, MetricSpec::planar).memory_bytes, 9 * whole.memory_bytes);
   // Every rule that keeps a job whole.
   auto why = [&](auto change) {
