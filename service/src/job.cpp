@@ -198,14 +198,16 @@ int64_t deliverables_memory(const JobSpec& spec, const GridSpec& grid, int64_t s
   const OutputRequest& out = spec.outputs;
   int64_t bytes = 0;
   if (!out.margin.empty()) bytes += strip_cells * 12 + kTileRows * grid.width * 4 + kWriterBytes;
-  if (!out.regions.empty() && out.ownership.empty())
-    bytes += strip_cells * 4 + kTileRows * grid.width * 4 + kWriterBytes;
-  // Polygonizing the ownership raster holds the regions' outlines, cell edge by cell edge: about
-  // 0.7 GB at 48,312 x 20,609 cells of the western Baltic (bench/RESULTS-deliverables.md).
-  if (!out.regions.empty()) bytes += (grid.width + grid.height) * kRegionBytes;
+  // Regions with a max distance: polygonizing the ownership raster holds the regions' outlines,
+  // cell edge by cell edge (about 0.7 GB at 48,312 x 20,609 cells of the western Baltic), from
+  // the ownership file (one more when not asked for). Else the lines' faces: a line set.
+  if (!out.regions.empty() && spec.max_distance) {
+    bytes += (grid.width + grid.height) * kRegionBytes;
+    if (out.ownership.empty()) bytes += strip_cells * 4 + kTileRows * grid.width * 4 + kWriterBytes;
+  }
   if (!out.preview.empty()) bytes += int64_t{2000} * 2000 * 4;
   const int64_t line_sets =
-      (!out.boundaries.empty() || !out.tripoints.empty() || !out.preview.empty()) +
+      (!out.boundaries.empty() || !out.tripoints.empty() || !out.preview.empty() || !out.regions.empty()) +
       (out.limits.empty() ? 0 : static_cast<int64_t>(std::max<size_t>(out.limit_distances.size(), 1)));
   bytes += line_sets * ((grid.width + grid.height) * kLineBytes + 8 * grid.width * 9);
   return bytes;
@@ -416,7 +418,7 @@ void compute_streamed(detail::JobRun& run, const PreparedJob& job, const RasterT
   std::optional<detail::StripDeliverables> deliverables;
   std::string ownership_file = spec.outputs.ownership, scratch_ownership;
   if (spec.outputs.any_deliverable()) deliverables.emplace(run, job, true);
-  if (!spec.outputs.regions.empty() && ownership_file.empty())
+  if (!spec.outputs.regions.empty() && !detail::line_regions(job, spec.outputs) && ownership_file.empty())
     ownership_file = scratch_ownership = spec.outputs.regions + ".ownership.tmp.tif";
   detail::StreamJob stream;
   stream.seeds = &job.loaded.seeds;

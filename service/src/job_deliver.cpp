@@ -2,6 +2,7 @@
 // field goes by (a streamed job never holds it whole; the whole path feeds it as one strip), each
 // deliverable then written to its file, its counts into the report and its time into
 // timings["deliverables"].
+#include <cmath>
 #include <map>
 #include <memory>
 #include <optional>
@@ -10,6 +11,7 @@
 #include "rv/deliverables.hpp"
 #include "rv/gdal/raster_io.hpp"
 #include "rv/gdal/vector_writer.hpp"
+#include "rv/geolocate.hpp"
 #include "rv/outputs.hpp"
 #include "rv/preview.hpp"
 
@@ -27,6 +29,14 @@ std::unique_ptr<SiteMetric> site_metric(const PreparedJob& job) {
     return std::make_unique<GeodesicSiteMetric>(seeds, job.compute.metric);
   return std::make_unique<PlanarSiteMetric>(seeds, Vec2{job.grid.xmin, job.grid.ymax});
 }
+
+}  // namespace
+
+bool line_regions(const PreparedJob& job, const OutputRequest& out) {
+  return !out.regions.empty() && std::isinf(job.compute.max_distance);
+}
+
+namespace {
 
 std::vector<int32_t> owner_of_sites(const SeedSet& seeds) {
   std::vector<int32_t> owner(seeds.sites().size());
@@ -71,7 +81,7 @@ StripDeliverables::StripDeliverables(JobRun& run, const PreparedJob& job, bool s
   s.vector.distance_factor = job.to_output;
   s.vector.distance_units = job.unit;
   s.vector.threads = run.spec.threads;
-  if (!out.boundaries.empty() || !out.tripoints.empty() || !out.preview.empty()) {
+  if (!out.boundaries.empty() || !out.tripoints.empty() || !out.preview.empty() || line_regions(job, out)) {
     LineRequest r;
     r.boundaries = true;
     r.boundary.simplify_cells = out.simplify_cells;
@@ -119,7 +129,7 @@ void StripDeliverables::add(const NearestField& strip) {
   if (s.boundaries) s.boundary_seconds += seconds([&] { s.boundaries->add(strip); });
   if (s.limits) s.limit_seconds += seconds([&] { s.limits->add(strip); });
   if (s.preview) s.preview->add_rows(strip.site.data(), strip.site.window().row0, strip.site.height(), s.owner_of_site);
-  if (s.streamed && !out.regions.empty())
+  if (s.streamed && !out.regions.empty() && !line_regions(s.job, out))
     for (const int32_t site : strip.site.cells())
       if (site != kNoSite) ++s.owner_cells[s.owner_of_site[static_cast<size_t>(site)]];
   if (!out.margin.empty()) {
@@ -198,12 +208,30 @@ void StripDeliverables::finish(const std::string& ownership_file, const Raster<i
     run.check_cancel();
     timed(s.times, "regions", [&] {
       run.will_write(out.regions);
-      const RegionStats rs =
-          owner_codes != nullptr
-              ? write_regions(out.regions, *owner_codes, s.job.loaded.seeds, s.vector)
-              : write_regions_from_file(out.regions, ownership_file, s.owner_cells, s.job.loaded.seeds, s.vector);
+      const bool along_lines = line_regions(s.job, out);
+      const SeedSet& seeds = s.job.loaded.seeds;
+      RegionStats rs;
+      if (along_lines) {
+        LineRegions lr;
+        lr.edges = region_edges(boundaries, *s.index, s.job.grid);
+        lr.grid = s.job.grid;
+        lr.owner_of = [&](Vec2 p) { return owner_at(*s.index, p); };
+        const double to_area = s.job.to_output * s.job.to_output;
+        const Geolocator* located = s.job.compute.geolocator.get();
+        lr.area = [&, to_area, located](std::span<const Vec2> ring) {
+          return to_area * ring_area(ring, s.job.compute.metric, located, s.job.grid.res);
+        };
+        lr.area_units = s.job.unit + "^2";
+        rs = write_line_regions(out.regions, lr, seeds,
+                                s.job.loaded.grid_polygons ? *s.job.loaded.grid_polygons : seeds.polygons(), s.vector);
+      } else if (owner_codes != nullptr) {
+        rs = write_regions(out.regions, *owner_codes, seeds, s.vector);
+      } else {
+        rs = write_regions_from_file(out.regions, ownership_file, s.owner_cells, seeds, s.vector);
+      }
       run.wrote("regions", out.regions);
-      s.report["regions"] = {{"owners", rs.owners}, {"polygons", rs.polygons}};
+      s.report["regions"] = {
+          {"owners", rs.owners}, {"polygons", rs.polygons}, {"edges", along_lines ? "boundary lines" : "cell edges"}};
     });
   }
   run.progress("deliver", 0.7);
@@ -263,7 +291,7 @@ void deliver(JobRun& run, const PreparedJob& job, const NearestField& computed) 
   // The owner raster the write stage kept, or made here.
   std::optional<Raster<int32_t>> owner_codes = std::move(run.owner_codes);
   run.owner_codes.reset();
-  if (!owner_codes && !run.spec.outputs.regions.empty())
+  if (!owner_codes && !run.spec.outputs.regions.empty() && !line_regions(job, run.spec.outputs))
     owner_codes = owner_raster(job.loaded.seeds, *field, run.spec.threads);
   d.finish("", owner_codes ? &*owner_codes : nullptr);
 }

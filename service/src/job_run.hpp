@@ -121,6 +121,11 @@ class StripDeliverables {
   std::unique_ptr<State> st_;
 };
 
+// Whether the job's regions are bounded by its boundary lines (write_line_regions): always but
+// with a max distance, whose unowned cells are not bounded by lines yet (then the owner raster
+// is polygonized, along cell edges).
+bool line_regions(const PreparedJob& job, const OutputRequest& out);
+
 // The deliverables of a job computed whole, from its field (a scan's: the exact field is
 // computed for them). Nothing when none is requested.
 void deliver(JobRun& run, const PreparedJob& job, const NearestField& field);

@@ -302,7 +302,8 @@ TEST_F(DaemonDeliverables, EveryOutputAsyncCheckedByContent) {
   for (const double want : {250.0, 300.0, 400.0}) EXPECT_NEAR(*it++, want, 1e-9);
   EXPECT_GT(limit_vertices, 50);
 
-  // Regions: every owned cell's centre in exactly one region, the region of its owner.
+  // Regions (bounded by the boundary lines): every owned cell's centre inside exactly one region,
+  // its owner's, or, equidistant from two owners, on its owner's region's edge (the line).
   fetch(results, "regions", "application/geo+json", "r.geojson");
   {
     GDALDataset* ds = GDALDataset::Open((dir_ / "r.geojson").c_str(), GDAL_OF_VECTOR);
@@ -323,6 +324,19 @@ TEST_F(DaemonDeliverables, EveryOutputAsyncCheckedByContent) {
             ++holders;
             EXPECT_EQ(owner, own.at(c, r)) << "cell " << c << ", " << r;
           }
+        if (holders == 0) {
+          int close = 0;
+          for (const Seed& sd : seeds)
+            close += std::abs(std::hypot(centre_x(c) - sd.x, centre_y(r) - sd.y) -
+                              owner_distance(seeds, centre_x(c), centre_y(r))) <= kTol;
+          EXPECT_GE(close, 2) << "cell " << c << ", " << r << " lies in no region and is no tie";
+          for (const auto& [owner, geom] : regions) {
+            if (owner == own.at(c, r)) {
+              EXPECT_TRUE(geom->Intersects(&centre)) << "cell " << c << ", " << r;
+            }
+          }
+          continue;
+        }
         ASSERT_EQ(holders, 1) << "cell " << c << ", " << r;
       }
   }

@@ -8,6 +8,8 @@
 #include <filesystem>
 #include <map>
 #include <random>
+#include <set>
+#include <span>
 #include <sstream>
 
 #include "rv/deliverables.hpp"
@@ -232,6 +234,101 @@ TEST_F(VectorWriter, RegionsCoverOwnedCellsExactlyOnce) {
               CE_None);
     GDALClose(GDALDataset::ToHandle(back));
     for (size_t i = 0; i < got.size(); ++i) ASSERT_EQ(got[i], owners.cells()[i]) << "cell " << i;
+  }
+}
+
+// Regions along the boundary lines: the faces cover the grid once (areas add up to the grid's),
+// every cell centre lies in the region of its exact owner, a region's outline is made of the
+// boundary lines' own vertices and the grid's edge, and an island's land is its polygon (within
+// the grid), the rest of its owner's region its sea.
+TEST_F(VectorWriter, LineRegionsFollowTheBoundaryLines) {
+  for (uint32_t trial = 0; trial < 4; ++trial) {
+    SCOPED_TRACE("trial " + std::to_string(trial));
+    std::mt19937 rng(trial + 40);
+    std::uniform_real_distribution<double> ux(0, 60), uy(0, 45);
+    SeedSet seeds;
+    for (int i = 0; i < 18; ++i) {
+      const int32_t f = seeds.add_feature(seeds.owner_code("o" + std::to_string(1 + i % 4)));
+      seeds.add_point(f, {ux(rng), uy(rng)});
+    }
+    // An island of owner o2 reaching over the grid's west edge: its land is clipped there.
+    const int32_t island = seeds.add_feature(seeds.owner_code("o2"));
+    seeds.add_polygon(island, {{{-2.0, 20.0}, {4.5, 20.0}, {4.5, 24.0}, {-2.0, 24.0}, {-2.0, 20.0}}});
+    GridSpec g;
+    g.xmin = 0;
+    g.ymax = 45;
+    g.res = 1.0;
+    g.width = 60;
+    g.height = 45;
+    ComputeOptions co;
+    co.threads = 2;
+    const NearestField field = compute(seeds, g, co);
+    const PlanarSiteMetric metric(seeds, Vec2{g.xmin, g.ymax});
+    const OwnerIndex index(metric);
+    const BoundaryResult b = extract_boundaries(field, index);
+    LineRegions lr;
+    lr.edges = region_edges(b, index, g);
+    lr.grid = g;
+    lr.owner_of = [&](Vec2 p) { return owner_at(index, p); };
+    lr.area = [](std::span<const Vec2> ring) { return ring_area(ring, MetricSpec{}, nullptr, 1.0); };
+    lr.area_units = "m^2";
+    const std::string p = path("line_regions_" + std::to_string(trial) + ".gpkg");
+    const RegionStats st = write_line_regions(p, lr, seeds, seeds.polygons(), {});
+    EXPECT_EQ(st.owners, seeds.owner_count());
+
+    Opened in(p);
+    ASSERT_NE(in.ds, nullptr);
+    OGRLayer* l = in.ds->GetLayerByName("regions");
+    ASSERT_NE(l, nullptr);
+    std::vector<std::pair<int32_t, std::unique_ptr<OGRGeometry>>> regions;
+    double total = 0.0;
+    l->ResetReading();
+    for (OGRFeature* f; (f = l->GetNextFeature()) != nullptr; OGRFeature::DestroyFeature(f)) {
+      const double area = f->GetFieldAsDouble("area");
+      EXPECT_NEAR(area, f->GetGeometryRef()->toMultiPolygon()->get_Area(), 1e-9 * area);
+      EXPECT_NEAR(f->GetFieldAsDouble("land_area") + f->GetFieldAsDouble("sea_area"), area, 1e-9 * area);
+      EXPECT_EQ(std::string(f->GetFieldAsString("area_units")), "m^2");
+      if (f->GetFieldAsInteger("owner") == 2) {
+        EXPECT_NEAR(f->GetFieldAsDouble("land_area"), 4.5 * 4.0, 1e-9);  // the island within the grid
+      } else {
+        EXPECT_EQ(f->GetFieldAsDouble("land_area"), 0.0);
+      }
+      total += area;
+      regions.emplace_back(f->GetFieldAsInteger("owner"), std::unique_ptr<OGRGeometry>(f->StealGeometry()));
+    }
+    EXPECT_NEAR(total, 60.0 * 45.0, 1e-9 * total);
+    // Every cell centre in exactly one region: its owner's.
+    const Raster<int32_t> owners = owner_raster(seeds, field, 2);
+    for (int64_t r = 0; r < g.height; ++r)
+      for (int64_t c = 0; c < g.width; ++c) {
+        const OGRPoint centre(g.centre_x(c), g.centre_y(r));
+        int holders = 0;
+        for (const auto& [owner, geom] : regions)
+          if (geom->Contains(&centre)) {
+            ++holders;
+            EXPECT_EQ(owner, owners.at(c, r)) << c << ", " << r;
+          }
+        ASSERT_EQ(holders, 1) << c << ", " << r;
+      }
+    // The outlines' vertices are the lines' own (or the grid's corners and the lines' ends on
+    // its edge): no staircase.
+    std::set<std::pair<double, double>> line_vertices;
+    for (const auto& e : lr.edges)
+      for (const Vec2& v : e) line_vertices.insert({v.x, v.y});
+    for (const auto& [owner, geom] : regions)
+      for (const OGRPolygon* poly : *geom->toMultiPolygon())
+        for (const OGRLinearRing* ring : *poly)
+          for (const OGRPoint& v : *ring) {
+            const bool corner = (v.getX() == 0.0 || v.getX() == 60.0) && (v.getY() == 0.0 || v.getY() == 45.0);
+            ASSERT_TRUE(corner || line_vertices.count({v.getX(), v.getY()}) == 1)
+                << "owner " << owner << ": " << v.getX() << ", " << v.getY();
+          }
+    // The land and sea layers of the GeoPackage: the island alone is land.
+    OGRLayer* land = in.ds->GetLayerByName("regions_land");
+    OGRLayer* sea = in.ds->GetLayerByName("regions_sea");
+    ASSERT_TRUE(land && sea);
+    EXPECT_EQ(land->GetFeatureCount(), 1);
+    EXPECT_EQ(sea->GetFeatureCount(), seeds.owner_count());
   }
 }
 

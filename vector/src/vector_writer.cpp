@@ -11,6 +11,7 @@
 #include <sstream>
 
 #include <gdal_alg.h>
+#include <ogr_api.h>
 #include <ogrsf_frmts.h>
 
 #include "gdal_util.hpp"
@@ -359,6 +360,186 @@ RegionStats write_regions(const std::string& path, const Raster<int32_t>& owners
   for (const int32_t v : owners.cells())
     if (v != 0) ++cells[v];
   return polygonize_regions(path, band, cells, g.res, s, o, capture);
+}
+
+namespace {
+
+using GeometryPtr = std::unique_ptr<OGRGeometry>;
+
+std::vector<Vec2> ring_points(const OGRLinearRing& ring) {
+  std::vector<Vec2> pts(static_cast<size_t>(ring.getNumPoints()));
+  for (int i = 0; i < ring.getNumPoints(); ++i) pts[static_cast<size_t>(i)] = Vec2{ring.getX(i), ring.getY(i)};
+  return pts;
+}
+
+// The area of a polygonal geometry: its outer rings' less its holes'.
+double area_of(const OGRGeometry* g, const LineRegions& r) {
+  if (g == nullptr || g->IsEmpty()) return 0.0;
+  double total = 0.0;
+  auto polygon = [&](const OGRPolygon& p) {
+    if (p.IsEmpty()) return;
+    total += r.area(ring_points(*p.getExteriorRing()));
+    for (int k = 0; k < p.getNumInteriorRings(); ++k) total -= r.area(ring_points(*p.getInteriorRing(k)));
+  };
+  const OGRwkbGeometryType t = wkbFlatten(g->getGeometryType());
+  if (t == wkbPolygon) {
+    polygon(*g->toPolygon());
+  } else if (t == wkbMultiPolygon || t == wkbGeometryCollection) {
+    for (const OGRGeometry* part : *g->toGeometryCollection()) total += area_of(part, r);
+  }
+  return total;
+}
+
+// The polygons of a geometry as a MultiPolygon (an overlay may return a collection, or lines
+// and points where two shapes only touch: those are dropped).
+std::unique_ptr<OGRMultiPolygon> polygons_of(const OGRGeometry* g) {
+  auto out = std::make_unique<OGRMultiPolygon>();
+  if (g == nullptr) return out;
+  const OGRwkbGeometryType t = wkbFlatten(g->getGeometryType());
+  if (t == wkbPolygon) {
+    out->addGeometry(g);
+  } else if (t == wkbMultiPolygon || t == wkbGeometryCollection) {
+    for (const OGRGeometry* part : *g->toGeometryCollection()) {
+      auto sub = polygons_of(part);
+      for (const OGRPolygon* p : *sub) out->addGeometry(p);
+    }
+  }
+  return out;
+}
+
+// The line strings of a geometry (Polygonize takes lines alone).
+std::unique_ptr<OGRMultiLineString> lines_of(const OGRGeometry* g) {
+  auto out = std::make_unique<OGRMultiLineString>();
+  if (g == nullptr) return out;
+  const OGRwkbGeometryType t = wkbFlatten(g->getGeometryType());
+  if (t == wkbLineString) {
+    out->addGeometry(g);
+  } else if (t == wkbMultiLineString || t == wkbGeometryCollection) {
+    for (const OGRGeometry* part : *g->toGeometryCollection()) {
+      auto sub = lines_of(part);
+      for (const OGRLineString* l : *sub) out->addGeometry(l);
+    }
+  }
+  return out;
+}
+
+GeometryPtr checked(OGRGeometry* g, const char* what, const gdal::ErrorCapture& capture) {
+  if (g == nullptr) throw Error(ErrorKind::io, std::string("regions: ") + what + " failed" + capture.suffix());
+  return GeometryPtr(g);
+}
+
+}  // namespace
+
+RegionStats write_line_regions(const std::string& path, const LineRegions& r, const SeedSet& s,
+                               const std::vector<Polygon>& polygons, const VectorOutputOptions& o) {
+  gdal::ErrorCapture capture;
+  if (!OGRGeometryFactory::haveGEOS())
+    throw Error(ErrorKind::unsupported, "regions along the boundary lines need GDAL built with GEOS");
+  const GridSpec& g = r.grid;
+  // The linework: the grid's outline and every edge; noded by a union, then polygonized.
+  OGRMultiLineString lines;
+  {
+    OGRLineString frame;
+    frame.addPoint(g.xmin, g.ymax);
+    frame.addPoint(g.xmax(), g.ymax);
+    frame.addPoint(g.xmax(), g.ymin());
+    frame.addPoint(g.xmin, g.ymin());
+    frame.addPoint(g.xmin, g.ymax);
+    lines.addGeometry(&frame);
+  }
+  for (const std::vector<Vec2>& edge : r.edges) {
+    if (edge.size() < 2) continue;
+    OGRLineString ls;
+    for (const Vec2& p : edge) ls.addPoint(p.x, p.y);
+    lines.addGeometry(&ls);
+  }
+  // A union with a point on the lines nodes every edge of both (GDAL 3.6 has no unary union).
+  const OGRPoint corner(g.xmin, g.ymax);
+  const GeometryPtr noded = checked(lines.Union(&corner), "noding the lines", capture);
+  const GeometryPtr faces = checked(lines_of(noded.get())->Polygonize(), "polygonizing the lines", capture);
+  std::map<int32_t, std::unique_ptr<OGRMultiPolygon>> by_owner;
+  RegionStats stats;
+  const std::unique_ptr<OGRMultiPolygon> face_list = polygons_of(faces.get());
+  for (const OGRPolygon* face : *face_list) {
+    // A point strictly inside the face (GEOS); OGRSurface::PointOnSurface fails on GDAL 3.6.
+    const GeometryPtr inside(
+        OGRGeometry::FromHandle(OGR_G_PointOnSurface(OGRGeometry::ToHandle(const_cast<OGRPolygon*>(face)))));
+    if (!inside || wkbFlatten(inside->getGeometryType()) != wkbPoint || inside->IsEmpty()) continue;
+    const OGRPoint* at = inside->toPoint();
+    const int32_t owner = r.owner_of(Vec2{at->getX(), at->getY()});
+    if (owner == 0) continue;
+    auto& mp = by_owner[owner];
+    if (!mp) mp = std::make_unique<OGRMultiPolygon>();
+    mp->addGeometry(face);
+    ++stats.polygons;
+  }
+  // Each owner's land: its seed polygons, made valid and merged.
+  std::map<int32_t, OGRMultiPolygon> land_of;
+  for (const Polygon& poly : polygons) {
+    OGRPolygon p;
+    for (const Ring& ring : poly.rings) {
+      OGRLinearRing lr;
+      for (const Vec2& v : ring) lr.addPoint(v.x, v.y);
+      lr.closeRings();
+      p.addRing(&lr);
+    }
+    land_of[s.features()[static_cast<size_t>(poly.feature)].owner].addGeometry(&p);
+  }
+  VectorFile file(path);
+  const bool gpkg = std::string(driver_for(path)) == "GPKG";
+  OGRLayer* l = file.layer("regions", wkbMultiPolygon, o.crs);
+  for (const char* name : {"owner", "label", "area", "land_area", "sea_area", "area_units"})
+    file.field(l, name,
+               std::string(name) == "owner"                                          ? OFTInteger
+               : (std::string(name) == "label" || std::string(name) == "area_units") ? OFTString
+                                                                                     : OFTReal);
+  OGRLayer* land_layer = nullptr;
+  OGRLayer* sea_layer = nullptr;
+  if (gpkg) {
+    land_layer = file.layer("regions_land", wkbMultiPolygon, o.crs);
+    sea_layer = file.layer("regions_sea", wkbMultiPolygon, o.crs);
+    for (OGRLayer* x : {land_layer, sea_layer}) {
+      file.field(x, "owner", OFTInteger);
+      file.field(x, "label", OFTString);
+      file.field(x, "area", OFTReal);
+    }
+  }
+  file.begin();
+  auto add = [&](OGRLayer* layer, int32_t owner, const OGRGeometry& geom, double area) {
+    FeaturePtr f(OGRFeature::CreateFeature(layer->GetLayerDefn()));
+    f->SetField("owner", owner);
+    f->SetField("label", label_of(s, owner).c_str());
+    f->SetField("area", area);
+    f->SetGeometry(&geom);
+    return f;
+  };
+  for (auto& [owner, region] : by_owner) {
+    std::unique_ptr<OGRMultiPolygon> land = std::make_unique<OGRMultiPolygon>(), sea;
+    const auto own_land = land_of.find(owner);
+    if (own_land != land_of.end()) {
+      const GeometryPtr valid = checked(own_land->second.MakeValid(), "making the seed polygons valid", capture);
+      const GeometryPtr merged =
+          checked(polygons_of(valid.get())->UnionCascaded(), "merging the seed polygons", capture);
+      land = polygons_of(checked(region->Intersection(merged.get()), "land within the region", capture).get());
+      sea = polygons_of(checked(region->Difference(merged.get()), "sea of the region", capture).get());
+    } else {
+      sea = std::make_unique<OGRMultiPolygon>(*region);
+    }
+    const double land_area = area_of(land.get(), r), sea_area = area_of(sea.get(), r);
+    FeaturePtr f = add(l, owner, *region, land_area + sea_area);
+    f->SetField("land_area", land_area);
+    f->SetField("sea_area", sea_area);
+    f->SetField("area_units", r.area_units.c_str());
+    file.add(l, f.get());
+    if (gpkg) {
+      if (!land->IsEmpty()) file.add(land_layer, add(land_layer, owner, *land, land_area).get());
+      file.add(sea_layer, add(sea_layer, owner, *sea, sea_area).get());
+    }
+    ++stats.owners;
+  }
+  file.end();
+  file.commit();
+  return stats;
 }
 
 RegionStats write_regions_from_file(const std::string& path, const std::string& ownership,

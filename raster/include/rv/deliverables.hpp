@@ -318,6 +318,24 @@ struct LimitResult {
 LimitResult extract_limits(const NearestField& field, const OwnerIndex& index, std::span<const double> distances,
                            const LimitOptions& options = {});
 
+// Regions bounded by the refined lines. The boundary lines as region edges: each line's
+// vertices, and, at an end on the frame of the outermost cell centres (where extraction stops;
+// not a tripoint), one more vertex on the grid's edge where the line's two owners are
+// equidistant: the root of d_a - d_b along the edge within a cell of the end's foot on it, or
+// the foot itself where no root is bracketed there. With the grid's outline the edges divide the
+// grid into faces of one owner each (on a field without max distance).
+std::vector<std::vector<Vec2>> region_edges(const BoundaryResult& boundaries, const OwnerIndex& index,
+                                            const GridSpec& grid);
+// The area enclosed by a ring of grid-CRS positions (closed or not; either orientation): planar,
+// in CRS units squared (shoelace); geodesic, in square metres on the metric's ellipsoid
+// (GeographicLib::PolygonArea), the ring's edges -- straight in the grid's CRS -- followed in
+// steps of at most `step` CRS units, positions located by `geolocator` on projected grids (null
+// on longitude/latitude grids).
+double ring_area(std::span<const Vec2> ring, const MetricSpec& metric, const Geolocator* geolocator, double step);
+// The owner (code) of position p by the engine's rule: the nearest seed's owner; inside the
+// polygons of several owners, the lowest code. 0 for a seed set without sites.
+int32_t owner_at(const OwnerIndex& index, Vec2 p);
+
 // What StripLines extracts: boundaries and tripoints (extract_boundaries), and limit lines at
 // the given distances (extract_limits).
 struct LineRequest {

@@ -11,8 +11,11 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <map>
+#include <span>
 #include <string>
+#include <vector>
 
 #include "rv/deliverables.hpp"
 #include "rv/raster.hpp"
@@ -55,6 +58,25 @@ struct RegionStats {
 // area (CRS units squared). Polygon edges follow cell edges exactly.
 RegionStats write_regions(const std::string& path, const Raster<int32_t>& owners, const SeedSet& seeds,
                           const VectorOutputOptions& options);
+// Regions bounded by the refined lines: the grid's outline and `edges` (region_edges) noded and
+// polygonized (GEOS, through OGR), each face given owner_of(a point inside it), an owner's faces
+// collected into its region; so a region's edge is the boundary line itself, vertex for vertex,
+// and the grid's edge. Each owner's land is the interiors of its seed polygons (`polygons`, in
+// the grid's CRS, one per seed polygon in SeedSet order) within its region; the rest is its sea.
+// Layer "regions" (MultiPolygon): one feature per owner with owner, label, area, land_area,
+// sea_area (area(ring) units: area_units), area_units; GeoPackage files also get layers
+// "regions_land" and "regions_sea" (MultiPolygon; owner, label, area). Throws rv::Error(io) when
+// the geometry engine fails (rv::Error(unsupported) when GDAL was built without GEOS).
+struct LineRegions {
+  std::vector<std::vector<Vec2>> edges;
+  GridSpec grid;
+  std::function<int32_t(Vec2)> owner_of;              // 0: no owner (the face is left out)
+  std::function<double(std::span<const Vec2>)> area;  // of one ring, >= 0
+  std::string area_units;
+};
+RegionStats write_line_regions(const std::string& path, const LineRegions& regions, const SeedSet& seeds,
+                               const std::vector<Polygon>& polygons, const VectorOutputOptions& options);
+
 // The same from an ownership GeoTIFF (band 1, owner codes, nodata 0) read block by block, as a
 // streamed job wrote it: memory in proportion to the regions' outlines, not to the grid.
 // `cells`: each owner's number of cells (counted while the strips went by). Throws
