@@ -517,7 +517,7 @@ const std::vector<OptionSpec> kOptions = {
      "FILE",
      "deliverables",
      "Regions",
-     "one (multi)polygon per owner from the ownership raster",
+     "one (multi)polygon per owner bounded by the boundary lines, with its land and sea areas",
      "",
      {},
      0,
