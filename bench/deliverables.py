@@ -89,11 +89,13 @@ def main():
             for r in range(rounds):
                 for label, binary in variants:
                     rows[label].append(run(binary, case, quick, os.path.join(tmp, case, label)))
-            same = all(filecmp.cmp(os.path.join(tmp, case, variants[0][0], f), os.path.join(tmp, case, label, f),
-                                   shallow=False) for label, _ in variants[1:] for f in OUTPUTS.values())
+            differ = sorted({f for label, _ in variants[1:] for f in OUTPUTS.values()
+                             if not filecmp.cmp(os.path.join(tmp, case, variants[0][0], f),
+                                                os.path.join(tmp, case, label, f), shallow=False)})
+            same = not differ
             cells = rows[variants[0][0]][0]["cells"]
             print(f"\n{case}: {cells:.3g} cells, {rounds} alternated rounds, medians (s); deliverables "
-                  f"{'identical' if same else 'DIFFER'} across variants\n")
+                  f"{'identical' if same else 'DIFFER (' + ', '.join(differ) + ')'} across variants\n")
             print("| variant | " + " | ".join(PHASES) + " | deliverables / compute | peak MiB | unresolved tripoints | max residual m |")
             print("|---" * (len(PHASES) + 5) + "|")
             for label, _ in variants:

@@ -110,7 +110,10 @@ std::vector<Segment> owner_changes(const BoundaryGrid& b, int64_t row0, int64_t 
     const int32_t* here = b.rows.site_row(r);
     const int32_t* below = r + 1 < b.H ? b.rows.site_row(r + 1) : nullptr;
     for (int64_t c = 0; c < b.W; ++c) {
-      const int32_t o = b.owner_code(here[c]);
+      // Sites equal means owners equal: the owner lookups only where sites differ.
+      const int32_t s = here[c];
+      if ((c + 1 >= b.W || here[c + 1] == s) && (below == nullptr || below[c] == s)) continue;
+      const int32_t o = b.owner_code(s);
       if (o == 0) continue;
       if (c + 1 < b.W) {
         const int32_t q = b.owner_code(here[c + 1]);

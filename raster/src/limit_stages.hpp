@@ -63,6 +63,7 @@ struct InsideRows {
   std::vector<uint8_t> flags;
   int64_t row1() const { return width == 0 ? row0 : row0 + static_cast<int64_t>(flags.size()) / width; }
   bool at(int64_t c, int64_t r) const { return flags[static_cast<size_t>((r - row0) * width + c)] != 0; }
+  const uint8_t* row(int64_t r) const { return flags.data() + (r - row0) * width; }
   // Forgets the rows before r.
   void drop_before(int64_t r);
 };
