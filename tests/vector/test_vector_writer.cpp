@@ -76,6 +76,17 @@ struct Scene {
   }
 };
 
+// 60 x 45 unit cells, south-west corner at the origin, no CRS.
+GridSpec grid_60x45() {
+  GridSpec g;
+  g.xmin = 0;
+  g.ymax = 45;
+  g.res = 1.0;
+  g.width = 60;
+  g.height = 45;
+  return g;
+}
+
 TEST_F(VectorWriter, BoundariesAndTripointsRoundTrip) {
   Scene s;
   const BoundaryResult b = extract_boundaries(s.field, *s.index);
@@ -186,12 +197,7 @@ TEST_F(VectorWriter, RegionsCoverOwnedCellsExactlyOnce) {
       const int32_t f = seeds.add_feature(seeds.owner_code("o" + std::to_string(1 + i % 4)));
       seeds.add_point(f, {ux(rng), uy(rng)});
     }
-    GridSpec g;
-    g.xmin = 0;
-    g.ymax = 45;
-    g.res = 1.0;
-    g.width = 60;
-    g.height = 45;
+    const GridSpec g = grid_60x45();
     ComputeOptions co;
     co.threads = 2;
     co.max_distance = trial % 2 ? 6.0 : std::numeric_limits<double>::infinity();  // some nodata
@@ -254,12 +260,7 @@ TEST_F(VectorWriter, LineRegionsFollowTheBoundaryLines) {
     // An island of owner o2 reaching over the grid's west edge: its land is clipped there.
     const int32_t island = seeds.add_feature(seeds.owner_code("o2"));
     seeds.add_polygon(island, {{{-2.0, 20.0}, {4.5, 20.0}, {4.5, 24.0}, {-2.0, 24.0}, {-2.0, 20.0}}});
-    GridSpec g;
-    g.xmin = 0;
-    g.ymax = 45;
-    g.res = 1.0;
-    g.width = 60;
-    g.height = 45;
+    const GridSpec g = grid_60x45();
     ComputeOptions co;
     co.threads = 2;
     const NearestField field = compute(seeds, g, co);

@@ -390,36 +390,29 @@ double area_of(const OGRGeometry* g, const LineRegions& r) {
   return total;
 }
 
-// The polygons of a geometry as a MultiPolygon (an overlay may return a collection, or lines
-// and points where two shapes only touch: those are dropped).
+// The parts of type `single` of a geometry, gathered into `out` (an overlay may return a
+// collection mixing polygons, lines and points where shapes only touch; Polygonize takes lines
+// alone).
+template <class Multi>
+void gather(const OGRGeometry* g, OGRwkbGeometryType single, OGRwkbGeometryType multi, Multi& out) {
+  if (g == nullptr) return;
+  const OGRwkbGeometryType t = wkbFlatten(g->getGeometryType());
+  if (t == single) {
+    out.addGeometry(g);
+  } else if (t == multi || t == wkbGeometryCollection) {
+    for (const OGRGeometry* part : *g->toGeometryCollection()) gather(part, single, multi, out);
+  }
+}
+
 std::unique_ptr<OGRMultiPolygon> polygons_of(const OGRGeometry* g) {
   auto out = std::make_unique<OGRMultiPolygon>();
-  if (g == nullptr) return out;
-  const OGRwkbGeometryType t = wkbFlatten(g->getGeometryType());
-  if (t == wkbPolygon) {
-    out->addGeometry(g);
-  } else if (t == wkbMultiPolygon || t == wkbGeometryCollection) {
-    for (const OGRGeometry* part : *g->toGeometryCollection()) {
-      auto sub = polygons_of(part);
-      for (const OGRPolygon* p : *sub) out->addGeometry(p);
-    }
-  }
+  gather(g, wkbPolygon, wkbMultiPolygon, *out);
   return out;
 }
 
-// The line strings of a geometry (Polygonize takes lines alone).
 std::unique_ptr<OGRMultiLineString> lines_of(const OGRGeometry* g) {
   auto out = std::make_unique<OGRMultiLineString>();
-  if (g == nullptr) return out;
-  const OGRwkbGeometryType t = wkbFlatten(g->getGeometryType());
-  if (t == wkbLineString) {
-    out->addGeometry(g);
-  } else if (t == wkbMultiLineString || t == wkbGeometryCollection) {
-    for (const OGRGeometry* part : *g->toGeometryCollection()) {
-      auto sub = lines_of(part);
-      for (const OGRLineString* l : *sub) out->addGeometry(l);
-    }
-  }
+  gather(g, wkbLineString, wkbMultiLineString, *out);
   return out;
 }
 
