@@ -270,18 +270,40 @@ int64_t square_of(const BoundaryGrid& b, Vec2 p) {
   return static_cast<int64_t>(fr) * b.W + static_cast<int64_t>(fc);
 }
 
-void add_tripoint(const BoundaryGrid& b, TripointSet& set, const Tripoint& t) {
+// Files t unless it is one already filed (or outside the dual grid); whether it was new.
+bool add_tripoint(const BoundaryGrid& b, TripointSet& set, const Tripoint& t) {
   auto& list = set.by_owners[{t.owners[0], t.owners[1], t.owners[2]}];
   for (int32_t id : list) {
     const Vec2 q = set.tripoints[static_cast<size_t>(id)].p;
-    if (std::hypot(q.x - t.p.x, q.y - t.p.y) <= 1e-6 * b.g.res) return;
+    if (std::hypot(q.x - t.p.x, q.y - t.p.y) <= 1e-6 * b.g.res) return false;
   }
   const int64_t sq = square_of(b, t.p);
-  if (sq < 0) return;  // outside the dual grid: no cell-centre square holds it
+  if (sq < 0) return false;  // outside the dual grid: no cell-centre square holds it
   const auto id = static_cast<int32_t>(set.tripoints.size());
   set.tripoints.push_back(t);
   list.push_back(id);
   set.in_square[sq].push_back(id);
+  return true;
+}
+
+// Where to start the search for the tripoint of `owners` in square (c, r): its centre, then the
+// crossings on its edges between two of the three owners (the ends of the lines that meet
+// there). Two tripoints of one triple a fraction of a cell apart (a short boundary between them)
+// draw the search from the centre to the one already filed; from the crossing the other line
+// ends at, it finds the second.
+std::vector<Vec2> tripoint_starts(const BoundaryGrid& b, const CrossingSet& x, int64_t c, int64_t r,
+                                  const std::array<int32_t, 3>& owners) {
+  std::vector<Vec2> starts{square_mid(b.g, c, r)};
+  auto in_triple = [&](int32_t o) { return o == owners[0] || o == owners[1] || o == owners[2]; };
+  for (int64_t e : square_edges(b.W, c, r)) {
+    const auto it = x.on_edge.find(e);
+    if (it == x.on_edge.end()) continue;
+    for (int32_t i = 0; i < it->second.second; ++i) {
+      const Crossing& cr = x.crossings[static_cast<size_t>(it->second.first + i)];
+      if (in_triple(cr.owner_lo) && in_triple(cr.owner_hi)) starts.push_back(cr.v.p);
+    }
+  }
+  return starts;
 }
 
 // The distinct owners of square (c, r): its corners', and those passing between its centres.
@@ -336,12 +358,16 @@ void find_tripoints(const BoundaryGrid& b, const CrossingSet& x, int64_t row0, i
     for (size_t i = 0; i < distinct.size(); ++i)
       for (size_t j = i + 1; j < distinct.size(); ++j)
         for (size_t k = j + 1; k < distinct.size(); ++k) {
-          Tripoint t;
-          if (!solver.solve({distinct[i], distinct[j], distinct[k]}, mid, res, t)) continue;
-          if (std::abs(t.p.x - mid.x) > res || std::abs(t.p.y - mid.y) > res) continue;
-          const auto any = b.index.nearest(t.p);
-          if (any.distance < t.distance - 4.0 * b.ftol - t.residual) continue;  // another owner is nearer
-          add_tripoint(b, set, t);
+          const std::array<int32_t, 3> triple{distinct[i], distinct[j], distinct[k]};
+          // From the centre first; from the crossings only when that found none new.
+          for (const Vec2 start : tripoint_starts(b, x, c, r, triple)) {
+            Tripoint t;
+            if (!solver.solve(triple, start, res, t)) continue;
+            if (std::abs(t.p.x - mid.x) > res || std::abs(t.p.y - mid.y) > res) continue;
+            const auto any = b.index.nearest(t.p);
+            if (any.distance < t.distance - 4.0 * b.ftol - t.residual) continue;  // another owner is nearer
+            if (add_tripoint(b, set, t)) break;
+          }
         }
     if (set.tripoints.size() == before) unplaced.push_back({c, r});
   }

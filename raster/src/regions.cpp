@@ -58,28 +58,30 @@ bool on_centre_frame(const GridSpec& g, Vec2 p) {
 
 }  // namespace
 
-std::vector<std::vector<Vec2>> region_edges(const BoundaryResult& boundaries, const OwnerIndex& index,
-                                            const GridSpec& g) {
+RegionEdges region_edges(const BoundaryResult& boundaries, const OwnerIndex& index, const GridSpec& g) {
   const double ftol = 1e-9 * cell_metric(g, index.metric());
   auto at_tripoint = [&](Vec2 p) {
     return std::any_of(boundaries.tripoints.begin(), boundaries.tripoints.end(),
                        [&](const Tripoint& t) { return t.p == p; });
   };
-  std::vector<std::vector<Vec2>> edges;
-  edges.reserve(boundaries.lines.size());
+  RegionEdges out;
+  out.edges.reserve(boundaries.lines.size());
   for (const BoundaryLine& line : boundaries.lines) {
     std::vector<Vec2> pts;
     pts.reserve(line.vertices.size() + 2);
     for (const BoundaryVertex& v : line.vertices) pts.push_back(v.p);
-    if (!line.closed && pts.size() >= 1) {
-      if (on_centre_frame(g, pts.back()) && !at_tripoint(pts.back()))
-        pts.push_back(edge_vertex(index, g, pts.back(), line.owner_a, line.owner_b, ftol));
-      if (on_centre_frame(g, pts.front()) && !at_tripoint(pts.front()))
-        pts.insert(pts.begin(), edge_vertex(index, g, pts.front(), line.owner_a, line.owner_b, ftol));
+    if (!line.closed && !pts.empty()) {
+      const Vec2 first = pts.front(), last = pts.back();
+      for (const Vec2 end : {first, last})
+        if (!at_tripoint(end) && !on_centre_frame(g, end)) ++out.dangling_ends;
+      if (on_centre_frame(g, last) && !at_tripoint(last))
+        pts.push_back(edge_vertex(index, g, last, line.owner_a, line.owner_b, ftol));
+      if (on_centre_frame(g, first) && !at_tripoint(first))
+        pts.insert(pts.begin(), edge_vertex(index, g, first, line.owner_a, line.owner_b, ftol));
     }
-    edges.push_back(std::move(pts));
+    out.edges.push_back(std::move(pts));
   }
-  return edges;
+  return out;
 }
 
 int32_t owner_at(const OwnerIndex& index, Vec2 p) {

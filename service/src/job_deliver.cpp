@@ -213,7 +213,16 @@ void StripDeliverables::finish(const std::string& ownership_file, const Raster<i
       RegionStats rs;
       if (along_lines) {
         LineRegions lr;
-        lr.edges = region_edges(boundaries, *s.index, s.job.grid);
+        RegionEdges edges = region_edges(boundaries, *s.index, s.job.grid);
+        // A line stopping in the open would merge two owners' faces: no regions rather than
+        // wrong ones.
+        if (edges.dangling_ends > 0)
+          throw Error(ErrorKind::internal,
+                      "regions: " + std::to_string(edges.dangling_ends) +
+                          " boundary line end(s) stop inside the grid, away from any tripoint (the lines could "
+                          "not be joined there, a defect of the extraction); the regions cannot be bounded by "
+                          "them. Leave out the regions, or report this case");
+        lr.edges = std::move(edges.edges);
         lr.grid = s.job.grid;
         lr.owner_of = [&](Vec2 p) { return owner_at(*s.index, p); };
         const double to_area = s.job.to_output * s.job.to_output;

@@ -21,7 +21,9 @@ TEST(Regions, LinesAreCarriedToTheGridsEdgeOnTheLocus) {
   const test::PointsField k({{20.3, 31.7}, {41.9, 12.4}, {52.2, 40.6}}, {"A", "B", "C"}, test::grid_of(60, 45));
   const BoundaryResult b = extract_boundaries(k.field, k.index);
   ASSERT_EQ(b.lines.size(), 3u);
-  const std::vector<std::vector<Vec2>> edges = region_edges(b, k.index, k.grid);
+  const RegionEdges re = region_edges(b, k.index, k.grid);
+  EXPECT_EQ(re.dangling_ends, 0);
+  const std::vector<std::vector<Vec2>>& edges = re.edges;
   ASSERT_EQ(edges.size(), b.lines.size());
   int on_edge = 0;
   for (size_t i = 0; i < edges.size(); ++i) {
@@ -36,6 +38,10 @@ TEST(Regions, LinesAreCarriedToTheGridsEdgeOnTheLocus) {
     }
   }
   EXPECT_EQ(on_edge, 3);
+  // Lines that stop in the open are counted: without their tripoint, the three lines' inner ends.
+  BoundaryResult broken = b;
+  broken.tripoints.clear();
+  EXPECT_EQ(region_edges(broken, k.index, k.grid).dangling_ends, 3);
 }
 
 TEST(Regions, OwnerAtFollowsTheEngineAlsoInsideOverlappingPolygons) {

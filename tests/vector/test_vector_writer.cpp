@@ -268,7 +268,9 @@ TEST_F(VectorWriter, LineRegionsFollowTheBoundaryLines) {
     const OwnerIndex index(metric);
     const BoundaryResult b = extract_boundaries(field, index);
     LineRegions lr;
-    lr.edges = region_edges(b, index, g);
+    const RegionEdges re = region_edges(b, index, g);
+    EXPECT_EQ(re.dangling_ends, 0);
+    lr.edges = re.edges;
     lr.grid = g;
     lr.owner_of = [&](Vec2 p) { return owner_at(index, p); };
     lr.area = [](std::span<const Vec2> ring) { return ring_area(ring, MetricSpec{}, nullptr, 1.0); };

@@ -323,9 +323,14 @@ LimitResult extract_limits(const NearestField& field, const OwnerIndex& index, s
 // not a tripoint), one more vertex on the grid's edge where the line's two owners are
 // equidistant: the root of d_a - d_b along the edge within a cell of the end's foot on it, or
 // the foot itself where no root is bracketed there. With the grid's outline the edges divide the
-// grid into faces of one owner each (on a field without max distance).
-std::vector<std::vector<Vec2>> region_edges(const BoundaryResult& boundaries, const OwnerIndex& index,
-                                            const GridSpec& grid);
+// grid into faces of one owner each (on a field without max distance) -- unless a line stops in
+// the open (neither at a tripoint nor on the frame; every cell has an owner there), a defect of
+// the extraction that would merge two owners' faces: `dangling_ends` counts such ends.
+struct RegionEdges {
+  std::vector<std::vector<Vec2>> edges;
+  int64_t dangling_ends = 0;
+};
+RegionEdges region_edges(const BoundaryResult& boundaries, const OwnerIndex& index, const GridSpec& grid);
 // The area enclosed by a ring of grid-CRS positions (closed or not; either orientation): planar,
 // in CRS units squared (shoelace); geodesic, in square metres on the metric's ellipsoid
 // (GeographicLib::PolygonArea), the ring's edges -- straight in the grid's CRS -- followed in
