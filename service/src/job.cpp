@@ -190,7 +190,8 @@ constexpr int64_t kWriterBytes = int64_t{12} << 20;
 // owner's field and the margin), a few rows kept per line set, the preview's sample, the owner
 // raster's file for regions when not asked for (one more writer), and the lines' pieces, which
 // grow with the lines' length, not the grid's area: taken as kLineBytes per cell of the grid's
-// width and height per line set (boundaries; each limit distance, times the owners per owner).
+// width and height per line set (boundaries; each limit distance -- with --limits-per-owner
+// still one set a distance, an approximation: the plan does not know the owners yet).
 constexpr int64_t kLineBytes = 2048;
 constexpr int64_t kRegionBytes = 12 << 10;
 
