@@ -65,6 +65,15 @@ struct StripDeliverables::State {
 
   State(JobRun& r, const PreparedJob& j, bool s) : run(r), job(j), streamed(s) {}
   const OutputRequest& out() const { return run.spec.outputs; }
+
+  // The stages of finish(), one per deliverable: each writes its file(s), its report entry and
+  // its time (the strips' share included).
+  BoundaryResult write_boundaries_and_tripoints();
+  void write_limit_lines();
+  void write_region_polygons(const BoundaryResult& boundaries, const std::string& ownership_file,
+                             const Raster<int32_t>* owner_codes);
+  void finish_margin();
+  void write_quicklook(const BoundaryResult& boundaries);
 };
 
 StripDeliverables::StripDeliverables(JobRun& run, const PreparedJob& job, bool streamed)
@@ -148,12 +157,10 @@ void StripDeliverables::add(const NearestField& strip) {
   }
 }
 
-void StripDeliverables::finish(const std::string& ownership_file, const Raster<int32_t>* owner_codes) {
-  State& s = *st_;
+BoundaryResult StripDeliverables::State::write_boundaries_and_tripoints() {
+  State& s = *this;
   const OutputRequest& out = s.out();
   JobRun& run = s.run;
-  run.check_cancel();
-  run.progress("deliver", 0.0);
   BoundaryResult boundaries;
   if (s.boundaries) {
     const auto t = Clock::now();
@@ -184,7 +191,13 @@ void StripDeliverables::finish(const std::string& ownership_file, const Raster<i
     }
     s.times["boundaries"] = s.boundary_seconds + seconds_since(t);
   }
-  run.progress("deliver", 0.3);
+  return boundaries;
+}
+
+void StripDeliverables::State::write_limit_lines() {
+  State& s = *this;
+  const OutputRequest& out = s.out();
+  JobRun& run = s.run;
   if (s.limits) {
     run.check_cancel();
     const auto t = Clock::now();
@@ -203,7 +216,14 @@ void StripDeliverables::finish(const std::string& ownership_file, const Raster<i
                           {"max_residual_cells", limits.max_residual / s.cell_length}};
     s.times["limits"] = s.limit_seconds + seconds_since(t);
   }
-  run.progress("deliver", 0.5);
+}
+
+void StripDeliverables::State::write_region_polygons(const BoundaryResult& boundaries,
+                                                     const std::string& ownership_file,
+                                                     const Raster<int32_t>* owner_codes) {
+  State& s = *this;
+  const OutputRequest& out = s.out();
+  JobRun& run = s.run;
   if (!out.regions.empty()) {
     run.check_cancel();
     timed(s.times, "regions", [&] {
@@ -243,7 +263,12 @@ void StripDeliverables::finish(const std::string& ownership_file, const Raster<i
           {"owners", rs.owners}, {"polygons", rs.polygons}, {"edges", along_lines ? "boundary lines" : "cell edges"}};
     });
   }
-  run.progress("deliver", 0.7);
+}
+
+void StripDeliverables::State::finish_margin() {
+  State& s = *this;
+  const OutputRequest& out = s.out();
+  JobRun& run = s.run;
   if (!out.margin.empty()) {
     const auto t = Clock::now();
     if (s.margin_writer) {
@@ -258,7 +283,12 @@ void StripDeliverables::finish(const std::string& ownership_file, const Raster<i
     run.wrote("margin", out.margin);
     s.times["margin"] = s.margin_seconds + seconds_since(t);
   }
-  run.progress("deliver", 0.9);
+}
+
+void StripDeliverables::State::write_quicklook(const BoundaryResult& boundaries) {
+  State& s = *this;
+  const OutputRequest& out = s.out();
+  JobRun& run = s.run;
   if (s.preview) {
     run.check_cancel();
     timed(s.times, "preview", [&] {
@@ -268,6 +298,22 @@ void StripDeliverables::finish(const std::string& ownership_file, const Raster<i
       s.report["preview"] = {{"width", pi.width}, {"height", pi.height}, {"cells_per_pixel", pi.step}};
     });
   }
+}
+
+void StripDeliverables::finish(const std::string& ownership_file, const Raster<int32_t>* owner_codes) {
+  State& s = *st_;
+  JobRun& run = s.run;
+  run.check_cancel();
+  run.progress("deliver", 0.0);
+  const BoundaryResult boundaries = s.write_boundaries_and_tripoints();
+  run.progress("deliver", 0.3);
+  s.write_limit_lines();
+  run.progress("deliver", 0.5);
+  s.write_region_polygons(boundaries, ownership_file, owner_codes);
+  run.progress("deliver", 0.7);
+  s.finish_margin();
+  run.progress("deliver", 0.9);
+  s.write_quicklook(boundaries);
   run.progress("deliver", 1.0);
   for (auto& [k, v] : s.times.items()) run.timings["deliverables"][k] = v;
   run.report["deliverables"] = s.report;

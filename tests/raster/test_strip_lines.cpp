@@ -156,7 +156,7 @@ TEST(StripLines, StripsWithAMaxDistanceGiveTheWholeFieldsLines) {
 
 TEST(StripLines, GeodesicStripsGiveTheWholeFieldsLines) {
   // Degrees around 12 E 55 N: 0.02 degree cells (about 1.3 x 2.2 km).
-  Case k(mixed_seeds(7, 0.02, {11.4, 54.6}), GridSpec{11.4, 55.5, 0.02, 60, 45}, true,
+  Case k(mixed_seeds(7, 0.02, {11.4, 54.6}), test::grid_of(60, 45, 0.02, 11.4, 55.5), true,
          std::numeric_limits<double>::infinity());
   check_every_strip_height(k, {3000.0, 8000.0});
 }
