@@ -28,7 +28,7 @@ constexpr const char* kUsageHead =
     R"(rvoronoi — raster Voronoi diagrams (ownership and distance) for GIS
 
 usage:
-  rvoronoi compute SEEDS... --resolution R --ownership OWN.tif [options]
+  rvoronoi compute SEEDS... --resolution R [--ownership OWN.tif] [outputs] [options]   (one output at least)
   rvoronoi validate SEEDS... --resolution R [--methods M,M...] [grid options]
   rvoronoi validate --random-seeds N --size W H [--trials T] [--methods M,M...] [--seed S]
                     [--buckets A,B]
@@ -184,8 +184,12 @@ CommonOptions parse(Args& args, bool validate_mode) {
 int cmd_compute(Args& args) {
   CommonOptions o = parse(args, false);
   if (o.spec.seeds.paths.empty()) throw Error(ErrorKind::invalid_argument, "compute: no seed file given");
-  if (o.spec.outputs.ownership.empty())
-    throw Error(ErrorKind::invalid_argument, "compute: --ownership FILE.tif is required");
+  const OutputRequest& out = o.spec.outputs;
+  if (out.ownership.empty() && out.distance.empty() && out.nearest_feature.empty() && !out.any_deliverable())
+    throw Error(ErrorKind::invalid_argument,
+                "compute: nothing to write: give --ownership FILE.tif, --distance FILE.tif, --nearest-feature "
+                "FILE.tif or a deliverable (--boundaries, --tripoints, --limits, --regions, --margin-raster, "
+                "--preview)");
   ProgressBar bar(!o.quiet);
   JobHooks hooks;
   hooks.progress = [&](const std::string& stage, double f) { bar.update(stage, f); };

@@ -227,9 +227,23 @@ TEST_F(Cli, BadInputFailsCleanly) {
   expect_refused(run("compute " + source(kDemo) + " --resolution 10 --compression zip" + out), 2,
                  "--compression: must be one of fast, small, deflate, none, got 'zip'");
   expect_refused(run("compute " + source(kDemo) + " --resolution 10" + out + " --compression"), 2, "--compression");
-  expect_refused(run("compute " + source(kDemo) + " --resolution 10"), 2, "--ownership");
+  expect_refused(run("compute " + source(kDemo) + " --resolution 10"), 2, "nothing to write");
+  expect_refused(run("compute " + source(kDemo) + " --resolution 10 --report " + path("r.json")), 2,
+                 "nothing to write");
   // Only the two input files written by this test remain: no partial outputs.
   EXPECT_EQ(file_count(), 2u);
+}
+
+// The lines alone, without a raster file: the job streams them from strips no file keeps.
+TEST_F(Cli, DeliverablesAloneNeedNoRaster) {
+  const CliRun r = run("compute " + source(kDemo) + " --owner-field state --resolution 150 --boundaries " +
+                       path("b.geojson") + " --report " + path("r.json") + " --quiet");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_TRUE(fs::exists(path("b.geojson")));
+  std::ifstream in(path("r.json"));
+  const std::string report((std::istreambuf_iterator<char>(in)), {});
+  EXPECT_NE(report.find("\"streamed\": true"), std::string::npos) << report;
+  EXPECT_EQ(file_count(), 2u);  // the lines and the report, nothing else
 }
 
 // A GeoTIFF's layout as GDAL reports it: data type, COMPRESSION, PREDICTOR and LAYOUT of the
