@@ -36,15 +36,7 @@ bool line_regions(const PreparedJob& job, const OutputRequest& out) {
   return !out.regions.empty() && std::isinf(job.compute.max_distance);
 }
 
-namespace {
-
-std::vector<int32_t> owner_of_sites(const SeedSet& seeds) {
-  std::vector<int32_t> owner(seeds.sites().size());
-  for (size_t i = 0; i < owner.size(); ++i) owner[i] = seeds.site_owner(static_cast<int32_t>(i));
-  return owner;
-}
-
-}  // namespace
+namespace {}  // namespace
 
 struct StripDeliverables::State {
   JobRun& run;
@@ -53,7 +45,7 @@ struct StripDeliverables::State {
   std::unique_ptr<SiteMetric> metric;
   std::unique_ptr<OwnerIndex> index;
   double cell_length = 0.0;  // one cell in metric units near the grid's centre (degrees are not metres)
-  std::vector<int32_t> owner_of_site;
+  SiteCodes owner_codes;     // site -> owner code (the preview, the regions' cell counts)
   std::optional<StripLines> boundaries, limits;
   std::optional<PreviewSample> preview;
   std::optional<GeoTiffStripWriter<float>> margin_writer;  // streamed
@@ -85,7 +77,7 @@ StripDeliverables::StripDeliverables(JobRun& run, const PreparedJob& job, bool s
   s.index = std::make_unique<OwnerIndex>(*s.metric);
   const Vec2 mid{g.centre_x(g.width / 2), g.centre_y(g.height / 2)};
   s.cell_length = s.metric->point_distance(mid, Vec2{mid.x + g.res, mid.y});
-  s.owner_of_site = owner_of_sites(job.loaded.seeds);
+  s.owner_codes = SiteCodes::owners(job.loaded.seeds);
   s.vector.crs = job.loaded.crs.wkt;
   s.vector.distance_factor = job.to_output;
   s.vector.distance_units = job.unit;
@@ -137,10 +129,10 @@ void StripDeliverables::add(const NearestField& strip) {
   };
   if (s.boundaries) s.boundary_seconds += seconds([&] { s.boundaries->add(strip); });
   if (s.limits) s.limit_seconds += seconds([&] { s.limits->add(strip); });
-  if (s.preview) s.preview->add_rows(strip.site.data(), strip.site.window().row0, strip.site.height(), s.owner_of_site);
+  if (s.preview) s.preview->add_rows(strip.site.data(), strip.site.window().row0, strip.site.height(), &s.owner_codes);
   if (s.streamed && !out.regions.empty() && !line_regions(s.job, out))
     for (const int32_t site : strip.site.cells())
-      if (site != kNoSite) ++s.owner_cells[s.owner_of_site[static_cast<size_t>(site)]];
+      if (site != kNoSite) ++s.owner_cells[s.owner_codes.code(site)];
   if (!out.margin.empty()) {
     s.margin_seconds += seconds([&] {
       Raster<float> margin = margin_raster(strip, *s.index, s.run.spec.threads);

@@ -37,7 +37,7 @@ PreviewSample::PreviewSample(const GridSpec& grid, const Window& window, const P
   codes_.assign(static_cast<size_t>(info_.width) * static_cast<size_t>(info_.height), 0);
 }
 
-void PreviewSample::add_rows(const int32_t* values, int64_t row0, int64_t rows, std::span<const int32_t> code_of) {
+void PreviewSample::add_rows(const int32_t* values, int64_t row0, int64_t rows, const SiteCodes* codes) {
   const int64_t w = window_.width, h = window_.height, step = info_.step;
   for (int y = 0; y < info_.height; ++y) {
     // Nearest sampling: the cell at the centre of the pixel's block of step x step cells.
@@ -47,7 +47,7 @@ void PreviewSample::add_rows(const int32_t* values, int64_t row0, int64_t rows, 
     int32_t* out = codes_.data() + static_cast<size_t>(y) * static_cast<size_t>(info_.width);
     for (int x = 0; x < info_.width; ++x) {
       const int32_t v = row[std::min<int64_t>(w - 1, x * step + step / 2)];
-      out[x] = code_of.empty() ? v : v < 0 ? 0 : code_of[static_cast<size_t>(v)];
+      out[x] = codes == nullptr ? v : codes->code(v);
     }
   }
 }

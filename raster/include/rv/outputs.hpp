@@ -27,6 +27,8 @@ class SiteCodes {
   // out[i] = code of site[i] for i in [0, n); 0 where site[i] == kNoSite. site[i] must be
   // kNoSite or a site index of the seed set. `out` may not alias `site`.
   void apply(const int32_t* site, int32_t* out, int64_t n) const;
+  // The code of one site (kNoSite: 0).
+  int32_t code(int32_t site) const { return site == kNoSite ? 0 : code_[static_cast<size_t>(site)]; }
 
  private:
   std::vector<int32_t> code_;

@@ -13,11 +13,11 @@
 
 #include <array>
 #include <cstdint>
-#include <span>
 #include <string>
 #include <vector>
 
 #include "rv/deliverables.hpp"
+#include "rv/outputs.hpp"
 #include "rv/raster.hpp"
 
 namespace rv {
@@ -42,9 +42,8 @@ class PreviewSample {
  public:
   PreviewSample(const GridSpec& grid, const Window& window, const PreviewOptions& options = {});
   // Rows [row0, row0 + rows) of the window (window-relative, in order, whole rows): values[i]
-  // is the owner code, or with `code_of` the index into it of the owner code (a site index;
-  // negative: no owner).
-  void add_rows(const int32_t* values, int64_t row0, int64_t rows, std::span<const int32_t> code_of = {});
+  // is the owner code, or with `codes` a site index (kNoSite: no owner) that codes turns into one.
+  void add_rows(const int32_t* values, int64_t row0, int64_t rows, const SiteCodes* codes = nullptr);
   const PreviewInfo& info() const { return info_; }
 
  private:
