@@ -645,3 +645,66 @@ std::vector<BoundaryLine> chain_lines(const CrossingSet& x, const TripointSet& t
 }  // namespace boundary_stages
 
 }  // namespace rv
+
+namespace rv::boundary_stages {
+
+std::vector<BoundaryLine> lone_crossings(const CrossingSet& x, const Links& links) {
+  std::vector<bool> linked(x.crossings.size(), false);
+  for (const auto& l : links.links)
+    for (const int32_t n : l)
+      if (n >= 0) linked[static_cast<size_t>(n)] = true;
+  std::vector<BoundaryLine> out;
+  for (size_t i = 0; i < linked.size(); ++i)
+    if (!linked[i]) {
+      const Crossing& c = x.crossings[i];
+      out.push_back(BoundaryLine{c.owner_lo, c.owner_hi, false, {c.v}});
+    }
+  return out;
+}
+
+void join_close_tripoints(const std::vector<Tripoint>& tripoints, double cell, std::vector<BoundaryLine>& lines) {
+  // Per tripoint, the owner pairs (as indices into its owners) with a line ending there.
+  struct Missing {
+    size_t tripoint;
+    int i, k;  // owners[i] < owners[k]
+    bool used = false;
+  };
+  std::map<std::pair<double, double>, std::set<std::pair<int32_t, int32_t>>> ending;
+  for (const BoundaryLine& l : lines) {
+    if (l.closed || l.vertices.empty()) continue;
+    for (const Vec2 p : {l.vertices.front().p, l.vertices.back().p}) ending[{p.x, p.y}].insert({l.owner_a, l.owner_b});
+  }
+  std::vector<Missing> missing;
+  for (size_t n = 0; n < tripoints.size(); ++n) {
+    const Tripoint& t = tripoints[n];
+    const auto it = ending.find({t.p.x, t.p.y});
+    for (const auto& [i, k] : {std::pair{0, 1}, std::pair{0, 2}, std::pair{1, 2}})
+      if (it == ending.end() || it->second.count({t.owners[i], t.owners[k]}) == 0) missing.push_back({n, i, k});
+  }
+  for (size_t m = 0; m < missing.size(); ++m) {
+    if (missing[m].used) continue;
+    const Tripoint& t = tripoints[missing[m].tripoint];
+    const int32_t a = t.owners[missing[m].i], b = t.owners[missing[m].k];
+    size_t best = missing.size();
+    double best_d = cell;
+    for (size_t q = m + 1; q < missing.size(); ++q) {
+      const Tripoint& u = tripoints[missing[q].tripoint];
+      if (missing[q].used || u.owners[missing[q].i] != a || u.owners[missing[q].k] != b) continue;
+      const double d = std::hypot(u.p.x - t.p.x, u.p.y - t.p.y);
+      if (d < best_d) {
+        best_d = d;
+        best = q;
+      }
+    }
+    if (best == missing.size()) continue;
+    missing[m].used = missing[best].used = true;
+    const Tripoint& u = tripoints[missing[best].tripoint];
+    auto vertex = [&](const Tripoint& x, int i, int k) {
+      return BoundaryVertex{x.p, x.sites[i], x.sites[k], x.distance, x.residual};
+    };
+    lines.push_back(BoundaryLine{
+        a, b, false, {vertex(t, missing[m].i, missing[m].k), vertex(u, missing[best].i, missing[best].k)}});
+  }
+}
+
+}  // namespace rv::boundary_stages

@@ -113,5 +113,13 @@ Links link_squares(const BoundaryGrid& b, const CrossingSet& x, const TripointSe
                    BoundaryStats& stats);
 std::vector<BoundaryLine> chain_lines(const CrossingSet& x, const TripointSet& t, const Links& links, double tol,
                                       BoundaryStats& stats);
+// The crossings no link reaches, as one-vertex lines in crossing order (BoundaryResult::
+// lone_crossings).
+std::vector<BoundaryLine> lone_crossings(const CrossingSet& x, const Links& links);
+// Two tripoints of one owner triple less than a cell apart share the line of one of its owner
+// pairs, which crosses no segment between cell centres and so has no crossing to be chained
+// from: each such pair of tripoints, both without a line of that owner pair, gets the line
+// between them (two vertices) appended to `lines`. `cell`: the grid's cell size (CRS units).
+void join_close_tripoints(const std::vector<Tripoint>& tripoints, double cell, std::vector<BoundaryLine>& lines);
 
 }  // namespace rv::boundary_stages

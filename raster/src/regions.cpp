@@ -1,9 +1,9 @@
-// The core's part of regions bounded by the refined lines (rv/deliverables.hpp: region_edges,
-// owner_at): the boundary lines carried from the outermost cell centres, where extraction stops,
-// to the grid's edge, and the owner of a position by the engine's rule. The polygons themselves
-// are made by the vector adaptor (write_line_regions), which has a geometry engine.
+// The core's part of the regions' measures (rv/deliverables.hpp): the owner of a position by
+// the engine's rule (owner_at) and the area a ring encloses (ring_area). Their edges come from
+// region_edges (region_edges.cpp).
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <vector>
 
 #include <GeographicLib/Geodesic.hpp>
@@ -17,76 +17,9 @@ namespace rv {
 
 using namespace line_tools;
 
-namespace {
-
-// The vertex on the grid's edge that continues a line ending at `end`, a point of the frame of
-// the outermost cell centres: on the edge beyond it, where owners a and b are equidistant.
-Vec2 edge_vertex(const OwnerIndex& index, const GridSpec& g, Vec2 end, int32_t a, int32_t b, double ftol) {
-  const double x0 = g.xmin, x1 = g.xmax(), y0 = g.ymin(), y1 = g.ymax;
-  Vec2 foot = end, along{0.0, 0.0};
-  if (end.x == g.centre_x(0)) {
-    foot.x = x0;
-    along = {0.0, g.res};
-  } else if (end.x == g.centre_x(g.width - 1)) {
-    foot.x = x1;
-    along = {0.0, g.res};
-  } else if (end.y == g.centre_y(0)) {
-    foot.y = y1;
-    along = {g.res, 0.0};
-  } else {
-    foot.y = y0;
-    along = {g.res, 0.0};
-  }
-  // The locus meets the edge within a cell of the foot (it crosses the half cell between the
-  // centre frame and the edge): search that stretch, clamped to the edge.
-  auto clamp = [&](Vec2 p) { return Vec2{std::clamp(p.x, x0, x1), std::clamp(p.y, y0, y1)}; };
-  const Vec2 p0 = clamp(Vec2{foot.x - along.x, foot.y - along.y});
-  const Vec2 p1 = clamp(Vec2{foot.x + along.x, foot.y + along.y});
-  auto f = [&](double t) {
-    const Vec2 p = lerp(p0, p1, t);
-    return index.nearest_of(p, a).distance - index.nearest_of(p, b).distance;
-  };
-  const double f0 = f(0.0), f1 = f(1.0);
-  if ((f0 < 0.0) == (f1 < 0.0) && f0 != 0.0 && f1 != 0.0) return foot;  // not bracketed: the foot
-  return lerp(p0, p1, find_root(f, f0, f1, ftol, 1e-15));
-}
-
-bool on_centre_frame(const GridSpec& g, Vec2 p) {
-  return p.x == g.centre_x(0) || p.x == g.centre_x(g.width - 1) || p.y == g.centre_y(0) ||
-         p.y == g.centre_y(g.height - 1);
-}
-
-}  // namespace
-
-RegionEdges region_edges(const BoundaryResult& boundaries, const OwnerIndex& index, const GridSpec& g) {
-  const double ftol = 1e-9 * cell_metric(g, index.metric());
-  auto at_tripoint = [&](Vec2 p) {
-    return std::any_of(boundaries.tripoints.begin(), boundaries.tripoints.end(),
-                       [&](const Tripoint& t) { return t.p == p; });
-  };
-  RegionEdges out;
-  out.edges.reserve(boundaries.lines.size());
-  for (const BoundaryLine& line : boundaries.lines) {
-    std::vector<Vec2> pts;
-    pts.reserve(line.vertices.size() + 2);
-    for (const BoundaryVertex& v : line.vertices) pts.push_back(v.p);
-    if (!line.closed && !pts.empty()) {
-      const Vec2 first = pts.front(), last = pts.back();
-      for (const Vec2 end : {first, last})
-        if (!at_tripoint(end) && !on_centre_frame(g, end)) ++out.dangling_ends;
-      if (on_centre_frame(g, last) && !at_tripoint(last))
-        pts.push_back(edge_vertex(index, g, last, line.owner_a, line.owner_b, ftol));
-      if (on_centre_frame(g, first) && !at_tripoint(first))
-        pts.insert(pts.begin(), edge_vertex(index, g, first, line.owner_a, line.owner_b, ftol));
-    }
-    out.edges.push_back(std::move(pts));
-  }
-  return out;
-}
-
-int32_t owner_at(const OwnerIndex& index, Vec2 p) {
+int32_t owner_at(const OwnerIndex& index, Vec2 p, double max_distance) {
   const OwnerIndex::Hit hit = index.nearest(p);
-  if (hit.site == kNoSite) return 0;
+  if (hit.site == kNoSite || hit.distance > max_distance) return 0;
   const SeedSet& seeds = index.metric().seeds();
   const int32_t owner = seeds.site_owner(hit.site);
   // Inside polygons of several owners the engine decides for the lowest code.

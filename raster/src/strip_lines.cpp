@@ -61,6 +61,8 @@ struct BoundaryRun {
     BoundaryResult result;
     result.stats = stats;
     result.lines = chain_lines(x, t, links, tol, result.stats);
+    join_close_tripoints(t.tripoints, b.g.res, result.lines);
+    result.lone_crossings = lone_crossings(x, links);
     for (const Tripoint& tp : t.tripoints) result.stats.max_residual = std::max(result.stats.max_residual, tp.residual);
     result.tripoints = std::move(t.tripoints);
     return result;

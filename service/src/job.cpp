@@ -187,29 +187,22 @@ constexpr int64_t kTileRows = 256;  // GeoTiffStripWriter's tile height
 constexpr int64_t kWriterBytes = int64_t{12} << 20;
 
 // What a streamed job's deliverables hold besides the strips: the margin of a strip (the other
-// owner's field and the margin), a few rows kept per line set, the preview's sample, the owner
-// raster's file for regions when not asked for (one more writer), and the lines' pieces, which
+// owner's field and the margin), a few rows kept per line set, the preview's sample, and the
+// lines' pieces (the regions' faces are made of them), which
 // grow with the lines' length, not the grid's area: taken as kLineBytes per cell of the grid's
 // width and height per line set (boundaries; each limit distance -- with --limits-per-owner
 // still one set a distance, an approximation: the plan does not know the owners yet).
 constexpr int64_t kLineBytes = 2048;
-constexpr int64_t kRegionBytes = 12 << 10;
 
 int64_t deliverables_memory(const JobSpec& spec, const GridSpec& grid, int64_t strip_cells) {
   const OutputRequest& out = spec.outputs;
   int64_t bytes = 0;
   if (!out.margin.empty()) bytes += strip_cells * 12 + kTileRows * grid.width * 4 + kWriterBytes;
-  // Regions with a max distance: polygonizing the ownership raster holds the regions' outlines,
-  // cell edge by cell edge (about 0.7 GB at 48,312 x 20,609 cells of the western Baltic), from
-  // the ownership file (one more when not asked for). Else the lines' faces: a line set.
-  if (!out.regions.empty() && spec.max_distance) {
-    bytes += (grid.width + grid.height) * kRegionBytes;
-    if (out.ownership.empty()) bytes += strip_cells * 4 + kTileRows * grid.width * 4 + kWriterBytes;
-  }
   if (!out.preview.empty()) bytes += int64_t{2000} * 2000 * 4;
   const int64_t line_sets =
       (!out.boundaries.empty() || !out.tripoints.empty() || !out.preview.empty() || !out.regions.empty()) +
-      (out.limits.empty() ? 0 : static_cast<int64_t>(std::max<size_t>(out.limit_distances.size(), 1)));
+      (out.limits.empty() ? 0 : static_cast<int64_t>(std::max<size_t>(out.limit_distances.size(), 1))) +
+      (!out.regions.empty() && spec.max_distance);  // the max-distance line bounding the regions
   bytes += line_sets * ((grid.width + grid.height) * kLineBytes + 8 * grid.width * 9);
   return bytes;
 }
@@ -414,13 +407,9 @@ RasterTargets raster_targets(const JobSpec& spec, const PreparedJob& job) {
 // computed (JobPlan::streamed).
 void compute_streamed(detail::JobRun& run, const PreparedJob& job, const RasterTargets& targets) {
   const JobSpec& spec = run.spec;
-  // The deliverables take each strip in as it is computed; regions are polygonized from the
-  // ownership GeoTIFF, written for them beside the regions' file when not asked for.
+  // The deliverables take each strip in as it is computed.
   std::optional<detail::StripDeliverables> deliverables;
-  std::string ownership_file = spec.outputs.ownership, scratch_ownership;
   if (spec.outputs.any_deliverable()) deliverables.emplace(run, job, true);
-  if (!spec.outputs.regions.empty() && !detail::line_regions(job, spec.outputs) && ownership_file.empty())
-    ownership_file = scratch_ownership = spec.outputs.regions + ".ownership.tmp.tif";
   detail::StreamJob stream;
   stream.seeds = &job.loaded.seeds;
   stream.grid = job.grid;
@@ -438,11 +427,12 @@ void compute_streamed(detail::JobRun& run, const PreparedJob& job, const RasterT
   // once every strip is in.
   using Product = detail::StreamTarget::Product;
   auto target = [&](Product product, const std::string& path, GeoTiffOptions options, const char* name) {
-    const bool cog = options.cloud_optimized && path != scratch_ownership;
+    const bool cog = options.cloud_optimized;
     options.cloud_optimized = false;
     stream.targets.push_back({product, cog ? detail::cog_stage_path(path) : path, options, name});
   };
-  if (!ownership_file.empty()) target(Product::ownership, ownership_file, targets.ownership, "ownership");
+  if (!spec.outputs.ownership.empty())
+    target(Product::ownership, spec.outputs.ownership, targets.ownership, "ownership");
   if (!spec.outputs.distance.empty()) target(Product::distance, spec.outputs.distance, targets.distance, "distance");
   if (!spec.outputs.nearest_feature.empty())
     target(Product::nearest_feature, spec.outputs.nearest_feature, targets.feature, "nearest_feature");
@@ -453,17 +443,9 @@ void compute_streamed(detail::JobRun& run, const PreparedJob& job, const RasterT
   run.threads_used = st.threads;
   for (const auto& [name, seconds] : st.write) run.write_times[name] = seconds;
   run.timings["compute"] = st.compute;
-  if (deliverables) {
-    const bool staged = spec.outputs.cloud_optimized && ownership_file != scratch_ownership;
-    deliverables->finish(staged ? detail::cog_stage_path(ownership_file) : ownership_file, nullptr);
-    if (!scratch_ownership.empty()) {
-      detail::remove_raster_file(scratch_ownership);
-      run.write_times.erase("ownership");
-    }
-  }
+  if (deliverables) deliverables->finish();
   size_t copied = 0;
   for (const detail::StreamTarget& t : stream.targets) {
-    if (t.path == scratch_ownership) continue;
     if (spec.outputs.cloud_optimized) {
       const std::string final_path = detail::cog_final_path(t.path);
       const GeoTiffOptions& o = t.product == Product::ownership  ? targets.ownership
@@ -536,7 +518,6 @@ void write_rasters(detail::JobRun& run, const PreparedJob& job, const NearestFie
       Raster<int32_t> owners = owner_raster(seeds, field, spec.threads);
       run.will_write(spec.outputs.ownership);
       write_geotiff(spec.outputs.ownership, owners, 0.0, targets.ownership);
-      if (!spec.outputs.regions.empty() || !spec.outputs.preview.empty()) run.owner_codes = std::move(owners);
     });
     run.wrote("ownership", spec.outputs.ownership);
   }

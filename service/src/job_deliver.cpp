@@ -32,12 +32,6 @@ std::unique_ptr<SiteMetric> site_metric(const PreparedJob& job) {
 
 }  // namespace
 
-bool line_regions(const PreparedJob& job, const OutputRequest& out) {
-  return !out.regions.empty() && std::isinf(job.compute.max_distance);
-}
-
-namespace {}  // namespace
-
 struct StripDeliverables::State {
   JobRun& run;
   const PreparedJob& job;
@@ -45,12 +39,12 @@ struct StripDeliverables::State {
   std::unique_ptr<SiteMetric> metric;
   std::unique_ptr<OwnerIndex> index;
   double cell_length = 0.0;  // one cell in metric units near the grid's centre (degrees are not metres)
-  SiteCodes owner_codes;     // site -> owner code (the preview, the regions' cell counts)
+  SiteCodes owner_codes;     // site -> owner code (the preview)
   std::optional<StripLines> boundaries, limits;
+  std::optional<StripLines> reach;  // regions with a max distance: the line at that distance
   std::optional<PreviewSample> preview;
   std::optional<GeoTiffStripWriter<float>> margin_writer;  // streamed
-  std::map<int32_t, int64_t> owner_cells;                  // streamed regions: cells per owner
-  double boundary_seconds = 0.0, limit_seconds = 0.0, margin_seconds = 0.0;
+  double boundary_seconds = 0.0, limit_seconds = 0.0, margin_seconds = 0.0, region_seconds = 0.0;
   VectorOutputOptions vector;
   nlohmann::json times = nlohmann::json::object();
   nlohmann::json report = nlohmann::json::object();
@@ -62,8 +56,7 @@ struct StripDeliverables::State {
   // its time (the strips' share included).
   BoundaryResult write_boundaries_and_tripoints();
   void write_limit_lines();
-  void write_region_polygons(const BoundaryResult& boundaries, const std::string& ownership_file,
-                             const Raster<int32_t>* owner_codes);
+  void write_region_polygons(const BoundaryResult& boundaries);
   void finish_margin();
   void write_quicklook(const BoundaryResult& boundaries);
 };
@@ -82,7 +75,7 @@ StripDeliverables::StripDeliverables(JobRun& run, const PreparedJob& job, bool s
   s.vector.distance_factor = job.to_output;
   s.vector.distance_units = job.unit;
   s.vector.threads = run.spec.threads;
-  if (!out.boundaries.empty() || !out.tripoints.empty() || !out.preview.empty() || line_regions(job, out)) {
+  if (!out.boundaries.empty() || !out.tripoints.empty() || !out.preview.empty() || !out.regions.empty()) {
     LineRequest r;
     r.boundaries = true;
     r.boundary.simplify_cells = out.simplify_cells;
@@ -96,6 +89,13 @@ StripDeliverables::StripDeliverables(JobRun& run, const PreparedJob& job, bool s
     r.limit.simplify_cells = out.simplify_cells;
     r.limit.threads = run.spec.threads;
     s.limits.emplace(g, *s.index, r);
+  }
+  if (!out.regions.empty() && std::isfinite(job.compute.max_distance)) {
+    LineRequest r;
+    r.limit_distances = {job.compute.max_distance};
+    r.limit.simplify_cells = out.simplify_cells;
+    r.limit.threads = run.spec.threads;
+    s.reach.emplace(g, *s.index, r);
   }
   if (!out.preview.empty()) s.preview.emplace(g, g.full_window());
   if (streamed && !out.margin.empty()) {
@@ -130,9 +130,7 @@ void StripDeliverables::add(const NearestField& strip) {
   if (s.boundaries) s.boundary_seconds += seconds([&] { s.boundaries->add(strip); });
   if (s.limits) s.limit_seconds += seconds([&] { s.limits->add(strip); });
   if (s.preview) s.preview->add_rows(strip.site.data(), strip.site.window().row0, strip.site.height(), &s.owner_codes);
-  if (s.streamed && !out.regions.empty() && !line_regions(s.job, out))
-    for (const int32_t site : strip.site.cells())
-      if (site != kNoSite) ++s.owner_cells[s.owner_codes.code(site)];
+  if (s.reach) s.region_seconds += seconds([&] { s.reach->add(strip); });
   if (!out.margin.empty()) {
     s.margin_seconds += seconds([&] {
       Raster<float> margin = margin_raster(strip, *s.index, s.run.spec.threads);
@@ -210,51 +208,40 @@ void StripDeliverables::State::write_limit_lines() {
   }
 }
 
-void StripDeliverables::State::write_region_polygons(const BoundaryResult& boundaries,
-                                                     const std::string& ownership_file,
-                                                     const Raster<int32_t>* owner_codes) {
+void StripDeliverables::State::write_region_polygons(const BoundaryResult& boundaries) {
   State& s = *this;
   const OutputRequest& out = s.out();
   JobRun& run = s.run;
-  if (!out.regions.empty()) {
-    run.check_cancel();
-    timed(s.times, "regions", [&] {
-      run.will_write(out.regions);
-      const bool along_lines = line_regions(s.job, out);
-      const SeedSet& seeds = s.job.loaded.seeds;
-      RegionStats rs;
-      if (along_lines) {
-        LineRegions lr;
-        RegionEdges edges = region_edges(boundaries, *s.index, s.job.grid);
-        // A line stopping in the open would merge two owners' faces: no regions rather than
-        // wrong ones.
-        if (edges.dangling_ends > 0)
-          throw Error(ErrorKind::internal,
-                      "regions: " + std::to_string(edges.dangling_ends) +
-                          " boundary line end(s) stop inside the grid, away from any tripoint (the lines could "
-                          "not be joined there, a defect of the extraction); the regions cannot be bounded by "
-                          "them. Leave out the regions, or report this case");
-        lr.edges = std::move(edges.edges);
-        lr.grid = s.job.grid;
-        lr.owner_of = [&](Vec2 p) { return owner_at(*s.index, p); };
-        const double to_area = s.job.to_output * s.job.to_output;
-        const Geolocator* located = s.job.compute.geolocator.get();
-        lr.area = [&, to_area, located](std::span<const Vec2> ring) {
-          return to_area * ring_area(ring, s.job.compute.metric, located, s.job.grid.res);
-        };
-        lr.area_units = s.job.unit + "^2";
-        rs = write_line_regions(out.regions, lr, seeds,
-                                s.job.loaded.grid_polygons ? *s.job.loaded.grid_polygons : seeds.polygons(), s.vector);
-      } else if (owner_codes != nullptr) {
-        rs = write_regions(out.regions, *owner_codes, seeds, s.vector);
-      } else {
-        rs = write_regions_from_file(out.regions, ownership_file, s.owner_cells, seeds, s.vector);
-      }
-      run.wrote("regions", out.regions);
-      s.report["regions"] = {
-          {"owners", rs.owners}, {"polygons", rs.polygons}, {"edges", along_lines ? "boundary lines" : "cell edges"}};
-    });
-  }
+  if (out.regions.empty()) return;
+  run.check_cancel();
+  const auto t = Clock::now();
+  run.will_write(out.regions);
+  const SeedSet& seeds = s.job.loaded.seeds;
+  const double max_distance = s.job.compute.max_distance;
+  const LimitResult reach_lines = s.reach ? s.reach->take_limits() : LimitResult{};
+  RegionEdges edges = region_edges(boundaries, *s.index, s.job.grid, max_distance, s.reach ? &reach_lines : nullptr);
+  // A line stopping in the open would merge two owners' faces: no regions rather than wrong ones.
+  if (edges.dangling_ends > 0)
+    throw Error(ErrorKind::internal,
+                "regions: " + std::to_string(edges.dangling_ends) +
+                    " line end(s) stop inside the grid, away from any tripoint (the lines could not be joined "
+                    "there, a defect of the extraction); the regions cannot be bounded by them. Leave out the "
+                    "regions, or report this case");
+  LineRegions lr;
+  lr.edges = std::move(edges.edges);
+  lr.grid = s.job.grid;
+  lr.owner_of = [&](Vec2 p) { return owner_at(*s.index, p, max_distance); };
+  const double to_area = s.job.to_output * s.job.to_output;
+  const Geolocator* located = s.job.compute.geolocator.get();
+  lr.area = [&, to_area, located](std::span<const Vec2> ring) {
+    return to_area * ring_area(ring, s.job.compute.metric, located, s.job.grid.res);
+  };
+  lr.area_units = s.job.unit + "^2";
+  const RegionStats rs = write_line_regions(
+      out.regions, lr, seeds, s.job.loaded.grid_polygons ? *s.job.loaded.grid_polygons : seeds.polygons(), s.vector);
+  run.wrote("regions", out.regions);
+  s.report["regions"] = {{"owners", rs.owners}, {"polygons", rs.polygons}};
+  s.times["regions"] = s.region_seconds + seconds_since(t);
 }
 
 void StripDeliverables::State::finish_margin() {
@@ -292,7 +279,7 @@ void StripDeliverables::State::write_quicklook(const BoundaryResult& boundaries)
   }
 }
 
-void StripDeliverables::finish(const std::string& ownership_file, const Raster<int32_t>* owner_codes) {
+void StripDeliverables::finish() {
   State& s = *st_;
   JobRun& run = s.run;
   run.check_cancel();
@@ -301,7 +288,7 @@ void StripDeliverables::finish(const std::string& ownership_file, const Raster<i
   run.progress("deliver", 0.3);
   s.write_limit_lines();
   run.progress("deliver", 0.5);
-  s.write_region_polygons(boundaries, ownership_file, owner_codes);
+  s.write_region_polygons(boundaries);
   run.progress("deliver", 0.7);
   s.finish_margin();
   run.progress("deliver", 0.9);
@@ -335,12 +322,7 @@ void deliver(JobRun& run, const PreparedJob& job, const NearestField& computed) 
   }
   StripDeliverables d(run, job, false);
   d.add(*field);
-  // The owner raster the write stage kept, or made here.
-  std::optional<Raster<int32_t>> owner_codes = std::move(run.owner_codes);
-  run.owner_codes.reset();
-  if (!owner_codes && !run.spec.outputs.regions.empty() && !line_regions(job, run.spec.outputs))
-    owner_codes = owner_raster(job.loaded.seeds, *field, run.spec.threads);
-  d.finish("", owner_codes ? &*owner_codes : nullptr);
+  d.finish();
 }
 
 }  // namespace rv::detail

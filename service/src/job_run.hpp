@@ -60,9 +60,6 @@ struct JobRun {
   double compute_seconds = 0.0;
   int64_t contested_cells = 0;
   int threads_used = 1;
-  // The owner raster, kept by the stage that made it (write) for the stages after it that read
-  // it (regions, preview) instead of each making it again; empty otherwise.
-  std::optional<Raster<int32_t>> owner_codes;
 
   void progress(const char* stage, double fraction) const {
     if (hooks.progress) hooks.progress(stage, fraction);
@@ -111,20 +108,14 @@ class StripDeliverables {
   StripDeliverables(JobRun& run, const PreparedJob& job, bool streamed);
   ~StripDeliverables();
   void add(const NearestField& strip);
-  // Writes every requested deliverable. Regions come from `owner_codes` (the whole owner
-  // raster) when given, else from the ownership GeoTIFF `ownership_file` the streamed job wrote.
-  void finish(const std::string& ownership_file, const Raster<int32_t>* owner_codes);
+  // Writes every requested deliverable.
+  void finish();
 
  private:
   static GeoTiffOptions margin_options(const JobRun& run, const PreparedJob& job);
   struct State;
   std::unique_ptr<State> st_;
 };
-
-// Whether the job's regions are bounded by its boundary lines (write_line_regions): always but
-// with a max distance, whose unowned cells are not bounded by lines yet (then the owner raster
-// is polygonized, along cell edges).
-bool line_regions(const PreparedJob& job, const OutputRequest& out);
 
 // The deliverables of a job computed whole, from its field (a scan's: the exact field is
 // computed for them). Nothing when none is requested.

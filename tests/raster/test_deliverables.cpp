@@ -1,5 +1,6 @@
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <random>
 
@@ -269,6 +270,17 @@ TEST(Deliverables, NoDanglingEndsWithRegionsThinnerThanACell) {
     test::check_boundaries(s, st.field, r, 1e-3, &sliver_vertices);
     test::check_no_crossings(r);
     dangling += test::dangling_ends(r, g, &ends_total);
+    // Every tripoint within the frame of the outermost centres has three lines ending at it, at
+    // least (two tripoints a fraction of a cell apart share one with no crossing; where one owner
+    // has two sites there, four lines of two pairs meet and the third pair touches at the point).
+    for (const Tripoint& t : r.tripoints) {
+      if (t.p.x <= g.centre_x(0) || t.p.x >= g.centre_x(g.width - 1) || t.p.y >= g.centre_y(0) ||
+          t.p.y <= g.centre_y(g.height - 1))
+        continue;
+      int ends = 0;
+      for (const BoundaryLine& l : r.lines) ends += (l.vertices.front().p == t.p) + (l.vertices.back().p == t.p);
+      EXPECT_GE(ends, 3) << "tripoint " << t.p.x << ", " << t.p.y;
+    }
     slivers += r.stats.sliver_crossings;
     EXPECT_EQ(r.stats.unresolved_slivers, 0);
   }

@@ -10,7 +10,6 @@
 #include <map>
 #include <sstream>
 
-#include <gdal_alg.h>
 #include <ogr_api.h>
 #include <ogrsf_frmts.h>
 
@@ -280,90 +279,6 @@ void write_limits(const std::string& path, const LimitResult& limits, const Seed
 
 namespace {
 
-// The regions of an ownership band (nodata 0 masks the cells without owner), polygonized with
-// 8-connectedness; `cells`: each owner's cell count; `res`: the cell size.
-RegionStats polygonize_regions(const std::string& path, GDALRasterBand* band, const std::map<int32_t, int64_t>& cells,
-                               double res, const SeedSet& s, const VectorOutputOptions& o,
-                               const gdal::ErrorCapture& capture) {
-  GDALDriver* memv = GetGDALDriverManager()->GetDriverByName("Memory");
-  if (memv == nullptr) throw Error(ErrorKind::unsupported, "GDAL has no Memory vector driver");
-  gdal::DatasetPtr scratch(memv->Create("", 0, 0, 0, GDT_Unknown, nullptr));
-  OGRLayer* parts = scratch->CreateLayer("parts", nullptr, wkbPolygon, nullptr);
-  OGRFieldDefn owner_def("owner", OFTInteger);
-  parts->CreateField(&owner_def);
-  char** options = CSLSetNameValue(nullptr, "8CONNECTED", "8");
-  const CPLErr err = GDALPolygonize(band, band->GetMaskBand(), OGRLayer::ToHandle(parts), 0, options, nullptr, nullptr);
-  CSLDestroy(options);
-  if (err != CE_None) throw Error(ErrorKind::io, "polygonizing the ownership raster failed" + capture.suffix());
-
-  // One multipolygon per owner; parts are disjoint by construction (cells of one owner that
-  // touch by an edge or a corner are one part), so collecting them needs no union.
-  std::map<int32_t, std::unique_ptr<OGRMultiPolygon>> by_owner;
-  RegionStats stats;
-  parts->ResetReading();
-  for (FeaturePtr f(parts->GetNextFeature()); f; f.reset(parts->GetNextFeature())) {
-    const int32_t owner = f->GetFieldAsInteger(0);
-    OGRGeometry* geom = f->GetGeometryRef();
-    if (owner == 0 || geom == nullptr) continue;
-    auto& mp = by_owner[owner];
-    if (!mp) mp = std::make_unique<OGRMultiPolygon>();
-    mp->addGeometry(geom);
-    ++stats.polygons;
-  }
-  VectorFile file(path);
-  OGRLayer* l = file.layer("regions", wkbMultiPolygon, o.crs);
-  file.field(l, "owner", OFTInteger);
-  file.field(l, "label", OFTString);
-  file.field(l, "cells", OFTInteger64);
-  file.field(l, "area", OFTReal);
-  file.begin();
-  for (auto& [owner, mp] : by_owner) {
-    const auto n = cells.find(owner);
-    const int64_t count = n == cells.end() ? 0 : n->second;
-    FeaturePtr f(OGRFeature::CreateFeature(l->GetLayerDefn()));
-    f->SetField("owner", owner);
-    f->SetField("label", label_of(s, owner).c_str());
-    f->SetField("cells", static_cast<GIntBig>(count));
-    f->SetField("area", static_cast<double>(count) * res * res);
-    f->SetGeometryDirectly(mp.release());
-    file.add(l, f.get());
-    ++stats.owners;
-  }
-  file.end();
-  file.commit();
-  return stats;
-}
-
-}  // namespace
-
-RegionStats write_regions(const std::string& path, const Raster<int32_t>& owners, const SeedSet& s,
-                          const VectorOutputOptions& o) {
-  gdal::ErrorCapture capture;
-  const GridSpec& g = owners.grid();
-  const Window& w = owners.window();
-  // The ownership raster as an in-memory GDAL band.
-  GDALDriver* mem = GetGDALDriverManager()->GetDriverByName("MEM");
-  if (mem == nullptr) throw Error(ErrorKind::unsupported, "GDAL has no MEM driver");
-  gdal::DatasetPtr raster(
-      mem->Create("", static_cast<int>(w.width), static_cast<int>(w.height), 1, GDT_Int32, nullptr));
-  if (!raster) throw Error(ErrorKind::io, "cannot create an in-memory raster" + capture.suffix());
-  double gt[6] = {g.xmin + static_cast<double>(w.col0) * g.res, g.res, 0.0,
-                  g.ymax - static_cast<double>(w.row0) * g.res, 0.0,   -g.res};
-  raster->SetGeoTransform(gt);
-  GDALRasterBand* band = raster->GetRasterBand(1);
-  band->SetNoDataValue(0.0);
-  if (band->RasterIO(GF_Write, 0, 0, static_cast<int>(w.width), static_cast<int>(w.height),
-                     const_cast<int32_t*>(owners.data()), static_cast<int>(w.width), static_cast<int>(w.height),
-                     GDT_Int32, 0, 0, nullptr) != CE_None)
-    throw Error(ErrorKind::io, "cannot fill the in-memory raster" + capture.suffix());
-  std::map<int32_t, int64_t> cells;
-  for (const int32_t v : owners.cells())
-    if (v != 0) ++cells[v];
-  return polygonize_regions(path, band, cells, g.res, s, o, capture);
-}
-
-namespace {
-
 using GeometryPtr = std::unique_ptr<OGRGeometry>;
 
 std::vector<Vec2> ring_points(const OGRLinearRing& ring) {
@@ -421,6 +336,42 @@ GeometryPtr checked(OGRGeometry* g, const char* what, const gdal::ErrorCapture& 
   return GeometryPtr(g);
 }
 
+// Whether p lies inside the polygon (even-odd over all its rings; a point on an edge may go
+// either way).
+bool polygon_holds(const OGRPolygon& poly, Vec2 p) {
+  bool in = false;
+  for (const OGRLinearRing* ring : poly) {
+    const int n = ring->getNumPoints();
+    for (int i = 0, j = n - 1; i < n; j = i++) {
+      const double xi = ring->getX(i), yi = ring->getY(i), xj = ring->getX(j), yj = ring->getY(j);
+      if ((yi > p.y) != (yj > p.y) && p.x < xj + (p.y - yj) * (xi - xj) / (yi - yj)) in = !in;
+    }
+  }
+  return in;
+}
+
+// The owner of a face: of the cell centres inside it near `inside` (a point inside it), by
+// majority; of `inside` itself when the face holds none of them. The lines are chords between
+// exact points, so the face's edges depart from the exact loci by a fraction of a cell where
+// they bend (across a notch where two owners' discs meet, the max-distance line does not show a
+// wedge of unowned sea thinner than a cell); an interior point may fall in such a sliver, but the
+// lines part every dual square's corners as the raster does, so the centres inside the face all
+// carry its owner.
+int32_t face_owner(const OGRPolygon& face, Vec2 inside, const LineRegions& r) {
+  const GridSpec& g = r.grid;
+  const auto c0 = static_cast<int64_t>(std::floor((inside.x - g.xmin) / g.res));
+  const auto r0 = static_cast<int64_t>(std::floor((g.ymax - inside.y) / g.res));
+  std::map<int32_t, int> votes;
+  for (int64_t row = std::max<int64_t>(r0 - 2, 0); row <= std::min(r0 + 2, g.height - 1); ++row)
+    for (int64_t col = std::max<int64_t>(c0 - 2, 0); col <= std::min(c0 + 2, g.width - 1); ++col) {
+      const Vec2 centre{g.centre_x(col), g.centre_y(row)};
+      if (polygon_holds(face, centre)) ++votes[r.owner_of(centre)];
+    }
+  if (votes.empty()) return r.owner_of(inside);
+  return std::max_element(votes.begin(), votes.end(), [](const auto& a, const auto& b) { return a.second < b.second; })
+      ->first;
+}
+
 }  // namespace
 
 RegionStats write_line_regions(const std::string& path, const LineRegions& r, const SeedSet& s,
@@ -459,7 +410,7 @@ RegionStats write_line_regions(const std::string& path, const LineRegions& r, co
         OGRGeometry::FromHandle(OGR_G_PointOnSurface(OGRGeometry::ToHandle(const_cast<OGRPolygon*>(face)))));
     if (!inside || wkbFlatten(inside->getGeometryType()) != wkbPoint || inside->IsEmpty()) continue;
     const OGRPoint* at = inside->toPoint();
-    const int32_t owner = r.owner_of(Vec2{at->getX(), at->getY()});
+    const int32_t owner = face_owner(*face, Vec2{at->getX(), at->getY()}, r);
     if (owner == 0) continue;
     auto& mp = by_owner[owner];
     if (!mp) mp = std::make_unique<OGRMultiPolygon>();
@@ -533,22 +484,6 @@ RegionStats write_line_regions(const std::string& path, const LineRegions& r, co
   file.end();
   file.commit();
   return stats;
-}
-
-RegionStats write_regions_from_file(const std::string& path, const std::string& ownership,
-                                    const std::map<int32_t, int64_t>& cells, const SeedSet& s,
-                                    const VectorOutputOptions& o) {
-  gdal::ErrorCapture capture;
-  // The codes alone are read: the categories' sidecar (.aux.xml) is neither read nor rewritten.
-  gdal::ThreadConfigOption no_pam("GDAL_PAM_ENABLED", "NO");
-  gdal::DatasetPtr raster(GDALDataset::Open(ownership.c_str(), GDAL_OF_RASTER | GDAL_OF_READONLY));
-  if (!raster) throw Error(ErrorKind::io, "cannot open the ownership raster " + ownership + capture.suffix());
-  double gt[6];
-  if (raster->GetGeoTransform(gt) != CE_None)
-    throw Error(ErrorKind::io, "the ownership raster " + ownership + " has no geotransform");
-  GDALRasterBand* band = raster->GetRasterBand(1);
-  if (band == nullptr) throw Error(ErrorKind::io, "the ownership raster " + ownership + " has no band");
-  return polygonize_regions(path, band, cells, gt[1], s, o, capture);
 }
 
 }  // namespace rv

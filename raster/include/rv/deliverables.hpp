@@ -277,6 +277,10 @@ struct BoundaryResult {
   std::vector<BoundaryLine> lines;
   std::vector<Tripoint> tripoints;
   BoundaryStats stats;
+  // Crossings linked to nothing, as one-vertex lines (not boundary lines: a point): where a max
+  // distance ends the owned area in both squares beside a crossing, the two owners' boundary is
+  // shorter than a cell. region_edges carries them to the max-distance line.
+  std::vector<BoundaryLine> lone_crossings;
 };
 
 // Boundary lines and tripoints from an exact nearest-site field (method exact or brute force;
@@ -322,15 +326,33 @@ LimitResult extract_limits(const NearestField& field, const OwnerIndex& index, s
 // vertices, and, at an end on the frame of the outermost cell centres (where extraction stops;
 // not a tripoint), one more vertex on the grid's edge where the line's two owners are
 // equidistant: the root of d_a - d_b along the edge within a cell of the end's foot on it, or
-// the foot itself where no root is bracketed there. With the grid's outline the edges divide the
-// grid into faces of one owner each (on a field without max distance) -- unless a line stops in
-// the open (neither at a tripoint nor on the frame; every cell has an owner there), a defect of
-// the extraction that would merge two owners' faces: `dangling_ends` counts such ends.
+// the foot itself where no root is bracketed there. Two such continuations that cross end at
+// their tripoint (Newton; it lies between the frame and the edge), from which the third pair's
+// line runs to the edge; so does the missing line of a tripoint found there.
+// With a finite `max_distance` (the field's) and `max_distance_lines` (extract_limits at that
+// distance, all owners), those lines are edges too, carried to the grid's edge on d =
+// max_distance, and a boundary line that stops where the owned area ends (as do the lone
+// crossings, BoundaryResult::lone_crossings) ends on the max-distance line's chord across the
+// dual square it runs on into, at the chord's point nearest the exact junction (d_a = d_b =
+// max_distance, Newton within two cells), made a vertex of both. Within a square both lines
+// part the four cell centres by owner as the field does. Where the cells show less than the
+// owners' geometry -- two discs overlapping by less than a cell (no two neighbouring cells of
+// the two owners: an owner change along the max-distance line with no boundary reaching it), a
+// hole or a wedge of unowned sea thinner than a cell, a tripoint beyond the max distance or one
+// whose line to the max-distance line has no crossing -- the missing stretch is made of the
+// points at hand: two owner changes of one pair joined, a line carried to the tripoint lacking
+// it in the square it runs into, lines ending in one square joined at the mean of their ends.
+// With the grid's outline the edges divide the grid into faces of one owner each, or none beyond
+// the max distance -- unless a line stops in the open, a defect that would merge two owners'
+// faces: `dangling_ends` counts such ends. Faces are owned as the field's cell centres inside
+// them are (write_line_regions).
 struct RegionEdges {
   std::vector<std::vector<Vec2>> edges;
   int64_t dangling_ends = 0;
 };
-RegionEdges region_edges(const BoundaryResult& boundaries, const OwnerIndex& index, const GridSpec& grid);
+RegionEdges region_edges(const BoundaryResult& boundaries, const OwnerIndex& index, const GridSpec& grid,
+                         double max_distance = std::numeric_limits<double>::infinity(),
+                         const LimitResult* max_distance_lines = nullptr);
 // The area enclosed by a ring of grid-CRS positions (closed or not; either orientation): planar,
 // in CRS units squared (shoelace); geodesic, in square metres on the metric's ellipsoid
 // (GeographicLib::PolygonArea), the ring's edges -- straight in the grid's CRS -- followed in
@@ -338,8 +360,9 @@ RegionEdges region_edges(const BoundaryResult& boundaries, const OwnerIndex& ind
 // on longitude/latitude grids).
 double ring_area(std::span<const Vec2> ring, const MetricSpec& metric, const Geolocator* geolocator, double step);
 // The owner (code) of position p by the engine's rule: the nearest seed's owner; inside the
-// polygons of several owners, the lowest code. 0 for a seed set without sites.
-int32_t owner_at(const OwnerIndex& index, Vec2 p);
+// polygons of several owners, the lowest code. 0 for a seed set without sites, or farther than
+// `max_distance` (metric units) from every seed.
+int32_t owner_at(const OwnerIndex& index, Vec2 p, double max_distance = std::numeric_limits<double>::infinity());
 
 // What StripLines extracts: boundaries and tripoints (extract_boundaries), and limit lines at
 // the given distances (extract_limits).

@@ -93,7 +93,7 @@ struct JobSpec {
 // next strip; two strips are in flight at most. The deliverables take each strip in on the
 // computing thread before the writers see it (rv::StripLines for the lines, a strip of margin, the
 // preview's sample) and are written after the last strip; regions are polygonized from the
-// ownership GeoTIFF (written beside them for the purpose when not asked for, then removed).
+// lines (with a max distance, the line at that distance too).
 // A COG is made once every strip is in: GDAL's COG driver only copies a complete dataset, so the
 // strips go into a plain tiled GeoTIFF beside it that the driver then copies block by block
 // (copy_to_cog) and that is removed.

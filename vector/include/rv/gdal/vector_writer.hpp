@@ -49,19 +49,17 @@ void write_limits(const std::string& path, const LimitResult& limits, const Seed
                   const VectorOutputOptions& options);
 
 struct RegionStats {
-  int64_t owners = 0;    // features written (owners with at least one cell)
+  int64_t owners = 0;    // features written (owners with a region)
   int64_t polygons = 0;  // polygon parts in all
 };
 
-// Layer "regions" (MultiPolygon): one feature per owner present in `owners` (codes 1..K, 0 =
-// nodata, excluded), from GDALPolygonize with 8-connectedness; fields owner, label, cells,
-// area (CRS units squared). Polygon edges follow cell edges exactly.
-RegionStats write_regions(const std::string& path, const Raster<int32_t>& owners, const SeedSet& seeds,
-                          const VectorOutputOptions& options);
 // Regions bounded by the refined lines: the grid's outline and `edges` (region_edges) noded and
-// polygonized (GEOS, through OGR), each face given owner_of(a point inside it), an owner's faces
-// collected into its region; so a region's edge is the boundary line itself, vertex for vertex,
-// and the grid's edge. Each owner's land is the interiors of its seed polygons (`polygons`, in
+// polygonized (GEOS, through OGR), each face given the owner_of the cell centres inside it near
+// a point inside it (by majority; of that point itself when the face holds no centre there: the
+// lines are chords, and an interior point may fall in a sliver between a chord and the exact
+// locus), an owner's faces collected into its region; so a region's edge is the boundary line
+// itself, vertex for vertex, and the grid's edge (where GEOS nodes two lines that cross, at a
+// point on both). Each owner's land is the interiors of its seed polygons (`polygons`, in
 // the grid's CRS, one per seed polygon in SeedSet order) within its region; the rest is its sea.
 // Layer "regions" (MultiPolygon): one feature per owner with owner, label, area, land_area,
 // sea_area (area(ring) units: area_units), area_units; GeoPackage files also get layers
@@ -76,13 +74,5 @@ struct LineRegions {
 };
 RegionStats write_line_regions(const std::string& path, const LineRegions& regions, const SeedSet& seeds,
                                const std::vector<Polygon>& polygons, const VectorOutputOptions& options);
-
-// The same from an ownership GeoTIFF (band 1, owner codes, nodata 0) read block by block, as a
-// streamed job wrote it: memory in proportion to the regions' outlines, not to the grid.
-// `cells`: each owner's number of cells (counted while the strips went by). Throws
-// rv::Error(io) when the file cannot be read.
-RegionStats write_regions_from_file(const std::string& path, const std::string& ownership,
-                                    const std::map<int32_t, int64_t>& cells, const SeedSet& seeds,
-                                    const VectorOutputOptions& options);
 
 }  // namespace rv
