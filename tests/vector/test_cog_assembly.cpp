@@ -402,6 +402,7 @@ TEST(CogAssembly, NoStagingFilesLeft) {
     GeoTiffStripWriter<int32_t> w(dir.file("b.tif"), grid, grid.full_window(), 0.0, o);
     w.write_rows(cells.data(), 600);
     w.finish();
+    EXPECT_EQ(files_in(dir.path()), (std::vector<std::string>{"b.tif", "b.tif.aux.xml"})) << "before the writer goes";
   }
   EXPECT_EQ(files_in(dir.path()), (std::vector<std::string>{"b.tif", "b.tif.aux.xml"}));
 }

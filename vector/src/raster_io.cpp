@@ -740,6 +740,7 @@ void GeoTiffStripWriter<T>::finish() {
   s.file.reset();
   if (s.cog) s.assemble_cog();
   s.out.commit();
+  s.cog.reset();  // the staging files go now, not with the writer
   s.failed = false;
   s.finished = true;
 }
