@@ -297,6 +297,32 @@ TEST(CogAssembly, FloatsWithNodata) {
   check_cog<float>({513, 1100, -1}, 512);
 }
 
+// NaN as nodata: NaN cells are left out of the averages (GDAL's nodata mask), bit for bit as
+// GDAL's COG driver does it.
+TEST(CogAssembly, NanNodata) {
+  gdal_init();
+  ScratchDir dir;
+  const GridSpec grid = utm_grid(601, 411, 10.0);
+  Raster<float> cells = pattern<float>(grid, true, 11);
+  for (float& v : cells.cells())
+    if (v == -1.0f) v = std::nanf("");
+  GeoTiffOptions o;
+  o.cloud_optimized = true;
+  const double nan = std::nan("");
+  write_geotiff(dir.file("nan.tif"), cells, nan, o);
+  EXPECT_EQ(cog_validator_errors(dir.file("nan.tif")), "");
+  const auto ours = open(dir.file("nan.tif"));
+  const auto gdal = gdal_cog(dir.file("gdal.tif"), cells.data(), GDT_Float32, 601, 411, nan, true);
+  ASSERT_TRUE(ours && gdal);
+  ASSERT_EQ(ours->GetRasterBand(1)->GetOverviewCount(), 2);
+  ASSERT_EQ(gdal->GetRasterBand(1)->GetOverviewCount(), 2);
+  for (int level = 0; level <= 2; ++level) {
+    const std::vector<float> a = read_level<float>(*ours, level), b = read_level<float>(*gdal, level);
+    ASSERT_EQ(a.size(), b.size());
+    EXPECT_EQ(std::memcmp(a.data(), b.data(), a.size() * sizeof(float)), 0) << "level " << level;
+  }
+}
+
 TEST(CogAssembly, EveryCompressionProfile) {
   gdal_init();
   for (const Compression p : {Compression::fast, Compression::small, Compression::deflate, Compression::none}) {
