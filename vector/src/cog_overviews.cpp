@@ -34,6 +34,10 @@ namespace {
 
 // The source cells one overview cell reads along one axis: [first, end), the first's and the
 // last's weights (average; nearest reads `first` alone).
+// The most source rows one overview row reads: a scale is at most 3 (an odd source of 3 rows),
+// so a window spans at most 4 rows.
+constexpr int64_t kMaxWindow = 4;
+
 struct Span {
   int64_t first = 0;
   int64_t end = 0;
@@ -100,33 +104,67 @@ struct OverviewPyramid<T>::Level {
 
   // Row j from the source rows of `rows` (in the ring).
   void make_average_row(const Span& rows, T* out) const {
+    const T* src[kMaxWindow];
+    for (int64_t y = rows.first; y < rows.end; ++y) src[y - rows.first] = ring.data() + (y % ring_rows) * source_width;
+    // Two whole rows (an even source height): the 2 x 2 blocks take the shorter path below.
+    const bool two_rows = rows.end == rows.first + 2 && rows.first_weight == 1.0 && rows.last_weight == 1.0;
     for (int64_t i = 0; i < width; ++i) {
       const Span& c = columns[static_cast<size_t>(i)];
-      double total = 0.0, total_weight = 0.0;
-      bool any = false;
-      for (int64_t y = rows.first; y < rows.end; ++y) {
-        const T* src = ring.data() + (y % ring_rows) * source_width;
-        double line = 0.0, line_weight = 0.0;
-        for (int64_t x = c.first; x < c.end; ++x) {
-          const T v = src[x];
-          if (!valid(v)) continue;
-          any = true;
-          const double w = x == c.first ? c.first_weight : x + 1 == c.end ? c.last_weight : 1.0;
-          // GDAL adds the middle cells unweighted; times 1.0 is exact, so the sums are the same.
-          line += static_cast<double>(v) * w;
-          line_weight += w;
-        }
-        const double wy = y == rows.first ? rows.first_weight : y + 1 == rows.end ? rows.last_weight : 1.0;
-        total += line * wy;
-        total_weight += line_weight * wy;
-      }
-      if (!any) {
-        out[i] = nodata;
-        continue;
-      }
-      const auto v = static_cast<T>(total / total_weight);
-      out[i] = v == nodata ? replacement : v;
+      out[i] = two_rows && c.end == c.first + 2 && c.first_weight == 1.0 && c.last_weight == 1.0
+                   ? average_block(src[0] + c.first, src[1] + c.first)
+                   : average_window(rows, c, src);
     }
+  }
+
+  // One cell from the source cells of rows x c (GDAL's sums, cog_overviews.hpp).
+  T average_window(const Span& rows, const Span& c, const T* const* src) const {
+    double total = 0.0, total_weight = 0.0;
+    bool any = false;
+    for (int64_t y = rows.first; y < rows.end; ++y) {
+      const T* row = src[y - rows.first];
+      double line = 0.0, line_weight = 0.0;
+      for (int64_t x = c.first; x < c.end; ++x) {
+        const T v = row[x];
+        if (!valid(v)) continue;
+        any = true;
+        const double w = x == c.first ? c.first_weight : x + 1 == c.end ? c.last_weight : 1.0;
+        // GDAL adds the middle cells unweighted; times 1.0 is exact, so the sums are the same.
+        line += static_cast<double>(v) * w;
+        line_weight += w;
+      }
+      const double wy = y == rows.first ? rows.first_weight : y + 1 == rows.end ? rows.last_weight : 1.0;
+      total += line * wy;
+      total_weight += line_weight * wy;
+    }
+    return any ? rounded(total / total_weight) : nodata;
+  }
+
+  // average_window() of a 2 x 2 block of whole cells, with the same operations in the same
+  // order (every weight 1.0: multiplying by it changes no bit, adding to 0.0 is kept as it is).
+  T average_block(const T* top, const T* bottom) const {
+    double line0 = 0.0, weight0 = 0.0, line1 = 0.0, weight1 = 0.0;
+    auto add = [this](T v, double& line, double& weight) {
+      if (!valid(v)) return;
+      line += static_cast<double>(v);
+      weight += 1.0;
+    };
+    add(top[0], line0, weight0);
+    add(top[1], line0, weight0);
+    add(bottom[0], line1, weight1);
+    add(bottom[1], line1, weight1);
+    if (weight0 == 0.0 && weight1 == 0.0) return nodata;
+    double total = 0.0, total_weight = 0.0;
+    total += line0;
+    total += line1;
+    total_weight += weight0;
+    total_weight += weight1;
+    return rounded(total / total_weight);
+  }
+
+  // An average as a cell: never the nodata value (GDAL's replacement).
+  T rounded(double average) const {
+    const auto v = static_cast<T>(average);
+    return v == nodata ? replacement : v;
   }
 };
 
@@ -157,6 +195,7 @@ OverviewPyramid<T>::OverviewPyramid(int64_t width, int64_t height, int64_t band_
         const Span s = l->row_span(j);
         l->ring_rows = std::max(l->ring_rows, s.end - s.first);
       }
+      if (l->ring_rows > kMaxWindow) throw Error(ErrorKind::internal, "overviews: a row reads too many source rows");
       l->ring.resize(static_cast<size_t>(l->ring_rows * source_w));
     }
     l->band.resize(static_cast<size_t>(std::min(band_rows, size.height) * size.width));
