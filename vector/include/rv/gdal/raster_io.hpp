@@ -2,12 +2,11 @@
 //
 // Layout of a written file: one band, tiled 256x256, compressed as GeoTiffOptions::compression
 // says (a profile, below), BIGTIFF=IF_SAFER (a COG: BigTIFF when it reaches 4 GiB), compressed by
-// `threads` threads. Data type: Float32
-// for float rasters; Int32 for integer rasters, or the narrowest of Byte / UInt16 / Int32 that
-// holds every value when the caller states the largest (GeoTiffOptions::max_code). The
-// geotransform is {xmin, res, 0, ymax, 0, -res} of the raster's window (Raster::window() inside
-// Raster::grid()), the CRS is GridSpec::crs (any definition OSR understands; none written when
-// empty).
+// `threads` threads. Data type: Float32 for float rasters; Int32 for integer rasters, or the
+// narrowest of Byte / UInt16 / Int32 that holds every value when the caller states the largest
+// (GeoTiffOptions::max_code). The geotransform is {xmin, res, 0, ymax, 0, -res} of the raster's
+// window (Raster::window() inside Raster::grid()), the CRS is GridSpec::crs (any definition OSR
+// understands; none written when empty).
 // Category labels go into a raster attribute table (columns Value: Integer, Owner: String) and
 // the band's category names; GDAL 3.6 keeps both in the PAM sidecar `<path>.aux.xml`, written
 // and renamed together with the file (a stale sidecar of an earlier file of that name is
@@ -159,9 +158,9 @@ extern template class GeoTiffStripWriter<float>;
 
 // GDAL's block cache holds what GDAL reads and writes through it (the rasters the jobs read back:
 // regions are polygonized from the ownership file); by default it may grow to 5 % of physical
-// memory. The programs bound it (not the library, which
-// leaves an embedding application's GDAL settings alone): bound_block_cache() lowers it to
-// kBlockCacheBytes unless the user set GDAL_CACHEMAX. Call before GDAL reads anything.
+// memory. The programs bound it (not the library, which leaves an embedding application's GDAL
+// settings alone): bound_block_cache() lowers it to kBlockCacheBytes unless the user set
+// GDAL_CACHEMAX. Call before GDAL reads anything.
 inline constexpr int64_t kBlockCacheBytes = int64_t{256} << 20;
 void bound_block_cache();
 
