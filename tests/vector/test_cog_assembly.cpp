@@ -389,6 +389,37 @@ TEST(CogAssembly, BigTiff) {
   EXPECT_TRUE(a->GetSpatialRef() != nullptr && a->GetSpatialRef()->IsSame(b->GetSpatialRef()));
 }
 
+// A staged BigTIFF (what GDAL's BIGTIFF=IF_SAFER makes of a large raster) whose COG fits a classic
+// TIFF: its LONG8 tile arrays and values become LONG.
+TEST(CogAssembly, StagedBigTiffIntoClassic) {
+  gdal_init();
+  ScratchDir dir;
+  const std::string staged = dir.file("staged.tif");
+  {
+    CPLStringList co;
+    co.SetNameValue("TILED", "YES");
+    co.SetNameValue("BIGTIFF", "YES");
+    co.SetNameValue("COMPRESS", "DEFLATE");
+    GDALDriver* gtiff = GetGDALDriverManager()->GetDriverByName("GTiff");
+    std::unique_ptr<GDALDataset> ds(gtiff->Create(staged.c_str(), 200, 100, 1, GDT_Byte, co.List()));
+    ASSERT_TRUE(ds);
+    std::vector<uint8_t> cells(200 * 100);
+    for (size_t i = 0; i < cells.size(); ++i) cells[i] = static_cast<uint8_t>(i * 7 % 251);
+    ASSERT_EQ(ds->GetRasterBand(1)->RasterIO(GF_Write, 0, 0, 200, 100, cells.data(), 200, 100, GDT_Byte, 0, 0, nullptr),
+              CE_None);
+  }
+  ASSERT_EQ(file_bytes(staged).substr(0, 4), std::string("II+\0", 4));
+  detail::TileSpool spool(dir.file("spool"), {}, "out.tif");
+  detail::assemble_cog(staged, spool, dir.file("out.tif"), "out.tif");
+  EXPECT_EQ(file_bytes(dir.file("out.tif")).substr(0, 4), std::string("II*\0", 4)) << "not a classic TIFF";
+  EXPECT_EQ(cog_validator_errors(dir.file("out.tif")), "");
+  expect_same_tile_bytes(dir.file("out.tif"), staged);
+  const auto a = open(dir.file("out.tif")), b = open(staged);
+  ASSERT_TRUE(a && b);
+  EXPECT_STREQ(a->GetMetadataItem("LAYOUT", "IMAGE_STRUCTURE"), "COG");
+  EXPECT_EQ(read_level<int32_t>(*a, 0), read_level<int32_t>(*b, 0));
+}
+
 // The assembly refuses what is not a staged tiled GeoTIFF or lacks overview tiles, naming the COG.
 TEST(CogAssembly, RefusesIncompleteParts) {
   gdal_init();

@@ -180,7 +180,14 @@ Staged read_staged(Input& in) {
       const uint16_t dim_tags[] = {kImageWidth, kImageLength, kTileWidth, kTileLength};
       for (size_t d = 0; d < 4; ++d)
         if (e.tag == dim_tags[d] && e.count == 1) dims[d] = integers(e, in)[0];
-      if (e.tag != kNewSubfileType) s.entries.push_back(std::move(e));
+      if (e.tag == kNewSubfileType) continue;
+      // A staged BigTIFF (GDAL's IF_SAFER) may hold LONG8 values; as LONG they fit a classic COG.
+      if (e.type == kTypeLong8) {
+        const std::vector<uint64_t> v = integers(e, in);
+        if (std::all_of(v.begin(), v.end(), [](uint64_t x) { return x <= UINT32_MAX; }))
+          e = integer_entry(e.tag, kTypeLong, v);
+      }
+      s.entries.push_back(std::move(e));
     }
   }
   if (dims[2] == 0 || dims[3] == 0) in.fail("the staged file is not tiled");
