@@ -323,6 +323,27 @@ TEST(CogAssembly, NanNodata) {
   }
 }
 
+// An average that comes out as the nodata value becomes the float next to it, as in GDAL's
+// overviews (4 and 6 average to 5, the nodata value here).
+TEST(CogAssembly, AverageEqualToNodataIsReplaced) {
+  gdal_init();
+  ScratchDir dir;
+  const GridSpec grid = utm_grid(512, 2, 10.0);
+  Raster<float> cells(grid, 0.0f);
+  for (int64_t row = 0; row < 2; ++row)
+    for (int64_t col = 0; col < 512; ++col) cells.at(col, row) = col % 2 == 0 ? 4.0f : 6.0f;
+  GeoTiffOptions o;
+  o.cloud_optimized = true;
+  write_geotiff(dir.file("five.tif"), cells, 5.0, o);
+  const auto ours = open(dir.file("five.tif"));
+  const auto gdal = gdal_cog(dir.file("gdal.tif"), cells.data(), GDT_Float32, 512, 2, 5.0, true);
+  ASSERT_TRUE(ours && gdal);
+  const std::vector<float> a = read_level<float>(*ours, 1), b = read_level<float>(*gdal, 1);
+  ASSERT_EQ(a.size(), 256u);
+  EXPECT_EQ(a, b);
+  EXPECT_EQ(a[0], std::nextafter(5.0f, FLT_MAX));
+}
+
 TEST(CogAssembly, EveryCompressionProfile) {
   gdal_init();
   for (const Compression p : {Compression::fast, Compression::small, Compression::deflate, Compression::none}) {

@@ -12,7 +12,8 @@
 // overview builder does it, and takes the same cells and arithmetic, so that the overviews equal
 // the ones GDAL's COG driver (OVERVIEW_RESAMPLING NEAREST / AVERAGE) made from the same cells
 // (tests/vector/test_cog_assembly.cpp compares them). With s = (source size) / (level size) per
-// axis, a double (exactly 2 where the source size is even, up to 3 where it is odd):
+// axis, a double (exactly 2 where the source size is even, up to 3 where it is odd, 1 where a
+// side of one cell stays one cell):
 //   nearest  cell (i, j) takes source cell (int(0.5 + i * s_x), int(0.5 + j * s_y)): the top-left
 //            cell of its block while s is 2; on an odd source the picks drift by one cell to the
 //            right (bottom) across the row (column), and the source's last column (row) may not
@@ -24,12 +25,12 @@
 //            s_x)); rows likewise. The cell is sum(w_x w_y v) / sum(w_x w_y) over the source cells
 //            that are not nodata (GDAL's nodata test: v == nodata or |v - nodata| < 2 FLT_EPSILON
 //            |v + nodata|, so a value a few float steps from nodata counts as nodata; NaN nodata:
-//            v is NaN), summed in double row by row (left to right,
-//            then weighted by the row's weight), rounded to float; a cell with no such source cell
-//            is nodata, and an average that happens to equal nodata becomes the float next to it
-//            (towards +infinity; towards 0 from FLT_MAX), as GDAL does. While s is 2 this is the
-//            plain mean of the valid cells of the 2 x 2 block. The right and bottom edges of an
-//            odd source are covered by the last cells' windows (s > 2), never dropped.
+//            v is NaN), summed in double row by row (left to right, then weighted by the row's
+//            weight), rounded to float; a cell with no such source cell is nodata, and an average
+//            that happens to equal nodata becomes the float next to it (towards +infinity; towards
+//            0 from FLT_MAX), as GDAL does. While s is 2 this is the plain mean of the valid cells
+//            of the 2 x 2 block. The right and bottom edges of an odd source are covered by the
+//            last cells' windows (s > 2), never dropped.
 // Nearest suits codes (it never invents one); average is for Float32 rasters only.
 //
 // Memory: per level, one band of `band_rows` rows of its width (the tile row being filled) and
