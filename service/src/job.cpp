@@ -10,7 +10,6 @@
 #include <fstream>
 #include <memory>
 #include <optional>
-#include <string_view>
 
 #include "atomic_file.hpp"
 #include "job_run.hpp"
@@ -249,17 +248,14 @@ JobPlan plan_job(const JobSpec& spec, const GridSpec& grid, int64_t sites, Metri
     p.memory_bytes = estimate_memory(spec.method, 2 * strip_cells, sites, metric) + strip_cells * 4 * int_rasters +
                      rasters * (kTileRows * grid.width * 4 + kWriterBytes) + seed_bytes;
     if (out.any_deliverable()) p.memory_bytes += deliverables_memory(spec, grid, strip_cells);
-    // A COG is copied from the strips' file through GDAL's block cache (bounded by the programs).
-    // It holds at most what passes through it: the rasters and their overviews.
-    if (out.cloud_optimized)
-      p.memory_bytes += std::min(kBlockCacheBytes, 2 * cells * 4 * (rasters + !out.margin.empty()));
+    // A COG's writer makes the overviews from the rows as they pass: its levels' rows in the
+    // making take under one more band of tile rows.
+    if (out.cloud_optimized) p.memory_bytes += (rasters + !out.margin.empty()) * kTileRows * grid.width * 4;
     return p;
   }
   p.strip_rows = grid.height;
   p.strips = 1;
   int64_t need = estimate_memory(spec.method, cells, sites, metric) + cells * 4;  // + one output raster
-  // A COG of codes in a narrower type is copied from a narrowed copy (at most 2 bytes a cell).
-  if (out.cloud_optimized && int_rasters > 0) need += cells * 2;
   if (spec.validate) need += estimate_memory(Method::brute_force, cells, sites, metric);
   if (out.any_deliverable()) {
     need += cells * 4;                                                                          // owner codes
@@ -417,19 +413,13 @@ void compute_streamed(detail::JobRun& run, const PreparedJob& job, const RasterT
   stream.strip_rows = job.plan.strip_rows;
   stream.distance_factor = job.to_output;
   stream.feature_numbering = job.loaded.input_position;
-  // With COGs the files are written by the copies after the strips: the stage "write" is theirs.
-  stream.progress = [&](const char* stage, double f) {
-    if (!(spec.outputs.cloud_optimized && std::string_view(stage) == "write")) run.progress(stage, f);
-  };
+  stream.progress = [&](const char* stage, double f) { run.progress(stage, f); };
   stream.will_write = [&](const std::string& path) { run.will_write(path); };
   if (deliverables) stream.on_strip = [&](const NearestField& strip) { deliverables->add(strip); };
-  // A COG is copied from the plain tiled GeoTIFF the strips went into (detail::cog_stage_path),
-  // once every strip is in.
+  // A COG is written strip by strip like a plain GeoTIFF (GeoTiffStripWriter assembles it).
   using Product = detail::StreamTarget::Product;
   auto target = [&](Product product, const std::string& path, GeoTiffOptions options, const char* name) {
-    const bool cog = options.cloud_optimized;
-    options.cloud_optimized = false;
-    stream.targets.push_back({product, cog ? detail::cog_stage_path(path) : path, options, name});
+    stream.targets.push_back({product, path, options, name});
   };
   if (!spec.outputs.ownership.empty())
     target(Product::ownership, spec.outputs.ownership, targets.ownership, "ownership");
@@ -444,25 +434,7 @@ void compute_streamed(detail::JobRun& run, const PreparedJob& job, const RasterT
   for (const auto& [name, seconds] : st.write) run.write_times[name] = seconds;
   run.timings["compute"] = st.compute;
   if (deliverables) deliverables->finish();
-  size_t copied = 0;
-  for (const detail::StreamTarget& t : stream.targets) {
-    if (spec.outputs.cloud_optimized) {
-      const std::string final_path = detail::cog_final_path(t.path);
-      const GeoTiffOptions& o = t.product == Product::ownership  ? targets.ownership
-                                : t.product == Product::distance ? targets.distance
-                                                                 : targets.feature;
-      run.check_cancel();
-      detail::timed(run.write_times, (std::string(t.name) + "_cog").c_str(), [&] {
-        run.will_write(final_path);
-        copy_to_cog(t.path, final_path, o);
-        detail::remove_raster_file(t.path);
-      });
-      run.wrote(t.name, final_path);
-      run.progress("write", static_cast<double>(++copied) / static_cast<double>(stream.targets.size()));
-    } else {
-      run.wrote(t.name, t.path);
-    }
-  }
+  for (const detail::StreamTarget& t : stream.targets) run.wrote(t.name, t.path);
   // compute and write overlap: their sum exceeds the wall time they took together.
   run.timings["streamed"] = {{"strips", st.strips},
                              {"rows_per_strip", job.plan.strip_rows},

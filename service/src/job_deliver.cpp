@@ -99,12 +99,8 @@ StripDeliverables::StripDeliverables(JobRun& run, const PreparedJob& job, bool s
   }
   if (!out.preview.empty()) s.preview.emplace(g, g.full_window());
   if (streamed && !out.margin.empty()) {
-    // A COG is copied from the strips' plain GeoTIFF once complete.
-    GeoTiffOptions o = margin_options(run, job);
-    const std::string path = o.cloud_optimized ? cog_stage_path(out.margin) : out.margin;
-    o.cloud_optimized = false;
-    run.will_write(path);
-    s.margin_writer.emplace(path, g, g.full_window(), static_cast<double>(kNoDistance), o);
+    run.will_write(out.margin);
+    s.margin_writer.emplace(out.margin, g, g.full_window(), static_cast<double>(kNoDistance), margin_options(run, job));
   }
 }
 
@@ -250,15 +246,7 @@ void StripDeliverables::State::finish_margin() {
   JobRun& run = s.run;
   if (!out.margin.empty()) {
     const auto t = Clock::now();
-    if (s.margin_writer) {
-      s.margin_writer->finish();
-      const GeoTiffOptions o = margin_options(run, s.job);
-      if (o.cloud_optimized) {
-        run.will_write(out.margin);
-        copy_to_cog(cog_stage_path(out.margin), out.margin, o);
-        remove_raster_file(cog_stage_path(out.margin));
-      }
-    }
+    if (s.margin_writer) s.margin_writer->finish();
     run.wrote("margin", out.margin);
     s.times["margin"] = s.margin_seconds + seconds_since(t);
   }

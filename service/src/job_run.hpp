@@ -12,7 +12,6 @@
 #include <memory>
 #include <optional>
 #include <string>
-#include <string_view>
 #include <vector>
 
 #include <nlohmann/json.hpp>
@@ -81,12 +80,6 @@ void timed(nlohmann::json& into, const char* name, F&& f) {
   into[name] = seconds_since(t);
 }
 
-// A streamed COG's strips go into a plain tiled GeoTIFF first, beside the COG, copied into it once
-// complete (copy_to_cog): its name, and back.
-inline std::string cog_stage_path(const std::string& cog) { return cog + ".strips.tif"; }
-inline std::string cog_final_path(const std::string& stage) {
-  return stage.substr(0, stage.size() - std::string_view(".strips.tif").size());
-}
 // Removes a raster file and its sidecar, if there.
 inline void remove_raster_file(const std::string& path) {
   std::error_code ec;

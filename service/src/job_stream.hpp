@@ -22,8 +22,8 @@ struct StreamTarget {
   enum class Product { ownership, distance, nearest_feature };
   Product product;
   std::string path;
-  GeoTiffOptions options;  // never cloud_optimized
-  std::string name;        // key in the report's write timings
+  GeoTiffOptions options;
+  std::string name;  // key in the report's write timings
 };
 
 struct StreamJob {

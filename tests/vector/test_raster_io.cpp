@@ -398,6 +398,8 @@ TEST(RasterIo, StripWriterCopiesTheEncodedTilesOfAnEarlierFile) {
   check_copied_tiles<int32_t>(codes, 0.0);
   codes.compression = Compression::small;
   check_copied_tiles<int32_t>(codes, 0.0);
+  codes.cloud_optimized = true;  // copied from a COG into a COG
+  check_copied_tiles<int32_t>(codes, 0.0);
   GeoTiffOptions distances;
   check_copied_tiles<float>(distances, -1.0);  // uncompressed
   distances.compression = Compression::deflate;
@@ -425,10 +427,24 @@ TEST(RasterIo, StripWriterLeavesNothingUnlessFinished) {
     EXPECT_TRUE(files_in(dir.path()).empty()) << "aborted";
     w.abort();  // twice is harmless
   }
-  GeoTiffOptions cog;
+  // A COG strip by strip (it used to be refused): its staging files go with it unless finished.
+  GeoTiffOptions cog = labelled;
   cog.cloud_optimized = true;
-  expect_error(ErrorKind::invalid_argument,
-               [&] { GeoTiffStripWriter<int32_t>(dir.file("c.tif"), grid, grid.full_window(), 0.0, cog); }, {"COG"});
+  {
+    GeoTiffStripWriter<int32_t> w(dir.file("c.tif"), grid, grid.full_window(), 0.0, cog);
+    w.write_rows(r.data(), 260);
+    EXPECT_FALSE(files_in(dir.path()).empty());  // the staged tiles, the overviews' spool
+  }
+  EXPECT_TRUE(files_in(dir.path()).empty()) << "COG destroyed unfinished";
+  {
+    GeoTiffStripWriter<int32_t> w(dir.file("c.tif"), grid, grid.full_window(), 0.0, cog);
+    w.write_rows(r.data(), 300);
+    w.finish();
+  }
+  EXPECT_EQ(read_int32(dir.file("c.tif")).cells(), r.cells());
+  EXPECT_EQ(files_in(dir.path()), (std::vector<std::string>{"c.tif", "c.tif.aux.xml"}));
+  std::filesystem::remove(dir.path() / "c.tif");
+  std::filesystem::remove(dir.path() / "c.tif.aux.xml");
   expect_error(ErrorKind::io,
                [&] { GeoTiffStripWriter<int32_t>(dir.file("no/dir/d.tif"), grid, grid.full_window(), 0.0, {}); },
                {"no/dir"});

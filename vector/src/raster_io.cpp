@@ -12,14 +12,15 @@
 // on the 1e8-cell case its allocations and copies cost more CPU than ZSTD itself on the owner
 // codes (bench/RESULTS-encoding.md).
 //
-// Writing path (COG): the COG driver only implements CreateCopy(). The raster is wrapped without
-// a copy in a MEM dataset (DATAPOINTER; codes going into a narrower type are narrowed into a
-// smaller copy first) and copied; overviews are computed by the driver. The RAT is added
-// afterwards by opening the finished file read-only: PAM writes the sidecar without touching the
-// TIFF, so the COG layout stays intact.
+// Writing path (COG, the same writer): the plain GeoTIFF above is written as a staging file beside
+// the target, while the overviews are made from the same rows (cog_overviews.hpp) and their
+// tiles encoded by the same encoders into a spool; finish() assembles the COG from the staged
+// and spooled tiles as they are (cog_assembly.hpp). GDAL's COG driver, which the COGs were copied
+// by before, only implements CreateCopy(): it decoded every tile of a complete GeoTIFF and encoded
+// it again, and built the overviews in a temporary file of its own.
 //
-// Both paths take their compression creation options from encoding_for(), the one place a
-// profile (rv::Compression) becomes codec, level and predictor.
+// Both take their compression from encoding_for(), the one place a profile (rv::Compression)
+// becomes codec, level and predictor.
 #include <algorithm>
 #include <atomic>
 #include <cinttypes>
@@ -40,6 +41,8 @@
 #include <cpl_vsi.h>
 #include <gdal_rat.h>
 
+#include "cog_assembly.hpp"
+#include "cog_overviews.hpp"
 #include "gdal_util.hpp"
 #include "rv/error.hpp"
 #include "rv/gdal/raster_io.hpp"
@@ -143,17 +146,6 @@ void set_gtiff_encoding(CPLStringList& co, const Encoding& e) {
   if (e.predictor != 1) co.SetNameValue("PREDICTOR", std::to_string(e.predictor).c_str());
 }
 
-// The same encoding as the COG driver's options: it names the level LEVEL for every codec and
-// the predictor by name; overviews are encoded like the full resolution.
-void set_cog_encoding(CPLStringList& co, const Encoding& e) {
-  co.SetNameValue("COMPRESS", gdal_codec(e.codec));
-  co.SetNameValue("OVERVIEW_COMPRESS", gdal_codec(e.codec));
-  if (e.codec != detail::TileCodec::none) co.SetNameValue("LEVEL", std::to_string(e.level).c_str());
-  const char* predictor = e.predictor == 2 ? "STANDARD" : e.predictor == 3 ? "FLOATING_POINT" : "NO";
-  co.SetNameValue("PREDICTOR", predictor);
-  co.SetNameValue("OVERVIEW_PREDICTOR", predictor);
-}
-
 // The file's data type: T, or for integer rasters with a stated range the narrowest type that
 // holds [0, max_code] (owner codes of up to 255 owners take a quarter of the bytes to encode).
 template <class T>
@@ -192,8 +184,6 @@ bool store_codes(const int32_t* __restrict in, Out* __restrict out, int64_t n, u
   }
   return over == 0;
 }
-
-std::string thread_option(int threads) { return threads <= 0 ? "ALL_CPUS" : std::to_string(threads); }
 
 std::string directory_of(const std::string& path) {
   const size_t slash = path.find_last_of('/');
@@ -272,7 +262,7 @@ void window_geotransform(const GridSpec& g, const Window& w, double gt[6]) {
   gt[5] = -g.res;
 }
 
-// Georeferencing, nodata, units and metadata: the same for the GTiff and the MEM source of a COG.
+// Georeferencing, nodata, units and metadata.
 void describe_dataset(GDALDataset& ds, const GridSpec& grid, const Window& window, double nodata,
                       const GeoTiffOptions& options, const std::string& path, const gdal::ErrorCapture& capture) {
   double gt[6];
@@ -360,9 +350,9 @@ void check_raster(const std::string& path, const Raster<T>& raster, double nodat
 
 }  // namespace
 
-// Everything one plain GeoTIFF being written needs. Member order matters: the dataset closes
-// (writing the TIFF directory and the PAM sidecar) before the temporary file's guard may remove
-// them.
+// Everything one GeoTIFF being written needs. Member order matters: the files close (the dataset
+// writing the TIFF directory and the PAM sidecar, the tile index, the spool) before the temporary
+// files' guards may remove them.
 template <class T>
 struct GeoTiffStripWriter<T>::State {
   State(const std::string& p, const Window& w, double nd, const GeoTiffOptions& o)
@@ -373,6 +363,19 @@ struct GeoTiffStripWriter<T>::State {
   GeoTiffOptions options;
   GDALDataType type;  // the file's data type (T, or narrower codes)
   TempOutput out;
+  // A COG (options.cloud_optimized): GDAL creates, and the full-resolution tiles go to, `staged`,
+  // a plain tiled GeoTIFF beside the target; the overviews are made from the same rows
+  // (cog_overviews.hpp), their tiles encoded like the others into `spool`, and finish() assembles
+  // the COG into out.temp() from both by copying the encoded bytes (cog_assembly.hpp). Both
+  // temporary files are removed whatever happens. Null for a plain GeoTIFF, written at out.temp().
+  struct Cog {
+    explicit Cog(const std::string& target) : staged(target), spool_file(target) {}
+    TempOutput staged;  // never committed: guards, and names, temporary files
+    TempOutput spool_file;
+    std::unique_ptr<detail::OverviewPyramid<T>> pyramid;
+    std::unique_ptr<detail::TileSpool> spool;
+  };
+  std::unique_ptr<Cog> cog;
   int64_t rows_written = 0;
   // Rows of the current band of tiles (kBlock rows) that arrived in strips not ending on a tile
   // boundary; allocated on first use, so strips of whole tile rows never copy.
@@ -426,11 +429,41 @@ struct GeoTiffStripWriter<T>::State {
     sidecar.thread = std::thread([this] {
       try {
         Scope own;
-        attach_categories(out.temp(), options.category_labels, path, own.capture);
+        attach_categories(written(), options.category_labels, path, own.capture);
       } catch (...) {
         sidecar.error = std::current_exception();
       }
     });
+  }
+
+  // The file GDAL creates and the full-resolution tiles are appended to.
+  const std::string& written() const { return cog ? cog->staged.temp() : out.temp(); }
+
+  // Overviews of a COG: made from the rows write_band() encodes, nearest for codes (never an
+  // average of two owners) and categorical rasters, average for the rest; encoded like the full
+  // resolution into the spool.
+  void start_overviews() {
+    const auto resampling =
+        PixelType<T>::floating && !options.categorical ? detail::Resampling::average : detail::Resampling::nearest;
+    cog->pyramid = std::make_unique<detail::OverviewPyramid<T>>(
+        window.width, window.height, kBlock, resampling, nodata,
+        [this](int level, const T* rows, int64_t, int64_t count, int64_t width) {
+          encode_band(rows, count, width, nullptr,
+                      [&](int64_t, const detail::EncodedTile* t) { cog->spool->append(level, *t); });
+        });
+    cog->spool = std::make_unique<detail::TileSpool>(cog->spool_file.temp(), cog->pyramid->levels(), path);
+  }
+
+  // The COG into out.temp() from the closed staged file and the spool, and the categories'
+  // sidecar (written for the staged file: PAM keeps nothing there that differs) beside it.
+  void assemble_cog() {
+    if (!cog->pyramid->complete()) throw Error(ErrorKind::internal, "writing " + path + ": overviews incomplete");
+    detail::assemble_cog(cog->staged.temp(), *cog->spool, out.temp(), path);
+    cog->spool.reset();
+    cog->pyramid.reset();
+    const std::string aux = cog->staged.temp() + ".aux.xml", target_aux = out.temp() + ".aux.xml";
+    if (exists(aux) && VSIRename(aux.c_str(), target_aux.c_str()) != 0)
+      throw Error(ErrorKind::io, "cannot rename " + aux + " to " + target_aux + ": " + std::strerror(errno));
   }
 
   // GDAL's error handlers and thread-local options are per thread: every public call installs
@@ -442,30 +475,29 @@ struct GeoTiffStripWriter<T>::State {
     gdal::ThreadConfigOption pam{"GDAL_PAM_ENABLED", "YES"};
   };
 
-  // Encodes and appends one band of tiles: `h` rows (kBlock, or fewer in the last band) starting
-  // at `rows`, `stride` cells apart, converted to the file's type on the way into each tile.
-  // One encoder: tile by tile, each appended as soon as it is encoded (an uncompressed tile
+  // Encodes one band of tiles of an image `width` cells wide (the full resolution or an overview):
+  // `h` rows (kBlock, or fewer in its last band) of `width` cells at `rows`, converted to the
+  // file's type on the way into each tile, and hands them to put(bx, tile) in order of bx. A tile
+  // flagged in `copy` is neither read nor encoded: put(bx, nullptr).
+  // One encoder: tile by tile, each handed on as soon as it is encoded (an uncompressed tile
   // straight from the scratch tile). Several: in chunks of a few tiles per thread; each thread
   // fills, predicts and compresses its tiles of the chunk into the chunk's buffers, then the
-  // chunk is appended in order. Either way the file does not depend on the thread count.
-  // With `copy` (one flag per tile across), the flagged tiles' bytes come from the earlier file
-  // instead, unchanged, and their cells are not read.
-  void write_band(const T* rows, int64_t h, int64_t stride, const std::vector<bool>* copy = nullptr) {
-    const int64_t by = rows_written / kBlock;
-    const int64_t across = file->tiles_across();
+  // chunk is handed on in order. Either way the bytes do not depend on the thread count.
+  template <class Put>
+  void encode_band(const T* rows, int64_t h, int64_t width, const std::vector<bool>* copy, Put&& put) {
+    const int64_t across = (width + kBlock - 1) / kBlock;
     auto copied = [&](int64_t bx) { return copy != nullptr && (*copy)[static_cast<size_t>(bx)]; };
-    auto append_copy = [&](int64_t bx) { file->append(bx, by, earlier->read(bx, by, earlier_tile)); };
     if (threads == 1) {
       for (int64_t bx = 0; bx < across; ++bx) {
         if (copied(bx)) {
-          append_copy(bx);
+          put(bx, nullptr);
           continue;
         }
         uint8_t* tile = scratch[0].data();
-        fill_tile(rows, h, stride, bx * kBlock, tile);
-        file->append(bx, by, compressors[0].encode(tile, encoded_single));
+        fill_tile(rows, h, width, bx * kBlock, tile);
+        const detail::EncodedTile t = compressors[0].encode(tile, encoded_single);
+        put(bx, &t);
       }
-      rows_written += h;
       return;
     }
     const int64_t chunk = std::min<int64_t>(across, kChunkTiles);
@@ -478,48 +510,58 @@ struct GeoTiffStripWriter<T>::State {
       detail::parallel_for(threads, n, [&](int64_t i, int worker) {
         if (copied(first + i)) return;
         uint8_t* tile = scratch[static_cast<size_t>(worker)].data();
-        fill_tile(rows, h, stride, (first + i) * kBlock, tile);
+        fill_tile(rows, h, width, (first + i) * kBlock, tile);
         // Compressed (an uncompressed file has one encoder), so the bytes are in the chunk's
         // buffer, not in the scratch tile this worker reuses.
         sizes[static_cast<size_t>(i)] =
             compressors[static_cast<size_t>(worker)].encode(tile, encoded[static_cast<size_t>(i)]).size;
       });
       for (int64_t i = 0; i < n; ++i) {
-        if (copied(first + i))
-          append_copy(first + i);
-        else
-          file->append(first + i, by, {encoded[static_cast<size_t>(i)].data(), sizes[static_cast<size_t>(i)]});
+        const detail::EncodedTile t{encoded[static_cast<size_t>(i)].data(), sizes[static_cast<size_t>(i)]};
+        put(first + i, copied(first + i) ? nullptr : &t);
       }
     }
+  }
+
+  // Encodes and appends the next band of full-resolution tiles: `h` rows (kBlock, or fewer in the
+  // last band) of window.width cells at `rows`. With `copy` (one flag per tile across), the
+  // flagged tiles' bytes come from the earlier file instead, unchanged, and their cells are not
+  // read -- but by a COG's overviews, which are made from every cell of the band.
+  void write_band(const T* rows, int64_t h, const std::vector<bool>* copy = nullptr) {
+    const int64_t by = rows_written / kBlock;
+    encode_band(rows, h, window.width, copy, [&](int64_t bx, const detail::EncodedTile* t) {
+      file->append(bx, by, t != nullptr ? *t : earlier->read(bx, by, earlier_tile));
+    });
+    if (cog) cog->pyramid->add_rows(rows, h);
     rows_written += h;
   }
 
-  // The tile whose left column is x0, in the file's type. Edge tiles: the part outside the
-  // raster is padding, filled with nodata so that it compresses to nothing and never shows
-  // real-looking values.
-  void fill_tile(const T* rows, int64_t h, int64_t stride, int64_t x0, uint8_t* tile) const {
+  // The tile whose left column is x0 of rows `width` cells wide, in the file's type. Edge tiles:
+  // the part outside the image is padding, filled with nodata so that it compresses to nothing
+  // and never shows real-looking values.
+  void fill_tile(const T* rows, int64_t h, int64_t width, int64_t x0, uint8_t* tile) const {
     if constexpr (PixelType<T>::floating) {
-      fill_tile_as(rows, h, stride, x0, reinterpret_cast<T*>(tile));
+      fill_tile_as(rows, h, width, x0, reinterpret_cast<T*>(tile));
     } else {
       switch (type) {
         case GDT_Byte:
-          fill_tile_as(rows, h, stride, x0, tile);
+          fill_tile_as(rows, h, width, x0, tile);
           break;
         case GDT_UInt16:
-          fill_tile_as(rows, h, stride, x0, reinterpret_cast<uint16_t*>(tile));
+          fill_tile_as(rows, h, width, x0, reinterpret_cast<uint16_t*>(tile));
           break;
         default:
-          fill_tile_as(rows, h, stride, x0, reinterpret_cast<T*>(tile));
+          fill_tile_as(rows, h, width, x0, reinterpret_cast<T*>(tile));
           break;
       }
     }
   }
 
   template <class Out>
-  void fill_tile_as(const T* rows, int64_t h, int64_t stride, int64_t x0, Out* tile) const {
-    const int64_t w = std::min<int64_t>(kBlock, window.width - x0);
+  void fill_tile_as(const T* rows, int64_t h, int64_t width, int64_t x0, Out* tile) const {
+    const int64_t w = std::min<int64_t>(kBlock, width - x0);
     if (w < kBlock || h < kBlock) std::fill(tile, tile + kBlock * kBlock, static_cast<Out>(nodata));
-    for (int64_t r = 0; r < h; ++r) store(rows + r * stride + x0, tile + r * kBlock, w);
+    for (int64_t r = 0; r < h; ++r) store(rows + r * width + x0, tile + r * kBlock, w);
   }
 
   // n cells into the file's type; codes are checked against the stated range.
@@ -541,11 +583,10 @@ template <class T>
 GeoTiffStripWriter<T>::GeoTiffStripWriter(const std::string& path, const GridSpec& grid, const Window& window,
                                           double nodata, const GeoTiffOptions& options) {
   gdal_init();
-  if (options.cloud_optimized)
-    throw Error(ErrorKind::invalid_argument, "writing " + path + ": a COG cannot be written strip by strip");
   check_target<T>(path, window, nodata, options);
   typename State::Scope scope;
   auto state = std::make_unique<State>(path, window, nodata, options);
+  if (options.cloud_optimized) state->cog = std::make_unique<typename State::Cog>(path);
   GDALDriver* gtiff = GetGDALDriverManager()->GetDriverByName("GTiff");
   if (gtiff == nullptr) throw Error(ErrorKind::unsupported, "GDAL has no GTiff driver");
   CPLStringList co;
@@ -557,7 +598,7 @@ GeoTiffStripWriter<T>::GeoTiffStripWriter(const std::string& path, const GridSpe
   co.SetNameValue("BIGTIFF", "IF_SAFER");
   co.SetNameValue("SPARSE_OK", "TRUE");  // every tile stays empty until appended below
   {
-    gdal::DatasetPtr ds(gtiff->Create(state->out.temp().c_str(), static_cast<int>(window.width),
+    gdal::DatasetPtr ds(gtiff->Create(state->written().c_str(), static_cast<int>(window.width),
                                       static_cast<int>(window.height), 1, state->type, co.List()));
     if (!ds) fail(path, "cannot create the file", scope.capture);
     describe_dataset(*ds, grid, window, nodata, options, path, scope.capture);
@@ -571,7 +612,7 @@ GeoTiffStripWriter<T>::GeoTiffStripWriter(const std::string& path, const GridSpe
   f.sample_bytes = GDALGetDataTypeSizeBytes(state->type);
   f.floating = PixelType<T>::floating;
   f.width = f.height = kBlock;
-  state->file = std::make_unique<detail::RawTileFile>(state->out.temp(), f, path);
+  state->file = std::make_unique<detail::RawTileFile>(state->written(), f, path);
   state->format = f;
   state->grid = grid;
   // No more encoders than hardware threads, whatever was asked (each holds a codec and a tile).
@@ -582,6 +623,7 @@ GeoTiffStripWriter<T>::GeoTiffStripWriter(const std::string& path, const GridSpe
     state->compressors.emplace_back(f);
     state->scratch.emplace_back(static_cast<size_t>(kBlock) * kBlock * static_cast<size_t>(f.sample_bytes));
   }
+  if (state->cog) state->start_overviews();
   state_ = std::move(state);
 }
 
@@ -622,7 +664,7 @@ void GeoTiffStripWriter<T>::write_rows(const T* cells, int64_t rows) {
     // Rows the current band of tiles holds: kBlock, or what is left of the raster.
     const int64_t band_rows = std::min<int64_t>(kBlock, s.window.height - s.rows_written);
     if (s.pending_rows == 0 && rows >= band_rows) {
-      s.write_band(cells, band_rows, width);
+      s.write_band(cells, band_rows);
       cells += band_rows * width;
       rows -= band_rows;
       continue;
@@ -635,7 +677,7 @@ void GeoTiffStripWriter<T>::write_rows(const T* cells, int64_t rows) {
     rows -= take;
     if (s.pending_rows == band_rows) {
       s.pending_rows = 0;
-      s.write_band(s.pending.data(), band_rows, width);
+      s.write_band(s.pending.data(), band_rows);
     }
   }
   s.failed = false;
@@ -678,7 +720,7 @@ void GeoTiffStripWriter<T>::write_band(const T* cells, const std::vector<bool>& 
   typename State::Scope scope;
   s.failed = true;  // until this call returns normally
   s.start_sidecar();
-  s.write_band(cells, std::min<int64_t>(kBlock, s.window.height - s.rows_written), s.window.width, &copy);
+  s.write_band(cells, std::min<int64_t>(kBlock, s.window.height - s.rows_written), &copy);
   s.failed = false;
 }
 
@@ -696,7 +738,9 @@ void GeoTiffStripWriter<T>::finish() {
   if (s.sidecar.error) std::rethrow_exception(s.sidecar.error);
   s.file->close();  // the tile index; the directory was written at creation
   s.file.reset();
+  if (s.cog) s.assemble_cog();
   s.out.commit();
+  s.cog.reset();  // the staging files go now, not with the writer
   s.failed = false;
   s.finished = true;
 }
@@ -718,88 +762,14 @@ template class GeoTiffStripWriter<float>;
 
 namespace {
 
-// The COG driver's copy of `src` into out.temp(), then the categories beside it.
-void cog_copy(const std::string& path, GDALDataset& src, bool floating, const GeoTiffOptions& options, TempOutput& out,
-              gdal::ErrorCapture& capture) {
-  GDALDriver* cog = GetGDALDriverManager()->GetDriverByName("COG");
-  GDALDriver* gtiff = GetGDALDriverManager()->GetDriverByName("GTiff");
-  if (cog == nullptr || gtiff == nullptr) throw Error(ErrorKind::unsupported, "GDAL lacks the COG or GTiff driver");
-  CPLStringList co;
-  co.SetNameValue("BLOCKSIZE", std::to_string(kBlock).c_str());
-  set_cog_encoding(co, encoding_for(options.compression, floating, has_zstd(gtiff)));
-  co.SetNameValue("NUM_THREADS", thread_option(options.threads).c_str());
-  co.SetNameValue("BIGTIFF", "IF_SAFER");
-  // Owner codes must never be averaged into codes nobody owns.
-  co.SetNameValue("OVERVIEW_RESAMPLING", options.categorical ? "NEAREST" : "AVERAGE");
-  gdal::DatasetPtr dst(cog->CreateCopy(out.temp().c_str(), &src, FALSE, co.List(), nullptr, nullptr));
-  if (!dst) fail(path, "the COG driver failed", capture);
-  dst.reset();
-  if (!capture.last_error().empty()) fail(path, "closing failed", capture);
-  if (!options.category_labels.empty()) attach_categories(out.temp(), options.category_labels, path, capture);
-}
-
-template <class T>
-void write_cog(const std::string& path, const Raster<T>& raster, double nodata, const GeoTiffOptions& options,
-               TempOutput& out, gdal::ErrorCapture& capture) {
-  GDALDriver* mem = GetGDALDriverManager()->GetDriverByName("MEM");
-  if (mem == nullptr) throw Error(ErrorKind::unsupported, "GDAL lacks the MEM driver");
-  // The MEM band reads a buffer in the file's type: the raster's own (no copy of a possibly large
-  // raster) unless its codes go into a narrower type, then a narrowed copy of a half or a quarter
-  // of its size. The COG driver writes the source's type.
-  const GDALDataType type = file_type<T>(options);
-  const int64_t n = raster.width() * raster.height();
-  const void* cells = raster.data();
-  std::vector<uint8_t> cells8;
-  std::vector<uint16_t> cells16;
-  if constexpr (!PixelType<T>::floating) {
-    const auto max = static_cast<uint32_t>(options.max_code);
-    bool in_range = true;
-    auto narrow = [&](auto& copy) {
-      copy.resize(static_cast<size_t>(n));
-      in_range = store_codes(raster.data(), copy.data(), n, max);
-      cells = copy.data();
-    };
-    if (type == GDT_Byte) {
-      narrow(cells8);
-    } else if (type == GDT_UInt16) {
-      narrow(cells16);
-    } else if (options.max_code >= 0) {
-      in_range = std::all_of(raster.cells().begin(), raster.cells().end(),
-                             [max](int32_t v) { return static_cast<uint32_t>(v) <= max; });
-    }
-    if (!in_range) out_of_range(path, options.max_code);
-  }
-  gdal::DatasetPtr src(
-      mem->Create("", static_cast<int>(raster.width()), static_cast<int>(raster.height()), 0, type, nullptr));
-  if (!src) fail(path, "cannot create the in-memory source", capture);
-  char pointer[64] = {};
-  CPLPrintPointer(pointer, const_cast<void*>(cells), sizeof(pointer) - 1);
-  CPLStringList band_options;
-  band_options.SetNameValue("DATAPOINTER", pointer);
-  if (src->AddBand(type, band_options.List()) != CE_None) fail(path, "cannot wrap the raster in memory", capture);
-  describe_dataset(*src, raster.grid(), raster.window(), nodata, options, path, capture);
-
-  cog_copy(path, *src, PixelType<T>::floating, options, out, capture);
-}
-
 template <class T>
 void write_any(const std::string& path, const Raster<T>& raster, double nodata, const GeoTiffOptions& options) {
   gdal_init();
   check_raster(path, raster, nodata, options);
-  if (!options.cloud_optimized) {
-    // The plain layout is the strip writer's, fed the whole raster as one strip.
-    GeoTiffStripWriter<T> writer(path, raster.grid(), raster.window(), nodata, options);
-    writer.write_rows(raster.data(), raster.height());
-    writer.finish();
-    return;
-  }
-  gdal::ErrorCapture capture;
-  // The RAT lives in the PAM sidecar: make sure PAM is on for this thread whatever the
-  // process configuration says.
-  gdal::ThreadConfigOption pam("GDAL_PAM_ENABLED", "YES");
-  TempOutput out(path);
-  write_cog(path, raster, nodata, options, out, capture);
-  out.commit();
+  // Both layouts are the strip writer's, fed the whole raster as one strip.
+  GeoTiffStripWriter<T> writer(path, raster.grid(), raster.window(), nodata, options);
+  writer.write_rows(raster.data(), raster.height());
+  writer.finish();
 }
 
 }  // namespace
@@ -808,24 +778,6 @@ void bound_block_cache() {
   gdal_init();
   if (CPLGetConfigOption("GDAL_CACHEMAX", nullptr) != nullptr) return;
   if (GDALGetCacheMax64() > kBlockCacheBytes) GDALSetCacheMax64(kBlockCacheBytes);
-}
-
-void copy_to_cog(const std::string& source, const std::string& path, const GeoTiffOptions& options) {
-  gdal_init();
-  gdal::ErrorCapture capture;
-  gdal::ThreadConfigOption pam("GDAL_PAM_ENABLED", "YES");
-  gdal::DatasetPtr src;
-  {
-    // The source's codes alone: its categories' sidecar is not read (they are attached anew).
-    gdal::ThreadConfigOption no_pam("GDAL_PAM_ENABLED", "NO");
-    src.reset(GDALDataset::Open(source.c_str(), GDAL_OF_RASTER | GDAL_OF_READONLY));
-  }
-  if (!src || src->GetRasterCount() != 1) fail(path, "cannot open the streamed raster " + source, capture);
-  const bool floating = src->GetRasterBand(1)->GetRasterDataType() == GDT_Float32;
-  TempOutput out(path);
-  cog_copy(path, *src, floating, options, out, capture);
-  src.reset();
-  out.commit();
 }
 
 namespace {

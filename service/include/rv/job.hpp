@@ -94,9 +94,8 @@ struct JobSpec {
 // computing thread before the writers see it (rv::StripLines for the lines, a strip of margin, the
 // preview's sample) and are written after the last strip; regions are polygonized from the
 // lines (with a max distance, the line at that distance too).
-// A COG is made once every strip is in: GDAL's COG driver only copies a complete dataset, so the
-// strips go into a plain tiled GeoTIFF beside it that the driver then copies block by block
-// (copy_to_cog) and that is removed.
+// A COG is written strip by strip too: its writer makes the overviews as the strips pass and
+// assembles the file from the encoded tiles after the last one.
 // Memory is O(strip) plus the lines' length, not O(grid), and every file is identical to the
 // whole-field path's for any strip height and thread count. A job is streamed when:
 //   - method exact or brute-force: a window of these equals the same cells of the whole grid

@@ -1,12 +1,12 @@
 // Writing and reading GeoTIFFs through GDAL. GDAL types stay behind this header.
 //
 // Layout of a written file: one band, tiled 256x256, compressed as GeoTiffOptions::compression
-// says (a profile, below), BIGTIFF=IF_SAFER, compressed by `threads` threads. Data type: Float32
-// for float rasters; Int32 for integer rasters, or the narrowest of Byte / UInt16 / Int32 that
-// holds every value when the caller states the largest (GeoTiffOptions::max_code). The
-// geotransform is {xmin, res, 0, ymax, 0, -res} of the raster's window (Raster::window() inside
-// Raster::grid()), the CRS is GridSpec::crs (any definition OSR understands; none written when
-// empty).
+// says (a profile, below), BIGTIFF=IF_SAFER (a COG: BigTIFF when it reaches 4 GiB), compressed by
+// `threads` threads. Data type: Float32 for float rasters; Int32 for integer rasters, or the
+// narrowest of Byte / UInt16 / Int32 that holds every value when the caller states the largest
+// (GeoTiffOptions::max_code). The geotransform is {xmin, res, 0, ymax, 0, -res} of the raster's
+// window (Raster::window() inside Raster::grid()), the CRS is GridSpec::crs (any definition OSR
+// understands; none written when empty).
 // Category labels go into a raster attribute table (columns Value: Integer, Owner: String) and
 // the band's category names; GDAL 3.6 keeps both in the PAM sidecar `<path>.aux.xml`, written
 // and renamed together with the file (a stale sidecar of an earlier file of that name is
@@ -51,10 +51,12 @@ std::string_view to_string(Compression c);
 Compression parse_compression(std::string_view name);
 
 struct GeoTiffOptions {
-  bool cloud_optimized = false;  // COG layout with overviews (nearest for categorical bands,
-                                 // average otherwise), made by the COG driver
-  bool categorical = false;      // owner codes: overviews never invent values
-  int threads = 0;               // compression threads, 0 = all (one for uncompressed files)
+  // COG layout (GDAL's: it reports LAYOUT=COG, its validator accepts it) with overviews, nearest
+  // for integer and categorical rasters, average (ignoring nodata) for Float32 ones, as GDAL's
+  // COG driver makes them; the exact rule is in vector/src/cog_overviews.hpp.
+  bool cloud_optimized = false;
+  bool categorical = false;  // owner codes: overviews never invent values
+  int threads = 0;           // compression threads, 0 = all (one for uncompressed files)
   Compression compression = Compression::fast;
   // Integer rasters only (else invalid_argument): the largest value the caller will write, or -1
   // (default) for an Int32 file holding any value. With 0 <= max_code <= 2^31-1 the file gets the
@@ -79,10 +81,15 @@ void write_geotiff(const std::string& path, const Raster<int32_t>& raster, doubl
                    const GeoTiffOptions& options);
 void write_geotiff(const std::string& path, const Raster<float>& raster, double nodata, const GeoTiffOptions& options);
 
-// Writes one plain (not cloud-optimised) GeoTIFF strip by strip, top to bottom, for callers
-// that never hold the whole raster (the job façade's streaming path). The file is the one
+// Writes one GeoTIFF, plain or cloud-optimised, strip by strip, top to bottom, for callers that
+// never hold the whole raster (the job façade's streaming path). The file is the one
 // write_geotiff() writes for the same cells (same layout, georeferencing, nodata, units,
 // metadata, categories): write_geotiff() itself goes through this class.
+// A COG: the full-resolution tiles go into a plain tiled GeoTIFF staged beside the target (a
+// hidden temporary file), the overviews are made from the same rows as they arrive and their
+// tiles spooled to a second one; finish() assembles the COG from the encoded tiles as they are
+// (no tile is decoded or encoded again) and removes both. Disk: the staging files hold about as
+// much as the COG until finish() is done.
 //
 // Rows go in with write_rows() in order, in strips of any height (1 row .. the whole raster);
 // finish() then flushes, closes and renames into place (temporary name in the target's
@@ -90,7 +97,9 @@ void write_geotiff(const std::string& path, const Raster<float>& raster, double 
 // succeeded, or after any call threw, removes its temporary file and sidecar: nothing is left.
 // Memory: strips that end on a 256-row tile boundary are encoded from the caller's buffer;
 // otherwise one band of 256 rows x window.width cells is buffered. Besides: up to 24 encoded
-// tiles and one raw tile per encoding thread (at most 16 threads).
+// tiles and one raw tile per encoding thread (at most 16 threads); for a COG, the overviews' rows
+// in the making, under one more band of 256 rows x window.width cells for all levels together
+// (and the tiles' places, 16 bytes a tile).
 // Thread safety: none inside; a writer may be used from different threads one after the other
 // (every call installs its own GDAL error capture), ordered by the caller (e.g. a queue).
 // T: int32_t or float.
@@ -101,8 +110,7 @@ class GeoTiffStripWriter {
   // geotransform, nodata, units, metadata; the categories on a thread of the writer's own that
   // the first write_rows() starts, so it runs at that caller's scheduling priority, joined by
   // finish() or the destructor). Throws rv::Error like write_geotiff (finish() throws what the
-  // categories' thread met); invalid_argument for options.cloud_optimized (a COG needs the whole
-  // raster).
+  // categories' thread met).
   GeoTiffStripWriter(const std::string& path, const GridSpec& grid, const Window& window, double nodata,
                      const GeoTiffOptions& options);
   ~GeoTiffStripWriter();
@@ -128,12 +136,14 @@ class GeoTiffStripWriter {
   // as write_rows takes them) where copy[bx] is false, and as the earlier file's bytes of the same
   // tile, unchanged, where it is true (those cells of `cells` are not read). One flag per tile
   // across (ceil(width / 256)). The file is the one write_rows() would write from the same cells
-  // where the copied tiles hold the earlier file's cells. Throws as write_rows, and io where the
-  // earlier file's tile cannot be read.
+  // where the copied tiles hold the earlier file's cells. A COG's overviews are made from all of
+  // `cells`, the copied tiles' cells included: for a COG they must hold the earlier file's cells
+  // (`earlier` may itself be a COG this class wrote: its full resolution is copied). Throws as
+  // write_rows, and io where the earlier file's tile cannot be read.
   void take_tiles_from(const std::string& earlier);
   void write_band(const T* cells, const std::vector<bool>& copy);
-  // Every row written: flush, close, rename into place. Throws invalid_argument when rows are
-  // missing, io when GDAL or the rename fails (nothing is left behind then).
+  // Every row written: flush, close (a COG: assemble), rename into place. Throws invalid_argument
+  // when rows are missing, io when GDAL, a file or the rename fails (nothing is left behind then).
   void finish();
   // Gives up: removes the temporary file now (what the destructor does). No-op after finish().
   void abort() noexcept;
@@ -146,20 +156,13 @@ class GeoTiffStripWriter {
 extern template class GeoTiffStripWriter<int32_t>;
 extern template class GeoTiffStripWriter<float>;
 
-// GDAL's block cache holds what GDAL reads and writes through it (the COG copies above); by
-// default it may grow to 5 % of physical memory. The programs bound it (not the library, which
-// leaves an embedding application's GDAL settings alone): bound_block_cache() lowers it to
-// kBlockCacheBytes unless the user set GDAL_CACHEMAX. Call before GDAL reads anything.
+// GDAL's block cache holds what GDAL reads and writes through it (the rasters the jobs read back:
+// regions are polygonized from the ownership file); by default it may grow to 5 % of physical
+// memory. The programs bound it (not the library, which leaves an embedding application's GDAL
+// settings alone): bound_block_cache() lowers it to kBlockCacheBytes unless the user set
+// GDAL_CACHEMAX. Call before GDAL reads anything.
 inline constexpr int64_t kBlockCacheBytes = int64_t{256} << 20;
 void bound_block_cache();
-
-// A COG at `path` made from `source`, a GeoTIFF GeoTiffStripWriter wrote (a streamed job's):
-// the same cells, type, georeferencing, nodata, units and metadata, with `options`' compression,
-// overviews and categories, as write_geotiff would make it from the same cells (GDAL's COG
-// driver re-encodes the tiles: it reads the source block by block, so memory stays bounded by
-// its block cache, and builds the overviews in a temporary file beside the target). Atomic as
-// write_geotiff; `source` is left in place. Throws rv::Error(io) as write_geotiff does.
-void copy_to_cog(const std::string& source, const std::string& path, const GeoTiffOptions& options);
 
 // Reads a GeoTIFF's grid (extent, cell size, CRS as WKT2), for --like. Throws rv::Error(not_found,
 // invalid_input for rotated, south-up or non-square-cell rasters, or a file that is not a raster).
