@@ -9,6 +9,8 @@ Cases (../shared/fixtures):
   baltic    the western Baltic (4 owners, land borders, overlaps to the lower code) at 0.0005 deg:
             14,300 x 6,102 = 8.7e7 cells
   baltic1e9 the same at 0.000148 deg: about 1.0e9 cells (not run unless named in --cases)
+  baltic-reach  the baltic case with a max distance of 24 nmi: regions bounded by the 24 nmi line
+            too (not run unless named in --cases)
   --quick   the same at 4x the cell size (16x fewer cells)
 
 usage:
@@ -33,6 +35,8 @@ CASES = {
     "baltic": (["baltic_west.gpkg", "--owner-field", "iso2", "--on-conflict", "lower-code"], 0.0005),
     # The same coast at 1e9 cells (48,615 x 20,743): the streamed job's memory at scale.
     "baltic1e9": (["baltic_west.gpkg", "--owner-field", "iso2", "--on-conflict", "lower-code"], 0.000148),
+    "baltic-reach": (["baltic_west.gpkg", "--owner-field", "iso2", "--on-conflict", "lower-code", "--max-distance",
+                      "44448"], 0.0005),  # metres: 24 nmi
 }
 OUTPUTS = {"boundaries": "b.geojson", "tripoints": "t.geojson", "limits": "l.geojson", "regions": "r.geojson"}
 PHASES = ("compute", "boundaries", "limits", "regions", "total")
