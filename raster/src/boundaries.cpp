@@ -416,6 +416,7 @@ struct SquareLinks {
   Links& out;
   int64_t c, r;
   std::vector<std::pair<int, int32_t>> items;
+  bool open = false;  // a corner without owner (beyond a max distance)
 
   const Crossing& cross(size_t item) const { return x.crossings[static_cast<size_t>(items[item].second)]; }
   int32_t node(size_t item) const { return items[item].second; }
@@ -511,7 +512,7 @@ struct SquareLinks {
 
   // Crossings of one pair, two in the square: joined. A lone crossing whose pair has a tripoint
   // in a neighbouring square (its third owner passed between two centres): joined to that
-  // tripoint.
+  // tripoint -- unless a corner here has no owner: the line ends where the owned area does.
   void pair_up(const std::vector<size_t>& unlinked) {
     for (size_t k : unlinked) {
       int same = 0;
@@ -526,7 +527,7 @@ struct SquareLinks {
         if (k < other) out.add(node(k), node(other), pair);
         continue;
       }
-      if (same > 1) continue;
+      if (same > 1 || open) continue;
       std::vector<int32_t> around = tripoints_around();
       // The line leaves the crossing into this square, so the tripoint lies on this square's
       // side of the crossing's edge (edges: 0 top, 1 right, 2 bottom, 3 left).
@@ -558,7 +559,7 @@ Links link_squares(const BoundaryGrid& b, const CrossingSet& x, const TripointSe
   Links out;
   for (const auto& [c, r] : mixed_squares(b, row0, row1)) {
     const auto o = b.corner_owners(c, r);
-    SquareLinks sq{b, x, t, out, c, r, {}};
+    SquareLinks sq{b, x, t, out, c, r, {}, o[0] == 0 || o[1] == 0 || o[2] == 0 || o[3] == 0};
     const auto edges = square_edges(b.W, c, r);
     // The crossings on the square's edges; an edge crossed by owners passing between its two
     // centres carries several.
