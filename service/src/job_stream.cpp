@@ -132,7 +132,7 @@ void write_file(StreamState& st, size_t i) {
     const auto t = Clock::now();
     std::visit([](auto& x) { x.finish(); }, st.writers[i]);
     st.write_seconds[i] += seconds_since(t);
-    st.handoff.finished();
+    st.handoff.finished(static_cast<int>(i));
   } catch (...) {
     st.handoff.fail(std::current_exception());
   }
@@ -228,9 +228,15 @@ StreamStats run_streamed(const StreamJob& job) {
   };
   compute_strips(st, strip_rows, stats, report);
   st.handoff.close();
-  last_percent = -1;
-  st.handoff.wait_finished(
-      [&](int64_t rows) { report("write", static_cast<double>(rows) / static_cast<double>(st.height)); });
+  // Stage "write": the files in place, in the targets' order (the rows were reported with the
+  // strips). A file's report follows those before it, so a job held at its first "write" report
+  // has the first file complete and in place.
+  st.handoff.wait_finished([](int64_t) {},
+                           [&](int files) {
+                             if (job.progress)
+                               job.progress("write",
+                                            static_cast<double>(files) / static_cast<double>(st.writers.size()));
+                           });
   joiner.join();
   // The writers wait side by side: the longest wait is the time the files waited for the engine.
   if (!st.write_waited.empty()) stats.write_waited = *std::max_element(st.write_waited.begin(), st.write_waited.end());

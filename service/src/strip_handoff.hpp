@@ -21,6 +21,7 @@
 #include <exception>
 #include <mutex>
 #include <optional>
+#include <utility>
 #include <vector>
 
 namespace rv::detail {
@@ -34,7 +35,7 @@ class StripHandoff {
   using Clock = std::chrono::steady_clock;
 
  public:
-  explicit StripHandoff(int writers) : writers_(writers) {}
+  explicit StripHandoff(int writers) : writers_(writers), done_(static_cast<size_t>(writers), false) {}
 
   // Computing side: a free strip buffer, or nullopt once a writer has failed. `waited` grows by
   // the seconds spent waiting.
@@ -107,37 +108,58 @@ class StripHandoff {
     }
     cv_.notify_all();
   }
-  // Writer side: its file is complete and in place.
-  void finished() {
+  // Writer side: its file is complete and in place (`writer`: its index, 0 .. writers - 1).
+  void finished(int writer) {
     {
       std::lock_guard lock(mutex_);
       ++finished_;
+      done_[static_cast<size_t>(writer)] = true;
     }
     cv_.notify_all();
   }
 
   // Computing side, after close(): waits until every writer is done or one failed, calling
   // on_rows(rows written by all) whenever more rows are written, the last time with all of
-  // them. Rethrows a writer's error.
-  template <class F>
-  void wait_finished(F&& on_rows) {
+  // them, and on_files(n) whenever writers 0 .. n - 1 have all finished, n growing to `writers`
+  // (so a file's report follows those of the files before it, whichever finished first).
+  // Rethrows a writer's error.
+  template <class F, class G>
+  void wait_finished(F&& on_rows, G&& on_files) {
     std::unique_lock lock(mutex_);
     int64_t seen = -1;
+    int files_seen = 0;
+    auto files_done = [&] {
+      int n = 0;
+      while (n < writers_ && done_[static_cast<size_t>(n)]) ++n;
+      return n;
+    };
     for (;;) {
-      cv_.wait(lock, [&] { return error_ || finished_ == writers_ || rows_written_ != seen; });
+      cv_.wait(lock,
+               [&] { return error_ || finished_ == writers_ || rows_written_ != seen || files_done() != files_seen; });
       if (error_) std::rethrow_exception(error_);
-      // Read before on_rows() lets go of the lock: when every writer has finished, the rows
-      // read now are the last ones, and are reported before returning. (Testing "finished"
-      // after on_rows could return without ever reporting the last strip's rows.)
+      // Read before the callbacks let go of the lock: when every writer has finished, the rows
+      // and files read now are the last ones, and are reported before returning. (Testing
+      // "finished" after them could return without ever reporting the last strip's rows.)
       const bool done = finished_ == writers_;
+      const int files = files_done();
       if (rows_written_ != seen) {
         seen = rows_written_;
         lock.unlock();
         on_rows(seen);
         lock.lock();
       }
+      if (files != files_seen) {
+        files_seen = files;
+        lock.unlock();
+        on_files(files);
+        lock.lock();
+      }
       if (done) return;
     }
+  }
+  template <class F>
+  void wait_finished(F&& on_rows) {
+    wait_finished(std::forward<F>(on_rows), [](int) {});
   }
   std::exception_ptr error() {
     std::lock_guard lock(mutex_);
@@ -158,6 +180,7 @@ class StripHandoff {
   std::vector<int> pending_;  // per strip buffer: writers not yet done with it
   bool closed_ = false, stopped_ = false;
   int finished_ = 0;
+  std::vector<bool> done_;  // per writer: finished
   int64_t rows_written_ = 0;
   std::exception_ptr error_;
 };

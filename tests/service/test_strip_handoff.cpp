@@ -2,11 +2,12 @@
 // thread per file (service/src/strip_handoff.hpp), driven directly: every writer sees every
 // strip in fill order, a buffer comes back to the computing side only when every writer is done
 // with it, and a writer's failure or the computing side's stop ends the stream without a hang
-// (a hang fails the test by CTest's timeout).
+// (a hang fails the test by CTest's timeout); the files are reported in the writers' order.
 #include <gtest/gtest.h>
 
 #include <array>
 #include <atomic>
+#include <chrono>
 #include <optional>
 #include <stdexcept>
 #include <string>
@@ -80,7 +81,7 @@ struct Rig {
   void start(int i, int fail_at, Then then) {
     threads.emplace_back([this, i, fail_at, then] {
       consume(h, buffer, readers_left, seen[static_cast<size_t>(i)], fail_at);
-      then(h);
+      then(h, i);
     });
   }
   int produce(int strips) {
@@ -96,8 +97,8 @@ struct Rig {
   std::vector<std::thread> threads;
 };
 
-const auto kFinish = [](StripHandoff& h) { h.finished(); };
-const auto kNothing = [](StripHandoff&) {};
+const auto kFinish = [](StripHandoff& h, int i) { h.finished(i); };
+const auto kNothing = [](StripHandoff&, int) {};
 
 TEST(StripHandoff, EveryWriterSeesEveryStripInOrderAndBuffersComeBackOnlyWhenAllAreDone) {
   for (const int writers : {1, 2, 3}) {
@@ -118,6 +119,33 @@ TEST(StripHandoff, EveryWriterSeesEveryStripInOrderAndBuffersComeBackOnlyWhenAll
     for (size_t i = 1; i < rows.size(); ++i) EXPECT_GT(rows[i], rows[i - 1]);
     EXPECT_EQ(rows.back(), int64_t{10} * kStrips);
     EXPECT_EQ(rig.h.error(), nullptr);
+  }
+}
+
+TEST(StripHandoff, FilesAreReportedInTheWritersOrder) {
+  // Writer 0 finishes first, then writer 1: files 1, then 2. Writer 0 last: its report is the
+  // first, and counts both (a file's report follows those before it).
+  for (const int late : {1, 0}) {
+    SCOPED_TRACE("late writer " + std::to_string(late));
+    Rig rig(2);
+    std::atomic<bool> first_done{false};
+    for (int i = 0; i < 2; ++i)
+      rig.start(i, -1, [&, late](StripHandoff& h, int w) {
+        if (w == late) std::this_thread::sleep_for(std::chrono::milliseconds(100));
+        if (w == 0) first_done = true;
+        h.finished(w);
+      });
+    EXPECT_EQ(rig.produce(20), 20);
+    std::vector<int> files;
+    bool first_in_place = true;
+    rig.h.wait_finished([](int64_t) {},
+                        [&](int n) {
+                          files.push_back(n);
+                          first_in_place = first_in_place && first_done;
+                        });
+    rig.join();
+    EXPECT_EQ(files, late == 1 ? std::vector<int>({1, 2}) : std::vector<int>({2}));
+    EXPECT_TRUE(first_in_place);
   }
 }
 
@@ -147,7 +175,7 @@ TEST(StripHandoff, WaitFinishedRethrowsAnErrorAfterTheLastStrip) {
   // computing side, already waiting, gets that error, not a hang.
   Rig rig(2);
   rig.start(0, -1, kFinish);
-  rig.start(1, -1, [](StripHandoff& h) { h.fail(std::make_exception_ptr(std::runtime_error("rename failed"))); });
+  rig.start(1, -1, [](StripHandoff& h, int) { h.fail(std::make_exception_ptr(std::runtime_error("rename failed"))); });
   EXPECT_EQ(rig.produce(20), 20);
   EXPECT_THROW(rig.h.wait_finished([](int64_t) {}), std::runtime_error);
   rig.join();
