@@ -235,14 +235,7 @@ class ReachLines {
     return true;
   }
 
-  // Where the owner along a line changes (between two vertices of different owners) and no
-  // boundary line was attached there: two owners' discs overlapping by less than a cell, so that
-  // no two neighbouring cells of theirs show a boundary. Each such change gets the point of its
-  // segment nearest `junction_near(a, b, point)` (filed to be inserted); changes of the same two
-  // owners are paired, nearest first, within three cells, into the missing boundary edges.
-  // Returns them; `unpaired` counts what found no partner.
-  // `loose`: other points lacking a line of a pair (a, b): tripoints without one (in a square of
-  // the owned area's edge, whose line to the max-distance line has no crossing), paired likewise.
+  // A point lacking the line of owner pair (a, b), to be joined to another.
   struct Loose {
     int32_t a, b;  // a < b
     Vec2 q;
@@ -250,6 +243,15 @@ class ReachLines {
                             // no line at all: three owners meeting at the tip of one's region)
     bool used = false;
   };
+
+  // Where the owner along a line changes (between two vertices of different owners) and no
+  // boundary line was attached there: two owners' discs overlapping by less than a cell, so that
+  // no two neighbouring cells of theirs show a boundary. Each such change gets the point of its
+  // segment nearest `junction_near(a, b, point)` (filed to be inserted). These and `loose` (the
+  // tripoints lacking a line, in a square of the owned area's edge) are paired by owner pair,
+  // nearest first, within three cells, at least one of each pair a change: the missing boundary
+  // edges, returned. A tripoint left over is joined to the max-distance line within a cell of
+  // its junction, if it passes there; a change left over counts in `unpaired`.
   template <class J>
   std::vector<std::vector<Vec2>> close_overlaps(J&& junction_near, std::vector<Loose> loose, int64_t& unpaired) {
     std::vector<Loose> changes = std::move(loose);
@@ -352,10 +354,6 @@ class ReachLines {
   std::set<std::pair<size_t, size_t>> covered_;  // segments a boundary line was attached to
   std::vector<Insert> inserts_;
 };
-
-}  // namespace
-
-namespace {
 
 // The stages of region_edges, in order; each appends to `out` (see the contract in
 // rv/deliverables.hpp).
