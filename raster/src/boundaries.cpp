@@ -8,6 +8,7 @@
 #include <map>
 #include <numeric>
 #include <set>
+#include <tuple>
 #include <unordered_map>
 #include <vector>
 
@@ -663,25 +664,28 @@ std::vector<BoundaryLine> lone_crossings(const CrossingSet& x, const Links& link
   return out;
 }
 
+std::vector<TripointGap> tripoint_gaps(const std::vector<Tripoint>& tripoints, const std::vector<BoundaryLine>& lines) {
+  std::set<std::tuple<double, double, int32_t, int32_t>> ends;
+  for (const BoundaryLine& l : lines)
+    if (!l.closed && !l.vertices.empty())
+      for (const Vec2 p : {l.vertices.front().p, l.vertices.back().p}) ends.insert({p.x, p.y, l.owner_a, l.owner_b});
+  std::vector<TripointGap> gaps;
+  for (size_t n = 0; n < tripoints.size(); ++n) {
+    const Tripoint& t = tripoints[n];
+    for (const auto& [i, k] : {std::pair{0, 1}, std::pair{0, 2}, std::pair{1, 2}})
+      if (ends.count({t.p.x, t.p.y, t.owners[i], t.owners[k]}) == 0) gaps.push_back({n, i, k});
+  }
+  return gaps;
+}
+
 void join_close_tripoints(const std::vector<Tripoint>& tripoints, double cell, std::vector<BoundaryLine>& lines) {
-  // Per tripoint, the owner pairs (as indices into its owners) with a line ending there.
   struct Missing {
     size_t tripoint;
     int i, k;  // owners[i] < owners[k]
     bool used = false;
   };
-  std::map<std::pair<double, double>, std::set<std::pair<int32_t, int32_t>>> ending;
-  for (const BoundaryLine& l : lines) {
-    if (l.closed || l.vertices.empty()) continue;
-    for (const Vec2 p : {l.vertices.front().p, l.vertices.back().p}) ending[{p.x, p.y}].insert({l.owner_a, l.owner_b});
-  }
   std::vector<Missing> missing;
-  for (size_t n = 0; n < tripoints.size(); ++n) {
-    const Tripoint& t = tripoints[n];
-    const auto it = ending.find({t.p.x, t.p.y});
-    for (const auto& [i, k] : {std::pair{0, 1}, std::pair{0, 2}, std::pair{1, 2}})
-      if (it == ending.end() || it->second.count({t.owners[i], t.owners[k]}) == 0) missing.push_back({n, i, k});
-  }
+  for (const TripointGap& g : tripoint_gaps(tripoints, lines)) missing.push_back({g.tripoint, g.i, g.k});
   for (size_t m = 0; m < missing.size(); ++m) {
     if (missing[m].used) continue;
     const Tripoint& t = tripoints[missing[m].tripoint];

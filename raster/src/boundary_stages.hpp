@@ -116,6 +116,13 @@ std::vector<BoundaryLine> chain_lines(const CrossingSet& x, const TripointSet& t
 // The crossings no link reaches, as one-vertex lines in crossing order (BoundaryResult::
 // lone_crossings).
 std::vector<BoundaryLine> lone_crossings(const CrossingSet& x, const Links& links);
+// The owner pairs of each tripoint with no line of theirs ending at it (closed lines aside), in
+// tripoint order: tripoint index and the indices i < k into its owners.
+struct TripointGap {
+  size_t tripoint;
+  int i, k;
+};
+std::vector<TripointGap> tripoint_gaps(const std::vector<Tripoint>& tripoints, const std::vector<BoundaryLine>& lines);
 // Two tripoints of one owner triple less than a cell apart share the line of one of its owner
 // pairs, which crosses no segment between cell centres and so has no crossing to be chained
 // from: each such pair of tripoints, both without a line of that owner pair, gets the line

@@ -14,6 +14,7 @@
 #include <utility>
 #include <vector>
 
+#include "boundary_stages.hpp"
 #include "line_tools.hpp"
 #include "rv/deliverables.hpp"
 
@@ -107,6 +108,12 @@ bool meeting(const OwnerIndex& index, int32_t a, int32_t b, int32_t c, Vec2 star
     return std::array<double, 2>{da - index.nearest_of(p, b).distance, da - index.nearest_of(p, c).distance};
   };
   return solve2(f, start, res, ftol, out);
+}
+
+// The parameter in [0, 1] of the point of segment a-b nearest p (0 for a degenerate segment).
+double nearest_t(Vec2 a, Vec2 b, Vec2 p) {
+  const double dx = b.x - a.x, dy = b.y - a.y, len2 = dx * dx + dy * dy;
+  return len2 > 0.0 ? std::clamp(((p.x - a.x) * dx + (p.y - a.y) * dy) / len2, 0.0, 1.0) : 0.0;
 }
 
 // Where segments p0-p1 and q0-q1 cross (not at a shared end): false when they do not.
@@ -206,10 +213,8 @@ class ReachLines {
         for (const auto& [k, i] : it->second) {
           const Vec2 a = lines_[k][i], b = lines_[k][i + 1];
           if (square && !(square->holds(a, eps) && square->holds(b, eps))) continue;
-          const double dx = b.x - a.x, dy = b.y - a.y, len2 = dx * dx + dy * dy;
-          const double t =
-              len2 > 0.0 ? std::clamp(((target.x - a.x) * dx + (target.y - a.y) * dy) / len2, 0.0, 1.0) : 0.0;
-          const Vec2 q{a.x + t * dx, a.y + t * dy};
+          const double t = nearest_t(a, b, target);
+          const Vec2 q = lerp(a, b, t);
           const double d = std::hypot(q.x - target.x, q.y - target.y);
           if (d <= best) {
             best = d;
@@ -262,10 +267,9 @@ class ReachLines {
         if (covered_.count({k, i})) continue;
         const Vec2 p0 = lines_[k][i], p1 = lines_[k][i + 1];
         const Vec2 j = junction_near(a, b, lerp(p0, p1, 0.5));
-        const double dx = p1.x - p0.x, dy = p1.y - p0.y, len2 = dx * dx + dy * dy;
-        const double t =
-            len2 > 0.0 ? std::clamp(((j.x - p0.x) * dx + (j.y - p0.y) * dy) / len2, 1e-9, 1.0 - 1e-9) : 0.5;
-        const Insert in{k, i, t, Vec2{p0.x + t * dx, p0.y + t * dy}};
+        // (Strictly inside the segment: a new vertex, not one of its ends.)
+        const double t = std::clamp(nearest_t(p0, p1, j), 1e-9, 1.0 - 1e-9);
+        const Insert in{k, i, t, lerp(p0, p1, t)};
         inserts_.push_back(in);
         changes.push_back(Loose{std::min(a, b), std::max(a, b), in.q, true});
       }
@@ -450,13 +454,10 @@ class EdgeBuilder {
   }
 
   void tripoint_gaps() {
-    std::set<std::tuple<double, double, int32_t, int32_t>> ends;
-    for (const BoundaryLine& l : b_.lines)
-      if (!l.closed && !l.vertices.empty())
-        for (const Vec2 p : {l.vertices.front().p, l.vertices.back().p}) ends.insert({p.x, p.y, l.owner_a, l.owner_b});
-    for (const Tripoint& t : b_.tripoints)
-      for (const auto& [i, k] : {std::pair{0, 1}, std::pair{0, 2}, std::pair{1, 2}})
-        if (ends.count({t.p.x, t.p.y, t.owners[i], t.owners[k]}) == 0) gaps_.push_back({t.owners[i], t.owners[k], t.p});
+    for (const boundary_stages::TripointGap& gap : boundary_stages::tripoint_gaps(b_.tripoints, b_.lines)) {
+      const Tripoint& t = b_.tripoints[gap.tripoint];
+      gaps_.push_back({t.owners[gap.i], t.owners[gap.k], t.p});
+    }
   }
 
   // Every boundary line (and, with a max distance, every lone crossing), both ends carried on.
