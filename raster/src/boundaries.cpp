@@ -201,7 +201,9 @@ void place_crossings(const BoundaryGrid& b, const Segment& sg, std::vector<Cross
     hits(p);
     const OwnerIndex::Hit hx = last_x, hy = last_y;
     BoundaryVertex v{p, hx.site, hy.site, 0.5 * (hx.distance + hy.distance), std::abs(hx.distance - hy.distance)};
-    const auto nearest = index.nearest(p, hx.distance <= hy.distance ? hx : hy);
+    // Only a third owner can come between (nothing of x is nearer than hx): y's hit bounds the
+    // search from the start and is not measured again.
+    const auto nearest = index.nearest_not_of(p, x, hy);
     if (nearest.distance < v.distance - 4.0 * ftol - v.residual) {
       const int32_t z = b.owner_of_site[static_cast<size_t>(nearest.site)];
       hint.try_emplace(z, nearest.site);

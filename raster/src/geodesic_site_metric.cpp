@@ -87,6 +87,14 @@ Box3 GeodesicSiteMetric::site_bounds(int32_t site) const {
   return ball_box(embed(Vec2{lon_c, lat_c}), r * (1.0 + 1e-9) + 1e-6);
 }
 
+double GeodesicSiteMetric::distance_lower_bound(Vec2 p, int32_t site) const {
+  if (seeds().sites()[static_cast<size_t>(site)].kind == SiteKind::area) return 0.0;
+  // The chord bounds of the prepared site (a point, or an edge's capsule: within millimetres of
+  // the distance near a coast), less the engines' slack for their rounding.
+  const double lb = impl_->sites.lower_bound(impl_->sites.cell(p.x, std::clamp(p.y, -90.0, 90.0)), site);
+  return std::max(lb - detail::kGeoSlack, 0.0);
+}
+
 Vec2 GeodesicSiteMetric::nearest_point(Vec2 p, int32_t site) const {
   const Site& s = seeds().sites()[static_cast<size_t>(site)];
   if (s.kind == SiteKind::area) return p;
@@ -171,6 +179,11 @@ double LocatedGeodesicSiteMetric::point_distance(Vec2 a, Vec2 b) const {
 }
 
 Vec3 LocatedGeodesicSiteMetric::embed(Vec2 p) const { return geodesic_.embed(locate(p)); }
+
+double LocatedGeodesicSiteMetric::distance_lower_bound(Vec2 p, int32_t site) const {
+  if (seeds().sites()[static_cast<size_t>(site)].kind == SiteKind::area) return 0.0;
+  return geodesic_.distance_lower_bound(locate(p), site);
+}
 
 Box3 LocatedGeodesicSiteMetric::site_bounds(int32_t site) const {
   if (seeds().sites()[static_cast<size_t>(site)].kind == SiteKind::area) {

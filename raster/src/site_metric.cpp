@@ -113,6 +113,8 @@ double SiteMetric::lower_bound(const Vec3& q, const Box3& b) {
   return std::sqrt(dx * dx + dy * dy + dz * dz) * (1.0 - 1e-12);
 }
 
+double SiteMetric::distance_lower_bound(Vec2 p, int32_t site) const { return lower_bound(embed(p), site_bounds(site)); }
+
 // ---------------------------------------------------------------------------------------------
 // PlanarSiteMetric.
 
@@ -225,6 +227,10 @@ struct OwnerIndex::Tree {
       for (int32_t i = n.begin; i < n.end; ++i) {
         if (SiteMetric::lower_bound(q, boxes[static_cast<size_t>(i)]) > best.distance) continue;
         const int32_t id = ids[static_cast<size_t>(i)];
+        if (id == best.site) continue;  // a known hit, measured already
+        // The box holds a whole edge around its middle; the metric's own bound is far tighter
+        // for the edge's neighbours along a coast, which then go unmeasured.
+        if (m.distance_lower_bound(p, id) > best.distance) continue;
         const double d = m.distance(p, id);
         if (d < best.distance || (d == best.distance && id < best.site)) best = Hit{id, d};
       }
@@ -309,9 +315,22 @@ void OwnerIndex::candidates_not_of(Vec2 centre, double reach, int32_t owner, Hit
 
 OwnerIndex::Hit OwnerIndex::nearest_among(Vec2 p, const std::vector<int32_t>& sites) const {
   Hit best;
-  for (int32_t id : sites) {
+  if (sites.size() == 1) {
+    best = Hit{sites[0], metric_.distance(p, sites[0])};
+    return std::isinf(best.distance) ? Hit{} : best;
+  }
+  // The sites of a stretch of coast all pass the candidates' ball test, but nearly all of them
+  // are metres farther than the nearest: measured in order of their lower bounds, the first
+  // usually rules out the rest. Ties keep the lowest index, as measuring every one in index
+  // order did.
+  std::vector<std::pair<double, int32_t>> order;
+  order.reserve(sites.size());
+  for (int32_t id : sites) order.emplace_back(metric_.distance_lower_bound(p, id), id);
+  std::sort(order.begin(), order.end());
+  for (const auto& [lb, id] : order) {
+    if (lb > best.distance) break;
     const double d = metric_.distance(p, id);
-    if (d < best.distance) best = Hit{id, d};
+    if (d < best.distance || (d == best.distance && id < best.site)) best = Hit{id, d};
   }
   return best;
 }

@@ -569,6 +569,63 @@ TEST(Deliverables, CandidatesAroundAPolygonsEdgeAreFewAndExact) {
   }
 }
 
+TEST(Deliverables, OwnerIndexAgreesWithBruteForceAlongACoast) {
+  // A coast of short edges (a convex arc of 0.005 degree steps, ~400 m, whose vertices control
+  // most of the sea: every query there ties two edges at one vertex) and a second owner's
+  // points, geodesic and planar. The searches measure a site only where the metric's lower
+  // bound allows; every hit must still be the brute-force one (lowest index among exact ties),
+  // and every bound must be at most the distance -- geodesic ones within millimetres of it
+  // near the coast, or they would prune nothing.
+  SeedSet s;
+  std::vector<Vec2> coast;
+  for (int k = 0; k <= 120; ++k) {
+    const double w = 0.6 * k / 120.0;
+    coast.push_back({12.0 + 0.3 * std::sin(w), 55.0 + 0.3 * std::cos(w)});
+  }
+  s.add_polyline(s.add_feature(s.owner_code("A")), coast);
+  const int32_t b = s.owner_code("B");
+  for (int k = 0; k < 8; ++k) s.add_point(s.add_feature(b), {12.4 + 0.02 * k, 55.5 - 0.06 * k});
+  MetricSpec geodesic;
+  geodesic.kind = MetricSpec::geodesic;
+  const GeodesicSiteMetric gm(s, geodesic);
+  const PlanarSiteMetric pm(s, Vec2{12.0, 55.5});
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> lon(12.05, 12.6), lat(55.0, 55.5);
+  const auto sites = static_cast<int32_t>(s.sites().size());
+  for (const SiteMetric* m : {static_cast<const SiteMetric*>(&gm), static_cast<const SiteMetric*>(&pm)}) {
+    const OwnerIndex index(*m);
+    int tight = 0;
+    for (int i = 0; i < 300; ++i) {
+      const Vec2 p{lon(rng), lat(rng)};
+      std::vector<OwnerIndex::Hit> brute(3);  // [owner]; [0]: any owner
+      std::vector<int32_t> all_a;
+      for (int32_t id = 0; id < sites; ++id) {
+        const double d = m->distance(p, id), lb = m->distance_lower_bound(p, id);
+        ASSERT_LE(lb, d) << "site " << id;
+        if (m == &gm && d - lb < 0.003) ++tight;
+        const int32_t o = s.site_owner(id);
+        if (o == 1) all_a.push_back(id);
+        for (const int32_t slot : {0, o}) {
+          if (d < brute[slot].distance) brute[slot] = OwnerIndex::Hit{id, d};
+        }
+      }
+      for (int32_t o = 1; o <= 2; ++o) {
+        EXPECT_EQ(index.nearest_of(p, o).site, brute[o].site) << "owner " << o;
+        EXPECT_EQ(index.nearest_of(p, o).distance, brute[o].distance);
+      }
+      EXPECT_EQ(index.nearest_among(p, all_a).site, brute[1].site);
+      EXPECT_EQ(index.nearest_among(p, all_a).distance, brute[1].distance);
+      EXPECT_EQ(index.nearest(p).site, brute[0].site);
+      // Known hits of either owner, as the boundaries' third-owner test passes them.
+      EXPECT_EQ(index.nearest_not_of(p, 1, brute[2]).site, brute[2].site);
+      EXPECT_EQ(index.nearest_not_of(p, 2, brute[1]).site, brute[1].site);
+    }
+    if (m == &gm) {
+      EXPECT_GT(tight, 300);  // at least one tight bound per query, on average
+    }
+  }
+}
+
 TEST(Deliverables, OwnerIndexHintsChangeNoResult) {
   // Owners of 5 sites each (ties included: two sites at one place), geodesic and planar: any
   // hint -- the right site, another of the owner, one of another owner, none -- and any known

@@ -86,6 +86,11 @@ class SiteMetric {
   virtual Vec3 embed(Vec2 p) const = 0;
   // A box of the embedding space holding the whole site (area sites: their polygon).
   virtual Box3 site_bounds(int32_t site) const = 0;
+  // A lower bound of distance(p, site), rounding included (never above it), as tight as the
+  // metric can make it for much less than the distance costs: the searches measure a site only
+  // where this does not exceed the best distance so far. Default: the embedding's bound from
+  // site_bounds().
+  virtual double distance_lower_bound(Vec2 p, int32_t site) const;
 
   // Lower bound of the metric distance from the embedded position q to anything in the box.
   static double lower_bound(const Vec3& q, const Box3& b);
@@ -142,6 +147,7 @@ class GeodesicSiteMetric final : public SiteMetric {
   double point_distance(Vec2 a, Vec2 b) const override;
   Vec3 embed(Vec2 p) const override;
   Box3 site_bounds(int32_t site) const override;
+  double distance_lower_bound(Vec2 p, int32_t site) const override;
 
  private:
   struct Impl;
@@ -168,6 +174,7 @@ class LocatedGeodesicSiteMetric final : public SiteMetric {
   double point_distance(Vec2 a, Vec2 b) const override;
   Vec3 embed(Vec2 p) const override;
   Box3 site_bounds(int32_t site) const override;
+  double distance_lower_bound(Vec2 p, int32_t site) const override;
 
  private:
   Vec2 locate(Vec2 p) const;
