@@ -5,6 +5,8 @@
 #include <gtest/gtest.h>
 
 #include <GeographicLib/Ellipsoid.hpp>
+#include <GeographicLib/Geodesic.hpp>
+#include <GeographicLib/PolygonArea.hpp>
 
 #include <cmath>
 #include <numbers>
@@ -70,9 +72,31 @@ TEST(Regions, RingAreasPlanarAndOnTheEllipsoid) {
   const double rq2 = e.Area() / (4.0 * std::numbers::pi);
   auto zone = [&](double lat) { return std::sin(e.AuthalicLatitude(lat) * std::numbers::pi / 180.0); };
   const double want = 2.0 / 360.0 * 2.0 * std::numbers::pi * rq2 * (zone(55.5) - zone(54.0));
-  EXPECT_NEAR(ring_area(box, geo, nullptr, 0.001), want, 1e-6 * want);
-  // Unfollowed parallels (one step per edge) miss it by far more.
-  EXPECT_GT(std::abs(ring_area(box, geo, nullptr, 10.0) - want), 1e-4 * want);
+  // Exact whatever the step: the edges straight in degrees are integrated, not followed.
+  EXPECT_NEAR(ring_area(box, geo, nullptr, 0.001), want, 1e-12 * want);
+  EXPECT_NEAR(ring_area(box, geo, nullptr, 10.0), want, 1e-12 * want);
+  // A ring with slanted and long edges (over 3 degrees of latitude, crossing the equator) and a
+  // hole's worth of small ones, against GeographicLib's geodesic polygon through the edges
+  // followed in steps of 1e-4 degrees (the geodesics between such steps stray from the straight
+  // edge by micrometres).
+  const std::vector<Vec2> ring{{10, -1.5}, {12.5, 0.3}, {11.7, 2.1}, {11.7001, 2.1002}, {10.2, 1.9}, {9.1, 0.2}};
+  const GeographicLib::Geodesic geod(geo.semi_major, geo.flattening);
+  GeographicLib::PolygonArea followed(geod);
+  for (size_t i = 0; i < ring.size(); ++i) {
+    const Vec2 a = ring[i], b = ring[(i + 1) % ring.size()];
+    const int steps = static_cast<int>(std::ceil(std::hypot(b.x - a.x, b.y - a.y) / 1e-4));
+    for (int k = 0; k < steps; ++k) followed.AddPoint(a.y + (b.y - a.y) * k / steps, a.x + (b.x - a.x) * k / steps);
+  }
+  double perimeter = 0.0, area = 0.0;
+  followed.Compute(false, true, perimeter, area);
+  EXPECT_NEAR(ring_area(ring, geo, nullptr, 1.0), std::abs(area), 1e-9 * std::abs(area));
+  // A sphere (flattening 0) takes the sphere's zone, a^2 sin(lat).
+  MetricSpec sphere = geo;
+  sphere.flattening = 0.0;
+  const double r2 = sphere.semi_major * sphere.semi_major;
+  const double zone_sphere = 2.0 * std::numbers::pi / 180.0 * r2 *
+                             (std::sin(55.5 * std::numbers::pi / 180.0) - std::sin(54.0 * std::numbers::pi / 180.0));
+  EXPECT_NEAR(ring_area(box, sphere, nullptr, 1.0), zone_sphere, 1e-12 * zone_sphere);
 }
 
 }  // namespace

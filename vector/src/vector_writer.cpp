@@ -372,6 +372,43 @@ int32_t face_owner(const OGRPolygon& face, Vec2 inside, const LineRegions& r) {
       ->first;
 }
 
+// One owner's region split into its land (the interiors of its seed polygons within it) and its
+// sea, with their areas.
+struct OwnerParts {
+  int32_t owner = 0;
+  const OGRMultiPolygon* region = nullptr;
+  std::unique_ptr<OGRMultiPolygon> land, sea;
+  double land_area = 0.0, sea_area = 0.0;
+};
+
+// The owners' parts, the overlays of the owners side by side on `threads` threads (GEOS works in
+// a context per call; each task captures its own GDAL errors).
+std::vector<OwnerParts> land_and_sea(const std::map<int32_t, std::unique_ptr<OGRMultiPolygon>>& by_owner,
+                                     const std::map<int32_t, OGRMultiPolygon>& land_of, const LineRegions& r,
+                                     int threads) {
+  std::vector<OwnerParts> parts;
+  for (const auto& [owner, region] : by_owner) parts.push_back(OwnerParts{owner, region.get(), nullptr, nullptr});
+  detail::parallel_for(resolve_threads(threads), static_cast<int64_t>(parts.size()), [&](int64_t k, int) {
+    OwnerParts& part = parts[static_cast<size_t>(k)];
+    const gdal::ErrorCapture capture;
+    const OGRMultiPolygon* region = part.region;
+    part.land = std::make_unique<OGRMultiPolygon>();
+    const auto own_land = land_of.find(part.owner);
+    if (own_land != land_of.end()) {
+      const GeometryPtr valid = checked(own_land->second.MakeValid(), "making the seed polygons valid", capture);
+      const GeometryPtr merged =
+          checked(polygons_of(valid.get())->UnionCascaded(), "merging the seed polygons", capture);
+      part.land = polygons_of(checked(region->Intersection(merged.get()), "land within the region", capture).get());
+      part.sea = polygons_of(checked(region->Difference(merged.get()), "sea of the region", capture).get());
+    } else {
+      part.sea = std::make_unique<OGRMultiPolygon>(*region);
+    }
+    part.land_area = area_of(part.land.get(), r);
+    part.sea_area = area_of(part.sea.get(), r);
+  });
+  return parts;
+}
+
 }  // namespace
 
 RegionStats write_line_regions(const std::string& path, const LineRegions& r, const SeedSet& s,
@@ -457,27 +494,15 @@ RegionStats write_line_regions(const std::string& path, const LineRegions& r, co
     f->SetGeometry(&geom);
     return f;
   };
-  for (auto& [owner, region] : by_owner) {
-    std::unique_ptr<OGRMultiPolygon> land = std::make_unique<OGRMultiPolygon>(), sea;
-    const auto own_land = land_of.find(owner);
-    if (own_land != land_of.end()) {
-      const GeometryPtr valid = checked(own_land->second.MakeValid(), "making the seed polygons valid", capture);
-      const GeometryPtr merged =
-          checked(polygons_of(valid.get())->UnionCascaded(), "merging the seed polygons", capture);
-      land = polygons_of(checked(region->Intersection(merged.get()), "land within the region", capture).get());
-      sea = polygons_of(checked(region->Difference(merged.get()), "sea of the region", capture).get());
-    } else {
-      sea = std::make_unique<OGRMultiPolygon>(*region);
-    }
-    const double land_area = area_of(land.get(), r), sea_area = area_of(sea.get(), r);
-    FeaturePtr f = add(l, owner, *region, land_area + sea_area);
-    f->SetField("land_area", land_area);
-    f->SetField("sea_area", sea_area);
+  for (const OwnerParts& part : land_and_sea(by_owner, land_of, r, o.threads)) {
+    FeaturePtr f = add(l, part.owner, *part.region, part.land_area + part.sea_area);
+    f->SetField("land_area", part.land_area);
+    f->SetField("sea_area", part.sea_area);
     f->SetField("area_units", r.area_units.c_str());
     file.add(l, f.get());
     if (gpkg) {
-      if (!land->IsEmpty()) file.add(land_layer, add(land_layer, owner, *land, land_area).get());
-      file.add(sea_layer, add(sea_layer, owner, *sea, sea_area).get());
+      if (!part.land->IsEmpty()) file.add(land_layer, add(land_layer, part.owner, *part.land, part.land_area).get());
+      file.add(sea_layer, add(sea_layer, part.owner, *part.sea, part.sea_area).get());
     }
     ++stats.owners;
   }

@@ -360,11 +360,12 @@ struct RegionEdges {
 RegionEdges region_edges(const BoundaryResult& boundaries, const OwnerIndex& index, const GridSpec& grid,
                          double max_distance = std::numeric_limits<double>::infinity(),
                          const LimitResult* max_distance_lines = nullptr);
-// The area enclosed by a ring of grid-CRS positions (closed or not; either orientation): planar,
-// in CRS units squared (shoelace); geodesic, in square metres on the metric's ellipsoid
-// (GeographicLib::PolygonArea), the ring's edges -- straight in the grid's CRS -- followed in
-// steps of at most `step` CRS units, positions located by `geolocator` on projected grids (null
-// on longitude/latitude grids).
+// The area enclosed by a ring of grid-CRS positions (closed or not; either orientation), its
+// edges straight in the grid's CRS: planar, in CRS units squared (shoelace); geodesic, in square
+// metres on the metric's ellipsoid. Longitude/latitude grids (`geolocator` null): the exact
+// integral over the edges straight in degrees (to well under a square millimetre per degree of
+// edge; `step` unused). Projected grids: the edges followed in steps of at most `step` CRS units,
+// located by `geolocator` and measured as geodesics (GeographicLib::PolygonArea).
 double ring_area(std::span<const Vec2> ring, const MetricSpec& metric, const Geolocator* geolocator, double step);
 // The owner (code) of position p by the engine's rule: the nearest seed's owner; inside the
 // polygons of several owners, the lowest code. 0 for a seed set without sites, or farther than

@@ -27,7 +27,8 @@ struct VectorOutputOptions {
   std::string crs;               // WKT (or any OSR definition); "" = no CRS
   double distance_factor = 1.0;  // metric units -> distance_units
   std::string distance_units;    // name written next to distances ("m", "nmi", "crs-units")
-  int threads = 0;               // for what is measured while writing (basepoints); 0 = all cores
+  int threads = 0;               // for what is measured while writing (basepoints, regions' land and
+                                 // sea); 0 = all cores
 };
 
 // Layer "boundaries" (LineString): owner_a, owner_b (codes, owner_a < owner_b), label_a,
@@ -69,7 +70,7 @@ struct LineRegions {
   std::vector<std::vector<Vec2>> edges;
   GridSpec grid;
   std::function<int32_t(Vec2)> owner_of;              // 0: no owner (the face is left out)
-  std::function<double(std::span<const Vec2>)> area;  // of one ring, >= 0
+  std::function<double(std::span<const Vec2>)> area;  // of one ring, >= 0; thread-safe
   std::string area_units;
 };
 RegionStats write_line_regions(const std::string& path, const LineRegions& regions, const SeedSet& seeds,
