@@ -169,13 +169,13 @@ void place_crossings(const BoundaryGrid& b, const Segment& sg, std::vector<Cross
   hint[sg.from] = b.rows.site(c, r);
   hint[sg.to] = sg.edge % 2 == 0 ? b.rows.site(c + 1, r) : b.rows.site(c, r + 1);
   std::unordered_map<int32_t, std::vector<int32_t>> candidates;
-  auto nearest_of = [&](Vec2 p, int32_t owner) {
+  auto nearest_of = [&](Vec2 p, int32_t owner, Vec2* gradient) {
     auto [it, fresh] = candidates.try_emplace(owner);
     if (fresh) {
       const auto h = hint.find(owner);
       index.candidates_of(mid, reach, owner, h == hint.end() ? kNoSite : h->second, it->second);
     }
-    return index.nearest_among(p, it->second);
+    return index.nearest_among(p, it->second, gradient);
   };
   // Owner x is nearest at t0, owner y at t1: place the x-y root, or split at the owner found
   // nearer there. Appends in order of t.
@@ -184,19 +184,33 @@ void place_crossings(const BoundaryGrid& b, const Segment& sg, std::vector<Cross
     // measured, whose hits are then not measured again.
     Vec2 last{std::numeric_limits<double>::quiet_NaN(), 0.0};
     OwnerIndex::Hit last_x, last_y;
+    Vec2 grad_x, grad_y;
     auto hits = [&](Vec2 p) {
       if (!(p.x == last.x && p.y == last.y)) {
         last = p;
-        last_x = nearest_of(p, x);
-        last_y = nearest_of(p, y);
+        last_x = nearest_of(p, x, &grad_x);
+        last_y = nearest_of(p, y, &grad_y);
       }
     };
     auto f = [&](double t) {
       hits(lerp(p0, p1, t));
       return last_x.distance - last_y.distance;
     };
-    const double t =
-        t0 + (t1 - t0) * find_root([&](double u) { return f(t0 + (t1 - t0) * u); }, f(t0), f(t1), ftol, 1e-15);
+    // Newton's steps with the sites' gradients (two or three positions where a bracketing
+    // method measures five: the segment's ends and three inside), and where they fail (a slope
+    // unknown, or a step out of the bracket where the controlling site changes) the Illinois
+    // method on what is left of the bracket.
+    auto with_slope = [&](double t) {
+      const double v = f(t);
+      return std::pair{v, (grad_x.x - grad_y.x) * (p1.x - p0.x) + (grad_x.y - grad_y.y) * (p1.y - p0.y)};
+    };
+    const NewtonRoot nr = newton_root(with_slope, 0.5 * (t0 + t1), t0, t1, true, ftol, kNewtonSteps);
+    double t = nr.t;
+    if (std::isnan(t)) {
+      const double a = nr.lo, w = nr.hi - nr.lo;
+      const double fa = std::isnan(nr.f_lo) ? f(a) : nr.f_lo, fb = std::isnan(nr.f_hi) ? f(nr.hi) : nr.f_hi;
+      t = a + w * find_root([&](double u) { return f(a + w * u); }, fa, fb, ftol, 1e-15);
+    }
     const Vec2 p = lerp(p0, p1, t);
     hits(p);
     const OwnerIndex::Hit hx = last_x, hy = last_y;

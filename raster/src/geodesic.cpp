@@ -311,7 +311,10 @@ double GeoSites::piece_distance(const GeoCell& p, const GeoSite& site, const Geo
     geod_.Inverse(lat, lon, p.lat, p.lon, s, azi1, azi2, m12, M12, M21);
     double sin_w, cos_w;
     Math::sincosd(Math::AngDiff(azi, azi1), sin_w, cos_w);
-    if (s < best && end) end->sin_w = sin_w;
+    if (s < best && end) {
+      end->sin_w = sin_w;
+      end->azi_at_cell = azi2;
+    }
     best = std::min(best, s);
     const bool usable = m12 > 0.0 && M12 > 0.0;
     return Eval{s, cos_w, usable ? m12 * cos_w / M12 : 0.0, azi1, usable};

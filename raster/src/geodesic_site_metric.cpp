@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <numbers>
 
 #include "engine_internal.hpp"
 #include "rv/deliverables.hpp"
@@ -51,6 +52,42 @@ double GeodesicSiteMetric::distance(Vec2 p, int32_t site) const {
   return inside_area(p, site) ? 0.0 : std::numeric_limits<double>::infinity();
 }
 
+double GeodesicSiteMetric::distance_and_gradient(Vec2 p, int32_t site, Vec2& gradient) const {
+  const Site& s = seeds().sites()[static_cast<size_t>(site)];
+  constexpr double nan = std::numeric_limits<double>::quiet_NaN();
+  gradient = Vec2{nan, nan};
+  double d = 0.0, azi = nan;  // azi: the direction at p in which d grows fastest (degrees)
+  switch (s.kind) {
+    case SiteKind::point: {
+      if (!(p.y >= -90.0 && p.y <= 90.0)) throw Error(ErrorKind::invalid_argument, "latitude outside [-90, 90]");
+      // The inverse problem of distance() (GeodesicMeasure::point_distance), with its azimuths:
+      // the same distance, to the bit; away from the point is the reverse of the way to it.
+      double azi1 = 0.0, azi2 = 0.0;
+      impl_->geod.Inverse(p.y, p.x, s.a.y, s.a.x, d, azi1, azi2);
+      azi = azi1 + 180.0;
+      break;
+    }
+    case SiteKind::segment: {
+      if (!(p.y >= -90.0 && p.y <= 90.0)) throw Error(ErrorKind::invalid_argument, "latitude outside [-90, 90]");
+      detail::GeoEnd end;
+      d = impl_->sites.distance(impl_->sites.cell(p.x, p.y), site, &end);
+      azi = end.azi_at_cell;
+      break;
+    }
+    case SiteKind::area:
+      return distance(p, site);
+  }
+  if (!(d > 0.0) || !std::isfinite(azi)) return d;
+  // Moving p by (dlon, dlat) degrees moves it N cos(lat) dlon east and M dlat north (N, M the
+  // radii of curvature across and along the meridian); d grows by the move's component along azi.
+  const double a = impl_->geod.EquatorialRadius(), f = impl_->geod.Flattening(), e2 = f * (2.0 - f);
+  const double rad = std::numbers::pi / 180.0;
+  const double sphi = std::sin(p.y * rad), w2 = 1.0 - e2 * sphi * sphi;
+  const double n = a / std::sqrt(w2), m = a * (1.0 - e2) / (w2 * std::sqrt(w2));
+  gradient = Vec2{n * std::cos(p.y * rad) * std::sin(azi * rad) * rad, m * std::cos(azi * rad) * rad};
+  return d;
+}
+
 double GeodesicSiteMetric::point_distance(Vec2 a, Vec2 b) const { return impl_->measure.point_distance(a, b); }
 
 Vec3 GeodesicSiteMetric::embed(Vec2 p) const {
@@ -88,11 +125,21 @@ Box3 GeodesicSiteMetric::site_bounds(int32_t site) const {
 }
 
 double GeodesicSiteMetric::distance_lower_bound(Vec2 p, int32_t site) const {
-  if (seeds().sites()[static_cast<size_t>(site)].kind == SiteKind::area) return 0.0;
-  // The chord bounds of the prepared site (a point, or an edge's capsule: within millimetres of
-  // the distance near a coast), less the engines' slack for their rounding.
-  const double lb = impl_->sites.lower_bound(impl_->sites.cell(p.x, std::clamp(p.y, -90.0, 90.0)), site);
-  return std::max(lb - detail::kGeoSlack, 0.0);
+  double lb = 0.0;
+  distance_lower_bounds(p, std::span<const int32_t>(&site, 1), std::span<double>(&lb, 1));
+  return lb;
+}
+
+void GeodesicSiteMetric::distance_lower_bounds(Vec2 p, std::span<const int32_t> sites, std::span<double> out) const {
+  // The chord bounds of the prepared sites (a point, or an edge's capsule: within millimetres of
+  // the distance near a coast), less the engines' slack for their rounding; areas 0.
+  const detail::GeoCell cell = impl_->sites.cell(p.x, std::clamp(p.y, -90.0, 90.0));
+  for (size_t i = 0; i < sites.size(); ++i) {
+    const int32_t site = sites[i];
+    out[i] = seeds().sites()[static_cast<size_t>(site)].kind == SiteKind::area
+                 ? 0.0
+                 : std::max(impl_->sites.lower_bound(cell, site) - detail::kGeoSlack, 0.0);
+  }
 }
 
 Vec2 GeodesicSiteMetric::nearest_point(Vec2 p, int32_t site) const {

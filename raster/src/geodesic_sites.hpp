@@ -34,6 +34,7 @@
 
 #include <cmath>
 #include <cstdint>
+#include <limits>
 #include <vector>
 
 #include "rv/metric.hpp"
@@ -136,6 +137,10 @@ struct GeoEnd {
   // from the edge's direction to the geodesic toward the cell (+1 for a cell square to the
   // right of the edge, -1 to the left; 0 if nothing was measured).
   double sin_w = 0.0;
+  // Whatever the valid flag: the azimuth at the cell (degrees) of the geodesic arriving there
+  // from the point of the edge measured nearest, the direction in which the distance grows
+  // fastest (NaN if nothing was measured).
+  double azi_at_cell = std::numeric_limits<double>::quiet_NaN();
 };
 
 class GeoSites {

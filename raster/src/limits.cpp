@@ -168,15 +168,38 @@ LimitCrossings limit_crossings(const Target& t, const InsideRows& inside, int64_
       // The root is usually the last position measured: its hit is kept, not measured again.
       Vec2 last{std::numeric_limits<double>::quiet_NaN(), 0.0};
       OwnerIndex::Hit last_hit;
+      Vec2 gradient;
       auto hit = [&](Vec2 p) {
         if (!(p.x == last.x && p.y == last.y)) {
           last = p;
-          last_hit = lg.index.nearest_among(p, cands);
+          last_hit = lg.index.nearest_among(p, cands, &gradient);
         }
         return last_hit;
       };
       auto f = [&](double u) { return hit(lerp(p0, p1, u)).distance - t.D; };
-      const double u = find_root(f, f(0.0), f(1.0), lg.ftol, 1e-15);
+      auto with_slope = [&](double u) {
+        const double v = f(u);
+        return std::pair{v, gradient.x * (p1.x - p0.x) + gradient.y * (p1.y - p0.y)};
+      };
+      // Newton's steps with the nearest site's gradient, from where the field's distances put the
+      // level (when both cells' distances are the target's: all seeds, or cells of its owner);
+      // where they fail, the Illinois method on what is left of the bracket.
+      const bool in0 = inside.at(c, r) != 0;
+      double start = 0.5;
+      const int32_t s0 = lg.rows.site(c, r), s1 = lg.rows.site(ci, ri);
+      if (s0 != kNoSite && s1 != kNoSite &&
+          (t.owner == 0 || (lg.owner_of_site[static_cast<size_t>(s0)] == t.owner &&
+                            lg.owner_of_site[static_cast<size_t>(s1)] == t.owner))) {
+        const double d0 = lg.rows.distance(c, r), d1 = lg.rows.distance(ci, ri);
+        if (d1 != d0) start = std::clamp((t.D - d0) / (d1 - d0), 0.02, 0.98);
+      }
+      const NewtonRoot nr = newton_root(with_slope, start, 0.0, 1.0, in0, lg.ftol, kNewtonSteps);
+      double u = nr.t;
+      if (std::isnan(u)) {
+        const double a = nr.lo, w = nr.hi - nr.lo;
+        const double fa = std::isnan(nr.f_lo) ? f(a) : nr.f_lo, fb = std::isnan(nr.f_hi) ? f(nr.hi) : nr.f_hi;
+        u = a + w * find_root([&](double v) { return f(a + w * v); }, fa, fb, lg.ftol, 1e-15);
+      }
       const Vec2 p = lerp(p0, p1, u);
       const auto h = hit(p);
       x.verts[i] = LimitVertex{p, h.site, std::abs(h.distance - t.D)};

@@ -9,6 +9,7 @@
 #include <array>
 #include <cmath>
 #include <cstdint>
+#include <limits>
 #include <vector>
 
 #include "rv/deliverables.hpp"
@@ -61,6 +62,44 @@ double find_root(F&& f, double f0, double f1, double ftol, double t_tol) {
     if (b - a <= t_tol) break;
   }
   return std::abs(fa) <= std::abs(fb) ? a : b;
+}
+
+// Newton's method for a root of f in [lo, hi], where f(lo) <= 0 <= f(hi) when `rising` (the
+// reverse otherwise) is known without f having been measured there: g(t) gives {f(t), f'(t)}.
+// From `start`, each measured position narrows the bracket; a step is taken only when it stays
+// strictly inside it. `t` is the first position with |f| <= ftol (the last one measured), or NaN
+// when a step leaves the bracket, a slope or value is not finite, or `max_steps` pass: then
+// [lo, hi] is the narrowed bracket, f_lo / f_hi its measured values (NaN where not measured),
+// for a bracketing method (find_root) to go on from.
+// Steps before newton_root hands over (quadratic convergence needs three from mid-cell).
+constexpr int kNewtonSteps = 6;
+struct NewtonRoot {
+  double t, lo, hi, f_lo, f_hi;
+};
+template <class G>
+NewtonRoot newton_root(G&& g, double start, double lo, double hi, bool rising, double ftol, int max_steps) {
+  constexpr double nan = std::numeric_limits<double>::quiet_NaN();
+  NewtonRoot r{nan, lo, hi, nan, nan};
+  double t = start;
+  for (int k = 0; k < max_steps; ++k) {
+    const auto [v, slope] = g(t);
+    if (!std::isfinite(v)) break;
+    if (std::abs(v) <= ftol) {
+      r.t = t;
+      break;
+    }
+    if ((v < 0.0) == rising) {
+      r.lo = t;
+      r.f_lo = v;
+    } else {
+      r.hi = t;
+      r.f_hi = v;
+    }
+    const double next = t - v / slope;
+    if (!(next > r.lo && next < r.hi)) break;  // NaN (no slope) included
+    t = next;
+  }
+  return r;
 }
 
 // f(r, out) for each row of [row0, row1) on `threads` threads, in chunks of rows, each chunk

@@ -113,7 +113,16 @@ double SiteMetric::lower_bound(const Vec3& q, const Box3& b) {
   return std::sqrt(dx * dx + dy * dy + dz * dz) * (1.0 - 1e-12);
 }
 
+double SiteMetric::distance_and_gradient(Vec2 p, int32_t site, Vec2& gradient) const {
+  gradient = Vec2{std::numeric_limits<double>::quiet_NaN(), std::numeric_limits<double>::quiet_NaN()};
+  return distance(p, site);
+}
+
 double SiteMetric::distance_lower_bound(Vec2 p, int32_t site) const { return lower_bound(embed(p), site_bounds(site)); }
+
+void SiteMetric::distance_lower_bounds(Vec2 p, std::span<const int32_t> sites, std::span<double> out) const {
+  for (size_t i = 0; i < sites.size(); ++i) out[i] = distance_lower_bound(p, sites[i]);
+}
 
 // ---------------------------------------------------------------------------------------------
 // PlanarSiteMetric.
@@ -138,6 +147,16 @@ double PlanarSiteMetric::distance(Vec2 p, int32_t site) const {
   const Site& s = seeds().sites()[static_cast<size_t>(site)];
   if (s.kind == SiteKind::area) return inside_area(p, site) ? 0.0 : std::numeric_limits<double>::infinity();
   return std::sqrt(planar_key(p.x - origin_.x, p.y - origin_.y, local_of(s, origin_)));
+}
+
+double PlanarSiteMetric::distance_and_gradient(Vec2 p, int32_t site, Vec2& gradient) const {
+  const double d = distance(p, site);
+  const Site& s = seeds().sites()[static_cast<size_t>(site)];
+  const Vec2 q = nearest_point(p, site);
+  gradient = (s.kind == SiteKind::area || !(d > 0.0))
+                 ? Vec2{std::numeric_limits<double>::quiet_NaN(), std::numeric_limits<double>::quiet_NaN()}
+                 : Vec2{(p.x - q.x) / d, (p.y - q.y) / d};
+  return d;
 }
 
 Vec3 PlanarSiteMetric::embed(Vec2 p) const { return Vec3{p.x - origin_.x, p.y - origin_.y, 0.0}; }
@@ -313,25 +332,39 @@ void OwnerIndex::candidates_not_of(Vec2 centre, double reach, int32_t owner, Hit
   std::sort(out.begin(), out.end());
 }
 
-OwnerIndex::Hit OwnerIndex::nearest_among(Vec2 p, const std::vector<int32_t>& sites) const {
+OwnerIndex::Hit OwnerIndex::nearest_among(Vec2 p, const std::vector<int32_t>& sites, Vec2* gradient) const {
   Hit best;
+  Vec2 slope;
+  auto measure = [&](int32_t id) {
+    if (gradient == nullptr) return metric_.distance(p, id);
+    Vec2 g;
+    const double d = metric_.distance_and_gradient(p, id, g);
+    if (d < best.distance || (d == best.distance && id < best.site)) slope = g;
+    return d;
+  };
+  if (gradient != nullptr)
+    *gradient = Vec2{std::numeric_limits<double>::quiet_NaN(), std::numeric_limits<double>::quiet_NaN()};
   if (sites.size() == 1) {
-    best = Hit{sites[0], metric_.distance(p, sites[0])};
-    return std::isinf(best.distance) ? Hit{} : best;
+    best = Hit{sites[0], measure(sites[0])};
+    if (std::isinf(best.distance)) return Hit{};
+    if (gradient != nullptr) *gradient = slope;
+    return best;
   }
   // The sites of a stretch of coast all pass the candidates' ball test, but nearly all of them
   // are metres farther than the nearest: measured in order of their lower bounds, the first
   // usually rules out the rest. Ties keep the lowest index, as measuring every one in index
   // order did.
-  std::vector<std::pair<double, int32_t>> order;
-  order.reserve(sites.size());
-  for (int32_t id : sites) order.emplace_back(metric_.distance_lower_bound(p, id), id);
+  std::vector<double> bounds(sites.size());
+  metric_.distance_lower_bounds(p, sites, bounds);
+  std::vector<std::pair<double, int32_t>> order(sites.size());
+  for (size_t i = 0; i < sites.size(); ++i) order[i] = {bounds[i], sites[i]};
   std::sort(order.begin(), order.end());
   for (const auto& [lb, id] : order) {
     if (lb > best.distance) break;
-    const double d = metric_.distance(p, id);
+    const double d = measure(id);
     if (d < best.distance || (d == best.distance && id < best.site)) best = Hit{id, d};
   }
+  if (gradient != nullptr && best.site != kNoSite) *gradient = slope;
   return best;
 }
 

@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <map>
 #include <tuple>
 #include <vector>
@@ -75,6 +76,50 @@ std::vector<Key> keys(const CrossingSet& x) {
   for (const Crossing& c : x.crossings) k.emplace_back(c.edge, c.owner_lo, c.owner_hi, c.v.p.x, c.v.p.y);
   std::sort(k.begin(), k.end());
   return k;
+}
+
+TEST(BoundaryStages, NewtonRootsConvergeOrHandTheBracketOver) {
+  using line_tools::newton_root;
+  // Smooth, with its slope (and curved as no cell edge is): five positions from mid-bracket, the
+  // last one the root.
+  int measured = 0;
+  auto smooth = [&](double t) {
+    ++measured;
+    return std::pair{t * t + t - 0.5, 2.0 * t + 1.0};
+  };
+  const auto r = newton_root(smooth, 0.5, 0.0, 1.0, true, 1e-13, line_tools::kNewtonSteps);
+  EXPECT_NEAR(r.t, 0.5 * (std::sqrt(3.0) - 1.0), 1e-13);
+  EXPECT_LE(measured, 5);
+  // Falling (f > 0 at lo): the same root of -f.
+  auto falling = [&](double t) {
+    const auto [v, dv] = smooth(t);
+    return std::pair{-v, -dv};
+  };
+  EXPECT_NEAR(newton_root(falling, 0.5, 0.0, 1.0, false, 1e-13, 6).t, 0.5 * (std::sqrt(3.0) - 1.0), 1e-13);
+  // No slope: no step, and the bracket narrowed by the one position measured, with its value.
+  auto no_slope = [](double t) { return std::pair{t - 0.3, std::numeric_limits<double>::quiet_NaN()}; };
+  const auto n = newton_root(no_slope, 0.5, 0.0, 1.0, true, 1e-13, 6);
+  EXPECT_TRUE(std::isnan(n.t));
+  EXPECT_EQ(n.lo, 0.0);
+  EXPECT_EQ(n.hi, 0.5);
+  EXPECT_TRUE(std::isnan(n.f_lo));
+  EXPECT_NEAR(n.f_hi, 0.2, 1e-15);
+  // A kink (the controlling site changes) whose step leaves the bracket: handed over with the
+  // root still inside, and the Illinois method finds it there.
+  auto kinked = [](double t) {
+    return t < 0.6 ? std::pair{0.1 * (t - 5.0), 0.1} : std::pair{50.0 * (t - 0.6) - 0.1, 50.0};
+  };
+  const auto k = newton_root(kinked, 0.1, 0.0, 1.0, true, 1e-12, 6);
+  ASSERT_TRUE(std::isnan(k.t));
+  EXPECT_EQ(k.lo, 0.1);
+  EXPECT_EQ(k.hi, 1.0);
+  EXPECT_TRUE(std::isnan(k.f_hi));
+  auto value = [&](double t) { return kinked(t).first; };
+  const double fa = std::isnan(k.f_lo) ? value(k.lo) : k.f_lo, fb = std::isnan(k.f_hi) ? value(k.hi) : k.f_hi;
+  const double t =
+      k.lo + (k.hi - k.lo) *
+                 line_tools::find_root([&](double u) { return value(k.lo + (k.hi - k.lo) * u); }, fa, fb, 1e-12, 1e-15);
+  EXPECT_NEAR(t, 0.602, 1e-12);
 }
 
 TEST(BoundaryStages, CrossingsLieOnTheBisectorsOfTheirOwners) {

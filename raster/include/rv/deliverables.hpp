@@ -78,6 +78,12 @@ class SiteMetric {
   // rule over its rings), +infinity outside (the polygon's rings are segment sites of the same
   // feature, which carry the distance outside).
   virtual double distance(Vec2 p, int32_t site) const = 0;
+  // distance(p, site), the same bits, and its gradient with respect to p: (dd/dx, dd/dy) in
+  // metric units per CRS unit (a unit vector on planar grids, metres per degree on geodesic
+  // ones), pointing away from the site's nearest point. NaN components where the metric gives
+  // none (p on the site, area sites, and every site by default), which root finding takes as
+  // "no slope known".
+  virtual double distance_and_gradient(Vec2 p, int32_t site, Vec2& gradient) const;
   // The position of the site nearest to p (the basepoint that controls p). Area sites: p.
   virtual Vec2 nearest_point(Vec2 p, int32_t site) const = 0;
   // Distance between two positions (metric units).
@@ -91,6 +97,9 @@ class SiteMetric {
   // where this does not exceed the best distance so far. Default: the embedding's bound from
   // site_bounds().
   virtual double distance_lower_bound(Vec2 p, int32_t site) const;
+  // distance_lower_bound(p, sites[i]) into out[i] for every i (out.size() == sites.size()): one
+  // position's work done once for many sites.
+  virtual void distance_lower_bounds(Vec2 p, std::span<const int32_t> sites, std::span<double> out) const;
 
   // Lower bound of the metric distance from the embedded position q to anything in the box.
   static double lower_bound(const Vec3& q, const Box3& b);
@@ -124,6 +133,7 @@ class PlanarSiteMetric final : public SiteMetric {
  public:
   PlanarSiteMetric(const SeedSet& seeds, Vec2 origin);
   double distance(Vec2 p, int32_t site) const override;
+  double distance_and_gradient(Vec2 p, int32_t site, Vec2& gradient) const override;
   Vec2 nearest_point(Vec2 p, int32_t site) const override;
   double point_distance(Vec2 a, Vec2 b) const override;
   Vec3 embed(Vec2 p) const override;
@@ -143,11 +153,13 @@ class GeodesicSiteMetric final : public SiteMetric {
   GeodesicSiteMetric(const SeedSet& seeds, const MetricSpec& metric);
   ~GeodesicSiteMetric() override;
   double distance(Vec2 p, int32_t site) const override;
+  double distance_and_gradient(Vec2 p, int32_t site, Vec2& gradient) const override;
   Vec2 nearest_point(Vec2 p, int32_t site) const override;
   double point_distance(Vec2 a, Vec2 b) const override;
   Vec3 embed(Vec2 p) const override;
   Box3 site_bounds(int32_t site) const override;
   double distance_lower_bound(Vec2 p, int32_t site) const override;
+  void distance_lower_bounds(Vec2 p, std::span<const int32_t> sites, std::span<double> out) const override;
 
  private:
   struct Impl;
@@ -217,8 +229,9 @@ class OwnerIndex {
   // `known` (a hit measured at the centre, as nearest_not_of takes it) or else from the nearest:
   // nearest_among(p, out) then equals nearest_not_of(p, owner) within `reach` of the centre.
   void candidates_not_of(Vec2 centre, double reach, int32_t owner, Hit known, std::vector<int32_t>& out) const;
-  // The nearest of `sites` (ascending indices) to p: the lowest index among exact ties.
-  Hit nearest_among(Vec2 p, const std::vector<int32_t>& sites) const;
+  // The nearest of `sites` (ascending indices) to p: the lowest index among exact ties. With
+  // `gradient`: also the winner's (SiteMetric::distance_and_gradient; NaN when none).
+  Hit nearest_among(Vec2 p, const std::vector<int32_t>& sites, Vec2* gradient = nullptr) const;
   // Nearest site of any owner.
   Hit nearest(Vec2 p, Hit known) const { return nearest_not_of(p, 0, known); }
   Hit nearest(Vec2 p) const { return nearest_not_of(p, 0, Hit{}); }
