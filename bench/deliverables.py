@@ -12,9 +12,11 @@ Cases (../shared/fixtures):
   baltic-reach  the baltic case with a max distance of 24 nmi: regions bounded by the 24 nmi line
             too (not run unless named in --cases)
   --quick   the same at 4x the cell size (16x fewer cells)
+  --gpkg    the vector deliverables as GeoPackage (binary geometries) instead of GeoJSON, whose
+            text formatting of every coordinate is a large part of writing them
 
 usage:
-  bench/deliverables.py [--rounds N] [--quick] [--cases oresund,baltic] LABEL=BINARY ...
+  bench/deliverables.py [--rounds N] [--quick] [--gpkg] [--cases oresund,baltic] LABEL=BINARY ...
 e.g.
   bench/deliverables.py --rounds 3 old=/tmp/old/rvoronoi new=build/service/rvoronoi
 Debian's /usr/bin/python3. Run it on an otherwise idle machine (no build beside it). Checks that
@@ -39,17 +41,21 @@ CASES = {
                       "44448"], 0.0005),  # metres: 24 nmi
 }
 OUTPUTS = {"boundaries": "b.geojson", "tripoints": "t.geojson", "limits": "l.geojson", "regions": "r.geojson"}
-PHASES = ("compute", "boundaries", "limits", "regions", "total")
+PHASES = ("compute", "boundaries", "limits", "regions", "deliverables", "total")
 
 
-def run(binary, case, quick, out):
+def outputs(gpkg):
+    return {flag: (os.path.splitext(name)[0] + ".gpkg" if gpkg else name) for flag, name in OUTPUTS.items()}
+
+
+def run(binary, case, quick, gpkg, out):
     args, res = CASES[case]
     os.makedirs(out, exist_ok=True)
     cmd = [binary, "compute", os.path.join(SHARED, "fixtures", args[0])] + args[1:] + [
         "--resolution", repr(res * 4 if quick else res), "--threads", "2", "--quiet",
         "--ownership", os.path.join(out, "o.tif"), "--limit-distances", "12nmi,24nmi",
         "--report", os.path.join(out, "report.json")]
-    for flag, name in OUTPUTS.items():
+    for flag, name in outputs(gpkg).items():
         cmd += [f"--{flag}", os.path.join(out, name)]
     # (The Baltic's overlapping land borders are warned about on stderr, shown only on failure.)
     errors = os.path.join(out, "stderr.txt")
@@ -63,6 +69,9 @@ def run(binary, case, quick, out):
     row = {"compute": t["compute"], "total": t["total"], "peak_mib": usage.ru_maxrss / 1024.0}
     for name in ("boundaries", "limits", "regions"):
         row[name] = t["deliverables"][name]
+    # The deliverables' own wall time (their files are written side by side, so the three above
+    # overlap); builds before it had none, and ran them one after the other.
+    row["deliverables"] = t["deliverables"].get("wall", row["boundaries"] + row["limits"] + row["regions"])
     b = report["deliverables"]["boundaries"]
     row["unresolved_tripoints"] = b["unresolved_tripoints"]
     row["max_residual_m"] = max(b["max_residual"], report["deliverables"]["limits"]["max_residual"])
@@ -72,13 +81,15 @@ def run(binary, case, quick, out):
 
 def main():
     argv = sys.argv[1:]
-    rounds, quick, cases, variants = 3, False, ["oresund", "baltic"], []
+    rounds, quick, gpkg, cases, variants = 3, False, False, ["oresund", "baltic"], []
     while argv:
         a = argv.pop(0)
         if a == "--rounds":
             rounds = int(argv.pop(0))
         elif a == "--quick":
             quick = True
+        elif a == "--gpkg":
+            gpkg = True
         elif a == "--cases":
             cases = argv.pop(0).split(",")
         elif "=" in a:
@@ -92,19 +103,22 @@ def main():
             rows = {label: [] for label, _ in variants}
             for r in range(rounds):
                 for label, binary in variants:
-                    rows[label].append(run(binary, case, quick, os.path.join(tmp, case, label)))
-            differ = sorted({f for label, _ in variants[1:] for f in OUTPUTS.values()
+                    rows[label].append(run(binary, case, quick, gpkg, os.path.join(tmp, case, label)))
+            differ = sorted({f for label, _ in variants[1:] for f in outputs(gpkg).values()
                              if not filecmp.cmp(os.path.join(tmp, case, variants[0][0], f),
                                                 os.path.join(tmp, case, label, f), shallow=False)})
             same = not differ
+            verdict = "identical" if same else "DIFFER (" + ", ".join(differ) + ")"
+            if gpkg:  # a GeoPackage records when it was written
+                verdict = "not compared (GeoPackage files carry their time of writing)"
             cells = rows[variants[0][0]][0]["cells"]
             print(f"\n{case}: {cells:.3g} cells, {rounds} alternated rounds, medians (s); deliverables "
-                  f"{'identical' if same else 'DIFFER (' + ', '.join(differ) + ')'} across variants\n")
+                  f"{verdict} across variants\n")
             print("| variant | " + " | ".join(PHASES) + " | deliverables / compute | peak MiB | unresolved tripoints | max residual m |")
             print("|---" * (len(PHASES) + 5) + "|")
             for label, _ in variants:
                 med = {k: statistics.median(x[k] for x in rows[label]) for k in PHASES + ("peak_mib",)}
-                deliver = med["boundaries"] + med["limits"] + med["regions"]
+                deliver = med["deliverables"]
                 last = rows[label][-1]
                 print(f"| {label} | " + " | ".join(f"{med[k]:.3f}" for k in PHASES) +
                       f" | {deliver / med['compute']:.1f} | {med['peak_mib']:.0f} | {last['unresolved_tripoints']} | "

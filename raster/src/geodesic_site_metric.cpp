@@ -53,6 +53,23 @@ double GeodesicSiteMetric::distance(Vec2 p, int32_t site) const {
 }
 
 double GeodesicSiteMetric::distance_and_gradient(Vec2 p, int32_t site, Vec2& gradient) const {
+  VertexHit hit;
+  return distance_at_vertex(p, site, gradient, hit);
+}
+
+bool GeodesicSiteMetric::ties_at_vertex(Vec2 p, int32_t site, const VertexHit& hit, double d) const {
+  if (!hit.valid || seeds().sites()[static_cast<size_t>(site)].kind != SiteKind::segment) return false;
+  if (!(p.y >= -90.0 && p.y <= 90.0)) return false;
+  detail::GeoEnd end;
+  end.valid = true;
+  end.lat = hit.vertex.y;
+  end.lon = hit.vertex.x;
+  end.azi_to_cell = hit.direction;
+  return impl_->sites.attains_at_vertex(impl_->sites.cell(p.x, p.y), site, end, d);
+}
+
+double GeodesicSiteMetric::distance_at_vertex(Vec2 p, int32_t site, Vec2& gradient, VertexHit& hit) const {
+  hit = VertexHit{};
   const Site& s = seeds().sites()[static_cast<size_t>(site)];
   constexpr double nan = std::numeric_limits<double>::quiet_NaN();
   gradient = Vec2{nan, nan};
@@ -72,6 +89,7 @@ double GeodesicSiteMetric::distance_and_gradient(Vec2 p, int32_t site, Vec2& gra
       detail::GeoEnd end;
       d = impl_->sites.distance(impl_->sites.cell(p.x, p.y), site, &end);
       azi = end.azi_at_cell;
+      if (end.valid) hit = VertexHit{true, Vec2{end.lon, end.lat}, end.azi_to_cell};
       break;
     }
     case SiteKind::area:

@@ -99,6 +99,31 @@ void inside_flags(const Target& t, int64_t row0, int64_t row1, InsideRows& insid
   const size_t base = inside.flags.size();
   inside.flags.resize(base + static_cast<size_t>((row1 - row0) * lg.W));
   uint8_t* out = inside.flags.data() + base;
+  if (t.owner == 0) {
+    // Every cell's distance is the target's: the Float32 field decides all but the cells within
+    // its rounding of D, in a pass with no branch per cell, and those few are measured after.
+    const double eps = 1e-6 * (t.D + lg.cell);
+    detail::parallel_for(lg.threads, row1 - row0, [&](int64_t k, int) {
+      const int64_t r = row0 + k, width = lg.W;
+      const int32_t* site = lg.rows.site_row(r);
+      const float* dist = lg.rows.distance_row(r);
+      uint8_t* o = out + k * width;
+      // Locals: the flags' bytes may alias anything, which would reload every operand per cell.
+      const double level = t.D, lo = t.D - eps, hi = t.D + eps;
+      int near = 0;
+      for (int64_t c = 0; c < width; ++c) {
+        const double d = dist[c];
+        const int has = site[c] != kNoSite;
+        o[c] = static_cast<uint8_t>(has & (d <= level));
+        near |= has & (d >= lo) & (d <= hi);
+      }
+      if (near == 0) return;
+      for (int64_t c = 0; c < lg.W; ++c)
+        if (site[c] != kNoSite && std::abs(static_cast<double>(dist[c]) - t.D) <= eps)
+          o[c] = cell_inside(t, c, r, site[c], dist[c]) ? 1 : 0;
+    });
+    return;
+  }
   const int64_t bw = (lg.W + kBlock - 1) / kBlock, b0 = row0 / kBlock, b1 = (row1 + kBlock - 1) / kBlock;
   detail::parallel_for(lg.threads, b1 - b0, [&](int64_t k, int) {
     const int64_t br = b0 + k;
@@ -159,12 +184,17 @@ LimitCrossings limit_crossings(const Target& t, const InsideRows& inside, int64_
       const int32_t hint = inside.at(c, r) ? lg.rows.site(c, r) : lg.rows.site(ci, ri);
       const Vec2 mid = lerp(p0, p1, 0.5);
       const double reach = edge_reach(lg.metric, mid, p0, p1);
+      // The nearest distance at the middle is bounded without measuring by the inside cell's
+      // field distance (Float32, relative rounding below 1e-7) plus the way from there, when that
+      // cell's site is the target's.
+      const float inside_distance = inside.at(c, r) ? lg.rows.distance(c, r) : lg.rows.distance(ci, ri);
+      const bool own = hint != kNoSite && (t.owner == 0 || lg.owner_of_site[static_cast<size_t>(hint)] == t.owner);
+      const double at_most =
+          own ? static_cast<double>(inside_distance) * (1.0 + 1e-6) + reach : std::numeric_limits<double>::infinity();
       if (t.owner != 0)
-        lg.index.candidates_of(mid, reach, t.owner, hint, cands);
+        lg.index.candidates_of(mid, reach, t.owner, hint, cands, at_most);
       else
-        lg.index.candidates_not_of(
-            mid, reach, 0, hint == kNoSite ? OwnerIndex::Hit{} : OwnerIndex::Hit{hint, lg.metric.distance(mid, hint)},
-            cands);
+        lg.index.candidates_not_of(mid, reach, 0, OwnerIndex::Hit{}, cands, at_most);
       // The root is usually the last position measured: its hit is kept, not measured again.
       Vec2 last{std::numeric_limits<double>::quiet_NaN(), 0.0};
       OwnerIndex::Hit last_hit;

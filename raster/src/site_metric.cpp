@@ -118,6 +118,13 @@ double SiteMetric::distance_and_gradient(Vec2 p, int32_t site, Vec2& gradient) c
   return distance(p, site);
 }
 
+double SiteMetric::distance_at_vertex(Vec2 p, int32_t site, Vec2& gradient, VertexHit& hit) const {
+  hit = VertexHit{};
+  return distance_and_gradient(p, site, gradient);
+}
+
+bool SiteMetric::ties_at_vertex(Vec2, int32_t, const VertexHit&, double) const { return false; }
+
 double SiteMetric::distance_lower_bound(Vec2 p, int32_t site) const { return lower_bound(embed(p), site_bounds(site)); }
 
 void SiteMetric::distance_lower_bounds(Vec2 p, std::span<const int32_t> sites, std::span<double> out) const {
@@ -293,8 +300,8 @@ OwnerIndex::Hit OwnerIndex::nearest_of(Vec2 p, int32_t owner, int32_t hint) cons
   return best;
 }
 
-void OwnerIndex::candidates_of(Vec2 centre, double reach, int32_t owner, int32_t hint,
-                               std::vector<int32_t>& out) const {
+void OwnerIndex::candidates_of(Vec2 centre, double reach, int32_t owner, int32_t hint, std::vector<int32_t>& out,
+                               double nearest_at_most) const {
   out.clear();
   if (owner < 1 || owner > static_cast<int32_t>(trees_.size())) return;
   const Tree& t = *trees_[static_cast<size_t>(owner - 1)];
@@ -305,41 +312,63 @@ void OwnerIndex::candidates_of(Vec2 centre, double reach, int32_t owner, int32_t
   // lengthen distances): it can neither be nearest nor tie.
   const SeedSet& seeds = metric_.seeds();
   const bool valid = hint >= 0 && hint < static_cast<int32_t>(seeds.sites().size()) && seeds.site_owner(hint) == owner;
-  double at_centre = valid ? metric_.distance(centre, hint) : std::numeric_limits<double>::infinity();
+  double at_centre = std::isfinite(nearest_at_most) ? nearest_at_most
+                     : valid                        ? metric_.distance(centre, hint)
+                                                    : std::numeric_limits<double>::infinity();
   // (An area site's distance is infinite outside its polygon: the nearest then gives the bound.)
   if (!std::isfinite(at_centre)) at_centre = nearest_of(centre, owner, valid ? hint : kNoSite).distance;
   if (!std::isfinite(at_centre)) {  // nothing bounds it: every site of the owner
     t.within(0, metric_.embed(centre), std::numeric_limits<double>::infinity(), out);
   } else {
     t.within(0, metric_.embed(centre), at_centre + 2.0 * reach, out);
+    keep_within(centre, at_centre + 2.0 * reach, out);
   }
   std::sort(out.begin(), out.end());
 }
 
-void OwnerIndex::candidates_not_of(Vec2 centre, double reach, int32_t owner, Hit known,
-                                   std::vector<int32_t>& out) const {
+void OwnerIndex::keep_within(Vec2 centre, double bound, std::vector<int32_t>& sites) const {
+  // The boxes hold whole edges; the metric's own bounds at the centre drop the many whose box
+  // is near but whose distance is not (the same test: a site farther than `bound` from the
+  // centre is farther than the nearest from every position within reach of it).
+  std::vector<double> lb(sites.size());
+  metric_.distance_lower_bounds(centre, sites, lb);
+  size_t kept = 0;
+  for (size_t i = 0; i < sites.size(); ++i)
+    if (!(lb[i] > bound)) sites[kept++] = sites[i];
+  sites.resize(kept);
+}
+
+void OwnerIndex::candidates_not_of(Vec2 centre, double reach, int32_t owner, Hit known, std::vector<int32_t>& out,
+                                   double nearest_at_most) const {
   out.clear();
   // The bound as in candidates_of: the nearest is within the known hit's distance (or the
   // nearest's) plus reach of any position within reach of the centre.
   const SeedSet& seeds = metric_.seeds();
   const bool valid = known.site >= 0 && known.site < static_cast<int32_t>(seeds.sites().size()) &&
                      seeds.site_owner(known.site) != owner && std::isfinite(known.distance);
-  const double at_centre = valid ? known.distance : nearest_not_of(centre, owner).distance;
+  const double at_centre = std::isfinite(nearest_at_most) ? nearest_at_most
+                           : valid                        ? known.distance
+                                                          : nearest_not_of(centre, owner).distance;
   const double bound = std::isfinite(at_centre) ? at_centre + 2.0 * reach : std::numeric_limits<double>::infinity();
   const Vec3 q = metric_.embed(centre);
   for (size_t o = 0; o < trees_.size(); ++o)
     if (static_cast<int32_t>(o) + 1 != owner && !trees_[o]->nodes.empty()) trees_[o]->within(0, q, bound, out);
+  if (std::isfinite(bound)) keep_within(centre, bound, out);
   std::sort(out.begin(), out.end());
 }
 
 OwnerIndex::Hit OwnerIndex::nearest_among(Vec2 p, const std::vector<int32_t>& sites, Vec2* gradient) const {
   Hit best;
   Vec2 slope;
+  SiteMetric::VertexHit at_vertex;  // where the best so far was attained
   auto measure = [&](int32_t id) {
-    if (gradient == nullptr) return metric_.distance(p, id);
     Vec2 g;
-    const double d = metric_.distance_and_gradient(p, id, g);
-    if (d < best.distance || (d == best.distance && id < best.site)) slope = g;
+    SiteMetric::VertexHit v;
+    const double d = metric_.distance_at_vertex(p, id, g, v);
+    if (d < best.distance || (d == best.distance && id < best.site)) {
+      slope = g;
+      at_vertex = v;
+    }
     return d;
   };
   if (gradient != nullptr)
@@ -361,6 +390,12 @@ OwnerIndex::Hit OwnerIndex::nearest_among(Vec2 p, const std::vector<int32_t>& si
   std::sort(order.begin(), order.end());
   for (const auto& [lb, id] : order) {
     if (lb > best.distance) break;
+    // A coast's vertex controls much of the sea, and both its edges are candidates there: the
+    // second ties the first at the vertex's canonical distance, known without measuring.
+    if (at_vertex.valid && metric_.ties_at_vertex(p, id, at_vertex, best.distance)) {
+      best.site = std::min(best.site, id);  // the same distance and gradient
+      continue;
+    }
     const double d = measure(id);
     if (d < best.distance || (d == best.distance && id < best.site)) best = Hit{id, d};
   }

@@ -3,6 +3,8 @@
 // deliverable then written to its file, its counts into the report and its time into
 // timings["deliverables"].
 #include <cmath>
+#include <exception>
+#include <future>
 #include <map>
 #include <memory>
 #include <optional>
@@ -45,6 +47,7 @@ struct StripDeliverables::State {
   std::optional<PreviewSample> preview;
   std::optional<GeoTiffStripWriter<float>> margin_writer;  // streamed
   double boundary_seconds = 0.0, limit_seconds = 0.0, margin_seconds = 0.0, region_seconds = 0.0;
+  double wall_seconds = 0.0;  // in add() and finish(): the deliverables' own wall time, writes included
   VectorOutputOptions vector;
   nlohmann::json times = nlohmann::json::object();
   nlohmann::json report = nlohmann::json::object();
@@ -53,9 +56,13 @@ struct StripDeliverables::State {
   const OutputRequest& out() const { return run.spec.outputs; }
 
   // The stages of finish(), one per deliverable: each writes its file(s), its report entry and
-  // its time (the strips' share included).
-  BoundaryResult write_boundaries_and_tripoints();
-  void write_limit_lines();
+  // its time (the strips' share included). The lines are taken and reported first (take_*), and
+  // their files written (write_*_files, which touch nothing else of the state and return their
+  // seconds) beside the regions' work.
+  BoundaryResult take_boundaries();
+  double write_boundary_files(const BoundaryResult& boundaries) const;
+  LimitResult take_limits();
+  double write_limit_file(const LimitResult& limits) const;
   void write_region_polygons(const BoundaryResult& boundaries);
   void finish_margin();
   void write_quicklook(const BoundaryResult& boundaries);
@@ -118,6 +125,12 @@ void StripDeliverables::add(const NearestField& strip) {
   State& s = *st_;
   const OutputRequest& out = s.out();
   s.run.check_cancel();
+  const auto added = Clock::now();
+  struct Tally {
+    State& s;
+    Clock::time_point t;
+    ~Tally() { s.wall_seconds += seconds_since(t); }
+  } tally{s, added};
   auto seconds = [](auto&& f) {
     const auto t = Clock::now();
     f();
@@ -143,65 +156,66 @@ void StripDeliverables::add(const NearestField& strip) {
   }
 }
 
-BoundaryResult StripDeliverables::State::write_boundaries_and_tripoints() {
+BoundaryResult StripDeliverables::State::take_boundaries() {
   State& s = *this;
   const OutputRequest& out = s.out();
-  JobRun& run = s.run;
   BoundaryResult boundaries;
-  if (s.boundaries) {
-    const auto t = Clock::now();
-    boundaries = s.boundaries->take_boundaries();
-    const BoundaryStats& st = boundaries.stats;
-    s.report["boundaries"] = {{"lines", boundaries.lines.size()},
-                              {"vertices", st.vertices},
-                              {"vertices_before_simplify", st.vertices_before_simplify},
-                              {"tripoints", boundaries.tripoints.size()},
-                              {"crossings", st.crossings},
-                              {"saddles", st.saddles},
-                              {"multi_owner_squares", st.multi_owner_squares},
-                              {"unresolved_tripoints", st.unresolved_tripoints},
-                              {"sliver_crossings", st.sliver_crossings},
-                              {"unresolved_slivers", st.unresolved_slivers},
-                              {"max_residual", st.max_residual * s.job.to_output},
-                              {"max_residual_cells", st.max_residual / s.cell_length},
-                              {"simplify_cells", out.simplify_cells}};
-    if (!out.boundaries.empty()) {
-      run.will_write(out.boundaries);
-      write_boundaries(out.boundaries, boundaries, *s.metric, s.vector);
-      run.wrote("boundaries", out.boundaries);
-    }
-    if (!out.tripoints.empty()) {
-      run.will_write(out.tripoints);
-      write_tripoints(out.tripoints, boundaries, *s.metric, s.vector);
-      run.wrote("tripoints", out.tripoints);
-    }
-    s.times["boundaries"] = s.boundary_seconds + seconds_since(t);
-  }
+  if (!s.boundaries) return boundaries;
+  const auto t = Clock::now();
+  boundaries = s.boundaries->take_boundaries();
+  const BoundaryStats& st = boundaries.stats;
+  s.report["boundaries"] = {{"lines", boundaries.lines.size()},
+                            {"vertices", st.vertices},
+                            {"vertices_before_simplify", st.vertices_before_simplify},
+                            {"tripoints", boundaries.tripoints.size()},
+                            {"crossings", st.crossings},
+                            {"saddles", st.saddles},
+                            {"multi_owner_squares", st.multi_owner_squares},
+                            {"unresolved_tripoints", st.unresolved_tripoints},
+                            {"sliver_crossings", st.sliver_crossings},
+                            {"unresolved_slivers", st.unresolved_slivers},
+                            {"max_residual", st.max_residual * s.job.to_output},
+                            {"max_residual_cells", st.max_residual / s.cell_length},
+                            {"simplify_cells", out.simplify_cells}};
+  if (!out.boundaries.empty()) s.run.will_write(out.boundaries);
+  if (!out.tripoints.empty()) s.run.will_write(out.tripoints);
+  s.boundary_seconds += seconds_since(t);
   return boundaries;
 }
 
-void StripDeliverables::State::write_limit_lines() {
+double StripDeliverables::State::write_boundary_files(const BoundaryResult& boundaries) const {
+  const OutputRequest& out = this->out();
+  const auto t = Clock::now();
+  if (!out.boundaries.empty()) write_boundaries(out.boundaries, boundaries, *metric, vector);
+  if (!out.tripoints.empty()) write_tripoints(out.tripoints, boundaries, *metric, vector);
+  return seconds_since(t);
+}
+
+LimitResult StripDeliverables::State::take_limits() {
   State& s = *this;
   const OutputRequest& out = s.out();
-  JobRun& run = s.run;
-  if (s.limits) {
-    run.check_cancel();
-    const auto t = Clock::now();
-    const LimitResult limits = s.limits->take_limits();
-    run.will_write(out.limits);
-    write_limits(out.limits, limits, s.job.loaded.seeds, s.vector);
-    run.wrote("limits", out.limits);
-    nlohmann::json distances = nlohmann::json::array();
-    for (double d : s.job.limit_distances) distances.push_back(d * s.job.to_output);
-    s.report["limits"] = {{"distances", distances},
-                          {"as_given", out.limit_distances},
-                          {"per_owner", out.limits_per_owner},
-                          {"lines", limits.lines.size()},
-                          {"vertices", limits.vertices},
-                          {"max_residual", limits.max_residual * s.job.to_output},
-                          {"max_residual_cells", limits.max_residual / s.cell_length}};
-    s.times["limits"] = s.limit_seconds + seconds_since(t);
-  }
+  if (!s.limits) return LimitResult{};
+  const auto t = Clock::now();
+  LimitResult limits = s.limits->take_limits();
+  s.run.will_write(out.limits);
+  nlohmann::json distances = nlohmann::json::array();
+  for (double d : s.job.limit_distances) distances.push_back(d * s.job.to_output);
+  s.report["limits"] = {{"distances", distances},
+                        {"as_given", out.limit_distances},
+                        {"per_owner", out.limits_per_owner},
+                        {"lines", limits.lines.size()},
+                        {"vertices", limits.vertices},
+                        {"max_residual", limits.max_residual * s.job.to_output},
+                        {"max_residual_cells", limits.max_residual / s.cell_length}};
+  s.limit_seconds += seconds_since(t);
+  return limits;
+}
+
+double StripDeliverables::State::write_limit_file(const LimitResult& limits) const {
+  if (!this->limits) return 0.0;
+  const auto t = Clock::now();
+  write_limits(out().limits, limits, job.loaded.seeds, vector);
+  return seconds_since(t);
 }
 
 void StripDeliverables::State::write_region_polygons(const BoundaryResult& boundaries) {
@@ -270,18 +284,50 @@ void StripDeliverables::State::write_quicklook(const BoundaryResult& boundaries)
 void StripDeliverables::finish() {
   State& s = *st_;
   JobRun& run = s.run;
+  const auto started = Clock::now();
   run.check_cancel();
   run.progress("deliver", 0.0);
-  const BoundaryResult boundaries = s.write_boundaries_and_tripoints();
-  run.progress("deliver", 0.3);
-  s.write_limit_lines();
-  run.progress("deliver", 0.5);
-  s.write_region_polygons(boundaries);
+  const BoundaryResult boundaries = s.take_boundaries();
+  const LimitResult limits = s.take_limits();
+  run.check_cancel();
+  // The line files are written (GDAL: a dataset of their own each) while the regions are made:
+  // serialising their vertices is the longer part of most jobs' finish.
+  double boundary_write = 0.0, limit_write = 0.0;
+  {
+    auto lines = std::async(std::launch::async, [&] { boundary_write = s.write_boundary_files(boundaries); });
+    auto limit_file = std::async(std::launch::async, [&] { limit_write = s.write_limit_file(limits); });
+    // Each future is waited for, whatever throws first; the first failure is the job's.
+    std::exception_ptr failed;
+    try {
+      s.write_region_polygons(boundaries);
+    } catch (...) {
+      failed = std::current_exception();
+    }
+    for (std::future<void>* f : {&lines, &limit_file}) {
+      try {
+        f->get();
+      } catch (...) {
+        if (!failed) failed = std::current_exception();
+      }
+    }
+    if (failed) std::rethrow_exception(failed);
+  }
+  if (s.boundaries) {
+    if (!s.out().boundaries.empty()) run.wrote("boundaries", s.out().boundaries);
+    if (!s.out().tripoints.empty()) run.wrote("tripoints", s.out().tripoints);
+    s.times["boundaries"] = s.boundary_seconds + boundary_write;
+  }
+  if (s.limits) {
+    run.wrote("limits", s.out().limits);
+    s.times["limits"] = s.limit_seconds + limit_write;
+  }
   run.progress("deliver", 0.7);
   s.finish_margin();
   run.progress("deliver", 0.9);
   s.write_quicklook(boundaries);
   run.progress("deliver", 1.0);
+  // The per-deliverable times overlap where files are written side by side; "wall" does not.
+  s.times["wall"] = s.wall_seconds + seconds_since(started);
   for (auto& [k, v] : s.times.items()) run.timings["deliverables"][k] = v;
   run.report["deliverables"] = s.report;
 }

@@ -619,6 +619,26 @@ TEST(Deliverables, OwnerIndexAgreesWithBruteForceAlongACoast) {
       // Known hits of either owner, as the boundaries' third-owner test passes them.
       EXPECT_EQ(index.nearest_not_of(p, 1, brute[2]).site, brute[2].site);
       EXPECT_EQ(index.nearest_not_of(p, 2, brute[1]).site, brute[1].site);
+      // Candidates for a cell edge from p, bounded as the lines bound them without measuring
+      // (p's nearest distance, as a Float32 field holds it, plus the way to the edge's middle):
+      // they serve every position of the edge.
+      const Vec2 q1{p.x + 0.0005, p.y}, mid{p.x + 0.00025, p.y};
+      const double reach = 1.01 * m->point_distance(mid, p) + 1e-9;
+      for (const int32_t o : {0, 1}) {
+        const double at_p = static_cast<float>(brute[o].distance);
+        std::vector<int32_t> cands;
+        if (o == 1)
+          index.candidates_of(mid, reach, 1, kNoSite, cands, at_p * (1.0 + 1e-6) + reach);
+        else
+          index.candidates_not_of(mid, reach, 0, OwnerIndex::Hit{}, cands, at_p * (1.0 + 1e-6) + reach);
+        for (double t = 0.0; t <= 1.0; t += 0.25) {
+          const Vec2 q{p.x + t * (q1.x - p.x), p.y};
+          const OwnerIndex::Hit want = o == 1 ? index.nearest_of(q, 1) : index.nearest(q);
+          const OwnerIndex::Hit got = index.nearest_among(q, cands);
+          ASSERT_EQ(got.site, want.site) << "owner " << o << " t " << t;
+          ASSERT_EQ(got.distance, want.distance);
+        }
+      }
     }
     if (m == &gm) {
       EXPECT_GT(tight, 300);  // at least one tight bound per query, on average

@@ -84,6 +84,22 @@ class SiteMetric {
   // none (p on the site, area sites, and every site by default), which root finding takes as
   // "no slope known".
   virtual double distance_and_gradient(Vec2 p, int32_t site, Vec2& gradient) const;
+  // Where a distance was attained at a vertex of a line: the vertex as given and the direction
+  // to the position (metric-specific; valid false where the metric does not say).
+  struct VertexHit {
+    bool valid = false;
+    Vec2 vertex;
+    double direction = 0.0;
+  };
+  // distance_and_gradient, and in `hit` whether it was attained at a vertex of the site's line
+  // (the vertex's canonical distance, the same bits from every edge that shares it). Default:
+  // never.
+  virtual double distance_at_vertex(Vec2 p, int32_t site, Vec2& gradient, VertexHit& hit) const;
+  // True when distance(p, site) is certainly, to the bit, `d`: the canonical distance of the
+  // vertex `hit` (from distance_at_vertex on a neighbouring edge at the same p), which this site
+  // shares and attains its distance at. Searches take such ties without measuring. Default:
+  // false (measure).
+  virtual bool ties_at_vertex(Vec2 p, int32_t site, const VertexHit& hit, double d) const;
   // The position of the site nearest to p (the basepoint that controls p). Area sites: p.
   virtual Vec2 nearest_point(Vec2 p, int32_t site) const = 0;
   // Distance between two positions (metric units).
@@ -154,6 +170,8 @@ class GeodesicSiteMetric final : public SiteMetric {
   ~GeodesicSiteMetric() override;
   double distance(Vec2 p, int32_t site) const override;
   double distance_and_gradient(Vec2 p, int32_t site, Vec2& gradient) const override;
+  double distance_at_vertex(Vec2 p, int32_t site, Vec2& gradient, VertexHit& hit) const override;
+  bool ties_at_vertex(Vec2 p, int32_t site, const VertexHit& hit, double d) const override;
   Vec2 nearest_point(Vec2 p, int32_t site) const override;
   double point_distance(Vec2 a, Vec2 b) const override;
   Vec3 embed(Vec2 p) const override;
@@ -224,11 +242,16 @@ class OwnerIndex {
   // at the centre plus twice the reach. nearest_among(p, out) then equals nearest_of(p, owner) for
   // every such p, and measures only these (usually one or two): for many queries along a short
   // path (roots along a cell edge).
-  void candidates_of(Vec2 centre, double reach, int32_t owner, int32_t hint, std::vector<int32_t>& out) const;
+  // `nearest_at_most` (when finite): an upper bound of the owner's nearest distance at the centre
+  // known without measuring (a neighbouring cell's field distance plus the way from there),
+  // used for the bound in place of the hint's distance.
+  void candidates_of(Vec2 centre, double reach, int32_t owner, int32_t hint, std::vector<int32_t>& out,
+                     double nearest_at_most = std::numeric_limits<double>::infinity()) const;
   // The same for the sites of every owner but `owner` (0: of all owners), the bound from
   // `known` (a hit measured at the centre, as nearest_not_of takes it) or else from the nearest:
   // nearest_among(p, out) then equals nearest_not_of(p, owner) within `reach` of the centre.
-  void candidates_not_of(Vec2 centre, double reach, int32_t owner, Hit known, std::vector<int32_t>& out) const;
+  void candidates_not_of(Vec2 centre, double reach, int32_t owner, Hit known, std::vector<int32_t>& out,
+                         double nearest_at_most = std::numeric_limits<double>::infinity()) const;
   // The nearest of `sites` (ascending indices) to p: the lowest index among exact ties. With
   // `gradient`: also the winner's (SiteMetric::distance_and_gradient; NaN when none).
   Hit nearest_among(Vec2 p, const std::vector<int32_t>& sites, Vec2* gradient = nullptr) const;
@@ -240,6 +263,8 @@ class OwnerIndex {
 
  private:
   struct Tree;
+  // Drops the sites whose metric lower bound at `centre` exceeds `bound`.
+  void keep_within(Vec2 centre, double bound, std::vector<int32_t>& sites) const;
   const SiteMetric& metric_;
   std::vector<std::unique_ptr<Tree>> trees_;  // per owner code - 1
 };
