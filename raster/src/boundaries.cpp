@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstring>
 #include <limits>
 #include <map>
 #include <numeric>
@@ -108,9 +109,10 @@ struct Segment {
 // Whether the 9 sites a[0..8] are all one, and b[0..7] (when not null) that one too: 8 cells at a
 // time where nothing changes, which is nearly everywhere (compared without a branch per cell).
 inline bool same8(const int32_t* a, const int32_t* b) {
-  int32_t diff = 0;
-  for (int k = 0; k < 8; ++k) diff |= (a[k] ^ a[k + 1]) | (b == nullptr ? 0 : a[0] ^ b[k]);
-  return diff == 0;
+  // a[0..8] all one is a[0..7] == a[1..8]; then b[0..7] == a[0..7] (fixed-size compares, which
+  // the compiler does a vector at a time).
+  return std::memcmp(a, a + 1, 8 * sizeof(int32_t)) == 0 &&
+         (b == nullptr || std::memcmp(a, b, 8 * sizeof(int32_t)) == 0);
 }
 
 // The edges of rows [row0, row1) whose two cells have different owners.
@@ -241,9 +243,8 @@ void place_crossings(const BoundaryGrid& b, const Segment& sg, std::vector<Cross
     hits(p);
     const OwnerIndex::Hit hx = last_x, hy = last_y;
     BoundaryVertex v{p, hx.site, hy.site, 0.5 * (hx.distance + hy.distance), std::abs(hx.distance - hy.distance)};
-    // Only a third owner can come between (nothing of x is nearer than hx): y's hit bounds the
-    // search from the start and is not measured again.
-    const auto nearest = index.nearest_not_of(p, x, hy);
+    // Only a third owner can come between (nothing of x or y is nearer than their hits).
+    const auto nearest = index.nearest_third(p, x, y, hy.distance);
     if (nearest.distance < v.distance - 4.0 * ftol - v.residual) {
       const int32_t z = b.owner_of_site[static_cast<size_t>(nearest.site)];
       hint.try_emplace(z, nearest.site);

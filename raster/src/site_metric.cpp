@@ -403,6 +403,20 @@ OwnerIndex::Hit OwnerIndex::nearest_among(Vec2 p, const std::vector<int32_t>& si
   return best;
 }
 
+OwnerIndex::Hit OwnerIndex::nearest_third(Vec2 p, int32_t a, int32_t b, double within) const {
+  const Vec3 q = metric_.embed(p);
+  // A site above every index at `within`: a site at that very distance still replaces it.
+  constexpr int32_t kNone = std::numeric_limits<int32_t>::max();
+  Hit best{kNone, within};
+  for (size_t o = 0; o < trees_.size(); ++o) {
+    const auto code = static_cast<int32_t>(o) + 1;
+    if (code == a || code == b || trees_[o]->nodes.empty()) continue;
+    if (SiteMetric::lower_bound(q, trees_[o]->nodes[0].box) > best.distance) continue;
+    trees_[o]->search(metric_, 0, p, q, best);
+  }
+  return best.site == kNone ? Hit{} : best;
+}
+
 OwnerIndex::Hit OwnerIndex::nearest_not_of(Vec2 p, int32_t owner, Hit known) const {
   // Owners in order of their trees' lower bounds, so the first search makes the rest prune.
   const Vec3 q = metric_.embed(p);

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <random>
 
 #include "deliverables_check.hpp"
@@ -775,6 +776,21 @@ TEST(Deliverables, OwnerIndexHintsChangeNoResult) {
         // A known hit of the excluded owner is ignored.
         EXPECT_EQ(index.nearest_not_of(p, not_of, OwnerIndex::Hit{known, m->distance(p, known)}).site, other.site);
       }
+      // A third owner's nearest (the owners other than a and b), within a distance or not at all.
+      for (int32_t a = 1; a <= s.owner_count(); ++a)
+        for (int32_t b = a + 1; b <= s.owner_count(); ++b) {
+          OwnerIndex::Hit brute;
+          for (int32_t id = 0; id < sites; ++id) {
+            if (s.site_owner(id) == a || s.site_owner(id) == b) continue;
+            const double d = m->distance(p, id);
+            if (d < brute.distance) brute = OwnerIndex::Hit{id, d};
+          }
+          const OwnerIndex::Hit any = index.nearest_third(p, a, b, std::numeric_limits<double>::infinity());
+          EXPECT_EQ(any.site, brute.site) << a << " " << b;
+          EXPECT_EQ(any.distance, brute.distance);
+          EXPECT_EQ(index.nearest_third(p, b, a, brute.distance).site, brute.site);  // ties count
+          EXPECT_EQ(index.nearest_third(p, a, b, 0.999 * brute.distance).site, kNoSite);
+        }
     }
   }
 }

@@ -236,6 +236,9 @@ class OwnerIndex {
   // `owner`), used as the starting bound; the result is the same with or without it.
   Hit nearest_not_of(Vec2 p, int32_t owner, Hit known) const;
   Hit nearest_not_of(Vec2 p, int32_t owner) const { return nearest_not_of(p, owner, Hit{}); }
+  // Nearest site of the owners other than a and b, if one is within `within` of p (ties with it
+  // included); {kNoSite, inf} otherwise. Whether a third owner comes between two.
+  Hit nearest_third(Vec2 p, int32_t a, int32_t b, double within) const;
   // The sites of `owner` that can be nearest to, or tie with the nearest at, some position within
   // metric distance `reach` of `centre` (ascending indices, into `out`): every other site's lower
   // bound from the ball exceeds the distance of `hint` (or of the nearest, without a valid hint)
