@@ -245,6 +245,19 @@ bool GeoSites::convex_regime(const GeoCell& p, const GeoPiece& piece) const {
   return dot > kConvexCos * norms;
 }
 
+void GeoSites::position(int32_t id, double t, double& lat, double& lon) const {
+  const GeoSite& s = sites_[static_cast<size_t>(id)];
+  if (!s.segment || t <= 0.0) {
+    lat = s.lat;
+    lon = s.lon;
+  } else if (t >= s.length) {
+    lat = s.lat_b;
+    lon = s.lon_b;
+  } else {
+    lines_[static_cast<size_t>(s.line)].Position(t, lat, lon);
+  }
+}
+
 bool GeoSites::attains_at_vertex(const GeoCell& p, int32_t id, const GeoEnd& end, double s) const {
   const GeoSite& k = sites_[static_cast<size_t>(id)];
   if (!end.valid || !k.segment || k.piece_count != 1 || !(s > kVertexMinDistance)) return false;
@@ -311,13 +324,17 @@ double GeoSites::piece_distance(const GeoCell& p, const GeoSite& site, const Geo
     geod_.Inverse(lat, lon, p.lat, p.lon, s, azi1, azi2, m12, M12, M21);
     double sin_w, cos_w;
     Math::sincosd(Math::AngDiff(azi, azi1), sin_w, cos_w);
+    const bool usable = m12 > 0.0 && M12 > 0.0;
+    const double step = usable ? m12 * cos_w / M12 : 0.0;
     if (s < best && end) {
       end->sin_w = sin_w;
       end->azi_at_cell = azi2;
+      // The nearest point: this one moved by its own interception step (the search stops before
+      // taking the last, millimetres at most), kept on the piece.
+      end->foot = std::clamp(t + step, piece.ta, piece.tb);
     }
     best = std::min(best, s);
-    const bool usable = m12 > 0.0 && M12 > 0.0;
-    return Eval{s, cos_w, usable ? m12 * cos_w / M12 : 0.0, azi1, usable};
+    return Eval{s, cos_w, step, azi1, usable};
   };
   // The result when the minimiser is pinned at an end: that end's value (canonical at vertices).
   auto at_end = [&](const Eval& e, bool second) {

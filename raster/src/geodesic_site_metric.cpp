@@ -164,39 +164,14 @@ Vec2 GeodesicSiteMetric::nearest_point(Vec2 p, int32_t site) const {
   const Site& s = seeds().sites()[static_cast<size_t>(site)];
   if (s.kind == SiteKind::area) return p;
   if (s.kind == SiteKind::point) return s.a;
-  // Golden-section search along the edge for the point nearest p (for reporting basepoints;
-  // the distance itself comes from distance()).
-  const GeographicLib::GeodesicLine line = impl_->geod.InverseLine(s.a.y, s.a.x, s.b.y, s.b.x);
-  const double l = line.Distance();
-  auto at = [&](double t) {
-    double lat = 0.0, lon = 0.0;
-    line.Position(t, lat, lon);
-    return Vec2{lon, lat};
-  };
-  auto dist = [&](double t) { return impl_->measure.point_distance(p, at(t)); };
-  const double g = 0.5 * (std::sqrt(5.0) - 1.0);
-  double lo = 0.0, hi = l, x1 = hi - g * (hi - lo), x2 = lo + g * (hi - lo);
-  double f1 = dist(x1), f2 = dist(x2);
-  for (int i = 0; i < 80 && hi - lo > 1e-6; ++i) {
-    if (f1 < f2) {
-      hi = x2;
-      x2 = x1;
-      f2 = f1;
-      x1 = hi - g * (hi - lo);
-      f1 = dist(x1);
-    } else {
-      lo = x1;
-      x1 = x2;
-      f1 = f2;
-      x2 = lo + g * (hi - lo);
-      f2 = dist(x2);
-    }
-  }
-  const double t = 0.5 * (lo + hi);
-  const double ft = dist(t), fa = dist(0.0), fb = dist(l);
-  if (fa <= ft && fa <= fb) return s.a;
-  if (fb <= ft) return s.b;
-  return at(t);
+  if (!(p.y >= -90.0 && p.y <= 90.0)) throw Error(ErrorKind::invalid_argument, "latitude outside [-90, 90]");
+  // Where distance()'s own search found the minimum: a vertex as given, or the foot on the edge.
+  detail::GeoEnd end;
+  impl_->sites.distance(impl_->sites.cell(p.x, p.y), site, &end);
+  if (end.valid) return Vec2{end.lon, end.lat};
+  double lat = 0.0, lon = 0.0;
+  impl_->sites.position(site, end.foot, lat, lon);
+  return Vec2{lon, lat};
 }
 
 }  // namespace rv

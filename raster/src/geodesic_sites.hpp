@@ -141,6 +141,9 @@ struct GeoEnd {
   // from the point of the edge measured nearest, the direction in which the distance grows
   // fastest (NaN if nothing was measured).
   double azi_at_cell = std::numeric_limits<double>::quiet_NaN();
+  // Whatever the valid flag: the arc length along the segment's line (metres from its first end)
+  // of its point nearest the cell, to well under a micrometre (NaN if nothing was measured).
+  double foot = std::numeric_limits<double>::quiet_NaN();
 };
 
 class GeoSites {
@@ -162,6 +165,9 @@ class GeoSites {
   // the cell is in the convex regime of the edge and the geodesic from the vertex to the cell
   // leaves at more than ~90.6 degrees from the edge, so the search ends at that vertex.
   bool attains_at_vertex(const GeoCell& p, int32_t id, const GeoEnd& end, double s) const;
+  // The position (degrees) at arc length t (metres, clamped to the segment) along a segment's
+  // line: its ends as given; a point site's position whatever t.
+  void position(int32_t id, double t, double& lat, double& lon) const;
   // Lower bounds of distance(): from one cell, and from any cell centre inside a box.
   double lower_bound(const GeoCell& p, int32_t id) const;
   double lower_bound(const EcefBox& box, int32_t id) const { return lower_bound(box, box_ball(box), id); }

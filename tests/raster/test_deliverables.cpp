@@ -1,8 +1,11 @@
 #include <gtest/gtest.h>
 
+#include <GeographicLib/Geodesic.hpp>
+
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <numbers>
 #include <random>
 
 #include "deliverables_check.hpp"
@@ -651,7 +654,8 @@ TEST(Deliverables, GradientsAreTheDistancesSlopes) {
   // Points and edges (short and 300 km long, several pieces), geodesic and planar: the distance
   // that comes with a gradient is distance()'s, to the bit, and the gradient is the slope of
   // the distance (central differences over 1e-6 degrees, ~0.1 m, agree to 1e-6 of the slope's
-  // size); on the site, and for areas, there is none.
+  // size); on the site, and for areas, there is none. The nearest point is on the site, at the
+  // distance (to a micrometre).
   SeedSet s;
   const int32_t f = s.add_feature(s.owner_code("A"));
   s.add_point(f, {12.0, 55.0});
@@ -674,6 +678,19 @@ TEST(Deliverables, GradientsAreTheDistancesSlopes) {
         if (s.sites()[static_cast<size_t>(id)].kind == SiteKind::area) {
           EXPECT_TRUE(std::isnan(g.x) && std::isnan(g.y));
           continue;
+        }
+        // The site's nearest point (the basepoint reports give) is on the site, at the distance,
+        // and inside an edge the geodesic to p leaves it square (to 1e-9 of a right angle).
+        const Vec2 foot = m->nearest_point(p, id);
+        EXPECT_NEAR(m->point_distance(p, foot), d, 1e-6) << "site " << id;
+        EXPECT_LT(m->distance(foot, id), 1e-6) << "site " << id;
+        const Site& site = s.sites()[static_cast<size_t>(id)];
+        if (m == &gm && site.kind == SiteKind::segment && !(foot == site.a) && !(foot == site.b)) {
+          const GeographicLib::Geodesic& wgs = GeographicLib::Geodesic::WGS84();
+          double along = 0.0, to_p = 0.0, ignored = 0.0;
+          wgs.Inverse(site.a.y, site.a.x, foot.y, foot.x, ignored, ignored, along);
+          wgs.Inverse(foot.y, foot.x, p.y, p.x, ignored, to_p, ignored);
+          EXPECT_LT(std::abs(std::cos((to_p - along) * std::numbers::pi / 180.0)), 1e-9) << "site " << id;
         }
         const double h = 1e-6;
         const double dx = (m->distance({p.x + h, p.y}, id) - m->distance({p.x - h, p.y}, id)) / (2 * h);
