@@ -48,6 +48,21 @@ nlohmann::json seeds_json(const LoadedSeeds& loaded) {
   for (size_t i = 0; i < s.owner_labels().size(); ++i)
     owners.push_back({{"code", i + 1}, {"label", s.owner_labels()[i]}});
   const SeedReadReport& r = loaded.report;
+  nlohmann::json slivers = nlohmann::json::array();
+  for (const BorderSliver& b : r.slivers) {
+    const Feature& fa = s.features()[static_cast<size_t>(b.feature_a)];
+    const Feature& fb = s.features()[static_cast<size_t>(b.feature_b)];
+    auto name = [&](const Feature& f, int32_t index) {
+      return f.source.empty() ? "feature " + std::to_string(index + 1) : f.source;
+    };
+    slivers.push_back(
+        {{"features", {name(fa, b.feature_a), name(fb, b.feature_b)}},
+         {"owners",
+          {s.owner_labels()[static_cast<size_t>(fa.owner - 1)], s.owner_labels()[static_cast<size_t>(fb.owner - 1)]}},
+         {"at", {b.x, b.y}},
+         {"area_m2", b.area},
+         {"mean_width_m", b.mean_width}});
+  }
   return {{"features", s.features().size()},
           {"points", points},
           {"segments", segments},
@@ -58,6 +73,7 @@ nlohmann::json seeds_json(const LoadedSeeds& loaded) {
           {"vertices_removed", r.vertices_removed},
           {"points_removed", r.points_removed},
           {"conflicts", r.conflicts},
+          {"land_border_slivers", {{"count", r.sliver_count}, {"listed", slivers}}},
           {"vertices_read", r.vertices_read},
           {"polygons_repaired", r.polygons_repaired},
           {"warnings", r.warnings}};

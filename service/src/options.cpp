@@ -169,6 +169,23 @@ const std::vector<OptionSpec> kOptions = {
      [](JobSpec& s, const OptionValue& v) {
        s.seeds.on_conflict = v.text == "error" ? ConflictPolicy::error : ConflictPolicy::lower_code;
      }},
+    {"borderTolerance",
+     "border-tolerance",
+     OptionType::nonnegative_number,
+     "METRES",
+     "seeds",
+     "Land-border tolerance",
+     "Two owners' polygons that overlap only by slivers holding no disc of this diameter (metres; CRS units "
+     "for data without a CRS) share a land border: not a conflict. Reprojecting countries that share a border "
+     "leaves such slivers. They are listed in the report (seeds.land_border_slivers), and the lower owner code "
+     "takes them. 0 makes every overlap a conflict.",
+     "0.01",
+     {},
+     0,
+     0,
+     false,
+     false,
+     [](JobSpec& s, const OptionValue& v) { s.seeds.border_tolerance = v.number; }},
     // grid
     {"resolution",
      "resolution",

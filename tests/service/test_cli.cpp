@@ -181,6 +181,27 @@ TEST_F(Cli, MaxDistanceAndUnits) {
   EXPECT_GT(none, 0);
 }
 
+TEST_F(Cli, LandBorderSliversAreReportedAndTheToleranceIsAnOption) {
+  // Two countries sharing a border, reprojected to UTM 32N: a sliver ~4 mm wide. Accepted with
+  // the default tolerance and listed in the report; refused (exit code of a conflict) below it.
+  const std::string seeds = source("fixtures/land_border.geojson");
+  const std::string grid = " --owner-field owner --crs EPSG:32632 --resolution 200 --quiet --ownership ";
+  const CliRun ok = run("compute " + seeds + grid + path("o.tif") + " --report " + path("r.json"));
+  ASSERT_EQ(ok.exit_code, 0) << ok.output;
+  std::ifstream in(path("r.json"));
+  const nlohmann::json report = nlohmann::json::parse(in);
+  const nlohmann::json& slivers = report["seeds"]["land_border_slivers"];
+  EXPECT_EQ(slivers["count"].get<int>(), 1);
+  ASSERT_EQ(slivers["listed"].size(), 1u);
+  EXPECT_EQ(slivers["listed"][0]["owners"], nlohmann::json::array({"A", "B"}));
+  EXPECT_NEAR(slivers["listed"][0]["mean_width_m"].get<double>(), 0.004, 0.0002);
+  EXPECT_EQ(report["seeds"]["conflicts"].get<int>(), 0);
+  const CliRun refused = run("compute " + seeds + " --border-tolerance 0.001" + grid + path("o2.tif"));
+  EXPECT_NE(refused.exit_code, 0);
+  EXPECT_NE(refused.output.find("wider than the land-border tolerance, 0.001 m"), std::string::npos) << refused.output;
+  EXPECT_FALSE(std::filesystem::exists(path("o2.tif")));
+}
+
 TEST_F(Cli, ValidateReportsZeroWrongCellsForExact) {
   const CliRun r = run("validate " + source(kDemo) + " --resolution 400 --methods exact,hv-scan");
   ASSERT_EQ(r.exit_code, 0) << r.output;

@@ -66,9 +66,9 @@ TEST(Options, EachOptionIsDeclaredOnceAndComplete) {
     }
   }
   // The process inputs of the voronoi process, besides the seeds: the API's ids stay as they are.
-  EXPECT_EQ(inputs, (std::set<std::string_view>{"ownerField", "resolution", "extent", "crs", "metric", "method",
-                                                "maxDistance", "distanceUnits", "validate", "limitDistances",
-                                                "limitsPerOwner", "simplify", "compression"}));
+  EXPECT_EQ(inputs, (std::set<std::string_view>{"ownerField", "borderTolerance", "resolution", "extent", "crs",
+                                                "metric", "method", "maxDistance", "distanceUnits", "validate",
+                                                "limitDistances", "limitsPerOwner", "simplify", "compression"}));
 }
 
 TEST(Options, TheCliAndTheProcessInputsMakeTheSameJob) {
@@ -76,6 +76,7 @@ TEST(Options, TheCliAndTheProcessInputsMakeTheSameJob) {
                                 {"extent", "0", "0", "1000", "2000"},
                                 {"crs", "EPSG:32633"},
                                 {"owner-field", "state"},
+                                {"border-tolerance", "0.05"},
                                 {"metric", "planar"},
                                 {"method", "hv_scan"},
                                 {"max-distance", "5000"},
@@ -87,7 +88,7 @@ TEST(Options, TheCliAndTheProcessInputsMakeTheSameJob) {
                                 {"compression", "deflate"}});
   const JobSpec api = from_inputs(json::parse(R"({
       "resolution": 250, "extent": {"bbox": [0, 0, 1000, 2000]}, "crs": "EPSG:32633", "ownerField": "state",
-      "metric": "planar", "method": {"value": "hv_scan"}, "maxDistance": 5000, "distanceUnits": "km",
+      "borderTolerance": 0.05, "metric": "planar", "method": {"value": "hv_scan"}, "maxDistance": 5000, "distanceUnits": "km",
       "validate": true, "limitDistances": ["12nmi", {"value": 24, "unit": "nmi"}], "limitsPerOwner": true,
       "simplify": 0.5, "compression": "deflate"})"));
   for (const JobSpec* s : {&cli, &api}) {
@@ -95,6 +96,7 @@ TEST(Options, TheCliAndTheProcessInputsMakeTheSameJob) {
     EXPECT_EQ(*s->grid.extent, (std::array<double, 4>{0, 0, 1000, 2000}));
     EXPECT_EQ(s->seeds.target_crs, "EPSG:32633");
     EXPECT_EQ(*s->seeds.owner_field, "state");
+    EXPECT_EQ(s->seeds.border_tolerance, 0.05);
     EXPECT_EQ(s->metric, MetricRequest::planar);
     EXPECT_EQ(s->method, Method::hv_scan);  // an alias, read as the method it names
     EXPECT_EQ(*s->max_distance, 5000.0);

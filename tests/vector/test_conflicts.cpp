@@ -7,7 +7,10 @@
 #include <cstdio>
 #include <regex>
 #include <sstream>
+#include <utility>
+#include <vector>
 
+#include "normalise.hpp"
 #include "rv/engine.hpp"
 #include "rv/gdal/seed_reader.hpp"
 #include "rv/interior.hpp"
@@ -83,6 +86,75 @@ TEST(Conflicts, WithoutOwnerFieldEveryFeatureIsAnOwner) {
   SeedReadOptions o;
   o.paths = {fixture("touching.geojson")};
   expect_error(ErrorKind::conflict, [&] { load_seeds(o); }, {"touching:fid 0", "touching:fid 5"});
+}
+
+TEST(Conflicts, LandBorderSliversAreListedNotConflicts) {
+  // Two countries' squares sharing a border, A's side with three more vertices on it; read into
+  // UTM 32N the border bends through A's vertices but not B's: a sliver ~4 mm wide, ~22 m^2.
+  SeedReadOptions o;
+  o.paths = {fixture("land_border.geojson")};
+  o.owner_field = "owner";
+  o.target_crs = "EPSG:32632";
+  const LoadedSeeds l = load_seeds(o);
+  EXPECT_EQ(l.report.conflicts, 0);
+  ASSERT_EQ(l.report.sliver_count, 1);
+  ASSERT_EQ(l.report.slivers.size(), 1u);
+  const BorderSliver& s = l.report.slivers[0];
+  EXPECT_EQ(s.feature_a, 0);
+  EXPECT_EQ(s.feature_b, 1);
+  // Its area and mean width, against the same overlap measured in UTM by GEOS (22.17 m^2,
+  // 11,128.6 m of boundary: 2 A / P = 3.98 mm).
+  EXPECT_NEAR(s.area, 22.17, 0.05);
+  EXPECT_NEAR(s.mean_width, 0.00398, 0.0001);
+  // On the border: 10.05 E, between 55.0 and 55.05 N, in UTM 32N metres.
+  EXPECT_GT(s.x, 500000.0 + 60000.0);
+  EXPECT_LT(s.x, 500000.0 + 80000.0);
+  EXPECT_GT(s.y, 6094000.0);
+  EXPECT_LT(s.y, 6101000.0);
+
+  // Read in degrees (geographic: measured in metres on a local projection), the same sliver is
+  // not there (the border is straight in degrees on both sides), and nothing is listed.
+  o.target_crs = "";
+  EXPECT_EQ(load_seeds(o).report.sliver_count, 0);
+
+  // A tolerance below its width makes it a conflict again, said to be wider than the tolerance.
+  o.target_crs = "EPSG:32632";
+  o.border_tolerance = 0.002;
+  expect_error(ErrorKind::conflict, [&] { load_seeds(o); },
+               {"land_border:fid 0", "land_border:fid 1", "wider than the land-border tolerance, 0.002 m"});
+  o.border_tolerance = 0.0;
+  expect_error(ErrorKind::conflict, [&] { load_seeds(o); }, {"overlap area"});
+  o.border_tolerance = -1.0;
+  expect_error(ErrorKind::invalid_argument, [&] { load_seeds(o); }, {"land-border tolerance"});
+
+  // A real overlap (1 km x 1 km) stays an error with the default tolerance, as any would be.
+  EXPECT_EQ(SeedReadOptions{}.border_tolerance, 0.01);
+  expect_error(ErrorKind::conflict, [] { load("overlap.geojson"); }, {"wider than the land-border tolerance"});
+}
+
+TEST(Conflicts, SliverWidthsInMetresOnGeographicData) {
+  // A sliver given in degrees: measured in metres (azimuthal equidistant about it), so a 5 mm
+  // wide strip 1 km long (at 55 N) is narrow for 0.01 m and not for 0.004 m.
+  OGRSpatialReference wgs84;
+  wgs84.SetWellKnownGeogCS("WGS84");
+  wgs84.SetAxisMappingStrategy(OAMS_TRADITIONAL_GIS_ORDER);
+  const double dlat = 0.005 / 111255.0;  // 5 mm of latitude at 55 N (meridian arc ~111,255 m/deg)
+  OGRPolygon strip;
+  OGRLinearRing r;
+  for (const auto& [x, y] : std::vector<std::pair<double, double>>{
+           {10.0, 55.0}, {10.0157, 55.0}, {10.0157, 55.0 + dlat}, {10.0, 55.0 + dlat}, {10.0, 55.0}})
+    r.addPoint(x, y);
+  strip.addRing(&r);
+  double area = 0.0, width = 0.0;
+  EXPECT_TRUE(detail::sliver_narrow(strip, &wgs84, 0.01, area, width));
+  EXPECT_NEAR(width, 0.005, 0.0002);
+  EXPECT_NEAR(area, 0.005 * 1000.0, 20.0 * 0.005);  // 0.0157 deg of longitude at 55 N ~ 1,001 m
+  EXPECT_FALSE(detail::sliver_narrow(strip, &wgs84, 0.004, area, width));
+  // Lines and points only (polygons that touch): no area, not a sliver.
+  OGRLineString line;
+  line.addPoint(10.0, 55.0);
+  line.addPoint(10.1, 55.0);
+  EXPECT_FALSE(detail::sliver_narrow(line, &wgs84, 0.01, area, width));
 }
 
 TEST(Conflicts, LowerCodeAcceptsAndTheEngineResolves) {

@@ -6,6 +6,7 @@
 #include <numeric>
 
 #include <ogr_api.h>
+#include <ogr_spatialref.h>
 
 #include "gdal_util.hpp"
 #include "rv/error.hpp"
@@ -164,10 +165,57 @@ const char* verb(int da, int db) {
   return "cross";
 }
 
+// The polygons among a geometry's parts (an overlap may mix them with lines and points where
+// the shapes only touch).
+void gather_polygons(const OGRGeometry* g, OGRMultiPolygon& out) {
+  if (g == nullptr || g->IsEmpty()) return;
+  const OGRwkbGeometryType t = wkbFlatten(g->getGeometryType());
+  if (t == wkbPolygon) {
+    out.addGeometry(g);
+  } else if (OGR_GT_IsSubClassOf(g->getGeometryType(), wkbGeometryCollection)) {
+    for (const OGRGeometry* part : *g->toGeometryCollection()) gather_polygons(part, out);
+  }
+}
+
 }  // namespace
 
-void check_conflicts(std::vector<SeedPart>& parts, const SeedSet& seeds, ConflictPolicy policy,
-                     SeedReadReport& report) {
+bool sliver_narrow(const OGRGeometry& overlap, const OGRSpatialReference* srs, double tolerance, double& area,
+                   double& mean_width) {
+  OGRMultiPolygon polygons;
+  gather_polygons(&overlap, polygons);
+  area = mean_width = 0.0;
+  if (polygons.IsEmpty()) return false;
+  // In metres: a geographic CRS's overlap in an azimuthal equidistant projection centred on it
+  // (its scale is exact along the radii and off by ~1e-12 across them over a few metres); a
+  // projected CRS's units scaled to metres.
+  std::unique_ptr<OGRGeometry> metric(polygons.clone());
+  double unit = 1.0;  // metres per CRS unit
+  if (srs != nullptr && srs->IsGeographic()) {
+    OGREnvelope e;
+    polygons.getEnvelope(&e);
+    OGRSpatialReference from(*srs), local;
+    from.SetAxisMappingStrategy(OAMS_TRADITIONAL_GIS_ORDER);
+    if (local.CopyGeogCSFrom(srs) != OGRERR_NONE ||
+        local.SetAE(0.5 * (e.MinY + e.MaxY), 0.5 * (e.MinX + e.MaxX), 0.0, 0.0) != OGRERR_NONE)
+      return false;
+    local.SetAxisMappingStrategy(OAMS_TRADITIONAL_GIS_ORDER);
+    std::unique_ptr<OGRCoordinateTransformation> ct(OGRCreateCoordinateTransformation(&from, &local));
+    if (!ct || metric->transform(ct.get()) != OGRERR_NONE) return false;
+  } else if (srs != nullptr && srs->IsProjected()) {
+    unit = srs->GetLinearUnits();
+  }
+  double perimeter = 0.0;
+  for (const OGRPolygon* p : *metric->toMultiPolygon())
+    for (const OGRLinearRing* ring : *p) perimeter += ring->get_Length();
+  area = metric->toMultiPolygon()->get_Area() * unit * unit;
+  mean_width = perimeter > 0.0 ? 2.0 * area / (perimeter * unit) : 0.0;
+  // No disc of diameter `tolerance` fits inside exactly when shrinking by half of it leaves nothing.
+  const std::unique_ptr<OGRGeometry> shrunk(metric->Buffer(-0.5 * tolerance / unit, 8));
+  return shrunk != nullptr && shrunk->IsEmpty();
+}
+
+void check_conflicts(std::vector<SeedPart>& parts, const SeedSet& seeds, ConflictPolicy policy, double border_tolerance,
+                     const OGRSpatialReference* srs, SeedReadReport& report) {
   if (seeds.owner_count() < 2 || parts.size() < 2) return;
   gdal::ErrorCapture quiet;  // GEOS topology warnings are not for the user's terminal
   std::vector<size_t> order(parts.size());
@@ -175,6 +223,26 @@ void check_conflicts(std::vector<SeedPart>& parts, const SeedSet& seeds, Conflic
   std::stable_sort(order.begin(), order.end(),
                    [&](size_t a, size_t b) { return parts[a].envelope.MinX < parts[b].envelope.MinX; });
   ConflictFinder finder(parts);
+  // Two polygons overlapping by a sliver narrower than the tolerance: listed, not a conflict.
+  auto land_border = [&](const SeedPart& a, const SeedPart& b) {
+    const std::unique_ptr<OGRGeometry> x(a.geometry->Intersection(b.geometry.get()));
+    double area = 0.0, width = 0.0;
+    if (!x || !sliver_narrow(*x, srs, border_tolerance, area, width)) return false;
+    ++report.sliver_count;
+    if (report.slivers.size() < SeedReadReport::kMaxSlivers) {
+      BorderSliver s{a.feature, b.feature, 0.0, 0.0, area, width};
+      const std::unique_ptr<OGRGeometry> at(
+          OGRGeometry::FromHandle(OGR_G_PointOnSurface(OGRGeometry::ToHandle(x.get()))));
+      if (at && !at->IsEmpty() && wkbFlatten(at->getGeometryType()) == wkbPoint) {
+        s.x = at->toPoint()->getX();
+        s.y = at->toPoint()->getY();
+      } else {
+        first_vertex(x.get(), s.x, s.y);
+      }
+      report.slivers.push_back(s);
+    }
+    return true;
+  };
   std::vector<size_t> active;
   int64_t unchecked = 0;
   for (size_t i : order) {
@@ -200,10 +268,16 @@ void check_conflicts(std::vector<SeedPart>& parts, const SeedSet& seeds, Conflic
       // Report the lower feature first whatever order the sweep met them in.
       const SeedPart& a = parts[j].feature <= parts[i].feature ? parts[j] : parts[i];
       const SeedPart& b = &a == &parts[j] ? parts[i] : parts[j];
+      if (a.dimension == 2 && b.dimension == 2 && border_tolerance > 0.0 && land_border(a, b)) continue;
       if (policy == ConflictPolicy::error) {
+        char wider[96] = "";
+        if (a.dimension == 2 && b.dimension == 2 && border_tolerance > 0.0)
+          std::snprintf(wider, sizeof wider, " (wider than the land-border tolerance, %g %s)", border_tolerance,
+                        srs != nullptr ? "m" : "CRS units");
         throw Error(ErrorKind::conflict, "seeds of two owners " + std::string(verb(a.dimension, b.dimension)) + ": " +
                                              describe_feature(seeds, a.feature) + " and " +
-                                             describe_feature(seeds, b.feature) + " " + describe_intersection(a, b));
+                                             describe_feature(seeds, b.feature) + " " + describe_intersection(a, b) +
+                                             std::string(wider));
       }
       ++report.conflicts;
       if (report.conflicts <= kMaxConflictLines) {

@@ -44,9 +44,21 @@ int64_t remove_duplicate_vertices(std::vector<Vec2>& vertices, bool ring);
 
 // Finds pairs of parts of different owners whose interiors intersect. Candidate pairs come from
 // a sweep over the parts' envelopes sorted by xmin, then GEOS (prepared geometries for large
-// parts) decides. Policy error: throws rv::Error(conflict) for the first pair found, naming both
-// features (Feature::source), their owners and a coordinate inside the intersection. Policy
-// lower_code: counts the pairs in report.conflicts and adds warning lines for the first few.
-void check_conflicts(std::vector<SeedPart>& parts, const SeedSet& seeds, ConflictPolicy policy, SeedReadReport& report);
+// parts) decides. Two polygons whose overlap holds no disc of diameter `border_tolerance` metres
+// (sliver_narrow) meet along a land border: the sliver goes into report.slivers, not a conflict.
+// Policy error: throws rv::Error(conflict) for the first other pair found, naming both features
+// (Feature::source), their owners and a coordinate inside the intersection. Policy lower_code:
+// counts the pairs in report.conflicts and adds warning lines for the first few. `srs`: the
+// parts' CRS (null: none; the tolerance is then in CRS units).
+void check_conflicts(std::vector<SeedPart>& parts, const SeedSet& seeds, ConflictPolicy policy, double border_tolerance,
+                     const OGRSpatialReference* srs, SeedReadReport& report);
+
+// Whether the polygonal part of `overlap` (in the CRS `srs`) holds no disc of diameter
+// `tolerance` metres: it vanishes when shrunk by half that (a negative buffer, in metres: a
+// geographic CRS's overlap is first taken to an azimuthal equidistant projection centred on it).
+// Also its area (m^2) and mean width (twice the area over the perimeter, m). False for an overlap
+// with no area.
+bool sliver_narrow(const OGRGeometry& overlap, const OGRSpatialReference* srs, double tolerance, double& area,
+                   double& mean_width);
 
 }  // namespace rv::detail

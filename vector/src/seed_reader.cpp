@@ -268,6 +268,8 @@ class Reader {
 
   void run() {
     if (options_.paths.empty()) throw Error(ErrorKind::invalid_argument, "no seed files given");
+    if (!(options_.border_tolerance >= 0.0 && std::isfinite(options_.border_tolerance)))
+      throw Error(ErrorKind::invalid_argument, "the land-border tolerance must be a finite number >= 0");
     open_all();
     select_layers();
     choose_target();
@@ -277,7 +279,8 @@ class Reader {
       throw Error(ErrorKind::invalid_input, "no seed features: the layers read hold no non-empty geometry (" +
                                                 std::to_string(out_.report.features_skipped_empty) + " empty skipped)");
     add_to_seed_set();
-    detail::check_conflicts(parts_, out_.seeds, options_.on_conflict, out_.report);
+    detail::check_conflicts(parts_, out_.seeds, options_.on_conflict, options_.border_tolerance, target_.get(),
+                            out_.report);
     if (grid_) place_in_grid();
   }
 

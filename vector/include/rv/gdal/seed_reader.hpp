@@ -54,6 +54,12 @@ struct SeedReadOptions {
                                            // Layers without a CRS are accepted only when no layer
                                            // has one and target_crs is empty (with a warning).
   ConflictPolicy on_conflict = ConflictPolicy::error;
+  // Overlaps of two owners' polygons that hold no disc of this diameter (metres; CRS units when
+  // the data has no CRS) are land-border slivers, not conflicts: two countries' polygons that
+  // share a border overlap by such slivers once reprojected. They are listed in
+  // SeedReadReport::slivers and resolved as lower_code resolves overlaps. 0: every overlap is a
+  // conflict.
+  double border_tolerance = 0.01;
   std::vector<std::string> allowed_drivers;  // empty = any vector driver (confined: kConfinedDrivers)
   bool confined = false;                     // untrusted data (daemon uploads): see "Confinement" below
   int64_t max_features = 0;                  // > 0: more features than this (empty ones included) is too_large
@@ -128,6 +134,14 @@ struct CrsInfo {
   std::string name;          // human-readable name, e.g. "WGS 84 / UTM zone 33N"
 };
 
+// An overlap of two owners' polygons narrower than SeedReadOptions::border_tolerance.
+struct BorderSliver {
+  int32_t feature_a = 0, feature_b = 0;  // SeedSet feature indices, feature_a < feature_b
+  double x = 0.0, y = 0.0;               // a point inside it (the parts' CRS)
+  double area = 0.0;                     // square metres (CRS units squared without a CRS)
+  double mean_width = 0.0;               // metres: twice its area over its perimeter
+};
+
 struct SeedReadReport {
   int64_t features_read = 0;           // features that became seeds
   int64_t features_skipped_empty = 0;  // null or empty geometry
@@ -141,6 +155,9 @@ struct SeedReadReport {
   int64_t conflicts = 0;               // pairs of parts of two owners that overlap or cross
                                        // (only non-zero with ConflictPolicy::lower_code)
   std::vector<std::string> warnings;   // one line each
+  int64_t sliver_count = 0;            // land-border slivers found (the first kMaxSlivers listed)
+  std::vector<BorderSliver> slivers;
+  static constexpr size_t kMaxSlivers = 1000;
 };
 
 struct LoadedSeeds {
