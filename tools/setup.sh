@@ -8,7 +8,7 @@ set -euo pipefail
 
 packages=(
   build-essential cmake ninja-build pkg-config
-  libgdal-dev gdal-bin python3-gdal
+  libgdal-dev gdal-bin python3-gdal libproj-dev
   libtiff-dev libzstd-dev libdeflate-dev
   libgeographiclib-dev
   libgtest-dev libgmock-dev

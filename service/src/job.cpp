@@ -63,6 +63,16 @@ nlohmann::json seeds_json(const LoadedSeeds& loaded) {
          {"area_m2", b.area},
          {"mean_width_m", b.mean_width}});
   }
+  nlohmann::json transformations = nlohmann::json::array();
+  for (const TransformStatement& t : r.transformations)
+    transformations.push_back({{"layer", t.layer},
+                               {"from", t.from},
+                               {"to", t.to},
+                               {"operation", t.operation},
+                               {"accuracy_m", t.accuracy >= 0.0 ? nlohmann::json(t.accuracy) : nlohmann::json()},
+                               {"conversion", t.conversion},
+                               {"ballpark", t.ballpark},
+                               {"missing_grids", t.missing_grids}});
   return {{"features", s.features().size()},
           {"points", points},
           {"segments", segments},
@@ -74,6 +84,7 @@ nlohmann::json seeds_json(const LoadedSeeds& loaded) {
           {"points_removed", r.points_removed},
           {"conflicts", r.conflicts},
           {"land_border_slivers", {{"count", r.sliver_count}, {"listed", slivers}}},
+          {"transformations", transformations},
           {"vertices_read", r.vertices_read},
           {"polygons_repaired", r.polygons_repaired},
           {"warnings", r.warnings}};

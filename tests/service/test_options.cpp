@@ -66,9 +66,10 @@ TEST(Options, EachOptionIsDeclaredOnceAndComplete) {
     }
   }
   // The process inputs of the voronoi process, besides the seeds: the API's ids stay as they are.
-  EXPECT_EQ(inputs, (std::set<std::string_view>{"ownerField", "borderTolerance", "resolution", "extent", "crs",
-                                                "metric", "method", "maxDistance", "distanceUnits", "validate",
-                                                "limitDistances", "limitsPerOwner", "simplify", "compression"}));
+  EXPECT_EQ(inputs, (std::set<std::string_view>{"ownerField", "borderTolerance", "transformAccuracy", "allowBallpark",
+                                                "resolution", "extent", "crs", "metric", "method", "maxDistance",
+                                                "distanceUnits", "validate", "limitDistances", "limitsPerOwner",
+                                                "simplify", "compression"}));
 }
 
 TEST(Options, TheCliAndTheProcessInputsMakeTheSameJob) {
@@ -77,6 +78,8 @@ TEST(Options, TheCliAndTheProcessInputsMakeTheSameJob) {
                                 {"crs", "EPSG:32633"},
                                 {"owner-field", "state"},
                                 {"border-tolerance", "0.05"},
+                                {"transform-accuracy", "12"},
+                                {"allow-ballpark"},
                                 {"metric", "planar"},
                                 {"method", "hv_scan"},
                                 {"max-distance", "5000"},
@@ -88,7 +91,7 @@ TEST(Options, TheCliAndTheProcessInputsMakeTheSameJob) {
                                 {"compression", "deflate"}});
   const JobSpec api = from_inputs(json::parse(R"({
       "resolution": 250, "extent": {"bbox": [0, 0, 1000, 2000]}, "crs": "EPSG:32633", "ownerField": "state",
-      "borderTolerance": 0.05, "metric": "planar", "method": {"value": "hv_scan"}, "maxDistance": 5000, "distanceUnits": "km",
+      "borderTolerance": 0.05, "transformAccuracy": 12, "allowBallpark": true, "metric": "planar", "method": {"value": "hv_scan"}, "maxDistance": 5000, "distanceUnits": "km",
       "validate": true, "limitDistances": ["12nmi", {"value": 24, "unit": "nmi"}], "limitsPerOwner": true,
       "simplify": 0.5, "compression": "deflate"})"));
   for (const JobSpec* s : {&cli, &api}) {
@@ -97,6 +100,8 @@ TEST(Options, TheCliAndTheProcessInputsMakeTheSameJob) {
     EXPECT_EQ(s->seeds.target_crs, "EPSG:32633");
     EXPECT_EQ(*s->seeds.owner_field, "state");
     EXPECT_EQ(s->seeds.border_tolerance, 0.05);
+    EXPECT_EQ(s->seeds.transform_accuracy, 12.0);
+    EXPECT_TRUE(s->seeds.allow_ballpark);
     EXPECT_EQ(s->metric, MetricRequest::planar);
     EXPECT_EQ(s->method, Method::hv_scan);  // an alias, read as the method it names
     EXPECT_EQ(*s->max_distance, 5000.0);

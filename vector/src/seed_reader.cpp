@@ -21,6 +21,7 @@
 #include <ogr_api.h>
 #include <ogrsf_frmts.h>
 
+#include "crs_operation.hpp"
 #include "gdal_util.hpp"
 #include "input_scan.hpp"
 #include "normalise.hpp"
@@ -390,6 +391,74 @@ class Reader {
     }
   }
 
+  // The operation a layer goes to the target CRS through (crs_operation.hpp), stated in the
+  // report, refused when it is a ballpark one or less accurate than asked (unless allowed).
+  detail::ChosenOperation stated_operation(const LayerRef& l) {
+    double west = -180.0, south = -90.0, east = 180.0, north = 90.0;
+    lonlat_extent(l, west, south, east, north);
+    detail::ChosenOperation op = detail::choose_operation(*l.srs, *target_, west, south, east, north);
+    TransformStatement t{layer_label(l),     l.srs->GetName() ? l.srs->GetName() : "?",
+                         out_.seed_crs.name, op.name,
+                         op.accuracy,        op.conversion,
+                         op.ballpark,        op.missing_grids};
+    std::string problem;
+    char bound[64];
+    std::snprintf(bound, sizeof bound, "%g m", options_.transform_accuracy);
+    if (op.ballpark) {
+      problem = "is a ballpark one (a datum shift ignored or guessed: errors of the order of 100 m)";
+    } else if (op.accuracy < 0.0) {
+      problem = "has no stated accuracy";
+    } else if (op.accuracy > options_.transform_accuracy) {
+      char acc[64];
+      std::snprintf(acc, sizeof acc, "%g m", op.accuracy);
+      problem = std::string("is accurate to ") + acc + ", worse than the " + bound + " accepted (transform-accuracy)";
+    }
+    if (!problem.empty()) {
+      std::string grids;
+      for (const std::string& g : op.missing_grids) grids += (grids.empty() ? "" : ", ") + g;
+      const std::string message =
+          "layer " + layer_label(l) + ": the operation PROJ can use from " + t.from + " to " + t.to + " here, '" +
+          op.name + "', " + problem +
+          (grids.empty() ? std::string(" (no more accurate operation is known for this area)")
+                         : " (a more accurate one needs the PROJ grid(s) " + grids + ", not installed)");
+      if (!options_.allow_ballpark) throw Error(ErrorKind::invalid_input, message + "; allow-ballpark accepts it");
+      out_.report.warnings.push_back(message + "; accepted (allow-ballpark)");
+    }
+    out_.report.transformations.push_back(std::move(t));
+    return op;
+  }
+
+  // The layer's extent in longitude/latitude on its own datum (its CRS's geographic base), for
+  // PROJ's choice of operation; the whole world when it cannot be had.
+  void lonlat_extent(const LayerRef& l, double& west, double& south, double& east, double& north) const {
+    OGREnvelope e;
+    if (l.layer->GetExtent(&e, TRUE) != OGRERR_NONE) return;
+    OGRSpatialReference from(*l.srs), geog;
+    from.SetAxisMappingStrategy(OAMS_TRADITIONAL_GIS_ORDER);
+    if (geog.CopyGeogCSFrom(l.srs.get()) != OGRERR_NONE) return;
+    geog.SetAxisMappingStrategy(OAMS_TRADITIONAL_GIS_ORDER);
+    CtPtr ct(OGRCreateCoordinateTransformation(&from, &geog));
+    if (!ct) return;
+    // The box's corners and edge midpoints (a projected box's edges bend in longitude/latitude).
+    double xs[8] = {e.MinX, e.MaxX, e.MaxX, e.MinX, 0.5 * (e.MinX + e.MaxX), e.MaxX, 0.5 * (e.MinX + e.MaxX), e.MinX};
+    double ys[8] = {e.MinY, e.MinY, e.MaxY, e.MaxY, e.MinY, 0.5 * (e.MinY + e.MaxY), e.MaxY, 0.5 * (e.MinY + e.MaxY)};
+    int ok[8] = {0};
+    if (!ct->Transform(8, xs, ys, nullptr, ok)) return;
+    double w = 180.0, s = 90.0, x = -180.0, n = -90.0;
+    for (int k = 0; k < 8; ++k) {
+      if (!ok[k]) return;
+      w = std::min(w, xs[k]);
+      x = std::max(x, xs[k]);
+      s = std::min(s, ys[k]);
+      n = std::max(n, ys[k]);
+    }
+    if (!(w <= x && s <= n && w >= -180.0 && x <= 180.0 && s >= -90.0 && n <= 90.0)) return;
+    west = w;
+    east = x;
+    south = s;
+    north = n;
+  }
+
   // File names are bytes too (the CLI's user may name any file): valid_utf8 keeps the common
   // case as typed.
   std::string layer_label(const LayerRef& l) const { return valid_utf8(options_.paths[l.file]) + ":" + l.name; }
@@ -506,7 +575,10 @@ class Reader {
     }
     CtPtr ct;
     if (target_ && l.srs && !l.srs->IsSame(target_.get())) {
-      ct.reset(OGRCreateCoordinateTransformation(l.srs.get(), target_.get()));
+      const detail::ChosenOperation op = stated_operation(l);
+      OGRCoordinateTransformationOptions chosen;
+      chosen.SetCoordinateOperation(op.definition.c_str(), false);
+      ct.reset(OGRCreateCoordinateTransformation(l.srs.get(), target_.get(), chosen));
       if (!ct)
         throw Error(ErrorKind::invalid_input, "layer " + layer_label(l) + ": no transformation from its CRS (" +
                                                   escape_utf8(l.srs->GetName() ? l.srs->GetName() : "?") +

@@ -60,6 +60,14 @@ struct SeedReadOptions {
   // SeedReadReport::slivers and resolved as lower_code resolves overlaps. 0: every overlap is a
   // conflict.
   double border_tolerance = 0.01;
+  // A layer reprojected to the target CRS goes through the coordinate operation PROJ ranks first
+  // for its extent, stated in SeedReadReport::transformations. A ballpark one (the datum shift
+  // ignored or guessed), one of unknown accuracy or one less accurate than transform_accuracy
+  // metres is refused (rv::Error(invalid_input), naming the operation and the grids a better one
+  // needs) unless allow_ballpark, which turns the refusal into a warning. Conversions (no datum
+  // change) are exact.
+  double transform_accuracy = 1.0;
+  bool allow_ballpark = false;
   std::vector<std::string> allowed_drivers;  // empty = any vector driver (confined: kConfinedDrivers)
   bool confined = false;                     // untrusted data (daemon uploads): see "Confinement" below
   int64_t max_features = 0;                  // > 0: more features than this (empty ones included) is too_large
@@ -134,6 +142,17 @@ struct CrsInfo {
   std::string name;          // human-readable name, e.g. "WGS 84 / UTM zone 33N"
 };
 
+// How one layer was taken to the target CRS.
+struct TransformStatement {
+  std::string layer;        // file:layer
+  std::string from, to;     // CRS names
+  std::string operation;    // the coordinate operation (PROJ's / EPSG's name)
+  double accuracy = -1.0;   // metres; 0 for a conversion, -1 unknown
+  bool conversion = false;  // no datum change
+  bool ballpark = false;
+  std::vector<std::string> missing_grids;  // what a more accurate operation would need
+};
+
 // An overlap of two owners' polygons narrower than SeedReadOptions::border_tolerance.
 struct BorderSliver {
   int32_t feature_a = 0, feature_b = 0;  // SeedSet feature indices, feature_a < feature_b
@@ -143,19 +162,20 @@ struct BorderSliver {
 };
 
 struct SeedReadReport {
-  int64_t features_read = 0;           // features that became seeds
-  int64_t features_skipped_empty = 0;  // null or empty geometry
-  int64_t vertices_removed = 0;        // duplicate vertices / zero-length segments dropped
-  int64_t points_removed = 0;          // a point repeated inside one feature (multipoint)
-  int64_t polygons_repaired = 0;       // invalid polygon parts repaired (MakeValid), unclosed
-                                       // rings closed, degenerate holes dropped
-  int64_t vertices_read = 0;           // vertices of the features as read (curves: the bound of
-                                       // what linearising makes of them), before any cleaning
-  int64_t reading_bytes = 0;           // reading_bytes() of what was read: the reading's peak
-  int64_t conflicts = 0;               // pairs of parts of two owners that overlap or cross
-                                       // (only non-zero with ConflictPolicy::lower_code)
-  std::vector<std::string> warnings;   // one line each
-  int64_t sliver_count = 0;            // land-border slivers found (the first kMaxSlivers listed)
+  int64_t features_read = 0;                        // features that became seeds
+  int64_t features_skipped_empty = 0;               // null or empty geometry
+  int64_t vertices_removed = 0;                     // duplicate vertices / zero-length segments dropped
+  int64_t points_removed = 0;                       // a point repeated inside one feature (multipoint)
+  int64_t polygons_repaired = 0;                    // invalid polygon parts repaired (MakeValid), unclosed
+                                                    // rings closed, degenerate holes dropped
+  int64_t vertices_read = 0;                        // vertices of the features as read (curves: the bound of
+                                                    // what linearising makes of them), before any cleaning
+  int64_t reading_bytes = 0;                        // reading_bytes() of what was read: the reading's peak
+  int64_t conflicts = 0;                            // pairs of parts of two owners that overlap or cross
+                                                    // (only non-zero with ConflictPolicy::lower_code)
+  std::vector<std::string> warnings;                // one line each
+  std::vector<TransformStatement> transformations;  // one per layer reprojected
+  int64_t sliver_count = 0;                         // land-border slivers found (the first kMaxSlivers listed)
   std::vector<BorderSliver> slivers;
   static constexpr size_t kMaxSlivers = 1000;
 };
