@@ -3,6 +3,7 @@
 #include <GeographicLib/Geodesic.hpp>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 #include <numbers>
@@ -17,6 +18,16 @@
 
 namespace rv {
 namespace {
+
+// The same seeds measured both ways: geodesic (longitude/latitude on WGS 84) and planar (the
+// degrees taken as plane units, from `origin`), for the checks that hold for every metric.
+struct BothMetrics {
+  MetricSpec spec{MetricSpec::geodesic};
+  GeodesicSiteMetric geodesic;
+  PlanarSiteMetric planar;
+  BothMetrics(const SeedSet& s, Vec2 origin) : geodesic(s, spec), planar(s, origin) {}
+  std::array<const SiteMetric*, 2> all() const { return {&geodesic, &planar}; }
+};
 
 GridSpec grid(int64_t w, int64_t h, double res = 1.0, double xmin = 0.0, double ymax = -1.0) {
   GridSpec g;
@@ -589,14 +600,12 @@ TEST(Deliverables, OwnerIndexAgreesWithBruteForceAlongACoast) {
   s.add_polyline(s.add_feature(s.owner_code("A")), coast);
   const int32_t b = s.owner_code("B");
   for (int k = 0; k < 8; ++k) s.add_point(s.add_feature(b), {12.4 + 0.02 * k, 55.5 - 0.06 * k});
-  MetricSpec geodesic;
-  geodesic.kind = MetricSpec::geodesic;
-  const GeodesicSiteMetric gm(s, geodesic);
-  const PlanarSiteMetric pm(s, Vec2{12.0, 55.5});
+  const BothMetrics metrics(s, Vec2{12.0, 55.5});
+  const GeodesicSiteMetric& gm = metrics.geodesic;
   std::mt19937 rng(11);
   std::uniform_real_distribution<double> lon(12.05, 12.6), lat(55.0, 55.5);
   const auto sites = static_cast<int32_t>(s.sites().size());
-  for (const SiteMetric* m : {static_cast<const SiteMetric*>(&gm), static_cast<const SiteMetric*>(&pm)}) {
+  for (const SiteMetric* m : metrics.all()) {
     const OwnerIndex index(*m);
     int tight = 0;
     for (int i = 0; i < 300; ++i) {
@@ -661,14 +670,12 @@ TEST(Deliverables, GradientsAreTheDistancesSlopes) {
   s.add_point(f, {12.0, 55.0});
   s.add_polyline(f, std::vector<Vec2>{{12.2, 55.1}, {12.205, 55.102}, {12.4, 55.3}, {15.0, 57.0}});
   s.add_polygon(s.add_feature(s.owner_code("B")), {{{10.0, 54.0}, {10.5, 54.0}, {10.5, 54.4}, {10.0, 54.4}}});
-  MetricSpec geodesic;
-  geodesic.kind = MetricSpec::geodesic;
-  const GeodesicSiteMetric gm(s, geodesic);
-  const PlanarSiteMetric pm(s, Vec2{12.0, 56.0});
+  const BothMetrics metrics(s, Vec2{12.0, 56.0});
+  const GeodesicSiteMetric& gm = metrics.geodesic;
   std::mt19937 rng(5);
   std::uniform_real_distribution<double> lon(10.8, 14.0), lat(54.5, 56.8);
   const auto sites = static_cast<int32_t>(s.sites().size());
-  for (const SiteMetric* m : {static_cast<const SiteMetric*>(&gm), static_cast<const SiteMetric*>(&pm)}) {
+  for (const SiteMetric* m : metrics.all()) {
     for (int i = 0; i < 200; ++i) {
       const Vec2 p{lon(rng), lat(rng)};
       for (int32_t id = 0; id < sites; ++id) {
@@ -728,11 +735,8 @@ TEST(Deliverables, OwnerIndexHintsChangeNoResult) {
       }
     }
   }
-  MetricSpec geodesic;
-  geodesic.kind = MetricSpec::geodesic;
-  const GeodesicSiteMetric gm(s, geodesic);
-  const PlanarSiteMetric pm(s, Vec2{11.0, 56.0});
-  for (const SiteMetric* m : {static_cast<const SiteMetric*>(&gm), static_cast<const SiteMetric*>(&pm)}) {
+  const BothMetrics metrics(s, Vec2{11.0, 56.0});
+  for (const SiteMetric* m : metrics.all()) {
     const OwnerIndex index(*m);
     const auto sites = static_cast<int32_t>(s.sites().size());
     for (int i = 0; i < 60; ++i) {
