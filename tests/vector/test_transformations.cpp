@@ -92,6 +92,9 @@ TEST(Transformations, LessAccurateThanAskedIsRefusedNamingTheGrids) {
   const LoadedSeeds l = load_seeds(o);
   ASSERT_EQ(l.report.transformations.size(), 1u);
   EXPECT_GT(l.report.transformations[0].accuracy, 1.0);
+  o.transform_accuracy = -1.0;
+  expect_error(ErrorKind::invalid_argument, [&] { load_seeds(o); }, {"accepted transformation accuracy"});
+  o.transform_accuracy = 25.0;
   EXPECT_LE(l.report.transformations[0].accuracy, 25.0);
   EXPECT_FALSE(l.report.transformations[0].missing_grids.empty());
 }

@@ -58,6 +58,8 @@ bool is_conversion(PJ_CONTEXT* ctx, const PJ* op) {
 ChosenOperation choose_operation(const OGRSpatialReference& from, const OGRSpatialReference& to, double west,
                                  double south, double east, double north) {
   const Context ctx(proj_context_create());
+  // PROJ says on stderr which grids an operation lacks; that is stated in the result instead.
+  proj_log_func(ctx.get(), nullptr, [](void*, int, const char*) {});
   const Object source = crs_of(ctx.get(), from), target = crs_of(ctx.get(), to);
   // Whole-area operations first: one whose area of use only meets the data's would carry the
   // part outside it too.

@@ -271,6 +271,8 @@ class Reader {
     if (options_.paths.empty()) throw Error(ErrorKind::invalid_argument, "no seed files given");
     if (!(options_.border_tolerance >= 0.0 && std::isfinite(options_.border_tolerance)))
       throw Error(ErrorKind::invalid_argument, "the land-border tolerance must be a finite number >= 0");
+    if (!(options_.transform_accuracy >= 0.0 && std::isfinite(options_.transform_accuracy)))
+      throw Error(ErrorKind::invalid_argument, "the accepted transformation accuracy must be a finite number >= 0");
     open_all();
     select_layers();
     choose_target();
@@ -397,10 +399,15 @@ class Reader {
     double west = -180.0, south = -90.0, east = 180.0, north = 90.0;
     lonlat_extent(l, west, south, east, north);
     detail::ChosenOperation op = detail::choose_operation(*l.srs, *target_, west, south, east, north);
-    TransformStatement t{layer_label(l),     l.srs->GetName() ? l.srs->GetName() : "?",
-                         out_.seed_crs.name, op.name,
-                         op.accuracy,        op.conversion,
-                         op.ballpark,        op.missing_grids};
+    // Names from the data (a layer's WKT may name its CRS anything) escaped, as every message's.
+    TransformStatement t{layer_label(l),
+                         escape_utf8(l.srs->GetName() ? l.srs->GetName() : "?"),
+                         escape_utf8(out_.seed_crs.name),
+                         escape_utf8(op.name),
+                         op.accuracy,
+                         op.conversion,
+                         op.ballpark,
+                         op.missing_grids};
     std::string problem;
     char bound[64];
     std::snprintf(bound, sizeof bound, "%g m", options_.transform_accuracy);
@@ -418,7 +425,7 @@ class Reader {
       for (const std::string& g : op.missing_grids) grids += (grids.empty() ? "" : ", ") + g;
       const std::string message =
           "layer " + layer_label(l) + ": the operation PROJ can use from " + t.from + " to " + t.to + " here, '" +
-          op.name + "', " + problem +
+          t.operation + "', " + problem +
           (grids.empty() ? std::string(" (no more accurate operation is known for this area)")
                          : " (a more accurate one needs the PROJ grid(s) " + grids + ", not installed)");
       if (!options_.allow_ballpark) throw Error(ErrorKind::invalid_input, message + "; allow-ballpark accepts it");
