@@ -250,7 +250,16 @@ void StripDeliverables::State::write_region_polygons(const BoundaryResult& bound
   const RegionStats rs = write_line_regions(
       out.regions, lr, seeds, s.job.loaded.grid_polygons ? *s.job.loaded.grid_polygons : seeds.polygons(), s.vector);
   run.wrote("regions", out.regions);
-  s.report["regions"] = {{"owners", rs.owners}, {"polygons", rs.polygons}};
+  // Each owner's areas in the report too, for the analyst who does not open the file.
+  nlohmann::json areas = nlohmann::json::array();
+  for (const RegionStats::OwnerArea& a : rs.areas)
+    areas.push_back({{"owner", a.owner},
+                     {"label", seeds.owner_labels()[static_cast<size_t>(a.owner - 1)]},
+                     {"area", a.area},
+                     {"land_area", a.land},
+                     {"sea_area", a.sea}});
+  s.report["regions"] = {
+      {"owners", rs.owners}, {"polygons", rs.polygons}, {"areas", areas}, {"area_units", lr.area_units}};
   s.times["regions"] = s.region_seconds + seconds_since(t);
 }
 

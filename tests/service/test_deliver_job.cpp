@@ -69,6 +69,20 @@ TEST_F(DeliverJob, WritesEveryDeliverableAndTheyPassTheChecks) {
   EXPECT_LE(d["limits"]["max_residual_cells"].get<double>(), 1e-3);
   EXPECT_NEAR(d["limits"]["distances"][0].get<double>(), 1852.0, 1e-9);
   EXPECT_EQ(d["regions"]["owners"].get<int>(), 3);
+  // Each owner's areas in the report: land and sea add up to its region, and the regions tile
+  // the grid (no max distance), in the job's distance units squared (metres here).
+  ASSERT_EQ(d["regions"]["areas"].size(), 3u);
+  EXPECT_EQ(d["regions"]["area_units"].get<std::string>(), "m^2");
+  double total = 0.0;
+  for (const auto& a : d["regions"]["areas"]) {
+    EXPECT_NEAR(a["land_area"].get<double>() + a["sea_area"].get<double>(), a["area"].get<double>(),
+                1e-9 * a["area"].get<double>());
+    EXPECT_GT(a["sea_area"].get<double>(), 0.0) << a["label"];
+    total += a["area"].get<double>();
+  }
+  const auto& grid = r.report["grid"];
+  const double grid_area = grid["width"].get<double>() * grid["height"].get<double>() * 250.0 * 250.0;
+  EXPECT_NEAR(total, grid_area, 1e-6 * grid_area);
   const auto& times = r.report["timings_s"]["deliverables"];
   for (const char* k : {"boundaries", "limits", "regions", "margin", "preview", "exact_field", "wall"})
     EXPECT_TRUE(times.contains(k)) << k;

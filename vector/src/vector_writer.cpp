@@ -495,6 +495,7 @@ RegionStats write_line_regions(const std::string& path, const LineRegions& r, co
     return f;
   };
   for (const OwnerParts& part : land_and_sea(by_owner, land_of, r, o.threads)) {
+    stats.areas.push_back({part.owner, part.land_area + part.sea_area, part.land_area, part.sea_area});
     FeaturePtr f = add(l, part.owner, *part.region, part.land_area + part.sea_area);
     f->SetField("land_area", part.land_area);
     f->SetField("sea_area", part.sea_area);

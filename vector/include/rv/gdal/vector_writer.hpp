@@ -52,6 +52,13 @@ void write_limits(const std::string& path, const LimitResult& limits, const Seed
 struct RegionStats {
   int64_t owners = 0;    // features written (owners with a region)
   int64_t polygons = 0;  // polygon parts in all
+  // Per owner written, in owner code order: its region's area, the land (its seed polygons'
+  // interiors within it) and the sea, in LineRegions::area_units.
+  struct OwnerArea {
+    int32_t owner = 0;
+    double area = 0.0, land = 0.0, sea = 0.0;
+  };
+  std::vector<OwnerArea> areas;
 };
 
 // Regions bounded by the refined lines: the grid's outline and `edges` (region_edges) noded and
