@@ -190,10 +190,8 @@ void place_crossings(const BoundaryGrid& b, const Segment& sg, std::vector<Cross
   // The two owners' nearest distances at the middle, bounded without measuring: the field's
   // (Float32, relative rounding below 1e-7) at their centres, plus the way from there.
   std::unordered_map<int32_t, double> at_most;
-  at_most[sg.from] = static_cast<double>(b.rows.distance(c, r)) * (1.0 + 1e-6) + reach;
-  at_most[sg.to] =
-      static_cast<double>(sg.edge % 2 == 0 ? b.rows.distance(c + 1, r) : b.rows.distance(c, r + 1)) * (1.0 + 1e-6) +
-      reach;
+  at_most[sg.from] = nearest_at_most(b.rows.distance(c, r), reach);
+  at_most[sg.to] = nearest_at_most(sg.edge % 2 == 0 ? b.rows.distance(c + 1, r) : b.rows.distance(c, r + 1), reach);
   std::unordered_map<int32_t, std::vector<int32_t>> candidates;
   auto nearest_of = [&](Vec2 p, int32_t owner, Vec2* gradient) {
     auto [it, fresh] = candidates.try_emplace(owner);
@@ -232,13 +230,7 @@ void place_crossings(const BoundaryGrid& b, const Segment& sg, std::vector<Cross
       const double v = f(t);
       return std::pair{v, (grad_x.x - grad_y.x) * (p1.x - p0.x) + (grad_x.y - grad_y.y) * (p1.y - p0.y)};
     };
-    const NewtonRoot nr = newton_root(with_slope, 0.5 * (t0 + t1), t0, t1, true, ftol, kNewtonSteps);
-    double t = nr.t;
-    if (std::isnan(t)) {
-      const double a = nr.lo, w = nr.hi - nr.lo;
-      const double fa = std::isnan(nr.f_lo) ? f(a) : nr.f_lo, fb = std::isnan(nr.f_hi) ? f(nr.hi) : nr.f_hi;
-      t = a + w * find_root([&](double u) { return f(a + w * u); }, fa, fb, ftol, 1e-15);
-    }
+    const double t = newton_then_bracket(f, with_slope, 0.5 * (t0 + t1), t0, t1, true, ftol);
     const Vec2 p = lerp(p0, p1, t);
     hits(p);
     const OwnerIndex::Hit hx = last_x, hy = last_y;

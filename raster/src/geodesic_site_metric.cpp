@@ -52,11 +52,6 @@ double GeodesicSiteMetric::distance(Vec2 p, int32_t site) const {
   return inside_area(p, site) ? 0.0 : std::numeric_limits<double>::infinity();
 }
 
-double GeodesicSiteMetric::distance_and_gradient(Vec2 p, int32_t site, Vec2& gradient) const {
-  VertexHit hit;
-  return distance_at_vertex(p, site, gradient, hit);
-}
-
 bool GeodesicSiteMetric::ties_at_vertex(Vec2 p, int32_t site, const VertexHit& hit, double d) const {
   if (!hit.valid || seeds().sites()[static_cast<size_t>(site)].kind != SiteKind::segment) return false;
   if (!(p.y >= -90.0 && p.y <= 90.0)) return false;
@@ -221,8 +216,16 @@ double LocatedGeodesicSiteMetric::point_distance(Vec2 a, Vec2 b) const {
 Vec3 LocatedGeodesicSiteMetric::embed(Vec2 p) const { return geodesic_.embed(locate(p)); }
 
 double LocatedGeodesicSiteMetric::distance_lower_bound(Vec2 p, int32_t site) const {
-  if (seeds().sites()[static_cast<size_t>(site)].kind == SiteKind::area) return 0.0;
-  return geodesic_.distance_lower_bound(locate(p), site);
+  double lb = 0.0;
+  distance_lower_bounds(p, std::span<const int32_t>(&site, 1), std::span<double>(&lb, 1));
+  return lb;
+}
+
+void LocatedGeodesicSiteMetric::distance_lower_bounds(Vec2 p, std::span<const int32_t> sites,
+                                                      std::span<double> out) const {
+  // Located once for all the sites (areas: 0 there too, their inside test being in grid
+  // coordinates).
+  geodesic_.distance_lower_bounds(locate(p), sites, out);
 }
 
 Box3 LocatedGeodesicSiteMetric::site_bounds(int32_t site) const {

@@ -189,8 +189,7 @@ LimitCrossings limit_crossings(const Target& t, const InsideRows& inside, int64_
       // cell's site is the target's.
       const float inside_distance = inside.at(c, r) ? lg.rows.distance(c, r) : lg.rows.distance(ci, ri);
       const bool own = hint != kNoSite && (t.owner == 0 || lg.owner_of_site[static_cast<size_t>(hint)] == t.owner);
-      const double at_most =
-          own ? static_cast<double>(inside_distance) * (1.0 + 1e-6) + reach : std::numeric_limits<double>::infinity();
+      const double at_most = own ? nearest_at_most(inside_distance, reach) : std::numeric_limits<double>::infinity();
       if (t.owner != 0)
         lg.index.candidates_of(mid, reach, t.owner, hint, cands, at_most);
       else
@@ -223,13 +222,7 @@ LimitCrossings limit_crossings(const Target& t, const InsideRows& inside, int64_
         const double d0 = lg.rows.distance(c, r), d1 = lg.rows.distance(ci, ri);
         if (d1 != d0) start = std::clamp((t.D - d0) / (d1 - d0), 0.02, 0.98);
       }
-      const NewtonRoot nr = newton_root(with_slope, start, 0.0, 1.0, in0, lg.ftol, kNewtonSteps);
-      double u = nr.t;
-      if (std::isnan(u)) {
-        const double a = nr.lo, w = nr.hi - nr.lo;
-        const double fa = std::isnan(nr.f_lo) ? f(a) : nr.f_lo, fb = std::isnan(nr.f_hi) ? f(nr.hi) : nr.f_hi;
-        u = a + w * find_root([&](double v) { return f(a + w * v); }, fa, fb, lg.ftol, 1e-15);
-      }
+      const double u = newton_then_bracket(f, with_slope, start, 0.0, 1.0, in0, lg.ftol);
       const Vec2 p = lerp(p0, p1, u);
       const auto h = hit(p);
       x.verts[i] = LimitVertex{p, h.site, std::abs(h.distance - t.D)};

@@ -102,6 +102,26 @@ NewtonRoot newton_root(G&& g, double start, double lo, double hi, bool rising, d
   return r;
 }
 
+// A root of f on [lo, hi] (f(lo) <= 0 <= f(hi) when `rising`, the reverse otherwise, known
+// without measuring): newton_root's steps from `start` with g(t) = {f(t), f'(t)}, and where they
+// hand over, find_root (Illinois) on what is left of the bracket, measuring its ends only where
+// Newton did not.
+template <class F, class G>
+double newton_then_bracket(F&& f, G&& g, double start, double lo, double hi, bool rising, double ftol) {
+  const NewtonRoot nr = newton_root(g, start, lo, hi, rising, ftol, kNewtonSteps);
+  if (!std::isnan(nr.t)) return nr.t;
+  const double a = nr.lo, w = nr.hi - nr.lo;
+  const double fa = std::isnan(nr.f_lo) ? f(a) : nr.f_lo, fb = std::isnan(nr.f_hi) ? f(nr.hi) : nr.f_hi;
+  return a + w * find_root([&](double u) { return f(a + w * u); }, fa, fb, ftol, 1e-15);
+}
+
+// An upper bound of the nearest distance at the middle of a cell edge, without measuring: the
+// field's Float32 distance at one of its centres (relative rounding below 1e-7, taken as 1e-6)
+// plus the way from that centre (`reach`, edge_reach).
+inline double nearest_at_most(float field_distance, double reach) {
+  return static_cast<double>(field_distance) * (1.0 + 1e-6) + reach;
+}
+
 // f(r, out) for each row of [row0, row1) on `threads` threads, in chunks of rows, each chunk
 // appending to its own list; the lists joined in row order, so the result does not depend on the
 // threads. For the scans over every cell or square of a field, whose finds are few.

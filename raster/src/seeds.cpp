@@ -44,16 +44,16 @@ GeometryKind merge_kind(bool had_sites, GeometryKind old_kind, GeometryKind add)
   if (!had_sites || old_kind == add) return add;
   return GeometryKind::mixed;
 }
-
-std::string describe(const Feature& f, int32_t index) {
-  return f.source.empty() ? "feature " + std::to_string(index + 1) : f.source;
-}
 }  // namespace
+
+std::string SeedSet::feature_name(int32_t feature) const {
+  const Feature& f = features_[static_cast<size_t>(feature)];
+  return f.source.empty() ? "feature " + std::to_string(feature + 1) : f.source;
+}
 
 int SeedSet::add_point(int32_t feature, Vec2 p) {
   check_feature(feature);
-  if (!finite(p))
-    throw Error(ErrorKind::invalid_input, describe(features_[feature], feature) + ": non-finite coordinate");
+  if (!finite(p)) throw Error(ErrorKind::invalid_input, feature_name(feature) + ": non-finite coordinate");
   const bool had = !sites_.empty() && sites_.back().feature == feature;
   features_[feature].kind = merge_kind(had, features_[feature].kind, GeometryKind::point);
   add_site(Site{p, p, feature, SiteKind::point});
@@ -63,8 +63,7 @@ int SeedSet::add_point(int32_t feature, Vec2 p) {
 int SeedSet::add_polyline(int32_t feature, std::span<const Vec2> vertices) {
   check_feature(feature);
   for (const Vec2& v : vertices)
-    if (!finite(v))
-      throw Error(ErrorKind::invalid_input, describe(features_[feature], feature) + ": non-finite coordinate");
+    if (!finite(v)) throw Error(ErrorKind::invalid_input, feature_name(feature) + ": non-finite coordinate");
   std::vector<Vec2> clean;
   clean.reserve(vertices.size());
   for (const Vec2& v : vertices)
@@ -84,8 +83,7 @@ int SeedSet::add_polygon(int32_t feature, std::vector<Ring> rings) {
     Ring clean;
     clean.reserve(ring.size());
     for (const Vec2& v : ring) {
-      if (!finite(v))
-        throw Error(ErrorKind::invalid_input, describe(features_[feature], feature) + ": non-finite coordinate");
+      if (!finite(v)) throw Error(ErrorKind::invalid_input, feature_name(feature) + ": non-finite coordinate");
       if (clean.empty() || !(clean.back() == v)) clean.push_back(v);
     }
     while (clean.size() > 1 && clean.back() == clean.front()) clean.pop_back();

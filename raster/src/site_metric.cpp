@@ -113,14 +113,10 @@ double SiteMetric::lower_bound(const Vec3& q, const Box3& b) {
   return std::sqrt(dx * dx + dy * dy + dz * dz) * (1.0 - 1e-12);
 }
 
-double SiteMetric::distance_and_gradient(Vec2 p, int32_t site, Vec2& gradient) const {
-  gradient = Vec2{std::numeric_limits<double>::quiet_NaN(), std::numeric_limits<double>::quiet_NaN()};
-  return distance(p, site);
-}
-
 double SiteMetric::distance_at_vertex(Vec2 p, int32_t site, Vec2& gradient, VertexHit& hit) const {
   hit = VertexHit{};
-  return distance_and_gradient(p, site, gradient);
+  gradient = Vec2{std::numeric_limits<double>::quiet_NaN(), std::numeric_limits<double>::quiet_NaN()};
+  return distance(p, site);
 }
 
 bool SiteMetric::ties_at_vertex(Vec2, int32_t, const VertexHit&, double) const { return false; }
@@ -156,7 +152,8 @@ double PlanarSiteMetric::distance(Vec2 p, int32_t site) const {
   return std::sqrt(planar_key(p.x - origin_.x, p.y - origin_.y, local_of(s, origin_)));
 }
 
-double PlanarSiteMetric::distance_and_gradient(Vec2 p, int32_t site, Vec2& gradient) const {
+double PlanarSiteMetric::distance_at_vertex(Vec2 p, int32_t site, Vec2& gradient, VertexHit& hit) const {
+  hit = VertexHit{};
   const double d = distance(p, site);
   const Site& s = seeds().sites()[static_cast<size_t>(site)];
   const Vec2 q = nearest_point(p, site);
@@ -359,30 +356,28 @@ void OwnerIndex::candidates_not_of(Vec2 centre, double reach, int32_t owner, Hit
 
 OwnerIndex::Hit OwnerIndex::nearest_among(Vec2 p, const std::vector<int32_t>& sites, Vec2* gradient) const {
   Hit best;
-  Vec2 slope;
+  Vec2 slope{std::numeric_limits<double>::quiet_NaN(), std::numeric_limits<double>::quiet_NaN()};
   SiteMetric::VertexHit at_vertex;  // where the best so far was attained
+  // The lowest index among exact ties, as measuring every one in index order kept.
   auto measure = [&](int32_t id) {
     Vec2 g;
     SiteMetric::VertexHit v;
     const double d = metric_.distance_at_vertex(p, id, g, v);
     if (d < best.distance || (d == best.distance && id < best.site)) {
+      best = Hit{id, d};
       slope = g;
       at_vertex = v;
     }
-    return d;
   };
-  if (gradient != nullptr)
-    *gradient = Vec2{std::numeric_limits<double>::quiet_NaN(), std::numeric_limits<double>::quiet_NaN()};
+  if (gradient != nullptr) *gradient = slope;
   if (sites.size() == 1) {
-    best = Hit{sites[0], measure(sites[0])};
-    if (std::isinf(best.distance)) return Hit{};
-    if (gradient != nullptr) *gradient = slope;
+    measure(sites[0]);
+    if (gradient != nullptr && best.site != kNoSite) *gradient = slope;
     return best;
   }
   // The sites of a stretch of coast all pass the candidates' ball test, but nearly all of them
   // are metres farther than the nearest: measured in order of their lower bounds, the first
-  // usually rules out the rest. Ties keep the lowest index, as measuring every one in index
-  // order did.
+  // usually rules out the rest.
   std::vector<double> bounds(sites.size());
   metric_.distance_lower_bounds(p, sites, bounds);
   std::vector<std::pair<double, int32_t>> order(sites.size());
@@ -396,8 +391,7 @@ OwnerIndex::Hit OwnerIndex::nearest_among(Vec2 p, const std::vector<int32_t>& si
       best.site = std::min(best.site, id);  // the same distance and gradient
       continue;
     }
-    const double d = measure(id);
-    if (d < best.distance || (d == best.distance && id < best.site)) best = Hit{id, d};
+    measure(id);
   }
   if (gradient != nullptr && best.site != kNoSite) *gradient = slope;
   return best;

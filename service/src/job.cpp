@@ -52,11 +52,8 @@ nlohmann::json seeds_json(const LoadedSeeds& loaded) {
   for (const BorderSliver& b : r.slivers) {
     const Feature& fa = s.features()[static_cast<size_t>(b.feature_a)];
     const Feature& fb = s.features()[static_cast<size_t>(b.feature_b)];
-    auto name = [&](const Feature& f, int32_t index) {
-      return f.source.empty() ? "feature " + std::to_string(index + 1) : f.source;
-    };
     slivers.push_back(
-        {{"features", {name(fa, b.feature_a), name(fb, b.feature_b)}},
+        {{"features", {s.feature_name(b.feature_a), s.feature_name(b.feature_b)}},
          {"owners",
           {s.owner_labels()[static_cast<size_t>(fa.owner - 1)], s.owner_labels()[static_cast<size_t>(fb.owner - 1)]}},
          {"at", {b.x, b.y}},

@@ -155,7 +155,7 @@ std::string describe_intersection(const SeedPart& a, const SeedPart& b) {
 std::string describe_feature(const SeedSet& seeds, int32_t feature) {
   const Feature& f = seeds.features()[feature];
   const std::string& label = seeds.owner_labels()[f.owner - 1];
-  return (f.source.empty() ? "feature " + std::to_string(feature + 1) : f.source) + " (owner '" + label + "')";
+  return seeds.feature_name(feature) + " (owner '" + label + "')";
 }
 
 const char* verb(int da, int db) {

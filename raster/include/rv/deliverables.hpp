@@ -78,12 +78,6 @@ class SiteMetric {
   // rule over its rings), +infinity outside (the polygon's rings are segment sites of the same
   // feature, which carry the distance outside).
   virtual double distance(Vec2 p, int32_t site) const = 0;
-  // distance(p, site), the same bits, and its gradient with respect to p: (dd/dx, dd/dy) in
-  // metric units per CRS unit (a unit vector on planar grids, metres per degree on geodesic
-  // ones), pointing away from the site's nearest point. NaN components where the metric gives
-  // none (p on the site, area sites, and every site by default), which root finding takes as
-  // "no slope known".
-  virtual double distance_and_gradient(Vec2 p, int32_t site, Vec2& gradient) const;
   // Where a distance was attained at a vertex of a line: the vertex as given and the direction
   // to the position (metric-specific; valid false where the metric does not say).
   struct VertexHit {
@@ -91,10 +85,18 @@ class SiteMetric {
     Vec2 vertex;
     double direction = 0.0;
   };
-  // distance_and_gradient, and in `hit` whether it was attained at a vertex of the site's line
-  // (the vertex's canonical distance, the same bits from every edge that shares it). Default:
-  // never.
+  // distance(p, site), the same bits, with its gradient with respect to p: (dd/dx, dd/dy) in
+  // metric units per CRS unit (a unit vector on planar grids, metres per degree on geodesic
+  // ones), pointing away from the site's nearest point; NaN components where the metric gives
+  // none (p on the site, area sites, and every site by default), which root finding takes as
+  // "no slope known". In `hit`: whether it was attained at a vertex of the site's line (the
+  // vertex's canonical distance, the same bits from every edge that shares it); by default never.
   virtual double distance_at_vertex(Vec2 p, int32_t site, Vec2& gradient, VertexHit& hit) const;
+  // The same without the vertex.
+  double distance_and_gradient(Vec2 p, int32_t site, Vec2& gradient) const {
+    VertexHit hit;
+    return distance_at_vertex(p, site, gradient, hit);
+  }
   // True when distance(p, site) is certainly, to the bit, `d`: the canonical distance of the
   // vertex `hit` (from distance_at_vertex on a neighbouring edge at the same p), which this site
   // shares and attains its distance at. Searches take such ties without measuring. Default:
@@ -149,7 +151,7 @@ class PlanarSiteMetric final : public SiteMetric {
  public:
   PlanarSiteMetric(const SeedSet& seeds, Vec2 origin);
   double distance(Vec2 p, int32_t site) const override;
-  double distance_and_gradient(Vec2 p, int32_t site, Vec2& gradient) const override;
+  double distance_at_vertex(Vec2 p, int32_t site, Vec2& gradient, VertexHit& hit) const override;
   Vec2 nearest_point(Vec2 p, int32_t site) const override;
   double point_distance(Vec2 a, Vec2 b) const override;
   Vec3 embed(Vec2 p) const override;
@@ -169,7 +171,6 @@ class GeodesicSiteMetric final : public SiteMetric {
   GeodesicSiteMetric(const SeedSet& seeds, const MetricSpec& metric);
   ~GeodesicSiteMetric() override;
   double distance(Vec2 p, int32_t site) const override;
-  double distance_and_gradient(Vec2 p, int32_t site, Vec2& gradient) const override;
   double distance_at_vertex(Vec2 p, int32_t site, Vec2& gradient, VertexHit& hit) const override;
   bool ties_at_vertex(Vec2 p, int32_t site, const VertexHit& hit, double d) const override;
   Vec2 nearest_point(Vec2 p, int32_t site) const override;
@@ -205,6 +206,7 @@ class LocatedGeodesicSiteMetric final : public SiteMetric {
   Vec3 embed(Vec2 p) const override;
   Box3 site_bounds(int32_t site) const override;
   double distance_lower_bound(Vec2 p, int32_t site) const override;
+  void distance_lower_bounds(Vec2 p, std::span<const int32_t> sites, std::span<double> out) const override;
 
  private:
   Vec2 locate(Vec2 p) const;
@@ -256,7 +258,7 @@ class OwnerIndex {
   void candidates_not_of(Vec2 centre, double reach, int32_t owner, Hit known, std::vector<int32_t>& out,
                          double nearest_at_most = std::numeric_limits<double>::infinity()) const;
   // The nearest of `sites` (ascending indices) to p: the lowest index among exact ties. With
-  // `gradient`: also the winner's (SiteMetric::distance_and_gradient; NaN when none).
+  // `gradient`: also the winner's (SiteMetric::distance_at_vertex; NaN when none).
   Hit nearest_among(Vec2 p, const std::vector<int32_t>& sites, Vec2* gradient = nullptr) const;
   // Nearest site of any owner.
   Hit nearest(Vec2 p, Hit known) const { return nearest_not_of(p, 0, known); }

@@ -78,6 +78,8 @@ class SeedSet {
   const std::vector<Polygon>& polygons() const { return polygons_; }
   const std::vector<Feature>& features() const { return features_; }
   const std::vector<std::string>& owner_labels() const { return owner_labels_; }  // code-1 -> label
+  // How messages and reports name a feature: its source, or "feature N" (1-based) without one.
+  std::string feature_name(int32_t feature) const;
   int32_t owner_count() const { return static_cast<int32_t>(owner_labels_.size()); }
 
   int32_t site_feature(int32_t site) const { return sites_[site].feature; }
