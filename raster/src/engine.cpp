@@ -12,6 +12,7 @@
 
 #include "bucket_index.hpp"
 #include "engine_internal.hpp"
+#include "rv/deliverables.hpp"
 #include "rv/error.hpp"
 #include "rv/interior.hpp"
 #include "rv/parallel.hpp"
@@ -369,6 +370,11 @@ void check_inputs(const SeedSet& seeds, const GridSpec& grid, const ComputeOptio
     throw Error(ErrorKind::invalid_argument, "grid must have a positive size and resolution");
   if (seeds.sites().empty()) throw Error(ErrorKind::invalid_input, "no seeds: the seed set is empty");
   validate_metric(options.metric);
+  if (seeds.adjusted() && options.method != Method::exact && options.method != Method::brute_force)
+    throw Error(ErrorKind::invalid_argument,
+                "weights and reaches need the exact or brute-force method: a weighted region can be disconnected "
+                "(an enclave), which the " +
+                    std::string(to_string(options.method)) + " method's 3x3 propagation cannot find");
   const bool geodesic = options.metric.kind == MetricSpec::geodesic;
   const Geolocator* geolocator = options.geolocator.get();
   if (geolocator != nullptr && !geodesic)
@@ -410,6 +416,12 @@ std::shared_ptr<const PreparedSeeds> prepare_checked(const SeedSet& seeds, const
   if (!geodesic && options.method == Method::exact)
     p->index = std::make_unique<const detail::BucketIndex>(p->local, p->geometric);
   p->site_scale = detail::site_scale(p->local, p->geometric);
+  if (seeds.adjusted()) {
+    p->site_metric = make_site_metric(seeds, grid, options);
+    p->adjusted_cap = options.max_distance;
+    p->adjusted_index =
+        std::make_unique<const OwnerIndex>(*p->site_metric, OwnerIndex::Measure::adjusted, options.max_distance);
+  }
   return p;
 }
 
@@ -420,6 +432,28 @@ std::shared_ptr<const PreparedSeeds> prepare(const SeedSet& seeds, const GridSpe
   check_inputs(seeds, grid, options);
   return prepare_checked(seeds, grid, options);
 }
+
+namespace {
+
+// Seeds with weights or reaches: the adjusted method (adjusted.cpp), exact or brute force, on
+// the prepared index when it was made for this max distance.
+void run_adjusted_method(const detail::EngineContext& ctx, const PreparedSeeds& prepared, const ComputeOptions& options,
+                         NearestField& out) {
+  std::unique_ptr<const OwnerIndex> own;
+  const OwnerIndex* index = prepared.adjusted_index.get();
+  if (index == nullptr || !(prepared.adjusted_cap == options.max_distance)) {
+    if (prepared.site_metric == nullptr) throw Error(ErrorKind::internal, "adjusted seeds prepared without a metric");
+    own =
+        std::make_unique<const OwnerIndex>(*prepared.site_metric, OwnerIndex::Measure::adjusted, options.max_distance);
+    index = own.get();
+  }
+  if (options.method == Method::brute_force)
+    detail::run_adjusted_brute_force(ctx, *index, out.site, out.distance);
+  else
+    detail::run_adjusted(ctx, *index, out.site, out.distance);
+}
+
+}  // namespace
 
 void compute_into(const SeedSet& seeds, const GridSpec& grid, const ComputeOptions& options, NearestField& out) {
   const auto start = std::chrono::steady_clock::now();
@@ -484,22 +518,26 @@ void compute_into(const SeedSet& seeds, const GridSpec& grid, const ComputeOptio
     ctx.interiors = &*spans;
   }
   progress.check_cancel();
-  switch (options.method) {
-    case Method::brute_force:
-      detail::run_brute_force(ctx, out.site, out.distance);
-      break;
-    case Method::exact:
-      if (geodesic)
-        detail::run_exact_geodesic(ctx, out.site, out.distance);
-      else
-        detail::run_exact(ctx, out.site, out.distance);
-      break;
-    case Method::h_scan:
-      detail::run_scan(ctx, false, out.site, out.distance);
-      break;
-    case Method::hv_scan:
-      detail::run_scan(ctx, true, out.site, out.distance);
-      break;
+  if (seeds.adjusted()) {
+    run_adjusted_method(ctx, *prepared, options, out);
+  } else {
+    switch (options.method) {
+      case Method::brute_force:
+        detail::run_brute_force(ctx, out.site, out.distance);
+        break;
+      case Method::exact:
+        if (geodesic)
+          detail::run_exact_geodesic(ctx, out.site, out.distance);
+        else
+          detail::run_exact(ctx, out.site, out.distance);
+        break;
+      case Method::h_scan:
+        detail::run_scan(ctx, false, out.site, out.distance);
+        break;
+      case Method::hv_scan:
+        detail::run_scan(ctx, true, out.site, out.distance);
+        break;
+    }
   }
   if (spans) {
     out.contested_cells = spans->contested_cells;

@@ -14,6 +14,11 @@
 #include "rv/interior.hpp"
 #include "rv/planar.hpp"
 
+namespace rv {
+class SiteMetric;  // rv/deliverables.hpp
+class OwnerIndex;
+}  // namespace rv
+
 namespace rv::detail {
 
 // Throttled, serialised progress reporting plus cancellation polling.
@@ -96,6 +101,11 @@ class PreparedSeeds {
   std::optional<detail::GeoSites> geo;               // geodesic metric
   std::unique_ptr<const detail::BucketIndex> index;  // planar metric
   double site_scale = 0.0;
+  // Seeds with weights or reaches (SeedSet::adjusted): the exact metric and the index the
+  // adjusted method compares by, its cap the max distance prepare() was given.
+  std::unique_ptr<const SiteMetric> site_metric;
+  std::unique_ptr<const OwnerIndex> adjusted_index;
+  double adjusted_cap = 0.0;
   ~PreparedSeeds();
 };
 
@@ -148,5 +158,11 @@ void run_brute_force(const EngineContext& ctx, Raster<int32_t>& site, Raster<flo
 void run_exact(const EngineContext& ctx, Raster<int32_t>& site, Raster<float>& distance);
 void run_exact_geodesic(const EngineContext& ctx, Raster<int32_t>& site, Raster<float>& distance);
 void run_scan(const EngineContext& ctx, bool vertical_cycle, Raster<int32_t>& site, Raster<float>& distance);
+// The adjusted method (adjusted.cpp): seeds with weights or reaches, compared by `index` (its
+// cap the max distance), exact (tile culling) or brute force. Cells inside polygons are left to
+// apply_interiors, as the other kernels leave them.
+void run_adjusted(const EngineContext& ctx, const OwnerIndex& index, Raster<int32_t>& site, Raster<float>& distance);
+void run_adjusted_brute_force(const EngineContext& ctx, const OwnerIndex& index, Raster<int32_t>& site,
+                              Raster<float>& distance);
 
 }  // namespace rv::detail

@@ -51,6 +51,31 @@ std::string SeedSet::feature_name(int32_t feature) const {
   return f.source.empty() ? "feature " + std::to_string(feature + 1) : f.source;
 }
 
+void SeedSet::set_adjustment(int32_t feature, double weight, double reach) {
+  if (feature < 0 || feature >= static_cast<int32_t>(features_.size()))
+    throw Error(ErrorKind::internal, "set_adjustment: no feature " + std::to_string(feature));
+  if (!std::isfinite(weight) || !(weight > 0.0))
+    throw Error(ErrorKind::invalid_input, feature_name(feature) + ": the weight must be a finite number above 0 (got " +
+                                              std::to_string(weight) + ")");
+  if (std::isnan(reach) || !(reach > 0.0))
+    throw Error(ErrorKind::invalid_input,
+                feature_name(feature) + ": the reach must be a distance above 0 (got " + std::to_string(reach) + ")");
+  features_[static_cast<size_t>(feature)].weight = weight;
+  features_[static_cast<size_t>(feature)].reach = reach;
+}
+
+void SeedSet::scale_reaches(double factor) {
+  if (!std::isfinite(factor) || !(factor > 0.0)) throw Error(ErrorKind::internal, "scale_reaches: bad factor");
+  for (Feature& f : features_)
+    if (std::isfinite(f.reach)) f.reach *= factor;
+}
+
+bool SeedSet::adjusted() const {
+  for (const Feature& f : features_)
+    if (f.weight != 1.0 || std::isfinite(f.reach)) return true;
+  return false;
+}
+
 int SeedSet::add_point(int32_t feature, Vec2 p) {
   check_feature(feature);
   if (!finite(p)) throw Error(ErrorKind::invalid_input, feature_name(feature) + ": non-finite coordinate");

@@ -190,27 +190,67 @@ double PlanarSiteMetric::point_distance(Vec2 a, Vec2 b) const { return std::hypo
 // OwnerIndex: one bounding-volume hierarchy per owner, searched depth-first nearest child first
 // and pruned by the metric's lower bound. Exact whenever lower_bound() is a valid bound.
 
+std::unique_ptr<SiteMetric> make_site_metric(const SeedSet& seeds, const GridSpec& grid,
+                                             const ComputeOptions& options) {
+  if (options.geolocator != nullptr)
+    return std::make_unique<LocatedGeodesicSiteMetric>(seeds, options.metric, options.geolocator,
+                                                       options.grid_polygons);
+  if (options.metric.kind == MetricSpec::geodesic) return std::make_unique<GeodesicSiteMetric>(seeds, options.metric);
+  return std::make_unique<PlanarSiteMetric>(seeds, Vec2{grid.xmin, grid.ymax});
+}
+
+namespace {
+
+// A ball query's test with adjustments: a site of weight w and effective reach r can be nearest
+// at a position within `reach` of the centre only if its distance there, at least its lower bound
+// at the centre less `reach`, is within r and, over w, within `bound` (the nearest's largest cost
+// in the ball). The threshold of that lower bound, a little wider for the product's rounding.
+auto threshold(double bound, double reach) {
+  return [bound, reach](double w, double r) { return std::min(r, w * bound) * (1.0 + 1e-12) + reach; };
+}
+
+}  // namespace
+
 struct OwnerIndex::Tree {
   struct Node {
     Box3 box;
-    int32_t left = -1, right = -1;  // children; -1 for a leaf
-    int32_t begin = 0, end = 0;     // leaf: range of ids
+    int32_t left = -1, right = -1;                           // children; -1 for a leaf
+    int32_t begin = 0, end = 0;                              // leaf: range of ids
+    double w_max = 1.0;                                      // largest weight below the node
+    double r_max = std::numeric_limits<double>::infinity();  // largest effective reach below it
+  };
+  struct Item {
+    int32_t id;
+    Box3 box;
+    double weight, reach;
   };
   std::vector<Node> nodes;
   std::vector<int32_t> ids;
-  std::vector<Box3> boxes;  // per id position
+  std::vector<Box3> boxes;     // per id position
+  std::vector<double> weight;  // per id position: the feature's weight (1 in plain indexes)
+  std::vector<double> reach;   // per id position: min(the feature's reach, cap) (inf in plain ones)
 
-  int32_t build(std::vector<std::pair<int32_t, Box3>>& items, int32_t begin, int32_t end) {
+  int32_t build(std::vector<Item>& items, int32_t begin, int32_t end) {
     Node n;
-    n.box = items[static_cast<size_t>(begin)].second;
-    for (int32_t i = begin; i < end; ++i) n.box.include(items[static_cast<size_t>(i)].second);
+    n.box = items[static_cast<size_t>(begin)].box;
+    n.w_max = 0.0;
+    n.r_max = 0.0;
+    for (int32_t i = begin; i < end; ++i) {
+      const Item& it = items[static_cast<size_t>(i)];
+      n.box.include(it.box);
+      n.w_max = std::max(n.w_max, it.weight);
+      n.r_max = std::max(n.r_max, it.reach);
+    }
     const auto index = static_cast<int32_t>(nodes.size());
     nodes.push_back(n);
     if (end - begin <= 4) {
       nodes[static_cast<size_t>(index)].begin = static_cast<int32_t>(ids.size());
       for (int32_t i = begin; i < end; ++i) {
-        ids.push_back(items[static_cast<size_t>(i)].first);
-        boxes.push_back(items[static_cast<size_t>(i)].second);
+        const Item& it = items[static_cast<size_t>(i)];
+        ids.push_back(it.id);
+        boxes.push_back(it.box);
+        weight.push_back(it.weight);
+        reach.push_back(it.reach);
       }
       nodes[static_cast<size_t>(index)].end = static_cast<int32_t>(ids.size());
       return index;
@@ -219,9 +259,9 @@ struct OwnerIndex::Tree {
     const int axis = ex >= ey && ex >= ez ? 0 : (ey >= ez ? 1 : 2);
     const int32_t mid = begin + (end - begin) / 2;
     std::nth_element(
-        items.begin() + begin, items.begin() + mid, items.begin() + end, [&](const auto& a, const auto& b) {
+        items.begin() + begin, items.begin() + mid, items.begin() + end, [&](const Item& a, const Item& b) {
           auto mid = [&](const Box3& x) { return axis == 0 ? x.x0 + x.x1 : (axis == 1 ? x.y0 + x.y1 : x.z0 + x.z1); };
-          return mid(a.second) < mid(b.second);
+          return mid(a.box) < mid(b.box);
         });
     const int32_t l = build(items, begin, mid);
     const int32_t r = build(items, mid, end);
@@ -230,49 +270,77 @@ struct OwnerIndex::Tree {
     return index;
   }
 
-  // The ids whose box lies within `bound` of q (lower_bound), in tree order.
-  void within(int32_t node, const Vec3& q, double bound, std::vector<int32_t>& out) const {
+  // The ids whose box lies within threshold(weight, reach) of q (lower_bound), in tree order; a
+  // node is tested with its largest weight and reach (the threshold grows with both).
+  template <class Threshold>
+  void within(int32_t node, const Vec3& q, const Threshold& threshold, std::vector<int32_t>& out) const {
     const Node& n = nodes[static_cast<size_t>(node)];
-    if (SiteMetric::lower_bound(q, n.box) > bound) return;
+    if (SiteMetric::lower_bound(q, n.box) > threshold(n.w_max, n.r_max)) return;
     if (n.left < 0) {
-      for (int32_t i = n.begin; i < n.end; ++i)
-        if (SiteMetric::lower_bound(q, boxes[static_cast<size_t>(i)]) <= bound)
-          out.push_back(ids[static_cast<size_t>(i)]);
+      for (int32_t i = n.begin; i < n.end; ++i) {
+        const auto k = static_cast<size_t>(i);
+        if (SiteMetric::lower_bound(q, boxes[k]) <= threshold(weight[k], reach[k])) out.push_back(ids[k]);
+      }
       return;
     }
-    within(n.left, q, bound, out);
-    within(n.right, q, bound, out);
+    within(n.left, q, threshold, out);
+    within(n.right, q, threshold, out);
   }
 
+  // A lower bound `lb` of a true distance as a lower bound of the cost (reach r, weight w).
+  static double cost_bound(double lb, double w, double r) {
+    return lb > r ? std::numeric_limits<double>::infinity() : lb / w;
+  }
+
+  // Depth-first, nearest child first, pruned by the cost's lower bounds. Without adjustments
+  // (w = 1, r = inf) every comparison is the one on true distances, to the bit.
   void search(const SiteMetric& m, int32_t node, Vec2 p, const Vec3& q, Hit& best) const {
     const Node& n = nodes[static_cast<size_t>(node)];
     if (n.left < 0) {
       for (int32_t i = n.begin; i < n.end; ++i) {
-        if (SiteMetric::lower_bound(q, boxes[static_cast<size_t>(i)]) > best.distance) continue;
-        const int32_t id = ids[static_cast<size_t>(i)];
+        const auto k = static_cast<size_t>(i);
+        if (cost_bound(SiteMetric::lower_bound(q, boxes[k]), weight[k], reach[k]) > best.cost) continue;
+        const int32_t id = ids[k];
         if (id == best.site) continue;  // a known hit, measured already
         // The box holds a whole edge around its middle; the metric's own bound is far tighter
         // for the edge's neighbours along a coast, which then go unmeasured.
-        if (m.distance_lower_bound(p, id) > best.distance) continue;
+        if (cost_bound(m.distance_lower_bound(p, id), weight[k], reach[k]) > best.cost) continue;
         const double d = m.distance(p, id);
-        if (d < best.distance || (d == best.distance && id < best.site)) best = Hit{id, d};
+        if (d > reach[k]) continue;
+        const double c = d / weight[k];
+        if (c < best.cost || (c == best.cost && id < best.site)) best = Hit{id, d, c};
       }
       return;
     }
-    const double ll = SiteMetric::lower_bound(q, nodes[static_cast<size_t>(n.left)].box);
-    const double lr = SiteMetric::lower_bound(q, nodes[static_cast<size_t>(n.right)].box);
+    const Node& nl = nodes[static_cast<size_t>(n.left)];
+    const Node& nr = nodes[static_cast<size_t>(n.right)];
+    const double ll = cost_bound(SiteMetric::lower_bound(q, nl.box), nl.w_max, nl.r_max);
+    const double lr = cost_bound(SiteMetric::lower_bound(q, nr.box), nr.w_max, nr.r_max);
     const int32_t first = ll <= lr ? n.left : n.right, second = ll <= lr ? n.right : n.left;
     const double lf = std::min(ll, lr), ls = std::max(ll, lr);
-    if (lf <= best.distance) search(m, first, p, q, best);
-    if (ls <= best.distance) search(m, second, p, q, best);
+    if (lf <= best.cost) search(m, first, p, q, best);
+    if (ls <= best.cost) search(m, second, p, q, best);
+  }
+
+  double root_bound(const Vec3& q) const {
+    const Node& n = nodes[0];
+    return cost_bound(SiteMetric::lower_bound(q, n.box), n.w_max, n.r_max);
   }
 };
 
-OwnerIndex::OwnerIndex(const SiteMetric& metric) : metric_(metric) {
+OwnerIndex::OwnerIndex(const SiteMetric& metric, Measure measure, double cap) : metric_(metric) {
   const SeedSet& seeds = metric.seeds();
-  std::vector<std::vector<std::pair<int32_t, Box3>>> items(static_cast<size_t>(seeds.owner_count()));
-  for (int32_t i = 0; i < static_cast<int32_t>(seeds.sites().size()); ++i)
-    items[static_cast<size_t>(seeds.site_owner(i) - 1)].emplace_back(i, metric.site_bounds(i));
+  if (std::isnan(cap) || !(cap >= 0.0)) throw Error(ErrorKind::invalid_argument, "OwnerIndex: cap must be >= 0");
+  const bool plain = measure == Measure::plain;
+  cap_ = plain ? std::numeric_limits<double>::infinity() : cap;
+  adjusted_ = !plain && (seeds.adjusted() || std::isfinite(cap_));
+  std::vector<std::vector<Tree::Item>> items(static_cast<size_t>(seeds.owner_count()));
+  for (int32_t i = 0; i < static_cast<int32_t>(seeds.sites().size()); ++i) {
+    const Feature& f = seeds.features()[static_cast<size_t>(seeds.site_feature(i))];
+    const double w = plain ? 1.0 : f.weight;
+    const double r = plain ? std::numeric_limits<double>::infinity() : std::min(f.reach, cap_);
+    items[static_cast<size_t>(seeds.site_owner(i) - 1)].push_back(Tree::Item{i, metric.site_bounds(i), w, r});
+  }
   for (auto& list : items) {
     auto tree = std::make_unique<Tree>();
     if (!list.empty()) tree->build(list, 0, static_cast<int32_t>(list.size()));
@@ -283,6 +351,12 @@ OwnerIndex::OwnerIndex(const SiteMetric& metric) : metric_(metric) {
 OwnerIndex::~OwnerIndex() = default;
 OwnerIndex::OwnerIndex(OwnerIndex&&) noexcept = default;
 
+double OwnerIndex::cost_of(int32_t site, double d) const {
+  if (!adjusted_) return d;
+  const SeedSet& seeds = metric_.seeds();
+  return adjusted_distance(seeds.features()[static_cast<size_t>(seeds.site_feature(site))], d, cap_);
+}
+
 OwnerIndex::Hit OwnerIndex::nearest_of(Vec2 p, int32_t owner, int32_t hint) const {
   Hit best;
   if (owner < 1 || owner > static_cast<int32_t>(trees_.size())) return best;
@@ -290,11 +364,23 @@ OwnerIndex::Hit OwnerIndex::nearest_of(Vec2 p, int32_t owner, int32_t hint) cons
   // would have measured before finding it. Its tie rule keeps the lowest index whatever the
   // start, so the result is the one without a hint.
   const SeedSet& seeds = metric_.seeds();
-  if (hint >= 0 && hint < static_cast<int32_t>(seeds.sites().size()) && seeds.site_owner(hint) == owner)
-    best = Hit{hint, metric_.distance(p, hint)};
+  if (hint >= 0 && hint < static_cast<int32_t>(seeds.sites().size()) && seeds.site_owner(hint) == owner) {
+    const double d = metric_.distance(p, hint);
+    const double c = cost_of(hint, d);
+    if (!adjusted_ || std::isfinite(c)) best = Hit{hint, d, c};
+  }
   const Tree& t = *trees_[static_cast<size_t>(owner - 1)];
   if (!t.nodes.empty()) t.search(metric_, 0, p, metric_.embed(p), best);
   return best;
+}
+
+double OwnerIndex::ball_bound(const Hit& h, double reach) const {
+  if (h.site == kNoSite || !std::isfinite(h.cost)) return std::numeric_limits<double>::infinity();
+  // The hit stays within its reach over the whole ball only if it is that far inside it; then
+  // its cost anywhere in the ball is at most (d + reach) / w.
+  const double d_far = h.distance + reach;
+  const double c = cost_of(h.site, d_far);
+  return c;
 }
 
 void OwnerIndex::candidates_of(Vec2 centre, double reach, int32_t owner, int32_t hint, std::vector<int32_t>& out,
@@ -303,35 +389,51 @@ void OwnerIndex::candidates_of(Vec2 centre, double reach, int32_t owner, int32_t
   if (owner < 1 || owner > static_cast<int32_t>(trees_.size())) return;
   const Tree& t = *trees_[static_cast<size_t>(owner - 1)];
   if (t.nodes.empty()) return;
+  const SeedSet& seeds = metric_.seeds();
+  const bool valid = hint >= 0 && hint < static_cast<int32_t>(seeds.sites().size()) && seeds.site_owner(hint) == owner;
+  if (adjusted_) {
+    // nearest_at_most bounds a true distance, not a cost: the measured nearest gives the bound.
+    const Hit h = nearest_of(centre, owner, valid ? hint : kNoSite);
+    const double bound = ball_bound(h, reach);
+    t.within(0, metric_.embed(centre), threshold(bound, reach), out);
+    keep_within(centre, reach, bound, out);
+    std::sort(out.begin(), out.end());
+    return;
+  }
   // At a position p within `reach` of the centre: the nearest is within d(centre, hint) + reach
   // (the distance to a site is 1-Lipschitz), and a site whose box is farther than that plus
   // reach from the centre's embedding is farther than it from p's (the embedding does not
   // lengthen distances): it can neither be nearest nor tie.
-  const SeedSet& seeds = metric_.seeds();
-  const bool valid = hint >= 0 && hint < static_cast<int32_t>(seeds.sites().size()) && seeds.site_owner(hint) == owner;
   double at_centre = std::isfinite(nearest_at_most) ? nearest_at_most
                      : valid                        ? metric_.distance(centre, hint)
                                                     : std::numeric_limits<double>::infinity();
   // (An area site's distance is infinite outside its polygon: the nearest then gives the bound.)
   if (!std::isfinite(at_centre)) at_centre = nearest_of(centre, owner, valid ? hint : kNoSite).distance;
-  if (!std::isfinite(at_centre)) {  // nothing bounds it: every site of the owner
-    t.within(0, metric_.embed(centre), std::numeric_limits<double>::infinity(), out);
-  } else {
-    t.within(0, metric_.embed(centre), at_centre + 2.0 * reach, out);
-    keep_within(centre, at_centre + 2.0 * reach, out);
-  }
+  const double bound = at_centre + 2.0 * reach;
+  t.within(
+      0, metric_.embed(centre), [bound](double, double) { return bound; }, out);
+  if (std::isfinite(bound)) keep_within(centre, reach, bound, out);
   std::sort(out.begin(), out.end());
 }
 
-void OwnerIndex::keep_within(Vec2 centre, double bound, std::vector<int32_t>& sites) const {
+void OwnerIndex::keep_within(Vec2 centre, double reach, double bound, std::vector<int32_t>& sites) const {
   // The boxes hold whole edges; the metric's own bounds at the centre drop the many whose box
   // is near but whose distance is not (the same test: a site farther than `bound` from the
   // centre is farther than the nearest from every position within reach of it).
   std::vector<double> lb(sites.size());
   metric_.distance_lower_bounds(centre, sites, lb);
   size_t kept = 0;
-  for (size_t i = 0; i < sites.size(); ++i)
-    if (!(lb[i] > bound)) sites[kept++] = sites[i];
+  if (!adjusted_) {
+    for (size_t i = 0; i < sites.size(); ++i)
+      if (!(lb[i] > bound)) sites[kept++] = sites[i];
+  } else {
+    const SeedSet& seeds = metric_.seeds();
+    const auto limit = threshold(bound, reach);
+    for (size_t i = 0; i < sites.size(); ++i) {
+      const Feature& f = seeds.features()[static_cast<size_t>(seeds.site_feature(sites[i]))];
+      if (!(lb[i] > limit(f.weight, std::min(f.reach, cap_)))) sites[kept++] = sites[i];
+    }
+  }
   sites.resize(kept);
 }
 
@@ -343,29 +445,61 @@ void OwnerIndex::candidates_not_of(Vec2 centre, double reach, int32_t owner, Hit
   const SeedSet& seeds = metric_.seeds();
   const bool valid = known.site >= 0 && known.site < static_cast<int32_t>(seeds.sites().size()) &&
                      seeds.site_owner(known.site) != owner && std::isfinite(known.distance);
+  const Vec3 q = metric_.embed(centre);
+  if (adjusted_) {
+    const Hit h = nearest_not_of(centre, owner, valid ? known : Hit{});
+    const double bound = ball_bound(h, reach);
+    const auto limit = threshold(bound, reach);
+    for (size_t o = 0; o < trees_.size(); ++o)
+      if (static_cast<int32_t>(o) + 1 != owner && !trees_[o]->nodes.empty()) trees_[o]->within(0, q, limit, out);
+    keep_within(centre, reach, bound, out);
+    std::sort(out.begin(), out.end());
+    return;
+  }
   const double at_centre = std::isfinite(nearest_at_most) ? nearest_at_most
                            : valid                        ? known.distance
                                                           : nearest_not_of(centre, owner).distance;
   const double bound = std::isfinite(at_centre) ? at_centre + 2.0 * reach : std::numeric_limits<double>::infinity();
-  const Vec3 q = metric_.embed(centre);
   for (size_t o = 0; o < trees_.size(); ++o)
-    if (static_cast<int32_t>(o) + 1 != owner && !trees_[o]->nodes.empty()) trees_[o]->within(0, q, bound, out);
-  if (std::isfinite(bound)) keep_within(centre, bound, out);
+    if (static_cast<int32_t>(o) + 1 != owner && !trees_[o]->nodes.empty())
+      trees_[o]->within(
+          0, q, [bound](double, double) { return bound; }, out);
+  if (std::isfinite(bound)) keep_within(centre, reach, bound, out);
   std::sort(out.begin(), out.end());
+}
+
+void OwnerIndex::candidates_among(Vec2 centre, double reach, const std::vector<int32_t>& from,
+                                  std::vector<int32_t>& out) const {
+  out.clear();
+  if (from.empty()) return;
+  const Hit h = nearest_among(centre, from);
+  out = from;
+  if (!adjusted_) {
+    // As in candidates_of: the nearest anywhere in the ball is within d + reach of it, so a site
+    // farther than d + 2 reach from the centre never is.
+    if (h.site != kNoSite) keep_within(centre, reach, h.distance + 2.0 * reach, out);
+    return;
+  }
+  keep_within(centre, reach, ball_bound(h, reach), out);
 }
 
 OwnerIndex::Hit OwnerIndex::nearest_among(Vec2 p, const std::vector<int32_t>& sites, Vec2* gradient) const {
   Hit best;
   Vec2 slope{std::numeric_limits<double>::quiet_NaN(), std::numeric_limits<double>::quiet_NaN()};
   SiteMetric::VertexHit at_vertex;  // where the best so far was attained
+  const SeedSet& seeds = metric_.seeds();
   // The lowest index among exact ties, as measuring every one in index order kept.
   auto measure = [&](int32_t id) {
     Vec2 g;
     SiteMetric::VertexHit v;
     const double d = metric_.distance_at_vertex(p, id, g, v);
-    if (d < best.distance || (d == best.distance && id < best.site)) {
-      best = Hit{id, d};
-      slope = g;
+    const double c = cost_of(id, d);
+    if (!std::isfinite(c)) return;
+    if (c < best.cost || (c == best.cost && id < best.site)) {
+      best = Hit{id, d, c};
+      // The slope of what is compared: the cost's (the distance's over the weight).
+      const double w = adjusted_ ? seeds.features()[static_cast<size_t>(seeds.site_feature(id))].weight : 1.0;
+      slope = w == 1.0 ? g : Vec2{g.x / w, g.y / w};
       at_vertex = v;
     }
   };
@@ -381,13 +515,22 @@ OwnerIndex::Hit OwnerIndex::nearest_among(Vec2 p, const std::vector<int32_t>& si
   std::vector<double> bounds(sites.size());
   metric_.distance_lower_bounds(p, sites, bounds);
   std::vector<std::pair<double, int32_t>> order(sites.size());
-  for (size_t i = 0; i < sites.size(); ++i) order[i] = {bounds[i], sites[i]};
+  for (size_t i = 0; i < sites.size(); ++i) {
+    double lb = bounds[i];
+    if (adjusted_) {
+      const Feature& f = seeds.features()[static_cast<size_t>(seeds.site_feature(sites[i]))];
+      lb = Tree::cost_bound(lb, f.weight, std::min(f.reach, cap_));
+    }
+    order[i] = {lb, sites[i]};
+  }
   std::sort(order.begin(), order.end());
   for (const auto& [lb, id] : order) {
-    if (lb > best.distance) break;
+    if (lb > best.cost) break;
     // A coast's vertex controls much of the sea, and both its edges are candidates there: the
-    // second ties the first at the vertex's canonical distance, known without measuring.
-    if (at_vertex.valid && metric_.ties_at_vertex(p, id, at_vertex, best.distance)) {
+    // second ties the first at the vertex's canonical distance, known without measuring (the
+    // same cost too when both are of one feature).
+    if (at_vertex.valid && (!adjusted_ || seeds.site_feature(id) == seeds.site_feature(best.site)) &&
+        metric_.ties_at_vertex(p, id, at_vertex, best.distance)) {
       best.site = std::min(best.site, id);  // the same distance and gradient
       continue;
     }
@@ -399,13 +542,13 @@ OwnerIndex::Hit OwnerIndex::nearest_among(Vec2 p, const std::vector<int32_t>& si
 
 OwnerIndex::Hit OwnerIndex::nearest_third(Vec2 p, int32_t a, int32_t b, double within) const {
   const Vec3 q = metric_.embed(p);
-  // A site above every index at `within`: a site at that very distance still replaces it.
+  // A site above every index at `within`: a site at that very cost still replaces it.
   constexpr int32_t kNone = std::numeric_limits<int32_t>::max();
-  Hit best{kNone, within};
+  Hit best{kNone, within, within};
   for (size_t o = 0; o < trees_.size(); ++o) {
     const auto code = static_cast<int32_t>(o) + 1;
     if (code == a || code == b || trees_[o]->nodes.empty()) continue;
-    if (SiteMetric::lower_bound(q, trees_[o]->nodes[0].box) > best.distance) continue;
+    if (trees_[o]->root_bound(q) > best.cost) continue;
     trees_[o]->search(metric_, 0, p, q, best);
   }
   return best.site == kNone ? Hit{} : best;
@@ -418,16 +561,18 @@ OwnerIndex::Hit OwnerIndex::nearest_not_of(Vec2 p, int32_t owner, Hit known) con
   order.reserve(trees_.size());
   for (size_t o = 0; o < trees_.size(); ++o) {
     if (static_cast<int32_t>(o) + 1 == owner || trees_[o]->nodes.empty()) continue;
-    order.emplace_back(SiteMetric::lower_bound(q, trees_[o]->nodes[0].box), static_cast<int32_t>(o));
+    order.emplace_back(trees_[o]->root_bound(q), static_cast<int32_t>(o));
   }
   std::sort(order.begin(), order.end());
   // A known hit is a bound from the start (see nearest_of); it must not be of `owner`.
   Hit best;
   if (known.site >= 0 && known.site < static_cast<int32_t>(metric_.seeds().sites().size()) &&
-      metric_.seeds().site_owner(known.site) != owner)
-    best = known;
+      metric_.seeds().site_owner(known.site) != owner) {
+    const double c = cost_of(known.site, known.distance);
+    if (!adjusted_ || std::isfinite(c)) best = Hit{known.site, known.distance, c};
+  }
   for (const auto& [lb, o] : order) {
-    if (lb > best.distance) break;
+    if (lb > best.cost) break;
     trees_[static_cast<size_t>(o)]->search(metric_, 0, p, q, best);
   }
   return best;

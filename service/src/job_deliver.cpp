@@ -23,13 +23,7 @@ namespace {
 // The deliverables measure with the field's own metric (projected geodesic grids: located on
 // the ellipsoid, positions and outputs in the grid's CRS).
 std::unique_ptr<SiteMetric> site_metric(const PreparedJob& job) {
-  const SeedSet& seeds = job.loaded.seeds;
-  if (job.located())
-    return std::make_unique<LocatedGeodesicSiteMetric>(seeds, job.compute.metric, job.compute.geolocator,
-                                                       job.compute.grid_polygons);
-  if (job.compute.metric.kind == MetricSpec::geodesic)
-    return std::make_unique<GeodesicSiteMetric>(seeds, job.compute.metric);
-  return std::make_unique<PlanarSiteMetric>(seeds, Vec2{job.grid.xmin, job.grid.ymax});
+  return make_site_metric(job.loaded.seeds, job.grid, job.compute);
 }
 
 }  // namespace

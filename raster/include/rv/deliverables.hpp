@@ -216,18 +216,42 @@ class LocatedGeodesicSiteMetric final : public SiteMetric {
   double earth_radius_;  // the larger semi-axis, metres
 };
 
+// The site metric of a field computed with these seeds, grid and options (the deliverables'
+// measure and the adjusted method's): planar (origin the grid's (xmin, ymax)), geodesic, or,
+// with options.geolocator, located geodesic over options.grid_polygons. Keeps a reference to
+// `seeds`. Errors as the metrics' constructors.
+std::unique_ptr<SiteMetric> make_site_metric(const SeedSet& seeds, const GridSpec& grid, const ComputeOptions& options);
+
 // Exact nearest-site queries, restricted to one owner or excluding one owner. Keeps references
 // to the metric (and its seeds), which must outlive it.
+//
+// "Nearest" is by the adjusted distance (adjusted_distance in rv/seeds.hpp: each feature's
+// weight and reach, and `cap` bounding every reach) unless the index is made Measure::plain.
+// Without adjustments (every weight 1, no reach, no cap) the two are the same to the bit, and so
+// is every result. With them, the distances and bounds below (`reach` of the ball queries,
+// `nearest_at_most`, `within`) stay true distances; what is compared is the adjusted one.
 class OwnerIndex {
  public:
-  explicit OwnerIndex(const SiteMetric& metric);
+  enum class Measure {
+    adjusted,  // the features' weights and reaches (and the cap) apply: the engine's rule
+    plain,     // true distances alone (distance limits: the breadth of a zone ignores weights)
+  };
+  explicit OwnerIndex(const SiteMetric& metric, Measure measure = Measure::adjusted,
+                      double cap = std::numeric_limits<double>::infinity());
   ~OwnerIndex();
   OwnerIndex(OwnerIndex&&) noexcept;
 
   struct Hit {
-    int32_t site = kNoSite;  // lowest site index among exact ties
-    double distance = std::numeric_limits<double>::infinity();
+    int32_t site = kNoSite;                                     // lowest site index among exact ties of `cost`
+    double distance = std::numeric_limits<double>::infinity();  // true distance to it, metric units
+    // What was compared (see above): distance / weight within reach; == distance without
+    // adjustments. Hits handed in (`known`) need only site and distance.
+    double cost = std::numeric_limits<double>::infinity();
   };
+  // True when the index compares adjusted distances that differ from true ones somewhere.
+  bool adjusted() const { return adjusted_; }
+  // The cost of a true distance `d` to `site` (adjusted_distance of its feature, or d).
+  double cost_of(int32_t site, double d) const;
   // Nearest site of owner `owner` (1..K); {kNoSite, inf} if the owner has no sites. `hint`: a
   // site likely to be the nearest (e.g. the one found at a point nearby), measured first so that
   // the search prunes with its distance; the result is the same with any hint or none (a hint
@@ -264,13 +288,26 @@ class OwnerIndex {
   Hit nearest(Vec2 p, Hit known) const { return nearest_not_of(p, 0, known); }
   Hit nearest(Vec2 p) const { return nearest_not_of(p, 0, Hit{}); }
 
+  // The sites of `from` (ascending) that can be nearest to, or tie with the nearest at, some
+  // position within `reach` of `centre` (ascending, into `out`; `out` may not be `from`), their
+  // nearest among `from` measured at the centre: the cull of one block of cells whose centres lie
+  // within `reach` of `centre` from its parent's list (the engine's adjusted method).
+  void candidates_among(Vec2 centre, double reach, const std::vector<int32_t>& from, std::vector<int32_t>& out) const;
+
   const SiteMetric& metric() const { return metric_; }
 
  private:
   struct Tree;
-  // Drops the sites whose metric lower bound at `centre` exceeds `bound`.
-  void keep_within(Vec2 centre, double bound, std::vector<int32_t>& sites) const;
+  // The bound every site's adjusted lower bound is held to in a ball query: an upper bound of the
+  // nearest's cost at any position within `reach` of the centre, from a hit measured there
+  // (+infinity when that hit can leave its reach within the ball, or there is none).
+  double ball_bound(const Hit& at_centre, double reach) const;
+  // Drops the sites that cannot be nearest within `reach` of `centre` given `bound`
+  // (ball_bound), by the metric's lower bounds at the centre.
+  void keep_within(Vec2 centre, double reach, double bound, std::vector<int32_t>& sites) const;
   const SiteMetric& metric_;
+  bool adjusted_ = false;
+  double cap_ = std::numeric_limits<double>::infinity();
   std::vector<std::unique_ptr<Tree>> trees_;  // per owner code - 1
 };
 

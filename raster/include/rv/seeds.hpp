@@ -17,6 +17,7 @@
 #pragma once
 
 #include <cstdint>
+#include <limits>
 #include <span>
 #include <string>
 #include <unordered_map>
@@ -56,7 +57,21 @@ struct Feature {
   int32_t owner = 0;  // owner code, 1..owner_count()
   GeometryKind kind = GeometryKind::point;
   std::string source;  // where it came from, for messages ("file.gpkg:layer:fid 7")
+  // The delimitation adjustments (SeedSet::set_adjustment): the feature's distance d counts as
+  // d / weight (a multiplicatively weighted, "equiratio" comparison; weight > 0 and finite), and
+  // only where d <= reach (metric units; an island with a reach of 12 nmi is enclaved in a 12 nmi
+  // arc); beyond it the feature is as if absent. Defaults: the plain distance, everywhere.
+  double weight = 1.0;
+  double reach = std::numeric_limits<double>::infinity();
 };
+
+// What a distance d (metric units, >= 0) to a site of feature f counts for when the nearest
+// feature is chosen: d / f.weight where d <= min(f.reach, cap), +infinity beyond (`cap`: the
+// job's max distance, which bounds every feature's reach). With the defaults, d itself, to the
+// bit. The one rule every engine and search compares by.
+inline double adjusted_distance(const Feature& f, double d, double cap = std::numeric_limits<double>::infinity()) {
+  return d > f.reach || d > cap ? std::numeric_limits<double>::infinity() : d / f.weight;
+}
 
 class SeedSet {
  public:
@@ -73,6 +88,15 @@ class SeedSet {
   int add_polyline(int32_t feature, std::span<const Vec2> vertices);
   // Rings: outer first, then holes. Rings with fewer than 3 distinct vertices are dropped.
   int add_polygon(int32_t feature, std::vector<Ring> rings);
+
+  // Sets the adjustments of a feature (see Feature): weight > 0 and finite, reach > 0 (infinity:
+  // none). Otherwise rv::Error(invalid_input) naming the feature.
+  void set_adjustment(int32_t feature, double weight, double reach);
+  // Multiplies every finite reach by `factor` (> 0): from the job's distance units to the
+  // metric's.
+  void scale_reaches(double factor);
+  // True when some feature has a weight other than 1 or a finite reach.
+  bool adjusted() const;
 
   const std::vector<Site>& sites() const { return sites_; }
   const std::vector<Polygon>& polygons() const { return polygons_; }
