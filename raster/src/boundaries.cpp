@@ -42,7 +42,7 @@ struct TripointSolver {
   bool solve(const std::array<int32_t, 3>& o, Vec2 start, double max_move, Tripoint& out) const {
     auto eval = [&](Vec2 p, std::array<double, 2>& f, std::array<OwnerIndex::Hit, 3>* hits) {
       const auto a = index.nearest_of(p, o[0]), b = index.nearest_of(p, o[1]), c = index.nearest_of(p, o[2]);
-      f = {a.distance - b.distance, a.distance - c.distance};
+      f = {a.cost - b.cost, a.cost - c.cost};
       if (hits) *hits = {a, b, c};
       return std::isfinite(f[0]) && std::isfinite(f[1]);
     };
@@ -60,8 +60,10 @@ struct TripointSolver {
           out.sites[k] = h[static_cast<size_t>(k)].site;
         }
         out.distance = (h[0].distance + h[1].distance + h[2].distance) / 3.0;
-        out.residual = std::max({std::abs(h[0].distance - h[1].distance), std::abs(h[0].distance - h[2].distance),
-                                 std::abs(h[1].distance - h[2].distance)});
+        out.cost = (h[0].cost + h[1].cost + h[2].cost) / 3.0;
+        out.residual = std::max(
+            {std::abs(h[0].cost - h[1].cost), std::abs(h[0].cost - h[2].cost), std::abs(h[1].cost - h[2].cost)});
+        for (int k = 0; k < 3; ++k) out.distances[k] = h[static_cast<size_t>(k)].distance;
         return true;
       }
       std::array<double, 2> fx, fy;
@@ -220,7 +222,7 @@ void place_crossings(const BoundaryGrid& b, const Segment& sg, std::vector<Cross
     };
     auto f = [&](double t) {
       hits(lerp(p0, p1, t));
-      return last_x.distance - last_y.distance;
+      return last_x.cost - last_y.cost;
     };
     // Newton's steps with the sites' gradients (two or three positions where a bracketing
     // method measures five: the segment's ends and three inside), and where they fail (a slope
@@ -234,10 +236,11 @@ void place_crossings(const BoundaryGrid& b, const Segment& sg, std::vector<Cross
     const Vec2 p = lerp(p0, p1, t);
     hits(p);
     const OwnerIndex::Hit hx = last_x, hy = last_y;
-    BoundaryVertex v{p, hx.site, hy.site, 0.5 * (hx.distance + hy.distance), std::abs(hx.distance - hy.distance)};
+    BoundaryVertex v{p,           hx.site,    hy.site, 0.5 * (hx.distance + hy.distance), std::abs(hx.cost - hy.cost),
+                     hx.distance, hy.distance};
     // Only a third owner can come between (nothing of x or y is nearer than their hits).
-    const auto nearest = index.nearest_third(p, x, y, hy.distance);
-    if (nearest.distance < v.distance - 4.0 * ftol - v.residual) {
+    const auto nearest = index.nearest_third(p, x, y, hy.cost);
+    if (nearest.cost < 0.5 * (hx.cost + hy.cost) - 4.0 * ftol - v.residual) {
       const int32_t z = b.owner_of_site[static_cast<size_t>(nearest.site)];
       hint.try_emplace(z, nearest.site);
       if (depth == 0) slivers.emplace_back(sg.edge, z);
@@ -249,7 +252,10 @@ void place_crossings(const BoundaryGrid& b, const Segment& sg, std::vector<Cross
       self(self, z, y, t, t1, depth + 1);
       return;
     }
-    if (x > y) std::swap(v.site_a, v.site_b);
+    if (x > y) {
+      std::swap(v.site_a, v.site_b);
+      std::swap(v.distance_a, v.distance_b);
+    }
     out.push_back(Crossing{sg.edge, std::min(x, y), std::max(x, y), v});
   };
   place(place, sg.from, sg.to, 0.0, 1.0, 0);
@@ -401,7 +407,7 @@ void find_tripoints(const BoundaryGrid& b, const CrossingSet& x, int64_t row0, i
             if (!solver.solve(triple, start, res, t)) continue;
             if (std::abs(t.p.x - mid.x) > res || std::abs(t.p.y - mid.y) > res) continue;
             const auto any = b.index.nearest(t.p);
-            if (any.distance < t.distance - 4.0 * b.ftol - t.residual) continue;  // another owner is nearer
+            if (any.cost < t.cost - 4.0 * b.ftol - t.residual) continue;  // another owner is nearer
             if (add_tripoint(b, set, t)) break;
           }
         }
@@ -523,7 +529,7 @@ struct SquareLinks {
   void saddle(const std::array<int32_t, 4>& o) {
     const Vec2 mid = square_mid(b.g, c, r);
     const auto h0 = b.index.nearest_of(mid, o[0]), h1 = b.index.nearest_of(mid, o[1]);
-    const bool centre_is_o0 = h0.distance < h1.distance || (h0.distance == h1.distance && h0.site < h1.site);
+    const bool centre_is_o0 = h0.cost < h1.cost || (h0.cost == h1.cost && h0.site < h1.site);
     const int64_t pair = pair_key(o[0], o[1]);
     if (centre_is_o0) {  // corners 1 and 3 are cut off
       out.add(node(0), node(1), pair);
@@ -628,7 +634,7 @@ Links link_squares(const BoundaryGrid& b, const CrossingSet& x, const TripointSe
 // The links chained into lines per owner pair, simplified, in a deterministic order.
 
 std::vector<BoundaryLine> chain_lines(const CrossingSet& x, const TripointSet& t, const Links& links, double tol,
-                                      BoundaryStats& stats) {
+                                      BoundaryStats& stats, const LineRefiner* refiner, int threads) {
   const auto ncross = static_cast<int32_t>(x.crossings.size());
   const auto ntri = static_cast<int32_t>(t.tripoints.size());
   std::vector<bool> terminal(static_cast<size_t>(ncross + ntri), false);
@@ -640,6 +646,7 @@ std::vector<BoundaryLine> chain_lines(const CrossingSet& x, const TripointSet& t
       if (n < 0) n = ncross + (-1 - n);
   const Chains chains = chain_links(ncross + ntri, numbered, terminal);
   std::vector<BoundaryLine> lines;
+  std::vector<std::vector<BoundaryVertex>> vertices(chains.node_lists.size());
   for (size_t k = 0; k < chains.node_lists.size(); ++k) {
     const int64_t pair = links.pair[static_cast<size_t>(chains.first_link[k])];
     BoundaryLine line;
@@ -655,19 +662,44 @@ std::vector<BoundaryLine> chain_lines(const CrossingSet& x, const TripointSet& t
       const Tripoint& tp = t.tripoints[static_cast<size_t>(node - ncross)];
       BoundaryVertex v{tp.p, kNoSite, kNoSite, tp.distance, tp.residual};
       for (int i = 0; i < 3; ++i) {
-        if (tp.owners[i] == line.owner_a) v.site_a = tp.sites[i];
-        if (tp.owners[i] == line.owner_b) v.site_b = tp.sites[i];
+        if (tp.owners[i] == line.owner_a) {
+          v.site_a = tp.sites[i];
+          v.distance_a = tp.distances[i];
+        }
+        if (tp.owners[i] == line.owner_b) {
+          v.site_b = tp.sites[i];
+          v.distance_b = tp.distances[i];
+        }
       }
       all.push_back(v);
     }
-    stats.vertices_before_simplify += static_cast<int64_t>(all.size());
+    vertices[k] = std::move(all);
+    lines.push_back(std::move(line));
+  }
+  // Each line refined and simplified on its own; the counts summed in line order.
+  std::vector<LineRefiner::Added> added(lines.size());
+  std::vector<int64_t> before(lines.size());
+  detail::parallel_for(threads, static_cast<int64_t>(lines.size()), [&](int64_t k, int) {
+    const auto i = static_cast<size_t>(k);
+    BoundaryLine& line = lines[i];
+    std::vector<BoundaryVertex>& all = vertices[i];
+    if (refiner != nullptr) added[i] = refiner->refine(line.owner_a, line.owner_b, all);
+    before[i] = static_cast<int64_t>(all.size());
     std::vector<Vec2> pts;
     pts.reserve(all.size());
     for (const auto& v : all) pts.push_back(v.p);
-    for (size_t i : simplify_indices(pts, tol)) line.vertices.push_back(all[i]);
+    for (size_t j : simplify_indices(pts, tol)) line.vertices.push_back(all[j]);
+    line.vertices.shrink_to_fit();
+    all.clear();
+  });
+  for (size_t i = 0; i < lines.size(); ++i) {
+    stats.turning_points += added[i].turning_points;
+    stats.arc_points += added[i].arc_points;
+    stats.vertices_before_simplify += before[i];
+  }
+  for (const BoundaryLine& line : lines) {
     for (const auto& v : line.vertices) stats.max_residual = std::max(stats.max_residual, v.residual);
     stats.vertices += static_cast<int64_t>(line.vertices.size());
-    lines.push_back(std::move(line));
   }
   // Deterministic order: by owner pair, then by first vertex.
   std::stable_sort(lines.begin(), lines.end(), [](const BoundaryLine& a, const BoundaryLine& b) {
@@ -740,7 +772,7 @@ void join_close_tripoints(const std::vector<Tripoint>& tripoints, double cell, s
     missing[m].used = missing[best].used = true;
     const Tripoint& u = tripoints[missing[best].tripoint];
     auto vertex = [&](const Tripoint& x, int i, int k) {
-      return BoundaryVertex{x.p, x.sites[i], x.sites[k], x.distance, x.residual};
+      return BoundaryVertex{x.p, x.sites[i], x.sites[k], x.distance, x.residual, x.distances[i], x.distances[k]};
     };
     lines.push_back(BoundaryLine{
         a, b, false, {vertex(t, missing[m].i, missing[m].k), vertex(u, missing[best].i, missing[best].k)}});

@@ -111,8 +111,45 @@ void count_unresolved(const BoundaryGrid& b, const CrossingSet& x, const Tripoin
 // tripoints filed in squares of rows up to row1 (found from squares up to row1 + 1).
 Links link_squares(const BoundaryGrid& b, const CrossingSet& x, const TripointSet& t, int64_t row0, int64_t row1,
                    BoundaryStats& stats);
+// Stage 5 (line_refine.cpp): the line between two consecutive vertices made exact to a
+// tolerance. Where the controlling site of a side changes between them, the locus turns: the
+// turning point (the three sites' costs equal, by Newton's method on their gradients) is added.
+// Where the stretch is curved (weighted pairs, a point and a segment, any pair on the
+// ellipsoid), the chord's sagitta is estimated from the locus normals at its ends, and while it
+// exceeds `tol` the locus point across the chord's middle is added. Every added vertex is a
+// locus point checked against the index (each owner's nearest, no third owner nearer) with its
+// controlling sites; one that fails the check is not added. Recursion depth is bounded.
+// Thread safety: refine() is const and may run on many lines at once.
+class LineRefiner {
+ public:
+  // `tol`, `ftol`: metric units; `per_crs`: metric units per CRS unit (one cell's over res).
+  LineRefiner(const OwnerIndex& index, double tol, double ftol, double per_crs)
+      : index_(index), tol_(tol), ftol_(ftol), per_crs_(per_crs) {}
+  struct Added {
+    int64_t turning_points = 0, arc_points = 0;
+  };
+  // Refines one line's vertices (in order; a closed line's last vertex repeats its first).
+  Added refine(int32_t owner_a, int32_t owner_b, std::vector<BoundaryVertex>& vertices) const;
+
+ private:
+  struct End;
+  void between(const End& u, const End& v, int depth, int32_t a, int32_t b, std::vector<End>& out, Added& n) const;
+  bool turning_point(const End& u, const End& v, int32_t a, int32_t b, double max_off, End& out) const;
+  bool across_middle(const End& u, const End& v, int32_t a, int32_t b, double max_off, End& out) const;
+  bool checked(Vec2 p, int32_t a, int32_t b, const End& u, const End& v, double max_off, End& out) const;
+  double cost(Vec2 p, int32_t site, Vec2& gradient) const;
+  void set_normal(End& e) const;
+  // The locus normal at `e` of the stretch towards `other` (the sites the two share).
+  Vec2 normal_towards(const End& e, const End& other) const;
+  const OwnerIndex& index_;
+  double tol_, ftol_, per_crs_;
+};
+
+// The links chained into lines per owner pair, each refined (`refiner`, when given; on
+// `threads` threads, one line at a time each) and simplified with Douglas-Peucker at `tol` CRS
+// units, in a deterministic order.
 std::vector<BoundaryLine> chain_lines(const CrossingSet& x, const TripointSet& t, const Links& links, double tol,
-                                      BoundaryStats& stats);
+                                      BoundaryStats& stats, const LineRefiner* refiner = nullptr, int threads = 1);
 // The crossings no link reaches, as one-vertex lines in crossing order (BoundaryResult::
 // lone_crossings).
 std::vector<BoundaryLine> lone_crossings(const CrossingSet& x, const Links& links);

@@ -39,6 +39,10 @@ struct LimitGrid {
   double cell;  // one cell in metric units
   double ftol;
   std::vector<int32_t> owner_of_site;
+  // Whether a cell's field distance is the nearest distance of its owner's seeds (not with
+  // weights: the field's site is the nearest by adjusted distance, the limits measure true ones,
+  // `index` is plain). Otherwise it only bounds that distance from above.
+  bool field_is_nearest = true;
 };
 
 // The distance whose level D is drawn: to any seed (owner 0), or to one owner's.

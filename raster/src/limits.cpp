@@ -30,7 +30,9 @@ namespace {
 
 // ---- Stage 1: inside -------------------------------------------------------------------------
 // Inside (d <= D) per cell. The Float32 field decides clear cases; cells within float rounding
-// of D, and (per owner) cells of other owners within reach, are measured exactly. Per owner,
+// of D, and (per owner) cells of other owners within reach, are measured exactly (with weights,
+// every cell the field cannot put inside: its distance is then not the nearest's). Per owner
+// (with weights, for all seeds too),
 // blocks of kBlock x kBlock cells are first settled as a whole where the distance at the
 // block's centre is farther from D than the block's radius (distance is 1-Lipschitz), so exact
 // queries are only spent near the line.
@@ -38,7 +40,7 @@ constexpr int64_t kBlock = 8;
 
 // -1: decide per cell; 0: the whole block is outside; 1: inside.
 int settle_block(const Target& t, int64_t c0, int64_t r0, int64_t c1, int64_t r1) {
-  if (t.owner == 0) return -1;
+  if (t.owner == 0 && t.grid.field_is_nearest) return -1;
   const LimitGrid& lg = t.grid;
   const Vec2 a = centre(lg.g, c0, r0), b = centre(lg.g, c1 - 1, r1 - 1);
   const Vec2 mid{0.5 * (a.x + b.x), 0.5 * (a.y + b.y)};
@@ -58,8 +60,12 @@ int settle_block(const Target& t, int64_t c0, int64_t r0, int64_t c1, int64_t r1
 bool cell_inside(const Target& t, int64_t c, int64_t r, int32_t s, double d) {
   const LimitGrid& lg = t.grid;
   const bool own = t.owner == 0 || lg.owner_of_site[static_cast<size_t>(s)] == t.owner;
-  if (own && std::abs(d - t.D) > 1e-6 * (t.D + lg.cell)) return d <= t.D;
-  if (!own && d > t.D + 1e-6 * (t.D + lg.cell)) return false;  // d_owner >= d > D
+  const double slack = 1e-6 * (t.D + lg.cell);
+  if (own && d < t.D - slack) return true;  // the owner's nearest is no farther than this site
+  if (lg.field_is_nearest) {
+    if (own && d > t.D + slack) return false;
+    if (!own && d > t.D + slack) return false;  // d_owner >= d > D
+  }
   return t.at(centre(lg.g, c, r)).distance <= t.D;
 }
 
@@ -99,7 +105,7 @@ void inside_flags(const Target& t, int64_t row0, int64_t row1, InsideRows& insid
   const size_t base = inside.flags.size();
   inside.flags.resize(base + static_cast<size_t>((row1 - row0) * lg.W));
   uint8_t* out = inside.flags.data() + base;
-  if (t.owner == 0) {
+  if (t.owner == 0 && lg.field_is_nearest) {
     // Every cell's distance is the target's: the Float32 field decides all but the cells within
     // its rounding of D, in a pass with no branch per cell, and those few are measured after.
     const double eps = 1e-6 * (t.D + lg.cell);

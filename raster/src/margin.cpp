@@ -91,6 +91,9 @@ SeedSet seeds_without(const SeedSet& seeds, int32_t excluded) {
 // polygon get distance 0 there, so contested cells come out as margin 0.
 Raster<float> margin_by_owner_runs(const NearestField& field, const SiteMetric& metric, int threads) {
   const SeedSet& seeds = metric.seeds();
+  if (seeds.adjusted())
+    throw Error(ErrorKind::unsupported,
+                "the margin raster is not available with weights or reaches: it measures unweighted distances");
   const GridSpec& g = field.site.grid();
   const Window w = field.site.window();
   Raster<float> out(g, w, kNoDistance);
@@ -139,6 +142,9 @@ Raster<float> margin_raster(const NearestField& field, const OwnerIndex& index, 
                 "the margin raster is not available for the geodesic metric on a projected "
                 "grid yet; use a geographic (longitude/latitude) grid, or metric planar");
   const SeedSet& seeds = metric.seeds();
+  if (seeds.adjusted())
+    throw Error(ErrorKind::unsupported,
+                "the margin raster is not available with weights or reaches: it measures unweighted distances");
   const GridSpec& g = field.site.grid();
   const Window w = field.site.window();
   Raster<float> out(g, w, kNoDistance);

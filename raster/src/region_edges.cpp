@@ -104,8 +104,8 @@ bool junction(const OwnerIndex& index, int32_t a, int32_t b, double D, Vec2 star
 // The point near `start` where owners a, b and c are equidistant (a tripoint).
 bool meeting(const OwnerIndex& index, int32_t a, int32_t b, int32_t c, Vec2 start, double res, double ftol, Vec2& out) {
   auto f = [&](Vec2 p) {
-    const double da = index.nearest_of(p, a).distance;
-    return std::array<double, 2>{da - index.nearest_of(p, b).distance, da - index.nearest_of(p, c).distance};
+    const double ca = index.nearest_of(p, a).cost;
+    return std::array<double, 2>{ca - index.nearest_of(p, b).cost, ca - index.nearest_of(p, c).cost};
   };
   return solve2(f, start, res, ftol, out);
 }
@@ -405,7 +405,7 @@ class EdgeBuilder {
   };
 
   double locus(int32_t a, int32_t b, Vec2 p) const {
-    return index_.nearest_of(p, a).distance - index_.nearest_of(p, b).distance;
+    return index_.nearest_of(p, a).cost - index_.nearest_of(p, b).cost;
   }
   bool at_tripoint(Vec2 p) const {
     return std::any_of(b_.tripoints.begin(), b_.tripoints.end(), [&](const Tripoint& t) { return t.p == p; });

@@ -1,6 +1,7 @@
 #include "rv/seeds.hpp"
 
 #include <cmath>
+#include <cstdio>
 #include <limits>
 
 #include "rv/error.hpp"
@@ -9,6 +10,12 @@ namespace rv {
 namespace {
 
 bool finite(Vec2 p) { return std::isfinite(p.x) && std::isfinite(p.y); }
+
+std::string number(double v) {
+  char text[32];
+  std::snprintf(text, sizeof text, "%.10g", v);
+  return text;
+}
 
 }  // namespace
 
@@ -55,11 +62,11 @@ void SeedSet::set_adjustment(int32_t feature, double weight, double reach) {
   if (feature < 0 || feature >= static_cast<int32_t>(features_.size()))
     throw Error(ErrorKind::internal, "set_adjustment: no feature " + std::to_string(feature));
   if (!std::isfinite(weight) || !(weight > 0.0))
-    throw Error(ErrorKind::invalid_input, feature_name(feature) + ": the weight must be a finite number above 0 (got " +
-                                              std::to_string(weight) + ")");
+    throw Error(ErrorKind::invalid_input,
+                feature_name(feature) + ": the weight must be a finite number above 0 (got " + number(weight) + ")");
   if (std::isnan(reach) || !(reach > 0.0))
     throw Error(ErrorKind::invalid_input,
-                feature_name(feature) + ": the reach must be a distance above 0 (got " + std::to_string(reach) + ")");
+                feature_name(feature) + ": the reach must be a distance above 0 (got " + number(reach) + ")");
   features_[static_cast<size_t>(feature)].weight = weight;
   features_[static_cast<size_t>(feature)].reach = reach;
 }

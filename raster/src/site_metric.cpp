@@ -357,6 +357,12 @@ double OwnerIndex::cost_of(int32_t site, double d) const {
   return adjusted_distance(seeds.features()[static_cast<size_t>(seeds.site_feature(site))], d, cap_);
 }
 
+double OwnerIndex::weight_of(int32_t site) const {
+  if (!adjusted_) return 1.0;
+  const SeedSet& seeds = metric_.seeds();
+  return seeds.features()[static_cast<size_t>(seeds.site_feature(site))].weight;
+}
+
 OwnerIndex::Hit OwnerIndex::nearest_of(Vec2 p, int32_t owner, int32_t hint) const {
   Hit best;
   if (owner < 1 || owner > static_cast<int32_t>(trees_.size())) return best;

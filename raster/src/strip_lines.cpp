@@ -13,6 +13,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <optional>
 #include <vector>
 
 #include "boundary_stages.hpp"
@@ -31,7 +32,9 @@ namespace {
 // One boundary extraction in progress.
 struct BoundaryRun {
   boundary_stages::BoundaryGrid b;
-  double tol;  // simplification, CRS units
+  double tol;     // simplification, CRS units
+  double refine;  // BoundaryOptions::refine_cells in metric units (0: none)
+  double cell;    // one cell in metric units
   boundary_stages::CrossingSet x;
   boundary_stages::TripointSet t;
   boundary_stages::Links links;
@@ -60,7 +63,9 @@ struct BoundaryRun {
     count_unresolved(b, x, t, unplaced, stats);
     BoundaryResult result;
     result.stats = stats;
-    result.lines = chain_lines(x, t, links, tol, result.stats);
+    std::optional<LineRefiner> refiner;
+    if (refine > 0.0) refiner.emplace(b.index, refine, b.ftol, cell / b.g.res);
+    result.lines = chain_lines(x, t, links, tol, result.stats, refiner ? &*refiner : nullptr, b.threads);
     join_close_tripoints(t.tripoints, b.g.res, result.lines);
     result.lone_crossings = lone_crossings(x, links);
     for (const Tripoint& tp : t.tripoints) result.stats.max_residual = std::max(result.stats.max_residual, tp.residual);
@@ -98,6 +103,9 @@ struct LimitRun {
 struct StripLines::Impl {
   GridSpec g;
   const OwnerIndex& index;
+  // Limits measure true distances (the breadth of a zone ignores weights): with adjusted seeds,
+  // an index of their own.
+  std::unique_ptr<const OwnerIndex> plain;
   std::vector<BoundaryRun> boundary;  // none or one
   std::unique_ptr<limit_stages::LimitGrid> limit_grid;
   std::vector<LimitRun> limits;
@@ -121,6 +129,12 @@ StripLines::StripLines(const GridSpec& grid, const OwnerIndex& index, const Line
       throw Error(ErrorKind::invalid_argument, "limit distances must be positive finite numbers");
   Impl& m = *impl_;
   const SiteMetric& metric = index.metric();
+  // Where a reach ends, the owner changes without equidistance: a kind of line not drawn yet.
+  for (const Feature& f : metric.seeds().features())
+    if (std::isfinite(f.reach) && index.adjusted())
+      throw Error(ErrorKind::unsupported,
+                  "boundaries, tripoints and limits are not available yet for seeds with reaches (the lines where a "
+                  "reach ends are not drawn)");
   const double cell = cell_metric(m.g, metric);
   const std::vector<int32_t> owners_of_site = owner_of_sites(metric.seeds());
   if (request.boundaries) {
@@ -134,6 +148,8 @@ StripLines::StripLines(const GridSpec& grid, const OwnerIndex& index, const Line
                                       std::max(o.tolerance_cells, 1e-15) * cell,
                                       owners_of_site},
                                      o.simplify_cells * m.g.res,
+                                     std::max(o.refine_cells, 0.0) * cell,
+                                     cell,
                                      {},
                                      {},
                                      {},
@@ -142,9 +158,10 @@ StripLines::StripLines(const GridSpec& grid, const OwnerIndex& index, const Line
   }
   if (!request.limit_distances.empty()) {
     const LimitOptions& o = request.limit;
+    if (index.adjusted()) m.plain = std::make_unique<const OwnerIndex>(metric, OwnerIndex::Measure::plain);
     m.limit_grid =
         std::make_unique<limit_stages::LimitGrid>(limit_stages::LimitGrid{{},
-                                                                          index,
+                                                                          m.plain ? *m.plain : index,
                                                                           metric,
                                                                           m.g,
                                                                           m.g.width,
@@ -152,7 +169,8 @@ StripLines::StripLines(const GridSpec& grid, const OwnerIndex& index, const Line
                                                                           resolve_threads(o.threads),
                                                                           cell,
                                                                           std::max(o.tolerance_cells, 1e-15) * cell,
-                                                                          owners_of_site});
+                                                                          owners_of_site,
+                                                                          !metric.seeds().adjusted()});
     m.limit_tol = o.simplify_cells * m.g.res;
     std::vector<int32_t> owners = {0};
     if (o.per_owner) {

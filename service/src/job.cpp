@@ -70,7 +70,27 @@ nlohmann::json seeds_json(const LoadedSeeds& loaded) {
                                {"conversion", t.conversion},
                                {"ballpark", t.ballpark},
                                {"missing_grids", t.missing_grids}});
+  // The adjustments per owner that has any: the weights' range and the features with a reach.
+  nlohmann::json adjustments = nlohmann::json::array();
+  for (int32_t o = 1; o <= s.owner_count(); ++o) {
+    double w_min = std::numeric_limits<double>::infinity(), w_max = 0.0;
+    int64_t reaches = 0, weighted = 0;
+    for (const Feature& f : s.features()) {
+      if (f.owner != o) continue;
+      w_min = std::min(w_min, f.weight);
+      w_max = std::max(w_max, f.weight);
+      weighted += f.weight != 1.0;
+      reaches += std::isfinite(f.reach);
+    }
+    if (weighted > 0 || reaches > 0)
+      adjustments.push_back({{"owner", s.owner_labels()[static_cast<size_t>(o - 1)]},
+                             {"weight_min", w_min},
+                             {"weight_max", w_max},
+                             {"features_weighted", weighted},
+                             {"features_with_reach", reaches}});
+  }
   return {{"features", s.features().size()},
+          {"adjustments", adjustments},
           {"points", points},
           {"segments", segments},
           {"polygons", s.polygons().size()},
@@ -335,6 +355,29 @@ std::vector<double> limit_distances_in_metric_units(const JobSpec& spec, const P
   return metric;
 }
 
+// What weights and reaches cannot be combined with (yet), refused before anything is computed.
+void check_adjustments(const JobSpec& spec, const PreparedJob& job) {
+  const SeedSet& seeds = job.loaded.seeds;
+  if (!seeds.adjusted()) return;
+  const OutputRequest& out = spec.outputs;
+  if (spec.method != Method::exact && spec.method != Method::brute_force)
+    throw Error(ErrorKind::invalid_argument,
+                "weights and reaches need the exact or brute-force method: a weighted region can be disconnected "
+                "(an enclave), which the " +
+                    std::string(to_string(spec.method)) + " method's 3x3 propagation cannot find");
+  if (!out.margin.empty())
+    throw Error(ErrorKind::unsupported,
+                "the margin raster is not available with weights or reaches: it measures unweighted distances");
+  bool reach = false;
+  for (const Feature& f : seeds.features()) reach = reach || std::isfinite(f.reach);
+  const bool lines = !out.boundaries.empty() || !out.tripoints.empty() || !out.limits.empty() || !out.regions.empty();
+  if (lines && (reach || std::isfinite(job.compute.max_distance)))
+    throw Error(ErrorKind::unsupported,
+                std::string("boundaries, tripoints, limits and regions are not available yet ") +
+                    (reach ? "with reaches" : "with weights and a max distance") +
+                    ": the lines where a reach ends are not drawn; the rasters are");
+}
+
 // Requests refused before anything is computed, and the limits of the planned job.
 void check_plan(const JobSpec& spec, const JobLimits& limits, const PreparedJob& job) {
   const OutputRequest& out = spec.outputs;
@@ -343,6 +386,7 @@ void check_plan(const JobSpec& spec, const JobLimits& limits, const PreparedJob&
     throw Error(ErrorKind::unsupported,
                 "the margin raster is not available for the geodesic metric on a projected grid yet; use a "
                 "geographic (longitude/latitude) grid (--crs EPSG:4326), or metric planar");
+  check_adjustments(spec, job);
   if (!(out.simplify_cells >= 0.0) || !std::isfinite(out.simplify_cells))
     throw Error(ErrorKind::invalid_argument, "the simplification tolerance must be a non-negative number of cells");
   const int64_t cells = job.grid.cell_count();
@@ -388,6 +432,8 @@ PreparedJob prepare_job(const JobSpec& spec, const JobLimits& limits, const JobH
       throw Error(ErrorKind::invalid_argument, "max distance must be a non-negative number");
     job.compute.max_distance = *spec.max_distance / job.to_output;
   }
+  // Reaches are given in the job's distance units, like the max distance.
+  job.loaded.seeds.scale_reaches(1.0 / job.to_output);
   job.limit_distances = limit_distances_in_metric_units(spec, job);
   job.plan = plan_job(spec, job.grid, static_cast<int64_t>(job.loaded.seeds.sites().size()), mp.metric.kind,
                       seed_memory_bytes(job.loaded));

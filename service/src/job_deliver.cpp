@@ -166,6 +166,8 @@ BoundaryResult StripDeliverables::State::take_boundaries() {
                             {"saddles", st.saddles},
                             {"multi_owner_squares", st.multi_owner_squares},
                             {"unresolved_tripoints", st.unresolved_tripoints},
+                            {"turning_points", st.turning_points},
+                            {"arc_points", st.arc_points},
                             {"sliver_crossings", st.sliver_crossings},
                             {"unresolved_slivers", st.unresolved_slivers},
                             {"max_residual", st.max_residual * s.job.to_output},

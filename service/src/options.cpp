@@ -152,6 +152,41 @@ const std::vector<OptionSpec> kOptions = {
      false,
      false,
      [](JobSpec& s, const OptionValue& v) { s.seeds.owner_field = v.text; }},
+    {"weightField",
+     "weight-field",
+     OptionType::text,
+     "FIELD",
+     "seeds",
+     "Weight field",
+     "Numeric attribute giving each feature a weight w (> 0; a null value is an error): its distance d counts "
+     "as d / w when cells are assigned (multiplicatively weighted, equiratio lines: the boundary of A and B is "
+     "where d_A / w_A = d_B / w_B, and may close round an enclave). The distance raster keeps the true "
+     "distance to the winning feature; distance limits measure true distances. Needs the exact or brute-force "
+     "method. Default: every weight 1.",
+     "",
+     {},
+     0,
+     0,
+     false,
+     false,
+     [](JobSpec& s, const OptionValue& v) { s.seeds.weight_field = v.text; }},
+    {"reachField",
+     "reach-field",
+     OptionType::text,
+     "FIELD",
+     "seeds",
+     "Reach field",
+     "Numeric attribute giving a feature a reach in the job's distance units (> 0; null: no reach): the feature "
+     "counts only where its true distance is within it, beyond as if absent (an island with a reach of 12 nmi "
+     "is enclaved in a 12 nmi arc). For now with the rasters only: boundaries, limits and regions are refused "
+     "with a reach, as with weights and a max distance. Needs the exact or brute-force method.",
+     "",
+     {},
+     0,
+     0,
+     false,
+     false,
+     [](JobSpec& s, const OptionValue& v) { s.seeds.reach_field = v.text; }},
     {"",
      "on-conflict",
      OptionType::choice,

@@ -164,7 +164,9 @@ TEST(Adjusted, ReachEnclavesAnIslandOnTheEllipsoid) {
       const bool inside = d < 22224.0;
       island_cells += inside;
       ASSERT_EQ(f.site.at(c, r), inside ? 1 : 0) << "cell (" << c << ", " << r << ") at " << d << " m";
-      if (inside) EXPECT_NEAR(f.distance.at(c, r), d, 1e-3 + 1e-7 * d);
+      if (inside) {
+        EXPECT_NEAR(f.distance.at(c, r), d, 1e-3 + 1e-7 * d);
+      }
     }
   EXPECT_GT(island_cells, 1000);
   // And brute force agrees to the bit.

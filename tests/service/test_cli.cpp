@@ -11,6 +11,7 @@
 #include <string>
 
 #include <gdal.h>
+#include <GeographicLib/Geodesic.hpp>
 #include <GeographicLib/UTMUPS.hpp>
 #include <nlohmann/json.hpp>
 
@@ -202,6 +203,98 @@ TEST_F(Cli, LandBorderSliversAreReportedAndTheToleranceIsAnOption) {
   EXPECT_FALSE(std::filesystem::exists(path("o2.tif")));
 }
 
+// Bad input: one clear line, a distinct non-zero exit code, and no output file left behind.
+void expect_refused(const CliRun& r, int code, const std::string& fragment) {
+  EXPECT_EQ(r.exit_code, code) << r.output;
+  EXPECT_NE(r.output.find(fragment), std::string::npos) << r.output;
+  EXPECT_EQ(std::count(r.output.begin(), r.output.end(), '\n'), 1) << r.output;
+}
+
+// Weights from an attribute: two basepoints 100 km apart in UTM, weights 3 : 1, on a 1 km grid.
+// The boundary is the circle d_A = 3 d_B (centre 112.5 km from A, radius 37.5 km) and B's
+// region its disc, pi 37.5^2 km^2, to 0.01 % in the report; the distance raster keeps true
+// distances.
+TEST_F(Cli, WeightsFromAnAttributeMakeTheApolloniusCircle) {
+  const std::string seeds = write("weighted.geojson", R"({"type":"FeatureCollection",
+    "crs":{"type":"name","properties":{"name":"urn:ogc:def:crs:EPSG::32633"}},"features":[
+    {"type":"Feature","properties":{"state":"A","w":3},"geometry":{"type":"Point","coordinates":[500000,6000000]}},
+    {"type":"Feature","properties":{"state":"B","w":1},"geometry":{"type":"Point","coordinates":[600000,6000000]}}]})");
+  const std::string grid = " --owner-field state --resolution 1000 --extent 560000 5950000 660000 6050000 --quiet";
+  const CliRun r = run("compute " + seeds + grid + " --weight-field w --distance " + path("d.tif") + " --boundaries " +
+                       path("b.geojson") + " --regions " + path("r.geojson") + " --report " + path("report.json"));
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const nlohmann::json report = nlohmann::json::parse(std::ifstream(path("report.json")));
+  const nlohmann::json& areas = report["deliverables"]["regions"]["areas"];
+  ASSERT_EQ(areas.size(), 2u);
+  const double disc = M_PI * 37500.0 * 37500.0;
+  EXPECT_EQ(areas[1]["label"], "B");
+  EXPECT_NEAR(areas[1]["area"].get<double>() / disc, 1.0, 1e-4) << areas.dump();
+  EXPECT_NEAR(areas[0]["area"].get<double>() + areas[1]["area"].get<double>(), 1e10, 1.0);
+  EXPECT_EQ(report["seeds"]["adjustments"][0]["owner"], "A");
+  EXPECT_EQ(report["seeds"]["adjustments"][0]["weight_max"].get<double>(), 3.0);
+  const nlohmann::json lines = nlohmann::json::parse(std::ifstream(path("b.geojson")));
+  ASSERT_EQ(lines["features"].size(), 1u);
+  for (const auto& c : lines["features"][0]["geometry"]["coordinates"])
+    EXPECT_NEAR(std::hypot(c[0].get<double>() - 612500.0, c[1].get<double>() - 6000000.0), 37500.0, 1e-3);
+  // The distance raster: the true distance to the winning point (cell (0, 50): B's side).
+  const Raster<float> d = read_float32(path("d.tif"));
+  EXPECT_NEAR(d.at(0, 50), std::hypot(560500.0 - 500000.0, 5999500.0 - 6000000.0), 0.01);
+  // Refusals: a scan, the margin raster, a reach with lines, a bad weight, a missing or text field.
+  const std::string out = " --ownership " + path("o.tif");
+  expect_refused(run("compute " + seeds + grid + " --weight-field w --method hv-scan" + out), 2,
+                 "weights and reaches need the exact or brute-force method");
+  expect_refused(run("compute " + seeds + grid + " --weight-field w --margin-raster " + path("m.tif")), 7,
+                 "margin raster is not available with weights");
+  expect_refused(
+      run("compute " + seeds + grid + " --weight-field w --max-distance 50000 --boundaries " + path("x.geojson")), 7,
+      "with weights and a max distance");
+  expect_refused(run("compute " + seeds + grid + " --reach-field w --boundaries " + path("x.geojson")), 7,
+                 "with reaches");
+  expect_refused(run("compute " + seeds + grid + " --weight-field nope" + out), 2, "weight field 'nope' not found");
+  expect_refused(run("compute " + seeds + grid + " --weight-field state" + out), 2, "is not numeric (String)");
+  const std::string zero = write("zero.geojson", R"({"type":"FeatureCollection","features":[
+    {"type":"Feature","properties":{"state":"A","w":0},"geometry":{"type":"Point","coordinates":[0,0]}},
+    {"type":"Feature","properties":{"state":"B","w":1},"geometry":{"type":"Point","coordinates":[10,0]}}]})");
+  expect_refused(run("compute " + zero + " --owner-field state --resolution 1 --weight-field w" + out), 3,
+                 ":fid 0: the weight must be a finite number above 0 (got 0)");
+  expect_refused(run("compute " + zero + " --owner-field state --resolution 1 --reach-field w" + out), 3,
+                 "the reach must be a distance above 0 (got 0)");
+  const std::string null_weight = write("null.geojson", R"({"type":"FeatureCollection","features":[
+    {"type":"Feature","properties":{"state":"A","w":2},"geometry":{"type":"Point","coordinates":[0,0]}},
+    {"type":"Feature","properties":{"state":"B","w":null},"geometry":{"type":"Point","coordinates":[10,0]}}]})");
+  expect_refused(run("compute " + null_weight + " --owner-field state --resolution 1 --weight-field w" + out), 3,
+                 "the weight field 'w' is null or missing");
+  EXPECT_FALSE(fs::exists(path("o.tif")));
+  EXPECT_FALSE(fs::exists(path("m.tif")));
+  EXPECT_FALSE(fs::exists(path("x.geojson")));
+}
+
+// A reach from an attribute, in the job's distance units: 12 nmi on a geographic grid, whose
+// island cells are those within 22,224 m of it on the ellipsoid.
+TEST_F(Cli, ReachFromAnAttributeInDistanceUnits) {
+  const std::string seeds = write("reach.geojson", R"({"type":"FeatureCollection","features":[
+    {"type":"Feature","properties":{"state":"main"},"geometry":{"type":"LineString","coordinates":[[10,54],[10,56]]}},
+    {"type":"Feature","properties":{"state":"isle","reach":12},"geometry":{"type":"Point","coordinates":[12.3,55]}}]})");
+  const CliRun r = run("compute " + seeds + " --owner-field state --reach-field reach --distance-units nmi " +
+                       "--resolution 0.01 --extent 11.9 54.7 12.7 55.3 --quiet --ownership " + path("o.tif") +
+                       " --report " + path("report.json"));
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const Raster<int32_t> o = read_int32(path("o.tif"));
+  const GeographicLib::Geodesic& geod = GeographicLib::Geodesic::WGS84();
+  int64_t isle = 0;
+  for (int64_t row = 0; row < o.window().height; ++row)
+    for (int64_t c = 0; c < o.window().width; ++c) {
+      double d = 0.0;
+      geod.Inverse(55.0, 12.3, 55.3 - (row + 0.5) * 0.01, 11.9 + (c + 0.5) * 0.01, d);
+      if (std::abs(d - 22224.0) < 1.0) continue;
+      ASSERT_EQ(o.at(c, row), d < 22224.0 ? 2 : 1) << c << ", " << row << " at " << d << " m";
+      isle += d < 22224.0;
+    }
+  EXPECT_GT(isle, 500);
+  const nlohmann::json report = nlohmann::json::parse(std::ifstream(path("report.json")));
+  EXPECT_EQ(report["seeds"]["adjustments"][0]["features_with_reach"].get<int>(), 1);
+}
+
 TEST_F(Cli, ValidateReportsZeroWrongCellsForExact) {
   const CliRun r = run("validate " + source(kDemo) + " --resolution 400 --methods exact,hv-scan");
   ASSERT_EQ(r.exit_code, 0) << r.output;
@@ -218,13 +311,6 @@ TEST_F(Cli, RandomTrialsReproduceTable2Buckets) {
   EXPECT_EQ(j["methods"]["hv-scan"]["trials_in_bucket"][0], 5);
   const auto& h = j["methods"]["h-scan"]["trials_in_bucket"];
   EXPECT_EQ(h[0].get<int>() + h[1].get<int>() + h[2].get<int>(), 5);
-}
-
-// Bad input: one clear line, a distinct non-zero exit code, and no output file left behind.
-void expect_refused(const CliRun& r, int code, const std::string& fragment) {
-  EXPECT_EQ(r.exit_code, code) << r.output;
-  EXPECT_NE(r.output.find(fragment), std::string::npos) << r.output;
-  EXPECT_EQ(std::count(r.output.begin(), r.output.end(), '\n'), 1) << r.output;
 }
 
 TEST_F(Cli, BadInputFailsCleanly) {

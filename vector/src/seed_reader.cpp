@@ -260,6 +260,8 @@ struct PendingFeature {
   int64_t position = 0;  // 1-based, in the input
   std::string source;
   std::vector<PendingPart> parts;
+  double weight = 1.0;
+  double reach = std::numeric_limits<double>::infinity();
 };
 
 class Reader {
@@ -580,6 +582,8 @@ class Reader {
                                                      "' not found in layer " + layer_label(l) +
                                                      " (fields: " + list_fields(defn) + ")");
     }
+    weight_index_ = numeric_field(l, defn, options_.weight_field, "weight");
+    reach_index_ = numeric_field(l, defn, options_.reach_field, "reach");
     CtPtr ct;
     if (target_ && l.srs && !l.srs->IsSame(target_.get())) {
       const detail::ChosenOperation op = stated_operation(l);
@@ -609,6 +613,39 @@ class Reader {
     if (!capture.last_error().empty())
       throw Error(read_error_kind(), "reading layer " + layer_label(l) + " failed: " + capture.last_error());
     for (std::string& w : capture.take_warnings()) gdal_warning(layer_label(l), w);
+  }
+
+  // The index of an adjustment's field in the layer (-1 without one): it must exist and hold
+  // numbers.
+  int numeric_field(const LayerRef& l, OGRFeatureDefn* defn, const std::optional<std::string>& name,
+                    const char* what) const {
+    if (!name) return -1;
+    const int index = defn->GetFieldIndex(name->c_str());
+    if (index < 0)
+      throw Error(ErrorKind::invalid_argument, std::string(what) + " field '" + quote_input(*name) +
+                                                   "' not found in layer " + layer_label(l) +
+                                                   " (fields: " + list_fields(defn) + ")");
+    const OGRFieldType type = defn->GetFieldDefn(index)->GetType();
+    if (type != OFTInteger && type != OFTInteger64 && type != OFTReal)
+      throw Error(ErrorKind::invalid_argument, std::string(what) + " field '" + quote_input(*name) + "' of layer " +
+                                                   layer_label(l) + " is not numeric (" +
+                                                   OGRFieldDefn::GetFieldTypeName(type) + ")");
+    return index;
+  }
+
+  // A feature's adjustment from its field: `absent` where the field is null, an error when
+  // `required`.
+  double adjustment(OGRFeature& f, int index, const std::string& source, const char* what, bool required,
+                    double absent) const {
+    if (index < 0) return absent;
+    if (!f.IsFieldSetAndNotNull(index)) {
+      if (!required) return absent;
+      throw Error(ErrorKind::invalid_input,
+                  source + ": the " + what + " field '" +
+                      valid_utf8(what[0] == 'w' ? *options_.weight_field : *options_.reach_field) +
+                      "' is null or missing");
+    }
+    return f.GetFieldAsDouble(index);
   }
 
   [[noreturn]] void too_many_features(const LayerRef& l) const {
@@ -696,7 +733,13 @@ class Reader {
 
     const int32_t owner = out_.seeds.owner_code(label);
     const auto index = static_cast<int32_t>(pending_.size());
-    pending_.push_back(PendingFeature{owner, position_, source, {}});
+    pending_.push_back(
+        PendingFeature{owner,
+                       position_,
+                       source,
+                       {},
+                       adjustment(f, weight_index_, source, "weight", true, 1.0),
+                       adjustment(f, reach_index_, source, "reach", false, std::numeric_limits<double>::infinity())});
     std::set<std::pair<double, double>> seen_points;
     for (auto& part : parts) {
       switch (wkbFlatten(part->getGeometryType())) {
@@ -738,6 +781,7 @@ class Reader {
     for (size_t k : order) {
       PendingFeature& f = pending_[k];
       const int32_t index = seeds.add_feature(f.owner, std::move(f.source));
+      seeds.set_adjustment(index, f.weight, f.reach);  // refuses bad values, naming the feature
       final_index[k] = index;
       out_.input_position.push_back(f.position);
       for (PendingPart& part : f.parts) {
@@ -864,6 +908,7 @@ class Reader {
   std::vector<SeedPart> parts_;  // for the conflict check; feature = index into pending_
   std::vector<PendingFeature> pending_;
   int64_t position_ = 0;
+  int weight_index_ = -1, reach_index_ = -1;  // the adjustments' fields in the layer being read
   std::set<std::string> gdal_warnings_seen_;
 };
 

@@ -125,6 +125,8 @@ void write_boundaries(const std::string& path, const BoundaryResult& b, const Si
   const SeedSet& s = metric.seeds();
   VectorFile file(path);
   const bool gpkg = std::string(driver_for(path)) == "GPKG";
+  bool weighted = false;
+  for (const Feature& f : s.features()) weighted = weighted || f.weight != 1.0;
   OGRLayer* lines = file.layer("boundaries", wkbLineString, o.crs);
   file.field(lines, "owner_a", OFTInteger);
   file.field(lines, "owner_b", OFTInteger);
@@ -144,6 +146,9 @@ void write_boundaries(const std::string& path, const BoundaryResult& b, const Si
     for (const char* name :
          {"basepoint_a_x", "basepoint_a_y", "basepoint_b_x", "basepoint_b_y", "distance", "residual"})
       file.field(verts, name, OFTReal);
+    // Weighted lines: the two true distances differ (d_a / w_a = d_b / w_b), each side's its own.
+    if (weighted)
+      for (const char* name : {"distance_a", "distance_b"}) file.field(verts, name, OFTReal);
   }
   // The basepoints (each vertex's controlling positions): geodesic projections onto segments,
   // the dearest part of the file, measured on the threads before the serial writing.
@@ -208,6 +213,10 @@ void write_boundaries(const std::string& path, const BoundaryResult& b, const Si
       }
       pf->SetField("distance", v.distance * o.distance_factor);
       pf->SetField("residual", v.residual * o.distance_factor);
+      if (weighted) {
+        pf->SetField("distance_a", v.distance_a * o.distance_factor);
+        pf->SetField("distance_b", v.distance_b * o.distance_factor);
+      }
       file.add(verts, pf.get());
     }
   }

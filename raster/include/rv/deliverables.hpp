@@ -23,6 +23,14 @@
 // Vertices are never moved: simplification (Douglas-Peucker) only drops vertices that lie within
 // the tolerance of the simplified line, so every kept vertex is an exact locus point.
 //
+// Weights (Feature::weight, rv/seeds.hpp): the field's owners are the nearest by d / w, and so
+// are the index's (OwnerIndex::Measure::adjusted): boundaries follow d_a / w_a = d_b / w_b (a
+// circle round two weighted points: an enclave), tripoints equal three such costs, residuals are
+// in them; distance limits measure true distances (OwnerIndex::Measure::plain: the breadth of a
+// zone ignores weights). Reaches end a feature's influence without equidistance, a kind of line
+// not drawn yet: the lines refuse seeds with reaches (rv::Error(unsupported)), as does the margin
+// raster any adjusted seeds.
+//
 // Projected geodesic grids (a field computed with ComputeOptions::geolocator) are measured with
 // LocatedGeodesicSiteMetric (grid positions located on the ellipsoid; output positions stay in
 // the grid's CRS); margin_raster refuses such fields with rv::Error(unsupported) for now.
@@ -250,6 +258,8 @@ class OwnerIndex {
   };
   // True when the index compares adjusted distances that differ from true ones somewhere.
   bool adjusted() const { return adjusted_; }
+  // The weight `site` is compared with (its feature's; 1 in a plain index).
+  double weight_of(int32_t site) const;
   // The cost of a true distance `d` to `site` (adjusted_distance of its feature, or d).
   double cost_of(int32_t site, double d) const;
   // Nearest site of owner `owner` (1..K); {kNoSite, inf} if the owner has no sites. `hint`: a
@@ -313,12 +323,16 @@ class OwnerIndex {
 
 // One vertex of a boundary line: a point where the distances to the nearest sites of the two
 // owners are equal.
+// With weights (rv/seeds.hpp, Feature::weight) the locus is d_a / w_a = d_b / w_b: the two
+// true distances differ by design, and `residual` is the difference of the adjusted ones.
 struct BoundaryVertex {
   Vec2 p;
   int32_t site_a = kNoSite;  // controlling (nearest) site of owner_a at p
   int32_t site_b = kNoSite;  // controlling site of owner_b
   double distance = 0.0;     // distance to both (the mean of the two; they differ by residual)
-  double residual = 0.0;     // |d_a - d_b| at p, metric units
+  double residual = 0.0;     // |d_a - d_b| at p, metric units (adjusted distances)
+  double distance_a = 0.0;   // the true distances to site_a and site_b, metric units
+  double distance_b = 0.0;
 };
 
 struct BoundaryLine {
@@ -333,7 +347,9 @@ struct Tripoint {
   int32_t owners[3] = {0, 0, 0};                   // ascending
   int32_t sites[3] = {kNoSite, kNoSite, kNoSite};  // controlling site of each owner
   double distance = 0.0;                           // mean distance to the three
-  double residual = 0.0;                           // max pairwise difference of the three distances
+  double residual = 0.0;                           // max pairwise difference of the three (adjusted) distances
+  double distances[3] = {0.0, 0.0, 0.0};           // true distance to each controlling site
+  double cost = 0.0;                               // mean adjusted distance (== distance without weights)
 };
 
 struct BoundaryOptions {
@@ -342,6 +358,13 @@ struct BoundaryOptions {
   double simplify_cells = 0.0;
   // Root-finding tolerance along a cell-centre segment, in cells.
   double tolerance_cells = 1e-9;
+  // The largest distance, in cells, left between a line's straight chords and the locus they
+  // stand for. The vertices found on cell edges are exact, but the locus between two of them
+  // turns where a controlling site changes and curves where it is not a straight bisector (a
+  // point and a segment: a parabola; weighted points: a circle; any pair on the ellipsoid):
+  // turning points are added exactly, and curved stretches get locus points until every chord
+  // is within this of the locus. 0: only the vertices on cell edges.
+  double refine_cells = 1e-3;
   int threads = 0;
 };
 
@@ -356,6 +379,8 @@ struct BoundaryStats {
   int64_t multi_owner_squares = 0;   // dual squares with three or more owners
   int64_t unresolved_tripoints = 0;  // such squares where no tripoint converged inside
   double max_residual = 0.0;         // largest |d_a - d_b| over all vertices and tripoints
+  int64_t turning_points = 0;        // vertices added where a controlling site changes
+  int64_t arc_points = 0;            // vertices added on curved stretches (refine_cells)
   int64_t vertices_before_simplify = 0;
   int64_t vertices = 0;
 };

@@ -50,9 +50,15 @@ struct SeedReadOptions {
                                            // at least one (else not_found).
   std::optional<std::string> owner_field;  // must exist in every layer read; null values are errors.
                                            // Values are compared as text (GDAL's string form).
-  std::string target_crs;                  // any definition OSR understands; empty = first layer's CRS.
-                                           // Layers without a CRS are accepted only when no layer
-                                           // has one and target_crs is empty (with a warning).
+  // The delimitation adjustments (rv/seeds.hpp, Feature): numeric attributes, each of which must
+  // exist in every layer read. weight_field: the feature's weight (> 0, finite; a null value is
+  // an error). reach_field: its reach, in the units the caller scales it from (SeedSet::
+  // scale_reaches; > 0; null: no reach). Bad values are invalid_input naming the feature.
+  std::optional<std::string> weight_field;
+  std::optional<std::string> reach_field;
+  std::string target_crs;  // any definition OSR understands; empty = first layer's CRS.
+                           // Layers without a CRS are accepted only when no layer
+                           // has one and target_crs is empty (with a warning).
   ConflictPolicy on_conflict = ConflictPolicy::error;
   // Overlaps of two owners' polygons that hold no disc of this diameter (metres; CRS units when
   // the data has no CRS) are land-border slivers, not conflicts: two countries' polygons that
