@@ -243,9 +243,9 @@ int64_t deliverables_memory(const JobSpec& spec, const GridSpec& grid, int64_t s
   if (!out.margin.empty()) bytes += strip_cells * 12 + kTileRows * grid.width * 4 + kWriterBytes;
   if (!out.preview.empty()) bytes += int64_t{2000} * 2000 * 4;
   const int64_t line_sets =
-      (!out.boundaries.empty() || !out.tripoints.empty() || !out.preview.empty() || !out.regions.empty()) +
+      (!out.boundaries.empty() || !out.tripoints.empty() || !out.preview.empty() || out.regions_wanted()) +
       (out.limits.empty() ? 0 : static_cast<int64_t>(std::max<size_t>(out.limit_distances.size(), 1))) +
-      (!out.regions.empty() && spec.max_distance);  // the max-distance line bounding the regions
+      (out.regions_wanted() && spec.max_distance);  // the max-distance line bounding the regions
   bytes += line_sets * ((grid.width + grid.height) * kLineBytes + 8 * grid.width * 9);
   return bytes;
 }
@@ -370,12 +370,58 @@ void check_adjustments(const JobSpec& spec, const PreparedJob& job) {
                 "the margin raster is not available with weights or reaches: it measures unweighted distances");
   bool reach = false;
   for (const Feature& f : seeds.features()) reach = reach || std::isfinite(f.reach);
-  const bool lines = !out.boundaries.empty() || !out.tripoints.empty() || !out.limits.empty() || !out.regions.empty();
+  const bool lines = !out.boundaries.empty() || !out.tripoints.empty() || !out.limits.empty() || out.regions_wanted();
   if (lines && (reach || std::isfinite(job.compute.max_distance)))
     throw Error(ErrorKind::unsupported,
                 std::string("boundaries, tripoints, limits and regions are not available yet ") +
                     (reach ? "with reaches" : "with weights and a max distance") +
                     ": the lines where a reach ends are not drawn; the rasters are");
+}
+
+// The relevant area (its polygons, in the grid's CRS) and the relevant coasts (in the seeds'
+// CRS, owned as the seeds are), read with the seeds' confinement and limits; refused when the
+// area holds no polygon, the coasts no line, or a coast's owner has no seeds.
+void read_relevant(const JobSpec& spec, const JobLimits& limits, PreparedJob& job) {
+  const OutputRequest& out = spec.outputs;
+  if (out.relevant_area.empty()) {
+    if (!out.relevant_coasts.empty())
+      throw Error(ErrorKind::invalid_argument, "relevant coasts need a relevant area (--relevant-area)");
+    return;
+  }
+  SeedReadOptions base = spec.seeds;
+  base.layers.clear();
+  base.owner_field.reset();
+  base.weight_field.reset();
+  base.reach_field.reset();
+  base.on_conflict = ConflictPolicy::lower_code;
+  base.max_features = stricter(base.max_features, limits.max_features);
+  base.max_vertices = stricter(base.max_vertices, limits.max_vertices);
+  base.max_input_bytes = stricter(base.max_input_bytes, limits.max_input_bytes);
+  SeedReadOptions area = base;
+  area.paths = {out.relevant_area};
+  area.target_crs = job.loaded.crs.wkt;
+  area.geographic_seeds = false;
+  job.relevant_area = load_seeds(area);
+  if (job.relevant_area->seeds.polygons().empty())
+    throw Error(ErrorKind::invalid_input, "the relevant area (" + out.relevant_area + ") holds no polygon");
+  if (out.relevant_coasts.empty()) return;
+  SeedReadOptions coasts = seed_options_for_metric(spec.seeds, spec.metric);
+  coasts.paths = {out.relevant_coasts};
+  coasts.layers.clear();
+  coasts.weight_field.reset();
+  coasts.reach_field.reset();
+  coasts.on_conflict = ConflictPolicy::lower_code;
+  coasts.target_crs = job.loaded.crs.wkt;
+  job.relevant_coasts = load_seeds(coasts);
+  const SeedSet& cs = job.relevant_coasts->seeds;
+  if (cs.geometric_site_count() == 0)
+    throw Error(ErrorKind::invalid_input, "the relevant coasts (" + out.relevant_coasts + ") hold no line");
+  const std::vector<std::string>& owners = job.loaded.seeds.owner_labels();
+  for (const std::string& label : cs.owner_labels())
+    if (std::find(owners.begin(), owners.end(), label) == owners.end())
+      throw Error(ErrorKind::invalid_input, "the relevant coasts name owner '" + label +
+                                                "', which has no seeds (owners are matched by the " +
+                                                "owner field's values)");
 }
 
 // Requests refused before anything is computed, and the limits of the planned job.
@@ -435,6 +481,7 @@ PreparedJob prepare_job(const JobSpec& spec, const JobLimits& limits, const JobH
   // Reaches are given in the job's distance units, like the max distance.
   job.loaded.seeds.scale_reaches(1.0 / job.to_output);
   job.limit_distances = limit_distances_in_metric_units(spec, job);
+  read_relevant(spec, limits, job);
   job.plan = plan_job(spec, job.grid, static_cast<int64_t>(job.loaded.seeds.sites().size()), mp.metric.kind,
                       seed_memory_bytes(job.loaded));
   check_plan(spec, limits, job);

@@ -38,6 +38,9 @@ struct StripDeliverables::State {
   SiteCodes owner_codes;     // site -> owner code (the preview)
   std::optional<StripLines> boundaries, limits;
   std::optional<StripLines> reach;  // regions with a max distance: the line at that distance
+  // The relevant area (its cells) and the coasts nearest to them (without --relevant-coasts).
+  std::optional<InteriorSpans> relevant_cells;
+  std::optional<RelevantCoasts> relevant_coasts;
   std::optional<PreviewSample> preview;
   std::optional<GeoTiffStripWriter<float>> margin_writer;  // streamed
   double boundary_seconds = 0.0, limit_seconds = 0.0, margin_seconds = 0.0, region_seconds = 0.0;
@@ -58,6 +61,8 @@ struct StripDeliverables::State {
   LimitResult take_limits();
   double write_limit_file(const LimitResult& limits) const;
   void write_region_polygons(const BoundaryResult& boundaries);
+  // The disproportionality test's report entry, from the regions' areas within the relevant area.
+  nlohmann::json relevance(const RegionStats& rs, const std::string& area_units);
   void finish_margin();
   void write_quicklook(const BoundaryResult& boundaries);
 };
@@ -76,7 +81,7 @@ StripDeliverables::StripDeliverables(JobRun& run, const PreparedJob& job, bool s
   s.vector.distance_factor = job.to_output;
   s.vector.distance_units = job.unit;
   s.vector.threads = run.spec.threads;
-  if (!out.boundaries.empty() || !out.tripoints.empty() || !out.preview.empty() || !out.regions.empty()) {
+  if (!out.boundaries.empty() || !out.tripoints.empty() || !out.preview.empty() || out.regions_wanted()) {
     LineRequest r;
     r.boundaries = true;
     r.boundary.simplify_cells = out.simplify_cells;
@@ -91,7 +96,11 @@ StripDeliverables::StripDeliverables(JobRun& run, const PreparedJob& job, bool s
     r.limit.threads = run.spec.threads;
     s.limits.emplace(g, *s.index, r);
   }
-  if (!out.regions.empty() && std::isfinite(job.compute.max_distance)) {
+  if (job.relevant_area && !job.relevant_coasts) {
+    s.relevant_cells.emplace(build_interiors(job.relevant_area->seeds, g, g.full_window()));
+    s.relevant_coasts.emplace(g, *s.metric, *s.relevant_cells, job.compute.geolocator.get(), run.spec.threads);
+  }
+  if (out.regions_wanted() && std::isfinite(job.compute.max_distance)) {
     LineRequest r;
     r.limit_distances = {job.compute.max_distance};
     r.limit.simplify_cells = out.simplify_cells;
@@ -134,6 +143,7 @@ void StripDeliverables::add(const NearestField& strip) {
   if (s.limits) s.limit_seconds += seconds([&] { s.limits->add(strip); });
   if (s.preview) s.preview->add_rows(strip.site.data(), strip.site.window().row0, strip.site.height(), &s.owner_codes);
   if (s.reach) s.region_seconds += seconds([&] { s.reach->add(strip); });
+  if (s.relevant_coasts) s.region_seconds += seconds([&] { s.relevant_coasts->add(strip); });
   if (!out.margin.empty()) {
     s.margin_seconds += seconds([&] {
       Raster<float> margin = margin_raster(strip, *s.index, s.run.spec.threads);
@@ -218,10 +228,11 @@ void StripDeliverables::State::write_region_polygons(const BoundaryResult& bound
   State& s = *this;
   const OutputRequest& out = s.out();
   JobRun& run = s.run;
-  if (out.regions.empty()) return;
+  if (!out.regions_wanted()) return;
   run.check_cancel();
   const auto t = Clock::now();
-  run.will_write(out.regions);
+  // Without --regions (the relevant area alone) the regions are measured, not written.
+  if (!out.regions.empty()) run.will_write(out.regions);
   const SeedSet& seeds = s.job.loaded.seeds;
   const double max_distance = s.job.compute.max_distance;
   const LimitResult reach_lines = s.reach ? s.reach->take_limits() : LimitResult{};
@@ -243,9 +254,10 @@ void StripDeliverables::State::write_region_polygons(const BoundaryResult& bound
     return to_area * ring_area(ring, s.job.compute.metric, located, s.job.grid.res);
   };
   lr.area_units = s.job.unit + "^2";
+  if (s.job.relevant_area) lr.relevant = &s.job.relevant_area->seeds.polygons();
   const RegionStats rs = write_line_regions(
       out.regions, lr, seeds, s.job.loaded.grid_polygons ? *s.job.loaded.grid_polygons : seeds.polygons(), s.vector);
-  run.wrote("regions", out.regions);
+  if (!out.regions.empty()) run.wrote("regions", out.regions);
   // Each owner's areas in the report too, for the analyst who does not open the file.
   nlohmann::json areas = nlohmann::json::array();
   for (const RegionStats::OwnerArea& a : rs.areas)
@@ -256,7 +268,73 @@ void StripDeliverables::State::write_region_polygons(const BoundaryResult& bound
                      {"sea_area", a.sea}});
   s.report["regions"] = {
       {"owners", rs.owners}, {"polygons", rs.polygons}, {"areas", areas}, {"area_units", lr.area_units}};
+  if (s.job.relevant_area) s.report["regions"]["relevant_area"] = relevance(rs, lr.area_units);
   s.times["regions"] = s.region_seconds + seconds_since(t);
+}
+
+nlohmann::json StripDeliverables::State::relevance(const RegionStats& rs, const std::string& area_units) {
+  const SeedSet& seeds = job.loaded.seeds;
+  const auto owners = static_cast<size_t>(seeds.owner_count());
+  // Each owner's relevant coast: the given lines' length, or the stretches of its seeds nearest
+  // to the area's cells.
+  std::vector<double> coast(owners + 1, 0.0);
+  if (job.relevant_coasts) {
+    const SeedSet& cs = job.relevant_coasts->seeds;
+    const std::unique_ptr<SiteMetric> m = make_site_metric(cs, job.grid, [&] {
+      ComputeOptions o = job.compute;
+      o.geolocator = nullptr;  // the coasts are read where the seeds are: longitude/latitude then
+      o.grid_polygons = nullptr;
+      return o;
+    }());
+    for (const Site& site : cs.sites()) {
+      if (site.kind != SiteKind::segment) continue;
+      const std::string& label = cs.owner_labels()[static_cast<size_t>(cs.features()[site.feature].owner - 1)];
+      const auto at = std::find(seeds.owner_labels().begin(), seeds.owner_labels().end(), label);
+      coast[static_cast<size_t>(at - seeds.owner_labels().begin()) + 1] += m->point_distance(site.a, site.b);
+    }
+  } else {
+    for (const RelevantCoasts::Stretch& st : relevant_coasts->take())
+      coast[static_cast<size_t>(seeds.site_owner(st.site))] += st.length;
+  }
+  double coast_total = 0.0, sea_total = 0.0;
+  for (size_t o = 1; o <= owners; ++o) coast_total += coast[o];
+  std::vector<double> sea(owners + 1, 0.0), land(owners + 1, 0.0);
+  for (const RegionStats::OwnerArea& a : rs.areas) {
+    sea[static_cast<size_t>(a.owner)] = a.relevant_sea;
+    land[static_cast<size_t>(a.owner)] = a.relevant_land;
+    sea_total += a.relevant_sea;
+  }
+  auto share = [](double part, double whole) { return whole > 0.0 ? nlohmann::json(part / whole) : nlohmann::json(); };
+  nlohmann::json list = nlohmann::json::array();
+  std::vector<size_t> present;
+  for (size_t o = 1; o <= owners; ++o) {
+    if (coast[o] == 0.0 && sea[o] == 0.0 && land[o] == 0.0) continue;
+    present.push_back(o);
+    const nlohmann::json cs = share(coast[o], coast_total), as = share(sea[o], sea_total);
+    list.push_back({{"owner", o},
+                    {"label", seeds.owner_labels()[o - 1]},
+                    {"coast_length", coast[o] * job.to_output},
+                    {"coast_share", cs},
+                    {"sea_area", sea[o]},
+                    {"land_area", land[o]},
+                    {"area_share", as},
+                    // Above 1: more sea than coast would give; the test compares these.
+                    {"area_to_coast", cs.is_number() && as.is_number() && cs.get<double>() > 0.0
+                                          ? nlohmann::json(as.get<double>() / cs.get<double>())
+                                          : nlohmann::json()}});
+  }
+  nlohmann::json out = {{"coasts", job.relevant_coasts ? "given" : "nearest to the area's cells"},
+                        {"area", rs.relevant_total},
+                        {"area_units", area_units},
+                        {"length_units", job.unit},
+                        {"owners", list}};
+  if (present.size() == 2) {
+    const size_t a = present[0], b = present[1];
+    out["pair"] = {{"owners", {seeds.owner_labels()[a - 1], seeds.owner_labels()[b - 1]}},
+                   {"coast_ratio", coast[b] > 0.0 ? nlohmann::json(coast[a] / coast[b]) : nlohmann::json()},
+                   {"area_ratio", sea[b] > 0.0 ? nlohmann::json(sea[a] / sea[b]) : nlohmann::json()}};
+  }
+  return out;
 }
 
 void StripDeliverables::State::finish_margin() {

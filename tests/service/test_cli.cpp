@@ -295,6 +295,60 @@ TEST_F(Cli, ReachFromAnAttributeInDistanceUnits) {
   EXPECT_EQ(report["seeds"]["adjustments"][0]["features_with_reach"].get<int>(), 1);
 }
 
+// The disproportionality test on a mirror-symmetric case: two owners' coasts along y = 0 either
+// side of x = 0 (UTM metres), a relevant area symmetric about the boundary: equal coasts, equal
+// sea areas (half the area each), ratios 1.000. Given coasts of 30 and 10 km: a coast ratio of 3.
+TEST_F(Cli, RelevantAreaAndTheDisproportionalityTest) {
+  const std::string crs = R"("crs":{"type":"name","properties":{"name":"urn:ogc:def:crs:EPSG::32633"}},)";
+  const std::string seeds = write("coasts.geojson", R"({"type":"FeatureCollection",)" + crs + R"("features":[
+    {"type":"Feature","properties":{"state":"A"},"geometry":{"type":"LineString","coordinates":[[440000,6000000],[500000,6000000]]}},
+    {"type":"Feature","properties":{"state":"B"},"geometry":{"type":"LineString","coordinates":[[500000,6000000],[560000,6000000]]}}]})");
+  const std::string area = write("area.geojson", R"({"type":"FeatureCollection",)" + crs + R"("features":[
+    {"type":"Feature","properties":{},"geometry":{"type":"Polygon","coordinates":[[[460000,6005000],[540000,6005000],[540000,6045000],[460000,6045000],[460000,6005000]]]}}]})");
+  const std::string grid =
+      " --owner-field state --resolution 500 --extent 450000 5950000 550000 6050000 --quiet --report " +
+      path("report.json");
+  const CliRun r = run("compute " + seeds + grid + " --relevant-area " + area);
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  nlohmann::json report = nlohmann::json::parse(std::ifstream(path("report.json")));
+  const nlohmann::json& ra = report["deliverables"]["regions"]["relevant_area"];
+  EXPECT_NEAR(ra["area"].get<double>(), 80000.0 * 40000.0, 1.0) << ra.dump();
+  ASSERT_EQ(ra["owners"].size(), 2u);
+  for (const auto& o : ra["owners"]) {
+    EXPECT_NEAR(o["sea_area"].get<double>(), 40000.0 * 40000.0, 1.0) << ra.dump();
+    EXPECT_NEAR(o["coast_length"].get<double>(), 39500.0, 1e-6) << ra.dump();  // feet of the cells: 250 m in
+    EXPECT_NEAR(o["area_to_coast"].get<double>(), 1.0, 1e-9);
+  }
+  EXPECT_NEAR(ra["pair"]["coast_ratio"].get<double>(), 1.0, 1e-9);
+  EXPECT_NEAR(ra["pair"]["area_ratio"].get<double>(), 1.0, 1e-9);
+  EXPECT_EQ(ra["coasts"], "nearest to the area's cells");
+  EXPECT_EQ(file_count(), 3u);  // no regions file was asked for, none written
+  // Given coasts.
+  const std::string given = write("given.geojson", R"({"type":"FeatureCollection",)" + crs + R"("features":[
+    {"type":"Feature","properties":{"state":"A"},"geometry":{"type":"LineString","coordinates":[[470000,6000000],[500000,6000000]]}},
+    {"type":"Feature","properties":{"state":"B"},"geometry":{"type":"LineString","coordinates":[[500000,6000000],[510000,6000000]]}}]})");
+  const CliRun g = run("compute " + seeds + grid + " --relevant-area " + area + " --relevant-coasts " + given +
+                       " --regions " + path("regions.gpkg"));
+  ASSERT_EQ(g.exit_code, 0) << g.output;
+  report = nlohmann::json::parse(std::ifstream(path("report.json")));
+  const nlohmann::json& rg = report["deliverables"]["regions"]["relevant_area"];
+  EXPECT_NEAR(rg["pair"]["coast_ratio"].get<double>(), 3.0, 1e-9) << rg.dump();
+  EXPECT_NEAR(rg["owners"][0]["area_to_coast"].get<double>(), 0.5 / 0.75, 1e-9);
+  EXPECT_EQ(rg["coasts"], "given");
+  EXPECT_TRUE(fs::exists(path("regions.gpkg")));
+  // Refusals: an area without polygons, coasts without an area, a coast of an unknown owner.
+  const std::string points = write("points.geojson", R"({"type":"FeatureCollection",)" + crs + R"("features":[
+    {"type":"Feature","properties":{"state":"C"},"geometry":{"type":"LineString","coordinates":[[470000,6000000],[500000,6000000]]}}]})");
+  expect_refused(run("compute " + seeds + grid + " --relevant-area " + points + " --ownership " + path("x.tif")), 3,
+                 "holds no polygon");
+  expect_refused(run("compute " + seeds + grid + " --relevant-coasts " + given + " --ownership " + path("x.tif")), 2,
+                 "relevant coasts need a relevant area");
+  expect_refused(run("compute " + seeds + grid + " --relevant-area " + area + " --relevant-coasts " + points +
+                     " --ownership " + path("x.tif")),
+                 3, "the relevant coasts name owner 'C', which has no seeds");
+  EXPECT_FALSE(fs::exists(path("x.tif")));
+}
+
 TEST_F(Cli, ValidateReportsZeroWrongCellsForExact) {
   const CliRun r = run("validate " + source(kDemo) + " --resolution 400 --methods exact,hv-scan");
   ASSERT_EQ(r.exit_code, 0) << r.output;

@@ -388,13 +388,31 @@ struct OwnerParts {
   const OGRMultiPolygon* region = nullptr;
   std::unique_ptr<OGRMultiPolygon> land, sea;
   double land_area = 0.0, sea_area = 0.0;
+  double relevant_land = 0.0, relevant_sea = 0.0;  // within the relevant area
 };
+
+// Polygons as one valid, merged multipolygon.
+GeometryPtr merged_polygons(const std::vector<Polygon>& polygons, const char* what, const gdal::ErrorCapture& capture) {
+  OGRMultiPolygon all;
+  for (const Polygon& poly : polygons) {
+    OGRPolygon p;
+    for (const Ring& ring : poly.rings) {
+      OGRLinearRing lr;
+      for (const Vec2& v : ring) lr.addPoint(v.x, v.y);
+      lr.closeRings();
+      p.addRing(&lr);
+    }
+    all.addGeometry(&p);
+  }
+  const GeometryPtr valid = checked(all.MakeValid(), what, capture);
+  return checked(polygons_of(valid.get())->UnionCascaded(), what, capture);
+}
 
 // The owners' parts, the overlays of the owners side by side on `threads` threads (GEOS works in
 // a context per call; each task captures its own GDAL errors).
 std::vector<OwnerParts> land_and_sea(const std::map<int32_t, std::unique_ptr<OGRMultiPolygon>>& by_owner,
                                      const std::map<int32_t, OGRMultiPolygon>& land_of, const LineRegions& r,
-                                     int threads) {
+                                     const OGRGeometry* relevant, int threads) {
   std::vector<OwnerParts> parts;
   for (const auto& [owner, region] : by_owner) parts.push_back(OwnerParts{owner, region.get(), nullptr, nullptr});
   detail::parallel_for(resolve_threads(threads), static_cast<int64_t>(parts.size()), [&](int64_t k, int) {
@@ -414,6 +432,12 @@ std::vector<OwnerParts> land_and_sea(const std::map<int32_t, std::unique_ptr<OGR
     }
     part.land_area = area_of(part.land.get(), r);
     part.sea_area = area_of(part.sea.get(), r);
+    if (relevant != nullptr) {
+      const GeometryPtr land_in = checked(part.land->Intersection(relevant), "land within the relevant area", capture);
+      const GeometryPtr sea_in = checked(part.sea->Intersection(relevant), "sea within the relevant area", capture);
+      part.relevant_land = area_of(polygons_of(land_in.get()).get(), r);
+      part.relevant_sea = area_of(polygons_of(sea_in.get()).get(), r);
+    }
   });
   return parts;
 }
@@ -475,6 +499,27 @@ RegionStats write_line_regions(const std::string& path, const LineRegions& r, co
     }
     land_of[s.features()[static_cast<size_t>(poly.feature)].owner].addGeometry(&p);
   }
+  // The relevant area within the grid, and each owner's parts within it.
+  GeometryPtr relevant;
+  if (r.relevant != nullptr) {
+    OGRPolygon frame;
+    OGRLinearRing ring;
+    ring.addPoint(g.xmin, g.ymax);
+    ring.addPoint(g.xmax(), g.ymax);
+    ring.addPoint(g.xmax(), g.ymin());
+    ring.addPoint(g.xmin, g.ymin());
+    ring.closeRings();
+    frame.addRing(&ring);
+    const GeometryPtr merged = merged_polygons(*r.relevant, "merging the relevant area", capture);
+    relevant = checked(merged->Intersection(&frame), "the relevant area within the grid", capture);
+    stats.relevant_total = area_of(polygons_of(relevant.get()).get(), r);
+  }
+  const std::vector<OwnerParts> parts = land_and_sea(by_owner, land_of, r, relevant.get(), o.threads);
+  for (const OwnerParts& part : parts)
+    stats.areas.push_back({part.owner, part.land_area + part.sea_area, part.land_area, part.sea_area,
+                           part.relevant_land + part.relevant_sea, part.relevant_land, part.relevant_sea});
+  stats.owners = static_cast<int64_t>(parts.size());
+  if (path.empty()) return stats;
   VectorFile file(path);
   const bool gpkg = std::string(driver_for(path)) == "GPKG";
   OGRLayer* l = file.layer("regions", wkbMultiPolygon, o.crs);
@@ -503,8 +548,7 @@ RegionStats write_line_regions(const std::string& path, const LineRegions& r, co
     f->SetGeometry(&geom);
     return f;
   };
-  for (const OwnerParts& part : land_and_sea(by_owner, land_of, r, o.threads)) {
-    stats.areas.push_back({part.owner, part.land_area + part.sea_area, part.land_area, part.sea_area});
+  for (const OwnerParts& part : parts) {
     FeaturePtr f = add(l, part.owner, *part.region, part.land_area + part.sea_area);
     f->SetField("land_area", part.land_area);
     f->SetField("sea_area", part.sea_area);
@@ -514,7 +558,6 @@ RegionStats write_line_regions(const std::string& path, const LineRegions& r, co
       if (!part.land->IsEmpty()) file.add(land_layer, add(land_layer, part.owner, *part.land, part.land_area).get());
       file.add(sea_layer, add(sea_layer, part.owner, *part.sea, part.sea_area).get());
     }
-    ++stats.owners;
   }
   file.end();
   file.commit();

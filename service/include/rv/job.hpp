@@ -52,8 +52,15 @@ struct OutputRequest {
   std::string margin;             // Float32 GeoTIFF: other owner's distance minus own (-1 = none)
   std::string preview;            // PNG quicklook of ownership with boundary lines
   double simplify_cells = 0.0;    // Douglas-Peucker tolerance of boundary and limit lines, cells
+  // The disproportionality test (regions within a relevant area): a vector file of the relevant
+  // area's polygons, and optionally of each owner's relevant coasts (lines, owned through the
+  // seeds' owner field; by default the parts of the seeds nearest to the area's cells).
+  std::string relevant_area;
+  std::string relevant_coasts;
+  // Whether the regions are made (written, or measured for the relevant area alone).
+  bool regions_wanted() const { return !regions.empty() || !relevant_area.empty(); }
   bool any_deliverable() const {
-    return !boundaries.empty() || !tripoints.empty() || !limits.empty() || !regions.empty() || !margin.empty() ||
+    return !boundaries.empty() || !tripoints.empty() || !limits.empty() || regions_wanted() || !margin.empty() ||
            !preview.empty();
   }
 };
@@ -166,6 +173,10 @@ struct PreparedJob {
   std::string unit;                     // name of the output unit ("m", "nmi", "crs-units")
   ComputeOptions compute;               // method, metric, threads, max distance (metric units), geolocator
   std::vector<double> limit_distances;  // the limit lines' distances in metric units
+  // OutputRequest::relevant_area's polygons in the grid's CRS (as a seed set of polygons, for the
+  // interior rule), and relevant_coasts' lines in the seeds' CRS; empty without them.
+  std::optional<LoadedSeeds> relevant_area;
+  std::optional<LoadedSeeds> relevant_coasts;
   JobPlan plan;
   double read_seconds = 0.0;
   bool located() const { return compute.geolocator != nullptr; }  // geodesic on a projected grid

@@ -127,6 +127,32 @@ json process_description(const std::string& base) {
            "encoding": {"type": "string", "enum": ["base64"]}}},
         {"type": "array", "minItems": 1, "items": {"type": "object"}}
       ]}
+    },
+    "relevantArea": {
+      "title": "Relevant area",
+      "description": "The disproportionality test's relevant area: polygons, uploaded as a seed layer is (a GeoJSON FeatureCollection or a base64 qualified value). Each owner's sea and land area within it, its relevant coast (the parts of its seeds nearest to the area's cells, or relevantCoasts) and the ratios of their shares go into the report (deliverables.regions.relevant_area).",
+      "minOccurs": 0, "maxOccurs": 1,
+      "schema": {"oneOf": [
+        {"type": "object", "required": ["type", "features"],
+         "properties": {"type": {"type": "string", "enum": ["FeatureCollection"]}, "features": {"type": "array"}}},
+        {"type": "object", "required": ["value"],
+         "properties": {"value": {"oneOf": [{"type": "string"}, {"type": "object"}]},
+           "mediaType": {"type": "string", "enum": ["application/geo+json", "application/json", "application/geopackage+sqlite3", "application/zip", "application/flatgeobuf"]},
+           "encoding": {"type": "string", "enum": ["base64"]}}}
+      ]}
+    },
+    "relevantCoasts": {
+      "title": "Relevant coasts",
+      "description": "Lines giving each owner's relevant coast (owned through ownerField, as the seeds), instead of the parts of the seeds nearest to the relevant area; uploaded as a seed layer is. Needs relevantArea.",
+      "minOccurs": 0, "maxOccurs": 1,
+      "schema": {"oneOf": [
+        {"type": "object", "required": ["type", "features"],
+         "properties": {"type": {"type": "string", "enum": ["FeatureCollection"]}, "features": {"type": "array"}}},
+        {"type": "object", "required": ["value"],
+         "properties": {"value": {"oneOf": [{"type": "string"}, {"type": "object"}]},
+           "mediaType": {"type": "string", "enum": ["application/geo+json", "application/json", "application/geopackage+sqlite3", "application/zip", "application/flatgeobuf"]},
+           "encoding": {"type": "string", "enum": ["base64"]}}}
+      ]}
     }
   })json");
   static const json outputs = json::parse(R"json({

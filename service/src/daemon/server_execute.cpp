@@ -75,9 +75,8 @@ const SeedFormat kUploadFormats[] = {
 
 // Writes one element of `seeds` to /vsimem/ and returns the name GDAL opens it by, plus the
 // summary stored with the job.
-std::pair<std::string, json> stage_seed_layer(const json& item, const std::string& input, size_t index,
+std::pair<std::string, json> stage_seed_layer(const json& item, const std::string& input, const std::string& base,
                                               VsiMemFiles& files) {
-  const std::string base = "seeds_" + std::to_string(index);
   if (item.is_object() && item.contains("href")) {
     bad(input, "references (href) are not accepted; upload the data by value");
   }
@@ -98,7 +97,7 @@ std::pair<std::string, json> stage_seed_layer(const json& item, const std::strin
   const std::string media = text_member(item, "mediaType");
   const json& value = item.at("value");
   if (media.empty() || media == "application/geo+json" || media == "application/json") {
-    if (value.is_object()) return stage_seed_layer(value, input, index, files);
+    if (value.is_object()) return stage_seed_layer(value, input, base, files);
     if (value.is_string()) {
       const std::string path = files.write(base + ".geojson", value.get<std::string>());
       return {path, json{{"mediaType", "application/geo+json"}, {"bytes", value.get<std::string>().size()}}};
@@ -325,12 +324,13 @@ void stage_seeds(const json& in, Execution& ex) {
   if (seeds.is_array()) {
     if (seeds.empty()) bad("seeds", "the array of layers is empty");
     for (size_t i = 0; i < seeds.size(); ++i) {
-      auto [path, s] = stage_seed_layer(seeds[i], "seeds[" + std::to_string(i) + "]", i, *ex.uploads);
+      auto [path, s] =
+          stage_seed_layer(seeds[i], "seeds[" + std::to_string(i) + "]", "seeds_" + std::to_string(i), *ex.uploads);
       ex.spec.seeds.paths.push_back(path);
       summary.push_back(s);
     }
   } else {
-    auto [path, s] = stage_seed_layer(seeds, "seeds", 0, *ex.uploads);
+    auto [path, s] = stage_seed_layer(seeds, "seeds", "seeds_0", *ex.uploads);
     ex.spec.seeds.paths.push_back(path);
     summary.push_back(s);
   }
@@ -338,6 +338,14 @@ void stage_seeds(const json& in, Execution& ex) {
   ex.spec.seeds.allowed_drivers = {"GeoJSON", "GPKG", "ESRI Shapefile", "FlatGeobuf"};
   // Uploads are untrusted: in-memory paths only, no network, no other files (rv/gdal/seed_reader.hpp).
   ex.spec.seeds.confined = true;
+  // The disproportionality test's layers, uploaded as the seeds are (and read as confined).
+  for (const auto& [input, target] : {std::pair{"relevantArea", &ex.spec.outputs.relevant_area},
+                                      std::pair{"relevantCoasts", &ex.spec.outputs.relevant_coasts}}) {
+    if (!in.contains(input)) continue;
+    auto [path, s] = stage_seed_layer(in.at(input), input, input, *ex.uploads);
+    *target = path;
+    ex.inputs_summary[input] = s;
+  }
 }
 
 // Every other input, through the option table (rv/options.hpp). CRS definitions from a client
@@ -345,7 +353,7 @@ void stage_seeds(const json& in, Execution& ex) {
 void apply_inputs(const json& in, Execution& ex) {
   std::string bbox_crs;
   for (const auto& [key, value] : in.items()) {
-    if (key == "seeds") continue;
+    if (key == "seeds" || key == "relevantArea" || key == "relevantCoasts") continue;  // uploads
     const OptionSpec* option = find_input(key);
     if (option == nullptr) {
       throw Error(ErrorKind::invalid_argument,

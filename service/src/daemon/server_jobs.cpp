@@ -43,11 +43,13 @@ void write_file_atomically(const std::filesystem::path& path, const std::string&
   }
 }
 
-// Seed paths in messages are ours (/vsimem/rvoronoi/<id>/seeds_<n>.<ext>); the client knows
-// its layers as seeds[n].
+// Upload paths in messages are ours (/vsimem/rvoronoi/<id>/seeds_<n>.<ext>,
+// relevantArea.<ext>, relevantCoasts.<ext>); the client knows its layers as seeds[n] and the
+// inputs by name.
 std::string client_names(std::string message, const std::string& id) {
   const std::regex vsi("(/vsizip/)?/vsimem/rvoronoi/" + id + "/seeds_([0-9]+)\\.[a-z]+");
-  return std::regex_replace(message, vsi, "seeds[$2]");
+  const std::regex named("(/vsizip/)?/vsimem/rvoronoi/" + id + "/(relevantArea|relevantCoasts)\\.[a-z]+");
+  return std::regex_replace(std::regex_replace(message, vsi, "seeds[$2]"), named, "$2");
 }
 
 // Tells a waiting client that its job ended. The callback builds an answer and must not take a
@@ -248,8 +250,14 @@ std::string client_message(const Error& e, const std::string& id, const std::fil
   // Reading happens in memory; an I/O failure is the result files (a full disk, a file size
   // limit): say so first, GDAL's reason (e.g. "No space left on device") follows.
   if (e.kind() == ErrorKind::io) message = "the job's results could not be written: " + message;
-  // The seed reader names the feature at fault; say which input it came from.
-  if (e.kind() == ErrorKind::invalid_input || e.kind() == ErrorKind::conflict) message = "input 'seeds': " + message;
+  // The seed reader names the feature at fault; say which input it came from (the seeds, unless
+  // the message names one of the other uploads).
+  if (e.kind() == ErrorKind::invalid_input || e.kind() == ErrorKind::conflict) {
+    std::string input = "seeds";
+    for (const char* upload : {"relevantArea", "relevantCoasts"})
+      if (message.find(upload) != std::string::npos) input = upload;
+    message = "input '" + input + "': " + message;
+  }
   return message;
 }
 

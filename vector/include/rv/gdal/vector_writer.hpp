@@ -57,8 +57,11 @@ struct RegionStats {
   struct OwnerArea {
     int32_t owner = 0;
     double area = 0.0, land = 0.0, sea = 0.0;
+    // Within LineRegions::relevant, when given.
+    double relevant_area = 0.0, relevant_land = 0.0, relevant_sea = 0.0;
   };
   std::vector<OwnerArea> areas;
+  double relevant_total = 0.0;  // the relevant area's own, within the grid
 };
 
 // Regions bounded by the refined lines: the grid's outline and `edges` (region_edges) noded and
@@ -79,7 +82,11 @@ struct LineRegions {
   std::function<int32_t(Vec2)> owner_of;              // 0: no owner (the face is left out)
   std::function<double(std::span<const Vec2>)> area;  // of one ring, >= 0; thread-safe
   std::string area_units;
+  // The disproportionality test's relevant area (polygons in the grid's CRS, made valid and
+  // merged), or null: each owner's area, land and sea within it too (RegionStats::OwnerArea).
+  const std::vector<Polygon>* relevant = nullptr;
 };
+// An empty `path` measures the regions without writing a file.
 RegionStats write_line_regions(const std::string& path, const LineRegions& regions, const SeedSet& seeds,
                                const std::vector<Polygon>& polygons, const VectorOutputOptions& options);
 
