@@ -391,17 +391,23 @@ struct OwnerParts {
   double relevant_land = 0.0, relevant_sea = 0.0;  // within the relevant area
 };
 
+// A polygon of the core as OGR's.
+OGRPolygon ogr_polygon(const Polygon& poly) {
+  OGRPolygon p;
+  for (const Ring& ring : poly.rings) {
+    OGRLinearRing lr;
+    for (const Vec2& v : ring) lr.addPoint(v.x, v.y);
+    lr.closeRings();
+    p.addRing(&lr);
+  }
+  return p;
+}
+
 // Polygons as one valid, merged multipolygon.
 GeometryPtr merged_polygons(const std::vector<Polygon>& polygons, const char* what, const gdal::ErrorCapture& capture) {
   OGRMultiPolygon all;
   for (const Polygon& poly : polygons) {
-    OGRPolygon p;
-    for (const Ring& ring : poly.rings) {
-      OGRLinearRing lr;
-      for (const Vec2& v : ring) lr.addPoint(v.x, v.y);
-      lr.closeRings();
-      p.addRing(&lr);
-    }
+    const OGRPolygon p = ogr_polygon(poly);
     all.addGeometry(&p);
   }
   const GeometryPtr valid = checked(all.MakeValid(), what, capture);
@@ -490,13 +496,7 @@ RegionStats write_line_regions(const std::string& path, const LineRegions& r, co
   // Each owner's land: its seed polygons, made valid and merged.
   std::map<int32_t, OGRMultiPolygon> land_of;
   for (const Polygon& poly : polygons) {
-    OGRPolygon p;
-    for (const Ring& ring : poly.rings) {
-      OGRLinearRing lr;
-      for (const Vec2& v : ring) lr.addPoint(v.x, v.y);
-      lr.closeRings();
-      p.addRing(&lr);
-    }
+    const OGRPolygon p = ogr_polygon(poly);
     land_of[s.features()[static_cast<size_t>(poly.feature)].owner].addGeometry(&p);
   }
   // The relevant area within the grid, and each owner's parts within it.

@@ -131,28 +131,12 @@ json process_description(const std::string& base) {
     "relevantArea": {
       "title": "Relevant area",
       "description": "The disproportionality test's relevant area: polygons, uploaded as a seed layer is (a GeoJSON FeatureCollection or a base64 qualified value). Each owner's sea and land area within it, its relevant coast (the parts of its seeds nearest to the area's cells, or relevantCoasts) and the ratios of their shares go into the report (deliverables.regions.relevant_area).",
-      "minOccurs": 0, "maxOccurs": 1,
-      "schema": {"oneOf": [
-        {"type": "object", "required": ["type", "features"],
-         "properties": {"type": {"type": "string", "enum": ["FeatureCollection"]}, "features": {"type": "array"}}},
-        {"type": "object", "required": ["value"],
-         "properties": {"value": {"oneOf": [{"type": "string"}, {"type": "object"}]},
-           "mediaType": {"type": "string", "enum": ["application/geo+json", "application/json", "application/geopackage+sqlite3", "application/zip", "application/flatgeobuf"]},
-           "encoding": {"type": "string", "enum": ["base64"]}}}
-      ]}
+      "minOccurs": 0, "maxOccurs": 1
     },
     "relevantCoasts": {
       "title": "Relevant coasts",
       "description": "Lines giving each owner's relevant coast (owned through ownerField, as the seeds), instead of the parts of the seeds nearest to the relevant area; uploaded as a seed layer is. Needs relevantArea.",
-      "minOccurs": 0, "maxOccurs": 1,
-      "schema": {"oneOf": [
-        {"type": "object", "required": ["type", "features"],
-         "properties": {"type": {"type": "string", "enum": ["FeatureCollection"]}, "features": {"type": "array"}}},
-        {"type": "object", "required": ["value"],
-         "properties": {"value": {"oneOf": [{"type": "string"}, {"type": "object"}]},
-           "mediaType": {"type": "string", "enum": ["application/geo+json", "application/json", "application/geopackage+sqlite3", "application/zip", "application/flatgeobuf"]},
-           "encoding": {"type": "string", "enum": ["base64"]}}}
-      ]}
+      "minOccurs": 0, "maxOccurs": 1
     }
   })json");
   static const json outputs = json::parse(R"json({
@@ -188,6 +172,12 @@ json process_description(const std::string& base) {
   // The seeds are the daemon's own input (uploads); every other one comes from the option
   // table, in its order (rv/options.hpp).
   json all = inputs;
+  // The other uploads take one layer, as each element of the seeds does.
+  for (const char* upload : {"relevantArea", "relevantCoasts"}) {
+    json one = json::object();
+    one["oneOf"] = json::array({inputs["seeds"]["schema"]["oneOf"][0], inputs["seeds"]["schema"]["oneOf"][1]});
+    all[upload]["schema"] = one;
+  }
   for (const OptionSpec& o : job_options())
     if (!o.input.empty()) all[std::string(o.input)] = process_input_description(o);
   d["inputs"] = all;
