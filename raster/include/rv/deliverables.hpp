@@ -522,6 +522,41 @@ class StripLines {
   std::unique_ptr<Impl> impl_;
 };
 
+// The turning points of boundary lines: where the pair of controlling basepoints changes.
+//
+// A side's controlling basepoint at a point of a line is where its nearest seed is nearest: a
+// basepoint seed, a vertex of a coastline (whichever of the vertex's two edges the index names),
+// or the moving foot on an edge's interior (the line is then a parabola, not a bisector). Along a
+// line the pair changes where a new seed takes over (the locus turns: a turning point of three
+// basepoints, equidistant from all of them) and where the foot on an edge reaches its end (the
+// line passes from a parabola to a bisector, without a corner). Both are found between the
+// line's vertices by bisection on the locus, to 1e-9 of the distance between two vertices (the
+// refinement has usually placed the first kind on a vertex already), every point a locus point.
+struct Basepoint {
+  int32_t site = kNoSite;  // the controlling site
+  Vec2 at;                 // the basepoint (as SiteMetric::nearest_point places it)
+  double distance = 0.0;   // true distance from the turning point, metric units
+};
+struct TurningPoint {
+  enum class Kind { end, turn, start };  // a line's end, a change of basepoint, a ring's first vertex
+  Kind kind = Kind::turn;
+  Vec2 p;
+  // The line's vertices strictly between this point and the next turning point start here (the
+  // true line between the two is this point, those vertices, and the next point).
+  size_t next_vertex = 0;
+  // Each side's basepoints here: one, or two where that side's changes (before, then after).
+  std::vector<Basepoint> a, b;
+};
+struct TurningLine {
+  int32_t owner_a = 0, owner_b = 0;
+  bool closed = false;
+  size_t line = 0;  // index into BoundaryResult::lines
+  std::vector<TurningPoint> points;
+};
+// `geolocator`: the field's (projected geodesic grids), else null.
+std::vector<TurningLine> turning_points(const BoundaryResult& boundaries, const OwnerIndex& index,
+                                        const Geolocator* geolocator = nullptr, int threads = 0);
+
 // The relevant coast of a disproportionality test: the parts of the seeds' geometry that are
 // nearest to at least one cell of the relevant area (cells whose centre `area` holds, by the
 // interior rule of rv/interior.hpp; its window the whole grid). For each site nearest to such a

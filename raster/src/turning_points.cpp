@@ -1,0 +1,199 @@
+// turning_points (rv/deliverables.hpp): where a boundary line's pair of controlling basepoints
+// changes.
+//
+// Each vertex of a line gets each side's controlling element: a position (a basepoint seed, or a
+// coastline vertex its edge's foot has reached: the two edges at a vertex are one element) or an
+// edge's interior. Between two vertices whose elements differ, the change is bracketed on the
+// locus: a point across the chord at parameter t (the root of the two sides' adjusted distances
+// along the chord's perpendicular), its elements compared with the first vertex's, the bracket
+// halved until it is 1e-9 of the chord. Two changes between the same vertices are found one after
+// the other.
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <vector>
+
+#include "line_tools.hpp"
+#include "rv/deliverables.hpp"
+#include "rv/parallel.hpp"
+
+namespace rv {
+
+using namespace line_tools;
+
+namespace {
+
+constexpr int kBisections = 32;  // 2^-32 of the chord
+
+// A side's controlling element at a point.
+struct Element {
+  enum Kind { none, position, interior };
+  Kind kind = none;
+  Vec2 at;                 // the position (kind position)
+  int32_t site = kNoSite;  // the site (kind interior), or the one naming the position
+};
+
+class Finder {
+ public:
+  Finder(const OwnerIndex& index, const Geolocator* geolocator, double tol)
+      : index_(index), metric_(index.metric()), geolocator_(geolocator), tol_(tol) {}
+
+  // A seed position where the metric places positions (the grid's CRS on projected geodesic grids).
+  Vec2 placed(Vec2 v) const {
+    if (geolocator_ == nullptr) return v;
+    Vec2 x;
+    geolocator_->to_grid(&v.x, &v.y, &x.x, &x.y, 1);
+    return x;
+  }
+
+  Element element(Vec2 p, int32_t site) const {
+    if (site == kNoSite) return {};
+    const Site& s = metric_.seeds().sites()[static_cast<size_t>(site)];
+    if (s.kind == SiteKind::area) return {Element::interior, p, site};
+    if (s.kind == SiteKind::point) return {Element::position, placed(s.a), site};
+    const Vec2 foot = metric_.nearest_point(p, site);
+    for (const Vec2 end : {placed(s.a), placed(s.b)})
+      if (metric_.point_distance(foot, end) <= tol_) return {Element::position, end, site};
+    return {Element::interior, foot, site};
+  }
+
+  bool same(const Element& x, const Element& y) const {
+    if (x.kind != y.kind) return false;
+    if (x.kind == Element::interior) return x.site == y.site;
+    return x.kind == Element::none || metric_.point_distance(x.at, y.at) <= tol_;
+  }
+
+  // The locus point across the chord u-v at parameter t (the chord's point where no root is
+  // bracketed along its perpendicular), and each side's element there.
+  struct At {
+    Vec2 p;
+    Element a, b;
+    int32_t site_a = kNoSite, site_b = kNoSite;
+  };
+  At at(Vec2 u, Vec2 v, double t, int32_t owner_a, int32_t owner_b) const {
+    const Vec2 c = lerp(u, v, t);
+    const Vec2 across{-(v.y - u.y), v.x - u.x};  // the chord's length either way
+    const Vec2 p0{c.x - across.x, c.y - across.y}, p1{c.x + across.x, c.y + across.y};
+    auto f = [&](double s) {
+      const Vec2 q = lerp(p0, p1, s);
+      return index_.nearest_of(q, owner_a).cost - index_.nearest_of(q, owner_b).cost;
+    };
+    At out;
+    out.p = c;
+    const double f0 = f(0.0), f1 = f(1.0);
+    if (std::isfinite(f0) && std::isfinite(f1) && (f0 < 0.0) != (f1 < 0.0))
+      out.p = lerp(p0, p1, find_root(f, f0, f1, 0.0, 1e-13));
+    const OwnerIndex::Hit ha = index_.nearest_of(out.p, owner_a), hb = index_.nearest_of(out.p, owner_b);
+    out.site_a = ha.site;
+    out.site_b = hb.site;
+    out.a = element(out.p, ha.site);
+    out.b = element(out.p, hb.site);
+    return out;
+  }
+
+  Basepoint basepoint(Vec2 p, const Element& e) const {
+    return Basepoint{e.site, e.kind == Element::interior ? metric_.nearest_point(p, e.site) : e.at,
+                     e.site == kNoSite ? 0.0 : metric_.distance(p, e.site)};
+  }
+
+  // Appends the turning points strictly between vertices i and i + 1 of `line`.
+  void between(const BoundaryLine& line, size_t i, const Element& ea0, const Element& eb0, const Element& ea1,
+               const Element& eb1, std::vector<TurningPoint>& out) const {
+    const Vec2 u = line.vertices[i].p, v = line.vertices[i + 1].p;
+    Element ca = ea0, cb = eb0;
+    double lo = 0.0;
+    for (int guard = 0; guard < 4 && !(same(ca, ea1) && same(cb, eb1)); ++guard) {
+      double hi = 1.0;
+      At at_hi{};
+      bool have_hi = false;
+      for (int k = 0; k < kBisections; ++k) {
+        const double mid = 0.5 * (lo + hi);
+        const At m = at(u, v, mid, line.owner_a, line.owner_b);
+        if (same(m.a, ca) && same(m.b, cb)) {
+          lo = mid;
+        } else {
+          hi = mid;
+          at_hi = m;
+          have_hi = true;
+        }
+      }
+      TurningPoint tp;
+      tp.kind = TurningPoint::Kind::turn;
+      tp.next_vertex = i + 1;
+      if (!have_hi) {
+        // The change is at the next vertex itself (a turning point the refinement placed there).
+        tp.p = v;
+        at_hi.a = ea1;
+        at_hi.b = eb1;
+        hi = 1.0;
+      } else {
+        tp.p = at_hi.p;
+      }
+      for (const auto& [before, after, side] : {std::tuple{&ca, &at_hi.a, &tp.a}, std::tuple{&cb, &at_hi.b, &tp.b}}) {
+        side->push_back(basepoint(tp.p, *before));
+        if (!same(*before, *after)) side->push_back(basepoint(tp.p, *after));
+      }
+      out.push_back(std::move(tp));
+      ca = at_hi.a;
+      cb = at_hi.b;
+      lo = hi;
+    }
+  }
+
+ private:
+  const OwnerIndex& index_;
+  const SiteMetric& metric_;
+  const Geolocator* geolocator_;
+  double tol_;
+};
+
+}  // namespace
+
+std::vector<TurningLine> turning_points(const BoundaryResult& boundaries, const OwnerIndex& index,
+                                        const Geolocator* geolocator, int threads) {
+  std::vector<TurningLine> out(boundaries.lines.size());
+  if (boundaries.lines.empty()) return out;
+  // Positions agree to far below a cell: 1e-9 of the lines' typical vertex spacing.
+  const BoundaryLine& first = boundaries.lines.front();
+  const double spacing =
+      first.vertices.size() > 1 ? index.metric().point_distance(first.vertices[0].p, first.vertices[1].p) : 1.0;
+  const Finder finder(index, geolocator, std::max(spacing, 1e-12) * 1e-7);
+  detail::parallel_for(resolve_threads(threads), static_cast<int64_t>(boundaries.lines.size()), [&](int64_t k, int) {
+    const auto li = static_cast<size_t>(k);
+    const BoundaryLine& line = boundaries.lines[li];
+    TurningLine& tl = out[li];
+    tl.owner_a = line.owner_a;
+    tl.owner_b = line.owner_b;
+    tl.closed = line.closed;
+    tl.line = li;
+    const size_t n = line.vertices.size();
+    if (n == 0) return;
+    std::vector<Element> ea(n), eb(n);
+    for (size_t i = 0; i < n; ++i) {
+      ea[i] = finder.element(line.vertices[i].p, line.vertices[i].site_a);
+      eb[i] = finder.element(line.vertices[i].p, line.vertices[i].site_b);
+    }
+    auto vertex_point = [&](size_t i, TurningPoint::Kind kind) {
+      TurningPoint tp;
+      tp.kind = kind;
+      tp.p = line.vertices[i].p;
+      tp.next_vertex = i + 1;
+      tp.a.push_back(finder.basepoint(tp.p, ea[i]));
+      tp.b.push_back(finder.basepoint(tp.p, eb[i]));
+      return tp;
+    };
+    tl.points.push_back(vertex_point(0, line.closed ? TurningPoint::Kind::start : TurningPoint::Kind::end));
+    for (size_t i = 0; i + 1 < n; ++i) {
+      if (finder.same(ea[i], ea[i + 1]) && finder.same(eb[i], eb[i + 1])) continue;
+      finder.between(line, i, ea[i], eb[i], ea[i + 1], eb[i + 1], tl.points);
+    }
+    if (!line.closed && n > 1) {
+      TurningPoint last = vertex_point(n - 1, TurningPoint::Kind::end);
+      last.next_vertex = n;
+      tl.points.push_back(std::move(last));
+    }
+  });
+  return out;
+}
+
+}  // namespace rv
