@@ -82,7 +82,7 @@ class Finder {
     out.p = c;
     const double f0 = f(0.0), f1 = f(1.0);
     if (std::isfinite(f0) && std::isfinite(f1) && (f0 < 0.0) != (f1 < 0.0))
-      out.p = lerp(p0, p1, find_root(f, f0, f1, 0.0, 1e-13));
+      out.p = lerp(p0, p1, find_root(f, f0, f1, 1e-3 * tol_, 1e-13));
     const OwnerIndex::Hit ha = index_.nearest_of(out.p, owner_a), hb = index_.nearest_of(out.p, owner_b);
     out.site_a = ha.site;
     out.site_b = hb.site;

@@ -243,7 +243,8 @@ int64_t deliverables_memory(const JobSpec& spec, const GridSpec& grid, int64_t s
   if (!out.margin.empty()) bytes += strip_cells * 12 + kTileRows * grid.width * 4 + kWriterBytes;
   if (!out.preview.empty()) bytes += int64_t{2000} * 2000 * 4;
   const int64_t line_sets =
-      (!out.boundaries.empty() || !out.tripoints.empty() || !out.preview.empty() || out.regions_wanted()) +
+      (!out.boundaries.empty() || !out.tripoints.empty() || !out.preview.empty() || out.regions_wanted() ||
+       !out.turning_points.empty()) +
       (out.limits.empty() ? 0 : static_cast<int64_t>(std::max<size_t>(out.limit_distances.size(), 1))) +
       (out.regions_wanted() && spec.max_distance);  // the max-distance line bounding the regions
   bytes += line_sets * ((grid.width + grid.height) * kLineBytes + 8 * grid.width * 9);
@@ -370,7 +371,8 @@ void check_adjustments(const JobSpec& spec, const PreparedJob& job) {
                 "the margin raster is not available with weights or reaches: it measures unweighted distances");
   bool reach = false;
   for (const Feature& f : seeds.features()) reach = reach || std::isfinite(f.reach);
-  const bool lines = !out.boundaries.empty() || !out.tripoints.empty() || !out.limits.empty() || out.regions_wanted();
+  const bool lines = !out.boundaries.empty() || !out.tripoints.empty() || !out.limits.empty() || out.regions_wanted() ||
+                     !out.turning_points.empty();
   if (lines && (reach || std::isfinite(job.compute.max_distance)))
     throw Error(ErrorKind::unsupported,
                 std::string("boundaries, tripoints, limits and regions are not available yet ") +
@@ -433,6 +435,16 @@ void check_plan(const JobSpec& spec, const JobLimits& limits, const PreparedJob&
                 "the margin raster is not available for the geodesic metric on a projected grid yet; use a "
                 "geographic (longitude/latitude) grid (--crs EPSG:4326), or metric planar");
   check_adjustments(spec, job);
+  if (!out.turning_points.empty()) {
+    const std::string& tp = out.turning_points;
+    auto ends = [&](const char* ext) {
+      const size_t n = std::char_traits<char>::length(ext);
+      return tp.size() >= n && tp.compare(tp.size() - n, n, ext) == 0;
+    };
+    if (!ends(".json") && !ends(".csv"))
+      throw Error(ErrorKind::invalid_argument,
+                  "--turning-points: the file must end in .json or .csv, got '" + tp + "'");
+  }
   if (!(out.simplify_cells >= 0.0) || !std::isfinite(out.simplify_cells))
     throw Error(ErrorKind::invalid_argument, "the simplification tolerance must be a non-negative number of cells");
   const int64_t cells = job.grid.cell_count();

@@ -16,6 +16,7 @@
 #include "rv/geolocate.hpp"
 #include "rv/outputs.hpp"
 #include "rv/preview.hpp"
+#include "turning_report.hpp"
 
 namespace rv::detail {
 namespace {
@@ -81,7 +82,8 @@ StripDeliverables::StripDeliverables(JobRun& run, const PreparedJob& job, bool s
   s.vector.distance_factor = job.to_output;
   s.vector.distance_units = job.unit;
   s.vector.threads = run.spec.threads;
-  if (!out.boundaries.empty() || !out.tripoints.empty() || !out.preview.empty() || out.regions_wanted()) {
+  if (!out.boundaries.empty() || !out.tripoints.empty() || !out.preview.empty() || out.regions_wanted() ||
+      !out.turning_points.empty()) {
     LineRequest r;
     r.boundaries = true;
     r.boundary.simplify_cells = out.simplify_cells;
@@ -403,6 +405,22 @@ void StripDeliverables::finish() {
   if (s.limits) {
     run.wrote("limits", s.out().limits);
     s.times["limits"] = s.limit_seconds + limit_write;
+  }
+  if (!s.out().turning_points.empty()) {
+    run.check_cancel();
+    const auto t = Clock::now();
+    run.will_write(s.out().turning_points);
+    const nlohmann::json table = turning_report(boundaries, *s.index, s.job, run.spec.threads);
+    write_turning_report(s.out().turning_points, table);
+    run.wrote("turning_points", s.out().turning_points);
+    int64_t points = 0, turns = 0;
+    for (const auto& line : table.at("lines"))
+      for (const auto& p : line.at("points")) {
+        ++points;
+        turns += p.at("kind") == "turn";
+      }
+    s.report["turning_points"] = {{"lines", table.at("lines").size()}, {"points", points}, {"turns", turns}};
+    s.times["turning_points"] = seconds_since(t);
   }
   run.progress("deliver", 0.7);
   s.finish_margin();

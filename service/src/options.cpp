@@ -611,6 +611,23 @@ const std::vector<OptionSpec> kOptions = {
      false,
      [](JobSpec& s, const OptionValue& v) { s.outputs.regions = v.text; }},
     {"",
+     "turning-points",
+     OptionType::file,
+     "FILE",
+     "deliverables",
+     "Turning points",
+     "the boundary lines' turning points as a treaty table (.json or .csv): where the pair of controlling "
+     "basepoints changes, in decimal degrees and degrees-minutes-seconds with the datum, each side's basepoints "
+     "and distances, and per segment to the next point its geodesic length and azimuth, the rhumb line's "
+     "separation from the geodesic and the true line's largest distance from it",
+     "",
+     {},
+     0,
+     0,
+     false,
+     false,
+     [](JobSpec& s, const OptionValue& v) { s.outputs.turning_points = v.text; }},
+    {"",
      "relevant-area",
      OptionType::file,
      "FILE",

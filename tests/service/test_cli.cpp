@@ -21,6 +21,7 @@
 #include "rv/gdal/raster_io.hpp"
 #include "rv/gdal/seed_reader.hpp"
 #include "rv/outputs.hpp"
+#include "rv/treaty.hpp"
 
 namespace fs = std::filesystem;
 
@@ -347,6 +348,66 @@ TEST_F(Cli, RelevantAreaAndTheDisproportionalityTest) {
                      " --ownership " + path("x.tif")),
                  3, "the relevant coasts name owner 'C', which has no seeds");
   EXPECT_FALSE(fs::exists(path("x.tif")));
+}
+
+// The turning-point report on the ellipsoid: two basepoints of A and one of B; the line turns
+// where all three are equidistant (GeographicLib's inverse, to 1 mm), the degrees-minutes-seconds
+// say the same position to 0.0005", and each segment's length is the geodesic's between its ends.
+TEST_F(Cli, TurningPointsAsATreatyTable) {
+  const std::string seeds = write("basepoints.geojson", R"({"type":"FeatureCollection","features":[
+    {"type":"Feature","properties":{"state":"A"},"geometry":{"type":"MultiPoint","coordinates":[[10.0,55.0],[10.0,55.4]]}},
+    {"type":"Feature","properties":{"state":"B"},"geometry":{"type":"Point","coordinates":[10.5,55.2]}}]})");
+  const std::string grid = " --owner-field state --resolution 0.005 --extent 9.9 54.9 10.6 55.5 --quiet ";
+  const CliRun r =
+      run("compute " + seeds + grid + "--turning-points " + path("tp.json") + " --report " + path("report.json"));
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const nlohmann::json table = nlohmann::json::parse(std::ifstream(path("tp.json")));
+  EXPECT_EQ(table["datum"], "WGS 84");
+  ASSERT_EQ(table["lines"].size(), 1u);
+  const nlohmann::json& points = table["lines"][0]["points"];
+  const GeographicLib::Geodesic& geod = GeographicLib::Geodesic::WGS84();
+  int turns = 0;
+  for (size_t i = 0; i < points.size(); ++i) {
+    const nlohmann::json& p = points[i];
+    const double lat = p["lat"].get<double>(), lon = p["lon"].get<double>();
+    EXPECT_NEAR(from_dms(p["lat_dms"].get<std::string>()), lat, 0.0005 / 3600.0);
+    EXPECT_NEAR(from_dms(p["lon_dms"].get<std::string>()), lon, 0.0005 / 3600.0);
+    std::vector<double> d;
+    for (const char* side : {"a", "b"})
+      for (const auto& bp : p[side]) {
+        double s12 = 0.0;
+        geod.Inverse(lat, lon, bp["lat"].get<double>(), bp["lon"].get<double>(), s12);
+        EXPECT_NEAR(bp["distance"].get<double>(), s12, 1e-3);
+        d.push_back(s12);
+      }
+    if (p["kind"] == "turn") {
+      ++turns;
+      ASSERT_EQ(d.size(), 3u);  // A's two basepoints and B's
+      EXPECT_NEAR(d[0], d[2], 1e-3);
+      EXPECT_NEAR(d[1], d[2], 1e-3);
+    }
+    if (i + 1 < points.size()) {
+      double s12 = 0.0;
+      geod.Inverse(lat, lon, points[i + 1]["lat"].get<double>(), points[i + 1]["lon"].get<double>(), s12);
+      EXPECT_NEAR(p["to_next"]["length"].get<double>(), s12, 1e-6);
+      // Two point basepoints make a geodesic bisector: within millimetres of the geodesic.
+      EXPECT_LT(p["to_next"]["deviation"].get<double>(), 0.05);
+    }
+  }
+  EXPECT_EQ(turns, 1);
+  const nlohmann::json report = nlohmann::json::parse(std::ifstream(path("report.json")));
+  EXPECT_EQ(report["deliverables"]["turning_points"]["turns"], 1);
+  // The same as CSV: a header and one row per point.
+  const CliRun c = run("compute " + seeds + grid + "--turning-points " + path("tp.csv"));
+  ASSERT_EQ(c.exit_code, 0) << c.output;
+  std::ifstream csv(path("tp.csv"));
+  std::string header, row;
+  std::getline(csv, header);
+  EXPECT_EQ(header.rfind("line,seq,kind,owner_a,owner_b,lon,lat,lon_dms,lat_dms,x,y,a1_feature", 0), 0u) << header;
+  size_t rows = 0;
+  while (std::getline(csv, row)) ++rows;
+  EXPECT_EQ(rows, points.size());
+  expect_refused(run("compute " + seeds + grid + "--turning-points " + path("tp.txt")), 2, "must end in .json or .csv");
 }
 
 TEST_F(Cli, ValidateReportsZeroWrongCellsForExact) {

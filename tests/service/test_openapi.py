@@ -234,6 +234,22 @@ def main():
         rel = rel["deliverables"]["regions"]["relevant_area"]
         check(abs(rel["area"] - 15000.0 * 15000.0) < 1.0 and len(rel["owners"]) >= 2
               and all(o["coast_length"] >= 0 for o in rel["owners"]), f"relevant area in the report: {rel}")
+        # The turning points as a treaty table, JSON and CSV, by reference.
+        body = {"inputs": {"seeds": demo, "ownerField": "state", "resolution": 1000},
+                "outputs": {"turningPoints": {"transmissionMode": "reference"},
+                            "report": {"transmissionMode": "value"}}}
+        _, _, doc = execute(s, body, expect=200)
+        check("turningPoints" in json.loads(doc), f"the results document: {doc[:400]}")
+        href = json.loads(doc)["turningPoints"]["href"]
+        _, _, tp = request(s, "GET", "/jobs/" + href.split("/jobs/", 1)[1], expect=200)
+        tp = json.loads(tp)
+        check(tp["datum"] == "WGS 84" and len(tp["lines"]) >= 2 and "lat_dms" in tp["lines"][0]["points"][0],
+              f"turning points by reference: {str(tp)[:300]}")
+        body["outputs"]["turningPoints"] = {"transmissionMode": "reference", "format": {"mediaType": "text/csv"}}
+        _, _, doc = execute(s, body, expect=200)
+        href = json.loads(doc)["turningPoints"]["href"]
+        _, h, csv = request(s, "GET", "/jobs/" + href.split("/jobs/", 1)[1], expect=200)
+        check(csv.startswith(b"line,seq,kind,owner_a,owner_b,lon,lat"), f"turning points as CSV: {csv[:200]}")
         bad_area = dict(body, inputs=dict(body["inputs"], relevantArea={"type": "FeatureCollection", "crs": demo["crs"], "features": [
             {"type": "Feature", "properties": {}, "geometry": {"type": "Point", "coordinates": [350000, 6155000]}}]}))
         _, _, problem = execute(s, bad_area, expect=400)

@@ -51,6 +51,7 @@ struct OutputRequest {
   std::string regions;            // one multipolygon per owner (.geojson/.json/.gpkg)
   std::string margin;             // Float32 GeoTIFF: other owner's distance minus own (-1 = none)
   std::string preview;            // PNG quicklook of ownership with boundary lines
+  std::string turning_points;     // the boundary lines' turning points, a treaty table (.json/.csv)
   double simplify_cells = 0.0;    // Douglas-Peucker tolerance of boundary and limit lines, cells
   // The disproportionality test (regions within a relevant area): a vector file of the relevant
   // area's polygons, and optionally of each owner's relevant coasts (lines, owned through the
@@ -61,7 +62,7 @@ struct OutputRequest {
   bool regions_wanted() const { return !regions.empty() || !relevant_area.empty(); }
   bool any_deliverable() const {
     return !boundaries.empty() || !tripoints.empty() || !limits.empty() || regions_wanted() || !margin.empty() ||
-           !preview.empty();
+           !preview.empty() || !turning_points.empty();
   }
 };
 

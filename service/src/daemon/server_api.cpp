@@ -166,6 +166,10 @@ json process_description(const std::string& base) {
         {"type": "string", "contentEncoding": "binary", "contentMediaType": "application/geopackage+sqlite3"}]}},
     "margin": {"title": "Margin raster", "description": "Float32: distance to the nearest seed of another owner minus distance to the own nearest seed (>= 0; -1 = no owner or a single owner), in distanceUnits, a Cloud Optimized GeoTIFF.",
       "schema": {"type": "string", "contentEncoding": "binary", "contentMediaType": "image/tiff; application=geotiff; profile=cloud-optimized"}},
+    "turningPoints": {"title": "Turning points", "description": "The boundary lines' turning points as a treaty table: where the pair of controlling basepoints changes, in decimal degrees and degrees-minutes-seconds with the datum, each side's basepoints (feature, owner, position, distance), and per segment to the next point its geodesic length and initial azimuth, the rhumb line's separation from the geodesic and the true line's largest distance from the geodesic segment. JSON (default) or CSV (text/csv, one row per point).",
+      "schema": {"oneOf": [
+        {"type": "object", "contentMediaType": "application/json"},
+        {"type": "string", "contentMediaType": "text/csv"}]}},
     "preview": {"title": "Quicklook", "description": "PNG of the ownership in distinct colours with the boundary lines in white; one pixel per cell, or per n x n cells (the smallest integer n keeping the long side within 2000 px; the report's deliverables.preview gives it).",
       "schema": {"type": "string", "contentEncoding": "binary", "contentMediaType": "image/png"}}
   })json");

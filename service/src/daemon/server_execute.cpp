@@ -135,6 +135,7 @@ const std::vector<OutputInfo>& output_table() {
       {"regions", "regions", {{kMediaGeoJson, "geojson"}, {kMediaGeoPackage, "gpkg"}}},
       {"margin", "margin", {{kMediaGeoTiff, "tif"}}},
       {"preview", "preview", {{kMediaPng, "png"}}},
+      {"turningPoints", "turning_points", {{kMediaJson, "json"}, {kMediaCsv, "csv"}}},
   };
   return table;
 }

@@ -33,8 +33,9 @@ class VsiMemFiles {
 };
 
 // The outputs of the process, in the order of OutputRequest.
-inline constexpr const char* kOutputIds[] = {"ownership", "distance", "nearestFeature", "report", "boundaries",
-                                             "tripoints", "limits",   "regions",        "margin", "preview"};
+inline constexpr const char* kOutputIds[] = {"ownership",  "distance",  "nearestFeature", "report",
+                                             "boundaries", "tripoints", "limits",         "regions",
+                                             "margin",     "preview",   "turningPoints"};
 
 // Media types of the result files.
 inline constexpr const char* kMediaGeoTiff = "image/tiff; application=geotiff; profile=cloud-optimized";
@@ -42,6 +43,7 @@ inline constexpr const char* kMediaJson = "application/json";
 inline constexpr const char* kMediaGeoJson = "application/geo+json";
 inline constexpr const char* kMediaGeoPackage = "application/geopackage+sqlite3";
 inline constexpr const char* kMediaPng = "image/png";
+inline constexpr const char* kMediaCsv = "text/csv";
 
 // One output of the process: the media types it can be written as (the first is the default)
 // and the file name stem in the job's directory. The single place that knows which output is

@@ -221,11 +221,15 @@ JobSpec spec_in_directory(const Execution& execution, const JobRecord& rec, cons
   out.cloud_optimized = true;
   out.ownership = (dir / output_file_name("ownership", "")).string();
   out.report.clear();
-  std::map<std::string, std::string*> paths = {
-      {"distance", &out.distance},     {"nearestFeature", &out.nearest_feature},
-      {"boundaries", &out.boundaries}, {"tripoints", &out.tripoints},
-      {"limits", &out.limits},         {"regions", &out.regions},
-      {"margin", &out.margin},         {"preview", &out.preview}};
+  std::map<std::string, std::string*> paths = {{"distance", &out.distance},
+                                               {"nearestFeature", &out.nearest_feature},
+                                               {"boundaries", &out.boundaries},
+                                               {"tripoints", &out.tripoints},
+                                               {"limits", &out.limits},
+                                               {"regions", &out.regions},
+                                               {"margin", &out.margin},
+                                               {"preview", &out.preview},
+                                               {"turningPoints", &out.turning_points}};
   for (size_t i = 0; i < rec.outputs.size(); ++i) {
     const auto it = paths.find(rec.outputs[i]);
     if (it == paths.end()) continue;  // ownership and report: above

@@ -1,0 +1,229 @@
+// The turning-point report (turning_report.hpp).
+#include "turning_report.hpp"
+
+#include <cmath>
+#include <memory>
+#include <sstream>
+#include <vector>
+
+#include "atomic_file.hpp"
+#include "rv/error.hpp"
+#include "rv/gdal/osr_geolocator.hpp"
+#include "rv/parallel.hpp"
+#include "rv/treaty.hpp"
+
+namespace rv::detail {
+
+namespace {
+
+// Where a job's positions are on the ellipsoid: grid positions (and basepoints, which the
+// field's metric places in the grid's CRS on projected grids) to longitude/latitude.
+struct Located {
+  bool known = false;  // false: a grid without a CRS, no longitude/latitude
+  MetricSpec ellipsoid;
+  std::string datum;
+  std::shared_ptr<const Geolocator> geolocator;  // null: the grid is longitude/latitude already
+  Vec2 lonlat(Vec2 p) const {
+    if (!geolocator) return p;
+    Vec2 out;
+    geolocator->to_lonlat(&p.x, &p.y, &out.x, &out.y, 1);
+    return out;
+  }
+};
+
+Located locate(const PreparedJob& job) {
+  Located l;
+  const CrsInfo& crs = job.loaded.crs;
+  if (crs.wkt.empty()) return l;
+  l.known = true;
+  l.ellipsoid.kind = MetricSpec::geodesic;
+  l.ellipsoid.semi_major = crs.semi_major;
+  l.ellipsoid.flattening = crs.flattening;
+  if (crs.geographic) {
+    l.datum = crs.name;
+    return l;
+  }
+  auto osr = job.compute.geolocator ? nullptr : std::make_shared<const OsrGeolocator>(crs.wkt);
+  l.datum = osr ? osr->geographic_crs().name : OsrGeolocator(crs.wkt).geographic_crs().name;
+  l.geolocator = job.compute.geolocator ? job.compute.geolocator : osr;
+  return l;
+}
+
+}  // namespace
+
+nlohmann::json turning_report(const BoundaryResult& boundaries, const OwnerIndex& index, const PreparedJob& job,
+                              int threads) {
+  const SeedSet& seeds = job.loaded.seeds;
+  const Located where = locate(job);
+  const std::vector<TurningLine> lines = turning_points(boundaries, index, job.compute.geolocator.get(), threads);
+  const double k = job.to_output;
+  auto position = [&](Vec2 p, nlohmann::json& into) {
+    into["x"] = p.x;
+    into["y"] = p.y;
+    if (!where.known) return;
+    const Vec2 ll = where.lonlat(p);
+    into["lon"] = ll.x;
+    into["lat"] = ll.y;
+    into["lon_dms"] = to_dms(ll.x, false);
+    into["lat_dms"] = to_dms(ll.y, true);
+  };
+  auto basepoints = [&](const std::vector<Basepoint>& side) {
+    nlohmann::json out = nlohmann::json::array();
+    for (const Basepoint& b : side) {
+      nlohmann::json j;
+      const int32_t f = b.site == kNoSite ? -1 : seeds.site_feature(b.site);
+      j["feature"] = f < 0 ? nlohmann::json() : nlohmann::json(seeds.feature_name(f));
+      j["owner"] =
+          f < 0 ? nlohmann::json()
+                : nlohmann::json(
+                      seeds.owner_labels()[static_cast<size_t>(seeds.features()[static_cast<size_t>(f)].owner - 1)]);
+      position(b.at, j);
+      j["distance"] = b.distance * k;
+      out.push_back(std::move(j));
+    }
+    return out;
+  };
+  // Every segment's geodesy on the threads (the deviation searches dominate), then the JSON.
+  struct Seg {
+    size_t line, point;
+  };
+  std::vector<Seg> segs;
+  for (size_t l = 0; l < lines.size(); ++l)
+    for (size_t i = 0; i + 1 < lines[l].points.size(); ++i) segs.push_back({l, i});
+  std::vector<SegmentOnEllipsoid> geo(segs.size());
+  std::vector<double> plane_length(segs.size()), plane_deviation(segs.size());
+  parallel_for(resolve_threads(threads), static_cast<int64_t>(segs.size()), [&](int64_t s, int) {
+    const Seg sg = segs[static_cast<size_t>(s)];
+    const TurningLine& tl = lines[sg.line];
+    const BoundaryLine& bl = boundaries.lines[tl.line];
+    const TurningPoint& from = tl.points[sg.point];
+    const TurningPoint& to = tl.points[sg.point + 1];
+    std::vector<Vec2> between;
+    for (size_t v = from.next_vertex; v < to.next_vertex && v < bl.vertices.size(); ++v)
+      between.push_back(bl.vertices[v].p);
+    if (where.known) {
+      std::vector<Vec2> ll;
+      for (const Vec2& p : between) ll.push_back(where.lonlat(p));
+      geo[static_cast<size_t>(s)] = segment_on_ellipsoid(where.lonlat(from.p), where.lonlat(to.p), ll, where.ellipsoid);
+    }
+    // In the grid's plane too: the straight segment and the true line's distance from it.
+    const double dx = to.p.x - from.p.x, dy = to.p.y - from.p.y, len = std::hypot(dx, dy);
+    plane_length[static_cast<size_t>(s)] = len;
+    double dev = 0.0;
+    for (const Vec2& p : between) {
+      const double t =
+          len > 0.0 ? std::clamp(((p.x - from.p.x) * dx + (p.y - from.p.y) * dy) / (len * len), 0.0, 1.0) : 0.0;
+      dev = std::max(dev, std::hypot(p.x - (from.p.x + t * dx), p.y - (from.p.y + t * dy)));
+    }
+    plane_deviation[static_cast<size_t>(s)] = dev;
+  });
+  nlohmann::json out_lines = nlohmann::json::array();
+  size_t s = 0;
+  for (const TurningLine& tl : lines) {
+    nlohmann::json points = nlohmann::json::array();
+    for (size_t i = 0; i < tl.points.size(); ++i) {
+      const TurningPoint& tp = tl.points[i];
+      nlohmann::json j;
+      j["kind"] = tp.kind == TurningPoint::Kind::end ? "end" : tp.kind == TurningPoint::Kind::turn ? "turn" : "start";
+      position(tp.p, j);
+      j["a"] = basepoints(tp.a);
+      j["b"] = basepoints(tp.b);
+      if (i + 1 < tl.points.size()) {
+        nlohmann::json next;
+        next["grid_length"] = plane_length[s];
+        next["grid_deviation"] = plane_deviation[s];
+        if (where.known) {
+          const SegmentOnEllipsoid& g = geo[s];
+          next["length"] = g.length;
+          next["azimuth"] = g.azimuth;
+          next["rhumb_length"] = g.rhumb_length;
+          next["rhumb_separation"] = g.rhumb_separation;
+          next["deviation"] = g.deviation;
+        }
+        j["to_next"] = next;
+        ++s;
+      }
+      points.push_back(std::move(j));
+    }
+    out_lines.push_back({{"owner_a", seeds.owner_labels()[static_cast<size_t>(tl.owner_a - 1)]},
+                         {"owner_b", seeds.owner_labels()[static_cast<size_t>(tl.owner_b - 1)]},
+                         {"closed", tl.closed},
+                         {"points", points}});
+  }
+  nlohmann::json report = {{"distance_units", job.unit},
+                           {"grid_units", job.loaded.crs.geographic ? "degrees" : "crs-units"},
+                           {"lines", out_lines}};
+  if (where.known) {
+    report["datum"] = where.datum;
+    report["geodesic_units"] = "m";
+  }
+  return report;
+}
+
+namespace {
+
+std::string csv_field(const nlohmann::json& v) {
+  if (v.is_null()) return "";
+  if (v.is_number()) {
+    std::ostringstream o;
+    o.precision(17);
+    o << v.get<double>();
+    return o.str();
+  }
+  const std::string s = v.is_string() ? v.get<std::string>() : v.dump();
+  if (s.find_first_of(",\"\n\r") == std::string::npos) return s;
+  std::string q = "\"";
+  for (char c : s) q += c == '"' ? std::string("\"\"") : std::string(1, c);
+  return q + "\"";
+}
+
+}  // namespace
+
+void write_turning_report(const std::string& path, const nlohmann::json& report) {
+  const bool csv = path.size() >= 4 && path.compare(path.size() - 4, 4, ".csv") == 0;
+  if (!csv) {
+    write_file_atomically(path, report.dump(1) + "\n");
+    return;
+  }
+  // One row per turning point; a side's second basepoint (where it changes) in the columns 2.
+  const std::vector<std::string> side_cols = {"feature", "owner", "lon", "lat",     "lon_dms",
+                                              "lat_dms", "x",     "y",   "distance"};
+  std::vector<std::string> head = {"line", "seq",     "kind",    "owner_a", "owner_b", "lon",
+                                   "lat",  "lon_dms", "lat_dms", "x",       "y"};
+  for (const char* side : {"a1", "a2", "b1", "b2"})
+    for (const std::string& c : side_cols) head.push_back(std::string(side) + "_" + c);
+  const std::vector<std::string> next_cols = {"length",    "azimuth",     "rhumb_separation",
+                                              "deviation", "grid_length", "grid_deviation"};
+  for (const std::string& c : next_cols) head.push_back("next_" + c);
+  head.push_back("datum");
+  head.push_back("distance_units");
+  std::string out;
+  for (size_t i = 0; i < head.size(); ++i) out += (i ? "," : "") + head[i];
+  out += "\n";
+  const nlohmann::json none;
+  size_t line_no = 0;
+  for (const auto& line : report.at("lines")) {
+    ++line_no;
+    size_t seq = 0;
+    for (const auto& p : line.at("points")) {
+      std::vector<std::string> row = {std::to_string(line_no), std::to_string(++seq), csv_field(p.at("kind")),
+                                      csv_field(line.at("owner_a")), csv_field(line.at("owner_b"))};
+      for (const char* c : {"lon", "lat", "lon_dms", "lat_dms", "x", "y"}) row.push_back(csv_field(p.value(c, none)));
+      for (const char* side : {"a", "b"})
+        for (size_t k = 0; k < 2; ++k) {
+          const nlohmann::json& list = p.at(side);
+          for (const std::string& c : side_cols)
+            row.push_back(k < list.size() ? csv_field(list[k].value(c, none)) : "");
+        }
+      const nlohmann::json next = p.value("to_next", nlohmann::json::object());
+      for (const std::string& c : next_cols) row.push_back(csv_field(next.value(c, none)));
+      row.push_back(csv_field(report.value("datum", none)));
+      row.push_back(csv_field(report.at("distance_units")));
+      for (size_t i = 0; i < row.size(); ++i) out += (i ? "," : "") + row[i];
+      out += "\n";
+    }
+  }
+  write_file_atomically(path, out);
+}
+
+}  // namespace rv::detail

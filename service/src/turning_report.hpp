@@ -1,0 +1,26 @@
+// The turning-point report of a job (--turning-points FILE.json|.csv, output turningPoints):
+// each boundary line's turning points (rv::turning_points) as a treaty table states them --
+// longitude and latitude in decimal degrees and in degrees-minutes-seconds to 0.001", the datum,
+// each side's controlling basepoints (position, feature, owner, distance) -- and for each
+// segment to the next point its geodesic length and initial azimuth, the largest separation of
+// the rhumb line between the two points from the geodesic, and the largest distance of the true
+// line between them from the geodesic segment (rv/treaty.hpp). Grids without a CRS get grid
+// coordinates and plane lengths and bearings only.
+#pragma once
+
+#include <string>
+
+#include <nlohmann/json.hpp>
+
+#include "rv/deliverables.hpp"
+#include "rv/job.hpp"
+
+namespace rv::detail {
+
+// The report as JSON (distances in the job's units). `metric`: the field's.
+nlohmann::json turning_report(const BoundaryResult& boundaries, const OwnerIndex& index, const PreparedJob& job,
+                              int threads);
+// Writes it atomically: JSON for a .json path, one row per turning point for .csv.
+void write_turning_report(const std::string& path, const nlohmann::json& report);
+
+}  // namespace rv::detail
