@@ -91,6 +91,105 @@ class Finder {
     return out;
   }
 
+  // The limit line's point across the chord u-v at parameter t (d - D = 0 along the
+  // perpendicular; the chord's point where no root is bracketed), and its element.
+  struct OnLimit {
+    Vec2 p;
+    Element e;
+  };
+  OnLimit on_limit(Vec2 u, Vec2 v, double t, int32_t owner, double D) const {
+    const Vec2 c = lerp(u, v, t);
+    const Vec2 across{-(v.y - u.y), v.x - u.x};
+    const Vec2 p0{c.x - across.x, c.y - across.y}, p1{c.x + across.x, c.y + across.y};
+    auto hit = [&](Vec2 q) { return owner == 0 ? index_.nearest(q) : index_.nearest_of(q, owner); };
+    auto f = [&](double s) { return hit(lerp(p0, p1, s)).distance - D; };
+    OnLimit out{c, {}};
+    const double f0 = f(0.0), f1 = f(1.0);
+    if (std::isfinite(f0) && std::isfinite(f1) && (f0 < 0.0) != (f1 < 0.0))
+      out.p = lerp(p0, p1, find_root(f, f0, f1, 1e-3 * tol_, 1e-13));
+    out.e = element(out.p, hit(out.p).site);
+    return out;
+  }
+
+  // The arcs of one limit line.
+  std::vector<LimitArc> arcs(const LimitLine& line) const {
+    std::vector<LimitArc> out;
+    const size_t n = line.vertices.size();
+    if (n == 0) return out;
+    std::vector<Element> e(n);
+    for (size_t i = 0; i < n; ++i) e[i] = element(line.vertices[i].p, line.vertices[i].site);
+    auto start = [&](Vec2 p, const Element& el) {
+      LimitArc arc;
+      arc.from = p;
+      arc.basepoint = basepoint(p, el);
+      arc.edge = el.kind == Element::interior;
+      return arc;
+    };
+    auto close = [&](LimitArc& arc, Vec2 p, const Element& el) {
+      arc.to = p;
+      if (arc.edge) arc.edge_to = metric_.nearest_point(p, el.site);
+      out.push_back(arc);
+    };
+    LimitArc current = start(line.vertices[0].p, e[0]);
+    Element cur = e[0];
+    for (size_t i = 0; i + 1 < n; ++i) {
+      if (same(cur, e[i + 1])) continue;
+      // Bisect on the line between vertices i and i + 1 for the change.
+      const Vec2 u = line.vertices[i].p, v = line.vertices[i + 1].p;
+      double lo = 0.0, hi = 1.0;
+      OnLimit at_hi{v, e[i + 1]};
+      for (int k = 0; k < kBisections; ++k) {
+        const double mid = 0.5 * (lo + hi);
+        const OnLimit m = on_limit(u, v, mid, line.owner, line.distance);
+        if (same(m.e, cur)) {
+          lo = mid;
+        } else {
+          hi = mid;
+          at_hi = m;
+        }
+      }
+      // Bisection finds where the element changes along the chord; the change on the line is
+      // where both elements are at distance D (two circles, or a circle and a parallel, meet),
+      // which a notch between two discs can put beyond the chord's perpendicular: Newton's method
+      // on the two sites' distances from there.
+      at_hi.p = corner(at_hi.p, cur.site, at_hi.e.site, line.distance, std::hypot(v.x - u.x, v.y - u.y));
+      close(current, at_hi.p, cur);
+      current = start(at_hi.p, at_hi.e);
+      cur = at_hi.e;
+      if (!same(cur, e[i + 1])) {  // a second change before the next vertex: from there on
+        close(current, v, cur);
+        current = start(v, e[i + 1]);
+        cur = e[i + 1];
+      }
+    }
+    close(current, line.vertices[n - 1].p, cur);
+    // A ring's last arc goes on into its first when both are drawn from the same element.
+    if (line.closed && out.size() > 1 && same(cur, e[0])) {
+      out.front().from = out.back().from;
+      out.front().basepoint = out.back().basepoint;
+      out.pop_back();
+    }
+    return out;
+  }
+
+  // The point near `p` at distance D from both sites (Newton's method on their gradients), or
+  // `p` where it does not converge within a few chords of it.
+  Vec2 corner(Vec2 p, int32_t s1, int32_t s2, double D, double chord) const {
+    if (s1 == kNoSite || s2 == kNoSite || s1 == s2) return p;
+    Vec2 q = p;
+    for (int iter = 0; iter < 20; ++iter) {
+      Vec2 g1, g2;
+      const double f1 = metric_.distance_and_gradient(q, s1, g1) - D;
+      const double f2 = metric_.distance_and_gradient(q, s2, g2) - D;
+      if (std::max(std::abs(f1), std::abs(f2)) <= 1e-3 * tol_) return q;
+      const double det = g1.x * g2.y - g1.y * g2.x;
+      if (!std::isfinite(det) || !(std::abs(det) > 0.0)) break;
+      q = Vec2{q.x - (f1 * g2.y - f2 * g1.y) / det, q.y - (g1.x * f2 - g2.x * f1) / det};
+      if (!(std::hypot(q.x - p.x, q.y - p.y) <= 4.0 * chord)) break;
+    }
+    return p;
+  }
+
   Basepoint basepoint(Vec2 p, const Element& e) const {
     return Basepoint{e.site, e.kind == Element::interior ? metric_.nearest_point(p, e.site) : e.at,
                      e.site == kNoSite ? 0.0 : metric_.distance(p, e.site)};
@@ -148,6 +247,22 @@ class Finder {
 };
 
 }  // namespace
+
+std::vector<LimitArcs> limit_arcs(const LimitResult& limits, const OwnerIndex& index, const Geolocator* geolocator,
+                                  int threads) {
+  std::vector<LimitArcs> out(limits.lines.size());
+  if (limits.lines.empty()) return out;
+  const LimitLine& first = limits.lines.front();
+  const double spacing =
+      first.vertices.size() > 1 ? index.metric().point_distance(first.vertices[0].p, first.vertices[1].p) : 1.0;
+  const Finder finder(index, geolocator, std::max(spacing, 1e-12) * 1e-7);
+  detail::parallel_for(resolve_threads(threads), static_cast<int64_t>(limits.lines.size()), [&](int64_t k, int) {
+    const auto li = static_cast<size_t>(k);
+    out[li].line = li;
+    out[li].arcs = finder.arcs(limits.lines[li]);
+  });
+  return out;
+}
 
 std::vector<TurningLine> turning_points(const BoundaryResult& boundaries, const OwnerIndex& index,
                                         const Geolocator* geolocator, int threads) {

@@ -410,7 +410,7 @@ void StripDeliverables::finish() {
     run.check_cancel();
     const auto t = Clock::now();
     run.will_write(s.out().turning_points);
-    const nlohmann::json table = turning_report(boundaries, *s.index, s.job, run.spec.threads);
+    const nlohmann::json table = turning_report(boundaries, limits, *s.index, s.job, run.spec.threads);
     write_turning_report(s.out().turning_points, table);
     run.wrote("turning_points", s.out().turning_points);
     int64_t points = 0, turns = 0;

@@ -49,15 +49,13 @@ Located locate(const PreparedJob& job) {
   return l;
 }
 
-}  // namespace
+// Positions and basepoints as the report states them.
+struct Writer {
+  const SeedSet& seeds;
+  const Located& where;
+  double k;  // metric units -> the job's distance units
 
-nlohmann::json turning_report(const BoundaryResult& boundaries, const OwnerIndex& index, const PreparedJob& job,
-                              int threads) {
-  const SeedSet& seeds = job.loaded.seeds;
-  const Located where = locate(job);
-  const std::vector<TurningLine> lines = turning_points(boundaries, index, job.compute.geolocator.get(), threads);
-  const double k = job.to_output;
-  auto position = [&](Vec2 p, nlohmann::json& into) {
+  void position(Vec2 p, nlohmann::json& into) const {
     into["x"] = p.x;
     into["y"] = p.y;
     if (!where.known) return;
@@ -66,32 +64,43 @@ nlohmann::json turning_report(const BoundaryResult& boundaries, const OwnerIndex
     into["lat"] = ll.y;
     into["lon_dms"] = to_dms(ll.x, false);
     into["lat_dms"] = to_dms(ll.y, true);
-  };
-  auto basepoints = [&](const std::vector<Basepoint>& side) {
+  }
+  nlohmann::json basepoint(const Basepoint& b) const {
+    nlohmann::json j;
+    const int32_t f = b.site == kNoSite ? -1 : seeds.site_feature(b.site);
+    j["feature"] = f < 0 ? nlohmann::json() : nlohmann::json(seeds.feature_name(f));
+    j["owner"] =
+        f < 0 ? nlohmann::json()
+              : nlohmann::json(
+                    seeds.owner_labels()[static_cast<size_t>(seeds.features()[static_cast<size_t>(f)].owner - 1)]);
+    position(b.at, j);
+    j["distance"] = b.distance * k;
+    return j;
+  }
+  nlohmann::json basepoints(const std::vector<Basepoint>& side) const {
     nlohmann::json out = nlohmann::json::array();
-    for (const Basepoint& b : side) {
-      nlohmann::json j;
-      const int32_t f = b.site == kNoSite ? -1 : seeds.site_feature(b.site);
-      j["feature"] = f < 0 ? nlohmann::json() : nlohmann::json(seeds.feature_name(f));
-      j["owner"] =
-          f < 0 ? nlohmann::json()
-                : nlohmann::json(
-                      seeds.owner_labels()[static_cast<size_t>(seeds.features()[static_cast<size_t>(f)].owner - 1)]);
-      position(b.at, j);
-      j["distance"] = b.distance * k;
-      out.push_back(std::move(j));
-    }
+    for (const Basepoint& b : side) out.push_back(basepoint(b));
     return out;
-  };
-  // Every segment's geodesy on the threads (the deviation searches dominate), then the JSON.
+  }
+};
+
+// Each segment between consecutive turning points: on the ellipsoid (where the grid is located)
+// and in the grid's plane (the straight segment and the true line's largest distance from it).
+struct Segments {
+  std::vector<SegmentOnEllipsoid> geo;
+  std::vector<double> plane_length, plane_deviation;
+};
+Segments segments(const BoundaryResult& boundaries, const std::vector<TurningLine>& lines, const Located& where,
+                  int threads) {
   struct Seg {
     size_t line, point;
   };
   std::vector<Seg> segs;
   for (size_t l = 0; l < lines.size(); ++l)
     for (size_t i = 0; i + 1 < lines[l].points.size(); ++i) segs.push_back({l, i});
-  std::vector<SegmentOnEllipsoid> geo(segs.size());
-  std::vector<double> plane_length(segs.size()), plane_deviation(segs.size());
+  Segments out{std::vector<SegmentOnEllipsoid>(segs.size()), std::vector<double>(segs.size()),
+               std::vector<double>(segs.size())};
+  // On the threads: the deviation searches dominate.
   parallel_for(resolve_threads(threads), static_cast<int64_t>(segs.size()), [&](int64_t s, int) {
     const Seg sg = segs[static_cast<size_t>(s)];
     const TurningLine& tl = lines[sg.line];
@@ -104,19 +113,65 @@ nlohmann::json turning_report(const BoundaryResult& boundaries, const OwnerIndex
     if (where.known) {
       std::vector<Vec2> ll;
       for (const Vec2& p : between) ll.push_back(where.lonlat(p));
-      geo[static_cast<size_t>(s)] = segment_on_ellipsoid(where.lonlat(from.p), where.lonlat(to.p), ll, where.ellipsoid);
+      out.geo[static_cast<size_t>(s)] =
+          segment_on_ellipsoid(where.lonlat(from.p), where.lonlat(to.p), ll, where.ellipsoid);
     }
-    // In the grid's plane too: the straight segment and the true line's distance from it.
     const double dx = to.p.x - from.p.x, dy = to.p.y - from.p.y, len = std::hypot(dx, dy);
-    plane_length[static_cast<size_t>(s)] = len;
+    out.plane_length[static_cast<size_t>(s)] = len;
     double dev = 0.0;
     for (const Vec2& p : between) {
       const double t =
           len > 0.0 ? std::clamp(((p.x - from.p.x) * dx + (p.y - from.p.y) * dy) / (len * len), 0.0, 1.0) : 0.0;
       dev = std::max(dev, std::hypot(p.x - (from.p.x + t * dx), p.y - (from.p.y + t * dy)));
     }
-    plane_deviation[static_cast<size_t>(s)] = dev;
+    out.plane_deviation[static_cast<size_t>(s)] = dev;
   });
+  return out;
+}
+
+// The limit lines' arcs, measured as the limits were: true distances.
+nlohmann::json limits_json(const LimitResult& limits, const OwnerIndex& index, const PreparedJob& job, const Writer& w,
+                           int threads) {
+  std::unique_ptr<OwnerIndex> plain;
+  if (index.adjusted()) plain = std::make_unique<OwnerIndex>(index.metric(), OwnerIndex::Measure::plain);
+  nlohmann::json out = nlohmann::json::array();
+  for (const LimitArcs& la : limit_arcs(limits, plain ? *plain : index, job.compute.geolocator.get(), threads)) {
+    const LimitLine& line = limits.lines[la.line];
+    nlohmann::json arcs = nlohmann::json::array();
+    for (const LimitArc& arc : la.arcs) {
+      nlohmann::json from, to;
+      w.position(arc.from, from);
+      w.position(arc.to, to);
+      nlohmann::json base = w.basepoint(arc.basepoint);
+      base.erase("distance");
+      nlohmann::json j = {{"kind", arc.edge ? "parallel" : "arc"}, {"from", from}, {"to", to}};
+      if (arc.edge) {
+        nlohmann::json edge_to;
+        w.position(arc.edge_to, edge_to);
+        j["edge"] = {{"from", base}, {"to", edge_to}};
+      } else {
+        j["basepoint"] = base;
+      }
+      arcs.push_back(std::move(j));
+    }
+    out.push_back(
+        {{"distance", line.distance * w.k},
+         {"owner", line.owner == 0 ? std::string("all") : w.seeds.owner_labels()[static_cast<size_t>(line.owner - 1)]},
+         {"closed", line.closed},
+         {"arcs", arcs}});
+  }
+  return out;
+}
+
+}  // namespace
+
+nlohmann::json turning_report(const BoundaryResult& boundaries, const LimitResult& limits, const OwnerIndex& index,
+                              const PreparedJob& job, int threads) {
+  const SeedSet& seeds = job.loaded.seeds;
+  const Located where = locate(job);
+  const Writer w{seeds, where, job.to_output};
+  const std::vector<TurningLine> lines = turning_points(boundaries, index, job.compute.geolocator.get(), threads);
+  const Segments segs = segments(boundaries, lines, where, threads);
   nlohmann::json out_lines = nlohmann::json::array();
   size_t s = 0;
   for (const TurningLine& tl : lines) {
@@ -125,15 +180,15 @@ nlohmann::json turning_report(const BoundaryResult& boundaries, const OwnerIndex
       const TurningPoint& tp = tl.points[i];
       nlohmann::json j;
       j["kind"] = tp.kind == TurningPoint::Kind::end ? "end" : tp.kind == TurningPoint::Kind::turn ? "turn" : "start";
-      position(tp.p, j);
-      j["a"] = basepoints(tp.a);
-      j["b"] = basepoints(tp.b);
+      w.position(tp.p, j);
+      j["a"] = w.basepoints(tp.a);
+      j["b"] = w.basepoints(tp.b);
       if (i + 1 < tl.points.size()) {
         nlohmann::json next;
-        next["grid_length"] = plane_length[s];
-        next["grid_deviation"] = plane_deviation[s];
+        next["grid_length"] = segs.plane_length[s];
+        next["grid_deviation"] = segs.plane_deviation[s];
         if (where.known) {
-          const SegmentOnEllipsoid& g = geo[s];
+          const SegmentOnEllipsoid& g = segs.geo[s];
           next["length"] = g.length;
           next["azimuth"] = g.azimuth;
           next["rhumb_length"] = g.rhumb_length;
@@ -152,7 +207,8 @@ nlohmann::json turning_report(const BoundaryResult& boundaries, const OwnerIndex
   }
   nlohmann::json report = {{"distance_units", job.unit},
                            {"grid_units", job.loaded.crs.geographic ? "degrees" : "crs-units"},
-                           {"lines", out_lines}};
+                           {"lines", out_lines},
+                           {"limits", limits_json(limits, index, job, w, threads)}};
   if (where.known) {
     report["datum"] = where.datum;
     report["geodesic_units"] = "m";

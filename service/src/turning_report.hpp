@@ -4,8 +4,9 @@
 // each side's controlling basepoints (position, feature, owner, distance) -- and for each
 // segment to the next point its geodesic length and initial azimuth, the largest separation of
 // the rhumb line between the two points from the geodesic, and the largest distance of the true
-// line between them from the geodesic segment (rv/treaty.hpp). Grids without a CRS get grid
-// coordinates and plane lengths and bearings only.
+// line between them from the geodesic segment (rv/treaty.hpp); and the arcs of the job's
+// distance-limit lines (JSON only). Grids without a CRS get grid coordinates and plane lengths
+// only.
 #pragma once
 
 #include <string>
@@ -17,9 +18,10 @@
 
 namespace rv::detail {
 
-// The report as JSON (distances in the job's units). `metric`: the field's.
-nlohmann::json turning_report(const BoundaryResult& boundaries, const OwnerIndex& index, const PreparedJob& job,
-                              int threads);
+// The report as JSON (distances in the job's units); `index`: the field's. With the job's limit
+// lines, each line's arcs too (rv::limit_arcs: from, to, the basepoint or edge drawing it).
+nlohmann::json turning_report(const BoundaryResult& boundaries, const LimitResult& limits, const OwnerIndex& index,
+                              const PreparedJob& job, int threads);
 // Writes it atomically: JSON for a .json path, one row per turning point for .csv.
 void write_turning_report(const std::string& path, const nlohmann::json& report);
 

@@ -157,9 +157,60 @@ TEST(TurningPoints, BasepointsChangeOnlyAtTurningPoints) {
       // At each turning point the basepoints it names are equally near (the changing side's two).
       for (const TurningPoint& t : tl.points)
         for (const auto* side : {&t.a, &t.b})
-          if (side->size() == 2) EXPECT_NEAR((*side)[0].distance, (*side)[1].distance, 1e-6);
+          if (side->size() == 2) {
+            EXPECT_NEAR((*side)[0].distance, (*side)[1].distance, 1e-6);
+          }
     }
   }
+}
+
+// The 15-unit limit of a point (50, 60) and a straight coast y = 10 from x = 10 to 90 of one
+// owner: a circle of one arc round the point, and round the coast a band of four arcs -- the
+// straight sides (from the edge's interior) and the half circles round its ends -- changing
+// at (90, 25), (90, -5), (10, -5) and (10, 25).
+TEST(TurningPoints, LimitArcsOfAPointAndACoast) {
+  SeedSet s;
+  const int32_t a = s.add_feature(s.owner_code("A"));
+  s.add_point(a, {50.0, 60.0});
+  const int32_t c = s.add_feature(s.owner_code("A"));
+  const std::vector<Vec2> coast{{10.0, 10.0}, {90.0, 10.0}};
+  s.add_polyline(c, coast);
+  const GridSpec g = test::grid_of(120, 95, 1.0, -10.0, 82.0);
+  const NearestField field = compute(s, g, ComputeOptions{});
+  const PlanarSiteMetric metric(s, Vec2{g.xmin, g.ymax});
+  const OwnerIndex index(metric);
+  const LimitResult limits = extract_limits(field, index, std::vector<double>{15.0});
+  ASSERT_EQ(limits.lines.size(), 2u);
+  const std::vector<LimitArcs> arcs = limit_arcs(limits, index);
+  size_t circles = 0, bands = 0;
+  for (const LimitArcs& la : arcs) {
+    ASSERT_TRUE(limits.lines[la.line].closed);
+    if (la.arcs.size() == 1) {
+      ++circles;
+      EXPECT_FALSE(la.arcs[0].edge);
+      EXPECT_EQ(la.arcs[0].basepoint.at, (Vec2{50.0, 60.0}));
+      continue;
+    }
+    ++bands;
+    ASSERT_EQ(la.arcs.size(), 4u);
+    int edges = 0;
+    for (const LimitArc& arc : la.arcs) {
+      edges += arc.edge;
+      for (const Vec2 end : {arc.from, arc.to}) {
+        // Every change lies at one of the four corners of the band's straight sides.
+        const double dx = std::min(std::abs(end.x - 10.0), std::abs(end.x - 90.0));
+        const double dy = std::min(std::abs(end.y - 25.0), std::abs(end.y + 5.0));
+        EXPECT_LT(std::max(dx, dy), 1e-6) << end.x << ", " << end.y;
+      }
+      if (!arc.edge) {
+        EXPECT_EQ(arc.basepoint.at.y, 10.0);
+        EXPECT_TRUE(arc.basepoint.at.x == 10.0 || arc.basepoint.at.x == 90.0);
+      }
+    }
+    EXPECT_EQ(edges, 2);
+  }
+  EXPECT_EQ(circles, 1u);
+  EXPECT_EQ(bands, 1u);
 }
 
 }  // namespace

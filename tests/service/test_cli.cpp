@@ -355,11 +355,11 @@ TEST_F(Cli, RelevantAreaAndTheDisproportionalityTest) {
 // say the same position to 0.0005", and each segment's length is the geodesic's between its ends.
 TEST_F(Cli, TurningPointsAsATreatyTable) {
   const std::string seeds = write("basepoints.geojson", R"({"type":"FeatureCollection","features":[
-    {"type":"Feature","properties":{"state":"A"},"geometry":{"type":"MultiPoint","coordinates":[[10.0,55.0],[10.0,55.4]]}},
-    {"type":"Feature","properties":{"state":"B"},"geometry":{"type":"Point","coordinates":[10.5,55.2]}}]})");
-  const std::string grid = " --owner-field state --resolution 0.005 --extent 9.9 54.9 10.6 55.5 --quiet ";
-  const CliRun r =
-      run("compute " + seeds + grid + "--turning-points " + path("tp.json") + " --report " + path("report.json"));
+    {"type":"Feature","properties":{"state":"A"},"geometry":{"type":"MultiPoint","coordinates":[[10.0,55.0],[10.0,55.5]]}},
+    {"type":"Feature","properties":{"state":"B"},"geometry":{"type":"Point","coordinates":[10.5,55.25]}}]})");
+  const std::string grid = " --owner-field state --resolution 0.005 --extent 9.9 54.9 10.6 55.6 --quiet ";
+  const CliRun r = run("compute " + seeds + grid + "--turning-points " + path("tp.json") + " --report " +
+                       path("report.json") + " --limits " + path("l.geojson") + " --limit-distances 12nmi");
   ASSERT_EQ(r.exit_code, 0) << r.output;
   const nlohmann::json table = nlohmann::json::parse(std::ifstream(path("tp.json")));
   EXPECT_EQ(table["datum"], "WGS 84");
@@ -395,6 +395,21 @@ TEST_F(Cli, TurningPointsAsATreatyTable) {
     }
   }
   EXPECT_EQ(turns, 1);
+  // The 12 nmi limit's arcs: each drawn from one basepoint, both ends 22,224 m from it.
+  ASSERT_FALSE(table["limits"].empty());
+  int arcs = 0;
+  for (const auto& line : table["limits"])
+    for (const auto& arc : line["arcs"]) {
+      ++arcs;
+      ASSERT_EQ(arc["kind"], "arc");
+      for (const char* end : {"from", "to"}) {
+        double s12 = 0.0;
+        geod.Inverse(arc[end]["lat"].get<double>(), arc[end]["lon"].get<double>(),
+                     arc["basepoint"]["lat"].get<double>(), arc["basepoint"]["lon"].get<double>(), s12);
+        EXPECT_NEAR(s12, 22224.0, 1e-3);
+      }
+    }
+  EXPECT_GE(arcs, 3);  // one round each basepoint at least
   const nlohmann::json report = nlohmann::json::parse(std::ifstream(path("report.json")));
   EXPECT_EQ(report["deliverables"]["turning_points"]["turns"], 1);
   // The same as CSV: a header and one row per point.

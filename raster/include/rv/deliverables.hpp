@@ -557,6 +557,23 @@ struct TurningLine {
 std::vector<TurningLine> turning_points(const BoundaryResult& boundaries, const OwnerIndex& index,
                                         const Geolocator* geolocator = nullptr, int threads = 0);
 
+// The arcs of distance-limit lines: the stretches of a line drawn from one basepoint (a circular
+// arc round a basepoint seed or a coastline vertex) or from one edge's interior (a line parallel
+// to it), split where the controlling element changes, found as turning points are. `index`:
+// the one the limits were measured with (plain: true distances).
+struct LimitArc {
+  Vec2 from, to;        // on the line, at distance D
+  Basepoint basepoint;  // the controlling element at `from` (an edge's interior: its foot there)
+  bool edge = false;    // true: drawn from an edge's interior (the foot moves along it)
+  Vec2 edge_to;         // the foot at `to` when `edge`
+};
+struct LimitArcs {
+  size_t line = 0;  // index into LimitResult::lines
+  std::vector<LimitArc> arcs;
+};
+std::vector<LimitArcs> limit_arcs(const LimitResult& limits, const OwnerIndex& index,
+                                  const Geolocator* geolocator = nullptr, int threads = 0);
+
 // The relevant coast of a disproportionality test: the parts of the seeds' geometry that are
 // nearest to at least one cell of the relevant area (cells whose centre `area` holds, by the
 // interior rule of rv/interior.hpp; its window the whole grid). For each site nearest to such a
