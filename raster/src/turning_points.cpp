@@ -246,16 +246,23 @@ class Finder {
   double tol_;
 };
 
+// A Finder whose positions agree to 1e-7 of the vertex spacing of `line` (the largest of its
+// first steps: the refinement's added points are closer together than a cell).
+template <class Vertex>
+Finder finder_for(const std::vector<Vertex>& line, const OwnerIndex& index, const Geolocator* geolocator) {
+  double spacing = 0.0;
+  for (size_t i = 1; i < line.size() && i <= 16; ++i)
+    spacing = std::max(spacing, index.metric().point_distance(line[i - 1].p, line[i].p));
+  return Finder(index, geolocator, std::max(spacing, 1e-12) * 1e-7);
+}
+
 }  // namespace
 
 std::vector<LimitArcs> limit_arcs(const LimitResult& limits, const OwnerIndex& index, const Geolocator* geolocator,
                                   int threads) {
   std::vector<LimitArcs> out(limits.lines.size());
   if (limits.lines.empty()) return out;
-  const LimitLine& first = limits.lines.front();
-  const double spacing =
-      first.vertices.size() > 1 ? index.metric().point_distance(first.vertices[0].p, first.vertices[1].p) : 1.0;
-  const Finder finder(index, geolocator, std::max(spacing, 1e-12) * 1e-7);
+  const Finder finder = finder_for(limits.lines.front().vertices, index, geolocator);
   detail::parallel_for(resolve_threads(threads), static_cast<int64_t>(limits.lines.size()), [&](int64_t k, int) {
     const auto li = static_cast<size_t>(k);
     out[li].line = li;
@@ -268,11 +275,7 @@ std::vector<TurningLine> turning_points(const BoundaryResult& boundaries, const 
                                         const Geolocator* geolocator, int threads) {
   std::vector<TurningLine> out(boundaries.lines.size());
   if (boundaries.lines.empty()) return out;
-  // Positions agree to far below a cell: 1e-9 of the lines' typical vertex spacing.
-  const BoundaryLine& first = boundaries.lines.front();
-  const double spacing =
-      first.vertices.size() > 1 ? index.metric().point_distance(first.vertices[0].p, first.vertices[1].p) : 1.0;
-  const Finder finder(index, geolocator, std::max(spacing, 1e-12) * 1e-7);
+  const Finder finder = finder_for(boundaries.lines.front().vertices, index, geolocator);
   detail::parallel_for(resolve_threads(threads), static_cast<int64_t>(boundaries.lines.size()), [&](int64_t k, int) {
     const auto li = static_cast<size_t>(k);
     const BoundaryLine& line = boundaries.lines[li];
