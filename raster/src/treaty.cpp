@@ -70,8 +70,11 @@ double from_dms(std::string_view text) {
 
 namespace {
 
-// The distance from p to the geodesic segment `line` of length `length` (golden-section search
-// over the position along it: the distance is unimodal along a segment short against the Earth).
+// The distance from p to the geodesic segment `line` of length `length`: the foot where the
+// geodesic from it to p leaves the line at a right angle, by Newton's method on the position
+// along the line (the step is the along-line component of the way to p, s cos(angle)), which
+// converges in a few steps on a segment short against the Earth; a golden-section search where
+// it does not. Clamped to the segment.
 double to_segment(const GeographicLib::Geodesic& g, const GeographicLib::GeodesicLine& line, double length, Vec2 p) {
   auto at = [&](double s) {
     double lat = 0.0, lon = 0.0, d = 0.0;
@@ -79,6 +82,17 @@ double to_segment(const GeographicLib::Geodesic& g, const GeographicLib::Geodesi
     g.Inverse(p.y, p.x, lat, lon, d);
     return d;
   };
+  double s = 0.5 * length;
+  for (int iter = 0; iter < 12; ++iter) {
+    double lat = 0.0, lon = 0.0, azi_line = 0.0, d = 0.0, azi_to_p = 0.0, azi2 = 0.0;
+    line.Position(s, lat, lon, azi_line);
+    g.Inverse(lat, lon, p.y, p.x, d, azi_to_p, azi2);
+    const double step = d * std::cos((azi_to_p - azi_line) * M_PI / 180.0);
+    const double next = std::clamp(s + step, 0.0, length);
+    if (std::abs(next - s) <= std::max(length * 1e-12, 1e-10)) return at(next);
+    s = next;
+  }
+  // No convergence (a point far from a long segment): the golden-section search.
   constexpr double kGolden = 0.6180339887498949;
   double lo = 0.0, hi = length;
   double x1 = hi - kGolden * (hi - lo), x2 = lo + kGolden * (hi - lo);

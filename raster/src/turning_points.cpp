@@ -6,7 +6,7 @@
 // edge's interior. Between two vertices whose elements differ, the change is bracketed on the
 // locus: a point across the chord at parameter t (the root of the two sides' adjusted distances
 // along the chord's perpendicular), its elements compared with the first vertex's, the bracket
-// halved until it is 1e-9 of the chord. Two changes between the same vertices are found one after
+// halved until it is 2^-26 of the chord. Two changes between the same vertices are found one after
 // the other.
 #include <algorithm>
 #include <cmath>
@@ -23,7 +23,7 @@ using namespace line_tools;
 
 namespace {
 
-constexpr int kBisections = 32;  // 2^-32 of the chord
+constexpr int kBisections = 26;  // 2^-26 of the chord: 0.8 micrometres of a 50 m one
 
 // A side's controlling element at a point.
 struct Element {

@@ -530,7 +530,7 @@ class StripLines {
 // line the pair changes where a new seed takes over (the locus turns: a turning point of three
 // basepoints, equidistant from all of them) and where the foot on an edge reaches its end (the
 // line passes from a parabola to a bisector, without a corner). Both are found between the
-// line's vertices by bisection on the locus, to 1e-9 of the distance between two vertices (the
+// line's vertices by bisection on the locus, to 2^-26 of the distance between two vertices (the
 // refinement has usually placed the first kind on a vertex already), every point a locus point.
 struct Basepoint {
   int32_t site = kNoSite;  // the controlling site

@@ -37,8 +37,9 @@ struct SegmentOnEllipsoid {
 // The segment from `from` to `to` (longitude/latitude degrees) on the ellipsoid of `metric`
 // (its semi-major axis and flattening; the kind is not read). `true_line`: the line the segment
 // stands for between the two points (longitude/latitude), measured against the geodesic
-// segment. Distances to the geodesic are minimised over the segment (golden-section search,
-// to 1e-10 of its length); the rhumb line is followed in 64 steps.
+// segment. A point's distance to the geodesic segment is to its foot on it (Newton's method on
+// the position along it, a golden-section search where that fails); the rhumb line is followed
+// in 64 steps.
 SegmentOnEllipsoid segment_on_ellipsoid(Vec2 from, Vec2 to, std::span<const Vec2> true_line, const MetricSpec& metric);
 
 }  // namespace rv
