@@ -399,6 +399,7 @@ void read_relevant(const JobSpec& spec, const JobLimits& limits, PreparedJob& jo
   base.max_features = stricter(base.max_features, limits.max_features);
   base.max_vertices = stricter(base.max_vertices, limits.max_vertices);
   base.max_input_bytes = stricter(base.max_input_bytes, limits.max_input_bytes);
+  base.max_memory_bytes = stricter(base.max_memory_bytes, memory_budget(limits));
   SeedReadOptions area = base;
   area.paths = {out.relevant_area};
   area.target_crs = job.loaded.crs.wkt;
@@ -408,6 +409,11 @@ void read_relevant(const JobSpec& spec, const JobLimits& limits, PreparedJob& jo
     throw Error(ErrorKind::invalid_input, "the relevant area (" + out.relevant_area + ") holds no polygon");
   if (out.relevant_coasts.empty()) return;
   SeedReadOptions coasts = seed_options_for_metric(spec.seeds, spec.metric);
+  // The uploads' limits too (the daemon reads them as it reads the seeds).
+  coasts.max_features = base.max_features;
+  coasts.max_vertices = base.max_vertices;
+  coasts.max_input_bytes = base.max_input_bytes;
+  coasts.max_memory_bytes = base.max_memory_bytes;
   coasts.paths = {out.relevant_coasts};
   coasts.layers.clear();
   coasts.weight_field.reset();

@@ -6,6 +6,7 @@
 
 #include <cstdlib>
 #include <filesystem>
+#include <fstream>
 #include <string>
 
 #include "rv/error.hpp"
@@ -91,6 +92,47 @@ TEST_F(JobLimitsTest, FeatureLimit) {
   too_large(limits, {"more than 27 features"});
   limits.max_features = 28;
   EXPECT_NO_THROW(run_job(spec_, limits));
+}
+
+// The disproportionality test's uploads are read under the same limits as the seeds.
+TEST_F(JobLimitsTest, RelevantAreaAndCoastsAreBoundedToo) {
+  // (Beside the job's directory, which must stay empty.)
+  spec_.outputs.relevant_area = dir_.string() + "_area.geojson";
+  {
+    std::ofstream area(spec_.outputs.relevant_area);
+    area << R"({"type":"FeatureCollection","crs":{"type":"name","properties":{"name":"urn:ogc:def:crs:EPSG::32633"}},
+      "features":[)";
+    for (int i = 0; i < 40; ++i)
+      area << (i ? "," : "") << R"({"type":"Feature","properties":{},"geometry":{"type":"Polygon","coordinates":[[)"
+           << "[350000," << 6150000 + i * 100 << "],[351000," << 6150000 + i * 100 << "],[351000," << 6150050 + i * 100
+           << "],[350000," << 6150000 + i * 100 << "]]]}}";
+    area << "]}";
+  }
+  JobLimits limits;
+  limits.max_features = 30;  // the seeds' 28 pass; the area's 40 do not
+  const std::string message = too_large(limits, {"more than 30 features"});
+  EXPECT_NE(message.find("_area.geojson"), std::string::npos) << message;
+  // One polygon of area, and 40 lines of coast: the coasts are refused.
+  {
+    std::ofstream area(spec_.outputs.relevant_area);
+    area << R"({"type":"FeatureCollection","crs":{"type":"name","properties":{"name":"urn:ogc:def:crs:EPSG::32633"}},
+      "features":[{"type":"Feature","properties":{},"geometry":{"type":"Polygon","coordinates":[[[350000,6150000],
+      [360000,6150000],[360000,6160000],[350000,6150000]]]}}]})";
+  }
+  spec_.outputs.relevant_coasts = dir_.string() + "_coasts.geojson";
+  {
+    std::ofstream coasts(spec_.outputs.relevant_coasts);
+    coasts << R"({"type":"FeatureCollection","crs":{"type":"name","properties":{"name":"urn:ogc:def:crs:EPSG::32633"}},
+      "features":[)";
+    for (int i = 0; i < 40; ++i)
+      coasts << (i ? "," : "") << R"({"type":"Feature","properties":{"state":"A"},"geometry":{"type":"LineString",)"
+             << R"("coordinates":[[350000,)" << 6150000 + i * 100 << "],[351000," << 6150000 + i * 100 << "]]}}";
+    coasts << "]}";
+  }
+  const std::string coasts_message = too_large(limits, {"more than 30 features"});
+  EXPECT_NE(coasts_message.find("_coasts.geojson"), std::string::npos) << coasts_message;
+  fs::remove(spec_.outputs.relevant_area);
+  fs::remove(spec_.outputs.relevant_coasts);
 }
 
 TEST_F(JobLimitsTest, VertexLimit) {
