@@ -328,6 +328,14 @@ void check_geodesic_grid(const GridSpec& grid) {
 
 }  // namespace
 
+void check_method_for(const SeedSet& seeds, Method method) {
+  if (seeds.adjusted() && method != Method::exact && method != Method::brute_force)
+    throw Error(ErrorKind::invalid_argument,
+                "weights and reaches need the exact or brute-force method: a weighted region can be disconnected "
+                "(an enclave), which the " +
+                    std::string(to_string(method)) + " method's 3x3 propagation cannot find");
+}
+
 NearestField compute(const SeedSet& seeds, const GridSpec& grid, const ComputeOptions& options) {
   NearestField out;
   if (options.mask != nullptr) {
@@ -370,11 +378,7 @@ void check_inputs(const SeedSet& seeds, const GridSpec& grid, const ComputeOptio
     throw Error(ErrorKind::invalid_argument, "grid must have a positive size and resolution");
   if (seeds.sites().empty()) throw Error(ErrorKind::invalid_input, "no seeds: the seed set is empty");
   validate_metric(options.metric);
-  if (seeds.adjusted() && options.method != Method::exact && options.method != Method::brute_force)
-    throw Error(ErrorKind::invalid_argument,
-                "weights and reaches need the exact or brute-force method: a weighted region can be disconnected "
-                "(an enclave), which the " +
-                    std::string(to_string(options.method)) + " method's 3x3 propagation cannot find");
+  check_method_for(seeds, options.method);
   const bool geodesic = options.metric.kind == MetricSpec::geodesic;
   const Geolocator* geolocator = options.geolocator.get();
   if (geolocator != nullptr && !geodesic)

@@ -361,11 +361,7 @@ void check_adjustments(const JobSpec& spec, const PreparedJob& job) {
   const SeedSet& seeds = job.loaded.seeds;
   if (!seeds.adjusted()) return;
   const OutputRequest& out = spec.outputs;
-  if (spec.method != Method::exact && spec.method != Method::brute_force)
-    throw Error(ErrorKind::invalid_argument,
-                "weights and reaches need the exact or brute-force method: a weighted region can be disconnected "
-                "(an enclave), which the " +
-                    std::string(to_string(spec.method)) + " method's 3x3 propagation cannot find");
+  check_method_for(seeds, spec.method);
   if (!out.margin.empty())
     throw Error(ErrorKind::unsupported,
                 "the margin raster is not available with weights or reaches: it measures unweighted distances");

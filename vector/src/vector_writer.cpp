@@ -391,6 +391,15 @@ struct OwnerParts {
   double relevant_land = 0.0, relevant_sea = 0.0;  // within the relevant area
 };
 
+// The grid's outline, closed, appended to a line or ring.
+void add_outline(OGRLineString& line, const GridSpec& g) {
+  line.addPoint(g.xmin, g.ymax);
+  line.addPoint(g.xmax(), g.ymax);
+  line.addPoint(g.xmax(), g.ymin());
+  line.addPoint(g.xmin, g.ymin());
+  line.addPoint(g.xmin, g.ymax);
+}
+
 // A polygon of the core as OGR's.
 OGRPolygon ogr_polygon(const Polygon& poly) {
   OGRPolygon p;
@@ -460,11 +469,7 @@ RegionStats write_line_regions(const std::string& path, const LineRegions& r, co
   OGRMultiLineString lines;
   {
     OGRLineString frame;
-    frame.addPoint(g.xmin, g.ymax);
-    frame.addPoint(g.xmax(), g.ymax);
-    frame.addPoint(g.xmax(), g.ymin());
-    frame.addPoint(g.xmin, g.ymin());
-    frame.addPoint(g.xmin, g.ymax);
+    add_outline(frame, g);
     lines.addGeometry(&frame);
   }
   for (const std::vector<Vec2>& edge : r.edges) {
@@ -504,11 +509,7 @@ RegionStats write_line_regions(const std::string& path, const LineRegions& r, co
   if (r.relevant != nullptr) {
     OGRPolygon frame;
     OGRLinearRing ring;
-    ring.addPoint(g.xmin, g.ymax);
-    ring.addPoint(g.xmax(), g.ymax);
-    ring.addPoint(g.xmax(), g.ymin());
-    ring.addPoint(g.xmin, g.ymin());
-    ring.closeRings();
+    add_outline(ring, g);
     frame.addRing(&ring);
     const GeometryPtr merged = merged_polygons(*r.relevant, "merging the relevant area", capture);
     relevant = checked(merged->Intersection(&frame), "the relevant area within the grid", capture);

@@ -148,6 +148,11 @@ struct NearestField {
 // `metric`: geodesic adds ~0.7 KB per site (a prepared GeographicLib::GeodesicLine per edge).
 int64_t estimate_memory(Method m, int64_t cells, int64_t sites, MetricSpec::Kind metric = MetricSpec::planar);
 
+// Throws rv::Error(invalid_argument) when `seeds` have weights or reaches (SeedSet::adjusted) and
+// `method` is a scan: a weighted region can be disconnected, which 3x3 propagation cannot find.
+// compute() and prepare() check it; callers may check it before any other work.
+void check_method_for(const SeedSet& seeds, Method method);
+
 // Computes the nearest-site field. Throws rv::Error(invalid_argument) for an invalid grid,
 // window or metric (geodesic: latitudes beyond +-90 or more than 360 degrees of longitude; a
 // geolocator without the geodesic metric; missing or mismatched grid_polygons),
