@@ -111,6 +111,15 @@ void count_unresolved(const BoundaryGrid& b, const CrossingSet& x, const Tripoin
 // tripoints filed in squares of rows up to row1 (found from squares up to row1 + 1).
 Links link_squares(const BoundaryGrid& b, const CrossingSet& x, const TripointSet& t, int64_t row0, int64_t row1,
                    BoundaryStats& stats);
+// The cost of `site` at p as `index` compares it (adjusted_distance), and its gradient per CRS
+// unit (line_refine.cpp).
+double site_cost(const OwnerIndex& index, Vec2 p, int32_t site, Vec2& gradient);
+// The point where sites s1, s2 and t cost the same (a locus's turning point), by Newton's method
+// on their gradients from `start`, within `max_move` (CRS units) of it, to `ftol` (metric units);
+// false when it does not converge there.
+bool equal_costs_point(const OwnerIndex& index, int32_t s1, int32_t s2, int32_t t, Vec2 start, double max_move,
+                       double ftol, Vec2& out);
+
 // Stage 5 (line_refine.cpp): the line between two consecutive vertices made exact to a
 // tolerance. Where the controlling site of a side changes between them, the locus turns: the
 // turning point (the three sites' costs equal, by Newton's method on their gradients) is added.

@@ -49,12 +49,36 @@ struct LineRefiner::End {
   Vec2 normal{kNaN, kNaN};                   // gradient of cost_a - cost_b at v.p, per CRS unit
 };
 
-double LineRefiner::cost(Vec2 p, int32_t site, Vec2& gradient) const {
-  const double d = index_.metric().distance_and_gradient(p, site, gradient);
-  const double w = index_.weight_of(site);
+double site_cost(const OwnerIndex& index, Vec2 p, int32_t site, Vec2& gradient) {
+  const double d = index.metric().distance_and_gradient(p, site, gradient);
+  const double w = index.weight_of(site);
   if (w != 1.0) gradient = Vec2{gradient.x / w, gradient.y / w};
-  return index_.cost_of(site, d);
+  return index.cost_of(site, d);
 }
+
+bool equal_costs_point(const OwnerIndex& index, int32_t s1, int32_t s2, int32_t t, Vec2 start, double max_move,
+                       double ftol, Vec2& out) {
+  Vec2 p = start;
+  for (int iter = 0; iter < kNewtonIterations; ++iter) {
+    Vec2 g1, g2, gt;
+    const double c1 = site_cost(index, p, s1, g1), c2 = site_cost(index, p, s2, g2), ct = site_cost(index, p, t, gt);
+    const double f0 = c1 - ct, f1 = c2 - ct;
+    if (!std::isfinite(f0) || !std::isfinite(f1)) return false;
+    if (std::max(std::abs(f0), std::abs(f1)) <= ftol) {
+      out = p;
+      return true;
+    }
+    const double j00 = g1.x - gt.x, j01 = g1.y - gt.y, j10 = g2.x - gt.x, j11 = g2.y - gt.y;
+    const double det = j00 * j11 - j01 * j10;
+    if (!(std::abs(det) > 0.0) || !std::isfinite(det)) return false;
+    const double dx = (f0 * j11 - f1 * j01) / det, dy = (j00 * f1 - j10 * f0) / det;
+    p = Vec2{p.x - dx, p.y - dy};
+    if (!(std::hypot(p.x - start.x, p.y - start.y) <= max_move)) return false;
+  }
+  return false;
+}
+
+double LineRefiner::cost(Vec2 p, int32_t site, Vec2& gradient) const { return site_cost(index_, p, site, gradient); }
 
 void LineRefiner::set_normal(End& e) const {
   if (e.v.site_a == kNoSite || e.v.site_b == kNoSite) return;
@@ -153,25 +177,9 @@ bool LineRefiner::turning_point(const End& u, const End& v, int32_t a, int32_t b
   const double chord = std::hypot(v.v.p.x - u.v.p.x, v.v.p.y - u.v.p.y);
   for (const System& sys : systems) {
     if (sys.s1 == kNoSite || sys.s2 == kNoSite || sys.t == kNoSite) continue;
-    Vec2 p = mid;
-    bool converged = false;
-    for (int iter = 0; iter < kNewtonIterations; ++iter) {
-      Vec2 g1, g2, gt;
-      const double c1 = cost(p, sys.s1, g1), c2 = cost(p, sys.s2, g2), ct = cost(p, sys.t, gt);
-      const double f0 = c1 - ct, f1 = c2 - ct;
-      if (!std::isfinite(f0) || !std::isfinite(f1)) break;
-      if (std::max(std::abs(f0), std::abs(f1)) <= ftol_) {
-        converged = true;
-        break;
-      }
-      const double j00 = g1.x - gt.x, j01 = g1.y - gt.y, j10 = g2.x - gt.x, j11 = g2.y - gt.y;
-      const double det = j00 * j11 - j01 * j10;
-      if (!(std::abs(det) > 0.0) || !std::isfinite(det)) break;
-      const double dx = (f0 * j11 - f1 * j01) / det, dy = (j00 * f1 - j10 * f0) / det;
-      p = Vec2{p.x - dx, p.y - dy};
-      if (!(std::hypot(p.x - mid.x, p.y - mid.y) <= chord)) break;
-    }
-    if (converged && checked(p, a, b, u, v, max_off, out)) return true;
+    Vec2 p;
+    if (equal_costs_point(index_, sys.s1, sys.s2, sys.t, mid, chord, ftol_, p) && checked(p, a, b, u, v, max_off, out))
+      return true;
   }
   return false;
 }

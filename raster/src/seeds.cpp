@@ -71,6 +71,15 @@ void SeedSet::set_adjustment(int32_t feature, double weight, double reach) {
   features_[static_cast<size_t>(feature)].reach = reach;
 }
 
+void SeedSet::set_effect(int32_t feature, double effect) {
+  if (feature < 0 || feature >= static_cast<int32_t>(features_.size()))
+    throw Error(ErrorKind::internal, "set_effect: no feature " + std::to_string(feature));
+  if (!(effect >= 0.0 && effect <= 1.0))
+    throw Error(ErrorKind::invalid_input,
+                feature_name(feature) + ": the effect must be a number from 0 to 1 (got " + number(effect) + ")");
+  features_[static_cast<size_t>(feature)].effect = effect;
+}
+
 void SeedSet::scale_reaches(double factor) {
   if (!std::isfinite(factor) || !(factor > 0.0)) throw Error(ErrorKind::internal, "scale_reaches: bad factor");
   for (Feature& f : features_)
@@ -81,6 +90,36 @@ bool SeedSet::adjusted() const {
   for (const Feature& f : features_)
     if (f.weight != 1.0 || std::isfinite(f.reach)) return true;
   return false;
+}
+
+SeedSet SeedSet::without(const std::vector<bool>& drop, std::vector<int32_t>& site_of) const {
+  if (drop.size() != features_.size()) throw Error(ErrorKind::internal, "SeedSet::without: one entry per feature");
+  SeedSet out;
+  out.owner_labels_ = owner_labels_;
+  out.owner_index_ = owner_index_;
+  std::vector<int32_t> feature_of(features_.size(), -1);
+  for (size_t f = 0; f < features_.size(); ++f) {
+    if (drop[f]) continue;
+    feature_of[f] = static_cast<int32_t>(out.features_.size());
+    out.features_.push_back(features_[f]);
+  }
+  std::vector<int32_t> new_site(sites_.size(), -1);
+  site_of.clear();
+  for (size_t i = 0; i < sites_.size(); ++i) {
+    const int32_t f = feature_of[static_cast<size_t>(sites_[i].feature)];
+    if (f < 0) continue;
+    new_site[i] = static_cast<int32_t>(out.sites_.size());
+    site_of.push_back(static_cast<int32_t>(i));
+    Site s = sites_[i];
+    s.feature = f;
+    out.sites_.push_back(s);
+  }
+  for (const Polygon& p : polygons_) {
+    const int32_t f = feature_of[static_cast<size_t>(p.feature)];
+    if (f < 0) continue;
+    out.polygons_.push_back(Polygon{f, new_site[static_cast<size_t>(p.area_site)], p.rings});
+  }
+  return out;
 }
 
 int SeedSet::add_point(int32_t feature, Vec2 p) {

@@ -262,6 +262,7 @@ struct PendingFeature {
   std::vector<PendingPart> parts;
   double weight = 1.0;
   double reach = std::numeric_limits<double>::infinity();
+  double effect = 1.0;
 };
 
 class Reader {
@@ -584,6 +585,7 @@ class Reader {
     }
     weight_index_ = numeric_field(l, defn, options_.weight_field, "weight");
     reach_index_ = numeric_field(l, defn, options_.reach_field, "reach");
+    effect_index_ = numeric_field(l, defn, options_.effect_field, "effect");
     CtPtr ct;
     if (target_ && l.srs && !l.srs->IsSame(target_.get())) {
       const detail::ChosenOperation op = stated_operation(l);
@@ -739,7 +741,8 @@ class Reader {
                        source,
                        {},
                        adjustment(f, weight_index_, source, "weight", true, 1.0),
-                       adjustment(f, reach_index_, source, "reach", false, std::numeric_limits<double>::infinity())});
+                       adjustment(f, reach_index_, source, "reach", false, std::numeric_limits<double>::infinity()),
+                       adjustment(f, effect_index_, source, "effect", false, 1.0)});
     std::set<std::pair<double, double>> seen_points;
     for (auto& part : parts) {
       switch (wkbFlatten(part->getGeometryType())) {
@@ -782,6 +785,7 @@ class Reader {
       PendingFeature& f = pending_[k];
       const int32_t index = seeds.add_feature(f.owner, std::move(f.source));
       seeds.set_adjustment(index, f.weight, f.reach);  // refuses bad values, naming the feature
+      seeds.set_effect(index, f.effect);
       final_index[k] = index;
       out_.input_position.push_back(f.position);
       for (PendingPart& part : f.parts) {
@@ -908,7 +912,7 @@ class Reader {
   std::vector<SeedPart> parts_;  // for the conflict check; feature = index into pending_
   std::vector<PendingFeature> pending_;
   int64_t position_ = 0;
-  int weight_index_ = -1, reach_index_ = -1;  // the adjustments' fields in the layer being read
+  int weight_index_ = -1, reach_index_ = -1, effect_index_ = -1;  // the adjustments' fields in the layer being read
   std::set<std::string> gdal_warnings_seen_;
 };
 

@@ -63,6 +63,10 @@ struct Feature {
   // arc); beyond it the feature is as if absent. Defaults: the plain distance, everywhere.
   double weight = 1.0;
   double reach = std::numeric_limits<double>::infinity();
+  // Partial effect (SeedSet::set_effect, rv/partial_effect.hpp): in [0, 1]; below 1 the feature
+  // counts partly in its owner's boundaries with the others (an island given half effect). The
+  // engine's field ignores it; the partial-effect stage reads it.
+  double effect = 1.0;
 };
 
 // What a distance d (metric units, >= 0) to a site of feature f counts for when the nearest
@@ -92,11 +96,18 @@ class SeedSet {
   // Sets the adjustments of a feature (see Feature): weight > 0 and finite, reach > 0 (infinity:
   // none). Otherwise rv::Error(invalid_input) naming the feature.
   void set_adjustment(int32_t feature, double weight, double reach);
+  // Sets a feature's partial effect: in [0, 1] (Feature::effect). Otherwise rv::Error(invalid_input)
+  // naming the feature.
+  void set_effect(int32_t feature, double effect);
   // Multiplies every finite reach by `factor` (> 0): from the job's distance units to the
   // metric's.
   void scale_reaches(double factor);
   // True when some feature has a weight other than 1 or a finite reach.
   bool adjusted() const;
+  // A copy without the features whose `drop` entry (one per feature) is true: the same owners
+  // and codes (an owner may be left without features), the kept features, sites and polygons in
+  // their order. `site_of` receives, per site of the copy, its index here.
+  SeedSet without(const std::vector<bool>& drop, std::vector<int32_t>& site_of) const;
 
   const std::vector<Site>& sites() const { return sites_; }
   const std::vector<Polygon>& polygons() const { return polygons_; }

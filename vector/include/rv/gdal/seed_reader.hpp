@@ -53,9 +53,11 @@ struct SeedReadOptions {
   // The delimitation adjustments (rv/seeds.hpp, Feature): numeric attributes, each of which must
   // exist in every layer read. weight_field: the feature's weight (> 0, finite; a null value is
   // an error). reach_field: its reach, in the units the caller scales it from (SeedSet::
-  // scale_reaches; > 0; null: no reach). Bad values are invalid_input naming the feature.
+  // scale_reaches; > 0; null: no reach). effect_field: its partial effect (SeedSet::set_effect;
+  // in [0, 1]; null: 1). Bad values are invalid_input naming the feature.
   std::optional<std::string> weight_field;
   std::optional<std::string> reach_field;
+  std::optional<std::string> effect_field;
   std::string target_crs;  // any definition OSR understands; empty = first layer's CRS.
                            // Layers without a CRS are accepted only when no layer
                            // has one and target_crs is empty (with a warning).
