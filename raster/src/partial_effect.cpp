@@ -527,4 +527,18 @@ int32_t partial_owner_at(const PartialEffectResult& r, Vec2 p, double max_distan
   return r.rule->owner(p, full, owner_at(*r.nil_index, p, max_distance));
 }
 
+double partial_locus(const PartialEffectResult& r, int32_t a, int32_t b, Vec2 p) {
+  if (r.rule) {
+    const int32_t B = r.rule->effect().owner;
+    if (a == B || b == B) {
+      const int32_t x = a == B ? b : a;
+      if (owner_at(*r.index, p) == B && owner_at(*r.nil_index, p) == x) {
+        const double balance = r.rule->balance(p, x);
+        return a == B ? -balance : balance;
+      }
+    }
+  }
+  return r.index->nearest_of(p, a).cost - r.index->nearest_of(p, b).cost;
+}
+
 }  // namespace rv

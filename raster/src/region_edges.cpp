@@ -365,6 +365,7 @@ class EdgeBuilder {
  public:
   EdgeBuilder(const BoundaryResult& boundaries, const OwnerIndex& index, const GridSpec& g, double max_distance)
       : b_(boundaries), index_(index), g_(g), D_(max_distance), ftol_(1e-9 * cell_metric(g, index.metric())) {}
+  const LocusFunction* locus_ = nullptr;  // the lines' locus, when not the cost difference
 
   RegionEdges run(const LimitResult* max_distance_lines) {
     ReachLines reach_lines = limit_edges(max_distance_lines);
@@ -405,6 +406,7 @@ class EdgeBuilder {
   };
 
   double locus(int32_t a, int32_t b, Vec2 p) const {
+    if (locus_ != nullptr && *locus_) return (*locus_)(a, b, p);
     return index_.nearest_of(p, a).cost - index_.nearest_of(p, b).cost;
   }
   bool at_tripoint(Vec2 p) const {
@@ -644,8 +646,10 @@ class EdgeBuilder {
 }  // namespace
 
 RegionEdges region_edges(const BoundaryResult& boundaries, const OwnerIndex& index, const GridSpec& g,
-                         double max_distance, const LimitResult* max_distance_lines) {
-  return EdgeBuilder(boundaries, index, g, max_distance).run(max_distance_lines);
+                         double max_distance, const LimitResult* max_distance_lines, const LocusFunction* locus) {
+  EdgeBuilder builder(boundaries, index, g, max_distance);
+  builder.locus_ = locus;
+  return builder.run(max_distance_lines);
 }
 
 }  // namespace rv

@@ -274,6 +274,8 @@ JobPlan plan_job(const JobSpec& spec, const GridSpec& grid, int64_t sites, Metri
     p.why_whole = "the scan methods propagate inside a window: a strip would differ from the whole grid";
   else if (spec.validate)
     p.why_whole = "validation compares whole fields";
+  else if (spec.seeds.effect_field)
+    p.why_whole = "partial effect compares two whole fields, without and with the partial features";
   else if (rasters == 0 && !out.any_deliverable())
     p.why_whole = "no raster output";
   else if (spec.strip_rows < 0)
@@ -302,6 +304,7 @@ JobPlan plan_job(const JobSpec& spec, const GridSpec& grid, int64_t sites, Metri
   p.strips = 1;
   int64_t need = estimate_memory(spec.method, cells, sites, metric) + cells * 4;  // + one output raster
   if (spec.validate) need += estimate_memory(Method::brute_force, cells, sites, metric);
+  if (spec.seeds.effect_field) need += 2 * cells * 8;  // the nil-effect field and the partial one
   if (out.any_deliverable()) {
     need += cells * 4;                                                                          // owner codes
     if (spec.method != Method::exact && spec.method != Method::brute_force) need += cells * 8;  // exact field
@@ -359,8 +362,25 @@ std::vector<double> limit_distances_in_metric_units(const JobSpec& spec, const P
 // What weights and reaches cannot be combined with (yet), refused before anything is computed.
 void check_adjustments(const JobSpec& spec, const PreparedJob& job) {
   const SeedSet& seeds = job.loaded.seeds;
-  if (!seeds.adjusted()) return;
   const OutputRequest& out = spec.outputs;
+  if (job.partial.any()) {
+    auto refuse = [](ErrorKind kind, const std::string& what) {
+      throw Error(kind, "partial effect (--effect-field) " + what);
+    };
+    if (spec.method != Method::exact && spec.method != Method::brute_force)
+      refuse(ErrorKind::invalid_argument, "needs the exact or brute-force method: its lines and band are exact");
+    if (job.located())
+      refuse(ErrorKind::unsupported,
+             "is not available for the geodesic metric on a projected grid; use a longitude/latitude grid, or "
+             "metric planar");
+    for (const Feature& f : seeds.features())
+      if (std::isfinite(f.reach)) refuse(ErrorKind::unsupported, "is not available with reaches");
+    if (!out.margin.empty()) refuse(ErrorKind::unsupported, "is not available with the margin raster");
+    if (!out.turning_points.empty())
+      refuse(ErrorKind::unsupported,
+             "is not available with the turning-point report yet: the partial line has no controlling basepoints");
+  }
+  if (!seeds.adjusted()) return;
   check_method_for(seeds, spec.method);
   if (!out.margin.empty())
     throw Error(ErrorKind::unsupported,
@@ -391,6 +411,7 @@ void read_relevant(const JobSpec& spec, const JobLimits& limits, PreparedJob& jo
   base.owner_field.reset();
   base.weight_field.reset();
   base.reach_field.reset();
+  base.effect_field.reset();
   base.on_conflict = ConflictPolicy::lower_code;
   base.max_features = stricter(base.max_features, limits.max_features);
   base.max_vertices = stricter(base.max_vertices, limits.max_vertices);
@@ -414,6 +435,7 @@ void read_relevant(const JobSpec& spec, const JobLimits& limits, PreparedJob& jo
   coasts.layers.clear();
   coasts.weight_field.reset();
   coasts.reach_field.reset();
+  coasts.effect_field.reset();
   coasts.on_conflict = ConflictPolicy::lower_code;
   coasts.target_crs = job.loaded.crs.wkt;
   job.relevant_coasts = load_seeds(coasts);
@@ -495,6 +517,7 @@ PreparedJob prepare_job(const JobSpec& spec, const JobLimits& limits, const JobH
   // Reaches are given in the job's distance units, like the max distance.
   job.loaded.seeds.scale_reaches(1.0 / job.to_output);
   job.limit_distances = limit_distances_in_metric_units(spec, job);
+  job.partial = partial_effect_of(job.loaded.seeds);
   read_relevant(spec, limits, job);
   job.plan = plan_job(spec, job.grid, static_cast<int64_t>(job.loaded.seeds.sites().size()), mp.metric.kind,
                       seed_memory_bytes(job.loaded));
@@ -586,6 +609,34 @@ NearestField compute_whole(detail::JobRun& run, const PreparedJob& job) {
   run.threads_used = field.threads;
   run.timings["compute"] = field.seconds;
   return field;
+}
+
+// Stage "compute" with partial effect: the full- and nil-effect fields, their lines, the rule's
+// field and lines (rv/partial_effect.hpp), and the report's entry for it.
+PartialEffectResult compute_partial(detail::JobRun& run, const PreparedJob& job) {
+  const JobSpec& spec = run.spec;
+  run.progress("compute", 0.0);
+  BoundaryOptions lines;
+  lines.simplify_cells = spec.outputs.simplify_cells;
+  lines.threads = spec.threads;
+  PartialEffectResult r = compute_partial_effect(job.loaded.seeds, job.grid, job.compute, lines);
+  run.compute_seconds = r.seconds;
+  run.contested_cells = r.full.contested_cells;
+  run.threads_used = r.full.threads;
+  run.timings["compute"] = r.seconds;
+  const SeedSet& seeds = job.loaded.seeds;
+  const int32_t B = job.partial.owner;
+  int64_t features = 0, returned = 0;
+  for (bool p : job.partial.partial) features += p;
+  const auto& full = r.full.site.cells();
+  const auto& now = r.field.site.cells();
+  for (size_t i = 0; i < full.size(); ++i) returned += now[i] != full[i];
+  run.report["partial_effect"] = {{"owner", seeds.owner_labels()[static_cast<size_t>(B - 1)]},
+                                  {"effect", job.partial.effect},
+                                  {"features", features},
+                                  {"cells_to_neighbours", returned}};
+  run.progress("compute", 1.0);
+  return r;
 }
 
 // Stage "validate": the field against brute force.
@@ -692,12 +743,17 @@ JobResult run_job(const JobSpec& spec, const JobLimits& limits, const JobHooks& 
   NearestField field;  // the whole field (whole path only)
   if (job.plan.streamed) {
     compute_streamed(run, job, targets);
+  } else if (job.partial.any()) {
+    const PartialEffectResult partial = compute_partial(run, job);
+    validate_stage(run, job, partial.full);
+    write_rasters(run, job, partial.field, targets);
+    detail::deliver(run, job, partial.field, &partial);
   } else {
     field = compute_whole(run, job);
     validate_stage(run, job, field);
     write_rasters(run, job, field, targets);
+    detail::deliver(run, job, field);
   }
-  if (!job.plan.streamed) detail::deliver(run, job, field);
   assemble_report(run, job, memory, start);
   if (!spec.outputs.report.empty()) {
     run.will_write(spec.outputs.report);

@@ -50,7 +50,10 @@ struct StripDeliverables::State {
   nlohmann::json times = nlohmann::json::object();
   nlohmann::json report = nlohmann::json::object();
 
-  State(JobRun& r, const PreparedJob& j, bool s) : run(r), job(j), streamed(s) {}
+  const PartialEffectResult* partial = nullptr;  // partial effect: its lines and its rule
+
+  State(JobRun& r, const PreparedJob& j, bool s, const PartialEffectResult* p)
+      : run(r), job(j), streamed(s), partial(p) {}
   const OutputRequest& out() const { return run.spec.outputs; }
 
   // The stages of finish(), one per deliverable: each writes its file(s), its report entry and
@@ -68,8 +71,9 @@ struct StripDeliverables::State {
   void write_quicklook(const BoundaryResult& boundaries);
 };
 
-StripDeliverables::StripDeliverables(JobRun& run, const PreparedJob& job, bool streamed)
-    : st_(std::make_unique<State>(run, job, streamed)) {
+StripDeliverables::StripDeliverables(JobRun& run, const PreparedJob& job, bool streamed,
+                                     const PartialEffectResult* partial)
+    : st_(std::make_unique<State>(run, job, streamed, partial)) {
   State& s = *st_;
   const OutputRequest& out = s.out();
   const GridSpec& g = job.grid;
@@ -82,8 +86,9 @@ StripDeliverables::StripDeliverables(JobRun& run, const PreparedJob& job, bool s
   s.vector.distance_factor = job.to_output;
   s.vector.distance_units = job.unit;
   s.vector.threads = run.spec.threads;
-  if (!out.boundaries.empty() || !out.tripoints.empty() || !out.preview.empty() || out.regions_wanted() ||
-      !out.turning_points.empty()) {
+  if ((!out.boundaries.empty() || !out.tripoints.empty() || !out.preview.empty() || out.regions_wanted() ||
+       !out.turning_points.empty()) &&
+      partial == nullptr) {
     LineRequest r;
     r.boundaries = true;
     r.boundary.simplify_cells = out.simplify_cells;
@@ -126,7 +131,7 @@ GeoTiffOptions StripDeliverables::margin_options(const JobRun& run, const Prepar
   return o;
 }
 
-void StripDeliverables::add(const NearestField& strip) {
+void StripDeliverables::add(const NearestField& strip, const NearestField* measured) {
   State& s = *st_;
   const OutputRequest& out = s.out();
   s.run.check_cancel();
@@ -142,9 +147,10 @@ void StripDeliverables::add(const NearestField& strip) {
     return seconds_since(t);
   };
   if (s.boundaries) s.boundary_seconds += seconds([&] { s.boundaries->add(strip); });
-  if (s.limits) s.limit_seconds += seconds([&] { s.limits->add(strip); });
+  const NearestField& lines_from = measured != nullptr ? *measured : strip;
+  if (s.limits) s.limit_seconds += seconds([&] { s.limits->add(lines_from); });
   if (s.preview) s.preview->add_rows(strip.site.data(), strip.site.window().row0, strip.site.height(), &s.owner_codes);
-  if (s.reach) s.region_seconds += seconds([&] { s.reach->add(strip); });
+  if (s.reach) s.region_seconds += seconds([&] { s.reach->add(lines_from); });
   if (s.relevant_coasts) s.region_seconds += seconds([&] { s.relevant_coasts->add(strip); });
   if (!out.margin.empty()) {
     s.margin_seconds += seconds([&] {
@@ -166,9 +172,9 @@ BoundaryResult StripDeliverables::State::take_boundaries() {
   State& s = *this;
   const OutputRequest& out = s.out();
   BoundaryResult boundaries;
-  if (!s.boundaries) return boundaries;
+  if (!s.boundaries && !s.partial) return boundaries;
   const auto t = Clock::now();
-  boundaries = s.boundaries->take_boundaries();
+  boundaries = s.partial ? s.partial->boundaries : s.boundaries->take_boundaries();
   const BoundaryStats& st = boundaries.stats;
   s.report["boundaries"] = {{"lines", boundaries.lines.size()},
                             {"vertices", st.vertices},
@@ -185,6 +191,10 @@ BoundaryResult StripDeliverables::State::take_boundaries() {
                             {"max_residual", st.max_residual * s.job.to_output},
                             {"max_residual_cells", st.max_residual / s.cell_length},
                             {"simplify_cells", out.simplify_cells}};
+  if (s.partial && s.partial->rule)
+    s.report["boundaries"]["partial_effect"] = {{"stretches", s.partial->stats.stretches},
+                                                {"locus_points", s.partial->stats.points},
+                                                {"max_residual", s.partial->stats.max_residual * s.job.to_output}};
   if (!out.boundaries.empty()) s.run.will_write(out.boundaries);
   if (!out.tripoints.empty()) s.run.will_write(out.tripoints);
   s.boundary_seconds += seconds_since(t);
@@ -238,7 +248,10 @@ void StripDeliverables::State::write_region_polygons(const BoundaryResult& bound
   const SeedSet& seeds = s.job.loaded.seeds;
   const double max_distance = s.job.compute.max_distance;
   const LimitResult reach_lines = s.reach ? s.reach->take_limits() : LimitResult{};
-  RegionEdges edges = region_edges(boundaries, *s.index, s.job.grid, max_distance, s.reach ? &reach_lines : nullptr);
+  LocusFunction partial_locus_of;
+  if (s.partial) partial_locus_of = [&](int32_t a, int32_t b, Vec2 p) { return partial_locus(*s.partial, a, b, p); };
+  RegionEdges edges = region_edges(boundaries, *s.index, s.job.grid, max_distance, s.reach ? &reach_lines : nullptr,
+                                   s.partial ? &partial_locus_of : nullptr);
   // A line stopping in the open would merge two owners' faces: no regions rather than wrong ones.
   if (edges.dangling_ends > 0)
     throw Error(ErrorKind::internal,
@@ -249,7 +262,9 @@ void StripDeliverables::State::write_region_polygons(const BoundaryResult& bound
   LineRegions lr;
   lr.edges = std::move(edges.edges);
   lr.grid = s.job.grid;
-  lr.owner_of = [&](Vec2 p) { return owner_at(*s.index, p, max_distance); };
+  lr.owner_of = [&](Vec2 p) {
+    return s.partial ? partial_owner_at(*s.partial, p, max_distance) : owner_at(*s.index, p, max_distance);
+  };
   const double to_area = s.job.to_output * s.job.to_output;
   const Geolocator* located = s.job.compute.geolocator.get();
   lr.area = [&, to_area, located](std::span<const Vec2> ring) {
@@ -441,7 +456,7 @@ GeoTiffOptions raster_options(const JobSpec& spec) {
   return o;
 }
 
-void deliver(JobRun& run, const PreparedJob& job, const NearestField& computed) {
+void deliver(JobRun& run, const PreparedJob& job, const NearestField& computed, const PartialEffectResult* partial) {
   if (!run.spec.outputs.any_deliverable()) return;
   run.check_cancel();
   // From an exact field: a scan's ownership is not exact, so the exact method runs for them.
@@ -455,8 +470,8 @@ void deliver(JobRun& run, const PreparedJob& job, const NearestField& computed) 
     field = &exact;
     run.timings["deliverables"]["exact_field"] = exact.seconds;
   }
-  StripDeliverables d(run, job, false);
-  d.add(*field);
+  StripDeliverables d(run, job, false, partial);
+  d.add(*field, partial != nullptr ? &partial->full : nullptr);
   d.finish();
 }
 

@@ -98,9 +98,14 @@ GeoTiffOptions raster_options(const JobSpec& spec);
 // on one thread (the engine's, between strips), with distances in metric units; then finish().
 class StripDeliverables {
  public:
-  StripDeliverables(JobRun& run, const PreparedJob& job, bool streamed);
+  // `partial`: a job with partial effect (whole only): its lines are the rule's
+  // (PartialEffectResult::boundaries, not extracted again), regions' faces are owned by the rule,
+  // and distance limits measure its full-effect field (add's `measured`). Kept by reference.
+  StripDeliverables(JobRun& run, const PreparedJob& job, bool streamed, const PartialEffectResult* partial = nullptr);
   ~StripDeliverables();
-  void add(const NearestField& strip);
+  // `measured`: the field the distance limits and the max-distance line are drawn from, when not
+  // `strip` (partial effect: the full-effect field; the rest follows the rule's `strip`).
+  void add(const NearestField& strip, const NearestField* measured = nullptr);
   // Writes every requested deliverable.
   void finish();
 
@@ -112,6 +117,7 @@ class StripDeliverables {
 
 // The deliverables of a job computed whole, from its field (a scan's: the exact field is
 // computed for them). Nothing when none is requested.
-void deliver(JobRun& run, const PreparedJob& job, const NearestField& field);
+void deliver(JobRun& run, const PreparedJob& job, const NearestField& field,
+             const PartialEffectResult* partial = nullptr);
 
 }  // namespace rv::detail

@@ -270,6 +270,76 @@ TEST_F(Cli, WeightsFromAnAttributeMakeTheApolloniusCircle) {
   EXPECT_FALSE(fs::exists(path("x.geojson")));
 }
 
+// Partial effect from an attribute on a geographic grid: two mainland coasts along meridians
+// 10.0 and 10.8 E and B's island at 10.3 E. At nil effect the two owners' areas are equal (the
+// mirror), at full effect B gains the island's band; half effect lies between, the raster's
+// share and the regions' areas agree, and each step of e moves sea one way. Refusals follow.
+TEST_F(Cli, PartialEffectFromAnAttribute) {
+  auto seeds_with = [&](const std::string& name, const std::string& effect) {
+    return write(name, R"({"type":"FeatureCollection","features":[
+    {"type":"Feature","properties":{"state":"A","e":null},"geometry":{"type":"LineString","coordinates":[[10.0,55.0],[10.0,55.6]]}},
+    {"type":"Feature","properties":{"state":"B","e":null},"geometry":{"type":"LineString","coordinates":[[10.8,55.0],[10.8,55.6]]}},
+    {"type":"Feature","properties":{"state":"B","e":)" +
+                           effect + R"(},"geometry":{"type":"Point","coordinates":[10.3,55.3]}}]})");
+  };
+  const std::string grid = " --owner-field state --effect-field e --resolution 0.005 --quiet";
+  std::vector<double> b_area;
+  for (const char* e : {"0", "0.25", "0.5", "1"}) {
+    const std::string tag = std::string("e") + e;
+    const CliRun r = run("compute " + seeds_with(tag + ".geojson", e) + grid + " --ownership " + path(tag + ".tif") +
+                         " --boundaries " + path(tag + ".geojson") + " --regions " + path(tag + "r.geojson") +
+                         " --report " + path(tag + ".json"));
+    ASSERT_EQ(r.exit_code, 0) << r.output;
+    const nlohmann::json report = nlohmann::json::parse(std::ifstream(path(tag + ".json")));
+    const nlohmann::json& areas = report["deliverables"]["regions"]["areas"];
+    ASSERT_EQ(areas.size(), 2u);
+    b_area.push_back(areas[1]["area"].get<double>());
+    const double total = areas[0]["area"].get<double>() + areas[1]["area"].get<double>();
+    // The raster's share of B's cells is the regions' share, to a cell's width along the line.
+    const Raster<int32_t> own = read_int32(path(tag + ".tif"));
+    const double cells_b = static_cast<double>(std::count(own.cells().begin(), own.cells().end(), 2));
+    EXPECT_NEAR(cells_b / static_cast<double>(own.size()), areas[1]["area"].get<double>() / total, 0.004);
+    if (std::string(e) == "1") {
+      EXPECT_FALSE(report.contains("partial_effect"));
+      continue;
+    }
+    EXPECT_EQ(report["partial_effect"]["owner"], "B");
+    EXPECT_EQ(report["partial_effect"]["effect"].get<double>(), std::stod(e));
+    EXPECT_GT(report["partial_effect"]["cells_to_neighbours"].get<int64_t>(), 0);
+    const nlohmann::json& pe = report["deliverables"]["boundaries"]["partial_effect"];
+    EXPECT_EQ(pe["stretches"].get<int>(), 1);
+    EXPECT_LT(pe["max_residual"].get<double>(), 1e-3);
+    const nlohmann::json lines = nlohmann::json::parse(std::ifstream(path(tag + ".geojson")));
+    ASSERT_EQ(lines["features"].size(), 1u);
+  }
+  EXPECT_LT(b_area[0], b_area[1]);
+  EXPECT_LT(b_area[1], b_area[2]);
+  EXPECT_LT(b_area[2], b_area[3]);
+  const nlohmann::json nil = nlohmann::json::parse(std::ifstream(path("e0.json")));
+  const nlohmann::json& nil_areas = nil["deliverables"]["regions"]["areas"];
+  EXPECT_NEAR(nil_areas[0]["area"].get<double>() / nil_areas[1]["area"].get<double>(), 1.0, 1e-9);
+  // Refusals: a scan, the margin raster, the turning-point report, an effect out of range, two
+  // owners with partial features.
+  const std::string half = seeds_with("half.geojson", "0.5"), out = " --ownership " + path("o.tif");
+  expect_refused(run("compute " + half + grid + " --method hv-scan" + out), 2,
+                 "partial effect (--effect-field) needs the exact or brute-force method");
+  expect_refused(run("compute " + half + grid + " --margin-raster " + path("m.tif")), 7,
+                 "partial effect (--effect-field) is not available with the margin raster");
+  expect_refused(run("compute " + half + grid + " --turning-points " + path("t.json")), 7,
+                 "is not available with the turning-point report");
+  expect_refused(run("compute " + seeds_with("big.geojson", "1.5") + grid + out), 3,
+                 "the effect must be a number from 0 to 1 (got 1.5)");
+  const std::string two = write("two.geojson", R"({"type":"FeatureCollection","features":[
+    {"type":"Feature","properties":{"state":"A","e":0.5},"geometry":{"type":"Point","coordinates":[10.0,55.0]}},
+    {"type":"Feature","properties":{"state":"A","e":null},"geometry":{"type":"Point","coordinates":[10.0,55.5]}},
+    {"type":"Feature","properties":{"state":"B","e":0.5},"geometry":{"type":"Point","coordinates":[10.8,55.0]}},
+    {"type":"Feature","properties":{"state":"B","e":null},"geometry":{"type":"Point","coordinates":[10.8,55.5]}}]})");
+  expect_refused(run("compute " + two + grid + out), 3, "belong to different owners");
+  EXPECT_FALSE(fs::exists(path("o.tif")));
+  EXPECT_FALSE(fs::exists(path("m.tif")));
+  EXPECT_FALSE(fs::exists(path("t.json")));
+}
+
 // A reach from an attribute, in the job's distance units: 12 nmi on a geographic grid, whose
 // island cells are those within 22,224 m of it on the ellipsoid.
 TEST_F(Cli, ReachFromAnAttributeInDistanceUnits) {

@@ -41,6 +41,7 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <limits>
 #include <memory>
 #include <span>
@@ -463,9 +464,12 @@ struct RegionEdges {
   std::vector<std::vector<Vec2>> edges;
   int64_t dangling_ends = 0;
 };
+// A boundary's locus function for owners a < b at p: negative on a's side, 0 on the line
+// (metric units). region_edges' default: the two owners' cost difference on `index`.
+using LocusFunction = std::function<double(int32_t a, int32_t b, Vec2 p)>;
 RegionEdges region_edges(const BoundaryResult& boundaries, const OwnerIndex& index, const GridSpec& grid,
                          double max_distance = std::numeric_limits<double>::infinity(),
-                         const LimitResult* max_distance_lines = nullptr);
+                         const LimitResult* max_distance_lines = nullptr, const LocusFunction* locus = nullptr);
 // The area enclosed by a ring of grid-CRS positions (closed or not; either orientation), its
 // edges straight in the grid's CRS: planar, in CRS units squared (shoelace); geodesic, in square
 // metres on the metric's ellipsoid. Longitude/latitude grids (`geolocator` null): the exact

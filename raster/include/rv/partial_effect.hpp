@@ -138,4 +138,9 @@ PartialEffectResult compute_partial_effect(const SeedSet& seeds, const GridSpec&
 int32_t partial_owner_at(const PartialEffectResult& r, Vec2 p,
                          double max_distance = std::numeric_limits<double>::infinity());
 
+// The locus of owners a < b at p under the rule (region_edges' LocusFunction): in a band of B
+// and X, -balance on B's side when a is B (+balance when b is); elsewhere the cost difference
+// on the full-effect index. Its sign is continuous across the band's edges.
+double partial_locus(const PartialEffectResult& r, int32_t a, int32_t b, Vec2 p);
+
 }  // namespace rv

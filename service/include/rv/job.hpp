@@ -20,6 +20,7 @@
 #include "rv/engine.hpp"
 #include "rv/gdal/raster_io.hpp"
 #include "rv/gdal/seed_reader.hpp"
+#include "rv/partial_effect.hpp"
 
 namespace rv {
 
@@ -180,6 +181,7 @@ struct PreparedJob {
   std::optional<LoadedSeeds> relevant_coasts;
   JobPlan plan;
   double read_seconds = 0.0;
+  PartialEffect partial;  // the seeds' partial effect (rv/partial_effect.hpp); partial.any(): computed by its rule
   bool located() const { return compute.geolocator != nullptr; }  // geodesic on a projected grid
 };
 
