@@ -619,7 +619,9 @@ PartialEffectResult compute_partial(detail::JobRun& run, const PreparedJob& job)
   BoundaryOptions lines;
   lines.simplify_cells = spec.outputs.simplify_cells;
   lines.threads = spec.threads;
-  PartialEffectResult r = compute_partial_effect(job.loaded.seeds, job.grid, job.compute, lines);
+  const OutputRequest& out = spec.outputs;
+  const bool draw = !out.boundaries.empty() || !out.tripoints.empty() || out.regions_wanted() || !out.preview.empty();
+  PartialEffectResult r = compute_partial_effect(job.loaded.seeds, job.grid, job.compute, lines, draw);
   run.compute_seconds = r.seconds;
   run.contested_cells = r.full.contested_cells;
   run.threads_used = r.full.threads;

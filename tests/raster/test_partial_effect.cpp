@@ -142,6 +142,41 @@ TEST(PartialEffect, FullAndNilEffectAreTheTwoRuns) {
   }
 }
 
+// On the ellipsoid, every cell of the rule's field is the rule at its centre (the field decides
+// blocks at once where the balance's size rules the block out; this checks each cell alone).
+TEST(PartialEffect, GeodesicFieldIsTheRuleAtEveryCell) {
+  SeedSet s;
+  const int32_t a = s.owner_code("A"), b = s.owner_code("B");
+  s.add_polyline(s.add_feature(a), std::vector<Vec2>{{10.0, 55.0}, {10.0, 55.6}});
+  s.add_polyline(s.add_feature(b), std::vector<Vec2>{{10.8, 55.0}, {10.8, 55.6}});
+  const int32_t island = s.add_feature(b);
+  s.add_point(island, Vec2{10.3, 55.3});
+  s.set_effect(island, 0.3);
+  const GridSpec g = test::grid_of(200, 150, 0.005, 9.9, 55.7);
+  ComputeOptions o;
+  o.metric = MetricSpec{MetricSpec::geodesic};
+  const PartialEffectResult r = compute_partial_effect(s, g, o, BoundaryOptions{});
+  ASSERT_TRUE(r.rule);
+  const NearestField nil = compute(r.nil_seeds, g, o);
+  int64_t band = 0, returned = 0;
+  for (int64_t row = 0; row < g.height; ++row)
+    for (int64_t col = 0; col < g.width; ++col) {
+      const int32_t full_owner = s.site_owner(r.full.site.at(col, row));
+      const int32_t nil_owner = r.nil_seeds.site_owner(nil.site.at(col, row));
+      const int32_t expected = r.rule->owner(Vec2{g.centre_x(col), g.centre_y(row)}, full_owner, nil_owner);
+      ASSERT_EQ(s.site_owner(r.field.site.at(col, row)), expected) << col << "," << row;
+      band += full_owner == 2 && nil_owner == 1;
+      returned += expected == 1 && full_owner == 2;
+    }
+  EXPECT_GT(band, 1000);
+  EXPECT_GT(returned, 0);
+  EXPECT_LT(returned, band);
+  // The traced line: each vertex between the two lines, on the locus of the drawn lines.
+  EXPECT_EQ(r.stats.stretches, 1);
+  EXPECT_GT(r.stats.points, 20);
+  EXPECT_LT(r.stats.max_residual, 1e-3 * 556.0);
+}
+
 TEST(PartialEffect, InputRules) {
   SeedSet s = rays(0.5);
   EXPECT_THROW(s.set_effect(2, 1.5), Error);

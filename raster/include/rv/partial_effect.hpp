@@ -75,6 +75,8 @@ class PartialEffectRule {
   // The distances from p to L0 and L1 of neighbour X (metric units; infinity without the line).
   double distance_to_nil(Vec2 p, int32_t neighbour) const;
   double distance_to_full(Vec2 p, int32_t neighbour) const;
+  // The distance between two positions in the rule's metric (metric units).
+  double separation(Vec2 a, Vec2 b) const;
   // The boundaries this rule was built from (sites in the full numbering).
   const BoundaryResult& nil_lines() const { return nil_; }
   const BoundaryResult& full_lines() const { return full_; }
@@ -117,8 +119,9 @@ BoundaryResult partial_boundaries(const PartialEffectRule& rule, const SeedSet& 
 
 // The whole of it for a field computed whole: the full- and nil-effect fields (compute), their
 // boundaries (extract_boundaries with `lines`), the rule, the partial field and the partial
-// lines. Without partial features, `rule` is null, `field` the full field and `boundaries` its
-// lines. Errors: compute's, extract_boundaries', and the above.
+// lines (`draw_lines` false: no partial lines, and none of their refusals; the rule still needs
+// L0 and L1). Without partial features, `rule` is null, `field` the full field and `boundaries`
+// its lines. Errors: compute's, extract_boundaries', and the above.
 struct PartialEffectResult {
   NearestField full;   // at full effect (distance limits measure it: an island's own breadth)
   NearestField field;  // by the rule
@@ -131,7 +134,7 @@ struct PartialEffectResult {
   double seconds = 0.0;  // wall time, both fields and the lines
 };
 PartialEffectResult compute_partial_effect(const SeedSet& seeds, const GridSpec& grid, const ComputeOptions& options,
-                                           const BoundaryOptions& lines);
+                                           const BoundaryOptions& lines, bool draw_lines = true);
 
 // The owner of position p under the rule (regions' faces): owner_at at full and nil effect
 // (`max_distance`: as owner_at's), then PartialEffectRule::owner.
