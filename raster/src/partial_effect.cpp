@@ -259,7 +259,8 @@ std::vector<Vec2> stretch(const std::vector<Vec2>& pts, bool closed, Along u, Al
   auto straight = [&](const Along& from, const Along& to) {
     std::vector<Vec2> out{point(from)};
     if (from.at() <= to.at()) {
-      for (size_t m = from.k + 1; static_cast<double>(m) < to.at(); ++m) out.push_back(pts[m]);
+      for (size_t m = from.k + 1 + (from.t >= 1.0 ? 1 : 0); static_cast<double>(m) < to.at(); ++m)
+        out.push_back(pts[m]);
     } else {
       for (size_t m = from.t > 0.0 ? from.k : from.k - 1; static_cast<double>(m) > to.at() && m < pts.size(); --m)
         out.push_back(pts[m]);
@@ -301,6 +302,23 @@ std::vector<double> cumulative(const std::vector<Vec2>& pts) {
   return cum;
 }
 
+// Where the partial features' zone meets two neighbours X and Y at a full-effect tripoint T: the
+// two bands (X's and Y's cells that B takes at full effect) share the nil-effect X-Y line from T
+// into the zone (S). Each band's partial line ends where it meets S (M_X, M_Y: where that
+// neighbour's balance changes sign along S); the one nearer T is the partial tripoint, the other
+// owner's line goes on along S to it, and the X-Y line follows S from T to it.
+struct TripointPlan {
+  size_t index = 0;  // into the tripoints
+  Vec2 T;
+  std::array<int32_t, 2> owners{0, 0};  // X, Y
+  std::vector<Vec2> S;                  // from T
+  std::array<Along, 2> at{};            // M_X, M_Y on S
+  std::array<Vec2, 2> m{};
+  int first = 0;  // whose M is nearer T
+  Vec2 tripoint() const { return m[static_cast<size_t>(first)]; }
+  int side(int32_t owner) const { return owner == owners[0] ? 0 : 1; }
+};
+
 // One line of owners B and X being rewritten.
 struct LineRewrite {
   const PartialEffectRule& rule;
@@ -310,6 +328,13 @@ struct LineRewrite {
   int32_t B, X;
   bool b_is_a;
   PartialLineStats& stats;
+  const std::vector<TripointPlan>& plans;
+
+  const TripointPlan* plan_at(Vec2 p) const {
+    for (const TripointPlan& t : plans)
+      if (t.T == p && (t.owners[0] == X || t.owners[1] == X)) return &t;
+    return nullptr;
+  }
 
   int32_t b_site(const BoundaryVertex& v) const { return b_is_a ? v.site_a : v.site_b; }
   int32_t x_site(const BoundaryVertex& v) const { return b_is_a ? v.site_b : v.site_a; }
@@ -463,6 +488,10 @@ struct LineRewrite {
                                               "nil-effect stretch to anchor it; its lines are not drawn (the "
                                               "rasters are exact)");
     }
+    // A band ending at a planned tripoint is handled at the line's end: turn the line round if
+    // that end is its first.
+    const bool turned = !line.closed && partial(v.front()) && plan_at(v.front().p) != nullptr;
+    if (turned) std::reverse(v.begin(), v.end());
     std::vector<BoundaryVertex> out;
     for (size_t i = 0; i < v.size();) {
       if (!partial(v[i])) {
@@ -474,6 +503,11 @@ struct LineRewrite {
       // A band between two common vertices runs from turning point P to turning point Q; one at
       // an end of the line (the edge of the grid or of the owned area) runs to or from there.
       const bool open_start = i == 0, open_end = j + 1 == v.size();
+      const TripointPlan* tp = open_end && !open_start ? plan_at(v.back().p) : nullptr;
+      if (tp != nullptr) {
+        to_tripoint(v, i, *tp, cell, out);
+        break;
+      }
       Vec2 P{}, Q{};
       if (!open_start) P = turning(v[i - 1], v[i]);
       if (!open_end) Q = turning(v[j + 1], v[j]);
@@ -493,9 +527,184 @@ struct LineRewrite {
       i = j + 1;
       if (i < v.size() && !out.empty() && out.back().p == v[i].p) ++i;
     }
+    if (turned) std::reverse(out.begin(), out.end());
     v = std::move(out);
   }
+
+  void append(std::vector<BoundaryVertex>& out, const std::vector<Vec2>& pts) const {
+    for (const Vec2 p : pts)
+      if (out.empty() || !(out.back().p == p)) out.push_back(vertex(p));
+  }
+
+  // The band from turning point P (between v[i - 1] and v[i]) to the line's end at tripoint
+  // plan T: the locus from P to M_X between L0 (on to the nil tripoint, then back along S) and L1
+  // (to T, then along S), and for the owner whose M is farther from T, S on to the partial
+  // tripoint.
+  void to_tripoint(const std::vector<BoundaryVertex>& v, size_t i, const TripointPlan& tp, double cell,
+                   std::vector<BoundaryVertex>& out) const {
+    const int k = tp.side(X);
+    const Vec2 P = turning(v[i - 1], v[i]);
+    const Along start{0, 0.0, 0.0}, end{tp.S.size() - 2, 1.0, 0.0};
+    const Along at = tp.at[static_cast<size_t>(k)];
+    std::vector<Vec2> c1{P};
+    for (size_t q = i; q < v.size(); ++q) c1.push_back(v[q].p);
+    const std::vector<Vec2> along_s = stretch(tp.S, false, start, at);
+    c1.insert(c1.end(), along_s.begin() + 1, along_s.end());
+    std::vector<Vec2> c0 = nil_chain(&P, nullptr, v[i - 1].p, cell);
+    const Vec2 t0 = tp.S.back();
+    if (std::hypot(c0.back().x - t0.x, c0.back().y - t0.y) > cell)
+      throw Error(ErrorKind::unsupported, "partial effect: the nil-effect lines of " + label(B) + " and " + label(X) +
+                                              " do not meet at the end of their neighbours' line; the lines of "
+                                              "this case are not drawn (the rasters are exact)");
+    const std::vector<Vec2> back = stretch(tp.S, false, end, at);
+    c0.insert(c0.end(), back.begin() + 1, back.end());
+    c0.back() = c1.back() = tp.m[static_cast<size_t>(k)];
+    const std::vector<Vec2> traced = trace(c0, c1, {true, true});
+    append(out, traced);
+    ++stats.stretches;
+    stats.points += static_cast<int64_t>(traced.size());
+    if (k != tp.first) {
+      std::vector<Vec2> on = stretch(tp.S, false, at, tp.at[static_cast<size_t>(tp.first)]);
+      on.back() = tp.tripoint();
+      append(out, on);
+    }
+  }
 };
+
+}  // namespace
+
+namespace {
+
+std::string owner_label(const SeedSet& seeds, int32_t owner) {
+  return "'" + seeds.owner_labels()[static_cast<size_t>(owner - 1)] + "'";
+}
+
+// The plans of the full-effect tripoints where the partial features' zone meets two neighbours.
+std::vector<TripointPlan> plan_tripoints(const PartialEffectRule& rule, const SeedSet& seeds,
+                                         const BoundaryResult& full, double cell, double ftol) {
+  const PartialEffect& pe = rule.effect();
+  const int32_t B = pe.owner;
+  std::vector<TripointPlan> plans;
+  for (size_t n = 0; n < full.tripoints.size(); ++n) {
+    const Tripoint& t = full.tripoints[n];
+    int kb = -1;
+    for (int k = 0; k < 3; ++k)
+      if (t.owners[k] == B && t.sites[k] != kNoSite && pe.partial[static_cast<size_t>(seeds.site_feature(t.sites[k]))])
+        kb = k;
+    if (kb < 0) continue;
+    TripointPlan tp;
+    tp.index = n;
+    tp.T = t.p;
+    for (int k = 0, q = 0; k < 3; ++k)
+      if (k != kb) tp.owners[static_cast<size_t>(q++)] = t.owners[k];
+    const int32_t X = tp.owners[0], Y = tp.owners[1];
+    auto refuse = [&](const std::string& why) {
+      throw Error(ErrorKind::unsupported, "partial effect: where the zone of the partial features of " +
+                                              owner_label(seeds, B) + " meets " + owner_label(seeds, X) + " and " +
+                                              owner_label(seeds, Y) + ", " + why +
+                                              "; the lines of this case are not drawn (the rasters are exact)");
+    };
+    auto of_pair = [&](const BoundaryLine& l) {
+      return (l.owner_a == X && l.owner_b == Y) || (l.owner_a == Y && l.owner_b == X);
+    };
+    // The nil-effect X-Y line through T, and the way from T into the zone: away from the
+    // full-effect X-Y line, which ends at T.
+    std::vector<Vec2> pts;
+    Along uT;
+    for (const BoundaryLine& l : rule.nil_lines().lines) {
+      if (!of_pair(l) || l.closed || l.vertices.size() < 2) continue;
+      std::vector<Vec2> q;
+      for (const BoundaryVertex& v : l.vertices) q.push_back(v.p);
+      const Along u = project(q, tp.T);
+      if (u.distance <= cell && u.distance < uT.distance) {
+        uT = u;
+        pts = std::move(q);
+      }
+    }
+    if (pts.empty()) refuse("their nil-effect line does not pass through the full-effect tripoint");
+    const Vec2* outside = nullptr;
+    for (const BoundaryLine& l : full.lines) {
+      if (!of_pair(l) || l.closed || l.vertices.size() < 2) continue;
+      if (l.vertices.front().p == tp.T) outside = &l.vertices[1].p;
+      if (l.vertices.back().p == tp.T) outside = &l.vertices[l.vertices.size() - 2].p;
+    }
+    if (outside == nullptr) refuse("their full-effect line does not end at the tripoint");
+    const Along uo = project(pts, *outside);
+    const Along end = uo.at() <= uT.at() ? Along{pts.size() - 2, 1.0, 0.0} : Along{0, 0.0, 0.0};
+    tp.S = stretch(pts, false, uT, end);
+    tp.S.front() = tp.T;
+    for (size_t side = 0; side < 2; ++side) {
+      const int32_t owner = tp.owners[side];
+      bool found = false;
+      double f0 = rule.balance(tp.S[0], owner);
+      for (size_t k = 0; k + 1 < tp.S.size() && !found; ++k) {
+        const double f1 = rule.balance(tp.S[k + 1], owner);
+        if (f0 < 0.0 && f1 >= 0.0) {
+          const Vec2 a = tp.S[k], b = tp.S[k + 1];
+          const double u = find_root([&](double x) { return rule.balance(lerp(a, b, x), owner); }, f0, f1, ftol, 1e-15);
+          tp.at[side] = Along{k, u, 0.0};
+          tp.m[side] = lerp(a, b, u);
+          found = true;
+        }
+        f0 = f1;
+      }
+      if (!found) refuse("the band of " + owner_label(seeds, owner) + " does not close on their nil-effect line");
+    }
+    tp.first = tp.at[0].at() <= tp.at[1].at() ? 0 : 1;
+    plans.push_back(std::move(tp));
+  }
+  return plans;
+}
+
+// The neighbours' line at each planned tripoint carried along S to the partial tripoint, and the
+// tripoint moved there. Returns the vertices added.
+int64_t extend_at_tripoints(const PartialEffectRule& rule, const std::vector<TripointPlan>& plans,
+                            const OwnerIndex& index, BoundaryResult& out) {
+  int64_t added = 0;
+  for (const TripointPlan& tp : plans) {
+    const Vec2 M = tp.tripoint();
+    std::vector<Vec2> ext = stretch(tp.S, false, Along{0, 0.0, 0.0}, tp.at[static_cast<size_t>(tp.first)]);
+    ext.back() = M;
+    for (BoundaryLine& l : out.lines) {
+      const bool pair = (l.owner_a == tp.owners[0] && l.owner_b == tp.owners[1]) ||
+                        (l.owner_a == tp.owners[1] && l.owner_b == tp.owners[0]);
+      if (!pair || l.closed || l.vertices.empty()) continue;
+      const bool at_back = l.vertices.back().p == tp.T, at_front = l.vertices.front().p == tp.T;
+      if (!at_back && !at_front) continue;
+      if (at_front) std::reverse(l.vertices.begin(), l.vertices.end());
+      for (size_t k = 1; k < ext.size(); ++k) {
+        const OwnerIndex::Hit ha = index.nearest_of(ext[k], l.owner_a), hb = index.nearest_of(ext[k], l.owner_b);
+        l.vertices.push_back(BoundaryVertex{ext[k], ha.site, hb.site, 0.5 * (ha.distance + hb.distance),
+                                            std::abs(ha.cost - hb.cost), ha.distance, hb.distance});
+        ++added;
+      }
+      if (at_front) std::reverse(l.vertices.begin(), l.vertices.end());
+      break;
+    }
+    Tripoint& t = out.tripoints[tp.index];
+    t.p = M;
+    double distance = 0.0, cost = 0.0;
+    std::array<double, 3> costs{};
+    for (int k = 0; k < 3; ++k) {
+      const OwnerIndex::Hit h = index.nearest_of(M, t.owners[k]);
+      t.sites[k] = h.site;
+      t.distances[k] = h.distance;
+      costs[static_cast<size_t>(k)] = h.cost;
+      distance += h.distance / 3.0;
+      cost += h.cost / 3.0;
+    }
+    t.distance = distance;
+    t.cost = cost;
+    // On the neighbours' line (their costs equal) and on the first owner's partial locus.
+    double neighbours = 0.0;
+    for (int k = 0; k < 3; ++k)
+      for (int q = k + 1; q < 3; ++q)
+        if (t.owners[k] != rule.effect().owner && t.owners[q] != rule.effect().owner)
+          neighbours = std::abs(costs[static_cast<size_t>(k)] - costs[static_cast<size_t>(q)]);
+    t.residual = std::max(neighbours, std::abs(rule.balance(M, tp.owners[static_cast<size_t>(tp.first)])));
+  }
+  return added;
+}
 
 }  // namespace
 
@@ -506,20 +715,14 @@ BoundaryResult partial_boundaries(const PartialEffectRule& rule, const SeedSet& 
   const PartialEffect& pe = rule.effect();
   if (!pe.any()) return out;
   const int32_t B = pe.owner;
-  for (const Tripoint& t : out.tripoints)
-    for (int k = 0; k < 3; ++k)
-      if (t.owners[k] == B && t.sites[k] != kNoSite && pe.partial[static_cast<size_t>(seeds.site_feature(t.sites[k]))])
-        throw Error(ErrorKind::unsupported,
-                    "partial effect: the zone of the partial features of '" +
-                        seeds.owner_labels()[static_cast<size_t>(B - 1)] +
-                        "' meets two neighbours at a tripoint; lines for that case are not drawn yet (the rasters "
-                        "are exact)");
+  const std::vector<TripointPlan> plans = plan_tripoints(rule, seeds, out, grid.res, ftol);
   const double tol = std::max(refine_cells, 1e-9) * grid.res, simplify = simplify_cells * grid.res;
   int64_t vertices = 0;
   for (BoundaryLine& line : out.lines) {
     if (line.owner_a == B || line.owner_b == B) {
       LineRewrite w{
-          rule, seeds, index, ftol, tol, B, line.owner_a == B ? line.owner_b : line.owner_a, line.owner_a == B, stats};
+          rule,  seeds, index, ftol, tol, B, line.owner_a == B ? line.owner_b : line.owner_a, line.owner_a == B,
+          stats, plans};
       w.rewrite(line, grid.res);
       std::vector<Vec2> pts;
       for (const BoundaryVertex& v : line.vertices) pts.push_back(v.p);
@@ -529,6 +732,7 @@ BoundaryResult partial_boundaries(const PartialEffectRule& rule, const SeedSet& 
     }
     vertices += static_cast<int64_t>(line.vertices.size());
   }
+  vertices += extend_at_tripoints(rule, plans, index, out);
   out.stats.vertices = vertices;
   out.stats.max_residual = std::max(out.stats.max_residual, stats.max_residual);
   return out;

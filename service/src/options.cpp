@@ -197,8 +197,9 @@ const std::vector<OptionSpec> kOptions = {
      "between that owner's line with them absent (L0, nil effect) and with them at full effect (L1), the line "
      "is where (1 - e) d(L0) = e d(L1), so 0.5 is half effect, the median line between L0 and L1; elsewhere "
      "nothing changes. One owner's features with e < 1 share one value, and only one owner has them. Rasters "
-     "and boundaries follow; the line is drawn where each band of the islands meets one neighbour (a band "
-     "reaching a tripoint is refused for lines: the rasters are exact there). Needs the exact or brute-force "
+     "and lines follow, pair by pair where the islands' zone meets each neighbour (a tripoint of the "
+     "owner and two neighbours moves to where the two partial lines meet their nil-effect line). Needs the "
+     "exact or brute-force "
      "method, a field computed whole, and not reaches, the margin raster or the turning-point report.",
      "",
      {},

@@ -253,6 +253,12 @@ void write_turning_report(const std::string& path, const nlohmann::json& report)
   for (const std::string& c : next_cols) head.push_back("next_" + c);
   head.push_back("datum");
   head.push_back("distance_units");
+  // The limit lines' arcs follow, one row each (line "L1", "L2", ...): kind arc or parallel, the
+  // limit's owner in owner_a, the arc's start in lon..y and its end in to_*, the basepoint in a1_*
+  // (a parallel's edge: its feet at the start in a1_*, at the end in a2_*).
+  const std::vector<std::string> to_cols = {"lon", "lat", "lon_dms", "lat_dms", "x", "y"};
+  head.push_back("limit_distance");
+  for (const std::string& c : to_cols) head.push_back("to_" + c);
   std::string out;
   for (size_t i = 0; i < head.size(); ++i) out += (i ? "," : "") + head[i];
   out += "\n";
@@ -275,6 +281,38 @@ void write_turning_report(const std::string& path, const nlohmann::json& report)
       for (const std::string& c : next_cols) row.push_back(csv_field(next.value(c, none)));
       row.push_back(csv_field(report.value("datum", none)));
       row.push_back(csv_field(report.at("distance_units")));
+      row.resize(head.size());
+      for (size_t i = 0; i < row.size(); ++i) out += (i ? "," : "") + row[i];
+      out += "\n";
+    }
+  }
+  size_t limit_no = 0;
+  for (const auto& line : report.value("limits", nlohmann::json::array())) {
+    ++limit_no;
+    size_t seq = 0;
+    for (const auto& arc : line.at("arcs")) {
+      std::vector<std::string> row = {"L" + std::to_string(limit_no), std::to_string(++seq), csv_field(arc.at("kind")),
+                                      csv_field(line.at("owner")), ""};
+      const nlohmann::json& from = arc.at("from");
+      for (const char* c : {"lon", "lat", "lon_dms", "lat_dms", "x", "y"})
+        row.push_back(csv_field(from.value(c, none)));
+      const bool edge = arc.contains("edge");
+      const nlohmann::json first = edge ? arc.at("edge").at("from") : arc.at("basepoint");
+      nlohmann::json second;
+      if (edge) {
+        second = arc.at("edge").at("to");
+        second["feature"] = first.value("feature", none);
+        second["owner"] = first.value("owner", none);
+      }
+      for (const nlohmann::json* side : {&first, &second, &none, &none})
+        for (const std::string& c : side_cols)
+          row.push_back(side->is_object() ? csv_field(c == "distance" ? none : side->value(c, none)) : "");
+      for (size_t k = 0; k < next_cols.size(); ++k) row.push_back("");
+      row.push_back(csv_field(report.value("datum", none)));
+      row.push_back(csv_field(report.at("distance_units")));
+      row.push_back(csv_field(line.at("distance")));
+      const nlohmann::json& to = arc.at("to");
+      for (const std::string& c : to_cols) row.push_back(csv_field(to.value(c, none)));
       for (size_t i = 0; i < row.size(); ++i) out += (i ? "," : "") + row[i];
       out += "\n";
     }

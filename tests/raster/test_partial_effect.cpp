@@ -5,6 +5,7 @@
 // e = 1 and e = 0 as the full and nil fields, and the input rules.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <numbers>
 
@@ -175,6 +176,90 @@ TEST(PartialEffect, GeodesicFieldIsTheRuleAtEveryCell) {
   EXPECT_EQ(r.stats.stretches, 1);
   EXPECT_GT(r.stats.points, 20);
   EXPECT_LT(r.stats.max_residual, 1e-3 * 556.0);
+}
+
+// The partial features' zone meets two neighbours: A at (-40, 0) km and C at (40, 0) km from O,
+// B's mainland at (0, 60) and its island at (0, 28). At nil effect the A-C line (the y axis) runs
+// up to the tripoint T0 = (0, 16.67); at full effect the island cuts it at T1 = (0, -14.57), and
+// the A-B line leaves the A-B bisector at Pt = (-41, 44) along the A-island bisector to T1. A's
+// band is the triangle T1, Pt, T0 between the straight nil line (Pt-T0) and full line (Pt-T1); at
+// half effect its line is where the distances to those two lines (segments: the lines end at
+// their tripoints) agree, and it ends on the axis at the partial tripoint, to which the A-C line
+// runs up the axis. C's side is the mirror image.
+double to_segment(Vec2 p, Vec2 a, Vec2 b) {
+  const double dx = b.x - a.x, dy = b.y - a.y;
+  const double t = std::clamp(((p.x - a.x) * dx + (p.y - a.y) * dy) / (dx * dx + dy * dy), 0.0, 1.0);
+  return std::hypot(a.x + t * dx - p.x, a.y + t * dy - p.y);
+}
+
+TEST(PartialEffect, TwoNeighboursMeetAtThePartialTripoint) {
+  const auto at = [](double x_km, double y_km) { return Vec2{kO.x + 1000.0 * x_km, kO.y + 1000.0 * y_km}; };
+  SeedSet s;
+  const int32_t a = s.owner_code("A"), b = s.owner_code("B"), c = s.owner_code("C");
+  s.add_point(s.add_feature(a), at(-40.0, 0.0));
+  s.add_point(s.add_feature(b), at(0.0, 60.0));
+  const int32_t island = s.add_feature(b);
+  s.add_point(island, at(0.0, 28.0));
+  s.add_point(s.add_feature(c), at(40.0, 0.0));
+  s.set_effect(island, 0.5);
+  const GridSpec g = test::grid_of(120, 110, 1000.0, kO.x - 60000.0, kO.y + 70000.0);
+  const PartialEffectResult r = compute_partial_effect(s, g, ComputeOptions{}, BoundaryOptions{});
+  ASSERT_TRUE(r.rule);
+  EXPECT_EQ(r.stats.stretches, 2);
+  const Vec2 pt = at(-41.0, 44.0), t0 = at(0.0, 50.0 / 3.0), t1 = at(0.0, -14.0 - 4.0 / 7.0);
+  // The balance of a point west of the axis (mirrored from the east): d(L0) - d(L1), L0 and L1
+  // the segments (the stretch beyond Pt, common to both, is never nearer here).
+  auto balance = [&](Vec2 p) {
+    const Vec2 q{kO.x - std::abs(p.x - kO.x), p.y};
+    return to_segment(q, pt, t0) - to_segment(q, pt, t1);
+  };
+  // The partial tripoint: where the balance changes sign on the axis between T1 and T0.
+  double lo = t1.y, hi = t0.y;
+  for (int k = 0; k < 100; ++k) {
+    const double mid = 0.5 * (lo + hi);
+    (balance(Vec2{kO.x, mid}) > 0.0 ? lo : hi) = mid;
+  }
+  ASSERT_EQ(r.boundaries.tripoints.size(), 1u);
+  const Tripoint& tri = r.boundaries.tripoints[0];
+  EXPECT_NEAR(tri.p.x, kO.x, 1e-5);
+  EXPECT_NEAR(tri.p.y, 0.5 * (lo + hi), 1e-5);
+  EXPECT_EQ(tri.owners[0], 1);
+  EXPECT_EQ(tri.owners[2], 3);
+  int64_t on_locus = 0;
+  for (const BoundaryLine& line : r.boundaries.lines) {
+    ASSERT_FALSE(line.closed);
+    const bool ends_at_m = line.vertices.front().p == tri.p || line.vertices.back().p == tri.p;
+    EXPECT_TRUE(ends_at_m) << line.owner_a << "-" << line.owner_b;
+    if (line.owner_a == 1 && line.owner_b == 3) {
+      for (const BoundaryVertex& v : line.vertices) EXPECT_NEAR(v.p.x, kO.x, 1e-5);
+      continue;
+    }
+    for (const BoundaryVertex& v : line.vertices) {
+      if (v.p.y >= pt.y - 1e-6) continue;  // the common stretch, north-west of Pt
+      ++on_locus;
+      EXPECT_LT(std::abs(balance(v.p)), 1e-5) << v.p.x << "," << v.p.y;
+    }
+  }
+  EXPECT_GT(on_locus, 40);
+  // The cells of the two bands: B's where the nil line is nearer, the neighbour's elsewhere.
+  int64_t band = 0, kept = 0;
+  for (int64_t row = 0; row < g.height; ++row)
+    for (int64_t col = 0; col < g.width; ++col) {
+      const Vec2 p{g.centre_x(col), g.centre_y(row)};
+      const int32_t full_owner = s.site_owner(r.full.site.at(col, row));
+      const Vec2 q{kO.x - std::abs(p.x - kO.x) - pt.x, p.y - pt.y};
+      const Vec2 u0{t0.x - pt.x, t0.y - pt.y}, u1{t1.x - pt.x, t1.y - pt.y};
+      const bool in_band = std::abs(p.x - kO.x) > 1e-6 && full_owner == 2 && u0.x * q.y - u0.y * q.x < 0.0 &&
+                           u1.x * q.y - u1.y * q.x > 0.0 && q.x < -pt.x + kO.x;
+      const double f = balance(p);
+      if (!in_band || std::abs(f) < 1e-6) continue;
+      ++band;
+      kept += f < 0.0;
+      ASSERT_EQ(s.site_owner(r.field.site.at(col, row)), f < 0.0 ? 2 : (p.x < kO.x ? 1 : 3)) << col << "," << row;
+    }
+  EXPECT_GT(band, 100);
+  EXPECT_GT(kept, 0);
+  EXPECT_LT(kept, band);
 }
 
 TEST(PartialEffect, InputRules) {

@@ -8,6 +8,7 @@
 #include <filesystem>
 #include <fstream>
 #include <set>
+#include <sstream>
 #include <string>
 
 #include <gdal.h>
@@ -483,15 +484,46 @@ TEST_F(Cli, TurningPointsAsATreatyTable) {
   const nlohmann::json report = nlohmann::json::parse(std::ifstream(path("report.json")));
   EXPECT_EQ(report["deliverables"]["turning_points"]["turns"], 1);
   // The same as CSV: a header and one row per point.
-  const CliRun c = run("compute " + seeds + grid + "--turning-points " + path("tp.csv"));
+  const CliRun c = run("compute " + seeds + grid + "--turning-points " + path("tp.csv") + " --limits " +
+                       path("l2.geojson") + " --limit-distances 12nmi");
   ASSERT_EQ(c.exit_code, 0) << c.output;
   std::ifstream csv(path("tp.csv"));
   std::string header, row;
   std::getline(csv, header);
   EXPECT_EQ(header.rfind("line,seq,kind,owner_a,owner_b,lon,lat,lon_dms,lat_dms,x,y,a1_feature", 0), 0u) << header;
-  size_t rows = 0;
-  while (std::getline(csv, row)) ++rows;
+  EXPECT_NE(header.find(",limit_distance,to_lon,to_lat,to_lon_dms,to_lat_dms,to_x,to_y"), std::string::npos) << header;
+  const size_t columns = static_cast<size_t>(std::count(header.begin(), header.end(), ',')) + 1;
+  size_t rows = 0, limit_rows = 0;
+  while (std::getline(csv, row)) {
+    EXPECT_EQ(static_cast<size_t>(std::count(row.begin(), row.end(), ',')) + 1, columns) << row;
+    if (row.rfind("L", 0) != 0) {
+      ++rows;
+      continue;
+    }
+    // A limit arc: its basepoint (a1_lon, a1_lat) 22,224 m from both its ends, the limit's
+    // distance in its column.
+    ++limit_rows;
+    std::vector<std::string> cells;
+    std::stringstream fields(row);
+    for (std::string cell; std::getline(fields, cell, ',');) cells.push_back(cell);
+    auto column = [&](const std::string& name) {
+      std::stringstream h(header);
+      size_t i = 0;
+      for (std::string cell; std::getline(h, cell, ','); ++i)
+        if (cell == name) return std::stod(cells.at(i));
+      ADD_FAILURE() << "no column " << name;
+      return 0.0;
+    };
+    EXPECT_NEAR(column("limit_distance"), 22224.0, 1e-6);
+    for (const char* end : {"", "to_"}) {
+      double s12 = 0.0;
+      geod.Inverse(column(std::string(end) + "lat"), column(std::string(end) + "lon"), column("a1_lat"),
+                   column("a1_lon"), s12);
+      EXPECT_NEAR(s12, 22224.0, 1e-3);
+    }
+  }
   EXPECT_EQ(rows, points.size());
+  EXPECT_EQ(limit_rows, static_cast<size_t>(arcs));
   expect_refused(run("compute " + seeds + grid + "--turning-points " + path("tp.txt")), 2, "must end in .json or .csv");
 }
 

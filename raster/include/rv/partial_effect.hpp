@@ -103,16 +103,19 @@ struct PartialLineStats {
 };
 
 // The full-effect boundaries with each band's stretch of L1 (the vertices whose B site belongs
-// to a partial feature, between the two turning points where L1 leaves and rejoins L0) replaced
-// by the partial-effect locus: its points placed exactly (|balance| <= ftol, metric units) on
-// segments from L0 to L1, added until every chord is within `refine_cells` cells of the locus,
-// then the line simplified at `simplify_cells` cells as the extraction does (BoundaryOptions).
+// to a partial feature) replaced by the partial-effect locus: its points placed exactly
+// (|balance| <= ftol, metric units) on segments from L0 to L1, added until every chord is within
+// `refine_cells` cells of the locus, then the line simplified at `simplify_cells` cells as the
+// extraction does (BoundaryOptions). A band runs from the turning point where L1 leaves L0 to
+// the one where it rejoins it, or to the grid's edge, or to a full-effect tripoint of B and two
+// neighbours X and Y: there the two bands share the nil-effect X-Y line, each band's locus ends
+// where it meets that line, the nearer of the two ends to the tripoint is the partial tripoint,
+// the other owner's line follows the X-Y line to it, and so does the X-Y line (pair by pair).
 // Vertices carry the nearest sites of both owners and the true distances to them. `index`: the
 // full-effect field's (B's sites); `grid`: the field's.
-// Throws rv::Error(unsupported) where a band's stretch reaches a tripoint or a line's end (the
-// partial features' zone meets two neighbours, or the grid's edge), or a line is all band (an
-// enclave at full effect, with no nil-effect line beside it): the rasters are exact there, the
-// lines are not drawn.
+// Throws rv::Error(unsupported) where a line is all band (an enclave at full effect, with no
+// nil-effect line beside it), or the lines around a tripoint do not meet as above: the rasters
+// are exact there, the lines are not drawn.
 BoundaryResult partial_boundaries(const PartialEffectRule& rule, const SeedSet& seeds, const OwnerIndex& index,
                                   const GridSpec& grid, double ftol, double refine_cells, double simplify_cells,
                                   PartialLineStats& stats);
