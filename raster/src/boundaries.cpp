@@ -166,6 +166,63 @@ std::vector<std::array<int64_t, 2>> mixed_squares(const BoundaryGrid& b, int64_t
       });
 }
 
+// Where the costs of owners x (nearest towards p0) and y (towards p1) jump between two positions
+// of segment p0-p1 instead of crossing: a site's reach ends there (x's nearest inside it
+// reaching its reach) or begins (y's). The arc point solves d_s = reach_s on the segment by
+// Newton's method with the site's gradient; the vertex has that site on its side (arc 1: x's,
+// 2: y's, in x-y order) and the other side's nearest beyond. `between`: the larger of the two
+// winners' costs there, which a third owner must beat to come between. site kNoSite: no reach
+// explains the jump (left as it was).
+struct ArcPoint {
+  int32_t site = kNoSite;
+  double t = 0.0, between = 0.0;
+  BoundaryVertex vertex;
+};
+
+template <class NearestOf>
+ArcPoint reach_arc(const OwnerIndex& index, NearestOf&& nearest_of, Vec2 p0, Vec2 p1, int32_t x, int32_t y, double t0,
+                   double t1, double t, double ftol) {
+  ArcPoint out;
+  const SiteMetric& m = index.metric();
+  const double step = 1e-7;
+  const Vec2 inside = lerp(p0, p1, std::max(t0, t - step)), beyond = lerp(p0, p1, std::min(t1, t + step));
+  const OwnerIndex::Hit xin = nearest_of(inside, x, nullptr), yin = nearest_of(beyond, y, nullptr);
+  if (xin.site == kNoSite || yin.site == kNoSite) return out;
+  const Vec2 p = lerp(p0, p1, t);
+  const double gx = std::abs(m.distance(p, xin.site) - index.reach_of(xin.site));
+  const double gy = std::abs(m.distance(p, yin.site) - index.reach_of(yin.site));
+  if (!std::isfinite(std::min(gx, gy))) return out;
+  const bool x_side = gx <= gy;
+  const int32_t s = x_side ? xin.site : yin.site;
+  const double r = index.reach_of(s);
+  Vec2 grad;
+  auto g = [&](double u) { return m.distance_and_gradient(lerp(p0, p1, u), s, grad) - r; };
+  auto g_slope = [&](double u) {
+    const double value = g(u);
+    return std::pair{value, grad.x * (p1.x - p0.x) + grad.y * (p1.y - p0.y)};
+  };
+  // x's site is inside its reach towards p0; y's towards p1.
+  const double lo = std::max(t0, t - 1e-6), hi = std::min(t1, t + 1e-6);
+  out.t = newton_then_bracket(g, g_slope, t, lo, hi, x_side, ftol);
+  const Vec2 q = lerp(p0, p1, out.t);
+  const double ds = m.distance(q, s);
+  // The other side's nearest where it wins: beyond the arc for y, inside it for x.
+  const OwnerIndex::Hit other = x_side ? nearest_of(beyond, y, nullptr) : nearest_of(inside, x, nullptr);
+  const double d_other = m.distance(q, other.site);
+  const double c_s = ds / index.weight_of(s), c_other = d_other / index.weight_of(other.site);
+  out.site = s;
+  out.between = std::max(c_s, c_other);
+  out.vertex = BoundaryVertex{q,
+                              x_side ? s : other.site,
+                              x_side ? other.site : s,
+                              0.5 * (ds + d_other),
+                              std::abs(ds - r),
+                              x_side ? ds : d_other,
+                              x_side ? d_other : ds,
+                              static_cast<int8_t>(x_side ? 1 : 2)};
+  return out;
+}
+
 // The crossings of one segment, in order along it. A third owner nearer than both at the A-B
 // root means its region passes between the two cell centres without holding one: A and B do not
 // touch there. The segment then carries the A-C and C-B crossings instead (and so on, for more
@@ -232,15 +289,28 @@ void place_crossings(const BoundaryGrid& b, const Segment& sg, std::vector<Cross
       const double v = f(t);
       return std::pair{v, (grad_x.x - grad_y.x) * (p1.x - p0.x) + (grad_x.y - grad_y.y) * (p1.y - p0.y)};
     };
-    const double t = newton_then_bracket(f, with_slope, 0.5 * (t0 + t1), t0, t1, true, ftol);
-    const Vec2 p = lerp(p0, p1, t);
+    double t = newton_then_bracket(f, with_slope, 0.5 * (t0 + t1), t0, t1, true, ftol);
+    Vec2 p = lerp(p0, p1, t);
     hits(p);
-    const OwnerIndex::Hit hx = last_x, hy = last_y;
+    OwnerIndex::Hit hx = last_x, hy = last_y;
     BoundaryVertex v{p,           hx.site,    hy.site, 0.5 * (hx.distance + hy.distance), std::abs(hx.cost - hy.cost),
                      hx.distance, hy.distance};
+    // The cost a third owner must beat to come between: the two sides' common cost on the locus.
+    double between = 0.5 * (hx.cost + hy.cost);
+    if (!(v.residual <= 4.0 * ftol) && index.adjusted()) {
+      // The costs jump there: a reach ends (or begins) between the two sides, and the line is
+      // that site's arc (reach_arc).
+      const ArcPoint arc = reach_arc(index, nearest_of, p0, p1, x, y, t0, t1, t, ftol);
+      if (arc.site != kNoSite) {
+        t = arc.t;
+        p = lerp(p0, p1, t);
+        v = arc.vertex;
+        between = arc.between;
+      }
+    }
     // Only a third owner can come between (nothing of x or y is nearer than their hits).
-    const auto nearest = index.nearest_third(p, x, y, hy.cost);
-    if (nearest.cost < 0.5 * (hx.cost + hy.cost) - 4.0 * ftol - v.residual) {
+    const auto nearest = index.nearest_third(p, x, y, std::max(between, hy.cost));
+    if (nearest.cost < between - 4.0 * ftol - v.residual) {
       const int32_t z = b.owner_of_site[static_cast<size_t>(nearest.site)];
       hint.try_emplace(z, nearest.site);
       if (depth == 0) slivers.emplace_back(sg.edge, z);
@@ -255,6 +325,7 @@ void place_crossings(const BoundaryGrid& b, const Segment& sg, std::vector<Cross
     if (x > y) {
       std::swap(v.site_a, v.site_b);
       std::swap(v.distance_a, v.distance_b);
+      if (v.arc != 0) v.arc = static_cast<int8_t>(3 - v.arc);
     }
     out.push_back(Crossing{sg.edge, std::min(x, y), std::max(x, y), v});
   };

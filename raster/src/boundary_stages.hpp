@@ -146,6 +146,17 @@ class LineRefiner {
   bool turning_point(const End& u, const End& v, int32_t a, int32_t b, double max_off, End& out) const;
   bool across_middle(const End& u, const End& v, int32_t a, int32_t b, double max_off, End& out) const;
   bool checked(Vec2 p, int32_t a, int32_t b, const End& u, const End& v, double max_off, End& out) const;
+  // Arcs (BoundaryVertex::arc: where a reach ends the line is the arc d_s = reach_s): the arc
+  // point across a chord of one arc, where the curves of two ends meet (an arc and the locus, or
+  // two arcs), and the check of such a point (on the arc, its owner winning inside, the other
+  // owner beyond, no third owner between).
+  static int32_t arc_site(const End& e);
+  double arc_value(Vec2 p, int32_t site, Vec2& gradient) const;  // d - reach
+  double curve_value(const End& e, Vec2 p, Vec2& gradient) const;
+  bool across_arc(const End& u, const End& v, int32_t a, int32_t b, double max_off, End& out) const;
+  bool arc_junction(const End& u, const End& v, int32_t a, int32_t b, double max_off, End& out) const;
+  bool checked_arc(Vec2 p, int8_t arc, int32_t site, int32_t a, int32_t b, const End& u, const End& v, double max_off,
+                   End& out) const;
   double cost(Vec2 p, int32_t site, Vec2& gradient) const;
   void set_normal(End& e) const;
   // The locus normal at `e` of the stretch towards `other` (the sites the two share).

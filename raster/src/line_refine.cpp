@@ -80,8 +80,18 @@ bool equal_costs_point(const OwnerIndex& index, int32_t s1, int32_t s2, int32_t 
 
 double LineRefiner::cost(Vec2 p, int32_t site, Vec2& gradient) const { return site_cost(index_, p, site, gradient); }
 
+int32_t LineRefiner::arc_site(const End& e) { return e.v.arc == 1 ? e.v.site_a : e.v.arc == 2 ? e.v.site_b : kNoSite; }
+
+double LineRefiner::arc_value(Vec2 p, int32_t site, Vec2& gradient) const {
+  return index_.metric().distance_and_gradient(p, site, gradient) - index_.reach_of(site);
+}
+
 void LineRefiner::set_normal(End& e) const {
   if (e.v.site_a == kNoSite || e.v.site_b == kNoSite) return;
+  if (e.v.arc != 0) {
+    arc_value(e.v.p, arc_site(e), e.normal);
+    return;
+  }
   Vec2 ga, gb;
   cost(e.v.p, e.v.site_a, ga);
   cost(e.v.p, e.v.site_b, gb);
@@ -89,6 +99,7 @@ void LineRefiner::set_normal(End& e) const {
 }
 
 Vec2 LineRefiner::normal_towards(const End& e, const End& other) const {
+  if (e.v.arc != 0) return e.normal;
   // A turning point has two sites on a side: the stretch towards `other` is the one of the site
   // it shares with it.
   auto side = [](int32_t s, int32_t alt, int32_t o, int32_t o_alt) {
@@ -130,8 +141,11 @@ void LineRefiner::between(const End& u, const End& v, int depth, int32_t a, int3
   if (depth >= kMaxDepth) return;
   const double chord = std::hypot(v.v.p.x - u.v.p.x, v.v.p.y - u.v.p.y);
   if (!(chord > 0.0)) return;
+  // An arc's stretch (a reach ends: Feature::reach) is the same curve only as the same site's.
+  const bool arcs = u.v.arc != 0 || v.v.arc != 0;
   const bool same =
-      shares(u.v.site_a, u.alt_a, v.v.site_a, v.alt_a) && shares(u.v.site_b, u.alt_b, v.v.site_b, v.alt_b);
+      arcs ? u.v.arc == v.v.arc && arc_site(u) == arc_site(v)
+           : shares(u.v.site_a, u.alt_a, v.v.site_a, v.alt_a) && shares(u.v.site_b, u.alt_b, v.v.site_b, v.alt_b);
   // How far the locus can stray from the chord, from the turn of its normal between the ends: a
   // circular arc (the same sites) strays 0.5 c tan(angle / 4), a corner (another site takes
   // over) at most 0.5 c tan(angle / 2). Within the tolerance (or no normal known) the chord
@@ -147,7 +161,11 @@ void LineRefiner::between(const End& u, const End& v, int depth, int32_t a, int3
   const double max_off = 2.0 * stray + 1e-9 * chord;
   // Where a site changes and no turning point of three sites checks out (more sites change
   // within the chord), the chord stays: a root across its middle could be another stretch's.
-  if (same)
+  if (arcs && same)
+    found = across_arc(u, v, a, b, max_off, mid);
+  else if (arcs)
+    found = turning = arc_junction(u, v, a, b, max_off, mid);
+  else if (same)
     found = across_middle(u, v, a, b, max_off, mid);
   else
     found = turning = turning_point(u, v, a, b, max_off, mid);
@@ -239,6 +257,88 @@ bool LineRefiner::checked(Vec2 p, int32_t a, int32_t b, const End& u, const End&
   };
   out.alt_a = tie(ha, {u.v.site_a, u.alt_a, v.v.site_a, v.alt_a});
   out.alt_b = tie(hb, {u.v.site_b, u.alt_b, v.v.site_b, v.alt_b});
+  set_normal(out);
+  return true;
+}
+
+bool LineRefiner::across_arc(const End& u, const End& v, int32_t a, int32_t b, double max_off, End& out) const {
+  const Vec2 mid = lerp(u.v.p, v.v.p, 0.5);
+  const double chord = std::hypot(v.v.p.x - u.v.p.x, v.v.p.y - u.v.p.y);
+  const double k = std::min(max_off, chord) / chord;
+  const Vec2 across{-(v.v.p.y - u.v.p.y) * k, (v.v.p.x - u.v.p.x) * k};
+  const Vec2 p0{mid.x - across.x, mid.y - across.y}, p1{mid.x + across.x, mid.y + across.y};
+  const int32_t s = arc_site(u);
+  Vec2 g;
+  auto f = [&](double t) { return arc_value(lerp(p0, p1, t), s, g); };
+  auto with_slope = [&](double t) {
+    const double value = f(t);
+    return std::pair{value, g.x * (p1.x - p0.x) + g.y * (p1.y - p0.y)};
+  };
+  const double f0 = f(0.0), f1 = f(1.0);
+  if (!std::isfinite(f0) || !std::isfinite(f1) || (f0 < 0.0) == (f1 < 0.0)) return false;
+  const double t = newton_then_bracket(f, with_slope, 0.5, 0.0, 1.0, f0 < 0.0, ftol_);
+  return checked_arc(lerp(p0, p1, t), u.v.arc, s, a, b, u, v, max_off, out);
+}
+
+double LineRefiner::curve_value(const End& e, Vec2 p, Vec2& gradient) const {
+  if (e.v.arc != 0) return arc_value(p, arc_site(e), gradient);
+  // The locus d_a / w_a = d_b / w_b, also a little beyond a reach (where the costs are infinite):
+  // the junction with an arc lies on that reach.
+  const SiteMetric& m = index_.metric();
+  Vec2 ga, gb;
+  const double wa = index_.weight_of(e.v.site_a), wb = index_.weight_of(e.v.site_b);
+  const double value =
+      m.distance_and_gradient(p, e.v.site_a, ga) / wa - m.distance_and_gradient(p, e.v.site_b, gb) / wb;
+  gradient = Vec2{ga.x / wa - gb.x / wb, ga.y / wa - gb.y / wb};
+  return value;
+}
+
+bool LineRefiner::arc_junction(const End& u, const End& v, int32_t a, int32_t b, double max_off, End& out) const {
+  // Where the curves of the two ends meet (the locus and an arc, or two arcs): Newton's method on
+  // both from the chord's middle.
+  const Vec2 mid = lerp(u.v.p, v.v.p, 0.5);
+  const double chord = std::hypot(v.v.p.x - u.v.p.x, v.v.p.y - u.v.p.y);
+  Vec2 p = mid;
+  for (int iter = 0; iter < kNewtonIterations; ++iter) {
+    Vec2 gu, gv;
+    const double fu = curve_value(u, p, gu), fv = curve_value(v, p, gv);
+    if (!std::isfinite(fu) || !std::isfinite(fv)) return false;
+    if (std::max(std::abs(fu), std::abs(fv)) <= ftol_) {
+      const End& arc = u.v.arc != 0 ? u : v;
+      return checked_arc(p, arc.v.arc, arc_site(arc), a, b, u, v, max_off, out);
+    }
+    const double det = gu.x * gv.y - gu.y * gv.x;
+    if (!(std::abs(det) > 0.0) || !std::isfinite(det)) return false;
+    p = Vec2{p.x - (fu * gv.y - fv * gu.y) / det, p.y - (gu.x * fv - gv.x * fu) / det};
+    if (!(std::hypot(p.x - mid.x, p.y - mid.y) <= chord)) return false;
+  }
+  return false;
+}
+
+bool LineRefiner::checked_arc(Vec2 p, int8_t arc, int32_t site, int32_t a, int32_t b, const End& u, const End& v,
+                              double max_off, End& out) const {
+  const double dx = v.v.p.x - u.v.p.x, dy = v.v.p.y - u.v.p.y;
+  const double along = ((p.x - u.v.p.x) * dx + (p.y - u.v.p.y) * dy) / (dx * dx + dy * dy);
+  if (!(along > 1e-4 && along < 1.0 - 1e-4)) return false;
+  const double off = std::abs((p.x - u.v.p.x) * dy - (p.y - u.v.p.y) * dx) / std::hypot(dx, dy);
+  if (!(off <= max_off)) return false;
+  Vec2 g;
+  const double ds = index_.metric().distance_and_gradient(p, site, g);
+  const double residual = std::abs(ds - index_.reach_of(site));
+  if (!(residual <= 4.0 * ftol_)) return false;
+  // The arc's owner wins inside it, the other owner beyond, and no third owner comes between.
+  const int32_t other_owner = arc == 1 ? b : a;
+  const OwnerIndex::Hit other = index_.nearest_of(p, other_owner, arc == 1 ? u.v.site_b : u.v.site_a);
+  if (other.site == kNoSite) return false;
+  const double c_s = ds / index_.weight_of(site);
+  if (!(c_s <= other.cost + 4.0 * ftol_)) return false;
+  const double between = std::max(c_s, other.cost);
+  const OwnerIndex::Hit third = index_.nearest_third(p, a, b, between);
+  if (third.site != kNoSite && third.cost < between - 4.0 * ftol_ - residual) return false;
+  out = End{};
+  out.v = BoundaryVertex{
+      p,        arc == 1 ? site : other.site,   arc == 1 ? other.site : site,   0.5 * (ds + other.distance),
+      residual, arc == 1 ? ds : other.distance, arc == 1 ? other.distance : ds, arc};
   set_normal(out);
   return true;
 }

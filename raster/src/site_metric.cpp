@@ -357,6 +357,12 @@ double OwnerIndex::cost_of(int32_t site, double d) const {
   return adjusted_distance(seeds.features()[static_cast<size_t>(seeds.site_feature(site))], d, cap_);
 }
 
+double OwnerIndex::reach_of(int32_t site) const {
+  if (!adjusted_) return std::numeric_limits<double>::infinity();
+  const SeedSet& seeds = metric_.seeds();
+  return std::min(seeds.features()[static_cast<size_t>(seeds.site_feature(site))].reach, cap_);
+}
+
 double OwnerIndex::weight_of(int32_t site) const {
   if (!adjusted_) return 1.0;
   const SeedSet& seeds = metric_.seeds();

@@ -129,12 +129,6 @@ StripLines::StripLines(const GridSpec& grid, const OwnerIndex& index, const Line
       throw Error(ErrorKind::invalid_argument, "limit distances must be positive finite numbers");
   Impl& m = *impl_;
   const SiteMetric& metric = index.metric();
-  // Where a reach ends, the owner changes without equidistance: a kind of line not drawn yet.
-  for (const Feature& f : metric.seeds().features())
-    if (std::isfinite(f.reach) && index.adjusted())
-      throw Error(ErrorKind::unsupported,
-                  "boundaries, tripoints and limits are not available yet for seeds with reaches (the lines where a "
-                  "reach ends are not drawn)");
   const double cell = cell_metric(m.g, metric);
   const std::vector<int32_t> owners_of_site = owner_of_sites(metric.seeds());
   if (request.boundaries) {

@@ -2,6 +2,7 @@
 // field goes by (a streamed job never holds it whole; the whole path feeds it as one strip), each
 // deliverable then written to its file, its counts into the report and its time into
 // timings["deliverables"].
+#include <algorithm>
 #include <cmath>
 #include <exception>
 #include <future>
@@ -51,6 +52,10 @@ struct StripDeliverables::State {
   nlohmann::json report = nlohmann::json::object();
 
   const PartialEffectResult* partial = nullptr;  // partial effect: its lines and its rule
+  // Regions of adjusted seeds: the cells no owner reaches. Where reaches (or the max distance,
+  // with weights) leave some, the edge of the owned area is not drawn yet: no regions.
+  bool count_unowned = false;
+  int64_t unowned = 0;
 
   State(JobRun& r, const PreparedJob& j, bool s, const PartialEffectResult* p)
       : run(r), job(j), streamed(s), partial(p) {}
@@ -78,7 +83,11 @@ StripDeliverables::StripDeliverables(JobRun& run, const PreparedJob& job, bool s
   const OutputRequest& out = s.out();
   const GridSpec& g = job.grid;
   s.metric = site_metric(job);
-  s.index = std::make_unique<OwnerIndex>(*s.metric);
+  // With weights or reaches the max distance ends every reach, as the engine compares.
+  s.index = job.loaded.seeds.adjusted()
+                ? std::make_unique<OwnerIndex>(*s.metric, OwnerIndex::Measure::adjusted, job.compute.max_distance)
+                : std::make_unique<OwnerIndex>(*s.metric);
+  s.count_unowned = out.regions_wanted() && job.loaded.seeds.adjusted();
   const Vec2 mid{g.centre_x(g.width / 2), g.centre_y(g.height / 2)};
   s.cell_length = s.metric->point_distance(mid, Vec2{mid.x + g.res, mid.y});
   s.owner_codes = SiteCodes::owners(job.loaded.seeds);
@@ -149,6 +158,7 @@ void StripDeliverables::add(const NearestField& strip, const NearestField* measu
   if (s.boundaries) s.boundary_seconds += seconds([&] { s.boundaries->add(strip); });
   const NearestField& lines_from = measured != nullptr ? *measured : strip;
   if (s.limits) s.limit_seconds += seconds([&] { s.limits->add(lines_from); });
+  if (s.count_unowned) s.unowned += std::count(strip.site.cells().begin(), strip.site.cells().end(), kNoSite);
   if (s.preview) s.preview->add_rows(strip.site.data(), strip.site.window().row0, strip.site.height(), &s.owner_codes);
   if (s.reach) s.region_seconds += seconds([&] { s.reach->add(lines_from); });
   if (s.relevant_coasts) s.region_seconds += seconds([&] { s.relevant_coasts->add(strip); });
@@ -242,6 +252,11 @@ void StripDeliverables::State::write_region_polygons(const BoundaryResult& bound
   JobRun& run = s.run;
   if (!out.regions_wanted()) return;
   run.check_cancel();
+  if (s.unowned > 0)
+    throw Error(ErrorKind::unsupported,
+                "regions are not available yet where reaches (or the max distance, with weights) leave " +
+                    std::to_string(s.unowned) +
+                    " cells unowned: the edge of the owned area there is not drawn; boundaries and rasters are");
   const auto t = Clock::now();
   // Without --regions (the relevant area alone) the regions are measured, not written.
   if (!out.regions.empty()) run.will_write(out.regions);

@@ -178,8 +178,9 @@ const std::vector<OptionSpec> kOptions = {
      "Reach field",
      "Numeric attribute giving a feature a reach in the job's distance units (> 0; null: no reach): the feature "
      "counts only where its true distance is within it, beyond as if absent (an island with a reach of 12 nmi "
-     "is enclaved in a 12 nmi arc). For now with the rasters only: boundaries, limits and regions are refused "
-     "with a reach, as with weights and a max distance. Needs the exact or brute-force method.",
+     "is enclaved in a 12 nmi arc, and its boundary follows the arc exactly). Regions are refused where reaches "
+     "(or a max distance, with weights) leave cells unowned, the turning-point report with reaches. Needs the "
+     "exact or brute-force method.",
      "",
      {},
      0,

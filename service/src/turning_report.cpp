@@ -1,6 +1,7 @@
 // The turning-point report (turning_report.hpp).
 #include "turning_report.hpp"
 
+#include <array>
 #include <cmath>
 #include <memory>
 #include <sstream>
@@ -304,7 +305,7 @@ void write_turning_report(const std::string& path, const nlohmann::json& report)
         second["feature"] = first.value("feature", none);
         second["owner"] = first.value("owner", none);
       }
-      for (const nlohmann::json* side : {&first, &second, &none, &none})
+      for (const nlohmann::json* side : std::array<const nlohmann::json*, 4>{&first, &second, &none, &none})
         for (const std::string& c : side_cols)
           row.push_back(side->is_object() ? csv_field(c == "distance" ? none : side->value(c, none)) : "");
       for (size_t k = 0; k < next_cols.size(); ++k) row.push_back("");

@@ -248,10 +248,10 @@ TEST_F(Cli, WeightsFromAnAttributeMakeTheApolloniusCircle) {
   expect_refused(run("compute " + seeds + grid + " --weight-field w --margin-raster " + path("m.tif")), 7,
                  "margin raster is not available with weights");
   expect_refused(
-      run("compute " + seeds + grid + " --weight-field w --max-distance 50000 --boundaries " + path("x.geojson")), 7,
-      "with weights and a max distance");
-  expect_refused(run("compute " + seeds + grid + " --reach-field w --boundaries " + path("x.geojson")), 7,
-                 "with reaches");
+      run("compute " + seeds + grid + " --weight-field w --max-distance 50000 --regions " + path("x.geojson")), 7,
+      "regions are not available yet where reaches (or the max distance, with weights) leave");
+  expect_refused(run("compute " + seeds + grid + " --reach-field w --turning-points " + path("x.json")), 7,
+                 "the turning-point report is not available yet with reaches");
   expect_refused(run("compute " + seeds + grid + " --weight-field nope" + out), 2, "weight field 'nope' not found");
   expect_refused(run("compute " + seeds + grid + " --weight-field state" + out), 2, "is not numeric (String)");
   const std::string zero = write("zero.geojson", R"({"type":"FeatureCollection","features":[
@@ -347,9 +347,10 @@ TEST_F(Cli, ReachFromAnAttributeInDistanceUnits) {
   const std::string seeds = write("reach.geojson", R"({"type":"FeatureCollection","features":[
     {"type":"Feature","properties":{"state":"main"},"geometry":{"type":"LineString","coordinates":[[10,54],[10,56]]}},
     {"type":"Feature","properties":{"state":"isle","reach":12},"geometry":{"type":"Point","coordinates":[12.3,55]}}]})");
-  const CliRun r = run("compute " + seeds + " --owner-field state --reach-field reach --distance-units nmi " +
-                       "--resolution 0.01 --extent 11.9 54.7 12.7 55.3 --quiet --ownership " + path("o.tif") +
-                       " --report " + path("report.json"));
+  const CliRun r =
+      run("compute " + seeds + " --owner-field state --reach-field reach --distance-units nmi " +
+          "--resolution 0.01 --extent 11.9 54.7 12.7 55.3 --quiet --ownership " + path("o.tif") + " --report " +
+          path("report.json") + " --boundaries " + path("b.geojson") + " --regions " + path("r.geojson"));
   ASSERT_EQ(r.exit_code, 0) << r.output;
   const Raster<int32_t> o = read_int32(path("o.tif"));
   const GeographicLib::Geodesic& geod = GeographicLib::Geodesic::WGS84();
@@ -365,6 +366,25 @@ TEST_F(Cli, ReachFromAnAttributeInDistanceUnits) {
   EXPECT_GT(isle, 500);
   const nlohmann::json report = nlohmann::json::parse(std::ifstream(path("report.json")));
   EXPECT_EQ(report["seeds"]["adjustments"][0]["features_with_reach"].get<int>(), 1);
+  // The boundary is the 12 nmi arc: every vertex 22,224 m from the island, to the millimetre; the
+  // island's region the geodesic disc (pi r^2 to 1e-4: the ellipsoid's curvature changes it by
+  // about 1e-6), in square nautical miles.
+  const nlohmann::json lines = nlohmann::json::parse(std::ifstream(path("b.geojson")));
+  ASSERT_EQ(lines["features"].size(), 1u);
+  size_t vertices = 0;
+  for (const auto& c : lines["features"][0]["geometry"]["coordinates"]) {
+    double d = 0.0;
+    geod.Inverse(55.0, 12.3, c[1].get<double>(), c[0].get<double>(), d);
+    EXPECT_NEAR(d, 22224.0, 1e-3);
+    ++vertices;
+  }
+  EXPECT_GT(vertices, 100u);
+  EXPECT_EQ(report["deliverables"]["boundaries"]["unresolved_tripoints"].get<int>(), 0);
+  const nlohmann::json& areas = report["deliverables"]["regions"]["areas"];
+  ASSERT_EQ(areas.size(), 2u);
+  EXPECT_EQ(areas[1]["label"], "isle");
+  EXPECT_EQ(report["deliverables"]["regions"]["area_units"], "nmi^2");
+  EXPECT_NEAR(areas[1]["area"].get<double>() / (M_PI * 12.0 * 12.0), 1.0, 1e-4);
 }
 
 // The disproportionality test on a mirror-symmetric case: two owners' coasts along y = 0 either

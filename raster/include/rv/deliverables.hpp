@@ -27,9 +27,11 @@
 // are the index's (OwnerIndex::Measure::adjusted): boundaries follow d_a / w_a = d_b / w_b (a
 // circle round two weighted points: an enclave), tripoints equal three such costs, residuals are
 // in them; distance limits measure true distances (OwnerIndex::Measure::plain: the breadth of a
-// zone ignores weights). Reaches end a feature's influence without equidistance, a kind of line
-// not drawn yet: the lines refuse seeds with reaches (rv::Error(unsupported)), as does the margin
-// raster any adjusted seeds.
+// zone ignores weights). Reaches (Feature::reach) end a feature's influence without
+// equidistance: where two owners' costs jump instead of crossing, the boundary is the arc where
+// the site whose reach ends is that far (BoundaryVertex::arc), placed and refined as exactly as
+// the locus; a tripoint where such an arc meets a third owner is not solved yet (counted in
+// unresolved_tripoints). The margin raster refuses adjusted seeds.
 //
 // Projected geodesic grids (a field computed with ComputeOptions::geolocator) are measured with
 // LocatedGeodesicSiteMetric (grid positions located on the ellipsoid; output positions stay in
@@ -262,6 +264,9 @@ class OwnerIndex {
   bool adjusted() const { return adjusted_; }
   // The weight `site` is compared with (its feature's; 1 in a plain index).
   double weight_of(int32_t site) const;
+  // How far `site` counts (metric units): its feature's reach, at most the cap; infinity in a
+  // plain index.
+  double reach_of(int32_t site) const;
   // The cost of a true distance `d` to `site` (adjusted_distance of its feature, or d).
   double cost_of(int32_t site, double d) const;
   // Nearest site of owner `owner` (1..K); {kNoSite, inf} if the owner has no sites. `hint`: a
@@ -335,6 +340,10 @@ struct BoundaryVertex {
   double residual = 0.0;     // |d_a - d_b| at p, metric units (adjusted distances)
   double distance_a = 0.0;   // the true distances to site_a and site_b, metric units
   double distance_b = 0.0;
+  // Where a reach ends the comparison (Feature::reach) the line is not the locus but the arc
+  // where one side's site reaches that far: 1, site_a's (distance_a is its reach); 2, site_b's;
+  // 0, the locus. `residual` is then |d - reach| of that site.
+  int8_t arc = 0;
 };
 
 struct BoundaryLine {

@@ -1,0 +1,116 @@
+// Boundaries where a reach ends (Feature::reach, BoundaryVertex::arc): an island enclaved in a
+// 12 nmi arc on the ellipsoid (every vertex 22,224 m from it by GeographicLib, the chords within
+// the refinement's tolerance), and in the plane an island whose disc is cut by the bisector with
+// its neighbour (vertices on the bisector or the circle, the junctions exact, the region's area
+// the analytic one).
+#include <gtest/gtest.h>
+#include <GeographicLib/Geodesic.hpp>
+
+#include <cmath>
+#include <numbers>
+
+#include "rv/deliverables.hpp"
+#include "rv/engine.hpp"
+#include "seed_gen.hpp"
+
+namespace rv {
+namespace {
+
+TEST(ReachArcs, AnIslandEnclavedInA12NmiArcOnTheEllipsoid) {
+  SeedSet s;
+  const int32_t a = s.owner_code("A"), b = s.owner_code("B");
+  s.add_polyline(s.add_feature(a), std::vector<Vec2>{{10.0, 55.0}, {10.0, 56.0}});
+  const int32_t island = s.add_feature(b);
+  const Vec2 at{11.0, 55.5};
+  s.add_point(island, at);
+  s.set_adjustment(island, 1.0, 22224.0);
+  const GridSpec g = test::grid_of(200, 120, 0.005, 10.5, 55.8);
+  ComputeOptions o;
+  o.metric = MetricSpec{MetricSpec::geodesic};
+  const NearestField field = compute(s, g, o);
+  const GeodesicSiteMetric metric(s, o.metric);
+  const OwnerIndex index(metric);
+  const BoundaryResult r = extract_boundaries(field, index);
+  ASSERT_EQ(r.lines.size(), 1u);
+  const BoundaryLine& line = r.lines[0];
+  EXPECT_TRUE(line.closed);
+  EXPECT_EQ(r.stats.unresolved_tripoints, 0);
+  EXPECT_GT(r.stats.arc_points, 0);
+  const GeographicLib::Geodesic& geod = GeographicLib::Geodesic::WGS84();
+  auto from_island = [&](Vec2 p) {
+    double s12 = 0.0;
+    geod.Inverse(at.y, at.x, p.y, p.x, s12);
+    return s12;
+  };
+  // The refinement's tolerance is 1e-3 cell in the grid's CRS: in metres at most 1e-3 of a
+  // cell's north-south side (a degree of latitude is the longer here).
+  const double cell = metric.point_distance(Vec2{11.0, 55.5}, Vec2{11.0, 55.505});
+  for (size_t i = 0; i < line.vertices.size(); ++i) {
+    const BoundaryVertex& v = line.vertices[i];
+    EXPECT_EQ(v.arc, 2);  // B's reach (owner_b) ends there
+    EXPECT_EQ(v.site_b, 1);
+    EXPECT_NEAR(from_island(v.p), 22224.0, 1e-3) << i;
+    EXPECT_NEAR(v.distance_b, 22224.0, 1e-3);
+    if (i + 1 < line.vertices.size()) {
+      // The chord strays from the arc by at most the refinement's tolerance.
+      const Vec2 q = line.vertices[i + 1].p;
+      const double sag = 22224.0 - from_island(Vec2{0.5 * (v.p.x + q.x), 0.5 * (v.p.y + q.y)});
+      EXPECT_LT(sag, 1.2e-3 * cell) << i;
+    }
+  }
+}
+
+// A at the origin, B's island 30 km east with a reach of 20 km: B's region is its disc cut by
+// the bisector x = 15 km, whose stretch |y| <= 13.229 km meets the circle at two junctions.
+TEST(ReachArcs, TheBisectorAndTheArcMeetExactly) {
+  SeedSet s;
+  const int32_t a = s.owner_code("A"), b = s.owner_code("B");
+  const Vec2 A{500000.0, 6000000.0}, I{530000.0, 6000000.0};
+  s.add_point(s.add_feature(a), A);
+  const int32_t island = s.add_feature(b);
+  s.add_point(island, I);
+  s.set_adjustment(island, 1.0, 20000.0);
+  const GridSpec g = test::grid_of(60, 60, 1000.0, 505000.0, 6030000.0);
+  const NearestField field = compute(s, g, ComputeOptions{});
+  const PlanarSiteMetric metric(s, Vec2{g.xmin, g.ymax});
+  const OwnerIndex index(metric);
+  const BoundaryResult r = extract_boundaries(field, index);
+  ASSERT_EQ(r.lines.size(), 1u);
+  const BoundaryLine& line = r.lines[0];
+  EXPECT_TRUE(line.closed);
+  const double half_chord = std::sqrt(20000.0 * 20000.0 - 15000.0 * 15000.0);
+  int on_bisector = 0, on_arc = 0;
+  bool north = false, south = false;
+  std::vector<Vec2> ring;
+  for (const BoundaryVertex& v : line.vertices) {
+    ring.push_back(v.p);
+    const double x = v.p.x - A.x, y = v.p.y - A.y;
+    const double from_island = std::hypot(v.p.x - I.x, v.p.y - I.y);
+    const bool bisector = std::abs(x - 15000.0) < 1e-6, arc = std::abs(from_island - 20000.0) < 1e-6;
+    EXPECT_TRUE(bisector || arc) << x << "," << y;
+    if (bisector && arc) {
+      (y > 0.0 ? north : south) = true;
+      EXPECT_NEAR(std::abs(y), half_chord, 1e-6);
+    } else if (bisector) {
+      ++on_bisector;
+      EXPECT_EQ(v.arc, 0);
+      EXPECT_LE(std::abs(y), half_chord);
+    } else {
+      ++on_arc;
+      EXPECT_EQ(v.arc, 2);
+      EXPECT_GE(x, 15000.0);
+    }
+  }
+  EXPECT_TRUE(north && south);  // both junctions are vertices
+  EXPECT_GT(on_bisector, 10);
+  EXPECT_GT(on_arc, 50);
+  // B's region: the disc without the cap beyond the bisector, to 0.01 %.
+  const double R = 20000.0, h = 15000.0;
+  const double expected = std::numbers::pi * R * R - (R * R * std::acos(h / R) - h * half_chord);
+  EXPECT_NEAR(ring_area(ring, MetricSpec{}, nullptr, 0.0) / expected, 1.0, 1e-4);
+  EXPECT_EQ(owner_at(index, Vec2{I.x + 19000.0, I.y}), 2);
+  EXPECT_EQ(owner_at(index, Vec2{I.x + 21000.0, I.y}), 1);
+}
+
+}  // namespace
+}  // namespace rv
