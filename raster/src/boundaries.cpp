@@ -5,8 +5,10 @@
 #include <array>
 #include <cmath>
 #include <cstring>
+#include <functional>
 #include <limits>
 #include <map>
+#include <numbers>
 #include <numeric>
 #include <set>
 #include <tuple>
@@ -455,6 +457,100 @@ bool line_ends_inside(const BoundaryGrid& b, const CrossingSet& x, int64_t c, in
   return std::any_of(counts.begin(), counts.end(), [](const auto& q) { return q.second % 2 != 0; });
 }
 
+// The tripoint of `o` in square (c, r) where one of them is bounded by an arc (a reach ends): the
+// arcs are those of the crossings on the square's edges. Each system -- an arc and the locus of
+// the other two, or two owners' arcs -- is solved by Newton's method (numeric Jacobian) from the
+// square's middle; a solution counts where the three owners, and only they, hold the positions
+// round it.
+bool arc_tripoint(const BoundaryGrid& b, const CrossingSet& x, int64_t c, int64_t r, const std::array<int32_t, 3>& o,
+                  Tripoint& out) {
+  const OwnerIndex& index = b.index;
+  const SiteMetric& m = index.metric();
+  struct Arc {
+    int32_t owner, site;
+  };
+  std::vector<Arc> arcs;
+  for (int64_t e : square_edges(b.W, c, r)) {
+    const auto it = x.on_edge.find(e);
+    if (it == x.on_edge.end()) continue;
+    for (int32_t i = 0; i < it->second.second; ++i) {
+      const Crossing& cr = x.crossings[static_cast<size_t>(it->second.first + i)];
+      if (cr.v.arc == 0) continue;
+      const Arc a = cr.v.arc == 1 ? Arc{cr.owner_lo, cr.v.site_a} : Arc{cr.owner_hi, cr.v.site_b};
+      if (std::find(o.begin(), o.end(), a.owner) == o.end()) continue;
+      if (std::none_of(arcs.begin(), arcs.end(), [&](const Arc& q) { return q.site == a.site; })) arcs.push_back(a);
+    }
+  }
+  if (arcs.empty()) return false;
+  auto on_arc = [&](const Arc& a, Vec2 p) { return m.distance(p, a.site) - index.reach_of(a.site); };
+  auto locus = [&](int32_t i, int32_t j, Vec2 p) { return index.nearest_of(p, i).cost - index.nearest_of(p, j).cost; };
+  std::vector<std::function<std::array<double, 2>(Vec2)>> systems;
+  for (const Arc& a : arcs) {
+    std::array<int32_t, 2> rest{};
+    for (int k = 0, q = 0; k < 3; ++k)
+      if (o[static_cast<size_t>(k)] != a.owner) rest[static_cast<size_t>(q++)] = o[static_cast<size_t>(k)];
+    systems.push_back([&, a, rest](Vec2 p) { return std::array<double, 2>{on_arc(a, p), locus(rest[0], rest[1], p)}; });
+  }
+  for (size_t i = 0; i < arcs.size(); ++i)
+    for (size_t j = i + 1; j < arcs.size(); ++j)
+      if (arcs[i].owner != arcs[j].owner)
+        systems.push_back([&, i, j](Vec2 p) { return std::array<double, 2>{on_arc(arcs[i], p), on_arc(arcs[j], p)}; });
+  const Vec2 mid = square_mid(b.g, c, r);
+  const double res = b.g.res, h = 1e-6 * res;
+  for (const auto& f : systems) {
+    Vec2 p = mid;
+    bool converged = false;
+    for (int iter = 0; iter < 40 && !converged; ++iter) {
+      const std::array<double, 2> v = f(p);
+      if (!std::isfinite(v[0]) || !std::isfinite(v[1])) break;
+      if (std::max(std::abs(v[0]), std::abs(v[1])) <= b.ftol) {
+        converged = true;
+        break;
+      }
+      const auto fx = f(Vec2{p.x + h, p.y}), fy = f(Vec2{p.x, p.y + h});
+      const double j00 = (fx[0] - v[0]) / h, j01 = (fy[0] - v[0]) / h, j10 = (fx[1] - v[1]) / h,
+                   j11 = (fy[1] - v[1]) / h;
+      const double det = j00 * j11 - j01 * j10;
+      if (!(std::abs(det) > 0.0) || !std::isfinite(det)) break;
+      Vec2 d{-(j11 * v[0] - j01 * v[1]) / det, -(-j10 * v[0] + j00 * v[1]) / det};
+      const double len = std::hypot(d.x, d.y);
+      if (len > res) d = Vec2{d.x * res / len, d.y * res / len};
+      p = Vec2{p.x + d.x, p.y + d.y};
+      if (std::hypot(p.x - mid.x, p.y - mid.y) > 2.0 * res) break;
+    }
+    if (!converged) continue;
+    // The owners round it: the three, and no other (nor unowned sea).
+    std::array<bool, 3> seen{false, false, false};
+    bool other = false;
+    for (int k = 0; k < 16; ++k) {
+      const double a = k * std::numbers::pi / 8.0, eps = 1e-4 * res;
+      const int32_t w = owner_at(index, Vec2{p.x + eps * std::cos(a), p.y + eps * std::sin(a)});
+      const auto at = std::find(o.begin(), o.end(), w);
+      if (at == o.end())
+        other = true;
+      else
+        seen[static_cast<size_t>(at - o.begin())] = true;
+    }
+    if (other || !(seen[0] && seen[1] && seen[2])) continue;
+    double worst = 0.0;
+    for (double v : f(p)) worst = std::max(worst, std::abs(v));
+    out = Tripoint{};
+    out.p = p;
+    out.residual = worst;
+    for (int k = 0; k < 3; ++k) {
+      const auto arc = std::find_if(arcs.begin(), arcs.end(), [&](const Arc& q) { return q.owner == o[k]; });
+      const OwnerIndex::Hit hit = index.nearest_of(p, o[static_cast<size_t>(k)]);
+      out.owners[k] = o[static_cast<size_t>(k)];
+      out.sites[k] = arc != arcs.end() && std::abs(on_arc(*arc, p)) <= 4.0 * b.ftol ? arc->site : hit.site;
+      out.distances[k] = m.distance(p, out.sites[k]);
+      out.distance += out.distances[k] / 3.0;
+      out.cost += out.distances[k] / index.weight_of(out.sites[k]) / 3.0;
+    }
+    return true;
+  }
+  return false;
+}
+
 }  // namespace
 
 void find_tripoints(const BoundaryGrid& b, const CrossingSet& x, int64_t row0, int64_t row1, TripointSet& set,
@@ -473,13 +569,24 @@ void find_tripoints(const BoundaryGrid& b, const CrossingSet& x, int64_t row0, i
         for (size_t k = j + 1; k < distinct.size(); ++k) {
           const std::array<int32_t, 3> triple{distinct[i], distinct[j], distinct[k]};
           // From the centre first; from the crossings only when that found none new.
+          bool found = false;
           for (const Vec2 start : tripoint_starts(b, x, c, r, triple)) {
             Tripoint t;
             if (!solver.solve(triple, start, res, t)) continue;
             if (std::abs(t.p.x - mid.x) > res || std::abs(t.p.y - mid.y) > res) continue;
             const auto any = b.index.nearest(t.p);
             if (any.cost < t.cost - 4.0 * b.ftol - t.residual) continue;  // another owner is nearer
-            if (add_tripoint(b, set, t)) break;
+            if (add_tripoint(b, set, t)) {
+              found = true;
+              break;
+            }
+          }
+          // Where a reach ends, the three regions meet on an arc: an arc and the other two's
+          // locus, or two arcs.
+          if (!found && b.index.adjusted()) {
+            Tripoint t;
+            if (arc_tripoint(b, x, c, r, triple, t) && std::abs(t.p.x - mid.x) <= res && std::abs(t.p.y - mid.y) <= res)
+              add_tripoint(b, set, t);
           }
         }
     if (set.tripoints.size() == before) unplaced.push_back({c, r});

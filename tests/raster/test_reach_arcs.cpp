@@ -112,5 +112,46 @@ TEST(ReachArcs, TheBisectorAndTheArcMeetExactly) {
   EXPECT_EQ(owner_at(index, Vec2{I.x + 21000.0, I.y}), 1);
 }
 
+// A at the origin and C 60 km east: their line is x = 30 km. B's island at (30, 20) km with a
+// reach of 10 km takes its disc out of both, so the A-C line stops at the disc's two points on it,
+// (30, 10) and (30, 30) km: tripoints where an arc meets the locus of the other two.
+TEST(ReachArcs, AnArcMeetsTheOthersLocusAtTripoints) {
+  SeedSet s;
+  const int32_t a = s.owner_code("A"), b = s.owner_code("B"), c = s.owner_code("C");
+  const Vec2 O{500000.0, 6000000.0};
+  s.add_point(s.add_feature(a), O);
+  const int32_t island = s.add_feature(b);
+  s.add_point(island, Vec2{O.x + 30000.0, O.y + 20000.0});
+  s.set_adjustment(island, 1.0, 10000.0);
+  s.add_point(s.add_feature(c), Vec2{O.x + 60000.0, O.y});
+  const GridSpec g = test::grid_of(50, 60, 1000.0, O.x + 5000.0, O.y + 45000.0);
+  const NearestField field = compute(s, g, ComputeOptions{});
+  const PlanarSiteMetric metric(s, Vec2{g.xmin, g.ymax});
+  const OwnerIndex index(metric);
+  const BoundaryResult r = extract_boundaries(field, index);
+  EXPECT_EQ(r.stats.unresolved_tripoints, 0);
+  ASSERT_EQ(r.tripoints.size(), 2u);
+  for (const Tripoint& t : r.tripoints) {
+    EXPECT_NEAR(t.p.x, O.x + 30000.0, 1e-6);
+    EXPECT_NEAR(std::abs(t.p.y - (O.y + 20000.0)), 10000.0, 1e-6);
+    EXPECT_EQ(t.owners[1], 2);
+    EXPECT_NEAR(t.distances[1], 10000.0, 1e-6);
+  }
+  // Every line ends at the tripoints or the grid's frame: the A-C line in two pieces, B's arcs
+  // against A and against C each from one tripoint to the other.
+  int arcs = 0;
+  for (const BoundaryLine& line : r.lines) {
+    ASSERT_FALSE(line.closed);
+    if (line.owner_b == 2 || line.owner_a == 2) {
+      ++arcs;
+      for (const BoundaryVertex& v : line.vertices)
+        EXPECT_NEAR(std::hypot(v.p.x - O.x - 30000.0, v.p.y - O.y - 20000.0), 10000.0, 1e-6);
+      for (const Vec2 end : {line.vertices.front().p, line.vertices.back().p})
+        EXPECT_TRUE(end == r.tripoints[0].p || end == r.tripoints[1].p);
+    }
+  }
+  EXPECT_EQ(arcs, 2);
+}
+
 }  // namespace
 }  // namespace rv

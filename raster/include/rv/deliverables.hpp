@@ -30,8 +30,8 @@
 // zone ignores weights). Reaches (Feature::reach) end a feature's influence without
 // equidistance: where two owners' costs jump instead of crossing, the boundary is the arc where
 // the site whose reach ends is that far (BoundaryVertex::arc), placed and refined as exactly as
-// the locus; a tripoint where such an arc meets a third owner is not solved yet (counted in
-// unresolved_tripoints). The margin raster refuses adjusted seeds.
+// the locus; where such an arc meets a third owner the tripoint lies on it (an arc and the
+// other two's locus, or two owners' arcs). The margin raster refuses adjusted seeds.
 //
 // Projected geodesic grids (a field computed with ComputeOptions::geolocator) are measured with
 // LocatedGeodesicSiteMetric (grid positions located on the ellipsoid; output positions stay in
