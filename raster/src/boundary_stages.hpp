@@ -146,6 +146,10 @@ class LineRefiner {
   bool turning_point(const End& u, const End& v, int32_t a, int32_t b, double max_off, End& out) const;
   bool across_middle(const End& u, const End& v, int32_t a, int32_t b, double max_off, End& out) const;
   bool checked(Vec2 p, int32_t a, int32_t b, const End& u, const End& v, double max_off, End& out) const;
+  // The chord's perpendicular through its middle, max_off either side; whether p lies between
+  // the ends along the chord and within max_off of it.
+  static std::array<Vec2, 2> perpendicular(const End& u, const End& v, double max_off);
+  static bool within_chord(Vec2 p, const End& u, const End& v, double max_off);
   // Arcs (BoundaryVertex::arc: where a reach ends the line is the arc d_s = reach_s): the arc
   // point across a chord of one arc, where the curves of two ends meet (an arc and the locus, or
   // two arcs), and the check of such a point (on the arc, its owner winning inside, the other

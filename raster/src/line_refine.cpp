@@ -204,11 +204,7 @@ bool LineRefiner::turning_point(const End& u, const End& v, int32_t a, int32_t b
 
 bool LineRefiner::across_middle(const End& u, const End& v, int32_t a, int32_t b, double max_off, End& out) const {
   const Vec2 mid = lerp(u.v.p, v.v.p, 0.5);
-  const double chord = std::hypot(v.v.p.x - u.v.p.x, v.v.p.y - u.v.p.y);
-  // The perpendicular through the middle, as far as the locus can be (max_off) on either side.
-  const double k = std::min(max_off, chord) / chord;
-  const Vec2 across{-(v.v.p.y - u.v.p.y) * k, (v.v.p.x - u.v.p.x) * k};
-  const Vec2 p0{mid.x - across.x, mid.y - across.y}, p1{mid.x + across.x, mid.y + across.y};
+  const auto [p0, p1] = perpendicular(u, v, max_off);
   const double reach = edge_reach(index_.metric(), mid, p0, p1);
   std::vector<int32_t> ca, cb;
   index_.candidates_of(mid, reach, a, u.v.site_a, ca);
@@ -228,7 +224,17 @@ bool LineRefiner::across_middle(const End& u, const End& v, int32_t a, int32_t b
   return checked(lerp(p0, p1, t), a, b, u, v, max_off, out);
 }
 
-bool LineRefiner::checked(Vec2 p, int32_t a, int32_t b, const End& u, const End& v, double max_off, End& out) const {
+std::array<Vec2, 2> LineRefiner::perpendicular(const End& u, const End& v, double max_off) {
+  // The perpendicular through the chord's middle, as far as the locus can be (max_off) on either
+  // side.
+  const Vec2 mid = lerp(u.v.p, v.v.p, 0.5);
+  const double chord = std::hypot(v.v.p.x - u.v.p.x, v.v.p.y - u.v.p.y);
+  const double k = std::min(max_off, chord) / chord;
+  const Vec2 across{-(v.v.p.y - u.v.p.y) * k, (v.v.p.x - u.v.p.x) * k};
+  return {Vec2{mid.x - across.x, mid.y - across.y}, Vec2{mid.x + across.x, mid.y + across.y}};
+}
+
+bool LineRefiner::within_chord(Vec2 p, const End& u, const End& v, double max_off) {
   // Between the two ends along the chord, so the line keeps its order.
   const double dx = v.v.p.x - u.v.p.x, dy = v.v.p.y - u.v.p.y;
   const double along = ((p.x - u.v.p.x) * dx + (p.y - u.v.p.y) * dy) / (dx * dx + dy * dy);
@@ -236,7 +242,11 @@ bool LineRefiner::checked(Vec2 p, int32_t a, int32_t b, const End& u, const End&
   if (!(along > 1e-4 && along < 1.0 - 1e-4)) return false;
   // And near the chord (max_off: see between()).
   const double off = std::abs((p.x - u.v.p.x) * dy - (p.y - u.v.p.y) * dx) / std::hypot(dx, dy);
-  if (!(off <= max_off)) return false;
+  return off <= max_off;
+}
+
+bool LineRefiner::checked(Vec2 p, int32_t a, int32_t b, const End& u, const End& v, double max_off, End& out) const {
+  if (!within_chord(p, u, v, max_off)) return false;
   const OwnerIndex::Hit ha = index_.nearest_of(p, a, u.v.site_a), hb = index_.nearest_of(p, b, u.v.site_b);
   if (ha.site == kNoSite || hb.site == kNoSite) return false;
   const double residual = std::abs(ha.cost - hb.cost);
@@ -262,11 +272,7 @@ bool LineRefiner::checked(Vec2 p, int32_t a, int32_t b, const End& u, const End&
 }
 
 bool LineRefiner::across_arc(const End& u, const End& v, int32_t a, int32_t b, double max_off, End& out) const {
-  const Vec2 mid = lerp(u.v.p, v.v.p, 0.5);
-  const double chord = std::hypot(v.v.p.x - u.v.p.x, v.v.p.y - u.v.p.y);
-  const double k = std::min(max_off, chord) / chord;
-  const Vec2 across{-(v.v.p.y - u.v.p.y) * k, (v.v.p.x - u.v.p.x) * k};
-  const Vec2 p0{mid.x - across.x, mid.y - across.y}, p1{mid.x + across.x, mid.y + across.y};
+  const auto [p0, p1] = perpendicular(u, v, max_off);
   const int32_t s = arc_site(u);
   Vec2 g;
   auto f = [&](double t) { return arc_value(lerp(p0, p1, t), s, g); };
@@ -317,11 +323,7 @@ bool LineRefiner::arc_junction(const End& u, const End& v, int32_t a, int32_t b,
 
 bool LineRefiner::checked_arc(Vec2 p, int8_t arc, int32_t site, int32_t a, int32_t b, const End& u, const End& v,
                               double max_off, End& out) const {
-  const double dx = v.v.p.x - u.v.p.x, dy = v.v.p.y - u.v.p.y;
-  const double along = ((p.x - u.v.p.x) * dx + (p.y - u.v.p.y) * dy) / (dx * dx + dy * dy);
-  if (!(along > 1e-4 && along < 1.0 - 1e-4)) return false;
-  const double off = std::abs((p.x - u.v.p.x) * dy - (p.y - u.v.p.y) * dx) / std::hypot(dx, dy);
-  if (!(off <= max_off)) return false;
+  if (!within_chord(p, u, v, max_off)) return false;
   Vec2 g;
   const double ds = index_.metric().distance_and_gradient(p, site, g);
   const double residual = std::abs(ds - index_.reach_of(site));
