@@ -648,7 +648,11 @@ std::vector<TripointPlan> plan_tripoints(const PartialEffectRule& rule, const Se
         }
         f0 = f1;
       }
-      if (!found) refuse("the band of " + owner_label(seeds, owner) + " does not close on their nil-effect line");
+      if (!found)
+        refuse("no partial-effect line of " + owner_label(seeds, owner) +
+               " reaches their nil-effect line (the islands lie far from the nil-effect line of " +
+               owner_label(seeds, B) + " and " + owner_label(seeds, owner) +
+               ", so the rule gives that band back whole); a reach or a weight suits such islands better");
     }
     tp.first = tp.at[0].at() <= tp.at[1].at() ? 0 : 1;
     plans.push_back(std::move(tp));
