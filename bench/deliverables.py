@@ -11,6 +11,10 @@ Cases (../shared/fixtures):
   baltic1e9 the same at 0.000148 deg: about 1.0e9 cells (not run unless named in --cases)
   baltic-reach  the baltic case with a max distance of 24 nmi: regions bounded by the 24 nmi line
             too (not run unless named in --cases)
+  oresund-half  the Øresund pair split into its islands, Ven (Swedish, 12.69 E 55.91 N) at half
+            effect (--effect-field): two fields and two sets of lines, the rule and the traced
+            partial line (not run unless named in --cases; the input is made in a temporary
+            directory with GDAL's Python bindings)
   --quick   the same at 4x the cell size (16x fewer cells)
   --gpkg    the vector deliverables as GeoPackage (binary geometries) instead of GeoJSON, whose
             text formatting of every coordinate is a large part of writing them
@@ -40,6 +44,31 @@ CASES = {
     "baltic-reach": (["baltic_west.gpkg", "--owner-field", "iso2", "--on-conflict", "lower-code", "--max-distance",
                       "44448"], 0.0005),  # metres: 24 nmi
 }
+# Cases whose input is made from a fixture first: name -> the function that writes it.
+def ven_at_half_effect(path):
+    from osgeo import ogr
+    src = ogr.Open(os.path.join(SHARED, "fixtures", "oresund.gpkg"))
+    layer = src.GetLayer(0)
+    out = ogr.GetDriverByName("GPKG").CreateDataSource(path)
+    dst = out.CreateLayer("states", layer.GetSpatialRef(), ogr.wkbPolygon)
+    dst.CreateField(ogr.FieldDefn("iso2", ogr.OFTString))
+    dst.CreateField(ogr.FieldDefn("e", ogr.OFTReal))
+    for feature in layer:
+        geometry = feature.GetGeometryRef()
+        for k in range(geometry.GetGeometryCount()):
+            part = geometry.GetGeometryRef(k)
+            xmin, _, ymin, _ = part.GetEnvelope()
+            f = ogr.Feature(dst.GetLayerDefn())
+            f.SetField("iso2", feature.GetField("iso2"))
+            if 12.66 < xmin < 12.68 and ymin > 55.88:
+                f.SetField("e", 0.5)
+            f.SetGeometry(part.Clone())
+            dst.CreateFeature(f)
+    out = None
+
+
+GENERATED = {"@ven-half": ven_at_half_effect}
+CASES["oresund-half"] = (["@ven-half", "--owner-field", "iso2", "--effect-field", "e"], 0.0002)
 OUTPUTS = {"boundaries": "b.geojson", "tripoints": "t.geojson", "limits": "l.geojson", "regions": "r.geojson"}
 PHASES = ("compute", "boundaries", "limits", "regions", "deliverables", "total")
 
@@ -51,7 +80,12 @@ def outputs(gpkg):
 def run(binary, case, quick, gpkg, out):
     args, res = CASES[case]
     os.makedirs(out, exist_ok=True)
-    cmd = [binary, "compute", os.path.join(SHARED, "fixtures", args[0])] + args[1:] + [
+    source = os.path.join(SHARED, "fixtures", args[0])
+    if args[0] in GENERATED:
+        source = os.path.join(os.path.dirname(os.path.dirname(out)), args[0][1:] + ".gpkg")
+        if not os.path.exists(source):
+            GENERATED[args[0]](source)
+    cmd = [binary, "compute", source] + args[1:] + [
         "--resolution", repr(res * 4 if quick else res), "--threads", "2", "--quiet",
         "--ownership", os.path.join(out, "o.tif"), "--limit-distances", "12nmi,24nmi",
         "--report", os.path.join(out, "report.json")]

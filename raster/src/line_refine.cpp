@@ -204,7 +204,8 @@ bool LineRefiner::turning_point(const End& u, const End& v, int32_t a, int32_t b
 
 bool LineRefiner::across_middle(const End& u, const End& v, int32_t a, int32_t b, double max_off, End& out) const {
   const Vec2 mid = lerp(u.v.p, v.v.p, 0.5);
-  const auto [p0, p1] = perpendicular(u, v, max_off);
+  const std::array<Vec2, 2> ends = perpendicular(u, v, max_off);
+  const Vec2 p0 = ends[0], p1 = ends[1];  // (named, not bound: lambdas capture them)
   const double reach = edge_reach(index_.metric(), mid, p0, p1);
   std::vector<int32_t> ca, cb;
   index_.candidates_of(mid, reach, a, u.v.site_a, ca);
@@ -272,7 +273,8 @@ bool LineRefiner::checked(Vec2 p, int32_t a, int32_t b, const End& u, const End&
 }
 
 bool LineRefiner::across_arc(const End& u, const End& v, int32_t a, int32_t b, double max_off, End& out) const {
-  const auto [p0, p1] = perpendicular(u, v, max_off);
+  const std::array<Vec2, 2> ends = perpendicular(u, v, max_off);
+  const Vec2 p0 = ends[0], p1 = ends[1];  // (named, not bound: lambdas capture them)
   const int32_t s = arc_site(u);
   Vec2 g;
   auto f = [&](double t) { return arc_value(lerp(p0, p1, t), s, g); };
