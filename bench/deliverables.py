@@ -102,7 +102,7 @@ def run(binary, case, quick, gpkg, out):
     t = report["timings_s"]
     row = {"compute": t["compute"], "total": t["total"], "peak_mib": usage.ru_maxrss / 1024.0}
     for name in ("boundaries", "limits", "regions"):
-        row[name] = t["deliverables"][name]
+        row[name] = t["deliverables"].get(name, 0.0)  # (partial effect: the lines are in compute)
     # The deliverables' own wall time (their files are written side by side, so the three above
     # overlap); builds before it had none, and ran them one after the other.
     row["deliverables"] = t["deliverables"].get("wall", row["boundaries"] + row["limits"] + row["regions"])
