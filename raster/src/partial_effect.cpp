@@ -33,6 +33,10 @@ namespace {
 constexpr double kInf = std::numeric_limits<double>::infinity();
 constexpr int kMaxDepth = 12;
 
+std::string owner_label(const SeedSet& seeds, int32_t owner) {
+  return "'" + seeds.owner_labels()[static_cast<size_t>(owner - 1)] + "'";
+}
+
 std::string effect_text(double e) {
   char buf[32];
   std::snprintf(buf, sizeof buf, "%.6g", e);
@@ -70,8 +74,8 @@ PartialEffect partial_effect_of(const SeedSet& seeds) {
   for (size_t i = 0; i < features.size(); ++i)
     if (features[i].owner == pe.owner && !pe.partial[i]) return pe;
   throw Error(ErrorKind::invalid_input,
-              "every feature of owner '" + seeds.owner_labels()[static_cast<size_t>(pe.owner - 1)] +
-                  "' has an effect below 1: the nil-effect line is drawn without them, so the owner needs features "
+              "every feature of owner " + owner_label(seeds, pe.owner) +
+                  " has an effect below 1: the nil-effect line is drawn without them, so the owner needs features "
                   "at full effect (e.g. its mainland)");
 }
 
@@ -465,7 +469,7 @@ struct LineRewrite {
     return chain;
   }
 
-  std::string label(int32_t owner) const { return "'" + seeds.owner_labels()[static_cast<size_t>(owner - 1)] + "'"; }
+  std::string label(int32_t owner) const { return owner_label(seeds, owner); }
 
   void rewrite(BoundaryLine& line, double cell) const {
     std::vector<BoundaryVertex>& v = line.vertices;
@@ -574,10 +578,6 @@ struct LineRewrite {
 }  // namespace
 
 namespace {
-
-std::string owner_label(const SeedSet& seeds, int32_t owner) {
-  return "'" + seeds.owner_labels()[static_cast<size_t>(owner - 1)] + "'";
-}
 
 // The plans of the full-effect tripoints where the partial features' zone meets two neighbours.
 std::vector<TripointPlan> plan_tripoints(const PartialEffectRule& rule, const SeedSet& seeds,
