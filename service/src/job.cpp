@@ -365,7 +365,7 @@ void check_adjustments(const JobSpec& spec, const PreparedJob& job) {
   const OutputRequest& out = spec.outputs;
   if (job.partial.any()) {
     auto refuse = [](ErrorKind kind, const std::string& what) {
-      throw Error(kind, "partial effect (--effect-field) " + what);
+      throw Error(kind, "partial effect " + what);
     };
     if (spec.method != Method::exact && spec.method != Method::brute_force)
       refuse(ErrorKind::invalid_argument, "needs the exact or brute-force method: its lines and band are exact");

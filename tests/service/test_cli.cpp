@@ -323,9 +323,9 @@ TEST_F(Cli, PartialEffectFromAnAttribute) {
   // owners with partial features.
   const std::string half = seeds_with("half.geojson", "0.5"), out = " --ownership " + path("o.tif");
   expect_refused(run("compute " + half + grid + " --method hv-scan" + out), 2,
-                 "partial effect (--effect-field) needs the exact or brute-force method");
+                 "partial effect needs the exact or brute-force method");
   expect_refused(run("compute " + half + grid + " --margin-raster " + path("m.tif")), 7,
-                 "partial effect (--effect-field) is not available with the margin raster");
+                 "partial effect is not available with the margin raster");
   expect_refused(run("compute " + half + grid + " --turning-points " + path("t.json")), 7,
                  "is not available with the turning-point report");
   expect_refused(run("compute " + seeds_with("big.geojson", "1.5") + grid + out), 3,

@@ -250,6 +250,27 @@ def main():
         href = json.loads(doc)["turningPoints"]["href"]
         _, h, csv = request(s, "GET", "/jobs/" + href.split("/jobs/", 1)[1], expect=200)
         check(csv.startswith(b"line,seq,kind,owner_a,owner_b,lon,lat"), f"turning points as CSV: {csv[:200]}")
+        # Partial effect by value: B's island at half effect between two mainland coasts; the
+        # report states it and the boundaries' traced stretch; a scan is refused (400).
+        island = {"type": "FeatureCollection", "features": [
+            {"type": "Feature", "properties": {"state": "A", "e": None},
+             "geometry": {"type": "LineString", "coordinates": [[10.0, 55.0], [10.0, 55.6]]}},
+            {"type": "Feature", "properties": {"state": "B", "e": None},
+             "geometry": {"type": "LineString", "coordinates": [[10.8, 55.0], [10.8, 55.6]]}},
+            {"type": "Feature", "properties": {"state": "B", "e": 0.5},
+             "geometry": {"type": "Point", "coordinates": [10.3, 55.3]}}]}
+        half = {"inputs": {"seeds": island, "ownerField": "state", "effectField": "e", "resolution": 0.01},
+                "outputs": {"boundaries": {}, "report": {"transmissionMode": "value"}}}
+        _, _, rep = execute(s, half, expect=200)
+        rep = json.loads(rep)
+        rep = rep.get("report", rep).get("value", rep)
+        check(rep.get("partial_effect", {}).get("effect") == 0.5
+              and rep["deliverables"]["boundaries"]["partial_effect"]["stretches"] == 1,
+              f"partial effect in the report: {str(rep)[:400]}")
+        half["inputs"]["method"] = "hv-scan"
+        _, _, problem = execute(s, half, expect=400)
+        check("partial effect needs the exact or brute-force method" in json.loads(problem)["detail"],
+              f"a scan with partial effect: {problem}")
         bad_area = dict(body, inputs=dict(body["inputs"], relevantArea={"type": "FeatureCollection", "crs": demo["crs"], "features": [
             {"type": "Feature", "properties": {}, "geometry": {"type": "Point", "coordinates": [350000, 6155000]}}]}))
         _, _, problem = execute(s, bad_area, expect=400)
