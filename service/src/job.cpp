@@ -364,9 +364,7 @@ void check_adjustments(const JobSpec& spec, const PreparedJob& job) {
   const SeedSet& seeds = job.loaded.seeds;
   const OutputRequest& out = spec.outputs;
   if (job.partial.any()) {
-    auto refuse = [](ErrorKind kind, const std::string& what) {
-      throw Error(kind, "partial effect " + what);
-    };
+    auto refuse = [](ErrorKind kind, const std::string& what) { throw Error(kind, "partial effect " + what); };
     if (spec.method != Method::exact && spec.method != Method::brute_force)
       refuse(ErrorKind::invalid_argument, "needs the exact or brute-force method: its lines and band are exact");
     if (job.located())
