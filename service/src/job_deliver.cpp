@@ -55,6 +55,7 @@ struct StripDeliverables::State {
   // Regions of adjusted seeds: the cells no owner reaches. Where reaches (or the max distance,
   // with weights) leave some, the edge of the owned area is not drawn yet: no regions.
   bool count_unowned = false;
+  bool lines_wanted = false;  // boundaries (a deliverable, or what regions, the preview or the report read)
   int64_t unowned = 0;
 
   State(JobRun& r, const PreparedJob& j, bool s, const PartialEffectResult* p)
@@ -95,9 +96,9 @@ StripDeliverables::StripDeliverables(JobRun& run, const PreparedJob& job, bool s
   s.vector.distance_factor = job.to_output;
   s.vector.distance_units = job.unit;
   s.vector.threads = run.spec.threads;
-  if ((!out.boundaries.empty() || !out.tripoints.empty() || !out.preview.empty() || out.regions_wanted() ||
-       !out.turning_points.empty()) &&
-      partial == nullptr) {
+  s.lines_wanted = !out.boundaries.empty() || !out.tripoints.empty() || !out.preview.empty() || out.regions_wanted() ||
+                   !out.turning_points.empty();
+  if (s.lines_wanted && partial == nullptr) {
     LineRequest r;
     r.boundaries = true;
     r.boundary.simplify_cells = out.simplify_cells;
@@ -182,7 +183,7 @@ BoundaryResult StripDeliverables::State::take_boundaries() {
   State& s = *this;
   const OutputRequest& out = s.out();
   BoundaryResult boundaries;
-  if (!s.boundaries && !s.partial) return boundaries;
+  if (!s.lines_wanted) return boundaries;
   const auto t = Clock::now();
   boundaries = s.partial ? s.partial->boundaries : s.boundaries->take_boundaries();
   const BoundaryStats& st = boundaries.stats;
