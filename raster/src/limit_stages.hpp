@@ -43,14 +43,24 @@ struct LimitGrid {
   // weights: the field's site is the nearest by adjusted distance, the limits measure true ones,
   // `index` is plain). Otherwise it only bounds that distance from above.
   bool field_is_nearest = true;
+  // The index whose reaches end the owned area (Target owner kOwnedEdge); null without.
+  const OwnerIndex* reaches = nullptr;
 };
 
-// The distance whose level D is drawn: to any seed (owner 0), or to one owner's.
+// The distance whose level D is drawn: to any seed (owner 0), or to one owner's; or (owner
+// kOwnedEdge, D 0) how deep within its reach the deepest site is, d - reach, as the hit's
+// `distance`.
 struct Target {
   const LimitGrid& grid;
   int32_t owner;
   double D;
-  OwnerIndex::Hit at(Vec2 p) const { return owner == 0 ? grid.index.nearest(p) : grid.index.nearest_of(p, owner); }
+  OwnerIndex::Hit at(Vec2 p) const {
+    if (owner == kOwnedEdge) {
+      const OwnerIndex::Hit h = grid.reaches->deepest(p);
+      return OwnerIndex::Hit{h.site, h.cost, h.cost};
+    }
+    return owner == 0 ? grid.index.nearest(p) : grid.index.nearest_of(p, owner);
+  }
 };
 
 // The crossings of a range of rows: their edges, vertices, and each edge's index.

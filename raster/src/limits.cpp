@@ -105,6 +105,15 @@ void inside_flags(const Target& t, int64_t row0, int64_t row1, InsideRows& insid
   const size_t base = inside.flags.size();
   inside.flags.resize(base + static_cast<size_t>((row1 - row0) * lg.W));
   uint8_t* out = inside.flags.data() + base;
+  if (t.owner == kOwnedEdge) {
+    // The owned area is the field's: the engine decided each cell on the same reaches.
+    detail::parallel_for(lg.threads, row1 - row0, [&](int64_t k, int) {
+      const int32_t* site = lg.rows.site_row(row0 + k);
+      uint8_t* o = out + k * lg.W;
+      for (int64_t c = 0; c < lg.W; ++c) o[c] = site[c] != kNoSite ? 1 : 0;
+    });
+    return;
+  }
   if (t.owner == 0 && lg.field_is_nearest) {
     // Every cell's distance is the target's: the Float32 field decides all but the cells within
     // its rounding of D, in a pass with no branch per cell, and those few are measured after.
@@ -182,6 +191,15 @@ LimitCrossings limit_crossings(const Target& t, const InsideRows& inside, int64_
       const int64_t c = id % W, r = id / W;
       const Vec2 p0 = centre(lg.g, c, r);
       const Vec2 p1 = (x.edges[i] % 2 == 0) ? centre(lg.g, c + 1, r) : centre(lg.g, c, r + 1);
+      if (t.owner == kOwnedEdge) {
+        // The edge of the owned area is rare (a few cells per reach's arc): each query searches
+        // the whole index, and the root of d - reach is bracketed (Illinois) from the two ends.
+        auto f = [&](double u) { return t.at(lerp(p0, p1, u)).distance; };
+        const Vec2 p = lerp(p0, p1, find_root(f, f(0.0), f(1.0), lg.ftol, 1e-15));
+        const OwnerIndex::Hit h = t.at(p);
+        x.verts[i] = LimitVertex{p, h.site, std::abs(h.distance)};
+        continue;
+      }
       // Every query is on the edge: the sites that can be nearest anywhere on it are gathered
       // once (OwnerIndex::candidates_of, candidates_not_of; a ball around its middle holding the
       // edge: edge_reach), bounded by the inside cell's site, and each query measures only
@@ -292,6 +310,53 @@ std::vector<std::array<int32_t, 2>> limit_links(const Target& t, const InsideRow
 
 // ---- Stage 4: chains -------------------------------------------------------------------------
 
+namespace {
+
+// The owned area's edge is made of arcs of several sites' reaches, which meet in corners
+// (notches where two discs overlap) that no cell edge crosses: a chord between two crossings of
+// different sites would cut the corner by up to a cell. The corner, where both sites are at
+// their reach (Newton's method on the two, from the chord's middle), is made a vertex when it
+// lies within the chord's length of it and no third site reaches deeper there.
+std::vector<LimitVertex> with_corners(const Target& t, const std::vector<LimitVertex>& v) {
+  const OwnerIndex& index = *t.grid.reaches;
+  const SiteMetric& m = index.metric();
+  std::vector<LimitVertex> out;
+  out.reserve(v.size() + 8);
+  const size_t n = v.size();
+  for (size_t i = 0; i < n; ++i) {
+    out.push_back(v[i]);
+    if (i + 1 == n) break;  // (a ring's last vertex is its first again)
+    const LimitVertex& u = v[i];
+    const LimitVertex& w = v[i + 1];
+    if (u.site == w.site || u.site == kNoSite || w.site == kNoSite) continue;
+    const double ru = index.reach_of(u.site), rw = index.reach_of(w.site);
+    const double chord = std::hypot(w.p.x - u.p.x, w.p.y - u.p.y);
+    const Vec2 mid = lerp(u.p, w.p, 0.5);
+    Vec2 q = mid;
+    bool found = false;
+    for (int iter = 0; iter < 30 && !found; ++iter) {
+      Vec2 g1, g2;
+      const double f1 = m.distance_and_gradient(q, u.site, g1) - ru;
+      const double f2 = m.distance_and_gradient(q, w.site, g2) - rw;
+      if (std::max(std::abs(f1), std::abs(f2)) <= t.grid.ftol) {
+        found = true;
+        break;
+      }
+      const double det = g1.x * g2.y - g1.y * g2.x;
+      if (!std::isfinite(det) || !(std::abs(det) > 0.0)) break;
+      q = Vec2{q.x - (f1 * g2.y - f2 * g1.y) / det, q.y - (g1.x * f2 - g2.x * f1) / det};
+      if (!(std::hypot(q.x - mid.x, q.y - mid.y) <= chord)) break;
+    }
+    if (!found) continue;
+    const OwnerIndex::Hit h = index.deepest(q);
+    if (h.cost < -t.grid.ftol) continue;  // inside another site's reach: not on the edge
+    out.push_back(LimitVertex{q, u.site, std::abs(h.cost)});
+  }
+  return out;
+}
+
+}  // namespace
+
 void chain_limit_lines(const Target& t, const LimitCrossings& x, const std::vector<std::array<int32_t, 2>>& links,
                        double tol, LimitResult& result) {
   const Chains chains =
@@ -301,10 +366,13 @@ void chain_limit_lines(const Target& t, const LimitCrossings& x, const std::vect
     line.distance = t.D;
     line.owner = t.owner;
     line.closed = chains.closed[k];
+    std::vector<LimitVertex> verts;
+    for (int32_t n : chains.node_lists[k]) verts.push_back(x.verts[static_cast<size_t>(n)]);
+    if (t.owner == kOwnedEdge) verts = with_corners(t, verts);
     std::vector<Vec2> pts;
-    for (int32_t n : chains.node_lists[k]) pts.push_back(x.verts[static_cast<size_t>(n)].p);
+    for (const LimitVertex& v : verts) pts.push_back(v.p);
     for (size_t i : simplify_indices(pts, tol)) {
-      const LimitVertex& v = x.verts[static_cast<size_t>(chains.node_lists[k][i])];
+      const LimitVertex& v = verts[i];
       line.vertices.push_back(v);
       result.max_residual = std::max(result.max_residual, v.residual);
     }

@@ -378,7 +378,7 @@ class EdgeBuilder {
     if (reach_) {
       auto junction_near = [&](int32_t a, int32_t b, Vec2 start) {
         Vec2 j;
-        return junction(index_, a, b, D_, start, g_.res, ftol_, j) ? j : start;
+        return junction_at(a, b, start, j) ? j : start;
       };
       for (std::vector<Vec2>& e : reach_lines.close_overlaps(junction_near, std::move(loose), out_.dangling_ends))
         out_.edges.push_back(std::move(e));
@@ -409,6 +409,17 @@ class EdgeBuilder {
     if (locus_ != nullptr && *locus_) return (*locus_)(a, b, p);
     return index_.nearest_of(p, a).cost - index_.nearest_of(p, b).cost;
   }
+  // How far beyond the owned area p lies (<= 0 inside it): d - D with a max distance alone; with
+  // reaches (the owned-edge lines), how far beyond its reach the deepest site is.
+  double beyond(Vec2 p) const { return margins_ ? index_.deepest(p).cost : index_.nearest(p).distance - D_; }
+  // The point near `start` where owners a and b both reach just so far: both at D, or (with
+  // reaches) each at the reach of its deepest site -- where their line meets the owned area's
+  // edge. False as solve2.
+  bool junction_at(int32_t a, int32_t b, Vec2 start, Vec2& out) const {
+    if (!margins_) return junction(index_, a, b, D_, start, g_.res, ftol_, out);
+    auto f = [&](Vec2 p) { return std::array<double, 2>{index_.deepest(p, a).cost, index_.deepest(p, b).cost}; };
+    return solve2(f, start, g_.res, ftol_, out);
+  }
   bool at_tripoint(Vec2 p) const {
     return std::any_of(b_.tripoints.begin(), b_.tripoints.end(), [&](const Tripoint& t) { return t.p == p; });
   }
@@ -419,10 +430,14 @@ class EdgeBuilder {
     std::vector<std::vector<Vec2>> edges;
     std::vector<std::vector<int32_t>> owners_of;
     const SeedSet& seeds = index_.metric().seeds();
-    if (std::isfinite(D_) && max_distance_lines != nullptr) {
-      auto on_d = [&](Vec2 p) { return index_.nearest(p).distance - D_; };
+    if (max_distance_lines != nullptr) {
+      margins_ = std::any_of(max_distance_lines->lines.begin(), max_distance_lines->lines.end(),
+                             [](const LimitLine& l) { return l.owner == kOwnedEdge; });
+      auto on_d = [&](Vec2 p) { return beyond(p); };
       for (const LimitLine& line : max_distance_lines->lines) {
-        if (line.owner != 0 || line.distance != D_ || line.vertices.empty()) continue;
+        const bool edge =
+            margins_ ? line.owner == kOwnedEdge : std::isfinite(D_) && line.owner == 0 && line.distance == D_;
+        if (!edge || line.vertices.empty()) continue;
         std::vector<Vec2> pts;
         std::vector<int32_t> owners;
         pts.reserve(line.vertices.size() + 2);
@@ -494,7 +509,7 @@ class EdgeBuilder {
     if (at_tripoint(v.back())) {
       // A tripoint beyond the max distance (the three owners' discs do not all meet there): the
       // line's stretch towards it lies in unowned sea but for its last crossing.
-      if (!reach_ || v.size() < 2 || index_.nearest(v.back()).distance <= D_) return;
+      if (!reach_ || v.size() < 2 || beyond(v.back()) <= 0.0) return;
       v.pop_back();
     }
     const Vec2 end = v.back();
@@ -506,8 +521,7 @@ class EdgeBuilder {
           g_, end, [&](Vec2 p) { return locus(line.owner_a, line.owner_b, p); }, ftol_);
       // Leaving the owned area before the grid's edge: it ends where it meets the max-distance
       // line (carried to the edge there too), at the junction made a vertex of both.
-      if (reach_ && index_.nearest(e).distance > D_ &&
-          junction(index_, line.owner_a, line.owner_b, D_, end, g_.res, ftol_, j) &&
+      if (reach_ && beyond(e) > 0.0 && junction_at(line.owner_a, line.owner_b, end, j) &&
           reach_lines_->attach(j, std::nullopt, g_.res, on_line)) {
         v.push_back(on_line);
         return;
@@ -525,8 +539,12 @@ class EdgeBuilder {
         return;
       }
     if (reach_) {
-      const bool exact = junction(index_, line.owner_a, line.owner_b, D_, end, g_.res, ftol_, j);
-      if (reach_lines_->attach(exact ? j : end, square, 3.0 * g_.res, on_line)) {
+      const bool exact = junction_at(line.owner_a, line.owner_b, end, j);
+      // With reaches the edge has its corners as vertices (where two sites' arcs meet, which no
+      // cell edge crosses): a corner in the square before splits the chord across this one, and
+      // the line ends on the corner itself.
+      if (reach_lines_->attach(exact ? j : end, square, 3.0 * g_.res, on_line) ||
+          (exact && margins_ && reach_lines_->attach(j, std::nullopt, g_.res, on_line))) {
         v.push_back(on_line);
         return;
       }
@@ -622,7 +640,7 @@ class EdgeBuilder {
       if (outside_frame(g_, gap.p) || on_centre_frame(g_, gap.p)) {
         out_.edges.push_back({gap.p, edge_vertex(
                                          g_, gap.p, [&](Vec2 p) { return locus(gap.a, gap.b, p); }, ftol_)});
-      } else if (reach_ && index_.nearest(gap.p).distance <= D_) {
+      } else if (reach_ && beyond(gap.p) <= 0.0) {
         // (Beyond the max distance, the three owners' lines are cut short of it anyway.)
         loose.push_back({gap.a, gap.b, gap.p});
       }
@@ -636,6 +654,7 @@ class EdgeBuilder {
   const double D_;
   const double ftol_;
   bool reach_ = false;
+  bool margins_ = false;  // the owned area's edge is given by reaches (kOwnedEdge lines)
   ReachLines* reach_lines_ = nullptr;
   std::vector<TripointGap> gaps_;
   std::vector<OpenEnd> open_ends_;

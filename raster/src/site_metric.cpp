@@ -322,6 +322,34 @@ struct OwnerIndex::Tree {
     if (ls <= best.cost) search(m, second, p, q, best);
   }
 
+  // Depth-first as search(), for the least d - reach (deepest()): a node's bound is its box's
+  // lower bound less its largest reach.
+  void search_deepest(const SiteMetric& m, int32_t node, Vec2 p, const Vec3& q, Hit& best) const {
+    const Node& n = nodes[static_cast<size_t>(node)];
+    if (n.left < 0) {
+      for (int32_t i = n.begin; i < n.end; ++i) {
+        const auto k = static_cast<size_t>(i);
+        if (SiteMetric::lower_bound(q, boxes[k]) - reach[k] > best.cost) continue;
+        const int32_t id = ids[k];
+        if (m.distance_lower_bound(p, id) - reach[k] > best.cost) continue;
+        const double d = m.distance(p, id);
+        const double c = d - reach[k];
+        if (c < best.cost || (c == best.cost && id < best.site)) best = Hit{id, d, c};
+      }
+      return;
+    }
+    const Node& nl = nodes[static_cast<size_t>(n.left)];
+    const Node& nr = nodes[static_cast<size_t>(n.right)];
+    const double ll = SiteMetric::lower_bound(q, nl.box) - nl.r_max;
+    const double lr = SiteMetric::lower_bound(q, nr.box) - nr.r_max;
+    const int32_t first = ll <= lr ? n.left : n.right, second = ll <= lr ? n.right : n.left;
+    // (An infinite reach makes every bound -inf: the first such hit is as deep as any.)
+    if (std::min(ll, lr) <= best.cost && best.cost != -std::numeric_limits<double>::infinity())
+      search_deepest(m, first, p, q, best);
+    if (std::max(ll, lr) <= best.cost && best.cost != -std::numeric_limits<double>::infinity())
+      search_deepest(m, second, p, q, best);
+  }
+
   double root_bound(const Vec3& q) const {
     const Node& n = nodes[0];
     return cost_bound(SiteMetric::lower_bound(q, n.box), n.w_max, n.r_max);
@@ -383,6 +411,16 @@ OwnerIndex::Hit OwnerIndex::nearest_of(Vec2 p, int32_t owner, int32_t hint) cons
   }
   const Tree& t = *trees_[static_cast<size_t>(owner - 1)];
   if (!t.nodes.empty()) t.search(metric_, 0, p, metric_.embed(p), best);
+  return best;
+}
+
+OwnerIndex::Hit OwnerIndex::deepest(Vec2 p, int32_t owner) const {
+  Hit best;
+  if (owner < 0 || owner > static_cast<int32_t>(trees_.size())) return best;
+  const Vec3 q = metric_.embed(p);
+  for (size_t o = 0; o < trees_.size(); ++o)
+    if ((owner == 0 || static_cast<int32_t>(o) + 1 == owner) && !trees_[o]->nodes.empty())
+      trees_[o]->search_deepest(metric_, 0, p, q, best);
   return best;
 }
 

@@ -150,7 +150,7 @@ StripLines::StripLines(const GridSpec& grid, const OwnerIndex& index, const Line
                                      {},
                                      {}});
   }
-  if (!request.limit_distances.empty()) {
+  if (!request.limit_distances.empty() || request.owned_edge) {
     const LimitOptions& o = request.limit;
     if (index.adjusted()) m.plain = std::make_unique<const OwnerIndex>(metric, OwnerIndex::Measure::plain);
     m.limit_grid =
@@ -164,7 +164,8 @@ StripLines::StripLines(const GridSpec& grid, const OwnerIndex& index, const Line
                                                                           cell,
                                                                           std::max(o.tolerance_cells, 1e-15) * cell,
                                                                           owners_of_site,
-                                                                          !metric.seeds().adjusted()});
+                                                                          !metric.seeds().adjusted(),
+                                                                          &index});
     m.limit_tol = o.simplify_cells * m.g.res;
     std::vector<int32_t> owners = {0};
     if (o.per_owner) {
@@ -174,6 +175,7 @@ StripLines::StripLines(const GridSpec& grid, const OwnerIndex& index, const Line
     // In the whole field's order: by distance, then by owner.
     for (double D : request.limit_distances)
       for (int32_t owner : owners) m.limits.push_back(LimitRun{{*m.limit_grid, owner, D}, {}, {}, {}, 0, 0});
+    if (request.owned_edge) m.limits.push_back(LimitRun{{*m.limit_grid, kOwnedEdge, 0.0}, {}, {}, {}, 0, 0});
   }
 }
 

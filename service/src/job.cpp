@@ -374,6 +374,10 @@ void check_adjustments(const JobSpec& spec, const PreparedJob& job) {
     for (const Feature& f : seeds.features())
       if (std::isfinite(f.reach)) refuse(ErrorKind::unsupported, "is not available with reaches");
     if (!out.margin.empty()) refuse(ErrorKind::unsupported, "is not available with the margin raster");
+    if (seeds.adjusted() && std::isfinite(job.compute.max_distance) && out.regions_wanted())
+      refuse(ErrorKind::unsupported,
+             "is not available with weights and a max distance together with regions or areas: the rule's band "
+             "does not follow where the weighted zones end");
     if (!out.turning_points.empty())
       refuse(ErrorKind::unsupported,
              "is not available with the turning-point report yet: the partial line has no controlling basepoints");

@@ -39,7 +39,9 @@ struct StripDeliverables::State {
   double cell_length = 0.0;  // one cell in metric units near the grid's centre (degrees are not metres)
   SiteCodes owner_codes;     // site -> owner code (the preview)
   std::optional<StripLines> boundaries, limits;
-  std::optional<StripLines> reach;  // regions with a max distance: the line at that distance
+  // Regions where the owned area ends: the line at the max distance, or, with adjusted seeds
+  // (reaches, or weights with the max distance as a cap), the edge of what the reaches cover.
+  std::optional<StripLines> reach;
   // The relevant area (its cells) and the coasts nearest to them (without --relevant-coasts).
   std::optional<InteriorSpans> relevant_cells;
   std::optional<RelevantCoasts> relevant_coasts;
@@ -52,11 +54,7 @@ struct StripDeliverables::State {
   nlohmann::json report = nlohmann::json::object();
 
   const PartialEffectResult* partial = nullptr;  // partial effect: its lines and its rule
-  // Regions of adjusted seeds: the cells no owner reaches. Where reaches (or the max distance,
-  // with weights) leave some, the edge of the owned area is not drawn yet: no regions.
-  bool count_unowned = false;
   bool lines_wanted = false;  // boundaries (a deliverable, or what regions, the preview or the report read)
-  int64_t unowned = 0;
 
   State(JobRun& r, const PreparedJob& j, bool s, const PartialEffectResult* p)
       : run(r), job(j), streamed(s), partial(p) {}
@@ -88,7 +86,6 @@ StripDeliverables::StripDeliverables(JobRun& run, const PreparedJob& job, bool s
   s.index = job.loaded.seeds.adjusted()
                 ? std::make_unique<OwnerIndex>(*s.metric, OwnerIndex::Measure::adjusted, job.compute.max_distance)
                 : std::make_unique<OwnerIndex>(*s.metric);
-  s.count_unowned = out.regions_wanted() && job.loaded.seeds.adjusted();
   const Vec2 mid{g.centre_x(g.width / 2), g.centre_y(g.height / 2)};
   s.cell_length = s.metric->point_distance(mid, Vec2{mid.x + g.res, mid.y});
   s.owner_codes = SiteCodes::owners(job.loaded.seeds);
@@ -117,9 +114,13 @@ StripDeliverables::StripDeliverables(JobRun& run, const PreparedJob& job, bool s
     s.relevant_cells.emplace(build_interiors(job.relevant_area->seeds, g, g.full_window()));
     s.relevant_coasts.emplace(g, *s.metric, *s.relevant_cells, job.compute.geolocator.get(), run.spec.threads);
   }
-  if (out.regions_wanted() && std::isfinite(job.compute.max_distance)) {
+  const bool adjusted = job.loaded.seeds.adjusted() && partial == nullptr;
+  if (out.regions_wanted() && (adjusted || std::isfinite(job.compute.max_distance))) {
     LineRequest r;
-    r.limit_distances = {job.compute.max_distance};
+    if (adjusted)
+      r.owned_edge = true;
+    else
+      r.limit_distances = {job.compute.max_distance};
     r.limit.simplify_cells = out.simplify_cells;
     r.limit.threads = run.spec.threads;
     s.reach.emplace(g, *s.index, r);
@@ -159,7 +160,6 @@ void StripDeliverables::add(const NearestField& strip, const NearestField* measu
   if (s.boundaries) s.boundary_seconds += seconds([&] { s.boundaries->add(strip); });
   const NearestField& lines_from = measured != nullptr ? *measured : strip;
   if (s.limits) s.limit_seconds += seconds([&] { s.limits->add(lines_from); });
-  if (s.count_unowned) s.unowned += std::count(strip.site.cells().begin(), strip.site.cells().end(), kNoSite);
   if (s.preview) s.preview->add_rows(strip.site.data(), strip.site.window().row0, strip.site.height(), &s.owner_codes);
   if (s.reach) s.region_seconds += seconds([&] { s.reach->add(lines_from); });
   if (s.relevant_coasts) s.region_seconds += seconds([&] { s.relevant_coasts->add(strip); });
@@ -253,11 +253,6 @@ void StripDeliverables::State::write_region_polygons(const BoundaryResult& bound
   JobRun& run = s.run;
   if (!out.regions_wanted()) return;
   run.check_cancel();
-  if (s.unowned > 0)
-    throw Error(ErrorKind::unsupported,
-                "regions are not available yet where reaches (or the max distance, with weights) leave " +
-                    std::to_string(s.unowned) +
-                    " cells unowned: the edge of the owned area there is not drawn; boundaries and rasters are");
   const auto t = Clock::now();
   // Without --regions (the relevant area alone) the regions are measured, not written.
   if (!out.regions.empty()) run.will_write(out.regions);

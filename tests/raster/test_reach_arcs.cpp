@@ -7,7 +7,9 @@
 #include <GeographicLib/Geodesic.hpp>
 
 #include <cmath>
+#include <limits>
 #include <numbers>
+#include <random>
 
 #include "rv/deliverables.hpp"
 #include "rv/engine.hpp"
@@ -151,6 +153,104 @@ TEST(ReachArcs, AnArcMeetsTheOthersLocusAtTripoints) {
     }
   }
   EXPECT_EQ(arcs, 2);
+}
+
+// OwnerIndex::deepest against brute force (the least d - min(reach, cap) over every site, and
+// per owner), at random positions among random points and polylines with reaches and a cap.
+TEST(ReachArcs, DeepestIsTheLeastDistanceLessReach) {
+  std::mt19937_64 rng(7);
+  std::uniform_real_distribution<double> u(0.0, 100.0), r(5.0, 30.0);
+  SeedSet s;
+  for (int i = 0; i < 40; ++i) {
+    const int32_t f = s.add_feature(s.owner_code(std::to_string(i % 3)));
+    if (i % 4 == 0)
+      s.add_polyline(f, std::vector<Vec2>{{u(rng), u(rng)}, {u(rng), u(rng)}});
+    else
+      s.add_point(f, {u(rng), u(rng)});
+    s.set_adjustment(f, 1.0, i % 5 == 0 ? std::numeric_limits<double>::infinity() : r(rng));
+  }
+  const PlanarSiteMetric metric(s, Vec2{0.0, 100.0});
+  const double cap = 25.0;
+  const OwnerIndex index(metric, OwnerIndex::Measure::adjusted, cap);
+  for (int k = 0; k < 500; ++k) {
+    const Vec2 p{u(rng) * 1.4 - 20.0, u(rng) * 1.4 - 20.0};
+    for (int32_t owner = 0; owner <= s.owner_count(); ++owner) {
+      double best = std::numeric_limits<double>::infinity();
+      int32_t site = kNoSite;
+      for (int32_t i = 0; i < static_cast<int32_t>(s.sites().size()); ++i) {
+        if (owner != 0 && s.site_owner(i) != owner) continue;
+        const double c =
+            metric.distance(p, i) - std::min(s.features()[static_cast<size_t>(s.site_feature(i))].reach, cap);
+        if (c < best) {
+          best = c;
+          site = i;
+        }
+      }
+      const OwnerIndex::Hit h = index.deepest(p, owner);
+      EXPECT_EQ(h.site, site) << k << " owner " << owner;
+      EXPECT_EQ(h.cost, best);
+      // The owned area is where it is <= 0: where the adjusted nearest exists.
+      if (owner == 0) {
+        EXPECT_EQ(h.cost <= 0.0, index.nearest(p).site != kNoSite) << k;
+      }
+    }
+  }
+}
+
+// Region edges where reaches leave the sea unowned: two points 40 km apart with reaches of 30 and
+// 25 km, and again with a max distance of 28 km (the cap ends A's reach first: where its arc
+// meets B's a wedge of unowned sea thinner than a cell pokes between A's and B's cells). The
+// owned area's edge (StripLines with owned_edge) has its vertices on the two circles, its
+// corners where they cross are vertices too (d_A = r_A, d_B = 25 km, exactly), the boundary ends
+// on them, and no line stops in the open.
+TEST(ReachArcs, TheOwnedAreasEdgeBoundsTheRegions) {
+  SeedSet s;
+  const Vec2 A{500000.0, 6000000.0}, B{540000.0, 6000000.0};
+  const int32_t fa = s.add_feature(s.owner_code("A"));
+  s.add_point(fa, A);
+  s.set_adjustment(fa, 1.0, 30000.0);
+  const int32_t fb = s.add_feature(s.owner_code("B"));
+  s.add_point(fb, B);
+  s.set_adjustment(fb, 1.0, 25000.0);
+  const GridSpec g = test::grid_of(120, 80, 1000.0, 460000.0, 6040000.0);
+  const PlanarSiteMetric metric(s, Vec2{g.xmin, g.ymax});
+  for (const double cap : {std::numeric_limits<double>::infinity(), 28000.0}) {
+    SCOPED_TRACE(cap);
+    ComputeOptions o;
+    o.max_distance = cap;
+    const NearestField field = compute(s, g, o);
+    const OwnerIndex index(metric, OwnerIndex::Measure::adjusted, cap);
+    LineRequest request;
+    request.boundaries = true;
+    request.owned_edge = true;
+    StripLines lines(g, index, request);
+    lines.add(field);
+    const BoundaryResult b = lines.take_boundaries();
+    const LimitResult edge = lines.take_limits();
+    ASSERT_EQ(edge.lines.size(), 1u);
+    EXPECT_EQ(edge.lines[0].owner, kOwnedEdge);
+    EXPECT_TRUE(edge.lines[0].closed);
+    const double ra = std::min(30000.0, cap), rb = 25000.0;
+    for (const LimitVertex& v : edge.lines[0].vertices) {
+      const double da = std::hypot(v.p.x - A.x, v.p.y - A.y), db = std::hypot(v.p.x - B.x, v.p.y - B.y);
+      EXPECT_TRUE(std::abs(da - ra) < 1e-5 || std::abs(db - rb) < 1e-5) << da << ", " << db;
+      EXPECT_LT(v.residual, 1e-5);
+    }
+    const RegionEdges re = region_edges(b, index, g, cap, &edge);
+    EXPECT_EQ(re.dangling_ends, 0);
+    // The circles cross at x = (d^2 + r_A^2 - r_B^2) / 2d from A.
+    const double x = (1600e6 + ra * ra - rb * rb) / 80000.0, y = std::sqrt(ra * ra - x * x);
+    for (const double side : {1.0, -1.0}) {
+      const Vec2 j{A.x + x, A.y + side * y};
+      double on_edge = std::numeric_limits<double>::infinity(), on_line = on_edge;
+      for (const LimitVertex& v : edge.lines[0].vertices)
+        on_edge = std::min(on_edge, std::hypot(v.p.x - j.x, v.p.y - j.y));
+      for (const std::vector<Vec2>& e : re.edges)
+        for (const Vec2 p : {e.front(), e.back()}) on_line = std::min(on_line, std::hypot(p.x - j.x, p.y - j.y));
+      EXPECT_LT(on_edge, 1e-4) << side;
+      EXPECT_LT(on_line, 1e-4) << side;
+    }
+  }
 }
 
 }  // namespace

@@ -241,15 +241,27 @@ TEST_F(Cli, WeightsFromAnAttributeMakeTheApolloniusCircle) {
   // The distance raster: the true distance to the winning point (cell (0, 50): B's side).
   const Raster<float> d = read_float32(path("d.tif"));
   EXPECT_NEAR(d.at(0, 50), std::hypot(560500.0 - 500000.0, 5999500.0 - 6000000.0), 0.01);
+  // With a max distance of 60 km every reach ends there: A (weight 3) wins the whole lens where
+  // the two discs overlap (B would need d_B < d_A / 3 <= 20 km there), so B's region is its disc
+  // less the lens, and the sea beyond both discs is no one's.
+  const CliRun capped = run("compute " + seeds +
+                            " --owner-field state --resolution 500 --extent 430000 5930000 670000 6070000 --quiet "
+                            "--weight-field w --max-distance 60000 --regions " +
+                            path("rc.geojson") + " --report " + path("capped.json"));
+  ASSERT_EQ(capped.exit_code, 0) << capped.output;
+  const nlohmann::json cr = nlohmann::json::parse(std::ifstream(path("capped.json")));
+  const nlohmann::json& ca = cr["deliverables"]["regions"]["areas"];
+  ASSERT_EQ(ca.size(), 2u) << ca.dump();
+  const double r60 = 60000.0,
+               lens = 2.0 * r60 * r60 * std::acos(50000.0 / r60) - 50000.0 * std::sqrt(4.0 * r60 * r60 - 1e10);
+  EXPECT_NEAR(ca[0]["area"].get<double>() / (M_PI * r60 * r60), 1.0, 1e-4) << ca.dump();
+  EXPECT_NEAR(ca[1]["area"].get<double>() / (M_PI * r60 * r60 - lens), 1.0, 1e-4) << ca.dump();
   // Refusals: a scan, the margin raster, a reach with lines, a bad weight, a missing or text field.
   const std::string out = " --ownership " + path("o.tif");
   expect_refused(run("compute " + seeds + grid + " --weight-field w --method hv-scan" + out), 2,
                  "weights and reaches need the exact or brute-force method");
   expect_refused(run("compute " + seeds + grid + " --weight-field w --margin-raster " + path("m.tif")), 7,
                  "margin raster is not available with weights");
-  expect_refused(
-      run("compute " + seeds + grid + " --weight-field w --max-distance 50000 --regions " + path("x.geojson")), 7,
-      "regions are not available yet where reaches (or the max distance, with weights) leave");
   expect_refused(run("compute " + seeds + grid + " --reach-field w --turning-points " + path("x.json")), 7,
                  "the turning-point report is not available yet with reaches");
   expect_refused(run("compute " + seeds + grid + " --weight-field nope" + out), 2, "weight field 'nope' not found");
@@ -385,6 +397,69 @@ TEST_F(Cli, ReachFromAnAttributeInDistanceUnits) {
   EXPECT_EQ(areas[1]["label"], "isle");
   EXPECT_EQ(report["deliverables"]["regions"]["area_units"], "nmi^2");
   EXPECT_NEAR(areas[1]["area"].get<double>() / (M_PI * 12.0 * 12.0), 1.0, 1e-4);
+  // With a max distance of 20 nmi the main coast reaches no cell: the island's geodesic disc is
+  // all that is owned, bounded by the owned area's edge alone (drawn like a limit line: vertices on
+  // the arc, chords between, whose sagitta on 0.004 degree cells keeps the area within 1e-4).
+  const CliRun alone =
+      run("compute " + seeds + " --owner-field state --reach-field reach --distance-units nmi --max-distance 20 " +
+          "--resolution 0.004 --extent 11.9 54.7 12.7 55.3 --quiet --report " + path("alone.json") + " --regions " +
+          path("alone.geojson"));
+  ASSERT_EQ(alone.exit_code, 0) << alone.output;
+  const nlohmann::json ar = nlohmann::json::parse(std::ifstream(path("alone.json")));
+  const nlohmann::json& aa = ar["deliverables"]["regions"]["areas"];
+  double isle_area = 0.0, main_area = 0.0;
+  for (const auto& a : aa) (a["label"] == "isle" ? isle_area : main_area) += a["area"].get<double>();
+  EXPECT_NEAR(isle_area / (M_PI * 12.0 * 12.0), 1.0, 1e-4) << aa.dump();
+  EXPECT_EQ(main_area, 0.0) << aa.dump();
+}
+
+// Regions where reaches leave sea unowned: two points 40 km apart (UTM metres), A's reach 30 km
+// and B's 25 km. A's region is the union of the two discs less B's, B's is its disc beyond the
+// bisector x = 520 km (a 25 km disc less the segment cut 20 km from its centre), and nothing else
+// is owned. The owned area's edge is drawn like a limit line (vertices on the arcs, chords
+// between): on a 250 m grid the areas are within 1e-4 of the circles'.
+TEST_F(Cli, RegionsWhereReachesLeaveSeaUnowned) {
+  const std::string crs = R"("crs":{"type":"name","properties":{"name":"urn:ogc:def:crs:EPSG::32633"}},)";
+  const std::string seeds = write("discs.geojson", R"({"type":"FeatureCollection",)" + crs + R"("features":[
+    {"type":"Feature","properties":{"state":"A","r":30000},"geometry":{"type":"Point","coordinates":[500000,6000000]}},
+    {"type":"Feature","properties":{"state":"B","r":25000},"geometry":{"type":"Point","coordinates":[540000,6000000]}}]})");
+  const CliRun r = run("compute " + seeds +
+                       " --owner-field state --reach-field r --resolution 250 --extent 460000 5960000 580000 6040000 "
+                       "--quiet --report " +
+                       path("report.json") + " --regions " + path("r.geojson") + " --boundaries " + path("b.geojson"));
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const nlohmann::json report = nlohmann::json::parse(std::ifstream(path("report.json")));
+  const nlohmann::json& areas = report["deliverables"]["regions"]["areas"];
+  ASSERT_EQ(areas.size(), 2u) << areas.dump();
+  const double r1 = 30000.0, r2 = 25000.0, d = 40000.0;
+  const double lens = r1 * r1 * std::acos((d * d + r1 * r1 - r2 * r2) / (2.0 * d * r1)) +
+                      r2 * r2 * std::acos((d * d + r2 * r2 - r1 * r1) / (2.0 * d * r2)) -
+                      0.5 * std::sqrt((-d + r1 + r2) * (d + r1 - r2) * (d - r1 + r2) * (d + r1 + r2));
+  const double segment = r2 * r2 * std::acos(20000.0 / r2) - 20000.0 * std::sqrt(r2 * r2 - 20000.0 * 20000.0);
+  const double b_area = M_PI * r2 * r2 - segment;
+  const double a_area = M_PI * (r1 * r1 + r2 * r2) - lens - b_area;
+  EXPECT_EQ(areas[0]["label"], "A");
+  EXPECT_NEAR(areas[0]["area"].get<double>() / a_area, 1.0, 1e-4) << areas.dump();
+  EXPECT_NEAR(areas[1]["area"].get<double>() / b_area, 1.0, 1e-4) << areas.dump();
+  // One region per owner, and nothing of the unowned sea in either.
+  const nlohmann::json regions = nlohmann::json::parse(std::ifstream(path("r.geojson")));
+  ASSERT_EQ(regions["features"].size(), 2u);
+  // The same with a max distance below A's reach: the cap ends it at 28 km instead.
+  const CliRun capped = run("compute " + seeds +
+                            " --owner-field state --reach-field r --max-distance 28000 --resolution 250 --extent "
+                            "460000 5960000 580000 6040000 --quiet --report " +
+                            path("capped.json") + " --regions " + path("r2.geojson"));
+  ASSERT_EQ(capped.exit_code, 0) << capped.output;
+  const nlohmann::json cr = nlohmann::json::parse(std::ifstream(path("capped.json")));
+  const double c1 = 28000.0;
+  const double lens2 = c1 * c1 * std::acos((d * d + c1 * c1 - r2 * r2) / (2.0 * d * c1)) +
+                       r2 * r2 * std::acos((d * d + r2 * r2 - c1 * c1) / (2.0 * d * r2)) -
+                       0.5 * std::sqrt((-d + c1 + r2) * (d + c1 - r2) * (d - c1 + r2) * (d + c1 + r2));
+  const double total = M_PI * (c1 * c1 + r2 * r2) - lens2;
+  const nlohmann::json& ca = cr["deliverables"]["regions"]["areas"];
+  ASSERT_EQ(ca.size(), 2u) << ca.dump();
+  EXPECT_NEAR((ca[0]["area"].get<double>() + ca[1]["area"].get<double>()) / total, 1.0, 1e-4) << ca.dump();
+  EXPECT_NEAR(ca[1]["area"].get<double>() / b_area, 1.0, 1e-4) << ca.dump();
 }
 
 // The disproportionality test on a mirror-symmetric case: two owners' coasts along y = 0 either

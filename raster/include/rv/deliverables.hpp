@@ -301,6 +301,13 @@ class OwnerIndex {
   // The nearest of `sites` (ascending indices) to p: the lowest index among exact ties. With
   // `gradient`: also the winner's (SiteMetric::distance_at_vertex; NaN when none).
   Hit nearest_among(Vec2 p, const std::vector<int32_t>& sites, Vec2* gradient = nullptr) const;
+  // The site of owner `owner` (0: of any owner) whose reach p lies deepest within: the least
+  // d - r over the sites, r the feature's reach at most the cap (reach_of; infinite in a plain
+  // index). Hit{site, true distance d, cost = d - r}, the lowest index among ties; {kNoSite, inf,
+  // inf} without sites. cost <= 0 exactly where the site counts at p, so with owner 0 the owned
+  // area is where it is <= 0 and its edge (where reaches leave cells unowned) is its zero level.
+  // 1-Lipschitz in p, as distances are.
+  Hit deepest(Vec2 p, int32_t owner = 0) const;
   // Nearest site of any owner.
   Hit nearest(Vec2 p, Hit known) const { return nearest_not_of(p, 0, known); }
   Hit nearest(Vec2 p) const { return nearest_not_of(p, 0, Hit{}); }
@@ -419,9 +426,14 @@ struct LimitVertex {
   double residual = 0.0;   // |d(p) - D|, metric units
 };
 
+// LimitLine::owner of the owned area's edge (LineRequest::owned_edge).
+inline constexpr int32_t kOwnedEdge = -1;
+
 struct LimitLine {
-  double distance = 0.0;  // D, metric units
-  int32_t owner = 0;      // 0: distance to all owners' seeds; else to this owner's seeds only
+  double distance = 0.0;  // D, metric units (0 for the owned area's edge)
+  // 0: distance to all owners' seeds; else to this owner's seeds only; kOwnedEdge: the edge of
+  // the area some site reaches (OwnerIndex::deepest's zero level; vertex residuals |d - reach|).
+  int32_t owner = 0;
   bool closed = false;
   std::vector<LimitVertex> vertices;
 };
@@ -469,6 +481,11 @@ LimitResult extract_limits(const NearestField& field, const OwnerIndex& index, s
 // the max distance -- unless a line stops in the open, a defect that would merge two owners'
 // faces: `dangling_ends` counts such ends. Faces are owned as the field's cell centres inside
 // them are (write_line_regions).
+// Where reaches end the owned area (an adjusted `index`: features' reaches, or weights with a
+// max distance), `max_distance_lines` holds the owned area's edge instead (StripLines with
+// LineRequest::owned_edge: lines of owner kOwnedEdge, which are then the only ones read): all of
+// the above holds with "at the max distance" read as "at the reach of the owner's deepest site"
+// (OwnerIndex::deepest), the junctions where both owners' deepest sites are at their reach.
 struct RegionEdges {
   std::vector<std::vector<Vec2>> edges;
   int64_t dangling_ends = 0;
@@ -498,6 +515,10 @@ struct LineRequest {
   BoundaryOptions boundary;
   std::vector<double> limit_distances;  // metric units, > 0; none: no limit lines
   LimitOptions limit;
+  // Also the edge of the owned area where the index's reaches (each feature's, at most its cap)
+  // leave cells unowned: one more set of limit lines, owner kOwnedEdge, after the others. Its
+  // inside cells are the field's owned ones; its vertices lie where OwnerIndex::deepest is 0.
+  bool owned_edge = false;
 };
 
 // Boundaries, tripoints and limit lines taken in strip by strip from an exact field that is
