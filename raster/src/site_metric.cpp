@@ -292,21 +292,29 @@ struct OwnerIndex::Tree {
     return lb > r ? std::numeric_limits<double>::infinity() : lb / w;
   }
 
+  // Whether a cost bound rules a site or node out against the best so far: above it, or
+  // infinite (beyond every reach there: nothing there can count, even while nothing has).
+  static bool ruled_out(double bound, double best) {
+    return bound > best || bound == std::numeric_limits<double>::infinity();
+  }
+
   // Depth-first, nearest child first, pruned by the cost's lower bounds. Without adjustments
   // (w = 1, r = inf) every comparison is the one on true distances, to the bit.
-  void search(const SiteMetric& m, int32_t node, Vec2 p, const Vec3& q, Hit& best) const {
+  // `margin`: only sites within their reach less it count (0: the index's rule).
+  void search(const SiteMetric& m, int32_t node, Vec2 p, const Vec3& q, Hit& best, double margin = 0.0) const {
     const Node& n = nodes[static_cast<size_t>(node)];
     if (n.left < 0) {
       for (int32_t i = n.begin; i < n.end; ++i) {
         const auto k = static_cast<size_t>(i);
-        if (cost_bound(SiteMetric::lower_bound(q, boxes[k]), weight[k], reach[k]) > best.cost) continue;
+        const double r = reach[k] - margin;
+        if (ruled_out(cost_bound(SiteMetric::lower_bound(q, boxes[k]), weight[k], r), best.cost)) continue;
         const int32_t id = ids[k];
         if (id == best.site) continue;  // a known hit, measured already
         // The box holds a whole edge around its middle; the metric's own bound is far tighter
         // for the edge's neighbours along a coast, which then go unmeasured.
-        if (cost_bound(m.distance_lower_bound(p, id), weight[k], reach[k]) > best.cost) continue;
+        if (ruled_out(cost_bound(m.distance_lower_bound(p, id), weight[k], r), best.cost)) continue;
         const double d = m.distance(p, id);
-        if (d > reach[k]) continue;
+        if (d > r) continue;
         const double c = d / weight[k];
         if (c < best.cost || (c == best.cost && id < best.site)) best = Hit{id, d, c};
       }
@@ -314,12 +322,12 @@ struct OwnerIndex::Tree {
     }
     const Node& nl = nodes[static_cast<size_t>(n.left)];
     const Node& nr = nodes[static_cast<size_t>(n.right)];
-    const double ll = cost_bound(SiteMetric::lower_bound(q, nl.box), nl.w_max, nl.r_max);
-    const double lr = cost_bound(SiteMetric::lower_bound(q, nr.box), nr.w_max, nr.r_max);
+    const double ll = cost_bound(SiteMetric::lower_bound(q, nl.box), nl.w_max, nl.r_max - margin);
+    const double lr = cost_bound(SiteMetric::lower_bound(q, nr.box), nr.w_max, nr.r_max - margin);
     const int32_t first = ll <= lr ? n.left : n.right, second = ll <= lr ? n.right : n.left;
     const double lf = std::min(ll, lr), ls = std::max(ll, lr);
-    if (lf <= best.cost) search(m, first, p, q, best);
-    if (ls <= best.cost) search(m, second, p, q, best);
+    if (!ruled_out(lf, best.cost)) search(m, first, p, q, best, margin);
+    if (!ruled_out(ls, best.cost)) search(m, second, p, q, best, margin);
   }
 
   // Depth-first as search(), for the least d - reach (deepest()): a node's bound is its box's
@@ -433,6 +441,23 @@ double OwnerIndex::ball_bound(const Hit& h, double reach) const {
   return c;
 }
 
+double OwnerIndex::ball_bound_at(Vec2 centre, double reach, int32_t owner, bool others, const Hit& nearest) const {
+  const double bound = ball_bound(nearest, reach);
+  if (std::isfinite(bound) || nearest.site == kNoSite) return bound;
+  // The nearest can leave its reach within the ball (an island's arc runs through it): the
+  // nearest of the sites that reach over the whole ball bounds the cost there instead; without
+  // one, every site can be nearest somewhere in it.
+  const double margin = reach * (1.0 + 1e-12) + 1e-12;
+  const Vec3 q = metric_.embed(centre);
+  Hit settled;
+  for (size_t o = 0; o < trees_.size(); ++o) {
+    const bool mine = static_cast<int32_t>(o) + 1 == owner;
+    if (mine == others || trees_[o]->nodes.empty()) continue;
+    trees_[o]->search(metric_, 0, centre, q, settled, margin);
+  }
+  return ball_bound(settled, reach);
+}
+
 void OwnerIndex::candidates_of(Vec2 centre, double reach, int32_t owner, int32_t hint, std::vector<int32_t>& out,
                                double nearest_at_most) const {
   out.clear();
@@ -443,8 +468,7 @@ void OwnerIndex::candidates_of(Vec2 centre, double reach, int32_t owner, int32_t
   const bool valid = hint >= 0 && hint < static_cast<int32_t>(seeds.sites().size()) && seeds.site_owner(hint) == owner;
   if (adjusted_) {
     // nearest_at_most bounds a true distance, not a cost: the measured nearest gives the bound.
-    const Hit h = nearest_of(centre, owner, valid ? hint : kNoSite);
-    const double bound = ball_bound(h, reach);
+    const double bound = ball_bound_at(centre, reach, owner, false, nearest_of(centre, owner, valid ? hint : kNoSite));
     t.within(0, metric_.embed(centre), threshold(bound, reach), out);
     keep_within(centre, reach, bound, out);
     std::sort(out.begin(), out.end());
@@ -497,8 +521,8 @@ void OwnerIndex::candidates_not_of(Vec2 centre, double reach, int32_t owner, Hit
                      seeds.site_owner(known.site) != owner && std::isfinite(known.distance);
   const Vec3 q = metric_.embed(centre);
   if (adjusted_) {
-    const Hit h = nearest_not_of(centre, owner, valid ? known : Hit{});
-    const double bound = ball_bound(h, reach);
+    const double bound =
+        ball_bound_at(centre, reach, owner, true, nearest_not_of(centre, owner, valid ? known : Hit{}));
     const auto limit = threshold(bound, reach);
     for (size_t o = 0; o < trees_.size(); ++o)
       if (static_cast<int32_t>(o) + 1 != owner && !trees_[o]->nodes.empty()) trees_[o]->within(0, q, limit, out);

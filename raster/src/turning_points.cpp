@@ -11,6 +11,8 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <memory>
+#include <tuple>
 #include <vector>
 
 #include "line_tools.hpp"
@@ -35,8 +37,14 @@ struct Element {
 
 class Finder {
  public:
-  Finder(const OwnerIndex& index, const Geolocator* geolocator, double tol)
-      : index_(index), metric_(index.metric()), geolocator_(geolocator), tol_(tol) {}
+  // `arcs`: the index an arc's basepoints are found with (true distances: a plain index); null,
+  // `index` itself.
+  Finder(const OwnerIndex& index, const Geolocator* geolocator, double tol, const OwnerIndex* arcs = nullptr)
+      : index_(index),
+        arcs_(arcs != nullptr ? *arcs : index),
+        metric_(index.metric()),
+        geolocator_(geolocator),
+        tol_(tol) {}
 
   // A seed position where the metric places positions (the grid's CRS on projected geodesic grids).
   Vec2 placed(Vec2 v) const {
@@ -101,7 +109,7 @@ class Finder {
     const Vec2 c = lerp(u, v, t);
     const Vec2 across{-(v.y - u.y), v.x - u.x};
     const Vec2 p0{c.x - across.x, c.y - across.y}, p1{c.x + across.x, c.y + across.y};
-    auto hit = [&](Vec2 q) { return owner == 0 ? index_.nearest(q) : index_.nearest_of(q, owner); };
+    auto hit = [&](Vec2 q) { return owner == 0 ? arcs_.nearest(q) : arcs_.nearest_of(q, owner); };
     auto f = [&](double s) { return hit(lerp(p0, p1, s)).distance - D; };
     OnLimit out{c, {}};
     const double f0 = f(0.0), f1 = f(1.0);
@@ -195,6 +203,45 @@ class Finder {
                      e.site == kNoSite ? 0.0 : metric_.distance(p, e.site)};
   }
 
+  // Whether two arc vertices lie on arcs of one reach (their arc sites' features reach as far).
+  bool same_reach(const BoundaryVertex& u, const BoundaryVertex& v) const {
+    const int32_t su = u.arc == 1 ? u.site_a : u.site_b, sv = v.arc == 1 ? v.site_a : v.site_b;
+    return index_.reach_of(su) == index_.reach_of(sv);
+  }
+
+  // Appends the turning point strictly between arc vertices i and i + 1 of `line` where the arc's
+  // basepoint changes from `before` to `after` (bisection on the arc, d = reach, then the corner
+  // where both are at the reach), as Finder::arcs does on limit lines.
+  void along_arc(const BoundaryLine& line, size_t i, const Element& before, const Element& after,
+                 std::vector<TurningPoint>& out) const {
+    const BoundaryVertex& u = line.vertices[i];
+    const BoundaryVertex& v = line.vertices[i + 1];
+    const int8_t side = u.arc;
+    const int32_t owner = side == 1 ? line.owner_a : line.owner_b;
+    const double D = index_.reach_of(side == 1 ? u.site_a : u.site_b);
+    double lo = 0.0, hi = 1.0;
+    OnLimit at_hi{v.p, after};
+    for (int k = 0; k < kBisections; ++k) {
+      const double mid = 0.5 * (lo + hi);
+      const OnLimit m = on_limit(u.p, v.p, mid, owner, D);
+      if (same(m.e, before)) {
+        lo = mid;
+      } else {
+        hi = mid;
+        at_hi = m;
+      }
+    }
+    TurningPoint tp;
+    tp.kind = TurningPoint::Kind::turn;
+    tp.p = corner(at_hi.p, before.site, at_hi.e.site, D, std::hypot(v.p.x - u.p.x, v.p.y - u.p.y));
+    tp.next_vertex = i + 1;
+    tp.arc = side;
+    std::vector<Basepoint>& list = side == 1 ? tp.a : tp.b;
+    list.push_back(basepoint(tp.p, before));
+    if (at_hi.e.kind != Element::none && !same(at_hi.e, before)) list.push_back(basepoint(tp.p, at_hi.e));
+    out.push_back(std::move(tp));
+  }
+
   // Appends the turning points strictly between vertices i and i + 1 of `line`.
   void between(const BoundaryLine& line, size_t i, const Element& ea0, const Element& eb0, const Element& ea1,
                const Element& eb1, std::vector<TurningPoint>& out) const {
@@ -241,6 +288,7 @@ class Finder {
 
  private:
   const OwnerIndex& index_;
+  const OwnerIndex& arcs_;
   const SiteMetric& metric_;
   const Geolocator* geolocator_;
   double tol_;
@@ -249,11 +297,12 @@ class Finder {
 // A Finder whose positions agree to 1e-7 of the vertex spacing of `line` (the largest of its
 // first steps: the refinement's added points are closer together than a cell).
 template <class Vertex>
-Finder finder_for(const std::vector<Vertex>& line, const OwnerIndex& index, const Geolocator* geolocator) {
+Finder finder_for(const std::vector<Vertex>& line, const OwnerIndex& index, const Geolocator* geolocator,
+                  const OwnerIndex* arcs = nullptr) {
   double spacing = 0.0;
   for (size_t i = 1; i < line.size() && i <= 16; ++i)
     spacing = std::max(spacing, index.metric().point_distance(line[i - 1].p, line[i].p));
-  return Finder(index, geolocator, std::max(spacing, 1e-12) * 1e-7);
+  return Finder(index, geolocator, std::max(spacing, 1e-12) * 1e-7, arcs);
 }
 
 }  // namespace
@@ -275,7 +324,10 @@ std::vector<TurningLine> turning_points(const BoundaryResult& boundaries, const 
                                         const Geolocator* geolocator, int threads) {
   std::vector<TurningLine> out(boundaries.lines.size());
   if (boundaries.lines.empty()) return out;
-  const Finder finder = finder_for(boundaries.lines.front().vertices, index, geolocator);
+  // Along a reach's arc the basepoint is its site's by true distance (the reach ends just there).
+  std::unique_ptr<const OwnerIndex> plain;
+  if (index.adjusted()) plain = std::make_unique<const OwnerIndex>(index.metric(), OwnerIndex::Measure::plain);
+  const Finder finder = finder_for(boundaries.lines.front().vertices, index, geolocator, plain.get());
   detail::parallel_for(resolve_threads(threads), static_cast<int64_t>(boundaries.lines.size()), [&](int64_t k, int) {
     const auto li = static_cast<size_t>(k);
     const BoundaryLine& line = boundaries.lines[li];
@@ -286,24 +338,57 @@ std::vector<TurningLine> turning_points(const BoundaryResult& boundaries, const 
     tl.line = li;
     const size_t n = line.vertices.size();
     if (n == 0) return;
+    // On an arc (a reach ends) only the arc's side controls the line: the other has no element.
     std::vector<Element> ea(n), eb(n);
+    const auto& vs = line.vertices;
     for (size_t i = 0; i < n; ++i) {
-      ea[i] = finder.element(line.vertices[i].p, line.vertices[i].site_a);
-      eb[i] = finder.element(line.vertices[i].p, line.vertices[i].site_b);
+      if (vs[i].arc != 2) ea[i] = finder.element(vs[i].p, vs[i].site_a);
+      if (vs[i].arc != 1) eb[i] = finder.element(vs[i].p, vs[i].site_b);
     }
+    // The stretch after vertex i follows an arc when both its ends lie on one side's arc.
+    auto arc_after = [&](size_t i) -> int8_t {
+      return i + 1 < n && vs[i].arc != 0 && vs[i + 1].arc != 0 ? vs[i + 1].arc : 0;
+    };
+    auto add_side = [&](std::vector<Basepoint>& side, Vec2 p, const Element& e) {
+      if (e.kind != Element::none) side.push_back(finder.basepoint(p, e));
+    };
     auto vertex_point = [&](size_t i, TurningPoint::Kind kind) {
       TurningPoint tp;
       tp.kind = kind;
-      tp.p = line.vertices[i].p;
+      tp.p = vs[i].p;
       tp.next_vertex = i + 1;
-      tp.a.push_back(finder.basepoint(tp.p, ea[i]));
-      tp.b.push_back(finder.basepoint(tp.p, eb[i]));
+      add_side(tp.a, tp.p, ea[i]);
+      add_side(tp.b, tp.p, eb[i]);
+      tp.arc = arc_after(i);
       return tp;
     };
     tl.points.push_back(vertex_point(0, line.closed ? TurningPoint::Kind::start : TurningPoint::Kind::end));
     for (size_t i = 0; i + 1 < n; ++i) {
       if (finder.same(ea[i], ea[i + 1]) && finder.same(eb[i], eb[i + 1])) continue;
-      finder.between(line, i, ea[i], eb[i], ea[i + 1], eb[i + 1], tl.points);
+      if (vs[i].arc == 0 && vs[i + 1].arc == 0) {
+        finder.between(line, i, ea[i], eb[i], ea[i + 1], eb[i + 1], tl.points);
+        continue;
+      }
+      if (vs[i].arc != 0 && vs[i].arc == vs[i + 1].arc && finder.same_reach(vs[i], vs[i + 1])) {
+        // Along one reach's arc its basepoint changes: found on the arc.
+        finder.along_arc(line, i, vs[i].arc == 1 ? ea[i] : eb[i], vs[i].arc == 1 ? ea[i + 1] : eb[i + 1], tl.points);
+        continue;
+      }
+      // The arc meets the locus or another arc: at the junction the refinement placed (it bears
+      // the arc's flag: vertex i + 1 where an arc starts, else vertex i).
+      const size_t m = vs[i].arc != 0 ? i : i + 1;
+      if (m == 0 || (m == n - 1 && !line.closed)) continue;  // a line's end: a turning point already
+      TurningPoint tp;
+      tp.kind = TurningPoint::Kind::turn;
+      tp.p = vs[m].p;
+      tp.next_vertex = m + 1;
+      for (const auto& [before, after, side] :
+           {std::tuple{&ea[i], &ea[i + 1], &tp.a}, std::tuple{&eb[i], &eb[i + 1], &tp.b}}) {
+        add_side(*side, tp.p, *before);
+        if (!finder.same(*before, *after)) add_side(*side, tp.p, *after);
+      }
+      tp.arc = arc_after(m);
+      tl.points.push_back(std::move(tp));
     }
     if (!line.closed && n > 1) {
       TurningPoint last = vertex_point(n - 1, TurningPoint::Kind::end);

@@ -387,14 +387,6 @@ void check_adjustments(const JobSpec& spec, const PreparedJob& job) {
   if (!out.margin.empty())
     throw Error(ErrorKind::unsupported,
                 "the margin raster is not available with weights or reaches: it measures unweighted distances");
-  bool reach = false;
-  for (const Feature& f : seeds.features()) reach = reach || std::isfinite(f.reach);
-  // Boundaries follow the arcs where a reach (or the max distance, with weights) ends; the
-  // turning-point report reads controlling basepoints of the locus only.
-  if (!out.turning_points.empty() && (reach || std::isfinite(job.compute.max_distance)))
-    throw Error(ErrorKind::unsupported, std::string("the turning-point report is not available yet ") +
-                                            (reach ? "with reaches" : "with weights and a max distance") +
-                                            ": it reads the locus's basepoints, and the lines there follow arcs too");
 }
 
 // The relevant area (its polygons, in the grid's CRS) and the relevant coasts (in the seeds'

@@ -179,8 +179,8 @@ const std::vector<OptionSpec> kOptions = {
      "Numeric attribute giving a feature a reach in the job's distance units (> 0; null: no reach): the feature "
      "counts only where its true distance is within it, beyond as if absent (an island with a reach of 12 nmi "
      "is enclaved in a 12 nmi arc, and its boundary follows the arc exactly; where reaches leave cells unowned, "
-     "regions end on the edge of what they cover). The turning-point report is refused with reaches. Needs the "
-     "exact or brute-force method.",
+     "regions end on the edge of what they cover, and the turning-point report names the arcs). Needs the exact "
+     "or brute-force method.",
      "",
      {},
      0,

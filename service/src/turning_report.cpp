@@ -97,8 +97,10 @@ Segments segments(const BoundaryResult& boundaries, const std::vector<TurningLin
     size_t line, point;
   };
   std::vector<Seg> segs;
+  // A ring's last point goes on to its first (the ring's start).
   for (size_t l = 0; l < lines.size(); ++l)
-    for (size_t i = 0; i + 1 < lines[l].points.size(); ++i) segs.push_back({l, i});
+    for (size_t i = 0; i < lines[l].points.size(); ++i)
+      if (i + 1 < lines[l].points.size() || lines[l].closed) segs.push_back({l, i});
   Segments out{std::vector<SegmentOnEllipsoid>(segs.size()), std::vector<double>(segs.size()),
                std::vector<double>(segs.size())};
   // On the threads: the deviation searches dominate.
@@ -107,10 +109,11 @@ Segments segments(const BoundaryResult& boundaries, const std::vector<TurningLin
     const TurningLine& tl = lines[sg.line];
     const BoundaryLine& bl = boundaries.lines[tl.line];
     const TurningPoint& from = tl.points[sg.point];
-    const TurningPoint& to = tl.points[sg.point + 1];
+    const bool closing = sg.point + 1 == tl.points.size();
+    const TurningPoint& to = tl.points[closing ? 0 : sg.point + 1];
+    const size_t until = closing ? bl.vertices.size() : to.next_vertex;
     std::vector<Vec2> between;
-    for (size_t v = from.next_vertex; v < to.next_vertex && v < bl.vertices.size(); ++v)
-      between.push_back(bl.vertices[v].p);
+    for (size_t v = from.next_vertex; v < until && v < bl.vertices.size(); ++v) between.push_back(bl.vertices[v].p);
     if (where.known) {
       std::vector<Vec2> ll;
       for (const Vec2& p : between) ll.push_back(where.lonlat(p));
@@ -184,11 +187,22 @@ nlohmann::json turning_report(const BoundaryResult& boundaries, const LimitResul
       w.position(tp.p, j);
       j["a"] = w.basepoints(tp.a);
       j["b"] = w.basepoints(tp.b);
-      if (i + 1 < tl.points.size()) {
+      if (i + 1 < tl.points.size() || tl.closed) {
         nlohmann::json next;
-        next["grid_length"] = segs.plane_length[s];
-        next["grid_deviation"] = segs.plane_deviation[s];
-        if (where.known) {
+        // Where a reach ends the line follows its arc: round the side's last basepoint here.
+        next["follows"] = tp.arc == 0 ? "equidistance" : "arc";
+        const std::vector<Basepoint>& centre = tp.arc == 1 ? tp.a : tp.b;
+        if (tp.arc != 0 && !centre.empty()) {
+          next["arc_side"] = tp.arc == 1 ? "a" : "b";
+          next["arc_radius"] = centre.back().distance * w.k;
+        }
+        // A ring of one point (an enclave all of one arc) goes round back to it: no segment.
+        const bool segment = tl.points.size() > 1;
+        if (segment) {
+          next["grid_length"] = segs.plane_length[s];
+          next["grid_deviation"] = segs.plane_deviation[s];
+        }
+        if (segment && where.known) {
           const SegmentOnEllipsoid& g = segs.geo[s];
           next["length"] = g.length;
           next["azimuth"] = g.azimuth;
@@ -249,8 +263,11 @@ void write_turning_report(const std::string& path, const nlohmann::json& report)
                                    "lat",  "lon_dms", "lat_dms", "x",       "y"};
   for (const char* side : {"a1", "a2", "b1", "b2"})
     for (const std::string& c : side_cols) head.push_back(std::string(side) + "_" + c);
+  // next_follows: "equidistance", or "arc" round the next_arc_side's last basepoint (a2_* or
+  // b2_* where that side changes here, else a1_* or b1_*) at next_arc_radius.
   const std::vector<std::string> next_cols = {"length",    "azimuth",     "rhumb_separation",
-                                              "deviation", "grid_length", "grid_deviation"};
+                                              "deviation", "grid_length", "grid_deviation",
+                                              "follows",   "arc_side",    "arc_radius"};
   for (const std::string& c : next_cols) head.push_back("next_" + c);
   head.push_back("datum");
   head.push_back("distance_units");

@@ -213,5 +213,58 @@ TEST(TurningPoints, LimitArcsOfAPointAndACoast) {
   EXPECT_EQ(bands, 1u);
 }
 
+// Where a reach ends the line follows its arc. A at (10, 30) and an island of B at (40, 30) with a
+// reach of 20: the bisector x = 25 up to the circle, then the arc round the island; the two
+// junctions (25, 30 +- sqrt(175)) are turning points, and from one of them the line follows B's
+// arc (radius 20 round the island), from the other the locus.
+TEST(TurningPoints, AReachsArcTurnsAtItsJunctions) {
+  SeedSet s;
+  s.add_point(s.add_feature(s.owner_code("A")), {10.0, 30.0});
+  const int32_t island = s.add_feature(s.owner_code("B"));
+  s.add_point(island, {40.0, 30.0});
+  s.set_adjustment(island, 1.0, 20.0);
+  const Case c(std::move(s), test::grid_of(80, 60, 1.0));
+  const std::vector<TurningPoint> t = turns_of(c);
+  ASSERT_EQ(t.size(), 2u);
+  int arcs = 0;
+  for (const TurningPoint& tp : t) {
+    EXPECT_NEAR(tp.p.x, 25.0, 1e-6);
+    EXPECT_NEAR(std::abs(tp.p.y - 30.0), std::sqrt(175.0), 1e-6);
+    ASSERT_FALSE(tp.b.empty());
+    EXPECT_EQ(tp.b.back().at, (Vec2{40.0, 30.0}));
+    EXPECT_NEAR(tp.b.back().distance, 20.0, 1e-6);
+    ASSERT_FALSE(tp.a.empty());  // on the locus there, A's basepoint controls too
+    EXPECT_NEAR(tp.a.front().distance, 20.0, 1e-6);
+    arcs += tp.arc == 2;
+    EXPECT_TRUE(tp.arc == 0 || tp.arc == 2);
+  }
+  EXPECT_EQ(arcs, 1);
+}
+
+// An island coast from (40, 25) to (40, 35) with a reach of 10, A far off at (5, 30): the island's
+// zone is a stadium, all of it arc -- two half circles round the coast's ends and two parallels
+// to it. Its basepoint changes where each half circle meets a parallel, (30 or 50, 25 or 35):
+// four turning points on the arc, found by bisection on it.
+TEST(TurningPoints, AnArcsBasepointChangesAlongIt) {
+  SeedSet s;
+  s.add_point(s.add_feature(s.owner_code("A")), {5.0, 30.0});
+  const int32_t island = s.add_feature(s.owner_code("B"));
+  s.add_polyline(island, std::vector<Vec2>{{40.0, 25.0}, {40.0, 35.0}});
+  s.set_adjustment(island, 1.0, 10.0);
+  const Case c(std::move(s), test::grid_of(140, 120, 0.5));
+  ASSERT_EQ(c.turns.size(), 1u);
+  EXPECT_EQ(c.turns[0].points.front().arc, 2);
+  const std::vector<TurningPoint> t = turns_of(c);
+  ASSERT_EQ(t.size(), 4u);
+  for (const TurningPoint& tp : t) {
+    EXPECT_NEAR(std::abs(tp.p.x - 40.0), 10.0, 1e-5);
+    EXPECT_NEAR(std::abs(tp.p.y - 30.0), 5.0, 1e-5);
+    EXPECT_EQ(tp.arc, 2);
+    EXPECT_TRUE(tp.a.empty());  // A does not control the arc
+    ASSERT_EQ(tp.b.size(), 2u);
+    for (const Basepoint& bp : tp.b) EXPECT_NEAR(bp.distance, 10.0, 1e-5);
+  }
+}
+
 }  // namespace
 }  // namespace rv

@@ -256,14 +256,12 @@ TEST_F(Cli, WeightsFromAnAttributeMakeTheApolloniusCircle) {
                lens = 2.0 * r60 * r60 * std::acos(50000.0 / r60) - 50000.0 * std::sqrt(4.0 * r60 * r60 - 1e10);
   EXPECT_NEAR(ca[0]["area"].get<double>() / (M_PI * r60 * r60), 1.0, 1e-4) << ca.dump();
   EXPECT_NEAR(ca[1]["area"].get<double>() / (M_PI * r60 * r60 - lens), 1.0, 1e-4) << ca.dump();
-  // Refusals: a scan, the margin raster, a reach with lines, a bad weight, a missing or text field.
+  // Refusals: a scan, the margin raster, a bad weight, a missing or text field.
   const std::string out = " --ownership " + path("o.tif");
   expect_refused(run("compute " + seeds + grid + " --weight-field w --method hv-scan" + out), 2,
                  "weights and reaches need the exact or brute-force method");
   expect_refused(run("compute " + seeds + grid + " --weight-field w --margin-raster " + path("m.tif")), 7,
                  "margin raster is not available with weights");
-  expect_refused(run("compute " + seeds + grid + " --reach-field w --turning-points " + path("x.json")), 7,
-                 "the turning-point report is not available yet with reaches");
   expect_refused(run("compute " + seeds + grid + " --weight-field nope" + out), 2, "weight field 'nope' not found");
   expect_refused(run("compute " + seeds + grid + " --weight-field state" + out), 2, "is not numeric (String)");
   const std::string zero = write("zero.geojson", R"({"type":"FeatureCollection","features":[
@@ -359,13 +357,37 @@ TEST_F(Cli, ReachFromAnAttributeInDistanceUnits) {
   const std::string seeds = write("reach.geojson", R"({"type":"FeatureCollection","features":[
     {"type":"Feature","properties":{"state":"main"},"geometry":{"type":"LineString","coordinates":[[10,54],[10,56]]}},
     {"type":"Feature","properties":{"state":"isle","reach":12},"geometry":{"type":"Point","coordinates":[12.3,55]}}]})");
-  const CliRun r =
-      run("compute " + seeds + " --owner-field state --reach-field reach --distance-units nmi " +
-          "--resolution 0.01 --extent 11.9 54.7 12.7 55.3 --quiet --ownership " + path("o.tif") + " --report " +
-          path("report.json") + " --boundaries " + path("b.geojson") + " --regions " + path("r.geojson"));
+  const CliRun r = run("compute " + seeds + " --owner-field state --reach-field reach --distance-units nmi " +
+                       "--resolution 0.01 --extent 11.9 54.7 12.7 55.3 --quiet --ownership " + path("o.tif") +
+                       " --report " + path("report.json") + " --boundaries " + path("b.geojson") + " --regions " +
+                       path("r.geojson") + " --turning-points " + path("tp.csv"));
   ASSERT_EQ(r.exit_code, 0) << r.output;
   const Raster<int32_t> o = read_int32(path("o.tif"));
   const GeographicLib::Geodesic& geod = GeographicLib::Geodesic::WGS84();
+  // The turning-point table: the enclave is one ring of arc, its start row saying so, round the
+  // island (b1) at 12 nmi.
+  {
+    std::ifstream csv(path("tp.csv"));
+    std::string header, row;
+    std::getline(csv, header);
+    std::getline(csv, row);
+    auto column = [&](const std::string& name) {
+      std::vector<std::string> h, v;
+      std::stringstream hs(header), vs(row);
+      for (std::string x; std::getline(hs, x, ',');) h.push_back(x);
+      for (std::string x; std::getline(vs, x, ',');) v.push_back(x);
+      const auto it = std::find(h.begin(), h.end(), name);
+      return it == h.end() || static_cast<size_t>(it - h.begin()) >= v.size() ? std::string("?")
+                                                                              : v[static_cast<size_t>(it - h.begin())];
+    };
+    EXPECT_EQ(column("kind"), "start") << row;
+    EXPECT_EQ(column("next_follows"), "arc") << row;
+    EXPECT_EQ(column("next_arc_side"), "b") << row;
+    EXPECT_NEAR(std::stod(column("next_arc_radius")), 12.0, 1e-6) << row;
+    EXPECT_EQ(column("b1_owner"), "isle");
+    EXPECT_NEAR(std::stod(column("b1_lon")), 12.3, 1e-12);
+    EXPECT_EQ(column("a1_owner"), "");  // the main coast does not control the arc
+  }
   int64_t isle = 0;
   for (int64_t row = 0; row < o.window().height; ++row)
     for (int64_t c = 0; c < o.window().width; ++c) {

@@ -326,6 +326,10 @@ class OwnerIndex {
   // nearest's cost at any position within `reach` of the centre, from a hit measured there
   // (+infinity when that hit can leave its reach within the ball, or there is none).
   double ball_bound(const Hit& at_centre, double reach) const;
+  // ball_bound of `nearest` (measured at the centre: of `owner`, or with `others` of every owner
+  // but it, 0 meaning none), or where that hit can leave its reach in the ball, of the nearest
+  // site that reaches over all of it.
+  double ball_bound_at(Vec2 centre, double reach, int32_t owner, bool others, const Hit& nearest) const;
   // Drops the sites that cannot be nearest within `reach` of `centre` given `bound`
   // (ball_bound), by the metric's lower bounds at the centre.
   void keep_within(Vec2 centre, double reach, double bound, std::vector<int32_t>& sites) const;
@@ -566,6 +570,10 @@ class StripLines {
 // line passes from a parabola to a bisector, without a corner). Both are found between the
 // line's vertices by bisection on the locus, to 2^-26 of the distance between two vertices (the
 // refinement has usually placed the first kind on a vertex already), every point a locus point.
+// Where a reach ends the line follows an arc (BoundaryVertex::arc): only that side's basepoint
+// controls it, the junctions with the locus or another arc (the refinement's vertices) are
+// turning points, and so is a change of the arc's basepoint (bisection on the arc, then the
+// corner where both basepoints are at the reach).
 struct Basepoint {
   int32_t site = kNoSite;  // the controlling site
   Vec2 at;                 // the basepoint (as SiteMetric::nearest_point places it)
@@ -578,8 +586,13 @@ struct TurningPoint {
   // The line's vertices strictly between this point and the next turning point start here (the
   // true line between the two is this point, those vertices, and the next point).
   size_t next_vertex = 0;
-  // Each side's basepoints here: one, or two where that side's changes (before, then after).
+  // Each side's basepoints here: one, or two where that side's changes (before, then after). A
+  // side whose site does not control the line (the other side's reach ends there) has none.
   std::vector<Basepoint> a, b;
+  // What the line follows from here to the next turning point: 0, the equidistance locus; 1 or
+  // 2, the arc where side a's (1) or b's (2) reach ends (Feature::reach): round that side's last
+  // basepoint here, at its distance (a circle round a basepoint, or a parallel to an edge).
+  int8_t arc = 0;
 };
 struct TurningLine {
   int32_t owner_a = 0, owner_b = 0;
