@@ -13,6 +13,8 @@
 //   chain_lines      the links chained into lines per owner pair (ending at tripoints, the grid's
 //                    edge, or closed), simplified with Douglas-Peucker at `tol` CRS units, in a
 //                    deterministic order
+//   end_at_owned_edge  line ends where the owned area ends (a max distance, reaches) carried to
+//                    the exact junction with its edge
 //
 // Internal to rv_raster (tests reach it by name). Thread safety: pure functions of their
 // arguments; find_crossings runs on b.threads threads, with a result independent of them.
@@ -189,5 +191,16 @@ std::vector<TripointGap> tripoint_gaps(const std::vector<Tripoint>& tripoints, c
 // from: each such pair of tripoints, both without a line of that owner pair, gets the line
 // between them (two vertices) appended to `lines`. `cell`: the grid's cell size (CRS units).
 void join_close_tripoints(const std::vector<Tripoint>& tripoints, double cell, std::vector<BoundaryLine>& lines);
+// Lines that stop where the owned area ends: the field's `max_distance` (metric units; with a
+// plain index), or the reaches of an adjusted index (OwnerIndex::deepest, its cap included).
+// Extraction leaves such an end at the last crossing of two owners' cells, up to a cell short of
+// the edge (or, where unowned sea thinner than a cell pokes between the two cells, on a stretch
+// that is not the boundary at all). Each open end off the frame of the outermost centres and not
+// at a tripoint inside the owned area gets its vertices beyond either owner's reach dropped and
+// the junction appended: the point near it where both owners are just at their reach (Newton;
+// within two cells), as a vertex with that stretch's arc flag. Where no junction is found the
+// line is left as it was. Counts the ends moved in stats.ends_on_owned_edge.
+void end_at_owned_edge(const BoundaryGrid& b, double max_distance, const std::vector<Tripoint>& tripoints,
+                       std::vector<BoundaryLine>& lines, BoundaryStats& stats);
 
 }  // namespace rv::boundary_stages

@@ -212,4 +212,47 @@ double cell_metric(const GridSpec& g, const SiteMetric& m);
 // The owner code of every site of `seeds`.
 std::vector<int32_t> owner_of_sites(const SeedSet& seeds);
 
+// A root of F: R^2 -> R^2 near `start` (Newton's method, numeric Jacobian, steps of at most a
+// cell halved while they do not reduce the residual's largest component). False when it does not
+// converge to within ftol, within two cells of the start.
+template <class F>
+bool solve2(F&& f_of, Vec2 start, double res, double ftol, Vec2& out) {
+  auto norm = [](const std::array<double, 2>& v) { return std::max(std::abs(v[0]), std::abs(v[1])); };
+  Vec2 p = start;
+  std::array<double, 2> f = f_of(p);
+  const double h = 1e-7 * res;
+  for (int iter = 0; iter < 60; ++iter) {
+    if (norm(f) <= ftol) {
+      out = p;
+      return std::hypot(p.x - start.x, p.y - start.y) <= 2.0 * res;
+    }
+    const auto fx = f_of(Vec2{p.x + h, p.y}), fy = f_of(Vec2{p.x, p.y + h});
+    const double j00 = (fx[0] - f[0]) / h, j01 = (fy[0] - f[0]) / h, j10 = (fx[1] - f[1]) / h, j11 = (fy[1] - f[1]) / h;
+    const double det = j00 * j11 - j01 * j10;
+    if (!(std::abs(det) > 0.0) || !std::isfinite(det)) return false;
+    Vec2 d{-(j11 * f[0] - j01 * f[1]) / det, -(-j10 * f[0] + j00 * f[1]) / det};
+    const double len = std::hypot(d.x, d.y);
+    if (len > res) d = Vec2{d.x * res / len, d.y * res / len};
+    bool moved = false;
+    for (int half = 0; half < 30 && !moved; ++half) {
+      const Vec2 q{p.x + d.x, p.y + d.y};
+      const auto fq = f_of(q);
+      if (norm(fq) < norm(f)) {
+        p = q;
+        f = fq;
+        moved = true;
+      }
+      d = Vec2{0.5 * d.x, 0.5 * d.y};
+    }
+    if (!moved) return false;
+  }
+  return false;
+}
+
+// On the frame of the outermost cell centres (where extraction stops).
+inline bool on_centre_frame(const GridSpec& g, Vec2 p) {
+  return p.x == g.centre_x(0) || p.x == g.centre_x(g.width - 1) || p.y == g.centre_y(0) ||
+         p.y == g.centre_y(g.height - 1);
+}
+
 }  // namespace rv::line_tools

@@ -55,43 +55,6 @@ Vec2 edge_vertex(const GridSpec& g, Vec2 end, F&& f, double ftol) {
   return lerp(p0, p1, find_root(ft, f0, f1, ftol, 1e-15));
 }
 
-// A root of F: R^2 -> R^2 near `start` (Newton's method, numeric Jacobian, steps of at most a
-// cell halved while they do not reduce the residual's largest component). False when it does not
-// converge to within ftol, within two cells of the start.
-template <class F>
-bool solve2(F&& f_of, Vec2 start, double res, double ftol, Vec2& out) {
-  auto norm = [](const std::array<double, 2>& v) { return std::max(std::abs(v[0]), std::abs(v[1])); };
-  Vec2 p = start;
-  std::array<double, 2> f = f_of(p);
-  const double h = 1e-7 * res;
-  for (int iter = 0; iter < 60; ++iter) {
-    if (norm(f) <= ftol) {
-      out = p;
-      return std::hypot(p.x - start.x, p.y - start.y) <= 2.0 * res;
-    }
-    const auto fx = f_of(Vec2{p.x + h, p.y}), fy = f_of(Vec2{p.x, p.y + h});
-    const double j00 = (fx[0] - f[0]) / h, j01 = (fy[0] - f[0]) / h, j10 = (fx[1] - f[1]) / h, j11 = (fy[1] - f[1]) / h;
-    const double det = j00 * j11 - j01 * j10;
-    if (!(std::abs(det) > 0.0) || !std::isfinite(det)) return false;
-    Vec2 d{-(j11 * f[0] - j01 * f[1]) / det, -(-j10 * f[0] + j00 * f[1]) / det};
-    const double len = std::hypot(d.x, d.y);
-    if (len > res) d = Vec2{d.x * res / len, d.y * res / len};
-    bool moved = false;
-    for (int half = 0; half < 30 && !moved; ++half) {
-      const Vec2 q{p.x + d.x, p.y + d.y};
-      const auto fq = f_of(q);
-      if (norm(fq) < norm(f)) {
-        p = q;
-        f = fq;
-        moved = true;
-      }
-      d = Vec2{0.5 * d.x, 0.5 * d.y};
-    }
-    if (!moved) return false;
-  }
-  return false;
-}
-
 // The point near `start` where owners a and b are both at distance D (a boundary line meets the
 // max-distance line).
 bool junction(const OwnerIndex& index, int32_t a, int32_t b, double D, Vec2 start, double res, double ftol, Vec2& out) {
@@ -131,11 +94,6 @@ bool crossing(Vec2 p0, Vec2 p1, Vec2 q0, Vec2 q1, Vec2& out) {
 // Strictly between the frame of the outermost centres and the grid's edge (or on the edge).
 bool outside_frame(const GridSpec& g, Vec2 p) {
   return p.x < g.centre_x(0) || p.x > g.centre_x(g.width - 1) || p.y > g.centre_y(0) || p.y < g.centre_y(g.height - 1);
-}
-
-bool on_centre_frame(const GridSpec& g, Vec2 p) {
-  return p.x == g.centre_x(0) || p.x == g.centre_x(g.width - 1) || p.y == g.centre_y(0) ||
-         p.y == g.centre_y(g.height - 1);
 }
 
 }  // namespace
@@ -545,7 +503,8 @@ class EdgeBuilder {
       // the line ends on the corner itself.
       if (reach_lines_->attach(exact ? j : end, square, 3.0 * g_.res, on_line) ||
           (exact && margins_ && reach_lines_->attach(j, std::nullopt, g_.res, on_line))) {
-        v.push_back(on_line);
+        // (A line ended at the junction already, end_at_owned_edge, may meet the edge there.)
+        if (!(on_line.x == end.x && on_line.y == end.y)) v.push_back(on_line);
         return;
       }
     }

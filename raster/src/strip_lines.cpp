@@ -32,9 +32,10 @@ namespace {
 // One boundary extraction in progress.
 struct BoundaryRun {
   boundary_stages::BoundaryGrid b;
-  double tol;     // simplification, CRS units
-  double refine;  // BoundaryOptions::refine_cells in metric units (0: none)
-  double cell;    // one cell in metric units
+  double tol;           // simplification, CRS units
+  double refine;        // BoundaryOptions::refine_cells in metric units (0: none)
+  double cell;          // one cell in metric units
+  double max_distance;  // BoundaryOptions::max_distance
   boundary_stages::CrossingSet x;
   boundary_stages::TripointSet t;
   boundary_stages::Links links;
@@ -67,6 +68,7 @@ struct BoundaryRun {
     if (refine > 0.0) refiner.emplace(b.index, refine, b.ftol, cell / b.g.res);
     result.lines = chain_lines(x, t, links, tol, result.stats, refiner ? &*refiner : nullptr, b.threads);
     join_close_tripoints(t.tripoints, b.g.res, result.lines);
+    end_at_owned_edge(b, max_distance, t.tripoints, result.lines, result.stats);
     result.lone_crossings = lone_crossings(x, links);
     for (const Tripoint& tp : t.tripoints) result.stats.max_residual = std::max(result.stats.max_residual, tp.residual);
     result.tripoints = std::move(t.tripoints);
@@ -144,6 +146,7 @@ StripLines::StripLines(const GridSpec& grid, const OwnerIndex& index, const Line
                                      o.simplify_cells * m.g.res,
                                      std::max(o.refine_cells, 0.0) * cell,
                                      cell,
+                                     o.max_distance,
                                      {},
                                      {},
                                      {},

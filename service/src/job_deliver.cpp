@@ -100,6 +100,7 @@ StripDeliverables::StripDeliverables(JobRun& run, const PreparedJob& job, bool s
     r.boundaries = true;
     r.boundary.simplify_cells = out.simplify_cells;
     r.boundary.threads = run.spec.threads;
+    r.boundary.max_distance = job.compute.max_distance;
     s.boundaries.emplace(g, *s.index, r);
   }
   if (!out.limits.empty()) {
@@ -197,6 +198,7 @@ BoundaryResult StripDeliverables::State::take_boundaries() {
                             {"unresolved_tripoints", st.unresolved_tripoints},
                             {"turning_points", st.turning_points},
                             {"arc_points", st.arc_points},
+                            {"ends_on_owned_edge", st.ends_on_owned_edge},
                             {"sliver_crossings", st.sliver_crossings},
                             {"unresolved_slivers", st.unresolved_slivers},
                             {"max_residual", st.max_residual * s.job.to_output},

@@ -244,10 +244,11 @@ TEST_F(Cli, WeightsFromAnAttributeMakeTheApolloniusCircle) {
   // With a max distance of 60 km every reach ends there: A (weight 3) wins the whole lens where
   // the two discs overlap (B would need d_B < d_A / 3 <= 20 km there), so B's region is its disc
   // less the lens, and the sea beyond both discs is no one's.
-  const CliRun capped = run("compute " + seeds +
-                            " --owner-field state --resolution 500 --extent 430000 5930000 670000 6070000 --quiet "
-                            "--weight-field w --max-distance 60000 --regions " +
-                            path("rc.geojson") + " --report " + path("capped.json"));
+  const CliRun capped =
+      run("compute " + seeds +
+          " --owner-field state --resolution 500 --extent 430000 5930000 670000 6070000 --quiet "
+          "--weight-field w --max-distance 60000 --regions " +
+          path("rc.geojson") + " --report " + path("capped.json") + " --turning-points " + path("tp.json"));
   ASSERT_EQ(capped.exit_code, 0) << capped.output;
   const nlohmann::json cr = nlohmann::json::parse(std::ifstream(path("capped.json")));
   const nlohmann::json& ca = cr["deliverables"]["regions"]["areas"];
@@ -256,6 +257,21 @@ TEST_F(Cli, WeightsFromAnAttributeMakeTheApolloniusCircle) {
                lens = 2.0 * r60 * r60 * std::acos(50000.0 / r60) - 50000.0 * std::sqrt(4.0 * r60 * r60 - 1e10);
   EXPECT_NEAR(ca[0]["area"].get<double>() / (M_PI * r60 * r60), 1.0, 1e-4) << ca.dump();
   EXPECT_NEAR(ca[1]["area"].get<double>() / (M_PI * r60 * r60 - lens), 1.0, 1e-4) << ca.dump();
+  // The A-B line is A's 60 km arc through the lens, from one crossing of the circles to the
+  // other, (50, +-33.17) km from A: both ends of the line, and the segment between follows the
+  // arc round A at 60 km.
+  const nlohmann::json tp = nlohmann::json::parse(std::ifstream(path("tp.json")));
+  ASSERT_EQ(tp["lines"].size(), 1u) << tp.dump();
+  const nlohmann::json& points = tp["lines"][0]["points"];
+  ASSERT_EQ(points.size(), 2u) << points.dump();
+  for (const auto& p : points) {
+    EXPECT_NEAR(p["x"].get<double>(), 550000.0, 1e-3);
+    EXPECT_NEAR(std::abs(p["y"].get<double>() - 6000000.0), std::sqrt(r60 * r60 - 5e4 * 5e4), 1e-3);
+  }
+  EXPECT_EQ(points[0]["to_next"]["follows"], "arc");
+  EXPECT_EQ(points[0]["to_next"]["arc_side"], "a");
+  EXPECT_NEAR(points[0]["to_next"]["arc_radius"].get<double>(), 60000.0, 1e-6);
+  EXPECT_EQ(points[0]["a"].back()["x"].get<double>(), 500000.0);
   // Refusals: a scan, the margin raster, a bad weight, a missing or text field.
   const std::string out = " --ownership " + path("o.tif");
   expect_refused(run("compute " + seeds + grid + " --weight-field w --method hv-scan" + out), 2,

@@ -388,6 +388,9 @@ struct BoundaryOptions {
   // is within this of the locus. 0: only the vertices on cell edges.
   double refine_cells = 1e-3;
   int threads = 0;
+  // The field's max distance (metric units): lines that stop where it (or, with an adjusted
+  // index, the reaches) end the owned area end exactly at the edge (end_at_owned_edge).
+  double max_distance = std::numeric_limits<double>::infinity();
 };
 
 struct BoundaryStats {
@@ -405,6 +408,7 @@ struct BoundaryStats {
   int64_t arc_points = 0;            // vertices added on curved stretches (refine_cells)
   int64_t vertices_before_simplify = 0;
   int64_t vertices = 0;
+  int64_t ends_on_owned_edge = 0;  // line ends carried to where the owned area ends
 };
 
 struct BoundaryResult {
