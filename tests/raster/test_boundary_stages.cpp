@@ -289,5 +289,51 @@ TEST(BoundaryStages, PiecesOfStripsChainIntoTheWholeFieldsLines) {
   }
 }
 
+// end_at_owned_edge: two points 100 km apart and a max distance of 60 km. Extraction stops at the
+// last pair of cells both own; the line then ends at (50, +-33.166) km, where both are at 60 km,
+// exactly -- whole and in strips alike. Without a max distance nothing moves.
+TEST(EndAtOwnedEdge, ALineEndsWhereBothOwnersAreAtTheMaxDistance) {
+  SeedSet s;
+  s.add_point(s.add_feature(s.owner_code("A")), {500000.0, 6000000.0});
+  s.add_point(s.add_feature(s.owner_code("B")), {600000.0, 6000000.0});
+  const GridSpec g = test::grid_of(480, 280, 500.0, 430000.0, 6070000.0);
+  ComputeOptions o;
+  o.max_distance = 60000.0;
+  const NearestField field = compute(s, g, o);
+  const PlanarSiteMetric metric(s, Vec2{g.xmin, g.ymax});
+  const OwnerIndex index(metric);
+  BoundaryOptions bo;
+  bo.max_distance = 60000.0;
+  const BoundaryResult whole = extract_boundaries(field, index, bo);
+  ASSERT_EQ(whole.lines.size(), 1u);
+  EXPECT_EQ(whole.stats.ends_on_owned_edge, 2);
+  const double y = std::sqrt(60000.0 * 60000.0 - 50000.0 * 50000.0);
+  for (const BoundaryVertex& v : {whole.lines[0].vertices.front(), whole.lines[0].vertices.back()}) {
+    EXPECT_NEAR(v.p.x, 550000.0, 1e-6);
+    EXPECT_NEAR(std::abs(v.p.y - 6000000.0), y, 1e-6);
+    EXPECT_NEAR(v.distance_a, 60000.0, 1e-6);
+    EXPECT_NEAR(v.distance_b, 60000.0, 1e-6);
+  }
+  // Strips of 7 rows: the same vertices.
+  LineRequest request;
+  request.boundaries = true;
+  request.boundary = bo;
+  StripLines lines(g, index, request);
+  for (int64_t r0 = 0; r0 < g.height; r0 += 7) {
+    ComputeOptions strip = o;
+    strip.window = Window{0, r0, g.width, std::min<int64_t>(7, g.height - r0)};
+    lines.add(compute(s, g, strip));
+  }
+  const BoundaryResult strips = lines.take_boundaries();
+  ASSERT_EQ(strips.lines.size(), 1u);
+  ASSERT_EQ(strips.lines[0].vertices.size(), whole.lines[0].vertices.size());
+  for (size_t i = 0; i < strips.lines[0].vertices.size(); ++i)
+    EXPECT_EQ(strips.lines[0].vertices[i].p, whole.lines[0].vertices[i].p) << i;
+  // Without the max distance the line stops at the last cells, as extracted.
+  const BoundaryResult short_of = extract_boundaries(field, index);
+  EXPECT_EQ(short_of.stats.ends_on_owned_edge, 0);
+  EXPECT_NEAR(std::abs(short_of.lines[0].vertices.front().p.y - 6000000.0), 33250.0, 1e-6);
+}
+
 }  // namespace
 }  // namespace rv::boundary_stages
