@@ -13,6 +13,7 @@
 //   chain_lines      the links chained into lines per owner pair (ending at tripoints, the grid's
 //                    edge, or closed), simplified with Douglas-Peucker at `tol` CRS units, in a
 //                    deterministic order
+//   close_missing_tripoints  a tripoint a crowded square's search missed, found from its lines' ends
 //   end_at_owned_edge  line ends where the owned area ends (a max distance, reaches) carried to
 //                    the exact junction with its edge
 //
@@ -191,6 +192,15 @@ std::vector<TripointGap> tripoint_gaps(const std::vector<Tripoint>& tripoints, c
 // from: each such pair of tripoints, both without a line of that owner pair, gets the line
 // between them (two vertices) appended to `lines`. `cell`: the grid's cell size (CRS units).
 void join_close_tripoints(const std::vector<Tripoint>& tripoints, double cell, std::vector<BoundaryLine>& lines);
+// Where more owners meet in a dual square than its tripoint search resolved, a tripoint of
+// owners a, b, x can be missing: its three lines then show as a line of a and b ending in the
+// open and two of (a, x), (b, x) -- each a line ending in the open or a tripoint lacking that
+// pair's line -- all within two cells of each other. The tripoint is solved (Newton's method on
+// the three owners' nearest sites from the open end, accepted where no other owner is nearer
+// and within two cells), appended to `tripoints`, the open ends carried to it and each lacking
+// tripoint joined to it by a line of two vertices. Counts them in stats.missing_tripoints_found.
+void close_missing_tripoints(const BoundaryGrid& b, std::vector<Tripoint>& tripoints, std::vector<BoundaryLine>& lines,
+                             BoundaryStats& stats);
 // Lines that stop where the owned area ends: the field's `max_distance` (metric units; with a
 // plain index), or the reaches of an adjusted index (OwnerIndex::deepest, its cap included).
 // Extraction leaves such an end at the last crossing of two owners' cells, up to a cell short of

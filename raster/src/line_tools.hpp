@@ -255,4 +255,9 @@ inline bool on_centre_frame(const GridSpec& g, Vec2 p) {
          p.y == g.centre_y(g.height - 1);
 }
 
+// Strictly between the frame of the outermost centres and the grid's edge (or on the edge).
+inline bool outside_frame(const GridSpec& g, Vec2 p) {
+  return p.x < g.centre_x(0) || p.x > g.centre_x(g.width - 1) || p.y > g.centre_y(0) || p.y < g.centre_y(g.height - 1);
+}
+
 }  // namespace rv::line_tools

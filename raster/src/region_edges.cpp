@@ -91,11 +91,6 @@ bool crossing(Vec2 p0, Vec2 p1, Vec2 q0, Vec2 q1, Vec2& out) {
   return true;
 }
 
-// Strictly between the frame of the outermost centres and the grid's edge (or on the edge).
-bool outside_frame(const GridSpec& g, Vec2 p) {
-  return p.x < g.centre_x(0) || p.x > g.centre_x(g.width - 1) || p.y > g.centre_y(0) || p.y < g.centre_y(g.height - 1);
-}
-
 }  // namespace
 
 namespace {

@@ -199,6 +199,7 @@ BoundaryResult StripDeliverables::State::take_boundaries() {
                             {"turning_points", st.turning_points},
                             {"arc_points", st.arc_points},
                             {"ends_on_owned_edge", st.ends_on_owned_edge},
+                            {"missing_tripoints_found", st.missing_tripoints_found},
                             {"sliver_crossings", st.sliver_crossings},
                             {"unresolved_slivers", st.unresolved_slivers},
                             {"max_residual", st.max_residual * s.job.to_output},

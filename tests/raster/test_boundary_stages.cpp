@@ -335,5 +335,47 @@ TEST(EndAtOwnedEdge, ALineEndsWhereBothOwnersAreAtTheMaxDistance) {
   EXPECT_NEAR(std::abs(short_of.lines[0].vertices.front().p.y - 6000000.0), 33250.0, 1e-6);
 }
 
+// close_missing_tripoints: eleven basepoints from a random set (1 m cells) where one dual square
+// holds two tripoints and the meeting of 686, 7528 and 8248 between them, which its search
+// misses. The tripoint is found from its lines' ends: every line ends at a tripoint or on the
+// frame, the three owners are equidistant there and no other is nearer, and the regions close.
+TEST(CloseMissingTripoints, ATripointACrowdedSquareMissed) {
+  const std::vector<std::pair<Vec2, int>> points = {
+      {{400638.24720255716, 6001625.698194801}, 686},  {{400646.4424630304, 6001633.527788706}, 1543},
+      {{400622.3603533263, 6001612.716984124}, 2512},  {{400631.74422859953, 6001633.950451598}, 7229},
+      {{400620.0586528782, 6001627.760388389}, 7528},  {{400654.94277616823, 6001612.895611136}, 7593},
+      {{400616.49730679387, 6001603.452812286}, 7719}, {{400629.4328741445, 6001634.248928863}, 8248},
+      {{400615.7515478986, 6001635.583983469}, 8264},  {{400629.02444605, 6001634.267238516}, 8676},
+      {{400643.505823071, 6001646.051668534}, 9298}};
+  SeedSet s;
+  for (const auto& [p, id] : points) s.add_point(s.add_feature(s.owner_code(std::to_string(id))), p);
+  const GridSpec g = test::grid_of(60, 60, 1.0, 400600.0, 6001660.0);
+  const NearestField field = compute(s, g, ComputeOptions{});
+  const PlanarSiteMetric metric(s, Vec2{g.xmin, g.ymax});
+  const OwnerIndex index(metric);
+  const BoundaryResult r = extract_boundaries(field, index);
+  EXPECT_EQ(r.stats.missing_tripoints_found, 1);
+  for (const BoundaryLine& l : r.lines) {
+    if (l.closed) continue;
+    for (const Vec2 e : {l.vertices.front().p, l.vertices.back().p}) {
+      const bool at_tripoint =
+          std::any_of(r.tripoints.begin(), r.tripoints.end(), [&](const Tripoint& t) { return t.p == e; });
+      EXPECT_TRUE(at_tripoint || line_tools::on_centre_frame(g, e)) << e.x << ", " << e.y;
+    }
+  }
+  const int32_t a = s.owner_code("686"), b = s.owner_code("7528"), c = s.owner_code("8248");
+  const auto found = std::find_if(r.tripoints.begin(), r.tripoints.end(), [&](const Tripoint& t) {
+    std::array<int32_t, 3> o{a, b, c};
+    std::sort(o.begin(), o.end());
+    return t.owners[0] == o[0] && t.owners[1] == o[1] && t.owners[2] == o[2];
+  });
+  ASSERT_NE(found, r.tripoints.end());
+  const double d = std::hypot(found->p.x - points[0].first.x, found->p.y - points[0].first.y);
+  for (const Vec2 q : {points[4].first, points[7].first})
+    EXPECT_NEAR(std::hypot(found->p.x - q.x, found->p.y - q.y), d, 1e-8);
+  for (const auto& [q, id] : points) EXPECT_GE(std::hypot(found->p.x - q.x, found->p.y - q.y), d - 1e-8) << id;
+  EXPECT_EQ(region_edges(r, index, g).dangling_ends, 0);
+}
+
 }  // namespace
 }  // namespace rv::boundary_stages

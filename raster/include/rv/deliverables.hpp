@@ -409,6 +409,9 @@ struct BoundaryStats {
   int64_t vertices_before_simplify = 0;
   int64_t vertices = 0;
   int64_t ends_on_owned_edge = 0;  // line ends carried to where the owned area ends
+  // Tripoints a crowded square's search missed, found from the ends of their lines (also in
+  // unresolved_tripoints, which counts the squares).
+  int64_t missing_tripoints_found = 0;
 };
 
 struct BoundaryResult {
