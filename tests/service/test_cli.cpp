@@ -212,6 +212,13 @@ void expect_refused(const CliRun& r, int code, const std::string& fragment) {
   EXPECT_EQ(std::count(r.output.begin(), r.output.end(), '\n'), 1) << r.output;
 }
 
+// The area two discs of radii r1 and r2, d apart, have in common.
+double lens_area(double r1, double r2, double d) {
+  return r1 * r1 * std::acos((d * d + r1 * r1 - r2 * r2) / (2.0 * d * r1)) +
+         r2 * r2 * std::acos((d * d + r2 * r2 - r1 * r1) / (2.0 * d * r2)) -
+         0.5 * std::sqrt((-d + r1 + r2) * (d + r1 - r2) * (d - r1 + r2) * (d + r1 + r2));
+}
+
 // Weights from an attribute: two basepoints 100 km apart in UTM, weights 3 : 1, on a 1 km grid.
 // The boundary is the circle d_A = 3 d_B (centre 112.5 km from A, radius 37.5 km) and B's
 // region its disc, pi 37.5^2 km^2, to 0.01 % in the report; the distance raster keeps true
@@ -253,8 +260,7 @@ TEST_F(Cli, WeightsFromAnAttributeMakeTheApolloniusCircle) {
   const nlohmann::json cr = nlohmann::json::parse(std::ifstream(path("capped.json")));
   const nlohmann::json& ca = cr["deliverables"]["regions"]["areas"];
   ASSERT_EQ(ca.size(), 2u) << ca.dump();
-  const double r60 = 60000.0,
-               lens = 2.0 * r60 * r60 * std::acos(50000.0 / r60) - 50000.0 * std::sqrt(4.0 * r60 * r60 - 1e10);
+  const double r60 = 60000.0, lens = lens_area(r60, r60, 100000.0);
   EXPECT_NEAR(ca[0]["area"].get<double>() / (M_PI * r60 * r60), 1.0, 1e-4) << ca.dump();
   EXPECT_NEAR(ca[1]["area"].get<double>() / (M_PI * r60 * r60 - lens), 1.0, 1e-4) << ca.dump();
   // The A-B line is A's 60 km arc through the lens, from one crossing of the circles to the
@@ -470,9 +476,7 @@ TEST_F(Cli, RegionsWhereReachesLeaveSeaUnowned) {
   const nlohmann::json& areas = report["deliverables"]["regions"]["areas"];
   ASSERT_EQ(areas.size(), 2u) << areas.dump();
   const double r1 = 30000.0, r2 = 25000.0, d = 40000.0;
-  const double lens = r1 * r1 * std::acos((d * d + r1 * r1 - r2 * r2) / (2.0 * d * r1)) +
-                      r2 * r2 * std::acos((d * d + r2 * r2 - r1 * r1) / (2.0 * d * r2)) -
-                      0.5 * std::sqrt((-d + r1 + r2) * (d + r1 - r2) * (d - r1 + r2) * (d + r1 + r2));
+  const double lens = lens_area(r1, r2, d);
   const double segment = r2 * r2 * std::acos(20000.0 / r2) - 20000.0 * std::sqrt(r2 * r2 - 20000.0 * 20000.0);
   const double b_area = M_PI * r2 * r2 - segment;
   const double a_area = M_PI * (r1 * r1 + r2 * r2) - lens - b_area;
@@ -490,9 +494,7 @@ TEST_F(Cli, RegionsWhereReachesLeaveSeaUnowned) {
   ASSERT_EQ(capped.exit_code, 0) << capped.output;
   const nlohmann::json cr = nlohmann::json::parse(std::ifstream(path("capped.json")));
   const double c1 = 28000.0;
-  const double lens2 = c1 * c1 * std::acos((d * d + c1 * c1 - r2 * r2) / (2.0 * d * c1)) +
-                       r2 * r2 * std::acos((d * d + r2 * r2 - c1 * c1) / (2.0 * d * r2)) -
-                       0.5 * std::sqrt((-d + c1 + r2) * (d + c1 - r2) * (d - c1 + r2) * (d + c1 + r2));
+  const double lens2 = lens_area(c1, r2, d);
   const double total = M_PI * (c1 * c1 + r2 * r2) - lens2;
   const nlohmann::json& ca = cr["deliverables"]["regions"]["areas"];
   ASSERT_EQ(ca.size(), 2u) << ca.dump();
