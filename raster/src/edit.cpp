@@ -10,6 +10,7 @@
 #include <memory>
 #include <string>
 #include <unordered_map>
+#include <unordered_set>
 #include <vector>
 
 #include "rv/deliverables.hpp"
@@ -96,13 +97,37 @@ bool same_feature(const FeatureKeys& x, int32_t fx, const FeatureKeys& y, int32_
 // Whether the owners both sets have come in a different order of codes.
 bool owners_reordered(const SeedSet& base, const SeedSet& edited) {
   auto present = [](const SeedSet& in, const SeedSet& other) {
+    const std::unordered_set<std::string> there(other.owner_labels().begin(), other.owner_labels().end());
     std::vector<std::string> out;
     for (const std::string& l : in.owner_labels())
-      if (std::find(other.owner_labels().begin(), other.owner_labels().end(), l) != other.owner_labels().end())
-        out.push_back(l);
+      if (there.count(l) != 0) out.push_back(l);
     return out;
   };
   return present(base, edited) != present(edited, base);
+}
+
+// The features of `edited` with `keep` set, as one owner's (their distances, weights and reaches;
+// owners and order do not matter to where they can win): points and segments as themselves,
+// polygons with their rings (which add their edges and interiors again: a repeated site changes
+// no distance).
+SeedSet added_features(const SeedSet& edited, const std::vector<bool>& keep) {
+  SeedSet out;
+  const int32_t owner = out.owner_code("added");
+  const auto ranges = site_ranges(edited);
+  const auto polys = polygons_of(edited);
+  for (size_t f = 0; f < keep.size(); ++f) {
+    if (!keep[f]) continue;
+    const int32_t nf = out.add_feature(owner, edited.features()[f].source);
+    for (const size_t p : polys[f]) out.add_polygon(nf, edited.polygons()[p].rings);
+    for (int32_t i = ranges[f].first; i < ranges[f].second; ++i) {
+      const Site& s = edited.sites()[static_cast<size_t>(i)];
+      if (s.kind == SiteKind::point) out.add_point(nf, s.a);
+      if (s.kind == SiteKind::segment) out.add_polyline(nf, std::vector<Vec2>{s.a, s.b});
+    }
+    const Feature& ft = edited.features()[f];
+    if (ft.weight != 1.0 || std::isfinite(ft.reach)) out.set_adjustment(nf, ft.weight, ft.reach);
+  }
+  return out;
 }
 
 }  // namespace
@@ -207,17 +232,13 @@ EditPlan plan_edit(const NearestField& base, const SeedSet& base_seeds, const Se
                 base_seeds.features()[static_cast<size_t>(site.feature)].weight;
     }
   // The added features alone.
-  std::vector<bool> drop(edited.features().size(), true);
+  std::vector<bool> keep(edited.features().size(), false);
   bool any_added = false;
-  for (size_t f = 0; f < drop.size(); ++f)
-    if (plan.match.base_of_edited[f] < 0) {
-      drop[f] = false;
-      any_added = true;
-    }
+  for (size_t f = 0; f < keep.size(); ++f)
+    if (plan.match.base_of_edited[f] < 0) keep[f] = any_added = true;
   if (any_added) {
     AddedFeatures added;
-    std::vector<int32_t> site_of;
-    added.seeds = edited.without(drop, site_of);
+    added.seeds = added_features(edited, keep);
     ComputeOptions o = options;
     o.grid_polygons = nullptr;
     o.prepared = nullptr;
@@ -231,7 +252,6 @@ EditPlan plan_edit(const NearestField& base, const SeedSet& base_seeds, const Se
       added.plain = std::make_unique<OwnerIndex>(*added.metric, OwnerIndex::Measure::plain);
       added.adjusted = std::make_unique<OwnerIndex>(*added.metric, OwnerIndex::Measure::adjusted, options.max_distance);
       for (const Feature& f : added.seeds.features()) {
-        if (f.owner == 0) continue;
         added.w_max = std::max(added.w_max, f.weight);
         added.r_max = std::max(added.r_max, std::min(f.reach, options.max_distance));
       }
