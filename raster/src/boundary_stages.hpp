@@ -199,10 +199,12 @@ void join_close_tripoints(const std::vector<Tripoint>& tripoints, double cell, s
 // the three owners' nearest sites from the open end, accepted where no other owner is nearer
 // and within two cells), appended to `tripoints`, the open ends carried to it and each lacking
 // tripoint joined to it by a line of two vertices. Counts them in stats.missing_tripoints_found.
-void close_missing_tripoints(const BoundaryGrid& b, std::vector<Tripoint>& tripoints, std::vector<BoundaryLine>& lines,
-                             BoundaryStats& stats);
-// Lines that stop where the owned area ends: the field's `max_distance` (metric units; with a
-// plain index), or the reaches of an adjusted index (OwnerIndex::deepest, its cap included).
+// A tripoint beyond the field's `max_distance` (or, with an adjusted index, beyond a reach: the
+// index finds no site there) is not added: there the lines end on the owned area's edge.
+void close_missing_tripoints(const BoundaryGrid& b, double max_distance, std::vector<Tripoint>& tripoints,
+                             std::vector<BoundaryLine>& lines, BoundaryStats& stats);
+// Lines that stop where the reaches of an adjusted index (OwnerIndex::deepest, its cap, the
+// field's max distance, included) end the owned area; with a plain index nothing moves.
 // Extraction leaves such an end at the last crossing of two owners' cells, up to a cell short of
 // the edge (or, where unowned sea thinner than a cell pokes between the two cells, on a stretch
 // that is not the boundary at all). Each open end off the frame of the outermost centres and not

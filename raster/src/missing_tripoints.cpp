@@ -64,7 +64,8 @@ std::vector<LooseEnd> loose_ends(const BoundaryGrid& b, const std::vector<Tripoi
 
 // The tripoint of owners a, b, x near `start`: their nearest sites' costs equal, no other owner
 // nearer, within two cells of it. False where none is found.
-bool solve_tripoint(const BoundaryGrid& b, std::array<int32_t, 3> owners, Vec2 start, Tripoint& out) {
+bool solve_tripoint(const BoundaryGrid& b, std::array<int32_t, 3> owners, Vec2 start, double max_distance,
+                    Tripoint& out) {
   std::sort(owners.begin(), owners.end());
   std::array<int32_t, 3> sites{};
   Vec2 p = start;
@@ -80,9 +81,11 @@ bool solve_tripoint(const BoundaryGrid& b, std::array<int32_t, 3> owners, Vec2 s
     if (h[0].site != sites[0] || h[1].site != sites[1] || h[2].site != sites[2]) continue;  // again with these
     const double hi = std::max({h[0].cost, h[1].cost, h[2].cost});
     const double lo = std::min({h[0].cost, h[1].cost, h[2].cost});
-    // No fourth owner nearer than the three.
+    // No fourth owner nearer than the three, and the owned area's (beyond the max distance the
+    // three lines end on its edge instead).
     const OwnerIndex::Hit nearest = b.index.nearest(q);
     if (nearest.cost < lo - b.ftol) return false;
+    if (std::max({h[0].distance, h[1].distance, h[2].distance}) > max_distance) return false;
     out = Tripoint{};
     out.p = q;
     for (int n = 0; n < 3; ++n) {
@@ -106,8 +109,8 @@ BoundaryVertex vertex_of(const Tripoint& t, int32_t a, int32_t b) {
 
 }  // namespace
 
-void close_missing_tripoints(const BoundaryGrid& b, std::vector<Tripoint>& tripoints, std::vector<BoundaryLine>& lines,
-                             BoundaryStats& stats) {
+void close_missing_tripoints(const BoundaryGrid& b, double max_distance, std::vector<Tripoint>& tripoints,
+                             std::vector<BoundaryLine>& lines, BoundaryStats& stats) {
   std::vector<LooseEnd> ends = loose_ends(b, tripoints, lines);
   const double near = 2.0 * b.g.res;
   auto close = [&](const LooseEnd& u, const LooseEnd& v) { return std::hypot(u.p.x - v.p.x, u.p.y - v.p.y) <= near; };
@@ -126,7 +129,7 @@ void close_missing_tripoints(const BoundaryGrid& b, std::vector<Tripoint>& tripo
         if (g == e || g == f || ends[g].used || !close(ends[e], ends[g]) || !ends[g].has(x) || !ends[g].has(y))
           continue;
         Tripoint t;
-        if (!solve_tripoint(b, {a, c, x}, ends[e].p, t)) continue;
+        if (!solve_tripoint(b, {a, c, x}, ends[e].p, max_distance, t)) continue;
         for (const size_t n : {e, f, g}) {
           LooseEnd& le = ends[n];
           le.used = true;

@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <limits>
 #include <vector>
 
 #include "boundary_stages.hpp"
@@ -47,6 +48,10 @@ bool carry_back(const BoundaryGrid& b, const Beyond& beyond, const std::vector<T
   auto f = [&](Vec2 p) { return std::array<double, 2>{beyond.of(p, oa), beyond.of(p, ob)}; };
   Vec2 j;
   if (!solve2(f, end, b.g.res, b.ftol, j)) return false;
+  // On the edge only where no third owner counts there (else it lies inside the owned area,
+  // where another line of these owners' goes on).
+  const OwnerIndex::Hit any = beyond.adjusted ? beyond.index.deepest(j) : beyond.index.nearest(j);
+  if ((beyond.adjusted ? any.cost : any.distance - beyond.D) < -b.ftol) return false;
   const std::vector<BoundaryVertex> kept = v;
   while (v.size() > 1 && outside(v.back().p)) v.pop_back();
   if (outside(v.back().p)) {  // nothing of the line in reach: not an end of this kind
@@ -74,11 +79,37 @@ bool carry_back(const BoundaryGrid& b, const Beyond& beyond, const std::vector<T
 void end_at_owned_edge(const BoundaryGrid& b, double max_distance, const std::vector<Tripoint>& tripoints,
                        std::vector<BoundaryLine>& lines, BoundaryStats& stats) {
   const Beyond beyond{b.index, max_distance, b.index.adjusted()};
-  if (!beyond.adjusted && !std::isfinite(max_distance)) return;
+  // Only where reaches (or the cap with weights) end the owned area: with a plain max distance
+  // the ends stay at the last crossing, which region_edges joins to the max-distance line (in
+  // dense sets carrying them first left more ends in the open there).
+  if (!beyond.adjusted) return;
+  // Ends in the open near another: lines that meet in a hole of unowned sea thinner than a cell,
+  // or at a tripoint no square resolved. The edge there is not the one extraction stopped at
+  // (region_edges joins such ends); only a lone end is carried.
+  std::vector<Vec2> open;
+  for (const BoundaryLine& line : lines)
+    if (!line.closed && !line.vertices.empty())
+      for (const Vec2 p : {line.vertices.front().p, line.vertices.back().p})
+        if (!on_centre_frame(b.g, p) &&
+            std::none_of(tripoints.begin(), tripoints.end(), [&](const Tripoint& t) { return t.p == p; }))
+          open.push_back(p);
+  std::sort(open.begin(), open.end(), [](Vec2 u, Vec2 v) { return u.x < v.x || (u.x == v.x && u.y < v.y); });
+  auto crowded = [&](Vec2 p) {
+    const double r = 2.0 * b.g.res;
+    auto it = std::lower_bound(open.begin(), open.end(), Vec2{p.x - r, -std::numeric_limits<double>::infinity()},
+                               [](Vec2 u, Vec2 v) { return u.x < v.x || (u.x == v.x && u.y < v.y); });
+    for (; it != open.end() && it->x <= p.x + r; ++it)
+      if (!(*it == p) && std::hypot(it->x - p.x, it->y - p.y) <= r) return true;
+    return false;
+  };
   for (BoundaryLine& line : lines) {
     if (line.closed || line.vertices.empty()) continue;
     for (int end = 0; end < 2; ++end) {
       if (end == 1) std::reverse(line.vertices.begin(), line.vertices.end());
+      if (crowded(line.vertices.back().p)) {
+        if (end == 1) std::reverse(line.vertices.begin(), line.vertices.end());
+        continue;
+      }
       const auto before = static_cast<int64_t>(line.vertices.size());
       if (carry_back(b, beyond, tripoints, line)) {
         stats.vertices += static_cast<int64_t>(line.vertices.size()) - before;

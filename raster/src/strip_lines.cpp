@@ -68,7 +68,7 @@ struct BoundaryRun {
     if (refine > 0.0) refiner.emplace(b.index, refine, b.ftol, cell / b.g.res);
     result.lines = chain_lines(x, t, links, tol, result.stats, refiner ? &*refiner : nullptr, b.threads);
     join_close_tripoints(t.tripoints, b.g.res, result.lines);
-    close_missing_tripoints(b, t.tripoints, result.lines, result.stats);
+    close_missing_tripoints(b, max_distance, t.tripoints, result.lines, result.stats);
     end_at_owned_edge(b, max_distance, t.tripoints, result.lines, result.stats);
     result.lone_crossings = lone_crossings(x, links);
     for (const Tripoint& tp : t.tripoints) result.stats.max_residual = std::max(result.stats.max_residual, tp.residual);

@@ -289,9 +289,10 @@ TEST(BoundaryStages, PiecesOfStripsChainIntoTheWholeFieldsLines) {
   }
 }
 
-// end_at_owned_edge: two points 100 km apart and a max distance of 60 km. Extraction stops at the
-// last pair of cells both own; the line then ends at (50, +-33.166) km, where both are at 60 km,
-// exactly -- whole and in strips alike. Without a max distance nothing moves.
+// end_at_owned_edge: two points 100 km apart and a max distance of 60 km, compared through an
+// index with that cap (as with weights or reaches). Extraction stops at the last pair of cells
+// both own; the line then ends at (50, +-33.166) km, where both are at 60 km, exactly -- whole
+// and in strips alike. With a plain index nothing moves.
 TEST(EndAtOwnedEdge, ALineEndsWhereBothOwnersAreAtTheMaxDistance) {
   SeedSet s;
   s.add_point(s.add_feature(s.owner_code("A")), {500000.0, 6000000.0});
@@ -301,7 +302,7 @@ TEST(EndAtOwnedEdge, ALineEndsWhereBothOwnersAreAtTheMaxDistance) {
   o.max_distance = 60000.0;
   const NearestField field = compute(s, g, o);
   const PlanarSiteMetric metric(s, Vec2{g.xmin, g.ymax});
-  const OwnerIndex index(metric);
+  const OwnerIndex index(metric, OwnerIndex::Measure::adjusted, 60000.0);
   BoundaryOptions bo;
   bo.max_distance = 60000.0;
   const BoundaryResult whole = extract_boundaries(field, index, bo);
@@ -329,8 +330,9 @@ TEST(EndAtOwnedEdge, ALineEndsWhereBothOwnersAreAtTheMaxDistance) {
   ASSERT_EQ(strips.lines[0].vertices.size(), whole.lines[0].vertices.size());
   for (size_t i = 0; i < strips.lines[0].vertices.size(); ++i)
     EXPECT_EQ(strips.lines[0].vertices[i].p, whole.lines[0].vertices[i].p) << i;
-  // Without the max distance the line stops at the last cells, as extracted.
-  const BoundaryResult short_of = extract_boundaries(field, index);
+  // With a plain index the line stops at the last cells, as extracted.
+  const OwnerIndex plain(metric);
+  const BoundaryResult short_of = extract_boundaries(field, plain, bo);
   EXPECT_EQ(short_of.stats.ends_on_owned_edge, 0);
   EXPECT_NEAR(std::abs(short_of.lines[0].vertices.front().p.y - 6000000.0), 33250.0, 1e-6);
 }

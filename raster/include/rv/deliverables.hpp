@@ -388,8 +388,9 @@ struct BoundaryOptions {
   // is within this of the locus. 0: only the vertices on cell edges.
   double refine_cells = 1e-3;
   int threads = 0;
-  // The field's max distance (metric units): lines that stop where it (or, with an adjusted
-  // index, the reaches) end the owned area end exactly at the edge (end_at_owned_edge).
+  // The field's max distance (metric units). With an adjusted index (reaches, or weights with
+  // this as the cap) lines that stop where the owned area ends end exactly on its edge
+  // (end_at_owned_edge); with a plain one they stop at the last crossing.
   double max_distance = std::numeric_limits<double>::infinity();
 };
 
