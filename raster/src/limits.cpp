@@ -331,23 +331,8 @@ std::vector<LimitVertex> with_corners(const Target& t, const std::vector<LimitVe
     if (u.site == w.site || u.site == kNoSite || w.site == kNoSite) continue;
     const double ru = index.reach_of(u.site), rw = index.reach_of(w.site);
     const double chord = std::hypot(w.p.x - u.p.x, w.p.y - u.p.y);
-    const Vec2 mid = lerp(u.p, w.p, 0.5);
-    Vec2 q = mid;
-    bool found = false;
-    for (int iter = 0; iter < 30 && !found; ++iter) {
-      Vec2 g1, g2;
-      const double f1 = m.distance_and_gradient(q, u.site, g1) - ru;
-      const double f2 = m.distance_and_gradient(q, w.site, g2) - rw;
-      if (std::max(std::abs(f1), std::abs(f2)) <= t.grid.ftol) {
-        found = true;
-        break;
-      }
-      const double det = g1.x * g2.y - g1.y * g2.x;
-      if (!std::isfinite(det) || !(std::abs(det) > 0.0)) break;
-      q = Vec2{q.x - (f1 * g2.y - f2 * g1.y) / det, q.y - (g1.x * f2 - g2.x * f1) / det};
-      if (!(std::hypot(q.x - mid.x, q.y - mid.y) <= chord)) break;
-    }
-    if (!found) continue;
+    Vec2 q;
+    if (!arcs_meet(m, u.site, ru, w.site, rw, lerp(u.p, w.p, 0.5), chord, t.grid.ftol, 30, q)) continue;
     const OwnerIndex::Hit h = index.deepest(q);
     if (h.cost < -t.grid.ftol) continue;  // inside another site's reach: not on the edge
     out.push_back(LimitVertex{q, u.site, std::abs(h.cost)});

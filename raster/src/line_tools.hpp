@@ -260,4 +260,27 @@ inline bool outside_frame(const GridSpec& g, Vec2 p) {
   return p.x < g.centre_x(0) || p.x > g.centre_x(g.width - 1) || p.y > g.centre_y(0) || p.y < g.centre_y(g.height - 1);
 }
 
+// The point near `start` where site s1 is at distance r1 and s2 at r2 (two arcs or a corner of
+// a limit meet): Newton's method on the two distances' gradients, at most `iterations` steps,
+// staying within `max_move` of `start`, to `ftol` (metric units). False where it does not
+// converge there.
+inline bool arcs_meet(const SiteMetric& m, int32_t s1, double r1, int32_t s2, double r2, Vec2 start, double max_move,
+                      double ftol, int iterations, Vec2& out) {
+  Vec2 q = start;
+  for (int iter = 0; iter < iterations; ++iter) {
+    Vec2 g1, g2;
+    const double f1 = m.distance_and_gradient(q, s1, g1) - r1;
+    const double f2 = m.distance_and_gradient(q, s2, g2) - r2;
+    if (std::max(std::abs(f1), std::abs(f2)) <= ftol) {
+      out = q;
+      return true;
+    }
+    const double det = g1.x * g2.y - g1.y * g2.x;
+    if (!std::isfinite(det) || !(std::abs(det) > 0.0)) return false;
+    q = Vec2{q.x - (f1 * g2.y - f2 * g1.y) / det, q.y - (g1.x * f2 - g2.x * f1) / det};
+    if (!(std::hypot(q.x - start.x, q.y - start.y) <= max_move)) return false;
+  }
+  return false;
+}
+
 }  // namespace rv::line_tools

@@ -184,18 +184,8 @@ class Finder {
   // `p` where it does not converge within a few chords of it.
   Vec2 corner(Vec2 p, int32_t s1, int32_t s2, double D, double chord) const {
     if (s1 == kNoSite || s2 == kNoSite || s1 == s2) return p;
-    Vec2 q = p;
-    for (int iter = 0; iter < 20; ++iter) {
-      Vec2 g1, g2;
-      const double f1 = metric_.distance_and_gradient(q, s1, g1) - D;
-      const double f2 = metric_.distance_and_gradient(q, s2, g2) - D;
-      if (std::max(std::abs(f1), std::abs(f2)) <= 1e-3 * tol_) return q;
-      const double det = g1.x * g2.y - g1.y * g2.x;
-      if (!std::isfinite(det) || !(std::abs(det) > 0.0)) break;
-      q = Vec2{q.x - (f1 * g2.y - f2 * g1.y) / det, q.y - (g1.x * f2 - g2.x * f1) / det};
-      if (!(std::hypot(q.x - p.x, q.y - p.y) <= 4.0 * chord)) break;
-    }
-    return p;
+    Vec2 q;
+    return arcs_meet(metric_, s1, D, s2, D, p, 4.0 * chord, 1e-3 * tol_, 20, q) ? q : p;
   }
 
   Basepoint basepoint(Vec2 p, const Element& e) const {
