@@ -3,6 +3,7 @@
 #include "rv/edit.hpp"
 
 #include <algorithm>
+#include <array>
 #include <bit>
 #include <cmath>
 #include <functional>
@@ -189,32 +190,120 @@ namespace {
 
 constexpr int64_t kBlock = 16;
 
-// The cells where added features can win: blocks of cells ruled out as a whole where the added
-// features' nearest distance at the block's centre, less the block's radius, over their largest
-// weight, exceeds every base cost in the block (or every reach); the rest cell by cell, by the
-// added features' adjusted cost against the base's.
-struct AddedFeatures {
-  SeedSet seeds;
-  std::unique_ptr<SiteMetric> metric;
-  std::unique_ptr<OwnerIndex> plain, adjusted;
-  double w_max = 0.0, r_max = 0.0;
-};
-
 // Relative slack on a base cost: the Float32 distance's rounding (2^-24), generously.
 constexpr double kSlack = 1e-6;
 
 }  // namespace
 
-EditPlan plan_edit(const NearestField& base, const SeedSet& base_seeds, const SeedSet& edited, const GridSpec& grid,
-                   const ComputeOptions& options) {
+// The cells where added features can win: blocks of cells ruled out as a whole where the added
+// features' nearest distance at the block's centre, less the block's radius, over their largest
+// weight, exceeds every base cost in the block (or every reach); the rest cell by cell, by the
+// added features' adjusted cost against the base's.
+struct Edit::State {
+  const SeedSet& base_seeds;
+  const SeedSet& edited;
+  GridSpec grid;
+  ComputeOptions options;
+  FeatureMatch match;
+  std::vector<int32_t> remap;  // base site -> edited site
+  bool any_added = false;
+  // Polygons added on a projected geodesic grid need their grid-CRS copies, which the job holds
+  // for the whole set: every cell is computed again.
+  bool all_cells = false;
+  SeedSet added;
+  std::unique_ptr<SiteMetric> metric;
+  std::unique_ptr<OwnerIndex> plain, adjusted;
+  double w_max = 0.0, r_max = 0.0;
+
+  State(const SeedSet& b, const SeedSet& e, const GridSpec& g, const ComputeOptions& o)
+      : base_seeds(b), edited(e), grid(g), options(o) {
+    if (options.method != Method::exact)
+      throw Error(ErrorKind::invalid_argument, "edit: only the exact method recomputes a part of a field");
+    options.window.reset();
+    options.mask = nullptr;
+    options.progress = nullptr;
+    match = match_features(base_seeds, edited);
+    remap = edited_sites(base_seeds, edited, match);
+    std::vector<bool> keep(edited.features().size(), false);
+    for (size_t f = 0; f < keep.size(); ++f)
+      if (match.base_of_edited[f] < 0) keep[f] = any_added = true;
+    if (!any_added) return;
+    added = added_features(edited, keep);
+    if (options.geolocator && !added.polygons().empty()) {
+      all_cells = true;
+      return;
+    }
+    ComputeOptions a = options;
+    a.grid_polygons = nullptr;
+    a.prepared = nullptr;
+    metric = make_site_metric(added, grid, a);
+    plain = std::make_unique<OwnerIndex>(*metric, OwnerIndex::Measure::plain);
+    adjusted = std::make_unique<OwnerIndex>(*metric, OwnerIndex::Measure::adjusted, options.max_distance);
+    for (const Feature& f : added.features()) {
+      w_max = std::max(w_max, f.weight);
+      r_max = std::max(r_max, std::min(f.reach, options.max_distance));
+    }
+  }
+
+  // Marks the cells of window `w` (flags `marked`, base costs `cost`) where an added feature can win.
+  int64_t mark_added(const Window& w, std::vector<uint8_t>& marked, const std::vector<double>& cost) const {
+    const int64_t bw = (w.width + kBlock - 1) / kBlock, bh = (w.height + kBlock - 1) / kBlock;
+    std::vector<int64_t> measured(static_cast<size_t>(bh), 0);
+    detail::parallel_for(resolve_threads(options.threads), bh, [&](int64_t br, int) {
+      for (int64_t bc = 0; bc < bw; ++bc) {
+        const int64_t c0 = bc * kBlock, r0 = br * kBlock;
+        const int64_t c1 = std::min(w.width, c0 + kBlock), r1 = std::min(w.height, r0 + kBlock);
+        double block_cost = -1.0;
+        for (int64_t r = r0; r < r1; ++r)
+          for (int64_t c = c0; c < c1; ++c) {
+            const size_t i = static_cast<size_t>(r * w.width + c);
+            if (!marked[i]) block_cost = std::max(block_cost, cost[i]);
+          }
+        if (block_cost < 0.0) continue;  // every cell is computed again anyway
+        const Vec2 a{grid.centre_x(w.col0 + c0), grid.centre_y(w.row0 + r0)};
+        const Vec2 b{grid.centre_x(w.col0 + c1 - 1), grid.centre_y(w.row0 + r1 - 1)};
+        const Vec2 mid{0.5 * (a.x + b.x), 0.5 * (a.y + b.y)};
+        double radius = 0.0;
+        for (const Vec2 q : {a, b, Vec2{a.x, b.y}, Vec2{b.x, a.y}})
+          radius = std::max(radius, metric->point_distance(mid, q));
+        // (Corners bound a small block in the plane; 1 % covers a longitude/latitude block's
+        // curvature.)
+        radius = radius * 1.01 + 1e-9;
+        const double near = std::max(0.0, plain->nearest(mid).distance - radius);
+        if (near > r_max || near / w_max > block_cost) continue;
+        ++measured[static_cast<size_t>(br)];
+        for (int64_t r = r0; r < r1; ++r)
+          for (int64_t c = c0; c < c1; ++c) {
+            const size_t i = static_cast<size_t>(r * w.width + c);
+            if (marked[i]) continue;
+            const OwnerIndex::Hit h = adjusted->nearest(Vec2{grid.centre_x(w.col0 + c), grid.centre_y(w.row0 + r)});
+            if (h.site != kNoSite && h.cost <= cost[i]) marked[i] = 1;
+          }
+      }
+    });
+    int64_t n = 0;
+    for (const int64_t m : measured) n += m;
+    return n;
+  }
+};
+
+Edit::Edit(const SeedSet& base_seeds, const SeedSet& edited, const GridSpec& grid, const ComputeOptions& options)
+    : st_(std::make_unique<State>(base_seeds, edited, grid, options)) {}
+Edit::~Edit() = default;
+Edit::Edit(Edit&&) noexcept = default;
+
+const FeatureMatch& Edit::match() const { return st_->match; }
+const std::vector<int32_t>& Edit::site_map() const { return st_->remap; }
+
+EditPlan Edit::plan(const NearestField& base) const {
+  const State& st = *st_;
   EditPlan plan;
-  plan.match = match_features(base_seeds, edited);
+  plan.match = st.match;
   const Window w = base.site.window();
   plan.mask = CellMask::none(w);
-  const auto nsites = static_cast<int32_t>(base_seeds.sites().size());
-  const std::vector<int32_t> remap = edited_sites(base_seeds, edited, plan.match);
+  const auto nsites = static_cast<int32_t>(st.base_seeds.sites().size());
   // Per cell: 1 where it must be computed again; the base cost elsewhere.
-  std::vector<uint8_t> marked(static_cast<size_t>(w.cell_count()), 0);
+  std::vector<uint8_t> marked(static_cast<size_t>(w.cell_count()), st.all_cells ? 1 : 0);
   std::vector<double> cost(static_cast<size_t>(w.cell_count()), std::numeric_limits<double>::infinity());
   for (int64_t r = 0; r < w.height; ++r)
     for (int64_t c = 0; c < w.width; ++c) {
@@ -222,77 +311,16 @@ EditPlan plan_edit(const NearestField& base, const SeedSet& base_seeds, const Se
       const int32_t s = base.site.at(c, r);
       if (s == kNoSite) continue;
       if (s < 0 || s >= nsites) throw Error(ErrorKind::invalid_argument, "edit: the base field does not fit its seeds");
-      const Site& site = base_seeds.sites()[static_cast<size_t>(s)];
-      if (remap[static_cast<size_t>(s)] == kNoSite || (plan.match.owners_reordered && site.kind == SiteKind::area)) {
+      const Site& site = st.base_seeds.sites()[static_cast<size_t>(s)];
+      if (st.remap[static_cast<size_t>(s)] == kNoSite || (st.match.owners_reordered && site.kind == SiteKind::area)) {
         marked[i] = 1;
         ++plan.removed_cells;
         continue;
       }
       cost[i] = static_cast<double>(base.distance.at(c, r)) * (1.0 + kSlack) /
-                base_seeds.features()[static_cast<size_t>(site.feature)].weight;
+                st.base_seeds.features()[static_cast<size_t>(site.feature)].weight;
     }
-  // The added features alone.
-  std::vector<bool> keep(edited.features().size(), false);
-  bool any_added = false;
-  for (size_t f = 0; f < keep.size(); ++f)
-    if (plan.match.base_of_edited[f] < 0) keep[f] = any_added = true;
-  if (any_added) {
-    AddedFeatures added;
-    added.seeds = added_features(edited, keep);
-    ComputeOptions o = options;
-    o.grid_polygons = nullptr;
-    o.prepared = nullptr;
-    o.mask = nullptr;
-    if (options.geolocator && !added.seeds.polygons().empty()) {
-      // Polygons on a projected geodesic grid need their grid-CRS copies, which the job holds
-      // for the whole set: every cell is computed again.
-      std::fill(marked.begin(), marked.end(), 1);
-    } else {
-      added.metric = make_site_metric(added.seeds, grid, o);
-      added.plain = std::make_unique<OwnerIndex>(*added.metric, OwnerIndex::Measure::plain);
-      added.adjusted = std::make_unique<OwnerIndex>(*added.metric, OwnerIndex::Measure::adjusted, options.max_distance);
-      for (const Feature& f : added.seeds.features()) {
-        added.w_max = std::max(added.w_max, f.weight);
-        added.r_max = std::max(added.r_max, std::min(f.reach, options.max_distance));
-      }
-      const int64_t bw = (w.width + kBlock - 1) / kBlock, bh = (w.height + kBlock - 1) / kBlock;
-      std::vector<int64_t> measured(static_cast<size_t>(bh), 0);
-      detail::parallel_for(resolve_threads(options.threads), bh, [&](int64_t br, int) {
-        for (int64_t bc = 0; bc < bw; ++bc) {
-          const int64_t c0 = bc * kBlock, r0 = br * kBlock;
-          const int64_t c1 = std::min(w.width, c0 + kBlock), r1 = std::min(w.height, r0 + kBlock);
-          double block_cost = -1.0;
-          for (int64_t r = r0; r < r1; ++r)
-            for (int64_t c = c0; c < c1; ++c) {
-              const size_t i = static_cast<size_t>(r * w.width + c);
-              if (!marked[i]) block_cost = std::max(block_cost, cost[i]);
-            }
-          if (block_cost < 0.0) continue;  // every cell is computed again anyway
-          const Vec2 a{grid.centre_x(w.col0 + c0), grid.centre_y(w.row0 + r0)};
-          const Vec2 b{grid.centre_x(w.col0 + c1 - 1), grid.centre_y(w.row0 + r1 - 1)};
-          const Vec2 mid{0.5 * (a.x + b.x), 0.5 * (a.y + b.y)};
-          double radius = 0.0;
-          for (const Vec2 q : {a, b, Vec2{a.x, b.y}, Vec2{b.x, a.y}})
-            radius = std::max(radius, added.metric->point_distance(mid, q));
-          // (Corners bound a small block in the plane; 1 % covers a longitude/latitude block's
-          // curvature.)
-          radius = radius * 1.01 + 1e-9;
-          const double near = std::max(0.0, added.plain->nearest(mid).distance - radius);
-          if (near > added.r_max || near / added.w_max > block_cost) continue;
-          ++measured[static_cast<size_t>(br)];
-          for (int64_t r = r0; r < r1; ++r)
-            for (int64_t c = c0; c < c1; ++c) {
-              const size_t i = static_cast<size_t>(r * w.width + c);
-              if (marked[i]) continue;
-              const OwnerIndex::Hit h =
-                  added.adjusted->nearest(Vec2{grid.centre_x(w.col0 + c), grid.centre_y(w.row0 + r)});
-              if (h.site != kNoSite && h.cost <= cost[i]) marked[i] = 1;
-            }
-        }
-      });
-      for (const int64_t m : measured) plan.blocks_measured += m;
-    }
-  }
+  if (st.any_added && !st.all_cells) plan.blocks_measured = st.mark_added(w, marked, cost);
   for (int64_t r = 0; r < w.height; ++r) {
     const uint8_t* row = marked.data() + r * w.width;
     for (int64_t c = 0; c < w.width;) {
@@ -310,22 +338,93 @@ EditPlan plan_edit(const NearestField& base, const SeedSet& base_seeds, const Se
   return plan;
 }
 
-NearestField apply_edit(const NearestField& base, const SeedSet& base_seeds, const SeedSet& edited,
-                        const GridSpec& grid, const ComputeOptions& options, const EditPlan& plan) {
-  if (options.method != Method::exact)
-    throw Error(ErrorKind::invalid_argument, "edit: only the exact method recomputes a part of a field");
-  const std::vector<int32_t> remap = edited_sites(base_seeds, edited, plan.match);
-  NearestField out;
-  out.site = base.site;
-  out.distance = base.distance;
+void Edit::apply(const NearestField& base, const EditPlan& plan, NearestField& out) const {
+  const State& st = *st_;
+  if (&out != &base) {
+    out.site = base.site;
+    out.distance = base.distance;
+  }
   out.metric = base.metric;
   out.geolocator = base.geolocator;
   for (int32_t& s : out.site.cells())
-    if (s != kNoSite) s = remap[static_cast<size_t>(s)];
-  ComputeOptions o = options;
+    if (s != kNoSite) s = st.remap[static_cast<size_t>(s)];
+  ComputeOptions o = st.options;
   o.window = base.site.window();
   o.mask = std::make_shared<const CellMask>(plan.mask);
-  compute_into(edited, grid, o, out);
+  compute_into(st.edited, st.grid, o, out);
+}
+
+void EditChanges::add(const EditChanges& o) {
+  owner_cells += o.owner_cells;
+  distance_only_cells += o.distance_only_cells;
+  for (const auto& [pair, area] : o.moved) moved[pair] += area;
+}
+
+EditChanges tally_changes(const NearestField& base, const SeedSet& base_seeds, const NearestField& edited,
+                          const SeedSet& edited_seeds, const GridSpec& grid, const Geolocator* geolocator,
+                          int32_t* codes) {
+  const Window w = base.site.window();
+  if (!(edited.site.window() == w)) throw Error(ErrorKind::invalid_argument, "tally_changes: the windows differ");
+  // Owners by label: each base code's code in the edited set (0 when it has none there).
+  std::unordered_map<std::string, int32_t> edited_code;
+  for (size_t i = 0; i < edited_seeds.owner_labels().size(); ++i)
+    edited_code.emplace(edited_seeds.owner_labels()[i], static_cast<int32_t>(i + 1));
+  std::vector<int32_t> code_in_edited(base_seeds.owner_labels().size() + 1, 0);
+  for (size_t i = 0; i < base_seeds.owner_labels().size(); ++i) {
+    const auto it = edited_code.find(base_seeds.owner_labels()[i]);
+    code_in_edited[i + 1] = it == edited_code.end() ? -1 : it->second;  // -1: an owner the edit dropped
+  }
+  auto owner_of = [](const SeedSet& s, int32_t site) { return site == kNoSite ? 0 : s.site_owner(site); };
+  auto label = [](const SeedSet& s, int32_t code) {
+    return code <= 0 ? std::string() : s.owner_labels()[static_cast<size_t>(code - 1)];
+  };
+  // The area of a cell: its square, measured as the regions' rings are (per row on
+  // longitude/latitude grids, where it depends on the row alone).
+  const MetricSpec& metric = edited.metric;
+  auto cell_area = [&](int64_t col, int64_t row) {
+    const double x0 = grid.xmin + static_cast<double>(col) * grid.res;
+    const double y1 = grid.ymax - static_cast<double>(row) * grid.res;
+    const std::array<Vec2, 4> ring{Vec2{x0, y1}, Vec2{x0 + grid.res, y1}, Vec2{x0 + grid.res, y1 - grid.res},
+                                   Vec2{x0, y1 - grid.res}};
+    return ring_area(ring, metric, geolocator, grid.res);
+  };
+  std::unordered_map<int64_t, double> row_area;
+  EditChanges out;
+  for (int64_t r = 0; r < w.height; ++r)
+    for (int64_t c = 0; c < w.width; ++c) {
+      const int32_t sb = base.site.at(c, r), se = edited.site.at(c, r);
+      const int32_t ob = owner_of(base_seeds, sb), oe = owner_of(edited_seeds, se);
+      const bool owner_changed = (ob == 0 ? 0 : code_in_edited[static_cast<size_t>(ob)]) != oe;
+      const bool distance_changed =
+          std::bit_cast<uint32_t>(base.distance.at(c, r)) != std::bit_cast<uint32_t>(edited.distance.at(c, r));
+      if (codes) codes[r * w.width + c] = owner_changed ? 1 : distance_changed ? 2 : 0;
+      if (!owner_changed) {
+        out.distance_only_cells += distance_changed;
+        continue;
+      }
+      ++out.owner_cells;
+      const int64_t col = w.col0 + c, row = w.row0 + r;
+      double area = 0.0;
+      if (metric.kind == MetricSpec::geodesic && geolocator == nullptr) {
+        const auto it = row_area.find(row);
+        area = it != row_area.end() ? it->second : (row_area[row] = cell_area(col, row));
+      } else {
+        area = cell_area(col, row);
+      }
+      out.moved[{label(base_seeds, ob), label(edited_seeds, oe)}] += area;
+    }
+  return out;
+}
+
+EditPlan plan_edit(const NearestField& base, const SeedSet& base_seeds, const SeedSet& edited, const GridSpec& grid,
+                   const ComputeOptions& options) {
+  return Edit(base_seeds, edited, grid, options).plan(base);
+}
+
+NearestField apply_edit(const NearestField& base, const SeedSet& base_seeds, const SeedSet& edited,
+                        const GridSpec& grid, const ComputeOptions& options, const EditPlan& plan) {
+  NearestField out;
+  Edit(base_seeds, edited, grid, options).apply(base, plan, out);
   return out;
 }
 

@@ -122,6 +122,43 @@ SeedSet SeedSet::without(const std::vector<bool>& drop, std::vector<int32_t>& si
   return out;
 }
 
+SeedSet SeedSet::from_parts(std::vector<Site> sites, std::vector<Polygon> polygons, std::vector<Feature> features,
+                            std::vector<std::string> owner_labels) {
+  auto bad = [](const std::string& what) { throw Error(ErrorKind::invalid_input, "seed set: " + what); };
+  SeedSet out;
+  for (const std::string& label : owner_labels)
+    if (!out.owner_index_.emplace(label, static_cast<int32_t>(out.owner_index_.size() + 1)).second)
+      bad("owner label repeated");
+  const auto nf = static_cast<int64_t>(features.size());
+  const auto no = static_cast<int64_t>(owner_labels.size());
+  for (const Feature& f : features)
+    if (f.owner < 1 || f.owner > no || !(f.weight > 0.0) || !std::isfinite(f.weight) || !(f.reach > 0.0) ||
+        !(f.effect >= 0.0 && f.effect <= 1.0))
+      bad("a feature's owner, weight, reach or effect out of range");
+  int32_t last = 0;
+  for (const Site& s : sites) {
+    if (s.feature < last || s.feature >= nf) bad("a site's feature out of range or order");
+    if (!finite(s.a) || !finite(s.b) || static_cast<uint8_t>(s.kind) > static_cast<uint8_t>(SiteKind::area))
+      bad("a site out of its domain");
+    last = s.feature;
+  }
+  if (sites.size() >= static_cast<size_t>(std::numeric_limits<int32_t>::max() - 1)) bad("too many sites");
+  for (const Polygon& p : polygons) {
+    if (p.feature < 0 || p.feature >= nf || p.area_site < 0 || static_cast<size_t>(p.area_site) >= sites.size())
+      bad("a polygon's feature or area site out of range");
+    const Site& a = sites[static_cast<size_t>(p.area_site)];
+    if (a.kind != SiteKind::area || a.feature != p.feature) bad("a polygon's area site is not its own");
+    for (const Ring& r : p.rings)
+      for (const Vec2 v : r)
+        if (!finite(v)) bad("a polygon's vertex out of its domain");
+  }
+  out.sites_ = std::move(sites);
+  out.polygons_ = std::move(polygons);
+  out.features_ = std::move(features);
+  out.owner_labels_ = std::move(owner_labels);
+  return out;
+}
+
 int SeedSet::add_point(int32_t feature, Vec2 p) {
   check_feature(feature);
   if (!finite(p)) throw Error(ErrorKind::invalid_input, feature_name(feature) + ": non-finite coordinate");

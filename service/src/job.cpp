@@ -12,10 +12,12 @@
 #include <optional>
 
 #include "atomic_file.hpp"
+#include "edit_base.hpp"
 #include "job_run.hpp"
 #include "job_stream.hpp"
 #include "memory_watch.hpp"
 #include "rv/deliverables.hpp"
+#include "rv/edit.hpp"
 #include "rv/error.hpp"
 #include "rv/gdal/osr_geolocator.hpp"
 #include "rv/gdal/raster_io.hpp"
@@ -276,7 +278,7 @@ JobPlan plan_job(const JobSpec& spec, const GridSpec& grid, int64_t sites, Metri
     p.why_whole = "validation compares whole fields";
   else if (spec.seeds.effect_field)
     p.why_whole = "partial effect compares two whole fields, without and with the partial features";
-  else if (rasters == 0 && !out.any_deliverable())
+  else if (rasters == 0 && !out.any_deliverable() && out.report.empty() && out.edit_base.empty())
     p.why_whole = "no raster output";
   else if (spec.strip_rows < 0)
     p.why_whole = "streaming turned off";
@@ -548,7 +550,8 @@ RasterTargets raster_targets(const JobSpec& spec, const PreparedJob& job) {
 
 // Stages "compute" and "write" together: strip by strip, each strip encoded while the next is
 // computed (JobPlan::streamed).
-void compute_streamed(detail::JobRun& run, const PreparedJob& job, const RasterTargets& targets) {
+void compute_streamed(detail::JobRun& run, const PreparedJob& job, const RasterTargets& targets,
+                      detail::EditBaseWriter* keep, detail::EditBase* base) {
   const JobSpec& spec = run.spec;
   // The deliverables take each strip in as it is computed.
   std::optional<detail::StripDeliverables> deliverables;
@@ -573,15 +576,60 @@ void compute_streamed(detail::JobRun& run, const PreparedJob& job, const RasterT
   if (!spec.outputs.distance.empty()) target(Product::distance, spec.outputs.distance, targets.distance, "distance");
   if (!spec.outputs.nearest_feature.empty())
     target(Product::nearest_feature, spec.outputs.nearest_feature, targets.feature, "nearest_feature");
+  // The edit of a finished run: its strips come from the base, recomputed where the edit can
+  // change them.
+  std::optional<Edit> edit;
+  std::optional<NearestField> base_strip;
+  detail::EditTally tally;
+  if (base) {
+    stream.compute.prepared = prepare(job.loaded.seeds, job.grid, stream.compute);
+    edit.emplace(base->seeds(), job.loaded.seeds, job.grid, stream.compute);
+    base_strip.emplace();
+    if (!spec.outputs.changes.empty()) {
+      GeoTiffOptions o = detail::raster_options(spec);
+      o.max_code = 2;
+      o.metadata["CONTENT"] =
+          "1 = owner changed, 2 = only the distance changed, 0 = unchanged (edit of a finished run)";
+      target(Product::changes, spec.outputs.changes, o, "changes");
+    }
+    const bool codes = !spec.outputs.changes.empty();
+    stream.source = [&, codes](const Window& w, NearestField& field, std::vector<int32_t>& changes) {
+      detail::timed_add(tally.read_seconds, [&] { base->read(w.row0, w.height, *base_strip); });
+      EditPlan plan;
+      detail::timed_add(tally.plan_seconds, [&] { plan = edit->plan(*base_strip); });
+      detail::timed_add(tally.apply_seconds, [&] { edit->apply(*base_strip, plan, field); });
+      tally.cells_recomputed += plan.cells;
+      tally.cells_of_removed += plan.removed_cells;
+      tally.blocks_measured += plan.blocks_measured;
+      ++tally.strips;
+      if (codes) changes.resize(static_cast<size_t>(w.cell_count()));
+      detail::timed_add(tally.tally_seconds, [&] {
+        tally.changes.add(tally_changes(*base_strip, base->seeds(), field, job.loaded.seeds, job.grid,
+                                        job.compute.geolocator.get(), codes ? changes.data() : nullptr));
+      });
+    };
+  }
+  // What this run keeps for edits of it.
+  if (keep) {
+    target(Product::site, keep->site_path(), keep->site_options(), "edit_base_site");
+    stream.targets.back().hasher = &keep->site_hash;
+    target(Product::metric_distance, keep->distance_path(), keep->distance_options(), "edit_base_distance");
+    stream.targets.back().hasher = &keep->distance_hash;
+  }
   run.progress("compute", 0.0);
   const detail::StreamStats st = detail::run_streamed(stream);
+  if (base)
+    run.report["edit"] =
+        detail::edit_report(*base, *edit, job.loaded.seeds, tally, job.grid, job.metric.kind == MetricSpec::geodesic);
+  if (base && !spec.base_name.empty()) run.report["edit"]["base"] = spec.base_name;
   run.compute_seconds = st.compute;
   run.contested_cells = st.contested_cells;
   run.threads_used = st.threads;
   for (const auto& [name, seconds] : st.write) run.write_times[name] = seconds;
   run.timings["compute"] = st.compute;
   if (deliverables) deliverables->finish();
-  for (const detail::StreamTarget& t : stream.targets) run.wrote(t.name, t.path);
+  for (const detail::StreamTarget& t : stream.targets)
+    if (t.product != Product::site && t.product != Product::metric_distance) run.wrote(t.name, t.path);
   // compute and write overlap: their sum exceeds the wall time they took together.
   run.timings["streamed"] = {{"strips", st.strips},
                              {"rows_per_strip", job.plan.strip_rows},
@@ -736,8 +784,23 @@ JobResult run_job(const JobSpec& spec, const JobLimits& limits, const JobHooks& 
   run.timings["read"] = job.read_seconds;
   const RasterTargets targets = raster_targets(spec, job);
   NearestField field;  // the whole field (whole path only)
+  // An edit's base, opened (and checked against this job) before anything is written.
+  std::unique_ptr<detail::EditBase> base;
+  if (spec.base_report.empty() && !spec.base_name.empty())
+    throw Error(ErrorKind::internal, "a base job named but not resolved to its report");
+  if (!spec.base_report.empty()) {
+    base = std::make_unique<detail::EditBase>(spec.base_report, spec, job);
+    if (!job.plan.streamed)
+      throw Error(ErrorKind::invalid_argument, "base: an edit is streamed (" + job.plan.why_whole + ")");
+  } else if (!spec.outputs.changes.empty()) {
+    throw Error(ErrorKind::invalid_argument, "the changes raster is an edit's: it needs a base");
+  }
+  // A streamed run with a report keeps its field for edits of it.
+  std::unique_ptr<detail::EditBaseWriter> keep;
+  if (job.plan.streamed && !(spec.outputs.report.empty() && spec.outputs.edit_base.empty()))
+    keep = std::make_unique<detail::EditBaseWriter>(spec, job);
   if (job.plan.streamed) {
-    compute_streamed(run, job, targets);
+    compute_streamed(run, job, targets, keep.get(), base.get());
   } else if (job.partial.any()) {
     const PartialEffectResult partial = compute_partial(run, job);
     validate_stage(run, job, partial.full);
@@ -748,6 +811,11 @@ JobResult run_job(const JobSpec& spec, const JobLimits& limits, const JobHooks& 
     validate_stage(run, job, field);
     write_rasters(run, job, field, targets);
     detail::deliver(run, job, field);
+  }
+  if (keep) {
+    const std::string dir = keep->commit();
+    run.guard.add_directory(dir);
+    run.report["edit_base"] = std::filesystem::path(dir).filename().string();
   }
   assemble_report(run, job, memory, start);
   if (!spec.outputs.report.empty()) {

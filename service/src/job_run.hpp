@@ -32,13 +32,17 @@ class OutputGuard {
       std::filesystem::remove(f, ec);
       std::filesystem::remove(f + ".aux.xml", ec);
     }
+    for (const std::string& d : directories_) std::filesystem::remove_all(d, ec);
   }
   void add(const std::string& f) { files_.push_back(f); }
+  // A directory the job made whole (its kept base): removed with everything in it.
+  void add_directory(const std::string& d) { directories_.push_back(d); }
   void commit() { committed_ = true; }
   const std::vector<std::string>& files() const { return files_; }
 
  private:
   std::vector<std::string> files_;
+  std::vector<std::string> directories_;
   bool committed_ = false;
 };
 
@@ -78,6 +82,14 @@ void timed(nlohmann::json& into, const char* name, F&& f) {
   const auto t = Clock::now();
   f();
   into[name] = seconds_since(t);
+}
+
+// Runs f() and adds its wall time in seconds to `into`.
+template <class F>
+void timed_add(double& into, F&& f) {
+  const auto t = Clock::now();
+  f();
+  into += seconds_since(t);
 }
 
 // Removes a raster file and its sidecar, if there.

@@ -59,6 +59,8 @@ void lower_priority() {
 // computation at 1e8 cells).
 struct Strip {
   NearestField field;
+  std::vector<float> metric_distance;  // the distances before conversion (a metric_distance target, factor != 1)
+  std::vector<int32_t> changes;        // a changes target's codes (from the strip source)
   int64_t row0 = 0;
   int64_t rows = 0;
 };
@@ -68,9 +70,12 @@ using AnyWriter = std::variant<GeoTiffStripWriter<int32_t>, GeoTiffStripWriter<f
 AnyWriter open_writer(const StreamTarget& t, const GridSpec& grid) {
   switch (t.product) {
     case StreamTarget::Product::distance:
+    case StreamTarget::Product::metric_distance:
       return GeoTiffStripWriter<float>(t.path, grid, grid.full_window(), static_cast<double>(kNoDistance), t.options);
     case StreamTarget::Product::ownership:
     case StreamTarget::Product::nearest_feature:
+    case StreamTarget::Product::site:
+    case StreamTarget::Product::changes:
       break;
   }
   return GeoTiffStripWriter<int32_t>(t.path, grid, grid.full_window(), 0.0, t.options);
@@ -87,6 +92,7 @@ struct StreamState {
   SiteCodes owner_codes, feature_codes;  // made only when a file needs them
   std::vector<AnyWriter> writers;        // one per target
   std::array<Strip, 2> strips;
+  bool keep_metric_distance = false;  // a metric_distance target with a unit conversion
   StripHandoff handoff;
   std::vector<double> write_seconds, write_waited;  // per writer
 
@@ -113,15 +119,37 @@ void write_file(StreamState& st, size_t i) {
       if (!k) break;
       const Strip& s = st.strips[static_cast<size_t>(*k)];
       const auto t = Clock::now();
+      auto write_codes = [&](const int32_t* cells) {
+        if (target.hasher) target.hasher->add_rows(cells, s.rows);
+        std::get<GeoTiffStripWriter<int32_t>>(st.writers[i]).write_rows(cells, s.rows);
+      };
+      auto write_floats = [&](const float* cells) {
+        if (target.hasher) target.hasher->add_rows(cells, s.rows);
+        std::get<GeoTiffStripWriter<float>>(st.writers[i]).write_rows(cells, s.rows);
+      };
       switch (target.product) {
         case StreamTarget::Product::ownership:
-          std::get<GeoTiffStripWriter<int32_t>>(st.writers[i]).write_rows(coded(st.owner_codes, s), s.rows);
+          write_codes(coded(st.owner_codes, s));
           break;
         case StreamTarget::Product::nearest_feature:
-          std::get<GeoTiffStripWriter<int32_t>>(st.writers[i]).write_rows(coded(st.feature_codes, s), s.rows);
+          write_codes(coded(st.feature_codes, s));
+          break;
+        case StreamTarget::Product::site: {
+          const int64_t n = s.rows * st.width;
+          codes.resize(static_cast<size_t>(n));
+          const int32_t* sites = s.field.site.data();
+          for (int64_t k = 0; k < n; ++k) codes[static_cast<size_t>(k)] = sites[k] + 1;  // kNoSite -> 0
+          write_codes(codes.data());
+          break;
+        }
+        case StreamTarget::Product::changes:
+          write_codes(s.changes.data());
           break;
         case StreamTarget::Product::distance:
-          std::get<GeoTiffStripWriter<float>>(st.writers[i]).write_rows(s.field.distance.data(), s.rows);
+          write_floats(s.field.distance.data());
+          break;
+        case StreamTarget::Product::metric_distance:
+          write_floats(st.keep_metric_distance ? s.metric_distance.data() : s.field.distance.data());
           break;
       }
       st.write_seconds[i] += seconds_since(t);
@@ -157,7 +185,13 @@ void compute_strips(StreamState& st, int64_t strip_rows, StreamStats& stats, Rep
     options.progress = [&, row0, rows = s.rows](double f) {
       report("compute", (static_cast<double>(row0) + f * static_cast<double>(rows)) / static_cast<double>(st.height));
     };
-    compute_into(*job.seeds, job.grid, options, s.field);
+    if (job.source) {
+      const auto t = Clock::now();
+      job.source(*options.window, s.field, s.changes);
+      s.field.seconds = seconds_since(t);
+    } else {
+      compute_into(*job.seeds, job.grid, options, s.field);
+    }
     stats.compute += s.field.seconds;
     stats.contested_cells += s.field.contested_cells;
     stats.threads = s.field.threads;
@@ -167,6 +201,8 @@ void compute_strips(StreamState& st, int64_t strip_rows, StreamStats& stats, Rep
       stats.deliverables += seconds_since(t);
     }
     const auto t = Clock::now();
+    if (st.keep_metric_distance)
+      s.metric_distance.assign(s.field.distance.cells().begin(), s.field.distance.cells().end());
     if (job.distance_factor != 1.0)
       scale_distances(s.field.distance.data(), s.field.distance.data(), s.rows * st.width, job.distance_factor);
     stats.convert += seconds_since(t);
@@ -189,6 +225,9 @@ StreamStats run_streamed(const StreamJob& job) {
     want_owners = want_owners || t.product == StreamTarget::Product::ownership;
     want_features = want_features || t.product == StreamTarget::Product::nearest_feature;
   }
+  for (const StreamTarget& t : job.targets)
+    st.keep_metric_distance =
+        st.keep_metric_distance || (t.product == StreamTarget::Product::metric_distance && job.distance_factor != 1.0);
   if (want_owners) st.owner_codes = SiteCodes::owners(*job.seeds);
   if (want_features) st.feature_codes = SiteCodes::features(*job.seeds, job.feature_numbering);
   // Every file is created before the first strip is computed: an unwritable target fails at

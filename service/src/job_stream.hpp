@@ -12,18 +12,23 @@
 #include <string>
 #include <vector>
 
+#include "edit_base.hpp"
 #include "rv/engine.hpp"
 #include "rv/gdal/raster_io.hpp"
 
 namespace rv::detail {
 
 // One GeoTIFF of a streamed job.
+// site: the field's site index + 1 (0 = none); metric_distance: the distance in metric units,
+// before the job's unit conversion; changes: the codes the strip source left in Strip::changes.
 struct StreamTarget {
-  enum class Product { ownership, distance, nearest_feature };
+  enum class Product { ownership, distance, nearest_feature, site, metric_distance, changes };
   Product product;
   std::string path;
   GeoTiffOptions options;
   std::string name;  // key in the report's write timings
+  // When set, fed every value written, in order, on the writer's thread (read after the run).
+  BandHasher* hasher = nullptr;
 };
 
 struct StreamJob {
@@ -42,6 +47,10 @@ struct StreamJob {
   // Called with each strip as computed (distances in metric units), on the computing thread,
   // before the writers see it; may be empty. What it throws stops the job as a failed strip would.
   std::function<void(const NearestField& strip)> on_strip;
+  // When set, produces each strip's field instead of the engine (an edit of a finished run):
+  // fills `field` over `window` (distances in metric units) and, when a target is a changes
+  // raster, `changes` with one code per cell. Called on the computing thread, strips in order.
+  std::function<void(const Window& window, NearestField& field, std::vector<int32_t>& changes)> source;
 };
 
 // What the streamed run measured; every time in seconds.

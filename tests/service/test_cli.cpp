@@ -529,7 +529,7 @@ TEST_F(Cli, RelevantAreaAndTheDisproportionalityTest) {
   EXPECT_NEAR(ra["pair"]["coast_ratio"].get<double>(), 1.0, 1e-9);
   EXPECT_NEAR(ra["pair"]["area_ratio"].get<double>(), 1.0, 1e-9);
   EXPECT_EQ(ra["coasts"], "nearest to the area's cells");
-  EXPECT_EQ(file_count(), 3u);  // no regions file was asked for, none written
+  EXPECT_EQ(file_count(), 4u);  // no regions file was asked for, none written (+ the report's kept base)
   // Given coasts.
   const std::string given = write("given.geojson", R"({"type":"FeatureCollection",)" + crs + R"("features":[
     {"type":"Feature","properties":{"state":"A"},"geometry":{"type":"LineString","coordinates":[[470000,6000000],[500000,6000000]]}},
@@ -717,7 +717,8 @@ TEST_F(Cli, DeliverablesAloneNeedNoRaster) {
   std::ifstream in(path("r.json"));
   const std::string report((std::istreambuf_iterator<char>(in)), {});
   EXPECT_NE(report.find("\"streamed\": true"), std::string::npos) << report;
-  EXPECT_EQ(file_count(), 2u);  // the lines and the report, nothing else
+  EXPECT_EQ(file_count(), 3u);  // the lines, the report and what it keeps for edits, nothing else
+  EXPECT_TRUE(fs::exists(path("r.json.rvbase/manifest.json")));
 }
 
 // A GeoTIFF's layout as GDAL reports it: data type, COMPRESSION, PREDICTOR and LAYOUT of the

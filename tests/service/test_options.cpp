@@ -66,11 +66,16 @@ TEST(Options, EachOptionIsDeclaredOnceAndComplete) {
     }
   }
   // The process inputs of the voronoi process, besides the seeds: the API's ids stay as they are.
-  EXPECT_EQ(inputs,
-            (std::set<std::string_view>{"ownerField", "weightField", "reachField", "effectField", "borderTolerance",
-                                        "transformAccuracy", "allowBallpark", "resolution", "extent", "crs", "metric",
-                                        "method", "maxDistance", "distanceUnits", "validate", "limitDistances",
-                                        "limitsPerOwner", "simplify", "compression"}));
+  EXPECT_EQ(inputs, (std::set<std::string_view>{"ownerField",      "weightField",
+                                                "reachField",      "effectField",
+                                                "borderTolerance", "transformAccuracy",
+                                                "allowBallpark",   "resolution",
+                                                "extent",          "crs",
+                                                "metric",          "method",
+                                                "maxDistance",     "distanceUnits",
+                                                "validate",        "limitDistances",
+                                                "limitsPerOwner",  "simplify",
+                                                "compression",     "baseJob"}));
 }
 
 TEST(Options, TheCliAndTheProcessInputsMakeTheSameJob) {

@@ -829,6 +829,42 @@ Raster<T> read_band(const std::string& path) {
 
 }  // namespace
 
+template <class T>
+struct GeoTiffRowReader<T>::State {
+  OpenedRaster raster;
+  std::string path;
+};
+
+template <class T>
+GeoTiffRowReader<T>::GeoTiffRowReader(const std::string& path)
+    : st_(std::make_unique<State>(State{open_raster(path), path})) {}
+template <class T>
+GeoTiffRowReader<T>::~GeoTiffRowReader() = default;
+template <class T>
+GeoTiffRowReader<T>::GeoTiffRowReader(GeoTiffRowReader&&) noexcept = default;
+template <class T>
+GeoTiffRowReader<T>& GeoTiffRowReader<T>::operator=(GeoTiffRowReader&&) noexcept = default;
+template <class T>
+const GridSpec& GeoTiffRowReader<T>::grid() const {
+  return st_->raster.grid;
+}
+
+template <class T>
+void GeoTiffRowReader<T>::read_rows(int64_t row0, int64_t rows, T* out) {
+  const GridSpec& g = st_->raster.grid;
+  if (row0 < 0 || rows < 0 || row0 + rows > g.height)
+    throw Error(ErrorKind::invalid_argument, st_->path + ": rows beyond the raster");
+  if (rows == 0) return;
+  gdal::ErrorCapture capture;
+  if (st_->raster.ds->GetRasterBand(1)->RasterIO(GF_Read, 0, static_cast<int>(row0), static_cast<int>(g.width),
+                                                 static_cast<int>(rows), out, static_cast<int>(g.width),
+                                                 static_cast<int>(rows), PixelType<T>::gdal, 0, 0, nullptr) != CE_None)
+    throw Error(ErrorKind::io, "reading " + st_->path + " failed" + capture.suffix());
+}
+
+template class GeoTiffRowReader<int32_t>;
+template class GeoTiffRowReader<float>;
+
 std::string_view to_string(Compression c) {
   switch (c) {
     case Compression::fast:

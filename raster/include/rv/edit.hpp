@@ -16,10 +16,15 @@
 #pragma once
 
 #include <cstdint>
+#include <map>
+#include <memory>
+#include <string>
+#include <utility>
 #include <vector>
 
 #include "rv/cell_mask.hpp"
 #include "rv/engine.hpp"
+#include "rv/geolocate.hpp"
 #include "rv/seeds.hpp"
 
 namespace rv {
@@ -51,15 +56,67 @@ struct EditPlan {
   int64_t blocks_measured = 0;  // blocks of cells an added feature could not be ruled out of
 };
 
-// The plan of an edit of `base` (the field of `base_seeds` over `grid`, its window, computed with
-// `options`) to `edited`. Throws rv::Error(invalid_argument) where the field does not fit the
-// seeds (a site index out of range). Threads: options.threads.
+// An edit prepared once for a grid: the features matched, the base sites renumbered, the added
+// features indexed. plan() and apply() then take any window of the base field (a streamed job's
+// strips one after the other, or the whole grid). Both seed sets and the options' shared parts
+// (geolocator, prepared, grid_polygons) are kept by reference and must outlive the Edit.
+// `options`: the job's (metric, max distance, threads, geolocator; `prepared`, when set, must be
+// the edited seeds' preparation for `grid`); its window and mask are ignored.
+// Thread safety: plan() and apply() are const and may be called from one thread at a time or
+// several (each call uses options.threads threads of its own).
+class Edit {
+ public:
+  Edit(const SeedSet& base_seeds, const SeedSet& edited, const GridSpec& grid, const ComputeOptions& options);
+  ~Edit();
+  Edit(Edit&&) noexcept;
+  Edit& operator=(Edit&&) = delete;
+  Edit(const Edit&) = delete;
+  Edit& operator=(const Edit&) = delete;
+
+  const FeatureMatch& match() const;
+  // Per base site, its site in the edited set (edited_sites).
+  const std::vector<int32_t>& site_map() const;
+
+  // The plan for `base`, the base field over any window of the grid (the field of the base seeds
+  // computed with the same options). Throws rv::Error(invalid_argument) where the field does not
+  // fit the base seeds (a site index out of range).
+  EditPlan plan(const NearestField& base) const;
+
+  // The edited field over base's window into `out` (its buffers reused as compute_into does):
+  // the base's cells renumbered to the edited sites, the plan's cells computed again. Equal to
+  // compute(edited, grid, options) over that window, cell for cell. Needs options.method exact
+  // (else rv::Error(invalid_argument), thrown by the constructor).
+  void apply(const NearestField& base, const EditPlan& plan, NearestField& out) const;
+
+ private:
+  struct State;
+  std::unique_ptr<State> st_;
+};
+
+// What an edit changed over a window, and where. Owners are compared by label (an edit may
+// renumber their codes); "" stands for no owner (cells beyond the max distance or every reach).
+struct EditChanges {
+  int64_t owner_cells = 0;          // cells whose owner changed
+  int64_t distance_only_cells = 0;  // cells whose owner stayed and whose distance changed (bit for bit)
+  // Area that went from one owner to another, keyed (from, to): square metres on the metric's
+  // ellipsoid for geodesic fields, CRS units squared for planar ones. A cell's area is its
+  // square's (ring_area, rv/deliverables.hpp).
+  std::map<std::pair<std::string, std::string>, double> moved;
+  void add(const EditChanges& other);
+};
+
+// The changes from `base` (a field of `base_seeds`) to `edited` (of `edited_seeds`) over the same
+// window of `grid`. `codes`, when not null, receives one value per cell of the window, row-major:
+// 1 where the owner changed, 2 where only the distance did, 0 elsewhere. `geolocator`: the
+// projected geodesic grid's (cell areas located on the ellipsoid); null otherwise.
+// Throws rv::Error(invalid_argument) when the windows differ.
+EditChanges tally_changes(const NearestField& base, const SeedSet& base_seeds, const NearestField& edited,
+                          const SeedSet& edited_seeds, const GridSpec& grid, const Geolocator* geolocator,
+                          int32_t* codes);
+
+// One-shot forms of Edit over a base field of any window.
 EditPlan plan_edit(const NearestField& base, const SeedSet& base_seeds, const SeedSet& edited, const GridSpec& grid,
                    const ComputeOptions& options);
-
-// The edited field: the base's cells renumbered to the edited sites, the plan's cells computed
-// again (the exact method with a mask). Equal to compute(edited, grid, options) over the base's
-// window, cell for cell. Needs options.method exact (else rv::Error(invalid_argument)).
 NearestField apply_edit(const NearestField& base, const SeedSet& base_seeds, const SeedSet& edited,
                         const GridSpec& grid, const ComputeOptions& options, const EditPlan& plan);
 

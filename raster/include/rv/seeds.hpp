@@ -108,6 +108,13 @@ class SeedSet {
   // and codes (an owner may be left without features), the kept features, sites and polygons in
   // their order. `site_of` receives, per site of the copy, its index here.
   SeedSet without(const std::vector<bool>& drop, std::vector<int32_t>& site_of) const;
+  // A seed set from its parts as sites(), polygons(), features() and owner_labels() give them
+  // (rv/seed_archive.hpp reads them back). Throws rv::Error(invalid_input) where they do not fit
+  // together: a site's or polygon's feature out of range or out of order, a polygon's area site
+  // not an area site of its feature, an owner code out of range, a repeated owner label, or a
+  // coordinate, weight, reach or effect out of its domain.
+  static SeedSet from_parts(std::vector<Site> sites, std::vector<Polygon> polygons, std::vector<Feature> features,
+                            std::vector<std::string> owner_labels);
 
   const std::vector<Site>& sites() const { return sites_; }
   const std::vector<Polygon>& polygons() const { return polygons_; }

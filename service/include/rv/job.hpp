@@ -53,7 +53,13 @@ struct OutputRequest {
   std::string margin;             // Float32 GeoTIFF: other owner's distance minus own (-1 = none)
   std::string preview;            // PNG quicklook of ownership with boundary lines
   std::string turning_points;     // the boundary lines' turning points, a treaty table (.json/.csv)
-  double simplify_cells = 0.0;    // Douglas-Peucker tolerance of boundary and limit lines, cells
+  // An edit's changes (JobSpec::base_report): Byte GeoTIFF, 1 where the owner changed, 2 where
+  // only the distance did, 0 elsewhere.
+  std::string changes;
+  // The directory where the run keeps its field for later edits (service/src/edit_base.hpp):
+  // streamed runs only; "" = the report's path with ".rvbase" when there is a report, else none.
+  std::string edit_base;
+  double simplify_cells = 0.0;  // Douglas-Peucker tolerance of boundary and limit lines, cells
   // The disproportionality test (regions within a relevant area): a vector file of the relevant
   // area's polygons, and optionally of each owner's relevant coasts (lines, owned through the
   // seeds' owner field; by default the parts of the seeds nearest to the area's cells).
@@ -90,6 +96,13 @@ struct JobSpec {
   // (clamped to the grid's height), < 0 = never stream (compute the whole field, then write;
   // for comparisons). Never changes a cell of the outputs.
   int64_t strip_rows = 0;
+  // An edit of a finished run: the report of that run (its kept base, see service/src/edit_base.hpp).
+  // The job then reads the base's field instead of computing it, recomputes the cells the edited
+  // seeds can change, and writes what a fresh run of this spec writes, file for file; its report
+  // says what changed ("edit"). The base's grid, metric, method, distance units, max distance and
+  // compression must equal this job's (else invalid_argument naming the difference).
+  std::string base_report;
+  std::string base_name;  // how the report names the base ("" = base_report)
 };
 
 // How run_job computes and writes a job, decided from the request and the grid alone, before

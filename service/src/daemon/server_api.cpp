@@ -170,6 +170,8 @@ json process_description(const std::string& base) {
       "schema": {"oneOf": [
         {"type": "object", "contentMediaType": "application/json"},
         {"type": "string", "contentMediaType": "text/csv"}]}},
+    "changes": {"title": "Changes raster", "description": "With baseJob: 1 where the edit changed a cell's owner, 2 where only its distance changed, 0 elsewhere (Byte).",
+      "schema": {"type": "string", "contentEncoding": "binary", "contentMediaType": "image/tiff; application=geotiff; profile=cloud-optimized"}},
     "preview": {"title": "Quicklook", "description": "PNG of the ownership in distinct colours with the boundary lines in white; one pixel per cell, or per n x n cells (the smallest integer n keeping the long side within 2000 px; the report's deliverables.preview gives it).",
       "schema": {"type": "string", "contentEncoding": "binary", "contentMediaType": "image/png"}}
   })json");

@@ -136,6 +136,7 @@ const std::vector<OutputInfo>& output_table() {
       {"margin", "margin", {{kMediaGeoTiff, "tif"}}},
       {"preview", "preview", {{kMediaPng, "png"}}},
       {"turningPoints", "turning_points", {{kMediaJson, "json"}, {kMediaCsv, "csv"}}},
+      {"changes", "changes", {{kMediaGeoTiff, "tif"}}},
   };
   return table;
 }

@@ -35,7 +35,7 @@ class VsiMemFiles {
 // The outputs of the process, in the order of OutputRequest.
 inline constexpr const char* kOutputIds[] = {"ownership",  "distance",  "nearestFeature", "report",
                                              "boundaries", "tripoints", "limits",         "regions",
-                                             "margin",     "preview",   "turningPoints"};
+                                             "margin",     "preview",   "turningPoints",  "changes"};
 
 // Media types of the result files.
 inline constexpr const char* kMediaGeoTiff = "image/tiff; application=geotiff; profile=cloud-optimized";

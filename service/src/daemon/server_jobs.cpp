@@ -91,6 +91,35 @@ int JobManager::queued_count() const {
   return static_cast<int>(queue_.size());
 }
 
+std::string JobManager::snapshot_base(const std::string& base, const std::string& id) const {
+  auto bad = [](ErrorKind kind, const std::string& what) { throw Error(kind, "input 'baseJob': " + what); };
+  if (!is_job_id(base)) bad(ErrorKind::invalid_argument, "not a job id");
+  const std::optional<JobRecord> rec = store_.get(base);
+  if (!rec || rec->status == JobStatus::dismissed) bad(ErrorKind::not_found, "no job " + base);
+  if (rec->status != JobStatus::successful)
+    bad(ErrorKind::invalid_argument,
+        "job " + base + " is " + std::string(to_string(rec->status)) + "; only a successful job can be edited");
+  // The base's report and kept field, linked into the new job's directory now: the base job may
+  // be deleted while this one waits or runs, and its files then live on under these names.
+  namespace fs = std::filesystem;
+  const fs::path from = job_dir(base), to = job_dir(id) / kBaseSnapshotDir;
+  if (!fs::exists(from / kEditBaseDir / "manifest.json"))
+    bad(ErrorKind::invalid_argument,
+        "job " + base + " kept nothing for edits (only streamed jobs of the exact method do)");
+  std::error_code ec;
+  fs::create_directories(to / kEditBaseDir, ec);
+  auto link = [&](const fs::path& a, const fs::path& b) {
+    fs::create_hard_link(a, b, ec);
+    if (ec) fs::copy_file(a, b, fs::copy_options::overwrite_existing, ec);
+    if (ec) throw Error(ErrorKind::io, "cannot keep the base job's files: " + ec.message());
+  };
+  link(from / output_file_name("report", ""), to / output_file_name("report", ""));
+  for (const fs::directory_entry& e : fs::directory_iterator(from / kEditBaseDir, ec))
+    link(e.path(), to / kEditBaseDir / e.path().filename());
+  if (ec) throw Error(ErrorKind::io, "cannot keep the base job's files: " + ec.message());
+  return (to / output_file_name("report", "")).string();
+}
+
 JobRecord JobManager::submit(const std::string& id, Execution execution, Done on_done) {
   JobRecord rec;
   rec.id = id;
@@ -105,6 +134,7 @@ JobRecord JobManager::submit(const std::string& id, Execution execution, Done on
 
   std::lock_guard lock(mutex_);
   if (stopping_) throw Error(ErrorKind::busy, "the server is shutting down; resubmit the job later");
+  if (!execution.spec.base_name.empty()) execution.spec.base_report = snapshot_base(execution.spec.base_name, id);
   // Capacity counts the workers too: a free worker takes a job even with queue_length 0.
   const size_t capacity = static_cast<size_t>(config_.jobs.queue_length + std::max(1, config_.jobs.workers));
   if (queue_.size() + running_.size() >= capacity) {
@@ -221,6 +251,7 @@ JobSpec spec_in_directory(const Execution& execution, const JobRecord& rec, cons
   out.cloud_optimized = true;
   out.ownership = (dir / output_file_name("ownership", "")).string();
   out.report.clear();
+  out.edit_base = (dir / kEditBaseDir).string();
   std::map<std::string, std::string*> paths = {{"distance", &out.distance},
                                                {"nearestFeature", &out.nearest_feature},
                                                {"boundaries", &out.boundaries},
@@ -229,7 +260,8 @@ JobSpec spec_in_directory(const Execution& execution, const JobRecord& rec, cons
                                                {"regions", &out.regions},
                                                {"margin", &out.margin},
                                                {"preview", &out.preview},
-                                               {"turningPoints", &out.turning_points}};
+                                               {"turningPoints", &out.turning_points},
+                                               {"changes", &out.changes}};
   for (size_t i = 0; i < rec.outputs.size(); ++i) {
     const auto it = paths.find(rec.outputs[i]);
     if (it == paths.end()) continue;  // ownership and report: above
@@ -328,6 +360,7 @@ JobRecord JobManager::run_task(Task& task) {
   };
   Outcome outcome = execute(runner_, spec, limits_, hooks, id, dir);
   task.execution.uploads.reset();  // the in-memory seed files are no longer needed
+  remove_dir(dir / kBaseSnapshotDir);
   record_end(rec, outcome.error_kind, outcome.message, outcome.result.report, dir);
   return rec;
 }

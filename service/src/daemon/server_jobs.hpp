@@ -28,6 +28,11 @@
 
 namespace rv::daemon {
 
+// Inside a job's directory: what the job keeps for edits of it, and the files of the job it edits
+// (removed when it ends).
+inline constexpr const char* kEditBaseDir = "edit-base";
+inline constexpr const char* kBaseSnapshotDir = "base-snapshot";
+
 class JobManager {
  public:
   // Called on a worker thread once the job is finished (successful, failed or dismissed),
@@ -41,7 +46,10 @@ class JobManager {
   std::filesystem::path job_dir(const std::string& id) const;
 
   // Records the job as accepted and queues it. Throws rv::Error(busy) when the queue is full or
-  // the server is shutting down (nothing is recorded then).
+  // the server is shutting down (nothing is recorded then). An edit (spec.base_name, the input
+  // baseJob) names a successful job: its report and kept field are linked into the new job's
+  // directory first (so deleting the base meanwhile breaks nothing), and spec.base_report set to
+  // them; else not_found (no such job) or invalid_argument (not successful, nothing kept).
   JobRecord submit(const std::string& id, Execution execution, Done on_done = {});
 
   // Dismisses a job; returns its record afterwards, or nullopt when there is no such job.
@@ -70,6 +78,9 @@ class JobManager {
 
   void worker_loop();
   void watchdog_loop();
+  // The base job's files linked into job `id`'s directory; returns the linked report's path.
+  // Call with mutex_ held.
+  std::string snapshot_base(const std::string& base, const std::string& id) const;
   // Runs one job to its end and returns its final record.
   JobRecord run_task(Task& task);
   // Records how the job ended (unless it was dismissed meanwhile), removing its files if it

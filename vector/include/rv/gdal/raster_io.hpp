@@ -174,6 +174,30 @@ GridSpec read_grid(const std::string& path);
 Raster<int32_t> read_int32(const std::string& path);
 Raster<float> read_float32(const std::string& path);
 
+// Band 1 of a GeoTIFF read in whole rows, a window at a time (the base field of an edit, strip by
+// strip), converted to T by GDAL. Keeps the file open from construction on: a file renamed over
+// or removed meanwhile is still read as it was when opened (POSIX). Throws rv::Error(not_found,
+// invalid_input as read_grid; io where GDAL fails to read).
+// Thread safety: none inside; one reader per thread.
+template <class T>
+class GeoTiffRowReader {
+ public:
+  explicit GeoTiffRowReader(const std::string& path);
+  ~GeoTiffRowReader();
+  GeoTiffRowReader(GeoTiffRowReader&&) noexcept;
+  GeoTiffRowReader& operator=(GeoTiffRowReader&&) noexcept;
+  const GridSpec& grid() const;
+  // Rows [row0, row0 + rows) into `out` (rows * width values, row-major).
+  void read_rows(int64_t row0, int64_t rows, T* out);
+
+ private:
+  struct State;
+  std::unique_ptr<State> st_;
+};
+
+extern template class GeoTiffRowReader<int32_t>;
+extern template class GeoTiffRowReader<float>;
+
 // The category labels of band 1: label of value v at index v-1, from the raster attribute table
 // (columns Value and Owner) or, without one, the band's category names (index 0 = value 0 is
 // skipped). Empty when the file has neither.

@@ -1,0 +1,473 @@
+// Edits of a finished job through the façade (issue 32): a run keeps its field; the user edits the
+// seed file in place and runs the job again naming the earlier report; every file the edit writes
+// equals a fresh run's of the edited file (rasters by content, vector deliverables byte for byte),
+// and the report's area moved equals the area measured from the two ownership rasters. Random
+// edits of points, lines and polygons (remove, add, move, change owner, reweight, reorder,
+// several at once, a seed outside the grid, nothing), planar and geodesic. Bad bases give their
+// error and write nothing.
+#include <gtest/gtest.h>
+
+#include <unistd.h>
+
+#include <GeographicLib/PolygonArea.hpp>
+#include <GeographicLib/Rhumb.hpp>
+#include <algorithm>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <random>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "geotiff_compare.hpp"
+#include "rv/error.hpp"
+#include "rv/gdal/raster_io.hpp"
+#include "rv/job.hpp"
+
+namespace fs = std::filesystem;
+
+namespace rv {
+namespace {
+
+using test::expect_same_geotiff;
+
+// One seed feature as the test writes it to GeoJSON.
+struct Feat {
+  int id = 0;
+  std::string owner;
+  int kind = 0;  // 0 point, 1 line, 2 polygon
+  std::vector<std::array<double, 2>> pts;
+  double weight = 1.0;
+};
+
+struct Case {
+  bool geodesic = false;
+  std::array<double, 4> extent{};  // xmin ymin xmax ymax
+  double res = 0.0;
+  std::string limit;  // a limit distance
+  std::optional<double> max_distance;
+  bool weights = false;
+};
+
+std::string read_text(const fs::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  std::ostringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+class EditJob : public ::testing::Test {
+ public:
+  void SetUp() override {
+    gdal_init();
+    dir_ = fs::temp_directory_path() / ("rv_edit_" + std::to_string(::getpid()) + "_" +
+                                        ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    fs::remove_all(dir_);
+    fs::create_directories(dir_);
+  }
+  void TearDown() override { fs::remove_all(dir_); }
+
+  void write_seeds(const std::vector<Feat>& feats, const Case& c) const {
+    nlohmann::json fc = {{"type", "FeatureCollection"}, {"features", nlohmann::json::array()}};
+    if (!c.geodesic) fc["crs"] = {{"type", "name"}, {"properties", {{"name", "urn:ogc:def:crs:EPSG::32633"}}}};
+    for (const Feat& f : feats) {
+      nlohmann::json coords = nlohmann::json::array();
+      for (const auto& p : f.pts) coords.push_back({p[0], p[1]});
+      nlohmann::json geom;
+      if (f.kind == 0) geom = {{"type", "Point"}, {"coordinates", coords[0]}};
+      if (f.kind == 1) geom = {{"type", "LineString"}, {"coordinates", coords}};
+      if (f.kind == 2) {
+        coords.push_back(coords[0]);
+        geom = {{"type", "Polygon"}, {"coordinates", {coords}}};
+      }
+      fc["features"].push_back({{"type", "Feature"},
+                                {"id", f.id},
+                                {"properties", {{"owner", f.owner}, {"w", f.weight}}},
+                                {"geometry", geom}});
+    }
+    std::ofstream(seeds_path()) << fc.dump();
+  }
+  std::string seeds_path() const { return (dir_ / "seeds.geojson").string(); }
+
+  JobSpec spec(const Case& c, const std::string& sub) const {
+    fs::create_directories(dir_ / sub);
+    JobSpec s;
+    s.seeds.paths = {seeds_path()};
+    s.seeds.owner_field = "owner";
+    if (c.weights) s.seeds.weight_field = "w";
+    s.grid.resolution = c.res;
+    s.grid.extent = c.extent;
+    s.max_distance = c.max_distance;
+    if (c.geodesic) s.distance_units = DistanceUnit::km;  // converted per strip: the kept field is in metres
+    s.strip_rows = 100;                                   // strips straddle the 256-row checksum bands
+    s.threads = 2;
+    OutputRequest& o = s.outputs;
+    const fs::path d = dir_ / sub;
+    o.ownership = (d / "own.tif").string();
+    o.distance = (d / "dist.tif").string();
+    o.nearest_feature = (d / "feat.tif").string();
+    o.boundaries = (d / "boundaries.geojson").string();
+    o.tripoints = (d / "tripoints.geojson").string();
+    o.limits = (d / "limits.geojson").string();
+    o.limit_distances = {c.limit};
+    o.regions = (d / "regions.geojson").string();
+    o.report = (d / "report.json").string();
+    return s;
+  }
+
+  fs::path dir_;
+};
+
+// The seeds: a 5 x 5 layout of slots over the extent, each holding one object so that no two
+// owners' seeds overlap or cross: 3 polygons, 4 lines, points elsewhere.
+std::vector<Feat> initial_seeds(const Case& c, std::mt19937& rng) {
+  std::vector<Feat> out;
+  const double w = (c.extent[2] - c.extent[0]) / 5.0, h = (c.extent[3] - c.extent[1]) / 5.0;
+  std::uniform_real_distribution<double> u(0.2, 0.8);
+  const char* owners[] = {"A", "B", "C", "D<&>"};
+  int id = 1;
+  for (int k = 0; k < 25; ++k) {
+    const double x0 = c.extent[0] + (k % 5) * w, y0 = c.extent[1] + (k / 5) * h;
+    Feat f;
+    f.id = id++;
+    f.owner = owners[rng() % 4];
+    f.weight = c.weights ? 1.0 + (rng() % 3) * 0.5 : 1.0;
+    if (k % 8 == 3) {
+      f.kind = 2;
+      const double cx = x0 + 0.5 * w, cy = y0 + 0.5 * h;
+      f.pts = {{cx - 0.2 * w, cy - 0.2 * h}, {cx + 0.25 * w, cy - 0.1 * h}, {cx + 0.1 * w, cy + 0.2 * h}};
+    } else if (k % 6 == 1) {
+      f.kind = 1;
+      f.pts = {{x0 + u(rng) * w, y0 + u(rng) * h}, {x0 + u(rng) * w, y0 + u(rng) * h}};
+    } else {
+      f.pts = {{x0 + u(rng) * w, y0 + u(rng) * h}};
+    }
+    out.push_back(f);
+  }
+  return out;
+}
+
+// A random edit of `feats`; returns what it did.
+std::string random_edit(std::vector<Feat>& feats, const Case& c, std::mt19937& rng, int op, int& next_id) {
+  const double w = (c.extent[2] - c.extent[0]) / 5.0, h = (c.extent[3] - c.extent[1]) / 5.0;
+  std::uniform_real_distribution<double> u(-0.1, 0.1);
+  auto pick = [&](int kind) {
+    std::vector<size_t> of;
+    for (size_t i = 0; i < feats.size(); ++i)
+      if (kind < 0 || feats[i].kind == kind) of.push_back(i);
+    return of.empty() ? feats.size() : of[rng() % of.size()];
+  };
+  switch (op) {
+    case 0: {  // remove
+      const size_t i = pick(-1);
+      feats.erase(feats.begin() + static_cast<std::ptrdiff_t>(i));
+      return "remove";
+    }
+    case 1: {  // add a point beside a point
+      const size_t i = pick(0);
+      Feat f = feats[i];
+      f.id = next_id++;
+      f.owner = feats[(i + 1) % feats.size()].owner;
+      f.pts[0][0] += u(rng) * w;
+      f.pts[0][1] += u(rng) * h;
+      feats.insert(feats.begin() + static_cast<std::ptrdiff_t>(rng() % (feats.size() + 1)), f);
+      return "add";
+    }
+    case 2: {  // move a point, a line's end or a polygon's vertex
+      const size_t i = pick(-1);
+      auto& p = feats[i].pts[rng() % feats[i].pts.size()];
+      p[0] += u(rng) * 0.5 * w;
+      p[1] += u(rng) * 0.5 * h;
+      return "move";
+    }
+    case 3: {  // change owner
+      const size_t i = pick(-1);
+      feats[i].owner = feats[i].owner == "A" ? "B" : "A";
+      return "owner";
+    }
+    case 4: {  // reweight (a no-op edit without a weight field)
+      const size_t i = pick(-1);
+      feats[i].weight += 0.5;
+      return "weight";
+    }
+    case 5: {  // reorder two features
+      std::swap(feats[pick(-1)], feats[pick(-1)]);
+      return "reorder";
+    }
+    case 6: {  // a point outside the grid
+      Feat f;
+      f.id = next_id++;
+      f.owner = "C";
+      f.pts = {{c.extent[2] + 0.3 * w, c.extent[1] + 2.5 * h}};
+      feats.push_back(f);
+      return "outside";
+    }
+    default:
+      return "nothing";
+  }
+}
+
+// The area of each cell whose owner differs between two ownership rasters, per (from, to) label:
+// planar, res^2; geodesic (longitude/latitude grid), the cell on the WGS84 ellipsoid bounded by
+// its meridians and parallels (rhumb lines, GeographicLib).
+std::map<std::pair<std::string, std::string>, double> moved_area(const std::string& before, const std::string& after,
+                                                                 const Case& c) {
+  const Raster<int32_t> a = read_int32(before), b = read_int32(after);
+  const std::vector<std::string> la = read_category_labels(before), lb = read_category_labels(after);
+  auto label = [](const std::vector<std::string>& l, int32_t v) { return v == 0 ? std::string() : l.at(v - 1); };
+  const GeographicLib::Rhumb& rhumb = GeographicLib::Rhumb::WGS84();
+  std::map<std::pair<std::string, std::string>, double> out;
+  const GridSpec& g = a.grid();
+  for (int64_t r = 0; r < g.height; ++r)
+    for (int64_t col = 0; col < g.width; ++col) {
+      const std::string x = label(la, a.at(col, r)), y = label(lb, b.at(col, r));
+      if (x == y) continue;
+      double area = g.res * g.res;
+      if (c.geodesic) {
+        GeographicLib::PolygonAreaRhumb p(rhumb);
+        const double x0 = g.xmin + col * g.res, y1 = g.ymax - r * g.res;
+        p.AddPoint(y1, x0);
+        p.AddPoint(y1, x0 + g.res);
+        p.AddPoint(y1 - g.res, x0 + g.res);
+        p.AddPoint(y1 - g.res, x0);
+        double perimeter = 0.0;
+        p.Compute(false, true, perimeter, area);
+        area = std::abs(area);
+      }
+      out[{x, y}] += area;
+    }
+  return out;
+}
+
+void expect_same_job_files(const JobSpec& x, const JobSpec& y) {
+  expect_same_geotiff(x.outputs.ownership, y.outputs.ownership);
+  expect_same_geotiff(x.outputs.distance, y.outputs.distance);
+  expect_same_geotiff(x.outputs.nearest_feature, y.outputs.nearest_feature);
+  for (std::string OutputRequest::*f :
+       {&OutputRequest::boundaries, &OutputRequest::tripoints, &OutputRequest::limits, &OutputRequest::regions})
+    EXPECT_EQ(read_text(x.outputs.*f), read_text(y.outputs.*f)) << x.outputs.*f;
+}
+
+// Each round edits the seed file in place, runs the edit against the previous round's report,
+// and compares with a fresh run; the next round's base is this round's edit (a chain of edits).
+void run_random_edits(EditJob& t, const Case& c, uint32_t seed, int rounds) {
+  std::mt19937 rng(seed);
+  std::vector<Feat> feats = initial_seeds(c, rng);
+  int next_id = 100;
+  t.write_seeds(feats, c);
+  JobSpec base = t.spec(c, "round0");
+  run_job(base);
+  ASSERT_TRUE(fs::exists(base.outputs.report + ".rvbase/manifest.json"));
+  for (int round = 1; round <= rounds; ++round) {
+    const int ops = 1 + static_cast<int>(rng() % 3);
+    std::string did;
+    for (int k = 0; k < ops; ++k) did += random_edit(feats, c, rng, static_cast<int>(rng() % 8), next_id) + " ";
+    SCOPED_TRACE("round " + std::to_string(round) + ": " + did);
+    t.write_seeds(feats, c);
+    JobSpec edit = t.spec(c, "edit" + std::to_string(round));
+    edit.base_report = base.outputs.report;
+    edit.outputs.changes = (fs::path(edit.outputs.report).parent_path() / "changes.tif").string();
+    const JobResult r = run_job(edit);
+    JobSpec fresh = t.spec(c, "fresh" + std::to_string(round));
+    fresh.strip_rows = 0;
+    run_job(fresh);
+    expect_same_job_files(edit, fresh);
+    // The kept fields are equal too: the next edit may start from either.
+    expect_same_geotiff(edit.outputs.report + ".rvbase/site.tif", fresh.outputs.report + ".rvbase/site.tif");
+    // What the report says moved, against the two ownership rasters.
+    const nlohmann::json& e = r.report.at("edit");
+    const auto expected = moved_area(base.outputs.ownership, edit.outputs.ownership, c);
+    std::map<std::pair<std::string, std::string>, double> reported;
+    for (const nlohmann::json& m : e.at("area_moved"))
+      reported[{m["from"].is_null() ? "" : m["from"].get<std::string>(),
+                m["to"].is_null() ? "" : m["to"].get<std::string>()}] = m["area"].get<double>();
+    ASSERT_EQ(reported.size(), expected.size());
+    for (const auto& [pair, area] : expected) {
+      ASSERT_TRUE(reported.count(pair)) << pair.first << " -> " << pair.second;
+      EXPECT_NEAR(reported[pair], area, 1e-9 * area + 1e-6) << pair.first << " -> " << pair.second;
+    }
+    // The changes raster against the two runs' rasters; its counts against the report's.
+    const Raster<int32_t> changes = read_int32(edit.outputs.changes);
+    const Raster<int32_t> ob = read_int32(base.outputs.ownership), oe = read_int32(edit.outputs.ownership);
+    const Raster<float> db = read_float32(base.outputs.distance), de = read_float32(edit.outputs.distance);
+    const auto lb = read_category_labels(base.outputs.ownership), le = read_category_labels(edit.outputs.ownership);
+    int64_t owner_cells = 0, distance_cells = 0, recomputed = e.at("cells_recomputed").get<int64_t>();
+    for (size_t i = 0; i < changes.cells().size(); ++i) {
+      const std::string a = ob.cells()[i] ? lb.at(ob.cells()[i] - 1) : "",
+                        b = oe.cells()[i] ? le.at(oe.cells()[i] - 1) : "";
+      const int want = a != b ? 1 : db.cells()[i] != de.cells()[i] ? 2 : 0;
+      ASSERT_EQ(changes.cells()[i], want) << "cell " << i;
+      owner_cells += want == 1;
+      distance_cells += want == 2;
+    }
+    EXPECT_EQ(e.at("owner_changed_cells").get<int64_t>(), owner_cells);
+    EXPECT_EQ(e.at("distance_only_changed_cells").get<int64_t>(), distance_cells);
+    EXPECT_GE(recomputed, owner_cells + distance_cells);
+    if (did == "nothing ") EXPECT_EQ(recomputed, 0);
+    base = edit;
+  }
+}
+
+TEST_F(EditJob, RandomEditsEqualFreshRunsPlanar) {
+  Case c;
+  c.extent = {400000.0, 6100000.0, 412000.0, 6112000.0};
+  c.res = 40.0;  // 300 x 300 cells
+  c.limit = "1500";
+  run_random_edits(*this, c, 7, 10);
+}
+
+TEST_F(EditJob, RandomEditsEqualFreshRunsPlanarWeightedWithMaxDistance) {
+  Case c;
+  c.extent = {400000.0, 6100000.0, 412000.0, 6112000.0};
+  c.res = 40.0;
+  c.limit = "1000";
+  c.max_distance = 1800.0;
+  c.weights = true;
+  run_random_edits(*this, c, 11, 8);
+}
+
+TEST_F(EditJob, RandomEditsEqualFreshRunsGeodesic) {
+  Case c;
+  c.geodesic = true;
+  c.extent = {10.0, 55.0, 10.6, 55.6};
+  c.res = 0.002;  // 300 x 300 cells
+  c.limit = "6km";
+  run_random_edits(*this, c, 5, 8);
+}
+
+class EditJobErrors : public EditJob {
+ protected:
+  // A base run of fixed seeds; returns its spec.
+  JobSpec base_run(const Case& c) {
+    std::mt19937 rng(3);
+    write_seeds(initial_seeds(c, rng), c);
+    JobSpec base = spec(c, "base");
+    run_job(base);
+    return base;
+  }
+  // Runs an edit of `base` that must fail with `kind` and a message holding `words`, and checks
+  // that it wrote nothing.
+  void expect_refused(JobSpec edit, const JobSpec& base, ErrorKind kind, const std::string& words) {
+    edit.base_report = base.outputs.report;
+    const fs::path d = fs::path(edit.outputs.report).parent_path();
+    try {
+      run_job(edit);
+      ADD_FAILURE() << "the edit was not refused (" << words << ")";
+    } catch (const Error& e) {
+      EXPECT_EQ(e.kind(), kind) << e.what();
+      EXPECT_NE(std::string(e.what()).find(words), std::string::npos) << e.what();
+    }
+    EXPECT_TRUE(fs::is_empty(d)) << "the refused edit left files in " << d;
+  }
+  Case planar() const {
+    Case c;
+    c.extent = {400000.0, 6100000.0, 412000.0, 6112000.0};
+    c.res = 40.0;
+    c.limit = "1500";
+    return c;
+  }
+};
+
+TEST_F(EditJobErrors, ADifferentGridMetricOrMethodIsNamed) {
+  const Case c = planar();
+  const JobSpec base = base_run(c);
+  JobSpec s = spec(c, "res");
+  s.grid.resolution = 50.0;
+  expect_refused(s, base, ErrorKind::invalid_argument, "grid resolution 50.0 (base: 40.0)");
+  s = spec(c, "extent");
+  s.grid.extent = std::array<double, 4>{400000.0, 6100000.0, 412000.0, 6112040.0};
+  expect_refused(s, base, ErrorKind::invalid_argument, "grid height");
+  s = spec(c, "metric");
+  s.metric = MetricRequest::geodesic;
+  expect_refused(s, base, ErrorKind::invalid_argument, "metric geodesic (base: planar)");
+  s = spec(c, "units");
+  s.distance_units = DistanceUnit::km;
+  expect_refused(s, base, ErrorKind::invalid_argument, "distance_units km (base: m)");
+  s = spec(c, "max");
+  s.max_distance = 2000.0;
+  expect_refused(s, base, ErrorKind::invalid_argument, "max_distance 2000.0 (base: none)");
+  s = spec(c, "compression");
+  s.outputs.compression = Compression::small;
+  expect_refused(s, base, ErrorKind::invalid_argument, "compression small (base: fast)");
+  s = spec(c, "method");
+  s.method = Method::hv_scan;
+  s.outputs.boundaries.clear();
+  expect_refused(s, base, ErrorKind::invalid_argument, "only the exact method");
+}
+
+TEST_F(EditJobErrors, MissingOrModifiedBaseFilesAreRefused) {
+  const Case c = planar();
+  const JobSpec base = base_run(c);
+  const fs::path kept = base.outputs.report + ".rvbase";
+  // A modified cell of the kept field.
+  fs::copy_file(kept / "distance.tif", dir_ / "distance.tif.saved");
+  {
+    Raster<float> d = read_float32((kept / "distance.tif").string());
+    d.at(10, 290) += 1.0f;
+    write_geotiff((kept / "distance.tif").string(), d, -1.0, GeoTiffOptions{});
+  }
+  expect_refused(spec(c, "modified"), base, ErrorKind::invalid_input,
+                 "distance.tif was modified since the base run (rows 256 on)");
+  fs::rename(dir_ / "distance.tif.saved", kept / "distance.tif");
+  // The saved file back: the edit runs.
+  JobSpec ok = spec(c, "ok");
+  ok.base_report = base.outputs.report;
+  EXPECT_NO_THROW(run_job(ok));
+  // A modified seed archive, a missing raster, a missing directory, a report that names none.
+  const std::string archive = read_text(kept / "seeds.bin");
+  {
+    std::string bytes = archive;
+    bytes[bytes.size() / 2] ^= 1;
+    std::ofstream(kept / "seeds.bin", std::ios::binary) << bytes;
+  }
+  expect_refused(spec(c, "seeds"), base, ErrorKind::invalid_input, "seeds.bin was modified");
+  std::ofstream(kept / "seeds.bin", std::ios::binary) << archive;
+  fs::remove(kept / "site.tif");
+  expect_refused(spec(c, "site"), base, ErrorKind::not_found, "site.tif is missing");
+  fs::remove_all(kept);
+  expect_refused(spec(c, "dir"), base, ErrorKind::not_found, "manifest.json is missing");
+  std::ofstream(dir_ / "other.json") << "{\"grid\": {}}";
+  JobSpec other = spec(c, "other");
+  JobSpec fake = base;
+  fake.outputs.report = (dir_ / "other.json").string();
+  expect_refused(other, fake, ErrorKind::invalid_input, "names nothing kept for edits");
+  fake.outputs.report = (dir_ / "none.json").string();
+  expect_refused(other, fake, ErrorKind::not_found, "none.json is missing");
+  // The changes raster without a base.
+  JobSpec lone = spec(c, "lone");
+  lone.outputs.changes = (dir_ / "lone" / "changes.tif").string();
+  try {
+    run_job(lone);
+    ADD_FAILURE() << "a changes raster without a base was accepted";
+  } catch (const Error& e) {
+    EXPECT_EQ(e.kind(), ErrorKind::invalid_argument);
+  }
+  EXPECT_TRUE(fs::is_empty(dir_ / "lone"));
+}
+
+TEST_F(EditJobErrors, AnEditInPlaceReplacesTheBaseItReads) {
+  // The same command again with --base naming its own report: the report, the kept field and
+  // every output are replaced by the edit's, equal to a fresh run's.
+  const Case c = planar();
+  JobSpec base = base_run(c);
+  std::mt19937 rng(3);
+  std::vector<Feat> feats = initial_seeds(c, rng);
+  feats.erase(feats.begin() + 4);
+  write_seeds(feats, c);
+  JobSpec again = base;
+  again.base_report = base.outputs.report;
+  const JobResult r = run_job(again);
+  EXPECT_EQ(r.report["edit"]["features"]["removed"].get<int64_t>(), 1);
+  JobSpec fresh = spec(c, "fresh");
+  run_job(fresh);
+  expect_same_job_files(again, fresh);
+  expect_same_geotiff(again.outputs.report + ".rvbase/site.tif", fresh.outputs.report + ".rvbase/site.tif");
+  for (const fs::directory_entry& e : fs::directory_iterator(dir_ / "base"))
+    EXPECT_EQ(e.path().filename().string().find(".tmp"), std::string::npos) << e.path();
+}
+
+}  // namespace
+}  // namespace rv
