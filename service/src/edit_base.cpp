@@ -321,23 +321,29 @@ nlohmann::json edit_report(const EditBase& base, const Edit& edit, const SeedSet
                            const GridSpec& grid, bool geodesic) {
   const SeedSet& before = base.seeds();
   const FeatureMatch& m = edit.match();
-  auto describe = [](const SeedSet& s, size_t f) {
-    return nlohmann::json{{"feature", s.feature_name(static_cast<int32_t>(f))},
+
+  // A feature removed and one added from the same source (the same file name, layer and id) are
+  // one feature changed. The file's directory does not count: the daemon stages every job's
+  // uploads in a directory of its own.
+  auto source_key = [](const std::string& source) {
+    const size_t slash = source.rfind('/');
+    return slash == std::string::npos ? source : source.substr(slash + 1);
+  };
+  auto describe = [&](const SeedSet& s, size_t f) {
+    return nlohmann::json{{"feature", source_key(s.feature_name(static_cast<int32_t>(f)))},
                           {"owner", s.owner_labels()[static_cast<size_t>(s.features()[f].owner - 1)]}};
   };
-  // A feature removed and one added from the same source (the same file, layer and id) are one
-  // feature changed.
   std::unordered_map<std::string, size_t> added_by_source;
   for (size_t f = 0; f < m.base_of_edited.size(); ++f)
     if (m.base_of_edited[f] < 0 && !edited.features()[f].source.empty())
-      added_by_source.emplace(edited.features()[f].source, f);
+      added_by_source.emplace(source_key(edited.features()[f].source), f);
   constexpr size_t kListed = 1000;
   nlohmann::json added = nlohmann::json::array(), removed = nlohmann::json::array(), changed = nlohmann::json::array();
   int64_t n_added = 0, n_removed = 0, n_changed = 0;
   std::vector<bool> paired(edited.features().size(), false);
   for (size_t f = 0; f < m.edited_of_base.size(); ++f) {
     if (m.edited_of_base[f] >= 0) continue;
-    const auto it = added_by_source.find(before.features()[f].source);
+    const auto it = added_by_source.find(source_key(before.features()[f].source));
     if (it != added_by_source.end() && !paired[it->second]) {
       paired[it->second] = true;
       if (changed.size() < kListed) changed.push_back(describe(edited, it->second));

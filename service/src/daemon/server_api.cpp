@@ -287,6 +287,11 @@ json status_info(const JobRecord& r, const std::string& base) {
   if (!r.started.empty()) s["started"] = r.started;
   if (!r.finished.empty()) s["finished"] = r.finished;
   json links = json::array({link(self, "self", kJson, "job status"), link(base + "/jobs", "up", kJson, "job list")});
+  // An edit names the job it edits (its input baseJob, a checked job id).
+  if (r.inputs.is_object() && r.inputs.contains("baseJob") && r.inputs["baseJob"].is_string() &&
+      is_job_id(r.inputs["baseJob"].get<std::string>()))
+    links.push_back(
+        link(base + "/jobs/" + r.inputs["baseJob"].get<std::string>(), "via", kJson, "the base job this job edits"));
   if (r.status == JobStatus::successful) {
     links.push_back(link(self + "/results", std::string(kOgcRel) + "results", kJson, "job results"));
     for (const std::string& o : r.outputs) {
