@@ -69,6 +69,7 @@ class EditBaseWriter {
   EditBaseWriter(const EditBaseWriter&) = delete;
   EditBaseWriter& operator=(const EditBaseWriter&) = delete;
   // The temporary paths of the two rasters, their options, and hashers the writers fill.
+  const std::string& temp_dir() const { return temp_; }
   const std::string& site_path() const { return site_path_; }
   const std::string& distance_path() const { return distance_path_; }
   GeoTiffOptions site_options() const;

@@ -72,24 +72,29 @@ nlohmann::json seeds_json(const LoadedSeeds& loaded) {
                                {"conversion", t.conversion},
                                {"ballpark", t.ballpark},
                                {"missing_grids", t.missing_grids}});
-  // The adjustments per owner that has any: the weights' range and the features with a reach.
-  nlohmann::json adjustments = nlohmann::json::array();
-  for (int32_t o = 1; o <= s.owner_count(); ++o) {
+  // The adjustments per owner that has any: the weights' range and the features with a reach (one
+  // pass over the features: a set may have as many owners as features).
+  struct Adjusted {
     double w_min = std::numeric_limits<double>::infinity(), w_max = 0.0;
     int64_t reaches = 0, weighted = 0;
-    for (const Feature& f : s.features()) {
-      if (f.owner != o) continue;
-      w_min = std::min(w_min, f.weight);
-      w_max = std::max(w_max, f.weight);
-      weighted += f.weight != 1.0;
-      reaches += std::isfinite(f.reach);
-    }
-    if (weighted > 0 || reaches > 0)
-      adjustments.push_back({{"owner", s.owner_labels()[static_cast<size_t>(o - 1)]},
-                             {"weight_min", w_min},
-                             {"weight_max", w_max},
-                             {"features_weighted", weighted},
-                             {"features_with_reach", reaches}});
+  };
+  std::vector<Adjusted> per_owner(static_cast<size_t>(s.owner_count()));
+  for (const Feature& f : s.features()) {
+    Adjusted& a = per_owner[static_cast<size_t>(f.owner - 1)];
+    a.w_min = std::min(a.w_min, f.weight);
+    a.w_max = std::max(a.w_max, f.weight);
+    a.weighted += f.weight != 1.0;
+    a.reaches += std::isfinite(f.reach);
+  }
+  nlohmann::json adjustments = nlohmann::json::array();
+  for (size_t o = 0; o < per_owner.size(); ++o) {
+    const Adjusted& a = per_owner[o];
+    if (a.weighted > 0 || a.reaches > 0)
+      adjustments.push_back({{"owner", s.owner_labels()[o]},
+                             {"weight_min", a.w_min},
+                             {"weight_max", a.w_max},
+                             {"features_weighted", a.weighted},
+                             {"features_with_reach", a.reaches}});
   }
   return {{"features", s.features().size()},
           {"adjustments", adjustments},
@@ -812,10 +817,11 @@ JobResult run_job(const JobSpec& spec, const JobLimits& limits, const JobHooks& 
     write_rasters(run, job, field, targets);
     detail::deliver(run, job, field);
   }
+  std::string edit_base_dir;
   if (keep) {
-    const std::string dir = keep->commit();
-    run.guard.add_directory(dir);
-    run.report["edit_base"] = std::filesystem::path(dir).filename().string();
+    edit_base_dir = keep->commit();
+    run.guard.add_directory(edit_base_dir);
+    run.report["edit_base"] = std::filesystem::path(edit_base_dir).filename().string();
   }
   assemble_report(run, job, memory, start);
   if (!spec.outputs.report.empty()) {
@@ -823,7 +829,11 @@ JobResult run_job(const JobSpec& spec, const JobLimits& limits, const JobHooks& 
     write_file_atomically(spec.outputs.report, json_text(run.report, 2) + "\n");
   }
   run.progress("write", 1.0);
-  JobResult result{run.report, run.guard.files()};
+  // The files written, the kept field as its directory (not the temporary names it was built under).
+  JobResult result{run.report, {}};
+  for (const std::string& f : run.guard.files())
+    if (!keep || f.rfind(keep->temp_dir(), 0) != 0) result.files.push_back(f);
+  if (keep) result.files.push_back(edit_base_dir);
   run.guard.commit();
   return result;
 }

@@ -1,0 +1,134 @@
+#!/usr/bin/env python3
+"""Edits of a finished job against fresh runs (issue 32), the whole `rvoronoi compute` command.
+
+    /usr/bin/python3 bench/edits.py --binary build/service/rvoronoi [--side 10000] [--seeds 50000]
+        [--repeats 3] [--work DIR] [--outputs ownership,distance] > table.md
+
+The case is the 1e8-cell grid of bench/RESULTS.md: SIDE x SIDE cells of 1 m, SEEDS random points,
+one owner per point (--owner-field id). A base run keeps its field (--report). Then, for each
+edit (one point moved by (5, -3) m, one removed, one added beside another), the seed file is
+edited in place and two commands alternate --repeats times: the edit (`--base` the base's
+report) and a fresh run of the edited file. Every edit's files are compared byte for byte with
+the fresh run's (the script stops on a difference).
+
+A last pair measures what keeping the field costs every run: the fresh command with --report
+(which keeps it) against the same without --report (which keeps nothing), alternated.
+
+Columns: medians over the repeats of the command's wall time, of the report's "compute" (the
+edit's: reading the base's strips, planning, recomputing and tallying; the fresh run's: the
+engine), and the edit's cells recomputed against cells changed (owner or distance).
+"""
+import argparse
+import filecmp
+import json
+import os
+import random
+import statistics
+import subprocess
+import sys
+import time
+
+X0, Y0, EPSG = 400000.0, 6100000.0, 32633
+
+
+def write_points(path, pts):
+    with open(path, "w") as f:
+        f.write('{"type":"FeatureCollection","crs":{"type":"name","properties":{"name":"urn:ogc:def:crs:EPSG::%d"}},'
+                '"features":[\n' % EPSG)
+        f.write(",\n".join('{"type":"Feature","id":%d,"properties":{"id":%d},"geometry":{"type":"Point",'
+                           '"coordinates":[%r,%r]}}' % (i, i, x, y) for i, x, y in pts))
+        f.write("]}\n")
+
+
+def command(binary, seeds, side, outdir, outputs, report=True, base=None):
+    os.makedirs(outdir, exist_ok=True)
+    cmd = [binary, "compute", seeds, "--owner-field", "id", "--resolution", "1", "--extent", str(X0), str(Y0),
+           str(X0 + side), str(Y0 + side), "--quiet"]
+    for o in outputs:
+        cmd += ["--" + o.replace("_", "-"), os.path.join(outdir, o + ".tif")]
+    if report:
+        cmd += ["--report", os.path.join(outdir, "report.json")]
+    if base:
+        cmd += ["--base", base]
+    return cmd
+
+
+def timed(cmd):
+    t0 = time.perf_counter()
+    subprocess.run(cmd, check=True, stdout=subprocess.DEVNULL)
+    return time.perf_counter() - t0
+
+
+def same_files(a, b, outputs):
+    for o in outputs:
+        if not filecmp.cmp(os.path.join(a, o + ".tif"), os.path.join(b, o + ".tif"), shallow=False):
+            sys.exit(f"{o}: the edit's file differs from the fresh run's ({a} vs {b})")
+
+
+def main():
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--binary", required=True)
+    ap.add_argument("--side", type=int, default=10000)
+    ap.add_argument("--seeds", type=int, default=50000)
+    ap.add_argument("--repeats", type=int, default=3)
+    ap.add_argument("--work", default="/tmp/rv_edits_bench")
+    ap.add_argument("--outputs", default="ownership,distance")
+    a = ap.parse_args()
+    outputs = a.outputs.split(",")
+    os.makedirs(a.work, exist_ok=True)
+    rng = random.Random(2032)
+    pts = [(i + 1, X0 + rng.uniform(0, a.side), Y0 + rng.uniform(0, a.side)) for i in range(a.seeds)]
+    seeds = os.path.join(a.work, "seeds.geojson")
+    write_points(seeds, pts)
+    base_dir = os.path.join(a.work, "base")
+    subprocess.run(command(a.binary, seeds, a.side, base_dir, outputs), check=True)
+    base_report = os.path.join(base_dir, "report.json")
+
+    rows = []
+    k = len(pts) // 2
+    edits = [("move one point", lambda p: p[:k] + [(p[k][0], p[k][1] + 5.0, p[k][2] - 3.0)] + p[k + 1:]),
+             ("remove one point", lambda p: p[:k] + p[k + 1:]),
+             ("add one point", lambda p: p + [(len(p) + 1, p[k][1] + 7.0, p[k][2] + 2.0)])]
+    for name, edit in edits:
+        write_points(seeds, edit(pts))
+        e_dir, f_dir = os.path.join(a.work, "edit"), os.path.join(a.work, "fresh")
+        e_wall, f_wall, e_compute, f_compute = [], [], [], []
+        report = None
+        for _ in range(a.repeats):
+            e_wall.append(timed(command(a.binary, seeds, a.side, e_dir, outputs, base=base_report)))
+            f_wall.append(timed(command(a.binary, seeds, a.side, f_dir, outputs)))
+            report = json.load(open(os.path.join(e_dir, "report.json")))
+            fresh = json.load(open(os.path.join(f_dir, "report.json")))
+            e_compute.append(report["timings_s"]["compute"])
+            f_compute.append(fresh["timings_s"]["compute"])
+            same_files(e_dir, f_dir, outputs)
+        e = report["edit"]
+        rows.append((name, statistics.median(e_wall), statistics.median(f_wall), statistics.median(e_compute),
+                     statistics.median(f_compute), e["cells_recomputed"],
+                     e["owner_changed_cells"] + e["distance_only_changed_cells"], e["timings_s"]))
+    write_points(seeds, pts)
+
+    keep, plain = [], []
+    for _ in range(a.repeats):
+        keep.append(timed(command(a.binary, seeds, a.side, os.path.join(a.work, "keep"), outputs)))
+        plain.append(timed(command(a.binary, seeds, a.side, os.path.join(a.work, "plain"), outputs, report=False)))
+    kept_dir = os.path.join(a.work, "keep", "report.json.rvbase")
+    kept_mb = sum(os.path.getsize(os.path.join(kept_dir, f)) for f in os.listdir(kept_dir)) / 1e6
+    out_mb = sum(os.path.getsize(os.path.join(a.work, "keep", o + ".tif")) for o in outputs) / 1e6
+
+    cells = a.side * a.side
+    print(f"{a.side} x {a.side} cells ({cells:.1e}), {a.seeds} points, outputs {', '.join(outputs)}; "
+          f"medians of {a.repeats}, edit and fresh alternated.\n")
+    print("| edit | edit command s | fresh command s | ratio | edit compute s | fresh compute s | ratio "
+          "| cells recomputed | cells changed | read / plan / recompute / tally s |")
+    print("|---|---|---|---|---|---|---|---|---|---|")
+    for name, ew, fw, ec, fc, rec, chg, t in rows:
+        print(f"| {name} | {ew:.2f} | {fw:.2f} | {ew / fw:.0%} | {ec:.3f} | {fc:.3f} | {ec / fc:.0%} | {rec} | {chg} "
+              f"| {t['read_base']:.2f} / {t['plan']:.2f} / {t['recompute']:.2f} / {t['tally']:.2f} |")
+    print(f"\nKeeping the field: the fresh command with --report {statistics.median(keep):.2f} s against "
+          f"{statistics.median(plain):.2f} s without (medians, alternated); the kept directory holds "
+          f"{kept_mb:.0f} MB beside {out_mb:.0f} MB of outputs.")
+
+
+if __name__ == "__main__":
+    main()
