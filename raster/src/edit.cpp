@@ -193,12 +193,67 @@ constexpr int64_t kBlock = 16;
 // Relative slack on a base cost: the Float32 distance's rounding (2^-24), generously.
 constexpr double kSlack = 1e-6;
 
+// A lower bound on the distance from the sites of `index` to the centre of any cell of the grid's
+// cells [c0, c1) x [r0, r1): the distance to the box's middle less the box's radius. (The corners
+// bound a box in the plane; 1 % covers a longitude/latitude box's curvature.)
+double box_bound(const SiteMetric& metric, const OwnerIndex& index, const GridSpec& grid, int64_t c0, int64_t r0,
+                 int64_t c1, int64_t r1) {
+  const Vec2 a{grid.centre_x(c0), grid.centre_y(r0)};
+  const Vec2 b{grid.centre_x(c1 - 1), grid.centre_y(r1 - 1)};
+  const Vec2 mid{0.5 * (a.x + b.x), 0.5 * (a.y + b.y)};
+  double radius = 0.0;
+  for (const Vec2 q : {a, b, Vec2{a.x, b.y}, Vec2{b.x, a.y}}) radius = std::max(radius, metric.point_distance(mid, q));
+  radius = radius * 1.01 + 1e-9;
+  return std::max(0.0, index.nearest(mid).distance - radius);
+}
+
+// Some features of a seed set as one owner's, indexed for the distance to them (an edit's added
+// or removed features). `all` when they cannot be indexed apart from the job (polygons on a
+// projected geodesic grid need the job's grid-CRS copies): every cell is then a candidate.
+struct FeatureGroup {
+  bool any = false, all = false;
+  SeedSet seeds;
+  std::unique_ptr<SiteMetric> metric;
+  std::unique_ptr<OwnerIndex> plain, adjusted;
+  double w_max = 0.0, r_max = 0.0;
+
+  void build(const SeedSet& from, const std::vector<bool>& keep, const GridSpec& grid, const ComputeOptions& options) {
+    any = std::find(keep.begin(), keep.end(), true) != keep.end();
+    if (!any) return;
+    seeds = added_features(from, keep);
+    if (options.geolocator && !seeds.polygons().empty()) {
+      all = true;
+      return;
+    }
+    ComputeOptions a = options;
+    a.grid_polygons = nullptr;
+    a.prepared = nullptr;
+    metric = make_site_metric(seeds, grid, a);
+    plain = std::make_unique<OwnerIndex>(*metric, OwnerIndex::Measure::plain);
+    adjusted = std::make_unique<OwnerIndex>(*metric, OwnerIndex::Measure::adjusted, options.max_distance);
+    for (const Feature& f : seeds.features()) {
+      w_max = std::max(w_max, f.weight);
+      r_max = std::max(r_max, std::min(f.reach, options.max_distance));
+    }
+  }
+  // Whether a feature of the group can win a cell of the box, where the cells' costs are at most
+  // `max_cost` (and some are unowned: `unowned`).
+  bool may_win(const GridSpec& grid, int64_t c0, int64_t r0, int64_t c1, int64_t r1, double max_cost,
+               bool unowned) const {
+    if (all) return true;
+    const double near = box_bound(*metric, *plain, grid, c0, r0, c1, r1);
+    if (near > r_max) return false;
+    return unowned || near / w_max <= max_cost;
+  }
+  // Whether a feature of the group can be nearer than `max_distance` to a cell of the box.
+  bool may_own(const GridSpec& grid, int64_t c0, int64_t r0, int64_t c1, int64_t r1, double max_distance) const {
+    return all || box_bound(*metric, *plain, grid, c0, r0, c1, r1) <= max_distance;
+  }
+};
+
 }  // namespace
 
-// The cells where added features can win: blocks of cells ruled out as a whole where the added
-// features' nearest distance at the block's centre, less the block's radius, over their largest
-// weight, exceeds every base cost in the block (or every reach); the rest cell by cell, by the
-// added features' adjusted cost against the base's.
+// The edit prepared: matches, the site map, the added and the removed features indexed.
 struct Edit::State {
   const SeedSet& base_seeds;
   const SeedSet& edited;
@@ -206,14 +261,7 @@ struct Edit::State {
   ComputeOptions options;
   FeatureMatch match;
   std::vector<int32_t> remap;  // base site -> edited site
-  bool any_added = false;
-  // Polygons added on a projected geodesic grid need their grid-CRS copies, which the job holds
-  // for the whole set: every cell is computed again.
-  bool all_cells = false;
-  SeedSet added;
-  std::unique_ptr<SiteMetric> metric;
-  std::unique_ptr<OwnerIndex> plain, adjusted;
-  double w_max = 0.0, r_max = 0.0;
+  FeatureGroup added, removed;
 
   State(const SeedSet& b, const SeedSet& e, const GridSpec& g, const ComputeOptions& o)
       : base_seeds(b), edited(e), grid(g), options(o) {
@@ -225,67 +273,92 @@ struct Edit::State {
     match = match_features(base_seeds, edited);
     remap = edited_sites(base_seeds, edited, match);
     std::vector<bool> keep(edited.features().size(), false);
-    for (size_t f = 0; f < keep.size(); ++f)
-      if (match.base_of_edited[f] < 0) keep[f] = any_added = true;
-    if (!any_added) return;
-    added = added_features(edited, keep);
-    if (options.geolocator && !added.polygons().empty()) {
-      all_cells = true;
-      return;
-    }
-    ComputeOptions a = options;
-    a.grid_polygons = nullptr;
-    a.prepared = nullptr;
-    metric = make_site_metric(added, grid, a);
-    plain = std::make_unique<OwnerIndex>(*metric, OwnerIndex::Measure::plain);
-    adjusted = std::make_unique<OwnerIndex>(*metric, OwnerIndex::Measure::adjusted, options.max_distance);
-    for (const Feature& f : added.features()) {
-      w_max = std::max(w_max, f.weight);
-      r_max = std::max(r_max, std::min(f.reach, options.max_distance));
-    }
+    for (size_t f = 0; f < keep.size(); ++f) keep[f] = match.base_of_edited[f] < 0;
+    added.build(edited, keep, grid, options);
+    std::vector<bool> gone(base_seeds.features().size(), false);
+    for (size_t f = 0; f < gone.size(); ++f) gone[f] = match.edited_of_base[f] < 0;
+    removed.build(base_seeds, gone, grid, options);
+    // Owners in another order of codes: the cells inside polygons of two owners may change hands.
+    if (match.owners_reordered) removed.any = removed.all = true;
   }
 
-  // Marks the cells of window `w` (flags `marked`, base costs `cost`) where an added feature can win.
-  int64_t mark_added(const Window& w, std::vector<uint8_t>& marked, const std::vector<double>& cost) const {
-    const int64_t bw = (w.width + kBlock - 1) / kBlock, bh = (w.height + kBlock - 1) / kBlock;
-    std::vector<int64_t> measured(static_cast<size_t>(bh), 0);
-    detail::parallel_for(resolve_threads(options.threads), bh, [&](int64_t br, int) {
-      for (int64_t bc = 0; bc < bw; ++bc) {
-        const int64_t c0 = bc * kBlock, r0 = br * kBlock;
-        const int64_t c1 = std::min(w.width, c0 + kBlock), r1 = std::min(w.height, r0 + kBlock);
+  // The part of the plan in the cells [c0, c1) x [r0, r1) of window `w` (window-relative):
+  // per row of the part, its spans to compute again.
+  struct Part {
+    std::vector<std::vector<std::pair<int64_t, int64_t>>> spans;
+    int64_t removed_cells = 0, blocks = 0;
+  };
+  Part plan_part(const NearestField& base, const Window& w, int64_t c0, int64_t r0, int64_t c1, int64_t r1,
+                 bool by_removal, bool by_addition) const;
+};
+
+Edit::State::Part Edit::State::plan_part(const NearestField& base, const Window& w, int64_t c0, int64_t r0, int64_t c1,
+                                         int64_t r1, bool by_removal, bool by_addition) const {
+  const int64_t pw = c1 - c0, ph = r1 - r0;
+  const auto nsites = static_cast<int32_t>(base_seeds.sites().size());
+  Part part;
+  part.spans.resize(static_cast<size_t>(ph));
+  // Per cell: 1 where it must be computed again; the base cost elsewhere.
+  std::vector<uint8_t> marked(static_cast<size_t>(pw * ph), 0);
+  std::vector<double> cost(static_cast<size_t>(pw * ph), std::numeric_limits<double>::infinity());
+  for (int64_t r = 0; r < ph; ++r)
+    for (int64_t c = 0; c < pw; ++c) {
+      const size_t i = static_cast<size_t>(r * pw + c);
+      const int32_t s = base.site.at(c0 + c, r0 + r);
+      if (s == kNoSite) continue;
+      if (s < 0 || s >= nsites) throw Error(ErrorKind::invalid_argument, "edit: the base field does not fit its seeds");
+      const Site& site = base_seeds.sites()[static_cast<size_t>(s)];
+      if (by_removal &&
+          (remap[static_cast<size_t>(s)] == kNoSite || (match.owners_reordered && site.kind == SiteKind::area))) {
+        marked[i] = 1;
+        ++part.removed_cells;
+        continue;
+      }
+      cost[i] = static_cast<double>(base.distance.at(c0 + c, r0 + r)) * (1.0 + kSlack) /
+                base_seeds.features()[static_cast<size_t>(site.feature)].weight;
+    }
+  if (by_addition) {
+    if (added.all) std::fill(marked.begin(), marked.end(), 1);
+    for (int64_t b0 = 0; b0 < ph && !added.all; b0 += kBlock)
+      for (int64_t a0 = 0; a0 < pw; a0 += kBlock) {
+        const int64_t a1 = std::min(pw, a0 + kBlock), b1 = std::min(ph, b0 + kBlock);
         double block_cost = -1.0;
-        for (int64_t r = r0; r < r1; ++r)
-          for (int64_t c = c0; c < c1; ++c) {
-            const size_t i = static_cast<size_t>(r * w.width + c);
-            if (!marked[i]) block_cost = std::max(block_cost, cost[i]);
+        bool unowned = false;
+        for (int64_t r = b0; r < b1; ++r)
+          for (int64_t c = a0; c < a1; ++c) {
+            const size_t i = static_cast<size_t>(r * pw + c);
+            if (marked[i]) continue;
+            block_cost = std::max(block_cost, cost[i]);
+            unowned = unowned || std::isinf(cost[i]);
           }
         if (block_cost < 0.0) continue;  // every cell is computed again anyway
-        const Vec2 a{grid.centre_x(w.col0 + c0), grid.centre_y(w.row0 + r0)};
-        const Vec2 b{grid.centre_x(w.col0 + c1 - 1), grid.centre_y(w.row0 + r1 - 1)};
-        const Vec2 mid{0.5 * (a.x + b.x), 0.5 * (a.y + b.y)};
-        double radius = 0.0;
-        for (const Vec2 q : {a, b, Vec2{a.x, b.y}, Vec2{b.x, a.y}})
-          radius = std::max(radius, metric->point_distance(mid, q));
-        // (Corners bound a small block in the plane; 1 % covers a longitude/latitude block's
-        // curvature.)
-        radius = radius * 1.01 + 1e-9;
-        const double near = std::max(0.0, plain->nearest(mid).distance - radius);
-        if (near > r_max || near / w_max > block_cost) continue;
-        ++measured[static_cast<size_t>(br)];
-        for (int64_t r = r0; r < r1; ++r)
-          for (int64_t c = c0; c < c1; ++c) {
-            const size_t i = static_cast<size_t>(r * w.width + c);
+        const int64_t gc = w.col0 + c0, gr = w.row0 + r0;
+        if (!added.may_win(grid, gc + a0, gr + b0, gc + a1, gr + b1, block_cost, unowned)) continue;
+        ++part.blocks;
+        for (int64_t r = b0; r < b1; ++r)
+          for (int64_t c = a0; c < a1; ++c) {
+            const size_t i = static_cast<size_t>(r * pw + c);
             if (marked[i]) continue;
-            const OwnerIndex::Hit h = adjusted->nearest(Vec2{grid.centre_x(w.col0 + c), grid.centre_y(w.row0 + r)});
+            const OwnerIndex::Hit h = added.adjusted->nearest(Vec2{grid.centre_x(gc + c), grid.centre_y(gr + r)});
             if (h.site != kNoSite && h.cost <= cost[i]) marked[i] = 1;
           }
       }
-    });
-    int64_t n = 0;
-    for (const int64_t m : measured) n += m;
-    return n;
   }
-};
+  for (int64_t r = 0; r < ph; ++r) {
+    const uint8_t* row = marked.data() + r * pw;
+    for (int64_t c = 0; c < pw;) {
+      if (!row[c]) {
+        ++c;
+        continue;
+      }
+      int64_t e = c;
+      while (e < pw && row[e]) ++e;
+      part.spans[static_cast<size_t>(r)].emplace_back(c0 + c, c0 + e);
+      c = e;
+    }
+  }
+  return part;
+}
 
 Edit::Edit(const SeedSet& base_seeds, const SeedSet& edited, const GridSpec& grid, const ComputeOptions& options)
     : st_(std::make_unique<State>(base_seeds, edited, grid, options)) {}
@@ -295,45 +368,55 @@ Edit::Edit(Edit&&) noexcept = default;
 const FeatureMatch& Edit::match() const { return st_->match; }
 const std::vector<int32_t>& Edit::site_map() const { return st_->remap; }
 
-EditPlan Edit::plan(const NearestField& base) const {
+EditPlan Edit::plan(const NearestField& base, const TileSummaries* tiles) const {
   const State& st = *st_;
+  const GridSpec& g = st.grid;
+  constexpr int64_t T = TileSummaries::kTile;
   EditPlan plan;
   plan.match = st.match;
   const Window w = base.site.window();
   plan.mask = CellMask::none(w);
-  const auto nsites = static_cast<int32_t>(st.base_seeds.sites().size());
-  // Per cell: 1 where it must be computed again; the base cost elsewhere.
-  std::vector<uint8_t> marked(static_cast<size_t>(w.cell_count()), st.all_cells ? 1 : 0);
-  std::vector<double> cost(static_cast<size_t>(w.cell_count()), std::numeric_limits<double>::infinity());
-  for (int64_t r = 0; r < w.height; ++r)
-    for (int64_t c = 0; c < w.width; ++c) {
-      const size_t i = static_cast<size_t>(r * w.width + c);
-      const int32_t s = base.site.at(c, r);
-      if (s == kNoSite) continue;
-      if (s < 0 || s >= nsites) throw Error(ErrorKind::invalid_argument, "edit: the base field does not fit its seeds");
-      const Site& site = st.base_seeds.sites()[static_cast<size_t>(s)];
-      if (st.remap[static_cast<size_t>(s)] == kNoSite || (st.match.owners_reordered && site.kind == SiteKind::area)) {
-        marked[i] = 1;
-        ++plan.removed_cells;
-        continue;
+  if (tiles && (tiles->cols != (g.width + T - 1) / T || tiles->rows != (g.height + T - 1) / T))
+    throw Error(ErrorKind::invalid_argument, "edit: the tile summaries do not fit the grid");
+  // The tiles of the window (clipped to it), and which of them must be read.
+  struct Part {
+    int64_t c0, r0, c1, r1;  // window-relative
+    bool by_removal, by_addition;
+  };
+  std::vector<Part> parts;
+  for (int64_t tr = w.row0 / T; tr * T < w.row0 + w.height; ++tr)
+    for (int64_t tc = w.col0 / T; tc * T < w.col0 + w.width; ++tc) {
+      const int64_t gc0 = tc * T, gr0 = tr * T;
+      const int64_t gc1 = std::min(g.width, gc0 + T), gr1 = std::min(g.height, gr0 + T);
+      bool by_removal = st.removed.any, by_addition = st.added.any;
+      if (tiles) {
+        const size_t k = static_cast<size_t>(tr * tiles->cols + tc);
+        const double max_d = tiles->max_distance[k], max_c = tiles->max_cost[k];
+        const bool unowned = tiles->unowned[k] != 0;
+        by_removal = by_removal && max_d >= 0.0 && st.removed.may_own(g, gc0, gr0, gc1, gr1, max_d * (1.0 + kSlack));
+        by_addition = by_addition && st.added.may_win(g, gc0, gr0, gc1, gr1, max_c * (1.0 + kSlack), unowned);
       }
-      cost[i] = static_cast<double>(base.distance.at(c, r)) * (1.0 + kSlack) /
-                st.base_seeds.features()[static_cast<size_t>(site.feature)].weight;
+      if (!by_removal && !by_addition) continue;
+      plan.tiles_read.push_back(tr * ((g.width + T - 1) / T) + tc);
+      parts.push_back({std::max(gc0, w.col0) - w.col0, std::max(gr0, w.row0) - w.row0,
+                       std::min(gc1, w.col0 + w.width) - w.col0, std::min(gr1, w.row0 + w.height) - w.row0, by_removal,
+                       by_addition});
     }
-  if (st.any_added && !st.all_cells) plan.blocks_measured = st.mark_added(w, marked, cost);
-  for (int64_t r = 0; r < w.height; ++r) {
-    const uint8_t* row = marked.data() + r * w.width;
-    for (int64_t c = 0; c < w.width;) {
-      if (!row[c]) {
-        ++c;
-        continue;
+  std::vector<State::Part> done(parts.size());
+  detail::parallel_for(resolve_threads(st.options.threads), static_cast<int64_t>(parts.size()), [&](int64_t k, int) {
+    const Part& p = parts[static_cast<size_t>(k)];
+    done[static_cast<size_t>(k)] = st.plan_part(base, w, p.c0, p.r0, p.c1, p.r1, p.by_removal, p.by_addition);
+  });
+  // Tiles in row-major order: each row's spans come in column order.
+  for (size_t k = 0; k < parts.size(); ++k) {
+    const State::Part& d = done[k];
+    plan.removed_cells += d.removed_cells;
+    plan.blocks_measured += d.blocks;
+    for (size_t r = 0; r < d.spans.size(); ++r)
+      for (const auto& span : d.spans[r]) {
+        plan.mask.rows[static_cast<size_t>(parts[k].r0) + r].push_back(span);
+        plan.cells += span.second - span.first;
       }
-      int64_t e = c;
-      while (e < w.width && row[e]) ++e;
-      plan.mask.rows[static_cast<size_t>(r)].emplace_back(c, e);
-      plan.cells += e - c;
-      c = e;
-    }
   }
   return plan;
 }
@@ -354,6 +437,48 @@ void Edit::apply(const NearestField& base, const EditPlan& plan, NearestField& o
   compute_into(st.edited, st.grid, o, out);
 }
 
+TileSummaries TileSummaries::for_grid(const GridSpec& grid) {
+  TileSummaries t;
+  t.cols = (grid.width + kTile - 1) / kTile;
+  t.rows = (grid.height + kTile - 1) / kTile;
+  const auto n = static_cast<size_t>(t.cols * t.rows);
+  t.max_distance.assign(n, -1.0f);
+  t.max_cost.assign(n, -1.0f);
+  t.unowned.assign(n, 0);
+  return t;
+}
+
+void TileSummaries::add(const int32_t* site, const float* distance, int64_t row0, int64_t rows, int64_t width,
+                        const SeedSet& seeds) {
+  const auto& sites = seeds.sites();
+  const auto& features = seeds.features();
+  for (int64_t r = 0; r < rows; ++r) {
+    const size_t tile_row = static_cast<size_t>((row0 + r) / kTile * cols);
+    for (int64_t c0 = 0; c0 < width; c0 += kTile) {
+      const size_t k = tile_row + static_cast<size_t>(c0 / kTile);
+      float max_d = max_distance[k];
+      double max_c = max_cost[k];
+      bool none = unowned[k] != 0;
+      for (int64_t c = c0; c < std::min(width, c0 + kTile); ++c) {
+        const size_t i = static_cast<size_t>(r * width + c);
+        const int32_t s = site[i];
+        if (s == kNoSite) {
+          none = true;
+          continue;
+        }
+        max_d = std::max(max_d, distance[i]);
+        const double w = features[static_cast<size_t>(sites[static_cast<size_t>(s)].feature)].weight;
+        max_c = std::max(max_c, static_cast<double>(distance[i]) / w);
+      }
+      max_distance[k] = max_d;
+      // Rounded up: the summary bounds every cost of the tile.
+      const auto fc = static_cast<float>(max_c);
+      max_cost[k] = static_cast<double>(fc) < max_c ? std::nextafter(fc, std::numeric_limits<float>::infinity()) : fc;
+      unowned[k] = none ? 1 : 0;
+    }
+  }
+}
+
 void EditChanges::add(const EditChanges& o) {
   owner_cells += o.owner_cells;
   distance_only_cells += o.distance_only_cells;
@@ -362,7 +487,7 @@ void EditChanges::add(const EditChanges& o) {
 
 EditChanges tally_changes(const NearestField& base, const SeedSet& base_seeds, const NearestField& edited,
                           const SeedSet& edited_seeds, const GridSpec& grid, const Geolocator* geolocator,
-                          int32_t* codes) {
+                          int32_t* codes, const CellMask* only) {
   const Window w = base.site.window();
   if (!(edited.site.window() == w)) throw Error(ErrorKind::invalid_argument, "tally_changes: the windows differ");
   // Owners by label: each base code's code in the edited set (0 when it has none there).
@@ -390,29 +515,38 @@ EditChanges tally_changes(const NearestField& base, const SeedSet& base_seeds, c
   };
   std::unordered_map<int64_t, double> row_area;
   EditChanges out;
-  for (int64_t r = 0; r < w.height; ++r)
-    for (int64_t c = 0; c < w.width; ++c) {
-      const int32_t sb = base.site.at(c, r), se = edited.site.at(c, r);
-      const int32_t ob = owner_of(base_seeds, sb), oe = owner_of(edited_seeds, se);
-      const bool owner_changed = (ob == 0 ? 0 : code_in_edited[static_cast<size_t>(ob)]) != oe;
-      const bool distance_changed =
-          std::bit_cast<uint32_t>(base.distance.at(c, r)) != std::bit_cast<uint32_t>(edited.distance.at(c, r));
-      if (codes) codes[r * w.width + c] = owner_changed ? 1 : distance_changed ? 2 : 0;
-      if (!owner_changed) {
-        out.distance_only_cells += distance_changed;
-        continue;
-      }
-      ++out.owner_cells;
-      const int64_t col = w.col0 + c, row = w.row0 + r;
-      double area = 0.0;
-      if (metric.kind == MetricSpec::geodesic && geolocator == nullptr) {
-        const auto it = row_area.find(row);
-        area = it != row_area.end() ? it->second : (row_area[row] = cell_area(col, row));
-      } else {
-        area = cell_area(col, row);
-      }
-      out.moved[{label(base_seeds, ob), label(edited_seeds, oe)}] += area;
+  auto cell = [&](int64_t c, int64_t r) {
+    const int32_t sb = base.site.at(c, r), se = edited.site.at(c, r);
+    const int32_t ob = owner_of(base_seeds, sb), oe = owner_of(edited_seeds, se);
+    const bool owner_changed = (ob == 0 ? 0 : code_in_edited[static_cast<size_t>(ob)]) != oe;
+    const bool distance_changed =
+        std::bit_cast<uint32_t>(base.distance.at(c, r)) != std::bit_cast<uint32_t>(edited.distance.at(c, r));
+    if (codes) codes[r * w.width + c] = owner_changed ? 1 : distance_changed ? 2 : 0;
+    if (!owner_changed) {
+      out.distance_only_cells += distance_changed;
+      return;
     }
+    ++out.owner_cells;
+    const int64_t col = w.col0 + c, row = w.row0 + r;
+    double area = 0.0;
+    if (metric.kind == MetricSpec::geodesic && geolocator == nullptr) {
+      const auto it = row_area.find(row);
+      area = it != row_area.end() ? it->second : (row_area[row] = cell_area(col, row));
+    } else {
+      area = cell_area(col, row);
+    }
+    out.moved[{label(base_seeds, ob), label(edited_seeds, oe)}] += area;
+  };
+  if (only == nullptr) {
+    for (int64_t r = 0; r < w.height; ++r)
+      for (int64_t c = 0; c < w.width; ++c) cell(c, r);
+    return out;
+  }
+  if (!only->fits(w)) throw Error(ErrorKind::invalid_argument, "tally_changes: the mask does not fit the window");
+  if (codes) std::fill(codes, codes + w.cell_count(), 0);
+  for (int64_t r = 0; r < w.height; ++r)
+    for (const auto& [c0, c1] : only->rows[static_cast<size_t>(r)])
+      for (int64_t c = c0; c < c1; ++c) cell(c, r);
   return out;
 }
 

@@ -3,6 +3,7 @@
 
 #include <unistd.h>
 
+#include <algorithm>
 #include <atomic>
 #include <cmath>
 #include <cstdio>
@@ -130,7 +131,7 @@ void BandHasher::finish() {
 std::string edit_base_dir(const std::string& report) { return report + ".rvbase"; }
 
 EditBaseWriter::EditBaseWriter(const JobSpec& spec, const PreparedJob& job)
-    : site_hash(job.grid.width), distance_hash(job.grid.width) {
+    : site_hash(job.grid.width), distance_hash(job.grid.width), tiles(TileSummaries::for_grid(job.grid)) {
   dir_ = spec.outputs.edit_base.empty() ? edit_base_dir(spec.outputs.report) : spec.outputs.edit_base;
   temp_ = dir_ + ".tmp-" + unique_suffix();
   std::error_code ec;
@@ -181,6 +182,8 @@ std::string EditBaseWriter::commit() {
   };
   manifest_["site"] = {{"file", "site.tif"}, {"hashes", hashes(site_hash)}};
   manifest_["distance"] = {{"file", "distance.tif"}, {"hashes", hashes(distance_hash)}};
+  manifest_["tiles"] = {{"size", TileSummaries::kTile},       {"cols", tiles.cols},         {"rows", tiles.rows},
+                        {"max_distance", tiles.max_distance}, {"max_cost", tiles.max_cost}, {"unowned", tiles.unowned}};
   write_file_atomically(temp_ + "/manifest.json", json_text(manifest_, 1) + "\n");
   std::error_code ec;
   std::string old;
@@ -203,6 +206,7 @@ struct EditBase::State {
   std::unique_ptr<GeoTiffRowReader<float>> distance;
   BandHasher site_hash, distance_hash;
   std::vector<std::string> site_bands, distance_bands;
+  TileSummaries tiles;
   size_t site_checked = 0, distance_checked = 0;
   GridSpec grid;
   MetricSpec metric;
@@ -262,6 +266,21 @@ EditBase::EditBase(const std::string& report, const JobSpec& spec, const Prepare
       throw Error(ErrorKind::invalid_input, "base: " + dir_name + "/manifest.json does not fit its grid");
     return out;
   };
+  try {
+    const nlohmann::json& t = m.at("tiles");
+    st.tiles = TileSummaries::for_grid(job.grid);
+    if (t.at("size").get<int64_t>() != TileSummaries::kTile || t.at("cols").get<int64_t>() != st.tiles.cols ||
+        t.at("rows").get<int64_t>() != st.tiles.rows)
+      throw Error(ErrorKind::invalid_input, "");
+    st.tiles.max_distance = t.at("max_distance").get<std::vector<float>>();
+    st.tiles.max_cost = t.at("max_cost").get<std::vector<float>>();
+    st.tiles.unowned = t.at("unowned").get<std::vector<uint8_t>>();
+    const size_t n = static_cast<size_t>(st.tiles.cols * st.tiles.rows);
+    if (st.tiles.max_distance.size() != n || st.tiles.max_cost.size() != n || st.tiles.unowned.size() != n)
+      throw Error(ErrorKind::invalid_input, "");
+  } catch (const std::exception&) {
+    throw Error(ErrorKind::invalid_input, "base: " + dir_name + "/manifest.json has no tile summaries of its grid");
+  }
   st.site_bands = bands("site");
   st.distance_bands = bands("distance");
   auto open = [&](const char* file, auto& reader) {
@@ -284,6 +303,7 @@ EditBase::EditBase(const std::string& report, const JobSpec& spec, const Prepare
 EditBase::~EditBase() = default;
 
 const SeedSet& EditBase::seeds() const { return st_->archive.seeds; }
+const TileSummaries& EditBase::tiles() const { return st_->tiles; }
 
 void EditBase::read(int64_t row0, int64_t rows, NearestField& out) {
   State& st = *st_;
@@ -375,6 +395,8 @@ nlohmann::json edit_report(const EditBase& base, const Edit& edit, const SeedSet
             {"changed_list", changed}}},
           {"cells", grid.cell_count()},
           {"cells_recomputed", tally.cells_recomputed},
+          {"tiles", tally.tiles_read.size()},
+          {"tiles_read", std::count(tally.tiles_read.begin(), tally.tiles_read.end(), true)},
           {"cells_of_removed_features", tally.cells_of_removed},
           {"owner_changed_cells", tally.changes.owner_cells},
           {"distance_only_changed_cells", tally.changes.distance_only_cells},

@@ -8,6 +8,9 @@
 //                  seeds.bin whole, of the rasters per band of 256 rows of cell values;
 //   seeds.bin      the seed set it computed from (rv/seed_archive.hpp), since users edit their
 //                  files in place;
+//                  Per tile of 256 x 256 cells, the field's largest distance and cost and
+//                  whether it has unowned cells (rv::TileSummaries): an edit reads no cell of a
+//                  tile it cannot change;
 //   site.tif       the nearest site of every cell (index + 1, 0 = none), Int32 codes;
 //   distance.tif   the distance to it in metric units, Float32, as the engine computed it.
 // An edit (`--base REPORT`) reads that directory strip by strip in place of computing: each strip
@@ -75,6 +78,8 @@ class EditBaseWriter {
   GeoTiffOptions site_options() const;
   GeoTiffOptions distance_options() const;
   BandHasher site_hash, distance_hash;
+  // Fed by the distance's writer (StreamTarget::observe): what the manifest records per tile.
+  TileSummaries tiles;
   // Writes the manifest and renames the directory into place (the old one, if any, removed).
   // Returns the directory's path.
   std::string commit();
@@ -99,6 +104,8 @@ class EditBase {
   EditBase(const std::string& report, const JobSpec& spec, const PreparedJob& job);
   ~EditBase();
   const SeedSet& seeds() const;
+  // The base field's per-tile summaries (from the manifest).
+  const TileSummaries& tiles() const;
   const std::string& report_path() const { return report_; }
   // Reads the base field's rows [row0, row0 + rows) into `out` (site indices and metric
   // distances, with the job's metric and geolocator), in order from the first row. Throws
@@ -114,6 +121,7 @@ class EditBase {
 // The report's "edit" entry: what the edit matched, recomputed and changed.
 struct EditTally {
   int64_t cells_recomputed = 0, cells_of_removed = 0, blocks_measured = 0, strips = 0;
+  std::vector<bool> tiles_read;  // per tile of the grid (TileSummaries order)
   double read_seconds = 0.0, plan_seconds = 0.0, apply_seconds = 0.0, tally_seconds = 0.0;
   EditChanges changes;
 };

@@ -590,6 +590,7 @@ void compute_streamed(detail::JobRun& run, const PreparedJob& job, const RasterT
     stream.compute.prepared = prepare(job.loaded.seeds, job.grid, stream.compute);
     edit.emplace(base->seeds(), job.loaded.seeds, job.grid, stream.compute);
     base_strip.emplace();
+    tally.tiles_read.assign(base->tiles().max_cost.size(), false);
     if (!spec.outputs.changes.empty()) {
       GeoTiffOptions o = detail::raster_options(spec);
       o.max_code = 2;
@@ -601,16 +602,17 @@ void compute_streamed(detail::JobRun& run, const PreparedJob& job, const RasterT
     stream.source = [&, codes](const Window& w, NearestField& field, std::vector<int32_t>& changes) {
       detail::timed_add(tally.read_seconds, [&] { base->read(w.row0, w.height, *base_strip); });
       EditPlan plan;
-      detail::timed_add(tally.plan_seconds, [&] { plan = edit->plan(*base_strip); });
+      detail::timed_add(tally.plan_seconds, [&] { plan = edit->plan(*base_strip, &base->tiles()); });
       detail::timed_add(tally.apply_seconds, [&] { edit->apply(*base_strip, plan, field); });
       tally.cells_recomputed += plan.cells;
       tally.cells_of_removed += plan.removed_cells;
       tally.blocks_measured += plan.blocks_measured;
+      for (const int64_t t : plan.tiles_read) tally.tiles_read[static_cast<size_t>(t)] = true;
       ++tally.strips;
       if (codes) changes.resize(static_cast<size_t>(w.cell_count()));
       detail::timed_add(tally.tally_seconds, [&] {
         tally.changes.add(tally_changes(*base_strip, base->seeds(), field, job.loaded.seeds, job.grid,
-                                        job.compute.geolocator.get(), codes ? changes.data() : nullptr));
+                                        job.compute.geolocator.get(), codes ? changes.data() : nullptr, &plan.mask));
       });
     };
   }
@@ -620,6 +622,10 @@ void compute_streamed(detail::JobRun& run, const PreparedJob& job, const RasterT
     stream.targets.back().hasher = &keep->site_hash;
     target(Product::metric_distance, keep->distance_path(), keep->distance_options(), "edit_base_distance");
     stream.targets.back().hasher = &keep->distance_hash;
+    stream.targets.back().observe = [keep, &job](const int32_t* site, const float* distance, int64_t row0,
+                                                 int64_t rows) {
+      keep->tiles.add(site, distance, row0, rows, job.grid.width, job.loaded.seeds);
+    };
   }
   run.progress("compute", 0.0);
   const detail::StreamStats st = detail::run_streamed(stream);

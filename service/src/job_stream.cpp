@@ -148,9 +148,12 @@ void write_file(StreamState& st, size_t i) {
         case StreamTarget::Product::distance:
           write_floats(s.field.distance.data());
           break;
-        case StreamTarget::Product::metric_distance:
-          write_floats(st.keep_metric_distance ? s.metric_distance.data() : s.field.distance.data());
+        case StreamTarget::Product::metric_distance: {
+          const float* metric = st.keep_metric_distance ? s.metric_distance.data() : s.field.distance.data();
+          if (target.observe) target.observe(s.field.site.data(), metric, s.row0, s.rows);
+          write_floats(metric);
           break;
+        }
       }
       st.write_seconds[i] += seconds_since(t);
       st.handoff.put_done(*k, s.rows);

@@ -29,6 +29,9 @@ struct StreamTarget {
   std::string name;  // key in the report's write timings
   // When set, fed every value written, in order, on the writer's thread (read after the run).
   BandHasher* hasher = nullptr;
+  // When set, called on the writer's thread with each strip's sites and metric distances (rows
+  // [row0, row0 + rows), whole rows), before its values are written.
+  std::function<void(const int32_t* site, const float* distance, int64_t row0, int64_t rows)> observe;
 };
 
 struct StreamJob {

@@ -50,6 +50,8 @@ struct Case {
   std::string limit;  // a limit distance
   std::optional<double> max_distance;
   bool weights = false;
+  bool tiles_skipped = false;  // some round's plan must rule tiles out without reading them
+  int slots = 5;               // the seeds' layout: slots x slots, one object each
 };
 
 std::string read_text(const fs::path& p) {
@@ -121,16 +123,18 @@ class EditJob : public ::testing::Test {
   fs::path dir_;
 };
 
-// The seeds: a 5 x 5 layout of slots over the extent, each holding one object so that no two
-// owners' seeds overlap or cross: 3 polygons, 4 lines, points elsewhere.
+// The seeds: a layout of c.slots x c.slots slots over the extent, each holding one object so that
+// no two owners' seeds overlap or cross: polygons in every 8th slot, lines in every 6th, points
+// elsewhere.
 std::vector<Feat> initial_seeds(const Case& c, std::mt19937& rng) {
   std::vector<Feat> out;
-  const double w = (c.extent[2] - c.extent[0]) / 5.0, h = (c.extent[3] - c.extent[1]) / 5.0;
+  const int n = c.slots;
+  const double w = (c.extent[2] - c.extent[0]) / n, h = (c.extent[3] - c.extent[1]) / n;
   std::uniform_real_distribution<double> u(0.2, 0.8);
   const char* owners[] = {"A", "B", "C", "D<&>"};
   int id = 1;
-  for (int k = 0; k < 25; ++k) {
-    const double x0 = c.extent[0] + (k % 5) * w, y0 = c.extent[1] + (k / 5) * h;
+  for (int k = 0; k < n * n; ++k) {
+    const double x0 = c.extent[0] + (k % n) * w, y0 = c.extent[1] + (k / n) * h;
     Feat f;
     f.id = id++;
     f.owner = owners[rng() % 4];
@@ -152,7 +156,7 @@ std::vector<Feat> initial_seeds(const Case& c, std::mt19937& rng) {
 
 // A random edit of `feats`; returns what it did.
 std::string random_edit(std::vector<Feat>& feats, const Case& c, std::mt19937& rng, int op, int& next_id) {
-  const double w = (c.extent[2] - c.extent[0]) / 5.0, h = (c.extent[3] - c.extent[1]) / 5.0;
+  const double w = (c.extent[2] - c.extent[0]) / c.slots, h = (c.extent[3] - c.extent[1]) / c.slots;
   std::uniform_real_distribution<double> u(-0.1, 0.1);
   auto pick = [&](int kind) {
     std::vector<size_t> of;
@@ -261,6 +265,7 @@ void run_random_edits(EditJob& t, const Case& c, uint32_t seed, int rounds) {
   JobSpec base = t.spec(c, "round0");
   run_job(base);
   ASSERT_TRUE(fs::exists(base.outputs.report + ".rvbase/manifest.json"));
+  int64_t tiles_skipped = 0;
   for (int round = 1; round <= rounds; ++round) {
     const int ops = 1 + static_cast<int>(rng() % 3);
     std::string did;
@@ -307,8 +312,10 @@ void run_random_edits(EditJob& t, const Case& c, uint32_t seed, int rounds) {
     EXPECT_EQ(e.at("distance_only_changed_cells").get<int64_t>(), distance_cells);
     EXPECT_GE(recomputed, owner_cells + distance_cells);
     if (did == "nothing ") EXPECT_EQ(recomputed, 0);
+    tiles_skipped += e.at("tiles").get<int64_t>() - e.at("tiles_read").get<int64_t>();
     base = edit;
   }
+  if (c.tiles_skipped) EXPECT_GT(tiles_skipped, 0);
 }
 
 TEST_F(EditJob, RandomEditsEqualFreshRunsPlanar) {
@@ -327,6 +334,20 @@ TEST_F(EditJob, RandomEditsEqualFreshRunsPlanarWeightedWithMaxDistance) {
   c.max_distance = 1800.0;
   c.weights = true;
   run_random_edits(*this, c, 11, 8);
+}
+
+// 1500 x 1500 cells: 36 tiles of 256 x 256, most of them too far from an edit to read (the plan
+// rules them out from the base's tile summaries; the rounds check that some are), 100 seeds whose
+// regions cross tile edges.
+TEST_F(EditJob, RandomEditsEqualFreshRunsOnManyTiles) {
+  Case c;
+  c.extent = {400000.0, 6100000.0, 412000.0, 6112000.0};
+  c.res = 8.0;
+  c.limit = "1500";
+  c.weights = true;
+  c.tiles_skipped = true;
+  c.slots = 10;
+  run_random_edits(*this, c, 23, 8);
 }
 
 TEST_F(EditJob, RandomEditsEqualFreshRunsGeodesic) {

@@ -48,12 +48,34 @@ FeatureMatch match_features(const SeedSet& base, const SeedSet& edited);
 // features not kept.
 std::vector<int32_t> edited_sites(const SeedSet& base, const SeedSet& edited, const FeatureMatch& match);
 
+// Per tile of 256 x 256 cells of a grid (tiles from the grid's top-left corner), what a field
+// holds in it, so that an edit's plan can rule a tile out without reading its cells: the largest
+// distance and the largest cost (distance / the feature's weight) of its owned cells, and whether
+// any cell is unowned. A run records them as its strips pass; an edit of it reads them back.
+// Units: metric units. Thread safety: add() from one thread at a time.
+struct TileSummaries {
+  static constexpr int64_t kTile = 256;
+  int64_t cols = 0, rows = 0;       // tiles across and down the grid
+  std::vector<float> max_distance;  // per tile, row-major; -1 while the tile has no owned cell
+  std::vector<float> max_cost;      // rounded up to float
+  std::vector<uint8_t> unowned;     // 1 where some cell has no owner
+
+  static TileSummaries for_grid(const GridSpec& grid);
+  // Takes in whole rows [row0, row0 + rows) of the grid: sites and distances (metric units) of
+  // the field of `seeds`, rows * grid width values each.
+  void add(const int32_t* site, const float* distance, int64_t row0, int64_t rows, int64_t width, const SeedSet& seeds);
+  size_t tile_of(int64_t col, int64_t row) const { return static_cast<size_t>((row / kTile) * cols + col / kTile); }
+};
+
 struct EditPlan {
   FeatureMatch match;
   CellMask mask;                // window-relative, the base field's window
   int64_t cells = 0;            // cells in the mask
   int64_t removed_cells = 0;    // of them, cells whose base feature is not kept
   int64_t blocks_measured = 0;  // blocks of cells an added feature could not be ruled out of
+  // The tiles (TileSummaries order: row-major over the grid) whose cells in the window were read:
+  // those the summaries could not rule out (every tile of the window without summaries).
+  std::vector<int64_t> tiles_read;
 };
 
 // An edit prepared once for a grid: the features matched, the base sites renumbered, the added
@@ -78,9 +100,14 @@ class Edit {
   const std::vector<int32_t>& site_map() const;
 
   // The plan for `base`, the base field over any window of the grid (the field of the base seeds
-  // computed with the same options). Throws rv::Error(invalid_argument) where the field does not
-  // fit the base seeds (a site index out of range).
-  EditPlan plan(const NearestField& base) const;
+  // computed with the same options). With `tiles` (the base field's summaries over the whole
+  // grid), the cells of tiles that no removed feature can have owned and no added feature can
+  // win are not read: a removed feature owned no cell of a tile it is farther from than the
+  // tile's largest distance; an added one wins no cell of a tile where its cost exceeds the
+  // tile's largest cost (and its reach, where the tile has unowned cells). Throws
+  // rv::Error(invalid_argument) where the field does not fit the base seeds (a site index out of
+  // range) or the summaries do not fit the grid.
+  EditPlan plan(const NearestField& base, const TileSummaries* tiles = nullptr) const;
 
   // The edited field over base's window into `out` (its buffers reused as compute_into does):
   // the base's cells renumbered to the edited sites, the plan's cells computed again. Equal to
@@ -108,11 +135,13 @@ struct EditChanges {
 // The changes from `base` (a field of `base_seeds`) to `edited` (of `edited_seeds`) over the same
 // window of `grid`. `codes`, when not null, receives one value per cell of the window, row-major:
 // 1 where the owner changed, 2 where only the distance did, 0 elsewhere. `geolocator`: the
-// projected geodesic grid's (cell areas located on the ellipsoid); null otherwise.
+// projected geodesic grid's (cell areas located on the ellipsoid); null otherwise. `only`: the
+// edit's mask (Edit::plan), outside which Edit::apply changes no owner and no distance: only its
+// cells are compared (null: every cell).
 // Throws rv::Error(invalid_argument) when the windows differ.
 EditChanges tally_changes(const NearestField& base, const SeedSet& base_seeds, const NearestField& edited,
                           const SeedSet& edited_seeds, const GridSpec& grid, const Geolocator* geolocator,
-                          int32_t* codes);
+                          int32_t* codes, const CellMask* only = nullptr);
 
 // One-shot forms of Edit over a base field of any window.
 EditPlan plan_edit(const NearestField& base, const SeedSet& base_seeds, const SeedSet& edited, const GridSpec& grid,
