@@ -107,28 +107,38 @@ bool owners_reordered(const SeedSet& base, const SeedSet& edited) {
   return present(base, edited) != present(edited, base);
 }
 
-// The features of `edited` with `keep` set, as one owner's (their distances, weights and reaches;
-// owners and order do not matter to where they can win): points and segments as themselves,
-// polygons with their rings (which add their edges and interiors again: a repeated site changes
-// no distance).
-SeedSet added_features(const SeedSet& edited, const std::vector<bool>& keep) {
+// The sites of `set` with `pick` set, as one owner's seed set (their distances, weights and
+// reaches; owners and order do not matter to where they can win): points and segments as
+// themselves, a picked area site as its polygon with its rings (which add their edges again: a
+// repeated site changes no distance).
+SeedSet sites_as_set(const SeedSet& set, const std::vector<bool>& pick) {
   SeedSet out;
-  const int32_t owner = out.owner_code("added");
-  const auto ranges = site_ranges(edited);
-  const auto polys = polygons_of(edited);
-  for (size_t f = 0; f < keep.size(); ++f) {
-    if (!keep[f]) continue;
-    const int32_t nf = out.add_feature(owner, edited.features()[f].source);
-    for (const size_t p : polys[f]) out.add_polygon(nf, edited.polygons()[p].rings);
-    for (int32_t i = ranges[f].first; i < ranges[f].second; ++i) {
-      const Site& s = edited.sites()[static_cast<size_t>(i)];
-      if (s.kind == SiteKind::point) out.add_point(nf, s.a);
-      if (s.kind == SiteKind::segment) out.add_polyline(nf, std::vector<Vec2>{s.a, s.b});
+  const int32_t owner = out.owner_code("picked");
+  const auto polys = polygons_of(set);
+  int32_t feature = -1, nf = -1;
+  for (size_t i = 0; i < pick.size(); ++i) {
+    if (!pick[i]) continue;
+    const Site& s = set.sites()[i];
+    if (s.feature != feature) {
+      feature = s.feature;
+      nf = out.add_feature(owner, set.features()[static_cast<size_t>(feature)].source);
+      const Feature& ft = set.features()[static_cast<size_t>(feature)];
+      if (ft.weight != 1.0 || std::isfinite(ft.reach)) out.set_adjustment(nf, ft.weight, ft.reach);
     }
-    const Feature& ft = edited.features()[f];
-    if (ft.weight != 1.0 || std::isfinite(ft.reach)) out.set_adjustment(nf, ft.weight, ft.reach);
+    if (s.kind == SiteKind::point) out.add_point(nf, s.a);
+    if (s.kind == SiteKind::segment) out.add_polyline(nf, std::vector<Vec2>{s.a, s.b});
+    if (s.kind == SiteKind::area)
+      for (const size_t p : polys[static_cast<size_t>(feature)])
+        if (set.polygons()[p].area_site == static_cast<int32_t>(i)) out.add_polygon(nf, set.polygons()[p].rings);
   }
   return out;
+}
+
+// A file's features keep their identity across edits as their source without the directory
+// ("file.gpkg:layer:fid 7"): the daemon stages every job's uploads in a directory of its own.
+std::string source_key(const std::string& source) {
+  const size_t slash = source.rfind('/');
+  return slash == std::string::npos ? source : source.substr(slash + 1);
 }
 
 }  // namespace
@@ -207,6 +217,123 @@ double box_bound(const SiteMetric& metric, const OwnerIndex& index, const GridSp
   return std::max(0.0, index.nearest(mid).distance - radius);
 }
 
+// The sites an edit keeps, finer than its features: a feature that changed only in geometry (the
+// same source, owner and adjustments: a basepoint moved on a coast of thousands) keeps the sites
+// it still has. Its polygon's interior stays the same interior except between the edges that
+// changed: every cell whose decision the interior can change lies in the box of those edges
+// (each part of the two interiors' difference is enclosed by changed edges alone).
+struct SiteMatch {
+  std::vector<int32_t> remap;       // base site -> edited site, kNoSite where not kept
+  std::vector<bool> added;          // per edited site: not kept
+  std::vector<bool> removed;        // per base site: not kept
+  std::vector<SeedSet::Box> boxes;  // grid-CRS boxes of changed polygon edges
+};
+
+SiteMatch match_sites(const SeedSet& base, const SeedSet& edited, const FeatureMatch& m, bool boxes) {
+  SiteMatch out;
+  out.remap = edited_sites(base, edited, m);
+  const auto rb = site_ranges(base), re = site_ranges(edited);
+  const auto pb = polygons_of(base), pe = polygons_of(edited);
+  // Changed features paired by source, owner label, kind and adjustments.
+  std::unordered_map<std::string, int32_t> by_source;
+  for (int32_t f = 0; f < static_cast<int32_t>(edited.features().size()); ++f)
+    if (m.base_of_edited[static_cast<size_t>(f)] < 0 && !edited.features()[static_cast<size_t>(f)].source.empty())
+      by_source.emplace(source_key(edited.features()[static_cast<size_t>(f)].source), f);
+  auto label = [](const SeedSet& s, const Feature& f) { return s.owner_labels()[static_cast<size_t>(f.owner - 1)]; };
+  std::vector<std::pair<int32_t, int32_t>> pairs;
+  for (int32_t f = 0; f < static_cast<int32_t>(base.features().size()); ++f) {
+    const Feature& a = base.features()[static_cast<size_t>(f)];
+    if (m.edited_of_base[static_cast<size_t>(f)] >= 0 || a.source.empty()) continue;
+    const auto it = by_source.find(source_key(a.source));
+    if (it == by_source.end()) continue;
+    const Feature& b = edited.features()[static_cast<size_t>(it->second)];
+    if (label(base, a) != label(edited, b) || a.kind != b.kind ||
+        std::bit_cast<uint64_t>(a.weight) != std::bit_cast<uint64_t>(b.weight) ||
+        std::bit_cast<uint64_t>(a.reach) != std::bit_cast<uint64_t>(b.reach) ||
+        std::bit_cast<uint64_t>(a.effect) != std::bit_cast<uint64_t>(b.effect))
+      continue;
+    pairs.emplace_back(f, it->second);
+    by_source.erase(it);
+  }
+  struct Key {
+    uint8_t kind;
+    Vec2 a, b;
+    bool operator==(const Key&) const = default;
+  };
+  struct KeyHash {
+    size_t operator()(const Key& k) const {
+      uint64_t h = k.kind;
+      for (const double v : {k.a.x, k.a.y, k.b.x, k.b.y}) h = (h ^ std::bit_cast<uint64_t>(v)) * 0x9e3779b97f4a7c15ULL;
+      return static_cast<size_t>(h ^ (h >> 31));
+    }
+  };
+  for (const auto& [fb, fe] : pairs) {
+    // Equal points and segments pair in order of appearance.
+    std::unordered_map<Key, std::vector<int32_t>, KeyHash> sites;
+    for (int32_t i = rb[static_cast<size_t>(fb)].second - 1; i >= rb[static_cast<size_t>(fb)].first; --i) {
+      const Site& st = base.sites()[static_cast<size_t>(i)];
+      if (st.kind != SiteKind::area) sites[Key{static_cast<uint8_t>(st.kind), st.a, st.b}].push_back(i);
+    }
+    for (int32_t j = re[static_cast<size_t>(fe)].first; j < re[static_cast<size_t>(fe)].second; ++j) {
+      const Site& st = edited.sites()[static_cast<size_t>(j)];
+      if (st.kind == SiteKind::area) continue;
+      const auto it = sites.find(Key{static_cast<uint8_t>(st.kind), st.a, st.b});
+      if (it == sites.end() || it->second.empty()) continue;
+      out.remap[static_cast<size_t>(it->second.back())] = j;
+      it->second.pop_back();
+    }
+    // Interiors pair polygon by polygon where the boxes can bound their change.
+    const auto& polys_b = pb[static_cast<size_t>(fb)];
+    const auto& polys_e = pe[static_cast<size_t>(fe)];
+    if (boxes && polys_b.size() == polys_e.size())
+      for (size_t k = 0; k < polys_b.size(); ++k)
+        out.remap[static_cast<size_t>(base.polygons()[polys_b[k]].area_site)] = edited.polygons()[polys_e[k]].area_site;
+  }
+  // Kept sites keep their order (the lower index wins ties): one that moved before a kept site it
+  // followed is not kept.
+  int32_t last = -1;
+  for (int32_t& e : out.remap) {
+    if (e == kNoSite) continue;
+    if (e < last)
+      e = kNoSite;
+    else
+      last = e;
+  }
+  out.removed.assign(base.sites().size(), false);
+  out.added.assign(edited.sites().size(), true);
+  for (size_t i = 0; i < out.remap.size(); ++i) {
+    if (out.remap[i] == kNoSite)
+      out.removed[i] = true;
+    else
+      out.added[static_cast<size_t>(out.remap[i])] = false;
+  }
+  // The box of each kept interior's changed edges (both sets' edges not kept).
+  for (const auto& [fb, fe] : pairs) {
+    SeedSet::Box box{std::numeric_limits<double>::infinity(), std::numeric_limits<double>::infinity(),
+                     -std::numeric_limits<double>::infinity(), -std::numeric_limits<double>::infinity()};
+    bool interior_kept = false;
+    for (const size_t p : pb[static_cast<size_t>(fb)])
+      interior_kept = interior_kept || out.remap[static_cast<size_t>(base.polygons()[p].area_site)] != kNoSite;
+    if (!interior_kept) continue;
+    auto grow = [&box](const Site& st) {
+      for (const Vec2 v : {st.a, st.b}) {
+        box.xmin = std::min(box.xmin, v.x);
+        box.ymin = std::min(box.ymin, v.y);
+        box.xmax = std::max(box.xmax, v.x);
+        box.ymax = std::max(box.ymax, v.y);
+      }
+    };
+    for (int32_t i = rb[static_cast<size_t>(fb)].first; i < rb[static_cast<size_t>(fb)].second; ++i)
+      if (out.removed[static_cast<size_t>(i)] && base.sites()[static_cast<size_t>(i)].kind != SiteKind::area)
+        grow(base.sites()[static_cast<size_t>(i)]);
+    for (int32_t j = re[static_cast<size_t>(fe)].first; j < re[static_cast<size_t>(fe)].second; ++j)
+      if (out.added[static_cast<size_t>(j)] && edited.sites()[static_cast<size_t>(j)].kind != SiteKind::area)
+        grow(edited.sites()[static_cast<size_t>(j)]);
+    if (box.xmin <= box.xmax) out.boxes.push_back(box);
+  }
+  return out;
+}
+
 // Some features of a seed set as one owner's, indexed for the distance to them (an edit's added
 // or removed features). `all` when they cannot be indexed apart from the job (polygons on a
 // projected geodesic grid need the job's grid-CRS copies): every cell is then a candidate.
@@ -217,10 +344,11 @@ struct FeatureGroup {
   std::unique_ptr<OwnerIndex> plain, adjusted;
   double w_max = 0.0, r_max = 0.0;
 
-  void build(const SeedSet& from, const std::vector<bool>& keep, const GridSpec& grid, const ComputeOptions& options) {
-    any = std::find(keep.begin(), keep.end(), true) != keep.end();
+  // `pick`: per site of `from`, whether it belongs to the group.
+  void build(const SeedSet& from, const std::vector<bool>& pick, const GridSpec& grid, const ComputeOptions& options) {
+    any = std::find(pick.begin(), pick.end(), true) != pick.end();
     if (!any) return;
-    seeds = added_features(from, keep);
+    seeds = sites_as_set(from, pick);
     if (options.geolocator && !seeds.polygons().empty()) {
       all = true;
       return;
@@ -263,6 +391,8 @@ struct Edit::State {
   std::vector<int32_t> remap;  // base site -> edited site
   FeatureGroup added, removed;
 
+  std::vector<SeedSet::Box> boxes;  // cells whose centre is in one are computed again
+
   State(const SeedSet& b, const SeedSet& e, const GridSpec& g, const ComputeOptions& o)
       : base_seeds(b), edited(e), grid(g), options(o) {
     if (options.method != Method::exact)
@@ -271,15 +401,29 @@ struct Edit::State {
     options.mask = nullptr;
     options.progress = nullptr;
     match = match_features(base_seeds, edited);
-    remap = edited_sites(base_seeds, edited, match);
-    std::vector<bool> keep(edited.features().size(), false);
-    for (size_t f = 0; f < keep.size(); ++f) keep[f] = match.base_of_edited[f] < 0;
-    added.build(edited, keep, grid, options);
-    std::vector<bool> gone(base_seeds.features().size(), false);
-    for (size_t f = 0; f < gone.size(); ++f) gone[f] = match.edited_of_base[f] < 0;
-    removed.build(base_seeds, gone, grid, options);
+    // Interiors kept across a change of their edges need the boxes in the grid's CRS: not on a
+    // projected geodesic grid (the seeds are in longitude/latitude there).
+    SiteMatch sites = match_sites(base_seeds, edited, match, options.geolocator == nullptr);
+    remap = std::move(sites.remap);
+    boxes = std::move(sites.boxes);
+    added.build(edited, sites.added, grid, options);
+    removed.build(base_seeds, sites.removed, grid, options);
     // Owners in another order of codes: the cells inside polygons of two owners may change hands.
     if (match.owners_reordered) removed.any = removed.all = true;
+  }
+  // Whether a cell centre (grid coordinates) lies in a box of changed edges.
+  bool in_box(Vec2 p) const {
+    for (const SeedSet::Box& b : boxes)
+      if (p.x >= b.xmin && p.x <= b.xmax && p.y >= b.ymin && p.y <= b.ymax) return true;
+    return false;
+  }
+  // Whether a box of changed edges meets the cell centres of [c0, c1) x [r0, r1) (grid).
+  bool box_meets(int64_t c0, int64_t r0, int64_t c1, int64_t r1) const {
+    const double x0 = grid.centre_x(c0), x1 = grid.centre_x(c1 - 1);
+    const double y1 = grid.centre_y(r0), y0 = grid.centre_y(r1 - 1);
+    for (const SeedSet::Box& b : boxes)
+      if (b.xmin <= x1 && b.xmax >= x0 && b.ymin <= y1 && b.ymax >= y0) return true;
+    return false;
   }
 
   // The part of the plan in the cells [c0, c1) x [r0, r1) of window `w` (window-relative):
@@ -288,12 +432,13 @@ struct Edit::State {
     std::vector<std::vector<std::pair<int64_t, int64_t>>> spans;
     int64_t removed_cells = 0, blocks = 0;
   };
+  // `boxed`: cells in a box of changed polygon edges may be there.
   Part plan_part(const NearestField& base, const Window& w, int64_t c0, int64_t r0, int64_t c1, int64_t r1,
-                 bool by_removal, bool by_addition) const;
+                 bool by_removal, bool by_addition, bool boxed) const;
 };
 
 Edit::State::Part Edit::State::plan_part(const NearestField& base, const Window& w, int64_t c0, int64_t r0, int64_t c1,
-                                         int64_t r1, bool by_removal, bool by_addition) const {
+                                         int64_t r1, bool by_removal, bool by_addition, bool boxed) const {
   const int64_t pw = c1 - c0, ph = r1 - r0;
   const auto nsites = static_cast<int32_t>(base_seeds.sites().size());
   Part part;
@@ -304,6 +449,11 @@ Edit::State::Part Edit::State::plan_part(const NearestField& base, const Window&
   for (int64_t r = 0; r < ph; ++r)
     for (int64_t c = 0; c < pw; ++c) {
       const size_t i = static_cast<size_t>(r * pw + c);
+      if (boxed && in_box(Vec2{grid.centre_x(w.col0 + c0 + c), grid.centre_y(w.row0 + r0 + r)})) {
+        marked[i] = 1;
+        ++part.removed_cells;
+        continue;
+      }
       const int32_t s = base.site.at(c0 + c, r0 + r);
       if (s == kNoSite) continue;
       if (s < 0 || s >= nsites) throw Error(ErrorKind::invalid_argument, "edit: the base field does not fit its seeds");
@@ -381,7 +531,7 @@ EditPlan Edit::plan(const NearestField& base, const TileSummaries* tiles) const 
   // The tiles of the window (clipped to it), and which of them must be read.
   struct Part {
     int64_t c0, r0, c1, r1;  // window-relative
-    bool by_removal, by_addition;
+    bool by_removal, by_addition, boxed;
   };
   std::vector<Part> parts;
   for (int64_t tr = w.row0 / T; tr * T < w.row0 + w.height; ++tr)
@@ -396,16 +546,17 @@ EditPlan Edit::plan(const NearestField& base, const TileSummaries* tiles) const 
         by_removal = by_removal && max_d >= 0.0 && st.removed.may_own(g, gc0, gr0, gc1, gr1, max_d * (1.0 + kSlack));
         by_addition = by_addition && st.added.may_win(g, gc0, gr0, gc1, gr1, max_c * (1.0 + kSlack), unowned);
       }
-      if (!by_removal && !by_addition) continue;
+      const bool boxed = st.box_meets(gc0, gr0, gc1, gr1);
+      if (!by_removal && !by_addition && !boxed) continue;
       plan.tiles_read.push_back(tr * ((g.width + T - 1) / T) + tc);
       parts.push_back({std::max(gc0, w.col0) - w.col0, std::max(gr0, w.row0) - w.row0,
                        std::min(gc1, w.col0 + w.width) - w.col0, std::min(gr1, w.row0 + w.height) - w.row0, by_removal,
-                       by_addition});
+                       by_addition, boxed});
     }
   std::vector<State::Part> done(parts.size());
   detail::parallel_for(resolve_threads(st.options.threads), static_cast<int64_t>(parts.size()), [&](int64_t k, int) {
     const Part& p = parts[static_cast<size_t>(k)];
-    done[static_cast<size_t>(k)] = st.plan_part(base, w, p.c0, p.r0, p.c1, p.r1, p.by_removal, p.by_addition);
+    done[static_cast<size_t>(k)] = st.plan_part(base, w, p.c0, p.r0, p.c1, p.r1, p.by_removal, p.by_addition, p.boxed);
   });
   // Tiles in row-major order: each row's spans come in column order.
   for (size_t k = 0; k < parts.size(); ++k) {

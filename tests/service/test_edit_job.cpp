@@ -12,6 +12,7 @@
 #include <GeographicLib/PolygonArea.hpp>
 #include <GeographicLib/Rhumb.hpp>
 #include <algorithm>
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <map>
@@ -348,6 +349,67 @@ TEST_F(EditJob, RandomEditsEqualFreshRunsOnManyTiles) {
   c.tiles_skipped = true;
   c.slots = 10;
   run_random_edits(*this, c, 23, 8);
+}
+
+// A basepoint moved on a feature of many: only that feature's changed sites are removed and added,
+// and its interior changes only between the changed edges. A polygon's vertex moved in (cells
+// leave the land) and out (cells join it), a line's vertex moved: files equal fresh runs', and
+// the cells recomputed are a small part of the grid.
+TEST_F(EditJob, AVertexMovedRecomputesOnlyNearIt) {
+  for (const bool geodesic : {false, true}) {
+    SCOPED_TRACE(geodesic ? "geodesic" : "planar");
+    Case c;
+    c.geodesic = geodesic;
+    c.extent = geodesic ? std::array<double, 4>{10.0, 55.0, 10.6, 55.6}
+                        : std::array<double, 4>{400000.0, 6100000.0, 412000.0, 6112000.0};
+    c.res = geodesic ? 0.002 : 40.0;
+    c.limit = geodesic ? "6km" : "1500";
+    std::mt19937 rng(9);
+    std::vector<Feat> feats = initial_seeds(c, rng);
+    // One polygon of many vertices (the slots' triangles grown to 40 vertices), and a line.
+    for (Feat& f : feats)
+      if (f.kind == 2) {
+        std::vector<std::array<double, 2>> ring;
+        const double cx = (f.pts[0][0] + f.pts[1][0] + f.pts[2][0]) / 3,
+                     cy = (f.pts[0][1] + f.pts[1][1] + f.pts[2][1]) / 3;
+        const double rx = (c.extent[2] - c.extent[0]) / 5 * 0.3, ry = (c.extent[3] - c.extent[1]) / 5 * 0.3;
+        for (int k = 0; k < 40; ++k)
+          ring.push_back({cx + rx * std::cos(k * M_PI / 20), cy + ry * std::sin(k * M_PI / 20)});
+        f.pts = ring;
+      }
+    const auto poly =
+        std::find_if(feats.begin(), feats.end(), [](const Feat& f) { return f.kind == 2; }) - feats.begin();
+    const auto line =
+        std::find_if(feats.begin(), feats.end(), [](const Feat& f) { return f.kind == 1; }) - feats.begin();
+    write_seeds(feats, c);
+    JobSpec base = spec(c, geodesic ? "g0" : "p0");
+    run_job(base);
+    const std::array<double, 2> centre{(feats[poly].pts[0][0] + feats[poly].pts[20][0]) / 2,
+                                       (feats[poly].pts[10][1] + feats[poly].pts[30][1]) / 2};
+    int round = 0;
+    for (const double towards : {0.3, -0.3, 0.0}) {
+      ++round;
+      if (towards != 0.0) {
+        auto& v = feats[poly].pts[5];
+        v = {v[0] + towards * (centre[0] - v[0]), v[1] + towards * (centre[1] - v[1])};
+      } else {
+        feats[line].pts[1][0] += (c.extent[2] - c.extent[0]) / 100;
+      }
+      write_seeds(feats, c);
+      const std::string sub = (geodesic ? "g" : "p") + std::to_string(round);
+      JobSpec edit = spec(c, sub + "e");
+      edit.base_report = base.outputs.report;
+      const JobResult r = run_job(edit);
+      JobSpec fresh = spec(c, sub + "f");
+      run_job(fresh);
+      expect_same_job_files(edit, fresh);
+      const nlohmann::json& e = r.report.at("edit");
+      EXPECT_EQ(e["features"]["changed"].get<int64_t>(), 1) << e.dump();
+      EXPECT_GT(e["owner_changed_cells"].get<int64_t>() + e["distance_only_changed_cells"].get<int64_t>(), 0);
+      EXPECT_LT(e["cells_recomputed"].get<int64_t>(), e["cells"].get<int64_t>() / 20) << e.dump();
+      base = edit;
+    }
+  }
 }
 
 TEST_F(EditJob, RandomEditsEqualFreshRunsGeodesic) {
