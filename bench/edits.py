@@ -3,6 +3,13 @@
 
     /usr/bin/python3 bench/edits.py --binary build/service/rvoronoi [--side 10000] [--seeds 50000]
         [--repeats 3] [--work DIR] [--outputs ownership,distance] > table.md
+    /usr/bin/python3 bench/edits.py --binary build/service/rvoronoi --coast [--resolution 0.0004] > table.md
+
+--coast: the western Baltic of ../shared/fixtures (four states, each one multipolygon, geodesic on
+WGS84) with boundaries, tripoints and 12 / 24 nmi limits besides the rasters. The edit moves one
+vertex of Denmark's coast near Copenhagen by 0.002 degrees east (about 125 m): one basepoint of a
+feature of thousands. The edit and a fresh run alternate --repeats times; every file of the edit
+is compared byte for byte with the fresh run's.
 
 The case is the 1e8-cell grid of bench/RESULTS.md: SIDE x SIDE cells of 1 m, SEEDS random points,
 one owner per point (--owner-field id). A base run keeps its field (--report). Then, for each
@@ -65,8 +72,95 @@ def same_files(a, b, outputs):
             sys.exit(f"{o}: the edit's file differs from the fresh run's ({a} vs {b})")
 
 
+SHARED = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "shared", "fixtures")
+COAST_FILES = ["ownership.tif", "distance.tif", "boundaries.geojson", "tripoints.geojson", "limits.geojson"]
+
+
+def coast_command(binary, seeds, res, outdir, base=None):
+    os.makedirs(outdir, exist_ok=True)
+    o = lambda n: os.path.join(outdir, n)  # noqa: E731
+    cmd = [binary, "compute", seeds, "--owner-field", "iso2", "--on-conflict", "lower-code", "--resolution", str(res),
+           "--ownership", o("ownership.tif"), "--distance", o("distance.tif"), "--boundaries", o("boundaries.geojson"),
+           "--tripoints", o("tripoints.geojson"), "--limits", o("limits.geojson"), "--limit-distances",
+           "12nmi,24nmi", "--report", o("report.json"), "--quiet"]
+    return cmd + (["--base", base] if base else [])
+
+
+def move_vertex(gpkg, near=(12.6, 55.7), shift=0.002):
+    from osgeo import ogr
+
+    ds = ogr.Open(gpkg, update=1)
+    lyr = ds.GetLayer(0)
+    best = None
+    for f in lyr:
+        if f.GetField("iso2") != "DK":
+            continue
+        g = f.GetGeometryRef()
+        for p in range(g.GetGeometryCount()):
+            for r in range(g.GetGeometryRef(p).GetGeometryCount()):
+                ring = g.GetGeometryRef(p).GetGeometryRef(r)
+                for k in range(ring.GetPointCount() - 1):
+                    x, y = ring.GetX(k), ring.GetY(k)
+                    d = (x - near[0]) ** 2 + (y - near[1]) ** 2
+                    if best is None or d < best[0]:
+                        best = (d, f.GetFID(), p, r, k)
+    _, fid, p, r, k = best
+    f = lyr.GetFeature(fid)
+    g = f.GetGeometryRef().Clone()
+    ring = g.GetGeometryRef(p).GetGeometryRef(r)
+    x, y = ring.GetX(k), ring.GetY(k)
+    ring.SetPoint_2D(k, x + shift, y)
+    if k == 0:
+        ring.SetPoint_2D(ring.GetPointCount() - 1, x + shift, y)
+    f.SetGeometry(g)
+    lyr.SetFeature(f)
+    ds = None
+    return x, y
+
+
+def coast(a):
+    import shutil
+
+    os.makedirs(a.work, exist_ok=True)
+    seeds = os.path.join(a.work, "baltic.gpkg")
+    shutil.copy(os.path.join(SHARED, "baltic_west.gpkg"), seeds)
+    base_dir = os.path.join(a.work, "base")
+    t_base = timed(coast_command(a.binary, seeds, a.resolution, base_dir))
+    x, y = move_vertex(seeds)
+    e_dir, f_dir = os.path.join(a.work, "edit"), os.path.join(a.work, "fresh")
+    e_wall, f_wall = [], []
+    for _ in range(a.repeats):
+        e_wall.append(timed(coast_command(a.binary, seeds, a.resolution, e_dir,
+                                          base=os.path.join(base_dir, "report.json"))))
+        f_wall.append(timed(coast_command(a.binary, seeds, a.resolution, f_dir)))
+        for n in COAST_FILES:
+            if not filecmp.cmp(os.path.join(e_dir, n), os.path.join(f_dir, n), shallow=False):
+                sys.exit(f"{n}: the edit's file differs from the fresh run's")
+    r = json.load(open(os.path.join(e_dir, "report.json")))
+    fr = json.load(open(os.path.join(f_dir, "report.json")))
+    e, g = r["edit"], r["grid"]
+    print(f"Western Baltic, geodesic, {g['width']} x {g['height']} cells ({g['cells']:.2e}) at {a.resolution} deg; "
+          f"rasters, boundaries, tripoints, 12 / 24 nmi limits. One vertex of DK at {x:.5f} E {y:.5f} N moved "
+          f"0.002 deg east. Medians of {a.repeats}, edit and fresh alternated (the base run took {t_base:.1f} s).\n")
+    print("| | edit | fresh | ratio |")
+    print("|---|---|---|---|")
+    em, fm = statistics.median(e_wall), statistics.median(f_wall)
+    print(f"| whole command, s | {em:.2f} | {fm:.2f} | {em / fm:.0%} |")
+    print(f"| compute, s (edit: read, plan, recompute, tally) | {r['timings_s']['compute']:.2f} | "
+          f"{fr['timings_s']['compute']:.2f} | {r['timings_s']['compute'] / fr['timings_s']['compute']:.0%} |")
+    print(f"| deliverables, s | {r['timings_s']['deliverables']['wall']:.2f} | "
+          f"{fr['timings_s']['deliverables']['wall']:.2f} | |")
+    t = e["timings_s"]
+    print(f"\nThe edit: cells recomputed {e['cells_recomputed']}, changed {e['owner_changed_cells']} (owner) + "
+          f"{e['distance_only_changed_cells']} (distance only), tiles read {e['tiles_read']} of {e['tiles']}; "
+          f"read {t['read_base']:.2f} s, plan {t['plan']:.2f} s, recompute {t['recompute']:.2f} s, "
+          f"tally {t['tally']:.2f} s; area moved {e['area_moved']}.")
+
+
 def main():
     ap = argparse.ArgumentParser()
+    ap.add_argument("--coast", action="store_true")
+    ap.add_argument("--resolution", type=float, default=0.0004)
     ap.add_argument("--binary", required=True)
     ap.add_argument("--side", type=int, default=10000)
     ap.add_argument("--seeds", type=int, default=50000)
@@ -74,6 +168,8 @@ def main():
     ap.add_argument("--work", default="/tmp/rv_edits_bench")
     ap.add_argument("--outputs", default="ownership,distance")
     a = ap.parse_args()
+    if a.coast:
+        return coast(a)
     outputs = a.outputs.split(",")
     os.makedirs(a.work, exist_ok=True)
     rng = random.Random(2032)

@@ -139,6 +139,7 @@ EditBaseWriter::EditBaseWriter(const JobSpec& spec, const PreparedJob& job)
   if (ec) throw Error(ErrorKind::io, "cannot create " + temp_ + ": " + ec.message());
   site_path_ = temp_ + "/site.tif";
   distance_path_ = temp_ + "/distance.tif";
+  if (!spec.outputs.distance.empty() && job.to_output == 1.0) shared_distance_ = spec.outputs.distance;
   sites_ = static_cast<int64_t>(job.loaded.seeds.sites().size());
   const std::string seeds = encode_seed_archive(job.loaded.seeds, job.loaded.input_position);
   write_file_atomically(temp_ + "/seeds.bin", seeds);
@@ -181,7 +182,13 @@ std::string EditBaseWriter::commit() {
     return a;
   };
   manifest_["site"] = {{"file", "site.tif"}, {"hashes", hashes(site_hash)}};
-  manifest_["distance"] = {{"file", "distance.tif"}, {"hashes", hashes(distance_hash)}};
+  const std::string distance_file = shared_distance_.empty()
+                                        ? std::string("distance.tif")
+                                        : fs::absolute(shared_distance_)
+                                              .lexically_normal()
+                                              .lexically_relative(fs::absolute(dir_).lexically_normal())
+                                              .string();
+  manifest_["distance"] = {{"file", distance_file}, {"hashes", hashes(distance_hash)}};
   manifest_["tiles"] = {{"size", TileSummaries::kTile},       {"cols", tiles.cols},         {"rows", tiles.rows},
                         {"max_distance", tiles.max_distance}, {"max_cost", tiles.max_cost}, {"unowned", tiles.unowned}};
   write_file_atomically(temp_ + "/manifest.json", json_text(manifest_, 1) + "\n");
@@ -206,6 +213,7 @@ struct EditBase::State {
   std::unique_ptr<GeoTiffRowReader<float>> distance;
   BandHasher site_hash, distance_hash;
   std::vector<std::string> site_bands, distance_bands;
+  std::string distance_name;  // as the manifest names it
   TileSummaries tiles;
   size_t site_checked = 0, distance_checked = 0;
   GridSpec grid;
@@ -292,7 +300,11 @@ EditBase::EditBase(const std::string& report, const JobSpec& spec, const Prepare
       throw Error(ErrorKind::invalid_input, "base: " + dir_name + "/" + file + " does not fit the grid");
   };
   open("site.tif", st.site);
-  open("distance.tif", st.distance);
+  const std::string distance_file = m.value("distance", nlohmann::json::object()).value("file", "");
+  if (distance_file.empty() || fs::path(distance_file).is_absolute())
+    throw Error(ErrorKind::invalid_input, "base: " + dir_name + "/manifest.json names no distance raster");
+  open(distance_file.c_str(), st.distance);
+  st.distance_name = distance_file;
   st.site_hash = BandHasher(job.grid.width);
   st.distance_hash = BandHasher(job.grid.width);
   st.grid = job.grid;
@@ -329,7 +341,7 @@ void EditBase::read(int64_t row0, int64_t rows, NearestField& out) {
                                                   std::to_string(checked * kBandRows) + " on)");
   };
   check(st.site_hash, st.site_bands, st.site_checked, "site.tif");
-  check(st.distance_hash, st.distance_bands, st.distance_checked, "distance.tif");
+  check(st.distance_hash, st.distance_bands, st.distance_checked, st.distance_name.c_str());
   const auto sites = static_cast<int32_t>(st.archive.seeds.sites().size());
   for (int32_t& s : out.site.cells()) {
     if (s < 0 || s > sites) throw Error(ErrorKind::invalid_input, "base: site.tif holds a site its seeds lack");

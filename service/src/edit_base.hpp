@@ -12,7 +12,9 @@
 //                  whether it has unowned cells (rv::TileSummaries): an edit reads no cell of a
 //                  tile it cannot change;
 //   site.tif       the nearest site of every cell (index + 1, 0 = none), Int32 codes;
-//   distance.tif   the distance to it in metric units, Float32, as the engine computed it.
+//   distance.tif   the distance to it in metric units, Float32, as the engine computed it; or,
+//                  when the job writes its distance raster in metric units, that file (the
+//                  manifest names it relative to the directory, e.g. "../distance.tif").
 // An edit (`--base REPORT`) reads that directory strip by strip in place of computing: each strip
 // of the base field is checked against its band checksums, planned and recomputed where the
 // edit can change it (rv::Edit), and the edited strip goes on to the writers and deliverables
@@ -75,6 +77,9 @@ class EditBaseWriter {
   const std::string& temp_dir() const { return temp_; }
   const std::string& site_path() const { return site_path_; }
   const std::string& distance_path() const { return distance_path_; }
+  // Whether the job's own distance raster (in metric units) serves as the kept distance: its
+  // writer then feeds the hasher and the tile summaries, and nothing is written twice.
+  bool shares_distance() const { return !shared_distance_.empty(); }
   GeoTiffOptions site_options() const;
   GeoTiffOptions distance_options() const;
   BandHasher site_hash, distance_hash;
@@ -85,7 +90,7 @@ class EditBaseWriter {
   std::string commit();
 
  private:
-  std::string dir_, temp_, site_path_, distance_path_;
+  std::string dir_, temp_, site_path_, distance_path_, shared_distance_;
   nlohmann::json manifest_;
   std::string seeds_hash_;
   int64_t sites_ = 0;

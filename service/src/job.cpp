@@ -620,10 +620,13 @@ void compute_streamed(detail::JobRun& run, const PreparedJob& job, const RasterT
   if (keep) {
     target(Product::site, keep->site_path(), keep->site_options(), "edit_base_site");
     stream.targets.back().hasher = &keep->site_hash;
-    target(Product::metric_distance, keep->distance_path(), keep->distance_options(), "edit_base_distance");
-    stream.targets.back().hasher = &keep->distance_hash;
-    stream.targets.back().observe = [keep, &job](const int32_t* site, const float* distance, int64_t row0,
-                                                 int64_t rows) {
+    if (!keep->shares_distance())
+      target(Product::metric_distance, keep->distance_path(), keep->distance_options(), "edit_base_distance");
+    detail::StreamTarget& d = *std::find_if(stream.targets.begin(), stream.targets.end(), [&](const auto& t) {
+      return t.product == (keep->shares_distance() ? Product::distance : Product::metric_distance);
+    });
+    d.hasher = &keep->distance_hash;
+    d.observe = [keep, &job](const int32_t* site, const float* distance, int64_t row0, int64_t rows) {
       keep->tiles.add(site, distance, row0, rows, job.grid.width, job.loaded.seeds);
     };
   }

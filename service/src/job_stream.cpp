@@ -146,6 +146,8 @@ void write_file(StreamState& st, size_t i) {
           write_codes(s.changes.data());
           break;
         case StreamTarget::Product::distance:
+          // (Observed only in metric units: StreamJob::distance_factor 1.)
+          if (target.observe) target.observe(s.field.site.data(), s.field.distance.data(), s.row0, s.rows);
           write_floats(s.field.distance.data());
           break;
         case StreamTarget::Product::metric_distance: {

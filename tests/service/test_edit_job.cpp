@@ -485,16 +485,21 @@ TEST_F(EditJobErrors, MissingOrModifiedBaseFilesAreRefused) {
   const Case c = planar();
   const JobSpec base = base_run(c);
   const fs::path kept = base.outputs.report + ".rvbase";
-  // A modified cell of the kept field.
-  fs::copy_file(kept / "distance.tif", dir_ / "distance.tif.saved");
+  // A modified cell of the kept field: here the job's own distance raster, which it shares (the
+  // distances are in metric units).
+  const nlohmann::json manifest = nlohmann::json::parse(read_text(kept / "manifest.json"));
+  EXPECT_EQ(manifest["distance"]["file"], "../dist.tif");
+  EXPECT_FALSE(fs::exists(kept / "distance.tif"));
+  const fs::path distance = dir_ / "base" / "dist.tif";
+  fs::copy_file(distance, dir_ / "distance.tif.saved");
   {
-    Raster<float> d = read_float32((kept / "distance.tif").string());
+    Raster<float> d = read_float32(distance.string());
     d.at(10, 290) += 1.0f;
-    write_geotiff((kept / "distance.tif").string(), d, -1.0, GeoTiffOptions{});
+    write_geotiff(distance.string(), d, -1.0, GeoTiffOptions{});
   }
   expect_refused(spec(c, "modified"), base, ErrorKind::invalid_input,
-                 "distance.tif was modified since the base run (rows 256 on)");
-  fs::rename(dir_ / "distance.tif.saved", kept / "distance.tif");
+                 "../dist.tif was modified since the base run (rows 256 on)");
+  fs::rename(dir_ / "distance.tif.saved", distance);
   // The saved file back: the edit runs.
   JobSpec ok = spec(c, "ok");
   ok.base_report = base.outputs.report;

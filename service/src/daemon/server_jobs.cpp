@@ -116,6 +116,17 @@ std::string JobManager::snapshot_base(const std::string& base, const std::string
   link(from / output_file_name("report", ""), to / output_file_name("report", ""));
   for (const fs::directory_entry& e : fs::directory_iterator(from / kEditBaseDir, ec))
     link(e.path(), to / kEditBaseDir / e.path().filename());
+  // The kept distance may be the job's own distance raster, beside the directory.
+  try {
+    std::ifstream in(from / kEditBaseDir / "manifest.json");
+    const std::string file = nlohmann::json::parse(in).at("distance").at("file").get<std::string>();
+    const fs::path source = (from / kEditBaseDir / file).lexically_normal();
+    const fs::path rel = source.lexically_relative(from);
+    if (!rel.empty() && *rel.begin() != ".." && source.parent_path() != (from / kEditBaseDir).lexically_normal())
+      link(source, to / rel);
+  } catch (const nlohmann::json::exception&) {
+    bad(ErrorKind::invalid_argument, "job " + base + " kept a damaged manifest");
+  }
   if (ec) throw Error(ErrorKind::io, "cannot keep the base job's files: " + ec.message());
   return (to / output_file_name("report", "")).string();
 }
