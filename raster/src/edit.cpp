@@ -636,20 +636,35 @@ void EditChanges::add(const EditChanges& o) {
   for (const auto& [pair, area] : o.moved) moved[pair] += area;
 }
 
-EditChanges tally_changes(const NearestField& base, const SeedSet& base_seeds, const NearestField& edited,
-                          const SeedSet& edited_seeds, const GridSpec& grid, const Geolocator* geolocator,
-                          int32_t* codes, const CellMask* only) {
-  const Window w = base.site.window();
-  if (!(edited.site.window() == w)) throw Error(ErrorKind::invalid_argument, "tally_changes: the windows differ");
-  // Owners by label: each base code's code in the edited set (0 when it has none there).
+ChangeTally::ChangeTally(const SeedSet& base_seeds, const SeedSet& edited_seeds, const GridSpec& grid,
+                         const Geolocator* geolocator)
+    : base_seeds_(base_seeds), edited_seeds_(edited_seeds), grid_(grid), geolocator_(geolocator) {
+  // Owners by label: each base code's code in the edited set (-1 for an owner the edit dropped).
   std::unordered_map<std::string, int32_t> edited_code;
   for (size_t i = 0; i < edited_seeds.owner_labels().size(); ++i)
     edited_code.emplace(edited_seeds.owner_labels()[i], static_cast<int32_t>(i + 1));
-  std::vector<int32_t> code_in_edited(base_seeds.owner_labels().size() + 1, 0);
+  code_in_edited_.assign(base_seeds.owner_labels().size() + 1, 0);
   for (size_t i = 0; i < base_seeds.owner_labels().size(); ++i) {
     const auto it = edited_code.find(base_seeds.owner_labels()[i]);
-    code_in_edited[i + 1] = it == edited_code.end() ? -1 : it->second;  // -1: an owner the edit dropped
+    code_in_edited_[i + 1] = it == edited_code.end() ? -1 : it->second;
   }
+}
+
+EditChanges tally_changes(const NearestField& base, const SeedSet& base_seeds, const NearestField& edited,
+                          const SeedSet& edited_seeds, const GridSpec& grid, const Geolocator* geolocator,
+                          int32_t* codes, const CellMask* only) {
+  return ChangeTally(base_seeds, edited_seeds, grid, geolocator).measure(base, edited, codes, only);
+}
+
+EditChanges ChangeTally::measure(const NearestField& base, const NearestField& edited, int32_t* codes,
+                                 const CellMask* only) const {
+  const SeedSet& base_seeds = base_seeds_;
+  const SeedSet& edited_seeds = edited_seeds_;
+  const GridSpec& grid = grid_;
+  const Geolocator* geolocator = geolocator_;
+  const std::vector<int32_t>& code_in_edited = code_in_edited_;
+  const Window w = base.site.window();
+  if (!(edited.site.window() == w)) throw Error(ErrorKind::invalid_argument, "tally_changes: the windows differ");
   auto owner_of = [](const SeedSet& s, int32_t site) { return site == kNoSite ? 0 : s.site_owner(site); };
   auto label = [](const SeedSet& s, int32_t code) {
     return code <= 0 ? std::string() : s.owner_labels()[static_cast<size_t>(code - 1)];

@@ -585,11 +585,13 @@ void compute_streamed(detail::JobRun& run, const PreparedJob& job, const RasterT
   // change them.
   std::optional<Edit> edit;
   std::optional<NearestField> base_strip;
+  std::optional<ChangeTally> tallier;
   detail::EditTally tally;
   if (base) {
     stream.compute.prepared = prepare(job.loaded.seeds, job.grid, stream.compute);
     edit.emplace(base->seeds(), job.loaded.seeds, job.grid, stream.compute);
     base_strip.emplace();
+    tallier.emplace(base->seeds(), job.loaded.seeds, job.grid, job.compute.geolocator.get());
     tally.tiles_read.assign(base->tiles().max_cost.size(), false);
     if (!spec.outputs.changes.empty()) {
       GeoTiffOptions o = detail::raster_options(spec);
@@ -611,8 +613,7 @@ void compute_streamed(detail::JobRun& run, const PreparedJob& job, const RasterT
       ++tally.strips;
       if (codes) changes.resize(static_cast<size_t>(w.cell_count()));
       detail::timed_add(tally.tally_seconds, [&] {
-        tally.changes.add(tally_changes(*base_strip, base->seeds(), field, job.loaded.seeds, job.grid,
-                                        job.compute.geolocator.get(), codes ? changes.data() : nullptr, &plan.mask));
+        tally.changes.add(tallier->measure(*base_strip, field, codes ? changes.data() : nullptr, &plan.mask));
       });
     };
   }

@@ -143,6 +143,23 @@ EditChanges tally_changes(const NearestField& base, const SeedSet& base_seeds, c
                           const SeedSet& edited_seeds, const GridSpec& grid, const Geolocator* geolocator,
                           int32_t* codes, const CellMask* only = nullptr);
 
+// tally_changes for many windows of one edit (a streamed job's strips): the owners' labels are
+// matched once. Keeps the seed sets and geolocator by reference. Thread safety: measure() is const.
+class ChangeTally {
+ public:
+  ChangeTally(const SeedSet& base_seeds, const SeedSet& edited_seeds, const GridSpec& grid,
+              const Geolocator* geolocator);
+  EditChanges measure(const NearestField& base, const NearestField& edited, int32_t* codes,
+                      const CellMask* only = nullptr) const;
+
+ private:
+  const SeedSet& base_seeds_;
+  const SeedSet& edited_seeds_;
+  GridSpec grid_;
+  const Geolocator* geolocator_;
+  std::vector<int32_t> code_in_edited_;  // per base owner code, its edited code (-1: dropped)
+};
+
 // One-shot forms of Edit over a base field of any window.
 EditPlan plan_edit(const NearestField& base, const SeedSet& base_seeds, const SeedSet& edited, const GridSpec& grid,
                    const ComputeOptions& options);
