@@ -603,6 +603,9 @@ void TileSummaries::add(const int32_t* site, const float* distance, int64_t row0
                         const SeedSet& seeds) {
   const auto& sites = seeds.sites();
   const auto& features = seeds.features();
+  // Without weights a cost is its distance: no site's feature to look up per cell.
+  const bool weighted =
+      std::any_of(features.begin(), features.end(), [](const Feature& f) { return f.weight != 1.0; });
   for (int64_t r = 0; r < rows; ++r) {
     const size_t tile_row = static_cast<size_t>((row0 + r) / kTile * cols);
     for (int64_t c0 = 0; c0 < width; c0 += kTile) {
@@ -618,10 +621,13 @@ void TileSummaries::add(const int32_t* site, const float* distance, int64_t row0
           continue;
         }
         max_d = std::max(max_d, distance[i]);
-        const double w = features[static_cast<size_t>(sites[static_cast<size_t>(s)].feature)].weight;
-        max_c = std::max(max_c, static_cast<double>(distance[i]) / w);
+        if (weighted) {
+          const double w = features[static_cast<size_t>(sites[static_cast<size_t>(s)].feature)].weight;
+          max_c = std::max(max_c, static_cast<double>(distance[i]) / w);
+        }
       }
       max_distance[k] = max_d;
+      if (!weighted) max_c = std::max(max_c, static_cast<double>(max_d));
       // Rounded up: the summary bounds every cost of the tile.
       const auto fc = static_cast<float>(max_c);
       max_cost[k] = static_cast<double>(fc) < max_c ? std::nextafter(fc, std::numeric_limits<float>::infinity()) : fc;
