@@ -812,7 +812,8 @@ JobResult run_job(const JobSpec& spec, const JobLimits& limits, const JobHooks& 
   }
   // A streamed run with a report keeps its field for edits of it.
   std::unique_ptr<detail::EditBaseWriter> keep;
-  if (job.plan.streamed && !(spec.outputs.report.empty() && spec.outputs.edit_base.empty()))
+  if (job.plan.streamed && spec.outputs.keep_for_edits &&
+      !(spec.outputs.report.empty() && spec.outputs.edit_base.empty()))
     keep = std::make_unique<detail::EditBaseWriter>(spec, job);
   if (job.plan.streamed) {
     compute_streamed(run, job, targets, keep.get(), base.get());

@@ -1018,4 +1018,65 @@ TEST_F(Cli, HelpAndVersion) {
 }
 
 }  // namespace
+// An edit from the command line (issue 32): the user edits the seed file in place and runs the
+// same command again with --base naming the earlier report; the files equal a fresh run's, the
+// report says what moved; a run with --no-edit-base keeps nothing, and an edit of it is refused
+// in one line.
+TEST_F(Cli, AnEditOfTheSeedFileInPlace) {
+  const std::string crs = R"("crs":{"type":"name","properties":{"name":"urn:ogc:def:crs:EPSG::32633"}},)";
+  auto seeds = [&](double bx) {
+    return write("s.geojson", R"({"type":"FeatureCollection",)" + crs + R"("features":[
+      {"type":"Feature","id":1,"properties":{"state":"A"},"geometry":{"type":"Point","coordinates":[401000,6101000]}},
+      {"type":"Feature","id":2,"properties":{"state":"B"},"geometry":{"type":"Point","coordinates":[)" +
+                                  std::to_string(bx) + R"(,6102000]}},
+      {"type":"Feature","id":3,"properties":{"state":"C"},"geometry":{"type":"Point","coordinates":[402000,6108000]}}]})");
+  };
+  const std::string grid = " --owner-field state --resolution 50 --extent 400000 6100000 410000 6110000 --quiet";
+  auto outputs = [&](const std::string& d) {
+    fs::create_directories(path(d));
+    return " --ownership " + path(d + "/own.tif") + " --distance " + path(d + "/dist.tif") + " --boundaries " +
+           path(d + "/b.geojson") + " --report " + path(d + "/r.json");
+  };
+  CliRun r = run("compute " + seeds(408000) + grid + outputs("base"));
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("wrote " + path("base/r.json.rvbase")), std::string::npos) << r.output;
+  seeds(406000);
+  r = run("compute " + path("s.geojson") + grid + outputs("edit") + " --base " + path("base/r.json") + " --changes " +
+          path("edit/changes.tif"));
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  ASSERT_EQ(run("compute " + path("s.geojson") + grid + outputs("fresh")).exit_code, 0);
+  for (const char* f : {"own.tif", "dist.tif", "b.geojson"}) {
+    std::ifstream a(path(std::string("edit/") + f), std::ios::binary),
+        b(path(std::string("fresh/") + f), std::ios::binary);
+    const std::string x((std::istreambuf_iterator<char>(a)), {}), y((std::istreambuf_iterator<char>(b)), {});
+    EXPECT_TRUE(!x.empty() && x == y) << f;
+  }
+  const nlohmann::json report = nlohmann::json::parse(std::ifstream(path("edit/r.json")));
+  const nlohmann::json& e = report["edit"];
+  EXPECT_EQ(e["base"], path("base/r.json"));
+  EXPECT_EQ(e["features"]["changed"], 1) << e.dump();
+  ASSERT_FALSE(e["area_moved"].empty()) << e.dump();
+  // B moved west: every cell that changed hands went to or from B, 50 m x 50 m each.
+  double moved = 0.0;
+  for (const auto& m : e["area_moved"]) {
+    EXPECT_TRUE(m["to"] == "B" || m["from"] == "B") << m.dump();
+    moved += m["area"].get<double>();
+  }
+  EXPECT_EQ(moved, 2500.0 * e["owner_changed_cells"].get<double>());
+  EXPECT_TRUE(fs::exists(path("edit/changes.tif")));
+  // Kept nothing: an edit of it is refused, and writes nothing.
+  ASSERT_EQ(run("compute " + path("s.geojson") + grid + outputs("plain") + " --no-edit-base").exit_code, 0);
+  EXPECT_FALSE(fs::exists(path("plain/r.json.rvbase")));
+  fs::create_directories(path("refused"));
+  expect_refused(run("compute " + path("s.geojson") + grid + " --ownership " + path("refused/own.tif") + " --base " +
+                     path("plain/r.json")),
+                 3, "names nothing kept for edits");
+  std::string grid40 = grid;
+  grid40.replace(grid40.find("--resolution 50"), 15, "--resolution 40");
+  expect_refused(run("compute " + path("s.geojson") + grid40 + " --ownership " + path("refused/own.tif") + " --base " +
+                     path("base/r.json")),
+                 2, "grid resolution 40.0 (base: 50.0)");
+  EXPECT_TRUE(fs::is_empty(path("refused")));
+}
+
 }  // namespace rv

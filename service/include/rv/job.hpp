@@ -59,6 +59,7 @@ struct OutputRequest {
   // The directory where the run keeps its field for later edits (service/src/edit_base.hpp):
   // streamed runs only; "" = the report's path with ".rvbase" when there is a report, else none.
   std::string edit_base;
+  bool keep_for_edits = true;   // false: keep nothing (no later edit can name this run as its base)
   double simplify_cells = 0.0;  // Douglas-Peucker tolerance of boundary and limit lines, cells
   // The disproportionality test (regions within a relevant area): a vector file of the relevant
   // area's polygons, and optionally of each owner's relevant coasts (lines, owned through the
