@@ -319,19 +319,21 @@ void run_random_edits(EditJob& t, const Case& c, uint32_t seed, int rounds) {
   if (c.tiles_skipped) EXPECT_GT(tiles_skipped, 0);
 }
 
-TEST_F(EditJob, RandomEditsEqualFreshRunsPlanar) {
+// 12 km x 12 km in UTM 33N at `res` metres, limit lines at `limit`.
+Case planar_case(double res, const std::string& limit) {
   Case c;
   c.extent = {400000.0, 6100000.0, 412000.0, 6112000.0};
-  c.res = 40.0;  // 300 x 300 cells
-  c.limit = "1500";
-  run_random_edits(*this, c, 7, 10);
+  c.res = res;
+  c.limit = limit;
+  return c;
+}
+
+TEST_F(EditJob, RandomEditsEqualFreshRunsPlanar) {
+  run_random_edits(*this, planar_case(40.0, "1500"), 7, 10);  // 300 x 300 cells
 }
 
 TEST_F(EditJob, RandomEditsEqualFreshRunsPlanarWeightedWithMaxDistance) {
-  Case c;
-  c.extent = {400000.0, 6100000.0, 412000.0, 6112000.0};
-  c.res = 40.0;
-  c.limit = "1000";
+  Case c = planar_case(40.0, "1000");
   c.max_distance = 1800.0;
   c.weights = true;
   run_random_edits(*this, c, 11, 8);
@@ -341,10 +343,7 @@ TEST_F(EditJob, RandomEditsEqualFreshRunsPlanarWeightedWithMaxDistance) {
 // rules them out from the base's tile summaries; the rounds check that some are), 100 seeds whose
 // regions cross tile edges.
 TEST_F(EditJob, RandomEditsEqualFreshRunsOnManyTiles) {
-  Case c;
-  c.extent = {400000.0, 6100000.0, 412000.0, 6112000.0};
-  c.res = 8.0;
-  c.limit = "1500";
+  Case c = planar_case(8.0, "1500");
   c.weights = true;
   c.tiles_skipped = true;
   c.slots = 10;
@@ -445,13 +444,7 @@ class EditJobErrors : public EditJob {
     }
     EXPECT_TRUE(fs::is_empty(d)) << "the refused edit left files in " << d;
   }
-  Case planar() const {
-    Case c;
-    c.extent = {400000.0, 6100000.0, 412000.0, 6112000.0};
-    c.res = 40.0;
-    c.limit = "1500";
-    return c;
-  }
+  Case planar() const { return planar_case(40.0, "1500"); }
 };
 
 TEST_F(EditJobErrors, ADifferentGridMetricOrMethodIsNamed) {
