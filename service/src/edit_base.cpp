@@ -258,7 +258,19 @@ EditBase::EditBase(const std::string& report, const JobSpec& spec, const Prepare
   if (!m.is_object() || m.value("format", "") != kFormat || m.value("version", 0) != kFormatVersion ||
       m.value("band_rows", int64_t{0}) != kBandRows || !m.contains("grid") || !m["grid"].is_object())
     throw Error(ErrorKind::invalid_input, "base: " + dir_name + "/manifest.json is not a kept base of this version");
-  const std::string diff = differences(m, request_params(spec, job));
+  std::string diff = differences(m, request_params(spec, job));
+  // A grid taken from the seeds' extent moves with them: name the base's extent to give instead.
+  if (diff.find("grid ") != std::string::npos && !spec.grid.extent && !m["grid"].value("crs", "").empty()) {
+    try {
+      const nlohmann::json& g = m["grid"];
+      const double xmin = g.at("xmin"), ymax = g.at("ymax"), res = g.at("resolution");
+      const double xmax = xmin + res * g.at("width").get<double>(), ymin = ymax - res * g.at("height").get<double>();
+      char extent[160];
+      std::snprintf(extent, sizeof extent, "%.17g %.17g %.17g %.17g", xmin, ymin, xmax, ymax);
+      diff += std::string("; the extent follows the seeds unless given: the base's was ") + extent;
+    } catch (const nlohmann::json::exception&) {
+    }
+  }
   if (!diff.empty()) throw Error(ErrorKind::invalid_argument, "base: the job differs from its base: " + diff);
   const std::string seeds = read_whole((dir / "seeds.bin").string(), dir_name + "/seeds.bin");
   const nlohmann::json& sm = m.value("seeds", nlohmann::json::object());

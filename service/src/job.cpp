@@ -302,6 +302,9 @@ JobPlan plan_job(const JobSpec& spec, const GridSpec& grid, int64_t sites, Metri
     p.memory_bytes = estimate_memory(spec.method, 2 * strip_cells, sites, metric) + strip_cells * 4 * int_rasters +
                      rasters * (kTileRows * grid.width * 4 + kWriterBytes) + seed_bytes;
     if (out.any_deliverable()) p.memory_bytes += deliverables_memory(spec, grid, strip_cells);
+    // An edit: the base's strip (site and distance) beside the edited one, and the plan's per-cell
+    // flags and costs of the tiles it reads (at most a strip's).
+    if (!spec.base_report.empty()) p.memory_bytes += strip_cells * (8 + 9);
     // A COG's writer makes the overviews from the rows as they pass: its levels' rows in the
     // making take under one more band of tile rows.
     if (out.cloud_optimized) p.memory_bytes += (rasters + !out.margin.empty()) * kTileRows * grid.width * 4;

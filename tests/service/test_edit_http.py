@@ -9,7 +9,7 @@ is deleted):
      base; its changes raster marks the cells whose owner changed;
   3. bad bases: an unknown job id (404), a job that failed (400), a different grid (the edit job
      fails with the invalid-parameter problem naming the difference), a base id that is not an id
-     (400); none leaves a file in the data directory.
+     (400), the changes output without a base (400); none leaves a file in the data directory.
 Only the standard library and the harness; GDAL is not needed (files compare as bytes).
 """
 import json
@@ -127,6 +127,10 @@ def main():
                                     body(edited, resolution=60, extra={"baseJob": edit}))
             check(status == 400 and "grid resolution 60" in doc.get("detail", ""),
                   f"a different grid is named: {status} {doc}")
+            status, _, doc = d.json("POST", "/processes/voronoi/execution",
+                                    body(edited, outputs=["ownership", "changes"]))
+            check(status == 400 and "needs the input baseJob" in doc.get("detail", ""),
+                  f"changes without a base: {status} {doc}")
             jobs_dir = os.path.join(data, "jobs")
             leftovers = [j for j in os.listdir(jobs_dir)
                          if j not in (edit, fresh, slow["jobID"]) and os.listdir(os.path.join(jobs_dir, j))]

@@ -456,6 +456,10 @@ TEST_F(EditJobErrors, ADifferentGridMetricOrMethodIsNamed) {
   s = spec(c, "extent");
   s.grid.extent = std::array<double, 4>{400000.0, 6100000.0, 412000.0, 6112040.0};
   expect_refused(s, base, ErrorKind::invalid_argument, "grid height");
+  s = spec(c, "noextent");  // the grid of the seeds' box, which an edit may move
+  s.grid.extent.reset();
+  expect_refused(s, base, ErrorKind::invalid_argument,
+                 "the extent follows the seeds unless given: the base's was 400000 6100000 412000 6112000");
   s = spec(c, "metric");
   s.metric = MetricRequest::geodesic;
   expect_refused(s, base, ErrorKind::invalid_argument, "metric geodesic (base: planar)");

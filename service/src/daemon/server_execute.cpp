@@ -411,6 +411,13 @@ void check_limits_pairing(const json& in, const Execution& ex) {
   }
 }
 
+// The changes raster is an edit's: without a base job it is a mistake to report now.
+void check_changes_pairing(const Execution& ex) {
+  const bool changes = std::find(ex.outputs.begin(), ex.outputs.end(), "changes") != ex.outputs.end();
+  if (changes && ex.spec.base_name.empty())
+    throw Error(ErrorKind::invalid_argument, "output 'changes': needs the input baseJob (the job this one edits)");
+}
+
 }  // namespace
 
 Execution parse_execution(const json& body, const std::string& job_id, const ServerConfig& config) {
@@ -427,6 +434,7 @@ Execution parse_execution(const json& body, const std::string& job_id, const Ser
   check_grid_limits(ex.spec, config);
   parse_outputs(body, ex);
   check_limits_pairing(in, ex);
+  check_changes_pairing(ex);
   return ex;
 }
 
