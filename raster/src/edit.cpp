@@ -389,6 +389,7 @@ struct Edit::State {
   ComputeOptions options;
   FeatureMatch match;
   std::vector<int32_t> remap;  // base site -> edited site
+  bool keeps_indices = false;  // every kept site has the same index in both sets
   FeatureGroup added, removed;
 
   std::vector<SeedSet::Box> boxes;  // cells whose centre is in one are computed again
@@ -405,6 +406,9 @@ struct Edit::State {
     // projected geodesic grid (the seeds are in longitude/latitude there).
     SiteMatch sites = match_sites(base_seeds, edited, match, options.geolocator == nullptr);
     remap = std::move(sites.remap);
+    keeps_indices = true;
+    for (size_t i = 0; i < remap.size(); ++i)
+      keeps_indices = keeps_indices && (remap[i] == kNoSite || remap[i] == static_cast<int32_t>(i));
     boxes = std::move(sites.boxes);
     added.build(edited, sites.added, grid, options);
     removed.build(base_seeds, sites.removed, grid, options);
@@ -574,14 +578,26 @@ EditPlan Edit::plan(const NearestField& base, const TileSummaries* tiles) const 
 
 void Edit::apply(const NearestField& base, const EditPlan& plan, NearestField& out) const {
   const State& st = *st_;
-  if (&out != &base) {
+  const bool in_place = &out == &base;
+  if (!in_place) {
     out.site = base.site;
     out.distance = base.distance;
+    out.metric = base.metric;
+    out.geolocator = base.geolocator;
   }
-  out.metric = base.metric;
-  out.geolocator = base.geolocator;
-  for (int32_t& s : out.site.cells())
-    if (s != kNoSite) s = st.remap[static_cast<size_t>(s)];
+  if (in_place && st.keeps_indices) {
+    // Every cell outside the mask has a kept site, which keeps its index: only the mask's cells
+    // (those of removed sites among them) are renumbered.
+    for (int64_t r = 0; r < out.site.height(); ++r)
+      for (const auto& [c0, c1] : plan.mask.rows[static_cast<size_t>(r)])
+        for (int64_t c = c0; c < c1; ++c) {
+          int32_t& s = out.site.at(c, r);
+          if (s != kNoSite) s = st.remap[static_cast<size_t>(s)];
+        }
+  } else {
+    for (int32_t& s : out.site.cells())
+      if (s != kNoSite) s = st.remap[static_cast<size_t>(s)];
+  }
   ComputeOptions o = st.options;
   o.window = base.site.window();
   o.mask = std::make_shared<const CellMask>(plan.mask);
@@ -661,63 +677,84 @@ EditChanges tally_changes(const NearestField& base, const SeedSet& base_seeds, c
   return ChangeTally(base_seeds, edited_seeds, grid, geolocator).measure(base, edited, codes, only);
 }
 
-EditChanges ChangeTally::measure(const NearestField& base, const NearestField& edited, int32_t* codes,
-                                 const CellMask* only) const {
-  const SeedSet& base_seeds = base_seeds_;
-  const SeedSet& edited_seeds = edited_seeds_;
-  const GridSpec& grid = grid_;
-  const Geolocator* geolocator = geolocator_;
-  const std::vector<int32_t>& code_in_edited = code_in_edited_;
-  const Window w = base.site.window();
-  if (!(edited.site.window() == w)) throw Error(ErrorKind::invalid_argument, "tally_changes: the windows differ");
+int32_t ChangeTally::count(int32_t sb, float db, int32_t se, float de, int64_t col, int64_t row,
+                           const MetricSpec& metric, EditChanges& out,
+                           std::unordered_map<int64_t, double>& rows) const {
   auto owner_of = [](const SeedSet& s, int32_t site) { return site == kNoSite ? 0 : s.site_owner(site); };
   auto label = [](const SeedSet& s, int32_t code) {
     return code <= 0 ? std::string() : s.owner_labels()[static_cast<size_t>(code - 1)];
   };
+  const int32_t ob = owner_of(base_seeds_, sb), oe = owner_of(edited_seeds_, se);
+  const bool owner_changed = (ob == 0 ? 0 : code_in_edited_[static_cast<size_t>(ob)]) != oe;
+  const bool distance_changed = std::bit_cast<uint32_t>(db) != std::bit_cast<uint32_t>(de);
+  if (!owner_changed) {
+    out.distance_only_cells += distance_changed;
+    return distance_changed ? 2 : 0;
+  }
+  ++out.owner_cells;
   // The area of a cell: its square, measured as the regions' rings are (per row on
   // longitude/latitude grids, where it depends on the row alone).
-  const MetricSpec& metric = edited.metric;
-  auto cell_area = [&](int64_t col, int64_t row) {
-    const double x0 = grid.xmin + static_cast<double>(col) * grid.res;
-    const double y1 = grid.ymax - static_cast<double>(row) * grid.res;
-    const std::array<Vec2, 4> ring{Vec2{x0, y1}, Vec2{x0 + grid.res, y1}, Vec2{x0 + grid.res, y1 - grid.res},
-                                   Vec2{x0, y1 - grid.res}};
-    return ring_area(ring, metric, geolocator, grid.res);
+  auto cell_area = [&] {
+    const GridSpec& g = grid_;
+    const double x0 = g.xmin + static_cast<double>(col) * g.res;
+    const double y1 = g.ymax - static_cast<double>(row) * g.res;
+    const std::array<Vec2, 4> ring{Vec2{x0, y1}, Vec2{x0 + g.res, y1}, Vec2{x0 + g.res, y1 - g.res},
+                                   Vec2{x0, y1 - g.res}};
+    return ring_area(ring, metric, geolocator_, g.res);
   };
-  std::unordered_map<int64_t, double> row_area;
-  EditChanges out;
-  auto cell = [&](int64_t c, int64_t r) {
-    const int32_t sb = base.site.at(c, r), se = edited.site.at(c, r);
-    const int32_t ob = owner_of(base_seeds, sb), oe = owner_of(edited_seeds, se);
-    const bool owner_changed = (ob == 0 ? 0 : code_in_edited[static_cast<size_t>(ob)]) != oe;
-    const bool distance_changed =
-        std::bit_cast<uint32_t>(base.distance.at(c, r)) != std::bit_cast<uint32_t>(edited.distance.at(c, r));
-    if (codes) codes[r * w.width + c] = owner_changed ? 1 : distance_changed ? 2 : 0;
-    if (!owner_changed) {
-      out.distance_only_cells += distance_changed;
-      return;
-    }
-    ++out.owner_cells;
-    const int64_t col = w.col0 + c, row = w.row0 + r;
-    double area = 0.0;
-    if (metric.kind == MetricSpec::geodesic && geolocator == nullptr) {
-      const auto it = row_area.find(row);
-      area = it != row_area.end() ? it->second : (row_area[row] = cell_area(col, row));
-    } else {
-      area = cell_area(col, row);
-    }
-    out.moved[{label(base_seeds, ob), label(edited_seeds, oe)}] += area;
-  };
-  if (only == nullptr) {
-    for (int64_t r = 0; r < w.height; ++r)
-      for (int64_t c = 0; c < w.width; ++c) cell(c, r);
-    return out;
+  double area = 0.0;
+  if (metric.kind == MetricSpec::geodesic && geolocator_ == nullptr) {
+    const auto it = rows.find(row);
+    area = it != rows.end() ? it->second : (rows[row] = cell_area());
+  } else {
+    area = cell_area();
   }
-  if (!only->fits(w)) throw Error(ErrorKind::invalid_argument, "tally_changes: the mask does not fit the window");
-  if (codes) std::fill(codes, codes + w.cell_count(), 0);
+  out.moved[{label(base_seeds_, ob), label(edited_seeds_, oe)}] += area;
+  return 1;
+}
+
+EditChanges ChangeTally::measure(const NearestField& base, const NearestField& edited, int32_t* codes,
+                                 const CellMask* only) const {
+  const Window w = base.site.window();
+  if (!(edited.site.window() == w)) throw Error(ErrorKind::invalid_argument, "tally_changes: the windows differ");
+  if (only != nullptr) {
+    if (!only->fits(w)) throw Error(ErrorKind::invalid_argument, "tally_changes: the mask does not fit the window");
+    std::vector<int32_t> sites;
+    std::vector<float> distances;
+    for (int64_t r = 0; r < w.height; ++r)
+      for (const auto& [c0, c1] : only->rows[static_cast<size_t>(r)])
+        for (int64_t c = c0; c < c1; ++c) {
+          sites.push_back(base.site.at(c, r));
+          distances.push_back(base.distance.at(c, r));
+        }
+    return measure_masked(*only, sites.data(), distances.data(), edited, codes);
+  }
+  std::unordered_map<int64_t, double> rows;
+  EditChanges out;
   for (int64_t r = 0; r < w.height; ++r)
-    for (const auto& [c0, c1] : only->rows[static_cast<size_t>(r)])
-      for (int64_t c = c0; c < c1; ++c) cell(c, r);
+    for (int64_t c = 0; c < w.width; ++c) {
+      const int32_t code = count(base.site.at(c, r), base.distance.at(c, r), edited.site.at(c, r),
+                                 edited.distance.at(c, r), w.col0 + c, w.row0 + r, edited.metric, out, rows);
+      if (codes) codes[r * w.width + c] = code;
+    }
+  return out;
+}
+
+EditChanges ChangeTally::measure_masked(const CellMask& mask, const int32_t* base_site, const float* base_distance,
+                                        const NearestField& edited, int32_t* codes) const {
+  const Window w = edited.site.window();
+  if (!mask.fits(w)) throw Error(ErrorKind::invalid_argument, "tally_changes: the mask does not fit the window");
+  if (codes) std::fill(codes, codes + w.cell_count(), 0);
+  std::unordered_map<int64_t, double> rows;
+  EditChanges out;
+  size_t k = 0;
+  for (int64_t r = 0; r < w.height; ++r)
+    for (const auto& [c0, c1] : mask.rows[static_cast<size_t>(r)])
+      for (int64_t c = c0; c < c1; ++c, ++k) {
+        const int32_t code = count(base_site[k], base_distance[k], edited.site.at(c, r), edited.distance.at(c, r),
+                                   w.col0 + c, w.row0 + r, edited.metric, out, rows);
+        if (codes) codes[r * w.width + c] = code;
+      }
   return out;
 }
 

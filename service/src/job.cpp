@@ -302,9 +302,9 @@ JobPlan plan_job(const JobSpec& spec, const GridSpec& grid, int64_t sites, Metri
     p.memory_bytes = estimate_memory(spec.method, 2 * strip_cells, sites, metric) + strip_cells * 4 * int_rasters +
                      rasters * (kTileRows * grid.width * 4 + kWriterBytes) + seed_bytes;
     if (out.any_deliverable()) p.memory_bytes += deliverables_memory(spec, grid, strip_cells);
-    // An edit: the base's strip (site and distance) beside the edited one, and the plan's per-cell
-    // flags and costs of the tiles it reads (at most a strip's).
-    if (!spec.base_report.empty()) p.memory_bytes += strip_cells * (8 + 9);
+    // An edit: the plan's per-cell flags and costs of the tiles it reads (at most a strip's); the
+    // base's strip is read into the strip buffers and edited in place.
+    if (!spec.base_report.empty()) p.memory_bytes += strip_cells * 9;
     // A COG's writer makes the overviews from the rows as they pass: its levels' rows in the
     // making take under one more band of tile rows.
     if (out.cloud_optimized) p.memory_bytes += (rasters + !out.margin.empty()) * kTileRows * grid.width * 4;
@@ -587,13 +587,11 @@ void compute_streamed(detail::JobRun& run, const PreparedJob& job, const RasterT
   // The edit of a finished run: its strips come from the base, recomputed where the edit can
   // change them.
   std::optional<Edit> edit;
-  std::optional<NearestField> base_strip;
   std::optional<ChangeTally> tallier;
   detail::EditTally tally;
   if (base) {
     stream.compute.prepared = prepare(job.loaded.seeds, job.grid, stream.compute);
     edit.emplace(base->seeds(), job.loaded.seeds, job.grid, stream.compute);
-    base_strip.emplace();
     tallier.emplace(base->seeds(), job.loaded.seeds, job.grid, job.compute.geolocator.get());
     tally.tiles_read.assign(base->tiles().max_cost.size(), false);
     if (!spec.outputs.changes.empty()) {
@@ -604,11 +602,23 @@ void compute_streamed(detail::JobRun& run, const PreparedJob& job, const RasterT
       target(Product::changes, spec.outputs.changes, o, "changes");
     }
     const bool codes = !spec.outputs.changes.empty();
+    // The base strip is read into the strip's own buffers and edited in place; the base's values
+    // of the cells the plan recomputes are kept aside for the tally.
     stream.source = [&, codes](const Window& w, NearestField& field, std::vector<int32_t>& changes) {
-      detail::timed_add(tally.read_seconds, [&] { base->read(w.row0, w.height, *base_strip); });
+      detail::timed_add(tally.read_seconds, [&] { base->read(w.row0, w.height, field); });
       EditPlan plan;
-      detail::timed_add(tally.plan_seconds, [&] { plan = edit->plan(*base_strip, &base->tiles()); });
-      detail::timed_add(tally.apply_seconds, [&] { edit->apply(*base_strip, plan, field); });
+      detail::timed_add(tally.plan_seconds, [&] { plan = edit->plan(field, &base->tiles()); });
+      std::vector<int32_t> base_sites;
+      std::vector<float> base_distances;
+      detail::timed_add(tally.apply_seconds, [&] {
+        for (int64_t r = 0; r < w.height; ++r)
+          for (const auto& [c0, c1] : plan.mask.rows[static_cast<size_t>(r)])
+            for (int64_t c = c0; c < c1; ++c) {
+              base_sites.push_back(field.site.at(c, r));
+              base_distances.push_back(field.distance.at(c, r));
+            }
+        edit->apply(field, plan, field);
+      });
       tally.cells_recomputed += plan.cells;
       tally.cells_of_removed += plan.removed_cells;
       tally.blocks_measured += plan.blocks_measured;
@@ -616,7 +626,8 @@ void compute_streamed(detail::JobRun& run, const PreparedJob& job, const RasterT
       ++tally.strips;
       if (codes) changes.resize(static_cast<size_t>(w.cell_count()));
       detail::timed_add(tally.tally_seconds, [&] {
-        tally.changes.add(tallier->measure(*base_strip, field, codes ? changes.data() : nullptr, &plan.mask));
+        tally.changes.add(tallier->measure_masked(plan.mask, base_sites.data(), base_distances.data(), field,
+                                                  codes ? changes.data() : nullptr));
       });
     };
   }

@@ -19,6 +19,7 @@
 #include <map>
 #include <memory>
 #include <string>
+#include <unordered_map>
 #include <utility>
 #include <vector>
 
@@ -109,8 +110,10 @@ class Edit {
   // range) or the summaries do not fit the grid.
   EditPlan plan(const NearestField& base, const TileSummaries* tiles = nullptr) const;
 
-  // The edited field over base's window into `out` (its buffers reused as compute_into does):
-  // the base's cells renumbered to the edited sites, the plan's cells computed again. Equal to
+  // The edited field over base's window into `out` (its buffers reused as compute_into does; `out`
+  // may be `base` itself: the edit is then made in place, and only the mask's cells are touched
+  // when no kept site changes its index): the base's cells renumbered to the edited sites, the
+  // plan's cells computed again. Equal to
   // compute(edited, grid, options) over that window, cell for cell. Needs options.method exact
   // (else rv::Error(invalid_argument), thrown by the constructor).
   void apply(const NearestField& base, const EditPlan& plan, NearestField& out) const;
@@ -151,8 +154,15 @@ class ChangeTally {
               const Geolocator* geolocator);
   EditChanges measure(const NearestField& base, const NearestField& edited, int32_t* codes,
                       const CellMask* only = nullptr) const;
+  // The same over `mask` alone, the base's sites and distances of its cells given in the mask's
+  // order (row by row, span by span): for an edit applied in place (Edit::apply with out == base).
+  EditChanges measure_masked(const CellMask& mask, const int32_t* base_site, const float* base_distance,
+                             const NearestField& edited, int32_t* codes) const;
 
  private:
+  // One cell: counts its change into `out` and returns its code (0, 1 owner, 2 distance only).
+  int32_t count(int32_t sb, float db, int32_t se, float de, int64_t col, int64_t row, const MetricSpec& metric,
+                EditChanges& out, std::unordered_map<int64_t, double>& rows) const;
   const SeedSet& base_seeds_;
   const SeedSet& edited_seeds_;
   GridSpec grid_;
