@@ -255,55 +255,60 @@ EditBase::EditBase(const std::string& report, const JobSpec& spec, const Prepare
     throw Error(ErrorKind::invalid_input, "base: " + dir_name + "/manifest.json is damaged");
   }
   const nlohmann::json& m = st.manifest;
-  if (!m.is_object() || m.value("format", "") != kFormat || m.value("version", 0) != kFormatVersion ||
-      m.value("band_rows", int64_t{0}) != kBandRows || !m.contains("grid") || !m["grid"].is_object())
-    throw Error(ErrorKind::invalid_input, "base: " + dir_name + "/manifest.json is not a kept base of this version");
-  std::string diff = differences(m, request_params(spec, job));
-  // A grid taken from the seeds' extent moves with them: name the base's extent to give instead.
-  if (diff.find("grid ") != std::string::npos && !spec.grid.extent && !m["grid"].value("crs", "").empty()) {
-    try {
-      const nlohmann::json& g = m["grid"];
-      const double xmin = g.at("xmin"), ymax = g.at("ymax"), res = g.at("resolution");
-      const double xmax = xmin + res * g.at("width").get<double>(), ymin = ymax - res * g.at("height").get<double>();
-      char extent[160];
-      std::snprintf(extent, sizeof extent, "%.17g %.17g %.17g %.17g", xmin, ymin, xmax, ymax);
-      diff += std::string("; the extent follows the seeds unless given: the base's was ") + extent;
-    } catch (const nlohmann::json::exception&) {
-    }
-  }
-  if (!diff.empty()) throw Error(ErrorKind::invalid_argument, "base: the job differs from its base: " + diff);
-  const std::string seeds = read_whole((dir / "seeds.bin").string(), dir_name + "/seeds.bin");
-  const nlohmann::json& sm = m.value("seeds", nlohmann::json::object());
-  if (sm.value("hash", "") != hex(hash_bytes(reinterpret_cast<const unsigned char*>(seeds.data()), seeds.size(), 0)))
-    throw Error(ErrorKind::invalid_input, "base: " + dir_name + "/seeds.bin was modified since the base run");
-  st.archive = decode_seed_archive(seeds);
-  if (static_cast<int64_t>(st.archive.seeds.sites().size()) != m.value("sites", int64_t{-1}))
-    throw Error(ErrorKind::invalid_input, "base: " + dir_name + "/manifest.json does not fit its seeds");
-  auto bands = [&](const char* key) {
-    std::vector<std::string> out;
-    const nlohmann::json& e = m.value(key, nlohmann::json::object());
-    for (const nlohmann::json& h : e.value("hashes", nlohmann::json::array())) out.push_back(h.get<std::string>());
-    if (static_cast<int64_t>(out.size()) != (job.grid.height + kBandRows - 1) / kBandRows)
-      throw Error(ErrorKind::invalid_input, "base: " + dir_name + "/manifest.json does not fit its grid");
-    return out;
-  };
+  // A manifest with a member of the wrong type is as damaged as one that does not parse.
   try {
-    const nlohmann::json& t = m.at("tiles");
-    st.tiles = TileSummaries::for_grid(job.grid);
-    if (t.at("size").get<int64_t>() != TileSummaries::kTile || t.at("cols").get<int64_t>() != st.tiles.cols ||
-        t.at("rows").get<int64_t>() != st.tiles.rows)
-      throw Error(ErrorKind::invalid_input, "");
-    st.tiles.max_distance = t.at("max_distance").get<std::vector<float>>();
-    st.tiles.max_cost = t.at("max_cost").get<std::vector<float>>();
-    st.tiles.unowned = t.at("unowned").get<std::vector<uint8_t>>();
-    const size_t n = static_cast<size_t>(st.tiles.cols * st.tiles.rows);
-    if (st.tiles.max_distance.size() != n || st.tiles.max_cost.size() != n || st.tiles.unowned.size() != n)
-      throw Error(ErrorKind::invalid_input, "");
-  } catch (const std::exception&) {
-    throw Error(ErrorKind::invalid_input, "base: " + dir_name + "/manifest.json has no tile summaries of its grid");
+    if (!m.is_object() || m.value("format", "") != kFormat || m.value("version", 0) != kFormatVersion ||
+        m.value("band_rows", int64_t{0}) != kBandRows || !m.contains("grid") || !m["grid"].is_object())
+      throw Error(ErrorKind::invalid_input, "base: " + dir_name + "/manifest.json is not a kept base of this version");
+    std::string diff = differences(m, request_params(spec, job));
+    // A grid taken from the seeds' extent moves with them: name the base's extent to give instead.
+    if (diff.find("grid ") != std::string::npos && !spec.grid.extent && !m["grid"].value("crs", "").empty()) {
+      try {
+        const nlohmann::json& g = m["grid"];
+        const double xmin = g.at("xmin"), ymax = g.at("ymax"), res = g.at("resolution");
+        const double xmax = xmin + res * g.at("width").get<double>(), ymin = ymax - res * g.at("height").get<double>();
+        char extent[160];
+        std::snprintf(extent, sizeof extent, "%.17g %.17g %.17g %.17g", xmin, ymin, xmax, ymax);
+        diff += std::string("; the extent follows the seeds unless given: the base's was ") + extent;
+      } catch (const nlohmann::json::exception&) {
+      }
+    }
+    if (!diff.empty()) throw Error(ErrorKind::invalid_argument, "base: the job differs from its base: " + diff);
+    const std::string seeds = read_whole((dir / "seeds.bin").string(), dir_name + "/seeds.bin");
+    const nlohmann::json& sm = m.value("seeds", nlohmann::json::object());
+    if (sm.value("hash", "") != hex(hash_bytes(reinterpret_cast<const unsigned char*>(seeds.data()), seeds.size(), 0)))
+      throw Error(ErrorKind::invalid_input, "base: " + dir_name + "/seeds.bin was modified since the base run");
+    st.archive = decode_seed_archive(seeds);
+    if (static_cast<int64_t>(st.archive.seeds.sites().size()) != m.value("sites", int64_t{-1}))
+      throw Error(ErrorKind::invalid_input, "base: " + dir_name + "/manifest.json does not fit its seeds");
+    auto bands = [&](const char* key) {
+      std::vector<std::string> out;
+      const nlohmann::json& e = m.value(key, nlohmann::json::object());
+      for (const nlohmann::json& h : e.value("hashes", nlohmann::json::array())) out.push_back(h.get<std::string>());
+      if (static_cast<int64_t>(out.size()) != (job.grid.height + kBandRows - 1) / kBandRows)
+        throw Error(ErrorKind::invalid_input, "base: " + dir_name + "/manifest.json does not fit its grid");
+      return out;
+    };
+    try {
+      const nlohmann::json& t = m.at("tiles");
+      st.tiles = TileSummaries::for_grid(job.grid);
+      if (t.at("size").get<int64_t>() != TileSummaries::kTile || t.at("cols").get<int64_t>() != st.tiles.cols ||
+          t.at("rows").get<int64_t>() != st.tiles.rows)
+        throw Error(ErrorKind::invalid_input, "");
+      st.tiles.max_distance = t.at("max_distance").get<std::vector<float>>();
+      st.tiles.max_cost = t.at("max_cost").get<std::vector<float>>();
+      st.tiles.unowned = t.at("unowned").get<std::vector<uint8_t>>();
+      const size_t n = static_cast<size_t>(st.tiles.cols * st.tiles.rows);
+      if (st.tiles.max_distance.size() != n || st.tiles.max_cost.size() != n || st.tiles.unowned.size() != n)
+        throw Error(ErrorKind::invalid_input, "");
+    } catch (const std::exception&) {
+      throw Error(ErrorKind::invalid_input, "base: " + dir_name + "/manifest.json has no tile summaries of its grid");
+    }
+    st.site_bands = bands("site");
+    st.distance_bands = bands("distance");
+  } catch (const nlohmann::json::exception&) {
+    throw Error(ErrorKind::invalid_input, "base: " + dir_name + "/manifest.json is damaged");
   }
-  st.site_bands = bands("site");
-  st.distance_bands = bands("distance");
   auto open = [&](const char* file, auto& reader) {
     const std::string path = (dir / file).string();
     if (!fs::exists(path)) throw Error(ErrorKind::not_found, "base: " + dir_name + "/" + file + " is missing");
@@ -313,7 +318,11 @@ EditBase::EditBase(const std::string& report, const JobSpec& spec, const Prepare
       throw Error(ErrorKind::invalid_input, "base: " + dir_name + "/" + file + " does not fit the grid");
   };
   open("site.tif", st.site);
-  const std::string distance_file = m.value("distance", nlohmann::json::object()).value("file", "");
+  std::string distance_file;
+  try {
+    distance_file = m.value("distance", nlohmann::json::object()).value("file", "");
+  } catch (const nlohmann::json::exception&) {
+  }
   if (distance_file.empty() || fs::path(distance_file).is_absolute())
     throw Error(ErrorKind::invalid_input, "base: " + dir_name + "/manifest.json names no distance raster");
   open(distance_file.c_str(), st.distance);

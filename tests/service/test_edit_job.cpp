@@ -510,6 +510,15 @@ TEST_F(EditJobErrors, MissingOrModifiedBaseFilesAreRefused) {
   }
   expect_refused(spec(c, "seeds"), base, ErrorKind::invalid_input, "seeds.bin was modified");
   std::ofstream(kept / "seeds.bin", std::ios::binary) << archive;
+  // A manifest member of the wrong type.
+  const std::string manifest_text = read_text(kept / "manifest.json");
+  {
+    nlohmann::json damaged = nlohmann::json::parse(manifest_text);
+    damaged["site"]["hashes"][0] = 7;
+    std::ofstream(kept / "manifest.json") << damaged.dump();
+  }
+  expect_refused(spec(c, "manifest"), base, ErrorKind::invalid_input, "manifest.json is damaged");
+  std::ofstream(kept / "manifest.json") << manifest_text;
   fs::remove(kept / "site.tif");
   expect_refused(spec(c, "site"), base, ErrorKind::not_found, "site.tif is missing");
   fs::remove_all(kept);
