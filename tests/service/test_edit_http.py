@@ -132,9 +132,18 @@ def main():
             check(status == 400 and "needs the input baseJob" in doc.get("detail", ""),
                   f"changes without a base: {status} {doc}")
             jobs_dir = os.path.join(data, "jobs")
-            leftovers = [j for j in os.listdir(jobs_dir)
-                         if j not in (edit, fresh, slow["jobID"]) and os.listdir(os.path.join(jobs_dir, j))]
-            check(not leftovers, f"refused edits left no files: {leftovers}")
+            # (Polled for up to 2 s: a job's directory goes as its record is written; a leftover
+            # that stays is the failure, and its files are listed.)
+            deadline = time.time() + 2
+            while True:
+                leftovers = [j for j in os.listdir(jobs_dir)
+                             if j not in (edit, fresh, slow["jobID"]) and os.listdir(os.path.join(jobs_dir, j))]
+                if not leftovers or time.time() > deadline:
+                    break
+                time.sleep(0.05)
+            check(not leftovers, "refused edits left no files: " + str(
+                {j: [os.path.relpath(os.path.join(r, f), jobs_dir) for r, _, fs in os.walk(os.path.join(jobs_dir, j))
+                     for f in fs] for j in leftovers}))
             check(not os.path.exists(os.path.join(jobs_dir, edit, "base-snapshot")),
                   "the edit's copy of its base is gone once it ended")
         finally:
