@@ -425,7 +425,10 @@ std::optional<JobRecord> JobManager::dismiss(const std::string& id) {
         break;
       }
     }
-    if (const auto r = running_.find(id); r != running_.end()) {
+    // A job recorded as finished may still be on its worker's list for a moment (record_end ran,
+    // the worker has not let go of it yet): it is finished, and its files go now.
+    const bool finished = rec->status == JobStatus::successful || rec->status == JobStatus::failed;
+    if (const auto r = running_.find(id); r != running_.end() && !finished) {
       r->second.dismissed = true;
       r->second.cancel->store(true);
       rec->message = "dismissed by the client; the computation was cancelled";
