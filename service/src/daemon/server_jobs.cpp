@@ -145,14 +145,22 @@ JobRecord JobManager::submit(const std::string& id, Execution execution, Done on
 
   std::lock_guard lock(mutex_);
   if (stopping_) throw Error(ErrorKind::busy, "the server is shutting down; resubmit the job later");
-  if (!execution.spec.base_name.empty()) execution.spec.base_report = snapshot_base(execution.spec.base_name, id);
   // Capacity counts the workers too: a free worker takes a job even with queue_length 0.
   const size_t capacity = static_cast<size_t>(config_.jobs.queue_length + std::max(1, config_.jobs.workers));
   if (queue_.size() + running_.size() >= capacity) {
     throw Error(ErrorKind::busy, "all " + std::to_string(config_.jobs.workers) + " workers are busy and " +
                                      std::to_string(queue_.size()) + " jobs are waiting; retry later");
   }
-  store_.insert(rec);
+  // An edit's copy of its base is made last: a refused submission leaves no directory behind.
+  try {
+    if (!execution.spec.base_name.empty()) execution.spec.base_report = snapshot_base(execution.spec.base_name, id);
+    store_.insert(rec);
+  } catch (...) {
+    std::error_code ec;
+    if (!execution.spec.base_name.empty()) std::filesystem::remove_all(job_dir(id) / kBaseSnapshotDir, ec);
+    std::filesystem::remove(job_dir(id), ec);  // only if empty: never another job's files
+    throw;
+  }
   queue_.push_back(Task{id, std::move(execution), std::move(on_done)});
   work_cv_.notify_one();
   return rec;
