@@ -71,14 +71,18 @@ struct FeatureKeys {
   }
 };
 
+// The same owner label, geometry kind and adjustments (bit for bit): all of a feature but its sites.
+bool same_attributes(const SeedSet& x, int32_t fx, const SeedSet& y, int32_t fy) {
+  const Feature& a = x.features()[static_cast<size_t>(fx)];
+  const Feature& b = y.features()[static_cast<size_t>(fy)];
+  return x.owner_labels()[static_cast<size_t>(a.owner - 1)] == y.owner_labels()[static_cast<size_t>(b.owner - 1)] &&
+         a.kind == b.kind && std::bit_cast<uint64_t>(a.weight) == std::bit_cast<uint64_t>(b.weight) &&
+         std::bit_cast<uint64_t>(a.reach) == std::bit_cast<uint64_t>(b.reach) &&
+         std::bit_cast<uint64_t>(a.effect) == std::bit_cast<uint64_t>(b.effect);
+}
+
 bool same_feature(const FeatureKeys& x, int32_t fx, const FeatureKeys& y, int32_t fy) {
-  const Feature& a = x.s.features()[static_cast<size_t>(fx)];
-  const Feature& b = y.s.features()[static_cast<size_t>(fy)];
-  if (x.label(fx) != y.label(fy) || a.kind != b.kind ||
-      std::bit_cast<uint64_t>(a.weight) != std::bit_cast<uint64_t>(b.weight) ||
-      std::bit_cast<uint64_t>(a.reach) != std::bit_cast<uint64_t>(b.reach) ||
-      std::bit_cast<uint64_t>(a.effect) != std::bit_cast<uint64_t>(b.effect))
-    return false;
+  if (!same_attributes(x.s, fx, y.s, fy)) return false;
   const auto [xb, xe] = x.ranges[static_cast<size_t>(fx)];
   const auto [yb, ye] = y.ranges[static_cast<size_t>(fy)];
   if (xe - xb != ye - yb) return false;
@@ -134,14 +138,12 @@ SeedSet sites_as_set(const SeedSet& set, const std::vector<bool>& pick) {
   return out;
 }
 
-// A file's features keep their identity across edits as their source without the directory
-// ("file.gpkg:layer:fid 7"): the daemon stages every job's uploads in a directory of its own.
+}  // namespace
+
 std::string source_key(const std::string& source) {
   const size_t slash = source.rfind('/');
   return slash == std::string::npos ? source : source.substr(slash + 1);
 }
-
-}  // namespace
 
 int64_t FeatureMatch::kept() const {
   return std::count_if(edited_of_base.begin(), edited_of_base.end(), [](int32_t e) { return e >= 0; });
@@ -239,19 +241,12 @@ SiteMatch match_sites(const SeedSet& base, const SeedSet& edited, const FeatureM
   for (int32_t f = 0; f < static_cast<int32_t>(edited.features().size()); ++f)
     if (m.base_of_edited[static_cast<size_t>(f)] < 0 && !edited.features()[static_cast<size_t>(f)].source.empty())
       by_source.emplace(source_key(edited.features()[static_cast<size_t>(f)].source), f);
-  auto label = [](const SeedSet& s, const Feature& f) { return s.owner_labels()[static_cast<size_t>(f.owner - 1)]; };
   std::vector<std::pair<int32_t, int32_t>> pairs;
   for (int32_t f = 0; f < static_cast<int32_t>(base.features().size()); ++f) {
     const Feature& a = base.features()[static_cast<size_t>(f)];
     if (m.edited_of_base[static_cast<size_t>(f)] >= 0 || a.source.empty()) continue;
     const auto it = by_source.find(source_key(a.source));
-    if (it == by_source.end()) continue;
-    const Feature& b = edited.features()[static_cast<size_t>(it->second)];
-    if (label(base, a) != label(edited, b) || a.kind != b.kind ||
-        std::bit_cast<uint64_t>(a.weight) != std::bit_cast<uint64_t>(b.weight) ||
-        std::bit_cast<uint64_t>(a.reach) != std::bit_cast<uint64_t>(b.reach) ||
-        std::bit_cast<uint64_t>(a.effect) != std::bit_cast<uint64_t>(b.effect))
-      continue;
+    if (it == by_source.end() || !same_attributes(base, f, edited, it->second)) continue;
     pairs.emplace_back(f, it->second);
     by_source.erase(it);
   }
@@ -719,15 +714,7 @@ EditChanges ChangeTally::measure(const NearestField& base, const NearestField& e
   if (!(edited.site.window() == w)) throw Error(ErrorKind::invalid_argument, "tally_changes: the windows differ");
   if (only != nullptr) {
     if (!only->fits(w)) throw Error(ErrorKind::invalid_argument, "tally_changes: the mask does not fit the window");
-    std::vector<int32_t> sites;
-    std::vector<float> distances;
-    for (int64_t r = 0; r < w.height; ++r)
-      for (const auto& [c0, c1] : only->rows[static_cast<size_t>(r)])
-        for (int64_t c = c0; c < c1; ++c) {
-          sites.push_back(base.site.at(c, r));
-          distances.push_back(base.distance.at(c, r));
-        }
-    return measure_masked(*only, sites.data(), distances.data(), edited, codes);
+    return measure_masked(*only, masked_cells(*only, base), edited, codes);
   }
   std::unordered_map<int64_t, double> rows;
   EditChanges out;
@@ -740,8 +727,19 @@ EditChanges ChangeTally::measure(const NearestField& base, const NearestField& e
   return out;
 }
 
-EditChanges ChangeTally::measure_masked(const CellMask& mask, const int32_t* base_site, const float* base_distance,
-                                        const NearestField& edited, int32_t* codes) const {
+ChangeTally::MaskedCells ChangeTally::masked_cells(const CellMask& mask, const NearestField& base) {
+  MaskedCells out;
+  for (int64_t r = 0; r < base.site.height(); ++r)
+    for (const auto& [c0, c1] : mask.rows[static_cast<size_t>(r)])
+      for (int64_t c = c0; c < c1; ++c) {
+        out.site.push_back(base.site.at(c, r));
+        out.distance.push_back(base.distance.at(c, r));
+      }
+  return out;
+}
+
+EditChanges ChangeTally::measure_masked(const CellMask& mask, const MaskedCells& base, const NearestField& edited,
+                                        int32_t* codes) const {
   const Window w = edited.site.window();
   if (!mask.fits(w)) throw Error(ErrorKind::invalid_argument, "tally_changes: the mask does not fit the window");
   if (codes) std::fill(codes, codes + w.cell_count(), 0);
@@ -751,7 +749,7 @@ EditChanges ChangeTally::measure_masked(const CellMask& mask, const int32_t* bas
   for (int64_t r = 0; r < w.height; ++r)
     for (const auto& [c0, c1] : mask.rows[static_cast<size_t>(r)])
       for (int64_t c = c0; c < c1; ++c, ++k) {
-        const int32_t code = count(base_site[k], base_distance[k], edited.site.at(c, r), edited.distance.at(c, r),
+        const int32_t code = count(base.site[k], base.distance[k], edited.site.at(c, r), edited.distance.at(c, r),
                                    w.col0 + c, w.row0 + r, edited.metric, out, rows);
         if (codes) codes[r * w.width + c] = code;
       }

@@ -395,10 +395,6 @@ nlohmann::json edit_report(const EditBase& base, const Edit& edit, const SeedSet
   // A feature removed and one added from the same source (the same file name, layer and id) are
   // one feature changed. The file's directory does not count: the daemon stages every job's
   // uploads in a directory of its own.
-  auto source_key = [](const std::string& source) {
-    const size_t slash = source.rfind('/');
-    return slash == std::string::npos ? source : source.substr(slash + 1);
-  };
   auto describe = [&](const SeedSet& s, size_t f) {
     return nlohmann::json{{"feature", source_key(s.feature_name(static_cast<int32_t>(f)))},
                           {"owner", s.owner_labels()[static_cast<size_t>(s.features()[f].owner - 1)]}};

@@ -608,15 +608,9 @@ void compute_streamed(detail::JobRun& run, const PreparedJob& job, const RasterT
       detail::timed_add(tally.read_seconds, [&] { base->read(w.row0, w.height, field); });
       EditPlan plan;
       detail::timed_add(tally.plan_seconds, [&] { plan = edit->plan(field, &base->tiles()); });
-      std::vector<int32_t> base_sites;
-      std::vector<float> base_distances;
+      ChangeTally::MaskedCells before;
       detail::timed_add(tally.apply_seconds, [&] {
-        for (int64_t r = 0; r < w.height; ++r)
-          for (const auto& [c0, c1] : plan.mask.rows[static_cast<size_t>(r)])
-            for (int64_t c = c0; c < c1; ++c) {
-              base_sites.push_back(field.site.at(c, r));
-              base_distances.push_back(field.distance.at(c, r));
-            }
+        before = ChangeTally::masked_cells(plan.mask, field);
         edit->apply(field, plan, field);
       });
       tally.cells_recomputed += plan.cells;
@@ -626,8 +620,7 @@ void compute_streamed(detail::JobRun& run, const PreparedJob& job, const RasterT
       ++tally.strips;
       if (codes) changes.resize(static_cast<size_t>(w.cell_count()));
       detail::timed_add(tally.tally_seconds, [&] {
-        tally.changes.add(tallier->measure_masked(plan.mask, base_sites.data(), base_distances.data(), field,
-                                                  codes ? changes.data() : nullptr));
+        tally.changes.add(tallier->measure_masked(plan.mask, before, field, codes ? changes.data() : nullptr));
       });
     };
   }

@@ -35,6 +35,10 @@ namespace rv {
 // (weight, reach, effect). Equal features pair in order of appearance. A kept feature whose
 // place among the kept ones changed (the file's features reordered) counts as changed: the tie
 // rule follows indices.
+// A feature's identity across edits of its file: its source without the directory
+// ("file.gpkg:layer:fid 7"; the daemon stages every job's uploads in a directory of its own).
+std::string source_key(const std::string& source);
+
 struct FeatureMatch {
   std::vector<int32_t> edited_of_base;  // per base feature: its index in the edited set, or -1
   std::vector<int32_t> base_of_edited;  // per edited feature: its base feature, or -1 (added)
@@ -154,10 +158,17 @@ class ChangeTally {
               const Geolocator* geolocator);
   EditChanges measure(const NearestField& base, const NearestField& edited, int32_t* codes,
                       const CellMask* only = nullptr) const;
-  // The same over `mask` alone, the base's sites and distances of its cells given in the mask's
-  // order (row by row, span by span): for an edit applied in place (Edit::apply with out == base).
-  EditChanges measure_masked(const CellMask& mask, const int32_t* base_site, const float* base_distance,
-                             const NearestField& edited, int32_t* codes) const;
+  // The base's sites and distances of the cells of `mask`, in the mask's order (row by row, span
+  // by span): what measure_masked needs of a base that an edit then changes in place.
+  struct MaskedCells {
+    std::vector<int32_t> site;
+    std::vector<float> distance;
+  };
+  static MaskedCells masked_cells(const CellMask& mask, const NearestField& base);
+  // measure() over `mask` alone, the base's cells given by masked_cells: for an edit applied in
+  // place (Edit::apply with out == base).
+  EditChanges measure_masked(const CellMask& mask, const MaskedCells& base, const NearestField& edited,
+                             int32_t* codes) const;
 
  private:
   // One cell: counts its change into `out` and returns its code (0, 1 owner, 2 distance only).
