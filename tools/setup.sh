@@ -12,6 +12,8 @@ packages=(
   libtiff-dev libzstd-dev libdeflate-dev
   libgeographiclib-dev
   libgtest-dev libgmock-dev
+  pybind11-dev python3-dev python3-xarray python3-dask python3-distributed python3-geopandas
+  python3-rioxarray python3-zarr python3-netcdf4 python3-psutil
   libboost-dev libsqlite3-dev nlohmann-json3-dev
   libopencv-dev
   python3-jsonschema python3-yaml python3-numpy

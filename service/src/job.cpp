@@ -274,7 +274,7 @@ JobPlan plan_job(const JobSpec& spec, const GridSpec& grid, int64_t sites, Metri
                  int64_t seed_bytes) {
   JobPlan p;
   const OutputRequest& out = spec.outputs;
-  const int64_t cells = grid.cell_count();
+  const int64_t cells = spec.window ? spec.window->cell_count() : grid.cell_count();
   const int64_t int_rasters = !out.ownership.empty() + !out.nearest_feature.empty();
   const int64_t rasters = int_rasters + !out.distance.empty();
   if (spec.method != Method::exact && spec.method != Method::brute_force)
@@ -283,6 +283,8 @@ JobPlan plan_job(const JobSpec& spec, const GridSpec& grid, int64_t sites, Metri
     p.why_whole = "validation compares whole fields";
   else if (spec.seeds.effect_field)
     p.why_whole = "partial effect compares two whole fields, without and with the partial features";
+  else if (out.in_memory.any())
+    p.why_whole = "rasters in memory are made whole";
   else if (rasters == 0 && !out.any_deliverable() && out.report.empty() && out.edit_base.empty())
     p.why_whole = "no raster output";
   else if (spec.strip_rows < 0)
@@ -313,6 +315,8 @@ JobPlan plan_job(const JobSpec& spec, const GridSpec& grid, int64_t sites, Metri
   p.strip_rows = grid.height;
   p.strips = 1;
   int64_t need = estimate_memory(spec.method, cells, sites, metric) + cells * 4;  // + one output raster
+  const OutputRequest::InMemory& mem = out.in_memory;
+  need += cells * 4 * (int64_t{mem.ownership} + mem.distance + mem.nearest_feature);
   if (spec.validate) need += estimate_memory(Method::brute_force, cells, sites, metric);
   if (spec.seeds.effect_field) need += 2 * cells * 8;  // the nil-effect field and the partial one
   if (out.any_deliverable()) {
@@ -454,7 +458,29 @@ void read_relevant(const JobSpec& spec, const JobLimits& limits, PreparedJob& jo
 }
 
 // Requests refused before anything is computed, and the limits of the planned job.
-void check_plan(const JobSpec& spec, const JobLimits& limits, const PreparedJob& job) {
+// A window (one chunk of a grid computed in pieces): inside the grid, with outputs in memory
+// only, and a method that computes a window as the same cells of the whole grid.
+void check_window(const JobSpec& spec, const GridSpec& grid) {
+  if (!spec.window) return;
+  const Window& w = *spec.window;
+  const OutputRequest& out = spec.outputs;
+  auto refuse = [](const std::string& why) { throw Error(ErrorKind::invalid_argument, "window: " + why); };
+  if (w.width <= 0 || w.height <= 0 || w.col0 < 0 || w.row0 < 0 || w.col0 + w.width > grid.width ||
+      w.row0 + w.height > grid.height)
+    refuse("rows " + std::to_string(w.row0) + "+" + std::to_string(w.height) + ", columns " + std::to_string(w.col0) +
+           "+" + std::to_string(w.width) + " are not inside the grid of " + std::to_string(grid.height) + " x " +
+           std::to_string(grid.width) + " cells");
+  if (spec.method != Method::exact && spec.method != Method::brute_force)
+    refuse("the scan methods propagate across the whole grid, so a piece of it would differ; use method exact");
+  if (!out.ownership.empty() || !out.distance.empty() || !out.nearest_feature.empty() || out.any_deliverable() ||
+      !out.report.empty() || !out.changes.empty())
+    refuse("a piece of a grid gives its rasters in memory only (no files, no deliverables)");
+  if (spec.validate) refuse("validation compares whole fields");
+  if (spec.seeds.effect_field) refuse("partial effect compares whole fields");
+  if (!spec.base_report.empty()) refuse("an edit covers its base's whole grid");
+}
+
+void check_plan(const JobSpec& spec, const JobLimits& limits, const PreparedJob& job, const JobPlan& plan) {
   const OutputRequest& out = spec.outputs;
   // The margin raster is not available on a projected geodesic grid yet (rv/deliverables.hpp).
   if (job.located() && !out.margin.empty())
@@ -474,14 +500,15 @@ void check_plan(const JobSpec& spec, const JobLimits& limits, const PreparedJob&
   }
   if (!(out.simplify_cells >= 0.0) || !std::isfinite(out.simplify_cells))
     throw Error(ErrorKind::invalid_argument, "the simplification tolerance must be a non-negative number of cells");
-  const int64_t cells = job.grid.cell_count();
+  check_window(spec, job.grid);
+  const int64_t cells = spec.window ? spec.window->cell_count() : job.grid.cell_count();
   if (cells > limits.max_cells)
     throw Error(ErrorKind::too_large, "the grid has " + std::to_string(cells) + " cells, over the limit of " +
                                           std::to_string(limits.max_cells));
   const int64_t budget = memory_budget(limits);
-  if (budget > 0 && job.plan.memory_bytes > budget)
-    throw Error(ErrorKind::too_large, "the job needs about " + std::to_string(job.plan.memory_bytes >> 20) +
-                                          " MiB for " + std::to_string(cells) + " cells, over the memory limit of " +
+  if (budget > 0 && plan.memory_bytes > budget)
+    throw Error(ErrorKind::too_large, "the job needs about " + std::to_string(plan.memory_bytes >> 20) + " MiB for " +
+                                          std::to_string(cells) + " cells, over the memory limit of " +
                                           std::to_string(budget >> 20) + " MiB");
   if (spec.validate && cells > limits.validate_max_cells)
     throw Error(ErrorKind::too_large, "validate runs brute force, allowed up to " +
@@ -524,7 +551,7 @@ PreparedJob prepare_job(const JobSpec& spec, const JobLimits& limits, const JobH
   read_relevant(spec, limits, job);
   job.plan = plan_job(spec, job.grid, static_cast<int64_t>(job.loaded.seeds.sites().size()), mp.metric.kind,
                       seed_memory_bytes(job.loaded));
-  check_plan(spec, limits, job);
+  check_plan(spec, limits, job, job.plan);
   return job;
 }
 
@@ -568,7 +595,8 @@ void compute_streamed(detail::JobRun& run, const PreparedJob& job, const RasterT
   stream.seeds = &job.loaded.seeds;
   stream.grid = job.grid;
   stream.compute = job.compute;
-  stream.strip_rows = job.plan.strip_rows;
+  stream.compute.cancel = run.hooks.cancel;
+  stream.strip_rows = run.plan.strip_rows;
   stream.distance_factor = job.to_output;
   stream.feature_numbering = job.loaded.input_position;
   stream.progress = [&](const char* stage, double f) { run.progress(stage, f); };
@@ -654,7 +682,7 @@ void compute_streamed(detail::JobRun& run, const PreparedJob& job, const RasterT
     if (t.product != Product::site && t.product != Product::metric_distance) run.wrote(t.name, t.path);
   // compute and write overlap: their sum exceeds the wall time they took together.
   run.timings["streamed"] = {{"strips", st.strips},
-                             {"rows_per_strip", job.plan.strip_rows},
+                             {"rows_per_strip", run.plan.strip_rows},
                              {"wall", st.wall},
                              {"convert", st.convert},
                              {"deliverables_in_strips", st.deliverables},
@@ -665,6 +693,8 @@ void compute_streamed(detail::JobRun& run, const PreparedJob& job, const RasterT
 // Stage "compute": the whole field.
 NearestField compute_whole(detail::JobRun& run, const PreparedJob& job) {
   ComputeOptions options = job.compute;
+  options.window = run.spec.window;
+  options.cancel = run.hooks.cancel;
   options.progress = [&](double f) { run.progress("compute", f); };
   NearestField field = compute(job.loaded.seeds, job.grid, options);
   run.compute_seconds = field.seconds;
@@ -761,12 +791,33 @@ void write_rasters(detail::JobRun& run, const PreparedJob& job, const NearestFie
   }
 }
 
+// The rasters the caller takes in memory (OutputRequest::in_memory), made like the files'.
+// `spent`: the same field when nothing reads it after this call (its distances are then moved,
+// not copied), else null.
+MemoryRasters keep_in_memory(detail::JobRun& run, const PreparedJob& job, const NearestField& field,
+                             NearestField* spent = nullptr) {
+  const JobSpec& spec = run.spec;
+  const OutputRequest::InMemory& want = spec.outputs.in_memory;
+  const SeedSet& seeds = job.loaded.seeds;
+  MemoryRasters r;
+  if (!want.any()) return r;
+  detail::timed(run.write_times, "in_memory", [&] {
+    if (want.ownership) r.ownership = owner_raster(seeds, field, spec.threads);
+    if (want.distance && job.to_output != 1.0)
+      r.distance = scaled_distance(field, job.to_output, spec.threads);
+    else if (want.distance)
+      r.distance = spent ? std::move(spent->distance) : field.distance;
+    if (want.nearest_feature) r.nearest_feature = feature_raster(seeds, field, spec.threads, job.loaded.input_position);
+  });
+  return r;
+}
+
 // Stage "report": what was computed, how, from what, and what it cost.
 void assemble_report(detail::JobRun& run, const PreparedJob& job, const detail::MemoryWatch& memory,
                      detail::Clock::time_point start) {
   const JobSpec& spec = run.spec;
   const LoadedSeeds& loaded = job.loaded;
-  const JobPlan& plan = job.plan;
+  const JobPlan& plan = run.plan;
   nlohmann::json& report = run.report;
   run.timings["write"] = run.write_times;
   run.timings["total"] = detail::seconds_since(start);
@@ -781,6 +832,11 @@ void assemble_report(detail::JobRun& run, const PreparedJob& job, const detail::
   report["compression"] = to_string(spec.outputs.compression);
   if (spec.max_distance) report["max_distance"] = *spec.max_distance;
   report["seeds"] = seeds_json(loaded);
+  if (spec.window)
+    report["window"] = {{"row0", spec.window->row0},
+                        {"col0", spec.window->col0},
+                        {"rows", spec.window->height},
+                        {"cols", spec.window->width}};
   report["contested_cells"] = run.contested_cells;
   report["streaming"] =
       plan.streamed ? nlohmann::json{{"streamed", true}, {"rows_per_strip", plan.strip_rows}, {"strips", plan.strips}}
@@ -796,44 +852,44 @@ void assemble_report(detail::JobRun& run, const PreparedJob& job, const detail::
   report["outputs"] = run.outputs;
 }
 
-}  // namespace
-
-JobResult run_job(const JobSpec& spec, const JobLimits& limits, const JobHooks& hooks) {
-  const auto start = detail::Clock::now();
-  detail::MemoryWatch memory;
-  detail::JobRun run(spec, limits, hooks);
-  const PreparedJob job = prepare_job(spec, limits, hooks);
+// The stages after prepare_job, with run.plan.
+JobResult run_stages(detail::JobRun& run, const PreparedJob& job, const detail::MemoryWatch& memory,
+                     detail::Clock::time_point start) {
+  const JobSpec& spec = run.spec;
   run.timings["read"] = job.read_seconds;
   const RasterTargets targets = raster_targets(spec, job);
   NearestField field;  // the whole field (whole path only)
+  MemoryRasters in_memory;
   // An edit's base, opened (and checked against this job) before anything is written.
   std::unique_ptr<detail::EditBase> base;
   if (spec.base_report.empty() && !spec.base_name.empty())
     throw Error(ErrorKind::internal, "a base job named but not resolved to its report");
   if (!spec.base_report.empty()) {
     base = std::make_unique<detail::EditBase>(spec.base_report, spec, job);
-    if (!job.plan.streamed)
-      throw Error(ErrorKind::invalid_argument, "base: an edit is streamed (" + job.plan.why_whole + ")");
+    if (!run.plan.streamed)
+      throw Error(ErrorKind::invalid_argument, "base: an edit is streamed (" + run.plan.why_whole + ")");
   } else if (!spec.outputs.changes.empty()) {
     throw Error(ErrorKind::invalid_argument, "the changes raster is an edit's: it needs a base");
   }
   // A streamed run with a report keeps its field for edits of it.
   std::unique_ptr<detail::EditBaseWriter> keep;
-  if (job.plan.streamed && spec.outputs.keep_for_edits &&
+  if (run.plan.streamed && spec.outputs.keep_for_edits &&
       !(spec.outputs.report.empty() && spec.outputs.edit_base.empty()))
     keep = std::make_unique<detail::EditBaseWriter>(spec, job);
-  if (job.plan.streamed) {
+  if (run.plan.streamed) {
     compute_streamed(run, job, targets, keep.get(), base.get());
   } else if (job.partial.any()) {
     const PartialEffectResult partial = compute_partial(run, job);
     validate_stage(run, job, partial.full);
     write_rasters(run, job, partial.field, targets);
+    in_memory = keep_in_memory(run, job, partial.field);
     detail::deliver(run, job, partial.field, &partial);
   } else {
     field = compute_whole(run, job);
     validate_stage(run, job, field);
     write_rasters(run, job, field, targets);
     detail::deliver(run, job, field);
+    in_memory = keep_in_memory(run, job, field, &field);
   }
   std::string edit_base_dir;
   if (keep) {
@@ -848,12 +904,33 @@ JobResult run_job(const JobSpec& spec, const JobLimits& limits, const JobHooks& 
   }
   run.progress("write", 1.0);
   // The files written, the kept field as its directory (not the temporary names it was built under).
-  JobResult result{run.report, {}};
+  JobResult result{run.report, {}, std::move(in_memory), job.grid};
   for (const std::string& f : run.guard.files())
     if (!keep || f.rfind(keep->temp_dir(), 0) != 0) result.files.push_back(f);
   if (keep) result.files.push_back(edit_base_dir);
   run.guard.commit();
   return result;
+}
+
+}  // namespace
+
+JobResult run_job(const JobSpec& spec, const JobLimits& limits, const JobHooks& hooks) {
+  const auto start = detail::Clock::now();
+  detail::MemoryWatch memory;
+  detail::JobRun run(spec, limits, hooks);
+  const PreparedJob job = prepare_job(spec, limits, hooks);
+  run.plan = job.plan;
+  return run_stages(run, job, memory, start);
+}
+
+JobResult run_prepared(const JobSpec& spec, const PreparedJob& job, const JobLimits& limits, const JobHooks& hooks) {
+  const auto start = detail::Clock::now();
+  detail::MemoryWatch memory;
+  detail::JobRun run(spec, limits, hooks);
+  run.plan = plan_job(spec, job.grid, static_cast<int64_t>(job.loaded.seeds.sites().size()), job.metric.kind,
+                      seed_memory_bytes(job.loaded));
+  check_plan(spec, limits, job, run.plan);
+  return run_stages(run, job, memory, start);
 }
 
 }  // namespace rv

@@ -55,6 +55,7 @@ struct JobRun {
   const JobSpec& spec;
   const JobLimits& limits;
   const JobHooks& hooks;
+  JobPlan plan;  // this run's (its window's, run_prepared)
   OutputGuard guard;
   nlohmann::json report = nlohmann::json::object();
   nlohmann::json timings = nlohmann::json::object();      // seconds per stage

@@ -45,6 +45,12 @@ std::string all_spellings(const OptionSpec& o, const char* sep) {
 struct Source {
   std::string name;
   [[noreturn]] void bad(const std::string& why) const { throw Error(ErrorKind::invalid_argument, name + ": " + why); }
+  // The name of item i of a list: "input 'limitDistances[1]'", "limit_distances[1]".
+  Source item(size_t i) const {
+    const std::string index = "[" + std::to_string(i) + "]";
+    if (!name.empty() && name.back() == '\'') return Source{name.substr(0, name.size() - 1) + index + "'"};
+    return Source{name + index};
+  }
 };
 
 void check_number(const OptionSpec& o, double v, const Source& src) {
@@ -83,8 +89,7 @@ std::vector<std::string> checked_distances(std::vector<std::string> items, const
       parse_limit_distance(items[i]);
     } catch (const Error& e) {
       if (!indexed) src.bad(e.what());
-      const std::string& n = src.name;
-      Source{n.substr(0, n.size() - 1) + "[" + std::to_string(i) + "]'"}.bad(e.what());
+      src.item(i).bad(e.what());
     }
   }
   return items;
@@ -201,7 +206,17 @@ OptionValue parse_cli_value(const OptionSpec& o, const std::vector<std::string>&
 }
 
 OptionValue parse_input_value(const OptionSpec& o, const json& raw) {
-  const Source src{"input '" + std::string(o.input) + "'"};
+  return parse_json_value(o, raw, "input '" + std::string(o.input) + "'");
+}
+
+std::string option_keyword(const OptionSpec& o) {
+  std::string k(o.flag);
+  std::replace(k.begin(), k.end(), '-', '_');
+  return k;
+}
+
+OptionValue parse_json_value(const OptionSpec& o, const json& raw, std::string_view name) {
+  const Source src{std::string(name)};
   // OGC inputs may be bare or qualified {"value": ..., "mediaType": ...}; references are
   // refused: the server never fetches.
   const json* value = &raw;
@@ -254,9 +269,7 @@ OptionValue parse_input_value(const OptionSpec& o, const json& raw) {
     }
     case OptionType::distance_list: {
       const json items = j.is_array() ? j : json::array({j});
-      const std::string& n = src.name;
-      for (size_t i = 0; i < items.size(); ++i)
-        v.items.push_back(distance_text(items[i], Source{n.substr(0, n.size() - 1) + "[" + std::to_string(i) + "]'"}));
+      for (size_t i = 0; i < items.size(); ++i) v.items.push_back(distance_text(items[i], src.item(i)));
       v.items = checked_distances(std::move(v.items), src, true);
       return v;
     }

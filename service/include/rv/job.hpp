@@ -59,7 +59,14 @@ struct OutputRequest {
   // The directory where the run keeps its field for later edits (service/src/edit_base.hpp):
   // streamed runs only; "" = the report's path with ".rvbase" when there is a report, else none.
   std::string edit_base;
-  bool keep_for_edits = true;   // false: keep nothing (no later edit can name this run as its base)
+  bool keep_for_edits = true;  // false: keep nothing (no later edit can name this run as its base)
+  // Rasters handed to the caller in memory (JobResult::rasters) instead of, or besides, files:
+  // front ends that give arrays to their users (the Python module). A job with any of them
+  // computes its field whole (JobPlan::why_whole), of JobSpec::window when set.
+  struct InMemory {
+    bool ownership = false, distance = false, nearest_feature = false;
+    bool any() const { return ownership || distance || nearest_feature; }
+  } in_memory;
   double simplify_cells = 0.0;  // Douglas-Peucker tolerance of boundary and limit lines, cells
   // The disproportionality test (regions within a relevant area): a vector file of the relevant
   // area's polygons, and optionally of each owner's relevant coasts (lines, owned through the
@@ -104,6 +111,12 @@ struct JobSpec {
   // compression must equal this job's (else invalid_argument naming the difference).
   std::string base_report;
   std::string base_name;  // how the report names the base ("" = base_report)
+  // Only these cells of the grid (relative to it; the grid is planned as without it): one chunk
+  // of a grid cut into pieces that are computed apart (the Python module's Dask chunks). The exact
+  // and brute-force methods compute any window as the same cells of the whole grid. Outputs in
+  // memory only: a window with an output file, a deliverable, validation, partial effect, a base
+  // or a scan method is invalid_argument, and so is a window outside the grid.
+  std::optional<Window> window;
 };
 
 // How run_job computes and writes a job, decided from the request and the grid alone, before
@@ -167,9 +180,21 @@ struct JobHooks {
   const std::atomic<bool>* cancel = nullptr;
 };
 
+// The rasters of OutputRequest::in_memory, over the job's window (JobSpec::window, else the
+// grid); a raster not asked for is empty. Values as the files hold them: owner codes 1..K in the
+// order of SeedSet::owner_labels() (0 = none), distances in the job's distance units
+// (kNoDistance = none), 1-based input positions of the nearest feature (0 = none).
+struct MemoryRasters {
+  Raster<int32_t> ownership;
+  Raster<float> distance;
+  Raster<int32_t> nearest_feature;
+};
+
 struct JobResult {
   nlohmann::json report;           // what --report writes (also returned to HTTP clients)
   std::vector<std::string> files;  // outputs written, in the order of OutputRequest
+  MemoryRasters rasters;           // OutputRequest::in_memory
+  GridSpec grid;                   // the job's grid (its CRS as WKT)
 };
 
 // Runs the whole job, as a pipeline of stages: prepare_job (read the seeds, plan), compute (the
@@ -198,6 +223,14 @@ struct PreparedJob {
   PartialEffect partial;  // the seeds' partial effect (rv/partial_effect.hpp); partial.any(): computed by its rule
   bool located() const { return compute.geolocator != nullptr; }  // geodesic on a projected grid
 };
+
+// run_job on a job prepare_job already read and planned, from a spec that differs from `spec` at
+// most in its window (JobSpec::window): the plan is made and checked again for this one. Front
+// ends that compute one grid in pieces (the Python module's chunks) read and prepare the seeds
+// once, set PreparedJob::compute.prepared once, and run each piece from here, concurrently if
+// they like: `job` is only read.
+JobResult run_prepared(const JobSpec& spec, const PreparedJob& job, const JobLimits& limits = {},
+                       const JobHooks& hooks = {});
 
 // Reads the seeds with the job's limits (and the memory limit for reading), then plans the grid,
 // the metric and units, the limit distances and the memory, and checks every limit (cells,

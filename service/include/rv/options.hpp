@@ -91,6 +91,14 @@ int option_arity(const OptionSpec& option);
 // {"href": ...} is refused). Throws rv::Error(invalid_argument) "input 'id': ...".
 OptionValue parse_input_value(const OptionSpec& option, const nlohmann::json& value);
 
+// The same from a JSON value under the caller's name for the option: messages start "name: "
+// (the Python module passes its keyword, "owner_field: must be a string, got number").
+OptionValue parse_json_value(const OptionSpec& option, const nlohmann::json& value, std::string_view name);
+
+// The keyword of an option with a CLI flag in front ends whose names cannot hold '-' (the Python
+// module): the flag with '_' for '-' ("owner_field").
+std::string option_keyword(const OptionSpec& option);
+
 // The --help text of a section, each option on one line and its help wrapped below it.
 std::string options_help(std::string_view section, int width = 100);
 

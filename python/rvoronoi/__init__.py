@@ -1,0 +1,173 @@
+"""rvoronoi for Python: raster Voronoi diagrams of seed layers (points, lines, polygons), exact.
+
+    import rvoronoi
+    ds = rvoronoi.compute("coasts.gpkg", owner_field="state", resolution=0.001,
+                          metric="geodesic", distance_units="nmi")
+    ds.owner            # owner codes; ds.owner.attrs["flag_meanings"] names them
+    ds.distance         # distance to the nearest seed, in nautical miles
+
+The same engine, options and messages as `rvoronoi compute` (the CLI) and the daemon: the keyword
+options are the CLI's flags with '_' for '-' (`rvoronoi.keywords()` lists them with their help),
+checked by the same option table. Errors are `rvoronoi.Error` subclasses named after the kinds of
+the project's error table (InvalidArgument, InvalidInput, NotFound, Conflict, TooLarge,
+Unsupported, Cancelled, IOFailure, Busy, InternalError), each also a subclass of the built-in
+exception a caller would expect (ValueError, LookupError, OSError, ...).
+"""
+import json
+import os
+import tempfile
+
+from . import _rvoronoi
+from ._rvoronoi import Error  # noqa: F401  (re-exported)
+
+for _kind, _name in _rvoronoi.error_kinds:
+    globals()[_name] = getattr(_rvoronoi, _name)
+del _kind, _name
+
+__all__ = ["compute", "keywords", "Error"] + [name for _, name in _rvoronoi.error_kinds]
+
+_PRODUCTS = ("ownership", "distance", "nearest_feature")
+_DELIVERABLES = {"boundaries": ".geojson", "tripoints": ".geojson", "limits": ".geojson", "regions": ".geojson",
+                 "turning_points": ".json"}
+_KEYWORDS = {k["keyword"]: k for k in _rvoronoi.keywords()}
+
+
+def keywords():
+    """The keyword options of compute(), from the option table: a list of dicts (keyword, type,
+    section, title, help, default, choices)."""
+    return [dict(k) for k in _rvoronoi.keywords()]
+
+
+def _json_default(value):
+    # NumPy scalars and arrays, tuples of them, paths.
+    if hasattr(value, "tolist"):
+        return value.tolist()
+    if isinstance(value, os.PathLike):
+        return os.fspath(value)
+    raise TypeError("%s is not a value an option takes" % type(value).__name__)
+
+
+def _options_json(options):
+    unknown = sorted(set(options) - set(_KEYWORDS))
+    if unknown:
+        raise TypeError("compute() got unexpected keyword argument%s %s; the options are: %s"
+                        % ("s" if len(unknown) > 1 else "", ", ".join(repr(u) for u in unknown),
+                           ", ".join(sorted(_KEYWORDS))))
+    return json.dumps(options, default=_json_default)
+
+
+def _read_deliverable(name, path, crs_wkt):
+    with open(path, encoding="utf-8") as f:
+        doc = json.load(f)
+    if name == "turning_points":
+        return doc
+    try:
+        import geopandas
+    except ImportError:
+        return doc
+    crs = None
+    member = doc.get("crs", {}).get("properties", {}).get("name") if isinstance(doc.get("crs"), dict) else None
+    if member or crs_wkt:
+        crs = member or crs_wkt
+    features = doc.get("features", [])
+    if not features:
+        return geopandas.GeoDataFrame({"geometry": []}, geometry="geometry", crs=crs)
+    return geopandas.GeoDataFrame.from_features(features, crs=crs)
+
+
+def _products(nearest_feature):
+    return ["ownership", "distance"] + (["nearest_feature"] if nearest_feature else [])
+
+
+def compute(seeds, *, chunks=None, nearest_feature=False, deliverables=None, **options):
+    """Computes the raster Voronoi diagram of `seeds` on a grid.
+
+    seeds: a path (any source GDAL/OGR reads: GeoPackage, Shapefile, GeoJSON, FlatGeobuf, a .zip of
+        them), a list of paths, a GeoJSON mapping (FeatureCollection) or a GeoDataFrame.
+    chunks: (rows, cols): the result is backed by Dask arrays, one engine window per chunk,
+        computed wherever Dask runs them (threads, processes, a distributed cluster); identical to
+        the unchunked result, bit for bit. The exact and brute-force methods only.
+    nearest_feature: also return `nearest_feature` (the 1-based position of the nearest seed
+        feature in the input).
+    deliverables: names among "boundaries", "tripoints", "limits" (needs limit_distances),
+        "regions", "turning_points": computed from the same field (once), returned beside the
+        dataset as GeoDataFrames (GeoJSON mappings without GeoPandas; turning points as the
+        treaty table's JSON). Not with chunks.
+    **options: the CLI's options (see below and rvoronoi.keywords()).
+
+    Returns an xarray.Dataset (owner, distance[, nearest_feature] on x/y cell centres, CRS in the
+    CF `spatial_ref` variable, the owner table as CF flags, the report as JSON text in
+    attrs["rvoronoi_report"]); with deliverables, (dataset, {name: deliverable}).
+    Raises rvoronoi.Error subclasses; TypeError for an unknown keyword.
+    """
+    from . import _dataset, _seeds
+
+    options_json = _options_json(options)
+    products = _products(nearest_feature)
+    wanted = list(deliverables or [])
+    for name in wanted:
+        if name not in _DELIVERABLES:
+            raise InvalidArgument("deliverables: %r is not one of %s" % (name, ", ".join(_DELIVERABLES)))  # noqa: F821
+    if chunks is not None:
+        if wanted:
+            raise InvalidArgument("deliverables: not with chunks; compute them without chunks")  # noqa: F821
+        return _compute_chunked(seeds, chunks, products, options, options_json)
+    with _seeds.SeedFiles(seeds) as files:
+        job = _rvoronoi.Job(files.paths, options_json, None)
+        with tempfile.TemporaryDirectory(prefix="rvoronoi-out-") as out:
+            paths = {n: os.path.join(out, n + _DELIVERABLES[n]) for n in wanted}
+            result = job.run(None, products, paths)
+            lines = {n: _read_deliverable(n, p, job.grid["crs_wkt"]) for n, p in paths.items()}
+    ds = _dataset.dataset({p: result[p] for p in products}, job.grid, job.owners, job.unit, job.metric,
+                          result["report"])
+    return (ds, lines) if wanted else ds
+
+
+def _compute_chunked(seeds, chunks, products, options, options_json):
+    import hashlib
+
+    from . import _chunks, _dataset, _seeds
+
+    try:
+        rows, cols = chunks
+    except (TypeError, ValueError):
+        raise InvalidArgument("chunks: (rows, cols), two positive integers, got %r" % (chunks,)) from None  # noqa: F821
+    with _seeds.SeedFiles(seeds) as files:
+        # Read and checked here once, on the caller's side, so that bad input raises now, not in a
+        # worker; the first chunk's window stands for all (the plan's memory is a chunk's).
+        try:
+            first = [0, 0, max(1, int(rows)), max(1, int(cols))]
+            job = _rvoronoi.Job(files.paths, options_json, [0, 0, 1, 1])  # the grid, of any size
+            grid = job.grid
+            first[2], first[3] = min(first[2], grid["height"]), min(first[3], grid["width"])
+            job = _rvoronoi.Job(files.paths, options_json, first)
+        except InvalidArgument as e:  # noqa: F821
+            text = str(e)
+            if text.startswith("window: "):
+                raise InvalidArgument("chunks: " + text[len("window: "):]) from None  # noqa: F821
+            raise
+        file_options = {k: os.fspath(v) for k, v in options.items()
+                        if v is not None and _KEYWORDS[k]["type"] == "path"}
+        shipped_options = json.dumps({k: v for k, v in json.loads(options_json).items() if k not in file_options})
+        bundle, digest = _seeds.bundle(files.paths, file_options)
+    digest = hashlib.sha256((digest + shipped_options).encode()).hexdigest()[:32]
+    arrays = _chunks.chunked_arrays(grid, (rows, cols), digest, bundle, shipped_options, products)
+    report = json.dumps({"chunks": [int(rows), int(cols)], "grid": {k: v for k, v in grid.items() if k != "crs_wkt"},
+                         "owners": job.owners, "metric": job.metric, "distance_units": job.unit})
+    return _dataset.dataset(arrays, grid, job.owners, job.unit, job.metric, report)
+
+
+def _describe_options():
+    lines = ["", "Options (the CLI's, from its option table):", ""]
+    for k in _rvoronoi.keywords():
+        head = "%s (%s)" % (k["keyword"], k["type"])
+        if k["choices"]:
+            head += ": " + " | ".join(k["choices"])
+        if k["default"]:
+            head += ", default " + k["default"]
+        lines.append("    " + head)
+        lines.append("        " + k["help"])
+    return "\n".join(lines)
+
+
+compute.__doc__ += _describe_options()

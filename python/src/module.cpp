@@ -1,0 +1,276 @@
+// The Python module's native part, `rvoronoi._rvoronoi`: the engine façade (rv/job.hpp) and the
+// option table (rv/options.hpp) as Python sees them. The package around it (python/rvoronoi/)
+// turns seeds into files, arrays into an xarray.Dataset and chunks into a Dask graph; every rule
+// (options, checks, computation, messages) is the façade's.
+//
+// What crosses: options as JSON text (keyword -> value, checked by the option table under the
+// keyword's name), seed paths, a window; back come NumPy arrays that own the engine's buffers
+// (no copy), the report as JSON text, and the grid. rv::Error becomes the exception class the
+// error table names for its kind (rvoronoi.InvalidArgument, ...), with the same message.
+// The GIL is released while the façade reads and computes.
+#include <pybind11/numpy.h>
+#include <pybind11/pybind11.h>
+#include <pybind11/stl.h>
+
+#include <memory>
+#include <optional>
+#include <set>
+#include <string>
+#include <vector>
+
+#include "rv/error.hpp"
+#include "rv/error_map.hpp"
+#include "rv/job.hpp"
+#include "rv/json_text.hpp"
+#include "rv/options.hpp"
+
+namespace py = pybind11;
+
+namespace {
+
+// Options the module does not take as keywords: its results are arrays and deliverables it
+// returns (not files it is told to write), and these steer files or runs it does not make.
+const std::set<std::string, std::less<>> kNotKeywords = {
+    "ownership", "distance", "nearest-feature", "report",  "cog",           "compression", "boundaries",   "tripoints",
+    "limits",    "regions",  "turning-points",  "changes", "margin-raster", "preview",     "no-edit-base", "strip-rows",
+    "base"};
+
+bool is_keyword(const rv::OptionSpec& o) { return !o.flag.empty() && !kNotKeywords.contains(o.flag); }
+
+const char* type_name(rv::OptionType t) {
+  switch (t) {
+    case rv::OptionType::positive_number:
+    case rv::OptionType::nonnegative_number:
+    case rv::OptionType::number:
+      return "number";
+    case rv::OptionType::count:
+      return "integer";
+    case rv::OptionType::text:
+      return "text";
+    case rv::OptionType::choice:
+      return "choice";
+    case rv::OptionType::flag:
+      return "bool";
+    case rv::OptionType::extent:
+      return "extent";
+    case rv::OptionType::distance_list:
+      return "distances";
+    case rv::OptionType::file:
+      return "path";
+  }
+  return "text";
+}
+
+// The exception classes, one per error kind, made from the error table at import.
+std::vector<py::object>& error_classes() {
+  static std::vector<py::object> classes;
+  return classes;
+}
+
+// The JobSpec of seed paths and keyword options (JSON text: keyword -> value).
+rv::JobSpec make_spec(const std::vector<std::string>& seeds, const std::string& options_json) {
+  rv::JobSpec spec;
+  spec.seeds.paths = seeds;
+  nlohmann::json options;
+  try {
+    options = nlohmann::json::parse(options_json);
+  } catch (const nlohmann::json::exception& e) {
+    throw rv::Error(rv::ErrorKind::internal, std::string("options are not JSON: ") + e.what());
+  }
+  if (!options.is_object()) throw rv::Error(rv::ErrorKind::internal, "options must be a JSON object");
+  for (const auto& [key, value] : options.items()) {
+    if (value.is_null()) continue;  // None: the option's default
+    const rv::OptionSpec* o = nullptr;
+    for (const rv::OptionSpec& c : rv::job_options())
+      if (is_keyword(c) && rv::option_keyword(c) == key) o = &c;
+    if (!o) throw rv::Error(rv::ErrorKind::invalid_argument, key + ": not an option of rvoronoi.compute");
+    o->apply(spec, rv::parse_json_value(*o, value, key));
+  }
+  return spec;
+}
+
+std::optional<rv::Window> to_window(const std::optional<std::vector<int64_t>>& w) {
+  if (!w) return std::nullopt;
+  if (w->size() != 4) throw rv::Error(rv::ErrorKind::invalid_argument, "window: (row0, col0, rows, cols)");
+  return rv::Window{(*w)[1], (*w)[0], (*w)[3], (*w)[2]};
+}
+
+// A raster's cells as a 2-D NumPy array that owns them (the raster moves into its capsule).
+template <class T>
+py::array_t<T> to_numpy(rv::Raster<T>&& raster) {
+  auto* owned = new rv::Raster<T>(std::move(raster));
+  py::capsule free_it(owned, [](void* p) { delete static_cast<rv::Raster<T>*>(p); });
+  const auto rows = static_cast<py::ssize_t>(owned->height());
+  const auto cols = static_cast<py::ssize_t>(owned->width());
+  return py::array_t<T>({rows, cols}, {cols * static_cast<py::ssize_t>(sizeof(T)), static_cast<py::ssize_t>(sizeof(T))},
+                        owned->data(), free_it);
+}
+
+py::dict grid_dict(const rv::GridSpec& g) {
+  py::dict d;
+  d["width"] = g.width;
+  d["height"] = g.height;
+  d["xmin"] = g.xmin;
+  d["ymax"] = g.ymax;
+  d["resolution"] = g.res;
+  d["crs_wkt"] = g.crs;
+  return d;
+}
+
+// A job read and planned once; its pieces computed from it (Job.run), from any thread.
+class Job {
+ public:
+  Job(const std::vector<std::string>& seeds, const std::string& options_json,
+      const std::optional<std::vector<int64_t>>& window) {
+    spec_ = make_spec(seeds, options_json);
+    spec_.window = to_window(window);
+    py::gil_scoped_release free;
+    job_ = rv::prepare_job(spec_);
+    // The engine's preparation of the seeds (sites in the grid's frame, the index), shared by
+    // every piece.
+    job_.compute.prepared = rv::prepare(job_.loaded.seeds, job_.grid, job_.compute);
+  }
+
+  py::dict grid() const { return grid_dict(job_.grid); }
+  std::vector<std::string> owners() const { return job_.loaded.seeds.owner_labels(); }
+  std::string unit() const { return job_.unit; }
+  std::string metric() const { return job_.metric.kind == rv::MetricSpec::geodesic ? "geodesic" : "planar"; }
+
+  // products: any of "ownership", "distance", "nearest_feature"; outputs: deliverable name ->
+  // file (boundaries, tripoints, limits, regions, turning_points; whole grid only).
+  py::dict run(const std::optional<std::vector<int64_t>>& window, const std::vector<std::string>& products,
+               const std::map<std::string, std::string>& outputs) const {
+    rv::JobSpec spec = spec_;
+    spec.window = to_window(window);
+    for (const std::string& p : products) {
+      if (p == "ownership")
+        spec.outputs.in_memory.ownership = true;
+      else if (p == "distance")
+        spec.outputs.in_memory.distance = true;
+      else if (p == "nearest_feature")
+        spec.outputs.in_memory.nearest_feature = true;
+      else
+        throw rv::Error(rv::ErrorKind::invalid_argument, "product '" + p + "': ownership, distance or nearest_feature");
+    }
+    rv::OutputRequest& out = spec.outputs;
+    for (const auto& [name, path] : outputs) {
+      if (name == "boundaries")
+        out.boundaries = path;
+      else if (name == "tripoints")
+        out.tripoints = path;
+      else if (name == "limits")
+        out.limits = path;
+      else if (name == "regions")
+        out.regions = path;
+      else if (name == "turning_points")
+        out.turning_points = path;
+      else
+        throw rv::Error(rv::ErrorKind::invalid_argument,
+                        "deliverable '" + name + "': boundaries, tripoints, limits, regions or turning_points");
+    }
+    rv::JobResult r;
+    {
+      py::gil_scoped_release free;
+      r = rv::run_prepared(spec, job_);
+    }
+    py::dict d;
+    d["report"] = rv::json_text(r.report, 2);
+    if (spec.outputs.in_memory.ownership) d["ownership"] = to_numpy(std::move(r.rasters.ownership));
+    if (spec.outputs.in_memory.distance) d["distance"] = to_numpy(std::move(r.rasters.distance));
+    if (spec.outputs.in_memory.nearest_feature) d["nearest_feature"] = to_numpy(std::move(r.rasters.nearest_feature));
+    return d;
+  }
+
+ private:
+  rv::JobSpec spec_;
+  rv::PreparedJob job_;
+};
+
+py::list keywords() {
+  py::list out;
+  for (const rv::OptionSpec& o : rv::job_options()) {
+    if (!is_keyword(o)) continue;
+    py::dict d;
+    d["keyword"] = rv::option_keyword(o);
+    d["type"] = type_name(o.type);
+    d["section"] = std::string(o.section);
+    d["title"] = std::string(o.title);
+    d["help"] = std::string(o.help);
+    d["default"] = std::string(o.default_text);
+    d["metavar"] = std::string(o.metavar);
+    py::list choices;
+    for (std::string_view c : o.choices) choices.append(std::string(c.substr(0, c.find('|'))));
+    d["choices"] = choices;
+    d["repeatable"] = o.repeatable;
+    out.append(d);
+  }
+  return out;
+}
+
+}  // namespace
+
+PYBIND11_MODULE(_rvoronoi, m) {
+  m.doc() = "rvoronoi's engine (use the rvoronoi package, not this module)";
+  // rvoronoi.Error and one subclass per kind of the error table, each also a subclass of the
+  // built-in exception a Python caller would catch for it.
+  py::object base = py::reinterpret_steal<py::object>(
+      PyErr_NewExceptionWithDoc("rvoronoi.Error", "An error of rvoronoi; .kind names its kind.", nullptr, nullptr));
+  m.attr("Error") = base;
+  py::module_ builtins = py::module_::import("builtins");
+  auto builtin_for = [&](rv::ErrorKind k) -> py::object {
+    switch (k) {
+      case rv::ErrorKind::invalid_argument:
+      case rv::ErrorKind::invalid_input:
+      case rv::ErrorKind::conflict:
+      case rv::ErrorKind::too_large:
+        return builtins.attr("ValueError");
+      case rv::ErrorKind::not_found:
+        return builtins.attr("LookupError");
+      case rv::ErrorKind::unsupported:
+        return builtins.attr("NotImplementedError");
+      case rv::ErrorKind::io:
+        return builtins.attr("OSError");
+      case rv::ErrorKind::internal:
+        return builtins.attr("RuntimeError");
+      case rv::ErrorKind::cancelled:
+      case rv::ErrorKind::busy:
+        break;
+    }
+    return py::none();
+  };
+  auto& classes = error_classes();
+  py::list kinds;
+  for (int i = 0; i <= static_cast<int>(rv::ErrorKind::internal); ++i) {
+    const auto kind = static_cast<rv::ErrorKind>(i);
+    const rv::ErrorInfo& info = rv::error_info(kind);
+    const std::string name = "rvoronoi." + std::string(info.python);
+    py::object extra = builtin_for(kind);
+    py::tuple bases = extra.is_none() ? py::make_tuple(base) : py::make_tuple(base, extra);
+    py::object cls = py::reinterpret_steal<py::object>(
+        PyErr_NewExceptionWithDoc(name.c_str(), std::string(info.title).c_str(), bases.ptr(), nullptr));
+    cls.attr("kind") = std::string(rv::to_string(kind));
+    m.attr(std::string(info.python).c_str()) = cls;
+    classes.push_back(cls);
+    kinds.append(py::make_tuple(std::string(rv::to_string(kind)), std::string(info.python)));
+  }
+  m.attr("error_kinds") = kinds;
+  py::register_exception_translator([](std::exception_ptr p) {
+    try {
+      if (p) std::rethrow_exception(p);
+    } catch (const rv::Error& e) {
+      PyErr_SetString(error_classes()[static_cast<size_t>(e.kind())].ptr(), e.what());
+    } catch (const std::bad_alloc&) {
+      PyErr_SetString(error_classes()[static_cast<size_t>(rv::ErrorKind::too_large)].ptr(),
+                      "out of memory: the grid does not fit; use chunks");
+    }
+  });
+  m.def("keywords", &keywords, "The keyword options of rvoronoi.compute, from the option table.");
+  py::class_<Job>(m, "Job")
+      .def(py::init<const std::vector<std::string>&, const std::string&, const std::optional<std::vector<int64_t>>&>(),
+           py::arg("seeds"), py::arg("options"), py::arg("window") = py::none())
+      .def_property_readonly("grid", &Job::grid)
+      .def_property_readonly("owners", &Job::owners)
+      .def_property_readonly("unit", &Job::unit)
+      .def_property_readonly("metric", &Job::metric)
+      .def("run", &Job::run, py::arg("window"), py::arg("products"), py::arg("outputs"));
+}

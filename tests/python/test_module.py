@@ -1,0 +1,278 @@
+"""The Python module (issue 33) against the CLI: the same arrays, owner tables, deliverables, errors.
+
+    PYTHONPATH=build/python /usr/bin/python3 tests/python/test_module.py RVORONOI SOURCE_DIR SHARED_DIR
+
+For each case the CLI (`rvoronoi compute`) writes its rasters and deliverables, and
+rvoronoi.compute() is given the same seeds and options: the arrays equal the rasters cell for cell
+and bit for bit (distances compared as their bits), the owner table equals the raster's
+categories and the report's owners, the grid's georeferencing equals the file's (read back through
+rioxarray's CF convention, and through GDAL from the netCDF and Zarr the dataset writes), and the
+deliverables equal the CLI's GeoJSON feature for feature. Cases: points (planar, projected CRS),
+polygons of the Øresund (geodesic on a geographic grid, nautical miles, a max distance), polygons
+with holes on a projected CRS measured on its ellipsoid (geodesic, located cells), and the same
+seeds given as a GeoDataFrame and as a GeoJSON mapping. Then errors (kinds, classes, messages),
+the GIL released while the engine works, and arrays that own the engine's buffers.
+"""
+import json
+import os
+import subprocess
+import sys
+import tempfile
+import threading
+import time
+import unittest
+
+import numpy as np
+from osgeo import gdal
+
+import rvoronoi
+
+RVORONOI, SOURCE, SHARED = sys.argv[1], sys.argv[2], sys.argv[3]
+FIX = os.path.join(SOURCE, "fixtures")
+ORESUND = os.path.join(SHARED, "fixtures", "oresund.gpkg")
+BALTIC = os.path.join(SHARED, "fixtures", "baltic_west.gpkg")
+gdal.UseExceptions()
+
+
+def cli(seeds, options, outdir, deliverables=()):
+    """Runs the CLI with the module's keyword options; returns {product: array}, report, deliverables."""
+    cmd = [RVORONOI, "compute"] + ([seeds] if isinstance(seeds, str) else list(seeds)) + ["--quiet"]
+    for k, v in options.items():
+        flag = "--" + k.replace("_", "-")
+        if isinstance(v, bool):
+            cmd += [flag] if v else []
+        elif isinstance(v, (list, tuple)) and k == "extent":
+            cmd += [flag] + [repr(float(x)) for x in v]
+        elif isinstance(v, (list, tuple)):
+            cmd += [flag, ",".join(str(x) for x in v)]
+        else:
+            cmd += [flag, str(v)]
+    files = {p: os.path.join(outdir, p + ".tif") for p in ("ownership", "distance", "nearest_feature")}
+    for p, f in files.items():
+        cmd += ["--" + p.replace("_", "-"), f]
+    lines = {d: os.path.join(outdir, d + ".geojson") for d in deliverables}
+    for d, f in lines.items():
+        cmd += ["--" + d, f]
+    cmd += ["--report", os.path.join(outdir, "report.json"), "--no-edit-base"]
+    subprocess.run(cmd, check=True)
+    arrays, geo = {}, {}
+    for p, f in files.items():
+        ds = gdal.Open(f)
+        band = ds.GetRasterBand(1)
+        arrays[p] = band.ReadAsArray()
+        geo[p] = (ds.GetGeoTransform(), ds.GetProjection(), band.GetCategoryNames())
+    with open(os.path.join(outdir, "report.json")) as f:
+        report = json.load(f)
+    read = {}
+    for d, f in lines.items():
+        with open(f) as fh:
+            read[d] = json.load(fh)
+    return arrays, geo, report, read
+
+
+def same_bits(a, b):
+    a, b = np.asarray(a), np.asarray(b)
+    if a.shape != b.shape or (a.dtype.kind == "f") != (b.dtype.kind == "f"):
+        return False
+    if a.dtype.kind == "f":
+        return a.dtype == b.dtype and np.array_equal(a.view(np.uint32), b.view(np.uint32))
+    # Code rasters: GDAL gives the file's narrowest type (Byte, UInt16), the module Int32.
+    return np.array_equal(a.astype(np.int64), b.astype(np.int64))
+
+
+class AgainstTheCli(unittest.TestCase):
+    def check_case(self, seeds, options, deliverables=()):
+        with tempfile.TemporaryDirectory() as out:
+            arrays, geo, report, lines = cli(seeds, options, out, deliverables)
+        got = rvoronoi.compute(seeds, nearest_feature=True, deliverables=list(deliverables) or None, **options)
+        ds, mine = (got if deliverables else (got, {}))
+        self.assertTrue(same_bits(ds.owner.values, arrays["ownership"]), "owner codes differ")
+        self.assertTrue(same_bits(ds.distance.values, arrays["distance"]), "distances differ")
+        self.assertTrue(same_bits(ds.nearest_feature.values, arrays["nearest_feature"]), "feature numbers differ")
+        # The owner table: the raster's categories (index = code), the report's owners, the flags.
+        labels = json.loads(ds.owner.attrs["owner_labels"])
+        self.assertEqual(labels, [o["label"] for o in report["seeds"]["owners"]])
+        self.assertEqual(labels, geo["ownership"][2][1:len(labels) + 1])
+        self.assertEqual(list(ds.owner.attrs["flag_values"]), list(range(1, len(labels) + 1)))
+        self.assertEqual(len(ds.owner.attrs["flag_meanings"].split()), len(labels))
+        # Georeferencing: rioxarray reads the CF grid mapping; it equals the file's.
+        import rioxarray  # noqa: F401
+        transform, wkt = geo["ownership"][0], geo["ownership"][1]
+        self.assertEqual(tuple(ds.owner.rio.transform().to_gdal()), tuple(transform))
+        from osgeo import osr
+        a, b = osr.SpatialReference(), osr.SpatialReference()
+        a.ImportFromWkt(ds.owner.rio.crs.to_wkt())
+        b.ImportFromWkt(wkt)
+        self.assertTrue(a.IsSame(b), "CRS differs")
+        self.assertEqual(json.loads(ds.attrs["rvoronoi_report"])["grid"], report["grid"])
+        for name in deliverables:
+            self.check_lines(name, lines[name], mine[name])
+        return ds
+
+    def check_lines(self, name, theirs, mine):
+        from shapely.geometry import shape
+        features = theirs["features"]
+        self.assertGreater(len(features), 0, name)
+        self.assertEqual(len(mine), len(features), name)
+        for (_, row), f in zip(mine.iterrows(), features):
+            # Vertex for vertex, no tolerance.
+            self.assertTrue(row.geometry.equals_exact(shape(f["geometry"]), 0.0), name)
+            for k, v in f["properties"].items():
+                got = row[k]
+                self.assertEqual(got.item() if hasattr(got, "item") else got, v, "%s property %s" % (name, k))
+
+    def test_points_planar(self):
+        seeds = os.path.join(FIX, "coast_points.geojson")
+        self.check_case(seeds, {"owner_field": "owner", "resolution": 50.0}, ("boundaries",))
+
+    def test_baltic_four_states_tripoints_and_regions(self):
+        self.check_case(BALTIC, {"owner_field": "iso2", "resolution": 0.02, "metric": "geodesic",
+                                 "distance_units": "nmi", "border_tolerance": 10},
+                        ("boundaries", "tripoints", "regions"))
+
+    def test_oresund_geodesic(self):
+        ds = self.check_case(ORESUND, {"owner_field": "iso2", "resolution": 0.01, "metric": "geodesic",
+                                       "distance_units": "nmi", "max_distance": 5}, ("boundaries",))
+        self.assertEqual(ds.distance.attrs["units"], "nmi")
+        self.assertEqual(ds.attrs["metric"], "geodesic")
+        self.assertTrue((ds.owner.values == 0).any(), "the max distance leaves cells unowned")
+
+    def test_oresund_limits(self):
+        self.check_case(ORESUND, {"owner_field": "iso2", "resolution": 0.02, "metric": "geodesic",
+                                  "distance_units": "nmi", "limit_distances": ["12nmi"]}, ("limits", "regions"))
+
+    def test_polygons_projected_geodesic(self):
+        seeds = os.path.join(FIX, "coast_polygons.geojson")
+        self.check_case(seeds, {"owner_field": "owner", "resolution": 100.0, "metric": "geodesic"})
+
+    def test_frame_and_mapping_equal_the_file(self):
+        import geopandas
+        path = os.path.join(FIX, "coast_polygons.geojson")
+        options = {"owner_field": "owner", "resolution": 100.0}
+        base = rvoronoi.compute(path, **options)
+        frame = geopandas.read_file(path)
+        from_frame = rvoronoi.compute(frame, **options)
+        with open(path) as f:
+            mapping = json.load(f)
+        from_mapping = rvoronoi.compute(mapping, **options)
+        for other in (from_frame, from_mapping):
+            self.assertTrue(same_bits(other.owner.values, base.owner.values))
+            self.assertTrue(same_bits(other.distance.values, base.distance.values))
+            self.assertEqual(other.owner.attrs["owner_labels"], base.owner.attrs["owner_labels"])
+            self.assertEqual(other.spatial_ref.attrs["GeoTransform"], base.spatial_ref.attrs["GeoTransform"])
+
+    def test_netcdf_and_zarr_keep_the_grid_and_the_owner_table(self):
+        import xarray
+        ds = rvoronoi.compute(ORESUND, owner_field="iso2", resolution=0.02, metric="geodesic")
+        with tempfile.TemporaryDirectory() as d:
+            nc, zr = os.path.join(d, "r.nc"), os.path.join(d, "r.zarr")
+            ds.to_netcdf(nc)
+            ds.to_zarr(zr)
+            for back in (xarray.open_dataset(nc, mask_and_scale=False), xarray.open_zarr(zr, mask_and_scale=False)):
+                self.assertEqual(list(back.owner.attrs["flag_values"]), list(ds.owner.attrs["flag_values"]))
+                self.assertEqual(back.owner.attrs["flag_meanings"], "DK SE")
+                self.assertTrue(same_bits(back.owner.values, ds.owner.values))
+                self.assertTrue(same_bits(back.distance.values, ds.distance.values))
+                back.close()
+            # GDAL reads the netCDF's grid mapping: the same georeferencing as the dataset's.
+            g = gdal.Open('NETCDF:"%s":owner' % nc)
+            want = [float(v) for v in ds.spatial_ref.attrs["GeoTransform"].split()]
+            np.testing.assert_allclose(g.GetGeoTransform(), want, rtol=0, atol=1e-9)
+            self.assertIn("WGS 84", g.GetProjection())
+
+
+class Errors(unittest.TestCase):
+    def test_kinds_classes_and_messages(self):
+        pts = os.path.join(FIX, "coast_points.geojson")
+        cases = [
+            (lambda: rvoronoi.compute(pts, owner_field="owner", resolution=-1),
+             rvoronoi.InvalidArgument, ValueError, "invalid-argument", "resolution: "),
+            (lambda: rvoronoi.compute(os.path.join(FIX, "missing.geojson"), resolution=10),
+             rvoronoi.NotFound, LookupError, "not-found", "missing.geojson"),
+            (lambda: rvoronoi.compute(pts, owner_field="no_such_field", resolution=10),
+             rvoronoi.InvalidArgument, ValueError, "invalid-argument", "owner field 'no_such_field' not found"),
+            (lambda: rvoronoi.compute(os.path.join(FIX, "overlap.geojson"), owner_field="owner", resolution=10),
+             rvoronoi.Conflict, ValueError, "conflict", "overlap"),
+            (lambda: rvoronoi.compute(pts, owner_field="owner", resolution=50, method="hv-scan", chunks=(10, 10)),
+             rvoronoi.InvalidArgument, ValueError, "invalid-argument", "chunks: the scan methods"),
+            (lambda: rvoronoi.compute(pts, owner_field="owner", resolution=50, metric="spherical"),
+             rvoronoi.InvalidArgument, ValueError, "invalid-argument", "metric: must be one of"),
+            (lambda: rvoronoi.compute(pts, owner_field="owner", resolution=50, deliverables=["coastlines"]),
+             rvoronoi.InvalidArgument, ValueError, "invalid-argument", "deliverables: "),
+        ]
+        for call, cls, builtin, kind, text in cases:
+            with self.assertRaises(cls) as caught:
+                call()
+            self.assertIsInstance(caught.exception, builtin)
+            self.assertIsInstance(caught.exception, rvoronoi.Error)
+            self.assertEqual(caught.exception.kind, kind)
+            self.assertIn(text, str(caught.exception))
+
+    def test_same_message_as_the_cli(self):
+        pts = os.path.join(FIX, "coast_points.geojson")
+        with self.assertRaises(rvoronoi.InvalidArgument) as caught:
+            rvoronoi.compute(pts, owner_field="no_such_field", resolution=10)
+        with tempfile.TemporaryDirectory() as d:
+            r = subprocess.run([RVORONOI, "compute", pts, "--owner-field", "no_such_field", "--resolution", "10",
+                                "--ownership", os.path.join(d, "o.tif")], capture_output=True, text=True)
+        self.assertEqual(r.returncode, 2)
+        self.assertIn(str(caught.exception), r.stderr)
+
+    def test_unknown_keyword_is_a_type_error(self):
+        with self.assertRaises(TypeError) as caught:
+            rvoronoi.compute(os.path.join(FIX, "coast_points.geojson"), resolutoin=10)
+        self.assertIn("resolutoin", str(caught.exception))
+        self.assertIn("resolution", str(caught.exception))
+
+    def test_bad_seed_argument(self):
+        with self.assertRaises(TypeError):
+            rvoronoi.compute(42, resolution=10)
+        with self.assertRaises(TypeError):
+            rvoronoi.compute({"type": "Point", "coordinates": [0, 0]}, resolution=10)
+
+
+class Memory(unittest.TestCase):
+    def test_arrays_own_the_engine_buffers(self):
+        ds = rvoronoi.compute(os.path.join(FIX, "coast_points.geojson"), owner_field="owner", resolution=50)
+        for name in ("owner", "distance"):
+            a = ds[name].values
+            self.assertFalse(a.flags.owndata)
+            self.assertEqual(type(a.base).__name__, "PyCapsule", name)
+            self.assertTrue(a.flags.c_contiguous)
+
+    def test_the_gil_is_released_while_computing(self):
+        rng = np.random.default_rng(7)
+        pts = rng.uniform(0, 4000, size=(3000, 2))
+        mapping = {"type": "FeatureCollection",
+                   "crs": {"type": "name", "properties": {"name": "urn:ogc:def:crs:EPSG::32633"}},
+                   "features": [{"type": "Feature", "properties": {"id": i},
+                                 "geometry": {"type": "Point", "coordinates": [400000 + x, 6100000 + y]}}
+                                for i, (x, y) in enumerate(pts)]}
+        done = threading.Event()
+        ticks = [0]
+
+        def spin():
+            while not done.is_set():
+                ticks[0] += 1
+        spinner = threading.Thread(target=spin)
+        spinner.start()
+        try:
+            # Brute force: seconds of engine time without Python in between.
+            start = time.perf_counter()
+            before = ticks[0]
+            rvoronoi.compute(mapping, owner_field="id", resolution=4, extent=[400000, 6100000, 404000, 6104000],
+                             method="brute-force", threads=1)
+            elapsed = time.perf_counter() - start
+            spun = ticks[0] - before
+        finally:
+            done.set()
+            spinner.join()
+        # Holding the GIL, the spinner would advance only at the interpreter's switch interval
+        # around the call; released, it spins through the whole computation.
+        self.assertGreater(elapsed, 0.3, "the computation is too short to tell")
+        self.assertGreater(spun, 100000, "the spinner stood still: the GIL was held (%d ticks in %.2f s)"
+                           % (spun, elapsed))
+
+
+if __name__ == "__main__":
+    unittest.main(argv=[sys.argv[0], "-v"])
