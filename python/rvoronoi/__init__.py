@@ -24,6 +24,7 @@ for _kind, _name in _rvoronoi.error_kinds:
     globals()[_name] = getattr(_rvoronoi, _name)
 del _kind, _name
 
+__version__ = _rvoronoi.version
 __all__ = ["compute", "keywords", "Error"] + [name for _, name in _rvoronoi.error_kinds]
 
 _PRODUCTS = ("ownership", "distance", "nearest_feature")
@@ -86,7 +87,8 @@ def compute(seeds, *, chunks=None, nearest_feature=False, deliverables=None, **o
         them), a list of paths, a GeoJSON mapping (FeatureCollection) or a GeoDataFrame.
     chunks: (rows, cols): the result is backed by Dask arrays, one engine window per chunk,
         computed wherever Dask runs them (threads, processes, a distributed cluster); identical to
-        the unchunked result, bit for bit. The exact and brute-force methods only.
+        the unchunked result, bit for bit. The exact and brute-force methods only. Each chunk uses
+        one engine thread unless `threads` says otherwise (Dask runs chunks side by side).
     nearest_feature: also return `nearest_feature` (the 1-based position of the nearest seed
         feature in the input).
     deliverables: names among "boundaries", "tripoints", "limits" (needs limit_distances),
@@ -102,6 +104,9 @@ def compute(seeds, *, chunks=None, nearest_feature=False, deliverables=None, **o
     """
     from . import _dataset, _seeds
 
+    if chunks is not None and "threads" not in options:
+        # Dask gives the parallelism (a chunk per worker thread): one engine thread per chunk.
+        options = dict(options, threads=1)
     options_json = _options_json(options)
     products = _products(nearest_feature)
     wanted = list(deliverables or [])

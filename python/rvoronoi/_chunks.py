@@ -83,7 +83,7 @@ class Shipped:
 def compute_chunk(shipped, window, products):
     """One chunk: {product: array} of the window (row0, col0, rows, cols). Runs on a worker."""
     job = _job_for(shipped.digest, shipped.bundle, shipped.options_json, window)
-    result = job.run(list(window), list(products), {})
+    result = job.run(list(window), list(products), {}, False)
     return {p: result[p] for p in products}
 
 

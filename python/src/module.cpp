@@ -23,6 +23,7 @@
 #include "rv/job.hpp"
 #include "rv/json_text.hpp"
 #include "rv/options.hpp"
+#include "rv/version.hpp"
 
 namespace py = pybind11;
 
@@ -137,11 +138,13 @@ class Job {
   std::string metric() const { return job_.metric.kind == rv::MetricSpec::geodesic ? "geodesic" : "planar"; }
 
   // products: any of "ownership", "distance", "nearest_feature"; outputs: deliverable name ->
-  // file (boundaries, tripoints, limits, regions, turning_points; whole grid only).
+  // file (boundaries, tripoints, limits, regions, turning_points; whole grid only); describe:
+  // whether to assemble the report (a chunk's caller does not keep it).
   py::dict run(const std::optional<std::vector<int64_t>>& window, const std::vector<std::string>& products,
-               const std::map<std::string, std::string>& outputs) const {
+               const std::map<std::string, std::string>& outputs, bool describe) const {
     rv::JobSpec spec = spec_;
     spec.window = to_window(window);
+    spec.outputs.describe = describe;
     for (const std::string& p : products) {
       if (p == "ownership")
         spec.outputs.in_memory.ownership = true;
@@ -174,7 +177,7 @@ class Job {
       r = rv::run_prepared(spec, job_);
     }
     py::dict d;
-    d["report"] = rv::json_text(r.report, 2);
+    if (describe) d["report"] = rv::json_text(r.report, 2);
     if (spec.outputs.in_memory.ownership) d["ownership"] = to_numpy(std::move(r.rasters.ownership));
     if (spec.outputs.in_memory.distance) d["distance"] = to_numpy(std::move(r.rasters.distance));
     if (spec.outputs.in_memory.nearest_feature) d["nearest_feature"] = to_numpy(std::move(r.rasters.nearest_feature));
@@ -211,6 +214,7 @@ py::list keywords() {
 
 PYBIND11_MODULE(_rvoronoi, m) {
   m.doc() = "rvoronoi's engine (use the rvoronoi package, not this module)";
+  m.attr("version") = std::string(rv::kVersion);
   // rvoronoi.Error and one subclass per kind of the error table, each also a subclass of the
   // built-in exception a Python caller would catch for it.
   py::object base = py::reinterpret_steal<py::object>(
@@ -272,5 +276,5 @@ PYBIND11_MODULE(_rvoronoi, m) {
       .def_property_readonly("owners", &Job::owners)
       .def_property_readonly("unit", &Job::unit)
       .def_property_readonly("metric", &Job::metric)
-      .def("run", &Job::run, py::arg("window"), py::arg("products"), py::arg("outputs"));
+      .def("run", &Job::run, py::arg("window"), py::arg("products"), py::arg("outputs"), py::arg("describe") = true);
 }

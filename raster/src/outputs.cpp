@@ -51,6 +51,14 @@ Raster<int32_t> owner_raster(const SeedSet& seeds, const NearestField& field, in
   return coded_raster(SiteCodes::owners(seeds), field, threads);
 }
 
+Raster<int32_t> owner_raster(const SeedSet& seeds, Raster<int32_t>&& sites, int threads) {
+  Raster<int32_t> out = std::move(sites);
+  const SiteCodes codes = SiteCodes::owners(seeds);
+  int32_t* o = out.data();
+  for_rows(out.height(), out.width(), threads, [&](int64_t i, int64_t n) { codes.apply(o + i, o + i, n); });
+  return out;
+}
+
 Raster<int32_t> feature_raster(const SeedSet& seeds, const NearestField& field, int threads,
                                std::span<const int64_t> numbering) {
   return coded_raster(SiteCodes::features(seeds, numbering), field, threads);

@@ -501,6 +501,8 @@ void check_plan(const JobSpec& spec, const JobLimits& limits, const PreparedJob&
   if (!(out.simplify_cells >= 0.0) || !std::isfinite(out.simplify_cells))
     throw Error(ErrorKind::invalid_argument, "the simplification tolerance must be a non-negative number of cells");
   check_window(spec, job.grid);
+  if (!out.describe && !out.report.empty())
+    throw Error(ErrorKind::invalid_argument, "a report file needs the report (OutputRequest::describe)");
   const int64_t cells = spec.window ? spec.window->cell_count() : job.grid.cell_count();
   if (cells > limits.max_cells)
     throw Error(ErrorKind::too_large, "the grid has " + std::to_string(cells) + " cells, over the limit of " +
@@ -792,8 +794,9 @@ void write_rasters(detail::JobRun& run, const PreparedJob& job, const NearestFie
 }
 
 // The rasters the caller takes in memory (OutputRequest::in_memory), made like the files'.
-// `spent`: the same field when nothing reads it after this call (its distances are then moved,
-// not copied), else null.
+// `spent`: the same field when nothing reads it after this call: its buffers then become the
+// results (the owner codes written over the site indices, the distances moved), so that a chunk
+// of a grid allocates no more than the engine did.
 MemoryRasters keep_in_memory(detail::JobRun& run, const PreparedJob& job, const NearestField& field,
                              NearestField* spent = nullptr) {
   const JobSpec& spec = run.spec;
@@ -802,18 +805,23 @@ MemoryRasters keep_in_memory(detail::JobRun& run, const PreparedJob& job, const 
   MemoryRasters r;
   if (!want.any()) return r;
   detail::timed(run.write_times, "in_memory", [&] {
-    if (want.ownership) r.ownership = owner_raster(seeds, field, spec.threads);
     if (want.distance && job.to_output != 1.0)
       r.distance = scaled_distance(field, job.to_output, spec.threads);
+    else if (want.distance && spent)
+      r.distance = std::move(spent->distance);
     else if (want.distance)
-      r.distance = spent ? std::move(spent->distance) : field.distance;
+      r.distance = field.distance;
     if (want.nearest_feature) r.nearest_feature = feature_raster(seeds, field, spec.threads, job.loaded.input_position);
+    if (want.ownership && spent)
+      r.ownership = owner_raster(seeds, std::move(spent->site), spec.threads);
+    else if (want.ownership)
+      r.ownership = owner_raster(seeds, field, spec.threads);
   });
   return r;
 }
 
 // Stage "report": what was computed, how, from what, and what it cost.
-void assemble_report(detail::JobRun& run, const PreparedJob& job, const detail::MemoryWatch& memory,
+void assemble_report(detail::JobRun& run, const PreparedJob& job, const detail::MemoryWatch* memory,
                      detail::Clock::time_point start) {
   const JobSpec& spec = run.spec;
   const LoadedSeeds& loaded = job.loaded;
@@ -847,13 +855,13 @@ void assemble_report(detail::JobRun& run, const PreparedJob& job, const detail::
   const auto cells = static_cast<double>(std::max<int64_t>(job.grid.cell_count(), 1));
   report["compute_ns_per_cell"] = run.compute_seconds * 1e9 / cells;
   // The job's own peak, not the process's (a daemon's high-water mark is its largest job ever).
-  report["peak_memory_bytes"] = memory.peak_growth();
-  report["peak_memory_shared"] = memory.shared();
+  report["peak_memory_bytes"] = memory ? memory->peak_growth() : 0;
+  report["peak_memory_shared"] = memory ? memory->shared() : false;
   report["outputs"] = run.outputs;
 }
 
 // The stages after prepare_job, with run.plan.
-JobResult run_stages(detail::JobRun& run, const PreparedJob& job, const detail::MemoryWatch& memory,
+JobResult run_stages(detail::JobRun& run, const PreparedJob& job, const detail::MemoryWatch* memory,
                      detail::Clock::time_point start) {
   const JobSpec& spec = run.spec;
   run.timings["read"] = job.read_seconds;
@@ -897,7 +905,7 @@ JobResult run_stages(detail::JobRun& run, const PreparedJob& job, const detail::
     run.guard.add_directory(edit_base_dir);
     run.report["edit_base"] = std::filesystem::path(edit_base_dir).filename().string();
   }
-  assemble_report(run, job, memory, start);
+  if (spec.outputs.describe) assemble_report(run, job, memory, start);
   if (!spec.outputs.report.empty()) {
     run.will_write(spec.outputs.report);
     write_file_atomically(spec.outputs.report, json_text(run.report, 2) + "\n");
@@ -916,21 +924,23 @@ JobResult run_stages(detail::JobRun& run, const PreparedJob& job, const detail::
 
 JobResult run_job(const JobSpec& spec, const JobLimits& limits, const JobHooks& hooks) {
   const auto start = detail::Clock::now();
-  detail::MemoryWatch memory;
+  std::optional<detail::MemoryWatch> memory;
+  if (spec.outputs.describe) memory.emplace();
   detail::JobRun run(spec, limits, hooks);
   const PreparedJob job = prepare_job(spec, limits, hooks);
   run.plan = job.plan;
-  return run_stages(run, job, memory, start);
+  return run_stages(run, job, memory ? &*memory : nullptr, start);
 }
 
 JobResult run_prepared(const JobSpec& spec, const PreparedJob& job, const JobLimits& limits, const JobHooks& hooks) {
   const auto start = detail::Clock::now();
-  detail::MemoryWatch memory;
+  std::optional<detail::MemoryWatch> memory;
+  if (spec.outputs.describe) memory.emplace();
   detail::JobRun run(spec, limits, hooks);
   run.plan = plan_job(spec, job.grid, static_cast<int64_t>(job.loaded.seeds.sites().size()), job.metric.kind,
                       seed_memory_bytes(job.loaded));
   check_plan(spec, limits, job, run.plan);
-  return run_stages(run, job, memory, start);
+  return run_stages(run, job, memory ? &*memory : nullptr, start);
 }
 
 }  // namespace rv

@@ -209,6 +209,24 @@ class WithoutACluster(unittest.TestCase):
             self.assertTrue(same_bits(back.distance.values, whole.distance.values))
             self.assertEqual(back.owner.attrs["flag_meanings"], whole.owner.attrs["flag_meanings"])
 
+    def test_files_travel_with_the_chunks(self):
+        # A zipped shapefile of three layers, and a grid taken from a raster (`like`): both shipped
+        # in the bundle, unpacked by the worker (here the threaded scheduler's process).
+        import dask
+        import rioxarray  # noqa: F401
+        zipped = os.path.join(FIX, "coast_shp.zip")
+        whole = rvoronoi.compute(zipped, owner_field="owner", resolution=40.0)
+        with tempfile.TemporaryDirectory() as d:
+            grid = os.path.join(d, "grid.tif")
+            whole.owner.rio.to_raster(grid)
+            with dask.config.set(scheduler="threads"):
+                got = rvoronoi.compute(zipped, owner_field="owner", resolution=40.0, chunks=(50, 70)).compute()
+                self.assertTrue(same_bits(got.owner.values, whole.owner.values))
+                like = rvoronoi.compute(zipped, owner_field="owner", like=grid)
+                got = rvoronoi.compute(zipped, owner_field="owner", like=grid, chunks=(33, 45)).compute()
+            self.assertTrue(same_bits(got.distance.values, like.distance.values))
+            self.assertEqual(like.owner.shape, whole.owner.shape)
+
     def test_bad_chunks(self):
         seeds = os.path.join(FIX, "coast_points.geojson")
         for bad in ((0, 10), (10,), "big", (1.5, 3)):

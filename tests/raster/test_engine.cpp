@@ -7,6 +7,7 @@
 #include "bucket_index.hpp"
 #include "rv/engine.hpp"
 #include "rv/error.hpp"
+#include "rv/outputs.hpp"
 #include "rv/validate.hpp"
 #include "seed_gen.hpp"
 #include "window_check.hpp"
@@ -218,6 +219,23 @@ TEST(Engine, MaxDistanceLeavesFarCellsWithoutOwner) {
     EXPECT_GT(none, 1000) << to_string(m);
   }
   EXPECT_EQ(run(s, g, Method::exact, 2, 6.0).site.cells(), run(s, g, Method::brute_force, 2, 6.0).site.cells());
+}
+
+// The owner codes written over the field's site raster equal those made beside it, unowned cells
+// (a max distance) included, for any thread count.
+TEST(Engine, OwnerCodesInPlaceEqualACopy) {
+  const GridSpec g = grid(61, 47);
+  SeedSet s = test::random_points(30, 0, 0, 61, 47, 9);
+  const NearestField f = run(s, g, Method::exact, 2, 9.0);
+  const Raster<int32_t> beside = owner_raster(s, f, 1);
+  for (int threads : {1, 3}) {
+    Raster<int32_t> sites = f.site;
+    const Raster<int32_t> in_place = owner_raster(s, std::move(sites), threads);
+    EXPECT_EQ(in_place.cells(), beside.cells());
+    EXPECT_EQ(in_place.window(), beside.window());
+  }
+  EXPECT_TRUE(std::count(beside.cells().begin(), beside.cells().end(), 0) > 0);
+  EXPECT_TRUE(std::count(beside.cells().begin(), beside.cells().end(), 2) > 0);
 }
 
 TEST(Engine, LargeCoordinatesKeepPrecision) {

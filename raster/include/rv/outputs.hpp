@@ -25,7 +25,8 @@ class SiteCodes {
   static SiteCodes features(const SeedSet& seeds, std::span<const int64_t> numbering = {});
 
   // out[i] = code of site[i] for i in [0, n); 0 where site[i] == kNoSite. site[i] must be
-  // kNoSite or a site index of the seed set. `out` may not alias `site`.
+  // kNoSite or a site index of the seed set. `out` may be `site` (in place), but may not
+  // otherwise overlap it.
   void apply(const int32_t* site, int32_t* out, int64_t n) const;
   // The code of one site (kNoSite: 0).
   int32_t code(int32_t site) const { return site == kNoSite ? 0 : code_[static_cast<size_t>(site)]; }
@@ -39,6 +40,8 @@ void scale_distances(const float* in, float* out, int64_t n, double factor);
 
 // Owner code (1..K) of each cell's nearest site; 0 where the cell has no owner.
 Raster<int32_t> owner_raster(const SeedSet& seeds, const NearestField& field, int threads = 0);
+// The same, written over a field's site raster (NearestField::site, taken): no second buffer.
+Raster<int32_t> owner_raster(const SeedSet& seeds, Raster<int32_t>&& sites, int threads = 0);
 
 // Number of each cell's nearest seed feature (SiteCodes::features); 0 where the cell has no owner.
 Raster<int32_t> feature_raster(const SeedSet& seeds, const NearestField& field, int threads = 0,

@@ -67,6 +67,11 @@ struct OutputRequest {
     bool ownership = false, distance = false, nearest_feature = false;
     bool any() const { return ownership || distance || nearest_feature; }
   } in_memory;
+  // false: no report is assembled (JobResult::report holds nothing) and the job's memory is not
+  // watched: the pieces of a grid computed in chunks, many small runs whose callers keep only
+  // the rasters (the report of a grid of 5,000 owners costs milliseconds a piece). Needs no
+  // report file.
+  bool describe = true;
   double simplify_cells = 0.0;  // Douglas-Peucker tolerance of boundary and limit lines, cells
   // The disproportionality test (regions within a relevant area): a vector file of the relevant
   // area's polygons, and optionally of each owner's relevant coasts (lines, owned through the

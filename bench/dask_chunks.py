@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Grids beyond one process: the Python module's chunks on Dask workers against the CLI (issue 33).
 
-    PYTHONPATH=build/python /usr/bin/python3 bench/dask.py --binary build/service/rvoronoi \
+    PYTHONPATH=build/python /usr/bin/python3 bench/dask_chunks.py --binary build/service/rvoronoi \
         [--rows 25000 --cols 40000] [--seeds 50000] [--chunk 4096] [--repeats 2] [--work DIR] > table.md
 
 The case: ROWS x COLS cells of 1 m (default 1e9), SEEDS random points, one owner each (the
@@ -125,12 +125,25 @@ def main():
 
     # Per-chunk overhead on a 1e8-cell part (10000 x 10000 cells, the top left).
     part = [X0, Y0 + a.rows - 10000, X0 + 10000, Y0 + a.rows]
-    sides = [4096, 2048, 1024, 512, 256, 128]
+    sides = [4096, 2048, 1024, 512, 256]
+
+    def dask_alone(side):
+        # The same graph shape without the engine: two arrays of zeros made per chunk, summed.
+        import dask.array as da
+        t = time.perf_counter()
+        z1 = da.map_blocks(lambda b: b.copy(), da.zeros((10000, 10000), chunks=(side, side), dtype="int32"))
+        z2 = da.map_blocks(lambda b: b.copy(), da.zeros((10000, 10000), chunks=(side, side), dtype="float32"))
+        dask.compute(z1.sum(dtype="int64"), z2.sum(dtype="float64"))
+        return time.perf_counter() - t
+
     over = {s: [] for s in sides}
+    alone = {s: [] for s in sides}
     for _ in range(a.repeats):
         for s in sides:
             over[s].append(reduced(s, part)[0])
+            alone[s].append(dask_alone(s))
     over_med = {s: statistics.median(v) for s, v in over.items()}
+    alone_med = {s: statistics.median(v) for s, v in alone.items()}
     ref = over_med[sides[0]]
 
     client.close()
@@ -147,7 +160,7 @@ def main():
           % (cpu, os.cpu_count(), a.rows, a.cols, cells, a.seeds, a.repeats))
     print("| run | wall s | cells/s | memory |")
     print("|---|---|---|---|")
-    cli_peak = statistics.median([r[1] for r in runs["cli"]])
+    cli_peak = int(statistics.median([r[1] for r in runs["cli"]]))
     print("| CLI streamed, ownership + distance GeoTIFFs | %.2f | %.3g | %d MiB (job peak) |"
           % (med["cli"], cells / med["cli"], cli_peak >> 20))
     print("| Dask, 2 workers, chunks %d^2, computed and reduced | %.2f | %.3g | %s |"
@@ -157,15 +170,29 @@ def main():
     print("\nThe CLI's engine time alone: %.2f s (median)." % statistics.median([r[2] for r in runs["cli"]]))
     print("Sum of owner codes identical across runs: %s.\n" % (len(sums) == 1))
     print("Per-chunk overhead, 1e8 cells reduced on the two workers:\n")
-    print("| chunk side | chunks | wall s | overhead vs %d |" % sides[0])
-    print("|---|---|---|---|")
+    print("| chunk side | chunks | wall s | ms per further chunk (vs 2048) | Dask alone, same graph shape, s |"
+          " ms per further chunk, Dask alone |")
+    print("|---|---|---|---|---|---|")
+    n_of = {s: ((10000 + s - 1) // s) ** 2 for s in sides}
     for s in sides:
-        n = ((10000 + s - 1) // s) ** 2
-        print("| %d | %d | %.2f | %+.1f%% |" % (s, n, over_med[s], 100 * (over_med[s] / ref - 1)))
+        slope = slope_alone = float("nan")
+        if n_of[s] > n_of[2048]:
+            slope = 1e3 * (over_med[s] - over_med[2048]) / (n_of[s] - n_of[2048])
+            slope_alone = 1e3 * (alone_med[s] - alone_med[2048]) / (n_of[s] - n_of[2048])
+        print("| %d | %d | %.2f | %.1f | %.2f | %.1f |" % (s, n_of[s], over_med[s], slope, alone_med[s], slope_alone))
+    slopes = [1e3 * (over_med[s] - over_med[2048]) / (n_of[s] - n_of[2048]) for s in sides if n_of[s] > n_of[2048]]
+    per_chunk = statistics.median(slopes) / 1e3
+    engine_ns = statistics.median([r[2] for r in runs["cli"]]) * 2 / cells * 1e9  # one thread's ns per cell
+    side10 = (per_chunk / (0.1 * engine_ns * 1e-9)) ** 0.5
+    print("\nEach further chunk costs %.1f ms (median of the slopes); the engine needs %.2f ns a cell on one"
+          " thread here, so a chunk's overhead stays under 10 %% of its work from about %d x %d cells on."
+          % (per_chunk * 1e3, engine_ns, side10, side10))
     rate = cells / med["reduce"]
-    print("\nA 1.3e10-cell global grid at this rate (%.3g cells/s per 2-core machine): " % rate +
-          ", ".join("%d machine%s %.0f min" % (n, "s" if n > 1 else "", 1.3e10 / (rate * n) / 60)
-                    for n in (1, 4, 16, 64)) + " (points; coasts cost more per cell, see bench/RESULTS.md).")
+    print("\nA 1.3e10-cell global grid at this rate (%.3g cells/s per 2-core machine, reduced on the workers): " % rate
+          + ", ".join("%d machine%s %.0f s" % (n, "s" if n > 1 else "", 1.3e10 / (rate * n)) for n in (1, 4, 16, 64))
+          + "; at the Zarr rate (%.3g cells/s, writing included): " % (cells / med["zarr"])
+          + ", ".join("%d machine%s %.0f s" % (n, "s" if n > 1 else "", 1.3e10 / (cells / med["zarr"] * n))
+                      for n in (1, 4, 16, 64)) + ".")
 
 
 if __name__ == "__main__":
