@@ -457,7 +457,6 @@ void read_relevant(const JobSpec& spec, const JobLimits& limits, PreparedJob& jo
                                                 "owner field's values)");
 }
 
-// Requests refused before anything is computed, and the limits of the planned job.
 // A window (one chunk of a grid computed in pieces): inside the grid, with outputs in memory
 // only, and a method that computes a window as the same cells of the whole grid.
 void check_window(const JobSpec& spec, const GridSpec& grid) {
@@ -480,6 +479,7 @@ void check_window(const JobSpec& spec, const GridSpec& grid) {
   if (!spec.base_report.empty()) refuse("an edit covers its base's whole grid");
 }
 
+// Requests refused before anything is computed, and the limits of the planned job.
 void check_plan(const JobSpec& spec, const JobLimits& limits, const PreparedJob& job, const JobPlan& plan) {
   const OutputRequest& out = spec.outputs;
   // The margin raster is not available on a projected geodesic grid yet (rv/deliverables.hpp).
@@ -852,7 +852,8 @@ void assemble_report(detail::JobRun& run, const PreparedJob& job, const detail::
   // The peak is the larger of reading the seeds and computing with them (the seeds included).
   report["memory_estimate_bytes"] = std::max(plan.memory_bytes, loaded.report.reading_bytes);
   report["timings_s"] = run.timings;
-  const auto cells = static_cast<double>(std::max<int64_t>(job.grid.cell_count(), 1));
+  const auto cells =
+      static_cast<double>(std::max<int64_t>(spec.window ? spec.window->cell_count() : job.grid.cell_count(), 1));
   report["compute_ns_per_cell"] = run.compute_seconds * 1e9 / cells;
   // The job's own peak, not the process's (a daemon's high-water mark is its largest job ever).
   report["peak_memory_bytes"] = memory ? memory->peak_growth() : 0;
