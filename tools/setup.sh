@@ -14,6 +14,7 @@ packages=(
   libgtest-dev libgmock-dev
   pybind11-dev python3-dev python3-xarray python3-dask python3-distributed python3-geopandas
   python3-rioxarray python3-zarr python3-netcdf4 python3-psutil
+  chromium chromium-driver python3-selenium
   libboost-dev libsqlite3-dev nlohmann-json3-dev
   libopencv-dev
   python3-jsonschema python3-yaml python3-numpy

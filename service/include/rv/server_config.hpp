@@ -7,6 +7,7 @@
 //     "listen": "127.0.0.1:8080",          host:port; port 0 = an ephemeral port
 //     "data_dir": "./rvoronoi-data",        job store (jobs.sqlite) and result files
 //     "public_url": "",                     base of absolute links; "" = from the Host header
+//     "web_dir": "",                        the HTML pages' assets; "" = the build's web/
 //     "http": { "max_body_bytes": 67108864, "max_header_bytes": 16384,
 //               "request_timeout_s": 30, "io_threads": 2, "max_connections": 0 },
 //     "jobs": { "workers": 2, "queue_length": 16, "threads_per_job": 0,
@@ -69,6 +70,9 @@ struct ServerConfig {
   int port = 8080;  // 0 = ephemeral (tests)
   std::string data_dir = "./rvoronoi-data";
   std::string public_url;  // e.g. "https://voronoi.example.org"; empty = http://<Host header>
+  // The pages' assets (page.html, pages.js, rvoronoi.css, the map page's bundle): "" = those of
+  // the build this daemon comes from (its web/ directory).
+  std::string web_dir;
   HttpConfig http;
   JobsConfig jobs;
   JobLimits limits;  // per job; max_memory_bytes 0 = 80 % of physical memory / workers

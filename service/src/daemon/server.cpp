@@ -131,8 +131,12 @@ class Session : public std::enable_shared_from_this<Session> {
       const auto& head = parser_->get();
       const auto target = head.target();
       const auto authorization = head[http::field::authorization];
+      const auto accept = head[http::field::accept];
+      const auto method = head.method_string();
       if (auto refusal = shared_.auth.check(std::string_view(target.data(), target.size()),
-                                            std::string_view(authorization.data(), authorization.size()))) {
+                                            std::string_view(authorization.data(), authorization.size()),
+                                            std::string_view(method.data(), method.size()),
+                                            std::string_view(accept.data(), accept.size()))) {
         return reject(std::move(*refusal));
       }
     }
@@ -198,6 +202,7 @@ class Session : public std::enable_shared_from_this<Session> {
     for (auto [it, end] = req.equal_range("Prefer"); it != end; ++it)
       api_req.prefer += (api_req.prefer.empty() ? "" : ",") + std::string(it->value());
     api_req.range = std::string(req[http::field::range]);
+    api_req.accept = std::string(req[http::field::accept]);
     api_req.body = parser_->release().body();
 
     // A synchronous execution answers when its job ends: no deadline while it runs (the job

@@ -14,6 +14,7 @@
 #include "rv/options.hpp"
 #include "rv/text.hpp"
 #include "server_util.hpp"
+#include "server_web.hpp"
 
 namespace rv::daemon {
 namespace {
@@ -218,6 +219,8 @@ struct Api::Context {
 
 Api::Api(const ServerConfig& config, JobStore& store, JobManager& jobs) : config_(config), store_(store), jobs_(jobs) {}
 
+std::string Api::web_dir() const { return config_.web_dir.empty() ? std::string(RV_WEB_DIR) : config_.web_dir; }
+
 void Api::handle(const ApiRequest& request, Respond respond) {
   auto shared = std::make_shared<Respond>(std::move(respond));
   const std::string& target = request.target;
@@ -238,6 +241,9 @@ void Api::handle(const ApiRequest& request, Respond respond) {
   } else {
     ctx.base = "http://" + config_.host + ":" + std::to_string(config_.port);
   }
+  // The pages for people and their assets (server_web.hpp), before the resources' JSON.
+  if (is_asset(target)) return (*shared)(asset_response(web_dir(), target));
+  if (wants_page(request.method, target, request.accept)) return (*shared)(page_response(web_dir()));
   // Exactly one response: the handler either answered, or handed `shared` to a job. Whatever
   // the handler throws becomes a problem here; nothing leaves this function but the answer.
   ApiResponse problem;

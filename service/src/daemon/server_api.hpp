@@ -40,6 +40,7 @@ struct ApiRequest {
   std::string host;    // Host header
   std::string prefer;  // Prefer header
   std::string range;   // Range header
+  std::string accept;  // Accept header (HTML pages, server_web.hpp)
   std::string body;
 };
 
@@ -77,6 +78,8 @@ class Api {
 
  private:
   void route(const Context& ctx, const std::shared_ptr<Respond>& respond);
+  // Where the pages' assets are (ServerConfig::web_dir, else the build's).
+  std::string web_dir() const;
   // One action per resource (the paths are in route()).
   void landing(const Request& req, const std::vector<std::string>& seg) const;
   void conformance(const Request& req, const std::vector<std::string>& seg) const;

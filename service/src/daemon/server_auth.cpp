@@ -3,6 +3,7 @@
 #include <cctype>
 
 #include "server_util.hpp"
+#include "server_web.hpp"
 
 namespace rv::daemon {
 namespace {
@@ -38,8 +39,9 @@ bool Authenticator::is_open(std::string_view target) {
   return seg.size() == 1 && (seg[0] == "conformance" || seg[0] == "api" || seg[0] == "health");
 }
 
-std::optional<ApiResponse> Authenticator::check(std::string_view target, std::string_view authorization) const {
-  if (tokens_.empty() || is_open(target)) return std::nullopt;
+std::optional<ApiResponse> Authenticator::check(std::string_view target, std::string_view authorization,
+                                                std::string_view method, std::string_view accept) const {
+  if (tokens_.empty() || is_open(target) || is_asset(target) || wants_page(method, target, accept)) return std::nullopt;
   if (authorization.empty()) {
     return unauthorized("this server needs a bearer token: send 'Authorization: Bearer <token>'", kRealm, target);
   }

@@ -30,8 +30,11 @@ class Authenticator {
 
   // nullopt when the request may go on; otherwise the 401 problem+json to answer with, carrying
   // "WWW-Authenticate: Bearer" (with error="invalid_token" when a token was sent but is wrong).
-  // `authorization` is the Authorization header's value ("" when absent).
-  std::optional<ApiResponse> check(std::string_view target, std::string_view authorization) const;
+  // `authorization` is the Authorization header's value ("" when absent). The HTML pages and
+  // their assets are open too (server_web.hpp: they hold no data; their script sends the token
+  // for the data), so `method` and `accept` (the Accept header) count.
+  std::optional<ApiResponse> check(std::string_view target, std::string_view authorization,
+                                   std::string_view method = "", std::string_view accept = "") const;
 
  private:
   std::vector<std::string> tokens_;

@@ -128,10 +128,11 @@ void parse_listen(const std::string& listen, ServerConfig& config) {
 
 ServerConfig parse_server_config(const json& doc) {
   ServerConfig c;
-  check_keys(doc, "", {"listen", "data_dir", "public_url", "http", "jobs", "limits", "auth"});
+  check_keys(doc, "", {"listen", "data_dir", "public_url", "web_dir", "http", "jobs", "limits", "auth"});
   if (doc.contains("listen")) parse_listen(get_string(doc, "listen", ""), c);
   c.data_dir = get_string(doc, "data_dir", c.data_dir);
   if (c.data_dir.empty()) bad("data_dir", "must not be empty");
+  c.web_dir = get_string(doc, "web_dir", c.web_dir);
   c.public_url = get_string(doc, "public_url", c.public_url);
   while (!c.public_url.empty() && c.public_url.back() == '/') c.public_url.pop_back();
   if (!c.public_url.empty() && c.public_url.rfind("http://", 0) != 0 && c.public_url.rfind("https://", 0) != 0) {

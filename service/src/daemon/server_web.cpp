@@ -1,0 +1,154 @@
+#include "server_web.hpp"
+
+#include <sys/stat.h>
+
+#include <cctype>
+#include <cstdlib>
+#include <fstream>
+#include <sstream>
+
+#include "server_util.hpp"
+
+namespace rv::daemon {
+namespace {
+
+std::string_view trim(std::string_view s) {
+  while (!s.empty() && (s.front() == ' ' || s.front() == '\t')) s.remove_prefix(1);
+  while (!s.empty() && (s.back() == ' ' || s.back() == '\t')) s.remove_suffix(1);
+  return s;
+}
+
+bool iequal(std::string_view a, std::string_view b) {
+  if (a.size() != b.size()) return false;
+  for (size_t i = 0; i < a.size(); ++i)
+    if (std::tolower(static_cast<unsigned char>(a[i])) != std::tolower(static_cast<unsigned char>(b[i]))) return false;
+  return true;
+}
+
+// The quality the Accept header gives each of text/html, application/json and */* (RFC 9110
+// 12.5.1; a range that is not listed has quality 0; application/* counts for JSON).
+struct Qualities {
+  double html = 0.0, json = 0.0, any = 0.0;
+};
+
+Qualities qualities(std::string_view accept) {
+  Qualities q;
+  size_t start = 0;
+  while (start <= accept.size()) {
+    const size_t end = std::min(accept.find(',', start), accept.size());
+    std::string_view item = accept.substr(start, end - start);
+    start = end + 1;
+    const size_t semi = item.find(';');
+    const std::string_view range = trim(item.substr(0, semi));
+    double quality = 1.0;
+    if (semi != std::string_view::npos) {
+      std::string_view params = item.substr(semi + 1);
+      const size_t qpos = params.find("q=");
+      if (qpos != std::string_view::npos) quality = std::atof(std::string(params.substr(qpos + 2)).c_str());
+    }
+    if (iequal(range, "text/html"))
+      q.html = std::max(q.html, quality);
+    else if (iequal(range, "application/json") || iequal(range, "application/*"))
+      q.json = std::max(q.json, quality);
+    else if (range == "*/*")
+      q.any = std::max(q.any, quality);
+    if (end == accept.size()) break;
+  }
+  return q;
+}
+
+// The value of query parameter `name` ("" when absent, which `present` tells apart).
+std::string query_value(std::string_view target, std::string_view name, bool& present) {
+  present = false;
+  const size_t q = target.find('?');
+  if (q == std::string_view::npos) return {};
+  std::string_view rest = target.substr(q + 1);
+  while (!rest.empty()) {
+    const size_t amp = rest.find('&');
+    const std::string_view pair = rest.substr(0, amp);
+    const size_t eq = pair.find('=');
+    if (pair.substr(0, eq) == name) {
+      present = true;
+      return eq == std::string_view::npos ? std::string() : std::string(pair.substr(eq + 1));
+    }
+    if (amp == std::string_view::npos) break;
+    rest.remove_prefix(amp + 1);
+  }
+  return {};
+}
+
+const char* media_type_of(std::string_view name) {
+  auto ends = [&](std::string_view ext) {
+    return name.size() > ext.size() && name.compare(name.size() - ext.size(), ext.size(), ext) == 0;
+  };
+  if (ends(".js") || ends(".mjs")) return "text/javascript; charset=utf-8";
+  if (ends(".css")) return "text/css; charset=utf-8";
+  if (ends(".html")) return "text/html; charset=utf-8";
+  if (ends(".map") || ends(".json")) return "application/json";
+  if (ends(".svg")) return "image/svg+xml";
+  if (ends(".png")) return "image/png";
+  if (ends(".woff2")) return "font/woff2";
+  return "application/octet-stream";
+}
+
+bool plain_name(std::string_view name) {
+  if (name.empty() || name.size() > 128 || name.front() == '.') return false;
+  for (char c : name)
+    if (!(std::isalnum(static_cast<unsigned char>(c)) || c == '.' || c == '_' || c == '-')) return false;
+  return true;
+}
+
+ApiResponse file_body(const std::string& path, std::string_view name) {
+  struct stat st {};
+  if (::stat(path.c_str(), &st) != 0 || !S_ISREG(st.st_mode))
+    return problem_response(404, "http://www.opengis.net/def/exceptions/ogcapi-processes-1/1.0/not-found", "Not found",
+                            "no asset '" + std::string(name) + "'", "/static/" + std::string(name));
+  std::ifstream in(path, std::ios::binary);
+  std::ostringstream body;
+  body << in.rdbuf();
+  ApiResponse r;
+  r.headers.emplace_back("Content-Type", media_type_of(name));
+  r.headers.emplace_back("Cache-Control", "no-cache");
+  r.body = body.str();
+  add_page_headers(r);
+  return r;
+}
+
+}  // namespace
+
+bool wants_page(std::string_view method, std::string_view target, std::string_view accept) {
+  if (method != "GET" && method != "HEAD") return false;
+  if (is_asset(target)) return false;
+  const std::vector<std::string> seg = path_segments(target.substr(0, target.find('?')));
+  if (seg.size() == 4 && seg[0] == "jobs" && seg[2] == "results") return false;  // files
+  bool present = false;
+  const std::string f = query_value(target, "f", present);
+  if (present) return f == "html";
+  const Qualities q = qualities(accept);
+  return q.html > 0.0 && q.html > q.json && q.html >= q.any;
+}
+
+bool is_asset(std::string_view target) {
+  const std::string_view path = target.substr(0, target.find('?'));
+  return path.size() > 8 && path.substr(0, 8) == "/static/";
+}
+
+void add_page_headers(ApiResponse& r) {
+  r.headers.emplace_back("Content-Security-Policy", std::string(kContentSecurityPolicy));
+  r.headers.emplace_back("X-Content-Type-Options", "nosniff");
+  r.headers.emplace_back("X-Frame-Options", "DENY");
+  r.headers.emplace_back("Referrer-Policy", "no-referrer");
+}
+
+ApiResponse page_response(const std::string& web_dir) { return file_body(web_dir + "/page.html", "page.html"); }
+
+ApiResponse asset_response(const std::string& web_dir, std::string_view target) {
+  const std::string_view path = target.substr(0, target.find('?'));
+  const std::string_view name = path.substr(8);
+  if (!plain_name(name))
+    return problem_response(404, "http://www.opengis.net/def/exceptions/ogcapi-processes-1/1.0/not-found", "Not found",
+                            "no asset of that name", std::string(path.substr(0, 200)));
+  return file_body(web_dir + "/" + std::string(name), name);
+}
+
+}  // namespace rv::daemon

@@ -1,0 +1,52 @@
+// The daemon's pages for people (issue 34): every OGC API resource in HTML as well as JSON.
+//
+// The pages are rendered by the browser, not the server: a request that asks for HTML (`?f=html`,
+// or an Accept header that prefers text/html, as a browser's navigation does) gets one fixed
+// page (the "shell") whose script fetches the same resource as JSON and renders it. So the HTML
+// holds no data at all: it needs no token (a browser sends none when it follows a link), and
+// owner labels, field names and file names from uploads only ever reach the page through the
+// script's text nodes, never as markup. The script sends the bearer token the person typed (kept
+// in the tab's sessionStorage, never in a URL) on every request it makes, the downloads included.
+//
+// Static assets (the shell's script and style sheet; later the map page's bundle) are served
+// from `web_dir` under /static/<name>, names checked against the files there (no path).
+// Every page and asset carries a Content-Security-Policy that allows scripts, styles and
+// connections from this origin only (no inline script) and blob: images (previews fetched with
+// the token), plus nosniff and no framing.
+// Thread safety: pure functions; the files are read per request.
+#pragma once
+
+#include <map>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "server_api.hpp"
+
+namespace rv::daemon {
+
+inline constexpr std::string_view kContentSecurityPolicy =
+    "default-src 'none'; script-src 'self'; style-src 'self'; img-src 'self' blob: data:; connect-src 'self'; "
+    "base-uri 'none'; form-action 'self'; frame-ancestors 'none'";
+
+// Whether a GET/HEAD of `target` (origin form, query included) with this Accept header asks for
+// the HTML page of a resource: `f=html` in the query, or no `f` and an Accept header that names
+// text/html with a quality above that of application/json (and above that of */*). Result files
+// (/jobs/{id}/results/{name}) are never pages.
+bool wants_page(std::string_view method, std::string_view target, std::string_view accept);
+
+// Whether the target is a static asset (/static/<name>): open, like the pages.
+bool is_asset(std::string_view target);
+
+// The shell page (`web_dir`/page.html, text/html; charset=utf-8) with the security headers.
+ApiResponse page_response(const std::string& web_dir);
+
+// /static/<name> from `web_dir`: the file with its media type and the security headers; 404
+// problem for a name that is not a plain file name there.
+ApiResponse asset_response(const std::string& web_dir, std::string_view target);
+
+// The security headers every page and asset carries.
+void add_page_headers(ApiResponse& response);
+
+}  // namespace rv::daemon

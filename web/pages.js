@@ -1,0 +1,319 @@
+// The HTML face of every OGC API resource of the daemon (service/src/daemon/server_web.hpp).
+//
+// The daemon sends the same empty page for any resource asked for in HTML; this script fetches
+// that resource as JSON and draws it. Everything a server or an upload says (owner labels, file
+// names, messages) goes into text nodes (textContent), never into markup, so no upload can add
+// script to the page; links are followed only within this origin. With authentication on, the
+// person types the access token once; it is kept in this tab's sessionStorage and sent as
+// "Authorization: Bearer" on every request the page makes, downloads included (they are fetched,
+// then saved from memory), and never put in a URL.
+
+const TOKEN_KEY = "rvoronoi-token";
+const content = document.getElementById("content");
+
+// ---- DOM helpers: text only -------------------------------------------------------------
+
+function el(tag, attrs = {}, ...children) {
+  const e = document.createElement(tag);
+  for (const [k, v] of Object.entries(attrs)) {
+    if (v === undefined || v === null) continue;
+    if (k === "class") e.className = v;
+    else if (k === "text") e.textContent = String(v);
+    else if (k.startsWith("on")) e.addEventListener(k.slice(2), v);
+    else e.setAttribute(k, String(v));
+  }
+  for (const c of children) if (c !== null && c !== undefined) e.append(c instanceof Node ? c : String(c));
+  return e;
+}
+
+function table(headers, rows, caption) {
+  const t = el("table");
+  if (caption) t.append(el("caption", { class: "muted", text: caption }));
+  t.append(el("thead", {}, el("tr", {}, ...headers.map((h) => el("th", { scope: "col", text: h })))));
+  const body = el("tbody");
+  for (const r of rows) body.append(el("tr", {}, ...r.map((c) => el("td", {}, c ?? ""))));
+  t.append(body);
+  return t;
+}
+
+// Name / value rows: the names are row headers.
+function facts(rows) {
+  const body = el("tbody");
+  for (const [name, value] of rows) body.append(el("tr", {}, el("th", { scope: "row", text: name }), el("td", {}, value ?? "")));
+  return el("table", { class: "facts" }, body);
+}
+
+// A link to a resource of this server: its HTML page for JSON resources, else the file.
+function sameOrigin(href) {
+  try {
+    const u = new URL(href, location.href);
+    return u.origin === location.origin ? u : null;
+  } catch {
+    return null;
+  }
+}
+
+function pageLink(href, text) {
+  const u = sameOrigin(href);
+  if (!u) return el("span", { text: text || href });
+  u.searchParams.set("f", "html");
+  return el("a", { href: u.pathname + u.search, text: text || u.pathname });
+}
+
+function show(...nodes) {
+  content.replaceChildren(...nodes);
+  content.setAttribute("aria-busy", "false");
+}
+
+// ---- Requests ---------------------------------------------------------------------------
+
+function token() {
+  return sessionStorage.getItem(TOKEN_KEY) || "";
+}
+
+function headers(accept) {
+  const h = { Accept: accept };
+  if (token()) h.Authorization = "Bearer " + token();
+  return h;
+}
+
+class Problem extends Error {
+  constructor(status, body) {
+    super((body && (body.detail || body.title)) || "HTTP " + status);
+    this.status = status;
+    this.body = body || {};
+  }
+}
+
+async function getJson(url) {
+  const u = new URL(url, location.href);
+  u.searchParams.delete("f");
+  const r = await fetch(u, { headers: headers("application/json") });
+  const type = r.headers.get("Content-Type") || "";
+  const body = type.includes("json") ? await r.json() : await r.text();
+  if (!r.ok) throw new Problem(r.status, typeof body === "object" ? body : { detail: body });
+  return body;
+}
+
+// ---- Problems and the token ---------------------------------------------------------------
+
+function problemView(p) {
+  const b = p.body;
+  const box = el("section", { class: "problem", role: "alert" },
+    el("h1", { text: b.title || "Request failed" }),
+    el("p", { text: b.detail || p.message }),
+    el("p", { class: "muted", text: "HTTP " + p.status + (b.type ? " · " + b.type : "") }));
+  if (p.status === 401) box.append(tokenForm());
+  return box;
+}
+
+function tokenForm() {
+  const input = el("input", { id: "token", name: "token", type: "password", autocomplete: "off", required: "" });
+  const form = el("form", { class: "token" },
+    el("label", { for: "token", text: "Access token (given by the administrator of this server)" }),
+    input,
+    el("button", { type: "submit", text: "Use this token" }));
+  form.addEventListener("submit", (ev) => {
+    ev.preventDefault();
+    sessionStorage.setItem(TOKEN_KEY, input.value.trim());
+    render();
+  });
+  return form;
+}
+
+function sessionBar() {
+  const bar = document.getElementById("session");
+  if (!bar) return;
+  bar.replaceChildren();
+  if (token()) {
+    bar.append("Token set ",
+      el("button", { type: "button", text: "Forget", onclick: () => { sessionStorage.removeItem(TOKEN_KEY); render(); } }));
+  }
+}
+
+// ---- Resources --------------------------------------------------------------------------
+
+function linksTable(links) {
+  return table(["Link", "Relation", "Type"], (links || []).map((l) => [pageLink(l.href, l.title || l.href), l.rel || "", l.type || ""]));
+}
+
+function landing(doc) {
+  return [el("h1", { text: doc.title || "rvoronoi" }), el("p", { class: "lead", text: doc.description || "" }),
+    el("h2", { text: "Resources" }), linksTable(doc.links)];
+}
+
+function conformance(doc) {
+  return [el("h1", { text: "Conformance" }), el("p", { class: "lead", text: "The conformance classes this server implements." }),
+    el("ul", {}, ...(doc.conformsTo || []).map((c) => el("li", {}, el("code", { text: c }))))];
+}
+
+function processList(doc) {
+  return [el("h1", { text: "Processes" }),
+    table(["Process", "Title", "Version", "Description"], (doc.processes || []).map((p) => [
+      pageLink("/processes/" + encodeURIComponent(p.id), p.id), p.title || "", p.version || "", p.description || ""]))];
+}
+
+function schemaText(s) {
+  if (!s) return "";
+  const parts = [];
+  if (s.type) parts.push(s.type === "array" && s.items ? "array of " + (s.items.type || "values") : s.type);
+  if (s.enum) parts.push("one of " + s.enum.join(", "));
+  if (s.minimum !== undefined) parts.push((s.exclusiveMinimum ? "> " : "≥ ") + s.minimum);
+  if (s.maximum !== undefined) parts.push("≤ " + s.maximum);
+  if (s.format) parts.push(s.format);
+  if (s.contentMediaType) parts.push(s.contentMediaType);
+  if (s.oneOf) parts.push(s.oneOf.map(schemaText).filter(Boolean).join(" | "));
+  return parts.join(", ");
+}
+
+function processDescription(doc) {
+  const inputs = Object.entries(doc.inputs || {}).map(([id, i]) => [
+    el("code", { text: id }), i.title || "", schemaText(i.schema),
+    i.schema && i.schema.default !== undefined ? JSON.stringify(i.schema.default) : "",
+    (i.minOccurs || 0) > 0 ? "required" : "optional", i.description || ""]);
+  const outputs = Object.entries(doc.outputs || {}).map(([id, o]) => [el("code", { text: id }), o.title || "", schemaText(o.schema), o.description || ""]);
+  return [el("h1", { text: doc.title || doc.id }), el("p", { class: "lead", text: doc.description || "" }),
+    el("p", { class: "muted", text: "Version " + (doc.version || "?") + " · job control: " + (doc.jobControlOptions || []).join(", ") }),
+    el("h2", { text: "Inputs" }), table(["Input", "Title", "Type", "Default", "Use", "Description"], inputs),
+    el("h2", { text: "Outputs" }), table(["Output", "Title", "Type", "Description"], outputs),
+    el("h2", { text: "Links" }), linksTable(doc.links)];
+}
+
+function statusBadge(s) {
+  return el("span", { class: "status " + s, text: s });
+}
+
+function jobList(doc) {
+  const rows = (doc.jobs || []).map((j) => [pageLink("/jobs/" + encodeURIComponent(j.jobID), j.jobID), statusBadge(j.status),
+    j.progress !== undefined ? j.progress + " %" : "", j.created || "", j.message || ""]);
+  const next = (doc.links || []).find((l) => l.rel === "next");
+  return [el("h1", { text: "Jobs" }), rows.length ? table(["Job", "Status", "Progress", "Created", "Message"], rows) : el("p", { text: "No jobs yet." }),
+    next ? el("p", {}, pageLink(next.href, "Next page")) : null];
+}
+
+let pollTimer = null;
+
+function jobStatus(doc) {
+  const bar = el("progress", { max: "100", value: String(doc.progress || 0), "aria-label": "progress" });
+  const nodes = [el("h1", { text: "Job " + doc.jobID }),
+    el("p", {}, statusBadge(doc.status), " ", bar, " ", el("span", { text: (doc.progress || 0) + " %" })),
+    el("p", { class: "lead", text: doc.message || "" }),
+    facts([["Process", doc.processID || ""], ["Created", doc.created || ""], ["Started", doc.started || ""],
+      ["Finished", doc.finished || ""], ["Updated", doc.updated || ""]]),
+    el("h2", { text: "Links" }), linksTable(doc.links)];
+  if (doc.status === "accepted" || doc.status === "running") {
+    pollTimer = setTimeout(render, 1000);  // progress that updates
+  }
+  return nodes;
+}
+
+function humanBytes(n) {
+  if (n === null || n === undefined || isNaN(n)) return "";
+  const units = ["B", "KB", "MB", "GB", "TB"];
+  let i = 0;
+  while (n >= 1000 && i < units.length - 1) { n /= 1000; ++i; }
+  return (i ? n.toFixed(1) : String(n)) + " " + units[i];
+}
+
+async function download(href, name) {
+  const r = await fetch(href, { headers: headers("*/*") });
+  if (!r.ok) throw new Problem(r.status, await r.json().catch(() => ({})));
+  const url = URL.createObjectURL(await r.blob());
+  const a = el("a", { href: url, download: name });
+  document.body.append(a);
+  a.click();
+  a.remove();
+  setTimeout(() => URL.revokeObjectURL(url), 10000);
+}
+
+function reportSummary(report) {
+  const owners = (report.seeds && report.seeds.owners) || [];
+  const areas = {};
+  for (const r of (report.regions && report.regions.owners) || []) areas[r.label] = r;
+  const nodes = [el("h2", { text: "Report" }),
+    facts([["Grid", report.grid ? report.grid.width + " × " + report.grid.height + " cells of " + report.grid.resolution : ""],
+      ["Metric", report.metric || ""], ["Distance units", report.distance_units || ""], ["Method", report.method || ""]])];
+  if (owners.length) {
+    nodes.push(table(["Code", "Owner"], owners.map((o) => [String(o.code), o.label]), "Owners"));
+  }
+  return nodes;
+}
+
+async function results(doc, path) {
+  const rows = [];
+  const extra = [];
+  for (const [name, out] of Object.entries(doc)) {
+    if (out.href) {
+      const u = sameOrigin(out.href);
+      let size = "";
+      if (u) {
+        const h = await fetch(u, { method: "HEAD", headers: headers("*/*") }).catch(() => null);
+        if (h && h.ok) size = humanBytes(Number(h.headers.get("Content-Length")));
+      }
+      const button = el("button", { type: "button", text: "Download " + name,
+        onclick: () => download(u.href, name).catch((e) => show(problemView(e))) });
+      rows.push([el("code", { text: name }), out.type || "", size, button]);
+      if (u && (out.type || "").startsWith("image/png")) {
+        const r = await fetch(u, { headers: headers("image/png") });
+        if (r.ok) extra.push(el("h2", { text: "Preview" }), el("img", { class: "preview", src: URL.createObjectURL(await r.blob()), alt: "Quicklook of the ownership raster (" + name + ")" }));
+      }
+      if (u && name === "report") {
+        const r = await fetch(u, { headers: headers("application/json") });
+        if (r.ok) extra.push(...reportSummary(await r.json()));
+      }
+    } else if (out.value !== undefined) {
+      rows.push([el("code", { text: name }), out.mediaType || "", "", "by value"]);
+      if (name === "report" && typeof out.value === "object") extra.push(...reportSummary(out.value));
+    }
+  }
+  const job = path.split("/")[2] || "";
+  return [el("h1", { text: "Results of job " + job }), pageLink("/jobs/" + encodeURIComponent(job), "Job status"),
+    table(["Output", "Type", "Size", ""], rows), ...extra];
+}
+
+function apiDocument(text) {
+  return [el("h1", { text: "API definition (OpenAPI 3.0)" }), el("p", {}, "As YAML; tools read it from ", el("code", { text: "/api" }), "."),
+    el("pre", { text: typeof text === "string" ? text : JSON.stringify(text, null, 2) })];
+}
+
+function health(doc) {
+  return [el("h1", { text: "Health" }), el("pre", { text: JSON.stringify(doc, null, 2) })];
+}
+
+const VIEWS = [
+  [/^\/$/, landing],
+  [/^\/conformance$/, conformance],
+  [/^\/processes$/, processList],
+  [/^\/processes\/[^/]+$/, processDescription],
+  [/^\/jobs$/, jobList],
+  [/^\/jobs\/[^/]+$/, jobStatus],
+  [/^\/jobs\/[^/]+\/results$/, results],
+  [/^\/health$/, health],
+];
+
+async function render() {
+  clearTimeout(pollTimer);
+  sessionBar();
+  const path = location.pathname.replace(/\/+$/, "") || "/";
+  try {
+    if (path === "/api") {
+      const r = await fetch("/api", { headers: headers("application/vnd.oai.openapi, */*") });
+      show(...apiDocument(await r.text()));
+      return;
+    }
+    const view = VIEWS.find(([re]) => re.test(path));
+    const doc = await getJson(location.pathname + location.search);
+    const nodes = view ? await view[1](doc, path) : [el("h1", { text: path }), el("pre", { text: JSON.stringify(doc, null, 2) })];
+    document.title = "rvoronoi · " + ((nodes[0] && nodes[0].textContent) || path);
+    show(...nodes.filter(Boolean));
+  } catch (e) {
+    if (e instanceof Problem) {
+      document.title = "rvoronoi · " + (e.body.title || "error");
+      show(problemView(e));
+    } else {
+      show(problemView(new Problem(0, { title: "The page could not be drawn", detail: String(e && e.message ? e.message : e) })));
+    }
+  }
+}
+
+render();
