@@ -228,12 +228,18 @@ async function download(href, name) {
 
 function reportSummary(report) {
   const owners = (report.seeds && report.seeds.owners) || [];
-  const areas = {};
-  for (const r of (report.regions && report.regions.owners) || []) areas[r.label] = r;
   const nodes = [el("h2", { text: "Report" }),
     facts([["Grid", report.grid ? report.grid.width + " × " + report.grid.height + " cells of " + report.grid.resolution : ""],
       ["Metric", report.metric || ""], ["Distance units", report.distance_units || ""], ["Method", report.method || ""]])];
-  if (owners.length) {
+  // Each owner's areas when the job made regions (in the job's distance units squared).
+  const regions = report.deliverables && report.deliverables.regions;
+  const areas = {};
+  for (const a of (regions && regions.areas) || []) areas[a.owner] = a;
+  const fmt = (v) => (typeof v === "number" ? v.toLocaleString("en", { maximumSignificantDigits: 6 }) : "");
+  if (owners.length && regions) {
+    nodes.push(table(["Code", "Owner", "Sea area (" + regions.area_units + ")", "Land area (" + regions.area_units + ")"],
+      owners.map((o) => [String(o.code), o.label, fmt((areas[o.code] || {}).sea_area), fmt((areas[o.code] || {}).land_area)]), "Owners"));
+  } else if (owners.length) {
     nodes.push(table(["Code", "Owner"], owners.map((o) => [String(o.code), o.label]), "Owners"));
   }
   return nodes;

@@ -10,6 +10,8 @@
 #include <memory>
 #include <optional>
 
+#include <GeographicLib/Geodesic.hpp>
+
 #include "job_run.hpp"
 #include "rv/deliverables.hpp"
 #include "rv/gdal/raster_io.hpp"
@@ -72,7 +74,7 @@ struct StripDeliverables::State {
   // The disproportionality test's report entry, from the regions' areas within the relevant area.
   nlohmann::json relevance(const RegionStats& rs, const std::string& area_units);
   void finish_margin();
-  void write_quicklook(const BoundaryResult& boundaries);
+  void write_quicklook(const BoundaryResult& boundaries, const LimitResult& limits);
 };
 
 StripDeliverables::StripDeliverables(JobRun& run, const PreparedJob& job, bool streamed,
@@ -161,7 +163,9 @@ void StripDeliverables::add(const NearestField& strip, const NearestField* measu
   if (s.boundaries) s.boundary_seconds += seconds([&] { s.boundaries->add(strip); });
   const NearestField& lines_from = measured != nullptr ? *measured : strip;
   if (s.limits) s.limit_seconds += seconds([&] { s.limits->add(lines_from); });
-  if (s.preview) s.preview->add_rows(strip.site.data(), strip.site.window().row0, strip.site.height(), &s.owner_codes);
+  if (s.preview)
+    s.preview->add_rows(strip.site.data(), strip.site.window().row0, strip.site.height(), &s.owner_codes,
+                        strip.distance.data());
   if (s.reach) s.region_seconds += seconds([&] { s.reach->add(lines_from); });
   if (s.relevant_coasts) s.region_seconds += seconds([&] { s.relevant_coasts->add(strip); });
   if (!out.margin.empty()) {
@@ -380,7 +384,23 @@ void StripDeliverables::State::finish_margin() {
   }
 }
 
-void StripDeliverables::State::write_quicklook(const BoundaryResult& boundaries) {
+// Ground metres per CRS unit along x at the grid's centre (the quicklook's scale bar): along the
+// parallel on the CRS's ellipsoid for geographic grids, the unit's length for projected ones; 0
+// without a CRS.
+namespace {
+double metres_per_unit(const PreparedJob& job) {
+  const CrsInfo& crs = job.loaded.crs;
+  if (crs.wkt.empty()) return 0.0;
+  if (!crs.geographic) return crs.linear_unit;
+  const GridSpec& g = job.grid;
+  const double lat = std::clamp((g.ymax + g.ymin()) / 2.0, -89.0, 89.0), lon = (g.xmin + g.xmax()) / 2.0;
+  double s12 = 0.0;
+  GeographicLib::Geodesic(crs.semi_major, crs.flattening).Inverse(lat, lon - 0.5, lat, lon + 0.5, s12);
+  return s12;
+}
+}  // namespace
+
+void StripDeliverables::State::write_quicklook(const BoundaryResult& boundaries, const LimitResult& limits) {
   State& s = *this;
   const OutputRequest& out = s.out();
   JobRun& run = s.run;
@@ -388,7 +408,19 @@ void StripDeliverables::State::write_quicklook(const BoundaryResult& boundaries)
     run.check_cancel();
     timed(s.times, "preview", [&] {
       run.will_write(out.preview);
-      const PreviewInfo pi = write_preview(out.preview, *s.preview, &boundaries);
+      PreviewLayers layers;
+      layers.boundaries = &boundaries;
+      layers.limits = &limits;
+      layers.owner_labels = s.job.loaded.seeds.owner_labels();
+      layers.metres_per_unit = metres_per_unit(s.job);
+      // The regions' sea areas, when they were made (the report has them by now).
+      if (s.report.contains("regions")) {
+        layers.owner_areas.assign(layers.owner_labels.size(), 0.0);
+        for (const auto& a : s.report["regions"]["areas"])
+          layers.owner_areas[a.at("owner").get<size_t>() - 1] = a.at("sea_area").get<double>();
+        layers.area_units = s.report["regions"]["area_units"].get<std::string>();
+      }
+      const PreviewInfo pi = write_preview(out.preview, *s.preview, layers);
       run.wrote("preview", out.preview);
       s.report["preview"] = {{"width", pi.width}, {"height", pi.height}, {"cells_per_pixel", pi.step}};
     });
@@ -454,7 +486,7 @@ void StripDeliverables::finish() {
   run.progress("deliver", 0.7);
   s.finish_margin();
   run.progress("deliver", 0.9);
-  s.write_quicklook(boundaries);
+  s.write_quicklook(boundaries, limits);
   run.progress("deliver", 1.0);
   // The per-deliverable times overlap where files are written side by side; "wall" does not.
   s.times["wall"] = s.wall_seconds + seconds_since(started);

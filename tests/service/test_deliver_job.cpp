@@ -122,8 +122,8 @@ TEST_F(DeliverJob, WritesEveryDeliverableAndTheyPassTheChecks) {
   // Preview: readable, the grid's shape, and each owner's seed cell in its own colour.
   const cv::Mat img = cv::imread(path("p.png"), cv::IMREAD_COLOR);
   ASSERT_FALSE(img.empty());
-  EXPECT_EQ(img.cols, own.width());
-  EXPECT_EQ(img.rows, own.height());
+  EXPECT_GT(img.cols, own.width());  // the legend beside the map
+  EXPECT_GE(img.rows, own.height());
   std::set<std::array<uint8_t, 3>> colours;
   const GridSpec& g = own.grid();
   for (int32_t owner = 1; owner <= 3; ++owner) {
@@ -159,20 +159,122 @@ TEST_F(DeliverJob, PreviewDownscalesLargeRasters) {
     for (int64_t c = 0; c < g.width; ++c) owners.at(c, r) = c < 2050 ? 1 : 2;
   PreviewOptions o;
   o.max_side = 2000;
-  const PreviewInfo info = write_preview(path("big.png"), owners, nullptr, o);
+  const PreviewInfo info = write_preview(path("big.png"), owners, PreviewLayers{}, o);
   EXPECT_EQ(info.step, 3);
   const cv::Mat img = cv::imread(path("big.png"), cv::IMREAD_COLOR);
-  ASSERT_EQ(img.cols, 1367);
-  ASSERT_EQ(img.rows, 17);
+  ASSERT_EQ(info.width, 1367);
+  ASSERT_EQ(info.height, 17);
+  ASSERT_EQ(img.cols, info.image_width);  // the map, then the legend beside it
+  ASSERT_EQ(img.rows, info.image_height);
+  ASSERT_GT(img.cols, info.width);
   const auto c1 = owner_colour(1), c2 = owner_colour(2);
   EXPECT_EQ(img.at<cv::Vec3b>(5, 10), cv::Vec3b(c1[0], c1[1], c1[2]));
   EXPECT_EQ(img.at<cv::Vec3b>(5, 1300), cv::Vec3b(c2[0], c2[1], c2[2]));
   EXPECT_NE(c1, c2);
-  // The palette: 64 owners, pairwise distinct colours, nodata black.
+  // The palette: 64 owners, pairwise distinct colours, none of them land's or no owner's.
   std::set<std::array<uint8_t, 3>> seen;
   for (int32_t k = 1; k <= 64; ++k) seen.insert(owner_colour(k));
   EXPECT_EQ(seen.size(), 64u);
-  EXPECT_EQ(owner_colour(0), (std::array<uint8_t, 3>{0, 0, 0}));
+  EXPECT_FALSE(seen.count(kLandColour));
+  EXPECT_FALSE(seen.count(kNoOwnerColour));
+  EXPECT_EQ(owner_colour(0), kNoOwnerColour);
+}
+
+// The quicklook for people, checked by content: land where the island is, sea in the owner's
+// colour, the boundary and limit lines where the line files put them, the legend's swatches and
+// text beside the map, the scale bar's length from the CRS.
+TEST_F(DeliverJob, QuicklookShowsLandLinesLegendAndScale) {
+  {
+    std::ofstream f(path("isles.geojson"));
+    f << R"({"type":"FeatureCollection","crs":{"type":"name","properties":{"name":"urn:ogc:def:crs:EPSG::32633"}},
+      "features":[
+      {"type":"Feature","properties":{"state":"\u00c5land <script>"},"geometry":{"type":"Polygon","coordinates":
+        [[[405000,6105000],[412000,6105000],[412000,6112000],[405000,6112000],[405000,6105000]]]}},
+      {"type":"Feature","properties":{"state":"B"},"geometry":{"type":"Point","coordinates":[432000,6125000]}}]})";
+  }
+  JobSpec spec;
+  spec.seeds.paths = {path("isles.geojson")};
+  spec.seeds.owner_field = "state";
+  spec.grid.resolution = 100.0;
+  spec.grid.extent = std::array<double, 4>{400000, 6100000, 440000, 6130000};
+  spec.outputs.boundaries = path("b.geojson");
+  spec.outputs.limits = path("l.geojson");
+  spec.outputs.limit_distances = {"3km"};
+  spec.outputs.regions = path("r.geojson");
+  spec.outputs.preview = path("p.png");
+  const JobResult r = run_job(spec);
+  const cv::Mat img = cv::imread(path("p.png"), cv::IMREAD_COLOR);
+  ASSERT_FALSE(img.empty());
+  const int mw = r.report["deliverables"]["preview"]["width"].get<int>();
+  const int mh = r.report["deliverables"]["preview"]["height"].get<int>();
+  ASSERT_EQ(mw, 400);
+  ASSERT_EQ(mh, 300);
+  ASSERT_EQ(img.cols, mw + 260);
+  auto px = [&](double x, double y) {  // the pixel of a point (1 cell per pixel here)
+    return cv::Point(static_cast<int>((x - 400000) / 100), static_cast<int>((6130000 - y) / 100));
+  };
+  auto is = [](const cv::Vec3b& v, const std::array<uint8_t, 3>& c) { return v == cv::Vec3b(c[0], c[1], c[2]); };
+  EXPECT_TRUE(is(img.at<cv::Vec3b>(px(408500, 6108500)), kLandColour)) << "land inside the island";
+  EXPECT_TRUE(is(img.at<cv::Vec3b>(px(403000, 6128000)), owner_colour(1))) << "the island's sea";
+  EXPECT_TRUE(is(img.at<cv::Vec3b>(px(437000, 6102000)), owner_colour(2))) << "B's sea";
+  // Lines: near each vertex of the line files, a dark (boundary) or navy (limit) pixel.
+  auto near = [&](cv::Point p, auto&& test) {
+    for (int dy = -1; dy <= 1; ++dy)
+      for (int dx = -1; dx <= 1; ++dx) {
+        const cv::Point q = p + cv::Point(dx, dy);
+        if (q.x >= 0 && q.y >= 0 && q.x < mw && q.y < mh && test(img.at<cv::Vec3b>(q))) return true;
+      }
+    return false;
+  };
+  auto vertices = [&](const std::string& file) {
+    std::vector<cv::Point> out;
+    const nlohmann::json doc = nlohmann::json::parse(std::ifstream(file));
+    for (const auto& feat : doc["features"]) {
+      const auto& g = feat["geometry"];
+      const auto& lines = g["type"] == "LineString" ? nlohmann::json::array({g["coordinates"]}) : g["coordinates"];
+      for (const auto& line : lines)
+        for (const auto& c : line) out.push_back(px(c[0].get<double>(), c[1].get<double>()));
+    }
+    return out;
+  };
+  int dark = 0, total = 0;
+  for (const cv::Point p : vertices(path("b.geojson"))) {
+    if (p.x < 2 || p.y < 2 || p.x >= mw - 2 || p.y >= mh - 2) continue;
+    ++total;
+    dark += near(p, [](const cv::Vec3b& v) { return v[0] < 150 && v[1] < 150 && v[2] < 150; });
+  }
+  ASSERT_GT(total, 10);
+  EXPECT_GE(dark, total * 9 / 10) << "boundary pixels at the line's vertices";
+  int navy = 0, limit_total = 0;
+  for (const cv::Point p : vertices(path("l.geojson"))) {
+    if (p.x < 2 || p.y < 2 || p.x >= mw - 2 || p.y >= mh - 2) continue;
+    ++limit_total;
+    navy += near(p, [](const cv::Vec3b& v) { return v[0] > v[2] + 40 && v[2] < 140; });
+  }
+  ASSERT_GT(limit_total, 10);
+  EXPECT_GE(navy, limit_total / 3) << "a dashed limit line: ink at most of its vertices";
+  EXPECT_LT(navy, limit_total) << "dashed: some vertices fall in the gaps";
+  // The legend: each owner's swatch, then land, beside the map; text to the right of each.
+  const int x0 = mw + 12;
+  EXPECT_TRUE(is(img.at<cv::Vec3b>(37, x0 + 7), owner_colour(1)));
+  EXPECT_TRUE(is(img.at<cv::Vec3b>(57, x0 + 7), owner_colour(2)));
+  EXPECT_TRUE(is(img.at<cv::Vec3b>(77, x0 + 7), kLandColour));
+  for (int row : {37, 57, 77}) {
+    int ink = 0;
+    for (int x = x0 + 20; x < x0 + 200; ++x) ink += img.at<cv::Vec3b>(row - 2, x)[0] < 128;
+    EXPECT_GT(ink, 3) << "legend text on row " << row;
+  }
+  // The scale bar: 100 m cells, 400 px: a fifth is 8 km, rounded down to 5 km = 50 px of ink.
+  int bar = 0;
+  for (int x = 10; x < 10 + 60; ++x) bar += img.at<cv::Vec3b>(mh - 12, x) == cv::Vec3b(20, 20, 20);
+  EXPECT_EQ(bar, 51);
+}
+
+TEST(Quicklook, LabelsAreAsciiForTheFont) {
+  EXPECT_EQ(ascii_label("\u00d8resund"), "Oresund");
+  EXPECT_EQ(ascii_label("Gda\u0144sk"), "Gdansk");
+  EXPECT_EQ(ascii_label("\u4e2d<b>"), "?<b>");
+  EXPECT_EQ(ascii_label(std::string("a\x01\xff")), "a??");
 }
 
 TEST_F(DeliverJob, RefusesBadRequestsAndLeavesNothingBehind) {

@@ -51,7 +51,7 @@ def job_body(labels):
                        for s, x, y in pts]}
     return {"inputs": {"seeds": {"value": fc, "mediaType": "application/geo+json"}, "ownerField": "state",
                        "resolution": 100, "extent": [400000, 6100000, 410000, 6110000]},
-            "outputs": {"ownership": {}, "boundaries": {}, "preview": {}, "report": {}}}
+            "outputs": {"ownership": {}, "boundaries": {}, "regions": {}, "preview": {}, "report": {}}}
 
 
 def run_job(d, labels, headers=None):
@@ -149,6 +149,7 @@ def pages(drv, base, job, hostile):
     settle(drv, "Owners")
     text = drv.find_element(By.ID, "content").text
     check(" KB" in text or " B" in text, "results show sizes")
+    check("Sea area (m^2)" in text, "the owners' areas from the regions")
     for label in hostile:
         check(label in text, "the label %r shows as text" % label)
     injected = drv.execute_script(
