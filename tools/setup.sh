@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Installs the Debian 12 packages rvoronoi needs to build, test and run. Idempotent: packages
 # already present are not reinstalled, so a second run takes a second.
+# --image: the daemon image's set (docker/Dockerfile), without the Python and browser test tools.
 # --sanitizers adds the toolchain of tools/test-sanitizers.sh: clang and its runtimes (libFuzzer,
 # ASan/UBSan for clang). GCC's ASan/UBSan/TSan runtimes come with build-essential. The daemon
 # image (docker/Dockerfile) does not pass it.
@@ -12,9 +13,7 @@ packages=(
   libtiff-dev libzstd-dev libdeflate-dev
   libgeographiclib-dev
   libgtest-dev libgmock-dev
-  pybind11-dev python3-dev python3-xarray python3-dask python3-distributed python3-geopandas
-  python3-rioxarray python3-zarr python3-netcdf4 python3-psutil
-  chromium chromium-driver python3-selenium
+  pybind11-dev python3-dev
   libboost-dev libsqlite3-dev nlohmann-json3-dev
   libopencv-dev
   python3-jsonschema python3-yaml python3-numpy
@@ -22,6 +21,13 @@ packages=(
   curl
 )
 
+# What the Python package imports and the tests drive (xarray, Dask, GeoPandas; headless
+# Chromium for the pages): not in the daemon image (--image), which builds the module but runs
+# neither.
+if [ "${1:-}" != "--image" ]; then
+  packages+=(python3-xarray python3-dask python3-distributed python3-geopandas python3-rioxarray python3-zarr
+             python3-netcdf4 python3-psutil chromium chromium-driver python3-selenium)
+fi
 if [ "${1:-}" = "--sanitizers" ]; then
   packages+=(clang-14 libclang-rt-14-dev)
 fi
