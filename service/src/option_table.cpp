@@ -653,7 +653,7 @@ const std::vector<OptionSpec> kOptions = {
      "FILE.png",
      "deliverables",
      "Quicklook",
-     "quicklook: ownership in colours with the boundary lines",
+     "quicklook map: owners' sea in colours, land, boundaries and limit lines, labels, legend, scale bar",
      "",
      {},
      0,

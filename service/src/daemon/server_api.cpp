@@ -173,7 +173,7 @@ json process_description(const std::string& base) {
         {"type": "string", "contentMediaType": "text/csv"}]}},
     "changes": {"title": "Changes raster", "description": "With baseJob: 1 where the edit changed a cell's owner, 2 where only its distance changed, 0 elsewhere (Byte).",
       "schema": {"type": "string", "contentEncoding": "binary", "contentMediaType": "image/tiff; application=geotiff; profile=cloud-optimized"}},
-    "preview": {"title": "Quicklook", "description": "PNG of the ownership in distinct colours with the boundary lines in white; one pixel per cell, or per n x n cells (the smallest integer n keeping the long side within 2000 px; the report's deliverables.preview gives it).",
+    "preview": {"title": "Quicklook", "description": "PNG map: each owner's sea in its colour, land (inside the seed polygons), boundaries and dashed limit lines, owner labels, a legend with the owners' sea areas (when regions are made) and a scale bar; one pixel per cell, or per n x n cells (the smallest integer n keeping the long side within 2000 px; the report's deliverables.preview gives it).",
       "schema": {"type": "string", "contentEncoding": "binary", "contentMediaType": "image/png"}}
   })json");
   // The seeds are the daemon's own input (uploads); every other one comes from the option
