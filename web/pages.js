@@ -133,8 +133,18 @@ function sessionBar() {
 
 // ---- Resources --------------------------------------------------------------------------
 
+// Files (a job's outputs) are fetched with the token and saved; resources open as pages.
 function linksTable(links) {
-  return table(["Link", "Relation", "Type"], (links || []).map((l) => [pageLink(l.href, l.title || l.href), l.rel || "", l.type || ""]));
+  const cell = (l) => {
+    const u = sameOrigin(l.href);
+    if (u && (l.rel === "enclosure" || l.rel === "describedby")) {
+      const name = u.pathname.split("/").pop();
+      return el("button", { type: "button", class: "link", text: l.title || name,
+        onclick: () => download(u.href, name).catch((e) => show(problemView(e))) });
+    }
+    return pageLink(l.href, l.title || l.href);
+  };
+  return table(["Link", "Relation", "Type"], (links || []).map((l) => [cell(l), l.rel || "", l.type || ""]));
 }
 
 function landing(doc) {

@@ -191,6 +191,23 @@ def with_token(drv, d, base, token):
     check(not errors, "no console errors with a token: %s" % errors)
     status, _, _ = d.request("GET", "/jobs/%s/results/ownership" % job)
     check(status == 401, "the files themselves still need the token")
+    # A file linked from the job's page is fetched with the token (a download, not a navigation
+    # that would carry none): the fetch succeeds and the page stays.
+    drv.get(base + "/jobs/%s?f=html" % job)
+    settle(drv, "successful")
+    drv.execute_script("""
+      window.__fetched = [];
+      const real = window.fetch;
+      window.fetch = (u, o) => real(u, o).then((r) => { window.__fetched.push([String(u), r.status]); return r; });""")
+    buttons = [b for b in drv.find_elements(By.CSS_SELECTOR, "button.link") if b.text == "ownership"]
+    check(len(buttons) == 1, "the ownership link is a download button")
+    if buttons:
+        buttons[0].click()
+        WebDriverWait(drv, 20).until(lambda x: x.execute_script("return window.__fetched.length") > 0)
+        fetched = drv.execute_script("return window.__fetched")
+        check(fetched[0][0].endswith("/results/ownership") and fetched[0][1] == 200,
+              "the download was fetched with the token: %s" % fetched)
+        check("/jobs/%s" % job in drv.current_url, "the page stayed")
 
 
 def main():
