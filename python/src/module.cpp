@@ -62,10 +62,11 @@ const char* type_name(rv::OptionType t) {
   return "text";
 }
 
-// The exception classes, one per error kind, made from the error table at import.
+// The exception classes, one per error kind, made from the error table at import. Never
+// destroyed: the interpreter may be gone by the time static objects are.
 std::vector<py::object>& error_classes() {
-  static std::vector<py::object> classes;
-  return classes;
+  static auto* classes = new std::vector<py::object>();
+  return *classes;
 }
 
 // The JobSpec of seed paths and keyword options (JSON text: keyword -> value).
@@ -128,8 +129,9 @@ class Job {
     py::gil_scoped_release free;
     job_ = rv::prepare_job(spec_);
     // The engine's preparation of the seeds (sites in the grid's frame, the index), shared by
-    // every piece.
-    job_.compute.prepared = rv::prepare(job_.loaded.seeds, job_.grid, job_.compute);
+    // every piece. Not with partial effect: that rule computes a second field from another seed
+    // set (and is never cut into pieces).
+    if (!job_.partial.any()) job_.compute.prepared = rv::prepare(job_.loaded.seeds, job_.grid, job_.compute);
   }
 
   py::dict grid() const { return grid_dict(job_.grid); }

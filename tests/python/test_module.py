@@ -145,6 +145,23 @@ class AgainstTheCli(unittest.TestCase):
         seeds = os.path.join(FIX, "coast_polygons.geojson")
         self.check_case(seeds, {"owner_field": "owner", "resolution": 100.0, "metric": "geodesic"})
 
+    def test_partial_effect_and_weights(self):
+        # The adjustments of the analyst's toolkit through the module: a half-effect islet and a
+        # weighted basepoint, against the CLI.
+        feats = [("A", 401000, 6101000, 1.0, 1.0), ("B", 409000, 6101000, 1.0, 1.5), ("A", 405500, 6103000, 0.5, 1.0)]
+        mapping = {"type": "FeatureCollection",
+                   "crs": {"type": "name", "properties": {"name": "urn:ogc:def:crs:EPSG::32633"}},
+                   "features": [{"type": "Feature", "properties": {"owner": o, "effect": e, "weight": w},
+                                 "geometry": {"type": "Point", "coordinates": [x, y]}} for o, x, y, e, w in feats]}
+        with tempfile.TemporaryDirectory() as d:
+            path = os.path.join(d, "adjusted.geojson")
+            with open(path, "w") as f:
+                json.dump(mapping, f)
+            self.check_case(path, {"owner_field": "owner", "effect_field": "effect", "resolution": 50.0,
+                                   "extent": [400000, 6100000, 410000, 6106000]})
+            self.check_case(path, {"owner_field": "owner", "weight_field": "weight", "resolution": 50.0,
+                                   "extent": [400000, 6100000, 410000, 6106000]})
+
     def test_frame_and_mapping_equal_the_file(self):
         import geopandas
         path = os.path.join(FIX, "coast_polygons.geojson")
