@@ -270,11 +270,18 @@ int64_t seed_memory_bytes(const LoadedSeeds& loaded) {
   return bytes;
 }
 
+namespace {
+// The cells a job computes: its window's (JobSpec::window), else the grid's.
+int64_t computed_cells(const JobSpec& spec, const GridSpec& grid) {
+  return spec.window ? spec.window->cell_count() : grid.cell_count();
+}
+}  // namespace
+
 JobPlan plan_job(const JobSpec& spec, const GridSpec& grid, int64_t sites, MetricSpec::Kind metric,
                  int64_t seed_bytes) {
   JobPlan p;
   const OutputRequest& out = spec.outputs;
-  const int64_t cells = spec.window ? spec.window->cell_count() : grid.cell_count();
+  const int64_t cells = computed_cells(spec, grid);
   const int64_t int_rasters = !out.ownership.empty() + !out.nearest_feature.empty();
   const int64_t rasters = int_rasters + !out.distance.empty();
   if (spec.method != Method::exact && spec.method != Method::brute_force)
@@ -503,7 +510,7 @@ void check_plan(const JobSpec& spec, const JobLimits& limits, const PreparedJob&
   check_window(spec, job.grid);
   if (!out.describe && !out.report.empty())
     throw Error(ErrorKind::invalid_argument, "a report file needs the report (OutputRequest::describe)");
-  const int64_t cells = spec.window ? spec.window->cell_count() : job.grid.cell_count();
+  const int64_t cells = computed_cells(spec, job.grid);
   if (cells > limits.max_cells)
     throw Error(ErrorKind::too_large, "the grid has " + std::to_string(cells) + " cells, over the limit of " +
                                           std::to_string(limits.max_cells));
@@ -852,8 +859,7 @@ void assemble_report(detail::JobRun& run, const PreparedJob& job, const detail::
   // The peak is the larger of reading the seeds and computing with them (the seeds included).
   report["memory_estimate_bytes"] = std::max(plan.memory_bytes, loaded.report.reading_bytes);
   report["timings_s"] = run.timings;
-  const auto cells =
-      static_cast<double>(std::max<int64_t>(spec.window ? spec.window->cell_count() : job.grid.cell_count(), 1));
+  const auto cells = static_cast<double>(std::max<int64_t>(computed_cells(spec, job.grid), 1));
   report["compute_ns_per_cell"] = run.compute_seconds * 1e9 / cells;
   // The job's own peak, not the process's (a daemon's high-water mark is its largest job ever).
   report["peak_memory_bytes"] = memory ? memory->peak_growth() : 0;
