@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
-# Installs the Debian 12 packages rvoronoi needs to build, test and run. Idempotent: packages
-# already present are not reinstalled, so a second run takes a second.
+# Installs the Debian 12 packages rvoronoi needs to build, test and run, and the map page's npm
+# packages (web/). Idempotent: what is already present is not installed again, so a second run
+# takes a second.
 # --image: the daemon image's set (docker/Dockerfile), without the Python and browser test tools.
 # --sanitizers adds the toolchain of tools/test-sanitizers.sh: clang and its runtimes (libFuzzer,
 # ASan/UBSan for clang). GCC's ASan/UBSan/TSan runtimes come with build-essential. The daemon
@@ -31,17 +32,31 @@ fi
 if [ "${1:-}" = "--sanitizers" ]; then
   packages+=(clang-14 libclang-rt-14-dev)
 fi
+# The map page's libraries (web/package.json) come from the npm registry through npm: the
+# machine's Node.js and npm when it has them, else Debian's.
+if ! command -v npm >/dev/null 2>&1; then
+  packages+=(nodejs npm)
+fi
 
 missing=()
 for p in "${packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
 done
-if [ ${#missing[@]} -eq 0 ]; then
-  exit 0
+if [ ${#missing[@]} -gt 0 ]; then
+  echo "setup: installing ${missing[*]}"
+  sudo_cmd=()
+  if [ "$(id -u)" -ne 0 ]; then sudo_cmd=(sudo); fi
+  export DEBIAN_FRONTEND=noninteractive
+  "${sudo_cmd[@]}" apt-get update -q
+  "${sudo_cmd[@]}" apt-get install -y -q --no-install-recommends "${missing[@]}"
 fi
-echo "setup: installing ${missing[*]}"
-sudo_cmd=()
-if [ "$(id -u)" -ne 0 ]; then sudo_cmd=(sudo); fi
-export DEBIAN_FRONTEND=noninteractive
-"${sudo_cmd[@]}" apt-get update -q
-"${sudo_cmd[@]}" apt-get install -y -q --no-install-recommends "${missing[@]}"
+
+# web/node_modules exactly as web/package-lock.json pins it, installed again only when the lock
+# file changed (a stamp keeps the lock file it was installed from). No package's install script
+# runs: esbuild's only checks that its platform binary, an optional dependency, is there.
+web="$(cd "$(dirname "$0")/.." && pwd)/web"
+if ! cmp -s "$web/package-lock.json" "$web/node_modules/.rvoronoi-lock" 2>/dev/null; then
+  echo "setup: installing the map page's libraries (npm ci in web/)"
+  npm ci --prefix "$web" --ignore-scripts --no-audit --no-fund --loglevel=error
+  cp "$web/package-lock.json" "$web/node_modules/.rvoronoi-lock"
+fi

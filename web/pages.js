@@ -8,40 +8,10 @@
 // "Authorization: Bearer" on every request the page makes, downloads included (they are fetched,
 // then saved from memory), and never put in a URL.
 
-const TOKEN_KEY = "rvoronoi-token";
+import { TOKEN_KEY, el, table, facts, token, headers, Problem, getJson, problemView as problemBox, humanBytes, download } from "./client.js";
+
 const content = document.getElementById("content");
-
-// ---- DOM helpers: text only -------------------------------------------------------------
-
-function el(tag, attrs = {}, ...children) {
-  const e = document.createElement(tag);
-  for (const [k, v] of Object.entries(attrs)) {
-    if (v === undefined || v === null) continue;
-    if (k === "class") e.className = v;
-    else if (k === "text") e.textContent = String(v);
-    else if (k.startsWith("on")) e.addEventListener(k.slice(2), v);
-    else e.setAttribute(k, String(v));
-  }
-  for (const c of children) if (c !== null && c !== undefined) e.append(c instanceof Node ? c : String(c));
-  return e;
-}
-
-function table(headers, rows, caption) {
-  const t = el("table");
-  if (caption) t.append(el("caption", { class: "muted", text: caption }));
-  t.append(el("thead", {}, el("tr", {}, ...headers.map((h) => el("th", { scope: "col", text: h })))));
-  const body = el("tbody");
-  for (const r of rows) body.append(el("tr", {}, ...r.map((c) => el("td", {}, c ?? ""))));
-  t.append(body);
-  return t;
-}
-
-// Name / value rows: the names are row headers.
-function facts(rows) {
-  const body = el("tbody");
-  for (const [name, value] of rows) body.append(el("tr", {}, el("th", { scope: "row", text: name }), el("td", {}, value ?? "")));
-  return el("table", { class: "facts" }, body);
-}
+const problemView = (p) => problemBox(p, render);
 
 // A link to a resource of this server: its HTML page for JSON resources, else the file.
 function sameOrigin(href) {
@@ -63,62 +33,6 @@ function pageLink(href, text) {
 function show(...nodes) {
   content.replaceChildren(...nodes);
   content.setAttribute("aria-busy", "false");
-}
-
-// ---- Requests ---------------------------------------------------------------------------
-
-function token() {
-  return sessionStorage.getItem(TOKEN_KEY) || "";
-}
-
-function headers(accept) {
-  const h = { Accept: accept };
-  if (token()) h.Authorization = "Bearer " + token();
-  return h;
-}
-
-class Problem extends Error {
-  constructor(status, body) {
-    super((body && (body.detail || body.title)) || "HTTP " + status);
-    this.status = status;
-    this.body = body || {};
-  }
-}
-
-async function getJson(url) {
-  const u = new URL(url, location.href);
-  u.searchParams.delete("f");
-  const r = await fetch(u, { headers: headers("application/json") });
-  const type = r.headers.get("Content-Type") || "";
-  const body = type.includes("json") ? await r.json() : await r.text();
-  if (!r.ok) throw new Problem(r.status, typeof body === "object" ? body : { detail: body });
-  return body;
-}
-
-// ---- Problems and the token ---------------------------------------------------------------
-
-function problemView(p) {
-  const b = p.body;
-  const box = el("section", { class: "problem", role: "alert" },
-    el("h1", { text: b.title || "Request failed" }),
-    el("p", { text: b.detail || p.message }),
-    el("p", { class: "muted", text: "HTTP " + p.status + (b.type ? " · " + b.type : "") }));
-  if (p.status === 401) box.append(tokenForm());
-  return box;
-}
-
-function tokenForm() {
-  const input = el("input", { id: "token", name: "token", type: "password", autocomplete: "off", required: "" });
-  const form = el("form", { class: "token" },
-    el("label", { for: "token", text: "Access token (given by the administrator of this server)" }),
-    input,
-    el("button", { type: "submit", text: "Use this token" }));
-  form.addEventListener("submit", (ev) => {
-    ev.preventDefault();
-    sessionStorage.setItem(TOKEN_KEY, input.value.trim());
-    render();
-  });
-  return form;
 }
 
 function sessionBar() {
@@ -215,25 +129,6 @@ function jobStatus(doc) {
     pollTimer = setTimeout(render, 1000);  // progress that updates
   }
   return nodes;
-}
-
-function humanBytes(n) {
-  if (n === null || n === undefined || isNaN(n)) return "";
-  const units = ["B", "KB", "MB", "GB", "TB"];
-  let i = 0;
-  while (n >= 1000 && i < units.length - 1) { n /= 1000; ++i; }
-  return (i ? n.toFixed(1) : String(n)) + " " + units[i];
-}
-
-async function download(href, name) {
-  const r = await fetch(href, { headers: headers("*/*") });
-  if (!r.ok) throw new Problem(r.status, await r.json().catch(() => ({})));
-  const url = URL.createObjectURL(await r.blob());
-  const a = el("a", { href: url, download: name });
-  document.body.append(a);
-  a.click();
-  a.remove();
-  setTimeout(() => URL.revokeObjectURL(url), 10000);
 }
 
 function reportSummary(report) {

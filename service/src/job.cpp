@@ -48,7 +48,9 @@ nlohmann::json seeds_json(const LoadedSeeds& loaded) {
   }
   nlohmann::json owners = nlohmann::json::array();
   for (size_t i = 0; i < s.owner_labels().size(); ++i)
-    owners.push_back({{"code", i + 1}, {"label", s.owner_labels()[i]}});
+    owners.push_back({{"code", i + 1},
+                      {"label", s.owner_labels()[i]},
+                      {"colour", colour_hex(owner_colour(static_cast<int32_t>(i + 1)))}});
   const SeedReadReport& r = loaded.report;
   nlohmann::json slivers = nlohmann::json::array();
   for (const BorderSliver& b : r.slivers) {
@@ -341,13 +343,18 @@ namespace {
 // The stricter of two limits, where 0 means none.
 int64_t stricter(int64_t a, int64_t b) { return a <= 0 ? b : b <= 0 ? a : std::min(a, b); }
 
-// Stage "read": the seeds with the job's limits and the memory limit for reading.
-LoadedSeeds read_seeds(const JobSpec& spec, const JobLimits& limits) {
-  SeedReadOptions read = seed_options_for_metric(spec.seeds, spec.metric);
+// Seed reading under the job's limits and the memory limit for reading.
+SeedReadOptions with_limits(SeedReadOptions read, const JobLimits& limits) {
   read.max_features = stricter(read.max_features, limits.max_features);
   read.max_vertices = stricter(read.max_vertices, limits.max_vertices);
   read.max_input_bytes = stricter(read.max_input_bytes, limits.max_input_bytes);
   read.max_memory_bytes = stricter(read.max_memory_bytes, memory_budget(limits));
+  return read;
+}
+
+// Stage "read": the seeds with the job's limits and the memory limit for reading.
+LoadedSeeds read_seeds(const JobSpec& spec, const JobLimits& limits) {
+  SeedReadOptions read = with_limits(seed_options_for_metric(spec.seeds, spec.metric), limits);
   if (read.target_crs.empty() && !spec.grid.like.empty()) {
     // Outputs must line up with the template raster, so the seeds go into its CRS.
     read.target_crs = read_grid(spec.grid.like).crs;
@@ -427,11 +434,7 @@ void read_relevant(const JobSpec& spec, const JobLimits& limits, PreparedJob& jo
   base.reach_field.reset();
   base.effect_field.reset();
   base.on_conflict = ConflictPolicy::lower_code;
-  base.max_features = stricter(base.max_features, limits.max_features);
-  base.max_vertices = stricter(base.max_vertices, limits.max_vertices);
-  base.max_input_bytes = stricter(base.max_input_bytes, limits.max_input_bytes);
-  base.max_memory_bytes = stricter(base.max_memory_bytes, memory_budget(limits));
-  SeedReadOptions area = base;
+  SeedReadOptions area = with_limits(base, limits);
   area.paths = {out.relevant_area};
   area.target_crs = job.loaded.crs.wkt;
   area.geographic_seeds = false;
@@ -439,12 +442,8 @@ void read_relevant(const JobSpec& spec, const JobLimits& limits, PreparedJob& jo
   if (job.relevant_area->seeds.polygons().empty())
     throw Error(ErrorKind::invalid_input, "the relevant area (" + out.relevant_area + ") holds no polygon");
   if (out.relevant_coasts.empty()) return;
-  SeedReadOptions coasts = seed_options_for_metric(spec.seeds, spec.metric);
   // The uploads' limits too (the daemon reads them as it reads the seeds).
-  coasts.max_features = base.max_features;
-  coasts.max_vertices = base.max_vertices;
-  coasts.max_input_bytes = base.max_input_bytes;
-  coasts.max_memory_bytes = base.max_memory_bytes;
+  SeedReadOptions coasts = with_limits(seed_options_for_metric(spec.seeds, spec.metric), limits);
   coasts.paths = {out.relevant_coasts};
   coasts.layers.clear();
   coasts.weight_field.reset();
@@ -948,6 +947,10 @@ JobResult run_prepared(const JobSpec& spec, const PreparedJob& job, const JobLim
                       seed_memory_bytes(job.loaded));
   check_plan(spec, limits, job, run.plan);
   return run_stages(run, job, memory ? &*memory : nullptr, start);
+}
+
+SeedInventory describe_seeds(const SeedReadOptions& seeds, const JobLimits& limits, bool with_features) {
+  return describe_seed_files(with_limits(seeds, limits), with_features);
 }
 
 }  // namespace rv

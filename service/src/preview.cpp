@@ -171,6 +171,12 @@ std::array<uint8_t, 3> owner_colour(int32_t owner) {
   return {c[0], c[1], c[2]};
 }
 
+std::string colour_hex(const std::array<uint8_t, 3>& bgr) {
+  char text[8];
+  std::snprintf(text, sizeof text, "#%02x%02x%02x", bgr[2], bgr[1], bgr[0]);
+  return text;
+}
+
 PreviewSample::PreviewSample(const GridSpec& grid, const Window& window, const PreviewOptions& options)
     : grid_(grid), window_(window) {
   if (options.max_side < 16) throw Error(ErrorKind::invalid_argument, "preview size must be at least 16 pixels");

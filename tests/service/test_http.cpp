@@ -176,8 +176,12 @@ TEST_F(Daemon, DiscoveryEndpoints) {
   EXPECT_EQ(api.status, 200);
   EXPECT_EQ(api.body, read_file(source_dir() + "/openapi.yaml"));  // the repository's document, verbatim
   const json processes = get(port_, "/processes").json();
-  ASSERT_EQ(processes["processes"].size(), 1u);
+  ASSERT_EQ(processes["processes"].size(), 2u);
   EXPECT_EQ(processes["processes"][0]["id"], "voronoi");
+  EXPECT_EQ(processes["processes"][1]["id"], "describe-seeds");
+  const json describe = get(port_, "/processes/describe-seeds").json();
+  for (const char* input : {"seeds", "crs", "features"}) EXPECT_TRUE(describe["inputs"].contains(input)) << input;
+  EXPECT_EQ(describe["jobControlOptions"], json::array({"sync-execute"}));
   const json process = get(port_, "/processes/voronoi").json();
   for (const char* input : {"seeds", "ownerField", "resolution", "extent", "crs", "metric", "method", "maxDistance",
                             "distanceUnits", "validate"}) {

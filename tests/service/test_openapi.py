@@ -210,6 +210,16 @@ def main():
         check(set(desc["outputs"]) == set(DOC["components"]["schemas"]["results"]["properties"]),
               "process description outputs == openapi.yaml results")
         request(s, "GET", "/processes/other", expect=404)
+        request(s, "GET", "/processes/describe-seeds", expect=200)
+        request(s, "GET", "/app", expect=200)
+        # describe-seeds: the response validates against seedDescription.
+        demo_seeds = json.load(open(os.path.join(SOURCE, "fixtures", "demo_basepoints.geojson")))
+        _, _, described = request(s, "POST", "/processes/describe-seeds/execution",
+                                  {"inputs": {"seeds": demo_seeds, "features": True}}, expect=200)
+        described = json.loads(described)
+        check(described["commonFields"] and len(described["features"]["features"]) == described["layers"][0]["features"],
+              f"describe-seeds lists fields and features: {str(described)[:300]}")
+        request(s, "POST", "/processes/describe-seeds/execution", {"inputs": {"seeds": demo_seeds, "x": 1}}, expect=400)
 
         exe_path = "/processes/voronoi/execution"
         # Synchronous, GeoJSON by value.

@@ -28,13 +28,14 @@
 #include "rv/error.hpp"
 #include "rv/gdal/seed_reader.hpp"
 #include "rv/text.hpp"
+#include "seed_inventory.hpp"
 
 namespace rv {
 namespace {
 
 using detail::SeedPart;
 
-constexpr double kArcStepDegrees = 1.0;
+using detail::kArcStepDegrees;
 
 struct CtDeleter {
   void operator()(OGRCoordinateTransformation* ct) const { OGRCoordinateTransformation::DestroyCT(ct); }
@@ -288,6 +289,27 @@ class Reader {
     detail::check_conflicts(parts_, out_.seeds, options_.on_conflict, options_.border_tolerance, target_.get(),
                             out_.report);
     if (grid_) place_in_grid();
+  }
+
+  // describe_seed_files(): the same opening, choice of layers and target CRS, then the inventory.
+  void describe(SeedInventory& inventory, bool with_features) {
+    if (options_.paths.empty()) throw Error(ErrorKind::invalid_argument, "no seed files given");
+    open_all();
+    select_layers();
+    choose_target();
+    inventory.crs = out_.crs;
+    if (target_) {
+      const char* authority = target_->GetAuthorityName(nullptr);
+      const char* code = target_->GetAuthorityCode(nullptr);
+      if (authority != nullptr && code != nullptr) inventory.crs_code = std::string(authority) + ":" + code;
+    }
+    std::vector<detail::InventoryLayer> layers;
+    for (const LayerRef& l : layers_) layers.push_back({l.layer, layer_label(l), l.name, l.srs.get()});
+    detail::InventoryHooks hooks{[this](const std::string& where) { check_network(where); },
+                                 [this](const OGRGeometry& g, const std::string& source) { count_vertices(g, source); },
+                                 read_error_kind()};
+    detail::take_inventory(layers, target_.get(), options_, with_features, hooks, inventory);
+    inventory.warnings = out_.report.warnings;
   }
 
  private:
@@ -917,6 +939,22 @@ class Reader {
 };
 
 }  // namespace
+
+SeedInventory describe_seed_files(const SeedReadOptions& options, bool with_features) {
+  gdal_init();
+  gdal::ErrorCapture quiet;
+  SeedReadOptions plain = options;  // the target CRS itself, not its geographic base
+  plain.geographic_seeds = false;
+  LoadedSeeds unused;
+  SeedInventory inventory;
+  if (!plain.confined) {
+    Reader(plain, unused, nullptr).describe(inventory, with_features);
+    return inventory;
+  }
+  gdal::ConfinedScope scope;
+  Reader(plain, unused, &scope).describe(inventory, with_features);
+  return inventory;
+}
 
 LoadedSeeds load_seeds(const SeedReadOptions& options) {
   gdal_init();

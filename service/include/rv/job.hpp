@@ -272,6 +272,12 @@ SeedReadOptions seed_options_for_metric(SeedReadOptions read, MetricRequest metr
 // errors.
 void geolocate_grid(ComputeOptions& options, const LoadedSeeds& loaded);
 
+// What seed files hold (layers, fields and their values, CRS, box; with_features, every feature
+// in the target CRS), read under the job limits' features, vertices, input bytes and memory:
+// describe_seed_files() in rv/gdal/seed_reader.hpp. For a person choosing the owner field and
+// the grid before a job (the map page). Throws its rv::Error.
+SeedInventory describe_seeds(const SeedReadOptions& seeds, const JobLimits& limits = {}, bool with_features = false);
+
 // Physical memory in bytes (0 if unknown).
 int64_t physical_memory_bytes();
 

@@ -61,8 +61,13 @@ struct PreviewLayers {
 inline constexpr std::array<uint8_t, 3> kLandColour{170, 205, 222};
 inline constexpr std::array<uint8_t, 3> kNoOwnerColour{248, 248, 248};
 
-// Blue, green, red of owner `owner` (> 0); kNoOwnerColour for 0.
+// Blue, green, red of owner `owner` (> 0); kNoOwnerColour for 0. The report lists it per owner
+// (seeds.owners[].colour) so that every picture of a job (this quicklook, the map page) shows an
+// owner in the same colour.
 std::array<uint8_t, 3> owner_colour(int32_t owner);
+
+// "#rrggbb" of a blue, green, red colour.
+std::string colour_hex(const std::array<uint8_t, 3>& bgr);
 
 // The cells a preview shows, collected as rows of owner codes go by (a streamed job never holds
 // the whole raster): per pixel, the cell at the centre of its block of step x step cells.

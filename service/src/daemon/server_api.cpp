@@ -13,6 +13,7 @@
 #include "rv/json_text.hpp"
 #include "rv/options.hpp"
 #include "rv/text.hpp"
+#include "server_seeds.hpp"
 #include "server_util.hpp"
 #include "server_web.hpp"
 
@@ -243,6 +244,8 @@ void Api::handle(const ApiRequest& request, Respond respond) {
   }
   // The pages for people and their assets (server_web.hpp), before the resources' JSON.
   if (is_asset(target)) return (*shared)(asset_response(web_dir(), target));
+  if (is_app(target) && (request.method == "GET" || request.method == "HEAD"))
+    return (*shared)(app_response(web_dir()));
   if (wants_page(request.method, target, request.accept)) return (*shared)(page_response(web_dir()));
   // Exactly one response: the handler either answered, or handed `shared` to a job. Whatever
   // the handler throws becomes a problem here; nothing leaves this function but the answer.
@@ -505,7 +508,7 @@ void Api::route(const Context& ctx, const std::shared_ptr<Respond>& respond) {
   const Request req{ctx, respond};
   const std::vector<std::string> seg = path_segments(ctx.path);
   // An unknown process is "no such process" whatever follows it (OGC's exception type).
-  if (seg.size() >= 2 && seg[0] == "processes" && seg[1] != "voronoi")
+  if (seg.size() >= 2 && seg[0] == "processes" && seg[1] != "voronoi" && seg[1] != kDescribeSeedsId)
     throw OgcNotFound("no-such-process", "no process '" + seg[1].substr(0, 64) + "'");
   for (const Resource& r : resources) {
     if (!matches(r.pattern, seg)) continue;
@@ -526,7 +529,8 @@ void Api::landing(const Request& req, const std::vector<std::string>&) const {
               link(base + "/conformance", std::string(kOgcRel) + "conformance", kJson, "conformance classes"),
               link(base + "/processes", std::string(kOgcRel) + "processes", kJson, "processes"),
               link(base + "/jobs", std::string(kOgcRel) + "job-list", kJson, "jobs"),
-              link(base + "/health", "status", kJson, "health")}}}));
+              link(base + "/health", "status", kJson, "health"),
+              link(base + "/app", "related", "text/html", "map page: run a delimitation and look at it")}}}));
 }
 
 void Api::conformance(const Request& req, const std::vector<std::string>&) const {
@@ -552,17 +556,19 @@ void Api::health(const Request& req, const std::vector<std::string>&) const {
 
 void Api::process_list(const Request& req, const std::vector<std::string>&) const {
   const std::string& base = req.ctx.base;
-  req.reply(json_response(200, {{"processes", json::array({process_summary(base)})},
+  req.reply(json_response(200, {{"processes", json::array({process_summary(base), describe_seeds_summary(base)})},
                                 {"links", json::array({link(base + "/processes", "self", kJson, "processes")})}}));
 }
 
-void Api::process(const Request& req, const std::vector<std::string>&) const {
-  req.reply(json_response(200, process_description(req.ctx.base)));
+void Api::process(const Request& req, const std::vector<std::string>& seg) const {
+  req.reply(json_response(
+      200, seg[1] == kDescribeSeedsId ? describe_seeds_description(req.ctx.base) : process_description(req.ctx.base)));
 }
 
-void Api::execute(const Request& req, const std::vector<std::string>&) const {
+void Api::execute(const Request& req, const std::vector<std::string>& seg) const {
   const std::string& base = req.ctx.base;
   const json body = parse_body_json(req.ctx.request.body);
+  if (seg[1] == kDescribeSeedsId) return req.reply(json_response(200, describe_seeds_execute(body, config_)));
   const std::string id = new_job_id();
   Execution ex = parse_execution(body, id, config_);
   if (prefers_respond_async(req.ctx.request.prefer)) {

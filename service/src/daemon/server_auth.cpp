@@ -41,7 +41,8 @@ bool Authenticator::is_open(std::string_view target) {
 
 std::optional<ApiResponse> Authenticator::check(std::string_view target, std::string_view authorization,
                                                 std::string_view method, std::string_view accept) const {
-  if (tokens_.empty() || is_open(target) || is_asset(target) || wants_page(method, target, accept)) return std::nullopt;
+  if (tokens_.empty() || is_open(target) || is_asset(target) || is_app(target) || wants_page(method, target, accept))
+    return std::nullopt;
   if (authorization.empty()) {
     return unauthorized("this server needs a bearer token: send 'Authorization: Bearer <token>'", kRealm, target);
   }

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cctype>
 #include <cmath>
+#include <regex>
 #include <set>
 #include <thread>
 
@@ -301,6 +302,38 @@ std::string checked_crs(const json& raw, const std::string& input) {
                  s.substr(0, 80) + "'");
 }
 
+// Upload paths in messages are ours (/vsimem/rvoronoi/<id>/seeds_<n>.<ext>,
+// relevantArea.<ext>, relevantCoasts.<ext>); the client knows its layers as seeds[n] and the
+// inputs by name.
+std::string client_names(std::string message, const std::string& id) {
+  const std::regex vsi("(/vsizip/)?/vsimem/rvoronoi/" + id + "/seeds_([0-9]+)\\.[a-z]+");
+  const std::regex named("(/vsizip/)?/vsimem/rvoronoi/" + id + "/(relevantArea|relevantCoasts)\\.[a-z]+");
+  return std::regex_replace(std::regex_replace(message, vsi, "seeds[$2]"), named, "$2");
+}
+
+json stage_seed_input(const json& in, SeedReadOptions& read, VsiMemFiles& files) {
+  if (!in.contains("seeds")) bad("seeds", "is required");
+  const json& seeds = in.at("seeds");
+  json summary = json::array();
+  if (seeds.is_array()) {
+    if (seeds.empty()) bad("seeds", "the array of layers is empty");
+    for (size_t i = 0; i < seeds.size(); ++i) {
+      auto [path, s] =
+          stage_seed_layer(seeds[i], "seeds[" + std::to_string(i) + "]", "seeds_" + std::to_string(i), files);
+      read.paths.push_back(path);
+      summary.push_back(s);
+    }
+  } else {
+    auto [path, s] = stage_seed_layer(seeds, "seeds", "seeds_0", files);
+    read.paths.push_back(path);
+    summary.push_back(s);
+  }
+  read.allowed_drivers = {"GeoJSON", "GPKG", "ESRI Shapefile", "FlatGeobuf"};
+  // Uploads are untrusted: in-memory paths only, no network, no other files (rv/gdal/seed_reader.hpp).
+  read.confined = true;
+  return summary;
+}
+
 namespace {
 
 void check_body_members(const json& body) {
@@ -320,26 +353,7 @@ void check_body_members(const json& body) {
 
 // seeds: one layer or an array of layers, staged in /vsimem/.
 void stage_seeds(const json& in, Execution& ex) {
-  if (!in.contains("seeds")) bad("seeds", "is required");
-  const json& seeds = in.at("seeds");
-  json summary = json::array();
-  if (seeds.is_array()) {
-    if (seeds.empty()) bad("seeds", "the array of layers is empty");
-    for (size_t i = 0; i < seeds.size(); ++i) {
-      auto [path, s] =
-          stage_seed_layer(seeds[i], "seeds[" + std::to_string(i) + "]", "seeds_" + std::to_string(i), *ex.uploads);
-      ex.spec.seeds.paths.push_back(path);
-      summary.push_back(s);
-    }
-  } else {
-    auto [path, s] = stage_seed_layer(seeds, "seeds", "seeds_0", *ex.uploads);
-    ex.spec.seeds.paths.push_back(path);
-    summary.push_back(s);
-  }
-  ex.inputs_summary["seeds"] = summary;
-  ex.spec.seeds.allowed_drivers = {"GeoJSON", "GPKG", "ESRI Shapefile", "FlatGeobuf"};
-  // Uploads are untrusted: in-memory paths only, no network, no other files (rv/gdal/seed_reader.hpp).
-  ex.spec.seeds.confined = true;
+  ex.inputs_summary["seeds"] = stage_seed_input(in, ex.spec.seeds, *ex.uploads);
   // The disproportionality test's layers, uploaded as the seeds are (and read as confined).
   for (const auto& [input, target] : {std::pair{"relevantArea", &ex.spec.outputs.relevant_area},
                                       std::pair{"relevantCoasts", &ex.spec.outputs.relevant_coasts}}) {

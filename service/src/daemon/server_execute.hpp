@@ -85,6 +85,16 @@ struct Execution {
 // when extent and resolution make it known up front).
 Execution parse_execution(const nlohmann::json& body, const std::string& job_id, const ServerConfig& config);
 
+// The input "seeds" of `in` (one layer or an array: GeoJSON, or a base64 GeoPackage, zipped
+// Shapefile or FlatGeobuf) written to `files`; their paths appended to read.paths and the reading
+// confined to them (uploads are untrusted). Returns the summary stored with a job (one entry per
+// layer: its type and size). Throws rv::Error(invalid_argument / invalid_input) naming the input.
+nlohmann::json stage_seed_input(const nlohmann::json& in, SeedReadOptions& read, VsiMemFiles& files);
+
+// A message with the upload paths of job `id` (/vsimem/rvoronoi/<id>/seeds_<n>.<ext>,
+// relevantArea.<ext>, relevantCoasts.<ext>) in the names the client knows: seeds[n], the input.
+std::string client_names(std::string message, const std::string& id);
+
 // The checked CRS definition of an input value. Throws rv::Error(invalid_argument).
 std::string checked_crs(const nlohmann::json& value, const std::string& input);
 

@@ -4,7 +4,6 @@
 
 #include <cmath>
 #include <fstream>
-#include <regex>
 #include <system_error>
 
 #include "rv/error.hpp"
@@ -41,15 +40,6 @@ void write_file_atomically(const std::filesystem::path& path, const std::string&
     std::filesystem::remove(tmp, ec);
     throw Error(ErrorKind::io, "cannot rename the report into place");
   }
-}
-
-// Upload paths in messages are ours (/vsimem/rvoronoi/<id>/seeds_<n>.<ext>,
-// relevantArea.<ext>, relevantCoasts.<ext>); the client knows its layers as seeds[n] and the
-// inputs by name.
-std::string client_names(std::string message, const std::string& id) {
-  const std::regex vsi("(/vsizip/)?/vsimem/rvoronoi/" + id + "/seeds_([0-9]+)\\.[a-z]+");
-  const std::regex named("(/vsizip/)?/vsimem/rvoronoi/" + id + "/(relevantArea|relevantCoasts)\\.[a-z]+");
-  return std::regex_replace(std::regex_replace(message, vsi, "seeds[$2]"), named, "$2");
 }
 
 // Tells a waiting client that its job ended. The callback builds an answer and must not take a

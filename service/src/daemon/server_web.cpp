@@ -98,7 +98,8 @@ bool plain_name(std::string_view name) {
   return true;
 }
 
-ApiResponse file_body(const std::string& path, std::string_view name) {
+ApiResponse file_body(const std::string& path, std::string_view name,
+                      std::string_view policy = kContentSecurityPolicy) {
   struct stat st {};
   if (::stat(path.c_str(), &st) != 0 || !S_ISREG(st.st_mode))
     return problem_response(404, "http://www.opengis.net/def/exceptions/ogcapi-processes-1/1.0/not-found", "Not found",
@@ -110,7 +111,7 @@ ApiResponse file_body(const std::string& path, std::string_view name) {
   r.headers.emplace_back("Content-Type", media_type_of(name));
   r.headers.emplace_back("Cache-Control", "no-cache");
   r.body = body.str();
-  add_page_headers(r);
+  add_page_headers(r, policy);
   return r;
 }
 
@@ -133,8 +134,17 @@ bool is_asset(std::string_view target) {
   return path.size() > 8 && path.substr(0, 8) == "/static/";
 }
 
-void add_page_headers(ApiResponse& r) {
-  r.headers.emplace_back("Content-Security-Policy", std::string(kContentSecurityPolicy));
+bool is_app(std::string_view target) {
+  const std::string_view path = target.substr(0, target.find('?'));
+  return path == "/app" || path == "/app/";
+}
+
+ApiResponse app_response(const std::string& web_dir) {
+  return file_body(web_dir + "/app.html", "app.html", kAppContentSecurityPolicy);
+}
+
+void add_page_headers(ApiResponse& r, std::string_view policy) {
+  r.headers.emplace_back("Content-Security-Policy", std::string(policy));
   r.headers.emplace_back("X-Content-Type-Options", "nosniff");
   r.headers.emplace_back("X-Frame-Options", "DENY");
   r.headers.emplace_back("Referrer-Policy", "no-referrer");

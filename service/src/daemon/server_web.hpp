@@ -8,7 +8,9 @@
 // script's text nodes, never as markup. The script sends the bearer token the person typed (kept
 // in the tab's sessionStorage, never in a URL) on every request it makes, the downloads included.
 //
-// Static assets (the shell's script and style sheet; later the map page's bundle) are served
+// The map page (/app) is one more fixed page, its script the bundle web/app/ makes (OpenLayers
+// and the client of web/client.js, esbuild). Static assets (the shell's and the map page's
+// scripts and style sheets) are served
 // from `web_dir` under /static/<name>, names checked against the files there (no path).
 // Every page and asset carries a Content-Security-Policy that allows scripts, styles and
 // connections from this origin only (no inline script) and blob: images (previews fetched with
@@ -30,6 +32,24 @@ inline constexpr std::string_view kContentSecurityPolicy =
     "default-src 'none'; script-src 'self'; style-src 'self'; img-src 'self' blob: data:; connect-src 'self'; "
     "base-uri 'none'; form-action 'self'; frame-ancestors 'none'";
 
+// The map page's policy: the same, plus what its raster reader needs: WebAssembly (the ZSTD
+// decoder, compiled from bytes the bundle carries: 'wasm-unsafe-eval', which allows no eval of
+// script), decoding workers started from blob: URLs the bundle makes, and data: fetches (how
+// the decoder hands itself its WebAssembly bytes), and style attributes (the map library's
+// controls, the scale bar among them, write some as markup; a style attribute runs nothing, and
+// no markup from data ever reaches the page). Inline scripts and style elements stay forbidden.
+inline constexpr std::string_view kAppContentSecurityPolicy =
+    "default-src 'none'; script-src 'self' 'wasm-unsafe-eval'; worker-src blob:; style-src 'self'; "
+    "style-src-attr 'unsafe-inline'; "
+    "img-src 'self' blob: data:; connect-src 'self' data:; base-uri 'none'; form-action 'none'; "
+    "frame-ancestors 'none'";
+
+// Whether `target` is the map page (/app, /app/, any query): open, like the pages.
+bool is_app(std::string_view target);
+
+// The map page (`web_dir`/app.html) with the security headers and kAppContentSecurityPolicy.
+ApiResponse app_response(const std::string& web_dir);
+
 // Whether a GET/HEAD of `target` (origin form, query included) with this Accept header asks for
 // the HTML page of a resource: `f=html` in the query, or no `f` and an Accept header that names
 // text/html with a quality above that of application/json (and above that of */*). Result files
@@ -47,6 +67,6 @@ ApiResponse page_response(const std::string& web_dir);
 ApiResponse asset_response(const std::string& web_dir, std::string_view target);
 
 // The security headers every page and asset carries.
-void add_page_headers(ApiResponse& response);
+void add_page_headers(ApiResponse& response, std::string_view policy = kContentSecurityPolicy);
 
 }  // namespace rv::daemon

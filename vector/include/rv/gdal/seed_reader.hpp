@@ -243,6 +243,58 @@ struct LoadedSeeds {
 // local file failed; never when confined).
 LoadedSeeds load_seeds(const SeedReadOptions& options);
 
+// What seed files hold, for a person choosing how to read them (the map page's field list and
+// its picture of the seeds before anything is computed): their layers, fields, feature counts,
+// geometry types and CRS, and optionally every feature in the target CRS.
+struct SeedFieldSummary {
+  static constexpr int64_t kMaxDistinct = 1000;  // distinct values counted exactly up to this
+  static constexpr size_t kMaxValues = 50;       // values listed
+  std::string name;                              // escaped (escape_utf8), as every text from the data
+  std::string type;                 // "integer", "integer64", "real", "string", "date", "time", "datetime", "binary" or
+                                    // "list" (GDAL's list types)
+  int64_t non_null = 0;             // features with a value
+  int64_t distinct = 0;             // distinct non-null values, in GDAL's string form
+  bool distinct_exact = true;       // false: more than kMaxDistinct (distinct stops there)
+  std::vector<std::string> values;  // the first kMaxValues distinct values in reading order, escaped
+};
+
+struct SeedLayerSummary {
+  std::string source;  // "<path as given>:<layer>", escaped
+  std::string name;    // the layer's name, escaped
+  int64_t features = 0;
+  int64_t empty = 0;                        // null or empty geometries (a seed run skips them)
+  std::vector<std::string> geometry_types;  // OGR's names of the flattened types seen, sorted
+  std::vector<SeedFieldSummary> fields;     // in the layer's order
+};
+
+// One feature as read, for drawing: not normalised, not checked against other owners.
+struct SeedPreviewFeature {
+  size_t layer = 0;                                // index into SeedInventory::layers
+  int64_t position = 0;                            // 1-based in the input, as load_seeds counts
+  std::string geometry;                            // GeoJSON geometry in the target CRS; "null" when empty
+  std::vector<std::optional<std::string>> values;  // per field of its layer: GDAL's string form, escaped
+};
+
+struct SeedInventory {
+  CrsInfo crs;           // the target CRS (options.target_crs, else the first layer's)
+  std::string crs_code;  // "EPSG:25833" when the target CRS has an authority code, else ""
+  std::vector<SeedLayerSummary> layers;
+  std::optional<SeedSet::Box> bounds;        // of every non-empty geometry, in the target CRS
+  std::vector<SeedPreviewFeature> features;  // with_features only
+  std::vector<std::string> warnings;
+};
+
+// Opens the files as load_seeds() does, with the same options' paths, layers, target CRS,
+// drivers, confinement and limits (features, vertices, input bytes, memory), and describes them
+// without reading them as seeds: no owner field is needed (owner_field and the adjustment fields
+// are ignored), and nothing is normalised or checked for conflicts, so data a seed run would
+// refuse until the right options are chosen (overlapping land borders without an owner field)
+// is described all the same. Layers are taken to the target CRS by PROJ's default operation
+// (the operation checks of load_seeds are its own). Curves are linearised as load_seeds does.
+// Throws rv::Error as load_seeds() does for opening, limits and reprojection; never conflict.
+// Thread safety: as load_seeds().
+SeedInventory describe_seed_files(const SeedReadOptions& options, bool with_features);
+
 // Describes a CRS given as any definition OSR understands (EPSG:32633, WKT, PROJ string).
 // Throws rv::Error(invalid_argument) if it cannot be parsed.
 CrsInfo describe_crs(const std::string& definition);

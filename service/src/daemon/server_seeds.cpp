@@ -1,0 +1,194 @@
+#include "server_seeds.hpp"
+
+#include <algorithm>
+
+#include "rv/error.hpp"
+#include "rv/job.hpp"
+#include "rv/options.hpp"
+#include "rv/text.hpp"
+#include "server_execute.hpp"
+#include "server_util.hpp"
+
+namespace rv::daemon {
+
+using nlohmann::json;
+
+namespace {
+
+json field_json(const SeedFieldSummary& f) {
+  return {{"name", f.name},
+          {"type", f.type},
+          {"nonNull", f.non_null},
+          {"distinct", f.distinct},
+          {"distinctExact", f.distinct_exact},
+          {"values", f.values}};
+}
+
+// A field value as GeoJSON wants it: numbers of numeric fields as numbers, the rest as text.
+json property(const std::optional<std::string>& v, const std::string& type) {
+  if (!v) return nullptr;
+  if (type == "integer" || type == "integer64" || type == "real" || type == "boolean") {
+    try {
+      size_t used = 0;
+      const double d = std::stod(*v, &used);
+      if (used == v->size() && std::isfinite(d)) {
+        if (type != "real") return json(std::stoll(*v));
+        return json(d);
+      }
+    } catch (const std::exception&) {
+    }
+  }
+  return *v;
+}
+
+json features_json(const SeedInventory& inv) {
+  json features = json::array();
+  for (const SeedPreviewFeature& f : inv.features) {
+    const SeedLayerSummary& layer = inv.layers[f.layer];
+    json props = json::object();
+    for (size_t i = 0; i < f.values.size() && i < layer.fields.size(); ++i)
+      props[layer.fields[i].name] = property(f.values[i], layer.fields[i].type);
+    // The feature's place in the input (nearestFeature codes count the same way) and its layer.
+    features.push_back({{"type", "Feature"},
+                        {"id", f.position},
+                        {"geometry", json::parse(f.geometry)},
+                        {"properties", props},
+                        {"layer", f.layer}});
+  }
+  return {{"type", "FeatureCollection"}, {"features", features}};
+}
+
+json inventory_json(const SeedInventory& inv, bool with_features) {
+  json layers = json::array();
+  std::vector<std::string> common;
+  for (size_t i = 0; i < inv.layers.size(); ++i) {
+    const SeedLayerSummary& l = inv.layers[i];
+    json fields = json::array();
+    std::vector<std::string> names;
+    for (const SeedFieldSummary& f : l.fields) {
+      fields.push_back(field_json(f));
+      names.push_back(f.name);
+    }
+    if (i == 0) {
+      common = names;
+    } else {
+      common.erase(
+          std::remove_if(common.begin(), common.end(),
+                         [&](const std::string& n) { return std::find(names.begin(), names.end(), n) == names.end(); }),
+          common.end());
+    }
+    layers.push_back({{"source", l.source},
+                      {"name", l.name},
+                      {"features", l.features},
+                      {"empty", l.empty},
+                      {"geometryTypes", l.geometry_types},
+                      {"fields", fields}});
+  }
+  json crs = {{"name", inv.crs.name},
+              {"wkt", inv.crs.wkt},
+              {"geographic", inv.crs.geographic},
+              {"metresPerUnit", inv.crs.geographic ? 0.0 : inv.crs.linear_unit}};
+  crs["code"] = inv.crs_code.empty() ? json(nullptr) : json(inv.crs_code);
+  json d = {{"crs", crs}, {"layers", layers}, {"commonFields", common}, {"warnings", inv.warnings}};
+  d["bbox"] = inv.bounds ? json::array({inv.bounds->xmin, inv.bounds->ymin, inv.bounds->xmax, inv.bounds->ymax})
+                         : json(nullptr);
+  if (with_features) d["features"] = features_json(inv);
+  return d;
+}
+
+}  // namespace
+
+json describe_seeds_summary(const std::string& base) {
+  const std::string self = base + "/processes/" + kDescribeSeedsId;
+  return {{"id", kDescribeSeedsId},
+          {"title", "Describe seed files"},
+          {"description",
+           "What uploaded seed files hold, before a job is made of them: their layers, fields (type, "
+           "distinct values), feature counts, geometry types, CRS and box, and optionally every feature in "
+           "the grid CRS (GeoJSON), for choosing the owner field and the grid."},
+          {"version", "1.0.0"},
+          {"keywords", json::array({"seeds", "fields", "inspect"})},
+          {"jobControlOptions", json::array({"sync-execute"})},
+          {"outputTransmission", json::array({"value"})},
+          {"links", json::array({{{"href", self}, {"rel", "self"}, {"type", "application/json"}},
+                                 {{"href", self + "/execution"},
+                                  {"rel", "http://www.opengis.net/def/rel/ogc/1.0/execute"},
+                                  {"type", "application/json"}}})}};
+}
+
+json describe_seeds_description(const std::string& base) {
+  json d = describe_seeds_summary(base);
+  d["inputs"] = {
+      {"seeds",
+       {{"title", "Seed layers"},
+        {"description",
+         "As the voronoi process's seeds: a GeoJSON FeatureCollection, an array of layers, or a base64 "
+         "GeoPackage, zipped Shapefile or FlatGeobuf."},
+        {"schema",
+         {{"oneOf", json::array({{{"type", "object"}},
+                                 {{"type", "array"}, {"minItems", 1}, {"items", {{"type", "object"}}}}})}}},
+        {"minOccurs", 1},
+        {"maxOccurs", 1}}},
+      {"crs", process_input_description(*find_input("crs"))},
+      {"features",
+       {{"title", "Features"},
+        {"description",
+         "Also return every feature, in the CRS (crs, else the first layer's), as a GeoJSON FeatureCollection "
+         "whose ids are the features' 1-based positions in the input. Refused (413) above " +
+             std::to_string(kMaxPreviewVertices) + " vertices."},
+        {"schema", {{"type", "boolean"}, {"default", false}}},
+        {"minOccurs", 0},
+        {"maxOccurs", 1}}}};
+  d["outputs"] = {
+      {"description",
+       {{"title", "Description of the seed files"},
+        {"description",
+         "crs {name, code, wkt, geographic, metresPerUnit}, bbox in it, layers [{source, name, features, empty, "
+         "geometryTypes, fields [{name, type, nonNull, distinct, distinctExact, values}]}], commonFields (in "
+         "every layer: the owner field must be one), warnings, and features when asked. The response is this "
+         "object itself."},
+        {"schema", {{"type", "object"}, {"contentMediaType", "application/json"}}}}}};
+  return d;
+}
+
+json describe_seeds_execute(const json& body, const ServerConfig& config) {
+  if (!body.is_object() || !body.contains("inputs") || !body.at("inputs").is_object())
+    throw Error(ErrorKind::invalid_argument, "input 'inputs': the execute request needs an \"inputs\" object");
+  for (const auto& [key, value] : body.items())
+    if (key != "inputs" && key != "outputs" && key != "response")
+      throw Error(ErrorKind::invalid_argument, "execute request: unknown member '" + quote_input(key) + "'");
+  const json& in = body.at("inputs");
+  bool with_features = false;
+  SeedReadOptions read;
+  for (const auto& [key, value] : in.items()) {
+    if (key == "seeds") continue;
+    if (key == "crs") {
+      read.target_crs = checked_crs(value, "crs");
+    } else if (key == "features") {
+      const json& v = value.is_object() && value.contains("value") ? value.at("value") : value;
+      if (!v.is_boolean()) throw Error(ErrorKind::invalid_argument, "input 'features': must be true or false");
+      with_features = v.get<bool>();
+    } else {
+      throw Error(ErrorKind::invalid_argument,
+                  "unknown input '" + quote_input(key) + "' (inputs: seeds, crs, features)");
+    }
+  }
+  const std::string id = new_job_id();
+  VsiMemFiles files("/vsimem/rvoronoi/" + id);
+  stage_seed_input(in, read, files);
+  JobLimits limits = effective_limits(config);
+  if (with_features)
+    limits.max_vertices =
+        limits.max_vertices > 0 ? std::min(limits.max_vertices, kMaxPreviewVertices) : kMaxPreviewVertices;
+  try {
+    SeedInventory inventory = describe_seeds(read, limits, with_features);
+    // The client knows its uploads as seeds[n], not by our in-memory paths.
+    for (SeedLayerSummary& l : inventory.layers) l.source = client_names(l.source, id);
+    for (std::string& w : inventory.warnings) w = client_names(w, id);
+    return inventory_json(inventory, with_features);
+  } catch (const Error& e) {
+    throw Error(e.kind(), client_names(e.what(), id));
+  }
+}
+
+}  // namespace rv::daemon

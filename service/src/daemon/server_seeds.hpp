@@ -1,0 +1,33 @@
+// The process "describe-seeds": what uploaded seed files hold, before a job is made of them. The
+// map page (issue 34) asks it for the fields to offer as the owner field (with their values),
+// the CRS and box the grid will default to, and the features to draw; any client may.
+//
+// POST /processes/describe-seeds/execution {"inputs": {"seeds": ..., "crs": ..., "features":
+// true}} answers at once (sync-execute only) with the description itself, the process's one
+// output: rv::describe_seeds() (rv/job.hpp) under the server's seed limits, the uploads staged
+// and confined as a job's are. Runs on the calling (I/O) thread: the limits bound it as they bound
+// a job's reading, and `features` is refused (too_large) above kMaxPreviewVertices.
+// Thread safety: pure functions of their arguments.
+#pragma once
+
+#include <cstdint>
+#include <string>
+
+#include <nlohmann/json.hpp>
+
+#include "rv/server_config.hpp"
+
+namespace rv::daemon {
+
+inline constexpr const char* kDescribeSeedsId = "describe-seeds";
+// A page draws this many vertices smoothly; a larger upload is described without its features.
+inline constexpr int64_t kMaxPreviewVertices = 2'000'000;
+
+nlohmann::json describe_seeds_summary(const std::string& base);
+nlohmann::json describe_seeds_description(const std::string& base);
+
+// The answer to an execution request. Throws rv::Error: invalid_argument (the request),
+// invalid_input (the data), too_large (the limits), with the client's names for its uploads.
+nlohmann::json describe_seeds_execute(const nlohmann::json& body, const ServerConfig& config);
+
+}  // namespace rv::daemon
