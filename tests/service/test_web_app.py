@@ -106,25 +106,32 @@ def hex_rgb(h):
     return tuple(int(h[i:i + 2], 16) for i in (1, 3, 5))
 
 
-def pixels_of(png, rgb, tolerance=3):
-    """How many screenshot pixels have colour rgb (within tolerance per channel)."""
-    path = os.path.join(tempfile.gettempdir(), "rv-app-shot-%d.png" % os.getpid())
-    with open(path, "wb") as f:
-        f.write(png)
+def screenshot_array(png):
+    """A screenshot as rows x columns x RGB."""
+    path = "/vsimem/rv-app-shot.png"
+    gdal.FileFromMemBuffer(path, png)
     ds = gdal.Open(path)
     a = np.stack([ds.GetRasterBand(b).ReadAsArray().astype(int) for b in (1, 2, 3)], axis=-1)
-    os.unlink(path)
-    return int((np.abs(a - np.array(rgb)).max(axis=-1) <= tolerance).sum())
+    ds = None
+    gdal.Unlink(path)
+    return a
 
 
-def raster(d, job, name):
+def pixels_of(png, rgb, tolerance=3):
+    """How many screenshot pixels have colour rgb (within tolerance per channel)."""
+    return int((np.abs(screenshot_array(png) - np.array(rgb)).max(axis=-1) <= tolerance).sum())
+
+
+def raster(d, job, name, with_transform=False):
     status, _, body = d.request("GET", "/jobs/%s/results/%s" % (job, name), headers=d_headers(d))
     check(status == 200, "GET %s: %s" % (name, status))
     path = "/vsimem/app-%s-%s.tif" % (job, name)
     gdal.FileFromMemBuffer(path, body)
-    a = gdal.Open(path).ReadAsArray()
+    ds = gdal.Open(path)
+    a, gt = ds.ReadAsArray(), ds.GetGeoTransform()
+    ds = None
     gdal.Unlink(path)
-    return a
+    return (a, gt) if with_transform else a
 
 
 def d_headers(d):
@@ -225,11 +232,16 @@ def oresund_run(drv, d, base, tag):
     n = pixels_of(png, (0x1b, 0x26, 0x31), 10)
     check(n > 200, "%s: the boundary is drawn (%d pixels)" % (tag, n))
     # Clicks: the read-out names the cell and its values, equal to the rasters'.
-    own = raster(d, job, "ownership")
+    own, gt = raster(d, job, "ownership", True)
     dist = raster(d, job, "distance")
     seen = set()
     cell = drv.find_element(By.ID, "cell")
-    for dx, dy in ((-60, 0), (0, -40), (50, 80), (120, -150), (-200, 200)):
+    shown = screenshot_array(png)
+    m = drv.find_element(By.ID, "map")
+    centre = (m.location["x"] + m.size["width"] // 2, m.location["y"] + m.size["height"] // 2)
+    colours = {o["code"]: hex_rgb(o["colour"]) for o in owners.values()}
+    coloured = 0
+    for dx, dy in ((-60, 0), (0, -40), (50, 80), (120, -150), (-200, 200), (-150, -100), (200, 50)):
         drv.execute_script("arguments[0].removeAttribute('data-row')", cell)
         ActionChains(drv).move_to_element_with_offset(drv.find_element(By.ID, "map"), dx, dy).click().perform()
         try:
@@ -242,10 +254,23 @@ def oresund_run(drv, d, base, tag):
         check(code == int(own[r, c]) and distance == float(dist[r, c]),
               "%s: the cell (%d, %d) reads owner %d, distance %r; the rasters hold %d, %r" % (
                   tag, r, c, code, distance, own[r, c], dist[r, c]))
+        # The cell is the one under the click: from the clicked map coordinate and the file's
+        # georeferencing (GDAL), not from the page's arithmetic.
+        x, y = float(cell.get_attribute("data-x")), float(cell.get_attribute("data-y"))
+        want = (int((y - gt[3]) // gt[5]), int((x - gt[0]) // gt[1]))
+        check((r, c) == want, "%s: the click at (%r, %r) is cell %s; the page read %s" % (tag, x, y, want, (r, c)))
+        # Where the screen shows an owner's colour, it is the colour of the owner of that cell.
+        px = shown[centre[1] + dy, centre[0] + dx]
+        match = [k for k, rgb in colours.items() if np.abs(px - np.array(rgb)).max() <= 3]
+        if match:
+            coloured += 1
+            check(match == [code], "%s: the screen at the click shows owner %s's colour; the cell is %d's" % (
+                tag, match, code))
         label = [k for k, o in owners.items() if o["code"] == code]
         check(not label or ("Owner " + label[0]) in cell.text, "%s: the read-out names the owner: %s" % (tag, cell.text))
         seen.add(code)
     check({1, 2} <= seen, "%s: clicks met both owners: %s" % (tag, seen))
+    check(coloured >= 3, "%s: at least 3 clicks on the owners' sea (%d)" % (tag, coloured))
     names = [b.text for b in drv.find_elements(By.CSS_SELECTOR, "#downloads button")]
     for want in ("ownership.tif", "distance.tif", "report.json", "regions.geojson", "boundaries.geojson",
                  "tripoints.geojson", "limits.geojson", "ownership.tif.aux.xml"):

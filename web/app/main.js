@@ -342,7 +342,8 @@ view.map.on("singleclick", async (ev) => {
     cellBox.textContent = c.code === 0
       ? "No owner (beyond the maximum distance) · " + where
       : "Owner " + (owner ? owner.label : "code " + c.code) + " · distance " + c.distance.toLocaleString("en", { maximumFractionDigits: 3 }) + " " + units + " · " + where;
-    Object.assign(cellBox.dataset, { row: c.row, col: c.col, code: c.code, distance: c.distance });
+    // The values and the map coordinate clicked, for scripts (and the tests) to check.
+    Object.assign(cellBox.dataset, { row: c.row, col: c.col, code: c.code, distance: c.distance, x: ev.coordinate[0], y: ev.coordinate[1] });
   } catch (e) {
     cellBox.replaceChildren(problemBox(e));
   }
