@@ -29,7 +29,7 @@ import time
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from daemon_harness import Daemon  # noqa: E402
-from test_web_pages import accessibility, check, FAILURES, HOSTILE  # noqa: E402
+from test_web_pages import accessibility, check, closed_daemon, HOSTILE, outcome  # noqa: E402
 
 import numpy as np  # noqa: E402
 from osgeo import gdal  # noqa: E402
@@ -360,9 +360,7 @@ def main():
                 check(not errors(drv), "no JavaScript errors: %s" % errors(drv))
             finally:
                 d.stop()
-            token = "s3cret-" + os.urandom(6).hex()
-            d = Daemon([RVORONOI, "serve"], os.path.join(tmp, "closed"), {"auth": {"tokens": [token]}})
-            d.token = token
+            d, d.token = closed_daemon(RVORONOI, tmp)
             try:
                 drv.execute_script("sessionStorage.clear()")
                 with_token(drv, d, "http://127.0.0.1:%d" % d.port, downloads)
@@ -370,11 +368,7 @@ def main():
                 d.stop()
         finally:
             drv.quit()
-    if FAILURES:
-        print("%d failure(s)" % len(FAILURES))
-        return 1
-    print("map page: all checks passed; screenshots in", ARTEFACTS)
-    return 0
+    return outcome("map page", ARTEFACTS)
 
 
 if __name__ == "__main__":

@@ -210,6 +210,21 @@ def with_token(drv, d, base, token):
         check("/jobs/%s" % job in drv.current_url, "the page stayed")
 
 
+def closed_daemon(binary, tmp):
+    """A daemon (rvoronoi `binary`) under tmp that requires a fresh bearer token: (daemon, token)."""
+    token = "s3cret-" + os.urandom(6).hex()
+    return Daemon([binary, "serve"], os.path.join(tmp, "closed"), {"auth": {"tokens": [token]}}), token
+
+
+def outcome(what, artefacts):
+    """The exit status of a browser test, said in one line."""
+    if FAILURES:
+        print("%d failure(s)" % len(FAILURES))
+        return 1
+    print(what + ": all checks passed; screenshots in", artefacts)
+    return 0
+
+
 def main():
     os.makedirs(ARTEFACTS, exist_ok=True)
     drv = browser()
@@ -223,19 +238,14 @@ def main():
                 pages(drv, "http://127.0.0.1:%d" % d.port, job, labels)
             finally:
                 d.stop()
-            token = "s3cret-" + os.urandom(6).hex()
-            d = Daemon([RVORONOI, "serve"], os.path.join(tmp, "closed"), {"auth": {"tokens": [token]}})
+            d, token = closed_daemon(RVORONOI, tmp)
             try:
                 with_token(drv, d, "http://127.0.0.1:%d" % d.port, token)
             finally:
                 d.stop()
     finally:
         drv.quit()
-    if FAILURES:
-        print("%d failure(s)" % len(FAILURES))
-        return 1
-    print("web pages: all checks passed; screenshots in", ARTEFACTS)
-    return 0
+    return outcome("web pages", ARTEFACTS)
 
 
 if __name__ == "__main__":
