@@ -25,7 +25,7 @@ for _kind, _name in _rvoronoi.error_kinds:
 del _kind, _name
 
 __version__ = _rvoronoi.version
-__all__ = ["compute", "keywords", "Error"] + [name for _, name in _rvoronoi.error_kinds]
+__all__ = ["compute", "describe", "keywords", "Error"] + [name for _, name in _rvoronoi.error_kinds]
 
 _PRODUCTS = ("ownership", "distance", "nearest_feature")
 _DELIVERABLES = {"boundaries": ".geojson", "tripoints": ".geojson", "limits": ".geojson", "regions": ".geojson",
@@ -126,6 +126,32 @@ def compute(seeds, *, chunks=None, nearest_feature=False, deliverables=None, **o
     ds = _dataset.dataset({p: result[p] for p in products}, job.grid, job.owners, job.unit, job.metric,
                           result["report"])
     return (ds, lines) if wanted else ds
+
+
+def describe(seeds, *, crs=None, features=False):
+    """What seed sources hold, before computing with them: the same description as the daemon's
+    process describe-seeds.
+
+    seeds: as compute() takes them. crs: the CRS to give the box (and features) in; default the
+    first layer's. features: also return every feature as GeoJSON (ids: 1-based positions in the
+    input, as nearest_feature numbers them).
+
+    Returns a dict: crs {name, wkt, geographic, metresPerUnit, code}, bbox, layers [{source,
+    name, features, empty, geometryTypes, fields [{name, type, nonNull, distinct, distinctExact,
+    values}]}], commonFields (an owner field must be one), warnings[, features]. No owner field
+    is needed and nothing is checked between owners: data a run would refuse until the right
+    options are chosen is described all the same. Raises rvoronoi.Error subclasses.
+    """
+    from . import _seeds
+
+    with _seeds.SeedFiles(seeds) as files:
+        d = json.loads(_rvoronoi.describe_seeds(files.paths, crs or "", bool(features)))
+        # A mapping or frame went through a temporary file: the caller knows it as seeds[i].
+        for i, path in enumerate(files.paths):
+            if files.is_temporary(i):
+                for layer in d["layers"]:
+                    layer["source"] = layer["source"].replace(path, "seeds[%d]" % i)
+    return d
 
 
 def _compute_chunked(seeds, chunks, products, options, options_json):

@@ -45,8 +45,14 @@ class SeedFiles:
         items = seeds if isinstance(seeds, (list, tuple)) else [seeds]
         if not items:
             raise TypeError("seeds: at least one seed source is needed")
+        self._temporary = []
         for i, item in enumerate(items):
             self.paths.append(self._path_of(item, i))
+            self._temporary.append(not isinstance(item, (str, os.PathLike)))
+
+    def is_temporary(self, index):
+        """Whether source `index` is a temporary file made from a mapping or a frame."""
+        return self._temporary[index]
 
     def _temp(self, text, index):
         if self._tmp is None:

@@ -23,6 +23,7 @@
 #include "rv/job.hpp"
 #include "rv/json_text.hpp"
 #include "rv/options.hpp"
+#include "rv/seed_description.hpp"
 #include "rv/version.hpp"
 
 namespace py = pybind11;
@@ -212,6 +213,20 @@ py::list keywords() {
   return out;
 }
 
+// rvoronoi.describe: the façade's description of seed files, as the daemon's describe-seeds
+// gives it (rv/seed_description.hpp), in JSON text.
+std::string describe_seeds(const std::vector<std::string>& paths, const std::string& crs, bool features) {
+  rv::SeedReadOptions read;
+  read.paths = paths;
+  read.target_crs = crs;
+  rv::SeedInventory inventory;
+  {
+    py::gil_scoped_release free;
+    inventory = rv::describe_seeds(read, {}, features);
+  }
+  return rv::json_text(rv::seed_description(inventory, features));
+}
+
 }  // namespace
 
 PYBIND11_MODULE(_rvoronoi, m) {
@@ -271,6 +286,8 @@ PYBIND11_MODULE(_rvoronoi, m) {
     }
   });
   m.def("keywords", &keywords, "The keyword options of rvoronoi.compute, from the option table.");
+  m.def("describe_seeds", &describe_seeds, py::arg("paths"), py::arg("crs"), py::arg("features"),
+        "The description of seed files as JSON text (use rvoronoi.describe).");
   py::class_<Job>(m, "Job")
       .def(py::init<const std::vector<std::string>&, const std::string&, const std::optional<std::vector<int64_t>>&>(),
            py::arg("seeds"), py::arg("options"), py::arg("window") = py::none())

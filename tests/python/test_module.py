@@ -178,6 +178,31 @@ class AgainstTheCli(unittest.TestCase):
             self.assertEqual(other.owner.attrs["owner_labels"], base.owner.attrs["owner_labels"])
             self.assertEqual(other.spatial_ref.attrs["GeoTransform"], base.spatial_ref.attrs["GeoTransform"])
 
+    def test_describe_lists_fields_crs_and_features(self):
+        d = rvoronoi.describe(BALTIC)
+        self.assertEqual(d["commonFields"], ["iso2"])
+        self.assertEqual(d["crs"]["code"], "EPSG:4326")
+        layer = d["layers"][0]
+        self.assertEqual((layer["name"], layer["features"]), ("states", 4))
+        self.assertTrue(layer["source"].endswith("baltic_west.gpkg:states"))
+        self.assertEqual(layer["fields"][0]["values"], ["DK", "SE", "DE", "PL"])
+        self.assertNotIn("features", d)
+        # In another CRS, with the features: reprojected, positions as ids.
+        utm = rvoronoi.describe(ORESUND, crs="EPSG:32633", features=True)
+        self.assertEqual(utm["crs"]["code"], "EPSG:32633")
+        self.assertGreater(utm["bbox"][0], 200000)
+        self.assertEqual([f["id"] for f in utm["features"]["features"]], [1, 2])
+        self.assertEqual([f["properties"]["iso2"] for f in utm["features"]["features"]], ["DK", "SE"])
+        # A mapping is named as the caller knows it; overlapping owners are described, not refused.
+        with open(os.path.join(FIX, "overlap.geojson")) as f:
+            mapping = json.load(f)
+        d = rvoronoi.describe([mapping])
+        self.assertEqual(d["layers"][0]["source"].split(":")[0], "seeds[0]")
+        with self.assertRaises(rvoronoi.Conflict):
+            rvoronoi.compute(mapping, resolution=100.0)
+        with self.assertRaises(rvoronoi.NotFound):
+            rvoronoi.describe("/nonexistent/seeds.gpkg")
+
     def test_netcdf_and_zarr_keep_the_grid_and_the_owner_table(self):
         import xarray
         ds = rvoronoi.compute(ORESUND, owner_field="iso2", resolution=0.02, metric="geodesic")

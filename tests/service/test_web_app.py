@@ -12,7 +12,9 @@ Against daemons this test starts (without and with a bearer token):
      drawn, the legend lists DK and SE with the report's areas, clicks on the map report the
      owner and distance of exactly the cell the rasters hold there (read back with GDAL), the
      downloads are offered for every result and one is fetched; no JavaScript errors;
-  3. a grid too large for the server: the daemon's 413 shown in plain words;
+  3. the western Baltic (four states, a border tolerance set under "More options"): the legend
+     lists the four, the tripoints are drawn; a grid too large for the server: the daemon's
+     problem shown in plain words;
   4. hostile data: a GeoJSON whose owner label is <script>alert(1)</script> and whose file name
      and field name are markup: shown as text, nothing runs, nothing is injected;
   5. with authentication on: the page asks for the token, then the whole run works (the COG
@@ -278,6 +280,24 @@ def oresund_run(drv, d, base, tag):
     return job, own
 
 
+def baltic_run(drv, base):
+    """Four owners, tripoints, land borders that overlap by metres (a tolerance under More options)."""
+    open_app(drv, base)
+    check(load(drv, os.path.join(SHARED, "baltic_west.gpkg")) == "described", "the Baltic is described")
+    drv.find_element(By.CSS_SELECTOR, "details.more summary").click()
+    field = drv.find_element(By.ID, "in-borderTolerance")
+    field.clear()
+    field.send_keys("10")
+    check(run(drv, resolution="0.01") == "done", "the Baltic ran: %s" % drv.find_element(By.ID, "panel").text[-300:])
+    time.sleep(1.5)
+    legend = drv.find_element(By.ID, "legend").text
+    check(all(s in legend for s in ("DK", "SE", "DE", "PL")), "the legend lists the four states: %s" % legend)
+    png = drv.get_screenshot_as_png()
+    shot(drv, "baltic")
+    n = pixels_of(png, (0xc0, 0x39, 0x2b), 6)
+    check(n > 30, "the tripoints are drawn (%d pixels)" % n)
+
+
 def download(drv, downloads, name, expect):
     [b for b in drv.find_elements(By.CSS_SELECTOR, "#downloads button") if b.text == name][0].click()
     path = os.path.join(downloads, name)
@@ -354,6 +374,7 @@ def main():
                 api_checks(d)
                 oresund_run(drv, d, "http://127.0.0.1:%d" % d.port, "open")
                 check(not errors(drv), "no JavaScript errors: %s" % errors(drv))
+                baltic_run(drv, "http://127.0.0.1:%d" % d.port)
                 too_large(drv, "http://127.0.0.1:%d" % d.port)
                 drv.get_log("browser")  # the 413 itself is logged by the browser
                 hostile(drv, "http://127.0.0.1:%d" % d.port, tmp)

@@ -8,7 +8,7 @@
 
 import "ol/ol.css";
 import "./app.css";
-import { el, token, TOKEN_KEY, Problem, getJson, problemView, humanBytes, download, saveBlob } from "../client.js";
+import { el, token, TOKEN_KEY, headers, Problem, getJson, problemView, humanBytes, download, saveBlob } from "../client.js";
 import { ACCEPT, seedInput, describeSeeds, postJson } from "./upload.js";
 import { jobFields, readForm, niceNumber } from "./form.js";
 import { MapView, projectionFor } from "./map.js";
@@ -182,7 +182,7 @@ async function runJob(form) {
     state.job = status.jobID;
     cancel.addEventListener("click", async () => {
       cancel.disabled = true;
-      await fetch("/jobs/" + state.job, { method: "DELETE", headers: { Authorization: token() ? "Bearer " + token() : "" } });
+      await fetch("/jobs/" + state.job, { method: "DELETE", headers: headers("application/json") });
     });
     poll(bar, message, cancel, inputs);
   } catch (e) {
