@@ -23,6 +23,7 @@ Against daemons this test starts (without and with a bearer token):
 Screenshots go to ARTEFACT_DIR.
 """
 import base64
+import gzip
 import json
 import os
 import sys
@@ -149,8 +150,18 @@ def api_checks(d):
           "/app: CSP forbids inline scripts: %s" % csp)
     check(b"<script>" not in body and b"onload=" not in body, "/app holds no inline script")
     status, h, body = d.request("GET", "/static/app.js")
-    check(status == 200 and h["content-type"].startswith("text/javascript") and len(body) > 100000,
-          "the bundle is served (%s, %d bytes)" % (status, len(body)))
+    check(status == 200 and h["content-type"].startswith("text/javascript") and len(body) > 100000
+          and "content-encoding" not in h, "the bundle is served (%s, %d bytes)" % (status, len(body)))
+    status, hz, packed = d.request("GET", "/static/app.js", headers={"Accept-Encoding": "br, gzip;q=0.8"})
+    check(status == 200 and hz.get("content-encoding") == "gzip" and gzip.decompress(packed) == body
+          and len(packed) < len(body) // 2, "gzip where accepted: %d of %d bytes" % (len(packed), len(body)))
+    _, hq, plain = d.request("GET", "/static/app.js", headers={"Accept-Encoding": "gzip;q=0, deflate"})
+    check("content-encoding" not in hq and plain == body, "no gzip where refused (q=0)")
+    etag = h.get("etag", "")
+    status, h304, empty = d.request("GET", "/static/app.js", headers={"If-None-Match": etag})
+    check(etag and status == 304 and not empty and h304.get("etag") == etag, "304 for the same ETag (%r)" % etag)
+    status, _, again = d.request("GET", "/static/app.js", headers={"If-None-Match": '"0-0.0"'})
+    check(status == 200 and again == body, "200 for another ETag")
     status, _, doc = d.json("GET", "/processes")
     check([p["id"] for p in doc["processes"]] == ["voronoi", "describe-seeds"], "two processes listed")
     status, _, landing = d.json("GET", "/")

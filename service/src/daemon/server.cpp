@@ -203,6 +203,8 @@ class Session : public std::enable_shared_from_this<Session> {
       api_req.prefer += (api_req.prefer.empty() ? "" : ",") + std::string(it->value());
     api_req.range = std::string(req[http::field::range]);
     api_req.accept = std::string(req[http::field::accept]);
+    api_req.accept_encoding = std::string(req[http::field::accept_encoding]);
+    api_req.if_none_match = std::string(req[http::field::if_none_match]);
     api_req.body = parser_->release().body();
 
     // A synchronous execution answers when its job ends: no deadline while it runs (the job

@@ -243,7 +243,7 @@ void Api::handle(const ApiRequest& request, Respond respond) {
     ctx.base = "http://" + config_.host + ":" + std::to_string(config_.port);
   }
   // The pages for people and their assets (server_web.hpp), before the resources' JSON.
-  if (is_asset(target)) return (*shared)(asset_response(web_dir(), target));
+  if (is_asset(target)) return (*shared)(asset_response(web_dir(), request));
   if (is_app(target) && (request.method == "GET" || request.method == "HEAD"))
     return (*shared)(app_response(web_dir()));
   if (wants_page(request.method, target, request.accept)) return (*shared)(page_response(web_dir()));

@@ -35,12 +35,14 @@ struct FileSlice {
 };
 
 struct ApiRequest {
-  std::string method;  // "GET", "HEAD", "POST", "DELETE", ...
-  std::string target;  // origin-form request target, query included
-  std::string host;    // Host header
-  std::string prefer;  // Prefer header
-  std::string range;   // Range header
-  std::string accept;  // Accept header (HTML pages, server_web.hpp)
+  std::string method;           // "GET", "HEAD", "POST", "DELETE", ...
+  std::string target;           // origin-form request target, query included
+  std::string host;             // Host header
+  std::string prefer;           // Prefer header
+  std::string range;            // Range header
+  std::string accept;           // Accept header (HTML pages, server_web.hpp)
+  std::string accept_encoding;  // Accept-Encoding header (the pages' assets, server_web.hpp)
+  std::string if_none_match;    // If-None-Match header (the pages' assets)
   std::string body;
 };
 

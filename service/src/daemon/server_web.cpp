@@ -91,6 +91,33 @@ const char* media_type_of(std::string_view name) {
   return "application/octet-stream";
 }
 
+// Whether an Accept-Encoding header allows gzip (RFC 9110 12.5.3: listed, or "*", without q=0).
+bool accepts_gzip(std::string_view header) {
+  bool gzip = false, star = false;
+  size_t start = 0;
+  while (start <= header.size()) {
+    const size_t end = std::min(header.find(',', start), header.size());
+    const std::string_view item = header.substr(start, end - start);
+    start = end + 1;
+    const size_t semi = item.find(';');
+    const std::string_view coding = trim(item.substr(0, semi));
+    bool zero = false;
+    if (semi != std::string_view::npos) {
+      const std::string_view params = item.substr(semi + 1);
+      const size_t q = params.find("q=");
+      zero = q != std::string_view::npos && std::atof(std::string(params.substr(q + 2)).c_str()) <= 0.0;
+    }
+    if (iequal(coding, "gzip")) {
+      if (zero) return false;
+      gzip = true;
+    } else if (coding == "*") {
+      star = !zero;
+    }
+    if (end == header.size()) break;
+  }
+  return gzip || star;
+}
+
 bool plain_name(std::string_view name) {
   if (name.empty() || name.size() > 128 || name.front() == '.') return false;
   for (char c : name)
@@ -152,13 +179,36 @@ void add_page_headers(ApiResponse& r, std::string_view policy) {
 
 ApiResponse page_response(const std::string& web_dir) { return file_body(web_dir + "/page.html", "page.html"); }
 
-ApiResponse asset_response(const std::string& web_dir, std::string_view target) {
+ApiResponse asset_response(const std::string& web_dir, const ApiRequest& request) {
+  const std::string_view target = request.target;
   const std::string_view path = target.substr(0, target.find('?'));
   const std::string_view name = path.substr(8);
   if (!plain_name(name))
     return problem_response(404, "http://www.opengis.net/def/exceptions/ogcapi-processes-1/1.0/not-found", "Not found",
                             "no asset of that name", std::string(path.substr(0, 200)));
-  return file_body(web_dir + "/" + std::string(name), name);
+  const std::string file = web_dir + "/" + std::string(name);
+  struct stat st {};
+  if (::stat(file.c_str(), &st) != 0 || !S_ISREG(st.st_mode)) return file_body(file, name);
+  const std::string etag = "\"" + std::to_string(st.st_size) + "-" + std::to_string(st.st_mtim.tv_sec) + "." +
+                           std::to_string(st.st_mtim.tv_nsec) + "\"";
+  if (request.if_none_match.find(etag) != std::string::npos) {
+    ApiResponse r;
+    r.status = 304;
+    r.headers.emplace_back("ETag", etag);
+    r.headers.emplace_back("Cache-Control", "no-cache");
+    r.headers.emplace_back("Vary", "Accept-Encoding");
+    add_page_headers(r);
+    return r;
+  }
+  struct stat gz {};
+  const std::string packed = file + ".gz";
+  const bool use_gzip = accepts_gzip(request.accept_encoding) && ::stat(packed.c_str(), &gz) == 0 &&
+                        S_ISREG(gz.st_mode) && gz.st_mtim.tv_sec >= st.st_mtim.tv_sec;
+  ApiResponse r = file_body(use_gzip ? packed : file, name);
+  if (use_gzip) r.headers.emplace_back("Content-Encoding", "gzip");
+  r.headers.emplace_back("Vary", "Accept-Encoding");
+  r.headers.emplace_back("ETag", etag);
+  return r;
 }
 
 }  // namespace rv::daemon
