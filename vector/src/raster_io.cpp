@@ -423,9 +423,13 @@ struct GeoTiffStripWriter<T>::State {
   bool finished = false;
 
   // Starts the categories' sidecar (Sidecar above) unless it has started or there are none.
-  // (Nothing calls it after the join: finish() comes after every write_rows().)
-  void start_sidecar() {
+  // (Nothing calls it after the join: finish() comes after every write_rows().) A file in one of
+  // GDAL's virtual file systems (/vsimem/...) is not safe to read on one thread while another
+  // appends to it (an in-memory file's buffer moves when it grows: ASan caught the reader
+  // copying from a freed one), so there the sidecar waits for finish(), when nothing is written.
+  void start_sidecar(bool finishing = false) {
     if (sidecar.thread.joinable() || options.category_labels.empty()) return;
+    if (!finishing && written().rfind("/vsi", 0) == 0) return;
     sidecar.thread = std::thread([this] {
       try {
         Scope own;
@@ -734,6 +738,7 @@ void GeoTiffStripWriter<T>::finish() {
                                                  std::to_string(s.window.height) + " rows written");
   typename State::Scope scope;
   s.failed = true;
+  s.start_sidecar(true);  // a virtual file's, now that nothing is appended (start_sidecar)
   s.sidecar.join();
   if (s.sidecar.error) std::rethrow_exception(s.sidecar.error);
   s.file->close();  // the tile index; the directory was written at creation
