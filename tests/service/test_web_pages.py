@@ -210,10 +210,10 @@ def with_token(drv, d, base, token):
         check("/jobs/%s" % job in drv.current_url, "the page stayed")
 
 
-def closed_daemon(binary, tmp):
+def closed_daemon(binary, tmp, config=None):
     """A daemon (rvoronoi `binary`) under tmp that requires a fresh bearer token: (daemon, token)."""
     token = "s3cret-" + os.urandom(6).hex()
-    return Daemon([binary, "serve"], os.path.join(tmp, "closed"), {"auth": {"tokens": [token]}}), token
+    return Daemon([binary, "serve"], os.path.join(tmp, "closed"), dict(config or {}, auth={"tokens": [token]})), token
 
 
 def outcome(what, artefacts):

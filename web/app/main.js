@@ -29,9 +29,11 @@ const ADVICE = {
   401: "This server asks for an access token.",
   403: "This token may not do that.",
   409: "The job was cancelled or changed meanwhile.",
-  413: "That is more than this server computes at once: a larger cell size or a smaller extent makes fewer cells.",
+  413: "The file is larger than this server accepts in one request.",
   503: "The server is busy: try again in a moment.",
 };
+
+const TOO_LARGE = "That is more than this server takes at once: for a grid, a larger cell size or a smaller extent makes fewer cells.";
 
 function problemBox(e) {
   const p = e instanceof Problem ? e : new Problem(0, { title: "Something went wrong", detail: String((e && e.message) || e) });
@@ -39,7 +41,7 @@ function problemBox(e) {
   // By the problem's type where it tells more than the status (a job that failed on a limit
   // answers 422 with the type too-large).
   const type = String((p.body && p.body.type) || "");
-  const advice = type.endsWith("/too-large") ? ADVICE[413] : ADVICE[p.status];
+  const advice = type.endsWith("/too-large") ? TOO_LARGE : ADVICE[p.status];
   if (advice) box.insertBefore(el("p", { class: "advice", text: advice }), box.children[1] || null);
   return box;
 }
@@ -152,8 +154,9 @@ function buildForm() {
   sections.job.hidden = false;
   if (inv.bbox) {
     const [x0, y0, x1, y1] = inv.bbox;
-    const res = niceNumber(Math.max(x1 - x0, y1 - y0) / 600);
-    form.querySelector("#in-resolution").value = String(res);
+    const span = Math.max(x1 - x0, y1 - y0);
+    // About 600 cells across the data (a single point gives no span: no proposal).
+    if (span > 0) form.querySelector("#in-resolution").value = String(niceNumber(span / 600));
     inv.bbox.forEach((v, i) => { form.querySelector("#in-extent-" + i).placeholder = String(+v.toPrecision(8)); });
   }
   form.addEventListener("submit", (ev) => {
@@ -174,8 +177,9 @@ async function runJob(form) {
   setState("running");
   try {
     // The seeds in the grid's CRS when another one is asked for, so that they lie under the rasters.
-    if (inputs.crs && inputs.crs !== state.inventory.requestedCrs) {
-      state.inventory = { ...inventoryOf(await describeSeeds(state.seeds, inputs.crs)), requestedCrs: inputs.crs };
+    const crs = inputs.crs || "";
+    if (crs !== (state.inventory.requestedCrs || "")) {
+      state.inventory = { ...inventoryOf(await describeSeeds(state.seeds, crs)), requestedCrs: crs };
     }
     const status = await postJson("/processes/voronoi/execution", { inputs: { ...inputs, seeds: state.seeds }, outputs },
       { Prefer: "respond-async" });

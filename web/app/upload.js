@@ -54,7 +54,8 @@ export async function describeSeeds(seeds, crs) {
   try {
     return await postJson("/processes/describe-seeds/execution", { inputs });
   } catch (e) {
-    if (!(e instanceof Problem) || e.status !== 413) throw e;
+    // Over the server's limit for drawing (too-large): described again without the features.
+    if (!(e instanceof Problem) || !String(e.body.type || "").endsWith("/too-large")) throw e;
     inputs.features = false;
     const d = await postJson("/processes/describe-seeds/execution", { inputs });
     d.warnings = [...(d.warnings || []), "The seeds are too large to draw here; they are described, and computed, all the same."];

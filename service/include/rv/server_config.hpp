@@ -14,7 +14,8 @@
 //               "job_timeout_s": 3600, "shutdown_grace_s": 20 },
 //     "limits": { "max_cells": 17179869184, "max_memory_bytes": 0,
 //                 "validate_max_cells": 4000000, "max_features": 10000000,
-//                 "max_vertices": 100000000, "max_input_bytes": 2147483648 },
+//                 "max_vertices": 100000000, "max_input_bytes": 2147483648,
+//                 "preview_max_vertices": 2000000 },
 //     "auth": { "tokens": [], "token_file": "" }
 //   }
 // Authentication: with no token configured (the default) every route is open. With at least one
@@ -76,6 +77,9 @@ struct ServerConfig {
   HttpConfig http;
   JobsConfig jobs;
   JobLimits limits;  // per job; max_memory_bytes 0 = 80 % of physical memory / workers
+  // describe-seeds returns the features (for drawing) of uploads of at most this many vertices
+  // (limits.preview_max_vertices); larger ones are described without them.
+  int64_t preview_max_vertices = 2'000'000;
   AuthConfig auth;
 };
 

@@ -561,8 +561,8 @@ void Api::process_list(const Request& req, const std::vector<std::string>&) cons
 }
 
 void Api::process(const Request& req, const std::vector<std::string>& seg) const {
-  req.reply(json_response(
-      200, seg[1] == kDescribeSeedsId ? describe_seeds_description(req.ctx.base) : process_description(req.ctx.base)));
+  req.reply(json_response(200, seg[1] == kDescribeSeedsId ? describe_seeds_description(req.ctx.base, config_)
+                                                          : process_description(req.ctx.base)));
 }
 
 void Api::execute(const Request& req, const std::vector<std::string>& seg) const {

@@ -159,9 +159,9 @@ ServerConfig parse_server_config(const json& doc) {
   }
   if (doc.contains("limits")) {
     const json& l = doc.at("limits");
-    check_keys(
-        l, "limits",
-        {"max_cells", "max_memory_bytes", "validate_max_cells", "max_features", "max_vertices", "max_input_bytes"});
+    check_keys(l, "limits",
+               {"max_cells", "max_memory_bytes", "validate_max_cells", "max_features", "max_vertices",
+                "max_input_bytes", "preview_max_vertices"});
     c.limits.max_cells = get_int(l, "limits", "max_cells", c.limits.max_cells, 1);
     c.limits.max_memory_bytes = get_int(l, "limits", "max_memory_bytes", c.limits.max_memory_bytes, 0);
     c.limits.validate_max_cells = get_int(l, "limits", "validate_max_cells", c.limits.validate_max_cells, 0);
@@ -169,6 +169,7 @@ ServerConfig parse_server_config(const json& doc) {
     c.limits.max_features = get_int(l, "limits", "max_features", c.limits.max_features, 0);
     c.limits.max_vertices = get_int(l, "limits", "max_vertices", c.limits.max_vertices, 0);
     c.limits.max_input_bytes = get_int(l, "limits", "max_input_bytes", c.limits.max_input_bytes, 0);
+    c.preview_max_vertices = get_int(l, "limits", "preview_max_vertices", c.preview_max_vertices, 1);
   }
   if (doc.contains("auth")) parse_auth(doc.at("auth"), c.auth);
   return c;

@@ -32,7 +32,7 @@ json describe_seeds_summary(const std::string& base) {
                                   {"type", "application/json"}}})}};
 }
 
-json describe_seeds_description(const std::string& base) {
+json describe_seeds_description(const std::string& base, const ServerConfig& config) {
   json d = describe_seeds_summary(base);
   d["inputs"] = {
       {"seeds",
@@ -50,8 +50,8 @@ json describe_seeds_description(const std::string& base) {
        {{"title", "Features"},
         {"description",
          "Also return every feature, in the CRS (crs, else the first layer's), as a GeoJSON FeatureCollection "
-         "whose ids are the features' 1-based positions in the input. Refused (413) above " +
-             std::to_string(kMaxPreviewVertices) + " vertices."},
+         "whose ids are the features' 1-based positions in the input. Refused (422, too-large) above " +
+             std::to_string(config.preview_max_vertices) + " vertices (this server's limits.preview_max_vertices)."},
         {"schema", {{"type", "boolean"}, {"default", false}}},
         {"minOccurs", 0},
         {"maxOccurs", 1}}}};
@@ -94,8 +94,8 @@ json describe_seeds_execute(const json& body, const ServerConfig& config) {
   stage_seed_input(in, read, files);
   JobLimits limits = effective_limits(config);
   if (with_features)
-    limits.max_vertices =
-        limits.max_vertices > 0 ? std::min(limits.max_vertices, kMaxPreviewVertices) : kMaxPreviewVertices;
+    limits.max_vertices = limits.max_vertices > 0 ? std::min(limits.max_vertices, config.preview_max_vertices)
+                                                  : config.preview_max_vertices;
   try {
     SeedInventory inventory = describe_seeds(read, limits, with_features);
     // The client knows its uploads as seeds[n], not by our in-memory paths.

@@ -6,7 +6,8 @@
 // true}} answers at once (sync-execute only) with the description itself, the process's one
 // output: rv::describe_seeds() (rv/job.hpp) under the server's seed limits, the uploads staged
 // and confined as a job's are. Runs on the calling (I/O) thread: the limits bound it as they bound
-// a job's reading, and `features` is refused (too_large) above kMaxPreviewVertices.
+// a job's reading, and `features` is refused (too_large, 422) above the server's
+// preview_max_vertices.
 // Thread safety: pure functions of their arguments.
 #pragma once
 
@@ -20,11 +21,9 @@
 namespace rv::daemon {
 
 inline constexpr const char* kDescribeSeedsId = "describe-seeds";
-// A page draws this many vertices smoothly; a larger upload is described without its features.
-inline constexpr int64_t kMaxPreviewVertices = 2'000'000;
 
 nlohmann::json describe_seeds_summary(const std::string& base);
-nlohmann::json describe_seeds_description(const std::string& base);
+nlohmann::json describe_seeds_description(const std::string& base, const ServerConfig& config);
 
 // The answer to an execution request. Throws rv::Error: invalid_argument (the request),
 // invalid_input (the data), too_large (the limits), with the client's names for its uploads.
