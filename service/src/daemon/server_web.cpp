@@ -189,7 +189,8 @@ ApiResponse asset_response(const std::string& web_dir, const ApiRequest& request
   const std::string file = web_dir + "/" + std::string(name);
   struct stat st {};
   if (::stat(file.c_str(), &st) != 0 || !S_ISREG(st.st_mode)) return file_body(file, name);
-  const std::string etag = "\"" + std::to_string(st.st_size) + "-" + std::to_string(st.st_mtim.tv_sec) + "." +
+  // Weak (RFC 9110 8.8.1): one validator for the file and its gzip copy, which carry the same content.
+  const std::string etag = "W/\"" + std::to_string(st.st_size) + "-" + std::to_string(st.st_mtim.tv_sec) + "." +
                            std::to_string(st.st_mtim.tv_nsec) + "\"";
   if (request.if_none_match.find(etag) != std::string::npos) {
     ApiResponse r;

@@ -63,8 +63,8 @@ bool is_asset(std::string_view target);
 ApiResponse page_response(const std::string& web_dir);
 
 // /static/<name> from `web_dir`: the file with its media type and the security headers; 404
-// problem for a name that is not a plain file name there. Every asset carries a validator (ETag
-// from its size and modification time, so a rebuilt bundle is fetched again) and is answered 304
+// problem for a name that is not a plain file name there. Every asset carries a validator (a weak
+// ETag from its size and modification time, so a rebuilt bundle is fetched again) and is answered 304
 // when If-None-Match names it; where the build left a gzip copy beside it (<name>.gz, as for the
 // map page's bundle) and Accept-Encoding allows gzip, that copy is sent (Content-Encoding gzip).
 ApiResponse asset_response(const std::string& web_dir, const ApiRequest& request);
