@@ -97,6 +97,17 @@ export function tokenForm(onToken) {
   return form;
 }
 
+// The header's token line: "Token set" and a button that forgets it, then runs `onForget`.
+export function sessionBar(onForget) {
+  const bar = document.getElementById("session");
+  if (!bar) return;
+  bar.replaceChildren();
+  if (token()) {
+    bar.append("Token set ",
+      el("button", { type: "button", text: "Forget", onclick: () => { sessionStorage.removeItem(TOKEN_KEY); onForget(); } }));
+  }
+}
+
 // ---- Files ----------------------------------------------------------------------------
 
 export function humanBytes(n) {

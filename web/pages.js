@@ -8,7 +8,7 @@
 // "Authorization: Bearer" on every request the page makes, downloads included (they are fetched,
 // then saved from memory), and never put in a URL.
 
-import { TOKEN_KEY, el, table, facts, token, headers, Problem, getJson, problemView as problemBox, humanBytes, download } from "./client.js";
+import { el, sessionBar, table, facts, headers, Problem, getJson, problemView as problemBox, humanBytes, download } from "./client.js";
 
 const content = document.getElementById("content");
 const problemView = (p) => problemBox(p, render);
@@ -33,16 +33,6 @@ function pageLink(href, text) {
 function show(...nodes) {
   content.replaceChildren(...nodes);
   content.setAttribute("aria-busy", "false");
-}
-
-function sessionBar() {
-  const bar = document.getElementById("session");
-  if (!bar) return;
-  bar.replaceChildren();
-  if (token()) {
-    bar.append("Token set ",
-      el("button", { type: "button", text: "Forget", onclick: () => { sessionStorage.removeItem(TOKEN_KEY); render(); } }));
-  }
 }
 
 // ---- Resources --------------------------------------------------------------------------
@@ -204,7 +194,7 @@ const VIEWS = [
 
 async function render() {
   clearTimeout(pollTimer);
-  sessionBar();
+  sessionBar(render);
   const path = location.pathname.replace(/\/+$/, "") || "/";
   try {
     if (path === "/api") {

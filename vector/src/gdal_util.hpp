@@ -26,6 +26,11 @@ struct SrsReleaser {
 };
 using SrsPtr = std::unique_ptr<OGRSpatialReference, SrsReleaser>;
 
+struct CtDeleter {
+  void operator()(OGRCoordinateTransformation* ct) const { OGRCoordinateTransformation::DestroyCT(ct); }
+};
+using CtPtr = std::unique_ptr<OGRCoordinateTransformation, CtDeleter>;
+
 // Captures GDAL's messages on the calling thread while alive (GDAL's handler stack is
 // per-thread), so that they end up in rv::Error messages and report warnings instead of on
 // stderr. Nests: the previous handler is restored on destruction.

@@ -19,10 +19,7 @@
 namespace rv {
 namespace {
 
-struct CtDeleter {
-  void operator()(OGRCoordinateTransformation* ct) const { OGRCoordinateTransformation::DestroyCT(ct); }
-};
-using CtPtr = std::unique_ptr<OGRCoordinateTransformation, CtDeleter>;
+using gdal::CtPtr;
 
 std::atomic<uint64_t> g_next_serial{1};  // 0 marks an empty cache entry
 

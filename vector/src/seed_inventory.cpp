@@ -18,10 +18,7 @@
 namespace rv::detail {
 namespace {
 
-struct CtDeleter {
-  void operator()(OGRCoordinateTransformation* ct) const { OGRCoordinateTransformation::DestroyCT(ct); }
-};
-using CtPtr = std::unique_ptr<OGRCoordinateTransformation, CtDeleter>;
+using gdal::CtPtr;
 
 const char* type_name(OGRFieldType t, OGRFieldSubType sub) {
   switch (t) {
@@ -93,10 +90,24 @@ std::string geojson(const OGRGeometry& g) {
 
 }  // namespace
 
-void take_inventory(const std::vector<InventoryLayer>& layers, const OGRSpatialReference* target,
-                    const SeedReadOptions& options, bool with_features, const InventoryHooks& hooks,
-                    SeedInventory& out) {
-  int64_t features_seen = 0;
+bool truly_empty(const OGRGeometry& g) {
+  const OGRwkbGeometryType type = wkbFlatten(g.getGeometryType());
+  if (type == wkbPoint) {
+    const OGRPoint* p = g.toPoint();
+    if (!p->IsEmpty()) return false;
+    return std::isnan(p->getX()) == std::isnan(p->getY());
+  }
+  if (OGR_GT_IsSubClassOf(type, wkbGeometryCollection)) {
+    const OGRGeometryCollection* c = g.toGeometryCollection();
+    for (int i = 0; i < c->getNumGeometries(); ++i)
+      if (!truly_empty(*c->getGeometryRef(i))) return false;
+    return true;
+  }
+  return g.IsEmpty() != 0;
+}
+
+void take_inventory(const std::vector<InventoryLayer>& layers, const OGRSpatialReference* target, bool with_features,
+                    const InventoryHooks& hooks, SeedInventory& out) {
   int64_t position = 0;
   for (size_t li = 0; li < layers.size(); ++li) {
     const InventoryLayer& l = layers[li];
@@ -121,12 +132,7 @@ void take_inventory(const std::vector<InventoryLayer>& layers, const OGRSpatialR
         throw Error(ErrorKind::invalid_input,
                     "layer " + l.label + ": no transformation from its CRS to the target CRS" + capture.suffix());
     }
-    if (options.max_features > 0) {
-      const GIntBig count = l.layer->GetFeatureCount(FALSE);
-      if (count >= 0 && features_seen + count > options.max_features)
-        throw Error(ErrorKind::too_large, "the seed data has more than " + std::to_string(options.max_features) +
-                                              " features, the limit (reached in layer " + l.label + ")");
-    }
+    hooks.check_declared_features(*l.layer, l.label);
     std::set<std::string> types;
     l.layer->ResetReading();
     while (true) {
@@ -134,9 +140,7 @@ void take_inventory(const std::vector<InventoryLayer>& layers, const OGRSpatialR
       hooks.check_network(l.label);
       if (!feature) break;
       ++position;
-      if (options.max_features > 0 && ++features_seen > options.max_features)
-        throw Error(ErrorKind::too_large, "the seed data has more than " + std::to_string(options.max_features) +
-                                              " features, the limit (reached in layer " + l.label + ")");
+      hooks.count_feature(l.label);
       ++summary.features;
       const std::string source = l.label + ":fid " + std::to_string(feature->GetFID());
       SeedPreviewFeature preview;
@@ -152,7 +156,7 @@ void take_inventory(const std::vector<InventoryLayer>& layers, const OGRSpatialR
         if (with_features) preview.values.push_back(std::move(value));
       }
       const OGRGeometry* geometry = feature->GetGeometryRef();
-      if (geometry == nullptr || geometry->IsEmpty()) {
+      if (geometry == nullptr || truly_empty(*geometry)) {
         ++summary.empty;
       } else {
         hooks.count_vertices(*geometry, source);

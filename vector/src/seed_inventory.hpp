@@ -29,6 +29,10 @@ struct InventoryLayer {
 struct InventoryHooks {
   // Throws when the confined reading was refused a network access (the reader's rule).
   std::function<void(const std::string& where)> check_network;
+  // The reader's feature limit: a layer's declared count before it is read, then each feature
+  // (throw too_large).
+  std::function<void(OGRLayer& layer, const std::string& label)> check_declared_features;
+  std::function<void(const std::string& label)> count_feature;
   // Counts a feature's vertices against the reader's limits (throws too_large).
   std::function<void(const OGRGeometry& geometry, const std::string& source)> count_vertices;
   // Reading errors are invalid_input for uploads, io for local files.
@@ -36,10 +40,16 @@ struct InventoryHooks {
 };
 
 // Fills `out.layers`, `out.bounds` and (with_features) `out.features`; `target` null means no
-// reprojection (no CRS anywhere). Throws rv::Error: too_large (max_features, or the hooks'
-// limits), invalid_input (a geometry that cannot be reprojected), the read error kind.
-void take_inventory(const std::vector<InventoryLayer>& layers, const OGRSpatialReference* target,
-                    const SeedReadOptions& options, bool with_features, const InventoryHooks& hooks,
-                    SeedInventory& out);
+// reprojection (no CRS anywhere). Throws rv::Error: too_large (the hooks' limits), invalid_input
+// (a geometry that cannot be reprojected), the read error kind.
+void take_inventory(const std::vector<InventoryLayer>& layers, const OGRSpatialReference* target, bool with_features,
+                    const InventoryHooks& hooks, SeedInventory& out);
+
+// Whether a geometry counts as empty (a seed run skips it; an inventory counts it as empty).
+// OGR flags a point whose coordinate is NaN as empty (WKB writes POINT EMPTY as (NaN, NaN)), so a
+// data error such as [NaN, 1.0] would pass for an empty geometry. A point counts as empty here
+// only when OGR says so and its coordinates are not half NaN; a partly-NaN point is kept so that
+// the coordinate check reports it.
+bool truly_empty(const OGRGeometry& g);
 
 }  // namespace rv::detail

@@ -37,10 +37,8 @@ using detail::SeedPart;
 
 using detail::kArcStepDegrees;
 
-struct CtDeleter {
-  void operator()(OGRCoordinateTransformation* ct) const { OGRCoordinateTransformation::DestroyCT(ct); }
-};
-using CtPtr = std::unique_ptr<OGRCoordinateTransformation, CtDeleter>;
+using detail::truly_empty;
+using gdal::CtPtr;
 
 struct LayerRef {
   size_t file = 0;            // index into options.paths
@@ -71,26 +69,6 @@ std::string list_layers(GDALDataset& ds) {
     out += escape_utf8(ds.GetLayer(i)->GetName());
   }
   return out.empty() ? "(none)" : out;
-}
-
-// OGR flags a point whose coordinate is NaN as empty (WKB writes POINT EMPTY as (NaN, NaN)), so a
-// data error such as [NaN, 1.0] would pass for an empty geometry. A point counts as empty here
-// only when OGR says so and its coordinates are not half NaN; a partly-NaN point is kept so that
-// the coordinate check reports it.
-bool truly_empty(const OGRGeometry& g) {
-  const OGRwkbGeometryType type = wkbFlatten(g.getGeometryType());
-  if (type == wkbPoint) {
-    const OGRPoint* p = g.toPoint();
-    if (!p->IsEmpty()) return false;
-    return std::isnan(p->getX()) == std::isnan(p->getY());
-  }
-  if (OGR_GT_IsSubClassOf(type, wkbGeometryCollection)) {
-    const OGRGeometryCollection* c = g.toGeometryCollection();
-    for (int i = 0; i < c->getNumGeometries(); ++i)
-      if (!truly_empty(*c->getGeometryRef(i))) return false;
-    return true;
-  }
-  return g.IsEmpty() != 0;
 }
 
 // Splits a (linear, 2D) geometry into owned clones of its simple parts: points, line strings
@@ -305,10 +283,12 @@ class Reader {
     }
     std::vector<detail::InventoryLayer> layers;
     for (const LayerRef& l : layers_) layers.push_back({l.layer, layer_label(l), l.name, l.srs.get()});
-    detail::InventoryHooks hooks{[this](const std::string& where) { check_network(where); },
-                                 [this](const OGRGeometry& g, const std::string& source) { count_vertices(g, source); },
-                                 read_error_kind()};
-    detail::take_inventory(layers, target_.get(), options_, with_features, hooks, inventory);
+    detail::InventoryHooks hooks{
+        [this](const std::string& where) { check_network(where); },
+        [this](OGRLayer& layer, const std::string& label) { check_declared_features(layer, label); },
+        [this](const std::string& label) { count_feature(label); },
+        [this](const OGRGeometry& g, const std::string& source) { count_vertices(g, source); }, read_error_kind()};
+    detail::take_inventory(layers, target_.get(), with_features, hooks, inventory);
     inventory.warnings = out_.report.warnings;
   }
 
@@ -621,17 +601,13 @@ class Reader {
     }
     const bool source_geographic = l.srs && l.srs->IsGeographic();
     const bool target_geographic = target_ && target_->IsGeographic();
-    if (options_.max_features > 0) {
-      // Refused up front when the driver knows the count cheaply (GPKG, Shapefile, FlatGeobuf).
-      const GIntBig count = l.layer->GetFeatureCount(FALSE);
-      if (count >= 0 && features_seen_ + count > options_.max_features) too_many_features(l);
-    }
+    check_declared_features(*l.layer, layer_label(l));
     l.layer->ResetReading();
     while (true) {
       std::unique_ptr<OGRFeature> feature(l.layer->GetNextFeature());
       check_network(layer_label(l));
       if (!feature) break;
-      if (options_.max_features > 0 && ++features_seen_ > options_.max_features) too_many_features(l);
+      count_feature(layer_label(l));
       read_feature(l, *feature, owner_index, ct.get(), source_geographic, target_geographic);
     }
     if (!capture.last_error().empty())
@@ -672,9 +648,19 @@ class Reader {
     return f.GetFieldAsDouble(index);
   }
 
-  [[noreturn]] void too_many_features(const LayerRef& l) const {
+  // The feature limit (max_features), over every layer read: a layer is refused up front when
+  // its driver knows the count cheaply (GPKG, Shapefile, FlatGeobuf), else at the feature over it.
+  void check_declared_features(OGRLayer& layer, const std::string& label) const {
+    if (options_.max_features <= 0) return;
+    const GIntBig count = layer.GetFeatureCount(FALSE);
+    if (count >= 0 && features_seen_ + count > options_.max_features) too_many_features(label);
+  }
+  void count_feature(const std::string& label) {
+    if (options_.max_features > 0 && ++features_seen_ > options_.max_features) too_many_features(label);
+  }
+  [[noreturn]] void too_many_features(const std::string& label) const {
     throw Error(ErrorKind::too_large, "the seed data has more than " + std::to_string(options_.max_features) +
-                                          " features, the limit (reached in layer " + layer_label(l) + ")");
+                                          " features, the limit (reached in layer " + label + ")");
   }
 
   // Counted on the geometry as the driver returned it, before anything is copied: a feature over

@@ -8,7 +8,7 @@
 
 import "ol/ol.css";
 import "./app.css";
-import { el, token, TOKEN_KEY, headers, Problem, getJson, problemView, humanBytes, download, saveBlob } from "../client.js";
+import { el, table, sessionBar, headers, Problem, getJson, problemView, humanBytes, download, saveBlob } from "../client.js";
 import { ACCEPT, seedInput, describeSeeds, postJson } from "./upload.js";
 import { jobFields, readForm, niceNumber } from "./form.js";
 import { MapView, projectionFor } from "./map.js";
@@ -48,16 +48,6 @@ function problemBox(e) {
 
 function showProblem(where, e) {
   where.replaceChildren(problemBox(e));
-}
-
-// ---- The session bar ------------------------------------------------------------------------
-
-function sessionBar() {
-  const bar = document.getElementById("session");
-  bar.replaceChildren();
-  if (token()) {
-    bar.append("Token set ", el("button", { type: "button", text: "Forget", onclick: () => { sessionStorage.removeItem(TOKEN_KEY); location.reload(); } }));
-  }
 }
 
 // ---- The seed file ----------------------------------------------------------------------------
@@ -107,14 +97,13 @@ function inventoryOf(d) {
 }
 
 function seedSummary(file, inv) {
-  const rows = (inv.layers || []).map((l) =>
-    el("tr", {}, el("td", { text: l.name }), el("td", { class: "num", text: String(l.features) }), el("td", { text: l.geometryTypes.join(", ") })));
+  const layers = table(["Layer", "Features", "Geometry"],
+    (inv.layers || []).map((l) => [l.name, String(l.features), l.geometryTypes.join(", ")]),
+    "CRS: " + (inv.crs.name || "none") + (inv.crs.code ? " (" + inv.crs.code + ")" : ""));
+  layers.classList.add("layers");
   const parts = [
     el("p", { class: "file" }, el("strong", { text: file.name }), " · " + humanBytes(file.size) + " · " + inv.featureCount + " features"),
-    el("table", { class: "layers" },
-      el("caption", { class: "muted", text: "CRS: " + (inv.crs.name || "none") + (inv.crs.code ? " (" + inv.crs.code + ")" : "") }),
-      el("thead", {}, el("tr", {}, el("th", { scope: "col", text: "Layer" }), el("th", { scope: "col", text: "Features" }), el("th", { scope: "col", text: "Geometry" }))),
-      el("tbody", {}, ...rows)),
+    layers,
   ];
   for (const w of inv.warnings || []) parts.push(el("p", { class: "warning", text: w }));
   return parts;
@@ -356,7 +345,7 @@ view.map.on("singleclick", async (ev) => {
 // ---- Start ------------------------------------------------------------------------------------
 
 async function start() {
-  sessionBar();
+  sessionBar(() => location.reload());
   try {
     state.process = await getJson("/processes/voronoi");
     sections.seeds.append(el("h2", { id: "h-seeds", text: "1 · Seeds" }), seedPicker());

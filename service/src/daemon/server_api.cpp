@@ -79,12 +79,6 @@ bool plausible_host(const std::string& h) {
   });
 }
 
-json link(const std::string& href, const std::string& rel, const std::string& type, const std::string& title = "") {
-  json l = {{"href", href}, {"rel", rel}, {"type", type}};
-  if (!title.empty()) l["title"] = title;
-  return l;
-}
-
 // The media type output `id` of job `r` was written as (the ownership raster's sidecar too).
 std::string media_of(const JobRecord& r, const std::string& id) {
   if (id == "ownership.aux.xml") return "application/xml";

@@ -27,16 +27,6 @@ using nlohmann::json;
 
 std::string type_name(const json& v) { return v.type_name(); }
 
-// OGC inputs may be given bare or as a qualified value {"value": ..., "mediaType": ...}; for
-// the literal inputs both mean the same. References are refused: the server never fetches.
-const json& literal(const json& v, const std::string& input) {
-  if (v.is_object()) {
-    if (v.contains("href")) bad(input, "references (href) are not accepted; send the value itself");
-    if (v.contains("value")) return v.at("value");
-  }
-  return v;
-}
-
 std::string string_value(const json& raw, const std::string& input) {
   const json& v = literal(raw, input);
   if (!v.is_string()) bad(input, "must be a string, got " + type_name(v));
@@ -302,6 +292,31 @@ std::string checked_crs(const json& raw, const std::string& input) {
                  s.substr(0, 80) + "'");
 }
 
+// OGC inputs may be given bare or as a qualified value {"value": ..., "mediaType": ...}; for
+// the literal inputs both mean the same. References are refused: the server never fetches.
+const json& literal(const json& v, const std::string& input) {
+  if (v.is_object()) {
+    if (v.contains("href")) bad(input, "references (href) are not accepted; send the value itself");
+    if (v.contains("value")) return v.at("value");
+  }
+  return v;
+}
+
+void check_body_members(const json& body) {
+  if (!body.is_object()) bad("(body)", "the execute request must be a JSON object");
+  for (const auto& [key, value] : body.items()) {
+    if (key == "subscriber") {
+      throw Error(ErrorKind::unsupported, "callbacks (\"subscriber\") are not supported; poll /jobs/{jobId}");
+    }
+    if (key != "inputs" && key != "outputs" && key != "response") {
+      throw Error(ErrorKind::invalid_argument, "execute request: unknown member '" + quote_input(key) + "'");
+    }
+  }
+  if (!body.contains("inputs") || !body.at("inputs").is_object()) {
+    bad("inputs", "the execute request needs an \"inputs\" object");
+  }
+}
+
 // Upload paths in messages are ours (/vsimem/rvoronoi/<id>/seeds_<n>.<ext>,
 // relevantArea.<ext>, relevantCoasts.<ext>); the client knows its layers as seeds[n] and the
 // inputs by name.
@@ -335,21 +350,6 @@ json stage_seed_input(const json& in, SeedReadOptions& read, VsiMemFiles& files)
 }
 
 namespace {
-
-void check_body_members(const json& body) {
-  if (!body.is_object()) bad("(body)", "the execute request must be a JSON object");
-  for (const auto& [key, value] : body.items()) {
-    if (key == "subscriber") {
-      throw Error(ErrorKind::unsupported, "callbacks (\"subscriber\") are not supported; poll /jobs/{jobId}");
-    }
-    if (key != "inputs" && key != "outputs" && key != "response") {
-      throw Error(ErrorKind::invalid_argument, "execute request: unknown member '" + quote_input(key) + "'");
-    }
-  }
-  if (!body.contains("inputs") || !body.at("inputs").is_object()) {
-    bad("inputs", "the execute request needs an \"inputs\" object");
-  }
-}
 
 // seeds: one layer or an array of layers, staged in /vsimem/.
 void stage_seeds(const json& in, Execution& ex) {

@@ -91,6 +91,14 @@ Execution parse_execution(const nlohmann::json& body, const std::string& job_id,
 // layer: its type and size). Throws rv::Error(invalid_argument / invalid_input) naming the input.
 nlohmann::json stage_seed_input(const nlohmann::json& in, SeedReadOptions& read, VsiMemFiles& files);
 
+// The value of a literal input given bare or as a qualified value {"value": ...}. Throws
+// rv::Error(invalid_argument) for a reference (href): the server never fetches.
+const nlohmann::json& literal(const nlohmann::json& value, const std::string& input);
+
+// The members of an execute request: an "inputs" object, and "outputs" and "response" at most.
+// Throws rv::Error: unsupported ("subscriber": callbacks), invalid_argument (any other member).
+void check_body_members(const nlohmann::json& body);
+
 // A message with the upload paths of job `id` (/vsimem/rvoronoi/<id>/seeds_<n>.<ext>,
 // relevantArea.<ext>, relevantCoasts.<ext>) in the names the client knows: seeds[n], the input.
 std::string client_names(std::string message, const std::string& id);

@@ -16,20 +16,20 @@ using nlohmann::json;
 
 json describe_seeds_summary(const std::string& base) {
   const std::string self = base + "/processes/" + kDescribeSeedsId;
-  return {{"id", kDescribeSeedsId},
-          {"title", "Describe seed files"},
-          {"description",
-           "What uploaded seed files hold, before a job is made of them: their layers, fields (type, "
-           "distinct values), feature counts, geometry types, CRS and box, and optionally every feature in "
-           "the grid CRS (GeoJSON), for choosing the owner field and the grid."},
-          {"version", "1.0.0"},
-          {"keywords", json::array({"seeds", "fields", "inspect"})},
-          {"jobControlOptions", json::array({"sync-execute"})},
-          {"outputTransmission", json::array({"value"})},
-          {"links", json::array({{{"href", self}, {"rel", "self"}, {"type", "application/json"}},
-                                 {{"href", self + "/execution"},
-                                  {"rel", "http://www.opengis.net/def/rel/ogc/1.0/execute"},
-                                  {"type", "application/json"}}})}};
+  return {
+      {"id", kDescribeSeedsId},
+      {"title", "Describe seed files"},
+      {"description",
+       "What uploaded seed files hold, before a job is made of them: their layers, fields (type, "
+       "distinct values), feature counts, geometry types, CRS and box, and optionally every feature in "
+       "the grid CRS (GeoJSON), for choosing the owner field and the grid."},
+      {"version", "1.0.0"},
+      {"keywords", json::array({"seeds", "fields", "inspect"})},
+      {"jobControlOptions", json::array({"sync-execute"})},
+      {"outputTransmission", json::array({"value"})},
+      {"links",
+       json::array({link(self, "self", "application/json"),
+                    link(self + "/execution", "http://www.opengis.net/def/rel/ogc/1.0/execute", "application/json")})}};
 }
 
 json describe_seeds_description(const std::string& base, const ServerConfig& config) {
@@ -68,11 +68,7 @@ json describe_seeds_description(const std::string& base, const ServerConfig& con
 }
 
 json describe_seeds_execute(const json& body, const ServerConfig& config) {
-  if (!body.is_object() || !body.contains("inputs") || !body.at("inputs").is_object())
-    throw Error(ErrorKind::invalid_argument, "input 'inputs': the execute request needs an \"inputs\" object");
-  for (const auto& [key, value] : body.items())
-    if (key != "inputs" && key != "outputs" && key != "response")
-      throw Error(ErrorKind::invalid_argument, "execute request: unknown member '" + quote_input(key) + "'");
+  check_body_members(body);
   const json& in = body.at("inputs");
   bool with_features = false;
   SeedReadOptions read;
@@ -81,7 +77,7 @@ json describe_seeds_execute(const json& body, const ServerConfig& config) {
     if (key == "crs") {
       read.target_crs = checked_crs(value, "crs");
     } else if (key == "features") {
-      const json& v = value.is_object() && value.contains("value") ? value.at("value") : value;
+      const json& v = literal(value, "features");
       if (!v.is_boolean()) throw Error(ErrorKind::invalid_argument, "input 'features': must be true or false");
       with_features = v.get<bool>();
     } else {

@@ -230,4 +230,11 @@ bool starts_with_ci(std::string_view s, std::string_view prefix) {
   return true;
 }
 
+nlohmann::json link(const std::string& href, const std::string& rel, const std::string& type,
+                    const std::string& title) {
+  nlohmann::json l = {{"href", href}, {"rel", rel}, {"type", type}};
+  if (!title.empty()) l["title"] = title;
+  return l;
+}
+
 }  // namespace rv::daemon

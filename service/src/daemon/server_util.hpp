@@ -29,6 +29,10 @@ std::string http_date(std::chrono::system_clock::time_point t);
 inline constexpr int kMaxBodyDepth = 64;
 nlohmann::json parse_body_json(std::string_view body);
 
+// An OGC API link object: href, rel, type and (when not empty) title.
+nlohmann::json link(const std::string& href, const std::string& rel, const std::string& type,
+                    const std::string& title = "");
+
 // Decodes standard base64 (RFC 4648, padding optional, whitespace ignored).
 // Throws rv::Error(invalid_argument) naming `what` on any other character.
 std::string base64_decode(std::string_view text, const std::string& what);
