@@ -431,6 +431,14 @@ struct Edit::State {
     std::vector<std::vector<std::pair<int64_t, int64_t>>> spans;
     int64_t removed_cells = 0, blocks = 0;
   };
+  // Why a tile of the grid must be read: a removed feature may have owned some of its cells, an
+  // added one may win some, or a box of changed polygon edges meets it.
+  struct TileNeed {
+    bool by_removal = false, by_addition = false, boxed = false;
+    bool any() const { return by_removal || by_addition || boxed; }
+  };
+  TileNeed tile_need(int64_t tr, int64_t tc, const TileSummaries* tiles) const;
+  void check_tiles(const TileSummaries* tiles) const;
   // `boxed`: cells in a box of changed polygon edges may be there.
   Part plan_part(const NearestField& base, const Window& w, int64_t c0, int64_t r0, int64_t c1, int64_t r1,
                  bool by_removal, bool by_addition, bool boxed) const;
@@ -517,6 +525,39 @@ Edit::Edit(Edit&&) noexcept = default;
 const FeatureMatch& Edit::match() const { return st_->match; }
 const std::vector<int32_t>& Edit::site_map() const { return st_->remap; }
 
+bool Edit::keeps_indices() const { return st_->keeps_indices; }
+
+Edit::State::TileNeed Edit::State::tile_need(int64_t tr, int64_t tc, const TileSummaries* tiles) const {
+  constexpr int64_t T = TileSummaries::kTile;
+  const int64_t gc0 = tc * T, gr0 = tr * T;
+  const int64_t gc1 = std::min(grid.width, gc0 + T), gr1 = std::min(grid.height, gr0 + T);
+  TileNeed n{removed.any, added.any, box_meets(gc0, gr0, gc1, gr1)};
+  if (tiles) {
+    const size_t k = static_cast<size_t>(tr * tiles->cols + tc);
+    const double max_d = tiles->max_distance[k], max_c = tiles->max_cost[k];
+    const bool unowned = tiles->unowned[k] != 0;
+    n.by_removal = n.by_removal && max_d >= 0.0 && removed.may_own(grid, gc0, gr0, gc1, gr1, max_d * (1.0 + kSlack));
+    n.by_addition = n.by_addition && added.may_win(grid, gc0, gr0, gc1, gr1, max_c * (1.0 + kSlack), unowned);
+  }
+  return n;
+}
+
+void Edit::State::check_tiles(const TileSummaries* tiles) const {
+  constexpr int64_t T = TileSummaries::kTile;
+  if (tiles && (tiles->cols != (grid.width + T - 1) / T || tiles->rows != (grid.height + T - 1) / T))
+    throw Error(ErrorKind::invalid_argument, "edit: the tile summaries do not fit the grid");
+}
+
+std::vector<uint8_t> Edit::tiles_to_read(const TileSummaries& tiles) const {
+  const State& st = *st_;
+  st.check_tiles(&tiles);
+  std::vector<uint8_t> out(static_cast<size_t>(tiles.cols * tiles.rows), 0);
+  for (int64_t tr = 0; tr < tiles.rows; ++tr)
+    for (int64_t tc = 0; tc < tiles.cols; ++tc)
+      out[static_cast<size_t>(tr * tiles.cols + tc)] = st.tile_need(tr, tc, &tiles).any() ? 1 : 0;
+  return out;
+}
+
 EditPlan Edit::plan(const NearestField& base, const TileSummaries* tiles) const {
   const State& st = *st_;
   const GridSpec& g = st.grid;
@@ -525,37 +566,28 @@ EditPlan Edit::plan(const NearestField& base, const TileSummaries* tiles) const 
   plan.match = st.match;
   const Window w = base.site.window();
   plan.mask = CellMask::none(w);
-  if (tiles && (tiles->cols != (g.width + T - 1) / T || tiles->rows != (g.height + T - 1) / T))
-    throw Error(ErrorKind::invalid_argument, "edit: the tile summaries do not fit the grid");
+  st.check_tiles(tiles);
   // The tiles of the window (clipped to it), and which of them must be read.
   struct Part {
     int64_t c0, r0, c1, r1;  // window-relative
-    bool by_removal, by_addition, boxed;
+    State::TileNeed need;
   };
   std::vector<Part> parts;
   for (int64_t tr = w.row0 / T; tr * T < w.row0 + w.height; ++tr)
     for (int64_t tc = w.col0 / T; tc * T < w.col0 + w.width; ++tc) {
+      const State::TileNeed need = st.tile_need(tr, tc, tiles);
+      if (!need.any()) continue;
       const int64_t gc0 = tc * T, gr0 = tr * T;
       const int64_t gc1 = std::min(g.width, gc0 + T), gr1 = std::min(g.height, gr0 + T);
-      bool by_removal = st.removed.any, by_addition = st.added.any;
-      if (tiles) {
-        const size_t k = static_cast<size_t>(tr * tiles->cols + tc);
-        const double max_d = tiles->max_distance[k], max_c = tiles->max_cost[k];
-        const bool unowned = tiles->unowned[k] != 0;
-        by_removal = by_removal && max_d >= 0.0 && st.removed.may_own(g, gc0, gr0, gc1, gr1, max_d * (1.0 + kSlack));
-        by_addition = by_addition && st.added.may_win(g, gc0, gr0, gc1, gr1, max_c * (1.0 + kSlack), unowned);
-      }
-      const bool boxed = st.box_meets(gc0, gr0, gc1, gr1);
-      if (!by_removal && !by_addition && !boxed) continue;
       plan.tiles_read.push_back(tr * ((g.width + T - 1) / T) + tc);
       parts.push_back({std::max(gc0, w.col0) - w.col0, std::max(gr0, w.row0) - w.row0,
-                       std::min(gc1, w.col0 + w.width) - w.col0, std::min(gr1, w.row0 + w.height) - w.row0, by_removal,
-                       by_addition, boxed});
+                       std::min(gc1, w.col0 + w.width) - w.col0, std::min(gr1, w.row0 + w.height) - w.row0, need});
     }
   std::vector<State::Part> done(parts.size());
   detail::parallel_for(resolve_threads(st.options.threads), static_cast<int64_t>(parts.size()), [&](int64_t k, int) {
     const Part& p = parts[static_cast<size_t>(k)];
-    done[static_cast<size_t>(k)] = st.plan_part(base, w, p.c0, p.r0, p.c1, p.r1, p.by_removal, p.by_addition, p.boxed);
+    done[static_cast<size_t>(k)] =
+        st.plan_part(base, w, p.c0, p.r0, p.c1, p.r1, p.need.by_removal, p.need.by_addition, p.need.boxed);
   });
   // Tiles in row-major order: each row's spans come in column order.
   for (size_t k = 0; k < parts.size(); ++k) {
@@ -571,30 +603,52 @@ EditPlan Edit::plan(const NearestField& base, const TileSummaries* tiles) const 
   return plan;
 }
 
-void Edit::apply(const NearestField& base, const EditPlan& plan, NearestField& out) const {
+void Edit::apply(const NearestField& base, const EditPlan& plan, NearestField& out,
+                 const std::vector<uint8_t>* valid) const {
   const State& st = *st_;
   const bool in_place = &out == &base;
+  if (valid && !in_place) throw Error(ErrorKind::invalid_argument, "edit: valid tiles are for an edit in place");
   if (!in_place) {
     out.site = base.site;
     out.distance = base.distance;
     out.metric = base.metric;
     out.geolocator = base.geolocator;
   }
+  auto renumber = [&](int32_t* cells, int64_t n) {
+    for (int64_t c = 0; c < n; ++c)
+      if (cells[c] != kNoSite) cells[c] = st.remap[static_cast<size_t>(cells[c])];
+  };
+  const Window w = out.site.window();
   if (in_place && st.keeps_indices) {
     // Every cell outside the mask has a kept site, which keeps its index: only the mask's cells
     // (those of removed sites among them) are renumbered.
-    for (int64_t r = 0; r < out.site.height(); ++r)
-      for (const auto& [c0, c1] : plan.mask.rows[static_cast<size_t>(r)])
-        for (int64_t c = c0; c < c1; ++c) {
-          int32_t& s = out.site.at(c, r);
-          if (s != kNoSite) s = st.remap[static_cast<size_t>(s)];
-        }
+    for (int64_t r = 0; r < w.height; ++r)
+      for (const auto& [c0, c1] : plan.mask.rows[static_cast<size_t>(r)]) renumber(&out.site.at(c0, r), c1 - c0);
+  } else if (valid) {
+    constexpr int64_t T = TileSummaries::kTile;
+    const int64_t cols = (st.grid.width + T - 1) / T;
+    if (static_cast<int64_t>(valid->size()) != cols * ((st.grid.height + T - 1) / T))
+      throw Error(ErrorKind::invalid_argument, "edit: the valid tiles do not fit the grid");
+    for (int64_t r = 0; r < w.height; ++r) {
+      const int64_t gr = w.row0 + r;
+      for (int64_t gc0 = w.col0 / T * T; gc0 < w.col0 + w.width; gc0 += T) {
+        if (!(*valid)[static_cast<size_t>((gr / T) * cols + gc0 / T)]) continue;
+        const int64_t c0 = std::max(gc0, w.col0) - w.col0, c1 = std::min(gc0 + T, w.col0 + w.width) - w.col0;
+        renumber(&out.site.at(c0, r), c1 - c0);
+      }
+    }
   } else {
-    for (int32_t& s : out.site.cells())
-      if (s != kNoSite) s = st.remap[static_cast<size_t>(s)];
+    renumber(out.site.cells().data(), static_cast<int64_t>(out.site.cells().size()));
+  }
+  // Nothing to compute: the renumbered base is the edited field (an engine call would still
+  // prepare the window).
+  if (plan.cells == 0) {
+    out.seconds = 0.0;
+    out.contested_cells = 0;
+    return;
   }
   ComputeOptions o = st.options;
-  o.window = base.site.window();
+  o.window = w;
   o.mask = std::make_shared<const CellMask>(plan.mask);
   compute_into(st.edited, st.grid, o, out);
 }
@@ -611,7 +665,7 @@ TileSummaries TileSummaries::for_grid(const GridSpec& grid) {
 }
 
 void TileSummaries::add(const int32_t* site, const float* distance, int64_t row0, int64_t rows, int64_t width,
-                        const SeedSet& seeds) {
+                        const SeedSet& seeds, const uint8_t* only) {
   const auto& sites = seeds.sites();
   const auto& features = seeds.features();
   // Without weights a cost is its distance: no site's feature to look up per cell.
@@ -619,6 +673,7 @@ void TileSummaries::add(const int32_t* site, const float* distance, int64_t row0
   for (int64_t r = 0; r < rows; ++r) {
     const size_t tile_row = static_cast<size_t>((row0 + r) / kTile * cols);
     for (int64_t c0 = 0; c0 < width; c0 += kTile) {
+      if (only && !only[static_cast<size_t>(((row0 + r) / kTile - row0 / kTile) * cols + c0 / kTile)]) continue;
       const size_t k = tile_row + static_cast<size_t>(c0 / kTile);
       float max_d = max_distance[k];
       double max_c = max_cost[k];

@@ -16,6 +16,7 @@
 #include <unordered_map>
 
 #include "atomic_file.hpp"
+#include "rv/checksum.hpp"
 #include "rv/error.hpp"
 #include "rv/json_text.hpp"
 #include "rv/seed_archive.hpp"
@@ -26,33 +27,11 @@ namespace fs = std::filesystem;
 namespace {
 
 constexpr const char* kFormat = "rvoronoi-edit-base";
-constexpr int kFormatVersion = 1;
+constexpr int kFormatVersion = 2;  // 2: checksums per tile of every raster
 
-// 64-bit multiply-xorshift over 8-byte words (and the tail bytes): fast enough to run over every
-// cell a run writes (the writers' threads do it as they encode).
-uint64_t mix(uint64_t h, uint64_t v) {
-  h ^= v;
-  h *= 0x9e3779b97f4a7c15ULL;
-  return h ^ (h >> 29);
-}
+constexpr int64_t kTile = TileSummaries::kTile;
 
-uint64_t hash_bytes(const unsigned char* p, size_t n, uint64_t h) {
-  size_t i = 0;
-  for (; i + 8 <= n; i += 8) {
-    uint64_t w;
-    std::memcpy(&w, p + i, 8);
-    h = mix(h, w);
-  }
-  uint64_t tail = 0;
-  std::memcpy(&tail, p + i, n - i);
-  return mix(h, tail ^ (static_cast<uint64_t>(n - i) << 56));
-}
-
-std::string hex(uint64_t v) {
-  char t[17];
-  std::snprintf(t, sizeof t, "%016llx", static_cast<unsigned long long>(v));
-  return t;
-}
+uint64_t bytes_checksum(const std::string& bytes) { return checksum64(bytes.data(), bytes.size()); }
 
 std::string read_whole(const std::string& path, const std::string& name) {
   std::ifstream in(path, std::ios::binary);
@@ -111,28 +90,9 @@ std::string differences(const nlohmann::json& base, const nlohmann::json& now) {
 
 }  // namespace
 
-void BandHasher::add_bytes(const unsigned char* rows, int64_t count, int64_t cell_bytes) {
-  const auto row_bytes = static_cast<size_t>(width_ * cell_bytes);
-  for (int64_t r = 0; r < count; ++r) {
-    h_ = hash_bytes(rows + static_cast<size_t>(r) * row_bytes, row_bytes, h_);
-    if (++rows_in_band_ == kBandRows) {
-      bands_.push_back(h_);
-      h_ = 0;
-      rows_in_band_ = 0;
-    }
-  }
-}
-
-void BandHasher::finish() {
-  if (rows_in_band_ > 0) bands_.push_back(h_);
-  h_ = 0;
-  rows_in_band_ = 0;
-}
-
 std::string edit_base_dir(const std::string& report) { return report + ".rvbase"; }
 
-EditBaseWriter::EditBaseWriter(const JobSpec& spec, const PreparedJob& job)
-    : site_hash(job.grid.width), distance_hash(job.grid.width), tiles(TileSummaries::for_grid(job.grid)) {
+EditBaseWriter::EditBaseWriter(const JobSpec& spec, const PreparedJob& job) : tiles(TileSummaries::for_grid(job.grid)) {
   dir_ = spec.outputs.edit_base.empty() ? edit_base_dir(spec.outputs.report) : spec.outputs.edit_base;
   temp_ = dir_ + ".tmp-" + unique_suffix();
   std::error_code ec;
@@ -147,12 +107,8 @@ EditBaseWriter::EditBaseWriter(const JobSpec& spec, const PreparedJob& job)
   manifest_ = request_params(spec, job);
   manifest_["format"] = kFormat;
   manifest_["version"] = kFormatVersion;
-  manifest_["band_rows"] = kBandRows;
   manifest_["sites"] = sites_;
-  manifest_["seeds"] = {
-      {"file", "seeds.bin"},
-      {"bytes", seeds.size()},
-      {"hash", hex(hash_bytes(reinterpret_cast<const unsigned char*>(seeds.data()), seeds.size(), 0))}};
+  manifest_["seeds"] = {{"file", "seeds.bin"}, {"bytes", seeds.size()}, {"hash", checksum_hex(bytes_checksum(seeds))}};
 }
 
 EditBaseWriter::~EditBaseWriter() {
@@ -174,22 +130,28 @@ GeoTiffOptions EditBaseWriter::distance_options() const {
   return o;
 }
 
+std::vector<uint64_t>* EditBaseWriter::record(const std::string& role, const std::string& path) {
+  auto& r = rasters_[role];
+  r.first = path;
+  return &r.second;
+}
+
 std::string EditBaseWriter::commit() {
-  site_hash.finish();
-  distance_hash.finish();
-  auto hashes = [](const BandHasher& h) {
-    nlohmann::json a = nlohmann::json::array();
-    for (const uint64_t v : h.bands()) a.push_back(hex(v));
-    return a;
-  };
-  manifest_["site"] = {{"file", "site.tif"}, {"hashes", hashes(site_hash)}};
-  const std::string distance_file = shared_distance_.empty()
-                                        ? std::string("distance.tif")
-                                        : fs::absolute(shared_distance_)
-                                              .lexically_normal()
-                                              .lexically_relative(fs::absolute(dir_).lexically_normal())
-                                              .string();
-  manifest_["distance"] = {{"file", distance_file}, {"hashes", hashes(distance_hash)}};
+  // Files in the directory by their names in it; the job's files relative to it, so that the
+  // directory and the outputs beside it may move together.
+  const fs::path temp = fs::absolute(temp_).lexically_normal(), dir = fs::absolute(dir_).lexically_normal();
+  nlohmann::json rasters = nlohmann::json::object();
+  for (const auto& [role, r] : rasters_) {
+    const fs::path p = fs::absolute(r.first).lexically_normal();
+    const std::string file = p.parent_path() == temp ? p.filename().string() : p.lexically_relative(dir).string();
+    nlohmann::json sums = nlohmann::json::array();
+    for (const uint64_t v : r.second) sums.push_back(checksum_hex(v));
+    rasters[role] = {{"file", file}, {"tiles", sums}};
+  }
+  // The job's distance raster when it is the kept one.
+  if (!shared_distance_.empty() && rasters.contains("output_distance"))
+    rasters["distance"] = rasters["output_distance"];
+  manifest_["rasters"] = rasters;
   manifest_["tiles"] = {{"size", TileSummaries::kTile},       {"cols", tiles.cols},         {"rows", tiles.rows},
                         {"max_distance", tiles.max_distance}, {"max_cost", tiles.max_cost}, {"unowned", tiles.unowned}};
   write_file_atomically(temp_ + "/manifest.json", json_text(manifest_, 1) + "\n");
@@ -212,11 +174,8 @@ struct EditBase::State {
   SeedArchive archive;
   std::unique_ptr<GeoTiffRowReader<int32_t>> site;
   std::unique_ptr<GeoTiffRowReader<float>> distance;
-  BandHasher site_hash, distance_hash;
-  std::vector<std::string> site_bands, distance_bands;
-  std::string distance_name;  // as the manifest names it
+  std::map<std::string, Earlier> rasters;  // by role (EditBaseWriter::record)
   TileSummaries tiles;
-  size_t site_checked = 0, distance_checked = 0;
   GridSpec grid;
   MetricSpec metric;
   std::shared_ptr<const Geolocator> geolocator;
@@ -258,7 +217,7 @@ EditBase::EditBase(const std::string& report, const JobSpec& spec, const Prepare
   // A manifest with a member of the wrong type is as damaged as one that does not parse.
   try {
     if (!m.is_object() || m.value("format", "") != kFormat || m.value("version", 0) != kFormatVersion ||
-        m.value("band_rows", int64_t{0}) != kBandRows || !m.contains("grid") || !m["grid"].is_object())
+        !m.contains("grid") || !m["grid"].is_object())
       throw Error(ErrorKind::invalid_input, "base: " + dir_name + "/manifest.json is not a kept base of this version");
     std::string diff = differences(m, request_params(spec, job));
     // A grid taken from the seeds' extent moves with them: name the base's extent to give instead.
@@ -276,19 +235,11 @@ EditBase::EditBase(const std::string& report, const JobSpec& spec, const Prepare
     if (!diff.empty()) throw Error(ErrorKind::invalid_argument, "base: the job differs from its base: " + diff);
     const std::string seeds = read_whole((dir / "seeds.bin").string(), dir_name + "/seeds.bin");
     const nlohmann::json& sm = m.value("seeds", nlohmann::json::object());
-    if (sm.value("hash", "") != hex(hash_bytes(reinterpret_cast<const unsigned char*>(seeds.data()), seeds.size(), 0)))
+    if (sm.value("hash", "") != checksum_hex(bytes_checksum(seeds)))
       throw Error(ErrorKind::invalid_input, "base: " + dir_name + "/seeds.bin was modified since the base run");
     st.archive = decode_seed_archive(seeds);
     if (static_cast<int64_t>(st.archive.seeds.sites().size()) != m.value("sites", int64_t{-1}))
       throw Error(ErrorKind::invalid_input, "base: " + dir_name + "/manifest.json does not fit its seeds");
-    auto bands = [&](const char* key) {
-      std::vector<std::string> out;
-      const nlohmann::json& e = m.value(key, nlohmann::json::object());
-      for (const nlohmann::json& h : e.value("hashes", nlohmann::json::array())) out.push_back(h.get<std::string>());
-      if (static_cast<int64_t>(out.size()) != (job.grid.height + kBandRows - 1) / kBandRows)
-        throw Error(ErrorKind::invalid_input, "base: " + dir_name + "/manifest.json does not fit its grid");
-      return out;
-    };
     try {
       const nlohmann::json& t = m.at("tiles");
       st.tiles = TileSummaries::for_grid(job.grid);
@@ -304,31 +255,42 @@ EditBase::EditBase(const std::string& report, const JobSpec& spec, const Prepare
     } catch (const std::exception&) {
       throw Error(ErrorKind::invalid_input, "base: " + dir_name + "/manifest.json has no tile summaries of its grid");
     }
-    st.site_bands = bands("site");
-    st.distance_bands = bands("distance");
+    // The rasters: each named relative to the directory, with one checksum per tile.
+    const int64_t tile_count = ((job.grid.width + kTile - 1) / kTile) * ((job.grid.height + kTile - 1) / kTile);
+    for (const auto& [role, e] : m.at("rasters").items()) {
+      Earlier r;
+      const std::string file = e.at("file").get<std::string>();
+      if (file.empty() || fs::path(file).is_absolute())
+        throw Error(ErrorKind::invalid_input, "base: " + dir_name + "/manifest.json names a raster outside it");
+      r.path = (dir / file).lexically_normal().string();
+      r.display = "base: " + (fs::path(file).has_parent_path() ? file : dir_name + "/" + file);
+      for (const nlohmann::json& h : e.at("tiles")) {
+        const std::string hex = h.get<std::string>();
+        if (hex.size() != 16) throw nlohmann::json::type_error::create(302, "a checksum of 16 digits", nullptr);
+        r.checksums.push_back(std::stoull(hex, nullptr, 16));
+      }
+      if (static_cast<int64_t>(r.checksums.size()) != tile_count)
+        throw Error(ErrorKind::invalid_input, "base: " + dir_name + "/manifest.json does not fit its grid");
+      st.rasters[role] = std::move(r);
+    }
   } catch (const nlohmann::json::exception&) {
     throw Error(ErrorKind::invalid_input, "base: " + dir_name + "/manifest.json is damaged");
+  } catch (const std::invalid_argument&) {
+    throw Error(ErrorKind::invalid_input, "base: " + dir_name + "/manifest.json is damaged");
   }
-  auto open = [&](const char* file, auto& reader) {
-    const std::string path = (dir / file).string();
-    if (!fs::exists(path)) throw Error(ErrorKind::not_found, "base: " + dir_name + "/" + file + " is missing");
+  auto open = [&](const char* role, auto& reader) {
+    const auto it = st.rasters.find(role);
+    if (it == st.rasters.end())
+      throw Error(ErrorKind::invalid_input, "base: " + dir_name + "/manifest.json names no " + role + " raster");
+    const std::string& path = it->second.path;
+    if (!fs::exists(path)) throw Error(ErrorKind::not_found, it->second.display + " is missing");
     reader = std::make_unique<typename std::remove_reference_t<decltype(reader)>::element_type>(path);
     const GridSpec& g = reader->grid();
     if (g.width != job.grid.width || g.height != job.grid.height)
-      throw Error(ErrorKind::invalid_input, "base: " + dir_name + "/" + file + " does not fit the grid");
+      throw Error(ErrorKind::invalid_input, it->second.display + " does not fit the grid");
   };
-  open("site.tif", st.site);
-  std::string distance_file;
-  try {
-    distance_file = m.value("distance", nlohmann::json::object()).value("file", "");
-  } catch (const nlohmann::json::exception&) {
-  }
-  if (distance_file.empty() || fs::path(distance_file).is_absolute())
-    throw Error(ErrorKind::invalid_input, "base: " + dir_name + "/manifest.json names no distance raster");
-  open(distance_file.c_str(), st.distance);
-  st.distance_name = distance_file;
-  st.site_hash = BandHasher(job.grid.width);
-  st.distance_hash = BandHasher(job.grid.width);
+  open("site", st.site);
+  open("distance", st.distance);
   st.grid = job.grid;
   st.metric = job.compute.metric;
   st.geolocator = job.compute.geolocator;
@@ -337,30 +299,64 @@ EditBase::EditBase(const std::string& report, const JobSpec& spec, const Prepare
 EditBase::~EditBase() = default;
 
 const SeedSet& EditBase::seeds() const { return st_->archive.seeds; }
+const std::vector<int64_t>& EditBase::numbering() const { return st_->archive.numbering; }
 const TileSummaries& EditBase::tiles() const { return st_->tiles; }
 
-void EditBase::read(int64_t row0, int64_t rows, NearestField& out) {
+std::optional<EditBase::Earlier> EditBase::earlier(const std::string& role) const {
+  const auto it = st_->rasters.find(role);
+  if (it == st_->rasters.end()) return std::nullopt;
+  return it->second;
+}
+
+void EditBase::read(int64_t row0, int64_t rows, NearestField& out, const std::vector<uint8_t>* tiles) {
   State& st = *st_;
+  const GridSpec& g = st.grid;
   if (row0 != st.next_row) throw Error(ErrorKind::internal, "EditBase::read: rows out of order");
-  const Window w{0, row0, st.grid.width, rows};
-  out.site.retarget(st.grid, w);
-  out.distance.retarget(st.grid, w);
+  if (row0 % kTile != 0 || (rows % kTile != 0 && row0 + rows != g.height))
+    throw Error(ErrorKind::internal, "EditBase::read: strips of whole bands of tiles");
+  const int64_t cols = (g.width + kTile - 1) / kTile;
+  if (tiles && static_cast<int64_t>(tiles->size()) != cols * ((g.height + kTile - 1) / kTile))
+    throw Error(ErrorKind::internal, "EditBase::read: tile flags that do not fit the grid");
+  const Window w{0, row0, g.width, rows};
+  out.site.retarget(g, w);
+  out.distance.retarget(g, w);
   out.metric = st.metric;
   out.geolocator = st.geolocator;
+  // The tiles to read, as (column, row) of the grid's tiles.
+  std::vector<std::pair<int64_t, int64_t>> read;
+  for (int64_t by = row0 / kTile; by * kTile < row0 + rows; ++by)
+    for (int64_t bx = 0; bx < cols; ++bx)
+      if (!tiles || (*tiles)[static_cast<size_t>(by * cols + bx)]) read.emplace_back(bx, by);
+  if (read.empty()) {
+    st.next_row = row0 + rows;
+    return;
+  }
+  // Each file's tiles: decoded (whole rows when every tile is read) and checked.
+  auto take = [&](auto& reader, auto* cells, const Earlier& e) {
+    if (!tiles) reader.read_rows(row0, rows, cells);
+    for (const auto& [bx, by] : read) {
+      const int64_t c0 = bx * kTile, r0 = by * kTile;
+      const int64_t tw = std::min(kTile, g.width - c0), th = std::min(kTile, g.height - r0);
+      if (tiles) reader.read_window(c0, r0, tw, th, cells + (r0 - row0) * g.width + c0, g.width);
+      if (reader.tile_checksum(bx, by) != e.checksums[static_cast<size_t>(by * cols + bx)])
+        throw Error(ErrorKind::invalid_input, e.display + " was modified since it was written (the tile of rows " +
+                                                  std::to_string(r0) + "-" + std::to_string(r0 + th - 1) +
+                                                  ", columns " + std::to_string(c0) + "-" +
+                                                  std::to_string(c0 + tw - 1) + ")");
+    }
+  };
   // The two files side by side (independent GDAL datasets): decoding and checking each is about
   // half of an edit's reading.
   std::exception_ptr failed;
   std::thread other([&] {
     try {
-      st.distance->read_rows(row0, rows, out.distance.data());
-      st.distance_hash.add_rows(out.distance.data(), rows);
+      take(*st.distance, out.distance.data(), st.rasters.at("distance"));
     } catch (...) {
       failed = std::current_exception();
     }
   });
   try {
-    st.site->read_rows(row0, rows, out.site.data());
-    st.site_hash.add_rows(out.site.data(), rows);
+    take(*st.site, out.site.data(), st.rasters.at("site"));
   } catch (...) {
     other.join();
     throw;
@@ -368,23 +364,44 @@ void EditBase::read(int64_t row0, int64_t rows, NearestField& out) {
   other.join();
   if (failed) std::rethrow_exception(failed);
   st.next_row = row0 + rows;
-  if (st.next_row == st.grid.height) {
-    st.site_hash.finish();
-    st.distance_hash.finish();
-  }
-  auto check = [&](const BandHasher& h, const std::vector<std::string>& expected, size_t& checked, const char* file) {
-    for (; checked < h.bands().size(); ++checked)
-      if (checked >= expected.size() || hex(h.bands()[checked]) != expected[checked])
-        throw Error(ErrorKind::invalid_input, std::string("base: ") + file + " was modified since the base run (rows " +
-                                                  std::to_string(checked * kBandRows) + " on)");
-  };
-  check(st.site_hash, st.site_bands, st.site_checked, "site.tif");
-  check(st.distance_hash, st.distance_bands, st.distance_checked, st.distance_name.c_str());
   const auto sites = static_cast<int32_t>(st.archive.seeds.sites().size());
-  for (int32_t& s : out.site.cells()) {
-    if (s < 0 || s > sites) throw Error(ErrorKind::invalid_input, "base: site.tif holds a site its seeds lack");
-    s -= 1;  // 0 -> kNoSite
+  for (const auto& [bx, by] : read) {
+    const int64_t c0 = bx * kTile, r0 = by * kTile;
+    const int64_t tw = std::min(kTile, g.width - c0), th = std::min(kTile, g.height - r0);
+    for (int64_t r = r0; r < r0 + th; ++r) {
+      int32_t* cells = out.site.data() + (r - row0) * g.width + c0;
+      for (int64_t c = 0; c < tw; ++c) {
+        if (cells[c] < 0 || cells[c] > sites)
+          throw Error(ErrorKind::invalid_input, "base: site.tif holds a site its seeds lack");
+        cells[c] -= 1;  // 0 -> kNoSite
+      }
+    }
   }
+}
+
+EditCodes same_codes(const EditBase& base, const Edit& edit, const LoadedSeeds& edited) {
+  const SeedSet& b = base.seeds();
+  EditCodes out;
+  out.owners = true;
+  std::unordered_map<std::string, int32_t> code;
+  for (size_t i = 0; i < edited.seeds.owner_labels().size(); ++i)
+    code.emplace(edited.seeds.owner_labels()[i], static_cast<int32_t>(i + 1));
+  for (size_t i = 0; i < b.owner_labels().size(); ++i) {
+    const auto it = code.find(b.owner_labels()[i]);
+    out.owners = out.owners && (it == code.end() || it->second == static_cast<int32_t>(i + 1));
+  }
+  out.features = true;
+  const std::vector<int64_t>& nb = base.numbering();
+  const std::vector<int64_t>& ne = edited.input_position;
+  const FeatureMatch& m = edit.match();
+  for (size_t f = 0; f < m.edited_of_base.size() && out.features; ++f) {
+    const int32_t e = m.edited_of_base[f];
+    if (e < 0) continue;
+    const int64_t before = nb.empty() ? static_cast<int64_t>(f) + 1 : nb[f];
+    const int64_t after = ne.empty() ? static_cast<int64_t>(e) + 1 : ne[static_cast<size_t>(e)];
+    out.features = before == after;
+  }
+  return out;
 }
 
 nlohmann::json edit_report(const EditBase& base, const Edit& edit, const SeedSet& edited, const EditTally& tally,
@@ -443,6 +460,9 @@ nlohmann::json edit_report(const EditBase& base, const Edit& edit, const SeedSet
           {"cells_recomputed", tally.cells_recomputed},
           {"tiles", tally.tiles_read.size()},
           {"tiles_read", std::count(tally.tiles_read.begin(), tally.tiles_read.end(), true)},
+          {"tiles_encoded", tally.tiles_encoded},
+          {"tiles_copied", tally.tiles_copied},
+          {"tiles_not_copied", tally.not_copied},
           {"cells_of_removed_features", tally.cells_of_removed},
           {"owner_changed_cells", tally.changes.owner_cells},
           {"distance_only_changed_cells", tally.changes.distance_only_cells},

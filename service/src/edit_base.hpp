@@ -4,27 +4,32 @@
 // Every streamed run that writes a report keeps, in a directory its report names ("edit_base"),
 // what an edit needs of it, whatever outputs the user asked for:
 //   manifest.json  the request's parameters an edit must repeat (grid, metric, method, distance
-//                  units, max distance, compression), and a checksum of every file below: of
-//                  seeds.bin whole, of the rasters per band of 256 rows of cell values;
+//                  units, max distance, compression); a checksum of seeds.bin; every raster the
+//                  run wrote (the two below and the job's ownership, distance and nearest-feature
+//                  rasters), named relative to the directory, with a checksum of each 256 x 256
+//                  tile's bytes as stored (rv/checksum.hpp); and per tile, the field's largest
+//                  distance and cost and whether it has unowned cells (rv::TileSummaries): an
+//                  edit reads no cell of a tile it cannot change;
 //   seeds.bin      the seed set it computed from (rv/seed_archive.hpp), since users edit their
 //                  files in place;
-//                  Per tile of 256 x 256 cells, the field's largest distance and cost and
-//                  whether it has unowned cells (rv::TileSummaries): an edit reads no cell of a
-//                  tile it cannot change;
 //   site.tif       the nearest site of every cell (index + 1, 0 = none), Int32 codes;
 //   distance.tif   the distance to it in metric units, Float32, as the engine computed it; or,
 //                  when the job writes its distance raster in metric units, that file (the
 //                  manifest names it relative to the directory, e.g. "../distance.tif").
-// An edit (`--base REPORT`) reads that directory strip by strip in place of computing: each strip
-// of the base field is checked against its band checksums, planned and recomputed where the
-// edit can change it (rv::Edit), and the edited strip goes on to the writers and deliverables
-// like a computed one. The files are then those of a fresh run, cell for cell.
+// An edit (`--base REPORT`) reads that directory strip by strip in place of computing: of each
+// strip of the base field it reads the tiles the edit may change (every tile when a file or a
+// deliverable needs every cell), each checked against its checksum, plans and recomputes them
+// (rv::Edit); the writers copy the other tiles' bytes from the base's files, checked likewise,
+// and encode the rest. The files are then those of a fresh run, byte for byte.
 // Not part of the public API. Thread safety: one object per job, used from its computing thread.
 #pragma once
 
 #include <cstdint>
+#include <map>
 #include <memory>
+#include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <nlohmann/json.hpp>
@@ -34,30 +39,6 @@
 #include "rv/job.hpp"
 
 namespace rv::detail {
-
-inline constexpr int64_t kBandRows = 256;
-
-// Checksums of a raster's cell values per band of kBandRows rows, rows added in order (any number
-// at a time). 64-bit, over the values' bytes; not cryptographic: it finds files changed by
-// accident or by another program, not by an adversary who can also rewrite the manifest.
-class BandHasher {
- public:
-  explicit BandHasher(int64_t width = 0) : width_(width) {}
-  template <class T>
-  void add_rows(const T* rows, int64_t count) {
-    add_bytes(reinterpret_cast<const unsigned char*>(rows), count, static_cast<int64_t>(sizeof(T)));
-  }
-  // Bands completed so far (a last partial band once finish() is called).
-  const std::vector<uint64_t>& bands() const { return bands_; }
-  void finish();
-
- private:
-  void add_bytes(const unsigned char* rows, int64_t count, int64_t cell_bytes);
-  int64_t width_ = 0;
-  int64_t rows_in_band_ = 0;
-  uint64_t h_ = 0;
-  std::vector<uint64_t> bands_;
-};
 
 // The directory a report's run keeps for edits: the report's path with ".rvbase".
 std::string edit_base_dir(const std::string& report);
@@ -73,16 +54,20 @@ class EditBaseWriter {
   ~EditBaseWriter();
   EditBaseWriter(const EditBaseWriter&) = delete;
   EditBaseWriter& operator=(const EditBaseWriter&) = delete;
-  // The temporary paths of the two rasters, their options, and hashers the writers fill.
+  // The temporary paths of the two rasters and their options.
   const std::string& temp_dir() const { return temp_; }
   const std::string& site_path() const { return site_path_; }
   const std::string& distance_path() const { return distance_path_; }
   // Whether the job's own distance raster (in metric units) serves as the kept distance: its
-  // writer then feeds the hasher and the tile summaries, and nothing is written twice.
+  // writer then feeds the tile summaries, and nothing is written twice.
   bool shares_distance() const { return !shared_distance_.empty(); }
   GeoTiffOptions site_options() const;
   GeoTiffOptions distance_options() const;
-  BandHasher site_hash, distance_hash;
+  // Records a raster of the run in the manifest under `role` ("site" and "distance", the kept
+  // field; "ownership", "output_distance" and "nearest_feature", the job's files): its path as
+  // written (site_path() and distance_path() are named as they will be after commit()). Returns
+  // where its writer leaves the tile checksums (StreamTarget::checksums); valid until commit().
+  std::vector<uint64_t>* record(const std::string& role, const std::string& path);
   // Fed by the distance's writer (StreamTarget::observe): what the manifest records per tile.
   TileSummaries tiles;
   // Writes the manifest and renames the directory into place (the old one, if any, removed).
@@ -91,6 +76,7 @@ class EditBaseWriter {
 
  private:
   std::string dir_, temp_, site_path_, distance_path_, shared_distance_;
+  std::map<std::string, std::pair<std::string, std::vector<uint64_t>>> rasters_;  // role -> path, checksums
   nlohmann::json manifest_;
   std::string seeds_hash_;
   int64_t sites_ = 0;
@@ -109,13 +95,25 @@ class EditBase {
   EditBase(const std::string& report, const JobSpec& spec, const PreparedJob& job);
   ~EditBase();
   const SeedSet& seeds() const;
+  // Per base feature, its number in the nearest-feature raster (empty: its index + 1).
+  const std::vector<int64_t>& numbering() const;
   // The base field's per-tile summaries (from the manifest).
   const TileSummaries& tiles() const;
   const std::string& report_path() const { return report_; }
+  // A raster the base run wrote (EditBaseWriter::record's roles), for a writer to copy tiles from:
+  // its path, its name in messages, its tile checksums. Empty when the base did not write one.
+  struct Earlier {
+    std::string path, display;
+    std::vector<uint64_t> checksums;
+  };
+  std::optional<Earlier> earlier(const std::string& role) const;
   // Reads the base field's rows [row0, row0 + rows) into `out` (site indices and metric
-  // distances, with the job's metric and geolocator), in order from the first row. Throws
-  // rv::Error(invalid_input) when a band's checksum differs (the file was modified), io.
-  void read(int64_t row0, int64_t rows, NearestField& out);
+  // distances, with the job's metric and geolocator), in order from the first row, strips of
+  // whole 256-row bands of tiles (but the last). `tiles`, when not null: per tile of the grid
+  // (TileSummaries order), only the cells of the tiles flagged 1 are read; the others' are left
+  // as they were. Every tile read is checked against its checksum. Throws
+  // rv::Error(invalid_input) when one differs (the file was modified), io.
+  void read(int64_t row0, int64_t rows, NearestField& out, const std::vector<uint8_t>* tiles = nullptr);
 
  private:
   struct State;
@@ -123,10 +121,21 @@ class EditBase {
   std::string report_;
 };
 
+// Whether the edit's code rasters give what the base's cells hold (each kept feature's owner, and
+// its number) the codes the base's rasters gave them: their unchanged tiles are then the same
+// bytes, and are copied.
+struct EditCodes {
+  bool owners = false, features = false;
+};
+EditCodes same_codes(const EditBase& base, const Edit& edit, const LoadedSeeds& edited);
+
 // The report's "edit" entry: what the edit matched, recomputed and changed.
 struct EditTally {
   int64_t cells_recomputed = 0, cells_of_removed = 0, blocks_measured = 0, strips = 0;
-  std::vector<bool> tiles_read;  // per tile of the grid (TileSummaries order)
+  int64_t tiles_encoded = 0;                      // tiles whose cells changed or may have (StreamJob::source's fresh)
+  std::map<std::string, int64_t> tiles_copied;    // per file copying from the base's
+  std::map<std::string, std::string> not_copied;  // per file that could not, why
+  std::vector<bool> tiles_read;                   // per tile of the grid (TileSummaries order)
   double read_seconds = 0.0, plan_seconds = 0.0, apply_seconds = 0.0, tally_seconds = 0.0;
   EditChanges changes;
 };

@@ -13,6 +13,7 @@
 
 #include "atomic_file.hpp"
 #include "edit_base.hpp"
+#include "job_edit.hpp"
 #include "job_run.hpp"
 #include "job_stream.hpp"
 #include "memory_watch.hpp"
@@ -304,7 +305,9 @@ JobPlan plan_job(const JobSpec& spec, const GridSpec& grid, int64_t sites, Metri
                              ? spec.strip_rows
                              : (std::max<int64_t>(1, kStripCells / std::max<int64_t>(grid.width, 1)) + kTileRows - 1) /
                                    kTileRows * kTileRows;
-    p.strip_rows = std::clamp<int64_t>(rows, 1, std::max<int64_t>(grid.height, 1));
+    // An edit's strips hold whole bands of tiles: its files copy unchanged tiles band by band.
+    const int64_t whole = spec.base_report.empty() ? rows : (rows + kTileRows - 1) / kTileRows * kTileRows;
+    p.strip_rows = std::clamp<int64_t>(whole, 1, std::max<int64_t>(grid.height, 1));
     p.strips = (grid.height + p.strip_rows - 1) / p.strip_rows;
     const int64_t strip_cells = p.strip_rows * grid.width;
     // Two strip buffers (the engine's result; the distance is scaled in place), one Int32 strip
@@ -613,72 +616,29 @@ void compute_streamed(detail::JobRun& run, const PreparedJob& job, const RasterT
   // A COG is written strip by strip like a plain GeoTIFF (GeoTiffStripWriter assembles it).
   using Product = detail::StreamTarget::Product;
   auto target = [&](Product product, const std::string& path, GeoTiffOptions options, const char* name) {
-    stream.targets.push_back({product, path, options, name});
+    detail::StreamTarget& t = stream.targets.emplace_back();
+    t.product = product;
+    t.path = path;
+    t.options = std::move(options);
+    t.name = name;
   };
   if (!spec.outputs.ownership.empty())
     target(Product::ownership, spec.outputs.ownership, targets.ownership, "ownership");
   if (!spec.outputs.distance.empty()) target(Product::distance, spec.outputs.distance, targets.distance, "distance");
   if (!spec.outputs.nearest_feature.empty())
     target(Product::nearest_feature, spec.outputs.nearest_feature, targets.feature, "nearest_feature");
-  // The edit of a finished run: its strips come from the base, recomputed where the edit can
-  // change them.
-  std::optional<Edit> edit;
-  std::optional<ChangeTally> tallier;
-  detail::EditTally tally;
-  if (base) {
-    stream.compute.prepared = prepare(job.loaded.seeds, job.grid, stream.compute);
-    edit.emplace(base->seeds(), job.loaded.seeds, job.grid, stream.compute);
-    tallier.emplace(base->seeds(), job.loaded.seeds, job.grid, job.compute.geolocator.get());
-    tally.tiles_read.assign(base->tiles().max_cost.size(), false);
-    if (!spec.outputs.changes.empty()) {
-      GeoTiffOptions o = detail::raster_options(spec);
-      o.max_code = 2;
-      o.metadata["CONTENT"] =
-          "1 = owner changed, 2 = only the distance changed, 0 = unchanged (edit of a finished run)";
-      target(Product::changes, spec.outputs.changes, o, "changes");
-    }
-    const bool codes = !spec.outputs.changes.empty();
-    // The base strip is read into the strip's own buffers and edited in place; the base's values
-    // of the cells the plan recomputes are kept aside for the tally.
-    stream.source = [&, codes](const Window& w, NearestField& field, std::vector<int32_t>& changes) {
-      detail::timed_add(tally.read_seconds, [&] { base->read(w.row0, w.height, field); });
-      EditPlan plan;
-      detail::timed_add(tally.plan_seconds, [&] { plan = edit->plan(field, &base->tiles()); });
-      ChangeTally::MaskedCells before;
-      detail::timed_add(tally.apply_seconds, [&] {
-        before = ChangeTally::masked_cells(plan.mask, field);
-        edit->apply(field, plan, field);
-      });
-      tally.cells_recomputed += plan.cells;
-      tally.cells_of_removed += plan.removed_cells;
-      tally.blocks_measured += plan.blocks_measured;
-      for (const int64_t t : plan.tiles_read) tally.tiles_read[static_cast<size_t>(t)] = true;
-      ++tally.strips;
-      if (codes) changes.resize(static_cast<size_t>(w.cell_count()));
-      detail::timed_add(tally.tally_seconds, [&] {
-        tally.changes.add(tallier->measure_masked(plan.mask, before, field, codes ? changes.data() : nullptr));
-      });
-    };
-  }
-  // What this run keeps for edits of it.
-  if (keep) {
-    target(Product::site, keep->site_path(), keep->site_options(), "edit_base_site");
-    stream.targets.back().hasher = &keep->site_hash;
-    if (!keep->shares_distance())
-      target(Product::metric_distance, keep->distance_path(), keep->distance_options(), "edit_base_distance");
-    detail::StreamTarget& d = *std::find_if(stream.targets.begin(), stream.targets.end(), [&](const auto& t) {
-      return t.product == (keep->shares_distance() ? Product::distance : Product::metric_distance);
-    });
-    d.hasher = &keep->distance_hash;
-    d.observe = [keep, &job](const int32_t* site, const float* distance, int64_t row0, int64_t rows) {
-      keep->tiles.add(site, distance, row0, rows, job.grid.width, job.loaded.seeds);
-    };
-  }
+  // The edit of a finished run, and what this run keeps for edits of it (job_edit.hpp).
+  detail::StreamEdit edit;
+  if (base) detail::attach_edit(stream, edit, spec, job, *base);
+  if (keep) detail::attach_keep(stream, *keep, base, edit.edit ? &*edit.edit : nullptr, job);
   run.progress("compute", 0.0);
   const detail::StreamStats st = detail::run_streamed(stream);
-  if (base)
-    run.report["edit"] =
-        detail::edit_report(*base, *edit, job.loaded.seeds, tally, job.grid, job.metric.kind == MetricSpec::geodesic);
+  if (base) {
+    edit.tally.tiles_copied = st.tiles_copied;
+    edit.tally.not_copied = st.not_copied;
+    run.report["edit"] = detail::edit_report(*base, *edit.edit, job.loaded.seeds, edit.tally, job.grid,
+                                             job.metric.kind == MetricSpec::geodesic);
+  }
   if (base && !spec.base_name.empty()) run.report["edit"]["base"] = spec.base_name;
   run.compute_seconds = st.compute;
   run.contested_cells = st.contested_cells;

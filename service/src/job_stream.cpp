@@ -33,6 +33,7 @@ namespace rv::detail {
 namespace {
 
 using Clock = std::chrono::steady_clock;
+constexpr int64_t kTileSide = 256;  // the GeoTIFF writers' tiles
 
 // The writer threads' nice value. The engine's threads and the encoders compete for the same
 // cores; with equal priority the engine ran about 1.7x slower than alone (1e8 cells, 2 cores),
@@ -61,6 +62,7 @@ struct Strip {
   NearestField field;
   std::vector<float> metric_distance;  // the distances before conversion (a metric_distance target, factor != 1)
   std::vector<int32_t> changes;        // a changes target's codes (from the strip source)
+  std::vector<uint8_t> fresh;          // per tile of the strip, from the source (StreamJob::source)
   int64_t row0 = 0;
   int64_t rows = 0;
 };
@@ -95,6 +97,10 @@ struct StreamState {
   bool keep_metric_distance = false;  // a metric_distance target with a unit conversion
   StripHandoff handoff;
   std::vector<double> write_seconds, write_waited;  // per writer
+  std::vector<char> copies;                         // per writer: its earlier file's tiles are copied
+  std::vector<int64_t> copied;                      // per writer: tiles copied
+  bool all_cells = true;                            // the source must fill every cell
+  int64_t across = 0;                               // tiles across the grid
 
   StreamState(const StreamJob& j, int files) : job(j), handoff(files) {}
 };
@@ -106,12 +112,31 @@ struct StreamState {
 void write_file(StreamState& st, size_t i) {
   lower_priority();
   const StreamTarget& target = st.job.targets[i];
+  const bool copies = st.copies[i] != 0;
+  // A COG's overviews are made from every cell, the copied tiles' too.
+  const bool every_cell = !copies || target.options.cloud_optimized;
   std::vector<int32_t> codes;  // this file's codes of the strip in hand (code rasters only)
-  auto coded = [&](const SiteCodes& table, const Strip& s) {
+  // Site ids -> this file's codes over the strip's cells: every cell, or, for a plain file that
+  // copies the tiles flagged 0, the cells of the tiles flagged 1 alone (the others may hold
+  // anything).
+  auto coded = [&](const Strip& s, auto&& code) {
     const int64_t n = s.rows * st.width;
     codes.resize(static_cast<size_t>(n));
-    table.apply(s.field.site.data(), codes.data(), n);
+    const int32_t* sites = s.field.site.data();
+    if (every_cell || s.fresh.empty()) {
+      code(sites, codes.data(), n);
+      return codes.data();
+    }
+    for (int64_t r = 0; r < s.rows; ++r)
+      for (int64_t bx = 0; bx < st.across; ++bx) {
+        if (!s.fresh[static_cast<size_t>((r / kTileSide) * st.across + bx)]) continue;
+        const int64_t c0 = bx * kTileSide, w = std::min(kTileSide, st.width - c0);
+        code(sites + r * st.width + c0, codes.data() + r * st.width + c0, w);
+      }
     return codes.data();
+  };
+  auto table = [](const SiteCodes& t) {
+    return [&t](const int32_t* in, int32_t* out, int64_t n) { t.apply(in, out, n); };
   };
   try {
     for (size_t seq = 0;; ++seq) {
@@ -119,40 +144,48 @@ void write_file(StreamState& st, size_t i) {
       if (!k) break;
       const Strip& s = st.strips[static_cast<size_t>(*k)];
       const auto t = Clock::now();
+      // Band by band where the strip marks tiles to copy, else its rows at once.
+      auto write = [&](auto& writer, const auto* cells) {
+        if (!copies || s.fresh.empty()) {
+          writer.write_rows(cells, s.rows);
+          return;
+        }
+        std::vector<bool> copy(static_cast<size_t>(st.across));
+        for (int64_t b = 0; b * kTileSide < s.rows; ++b) {
+          for (int64_t bx = 0; bx < st.across; ++bx)
+            copy[static_cast<size_t>(bx)] = s.fresh[static_cast<size_t>(b * st.across + bx)] == 0;
+          st.copied[i] += std::count(copy.begin(), copy.end(), true);
+          writer.write_band(cells + b * kTileSide * st.width, copy);
+        }
+      };
       auto write_codes = [&](const int32_t* cells) {
-        if (target.hasher) target.hasher->add_rows(cells, s.rows);
-        std::get<GeoTiffStripWriter<int32_t>>(st.writers[i]).write_rows(cells, s.rows);
+        write(std::get<GeoTiffStripWriter<int32_t>>(st.writers[i]), cells);
       };
-      auto write_floats = [&](const float* cells) {
-        if (target.hasher) target.hasher->add_rows(cells, s.rows);
-        std::get<GeoTiffStripWriter<float>>(st.writers[i]).write_rows(cells, s.rows);
-      };
+      auto write_floats = [&](const float* cells) { write(std::get<GeoTiffStripWriter<float>>(st.writers[i]), cells); };
+      const uint8_t* fresh = s.fresh.empty() || st.all_cells ? nullptr : s.fresh.data();
       switch (target.product) {
         case StreamTarget::Product::ownership:
-          write_codes(coded(st.owner_codes, s));
+          write_codes(coded(s, table(st.owner_codes)));
           break;
         case StreamTarget::Product::nearest_feature:
-          write_codes(coded(st.feature_codes, s));
+          write_codes(coded(s, table(st.feature_codes)));
           break;
-        case StreamTarget::Product::site: {
-          const int64_t n = s.rows * st.width;
-          codes.resize(static_cast<size_t>(n));
-          const int32_t* sites = s.field.site.data();
-          for (int64_t k = 0; k < n; ++k) codes[static_cast<size_t>(k)] = sites[k] + 1;  // kNoSite -> 0
-          write_codes(codes.data());
+        case StreamTarget::Product::site:
+          write_codes(coded(s, [](const int32_t* in, int32_t* out, int64_t n) {
+            for (int64_t c = 0; c < n; ++c) out[c] = in[c] + 1;  // kNoSite -> 0
+          }));
           break;
-        }
         case StreamTarget::Product::changes:
           write_codes(s.changes.data());
           break;
         case StreamTarget::Product::distance:
           // (Observed only in metric units: StreamJob::distance_factor 1.)
-          if (target.observe) target.observe(s.field.site.data(), s.field.distance.data(), s.row0, s.rows);
+          if (target.observe) target.observe(s.field.site.data(), s.field.distance.data(), s.row0, s.rows, fresh);
           write_floats(s.field.distance.data());
           break;
         case StreamTarget::Product::metric_distance: {
           const float* metric = st.keep_metric_distance ? s.metric_distance.data() : s.field.distance.data();
-          if (target.observe) target.observe(s.field.site.data(), metric, s.row0, s.rows);
+          if (target.observe) target.observe(s.field.site.data(), metric, s.row0, s.rows, fresh);
           write_floats(metric);
           break;
         }
@@ -164,6 +197,8 @@ void write_file(StreamState& st, size_t i) {
     if (std::visit([&](const auto& x) { return x.rows_written() != st.height; }, st.writers[i])) return;
     const auto t = Clock::now();
     std::visit([](auto& x) { x.finish(); }, st.writers[i]);
+    if (target.checksums)
+      *target.checksums = std::visit([](const auto& x) { return x.tile_checksums(); }, st.writers[i]);
     st.write_seconds[i] += seconds_since(t);
     st.handoff.finished(static_cast<int>(i));
   } catch (...) {
@@ -191,8 +226,13 @@ void compute_strips(StreamState& st, int64_t strip_rows, StreamStats& stats, Rep
       report("compute", (static_cast<double>(row0) + f * static_cast<double>(rows)) / static_cast<double>(st.height));
     };
     if (job.source) {
+      if (row0 % kTileSide != 0 || (s.rows % kTileSide != 0 && row0 + s.rows != st.height))
+        throw Error(ErrorKind::internal, "a strip source's strips must hold whole bands of tiles");
       const auto t = Clock::now();
-      job.source(*options.window, s.field, s.changes);
+      s.fresh.clear();
+      job.source(*options.window, s.field, s.changes, s.fresh, st.all_cells);
+      if (!s.fresh.empty() && static_cast<int64_t>(s.fresh.size()) != (s.rows + kTileSide - 1) / kTileSide * st.across)
+        throw Error(ErrorKind::internal, "a strip source's tile flags do not fit its strip");
       s.field.seconds = seconds_since(t);
     } else {
       compute_into(*job.seeds, job.grid, options, s.field);
@@ -245,6 +285,28 @@ StreamStats run_streamed(const StreamJob& job) {
     job.will_write(t.path);
     st.writers.push_back(open_writer(t, job.grid));
   }
+  // An edit's earlier files: copied from where their layout allows. Every cell is needed where a
+  // file encodes all its tiles (a COG too: its overviews are made from every cell), and by
+  // on_strip.
+  st.across = (st.width + kTileSide - 1) / kTileSide;
+  st.copies.assign(job.targets.size(), 0);
+  st.copied.assign(job.targets.size(), 0);
+  st.all_cells = !job.source || static_cast<bool>(job.on_strip);
+  for (size_t i = 0; i < job.targets.size(); ++i) {
+    const StreamTarget& t = job.targets[i];
+    if (!t.earlier.empty()) {
+      try {
+        std::visit([&](auto& w) { w.take_tiles_from(t.earlier, t.earlier_checksums, t.earlier_display); },
+                   st.writers[i]);
+        st.copies[i] = 1;
+      } catch (const Error& e) {
+        stats.not_copied[t.name] = e.what();
+      }
+    }
+    if (t.product != StreamTarget::Product::changes && (!st.copies[i] || t.options.cloud_optimized))
+      st.all_cells = true;
+  }
+  stats.all_cells = st.all_cells;
   st.write_seconds.assign(job.targets.size(), 0.0);
   st.write_waited.assign(job.targets.size(), 0.0);
   for (int k = 0; k < static_cast<int>(st.strips.size()); ++k) st.handoff.add_free(k);
@@ -284,7 +346,10 @@ StreamStats run_streamed(const StreamJob& job) {
   joiner.join();
   // The writers wait side by side: the longest wait is the time the files waited for the engine.
   if (!st.write_waited.empty()) stats.write_waited = *std::max_element(st.write_waited.begin(), st.write_waited.end());
-  for (size_t i = 0; i < job.targets.size(); ++i) stats.write[job.targets[i].name] = st.write_seconds[i];
+  for (size_t i = 0; i < job.targets.size(); ++i) {
+    stats.write[job.targets[i].name] = st.write_seconds[i];
+    if (!job.targets[i].earlier.empty()) stats.tiles_copied[job.targets[i].name] = st.copies[i] ? st.copied[i] : -1;
+  }
   stats.wall = seconds_since(start);
   return stats;
 }

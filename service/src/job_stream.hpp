@@ -12,7 +12,6 @@
 #include <string>
 #include <vector>
 
-#include "edit_base.hpp"
 #include "rv/engine.hpp"
 #include "rv/gdal/raster_io.hpp"
 
@@ -23,15 +22,24 @@ namespace rv::detail {
 // before the job's unit conversion; changes: the codes the strip source left in Strip::changes.
 struct StreamTarget {
   enum class Product { ownership, distance, nearest_feature, site, metric_distance, changes };
-  Product product;
+  Product product = Product::ownership;
   std::string path;
   GeoTiffOptions options;
   std::string name;  // key in the report's write timings
-  // When set, fed every value written, in order, on the writer's thread (read after the run).
-  BandHasher* hasher = nullptr;
+  // When set, receives the file's tile checksums once it is in place
+  // (GeoTiffStripWriter::tile_checksums).
+  std::vector<uint64_t>* checksums = nullptr;
+  // An edit's earlier file of the same product, whose tiles the strips mark unchanged are copied
+  // as they are (GeoTiffStripWriter::take_tiles_from, checked against `earlier_checksums`; named
+  // `earlier_display` in errors). Empty, or a file whose layout differs: every tile is encoded.
+  std::string earlier, earlier_display;
+  std::vector<uint64_t> earlier_checksums;
   // When set, called on the writer's thread with each strip's sites and metric distances (rows
-  // [row0, row0 + rows), whole rows), before its values are written.
-  std::function<void(const int32_t* site, const float* distance, int64_t row0, int64_t rows)> observe;
+  // [row0, row0 + rows), whole rows), before its values are written. `fresh`: null when every
+  // cell is valid, else Strip::fresh (one flag per tile of the strip's bands, row-major; the cells
+  // of tiles flagged 0 are not valid).
+  std::function<void(const int32_t* site, const float* distance, int64_t row0, int64_t rows, const uint8_t* fresh)>
+      observe;
 };
 
 struct StreamJob {
@@ -53,7 +61,15 @@ struct StreamJob {
   // When set, produces each strip's field instead of the engine (an edit of a finished run):
   // fills `field` over `window` (distances in metric units) and, when a target is a changes
   // raster, `changes` with one code per cell. Called on the computing thread, strips in order.
-  std::function<void(const Window& window, NearestField& field, std::vector<int32_t>& changes)> source;
+  // Strips then start on a 256-row band of tiles and hold whole bands (but the last). `fresh`:
+  // one flag per 256 x 256 tile of the strip (tiles across the grid, row-major over its bands),
+  // 1 where the tile's cells may differ from the earlier files' (encoded again), 0 where they do
+  // not (copied from each target's earlier file); or left empty: every tile encoded.
+  // `all_cells`: some target encodes every tile or on_strip reads every cell, so every cell of
+  // `field` must be valid; otherwise only those of the tiles flagged 1.
+  std::function<void(const Window& window, NearestField& field, std::vector<int32_t>& changes,
+                     std::vector<uint8_t>& fresh, bool all_cells)>
+      source;
 };
 
 // What the streamed run measured; every time in seconds.
@@ -63,9 +79,14 @@ struct StreamStats {
   double deliverables = 0.0;            // on_strip, on the computing thread
   std::map<std::string, double> write;  // per target: site ids -> codes (code rasters), encoding
                                         // and finishing, on its writer thread
-  double compute_waited = 0.0;          // the computing thread waiting for a free strip buffer
-  double write_waited = 0.0;            // the writer threads waiting for a computed strip (the longest)
-  double wall = 0.0;                    // from the first strip's start to the last file in place
+  // Per target with an earlier file: the tiles copied from it, or -1 where none could be (its
+  // layout differs, or it is missing), with the reason in `not_copied`.
+  std::map<std::string, int64_t> tiles_copied;
+  std::map<std::string, std::string> not_copied;
+  bool all_cells = true;        // every cell of every strip was produced
+  double compute_waited = 0.0;  // the computing thread waiting for a free strip buffer
+  double write_waited = 0.0;    // the writer threads waiting for a computed strip (the longest)
+  double wall = 0.0;            // from the first strip's start to the last file in place
   int64_t strips = 0;
   int64_t contested_cells = 0;
   int threads = 1;  // the engine's

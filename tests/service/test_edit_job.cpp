@@ -312,11 +312,15 @@ void run_random_edits(EditJob& t, const Case& c, uint32_t seed, int rounds) {
     EXPECT_EQ(e.at("owner_changed_cells").get<int64_t>(), owner_cells);
     EXPECT_EQ(e.at("distance_only_changed_cells").get<int64_t>(), distance_cells);
     EXPECT_GE(recomputed, owner_cells + distance_cells);
-    if (did == "nothing ") EXPECT_EQ(recomputed, 0);
+    if (did == "nothing ") {
+      EXPECT_EQ(recomputed, 0);
+    }
     tiles_skipped += e.at("tiles").get<int64_t>() - e.at("tiles_read").get<int64_t>();
     base = edit;
   }
-  if (c.tiles_skipped) EXPECT_GT(tiles_skipped, 0);
+  if (c.tiles_skipped) {
+    EXPECT_GT(tiles_skipped, 0);
+  }
 }
 
 // 12 km x 12 km in UTM 33N at `res` metres, limit lines at `limit`.
@@ -411,6 +415,116 @@ TEST_F(EditJob, AVertexMovedRecomputesOnlyNearIt) {
   }
 }
 
+// An edit of rasters alone reads and encodes only the tiles it changes; the files copy every other
+// tile's bytes from the base's files, and still equal a fresh run's. Where the codes a file gives
+// the base's cells change (a removed feature renumbers the features after it), that file encodes
+// every tile and the others still copy. COGs copy their full-resolution tiles. A copied tile that
+// was modified since the base run is refused; a base file that is gone is encoded instead.
+TEST_F(EditJob, UnchangedTilesAreCopied) {
+  Case c = planar_case(8.0, "1500");  // 1500 x 1500 cells: 36 tiles
+  std::mt19937 rng(41);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  std::vector<Feat> feats;
+  for (int k = 0; k < 60; ++k) {
+    Feat f;
+    f.id = k + 1;
+    f.owner = std::string(1, static_cast<char>('A' + k % 4));
+    f.pts = {{c.extent[0] + u(rng) * 12000.0, c.extent[1] + u(rng) * 12000.0}};
+    feats.push_back(f);
+  }
+  auto rasters_only = [&](const std::string& sub, bool cog) {
+    JobSpec s = spec(c, sub);
+    OutputRequest& o = s.outputs;
+    o.boundaries.clear();
+    o.tripoints.clear();
+    o.limits.clear();
+    o.limit_distances.clear();
+    o.regions.clear();
+    o.cloud_optimized = cog;
+    s.strip_rows = 0;
+    return s;
+  };
+  auto run_pair = [&](const JobSpec& base, const std::string& sub, bool cog) {
+    write_seeds(feats, c);
+    JobSpec edit = rasters_only(sub + "e", cog);
+    edit.base_report = base.outputs.report;
+    const nlohmann::json e = run_job(edit).report.at("edit");
+    JobSpec fresh = rasters_only(sub + "f", cog);
+    run_job(fresh);
+    expect_same_job_files(edit, fresh);
+    expect_same_geotiff(edit.outputs.report + ".rvbase/site.tif", fresh.outputs.report + ".rvbase/site.tif");
+    return std::make_pair(edit, e);
+  };
+  write_seeds(feats, c);
+  const JobSpec base = rasters_only("b", false);
+  run_job(base);
+
+  // A point moved: every file copies all but the tiles with changed cells.
+  feats[30].pts[0][0] += 40.0;
+  auto [moved, e] = run_pair(base, "move", false);
+  const int64_t tiles = e.at("tiles").get<int64_t>(), encoded = e.at("tiles_encoded").get<int64_t>();
+  EXPECT_EQ(tiles, 36);
+  EXPECT_GT(encoded, 0) << e.dump();
+  EXPECT_LT(e.at("tiles_read").get<int64_t>(), tiles) << e.dump();
+  for (const char* f : {"ownership", "distance", "nearest_feature", "edit_base_site"})
+    EXPECT_EQ(e.at("tiles_copied").value(f, int64_t{-2}), tiles - encoded) << f << " " << e.dump();
+  EXPECT_TRUE(e.at("tiles_not_copied").empty()) << e.dump();
+
+  // A point removed from the middle (of an owner that stays): the feature numbers and sites after
+  // it shift, so those files encode every tile; the owner codes and distances are copied.
+  feats.erase(feats.begin() + 20);
+  auto [removed, r] = run_pair(moved, "remove", false);
+  EXPECT_FALSE(r.at("tiles_copied").contains("nearest_feature")) << r.dump();
+  EXPECT_FALSE(r.at("tiles_copied").contains("edit_base_site")) << r.dump();
+  EXPECT_EQ(r.at("tiles_copied").value("ownership", int64_t{-2}), tiles - r.at("tiles_encoded").get<int64_t>());
+  EXPECT_EQ(r.at("tiles_copied").value("distance", int64_t{-2}), tiles - r.at("tiles_encoded").get<int64_t>());
+
+  // COGs: a COG base and a COG edit copy their full-resolution tiles (the overviews are made
+  // from every cell).
+  const JobSpec cog_base = rasters_only("cb", true);
+  run_job(cog_base);
+  feats[10].pts[0][1] -= 40.0;
+  auto [cog, ce] = run_pair(cog_base, "cog", true);
+  EXPECT_GT(ce.at("tiles_copied").value("ownership", int64_t{-2}), 0) << ce.dump();
+
+  // A tile the edit copies, modified in the base's ownership raster (far from the edit: the
+  // corner tile): refused, nothing written. Rewritten with one cell changed, every other tile's
+  // bytes stay the same.
+  feats[30].pts[0][1] += 40.0;  // near the grid's centre
+  write_seeds(feats, c);
+  const std::string own = removed.outputs.ownership;
+  fs::copy_file(own, dir_ / "own.saved");
+  {
+    Raster<int32_t> o = read_int32(own);
+    o.at(3, 3) = o.at(3, 3) == 1 ? 2 : 1;
+    GeoTiffOptions opt;
+    opt.categorical = true;
+    opt.category_labels = read_category_labels(own);
+    opt.max_code = static_cast<int64_t>(opt.category_labels.size());
+    write_geotiff(own, o, 0.0, opt);
+  }
+  JobSpec bad = rasters_only("bad", false);
+  bad.base_report = removed.outputs.report;
+  try {
+    run_job(bad);
+    ADD_FAILURE() << "a modified tile of the base was copied";
+  } catch (const Error& err) {
+    EXPECT_EQ(err.kind(), ErrorKind::invalid_input) << err.what();
+    EXPECT_NE(std::string(err.what())
+                  .find("own.tif was modified since it was written (the tile of rows 0-255, "
+                        "columns 0-255)"),
+              std::string::npos)
+        << err.what();
+  }
+  EXPECT_TRUE(fs::is_empty(dir_ / "bad"));
+  // The base's ownership raster gone: encoded instead, and said so.
+  fs::remove(own);
+  fs::remove(own + ".aux.xml");
+  auto [gone, g] = run_pair(removed, "gone", false);
+  EXPECT_TRUE(g.at("tiles_not_copied").contains("ownership")) << g.dump();
+  EXPECT_GT(g.at("tiles_copied").value("distance", int64_t{-2}), 0) << g.dump();
+}
+
 TEST_F(EditJob, RandomEditsEqualFreshRunsGeodesic) {
   Case c;
   c.geodesic = true;
@@ -485,7 +599,7 @@ TEST_F(EditJobErrors, MissingOrModifiedBaseFilesAreRefused) {
   // A modified cell of the kept field: here the job's own distance raster, which it shares (the
   // distances are in metric units).
   const nlohmann::json manifest = nlohmann::json::parse(read_text(kept / "manifest.json"));
-  EXPECT_EQ(manifest["distance"]["file"], "../dist.tif");
+  EXPECT_EQ(manifest["rasters"]["distance"]["file"], "../dist.tif");
   EXPECT_FALSE(fs::exists(kept / "distance.tif"));
   const fs::path distance = dir_ / "base" / "dist.tif";
   fs::copy_file(distance, dir_ / "distance.tif.saved");
@@ -495,7 +609,7 @@ TEST_F(EditJobErrors, MissingOrModifiedBaseFilesAreRefused) {
     write_geotiff(distance.string(), d, -1.0, GeoTiffOptions{});
   }
   expect_refused(spec(c, "modified"), base, ErrorKind::invalid_input,
-                 "../dist.tif was modified since the base run (rows 256 on)");
+                 "base: ../dist.tif was modified since it was written (the tile of rows 256-299, columns 0-255)");
   fs::rename(dir_ / "distance.tif.saved", distance);
   // The saved file back: the edit runs.
   JobSpec ok = spec(c, "ok");
@@ -514,7 +628,7 @@ TEST_F(EditJobErrors, MissingOrModifiedBaseFilesAreRefused) {
   const std::string manifest_text = read_text(kept / "manifest.json");
   {
     nlohmann::json damaged = nlohmann::json::parse(manifest_text);
-    damaged["site"]["hashes"][0] = 7;
+    damaged["rasters"]["site"]["tiles"][0] = 7;
     std::ofstream(kept / "manifest.json") << damaged.dump();
   }
   expect_refused(spec(c, "manifest"), base, ErrorKind::invalid_input, "manifest.json is damaged");

@@ -370,6 +370,46 @@ void check_copied_tiles(const GeoTiffOptions& options, double nodata) {
     w.finish();
   }
   EXPECT_EQ(file_bytes(dir.file("same.tif")), file_bytes(dir.file("earlier.tif")));
+  // Checksums: the writer's of each tile are those a reader finds in the file, and a copied tile
+  // whose bytes differ from its checksum is refused (the earlier file modified since).
+  std::vector<uint64_t> sums;
+  {
+    GeoTiffStripWriter<T> w(dir.file("sums.tif"), grid, grid.full_window(), nodata, options);
+    w.write_rows(earlier.row(0), 600);
+    w.finish();
+    sums = w.tile_checksums();
+  }
+  ASSERT_EQ(sums.size(), 9u);
+  {
+    GeoTiffRowReader<T> r(dir.file("earlier.tif"));
+    for (int64_t k = 0; k < 9; ++k) EXPECT_EQ(r.tile_checksum(k % 3, k / 3), sums[static_cast<size_t>(k)]) << k;
+    EXPECT_NE(sums[0], sums[4]);
+    // A window read with a stride: the cells of the earlier raster.
+    std::vector<T> window(static_cast<size_t>(50 * 10), T{0});
+    r.read_window(600, 590, 40, 10, window.data(), 50);
+    for (int64_t y = 0; y < 10; ++y)
+      for (int64_t x = 0; x < 40; ++x)
+        EXPECT_EQ(window[static_cast<size_t>(y * 50 + x)], earlier.at(600 + x, 590 + y)) << x << "," << y;
+    expect_error(ErrorKind::invalid_argument, [&] { r.read_window(690, 0, 20, 1, window.data(), 50); }, {"beyond"});
+  }
+  {
+    GeoTiffStripWriter<T> w(dir.file("checked.tif"), grid, grid.full_window(), nodata, options);
+    w.take_tiles_from(dir.file("earlier.tif"), sums, "the earlier file");
+    w.write_band(earlier.row(0), copy_flags(0, [](int64_t, int64_t) { return true; }));
+    std::vector<uint64_t> wrong = sums;
+    wrong[4] ^= 1;
+    GeoTiffStripWriter<T> v(dir.file("wrong.tif"), grid, grid.full_window(), nodata, options);
+    v.take_tiles_from(dir.file("earlier.tif"), wrong, "the earlier file");
+    v.write_band(earlier.row(0), copy_flags(0, [](int64_t, int64_t) { return true; }));
+    expect_error(ErrorKind::invalid_input,
+                 [&] { v.write_band(earlier.row(256), copy_flags(1, [](int64_t, int64_t) { return true; })); },
+                 {"the earlier file was modified since it was written", "rows 256-511, columns 256-511"});
+    w.write_band(earlier.row(256), copy_flags(1, [](int64_t, int64_t) { return true; }));
+    w.write_band(earlier.row(512), copy_flags(2, [](int64_t, int64_t) { return true; }));
+    w.finish();
+    EXPECT_EQ(w.tile_checksums(), sums);
+  }
+  EXPECT_FALSE(std::filesystem::exists(dir.file("wrong.tif")));
   // Refused: another layout, other cells, a band not at a tile row, flags of another count.
   GeoTiffOptions other = options;
   // (A codec of another name: ZSTD levels share their tags, and a tile of either decodes alike.)

@@ -44,6 +44,7 @@
 #include "cog_assembly.hpp"
 #include "cog_overviews.hpp"
 #include "gdal_util.hpp"
+#include "rv/checksum.hpp"
 #include "rv/error.hpp"
 #include "rv/gdal/raster_io.hpp"
 #include "rv/parallel.hpp"
@@ -390,6 +391,10 @@ struct GeoTiffStripWriter<T>::State {
   // of the tile being copied.
   std::unique_ptr<detail::RawTileFile> earlier;
   std::vector<uint8_t> earlier_tile;
+  std::vector<uint64_t> earlier_checksums;  // empty: copied tiles are not checked
+  std::string earlier_display;
+  // checksum64 of each full-resolution tile appended (tile_checksums()).
+  std::vector<uint64_t> checksums;
   int threads = 1;
   std::vector<detail::TileCompressor> compressors;  // one per thread
   std::vector<std::vector<uint8_t>> scratch;        // one raw tile per thread
@@ -533,8 +538,19 @@ struct GeoTiffStripWriter<T>::State {
   // read -- but by a COG's overviews, which are made from every cell of the band.
   void write_band(const T* rows, int64_t h, const std::vector<bool>* copy = nullptr) {
     const int64_t by = rows_written / kBlock;
+    const int64_t across = file->tiles_across();
     encode_band(rows, h, window.width, copy, [&](int64_t bx, const detail::EncodedTile* t) {
-      file->append(bx, by, t != nullptr ? *t : earlier->read(bx, by, earlier_tile));
+      const detail::EncodedTile bytes = t != nullptr ? *t : earlier->read(bx, by, earlier_tile);
+      const uint64_t sum = checksum64(bytes.data, bytes.size);
+      const auto k = static_cast<size_t>(by * across + bx);
+      if (t == nullptr && !earlier_checksums.empty() && (k >= earlier_checksums.size() || earlier_checksums[k] != sum))
+        throw Error(ErrorKind::invalid_input,
+                    earlier_display + " was modified since it was written (the tile of rows " +
+                        std::to_string(by * kBlock) + "-" + std::to_string(by * kBlock + h - 1) + ", columns " +
+                        std::to_string(bx * kBlock) + "-" +
+                        std::to_string(std::min<int64_t>(window.width, (bx + 1) * kBlock) - 1) + ")");
+      file->append(bx, by, bytes);
+      checksums[k] = sum;
     });
     if (cog) cog->pyramid->add_rows(rows, h);
     rows_written += h;
@@ -617,6 +633,8 @@ GeoTiffStripWriter<T>::GeoTiffStripWriter(const std::string& path, const GridSpe
   f.floating = PixelType<T>::floating;
   f.width = f.height = kBlock;
   state->file = std::make_unique<detail::RawTileFile>(state->written(), f, path);
+  state->checksums.assign(static_cast<size_t>(state->file->tiles_across() * ((window.height + kBlock - 1) / kBlock)),
+                          0);
   state->format = f;
   state->grid = grid;
   // No more encoders than hardware threads, whatever was asked (each holds a codec and a tile).
@@ -688,7 +706,14 @@ void GeoTiffStripWriter<T>::write_rows(const T* cells, int64_t rows) {
 }
 
 template <class T>
-void GeoTiffStripWriter<T>::take_tiles_from(const std::string& earlier) {
+const std::vector<uint64_t>& GeoTiffStripWriter<T>::tile_checksums() const {
+  static const std::vector<uint64_t> none;
+  return state_ ? state_->checksums : none;
+}
+
+template <class T>
+void GeoTiffStripWriter<T>::take_tiles_from(const std::string& earlier, std::vector<uint64_t> checksums,
+                                            const std::string& display) {
   if (!state_ || state_->finished) throw Error(ErrorKind::invalid_argument, "GeoTIFF writer: already finished");
   State& s = *state_;
   typename State::Scope scope;
@@ -708,6 +733,8 @@ void GeoTiffStripWriter<T>::take_tiles_from(const std::string& earlier) {
                                                  "cannot be read: " +
                                                  e.what());
   }
+  s.earlier_checksums = std::move(checksums);
+  s.earlier_display = display.empty() ? earlier : display;
 }
 
 template <class T>
@@ -838,11 +865,23 @@ template <class T>
 struct GeoTiffRowReader<T>::State {
   OpenedRaster raster;
   std::string path;
+  // The tiles' bytes (tile_checksum), opened with the raster so that both read the same file; a
+  // file libtiff cannot read raw fails only when a checksum is asked for.
+  std::unique_ptr<detail::RawTileFile> raw;
+  std::exception_ptr raw_error;
+  std::vector<uint8_t> tile;
 };
 
 template <class T>
 GeoTiffRowReader<T>::GeoTiffRowReader(const std::string& path)
-    : st_(std::make_unique<State>(State{open_raster(path), path})) {}
+    : st_(std::make_unique<State>(State{open_raster(path), path, nullptr, nullptr, {}})) {
+  try {
+    st_->raw =
+        std::make_unique<detail::RawTileFile>(path, detail::TileFormat{}, path, detail::RawTileFile::Access::raw);
+  } catch (const Error&) {
+    st_->raw_error = std::current_exception();
+  }
+}
 template <class T>
 GeoTiffRowReader<T>::~GeoTiffRowReader() = default;
 template <class T>
@@ -865,6 +904,27 @@ void GeoTiffRowReader<T>::read_rows(int64_t row0, int64_t rows, T* out) {
                                                  static_cast<int>(rows), out, static_cast<int>(g.width),
                                                  static_cast<int>(rows), PixelType<T>::gdal, 0, 0, nullptr) != CE_None)
     throw Error(ErrorKind::io, "reading " + st_->path + " failed" + capture.suffix());
+}
+
+template <class T>
+void GeoTiffRowReader<T>::read_window(int64_t col0, int64_t row0, int64_t cols, int64_t rows, T* out, int64_t stride) {
+  const GridSpec& g = st_->raster.grid;
+  if (col0 < 0 || row0 < 0 || cols < 0 || rows < 0 || col0 + cols > g.width || row0 + rows > g.height || stride < cols)
+    throw Error(ErrorKind::invalid_argument, st_->path + ": a window beyond the raster");
+  if (rows == 0 || cols == 0) return;
+  gdal::ErrorCapture capture;
+  const auto cell = static_cast<GSpacing>(sizeof(T));
+  if (st_->raster.ds->GetRasterBand(1)->RasterIO(
+          GF_Read, static_cast<int>(col0), static_cast<int>(row0), static_cast<int>(cols), static_cast<int>(rows), out,
+          static_cast<int>(cols), static_cast<int>(rows), PixelType<T>::gdal, cell, cell * stride, nullptr) != CE_None)
+    throw Error(ErrorKind::io, "reading " + st_->path + " failed" + capture.suffix());
+}
+
+template <class T>
+uint64_t GeoTiffRowReader<T>::tile_checksum(int64_t bx, int64_t by) {
+  if (!st_->raw) std::rethrow_exception(st_->raw_error);
+  const detail::EncodedTile t = st_->raw->read(bx, by, st_->tile);
+  return checksum64(t.data, t.size);
 }
 
 template class GeoTiffRowReader<int32_t>;

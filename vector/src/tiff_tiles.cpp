@@ -156,7 +156,7 @@ struct RawTileFileAccess {
 };
 
 RawTileFile::RawTileFile(const std::string& path, const TileFormat& format, const std::string& display, Access access)
-    : display_(display), verb_(access == Access::read ? "reading" : "writing") {
+    : display_(display), verb_(access == Access::update ? "writing" : "reading") {
   // A constructor that throws runs no destructor: what open() got is released here.
   try {
     open(path, format, access);
@@ -197,10 +197,13 @@ void RawTileFile::open(const std::string& path, const TileFormat& format, Access
                                : sample_format == SAMPLEFORMAT_INT ? SAMPLEFORMAT_INT
                                                                    : SAMPLEFORMAT_UINT;
   constexpr bool little_endian_host = std::endian::native == std::endian::little;
-  if (!TIFFIsTiled(tif_) || spp != 1 || tile_w != static_cast<uint32_t>(format.width) ||
-      tile_h != static_cast<uint32_t>(format.height) || bits != 8 * format.sample_bytes ||
-      sample_format != want_format || compression != want_compression || predictor != format.predictor ||
-      TIFFIsByteSwapped(tif_) != 0 || !little_endian_host || width == 0 || height == 0)
+  if (access == Access::raw) {
+    if (!TIFFIsTiled(tif_) || spp != 1 || tile_w == 0 || tile_h == 0 || width == 0 || height == 0)
+      fail("it is not a tiled raster of one band");
+  } else if (!TIFFIsTiled(tif_) || spp != 1 || tile_w != static_cast<uint32_t>(format.width) ||
+             tile_h != static_cast<uint32_t>(format.height) || bits != 8 * format.sample_bytes ||
+             sample_format != want_format || compression != want_compression || predictor != format.predictor ||
+             TIFFIsByteSwapped(tif_) != 0 || !little_endian_host || width == 0 || height == 0)
     fail("its layout is not the one its tiles are encoded for");
   tiles_across_ = (static_cast<int64_t>(width) + tile_w - 1) / tile_w;
   tiles_down_ = (static_cast<int64_t>(height) + tile_h - 1) / tile_h;

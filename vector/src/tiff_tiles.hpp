@@ -67,14 +67,16 @@ class TileCompressor {
 
 // A tiled TIFF opened through GDAL's virtual file layer (any path GDAL can write, /vsimem/
 // included): for update, to which encoded tiles are appended, or read-only, from which a tile's
-// encoded bytes are read as they are (an earlier file whose unchanged tiles a new one copies).
+// encoded bytes are read as they are (an earlier file whose unchanged tiles a new one copies), or
+// `raw`: read-only, any tiled layout (its tiles' bytes checksummed, never decoded here).
 // Not thread-safe.
 class RawTileFile {
  public:
-  enum class Access { update, read };
+  enum class Access { update, read, raw };
   // Opens `path` (written by GDAL, not open elsewhere for update) and checks that its layout is
   // the one the tiles are encoded for: tiled, one band, `format`'s tile size, sample size and
-  // kind, compression and predictor tags, and the host's byte order. Throws rv::Error(io) naming
+  // kind, compression and predictor tags, and the host's byte order (Access::raw: tiled, one band,
+  // `format` unused). Throws rv::Error(io) naming
   // `display` (the user's name for the file) with libtiff's reason.
   RawTileFile(const std::string& path, const TileFormat& format, const std::string& display,
               Access access = Access::update);

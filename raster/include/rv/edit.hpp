@@ -67,8 +67,11 @@ struct TileSummaries {
 
   static TileSummaries for_grid(const GridSpec& grid);
   // Takes in whole rows [row0, row0 + rows) of the grid: sites and distances (metric units) of
-  // the field of `seeds`, rows * grid width values each.
-  void add(const int32_t* site, const float* distance, int64_t row0, int64_t rows, int64_t width, const SeedSet& seeds);
+  // the field of `seeds`, rows * grid width values each. `only`, when not null: one flag per tile
+  // of those rows' tile rows (cols per tile row, from row0's), and only the tiles flagged 1 are
+  // read (the others' cells may hold anything; their summaries are left as they are).
+  void add(const int32_t* site, const float* distance, int64_t row0, int64_t rows, int64_t width, const SeedSet& seeds,
+           const uint8_t* only = nullptr);
   size_t tile_of(int64_t col, int64_t row) const { return static_cast<size_t>((row / kTile) * cols + col / kTile); }
 };
 
@@ -103,7 +106,14 @@ class Edit {
   const FeatureMatch& match() const;
   // Per base site, its site in the edited set (edited_sites).
   const std::vector<int32_t>& site_map() const;
+  // Whether every kept site has the same index in both sets (a site raster of the base is then
+  // that of the edited set wherever the edit changes nothing).
+  bool keeps_indices() const;
 
+  // Per tile of the grid (TileSummaries order), 1 where plan() with these summaries reads the
+  // base's cells (the tiles it cannot rule out), 0 where it reads none: a tile flagged 0 keeps
+  // every cell of the base, renumbered. Throws as plan() where the summaries do not fit the grid.
+  std::vector<uint8_t> tiles_to_read(const TileSummaries& tiles) const;
   // The plan for `base`, the base field over any window of the grid (the field of the base seeds
   // computed with the same options). With `tiles` (the base field's summaries over the whole
   // grid), the cells of tiles that no removed feature can have owned and no added feature can
@@ -120,7 +130,11 @@ class Edit {
   // plan's cells computed again. Equal to
   // compute(edited, grid, options) over that window, cell for cell. Needs options.method exact
   // (else rv::Error(invalid_argument), thrown by the constructor).
-  void apply(const NearestField& base, const EditPlan& plan, NearestField& out) const;
+  // `valid`, when not null (in place only): per tile of the grid, whether base's cells in it are
+  // the base field's (tiles_to_read with the plan's summaries, or more); the others are neither
+  // read nor written, and the plan must have no cell there.
+  void apply(const NearestField& base, const EditPlan& plan, NearestField& out,
+             const std::vector<uint8_t>* valid = nullptr) const;
 
  private:
   struct State;

@@ -106,14 +106,18 @@ std::string JobManager::snapshot_base(const std::string& base, const std::string
   link(from / output_file_name("report", ""), to / output_file_name("report", ""));
   for (const fs::directory_entry& e : fs::directory_iterator(from / kEditBaseDir, ec))
     link(e.path(), to / kEditBaseDir / e.path().filename());
-  // The kept distance may be the job's own distance raster, beside the directory.
+  // The rasters the edit copies tiles from, the job's own beside the directory among them (the
+  // kept distance may be its distance raster).
   try {
     std::ifstream in(from / kEditBaseDir / "manifest.json");
-    const std::string file = nlohmann::json::parse(in).at("distance").at("file").get<std::string>();
-    const fs::path source = (from / kEditBaseDir / file).lexically_normal();
-    const fs::path rel = source.lexically_relative(from);
-    if (!rel.empty() && *rel.begin() != ".." && source.parent_path() != (from / kEditBaseDir).lexically_normal())
-      link(source, to / rel);
+    const nlohmann::json manifest = nlohmann::json::parse(in);
+    for (const auto& [role, r] : manifest.at("rasters").items()) {
+      const fs::path source = (from / kEditBaseDir / r.at("file").get<std::string>()).lexically_normal();
+      const fs::path rel = source.lexically_relative(from);
+      if (!rel.empty() && *rel.begin() != ".." && source.parent_path() != (from / kEditBaseDir).lexically_normal() &&
+          fs::exists(source) && !fs::exists(to / rel))
+        link(source, to / rel);
+    }
   } catch (const nlohmann::json::exception&) {
     bad(ErrorKind::invalid_argument, "job " + base + " kept a damaged manifest");
   }

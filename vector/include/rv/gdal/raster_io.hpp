@@ -140,8 +140,17 @@ class GeoTiffStripWriter {
   // `cells`, the copied tiles' cells included: for a COG they must hold the earlier file's cells
   // (`earlier` may itself be a COG this class wrote: its full resolution is copied). Throws as
   // write_rows, and io where the earlier file's tile cannot be read.
-  void take_tiles_from(const std::string& earlier);
+  // `checksums`, when not empty, are checksum64 of the earlier file's full-resolution tiles as it
+  // was written (row-major, its tile_checksums()): each copied tile is checked against its own,
+  // and one that differs throws invalid_input ("<display> was modified since it was written ...",
+  // `display` the caller's name for the earlier file; the writer has then failed).
+  void take_tiles_from(const std::string& earlier, std::vector<uint64_t> checksums = {},
+                       const std::string& display = "");
   void write_band(const T* cells, const std::vector<bool>& copy);
+  // checksum64 (rv/checksum.hpp) of every full-resolution tile's bytes as stored, row-major over
+  // the tiles (ceil(width / 256) across): of the tiles appended so far, 0 for those to come. Once
+  // every row is written they are the file's (a COG keeps its full-resolution tiles' bytes).
+  const std::vector<uint64_t>& tile_checksums() const;
   // Every row written: flush, close (a COG: assemble), rename into place. Throws invalid_argument
   // when rows are missing, io when GDAL, a file or the rename fails (nothing is left behind then).
   void finish();
@@ -189,6 +198,13 @@ class GeoTiffRowReader {
   const GridSpec& grid() const;
   // Rows [row0, row0 + rows) into `out` (rows * width values, row-major).
   void read_rows(int64_t row0, int64_t rows, T* out);
+  // The cells [col0, col0 + cols) x [row0, row0 + rows) into `out`, whose rows are `stride`
+  // values apart (stride >= cols).
+  void read_window(int64_t col0, int64_t row0, int64_t cols, int64_t rows, T* out, int64_t stride);
+  // checksum64 of tile (bx, by)'s bytes as stored in the file (not decoded): what
+  // GeoTiffStripWriter::tile_checksums() recorded when it wrote the file. Throws rv::Error(io) for
+  // a file that is not tiled or a tile that cannot be read.
+  uint64_t tile_checksum(int64_t bx, int64_t by);
 
  private:
   struct State;

@@ -1,0 +1,39 @@
+// Internal to run_job: the streamed job's parts for edits (issue 32). attach_edit() makes an edit
+// of a finished run produce its strips from the base (StreamJob::source: the tiles the edit may
+// change read, planned and recomputed; the others left for the files to copy from the base's);
+// attach_keep() adds what the run keeps for edits of it (edit_base.hpp).
+// Not part of the public API. Thread safety: one job's objects, used by its run alone.
+#pragma once
+
+#include <cstdint>
+#include <optional>
+#include <vector>
+
+#include "edit_base.hpp"
+#include "job_stream.hpp"
+#include "rv/edit.hpp"
+#include "rv/job.hpp"
+
+namespace rv::detail {
+
+// What an edit's strip source keeps across strips; must outlive run_streamed.
+struct StreamEdit {
+  std::optional<Edit> edit;
+  std::optional<ChangeTally> tallier;
+  EditTally tally;
+  std::vector<uint8_t> to_read;  // per tile of the grid: the edit may change it
+};
+
+// Makes `stream` an edit of `base`: its source, the changes raster (spec.outputs.changes), and
+// on each target whose tiles can be copied, the base's file and checksums. `stream`'s targets
+// (the job's rasters) must be in place; `st`, `base` and `job` must outlive the run.
+void attach_edit(StreamJob& stream, StreamEdit& st, const JobSpec& spec, const PreparedJob& job, EditBase& base);
+
+// Adds the kept field's rasters to `stream`, records every raster's checksums and the tile
+// summaries in `keep`; with an edit (`base` and `edit` not null), the kept rasters copy the
+// base's where they can, and the summaries of the tiles the edit did not touch are the base's.
+// Call after attach_edit. Everything given must outlive the run.
+void attach_keep(StreamJob& stream, EditBaseWriter& keep, const EditBase* base, const Edit* edit,
+                 const PreparedJob& job);
+
+}  // namespace rv::detail
