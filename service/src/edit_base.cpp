@@ -379,28 +379,46 @@ void EditBase::read(int64_t row0, int64_t rows, NearestField& out, const std::ve
   }
 }
 
-EditCodes same_codes(const EditBase& base, const Edit& edit, const LoadedSeeds& edited) {
+EditCodes code_maps(const EditBase& base, const Edit& edit, const LoadedSeeds& edited) {
   const SeedSet& b = base.seeds();
   EditCodes out;
-  out.owners = true;
+  auto set = [](CodeMap& m, size_t from, int32_t to) {
+    m.to[from] = to;
+    m.identity = m.identity && (to < 0 || to == static_cast<int32_t>(from));
+  };
+  // Owners by label.
   std::unordered_map<std::string, int32_t> code;
   for (size_t i = 0; i < edited.seeds.owner_labels().size(); ++i)
     code.emplace(edited.seeds.owner_labels()[i], static_cast<int32_t>(i + 1));
+  out.owners.to.assign(b.owner_labels().size() + 1, -1);
+  out.owners.to[0] = 0;
   for (size_t i = 0; i < b.owner_labels().size(); ++i) {
     const auto it = code.find(b.owner_labels()[i]);
-    out.owners = out.owners && (it == code.end() || it->second == static_cast<int32_t>(i + 1));
+    set(out.owners, i + 1, it == code.end() ? -1 : it->second);
   }
-  out.features = true;
+  // Features by their numbers in each run, through their sites: a feature changed only in
+  // geometry keeps the cells of its unchanged sites.
+  const std::vector<int32_t>& remap = edit.site_map();
   const std::vector<int64_t>& nb = base.numbering();
   const std::vector<int64_t>& ne = edited.input_position;
-  const FeatureMatch& m = edit.match();
-  for (size_t f = 0; f < m.edited_of_base.size() && out.features; ++f) {
-    const int32_t e = m.edited_of_base[f];
-    if (e < 0) continue;
-    const int64_t before = nb.empty() ? static_cast<int64_t>(f) + 1 : nb[f];
-    const int64_t after = ne.empty() ? static_cast<int64_t>(e) + 1 : ne[static_cast<size_t>(e)];
-    out.features = before == after;
+  auto number = [](const std::vector<int64_t>& n, int32_t f) {
+    return n.empty() ? static_cast<int64_t>(f) + 1 : n[static_cast<size_t>(f)];
+  };
+  int64_t top = 0;
+  for (size_t f = 0; f < b.features().size(); ++f) top = std::max(top, number(nb, static_cast<int32_t>(f)));
+  out.features.to.assign(static_cast<size_t>(top) + 1, -1);
+  out.features.to[0] = 0;
+  for (size_t i = 0; i < remap.size(); ++i) {
+    if (remap[i] == kNoSite) continue;
+    const auto from = static_cast<size_t>(number(nb, b.sites()[i].feature));
+    const auto to = static_cast<int32_t>(number(ne, edited.seeds.sites()[static_cast<size_t>(remap[i])].feature));
+    if (out.features.to[from] >= 0 && out.features.to[from] != to) out.features.valid = false;
+    set(out.features, from, to);
   }
+  // Sites by index.
+  out.sites.to.assign(remap.size() + 1, -1);
+  out.sites.to[0] = 0;
+  for (size_t i = 0; i < remap.size(); ++i) set(out.sites, i + 1, remap[i] == kNoSite ? -1 : remap[i] + 1);
   return out;
 }
 
@@ -462,6 +480,7 @@ nlohmann::json edit_report(const EditBase& base, const Edit& edit, const SeedSet
           {"tiles_read", std::count(tally.tiles_read.begin(), tally.tiles_read.end(), true)},
           {"tiles_encoded", tally.tiles_encoded},
           {"tiles_copied", tally.tiles_copied},
+          {"tiles_recoded", tally.tiles_recoded},
           {"tiles_not_copied", tally.not_copied},
           {"cells_of_removed_features", tally.cells_of_removed},
           {"owner_changed_cells", tally.changes.owner_cells},

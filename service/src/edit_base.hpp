@@ -121,19 +121,26 @@ class EditBase {
   std::string report_;
 };
 
-// Whether the edit's code rasters give what the base's cells hold (each kept feature's owner, and
-// its number) the codes the base's rasters gave them: their unchanged tiles are then the same
-// bytes, and are copied.
-struct EditCodes {
-  bool owners = false, features = false;
+// What the edit's code rasters give what the base's rasters coded, per value of the base's
+// rasters: owner codes, feature numbers, site values (index + 1); 0 stays 0 (none), -1 for what
+// the edit removed. `identity`: every kept value is unchanged, so an unchanged tile's bytes are
+// the same in both runs; else the tile is decoded and coded again.
+struct CodeMap {
+  std::vector<int32_t> to;
+  bool identity = true;
+  bool valid = true;  // false: no one code for each of the base's (nothing is copied)
 };
-EditCodes same_codes(const EditBase& base, const Edit& edit, const LoadedSeeds& edited);
+struct EditCodes {
+  CodeMap owners, features, sites;
+};
+EditCodes code_maps(const EditBase& base, const Edit& edit, const LoadedSeeds& edited);
 
 // The report's "edit" entry: what the edit matched, recomputed and changed.
 struct EditTally {
   int64_t cells_recomputed = 0, cells_of_removed = 0, blocks_measured = 0, strips = 0;
   int64_t tiles_encoded = 0;                      // tiles whose cells changed or may have (StreamJob::source's fresh)
   std::map<std::string, int64_t> tiles_copied;    // per file copying from the base's
+  std::map<std::string, int64_t> tiles_recoded;   // per file copying with other codes
   std::map<std::string, std::string> not_copied;  // per file that could not, why
   std::vector<bool> tiles_read;                   // per tile of the grid (TileSummaries order)
   double read_seconds = 0.0, plan_seconds = 0.0, apply_seconds = 0.0, tally_seconds = 0.0;

@@ -630,11 +630,12 @@ void compute_streamed(detail::JobRun& run, const PreparedJob& job, const RasterT
   // The edit of a finished run, and what this run keeps for edits of it (job_edit.hpp).
   detail::StreamEdit edit;
   if (base) detail::attach_edit(stream, edit, spec, job, *base);
-  if (keep) detail::attach_keep(stream, *keep, base, edit.edit ? &*edit.edit : nullptr, job);
+  if (keep) detail::attach_keep(stream, *keep, base, base ? &edit : nullptr, job);
   run.progress("compute", 0.0);
   const detail::StreamStats st = detail::run_streamed(stream);
   if (base) {
     edit.tally.tiles_copied = st.tiles_copied;
+    edit.tally.tiles_recoded = st.tiles_recoded;
     edit.tally.not_copied = st.not_copied;
     run.report["edit"] = detail::edit_report(*base, *edit.edit, job.loaded.seeds, edit.tally, job.grid,
                                              job.metric.kind == MetricSpec::geodesic);

@@ -23,12 +23,15 @@ StreamTarget& add_target(StreamJob& stream, Product product, const std::string& 
   return t;
 }
 
-// Copies tiles from the base's raster of `role`, if it wrote one.
-void copy_from(StreamTarget& t, const EditBase& base, const char* role) {
+// Copies tiles from the base's raster of `role`, if it wrote one; coded again through `codes`
+// where the edit changed the codes.
+void copy_from(StreamTarget& t, const EditBase& base, const char* role, const CodeMap* codes = nullptr) {
+  if (codes && !codes->valid) return;
   if (const auto e = base.earlier(role)) {
     t.earlier = e->path;
     t.earlier_display = e->display;
     t.earlier_checksums = e->checksums;
+    if (codes && !codes->identity) t.earlier_remap = codes->to;
   }
 }
 
@@ -46,16 +49,14 @@ void attach_edit(StreamJob& stream, StreamEdit& st, const JobSpec& spec, const P
     o.metadata["CONTENT"] = "1 = owner changed, 2 = only the distance changed, 0 = unchanged (edit of a finished run)";
     add_target(stream, Product::changes, spec.outputs.changes, o, "changes");
   }
-  // Each file copies from the base's file of the same product where a tile's bytes cannot differ:
-  // wherever the edit changes no cell, if the codes of what the base's cells hold are the same in
-  // both runs (distances always are).
-  const EditCodes same = same_codes(base, *st.edit, job.loaded);
+  // Each file copies from the base's file of the same product the tiles where the edit changes no
+  // cell: their bytes where the codes of what the base's cells hold are the same in both runs
+  // (distances always are), else decoded and coded again.
+  st.codes = code_maps(base, *st.edit, job.loaded);
   for (StreamTarget& t : stream.targets) {
-    const char* role = t.product == Product::ownership         ? (same.owners ? "ownership" : nullptr)
-                       : t.product == Product::distance        ? "output_distance"
-                       : t.product == Product::nearest_feature ? (same.features ? "nearest_feature" : nullptr)
-                                                               : nullptr;
-    if (role != nullptr) copy_from(t, base, role);
+    if (t.product == Product::ownership) copy_from(t, base, "ownership", &st.codes.owners);
+    if (t.product == Product::distance) copy_from(t, base, "output_distance");
+    if (t.product == Product::nearest_feature) copy_from(t, base, "nearest_feature", &st.codes.features);
   }
   const bool codes = !spec.outputs.changes.empty();
   const int64_t across = base.tiles().cols;
@@ -93,11 +94,10 @@ void attach_edit(StreamJob& stream, StreamEdit& st, const JobSpec& spec, const P
   };
 }
 
-void attach_keep(StreamJob& stream, EditBaseWriter& keep, const EditBase* base, const Edit* edit,
+void attach_keep(StreamJob& stream, EditBaseWriter& keep, const EditBase* base, const StreamEdit* edit,
                  const PreparedJob& job) {
   StreamTarget& site = add_target(stream, Product::site, keep.site_path(), keep.site_options(), "edit_base_site");
-  // The base's site raster holds the edited sites' numbers where every kept site keeps its index.
-  if (base && edit && edit->keeps_indices()) copy_from(site, *base, "site");
+  if (base && edit) copy_from(site, *base, "site", &edit->codes.sites);
   if (!keep.shares_distance()) {
     StreamTarget& d = add_target(stream, Product::metric_distance, keep.distance_path(), keep.distance_options(),
                                  "edit_base_distance");

@@ -22,6 +22,7 @@ struct StreamEdit {
   std::optional<ChangeTally> tallier;
   EditTally tally;
   std::vector<uint8_t> to_read;  // per tile of the grid: the edit may change it
+  EditCodes codes;               // the base's codes -> the edit's
 };
 
 // Makes `stream` an edit of `base`: its source, the changes raster (spec.outputs.changes), and
@@ -30,10 +31,10 @@ struct StreamEdit {
 void attach_edit(StreamJob& stream, StreamEdit& st, const JobSpec& spec, const PreparedJob& job, EditBase& base);
 
 // Adds the kept field's rasters to `stream`, records every raster's checksums and the tile
-// summaries in `keep`; with an edit (`base` and `edit` not null), the kept rasters copy the
-// base's where they can, and the summaries of the tiles the edit did not touch are the base's.
+// summaries in `keep`; with an edit (`base` and `edit` not null: attach_edit's), the kept rasters
+// copy the base's, and the summaries of the tiles the edit did not touch are the base's.
 // Call after attach_edit. Everything given must outlive the run.
-void attach_keep(StreamJob& stream, EditBaseWriter& keep, const EditBase* base, const Edit* edit,
+void attach_keep(StreamJob& stream, EditBaseWriter& keep, const EditBase* base, const StreamEdit* edit,
                  const PreparedJob& job);
 
 }  // namespace rv::detail

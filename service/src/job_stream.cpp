@@ -113,8 +113,7 @@ void write_file(StreamState& st, size_t i) {
   lower_priority();
   const StreamTarget& target = st.job.targets[i];
   const bool copies = st.copies[i] != 0;
-  // A COG's overviews are made from every cell, the copied tiles' too.
-  const bool every_cell = !copies || target.options.cloud_optimized;
+  const bool every_cell = !copies;
   std::vector<int32_t> codes;  // this file's codes of the strip in hand (code rasters only)
   // Site ids -> this file's codes over the strip's cells: every cell, or, for a plain file that
   // copies the tiles flagged 0, the cells of the tiles flagged 1 alone (the others may hold
@@ -285,8 +284,8 @@ StreamStats run_streamed(const StreamJob& job) {
     job.will_write(t.path);
     st.writers.push_back(open_writer(t, job.grid));
   }
-  // An edit's earlier files: copied from where their layout allows. Every cell is needed where a
-  // file encodes all its tiles (a COG too: its overviews are made from every cell), and by
+  // An edit's earlier files: copied from where their layout allows (a COG decodes the copied
+  // tiles for its overviews). Every cell is needed where a file encodes all its tiles, and by
   // on_strip.
   st.across = (st.width + kTileSide - 1) / kTileSide;
   st.copies.assign(job.targets.size(), 0);
@@ -296,15 +295,15 @@ StreamStats run_streamed(const StreamJob& job) {
     const StreamTarget& t = job.targets[i];
     if (!t.earlier.empty()) {
       try {
-        std::visit([&](auto& w) { w.take_tiles_from(t.earlier, t.earlier_checksums, t.earlier_display); },
-                   st.writers[i]);
+        std::visit(
+            [&](auto& w) { w.take_tiles_from(t.earlier, t.earlier_checksums, t.earlier_display, t.earlier_remap); },
+            st.writers[i]);
         st.copies[i] = 1;
       } catch (const Error& e) {
         stats.not_copied[t.name] = e.what();
       }
     }
-    if (t.product != StreamTarget::Product::changes && (!st.copies[i] || t.options.cloud_optimized))
-      st.all_cells = true;
+    if (t.product != StreamTarget::Product::changes && !st.copies[i]) st.all_cells = true;
   }
   stats.all_cells = st.all_cells;
   st.write_seconds.assign(job.targets.size(), 0.0);
@@ -348,7 +347,9 @@ StreamStats run_streamed(const StreamJob& job) {
   if (!st.write_waited.empty()) stats.write_waited = *std::max_element(st.write_waited.begin(), st.write_waited.end());
   for (size_t i = 0; i < job.targets.size(); ++i) {
     stats.write[job.targets[i].name] = st.write_seconds[i];
-    if (!job.targets[i].earlier.empty()) stats.tiles_copied[job.targets[i].name] = st.copies[i] ? st.copied[i] : -1;
+    const StreamTarget& t = job.targets[i];
+    if (!t.earlier.empty())
+      (t.earlier_remap.empty() ? stats.tiles_copied : stats.tiles_recoded)[t.name] = st.copies[i] ? st.copied[i] : -1;
   }
   stats.wall = seconds_since(start);
   return stats;

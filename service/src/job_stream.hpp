@@ -32,8 +32,11 @@ struct StreamTarget {
   // An edit's earlier file of the same product, whose tiles the strips mark unchanged are copied
   // as they are (GeoTiffStripWriter::take_tiles_from, checked against `earlier_checksums`; named
   // `earlier_display` in errors). Empty, or a file whose layout differs: every tile is encoded.
+  // `earlier_remap`, when not empty (code rasters): the earlier file's codes -> this file's
+  // (GeoTiffStripWriter::take_tiles_from); its copied tiles are then decoded and encoded again.
   std::string earlier, earlier_display;
   std::vector<uint64_t> earlier_checksums;
+  std::vector<int32_t> earlier_remap;
   // When set, called on the writer's thread with each strip's sites and metric distances (rows
   // [row0, row0 + rows), whole rows), before its values are written. `fresh`: null when every
   // cell is valid, else Strip::fresh (one flag per tile of the strip's bands, row-major; the cells
@@ -80,8 +83,9 @@ struct StreamStats {
   std::map<std::string, double> write;  // per target: site ids -> codes (code rasters), encoding
                                         // and finishing, on its writer thread
   // Per target with an earlier file: the tiles copied from it, or -1 where none could be (its
-  // layout differs, or it is missing), with the reason in `not_copied`.
-  std::map<std::string, int64_t> tiles_copied;
+  // layout differs, or it is missing), with the reason in `not_copied`; in `tiles_recoded`
+  // instead of `tiles_copied` where they were decoded and coded again (StreamTarget::earlier_remap).
+  std::map<std::string, int64_t> tiles_copied, tiles_recoded;
   std::map<std::string, std::string> not_copied;
   bool all_cells = true;        // every cell of every strip was produced
   double compute_waited = 0.0;  // the computing thread waiting for a free strip buffer

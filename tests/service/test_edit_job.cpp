@@ -471,13 +471,28 @@ TEST_F(EditJob, UnchangedTilesAreCopied) {
   EXPECT_TRUE(e.at("tiles_not_copied").empty()) << e.dump();
 
   // A point removed from the middle (of an owner that stays): the feature numbers and sites after
-  // it shift, so those files encode every tile; the owner codes and distances are copied.
+  // it shift, so those files decode the tiles they copy and code them again; the owner codes and
+  // distances are copied as they are. No cell is read but in the tiles the edit may change.
   feats.erase(feats.begin() + 20);
   auto [removed, r] = run_pair(moved, "remove", false);
-  EXPECT_FALSE(r.at("tiles_copied").contains("nearest_feature")) << r.dump();
-  EXPECT_FALSE(r.at("tiles_copied").contains("edit_base_site")) << r.dump();
-  EXPECT_EQ(r.at("tiles_copied").value("ownership", int64_t{-2}), tiles - r.at("tiles_encoded").get<int64_t>());
-  EXPECT_EQ(r.at("tiles_copied").value("distance", int64_t{-2}), tiles - r.at("tiles_encoded").get<int64_t>());
+  const int64_t unchanged = tiles - r.at("tiles_encoded").get<int64_t>();
+  EXPECT_LT(r.at("tiles_read").get<int64_t>(), tiles) << r.dump();
+  for (const char* f : {"nearest_feature", "edit_base_site"}) {
+    EXPECT_FALSE(r.at("tiles_copied").contains(f)) << r.dump();
+    EXPECT_EQ(r.at("tiles_recoded").value(f, int64_t{-2}), unchanged) << f << " " << r.dump();
+  }
+  EXPECT_EQ(r.at("tiles_copied").value("ownership", int64_t{-2}), unchanged) << r.dump();
+  EXPECT_EQ(r.at("tiles_copied").value("distance", int64_t{-2}), unchanged) << r.dump();
+  // The first point's owner gone: every owner code after it shifts.
+  const std::string first = feats[0].owner;
+  std::vector<Feat> kept;
+  for (const Feat& f : feats)
+    if (f.owner != first) kept.push_back(f);
+  std::swap(feats, kept);
+  auto [dropped, o] = run_pair(removed, "drop", false);
+  EXPECT_GT(o.at("tiles_recoded").value("ownership", int64_t{-2}), 0) << o.dump();
+  std::swap(feats, kept);
+  write_seeds(feats, c);
 
   // COGs: a COG base and a COG edit copy their full-resolution tiles (the overviews are made
   // from every cell).
@@ -486,6 +501,7 @@ TEST_F(EditJob, UnchangedTilesAreCopied) {
   feats[10].pts[0][1] -= 40.0;
   auto [cog, ce] = run_pair(cog_base, "cog", true);
   EXPECT_GT(ce.at("tiles_copied").value("ownership", int64_t{-2}), 0) << ce.dump();
+  EXPECT_LT(ce.at("tiles_read").get<int64_t>(), tiles) << ce.dump();
 
   // A tile the edit copies, modified in the base's ownership raster (far from the edit: the
   // corner tile): refused, nothing written. Rewritten with one cell changed, every other tile's

@@ -44,6 +44,7 @@
 #include "cog_assembly.hpp"
 #include "cog_overviews.hpp"
 #include "gdal_util.hpp"
+#include "raster_open.hpp"
 #include "rv/checksum.hpp"
 #include "rv/error.hpp"
 #include "rv/gdal/raster_io.hpp"
@@ -51,6 +52,10 @@
 #include "tiff_tiles.hpp"
 
 namespace rv {
+
+using detail::open_raster;
+using detail::OpenedRaster;
+using detail::PixelType;
 namespace {
 
 constexpr int kBlock = 256;
@@ -59,19 +64,6 @@ constexpr int kBlock = 256;
 // kMaxEncoders of them: about 10 MiB per file at most (the job planner's kWriterBytes).
 constexpr int64_t kChunkTiles = 24;
 constexpr int kMaxEncoders = 16;
-
-template <class T>
-struct PixelType;
-template <>
-struct PixelType<int32_t> {
-  static constexpr GDALDataType gdal = GDT_Int32;
-  static constexpr bool floating = false;
-};
-template <>
-struct PixelType<float> {
-  static constexpr GDALDataType gdal = GDT_Float32;
-  static constexpr bool floating = true;
-};
 
 // Whether this GDAL's libtiff can write ZSTD (libtiff >= 4.0.10 built with libzstd).
 bool has_zstd(GDALDriver* gtiff) {
@@ -393,6 +385,11 @@ struct GeoTiffStripWriter<T>::State {
   std::vector<uint8_t> earlier_tile;
   std::vector<uint64_t> earlier_checksums;  // empty: copied tiles are not checked
   std::string earlier_display;
+  // The earlier file opened by GDAL, to decode tiles whose cells are needed: remapped tiles, and a
+  // COG's copied tiles (its overviews are made from every cell).
+  gdal::DatasetPtr earlier_ds;
+  std::vector<int32_t> remap;  // integer files: earlier value v -> remap[v] (copied tiles re-encoded)
+  std::vector<T> band;         // a band of rows completed from the earlier file
   // checksum64 of each full-resolution tile appended (tile_checksums()).
   std::vector<uint64_t> checksums;
   int threads = 1;
@@ -539,20 +536,61 @@ struct GeoTiffStripWriter<T>::State {
   void write_band(const T* rows, int64_t h, const std::vector<bool>* copy = nullptr) {
     const int64_t by = rows_written / kBlock;
     const int64_t across = file->tiles_across();
-    encode_band(rows, h, window.width, copy, [&](int64_t bx, const detail::EncodedTile* t) {
-      const detail::EncodedTile bytes = t != nullptr ? *t : earlier->read(bx, by, earlier_tile);
+    // A copied tile's stored bytes, checked against its checksum.
+    auto earlier_tile_bytes = [&](int64_t bx) {
+      const detail::EncodedTile bytes = earlier->read(bx, by, earlier_tile);
       const uint64_t sum = checksum64(bytes.data, bytes.size);
       const auto k = static_cast<size_t>(by * across + bx);
-      if (t == nullptr && !earlier_checksums.empty() && (k >= earlier_checksums.size() || earlier_checksums[k] != sum))
+      if (!earlier_checksums.empty() && (k >= earlier_checksums.size() || earlier_checksums[k] != sum))
         throw Error(ErrorKind::invalid_input,
                     earlier_display + " was modified since it was written (the tile of rows " +
                         std::to_string(by * kBlock) + "-" + std::to_string(by * kBlock + h - 1) + ", columns " +
                         std::to_string(bx * kBlock) + "-" +
                         std::to_string(std::min<int64_t>(window.width, (bx + 1) * kBlock) - 1) + ")");
+      return std::make_pair(bytes, sum);
+    };
+    // Where the copied tiles' cells are needed (remapped, or a COG's overviews), the band is
+    // completed from the earlier file; the caller's cells elsewhere.
+    const T* cells = rows;
+    if (copy != nullptr && (!remap.empty() || cog)) {
+      band.assign(rows, rows + h * window.width);
+      for (int64_t bx = 0; bx < across; ++bx) {
+        if (!(*copy)[static_cast<size_t>(bx)]) continue;
+        if (!remap.empty()) earlier_tile_bytes(bx);  // encoded again below: checked here
+        const int64_t x0 = bx * kBlock, w = std::min<int64_t>(kBlock, window.width - x0);
+        T* at = band.data() + x0;
+        const auto cell = static_cast<GSpacing>(sizeof(T));
+        if (earlier_ds->GetRasterBand(1)->RasterIO(GF_Read, static_cast<int>(x0), static_cast<int>(by * kBlock),
+                                                   static_cast<int>(w), static_cast<int>(h), at, static_cast<int>(w),
+                                                   static_cast<int>(h), PixelType<T>::gdal, cell, cell * window.width,
+                                                   nullptr) != CE_None)
+          throw Error(ErrorKind::io, "reading " + earlier_display + " failed");
+        if constexpr (!PixelType<T>::floating) {
+          if (!remap.empty())
+            for (int64_t r = 0; r < h; ++r)
+              for (T* v = at + r * window.width; v != at + r * window.width + w; ++v) {
+                if (*v < 0 || static_cast<size_t>(*v) >= remap.size() || remap[static_cast<size_t>(*v)] < 0)
+                  throw Error(ErrorKind::invalid_input,
+                              earlier_display + " holds a value its run did not write (" + std::to_string(*v) + ")");
+                *v = remap[static_cast<size_t>(*v)];
+              }
+        }
+      }
+      cells = band.data();
+      if (!remap.empty()) copy = nullptr;  // every tile encoded from the completed band
+    }
+    encode_band(cells, h, window.width, copy, [&](int64_t bx, const detail::EncodedTile* t) {
+      const auto k = static_cast<size_t>(by * across + bx);
+      if (t != nullptr) {
+        file->append(bx, by, *t);
+        checksums[k] = checksum64(t->data, t->size);
+        return;
+      }
+      const auto [bytes, sum] = earlier_tile_bytes(bx);
       file->append(bx, by, bytes);
       checksums[k] = sum;
     });
-    if (cog) cog->pyramid->add_rows(rows, h);
+    if (cog) cog->pyramid->add_rows(cells, h);
     rows_written += h;
   }
 
@@ -713,7 +751,7 @@ const std::vector<uint64_t>& GeoTiffStripWriter<T>::tile_checksums() const {
 
 template <class T>
 void GeoTiffStripWriter<T>::take_tiles_from(const std::string& earlier, std::vector<uint64_t> checksums,
-                                            const std::string& display) {
+                                            const std::string& display, std::vector<int32_t> remap) {
   if (!state_ || state_->finished) throw Error(ErrorKind::invalid_argument, "GeoTIFF writer: already finished");
   State& s = *state_;
   typename State::Scope scope;
@@ -725,14 +763,21 @@ void GeoTiffStripWriter<T>::take_tiles_from(const std::string& earlier, std::vec
   if (g.width != s.window.width || g.height != s.window.height || g.res != grid.res || g.xmin != xmin || g.ymax != ymax)
     throw Error(ErrorKind::invalid_argument,
                 "writing " + s.path + ": " + earlier + " covers other cells than this file (extent or cell size)");
+  if (PixelType<T>::floating && !remap.empty())
+    throw Error(ErrorKind::invalid_argument, "writing " + s.path + ": only codes are remapped");
   try {
-    s.earlier = std::make_unique<detail::RawTileFile>(earlier, s.format, earlier, detail::RawTileFile::Access::read);
+    // Remapped tiles are decoded and encoded again: the earlier file's layout may differ.
+    s.earlier = std::make_unique<detail::RawTileFile>(
+        earlier, s.format, earlier,
+        remap.empty() ? detail::RawTileFile::Access::read : detail::RawTileFile::Access::raw);
   } catch (const Error& e) {
     throw Error(ErrorKind::invalid_argument, "writing " + s.path + ": its tiles cannot be copied from " + earlier +
                                                  ", whose layout (data type, compression, predictor, tiles) differs or "
                                                  "cannot be read: " +
                                                  e.what());
   }
+  if (s.cog || !remap.empty()) s.earlier_ds = open_raster(earlier).ds;
+  s.remap = std::move(remap);
   s.earlier_checksums = std::move(checksums);
   s.earlier_display = display.empty() ? earlier : display;
 }
@@ -812,124 +857,6 @@ void bound_block_cache() {
   if (GDALGetCacheMax64() > kBlockCacheBytes) GDALSetCacheMax64(kBlockCacheBytes);
 }
 
-namespace {
-
-struct OpenedRaster {
-  gdal::DatasetPtr ds;
-  GridSpec grid;
-};
-
-OpenedRaster open_raster(const std::string& path) {
-  gdal_init();
-  if (!exists(path)) throw Error(ErrorKind::not_found, "raster not found: " + path);
-  gdal::ErrorCapture capture;
-  OpenedRaster r;
-  r.ds.reset(
-      GDALDataset::FromHandle(GDALOpenEx(path.c_str(), GDAL_OF_RASTER | GDAL_OF_READONLY, nullptr, nullptr, nullptr)));
-  if (!r.ds) throw Error(ErrorKind::invalid_input, path + ": not a raster GDAL can read" + capture.suffix());
-  if (r.ds->GetRasterCount() < 1) throw Error(ErrorKind::invalid_input, path + ": the raster has no bands");
-  double gt[6];
-  if (r.ds->GetGeoTransform(gt) != CE_None)
-    throw Error(ErrorKind::invalid_input, path + ": the raster has no geotransform");
-  if (gt[2] != 0.0 || gt[4] != 0.0) throw Error(ErrorKind::invalid_input, path + ": rotated rasters are not supported");
-  if (!(gt[1] > 0.0) || !(gt[5] < 0.0))
-    throw Error(ErrorKind::invalid_input,
-                path + ": only north-up rasters (positive x step, negative y step) are supported");
-  if (std::abs(gt[1] + gt[5]) > 1e-9 * gt[1])
-    throw Error(ErrorKind::invalid_input,
-                path + ": cells are not square (" + std::to_string(gt[1]) + " x " + std::to_string(-gt[5]) + ")");
-  r.grid.xmin = gt[0];
-  r.grid.ymax = gt[3];
-  r.grid.res = gt[1];
-  r.grid.width = r.ds->GetRasterXSize();
-  r.grid.height = r.ds->GetRasterYSize();
-  if (const OGRSpatialReference* srs = r.ds->GetSpatialRef()) r.grid.crs = gdal::to_wkt2(*srs);
-  return r;
-}
-
-template <class T>
-Raster<T> read_band(const std::string& path) {
-  OpenedRaster r = open_raster(path);
-  gdal::ErrorCapture capture;
-  Raster<T> out(r.grid, r.grid.full_window(), Uninitialized{});
-  if (r.ds->GetRasterBand(1)->RasterIO(GF_Read, 0, 0, static_cast<int>(r.grid.width), static_cast<int>(r.grid.height),
-                                       out.data(), static_cast<int>(r.grid.width), static_cast<int>(r.grid.height),
-                                       PixelType<T>::gdal, 0, 0, nullptr) != CE_None)
-    throw Error(ErrorKind::io, "reading " + path + " failed" + capture.suffix());
-  return out;
-}
-
-}  // namespace
-
-template <class T>
-struct GeoTiffRowReader<T>::State {
-  OpenedRaster raster;
-  std::string path;
-  // The tiles' bytes (tile_checksum), opened with the raster so that both read the same file; a
-  // file libtiff cannot read raw fails only when a checksum is asked for.
-  std::unique_ptr<detail::RawTileFile> raw;
-  std::exception_ptr raw_error;
-  std::vector<uint8_t> tile;
-};
-
-template <class T>
-GeoTiffRowReader<T>::GeoTiffRowReader(const std::string& path)
-    : st_(std::make_unique<State>(State{open_raster(path), path, nullptr, nullptr, {}})) {
-  try {
-    st_->raw =
-        std::make_unique<detail::RawTileFile>(path, detail::TileFormat{}, path, detail::RawTileFile::Access::raw);
-  } catch (const Error&) {
-    st_->raw_error = std::current_exception();
-  }
-}
-template <class T>
-GeoTiffRowReader<T>::~GeoTiffRowReader() = default;
-template <class T>
-GeoTiffRowReader<T>::GeoTiffRowReader(GeoTiffRowReader&&) noexcept = default;
-template <class T>
-GeoTiffRowReader<T>& GeoTiffRowReader<T>::operator=(GeoTiffRowReader&&) noexcept = default;
-template <class T>
-const GridSpec& GeoTiffRowReader<T>::grid() const {
-  return st_->raster.grid;
-}
-
-template <class T>
-void GeoTiffRowReader<T>::read_rows(int64_t row0, int64_t rows, T* out) {
-  const GridSpec& g = st_->raster.grid;
-  if (row0 < 0 || rows < 0 || row0 + rows > g.height)
-    throw Error(ErrorKind::invalid_argument, st_->path + ": rows beyond the raster");
-  if (rows == 0) return;
-  gdal::ErrorCapture capture;
-  if (st_->raster.ds->GetRasterBand(1)->RasterIO(GF_Read, 0, static_cast<int>(row0), static_cast<int>(g.width),
-                                                 static_cast<int>(rows), out, static_cast<int>(g.width),
-                                                 static_cast<int>(rows), PixelType<T>::gdal, 0, 0, nullptr) != CE_None)
-    throw Error(ErrorKind::io, "reading " + st_->path + " failed" + capture.suffix());
-}
-
-template <class T>
-void GeoTiffRowReader<T>::read_window(int64_t col0, int64_t row0, int64_t cols, int64_t rows, T* out, int64_t stride) {
-  const GridSpec& g = st_->raster.grid;
-  if (col0 < 0 || row0 < 0 || cols < 0 || rows < 0 || col0 + cols > g.width || row0 + rows > g.height || stride < cols)
-    throw Error(ErrorKind::invalid_argument, st_->path + ": a window beyond the raster");
-  if (rows == 0 || cols == 0) return;
-  gdal::ErrorCapture capture;
-  const auto cell = static_cast<GSpacing>(sizeof(T));
-  if (st_->raster.ds->GetRasterBand(1)->RasterIO(
-          GF_Read, static_cast<int>(col0), static_cast<int>(row0), static_cast<int>(cols), static_cast<int>(rows), out,
-          static_cast<int>(cols), static_cast<int>(rows), PixelType<T>::gdal, cell, cell * stride, nullptr) != CE_None)
-    throw Error(ErrorKind::io, "reading " + st_->path + " failed" + capture.suffix());
-}
-
-template <class T>
-uint64_t GeoTiffRowReader<T>::tile_checksum(int64_t bx, int64_t by) {
-  if (!st_->raw) std::rethrow_exception(st_->raw_error);
-  const detail::EncodedTile t = st_->raw->read(bx, by, st_->tile);
-  return checksum64(t.data, t.size);
-}
-
-template class GeoTiffRowReader<int32_t>;
-template class GeoTiffRowReader<float>;
-
 std::string_view to_string(Compression c) {
   switch (c) {
     case Compression::fast:
@@ -958,39 +885,6 @@ void write_geotiff(const std::string& path, const Raster<int32_t>& raster, doubl
 
 void write_geotiff(const std::string& path, const Raster<float>& raster, double nodata, const GeoTiffOptions& options) {
   write_any(path, raster, nodata, options);
-}
-
-GridSpec read_grid(const std::string& path) { return open_raster(path).grid; }
-
-Raster<int32_t> read_int32(const std::string& path) { return read_band<int32_t>(path); }
-
-Raster<float> read_float32(const std::string& path) { return read_band<float>(path); }
-
-std::vector<std::string> read_category_labels(const std::string& path) {
-  OpenedRaster r = open_raster(path);
-  GDALRasterBand* band = r.ds->GetRasterBand(1);
-  std::vector<std::string> labels;
-  if (GDALRasterAttributeTable* rat = band->GetDefaultRAT()) {
-    int value_col = -1, name_col = -1;
-    for (int c = 0; c < rat->GetColumnCount(); ++c) {
-      if (rat->GetUsageOfCol(c) == GFU_Name || EQUAL(rat->GetNameOfCol(c), "Owner"))
-        name_col = name_col < 0 ? c : name_col;
-      if (EQUAL(rat->GetNameOfCol(c), "Value")) value_col = c;
-    }
-    if (value_col >= 0 && name_col >= 0) {
-      for (int row = 0; row < rat->GetRowCount(); ++row) {
-        const int value = rat->GetValueAsInt(row, value_col);
-        if (value < 1 || value > 1'000'000'000) continue;
-        if (static_cast<size_t>(value) > labels.size()) labels.resize(static_cast<size_t>(value));
-        labels[static_cast<size_t>(value - 1)] = rat->GetValueAsString(row, name_col);
-      }
-      return labels;
-    }
-  }
-  if (char** names = band->GetCategoryNames()) {
-    for (int i = 1; names[0] != nullptr && names[i] != nullptr; ++i) labels.emplace_back(names[i]);
-  }
-  return labels;
 }
 
 }  // namespace rv

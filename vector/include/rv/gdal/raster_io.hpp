@@ -136,16 +136,20 @@ class GeoTiffStripWriter {
   // as write_rows takes them) where copy[bx] is false, and as the earlier file's bytes of the same
   // tile, unchanged, where it is true (those cells of `cells` are not read). One flag per tile
   // across (ceil(width / 256)). The file is the one write_rows() would write from the same cells
-  // where the copied tiles hold the earlier file's cells. A COG's overviews are made from all of
-  // `cells`, the copied tiles' cells included: for a COG they must hold the earlier file's cells
-  // (`earlier` may itself be a COG this class wrote: its full resolution is copied). Throws as
-  // write_rows, and io where the earlier file's tile cannot be read.
+  // where the copied tiles hold the earlier file's cells. A COG's overviews are made from the
+  // band's cells, the copied tiles' decoded from the earlier file (`earlier` may itself be a COG
+  // this class wrote: its full resolution is copied). Throws as write_rows, and io where the
+  // earlier file's tile cannot be read.
   // `checksums`, when not empty, are checksum64 of the earlier file's full-resolution tiles as it
   // was written (row-major, its tile_checksums()): each copied tile is checked against its own,
   // and one that differs throws invalid_input ("<display> was modified since it was written ...",
   // `display` the caller's name for the earlier file; the writer has then failed).
+  // `remap`, when not empty (integer rasters only, else invalid_argument): the earlier file holds
+  // other codes for the same things; each copied tile is decoded, every value v becomes remap[v]
+  // (a value outside remap or mapped to a negative one throws invalid_input), and the tile is
+  // encoded again (the earlier file's data type may then differ).
   void take_tiles_from(const std::string& earlier, std::vector<uint64_t> checksums = {},
-                       const std::string& display = "");
+                       const std::string& display = "", std::vector<int32_t> remap = {});
   void write_band(const T* cells, const std::vector<bool>& copy);
   // checksum64 (rv/checksum.hpp) of every full-resolution tile's bytes as stored, row-major over
   // the tiles (ceil(width / 256) across): of the tiles appended so far, 0 for those to come. Once
