@@ -18,6 +18,9 @@ edited in place and two commands alternate --repeats times: the edit (`--base` t
 report) and a fresh run of the edited file. Every edit's files are compared byte for byte with
 the fresh run's (the script stops on a difference).
 
+--old BIN: the same edits by another build too (its own base run), alternated with the others:
+the column "old edit s" (the two builds' kept bases differ in format, so each edits its own).
+
 A last pair measures what keeping the field costs every run: the fresh command with --report
 (which keeps it) against the same without --report (which keeps nothing), alternated.
 
@@ -167,6 +170,7 @@ def main():
     ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument("--work", default="/tmp/rv_edits_bench")
     ap.add_argument("--outputs", default="ownership,distance")
+    ap.add_argument("--old", help="another build's binary, whose edits are timed alongside")
     a = ap.parse_args()
     if a.coast:
         return coast(a)
@@ -179,6 +183,10 @@ def main():
     base_dir = os.path.join(a.work, "base")
     subprocess.run(command(a.binary, seeds, a.side, base_dir, outputs), check=True)
     base_report = os.path.join(base_dir, "report.json")
+    old_report = None
+    if a.old:
+        subprocess.run(command(a.old, seeds, a.side, os.path.join(a.work, "base_old"), outputs), check=True)
+        old_report = os.path.join(a.work, "base_old", "report.json")
 
     rows = []
     k = len(pts) // 2
@@ -188,11 +196,15 @@ def main():
     for name, edit in edits:
         write_points(seeds, edit(pts))
         e_dir, f_dir = os.path.join(a.work, "edit"), os.path.join(a.work, "fresh")
-        e_wall, f_wall, e_compute, f_compute = [], [], [], []
+        e_wall, f_wall, e_compute, f_compute, o_wall = [], [], [], [], []
         report = None
         for _ in range(a.repeats):
             e_wall.append(timed(command(a.binary, seeds, a.side, e_dir, outputs, base=base_report)))
             f_wall.append(timed(command(a.binary, seeds, a.side, f_dir, outputs)))
+            if a.old:
+                o_dir = os.path.join(a.work, "edit_old")
+                o_wall.append(timed(command(a.old, seeds, a.side, o_dir, outputs, base=old_report)))
+                same_files(o_dir, f_dir, outputs)
             report = json.load(open(os.path.join(e_dir, "report.json")))
             fresh = json.load(open(os.path.join(f_dir, "report.json")))
             e_compute.append(report["timings_s"]["compute"])
@@ -201,7 +213,8 @@ def main():
         e = report["edit"]
         rows.append((name, statistics.median(e_wall), statistics.median(f_wall), statistics.median(e_compute),
                      statistics.median(f_compute), e["cells_recomputed"],
-                     e["owner_changed_cells"] + e["distance_only_changed_cells"], e["timings_s"]))
+                     e["owner_changed_cells"] + e["distance_only_changed_cells"], e["timings_s"],
+                     statistics.median(o_wall) if o_wall else None, e))
     write_points(seeds, pts)
 
     keep, plain = [], []
@@ -215,12 +228,18 @@ def main():
     cells = a.side * a.side
     print(f"{a.side} x {a.side} cells ({cells:.1e}), {a.seeds} points, outputs {', '.join(outputs)}; "
           f"medians of {a.repeats}, edit and fresh alternated.\n")
-    print("| edit | edit command s | fresh command s | ratio | edit compute s | fresh compute s | ratio "
-          "| cells recomputed | cells changed | read / plan / recompute / tally s |")
-    print("|---|---|---|---|---|---|---|---|---|---|")
-    for name, ew, fw, ec, fc, rec, chg, t in rows:
-        print(f"| {name} | {ew:.2f} | {fw:.2f} | {ew / fw:.0%} | {ec:.3f} | {fc:.3f} | {ec / fc:.0%} | {rec} | {chg} "
-              f"| {t['read_base']:.2f} / {t['plan']:.2f} / {t['recompute']:.2f} / {t['tally']:.2f} |")
+    print("| edit | edit command s | fresh command s | ratio | " + ("old edit s | " if a.old else "") +
+          "edit compute s | fresh compute s | ratio | cells recomputed | cells changed "
+          "| read / plan / recompute / tally s | tiles read / encoded of | copied / recoded per file |")
+    print("|---|---|---|---|" + ("---|" if a.old else "") + "---|---|---|---|---|---|---|---|")
+    for name, ew, fw, ec, fc, rec, chg, t, ow, e in rows:
+        per_file = ", ".join(f"{k} {v}" for k, v in e.get("tiles_copied", {}).items())
+        recoded = ", ".join(f"{k} {v}" for k, v in e.get("tiles_recoded", {}).items())
+        print(f"| {name} | {ew:.2f} | {fw:.2f} | {ew / fw:.0%} | " + (f"{ow:.2f} | " if a.old else "") +
+              f"{ec:.3f} | {fc:.3f} | {ec / fc:.0%} | {rec} | {chg} "
+              f"| {t['read_base']:.3f} / {t['plan']:.3f} / {t['recompute']:.3f} / {t['tally']:.3f} "
+              f"| {e.get('tiles_read')} / {e.get('tiles_encoded', '-')} of {e.get('tiles')} "
+              f"| {per_file or '-'}; recoded: {recoded or '-'} |")
     print(f"\nKeeping the field: the fresh command with --report {statistics.median(keep):.2f} s against "
           f"{statistics.median(plain):.2f} s without (medians, alternated); the kept directory holds "
           f"{kept_mb:.0f} MB beside {out_mb:.0f} MB of outputs.")

@@ -88,6 +88,31 @@ std::string differences(const nlohmann::json& base, const nlohmann::json& now) {
   return out;
 }
 
+// The base site of each site code (index 0: none): index + 1 for a fresh run's, else its
+// site_codes.bin, checked. Throws as EditBase's constructor.
+std::vector<int32_t> site_codes(const nlohmann::json& m, const fs::path& dir, const std::string& dir_name,
+                                int32_t sites) {
+  std::vector<int32_t> out(1, kNoSite);
+  if (!m.contains("site_codes")) {
+    for (int32_t i = 0; i < sites; ++i) out.push_back(i);
+    return out;
+  }
+  const nlohmann::json& sc = m.at("site_codes");
+  const std::string bytes = read_whole((dir / sc.at("file").get<std::string>()).string(), dir_name + "/site_codes.bin");
+  if (sc.at("hash").get<std::string>() != checksum_hex(bytes_checksum(bytes)) ||
+      bytes.size() != 4 * sc.at("codes").get<size_t>())
+    throw Error(ErrorKind::invalid_input, "base: " + dir_name + "/site_codes.bin was modified since the base run");
+  for (size_t k = 0; k < bytes.size(); k += 4) {
+    uint32_t v = 0;
+    for (size_t b = 0; b < 4; ++b) v |= static_cast<uint32_t>(static_cast<unsigned char>(bytes[k + b])) << (8 * b);
+    const auto site = static_cast<int32_t>(v);
+    if (site < -1 || site >= sites)
+      throw Error(ErrorKind::invalid_input, "base: " + dir_name + "/site_codes.bin does not fit its seeds");
+    out.push_back(site < 0 ? kNoSite : site);
+  }
+  return out;
+}
+
 }  // namespace
 
 std::string edit_base_dir(const std::string& report) { return report + ".rvbase"; }
@@ -117,9 +142,11 @@ EditBaseWriter::~EditBaseWriter() {
   fs::remove_all(temp_, ec);
 }
 
+void EditBaseWriter::set_site_codes(std::vector<int32_t> site_of_code) { site_of_code_ = std::move(site_of_code); }
+
 GeoTiffOptions EditBaseWriter::site_options() const {
   GeoTiffOptions o;
-  o.max_code = sites_;
+  o.max_code = site_of_code_.empty() ? sites_ : static_cast<int64_t>(site_of_code_.size()) - 1;
   o.metadata["CONTENT"] = "nearest site index + 1 (0 = none), kept for edits of this run";
   return o;
 }
@@ -152,6 +179,17 @@ std::string EditBaseWriter::commit() {
   if (!shared_distance_.empty() && rasters.contains("output_distance"))
     rasters["distance"] = rasters["output_distance"];
   manifest_["rasters"] = rasters;
+  if (!site_of_code_.empty()) {
+    std::string bytes(4 * (site_of_code_.size() - 1), '\0');
+    for (size_t k = 1; k < site_of_code_.size(); ++k) {
+      const auto v = static_cast<uint32_t>(site_of_code_[k]);
+      for (int b = 0; b < 4; ++b)
+        bytes[4 * (k - 1) + static_cast<size_t>(b)] = static_cast<char>((v >> (8 * b)) & 0xff);
+    }
+    write_file_atomically(temp_ + "/site_codes.bin", bytes);
+    manifest_["site_codes"] = {
+        {"file", "site_codes.bin"}, {"codes", site_of_code_.size() - 1}, {"hash", checksum_hex(bytes_checksum(bytes))}};
+  }
   manifest_["tiles"] = {{"size", TileSummaries::kTile},       {"cols", tiles.cols},         {"rows", tiles.rows},
                         {"max_distance", tiles.max_distance}, {"max_cost", tiles.max_cost}, {"unowned", tiles.unowned}};
   write_file_atomically(temp_ + "/manifest.json", json_text(manifest_, 1) + "\n");
@@ -175,6 +213,7 @@ struct EditBase::State {
   std::unique_ptr<GeoTiffRowReader<int32_t>> site;
   std::unique_ptr<GeoTiffRowReader<float>> distance;
   std::map<std::string, Earlier> rasters;  // by role (EditBaseWriter::record)
+  std::vector<int32_t> site_of_code;       // code -> base site (kNoSite for 0 and removed ones)
   TileSummaries tiles;
   GridSpec grid;
   MetricSpec metric;
@@ -255,6 +294,7 @@ EditBase::EditBase(const std::string& report, const JobSpec& spec, const Prepare
     } catch (const std::exception&) {
       throw Error(ErrorKind::invalid_input, "base: " + dir_name + "/manifest.json has no tile summaries of its grid");
     }
+    st.site_of_code = site_codes(m, dir, dir_name, static_cast<int32_t>(st.archive.seeds.sites().size()));
     // The rasters: each named relative to the directory, with one checksum per tile.
     const int64_t tile_count = ((job.grid.width + kTile - 1) / kTile) * ((job.grid.height + kTile - 1) / kTile);
     for (const auto& [role, e] : m.at("rasters").items()) {
@@ -300,6 +340,28 @@ EditBase::~EditBase() = default;
 
 const SeedSet& EditBase::seeds() const { return st_->archive.seeds; }
 const std::vector<int64_t>& EditBase::numbering() const { return st_->archive.numbering; }
+const std::vector<int32_t>& EditBase::site_of_code() const { return st_->site_of_code; }
+
+SiteCodeTable edit_site_codes(const EditBase& base, const Edit& edit, size_t edited_sites) {
+  const std::vector<int32_t>& remap = edit.site_map();
+  const std::vector<int32_t>& before = base.site_of_code();
+  SiteCodeTable t;
+  t.site_of_code.assign(before.size(), -1);
+  t.code_of_site.assign(edited_sites, 0);
+  for (size_t k = 1; k < before.size(); ++k) {
+    if (before[k] == kNoSite) continue;
+    const int32_t s = remap[static_cast<size_t>(before[k])];
+    if (s == kNoSite) continue;
+    t.site_of_code[k] = s;
+    t.code_of_site[static_cast<size_t>(s)] = static_cast<int32_t>(k);
+  }
+  for (size_t s = 0; s < edited_sites; ++s)
+    if (t.code_of_site[s] == 0) {
+      t.code_of_site[s] = static_cast<int32_t>(t.site_of_code.size());
+      t.site_of_code.push_back(static_cast<int32_t>(s));
+    }
+  return t;
+}
 const TileSummaries& EditBase::tiles() const { return st_->tiles; }
 
 std::optional<EditBase::Earlier> EditBase::earlier(const std::string& role) const {
@@ -364,16 +426,16 @@ void EditBase::read(int64_t row0, int64_t rows, NearestField& out, const std::ve
   other.join();
   if (failed) std::rethrow_exception(failed);
   st.next_row = row0 + rows;
-  const auto sites = static_cast<int32_t>(st.archive.seeds.sites().size());
+  const auto codes = static_cast<int32_t>(st.site_of_code.size());
   for (const auto& [bx, by] : read) {
     const int64_t c0 = bx * kTile, r0 = by * kTile;
     const int64_t tw = std::min(kTile, g.width - c0), th = std::min(kTile, g.height - r0);
     for (int64_t r = r0; r < r0 + th; ++r) {
       int32_t* cells = out.site.data() + (r - row0) * g.width + c0;
       for (int64_t c = 0; c < tw; ++c) {
-        if (cells[c] < 0 || cells[c] > sites)
+        if (cells[c] < 0 || cells[c] >= codes || (cells[c] > 0 && st.site_of_code[cells[c]] == kNoSite))
           throw Error(ErrorKind::invalid_input, "base: site.tif holds a site its seeds lack");
-        cells[c] -= 1;  // 0 -> kNoSite
+        cells[c] = st.site_of_code[cells[c]];  // 0 -> kNoSite
       }
     }
   }
@@ -415,10 +477,6 @@ EditCodes code_maps(const EditBase& base, const Edit& edit, const LoadedSeeds& e
     if (out.features.to[from] >= 0 && out.features.to[from] != to) out.features.valid = false;
     set(out.features, from, to);
   }
-  // Sites by index.
-  out.sites.to.assign(remap.size() + 1, -1);
-  out.sites.to[0] = 0;
-  for (size_t i = 0; i < remap.size(); ++i) set(out.sites, i + 1, remap[i] == kNoSite ? -1 : remap[i] + 1);
   return out;
 }
 

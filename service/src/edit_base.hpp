@@ -12,7 +12,12 @@
 //                  edit reads no cell of a tile it cannot change;
 //   seeds.bin      the seed set it computed from (rv/seed_archive.hpp), since users edit their
 //                  files in place;
-//   site.tif       the nearest site of every cell (index + 1, 0 = none), Int32 codes;
+//   site.tif       the nearest site of every cell as a site code (0 = none): a fresh run's codes
+//                  are its sites' indices + 1; an edit's are its base's, whose sites are then
+//                  other indices (a removed site shifts the later ones), with new codes for the
+//                  sites it added, so that its unchanged tiles are the base's bytes;
+//   site_codes.bin an edit's site of each code (int32 little-endian, code 1 first; -1 for a site
+//                  removed since): absent for a fresh run's (code = index + 1);
 //   distance.tif   the distance to it in metric units, Float32, as the engine computed it; or,
 //                  when the job writes its distance raster in metric units, that file (the
 //                  manifest names it relative to the directory, e.g. "../distance.tif").
@@ -63,6 +68,9 @@ class EditBaseWriter {
   bool shares_distance() const { return !shared_distance_.empty(); }
   GeoTiffOptions site_options() const;
   GeoTiffOptions distance_options() const;
+  // An edit's site codes (site_codes.bin): per code 1..K, its site's index in this run's seeds or
+  // -1 (`site_of_code[0]` unused). Call before site_options(), which then states K codes.
+  void set_site_codes(std::vector<int32_t> site_of_code);
   // Records a raster of the run in the manifest under `role` ("site" and "distance", the kept
   // field; "ownership", "output_distance" and "nearest_feature", the job's files): its path as
   // written (site_path() and distance_path() are named as they will be after commit()). Returns
@@ -77,6 +85,7 @@ class EditBaseWriter {
  private:
   std::string dir_, temp_, site_path_, distance_path_, shared_distance_;
   std::map<std::string, std::pair<std::string, std::vector<uint64_t>>> rasters_;  // role -> path, checksums
+  std::vector<int32_t> site_of_code_;                                             // empty: index + 1
   nlohmann::json manifest_;
   std::string seeds_hash_;
   int64_t sites_ = 0;
@@ -97,6 +106,9 @@ class EditBase {
   const SeedSet& seeds() const;
   // Per base feature, its number in the nearest-feature raster (empty: its index + 1).
   const std::vector<int64_t>& numbering() const;
+  // Per code of the base's site raster, the base site it stands for (kNoSite: removed, and code
+  // 0); index + 1 for a fresh run's.
+  const std::vector<int32_t>& site_of_code() const;
   // The base field's per-tile summaries (from the manifest).
   const TileSummaries& tiles() const;
   const std::string& report_path() const { return report_; }
@@ -122,18 +134,25 @@ class EditBase {
 };
 
 // What the edit's code rasters give what the base's rasters coded, per value of the base's
-// rasters: owner codes, feature numbers, site values (index + 1); 0 stays 0 (none), -1 for what
-// the edit removed. `identity`: every kept value is unchanged, so an unchanged tile's bytes are
-// the same in both runs; else the tile is decoded and coded again.
+// rasters: owner codes, feature numbers; 0 stays 0 (none), -1 for what the edit removed. `identity`: every kept value
+// is unchanged, so an unchanged tile's bytes are the same in both runs; else the tile is decoded and coded again.
 struct CodeMap {
   std::vector<int32_t> to;
   bool identity = true;
   bool valid = true;  // false: no one code for each of the base's (nothing is copied)
 };
 struct EditCodes {
-  CodeMap owners, features, sites;
+  CodeMap owners, features;
 };
 EditCodes code_maps(const EditBase& base, const Edit& edit, const LoadedSeeds& edited);
+
+// An edit's site codes: the base's codes of the sites it kept, new codes (after the base's last)
+// for those it added. `site_of_code` as EditBaseWriter::set_site_codes takes it; `code_of_site`,
+// per edited site, its code.
+struct SiteCodeTable {
+  std::vector<int32_t> site_of_code, code_of_site;
+};
+SiteCodeTable edit_site_codes(const EditBase& base, const Edit& edit, size_t edited_sites);
 
 // The report's "edit" entry: what the edit matched, recomputed and changed.
 struct EditTally {

@@ -96,8 +96,17 @@ void attach_edit(StreamJob& stream, StreamEdit& st, const JobSpec& spec, const P
 
 void attach_keep(StreamJob& stream, EditBaseWriter& keep, const EditBase* base, const StreamEdit* edit,
                  const PreparedJob& job) {
+  // An edit's site raster keeps the base's codes: its unchanged tiles are the base's bytes.
+  SiteCodeTable codes;
+  if (base && edit) {
+    codes = edit_site_codes(*base, *edit->edit, job.loaded.seeds.sites().size());
+    keep.set_site_codes(codes.site_of_code);
+  }
   StreamTarget& site = add_target(stream, Product::site, keep.site_path(), keep.site_options(), "edit_base_site");
-  if (base && edit) copy_from(site, *base, "site", &edit->codes.sites);
+  if (base && edit) {
+    site.site_codes = std::move(codes.code_of_site);
+    copy_from(site, *base, "site");
+  }
   if (!keep.shares_distance()) {
     StreamTarget& d = add_target(stream, Product::metric_distance, keep.distance_path(), keep.distance_options(),
                                  "edit_base_distance");

@@ -170,9 +170,15 @@ void write_file(StreamState& st, size_t i) {
           write_codes(coded(s, table(st.feature_codes)));
           break;
         case StreamTarget::Product::site:
-          write_codes(coded(s, [](const int32_t* in, int32_t* out, int64_t n) {
-            for (int64_t c = 0; c < n; ++c) out[c] = in[c] + 1;  // kNoSite -> 0
-          }));
+          if (target.site_codes.empty())
+            write_codes(coded(s, [](const int32_t* in, int32_t* out, int64_t n) {
+              for (int64_t c = 0; c < n; ++c) out[c] = in[c] + 1;  // kNoSite -> 0
+            }));
+          else
+            write_codes(coded(s, [&](const int32_t* in, int32_t* out, int64_t n) {
+              for (int64_t c = 0; c < n; ++c)
+                out[c] = in[c] == kNoSite ? 0 : target.site_codes[static_cast<size_t>(in[c])];
+            }));
           break;
         case StreamTarget::Product::changes:
           write_codes(s.changes.data());

@@ -37,6 +37,8 @@ struct StreamTarget {
   std::string earlier, earlier_display;
   std::vector<uint64_t> earlier_checksums;
   std::vector<int32_t> earlier_remap;
+  // A site raster's code of each site (empty: index + 1); 0 stays none.
+  std::vector<int32_t> site_codes;
   // When set, called on the writer's thread with each strip's sites and metric distances (rows
   // [row0, row0 + rows), whole rows), before its values are written. `fresh`: null when every
   // cell is valid, else Strip::fresh (one flag per tile of the strip's bands, row-major; the cells

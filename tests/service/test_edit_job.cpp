@@ -13,6 +13,7 @@
 #include <GeographicLib/Rhumb.hpp>
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <map>
@@ -247,6 +248,39 @@ std::map<std::pair<std::string, std::string>, double> moved_area(const std::stri
   return out;
 }
 
+// The nearest site of every cell as a run keeps it: site.tif's codes through site_codes.bin
+// (an edit's: the code of each site it kept is its base's), else index + 1.
+std::vector<int32_t> kept_sites(const std::string& report) {
+  const fs::path dir = report + ".rvbase";
+  const Raster<int32_t> codes = read_int32((dir / "site.tif").string());
+  std::vector<int32_t> site_of_code;
+  if (fs::exists(dir / "site_codes.bin")) {
+    const std::string bytes = read_text(dir / "site_codes.bin");
+    site_of_code.push_back(-1);
+    for (size_t k = 0; k + 4 <= bytes.size(); k += 4) {
+      int32_t v;
+      std::memcpy(&v, bytes.data() + k, 4);
+      site_of_code.push_back(v);
+    }
+  }
+  std::vector<int32_t> out;
+  for (const int32_t c : codes.cells()) {
+    if (site_of_code.empty()) {
+      out.push_back(c - 1);
+    } else {
+      EXPECT_TRUE(c >= 0 && static_cast<size_t>(c) < site_of_code.size()) << c;
+      out.push_back(c == 0 ? -1 : site_of_code.at(static_cast<size_t>(c)));
+      EXPECT_TRUE(c == 0 || out.back() >= 0) << "code " << c << " of a removed site";
+    }
+  }
+  return out;
+}
+
+// The kept fields of two runs are the same field (the next edit may start from either).
+void expect_same_kept_field(const std::string& a, const std::string& b) {
+  EXPECT_EQ(kept_sites(a), kept_sites(b)) << a << " vs " << b;
+}
+
 void expect_same_job_files(const JobSpec& x, const JobSpec& y) {
   expect_same_geotiff(x.outputs.ownership, y.outputs.ownership);
   expect_same_geotiff(x.outputs.distance, y.outputs.distance);
@@ -282,7 +316,7 @@ void run_random_edits(EditJob& t, const Case& c, uint32_t seed, int rounds) {
     run_job(fresh);
     expect_same_job_files(edit, fresh);
     // The kept fields are equal too: the next edit may start from either.
-    expect_same_geotiff(edit.outputs.report + ".rvbase/site.tif", fresh.outputs.report + ".rvbase/site.tif");
+    expect_same_kept_field(edit.outputs.report, fresh.outputs.report);
     // What the report says moved, against the two ownership rasters.
     const nlohmann::json& e = r.report.at("edit");
     const auto expected = moved_area(base.outputs.ownership, edit.outputs.ownership, c);
@@ -452,8 +486,21 @@ TEST_F(EditJob, UnchangedTilesAreCopied) {
     JobSpec fresh = rasters_only(sub + "f", cog);
     run_job(fresh);
     expect_same_job_files(edit, fresh);
-    expect_same_geotiff(edit.outputs.report + ".rvbase/site.tif", fresh.outputs.report + ".rvbase/site.tif");
+    expect_same_kept_field(edit.outputs.report, fresh.outputs.report);
     return std::make_pair(edit, e);
+  };
+  // An edit of `base` into `sub` that must fail with invalid_input and `words`, writing nothing.
+  auto refused = [&](const std::string& sub, const JobSpec& base, const std::string& words) {
+    JobSpec s = rasters_only(sub, false);
+    s.base_report = base.outputs.report;
+    try {
+      run_job(s);
+      ADD_FAILURE() << "the edit was not refused (" << words << ")";
+    } catch (const Error& err) {
+      EXPECT_EQ(err.kind(), ErrorKind::invalid_input) << err.what();
+      EXPECT_NE(std::string(err.what()).find(words), std::string::npos) << err.what();
+    }
+    EXPECT_TRUE(fs::is_empty(dir_ / sub));
   };
   write_seeds(feats, c);
   const JobSpec base = rasters_only("b", false);
@@ -468,21 +515,21 @@ TEST_F(EditJob, UnchangedTilesAreCopied) {
   EXPECT_LT(e.at("tiles_read").get<int64_t>(), tiles) << e.dump();
   for (const char* f : {"ownership", "distance", "nearest_feature", "edit_base_site"})
     EXPECT_EQ(e.at("tiles_copied").value(f, int64_t{-2}), tiles - encoded) << f << " " << e.dump();
+  EXPECT_TRUE(e.at("tiles_recoded").empty()) << e.dump();
   EXPECT_TRUE(e.at("tiles_not_copied").empty()) << e.dump();
 
-  // A point removed from the middle (of an owner that stays): the feature numbers and sites after
-  // it shift, so those files decode the tiles they copy and code them again; the owner codes and
-  // distances are copied as they are. No cell is read but in the tiles the edit may change.
+  // A point removed from the middle (of an owner that stays): the feature numbers after it shift,
+  // so that file decodes the tiles it copies and codes them again; the owner codes, distances
+  // and the kept site codes (the base's, whatever the sites' indices) are copied as they are. No
+  // cell is read but in the tiles the edit may change.
   feats.erase(feats.begin() + 20);
   auto [removed, r] = run_pair(moved, "remove", false);
   const int64_t unchanged = tiles - r.at("tiles_encoded").get<int64_t>();
   EXPECT_LT(r.at("tiles_read").get<int64_t>(), tiles) << r.dump();
-  for (const char* f : {"nearest_feature", "edit_base_site"}) {
-    EXPECT_FALSE(r.at("tiles_copied").contains(f)) << r.dump();
-    EXPECT_EQ(r.at("tiles_recoded").value(f, int64_t{-2}), unchanged) << f << " " << r.dump();
-  }
-  EXPECT_EQ(r.at("tiles_copied").value("ownership", int64_t{-2}), unchanged) << r.dump();
-  EXPECT_EQ(r.at("tiles_copied").value("distance", int64_t{-2}), unchanged) << r.dump();
+  EXPECT_FALSE(r.at("tiles_copied").contains("nearest_feature")) << r.dump();
+  EXPECT_EQ(r.at("tiles_recoded").value("nearest_feature", int64_t{-2}), unchanged) << r.dump();
+  for (const char* f : {"ownership", "distance", "edit_base_site"})
+    EXPECT_EQ(r.at("tiles_copied").value(f, int64_t{-2}), unchanged) << f << " " << r.dump();
   // The first point's owner gone: every owner code after it shifts.
   const std::string first = feats[0].owner;
   std::vector<Feat> kept;
@@ -503,6 +550,17 @@ TEST_F(EditJob, UnchangedTilesAreCopied) {
   EXPECT_GT(ce.at("tiles_copied").value("ownership", int64_t{-2}), 0) << ce.dump();
   EXPECT_LT(ce.at("tiles_read").get<int64_t>(), tiles) << ce.dump();
 
+  // The site codes an edit keeps (its base's, and new ones for added sites), damaged: refused.
+  {
+    const fs::path codes = fs::path(removed.outputs.report + ".rvbase") / "site_codes.bin";
+    ASSERT_TRUE(fs::exists(codes));
+    const std::string saved = read_text(codes);
+    std::string bytes = saved;
+    bytes[0] ^= 1;
+    std::ofstream(codes, std::ios::binary) << bytes;
+    refused("codes", removed, "site_codes.bin was modified");
+    std::ofstream(codes, std::ios::binary) << saved;
+  }
   // A tile the edit copies, modified in the base's ownership raster (far from the edit: the
   // corner tile): refused, nothing written. Rewritten with one cell changed, every other tile's
   // bytes stay the same.
@@ -519,20 +577,7 @@ TEST_F(EditJob, UnchangedTilesAreCopied) {
     opt.max_code = static_cast<int64_t>(opt.category_labels.size());
     write_geotiff(own, o, 0.0, opt);
   }
-  JobSpec bad = rasters_only("bad", false);
-  bad.base_report = removed.outputs.report;
-  try {
-    run_job(bad);
-    ADD_FAILURE() << "a modified tile of the base was copied";
-  } catch (const Error& err) {
-    EXPECT_EQ(err.kind(), ErrorKind::invalid_input) << err.what();
-    EXPECT_NE(std::string(err.what())
-                  .find("own.tif was modified since it was written (the tile of rows 0-255, "
-                        "columns 0-255)"),
-              std::string::npos)
-        << err.what();
-  }
-  EXPECT_TRUE(fs::is_empty(dir_ / "bad"));
+  refused("bad", removed, "own.tif was modified since it was written (the tile of rows 0-255, columns 0-255)");
   // The base's ownership raster gone: encoded instead, and said so.
   fs::remove(own);
   fs::remove(own + ".aux.xml");
@@ -688,7 +733,7 @@ TEST_F(EditJobErrors, AnEditInPlaceReplacesTheBaseItReads) {
   JobSpec fresh = spec(c, "fresh");
   run_job(fresh);
   expect_same_job_files(again, fresh);
-  expect_same_geotiff(again.outputs.report + ".rvbase/site.tif", fresh.outputs.report + ".rvbase/site.tif");
+  expect_same_kept_field(again.outputs.report, fresh.outputs.report);
   for (const fs::directory_entry& e : fs::directory_iterator(dir_ / "base"))
     EXPECT_EQ(e.path().filename().string().find(".tmp"), std::string::npos) << e.path();
 }
