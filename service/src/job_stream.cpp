@@ -199,7 +199,10 @@ void write_file(StreamState& st, size_t i) {
       st.handoff.put_done(*k, s.rows);
     }
     // Closed and drained (a stop leaves rows missing; the writer then aborts when destroyed).
+    // Into place once every file is written (else, for an edit writing over its base's files, a
+    // file replaced and then removed by the job's failure would leave the base without it).
     if (std::visit([&](const auto& x) { return x.rows_written() != st.height; }, st.writers[i])) return;
+    if (!st.handoff.all_written()) return;
     const auto t = Clock::now();
     std::visit([](auto& x) { x.finish(); }, st.writers[i]);
     if (target.checksums)

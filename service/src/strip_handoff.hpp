@@ -108,6 +108,17 @@ class StripHandoff {
     }
     cv_.notify_all();
   }
+  // Writer side, every row of its file written: waits until every writer has written all of
+  // its rows (true: the files may go into place), or one failed or the writers were stopped
+  // (false: none should). A file then goes into place only once no other can fail while its
+  // tiles are written (an edit's copied tile that was modified, a full disk).
+  bool all_written() {
+    std::unique_lock lock(mutex_);
+    ++written_;
+    cv_.notify_all();
+    cv_.wait(lock, [&] { return error_ || stopped_ || written_ == writers_; });
+    return !error_ && !stopped_;
+  }
   // Writer side: its file is complete and in place (`writer`: its index, 0 .. writers - 1).
   void finished(int writer) {
     {
@@ -180,6 +191,7 @@ class StripHandoff {
   std::vector<int> pending_;  // per strip buffer: writers not yet done with it
   bool closed_ = false, stopped_ = false;
   int finished_ = 0;
+  int written_ = 0;         // writers with every row written (all_written)
   std::vector<bool> done_;  // per writer: finished
   int64_t rows_written_ = 0;
   std::exception_ptr error_;

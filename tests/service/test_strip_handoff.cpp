@@ -182,6 +182,39 @@ TEST(StripHandoff, WaitFinishedRethrowsAnErrorAfterTheLastStrip) {
   for (const Seen& s : rig.seen) EXPECT_EQ(s.strips.size(), 20u);
 }
 
+TEST(StripHandoff, FilesGoIntoPlaceOnlyOnceEveryFileIsWritten) {
+  // Two writers have every row; the third fails writing its last tile: neither of the two may
+  // put its file into place. Then, every writer done: all three may.
+  {
+    StripHandoff h(3);
+    std::vector<std::optional<bool>> may(2);
+    std::vector<std::thread> t;
+    for (int i = 0; i < 2; ++i) t.emplace_back([&h, &may, i] { may[static_cast<size_t>(i)] = h.all_written(); });
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    EXPECT_FALSE(may[0].has_value());  // still waiting for the third
+    h.fail(std::make_exception_ptr(std::runtime_error("a copied tile was modified")));
+    for (std::thread& x : t) x.join();
+    EXPECT_EQ(may[0], std::optional<bool>(false));
+    EXPECT_EQ(may[1], std::optional<bool>(false));
+  }
+  {
+    StripHandoff h(3);
+    std::vector<std::optional<bool>> may(3);
+    std::vector<std::thread> t;
+    for (int i = 0; i < 3; ++i) t.emplace_back([&h, &may, i] { may[static_cast<size_t>(i)] = h.all_written(); });
+    for (std::thread& x : t) x.join();
+    for (const auto& m : may) EXPECT_EQ(m, std::optional<bool>(true));
+  }
+  {
+    StripHandoff h(2);  // the computing side failed: the writer that has every row is released
+    std::optional<bool> may;
+    std::thread t([&] { may = h.all_written(); });
+    h.stop();
+    t.join();
+    EXPECT_EQ(may, std::optional<bool>(false));
+  }
+}
+
 TEST(StripHandoff, StopReleasesWritersWaitingForStrips) {
   Rig rig(2);
   for (int i = 0; i < 2; ++i) rig.start(i, -1, kNothing);
