@@ -67,6 +67,16 @@ void attach_edit(StreamJob& stream, StreamEdit& st, const JobSpec& spec, const P
     EditTally& tally = st.tally;
     const std::vector<uint8_t>* only = all_cells ? nullptr : &st.to_read;
     timed_add(tally.read_seconds, [&] { base.read(w.row0, w.height, field, only); });
+    const int64_t bands = (w.height + kTile - 1) / kTile;
+    ++tally.strips;
+    // A strip of tiles the edit cannot change, none of them read: nothing to plan, every tile copied.
+    if (only != nullptr &&
+        std::none_of(st.to_read.begin() + w.row0 / kTile * across,
+                     st.to_read.begin() + (w.row0 / kTile + bands) * across, [](uint8_t t) { return t != 0; })) {
+      fresh.assign(static_cast<size_t>(bands * across), 0);
+      if (codes) changes.assign(static_cast<size_t>(w.cell_count()), 0);
+      return;
+    }
     EditPlan plan;
     timed_add(tally.plan_seconds, [&] { plan = st.edit->plan(field, &base.tiles()); });
     ChangeTally::MaskedCells before;
@@ -75,7 +85,6 @@ void attach_edit(StreamJob& stream, StreamEdit& st, const JobSpec& spec, const P
       st.edit->apply(field, plan, field, only);
     });
     // The tiles with cells of the plan are encoded again; the files copy the others.
-    const int64_t bands = (w.height + kTile - 1) / kTile;
     fresh.assign(static_cast<size_t>(bands * across), 0);
     for (int64_t r = 0; r < w.height; ++r)
       for (const auto& span : plan.mask.rows[static_cast<size_t>(r)])
@@ -86,7 +95,6 @@ void attach_edit(StreamJob& stream, StreamEdit& st, const JobSpec& spec, const P
     tally.cells_of_removed += plan.removed_cells;
     tally.blocks_measured += plan.blocks_measured;
     for (const int64_t t : plan.tiles_read) tally.tiles_read[static_cast<size_t>(t)] = true;
-    ++tally.strips;
     if (codes) changes.resize(static_cast<size_t>(w.cell_count()));
     timed_add(tally.tally_seconds, [&] {
       tally.changes.add(st.tallier->measure_masked(plan.mask, before, field, codes ? changes.data() : nullptr));
