@@ -318,7 +318,9 @@ JobPlan plan_job(const JobSpec& spec, const GridSpec& grid, int64_t sites, Metri
     if (out.any_deliverable()) p.memory_bytes += deliverables_memory(spec, grid, strip_cells);
     // An edit: the plan's per-cell flags and costs of the tiles it reads (at most a strip's); the
     // base's strip is read into the strip buffers and edited in place.
-    if (!spec.base_report.empty()) p.memory_bytes += strip_cells * 9;
+    // Each file copying from its base's completes a band of tile rows from it where it needs the
+    // copied tiles' cells (codes coded again, a COG's overviews).
+    if (!spec.base_report.empty()) p.memory_bytes += strip_cells * 9 + (rasters + 1) * kTileRows * grid.width * 4;
     // A COG's writer makes the overviews from the rows as they pass: its levels' rows in the
     // making take under one more band of tile rows.
     if (out.cloud_optimized) p.memory_bytes += (rasters + !out.margin.empty()) * kTileRows * grid.width * 4;

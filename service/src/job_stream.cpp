@@ -115,9 +115,9 @@ void write_file(StreamState& st, size_t i) {
   const bool copies = st.copies[i] != 0;
   const bool every_cell = !copies;
   std::vector<int32_t> codes;  // this file's codes of the strip in hand (code rasters only)
-  // Site ids -> this file's codes over the strip's cells: every cell, or, for a plain file that
-  // copies the tiles flagged 0, the cells of the tiles flagged 1 alone (the others may hold
-  // anything).
+  // Site ids -> this file's codes over the strip's cells: every cell, or, for a file that copies
+  // the tiles flagged 0 (a COG decodes them from its earlier file for its overviews), the cells
+  // of the tiles flagged 1 alone (the others may hold anything).
   auto coded = [&](const Strip& s, auto&& code) {
     const int64_t n = s.rows * st.width;
     codes.resize(static_cast<size_t>(n));

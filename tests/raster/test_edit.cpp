@@ -172,6 +172,71 @@ TEST(Edit, GeodesicEditsEqualAFreshRun) {
   check_edits(st, 3, 16);
 }
 
+// Over a grid of many tiles, with the base field's tile summaries: the tiles the edit reads
+// (tiles_to_read) are those plan() reads, and an edit made in place with only those tiles valid --
+// every other cell spoiled -- gives a fresh run's cells there, reading no spoiled cell; every other
+// tile is the base's, renumbered, in the fresh run too (a file may copy it).
+TEST(Edit, OnlyTheTilesToReadAreRead) {
+  const GridSpec grid = test::grid_of(700, 560, 1.0);  // 3 x 3 tiles of 256, the last ones partial
+  std::mt19937_64 rng(7);
+  std::vector<Spec> specs;
+  for (int i = 0; i < 150; ++i) specs.push_back(random_spec(rng, 0.0, 0.0, 700.0, 560.0, false));
+  ComputeOptions options;
+  const SeedSet base_seeds = build(specs);
+  const NearestField base = compute(base_seeds, grid, options);
+  TileSummaries tiles = TileSummaries::for_grid(grid);
+  tiles.add(base.site.data(), base.distance.data(), 0, grid.height, grid.width, base_seeds);
+  int64_t some_skipped = 0;
+  for (int kind = 0; kind < 3; ++kind) {
+    SCOPED_TRACE("kind " + std::to_string(kind));
+    std::vector<Spec> next = specs;
+    if (kind == 0) next[40].points[0] = Vec2{next[40].points[0].x + 3.0, next[40].points[0].y - 2.0};
+    if (kind == 1) next.erase(next.begin() + 70);
+    if (kind == 2) next.insert(next.begin() + 10, Spec{"B", GeometryKind::point, {{650.0, 30.0}}});
+    const SeedSet edited = build(next);
+    const Edit edit(base_seeds, edited, grid, options);
+    const std::vector<uint8_t> to_read = edit.tiles_to_read(tiles);
+    const EditPlan plan = edit.plan(base, &tiles);
+    std::vector<int64_t> flagged;
+    for (size_t t = 0; t < to_read.size(); ++t)
+      if (to_read[t]) flagged.push_back(static_cast<int64_t>(t));
+    EXPECT_EQ(plan.tiles_read, flagged);
+    some_skipped += static_cast<int64_t>(to_read.size() - flagged.size());
+    // Spoiled outside the tiles to read: a site no seed set has, a distance of nothing.
+    NearestField field = base;
+    for (int64_t r = 0; r < grid.height; ++r)
+      for (int64_t c = 0; c < grid.width; ++c)
+        if (!to_read[tiles.tile_of(c, r)]) {
+          field.site.at(c, r) = 1 << 30;
+          field.distance.at(c, r) = -7.0f;
+        }
+    const EditPlan spoiled_plan = edit.plan(field, &tiles);
+    EXPECT_EQ(spoiled_plan.cells, plan.cells);
+    edit.apply(field, spoiled_plan, field, &to_read);
+    ComputeOptions brute = options;
+    brute.method = Method::brute_force;
+    const NearestField fresh = compute(edited, grid, brute);
+    const std::vector<int32_t>& remap = edit.site_map();
+    for (int64_t r = 0; r < grid.height; ++r)
+      for (int64_t c = 0; c < grid.width; ++c) {
+        if (to_read[tiles.tile_of(c, r)]) {
+          ASSERT_EQ(field.site.at(c, r), fresh.site.at(c, r)) << c << "," << r;
+          ASSERT_EQ(field.distance.at(c, r), fresh.distance.at(c, r)) << c << "," << r;
+        } else {
+          // Left as it was, or (a block of the engine's across a tile's edge) its fresh value.
+          if (field.site.at(c, r) != 1 << 30) {
+            ASSERT_EQ(field.site.at(c, r), fresh.site.at(c, r)) << c << "," << r;
+            ASSERT_EQ(field.distance.at(c, r), fresh.distance.at(c, r)) << c << "," << r;
+          }
+          const int32_t b = base.site.at(c, r);
+          ASSERT_EQ(b == kNoSite ? kNoSite : remap[static_cast<size_t>(b)], fresh.site.at(c, r)) << c << "," << r;
+          ASSERT_EQ(base.distance.at(c, r), fresh.distance.at(c, r)) << c << "," << r;
+        }
+      }
+  }
+  EXPECT_GT(some_skipped, 0);
+}
+
 TEST(Edit, FeaturesMatchByGeometryOwnerAndAdjustments) {
   std::vector<Spec> specs = {{"A", GeometryKind::point, {{1, 1}}},
                              {"B", GeometryKind::line, {{2, 2}, {3, 3}}},
