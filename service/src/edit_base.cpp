@@ -214,6 +214,7 @@ struct EditBase::State {
   std::unique_ptr<GeoTiffRowReader<float>> distance;
   std::map<std::string, Earlier> rasters;  // by role (EditBaseWriter::record)
   std::vector<int32_t> site_of_code;       // code -> base site (kNoSite for 0 and removed ones)
+  bool identity_codes = false;             // code = site index + 1 (a fresh run's)
   TileSummaries tiles;
   GridSpec grid;
   MetricSpec metric;
@@ -295,6 +296,7 @@ EditBase::EditBase(const std::string& report, const JobSpec& spec, const Prepare
       throw Error(ErrorKind::invalid_input, "base: " + dir_name + "/manifest.json has no tile summaries of its grid");
     }
     st.site_of_code = site_codes(m, dir, dir_name, static_cast<int32_t>(st.archive.seeds.sites().size()));
+    st.identity_codes = !m.contains("site_codes");
     // The rasters: each named relative to the directory, with one checksum per tile.
     const int64_t tile_count = ((job.grid.width + kTile - 1) / kTile) * ((job.grid.height + kTile - 1) / kTile);
     for (const auto& [role, e] : m.at("rasters").items()) {
@@ -426,19 +428,36 @@ void EditBase::read(int64_t row0, int64_t rows, NearestField& out, const std::ve
   other.join();
   if (failed) std::rethrow_exception(failed);
   st.next_row = row0 + rows;
-  const auto codes = static_cast<int32_t>(st.site_of_code.size());
-  for (const auto& [bx, by] : read) {
-    const int64_t c0 = bx * kTile, r0 = by * kTile;
-    const int64_t tw = std::min(kTile, g.width - c0), th = std::min(kTile, g.height - r0);
-    for (int64_t r = r0; r < r0 + th; ++r) {
-      int32_t* cells = out.site.data() + (r - row0) * g.width + c0;
-      for (int64_t c = 0; c < tw; ++c) {
-        if (cells[c] < 0 || cells[c] >= codes || (cells[c] > 0 && st.site_of_code[cells[c]] == kNoSite))
-          throw Error(ErrorKind::invalid_input, "base: site.tif holds a site its seeds lack");
-        cells[c] = st.site_of_code[cells[c]];  // 0 -> kNoSite
+  // Site codes -> the base's sites: a fresh run's are index + 1 (a subtraction the compiler
+  // vectorises, checked once per run of cells); an edit's go through its table.
+  const auto codes = static_cast<uint32_t>(st.site_of_code.size());
+  auto translate = [&](int32_t* cells, int64_t n) {
+    if (st.identity_codes) {
+      uint32_t top = 0;
+      for (int64_t c = 0; c < n; ++c) {
+        top = std::max(top, static_cast<uint32_t>(cells[c]));
+        cells[c] -= 1;  // 0 -> kNoSite
       }
+      return top < codes;
+    }
+    for (int64_t c = 0; c < n; ++c) {
+      const auto v = static_cast<uint32_t>(cells[c]);
+      if (v >= codes || (v > 0 && st.site_of_code[v] == kNoSite)) return false;
+      cells[c] = st.site_of_code[v];  // 0 -> kNoSite
+    }
+    return true;
+  };
+  bool ok = true;
+  if (!tiles) {
+    ok = translate(out.site.data(), rows * g.width);
+  } else {
+    for (const auto& [bx, by] : read) {
+      const int64_t c0 = bx * kTile, r0 = by * kTile;
+      const int64_t tw = std::min(kTile, g.width - c0), th = std::min(kTile, g.height - r0);
+      for (int64_t r = r0; r < r0 + th && ok; ++r) ok = translate(out.site.data() + (r - row0) * g.width + c0, tw);
     }
   }
+  if (!ok) throw Error(ErrorKind::invalid_input, "base: site.tif holds a site its seeds lack");
 }
 
 EditCodes code_maps(const EditBase& base, const Edit& edit, const LoadedSeeds& edited) {

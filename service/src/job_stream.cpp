@@ -161,7 +161,9 @@ void write_file(StreamState& st, size_t i) {
         write(std::get<GeoTiffStripWriter<int32_t>>(st.writers[i]), cells);
       };
       auto write_floats = [&](const float* cells) { write(std::get<GeoTiffStripWriter<float>>(st.writers[i]), cells); };
-      const uint8_t* fresh = s.fresh.empty() || st.all_cells ? nullptr : s.fresh.data();
+      // (Also where every cell is valid: the tiles flagged 0 are their earlier files', whose
+      // summaries the observer may take instead of reading the cells again.)
+      const uint8_t* fresh = s.fresh.empty() ? nullptr : s.fresh.data();
       switch (target.product) {
         case StreamTarget::Product::ownership:
           write_codes(coded(s, table(st.owner_codes)));

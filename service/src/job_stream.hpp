@@ -41,8 +41,8 @@ struct StreamTarget {
   std::vector<int32_t> site_codes;
   // When set, called on the writer's thread with each strip's sites and metric distances (rows
   // [row0, row0 + rows), whole rows), before its values are written. `fresh`: null when every
-  // cell is valid, else Strip::fresh (one flag per tile of the strip's bands, row-major; the cells
-  // of tiles flagged 0 are not valid).
+  // tile is new, else the source's flags (one per tile of the strip's bands, row-major): the
+  // tiles flagged 0 are the earlier files' (their cells need not be valid).
   std::function<void(const int32_t* site, const float* distance, int64_t row0, int64_t rows, const uint8_t* fresh)>
       observe;
 };
