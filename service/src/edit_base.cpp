@@ -147,7 +147,10 @@ void EditBaseWriter::set_site_codes(std::vector<int32_t> site_of_code) { site_of
 GeoTiffOptions EditBaseWriter::site_options() const {
   GeoTiffOptions o;
   o.max_code = site_of_code_.empty() ? sites_ : static_cast<int64_t>(site_of_code_.size()) - 1;
-  o.metadata["CONTENT"] = "nearest site index + 1 (0 = none), kept for edits of this run";
+  o.metadata["CONTENT"] =
+      site_of_code_.empty()
+          ? "nearest site index + 1 (0 = none), kept for edits of this run"
+          : "nearest site's code (0 = none; site_codes.bin gives its index), kept for edits of this run";
   return o;
 }
 
