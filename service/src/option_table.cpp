@@ -353,9 +353,10 @@ const std::vector<OptionSpec> kOptions = {
      "computation",
      "Base run",
      "the report of an earlier run of this job whose seeds were edited since (features moved, added, removed): "
-     "its kept field is read and only the cells the edit can change are computed again; every output equals a "
-     "fresh run's, and the report's \"edit\" says what changed (features, cells, the area moved between "
-     "owners). Grid, metric, method (exact), distance units, max distance and compression must be the base's",
+     "only the cells the edit can change are computed again, from the tiles of its kept field they fall in, and "
+     "every file copies the other tiles from the base's; every output equals a fresh run's, and the report's "
+     "\"edit\" says what changed (features, cells, the area moved between owners). Grid, metric, method "
+     "(exact), distance units, max distance and compression must be the base's",
      "",
      {},
      0,
@@ -370,8 +371,9 @@ const std::vector<OptionSpec> kOptions = {
      "computation",
      "Base job",
      "the id of a finished job of the same caller whose seeds this request edits: only the cells the edit "
-     "can change are computed again, every output equals a fresh job's, and the report's \"edit\" says what "
-     "changed. Grid, metric, method (exact), distance units, max distance and compression must be the base's",
+     "can change are computed again, every file copies the other tiles from the base job's, every output "
+     "equals a fresh job's, and the report's \"edit\" says what changed. Grid, metric, method (exact), "
+     "distance units, max distance and compression must be the base's",
      "",
      {},
      0,
