@@ -155,7 +155,8 @@ def coast(a):
           f"{fr['timings_s']['deliverables']['wall']:.2f} | |")
     t = e["timings_s"]
     print(f"\nThe edit: cells recomputed {e['cells_recomputed']}, changed {e['owner_changed_cells']} (owner) + "
-          f"{e['distance_only_changed_cells']} (distance only), tiles read {e['tiles_read']} of {e['tiles']}; "
+          f"{e['distance_only_changed_cells']} (distance only), tiles read {e['tiles_read']} of {e['tiles']} (the plan could not rule out "
+          f"{e.get('tiles_planned', '-')}); "
           f"read {t['read_base']:.2f} s, plan {t['plan']:.2f} s, recompute {t['recompute']:.2f} s, "
           f"tally {t['tally']:.2f} s; area moved {e['area_moved']}.")
 

@@ -558,6 +558,7 @@ nlohmann::json edit_report(const EditBase& base, const Edit& edit, const SeedSet
           {"cells_recomputed", tally.cells_recomputed},
           {"tiles", tally.tiles_read.size()},
           {"tiles_read", std::count(tally.tiles_read.begin(), tally.tiles_read.end(), true)},
+          {"tiles_planned", std::count(tally.tiles_planned.begin(), tally.tiles_planned.end(), true)},
           {"tiles_encoded", tally.tiles_encoded},
           {"tiles_copied", tally.tiles_copied},
           {"tiles_recoded", tally.tiles_recoded},

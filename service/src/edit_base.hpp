@@ -161,7 +161,8 @@ struct EditTally {
   std::map<std::string, int64_t> tiles_copied;    // per file copying from the base's
   std::map<std::string, int64_t> tiles_recoded;   // per file copying with other codes
   std::map<std::string, std::string> not_copied;  // per file that could not, why
-  std::vector<bool> tiles_read;                   // per tile of the grid (TileSummaries order)
+  std::vector<bool> tiles_read;                   // per tile of the grid (TileSummaries order): its cells read
+  std::vector<bool> tiles_planned;                // ... the plan could not rule it out (a subset)
   double read_seconds = 0.0, plan_seconds = 0.0, apply_seconds = 0.0, tally_seconds = 0.0;
   EditChanges changes;
 };

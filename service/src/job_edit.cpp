@@ -42,6 +42,7 @@ void attach_edit(StreamJob& stream, StreamEdit& st, const JobSpec& spec, const P
   st.edit.emplace(base.seeds(), job.loaded.seeds, job.grid, stream.compute);
   st.tallier.emplace(base.seeds(), job.loaded.seeds, job.grid, job.compute.geolocator.get());
   st.tally.tiles_read.assign(base.tiles().max_cost.size(), false);
+  st.tally.tiles_planned.assign(base.tiles().max_cost.size(), false);
   st.to_read = st.edit->tiles_to_read(base.tiles());
   if (!spec.outputs.changes.empty()) {
     GeoTiffOptions o = raster_options(spec);
@@ -69,6 +70,9 @@ void attach_edit(StreamJob& stream, StreamEdit& st, const JobSpec& spec, const P
     timed_add(tally.read_seconds, [&] { base.read(w.row0, w.height, field, only); });
     const int64_t bands = (w.height + kTile - 1) / kTile;
     ++tally.strips;
+    // The tiles whose cells were read: every tile of the strip, or those the edit may change.
+    for (int64_t t = w.row0 / kTile * across; t < (w.row0 / kTile + bands) * across; ++t)
+      if (only == nullptr || st.to_read[static_cast<size_t>(t)]) tally.tiles_read[static_cast<size_t>(t)] = true;
     // A strip of tiles the edit cannot change, none of them read: nothing to plan, every tile copied.
     if (only != nullptr &&
         std::none_of(st.to_read.begin() + w.row0 / kTile * across,
@@ -94,7 +98,7 @@ void attach_edit(StreamJob& stream, StreamEdit& st, const JobSpec& spec, const P
     tally.cells_recomputed += plan.cells;
     tally.cells_of_removed += plan.removed_cells;
     tally.blocks_measured += plan.blocks_measured;
-    for (const int64_t t : plan.tiles_read) tally.tiles_read[static_cast<size_t>(t)] = true;
+    for (const int64_t t : plan.tiles_read) tally.tiles_planned[static_cast<size_t>(t)] = true;
     if (codes) changes.resize(static_cast<size_t>(w.cell_count()));
     timed_add(tally.tally_seconds, [&] {
       tally.changes.add(st.tallier->measure_masked(plan.mask, before, field, codes ? changes.data() : nullptr));
