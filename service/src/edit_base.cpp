@@ -405,11 +405,7 @@ void EditBase::read(int64_t row0, int64_t rows, NearestField& out, const std::ve
       const int64_t c0 = bx * kTile, r0 = by * kTile;
       const int64_t tw = std::min(kTile, g.width - c0), th = std::min(kTile, g.height - r0);
       if (tiles) reader.read_window(c0, r0, tw, th, cells + (r0 - row0) * g.width + c0, g.width);
-      if (reader.tile_checksum(bx, by) != e.checksums[static_cast<size_t>(by * cols + bx)])
-        throw Error(ErrorKind::invalid_input, e.display + " was modified since it was written (the tile of rows " +
-                                                  std::to_string(r0) + "-" + std::to_string(r0 + th - 1) +
-                                                  ", columns " + std::to_string(c0) + "-" +
-                                                  std::to_string(c0 + tw - 1) + ")");
+      reader.check_tile(bx, by, e.checksums[static_cast<size_t>(by * cols + bx)], e.display);
     }
   };
   // The two files side by side (independent GDAL datasets): decoding and checking each is about

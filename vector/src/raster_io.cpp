@@ -542,11 +542,7 @@ struct GeoTiffStripWriter<T>::State {
       const uint64_t sum = checksum64(bytes.data, bytes.size);
       const auto k = static_cast<size_t>(by * across + bx);
       if (!earlier_checksums.empty() && (k >= earlier_checksums.size() || earlier_checksums[k] != sum))
-        throw Error(ErrorKind::invalid_input,
-                    earlier_display + " was modified since it was written (the tile of rows " +
-                        std::to_string(by * kBlock) + "-" + std::to_string(by * kBlock + h - 1) + ", columns " +
-                        std::to_string(bx * kBlock) + "-" +
-                        std::to_string(std::min<int64_t>(window.width, (bx + 1) * kBlock) - 1) + ")");
+        throw detail::modified_tile(earlier_display, bx, by, window.width, window.height);
       return std::make_pair(bytes, sum);
     };
     // Where the copied tiles' cells are needed (remapped, or a COG's overviews), the band is

@@ -8,6 +8,7 @@
 #include <gdal_priv.h>
 
 #include "gdal_util.hpp"
+#include "rv/error.hpp"
 #include "rv/grid.hpp"
 
 namespace rv::detail {
@@ -29,6 +30,10 @@ struct OpenedRaster {
   gdal::DatasetPtr ds;
   GridSpec grid;
 };
+
+// The error of a tile whose stored bytes differ from the checksum its writer recorded: tile
+// (bx, by) of 256 x 256 cells of an image `width` x `height`, `display` the caller's name for it.
+Error modified_tile(const std::string& display, int64_t bx, int64_t by, int64_t width, int64_t height);
 
 // Opens `path` read-only. Throws rv::Error: not_found, invalid_input (not a raster GDAL reads, no
 // band, no geotransform, rotated, south-up or non-square cells).

@@ -1,5 +1,6 @@
 // Reading GeoTIFFs through GDAL: grids, whole bands, windows, tiles' stored bytes. See
 // rv/gdal/raster_io.hpp for the contract.
+#include <algorithm>
 #include <cstdint>
 #include <cstring>
 #include <exception>
@@ -19,6 +20,14 @@
 
 namespace rv {
 namespace detail {
+
+Error modified_tile(const std::string& display, int64_t bx, int64_t by, int64_t width, int64_t height) {
+  constexpr int64_t kTile = 256;
+  return Error(ErrorKind::invalid_input,
+               display + " was modified since it was written (the tile of rows " + std::to_string(by * kTile) + "-" +
+                   std::to_string(std::min(height, (by + 1) * kTile) - 1) + ", columns " + std::to_string(bx * kTile) +
+                   "-" + std::to_string(std::min(width, (bx + 1) * kTile) - 1) + ")");
+}
 
 OpenedRaster open_raster(const std::string& path) {
   gdal_init();
@@ -134,6 +143,12 @@ uint64_t GeoTiffRowReader<T>::tile_checksum(int64_t bx, int64_t by) {
   if (!st_->raw) std::rethrow_exception(st_->raw_error);
   const detail::EncodedTile t = st_->raw->read(bx, by, st_->tile);
   return checksum64(t.data, t.size);
+}
+
+template <class T>
+void GeoTiffRowReader<T>::check_tile(int64_t bx, int64_t by, uint64_t checksum, const std::string& display) {
+  if (tile_checksum(bx, by) != checksum)
+    throw detail::modified_tile(display, bx, by, st_->raster.grid.width, st_->raster.grid.height);
 }
 
 template class GeoTiffRowReader<int32_t>;

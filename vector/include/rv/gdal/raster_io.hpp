@@ -209,6 +209,10 @@ class GeoTiffRowReader {
   // GeoTiffStripWriter::tile_checksums() recorded when it wrote the file. Throws rv::Error(io) for
   // a file that is not tiled or a tile that cannot be read.
   uint64_t tile_checksum(int64_t bx, int64_t by);
+  // Throws rv::Error(invalid_input) when tile (bx, by)'s stored bytes differ from `checksum`, with
+  // the message the strip writer gives a copied tile that differs ("<display> was modified since
+  // it was written (the tile of rows ..., columns ...)"); io as tile_checksum.
+  void check_tile(int64_t bx, int64_t by, uint64_t checksum, const std::string& display);
 
  private:
   struct State;
