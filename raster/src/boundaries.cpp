@@ -339,17 +339,20 @@ void place_crossings(const BoundaryGrid& b, const Segment& sg, std::vector<Cross
 void find_crossings(const BoundaryGrid& b, int64_t row0, int64_t row1, CrossingSet& x, BoundaryStats& stats) {
   const std::vector<Segment> segments = owner_changes(b, row0, row1);
   stats.crossings += static_cast<int64_t>(segments.size());
+  auto row_of = [&](int64_t edge) { return edge / 2 / b.W; };
+  if (b.counts)
+    for (const Segment& sg : segments) b.counts->add(row_of(sg.edge), RowCounts::crossings, 1);
   // In chunks on the threads, gathered in chunk order: the result does not depend on them.
   const int64_t chunk = 256;
   const int64_t chunks = (static_cast<int64_t>(segments.size()) + chunk - 1) / chunk;
   std::vector<std::vector<Crossing>> chunk_crossings(static_cast<size_t>(chunks));
   std::vector<std::vector<std::pair<int64_t, int32_t>>> chunk_slivers(static_cast<size_t>(chunks));
-  std::vector<int64_t> chunk_unresolved(static_cast<size_t>(chunks), 0);
+  std::vector<int64_t> unresolved(segments.size(), 0);  // per segment
   detail::parallel_for(b.threads, chunks, [&](int64_t k, int) {
     const size_t end = std::min(segments.size(), static_cast<size_t>((k + 1) * chunk));
     for (size_t i = static_cast<size_t>(k * chunk); i < end; ++i)
       place_crossings(b, segments[i], chunk_crossings[static_cast<size_t>(k)], chunk_slivers[static_cast<size_t>(k)],
-                      chunk_unresolved[static_cast<size_t>(k)]);
+                      unresolved[i]);
   });
   const size_t slivers_before = x.sliver_at.size();
   for (size_t k = 0; k < chunk_crossings.size(); ++k) {
@@ -358,8 +361,14 @@ void find_crossings(const BoundaryGrid& b, int64_t row0, int64_t row1, CrossingS
       ++it->second.second;
       x.crossings.push_back(cr);
     }
-    for (const auto& [edge, third] : chunk_slivers[k]) x.sliver_at.emplace(edge, third);
-    stats.unresolved_slivers += chunk_unresolved[k];
+    for (const auto& [edge, third] : chunk_slivers[k])
+      if (x.sliver_at.emplace(edge, third).second && b.counts)
+        b.counts->add(row_of(edge), RowCounts::sliver_crossings, 1);
+  }
+  for (size_t i = 0; i < segments.size(); ++i) {
+    stats.unresolved_slivers += unresolved[i];
+    if (unresolved[i] != 0 && b.counts)
+      b.counts->add(row_of(segments[i].edge), RowCounts::unresolved_slivers, unresolved[i]);
   }
   stats.sliver_crossings += static_cast<int64_t>(x.sliver_at.size() - slivers_before);
 }
@@ -562,6 +571,7 @@ void find_tripoints(const BoundaryGrid& b, const CrossingSet& x, int64_t row0, i
     const std::vector<int32_t> distinct = square_owners(b, x, c, r, corners);
     if (distinct.size() < 3) continue;
     ++stats.multi_owner_squares;
+    if (b.counts) b.counts->add(r, RowCounts::multi_owner_squares, 1);
     const Vec2 mid = square_mid(b.g, c, r);
     const size_t before = set.tripoints.size();
     for (size_t i = 0; i < distinct.size(); ++i)
@@ -590,7 +600,16 @@ void find_tripoints(const BoundaryGrid& b, const CrossingSet& x, int64_t row0, i
           }
         }
     if (set.tripoints.size() == before) unplaced.push_back({c, r});
+    set.found_row.resize(set.tripoints.size(), static_cast<int32_t>(r));
   }
+}
+
+void file_tripoint(const BoundaryGrid& b, TripointSet& set, const Tripoint& t, int32_t found_row) {
+  const auto id = static_cast<int32_t>(set.tripoints.size());
+  set.tripoints.push_back(t);
+  set.by_owners[{t.owners[0], t.owners[1], t.owners[2]}].push_back(id);
+  set.in_square[square_of(b, t.p)].push_back(id);
+  set.found_row.push_back(found_row);
 }
 
 void count_unresolved(const BoundaryGrid& b, const CrossingSet& x, const TripointSet& set,
@@ -673,7 +692,7 @@ struct SquareLinks {
       for (size_t i = 0; i < items.size(); ++i)
         if (i != n && pair_of(i) == key.second) same.push_back(i);
       if (facing && same.size() == 1) {
-        out.add(node(same[0]), node(n), key.second);
+        out.add(node(same[0]), node(n), key.second, static_cast<int32_t>(r));
         joined[same[0]] = true;
       }
     }
@@ -686,7 +705,7 @@ struct SquareLinks {
         ends_here = it == nearest_to_outside.end() || it->second == i;
       }
       if (ends_here)
-        out.add(node(i), tripoint_node(target[i]), pair_of(i));
+        out.add(node(i), tripoint_node(target[i]), pair_of(i), static_cast<int32_t>(r));
       else
         unlinked.push_back(i);
     }
@@ -698,7 +717,9 @@ struct SquareLinks {
         std::vector<int32_t> shared;
         for (int32_t a : ti.owners)
           if (has(tj, a)) shared.push_back(a);
-        if (shared.size() == 2) out.add(tripoint_node(here[i]), tripoint_node(here[j]), pair_key(shared[0], shared[1]));
+        if (shared.size() == 2)
+          out.add(tripoint_node(here[i]), tripoint_node(here[j]), pair_key(shared[0], shared[1]),
+                  static_cast<int32_t>(r));
       }
     return unlinked;
   }
@@ -710,11 +731,11 @@ struct SquareLinks {
     const bool centre_is_o0 = h0.cost < h1.cost || (h0.cost == h1.cost && h0.site < h1.site);
     const int64_t pair = pair_key(o[0], o[1]);
     if (centre_is_o0) {  // corners 1 and 3 are cut off
-      out.add(node(0), node(1), pair);
-      out.add(node(2), node(3), pair);
+      out.add(node(0), node(1), pair, static_cast<int32_t>(r));
+      out.add(node(2), node(3), pair, static_cast<int32_t>(r));
     } else {  // corners 0 and 2 are cut off
-      out.add(node(3), node(0), pair);
-      out.add(node(1), node(2), pair);
+      out.add(node(3), node(0), pair, static_cast<int32_t>(r));
+      out.add(node(1), node(2), pair, static_cast<int32_t>(r));
     }
   }
 
@@ -744,7 +765,7 @@ struct SquareLinks {
         }
       const int64_t pair = pair_of(k);
       if (same == 1) {
-        if (k < other) out.add(node(k), node(other), pair);
+        if (k < other) out.add(node(k), node(other), pair, static_cast<int32_t>(r));
         continue;
       }
       if (same > 1 || open) continue;
@@ -767,7 +788,7 @@ struct SquareLinks {
         }
       });
       const int32_t tp = nearest_tripoint(t, cross(k), around);
-      if (tp >= 0) out.add(node(k), tripoint_node(tp), pair);
+      if (tp >= 0) out.add(node(k), tripoint_node(tp), pair, static_cast<int32_t>(r));
     }
   }
 };
@@ -797,6 +818,7 @@ Links link_squares(const BoundaryGrid& b, const CrossingSet& x, const TripointSe
       unlinked = sq.at_tripoints(here->second);
     } else if (per_edge == std::array<int, 4>{1, 1, 1, 1} && o[0] == o[2] && o[1] == o[3] && o[0] != o[1]) {
       ++stats.saddles;
+      if (b.counts) b.counts->add(r, RowCounts::saddles, 1);
       sq.saddle(o);
       continue;
     } else {

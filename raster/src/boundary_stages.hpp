@@ -42,6 +42,17 @@ struct Crossing {
   BoundaryVertex v;
 };
 
+// Per row of the grid, the stage statistics (BoundaryStats) its pieces counted: crossings by
+// their edge's row, tripoint searches and links by their square's top row. What an edit needs
+// to take rows of an earlier run's pieces with their counts (rv::LinePieces).
+struct RowCounts {
+  enum Counter { crossings, sliver_crossings, unresolved_slivers, multi_owner_squares, saddles, kCounters };
+  std::vector<std::array<int64_t, kCounters>> rows;  // empty: not counted
+  void add(int64_t row, Counter k, int64_t n) {
+    if (!rows.empty()) rows[static_cast<size_t>(row)][k] += n;
+  }
+};
+
 // What every stage of one extraction reads: the field's rows (line_tools::FieldRows: a whole
 // field, or the rows of a streamed one the stages are at), the metric's index, the grid and the
 // tolerance, and each cell's owner.
@@ -53,6 +64,8 @@ struct BoundaryGrid {
   int threads;
   double ftol;
   std::vector<int32_t> owner_of_site;
+  // Where the stages count their statistics per row as well (null: they do not).
+  RowCounts* counts = nullptr;
 
   int32_t owner(int64_t c, int64_t r) const { return owner_code(rows.site(c, r)); }
   int32_t owner_code(int32_t site) const { return site == kNoSite ? 0 : owner_of_site[static_cast<size_t>(site)]; }
@@ -76,6 +89,7 @@ struct TripointSet {
   std::vector<Tripoint> tripoints;
   std::map<std::array<int32_t, 3>, std::vector<int32_t>> by_owners;
   std::unordered_map<int64_t, std::vector<int32_t>> in_square;  // square id -> tripoint ids
+  std::vector<int32_t> found_row;  // per tripoint: the top row of the square it was sought from
 };
 
 // Links between nodes, each once, with its owner pair's key. A node is a crossing (its index,
@@ -84,11 +98,13 @@ struct TripointSet {
 struct Links {
   std::vector<std::array<int32_t, 2>> links;
   std::vector<int64_t> pair;                     // pair_key of each link's owners
+  std::vector<int32_t> row;                      // the top row of each link's square
   std::set<std::pair<int32_t, int32_t>> linked;  // a crossing is seen from both its squares
-  void add(int32_t n1, int32_t n2, int64_t p) {
+  void add(int32_t n1, int32_t n2, int64_t p, int32_t r) {
     if (!linked.emplace(std::min(n1, n2), std::max(n1, n2)).second) return;
     links.push_back({n1, n2});
     pair.push_back(p);
+    row.push_back(r);
   }
 };
 
@@ -106,6 +122,9 @@ void find_crossings(const BoundaryGrid& b, int64_t row0, int64_t row1, CrossingS
 // the crossings of rows up to row1.
 void find_tripoints(const BoundaryGrid& b, const CrossingSet& x, int64_t row0, int64_t row1, TripointSet& t,
                     std::vector<std::array<int64_t, 2>>& unplaced, BoundaryStats& stats);
+// Files a tripoint found earlier (an edit taking it from its base's pieces) as the search filed
+// it there, under `found_row`: by owners and by square, without looking for a duplicate.
+void file_tripoint(const BoundaryGrid& b, TripointSet& t, const Tripoint& tp, int32_t found_row);
 // Once every square is searched: the unplaced squares that a line must end in and that hold no
 // tripoint (found from a neighbouring square) are counted as unresolved tripoints.
 void count_unresolved(const BoundaryGrid& b, const CrossingSet& x, const TripointSet& t,

@@ -158,6 +158,8 @@ class FieldRows {
   void set_strip(const NearestField& strip);
   // Copies rows [from, row1()) (from >= row0()) so that they outlive the strip in hand.
   void keep_from(int64_t from);
+  // Holds nothing: the next strip may start at any row.
+  void restart() { *this = FieldRows(); }
   int64_t row0() const { return carry_row0_; }  // the first row held
   int64_t row1() const { return strip_row1_; }  // one past the last
   const int32_t* site_row(int64_t r) const {

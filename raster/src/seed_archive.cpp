@@ -6,9 +6,7 @@
 // a huge allocation.
 #include "rv/seed_archive.hpp"
 
-#include <bit>
-#include <cstring>
-
+#include "byte_codec.hpp"
 #include "rv/error.hpp"
 
 namespace rv {
@@ -17,71 +15,10 @@ namespace {
 constexpr std::string_view kMagic = "rvoronoi-seeds";
 constexpr uint32_t kVersion = 1;
 
-static_assert(std::endian::native == std::endian::little, "the archive is written in the machine's order");
-
-class Out {
- public:
-  template <class T>
-  void put(T v) {
-    char b[sizeof(T)];
-    std::memcpy(b, &v, sizeof(T));
-    s_.append(b, sizeof(T));
-  }
-  void text(const std::string& t) {
-    put<uint64_t>(t.size());
-    s_ += t;
-  }
-  void vec(Vec2 v) {
-    put(v.x);
-    put(v.y);
-  }
-  std::string take() { return std::move(s_); }
-
- private:
-  std::string s_;
-};
-
-class In {
- public:
-  explicit In(std::string_view b) : b_(b) {}
-  template <class T>
-  T get() {
-    need(sizeof(T));
-    T v;
-    std::memcpy(&v, b_.data(), sizeof(T));
-    b_.remove_prefix(sizeof(T));
-    return v;
-  }
-  // A count of items of at least `min_bytes` each: no more than the bytes left can hold.
-  uint64_t count(uint64_t min_bytes) {
-    const auto n = get<uint64_t>();
-    if (n > b_.size() / min_bytes) fail();
-    return n;
-  }
-  std::string text() {
-    const uint64_t n = count(1);
-    std::string t(b_.substr(0, n));
-    b_.remove_prefix(n);
-    return t;
-  }
-  Vec2 vec() {
-    const auto x = get<double>();
-    return Vec2{x, get<double>()};
-  }
-  void need(size_t n) const {
-    if (b_.size() < n) fail();
-  }
-  bool done() const { return b_.empty(); }
-  [[noreturn]] static void fail() { throw Error(ErrorKind::invalid_input, "seed archive: truncated or damaged"); }
-
- private:
-  std::string_view b_;
-};
-
 }  // namespace
 
 std::string encode_seed_archive(const SeedSet& seeds, const std::vector<int64_t>& numbering) {
-  Out o;
+  detail::ByteWriter o;
   for (const char c : kMagic) o.put(c);
   o.put(kVersion);
   o.put<uint64_t>(seeds.owner_labels().size());
@@ -118,7 +55,7 @@ std::string encode_seed_archive(const SeedSet& seeds, const std::vector<int64_t>
 }
 
 SeedArchive decode_seed_archive(std::string_view bytes) {
-  In in(bytes);
+  detail::ByteReader in(bytes, "seed archive");
   for (const char c : kMagic)
     if (in.get<char>() != c) throw Error(ErrorKind::invalid_input, "seed archive: not an rvoronoi seed archive");
   if (in.get<uint32_t>() != kVersion)
@@ -129,7 +66,7 @@ SeedArchive decode_seed_archive(std::string_view bytes) {
   for (Feature& f : features) {
     f.owner = in.get<int32_t>();
     const auto kind = in.get<uint8_t>();
-    if (kind > static_cast<uint8_t>(GeometryKind::mixed)) In::fail();
+    if (kind > static_cast<uint8_t>(GeometryKind::mixed)) in.fail();
     f.kind = static_cast<GeometryKind>(kind);
     f.source = in.text();
     f.weight = in.get<double>();
@@ -142,7 +79,7 @@ SeedArchive decode_seed_archive(std::string_view bytes) {
     s.b = in.vec();
     s.feature = in.get<int32_t>();
     const auto kind = in.get<uint8_t>();
-    if (kind > static_cast<uint8_t>(SiteKind::area)) In::fail();
+    if (kind > static_cast<uint8_t>(SiteKind::area)) in.fail();
     s.kind = static_cast<SiteKind>(kind);
   }
   std::vector<Polygon> polygons(in.count(16));
@@ -158,8 +95,8 @@ SeedArchive decode_seed_archive(std::string_view bytes) {
   SeedArchive out;
   out.numbering.resize(in.count(8));
   for (int64_t& n : out.numbering) n = in.get<int64_t>();
-  if (!in.done()) In::fail();
-  if (!out.numbering.empty() && out.numbering.size() != features.size()) In::fail();
+  if (!in.done()) in.fail();
+  if (!out.numbering.empty() && out.numbering.size() != features.size()) in.fail();
   out.seeds = SeedSet::from_parts(std::move(sites), std::move(polygons), std::move(features), std::move(labels));
   return out;
 }

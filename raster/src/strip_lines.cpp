@@ -12,12 +12,16 @@
 // position on are kept between strips (FieldRows::keep_from), a handful.
 #include <algorithm>
 #include <array>
+#include <bit>
 #include <cmath>
 #include <optional>
+#include <string>
+#include <type_traits>
 #include <vector>
 
 #include "boundary_stages.hpp"
 #include "limit_stages.hpp"
+#include "line_pieces.hpp"
 #include "line_tools.hpp"
 #include "rv/deliverables.hpp"
 #include "rv/error.hpp"
@@ -28,6 +32,31 @@ namespace rv {
 using namespace line_tools;
 
 namespace {
+
+using Pieces = LinePieces::Data;
+
+// The first of `n` pieces whose row (row_of(i), non-decreasing in i) is at least r.
+template <class RowOf>
+size_t first_at(size_t n, int64_t r, RowOf&& row_of) {
+  size_t lo = 0, hi = n;
+  while (lo < hi) {
+    const size_t mid = (lo + hi) / 2;
+    if (row_of(mid) < r)
+      lo = mid + 1;
+    else
+      hi = mid;
+  }
+  return lo;
+}
+
+// A base's site in this extraction's seeds.
+int32_t mapped_site(std::span<const int32_t> site_map, int32_t s) {
+  if (site_map.empty() || s == kNoSite) return s;
+  const int32_t m = s >= 0 && static_cast<size_t>(s) < site_map.size() ? site_map[static_cast<size_t>(s)] : kNoSite;
+  if (m == kNoSite)
+    throw Error(ErrorKind::invalid_argument, "line pieces taken from a base name a site the edit removed");
+  return m;
+}
 
 // One boundary extraction in progress.
 struct BoundaryRun {
@@ -41,6 +70,7 @@ struct BoundaryRun {
   boundary_stages::Links links;
   std::vector<std::array<int64_t, 2>> unplaced;
   BoundaryStats stats;
+  boundary_stages::RowCounts counts;                         // per row: what stats counted there (b.counts points here)
   int64_t crossings_to = 0, tripoints_to = 0, links_to = 0;  // rows done: [0, *_to)
 
   // Every stage as far as rows [0, have) allow (to the end when they are all in).
@@ -55,8 +85,95 @@ struct BoundaryRun {
     tripoints_to = tp;
     const int64_t ln = all ? b.H : std::max(links_to, tripoints_to - 2);
     const Links part = link_squares(b, x, t, links_to, ln, stats);
-    for (size_t i = 0; i < part.links.size(); ++i) links.add(part.links[i][0], part.links[i][1], part.pair[i]);
+    for (size_t i = 0; i < part.links.size(); ++i)
+      links.add(part.links[i][0], part.links[i][1], part.pair[i], part.row[i]);
     links_to = ln;
+  }
+
+  // Rows [*_to, row1) of every stage taken from the base's pieces `p`.
+  void take(const Pieces::Boundary& p, int64_t W, int64_t row1, std::span<const int32_t> site_map) {
+    using namespace boundary_stages;
+    auto edge_row = [W](int64_t e) { return e / 2 / W; };
+    const size_t x0 =
+        first_at(p.crossings.size(), crossings_to, [&](size_t i) { return edge_row(p.crossings[i].edge); });
+    const size_t x1 = first_at(p.crossings.size(), row1, [&](size_t i) { return edge_row(p.crossings[i].edge); });
+    const size_t t0 = first_at(p.tripoints.size(), tripoints_to, [&](size_t i) { return p.tripoint_row[i]; });
+    const size_t t1 = first_at(p.tripoints.size(), row1, [&](size_t i) { return p.tripoint_row[i]; });
+    // A base node's number here: the pieces before the first taken one are this run's own, equal
+    // to the base's near the rows taken, so every base number moves by one offset.
+    const int64_t dx = static_cast<int64_t>(x.crossings.size()) - static_cast<int64_t>(x0);
+    const int64_t dt = static_cast<int64_t>(t.tripoints.size()) - static_cast<int64_t>(t0);
+    for (size_t i = x0; i < x1; ++i) {
+      Crossing cr = p.crossings[i];
+      cr.v.site_a = mapped_site(site_map, cr.v.site_a);
+      cr.v.site_b = mapped_site(site_map, cr.v.site_b);
+      auto [it, fresh] = x.on_edge.try_emplace(cr.edge, static_cast<int32_t>(x.crossings.size()), 0);
+      ++it->second.second;
+      x.crossings.push_back(cr);
+    }
+    for (size_t i = first_at(p.slivers.size(), crossings_to, [&](size_t k) { return edge_row(p.slivers[k].first); });
+         i < p.slivers.size() && edge_row(p.slivers[i].first) < row1; ++i)
+      x.sliver_at.emplace(p.slivers[i].first, p.slivers[i].second);
+    for (size_t i = t0; i < t1; ++i) {
+      Tripoint tp = p.tripoints[i];
+      for (int32_t& s : tp.sites) s = mapped_site(site_map, s);
+      file_tripoint(b, t, tp, p.tripoint_row[i]);
+    }
+    for (const auto& u : p.unplaced)
+      if (u[1] >= tripoints_to && u[1] < row1) unplaced.push_back(u);
+    const size_t l0 = first_at(p.links.size(), links_to, [&](size_t i) { return p.link_row[i]; });
+    const size_t l1 = first_at(p.links.size(), row1, [&](size_t i) { return p.link_row[i]; });
+    auto node = [&](int32_t n) {
+      return static_cast<int32_t>(n >= 0 ? n + dx : tripoint_node(static_cast<int32_t>(-1 - n + dt)));
+    };
+    for (size_t i = l0; i < l1; ++i) links.add(node(p.links[i][0]), node(p.links[i][1]), p.link_pair[i], p.link_row[i]);
+    // The statistics of the rows taken, each counter from its own stage's position.
+    auto take_counts = [&](int64_t from, std::initializer_list<RowCounts::Counter> which) {
+      for (int64_t r = from; r < row1; ++r)
+        for (const RowCounts::Counter k : which) {
+          const int64_t n = p.counts[static_cast<size_t>(r)][k];
+          counts.add(r, k, n);
+          *stat_of(k) += n;
+        }
+    };
+    take_counts(crossings_to, {RowCounts::crossings, RowCounts::sliver_crossings, RowCounts::unresolved_slivers});
+    take_counts(tripoints_to, {RowCounts::multi_owner_squares});
+    take_counts(links_to, {RowCounts::saddles});
+    crossings_to = tripoints_to = links_to = row1;
+    b.rows.restart();
+  }
+
+  int64_t* stat_of(boundary_stages::RowCounts::Counter k) {
+    using C = boundary_stages::RowCounts;
+    switch (k) {
+      case C::crossings:
+        return &stats.crossings;
+      case C::sliver_crossings:
+        return &stats.sliver_crossings;
+      case C::unresolved_slivers:
+        return &stats.unresolved_slivers;
+      case C::multi_owner_squares:
+        return &stats.multi_owner_squares;
+      case C::saddles:
+      case C::kCounters:
+        break;
+    }
+    return &stats.saddles;
+  }
+
+  Pieces::Boundary pieces() const {
+    Pieces::Boundary p;
+    p.crossings = x.crossings;
+    p.slivers.assign(x.sliver_at.begin(), x.sliver_at.end());
+    std::sort(p.slivers.begin(), p.slivers.end());
+    p.tripoints = t.tripoints;
+    p.tripoint_row = t.found_row;
+    p.links = links.links;
+    p.link_pair = links.pair;
+    p.link_row = links.row;
+    p.unplaced = unplaced;
+    p.counts = counts.rows;
+    return p;
   }
 
   BoundaryResult finish() {
@@ -99,6 +216,42 @@ struct LimitRun {
     links_to = ln;
     inside.drop_before(links_to);
   }
+
+  // Rows [*_to, row1) of both stages taken from the base's pieces `p`.
+  void take(const Pieces::Limit& p, int64_t row1, std::span<const int32_t> site_map) {
+    const int64_t W = t.grid.W;
+    auto edge_row = [&](size_t i) { return p.edges[i] / 2 / W; };
+    const size_t x0 = first_at(p.edges.size(), crossings_to, edge_row);
+    const size_t x1 = first_at(p.edges.size(), row1, edge_row);
+    const int64_t dx = static_cast<int64_t>(x.edges.size()) - static_cast<int64_t>(x0);
+    for (size_t i = x0; i < x1; ++i) {
+      x.at.emplace(p.edges[i], static_cast<int32_t>(x.edges.size()));
+      x.edges.push_back(p.edges[i]);
+      LimitVertex v = p.verts[i];
+      v.site = mapped_site(site_map, v.site);
+      x.verts.push_back(v);
+    }
+    const size_t l0 = first_at(p.links.size(), links_to, [&](size_t i) { return p.link_row[i]; });
+    const size_t l1 = first_at(p.links.size(), row1, [&](size_t i) { return p.link_row[i]; });
+    for (size_t i = l0; i < l1; ++i)
+      links.push_back({static_cast<int32_t>(p.links[i][0] + dx), static_cast<int32_t>(p.links[i][1] + dx)});
+    crossings_to = links_to = row1;
+    inside = limit_stages::InsideRows{};
+    inside.row0 = row1;
+  }
+
+  Pieces::Limit pieces() const {
+    Pieces::Limit p;
+    p.edges = x.edges;
+    p.verts = x.verts;
+    p.links = links;
+    // A link joins crossings on two edges of its square, one of them on the square's top row.
+    const int64_t W = t.grid.W;
+    for (const auto& l : links)
+      p.link_row.push_back(static_cast<int32_t>(
+          std::min(x.edges[static_cast<size_t>(l[0])], x.edges[static_cast<size_t>(l[1])]) / 2 / W));
+    return p;
+  }
 };
 
 }  // namespace
@@ -115,6 +268,7 @@ struct StripLines::Impl {
   double limit_tol = 0.0;
   int64_t have = 0;
   bool boundaries_taken = false, limits_taken = false;
+  std::string key;
 
   Impl(const GridSpec& grid, const OwnerIndex& i) : g(grid), index(i) {}
 
@@ -152,7 +306,11 @@ StripLines::StripLines(const GridSpec& grid, const OwnerIndex& index, const Line
                                      {},
                                      {},
                                      {},
+                                     {},
                                      {}});
+    BoundaryRun& run = m.boundary.back();
+    run.counts.rows.assign(static_cast<size_t>(m.g.height), {});
+    run.b.counts = &run.counts;
   }
   if (!request.limit_distances.empty() || request.owned_edge) {
     const LimitOptions& o = request.limit;
@@ -180,6 +338,32 @@ StripLines::StripLines(const GridSpec& grid, const OwnerIndex& index, const Line
     for (double D : request.limit_distances)
       for (int32_t owner : owners) m.limits.push_back(LimitRun{{*m.limit_grid, owner, D}, {}, {}, {}, 0, 0});
     if (request.owned_edge) m.limits.push_back(LimitRun{{*m.limit_grid, kOwnedEdge, 0.0}, {}, {}, {}, 0, 0});
+  }
+  // Doubles by their bits: a key equal only where the pieces are.
+  std::string& key = m.key;
+  auto put = [&key](const char* name, auto v) {
+    key += name;
+    if constexpr (std::is_floating_point_v<decltype(v)>)
+      key += std::to_string(std::bit_cast<uint64_t>(static_cast<double>(v)));
+    else
+      key += std::to_string(v);
+  };
+  put("grid ", m.g.width);
+  put(" x ", m.g.height);
+  put(" at ", m.g.xmin);
+  put(" ", m.g.ymax);
+  put(" res ", m.g.res);
+  put("; adjusted ", static_cast<int>(index.adjusted()));
+  if (request.boundaries) {
+    put("; boundaries tol ", request.boundary.tolerance_cells);
+    put(" max ", request.boundary.max_distance);
+  }
+  if (m.limit_grid) {
+    put("; limits tol ", request.limit.tolerance_cells);
+    put(" per_owner ", static_cast<int>(request.limit.per_owner));
+    put(" owners ", metric.seeds().owner_count());
+    put(" owned_edge ", static_cast<int>(request.owned_edge));
+    for (double d : request.limit_distances) put(" at ", d);
   }
 }
 
@@ -213,6 +397,36 @@ void StripLines::add(const NearestField& strip) {
   // The strip is not read after this call: what the next strip's stages read is copied.
   for (BoundaryRun& run : m.boundary) run.b.rows.keep_from(keep);
   if (m.limit_grid) m.limit_grid->rows.keep_from(keep);
+}
+
+const std::string& StripLines::key() const { return impl_->key; }
+
+LinePieces StripLines::pieces() const {
+  const Impl& m = *impl_;
+  m.require_all("line pieces");
+  if (m.boundaries_taken || m.limits_taken)
+    throw Error(ErrorKind::invalid_argument, "line pieces asked for after the lines were taken");
+  auto d = std::make_shared<Pieces>();
+  d->key = m.key;
+  d->width = m.g.width;
+  d->height = m.g.height;
+  for (const BoundaryRun& run : m.boundary) d->boundary.push_back(run.pieces());
+  for (const LimitRun& run : m.limits) d->limits.push_back(run.pieces());
+  return LinePieces(std::move(d));
+}
+
+void StripLines::take_rows(const LinePieces& base, int64_t row1, std::span<const int32_t> site_map) {
+  Impl& m = *impl_;
+  if (base.empty() || base.key() != m.key)
+    throw Error(ErrorKind::invalid_argument, "line pieces of another extraction (grid, request or seeds' adjustments)");
+  if (row1 <= m.have || row1 > m.g.height)
+    throw Error(ErrorKind::invalid_argument, "line pieces taken for rows " + std::to_string(m.have) + " to " +
+                                                 std::to_string(row1) + " of " + std::to_string(m.g.height));
+  const Pieces& p = *base.d_;
+  for (size_t i = 0; i < m.boundary.size(); ++i) m.boundary[i].take(p.boundary.at(i), m.g.width, row1, site_map);
+  if (m.limit_grid) m.limit_grid->rows.restart();
+  for (size_t i = 0; i < m.limits.size(); ++i) m.limits[i].take(p.limits.at(i), row1, site_map);
+  m.have = row1;
 }
 
 BoundaryResult StripLines::take_boundaries() {

@@ -230,7 +230,8 @@ Links strip_links(const Case& k, const CrossingSet& x, const TripointSet& t, int
   BoundaryStats stats;
   for (int64_t r0 = 0; r0 < 100; r0 += rows) {
     const Links part = link_squares(k.b, x, t, r0, std::min<int64_t>(r0 + rows, 100), stats);
-    for (size_t i = 0; i < part.links.size(); ++i) joined.add(part.links[i][0], part.links[i][1], part.pair[i]);
+    for (size_t i = 0; i < part.links.size(); ++i)
+      joined.add(part.links[i][0], part.links[i][1], part.pair[i], part.row[i]);
   }
   return joined;
 }

@@ -24,6 +24,7 @@
 #include <vector>
 
 #include "rv/cell_mask.hpp"
+#include "rv/deliverables.hpp"
 #include "rv/engine.hpp"
 #include "rv/geolocate.hpp"
 #include "rv/seeds.hpp"
@@ -114,6 +115,19 @@ class Edit {
   // base's cells (the tiles it cannot rule out), 0 where it reads none: a tile flagged 0 keeps
   // every cell of the base, renumbered. Throws as plan() where the summaries do not fit the grid.
   std::vector<uint8_t> tiles_to_read(const TileSummaries& tiles) const;
+  // The rows of the grid whose line pieces (rv::StripLines) an edit extracts again, as sorted,
+  // disjoint [row0, row1) ranges; the pieces of every other row are its base's (`base_pieces`,
+  // made by the base run with the same key), renumbered by site_map() (StripLines::take_rows).
+  // A row is extracted again when it lies within 2 * StripLines::kDependRows rows of a tile the
+  // edit may change (tiles_to_read) or of a tile where a removed or an added site may be measured
+  // by the extraction: within the tile's largest distance, or `reach_floor` (metric units: the
+  // largest limit distance drawn per owner, measured from a cell of any owner), or the max
+  // distance where the tile has unowned cells, of a point a few cells from it; or of a piece
+  // that names a removed site. Every row (one range over the grid) where pieces cannot be taken:
+  // seeds with weights or reaches, owners in another order, a projected geodesic grid.
+  std::vector<std::pair<int64_t, int64_t>> line_rows(const TileSummaries& tiles, const LinePieces& base_pieces,
+                                                     double reach_floor) const;
+
   // The plan for `base`, the base field over any window of the grid (the field of the base seeds
   // computed with the same options). With `tiles` (the base field's summaries over the whole
   // grid), the cells of tiles that no removed feature can have owned and no added feature can
