@@ -542,7 +542,8 @@ Edit::State::TileNeed Edit::State::tile_need(int64_t tr, int64_t tc, const TileS
   return n;
 }
 
-std::vector<std::pair<int64_t, int64_t>> Edit::line_rows(const TileSummaries& tiles, const LinePieces& base_pieces,
+std::vector<std::pair<int64_t, int64_t>> Edit::line_rows(const TileSummaries& tiles,
+                                                         std::span<const LinePieces> base_pieces,
                                                          double reach_floor) const {
   const State& st = *st_;
   const GridSpec& g = st.grid;
@@ -573,7 +574,8 @@ std::vector<std::pair<int64_t, int64_t>> Edit::line_rows(const TileSummaries& ti
                         (st.added.any && st.added.may_own(g, c0, r0, c1, r1, reach));
       if (near) rows.emplace_back(r0, r1);
     }
-  for (const int64_t r : base_pieces.rows_naming_dropped(st.remap)) rows.emplace_back(r, r + 1);
+  for (const LinePieces& p : base_pieces)
+    for (const int64_t r : p.rows_naming_dropped(st.remap)) rows.emplace_back(r, r + 1);
   for (auto& [a, b] : rows) {
     a = std::max<int64_t>(0, a - pad);
     b = std::min(g.height, b + pad);

@@ -113,6 +113,31 @@ std::vector<int32_t> site_codes(const nlohmann::json& m, const fs::path& dir, co
   return out;
 }
 
+// The line pieces the manifest names, each checked and decoded. Throws as EditBase's
+// constructor: a file missing, modified or damaged is an error like any other of the base's.
+std::map<std::string, LinePieces> kept_line_pieces(const nlohmann::json& m, const fs::path& dir,
+                                                   const std::string& dir_name) {
+  std::map<std::string, LinePieces> out;
+  if (!m.contains("line_pieces")) return out;
+  for (const auto& [name, e] : m.at("line_pieces").items()) {
+    const std::string file = e.at("file").get<std::string>();
+    if (file.empty() || fs::path(file).has_parent_path())
+      throw Error(ErrorKind::invalid_input, "base: " + dir_name + "/manifest.json names line pieces outside it");
+    const std::string shown = dir_name + "/" + file;
+    const std::string bytes = read_whole((dir / file).string(), shown);
+    if (e.at("hash").get<std::string>() != checksum_hex(bytes_checksum(bytes)))
+      throw Error(ErrorKind::invalid_input, "base: " + shown + " was modified since the base run");
+    try {
+      out[name] = LinePieces::decode(bytes);
+    } catch (const Error& err) {
+      throw Error(ErrorKind::invalid_input, "base: " + shown + ": " + err.what());
+    }
+    if (out[name].key() != e.at("key").get<std::string>())
+      throw Error(ErrorKind::invalid_input, "base: " + dir_name + "/manifest.json is damaged");
+  }
+  return out;
+}
+
 }  // namespace
 
 std::string edit_base_dir(const std::string& report) { return report + ".rvbase"; }
@@ -140,6 +165,10 @@ EditBaseWriter::~EditBaseWriter() {
   if (committed_) return;
   std::error_code ec;
   fs::remove_all(temp_, ec);
+}
+
+void EditBaseWriter::set_line_pieces(const std::map<std::string, LinePieces>& pieces) {
+  for (const auto& [name, p] : pieces) lines_[name] = {p.key(), p.encode()};
 }
 
 void EditBaseWriter::set_site_codes(std::vector<int32_t> site_of_code) { site_of_code_ = std::move(site_of_code); }
@@ -193,6 +222,13 @@ std::string EditBaseWriter::commit() {
     manifest_["site_codes"] = {
         {"file", "site_codes.bin"}, {"codes", site_of_code_.size() - 1}, {"hash", checksum_hex(bytes_checksum(bytes))}};
   }
+  nlohmann::json lines = nlohmann::json::object();
+  for (const auto& [name, kb] : lines_) {
+    const std::string file = "lines_" + name + ".bin";
+    write_file_atomically(temp_ + "/" + file, kb.second);
+    lines[name] = {{"file", file}, {"key", kb.first}, {"hash", checksum_hex(bytes_checksum(kb.second))}};
+  }
+  if (!lines.empty()) manifest_["line_pieces"] = lines;
   manifest_["tiles"] = {{"size", TileSummaries::kTile},       {"cols", tiles.cols},         {"rows", tiles.rows},
                         {"max_distance", tiles.max_distance}, {"max_cost", tiles.max_cost}, {"unowned", tiles.unowned}};
   write_file_atomically(temp_ + "/manifest.json", json_text(manifest_, 1) + "\n");
@@ -215,9 +251,10 @@ struct EditBase::State {
   SeedArchive archive;
   std::unique_ptr<GeoTiffRowReader<int32_t>> site;
   std::unique_ptr<GeoTiffRowReader<float>> distance;
-  std::map<std::string, Earlier> rasters;  // by role (EditBaseWriter::record)
-  std::vector<int32_t> site_of_code;       // code -> base site (kNoSite for 0 and removed ones)
-  bool identity_codes = false;             // code = site index + 1 (a fresh run's)
+  std::map<std::string, Earlier> rasters;   // by role (EditBaseWriter::record)
+  std::map<std::string, LinePieces> lines;  // by extraction (EditBaseWriter::set_line_pieces)
+  std::vector<int32_t> site_of_code;        // code -> base site (kNoSite for 0 and removed ones)
+  bool identity_codes = false;              // code = site index + 1 (a fresh run's)
   TileSummaries tiles;
   GridSpec grid;
   MetricSpec metric;
@@ -299,6 +336,7 @@ EditBase::EditBase(const std::string& report, const JobSpec& spec, const Prepare
       throw Error(ErrorKind::invalid_input, "base: " + dir_name + "/manifest.json has no tile summaries of its grid");
     }
     st.site_of_code = site_codes(m, dir, dir_name, static_cast<int32_t>(st.archive.seeds.sites().size()));
+    st.lines = kept_line_pieces(m, dir, dir_name);
     st.identity_codes = !m.contains("site_codes");
     // The rasters: each named relative to the directory, with one checksum per tile.
     const int64_t tile_count = ((job.grid.width + kTile - 1) / kTile) * ((job.grid.height + kTile - 1) / kTile);
@@ -373,6 +411,11 @@ std::optional<EditBase::Earlier> EditBase::earlier(const std::string& role) cons
   const auto it = st_->rasters.find(role);
   if (it == st_->rasters.end()) return std::nullopt;
   return it->second;
+}
+
+LinePieces EditBase::line_pieces(const std::string& name, const std::string& key) const {
+  const auto it = st_->lines.find(name);
+  return it != st_->lines.end() && it->second.key() == key ? it->second : LinePieces();
 }
 
 void EditBase::read(int64_t row0, int64_t rows, NearestField& out, const std::vector<uint8_t>* tiles) {

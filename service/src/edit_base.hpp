@@ -20,7 +20,11 @@
 //                  removed since): absent for a fresh run's (code = index + 1);
 //   distance.tif   the distance to it in metric units, Float32, as the engine computed it; or,
 //                  when the job writes its distance raster in metric units, that file (the
-//                  manifest names it relative to the directory, e.g. "../distance.tif").
+//                  manifest names it relative to the directory, e.g. "../distance.tif");
+//   lines_*.bin    per line extraction of the run (boundaries, limits, the owned area's edge for
+//                  regions), its pieces by row (rv::LinePieces), named in the manifest with their
+//                  key and checksum: an edit extracts again only the rows near its changes
+//                  (rv::Edit::line_rows) and takes the others' pieces from here.
 // An edit (`--base REPORT`) reads that directory strip by strip in place of computing: of each
 // strip of the base field it reads the tiles the edit may change (every tile when a file or a
 // deliverable needs every cell), each checked against its checksum, plans and recomputes them
@@ -39,6 +43,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "rv/deliverables.hpp"
 #include "rv/edit.hpp"
 #include "rv/gdal/raster_io.hpp"
 #include "rv/job.hpp"
@@ -78,6 +83,8 @@ class EditBaseWriter {
   std::vector<uint64_t>* record(const std::string& role, const std::string& path);
   // Fed by the distance's writer (StreamTarget::observe): what the manifest records per tile.
   TileSummaries tiles;
+  // The run's line pieces by extraction ("boundaries", "limits", "reach"), kept as lines_<name>.bin.
+  void set_line_pieces(const std::map<std::string, LinePieces>& pieces);
   // Writes the manifest and renames the directory into place (the old one, if any, removed).
   // Returns the directory's path.
   std::string commit();
@@ -86,6 +93,7 @@ class EditBaseWriter {
   std::string dir_, temp_, site_path_, distance_path_, shared_distance_;
   std::map<std::string, std::pair<std::string, std::vector<uint64_t>>> rasters_;  // role -> path, checksums
   std::vector<int32_t> site_of_code_;                                             // empty: index + 1
+  std::map<std::string, std::pair<std::string, std::string>> lines_;              // name -> key, bytes
   nlohmann::json manifest_;
   std::string seeds_hash_;
   int64_t sites_ = 0;
@@ -119,6 +127,10 @@ class EditBase {
     std::vector<uint64_t> checksums;
   };
   std::optional<Earlier> earlier(const std::string& role) const;
+  // The base's line pieces of extraction `name` (EditBaseWriter::set_line_pieces) when their key
+  // is `key` (StripLines::key), checked against their checksum when the base was opened; else
+  // empty (the base ran without that extraction, or with other lines' options).
+  LinePieces line_pieces(const std::string& name, const std::string& key) const;
   // Reads the base field's rows [row0, row0 + rows) into `out` (site indices and metric
   // distances, with the job's metric and geolocator), in order from the first row, strips of
   // whole 256-row bands of tiles (but the last). `tiles`, when not null: per tile of the grid

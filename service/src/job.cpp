@@ -632,6 +632,8 @@ void compute_streamed(detail::JobRun& run, const PreparedJob& job, const RasterT
   // The edit of a finished run, and what this run keeps for edits of it (job_edit.hpp).
   detail::StreamEdit edit;
   if (base) detail::attach_edit(stream, edit, spec, job, *base);
+  nlohmann::json edit_lines;
+  if (base && deliverables) edit_lines = detail::attach_edit_lines(stream, edit, *deliverables, *base, spec, job);
   if (keep) detail::attach_keep(stream, *keep, base, base ? &edit : nullptr, job);
   run.progress("compute", 0.0);
   const detail::StreamStats st = detail::run_streamed(stream);
@@ -643,11 +645,14 @@ void compute_streamed(detail::JobRun& run, const PreparedJob& job, const RasterT
                                              job.metric.kind == MetricSpec::geodesic);
   }
   if (base && !spec.base_name.empty()) run.report["edit"]["base"] = spec.base_name;
+  if (!edit_lines.is_null()) run.report["edit"]["lines"] = edit_lines;
   run.compute_seconds = st.compute;
   run.contested_cells = st.contested_cells;
   run.threads_used = st.threads;
   for (const auto& [name, seconds] : st.write) run.write_times[name] = seconds;
   run.timings["compute"] = st.compute;
+  // What the run keeps of its lines for edits of it (before finish() takes the lines).
+  if (deliverables && keep) keep->set_line_pieces(deliverables->line_pieces());
   if (deliverables) deliverables->finish();
   for (const detail::StreamTarget& t : stream.targets)
     if (t.product != Product::site && t.product != Product::metric_distance) run.wrote(t.name, t.path);

@@ -56,6 +56,14 @@ struct StripDeliverables::State {
   nlohmann::json report = nlohmann::json::object();
 
   const PartialEffectResult* partial = nullptr;  // partial effect: its lines and its rule
+  // An edit's lines (take_lines_from): the rows fed, the base's pieces by name, its site map.
+  struct Taking {
+    std::map<std::string, LinePieces> base;
+    std::vector<std::pair<int64_t, int64_t>> fed;
+    std::vector<int32_t> site_map;
+    NearestField rows;  // the fed rows of a strip that holds others too
+  };
+  std::optional<Taking> taking;
   bool lines_wanted = false;  // boundaries (a deliverable, or what regions, the preview or the report read)
 
   State(JobRun& r, const PreparedJob& j, bool s, const PartialEffectResult* p)
@@ -75,7 +83,78 @@ struct StripDeliverables::State {
   nlohmann::json relevance(const RegionStats& rs, const std::string& area_units);
   void finish_margin();
   void write_quicklook(const BoundaryResult& boundaries, const LimitResult& limits);
+  // The line extractions by name (those the job makes).
+  std::vector<std::pair<std::string, StripLines*>> lines() {
+    std::vector<std::pair<std::string, StripLines*>> out;
+    if (boundaries) out.emplace_back("boundaries", &*boundaries);
+    if (limits) out.emplace_back("limits", &*limits);
+    if (reach) out.emplace_back("reach", &*reach);
+    return out;
+  }
+  // A strip into extraction `name`: whole, or for an edit its fed rows, the rows before each taken
+  // from the base.
+  void feed(StripLines& lines, const std::string& name, const NearestField& strip);
+  // An edit's rows after the last fed ones, taken from the base.
+  void complete_lines();
 };
+
+void StripDeliverables::State::feed(StripLines& lines, const std::string& name, const NearestField& strip) {
+  if (!taking) {
+    lines.add(strip);
+    return;
+  }
+  const Window w = strip.site.window();
+  for (const auto& [a, b] : taking->fed) {
+    const int64_t lo = std::max(a, w.row0), hi = std::min(b, w.row0 + w.height);
+    if (lo >= hi) continue;
+    if (lines.rows() < lo) lines.take_rows(taking->base.at(name), lo, taking->site_map);
+    if (lo == w.row0 && hi == w.row0 + w.height) {
+      lines.add(strip);
+      continue;
+    }
+    NearestField& part = taking->rows;
+    const Window sub{0, lo, w.width, hi - lo};
+    part.site.retarget(strip.site.grid(), sub);
+    part.distance.retarget(strip.distance.grid(), sub);
+    std::copy_n(strip.site.row(lo - w.row0), sub.width * sub.height, part.site.data());
+    std::copy_n(strip.distance.row(lo - w.row0), sub.width * sub.height, part.distance.data());
+    part.metric = strip.metric;
+    part.geolocator = strip.geolocator;
+    lines.add(part);
+  }
+}
+
+void StripDeliverables::State::complete_lines() {
+  if (!taking) return;
+  for (auto& [name, lines] : this->lines())
+    if (lines->rows() < job.grid.height) lines->take_rows(taking->base.at(name), job.grid.height, taking->site_map);
+}
+
+bool StripDeliverables::needs_every_cell() const {
+  const State& s = *st_;
+  return s.preview || !s.out().margin.empty() || s.relevant_coasts || s.partial;
+}
+
+std::map<std::string, std::string> StripDeliverables::line_keys() const {
+  std::map<std::string, std::string> out;
+  for (auto& [name, lines] : st_->lines()) out[name] = lines->key();
+  return out;
+}
+
+void StripDeliverables::take_lines_from(std::map<std::string, LinePieces> base,
+                                        std::vector<std::pair<int64_t, int64_t>> fed, std::vector<int32_t> site_map) {
+  st_->taking.emplace();
+  st_->taking->base = std::move(base);
+  st_->taking->fed = std::move(fed);
+  st_->taking->site_map = std::move(site_map);
+}
+
+std::map<std::string, LinePieces> StripDeliverables::line_pieces() {
+  st_->complete_lines();
+  std::map<std::string, LinePieces> out;
+  for (auto& [name, lines] : st_->lines()) out[name] = lines->pieces();
+  return out;
+}
 
 StripDeliverables::StripDeliverables(JobRun& run, const PreparedJob& job, bool streamed,
                                      const PartialEffectResult* partial)
@@ -160,13 +239,13 @@ void StripDeliverables::add(const NearestField& strip, const NearestField* measu
     f();
     return seconds_since(t);
   };
-  if (s.boundaries) s.boundary_seconds += seconds([&] { s.boundaries->add(strip); });
+  if (s.boundaries) s.boundary_seconds += seconds([&] { s.feed(*s.boundaries, "boundaries", strip); });
   const NearestField& lines_from = measured != nullptr ? *measured : strip;
-  if (s.limits) s.limit_seconds += seconds([&] { s.limits->add(lines_from); });
+  if (s.limits) s.limit_seconds += seconds([&] { s.feed(*s.limits, "limits", lines_from); });
   if (s.preview)
     s.preview->add_rows(strip.site.data(), strip.site.window().row0, strip.site.height(), &s.owner_codes,
                         strip.distance.data());
-  if (s.reach) s.region_seconds += seconds([&] { s.reach->add(lines_from); });
+  if (s.reach) s.region_seconds += seconds([&] { s.feed(*s.reach, "reach", lines_from); });
   if (s.relevant_coasts) s.region_seconds += seconds([&] { s.relevant_coasts->add(strip); });
   if (!out.margin.empty()) {
     s.margin_seconds += seconds([&] {
@@ -433,6 +512,7 @@ void StripDeliverables::finish() {
   const auto started = Clock::now();
   run.check_cancel();
   run.progress("deliver", 0.0);
+  s.complete_lines();
   const BoundaryResult boundaries = s.take_boundaries();
   const LimitResult limits = s.take_limits();
   run.check_cancel();

@@ -2,6 +2,7 @@
 #include "job_edit.hpp"
 
 #include <algorithm>
+#include <map>
 #include <string>
 #include <utility>
 
@@ -66,17 +67,18 @@ void attach_edit(StreamJob& stream, StreamEdit& st, const JobSpec& spec, const P
   stream.source = [&st, &base, codes, across](const Window& w, NearestField& field, std::vector<int32_t>& changes,
                                               std::vector<uint8_t>& fresh, bool all_cells) {
     EditTally& tally = st.tally;
-    const std::vector<uint8_t>* only = all_cells ? nullptr : &st.to_read;
+    const std::vector<uint8_t>* only = all_cells ? nullptr : &st.read_flags();
     timed_add(tally.read_seconds, [&] { base.read(w.row0, w.height, field, only); });
     const int64_t bands = (w.height + kTile - 1) / kTile;
     ++tally.strips;
     // The tiles whose cells were read: every tile of the strip, or those the edit may change.
     for (int64_t t = w.row0 / kTile * across; t < (w.row0 / kTile + bands) * across; ++t)
-      if (only == nullptr || st.to_read[static_cast<size_t>(t)]) tally.tiles_read[static_cast<size_t>(t)] = true;
+      if (only == nullptr || (*only)[static_cast<size_t>(t)]) tally.tiles_read[static_cast<size_t>(t)] = true;
     // A strip of tiles the edit cannot change, none of them read: nothing to plan, every tile copied.
+    // (A tile read for the lines alone is planned too: its cells are renumbered to the edit's sites.)
     if (only != nullptr &&
-        std::none_of(st.to_read.begin() + w.row0 / kTile * across,
-                     st.to_read.begin() + (w.row0 / kTile + bands) * across, [](uint8_t t) { return t != 0; })) {
+        std::none_of(only->begin() + w.row0 / kTile * across, only->begin() + (w.row0 / kTile + bands) * across,
+                     [](uint8_t t) { return t != 0; })) {
       fresh.assign(static_cast<size_t>(bands * across), 0);
       if (codes) changes.assign(static_cast<size_t>(w.cell_count()), 0);
       return;
@@ -104,6 +106,43 @@ void attach_edit(StreamJob& stream, StreamEdit& st, const JobSpec& spec, const P
       tally.changes.add(st.tallier->measure_masked(plan.mask, before, field, codes ? changes.data() : nullptr));
     });
   };
+}
+
+nlohmann::json attach_edit_lines(StreamJob& stream, StreamEdit& st, StripDeliverables& deliverables,
+                                 const EditBase& base, const JobSpec& spec, const PreparedJob& job) {
+  const int64_t H = job.grid.height;
+  if (deliverables.needs_every_cell())
+    return {
+        {"rows_extracted", H}, {"rows_taken", 0}, {"why", "the quicklook, margin or relevant coasts read every cell"}};
+  std::map<std::string, LinePieces> pieces;
+  std::vector<LinePieces> list;
+  for (const auto& [name, key] : deliverables.line_keys()) {
+    LinePieces p = base.line_pieces(name, key);
+    if (p.empty())
+      return {{"rows_extracted", H},
+              {"rows_taken", 0},
+              {"why", "the base kept no " + name + " pieces of these options, seeds' weights and reaches"}};
+    list.push_back(p);
+    pieces[name] = std::move(p);
+  }
+  // Limits drawn per owner measure an owner's distance across other owners' cells, out to the
+  // largest limit.
+  double floor = 0.0;
+  if (spec.outputs.limits_per_owner && !spec.outputs.limits.empty())
+    for (const double d : job.limit_distances) floor = std::max(floor, d);
+  std::vector<std::pair<int64_t, int64_t>> fed;
+  if (!pieces.empty()) fed = st.edit->line_rows(base.tiles(), list, floor);
+  int64_t extracted = 0;
+  const int64_t across = base.tiles().cols;
+  st.to_read_lines = st.to_read;
+  for (const auto& [a, b] : fed) {
+    extracted += b - a;
+    for (int64_t t = a / kTile * across; t < ((b + kTile - 1) / kTile) * across; ++t)
+      st.to_read_lines[static_cast<size_t>(t)] = 1;
+  }
+  deliverables.take_lines_from(std::move(pieces), std::move(fed), st.edit->site_map());
+  stream.on_strip_every_cell = false;
+  return {{"rows_extracted", extracted}, {"rows_taken", H - extracted}};
 }
 
 void attach_keep(StreamJob& stream, EditBaseWriter& keep, const EditBase* base, const StreamEdit* edit,

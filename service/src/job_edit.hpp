@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "edit_base.hpp"
+#include "job_run.hpp"
 #include "job_stream.hpp"
 #include "rv/edit.hpp"
 #include "rv/job.hpp"
@@ -22,13 +23,25 @@ struct StreamEdit {
   std::optional<ChangeTally> tallier;
   EditTally tally;
   std::vector<uint8_t> to_read;  // per tile of the grid: the edit may change it
-  EditCodes codes;               // the base's codes -> the edit's
+  // Per tile of the grid: its cells are read (to_read, and the tiles of the rows the lines
+  // extract again: attach_edit_lines); empty: to_read.
+  std::vector<uint8_t> to_read_lines;
+  const std::vector<uint8_t>& read_flags() const { return to_read_lines.empty() ? to_read : to_read_lines; }
+  EditCodes codes;  // the base's codes -> the edit's
 };
 
 // Makes `stream` an edit of `base`: its source, the changes raster (spec.outputs.changes), and
 // on each target whose tiles can be copied, the base's file and checksums. `stream`'s targets
 // (the job's rasters) must be in place; `st`, `base` and `job` must outlive the run.
 void attach_edit(StreamJob& stream, StreamEdit& st, const JobSpec& spec, const PreparedJob& job, EditBase& base);
+
+// An edit's lines (after attach_edit): the rows near the edit's changes extracted again, every
+// other row's pieces taken from the base's (rv::Edit::line_rows, StripDeliverables::
+// take_lines_from), and the cells of those rows read besides the tiles the edit may change. Where
+// a deliverable needs every cell, or the base kept no pieces of an extraction with its options,
+// every row is extracted (every cell read), as before. Returns the edit report's "lines" entry.
+nlohmann::json attach_edit_lines(StreamJob& stream, StreamEdit& st, StripDeliverables& deliverables,
+                                 const EditBase& base, const JobSpec& spec, const PreparedJob& job);
 
 // Adds the kept field's rasters to `stream`, records every raster's checksums and the tile
 // summaries in `keep`; with an edit (`base` and `edit` not null: attach_edit's), the kept rasters

@@ -9,13 +9,16 @@
 
 #include <chrono>
 #include <filesystem>
+#include <map>
 #include <memory>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <nlohmann/json.hpp>
 
+#include "rv/deliverables.hpp"
 #include "rv/error.hpp"
 #include "rv/gdal/raster_io.hpp"
 #include "rv/job.hpp"
@@ -121,6 +124,22 @@ class StripDeliverables {
   void add(const NearestField& strip, const NearestField* measured = nullptr);
   // Writes every requested deliverable.
   void finish();
+
+  // Whether add() reads every cell of every strip: the quicklook, the margin raster and the
+  // relevant coasts do; the lines need not (take_lines_from).
+  bool needs_every_cell() const;
+  // The line extractions' keys (rv::StripLines::key) by name: "boundaries", "limits", "reach"
+  // (the owned area's edge, for regions).
+  std::map<std::string, std::string> line_keys() const;
+  // An edit's lines (call before the first strip): add() takes in only the rows of `fed` (sorted,
+  // disjoint [row0, row1) ranges, rv::Edit::line_rows) and every other row's pieces from `base`,
+  // an extraction of the edit's base by name, with the key line_keys() gives, its sites
+  // renumbered by `site_map` (rv::StripLines::take_rows). The strips' other rows are not read.
+  void take_lines_from(std::map<std::string, LinePieces> base, std::vector<std::pair<int64_t, int64_t>> fed,
+                       std::vector<int32_t> site_map);
+  // After the last strip, before finish(): every line extraction's pieces, by name (what the run
+  // keeps for edits of it).
+  std::map<std::string, LinePieces> line_pieces();
 
  private:
   static GeoTiffOptions margin_options(const JobRun& run, const PreparedJob& job);

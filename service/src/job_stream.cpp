@@ -301,7 +301,7 @@ StreamStats run_streamed(const StreamJob& job) {
   st.across = (st.width + kTileSide - 1) / kTileSide;
   st.copies.assign(job.targets.size(), 0);
   st.copied.assign(job.targets.size(), 0);
-  st.all_cells = !job.source || static_cast<bool>(job.on_strip);
+  st.all_cells = !job.source || (job.on_strip && job.on_strip_every_cell);
   for (size_t i = 0; i < job.targets.size(); ++i) {
     const StreamTarget& t = job.targets[i];
     if (!t.earlier.empty()) {

@@ -63,6 +63,8 @@ struct StreamJob {
   // Called with each strip as computed (distances in metric units), on the computing thread,
   // before the writers see it; may be empty. What it throws stops the job as a failed strip would.
   std::function<void(const NearestField& strip)> on_strip;
+  // Whether on_strip reads every cell of a source's strips (else only those the source reads).
+  bool on_strip_every_cell = true;
   // When set, produces each strip's field instead of the engine (an edit of a finished run):
   // fills `field` over `window` (distances in metric units) and, when a target is a changes
   // raster, `changes` with one code per cell. Called on the computing thread, strips in order.

@@ -212,7 +212,8 @@ void check_edit(const Lines& l, const SeedSet& base, const SeedSet& edited, cons
   double floor = 0.0;
   if (l.request.limit.per_owner)
     for (double d : l.request.limit_distances) floor = std::max(floor, d);
-  const auto fed = edit.line_rows(tiles, LinePieces::decode(pieces.encode()), floor);
+  const std::vector<LinePieces> kept{LinePieces::decode(pieces.encode())};
+  const auto fed = edit.line_rows(tiles, kept, floor);
   int64_t fed_rows = 0;
   for (const auto& [a, b] : fed) fed_rows += b - a;
   if (expect_rows_taken) {
@@ -332,7 +333,7 @@ TEST(LinePieces, WeightedSeedsExtractEveryRow) {
   const OwnerIndex index(*metric);
   const LinePieces pieces = l.extract(index, base, {{0, l.grid.height}}).pieces();
   TileSummaries tiles = TileSummaries::for_grid(l.grid);
-  const auto fed = edit.line_rows(tiles, pieces, 0.0);
+  const auto fed = edit.line_rows(tiles, std::vector<LinePieces>{pieces}, 0.0);
   ASSERT_EQ(fed.size(), 1u);
   EXPECT_EQ(fed[0], (std::pair<int64_t, int64_t>{0, l.grid.height}));
 }

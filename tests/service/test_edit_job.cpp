@@ -53,6 +53,7 @@ struct Case {
   std::optional<double> max_distance;
   bool weights = false;
   bool tiles_skipped = false;  // some round's plan must rule tiles out without reading them
+  bool rows_taken = false;     // some round's lines must take rows from the base's pieces
   int slots = 5;               // the seeds' layout: slots x slots, one object each
 };
 
@@ -300,7 +301,7 @@ void run_random_edits(EditJob& t, const Case& c, uint32_t seed, int rounds) {
   JobSpec base = t.spec(c, "round0");
   run_job(base);
   ASSERT_TRUE(fs::exists(base.outputs.report + ".rvbase/manifest.json"));
-  int64_t tiles_skipped = 0;
+  int64_t tiles_skipped = 0, rows_taken = 0, tiles_unread = 0;
   for (int round = 1; round <= rounds; ++round) {
     const int ops = 1 + static_cast<int>(rng() % 3);
     std::string did;
@@ -349,13 +350,27 @@ void run_random_edits(EditJob& t, const Case& c, uint32_t seed, int rounds) {
     if (did == "nothing ") {
       EXPECT_EQ(recomputed, 0);
     }
-    // With lines every cell is read; the plan still rules tiles out.
     tiles_skipped += e.at("tiles").get<int64_t>() - e.at("tiles_planned").get<int64_t>();
-    EXPECT_EQ(e.at("tiles_read").get<int64_t>(), e.at("tiles").get<int64_t>());
+    // The lines are extracted again on the rows near the changes and taken from the base on the
+    // others (every row with weights); the cells read are those rows' and the plan's tiles'.
+    const nlohmann::json& lines = e.at("lines");
+    const int64_t taken = lines.at("rows_taken").get<int64_t>();
+    EXPECT_EQ(lines.at("rows_extracted").get<int64_t>() + taken, r.report.at("grid").at("height").get<int64_t>());
+    if (c.weights) {
+      EXPECT_EQ(taken, 0);
+    }
+    rows_taken += taken;
+    EXPECT_LE(e.at("tiles_read").get<int64_t>(), e.at("tiles").get<int64_t>());
+    EXPECT_GE(e.at("tiles_read").get<int64_t>(), e.at("tiles_planned").get<int64_t>());
+    tiles_unread += e.at("tiles").get<int64_t>() - e.at("tiles_read").get<int64_t>();
     base = edit;
   }
   if (c.tiles_skipped) {
     EXPECT_GT(tiles_skipped, 0);
+  }
+  if (c.rows_taken) {
+    EXPECT_GT(rows_taken, 0);
+    EXPECT_GT(tiles_unread, 0);  // lines drawn, and yet cells of the kept field left unread
   }
 }
 
@@ -388,6 +403,16 @@ TEST_F(EditJob, RandomEditsEqualFreshRunsOnManyTiles) {
   c.tiles_skipped = true;
   c.slots = 10;
   run_random_edits(*this, c, 23, 8);
+}
+
+// The same without weights: the lines of most rows are taken from the base's pieces (the rounds
+// check that some are), and every file still equals a fresh run's.
+TEST_F(EditJob, RandomEditsTakeTheBasesLinesOnManyTiles) {
+  Case c = planar_case(8.0, "1500");
+  c.tiles_skipped = true;
+  c.rows_taken = true;
+  c.slots = 10;
+  run_random_edits(*this, c, 29, 6);
 }
 
 // A basepoint moved on a feature of many: only that feature's changed sites are removed and added,
@@ -688,6 +713,20 @@ TEST_F(EditJobErrors, MissingOrModifiedBaseFilesAreRefused) {
   }
   expect_refused(spec(c, "seeds"), base, ErrorKind::invalid_input, "seeds.bin was modified");
   std::ofstream(kept / "seeds.bin", std::ios::binary) << archive;
+  // Modified line pieces (kept per extraction: boundaries and limits).
+  EXPECT_EQ(manifest["line_pieces"]["boundaries"]["file"], "lines_boundaries.bin");
+  EXPECT_EQ(manifest["line_pieces"]["limits"]["file"], "lines_limits.bin");
+  const std::string pieces = read_text(kept / "lines_limits.bin");
+  {
+    std::string bytes = pieces;
+    bytes[bytes.size() - 5] ^= 4;
+    std::ofstream(kept / "lines_limits.bin", std::ios::binary) << bytes;
+  }
+  expect_refused(spec(c, "pieces"), base, ErrorKind::invalid_input,
+                 "base: report.json.rvbase/lines_limits.bin was modified since the base run");
+  fs::remove(kept / "lines_limits.bin");
+  expect_refused(spec(c, "pieces_gone"), base, ErrorKind::not_found, "lines_limits.bin");
+  std::ofstream(kept / "lines_limits.bin", std::ios::binary) << pieces;
   // A manifest member of the wrong type.
   const std::string manifest_text = read_text(kept / "manifest.json");
   {

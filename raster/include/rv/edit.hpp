@@ -18,6 +18,7 @@
 #include <cstdint>
 #include <map>
 #include <memory>
+#include <span>
 #include <string>
 #include <unordered_map>
 #include <utility>
@@ -117,7 +118,7 @@ class Edit {
   std::vector<uint8_t> tiles_to_read(const TileSummaries& tiles) const;
   // The rows of the grid whose line pieces (rv::StripLines) an edit extracts again, as sorted,
   // disjoint [row0, row1) ranges; the pieces of every other row are its base's (`base_pieces`,
-  // made by the base run with the same key), renumbered by site_map() (StripLines::take_rows).
+  // the base run's extractions with the same keys), renumbered by site_map() (StripLines::take_rows).
   // A row is extracted again when it lies within 2 * StripLines::kDependRows rows of a tile the
   // edit may change (tiles_to_read) or of a tile where a removed or an added site may be measured
   // by the extraction: within the tile's largest distance, or `reach_floor` (metric units: the
@@ -125,7 +126,8 @@ class Edit {
   // distance where the tile has unowned cells, of a point a few cells from it; or of a piece
   // that names a removed site. Every row (one range over the grid) where pieces cannot be taken:
   // seeds with weights or reaches, owners in another order, a projected geodesic grid.
-  std::vector<std::pair<int64_t, int64_t>> line_rows(const TileSummaries& tiles, const LinePieces& base_pieces,
+  std::vector<std::pair<int64_t, int64_t>> line_rows(const TileSummaries& tiles,
+                                                     std::span<const LinePieces> base_pieces,
                                                      double reach_floor) const;
 
   // The plan for `base`, the base field over any window of the grid (the field of the base seeds
