@@ -127,8 +127,7 @@ class Edit {
   // that names a removed site. Every row (one range over the grid) where pieces cannot be taken:
   // seeds with weights or reaches, owners in another order, a projected geodesic grid.
   std::vector<std::pair<int64_t, int64_t>> line_rows(const TileSummaries& tiles,
-                                                     std::span<const LinePieces> base_pieces,
-                                                     double reach_floor) const;
+                                                     std::span<const LinePieces> base_pieces, double reach_floor) const;
 
   // The plan for `base`, the base field over any window of the grid (the field of the base seeds
   // computed with the same options). With `tiles` (the base field's summaries over the whole
