@@ -19,10 +19,14 @@ report) and a fresh run of the edited file. Every edit's files are compared byte
 the fresh run's (the script stops on a difference).
 
 --old BIN: the same edits by another build too (its own base run), alternated with the others:
-the column "old edit s" (the two builds' kept bases differ in format, so each edits its own).
+the column "old edit s" (the two builds' kept bases differ in format, so each edits its own);
+with --coast, a row "old build's edit".
 
 A last pair measures what keeping the field costs every run: the fresh command with --report
 (which keeps it) against the same without --report (which keeps nothing), alternated.
+
+Every timed command starts after `sync` (untimed): the runs before it wrote hundreds of megabytes,
+whose write-back would otherwise throttle its writes.
 
 Columns: medians over the repeats of the command's wall time, of the report's "compute" (the
 edit's: reading the base's strips, planning, recomputing and tallying; the fresh run's: the
@@ -64,6 +68,9 @@ def command(binary, seeds, side, outdir, outputs, report=True, base=None):
 
 
 def timed(cmd):
+    # The commands before wrote hundreds of megabytes: flushed first (not timed), so that their
+    # write-back does not throttle this command's writes.
+    os.sync()
     t0 = time.perf_counter()
     subprocess.run(cmd, check=True, stdout=subprocess.DEVNULL)
     return time.perf_counter() - t0
@@ -129,13 +136,18 @@ def coast(a):
     shutil.copy(os.path.join(SHARED, "baltic_west.gpkg"), seeds)
     base_dir = os.path.join(a.work, "base")
     t_base = timed(coast_command(a.binary, seeds, a.resolution, base_dir))
+    if a.old:
+        timed(coast_command(a.old, seeds, a.resolution, os.path.join(a.work, "base_old")))
     x, y = move_vertex(seeds)
     e_dir, f_dir = os.path.join(a.work, "edit"), os.path.join(a.work, "fresh")
-    e_wall, f_wall = [], []
+    e_wall, f_wall, o_wall = [], [], []
     for _ in range(a.repeats):
         e_wall.append(timed(coast_command(a.binary, seeds, a.resolution, e_dir,
                                           base=os.path.join(base_dir, "report.json"))))
         f_wall.append(timed(coast_command(a.binary, seeds, a.resolution, f_dir)))
+        if a.old:
+            o_wall.append(timed(coast_command(a.old, seeds, a.resolution, os.path.join(a.work, "edit_old"),
+                                              base=os.path.join(a.work, "base_old", "report.json"))))
         for n in COAST_FILES:
             if not filecmp.cmp(os.path.join(e_dir, n), os.path.join(f_dir, n), shallow=False):
                 sys.exit(f"{n}: the edit's file differs from the fresh run's")
@@ -149,6 +161,9 @@ def coast(a):
     print("|---|---|---|---|")
     em, fm = statistics.median(e_wall), statistics.median(f_wall)
     print(f"| whole command, s | {em:.2f} | {fm:.2f} | {em / fm:.0%} |")
+    if o_wall:
+        om = statistics.median(o_wall)
+        print(f"| whole command, old build's edit, s | {om:.2f} | | {om / fm:.0%} |")
     print(f"| compute, s (edit: read, plan, recompute, tally) | {r['timings_s']['compute']:.2f} | "
           f"{fr['timings_s']['compute']:.2f} | {r['timings_s']['compute'] / fr['timings_s']['compute']:.0%} |")
     print(f"| deliverables, s | {r['timings_s']['deliverables']['wall']:.2f} | "
@@ -159,6 +174,11 @@ def coast(a):
           f"{e.get('tiles_planned', '-')}); "
           f"read {t['read_base']:.2f} s, plan {t['plan']:.2f} s, recompute {t['recompute']:.2f} s, "
           f"tally {t['tally']:.2f} s; area moved {e['area_moved']}.")
+    if "lines" in e:
+        print(f"Lines: rows extracted again {e['lines']['rows_extracted']}, taken from the base "
+              f"{e['lines']['rows_taken']} (of {g['height']}).")
+    print("\nEdit timings: " + json.dumps(r["timings_s"]))
+    print("\nFresh timings: " + json.dumps(fr["timings_s"]))
 
 
 def main():

@@ -354,7 +354,8 @@ const std::vector<OptionSpec> kOptions = {
      "Base run",
      "the report of an earlier run of this job whose seeds were edited since (features moved, added, removed): "
      "only the cells the edit can change are computed again, from the tiles of its kept field they fall in, and "
-     "every file copies the other tiles from the base's; every output equals a fresh run's, and the report's "
+     "every file copies the other tiles from the base's; lines are extracted again only on the rows near the "
+     "edit; every output equals a fresh run's, and the report's "
      "\"edit\" says what changed (features, cells, the area moved between owners). Grid, metric, method "
      "(exact), distance units, max distance and compression must be the base's",
      "",

@@ -9,6 +9,7 @@
 #include <random>
 #include <vector>
 
+#include "line_compare.hpp"
 #include "rv/deliverables.hpp"
 #include "rv/engine.hpp"
 #include "rv/error.hpp"
@@ -80,48 +81,6 @@ struct Case {
   }
 };
 
-void expect_same(const BoundaryResult& a, const BoundaryResult& b) {
-  ASSERT_EQ(a.lines.size(), b.lines.size());
-  for (size_t i = 0; i < a.lines.size(); ++i) {
-    EXPECT_EQ(a.lines[i].owner_a, b.lines[i].owner_a);
-    EXPECT_EQ(a.lines[i].owner_b, b.lines[i].owner_b);
-    EXPECT_EQ(a.lines[i].closed, b.lines[i].closed);
-    ASSERT_EQ(a.lines[i].vertices.size(), b.lines[i].vertices.size()) << "line " << i;
-    for (size_t k = 0; k < a.lines[i].vertices.size(); ++k) {
-      const BoundaryVertex &u = a.lines[i].vertices[k], &v = b.lines[i].vertices[k];
-      ASSERT_EQ(u.p, v.p) << "line " << i << " vertex " << k;
-      ASSERT_EQ(u.site_a, v.site_a);
-      ASSERT_EQ(u.site_b, v.site_b);
-      ASSERT_EQ(u.distance, v.distance);
-    }
-  }
-  ASSERT_EQ(a.tripoints.size(), b.tripoints.size());
-  for (size_t i = 0; i < a.tripoints.size(); ++i) EXPECT_EQ(a.tripoints[i].p, b.tripoints[i].p);
-  EXPECT_EQ(a.stats.crossings, b.stats.crossings);
-  EXPECT_EQ(a.stats.sliver_crossings, b.stats.sliver_crossings);
-  EXPECT_EQ(a.stats.saddles, b.stats.saddles);
-  EXPECT_EQ(a.stats.multi_owner_squares, b.stats.multi_owner_squares);
-  EXPECT_EQ(a.stats.unresolved_tripoints, b.stats.unresolved_tripoints);
-  EXPECT_EQ(a.stats.vertices, b.stats.vertices);
-  EXPECT_EQ(a.stats.max_residual, b.stats.max_residual);
-}
-
-void expect_same(const LimitResult& a, const LimitResult& b) {
-  ASSERT_EQ(a.lines.size(), b.lines.size());
-  for (size_t i = 0; i < a.lines.size(); ++i) {
-    EXPECT_EQ(a.lines[i].distance, b.lines[i].distance);
-    EXPECT_EQ(a.lines[i].owner, b.lines[i].owner);
-    EXPECT_EQ(a.lines[i].closed, b.lines[i].closed);
-    ASSERT_EQ(a.lines[i].vertices.size(), b.lines[i].vertices.size()) << "line " << i;
-    for (size_t k = 0; k < a.lines[i].vertices.size(); ++k) {
-      ASSERT_EQ(a.lines[i].vertices[k].p, b.lines[i].vertices[k].p) << "line " << i << " vertex " << k;
-      ASSERT_EQ(a.lines[i].vertices[k].site, b.lines[i].vertices[k].site);
-    }
-  }
-  EXPECT_EQ(a.vertices, b.vertices);
-  EXPECT_EQ(a.max_residual, b.max_residual);
-}
-
 void check_every_strip_height(Case& k, std::vector<double> limits) {
   k.request.limit_distances = limits;
   for (bool per_owner : {false, true}) {
@@ -135,8 +94,8 @@ void check_every_strip_height(Case& k, std::vector<double> limits) {
       SCOPED_TRACE("strips of " + std::to_string(heights.front()) + " rows, per owner " + std::to_string(per_owner));
       StripLines lines = k.strips(heights);
       EXPECT_EQ(lines.rows(), k.grid.height);
-      expect_same(lines.take_boundaries(), whole_b);
-      expect_same(lines.take_limits(), whole_l);
+      test::expect_same_lines(lines.take_boundaries(), whole_b);
+      test::expect_same_lines(lines.take_limits(), whole_l);
     }
   }
 }
