@@ -49,13 +49,24 @@ size_t first_at(size_t n, int64_t r, RowOf&& row_of) {
   return lo;
 }
 
-// A base's site in this extraction's seeds.
-int32_t mapped_site(std::span<const int32_t> site_map, int32_t s) {
-  if (site_map.empty() || s == kNoSite) return s;
-  const int32_t m = s >= 0 && static_cast<size_t>(s) < site_map.size() ? site_map[static_cast<size_t>(s)] : kNoSite;
+// A base's site in this extraction's seeds (`sites` of them).
+int32_t mapped_site(std::span<const int32_t> site_map, int32_t s, size_t sites) {
+  if (s == kNoSite) return s;
+  const int32_t m = site_map.empty()                                     ? s
+                    : s >= 0 && static_cast<size_t>(s) < site_map.size() ? site_map[static_cast<size_t>(s)]
+                                                                         : kNoSite;
   if (m == kNoSite)
     throw Error(ErrorKind::invalid_argument, "line pieces taken from a base name a site the edit removed");
+  if (m < 0 || static_cast<size_t>(m) >= sites)
+    throw Error(ErrorKind::invalid_input, "line pieces taken from a base do not fit its seeds");
   return m;
+}
+
+// An owner code of the pieces, checked against the seeds' `owners`.
+int32_t checked_owner(int32_t o, size_t owners) {
+  if (o < 0 || static_cast<size_t>(o) > owners)
+    throw Error(ErrorKind::invalid_input, "line pieces taken from a base do not fit its seeds");
+  return o;
 }
 
 // One boundary extraction in progress.
@@ -103,20 +114,25 @@ struct BoundaryRun {
     // to the base's near the rows taken, so every base number moves by one offset.
     const int64_t dx = static_cast<int64_t>(x.crossings.size()) - static_cast<int64_t>(x0);
     const int64_t dt = static_cast<int64_t>(t.tripoints.size()) - static_cast<int64_t>(t0);
+    const size_t sites = b.owner_of_site.size();
+    const size_t owners = static_cast<size_t>(b.index.metric().seeds().owner_count());
     for (size_t i = x0; i < x1; ++i) {
       Crossing cr = p.crossings[i];
-      cr.v.site_a = mapped_site(site_map, cr.v.site_a);
-      cr.v.site_b = mapped_site(site_map, cr.v.site_b);
+      cr.v.site_a = mapped_site(site_map, cr.v.site_a, sites);
+      cr.v.site_b = mapped_site(site_map, cr.v.site_b, sites);
+      checked_owner(cr.owner_lo, owners);
+      checked_owner(cr.owner_hi, owners);
       auto [it, fresh] = x.on_edge.try_emplace(cr.edge, static_cast<int32_t>(x.crossings.size()), 0);
       ++it->second.second;
       x.crossings.push_back(cr);
     }
     for (size_t i = first_at(p.slivers.size(), crossings_to, [&](size_t k) { return edge_row(p.slivers[k].first); });
          i < p.slivers.size() && edge_row(p.slivers[i].first) < row1; ++i)
-      x.sliver_at.emplace(p.slivers[i].first, p.slivers[i].second);
+      x.sliver_at.emplace(p.slivers[i].first, checked_owner(p.slivers[i].second, owners));
     for (size_t i = t0; i < t1; ++i) {
       Tripoint tp = p.tripoints[i];
-      for (int32_t& s : tp.sites) s = mapped_site(site_map, s);
+      for (int32_t& s : tp.sites) s = mapped_site(site_map, s, sites);
+      for (const int32_t o : tp.owners) checked_owner(o, owners);
       file_tripoint(b, t, tp, p.tripoint_row[i]);
     }
     for (const auto& u : p.unplaced)
@@ -228,7 +244,7 @@ struct LimitRun {
       x.at.emplace(p.edges[i], static_cast<int32_t>(x.edges.size()));
       x.edges.push_back(p.edges[i]);
       LimitVertex v = p.verts[i];
-      v.site = mapped_site(site_map, v.site);
+      v.site = mapped_site(site_map, v.site, t.grid.owner_of_site.size());
       x.verts.push_back(v);
     }
     const size_t l0 = first_at(p.links.size(), links_to, [&](size_t i) { return p.link_row[i]; });
@@ -354,6 +370,9 @@ StripLines::StripLines(const GridSpec& grid, const OwnerIndex& index, const Line
   put(" ", m.g.ymax);
   put(" res ", m.g.res);
   put("; adjusted ", static_cast<int>(index.adjusted()));
+  key += dynamic_cast<const LocatedGeodesicSiteMetric*>(&metric) != nullptr ? "; located geodesic"
+         : dynamic_cast<const GeodesicSiteMetric*>(&metric) != nullptr      ? "; geodesic"
+                                                                            : "; planar";
   if (request.boundaries) {
     put("; boundaries tol ", request.boundary.tolerance_cells);
     put(" max ", request.boundary.max_distance);

@@ -606,7 +606,8 @@ class StripLines {
   // of them; the strips added around them must hold kDependRows such rows at each side).
   // `site_map`: per site of the base's seeds, the site of this extraction's seeds (empty: the
   // same). The next strip then starts at row1. Throws rv::Error(invalid_argument) for another key,
-  // a row1 not after rows() or beyond the grid, or a piece naming a site the map drops.
+  // a row1 not after rows() or beyond the grid, or a piece naming a site the map drops;
+  // rv::Error(invalid_input) for a piece naming a site or an owner these seeds do not have.
   void take_rows(const LinePieces& base, int64_t row1, std::span<const int32_t> site_map = {});
   // After the last row: the lines. Throws rv::Error(invalid_argument) when rows are missing.
   // Each may be called once.
