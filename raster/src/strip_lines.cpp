@@ -143,38 +143,17 @@ struct BoundaryRun {
       return static_cast<int32_t>(n >= 0 ? n + dx : tripoint_node(static_cast<int32_t>(-1 - n + dt)));
     };
     for (size_t i = l0; i < l1; ++i) links.add(node(p.links[i][0]), node(p.links[i][1]), p.link_pair[i], p.link_row[i]);
-    // The statistics of the rows taken, each counter from its own stage's position.
+    // The per-row statistics of the rows taken, each counter from its own stage's position
+    // (finish() sums them).
     auto take_counts = [&](int64_t from, std::initializer_list<RowCounts::Counter> which) {
       for (int64_t r = from; r < row1; ++r)
-        for (const RowCounts::Counter k : which) {
-          const int64_t n = p.counts[static_cast<size_t>(r)][k];
-          counts.add(r, k, n);
-          *stat_of(k) += n;
-        }
+        for (const RowCounts::Counter k : which) counts.add(r, k, p.counts[static_cast<size_t>(r)][k]);
     };
     take_counts(crossings_to, {RowCounts::crossings, RowCounts::sliver_crossings, RowCounts::unresolved_slivers});
     take_counts(tripoints_to, {RowCounts::multi_owner_squares});
     take_counts(links_to, {RowCounts::saddles});
     crossings_to = tripoints_to = links_to = row1;
     b.rows.restart();
-  }
-
-  int64_t* stat_of(boundary_stages::RowCounts::Counter k) {
-    using C = boundary_stages::RowCounts;
-    switch (k) {
-      case C::crossings:
-        return &stats.crossings;
-      case C::sliver_crossings:
-        return &stats.sliver_crossings;
-      case C::unresolved_slivers:
-        return &stats.unresolved_slivers;
-      case C::multi_owner_squares:
-        return &stats.multi_owner_squares;
-      case C::saddles:
-      case C::kCounters:
-        break;
-    }
-    return &stats.saddles;
   }
 
   Pieces::Boundary pieces() const {
@@ -194,6 +173,13 @@ struct BoundaryRun {
 
   BoundaryResult finish() {
     using namespace boundary_stages;
+    // The stages' counters are the sums of their rows' (rows taken from a base bring theirs).
+    int64_t* counter[RowCounts::kCounters] = {&stats.crossings, &stats.sliver_crossings, &stats.unresolved_slivers,
+                                              &stats.multi_owner_squares, &stats.saddles};
+    for (int k = 0; k < RowCounts::kCounters; ++k) {
+      *counter[k] = 0;
+      for (const auto& row : counts.rows) *counter[k] += row[static_cast<size_t>(k)];
+    }
     count_unresolved(b, x, t, unplaced, stats);
     BoundaryResult result;
     result.stats = stats;

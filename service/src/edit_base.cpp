@@ -42,6 +42,26 @@ std::string read_whole(const std::string& path, const std::string& name) {
   return s.str();
 }
 
+// A file of the kept directory `dir` and its manifest entry: its name and the checksum of its bytes.
+nlohmann::json write_kept(const std::string& dir, const std::string& file, const std::string& bytes) {
+  write_file_atomically(dir + "/" + file, bytes);
+  return {{"file", file}, {"hash", checksum_hex(bytes_checksum(bytes))}};
+}
+
+// The bytes of the kept file a manifest `entry` (write_kept's) names in `dir`, checked against its
+// checksum. Throws rv::Error: not_found (missing), invalid_input (named outside the directory, or
+// modified since the base run); nlohmann::json's errors for an entry without those members.
+std::string read_kept(const fs::path& dir, const std::string& dir_name, const nlohmann::json& entry) {
+  const std::string file = entry.at("file").get<std::string>();
+  if (file.empty() || fs::path(file).has_parent_path())
+    throw Error(ErrorKind::invalid_input, "base: " + dir_name + "/manifest.json names a file outside it");
+  const std::string shown = dir_name + "/" + file;
+  std::string bytes = read_whole((dir / file).string(), shown);
+  if (entry.at("hash").get<std::string>() != checksum_hex(bytes_checksum(bytes)))
+    throw Error(ErrorKind::invalid_input, "base: " + shown + " was modified since the base run");
+  return bytes;
+}
+
 std::string unique_suffix() {
   static std::atomic<int> n{0};
   return std::to_string(::getpid()) + "-" + std::to_string(n++);
@@ -98,9 +118,8 @@ std::vector<int32_t> site_codes(const nlohmann::json& m, const fs::path& dir, co
     return out;
   }
   const nlohmann::json& sc = m.at("site_codes");
-  const std::string bytes = read_whole((dir / sc.at("file").get<std::string>()).string(), dir_name + "/site_codes.bin");
-  if (sc.at("hash").get<std::string>() != checksum_hex(bytes_checksum(bytes)) ||
-      bytes.size() != 4 * sc.at("codes").get<size_t>())
+  const std::string bytes = read_kept(dir, dir_name, sc);
+  if (bytes.size() != 4 * sc.at("codes").get<size_t>())
     throw Error(ErrorKind::invalid_input, "base: " + dir_name + "/site_codes.bin was modified since the base run");
   for (size_t k = 0; k < bytes.size(); k += 4) {
     uint32_t v = 0;
@@ -120,17 +139,12 @@ std::map<std::string, LinePieces> kept_line_pieces(const nlohmann::json& m, cons
   std::map<std::string, LinePieces> out;
   if (!m.contains("line_pieces")) return out;
   for (const auto& [name, e] : m.at("line_pieces").items()) {
-    const std::string file = e.at("file").get<std::string>();
-    if (file.empty() || fs::path(file).has_parent_path())
-      throw Error(ErrorKind::invalid_input, "base: " + dir_name + "/manifest.json names line pieces outside it");
-    const std::string shown = dir_name + "/" + file;
-    const std::string bytes = read_whole((dir / file).string(), shown);
-    if (e.at("hash").get<std::string>() != checksum_hex(bytes_checksum(bytes)))
-      throw Error(ErrorKind::invalid_input, "base: " + shown + " was modified since the base run");
+    const std::string bytes = read_kept(dir, dir_name, e);
     try {
       out[name] = LinePieces::decode(bytes);
     } catch (const Error& err) {
-      throw Error(ErrorKind::invalid_input, "base: " + shown + ": " + err.what());
+      throw Error(ErrorKind::invalid_input,
+                  "base: " + dir_name + "/" + e.at("file").get<std::string>() + ": " + err.what());
     }
     if (out[name].key() != e.at("key").get<std::string>())
       throw Error(ErrorKind::invalid_input, "base: " + dir_name + "/manifest.json is damaged");
@@ -153,12 +167,12 @@ EditBaseWriter::EditBaseWriter(const JobSpec& spec, const PreparedJob& job) : ti
   if (!spec.outputs.distance.empty() && job.to_output == 1.0) shared_distance_ = spec.outputs.distance;
   sites_ = static_cast<int64_t>(job.loaded.seeds.sites().size());
   const std::string seeds = encode_seed_archive(job.loaded.seeds, job.loaded.input_position);
-  write_file_atomically(temp_ + "/seeds.bin", seeds);
   manifest_ = request_params(spec, job);
   manifest_["format"] = kFormat;
   manifest_["version"] = kFormatVersion;
   manifest_["sites"] = sites_;
-  manifest_["seeds"] = {{"file", "seeds.bin"}, {"bytes", seeds.size()}, {"hash", checksum_hex(bytes_checksum(seeds))}};
+  manifest_["seeds"] = write_kept(temp_, "seeds.bin", seeds);
+  manifest_["seeds"]["bytes"] = seeds.size();
 }
 
 EditBaseWriter::~EditBaseWriter() {
@@ -218,15 +232,13 @@ std::string EditBaseWriter::commit() {
       for (int b = 0; b < 4; ++b)
         bytes[4 * (k - 1) + static_cast<size_t>(b)] = static_cast<char>((v >> (8 * b)) & 0xff);
     }
-    write_file_atomically(temp_ + "/site_codes.bin", bytes);
-    manifest_["site_codes"] = {
-        {"file", "site_codes.bin"}, {"codes", site_of_code_.size() - 1}, {"hash", checksum_hex(bytes_checksum(bytes))}};
+    manifest_["site_codes"] = write_kept(temp_, "site_codes.bin", bytes);
+    manifest_["site_codes"]["codes"] = site_of_code_.size() - 1;
   }
   nlohmann::json lines = nlohmann::json::object();
   for (const auto& [name, kb] : lines_) {
-    const std::string file = "lines_" + name + ".bin";
-    write_file_atomically(temp_ + "/" + file, kb.second);
-    lines[name] = {{"file", file}, {"key", kb.first}, {"hash", checksum_hex(bytes_checksum(kb.second))}};
+    lines[name] = write_kept(temp_, "lines_" + name + ".bin", kb.second);
+    lines[name]["key"] = kb.first;
   }
   if (!lines.empty()) manifest_["line_pieces"] = lines;
   manifest_["tiles"] = {{"size", TileSummaries::kTile},       {"cols", tiles.cols},         {"rows", tiles.rows},
@@ -313,10 +325,7 @@ EditBase::EditBase(const std::string& report, const JobSpec& spec, const Prepare
       }
     }
     if (!diff.empty()) throw Error(ErrorKind::invalid_argument, "base: the job differs from its base: " + diff);
-    const std::string seeds = read_whole((dir / "seeds.bin").string(), dir_name + "/seeds.bin");
-    const nlohmann::json& sm = m.value("seeds", nlohmann::json::object());
-    if (sm.value("hash", "") != checksum_hex(bytes_checksum(seeds)))
-      throw Error(ErrorKind::invalid_input, "base: " + dir_name + "/seeds.bin was modified since the base run");
+    const std::string seeds = read_kept(dir, dir_name, m.at("seeds"));
     st.archive = decode_seed_archive(seeds);
     if (static_cast<int64_t>(st.archive.seeds.sites().size()) != m.value("sites", int64_t{-1}))
       throw Error(ErrorKind::invalid_input, "base: " + dir_name + "/manifest.json does not fit its seeds");

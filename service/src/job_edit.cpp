@@ -67,11 +67,11 @@ void attach_edit(StreamJob& stream, StreamEdit& st, const JobSpec& spec, const P
   stream.source = [&st, &base, codes, across](const Window& w, NearestField& field, std::vector<int32_t>& changes,
                                               std::vector<uint8_t>& fresh, bool all_cells) {
     EditTally& tally = st.tally;
-    const std::vector<uint8_t>* only = all_cells ? nullptr : &st.read_flags();
+    const std::vector<uint8_t>* only = all_cells ? nullptr : &st.to_read;
     timed_add(tally.read_seconds, [&] { base.read(w.row0, w.height, field, only); });
     const int64_t bands = (w.height + kTile - 1) / kTile;
     ++tally.strips;
-    // The tiles whose cells were read: every tile of the strip, or those the edit may change.
+    // The tiles whose cells were read: every tile of the strip, or those flagged.
     for (int64_t t = w.row0 / kTile * across; t < (w.row0 / kTile + bands) * across; ++t)
       if (only == nullptr || (*only)[static_cast<size_t>(t)]) tally.tiles_read[static_cast<size_t>(t)] = true;
     // A strip of tiles the edit cannot change, none of them read: nothing to plan, every tile copied.
@@ -134,11 +134,10 @@ nlohmann::json attach_edit_lines(StreamJob& stream, StreamEdit& st, StripDeliver
   if (!pieces.empty()) fed = st.edit->line_rows(base.tiles(), list, floor);
   int64_t extracted = 0;
   const int64_t across = base.tiles().cols;
-  st.to_read_lines = st.to_read;
   for (const auto& [a, b] : fed) {
     extracted += b - a;
     for (int64_t t = a / kTile * across; t < ((b + kTile - 1) / kTile) * across; ++t)
-      st.to_read_lines[static_cast<size_t>(t)] = 1;
+      st.to_read[static_cast<size_t>(t)] = 1;
   }
   deliverables.take_lines_from(std::move(pieces), std::move(fed), st.edit->site_map());
   stream.on_strip_every_cell = false;

@@ -22,11 +22,9 @@ struct StreamEdit {
   std::optional<Edit> edit;
   std::optional<ChangeTally> tallier;
   EditTally tally;
-  std::vector<uint8_t> to_read;  // per tile of the grid: the edit may change it
-  // Per tile of the grid: its cells are read (to_read, and the tiles of the rows the lines
-  // extract again: attach_edit_lines); empty: to_read.
-  std::vector<uint8_t> to_read_lines;
-  const std::vector<uint8_t>& read_flags() const { return to_read_lines.empty() ? to_read : to_read_lines; }
+  // Per tile of the grid, 1 where its cells are read: the edit may change it, or the lines
+  // extract its rows again (attach_edit_lines).
+  std::vector<uint8_t> to_read;
   EditCodes codes;  // the base's codes -> the edit's
 };
 

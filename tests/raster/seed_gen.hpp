@@ -2,6 +2,7 @@
 // seed for reproducibility), and a planar field of basepoints with what the deliverables read.
 #pragma once
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <random>
@@ -66,6 +67,35 @@ struct PointsField {
     return s;
   }
 };
+
+// What mixed_seeds() makes: `features` features of `owners` owners (labels "o1", "o2", ..., in
+// turn), each placed from a point uniform over [2, x1] x [2, y1]: feature i a coastline of three
+// vertices when i % line_every == 1, an island (a quadrilateral) when listed in `islands`, else a
+// point.
+struct MixedSeeds {
+  int features = 16, owners = 4;
+  double x1 = 58.0, y1 = 43.0;
+  int line_every = 4;
+  std::vector<int> islands{6};
+};
+// Those seeds at origin + scale * (x, y).
+inline SeedSet mixed_seeds(uint32_t seed, const MixedSeeds& m = {}, double scale = 1.0, Vec2 origin = {0.0, 0.0}) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> ux(2, m.x1), uy(2, m.y1);
+  auto at = [&](double x, double y) { return Vec2{origin.x + x * scale, origin.y + y * scale}; };
+  SeedSet s;
+  for (int i = 0; i < m.features; ++i) {
+    const int32_t f = s.add_feature(s.owner_code("o" + std::to_string(1 + i % m.owners)));
+    const double x = ux(rng), y = uy(rng);
+    if (i % m.line_every == 1)
+      s.add_polyline(f, std::vector<Vec2>{at(x, y), at(x + 3.1, y + 1.7), at(x + 4.2, y - 2.3)});
+    else if (std::find(m.islands.begin(), m.islands.end(), i) != m.islands.end())
+      s.add_polygon(f, {{at(x, y), at(x + 4.5, y), at(x + 4.0, y + 3.5), at(x, y + 3.0), at(x, y)}});
+    else
+      s.add_point(f, at(x, y));
+  }
+  return s;
+}
 
 // n point seeds, uniform over [x0, x1] x [y0, y1], each its own owner.
 inline SeedSet random_points(int n, double x0, double y0, double x1, double y1, uint32_t seed) {

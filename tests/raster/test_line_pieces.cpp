@@ -31,24 +31,10 @@ struct Spec {
   double w = 80.0, h = 700.0;  // extent in cells; three bands of 256-row tiles
 };
 
-// Points, short coastlines and two islands of `owners` owners, spread over the grid's extent
-// (`scale` units per cell from `origin`).
+// Points, short coastlines and two islands of four owners over the grid's extent (`scale` units
+// per cell from `origin`).
 SeedSet make_seeds(uint32_t seed, const Spec& s, double scale, Vec2 origin) {
-  std::mt19937 rng(seed);
-  std::uniform_real_distribution<double> ux(2, s.w - 6), uy(2, s.h - 6);
-  auto at = [&](double x, double y) { return Vec2{origin.x + x * scale, origin.y + y * scale}; };
-  SeedSet out;
-  for (int i = 0; i < s.features; ++i) {
-    const int32_t f = out.add_feature(out.owner_code("o" + std::to_string(1 + i % s.owners)));
-    const double x = ux(rng), y = uy(rng);
-    if (i % 5 == 1)
-      out.add_polyline(f, std::vector<Vec2>{at(x, y), at(x + 3.1, y + 1.7), at(x + 4.2, y - 2.3)});
-    else if (i == 7 || i == 22)
-      out.add_polygon(f, {{at(x, y), at(x + 4.5, y), at(x + 4.0, y + 3.5), at(x, y + 3.0), at(x, y)}});
-    else
-      out.add_point(f, at(x, y));
-  }
-  return out;
+  return test::mixed_seeds(seed, {s.features, s.owners, s.w - 6, s.h - 6, 5, {7, 22}}, scale, origin);
 }
 
 // One field's lines: the request, its index, and strips from any seed set.

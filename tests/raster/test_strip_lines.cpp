@@ -18,27 +18,6 @@
 namespace rv {
 namespace {
 
-// Points, lines and a polygon (an island) of four owners, spread over [0, 60] x [0, 45].
-SeedSet mixed_seeds(uint32_t seed, double scale = 1.0, Vec2 origin = {0.0, 0.0}) {
-  std::mt19937 rng(seed);
-  std::uniform_real_distribution<double> ux(2, 58), uy(2, 43);
-  auto at = [&](double x, double y) { return Vec2{origin.x + x * scale, origin.y + y * scale}; };
-  SeedSet s;
-  for (int i = 0; i < 16; ++i) {
-    const int32_t f = s.add_feature(s.owner_code("o" + std::to_string(1 + i % 4)));
-    const double x = ux(rng), y = uy(rng);
-    if (i % 4 == 1) {
-      const std::vector<Vec2> line{at(x, y), at(x + 3.1, y + 1.7), at(x + 4.2, y - 2.3)};
-      s.add_polyline(f, line);
-    } else if (i == 6) {
-      s.add_polygon(f, {{at(x, y), at(x + 4.5, y), at(x + 4.0, y + 3.5), at(x, y + 3.0), at(x, y)}});
-    } else {
-      s.add_point(f, at(x, y));
-    }
-  }
-  return s;
-}
-
 struct Case {
   SeedSet seeds;
   GridSpec grid;
@@ -102,26 +81,26 @@ void check_every_strip_height(Case& k, std::vector<double> limits) {
 
 TEST(StripLines, PlanarStripsGiveTheWholeFieldsLines) {
   for (uint32_t seed : {3u, 11u}) {
-    Case k(mixed_seeds(seed), test::grid_of(60, 45), false, std::numeric_limits<double>::infinity());
+    Case k(test::mixed_seeds(seed), test::grid_of(60, 45), false, std::numeric_limits<double>::infinity());
     check_every_strip_height(k, {2.5, 6.0});
   }
 }
 
 TEST(StripLines, StripsWithAMaxDistanceGiveTheWholeFieldsLines) {
   // Cells beyond 9 units have no owner: lines stop there, limits beyond it follow the field's end.
-  Case k(mixed_seeds(5), test::grid_of(60, 45), false, 9.0);
+  Case k(test::mixed_seeds(5), test::grid_of(60, 45), false, 9.0);
   check_every_strip_height(k, {4.0, 12.0});
 }
 
 TEST(StripLines, GeodesicStripsGiveTheWholeFieldsLines) {
   // Degrees around 12 E 55 N: 0.02 degree cells (about 1.3 x 2.2 km).
-  Case k(mixed_seeds(7, 0.02, {11.4, 54.6}), test::grid_of(60, 45, 0.02, 11.4, 55.5), true,
+  Case k(test::mixed_seeds(7, {}, 0.02, {11.4, 54.6}), test::grid_of(60, 45, 0.02, 11.4, 55.5), true,
          std::numeric_limits<double>::infinity());
   check_every_strip_height(k, {3000.0, 8000.0});
 }
 
 TEST(StripLines, StripsOutOfOrderAndEarlyRequestsAreRefused) {
-  Case k(mixed_seeds(3), test::grid_of(60, 45), false, std::numeric_limits<double>::infinity());
+  Case k(test::mixed_seeds(3), test::grid_of(60, 45), false, std::numeric_limits<double>::infinity());
   k.request.limit_distances = {3.0};
   StripLines lines(k.grid, *k.index, k.request);
   NearestField strip;
