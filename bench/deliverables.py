@@ -4,7 +4,7 @@ boundaries, tripoints, limits at 12 and 24 nmi, regions) on real coasts, geodesi
 phase from the command's report, with each run's peak memory (its own high-water mark, from
 wait4). One or more binaries, alternated round by round; medians over the rounds.
 
-Cases (../shared/fixtures):
+Cases (fixtures/):
   oresund   the Øresund pair (2 owners, 598 edges) at 0.0002 deg: 6,601 x 5,601 = 3.7e7 cells
   baltic    the western Baltic (4 owners, land borders, overlaps to the lower code) at 0.0005 deg:
             14,300 x 6,102 = 8.7e7 cells
@@ -35,7 +35,7 @@ import sys
 import tempfile
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-SHARED = os.environ.get("RV_SHARED_DIR", os.path.join(ROOT, "..", "shared"))
+FIXTURES = os.path.join(ROOT, "fixtures")
 CASES = {
     "oresund": (["oresund.gpkg", "--owner-field", "iso2"], 0.0002),
     "baltic": (["baltic_west.gpkg", "--owner-field", "iso2", "--on-conflict", "lower-code"], 0.0005),
@@ -47,7 +47,7 @@ CASES = {
 # Cases whose input is made from a fixture first: name -> the function that writes it.
 def ven_at_half_effect(path):
     from osgeo import ogr
-    src = ogr.Open(os.path.join(SHARED, "fixtures", "oresund.gpkg"))
+    src = ogr.Open(os.path.join(FIXTURES, "oresund.gpkg"))
     layer = src.GetLayer(0)
     out = ogr.GetDriverByName("GPKG").CreateDataSource(path)
     dst = out.CreateLayer("states", layer.GetSpatialRef(), ogr.wkbPolygon)
@@ -80,7 +80,7 @@ def outputs(gpkg):
 def run(binary, case, quick, gpkg, out):
     args, res = CASES[case]
     os.makedirs(out, exist_ok=True)
-    source = os.path.join(SHARED, "fixtures", args[0])
+    source = os.path.join(FIXTURES, args[0])
     if args[0] in GENERATED:
         source = os.path.join(os.path.dirname(os.path.dirname(out)), args[0][1:] + ".gpkg")
         if not os.path.exists(source):

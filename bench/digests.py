@@ -16,7 +16,7 @@ sorted keys, so only the content counts). Timings and paths are left out.
 usage:
   bench/digests.py RVORONOI OUT.json [--quick]     # compute and write the digests
   bench/digests.py --compare A.json B.json         # exit 1 and list the differences, if any
-Debian's /usr/bin/python3 (python3-gdal). Needs ../shared/fixtures (the Øresund and Baltic).
+Debian's /usr/bin/python3 (python3-gdal). Reads the Øresund and the western Baltic from fixtures/.
 """
 import hashlib
 import json
@@ -27,7 +27,6 @@ import sys
 import tempfile
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-SHARED = os.environ.get("RV_SHARED_DIR", os.path.join(ROOT, "..", "shared"))
 
 
 def raster_digest(path):
@@ -66,7 +65,6 @@ def points_geojson(path, n, size, seed):
 
 
 def cases(tmp, quick):
-    shared = os.path.join(SHARED, "fixtures")
     fixtures = os.path.join(ROOT, "fixtures")
     out = []
     p1 = points_geojson(os.path.join(tmp, "p1000.geojson"), 1000, 1000.0, 1)
@@ -79,8 +77,8 @@ def cases(tmp, quick):
     if not quick:
         out.append(("points10000_exact", [p2, "--resolution", "1"] + extent(2000), True))
         out.append(("points10000_hv-scan", [p2, "--resolution", "1"] + extent(2000) + ["--method", "hv-scan"], False))
-    oresund = os.path.join(shared, "oresund.gpkg")
-    baltic = os.path.join(shared, "baltic_west.gpkg")
+    oresund = os.path.join(fixtures, "oresund.gpkg")
+    baltic = os.path.join(fixtures, "baltic_west.gpkg")
     out.append(("oresund_planar_utm", [oresund, "--owner-field", "iso2", "--crs", "EPSG:32633",
                                        "--resolution", "400"], True))
     out.append(("oresund_geodesic", [oresund, "--owner-field", "iso2", "--resolution", "0.004"], True))

@@ -5,7 +5,7 @@
         [--repeats 3] [--work DIR] [--outputs ownership,distance] > table.md
     /usr/bin/python3 bench/edits.py --binary build/service/rvoronoi --coast [--resolution 0.0004] > table.md
 
---coast: the western Baltic of ../shared/fixtures (four states, each one multipolygon, geodesic on
+--coast: the western Baltic of fixtures/ (four states, each one multipolygon, geodesic on
 WGS84) with boundaries, tripoints and 12 / 24 nmi limits besides the rasters. The edit moves one
 vertex of Denmark's coast near Copenhagen by 0.002 degrees east (about 125 m): one basepoint of a
 feature of thousands. The edit and a fresh run alternate --repeats times; every file of the edit
@@ -82,7 +82,7 @@ def same_files(a, b, outputs):
             sys.exit(f"{o}: the edit's file differs from the fresh run's ({a} vs {b})")
 
 
-SHARED = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "shared", "fixtures")
+FIXTURES = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "fixtures")
 COAST_FILES = ["ownership.tif", "distance.tif", "boundaries.geojson", "tripoints.geojson", "limits.geojson"]
 
 
@@ -133,7 +133,7 @@ def coast(a):
 
     os.makedirs(a.work, exist_ok=True)
     seeds = os.path.join(a.work, "baltic.gpkg")
-    shutil.copy(os.path.join(SHARED, "baltic_west.gpkg"), seeds)
+    shutil.copy(os.path.join(FIXTURES, "baltic_west.gpkg"), seeds)
     base_dir = os.path.join(a.work, "base")
     t_base = timed(coast_command(a.binary, seeds, a.resolution, base_dir))
     if a.old:

@@ -1008,23 +1008,18 @@ def main():
         return 2
     runner = Runner(args)
     started = datetime.datetime.now(datetime.timezone.utc)
-    oresund = os.environ.get("RV_ORESUND", os.path.join(ROOT, "..", "shared", "fixtures", "oresund.gpkg"))
+    oresund = os.path.join(ROOT, "fixtures", "oresund.gpkg")
 
     # Case list: the paper's Table 1 rows, the Øresund coastline projected, and the same on a
     # geographic grid.
     sizes = TABLE1[:2] if args.quick else TABLE1
     specs = [("points", s, n) for s, n in sizes if s * s <= args.max_cells]
-    if os.path.exists(oresund):
-        coast_src = (oresund, "states", "iso2", "Øresund coastline (DK/SE MultiPolygons)")
-        specs.append(("coast", 500.0 if args.quick else 100.0))
-        specs.append(("geo", 0.01 if args.quick else 0.002))
-    else:
-        # A machine without the shared data (a fresh CI runner) still exercises the owner-case
-        # code on the project's own small coastline fixture; the geographic case needs Øresund.
-        log(f"peers: {oresund} not found: coastline case on fixtures/coast.gpkg, no geographic case")
-        coast_src = (os.path.join(ROOT, "fixtures", "coast.gpkg"), "polygons", "owner",
-                     "coastline fixture fixtures/coast.gpkg (polygons)")
-        specs.append(("coast", 50.0 if args.quick else 10.0))
+    if not os.path.exists(oresund):
+        log(f"peers: {oresund} not found (the repository's fixtures/ is incomplete)")
+        return 2
+    coast_src = (oresund, "states", "iso2", "Øresund coastline (DK/SE MultiPolygons)")
+    specs.append(("coast", 500.0 if args.quick else 100.0))
+    specs.append(("geo", 0.01 if args.quick else 0.002))
     wanted = set(args.cases.split(",")) if args.cases else None
 
     md = []

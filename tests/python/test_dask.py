@@ -26,9 +26,9 @@ import numpy as np
 import rvoronoi
 from rvoronoi import _chunks
 
-SOURCE, SHARED = sys.argv[1], sys.argv[2]
+SOURCE = sys.argv[1]
 FIX = os.path.join(SOURCE, "fixtures")
-ORESUND = os.path.join(SHARED, "fixtures", "oresund.gpkg")
+ORESUND = os.path.join(FIX, "oresund.gpkg")
 DEADLINE = 60  # seconds, for each wait on the cluster
 
 

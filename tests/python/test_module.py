@@ -27,10 +27,10 @@ from osgeo import gdal
 
 import rvoronoi
 
-RVORONOI, SOURCE, SHARED = sys.argv[1], sys.argv[2], sys.argv[3]
+RVORONOI, SOURCE = sys.argv[1], sys.argv[2]
 FIX = os.path.join(SOURCE, "fixtures")
-ORESUND = os.path.join(SHARED, "fixtures", "oresund.gpkg")
-BALTIC = os.path.join(SHARED, "fixtures", "baltic_west.gpkg")
+ORESUND = os.path.join(FIX, "oresund.gpkg")
+BALTIC = os.path.join(FIX, "baltic_west.gpkg")
 gdal.UseExceptions()
 
 

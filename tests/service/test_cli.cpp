@@ -830,8 +830,7 @@ TEST_F(Cli, FailedWriteLeavesNothingBehind) {
 }
 
 TEST_F(Cli, GeographicGridIsGeodesicInNauticalMiles) {
-  const std::string gpkg = test::shared_fixture("oresund.gpkg");
-  if (gpkg.empty()) GTEST_SKIP() << "shared/fixtures/oresund.gpkg not found";
+  const std::string gpkg = test::fixture("oresund.gpkg");
   const CliRun r = run("compute " + gpkg +
                        " --owner-field iso2 --resolution 0.01 --extent 12 55.3 13.2 56.3 "
                        "--distance-units nmi --ownership " +
@@ -865,8 +864,7 @@ TEST_F(Cli, GeographicGridIsGeodesicInNauticalMiles) {
 }
 
 TEST_F(Cli, ProjectedGridGeodesicMeasuresOnTheEllipsoid) {
-  const std::string gpkg = test::shared_fixture("oresund.gpkg");
-  if (gpkg.empty()) GTEST_SKIP() << "shared/fixtures/oresund.gpkg not found";
+  const std::string gpkg = test::fixture("oresund.gpkg");
   // The strait on a UTM 33N grid of 2 km cells (the layer is EPSG:4326).
   const std::string grid = gpkg +
                            " --owner-field iso2 --crs EPSG:32633 --resolution 2000 "

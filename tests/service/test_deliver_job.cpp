@@ -302,8 +302,7 @@ TEST_F(DeliverJob, RefusesBadRequestsAndLeavesNothingBehind) {
 // The geographic Øresund fixture through the façade: geodesic metric chosen automatically, the
 // deliverables measured in metres, residuals below 1 cm.
 TEST_F(DeliverJob, GeodesicOresund) {
-  const std::string gpkg = test::shared_fixture("oresund.gpkg");
-  if (gpkg.empty()) GTEST_SKIP() << "shared fixture missing";
+  const std::string gpkg = test::fixture("oresund.gpkg");
   JobSpec spec;
   spec.seeds.paths = {gpkg};
   spec.seeds.layers = {"states"};

@@ -1,6 +1,6 @@
 """The map page /app (issue 34) in a real browser: headless Chromium driven by Selenium.
 
-    /usr/bin/python3 tests/service/test_web_app.py RVORONOI SHARED_FIXTURES PROJECT_FIXTURES ARTEFACT_DIR
+    /usr/bin/python3 tests/service/test_web_app.py RVORONOI FIXTURES ARTEFACT_DIR
 
 Against daemons this test starts (without and with a bearer token):
   1. the page and its bundle are served with the map page's Content-Security-Policy (no inline
@@ -44,9 +44,9 @@ from selenium.webdriver.chrome.service import Service  # noqa: E402
 from selenium.webdriver.common.by import By  # noqa: E402
 from selenium.webdriver.support.ui import WebDriverWait  # noqa: E402
 
-RVORONOI, ARTEFACTS = sys.argv[1], sys.argv[4]
+RVORONOI, ARTEFACTS = sys.argv[1], sys.argv[3]
 # The file picker takes canonical paths only.
-SHARED, FIXTURES = (os.path.realpath(p) for p in sys.argv[2:4])
+FIXTURES = os.path.realpath(sys.argv[2])
 gdal.UseExceptions()
 
 
@@ -176,7 +176,7 @@ def api_checks(d):
         inputs.update(extra or {})
         return d.json("POST", "/processes/describe-seeds/execution", {"inputs": inputs})
 
-    status, _, doc = describe(os.path.join(SHARED, "baltic_west.gpkg"), "application/geopackage+sqlite3",
+    status, _, doc = describe(os.path.join(FIXTURES, "baltic_west.gpkg"), "application/geopackage+sqlite3",
                               {"features": True})
     check(status == 200, "describe-seeds answers: %s %s" % (status, str(doc)[:200]))
     layer = doc["layers"][0]
@@ -194,7 +194,7 @@ def api_checks(d):
           and [f["id"] for f in features] == [1, 2, 3, 4] and features[0]["geometry"]["type"] == "MultiPolygon",
           "the features, in input order, with their positions as ids")
     # The Øresund in UTM 33N: the features come reprojected, the box too.
-    status, _, doc = describe(os.path.join(SHARED, "oresund.gpkg"), "application/geopackage+sqlite3",
+    status, _, doc = describe(os.path.join(FIXTURES, "oresund.gpkg"), "application/geopackage+sqlite3",
                               {"crs": "EPSG:32633", "features": True})
     check(status == 200 and doc["crs"]["code"] == "EPSG:32633" and not doc["crs"]["geographic"]
           and doc["crs"]["metresPerUnit"] == 1.0 and 200000 < doc["bbox"][0] < 400000,
@@ -213,7 +213,7 @@ def api_checks(d):
 def oresund_run(drv, d, base, tag):
     check(open_app(drv, base) == "ready", "%s: the page starts" % tag)
     accessibility(drv, tag + " start")
-    check(load(drv, os.path.join(SHARED, "oresund.gpkg")) == "described", "%s: the GeoPackage is described" % tag)
+    check(load(drv, os.path.join(FIXTURES, "oresund.gpkg")) == "described", "%s: the GeoPackage is described" % tag)
     owner = drv.find_element(By.ID, "in-ownerField")
     options = [o.get_attribute("value") for o in owner.find_elements(By.TAG_NAME, "option")]
     check("iso2" in options and owner.get_attribute("value") == "iso2",
@@ -295,7 +295,7 @@ def oresund_run(drv, d, base, tag):
 def baltic_run(drv, base):
     """Four owners, tripoints, land borders that overlap by metres (a tolerance under More options)."""
     open_app(drv, base)
-    check(load(drv, os.path.join(SHARED, "baltic_west.gpkg")) == "described", "the Baltic is described")
+    check(load(drv, os.path.join(FIXTURES, "baltic_west.gpkg")) == "described", "the Baltic is described")
     drv.find_element(By.CSS_SELECTOR, "details.more summary").click()
     field = drv.find_element(By.ID, "in-borderTolerance")
     field.clear()
@@ -325,7 +325,7 @@ def download(drv, downloads, name, expect):
 
 def too_large(drv, base):
     open_app(drv, base)
-    load(drv, os.path.join(SHARED, "oresund.gpkg"))
+    load(drv, os.path.join(FIXTURES, "oresund.gpkg"))
     check(run(drv, resolution="0.000001") == "failed", "a grid over the limit fails")
     text = drv.find_element(By.ID, "panel").text
     check("larger cell size" in text and "cells" in text, "the limit is told in plain words: %s" % text[-300:])

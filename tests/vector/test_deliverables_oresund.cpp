@@ -1,5 +1,5 @@
 // The maritime deliverables on real coastlines: Danish and Swedish land around the Øresund
-// (shared/fixtures/oresund.gpkg), reprojected to UTM 33N, planar metric, 200 m cells. The DK-SE
+// (fixtures/oresund.gpkg), reprojected to UTM 33N, planar metric, 200 m cells. The DK-SE
 // median line must exist, run continuously through the strait and be equidistant at every
 // vertex; the 12 nmi limit must lie at 12 nmi at every vertex. The same again on the geographic
 // grid with the geodesic metric, within 1 cm.
@@ -22,7 +22,7 @@
 namespace rv {
 namespace {
 
-std::string oresund_path() { return test::shared_fixture("oresund.gpkg"); }
+std::string oresund_path() { return test::fixture("oresund.gpkg"); }
 
 double since(std::chrono::steady_clock::time_point t) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
@@ -30,7 +30,6 @@ double since(std::chrono::steady_clock::time_point t) {
 
 TEST(OresundDeliverables, MedianLineAndTwelveMileLimitOnUtm) {
   const std::string path = oresund_path();
-  if (!std::filesystem::exists(path)) GTEST_SKIP() << "shared fixture missing: " << path;
   gdal_init();
   SeedReadOptions o;
   o.paths = {path};
@@ -102,7 +101,6 @@ TEST(OresundDeliverables, MedianLineAndTwelveMileLimitOnUtm) {
 // equidistant within 1 cm at every vertex, the 12 nmi limit within 1 cm of 12 nmi.
 TEST(OresundDeliverables, MedianLineAndTwelveMileLimitGeodesic) {
   const std::string path = oresund_path();
-  if (!std::filesystem::exists(path)) GTEST_SKIP() << "shared fixture missing: " << path;
   gdal_init();
   SeedReadOptions o;
   o.paths = {path};
@@ -189,7 +187,6 @@ TEST(OresundDeliverables, MedianLineAndTwelveMileLimitGeodesic) {
 // tripoints), every vertex equidistant within 1 cm.
 TEST(OresundDeliverables, NoDanglingEndsOnTheFineGeographicGrid) {
   const std::string path = oresund_path();
-  if (!std::filesystem::exists(path)) GTEST_SKIP() << "shared fixture missing: " << path;
   gdal_init();
   SeedReadOptions o;
   o.paths = {path};

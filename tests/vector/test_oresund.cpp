@@ -1,4 +1,4 @@
-// The real data set: Danish and Swedish land around the Øresund (shared/fixtures/oresund.gpkg,
+// The real data set: Danish and Swedish land around the Øresund (fixtures/oresund.gpkg,
 // DCW polygons, EPSG:4326), reprojected to UTM 33N, 200 m cells. Land cells must belong to their
 // state (checked against GDAL's own rasteriser), sea cells to the nearer state (checked against
 // GEOS distances), and the exact method must equal brute force.
@@ -21,7 +21,7 @@
 namespace rv {
 namespace {
 
-std::string oresund_path() { return test::shared_fixture("oresund.gpkg"); }
+std::string oresund_path() { return test::fixture("oresund.gpkg"); }
 
 struct Oresund {
   LoadedSeeds loaded;
@@ -33,7 +33,6 @@ class OresundTest : public ::testing::Test {
  protected:
   void SetUp() override {
     path_ = oresund_path();
-    if (!std::filesystem::exists(path_)) GTEST_SKIP() << "shared fixture missing: " << path_;
     gdal_init();
   }
 

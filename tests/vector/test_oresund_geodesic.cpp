@@ -4,7 +4,6 @@
 
 #include <cmath>
 #include <filesystem>
-#include <optional>
 #include <set>
 
 #include <GeographicLib/Geodesic.hpp>
@@ -19,12 +18,11 @@
 namespace rv {
 namespace {
 
-std::string oresund() { return test::shared_fixture("oresund.gpkg"); }
+std::string oresund() { return test::fixture("oresund.gpkg"); }
 
-// The fixture's seeds, owners from iso2; nothing when the shared fixture is missing.
-std::optional<LoadedSeeds> load_oresund() {
+// The fixture's seeds, owners from iso2.
+LoadedSeeds load_oresund() {
   const std::string path = oresund();
-  if (path.empty() || !std::filesystem::exists(path)) return std::nullopt;
   gdal_init();
   SeedReadOptions ro;
   ro.paths = {path};
@@ -43,9 +41,7 @@ void expect_same_as_brute(const NearestField& exact, const NearestField& brute, 
 }
 
 TEST(OresundGeodesic, ExactEqualsBruteForceAcrossTheStrait) {
-  const std::optional<LoadedSeeds> seeds = load_oresund();
-  if (!seeds) GTEST_SKIP() << "shared/fixtures/oresund.gpkg not found";
-  const LoadedSeeds& loaded = *seeds;
+  const LoadedSeeds loaded = load_oresund();
   ASSERT_TRUE(loaded.crs.geographic);
   const MetricSpec metric =
       resolve_metric(MetricRequest::automatic, true, loaded.crs.semi_major, loaded.crs.flattening);
@@ -124,9 +120,7 @@ TEST(OresundGeodesic, ExactEqualsBruteForceOnTheBenchmarkGrid) {
   // coast where most edges meet (on Zealand's west coast, 17 and 14 edges owning cells of 64 x
   // 64, both states near Helsingør), exact (each window alone: the same bits as the whole grid)
   // against brute force, site for site and to the last bit of the distance.
-  const std::optional<LoadedSeeds> seeds = load_oresund();
-  if (!seeds) GTEST_SKIP() << "shared/fixtures/oresund.gpkg not found";
-  const LoadedSeeds& loaded = *seeds;
+  const LoadedSeeds loaded = load_oresund();
   const MetricSpec metric =
       resolve_metric(MetricRequest::automatic, true, loaded.crs.semi_major, loaded.crs.flattening);
   GridSpec g = make_grid(11.94, 55.238, 13.26, 56.36, 0.00038, loaded.crs.wkt);

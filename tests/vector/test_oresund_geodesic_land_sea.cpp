@@ -1,4 +1,4 @@
-// The Oresund data set (shared/fixtures/oresund.gpkg, EPSG:4326) read in its own geographic CRS
+// The Oresund data set (fixtures/oresund.gpkg, EPSG:4326) read in its own geographic CRS
 // and computed with the geodesic metric at 0.002 degrees, over the whole grid: land cells belong
 // to their state (GDAL's rasteriser in the same lon/lat grid), sampled sea cells to the state
 // whose coastline is geodesically nearer (brute force over every edge with rv::GeodesicMeasure,
@@ -25,11 +25,10 @@
 namespace rv {
 namespace {
 
-std::string oresund_path() { return test::shared_fixture("oresund.gpkg"); }
+std::string oresund_path() { return test::fixture("oresund.gpkg"); }
 
 TEST(OresundGeodesicLandSea, OwnershipAndDistanceOnTheEllipsoid) {
   const std::string path = oresund_path();
-  if (!std::filesystem::exists(path)) GTEST_SKIP() << "shared fixture missing: " << path;
   gdal_init();
   SeedReadOptions ro;
   ro.paths = {path};

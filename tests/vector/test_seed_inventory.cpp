@@ -143,7 +143,7 @@ TEST(SeedInventory, LimitsApplyAsToASeedRun) {
   o.max_vertices = 3;
   expect_error(ErrorKind::too_large, [&] { describe_seed_files(o, true); }, {"vertices"});
   SeedReadOptions missing;
-  missing.paths = {fixture("no_such_file.geojson")};
+  missing.paths = {(test::source_dir() / "fixtures" / "no_such_file.geojson").string()};
   expect_error(ErrorKind::not_found, [&] { describe_seed_files(missing, false); });
 }
 
