@@ -6,7 +6,11 @@
 // a huge allocation.
 #include "rv/seed_archive.hpp"
 
+#include <algorithm>
+#include <limits>
+
 #include "byte_codec.hpp"
+#include "rv/engine.hpp"
 #include "rv/error.hpp"
 
 namespace rv {
@@ -97,7 +101,39 @@ SeedArchive decode_seed_archive(std::string_view bytes) {
   for (int64_t& n : out.numbering) n = in.get<int64_t>();
   if (!in.done()) in.fail();
   if (!out.numbering.empty() && out.numbering.size() != features.size()) in.fail();
+  // The numbering indexes tables (an edit's code maps, a raster's codes): each a distinct code
+  // of the nearest-feature raster's range.
+  std::vector<int64_t> sorted = out.numbering;
+  std::sort(sorted.begin(), sorted.end());
+  if (!sorted.empty() && (sorted.front() < 1 || sorted.back() > kMaxFeatureCode ||
+                          std::adjacent_find(sorted.begin(), sorted.end()) != sorted.end()))
+    throw Error(ErrorKind::invalid_input, "seed archive: a feature's number out of range or repeated");
   out.seeds = SeedSet::from_parts(std::move(sites), std::move(polygons), std::move(features), std::move(labels));
+  return out;
+}
+
+std::string encode_site_codes(const std::vector<int32_t>& site_of_code) {
+  detail::ByteWriter o;
+  for (size_t k = 1; k < site_of_code.size(); ++k) o.put(site_of_code[k]);
+  return o.take();
+}
+
+std::vector<int32_t> decode_site_codes(std::string_view bytes, size_t codes, int32_t sites) {
+  if (bytes.size() != 4 * codes || codes >= static_cast<size_t>(std::numeric_limits<int32_t>::max()))
+    throw Error(ErrorKind::invalid_input,
+                "site codes: " + std::to_string(bytes.size()) + " bytes for " + std::to_string(codes) + " codes");
+  detail::ByteReader in(bytes, "site codes");
+  std::vector<int32_t> out(1, kNoSite);
+  out.reserve(codes + 1);
+  std::vector<bool> seen(static_cast<size_t>(std::max(sites, 0)), false);
+  for (size_t k = 0; k < codes; ++k) {
+    const auto site = in.get<int32_t>();
+    if (site < -1 || site >= sites || (site >= 0 && seen[static_cast<size_t>(site)]))
+      throw Error(ErrorKind::invalid_input, "site codes: code " + std::to_string(k + 1) + " names site " +
+                                                std::to_string(site) + ", out of range or named twice");
+    if (site >= 0) seen[static_cast<size_t>(site)] = true;
+    out.push_back(site < 0 ? kNoSite : site);
+  }
   return out;
 }
 

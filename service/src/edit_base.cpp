@@ -33,13 +33,10 @@ constexpr int64_t kTile = TileSummaries::kTile;
 
 uint64_t bytes_checksum(const std::string& bytes) { return checksum64(bytes.data(), bytes.size()); }
 
+// A base's files may come from anyone: a FIFO or a device in their place is refused, never
+// waited on.
 std::string read_whole(const std::string& path, const std::string& name) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw Error(ErrorKind::not_found, "base: " + name + " is missing");
-  std::ostringstream s;
-  s << in.rdbuf();
-  if (in.bad()) throw Error(ErrorKind::io, "base: reading " + name + " failed");
-  return s.str();
+  return read_regular_file(path, "base: " + name);
 }
 
 // A file of the kept directory `dir` and its manifest entry: its name and the checksum of its bytes.
@@ -112,24 +109,19 @@ std::string differences(const nlohmann::json& base, const nlohmann::json& now) {
 // site_codes.bin, checked. Throws as EditBase's constructor.
 std::vector<int32_t> site_codes(const nlohmann::json& m, const fs::path& dir, const std::string& dir_name,
                                 int32_t sites) {
-  std::vector<int32_t> out(1, kNoSite);
   if (!m.contains("site_codes")) {
+    std::vector<int32_t> out(1, kNoSite);
     for (int32_t i = 0; i < sites; ++i) out.push_back(i);
     return out;
   }
   const nlohmann::json& sc = m.at("site_codes");
   const std::string bytes = read_kept(dir, dir_name, sc);
-  if (bytes.size() != 4 * sc.at("codes").get<size_t>())
-    throw Error(ErrorKind::invalid_input, "base: " + dir_name + "/site_codes.bin was modified since the base run");
-  for (size_t k = 0; k < bytes.size(); k += 4) {
-    uint32_t v = 0;
-    for (size_t b = 0; b < 4; ++b) v |= static_cast<uint32_t>(static_cast<unsigned char>(bytes[k + b])) << (8 * b);
-    const auto site = static_cast<int32_t>(v);
-    if (site < -1 || site >= sites)
-      throw Error(ErrorKind::invalid_input, "base: " + dir_name + "/site_codes.bin does not fit its seeds");
-    out.push_back(site < 0 ? kNoSite : site);
+  try {
+    return decode_site_codes(bytes, sc.at("codes").get<size_t>(), sites);
+  } catch (const Error& e) {
+    throw Error(ErrorKind::invalid_input,
+                "base: " + dir_name + "/site_codes.bin does not fit its seeds (" + e.what() + ")");
   }
-  return out;
 }
 
 // The line pieces the manifest names, each checked and decoded. Throws as EditBase's
@@ -226,13 +218,7 @@ std::string EditBaseWriter::commit() {
     rasters["distance"] = rasters["output_distance"];
   manifest_["rasters"] = rasters;
   if (!site_of_code_.empty()) {
-    std::string bytes(4 * (site_of_code_.size() - 1), '\0');
-    for (size_t k = 1; k < site_of_code_.size(); ++k) {
-      const auto v = static_cast<uint32_t>(site_of_code_[k]);
-      for (int b = 0; b < 4; ++b)
-        bytes[4 * (k - 1) + static_cast<size_t>(b)] = static_cast<char>((v >> (8 * b)) & 0xff);
-    }
-    manifest_["site_codes"] = write_kept(temp_, "site_codes.bin", bytes);
+    manifest_["site_codes"] = write_kept(temp_, "site_codes.bin", encode_site_codes(site_of_code_));
     manifest_["site_codes"]["codes"] = site_of_code_.size() - 1;
   }
   nlohmann::json lines = nlohmann::json::object();
@@ -356,6 +342,12 @@ EditBase::EditBase(const std::string& report, const JobSpec& spec, const Prepare
         throw Error(ErrorKind::invalid_input, "base: " + dir_name + "/manifest.json names a raster outside it");
       r.path = (dir / file).lexically_normal().string();
       r.display = "base: " + (fs::path(file).has_parent_path() ? file : dir_name + "/" + file);
+      // A raster that is gone is encoded afresh; one replaced by a FIFO or a device is refused
+      // (GDAL would wait on it for ever).
+      std::error_code ec;
+      const fs::file_status status = fs::status(r.path, ec);
+      if (fs::exists(status) && !fs::is_regular_file(status))
+        throw Error(ErrorKind::invalid_input, r.display + " is not a regular file");
       for (const nlohmann::json& h : e.at("tiles")) {
         const std::string hex = h.get<std::string>();
         if (hex.size() != 16) throw nlohmann::json::type_error::create(302, "a checksum of 16 digits", nullptr);
@@ -376,6 +368,8 @@ EditBase::EditBase(const std::string& report, const JobSpec& spec, const Prepare
       throw Error(ErrorKind::invalid_input, "base: " + dir_name + "/manifest.json names no " + role + " raster");
     const std::string& path = it->second.path;
     if (!fs::exists(path)) throw Error(ErrorKind::not_found, it->second.display + " is missing");
+    if (!fs::is_regular_file(path))
+      throw Error(ErrorKind::invalid_input, it->second.display + " is not a regular file");
     reader = std::make_unique<typename std::remove_reference_t<decltype(reader)>::element_type>(path);
     const GridSpec& g = reader->grid();
     if (g.width != job.grid.width || g.height != job.grid.height)
@@ -538,6 +532,14 @@ EditCodes code_maps(const EditBase& base, const Edit& edit, const LoadedSeeds& e
   };
   int64_t top = 0;
   for (size_t f = 0; f < b.features().size(); ++f) top = std::max(top, number(nb, static_cast<int32_t>(f)));
+  // The map is a table over the numbers (the tiles' codes go through it): numbers far beyond the
+  // features (skipped empty ones count) are a crafted archive's, not a run's; no such table is
+  // allocated for them.
+  const auto features = static_cast<int64_t>(b.features().size());
+  if (top > std::max(JobLimits{}.max_features, 2 * features))
+    throw Error(ErrorKind::invalid_input, "base: the seed archive numbers its " + std::to_string(features) +
+                                              " features up to " + std::to_string(top) +
+                                              ", beyond what a run reads; the base is damaged");
   out.features.to.assign(static_cast<size_t>(top) + 1, -1);
   out.features.to[0] = 0;
   for (size_t i = 0; i < remap.size(); ++i) {

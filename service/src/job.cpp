@@ -358,8 +358,9 @@ SeedReadOptions with_limits(SeedReadOptions read, const JobLimits& limits) {
 }
 
 // Stage "read": the seeds with the job's limits and the memory limit for reading.
-LoadedSeeds read_seeds(const JobSpec& spec, const JobLimits& limits) {
+LoadedSeeds read_seeds(const JobSpec& spec, const JobLimits& limits, const JobHooks& hooks) {
   SeedReadOptions read = with_limits(seed_options_for_metric(spec.seeds, spec.metric), limits);
+  read.on_reading_bytes = hooks.reserve_memory;
   if (read.target_crs.empty() && !spec.grid.like.empty()) {
     // Outputs must line up with the template raster, so the seeds go into its CRS.
     read.target_crs = read_grid(spec.grid.like).crs;
@@ -536,7 +537,7 @@ PreparedJob prepare_job(const JobSpec& spec, const JobLimits& limits, const JobH
   PreparedJob job;
   if (hooks.progress) hooks.progress("read", 0.0);
   const auto t = detail::Clock::now();
-  job.loaded = read_seeds(spec, limits);
+  job.loaded = read_seeds(spec, limits, hooks);
   job.read_seconds = detail::seconds_since(t);
   if (hooks.progress) hooks.progress("read", 1.0);
   if (hooks.cancel && hooks.cancel->load()) throw Error(ErrorKind::cancelled, "job dismissed");
@@ -565,6 +566,7 @@ PreparedJob prepare_job(const JobSpec& spec, const JobLimits& limits, const JobH
   job.plan = plan_job(spec, job.grid, static_cast<int64_t>(job.loaded.seeds.sites().size()), mp.metric.kind,
                       seed_memory_bytes(job.loaded));
   check_plan(spec, limits, job, job.plan);
+  if (hooks.reserve_memory) hooks.reserve_memory(job.plan.memory_bytes);
   return job;
 }
 

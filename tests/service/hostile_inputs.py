@@ -180,6 +180,32 @@ def shapefile_multipoint_bomb(points=20_000_000):
     return bytes(buffer)
 
 
+def shapefile_line_bomb(vertices=30_000_000):
+    """A zipped Shapefile of one PolyLine of `vertices` vertices all at (0, 0): the .shp inflates
+    to 16 bytes a vertex, the zip holds a few hundred bytes per megabyte of it."""
+    content_bytes = 4 + 32 + 4 + 4 + 4 + 16 * vertices
+    shp_words = (100 + 8 + content_bytes) // 2
+    shx = _shp_header(3, (100 + 8) // 2) + struct.pack(">2i", 50, content_bytes // 2)
+    with tempfile.SpooledTemporaryFile(max_size=1 << 20) as raw:
+        with zipfile.ZipFile(raw, "w", zipfile.ZIP_DEFLATED, compresslevel=9) as z:
+            z.writestr("line.shx", shx)
+            z.writestr("line.dbf", _dbf_one_record())
+            z.writestr("line.prj", osr.SpatialReference(wkt=_utm33_wkt()).ExportToWkt())
+            with z.open("line.shp", "w", force_zip64=True) as f:
+                f.write(_shp_header(3, shp_words))
+                f.write(struct.pack(">2i", 1, content_bytes // 2))
+                f.write(struct.pack("<i4d2i", 3, 0.0, 0.0, 0.0, 0.0, 1, vertices))
+                f.write(struct.pack("<i", 0))  # the one part starts at vertex 0
+                zeros = bytes(16 * 65536)
+                left = vertices
+                while left > 0:
+                    n = min(left, 65536)
+                    f.write(zeros[: 16 * n])
+                    left -= n
+        raw.seek(0)
+        return raw.read()
+
+
 def _utm33_wkt():
     srs = osr.SpatialReference()
     srs.ImportFromEPSG(32633)

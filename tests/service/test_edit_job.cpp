@@ -7,6 +7,7 @@
 // error and write nothing.
 #include <gtest/gtest.h>
 
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <GeographicLib/PolygonArea.hpp>
@@ -16,6 +17,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <map>
 #include <random>
 #include <sstream>
@@ -25,6 +27,7 @@
 #include <nlohmann/json.hpp>
 
 #include "geotiff_compare.hpp"
+#include "rv/checksum.hpp"
 #include "rv/error.hpp"
 #include "rv/gdal/raster_io.hpp"
 #include "rv/job.hpp"
@@ -778,6 +781,88 @@ TEST_F(EditJobErrors, AnEditInPlaceReplacesTheBaseItReads) {
   expect_same_kept_field(again.outputs.report, fresh.outputs.report);
   for (const fs::directory_entry& e : fs::directory_iterator(dir_ / "base"))
     EXPECT_EQ(e.path().filename().string().find(".tmp"), std::string::npos) << e.path();
+}
+
+// A base someone else made: kept files changed and their checksums recomputed in the manifest
+// (the checksum is no key: anyone can). Every number and index they hold is checked before it
+// is used: the edit is refused with a message, never an abort, and writes nothing; a FIFO in
+// place of a kept file is refused instead of waited on (issue 50).
+TEST_F(EditJobErrors, CraftedFilesWithRecomputedChecksumsAreRefused) {
+  const Case c = planar();
+  std::mt19937 rng(3);
+  std::vector<Feat> feats = initial_seeds(c, rng);
+  write_seeds(feats, c);
+  const JobSpec base = spec(c, "base");
+  run_job(base);
+  feats.erase(feats.begin() + 5);  // an edit of it keeps site codes of its own
+  write_seeds(feats, c);
+  JobSpec edited = spec(c, "edited");
+  edited.base_report = base.outputs.report;
+  run_job(edited);
+  const fs::path kept = edited.outputs.report + ".rvbase";
+  ASSERT_TRUE(fs::exists(kept / "site_codes.bin"));
+  const std::string manifest_text = read_text(kept / "manifest.json");
+  // `file` of the kept directory replaced by `bytes`, with the checksum the manifest then needs.
+  auto craft = [&](const std::string& file, const std::string& bytes) {
+    std::ofstream(kept / file, std::ios::binary | std::ios::trunc) << bytes;
+    nlohmann::json m = nlohmann::json::parse(manifest_text);
+    std::function<void(nlohmann::json&)> rehash = [&](nlohmann::json& j) {
+      if (j.is_object() && j.contains("file") && j["file"] == file)
+        j["hash"] = checksum_hex(checksum64(bytes.data(), bytes.size()));
+      if (j.is_structured())
+        for (nlohmann::json& v : j) rehash(v);
+    };
+    rehash(m);
+    std::ofstream(kept / "manifest.json", std::ios::trunc) << m.dump();
+  };
+  int n = 0;
+  auto refused = [&](const std::string& words) {
+    expect_refused(spec(c, "crafted" + std::to_string(n++)), edited, ErrorKind::invalid_input, words);
+  };
+  // The seed archive's last 8 bytes are its last feature's number (the nearest-feature raster's
+  // code): zero, negative, far beyond the features, or another feature's.
+  const std::string archive = read_text(kept / "seeds.bin");
+  const size_t features = feats.size();
+  int64_t first = 0;
+  std::memcpy(&first, archive.data() + archive.size() - 8 * features, 8);
+  for (const int64_t number : {int64_t{0}, int64_t{-7}, int64_t{1} << 40, int64_t{2147483646}, first}) {
+    std::string bytes = archive;
+    std::memcpy(bytes.data() + bytes.size() - 8, &number, 8);
+    craft("seeds.bin", bytes);
+    refused(number == 2147483646 ? "beyond what a run reads" : "a feature's number out of range or repeated");
+  }
+  // The archive as it was, its checksum written anew: the edit runs (what is refused is what is
+  // wrong, not what was hashed again).
+  craft("seeds.bin", archive);
+  EXPECT_NO_THROW(run_job([&] {
+    JobSpec s = spec(c, "recrafted");
+    s.base_report = edited.outputs.report;
+    return s;
+  }()));
+  // The site codes: a site named by two codes, and one beyond the seeds.
+  const std::string codes = read_text(kept / "site_codes.bin");
+  ASSERT_GE(codes.size(), 8u);
+  {
+    std::string bytes = codes;
+    std::memcpy(bytes.data() + 4, bytes.data(), 4);
+    craft("site_codes.bin", bytes);
+    refused("site_codes.bin does not fit its seeds");
+    const int32_t beyond = 1 << 20;
+    std::memcpy(bytes.data(), &beyond, 4);
+    craft("site_codes.bin", bytes);
+    refused("site_codes.bin does not fit its seeds");
+  }
+  craft("site_codes.bin", codes);
+  // A FIFO in place of a kept file, and of a kept raster: refused at once.
+  for (const char* file : {"lines_limits.bin", "site.tif"}) {
+    const fs::path path = kept / file;
+    const fs::path saved = dir_ / "saved.bin";
+    fs::rename(path, saved);
+    ASSERT_EQ(::mkfifo(path.c_str(), 0600), 0);
+    refused(std::string(file) + " is not a regular file");
+    fs::remove(path);
+    fs::rename(saved, path);
+  }
 }
 
 }  // namespace

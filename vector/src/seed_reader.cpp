@@ -678,6 +678,7 @@ class Reader {
       throw Error(ErrorKind::too_large, "reading the seed data needs more than the memory limit of " +
                                             std::to_string(options_.max_memory_bytes >> 20) + " MiB (" +
                                             std::to_string(r.vertices_read) + " vertices, reached at " + source + ")");
+    if (options_.on_reading_bytes) options_.on_reading_bytes(r.reading_bytes);
   }
 
   static void check_vertices(const OGRGeometry& part, const std::string& source, bool geographic, const char* stage) {

@@ -183,6 +183,11 @@ struct JobHooks {
   // stage: "read", "compute", "validate", "write", "deliver"; fraction in [0, 1] of that stage.
   std::function<void(const std::string& stage, double fraction)> progress;
   const std::atomic<bool>* cancel = nullptr;
+  // The job's memory estimate so far, in bytes, before it allocates what the estimate covers:
+  // called while the seeds are read (SeedReadOptions::on_reading_bytes) and once planned
+  // (JobPlan::memory_bytes, before the field's buffers), from the job's thread. May block until
+  // the memory is free; whatever it throws stops the job (a daemon's memory account).
+  std::function<void(int64_t bytes)> reserve_memory;
 };
 
 // The rasters of OutputRequest::in_memory, over the job's window (JobSpec::window, else the

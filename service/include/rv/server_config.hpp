@@ -11,8 +11,8 @@
 //     "http": { "max_body_bytes": 67108864, "max_header_bytes": 16384,
 //               "request_timeout_s": 30, "io_threads": 2, "max_connections": 0 },
 //     "jobs": { "workers": 2, "queue_length": 16, "threads_per_job": 0,
-//               "job_timeout_s": 3600, "shutdown_grace_s": 20 },
-//     "limits": { "max_cells": 17179869184, "max_memory_bytes": 0,
+//               "job_timeout_s": 3600, "shutdown_grace_s": 20, "describe_workers": 2 },
+//     "limits": { "max_cells": 17179869184, "max_memory_bytes": 0, "total_memory_bytes": 0,
 //                 "validate_max_cells": 4000000, "max_features": 10000000,
 //                 "max_vertices": 100000000, "max_input_bytes": 2147483648,
 //                 "preview_max_vertices": 2000000 },
@@ -22,9 +22,13 @@
 // (auth.tokens, and/or auth.token_file: one token per line, '#' comments and blank lines
 // ignored, read once at startup), every route except /, /conformance, /api and /health needs
 // "Authorization: Bearer <token>" naming one of them.
-// Memory: a queued job keeps its uploaded seed data in memory until it runs, so uploads can hold
-// up to about (workers + queue_length) x max_body_bytes; each running job may use
-// limits.max_memory_bytes (default: its share of 80 % of physical memory).
+// Memory: one account for everything the daemon runs at once (limits.total_memory_bytes, default
+// 80 % of physical memory): each job and each description of seed files reserves its estimate
+// in it before allocating and returns it when done; a job waits there for memory, a description
+// that does not fit is answered 503 (server_capacity.hpp). One job may use at most
+// limits.max_memory_bytes (0 = the whole account). Besides, a queued job keeps its uploaded seed
+// data in memory until it runs, so uploads can hold up to about (workers + queue_length) x
+// max_body_bytes.
 // Units: bytes, seconds, cells. Thread safety: plain data, immutable after parsing.
 #pragma once
 
@@ -53,6 +57,9 @@ struct JobsConfig {
   int queue_length = 16;          // jobs waiting for a worker; one more is refused with 503
   int threads_per_job = 0;        // engine threads per job; 0 = hardware threads / workers
   double job_timeout_s = 3600.0;  // a job running longer is cancelled and marked failed
+  // Descriptions of seed files (describe-seeds) computed at once, each on a thread of its own
+  // off the network threads; one more is answered 503 with Retry-After.
+  int describe_workers = 2;
   // SIGTERM: running jobs get this long, then are cancelled. Below the 30 s a container runtime
   // (docker stop, compose stop_grace_period) waits before SIGKILL, so cancellation finishes.
   double shutdown_grace_s = 20.0;
@@ -76,11 +83,16 @@ struct ServerConfig {
   std::string web_dir;
   HttpConfig http;
   JobsConfig jobs;
-  JobLimits limits;  // per job; max_memory_bytes 0 = 80 % of physical memory / workers
+  JobLimits limits;  // per job; max_memory_bytes 0 = the whole account (memory_budget())
+  // The daemon's one memory account (limits.total_memory_bytes); 0 = 80 % of physical memory.
+  int64_t total_memory_bytes = 0;
   // describe-seeds returns the features (for drawing) of uploads of at most this many vertices
   // (limits.preview_max_vertices); larger ones are described without them.
   int64_t preview_max_vertices = 2'000'000;
   AuthConfig auth;
+
+  // The bytes of the memory account: total_memory_bytes, else 80 % of physical memory.
+  int64_t memory_budget() const;
 };
 
 // Parses "host:port" (IPv6 as "[::1]:8080") into config.host/config.port.
@@ -95,7 +107,8 @@ ServerConfig parse_server_config(const nlohmann::json& document);
 // Reads and parses a configuration file. Throws rv::Error(not_found / invalid_argument).
 ServerConfig load_server_config(const std::string& path);
 
-// The per-job limits the server actually applies (max_memory_bytes resolved when 0).
+// The per-job limits the server actually applies (max_memory_bytes resolved when 0, and never
+// above the account's total).
 JobLimits effective_limits(const ServerConfig& config);
 
 }  // namespace rv

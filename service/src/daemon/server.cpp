@@ -412,6 +412,8 @@ struct Server::Impl {
   ServerConfig config;
   JobRunner runner;
   std::unique_ptr<JobStore> store;
+  std::unique_ptr<daemon::MemoryAccount> memory;
+  std::unique_ptr<daemon::RequestPool> describe_pool;
   std::unique_ptr<daemon::JobManager> jobs;
   std::unique_ptr<daemon::Api> api;
   std::unique_ptr<Shared> shared;
@@ -486,8 +488,10 @@ void Server::start() {
   s.port = acceptor.local_endpoint().port();
   s.config.port = s.port;  // links made without a Host header name the port really bound
 
-  s.jobs = std::make_unique<daemon::JobManager>(*s.store, s.config, s.runner);
-  s.api = std::make_unique<daemon::Api>(s.config, *s.store, *s.jobs);
+  s.memory = std::make_unique<daemon::MemoryAccount>(s.config.memory_budget());
+  s.describe_pool = std::make_unique<daemon::RequestPool>(s.config.jobs.describe_workers);
+  s.jobs = std::make_unique<daemon::JobManager>(*s.store, s.config, s.runner, *s.memory);
+  s.api = std::make_unique<daemon::Api>(s.config, *s.store, *s.jobs, *s.memory, *s.describe_pool);
   s.shared = std::make_unique<Shared>(s.config, *s.api);
   s.listener = std::make_shared<Listener>(s.ioc, std::move(acceptor), *s.shared);
   s.listener->run();
@@ -523,6 +527,7 @@ void Server::stop() {
   s.listener->close();
   // Running jobs get the grace period, then are cancelled; queued ones are failed at once.
   s.jobs->shutdown(std::chrono::duration<double>(s.config.jobs.shutdown_grace_s));
+  s.describe_pool->stop();  // the descriptions under way answer first
   // Let the answers already on their way (synchronous executions that just ended) be written.
   const auto until = std::chrono::steady_clock::now() + std::chrono::seconds(2);
   while (s.shared->in_flight.load() > 0 && std::chrono::steady_clock::now() < until) {
@@ -534,6 +539,8 @@ void Server::stop() {
   s.listener.reset();
   s.api.reset();
   s.jobs.reset();  // its workers are joined; the store closes after it
+  s.describe_pool.reset();
+  s.memory.reset();
   s.store.reset();
   if (s.lock_fd >= 0) {
     ::close(s.lock_fd);

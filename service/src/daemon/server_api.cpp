@@ -8,6 +8,7 @@
 #include <cctype>
 #include <charconv>
 
+#include "../atomic_file.hpp"
 #include "rv/error.hpp"
 #include "rv/error_map.hpp"
 #include "rv/json_text.hpp"
@@ -212,7 +213,29 @@ struct Api::Context {
   std::string base;  // scheme://host[:port], no trailing slash
 };
 
-Api::Api(const ServerConfig& config, JobStore& store, JobManager& jobs) : config_(config), store_(store), jobs_(jobs) {}
+Api::Api(const ServerConfig& config, JobStore& store, JobManager& jobs, MemoryAccount& memory,
+         RequestPool& describe_pool)
+    : config_(config), store_(store), jobs_(jobs), memory_(memory), describe_pool_(describe_pool) {}
+
+ApiResponse problem_of_current_exception(const std::string& path) {
+  try {
+    try {
+      throw;
+    } catch (const Error& e) {
+      return problem_from(e, path);
+    } catch (const json::exception& e) {
+      return problem_from(Error(ErrorKind::invalid_argument, std::string("malformed JSON value: ") + e.what()), path);
+    } catch (const std::bad_alloc&) {
+      return problem_from(Error(ErrorKind::too_large, "the server ran out of memory for this request"), path);
+    } catch (const std::exception& e) {
+      return problem_from(Error(ErrorKind::internal, e.what()), path);
+    } catch (...) {
+      return problem_from(Error(ErrorKind::internal, "unknown exception"), path);
+    }
+  } catch (...) {
+    return last_resort_problem();
+  }
+}
 
 std::string Api::web_dir() const { return config_.web_dir.empty() ? std::string(RV_WEB_DIR) : config_.web_dir; }
 
@@ -245,23 +268,10 @@ void Api::handle(const ApiRequest& request, Respond respond) {
   // the handler throws becomes a problem here; nothing leaves this function but the answer.
   ApiResponse problem;
   try {
-    try {
-      route(ctx, shared);
-      return;
-    } catch (const Error& e) {
-      problem = problem_from(e, ctx.path);
-    } catch (const json::exception& e) {
-      problem =
-          problem_from(Error(ErrorKind::invalid_argument, std::string("malformed JSON value: ") + e.what()), ctx.path);
-    } catch (const std::bad_alloc&) {
-      problem = problem_from(Error(ErrorKind::too_large, "the server ran out of memory for this request"), ctx.path);
-    } catch (const std::exception& e) {
-      problem = problem_from(Error(ErrorKind::internal, e.what()), ctx.path);
-    } catch (...) {
-      problem = problem_from(Error(ErrorKind::internal, "unknown exception"), ctx.path);
-    }
+    route(ctx, shared);
+    return;
   } catch (...) {
-    problem = last_resort_problem();
+    problem = problem_of_current_exception(ctx.path);
   }
   (*shared)(std::move(problem));
 }
@@ -391,7 +401,7 @@ std::optional<ByteRange> parse_range(const std::string& header, uint64_t size) {
 
 ApiResponse file_response(const std::string& path, const std::string& media_type, const std::string& range_header,
                           const std::string& not_found_message) {
-  const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+  const int fd = open_regular_file(path);  // nothing but a regular file is ever served
   if (fd < 0) throw Error(ErrorKind::not_found, not_found_message);
   auto handle = std::make_shared<FileHandle>(fd);
   struct stat st {};
@@ -542,10 +552,15 @@ void Api::api_document(const Request& req, const std::vector<std::string>&) cons
 }
 
 void Api::health(const Request& req, const std::vector<std::string>&) const {
-  req.reply(json_response(200, {{"status", "ok"},
-                                {"jobs", {{"running", jobs_.running_count()}, {"queued", jobs_.queued_count()}}},
-                                {"workers", config_.jobs.workers},
-                                {"queueLength", config_.jobs.queue_length}}));
+  req.reply(json_response(
+      200,
+      {{"status", "ok"},
+       {"jobs", {{"running", jobs_.running_count()}, {"queued", jobs_.queued_count()}}},
+       {"workers", config_.jobs.workers},
+       {"queueLength", config_.jobs.queue_length},
+       {"describing", describe_pool_.busy()},
+       {"memory",
+        {{"budgetBytes", memory_.total()}, {"reservedBytes", memory_.reserved()}, {"waiting", memory_.waiting()}}}}));
 }
 
 void Api::process_list(const Request& req, const std::vector<std::string>&) const {
@@ -561,8 +576,8 @@ void Api::process(const Request& req, const std::vector<std::string>& seg) const
 
 void Api::execute(const Request& req, const std::vector<std::string>& seg) const {
   const std::string& base = req.ctx.base;
+  if (seg[1] == kDescribeSeedsId) return describe(req);
   const json body = parse_body_json(req.ctx.request.body);
-  if (seg[1] == kDescribeSeedsId) return req.reply(json_response(200, describe_seeds_execute(body, config_)));
   const std::string id = new_job_id();
   Execution ex = parse_execution(body, id, config_);
   if (prefers_respond_async(req.ctx.request.prefer)) {
@@ -595,6 +610,29 @@ void Api::execute(const Request& req, const std::vector<std::string>& seg) const
     (*respond)(std::move(r));
   };
   jobs_.submit(id, std::move(ex), on_done);  // answered by on_done
+}
+
+void Api::describe(const Request& req) const {
+  // Reading uploads takes seconds and gigabytes at the limits: a thread of the pool does it, the
+  // network threads go on serving (503 when every thread of the pool is taken).
+  describe_pool_.try_run([this, body = req.ctx.request.body, path = req.ctx.path, respond = req.respond] {
+    ApiResponse r;
+    try {
+      // The request's own bytes (its body, parsed, the uploads staged from it) are held
+      // throughout; the reading's estimate comes on top as it grows. Answered at once: no wait.
+      MemoryAccount::Reservation memory = memory_.open();
+      const int64_t request_bytes = 4 * static_cast<int64_t>(body.size());
+      const std::string what = "describing these seeds";
+      memory.need(request_bytes, false, nullptr, what);
+      const json doc = parse_body_json(body);
+      r = json_response(200, describe_seeds_execute(doc, config_, [&](int64_t reading_bytes) {
+                          memory.need(request_bytes + reading_bytes, false, nullptr, what);
+                        }));
+    } catch (...) {
+      r = problem_of_current_exception(path);
+    }
+    (*respond)(std::move(r));
+  });
 }
 
 void Api::job_list(const Request& req, const std::vector<std::string>&) const {

@@ -61,12 +61,17 @@ ApiResponse problem_response(unsigned status, const std::string& type, const std
                              const std::string& detail, const std::string& instance);
 // A fixed 500 problem that cannot fail to build: for when describing an error failed too.
 ApiResponse last_resort_problem();
+// The problem for the exception being handled (call inside a catch block): rv::Error through
+// the error table, JSON errors as invalid_argument, bad_alloc as too_large, anything else as
+// internal; never throws.
+ApiResponse problem_of_current_exception(const std::string& path);
 
 using Respond = std::function<void(ApiResponse)>;
 
 class Api {
  public:
-  Api(const ServerConfig& config, JobStore& store, JobManager& jobs);
+  // Descriptions of seed files run on `describe_pool`, each reserving its memory in `memory`.
+  Api(const ServerConfig& config, JobStore& store, JobManager& jobs, MemoryAccount& memory, RequestPool& describe_pool);
   // Calls `respond` exactly once, on this thread or (synchronous execution) a worker thread.
   void handle(const ApiRequest& request, Respond respond);
 
@@ -90,6 +95,7 @@ class Api {
   void process_list(const Request& req, const std::vector<std::string>& seg) const;
   void process(const Request& req, const std::vector<std::string>& seg) const;
   void execute(const Request& req, const std::vector<std::string>& seg) const;
+  void describe(const Request& req) const;
   void job_list(const Request& req, const std::vector<std::string>& seg) const;
   void job(const Request& req, const std::vector<std::string>& seg) const;
   void results(const Request& req, const std::vector<std::string>& seg) const;
@@ -98,6 +104,8 @@ class Api {
   const ServerConfig& config_;
   JobStore& store_;
   JobManager& jobs_;
+  MemoryAccount& memory_;
+  RequestPool& describe_pool_;
 };
 
 // The repository's openapi.yaml, embedded at build time.

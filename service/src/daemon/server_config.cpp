@@ -150,20 +150,23 @@ ServerConfig parse_server_config(const json& doc) {
   }
   if (doc.contains("jobs")) {
     const json& j = doc.at("jobs");
-    check_keys(j, "jobs", {"workers", "queue_length", "threads_per_job", "job_timeout_s", "shutdown_grace_s"});
+    check_keys(j, "jobs",
+               {"workers", "queue_length", "threads_per_job", "job_timeout_s", "shutdown_grace_s", "describe_workers"});
     c.jobs.workers = static_cast<int>(get_int(j, "jobs", "workers", c.jobs.workers, 1));
     c.jobs.queue_length = static_cast<int>(get_int(j, "jobs", "queue_length", c.jobs.queue_length, 0));
     c.jobs.threads_per_job = static_cast<int>(get_int(j, "jobs", "threads_per_job", c.jobs.threads_per_job, 0));
     c.jobs.job_timeout_s = get_seconds(j, "jobs", "job_timeout_s", c.jobs.job_timeout_s);
     c.jobs.shutdown_grace_s = get_seconds(j, "jobs", "shutdown_grace_s", c.jobs.shutdown_grace_s);
+    c.jobs.describe_workers = static_cast<int>(get_int(j, "jobs", "describe_workers", c.jobs.describe_workers, 1));
   }
   if (doc.contains("limits")) {
     const json& l = doc.at("limits");
     check_keys(l, "limits",
-               {"max_cells", "max_memory_bytes", "validate_max_cells", "max_features", "max_vertices",
-                "max_input_bytes", "preview_max_vertices"});
+               {"max_cells", "max_memory_bytes", "total_memory_bytes", "validate_max_cells", "max_features",
+                "max_vertices", "max_input_bytes", "preview_max_vertices"});
     c.limits.max_cells = get_int(l, "limits", "max_cells", c.limits.max_cells, 1);
     c.limits.max_memory_bytes = get_int(l, "limits", "max_memory_bytes", c.limits.max_memory_bytes, 0);
+    c.total_memory_bytes = get_int(l, "limits", "total_memory_bytes", c.total_memory_bytes, 0);
     c.limits.validate_max_cells = get_int(l, "limits", "validate_max_cells", c.limits.validate_max_cells, 0);
     // 0 = no limit of the server's own (the seed reader's limits, if any, still apply).
     c.limits.max_features = get_int(l, "limits", "max_features", c.limits.max_features, 0);
@@ -187,16 +190,21 @@ ServerConfig load_server_config(const std::string& path) {
   return parse_server_config(doc);
 }
 
+int64_t ServerConfig::memory_budget() const {
+  if (total_memory_bytes > 0) return total_memory_bytes;
+  const long pages = sysconf(_SC_PHYS_PAGES);
+  const long page_size = sysconf(_SC_PAGE_SIZE);
+  const int64_t physical = pages > 0 && page_size > 0 ? int64_t{pages} * page_size : 0;
+  return physical / 10 * 8;
+}
+
 JobLimits effective_limits(const ServerConfig& config) {
   JobLimits limits = config.limits;
-  if (limits.max_memory_bytes == 0) {
-    // Jobs run side by side: each may take its share of 80 % of the machine, so that a full
-    // worker pool cannot together exceed it.
-    const long pages = sysconf(_SC_PHYS_PAGES);
-    const long page_size = sysconf(_SC_PAGE_SIZE);
-    const int64_t physical = pages > 0 && page_size > 0 ? int64_t{pages} * page_size : 0;
-    if (physical > 0) limits.max_memory_bytes = physical / 10 * 8 / std::max(1, config.jobs.workers);
-  }
+  // One job alone may take the whole account; jobs side by side wait in it for each other
+  // (server_capacity.hpp) instead of each being held to a fixed share.
+  const int64_t budget = config.memory_budget();
+  if (limits.max_memory_bytes == 0 || (budget > 0 && limits.max_memory_bytes > budget))
+    limits.max_memory_bytes = budget;
   return limits;
 }
 

@@ -55,8 +55,8 @@ void notify_done(const JobManager::Done& on_done, const JobRecord& record) {
 
 }  // namespace
 
-JobManager::JobManager(JobStore& store, const ServerConfig& config, JobRunner runner)
-    : store_(store), config_(config), runner_(std::move(runner)), limits_(effective_limits(config)) {
+JobManager::JobManager(JobStore& store, const ServerConfig& config, JobRunner runner, MemoryAccount& memory)
+    : store_(store), config_(config), runner_(std::move(runner)), memory_(memory), limits_(effective_limits(config)) {
   std::filesystem::create_directories(std::filesystem::path(config_.data_dir) / "jobs");
   for (int i = 0; i < std::max(1, config_.jobs.workers); ++i) {
     workers_.emplace_back([this] { worker_loop(); });
@@ -119,7 +119,7 @@ std::string JobManager::snapshot_base(const std::string& base, const std::string
         link(source, to / rel);
     }
   } catch (const nlohmann::json::exception&) {
-    bad(ErrorKind::invalid_argument, "job " + base + " kept a damaged manifest");
+    bad("job " + base + " kept a damaged manifest");
   }
   if (ec) throw Error(ErrorKind::io, "cannot keep the base job's files: " + ec.message());
   return (to / output_file_name("report", "")).string();
@@ -371,7 +371,11 @@ JobRecord JobManager::run_task(Task& task) {
   hooks.progress = [&](const std::string& stage, double fraction) {
     update_progress(rec, stage, fraction, spec.validate, last_percent);
   };
+  // Held until the job's end: whatever it reserved returns to the account then.
+  MemoryAccount::Reservation memory = memory_.open();
+  hooks.reserve_memory = [&memory, cancel, id](int64_t bytes) { memory.need(bytes, true, cancel.get(), "job " + id); };
   Outcome outcome = execute(runner_, spec, limits_, hooks, id, dir);
+  memory.release();
   task.execution.uploads.reset();  // the in-memory seed files are no longer needed
   remove_dir(dir / kBaseSnapshotDir);
   record_end(rec, outcome.error_kind, outcome.message, outcome.result.report, dir);

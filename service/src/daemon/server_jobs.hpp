@@ -24,6 +24,7 @@
 #include "rv/error.hpp"
 #include "rv/server.hpp"
 #include "rv/store_jobs.hpp"
+#include "server_capacity.hpp"
 #include "server_execute.hpp"
 
 namespace rv::daemon {
@@ -39,7 +40,9 @@ class JobManager {
   // with its final record.
   using Done = std::function<void(const JobRecord&)>;
 
-  JobManager(JobStore& store, const ServerConfig& config, JobRunner runner);
+  // Each job reserves its memory estimate in `memory` as it goes (JobHooks::reserve_memory),
+  // waiting there while other work holds it, and returns it when it ends.
+  JobManager(JobStore& store, const ServerConfig& config, JobRunner runner, MemoryAccount& memory);
   ~JobManager();  // shutdown(0) if still running
 
   // The directory of a job's result files (the id must satisfy is_job_id()).
@@ -92,6 +95,7 @@ class JobManager {
   JobStore& store_;
   const ServerConfig& config_;
   JobRunner runner_;
+  MemoryAccount& memory_;
   JobLimits limits_;
 
   mutable std::mutex mutex_;

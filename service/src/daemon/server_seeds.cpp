@@ -67,7 +67,7 @@ json describe_seeds_description(const std::string& base, const ServerConfig& con
   return d;
 }
 
-json describe_seeds_execute(const json& body, const ServerConfig& config) {
+json describe_seeds_execute(const json& body, const ServerConfig& config, const std::function<void(int64_t)>& reserve) {
   check_body_members(body);
   const json& in = body.at("inputs");
   bool with_features = false;
@@ -88,6 +88,7 @@ json describe_seeds_execute(const json& body, const ServerConfig& config) {
   const std::string id = new_job_id();
   VsiMemFiles files("/vsimem/rvoronoi/" + id);
   stage_seed_input(in, read, files);
+  read.on_reading_bytes = reserve;
   JobLimits limits = effective_limits(config);
   if (with_features)
     limits.max_vertices = limits.max_vertices > 0 ? std::min(limits.max_vertices, config.preview_max_vertices)

@@ -24,6 +24,7 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <optional>
 #include <string>
@@ -85,6 +86,11 @@ struct SeedReadOptions {
   int64_t max_memory_bytes = 0;              // > 0: seeds whose reading would need more than this
                                              // (reading_bytes(), from declared counts and while reading) are
                                              // too_large
+  // Called, when set, each time the reading's memory estimate (SeedReadReport::reading_bytes)
+  // grows, with the new estimate in bytes, before the reader copies the feature that grew it;
+  // on the reading thread. Whatever it throws stops the reading (a daemon's memory account
+  // reserves the bytes here, or refuses them).
+  std::function<void(int64_t)> on_reading_bytes;
   // For the geodesic metric on a projected grid: when the target CRS (the grid's: target_crs, or
   // the first layer's) is projected, the seeds are read into its geographic base CRS instead
   // (OSRCloneGeogCS: the same datum's longitude/latitude in degrees, x = longitude), which is
