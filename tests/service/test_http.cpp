@@ -204,6 +204,33 @@ TEST_F(Daemon, DiscoveryEndpoints) {
   EXPECT_EQ(http_request(port_, "GET", "/processes/voronoi/execution").status, 405);
 }
 
+// If-None-Match on an asset is RFC 9110's weak comparison of a list: the ETag (weak) or its
+// strong form, or "*", answers 304; a field that merely contains the ETag is no list, 200.
+TEST_F(Daemon, StaticAssetsAnswer304OnlyToAnIfNoneMatchThatNamesThem) {
+  rv::ServerConfig c = test_config(dir_ / "data");
+  c.web_dir = (dir_ / "web").string();
+  fs::create_directories(c.web_dir);
+  write_file(dir_ / "web" / "a.js", "console.log(1);\n");
+  start(c);
+  const Reply first = get(port_, "/static/a.js");
+  ASSERT_EQ(first.status, 200);
+  EXPECT_EQ(first.body, "console.log(1);\n");
+  const std::string etag = first.header("etag");
+  ASSERT_EQ(etag.rfind("W/\"", 0), 0u) << etag;
+  const std::string strong = etag.substr(2);
+  for (const std::string& h : {etag, strong, std::string("*"), "\"x\", " + etag, "\"x\"," + strong}) {
+    const Reply r = get(port_, "/static/a.js", {{"If-None-Match", h}});
+    EXPECT_EQ(r.status, 304) << h;
+    EXPECT_TRUE(r.body.empty()) << h;
+    EXPECT_EQ(r.header("etag"), etag) << h;
+  }
+  for (const std::string& h : {"\"x\", garbage" + etag, "xx" + etag + "xx", etag + "x", std::string("\"x\"")}) {
+    const Reply r = get(port_, "/static/a.js", {{"If-None-Match", h}});
+    EXPECT_EQ(r.status, 200) << h;
+    EXPECT_EQ(r.body, "console.log(1);\n") << h;
+  }
+}
+
 TEST_F(Daemon, SyncExecutionEqualsTheFacade) {
   start(test_config(dir_ / "data"));
   const Reference ref = facade_reference(dir_, 2000);

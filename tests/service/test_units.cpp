@@ -17,6 +17,7 @@
 #include "server_connections.hpp"
 #include "server_execute.hpp"
 #include "server_util.hpp"
+#include "server_web.hpp"
 
 namespace {
 
@@ -257,6 +258,33 @@ TEST(Util, SecretsInQueryStringsAreNotLogged) {
   const std::string long_target = "/x?q=" + std::string(5000, 'a');
   EXPECT_LT(loggable_target(long_target).size(), 600u);
   EXPECT_TRUE(rv::is_valid_utf8(loggable_target("/j\xff?x=\x80")));
+}
+
+// RFC 9110 13.1.2: "*" or a list of entity-tags, weakly compared (W/ ignored, the quoted
+// opaque-tags equal); anything else in the field is no list, and matches nothing.
+TEST(Util, IfNoneMatchIsAWeakComparisonOfAListOfEntityTags) {
+  using rv::daemon::if_none_match_matches;
+  const std::string etag = R"(W/"123-4.5")";
+  EXPECT_TRUE(if_none_match_matches(R"(W/"123-4.5")", etag));
+  EXPECT_TRUE(if_none_match_matches(R"("123-4.5")", etag)) << "the strong form, compared weakly";
+  EXPECT_TRUE(if_none_match_matches("*", etag));
+  EXPECT_TRUE(if_none_match_matches(" * ", etag));
+  EXPECT_TRUE(if_none_match_matches(R"("x", W/"123-4.5")", etag));
+  EXPECT_TRUE(if_none_match_matches(R"("x",W/"123-4.5" ,, "y")", etag)) << "empty elements and optional space";
+  EXPECT_TRUE(if_none_match_matches(R"(W/"123-4.5")", R"("123-4.5")")) << "a strong current ETag";
+  EXPECT_FALSE(if_none_match_matches("", etag));
+  EXPECT_FALSE(if_none_match_matches(R"("x")", etag));
+  EXPECT_FALSE(if_none_match_matches(R"("x", garbage"123-4.5")", etag));
+  EXPECT_FALSE(if_none_match_matches(R"(xxW/"123-4.5"xx)", etag));
+  EXPECT_FALSE(if_none_match_matches(R"(W/"123-4.5"xx)", etag));
+  EXPECT_FALSE(if_none_match_matches(R"(W/"W/"123-4.5"")", etag));
+  EXPECT_FALSE(if_none_match_matches(R"("123-4.5)", etag)) << "no closing quote";
+  EXPECT_FALSE(if_none_match_matches(R"(w/"123-4.5")", etag)) << "W/ is case-sensitive";
+  EXPECT_FALSE(if_none_match_matches(R"("123-4.50")", etag));
+  EXPECT_FALSE(if_none_match_matches(R"("123-4.")", etag));
+  EXPECT_FALSE(if_none_match_matches(R"(123-4.5)", etag)) << "not quoted";
+  EXPECT_FALSE(if_none_match_matches(R"(*, "x")", etag)) << "* stands alone";
+  EXPECT_FALSE(if_none_match_matches("**", etag));
 }
 
 TEST(Api, ProblemsAreShortValidAndSay503sRetryAfter) {

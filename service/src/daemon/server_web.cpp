@@ -179,6 +179,39 @@ void add_page_headers(ApiResponse& r, std::string_view policy) {
 
 ApiResponse page_response(const std::string& web_dir) { return file_body(web_dir + "/page.html", "page.html"); }
 
+bool if_none_match_matches(std::string_view header, std::string_view etag) {
+  // RFC 9110 13.1.2: If-None-Match = "*" / #entity-tag. A field that is neither is no condition
+  // at all: it matches nothing (the asset is sent), never a tag found somewhere inside it.
+  auto ows = [](char c) { return c == ' ' || c == '\t'; };
+  while (!header.empty() && ows(header.front())) header.remove_prefix(1);
+  while (!header.empty() && ows(header.back())) header.remove_suffix(1);
+  if (header == "*") return true;  // any current representation: the asset exists
+  // Weak comparison (8.8.3.2): the opaque-tags, quotes included, equal; W/ on either is ignored.
+  auto opaque = [](std::string_view tag) { return tag.substr(tag.starts_with("W/") ? 2 : 0); };
+  const std::string_view current = opaque(etag);
+  // etagc = %x21 / %x23-7E / obs-text: anything visible but the double quote.
+  auto etagc = [](char c) { return c == 0x21 || (c >= 0x23 && c <= 0x7E) || static_cast<unsigned char>(c) >= 0x80; };
+  bool matched = false;
+  size_t i = 0;
+  while (i < header.size()) {
+    if (ows(header[i]) || header[i] == ',') {  // separators; empty list elements are allowed (5.6.1)
+      ++i;
+      continue;
+    }
+    const size_t start = i;
+    if (header.substr(i, 2) == "W/") i += 2;
+    if (i >= header.size() || header[i] != '"') return false;
+    size_t close = i + 1;
+    while (close < header.size() && etagc(header[close])) ++close;
+    if (close >= header.size() || header[close] != '"') return false;
+    matched = matched || opaque(header.substr(start, close + 1 - start)) == current;
+    i = close + 1;
+    while (i < header.size() && ows(header[i])) ++i;
+    if (i < header.size() && header[i] != ',') return false;  // a tag runs into something else
+  }
+  return matched;
+}
+
 ApiResponse asset_response(const std::string& web_dir, const ApiRequest& request) {
   const std::string_view target = request.target;
   const std::string_view path = target.substr(0, target.find('?'));
@@ -192,7 +225,8 @@ ApiResponse asset_response(const std::string& web_dir, const ApiRequest& request
   // Weak (RFC 9110 8.8.1): one validator for the file and its gzip copy, which carry the same content.
   const std::string etag = "W/\"" + std::to_string(st.st_size) + "-" + std::to_string(st.st_mtim.tv_sec) + "." +
                            std::to_string(st.st_mtim.tv_nsec) + "\"";
-  if (request.if_none_match.find(etag) != std::string::npos) {
+  const bool safe = request.method == "GET" || request.method == "HEAD";  // 304 answers only these (13.1.2)
+  if (safe && if_none_match_matches(request.if_none_match, etag)) {
     ApiResponse r;
     r.status = 304;
     r.headers.emplace_back("ETag", etag);

@@ -64,10 +64,17 @@ ApiResponse page_response(const std::string& web_dir);
 
 // /static/<name> from `web_dir`: the file with its media type and the security headers; 404
 // problem for a name that is not a plain file name there. Every asset carries a validator (a weak
-// ETag from its size and modification time, so a rebuilt bundle is fetched again) and is answered 304
-// when If-None-Match names it; where the build left a gzip copy beside it (<name>.gz, as for the
-// map page's bundle) and Accept-Encoding allows gzip, that copy is sent (Content-Encoding gzip).
+// ETag from its size and modification time, so a rebuilt bundle is fetched again), and a GET or
+// HEAD is answered 304 when If-None-Match matches it (if_none_match_matches); where the build left
+// a gzip copy beside it (<name>.gz, as for the map page's bundle) and Accept-Encoding allows gzip,
+// that copy is sent (Content-Encoding gzip).
 ApiResponse asset_response(const std::string& web_dir, const ApiRequest& request);
+
+// Whether an If-None-Match field value matches `etag`, the current representation's ETag, as
+// RFC 9110 13.1.2 says: "*" matches any; otherwise the value must be a comma-separated list of
+// entity-tags ([W/]"opaque"), one of which equals `etag` by the weak comparison (W/ ignored, the
+// quoted opaque-tags equal). A value that is no such list matches nothing.
+bool if_none_match_matches(std::string_view header, std::string_view etag);
 
 // The security headers every page and asset carries.
 void add_page_headers(ApiResponse& response, std::string_view policy = kContentSecurityPolicy);
