@@ -115,7 +115,7 @@ def main():
 
             # Bad bases.
             status, _, doc = d.json("POST", "/processes/voronoi/execution", body(edited, extra={"baseJob": "f" * 32}))
-            check(status == 404 and "baseJob" in doc.get("detail", ""), f"unknown base: {status} {doc}")
+            check(status == 400 and "input 'baseJob': no job" in doc.get("detail", ""), f"unknown base: {status} {doc}")
             status, _, doc = d.json("POST", "/processes/voronoi/execution", body(edited, extra={"baseJob": "../x"}))
             check(status == 400 and "baseJob" in doc.get("detail", ""), f"not a job id: {status} {doc}")
             _, failed = submit(d, body(base_points, extra={"ownerField": "no_such_field"}))

@@ -385,6 +385,24 @@ TEST_F(Daemon, ErrorsAreProblemsNamingTheInput) {
   EXPECT_EQ(get(port_, "/jobs").json()["jobs"].size(), jobs_before);
 }
 
+// A baseJob that names no job is a bad input of the execution request (400, naming it), not a
+// missing resource: the resource requested (the process) exists. A job resource that does not
+// exist stays 404.
+TEST_F(Daemon, AnUnknownBaseJobIsABadInputNamedInThe400) {
+  start(test_config(dir_ / "data"));
+  const std::string unknown(32, 'f');
+  json edit = demo_request();
+  edit["inputs"]["baseJob"] = unknown;
+  for (const char* prefer : {"", "respond-async"}) {
+    std::map<std::string, std::string> headers;
+    if (*prefer) headers["Prefer"] = prefer;
+    expect_problem(http_request(port_, "POST", "/processes/voronoi/execution", edit.dump(), headers), 400,
+                   kOgc + "invalid-parameter", "input 'baseJob': no job " + unknown);
+  }
+  EXPECT_EQ(get(port_, "/jobs").json()["jobs"].size(), 0u) << "a refused edit leaves no job";
+  expect_problem(get(port_, "/jobs/" + unknown), 404, kOgc + "no-such-job");
+}
+
 TEST_F(Daemon, DismissCancelsARunningJobAndAFullQueueIsBusy) {
   rv::ServerConfig c = test_config(dir_ / "data");
   c.jobs.queue_length = 0;  // one worker, nothing waits: a second job is refused

@@ -82,20 +82,20 @@ int JobManager::queued_count() const {
 }
 
 std::string JobManager::snapshot_base(const std::string& base, const std::string& id) const {
-  auto bad = [](ErrorKind kind, const std::string& what) { throw Error(kind, "input 'baseJob': " + what); };
-  if (!is_job_id(base)) bad(ErrorKind::invalid_argument, "not a job id");
+  // Every refusal is a bad input of the execution request (400), a base that names no job too: the
+  // resource requested, the process, exists (a 404 would say it does not).
+  auto bad = [](const std::string& what) { throw Error(ErrorKind::invalid_argument, "input 'baseJob': " + what); };
+  if (!is_job_id(base)) bad("not a job id");
   const std::optional<JobRecord> rec = store_.get(base);
-  if (!rec || rec->status == JobStatus::dismissed) bad(ErrorKind::not_found, "no job " + base);
+  if (!rec || rec->status == JobStatus::dismissed) bad("no job " + base);
   if (rec->status != JobStatus::successful)
-    bad(ErrorKind::invalid_argument,
-        "job " + base + " is " + std::string(to_string(rec->status)) + "; only a successful job can be edited");
+    bad("job " + base + " is " + std::string(to_string(rec->status)) + "; only a successful job can be edited");
   // The base's report and kept field, linked into the new job's directory now: the base job may
   // be deleted while this one waits or runs, and its files then live on under these names.
   namespace fs = std::filesystem;
   const fs::path from = job_dir(base), to = job_dir(id) / kBaseSnapshotDir;
   if (!fs::exists(from / kEditBaseDir / "manifest.json"))
-    bad(ErrorKind::invalid_argument,
-        "job " + base + " kept nothing for edits (only streamed jobs of the exact method do)");
+    bad("job " + base + " kept nothing for edits (only streamed jobs of the exact method do)");
   std::error_code ec;
   fs::create_directories(to / kEditBaseDir, ec);
   auto link = [&](const fs::path& a, const fs::path& b) {
