@@ -14,6 +14,7 @@ Unsupported, Cancelled, IOFailure, Busy, InternalError), each also a subclass of
 exception a caller would expect (ValueError, LookupError, OSError, ...).
 """
 import json
+import math
 import os
 import tempfile
 
@@ -48,13 +49,31 @@ def _json_default(value):
     raise TypeError("%s is not a value an option takes" % type(value).__name__)
 
 
+def _check_finite(name, value):
+    # JSON has no NaN or infinity, so such a number would reach the option table as text it cannot
+    # parse (an internal error); it is the caller's argument that is wrong, so say which one.
+    if hasattr(value, "tolist") and not isinstance(value, (str, bytes)):
+        value = value.tolist()  # NumPy scalars and arrays, as json.dumps will see them
+    if isinstance(value, float):
+        if not math.isfinite(value):
+            raise InvalidArgument("%s: not a finite number (%r)" % (name, value))  # noqa: F821
+    elif isinstance(value, (list, tuple)):
+        for i, item in enumerate(value):
+            _check_finite("%s[%d]" % (name, i), item)
+    elif isinstance(value, dict):
+        for key, item in value.items():
+            _check_finite("%s.%s" % (name, key), item)
+
+
 def _options_json(options):
     unknown = sorted(set(options) - set(_KEYWORDS))
     if unknown:
         raise TypeError("compute() got unexpected keyword argument%s %s; the options are: %s"
                         % ("s" if len(unknown) > 1 else "", ", ".join(repr(u) for u in unknown),
                            ", ".join(sorted(_KEYWORDS))))
-    return json.dumps(options, default=_json_default)
+    for name, value in options.items():
+        _check_finite(name, value)
+    return json.dumps(options, default=_json_default, allow_nan=False)
 
 
 def _read_deliverable(name, path, crs_wkt):

@@ -273,6 +273,45 @@ class Errors(unittest.TestCase):
             rvoronoi.compute({"type": "Point", "coordinates": [0, 0]}, resolution=10)
 
 
+class NonFiniteNumbers(unittest.TestCase):
+    """NaN and the infinities are invalid arguments (JSON has no such numbers): InvalidArgument naming
+    the option, and the item of a list, from plain floats, nested lists and NumPy values alike."""
+
+    def test_every_option_and_item_is_named(self):
+        pts = os.path.join(FIX, "coast_points.geojson")
+        nan, inf = float("nan"), float("inf")
+        cases = [
+            (dict(resolution=nan), "resolution: not a finite number (nan)"),
+            (dict(resolution=inf), "resolution: not a finite number (inf)"),
+            (dict(resolution=50, extent=[401000, nan, 409000, 6201500]), "extent[1]: not a finite number (nan)"),
+            (dict(resolution=50, margin=inf), "margin: not a finite number (inf)"),
+            (dict(resolution=50, max_distance=nan), "max_distance: not a finite number (nan)"),
+            (dict(resolution=50, limit_distances=[nan]), "limit_distances[0]: not a finite number (nan)"),
+            (dict(resolution=50, limit_distances=[12, {"value": -inf, "unit": "nmi"}]),
+             "limit_distances[1].value: not a finite number (-inf)"),
+            (dict(resolution=np.float32("nan")), "resolution: not a finite number (nan)"),
+            (dict(resolution=np.float64("-inf")), "resolution: not a finite number (-inf)"),
+            (dict(resolution=50, extent=np.array([401000.0, 6201000.0, np.inf, 6201500.0])),
+             "extent[2]: not a finite number (inf)"),
+            (dict(resolution=50, extent=(401000, 6201000, (np.float32("nan"),), 6201500)),
+             "extent[2][0]: not a finite number (nan)"),
+        ]
+        for options, message in cases:
+            for chunks in (None, (10, 10)):
+                with self.subTest(options=options, chunks=chunks):
+                    with self.assertRaises(rvoronoi.InvalidArgument) as caught:
+                        rvoronoi.compute(pts, owner_field="owner", chunks=chunks, **options)
+                    self.assertIsInstance(caught.exception, ValueError)
+                    self.assertEqual(caught.exception.kind, "invalid-argument")
+                    self.assertEqual(str(caught.exception), message)
+
+    def test_finite_numbers_still_pass(self):
+        pts = os.path.join(FIX, "coast_points.geojson")
+        ds = rvoronoi.compute(pts, owner_field="owner", resolution=np.float32(100.0), margin=np.float64(500),
+                              max_distance=1e5)
+        self.assertGreater(ds.owner.size, 0)
+
+
 class Memory(unittest.TestCase):
     def test_arrays_own_the_engine_buffers(self):
         ds = rvoronoi.compute(os.path.join(FIX, "coast_points.geojson"), owner_field="owner", resolution=50)
