@@ -15,6 +15,7 @@ exception a caller would expect (ValueError, LookupError, OSError, ...).
 """
 import json
 import math
+import operator
 import os
 import tempfile
 
@@ -99,7 +100,15 @@ def _products(nearest_feature):
     return ["ownership", "distance"] + (["nearest_feature"] if nearest_feature else [])
 
 
-def compute(seeds, *, chunks=None, nearest_feature=False, deliverables=None, **options):
+def _max_cells(value):
+    # An integer (NumPy's too), not a bool, from one cell to what the engine counts in (int64).
+    if isinstance(value, bool) or not hasattr(value, "__index__") or not 1 <= operator.index(value) < 2 ** 63:
+        raise InvalidArgument("max_cells: must be a positive number of cells, got %r" % (value,))  # noqa: F821
+    return operator.index(value)
+
+
+def compute(seeds, *, chunks=None, nearest_feature=False, deliverables=None, max_cells=_rvoronoi.default_max_cells,
+            **options):
     """Computes the raster Voronoi diagram of `seeds` on a grid.
 
     seeds: a path (any source GDAL/OGR reads: GeoPackage, Shapefile, GeoJSON, FlatGeobuf, a .zip of
@@ -114,6 +123,8 @@ def compute(seeds, *, chunks=None, nearest_feature=False, deliverables=None, **o
         "regions", "turning_points": computed from the same field (once), returned beside the
         dataset as GeoDataFrames (GeoJSON mappings without GeoPandas; turning points as the
         treaty table's JSON). Not with chunks.
+    max_cells: the most cells the whole grid may have, chunked or not (default: the daemon's,
+        2^34); over it, TooLarge before anything is computed. Raise it on purpose for a bigger grid.
     **options: the CLI's options (see below and rvoronoi.keywords()).
 
     Returns an xarray.Dataset (owner, distance[, nearest_feature] on x/y cell centres, CRS in the
@@ -127,6 +138,7 @@ def compute(seeds, *, chunks=None, nearest_feature=False, deliverables=None, **o
         # Dask gives the parallelism (a chunk per worker thread): one engine thread per chunk.
         options = dict(options, threads=1)
     options_json = _options_json(options)
+    max_cells = _max_cells(max_cells)
     products = _products(nearest_feature)
     wanted = list(deliverables or [])
     for name in wanted:
@@ -135,9 +147,9 @@ def compute(seeds, *, chunks=None, nearest_feature=False, deliverables=None, **o
     if chunks is not None:
         if wanted:
             raise InvalidArgument("deliverables: not with chunks; compute them without chunks")  # noqa: F821
-        return _compute_chunked(seeds, chunks, products, options, options_json)
+        return _compute_chunked(seeds, chunks, products, options, options_json, max_cells)
     with _seeds.SeedFiles(seeds) as files:
-        job = _rvoronoi.Job(files.paths, options_json, None)
+        job = _rvoronoi.Job(files.paths, options_json, None, max_cells)
         with tempfile.TemporaryDirectory(prefix="rvoronoi-out-") as out:
             paths = {n: os.path.join(out, n + _DELIVERABLES[n]) for n in wanted}
             result = job.run(None, products, paths)
@@ -173,7 +185,7 @@ def describe(seeds, *, crs=None, features=False):
     return d
 
 
-def _compute_chunked(seeds, chunks, products, options, options_json):
+def _compute_chunked(seeds, chunks, products, options, options_json, max_cells):
     import hashlib
 
     from . import _chunks, _dataset, _seeds
@@ -184,13 +196,14 @@ def _compute_chunked(seeds, chunks, products, options, options_json):
         raise InvalidArgument("chunks: (rows, cols), two positive integers, got %r" % (chunks,)) from None  # noqa: F821
     with _seeds.SeedFiles(seeds) as files:
         # Read and checked here once, on the caller's side, so that bad input raises now, not in a
-        # worker; the first chunk's window stands for all (the plan's memory is a chunk's).
+        # worker; the first chunk's window stands for all (the plan's memory is a chunk's). The
+        # whole grid is held to max_cells here, whatever the window, before any graph is made.
         try:
             first = [0, 0, max(1, int(rows)), max(1, int(cols))]
-            job = _rvoronoi.Job(files.paths, options_json, [0, 0, 1, 1])  # the grid, of any size
+            job = _rvoronoi.Job(files.paths, options_json, [0, 0, 1, 1], max_cells)  # the grid, of any size
             grid = job.grid
             first[2], first[3] = min(first[2], grid["height"]), min(first[3], grid["width"])
-            job = _rvoronoi.Job(files.paths, options_json, first)
+            job = _rvoronoi.Job(files.paths, options_json, first, max_cells)
         except InvalidArgument as e:  # noqa: F821
             text = str(e)
             if text.startswith("window: "):
@@ -200,8 +213,8 @@ def _compute_chunked(seeds, chunks, products, options, options_json):
                         if v is not None and _KEYWORDS[k]["type"] == "path"}
         shipped_options = json.dumps({k: v for k, v in json.loads(options_json).items() if k not in file_options})
         bundle, digest = _seeds.bundle(files.paths, file_options)
-    digest = hashlib.sha256((digest + shipped_options).encode()).hexdigest()[:32]
-    arrays = _chunks.chunked_arrays(grid, (rows, cols), digest, bundle, shipped_options, products)
+    digest = hashlib.sha256((digest + shipped_options + str(max_cells)).encode()).hexdigest()[:32]
+    arrays = _chunks.chunked_arrays(grid, (rows, cols), digest, bundle, shipped_options, products, max_cells)
     report = json.dumps({"chunks": [int(rows), int(cols)], "grid": {k: v for k, v in grid.items() if k != "crs_wkt"},
                          "owners": job.owners, "metric": job.metric, "distance_units": job.unit})
     return _dataset.dataset(arrays, grid, job.owners, job.unit, job.metric, report)

@@ -41,7 +41,7 @@ def _forget_jobs():
 atexit.register(_forget_jobs)
 
 
-def _job_for(digest, bundle, options_json, window):
+def _job_for(digest, bundle, options_json, window, max_cells):
     """This process's prepared job of a bundle, made on first use."""
     with _jobs_lock:
         found = _jobs.get(digest)
@@ -49,7 +49,7 @@ def _job_for(digest, bundle, options_json, window):
             directory = tempfile.mkdtemp(prefix="rvoronoi-chunks-%s-" % digest[:8])
             try:
                 seeds, files = _seeds.unpack(bundle, directory)
-                job = _rvoronoi.Job(seeds, _with_files(options_json, files), list(window))
+                job = _rvoronoi.Job(seeds, _with_files(options_json, files), list(window), max_cells)
             except BaseException:
                 shutil.rmtree(directory, ignore_errors=True)
                 raise
@@ -68,21 +68,22 @@ def _with_files(options_json, files):
 class Shipped:
     """What every chunk of one call needs, one object in the graph (opaque to Dask)."""
 
-    __slots__ = ("digest", "bundle", "options_json")
+    __slots__ = ("digest", "bundle", "options_json", "max_cells")
 
-    def __init__(self, digest, bundle, options_json):
-        self.digest, self.bundle, self.options_json = digest, bundle, options_json
+    def __init__(self, digest, bundle, options_json, max_cells):
+        self.digest, self.bundle, self.options_json, self.max_cells = digest, bundle, options_json, max_cells
 
     def __getstate__(self):
-        return (self.digest, self.bundle, self.options_json)
+        return (self.digest, self.bundle, self.options_json, self.max_cells)
 
     def __setstate__(self, state):
-        self.digest, self.bundle, self.options_json = state
+        self.digest, self.bundle, self.options_json, self.max_cells = state
 
 
 def compute_chunk(shipped, window, products):
     """One chunk: {product: array} of the window (row0, col0, rows, cols). Runs on a worker."""
-    job = _job_for(shipped.digest, shipped.bundle, shipped.options_json, window)
+    # The caller's limit: a grid it allowed past the default is allowed on the workers too.
+    job = _job_for(shipped.digest, shipped.bundle, shipped.options_json, window, shipped.max_cells)
     result = job.run(list(window), list(products), {}, False)
     return {p: result[p] for p in products}
 
@@ -92,7 +93,7 @@ def _starts(total, size):
     return starts, tuple(min(size, total - s) for s in starts)
 
 
-def chunked_arrays(grid, chunks, digest, bundle, options_json, products):
+def chunked_arrays(grid, chunks, digest, bundle, options_json, products, max_cells):
     """{product: dask.array.Array} of the whole grid in chunks of (rows, cols)."""
     import dask.array as da
 
@@ -103,7 +104,7 @@ def chunked_arrays(grid, chunks, digest, bundle, options_json, products):
     col_starts, col_sizes = _starts(grid["width"], int(cols))
     seeds_key = "rvoronoi-seeds-" + digest
     field_name = "rvoronoi-field-%s-%s" % (digest, "-".join(products))
-    graph = {seeds_key: Shipped(digest, bundle, options_json)}
+    graph = {seeds_key: Shipped(digest, bundle, options_json, max_cells)}
     for i, r0 in enumerate(row_starts):
         for j, c0 in enumerate(col_starts):
             window = (r0, c0, row_sizes[i], col_sizes[j])

@@ -123,12 +123,23 @@ py::dict grid_dict(const rv::GridSpec& g) {
 // A job read and planned once; its pieces computed from it (Job.run), from any thread.
 class Job {
  public:
+  // max_cells: the limit of the whole grid (JobLimits::max_cells), whatever the window. The
+  // façade checks the cells it computes, a window's; a chunked call makes its grid of windows,
+  // so the whole grid is checked here, before any chunk exists, as an unchunked call's is.
   Job(const std::vector<std::string>& seeds, const std::string& options_json,
-      const std::optional<std::vector<int64_t>>& window) {
+      const std::optional<std::vector<int64_t>>& window, int64_t max_cells) {
+    if (max_cells < 1)
+      throw rv::Error(rv::ErrorKind::invalid_argument,
+                      "max_cells: must be a positive number of cells, got " + std::to_string(max_cells));
     spec_ = make_spec(seeds, options_json);
     spec_.window = to_window(window);
+    limits_.max_cells = max_cells;
     py::gil_scoped_release free;
-    job_ = rv::prepare_job(spec_);
+    job_ = rv::prepare_job(spec_, limits_);
+    const int64_t cells = job_.grid.cell_count();
+    if (cells > limits_.max_cells)  // the message of the façade's own check (job.cpp)
+      throw rv::Error(rv::ErrorKind::too_large, "the grid has " + std::to_string(cells) + " cells, over the limit of " +
+                                                    std::to_string(limits_.max_cells));
     // The engine's preparation of the seeds (sites in the grid's frame, the index), shared by
     // every piece. Not with partial effect: that rule computes a second field from another seed
     // set (and is never cut into pieces).
@@ -177,7 +188,7 @@ class Job {
     rv::JobResult r;
     {
       py::gil_scoped_release free;
-      r = rv::run_prepared(spec, job_);
+      r = rv::run_prepared(spec, job_, limits_);
     }
     py::dict d;
     if (describe) d["report"] = rv::json_text(r.report, 2);
@@ -189,6 +200,7 @@ class Job {
 
  private:
   rv::JobSpec spec_;
+  rv::JobLimits limits_;
   rv::PreparedJob job_;
 };
 
@@ -285,12 +297,16 @@ PYBIND11_MODULE(_rvoronoi, m) {
                       "out of memory: the grid does not fit; use chunks");
     }
   });
+  // The daemon's default grid limit, the default of rvoronoi.compute(max_cells=...).
+  m.attr("default_max_cells") = rv::JobLimits{}.max_cells;
   m.def("keywords", &keywords, "The keyword options of rvoronoi.compute, from the option table.");
   m.def("describe_seeds", &describe_seeds, py::arg("paths"), py::arg("crs"), py::arg("features"),
         "The description of seed files as JSON text (use rvoronoi.describe).");
   py::class_<Job>(m, "Job")
-      .def(py::init<const std::vector<std::string>&, const std::string&, const std::optional<std::vector<int64_t>>&>(),
-           py::arg("seeds"), py::arg("options"), py::arg("window") = py::none())
+      .def(py::init<const std::vector<std::string>&, const std::string&, const std::optional<std::vector<int64_t>>&,
+                    int64_t>(),
+           py::arg("seeds"), py::arg("options"), py::arg("window") = py::none(),
+           py::arg("max_cells") = rv::JobLimits{}.max_cells)
       .def_property_readonly("grid", &Job::grid)
       .def_property_readonly("owners", &Job::owners)
       .def_property_readonly("unit", &Job::unit)

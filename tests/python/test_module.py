@@ -312,6 +312,75 @@ class NonFiniteNumbers(unittest.TestCase):
         self.assertGreater(ds.owner.size, 0)
 
 
+class GridLimit(unittest.TestCase):
+    """max_cells (default: the daemon's JobLimits) bounds the whole grid, chunked or not, and is
+    checked before any Dask graph is made."""
+
+    PTS = os.path.join(FIX, "coast_points.geojson")
+    # 200,000 x 100,000 cells: over the default limit (2^34), small enough in chunks of 2000 x 5000
+    # (a binary resolution: the extent is that many cells exactly).
+    RES = 2.0 ** -10
+    TOP = 6201000 + 100000 * RES
+    HUGE = dict(owner_field="owner", resolution=RES, extent=[401000, 6201000, 401000 + 200000 * RES, TOP])
+
+    def setUp(self):
+        from rvoronoi import _chunks
+        self.graphs = []
+        self.real = _chunks.chunked_arrays
+
+        def spy(*args, **kwargs):
+            self.graphs.append(args)
+            return self.real(*args, **kwargs)
+        _chunks.chunked_arrays = spy
+
+    def tearDown(self):
+        from rvoronoi import _chunks
+        _chunks.chunked_arrays = self.real
+
+    def test_the_default_is_the_daemons(self):
+        self.assertEqual(rvoronoi._rvoronoi.default_max_cells, 2 ** 34)
+        import inspect
+        self.assertEqual(inspect.signature(rvoronoi.compute).parameters["max_cells"].default, 2 ** 34)
+
+    def test_chunked_over_the_limit_is_too_large_like_unchunked(self):
+        with self.assertRaises(rvoronoi.TooLarge) as whole:
+            rvoronoi.compute(self.PTS, **self.HUGE)
+        with self.assertRaises(rvoronoi.TooLarge) as chunked:
+            rvoronoi.compute(self.PTS, chunks=(1000, 1000), **self.HUGE)
+        self.assertEqual(str(chunked.exception), "the grid has 20000000000 cells, over the limit of 17179869184")
+        self.assertEqual(str(chunked.exception), str(whole.exception))
+        self.assertEqual(self.graphs, [], "a graph was made before the limit was checked")
+
+    def test_max_cells_lowers_and_raises_the_limit(self):
+        small = dict(owner_field="owner", resolution=100.0, extent=[401000, 6201000, 409000, 6201500])  # 80 x 5
+        for chunks in (None, (3, 7)):
+            with self.subTest(chunks=chunks):
+                with self.assertRaises(rvoronoi.TooLarge) as caught:
+                    rvoronoi.compute(self.PTS, chunks=chunks, max_cells=100, **small)
+                self.assertEqual(str(caught.exception), "the grid has 400 cells, over the limit of 100")
+                at_limit = rvoronoi.compute(self.PTS, chunks=chunks, max_cells=400, **small)
+                self.assertEqual(at_limit.owner.shape, (5, 80))
+                by_default = rvoronoi.compute(self.PTS, chunks=chunks, **small)
+                self.assertTrue(same_bits(by_default.owner.values, at_limit.owner.values))
+        self.assertEqual(len(self.graphs), 2, "graphs only for the chunked calls within their limit")
+        lazy = rvoronoi.compute(self.PTS, chunks=(2000, 5000), max_cells=2 ** 35, **self.HUGE)
+        self.assertEqual(lazy.owner.shape, (100000, 200000))
+        self.assertEqual(lazy.owner.data.numblocks, (50, 40))
+        # Computed as far as asked (the first chunk, on the threaded scheduler): the same cells.
+        corner = rvoronoi.compute(self.PTS, max_cells=400, owner_field="owner", resolution=self.RES,
+                                  extent=[401000, self.TOP - 8 * self.RES, 401000 + 16 * self.RES, self.TOP])
+        for name in ("owner", "distance"):
+            self.assertEqual(corner[name].shape, (8, 16))
+            self.assertTrue(same_bits(lazy[name][:8, :16].values, corner[name].values), name)
+
+    def test_bad_values_are_invalid_arguments(self):
+        for bad in (0, -1, 2 ** 63, 1.5, "many", True, None):
+            with self.subTest(bad=bad):
+                with self.assertRaises(rvoronoi.InvalidArgument) as caught:
+                    rvoronoi.compute(self.PTS, owner_field="owner", resolution=100.0, max_cells=bad)
+                self.assertTrue(str(caught.exception).startswith("max_cells: "), str(caught.exception))
+
+
 class Memory(unittest.TestCase):
     def test_arrays_own_the_engine_buffers(self):
         ds = rvoronoi.compute(os.path.join(FIX, "coast_points.geojson"), owner_field="owner", resolution=50)
