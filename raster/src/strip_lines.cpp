@@ -69,6 +69,46 @@ int32_t checked_owner(int32_t o, size_t owners) {
   return o;
 }
 
+// A base's pieces are checked against the seeds they are taken into, not only their sites' and
+// owners' ranges: a base's checksum is no key, and a piece whose coordinates or distances were
+// changed would bend a line without a word. A vertex taken must lie on its edge (between the two
+// cell centres it joins) and be what the metric measures there, to a hair: the same
+// computation gives the same distances, and a moved vertex is off the locus.
+void refuse_piece(const char* what) {
+  throw Error(ErrorKind::invalid_input,
+              std::string("line pieces taken from a base do not fit its seeds: a ") + what + " is not where it says");
+}
+void check_on_edge(const GridSpec& g, int64_t edge, Vec2 p) {
+  const int64_t cell = edge / 2, c = cell % g.width, r = cell / g.width;
+  const Vec2 a = line_tools::centre(g, c, r);
+  const Vec2 b = edge % 2 == 0 ? line_tools::centre(g, c + 1, r) : line_tools::centre(g, c, r + 1);
+  const double slack = 1e-6 * g.res;
+  if (!(p.x >= std::min(a.x, b.x) - slack && p.x <= std::max(a.x, b.x) + slack && p.y >= std::min(a.y, b.y) - slack &&
+        p.y <= std::max(a.y, b.y) + slack))
+    refuse_piece("crossing");
+}
+// Whether a stored distance is the one measured now (`scale`: a cell in metric units).
+bool measured(double stored, double now, double scale) {
+  return std::abs(stored - now) <= 1e-9 * std::max({std::abs(now), scale, 1e-300});
+}
+void check_crossing(const GridSpec& g, const SiteMetric& metric, double cell, int64_t edge, const BoundaryVertex& v) {
+  check_on_edge(g, edge, v.p);
+  if (v.arc != 0) return;  // a reach's arc (never taken: rows with reaches are extracted again)
+  const double da = metric.distance(v.p, v.site_a), db = metric.distance(v.p, v.site_b);
+  if (!measured(v.distance_a, da, cell) || !measured(v.distance_b, db, cell) ||
+      !measured(v.residual, std::abs(da - db), cell))
+    refuse_piece("boundary vertex");
+}
+void check_tripoint(const SiteMetric& metric, double cell, const Tripoint& tp) {
+  double d[3];
+  for (int k = 0; k < 3; ++k) {
+    d[k] = metric.distance(tp.p, tp.sites[k]);
+    if (!measured(tp.distances[k], d[k], cell)) refuse_piece("tripoint");
+  }
+  if (!measured(tp.residual, std::max({std::abs(d[0] - d[1]), std::abs(d[0] - d[2]), std::abs(d[1] - d[2])}), cell))
+    refuse_piece("tripoint");
+}
+
 // One boundary extraction in progress.
 struct BoundaryRun {
   boundary_stages::BoundaryGrid b;
@@ -122,6 +162,8 @@ struct BoundaryRun {
       cr.v.site_b = mapped_site(site_map, cr.v.site_b, sites);
       checked_owner(cr.owner_lo, owners);
       checked_owner(cr.owner_hi, owners);
+      if (cr.edge < 0 || cr.edge >= 2 * W * b.H) refuse_piece("crossing");
+      check_crossing(b.g, b.index.metric(), cell, cr.edge, cr.v);
       auto [it, fresh] = x.on_edge.try_emplace(cr.edge, static_cast<int32_t>(x.crossings.size()), 0);
       ++it->second.second;
       x.crossings.push_back(cr);
@@ -133,6 +175,7 @@ struct BoundaryRun {
       Tripoint tp = p.tripoints[i];
       for (int32_t& s : tp.sites) s = mapped_site(site_map, s, sites);
       for (const int32_t o : tp.owners) checked_owner(o, owners);
+      check_tripoint(b.index.metric(), cell, tp);
       file_tripoint(b, t, tp, p.tripoint_row[i]);
     }
     for (const auto& u : p.unplaced)
@@ -231,6 +274,12 @@ struct LimitRun {
       x.edges.push_back(p.edges[i]);
       LimitVertex v = p.verts[i];
       v.site = mapped_site(site_map, v.site, t.grid.owner_of_site.size());
+      if (p.edges[i] < 0 || p.edges[i] >= 2 * W * t.grid.H) refuse_piece("limit vertex");
+      check_on_edge(t.grid.g, p.edges[i], v.p);
+      // The owned area's edge (regions) ends where a reach does: its distance is not D.
+      if (t.owner != kOwnedEdge &&
+          !measured(v.residual, std::abs(t.grid.metric.distance(v.p, v.site) - t.D), t.grid.cell))
+        refuse_piece("limit vertex");
       x.verts.push_back(v);
     }
     const size_t l0 = first_at(p.links.size(), links_to, [&](size_t i) { return p.link_row[i]; });

@@ -8,6 +8,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <limits>
 #include <random>
 #include <string>
@@ -131,6 +132,58 @@ TEST(LinePieces, DamagedOrForeignPiecesAreRefused) {
   same.take_rows(LinePieces::decode(bytes), 10);
   EXPECT_THROW(same.take_rows(LinePieces::decode(bytes), 10), Error);
   EXPECT_THROW(same.pieces(), Error);  // rows missing
+}
+
+// Pieces whose numbers were changed with care (the bytes still decode: a base's checksum can be
+// written anew by anyone) are refused when taken, since each vertex taken must be what the seeds
+// measure at it: a crossing moved along its edge or off it, a distance or a residual changed.
+TEST(LinePieces, PiecesThatAreNotWhatTheSeedsMeasureAreRefused) {
+  const Spec spec;
+  const Lines l = planar_lines(spec);
+  const SeedSet seeds = make_seeds(4, spec, 1.0, {0.0, 0.0});
+  const auto metric = l.metric_of(seeds);
+  const OwnerIndex index(*metric);
+  const int64_t H = l.grid.height;
+  StripLines whole = l.extract(index, seeds, {{0, H}});
+  const std::string bytes = whole.pieces().encode();
+  // The layout (line_pieces.cpp): magic, version, key, width, height, one boundary, then its
+  // crossings (count, then 73 bytes each: edge, two owners, vertex p.x p.y, sites, distance,
+  // residual, distance_a, distance_b, arc).
+  const size_t crossings = 14 + 4 + 8 + whole.key().size() + 8 + 8 + 8;
+  uint64_t n = 0;
+  std::memcpy(&n, bytes.data() + crossings, 8);
+  ASSERT_GT(n, 10u);
+  auto at = [&](size_t i, size_t field) { return crossings + 8 + 73 * i + field; };
+  auto taken = [&](const std::string& b) {
+    StripLines lines(l.grid, index, l.request);
+    lines.take_rows(LinePieces::decode(b), H);
+    return true;
+  };
+  EXPECT_TRUE(taken(bytes));
+  struct Change {
+    size_t field;  // offset in the crossing's record
+    double delta;
+    const char* what;
+  };
+  for (const Change& c : {Change{16, 3.0, "p.x, off its edge or along it"}, Change{24, 0.25, "p.y"},
+                          Change{16, 1e-6, "p.x by a millionth of a cell"}, Change{56, 1e-3, "distance_a"},
+                          Change{48, 0.5, "residual"}}) {
+    for (const size_t i : {size_t{0}, static_cast<size_t>(n / 2), static_cast<size_t>(n - 1)}) {
+      SCOPED_TRACE(std::string(c.what) + ", crossing " + std::to_string(i));
+      std::string bad = bytes;
+      double v = 0.0;
+      std::memcpy(&v, bad.data() + at(i, c.field), 8);
+      v += c.delta;
+      std::memcpy(bad.data() + at(i, c.field), &v, 8);
+      try {
+        taken(bad);
+        ADD_FAILURE() << "taken";
+      } catch (const Error& e) {
+        EXPECT_EQ(e.kind(), ErrorKind::invalid_input) << e.what();
+        EXPECT_NE(std::string(e.what()).find("do not fit its seeds"), std::string::npos) << e.what();
+      }
+    }
+  }
 }
 
 // The base's lines and pieces, an edit of its seeds, and the edit's lines taken from the base
