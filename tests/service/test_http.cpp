@@ -8,6 +8,9 @@
 
 #include <gtest/gtest.h>
 
+#include <boost/asio/read.hpp>
+#include <boost/asio/write.hpp>
+
 #include <atomic>
 #include <cerrno>
 #include <chrono>
@@ -223,6 +226,21 @@ TEST_F(Daemon, StaticAssetsAnswer304OnlyToAnIfNoneMatchThatNamesThem) {
     EXPECT_EQ(r.status, 304) << h;
     EXPECT_TRUE(r.body.empty()) << h;
     EXPECT_EQ(r.header("etag"), etag) << h;
+  }
+  // A list split over two header lines is one list (RFC 9110 5.3).
+  {
+    namespace net = boost::asio;
+    net::io_context ioc;
+    net::ip::tcp::socket socket(ioc);
+    socket.connect({net::ip::make_address("127.0.0.1"), port_});
+    const std::string request =
+        "GET /static/a.js HTTP/1.1\r\nHost: 127.0.0.1\r\nIf-None-Match: \"x\"\r\nIf-None-Match: " + etag +
+        "\r\nConnection: close\r\n\r\n";
+    net::write(socket, net::buffer(request));
+    std::string answer;
+    boost::system::error_code ec;
+    net::read(socket, net::dynamic_buffer(answer), ec);  // to the end: the server closes
+    EXPECT_EQ(answer.rfind("HTTP/1.1 304", 0), 0u) << answer.substr(0, 200);
   }
   for (const std::string& h : {"\"x\", garbage" + etag, "xx" + etag + "xx", etag + "x", std::string("\"x\"")}) {
     const Reply r = get(port_, "/static/a.js", {{"If-None-Match", h}});

@@ -198,13 +198,19 @@ class Session : public std::enable_shared_from_this<Session> {
     api_req.method = method_;
     api_req.target = target_;
     api_req.host = std::string(req[http::field::host]);
-    // Every Prefer header, as one list (RFC 9110 5.3: fields of a list may be split).
-    for (auto [it, end] = req.equal_range("Prefer"); it != end; ++it)
-      api_req.prefer += (api_req.prefer.empty() ? "" : ",") + std::string(it->value());
+    // Every Prefer and If-None-Match header, each as one list (RFC 9110 5.3: the fields of a
+    // list may be split over several lines).
+    auto joined = [&](http::field f) {
+      std::string out;
+      for (auto [it, end] = req.equal_range(f); it != end; ++it)
+        out += (out.empty() ? "" : ",") + std::string(it->value());
+      return out;
+    };
+    api_req.prefer = joined(http::field::prefer);
     api_req.range = std::string(req[http::field::range]);
     api_req.accept = std::string(req[http::field::accept]);
     api_req.accept_encoding = std::string(req[http::field::accept_encoding]);
-    api_req.if_none_match = std::string(req[http::field::if_none_match]);
+    api_req.if_none_match = joined(http::field::if_none_match);
     api_req.body = parser_->release().body();
 
     // A synchronous execution answers when its job ends: no deadline while it runs (the job
