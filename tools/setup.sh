@@ -14,7 +14,7 @@ packages=(
   libtiff-dev libzstd-dev libdeflate-dev
   libgeographiclib-dev
   libgtest-dev libgmock-dev
-  pybind11-dev python3-dev
+  pybind11-dev python3-dev python3-pip python3-venv python3-setuptools python3-wheel
   libboost-dev libsqlite3-dev nlohmann-json3-dev
   libopencv-dev
   python3-jsonschema python3-yaml python3-numpy

@@ -1,6 +1,6 @@
 """Chunked computation on a real Dask cluster (issue 33): identical to unchunked, bit for bit.
 
-    PYTHONPATH=build/python /usr/bin/python3 tests/python/test_dask.py SOURCE_DIR SHARED_DIR
+    PYTHONPATH=build/python /usr/bin/python3 tests/python/test_dask.py SOURCE_DIR
 
 Starts a scheduler and two worker processes on loopback (`dask-scheduler`, `dask-worker`, one
 thread each, no nanny: a killed worker stays dead), then:
@@ -65,6 +65,8 @@ class Cluster:
         env["DASK_DISTRIBUTED__WORKER__DAEMON"] = "False"
         self.env = env
         self.scheduler_file = os.path.join(directory, "scheduler.json")
+        # This interpreter runs them (python -m), so that the workers import the rvoronoi this test
+        # does (a venv's installed package, or the build tree's through PYTHONPATH).
         self.procs.append(self._start(["dask-scheduler", "--host", "127.0.0.1", "--port", "0",
                                        "--dashboard-address", ":0", "--scheduler-file", self.scheduler_file]))
         self.workers = {}
@@ -83,8 +85,10 @@ class Cluster:
         self.client.wait_for_workers(2, timeout=DEADLINE)
 
     def _start(self, cmd):
+        module = "distributed.cli." + cmd[0].replace("-", "_")
         with open(os.path.join(self.dir, cmd[0] + "-%d.log" % len(self.procs)), "w") as log:
-            return subprocess.Popen(cmd, stdout=log, stderr=subprocess.STDOUT, env=self.env, start_new_session=True)
+            return subprocess.Popen([sys.executable, "-m", module] + cmd[1:], stdout=log, stderr=subprocess.STDOUT,
+                                    env=self.env, start_new_session=True)
 
     def address_of(self, name):
         for addr, w in self.client.scheduler_info()["workers"].items():

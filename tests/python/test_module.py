@@ -1,6 +1,6 @@
 """The Python module (issue 33) against the CLI: the same arrays, owner tables, deliverables, errors.
 
-    PYTHONPATH=build/python /usr/bin/python3 tests/python/test_module.py RVORONOI SOURCE_DIR SHARED_DIR
+    PYTHONPATH=build/python /usr/bin/python3 tests/python/test_module.py RVORONOI SOURCE_DIR
 
 For each case the CLI (`rvoronoi compute`) writes its rasters and deliverables, and
 rvoronoi.compute() is given the same seeds and options: the arrays equal the rasters cell for cell
@@ -13,6 +13,7 @@ with holes on a projected CRS measured on its ellipsoid (geodesic, located cells
 seeds given as a GeoDataFrame and as a GeoJSON mapping. Then errors (kinds, classes, messages),
 the GIL released while the engine works, and arrays that own the engine's buffers.
 """
+import inspect
 import json
 import os
 import subprocess
@@ -422,6 +423,42 @@ class Memory(unittest.TestCase):
         self.assertGreater(elapsed, 0.3, "the computation is too short to tell")
         self.assertGreater(spun, 100000, "the spinner stood still: the GIL was held (%d ticks in %.2f s)"
                            % (spun, elapsed))
+
+
+class Package(unittest.TestCase):
+    """What the package says of itself: one version (CMake's, as the CLI reports it, and the
+    installed metadata's where installed), and a typing stub made from the option table."""
+
+    def test_one_version(self):
+        cli = subprocess.run([RVORONOI, "--version"], capture_output=True, text=True, check=True).stdout.split()[-1]
+        self.assertEqual(rvoronoi.__version__, cli)
+        try:
+            from importlib import metadata
+            self.assertEqual(metadata.version("rvoronoi"), cli)
+        except metadata.PackageNotFoundError:
+            pass  # imported from the build tree (PYTHONPATH), not installed: no metadata there
+
+    def test_typing_stub_names_every_keyword(self):
+        import ast
+        here = os.path.dirname(rvoronoi.__file__)
+        self.assertTrue(os.path.exists(os.path.join(here, "py.typed")))
+        with open(os.path.join(here, "__init__.pyi"), encoding="utf-8") as f:
+            tree = ast.parse(f.read())
+        computes = [n for n in tree.body if isinstance(n, ast.FunctionDef) and n.name == "compute"]
+        self.assertEqual(len(computes), 2)  # overloads: without and with deliverables
+        real = inspect.signature(rvoronoi.compute).parameters
+        wanted = {k["keyword"] for k in rvoronoi.keywords()} | {
+            p.name for p in real.values() if p.kind is p.KEYWORD_ONLY}
+        for c in computes:
+            self.assertEqual({a.arg for a in c.args.kwonlyargs}, wanted)
+            self.assertEqual([a.arg for a in c.args.args], ["seeds"])
+        # Choices as literals, e.g. the metric's.
+        text = ast.unparse(computes[0])
+        self.assertIn("metric: Literal['auto', 'planar', 'geodesic'] | None=None", text)
+        classes = {n.name for n in tree.body if isinstance(n, ast.ClassDef)}
+        self.assertEqual(classes, {"Error"} | {name for _, name in rvoronoi._rvoronoi.error_kinds})
+        functions = {n.name for n in tree.body if isinstance(n, ast.FunctionDef)}
+        self.assertTrue({"compute", "describe", "keywords"} <= functions)
 
 
 if __name__ == "__main__":

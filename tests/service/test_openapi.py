@@ -184,6 +184,11 @@ def main():
         _, _, landing = request(s, "GET", "/", expect=200)
         rels = {l["rel"] for l in json.loads(landing)["links"]}
         check("service-desc" in rels, "landing page links the API definition")
+        # One version everywhere: CMake's project(VERSION), which the binary reports.
+        version = subprocess.run([BINARY, "--version"], capture_output=True, text=True, check=True).stdout.split()[-1]
+        check(json.loads(landing).get("version") == version, f"the landing document gives version {version}")
+        check(str(DOC["info"]["version"]) == version,
+              f"openapi.yaml's info.version {DOC['info']['version']} is the project's {version}")
         request(s, "GET", "/conformance", expect=200)
         _, h, api = request(s, "GET", "/api", expect=200)
         check(api == open(os.path.join(SOURCE, "openapi.yaml"), "rb").read(), "/api serves openapi.yaml verbatim")

@@ -14,6 +14,7 @@
 #include "rv/json_text.hpp"
 #include "rv/options.hpp"
 #include "rv/text.hpp"
+#include "rv/version.hpp"
 #include "server_seeds.hpp"
 #include "server_util.hpp"
 #include "server_web.hpp"
@@ -527,6 +528,7 @@ void Api::landing(const Request& req, const std::vector<std::string>&) const {
   req.reply(json_response(
       200, {{"title", "rvoronoi"},
             {"description", "Raster Voronoi diagrams for maritime boundary delimitation (OGC API - Processes 1.0)"},
+            {"version", kVersion},
             {"links",
              {link(base + "/", "self", kJson, "this document"),
               link(base + "/api", "service-desc", "application/vnd.oai.openapi;version=3.0", "the API definition"),
