@@ -8,6 +8,7 @@
 #include <cmath>
 #include <random>
 
+#include "error_kind.hpp"
 #include "rv/error.hpp"
 #include "rv/geodesic.hpp"
 #include "rv/metric.hpp"
@@ -24,15 +25,7 @@ MetricSpec wgs84() {
   return m;
 }
 
-ErrorKind kind_of(auto&& f) {
-  try {
-    f();
-  } catch (const Error& e) {
-    return e.kind();
-  }
-  ADD_FAILURE() << "no rv::Error thrown";
-  return ErrorKind::internal;
-}
+using test::kind_of;
 
 TEST(Metric, DistanceUnits) {
   EXPECT_EQ(parse_distance_unit("m"), DistanceUnit::m);

@@ -153,22 +153,22 @@ def _dbf_one_record():
     return header + field + b"\r" + b" A" + b"\x1a"
 
 
-def shapefile_multipoint_bomb(points=20_000_000):
-    """A zipped Shapefile of one MultiPoint of `points` points all at (0, 0): the .shp inflates
-    to 16 bytes a point, the zip holds a few hundred bytes per megabyte of it."""
-    content_bytes = 4 + 32 + 4 + 16 * points
+def _zipped_one_record_shapefile(name, shape_type, record_head, points):
+    """A zipped Shapefile of one record: `record_head` (the record's fields before its points), then
+    `points` points all at (0, 0). The .shp inflates to 16 bytes a point; the zip holds a few
+    hundred bytes per megabyte of it."""
+    content_bytes = len(record_head) + 16 * points
     shp_words = (100 + 8 + content_bytes) // 2
-    shx = _shp_header(8, (100 + 8) // 2) + struct.pack(">2i", 50, content_bytes // 2)
-    buffer = bytearray()
+    shx = _shp_header(shape_type, (100 + 8) // 2) + struct.pack(">2i", 50, content_bytes // 2)
     with tempfile.SpooledTemporaryFile(max_size=1 << 20) as raw:
         with zipfile.ZipFile(raw, "w", zipfile.ZIP_DEFLATED, compresslevel=9) as z:
-            z.writestr("bomb.shx", shx)
-            z.writestr("bomb.dbf", _dbf_one_record())
-            z.writestr("bomb.prj", osr.SpatialReference(wkt=_utm33_wkt()).ExportToWkt())
-            with z.open("bomb.shp", "w", force_zip64=True) as f:
-                f.write(_shp_header(8, shp_words))
+            z.writestr(name + ".shx", shx)
+            z.writestr(name + ".dbf", _dbf_one_record())
+            z.writestr(name + ".prj", osr.SpatialReference(wkt=_utm33_wkt()).ExportToWkt())
+            with z.open(name + ".shp", "w", force_zip64=True) as f:
+                f.write(_shp_header(shape_type, shp_words))
                 f.write(struct.pack(">2i", 1, content_bytes // 2))
-                f.write(struct.pack("<i4di", 8, 0.0, 0.0, 0.0, 0.0, points))
+                f.write(record_head)
                 zeros = bytes(16 * 65536)
                 left = points
                 while left > 0:
@@ -176,34 +176,18 @@ def shapefile_multipoint_bomb(points=20_000_000):
                     f.write(zeros[: 16 * n])
                     left -= n
         raw.seek(0)
-        buffer += raw.read()
-    return bytes(buffer)
+        return raw.read()
+
+
+def shapefile_multipoint_bomb(points=20_000_000):
+    """A zipped Shapefile of one MultiPoint of `points` points all at (0, 0)."""
+    return _zipped_one_record_shapefile("bomb", 8, struct.pack("<i4di", 8, 0.0, 0.0, 0.0, 0.0, points), points)
 
 
 def shapefile_line_bomb(vertices=30_000_000):
-    """A zipped Shapefile of one PolyLine of `vertices` vertices all at (0, 0): the .shp inflates
-    to 16 bytes a vertex, the zip holds a few hundred bytes per megabyte of it."""
-    content_bytes = 4 + 32 + 4 + 4 + 4 + 16 * vertices
-    shp_words = (100 + 8 + content_bytes) // 2
-    shx = _shp_header(3, (100 + 8) // 2) + struct.pack(">2i", 50, content_bytes // 2)
-    with tempfile.SpooledTemporaryFile(max_size=1 << 20) as raw:
-        with zipfile.ZipFile(raw, "w", zipfile.ZIP_DEFLATED, compresslevel=9) as z:
-            z.writestr("line.shx", shx)
-            z.writestr("line.dbf", _dbf_one_record())
-            z.writestr("line.prj", osr.SpatialReference(wkt=_utm33_wkt()).ExportToWkt())
-            with z.open("line.shp", "w", force_zip64=True) as f:
-                f.write(_shp_header(3, shp_words))
-                f.write(struct.pack(">2i", 1, content_bytes // 2))
-                f.write(struct.pack("<i4d2i", 3, 0.0, 0.0, 0.0, 0.0, 1, vertices))
-                f.write(struct.pack("<i", 0))  # the one part starts at vertex 0
-                zeros = bytes(16 * 65536)
-                left = vertices
-                while left > 0:
-                    n = min(left, 65536)
-                    f.write(zeros[: 16 * n])
-                    left -= n
-        raw.seek(0)
-        return raw.read()
+    """A zipped Shapefile of one PolyLine of one part of `vertices` vertices all at (0, 0)."""
+    head = struct.pack("<i4d3i", 3, 0.0, 0.0, 0.0, 0.0, 1, vertices, 0)  # one part, starting at vertex 0
+    return _zipped_one_record_shapefile("line", 3, head, vertices)
 
 
 def _utm33_wkt():

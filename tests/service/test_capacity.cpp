@@ -12,6 +12,7 @@
 #include <mutex>
 #include <thread>
 
+#include "error_kind.hpp"
 #include "rv/error.hpp"
 
 namespace rv::daemon {
@@ -19,15 +20,7 @@ namespace {
 
 using namespace std::chrono_literals;
 
-ErrorKind kind_of(const std::function<void()>& f) {
-  try {
-    f();
-  } catch (const Error& e) {
-    return e.kind();
-  }
-  ADD_FAILURE() << "no error";
-  return ErrorKind::internal;
-}
+using test::kind_of;
 
 TEST(MemoryAccount, GrantsWithinTheTotalAndTakesBackOnRelease) {
   MemoryAccount a(1000);

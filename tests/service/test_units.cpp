@@ -8,6 +8,7 @@
 #include <fstream>
 #include <set>
 
+#include "error_kind.hpp"
 #include "rv/error.hpp"
 #include "rv/json_text.hpp"
 #include "rv/server_config.hpp"
@@ -24,16 +25,7 @@ namespace {
 using nlohmann::json;
 using rv::ErrorKind;
 
-template <class F>
-ErrorKind kind_of(F&& f) {
-  try {
-    f();
-  } catch (const rv::Error& e) {
-    return e.kind();
-  }
-  ADD_FAILURE() << "no rv::Error thrown";
-  return ErrorKind::internal;
-}
+using rv::test::kind_of;
 
 template <class F>
 std::string message_of(F&& f) {

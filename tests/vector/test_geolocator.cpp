@@ -14,6 +14,7 @@
 #include "rv/gdal/osr_geolocator.hpp"
 #include "rv/gdal/seed_reader.hpp"
 
+#include "error_kind.hpp"
 #include "fixtures.hpp"
 
 namespace rv {
@@ -23,16 +24,7 @@ std::string source(const std::string& rel) { return (test::source_dir() / rel).s
 
 std::string oresund() { return test::fixture("oresund.gpkg"); }
 
-template <class F>
-ErrorKind kind_of(F&& f) {
-  try {
-    f();
-  } catch (const Error& e) {
-    return e.kind();
-  }
-  ADD_FAILURE() << "no error";
-  return ErrorKind::internal;
-}
+using test::kind_of;
 
 // A lattice of positions over zone 33N, from the central meridian to 3.5 degrees off it.
 void utm_points(std::vector<double>& x, std::vector<double>& y) {
