@@ -1,5 +1,5 @@
 #!/usr/bin/python3
-"""Writes the hostile input classes of issue 28 (tests/service/hostile_inputs.py) into the seed
+"""Writes the hostile input classes of issues 28 and 50 (tests/service/hostile_inputs.py) into the seed
 corpora of the fuzz targets: uploads of each format into tests/fuzz/corpus/fuzz_upload_<format>/,
 whole execute requests into tests/fuzz/corpus/fuzz_execute/. Small enough for libFuzzer to
 mutate: the bombs with fewer points and bytes than in the daemon's test, still over the fuzz
@@ -28,6 +28,7 @@ corpus = {
         "points.zip": hi.zipped_points(),
         "points_invalid_utf8.zip": hi.zipped_points(raw_first=b"A\x80"),
         "multipoint_bomb.zip": hi.shapefile_multipoint_bomb(200_000),
+        "line_bomb.zip": hi.shapefile_line_bomb(200_000),  # issue 50: one line of many vertices
         "inflates_16mib.zip": hi.zip_of_zeros(16 << 20),
         "truncated.zip": hi.zip_truncated(),
         "random.zip": hi.zip_random(),
