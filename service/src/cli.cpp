@@ -10,6 +10,7 @@
 #include <mutex>
 #include <random>
 #include <sstream>
+#include <string_view>
 
 #include "rv/error.hpp"
 #include "rv/error_map.hpp"
@@ -49,22 +50,128 @@ constexpr HelpSection kHelpSections[] = {
     {"deliverables", "maritime deliverables (exact: vertices placed on the equidistance locus, see README):"},
 };
 
-constexpr const char* kCliOnlyHelp =
-    R"(other:
-  --quiet                 no progress bar
-validate:
-  --methods M,M...        methods compared with brute force (default: exact,hv-scan,h-scan)
-  --random-seeds N        the paper's Table 2: N random point seeds on a --size W H grid
-  --size W H              grid of W x H unit cells for --random-seeds
-  --trials T              random trials (default 100)
-  --seed S                random seed of the first trial (default 1)
-  --buckets A,B           Table 2's error buckets in cells (default 1,3)
-)";
+// The CLI's own options (not job options), in --help's layout: a heading, then each option.
+struct CliOption {
+  const char* heading;  // printed when it differs from the previous option's
+  const char* head;     // the flag and its value
+  const char* help;
+};
+constexpr CliOption kCliOptions[] = {
+    {"other:", "--quiet", "no progress bar"},
+    {"validate:", "--methods M,M...", "methods compared with brute force (default: exact,hv-scan,h-scan)"},
+    {"validate:", "--random-seeds N", "the paper's Table 2: N random point seeds on a --size W H grid"},
+    {"validate:", "--size W H", "grid of W x H unit cells for --random-seeds"},
+    {"validate:", "--trials T", "random trials (default 100)"},
+    {"validate:", "--seed S", "random seed of the first trial (default 1)"},
+    {"validate:", "--buckets A,B", "Table 2's error buckets in cells (default 1,3)"},
+};
 
 std::string usage() {
   std::string out = kUsageHead;
   for (const HelpSection& h : kHelpSections) out += std::string("\n") + h.heading + "\n" + options_help(h.section);
-  return out + "\n" + kCliOnlyHelp;
+  out += "\n";
+  const char* heading = "";
+  for (const CliOption& o : kCliOptions) {
+    if (std::string_view(o.heading) != heading) out += std::string(heading = o.heading) + "\n";
+    const std::string head = std::string("  ") + o.head;
+    out += head + std::string(head.size() < 26 ? 26 - head.size() : 1, ' ') + o.help + "\n";
+  }
+  return out;
+}
+
+// `rvoronoi serve`'s options (cmd_serve parses them; the configuration file has the rest). Only the
+// man page describes them; --help shows them in its usage lines.
+constexpr CliOption kServeOptions[] = {
+    {"serve:", "--listen HOST:PORT", "address and port to listen on; overrides the configuration's listen"},
+    {"serve:", "--data-dir DIR", "job store (SQLite) and result files; overrides the configuration's data_dir"},
+    {"serve:", "--config FILE",
+     "the daemon's JSON configuration, read once at startup; every key is optional and an unknown key is an "
+     "error (the Debian package's is /etc/rvoronoi/serve.json)"},
+};
+
+// Text as roff reads it: backslashes and minus signs escaped, no line taken for a request.
+std::string roff(std::string_view text) {
+  std::string out;
+  for (char c : text) {
+    if (c == '\\')
+      out += "\\e";
+    else if (c == '-')
+      out += "\\-";
+    else
+      out += c;
+  }
+  if (!out.empty() && (out[0] == '.' || out[0] == '\'')) out.insert(0, "\\&");
+  return out;
+}
+
+// An option's entry: the flag in bold, its value in italics, the help below.
+std::string roff_option(std::string_view head, std::string_view help) {
+  const size_t space = head.find(' ');
+  std::string out = ".TP\n\\fB" + roff(head.substr(0, space)) + "\\fR";
+  if (space != std::string_view::npos) out += " \\fI" + roff(head.substr(space + 1)) + "\\fR";
+  return out + "\n" + roff(help) + "\n";
+}
+
+// The man page rvoronoi(1) (the hidden `rvoronoi --help-man`; the build writes rvoronoi.1 from it):
+// the same usage lines, option table and CLI options as --help, and the exit codes of the error
+// table.
+std::string man_page() {
+  const std::string_view head = kUsageHead;
+  const std::string_view name = head.substr(0, head.find('\n'));
+  const size_t dash = name.find(" \u2014 ");
+  std::string out = ".TH RVORONOI 1 \"\" \"rvoronoi " + std::string(kVersion) + "\" \"User Commands\"\n";
+  out += ".SH NAME\nrvoronoi \\- " + roff(name.substr(dash + std::string_view(" \u2014 ").size())) + "\n";
+  out += ".SH SYNOPSIS\n.nf\n";
+  std::string_view lines = head.substr(head.find("usage:\n") + 7);
+  while (!lines.empty()) {
+    const size_t end = lines.find('\n');
+    out += roff(lines.substr(2, end - 2)) + "\n";
+    lines.remove_prefix(end + 1);
+  }
+  out +=
+      ".fi\n.SH DESCRIPTION\n"
+      "For every cell of a grid, the owner of the nearest seed and the distance to it; seeds are points, "
+      "lines and polygons, each belonging to an owner.\n"
+      ".B compute\nwrites the rasters and the maritime deliverables,\n"
+      ".B validate\ncompares methods with brute force, and\n"
+      ".B serve\nruns the OGC API \\- Processes daemon.\n"
+      ".SH OPTIONS\n";
+  for (const HelpSection& h : kHelpSections) {
+    out += ".SS \"" + roff(h.heading) + "\"\n";
+    for (const OptionSpec& o : job_options()) {
+      if (o.section != h.section || o.flag.empty()) continue;
+      std::string help(o.help);
+      if (!o.default_text.empty() && o.type != OptionType::flag)
+        help += " (default: " + std::string(o.default_text) + ")";
+      out += roff_option("--" + std::string(o.flag) + (o.metavar.empty() ? "" : " " + std::string(o.metavar)), help);
+    }
+  }
+  const char* heading = "";
+  auto cli_options = [&](const auto& table) {
+    for (const CliOption& o : table) {
+      if (std::string_view(o.heading) != heading) out += ".SS \"" + roff(heading = o.heading) + "\"\n";
+      out += roff_option(o.head, o.help);
+    }
+  };
+  cli_options(kCliOptions);
+  cli_options(kServeOptions);
+  out += ".SH EXIT STATUS\n0 on success; otherwise the kind of error:\n";
+  for (int k = 0; k <= static_cast<int>(ErrorKind::internal); ++k) {
+    const ErrorInfo& e = error_info(static_cast<ErrorKind>(k));
+    out += ".TP\n.B " + std::to_string(e.exit_code) + "\n" + roff(e.title) + "\n";
+  }
+  out +=
+      ".SH FILES\n"
+      ".TP\n.I /etc/rvoronoi/serve.json\n"
+      "the packaged daemon's configuration (rvoronoi.service runs \\fBrvoronoi serve \\-\\-config\\fR with it)\n"
+      ".TP\n.I /var/lib/rvoronoi\n"
+      "the packaged daemon's job store and results\n"
+      ".TP\n.I /usr/share/doc/rvoronoi/examples/serve\\-config.example.json\n"
+      "every configuration key with its default\n"
+      ".SH SEE ALSO\n"
+      ".BR gdalinfo (1),\n"
+      ".BR systemctl (1)\n";
+  return out;
 }
 
 class Args {
@@ -363,6 +470,10 @@ int cli_main(int argc, char** argv) {
         std::string(argv[1]) == "help") {
       std::cout << usage();
       return argc < 2 ? 2 : 0;
+    }
+    if (std::string(argv[1]) == "--help-man") {  // hidden: the build's man page
+      std::cout << man_page();
+      return 0;
     }
     const std::string cmd = argv[1];
     if (cmd == "--version") {

@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <array>
+#include <cctype>
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
@@ -1013,6 +1014,37 @@ TEST_F(Cli, HelpAndVersion) {
   EXPECT_NE(h.output.find("--compression PROFILE"), std::string::npos);
   EXPECT_EQ(run("").exit_code, 2);
   EXPECT_EQ(run("frobnicate").exit_code, 2);
+}
+
+// The man page (the hidden --help-man, which the build turns into rvoronoi.1) is made from the
+// same table as --help: it names every option --help names.
+TEST_F(Cli, TheManPageNamesEveryOptionOfTheHelp) {
+  const CliRun h = run("--help");
+  const CliRun m = run("--help-man");
+  ASSERT_EQ(m.exit_code, 0) << m.output;
+  EXPECT_EQ(m.output.rfind(".TH RVORONOI 1 ", 0), 0u) << m.output.substr(0, 200);
+  EXPECT_EQ(h.output.find("--help-man"), std::string::npos) << "hidden";
+  std::string man;  // roff's minus signs as the user reads them
+  for (size_t i = 0; i < m.output.size(); ++i) {
+    if (m.output.compare(i, 2, "\\-") == 0) ++i;
+    man += m.output[i];
+  }
+  std::set<std::string> options;
+  for (size_t at = h.output.find("--"); at != std::string::npos; at = h.output.find("--", at + 2)) {
+    size_t end = at + 2;
+    while (end < h.output.size() && (std::islower(static_cast<unsigned char>(h.output[end])) || h.output[end] == '-'))
+      ++end;
+    if (end > at + 2) options.insert(h.output.substr(at, end - at));
+  }
+  EXPECT_GT(options.size(), 50u);
+  auto whole_word = [&](const std::string& o) {  // not a prefix of a longer option
+    for (size_t at = man.find(o); at != std::string::npos; at = man.find(o, at + 1)) {
+      const char after = at + o.size() < man.size() ? man[at + o.size()] : ' ';
+      if (!std::islower(static_cast<unsigned char>(after)) && after != '-') return true;
+    }
+    return false;
+  };
+  for (const std::string& o : options) EXPECT_TRUE(whole_word(o)) << o;
 }
 
 }  // namespace
