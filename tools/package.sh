@@ -8,6 +8,13 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 build_dir=${RV_BUILD_DIR:-build}
 
+# CPack's DEB generator finds the ELF files with `file` and their libraries with dpkg-shlibdeps.
+for tool in file:file dpkg-shlibdeps:dpkg-dev; do
+  if ! command -v "${tool%%:*}" >/dev/null 2>&1; then
+    echo "package: ${tool%%:*} is missing: apt-get install ${tool#*:}" >&2
+    exit 1
+  fi
+done
 if [ -n "$(git status --porcelain 2>/dev/null)" ]; then
   echo "package: the git tree has uncommitted changes; packaging them all the same"
 fi

@@ -74,6 +74,7 @@ trap 'exit 130' INT TERM
 # ---------------------------------------------------------------------------------------------
 step "tools"
 need=()
+command -v file >/dev/null || need+=(file)  # tools/package.sh (CPack's DEB generator)
 command -v debootstrap >/dev/null || need+=(debootstrap)
 command -v lintian >/dev/null || need+=(lintian)
 command -v systemd-analyze >/dev/null || need+=(systemd)
