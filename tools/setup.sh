@@ -20,6 +20,7 @@ packages=(
   python3-jsonschema python3-yaml python3-numpy
   clang-format-14
   curl
+  file
 )
 
 # What the Python package imports and the tests drive (xarray, Dask, GeoPandas; headless
@@ -28,6 +29,9 @@ packages=(
 if [ "${1:-}" != "--image" ]; then
   packages+=(python3-xarray python3-dask python3-distributed python3-geopandas python3-rioxarray python3-zarr
              python3-netcdf4 python3-psutil chromium chromium-driver python3-selenium)
+  # The Debian package's test (tools/test-package.sh): a minimal chroot, lintian, the unit's checks,
+  # a network namespace for the installed daemon.
+  packages+=(debootstrap lintian systemd iproute2 zstd)
 fi
 if [ "${1:-}" = "--sanitizers" ]; then
   packages+=(clang-14 libclang-rt-14-dev)

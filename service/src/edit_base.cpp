@@ -144,6 +144,37 @@ std::map<std::string, LinePieces> kept_line_pieces(const nlohmann::json& m, cons
   return out;
 }
 
+// The rasters the manifest names, by role: each relative to the directory, with one checksum per
+// tile of the grid (`tile_count`). Throws as EditBase's constructor; nlohmann::json's errors and
+// std::invalid_argument for members of the wrong form.
+std::map<std::string, EditBase::Earlier> kept_rasters(const nlohmann::json& m, const fs::path& dir,
+                                                      const std::string& dir_name, int64_t tile_count) {
+  std::map<std::string, EditBase::Earlier> out;
+  for (const auto& [role, e] : m.at("rasters").items()) {
+    EditBase::Earlier r;
+    const std::string file = e.at("file").get<std::string>();
+    if (file.empty() || fs::path(file).is_absolute())
+      throw Error(ErrorKind::invalid_input, "base: " + dir_name + "/manifest.json names a raster outside it");
+    r.path = (dir / file).lexically_normal().string();
+    r.display = "base: " + (fs::path(file).has_parent_path() ? file : dir_name + "/" + file);
+    // A raster that is gone is encoded afresh; one replaced by a FIFO or a device is refused
+    // (GDAL would wait on it for ever).
+    std::error_code ec;
+    const fs::file_status status = fs::status(r.path, ec);
+    if (fs::exists(status) && !fs::is_regular_file(status))
+      throw Error(ErrorKind::invalid_input, r.display + " is not a regular file");
+    for (const nlohmann::json& h : e.at("tiles")) {
+      const std::string hex = h.get<std::string>();
+      if (hex.size() != 16) throw nlohmann::json::type_error::create(302, "a checksum of 16 digits", nullptr);
+      r.checksums.push_back(std::stoull(hex, nullptr, 16));
+    }
+    if (static_cast<int64_t>(r.checksums.size()) != tile_count)
+      throw Error(ErrorKind::invalid_input, "base: " + dir_name + "/manifest.json does not fit its grid");
+    out[role] = std::move(r);
+  }
+  return out;
+}
+
 }  // namespace
 
 std::string edit_base_dir(const std::string& report) { return report + ".rvbase"; }
@@ -333,30 +364,8 @@ EditBase::EditBase(const std::string& report, const JobSpec& spec, const Prepare
     st.site_of_code = site_codes(m, dir, dir_name, static_cast<int32_t>(st.archive.seeds.sites().size()));
     st.lines = kept_line_pieces(m, dir, dir_name);
     st.identity_codes = !m.contains("site_codes");
-    // The rasters: each named relative to the directory, with one checksum per tile.
     const int64_t tile_count = ((job.grid.width + kTile - 1) / kTile) * ((job.grid.height + kTile - 1) / kTile);
-    for (const auto& [role, e] : m.at("rasters").items()) {
-      Earlier r;
-      const std::string file = e.at("file").get<std::string>();
-      if (file.empty() || fs::path(file).is_absolute())
-        throw Error(ErrorKind::invalid_input, "base: " + dir_name + "/manifest.json names a raster outside it");
-      r.path = (dir / file).lexically_normal().string();
-      r.display = "base: " + (fs::path(file).has_parent_path() ? file : dir_name + "/" + file);
-      // A raster that is gone is encoded afresh; one replaced by a FIFO or a device is refused
-      // (GDAL would wait on it for ever).
-      std::error_code ec;
-      const fs::file_status status = fs::status(r.path, ec);
-      if (fs::exists(status) && !fs::is_regular_file(status))
-        throw Error(ErrorKind::invalid_input, r.display + " is not a regular file");
-      for (const nlohmann::json& h : e.at("tiles")) {
-        const std::string hex = h.get<std::string>();
-        if (hex.size() != 16) throw nlohmann::json::type_error::create(302, "a checksum of 16 digits", nullptr);
-        r.checksums.push_back(std::stoull(hex, nullptr, 16));
-      }
-      if (static_cast<int64_t>(r.checksums.size()) != tile_count)
-        throw Error(ErrorKind::invalid_input, "base: " + dir_name + "/manifest.json does not fit its grid");
-      st.rasters[role] = std::move(r);
-    }
+    st.rasters = kept_rasters(m, dir, dir_name, tile_count);
   } catch (const nlohmann::json::exception&) {
     throw Error(ErrorKind::invalid_input, "base: " + dir_name + "/manifest.json is damaged");
   } catch (const std::invalid_argument&) {

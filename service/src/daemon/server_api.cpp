@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cctype>
 #include <charconv>
+#include <filesystem>
 
 #include "../atomic_file.hpp"
 #include "rv/error.hpp"
@@ -238,7 +239,19 @@ ApiResponse problem_of_current_exception(const std::string& path) {
   }
 }
 
-std::string Api::web_dir() const { return config_.web_dir.empty() ? std::string(RV_WEB_DIR) : config_.web_dir; }
+std::string Api::web_dir() const {
+  if (!config_.web_dir.empty()) return config_.web_dir;
+  // The build's copy for a binary run from its build tree; an installed binary's beside it
+  // (<prefix>/bin/rvoronoi -> <prefix>/share/rvoronoi/web), where its package put them.
+  static const std::string dir = [] {
+    std::error_code ec;
+    if (std::filesystem::is_directory(RV_WEB_DIR, ec)) return std::string(RV_WEB_DIR);
+    const std::filesystem::path exe = std::filesystem::read_symlink("/proc/self/exe", ec);
+    const std::filesystem::path installed = exe.parent_path().parent_path() / "share" / "rvoronoi" / "web";
+    return !ec && std::filesystem::is_directory(installed, ec) ? installed.string() : std::string(RV_WEB_DIR);
+  }();
+  return dir;
+}
 
 void Api::handle(const ApiRequest& request, Respond respond) {
   auto shared = std::make_shared<Respond>(std::move(respond));
