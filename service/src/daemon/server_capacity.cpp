@@ -70,21 +70,25 @@ void MemoryAccount::grow(Reservation& r, int64_t bytes, bool wait, const std::at
                               " of this server's " + mib(total_) + " are free";
   if (!wait) throw Error(ErrorKind::busy, refused + "; retry later");
   const uint64_t ticket = ++next_ticket_;
-  waiting_[ticket] = r.held_ > 0;
+  waiting_[ticket] = Waiter{r.held_ > 0, bytes - r.held_};
   auto leave = [&] {
     waiting_.erase(ticket);
     if (give_way_ == ticket) give_way_ = 0;
   };
   for (;;) {
-    // When every holder waits, nothing will be given back: the youngest holder gives way.
+    // When every holder waits and no waiter fits in what is free, nothing will be given back: the
+    // youngest holder gives way. (A waiter that fits is granted as soon as it wakes.)
     int64_t waiting_holders = 0;
     uint64_t youngest_holder = 0;
-    for (const auto& [t, holds] : waiting_)
-      if (holds) {
+    bool one_fits = false;
+    for (const auto& [t, w] : waiting_) {
+      one_fits = one_fits || w.more <= total_ - reserved_;
+      if (w.holds) {
         ++waiting_holders;
         youngest_holder = t;
       }
-    if (give_way_ == 0 && holders_ > 0 && waiting_holders == holders_) {
+    }
+    if (give_way_ == 0 && holders_ > 0 && waiting_holders == holders_ && !one_fits) {
       give_way_ = youngest_holder;
       freed_.notify_all();
     }

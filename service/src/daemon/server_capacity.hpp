@@ -77,8 +77,12 @@ class MemoryAccount {
   mutable std::mutex mutex_;
   std::condition_variable freed_;
   int64_t reserved_ = 0;
-  int holders_ = 0;                   // reservations holding bytes
-  std::map<uint64_t, bool> waiting_;  // the waiters' tickets, oldest first: whether each holds bytes
+  int holders_ = 0;  // reservations holding bytes
+  struct Waiter {
+    bool holds;    // holds bytes already (a job's grown estimate), which it gives back only when it ends
+    int64_t more;  // the bytes it waits for
+  };
+  std::map<uint64_t, Waiter> waiting_;  // by ticket, oldest first
   uint64_t next_ticket_ = 0;
   uint64_t give_way_ = 0;  // ticket that must give up (0: none)
 };
