@@ -112,6 +112,61 @@ RV_LANE_KERNEL(void, points_kernel,
                 double* __restrict best_id),
                (points, kp, w, stride, pos, n, best2, second2, best_id))
 
+// The segments whose form changes inside the block (RowSegment), for row_kernel_lanes' cells at
+// x, y, z (column weights a0 .. a3 of the point form, l0 .. l3 of the additive form): each one's
+// key by the form its ends' tests give each cell, taken into the running results b, s, id, btag,
+// or `need` set where the cell must be measured exactly. A part of the kernel of its own (the
+// kernel would be over the house's length), inlined into it: its vectors never cross a call.
+template <class GeoV4>
+RV_LANES_INLINE void take_segments(const RowSegment* __restrict segs, int ks, const GeoV4& x, const GeoV4& y,
+                                   const GeoV4& z, const GeoV4& a0, const GeoV4& a1, const GeoV4& a2, const GeoV4& a3,
+                                   const GeoV4& l0, const GeoV4& l1, const GeoV4& l2, const GeoV4& l3, const GeoV4& k2v,
+                                   GeoV4& b, GeoV4& s, GeoV4& id, GeoV4& btag, GeoV4& need) {
+  const double inf = std::numeric_limits<double>::infinity();
+  constexpr double max2 = kVertexMaxChord * kVertexMaxChord, min2 = kVertexMinChord * kVertexMinChord;
+  const GeoV4 zero = GeoV4{}, one = GeoV4{} + 1.0, none = GeoV4{} - 1.0;
+  for (int j = 0; j < ks; ++j) {
+    const RowSegment& g = segs[j];
+    GeoV4 te[2], u2[2], c2[2];
+    auto valid = (x == x);  // all lanes true
+    for (int e = 0; e < 2; ++e) {
+      const double* v = g.end[e];
+      const GeoV4 tx = x - v[0], ty = y - v[1], tz = z - v[2];
+      c2[e] = tx * tx + ty * ty + tz * tz;
+      const GeoV4 tn = tx * v[3] + ty * v[4] + tz * v[5];
+      u2[e] = c2[e] - tn * tn;
+      te[e] = tx * v[6] + ty * v[7] + tz * v[8];
+      valid = valid & (c2[e] <= GeoV4{} + max2) & (u2[e] >= GeoV4{} + min2);
+    }
+    const auto beyond0 = RV_GEO_BEYOND(te[0], u2[0], c2[0], k2v), beyond1 = RV_GEO_BEYOND(te[1], u2[1], c2[1], k2v);
+    const auto r1 = (te[0] < zero) & beyond0;
+    const auto r2 = ~r1 & (te[1] > zero) & beyond1;
+    const auto r3 = ~r1 & ~r2 & (te[0] > zero) & beyond0 & (te[1] < zero) & beyond1;
+    const RowCandidate& pa = g.part[0];
+    const RowCandidate& pb = g.part[1];
+    const RowCandidate& pi = g.part[2];
+    const GeoV4 qa = RV_GEO_Q(pa), qb = RV_GEO_Q(pb), qi = RV_GEO_QL(pi);
+    const GeoV4 ax = x - pa.sx, ay = y - pa.sy, az = z - pa.sz;
+    const GeoV4 bx = x - pb.sx, by = y - pb.sy, bz = z - pb.sz;
+    const GeoV4 ix = x - pi.sx, iy = y - pi.sy, iz = z - pi.sz;
+    const GeoV4 ca = ax * ax + ay * ay + az * az, cb = bx * bx + by * by + bz * bz;
+    const GeoV4 gi = ix * pi.nx + iy * pi.ny + iz * pi.nz;
+    const GeoV4 h = (gi + (pi.k3 * (gi * gi)) * gi) + qi;  // normaliser() + q
+    const GeoV4 vi = h < zero ? -h : h;
+    const GeoV4 pq = r1 ? qa : qb, pc = r1 ? ca : cb;  // a vertex: the point form
+    const GeoV4 pkey = (pq * pq) * pc;
+    const auto vertex = r1 | r2;
+    const auto missing = (r1 & (GeoV4{} + g.has[0] == zero)) | (r2 & (GeoV4{} + g.has[1] == zero)) |
+                         (r3 & ((GeoV4{} + g.has[2] == zero) | (vi < GeoV4{} + kAdditiveMinValue)));
+    const auto exact = ~valid | ~(r1 | r2 | r3) | missing;
+    need = exact ? one : need;
+    const GeoV4 key = exact ? GeoV4{} + inf : (vertex ? pkey : vi * vi);
+    const GeoV4 tag = r1 ? GeoV4{} + pa.tag : (r2 ? GeoV4{} + pb.tag : none);
+    const GeoV4 idv = GeoV4{} + pa.id;
+    RV_GEO_TAKE(key, tag, idv);
+  }
+}
+
 // One row of a block against all its interpolated candidates: per cell the smallest and second
 // smallest squared value and the smallest's id. The smallest's value is the root of its square,
 // with apply()'s bits: the point form's value is root(q^2 chord^2), the square's own root, with
@@ -216,46 +271,7 @@ RV_LANES_INLINE void row_kernel_lanes(const RowCandidate* __restrict points, int
         const GeoV4 idv = GeoV4{} + pi.id;
         RV_GEO_TAKE_PLAIN(key, idv);
       }
-    for (int j = 0; j < ks; ++j) {
-      const RowSegment& g = segs[j];
-      GeoV4 te[2], u2[2], c2[2];
-      auto valid = (x == x);  // all lanes true
-      for (int e = 0; e < 2; ++e) {
-        const double* v = g.end[e];
-        const GeoV4 tx = x - v[0], ty = y - v[1], tz = z - v[2];
-        c2[e] = tx * tx + ty * ty + tz * tz;
-        const GeoV4 tn = tx * v[3] + ty * v[4] + tz * v[5];
-        u2[e] = c2[e] - tn * tn;
-        te[e] = tx * v[6] + ty * v[7] + tz * v[8];
-        valid = valid & (c2[e] <= GeoV4{} + max2) & (u2[e] >= GeoV4{} + min2);
-      }
-      const auto beyond0 = RV_GEO_BEYOND(te[0], u2[0], c2[0], k2v), beyond1 = RV_GEO_BEYOND(te[1], u2[1], c2[1], k2v);
-      const auto r1 = (te[0] < zero) & beyond0;
-      const auto r2 = ~r1 & (te[1] > zero) & beyond1;
-      const auto r3 = ~r1 & ~r2 & (te[0] > zero) & beyond0 & (te[1] < zero) & beyond1;
-      const RowCandidate& pa = g.part[0];
-      const RowCandidate& pb = g.part[1];
-      const RowCandidate& pi = g.part[2];
-      const GeoV4 qa = RV_GEO_Q(pa), qb = RV_GEO_Q(pb), qi = RV_GEO_QL(pi);
-      const GeoV4 ax = x - pa.sx, ay = y - pa.sy, az = z - pa.sz;
-      const GeoV4 bx = x - pb.sx, by = y - pb.sy, bz = z - pb.sz;
-      const GeoV4 ix = x - pi.sx, iy = y - pi.sy, iz = z - pi.sz;
-      const GeoV4 ca = ax * ax + ay * ay + az * az, cb = bx * bx + by * by + bz * bz;
-      const GeoV4 gi = ix * pi.nx + iy * pi.ny + iz * pi.nz;
-      const GeoV4 h = (gi + (pi.k3 * (gi * gi)) * gi) + qi;  // normaliser() + q
-      const GeoV4 vi = h < zero ? -h : h;
-      const GeoV4 pq = r1 ? qa : qb, pc = r1 ? ca : cb;  // a vertex: the point form
-      const GeoV4 pkey = (pq * pq) * pc;
-      const auto vertex = r1 | r2;
-      const auto missing = (r1 & (GeoV4{} + g.has[0] == zero)) | (r2 & (GeoV4{} + g.has[1] == zero)) |
-                           (r3 & ((GeoV4{} + g.has[2] == zero) | (vi < GeoV4{} + kAdditiveMinValue)));
-      const auto exact = ~valid | ~(r1 | r2 | r3) | missing;
-      need = exact ? one : need;
-      const GeoV4 key = exact ? GeoV4{} + inf : (vertex ? pkey : vi * vi);
-      const GeoV4 tag = r1 ? GeoV4{} + pa.tag : (r2 ? GeoV4{} + pb.tag : none);
-      const GeoV4 idv = GeoV4{} + pa.id;
-      RV_GEO_TAKE(key, tag, idv);
-    }
+    take_segments(segs, ks, x, y, z, a0, a1, a2, a3, l0, l1, l2, l3, k2v, b, s, id, btag, need);
     std::memcpy(best2 + c, &b, sizeof(b));
     std::memcpy(second2 + c, &s, sizeof(s));
     std::memcpy(best_id + c, &id, sizeof(id));
