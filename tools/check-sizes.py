@@ -86,6 +86,18 @@ def strip_code(text):
 MACRO_CALL = re.compile(r"\s*[A-Z][A-Z0-9_]*\s*\(")
 
 
+def past_closing(text, j, opening, closing):
+    """The offset just past the bracket that closes the one at text[j], or len(text) when none
+    does; and whether one did."""
+    depth = 0
+    while j < len(text):
+        depth += {opening: 1, closing: -1}.get(text[j], 0)
+        j += 1
+        if depth == 0:
+            return j, True
+    return j, False
+
+
 def leading_macro_calls(header):
     """How many characters of the header are calls of function-like macros at namespace scope
     (`RV_LANE_KERNEL(...)`, which end without a ';') before a definition that follows them."""
@@ -94,13 +106,8 @@ def leading_macro_calls(header):
         m = MACRO_CALL.match(header, skip)
         if not m:
             return skip
-        depth, j = 0, m.end() - 1
-        while j < len(header):
-            depth += {"(": 1, ")": -1}.get(header[j], 0)
-            j += 1
-            if depth == 0:
-                break
-        if depth != 0 or "(" not in header[j:]:
+        j, closed = past_closing(header, m.end() - 1, "(", ")")
+        if not closed or "(" not in header[j:]:
             return skip  # the macro call is the header itself, or what defines the function
         skip = j
 
@@ -113,13 +120,7 @@ def without_template_heads(header):
         if m.start() < i:
             continue
         out.append(header[i:m.start()])
-        depth, j = 0, m.end() - 1
-        while j < len(header):
-            depth += {"<": 1, ">": -1}.get(header[j], 0)
-            j += 1
-            if depth == 0:
-                break
-        i = j
+        i, _ = past_closing(header, m.end() - 1, "<", ">")
     out.append(header[i:])
     return "".join(out)
 
