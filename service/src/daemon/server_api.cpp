@@ -632,10 +632,11 @@ void Api::describe(const Request& req) const {
   // network threads go on serving (503 when every thread of the pool is taken).
   describe_pool_.try_run([this, body = req.ctx.request.body, path = req.ctx.path, respond = req.respond] {
     ApiResponse r;
+    // Held until the answer is handed on (the description with its features is large too).
+    MemoryAccount::Reservation memory = memory_.open();
     try {
       // The request's own bytes (its body, parsed, the uploads staged from it) are held
       // throughout; the reading's estimate comes on top as it grows. Answered at once: no wait.
-      MemoryAccount::Reservation memory = memory_.open();
       const int64_t request_bytes = 4 * static_cast<int64_t>(body.size());
       const std::string what = "describing these seeds";
       memory.need(request_bytes, false, nullptr, what);
