@@ -7,8 +7,8 @@
 #include <random>
 #include <string>
 
-#include "rv/grid.hpp"
-#include "rv/seeds.hpp"
+#include "rv/field/grid.hpp"
+#include "rv/field/seeds.hpp"
 
 namespace rv::bench {
 

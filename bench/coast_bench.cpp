@@ -11,8 +11,8 @@
 #include <random>
 #include <vector>
 
-#include "rv/engine.hpp"
-#include "rv/validate.hpp"
+#include "rv/engine/engine.hpp"
+#include "rv/engine/validate.hpp"
 
 using namespace rv;
 

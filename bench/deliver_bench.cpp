@@ -9,8 +9,8 @@
 #include <string>
 #include <vector>
 
-#include "rv/deliverables.hpp"
-#include "rv/engine.hpp"
+#include "rv/engine/engine.hpp"
+#include "rv/lines/deliverables.hpp"
 
 using namespace rv;
 

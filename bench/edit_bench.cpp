@@ -1,4 +1,4 @@
-// The edit core (rv/edit.hpp) on the case: 50,000 random point seeds on a square grid,
+// The edit core (rv/edit/edit.hpp) on the case: 50,000 random point seeds on a square grid,
 // one removed, one added, one moved. Prints, per edit, the cells that changed against the cells
 // recomputed, and the plan's and the masked computation's wall time against a fresh exact run
 // of the edited seeds (the results compared cell for cell).
@@ -12,8 +12,8 @@
 #include <vector>
 
 #include "bench_case.hpp"
-#include "rv/edit.hpp"
-#include "rv/engine.hpp"
+#include "rv/edit/edit.hpp"
+#include "rv/engine/engine.hpp"
 
 using namespace rv;
 

@@ -20,8 +20,8 @@
 #include <vector>
 
 #include "bench_case.hpp"
-#include "rv/engine.hpp"
-#include "rv/validate.hpp"
+#include "rv/engine/engine.hpp"
+#include "rv/engine/validate.hpp"
 
 using namespace rv;
 

@@ -27,10 +27,10 @@
 #include <random>
 #include <string>
 
-#include "rv/engine.hpp"
+#include "rv/engine/engine.hpp"
+#include "rv/engine/validate.hpp"
 #include "rv/gdal/seed_reader.hpp"
-#include "rv/geodesic.hpp"
-#include "rv/validate.hpp"
+#include "rv/geodesic/geodesic.hpp"
 
 namespace {
 

@@ -8,7 +8,7 @@
 #include <exception>
 #include <string>
 
-#include "rv/engine.hpp"
+#include "rv/engine/engine.hpp"
 #include "rv/gdal/raster_io.hpp"
 #include "rv/gdal/seed_reader.hpp"
 

@@ -25,9 +25,9 @@
 #include <thread>
 #include <vector>
 
-#include "../raster/src/kernel_memory.hpp"
+#include "../raster/src/engine/kernel_memory.hpp"
 #include "bench_case.hpp"
-#include "rv/engine.hpp"
+#include "rv/engine/engine.hpp"
 
 using namespace rv;
 

@@ -1,5 +1,5 @@
 #!/usr/bin/python3
-"""Writes the hostile input classes of issues 28 and 50 (tests/service/hostile_inputs.py) into the seed
+"""Writes the hostile input classes of issues 28 and 50 (tests/service/daemon/hostile_inputs.py) into the seed
 corpora of the fuzz targets: uploads of each format into tests/fuzz/corpus/fuzz_upload_<format>/,
 whole execute requests into tests/fuzz/corpus/fuzz_execute/. Small enough for libFuzzer to
 mutate: the bombs with fewer points and bytes than in the daemon's test, still over the fuzz
@@ -14,7 +14,7 @@ import os
 import sys
 
 root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-sys.path.insert(0, os.path.join(root, "tests", "service"))
+sys.path.insert(0, os.path.join(root, "tests", "service", "daemon"))
 import hostile_inputs as hi  # noqa: E402
 
 corpus = {

@@ -18,8 +18,8 @@
 #include <string>
 #include <vector>
 
-#include "rv/error.hpp"
 #include "rv/error_map.hpp"
+#include "rv/field/error.hpp"
 #include "rv/job.hpp"
 #include "rv/json_text.hpp"
 #include "rv/options.hpp"

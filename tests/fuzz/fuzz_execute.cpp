@@ -18,12 +18,12 @@
 
 #include <nlohmann/json.hpp>
 
-#include "rv/error.hpp"
+#include "daemon/server_execute.hpp"
+#include "runtime/server_util.hpp"
+#include "rv/field/error.hpp"
+#include "rv/field/text.hpp"
 #include "rv/gdal/seed_reader.hpp"
 #include "rv/server_config.hpp"
-#include "rv/text.hpp"
-#include "server_execute.hpp"
-#include "server_util.hpp"
 
 namespace {
 

@@ -6,15 +6,15 @@
 // With the numbers: make_grid (--extent), make_aligned_grid, and plan_grid both with the extent
 // and with an extent derived from point seeds (the X Y pairs) grown by MARGIN.
 // Findings: a crash, a sanitizer report, an exception other than rv::Error, an rv::Error of an
-// unexpected kind, or a grid violating the contract of rv/grid.hpp (checked below).
+// unexpected kind, or a grid violating the contract of rv/field/grid.hpp (checked below).
 #include <cmath>
 #include <cstdint>
 #include <cstdlib>
 #include <string>
 #include <vector>
 
-#include "rv/error.hpp"
-#include "rv/grid.hpp"
+#include "rv/field/error.hpp"
+#include "rv/field/grid.hpp"
 #include "rv/job.hpp"
 #include "rv/options.hpp"
 

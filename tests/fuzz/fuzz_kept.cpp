@@ -13,10 +13,10 @@
 #include <string_view>
 #include <vector>
 
-#include "rv/deliverables.hpp"
-#include "rv/engine.hpp"
-#include "rv/error.hpp"
-#include "rv/seed_archive.hpp"
+#include "rv/edit/seed_archive.hpp"
+#include "rv/engine/engine.hpp"
+#include "rv/field/error.hpp"
+#include "rv/lines/deliverables.hpp"
 
 namespace {
 

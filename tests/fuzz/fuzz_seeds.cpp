@@ -14,11 +14,11 @@
 
 #include <cpl_vsi.h>
 
-#include "rv/engine.hpp"
-#include "rv/error.hpp"
+#include "rv/engine/engine.hpp"
+#include "rv/field/error.hpp"
+#include "rv/field/grid.hpp"
+#include "rv/field/text.hpp"
 #include "rv/gdal/seed_reader.hpp"
-#include "rv/grid.hpp"
-#include "rv/text.hpp"
 
 namespace {
 

@@ -17,12 +17,12 @@
 #include <cpl_vsi.h>
 #include <nlohmann/json.hpp>
 
-#include "rv/error.hpp"
+#include "daemon/server_api.hpp"
 #include "rv/error_map.hpp"
+#include "rv/field/error.hpp"
+#include "rv/field/text.hpp"
 #include "rv/gdal/seed_reader.hpp"
 #include "rv/json_text.hpp"
-#include "rv/text.hpp"
-#include "server_api.hpp"
 
 #ifndef RV_FUZZ_FORMAT
 #error "define RV_FUZZ_FORMAT (gpkg, zip, fgb, kml or geojson)"

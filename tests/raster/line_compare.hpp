@@ -4,7 +4,7 @@
 
 #include <gtest/gtest.h>
 
-#include "rv/deliverables.hpp"
+#include "rv/lines/deliverables.hpp"
 
 namespace rv::test {
 

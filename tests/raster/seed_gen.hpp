@@ -9,9 +9,9 @@
 #include <string>
 #include <vector>
 
-#include "rv/deliverables.hpp"
-#include "rv/engine.hpp"
-#include "rv/seeds.hpp"
+#include "rv/engine/engine.hpp"
+#include "rv/field/seeds.hpp"
+#include "rv/lines/deliverables.hpp"
 
 namespace rv::test {
 

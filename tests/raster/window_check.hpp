@@ -3,7 +3,7 @@
 
 #include <gtest/gtest.h>
 
-#include "rv/engine.hpp"
+#include "rv/engine/engine.hpp"
 
 namespace rv::test {
 

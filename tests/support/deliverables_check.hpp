@@ -7,7 +7,7 @@
 #include <cmath>
 #include <limits>
 
-#include "rv/deliverables.hpp"
+#include "rv/lines/deliverables.hpp"
 
 namespace rv::test {
 

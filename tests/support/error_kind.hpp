@@ -4,7 +4,7 @@
 
 #include <gtest/gtest.h>
 
-#include "rv/error.hpp"
+#include "rv/field/error.hpp"
 
 namespace rv::test {
 

@@ -11,10 +11,10 @@
 #include <string>
 
 #include "fixtures.hpp"
-#include "rv/error.hpp"
+#include "rv/field/error.hpp"
+#include "rv/field/grid.hpp"
+#include "rv/field/seeds.hpp"
 #include "rv/gdal/seed_reader.hpp"
-#include "rv/grid.hpp"
-#include "rv/seeds.hpp"
 
 namespace rv::test {
 

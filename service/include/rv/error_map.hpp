@@ -5,7 +5,7 @@
 
 #include <string_view>
 
-#include "rv/error.hpp"
+#include "rv/field/error.hpp"
 
 namespace rv {
 

@@ -17,10 +17,10 @@
 
 #include <nlohmann/json.hpp>
 
-#include "rv/engine.hpp"
+#include "rv/engine/engine.hpp"
 #include "rv/gdal/raster_io.hpp"
 #include "rv/gdal/seed_reader.hpp"
-#include "rv/partial_effect.hpp"
+#include "rv/lines/partial_effect.hpp"
 
 namespace rv {
 
@@ -41,7 +41,7 @@ struct OutputRequest {
   bool cloud_optimized = false;                 // write COGs (the daemon does)
   Compression compression = Compression::fast;  // every GeoTIFF of the job (rv/gdal/raster_io.hpp)
 
-  // Maritime deliverables (rv/deliverables.hpp). They are always computed from an exact field:
+  // Maritime deliverables (rv/lines/deliverables.hpp). They are always computed from an exact field:
   // with a scan method the job also runs the exact method for them.
   std::string boundaries;  // boundary lines between owners (.geojson/.json/.gpkg)
   std::string tripoints;   // points where three owners meet (.geojson/.json/.gpkg)
@@ -56,7 +56,7 @@ struct OutputRequest {
   // An edit's changes (JobSpec::base_report): Byte GeoTIFF, 1 where the owner changed, 2 where
   // only the distance did, 0 elsewhere.
   std::string changes;
-  // The directory where the run keeps its field for later edits (service/src/edit_base.hpp):
+  // The directory where the run keeps its field for later edits (service/src/job/edit_base.hpp):
   // streamed runs only; "" = the report's path with ".rvbase" when there is a report, else none.
   std::string edit_base;
   bool keep_for_edits = true;  // false: keep nothing (no later edit can name this run as its base)
@@ -109,7 +109,7 @@ struct JobSpec {
   // (clamped to the grid's height), < 0 = never stream (compute the whole field, then write;
   // for comparisons). Never changes a cell of the outputs.
   int64_t strip_rows = 0;
-  // An edit of a finished run: the report of that run (its kept base, see service/src/edit_base.hpp).
+  // An edit of a finished run: the report of that run (its kept base, see service/src/job/edit_base.hpp).
   // The job then reads the base's field instead of computing it, recomputes the cells the edited
   // seeds can change, and writes what a fresh run of this spec writes, file for file; its report
   // says what changed ("edit"). The base's grid, metric, method, distance units, max distance and
@@ -211,7 +211,7 @@ struct JobResult {
 // whole field, or strips streamed to the writers), validate, write the rasters, the deliverables,
 // the report; each stage reports progress, honours cancellation and records its time. On any
 // failure no output file of this job is left behind, and the error is an rv::Error (kinds as in
-// rv/error.hpp).
+// rv/field/error.hpp).
 JobResult run_job(const JobSpec& spec, const JobLimits& limits = {}, const JobHooks& hooks = {});
 
 // A job read and planned: everything decided before anything grid-sized is allocated. The first
@@ -230,7 +230,8 @@ struct PreparedJob {
   std::optional<LoadedSeeds> relevant_coasts;
   JobPlan plan;
   double read_seconds = 0.0;
-  PartialEffect partial;  // the seeds' partial effect (rv/partial_effect.hpp); partial.any(): computed by its rule
+  PartialEffect
+      partial;  // the seeds' partial effect (rv/lines/partial_effect.hpp); partial.any(): computed by its rule
   bool located() const { return compute.geolocator != nullptr; }  // geodesic on a projected grid
 };
 
@@ -248,7 +249,7 @@ JobResult run_prepared(const JobSpec& spec, const PreparedJob& job, const JobLim
 PreparedJob prepare_job(const JobSpec& spec, const JobLimits& limits = {}, const JobHooks& hooks = {});
 
 // How distances are measured and reported: the metric the request and CRS resolve to
-// (--metric auto|planar|geodesic, see rv/metric.hpp) and the factor from metric units (CRS units
+// (--metric auto|planar|geodesic, see rv/field/metric.hpp) and the factor from metric units (CRS units
 // for planar, metres for geodesic) to the requested output units (--distance-units m|km|nmi).
 // Geodesic on a projected CRS measures metres on that CRS's ellipsoid (cells located by
 // geolocate_grid below). Throws rv::Error(invalid_argument) for geodesic without any CRS (no

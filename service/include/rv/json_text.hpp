@@ -2,7 +2,7 @@
 // answers, logs and job store; the CLI's report and output) turns a document into text.
 //
 // nlohmann::json keeps std::string values as bytes and refuses, when dumping, any that is not
-// valid UTF-8 (type_error 316). Text from outside is escaped where it enters (rv/text.hpp); this
+// valid UTF-8 (type_error 316). Text from outside is escaped where it enters (rv/field/text.hpp); this
 // is the net behind that: a string still invalid here (a message assembled from a file name the
 // user typed, a record of an older job store) is written with the same rule, valid_utf8(),
 // instead of aborting the request, the worker or the process.
@@ -17,7 +17,7 @@
 namespace rv {
 
 // document.dump(indent); a string or object key that is not valid UTF-8 is written as
-// valid_utf8() of it (rv/text.hpp). Throws only std::bad_alloc.
+// valid_utf8() of it (rv/field/text.hpp). Throws only std::bad_alloc.
 std::string json_text(const nlohmann::json& document, int indent = -1);
 
 // A copy of `document` in which every string and object key is valid UTF-8 (valid_utf8()).

@@ -4,10 +4,10 @@
 // flag, or both; a type that says how its value is written and checked; a unit, a default, the
 // allowed values, a title and a help text; and the one function that puts a checked value into
 // a JobSpec. From this table come:
-//   - the CLI's parser and its --help (service/src/cli.cpp),
+//   - the CLI's parser and its --help (service/src/cli/cli.cpp),
 //   - the daemon's checking of execute inputs (service/src/daemon/server_execute.cpp),
 //   - the inputs of the process description (GET /processes/voronoi),
-// and tests/service/test_openapi.py fails when openapi.yaml's voronoiInputs disagree with it.
+// and tests/service/daemon/test_openapi.py fails when openapi.yaml's voronoiInputs disagree with it.
 // Front ends that come later (the Python module's keyword arguments, the web page's form) read
 // the same table.
 //

@@ -29,9 +29,9 @@
 #include <string>
 #include <vector>
 
-#include "rv/deliverables.hpp"
-#include "rv/outputs.hpp"
-#include "rv/raster.hpp"
+#include "rv/engine/outputs.hpp"
+#include "rv/field/raster.hpp"
+#include "rv/lines/deliverables.hpp"
 
 namespace rv {
 

@@ -58,7 +58,7 @@ struct ServeOptions {
 // message on stderr).
 int serve_main(const ServeOptions& options);
 // The same with another job runner. Only the crash-safety tests use it (their test-only daemon,
-// tests/service/crash_daemon.cpp, pauses jobs at chosen stages); `rvoronoi serve` never does.
+// tests/service/daemon/crash_daemon.cpp, pauses jobs at chosen stages); `rvoronoi serve` never does.
 int serve_main(const ServeOptions& options, JobRunner runner);
 
 }  // namespace rv

@@ -3,11 +3,11 @@
 
 #include <iostream>
 
+#include "runtime/server_util.hpp"
 #include "rv/error_map.hpp"
 #include "rv/gdal/seed_reader.hpp"
 #include "rv/job.hpp"
 #include "rv/server.hpp"
-#include "server_util.hpp"
 
 namespace rv {
 

@@ -19,14 +19,14 @@
 #include <memory>
 #include <thread>
 
-#include "rv/error.hpp"
+#include "daemon/server_api.hpp"
+#include "daemon/server_auth.hpp"
+#include "daemon/server_jobs.hpp"
+#include "runtime/server_connections.hpp"
+#include "runtime/server_util.hpp"
+#include "rv/field/error.hpp"
 #include "rv/json_text.hpp"
 #include "rv/store_jobs.hpp"
-#include "server_api.hpp"
-#include "server_auth.hpp"
-#include "server_connections.hpp"
-#include "server_jobs.hpp"
-#include "server_util.hpp"
 
 namespace rv {
 namespace {

@@ -1,4 +1,4 @@
-#include "server_api.hpp"
+#include "daemon/server_api.hpp"
 
 #include <fcntl.h>
 #include <sys/stat.h>
@@ -9,16 +9,16 @@
 #include <charconv>
 #include <filesystem>
 
-#include "../atomic_file.hpp"
-#include "rv/error.hpp"
+#include "../common/atomic_file.hpp"
+#include "daemon/server_seeds.hpp"
+#include "daemon/server_web.hpp"
+#include "runtime/server_util.hpp"
 #include "rv/error_map.hpp"
+#include "rv/field/error.hpp"
+#include "rv/field/text.hpp"
 #include "rv/json_text.hpp"
 #include "rv/options.hpp"
-#include "rv/text.hpp"
 #include "rv/version.hpp"
-#include "server_seeds.hpp"
-#include "server_util.hpp"
-#include "server_web.hpp"
 
 namespace rv::daemon {
 namespace {

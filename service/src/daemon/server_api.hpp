@@ -12,9 +12,9 @@
 #include <utility>
 #include <vector>
 
+#include "daemon/server_jobs.hpp"
 #include "rv/server_config.hpp"
 #include "rv/store_jobs.hpp"
-#include "server_jobs.hpp"
 
 namespace rv::daemon {
 

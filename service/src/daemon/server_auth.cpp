@@ -1,9 +1,9 @@
-#include "server_auth.hpp"
+#include "daemon/server_auth.hpp"
 
 #include <cctype>
 
-#include "server_util.hpp"
-#include "server_web.hpp"
+#include "daemon/server_web.hpp"
+#include "runtime/server_util.hpp"
 
 namespace rv::daemon {
 namespace {

@@ -14,8 +14,8 @@
 #include <string_view>
 #include <vector>
 
+#include "daemon/server_api.hpp"
 #include "rv/server_config.hpp"
-#include "server_api.hpp"
 
 namespace rv::daemon {
 

@@ -1,4 +1,4 @@
-#include "server_execute.hpp"
+#include "daemon/server_execute.hpp"
 
 #include <cpl_vsi.h>
 
@@ -9,12 +9,12 @@
 #include <set>
 #include <thread>
 
-#include "rv/error.hpp"
-#include "rv/grid.hpp"
+#include "runtime/server_util.hpp"
+#include "rv/field/error.hpp"
+#include "rv/field/grid.hpp"
+#include "rv/field/parallel.hpp"
+#include "rv/field/text.hpp"
 #include "rv/options.hpp"
-#include "rv/parallel.hpp"
-#include "rv/text.hpp"
-#include "server_util.hpp"
 
 namespace rv::daemon {
 namespace {

@@ -1,4 +1,4 @@
-#include "server_jobs.hpp"
+#include "daemon/server_jobs.hpp"
 
 #include <malloc.h>
 
@@ -6,10 +6,10 @@
 #include <fstream>
 #include <system_error>
 
-#include "rv/error.hpp"
+#include "runtime/server_util.hpp"
+#include "rv/field/error.hpp"
+#include "rv/field/text.hpp"
 #include "rv/json_text.hpp"
-#include "rv/text.hpp"
-#include "server_util.hpp"
 
 namespace rv::daemon {
 namespace {
@@ -212,7 +212,7 @@ void JobManager::worker_loop() {
     // The job's grid-sized buffers are free now, but glibc keeps freed heap memory in the arenas
     // (large blocks under its adaptive mmap threshold included) for reuse. A daemon idles most
     // of the time: hand the memory back when no job runs, so that its resident size returns near
-    // its start instead of staying at the last peak (tests/service/test_load.py checks it).
+    // its start instead of staying at the last peak (tests/service/daemon/test_load.py checks it).
     // After the answer above, which need not wait for it.
     if (idle) malloc_trim(0);
 #endif

@@ -21,11 +21,11 @@
 #include <thread>
 #include <vector>
 
-#include "rv/error.hpp"
+#include "daemon/server_execute.hpp"
+#include "runtime/server_capacity.hpp"
+#include "rv/field/error.hpp"
 #include "rv/server.hpp"
 #include "rv/store_jobs.hpp"
-#include "server_capacity.hpp"
-#include "server_execute.hpp"
 
 namespace rv::daemon {
 

@@ -1,14 +1,14 @@
-#include "server_seeds.hpp"
+#include "daemon/server_seeds.hpp"
 
 #include <algorithm>
 
-#include "rv/error.hpp"
+#include "daemon/server_execute.hpp"
+#include "runtime/server_util.hpp"
+#include "rv/field/error.hpp"
+#include "rv/field/text.hpp"
 #include "rv/job.hpp"
 #include "rv/options.hpp"
 #include "rv/seed_description.hpp"
-#include "rv/text.hpp"
-#include "server_execute.hpp"
-#include "server_util.hpp"
 
 namespace rv::daemon {
 

@@ -1,4 +1,4 @@
-#include "server_web.hpp"
+#include "daemon/server_web.hpp"
 
 #include <sys/stat.h>
 
@@ -7,7 +7,7 @@
 #include <fstream>
 #include <sstream>
 
-#include "server_util.hpp"
+#include "runtime/server_util.hpp"
 
 namespace rv::daemon {
 namespace {

@@ -24,7 +24,7 @@
 #include <string_view>
 #include <vector>
 
-#include "server_api.hpp"
+#include "daemon/server_api.hpp"
 
 namespace rv::daemon {
 

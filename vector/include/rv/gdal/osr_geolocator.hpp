@@ -1,4 +1,4 @@
-// An rv::Geolocator (rv/geolocate.hpp) backed by GDAL's OSR/PROJ: between a projected grid CRS
+// An rv::Geolocator (rv/field/geolocate.hpp) backed by GDAL's OSR/PROJ: between a projected grid CRS
 // and its geographic base CRS (the same datum's longitude/latitude, OSRCloneGeogCS), for the
 // geodesic metric on projected grids. GDAL types stay behind this header.
 //
@@ -26,8 +26,8 @@
 #include <thread>
 #include <unordered_map>
 
+#include "rv/field/geolocate.hpp"
 #include "rv/gdal/seed_reader.hpp"
-#include "rv/geolocate.hpp"
 
 namespace rv {
 

@@ -22,8 +22,8 @@
 #include <string_view>
 #include <vector>
 
-#include "rv/grid.hpp"
-#include "rv/raster.hpp"
+#include "rv/field/grid.hpp"
+#include "rv/field/raster.hpp"
 
 namespace rv {
 
@@ -151,7 +151,7 @@ class GeoTiffStripWriter {
   void take_tiles_from(const std::string& earlier, std::vector<uint64_t> checksums = {},
                        const std::string& display = "", std::vector<int32_t> remap = {});
   void write_band(const T* cells, const std::vector<bool>& copy);
-  // checksum64 (rv/checksum.hpp) of every full-resolution tile's bytes as stored, row-major over
+  // checksum64 (rv/field/checksum.hpp) of every full-resolution tile's bytes as stored, row-major over
   // the tiles (ceil(width / 256) across): of the tiles appended so far, 0 for those to come. Once
   // every row is written they are the file's (a COG keeps its full-resolution tiles' bytes).
   const std::vector<uint64_t>& tile_checksums() const;

@@ -30,7 +30,7 @@
 #include <string>
 #include <vector>
 
-#include "rv/seeds.hpp"
+#include "rv/field/seeds.hpp"
 
 namespace rv {
 
@@ -51,7 +51,7 @@ struct SeedReadOptions {
                                            // at least one (else not_found).
   std::optional<std::string> owner_field;  // must exist in every layer read; null values are errors.
                                            // Values are compared as text (GDAL's string form).
-  // The delimitation adjustments (rv/seeds.hpp, Feature): numeric attributes, each of which must
+  // The delimitation adjustments (rv/field/seeds.hpp, Feature): numeric attributes, each of which must
   // exist in every layer read. weight_field: the feature's weight (> 0, finite; a null value is
   // an error). reach_field: its reach, in the units the caller scales it from (SeedSet::
   // scale_reaches; > 0; null: no reach). effect_field: its partial effect (SeedSet::set_effect;
@@ -110,7 +110,7 @@ struct SeedReadOptions {
 //    in the data are thereby excluded. KML means GDAL's "KML" driver (it ignores NetworkLinks),
 //    not "LIBKML".
 //  - Network: for the whole call the calling thread refuses every HTTP fetch GDAL attempts, and
-//    /vsicurl/-style access goes nowhere (details: ConfinedScope in vector/src/gdal_util.hpp).
+//    /vsicurl/-style access goes nowhere (details: ConfinedScope in vector/src/common/gdal_util.hpp).
 //    GDAL 3.6's GeoJSON driver fetches the URL of a "crs" member of type "link" or "url"; such a
 //    fetch, once refused, makes the input invalid_input (it would otherwise silently get a
 //    default CRS).
@@ -120,7 +120,7 @@ struct SeedReadOptions {
 // confinement, in this order, each before the work it bounds:
 //  - before a driver opens a zip archive, its members are inflated once and counted (bytes), and
 //    the record headers of every Shapefile in it (or of a plain .shp) are read for the features
-//    and vertices they declare (vector/src/input_scan.hpp): a bomb is refused having used one
+//    and vertices they declare (vector/src/reading/input_scan.hpp): a bomb is refused having used one
 //    chunk of memory;
 //  - a layer that reports its feature count cheaply (GPKG, Shapefile, FlatGeobuf) is refused
 //    before its first feature is read;
@@ -219,7 +219,7 @@ struct LoadedSeeds {
 // its 1-based position in the input, counting every feature read including skipped empty ones),
 // normalises and checks the seeds. Feature::source is "<path as given>:<layer>:fid <fid>".
 // Text read from the data (owner values, layer and field names, GDAL's messages) is outside text:
-// it is escaped where it is read (escape_utf8, rv/text.hpp), so owner labels, sources, warnings
+// it is escaped where it is read (escape_utf8, rv/field/text.hpp), so owner labels, sources, warnings
 // and messages are valid UTF-8, and owners whose raw values differ stay distinct.
 //
 // Normalisation (reported in SeedReadReport): consecutive duplicate vertices / zero-length

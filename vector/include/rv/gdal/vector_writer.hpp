@@ -1,4 +1,4 @@
-// Writing the maritime deliverables (rv/deliverables.hpp) as vector files through GDAL/OGR, and
+// Writing the maritime deliverables (rv/lines/deliverables.hpp) as vector files through GDAL/OGR, and
 // polygonising the ownership raster into regions. GDAL types stay behind this header.
 //
 // Formats by extension: .geojson / .json -> GeoJSON (one layer), .gpkg -> GeoPackage. Anything
@@ -17,9 +17,9 @@
 #include <string>
 #include <vector>
 
-#include "rv/deliverables.hpp"
-#include "rv/raster.hpp"
-#include "rv/seeds.hpp"
+#include "rv/field/raster.hpp"
+#include "rv/field/seeds.hpp"
+#include "rv/lines/deliverables.hpp"
 
 namespace rv {
 

@@ -1,0 +1,237 @@
+// The stages of boundary extraction (extract_boundaries, rv/lines/deliverables.hpp), each a function
+// of its own over rows [row0, row1) of the field -- the shape streaming needs: a strip of the
+// field in, pieces of line out -- and a last stage that joins the pieces into lines:
+//
+//   find_crossings   every 4-neighbour pair of differently owned cells of rows [row0, row1)
+//                    (horizontal edges of those rows, vertical edges down from them), placed on
+//                    the equidistance locus; owners passing between two centres (slivers) add
+//                    their own crossings
+//   find_tripoints   the points equidistant from three owners in the dual squares whose top row
+//                    is in [row0, row1), each filed under the square it lies in
+//   link_squares     per dual square of those rows, its crossings joined to each other or to its
+//                    tripoints (nodes: crossings 0..n-1, then tripoints n + id)
+//   chain_lines      the links chained into lines per owner pair (ending at tripoints, the grid's
+//                    edge, or closed), simplified with Douglas-Peucker at `tol` CRS units, in a
+//                    deterministic order
+//   close_missing_tripoints  a tripoint a crowded square's search missed, found from its lines' ends
+//   end_at_owned_edge  line ends where the owned area ends (a max distance, reaches) carried to
+//                    the exact junction with its edge
+//
+// Internal to rv_raster (tests reach it by name). Thread safety: pure functions of their
+// arguments; find_crossings runs on b.threads threads, with a result independent of them.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <map>
+#include <set>
+#include <unordered_map>
+#include <utility>
+#include <vector>
+
+#include "lines/line_tools.hpp"
+#include "rv/lines/deliverables.hpp"
+
+namespace rv::boundary_stages {
+
+// A point of the equidistance locus between owners owner_lo < owner_hi on grid edge `edge`
+// (line_tools.hpp's edge ids).
+struct Crossing {
+  int64_t edge;
+  int32_t owner_lo, owner_hi;
+  BoundaryVertex v;
+};
+
+// Per row of the grid, the stage statistics (BoundaryStats) its pieces counted: crossings by
+// their edge's row, tripoint searches and links by their square's top row. What an edit needs
+// to take rows of an earlier run's pieces with their counts (rv::LinePieces).
+struct RowCounts {
+  enum Counter { crossings, sliver_crossings, unresolved_slivers, multi_owner_squares, saddles, kCounters };
+  std::vector<std::array<int64_t, kCounters>> rows;  // empty: not counted
+  void add(int64_t row, Counter k, int64_t n) {
+    if (!rows.empty()) rows[static_cast<size_t>(row)][k] += n;
+  }
+};
+
+// What every stage of one extraction reads: the field's rows (line_tools::FieldRows: a whole
+// field, or the rows of a streamed one the stages are at), the metric's index, the grid and the
+// tolerance, and each cell's owner.
+struct BoundaryGrid {
+  line_tools::FieldRows rows;
+  const OwnerIndex& index;
+  const GridSpec& g;
+  int64_t W, H;
+  int threads;
+  double ftol;
+  std::vector<int32_t> owner_of_site;
+  // Where the stages count their statistics per row as well (null: they do not).
+  RowCounts* counts = nullptr;
+
+  int32_t owner(int64_t c, int64_t r) const { return owner_code(rows.site(c, r)); }
+  int32_t owner_code(int32_t site) const { return site == kNoSite ? 0 : owner_of_site[static_cast<size_t>(site)]; }
+  // The owners of dual square (c, r)'s corners: (c,r), (c+1,r), (c+1,r+1), (c,r+1).
+  std::array<int32_t, 4> corner_owners(int64_t c, int64_t r) const {
+    return {owner(c, r), owner(c + 1, r), owner(c + 1, r + 1), owner(c, r + 1)};
+  }
+  static bool uniform(const std::array<int32_t, 4>& o) { return o[0] == o[1] && o[1] == o[2] && o[2] == o[3]; }
+};
+
+// Crossings of a range of rows, grouped by edge.
+struct CrossingSet {
+  std::vector<Crossing> crossings;
+  // Edge -> its crossings: consecutive in `crossings` (first index, count), in order along it.
+  std::unordered_map<int64_t, std::pair<int32_t, int32_t>> on_edge;
+  std::unordered_map<int64_t, int32_t> sliver_at;  // edge -> the (first) owner passing between
+};
+
+// Tripoints of a range of squares: by owner triple and by the square they lie in.
+struct TripointSet {
+  std::vector<Tripoint> tripoints;
+  std::map<std::array<int32_t, 3>, std::vector<int32_t>> by_owners;
+  std::unordered_map<int64_t, std::vector<int32_t>> in_square;  // square id -> tripoint ids
+  std::vector<int32_t> found_row;  // per tripoint: the top row of the square it was sought from
+};
+
+// Links between nodes, each once, with its owner pair's key. A node is a crossing (its index,
+// >= 0) or a tripoint (tripoint_node(id) < 0: the number of crossings is known only once the
+// last strip is in; chain_lines numbers the tripoints after them).
+struct Links {
+  std::vector<std::array<int32_t, 2>> links;
+  std::vector<int64_t> pair;                     // pair_key of each link's owners
+  std::vector<int32_t> row;                      // the top row of each link's square
+  std::set<std::pair<int32_t, int32_t>> linked;  // a crossing is seen from both its squares
+  void add(int32_t n1, int32_t n2, int64_t p, int32_t r) {
+    if (!linked.emplace(std::min(n1, n2), std::max(n1, n2)).second) return;
+    links.push_back({n1, n2});
+    pair.push_back(p);
+    row.push_back(r);
+  }
+};
+
+inline int32_t tripoint_node(int32_t id) { return -1 - id; }
+
+// A key for the unordered pair of owners {a, b}.
+inline int64_t pair_key(int32_t a, int32_t b) {
+  return (static_cast<int64_t>(std::min(a, b)) << 32) | static_cast<int64_t>(std::max(a, b));
+}
+
+// Appends the crossings of rows [row0, row1) (rows up to row1 read) to `x`.
+void find_crossings(const BoundaryGrid& b, int64_t row0, int64_t row1, CrossingSet& x, BoundaryStats& stats);
+// Appends the tripoints of the squares of rows [row0, row1) to `t` (a tripoint already in `t`
+// is not added again), and to `unplaced` the multi-owner squares where none converged. Reads
+// the crossings of rows up to row1.
+void find_tripoints(const BoundaryGrid& b, const CrossingSet& x, int64_t row0, int64_t row1, TripointSet& t,
+                    std::vector<std::array<int64_t, 2>>& unplaced, BoundaryStats& stats);
+// Files a tripoint found earlier (an edit taking it from its base's pieces) as the search filed
+// it there, under `found_row`: by owners and by square, without looking for a duplicate.
+void file_tripoint(const BoundaryGrid& b, TripointSet& t, const Tripoint& tp, int32_t found_row);
+// Once every square is searched: the unplaced squares that a line must end in and that hold no
+// tripoint (found from a neighbouring square) are counted as unresolved tripoints.
+void count_unresolved(const BoundaryGrid& b, const CrossingSet& x, const TripointSet& t,
+                      const std::vector<std::array<int64_t, 2>>& unplaced, BoundaryStats& stats);
+// The links of the squares of rows [row0, row1): reads the crossings of rows up to row1 and the
+// tripoints filed in squares of rows up to row1 (found from squares up to row1 + 1).
+Links link_squares(const BoundaryGrid& b, const CrossingSet& x, const TripointSet& t, int64_t row0, int64_t row1,
+                   BoundaryStats& stats);
+// The cost of `site` at p as `index` compares it (adjusted_distance), and its gradient per CRS
+// unit (line_refine.cpp).
+double site_cost(const OwnerIndex& index, Vec2 p, int32_t site, Vec2& gradient);
+// The point where sites s1, s2 and t cost the same (a locus's turning point), by Newton's method
+// on their gradients from `start`, within `max_move` (CRS units) of it, to `ftol` (metric units);
+// false when it does not converge there.
+bool equal_costs_point(const OwnerIndex& index, int32_t s1, int32_t s2, int32_t t, Vec2 start, double max_move,
+                       double ftol, Vec2& out);
+
+// Stage 5 (line_refine.cpp): the line between two consecutive vertices made exact to a
+// tolerance. Where the controlling site of a side changes between them, the locus turns: the
+// turning point (the three sites' costs equal, by Newton's method on their gradients) is added.
+// Where the stretch is curved (weighted pairs, a point and a segment, any pair on the
+// ellipsoid), the chord's sagitta is estimated from the locus normals at its ends, and while it
+// exceeds `tol` the locus point across the chord's middle is added. Every added vertex is a
+// locus point checked against the index (each owner's nearest, no third owner nearer) with its
+// controlling sites; one that fails the check is not added. Recursion depth is bounded.
+// Thread safety: refine() is const and may run on many lines at once.
+class LineRefiner {
+ public:
+  // `tol`, `ftol`: metric units; `per_crs`: metric units per CRS unit (one cell's over res).
+  LineRefiner(const OwnerIndex& index, double tol, double ftol, double per_crs)
+      : index_(index), tol_(tol), ftol_(ftol), per_crs_(per_crs) {}
+  struct Added {
+    int64_t turning_points = 0, arc_points = 0;
+  };
+  // Refines one line's vertices (in order; a closed line's last vertex repeats its first).
+  Added refine(int32_t owner_a, int32_t owner_b, std::vector<BoundaryVertex>& vertices) const;
+
+ private:
+  struct End;
+  void between(const End& u, const End& v, int depth, int32_t a, int32_t b, std::vector<End>& out, Added& n) const;
+  bool turning_point(const End& u, const End& v, int32_t a, int32_t b, double max_off, End& out) const;
+  bool across_middle(const End& u, const End& v, int32_t a, int32_t b, double max_off, End& out) const;
+  bool checked(Vec2 p, int32_t a, int32_t b, const End& u, const End& v, double max_off, End& out) const;
+  // The chord's perpendicular through its middle, max_off either side; whether p lies between
+  // the ends along the chord and within max_off of it.
+  static std::array<Vec2, 2> perpendicular(const End& u, const End& v, double max_off);
+  static bool within_chord(Vec2 p, const End& u, const End& v, double max_off);
+  // Arcs (BoundaryVertex::arc: where a reach ends the line is the arc d_s = reach_s): the arc
+  // point across a chord of one arc, where the curves of two ends meet (an arc and the locus, or
+  // two arcs), and the check of such a point (on the arc, its owner winning inside, the other
+  // owner beyond, no third owner between).
+  static int32_t arc_site(const End& e);
+  double arc_value(Vec2 p, int32_t site, Vec2& gradient) const;  // d - reach
+  double curve_value(const End& e, Vec2 p, Vec2& gradient) const;
+  bool across_arc(const End& u, const End& v, int32_t a, int32_t b, double max_off, End& out) const;
+  bool arc_junction(const End& u, const End& v, int32_t a, int32_t b, double max_off, End& out) const;
+  bool checked_arc(Vec2 p, int8_t arc, int32_t site, int32_t a, int32_t b, const End& u, const End& v, double max_off,
+                   End& out) const;
+  double cost(Vec2 p, int32_t site, Vec2& gradient) const;
+  void set_normal(End& e) const;
+  // The locus normal at `e` of the stretch towards `other` (the sites the two share).
+  Vec2 normal_towards(const End& e, const End& other) const;
+  const OwnerIndex& index_;
+  double tol_, ftol_, per_crs_;
+};
+
+// The links chained into lines per owner pair, each refined (`refiner`, when given; on
+// `threads` threads, one line at a time each) and simplified with Douglas-Peucker at `tol` CRS
+// units, in a deterministic order.
+std::vector<BoundaryLine> chain_lines(const CrossingSet& x, const TripointSet& t, const Links& links, double tol,
+                                      BoundaryStats& stats, const LineRefiner* refiner = nullptr, int threads = 1);
+// The crossings no link reaches, as one-vertex lines in crossing order (BoundaryResult::
+// lone_crossings).
+std::vector<BoundaryLine> lone_crossings(const CrossingSet& x, const Links& links);
+// The owner pairs of each tripoint with no line of theirs ending at it (closed lines aside), in
+// tripoint order: tripoint index and the indices i < k into its owners.
+struct TripointGap {
+  size_t tripoint;
+  int i, k;
+};
+std::vector<TripointGap> tripoint_gaps(const std::vector<Tripoint>& tripoints, const std::vector<BoundaryLine>& lines);
+// Two tripoints of one owner triple less than a cell apart share the line of one of its owner
+// pairs, which crosses no segment between cell centres and so has no crossing to be chained
+// from: each such pair of tripoints, both without a line of that owner pair, gets the line
+// between them (two vertices) appended to `lines`. `cell`: the grid's cell size (CRS units).
+void join_close_tripoints(const std::vector<Tripoint>& tripoints, double cell, std::vector<BoundaryLine>& lines);
+// Where more owners meet in a dual square than its tripoint search resolved, a tripoint of
+// owners a, b, x can be missing: its three lines then show as a line of a and b ending in the
+// open and two of (a, x), (b, x) -- each a line ending in the open or a tripoint lacking that
+// pair's line -- all within two cells of each other. The tripoint is solved (Newton's method on
+// the three owners' nearest sites from the open end, accepted where no other owner is nearer
+// and within two cells), appended to `tripoints`, the open ends carried to it and each lacking
+// tripoint joined to it by a line of two vertices. Counts them in stats.missing_tripoints_found.
+// A tripoint beyond the field's `max_distance` (or, with an adjusted index, beyond a reach: the
+// index finds no site there) is not added: there the lines end on the owned area's edge.
+void close_missing_tripoints(const BoundaryGrid& b, double max_distance, std::vector<Tripoint>& tripoints,
+                             std::vector<BoundaryLine>& lines, BoundaryStats& stats);
+// Lines that stop where the reaches of an adjusted index (OwnerIndex::deepest, its cap, the
+// field's max distance, included) end the owned area; with a plain index nothing moves.
+// Extraction leaves such an end at the last crossing of two owners' cells, up to a cell short of
+// the edge (or, where unowned sea thinner than a cell pokes between the two cells, on a stretch
+// that is not the boundary at all). Each open end off the frame of the outermost centres and not
+// at a tripoint inside the owned area gets its vertices beyond either owner's reach dropped and
+// the junction appended: the point near it where both owners are just at their reach (Newton;
+// within two cells), as a vertex with that stretch's arc flag. Where no junction is found the
+// line is left as it was. Counts the ends moved in stats.ends_on_owned_edge.
+void end_at_owned_edge(const BoundaryGrid& b, double max_distance, const std::vector<Tripoint>& tripoints,
+                       std::vector<BoundaryLine>& lines, BoundaryStats& stats);
+
+}  // namespace rv::boundary_stages

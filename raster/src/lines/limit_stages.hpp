@@ -1,0 +1,99 @@
+// The stages of distance-limit lines (extract_limits, rv/lines/deliverables.hpp), each a function of
+// its own over rows [row0, row1) of the field -- the shape streaming needs -- and a last stage
+// that joins the pieces into lines:
+//
+//   inside_flags       per cell of the rows, whether it lies within distance D of the target
+//                      (all seeds, or one owner's), decided exactly near the line
+//   limit_crossings    every edge between an inside and an outside cell of the rows (horizontal
+//                      edges of those rows, vertical edges down from them: row1's flags must be
+//                      there too), its vertex placed at distance D
+//   limit_links        per dual square whose top row is in the rows, its crossings joined (a
+//                      saddle's four by the side of its centre)
+//   chain_limit_lines  the links chained into lines (closed rings, or ending at the grid's
+//                      edge), simplified with Douglas-Peucker at `tol` CRS units
+//
+// Internal to rv_raster (tests reach it by name). Thread safety: pure functions of their
+// arguments but for the outputs named; inside_flags and limit_crossings run on the grid's
+// threads, with results independent of them.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <unordered_map>
+#include <vector>
+
+#include "lines/line_tools.hpp"
+#include "rv/lines/deliverables.hpp"
+
+namespace rv::limit_stages {
+
+// What every stage of one extraction reads (rows: line_tools::FieldRows, a whole field or the
+// rows of a streamed one the stages are at).
+struct LimitGrid {
+  line_tools::FieldRows rows;
+  const OwnerIndex& index;
+  const SiteMetric& metric;
+  const GridSpec& g;
+  int64_t W, H;
+  int threads;
+  double cell;  // one cell in metric units
+  double ftol;
+  std::vector<int32_t> owner_of_site;
+  // Whether a cell's field distance is the nearest distance of its owner's seeds (not with
+  // weights: the field's site is the nearest by adjusted distance, the limits measure true ones,
+  // `index` is plain). Otherwise it only bounds that distance from above.
+  bool field_is_nearest = true;
+  // The index whose reaches end the owned area (Target owner kOwnedEdge); null without.
+  const OwnerIndex* reaches = nullptr;
+};
+
+// The distance whose level D is drawn: to any seed (owner 0), or to one owner's; or (owner
+// kOwnedEdge, D 0) how deep within its reach the deepest site is, d - reach, as the hit's
+// `distance`.
+struct Target {
+  const LimitGrid& grid;
+  int32_t owner;
+  double D;
+  OwnerIndex::Hit at(Vec2 p) const {
+    if (owner == kOwnedEdge) {
+      const OwnerIndex::Hit h = grid.reaches->deepest(p);
+      return OwnerIndex::Hit{h.site, h.cost, h.cost};
+    }
+    return owner == 0 ? grid.index.nearest(p) : grid.index.nearest_of(p, owner);
+  }
+};
+
+// The crossings of a range of rows: their edges, vertices, and each edge's index.
+struct LimitCrossings {
+  std::vector<int64_t> edges;
+  std::vector<LimitVertex> verts;           // per edge
+  std::unordered_map<int64_t, int32_t> at;  // edge -> index
+};
+
+// The inside flags of rows [row0, row1()), row-major over the grid's width: 1 inside.
+struct InsideRows {
+  int64_t width = 0;
+  int64_t row0 = 0;
+  std::vector<uint8_t> flags;
+  int64_t row1() const { return width == 0 ? row0 : row0 + static_cast<int64_t>(flags.size()) / width; }
+  bool at(int64_t c, int64_t r) const { return flags[static_cast<size_t>((r - row0) * width + c)] != 0; }
+  const uint8_t* row(int64_t r) const { return flags.data() + (r - row0) * width; }
+  // Forgets the rows before r.
+  void drop_before(int64_t r);
+};
+
+// Appends the flags of rows [row0, row1) to `inside`, which must end at row0 (or be empty: it
+// then starts there).
+void inside_flags(const Target& t, int64_t row0, int64_t row1, InsideRows& inside);
+// The crossings of rows [row0, row1); reads the flags of rows up to row1.
+LimitCrossings limit_crossings(const Target& t, const InsideRows& inside, int64_t row0, int64_t row1);
+// Appends the crossings of `part` (the rows after those of `x`) to `x`.
+void append(LimitCrossings& x, LimitCrossings&& part);
+// The links of the squares of rows [row0, row1); reads flags and crossings of rows up to row1.
+std::vector<std::array<int32_t, 2>> limit_links(const Target& t, const InsideRows& inside, const LimitCrossings& x,
+                                                int64_t row0, int64_t row1);
+// Appends the lines to result.lines (and its vertex count and largest residual).
+void chain_limit_lines(const Target& t, const LimitCrossings& x, const std::vector<std::array<int32_t, 2>>& links,
+                       double tol, LimitResult& result);
+
+}  // namespace rv::limit_stages

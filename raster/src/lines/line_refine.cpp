@@ -1,0 +1,350 @@
+// Stage 5 of boundary lines (boundary_stages.hpp, LineRefiner): the chords between the vertices
+// found on cell edges made to follow the locus -- its turning points added exactly, its curved
+// stretches to a tolerance.
+//
+// Why. Each vertex on a cell edge is an exact locus point, but the line between two of them is a
+// straight chord, and the locus is not: it turns where a controlling site changes (a chord then
+// cuts the corner, by up to a quarter of its length times the sine of the turn) and curves where
+// its two sites are not two points of equal weight (a parabola of a point and a segment, the
+// circle of two weighted points, a geodesic bisector in longitude/latitude). Regions, areas and
+// treaty points are drawn from these chords.
+//
+// How. A side's site set changes between the ends: the turning point solves the three sites'
+// costs equal (Newton's method on their gradients, from the chord's middle). The sets agree: the
+// chord's sagitta is estimated from the angle between the locus normals at its ends, as on a
+// circular arc (0.5 c tan(angle / 4)), and above the tolerance the locus point across the
+// chord's middle is found along its perpendicular. Added points are checked as the crossings are
+// (each owner's nearest at the point, no third owner nearer), carry their sites (and a second
+// site of a side that ties there, so a vertex shared by two edges does not read as a change),
+// and the two halves are refined in turn, to a bounded depth.
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <limits>
+#include <vector>
+
+#include "lines/boundary_stages.hpp"
+#include "lines/line_tools.hpp"
+
+namespace rv::boundary_stages {
+
+using namespace line_tools;
+
+namespace {
+
+constexpr int kMaxDepth = 8;
+constexpr int kNewtonIterations = 12;
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+// Whether two ends' sites of one side (each a site and maybe a second tied with it) overlap.
+bool shares(int32_t s1, int32_t alt1, int32_t s2, int32_t alt2) {
+  return s1 == s2 || (alt1 != kNoSite && (alt1 == s2 || alt1 == alt2)) || (alt2 != kNoSite && s1 == alt2);
+}
+
+}  // namespace
+
+struct LineRefiner::End {
+  BoundaryVertex v;
+  int32_t alt_a = kNoSite, alt_b = kNoSite;  // a second site tied with site_a / site_b at v.p
+  Vec2 normal{kNaN, kNaN};                   // gradient of cost_a - cost_b at v.p, per CRS unit
+};
+
+double site_cost(const OwnerIndex& index, Vec2 p, int32_t site, Vec2& gradient) {
+  const double d = index.metric().distance_and_gradient(p, site, gradient);
+  const double w = index.weight_of(site);
+  if (w != 1.0) gradient = Vec2{gradient.x / w, gradient.y / w};
+  return index.cost_of(site, d);
+}
+
+bool equal_costs_point(const OwnerIndex& index, int32_t s1, int32_t s2, int32_t t, Vec2 start, double max_move,
+                       double ftol, Vec2& out) {
+  Vec2 p = start;
+  for (int iter = 0; iter < kNewtonIterations; ++iter) {
+    Vec2 g1, g2, gt;
+    const double c1 = site_cost(index, p, s1, g1), c2 = site_cost(index, p, s2, g2), ct = site_cost(index, p, t, gt);
+    const double f0 = c1 - ct, f1 = c2 - ct;
+    if (!std::isfinite(f0) || !std::isfinite(f1)) return false;
+    if (std::max(std::abs(f0), std::abs(f1)) <= ftol) {
+      out = p;
+      return true;
+    }
+    const double j00 = g1.x - gt.x, j01 = g1.y - gt.y, j10 = g2.x - gt.x, j11 = g2.y - gt.y;
+    const double det = j00 * j11 - j01 * j10;
+    if (!(std::abs(det) > 0.0) || !std::isfinite(det)) return false;
+    const double dx = (f0 * j11 - f1 * j01) / det, dy = (j00 * f1 - j10 * f0) / det;
+    p = Vec2{p.x - dx, p.y - dy};
+    if (!(std::hypot(p.x - start.x, p.y - start.y) <= max_move)) return false;
+  }
+  return false;
+}
+
+double LineRefiner::cost(Vec2 p, int32_t site, Vec2& gradient) const { return site_cost(index_, p, site, gradient); }
+
+int32_t LineRefiner::arc_site(const End& e) { return e.v.arc == 1 ? e.v.site_a : e.v.arc == 2 ? e.v.site_b : kNoSite; }
+
+double LineRefiner::arc_value(Vec2 p, int32_t site, Vec2& gradient) const {
+  return index_.metric().distance_and_gradient(p, site, gradient) - index_.reach_of(site);
+}
+
+void LineRefiner::set_normal(End& e) const {
+  if (e.v.site_a == kNoSite || e.v.site_b == kNoSite) return;
+  if (e.v.arc != 0) {
+    arc_value(e.v.p, arc_site(e), e.normal);
+    return;
+  }
+  Vec2 ga, gb;
+  cost(e.v.p, e.v.site_a, ga);
+  cost(e.v.p, e.v.site_b, gb);
+  e.normal = Vec2{ga.x - gb.x, ga.y - gb.y};
+}
+
+Vec2 LineRefiner::normal_towards(const End& e, const End& other) const {
+  if (e.v.arc != 0) return e.normal;
+  // A turning point has two sites on a side: the stretch towards `other` is the one of the site
+  // it shares with it.
+  auto side = [](int32_t s, int32_t alt, int32_t o, int32_t o_alt) {
+    return alt != kNoSite && s != o && s != o_alt && (alt == o || alt == o_alt) ? alt : s;
+  };
+  const int32_t sa = side(e.v.site_a, e.alt_a, other.v.site_a, other.alt_a);
+  const int32_t sb = side(e.v.site_b, e.alt_b, other.v.site_b, other.alt_b);
+  if (sa == e.v.site_a && sb == e.v.site_b) return e.normal;
+  Vec2 ga, gb;
+  cost(e.v.p, sa, ga);
+  cost(e.v.p, sb, gb);
+  return Vec2{ga.x - gb.x, ga.y - gb.y};
+}
+
+LineRefiner::Added LineRefiner::refine(int32_t a, int32_t b, std::vector<BoundaryVertex>& vertices) const {
+  Added n;
+  if (vertices.size() < 2) return n;
+  std::vector<End> ends(vertices.size());
+  for (size_t i = 0; i < vertices.size(); ++i) {
+    ends[i].v = vertices[i];
+    set_normal(ends[i]);
+  }
+  std::vector<End> out;
+  out.reserve(vertices.size());
+  out.push_back(ends[0]);
+  for (size_t i = 1; i < ends.size(); ++i) {
+    between(ends[i - 1], ends[i], 0, a, b, out, n);
+    out.push_back(ends[i]);
+  }
+  if (out.size() != vertices.size()) {
+    vertices.clear();
+    for (const End& e : out) vertices.push_back(e.v);
+  }
+  return n;
+}
+
+void LineRefiner::between(const End& u, const End& v, int depth, int32_t a, int32_t b, std::vector<End>& out,
+                          Added& n) const {
+  if (depth >= kMaxDepth) return;
+  const double chord = std::hypot(v.v.p.x - u.v.p.x, v.v.p.y - u.v.p.y);
+  if (!(chord > 0.0)) return;
+  // An arc's stretch (a reach ends: Feature::reach) is the same curve only as the same site's.
+  const bool arcs = u.v.arc != 0 || v.v.arc != 0;
+  const bool same =
+      arcs ? u.v.arc == v.v.arc && arc_site(u) == arc_site(v)
+           : shares(u.v.site_a, u.alt_a, v.v.site_a, v.alt_a) && shares(u.v.site_b, u.alt_b, v.v.site_b, v.alt_b);
+  // How far the locus can stray from the chord, from the turn of its normal between the ends: a
+  // circular arc (the same sites) strays 0.5 c tan(angle / 4), a corner (another site takes
+  // over) at most 0.5 c tan(angle / 2). Within the tolerance (or no normal known) the chord
+  // stays: a change of site that does not turn the locus (collinear edges) adds nothing.
+  const Vec2 nu = normal_towards(u, v), nv = normal_towards(v, u);
+  const double angle = std::atan2(std::abs(nu.x * nv.y - nu.y * nv.x), nu.x * nv.x + nu.y * nv.y);
+  const double stray = angle >= 3.0 ? chord : 0.5 * chord * std::tan((same ? 0.25 : 0.5) * angle);
+  if (!(stray * per_crs_ > tol_)) return;
+  End mid;
+  bool turning = false, found = false;
+  // The locus this chord stands for lies within about `stray` of it; a locus point much farther
+  // away belongs to another stretch (the locus can cross the chord's perpendicular again).
+  const double max_off = 2.0 * stray + 1e-9 * chord;
+  // Where a site changes and no turning point of three sites checks out (more sites change
+  // within the chord), the chord stays: a root across its middle could be another stretch's.
+  if (arcs && same)
+    found = across_arc(u, v, a, b, max_off, mid);
+  else if (arcs)
+    found = turning = arc_junction(u, v, a, b, max_off, mid);
+  else if (same)
+    found = across_middle(u, v, a, b, max_off, mid);
+  else
+    found = turning = turning_point(u, v, a, b, max_off, mid);
+  if (!found) return;
+  ++(turning ? n.turning_points : n.arc_points);
+  between(u, mid, depth + 1, a, b, out, n);
+  out.push_back(mid);
+  between(mid, v, depth + 1, a, b, out, n);
+}
+
+bool LineRefiner::turning_point(const End& u, const End& v, int32_t a, int32_t b, double max_off, End& out) const {
+  // The systems that can hold the change: the changing side's two sites against the other
+  // side's site at either end.
+  struct System {
+    int32_t s1, s2, t;
+  };
+  std::vector<System> systems;
+  if (!shares(u.v.site_a, u.alt_a, v.v.site_a, v.alt_a)) {
+    systems.push_back({u.v.site_a, v.v.site_a, u.v.site_b});
+    if (v.v.site_b != u.v.site_b) systems.push_back({u.v.site_a, v.v.site_a, v.v.site_b});
+  }
+  if (!shares(u.v.site_b, u.alt_b, v.v.site_b, v.alt_b)) {
+    systems.push_back({u.v.site_b, v.v.site_b, u.v.site_a});
+    if (v.v.site_a != u.v.site_a) systems.push_back({u.v.site_b, v.v.site_b, v.v.site_a});
+  }
+  const Vec2 mid = lerp(u.v.p, v.v.p, 0.5);
+  const double chord = std::hypot(v.v.p.x - u.v.p.x, v.v.p.y - u.v.p.y);
+  for (const System& sys : systems) {
+    if (sys.s1 == kNoSite || sys.s2 == kNoSite || sys.t == kNoSite) continue;
+    Vec2 p;
+    if (equal_costs_point(index_, sys.s1, sys.s2, sys.t, mid, chord, ftol_, p) && checked(p, a, b, u, v, max_off, out))
+      return true;
+  }
+  return false;
+}
+
+bool LineRefiner::across_middle(const End& u, const End& v, int32_t a, int32_t b, double max_off, End& out) const {
+  const Vec2 mid = lerp(u.v.p, v.v.p, 0.5);
+  const std::array<Vec2, 2> ends = perpendicular(u, v, max_off);
+  const Vec2 p0 = ends[0], p1 = ends[1];  // (named, not bound: lambdas capture them)
+  const double reach = edge_reach(index_.metric(), mid, p0, p1);
+  std::vector<int32_t> ca, cb;
+  index_.candidates_of(mid, reach, a, u.v.site_a, ca);
+  index_.candidates_of(mid, reach, b, u.v.site_b, cb);
+  Vec2 ga, gb;
+  auto f = [&](double t) {
+    const Vec2 p = lerp(p0, p1, t);
+    return index_.nearest_among(p, ca, &ga).cost - index_.nearest_among(p, cb, &gb).cost;
+  };
+  auto with_slope = [&](double t) {
+    const double value = f(t);
+    return std::pair{value, (ga.x - gb.x) * (p1.x - p0.x) + (ga.y - gb.y) * (p1.y - p0.y)};
+  };
+  const double f0 = f(0.0), f1 = f(1.0);
+  if (!std::isfinite(f0) || !std::isfinite(f1) || (f0 < 0.0) == (f1 < 0.0)) return false;
+  const double t = newton_then_bracket(f, with_slope, 0.5, 0.0, 1.0, f0 < 0.0, ftol_);
+  return checked(lerp(p0, p1, t), a, b, u, v, max_off, out);
+}
+
+std::array<Vec2, 2> LineRefiner::perpendicular(const End& u, const End& v, double max_off) {
+  // The perpendicular through the chord's middle, as far as the locus can be (max_off) on either
+  // side.
+  const Vec2 mid = lerp(u.v.p, v.v.p, 0.5);
+  const double chord = std::hypot(v.v.p.x - u.v.p.x, v.v.p.y - u.v.p.y);
+  const double k = std::min(max_off, chord) / chord;
+  const Vec2 across{-(v.v.p.y - u.v.p.y) * k, (v.v.p.x - u.v.p.x) * k};
+  return {Vec2{mid.x - across.x, mid.y - across.y}, Vec2{mid.x + across.x, mid.y + across.y}};
+}
+
+bool LineRefiner::within_chord(Vec2 p, const End& u, const End& v, double max_off) {
+  // Between the two ends along the chord, so the line keeps its order.
+  const double dx = v.v.p.x - u.v.p.x, dy = v.v.p.y - u.v.p.y;
+  const double along = ((p.x - u.v.p.x) * dx + (p.y - u.v.p.y) * dy) / (dx * dx + dy * dy);
+  // (Not at an end either: a turning point solved onto a tripoint or a crossing adds nothing.)
+  if (!(along > 1e-4 && along < 1.0 - 1e-4)) return false;
+  // And near the chord (max_off: see between()).
+  const double off = std::abs((p.x - u.v.p.x) * dy - (p.y - u.v.p.y) * dx) / std::hypot(dx, dy);
+  return off <= max_off;
+}
+
+bool LineRefiner::checked(Vec2 p, int32_t a, int32_t b, const End& u, const End& v, double max_off, End& out) const {
+  if (!within_chord(p, u, v, max_off)) return false;
+  const OwnerIndex::Hit ha = index_.nearest_of(p, a, u.v.site_a), hb = index_.nearest_of(p, b, u.v.site_b);
+  if (ha.site == kNoSite || hb.site == kNoSite) return false;
+  const double residual = std::abs(ha.cost - hb.cost);
+  if (!(residual <= 4.0 * ftol_)) return false;
+  const OwnerIndex::Hit third = index_.nearest_third(p, a, b, hb.cost);
+  if (third.site != kNoSite && third.cost < 0.5 * (ha.cost + hb.cost) - 4.0 * ftol_ - residual) return false;
+  out = End{};
+  out.v = BoundaryVertex{p, ha.site, hb.site, 0.5 * (ha.distance + hb.distance), residual, ha.distance, hb.distance};
+  // A second site of a side tied with the first here (a turning point's, or the two edges at a
+  // coast's vertex), so that the stretches on both sides read as the same sites.
+  auto tie = [&](const OwnerIndex::Hit& h, std::array<int32_t, 4> sites) {
+    for (const int32_t s : sites) {
+      if (s == kNoSite || s == h.site) continue;
+      Vec2 g;
+      if (std::abs(cost(p, s, g) - h.cost) <= 4.0 * ftol_) return s;
+    }
+    return kNoSite;
+  };
+  out.alt_a = tie(ha, {u.v.site_a, u.alt_a, v.v.site_a, v.alt_a});
+  out.alt_b = tie(hb, {u.v.site_b, u.alt_b, v.v.site_b, v.alt_b});
+  set_normal(out);
+  return true;
+}
+
+bool LineRefiner::across_arc(const End& u, const End& v, int32_t a, int32_t b, double max_off, End& out) const {
+  const std::array<Vec2, 2> ends = perpendicular(u, v, max_off);
+  const Vec2 p0 = ends[0], p1 = ends[1];  // (named, not bound: lambdas capture them)
+  const int32_t s = arc_site(u);
+  Vec2 g;
+  auto f = [&](double t) { return arc_value(lerp(p0, p1, t), s, g); };
+  auto with_slope = [&](double t) {
+    const double value = f(t);
+    return std::pair{value, g.x * (p1.x - p0.x) + g.y * (p1.y - p0.y)};
+  };
+  const double f0 = f(0.0), f1 = f(1.0);
+  if (!std::isfinite(f0) || !std::isfinite(f1) || (f0 < 0.0) == (f1 < 0.0)) return false;
+  const double t = newton_then_bracket(f, with_slope, 0.5, 0.0, 1.0, f0 < 0.0, ftol_);
+  return checked_arc(lerp(p0, p1, t), u.v.arc, s, a, b, u, v, max_off, out);
+}
+
+double LineRefiner::curve_value(const End& e, Vec2 p, Vec2& gradient) const {
+  if (e.v.arc != 0) return arc_value(p, arc_site(e), gradient);
+  // The locus d_a / w_a = d_b / w_b, also a little beyond a reach (where the costs are infinite):
+  // the junction with an arc lies on that reach.
+  const SiteMetric& m = index_.metric();
+  Vec2 ga, gb;
+  const double wa = index_.weight_of(e.v.site_a), wb = index_.weight_of(e.v.site_b);
+  const double value =
+      m.distance_and_gradient(p, e.v.site_a, ga) / wa - m.distance_and_gradient(p, e.v.site_b, gb) / wb;
+  gradient = Vec2{ga.x / wa - gb.x / wb, ga.y / wa - gb.y / wb};
+  return value;
+}
+
+bool LineRefiner::arc_junction(const End& u, const End& v, int32_t a, int32_t b, double max_off, End& out) const {
+  // Where the curves of the two ends meet (the locus and an arc, or two arcs): Newton's method on
+  // both from the chord's middle.
+  const Vec2 mid = lerp(u.v.p, v.v.p, 0.5);
+  const double chord = std::hypot(v.v.p.x - u.v.p.x, v.v.p.y - u.v.p.y);
+  Vec2 p = mid;
+  for (int iter = 0; iter < kNewtonIterations; ++iter) {
+    Vec2 gu, gv;
+    const double fu = curve_value(u, p, gu), fv = curve_value(v, p, gv);
+    if (!std::isfinite(fu) || !std::isfinite(fv)) return false;
+    if (std::max(std::abs(fu), std::abs(fv)) <= ftol_) {
+      const End& arc = u.v.arc != 0 ? u : v;
+      return checked_arc(p, arc.v.arc, arc_site(arc), a, b, u, v, max_off, out);
+    }
+    const double det = gu.x * gv.y - gu.y * gv.x;
+    if (!(std::abs(det) > 0.0) || !std::isfinite(det)) return false;
+    p = Vec2{p.x - (fu * gv.y - fv * gu.y) / det, p.y - (gu.x * fv - gv.x * fu) / det};
+    if (!(std::hypot(p.x - mid.x, p.y - mid.y) <= chord)) return false;
+  }
+  return false;
+}
+
+bool LineRefiner::checked_arc(Vec2 p, int8_t arc, int32_t site, int32_t a, int32_t b, const End& u, const End& v,
+                              double max_off, End& out) const {
+  if (!within_chord(p, u, v, max_off)) return false;
+  Vec2 g;
+  const double ds = index_.metric().distance_and_gradient(p, site, g);
+  const double residual = std::abs(ds - index_.reach_of(site));
+  if (!(residual <= 4.0 * ftol_)) return false;
+  // The arc's owner wins inside it, the other owner beyond, and no third owner comes between.
+  const int32_t other_owner = arc == 1 ? b : a;
+  const OwnerIndex::Hit other = index_.nearest_of(p, other_owner, arc == 1 ? u.v.site_b : u.v.site_a);
+  if (other.site == kNoSite) return false;
+  const double c_s = ds / index_.weight_of(site);
+  if (!(c_s <= other.cost + 4.0 * ftol_)) return false;
+  const double between = std::max(c_s, other.cost);
+  const OwnerIndex::Hit third = index_.nearest_third(p, a, b, between);
+  if (third.site != kNoSite && third.cost < between - 4.0 * ftol_ - residual) return false;
+  out = End{};
+  out.v = BoundaryVertex{
+      p,        arc == 1 ? site : other.site,   arc == 1 ? other.site : site,   0.5 * (ds + other.distance),
+      residual, arc == 1 ? ds : other.distance, arc == 1 ? other.distance : ds, arc};
+  set_normal(out);
+  return true;
+}
+
+}  // namespace rv::boundary_stages

@@ -1,0 +1,168 @@
+#include "lines/line_tools.hpp"
+
+#include <algorithm>
+#include <limits>
+#include <numeric>
+#include <string>
+
+#include "rv/field/error.hpp"
+
+namespace rv::line_tools {
+
+Chains chain_links(int32_t node_count, const std::vector<std::array<int32_t, 2>>& links,
+                   const std::vector<bool>& always_terminal) {
+  std::vector<int32_t> degree(static_cast<size_t>(node_count) + 1, 0);
+  for (const auto& l : links) {
+    ++degree[static_cast<size_t>(l[0]) + 1];
+    ++degree[static_cast<size_t>(l[1]) + 1];
+  }
+  std::vector<int32_t> offset(degree);
+  for (size_t i = 1; i < offset.size(); ++i) offset[i] += offset[i - 1];
+  std::vector<int32_t> adj(static_cast<size_t>(offset.back()));
+  std::vector<int32_t> fill(offset.begin(), offset.end() - 1);
+  for (int32_t li = 0; li < static_cast<int32_t>(links.size()); ++li) {
+    adj[static_cast<size_t>(fill[static_cast<size_t>(links[li][0])]++)] = li;
+    adj[static_cast<size_t>(fill[static_cast<size_t>(links[li][1])]++)] = li;
+  }
+  auto deg = [&](int32_t n) { return offset[static_cast<size_t>(n) + 1] - offset[static_cast<size_t>(n)]; };
+  auto terminal = [&](int32_t n) { return always_terminal[static_cast<size_t>(n)] || deg(n) != 2; };
+  std::vector<bool> used(links.size(), false);
+  Chains out;
+  auto walk = [&](int32_t start, int32_t link) {
+    std::vector<int32_t> nodes{start};
+    const int32_t first = link;
+    int32_t cur = start;
+    while (true) {
+      used[static_cast<size_t>(link)] = true;
+      const auto& l = links[static_cast<size_t>(link)];
+      const int32_t nxt = l[0] == cur ? l[1] : l[0];
+      nodes.push_back(nxt);
+      if (terminal(nxt)) break;
+      int32_t again = -1;
+      for (int32_t k = offset[static_cast<size_t>(nxt)]; k < offset[static_cast<size_t>(nxt) + 1]; ++k)
+        if (!used[static_cast<size_t>(adj[static_cast<size_t>(k)])]) again = adj[static_cast<size_t>(k)];
+      if (again < 0) break;
+      link = again;
+      cur = nxt;
+    }
+    out.closed.push_back(nodes.size() > 2 && nodes.front() == nodes.back());
+    out.node_lists.push_back(std::move(nodes));
+    out.first_link.push_back(first);
+  };
+  for (int32_t n = 0; n < node_count; ++n) {
+    if (!terminal(n)) continue;
+    for (int32_t k = offset[static_cast<size_t>(n)]; k < offset[static_cast<size_t>(n) + 1]; ++k)
+      if (!used[static_cast<size_t>(adj[static_cast<size_t>(k)])]) walk(n, adj[static_cast<size_t>(k)]);
+  }
+  for (int32_t li = 0; li < static_cast<int32_t>(links.size()); ++li)
+    if (!used[static_cast<size_t>(li)]) walk(links[static_cast<size_t>(li)][0], li);
+  return out;
+}
+
+void FieldRows::set_strip(const NearestField& strip) {
+  const Window w = strip.site.window();
+  if (w.col0 != 0 || w.width != strip.site.grid().width || !(strip.distance.window() == w) ||
+      (started_ && (w.width != width_ || w.row0 != strip_row1_)))
+    throw Error(ErrorKind::invalid_argument, "strips of a field must be whole rows of the grid, in order");
+  if (!started_) carry_row0_ = w.row0;
+  started_ = true;
+  strip_ = &strip;
+  width_ = w.width;
+  strip_row0_ = w.row0;
+  strip_row1_ = w.row0 + w.height;
+}
+
+void FieldRows::keep_from(int64_t from) {
+  from = std::clamp(from, carry_row0_, strip_row1_);
+  const auto n = static_cast<size_t>((strip_row1_ - from) * width_);
+  std::vector<int32_t> site(n);
+  std::vector<float> distance(n);
+  for (int64_t r = from; r < strip_row1_; ++r) {
+    const auto at = static_cast<size_t>((r - from) * width_);
+    std::copy_n(site_row(r), width_, site.begin() + static_cast<std::ptrdiff_t>(at));
+    std::copy_n(distance_row(r), width_, distance.begin() + static_cast<std::ptrdiff_t>(at));
+  }
+  carry_site_ = std::move(site);
+  carry_distance_ = std::move(distance);
+  carry_row0_ = from;
+  strip_row0_ = strip_row1_;  // the strip in hand is now all carried (or dropped)
+  strip_ = nullptr;
+}
+
+void check_metric(const NearestField& field, const SiteMetric& metric) {
+  // A projected geodesic field needs a metric that locates grid positions on the ellipsoid,
+  // and only such a field may use one.
+  const bool located_metric = dynamic_cast<const LocatedGeodesicSiteMetric*>(&metric) != nullptr;
+  if (static_cast<bool>(field.geolocator) != located_metric)
+    throw Error(ErrorKind::invalid_argument,
+                field.geolocator ? "a field of a projected geodesic grid needs a LocatedGeodesicSiteMetric"
+                                 : "a LocatedGeodesicSiteMetric measures fields of projected geodesic grids only");
+  const bool geodesic_metric = located_metric || dynamic_cast<const GeodesicSiteMetric*>(&metric) != nullptr;
+  if ((field.metric.kind == MetricSpec::geodesic) != geodesic_metric)
+    throw Error(ErrorKind::invalid_argument, std::string("the deliverables' metric must be the field's (") +
+                                                 std::string(to_string(field.metric.kind)) + ")");
+}
+
+void check_whole_grid(const NearestField& field) {
+  if (!(field.site.window() == field.site.grid().full_window()))
+    throw Error(ErrorKind::invalid_argument, "deliverables need a field that covers the whole grid");
+  if (field.site.grid().width < 1 || field.site.grid().height < 1)
+    throw Error(ErrorKind::invalid_argument, "deliverables need a non-empty grid");
+}
+
+double cell_metric(const GridSpec& g, const SiteMetric& m) {
+  const int64_t c = g.width / 2, r = g.height / 2;
+  const double d = m.point_distance(Vec2{g.centre_x(c), g.centre_y(r)}, Vec2{g.centre_x(c) + g.res, g.centre_y(r)});
+  return d > 0.0 && std::isfinite(d) ? d : g.res;
+}
+
+std::vector<int32_t> owner_of_sites(const SeedSet& seeds) {
+  std::vector<int32_t> owner(seeds.sites().size());
+  for (size_t i = 0; i < owner.size(); ++i) owner[i] = seeds.site_owner(static_cast<int32_t>(i));
+  return owner;
+}
+
+}  // namespace rv::line_tools
+
+namespace rv {
+
+std::vector<size_t> simplify_indices(std::span<const Vec2> pts, double tolerance) {
+  const size_t n = pts.size();
+  if (n <= 2 || !(tolerance > 0.0)) {
+    std::vector<size_t> all(n);
+    std::iota(all.begin(), all.end(), size_t{0});
+    return all;
+  }
+  std::vector<bool> keep(n, false);
+  keep[0] = keep[n - 1] = true;
+  std::vector<std::pair<size_t, size_t>> stack{{0, n - 1}};
+  while (!stack.empty()) {
+    const auto [i, j] = stack.back();
+    stack.pop_back();
+    if (j <= i + 1) continue;
+    const Vec2 a = pts[i], b = pts[j];
+    const double dx = b.x - a.x, dy = b.y - a.y, len2 = dx * dx + dy * dy;
+    double worst = -1.0;
+    size_t at = i;
+    for (size_t k = i + 1; k < j; ++k) {
+      double t = len2 > 0.0 ? ((pts[k].x - a.x) * dx + (pts[k].y - a.y) * dy) / len2 : 0.0;
+      t = std::clamp(t, 0.0, 1.0);
+      const double d = std::hypot(pts[k].x - (a.x + t * dx), pts[k].y - (a.y + t * dy));
+      if (d > worst) {
+        worst = d;
+        at = k;
+      }
+    }
+    if (worst > tolerance) {
+      keep[at] = true;
+      stack.emplace_back(i, at);
+      stack.emplace_back(at, j);
+    }
+  }
+  std::vector<size_t> out;
+  for (size_t k = 0; k < n; ++k)
+    if (keep[k]) out.push_back(k);
+  return out;
+}
+
+}  // namespace rv

@@ -1,0 +1,124 @@
+// end_at_owned_edge (boundary_stages.hpp): boundary lines carried to where the owned area ends.
+//
+// Why: the crossings of two owners' cells stop at the last pair of cells both own, up to a cell
+// short of the edge of the owned area; a boundary's end there (in delimitation, a terminus on
+// the 200 nmi limit) is a point of law, so it is solved exactly. Where unowned sea thinner than a
+// cell pokes between the last two cells, their crossing lies on one owner's arc with the other
+// out of reach: not on the boundary, so it is dropped.
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <limits>
+#include <vector>
+
+#include "lines/boundary_stages.hpp"
+#include "lines/line_tools.hpp"
+
+namespace rv::boundary_stages {
+
+using namespace line_tools;
+
+namespace {
+
+// How far beyond its reach an owner is at p (<= 0 where it counts).
+struct Beyond {
+  const OwnerIndex& index;
+  double D;
+  bool adjusted;
+  OwnerIndex::Hit hit(Vec2 p, int32_t owner) const {
+    return adjusted ? index.deepest(p, owner) : index.nearest_of(p, owner);
+  }
+  double of(Vec2 p, int32_t owner) const {
+    const OwnerIndex::Hit h = hit(p, owner);
+    return adjusted ? h.cost : h.distance - D;
+  }
+};
+
+// Carries the back end of `line` (see the contract); true when it moved.
+bool carry_back(const BoundaryGrid& b, const Beyond& beyond, const std::vector<Tripoint>& tripoints,
+                BoundaryLine& line) {
+  std::vector<BoundaryVertex>& v = line.vertices;
+  const Vec2 end = v.back().p;
+  if (on_centre_frame(b.g, end)) return false;
+  const int32_t oa = line.owner_a, ob = line.owner_b;
+  auto outside = [&](Vec2 p) { return std::max(beyond.of(p, oa), beyond.of(p, ob)) > b.ftol; };
+  const bool at_tripoint =
+      std::any_of(tripoints.begin(), tripoints.end(), [&](const Tripoint& t) { return t.p == end; });
+  if (at_tripoint && !outside(end)) return false;
+  auto f = [&](Vec2 p) { return std::array<double, 2>{beyond.of(p, oa), beyond.of(p, ob)}; };
+  Vec2 j;
+  if (!solve2(f, end, b.g.res, b.ftol, j)) return false;
+  // On the edge only where no third owner counts there (else it lies inside the owned area,
+  // where another line of these owners' goes on).
+  const OwnerIndex::Hit any = beyond.adjusted ? beyond.index.deepest(j) : beyond.index.nearest(j);
+  if ((beyond.adjusted ? any.cost : any.distance - beyond.D) < -b.ftol) return false;
+  const std::vector<BoundaryVertex> kept = v;
+  while (v.size() > 1 && outside(v.back().p)) v.pop_back();
+  if (outside(v.back().p)) {  // nothing of the line in reach: not an end of this kind
+    v = kept;
+    return false;
+  }
+  if (v.back().p.x == j.x && v.back().p.y == j.y) return true;
+  const OwnerIndex::Hit ha = beyond.hit(j, oa), hb = beyond.hit(j, ob);
+  BoundaryVertex jv;
+  jv.p = j;
+  jv.site_a = ha.site;
+  jv.site_b = hb.site;
+  jv.distance_a = ha.distance;
+  jv.distance_b = hb.distance;
+  jv.distance = 0.5 * (ha.distance + hb.distance);
+  const std::array<double, 2> r = f(j);
+  jv.residual = std::max(std::abs(r[0]), std::abs(r[1]));
+  jv.arc = v.back().arc;
+  v.push_back(jv);
+  return true;
+}
+
+}  // namespace
+
+void end_at_owned_edge(const BoundaryGrid& b, double max_distance, const std::vector<Tripoint>& tripoints,
+                       std::vector<BoundaryLine>& lines, BoundaryStats& stats) {
+  const Beyond beyond{b.index, max_distance, b.index.adjusted()};
+  // Only where reaches (or the cap with weights) end the owned area: with a plain max distance
+  // the ends stay at the last crossing, which region_edges joins to the max-distance line (in
+  // dense sets carrying them first left more ends in the open there).
+  if (!beyond.adjusted) return;
+  // Ends in the open near another: lines that meet in a hole of unowned sea thinner than a cell,
+  // or at a tripoint no square resolved. The edge there is not the one extraction stopped at
+  // (region_edges joins such ends); only a lone end is carried.
+  std::vector<Vec2> open;
+  for (const BoundaryLine& line : lines)
+    if (!line.closed && !line.vertices.empty())
+      for (const Vec2 p : {line.vertices.front().p, line.vertices.back().p})
+        if (!on_centre_frame(b.g, p) &&
+            std::none_of(tripoints.begin(), tripoints.end(), [&](const Tripoint& t) { return t.p == p; }))
+          open.push_back(p);
+  std::sort(open.begin(), open.end(), [](Vec2 u, Vec2 v) { return u.x < v.x || (u.x == v.x && u.y < v.y); });
+  auto crowded = [&](Vec2 p) {
+    const double r = 2.0 * b.g.res;
+    auto it = std::lower_bound(open.begin(), open.end(), Vec2{p.x - r, -std::numeric_limits<double>::infinity()},
+                               [](Vec2 u, Vec2 v) { return u.x < v.x || (u.x == v.x && u.y < v.y); });
+    for (; it != open.end() && it->x <= p.x + r; ++it)
+      if (!(*it == p) && std::hypot(it->x - p.x, it->y - p.y) <= r) return true;
+    return false;
+  };
+  for (BoundaryLine& line : lines) {
+    if (line.closed || line.vertices.empty()) continue;
+    for (int end = 0; end < 2; ++end) {
+      if (end == 1) std::reverse(line.vertices.begin(), line.vertices.end());
+      if (crowded(line.vertices.back().p)) {
+        if (end == 1) std::reverse(line.vertices.begin(), line.vertices.end());
+        continue;
+      }
+      const auto before = static_cast<int64_t>(line.vertices.size());
+      if (carry_back(b, beyond, tripoints, line)) {
+        stats.vertices += static_cast<int64_t>(line.vertices.size()) - before;
+        ++stats.ends_on_owned_edge;
+        stats.max_residual = std::max(stats.max_residual, line.vertices.back().residual);
+      }
+      if (end == 1) std::reverse(line.vertices.begin(), line.vertices.end());
+    }
+  }
+}
+
+}  // namespace rv::boundary_stages

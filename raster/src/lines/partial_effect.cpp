@@ -1,0 +1,797 @@
+// Partial effect (rv/lines/partial_effect.hpp): the rule between the nil- and full-effect lines, the
+// field it gives, and the lines with each band's stretch replaced by the partial-effect locus.
+//
+// Why the locus is traced between the two lines rather than extracted from cells: the rule is not
+// a nearest-site comparison (it compares distances to two lines, and only inside the band), so
+// the extraction's per-owner costs do not describe it. Inside one band the locus runs from the
+// turning point P where L1 leaves L0 to the one Q where it rejoins it; a segment from a point of
+// L0 to a point of L1 has the balance >= 0 at its L0 end and <= 0 at its L1 end, so it holds a
+// locus point. Pairing the two chains by their fraction of length gives an ordered run of such
+// segments from P to Q, and midpoints are added where a chord strays from the locus.
+#include "rv/lines/partial_effect.hpp"
+
+#include <algorithm>
+#include <array>
+#include <chrono>
+#include <cmath>
+#include <limits>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "lines/boundary_stages.hpp"
+#include "lines/line_tools.hpp"
+#include "rv/field/error.hpp"
+#include "rv/field/parallel.hpp"
+
+namespace rv {
+
+using namespace line_tools;
+
+namespace {
+
+constexpr double kInf = std::numeric_limits<double>::infinity();
+constexpr int kMaxDepth = 12;
+
+std::string owner_label(const SeedSet& seeds, int32_t owner) {
+  return "'" + seeds.owner_labels()[static_cast<size_t>(owner - 1)] + "'";
+}
+
+std::string effect_text(double e) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.6g", e);
+  return buf;
+}
+
+}  // namespace
+
+PartialEffect partial_effect_of(const SeedSet& seeds) {
+  PartialEffect pe;
+  const auto& features = seeds.features();
+  pe.partial.assign(features.size(), false);
+  int32_t first = -1;
+  for (size_t i = 0; i < features.size(); ++i) {
+    const Feature& f = features[i];
+    if (!(f.effect < 1.0)) continue;
+    const auto fi = static_cast<int32_t>(i);
+    if (first < 0) {
+      first = fi;
+      pe.owner = f.owner;
+      pe.effect = f.effect;
+    } else if (f.owner != pe.owner) {
+      throw Error(ErrorKind::invalid_input,
+                  seeds.feature_name(first) + " and " + seeds.feature_name(fi) +
+                      " both have an effect below 1 but belong to different owners: partial effect is given to one "
+                      "owner's features per run");
+    } else if (f.effect != pe.effect) {
+      throw Error(ErrorKind::invalid_input, seeds.feature_name(first) + " has effect " + effect_text(pe.effect) +
+                                                " and " + seeds.feature_name(fi) + " effect " + effect_text(f.effect) +
+                                                ": one owner's partial features share one effect");
+    }
+    pe.partial[i] = true;
+  }
+  if (pe.owner == 0) return pe;
+  for (size_t i = 0; i < features.size(); ++i)
+    if (features[i].owner == pe.owner && !pe.partial[i]) return pe;
+  throw Error(ErrorKind::invalid_input,
+              "every feature of owner " + owner_label(seeds, pe.owner) +
+                  " has an effect below 1: the nil-effect line is drawn without them, so the owner needs features "
+                  "at full effect (e.g. its mainland)");
+}
+
+PartialEffectRule::PartialEffectRule(const SeedSet& seeds, const PartialEffect& effect, BoundaryResult nil,
+                                     const std::vector<int32_t>& site_of, BoundaryResult full, const GridSpec& grid,
+                                     const ComputeOptions& options)
+    : effect_(effect), nil_(std::move(nil)), full_(std::move(full)) {
+  auto renumber = [&](int32_t& site) {
+    if (site != kNoSite) site = site_of.at(static_cast<size_t>(site));
+  };
+  for (BoundaryLine& l : nil_.lines)
+    for (BoundaryVertex& v : l.vertices) {
+      renumber(v.site_a);
+      renumber(v.site_b);
+    }
+  for (Tripoint& t : nil_.tripoints)
+    for (int32_t& site : t.sites) renumber(site);
+  if (options.geolocator)
+    throw Error(ErrorKind::unsupported,
+                "partial effect is not available on a projected grid measured on the ellipsoid: use a "
+                "longitude/latitude grid, or the planar metric");
+  const int32_t B = effect_.owner;
+  for (int32_t x = 1; x <= seeds.owner_count(); ++x) {
+    lines_.owner_code("nil:" + std::to_string(x));
+    lines_.owner_code("full:" + std::to_string(x));
+  }
+  // A line that ends on the frame of the outermost cell centres goes on beyond the grid, where
+  // its points are still the nearest to cells near the edge: it is continued straight along its
+  // last chord for the grid's diagonal (exact for a straight bisector; the grid holds no more of
+  // a curved one).
+  const double eps = 1e-9 * grid.res, far = std::hypot(grid.xmax() - grid.xmin, grid.ymax - grid.ymin());
+  auto on_frame = [&](Vec2 p) {
+    return p.x <= grid.centre_x(0) + eps || p.x >= grid.centre_x(grid.width - 1) - eps ||
+           p.y >= grid.centre_y(0) - eps || p.y <= grid.centre_y(grid.height - 1) + eps;
+  };
+  auto beyond = [&](Vec2 end, Vec2 before) {
+    const double len = std::hypot(end.x - before.x, end.y - before.y);
+    return len > 0.0 ? Vec2{end.x + (end.x - before.x) * far / len, end.y + (end.y - before.y) * far / len} : end;
+  };
+  auto add = [&](const BoundaryResult& r, int32_t offset) {
+    for (const BoundaryLine& l : r.lines) {
+      if ((l.owner_a != B && l.owner_b != B) || l.vertices.size() < 2) continue;
+      const int32_t x = l.owner_a == B ? l.owner_b : l.owner_a;
+      std::vector<Vec2> pts;
+      pts.reserve(l.vertices.size() + 2);
+      const auto& v = l.vertices;
+      if (!l.closed && on_frame(v.front().p)) pts.push_back(beyond(v.front().p, v[1].p));
+      for (const BoundaryVertex& u : v) pts.push_back(u.p);
+      if (!l.closed && on_frame(v.back().p)) pts.push_back(beyond(v.back().p, v[v.size() - 2].p));
+      lines_.add_polyline(lines_.add_feature(2 * x - offset), pts);
+    }
+  };
+  add(nil_, 1);
+  add(full_, 0);
+  ComputeOptions o = options;
+  o.grid_polygons = nullptr;
+  metric_ = make_site_metric(lines_, grid, o);
+  index_ = std::make_unique<OwnerIndex>(*metric_, OwnerIndex::Measure::plain);
+}
+
+PartialEffectRule::~PartialEffectRule() = default;
+
+double PartialEffectRule::distance_to_nil(Vec2 p, int32_t neighbour) const {
+  return index_->nearest_of(p, 2 * neighbour - 1).distance;
+}
+
+double PartialEffectRule::distance_to_full(Vec2 p, int32_t neighbour) const {
+  return index_->nearest_of(p, 2 * neighbour).distance;
+}
+
+double PartialEffectRule::separation(Vec2 a, Vec2 b) const { return metric_->point_distance(a, b); }
+
+double PartialEffectRule::balance(Vec2 p, int32_t neighbour) const {
+  const double e = effect_.effect;
+  return e * distance_to_full(p, neighbour) - (1.0 - e) * distance_to_nil(p, neighbour);
+}
+
+int32_t PartialEffectRule::owner(Vec2 p, int32_t full_owner, int32_t nil_owner) const {
+  const int32_t B = effect_.owner;
+  if (full_owner != B || nil_owner == B || nil_owner == 0) return full_owner;
+  const double e = effect_.effect;
+  // Written as a comparison, not as balance() > 0: a missing line is an infinite distance, and
+  // e = 0 times it must not decide (NaN compares false: the neighbour keeps it).
+  return (1.0 - e) * distance_to_nil(p, nil_owner) < e * distance_to_full(p, nil_owner) ? B : nil_owner;
+}
+
+NearestField partial_field(const NearestField& full, const NearestField& nil, const std::vector<int32_t>& site_of,
+                           const SeedSet& seeds, const PartialEffectRule& rule, int threads) {
+  check_whole_grid(full);
+  check_whole_grid(nil);
+  if (!(full.site.grid() == nil.site.grid()))
+    throw Error(ErrorKind::internal, "partial_field: the two fields are of different grids");
+  NearestField out = full;
+  const GridSpec& g = full.site.grid();
+  const int32_t B = rule.effect().owner;
+  // The band's neighbour per cell (0: not in a band).
+  auto neighbour = [&](int64_t c, int64_t r) -> int32_t {
+    const int32_t s1 = full.site.at(c, r);
+    if (s1 == kNoSite || seeds.site_owner(s1) != B) return 0;
+    const int32_t n0 = nil.site.at(c, r);
+    if (n0 == kNoSite) return 0;
+    const int32_t o0 = seeds.site_owner(site_of[static_cast<size_t>(n0)]);
+    return o0 == B ? 0 : o0;
+  };
+  auto give_back = [&](int64_t c, int64_t r) {
+    out.site.at(c, r) = site_of[static_cast<size_t>(nil.site.at(c, r))];
+    out.distance.at(c, r) = nil.distance.at(c, r);
+  };
+  // The balance is 1-Lipschitz (both distances are, and e + (1 - e) = 1): where its magnitude at
+  // a block's middle exceeds the block's reach from there, every cell of the block is on that
+  // side, and only the cells near the partial line are decided one by one. The band can be much
+  // of the grid; its line is a curve through it.
+  constexpr int64_t kBlock = 32;
+  auto decide = [&](auto&& self, int64_t c0, int64_t r0, int64_t n, int32_t x) -> void {
+    const int64_t c1 = std::min(c0 + n, g.width) - 1, r1 = std::min(r0 + n, g.height) - 1;
+    if (n <= 2) {
+      for (int64_t r = r0; r <= r1; ++r)
+        for (int64_t c = c0; c <= c1; ++c)
+          if (neighbour(c, r) == x && rule.owner(Vec2{g.centre_x(c), g.centre_y(r)}, B, x) != B) give_back(c, r);
+      return;
+    }
+    const Vec2 mid{0.5 * (g.centre_x(c0) + g.centre_x(c1)), 0.5 * (g.centre_y(r0) + g.centre_y(r1))};
+    double reach = 0.0;
+    for (const Vec2 corner : {Vec2{g.centre_x(c0), g.centre_y(r0)}, Vec2{g.centre_x(c1), g.centre_y(r0)},
+                              Vec2{g.centre_x(c0), g.centre_y(r1)}, Vec2{g.centre_x(c1), g.centre_y(r1)}})
+      reach = std::max(reach, rule.separation(mid, corner));
+    reach = reach * (1.0 + 1e-6) + 1e-9 * g.res;
+    const double balance = rule.balance(mid, x);
+    if (balance > reach) return;  // all B's
+    if (balance < -reach) {
+      for (int64_t r = r0; r <= r1; ++r)
+        for (int64_t c = c0; c <= c1; ++c)
+          if (neighbour(c, r) == x) give_back(c, r);
+      return;
+    }
+    const int64_t h = n / 2;
+    for (const auto& [dc, dr] : {std::pair{0, 0}, {1, 0}, {0, 1}, {1, 1}})
+      if (c0 + dc * h < g.width && r0 + dr * h < g.height) self(self, c0 + dc * h, r0 + dr * h, h, x);
+  };
+  const int64_t bw = (g.width + kBlock - 1) / kBlock, bh = (g.height + kBlock - 1) / kBlock;
+  detail::parallel_for(threads, bw * bh, [&](int64_t k, int) {
+    const int64_t c0 = (k % bw) * kBlock, r0 = (k / bw) * kBlock;
+    std::vector<int32_t> present;
+    for (int64_t r = r0; r < std::min(r0 + kBlock, g.height); ++r)
+      for (int64_t c = c0; c < std::min(c0 + kBlock, g.width); ++c) {
+        const int32_t x = neighbour(c, r);
+        if (x != 0 && std::find(present.begin(), present.end(), x) == present.end()) present.push_back(x);
+      }
+    for (const int32_t x : present) decide(decide, c0, r0, kBlock, x);
+  });
+  return out;
+}
+
+namespace {
+
+// A position along a polyline: segment k, fraction t of it.
+struct Along {
+  size_t k = 0;
+  double t = 0.0, distance = kInf;
+  double at() const { return static_cast<double>(k) + t; }
+};
+
+Along project(const std::vector<Vec2>& pts, Vec2 p) {
+  Along best;
+  for (size_t k = 0; k + 1 < pts.size(); ++k) {
+    const Vec2 a = pts[k], b = pts[k + 1];
+    const double dx = b.x - a.x, dy = b.y - a.y, len2 = dx * dx + dy * dy;
+    const double t = len2 > 0.0 ? std::clamp(((p.x - a.x) * dx + (p.y - a.y) * dy) / len2, 0.0, 1.0) : 0.0;
+    const double d = std::hypot(a.x + t * dx - p.x, a.y + t * dy - p.y);
+    if (d < best.distance) best = Along{k, t, d};
+  }
+  return best;
+}
+
+double length(const std::vector<Vec2>& pts) {
+  double s = 0.0;
+  for (size_t k = 0; k + 1 < pts.size(); ++k) s += std::hypot(pts[k + 1].x - pts[k].x, pts[k + 1].y - pts[k].y);
+  return s;
+}
+
+// The stretch of polyline `pts` from position u to position v (either direction), its ends
+// included; on a closed line (last vertex == first) the shorter of the two ways round.
+std::vector<Vec2> stretch(const std::vector<Vec2>& pts, bool closed, Along u, Along v) {
+  auto point = [&](const Along& a) { return lerp(pts[a.k], pts[a.k + 1], a.t); };
+  auto straight = [&](const Along& from, const Along& to) {
+    std::vector<Vec2> out{point(from)};
+    if (from.at() <= to.at()) {
+      for (size_t m = from.k + 1 + (from.t >= 1.0 ? 1 : 0); static_cast<double>(m) < to.at(); ++m)
+        out.push_back(pts[m]);
+    } else {
+      for (size_t m = from.t > 0.0 ? from.k : from.k - 1; static_cast<double>(m) > to.at() && m < pts.size(); --m)
+        out.push_back(pts[m]);
+    }
+    out.push_back(point(to));
+    return out;
+  };
+  std::vector<Vec2> direct = straight(u, v);
+  if (!closed) return direct;
+  // The other way round: through the closing vertex (pts.front() == pts.back()).
+  const size_t last = pts.size() - 2;  // the last segment
+  std::vector<Vec2> round;
+  if (u.at() <= v.at()) {
+    round = straight(u, Along{0, 0.0, 0.0});
+    const std::vector<Vec2> tail = straight(Along{last, 1.0, 0.0}, v);
+    round.insert(round.end(), tail.begin() + 1, tail.end());
+  } else {
+    round = straight(u, Along{last, 1.0, 0.0});
+    const std::vector<Vec2> tail = straight(Along{0, 0.0, 0.0}, v);
+    round.insert(round.end(), tail.begin() + 1, tail.end());
+  }
+  return length(round) < length(direct) ? round : direct;
+}
+
+// The point at fraction s of a polyline's length (`cum`: its cumulative lengths).
+Vec2 at_fraction(const std::vector<Vec2>& pts, const std::vector<double>& cum, double s) {
+  const double target = s * cum.back();
+  const size_t k = std::min<size_t>(static_cast<size_t>(std::upper_bound(cum.begin(), cum.end(), target) - cum.begin()),
+                                    pts.size() - 1);
+  if (k == 0) return pts.front();
+  const double seg = cum[k] - cum[k - 1];
+  return seg > 0.0 ? lerp(pts[k - 1], pts[k], (target - cum[k - 1]) / seg) : pts[k];
+}
+
+std::vector<double> cumulative(const std::vector<Vec2>& pts) {
+  std::vector<double> cum(pts.size(), 0.0);
+  for (size_t k = 1; k < pts.size(); ++k)
+    cum[k] = cum[k - 1] + std::hypot(pts[k].x - pts[k - 1].x, pts[k].y - pts[k - 1].y);
+  return cum;
+}
+
+// Where the partial features' zone meets two neighbours X and Y at a full-effect tripoint T: the
+// two bands (X's and Y's cells that B takes at full effect) share the nil-effect X-Y line from T
+// into the zone (S). Each band's partial line ends where it meets S (M_X, M_Y: where that
+// neighbour's balance changes sign along S); the one nearer T is the partial tripoint, the other
+// owner's line goes on along S to it, and the X-Y line follows S from T to it.
+struct TripointPlan {
+  size_t index = 0;  // into the tripoints
+  Vec2 T;
+  std::array<int32_t, 2> owners{0, 0};  // X, Y
+  std::vector<Vec2> S;                  // from T
+  std::array<Along, 2> at{};            // M_X, M_Y on S
+  std::array<Vec2, 2> m{};
+  int first = 0;  // whose M is nearer T
+  Vec2 tripoint() const { return m[static_cast<size_t>(first)]; }
+  int side(int32_t owner) const { return owner == owners[0] ? 0 : 1; }
+};
+
+// One line of owners B and X being rewritten.
+struct LineRewrite {
+  const PartialEffectRule& rule;
+  const SeedSet& seeds;
+  const OwnerIndex& index;
+  double ftol, tol;
+  int32_t B, X;
+  bool b_is_a;
+  PartialLineStats& stats;
+  const std::vector<TripointPlan>& plans;
+
+  const TripointPlan* plan_at(Vec2 p) const {
+    for (const TripointPlan& t : plans)
+      if (t.T == p && (t.owners[0] == X || t.owners[1] == X)) return &t;
+    return nullptr;
+  }
+
+  int32_t b_site(const BoundaryVertex& v) const { return b_is_a ? v.site_a : v.site_b; }
+  int32_t x_site(const BoundaryVertex& v) const { return b_is_a ? v.site_b : v.site_a; }
+  bool partial(const BoundaryVertex& v) const {
+    const int32_t s = b_site(v);
+    return s != kNoSite && rule.effect().partial[static_cast<size_t>(seeds.site_feature(s))];
+  }
+
+  BoundaryVertex vertex(Vec2 p) const {
+    const OwnerIndex::Hit hb = index.nearest_of(p, B), hx = index.nearest_of(p, X);
+    BoundaryVertex v{p,           hb.site,    hx.site, 0.5 * (hb.distance + hx.distance), std::abs(rule.balance(p, X)),
+                     hb.distance, hx.distance};
+    if (!b_is_a) {
+      std::swap(v.site_a, v.site_b);
+      std::swap(v.distance_a, v.distance_b);
+    }
+    stats.max_residual = std::max(stats.max_residual, v.residual);
+    return v;
+  }
+
+  // Where L1 leaves L0 between common vertex c and partial vertex q: the costs of B's two sites
+  // and X's equal (the refinement has usually placed a vertex there already).
+  Vec2 turning(const BoundaryVertex& c, const BoundaryVertex& q) const {
+    const Vec2 mid = lerp(c.p, q.p, 0.5);
+    const double chord = std::hypot(q.p.x - c.p.x, q.p.y - c.p.y);
+    Vec2 p;
+    for (const int32_t t : {x_site(q), x_site(c)})
+      if (t != kNoSite && boundary_stages::equal_costs_point(index, b_site(c), b_site(q), t, mid, chord, ftol, p))
+        return p;
+    return c.p;  // no turning point inside the chord: the common vertex is the nearest to it
+  }
+
+  // The locus point on the segment a-b (balance >= 0 at a, on L0; <= 0 at b, on L1).
+  bool locus(Vec2 a, Vec2 b, Vec2& out) const {
+    auto f = [&](double t) { return rule.balance(lerp(a, b, t), X); };
+    const double fa = f(0.0), fb = f(1.0);
+    if (!(fa >= -ftol && fb <= ftol)) return false;
+    out = lerp(a, b, find_root(f, fa, fb, ftol, 1e-15));
+    return true;
+  }
+
+  // The locus between chains c0 (on L0) and c1 (on L1), run in the same direction: from P to Q,
+  // or from or to the line's end where the band reaches the edge of the owned area (`fixed`:
+  // whether the chains' first and last points are P and Q, shared by both).
+  std::vector<Vec2> trace(const std::vector<Vec2>& c0, const std::vector<Vec2>& c1, std::array<bool, 2> fixed) const {
+    const std::vector<double> k0 = cumulative(c0), k1 = cumulative(c1);
+    std::vector<double> fractions;
+    for (double v : k0) fractions.push_back(k0.back() > 0.0 ? v / k0.back() : 0.0);
+    for (double v : k1) fractions.push_back(k1.back() > 0.0 ? v / k1.back() : 0.0);
+    std::sort(fractions.begin(), fractions.end());
+    fractions.erase(std::unique(fractions.begin(), fractions.end()), fractions.end());
+    struct Sample {
+      double s;
+      Vec2 p;
+    };
+    auto sample = [&](double s, Sample& out) {
+      if ((s <= 0.0 && fixed[0]) || (s >= 1.0 && fixed[1])) {
+        out = Sample{s, s <= 0.0 ? c1.front() : c1.back()};
+        return true;
+      }
+      out.s = s;
+      return locus(at_fraction(c0, k0, s), at_fraction(c1, k1, s), out.p);
+    };
+    std::vector<Sample> samples;
+    for (double s : fractions) {
+      Sample x;
+      if (sample(s, x)) samples.push_back(x);
+    }
+    if (samples.empty()) return {};
+    std::vector<Vec2> out{samples.front().p};
+    auto refine = [&](auto&& self, const Sample& u, const Sample& v, int depth) -> void {
+      if (depth >= kMaxDepth) return;
+      Sample m;
+      if (!sample(0.5 * (u.s + v.s), m)) return;
+      const double dx = v.p.x - u.p.x, dy = v.p.y - u.p.y, chord = std::hypot(dx, dy);
+      const double off = chord > 0.0 ? std::abs((m.p.x - u.p.x) * dy - (m.p.y - u.p.y) * dx) / chord
+                                     : std::hypot(m.p.x - u.p.x, m.p.y - u.p.y);
+      if (!(off > tol)) return;
+      self(self, u, m, depth + 1);
+      out.push_back(m.p);
+      self(self, m, v, depth + 1);
+    };
+    for (size_t i = 1; i < samples.size(); ++i) {
+      refine(refine, samples[i - 1], samples[i], 0);
+      out.push_back(samples[i].p);
+    }
+    return out;
+  }
+
+  // L0's stretch for a band: from P to Q (both on the nil-effect B-X line, within a cell), or,
+  // where the band reaches the line's end, from P to the end of L0 away from `anchor` (a common
+  // vertex on the other side of P), or from that end to Q.
+  std::vector<Vec2> nil_chain(const Vec2* P, const Vec2* Q, Vec2 anchor, double cell) const {
+    const Vec2 known = P != nullptr ? *P : *Q;
+    const BoundaryLine* best = nullptr;
+    Along bu, bv, ba;
+    double best_off = kInf;
+    std::vector<Vec2> best_pts;
+    for (const BoundaryLine& l : rule.nil_lines().lines) {
+      if (!((l.owner_a == B && l.owner_b == X) || (l.owner_a == X && l.owner_b == B)) || l.vertices.size() < 2)
+        continue;
+      std::vector<Vec2> pts;
+      for (const BoundaryVertex& v : l.vertices) pts.push_back(v.p);
+      const Along u = project(pts, known), v = P != nullptr && Q != nullptr ? project(pts, *Q) : project(pts, anchor);
+      const double off = std::max(u.distance, v.distance);
+      if (off > cell || off >= best_off) continue;
+      best = &l;
+      best_off = off;
+      bu = u;
+      bv = v;
+      best_pts = std::move(pts);
+    }
+    if (best == nullptr || ((P == nullptr || Q == nullptr) && best->closed))
+      throw Error(ErrorKind::unsupported,
+                  "partial effect: a stretch of the full-effect line of owners " + label(B) + " and " + label(X) +
+                      " has no nil-effect line beside it; its lines are not drawn (the rasters are exact)");
+    if (P != nullptr && Q != nullptr) {
+      std::vector<Vec2> chain = stretch(best_pts, best->closed, bu, bv);
+      chain.front() = *P;
+      chain.back() = *Q;
+      return chain;
+    }
+    // bv is the anchor's position: the chain runs from the known end away from it.
+    const size_t last = best_pts.size() - 2;
+    const Along end = bv.at() <= bu.at() ? Along{last, 1.0, 0.0} : Along{0, 0.0, 0.0};
+    std::vector<Vec2> chain = P != nullptr ? stretch(best_pts, false, bu, end) : stretch(best_pts, false, end, bu);
+    (P != nullptr ? chain.front() : chain.back()) = known;
+    return chain;
+  }
+
+  std::string label(int32_t owner) const { return owner_label(seeds, owner); }
+
+  void rewrite(BoundaryLine& line, double cell) const {
+    std::vector<BoundaryVertex>& v = line.vertices;
+    if (std::none_of(v.begin(), v.end(), [&](const BoundaryVertex& x) { return partial(x); })) return;
+    if (line.closed) {
+      // Start at a common vertex: the bands are then runs inside the line.
+      v.pop_back();
+      const auto common = std::find_if(v.begin(), v.end(), [&](const BoundaryVertex& x) { return !partial(x); });
+      if (common == v.end())
+        throw Error(ErrorKind::unsupported, "partial effect: the partial features of " + label(B) +
+                                                " make an enclave in the zone of " + label(X) +
+                                                " with no nil-effect line beside it; give them a reach or nil "
+                                                "effect instead (its lines are not drawn; the rasters are exact)");
+      std::rotate(v.begin(), common, v.end());
+      v.push_back(v.front());
+    } else if (partial(v.front()) && partial(v.back()) &&
+               std::all_of(v.begin(), v.end(), [&](const BoundaryVertex& x) { return partial(x); })) {
+      throw Error(ErrorKind::unsupported, "partial effect: a line of owners " + label(B) + " and " + label(X) +
+                                              " lies wholly in the band of the partial features, with no "
+                                              "nil-effect stretch to anchor it; its lines are not drawn (the "
+                                              "rasters are exact)");
+    }
+    // A band ending at a planned tripoint is handled at the line's end: turn the line round if
+    // that end is its first.
+    const bool turned = !line.closed && partial(v.front()) && plan_at(v.front().p) != nullptr;
+    if (turned) std::reverse(v.begin(), v.end());
+    std::vector<BoundaryVertex> out;
+    for (size_t i = 0; i < v.size();) {
+      if (!partial(v[i])) {
+        out.push_back(v[i++]);
+        continue;
+      }
+      size_t j = i;
+      while (j + 1 < v.size() && partial(v[j + 1])) ++j;
+      // A band between two common vertices runs from turning point P to turning point Q; one at
+      // an end of the line (the edge of the grid or of the owned area) runs to or from there.
+      const bool open_start = i == 0, open_end = j + 1 == v.size();
+      const TripointPlan* tp = open_end && !open_start ? plan_at(v.back().p) : nullptr;
+      if (tp != nullptr) {
+        to_tripoint(v, i, *tp, cell, out);
+        break;
+      }
+      Vec2 P{}, Q{};
+      if (!open_start) P = turning(v[i - 1], v[i]);
+      if (!open_end) Q = turning(v[j + 1], v[j]);
+      std::vector<Vec2> c1;
+      if (!open_start) c1.push_back(P);
+      for (size_t k = i; k <= j; ++k) c1.push_back(v[k].p);
+      if (!open_end) c1.push_back(Q);
+      const Vec2 anchor = open_end ? v[i - 1].p : v[j + 1].p;
+      const std::vector<Vec2> c0 = nil_chain(open_start ? nullptr : &P, open_end ? nullptr : &Q, anchor, cell);
+      const std::vector<Vec2> traced = trace(c0, c1, {!open_start, !open_end});
+      for (const Vec2 p : traced) {
+        if (!out.empty() && out.back().p == p) continue;
+        out.push_back(vertex(p));
+      }
+      ++stats.stretches;
+      stats.points += static_cast<int64_t>(traced.size());
+      i = j + 1;
+      if (i < v.size() && !out.empty() && out.back().p == v[i].p) ++i;
+    }
+    if (turned) std::reverse(out.begin(), out.end());
+    v = std::move(out);
+  }
+
+  void append(std::vector<BoundaryVertex>& out, const std::vector<Vec2>& pts) const {
+    for (const Vec2 p : pts)
+      if (out.empty() || !(out.back().p == p)) out.push_back(vertex(p));
+  }
+
+  // The band from turning point P (between v[i - 1] and v[i]) to the line's end at tripoint
+  // plan T: the locus from P to M_X between L0 (on to the nil tripoint, then back along S) and L1
+  // (to T, then along S), and for the owner whose M is farther from T, S on to the partial
+  // tripoint.
+  void to_tripoint(const std::vector<BoundaryVertex>& v, size_t i, const TripointPlan& tp, double cell,
+                   std::vector<BoundaryVertex>& out) const {
+    const int k = tp.side(X);
+    const Vec2 P = turning(v[i - 1], v[i]);
+    const Along start{0, 0.0, 0.0}, end{tp.S.size() - 2, 1.0, 0.0};
+    const Along at = tp.at[static_cast<size_t>(k)];
+    std::vector<Vec2> c1{P};
+    for (size_t q = i; q < v.size(); ++q) c1.push_back(v[q].p);
+    const std::vector<Vec2> along_s = stretch(tp.S, false, start, at);
+    c1.insert(c1.end(), along_s.begin() + 1, along_s.end());
+    std::vector<Vec2> c0 = nil_chain(&P, nullptr, v[i - 1].p, cell);
+    const Vec2 t0 = tp.S.back();
+    if (std::hypot(c0.back().x - t0.x, c0.back().y - t0.y) > cell)
+      throw Error(ErrorKind::unsupported, "partial effect: the nil-effect lines of " + label(B) + " and " + label(X) +
+                                              " do not meet at the end of their neighbours' line; the lines of "
+                                              "this case are not drawn (the rasters are exact)");
+    const std::vector<Vec2> back = stretch(tp.S, false, end, at);
+    c0.insert(c0.end(), back.begin() + 1, back.end());
+    c0.back() = c1.back() = tp.m[static_cast<size_t>(k)];
+    const std::vector<Vec2> traced = trace(c0, c1, {true, true});
+    append(out, traced);
+    ++stats.stretches;
+    stats.points += static_cast<int64_t>(traced.size());
+    if (k != tp.first) {
+      std::vector<Vec2> on = stretch(tp.S, false, at, tp.at[static_cast<size_t>(tp.first)]);
+      on.back() = tp.tripoint();
+      append(out, on);
+    }
+  }
+};
+
+}  // namespace
+
+namespace {
+
+// The plans of the full-effect tripoints where the partial features' zone meets two neighbours.
+std::vector<TripointPlan> plan_tripoints(const PartialEffectRule& rule, const SeedSet& seeds,
+                                         const BoundaryResult& full, double cell, double ftol) {
+  const PartialEffect& pe = rule.effect();
+  const int32_t B = pe.owner;
+  std::vector<TripointPlan> plans;
+  for (size_t n = 0; n < full.tripoints.size(); ++n) {
+    const Tripoint& t = full.tripoints[n];
+    int kb = -1;
+    for (int k = 0; k < 3; ++k)
+      if (t.owners[k] == B && t.sites[k] != kNoSite && pe.partial[static_cast<size_t>(seeds.site_feature(t.sites[k]))])
+        kb = k;
+    if (kb < 0) continue;
+    TripointPlan tp;
+    tp.index = n;
+    tp.T = t.p;
+    for (int k = 0, q = 0; k < 3; ++k)
+      if (k != kb) tp.owners[static_cast<size_t>(q++)] = t.owners[k];
+    const int32_t X = tp.owners[0], Y = tp.owners[1];
+    auto refuse = [&](const std::string& why) {
+      throw Error(ErrorKind::unsupported, "partial effect: where the zone of the partial features of " +
+                                              owner_label(seeds, B) + " meets " + owner_label(seeds, X) + " and " +
+                                              owner_label(seeds, Y) + ", " + why +
+                                              "; the lines of this case are not drawn (the rasters are exact)");
+    };
+    auto of_pair = [&](const BoundaryLine& l) {
+      return (l.owner_a == X && l.owner_b == Y) || (l.owner_a == Y && l.owner_b == X);
+    };
+    // The nil-effect X-Y line through T, and the way from T into the zone: away from the
+    // full-effect X-Y line, which ends at T.
+    std::vector<Vec2> pts;
+    Along uT;
+    for (const BoundaryLine& l : rule.nil_lines().lines) {
+      if (!of_pair(l) || l.closed || l.vertices.size() < 2) continue;
+      std::vector<Vec2> q;
+      for (const BoundaryVertex& v : l.vertices) q.push_back(v.p);
+      const Along u = project(q, tp.T);
+      if (u.distance <= cell && u.distance < uT.distance) {
+        uT = u;
+        pts = std::move(q);
+      }
+    }
+    if (pts.empty()) refuse("their nil-effect line does not pass through the full-effect tripoint");
+    const Vec2* outside = nullptr;
+    for (const BoundaryLine& l : full.lines) {
+      if (!of_pair(l) || l.closed || l.vertices.size() < 2) continue;
+      if (l.vertices.front().p == tp.T) outside = &l.vertices[1].p;
+      if (l.vertices.back().p == tp.T) outside = &l.vertices[l.vertices.size() - 2].p;
+    }
+    if (outside == nullptr) refuse("their full-effect line does not end at the tripoint");
+    const Along uo = project(pts, *outside);
+    const Along end = uo.at() <= uT.at() ? Along{pts.size() - 2, 1.0, 0.0} : Along{0, 0.0, 0.0};
+    tp.S = stretch(pts, false, uT, end);
+    tp.S.front() = tp.T;
+    for (size_t side = 0; side < 2; ++side) {
+      const int32_t owner = tp.owners[side];
+      bool found = false;
+      double f0 = rule.balance(tp.S[0], owner);
+      for (size_t k = 0; k + 1 < tp.S.size() && !found; ++k) {
+        const double f1 = rule.balance(tp.S[k + 1], owner);
+        if (f0 < 0.0 && f1 >= 0.0) {
+          const Vec2 a = tp.S[k], b = tp.S[k + 1];
+          const double u = find_root([&](double x) { return rule.balance(lerp(a, b, x), owner); }, f0, f1, ftol, 1e-15);
+          tp.at[side] = Along{k, u, 0.0};
+          tp.m[side] = lerp(a, b, u);
+          found = true;
+        }
+        f0 = f1;
+      }
+      if (!found)
+        refuse("no partial-effect line of " + owner_label(seeds, owner) +
+               " reaches their nil-effect line (the islands lie far from the nil-effect line of " +
+               owner_label(seeds, B) + " and " + owner_label(seeds, owner) +
+               ", so the rule gives that band back whole); a reach or a weight suits such islands better");
+    }
+    tp.first = tp.at[0].at() <= tp.at[1].at() ? 0 : 1;
+    plans.push_back(std::move(tp));
+  }
+  return plans;
+}
+
+// The neighbours' line at each planned tripoint carried along S to the partial tripoint, and the
+// tripoint moved there. Returns the vertices added.
+int64_t extend_at_tripoints(const PartialEffectRule& rule, const std::vector<TripointPlan>& plans,
+                            const OwnerIndex& index, BoundaryResult& out) {
+  int64_t added = 0;
+  for (const TripointPlan& tp : plans) {
+    const Vec2 M = tp.tripoint();
+    std::vector<Vec2> ext = stretch(tp.S, false, Along{0, 0.0, 0.0}, tp.at[static_cast<size_t>(tp.first)]);
+    ext.back() = M;
+    for (BoundaryLine& l : out.lines) {
+      const bool pair = (l.owner_a == tp.owners[0] && l.owner_b == tp.owners[1]) ||
+                        (l.owner_a == tp.owners[1] && l.owner_b == tp.owners[0]);
+      if (!pair || l.closed || l.vertices.empty()) continue;
+      const bool at_back = l.vertices.back().p == tp.T, at_front = l.vertices.front().p == tp.T;
+      if (!at_back && !at_front) continue;
+      if (at_front) std::reverse(l.vertices.begin(), l.vertices.end());
+      for (size_t k = 1; k < ext.size(); ++k) {
+        const OwnerIndex::Hit ha = index.nearest_of(ext[k], l.owner_a), hb = index.nearest_of(ext[k], l.owner_b);
+        l.vertices.push_back(BoundaryVertex{ext[k], ha.site, hb.site, 0.5 * (ha.distance + hb.distance),
+                                            std::abs(ha.cost - hb.cost), ha.distance, hb.distance});
+        ++added;
+      }
+      if (at_front) std::reverse(l.vertices.begin(), l.vertices.end());
+      break;
+    }
+    Tripoint& t = out.tripoints[tp.index];
+    t.p = M;
+    double distance = 0.0, cost = 0.0;
+    std::array<double, 3> costs{};
+    for (int k = 0; k < 3; ++k) {
+      const OwnerIndex::Hit h = index.nearest_of(M, t.owners[k]);
+      t.sites[k] = h.site;
+      t.distances[k] = h.distance;
+      costs[static_cast<size_t>(k)] = h.cost;
+      distance += h.distance / 3.0;
+      cost += h.cost / 3.0;
+    }
+    t.distance = distance;
+    t.cost = cost;
+    // On the neighbours' line (their costs equal) and on the first owner's partial locus.
+    double neighbours = 0.0;
+    for (int k = 0; k < 3; ++k)
+      for (int q = k + 1; q < 3; ++q)
+        if (t.owners[k] != rule.effect().owner && t.owners[q] != rule.effect().owner)
+          neighbours = std::abs(costs[static_cast<size_t>(k)] - costs[static_cast<size_t>(q)]);
+    t.residual = std::max(neighbours, std::abs(rule.balance(M, tp.owners[static_cast<size_t>(tp.first)])));
+  }
+  return added;
+}
+
+}  // namespace
+
+BoundaryResult partial_boundaries(const PartialEffectRule& rule, const SeedSet& seeds, const OwnerIndex& index,
+                                  const GridSpec& grid, double ftol, double refine_cells, double simplify_cells,
+                                  PartialLineStats& stats) {
+  BoundaryResult out = rule.full_lines();
+  const PartialEffect& pe = rule.effect();
+  if (!pe.any()) return out;
+  const int32_t B = pe.owner;
+  const std::vector<TripointPlan> plans = plan_tripoints(rule, seeds, out, grid.res, ftol);
+  const double tol = std::max(refine_cells, 1e-9) * grid.res, simplify = simplify_cells * grid.res;
+  int64_t vertices = 0;
+  for (BoundaryLine& line : out.lines) {
+    if (line.owner_a == B || line.owner_b == B) {
+      LineRewrite w{
+          rule,  seeds, index, ftol, tol, B, line.owner_a == B ? line.owner_b : line.owner_a, line.owner_a == B,
+          stats, plans};
+      w.rewrite(line, grid.res);
+      std::vector<Vec2> pts;
+      for (const BoundaryVertex& v : line.vertices) pts.push_back(v.p);
+      std::vector<BoundaryVertex> kept;
+      for (size_t j : simplify_indices(pts, simplify)) kept.push_back(line.vertices[j]);
+      line.vertices = std::move(kept);
+    }
+    vertices += static_cast<int64_t>(line.vertices.size());
+  }
+  vertices += extend_at_tripoints(rule, plans, index, out);
+  out.stats.vertices = vertices;
+  out.stats.max_residual = std::max(out.stats.max_residual, stats.max_residual);
+  return out;
+}
+
+PartialEffectResult compute_partial_effect(const SeedSet& seeds, const GridSpec& grid, const ComputeOptions& options,
+                                           const BoundaryOptions& lines, bool draw_lines) {
+  const auto start = std::chrono::steady_clock::now();
+  PartialEffectResult r;
+  const PartialEffect pe = partial_effect_of(seeds);
+  r.full = compute(seeds, grid, options);
+  r.metric = make_site_metric(seeds, grid, options);
+  r.index = std::make_unique<OwnerIndex>(*r.metric);
+  BoundaryResult full_lines = extract_boundaries(r.full, *r.index, lines);
+  if (!pe.any()) {
+    r.field = r.full;
+    r.boundaries = std::move(full_lines);
+    r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    return r;
+  }
+  std::vector<int32_t> site_of;
+  r.nil_seeds = seeds.without(pe.partial, site_of);
+  const NearestField nil = compute(r.nil_seeds, grid, options);
+  r.nil_metric = make_site_metric(r.nil_seeds, grid, options);
+  r.nil_index = std::make_unique<OwnerIndex>(*r.nil_metric);
+  BoundaryResult nil_lines = extract_boundaries(nil, *r.nil_index, lines);
+  r.rule = std::make_unique<PartialEffectRule>(seeds, pe, std::move(nil_lines), site_of, std::move(full_lines), grid,
+                                               options);
+  r.field = partial_field(r.full, nil, site_of, seeds, *r.rule, options.threads);
+  const double ftol = std::max(lines.tolerance_cells, 1e-15) * cell_metric(grid, *r.metric);
+  if (draw_lines)
+    r.boundaries =
+        partial_boundaries(*r.rule, seeds, *r.index, grid, ftol, lines.refine_cells, lines.simplify_cells, r.stats);
+  r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return r;
+}
+
+int32_t partial_owner_at(const PartialEffectResult& r, Vec2 p, double max_distance) {
+  const int32_t full = owner_at(*r.index, p, max_distance);
+  if (!r.rule) return full;
+  return r.rule->owner(p, full, owner_at(*r.nil_index, p, max_distance));
+}
+
+double partial_locus(const PartialEffectResult& r, int32_t a, int32_t b, Vec2 p) {
+  if (r.rule) {
+    const int32_t B = r.rule->effect().owner;
+    if (a == B || b == B) {
+      const int32_t x = a == B ? b : a;
+      if (owner_at(*r.index, p) == B && owner_at(*r.nil_index, p) == x) {
+        const double balance = r.rule->balance(p, x);
+        return a == B ? -balance : balance;
+      }
+    }
+  }
+  return r.index->nearest_of(p, a).cost - r.index->nearest_of(p, b).cost;
+}
+
+}  // namespace rv

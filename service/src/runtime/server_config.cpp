@@ -1,0 +1,211 @@
+#include "rv/server_config.hpp"
+
+#include <fstream>
+#include <set>
+#include <sstream>
+#include <thread>
+
+#include <unistd.h>
+
+#include "rv/field/error.hpp"
+
+namespace rv {
+namespace {
+
+using nlohmann::json;
+
+[[noreturn]] void bad(const std::string& key, const std::string& why) {
+  throw Error(ErrorKind::invalid_argument, "configuration key '" + key + "': " + why);
+}
+
+// Rejects keys we do not know: a misspelt limit would otherwise silently keep its default.
+void check_keys(const json& object, const std::string& where, const std::set<std::string>& known) {
+  if (!object.is_object()) bad(where.empty() ? "(document)" : where, "must be a JSON object");
+  for (const auto& [key, value] : object.items()) {
+    if (!known.count(key)) bad(where.empty() ? key : where + "." + key, "unknown key");
+  }
+}
+
+int64_t get_int(const json& object, const std::string& where, const char* key, int64_t fallback, int64_t min_value) {
+  if (!object.contains(key)) return fallback;
+  const json& v = object.at(key);
+  const std::string name = where + "." + key;
+  if (!v.is_number_integer()) bad(name, "must be an integer");
+  const int64_t x = v.get<int64_t>();
+  if (x < min_value) bad(name, "must be >= " + std::to_string(min_value));
+  return x;
+}
+
+double get_seconds(const json& object, const std::string& where, const char* key, double fallback) {
+  if (!object.contains(key)) return fallback;
+  const json& v = object.at(key);
+  const std::string name = where + "." + key;
+  if (!v.is_number()) bad(name, "must be a number of seconds");
+  const double x = v.get<double>();
+  if (!(x > 0.0) || x > 1e7) bad(name, "must be > 0 and at most 1e7 seconds");
+  return x;
+}
+
+std::string get_string(const json& object, const char* key, const std::string& fallback) {
+  if (!object.contains(key)) return fallback;
+  if (!object.at(key).is_string()) bad(key, "must be a string");
+  return object.at(key).get<std::string>();
+}
+
+// A token goes into an HTTP header: printable ASCII without spaces. A short one could be
+// guessed online, so 16 characters is the least accepted (`openssl rand -hex 32` gives 64).
+void add_token(const std::string& token, const std::string& where, AuthConfig& auth) {
+  // The messages say where the token is, never what it is: the error ends up in logs.
+  if (token.size() < 16 || token.size() > 4096) bad(where, "a token must have 16 to 4096 characters");
+  for (const char ch : token) {
+    if (ch < 0x21 || ch > 0x7e) bad(where, "a token may contain printable ASCII characters only, no spaces");
+  }
+  auth.tokens.push_back(token);
+}
+
+void parse_auth(const json& a, AuthConfig& auth) {
+  check_keys(a, "auth", {"tokens", "token_file"});
+  if (a.contains("tokens")) {
+    const json& list = a.at("tokens");
+    if (!list.is_array()) bad("auth.tokens", "must be an array of strings");
+    for (size_t i = 0; i < list.size(); ++i) {
+      const std::string where = "auth.tokens[" + std::to_string(i) + "]";
+      if (!list[i].is_string()) bad(where, "must be a string");
+      add_token(list[i].get<std::string>(), where, auth);
+    }
+  }
+  if (a.contains("token_file")) {
+    if (!a.at("token_file").is_string()) bad("auth.token_file", "must be a string");
+    auth.token_file = a.at("token_file").get<std::string>();
+    if (auth.token_file.empty()) return;
+    std::ifstream in(auth.token_file, std::ios::binary);
+    if (!in) {
+      throw Error(ErrorKind::not_found,
+                  "configuration key 'auth.token_file': '" + auth.token_file + "' cannot be opened");
+    }
+    std::string line;
+    int number = 0;
+    const size_t before = auth.tokens.size();
+    while (std::getline(in, line)) {
+      ++number;
+      if (!line.empty() && line.back() == '\r') line.pop_back();
+      const size_t first = line.find_first_not_of(" \t");
+      if (first == std::string::npos || line[first] == '#') continue;
+      const size_t last = line.find_last_not_of(" \t");
+      add_token(line.substr(first, last - first + 1), "auth.token_file line " + std::to_string(number), auth);
+    }
+    // A configured but empty file would silently leave the server open: refuse it.
+    if (auth.tokens.size() == before) bad("auth.token_file", "'" + auth.token_file + "' holds no token");
+  }
+}
+
+}  // namespace
+
+void parse_listen(const std::string& listen, ServerConfig& config) {
+  std::string host;
+  std::string port;
+  if (!listen.empty() && listen.front() == '[') {
+    const auto close = listen.find(']');
+    if (close == std::string::npos || close + 1 >= listen.size() || listen[close + 1] != ':') {
+      bad("listen", "expected [ipv6]:port, got '" + listen + "'");
+    }
+    host = listen.substr(1, close - 1);
+    port = listen.substr(close + 2);
+  } else {
+    const auto colon = listen.rfind(':');
+    if (colon == std::string::npos) bad("listen", "expected host:port, got '" + listen + "'");
+    host = listen.substr(0, colon);
+    port = listen.substr(colon + 1);
+  }
+  if (host.empty()) bad("listen", "missing host in '" + listen + "'");
+  if (port.empty() || port.size() > 5 || port.find_first_not_of("0123456789") != std::string::npos ||
+      std::stoi(port) > 65535) {
+    bad("listen", "port must be 0..65535 in '" + listen + "'");
+  }
+  config.host = host;
+  config.port = std::stoi(port);
+}
+
+ServerConfig parse_server_config(const json& doc) {
+  ServerConfig c;
+  check_keys(doc, "", {"listen", "data_dir", "public_url", "web_dir", "http", "jobs", "limits", "auth"});
+  if (doc.contains("listen")) parse_listen(get_string(doc, "listen", ""), c);
+  c.data_dir = get_string(doc, "data_dir", c.data_dir);
+  if (c.data_dir.empty()) bad("data_dir", "must not be empty");
+  c.web_dir = get_string(doc, "web_dir", c.web_dir);
+  c.public_url = get_string(doc, "public_url", c.public_url);
+  while (!c.public_url.empty() && c.public_url.back() == '/') c.public_url.pop_back();
+  if (!c.public_url.empty() && c.public_url.rfind("http://", 0) != 0 && c.public_url.rfind("https://", 0) != 0) {
+    bad("public_url", "must start with http:// or https://");
+  }
+
+  if (doc.contains("http")) {
+    const json& h = doc.at("http");
+    check_keys(h, "http", {"max_body_bytes", "max_header_bytes", "request_timeout_s", "io_threads", "max_connections"});
+    c.http.max_body_bytes = get_int(h, "http", "max_body_bytes", c.http.max_body_bytes, 1024);
+    c.http.max_header_bytes = get_int(h, "http", "max_header_bytes", c.http.max_header_bytes, 512);
+    c.http.max_connections = get_int(h, "http", "max_connections", c.http.max_connections, 0);
+    c.http.request_timeout_s = get_seconds(h, "http", "request_timeout_s", c.http.request_timeout_s);
+    c.http.io_threads = static_cast<int>(get_int(h, "http", "io_threads", c.http.io_threads, 1));
+  }
+  if (doc.contains("jobs")) {
+    const json& j = doc.at("jobs");
+    check_keys(j, "jobs",
+               {"workers", "queue_length", "threads_per_job", "job_timeout_s", "shutdown_grace_s", "describe_workers"});
+    c.jobs.workers = static_cast<int>(get_int(j, "jobs", "workers", c.jobs.workers, 1));
+    c.jobs.queue_length = static_cast<int>(get_int(j, "jobs", "queue_length", c.jobs.queue_length, 0));
+    c.jobs.threads_per_job = static_cast<int>(get_int(j, "jobs", "threads_per_job", c.jobs.threads_per_job, 0));
+    c.jobs.job_timeout_s = get_seconds(j, "jobs", "job_timeout_s", c.jobs.job_timeout_s);
+    c.jobs.shutdown_grace_s = get_seconds(j, "jobs", "shutdown_grace_s", c.jobs.shutdown_grace_s);
+    c.jobs.describe_workers = static_cast<int>(get_int(j, "jobs", "describe_workers", c.jobs.describe_workers, 1));
+  }
+  if (doc.contains("limits")) {
+    const json& l = doc.at("limits");
+    check_keys(l, "limits",
+               {"max_cells", "max_memory_bytes", "total_memory_bytes", "validate_max_cells", "max_features",
+                "max_vertices", "max_input_bytes", "preview_max_vertices"});
+    c.limits.max_cells = get_int(l, "limits", "max_cells", c.limits.max_cells, 1);
+    c.limits.max_memory_bytes = get_int(l, "limits", "max_memory_bytes", c.limits.max_memory_bytes, 0);
+    c.total_memory_bytes = get_int(l, "limits", "total_memory_bytes", c.total_memory_bytes, 0);
+    c.limits.validate_max_cells = get_int(l, "limits", "validate_max_cells", c.limits.validate_max_cells, 0);
+    // 0 = no limit of the server's own (the seed reader's limits, if any, still apply).
+    c.limits.max_features = get_int(l, "limits", "max_features", c.limits.max_features, 0);
+    c.limits.max_vertices = get_int(l, "limits", "max_vertices", c.limits.max_vertices, 0);
+    c.limits.max_input_bytes = get_int(l, "limits", "max_input_bytes", c.limits.max_input_bytes, 0);
+    c.preview_max_vertices = get_int(l, "limits", "preview_max_vertices", c.preview_max_vertices, 1);
+  }
+  if (doc.contains("auth")) parse_auth(doc.at("auth"), c.auth);
+  return c;
+}
+
+ServerConfig load_server_config(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw Error(ErrorKind::not_found, "configuration file '" + path + "' cannot be opened");
+  std::stringstream text;
+  text << in.rdbuf();
+  json doc = json::parse(text.str(), nullptr, /*allow_exceptions=*/false);
+  if (doc.is_discarded()) {
+    throw Error(ErrorKind::invalid_argument, "configuration file '" + path + "' is not valid JSON");
+  }
+  return parse_server_config(doc);
+}
+
+int64_t ServerConfig::memory_budget() const {
+  if (total_memory_bytes > 0) return total_memory_bytes;
+  const long pages = sysconf(_SC_PHYS_PAGES);
+  const long page_size = sysconf(_SC_PAGE_SIZE);
+  const int64_t physical = pages > 0 && page_size > 0 ? int64_t{pages} * page_size : 0;
+  return physical / 10 * 8;
+}
+
+JobLimits effective_limits(const ServerConfig& config) {
+  JobLimits limits = config.limits;
+  // One job alone may take the whole account; jobs side by side wait in it for each other
+  // (server_capacity.hpp) instead of each being held to a fixed share.
+  const int64_t budget = config.memory_budget();
+  if (limits.max_memory_bytes == 0 || (budget > 0 && limits.max_memory_bytes > budget))
+    limits.max_memory_bytes = budget;
+  return limits;
+}
+
+}  // namespace rv

@@ -1,0 +1,302 @@
+// Partial effect (rv/lines/partial_effect.hpp) against the analytic case of the issue: nil- and
+// full-effect lines that are rays from a common point at 200 and 240 degrees, whose e : (1 - e)
+// locus is the ray at 200 + theta with sin(theta) / sin(40 - theta) = e / (1 - e) (220 degrees at
+// half effect, 209.69 at a quarter). Lines to the micrometre, every cell of the band by the rule,
+// e = 1 and e = 0 as the full and nil fields, and the input rules.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+
+#include "rv/engine/engine.hpp"
+#include "rv/field/error.hpp"
+#include "rv/lines/partial_effect.hpp"
+#include "seed_gen.hpp"
+
+namespace rv {
+namespace {
+
+constexpr double kDeg = std::numbers::pi / 180.0;
+const Vec2 kO{500000.0, 6000000.0};
+
+Vec2 toward(double azimuth_deg, double r) {
+  return Vec2{kO.x + r * std::sin(azimuth_deg * kDeg), kO.y + r * std::cos(azimuth_deg * kDeg)};
+}
+
+double azimuth_of(Vec2 p) {
+  const double az = std::atan2(p.x - kO.x, p.y - kO.y) / kDeg;
+  return az < 0.0 ? az + 360.0 : az;
+}
+
+// A at azimuth 310, B's mainland at 90 and its island at 170, all 30 km from O: the A-B line is
+// the ray at 20 degrees and, at nil effect, the ray at 200; at full effect the ray at 240.
+SeedSet rays(double effect) {
+  SeedSet s;
+  const int32_t a = s.owner_code("A"), b = s.owner_code("B");
+  s.add_point(s.add_feature(a), toward(310.0, 30000.0));
+  s.add_point(s.add_feature(b), toward(90.0, 30000.0));
+  const int32_t island = s.add_feature(b);
+  s.add_point(island, toward(170.0, 30000.0));
+  s.set_effect(island, effect);
+  return s;
+}
+
+const GridSpec kGrid = test::grid_of(120, 100, 1000.0, 420000.0, 6030000.0);
+
+// The partial line's azimuth for effect e: 200 + theta, sin(theta) / sin(40 - theta) = e / (1 - e).
+double locus_azimuth(double e) {
+  const double k = e / (1.0 - e);
+  return 200.0 + std::atan(k * std::sin(40.0 * kDeg) / (1.0 + k * std::cos(40.0 * kDeg))) / kDeg;
+}
+
+void check_rays(double e, double expected_azimuth) {
+  const SeedSet s = rays(e);
+  const PartialEffectResult r = compute_partial_effect(s, kGrid, ComputeOptions{}, BoundaryOptions{});
+  ASSERT_TRUE(r.rule);
+  EXPECT_NEAR(locus_azimuth(e), expected_azimuth, 0.005);
+  EXPECT_EQ(r.stats.stretches, 1);
+  // The A-B line: the common ray at 20 degrees, O, then the partial ray.
+  ASSERT_EQ(r.boundaries.lines.size(), 1u);
+  const BoundaryLine& line = r.boundaries.lines[0];
+  int64_t on_ray = 0;
+  const double az = locus_azimuth(e);
+  const Vec2 u{std::sin(az * kDeg), std::cos(az * kDeg)};
+  for (const BoundaryVertex& v : line.vertices) {
+    const Vec2 q{v.p.x - kO.x, v.p.y - kO.y};
+    const double along = q.x * u.x + q.y * u.y;
+    if (std::hypot(q.x, q.y) < 1e-6) continue;  // O itself
+    if (along <= 0.0) continue;                 // the common ray, on the other side of O
+    ++on_ray;
+    EXPECT_LT(std::abs(q.x * u.y - q.y * u.x), 1e-5) << "vertex at azimuth " << azimuth_of(v.p);
+    // The vertex's distances are the true ones to each owner's nearest.
+    EXPECT_NEAR(v.distance_a, std::hypot(v.p.x - toward(310.0, 30000.0).x, v.p.y - toward(310.0, 30000.0).y), 1e-6);
+  }
+  EXPECT_GT(on_ray, 30);
+  EXPECT_LT(r.stats.max_residual, 1e-6);
+  // Every cell: in the band (200 to 240 degrees) by the side of the partial ray, elsewhere the
+  // full-effect owner; a band cell the neighbour keeps carries its distance.
+  int64_t band = 0, to_b = 0;
+  for (int64_t row = 0; row < kGrid.height; ++row)
+    for (int64_t col = 0; col < kGrid.width; ++col) {
+      const Vec2 p{kGrid.centre_x(col), kGrid.centre_y(row)};
+      const double a = azimuth_of(p);
+      const int32_t owner = s.site_owner(r.field.site.at(col, row));
+      const int32_t full_owner = s.site_owner(r.full.site.at(col, row));
+      if (a > 200.0 + 1e-6 && a < 240.0 - 1e-6) {
+        if (std::abs(a - az) < 1e-6) continue;
+        ++band;
+        const int32_t expected = a < az ? 2 : 1;
+        to_b += expected == 2;
+        ASSERT_EQ(owner, expected) << "cell " << col << "," << row << " at azimuth " << a;
+        if (expected == 1) {
+          const Vec2 A = toward(310.0, 30000.0);
+          EXPECT_NEAR(r.field.distance.at(col, row), std::hypot(p.x - A.x, p.y - A.y), 0.01);
+        }
+      } else if (std::abs(a - 200.0) > 1e-6 && std::abs(a - 240.0) > 1e-6) {
+        ASSERT_EQ(owner, full_owner) << "cell " << col << "," << row;
+      }
+    }
+  EXPECT_GT(band, 500);
+  EXPECT_GT(to_b, 0);
+  EXPECT_LT(to_b, band);
+  // The owner at any position follows the same rule (regions' faces).
+  EXPECT_EQ(partial_owner_at(r, toward(az - 1.0, 20000.0)), 2);
+  EXPECT_EQ(partial_owner_at(r, toward(az + 1.0, 20000.0)), 1);
+  EXPECT_EQ(partial_owner_at(r, toward(60.0, 20000.0)), 2);
+}
+
+TEST(PartialEffect, HalfEffectIsTheMedianRayAt220) { check_rays(0.5, 220.0); }
+
+TEST(PartialEffect, QuarterEffectIsTheRayAt209_69) { check_rays(0.25, 209.69); }
+
+// e = 1 is no adjustment at all; e = 0 is the island absent: the nil-effect field's owners and
+// the line on the 200-degree ray.
+TEST(PartialEffect, FullAndNilEffectAreTheTwoRuns) {
+  const PartialEffectResult full = compute_partial_effect(rays(1.0), kGrid, ComputeOptions{}, BoundaryOptions{});
+  EXPECT_FALSE(full.rule);
+  const NearestField plain = compute(rays(1.0), kGrid, ComputeOptions{});
+  EXPECT_EQ(full.field.site.cells(), plain.site.cells());
+  EXPECT_EQ(full.field.distance.cells(), plain.distance.cells());
+
+  const SeedSet s = rays(0.0);
+  const PartialEffectResult nil = compute_partial_effect(s, kGrid, ComputeOptions{}, BoundaryOptions{});
+  ASSERT_TRUE(nil.rule);
+  SeedSet without_island;
+  const int32_t a = without_island.owner_code("A"), b = without_island.owner_code("B");
+  without_island.add_point(without_island.add_feature(a), toward(310.0, 30000.0));
+  without_island.add_point(without_island.add_feature(b), toward(90.0, 30000.0));
+  const NearestField reference = compute(without_island, kGrid, ComputeOptions{});
+  for (int64_t row = 0; row < kGrid.height; ++row)
+    for (int64_t col = 0; col < kGrid.width; ++col) {
+      const double az = azimuth_of(Vec2{kGrid.centre_x(col), kGrid.centre_y(row)});
+      if (std::abs(az - 200.0) < 1e-6) continue;
+      const int32_t site = nil.field.site.at(col, row);
+      // The island's own cells stay B's (its zone beyond the band is between owners B and B).
+      if (s.site_feature(site) == 2) continue;
+      ASSERT_EQ(s.site_owner(site), without_island.site_owner(reference.site.at(col, row)));
+    }
+  ASSERT_EQ(nil.boundaries.lines.size(), 1u);
+  for (const BoundaryVertex& v : nil.boundaries.lines[0].vertices) {
+    const Vec2 q{v.p.x - kO.x, v.p.y - kO.y};
+    EXPECT_LT(std::abs(q.x * std::cos(200.0 * kDeg) - q.y * std::sin(200.0 * kDeg)), 1e-5);
+  }
+}
+
+// On the ellipsoid, every cell of the rule's field is the rule at its centre (the field decides
+// blocks at once where the balance's size rules the block out; this checks each cell alone).
+TEST(PartialEffect, GeodesicFieldIsTheRuleAtEveryCell) {
+  SeedSet s;
+  const int32_t a = s.owner_code("A"), b = s.owner_code("B");
+  s.add_polyline(s.add_feature(a), std::vector<Vec2>{{10.0, 55.0}, {10.0, 55.6}});
+  s.add_polyline(s.add_feature(b), std::vector<Vec2>{{10.8, 55.0}, {10.8, 55.6}});
+  const int32_t island = s.add_feature(b);
+  s.add_point(island, Vec2{10.3, 55.3});
+  s.set_effect(island, 0.3);
+  const GridSpec g = test::grid_of(200, 150, 0.005, 9.9, 55.7);
+  ComputeOptions o;
+  o.metric = MetricSpec{MetricSpec::geodesic};
+  const PartialEffectResult r = compute_partial_effect(s, g, o, BoundaryOptions{});
+  ASSERT_TRUE(r.rule);
+  const NearestField nil = compute(r.nil_seeds, g, o);
+  int64_t band = 0, returned = 0;
+  for (int64_t row = 0; row < g.height; ++row)
+    for (int64_t col = 0; col < g.width; ++col) {
+      const int32_t full_owner = s.site_owner(r.full.site.at(col, row));
+      const int32_t nil_owner = r.nil_seeds.site_owner(nil.site.at(col, row));
+      const int32_t expected = r.rule->owner(Vec2{g.centre_x(col), g.centre_y(row)}, full_owner, nil_owner);
+      ASSERT_EQ(s.site_owner(r.field.site.at(col, row)), expected) << col << "," << row;
+      band += full_owner == 2 && nil_owner == 1;
+      returned += expected == 1 && full_owner == 2;
+    }
+  EXPECT_GT(band, 1000);
+  EXPECT_GT(returned, 0);
+  EXPECT_LT(returned, band);
+  // The traced line: each vertex between the two lines, on the locus of the drawn lines.
+  EXPECT_EQ(r.stats.stretches, 1);
+  EXPECT_GT(r.stats.points, 20);
+  EXPECT_LT(r.stats.max_residual, 1e-3 * 556.0);
+}
+
+// The partial features' zone meets two neighbours: A at (-40, 0) km and C at (40, 0) km from O,
+// B's mainland at (0, 60) and its island at (0, 28). At nil effect the A-C line (the y axis) runs
+// up to the tripoint T0 = (0, 16.67); at full effect the island cuts it at T1 = (0, -14.57), and
+// the A-B line leaves the A-B bisector at Pt = (-41, 44) along the A-island bisector to T1. A's
+// band is the triangle T1, Pt, T0 between the straight nil line (Pt-T0) and full line (Pt-T1); at
+// half effect its line is where the distances to those two lines (segments: the lines end at
+// their tripoints) agree, and it ends on the axis at the partial tripoint, to which the A-C line
+// runs up the axis. C's side is the mirror image.
+double to_segment(Vec2 p, Vec2 a, Vec2 b) {
+  const double dx = b.x - a.x, dy = b.y - a.y;
+  const double t = std::clamp(((p.x - a.x) * dx + (p.y - a.y) * dy) / (dx * dx + dy * dy), 0.0, 1.0);
+  return std::hypot(a.x + t * dx - p.x, a.y + t * dy - p.y);
+}
+
+TEST(PartialEffect, TwoNeighboursMeetAtThePartialTripoint) {
+  const auto at = [](double x_km, double y_km) { return Vec2{kO.x + 1000.0 * x_km, kO.y + 1000.0 * y_km}; };
+  SeedSet s;
+  const int32_t a = s.owner_code("A"), b = s.owner_code("B"), c = s.owner_code("C");
+  s.add_point(s.add_feature(a), at(-40.0, 0.0));
+  s.add_point(s.add_feature(b), at(0.0, 60.0));
+  const int32_t island = s.add_feature(b);
+  s.add_point(island, at(0.0, 28.0));
+  s.add_point(s.add_feature(c), at(40.0, 0.0));
+  s.set_effect(island, 0.5);
+  const GridSpec g = test::grid_of(120, 110, 1000.0, kO.x - 60000.0, kO.y + 70000.0);
+  const PartialEffectResult r = compute_partial_effect(s, g, ComputeOptions{}, BoundaryOptions{});
+  ASSERT_TRUE(r.rule);
+  EXPECT_EQ(r.stats.stretches, 2);
+  const Vec2 pt = at(-41.0, 44.0), t0 = at(0.0, 50.0 / 3.0), t1 = at(0.0, -14.0 - 4.0 / 7.0);
+  // The balance of a point west of the axis (mirrored from the east): d(L0) - d(L1), L0 and L1
+  // the segments (the stretch beyond Pt, common to both, is never nearer here).
+  auto balance = [&](Vec2 p) {
+    const Vec2 q{kO.x - std::abs(p.x - kO.x), p.y};
+    return to_segment(q, pt, t0) - to_segment(q, pt, t1);
+  };
+  // The partial tripoint: where the balance changes sign on the axis between T1 and T0.
+  double lo = t1.y, hi = t0.y;
+  for (int k = 0; k < 100; ++k) {
+    const double mid = 0.5 * (lo + hi);
+    (balance(Vec2{kO.x, mid}) > 0.0 ? lo : hi) = mid;
+  }
+  ASSERT_EQ(r.boundaries.tripoints.size(), 1u);
+  const Tripoint& tri = r.boundaries.tripoints[0];
+  EXPECT_NEAR(tri.p.x, kO.x, 1e-5);
+  EXPECT_NEAR(tri.p.y, 0.5 * (lo + hi), 1e-5);
+  EXPECT_EQ(tri.owners[0], 1);
+  EXPECT_EQ(tri.owners[2], 3);
+  int64_t on_locus = 0;
+  for (const BoundaryLine& line : r.boundaries.lines) {
+    ASSERT_FALSE(line.closed);
+    const bool ends_at_m = line.vertices.front().p == tri.p || line.vertices.back().p == tri.p;
+    EXPECT_TRUE(ends_at_m) << line.owner_a << "-" << line.owner_b;
+    if (line.owner_a == 1 && line.owner_b == 3) {
+      for (const BoundaryVertex& v : line.vertices) EXPECT_NEAR(v.p.x, kO.x, 1e-5);
+      continue;
+    }
+    for (const BoundaryVertex& v : line.vertices) {
+      if (v.p.y >= pt.y - 1e-6) continue;  // the common stretch, north-west of Pt
+      ++on_locus;
+      EXPECT_LT(std::abs(balance(v.p)), 1e-5) << v.p.x << "," << v.p.y;
+    }
+  }
+  EXPECT_GT(on_locus, 40);
+  // The cells of the two bands: B's where the nil line is nearer, the neighbour's elsewhere.
+  int64_t band = 0, kept = 0;
+  for (int64_t row = 0; row < g.height; ++row)
+    for (int64_t col = 0; col < g.width; ++col) {
+      const Vec2 p{g.centre_x(col), g.centre_y(row)};
+      const int32_t full_owner = s.site_owner(r.full.site.at(col, row));
+      const Vec2 q{kO.x - std::abs(p.x - kO.x) - pt.x, p.y - pt.y};
+      const Vec2 u0{t0.x - pt.x, t0.y - pt.y}, u1{t1.x - pt.x, t1.y - pt.y};
+      const bool in_band = std::abs(p.x - kO.x) > 1e-6 && full_owner == 2 && u0.x * q.y - u0.y * q.x < 0.0 &&
+                           u1.x * q.y - u1.y * q.x > 0.0 && q.x < -pt.x + kO.x;
+      const double f = balance(p);
+      if (!in_band || std::abs(f) < 1e-6) continue;
+      ++band;
+      kept += f < 0.0;
+      ASSERT_EQ(s.site_owner(r.field.site.at(col, row)), f < 0.0 ? 2 : (p.x < kO.x ? 1 : 3)) << col << "," << row;
+    }
+  EXPECT_GT(band, 100);
+  EXPECT_GT(kept, 0);
+  EXPECT_LT(kept, band);
+}
+
+TEST(PartialEffect, InputRules) {
+  SeedSet s = rays(0.5);
+  EXPECT_THROW(s.set_effect(2, 1.5), Error);
+  EXPECT_THROW(s.set_effect(2, std::nan("")), Error);
+  EXPECT_THROW(s.set_effect(2, -0.1), Error);
+  const PartialEffect pe = partial_effect_of(s);
+  EXPECT_EQ(pe.owner, 2);
+  EXPECT_EQ(pe.effect, 0.5);
+  EXPECT_EQ(pe.partial, (std::vector<bool>{false, false, true}));
+  // Two effects within one owner.
+  SeedSet mixed = rays(0.5);
+  const int32_t extra = mixed.add_feature(2);
+  mixed.add_point(extra, toward(130.0, 30000.0));
+  mixed.set_effect(extra, 0.25);
+  try {
+    partial_effect_of(mixed);
+    ADD_FAILURE() << "mixed effects accepted";
+  } catch (const Error& e) {
+    EXPECT_EQ(e.kind(), ErrorKind::invalid_input);
+    EXPECT_NE(std::string(e.what()).find("share one effect"), std::string::npos) << e.what();
+  }
+  // Partial features of two owners.
+  SeedSet two = rays(0.5);
+  two.set_effect(0, 0.5);
+  EXPECT_THROW(partial_effect_of(two), Error);
+  // An owner all of whose features are partial.
+  SeedSet all = rays(0.5);
+  all.set_effect(1, 0.5);
+  try {
+    partial_effect_of(all);
+    ADD_FAILURE() << "an owner without full-effect features accepted";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("every feature of owner 'B'"), std::string::npos) << e.what();
+  }
+}
+
+}  // namespace
+}  // namespace rv

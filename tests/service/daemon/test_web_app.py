@@ -1,0 +1,411 @@
+"""The map page /app (issue 34) in a real browser: headless Chromium driven by Selenium.
+
+    /usr/bin/python3 tests/service/daemon/test_web_app.py RVORONOI FIXTURES ARTEFACT_DIR
+
+Against daemons this test starts (without and with a bearer token):
+  1. the page and its bundle are served with the map page's Content-Security-Policy (no inline
+     script); the process describe-seeds lists fields, values, CRS and box of a GeoPackage, a
+     zipped Shapefile and a FlatGeobuf;
+  2. the Øresund GeoPackage through the file picker: the owner field is offered (and guessed),
+     a job with a 12 nmi limit runs with its progress, the owner raster is drawn from the
+     daemon's ZSTD/predictor COG in the owners' colours (screenshot pixels), the boundary is
+     drawn, the legend lists DK and SE with the report's areas, clicks on the map report the
+     owner and distance of exactly the cell the rasters hold there (read back with GDAL), the
+     downloads are offered for every result and one is fetched; no JavaScript errors;
+  3. the western Baltic (four states, a border tolerance set under "More options"): the legend
+     lists the four, the tripoints are drawn; a grid too large for the server: the daemon's
+     problem shown in plain words;
+  4. hostile data: a GeoJSON whose owner label is <script>alert(1)</script> and whose file name
+     and field name are markup: shown as text, nothing runs, nothing is injected;
+  5. with authentication on: the page asks for the token, then the whole run works (the COG
+     reads carry the header) and the token appears in no URL the daemon saw; that daemon allows
+     too few vertices for drawing the seeds: the page describes them without and says so;
+  6. accessibility basics on every state: labelled fields, alt texts.
+Screenshots go to ARTEFACT_DIR.
+"""
+import base64
+import gzip
+import json
+import os
+import sys
+import tempfile
+import time
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from daemon_harness import Daemon  # noqa: E402
+from test_web_pages import accessibility, check, closed_daemon, HOSTILE, outcome  # noqa: E402
+
+import numpy as np  # noqa: E402
+from osgeo import gdal  # noqa: E402
+from selenium import webdriver  # noqa: E402
+from selenium.common.exceptions import NoAlertPresentException  # noqa: E402
+from selenium.webdriver import ActionChains  # noqa: E402
+from selenium.webdriver.chrome.service import Service  # noqa: E402
+from selenium.webdriver.common.by import By  # noqa: E402
+from selenium.webdriver.support.ui import WebDriverWait  # noqa: E402
+
+RVORONOI, ARTEFACTS = sys.argv[1], sys.argv[3]
+# The file picker takes canonical paths only.
+FIXTURES = os.path.realpath(sys.argv[2])
+gdal.UseExceptions()
+
+
+def browser(downloads):
+    o = webdriver.ChromeOptions()
+    # WebGL (the owner raster's layer) on the software renderer: the test machines have no GPU.
+    for a in ("--headless=new", "--no-sandbox", "--disable-gpu", "--enable-unsafe-swiftshader",
+              "--disable-dev-shm-usage", "--window-size=1400,1000", "--disable-background-networking",
+              "--disable-component-update"):
+        o.add_argument(a)
+    o.binary_location = "/usr/bin/chromium"
+    o.set_capability("goog:loggingPrefs", {"browser": "ALL"})
+    o.add_experimental_option("prefs", {"download.default_directory": downloads, "download.prompt_for_download": False})
+    return webdriver.Chrome(service=Service(executable_path="/usr/bin/chromedriver"), options=o)
+
+
+def shot(drv, name):
+    drv.save_screenshot(os.path.join(ARTEFACTS, "app-" + name + ".png"))
+
+
+def page_state(drv):
+    return drv.find_element(By.TAG_NAME, "body").get_attribute("data-state")
+
+
+def wait_state(drv, states, seconds=60):
+    WebDriverWait(drv, seconds).until(lambda d: page_state(d) in states)
+    return page_state(drv)
+
+
+def errors(drv):
+    return [e for e in drv.get_log("browser") if e["level"] == "SEVERE"]
+
+
+def open_app(drv, base):
+    drv.get(base + "/app")
+    return wait_state(drv, ("ready", "token", "failed"), 30)
+
+
+def load(drv, path):
+    drv.find_element(By.ID, "seed-file").send_keys(path)
+    return wait_state(drv, ("described", "failed"), 30)
+
+
+def run(drv, limits=None, resolution=None):
+    if limits:
+        drv.find_element(By.ID, "in-limitDistances").send_keys(limits)
+    if resolution:
+        field = drv.find_element(By.ID, "in-resolution")
+        field.clear()
+        field.send_keys(resolution)
+    drv.find_element(By.CSS_SELECTOR, "button.run").click()
+    return wait_state(drv, ("done", "failed"), 120)
+
+
+def job_id(drv):
+    link = drv.find_element(By.CSS_SELECTOR, "section[aria-labelledby=h-result] a[href^='/jobs/']")
+    return link.get_attribute("href").split("/jobs/")[1].split("?")[0]
+
+
+def hex_rgb(h):
+    return tuple(int(h[i:i + 2], 16) for i in (1, 3, 5))
+
+
+def screenshot_array(png):
+    """A screenshot as rows x columns x RGB."""
+    path = "/vsimem/rv-app-shot.png"
+    gdal.FileFromMemBuffer(path, png)
+    ds = gdal.Open(path)
+    a = np.stack([ds.GetRasterBand(b).ReadAsArray().astype(int) for b in (1, 2, 3)], axis=-1)
+    ds = None
+    gdal.Unlink(path)
+    return a
+
+
+def pixels_of(png, rgb, tolerance=3):
+    """How many screenshot pixels have colour rgb (within tolerance per channel)."""
+    return int((np.abs(screenshot_array(png) - np.array(rgb)).max(axis=-1) <= tolerance).sum())
+
+
+def raster(d, job, name, with_transform=False):
+    status, _, body = d.request("GET", "/jobs/%s/results/%s" % (job, name), headers=d_headers(d))
+    check(status == 200, "GET %s: %s" % (name, status))
+    path = "/vsimem/app-%s-%s.tif" % (job, name)
+    gdal.FileFromMemBuffer(path, body)
+    ds = gdal.Open(path)
+    a, gt = ds.ReadAsArray(), ds.GetGeoTransform()
+    ds = None
+    gdal.Unlink(path)
+    return (a, gt) if with_transform else a
+
+
+def d_headers(d):
+    return {"Authorization": "Bearer " + d.token} if getattr(d, "token", None) else {}
+
+
+def api_checks(d):
+    status, h, body = d.request("GET", "/app", headers={"Accept": "text/html"})
+    csp = h.get("content-security-policy", "")
+    check(status == 200 and h["content-type"].startswith("text/html"), "/app is a page")
+    script_src = [p for p in csp.split(";") if p.strip().startswith("script-src")]
+    check(script_src and "unsafe-inline" not in script_src[0] and "'self'" in script_src[0],
+          "/app: CSP forbids inline scripts: %s" % csp)
+    check(b"<script>" not in body and b"onload=" not in body, "/app holds no inline script")
+    status, h, body = d.request("GET", "/static/app.js")
+    check(status == 200 and h["content-type"].startswith("text/javascript") and len(body) > 100000
+          and "content-encoding" not in h, "the bundle is served (%s, %d bytes)" % (status, len(body)))
+    status, hz, packed = d.request("GET", "/static/app.js", headers={"Accept-Encoding": "br, gzip;q=0.8"})
+    check(status == 200 and hz.get("content-encoding") == "gzip" and gzip.decompress(packed) == body
+          and len(packed) < len(body) // 2, "gzip where accepted: %d of %d bytes" % (len(packed), len(body)))
+    _, hq, plain = d.request("GET", "/static/app.js", headers={"Accept-Encoding": "gzip;q=0, deflate"})
+    check("content-encoding" not in hq and plain == body, "no gzip where refused (q=0)")
+    etag = h.get("etag", "")
+    status, h304, empty = d.request("GET", "/static/app.js", headers={"If-None-Match": etag})
+    check(etag and status == 304 and not empty and h304.get("etag") == etag, "304 for the same ETag (%r)" % etag)
+    status, _, again = d.request("GET", "/static/app.js", headers={"If-None-Match": '"0-0.0"'})
+    check(status == 200 and again == body, "200 for another ETag")
+    status, _, doc = d.json("GET", "/processes")
+    check([p["id"] for p in doc["processes"]] == ["voronoi", "describe-seeds"], "two processes listed")
+    status, _, landing = d.json("GET", "/")
+    check(any(l["href"].endswith("/app") and l["type"] == "text/html" for l in landing["links"]),
+          "the landing page links the map page")
+
+    def describe(path, media, extra=None):
+        with open(path, "rb") as f:
+            value = base64.b64encode(f.read()).decode()
+        inputs = {"seeds": {"value": value, "mediaType": media, "encoding": "base64"}}
+        inputs.update(extra or {})
+        return d.json("POST", "/processes/describe-seeds/execution", {"inputs": inputs})
+
+    status, _, doc = describe(os.path.join(FIXTURES, "baltic_west.gpkg"), "application/geopackage+sqlite3",
+                              {"features": True})
+    check(status == 200, "describe-seeds answers: %s %s" % (status, str(doc)[:200]))
+    layer = doc["layers"][0]
+    check(layer["name"] == "states" and layer["features"] == 4 and layer["source"] == "seeds[0]:states",
+          "the Baltic's layer: %s" % {k: layer[k] for k in ("name", "features", "source")})
+    iso = [f for f in layer["fields"] if f["name"] == "iso2"]
+    check(iso and iso[0]["values"] == ["DK", "SE", "DE", "PL"] and iso[0]["distinct"] == 4 and iso[0]["type"] == "string",
+          "iso2 with its four values in reading order: %s" % iso)
+    check(doc["commonFields"] == ["iso2"] and doc["crs"]["code"] == "EPSG:4326" and doc["crs"]["geographic"],
+          "common fields and CRS: %s %s" % (doc["commonFields"], doc["crs"]["code"]))
+    bbox = doc["bbox"]
+    check(abs(bbox[0] - 9.0) < 1e-6 and abs(bbox[3] - 56.2) < 1e-6, "the Baltic's box: %s" % bbox)
+    features = doc["features"]["features"]
+    check(len(features) == 4 and [f["properties"]["iso2"] for f in features] == ["DK", "SE", "DE", "PL"]
+          and [f["id"] for f in features] == [1, 2, 3, 4] and features[0]["geometry"]["type"] == "MultiPolygon",
+          "the features, in input order, with their positions as ids")
+    # The Øresund in UTM 33N: the features come reprojected, the box too.
+    status, _, doc = describe(os.path.join(FIXTURES, "oresund.gpkg"), "application/geopackage+sqlite3",
+                              {"crs": "EPSG:32633", "features": True})
+    check(status == 200 and doc["crs"]["code"] == "EPSG:32633" and not doc["crs"]["geographic"]
+          and doc["crs"]["metresPerUnit"] == 1.0 and 200000 < doc["bbox"][0] < 400000,
+          "describe-seeds reprojects to the crs asked: %s %s" % (doc.get("crs", {}).get("code"), doc.get("bbox")))
+    for name, media in (("coast_shp.zip", "application/zip"), ("all_types.fgb", "application/flatgeobuf")):
+        status, _, doc = describe(os.path.join(FIXTURES, name), media)
+        check(status == 200 and doc["layers"] and doc["layers"][0]["fields"] and "features" not in doc,
+              "%s described, without features unless asked: %s" % (name, str(doc)[:200]))
+    status, _, doc = d.json("POST", "/processes/describe-seeds/execution",
+                            {"inputs": {"seeds": {"value": "AAAA", "mediaType": "application/zip", "encoding": "base64"}}})
+    check(status == 400 and "seeds" in doc.get("detail", ""), "a damaged upload is a 400 naming the input: %s" % doc)
+    status, _, doc = d.json("POST", "/processes/describe-seeds/execution", {"inputs": {"seeds": {}, "owner": "x"}})
+    check(status == 400 and "owner" in doc.get("detail", ""), "an unknown input is named: %s" % doc)
+
+
+def oresund_run(drv, d, base, tag):
+    check(open_app(drv, base) == "ready", "%s: the page starts" % tag)
+    accessibility(drv, tag + " start")
+    check(load(drv, os.path.join(FIXTURES, "oresund.gpkg")) == "described", "%s: the GeoPackage is described" % tag)
+    owner = drv.find_element(By.ID, "in-ownerField")
+    options = [o.get_attribute("value") for o in owner.find_elements(By.TAG_NAME, "option")]
+    check("iso2" in options and owner.get_attribute("value") == "iso2",
+          "%s: iso2 offered and chosen as the owner field: %s" % (tag, options))
+    check("2 values" in owner.text, "%s: the field's values are counted" % tag)
+    check(drv.find_element(By.ID, "in-resolution").get_attribute("value") != "", "%s: a cell size is proposed" % tag)
+    accessibility(drv, tag + " form")
+    shot(drv, tag + "-form")
+    check(run(drv, limits="12nmi", resolution="0.004") == "done", "%s: the job ran: %s" % (
+        tag, drv.find_element(By.ID, "panel").text[-400:]))
+    check(drv.find_element(By.ID, "job-progress").get_attribute("value") == "100", "%s: the progress bar is full" % tag)
+    time.sleep(1.5)  # the raster tiles are decoded and drawn
+    job = job_id(drv)
+    _, _, report = d.json("GET", "/jobs/%s/results" % job, headers=d_headers(d))
+    report = report["report"]["value"]
+    owners = {o["label"]: o for o in report["seeds"]["owners"]}
+    check(set(owners) == {"DK", "SE"} and all(o["colour"].startswith("#") for o in owners.values()),
+          "%s: the report gives each owner its colour: %s" % (tag, owners))
+    legend = drv.find_element(By.ID, "legend")
+    text = legend.text
+    areas = {a["label"]: a for a in report["deliverables"]["regions"]["areas"]}
+    for label in ("DK", "SE"):
+        km2 = "{:,.1f}".format(areas[label]["sea_area"] / 1e6)
+        check(label in text and km2 in text, "%s: the legend lists %s with its sea area %s km²: %s" % (tag, label, km2, text))
+    png = drv.get_screenshot_as_png()
+    shot(drv, tag + "-result")
+    for label, o in owners.items():
+        n = pixels_of(png, hex_rgb(o["colour"]))
+        check(n > 5000, "%s: the owner raster shows %s's sea in its colour (%d pixels)" % (tag, label, n))
+    n = pixels_of(png, (0x1b, 0x26, 0x31), 10)
+    check(n > 200, "%s: the boundary is drawn (%d pixels)" % (tag, n))
+    # Clicks: the read-out names the cell and its values, equal to the rasters'.
+    own, gt = raster(d, job, "ownership", True)
+    dist = raster(d, job, "distance")
+    seen = set()
+    cell = drv.find_element(By.ID, "cell")
+    shown = screenshot_array(png)
+    m = drv.find_element(By.ID, "map")
+    centre = (m.location["x"] + m.size["width"] // 2, m.location["y"] + m.size["height"] // 2)
+    colours = {o["code"]: hex_rgb(o["colour"]) for o in owners.values()}
+    coloured = 0
+    for dx, dy in ((-60, 0), (0, -40), (50, 80), (120, -150), (-200, 200), (-150, -100), (200, 50)):
+        drv.execute_script("arguments[0].removeAttribute('data-row')", cell)
+        ActionChains(drv).move_to_element_with_offset(drv.find_element(By.ID, "map"), dx, dy).click().perform()
+        try:
+            WebDriverWait(drv, 10).until(lambda x: cell.get_attribute("data-row"))
+        except Exception:
+            check(False, "%s: the click at %s gave a read-out: %s" % (tag, (dx, dy), cell.text))
+            continue
+        r, c = int(cell.get_attribute("data-row")), int(cell.get_attribute("data-col"))
+        code, distance = int(cell.get_attribute("data-code")), float(cell.get_attribute("data-distance"))
+        check(code == int(own[r, c]) and distance == float(dist[r, c]),
+              "%s: the cell (%d, %d) reads owner %d, distance %r; the rasters hold %d, %r" % (
+                  tag, r, c, code, distance, own[r, c], dist[r, c]))
+        # The cell is the one under the click: from the clicked map coordinate and the file's
+        # georeferencing (GDAL), not from the page's arithmetic.
+        x, y = float(cell.get_attribute("data-x")), float(cell.get_attribute("data-y"))
+        want = (int((y - gt[3]) // gt[5]), int((x - gt[0]) // gt[1]))
+        check((r, c) == want, "%s: the click at (%r, %r) is cell %s; the page read %s" % (tag, x, y, want, (r, c)))
+        # Where the screen shows an owner's colour, it is the colour of the owner of that cell.
+        px = shown[centre[1] + dy, centre[0] + dx]
+        match = [k for k, rgb in colours.items() if np.abs(px - np.array(rgb)).max() <= 3]
+        if match:
+            coloured += 1
+            check(match == [code], "%s: the screen at the click shows owner %s's colour; the cell is %d's" % (
+                tag, match, code))
+        label = [k for k, o in owners.items() if o["code"] == code]
+        check(not label or ("Owner " + label[0]) in cell.text, "%s: the read-out names the owner: %s" % (tag, cell.text))
+        seen.add(code)
+    check({1, 2} <= seen, "%s: clicks met both owners: %s" % (tag, seen))
+    check(coloured >= 3, "%s: at least 3 clicks on the owners' sea (%d)" % (tag, coloured))
+    names = [b.text for b in drv.find_elements(By.CSS_SELECTOR, "#downloads button")]
+    for want in ("ownership.tif", "distance.tif", "report.json", "regions.geojson", "boundaries.geojson",
+                 "tripoints.geojson", "limits.geojson", "ownership.tif.aux.xml"):
+        check(want in names, "%s: a download for %s: %s" % (tag, want, names))
+    return job, own
+
+
+def baltic_run(drv, base):
+    """Four owners, tripoints, land borders that overlap by metres (a tolerance under More options)."""
+    open_app(drv, base)
+    check(load(drv, os.path.join(FIXTURES, "baltic_west.gpkg")) == "described", "the Baltic is described")
+    drv.find_element(By.CSS_SELECTOR, "details.more summary").click()
+    field = drv.find_element(By.ID, "in-borderTolerance")
+    field.clear()
+    field.send_keys("10")
+    check(run(drv, resolution="0.01") == "done", "the Baltic ran: %s" % drv.find_element(By.ID, "panel").text[-300:])
+    time.sleep(1.5)
+    legend = drv.find_element(By.ID, "legend").text
+    check(all(s in legend for s in ("DK", "SE", "DE", "PL")), "the legend lists the four states: %s" % legend)
+    png = drv.get_screenshot_as_png()
+    shot(drv, "baltic")
+    n = pixels_of(png, (0xc0, 0x39, 0x2b), 6)
+    check(n > 30, "the tripoints are drawn (%d pixels)" % n)
+
+
+def download(drv, downloads, name, expect):
+    [b for b in drv.find_elements(By.CSS_SELECTOR, "#downloads button") if b.text == name][0].click()
+    path = os.path.join(downloads, name)
+    end = time.time() + 20
+    while time.time() < end and not os.path.exists(path):
+        time.sleep(0.1)
+    check(os.path.exists(path), "the download %s was saved" % name)
+    if os.path.exists(path):
+        a = gdal.Open(path).ReadAsArray()
+        check(np.array_equal(a, expect), "the downloaded %s equals the job's" % name)
+        os.unlink(path)
+
+
+def too_large(drv, base):
+    open_app(drv, base)
+    load(drv, os.path.join(FIXTURES, "oresund.gpkg"))
+    check(run(drv, resolution="0.000001") == "failed", "a grid over the limit fails")
+    text = drv.find_element(By.ID, "panel").text
+    check("larger cell size" in text and "cells" in text, "the limit is told in plain words: %s" % text[-300:])
+    shot(drv, "too-large")
+
+
+def hostile(drv, base, tmp):
+    name = os.path.join(tmp, "<img src=x onerror=alert(2)>.geojson")
+    field = '<b onmouseover="alert(3)">state</b>'
+    fc = {"type": "FeatureCollection",
+          "crs": {"type": "name", "properties": {"name": "urn:ogc:def:crs:EPSG::32633"}},
+          "features": [{"type": "Feature", "properties": {field: s}, "geometry": {"type": "Point", "coordinates": [x, y]}}
+                       for s, x, y in ((HOSTILE, 401000, 6101000), ("B", 409000, 6109000), (HOSTILE, 403000, 6108000))]}
+    with open(name, "w") as f:
+        json.dump(fc, f)
+    open_app(drv, base)
+    check(load(drv, name) == "described", "the hostile file is described")
+    select = drv.find_element(By.ID, "in-ownerField")
+    check(field in select.text, "the hostile field name is shown as text")
+    for o in select.find_elements(By.TAG_NAME, "option"):
+        if o.get_attribute("value") == field:
+            o.click()
+    check(run(drv, resolution="100") == "done", "the hostile job ran")
+    check(HOSTILE in drv.find_element(By.ID, "legend").text, "the hostile label is shown as text in the legend")
+    check(os.path.basename(name) in drv.find_element(By.ID, "panel").text, "the hostile file name is shown as text")
+    try:
+        drv.switch_to.alert
+        check(False, "an alert ran")
+    except NoAlertPresentException:
+        pass
+    injected = drv.execute_script(
+        "return [...document.querySelectorAll('#panel script, #panel img, #panel b')].length")
+    check(injected == 0, "no element was injected (%d)" % injected)
+    shot(drv, "hostile")
+
+
+def with_token(drv, d, base, downloads):
+    check(open_app(drv, base) == "token", "the page asks for a token")
+    accessibility(drv, "token")
+    drv.find_element(By.ID, "token").send_keys(d.token)
+    drv.find_element(By.CSS_SELECTOR, "form.token button").click()
+    time.sleep(0.5)
+    wait_state(drv, ("ready",), 30)
+    _, own = oresund_run(drv, d, base, "auth")
+    check("too large to draw" in drv.find_element(By.ID, "panel").text,
+          "over preview_max_vertices, the page says the seeds are not drawn")
+    download(drv, downloads, "ownership.tif", own)
+    check(not any(d.token in line for line in d.log), "the token appears in no logged request")
+
+
+def main():
+    os.makedirs(ARTEFACTS, exist_ok=True)
+    with tempfile.TemporaryDirectory() as tmp:
+        downloads = os.path.join(tmp, "downloads")
+        os.makedirs(downloads)
+        drv = browser(downloads)
+        try:
+            d = Daemon([RVORONOI, "serve"], os.path.join(tmp, "open"), {"limits": {"max_cells": 50_000_000}})
+            try:
+                api_checks(d)
+                oresund_run(drv, d, "http://127.0.0.1:%d" % d.port, "open")
+                check(not errors(drv), "no JavaScript errors: %s" % errors(drv))
+                baltic_run(drv, "http://127.0.0.1:%d" % d.port)
+                too_large(drv, "http://127.0.0.1:%d" % d.port)
+                drv.get_log("browser")  # the 413 itself is logged by the browser
+                hostile(drv, "http://127.0.0.1:%d" % d.port, tmp)
+                check(not errors(drv), "no JavaScript errors: %s" % errors(drv))
+            finally:
+                d.stop()
+            # Too few vertices allowed for drawing the Øresund: described without its features.
+            d, d.token = closed_daemon(RVORONOI, tmp, {"limits": {"preview_max_vertices": 100}})
+            try:
+                drv.execute_script("sessionStorage.clear()")
+                with_token(drv, d, "http://127.0.0.1:%d" % d.port, downloads)
+            finally:
+                d.stop()
+        finally:
+            drv.quit()
+    return outcome("map page", ARTEFACTS)
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,189 @@
+// The option table (rv/options.hpp): each option declared once, the CLI and the process inputs
+// parsed by the same rules into the same JobSpec, --help and the process description made from it.
+#include <gtest/gtest.h>
+
+#include <functional>
+#include <set>
+#include <string>
+#include <vector>
+
+#include "rv/field/error.hpp"
+#include "rv/options.hpp"
+
+namespace rv {
+namespace {
+
+using nlohmann::json;
+
+std::string message_of(const std::function<void()>& f) {
+  try {
+    f();
+  } catch (const Error& e) {
+    EXPECT_EQ(e.kind(), ErrorKind::invalid_argument) << e.what();
+    return e.what();
+  }
+  ADD_FAILURE() << "no error";
+  return {};
+}
+
+JobSpec from_cli(const std::vector<std::vector<std::string>>& args) {
+  JobSpec s;
+  for (const auto& a : args) {
+    const OptionSpec* o = find_flag(a.front());
+    EXPECT_NE(o, nullptr) << a.front();
+    o->apply(s, parse_cli_value(*o, std::vector<std::string>(a.begin() + 1, a.end())));
+  }
+  return s;
+}
+
+JobSpec from_inputs(const json& inputs) {
+  JobSpec s;
+  for (const auto& [key, value] : inputs.items()) {
+    const OptionSpec* o = find_input(key);
+    EXPECT_NE(o, nullptr) << key;
+    o->apply(s, parse_input_value(*o, value));
+  }
+  return s;
+}
+
+TEST(Options, EachOptionIsDeclaredOnceAndComplete) {
+  std::set<std::string_view> flags, inputs;
+  for (const OptionSpec& o : job_options()) {
+    EXPECT_FALSE(o.flag.empty() && o.input.empty()) << o.title;
+    if (!o.flag.empty()) {
+      EXPECT_TRUE(flags.insert(o.flag).second) << o.flag;
+    }
+    if (!o.input.empty()) {
+      EXPECT_TRUE(inputs.insert(o.input).second) << o.input;
+    }
+    EXPECT_NE(o.apply, nullptr) << o.title;
+    EXPECT_FALSE(o.help.empty()) << o.title;
+    EXPECT_FALSE(o.title.empty());
+    EXPECT_EQ(o.type == OptionType::choice, !o.choices.empty()) << o.title;
+    EXPECT_EQ(o.type == OptionType::flag, o.metavar.empty()) << o.title;
+    if (o.type == OptionType::file) {
+      EXPECT_TRUE(o.input.empty()) << "files are the CLI's: " << o.flag;
+    }
+  }
+  // The process inputs of the voronoi process, besides the seeds: the API's ids stay as they are.
+  EXPECT_EQ(inputs, (std::set<std::string_view>{"ownerField",      "weightField",
+                                                "reachField",      "effectField",
+                                                "borderTolerance", "transformAccuracy",
+                                                "allowBallpark",   "resolution",
+                                                "extent",          "crs",
+                                                "metric",          "method",
+                                                "maxDistance",     "distanceUnits",
+                                                "validate",        "limitDistances",
+                                                "limitsPerOwner",  "simplify",
+                                                "compression",     "baseJob"}));
+}
+
+TEST(Options, TheCliAndTheProcessInputsMakeTheSameJob) {
+  const JobSpec cli = from_cli({{"resolution", "250"},
+                                {"extent", "0", "0", "1000", "2000"},
+                                {"crs", "EPSG:32633"},
+                                {"owner-field", "state"},
+                                {"border-tolerance", "0.05"},
+                                {"transform-accuracy", "12"},
+                                {"allow-ballpark"},
+                                {"metric", "planar"},
+                                {"method", "hv_scan"},
+                                {"max-distance", "5000"},
+                                {"distance-units", "km"},
+                                {"validate"},
+                                {"limit-distances", "12nmi,24nmi"},
+                                {"limits-per-owner"},
+                                {"simplify", "0.5"},
+                                {"compression", "deflate"}});
+  const JobSpec api = from_inputs(json::parse(R"({
+      "resolution": 250, "extent": {"bbox": [0, 0, 1000, 2000]}, "crs": "EPSG:32633", "ownerField": "state",
+      "borderTolerance": 0.05, "transformAccuracy": 12, "allowBallpark": true, "metric": "planar", "method": {"value": "hv_scan"}, "maxDistance": 5000, "distanceUnits": "km",
+      "validate": true, "limitDistances": ["12nmi", {"value": 24, "unit": "nmi"}], "limitsPerOwner": true,
+      "simplify": 0.5, "compression": "deflate"})"));
+  for (const JobSpec* s : {&cli, &api}) {
+    EXPECT_EQ(*s->grid.resolution, 250.0);
+    EXPECT_EQ(*s->grid.extent, (std::array<double, 4>{0, 0, 1000, 2000}));
+    EXPECT_EQ(s->seeds.target_crs, "EPSG:32633");
+    EXPECT_EQ(*s->seeds.owner_field, "state");
+    EXPECT_EQ(s->seeds.border_tolerance, 0.05);
+    EXPECT_EQ(s->seeds.transform_accuracy, 12.0);
+    EXPECT_TRUE(s->seeds.allow_ballpark);
+    EXPECT_EQ(s->metric, MetricRequest::planar);
+    EXPECT_EQ(s->method, Method::hv_scan);  // an alias, read as the method it names
+    EXPECT_EQ(*s->max_distance, 5000.0);
+    EXPECT_EQ(s->distance_units, DistanceUnit::km);
+    EXPECT_TRUE(s->validate);
+    EXPECT_EQ(s->outputs.limit_distances.size(), 2u);
+    EXPECT_TRUE(s->outputs.limits_per_owner);
+    EXPECT_EQ(s->outputs.simplify_cells, 0.5);
+    EXPECT_EQ(s->outputs.compression, Compression::deflate);
+  }
+}
+
+TEST(Options, BadValuesNameTheOptionAsTheCallerKnowsIt) {
+  const OptionSpec& res = *find_flag("resolution");
+  EXPECT_EQ(message_of([&] { parse_cli_value(res, {"-1"}); }), "--resolution: must be a finite number > 0");
+  EXPECT_EQ(message_of([&] { parse_cli_value(res, {"1e999"}); }), "--resolution: must be a finite number");
+  EXPECT_EQ(message_of([&] { parse_cli_value(res, {"10m"}); }), "--resolution: '10m' is not a number");
+  EXPECT_EQ(message_of([&] { parse_input_value(res, "ten"); }), "input 'resolution': must be a number, got string");
+  EXPECT_EQ(message_of([&] {
+              parse_input_value(res, json{{"href", "http://x"}});
+            }),
+            "input 'resolution': references (href) are not accepted; send the value itself");
+  EXPECT_EQ(message_of([&] { parse_cli_value(*find_flag("metric"), {"spherical"}); }),
+            "--metric: must be one of auto, planar, geodesic, got 'spherical'");
+  EXPECT_EQ(message_of([&] { parse_cli_value(*find_flag("threads"), {"2000"}); }), "--threads: expected 0..1024");
+  EXPECT_EQ(message_of([&] {
+              parse_cli_value(*find_flag("extent"), {"0", "0", "inf", "1"});
+            }),
+            "--extent: 'inf' is not a finite number");
+  EXPECT_EQ(message_of([&] {
+              parse_input_value(*find_input("extent"), json::array({0, 0, 1}));
+            }),
+            "input 'extent': must be [xmin, ymin, xmax, ymax] (4 numbers; 3-D boxes are not supported)");
+  EXPECT_EQ(message_of([&] { parse_input_value(*find_input("validate"), "yes"); }),
+            "input 'validate': must be a boolean");
+  // Each limit distance is checked by the façade's parser; a JSON array names the item.
+  EXPECT_NE(message_of([&] {
+              parse_input_value(*find_input("limitDistances"), json{"12nmi", -3});
+            }).find("input 'limitDistances[1]': "),
+            std::string::npos);
+  EXPECT_NE(message_of([&] {
+              parse_cli_value(*find_flag("limit-distances"), {"12nmi,12 parsecs"});
+            }).find("--limit-distances: unknown distance unit 'parsecs'"),
+            std::string::npos);
+  EXPECT_EQ(message_of([&] { parse_input_value(*find_input("limitDistances"), json::array()); }),
+            "input 'limitDistances': needs at least one distance");
+  // A 700 KB value is not echoed whole.
+  EXPECT_LT(message_of([&] { parse_cli_value(*find_flag("metric"), {std::string(700000, 'x')}); }).size(), 200u);
+}
+
+TEST(Options, HelpAndDescriptionComeFromTheTable) {
+  std::string help;
+  for (const char* section : {"seeds", "grid", "computation", "outputs", "deliverables"}) help += options_help(section);
+  for (const OptionSpec& o : job_options()) {
+    if (o.flag.empty()) continue;
+    const std::string flag = "  --" + std::string(o.flag) + (o.metavar.empty() ? "" : " ");
+    size_t first = help.find(flag);
+    EXPECT_NE(first, std::string::npos) << o.flag;
+    EXPECT_EQ(help.find(flag, first + 1), std::string::npos) << "listed twice: " << o.flag;
+  }
+  for (const std::string_view line : {std::string_view(help)}) {
+    size_t start = 0;
+    while (start < line.size()) {
+      const size_t end = line.find('\n', start);
+      EXPECT_LE(end - start, 100u) << line.substr(start, end - start);
+      start = end + 1;
+    }
+  }
+  const json d = process_input_description(*find_input("resolution"));
+  EXPECT_EQ(d["minOccurs"], 1);
+  EXPECT_EQ(d["schema"]["exclusiveMinimum"], true);
+  const json m = process_input_description(*find_input("method"));
+  EXPECT_EQ(m["schema"]["default"], "exact");
+  EXPECT_EQ(m["schema"]["enum"].size(), 7u);  // aliases accepted are listed too
+  EXPECT_EQ(process_input_description(*find_input("validate"))["schema"]["default"], false);
+}
+
+}  // namespace
+}  // namespace rv
