@@ -16,7 +16,7 @@
 #include "rv/edit/seed_archive.hpp"
 #include "rv/engine/engine.hpp"
 #include "rv/field/error.hpp"
-#include "rv/lines/deliverables.hpp"
+#include "rv/lines/strip_lines.hpp"
 
 namespace {
 

@@ -4,7 +4,8 @@
 
 #include <gtest/gtest.h>
 
-#include "rv/lines/deliverables.hpp"
+#include "rv/lines/boundaries.hpp"
+#include "rv/lines/limits.hpp"
 
 namespace rv::test {
 

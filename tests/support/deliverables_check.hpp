@@ -7,7 +7,8 @@
 #include <cmath>
 #include <limits>
 
-#include "rv/lines/deliverables.hpp"
+#include "rv/lines/boundaries.hpp"
+#include "rv/lines/regions.hpp"
 
 namespace rv::test {
 

@@ -14,9 +14,12 @@
 #include <unordered_set>
 #include <vector>
 
+#include "rv/engine/owner_index.hpp"
+#include "rv/engine/site_metric.hpp"
 #include "rv/field/error.hpp"
 #include "rv/field/parallel.hpp"
-#include "rv/lines/deliverables.hpp"
+#include "rv/lines/regions.hpp"
+#include "rv/lines/strip_lines.hpp"
 
 namespace rv {
 

@@ -12,10 +12,11 @@
 
 #include "engine/bucket_index.hpp"
 #include "engine/engine_internal.hpp"
+#include "rv/engine/owner_index.hpp"
+#include "rv/engine/site_metric.hpp"
 #include "rv/field/error.hpp"
 #include "rv/field/interior.hpp"
 #include "rv/field/parallel.hpp"
-#include "rv/lines/deliverables.hpp"
 
 namespace rv {
 

@@ -15,7 +15,7 @@
 #include "rv/field/planar.hpp"
 
 namespace rv {
-class SiteMetric;  // rv/lines/deliverables.hpp
+class SiteMetric;  // rv/engine/site_metric.hpp
 class OwnerIndex;
 }  // namespace rv
 

@@ -1,14 +1,16 @@
-// SiteMetric's area sites and boxes, PlanarSiteMetric and OwnerIndex (rv/lines/deliverables.hpp): how
-// the deliverables measure a point's distance to a seed site, and find an owner's nearest site.
+// SiteMetric's area sites and boxes, PlanarSiteMetric and OwnerIndex (rv/engine/site_metric.hpp,
+// rv/engine/owner_index.hpp): how the deliverables measure a point's distance to a seed site, and find an owner's
+// nearest site.
 #include <algorithm>
 #include <array>
 #include <cmath>
 #include <limits>
 #include <vector>
 
+#include "rv/engine/owner_index.hpp"
+#include "rv/engine/site_metric.hpp"
 #include "rv/field/error.hpp"
 #include "rv/field/planar.hpp"
-#include "rv/lines/deliverables.hpp"
 
 namespace rv {
 

@@ -1,5 +1,5 @@
 // Flat little-endian byte layouts: what the core keeps of a run in files of its own (the seed
-// archive, rv/edit/seed_archive.hpp; the line pieces, rv/lines/deliverables.hpp's LinePieces). Values are
+// archive, rv/edit/seed_archive.hpp; the line pieces, rv/lines/strip_lines.hpp's LinePieces). Values are
 // appended as their bytes, doubles bit for bit; a reader checks every read and every count
 // against the bytes left before anything is allocated, so damaged bytes fail with a message
 // naming what was read instead of a huge allocation.

@@ -8,8 +8,9 @@
 #include <numbers>
 
 #include "engine/engine_internal.hpp"
+#include "rv/engine/site_metric.hpp"
 #include "rv/field/error.hpp"
-#include "rv/lines/deliverables.hpp"
+#include "rv/geodesic/geodesic.hpp"
 
 namespace rv {
 

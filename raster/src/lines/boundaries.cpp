@@ -1,4 +1,4 @@
-// Boundaries and tripoints (extract_boundaries, rv/lines/deliverables.hpp) as a pipeline of stages:
+// Boundaries and tripoints (extract_boundaries, rv/lines/boundaries.hpp) as a pipeline of stages:
 // crossings on the edges between differently owned cells, tripoints in the dual squares, links
 // between them per square, chains of links into lines.
 #include <algorithm>
@@ -17,9 +17,13 @@
 
 #include "lines/boundary_stages.hpp"
 #include "lines/line_tools.hpp"
+#include "rv/engine/owner_index.hpp"
+#include "rv/engine/site_metric.hpp"
 #include "rv/field/error.hpp"
 #include "rv/field/parallel.hpp"
-#include "rv/lines/deliverables.hpp"
+#include "rv/lines/boundaries.hpp"
+#include "rv/lines/regions.hpp"
+#include "rv/lines/simplify.hpp"
 
 namespace rv {
 namespace boundary_stages {

@@ -1,4 +1,4 @@
-// The stages of boundary extraction (extract_boundaries, rv/lines/deliverables.hpp), each a function
+// The stages of boundary extraction (extract_boundaries, rv/lines/boundaries.hpp), each a function
 // of its own over rows [row0, row1) of the field -- the shape streaming needs: a strip of the
 // field in, pieces of line out -- and a last stage that joins the pieces into lines:
 //
@@ -30,7 +30,8 @@
 #include <vector>
 
 #include "lines/line_tools.hpp"
-#include "rv/lines/deliverables.hpp"
+#include "rv/engine/owner_index.hpp"
+#include "rv/lines/boundaries.hpp"
 
 namespace rv::boundary_stages {
 

@@ -1,4 +1,4 @@
-// The stages of distance-limit lines (extract_limits, rv/lines/deliverables.hpp), each a function of
+// The stages of distance-limit lines (extract_limits, rv/lines/limits.hpp), each a function of
 // its own over rows [row0, row1) of the field -- the shape streaming needs -- and a last stage
 // that joins the pieces into lines:
 //
@@ -23,7 +23,9 @@
 #include <vector>
 
 #include "lines/line_tools.hpp"
-#include "rv/lines/deliverables.hpp"
+#include "rv/engine/owner_index.hpp"
+#include "rv/engine/site_metric.hpp"
+#include "rv/lines/limits.hpp"
 
 namespace rv::limit_stages {
 

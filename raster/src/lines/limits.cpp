@@ -1,4 +1,4 @@
-// Distance-limit lines (extract_limits, rv/lines/deliverables.hpp) as a pipeline of stages: which cells
+// Distance-limit lines (extract_limits, rv/lines/limits.hpp) as a pipeline of stages: which cells
 // lie inside the limit, the crossings on the edges between inside and outside, links per square,
 // chains of links into lines.
 #include <algorithm>
@@ -14,9 +14,12 @@
 
 #include "lines/limit_stages.hpp"
 #include "lines/line_tools.hpp"
+#include "rv/engine/owner_index.hpp"
+#include "rv/engine/site_metric.hpp"
 #include "rv/field/error.hpp"
 #include "rv/field/parallel.hpp"
-#include "rv/lines/deliverables.hpp"
+#include "rv/lines/limits.hpp"
+#include "rv/lines/simplify.hpp"
 
 namespace rv {
 namespace limit_stages {

@@ -1,4 +1,4 @@
-// LinePieces (rv/lines/deliverables.hpp) as bytes, and the checks an edit runs on them. The layout is
+// LinePieces (rv/lines/strip_lines.hpp) as bytes, and the checks an edit runs on them. The layout is
 // flat, field by field (never a struct's bytes, whose padding is undefined: equal pieces must give
 // equal bytes, since the run records their checksum).
 #include <algorithm>

@@ -1,4 +1,4 @@
-// What LinePieces (rv/lines/deliverables.hpp) holds: the cell-level stages' pieces of one StripLines
+// What LinePieces (rv/lines/strip_lines.hpp) holds: the cell-level stages' pieces of one StripLines
 // extraction, each with the grid row it belongs to, in the order the stages appended them (so
 // every row list is non-decreasing), and per row the boundary stages' statistics.
 // Internal to rv_raster. Thread safety: immutable once made.
@@ -11,7 +11,9 @@
 #include <vector>
 
 #include "lines/boundary_stages.hpp"
-#include "rv/lines/deliverables.hpp"
+#include "rv/lines/boundaries.hpp"
+#include "rv/lines/limits.hpp"
+#include "rv/lines/strip_lines.hpp"
 
 namespace rv {
 

@@ -12,8 +12,8 @@
 #include <limits>
 #include <vector>
 
+#include "rv/engine/site_metric.hpp"
 #include "rv/field/parallel.hpp"
-#include "rv/lines/deliverables.hpp"
 
 namespace rv::line_tools {
 

@@ -1,4 +1,4 @@
-// The margin raster (rv/lines/deliverables.hpp): for every cell, the distance to the nearest seed of
+// The margin raster (rv/lines/margin.hpp): for every cell, the distance to the nearest seed of
 // another owner minus the distance to its own.
 #include <algorithm>
 #include <array>
@@ -9,10 +9,12 @@
 
 #include "engine/exact_other.hpp"
 #include "lines/line_tools.hpp"
+#include "rv/engine/owner_index.hpp"
+#include "rv/engine/site_metric.hpp"
 #include "rv/field/error.hpp"
 #include "rv/field/parallel.hpp"
 #include "rv/field/planar.hpp"
-#include "rv/lines/deliverables.hpp"
+#include "rv/lines/margin.hpp"
 
 namespace rv {
 

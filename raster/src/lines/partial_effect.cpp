@@ -23,6 +23,8 @@
 #include "lines/line_tools.hpp"
 #include "rv/field/error.hpp"
 #include "rv/field/parallel.hpp"
+#include "rv/lines/regions.hpp"
+#include "rv/lines/simplify.hpp"
 
 namespace rv {
 

@@ -1,4 +1,4 @@
-// The edges of regions bounded by the refined lines (region_edges, rv/lines/deliverables.hpp): the
+// The edges of regions bounded by the refined lines (region_edges, rv/lines/regions.hpp): the
 // boundary lines carried from where extraction stops -- the frame of the outermost cell
 // centres, the edge of the owned area with a max distance -- to the grid's edge or the
 // max-distance line, and joined where the cells show too little (lines shorter than a cell,
@@ -16,7 +16,10 @@
 
 #include "lines/boundary_stages.hpp"
 #include "lines/line_tools.hpp"
-#include "rv/lines/deliverables.hpp"
+#include "rv/engine/owner_index.hpp"
+#include "rv/lines/boundaries.hpp"
+#include "rv/lines/limits.hpp"
+#include "rv/lines/regions.hpp"
 
 namespace rv {
 
@@ -313,7 +316,7 @@ class ReachLines {
 };
 
 // The stages of region_edges, in order; each appends to `out` (see the contract in
-// rv/lines/deliverables.hpp).
+// rv/lines/regions.hpp).
 class EdgeBuilder {
  public:
   EdgeBuilder(const BoundaryResult& boundaries, const OwnerIndex& index, const GridSpec& g, double max_distance)

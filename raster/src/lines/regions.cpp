@@ -1,4 +1,4 @@
-// The core's part of the regions' measures (rv/lines/deliverables.hpp): the owner of a position by
+// The core's part of the regions' measures (rv/lines/regions.hpp): the owner of a position by
 // the engine's rule (owner_at) and the area a ring encloses (ring_area). Their edges come from
 // region_edges (region_edges.cpp).
 #include <algorithm>
@@ -11,8 +11,9 @@
 #include <GeographicLib/PolygonArea.hpp>
 
 #include "lines/line_tools.hpp"
+#include "rv/engine/owner_index.hpp"
 #include "rv/field/geolocate.hpp"
-#include "rv/lines/deliverables.hpp"
+#include "rv/lines/regions.hpp"
 
 namespace rv {
 

@@ -1,4 +1,4 @@
-// RelevantCoasts (rv/lines/deliverables.hpp): the parts of the seeds nearest to the cells of a relevant
+// RelevantCoasts (rv/lines/relevant_coasts.hpp): the parts of the seeds nearest to the cells of a relevant
 // area, strip by strip.
 //
 // Each row is examined once its neighbours are in (one row behind the last strip): a cell of the
@@ -13,9 +13,10 @@
 #include <vector>
 
 #include "lines/line_tools.hpp"
+#include "rv/engine/site_metric.hpp"
 #include "rv/field/error.hpp"
 #include "rv/field/parallel.hpp"
-#include "rv/lines/deliverables.hpp"
+#include "rv/lines/relevant_coasts.hpp"
 
 namespace rv {
 

@@ -1,4 +1,4 @@
-// StripLines (rv/lines/deliverables.hpp): the boundary and limit stages (boundary_stages.hpp,
+// StripLines (rv/lines/strip_lines.hpp): the boundary and limit stages (boundary_stages.hpp,
 // limit_stages.hpp) driven strip by strip, and extract_boundaries / extract_limits as the same
 // driver fed one whole field, so that the streamed and the whole results cannot differ.
 //
@@ -23,9 +23,13 @@
 #include "lines/limit_stages.hpp"
 #include "lines/line_pieces.hpp"
 #include "lines/line_tools.hpp"
+#include "rv/engine/owner_index.hpp"
+#include "rv/engine/site_metric.hpp"
 #include "rv/field/error.hpp"
 #include "rv/field/parallel.hpp"
-#include "rv/lines/deliverables.hpp"
+#include "rv/lines/boundaries.hpp"
+#include "rv/lines/limits.hpp"
+#include "rv/lines/strip_lines.hpp"
 
 namespace rv {
 

@@ -1,4 +1,4 @@
-// turning_points (rv/lines/deliverables.hpp): where a boundary line's pair of controlling basepoints
+// turning_points (rv/report/turning_points.hpp): where a boundary line's pair of controlling basepoints
 // changes.
 //
 // Each vertex of a line gets each side's controlling element: a position (a basepoint seed, or a
@@ -16,8 +16,12 @@
 #include <vector>
 
 #include "lines/line_tools.hpp"
+#include "rv/engine/owner_index.hpp"
+#include "rv/engine/site_metric.hpp"
 #include "rv/field/parallel.hpp"
-#include "rv/lines/deliverables.hpp"
+#include "rv/lines/boundaries.hpp"
+#include "rv/lines/limits.hpp"
+#include "rv/report/turning_points.hpp"
 
 namespace rv {
 

@@ -41,7 +41,7 @@ struct OutputRequest {
   bool cloud_optimized = false;                 // write COGs (the daemon does)
   Compression compression = Compression::fast;  // every GeoTIFF of the job (rv/gdal/raster_io.hpp)
 
-  // Maritime deliverables (rv/lines/deliverables.hpp). They are always computed from an exact field:
+  // Maritime deliverables (rv/lines/, rv/report/). They are always computed from an exact field:
   // with a scan method the job also runs the exact method for them.
   std::string boundaries;  // boundary lines between owners (.geojson/.json/.gpkg)
   std::string tripoints;   // points where three owners meet (.geojson/.json/.gpkg)

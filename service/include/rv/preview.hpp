@@ -31,7 +31,8 @@
 
 #include "rv/engine/outputs.hpp"
 #include "rv/field/raster.hpp"
-#include "rv/lines/deliverables.hpp"
+#include "rv/lines/boundaries.hpp"
+#include "rv/lines/limits.hpp"
 
 namespace rv {
 

@@ -46,7 +46,7 @@
 #include "rv/edit/edit.hpp"
 #include "rv/gdal/raster_io.hpp"
 #include "rv/job.hpp"
-#include "rv/lines/deliverables.hpp"
+#include "rv/lines/strip_lines.hpp"
 
 namespace rv::detail {
 

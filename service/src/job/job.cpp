@@ -25,7 +25,7 @@
 #include "rv/gdal/raster_io.hpp"
 #include "rv/gdal/vector_writer.hpp"
 #include "rv/json_text.hpp"
-#include "rv/lines/deliverables.hpp"
+#include "rv/lines/boundaries.hpp"
 #include "rv/preview.hpp"
 #include "rv/version.hpp"
 
@@ -494,7 +494,7 @@ void check_window(const JobSpec& spec, const GridSpec& grid) {
 // Requests refused before anything is computed, and the limits of the planned job.
 void check_plan(const JobSpec& spec, const JobLimits& limits, const PreparedJob& job, const JobPlan& plan) {
   const OutputRequest& out = spec.outputs;
-  // The margin raster is not available on a projected geodesic grid yet (rv/lines/deliverables.hpp).
+  // The margin raster is not available on a projected geodesic grid yet (rv/lines/margin.hpp).
   if (job.located() && !out.margin.empty())
     throw Error(ErrorKind::unsupported,
                 "the margin raster is not available for the geodesic metric on a projected grid yet; use a "

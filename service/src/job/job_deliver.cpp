@@ -15,10 +15,17 @@
 #include "job/job_run.hpp"
 #include "job/turning_report.hpp"
 #include "rv/engine/outputs.hpp"
+#include "rv/engine/owner_index.hpp"
+#include "rv/engine/site_metric.hpp"
 #include "rv/field/geolocate.hpp"
 #include "rv/gdal/raster_io.hpp"
 #include "rv/gdal/vector_writer.hpp"
-#include "rv/lines/deliverables.hpp"
+#include "rv/lines/boundaries.hpp"
+#include "rv/lines/limits.hpp"
+#include "rv/lines/margin.hpp"
+#include "rv/lines/regions.hpp"
+#include "rv/lines/relevant_coasts.hpp"
+#include "rv/lines/strip_lines.hpp"
 #include "rv/preview.hpp"
 
 namespace rv::detail {

@@ -21,7 +21,7 @@
 #include "rv/field/error.hpp"
 #include "rv/gdal/raster_io.hpp"
 #include "rv/job.hpp"
-#include "rv/lines/deliverables.hpp"
+#include "rv/lines/strip_lines.hpp"
 
 namespace rv::detail {
 

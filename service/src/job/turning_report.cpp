@@ -12,6 +12,7 @@
 #include "rv/field/parallel.hpp"
 #include "rv/gdal/osr_geolocator.hpp"
 #include "rv/report/treaty.hpp"
+#include "rv/report/turning_points.hpp"
 
 namespace rv::detail {
 

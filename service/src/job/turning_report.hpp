@@ -13,8 +13,10 @@
 
 #include <nlohmann/json.hpp>
 
+#include "rv/engine/owner_index.hpp"
 #include "rv/job.hpp"
-#include "rv/lines/deliverables.hpp"
+#include "rv/lines/boundaries.hpp"
+#include "rv/lines/limits.hpp"
 
 namespace rv::detail {
 

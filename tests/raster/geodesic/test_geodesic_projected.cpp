@@ -13,9 +13,12 @@
 #include <vector>
 
 #include "rv/engine/engine.hpp"
+#include "rv/engine/owner_index.hpp"
+#include "rv/engine/site_metric.hpp"
 #include "rv/engine/validate.hpp"
 #include "rv/field/error.hpp"
-#include "rv/lines/deliverables.hpp"
+#include "rv/lines/boundaries.hpp"
+#include "rv/lines/margin.hpp"
 
 namespace rv {
 namespace {

@@ -14,7 +14,11 @@
 #include "lines/boundary_stages.hpp"
 #include "lines/line_tools.hpp"
 #include "rv/engine/engine.hpp"
-#include "rv/lines/deliverables.hpp"
+#include "rv/engine/owner_index.hpp"
+#include "rv/engine/site_metric.hpp"
+#include "rv/lines/boundaries.hpp"
+#include "rv/lines/regions.hpp"
+#include "rv/lines/strip_lines.hpp"
 #include "seed_gen.hpp"
 
 namespace rv::boundary_stages {

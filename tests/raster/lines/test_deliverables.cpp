@@ -11,9 +11,14 @@
 
 #include "deliverables_check.hpp"
 #include "rv/engine/engine.hpp"
+#include "rv/engine/owner_index.hpp"
+#include "rv/engine/site_metric.hpp"
 #include "rv/field/error.hpp"
 #include "rv/field/planar.hpp"
-#include "rv/lines/deliverables.hpp"
+#include "rv/lines/boundaries.hpp"
+#include "rv/lines/limits.hpp"
+#include "rv/lines/margin.hpp"
+#include "rv/lines/simplify.hpp"
 #include "seed_gen.hpp"
 
 namespace rv {

@@ -12,7 +12,7 @@
 #include "lines/line_tools.hpp"
 #include "rv/engine/engine.hpp"
 #include "rv/field/error.hpp"
-#include "rv/lines/deliverables.hpp"
+#include "rv/lines/limits.hpp"
 #include "seed_gen.hpp"
 
 namespace rv::limit_stages {

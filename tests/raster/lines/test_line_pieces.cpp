@@ -1,4 +1,4 @@
-// LinePieces and StripLines::take_rows (rv/lines/deliverables.hpp), Edit::line_rows (rv/edit/edit.hpp):
+// LinePieces and StripLines::take_rows (rv/lines/strip_lines.hpp), Edit::line_rows (rv/edit/edit.hpp):
 // an extraction that takes any rows' pieces from an earlier one of the same field gives the same
 // lines; the pieces survive their bytes, and damaged bytes are refused; an edit that extracts
 // only Edit::line_rows and takes every other row from its base gives a fresh extraction's lines,
@@ -17,8 +17,10 @@
 #include "line_compare.hpp"
 #include "rv/edit/edit.hpp"
 #include "rv/engine/engine.hpp"
+#include "rv/engine/owner_index.hpp"
+#include "rv/engine/site_metric.hpp"
 #include "rv/field/error.hpp"
-#include "rv/lines/deliverables.hpp"
+#include "rv/lines/strip_lines.hpp"
 #include "seed_gen.hpp"
 
 namespace rv {

@@ -12,7 +12,12 @@
 #include <random>
 
 #include "rv/engine/engine.hpp"
-#include "rv/lines/deliverables.hpp"
+#include "rv/engine/owner_index.hpp"
+#include "rv/engine/site_metric.hpp"
+#include "rv/lines/boundaries.hpp"
+#include "rv/lines/limits.hpp"
+#include "rv/lines/regions.hpp"
+#include "rv/lines/strip_lines.hpp"
 #include "seed_gen.hpp"
 
 namespace rv {

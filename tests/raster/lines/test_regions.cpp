@@ -13,7 +13,10 @@
 #include <vector>
 
 #include "rv/engine/engine.hpp"
-#include "rv/lines/deliverables.hpp"
+#include "rv/engine/owner_index.hpp"
+#include "rv/engine/site_metric.hpp"
+#include "rv/lines/boundaries.hpp"
+#include "rv/lines/regions.hpp"
 #include "seed_gen.hpp"
 
 namespace rv {

@@ -5,8 +5,9 @@
 #include <cmath>
 
 #include "rv/engine/engine.hpp"
+#include "rv/engine/site_metric.hpp"
 #include "rv/field/interior.hpp"
-#include "rv/lines/deliverables.hpp"
+#include "rv/lines/relevant_coasts.hpp"
 #include "seed_gen.hpp"
 
 namespace rv {

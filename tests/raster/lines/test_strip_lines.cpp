@@ -1,4 +1,4 @@
-// StripLines (rv/lines/deliverables.hpp): boundaries, tripoints and limit lines taken in strip by
+// StripLines (rv/lines/strip_lines.hpp): boundaries, tripoints and limit lines taken in strip by
 // strip equal the whole field's, vertex for vertex, for every strip height (one row, a few, more
 // than the stages' lags, uneven), planar and geodesic, with polygons, lines, points, four owners
 // and a max distance; strips out of order and early requests are refused.
@@ -11,8 +11,12 @@
 
 #include "line_compare.hpp"
 #include "rv/engine/engine.hpp"
+#include "rv/engine/owner_index.hpp"
+#include "rv/engine/site_metric.hpp"
 #include "rv/field/error.hpp"
-#include "rv/lines/deliverables.hpp"
+#include "rv/lines/boundaries.hpp"
+#include "rv/lines/limits.hpp"
+#include "rv/lines/strip_lines.hpp"
 #include "seed_gen.hpp"
 
 namespace rv {

@@ -7,7 +7,11 @@
 #include <random>
 
 #include "rv/engine/engine.hpp"
-#include "rv/lines/deliverables.hpp"
+#include "rv/engine/owner_index.hpp"
+#include "rv/engine/site_metric.hpp"
+#include "rv/lines/boundaries.hpp"
+#include "rv/lines/limits.hpp"
+#include "rv/report/turning_points.hpp"
 #include "seed_gen.hpp"
 
 namespace rv {

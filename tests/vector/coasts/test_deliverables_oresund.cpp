@@ -13,9 +13,13 @@
 #include "deliverables_check.hpp"
 #include "rv/engine/engine.hpp"
 #include "rv/engine/outputs.hpp"
+#include "rv/engine/owner_index.hpp"
+#include "rv/engine/site_metric.hpp"
 #include "rv/gdal/seed_reader.hpp"
 #include "rv/geodesic/geodesic.hpp"
-#include "rv/lines/deliverables.hpp"
+#include "rv/lines/boundaries.hpp"
+#include "rv/lines/limits.hpp"
+#include "rv/lines/margin.hpp"
 
 #include "fixtures.hpp"
 

@@ -14,10 +14,14 @@
 
 #include "rv/engine/engine.hpp"
 #include "rv/engine/outputs.hpp"
+#include "rv/engine/owner_index.hpp"
+#include "rv/engine/site_metric.hpp"
 #include "rv/field/error.hpp"
 #include "rv/gdal/seed_reader.hpp"
 #include "rv/gdal/vector_writer.hpp"
-#include "rv/lines/deliverables.hpp"
+#include "rv/lines/boundaries.hpp"
+#include "rv/lines/limits.hpp"
+#include "rv/lines/regions.hpp"
 
 namespace rv {
 namespace {

@@ -28,7 +28,7 @@
 #include "rv/field/cell_mask.hpp"
 #include "rv/field/geolocate.hpp"
 #include "rv/field/seeds.hpp"
-#include "rv/lines/deliverables.hpp"
+#include "rv/lines/strip_lines.hpp"
 
 namespace rv {
 
@@ -163,7 +163,7 @@ struct EditChanges {
   int64_t distance_only_cells = 0;  // cells whose owner stayed and whose distance changed (bit for bit)
   // Area that went from one owner to another, keyed (from, to): square metres on the metric's
   // ellipsoid for geodesic fields, CRS units squared for planar ones. A cell's area is its
-  // square's (ring_area, rv/lines/deliverables.hpp).
+  // square's (ring_area, rv/lines/regions.hpp).
   std::map<std::pair<std::string, std::string>, double> moved;
   void add(const EditChanges& other);
 };

@@ -135,7 +135,7 @@ struct NearestField {
                            // metres, rounded to float: relative rounding 6e-8, i.e. 6 mm at 100 km)
   MetricSpec metric;       // the metric the distances were measured in
   // The geolocator the cells were located with (projected geodesic grids), null otherwise.
-  // The deliverables measure such fields with LocatedGeodesicSiteMetric (rv/lines/deliverables.hpp).
+  // The deliverables measure such fields with LocatedGeodesicSiteMetric (rv/engine/site_metric.hpp).
   std::shared_ptr<const Geolocator> geolocator;
   double seconds = 0.0;  // wall time of the computation
   // Cells whose centre lies inside polygons of two or more owners (decided for the lower code).

@@ -1,4 +1,4 @@
-// Writing the maritime deliverables (rv/lines/deliverables.hpp) as vector files through GDAL/OGR, and
+// Writing the maritime deliverables (rv/lines/*.hpp) as vector files through GDAL/OGR, and
 // polygonising the ownership raster into regions. GDAL types stay behind this header.
 //
 // Formats by extension: .geojson / .json -> GeoJSON (one layer), .gpkg -> GeoPackage. Anything
@@ -17,9 +17,11 @@
 #include <string>
 #include <vector>
 
+#include "rv/engine/site_metric.hpp"
 #include "rv/field/raster.hpp"
 #include "rv/field/seeds.hpp"
-#include "rv/lines/deliverables.hpp"
+#include "rv/lines/boundaries.hpp"
+#include "rv/lines/limits.hpp"
 
 namespace rv {
 

@@ -1,0 +1,28 @@
+// The margin raster: per owned cell, how much farther the nearest other owner is than its own.
+// Refuses adjusted seeds, and (for now, rv::Error(unsupported)) projected geodesic fields.
+#pragma once
+
+#include "rv/engine/engine.hpp"
+#include "rv/engine/owner_index.hpp"
+#include "rv/field/raster.hpp"
+#include "rv/field/seeds.hpp"
+
+namespace rv {
+
+// For every cell owned by owner O: the distance to the nearest site of another owner, minus the
+// distance to its own nearest site (>= 0, metric units, Float32). kNoDistance (-1) where the
+// cell has no owner or the seed set has a single owner. A cell inside polygons of two owners
+// has margin 0. Planar fields use the exact engine's tile culling with an owner filter
+// (compute_other_owner, margins from double distances); other metrics run the exact engine once
+// per owner, on the window of that owner's cells, over the other owners' seeds (margins from the
+// Float32 distances: a few millimetres of rounding at 100 km).
+Raster<float> margin_raster(const NearestField& field, const OwnerIndex& index, int threads = 0);
+
+// The exact engine's culling, restricted per cell to sites whose owner differs from the owner
+// of the cell's site in `own` (planar metric, whole-grid or windowed field as computed by
+// compute()). Writes the nearest such site and its distance; kNoSite / kNoDistance where the
+// cell has no owner or no other owner exists. Cells inside another owner's polygon are not
+// special-cased here (see margin_raster). Result equals brute force over the filtered sites.
+NearestField compute_other_owner(const SeedSet& seeds, const NearestField& own, int threads = 0);
+
+}  // namespace rv

@@ -1,0 +1,73 @@
+// Regions: the refined lines as the edges of each owner's area, the areas of rings on the
+// metric's surface, and the owner of a position by the engine's rule.
+//
+// Pure; thread-safe.
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <limits>
+#include <span>
+#include <vector>
+
+#include "rv/engine/owner_index.hpp"
+#include "rv/field/geolocate.hpp"
+#include "rv/field/grid.hpp"
+#include "rv/field/metric.hpp"
+#include "rv/lines/boundaries.hpp"
+#include "rv/lines/limits.hpp"
+
+namespace rv {
+
+// Regions bounded by the refined lines. The boundary lines as region edges: each line's
+// vertices, and, at an end on the frame of the outermost cell centres (where extraction stops;
+// not a tripoint), one more vertex on the grid's edge where the line's two owners are
+// equidistant: the root of d_a - d_b along the edge within a cell of the end's foot on it, or
+// the foot itself where no root is bracketed there. Two such continuations that cross end at
+// their tripoint (Newton; it lies between the frame and the edge), from which the third pair's
+// line runs to the edge; so does the missing line of a tripoint found there.
+// With a finite `max_distance` (the field's) and `max_distance_lines` (extract_limits at that
+// distance, all owners), those lines are edges too, carried to the grid's edge on d =
+// max_distance, and a boundary line that stops where the owned area ends (as do the lone
+// crossings, BoundaryResult::lone_crossings) ends on the max-distance line's chord across the
+// dual square it runs on into, at the chord's point nearest the exact junction (d_a = d_b =
+// max_distance, Newton within two cells), made a vertex of both. Within a square both lines
+// part the four cell centres by owner as the field does. Where the cells show less than the
+// owners' geometry -- two discs overlapping by less than a cell (no two neighbouring cells of
+// the two owners: an owner change along the max-distance line with no boundary reaching it), a
+// hole or a wedge of unowned sea thinner than a cell, a tripoint beyond the max distance or one
+// whose line to the max-distance line has no crossing -- the missing stretch is made of the
+// points at hand: two owner changes of one pair joined, a line carried to the tripoint lacking
+// it in the square it runs into, lines ending in one square joined at the mean of their ends.
+// With the grid's outline the edges divide the grid into faces of one owner each, or none beyond
+// the max distance -- unless a line stops in the open, a defect that would merge two owners'
+// faces: `dangling_ends` counts such ends. Faces are owned as the field's cell centres inside
+// them are (write_line_regions).
+// Where reaches end the owned area (an adjusted `index`: features' reaches, or weights with a
+// max distance), `max_distance_lines` holds the owned area's edge instead (StripLines with
+// LineRequest::owned_edge: lines of owner kOwnedEdge, which are then the only ones read): all of
+// the above holds with "at the max distance" read as "at the reach of the owner's deepest site"
+// (OwnerIndex::deepest), the junctions where both owners' deepest sites are at their reach.
+struct RegionEdges {
+  std::vector<std::vector<Vec2>> edges;
+  int64_t dangling_ends = 0;
+};
+// A boundary's locus function for owners a < b at p: negative on a's side, 0 on the line
+// (metric units). region_edges' default: the two owners' cost difference on `index`.
+using LocusFunction = std::function<double(int32_t a, int32_t b, Vec2 p)>;
+RegionEdges region_edges(const BoundaryResult& boundaries, const OwnerIndex& index, const GridSpec& grid,
+                         double max_distance = std::numeric_limits<double>::infinity(),
+                         const LimitResult* max_distance_lines = nullptr, const LocusFunction* locus = nullptr);
+// The area enclosed by a ring of grid-CRS positions (closed or not; either orientation), its
+// edges straight in the grid's CRS: planar, in CRS units squared (shoelace); geodesic, in square
+// metres on the metric's ellipsoid. Longitude/latitude grids (`geolocator` null): the exact
+// integral over the edges straight in degrees (to well under a square millimetre per degree of
+// edge; `step` unused). Projected grids: the edges followed in steps of at most `step` CRS units,
+// located by `geolocator` and measured as geodesics (GeographicLib::PolygonArea).
+double ring_area(std::span<const Vec2> ring, const MetricSpec& metric, const Geolocator* geolocator, double step);
+// The owner (code) of position p by the engine's rule: the nearest seed's owner; inside the
+// polygons of several owners, the lowest code. 0 for a seed set without sites, or farther than
+// `max_distance` (metric units) from every seed.
+int32_t owner_at(const OwnerIndex& index, Vec2 p, double max_distance = std::numeric_limits<double>::infinity());
+
+}  // namespace rv

@@ -1,0 +1,117 @@
+// Boundaries, tripoints and limit lines taken in strip by strip (a streamed job), and the pieces
+// a run keeps so that an edit extracts again only the rows near its changes.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <span>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "rv/engine/engine.hpp"
+#include "rv/engine/owner_index.hpp"
+#include "rv/field/grid.hpp"
+#include "rv/lines/boundaries.hpp"
+#include "rv/lines/limits.hpp"
+
+namespace rv {
+
+// What StripLines extracts: boundaries and tripoints (extract_boundaries), and limit lines at
+// the given distances (extract_limits).
+struct LineRequest {
+  bool boundaries = false;
+  BoundaryOptions boundary;
+  std::vector<double> limit_distances;  // metric units, > 0; none: no limit lines
+  LimitOptions limit;
+  // Also the edge of the owned area where the index's reaches (each feature's, at most its cap)
+  // leave cells unowned: one more set of limit lines, owner kOwnedEdge, after the others. Its
+  // inside cells are the field's owned ones; its vertices lie where OwnerIndex::deepest is 0.
+  bool owned_edge = false;
+};
+
+// The pieces a StripLines extraction's cell-level stages made (crossings, tripoints, links and
+// their statistics; per limit line set its crossings and links), each with the grid row it
+// belongs to: what a run keeps so that an edit of it (rv/edit/edit.hpp) extracts again only the rows
+// near its changes and takes the others' pieces from here (StripLines::take_rows). As bytes
+// (encode / decode): a flat little-endian layout behind a magic and a format version, doubles bit
+// for bit. Cheap to copy (shared, immutable). Thread safety: const functions from any thread.
+class LinePieces {
+ public:
+  LinePieces();
+  bool empty() const;  // made by the default constructor
+  // StripLines::key() of the extraction that made them.
+  const std::string& key() const;
+  std::string encode() const;
+  // Throws rv::Error(invalid_input) for bytes that are not pieces of this format (magic, version,
+  // truncated, trailing bytes, a row or a link out of range, rows out of order).
+  static LinePieces decode(std::string_view bytes);
+  // The rows (ascending, each once) holding a piece that names a site `site_map` (per site of the
+  // seeds the pieces were made with, the site in an edited set) maps to kNoSite: rows an edit
+  // must extract again.
+  std::vector<int64_t> rows_naming_dropped(std::span<const int32_t> site_map) const;
+
+  struct Data;
+
+ private:
+  explicit LinePieces(std::shared_ptr<const Data> d);
+  std::shared_ptr<const Data> d_;
+  friend class StripLines;
+};
+
+// Boundaries, tripoints and limit lines taken in strip by strip from an exact field that is
+// computed in strips (a streamed job: the whole field never exists). The result equals
+// extract_boundaries' and extract_limits' on the whole field, vertex for vertex, whatever the
+// strips' heights: each stage runs over the rows whose neighbours have arrived, a few rows
+// behind the last strip, and the pieces are chained into lines once the last row is in.
+// Memory: a few rows of the field (copied from each strip before the next) and the lines'
+// pieces, in proportion to the lines' length, not to the grid.
+// Keeps references to `index` (and its metric and seeds); `grid` is copied.
+// Thread safety: one StripLines per extraction, used from one thread at a time; it runs its
+// stages on request.*.threads threads.
+class StripLines {
+ public:
+  // Throws rv::Error(invalid_argument) for a non-positive or non-finite limit distance.
+  StripLines(const GridSpec& grid, const OwnerIndex& index, const LineRequest& request);
+  ~StripLines();
+  StripLines(StripLines&&) noexcept;
+  StripLines& operator=(StripLines&&) noexcept;
+
+  // The next strip: whole rows of the grid, the first at row 0, each starting where the last
+  // ended; its metric the index's. The strip is read during the call only. Throws
+  // rv::Error(invalid_argument) otherwise (nothing taken in). After any other exception (the
+  // stages' own) the extraction cannot go on.
+  void add(const NearestField& strip);
+  // Rows taken in so far.
+  int64_t rows() const;
+
+  // The pieces of a row depend on the field's cells and on the metric's measurements within
+  // kDependRows rows of it (crossings read the next row, tripoint searches the crossings around
+  // their square and the tripoints found from the rows before, links the tripoints filed up to a
+  // square away, found from up to two squares farther).
+  static constexpr int64_t kDependRows = 8;
+  // What shapes the pieces: the grid, the request (but threads and simplification) and whether
+  // the index is adjusted. Two extractions with one key make the same pieces from the same field.
+  const std::string& key() const;
+  // After the last row (before take_*): every piece so far (LinePieces).
+  LinePieces pieces() const;
+  // Rows [rows(), row1) taken from `base` (an earlier run's pieces(), key() equal) instead of
+  // strips, as though their strips had been added: for an edit, rows whose pieces are the base's
+  // (neither the field's cells nor any measurement by the metric changed within kDependRows rows
+  // of them; the strips added around them must hold kDependRows such rows at each side).
+  // `site_map`: per site of the base's seeds, the site of this extraction's seeds (empty: the
+  // same). The next strip then starts at row1. Throws rv::Error(invalid_argument) for another key,
+  // a row1 not after rows() or beyond the grid, or a piece naming a site the map drops;
+  // rv::Error(invalid_input) for a piece naming a site or an owner these seeds do not have.
+  void take_rows(const LinePieces& base, int64_t row1, std::span<const int32_t> site_map = {});
+  // After the last row: the lines. Throws rv::Error(invalid_argument) when rows are missing.
+  // Each may be called once.
+  BoundaryResult take_boundaries();
+  LimitResult take_limits();
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace rv
