@@ -20,9 +20,10 @@
 #include "fixtures.hpp"
 #include "rv/engine/engine.hpp"
 #include "rv/engine/outputs.hpp"
+#include "rv/engine/owner_index.hpp"
+#include "rv/engine/site_metric.hpp"
 #include "rv/gdal/raster_io.hpp"
 #include "rv/gdal/seed_reader.hpp"
-#include "rv/lines/deliverables.hpp"
 #include "rv/report/treaty.hpp"
 
 namespace fs = std::filesystem;

@@ -1,7 +1,7 @@
 // Distance-limit lines (the 12 nmi limit and its kind) from an exact nearest-site field: every
 // vertex the root of d(p(t)) - D on a cell-centre segment (d: nearest site of any owner, or of one
-// owner), measured with the exact metric. Limits measure true distances (OwnerIndex::Measure::
-// plain: the breadth of a zone ignores weights).
+// owner), measured with the exact metric. Limits measure true distances
+// (OwnerIndex::Measure::plain: the breadth of a zone ignores weights).
 //
 // Pure: `threads` only splits the work and never changes the result.
 #pragma once
