@@ -98,8 +98,7 @@ def include_edges(root, folders):
                     continue
                 src_floor, dst_floor = folder.split("/")[0], target.split("/")[0]
                 if dst_floor not in FLOOR_MAY_INCLUDE.get(src_floor, {src_floor}):
-                    problems.append(f"{path}:{line}: {src_floor}/ may not include {target} ({dst_floor}/ is "
-                                    f"{'above it' if dst_floor in ('vector', 'service', 'python') else 'not a floor'})")
+                    problems.append(f"{path}:{line}: {src_floor}/ may not include {target} (not a floor below it)")
                 dst = os.path.dirname(target)
                 if dst != folder:
                     edges.setdefault((folder, dst), []).append(f"{path}:{line}")
@@ -107,42 +106,28 @@ def include_edges(root, folders):
 
 
 def cycles(nodes, edges):
-    """Strongly connected components of more than one folder (Tarjan, iterative)."""
-    out = {n: sorted({b for (a, b) in edges if a == n}) for n in nodes}
-    index, low, on, stack, comps, counter = {}, {}, set(), [], [], [0]
-    for start in sorted(nodes):
-        if start in index:
-            continue
-        work = [(start, 0)]
-        while work:
-            v, i = work.pop()
-            if i == 0:
-                index[v] = low[v] = counter[0]
-                counter[0] += 1
-                stack.append(v)
-                on.add(v)
-            if i < len(out[v]):
-                work.append((v, i + 1))
-                w = out[v][i]
-                if w not in index:
-                    work.append((w, 0))
-                elif w in on:
-                    low[v] = min(low[v], index[w])
-                continue
-            if low[v] == index[v]:
-                comp = []
-                while True:
-                    w = stack.pop()
-                    on.discard(w)
-                    comp.append(w)
-                    if w == v:
-                        break
-                if len(comp) > 1:
-                    comps.append(sorted(comp))
-            if work:
-                parent = work[-1][0]
-                low[parent] = min(low[parent], low[v])
-    return comps
+    """The groups of more than one node that reach each other (the graph's cycles, merged)."""
+    out = {n: set() for n in nodes}
+    for a, b in edges:
+        out[a].add(b)
+
+    def reach(n):
+        seen, todo = set(), [n]
+        while todo:
+            for w in out[todo.pop()] - seen:
+                seen.add(w)
+                todo.append(w)
+        return seen
+
+    reached = {n: reach(n) for n in nodes}
+    groups, placed = [], set()
+    for n in sorted(nodes):
+        if n not in placed:
+            group = sorted({n} | {m for m in reached[n] if n in reached[m]})
+            placed.update(group)
+            if len(group) > 1:
+                groups.append(group)
+    return groups
 
 
 def room_of(folder):
