@@ -25,6 +25,7 @@ _TYPES = {
     "path": "str | os.PathLike[str]",
     "extent": "Sequence[float]",
     "distances": "float | str | Mapping[str, float | str] | Sequence[float | str | Mapping[str, float | str]]",
+    "length": "float | str | Mapping[str, float | str]",
 }
 
 

@@ -59,6 +59,8 @@ const char* type_name(rv::OptionType t) {
       return "distances";
     case rv::OptionType::file:
       return "path";
+    case rv::OptionType::length:
+      return "length";
   }
   return "text";
 }

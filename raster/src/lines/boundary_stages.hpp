@@ -32,6 +32,7 @@
 #include "lines/line_tools.hpp"
 #include "rv/engine/owner_index.hpp"
 #include "rv/lines/boundaries.hpp"
+#include "rv/lines/residual.hpp"
 
 namespace rv::boundary_stages {
 
@@ -147,25 +148,43 @@ bool equal_costs_point(const OwnerIndex& index, int32_t s1, int32_t s2, int32_t 
 // tolerance. Where the controlling site of a side changes between them, the locus turns: the
 // turning point (the three sites' costs equal, by Newton's method on their gradients) is added.
 // Where the stretch is curved (weighted pairs, a point and a segment, any pair on the
-// ellipsoid), the chord's sagitta is estimated from the locus normals at its ends, and while it
-// exceeds `tol` the locus point across the chord's middle is added. Every added vertex is a
-// locus point checked against the index (each owner's nearest, no third owner nearer) with its
-// controlling sites; one that fails the check is not added. Recursion depth is bounded.
-// Thread safety: refine() is const and may run on many lines at once.
+// ellipsoid), two measures decide: the chord's sagitta estimated from the locus normals at its
+// ends (a circular arc's), and the distance from the chord's midpoint to the locus, measured
+// (|f| / |grad f| with the two owners' nearest sites there, or the root across the chord where
+// the metric gives no gradient). While either exceeds the tolerance the locus point across the
+// chord's middle is added. Every added vertex is a locus point checked against the index (each
+// owner's nearest, no third owner nearer) with its controlling sites; one that fails the check is
+// not added. Recursion depth is bounded. Segments on land (both ends at distance 0 from an
+// owner: shared land borders, overlapping land, where every point is on the locus) are left as
+// they are and counted apart.
+// Thread safety: refine() and measure() are const and may run on many lines at once.
 class LineRefiner {
  public:
-  // `tol`, `ftol`: metric units; `per_crs`: metric units per CRS unit (one cell's over res).
-  LineRefiner(const OwnerIndex& index, double tol, double ftol, double per_crs)
-      : index_(index), tol_(tol), ftol_(ftol), per_crs_(per_crs) {}
+  // `tol`: the line tolerance, metric units (0: measure only, add nothing); `ftol`: metric units;
+  // `scale`: metric units per CRS unit near the grid's middle (line_tools::CrsScale); `per_crs`:
+  // the larger of its two, for bounds.
+  LineRefiner(const OwnerIndex& index, double tol, double ftol, const line_tools::CrsScale& scale, double per_crs)
+      : index_(index), tol_(tol), ftol_(ftol), scale_(scale), per_crs_(per_crs) {}
   struct Added {
     int64_t turning_points = 0, arc_points = 0;
+    LineResidual locus, arcs;  // the segments of the locus, and of reaches' arcs
   };
-  // Refines one line's vertices (in order; a closed line's last vertex repeats its first).
+  // Refines one line's vertices (in order; a closed line's last vertex repeats its first) and
+  // measures every segment of the result.
   Added refine(int32_t owner_a, int32_t owner_b, std::vector<BoundaryVertex>& vertices) const;
+  // Measures the segments of a line as they are (a simplified line): the largest distance from a
+  // segment's midpoint to the locus, metric units (land segments left out).
+  double measure(int32_t owner_a, int32_t owner_b, const std::vector<BoundaryVertex>& vertices) const;
+  double tolerance() const { return tol_; }
 
  private:
   struct End;
   void between(const End& u, const End& v, int depth, int32_t a, int32_t b, std::vector<End>& out, Added& n) const;
+  // The distance from the chord's midpoint to the locus (metric units); NaN where not measured
+  // (an owner has no site there).
+  double midpoint_offset(const BoundaryVertex& u, const BoundaryVertex& v, int32_t a, int32_t b) const;
+  bool split(const End& u, const End& v, bool same, bool arcs, double stray, int32_t a, int32_t b, End& mid,
+             bool& turning) const;
   bool turning_point(const End& u, const End& v, int32_t a, int32_t b, double max_off, End& out) const;
   bool across_middle(const End& u, const End& v, int32_t a, int32_t b, double max_off, End& out) const;
   bool checked(Vec2 p, int32_t a, int32_t b, const End& u, const End& v, double max_off, End& out) const;
@@ -177,9 +196,9 @@ class LineRefiner {
   // point across a chord of one arc, where the curves of two ends meet (an arc and the locus, or
   // two arcs), and the check of such a point (on the arc, its owner winning inside, the other
   // owner beyond, no third owner between).
-  static int32_t arc_site(const End& e);
+  static int32_t arc_site(const BoundaryVertex& v);
   double arc_value(Vec2 p, int32_t site, Vec2& gradient) const;  // d - reach
-  double curve_value(const End& e, Vec2 p, Vec2& gradient) const;
+  double curve_value(const BoundaryVertex& e, Vec2 p, Vec2& gradient) const;
   bool across_arc(const End& u, const End& v, int32_t a, int32_t b, double max_off, End& out) const;
   bool arc_junction(const End& u, const End& v, int32_t a, int32_t b, double max_off, End& out) const;
   bool checked_arc(Vec2 p, int8_t arc, int32_t site, int32_t a, int32_t b, const End& u, const End& v, double max_off,
@@ -189,8 +208,23 @@ class LineRefiner {
   // The locus normal at `e` of the stretch towards `other` (the sites the two share).
   Vec2 normal_towards(const End& e, const End& other) const;
   const OwnerIndex& index_;
-  double tol_, ftol_, per_crs_;
+  double tol_, ftol_;
+  line_tools::CrsScale scale_;
+  double per_crs_;
 };
+
+// Whether a boundary vertex lies on an owner's land (distance 0 to one of its two owners), and
+// whether a segment runs along such land from end to end (where every point is on the locus).
+inline bool on_land(const BoundaryVertex& v) { return v.distance_a == 0.0 || v.distance_b == 0.0; }
+inline bool land_segment(const BoundaryVertex& u, const BoundaryVertex& v) { return on_land(u) && on_land(v); }
+
+// The last stage of the lines, once they have their final ends (finish_lines: after
+// join_close_tripoints, close_missing_tripoints and end_at_owned_edge): each refined to the
+// refiner's tolerance (when given) and measured, then simplified with Douglas-Peucker at `tol`
+// CRS units; the statistics (vertices, residuals, points added) summed in line order. On
+// `threads` threads, one line at a time each; the result independent of them.
+void finish_lines(std::vector<BoundaryLine>& lines, const LineRefiner* refiner, double tol, BoundaryStats& stats,
+                  int threads);
 
 // The links chained into lines per owner pair, each refined (`refiner`, when given; on
 // `threads` threads, one line at a time each) and simplified with Douglas-Peucker at `tol` CRS

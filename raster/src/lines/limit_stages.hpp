@@ -10,7 +10,9 @@
 //   limit_links        per dual square whose top row is in the rows, its crossings joined (a
 //                      saddle's four by the side of its centre)
 //   chain_limit_lines  the links chained into lines (closed rings, or ending at the grid's
-//                      edge), simplified with Douglas-Peucker at `tol` CRS units
+//                      edge), each made to follow the level between its vertices (LimitRefiner:
+//                      corners where the controlling site changes, points on curved stretches
+//                      to the line tolerance), simplified with Douglas-Peucker at `tol` CRS units
 //
 // Internal to rv_raster (tests reach it by name). Thread safety: pure functions of their
 // arguments but for the outputs named; inside_flags and limit_crossings run on the grid's
@@ -94,8 +96,55 @@ void append(LimitCrossings& x, LimitCrossings&& part);
 // The links of the squares of rows [row0, row1); reads flags and crossings of rows up to row1.
 std::vector<std::array<int32_t, 2>> limit_links(const Target& t, const InsideRows& inside, const LimitCrossings& x,
                                                 int64_t row0, int64_t row1);
-// Appends the lines to result.lines (and its vertex count and largest residual).
+// Stage 4a (limit_refine.cpp): a chain's vertices made to follow the level d = D between them,
+// and every final segment measured. Where the controlling site changes between two vertices the
+// level has a corner (two sites' circles meet; with reaches, two arcs): the point where both
+// sites are at their level (Newton's method on the two, from the chord's middle) is added when no
+// third site is nearer there. Where the site is the same, the chord's midpoint is measured
+// against the level with that site (|d - D|: a distance's gradient has unit length, so this is
+// the midpoint's distance from the level); above kSplitAt of the tolerance the chord is cut into
+// the pieces a circle of that sagitta needs (the sagitta falls with the square of the chord),
+// each new point placed on the level by Newton's method along the site's gradient, and the
+// pieces measured again. A straight offset of a segment measures 0 and gets nothing.
+// Thread safety: const; any number of chains at once.
+class LimitRefiner {
+ public:
+  // `tol`: metric units (0: measure only); `scale`: metric units per CRS unit near the grid's
+  // middle.
+  LimitRefiner(const Target& t, double tol, const line_tools::CrsScale& scale);
+  // The chain with corners and arc points added (a closed chain's last vertex repeats its first);
+  // adds its segments' measures to `r` and the corners to `corners`.
+  std::vector<LimitVertex> refine(const std::vector<LimitVertex>& v, LineResidual& r, int64_t& corners) const;
+  // The largest distance from a segment's midpoint to the level (a simplified chain).
+  double measure(const std::vector<LimitVertex>& v) const;
+
+ private:
+  struct End {
+    LimitVertex v;
+    int32_t alt = kNoSite;  // a corner's second site
+  };
+  double radius(int32_t site) const;  // the level's distance from `site`: D, or its reach
+  // f = d_site - radius at p, and its gradient per CRS unit.
+  double level(Vec2 p, int32_t site, Vec2& gradient) const;
+  // The level of s1 at p, or (`any`) of the nearest site there (searched); the site it is, and
+  // its gradient.
+  double level_near(Vec2 p, int32_t s1, bool any, int32_t& site, Vec2& gradient) const;
+  bool corner(const End& u, const End& v, End& out) const;
+  // p moved onto the level of `site` by Newton's method along its gradient; false where it does
+  // not converge within `max_move` CRS units.
+  bool onto_level(Vec2 start, int32_t site, double max_move, LimitVertex& out) const;
+  // The level across chord u-v at `at` (on it), with the nearest site at each position.
+  bool across(Vec2 u, Vec2 v, Vec2 at, LimitVertex& out) const;
+  void between(const End& u, const End& v, int depth, std::vector<End>& out, LineResidual& r, int64_t& corners) const;
+  const Target& t_;
+  double tol_;
+  line_tools::CrsScale scale_;
+};
+
+// Appends the lines to result.lines (and its vertex count, largest residual and the residual
+// along them). `refiner`: the level followed between the vertices (null: the vertices on cell
+// edges alone, unmeasured).
 void chain_limit_lines(const Target& t, const LimitCrossings& x, const std::vector<std::array<int32_t, 2>>& links,
-                       double tol, LimitResult& result);
+                       double tol, LimitResult& result, const LimitRefiner* refiner = nullptr);
 
 }  // namespace rv::limit_stages

@@ -313,59 +313,44 @@ std::vector<std::array<int32_t, 2>> limit_links(const Target& t, const InsideRow
 
 // ---- Stage 4: chains -------------------------------------------------------------------------
 
-namespace {
-
-// The owned area's edge is made of arcs of several sites' reaches, which meet in corners
-// (notches where two discs overlap) that no cell edge crosses: a chord between two crossings of
-// different sites would cut the corner by up to a cell. The corner, where both sites are at
-// their reach (Newton's method on the two, from the chord's middle), is made a vertex when it
-// lies within the chord's length of it and no third site reaches deeper there.
-std::vector<LimitVertex> with_corners(const Target& t, const std::vector<LimitVertex>& v) {
-  const OwnerIndex& index = *t.grid.reaches;
-  const SiteMetric& m = index.metric();
-  std::vector<LimitVertex> out;
-  out.reserve(v.size() + 8);
-  const size_t n = v.size();
-  for (size_t i = 0; i < n; ++i) {
-    out.push_back(v[i]);
-    if (i + 1 == n) break;  // (a ring's last vertex is its first again)
-    const LimitVertex& u = v[i];
-    const LimitVertex& w = v[i + 1];
-    if (u.site == w.site || u.site == kNoSite || w.site == kNoSite) continue;
-    const double ru = index.reach_of(u.site), rw = index.reach_of(w.site);
-    const double chord = std::hypot(w.p.x - u.p.x, w.p.y - u.p.y);
-    Vec2 q;
-    if (!arcs_meet(m, u.site, ru, w.site, rw, lerp(u.p, w.p, 0.5), chord, t.grid.ftol, 30, q)) continue;
-    const OwnerIndex::Hit h = index.deepest(q);
-    if (h.cost < -t.grid.ftol) continue;  // inside another site's reach: not on the edge
-    out.push_back(LimitVertex{q, u.site, std::abs(h.cost)});
-  }
-  return out;
-}
-
-}  // namespace
-
 void chain_limit_lines(const Target& t, const LimitCrossings& x, const std::vector<std::array<int32_t, 2>>& links,
-                       double tol, LimitResult& result) {
+                       double tol, LimitResult& result, const LimitRefiner* refiner) {
   const Chains chains =
       chain_links(static_cast<int32_t>(x.verts.size()), links, std::vector<bool>(x.verts.size(), false));
-  for (size_t k = 0; k < chains.node_lists.size(); ++k) {
+  // Each chain refined and simplified on its own; the counts summed in chain order.
+  struct Done {
     LimitLine line;
-    line.distance = t.D;
-    line.owner = t.owner;
-    line.closed = chains.closed[k];
+    LineResidual residual;
+    int64_t corners = 0, before = 0;
+    double simplified = 0.0;
+  };
+  std::vector<Done> done(chains.node_lists.size());
+  detail::parallel_for(t.grid.threads, static_cast<int64_t>(done.size()), [&](int64_t k, int) {
+    Done& d = done[static_cast<size_t>(k)];
+    d.line.distance = t.D;
+    d.line.owner = t.owner;
+    d.line.closed = chains.closed[static_cast<size_t>(k)];
     std::vector<LimitVertex> verts;
-    for (int32_t n : chains.node_lists[k]) verts.push_back(x.verts[static_cast<size_t>(n)]);
-    if (t.owner == kOwnedEdge) verts = with_corners(t, verts);
+    for (int32_t n : chains.node_lists[static_cast<size_t>(k)]) verts.push_back(x.verts[static_cast<size_t>(n)]);
+    if (refiner != nullptr) verts = refiner->refine(verts, d.residual, d.corners);
+    d.before = static_cast<int64_t>(verts.size());
     std::vector<Vec2> pts;
+    pts.reserve(verts.size());
     for (const LimitVertex& v : verts) pts.push_back(v.p);
-    for (size_t i : simplify_indices(pts, tol)) {
-      const LimitVertex& v = verts[i];
-      line.vertices.push_back(v);
+    for (size_t i : simplify_indices(pts, tol)) d.line.vertices.push_back(verts[i]);
+    if (refiner != nullptr && d.line.vertices.size() != verts.size()) d.simplified = refiner->measure(d.line.vertices);
+  });
+  for (Done& d : done) {
+    for (const LimitVertex& v : d.line.vertices) {
       result.max_residual = std::max(result.max_residual, v.residual);
+      d.residual.max_vertex = std::max(d.residual.max_vertex, v.residual);
     }
-    result.vertices += static_cast<int64_t>(line.vertices.size());
-    result.lines.push_back(std::move(line));
+    result.residual.merge(d.residual);
+    result.corners += d.corners;
+    result.vertices_before_simplify += d.before;
+    result.simplified_midpoint = std::max(result.simplified_midpoint, d.simplified);
+    result.vertices += static_cast<int64_t>(d.line.vertices.size());
+    result.lines.push_back(std::move(d.line));
   }
 }
 

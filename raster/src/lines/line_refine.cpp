@@ -1,22 +1,28 @@
-// Stage 5 of boundary lines (boundary_stages.hpp, LineRefiner): the chords between the vertices
-// found on cell edges made to follow the locus -- its turning points added exactly, its curved
-// stretches to a tolerance.
+// Stage 5 of boundary lines (boundary_stages.hpp, LineRefiner, finish_lines): the chords between
+// the vertices found on cell edges made to follow the locus -- its turning points added exactly,
+// its curved stretches to the line tolerance -- and every final segment measured.
 //
 // Why. Each vertex on a cell edge is an exact locus point, but the line between two of them is a
 // straight chord, and the locus is not: it turns where a controlling site changes (a chord then
 // cuts the corner, by up to a quarter of its length times the sine of the turn) and curves where
 // its two sites are not two points of equal weight (a parabola of a point and a segment, the
-// circle of two weighted points, a geodesic bisector in longitude/latitude). Regions, areas and
-// treaty points are drawn from these chords.
+// circle of two weighted points, a geodesic bisector in longitude/latitude). A chord of length c
+// cuts inside a curve of radius R by about c^2 / 8R: metres on a 12 nmi arc drawn on a 0.01
+// degree grid. Regions, areas and treaty points are drawn from these chords.
 //
 // How. A side's site set changes between the ends: the turning point solves the three sites'
 // costs equal (Newton's method on their gradients, from the chord's middle). The sets agree: the
 // chord's sagitta is estimated from the angle between the locus normals at its ends, as on a
-// circular arc (0.5 c tan(angle / 4)), and above the tolerance the locus point across the
-// chord's middle is found along its perpendicular. Added points are checked as the crossings are
-// (each owner's nearest at the point, no third owner nearer), carry their sites (and a second
-// site of a side that ties there, so a vertex shared by two edges does not read as a change),
-// and the two halves are refined in turn, to a bounded depth.
+// circular arc (0.5 c tan(angle / 4)), and the chord's midpoint is measured against the locus
+// (the two owners' nearest sites there). Either above the tolerance: the locus point across the
+// chord's middle is found along its perpendicular and added. The midpoint alone can under-read
+// a chord whose curvature changes along it (a straight stretch running into an arc: the worst
+// point moves towards the arc, by up to an eighth more than the midpoint shows where the
+// normals' estimate is also low), so a measured midpoint splits from kSplitAt of the tolerance.
+// Added points are checked as the crossings are (each owner's nearest at the point, no third
+// owner nearer), carry their sites (and a second site of a side that ties there, so a vertex
+// shared by two edges does not read as a change), and the two halves are refined in turn, to a
+// bounded depth.
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -25,6 +31,8 @@
 
 #include "lines/boundary_stages.hpp"
 #include "lines/line_tools.hpp"
+#include "rv/field/parallel.hpp"
+#include "rv/lines/simplify.hpp"
 
 namespace rv::boundary_stages {
 
@@ -32,7 +40,8 @@ using namespace line_tools;
 
 namespace {
 
-constexpr int kMaxDepth = 8;
+constexpr int kMaxDepth = 12;
+constexpr double kSplitAt = 0.85;
 constexpr int kNewtonIterations = 12;
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
@@ -80,7 +89,7 @@ bool equal_costs_point(const OwnerIndex& index, int32_t s1, int32_t s2, int32_t 
 
 double LineRefiner::cost(Vec2 p, int32_t site, Vec2& gradient) const { return site_cost(index_, p, site, gradient); }
 
-int32_t LineRefiner::arc_site(const End& e) { return e.v.arc == 1 ? e.v.site_a : e.v.arc == 2 ? e.v.site_b : kNoSite; }
+int32_t LineRefiner::arc_site(const BoundaryVertex& v) { return v.arc == 1 ? v.site_a : v.arc == 2 ? v.site_b : kNoSite; }
 
 double LineRefiner::arc_value(Vec2 p, int32_t site, Vec2& gradient) const {
   return index_.metric().distance_and_gradient(p, site, gradient) - index_.reach_of(site);
@@ -89,7 +98,7 @@ double LineRefiner::arc_value(Vec2 p, int32_t site, Vec2& gradient) const {
 void LineRefiner::set_normal(End& e) const {
   if (e.v.site_a == kNoSite || e.v.site_b == kNoSite) return;
   if (e.v.arc != 0) {
-    arc_value(e.v.p, arc_site(e), e.normal);
+    arc_value(e.v.p, arc_site(e.v), e.normal);
     return;
   }
   Vec2 ga, gb;
@@ -133,47 +142,125 @@ LineRefiner::Added LineRefiner::refine(int32_t a, int32_t b, std::vector<Boundar
     vertices.clear();
     for (const End& e : out) vertices.push_back(e.v);
   }
+  n.locus.added = n.turning_points + n.arc_points;
   return n;
+}
+
+double LineRefiner::measure(int32_t a, int32_t b, const std::vector<BoundaryVertex>& vertices) const {
+  double worst = 0.0;
+  for (size_t i = 1; i < vertices.size(); ++i) {
+    if (land_segment(vertices[i - 1], vertices[i])) continue;
+    const double off = midpoint_offset(vertices[i - 1], vertices[i], a, b);
+    if (std::isfinite(off)) worst = std::max(worst, off);
+  }
+  return worst;
+}
+
+double LineRefiner::midpoint_offset(const BoundaryVertex& u, const BoundaryVertex& v, int32_t a, int32_t b) const {
+  const Vec2 mid = lerp(u.p, v.p, 0.5);
+  Vec2 g;
+  if (u.arc != 0 || v.arc != 0) {
+    // On an arc the distance to it is |d - reach| (a distance's gradient has unit length); where
+    // an arc meets the locus, the nearer of the two curves.
+    double best = std::numeric_limits<double>::infinity();
+    for (const BoundaryVertex* e : {&u, &v}) {
+      const double f = curve_value(*e, mid, g);
+      const double off = scale_.offset(mid, f, g);
+      best = std::min(best, std::isfinite(off) ? off : std::abs(f));
+    }
+    return best;
+  }
+  const OwnerIndex::Hit ha = index_.nearest_of(mid, a, u.site_a), hb = index_.nearest_of(mid, b, u.site_b);
+  if (ha.site == kNoSite || hb.site == kNoSite || !std::isfinite(ha.cost) || !std::isfinite(hb.cost))
+    return std::numeric_limits<double>::quiet_NaN();
+  Vec2 ga, gb;
+  cost(mid, ha.site, ga);
+  cost(mid, hb.site, gb);
+  const double f = ha.cost - hb.cost;
+  const double off = scale_.offset(mid, f, Vec2{ga.x - gb.x, ga.y - gb.y});
+  if (std::isfinite(off)) return off;
+  // No gradient (a projected grid measured on the ellipsoid): the locus point across the middle,
+  // and the distance to it.
+  End eu, ev;
+  eu.v = u;
+  ev.v = v;
+  const double chord = std::hypot(v.p.x - u.p.x, v.p.y - u.p.y);
+  End across;
+  if (chord > 0.0 && across_middle(eu, ev, a, b, 0.5 * chord, across)) return index_.metric().point_distance(mid, across.v.p);
+  return std::abs(f);
+}
+
+bool LineRefiner::split(const End& u, const End& v, bool same, bool arcs, double stray, int32_t a, int32_t b,
+                        End& mid, bool& turning) const {
+  // The locus this chord stands for lies within about `stray` (CRS units) of it; a locus point
+  // much farther away belongs to another stretch (the locus can cross the chord's perpendicular
+  // again).
+  const double chord = std::hypot(v.v.p.x - u.v.p.x, v.v.p.y - u.v.p.y);
+  const double max_off = std::min(2.0 * stray + 1e-9 * chord, chord);
+  turning = false;
+  // Where a site changes and no turning point of three sites checks out (more sites change
+  // within the chord), the chord stays: a root across its middle could be another stretch's.
+  if (arcs && same) return across_arc(u, v, a, b, max_off, mid);
+  if (arcs) return turning = arc_junction(u, v, a, b, max_off, mid);
+  if (same) return across_middle(u, v, a, b, max_off, mid);
+  if ((turning = turning_point(u, v, a, b, max_off, mid))) return true;
+  // No turning point of three sites: the sites that change may be two edges of one coast that
+  // share the vertex nearest here (equally near over a whole wedge: no single point where they
+  // take over), or more sites change within the chord. The locus point across the middle, with
+  // each owner's true nearest there, is checked like any other.
+  return across_middle(u, v, a, b, max_off, mid);
 }
 
 void LineRefiner::between(const End& u, const End& v, int depth, int32_t a, int32_t b, std::vector<End>& out,
                           Added& n) const {
-  if (depth >= kMaxDepth) return;
   const double chord = std::hypot(v.v.p.x - u.v.p.x, v.v.p.y - u.v.p.y);
   if (!(chord > 0.0)) return;
-  // An arc's stretch (a reach ends: Feature::reach) is the same curve only as the same site's.
   const bool arcs = u.v.arc != 0 || v.v.arc != 0;
+  LineResidual& r = arcs ? n.arcs : n.locus;
+  if (land_segment(u.v, v.v)) {
+    ++r.land_border_segments;
+    return;
+  }
+  // An arc's stretch (a reach ends: Feature::reach) is the same curve only as the same site's.
   const bool same =
-      arcs ? u.v.arc == v.v.arc && arc_site(u) == arc_site(v)
+      arcs ? u.v.arc == v.v.arc && arc_site(u.v) == arc_site(v.v)
            : shares(u.v.site_a, u.alt_a, v.v.site_a, v.alt_a) && shares(u.v.site_b, u.alt_b, v.v.site_b, v.alt_b);
   // How far the locus can stray from the chord, from the turn of its normal between the ends: a
   // circular arc (the same sites) strays 0.5 c tan(angle / 4), a corner (another site takes
-  // over) at most 0.5 c tan(angle / 2). Within the tolerance (or no normal known) the chord
-  // stays: a change of site that does not turn the locus (collinear edges) adds nothing.
+  // over) at most 0.5 c tan(angle / 2). No normal known: nothing estimated (the midpoint
+  // decides). A change of site that does not turn the locus (collinear edges) adds nothing.
   const Vec2 nu = normal_towards(u, v), nv = normal_towards(v, u);
   const double angle = std::atan2(std::abs(nu.x * nv.y - nu.y * nv.x), nu.x * nv.x + nu.y * nv.y);
-  const double stray = angle >= 3.0 ? chord : 0.5 * chord * std::tan((same ? 0.25 : 0.5) * angle);
-  if (!(stray * per_crs_ > tol_)) return;
+  double stray = angle >= 3.0 ? chord : 0.5 * chord * std::tan((same ? 0.25 : 0.5) * angle);
+  if (!std::isfinite(stray)) stray = 0.0;
+  const double estimate = stray * per_crs_;
+  const bool may_split = depth < kMaxDepth && tol_ > 0.0;
   End mid;
-  bool turning = false, found = false;
-  // The locus this chord stands for lies within about `stray` of it; a locus point much farther
-  // away belongs to another stretch (the locus can cross the chord's perpendicular again).
-  const double max_off = 2.0 * stray + 1e-9 * chord;
-  // Where a site changes and no turning point of three sites checks out (more sites change
-  // within the chord), the chord stays: a root across its middle could be another stretch's.
-  if (arcs && same)
-    found = across_arc(u, v, a, b, max_off, mid);
-  else if (arcs)
-    found = turning = arc_junction(u, v, a, b, max_off, mid);
-  else if (same)
-    found = across_middle(u, v, a, b, max_off, mid);
-  else
-    found = turning = turning_point(u, v, a, b, max_off, mid);
-  if (!found) return;
-  ++(turning ? n.turning_points : n.arc_points);
-  between(u, mid, depth + 1, a, b, out, n);
-  out.push_back(mid);
-  between(mid, v, depth + 1, a, b, out, n);
+  bool turning = false;
+  if (may_split && estimate > tol_ && split(u, v, same, arcs, stray, a, b, mid, turning)) {
+    ++(turning ? n.turning_points : n.arc_points);
+    between(u, mid, depth + 1, a, b, out, n);
+    out.push_back(mid);
+    between(mid, v, depth + 1, a, b, out, n);
+    return;
+  }
+  const double off = midpoint_offset(u.v, v.v, a, b);
+  if (may_split && std::isfinite(off) && off > kSplitAt * tol_) {
+    // The measured offset bounds how far the locus lies from the middle (CRS units: over the
+    // smaller scale, doubled for the slant of the perpendicular).
+    const Vec2 s = scale_.at(u.v.p);
+    const double reach = 2.0 * off / std::min(s.x, s.y);
+    if (split(u, v, same, arcs, std::max(stray, reach), a, b, mid, turning)) {
+      ++(turning ? n.turning_points : n.arc_points);
+      between(u, mid, depth + 1, a, b, out, n);
+      out.push_back(mid);
+      between(mid, v, depth + 1, a, b, out, n);
+      return;
+    }
+  }
+  const Vec2 m = lerp(u.v.p, v.v.p, 0.5);
+  r.add(off, m.x, m.y, tol_ > 0.0 ? tol_ : std::numeric_limits<double>::infinity());
+  r.max_estimate = std::max(r.max_estimate, estimate);
 }
 
 bool LineRefiner::turning_point(const End& u, const End& v, int32_t a, int32_t b, double max_off, End& out) const {
@@ -275,7 +362,7 @@ bool LineRefiner::checked(Vec2 p, int32_t a, int32_t b, const End& u, const End&
 bool LineRefiner::across_arc(const End& u, const End& v, int32_t a, int32_t b, double max_off, End& out) const {
   const std::array<Vec2, 2> ends = perpendicular(u, v, max_off);
   const Vec2 p0 = ends[0], p1 = ends[1];  // (named, not bound: lambdas capture them)
-  const int32_t s = arc_site(u);
+  const int32_t s = arc_site(u.v);
   Vec2 g;
   auto f = [&](double t) { return arc_value(lerp(p0, p1, t), s, g); };
   auto with_slope = [&](double t) {
@@ -288,15 +375,14 @@ bool LineRefiner::across_arc(const End& u, const End& v, int32_t a, int32_t b, d
   return checked_arc(lerp(p0, p1, t), u.v.arc, s, a, b, u, v, max_off, out);
 }
 
-double LineRefiner::curve_value(const End& e, Vec2 p, Vec2& gradient) const {
-  if (e.v.arc != 0) return arc_value(p, arc_site(e), gradient);
+double LineRefiner::curve_value(const BoundaryVertex& e, Vec2 p, Vec2& gradient) const {
+  if (e.arc != 0) return arc_value(p, arc_site(e), gradient);
   // The locus d_a / w_a = d_b / w_b, also a little beyond a reach (where the costs are infinite):
   // the junction with an arc lies on that reach.
   const SiteMetric& m = index_.metric();
   Vec2 ga, gb;
-  const double wa = index_.weight_of(e.v.site_a), wb = index_.weight_of(e.v.site_b);
-  const double value =
-      m.distance_and_gradient(p, e.v.site_a, ga) / wa - m.distance_and_gradient(p, e.v.site_b, gb) / wb;
+  const double wa = index_.weight_of(e.site_a), wb = index_.weight_of(e.site_b);
+  const double value = m.distance_and_gradient(p, e.site_a, ga) / wa - m.distance_and_gradient(p, e.site_b, gb) / wb;
   gradient = Vec2{ga.x / wa - gb.x / wb, ga.y / wa - gb.y / wb};
   return value;
 }
@@ -309,11 +395,11 @@ bool LineRefiner::arc_junction(const End& u, const End& v, int32_t a, int32_t b,
   Vec2 p = mid;
   for (int iter = 0; iter < kNewtonIterations; ++iter) {
     Vec2 gu, gv;
-    const double fu = curve_value(u, p, gu), fv = curve_value(v, p, gv);
+    const double fu = curve_value(u.v, p, gu), fv = curve_value(v.v, p, gv);
     if (!std::isfinite(fu) || !std::isfinite(fv)) return false;
     if (std::max(std::abs(fu), std::abs(fv)) <= ftol_) {
       const End& arc = u.v.arc != 0 ? u : v;
-      return checked_arc(p, arc.v.arc, arc_site(arc), a, b, u, v, max_off, out);
+      return checked_arc(p, arc.v.arc, arc_site(arc.v), a, b, u, v, max_off, out);
     }
     const double det = gu.x * gv.y - gu.y * gv.x;
     if (!(std::abs(det) > 0.0) || !std::isfinite(det)) return false;
@@ -345,6 +431,51 @@ bool LineRefiner::checked_arc(Vec2 p, int8_t arc, int32_t site, int32_t a, int32
       residual, arc == 1 ? ds : other.distance, arc == 1 ? other.distance : ds, arc};
   set_normal(out);
   return true;
+}
+
+void finish_lines(std::vector<BoundaryLine>& lines, const LineRefiner* refiner, double tol, BoundaryStats& stats,
+                  int threads) {
+  std::vector<LineRefiner::Added> added(lines.size());
+  std::vector<int64_t> before(lines.size());
+  std::vector<double> simplified(lines.size(), 0.0);
+  detail::parallel_for(threads, static_cast<int64_t>(lines.size()), [&](int64_t k, int) {
+    const auto i = static_cast<size_t>(k);
+    BoundaryLine& line = lines[i];
+    if (refiner != nullptr) added[i] = refiner->refine(line.owner_a, line.owner_b, line.vertices);
+    before[i] = static_cast<int64_t>(line.vertices.size());
+    if (tol > 0.0 && line.vertices.size() > 2) {
+      std::vector<Vec2> pts;
+      pts.reserve(line.vertices.size());
+      for (const auto& v : line.vertices) pts.push_back(v.p);
+      std::vector<BoundaryVertex> kept;
+      for (size_t j : simplify_indices(pts, tol)) kept.push_back(line.vertices[j]);
+      if (kept.size() != line.vertices.size()) {
+        line.vertices = std::move(kept);
+        if (refiner != nullptr) simplified[i] = refiner->measure(line.owner_a, line.owner_b, line.vertices);
+      }
+    }
+    line.vertices.shrink_to_fit();
+  });
+  stats.vertices = stats.vertices_before_simplify = 0;
+  stats.max_residual = stats.max_residual_on_land = 0.0;
+  for (size_t i = 0; i < lines.size(); ++i) {
+    stats.turning_points += added[i].turning_points;
+    stats.arc_points += added[i].arc_points;
+    stats.locus.merge(added[i].locus);
+    stats.arcs.merge(added[i].arcs);
+    stats.vertices_before_simplify += before[i];
+    stats.simplified_midpoint = std::max(stats.simplified_midpoint, simplified[i]);
+  }
+  for (const BoundaryLine& line : lines) {
+    for (const BoundaryVertex& v : line.vertices) {
+      double& worst = on_land(v) ? stats.max_residual_on_land : stats.max_residual;
+      worst = std::max(worst, v.residual);
+      LineResidual& r = v.arc != 0 ? stats.arcs : stats.locus;
+      double& at = on_land(v) ? r.max_vertex_on_land : r.max_vertex;
+      at = std::max(at, v.residual);
+    }
+    stats.vertices += static_cast<int64_t>(line.vertices.size());
+  }
 }
 
 }  // namespace rv::boundary_stages

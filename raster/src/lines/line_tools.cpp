@@ -1,10 +1,12 @@
 #include "lines/line_tools.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <limits>
 #include <numeric>
 #include <string>
 
+#include "rv/engine/site_metric.hpp"
 #include "rv/field/error.hpp"
 
 namespace rv::line_tools {
@@ -120,6 +122,29 @@ std::vector<int32_t> owner_of_sites(const SeedSet& seeds) {
   std::vector<int32_t> owner(seeds.sites().size());
   for (size_t i = 0; i < owner.size(); ++i) owner[i] = seeds.site_owner(static_cast<int32_t>(i));
   return owner;
+}
+
+CrsScale::CrsScale(const SiteMetric& m, Vec2 p0, double res) {
+  lonlat = dynamic_cast<const GeodesicSiteMetric*>(&m) != nullptr;
+  lat0 = p0.y;
+  // A step small against any line's curvature, large against the distances' rounding.
+  const double h = 1e-3 * res;
+  const double sx = m.point_distance(p0, Vec2{p0.x + h, p0.y}) / h, sy = m.point_distance(p0, Vec2{p0.x, p0.y + h}) / h;
+  at0 = Vec2{sx > 0.0 && std::isfinite(sx) ? sx : 1.0, sy > 0.0 && std::isfinite(sy) ? sy : 1.0};
+}
+
+Vec2 CrsScale::at(Vec2 p) const {
+  if (!lonlat) return at0;
+  constexpr double kRad = 3.14159265358979323846 / 180.0;
+  const double c0 = std::cos(lat0 * kRad), c = std::cos(p.y * kRad);
+  return Vec2{c0 > 1e-12 ? at0.x * c / c0 : at0.x, at0.y};
+}
+
+double CrsScale::offset(Vec2 p, double f, Vec2 g) const {
+  const Vec2 s = at(p);
+  const double n = std::hypot(g.x / s.x, g.y / s.y);
+  if (!std::isfinite(n) || !(n > 0.0)) return std::numeric_limits<double>::quiet_NaN();
+  return std::abs(f) / n;
 }
 
 }  // namespace rv::line_tools

@@ -139,6 +139,23 @@ std::vector<T> scan_rows(int threads, int64_t row0, int64_t row1, F&& f) {
   return all;
 }
 
+// Metric units per CRS unit along x and along y near a position: what turns a gradient per CRS
+// unit (SiteMetric::distance_and_gradient) into one per metric unit, and so |f| / |grad f| into a
+// length. Planar grids: 1 and 1. Longitude/latitude grids (geodesic): metres per degree, measured
+// once at `p0` (two distances) and carried to other latitudes by the cosine of the latitude
+// (the parallel's radius; the meridian's scale varies by under 1 % over 10 degrees).
+struct CrsScale {
+  Vec2 at0{1.0, 1.0};
+  double lat0 = 0.0;
+  bool lonlat = false;
+  CrsScale() = default;
+  CrsScale(const SiteMetric& m, Vec2 p0, double res);
+  Vec2 at(Vec2 p) const;
+  // The length (metric units) of the step that moves f by `f` along its gradient `g` (per CRS
+  // unit): |f| / |grad f| in metric units; NaN where g is not known or vanishes.
+  double offset(Vec2 p, double f, Vec2 g) const;
+};
+
 // The metric radius of a ball around `mid`, the middle of the short path p0-p1 between two
 // neighbouring cell centres, that holds every position lerp(p0, p1, t) of it: the larger distance
 // to an end, 1 % wider for the curvature of a longitude/latitude path (OwnerIndex::candidates_of).

@@ -335,6 +335,7 @@ struct LineRewrite {
   bool b_is_a;
   PartialLineStats& stats;
   const std::vector<TripointPlan>& plans;
+  double per_crs;  // metric units per CRS unit (the larger axis): offsets measured as lengths
 
   const TripointPlan* plan_at(Vec2 p) const {
     for (const TripointPlan& t : plans)
@@ -418,7 +419,13 @@ struct LineRewrite {
       const double dx = v.p.x - u.p.x, dy = v.p.y - u.p.y, chord = std::hypot(dx, dy);
       const double off = chord > 0.0 ? std::abs((m.p.x - u.p.x) * dy - (m.p.y - u.p.y) * dx) / chord
                                      : std::hypot(m.p.x - u.p.x, m.p.y - u.p.y);
-      if (!(off > tol)) return;
+      if (!(off > tol) || depth + 1 >= kMaxDepth) {
+        // The chord stays: its midpoint's distance from the locus point across it is measured.
+        const Vec2 mid = lerp(u.p, v.p, 0.5);
+        stats.residual.add(off * per_crs, mid.x, mid.y, tol * per_crs);
+        return;
+      }
+      ++stats.residual.added;
       self(self, u, m, depth + 1);
       out.push_back(m.p);
       self(self, m, v, depth + 1);
@@ -715,20 +722,24 @@ int64_t extend_at_tripoints(const PartialEffectRule& rule, const std::vector<Tri
 }  // namespace
 
 BoundaryResult partial_boundaries(const PartialEffectRule& rule, const SeedSet& seeds, const OwnerIndex& index,
-                                  const GridSpec& grid, double ftol, double refine_cells, double simplify_cells,
+                                  const GridSpec& grid, double ftol, double line_tolerance, double simplify_cells,
                                   PartialLineStats& stats) {
   BoundaryResult out = rule.full_lines();
   const PartialEffect& pe = rule.effect();
   if (!pe.any()) return out;
   const int32_t B = pe.owner;
   const std::vector<TripointPlan> plans = plan_tripoints(rule, seeds, out, grid.res, ftol);
-  const double tol = std::max(refine_cells, 1e-9) * grid.res, simplify = simplify_cells * grid.res;
+  // The tolerance in CRS units, over the larger scale of the two axes (a bound in either).
+  const line_tools::CrsScale scale(index.metric(), Vec2{grid.centre_x(grid.width / 2), grid.centre_y(grid.height / 2)},
+                                   grid.res);
+  const double per_crs = std::max(scale.at0.x, scale.at0.y);
+  const double tol = std::max(line_tolerance / per_crs, 1e-9 * grid.res), simplify = simplify_cells * grid.res;
   int64_t vertices = 0;
   for (BoundaryLine& line : out.lines) {
     if (line.owner_a == B || line.owner_b == B) {
       LineRewrite w{
           rule,  seeds, index, ftol, tol, B, line.owner_a == B ? line.owner_b : line.owner_a, line.owner_a == B,
-          stats, plans};
+          stats, plans, per_crs};
       w.rewrite(line, grid.res);
       std::vector<Vec2> pts;
       for (const BoundaryVertex& v : line.vertices) pts.push_back(v.p);
@@ -771,7 +782,7 @@ PartialEffectResult compute_partial_effect(const SeedSet& seeds, const GridSpec&
   const double ftol = std::max(lines.tolerance_cells, 1e-15) * cell_metric(grid, *r.metric);
   if (draw_lines)
     r.boundaries =
-        partial_boundaries(*r.rule, seeds, *r.index, grid, ftol, lines.refine_cells, lines.simplify_cells, r.stats);
+        partial_boundaries(*r.rule, seeds, *r.index, grid, ftol, lines.line_tolerance, lines.simplify_cells, r.stats);
   r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return r;
 }

@@ -117,7 +117,7 @@ void check_tripoint(const SiteMetric& metric, double cell, const Tripoint& tp) {
 struct BoundaryRun {
   boundary_stages::BoundaryGrid b;
   double tol;           // simplification, CRS units
-  double refine;        // BoundaryOptions::refine_cells in metric units (0: none)
+  double line_tolerance;  // BoundaryOptions::line_tolerance, metric units (0: measure only)
   double cell;          // one cell in metric units
   double max_distance;  // BoundaryOptions::max_distance
   boundary_stages::CrossingSet x;
@@ -230,14 +230,23 @@ struct BoundaryRun {
     count_unresolved(b, x, t, unplaced, stats);
     BoundaryResult result;
     result.stats = stats;
-    std::optional<LineRefiner> refiner;
-    if (refine > 0.0) refiner.emplace(b.index, refine, b.ftol, cell / b.g.res);
-    result.lines = chain_lines(x, t, links, tol, result.stats, refiner ? &*refiner : nullptr, b.threads);
+    // The lines get their final ends first, then are refined, measured and simplified as they
+    // will be written (finish_lines): every segment of the output, the ends' too, follows the
+    // locus to the tolerance.
+    result.lines = chain_lines(x, t, links, 0.0, result.stats);
     join_close_tripoints(t.tripoints, b.g.res, result.lines);
     close_missing_tripoints(b, max_distance, t.tripoints, result.lines, result.stats);
     end_at_owned_edge(b, max_distance, t.tripoints, result.lines, result.stats);
+    const Vec2 middle = line_tools::centre(b.g, b.W / 2, b.H / 2);
+    const CrsScale scale(b.index.metric(), middle, b.g.res);
+    const LineRefiner refiner(b.index, line_tolerance, b.ftol, scale, std::max(scale.at0.x, scale.at0.y));
+    finish_lines(result.lines, &refiner, tol, result.stats, b.threads);
     result.lone_crossings = lone_crossings(x, links);
-    for (const Tripoint& tp : t.tripoints) result.stats.max_residual = std::max(result.stats.max_residual, tp.residual);
+    for (const Tripoint& tp : t.tripoints) {
+      const bool land = tp.distances[0] == 0.0 || tp.distances[1] == 0.0 || tp.distances[2] == 0.0;
+      double& worst = land ? result.stats.max_residual_on_land : result.stats.max_residual;
+      worst = std::max(worst, tp.residual);
+    }
     result.tripoints = std::move(t.tripoints);
     return result;
   }
@@ -320,7 +329,8 @@ struct StripLines::Impl {
   std::vector<BoundaryRun> boundary;  // none or one
   std::unique_ptr<limit_stages::LimitGrid> limit_grid;
   std::vector<LimitRun> limits;
-  double limit_tol = 0.0;
+  double limit_tol = 0.0;             // simplification, CRS units
+  double limit_line_tolerance = 0.0;  // LimitOptions::line_tolerance, metric units
   int64_t have = 0;
   bool boundaries_taken = false, limits_taken = false;
   std::string key;
@@ -354,7 +364,7 @@ StripLines::StripLines(const GridSpec& grid, const OwnerIndex& index, const Line
                                       std::max(o.tolerance_cells, 1e-15) * cell,
                                       owners_of_site},
                                      o.simplify_cells * m.g.res,
-                                     std::max(o.refine_cells, 0.0) * cell,
+                                     std::max(o.line_tolerance, 0.0),
                                      cell,
                                      o.max_distance,
                                      {},
@@ -384,6 +394,7 @@ StripLines::StripLines(const GridSpec& grid, const OwnerIndex& index, const Line
                                                                           !metric.seeds().adjusted(),
                                                                           &index});
     m.limit_tol = o.simplify_cells * m.g.res;
+    m.limit_line_tolerance = std::max(o.line_tolerance, 0.0);
     std::vector<int32_t> owners = {0};
     if (o.per_owner) {
       owners.clear();
@@ -502,7 +513,12 @@ LimitResult StripLines::take_limits() {
   if (m.limits_taken) throw Error(ErrorKind::invalid_argument, "limits already taken");
   m.limits_taken = true;
   LimitResult result;
-  for (LimitRun& run : m.limits) limit_stages::chain_limit_lines(run.t, run.x, run.links, m.limit_tol, result);
+  const CrsScale scale(m.limit_grid ? m.limit_grid->metric : m.index.metric(),
+                       line_tools::centre(m.g, m.g.width / 2, m.g.height / 2), m.g.res);
+  for (LimitRun& run : m.limits) {
+    const limit_stages::LimitRefiner refiner(run.t, m.limit_line_tolerance, scale);
+    limit_stages::chain_limit_lines(run.t, run.x, run.links, m.limit_tol, result, &refiner);
+  }
   return result;
 }
 

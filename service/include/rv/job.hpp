@@ -73,6 +73,9 @@ struct OutputRequest {
   // report file.
   bool describe = true;
   double simplify_cells = 0.0;  // Douglas-Peucker tolerance of boundary and limit lines, cells
+  // The largest distance between any point of an output line and its exact locus (parse_length;
+  // "1mm" by default: 0.001 CRS units where the seeds have no CRS).
+  std::string line_tolerance = "1mm";
   // The disproportionality test (regions within a relevant area): a vector file of the relevant
   // area's polygons, and optionally of each owner's relevant coasts (lines, owned through the
   // seeds' owner field; by default the parts of the seeds nearest to the area's cells).
@@ -94,6 +97,16 @@ struct LimitDistance {
   std::string text;  // as given
 };
 LimitDistance parse_limit_distance(const std::string& text);
+// A length as given (e.g. "1mm", "0.5 m", "0.002"): its value and unit ("" when plain: the job's
+// distance units), and the unit in metres. Units: mm, cm, m, km, nmi. Throws
+// rv::Error(invalid_argument) for a malformed, negative or unknown-unit value.
+struct Length {
+  double value = 0.0;
+  std::string unit;
+  double metres_per_unit = 1.0;
+  std::string text;
+};
+Length parse_length(const std::string& text);
 
 struct JobSpec {
   SeedReadOptions seeds;
@@ -224,6 +237,7 @@ struct PreparedJob {
   std::string unit;                     // name of the output unit ("m", "nmi", "crs-units")
   ComputeOptions compute;               // method, metric, threads, max distance (metric units), geolocator
   std::vector<double> limit_distances;  // the limit lines' distances in metric units
+  double line_tolerance = 1e-3;         // OutputRequest::line_tolerance in metric units
   // OutputRequest::relevant_area's polygons in the grid's CRS (as a seed set of polygons, for the
   // interior rule), and relevant_coasts' lines in the seeds' CRS; empty without them.
   std::optional<LoadedSeeds> relevant_area;

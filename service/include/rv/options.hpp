@@ -43,6 +43,8 @@ enum class OptionType {
   distance_list,       // limit distances: CLI "12nmi,24nmi"; JSON an array of "12nmi", 12 or
                        // {"value": 12, "unit": "nmi"}
   file,                // a path the CLI writes or reads (CLI only)
+  length,              // one length >= 0: CLI "1mm", "0.5 m" or a plain number in the distance units;
+                       // JSON the same, or {"value": 1, "unit": "mm"} (parse_length)
 };
 
 // A checked value, as the option's type makes it.

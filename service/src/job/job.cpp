@@ -140,6 +140,30 @@ LimitDistance parse_limit_distance(const std::string& text) {
   return out;
 }
 
+Length parse_length(const std::string& text) {
+  Length out;
+  out.text = text;
+  const char* begin = text.c_str();
+  char* end = nullptr;
+  out.value = std::strtod(begin, &end);
+  std::string unit(end == begin ? text : std::string(end));
+  unit.erase(0, unit.find_first_not_of(" \t"));
+  unit.erase(unit.find_last_not_of(" \t") + 1);
+  if (end == begin || !std::isfinite(out.value) || out.value < 0.0)
+    throw Error(ErrorKind::invalid_argument, "length '" + text + "' is not a non-negative number");
+  static const std::pair<const char*, double> kUnits[] = {
+      {"mm", 0.001}, {"cm", 0.01}, {"m", 1.0}, {"km", 1000.0}, {"nmi", 1852.0}};
+  if (!unit.empty()) {
+    const auto* u = std::find_if(std::begin(kUnits), std::end(kUnits), [&](const auto& k) { return unit == k.first; });
+    if (u == std::end(kUnits))
+      throw Error(ErrorKind::invalid_argument,
+                  "length '" + text + "': unknown unit '" + unit + "' (mm, cm, m, km or nmi)");
+    out.metres_per_unit = u->second;
+  }
+  out.unit = unit;
+  return out;
+}
+
 int64_t physical_memory_bytes() {
   const long pages = ::sysconf(_SC_PHYS_PAGES), size = ::sysconf(_SC_PAGESIZE);
   return pages > 0 && size > 0 ? static_cast<int64_t>(pages) * size : 0;
@@ -393,6 +417,17 @@ std::vector<double> limit_distances_in_metric_units(const JobSpec& spec, const P
   return metric;
 }
 
+// The line tolerance in metric units: a length with a unit in metres (CRS units where the seeds
+// have no CRS: the default 1 mm is then 0.001 of them), a plain number in the distance units.
+double line_tolerance_in_metric_units(const JobSpec& spec, const PreparedJob& job) {
+  const Length l = parse_length(spec.outputs.line_tolerance);
+  if (l.unit.empty()) return l.value / job.to_output;
+  const bool geodesic = job.metric.kind == MetricSpec::geodesic;
+  if (geodesic) return l.value * l.metres_per_unit;
+  if (job.loaded.crs.wkt.empty()) return l.value * l.metres_per_unit;  // CRS units taken as metres
+  return l.value * l.metres_per_unit / job.loaded.crs.linear_unit;
+}
+
 // What weights and reaches cannot be combined with (yet), refused before anything is computed.
 void check_adjustments(const JobSpec& spec, const PreparedJob& job) {
   const SeedSet& seeds = job.loaded.seeds;
@@ -561,6 +596,7 @@ PreparedJob prepare_job(const JobSpec& spec, const JobLimits& limits, const JobH
   // Reaches are given in the job's distance units, like the max distance.
   job.loaded.seeds.scale_reaches(1.0 / job.to_output);
   job.limit_distances = limit_distances_in_metric_units(spec, job);
+  job.line_tolerance = line_tolerance_in_metric_units(spec, job);
   job.partial = partial_effect_of(job.loaded.seeds);
   read_relevant(spec, limits, job);
   job.plan = plan_job(spec, job.grid, static_cast<int64_t>(job.loaded.seeds.sites().size()), mp.metric.kind,
@@ -689,6 +725,7 @@ PartialEffectResult compute_partial(detail::JobRun& run, const PreparedJob& job)
   run.progress("compute", 0.0);
   BoundaryOptions lines;
   lines.simplify_cells = spec.outputs.simplify_cells;
+  lines.line_tolerance = job.line_tolerance;
   lines.threads = spec.threads;
   const OutputRequest& out = spec.outputs;
   const bool draw = !out.boundaries.empty() || !out.tripoints.empty() || out.regions_wanted() || !out.preview.empty();

@@ -81,6 +81,9 @@ struct StripDeliverables::State {
   // its time (the strips' share included). The lines are taken and reported first (take_*), and
   // their files written (write_*_files, which touch nothing else of the state and return their
   // seconds) beside the regions' work.
+  // A kind of line's residual along its length (rv/lines/residual.hpp) for the report, in the
+  // job's distance units, with the tolerance that holds after simplification.
+  nlohmann::json residual_json(const LineResidual& r, double simplified_midpoint) const;
   BoundaryResult take_boundaries();
   double write_boundary_files(const BoundaryResult& boundaries) const;
   LimitResult take_limits();
@@ -187,6 +190,7 @@ StripDeliverables::StripDeliverables(JobRun& run, const PreparedJob& job, bool s
     LineRequest r;
     r.boundaries = true;
     r.boundary.simplify_cells = out.simplify_cells;
+    r.boundary.line_tolerance = job.line_tolerance;
     r.boundary.threads = run.spec.threads;
     r.boundary.max_distance = job.compute.max_distance;
     s.boundaries.emplace(g, *s.index, r);
@@ -196,6 +200,7 @@ StripDeliverables::StripDeliverables(JobRun& run, const PreparedJob& job, bool s
     r.limit_distances = job.limit_distances;
     r.limit.per_owner = out.limits_per_owner;
     r.limit.simplify_cells = out.simplify_cells;
+    r.limit.line_tolerance = job.line_tolerance;
     r.limit.threads = run.spec.threads;
     s.limits.emplace(g, *s.index, r);
   }
@@ -211,6 +216,7 @@ StripDeliverables::StripDeliverables(JobRun& run, const PreparedJob& job, bool s
     else
       r.limit_distances = {job.compute.max_distance};
     r.limit.simplify_cells = out.simplify_cells;
+    r.limit.line_tolerance = job.line_tolerance;
     r.limit.threads = run.spec.threads;
     s.reach.emplace(g, *s.index, r);
   }
@@ -270,6 +276,30 @@ void StripDeliverables::add(const NearestField& strip, const NearestField* measu
   }
 }
 
+nlohmann::json StripDeliverables::State::residual_json(const LineResidual& r, double simplified_midpoint) const {
+  const double k = job.to_output;
+  // Douglas-Peucker leaves every dropped point within its tolerance of the new chord, and the
+  // chords it replaces were within the line tolerance of the locus.
+  // (In CRS units: a cell's larger extent of the two, in metric units, bounds it.)
+  const GridSpec& g = job.grid;
+  const Vec2 mid{g.centre_x(g.width / 2), g.centre_y(g.height / 2)};
+  const double simplify =
+      out().simplify_cells * std::max(cell_length, metric->point_distance(mid, Vec2{mid.x, mid.y + g.res}));
+  nlohmann::json j = {{"tolerance", job.line_tolerance * k},
+                      {"tolerance_after_simplify", (job.line_tolerance + simplify) * k},
+                      {"segments", r.segments},
+                      {"max_midpoint", r.max_midpoint * k},
+                      {"max_estimate", r.max_estimate * k},
+                      {"max_vertex", r.max_vertex * k},
+                      {"points_added", r.added},
+                      {"land_border_segments", r.land_border_segments},
+                      {"max_vertex_on_land", r.max_vertex_on_land * k},
+                      {"unresolved_segments", r.unresolved}};
+  if (r.segments > 0) j["worst_midpoint_at"] = {r.worst_x, r.worst_y};
+  if (simplify > 0.0) j["max_midpoint_simplified"] = simplified_midpoint * k;
+  return j;
+}
+
 BoundaryResult StripDeliverables::State::take_boundaries() {
   State& s = *this;
   const OutputRequest& out = s.out();
@@ -294,11 +324,15 @@ BoundaryResult StripDeliverables::State::take_boundaries() {
                             {"unresolved_slivers", st.unresolved_slivers},
                             {"max_residual", st.max_residual * s.job.to_output},
                             {"max_residual_cells", st.max_residual / s.cell_length},
-                            {"simplify_cells", out.simplify_cells}};
+                            {"max_residual_on_land", st.max_residual_on_land * s.job.to_output},
+                            {"simplify_cells", out.simplify_cells},
+                            {"along_lines", s.residual_json(st.locus, st.simplified_midpoint)},
+                            {"along_arcs", s.residual_json(st.arcs, st.simplified_midpoint)}};
   if (s.partial && s.partial->rule)
     s.report["boundaries"]["partial_effect"] = {{"stretches", s.partial->stats.stretches},
                                                 {"locus_points", s.partial->stats.points},
-                                                {"max_residual", s.partial->stats.max_residual * s.job.to_output}};
+                                                {"max_residual", s.partial->stats.max_residual * s.job.to_output},
+                                                {"along_lines", s.residual_json(s.partial->stats.residual, 0.0)}};
   if (!out.boundaries.empty()) s.run.will_write(out.boundaries);
   if (!out.tripoints.empty()) s.run.will_write(out.tripoints);
   s.boundary_seconds += seconds_since(t);
@@ -328,7 +362,10 @@ LimitResult StripDeliverables::State::take_limits() {
                         {"lines", limits.lines.size()},
                         {"vertices", limits.vertices},
                         {"max_residual", limits.max_residual * s.job.to_output},
-                        {"max_residual_cells", limits.max_residual / s.cell_length}};
+                        {"max_residual_cells", limits.max_residual / s.cell_length},
+                        {"vertices_before_simplify", limits.vertices_before_simplify},
+                        {"corners", limits.corners},
+                        {"along_lines", s.residual_json(limits.residual, limits.simplified_midpoint)}};
   s.limit_seconds += seconds_since(t);
   return limits;
 }
@@ -389,6 +426,13 @@ void StripDeliverables::State::write_region_polygons(const BoundaryResult& bound
                      {"sea_area", a.sea}});
   s.report["regions"] = {
       {"owners", rs.owners}, {"polygons", rs.polygons}, {"areas", areas}, {"area_units", lr.area_units}};
+  // The edge of the owned area (reaches), or the max-distance line, as the regions' edges.
+  if (s.reach)
+    s.report["regions"][s.job.loaded.seeds.adjusted() ? "owned_edge" : "max_distance_line"] = {
+        {"lines", reach_lines.lines.size()},
+        {"vertices", reach_lines.vertices},
+        {"corners", reach_lines.corners},
+        {"along_lines", s.residual_json(reach_lines.residual, reach_lines.simplified_midpoint)}};
   if (s.job.relevant_area) s.report["regions"]["relevant_area"] = relevance(rs, lr.area_units);
   s.times["regions"] = s.region_seconds + seconds_since(t);
 }

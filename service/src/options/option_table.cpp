@@ -679,6 +679,26 @@ const std::vector<OptionSpec> kOptions = {
      false,
      false,
      [](JobSpec& s, const OptionValue& v) { s.outputs.simplify_cells = v.number; }},
+    {"lineTolerance",
+     "line-tolerance",
+     OptionType::length,
+     "LENGTH",
+     "deliverables",
+     "Line tolerance",
+     "The largest distance between any point of an output line and its exact locus, along the whole line, "
+     "not only at its vertices: boundaries, reach arcs, limits, the owned area's edge, partial-effect lines "
+     "and region edges. Between the exact vertices on cell edges, corners are added where the controlling "
+     "basepoint changes, and curved stretches get locus points until every chord is within it; straight "
+     "stretches get none. \"1mm\", \"0.5 m\", a plain number in the distance units, or {\"value\": 1, "
+     "\"unit\": \"mm\"}; units mm, cm, m, km, nmi. 0 keeps the cell-edge vertices alone. The report "
+     "gives what was measured, per kind of line.",
+     "1mm",
+     {},
+     0,
+     0,
+     false,
+     false,
+     [](JobSpec& s, const OptionValue& v) { s.outputs.line_tolerance = v.text; }},
 };
 
 }  // namespace

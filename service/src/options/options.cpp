@@ -95,6 +95,16 @@ std::vector<std::string> checked_distances(std::vector<std::string> items, const
   return items;
 }
 
+// A length's text, checked (parse_length).
+std::string checked_length(const std::string& text, const Source& src) {
+  try {
+    parse_length(text);
+  } catch (const Error& e) {
+    src.bad(e.what());
+  }
+  return text;
+}
+
 // The JSON form of one limit distance: "12nmi", 12 or {"value": 12, "unit": "nmi"}.
 std::string distance_text(const json& d, const Source& src) {
   if (d.is_string()) return d.get<std::string>();
@@ -194,6 +204,9 @@ OptionValue parse_cli_value(const OptionSpec& o, const std::vector<std::string>&
         if (!std::isfinite(v.box[i])) src.bad("'" + quote_input(words.at(i)) + "' is not a finite number");
       }
       return v;  // the order of the edges is the grid's to check (make_grid), as for --like
+    case OptionType::length:
+      v.text = checked_length(words.at(0), src);
+      return v;
     case OptionType::distance_list: {
       std::stringstream ss(words.at(0));
       for (std::string item; std::getline(ss, item, ',');)
@@ -222,7 +235,9 @@ OptionValue parse_json_value(const OptionSpec& o, const json& raw, std::string_v
   const json* value = &raw;
   if (raw.is_object()) {
     if (raw.contains("href")) src.bad("references (href) are not accepted; send the value itself");
-    if (raw.contains("value") && o.type != OptionType::extent) value = &raw.at("value");
+    // (A length's own object form has a value and a unit.)
+    if (raw.contains("value") && o.type != OptionType::extent && !(o.type == OptionType::length && raw.contains("unit")))
+      value = &raw.at("value");
   }
   const json& j = *value;
   OptionValue v;
@@ -267,6 +282,10 @@ OptionValue parse_json_value(const OptionSpec& o, const json& raw, std::string_v
       }
       return v;
     }
+    case OptionType::length:
+      if (j.is_array()) src.bad("must be one length such as \"1mm\", a number, or {\"value\": 1, \"unit\": \"mm\"}");
+      v.text = checked_length(distance_text(j, src), src);
+      return v;
     case OptionType::distance_list: {
       const json items = j.is_array() ? j : json::array({j});
       for (size_t i = 0; i < items.size(); ++i) v.items.push_back(distance_text(items[i], src.item(i)));
@@ -340,6 +359,14 @@ json process_input_description(const OptionSpec& o) {
                    {"properties", {{"bbox", box}, {"crs", {{"type", "string"}}}}}}}}};
       break;
     }
+    case OptionType::length: {
+      const json number = {{"type", "number"}, {"minimum", 0}};
+      json unit = {{"type", "string"}, {"enum", json::array({"mm", "cm", "m", "km", "nmi"})}};
+      json object = {{"type", "object"}, {"required", json::array({"value"})}};
+      object["properties"] = {{"value", number}, {"unit", unit}};
+      schema["oneOf"] = json::array({json{{"type", "string"}}, number, object});
+      break;
+    }
     case OptionType::distance_list: {
       const json positive = {{"type", "number"}, {"minimum", 0}, {"exclusiveMinimum", true}};
       json unit = {{"type", "string"}, {"enum", json::array({"m", "km", "nmi"})}};
@@ -355,7 +382,7 @@ json process_input_description(const OptionSpec& o) {
   if (!o.default_text.empty()) {
     if (o.type == OptionType::flag)
       schema["default"] = o.default_text == "true";
-    else if (o.type == OptionType::choice)
+    else if (o.type == OptionType::choice || o.type == OptionType::length)
       schema["default"] = std::string(o.default_text);
     else if (o.type == OptionType::nonnegative_number || o.type == OptionType::positive_number)
       schema["default"] = std::strtod(std::string(o.default_text).c_str(), nullptr);

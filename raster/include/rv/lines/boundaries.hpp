@@ -33,6 +33,7 @@
 #include "rv/engine/engine.hpp"
 #include "rv/engine/owner_index.hpp"
 #include "rv/field/seeds.hpp"
+#include "rv/lines/residual.hpp"
 
 namespace rv {
 
@@ -77,13 +78,15 @@ struct BoundaryOptions {
   double simplify_cells = 0.0;
   // Root-finding tolerance along a cell-centre segment, in cells.
   double tolerance_cells = 1e-9;
-  // The largest distance, in cells, left between a line's straight chords and the locus they
-  // stand for. The vertices found on cell edges are exact, but the locus between two of them
-  // turns where a controlling site changes and curves where it is not a straight bisector (a
-  // point and a segment: a parabola; weighted points: a circle; any pair on the ellipsoid):
-  // turning points are added exactly, and curved stretches get locus points until every chord
-  // is within this of the locus. 0: only the vertices on cell edges.
-  double refine_cells = 1e-3;
+  // The line tolerance (metric units: metres on geodesic grids, CRS units on planar ones): the
+  // largest distance left between any point of a line and the locus it stands for. The vertices
+  // found on cell edges are exact, but the locus between two of them turns where a controlling
+  // site changes and curves where it is not a straight bisector (a point and a segment: a
+  // parabola; weighted points: a circle; a reach: its arc; any pair on the ellipsoid): turning
+  // points are added exactly, and curved stretches get locus points until every chord is within
+  // this of the locus (straight stretches get none). 0: only the vertices on cell edges (every
+  // segment still measured).
+  double line_tolerance = 1e-3;
   int threads = 0;
   // The field's max distance (metric units). With an adjusted index (reaches, or weights with
   // this as the cap) lines that stop where the owned area ends end exactly on its edge
@@ -101,9 +104,19 @@ struct BoundaryStats {
   int64_t saddles = 0;               // dual squares A B / B A resolved by the centre's owner
   int64_t multi_owner_squares = 0;   // dual squares with three or more owners
   int64_t unresolved_tripoints = 0;  // such squares where no tripoint converged inside
-  double max_residual = 0.0;         // largest |d_a - d_b| over all vertices and tripoints
-  int64_t turning_points = 0;        // vertices added where a controlling site changes
-  int64_t arc_points = 0;            // vertices added on curved stretches (refine_cells)
+  // Largest |d_a - d_b| over all vertices and tripoints off land (a vertex at distance 0 from
+  // one of its owners lies on land: shared land borders and overlapping land polygons, where
+  // any point is on the locus; those are in max_residual_on_land).
+  double max_residual = 0.0;
+  double max_residual_on_land = 0.0;
+  int64_t turning_points = 0;  // vertices added where a controlling site changes
+  int64_t arc_points = 0;      // vertices added on curved stretches (line_tolerance)
+  // Along the whole length, segment by segment (rv/lines/residual.hpp): the locus' stretches,
+  // and the reaches' arcs (BoundaryVertex::arc).
+  LineResidual locus, arcs;
+  // With simplification: the largest distance from a simplified segment's midpoint to the locus
+  // (metric units; 0 without).
+  double simplified_midpoint = 0.0;
   int64_t vertices_before_simplify = 0;
   int64_t vertices = 0;
   int64_t ends_on_owned_edge = 0;  // line ends carried to where the owned area ends

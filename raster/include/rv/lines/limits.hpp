@@ -13,6 +13,7 @@
 #include "rv/engine/engine.hpp"
 #include "rv/engine/owner_index.hpp"
 #include "rv/field/seeds.hpp"
+#include "rv/lines/residual.hpp"
 
 namespace rv {
 
@@ -38,6 +39,14 @@ struct LimitOptions {
   bool per_owner = false;  // false: one set of lines per distance, from all seeds together
   double simplify_cells = 0.0;
   double tolerance_cells = 1e-9;
+  // The line tolerance (metric units): the largest distance left between any point of a line and
+  // the level d = D. Between two vertices on cell edges the level is an arc of a site's circle
+  // (radius D round a point or a segment's end), a straight offset of a segment, or two such
+  // meeting in a corner where the controlling site changes: corners are added exactly (both
+  // sites at D), arcs get points of the level until every chord is within this of it (straight
+  // offsets none). 0: only the vertices on cell edges and the owned edge's corners (every
+  // segment still measured).
+  double line_tolerance = 1e-3;
   int threads = 0;
 };
 
@@ -45,6 +54,14 @@ struct LimitResult {
   std::vector<LimitLine> lines;
   double max_residual = 0.0;
   int64_t vertices = 0;
+  int64_t vertices_before_simplify = 0;
+  // Along the whole length (rv/lines/residual.hpp): every segment's midpoint measured against the
+  // level, the corners and arc points added.
+  LineResidual residual;
+  int64_t corners = 0;
+  // With simplification: the largest distance from a simplified segment's midpoint to the level
+  // (metric units; 0 without).
+  double simplified_midpoint = 0.0;
 };
 
 // Lines at the given distances (metric units, > 0) from the seeds. Cells without an owner in

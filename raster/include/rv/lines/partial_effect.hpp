@@ -102,12 +102,15 @@ struct PartialLineStats {
   int64_t stretches = 0;      // band stretches of L1 replaced
   int64_t points = 0;         // locus points on them (their ends, on L0 and L1 alike, included)
   double max_residual = 0.0;  // largest |balance| at a locus point, metric units
+  // The traced stretches' segments: the largest distance from a chord's middle to the locus
+  // point across it (rv/lines/residual.hpp; metric units), and the points added.
+  LineResidual residual;
 };
 
 // The full-effect boundaries with each band's stretch of L1 (the vertices whose B site belongs
 // to a partial feature) replaced by the partial-effect locus: its points placed exactly
 // (|balance| <= ftol, metric units) on segments from L0 to L1, added until every chord is within
-// `refine_cells` cells of the locus, then the line simplified at `simplify_cells` cells as the
+// `line_tolerance` (metric units) of the locus, then the line simplified at `simplify_cells` cells as the
 // extraction does (BoundaryOptions). A band runs from the turning point where L1 leaves L0 to
 // the one where it rejoins it, or to the grid's edge, or to a full-effect tripoint of B and two
 // neighbours X and Y: there the two bands share the nil-effect X-Y line, each band's locus ends
@@ -119,7 +122,7 @@ struct PartialLineStats {
 // nil-effect line beside it), or the lines around a tripoint do not meet as above: the rasters
 // are exact there, the lines are not drawn.
 BoundaryResult partial_boundaries(const PartialEffectRule& rule, const SeedSet& seeds, const OwnerIndex& index,
-                                  const GridSpec& grid, double ftol, double refine_cells, double simplify_cells,
+                                  const GridSpec& grid, double ftol, double line_tolerance, double simplify_cells,
                                   PartialLineStats& stats);
 
 // The whole of it for a field computed whole: the full- and nil-effect fields (compute), their
