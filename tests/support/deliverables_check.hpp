@@ -52,7 +52,7 @@ inline double brute_owner_distance(const SeedSet& s, Vec2 p, int32_t owner) {
 
 // Every vertex equidistant from the two owners within tol, and on a cell-centre segment whose
 // two cells have different owners (tripoint vertices excepted: they are checked separately),
-// but for the vertices refinement added between them (BoundaryOptions::refine_cells): at most
+// but for the vertices refinement added between them (BoundaryOptions::line_tolerance): at most
 // as many as BoundaryStats counts, equidistant like every other.
 // `sliver_vertices` (optional) counts the vertices on segments whose cells have other owners
 // than the line's (sides of regions thinner than a cell, see BoundaryStats::sliver_crossings).

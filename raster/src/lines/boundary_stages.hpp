@@ -172,6 +172,11 @@ class LineRefiner {
   // Refines one line's vertices (in order; a closed line's last vertex repeats its first) and
   // measures every segment of the result.
   Added refine(int32_t owner_a, int32_t owner_b, std::vector<BoundaryVertex>& vertices) const;
+  // The same for segments [i0, i1) of a line (segment i joins vertices i and i + 1): the points
+  // added within them and each segment's end after it, appended to `out` (vertex i0 is not).
+  // Segments are refined independently of each other: any split of a line gives the same line.
+  void refine_segments(int32_t owner_a, int32_t owner_b, const std::vector<BoundaryVertex>& vertices, size_t i0,
+                       size_t i1, std::vector<BoundaryVertex>& out, Added& n) const;
   // Measures the segments of a line as they are (a simplified line): the largest distance from a
   // segment's midpoint to the locus, metric units (land segments left out).
   double measure(int32_t owner_a, int32_t owner_b, const std::vector<BoundaryVertex>& vertices) const;

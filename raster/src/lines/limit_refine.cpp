@@ -138,7 +138,9 @@ void LimitRefiner::between(const End& u, const End& v, int depth, std::vector<En
     s1 = u.alt;
   } else if (u.v.site != v.v.site) {
     End c;
-    if (depth < kMaxDepth && corner(u, v, c)) {
+    // (With no tolerance the lines stay on cell edges, but for the owned edge's corners, which
+    // its regions were always bounded by.)
+    if (depth < kMaxDepth && (tol_ > 0.0 || t_.owner == kOwnedEdge) && corner(u, v, c)) {
       ++corners;
       ++r.added;
       between(u, c, depth + 1, out, r, corners);
@@ -183,19 +185,20 @@ void LimitRefiner::between(const End& u, const End& v, int depth, std::vector<En
 std::vector<LimitVertex> LimitRefiner::refine(const std::vector<LimitVertex>& v, LineResidual& r,
                                               int64_t& corners) const {
   if (v.size() < 2) return v;
+  std::vector<LimitVertex> out{v.front()};
+  refine_segments(v, 0, v.size() - 1, out, r, corners);
+  return out;
+}
+
+void LimitRefiner::refine_segments(const std::vector<LimitVertex>& v, size_t i0, size_t i1,
+                                   std::vector<LimitVertex>& result, LineResidual& r, int64_t& corners) const {
   std::vector<End> out;
-  out.reserve(v.size() + v.size() / 2);
-  out.push_back(End{v[0], kNoSite});
-  for (size_t i = 1; i < v.size(); ++i) {
-    const End e{v[i], kNoSite};
-    const End prev = out.back();  // (a copy: between() appends to `out`)
-    between(prev, e, 0, out, r, corners);
-    out.push_back(e);
+  for (size_t i = i0; i < i1; ++i) {
+    out.clear();
+    between(End{v[i], kNoSite}, End{v[i + 1], kNoSite}, 0, out, r, corners);
+    for (const End& e : out) result.push_back(e.v);
+    result.push_back(v[i + 1]);
   }
-  std::vector<LimitVertex> result;
-  result.reserve(out.size());
-  for (const End& e : out) result.push_back(e.v);
-  return result;
 }
 
 double LimitRefiner::measure(const std::vector<LimitVertex>& v) const {

@@ -115,6 +115,10 @@ class LimitRefiner {
   // The chain with corners and arc points added (a closed chain's last vertex repeats its first);
   // adds its segments' measures to `r` and the corners to `corners`.
   std::vector<LimitVertex> refine(const std::vector<LimitVertex>& v, LineResidual& r, int64_t& corners) const;
+  // The same for segments [i0, i1) of a chain: the points added within them and each segment's
+  // end after it, appended to `out` (vertex i0 is not). Segments are refined independently.
+  void refine_segments(const std::vector<LimitVertex>& v, size_t i0, size_t i1, std::vector<LimitVertex>& out,
+                       LineResidual& r, int64_t& corners) const;
   // The largest distance from a segment's midpoint to the level (a simplified chain).
   double measure(const std::vector<LimitVertex>& v) const;
 
@@ -143,7 +147,7 @@ class LimitRefiner {
 
 // Appends the lines to result.lines (and its vertex count, largest residual and the residual
 // along them). `refiner`: the level followed between the vertices (null: the vertices on cell
-// edges alone, unmeasured).
+// edges alone, unmeasured); on the grid's threads, over blocks of segments of every chain.
 void chain_limit_lines(const Target& t, const LimitCrossings& x, const std::vector<std::array<int32_t, 2>>& links,
                        double tol, LimitResult& result, const LimitRefiner* refiner = nullptr);
 

@@ -317,36 +317,63 @@ void chain_limit_lines(const Target& t, const LimitCrossings& x, const std::vect
                        double tol, LimitResult& result, const LimitRefiner* refiner) {
   const Chains chains =
       chain_links(static_cast<int32_t>(x.verts.size()), links, std::vector<bool>(x.verts.size(), false));
-  // Each chain refined and simplified on its own; the counts summed in chain order.
+  std::vector<std::vector<LimitVertex>> verts(chains.node_lists.size());
+  for (size_t k = 0; k < verts.size(); ++k)
+    for (int32_t n : chains.node_lists[k]) verts[k].push_back(x.verts[static_cast<size_t>(n)]);
+  // Refined over blocks of segments of every chain at once (one limit line may be most of the
+  // work); each segment on its own, so the result does not depend on the threads.
+  if (refiner != nullptr) {
+    constexpr size_t kBlock = 256;
+    struct Block {
+      size_t chain, i0, i1;
+      std::vector<LimitVertex> out;
+      LineResidual residual;
+      int64_t corners = 0;
+    };
+    std::vector<Block> blocks;
+    for (size_t k = 0; k < verts.size(); ++k)
+      for (size_t i = 0; i + 1 < verts[k].size(); i += kBlock)
+        blocks.push_back(Block{k, i, std::min(i + kBlock, verts[k].size() - 1), {}, {}, 0});
+    detail::parallel_for(t.grid.threads, static_cast<int64_t>(blocks.size()), [&](int64_t k, int) {
+      Block& b = blocks[static_cast<size_t>(k)];
+      refiner->refine_segments(verts[b.chain], b.i0, b.i1, b.out, b.residual, b.corners);
+    });
+    std::vector<std::vector<LimitVertex>> joined(verts.size());
+    for (size_t k = 0; k < verts.size(); ++k)
+      if (!verts[k].empty()) joined[k].push_back(verts[k].front());
+    for (Block& b : blocks) {
+      joined[b.chain].insert(joined[b.chain].end(), b.out.begin(), b.out.end());
+      result.residual.merge(b.residual);
+      result.corners += b.corners;
+    }
+    for (size_t k = 0; k < verts.size(); ++k)
+      if (!verts[k].empty()) verts[k] = std::move(joined[k]);
+  }
+  // Each chain simplified on its own; the counts summed in chain order.
   struct Done {
     LimitLine line;
-    LineResidual residual;
-    int64_t corners = 0, before = 0;
+    int64_t before = 0;
     double simplified = 0.0;
   };
-  std::vector<Done> done(chains.node_lists.size());
+  std::vector<Done> done(verts.size());
   detail::parallel_for(t.grid.threads, static_cast<int64_t>(done.size()), [&](int64_t k, int) {
     Done& d = done[static_cast<size_t>(k)];
+    const std::vector<LimitVertex>& v = verts[static_cast<size_t>(k)];
     d.line.distance = t.D;
     d.line.owner = t.owner;
     d.line.closed = chains.closed[static_cast<size_t>(k)];
-    std::vector<LimitVertex> verts;
-    for (int32_t n : chains.node_lists[static_cast<size_t>(k)]) verts.push_back(x.verts[static_cast<size_t>(n)]);
-    if (refiner != nullptr) verts = refiner->refine(verts, d.residual, d.corners);
-    d.before = static_cast<int64_t>(verts.size());
+    d.before = static_cast<int64_t>(v.size());
     std::vector<Vec2> pts;
-    pts.reserve(verts.size());
-    for (const LimitVertex& v : verts) pts.push_back(v.p);
-    for (size_t i : simplify_indices(pts, tol)) d.line.vertices.push_back(verts[i]);
-    if (refiner != nullptr && d.line.vertices.size() != verts.size()) d.simplified = refiner->measure(d.line.vertices);
+    pts.reserve(v.size());
+    for (const LimitVertex& p : v) pts.push_back(p.p);
+    for (size_t i : simplify_indices(pts, tol)) d.line.vertices.push_back(v[i]);
+    if (refiner != nullptr && d.line.vertices.size() != v.size()) d.simplified = refiner->measure(d.line.vertices);
   });
   for (Done& d : done) {
     for (const LimitVertex& v : d.line.vertices) {
       result.max_residual = std::max(result.max_residual, v.residual);
-      d.residual.max_vertex = std::max(d.residual.max_vertex, v.residual);
+      result.residual.max_vertex = std::max(result.residual.max_vertex, v.residual);
     }
-    result.residual.merge(d.residual);
-    result.corners += d.corners;
     result.vertices_before_simplify += d.before;
     result.simplified_midpoint = std::max(result.simplified_midpoint, d.simplified);
     result.vertices += static_cast<int64_t>(d.line.vertices.size());

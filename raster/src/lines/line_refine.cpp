@@ -126,24 +126,30 @@ Vec2 LineRefiner::normal_towards(const End& e, const End& other) const {
 LineRefiner::Added LineRefiner::refine(int32_t a, int32_t b, std::vector<BoundaryVertex>& vertices) const {
   Added n;
   if (vertices.size() < 2) return n;
-  std::vector<End> ends(vertices.size());
-  for (size_t i = 0; i < vertices.size(); ++i) {
-    ends[i].v = vertices[i];
-    set_normal(ends[i]);
-  }
-  std::vector<End> out;
-  out.reserve(vertices.size());
-  out.push_back(ends[0]);
-  for (size_t i = 1; i < ends.size(); ++i) {
-    between(ends[i - 1], ends[i], 0, a, b, out, n);
-    out.push_back(ends[i]);
-  }
-  if (out.size() != vertices.size()) {
-    vertices.clear();
-    for (const End& e : out) vertices.push_back(e.v);
-  }
-  n.locus.added = n.turning_points + n.arc_points;
+  std::vector<BoundaryVertex> out{vertices.front()};
+  refine_segments(a, b, vertices, 0, vertices.size() - 1, out, n);
+  vertices = std::move(out);
   return n;
+}
+
+void LineRefiner::refine_segments(int32_t a, int32_t b, const std::vector<BoundaryVertex>& vertices, size_t i0,
+                                  size_t i1, std::vector<BoundaryVertex>& result, Added& n) const {
+  std::vector<End> out;
+  End u;
+  u.v = vertices[i0];
+  set_normal(u);
+  for (size_t i = i0; i < i1; ++i) {
+    End v;
+    v.v = vertices[i + 1];
+    set_normal(v);
+    const int64_t before = n.turning_points + n.arc_points;
+    out.clear();
+    between(u, v, 0, a, b, out, n);
+    for (const End& e : out) result.push_back(e.v);
+    result.push_back(v.v);
+    (u.v.arc != 0 || v.v.arc != 0 ? n.arcs : n.locus).added += n.turning_points + n.arc_points - before;
+    u = std::move(v);
+  }
 }
 
 double LineRefiner::measure(int32_t a, int32_t b, const std::vector<BoundaryVertex>& vertices) const {
@@ -170,13 +176,18 @@ double LineRefiner::midpoint_offset(const BoundaryVertex& u, const BoundaryVerte
     }
     return best;
   }
-  const OwnerIndex::Hit ha = index_.nearest_of(mid, a, u.site_a), hb = index_.nearest_of(mid, b, u.site_b);
-  if (ha.site == kNoSite || hb.site == kNoSite || !std::isfinite(ha.cost) || !std::isfinite(hb.cost))
-    return std::numeric_limits<double>::quiet_NaN();
+  // Both ends' sites hold the stretch (the cells and the refinement found no other between
+  // them): measured with them; else with each owner's nearest there, searched.
+  int32_t sa = u.site_a, sb = u.site_b;
+  if (!(v.site_a == sa && v.site_b == sb)) {
+    sa = index_.nearest_of(mid, a, u.site_a).site;
+    sb = index_.nearest_of(mid, b, u.site_b).site;
+  }
+  if (sa == kNoSite || sb == kNoSite) return std::numeric_limits<double>::quiet_NaN();
   Vec2 ga, gb;
-  cost(mid, ha.site, ga);
-  cost(mid, hb.site, gb);
-  const double f = ha.cost - hb.cost;
+  const double ca = cost(mid, sa, ga), cb = cost(mid, sb, gb);
+  if (!std::isfinite(ca) || !std::isfinite(cb)) return std::numeric_limits<double>::quiet_NaN();
+  const double f = ca - cb;
   const double off = scale_.offset(mid, f, Vec2{ga.x - gb.x, ga.y - gb.y});
   if (std::isfinite(off)) return off;
   // No gradient (a projected grid measured on the ellipsoid): the locus point across the middle,
@@ -204,10 +215,18 @@ bool LineRefiner::split(const End& u, const End& v, bool same, bool arcs, double
   if (arcs) return turning = arc_junction(u, v, a, b, max_off, mid);
   if (same) return across_middle(u, v, a, b, max_off, mid);
   if ((turning = turning_point(u, v, a, b, max_off, mid))) return true;
-  // No turning point of three sites: the sites that change may be two edges of one coast that
-  // share the vertex nearest here (equally near over a whole wedge: no single point where they
-  // take over), or more sites change within the chord. The locus point across the middle, with
-  // each owner's true nearest there, is checked like any other.
+  // No turning point of three sites. Where the sites that change are two edges of one coast
+  // that share the vertex nearest here (equally near over a whole wedge: no single point where
+  // they take over), the locus is one smooth stretch: its point across the middle, with each
+  // owner's true nearest there, is checked like any other. Otherwise (more sites change within
+  // the chord) the chord stays.
+  const Vec2 m = lerp(u.v.p, v.v.p, 0.5);
+  auto tied = [&](int32_t s1, int32_t s2) {
+    if (s1 == s2) return true;
+    Vec2 g;
+    return std::abs(cost(m, s1, g) - cost(m, s2, g)) <= 4.0 * ftol_;
+  };
+  if (!tied(u.v.site_a, v.v.site_a) || !tied(u.v.site_b, v.v.site_b)) return false;
   return across_middle(u, v, a, b, max_off, mid);
 }
 
@@ -435,13 +454,44 @@ bool LineRefiner::checked_arc(Vec2 p, int8_t arc, int32_t site, int32_t a, int32
 
 void finish_lines(std::vector<BoundaryLine>& lines, const LineRefiner* refiner, double tol, BoundaryStats& stats,
                   int threads) {
-  std::vector<LineRefiner::Added> added(lines.size());
+  // The refinement runs over blocks of segments of every line at once: a coast's few long lines
+  // would leave threads idle were each line one task. Blocks are cut by position alone, and each
+  // segment is refined on its own, so the result does not depend on the threads.
+  constexpr size_t kBlock = 256;
+  struct Block {
+    size_t line, i0, i1;
+    std::vector<BoundaryVertex> out;
+    LineRefiner::Added added;
+  };
+  std::vector<Block> blocks;
+  for (size_t k = 0; k < lines.size(); ++k)
+    for (size_t i = 0; i + 1 < lines[k].vertices.size(); i += kBlock)
+      blocks.push_back(Block{k, i, std::min(i + kBlock, lines[k].vertices.size() - 1), {}, {}});
+  if (refiner != nullptr)
+    detail::parallel_for(threads, static_cast<int64_t>(blocks.size()), [&](int64_t k, int) {
+      Block& b = blocks[static_cast<size_t>(k)];
+      const BoundaryLine& line = lines[b.line];
+      refiner->refine_segments(line.owner_a, line.owner_b, line.vertices, b.i0, b.i1, b.out, b.added);
+    });
   std::vector<int64_t> before(lines.size());
+  if (refiner != nullptr) {
+    std::vector<std::vector<BoundaryVertex>> joined(lines.size());
+    for (size_t k = 0; k < lines.size(); ++k)
+      if (!lines[k].vertices.empty()) joined[k].push_back(lines[k].vertices.front());
+    for (Block& b : blocks) {
+      joined[b.line].insert(joined[b.line].end(), b.out.begin(), b.out.end());
+      stats.turning_points += b.added.turning_points;
+      stats.arc_points += b.added.arc_points;
+      stats.locus.merge(b.added.locus);
+      stats.arcs.merge(b.added.arcs);
+    }
+    for (size_t k = 0; k < lines.size(); ++k)
+      if (!lines[k].vertices.empty()) lines[k].vertices = std::move(joined[k]);
+  }
   std::vector<double> simplified(lines.size(), 0.0);
   detail::parallel_for(threads, static_cast<int64_t>(lines.size()), [&](int64_t k, int) {
     const auto i = static_cast<size_t>(k);
     BoundaryLine& line = lines[i];
-    if (refiner != nullptr) added[i] = refiner->refine(line.owner_a, line.owner_b, line.vertices);
     before[i] = static_cast<int64_t>(line.vertices.size());
     if (tol > 0.0 && line.vertices.size() > 2) {
       std::vector<Vec2> pts;
@@ -459,10 +509,6 @@ void finish_lines(std::vector<BoundaryLine>& lines, const LineRefiner* refiner, 
   stats.vertices = stats.vertices_before_simplify = 0;
   stats.max_residual = stats.max_residual_on_land = 0.0;
   for (size_t i = 0; i < lines.size(); ++i) {
-    stats.turning_points += added[i].turning_points;
-    stats.arc_points += added[i].arc_points;
-    stats.locus.merge(added[i].locus);
-    stats.arcs.merge(added[i].arcs);
     stats.vertices_before_simplify += before[i];
     stats.simplified_midpoint = std::max(stats.simplified_midpoint, simplified[i]);
   }
@@ -477,5 +523,4 @@ void finish_lines(std::vector<BoundaryLine>& lines, const LineRefiner* refiner, 
     stats.vertices += static_cast<int64_t>(line.vertices.size());
   }
 }
-
 }  // namespace rv::boundary_stages

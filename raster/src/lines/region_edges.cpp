@@ -158,7 +158,9 @@ class ReachLines {
   // and returned in `out`. False when there is none.
   bool attach(Vec2 target, const std::optional<Box>& square, double radius, Vec2& out) {
     const auto [c0, r0] = cell(target);
-    const double eps = 1e-9 * g_.res;
+    // The lines follow their level between the crossings (LimitRefiner): an arc's points bulge
+    // out of the square its crossings bound by up to its sagitta, a fraction of a cell.
+    const double eps = 0.25 * g_.res;
     double best = radius;
     Insert found{};
     bool any = false;

@@ -216,7 +216,9 @@ StripDeliverables::StripDeliverables(JobRun& run, const PreparedJob& job, bool s
     else
       r.limit_distances = {job.compute.max_distance};
     r.limit.simplify_cells = out.simplify_cells;
-    r.limit.line_tolerance = job.line_tolerance;
+    // The regions' edges are joined square by square (region_edges): these lines stay on cell
+    // edges (with the owned edge's corners); they are measured all the same.
+    r.limit.line_tolerance = 0.0;
     r.limit.threads = run.spec.threads;
     s.reach.emplace(g, *s.index, r);
   }

@@ -223,8 +223,11 @@ TEST_F(VectorWriter, LineRegionsFollowTheBoundaryLines) {
     const PlanarSiteMetric metric(seeds, Vec2{g.xmin, g.ymax});
     const OwnerIndex index(metric);
     const BoundaryResult b = extract_boundaries(field, index);
+    // The max-distance lines as region_edges reads them: on cell edges (rv/lines/regions.hpp).
+    LimitOptions cell_level;
+    cell_level.line_tolerance = 0.0;
     const LimitResult reach_lines =
-        std::isfinite(reach) ? extract_limits(field, index, std::vector<double>{reach}) : LimitResult{};
+        std::isfinite(reach) ? extract_limits(field, index, std::vector<double>{reach}, cell_level) : LimitResult{};
     LineRegions lr;
     const RegionEdges re = region_edges(b, index, g, reach, std::isfinite(reach) ? &reach_lines : nullptr);
     EXPECT_EQ(re.dangling_ends, 0);

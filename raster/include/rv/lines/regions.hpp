@@ -27,7 +27,8 @@ namespace rv {
 // their tripoint (Newton; it lies between the frame and the edge), from which the third pair's
 // line runs to the edge; so does the missing line of a tripoint found there.
 // With a finite `max_distance` (the field's) and `max_distance_lines` (extract_limits at that
-// distance, all owners), those lines are edges too, carried to the grid's edge on d =
+// distance, all owners, with LimitOptions::line_tolerance 0: on cell edges), those lines are edges
+// too, carried to the grid's edge on d =
 // max_distance, and a boundary line that stops where the owned area ends (as do the lone
 // crossings, BoundaryResult::lone_crossings) ends on the max-distance line's chord across the
 // dual square it runs on into, at the chord's point nearest the exact junction (d_a = d_b =
