@@ -315,8 +315,11 @@ void place_crossings(const BoundaryGrid& b, const Segment& sg, std::vector<Cross
       }
     }
     // Only a third owner can come between (nothing of x or y is nearer than their hits).
+    // (Where both sides are beyond their reaches at the root, their costs are infinite and the
+    // residual undefined: any third owner that reaches there comes between.)
+    const double slack = 4.0 * ftol + (std::isfinite(v.residual) ? v.residual : 0.0);
     const auto nearest = index.nearest_third(p, x, y, std::max(between, hy.cost));
-    if (nearest.cost < between - 4.0 * ftol - v.residual) {
+    if (nearest.site != kNoSite && nearest.cost < between - slack) {
       const int32_t z = b.owner_of_site[static_cast<size_t>(nearest.site)];
       hint.try_emplace(z, nearest.site);
       if (depth == 0) slivers.emplace_back(sg.edge, z);

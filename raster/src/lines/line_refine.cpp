@@ -240,9 +240,16 @@ void LineRefiner::between(const End& u, const End& v, int depth, int32_t a, int3
     ++r.land_border_segments;
     return;
   }
-  // An arc's stretch (a reach ends: Feature::reach) is the same curve only as the same site's.
+  // An arc's stretch (a reach ends: Feature::reach) is the same curve only as the same site's,
+  // or from a point of the locus that lies on that arc (the tripoint or junction where it
+  // begins).
+  auto on_arc_of = [&](const BoundaryVertex& p, const BoundaryVertex& arc) {
+    Vec2 g;
+    return p.arc == 0 && std::abs(arc_value(p.p, arc_site(arc), g)) <= 4.0 * ftol_;
+  };
   const bool same =
-      arcs ? u.v.arc == v.v.arc && arc_site(u.v) == arc_site(v.v)
+      arcs ? (u.v.arc == v.v.arc && arc_site(u.v) == arc_site(v.v)) || (v.v.arc != 0 && on_arc_of(u.v, v.v)) ||
+                 (u.v.arc != 0 && on_arc_of(v.v, u.v))
            : shares(u.v.site_a, u.alt_a, v.v.site_a, v.alt_a) && shares(u.v.site_b, u.alt_b, v.v.site_b, v.alt_b);
   // How far the locus can stray from the chord, from the turn of its normal between the ends: a
   // circular arc (the same sites) strays 0.5 c tan(angle / 4), a corner (another site takes
@@ -381,7 +388,7 @@ bool LineRefiner::checked(Vec2 p, int32_t a, int32_t b, const End& u, const End&
 bool LineRefiner::across_arc(const End& u, const End& v, int32_t a, int32_t b, double max_off, End& out) const {
   const std::array<Vec2, 2> ends = perpendicular(u, v, max_off);
   const Vec2 p0 = ends[0], p1 = ends[1];  // (named, not bound: lambdas capture them)
-  const int32_t s = arc_site(u.v);
+  const int32_t s = arc_site(u.v.arc != 0 ? u.v : v.v);
   Vec2 g;
   auto f = [&](double t) { return arc_value(lerp(p0, p1, t), s, g); };
   auto with_slope = [&](double t) {
@@ -391,7 +398,7 @@ bool LineRefiner::across_arc(const End& u, const End& v, int32_t a, int32_t b, d
   const double f0 = f(0.0), f1 = f(1.0);
   if (!std::isfinite(f0) || !std::isfinite(f1) || (f0 < 0.0) == (f1 < 0.0)) return false;
   const double t = newton_then_bracket(f, with_slope, 0.5, 0.0, 1.0, f0 < 0.0, ftol_);
-  return checked_arc(lerp(p0, p1, t), u.v.arc, s, a, b, u, v, max_off, out);
+  return checked_arc(lerp(p0, p1, t), u.v.arc != 0 ? u.v.arc : v.v.arc, s, a, b, u, v, max_off, out);
 }
 
 double LineRefiner::curve_value(const BoundaryVertex& e, Vec2 p, Vec2& gradient) const {

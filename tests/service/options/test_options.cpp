@@ -74,7 +74,7 @@ TEST(Options, EachOptionIsDeclaredOnceAndComplete) {
                                                 "metric",          "method",
                                                 "maxDistance",     "distanceUnits",
                                                 "validate",        "limitDistances",
-                                                "limitsPerOwner",  "simplify",
+                                                "limitsPerOwner",  "simplify",  "lineTolerance",
                                                 "compression",     "baseJob"}));
 }
 
@@ -94,12 +94,13 @@ TEST(Options, TheCliAndTheProcessInputsMakeTheSameJob) {
                                 {"limit-distances", "12nmi,24nmi"},
                                 {"limits-per-owner"},
                                 {"simplify", "0.5"},
+                                {"line-tolerance", "0.5mm"},
                                 {"compression", "deflate"}});
   const JobSpec api = from_inputs(json::parse(R"({
       "resolution": 250, "extent": {"bbox": [0, 0, 1000, 2000]}, "crs": "EPSG:32633", "ownerField": "state",
       "borderTolerance": 0.05, "transformAccuracy": 12, "allowBallpark": true, "metric": "planar", "method": {"value": "hv_scan"}, "maxDistance": 5000, "distanceUnits": "km",
       "validate": true, "limitDistances": ["12nmi", {"value": 24, "unit": "nmi"}], "limitsPerOwner": true,
-      "simplify": 0.5, "compression": "deflate"})"));
+      "simplify": 0.5, "lineTolerance": {"value": 0.5, "unit": "mm"}, "compression": "deflate"})"));
   for (const JobSpec* s : {&cli, &api}) {
     EXPECT_EQ(*s->grid.resolution, 250.0);
     EXPECT_EQ(*s->grid.extent, (std::array<double, 4>{0, 0, 1000, 2000}));
@@ -116,6 +117,8 @@ TEST(Options, TheCliAndTheProcessInputsMakeTheSameJob) {
     EXPECT_EQ(s->outputs.limit_distances.size(), 2u);
     EXPECT_TRUE(s->outputs.limits_per_owner);
     EXPECT_EQ(s->outputs.simplify_cells, 0.5);
+    const Length tolerance = parse_length(s->outputs.line_tolerance);
+    EXPECT_EQ(tolerance.value * tolerance.metres_per_unit, 0.5 * 0.001);
     EXPECT_EQ(s->outputs.compression, Compression::deflate);
   }
 }
@@ -154,6 +157,18 @@ TEST(Options, BadValuesNameTheOptionAsTheCallerKnowsIt) {
             std::string::npos);
   EXPECT_EQ(message_of([&] { parse_input_value(*find_input("limitDistances"), json::array()); }),
             "input 'limitDistances': needs at least one distance");
+  // A length: one value with a unit of its own table, never negative.
+  EXPECT_EQ(message_of([&] { parse_cli_value(*find_flag("line-tolerance"), {"1 furlong"}); }),
+            "--line-tolerance: length '1 furlong': unknown unit 'furlong' (mm, cm, m, km or nmi)");
+  EXPECT_EQ(message_of([&] { parse_input_value(*find_input("lineTolerance"), -1); }),
+            "input 'lineTolerance': length '-1' is not a non-negative number");
+  EXPECT_NE(message_of([&] { parse_input_value(*find_input("lineTolerance"), json::array({"1mm"})); })
+                .find("input 'lineTolerance': must be one length"),
+            std::string::npos);
+  EXPECT_EQ(parse_input_value(*find_input("lineTolerance"), "2 cm").text, "2 cm");
+  EXPECT_EQ(parse_input_value(*find_input("lineTolerance"), 0).text, "0");
+  EXPECT_EQ(parse_length("3km").metres_per_unit, 1000.0);
+  EXPECT_EQ(parse_length("0.002").unit, "");
   // A 700 KB value is not echoed whole.
   EXPECT_LT(message_of([&] { parse_cli_value(*find_flag("metric"), {std::string(700000, 'x')}); }).size(), 200u);
 }
@@ -183,6 +198,9 @@ TEST(Options, HelpAndDescriptionComeFromTheTable) {
   EXPECT_EQ(m["schema"]["default"], "exact");
   EXPECT_EQ(m["schema"]["enum"].size(), 7u);  // aliases accepted are listed too
   EXPECT_EQ(process_input_description(*find_input("validate"))["schema"]["default"], false);
+  const json t = process_input_description(*find_input("lineTolerance"));
+  EXPECT_EQ(t["schema"]["default"], "1mm");
+  EXPECT_EQ(t["schema"]["oneOf"].size(), 3u);
 }
 
 }  // namespace

@@ -1,0 +1,332 @@
+// Lines exact along their whole length (BoundaryOptions / LimitOptions::line_tolerance): every
+// sampled point of every segment within the tolerance of the exact locus, measured against
+// references that share nothing with the engine -- GeographicLib's own inverse problem, the
+// closed forms of a parabola and of a weighted Apollonius circle, plain planar distances -- on
+// geodesic grids of 0.01 and 0.002 degrees and planar grids of 1 km and 100 m.
+#include <gtest/gtest.h>
+
+#include <GeographicLib/Geodesic.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <functional>
+#include <limits>
+#include <vector>
+
+#include "rv/engine/engine.hpp"
+#include "rv/engine/owner_index.hpp"
+#include "rv/engine/site_metric.hpp"
+#include "rv/lines/boundaries.hpp"
+#include "rv/lines/limits.hpp"
+#include "rv/lines/regions.hpp"
+#include "seed_gen.hpp"
+
+namespace rv {
+namespace {
+
+constexpr double kTol = 1e-3;  // metres (metric units)
+constexpr double kInf = std::numeric_limits<double>::infinity();
+const GeographicLib::Geodesic& wgs84() { return GeographicLib::Geodesic::WGS84(); }
+
+double geodesic(Vec2 a, Vec2 b) {
+  double s12 = 0.0;
+  wgs84().Inverse(a.y, a.x, b.y, b.x, s12);
+  return s12;
+}
+
+// Calls f(p) at points 1/8 .. 7/8 of every segment of every line.
+template <class Line, class F>
+void each_sample(const std::vector<Line>& lines, F&& f) {
+  for (const Line& line : lines)
+    for (size_t i = 0; i + 1 < line.vertices.size(); ++i)
+      for (int k = 1; k < 8; ++k) {
+        const double t = k / 8.0;
+        const Vec2 a = line.vertices[i].p, b = line.vertices[i + 1].p;
+        f(Vec2{a.x + t * (b.x - a.x), a.y + t * (b.y - a.y)});
+      }
+}
+
+// The distance from p to the zero level of f, to first order: |f| / |grad f|, the gradient by
+// central differences over steps of `h_x`, `h_y` CRS units measuring `m_x`, `m_y` metres.
+double offset(const std::function<double(Vec2)>& f, Vec2 p, double hx, double hy, double mx, double my) {
+  const double gx = (f(Vec2{p.x + hx, p.y}) - f(Vec2{p.x - hx, p.y})) / (2.0 * mx);
+  const double gy = (f(Vec2{p.x, p.y + hy}) - f(Vec2{p.x, p.y - hy})) / (2.0 * my);
+  return std::abs(f(p)) / std::hypot(gx, gy);
+}
+
+struct Geo {
+  SeedSet seeds;
+  GridSpec grid;
+  NearestField field;
+  std::unique_ptr<GeodesicSiteMetric> metric;
+  std::unique_ptr<OwnerIndex> index;
+  Geo(SeedSet s, GridSpec g) : seeds(std::move(s)), grid(g) {
+    ComputeOptions o;
+    o.threads = 2;
+    o.metric = MetricSpec{MetricSpec::geodesic};
+    field = compute(seeds, grid, o);
+    metric = std::make_unique<GeodesicSiteMetric>(seeds, o.metric);
+    index = std::make_unique<OwnerIndex>(*metric);
+  }
+};
+
+// A point island at 50 N and a straight coast along the meridian 1 degree west: the analyst's
+// 12 nmi limit round the island, and the equidistance line between the two.
+SeedSet island_and_coast() {
+  SeedSet s;
+  s.add_point(s.add_feature(s.owner_code("I")), Vec2{0.0, 50.0});
+  s.add_polyline(s.add_feature(s.owner_code("A")), std::vector<Vec2>{{-1.0, 49.0}, {-1.0, 51.0}});
+  return s;
+}
+
+GridSpec geo_grid(double res) {
+  return test::grid_of(static_cast<int64_t>(std::llround(1.0 / res)), static_cast<int64_t>(std::llround(0.6 / res)),
+                       res, -0.7, 50.3);
+}
+
+// The geodesic distance from p to the meridian -1 between 49 and 51 N: the least inverse
+// distance over its latitudes (golden-section search; the distance is unimodal along it).
+double to_meridian(Vec2 p) {
+  double lo = 49.0, hi = 51.0;
+  const double r = 0.5 * (std::sqrt(5.0) - 1.0);
+  for (int i = 0; i < 80; ++i) {
+    const double a = hi - r * (hi - lo), b = lo + r * (hi - lo);
+    if (geodesic(p, Vec2{-1.0, a}) < geodesic(p, Vec2{-1.0, b}))
+      hi = b;
+    else
+      lo = a;
+  }
+  return geodesic(p, Vec2{-1.0, 0.5 * (lo + hi)});
+}
+
+class GeodesicTolerance : public ::testing::TestWithParam<double> {};
+
+TEST_P(GeodesicTolerance, TheLimitArcAndTheEquidistanceLineWithinAMillimetre) {
+  const double res = GetParam();
+  const Geo k(island_and_coast(), geo_grid(res));
+  const std::vector<double> D{22224.0};
+  LimitOptions per_owner;
+  per_owner.per_owner = true;
+  LimitResult limits = extract_limits(k.field, *k.index, D, per_owner);
+  // The island's (owner 1) arc: the coast's own line is straight (an offset of the meridian).
+  std::erase_if(limits.lines, [](const LimitLine& l) { return l.owner != 1; });
+  ASSERT_FALSE(limits.lines.empty());
+  EXPECT_EQ(limits.residual.unresolved, 0);
+  EXPECT_LE(limits.residual.max_midpoint, kTol);
+  EXPECT_GT(limits.residual.added, 0);
+  double worst = 0.0;
+  int64_t samples = 0;
+  each_sample(limits.lines, [&](Vec2 p) {
+    worst = std::max(worst, std::abs(geodesic(Vec2{0.0, 50.0}, p) - D[0]));
+    ++samples;
+  });
+  EXPECT_LE(worst, kTol) << samples << " samples";
+
+  const BoundaryResult b = extract_boundaries(k.field, *k.index);
+  ASSERT_EQ(b.lines.size(), 1u);
+  EXPECT_EQ(b.stats.locus.unresolved, 0);
+  EXPECT_LE(b.stats.locus.max_midpoint, kTol);
+  // Steps of a thousandth of a cell; a degree's metres here.
+  const double h = 1e-3 * res, mx = geodesic(Vec2{-0.5, 50.0}, Vec2{-0.5 + h, 50.0}) / h,
+               my = geodesic(Vec2{-0.5, 50.0}, Vec2{-0.5, 50.0 + h}) / h;
+  auto locus = [](Vec2 p) { return geodesic(Vec2{0.0, 50.0}, p) - to_meridian(p); };
+  worst = 0.0;
+  samples = 0;
+  // (A thirteenth of the segments: the meridian's golden-section reference is slow.)
+  int64_t n = 0;
+  each_sample(b.lines, [&](Vec2 p) {
+    if (n++ % 13 != 0) return;
+    worst = std::max(worst, offset(locus, p, h, h, h * mx, h * my));
+    ++samples;
+  });
+  EXPECT_LE(worst, kTol) << samples << " samples";
+}
+
+INSTANTIATE_TEST_SUITE_P(Cells, GeodesicTolerance, ::testing::Values(0.01, 0.002));
+
+// A coarser tolerance gives fewer vertices; 0 leaves the cell-edge vertices alone, and the
+// residual measured along them shows the chords' sagitta (c^2 / 8R: metres on a 0.01 degree
+// grid).
+TEST(LineTolerance, ACoarserToleranceGivesFewerVertices) {
+  const Geo k(island_and_coast(), geo_grid(0.01));
+  const std::vector<double> D{22224.0};
+  int64_t last = std::numeric_limits<int64_t>::max();
+  for (const double tol : {1e-4, 1e-3, 1e-2, 1e-1, 0.0}) {
+    LimitOptions o;
+    o.line_tolerance = tol;
+    const LimitResult r = extract_limits(k.field, *k.index, D, o);
+    EXPECT_LT(r.vertices, last) << tol;
+    last = r.vertices;
+    if (tol > 0.0) EXPECT_LE(r.residual.max_midpoint, tol) << tol;
+    if (tol == 0.0) {
+      EXPECT_EQ(r.residual.added, 0);
+      EXPECT_GT(r.residual.max_midpoint, 5.0);  // the 7.9 m between cell-edge vertices
+      EXPECT_LT(r.residual.max_midpoint, 10.0);
+    }
+  }
+}
+
+struct Planar {
+  SeedSet seeds;
+  GridSpec grid;
+  NearestField field;
+  std::unique_ptr<PlanarSiteMetric> metric;
+  std::unique_ptr<OwnerIndex> index;
+  Planar(SeedSet s, GridSpec g) : seeds(std::move(s)), grid(g) {
+    ComputeOptions o;
+    o.threads = 2;
+    field = compute(seeds, grid, o);
+    metric = std::make_unique<PlanarSiteMetric>(seeds, Vec2{grid.xmin, grid.ymax});
+    index = std::make_unique<OwnerIndex>(*metric);
+  }
+};
+
+double to_segment(Vec2 p, Vec2 a, Vec2 b) {
+  const double dx = b.x - a.x, dy = b.y - a.y;
+  const double t = std::clamp(((p.x - a.x) * dx + (p.y - a.y) * dy) / (dx * dx + dy * dy), 0.0, 1.0);
+  return std::hypot(p.x - a.x - t * dx, p.y - a.y - t * dy);
+}
+
+// A planar grid of `res` metres over [x0, x0 + w] x [y0, y0 + h] (metres).
+GridSpec planar_grid(double res, double x0, double y0, double w, double h) {
+  return test::grid_of(static_cast<int64_t>(std::llround(w / res)), static_cast<int64_t>(std::llround(h / res)), res,
+                       x0, y0 + h);
+}
+
+class PlanarTolerance : public ::testing::TestWithParam<double> {};
+
+// A basepoint 10 km off a straight coast: the equidistance line is the parabola with the point as
+// focus and the coast as directrix, y = x^2 / 20 km + 5 km. Its distance from a sample is found
+// on the parabola itself (Newton's method on the foot's abscissa).
+TEST_P(PlanarTolerance, APointAndASegmentMakeAParabola) {
+  const double res = GetParam();
+  SeedSet s;
+  s.add_point(s.add_feature(s.owner_code("P")), Vec2{0.0, 10000.0});
+  s.add_polyline(s.add_feature(s.owner_code("S")), std::vector<Vec2>{{-60000.0, 0.0}, {60000.0, 0.0}});
+  const Planar k(std::move(s), planar_grid(res, -20000.0, 1000.0, 40000.0, 20000.0));
+  const BoundaryResult b = extract_boundaries(k.field, *k.index);
+  ASSERT_EQ(b.lines.size(), 1u);
+  EXPECT_EQ(b.stats.locus.unresolved, 0);
+  EXPECT_GT(b.stats.arc_points, 0);
+  double worst = 0.0;
+  each_sample(b.lines, [&](Vec2 p) {
+    // The foot x minimises (x - px)^2 + (x^2 / 2f + f/2 - py)^2 with f = 10 km.
+    const double f = 10000.0;
+    double x = p.x;
+    for (int i = 0; i < 50; ++i) {
+      const double y = x * x / (2.0 * f) + 0.5 * f, dy = x / f;
+      const double g = (x - p.x) + (y - p.y) * dy, gp = 1.0 + dy * dy + (y - p.y) / f;
+      x -= g / gp;
+    }
+    worst = std::max(worst, std::hypot(x - p.x, x * x / (2.0 * f) + 0.5 * f - p.y));
+  });
+  EXPECT_LE(worst, kTol);
+}
+
+// Two coasts at an angle: the locus is the angle's bisector where both interiors hold it, a
+// parabola where an end faces an interior, and straight again between two ends. Measured with
+// plain planar distances to the two segments.
+TEST_P(PlanarTolerance, TwoSegments) {
+  const double res = GetParam();
+  SeedSet s;
+  const Vec2 a0{0.0, 0.0}, a1{30000.0, 0.0}, b0{5000.0, 8000.0}, b1{35000.0, 22000.0};
+  s.add_polyline(s.add_feature(s.owner_code("A")), std::vector<Vec2>{a0, a1});
+  s.add_polyline(s.add_feature(s.owner_code("B")), std::vector<Vec2>{b0, b1});
+  const Planar k(std::move(s), planar_grid(res, -5000.0, -10000.0, 50000.0, 40000.0));
+  const BoundaryResult b = extract_boundaries(k.field, *k.index);
+  ASSERT_FALSE(b.lines.empty());
+  EXPECT_EQ(b.stats.locus.unresolved, 0);
+  auto locus = [&](Vec2 p) { return to_segment(p, a0, a1) - to_segment(p, b0, b1); };
+  double worst = 0.0;
+  const double h = 1e-3 * res;
+  each_sample(b.lines, [&](Vec2 p) { worst = std::max(worst, offset(locus, p, h, h, h, h)); });
+  EXPECT_LE(worst, kTol);
+}
+
+// Two basepoints weighted 3 : 1: the boundary is the Apollonius circle |p - A| = 3 |p - B|,
+// centre (A - 9B) / (1 - 9), radius 3 |A - B| / 8.
+TEST_P(PlanarTolerance, TheWeightedApolloniusCircle) {
+  const double res = GetParam();
+  SeedSet s;
+  const Vec2 A{0.0, 0.0}, B{40000.0, 0.0};
+  const int32_t fa = s.add_feature(s.owner_code("A"));
+  s.add_point(fa, A);
+  s.set_adjustment(fa, 3.0, kInf);
+  s.add_point(s.add_feature(s.owner_code("B")), B);
+  const Vec2 C{(A.x - 9.0 * B.x) / -8.0, 0.0};
+  const double R = 3.0 * 40000.0 / 8.0;
+  const Planar k(std::move(s), planar_grid(res, C.x - 20000.0, -20000.0, 40000.0, 40000.0));
+  const BoundaryResult b = extract_boundaries(k.field, *k.index);
+  ASSERT_EQ(b.lines.size(), 1u);
+  EXPECT_TRUE(b.lines[0].closed);
+  double worst = 0.0;
+  each_sample(b.lines, [&](Vec2 p) { worst = std::max(worst, std::abs(std::hypot(p.x - C.x, p.y - C.y) - R)); });
+  EXPECT_LE(worst, kTol);
+  // The disc's area from the line: within what the tolerance allows (every point of the ring
+  // within kTol of the circle: at most the perimeter times it).
+  std::vector<Vec2> ring;
+  for (const BoundaryVertex& v : b.lines[0].vertices) ring.push_back(v.p);
+  const double area = ring_area(ring, MetricSpec{}, nullptr, res), exact = M_PI * R * R;
+  EXPECT_LE(std::abs(area - exact), 2.0 * M_PI * R * kTol);
+}
+
+// Two islands with reaches of 20 km, 30 km apart, in a sea of a third owner: each island's
+// region is its disc cut by the bisector (the lens' chord), bounded by its reach's arc.
+TEST_P(PlanarTolerance, TheReachLens) {
+  const double res = GetParam();
+  SeedSet s;
+  const Vec2 A{0.0, 0.0}, B{30000.0, 0.0};
+  const int32_t fa = s.add_feature(s.owner_code("A"));
+  s.add_point(fa, A);
+  s.set_adjustment(fa, 1.0, 20000.0);
+  const int32_t fb = s.add_feature(s.owner_code("B"));
+  s.add_point(fb, B);
+  s.set_adjustment(fb, 1.0, 20000.0);
+  s.add_polyline(s.add_feature(s.owner_code("C")), std::vector<Vec2>{{-100000.0, 60000.0}, {100000.0, 60000.0}});
+  const Planar k(std::move(s), planar_grid(res, -25000.0, -25000.0, 80000.0, 50000.0));
+  const BoundaryResult b = extract_boundaries(k.field, *k.index);
+  EXPECT_EQ(b.stats.locus.unresolved + b.stats.arcs.unresolved, 0);
+  EXPECT_GT(b.stats.arcs.segments, 0);
+  EXPECT_LE(b.stats.arcs.max_midpoint, kTol);
+  double worst = 0.0;
+  for (const BoundaryLine& line : b.lines) {
+    auto locus = [&](Vec2 p) {
+      if (line.owner_a == 1 && line.owner_b == 2) return std::abs(p.x - 15000.0);
+      const Vec2 c = line.owner_a == 1 ? A : B;  // A-C or B-C: the island's arc
+      return std::abs(std::hypot(p.x - c.x, p.y - c.y) - 20000.0);
+    };
+    each_sample(std::vector<BoundaryLine>{line}, [&](Vec2 p) { worst = std::max(worst, locus(p)); });
+  }
+  EXPECT_LE(worst, kTol);
+}
+
+// Straight loci get no points: two basepoints (a straight bisector) and two parallel coasts (the
+// midline); simplified, each is one segment of two vertices.
+TEST_P(PlanarTolerance, StraightLociStayTwoVertexSegments) {
+  const double res = GetParam();
+  for (int scene = 0; scene < 2; ++scene) {
+    SeedSet s;
+    if (scene == 0) {
+      s.add_point(s.add_feature(s.owner_code("A")), Vec2{3000.0, 4000.0});
+      s.add_point(s.add_feature(s.owner_code("B")), Vec2{21000.0, 13000.0});
+    } else {
+      s.add_polyline(s.add_feature(s.owner_code("A")), std::vector<Vec2>{{-50000.0, 2000.0}, {80000.0, 2000.0}});
+      s.add_polyline(s.add_feature(s.owner_code("B")), std::vector<Vec2>{{-50000.0, 16000.0}, {80000.0, 16000.0}});
+    }
+    const Planar k(std::move(s), planar_grid(res, 0.0, 0.0, 24000.0, 18000.0));
+    const BoundaryResult b = extract_boundaries(k.field, *k.index);
+    ASSERT_EQ(b.lines.size(), 1u) << scene;
+    EXPECT_EQ(b.stats.arc_points + b.stats.turning_points, 0) << scene;
+    EXPECT_LE(b.stats.locus.max_midpoint, 1e-9 * res) << scene;
+    BoundaryOptions o;
+    o.simplify_cells = 1e-6;
+    const BoundaryResult simple = extract_boundaries(k.field, *k.index, o);
+    ASSERT_EQ(simple.lines.size(), 1u);
+    EXPECT_EQ(simple.lines[0].vertices.size(), 2u) << scene;
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(Cells, PlanarTolerance, ::testing::Values(1000.0, 100.0));
+
+}  // namespace
+}  // namespace rv
