@@ -79,6 +79,17 @@ bool LimitRefiner::onto_level(Vec2 start, int32_t site, double max_move, LimitVe
     if (!(gg > 0.0) || !std::isfinite(gg)) return false;
     p = Vec2{p.x - f * g.x / gg, p.y - f * g.y / gg};
     if (!(std::hypot(p.x - start.x, p.y - start.y) <= max_move)) return false;
+    // The level of a distance curves by at most 1 / radius, and the step's length in metric
+    // units is at most |f| times the ratio of the grid's two scales: what the step leaves is
+    // below half the curvature times its square. Where that is within the root tolerance the
+    // point is on the level without measuring it again, the bound its residual.
+    const Vec2 sc = scale_.at(p);
+    const double stretch = std::max(sc.x, sc.y) / std::min(sc.x, sc.y);
+    const double left = 0.5 * (f * stretch) * (f * stretch) / radius(site);
+    if (left <= t_.grid.ftol) {
+      out = LimitVertex{p, site, left};
+      return true;
+    }
   }
   return false;
 }
