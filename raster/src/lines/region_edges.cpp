@@ -16,6 +16,7 @@
 
 #include "lines/boundary_stages.hpp"
 #include "lines/line_tools.hpp"
+#include "lines/region_follow.hpp"
 #include "rv/engine/owner_index.hpp"
 #include "rv/lines/boundaries.hpp"
 #include "rv/lines/limits.hpp"
@@ -155,12 +156,11 @@ class ReachLines {
 
   // The point of the lines nearest `target` within `radius` (CRS units; at most three cells), on
   // a segment with both ends in `square` when one is given: filed to be inserted as a vertex,
-  // and returned in `out`. False when there is none.
-  bool attach(Vec2 target, const std::optional<Box>& square, double radius, Vec2& out) {
+  // and returned in `out`. False when there is none. `exact`: the target is the exact junction,
+  // where the point moves once the lines follow their level (moves()).
+  bool attach(Vec2 target, const std::optional<Box>& square, double radius, Vec2& out, bool exact = false) {
     const auto [c0, r0] = cell(target);
-    // The lines follow their level between the crossings (LimitRefiner): an arc's points bulge
-    // out of the square its crossings bound by up to its sagitta, a fraction of a cell.
-    const double eps = 0.25 * g_.res;
+    const double eps = 1e-9 * g_.res;
     double best = radius;
     Insert found{};
     bool any = false;
@@ -194,9 +194,14 @@ class ReachLines {
     } else {
       out = found.q;
       inserts_.push_back(found);
+      if (exact) moves_.emplace_back(found.q, target);
     }
     return true;
   }
+
+  // Points inserted on a chord for an exact junction, and the junction: where the point belongs
+  // once the chord gives way to its locus (a vertex of two edges, moved in both).
+  const std::vector<std::pair<Vec2, Vec2>>& moves() const { return moves_; }
 
   // A point lacking the line of owner pair (a, b), to be joined to another.
   struct Loose {
@@ -315,6 +320,7 @@ class ReachLines {
   std::unordered_map<int64_t, std::vector<std::pair<size_t, size_t>>> buckets_;
   std::set<std::pair<size_t, size_t>> covered_;  // segments a boundary line was attached to
   std::vector<Insert> inserts_;
+  std::vector<std::pair<Vec2, Vec2>> moves_;
 };
 
 // The stages of region_edges, in order; each appends to `out` (see the contract in
@@ -339,11 +345,26 @@ class EdgeBuilder {
         return junction_at(a, b, start, j) ? j : start;
       };
       for (std::vector<Vec2>& e : reach_lines.close_overlaps(junction_near, std::move(loose), out_.dangling_ends))
-        out_.edges.push_back(std::move(e));
+        push(std::move(e), EdgeLocus{});
     }
-    for (std::vector<Vec2>& e : reach_lines.take()) out_.edges.push_back(std::move(e));
+    const std::vector<std::pair<Vec2, Vec2>> moves = reach_lines.moves();
+    for (std::vector<Vec2>& e : reach_lines.take()) push(std::move(e), EdgeLocus{EdgeLocus::level, 0, 0});
+    if (tol_ > 0.0) {
+      // The junctions exact in both edges that share them, then every edge made to follow.
+      std::unordered_map<double, std::vector<std::pair<Vec2, Vec2>>> by_x;
+      for (const auto& m : moves) by_x[m.first.x].push_back(m);
+      for (std::vector<Vec2>& e : out_.edges)
+        for (Vec2& p : e) {
+          const auto it = by_x.find(p.x);
+          if (it == by_x.end()) continue;
+          for (const auto& [from, to] : it->second)
+            if (from.y == p.y) p = to;
+        }
+      region_follow::follow(out_, index_, g_, D_, margins_, tol_, locus_ != nullptr && *locus_);
+    }
     return std::move(out_);
   }
+  double tol_ = 0.0;  // the line tolerance (metric units; 0: none)
 
  private:
   struct OpenEnd {
@@ -363,6 +384,10 @@ class EdgeBuilder {
     bool used = false;
   };
 
+  void push(std::vector<Vec2> edge, EdgeLocus locus) {
+    out_.edges.push_back(std::move(edge));
+    out_.loci.push_back(locus);
+  }
   double locus(int32_t a, int32_t b, Vec2 p) const {
     if (locus_ != nullptr && *locus_) return (*locus_)(a, b, p);
     return index_.nearest_of(p, a).cost - index_.nearest_of(p, b).cost;
@@ -453,7 +478,7 @@ class EdgeBuilder {
         carry_on(*line, pts, true);
         std::reverse(pts.begin(), pts.end());
       }
-      out_.edges.push_back(std::move(pts));
+      push(std::move(pts), EdgeLocus{EdgeLocus::pair, line->owner_a, line->owner_b});
     }
   }
 
@@ -480,7 +505,7 @@ class EdgeBuilder {
       // Leaving the owned area before the grid's edge: it ends where it meets the max-distance
       // line (carried to the edge there too), at the junction made a vertex of both.
       if (reach_ && beyond(e) > 0.0 && junction_at(line.owner_a, line.owner_b, end, j) &&
-          reach_lines_->attach(j, std::nullopt, g_.res, on_line)) {
+          reach_lines_->attach(j, std::nullopt, g_.res, on_line, true)) {
         v.push_back(on_line);
         return;
       }
@@ -501,8 +526,8 @@ class EdgeBuilder {
       // With reaches the edge has its corners as vertices (where two sites' arcs meet, which no
       // cell edge crosses): a corner in the square before splits the chord across this one, and
       // the line ends on the corner itself.
-      if (reach_lines_->attach(exact ? j : end, square, 3.0 * g_.res, on_line) ||
-          (exact && margins_ && reach_lines_->attach(j, std::nullopt, g_.res, on_line))) {
+      if (reach_lines_->attach(exact ? j : end, square, 3.0 * g_.res, on_line, exact) ||
+          (exact && margins_ && reach_lines_->attach(j, std::nullopt, g_.res, on_line, true))) {
         // (A line ended at the junction already, end_at_owned_edge, may meet the edge there.)
         if (!(on_line.x == end.x && on_line.y == end.y)) v.push_back(on_line);
         return;
@@ -547,8 +572,9 @@ class EdgeBuilder {
             p = owners[i1];
             q = owners[k1];
           }
-        out_.edges.push_back({t, edge_vertex(
-                                     g_, t, [&](Vec2 at) { return locus(p, q, at); }, ftol_)});
+        push({t, edge_vertex(
+                     g_, t, [&](Vec2 at) { return locus(p, q, at); }, ftol_)},
+             EdgeLocus{EdgeLocus::pair, std::min(p, q), std::max(p, q)});
       }
   }
 
@@ -597,8 +623,9 @@ class EdgeBuilder {
     for (const TripointGap& gap : gaps_) {
       if (gap.used) continue;
       if (outside_frame(g_, gap.p) || on_centre_frame(g_, gap.p)) {
-        out_.edges.push_back({gap.p, edge_vertex(
-                                         g_, gap.p, [&](Vec2 p) { return locus(gap.a, gap.b, p); }, ftol_)});
+        push({gap.p, edge_vertex(
+                         g_, gap.p, [&](Vec2 p) { return locus(gap.a, gap.b, p); }, ftol_)},
+             EdgeLocus{EdgeLocus::pair, gap.a, gap.b});
       } else if (reach_ && beyond(gap.p) <= 0.0) {
         // (Beyond the max distance, the three owners' lines are cut short of it anyway.)
         loose.push_back({gap.a, gap.b, gap.p});
@@ -624,9 +651,11 @@ class EdgeBuilder {
 }  // namespace
 
 RegionEdges region_edges(const BoundaryResult& boundaries, const OwnerIndex& index, const GridSpec& g,
-                         double max_distance, const LimitResult* max_distance_lines, const LocusFunction* locus) {
+                         double max_distance, const LimitResult* max_distance_lines, const LocusFunction* locus,
+                         double line_tolerance) {
   EdgeBuilder builder(boundaries, index, g, max_distance);
   builder.locus_ = locus;
+  builder.tol_ = std::max(line_tolerance, 0.0);
   return builder.run(max_distance_lines);
 }
 

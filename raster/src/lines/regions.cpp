@@ -118,4 +118,49 @@ double ring_area(std::span<const Vec2> ring, const MetricSpec& metric, const Geo
   return std::abs(area);
 }
 
+SegmentBows::SegmentBows(const RegionEdges& e) {
+  for (size_t k = 0; k < e.edges.size() && k < e.bows.size(); ++k) {
+    const std::vector<Vec2>& pts = e.edges[k];
+    for (size_t i = 0; i + 1 < pts.size() && i < e.bows[k].size(); ++i)
+      if (std::isfinite(e.bows[k][i].left))
+        bows_.emplace(Key{pts[i].x, pts[i].y, pts[i + 1].x, pts[i + 1].y}, e.bows[k][i]);
+  }
+}
+
+size_t SegmentBows::Hash::operator()(const Key& k) const {
+  const std::hash<double> h;
+  size_t x = h(k.px);
+  for (const double v : {k.py, k.qx, k.qy}) x = x * 1000003u ^ h(v);
+  return x;
+}
+
+std::optional<Bow> SegmentBows::of(Vec2 p, Vec2 q) const {
+  auto it = bows_.find(Key{p.x, p.y, q.x, q.y});
+  if (it != bows_.end()) return it->second;
+  it = bows_.find(Key{q.x, q.y, p.x, p.y});
+  if (it == bows_.end()) return std::nullopt;
+  return Bow{-it->second.left, it->second.length};  // left of q -> p is right of p -> q
+}
+
+double ring_area(std::span<const Vec2> ring, const MetricSpec& metric, const Geolocator* geolocator, double step,
+                 const SegmentBows& bows) {
+  const double area = ring_area(ring, metric, geolocator, step);
+  const size_t n = ring.size();
+  if (n < 3 || bows.empty()) return area;
+  // The ring's turn in the grid's CRS (every metric here keeps it): interior on the left of a
+  // counter-clockwise ring, where a bow to the left takes area away.
+  double twice = 0.0;
+  const Vec2 o = ring[0];
+  for (size_t i = 1; i + 1 < n; ++i)
+    twice += (ring[i].x - o.x) * (ring[i + 1].y - o.y) - (ring[i + 1].x - o.x) * (ring[i].y - o.y);
+  const double ccw = twice >= 0.0 ? 1.0 : -1.0;
+  const size_t edges = ring[n - 1] == ring[0] ? n - 1 : n;
+  double slivers = 0.0;
+  for (size_t i = 0; i < edges; ++i) {
+    const std::optional<Bow> b = bows.of(ring[i], ring[(i + 1) % n]);
+    if (b) slivers -= ccw * (2.0 / 3.0) * b->left * b->length;
+  }
+  return area + slivers;
+}
+
 }  // namespace rv

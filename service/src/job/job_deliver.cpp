@@ -394,7 +394,7 @@ void StripDeliverables::State::write_region_polygons(const BoundaryResult& bound
   LocusFunction partial_locus_of;
   if (s.partial) partial_locus_of = [&](int32_t a, int32_t b, Vec2 p) { return partial_locus(*s.partial, a, b, p); };
   RegionEdges edges = region_edges(boundaries, *s.index, s.job.grid, max_distance, s.reach ? &reach_lines : nullptr,
-                                   s.partial ? &partial_locus_of : nullptr);
+                                   s.partial ? &partial_locus_of : nullptr, s.job.line_tolerance);
   // A line stopping in the open would merge two owners' faces: no regions rather than wrong ones.
   if (edges.dangling_ends > 0)
     throw Error(ErrorKind::internal,
@@ -402,6 +402,9 @@ void StripDeliverables::State::write_region_polygons(const BoundaryResult& bound
                     " line end(s) stop inside the grid, away from any tripoint (the lines could not be joined "
                     "there, a defect of the extraction); the regions cannot be bounded by them. Leave out the "
                     "regions, or report this case");
+  // The areas follow the loci, not only the chords (each segment's bow, rv/lines/regions.hpp).
+  const SegmentBows bows(edges);
+  const LineResidual along_edges = edges.residual;
   LineRegions lr;
   lr.edges = std::move(edges.edges);
   lr.grid = s.job.grid;
@@ -411,7 +414,7 @@ void StripDeliverables::State::write_region_polygons(const BoundaryResult& bound
   const double to_area = s.job.to_output * s.job.to_output;
   const Geolocator* located = s.job.compute.geolocator.get();
   lr.area = [&, to_area, located](std::span<const Vec2> ring) {
-    return to_area * ring_area(ring, s.job.compute.metric, located, s.job.grid.res);
+    return to_area * ring_area(ring, s.job.compute.metric, located, s.job.grid.res, bows);
   };
   lr.area_units = s.job.unit + "^2";
   if (s.job.relevant_area) lr.relevant = &s.job.relevant_area->seeds.polygons();
@@ -428,13 +431,17 @@ void StripDeliverables::State::write_region_polygons(const BoundaryResult& bound
                      {"sea_area", a.sea}});
   s.report["regions"] = {
       {"owners", rs.owners}, {"polygons", rs.polygons}, {"areas", areas}, {"area_units", lr.area_units}};
+  s.report["regions"]["along_edges"] = s.residual_json(along_edges, 0.0);
   // The edge of the owned area (reaches), or the max-distance line, as the regions' edges.
   if (s.reach)
     s.report["regions"][s.job.loaded.seeds.adjusted() ? "owned_edge" : "max_distance_line"] = {
         {"lines", reach_lines.lines.size()},
         {"vertices", reach_lines.vertices},
         {"corners", reach_lines.corners},
-        {"along_lines", s.residual_json(reach_lines.residual, reach_lines.simplified_midpoint)}};
+        // As extracted, before the regions' edges follow them (along_edges): their chords' worst.
+        {"chords_on_cell_edges",
+         {{"segments", reach_lines.residual.segments},
+          {"max_midpoint", reach_lines.residual.max_midpoint * s.job.to_output}}}};
   if (s.job.relevant_area) s.report["regions"]["relevant_area"] = relevance(rs, lr.area_units);
   s.times["regions"] = s.region_seconds + seconds_since(t);
 }

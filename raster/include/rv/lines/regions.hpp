@@ -7,7 +7,9 @@
 #include <cstdint>
 #include <functional>
 #include <limits>
+#include <optional>
 #include <span>
+#include <unordered_map>
 #include <vector>
 
 #include "rv/engine/owner_index.hpp"
@@ -16,6 +18,7 @@
 #include "rv/field/metric.hpp"
 #include "rv/lines/boundaries.hpp"
 #include "rv/lines/limits.hpp"
+#include "rv/lines/residual.hpp"
 
 namespace rv {
 
@@ -49,16 +52,43 @@ namespace rv {
 // LineRequest::owned_edge: lines of owner kOwnedEdge, which are then the only ones read): all of
 // the above holds with "at the max distance" read as "at the reach of the owner's deepest site"
 // (OwnerIndex::deepest), the junctions where both owners' deepest sites are at their reach.
+// What an edge follows: a boundary's locus (owners a < b), the max-distance line or the owned
+// area's edge (its level), or nothing exact (a stretch joined where the cells show less than the
+// owners' geometry).
+struct EdgeLocus {
+  enum Kind : uint8_t { none, pair, level } kind = none;
+  int32_t a = 0, b = 0;
+};
+// Per segment of an edge, how the locus between its ends bows away from it: the signed distance
+// from the segment's middle to the locus point across it, positive to the left of the segment's
+// direction (metric units), and its length (metric units); NaN where the edge follows nothing.
+// The area between a segment and its locus is 2/3 of the two multiplied (a parabola's segment;
+// a circle's to the bow's square over the radius): ring_area adds it.
+struct Bow {
+  double left = std::numeric_limits<double>::quiet_NaN();
+  double length = 0.0;
+};
 struct RegionEdges {
   std::vector<std::vector<Vec2>> edges;
+  std::vector<EdgeLocus> loci;         // per edge
+  std::vector<std::vector<Bow>> bows;  // per edge, per segment (empty without a line tolerance)
   int64_t dangling_ends = 0;
+  // With a line tolerance: the stretches region_edges adds (the ends carried on, the
+  // max-distance line or the owned edge) followed and measured as the lines are.
+  LineResidual residual;
 };
 // A boundary's locus function for owners a < b at p: negative on a's side, 0 on the line
 // (metric units). region_edges' default: the two owners' cost difference on `index`.
 using LocusFunction = std::function<double(int32_t a, int32_t b, Vec2 p)>;
+// `line_tolerance` (metric units; 0: none): the edges region_edges adds or carries on -- the
+// max-distance line or the owned edge (given on cell edges), the stretches from the lines' ends
+// to the grid's edge, to a tripoint or to the max-distance line -- are made to follow their locus
+// to it as the lines are (rv/lines/boundaries.hpp, limits.hpp), a boundary meeting the
+// max-distance line does so at the exact junction, and every segment's bow is measured (Bow).
 RegionEdges region_edges(const BoundaryResult& boundaries, const OwnerIndex& index, const GridSpec& grid,
                          double max_distance = std::numeric_limits<double>::infinity(),
-                         const LimitResult* max_distance_lines = nullptr, const LocusFunction* locus = nullptr);
+                         const LimitResult* max_distance_lines = nullptr, const LocusFunction* locus = nullptr,
+                         double line_tolerance = 0.0);
 // The area enclosed by a ring of grid-CRS positions (closed or not; either orientation), its
 // edges straight in the grid's CRS: planar, in CRS units squared (shoelace); geodesic, in square
 // metres on the metric's ellipsoid. Longitude/latitude grids (`geolocator` null): the exact
@@ -66,6 +96,31 @@ RegionEdges region_edges(const BoundaryResult& boundaries, const OwnerIndex& ind
 // edge; `step` unused). Projected grids: the edges followed in steps of at most `step` CRS units,
 // located by `geolocator` and measured as geodesics (GeographicLib::PolygonArea).
 double ring_area(std::span<const Vec2> ring, const MetricSpec& metric, const Geolocator* geolocator, double step);
+// The bows of the region edges' segments by their ends (either direction), for ring_area.
+// Thread safety: const lookups from any thread.
+class SegmentBows {
+ public:
+  SegmentBows() = default;
+  explicit SegmentBows(const RegionEdges& edges);
+  // The bow of segment p -> q (left of that direction), or null.
+  std::optional<Bow> of(Vec2 p, Vec2 q) const;
+  bool empty() const { return bows_.empty(); }
+
+ private:
+  struct Key {
+    double px, py, qx, qy;
+    bool operator==(const Key&) const = default;
+  };
+  struct Hash {
+    size_t operator()(const Key& k) const;
+  };
+  std::unordered_map<Key, Bow, Hash> bows_;
+};
+// The area a ring encloses when its segments stand for the loci they follow: ring_area plus, for
+// every segment with a bow, the area between it and its locus (2/3 of bow times length, on the
+// side it bows to). Closed forms (a disc, a lens) come out to within 1e-9 of their area.
+double ring_area(std::span<const Vec2> ring, const MetricSpec& metric, const Geolocator* geolocator, double step,
+                 const SegmentBows& bows);
 // The owner (code) of position p by the engine's rule: the nearest seed's owner; inside the
 // polygons of several owners, the lowest code. 0 for a seed set without sites, or farther than
 // `max_distance` (metric units) from every seed.
