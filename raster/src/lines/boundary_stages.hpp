@@ -188,6 +188,9 @@ class LineRefiner {
   // The distance from the chord's midpoint to the locus (metric units); NaN where not measured
   // (an owner has no site there).
   double midpoint_offset(const BoundaryVertex& u, const BoundaryVertex& v, int32_t a, int32_t b) const;
+  // The point that splits a chord: a turning point, an arc's or the locus' point across the
+  // middle (two edges of one coast sharing a vertex: one smooth stretch); false where none
+  // checks out.
   bool split(const End& u, const End& v, bool same, bool arcs, double stray, int32_t a, int32_t b, End& mid,
              bool& turning) const;
   bool turning_point(const End& u, const End& v, int32_t a, int32_t b, double max_off, End& out) const;

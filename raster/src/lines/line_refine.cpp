@@ -216,17 +216,23 @@ bool LineRefiner::split(const End& u, const End& v, bool same, bool arcs, double
   if (same) return across_middle(u, v, a, b, max_off, mid);
   if ((turning = turning_point(u, v, a, b, max_off, mid))) return true;
   // No turning point of three sites. Where the sites that change are two edges of one coast
-  // that share the vertex nearest here (equally near over a whole wedge: no single point where
-  // they take over), the locus is one smooth stretch: its point across the middle, with each
+  // that share a vertex (equally near over the whole wedge where that vertex is nearest: no
+  // single point where they take over), the locus is one smooth stretch: its point across the middle, with each
   // owner's true nearest there, is checked like any other. Otherwise (more sites change within
   // the chord) the chord stays.
-  const Vec2 m = lerp(u.v.p, v.v.p, 0.5);
-  auto tied = [&](int32_t s1, int32_t s2) {
+  const std::vector<Site>& sites = index_.metric().seeds().sites();
+  auto adjacent = [&](int32_t s1, int32_t s2) {
     if (s1 == s2) return true;
-    Vec2 g;
-    return std::abs(cost(m, s1, g) - cost(m, s2, g)) <= 4.0 * ftol_;
+    if (s1 == kNoSite || s2 == kNoSite) return false;
+    const Site &x = sites[static_cast<size_t>(s1)], &y = sites[static_cast<size_t>(s2)];
+    if (x.kind != SiteKind::segment || y.kind != SiteKind::segment || x.feature != y.feature) return false;
+    return x.a == y.a || x.a == y.b || x.b == y.a || x.b == y.b;
   };
-  if (!tied(u.v.site_a, v.v.site_a) || !tied(u.v.site_b, v.v.site_b)) return false;
+  // Elsewhere (more sites change within the chord, as near where land borders meet the sea)
+  // the chord stays, counted unresolved where it is off by more than the tolerance: a root
+  // across its middle can belong to another stretch of the pair's locus (and lines crossing at
+  // their tripoints were seen when one was taken).
+  if (!adjacent(u.v.site_a, v.v.site_a) || !adjacent(u.v.site_b, v.v.site_b)) return false;
   return across_middle(u, v, a, b, max_off, mid);
 }
 

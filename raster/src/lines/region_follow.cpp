@@ -10,6 +10,7 @@
 // to 1e-9.
 #include "lines/region_follow.hpp"
 
+#include <array>
 #include <cmath>
 #include <limits>
 #include <vector>
@@ -24,6 +25,12 @@ namespace rv::region_follow {
 using namespace line_tools;
 
 namespace {
+
+constexpr double kInf = std::numeric_limits<double>::infinity();
+// A boundary segment's bow is taken from the curve (the locus, or a reach's arc) nearest its
+// middle, and only within this many tolerances of it: farther, the segment stands for none of
+// them (it was left unresolved, or joins where the cells show less than the geometry).
+constexpr double kFarBow = 16.0;
 
 // The bow of segment p-q given the locus function's value `f` and gradient `g` (per CRS unit) at
 // its middle.
@@ -99,11 +106,26 @@ void follow(RegionEdges& e, const OwnerIndex& index, const GridSpec& g, double D
       r.merge(added.locus);
       r.merge(added.arcs);
     }
-    // Every segment's bow.
-    std::vector<Bow>& bows = e.bows[static_cast<size_t>(k)];
-    bows.resize(pts.size() - 1);
-    if (locus.kind == EdgeLocus::none || (locus.kind == EdgeLocus::pair && partial)) return;
-    for (size_t i = 0; i + 1 < pts.size(); ++i) {
+    e.bows[static_cast<size_t>(k)].resize(pts.size() - 1);
+  });
+  for (const LineResidual& r : residual) e.residual.merge(r);
+  // Every segment's bow, over blocks of segments of all edges (a coast's few long edges would
+  // leave threads idle as single tasks).
+  constexpr size_t kBlock = 512;
+  std::vector<std::array<size_t, 3>> blocks;  // edge, first segment, end
+  for (size_t k = 0; k < e.edges.size(); ++k) {
+    const EdgeLocus locus = e.loci[k];
+    if (locus.kind == EdgeLocus::none || (locus.kind == EdgeLocus::pair && partial)) continue;
+    for (size_t i = 0; i + 1 < e.edges[k].size(); i += kBlock)
+      blocks.push_back({k, i, std::min(i + kBlock, e.edges[k].size() - 1)});
+  }
+  detail::parallel_for(0, static_cast<int64_t>(blocks.size()), [&](int64_t n, int) {
+    const auto [k, i0, i1] = blocks[static_cast<size_t>(n)];
+    const std::vector<Vec2>& pts = e.edges[k];
+    const EdgeLocus locus = e.loci[k];
+    // A boundary's sites at the previous segment's middle: the next one's hints.
+    int32_t hint_a = kNoSite, hint_b = kNoSite;
+    for (size_t i = i0; i < i1; ++i) {
       const Vec2 mid = lerp(pts[i], pts[i + 1], 0.5);
       Vec2 grad{std::numeric_limits<double>::quiet_NaN(), 0.0};
       double f = std::numeric_limits<double>::quiet_NaN();
@@ -114,17 +136,38 @@ void follow(RegionEdges& e, const OwnerIndex& index, const GridSpec& g, double D
           metric.distance_and_gradient(mid, h.site, grad);
         }
       } else {
-        const OwnerIndex::Hit ha = index.nearest_of(mid, locus.a), hb = index.nearest_of(mid, locus.b);
-        if (ha.site != kNoSite && hb.site != kNoSite) {
-          Vec2 ga, gb;
-          f = boundary_stages::site_cost(index, mid, ha.site, ga) - boundary_stages::site_cost(index, mid, hb.site, gb);
-          grad = Vec2{ga.x - gb.x, ga.y - gb.y};
-        }
+        // A boundary follows the two owners' locus, or where a reach ends it, that site's arc
+        // (BoundaryVertex::arc): the curve nearest the chord's middle is the one it stands for.
+        const OwnerIndex::Hit ha = index.nearest_of(mid, locus.a, hint_a), hb = index.nearest_of(mid, locus.b, hint_b);
+        hint_a = ha.site;
+        hint_b = hb.site;
+        Bow best;
+        double nearest = kFarBow * tol;
+        auto consider = [&](double value, Vec2 gradient) {
+          const Bow b = bow_of(scale, pts[i], pts[i + 1], value, gradient);
+          if (std::abs(b.left) <= nearest) {
+            nearest = std::abs(b.left);
+            best = b;
+          }
+        };
+        Vec2 ga{std::numeric_limits<double>::quiet_NaN(), 0.0}, gb = ga;
+        const double ca = ha.site != kNoSite ? boundary_stages::site_cost(index, mid, ha.site, ga) : kInf;
+        const double cb = hb.site != kNoSite ? boundary_stages::site_cost(index, mid, hb.site, gb) : kInf;
+        if (std::isfinite(ca) && std::isfinite(cb)) consider(ca - cb, Vec2{ga.x - gb.x, ga.y - gb.y});
+        for (const int32_t site : {ha.site, hb.site})
+          if (site != kNoSite && std::isfinite(index.reach_of(site))) {
+            Vec2 g;
+            const double d = metric.distance_and_gradient(mid, site, g);
+            consider(d - index.reach_of(site), g);
+          }
+        e.bows[k][i] = best;
+        continue;
       }
-      bows[i] = bow_of(scale, pts[i], pts[i + 1], f, grad);
+      Bow b = bow_of(scale, pts[i], pts[i + 1], f, grad);
+      if (!(std::abs(b.left) <= kFarBow * tol)) b.left = std::numeric_limits<double>::quiet_NaN();
+      e.bows[k][i] = b;
     }
   });
-  for (const LineResidual& r : residual) e.residual.merge(r);
 }
 
 }  // namespace rv::region_follow
