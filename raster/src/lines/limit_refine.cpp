@@ -119,8 +119,8 @@ bool LimitRefiner::corner(const End& u, const End& v, End& out) const {
   // (Two circles meeting at a shallow angle make a notch narrower than a cell and many cells
   // deep: its corner is sought well beyond the chord.)
   const double reach = t_.owner == kOwnedEdge ? chord : kCornerReach * chord;
-  if (!arcs_meet(t_.grid.metric, u.v.site, radius(u.v.site), v.v.site, radius(v.v.site), lerp(u.v.p, v.v.p, 0.5),
-                 reach, t_.grid.ftol, 30, q))
+  if (!arcs_meet(t_.grid.metric, u.v.site, radius(u.v.site), v.v.site, radius(v.v.site), lerp(u.v.p, v.v.p, 0.5), reach,
+                 t_.grid.ftol, 30, q))
     return false;
   // Between the ends along the chord (not at one), and no third site within its level there.
   const double dx = v.v.p.x - u.v.p.x, dy = v.v.p.y - u.v.p.y;

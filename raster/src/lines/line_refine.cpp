@@ -89,7 +89,9 @@ bool equal_costs_point(const OwnerIndex& index, int32_t s1, int32_t s2, int32_t 
 
 double LineRefiner::cost(Vec2 p, int32_t site, Vec2& gradient) const { return site_cost(index_, p, site, gradient); }
 
-int32_t LineRefiner::arc_site(const BoundaryVertex& v) { return v.arc == 1 ? v.site_a : v.arc == 2 ? v.site_b : kNoSite; }
+int32_t LineRefiner::arc_site(const BoundaryVertex& v) {
+  return v.arc == 1 ? v.site_a : v.arc == 2 ? v.site_b : kNoSite;
+}
 
 double LineRefiner::arc_value(Vec2 p, int32_t site, Vec2& gradient) const {
   return index_.metric().distance_and_gradient(p, site, gradient) - index_.reach_of(site);
@@ -197,12 +199,13 @@ double LineRefiner::midpoint_offset(const BoundaryVertex& u, const BoundaryVerte
   ev.v = v;
   const double chord = std::hypot(v.p.x - u.p.x, v.p.y - u.p.y);
   End across;
-  if (chord > 0.0 && across_middle(eu, ev, a, b, 0.5 * chord, across)) return index_.metric().point_distance(mid, across.v.p);
+  if (chord > 0.0 && across_middle(eu, ev, a, b, 0.5 * chord, across))
+    return index_.metric().point_distance(mid, across.v.p);
   return std::abs(f);
 }
 
-bool LineRefiner::split(const End& u, const End& v, bool same, bool arcs, double stray, int32_t a, int32_t b,
-                        End& mid, bool& turning) const {
+bool LineRefiner::split(const End& u, const End& v, bool same, bool arcs, double stray, int32_t a, int32_t b, End& mid,
+                        bool& turning) const {
   // The locus this chord stands for lies within about `stray` (CRS units) of it; a locus point
   // much farther away belongs to another stretch (the locus can cross the chord's perpendicular
   // again).

@@ -738,7 +738,7 @@ BoundaryResult partial_boundaries(const PartialEffectRule& rule, const SeedSet& 
   for (BoundaryLine& line : out.lines) {
     if (line.owner_a == B || line.owner_b == B) {
       LineRewrite w{
-          rule,  seeds, index, ftol, tol, B, line.owner_a == B ? line.owner_b : line.owner_a, line.owner_a == B,
+          rule,  seeds, index,  ftol, tol, B, line.owner_a == B ? line.owner_b : line.owner_a, line.owner_a == B,
           stats, plans, per_crs};
       w.rewrite(line, grid.res);
       std::vector<Vec2> pts;

@@ -49,68 +49,11 @@ Bow bow_of(const CrsScale& scale, Vec2 p, Vec2 q, double f, Vec2 g) {
   return b;
 }
 
-}  // namespace
-
-void follow(RegionEdges& e, const OwnerIndex& index, const GridSpec& g, double D, bool margins, double tol,
-            bool partial) {
+// Every segment's bow, over blocks of segments of all edges (a coast's few long edges would leave
+// threads idle as single tasks).
+void measure_bows(RegionEdges& e, const OwnerIndex& index, const limit_stages::Target& target, const CrsScale& scale,
+                  double tol, bool partial) {
   const SiteMetric& metric = index.metric();
-  const CrsScale scale(metric, centre(g, g.width / 2, g.height / 2), g.res);
-  const double per_crs = std::max(scale.at0.x, scale.at0.y);
-  const double cell = cell_metric(g, metric);
-  const double ftol = 1e-9 * cell;
-  const limit_stages::LimitGrid lg{{},    index, metric, g, g.width, g.height, 1, cell, ftol, owner_of_sites(metric.seeds()),
-                                   true,  margins ? &index : nullptr};
-  const limit_stages::Target target{lg, margins ? kOwnedEdge : 0, margins ? 0.0 : D};
-  const limit_stages::LimitRefiner levels(target, tol, scale);
-  const boundary_stages::LineRefiner pairs(index, tol, ftol, scale, per_crs);
-  e.loci.resize(e.edges.size());
-  e.bows.assign(e.edges.size(), {});
-  std::vector<LineResidual> residual(e.edges.size());
-  detail::parallel_for(0, static_cast<int64_t>(e.edges.size()), [&](int64_t k, int) {
-    std::vector<Vec2>& pts = e.edges[static_cast<size_t>(k)];
-    const EdgeLocus locus = e.loci[static_cast<size_t>(k)];
-    LineResidual& r = residual[static_cast<size_t>(k)];
-    if (pts.size() < 2) return;
-    if (locus.kind == EdgeLocus::level) {
-      std::vector<LimitVertex> v;
-      v.reserve(pts.size());
-      for (const Vec2 p : pts) {
-        const OwnerIndex::Hit h = target.at(p);
-        v.push_back(LimitVertex{p, h.site, std::abs(h.distance - target.D)});
-      }
-      int64_t corners = 0;
-      v = levels.refine(v, r, corners);
-      pts.clear();
-      for (const LimitVertex& x : v) pts.push_back(x.p);
-    } else if (locus.kind == EdgeLocus::pair && !partial) {
-      // The carried-on ends: the first and last segments.
-      auto vertex = [&](Vec2 p) {
-        const OwnerIndex::Hit ha = index.nearest_of(p, locus.a), hb = index.nearest_of(p, locus.b);
-        return BoundaryVertex{p,           ha.site,    hb.site, 0.5 * (ha.distance + hb.distance), std::abs(ha.cost - hb.cost),
-                              ha.distance, hb.distance};
-      };
-      const size_t n = pts.size();
-      std::vector<BoundaryVertex> v;
-      for (const size_t i : {size_t{0}, size_t{1}, n - 2, n - 1}) v.push_back(vertex(pts[std::min(i, n - 1)]));
-      boundary_stages::LineRefiner::Added added;
-      std::vector<BoundaryVertex> head{v[0]}, tail{v[2]};
-      pairs.refine_segments(locus.a, locus.b, v, 0, 1, head, added);
-      if (n > 2) pairs.refine_segments(locus.a, locus.b, v, 2, 3, tail, added);
-      std::vector<Vec2> out;
-      for (const BoundaryVertex& x : head) out.push_back(x.p);
-      if (n > 3) out.insert(out.end(), pts.begin() + 2, pts.end() - 2);
-      // (tail starts at pts[n - 2], which head ends at when n is 3)
-      if (n > 2)
-        for (size_t i = n == 3 ? 1 : 0; i < tail.size(); ++i) out.push_back(tail[i].p);
-      pts = std::move(out);
-      r.merge(added.locus);
-      r.merge(added.arcs);
-    }
-    e.bows[static_cast<size_t>(k)].resize(pts.size() - 1);
-  });
-  for (const LineResidual& r : residual) e.residual.merge(r);
-  // Every segment's bow, over blocks of segments of all edges (a coast's few long edges would
-  // leave threads idle as single tasks).
   constexpr size_t kBlock = 512;
   std::vector<std::array<size_t, 3>> blocks;  // edge, first segment, end
   for (size_t k = 0; k < e.edges.size(); ++k) {
@@ -168,6 +111,74 @@ void follow(RegionEdges& e, const OwnerIndex& index, const GridSpec& g, double D
       e.bows[k][i] = b;
     }
   });
+}
+
+}  // namespace
+
+void follow(RegionEdges& e, const OwnerIndex& index, const GridSpec& g, double D, bool margins, double tol,
+            bool partial) {
+  const SiteMetric& metric = index.metric();
+  const CrsScale scale(metric, centre(g, g.width / 2, g.height / 2), g.res);
+  const double per_crs = std::max(scale.at0.x, scale.at0.y);
+  const double cell = cell_metric(g, metric);
+  const double ftol = 1e-9 * cell;
+  const limit_stages::LimitGrid lg{{},      index,
+                                   metric,  g,
+                                   g.width, g.height,
+                                   1,       cell,
+                                   ftol,    owner_of_sites(metric.seeds()),
+                                   true,    margins ? &index : nullptr};
+  const limit_stages::Target target{lg, margins ? kOwnedEdge : 0, margins ? 0.0 : D};
+  const limit_stages::LimitRefiner levels(target, tol, scale);
+  const boundary_stages::LineRefiner pairs(index, tol, ftol, scale, per_crs);
+  e.loci.resize(e.edges.size());
+  e.bows.assign(e.edges.size(), {});
+  std::vector<LineResidual> residual(e.edges.size());
+  detail::parallel_for(0, static_cast<int64_t>(e.edges.size()), [&](int64_t k, int) {
+    std::vector<Vec2>& pts = e.edges[static_cast<size_t>(k)];
+    const EdgeLocus locus = e.loci[static_cast<size_t>(k)];
+    LineResidual& r = residual[static_cast<size_t>(k)];
+    if (pts.size() < 2) return;
+    if (locus.kind == EdgeLocus::level) {
+      std::vector<LimitVertex> v;
+      v.reserve(pts.size());
+      for (const Vec2 p : pts) {
+        const OwnerIndex::Hit h = target.at(p);
+        v.push_back(LimitVertex{p, h.site, std::abs(h.distance - target.D)});
+      }
+      int64_t corners = 0;
+      v = levels.refine(v, r, corners);
+      pts.clear();
+      for (const LimitVertex& x : v) pts.push_back(x.p);
+    } else if (locus.kind == EdgeLocus::pair && !partial) {
+      // The carried-on ends: the first and last segments.
+      auto vertex = [&](Vec2 p) {
+        const OwnerIndex::Hit ha = index.nearest_of(p, locus.a), hb = index.nearest_of(p, locus.b);
+        return BoundaryVertex{
+            p,           ha.site,    hb.site, 0.5 * (ha.distance + hb.distance), std::abs(ha.cost - hb.cost),
+            ha.distance, hb.distance};
+      };
+      const size_t n = pts.size();
+      std::vector<BoundaryVertex> v;
+      for (const size_t i : {size_t{0}, size_t{1}, n - 2, n - 1}) v.push_back(vertex(pts[std::min(i, n - 1)]));
+      boundary_stages::LineRefiner::Added added;
+      std::vector<BoundaryVertex> head{v[0]}, tail{v[2]};
+      pairs.refine_segments(locus.a, locus.b, v, 0, 1, head, added);
+      if (n > 2) pairs.refine_segments(locus.a, locus.b, v, 2, 3, tail, added);
+      std::vector<Vec2> out;
+      for (const BoundaryVertex& x : head) out.push_back(x.p);
+      if (n > 3) out.insert(out.end(), pts.begin() + 2, pts.end() - 2);
+      // (tail starts at pts[n - 2], which head ends at when n is 3)
+      if (n > 2)
+        for (size_t i = n == 3 ? 1 : 0; i < tail.size(); ++i) out.push_back(tail[i].p);
+      pts = std::move(out);
+      r.merge(added.locus);
+      r.merge(added.arcs);
+    }
+    e.bows[static_cast<size_t>(k)].resize(pts.size() - 1);
+  });
+  for (const LineResidual& r : residual) e.residual.merge(r);
+  measure_bows(e, index, target, scale, tol, partial);
 }
 
 }  // namespace rv::region_follow

@@ -116,10 +116,10 @@ void check_tripoint(const SiteMetric& metric, double cell, const Tripoint& tp) {
 // One boundary extraction in progress.
 struct BoundaryRun {
   boundary_stages::BoundaryGrid b;
-  double tol;           // simplification, CRS units
+  double tol;             // simplification, CRS units
   double line_tolerance;  // BoundaryOptions::line_tolerance, metric units (0: measure only)
-  double cell;          // one cell in metric units
-  double max_distance;  // BoundaryOptions::max_distance
+  double cell;            // one cell in metric units
+  double max_distance;    // BoundaryOptions::max_distance
   boundary_stages::CrossingSet x;
   boundary_stages::TripointSet t;
   boundary_stages::Links links;

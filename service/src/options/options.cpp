@@ -236,7 +236,8 @@ OptionValue parse_json_value(const OptionSpec& o, const json& raw, std::string_v
   if (raw.is_object()) {
     if (raw.contains("href")) src.bad("references (href) are not accepted; send the value itself");
     // (A length's own object form has a value and a unit.)
-    if (raw.contains("value") && o.type != OptionType::extent && !(o.type == OptionType::length && raw.contains("unit")))
+    if (raw.contains("value") && o.type != OptionType::extent &&
+        !(o.type == OptionType::length && raw.contains("unit")))
       value = &raw.at("value");
   }
   const json& j = *value;

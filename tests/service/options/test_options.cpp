@@ -74,8 +74,9 @@ TEST(Options, EachOptionIsDeclaredOnceAndComplete) {
                                                 "metric",          "method",
                                                 "maxDistance",     "distanceUnits",
                                                 "validate",        "limitDistances",
-                                                "limitsPerOwner",  "simplify",  "lineTolerance",
-                                                "compression",     "baseJob"}));
+                                                "limitsPerOwner",  "simplify",
+                                                "lineTolerance",   "compression",
+                                                "baseJob"}));
 }
 
 TEST(Options, TheCliAndTheProcessInputsMakeTheSameJob) {
@@ -162,8 +163,9 @@ TEST(Options, BadValuesNameTheOptionAsTheCallerKnowsIt) {
             "--line-tolerance: length '1 furlong': unknown unit 'furlong' (mm, cm, m, km or nmi)");
   EXPECT_EQ(message_of([&] { parse_input_value(*find_input("lineTolerance"), -1); }),
             "input 'lineTolerance': length '-1' is not a non-negative number");
-  EXPECT_NE(message_of([&] { parse_input_value(*find_input("lineTolerance"), json::array({"1mm"})); })
-                .find("input 'lineTolerance': must be one length"),
+  EXPECT_NE(message_of([&] {
+              parse_input_value(*find_input("lineTolerance"), json::array({"1mm"}));
+            }).find("input 'lineTolerance': must be one length"),
             std::string::npos);
   EXPECT_EQ(parse_input_value(*find_input("lineTolerance"), "2 cm").text, "2 cm");
   EXPECT_EQ(parse_input_value(*find_input("lineTolerance"), 0).text, "0");

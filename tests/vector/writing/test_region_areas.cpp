@@ -109,7 +109,8 @@ TEST(RegionAreas, TheWeightedApolloniusDisc) {
   s.set_adjustment(fa, 3.0, kInf);
   s.add_point(s.add_feature(s.owner_code("B")), Vec2{40000.0, 0.0});
   const double R = 15000.0, exact = kPi * R * R;
-  const std::vector<double> areas = region_areas(s, grid(1000.0, 20000.0, -25000.0, 50000.0, 50000.0), MetricSpec{}, 1e-3);
+  const std::vector<double> areas =
+      region_areas(s, grid(1000.0, 20000.0, -25000.0, 50000.0, 50000.0), MetricSpec{}, 1e-3);
   EXPECT_NEAR(areas[2], exact, 1e-9 * exact);
 }
 
