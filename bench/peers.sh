@@ -22,7 +22,7 @@ for a in "$@"; do
   esac
 done
 
-peers=(time python3-numpy python3-scipy python3-opencv gdal-bin python3-gdal grass-core saga)
+peers=(time python3-numpy python3-scipy python3-opencv gdal-bin python3-gdal grass-core saga python3-geographiclib)
 if [ "$install" -eq 1 ]; then
   missing=()
   for p in "${peers[@]}"; do

@@ -175,8 +175,9 @@ class LineRefiner {
   // The same for segments [i0, i1) of a line (segment i joins vertices i and i + 1): the points
   // added within them and each segment's end after it, appended to `out` (vertex i0 is not).
   // Segments are refined independently of each other: any split of a line gives the same line.
+  // `bows`: each final segment's bow (rv/lines/residual.hpp) appended in order, when given.
   void refine_segments(int32_t owner_a, int32_t owner_b, const std::vector<BoundaryVertex>& vertices, size_t i0,
-                       size_t i1, std::vector<BoundaryVertex>& out, Added& n) const;
+                       size_t i1, std::vector<BoundaryVertex>& out, Added& n, std::vector<Bow>* bows = nullptr) const;
   // Measures the segments of a line as they are (a simplified line): the largest distance from a
   // segment's midpoint to the locus, metric units (land segments left out).
   double measure(int32_t owner_a, int32_t owner_b, const std::vector<BoundaryVertex>& vertices) const;
@@ -184,10 +185,12 @@ class LineRefiner {
 
  private:
   struct End;
-  void between(const End& u, const End& v, int depth, int32_t a, int32_t b, std::vector<End>& out, Added& n) const;
+  void between(const End& u, const End& v, int depth, int32_t a, int32_t b, std::vector<End>& out, Added& n,
+               std::vector<Bow>* bows = nullptr) const;
   // The distance from the chord's midpoint to the locus (metric units); NaN where not measured
   // (an owner has no site there).
-  double midpoint_offset(const BoundaryVertex& u, const BoundaryVertex& v, int32_t a, int32_t b) const;
+  double midpoint_offset(const BoundaryVertex& u, const BoundaryVertex& v, int32_t a, int32_t b,
+                         Bow* bow = nullptr) const;
   // The point that splits a chord: a turning point, an arc's or the locus' point across the
   // middle (two edges of one coast sharing a vertex: one smooth stretch); false where none
   // checks out.

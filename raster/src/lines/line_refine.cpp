@@ -135,7 +135,8 @@ LineRefiner::Added LineRefiner::refine(int32_t a, int32_t b, std::vector<Boundar
 }
 
 void LineRefiner::refine_segments(int32_t a, int32_t b, const std::vector<BoundaryVertex>& vertices, size_t i0,
-                                  size_t i1, std::vector<BoundaryVertex>& result, Added& n) const {
+                                  size_t i1, std::vector<BoundaryVertex>& result, Added& n,
+                                  std::vector<Bow>* bows) const {
   std::vector<End> out;
   End u;
   u.v = vertices[i0];
@@ -146,7 +147,7 @@ void LineRefiner::refine_segments(int32_t a, int32_t b, const std::vector<Bounda
     set_normal(v);
     const int64_t before = n.turning_points + n.arc_points;
     out.clear();
-    between(u, v, 0, a, b, out, n);
+    between(u, v, 0, a, b, out, n, bows);
     for (const End& e : out) result.push_back(e.v);
     result.push_back(v.v);
     (u.v.arc != 0 || v.v.arc != 0 ? n.arcs : n.locus).added += n.turning_points + n.arc_points - before;
@@ -164,7 +165,8 @@ double LineRefiner::measure(int32_t a, int32_t b, const std::vector<BoundaryVert
   return worst;
 }
 
-double LineRefiner::midpoint_offset(const BoundaryVertex& u, const BoundaryVertex& v, int32_t a, int32_t b) const {
+double LineRefiner::midpoint_offset(const BoundaryVertex& u, const BoundaryVertex& v, int32_t a, int32_t b,
+                                    Bow* bow) const {
   const Vec2 mid = lerp(u.p, v.p, 0.5);
   Vec2 g;
   if (u.arc != 0 || v.arc != 0) {
@@ -174,7 +176,11 @@ double LineRefiner::midpoint_offset(const BoundaryVertex& u, const BoundaryVerte
     for (const BoundaryVertex* e : {&u, &v}) {
       const double f = curve_value(*e, mid, g);
       const double off = scale_.offset(mid, f, g);
-      best = std::min(best, std::isfinite(off) ? off : std::abs(f));
+      const double at = std::isfinite(off) ? off : std::abs(f);
+      if (at < best) {
+        best = at;
+        if (bow != nullptr) *bow = scale_.bow(u.p, v.p, f, g);
+      }
     }
     return best;
   }
@@ -191,6 +197,7 @@ double LineRefiner::midpoint_offset(const BoundaryVertex& u, const BoundaryVerte
   if (!std::isfinite(ca) || !std::isfinite(cb)) return std::numeric_limits<double>::quiet_NaN();
   const double f = ca - cb;
   const double off = scale_.offset(mid, f, Vec2{ga.x - gb.x, ga.y - gb.y});
+  if (bow != nullptr) *bow = scale_.bow(u.p, v.p, f, Vec2{ga.x - gb.x, ga.y - gb.y});
   if (std::isfinite(off)) return off;
   // No gradient (a projected grid measured on the ellipsoid): the locus point across the middle,
   // and the distance to it.
@@ -240,13 +247,13 @@ bool LineRefiner::split(const End& u, const End& v, bool same, bool arcs, double
 }
 
 void LineRefiner::between(const End& u, const End& v, int depth, int32_t a, int32_t b, std::vector<End>& out,
-                          Added& n) const {
+                          Added& n, std::vector<Bow>* bows) const {
   const double chord = std::hypot(v.v.p.x - u.v.p.x, v.v.p.y - u.v.p.y);
-  if (!(chord > 0.0)) return;
   const bool arcs = u.v.arc != 0 || v.v.arc != 0;
   LineResidual& r = arcs ? n.arcs : n.locus;
-  if (land_segment(u.v, v.v)) {
-    ++r.land_border_segments;
+  if (!(chord > 0.0) || land_segment(u.v, v.v)) {
+    if (chord > 0.0) ++r.land_border_segments;
+    if (bows != nullptr) bows->push_back(Bow{});
     return;
   }
   // An arc's stretch (a reach ends: Feature::reach) is the same curve only as the same site's,
@@ -274,12 +281,13 @@ void LineRefiner::between(const End& u, const End& v, int depth, int32_t a, int3
   bool turning = false;
   if (may_split && estimate > tol_ && split(u, v, same, arcs, stray, a, b, mid, turning)) {
     ++(turning ? n.turning_points : n.arc_points);
-    between(u, mid, depth + 1, a, b, out, n);
+    between(u, mid, depth + 1, a, b, out, n, bows);
     out.push_back(mid);
-    between(mid, v, depth + 1, a, b, out, n);
+    between(mid, v, depth + 1, a, b, out, n, bows);
     return;
   }
-  const double off = midpoint_offset(u.v, v.v, a, b);
+  Bow bow;
+  const double off = midpoint_offset(u.v, v.v, a, b, &bow);
   if (may_split && std::isfinite(off) && off > kSplitAt * tol_) {
     // The measured offset bounds how far the locus lies from the middle (CRS units: over the
     // smaller scale, doubled for the slant of the perpendicular).
@@ -287,12 +295,13 @@ void LineRefiner::between(const End& u, const End& v, int depth, int32_t a, int3
     const double reach = 2.0 * off / std::min(s.x, s.y);
     if (split(u, v, same, arcs, std::max(stray, reach), a, b, mid, turning)) {
       ++(turning ? n.turning_points : n.arc_points);
-      between(u, mid, depth + 1, a, b, out, n);
+      between(u, mid, depth + 1, a, b, out, n, bows);
       out.push_back(mid);
-      between(mid, v, depth + 1, a, b, out, n);
+      between(mid, v, depth + 1, a, b, out, n, bows);
       return;
     }
   }
+  if (bows != nullptr) bows->push_back(bow);
   const Vec2 m = lerp(u.v.p, v.v.p, 0.5);
   r.add(off, m.x, m.y, tol_ > 0.0 ? tol_ : std::numeric_limits<double>::infinity());
   r.max_estimate = std::max(r.max_estimate, estimate);
@@ -478,24 +487,27 @@ void finish_lines(std::vector<BoundaryLine>& lines, const LineRefiner* refiner, 
     size_t line, i0, i1;
     std::vector<BoundaryVertex> out;
     LineRefiner::Added added;
+    std::vector<Bow> bows;
   };
   std::vector<Block> blocks;
   for (size_t k = 0; k < lines.size(); ++k)
     for (size_t i = 0; i + 1 < lines[k].vertices.size(); i += kBlock)
-      blocks.push_back(Block{k, i, std::min(i + kBlock, lines[k].vertices.size() - 1), {}, {}});
+      blocks.push_back(Block{k, i, std::min(i + kBlock, lines[k].vertices.size() - 1), {}, {}, {}});
   if (refiner != nullptr)
     detail::parallel_for(threads, static_cast<int64_t>(blocks.size()), [&](int64_t k, int) {
       Block& b = blocks[static_cast<size_t>(k)];
       const BoundaryLine& line = lines[b.line];
-      refiner->refine_segments(line.owner_a, line.owner_b, line.vertices, b.i0, b.i1, b.out, b.added);
+      refiner->refine_segments(line.owner_a, line.owner_b, line.vertices, b.i0, b.i1, b.out, b.added, &b.bows);
     });
   std::vector<int64_t> before(lines.size());
   if (refiner != nullptr) {
     std::vector<std::vector<BoundaryVertex>> joined(lines.size());
     for (size_t k = 0; k < lines.size(); ++k)
       if (!lines[k].vertices.empty()) joined[k].push_back(lines[k].vertices.front());
+    for (BoundaryLine& line : lines) line.bows.clear();
     for (Block& b : blocks) {
       joined[b.line].insert(joined[b.line].end(), b.out.begin(), b.out.end());
+      lines[b.line].bows.insert(lines[b.line].bows.end(), b.bows.begin(), b.bows.end());
       stats.turning_points += b.added.turning_points;
       stats.arc_points += b.added.arc_points;
       stats.locus.merge(b.added.locus);
@@ -517,6 +529,7 @@ void finish_lines(std::vector<BoundaryLine>& lines, const LineRefiner* refiner, 
       for (size_t j : simplify_indices(pts, tol)) kept.push_back(line.vertices[j]);
       if (kept.size() != line.vertices.size()) {
         line.vertices = std::move(kept);
+        line.bows.clear();  // (the simplified segments' bows are not measured)
         if (refiner != nullptr) simplified[i] = refiner->measure(line.owner_a, line.owner_b, line.vertices);
       }
     }

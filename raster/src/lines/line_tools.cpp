@@ -147,6 +147,20 @@ double CrsScale::offset(Vec2 p, double f, Vec2 g) const {
   return std::abs(f) / n;
 }
 
+Bow CrsScale::bow(Vec2 p, Vec2 q, double f, Vec2 g) const {
+  const Vec2 mid{0.5 * (p.x + q.x), 0.5 * (p.y + q.y)};
+  const Vec2 s = at(mid);
+  const Vec2 gm{g.x / s.x, g.y / s.y};  // per metric unit
+  const double gg = gm.x * gm.x + gm.y * gm.y;
+  const Vec2 d{(q.x - p.x) * s.x, (q.y - p.y) * s.y};
+  Bow b;
+  b.length = std::hypot(d.x, d.y);
+  if (!std::isfinite(f) || !(gg > 0.0) || !std::isfinite(gg) || !(b.length > 0.0)) return b;
+  const Vec2 step{-f * gm.x / gg, -f * gm.y / gg};  // from the middle to the locus, metric units
+  b.left = (step.x * -d.y + step.y * d.x) / b.length;
+  return b;
+}
+
 }  // namespace rv::line_tools
 
 namespace rv {

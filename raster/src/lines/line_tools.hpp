@@ -14,6 +14,7 @@
 
 #include "rv/engine/site_metric.hpp"
 #include "rv/field/parallel.hpp"
+#include "rv/lines/residual.hpp"
 
 namespace rv::line_tools {
 
@@ -154,6 +155,9 @@ struct CrsScale {
   // The length (metric units) of the step that moves f by `f` along its gradient `g` (per CRS
   // unit): |f| / |grad f| in metric units; NaN where g is not known or vanishes.
   double offset(Vec2 p, double f, Vec2 g) const;
+  // The bow (rv/lines/residual.hpp) of segment p-q from the locus function's value `f` and
+  // gradient `g` (per CRS unit) at its middle: one Newton step there, in metric units.
+  Bow bow(Vec2 p, Vec2 q, double f, Vec2 g) const;
 };
 
 // The metric radius of a ball around `mid`, the middle of the short path p0-p1 between two

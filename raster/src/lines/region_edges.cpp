@@ -360,7 +360,7 @@ class EdgeBuilder {
           for (const auto& [from, to] : it->second)
             if (from.y == p.y) p = to;
         }
-      region_follow::follow(out_, index_, g_, D_, margins_, tol_, locus_ != nullptr && *locus_);
+      region_follow::follow(out_, index_, g_, D_, margins_, tol_, locus_ != nullptr && *locus_, b_);
     }
     return std::move(out_);
   }

@@ -13,6 +13,7 @@
 #include <array>
 #include <cmath>
 #include <limits>
+#include <optional>
 #include <vector>
 
 #include "lines/boundary_stages.hpp"
@@ -32,27 +33,10 @@ constexpr double kInf = std::numeric_limits<double>::infinity();
 // them (it was left unresolved, or joins where the cells show less than the geometry).
 constexpr double kFarBow = 16.0;
 
-// The bow of segment p-q given the locus function's value `f` and gradient `g` (per CRS unit) at
-// its middle.
-Bow bow_of(const CrsScale& scale, Vec2 p, Vec2 q, double f, Vec2 g) {
-  const Vec2 mid = lerp(p, q, 0.5);
-  const Vec2 s = scale.at(mid);
-  const Vec2 gm{g.x / s.x, g.y / s.y};  // per metric unit
-  const double gg = gm.x * gm.x + gm.y * gm.y;
-  const Vec2 d{(q.x - p.x) * s.x, (q.y - p.y) * s.y};
-  const double length = std::hypot(d.x, d.y);
-  Bow b;
-  b.length = length;
-  if (!std::isfinite(f) || !(gg > 0.0) || !std::isfinite(gg) || !(length > 0.0)) return b;
-  const Vec2 step{-f * gm.x / gg, -f * gm.y / gg};  // from the middle to the locus, metric units
-  b.left = (step.x * -d.y + step.y * d.x) / length;
-  return b;
-}
-
 // Every segment's bow, over blocks of segments of all edges (a coast's few long edges would leave
 // threads idle as single tasks).
 void measure_bows(RegionEdges& e, const OwnerIndex& index, const limit_stages::Target& target, const CrsScale& scale,
-                  double tol, bool partial) {
+                  double tol, bool partial, const SegmentBows& known) {
   const SiteMetric& metric = index.metric();
   constexpr size_t kBlock = 512;
   std::vector<std::array<size_t, 3>> blocks;  // edge, first segment, end
@@ -78,6 +62,9 @@ void measure_bows(RegionEdges& e, const OwnerIndex& index, const limit_stages::T
           f = h.distance - target.D;
           metric.distance_and_gradient(mid, h.site, grad);
         }
+      } else if (const std::optional<Bow> b = known.of(pts[i], pts[i + 1])) {
+        e.bows[k][i] = *b;  // measured as the line was refined
+        continue;
       } else {
         // A boundary follows the two owners' locus, or where a reach ends it, that site's arc
         // (BoundaryVertex::arc): the curve nearest the chord's middle is the one it stands for.
@@ -87,7 +74,7 @@ void measure_bows(RegionEdges& e, const OwnerIndex& index, const limit_stages::T
         Bow best;
         double nearest = kFarBow * tol;
         auto consider = [&](double value, Vec2 gradient) {
-          const Bow b = bow_of(scale, pts[i], pts[i + 1], value, gradient);
+          const Bow b = scale.bow(pts[i], pts[i + 1], value, gradient);
           if (std::abs(b.left) <= nearest) {
             nearest = std::abs(b.left);
             best = b;
@@ -106,7 +93,7 @@ void measure_bows(RegionEdges& e, const OwnerIndex& index, const limit_stages::T
         e.bows[k][i] = best;
         continue;
       }
-      Bow b = bow_of(scale, pts[i], pts[i + 1], f, grad);
+      Bow b = scale.bow(pts[i], pts[i + 1], f, grad);
       if (!(std::abs(b.left) <= kFarBow * tol)) b.left = std::numeric_limits<double>::quiet_NaN();
       e.bows[k][i] = b;
     }
@@ -116,7 +103,7 @@ void measure_bows(RegionEdges& e, const OwnerIndex& index, const limit_stages::T
 }  // namespace
 
 void follow(RegionEdges& e, const OwnerIndex& index, const GridSpec& g, double D, bool margins, double tol,
-            bool partial) {
+            bool partial, const BoundaryResult& lines) {
   const SiteMetric& metric = index.metric();
   const CrsScale scale(metric, centre(g, g.width / 2, g.height / 2), g.res);
   const double per_crs = std::max(scale.at0.x, scale.at0.y);
@@ -178,7 +165,15 @@ void follow(RegionEdges& e, const OwnerIndex& index, const GridSpec& g, double D
     e.bows[static_cast<size_t>(k)].resize(pts.size() - 1);
   });
   for (const LineResidual& r : residual) e.residual.merge(r);
-  measure_bows(e, index, target, scale, tol, partial);
+  SegmentBows known;
+  if (!partial)
+    for (const BoundaryLine& line : lines.lines) {
+      std::vector<Vec2> pts;
+      pts.reserve(line.vertices.size());
+      for (const BoundaryVertex& v : line.vertices) pts.push_back(v.p);
+      known.add(pts, line.bows);
+    }
+  measure_bows(e, index, target, scale, tol, partial, known);
 }
 
 }  // namespace rv::region_follow

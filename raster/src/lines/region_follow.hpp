@@ -18,7 +18,9 @@ namespace rv::region_follow {
 //     line); with `partial` (a partial-effect locus) those stay as they are;
 // then every segment's bow (RegionEdges::bows) measured, and RegionEdges::residual filled.
 // `D`: the max distance (metric units); `margins`: the level is the owned area's edge (reaches).
+// `lines`: the boundary lines the edges were made from, whose segments' bows were measured as
+// they were refined (BoundaryLine::bows): taken, not measured again.
 void follow(RegionEdges& edges, const OwnerIndex& index, const GridSpec& g, double D, bool margins, double tol,
-            bool partial);
+            bool partial, const BoundaryResult& lines);
 
 }  // namespace rv::region_follow

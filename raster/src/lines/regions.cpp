@@ -119,12 +119,12 @@ double ring_area(std::span<const Vec2> ring, const MetricSpec& metric, const Geo
 }
 
 SegmentBows::SegmentBows(const RegionEdges& e) {
-  for (size_t k = 0; k < e.edges.size() && k < e.bows.size(); ++k) {
-    const std::vector<Vec2>& pts = e.edges[k];
-    for (size_t i = 0; i + 1 < pts.size() && i < e.bows[k].size(); ++i)
-      if (std::isfinite(e.bows[k][i].left))
-        bows_.emplace(Key{pts[i].x, pts[i].y, pts[i + 1].x, pts[i + 1].y}, e.bows[k][i]);
-  }
+  for (size_t k = 0; k < e.edges.size() && k < e.bows.size(); ++k) add(e.edges[k], e.bows[k]);
+}
+
+void SegmentBows::add(std::span<const Vec2> pts, std::span<const Bow> bows) {
+  for (size_t i = 0; i + 1 < pts.size() && i < bows.size(); ++i)
+    if (std::isfinite(bows[i].left)) bows_.emplace(Key{pts[i].x, pts[i].y, pts[i + 1].x, pts[i + 1].y}, bows[i]);
 }
 
 size_t SegmentBows::Hash::operator()(const Key& k) const {

@@ -60,6 +60,9 @@ struct BoundaryLine {
   int32_t owner_b = 0;
   bool closed = false;  // a ring (first vertex repeated at the end)
   std::vector<BoundaryVertex> vertices;
+  // Per segment, its bow from the locus as measured (rv/lines/residual.hpp); empty where the
+  // line was simplified or not measured.
+  std::vector<Bow> bows;
 };
 
 struct Tripoint {

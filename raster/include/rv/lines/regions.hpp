@@ -59,15 +59,6 @@ struct EdgeLocus {
   enum Kind : uint8_t { none, pair, level } kind = none;
   int32_t a = 0, b = 0;
 };
-// Per segment of an edge, how the locus between its ends bows away from it: the signed distance
-// from the segment's middle to the locus point across it, positive to the left of the segment's
-// direction (metric units), and its length (metric units); NaN where the edge follows nothing.
-// The area between a segment and its locus is 2/3 of the two multiplied (a parabola's segment;
-// a circle's to the bow's square over the radius): ring_area adds it.
-struct Bow {
-  double left = std::numeric_limits<double>::quiet_NaN();
-  double length = 0.0;
-};
 struct RegionEdges {
   std::vector<std::vector<Vec2>> edges;
   std::vector<EdgeLocus> loci;         // per edge
@@ -102,6 +93,8 @@ class SegmentBows {
  public:
   SegmentBows() = default;
   explicit SegmentBows(const RegionEdges& edges);
+  // The bows of a line's segments (bows[i]: points[i] -> points[i + 1]; NaN ones left out).
+  void add(std::span<const Vec2> points, std::span<const Bow> bows);
   // The bow of segment p -> q (left of that direction), or null.
   std::optional<Bow> of(Vec2 p, Vec2 q) const;
   bool empty() const { return bows_.empty(); }

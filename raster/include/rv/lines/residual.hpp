@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cstdint>
+#include <limits>
 
 namespace rv {
 
@@ -58,6 +59,16 @@ struct LineResidual {
     max_vertex_on_land = std::max(max_vertex_on_land, o.max_vertex_on_land);
     unresolved += o.unresolved;
   }
+};
+
+// Per segment of a line, how the locus between its ends bows away from it: the signed distance
+// from the segment's middle to the locus point across it, positive to the left of the segment's
+// direction (metric units), and its length (metric units); NaN where not measured. The area
+// between a segment and its locus is 2/3 of the two multiplied (a parabola's segment; a circle's
+// to the bow's square over the radius): ring_area (rv/lines/regions.hpp) adds it.
+struct Bow {
+  double left = std::numeric_limits<double>::quiet_NaN();
+  double length = 0.0;
 };
 
 }  // namespace rv
