@@ -198,6 +198,8 @@ class LineRefiner {
              bool& turning) const;
   bool turning_point(const End& u, const End& v, int32_t a, int32_t b, double max_off, End& out) const;
   bool across_middle(const End& u, const End& v, int32_t a, int32_t b, double max_off, End& out) const;
+  // The ends' two sites' locus point from the chord's middle (Newton's method), within max_off.
+  bool onto_locus(const End& u, const End& v, double max_off, End& out) const;
   bool checked(Vec2 p, int32_t a, int32_t b, const End& u, const End& v, double max_off, End& out) const;
   // The chord's perpendicular through its middle, max_off either side; whether p lies between
   // the ends along the chord and within max_off of it.

@@ -223,6 +223,12 @@ bool LineRefiner::split(const End& u, const End& v, bool same, bool arcs, double
   // within the chord), the chord stays: a root across its middle could be another stretch's.
   if (arcs && same) return across_arc(u, v, a, b, max_off, mid);
   if (arcs) return turning = arc_junction(u, v, a, b, max_off, mid);
+  // Both ends held by the same two sites (the cells and the checks at the ends found no other
+  // between them): the locus point is theirs, by Newton's method along the two costs' gradient
+  // from the chord's middle, without a search; elsewhere the owners' nearest sites across it.
+  if (same && u.v.site_a == v.v.site_a && u.v.site_b == v.v.site_b && u.alt_a == kNoSite && u.alt_b == kNoSite &&
+      v.alt_a == kNoSite && v.alt_b == kNoSite && onto_locus(u, v, max_off, mid))
+    return true;
   if (same) return across_middle(u, v, a, b, max_off, mid);
   if ((turning = turning_point(u, v, a, b, max_off, mid))) return true;
   // No turning point of three sites. Where the sites that change are two edges of one coast
@@ -329,6 +335,32 @@ bool LineRefiner::turning_point(const End& u, const End& v, int32_t a, int32_t b
     Vec2 p;
     if (equal_costs_point(index_, sys.s1, sys.s2, sys.t, mid, chord, ftol_, p) && checked(p, a, b, u, v, max_off, out))
       return true;
+  }
+  return false;
+}
+
+bool LineRefiner::onto_locus(const End& u, const End& v, double max_off, End& out) const {
+  const int32_t sa = u.v.site_a, sb = u.v.site_b;
+  const Vec2 start = lerp(u.v.p, v.v.p, 0.5);
+  Vec2 p = start;
+  for (int iter = 0; iter < kNewtonIterations; ++iter) {
+    Vec2 ga, gb;
+    const double ca = cost(p, sa, ga), cb = cost(p, sb, gb);
+    const double f = ca - cb;
+    const Vec2 g{ga.x - gb.x, ga.y - gb.y};
+    if (!std::isfinite(f)) return false;
+    if (std::abs(f) <= ftol_) {
+      if (!within_chord(p, u, v, max_off)) return false;
+      const double da = index_.metric().distance(p, sa), db = index_.metric().distance(p, sb);
+      out = End{};
+      out.v = BoundaryVertex{p, sa, sb, 0.5 * (da + db), std::abs(f), da, db};
+      out.normal = g;
+      return true;
+    }
+    const double gg = g.x * g.x + g.y * g.y;
+    if (!(gg > 0.0) || !std::isfinite(gg)) return false;
+    p = Vec2{p.x - f * g.x / gg, p.y - f * g.y / gg};
+    if (!(std::hypot(p.x - start.x, p.y - start.y) <= max_off)) return false;
   }
   return false;
 }
