@@ -252,8 +252,8 @@ bool LineRefiner::split(const End& u, const End& v, bool same, bool arcs, double
   return across_middle(u, v, a, b, max_off, mid);
 }
 
-void LineRefiner::between(const End& u, const End& v, int depth, int32_t a, int32_t b, std::vector<End>& out,
-                          Added& n, std::vector<Bow>* bows) const {
+void LineRefiner::between(const End& u, const End& v, int depth, int32_t a, int32_t b, std::vector<End>& out, Added& n,
+                          std::vector<Bow>* bows) const {
   const double chord = std::hypot(v.v.p.x - u.v.p.x, v.v.p.y - u.v.p.y);
   const bool arcs = u.v.arc != 0 || v.v.arc != 0;
   LineResidual& r = arcs ? n.arcs : n.locus;
