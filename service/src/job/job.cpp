@@ -10,6 +10,7 @@
 #include <fstream>
 #include <memory>
 #include <optional>
+#include <tuple>
 
 #include "common/atomic_file.hpp"
 #include "job/edit_base.hpp"
@@ -124,43 +125,51 @@ int64_t memory_budget(const JobLimits& limits) {
 
 }  // namespace
 
-LimitDistance parse_limit_distance(const std::string& text) {
-  LimitDistance out;
-  out.text = text;
+namespace {
+
+// A number and the unit written after it (spaces around it dropped; "" without one). `ok`: the
+// text starts with a finite number.
+std::pair<double, std::string> number_and_unit(const std::string& text, bool& ok) {
   const char* begin = text.c_str();
   char* end = nullptr;
-  out.value = std::strtod(begin, &end);
+  const double value = std::strtod(begin, &end);
   std::string unit(end == begin ? text : std::string(end));
   unit.erase(0, unit.find_first_not_of(" \t"));
   unit.erase(unit.find_last_not_of(" \t") + 1);
-  if (end == begin || !std::isfinite(out.value) || out.value <= 0.0)
+  ok = end != begin && std::isfinite(value);
+  return {value, unit};
+}
+
+}  // namespace
+
+LimitDistance parse_limit_distance(const std::string& text) {
+  LimitDistance out;
+  out.text = text;
+  bool ok = false;
+  std::tie(out.value, out.unit) = number_and_unit(text, ok);
+  if (!ok || out.value <= 0.0)
     throw Error(ErrorKind::invalid_argument, "limit distance '" + text + "' is not a positive number");
-  if (!unit.empty()) parse_distance_unit(unit);  // throws for an unknown unit
-  out.unit = unit;
+  if (!out.unit.empty()) parse_distance_unit(out.unit);  // throws for an unknown unit
   return out;
 }
 
 Length parse_length(const std::string& text) {
   Length out;
   out.text = text;
-  const char* begin = text.c_str();
-  char* end = nullptr;
-  out.value = std::strtod(begin, &end);
-  std::string unit(end == begin ? text : std::string(end));
-  unit.erase(0, unit.find_first_not_of(" \t"));
-  unit.erase(unit.find_last_not_of(" \t") + 1);
-  if (end == begin || !std::isfinite(out.value) || out.value < 0.0)
+  bool ok = false;
+  std::tie(out.value, out.unit) = number_and_unit(text, ok);
+  if (!ok || out.value < 0.0)
     throw Error(ErrorKind::invalid_argument, "length '" + text + "' is not a non-negative number");
   static const std::pair<const char*, double> kUnits[] = {
       {"mm", 0.001}, {"cm", 0.01}, {"m", 1.0}, {"km", 1000.0}, {"nmi", 1852.0}};
-  if (!unit.empty()) {
-    const auto* u = std::find_if(std::begin(kUnits), std::end(kUnits), [&](const auto& k) { return unit == k.first; });
+  if (!out.unit.empty()) {
+    const auto* u =
+        std::find_if(std::begin(kUnits), std::end(kUnits), [&](const auto& k) { return out.unit == k.first; });
     if (u == std::end(kUnits))
       throw Error(ErrorKind::invalid_argument,
-                  "length '" + text + "': unknown unit '" + unit + "' (mm, cm, m, km or nmi)");
+                  "length '" + text + "': unknown unit '" + out.unit + "' (mm, cm, m, km or nmi)");
     out.metres_per_unit = u->second;
   }
-  out.unit = unit;
   return out;
 }
 

@@ -54,20 +54,31 @@ double offset(const std::function<double(Vec2)>& f, Vec2 p, double hx, double hy
   return std::abs(f(p)) / std::hypot(gx, gy);
 }
 
-struct Geo {
+// Seeds on a grid with their exact field, metric and index: geodesic (longitude/latitude, WGS84)
+// or planar.
+struct Scene {
   SeedSet seeds;
   GridSpec grid;
   NearestField field;
-  std::unique_ptr<GeodesicSiteMetric> metric;
+  std::unique_ptr<SiteMetric> metric;
   std::unique_ptr<OwnerIndex> index;
-  Geo(SeedSet s, GridSpec g) : seeds(std::move(s)), grid(g) {
+  Scene(SeedSet s, GridSpec g, bool geodesic) : seeds(std::move(s)), grid(g) {
     ComputeOptions o;
     o.threads = 2;
-    o.metric = MetricSpec{MetricSpec::geodesic};
+    if (geodesic) o.metric = MetricSpec{MetricSpec::geodesic};
     field = compute(seeds, grid, o);
-    metric = std::make_unique<GeodesicSiteMetric>(seeds, o.metric);
+    if (geodesic)
+      metric = std::make_unique<GeodesicSiteMetric>(seeds, o.metric);
+    else
+      metric = std::make_unique<PlanarSiteMetric>(seeds, Vec2{grid.xmin, grid.ymax});
     index = std::make_unique<OwnerIndex>(*metric);
   }
+};
+struct Geo : Scene {
+  Geo(SeedSet s, GridSpec g) : Scene(std::move(s), g, true) {}
+};
+struct Planar : Scene {
+  Planar(SeedSet s, GridSpec g) : Scene(std::move(s), g, false) {}
 };
 
 // A point island at 50 N and a straight coast along the meridian 1 degree west: the analyst's
@@ -165,21 +176,6 @@ TEST(LineTolerance, ACoarserToleranceGivesFewerVertices) {
     }
   }
 }
-
-struct Planar {
-  SeedSet seeds;
-  GridSpec grid;
-  NearestField field;
-  std::unique_ptr<PlanarSiteMetric> metric;
-  std::unique_ptr<OwnerIndex> index;
-  Planar(SeedSet s, GridSpec g) : seeds(std::move(s)), grid(g) {
-    ComputeOptions o;
-    o.threads = 2;
-    field = compute(seeds, grid, o);
-    metric = std::make_unique<PlanarSiteMetric>(seeds, Vec2{grid.xmin, grid.ymax});
-    index = std::make_unique<OwnerIndex>(*metric);
-  }
-};
 
 double to_segment(Vec2 p, Vec2 a, Vec2 b) {
   const double dx = b.x - a.x, dy = b.y - a.y;
