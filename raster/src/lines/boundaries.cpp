@@ -933,7 +933,7 @@ std::vector<BoundaryLine> lone_crossings(const CrossingSet& x, const Links& link
   for (size_t i = 0; i < linked.size(); ++i)
     if (!linked[i]) {
       const Crossing& c = x.crossings[i];
-      out.push_back(BoundaryLine{c.owner_lo, c.owner_hi, false, {c.v}});
+      out.push_back(BoundaryLine{c.owner_lo, c.owner_hi, false, {c.v}, {}});
     }
   return out;
 }
@@ -982,7 +982,7 @@ void join_close_tripoints(const std::vector<Tripoint>& tripoints, double cell, s
       return BoundaryVertex{x.p, x.sites[i], x.sites[k], x.distance, x.residual, x.distances[i], x.distances[k]};
     };
     lines.push_back(BoundaryLine{
-        a, b, false, {vertex(t, missing[m].i, missing[m].k), vertex(u, missing[best].i, missing[best].k)}});
+        a, b, false, {vertex(t, missing[m].i, missing[m].k), vertex(u, missing[best].i, missing[best].k)}, {}});
   }
 }
 

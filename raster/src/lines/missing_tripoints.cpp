@@ -134,8 +134,11 @@ void close_missing_tripoints(const BoundaryGrid& b, double max_distance, std::ve
           LooseEnd& le = ends[n];
           le.used = true;
           if (le.gap) {
-            added.push_back(BoundaryLine{
-                le.lo, le.hi, false, {vertex_of(tripoints[le.tripoint], le.lo, le.hi), vertex_of(t, le.lo, le.hi)}});
+            added.push_back(BoundaryLine{le.lo,
+                                         le.hi,
+                                         false,
+                                         {vertex_of(tripoints[le.tripoint], le.lo, le.hi), vertex_of(t, le.lo, le.hi)},
+                                         {}});
           } else {
             std::vector<BoundaryVertex>& v = lines[le.line].vertices;
             const BoundaryVertex tv = vertex_of(t, le.lo, le.hi);

@@ -168,7 +168,9 @@ TEST(LineTolerance, ACoarserToleranceGivesFewerVertices) {
     const LimitResult r = extract_limits(k.field, *k.index, D, o);
     EXPECT_LT(r.vertices, last) << tol;
     last = r.vertices;
-    if (tol > 0.0) EXPECT_LE(r.residual.max_midpoint, tol) << tol;
+    if (tol > 0.0) {
+      EXPECT_LE(r.residual.max_midpoint, tol) << tol;
+    }
     if (tol == 0.0) {
       EXPECT_EQ(r.residual.added, 0);
       EXPECT_GT(r.residual.max_midpoint, 5.0);  // the 7.9 m between cell-edge vertices
