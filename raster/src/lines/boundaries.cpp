@@ -23,7 +23,6 @@
 #include "rv/field/parallel.hpp"
 #include "rv/lines/boundaries.hpp"
 #include "rv/lines/regions.hpp"
-#include "rv/lines/simplify.hpp"
 
 namespace rv {
 namespace boundary_stages {
@@ -853,14 +852,13 @@ std::vector<BoundaryLine> chain_lines(const CrossingSet& x, const TripointSet& t
       if (n < 0) n = ncross + (-1 - n);
   const Chains chains = chain_links(ncross + ntri, numbered, terminal);
   std::vector<BoundaryLine> lines;
-  std::vector<std::vector<BoundaryVertex>> vertices(chains.node_lists.size());
   for (size_t k = 0; k < chains.node_lists.size(); ++k) {
     const int64_t pair = links.pair[static_cast<size_t>(chains.first_link[k])];
     BoundaryLine line;
     line.owner_a = static_cast<int32_t>(pair >> 32);
     line.owner_b = static_cast<int32_t>(pair & 0xffffffff);
     line.closed = chains.closed[k];
-    std::vector<BoundaryVertex> all;
+    std::vector<BoundaryVertex>& all = line.vertices;
     for (int32_t node : chains.node_lists[k]) {
       if (node < ncross) {
         all.push_back(x.crossings[static_cast<size_t>(node)].v);
@@ -880,34 +878,9 @@ std::vector<BoundaryLine> chain_lines(const CrossingSet& x, const TripointSet& t
       }
       all.push_back(v);
     }
-    vertices[k] = std::move(all);
     lines.push_back(std::move(line));
   }
-  // Each line refined and simplified on its own; the counts summed in line order.
-  std::vector<LineRefiner::Added> added(lines.size());
-  std::vector<int64_t> before(lines.size());
-  detail::parallel_for(threads, static_cast<int64_t>(lines.size()), [&](int64_t k, int) {
-    const auto i = static_cast<size_t>(k);
-    BoundaryLine& line = lines[i];
-    std::vector<BoundaryVertex>& all = vertices[i];
-    if (refiner != nullptr) added[i] = refiner->refine(line.owner_a, line.owner_b, all);
-    before[i] = static_cast<int64_t>(all.size());
-    std::vector<Vec2> pts;
-    pts.reserve(all.size());
-    for (const auto& v : all) pts.push_back(v.p);
-    for (size_t j : simplify_indices(pts, tol)) line.vertices.push_back(all[j]);
-    line.vertices.shrink_to_fit();
-    all.clear();
-  });
-  for (size_t i = 0; i < lines.size(); ++i) {
-    stats.turning_points += added[i].turning_points;
-    stats.arc_points += added[i].arc_points;
-    stats.vertices_before_simplify += before[i];
-  }
-  for (const BoundaryLine& line : lines) {
-    for (const auto& v : line.vertices) stats.max_residual = std::max(stats.max_residual, v.residual);
-    stats.vertices += static_cast<int64_t>(line.vertices.size());
-  }
+  finish_lines(lines, refiner, tol, stats, threads);
   // Deterministic order: by owner pair, then by first vertex.
   std::stable_sort(lines.begin(), lines.end(), [](const BoundaryLine& a, const BoundaryLine& b) {
     if (a.owner_a != b.owner_a) return a.owner_a < b.owner_a;

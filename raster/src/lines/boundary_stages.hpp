@@ -157,7 +157,7 @@ bool equal_costs_point(const OwnerIndex& index, int32_t s1, int32_t s2, int32_t 
 // not added. Recursion depth is bounded. Segments on land (both ends at distance 0 from an
 // owner: shared land borders, overlapping land, where every point is on the locus) are left as
 // they are and counted apart.
-// Thread safety: refine() and measure() are const and may run on many lines at once.
+// Thread safety: refine_segments() and measure() are const and may run on many lines at once.
 class LineRefiner {
  public:
   // `tol`: the line tolerance, metric units (0: measure only, add nothing); `ftol`: metric units;
@@ -169,11 +169,10 @@ class LineRefiner {
     int64_t turning_points = 0, arc_points = 0;
     LineResidual locus, arcs;  // the segments of the locus, and of reaches' arcs
   };
-  // Refines one line's vertices (in order; a closed line's last vertex repeats its first) and
-  // measures every segment of the result.
-  Added refine(int32_t owner_a, int32_t owner_b, std::vector<BoundaryVertex>& vertices) const;
-  // The same for segments [i0, i1) of a line (segment i joins vertices i and i + 1): the points
-  // added within them and each segment's end after it, appended to `out` (vertex i0 is not).
+  // Refines segments [i0, i1) of a line's vertices (in order; a closed line's last vertex repeats
+  // its first; segment i joins vertices i and i + 1) and measures every segment of the result:
+  // the points added within them and each segment's end after it, appended to `out` (vertex i0
+  // is not).
   // Segments are refined independently of each other: any split of a line gives the same line.
   // `bows`: each final segment's bow (rv/lines/residual.hpp) appended in order, when given.
   void refine_segments(int32_t owner_a, int32_t owner_b, const std::vector<BoundaryVertex>& vertices, size_t i0,
@@ -235,13 +234,13 @@ inline bool land_segment(const BoundaryVertex& u, const BoundaryVertex& v) { ret
 // join_close_tripoints, close_missing_tripoints and end_at_owned_edge): each refined to the
 // refiner's tolerance (when given) and measured, then simplified with Douglas-Peucker at `tol`
 // CRS units; the statistics (vertices, residuals, points added) summed in line order. On
-// `threads` threads, one line at a time each; the result independent of them.
+// `threads` threads, over blocks of segments of every line; the result independent of them.
 void finish_lines(std::vector<BoundaryLine>& lines, const LineRefiner* refiner, double tol, BoundaryStats& stats,
                   int threads);
 
-// The links chained into lines per owner pair, each refined (`refiner`, when given; on
-// `threads` threads, one line at a time each) and simplified with Douglas-Peucker at `tol` CRS
-// units, in a deterministic order.
+// The links chained into lines per owner pair, finished as finish_lines does (refined with
+// `refiner` when given, simplified with Douglas-Peucker at `tol` CRS units), in a deterministic
+// order.
 std::vector<BoundaryLine> chain_lines(const CrossingSet& x, const TripointSet& t, const Links& links, double tol,
                                       BoundaryStats& stats, const LineRefiner* refiner = nullptr, int threads = 1);
 // The crossings no link reaches, as one-vertex lines in crossing order (BoundaryResult::

@@ -41,7 +41,6 @@ constexpr double kSplitAt = 0.85;
 // The pieces are cut for a sagitta of this share of the tolerance (below kSplitAt: a piece is
 // then rarely cut again).
 constexpr double kPieceAt = 0.75;
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
 }  // namespace
 

@@ -125,15 +125,6 @@ Vec2 LineRefiner::normal_towards(const End& e, const End& other) const {
   return Vec2{ga.x - gb.x, ga.y - gb.y};
 }
 
-LineRefiner::Added LineRefiner::refine(int32_t a, int32_t b, std::vector<BoundaryVertex>& vertices) const {
-  Added n;
-  if (vertices.size() < 2) return n;
-  std::vector<BoundaryVertex> out{vertices.front()};
-  refine_segments(a, b, vertices, 0, vertices.size() - 1, out, n);
-  vertices = std::move(out);
-  return n;
-}
-
 void LineRefiner::refine_segments(int32_t a, int32_t b, const std::vector<BoundaryVertex>& vertices, size_t i0,
                                   size_t i1, std::vector<BoundaryVertex>& result, Added& n,
                                   std::vector<Bow>* bows) const {
