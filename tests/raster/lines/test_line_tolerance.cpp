@@ -179,6 +179,35 @@ TEST(LineTolerance, ACoarserToleranceGivesFewerVertices) {
   }
 }
 
+// Simplified, a limit keeps fewer of its vertices, every one still on the level; the report's
+// simplified_midpoint measures what the thinning gave up, and every sampled point stays within the
+// line tolerance plus the simplification's (a tenth of a cell here).
+TEST(LineTolerance, SimplifiedLimitsStateTheToleranceThatHolds) {
+  const double res = 0.01;
+  const Geo k(island_and_coast(), geo_grid(res));
+  const std::vector<double> D{22224.0};
+  LimitOptions o;
+  o.per_owner = true;
+  const LimitResult full = extract_limits(k.field, *k.index, D, o);
+  o.simplify_cells = 0.1;
+  LimitResult thin = extract_limits(k.field, *k.index, D, o);
+  EXPECT_EQ(thin.vertices_before_simplify, full.vertices);
+  EXPECT_LT(thin.vertices, full.vertices / 2);
+  EXPECT_EQ(full.simplified_midpoint, 0.0);
+  EXPECT_GT(thin.simplified_midpoint, kTol);
+  std::erase_if(thin.lines, [](const LimitLine& l) { return l.owner != 1; });
+  ASSERT_FALSE(thin.lines.empty());
+  // A tenth of a cell in metres at 50 N (the degree's length along the meridian is the larger).
+  const double bound = kTol + 0.1 * res * geodesic(Vec2{0.0, 50.0}, Vec2{0.0, 51.0});
+  double worst = 0.0;
+  for (const LimitLine& l : thin.lines)
+    for (const LimitVertex& v : l.vertices) EXPECT_LE(std::abs(geodesic(Vec2{0.0, 50.0}, v.p) - D[0]), 1e-6);
+  each_sample(thin.lines, [&](Vec2 p) { worst = std::max(worst, std::abs(geodesic(Vec2{0.0, 50.0}, p) - D[0])); });
+  EXPECT_GT(worst, kTol);
+  EXPECT_LE(worst, bound);
+  EXPECT_LE(thin.simplified_midpoint, bound);
+}
+
 double to_segment(Vec2 p, Vec2 a, Vec2 b) {
   const double dx = b.x - a.x, dy = b.y - a.y;
   const double t = std::clamp(((p.x - a.x) * dx + (p.y - a.y) * dy) / (dx * dx + dy * dy), 0.0, 1.0);
