@@ -10,7 +10,7 @@ The same engine, options and messages as `rvoronoi compute` (the CLI) and the da
 options are the CLI's flags with '_' for '-' (`rvoronoi.keywords()` lists them with their help),
 checked by the same option table. Errors are `rvoronoi.Error` subclasses named after the kinds of
 the project's error table (InvalidArgument, InvalidInput, NotFound, Conflict, TooLarge,
-Unsupported, Cancelled, IOFailure, Busy, InternalError), each also a subclass of the built-in
+Unsupported, Cancelled, IOFailure, Busy, OverQuota, InternalError), each also a subclass of the built-in
 exception a caller would expect (ValueError, LookupError, OSError, ...).
 """
 import json

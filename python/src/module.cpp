@@ -269,6 +269,7 @@ PYBIND11_MODULE(_rvoronoi, m) {
         return builtins.attr("RuntimeError");
       case rv::ErrorKind::cancelled:
       case rv::ErrorKind::busy:
+      case rv::ErrorKind::over_quota:
         break;
     }
     return py::none();

@@ -22,6 +22,8 @@ std::string_view to_string(ErrorKind kind) {
       return "io";
     case ErrorKind::busy:
       return "busy";
+    case ErrorKind::over_quota:
+      return "over_quota";
     case ErrorKind::internal:
       return "internal";
   }

@@ -201,6 +201,10 @@ struct JobHooks {
   // (JobPlan::memory_bytes, before the field's buffers), from the job's thread. May block until
   // the memory is free; whatever it throws stops the job (a daemon's memory account).
   std::function<void(int64_t bytes)> reserve_memory;
+  // The grid's cell count, once planned (before reserve_memory's plan call and before any
+  // grid-sized allocation), from the job's thread. Whatever it throws stops the job (a daemon
+  // charging a principal's hourly allowance).
+  std::function<void(int64_t cells)> planned;
 };
 
 // The rasters of OutputRequest::in_memory, over the job's window (JobSpec::window, else the

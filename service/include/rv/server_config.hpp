@@ -15,13 +15,15 @@
 //     "limits": { "max_cells": 17179869184, "max_memory_bytes": 0, "total_memory_bytes": 0,
 //                 "validate_max_cells": 4000000, "max_features": 10000000,
 //                 "max_vertices": 100000000, "max_input_bytes": 2147483648,
-//                 "preview_max_vertices": 2000000 },
-//     "auth": { "tokens": [], "token_file": "" }
+//                 "preview_max_vertices": 2000000,
+//                 "jobs_per_principal": 0, "cells_per_principal_per_hour": 0 },
+//     "auth": { "principals": [], "token_file": "", "tokens": [], "jwt": {...} },
 //   }
-// Authentication: with no token configured (the default) every route is open. With at least one
-// (auth.tokens, and/or auth.token_file: one token per line, '#' comments and blank lines
-// ignored, read once at startup), every route except /, /conformance, /api and /health needs
-// "Authorization: Bearer <token>" naming one of them.
+// Authentication (AuthConfig below): with no principal configured (the default) every route is
+// open and every job belongs to the principal "anonymous". With principals (hashed tokens, the
+// deprecated plaintext tokens, or an identity provider's JWTs), every route except /,
+// /conformance, /api and /health needs "Authorization: Bearer <token>", and every job belongs
+// to the principal that submitted it: only it and the admins see it.
 // Memory: one account for everything the daemon runs at once (limits.total_memory_bytes, default
 // 80 % of physical memory): each job and each description of seed files reserves its estimate
 // in it before allocating and returns it when done; a job waits there for memory, a description
@@ -32,8 +34,10 @@
 // Units: bytes, seconds, cells. Thread safety: plain data, immutable after parsing.
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include <nlohmann/json.hpp>
@@ -65,12 +69,55 @@ struct JobsConfig {
   double shutdown_grace_s = 20.0;
 };
 
+// Who may use the server, and with which rights. A principal's name owns its jobs; "anonymous"
+// is reserved (the owner of every job on a server without authentication and of jobs stored
+// before principals existed).
+enum class Role { user, admin };
+
+struct PrincipalConfig {
+  std::string name;  // 1..128 printable characters, not "anonymous"
+  Role role = Role::user;
+  std::array<unsigned char, 32> token_sha256{};  // SHA-256 of the bearer token's bytes
+};
+
+// Bearer JWTs of an identity provider (auth.jwt). Keys: a JWKS from `jwks_file` (read again when
+// it changes) or `jwks_url` (https only; fetched every `jwks_refresh_s`, and again, at most every
+// `jwks_min_interval_s`, when a token names a key id the set lacks). Claims checked: the signature
+// (RS256 or ES256, `algorithms`), "iss" equal to `issuer`, "aud" naming one of `audiences`,
+// "exp" and "nbf" with `clock_skew_s` of slack, "sub" present (the principal's name). The role is
+// admin when the claim at `role_claim` (a dotted path, e.g. "realm_access.roles"; a string, an
+// array of strings or a space-separated list) holds `admin_value`.
+struct JwtConfig {
+  std::string issuer;
+  std::vector<std::string> audiences;
+  std::string jwks_file;
+  std::string jwks_url;
+  std::string jwks_ca_file;  // PEM certificates trusted for jwks_url besides the system's; "" = none
+  double jwks_refresh_s = 300.0;
+  double jwks_min_interval_s = 10.0;
+  double clock_skew_s = 60.0;
+  std::vector<std::string> algorithms{"RS256", "ES256"};
+  std::string role_claim;   // "" = every principal of the provider is a user
+  std::string admin_value;  // with role_claim
+  bool enabled() const { return !jwks_file.empty() || !jwks_url.empty(); }
+};
+
 struct AuthConfig {
-  // Accepted bearer tokens, file tokens included (the file is read by parse_server_config).
-  // Empty = no authentication. Each is 16..4096 printable ASCII characters without spaces.
-  std::vector<std::string> tokens;
-  std::string token_file;  // as configured, for messages; "" = none
-  bool enabled() const { return !tokens.empty(); }
+  // Every principal with a token: auth.principals, auth.token_file's (read by
+  // parse_server_config), and one per plaintext token of the deprecated auth.tokens (a user named
+  // "token-" and the first 8 hex digits of its hash). Only hashes are kept.
+  std::vector<PrincipalConfig> principals;
+  std::string token_file;     // as configured, for messages; "" = none
+  int deprecated_tokens = 0;  // how many came from plaintext tokens (auth.tokens, a plain token_file)
+  JwtConfig jwt;
+  bool enabled() const { return !principals.empty() || jwt.enabled(); }
+};
+
+// What one principal may use (limits.jobs_per_principal, limits.cells_per_principal_per_hour);
+// 0 = no limit. Over either a submission is answered 429 with Retry-After.
+struct PrincipalLimits {
+  int jobs = 0;                // jobs accepted and not yet finished (waiting or running)
+  int64_t cells_per_hour = 0;  // grid cells of the jobs submitted within the last hour
 };
 
 struct ServerConfig {
@@ -90,6 +137,7 @@ struct ServerConfig {
   // (limits.preview_max_vertices); larger ones are described without them.
   int64_t preview_max_vertices = 2'000'000;
   AuthConfig auth;
+  PrincipalLimits principal_limits;
 
   // The bytes of the memory account: total_memory_bytes, else 80 % of physical memory.
   int64_t memory_budget() const;
@@ -103,6 +151,13 @@ void parse_listen(const std::string& listen, ServerConfig& config);
 // fault: invalid_argument, or not_found when the token file cannot be read. Messages never
 // contain a token.
 ServerConfig parse_server_config(const nlohmann::json& document);
+
+// The "auth" object of a configuration document into `auth` (auth_config.cpp). Throws as above.
+void parse_auth_config(const nlohmann::json& object, AuthConfig& auth);
+
+// The lower-case hex SHA-256 of `token`'s bytes: what auth.principals[].token_sha256 holds
+// (`printf %s "$TOKEN" | sha256sum`).
+std::string token_sha256_hex(std::string_view token);
 
 // Reads and parses a configuration file. Throws rv::Error(not_found / invalid_argument).
 ServerConfig load_server_config(const std::string& path);

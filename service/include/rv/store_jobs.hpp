@@ -1,6 +1,8 @@
 // The persistent job store: jobs, their parameters, status and results, in one SQLite database
 // (WAL mode) under the data directory. Survives restarts and SIGKILL: every state change is a
-// committed transaction before it is visible over HTTP.
+// committed transaction before it is visible over HTTP. A database of an earlier build is
+// migrated in place when opened (columns added with the defaults its jobs had: no recorded
+// formats, the principal "anonymous", no cells).
 //
 // Thread safety: all member functions may be called from any thread (one connection, guarded
 // by a mutex; the calls are short).
@@ -41,6 +43,19 @@ struct JobRecord {
   // stored before formats were recorded), a missing entry meaning the output's default.
   std::vector<std::string> formats;
   nlohmann::json report;  // the job report, once successful
+  // Who submitted it (auth/principal.hpp): only it and the admins see it. Jobs of a server
+  // without authentication, and jobs stored before principals existed, are "anonymous"'s.
+  std::string principal = "anonymous";
+  // The grid's cells, once known (at submission when the extent is given, else once planned);
+  // what the job counts against its principal's hourly allowance. 0 = not known.
+  int64_t cells = 0;
+};
+
+// What one job charged its principal: for the hourly allowance, restored at start.
+struct CellCharge {
+  std::string principal;
+  std::string created;  // RFC 3339
+  int64_t cells = 0;
 };
 
 class JobStore {
@@ -56,8 +71,13 @@ class JobStore {
   // Writes every mutable field of an existing job.
   void update(const JobRecord& job);
   std::optional<JobRecord> get(const std::string& id) const;
-  // Newest first; `status` empty = any.
-  std::vector<JobRecord> list(int limit, int offset, const std::vector<JobStatus>& status = {}) const;
+  // Newest first; `status` empty = any; `principal` empty = anyone's.
+  std::vector<JobRecord> list(int limit, int offset, const std::vector<JobStatus>& status = {},
+                              const std::string& principal = "") const;
+  // The jobs created at or after `since` (RFC 3339) that charged cells.
+  std::vector<CellCharge> charges_since(const std::string& since) const;
+  // How many jobs each principal owns, for the startup's account of the store.
+  std::vector<std::pair<std::string, int64_t>> count_by_principal() const;
 
   // At startup: every job still accepted or running belonged to a process that is gone (its
   // inputs lived in memory). Marks them failed with `message`; returns their ids.

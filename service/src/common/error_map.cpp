@@ -20,6 +20,8 @@ const ErrorInfo& error_info(ErrorKind kind) {
       /* cancelled */ {8, 409, "https://rvoronoi.dev/problems/dismissed", "Job dismissed", "Cancelled"},
       /* io */ {9, 500, "https://rvoronoi.dev/problems/io", "Input/output failure", "IOFailure"},
       /* busy */ {10, 503, "https://rvoronoi.dev/problems/busy", "Server busy", "Busy"},
+      /* over_quota */
+      {11, 429, "https://rvoronoi.dev/problems/over-quota", "Over your allowance", "OverQuota"},
       /* internal */ {70, 500, "https://rvoronoi.dev/problems/internal", "Internal error", "InternalError"},
   };
   static_assert(sizeof(table) / sizeof(table[0]) == static_cast<int>(ErrorKind::internal) + 1);

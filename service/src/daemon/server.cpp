@@ -78,10 +78,13 @@ struct FileSliceBody {
 
 struct Shared {
   Shared(const ServerConfig& c, daemon::Api& a)
-      : config(c), api(a), auth(c.auth), connections(daemon::connection_cap(c.http.max_connections)) {}
+      : config(c),
+        api(a),
+        auth(c.auth, [](const std::string& line) { daemon::log_event(line); }),
+        connections(daemon::connection_cap(c.http.max_connections)) {}
   const ServerConfig& config;
   daemon::Api& api;
-  const daemon::Authenticator auth;
+  daemon::Authenticator auth;
   std::atomic<int> in_flight{0};  // requests handed to the Api whose response is not yet written
   daemon::ConnectionTable connections;
 };
@@ -123,22 +126,33 @@ class Session : public std::enable_shared_from_this<Session> {
   // The header alone first: limits (a Content-Length over body_limit fails here already) are
   // answered before the body is sent, and a client waiting on "Expect: 100-continue" (curl
   // with an upload) is told to go on instead of waiting a second for nothing.
-  void on_header(beast::error_code ec, std::size_t bytes) {
-    // Before the body: a client without a valid token cannot make us read (and hold) an upload,
-    // nor learn the body limit. A Content-Length over it fails the header read with body_limit
-    // once every field is parsed (Beast checks it when the header ends), so the fields are there.
+  void on_header(beast::error_code ec, std::size_t bytes) { authenticate(ec, bytes, false); }
+
+  // Before the body: a client without a valid token cannot make us read (and hold) an upload,
+  // nor learn the body limit. A Content-Length over it fails the header read with body_limit
+  // once every field is parsed (Beast checks it when the header ends), so the fields are there.
+  void authenticate(beast::error_code ec, std::size_t bytes, bool keys_refreshed) {
     if ((!ec && parser_->is_header_done()) || ec == http::error::body_limit) {
       const auto& head = parser_->get();
       const auto target = head.target();
       const auto authorization = head[http::field::authorization];
       const auto accept = head[http::field::accept];
       const auto method = head.method_string();
-      if (auto refusal = shared_.auth.check(std::string_view(target.data(), target.size()),
-                                            std::string_view(authorization.data(), authorization.size()),
-                                            std::string_view(method.data(), method.size()),
-                                            std::string_view(accept.data(), accept.size()))) {
-        return reject(std::move(*refusal));
+      daemon::Authenticator::Outcome who = shared_.auth.check(
+          std::string_view(target.data(), target.size()), std::string_view(authorization.data(), authorization.size()),
+          std::string_view(method.data(), method.size()), std::string_view(accept.data(), accept.size()),
+          keys_refreshed);
+      if (who.needs_keys) {
+        // The identity provider may have rotated its keys: fetch them (on the key source's
+        // thread) and check again; this connection waits, no thread does.
+        shared_.auth.refresh_keys_then([self = shared_from_this(), ec, bytes] {
+          net::post(self->stream_.get_executor(), [self, ec, bytes] { self->authenticate(ec, bytes, true); });
+        });
+        return;
       }
+      principal_ = std::move(who.principal);
+      auth_error_ = std::move(who.reason);
+      if (who.refusal) return reject(std::move(*who.refusal));
     }
     if (ec) return on_read(ec, bytes);
     const auto& req = parser_->get();
@@ -212,6 +226,7 @@ class Session : public std::enable_shared_from_this<Session> {
     api_req.accept_encoding = std::string(req[http::field::accept_encoding]);
     api_req.if_none_match = joined(http::field::if_none_match);
     api_req.body = parser_->release().body();
+    api_req.principal = principal_;
 
     // A synchronous execution answers when its job ends: no deadline while it runs (the job
     // has its own time limit), a fresh one for writing the answer.
@@ -288,9 +303,10 @@ class Session : public std::enable_shared_from_this<Session> {
     const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - started_).count();
     char dur[32];
     std::snprintf(dur, sizeof dur, "%.1f", ms);
-    daemon::log_line("{\"time\":\"" + daemon::now_rfc3339() + "\",\"method\":" + json_escape(method_) +
-                     ",\"path\":" + json_escape(daemon::loggable_target(target_)) +
-                     ",\"status\":" + std::to_string(status_) + ",\"ms\":" + dur + "}");
+    daemon::log_line("{\"time\":\"" + daemon::now_rfc3339() + "\",\"method\":" + json_escape(method_) + ",\"path\":" +
+                     json_escape(daemon::loggable_target(target_)) + ",\"status\":" + std::to_string(status_) +
+                     ",\"ms\":" + dur + ",\"principal\":" + json_escape(principal_.name) +
+                     (auth_error_.empty() ? std::string() : ",\"auth_error\":" + json_escape(auth_error_)) + "}");
   }
 
   // After an early answer (413, 431) the client may still be sending: stop writing, read and
@@ -321,6 +337,8 @@ class Session : public std::enable_shared_from_this<Session> {
   std::optional<http::request_parser<http::string_body>> parser_;
   std::string method_ = "-";
   std::string target_ = "-";
+  auth::Principal principal_;  // who the current request comes from (auth/principal.hpp)
+  std::string auth_error_;     // why its token was refused, for the log
   unsigned status_ = 0;
   unsigned version_ = 11;
   bool keep_alive_ = false;
@@ -499,6 +517,7 @@ void Server::start() {
   s.jobs = std::make_unique<daemon::JobManager>(*s.store, s.config, s.runner, *s.memory);
   s.api = std::make_unique<daemon::Api>(s.config, *s.store, *s.jobs, *s.memory, *s.describe_pool);
   s.shared = std::make_unique<Shared>(s.config, *s.api);
+  s.shared->auth.start();  // the identity provider's keys, before the first request
   s.listener = std::make_shared<Listener>(s.ioc, std::move(acceptor), *s.shared);
   s.listener->run();
   for (int i = 0; i < std::max(1, s.config.http.io_threads); ++i) {
@@ -523,7 +542,9 @@ void Server::start() {
   daemon::log_line("{\"time\":\"" + daemon::now_rfc3339() + "\",\"event\":\"listening\",\"address\":" +
                    json_escape(s.config.host + ":" + std::to_string(s.port)) + ",\"data_dir\":" +
                    json_escape(s.config.data_dir) + ",\"auth\":\"" + (s.config.auth.enabled() ? "bearer" : "off") +
-                   "\"" + ",\"interrupted_jobs_failed\":" + std::to_string(interrupted.size()) + "}");
+                   "\",\"principals\":" + std::to_string(s.config.auth.principals.size()) +
+                   ",\"jwt\":" + (s.config.auth.jwt.enabled() ? "true" : "false") +
+                   ",\"interrupted_jobs_failed\":" + std::to_string(interrupted.size()) + "}");
 }
 
 void Server::stop() {
@@ -542,6 +563,9 @@ void Server::stop() {
   s.ioc.stop();
   for (std::thread& t : s.threads) t.join();
   s.threads.clear();
+  // Connections waiting for the identity provider's keys are let go (their continuations are
+  // posted to the stopped context and destroyed with it).
+  s.shared->auth.stop();
   s.listener.reset();
   s.api.reset();
   s.jobs.reset();  // its workers are joined; the store closes after it

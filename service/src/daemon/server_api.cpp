@@ -12,6 +12,7 @@
 #include "../common/atomic_file.hpp"
 #include "daemon/server_seeds.hpp"
 #include "daemon/server_web.hpp"
+#include "runtime/principal_usage.hpp"
 #include "runtime/server_util.hpp"
 #include "rv/error_map.hpp"
 #include "rv/field/error.hpp"
@@ -53,7 +54,12 @@ ApiResponse problem_from(const Error& e, const std::string& instance) {
   const ErrorInfo& info = error_info(e.kind());
   std::string type(info.type);
   if (const auto* ogc = dynamic_cast<const OgcNotFound*>(&e)) type = kOgcExceptions + ogc->ogc_type();
-  return problem_response(static_cast<unsigned>(info.http_status), type, std::string(info.title), e.what(), instance);
+  ApiResponse r =
+      problem_response(static_cast<unsigned>(info.http_status), type, std::string(info.title), e.what(), instance);
+  // RFC 6585 4: a client over its allowance is told when it may come back.
+  if (const auto* quota = dynamic_cast<const QuotaExceeded*>(&e))
+    r.headers.emplace_back("Retry-After", std::to_string(quota->retry_after_s()));
+  return r;
 }
 
 ErrorKind parse_error_kind(const std::string& name) {
@@ -310,7 +316,8 @@ json status_info(const JobRecord& r, const std::string& base) {
             {"message", r.message},
             {"created", r.created},
             {"updated", r.updated},
-            {"progress", r.progress}};
+            {"progress", r.progress},
+            {"principal", r.principal}};
   if (!r.started.empty()) s["started"] = r.started;
   if (!r.finished.empty()) s["finished"] = r.finished;
   json links = json::array({link(self, "self", kJson, "job status"), link(base + "/jobs", "up", kJson, "job list")});
@@ -364,10 +371,12 @@ json results_document(const JobRecord& r, const std::string& base) {
   throw Error(ErrorKind::internal, "throw_no_results on a successful job");
 }
 
-JobRecord find_job(const JobStore& store, const std::string& id) {
+// The job `id` as `who` may see it. Another principal's job is answered exactly as one that does
+// not exist: the same problem, word for word.
+JobRecord find_job(const JobStore& store, const std::string& id, const auth::Principal& who) {
   if (!is_job_id(id)) throw OgcNotFound("no-such-job", "no job '" + id.substr(0, 64) + "'");
   auto r = store.get(id);
-  if (!r) throw OgcNotFound("no-such-job", "no job '" + id + "'");
+  if (!r || !auth::may_see(who, r->principal)) throw OgcNotFound("no-such-job", "no job '" + id + "'");
   return *r;
 }
 
@@ -515,6 +524,7 @@ void Api::route(const Context& ctx, const std::shared_ptr<Respond>& respond) {
       {{"conformance"}, "GET, HEAD", &Api::conformance},
       {{"api"}, "GET, HEAD", &Api::api_document},
       {{"health"}, "GET, HEAD", &Api::health},
+      {{"me"}, "GET, HEAD", &Api::me},
       {{"processes"}, "GET, HEAD", &Api::process_list},
       {{"processes", "*"}, "GET, HEAD", &Api::process},
       {{"processes", "*", "execution"}, "POST", &Api::execute},
@@ -578,6 +588,15 @@ void Api::health(const Request& req, const std::vector<std::string>&) const {
         {{"budgetBytes", memory_.total()}, {"reservedBytes", memory_.reserved()}, {"waiting", memory_.waiting()}}}}));
 }
 
+void Api::me(const Request& req, const std::vector<std::string>&) const {
+  const auth::Principal& who = req.ctx.request.principal;
+  json doc = {{"name", who.name}, {"role", std::string(auth::to_string(who.role))}, {"authentication", who.how}};
+  if (who.expires > 0) doc["expires"] = rfc3339(std::chrono::system_clock::from_time_t(who.expires));
+  doc["links"] = json::array({link(req.ctx.base + "/me", "self", kJson, "who is signed in"),
+                              link(req.ctx.base + "/jobs", std::string(kOgcRel) + "job-list", kJson, "their jobs")});
+  req.reply(json_response(200, doc));
+}
+
 void Api::process_list(const Request& req, const std::vector<std::string>&) const {
   const std::string& base = req.ctx.base;
   req.reply(json_response(200, {{"processes", json::array({process_summary(base), describe_seeds_summary(base)})},
@@ -595,8 +614,9 @@ void Api::execute(const Request& req, const std::vector<std::string>& seg) const
   const json body = parse_body_json(req.ctx.request.body);
   const std::string id = new_job_id();
   Execution ex = parse_execution(body, id, config_);
+  const auth::Principal& who = req.ctx.request.principal;
   if (prefers_respond_async(req.ctx.request.prefer)) {
-    const JobRecord rec = jobs_.submit(id, std::move(ex));
+    const JobRecord rec = jobs_.submit(id, std::move(ex), who);
     ApiResponse r = json_response(201, status_info(rec, base));
     r.headers.emplace_back("Location", base + "/jobs/" + id);
     r.headers.emplace_back("Preference-Applied", "respond-async");
@@ -624,7 +644,7 @@ void Api::execute(const Request& req, const std::vector<std::string>& seg) const
     r.headers.emplace_back("Link", "<" + base + "/jobs/" + rec.id + ">; rel=\"monitor\"");
     (*respond)(std::move(r));
   };
-  jobs_.submit(id, std::move(ex), on_done);  // answered by on_done
+  jobs_.submit(id, std::move(ex), who, on_done);  // answered by on_done
 }
 
 void Api::describe(const Request& req) const {
@@ -665,13 +685,26 @@ void Api::job_list(const Request& req, const std::vector<std::string>&) const {
       }
     }
   }
+  // A user lists its own jobs; an admin everyone's, or one principal's with ?principal=.
+  const auth::Principal& who = req.ctx.request.principal;
+  std::string principal = who.role == Role::admin ? std::string() : who.name;
+  std::string principal_filter;  // as the next page's link repeats it
+  bool others = false;
+  if (const auto it = req.ctx.query.find("principal"); it != req.ctx.query.end()) {
+    principal_filter = it->second.front();
+    if (principal_filter.empty()) throw Error(ErrorKind::invalid_argument, "parameter 'principal' must not be empty");
+    // A user naming someone else sees nothing, exactly as for a principal without jobs.
+    others = !principal.empty() && principal_filter != principal;
+    principal = principal_filter;
+  }
   json list = json::array();
-  const auto records = store_.list(limit, offset, statuses);
+  const auto records = others ? std::vector<JobRecord>() : store_.list(limit, offset, statuses, principal);
   for (const JobRecord& r : records) list.push_back(status_info(r, base));
   json links = json::array({link(base + "/jobs", "self", kJson, "job list")});
   if (static_cast<int>(records.size()) == limit) {
     std::string next = base + "/jobs?limit=" + std::to_string(limit);
     if (!status_filter.empty()) next += "&status=" + status_filter;
+    if (!principal_filter.empty()) next += "&principal=" + percent_encode(principal_filter);
     links.push_back(link(next + "&offset=" + std::to_string(offset + limit), "next", kJson, "next page"));
   }
   req.reply(json_response(200, {{"jobs", list}, {"links", links}}));
@@ -680,23 +713,23 @@ void Api::job_list(const Request& req, const std::vector<std::string>&) const {
 void Api::job(const Request& req, const std::vector<std::string>& seg) const {
   const std::string& id = seg[1];
   if (req.ctx.request.method == "DELETE") {
-    find_job(store_, id);  // 404 for unknown ids, validated before anything else
+    find_job(store_, id, req.ctx.request.principal);  // 404 for unknown ids and others' jobs, first
     const auto rec = jobs_.dismiss(id);
     if (!rec) throw OgcNotFound("no-such-job", "no job '" + id + "'");
     return req.reply(json_response(200, status_info(*rec, req.ctx.base)));
   }
-  req.reply(json_response(200, status_info(find_job(store_, id), req.ctx.base)));
+  req.reply(json_response(200, status_info(find_job(store_, id, req.ctx.request.principal), req.ctx.base)));
 }
 
 void Api::results(const Request& req, const std::vector<std::string>& seg) const {
-  const JobRecord rec = find_job(store_, seg[1]);
+  const JobRecord rec = find_job(store_, seg[1], req.ctx.request.principal);
   if (rec.status != JobStatus::successful) throw_no_results(rec);
   req.reply(json_response(200, results_document(rec, req.ctx.base)));
 }
 
 void Api::result_file(const Request& req, const std::vector<std::string>& seg) const {
   const std::string& id = seg[1];
-  const JobRecord rec = find_job(store_, id);
+  const JobRecord rec = find_job(store_, id, req.ctx.request.principal);
   if (rec.status != JobStatus::successful) throw_no_results(rec);
   const std::string& output = seg[3];
   const bool sidecar = output == "ownership.aux.xml";

@@ -12,6 +12,7 @@
 #include <utility>
 #include <vector>
 
+#include "auth/principal.hpp"
 #include "daemon/server_jobs.hpp"
 #include "rv/server_config.hpp"
 #include "rv/store_jobs.hpp"
@@ -44,6 +45,7 @@ struct ApiRequest {
   std::string accept_encoding;  // Accept-Encoding header (the pages' assets, server_web.hpp)
   std::string if_none_match;    // If-None-Match header (the pages' assets)
   std::string body;
+  auth::Principal principal;  // who asks (server_auth.hpp); the anonymous admin without authentication
 };
 
 struct ApiResponse {
@@ -92,6 +94,7 @@ class Api {
   void conformance(const Request& req, const std::vector<std::string>& seg) const;
   void api_document(const Request& req, const std::vector<std::string>& seg) const;
   void health(const Request& req, const std::vector<std::string>& seg) const;
+  void me(const Request& req, const std::vector<std::string>& seg) const;
   void process_list(const Request& req, const std::vector<std::string>& seg) const;
   void process(const Request& req, const std::vector<std::string>& seg) const;
   void execute(const Request& req, const std::vector<std::string>& seg) const;

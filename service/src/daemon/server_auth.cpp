@@ -1,7 +1,9 @@
 #include "daemon/server_auth.hpp"
 
-#include <cctype>
+#include <chrono>
 
+#include "auth/crypto.hpp"
+#include "auth/jwt.hpp"
 #include "daemon/server_web.hpp"
 #include "runtime/server_util.hpp"
 
@@ -19,18 +21,33 @@ ApiResponse unauthorized(const std::string& detail, const std::string& challenge
   return r;
 }
 
+// RFC 6750 3: error_description is a quoted string of printable ASCII without '"' and '\'.
+std::string described(const std::string& error, const std::string& why) {
+  std::string text;
+  for (const char c : why)
+    if (c >= 0x20 && c < 0x7f && c != '"' && c != '\\') text += c;
+  return std::string(kRealm) + ", error=\"" + error + "\", error_description=\"" + text + "\"";
+}
+
+int64_t now_seconds() {
+  return std::chrono::duration_cast<std::chrono::seconds>(std::chrono::system_clock::now().time_since_epoch()).count();
+}
+
 }  // namespace
 
-bool equal_constant_time(std::string_view presented, std::string_view expected) {
-  // Every byte of `presented` is looked at, whatever matched before: an attacker timing the
-  // answers learns nothing about how many leading characters were right. The expected length
-  // leaks only as "lengths differ", which is folded into the same accumulator.
-  if (expected.empty()) return false;
-  unsigned diff = presented.size() == expected.size() ? 0u : 1u;
-  for (size_t i = 0; i < presented.size(); ++i) {
-    diff |= static_cast<unsigned char>(presented[i]) ^ static_cast<unsigned char>(expected[i % expected.size()]);
-  }
-  return diff == 0;
+Authenticator::Authenticator(const AuthConfig& config, std::function<void(const std::string&)> log)
+    : enabled_(config.enabled()), principals_(config.principals), jwt_(config.jwt) {
+  if (jwt_.enabled()) keys_ = std::make_unique<auth::JwksSource>(jwt_, std::move(log));
+}
+
+Authenticator::~Authenticator() { stop(); }
+
+void Authenticator::start() {
+  if (keys_) keys_->start();
+}
+
+void Authenticator::stop() {
+  if (keys_) keys_->stop();
 }
 
 bool Authenticator::is_open(std::string_view target) {
@@ -39,28 +56,76 @@ bool Authenticator::is_open(std::string_view target) {
   return seg.size() == 1 && (seg[0] == "conformance" || seg[0] == "api" || seg[0] == "health");
 }
 
-std::optional<ApiResponse> Authenticator::check(std::string_view target, std::string_view authorization,
-                                                std::string_view method, std::string_view accept) const {
-  if (tokens_.empty() || is_open(target) || is_asset(target) || is_app(target) || wants_page(method, target, accept))
-    return std::nullopt;
-  if (authorization.empty()) {
-    return unauthorized("this server needs a bearer token: send 'Authorization: Bearer <token>'", kRealm, target);
+void Authenticator::refresh_keys_then(std::function<void()> done) const {
+  if (keys_)
+    keys_->refresh_then(std::move(done));
+  else
+    done();
+}
+
+Authenticator::Outcome Authenticator::identify(std::string_view token, bool keys_refreshed) const {
+  Outcome out;
+  if (keys_ && auth::looks_like_jwt(token)) {
+    const auto keys = keys_->keys();
+    if (!keys) {
+      out.reason = "the identity provider's keys are not available yet";
+      return out;
+    }
+    auth::JwtOutcome v = auth::verify_jwt(token, *keys, jwt_, now_seconds());
+    if (v.status == auth::JwtOutcome::Status::ok) {
+      out.principal = std::move(v.principal);
+      return out;
+    }
+    out.needs_keys = v.status == auth::JwtOutcome::Status::unknown_key && !keys_refreshed;
+    out.reason = std::move(v.reason);
+    return out;
   }
+  // Every principal's hash is compared, also after a match: which one matched (and whether an
+  // early one did) must not show in the time taken. Comparing hashes, not the tokens, keeps
+  // the configured secrets out of memory and the comparison's length fixed.
+  const auth::Sha256 presented = auth::sha256(token);
+  const PrincipalConfig* found = nullptr;
+  for (const PrincipalConfig& p : principals_)
+    if (auth::digests_equal(presented, p.token_sha256) && found == nullptr) found = &p;
+  if (found == nullptr) {
+    out.reason = "the bearer token is not valid for this server";
+    return out;
+  }
+  out.principal.name = found->name;
+  out.principal.role = found->role;
+  out.principal.how = "token";
+  return out;
+}
+
+Authenticator::Outcome Authenticator::check(std::string_view target, std::string_view authorization,
+                                            std::string_view method, std::string_view accept,
+                                            bool keys_refreshed) const {
+  Outcome out;
+  if (!enabled_) return out;  // the anonymous admin
+  const bool open = is_open(target) || is_asset(target) || is_app(target) || wants_page(method, target, accept);
+  out.principal.role = Role::user;  // anonymous, and (open routes) no right to see any job
   const std::string_view scheme = "Bearer ";
-  if (!starts_with_ci(authorization, scheme)) {
-    return unauthorized("only bearer tokens are accepted: send 'Authorization: Bearer <token>'",
-                        std::string(kRealm) + ", error=\"invalid_request\"", target);
+  if (authorization.empty() || !starts_with_ci(authorization, scheme)) {
+    if (open) return out;
+    out.reason = authorization.empty() ? "no token" : "not a bearer token";
+    out.refusal =
+        authorization.empty()
+            ? unauthorized("this server needs a bearer token: send 'Authorization: Bearer <token>'", kRealm, target)
+            : unauthorized("only bearer tokens are accepted: send 'Authorization: Bearer <token>'",
+                           std::string(kRealm) + ", error=\"invalid_request\"", target);
+    return out;
   }
   std::string_view token = authorization.substr(scheme.size());
   while (!token.empty() && token.front() == ' ') token.remove_prefix(1);
   while (!token.empty() && (token.back() == ' ' || token.back() == '\t')) token.remove_suffix(1);
-  // Every configured token is compared, also after a match: which one matched (and whether an
-  // early one did) must not show in the time taken.
-  bool match = false;
-  for (const std::string& t : tokens_) match |= equal_constant_time(token, t);
-  if (match) return std::nullopt;
-  return unauthorized("the bearer token is not valid for this server",
-                      std::string(kRealm) + ", error=\"invalid_token\"", target);
+  Outcome who = identify(token, keys_refreshed);
+  if (who.reason.empty() || open) {
+    if (!who.reason.empty()) who = Outcome{out.principal, std::nullopt, "", false};  // open: ignored
+    return who;
+  }
+  if (who.needs_keys) return who;
+  who.refusal = unauthorized(who.reason, described("invalid_token", who.reason), target);
+  return who;
 }
 
 }  // namespace rv::daemon

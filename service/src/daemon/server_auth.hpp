@@ -1,19 +1,21 @@
-// Optional bearer-token authentication of the daemon (RFC 6750, "Authorization: Bearer <token>").
-//
-// Decided from the request head alone, before the body is read: a client without a valid token
-// cannot make the server buffer an upload. Open resources (no token needed): the landing page
-// `/`, `/conformance`, `/api` (the OpenAPI document) and `/health`, in every spelling the router
-// accepts for them (path_segments()), so that no spelling of a protected resource counts as open.
-// With no token configured every resource is open.
-// Tokens are compared in time independent of their contents, and never logged or echoed.
-// Thread safety: immutable after construction; check() may be called from any thread.
+// Who a request comes from. With authentication configured (AuthConfig), every route except the
+// open ones needs "Authorization: Bearer <token>": a configured principal's token (compared by
+// its SHA-256, in constant time, with every principal's) or an identity provider's JWT (auth/jwt.hpp).
+// Without it, every request is the anonymous admin (auth/principal.hpp): the server is open.
+// Refusals are 401 problem+json with a WWW-Authenticate challenge (RFC 6750 3) whose
+// error_description says why a token was refused; never what it held.
+// Thread safety: check() may be called from any thread at once; start() and stop() once each.
 #pragma once
 
+#include <functional>
+#include <memory>
 #include <optional>
 #include <string>
 #include <string_view>
 #include <vector>
 
+#include "auth/jwks_source.hpp"
+#include "auth/principal.hpp"
 #include "daemon/server_api.hpp"
 #include "rv/server_config.hpp"
 
@@ -21,27 +23,47 @@ namespace rv::daemon {
 
 class Authenticator {
  public:
-  explicit Authenticator(const AuthConfig& config) : tokens_(config.tokens) {}
+  // `log` receives the key source's log lines (JSON objects).
+  Authenticator(const AuthConfig& config, std::function<void(const std::string&)> log);
+  ~Authenticator();
 
-  bool enabled() const { return !tokens_.empty(); }
+  // Loads the identity provider's keys (auth/jwks_source.hpp). Throws rv::Error for a key file
+  // that cannot be used.
+  void start();
+  // Ends the key source's thread (those waiting on a refresh are called). Idempotent.
+  void stop();
+
+  bool enabled() const { return enabled_; }
 
   // True when the request target (origin form, query allowed) names an open resource.
   static bool is_open(std::string_view target);
 
-  // nullopt when the request may go on; otherwise the 401 problem+json to answer with, carrying
-  // "WWW-Authenticate: Bearer" (with error="invalid_token" when a token was sent but is wrong).
+  struct Outcome {
+    auth::Principal principal;           // who asks (the anonymous admin without authentication)
+    std::optional<ApiResponse> refusal;  // set: answer this instead
+    std::string reason;                  // refused: why, for the log
+    // The token names a key the provider's set lacks and the set may be fetched again: call
+    // refresh_keys_then() and check once more (with `keys_refreshed`).
+    bool needs_keys = false;
+  };
   // `authorization` is the Authorization header's value ("" when absent). The HTML pages and
   // their assets are open too (server_web.hpp: they hold no data; their script sends the token
-  // for the data), so `method` and `accept` (the Accept header) count.
-  std::optional<ApiResponse> check(std::string_view target, std::string_view authorization,
-                                   std::string_view method = "", std::string_view accept = "") const;
+  // for the data), so `method` and `accept` (the Accept header) count. On an open route a valid
+  // token still names its principal (for the log); an invalid one is not refused there.
+  Outcome check(std::string_view target, std::string_view authorization, std::string_view method = "",
+                std::string_view accept = "", bool keys_refreshed = false) const;
+  // See Outcome::needs_keys: `done` runs once the provider's keys were fetched again (on the key
+  // source's thread), or at once when they were fetched moments ago.
+  void refresh_keys_then(std::function<void()> done) const;
 
  private:
-  std::vector<std::string> tokens_;
-};
+  // The principal of a presented token, or the refusal's reason.
+  Outcome identify(std::string_view token, bool keys_refreshed) const;
 
-// Compares a presented secret with an expected one in time that depends on the length of
-// `presented` only, never on where the two differ. Exposed for the unit tests.
-bool equal_constant_time(std::string_view presented, std::string_view expected);
+  bool enabled_ = false;
+  std::vector<PrincipalConfig> principals_;
+  JwtConfig jwt_;
+  std::unique_ptr<auth::JwksSource> keys_;
+};
 
 }  // namespace rv::daemon

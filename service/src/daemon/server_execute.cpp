@@ -396,8 +396,9 @@ void apply_inputs(const json& in, Execution& ex) {
 
 // With an explicit extent the grid size is known now: refuse an oversized job before it is
 // queued (run_job checks again, with the memory estimate, once the seeds are read).
-void check_grid_limits(const JobSpec& spec, const ServerConfig& config) {
-  if (!spec.grid.extent) return;
+// Returns the cell count (0 when it is not known yet).
+int64_t check_grid_limits(const JobSpec& spec, const ServerConfig& config) {
+  if (!spec.grid.extent) return 0;
   const auto& b = *spec.grid.extent;
   const GridSpec g = make_grid(b[0], b[1], b[2], b[3], *spec.grid.resolution, "");
   if (g.cell_count() > config.limits.max_cells) {
@@ -410,6 +411,7 @@ void check_grid_limits(const JobSpec& spec, const ServerConfig& config) {
                                           std::to_string(config.limits.validate_max_cells) +
                                           " cells on this server; the grid has " + std::to_string(g.cell_count()));
   }
+  return g.cell_count();
 }
 
 // The limit inputs and the limits output go together: either alone is a mistake to report
@@ -445,7 +447,7 @@ Execution parse_execution(const json& body, const std::string& job_id, const Ser
   const int workers = std::max(1, config.jobs.workers);
   ex.spec.threads =
       config.jobs.threads_per_job > 0 ? config.jobs.threads_per_job : std::max(1, resolve_threads(0) / workers);
-  check_grid_limits(ex.spec, config);
+  ex.cells = check_grid_limits(ex.spec, config);
   parse_outputs(body, ex);
   check_limits_pairing(in, ex);
   check_changes_pairing(ex);

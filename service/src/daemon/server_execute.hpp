@@ -77,6 +77,8 @@ struct Execution {
   bool raw = false;                       // "response": "raw" (one output, its bytes)
   nlohmann::json inputs_summary;          // the inputs as stored with the job (uploads summarised)
   std::shared_ptr<VsiMemFiles> uploads;   // keeps the seed files alive until the job ends
+  // The grid's cells when extent and resolution give them up front; 0 = known once planned.
+  int64_t cells = 0;
 };
 
 // Throws rv::Error: invalid_argument (malformed request or parameter, naming the input),

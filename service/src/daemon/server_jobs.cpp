@@ -56,8 +56,17 @@ void notify_done(const JobManager::Done& on_done, const JobRecord& record) {
 }  // namespace
 
 JobManager::JobManager(JobStore& store, const ServerConfig& config, JobRunner runner, MemoryAccount& memory)
-    : store_(store), config_(config), runner_(std::move(runner)), memory_(memory), limits_(effective_limits(config)) {
+    : store_(store),
+      config_(config),
+      runner_(std::move(runner)),
+      memory_(memory),
+      limits_(effective_limits(config)),
+      cells_(config.principal_limits.cells_per_hour) {
   std::filesystem::create_directories(std::filesystem::path(config_.data_dir) / "jobs");
+  // The hour before this start counts: a restart hands out no fresh allowance.
+  const auto now = std::chrono::system_clock::now();
+  for (const CellCharge& c : store_.charges_since(rfc3339(now - CellAllowance::kWindow)))
+    if (const auto at = parse_rfc3339(c.created)) cells_.restore(c.principal, *at, c.cells);
   for (int i = 0; i < std::max(1, config_.jobs.workers); ++i) {
     workers_.emplace_back([this] { worker_loop(); });
   }
@@ -81,13 +90,27 @@ int JobManager::queued_count() const {
   return static_cast<int>(queue_.size());
 }
 
-std::string JobManager::snapshot_base(const std::string& base, const std::string& id) const {
+void JobManager::check_job_count(const std::string& principal) const {
+  const int limit = config_.principal_limits.jobs;
+  if (limit <= 0) return;
+  int count = 0;
+  for (const Task& t : queue_) count += t.principal == principal;
+  for (const auto& [id, r] : running_) count += r.principal == principal;
+  if (count >= limit)
+    throw QuotaExceeded("this principal has " + std::to_string(count) + " jobs queued or running, the most " +
+                            std::to_string(limit) + " this server allows each; retry when one has finished",
+                        kJobsRetryAfterS);
+}
+
+std::string JobManager::snapshot_base(const std::string& base, const std::string& id,
+                                      const auth::Principal& who) const {
   // Every refusal is a bad input of the execution request (400), a base that names no job too: the
   // resource requested, the process, exists (a 404 would say it does not).
   auto bad = [](const std::string& what) { throw Error(ErrorKind::invalid_argument, "input 'baseJob': " + what); };
   if (!is_job_id(base)) bad("not a job id");
   const std::optional<JobRecord> rec = store_.get(base);
-  if (!rec || rec->status == JobStatus::dismissed) bad("no job " + base);
+  // Another principal's job is no job, exactly as one that does not exist.
+  if (!rec || rec->status == JobStatus::dismissed || !auth::may_see(who, rec->principal)) bad("no job " + base);
   if (rec->status != JobStatus::successful)
     bad("job " + base + " is " + std::string(to_string(rec->status)) + "; only a successful job can be edited");
   // The base's report and kept field, linked into the new job's directory now: the base job may
@@ -125,7 +148,7 @@ std::string JobManager::snapshot_base(const std::string& base, const std::string
   return (to / output_file_name("report", "")).string();
 }
 
-JobRecord JobManager::submit(const std::string& id, Execution execution, Done on_done) {
+JobRecord JobManager::submit(const std::string& id, Execution execution, const auth::Principal& who, Done on_done) {
   JobRecord rec;
   rec.id = id;
   rec.process_id = "voronoi";
@@ -136,6 +159,8 @@ JobRecord JobManager::submit(const std::string& id, Execution execution, Done on
   rec.outputs = execution.outputs;
   rec.transmission = execution.transmission;
   rec.formats = execution.formats;
+  rec.principal = who.name;
+  rec.cells = execution.cells;
 
   std::lock_guard lock(mutex_);
   if (stopping_) throw Error(ErrorKind::busy, "the server is shutting down; resubmit the job later");
@@ -145,17 +170,24 @@ JobRecord JobManager::submit(const std::string& id, Execution execution, Done on
     throw Error(ErrorKind::busy, "all " + std::to_string(config_.jobs.workers) + " workers are busy and " +
                                      std::to_string(queue_.size()) + " jobs are waiting; retry later");
   }
+  check_job_count(who.name);
+  // A grid known up front is charged now (refused now when over the allowance); others when
+  // they are planned.
+  const bool charged = execution.cells > 0;
+  if (charged) cells_.charge(who.name, execution.cells);
   // An edit's copy of its base is made last: a refused submission leaves no directory behind.
   try {
-    if (!execution.spec.base_name.empty()) execution.spec.base_report = snapshot_base(execution.spec.base_name, id);
+    if (!execution.spec.base_name.empty())
+      execution.spec.base_report = snapshot_base(execution.spec.base_name, id, who);
     store_.insert(rec);
   } catch (...) {
+    if (charged) cells_.refund(who.name, execution.cells);
     std::error_code ec;
     if (!execution.spec.base_name.empty()) std::filesystem::remove_all(job_dir(id) / kBaseSnapshotDir, ec);
     std::filesystem::remove(job_dir(id), ec);  // only if empty: never another job's files
     throw;
   }
-  queue_.push_back(Task{id, std::move(execution), std::move(on_done)});
+  queue_.push_back(Task{id, std::move(execution), std::move(on_done), who.name, charged});
   work_cv_.notify_one();
   return rec;
 }
@@ -170,6 +202,7 @@ void JobManager::worker_loop() {
       task = std::move(queue_.front());
       queue_.pop_front();
       Running r;
+      r.principal = task.principal;
       r.cancel = std::make_shared<std::atomic<bool>>(false);
       r.deadline = std::chrono::steady_clock::now() + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
                                                           std::chrono::duration<double>(config_.jobs.job_timeout_s));
@@ -374,6 +407,15 @@ JobRecord JobManager::run_task(Task& task) {
   // Held until the job's end: whatever it reserved returns to the account then.
   MemoryAccount::Reservation memory = memory_.open();
   hooks.reserve_memory = [&memory, cancel, id](int64_t bytes) { memory.need(bytes, true, cancel.get(), "job " + id); };
+  // A grid known only from its seeds is charged to the principal's hour now (refused, failing
+  // the job, when over it) and recorded with the job, so that a restart counts it too.
+  hooks.planned = [this, &rec, &task](int64_t cells) {
+    if (!task.charged) cells_.charge(task.principal, cells);
+    task.charged = true;
+    std::lock_guard lock(mutex_);
+    rec.cells = cells;
+    if (!running_.at(rec.id).dismissed) store_.update(rec);
+  };
   Outcome outcome = execute(runner_, spec, limits_, hooks, id, dir);
   memory.release();
   task.execution.uploads.reset();  // the in-memory seed files are no longer needed

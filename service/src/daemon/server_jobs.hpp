@@ -21,7 +21,9 @@
 #include <thread>
 #include <vector>
 
+#include "auth/principal.hpp"
 #include "daemon/server_execute.hpp"
+#include "runtime/principal_usage.hpp"
 #include "runtime/server_capacity.hpp"
 #include "rv/field/error.hpp"
 #include "rv/server.hpp"
@@ -48,12 +50,15 @@ class JobManager {
   // The directory of a job's result files (the id must satisfy is_job_id()).
   std::filesystem::path job_dir(const std::string& id) const;
 
-  // Records the job as accepted and queues it. Throws rv::Error(busy) when the queue is full or
-  // the server is shutting down (nothing is recorded then). An edit (spec.base_name, the input
-  // baseJob) names a successful job: its report and kept field are linked into the new job's
-  // directory first (so deleting the base meanwhile breaks nothing), and spec.base_report set to
-  // them; else not_found (no such job) or invalid_argument (not successful, nothing kept).
-  JobRecord submit(const std::string& id, Execution execution, Done on_done = {});
+  // Records the job as `who`'s, accepted, and queues it. Throws rv::Error(busy) when the queue is
+  // full or the server is shutting down, QuotaExceeded (over_quota) when `who` has
+  // limits.jobs_per_principal jobs unfinished or the grid (when known up front) would take it
+  // over its hourly cells; nothing is recorded then. An edit (spec.base_name, the input baseJob)
+  // names a successful job `who` may see (auth::may_see): its report and kept field are linked
+  // into the new job's directory first (so deleting the base meanwhile breaks nothing), and
+  // spec.base_report set to them; else invalid_argument (no such job, another's, not
+  // successful, nothing kept).
+  JobRecord submit(const std::string& id, Execution execution, const auth::Principal& who, Done on_done = {});
 
   // Dismisses a job; returns its record afterwards, or nullopt when there is no such job.
   std::optional<JobRecord> dismiss(const std::string& id);
@@ -70,8 +75,11 @@ class JobManager {
     std::string id;
     Execution execution;
     Done on_done;
+    std::string principal;
+    bool charged = false;  // its cells were charged at submission (known up front)
   };
   struct Running {
+    std::string principal;
     std::shared_ptr<std::atomic<bool>> cancel;
     std::chrono::steady_clock::time_point deadline;
     bool dismissed = false;
@@ -83,7 +91,10 @@ class JobManager {
   void watchdog_loop();
   // The base job's files linked into job `id`'s directory; returns the linked report's path.
   // Call with mutex_ held.
-  std::string snapshot_base(const std::string& base, const std::string& id) const;
+  std::string snapshot_base(const std::string& base, const std::string& id, const auth::Principal& who) const;
+  // Throws QuotaExceeded when `principal` has limits.jobs_per_principal jobs queued or running.
+  // Call with mutex_ held.
+  void check_job_count(const std::string& principal) const;
   // Runs one job to its end and returns its final record.
   JobRecord run_task(Task& task);
   // Records how the job ended (unless it was dismissed meanwhile), removing its files if it
@@ -97,6 +108,7 @@ class JobManager {
   JobRunner runner_;
   MemoryAccount& memory_;
   JobLimits limits_;
+  CellAllowance cells_;
 
   mutable std::mutex mutex_;
   std::condition_variable work_cv_;

@@ -611,6 +611,7 @@ PreparedJob prepare_job(const JobSpec& spec, const JobLimits& limits, const JobH
   job.plan = plan_job(spec, job.grid, static_cast<int64_t>(job.loaded.seeds.sites().size()), mp.metric.kind,
                       seed_memory_bytes(job.loaded));
   check_plan(spec, limits, job, job.plan);
+  if (hooks.planned) hooks.planned(job.grid.cell_count());
   if (hooks.reserve_memory) hooks.reserve_memory(job.plan.memory_bytes);
   return job;
 }

@@ -7,12 +7,19 @@
 
 #include <unistd.h>
 
+#include "runtime/config_read.hpp"
 #include "rv/field/error.hpp"
 
 namespace rv {
-namespace {
 
+using config_read::bad;
+using config_read::check_keys;
+using config_read::get_int;
+using config_read::get_seconds;
+using config_read::get_string;
 using nlohmann::json;
+
+namespace config_read {
 
 [[noreturn]] void bad(const std::string& key, const std::string& why) {
   throw Error(ErrorKind::invalid_argument, "configuration key '" + key + "': " + why);
@@ -52,54 +59,13 @@ std::string get_string(const json& object, const char* key, const std::string& f
   return object.at(key).get<std::string>();
 }
 
-// A token goes into an HTTP header: printable ASCII without spaces. A short one could be
-// guessed online, so 16 characters is the least accepted (`openssl rand -hex 32` gives 64).
-void add_token(const std::string& token, const std::string& where, AuthConfig& auth) {
-  // The messages say where the token is, never what it is: the error ends up in logs.
-  if (token.size() < 16 || token.size() > 4096) bad(where, "a token must have 16 to 4096 characters");
-  for (const char ch : token) {
-    if (ch < 0x21 || ch > 0x7e) bad(where, "a token may contain printable ASCII characters only, no spaces");
-  }
-  auth.tokens.push_back(token);
+std::string get_string(const json& object, const std::string& where, const char* key, const std::string& fallback) {
+  if (!object.contains(key)) return fallback;
+  if (!object.at(key).is_string()) bad(where + "." + key, "must be a string");
+  return object.at(key).get<std::string>();
 }
 
-void parse_auth(const json& a, AuthConfig& auth) {
-  check_keys(a, "auth", {"tokens", "token_file"});
-  if (a.contains("tokens")) {
-    const json& list = a.at("tokens");
-    if (!list.is_array()) bad("auth.tokens", "must be an array of strings");
-    for (size_t i = 0; i < list.size(); ++i) {
-      const std::string where = "auth.tokens[" + std::to_string(i) + "]";
-      if (!list[i].is_string()) bad(where, "must be a string");
-      add_token(list[i].get<std::string>(), where, auth);
-    }
-  }
-  if (a.contains("token_file")) {
-    if (!a.at("token_file").is_string()) bad("auth.token_file", "must be a string");
-    auth.token_file = a.at("token_file").get<std::string>();
-    if (auth.token_file.empty()) return;
-    std::ifstream in(auth.token_file, std::ios::binary);
-    if (!in) {
-      throw Error(ErrorKind::not_found,
-                  "configuration key 'auth.token_file': '" + auth.token_file + "' cannot be opened");
-    }
-    std::string line;
-    int number = 0;
-    const size_t before = auth.tokens.size();
-    while (std::getline(in, line)) {
-      ++number;
-      if (!line.empty() && line.back() == '\r') line.pop_back();
-      const size_t first = line.find_first_not_of(" \t");
-      if (first == std::string::npos || line[first] == '#') continue;
-      const size_t last = line.find_last_not_of(" \t");
-      add_token(line.substr(first, last - first + 1), "auth.token_file line " + std::to_string(number), auth);
-    }
-    // A configured but empty file would silently leave the server open: refuse it.
-    if (auth.tokens.size() == before) bad("auth.token_file", "'" + auth.token_file + "' holds no token");
-  }
-}
-
-}  // namespace
+}  // namespace config_read
 
 void parse_listen(const std::string& listen, ServerConfig& config) {
   std::string host;
@@ -161,9 +127,10 @@ ServerConfig parse_server_config(const json& doc) {
   }
   if (doc.contains("limits")) {
     const json& l = doc.at("limits");
-    check_keys(l, "limits",
-               {"max_cells", "max_memory_bytes", "total_memory_bytes", "validate_max_cells", "max_features",
-                "max_vertices", "max_input_bytes", "preview_max_vertices"});
+    check_keys(
+        l, "limits",
+        {"max_cells", "max_memory_bytes", "total_memory_bytes", "validate_max_cells", "max_features", "max_vertices",
+         "max_input_bytes", "preview_max_vertices", "jobs_per_principal", "cells_per_principal_per_hour"});
     c.limits.max_cells = get_int(l, "limits", "max_cells", c.limits.max_cells, 1);
     c.limits.max_memory_bytes = get_int(l, "limits", "max_memory_bytes", c.limits.max_memory_bytes, 0);
     c.total_memory_bytes = get_int(l, "limits", "total_memory_bytes", c.total_memory_bytes, 0);
@@ -173,8 +140,11 @@ ServerConfig parse_server_config(const json& doc) {
     c.limits.max_vertices = get_int(l, "limits", "max_vertices", c.limits.max_vertices, 0);
     c.limits.max_input_bytes = get_int(l, "limits", "max_input_bytes", c.limits.max_input_bytes, 0);
     c.preview_max_vertices = get_int(l, "limits", "preview_max_vertices", c.preview_max_vertices, 1);
+    c.principal_limits.jobs = static_cast<int>(get_int(l, "limits", "jobs_per_principal", c.principal_limits.jobs, 0));
+    c.principal_limits.cells_per_hour =
+        get_int(l, "limits", "cells_per_principal_per_hour", c.principal_limits.cells_per_hour, 0);
   }
-  if (doc.contains("auth")) parse_auth(doc.at("auth"), c.auth);
+  if (doc.contains("auth")) parse_auth_config(doc.at("auth"), c.auth);
   return c;
 }
 

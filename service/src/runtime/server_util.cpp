@@ -55,6 +55,22 @@ std::string rfc3339(std::chrono::system_clock::time_point t) {
 
 std::string now_rfc3339() { return rfc3339(std::chrono::system_clock::now()); }
 
+std::optional<std::chrono::system_clock::time_point> parse_rfc3339(std::string_view text) {
+  std::tm tm{};
+  int ms = 0;
+  char z = 0;
+  const std::string s(text.substr(0, 40));
+  if (std::sscanf(s.c_str(), "%4d-%2d-%2dT%2d:%2d:%2d.%3d%c", &tm.tm_year, &tm.tm_mon, &tm.tm_mday, &tm.tm_hour,
+                  &tm.tm_min, &tm.tm_sec, &ms, &z) != 8 ||
+      z != 'Z' || s.size() != 24)
+    return std::nullopt;
+  tm.tm_year -= 1900;
+  tm.tm_mon -= 1;
+  const std::time_t secs = timegm(&tm);
+  if (secs == static_cast<std::time_t>(-1)) return std::nullopt;
+  return std::chrono::system_clock::from_time_t(secs) + std::chrono::milliseconds(ms);
+}
+
 std::string http_date(std::chrono::system_clock::time_point t) {
   const std::time_t secs = std::chrono::system_clock::to_time_t(t);
   std::tm tm{};
@@ -111,6 +127,27 @@ std::string base64_decode(std::string_view text, const std::string& what) {
     throw Error(ErrorKind::invalid_argument, what + ": not valid base64 (truncated)");
   }
   return out;
+}
+
+std::string percent_encode(std::string_view s) {
+  static constexpr char kHex[] = "0123456789ABCDEF";
+  std::string out;
+  for (const char c : s) {
+    const auto u = static_cast<unsigned char>(c);
+    if (std::isalnum(u) || c == '-' || c == '.' || c == '_' || c == '~') {
+      out += c;
+    } else {
+      out += '%';
+      out += kHex[u >> 4];
+      out += kHex[u & 15];
+    }
+  }
+  return out;
+}
+
+void log_event(const std::string& json_object) {
+  const std::string rest = json_object.size() > 2 ? "," + json_object.substr(1) : "}";
+  log_line("{\"time\":\"" + now_rfc3339() + "\"" + rest);
 }
 
 void log_line(const std::string& json_line) {

@@ -3,6 +3,7 @@
 #pragma once
 
 #include <chrono>
+#include <optional>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -20,6 +21,8 @@ bool is_job_id(std::string_view id);
 // RFC 3339 UTC with milliseconds: "2026-11-22T10:44:26.123Z".
 std::string rfc3339(std::chrono::system_clock::time_point t);
 std::string now_rfc3339();
+// The time rfc3339() wrote (milliseconds and 'Z' as it writes them); nullopt for other text.
+std::optional<std::chrono::system_clock::time_point> parse_rfc3339(std::string_view text);
 // IMF-fixdate for HTTP headers (Last-Modified): "Sun, 22 Nov 2026 10:44:26 GMT".
 std::string http_date(std::chrono::system_clock::time_point t);
 
@@ -40,6 +43,8 @@ std::string base64_decode(std::string_view text, const std::string& what);
 // Decodes %XX escapes (and '+' as a space) of a URL path segment or query part; a malformed
 // escape is kept as it is.
 std::string percent_decode(std::string_view s);
+// Every byte but RFC 3986's unreserved characters as %XX: a value safe in a query.
+std::string percent_encode(std::string_view s);
 
 // True when `s` begins with `prefix`, ASCII letters compared without case (HTTP scheme names,
 // CRS prefixes such as "epsg:").
@@ -60,5 +65,7 @@ std::vector<std::string> path_segments(std::string_view path);
 // One structured (JSON) line on stderr, written with a single write() so that lines from
 // concurrent threads never interleave.
 void log_line(const std::string& json_line);
+// The same for an event object written without its time ("{\"event\":...}"): the time goes first.
+void log_event(const std::string& json_object);
 
 }  // namespace rv::daemon

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <array>
+#include <set>
 
 #include "rv/field/error.hpp"
 #include "rv/field/text.hpp"
@@ -57,7 +58,7 @@ class Statement {
 
 constexpr const char* kColumns =
     "id, process_id, status, message, error_kind, progress, created, started, finished, updated, "
-    "inputs, outputs, transmission, report, formats";
+    "inputs, outputs, transmission, report, formats, principal, cells";
 
 // The strings of a stored JSON array; anything else (a damaged column) reads as none.
 std::vector<std::string> string_list(const nlohmann::json& doc) {
@@ -96,6 +97,8 @@ JobRecord read_row(const Statement& s) {
     if (r.report.is_discarded()) r.report = nullptr;
   }
   r.formats = string_list(parse_stored_json(s.text(14)));
+  r.principal = s.display_text(15);
+  r.cells = std::max<int64_t>(s.integer(16), 0);
   return r;
 }
 
@@ -115,6 +118,8 @@ void bind_record(Statement& s, const JobRecord& r) {
   s.bind(13, json_text(nlohmann::json(r.transmission)));
   s.bind(14, r.report.is_null() ? std::string() : json_text(r.report));
   s.bind(15, json_text(nlohmann::json(r.formats)));
+  s.bind(16, r.principal);
+  s.bind(17, r.cells);
 }
 
 }  // namespace
@@ -149,16 +154,29 @@ JobStore::JobStore(const std::filesystem::path& db_path) {
         " message TEXT NOT NULL, error_kind TEXT NOT NULL, progress INTEGER NOT NULL,"
         " created TEXT NOT NULL, started TEXT NOT NULL, finished TEXT NOT NULL,"
         " updated TEXT NOT NULL, inputs TEXT NOT NULL, outputs TEXT NOT NULL,"
-        " transmission TEXT NOT NULL, report TEXT NOT NULL, formats TEXT NOT NULL DEFAULT '[]')");
+        " transmission TEXT NOT NULL, report TEXT NOT NULL, formats TEXT NOT NULL DEFAULT '[]',"
+        " principal TEXT NOT NULL DEFAULT 'anonymous', cells INTEGER NOT NULL DEFAULT 0)");
     exec("CREATE INDEX IF NOT EXISTS jobs_created ON jobs(created)");
-    // Databases written before the output formats were recorded lack the column; their jobs
-    // read back with no formats (each output's default, which is all they could have had).
-    bool has_formats = false;
+    // Databases of earlier builds lack the later columns; their jobs read back with what they
+    // had: no formats (each output's default, all they could have had), the principal
+    // "anonymous" (no job had an owner), no cells charged. One transaction: a crash halfway
+    // leaves the database as it was.
+    std::set<std::string> columns;
     {
       Statement info(db_, "PRAGMA table_info(jobs)");
-      while (info.step()) has_formats = has_formats || info.text(1) == "formats";
+      while (info.step()) columns.insert(info.text(1));
     }
-    if (!has_formats) exec("ALTER TABLE jobs ADD COLUMN formats TEXT NOT NULL DEFAULT '[]'");
+    exec("BEGIN IMMEDIATE");
+    try {
+      if (!columns.count("formats")) exec("ALTER TABLE jobs ADD COLUMN formats TEXT NOT NULL DEFAULT '[]'");
+      if (!columns.count("principal")) exec("ALTER TABLE jobs ADD COLUMN principal TEXT NOT NULL DEFAULT 'anonymous'");
+      if (!columns.count("cells")) exec("ALTER TABLE jobs ADD COLUMN cells INTEGER NOT NULL DEFAULT 0");
+      exec("CREATE INDEX IF NOT EXISTS jobs_principal_created ON jobs(principal, created)");
+      exec("COMMIT");
+    } catch (...) {
+      sqlite3_exec(db_, "ROLLBACK", nullptr, nullptr, nullptr);
+      throw;
+    }
   } catch (...) {
     sqlite3_close(db_);
     throw;
@@ -179,7 +197,7 @@ void JobStore::exec(const char* sql) const {
 void JobStore::insert(const JobRecord& job) {
   std::lock_guard lock(mutex_);
   Statement s(db_, (std::string("INSERT INTO jobs (") + kColumns +
-                    ") VALUES (?1,?2,?3,?4,?5,?6,?7,?8,?9,?10,?11,?12,?13,?14,?15)")
+                    ") VALUES (?1,?2,?3,?4,?5,?6,?7,?8,?9,?10,?11,?12,?13,?14,?15,?16,?17)")
                        .c_str());
   bind_record(s, job);
   s.step();
@@ -190,7 +208,7 @@ void JobStore::update(const JobRecord& job) {
   Statement s(db_,
               "UPDATE jobs SET process_id=?2, status=?3, message=?4, error_kind=?5, progress=?6,"
               " created=?7, started=?8, finished=?9, updated=?10, inputs=?11, outputs=?12,"
-              " transmission=?13, report=?14, formats=?15 WHERE id=?1");
+              " transmission=?13, report=?14, formats=?15, principal=?16, cells=?17 WHERE id=?1");
   bind_record(s, job);
   s.step();
 }
@@ -203,22 +221,43 @@ std::optional<JobRecord> JobStore::get(const std::string& id) const {
   return read_row(s);
 }
 
-std::vector<JobRecord> JobStore::list(int limit, int offset, const std::vector<JobStatus>& status) const {
-  std::string sql = std::string("SELECT ") + kColumns + " FROM jobs";
+std::vector<JobRecord> JobStore::list(int limit, int offset, const std::vector<JobStatus>& status,
+                                      const std::string& principal) const {
+  std::string sql = std::string("SELECT ") + kColumns + " FROM jobs WHERE 1";
   if (!status.empty()) {
-    sql += " WHERE status IN (";
+    sql += " AND status IN (";
     for (size_t i = 0; i < status.size(); ++i) sql += i ? ",?" : "?";
     sql += ")";
   }
+  if (!principal.empty()) sql += " AND principal = ?";
   sql += " ORDER BY created DESC, id LIMIT ? OFFSET ?";
   std::lock_guard lock(mutex_);
   Statement s(db_, sql.c_str());
   int i = 1;
   for (JobStatus st : status) s.bind(i++, std::string(to_string(st)));
+  if (!principal.empty()) s.bind(i++, principal);
   s.bind(i++, int64_t{limit});
   s.bind(i++, int64_t{offset});
   std::vector<JobRecord> out;
   while (s.step()) out.push_back(read_row(s));
+  return out;
+}
+
+std::vector<CellCharge> JobStore::charges_since(const std::string& since) const {
+  std::lock_guard lock(mutex_);
+  // RFC 3339 UTC timestamps of one fixed format order as text.
+  Statement s(db_, "SELECT principal, created, cells FROM jobs WHERE created >= ?1 AND cells > 0");
+  s.bind(1, since);
+  std::vector<CellCharge> out;
+  while (s.step()) out.push_back(CellCharge{s.display_text(0), s.display_text(1), s.integer(2)});
+  return out;
+}
+
+std::vector<std::pair<std::string, int64_t>> JobStore::count_by_principal() const {
+  std::lock_guard lock(mutex_);
+  Statement s(db_, "SELECT principal, COUNT(*) FROM jobs GROUP BY principal ORDER BY principal");
+  std::vector<std::pair<std::string, int64_t>> out;
+  while (s.step()) out.emplace_back(s.display_text(0), s.integer(1));
   return out;
 }
 

@@ -183,11 +183,14 @@ TEST(Store, RecordsWithInvalidUtf8OpenEscaped) {
   {
     sqlite3* db = nullptr;
     ASSERT_EQ(sqlite3_open((dir / "jobs.sqlite").c_str(), &db), SQLITE_OK);
-    const std::string sql = "INSERT INTO jobs VALUES ('" + id +
-                            "', 'voronoi', 'failed', CAST(x'6e65617220225c78383022' || x'80ff' AS TEXT),"
-                            " 'no-such-kind', 900, '2026-01-01T00:00:00.000Z', '', '', '2026-01-01T00:00:00.000Z',"
-                            " CAST('{\"ownerField\": \"o' || x'80' || '\"}' AS TEXT), '[\"ownership\", 5]', 'not json',"
-                            " CAST('{\"owners\": [\"A' || x'80' || '\"]}' AS TEXT), '[]')";
+    const std::string sql =
+        "INSERT INTO jobs (id, process_id, status, message, error_kind, progress, created, started,"
+        " finished, updated, inputs, outputs, transmission, report, formats) VALUES ('" +
+        id +
+        "', 'voronoi', 'failed', CAST(x'6e65617220225c78383022' || x'80ff' AS TEXT),"
+        " 'no-such-kind', 900, '2026-01-01T00:00:00.000Z', '', '', '2026-01-01T00:00:00.000Z',"
+        " CAST('{\"ownerField\": \"o' || x'80' || '\"}' AS TEXT), '[\"ownership\", 5]', 'not json',"
+        " CAST('{\"owners\": [\"A' || x'80' || '\"]}' AS TEXT), '[]')";
     char* err = nullptr;
     ASSERT_EQ(sqlite3_exec(db, sql.c_str(), nullptr, nullptr, &err), SQLITE_OK) << (err ? err : "");
     sqlite3_close(db);

@@ -19,6 +19,7 @@ enum class ErrorKind {
   cancelled,         // the caller asked the computation to stop
   io,                // reading or writing a file failed
   busy,              // no capacity right now (queue full); retry later
+  over_quota,        // the caller's own allowance is used up (a principal's jobs or cells); retry later
   internal,          // a bug: an invariant did not hold
 };
 
