@@ -26,7 +26,7 @@ struct JwtOutcome {
 };
 
 // True when `token` has the shape of a JWS compact serialisation: three base64url parts
-// separated by dots. (A configured token never has it: it would be taken for a JWT.)
+// separated by dots, the last possibly empty.
 bool looks_like_jwt(std::string_view token);
 
 // Verifies `token` at `now_s` (seconds since 1970). unknown_key: the header names a key id

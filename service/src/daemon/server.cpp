@@ -430,6 +430,25 @@ class Listener : public std::enable_shared_from_this<Listener> {
   int64_t backoffs_ = 0;
 };
 
+// With authentication on, jobs of the anonymous principal (stored before principals, or while
+// the server was open) are the admins' alone to see: say so at start, and say when no admin is
+// configured to see them.
+void log_anonymous_jobs(const JobStore& store, const AuthConfig& auth) {
+  int64_t anonymous = 0;
+  for (const auto& [principal, count] : store.count_by_principal())
+    if (principal == auth::kAnonymous) anonymous = count;
+  if (anonymous == 0) return;
+  bool admin = !auth.jwt.role_claim.empty();
+  for (const PrincipalConfig& p : auth.principals) admin = admin || p.role == Role::admin;
+  daemon::log_event("{\"event\":\"anonymous_jobs\",\"jobs\":" + std::to_string(anonymous) +
+                    ",\"detail\":" +
+                    json_escape(std::to_string(anonymous) +
+                                " stored jobs belong to the principal 'anonymous' (made before principals, or "
+                                "without authentication): only admins see them" +
+                                (admin ? "" : "; no admin is configured")) +
+                    "}");
+}
+
 }  // namespace
 
 struct Server::Impl {
@@ -495,6 +514,7 @@ void Server::start() {
       std::filesystem::remove_all(std::filesystem::path(s.config.data_dir) / "jobs" / id, ec);
     }
   }
+  if (s.config.auth.enabled()) log_anonymous_jobs(*s.store, s.config.auth);
 
   beast::error_code ec;
   const auto address = net::ip::make_address(s.config.host, ec);

@@ -65,6 +65,20 @@ void Authenticator::refresh_keys_then(std::function<void()> done) const {
 
 Authenticator::Outcome Authenticator::identify(std::string_view token, bool keys_refreshed) const {
   Outcome out;
+  // Every principal's hash is compared, also after a match: which one matched (and whether an
+  // early one did) must not show in the time taken. Comparing hashes, not the tokens, keeps
+  // the configured secrets out of memory and the comparison's length fixed. A configured token
+  // is looked up first whatever its shape, so that one shaped like a JWT still works.
+  const auth::Sha256 presented = auth::sha256(token);
+  const PrincipalConfig* found = nullptr;
+  for (const PrincipalConfig& p : principals_)
+    if (auth::digests_equal(presented, p.token_sha256) && found == nullptr) found = &p;
+  if (found != nullptr) {
+    out.principal.name = found->name;
+    out.principal.role = found->role;
+    out.principal.how = "token";
+    return out;
+  }
   if (keys_ && auth::looks_like_jwt(token)) {
     const auto keys = keys_->keys();
     if (!keys) {
@@ -80,20 +94,7 @@ Authenticator::Outcome Authenticator::identify(std::string_view token, bool keys
     out.reason = std::move(v.reason);
     return out;
   }
-  // Every principal's hash is compared, also after a match: which one matched (and whether an
-  // early one did) must not show in the time taken. Comparing hashes, not the tokens, keeps
-  // the configured secrets out of memory and the comparison's length fixed.
-  const auth::Sha256 presented = auth::sha256(token);
-  const PrincipalConfig* found = nullptr;
-  for (const PrincipalConfig& p : principals_)
-    if (auth::digests_equal(presented, p.token_sha256) && found == nullptr) found = &p;
-  if (found == nullptr) {
-    out.reason = "the bearer token is not valid for this server";
-    return out;
-  }
-  out.principal.name = found->name;
-  out.principal.role = found->role;
-  out.principal.how = "token";
+  out.reason = "the bearer token is not valid for this server";
   return out;
 }
 

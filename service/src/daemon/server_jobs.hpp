@@ -53,7 +53,8 @@ class JobManager {
   // Records the job as `who`'s, accepted, and queues it. Throws rv::Error(busy) when the queue is
   // full or the server is shutting down, QuotaExceeded (over_quota) when `who` has
   // limits.jobs_per_principal jobs unfinished or the grid (when known up front) would take it
-  // over its hourly cells; nothing is recorded then. An edit (spec.base_name, the input baseJob)
+  // over its hourly cells; nothing is recorded then. The limits bind everyone but admins
+  // authenticated as such. An edit (spec.base_name, the input baseJob)
   // names a successful job `who` may see (auth::may_see): its report and kept field are linked
   // into the new job's directory first (so deleting the base meanwhile breaks nothing), and
   // spec.base_report set to them; else invalid_argument (no such job, another's, not
@@ -76,7 +77,7 @@ class JobManager {
     Execution execution;
     Done on_done;
     std::string principal;
-    bool charged = false;  // its cells were charged at submission (known up front)
+    bool charged = false;  // its cells were charged at submission (known up front), or need none
   };
   struct Running {
     std::string principal;

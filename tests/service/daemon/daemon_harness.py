@@ -1,7 +1,8 @@
 """Starting and talking to a daemon process for the Python tests of tests/service.
 
 A Daemon runs `BINARY serve`-style arguments (--listen 127.0.0.1:0 --data-dir D --config C) and
-learns its port from the first line it writes (the JSON "listening" event). Its later stderr is
+learns its port from its "listening" event (a JSON line; what it logs before, e.g. an identity
+provider's key set loaded, is kept in `log`). Its later stderr is
 kept in memory (`log`) by a thread, so that a chatty daemon never blocks on a full pipe.
 Only the standard library: http.client for requests.
 """
@@ -24,15 +25,19 @@ class Daemon:
         self.proc = subprocess.Popen(
             argv + ["--listen", "127.0.0.1:0", "--data-dir", data_dir, "--config", self.config_path],
             stderr=subprocess.PIPE, stdout=subprocess.DEVNULL, text=True, env=full_env, preexec_fn=preexec_fn)
-        first = self.proc.stderr.readline()
-        try:
-            self.startup = json.loads(first)
-        except ValueError:
-            self.proc.kill()
-            raise RuntimeError(f"daemon did not start: {first!r} {self.proc.stderr.read()!r}")
+        self.log = []
+        while True:
+            first = self.proc.stderr.readline()
+            try:
+                self.startup = json.loads(first)
+            except ValueError:
+                self.proc.kill()
+                raise RuntimeError(f"daemon did not start: {''.join(self.log)}{first!r} {self.proc.stderr.read()!r}")
+            self.log.append(first)
+            if self.startup.get("event") == "listening":
+                break
         self.port = int(self.startup["address"].rsplit(":", 1)[1])
         self.pid = self.proc.pid
-        self.log = [first]
         self._reader = threading.Thread(target=self._drain, daemon=True)
         self._reader.start()
 
