@@ -440,8 +440,7 @@ void log_anonymous_jobs(const JobStore& store, const AuthConfig& auth) {
   if (anonymous == 0) return;
   bool admin = !auth.jwt.role_claim.empty();
   for (const PrincipalConfig& p : auth.principals) admin = admin || p.role == Role::admin;
-  daemon::log_event("{\"event\":\"anonymous_jobs\",\"jobs\":" + std::to_string(anonymous) +
-                    ",\"detail\":" +
+  daemon::log_event("{\"event\":\"anonymous_jobs\",\"jobs\":" + std::to_string(anonymous) + ",\"detail\":" +
                     json_escape(std::to_string(anonymous) +
                                 " stored jobs belong to the principal 'anonymous' (made before principals, or "
                                 "without authentication): only admins see them" +
