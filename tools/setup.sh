@@ -15,7 +15,7 @@ packages=(
   libgeographiclib-dev
   libgtest-dev libgmock-dev
   pybind11-dev python3-dev python3-pip python3-venv python3-setuptools python3-wheel
-  libboost-dev libsqlite3-dev nlohmann-json3-dev
+  libboost-dev libsqlite3-dev nlohmann-json3-dev libssl-dev ca-certificates
   libopencv-dev
   python3-jsonschema python3-yaml python3-numpy
   clang-format-14
@@ -29,6 +29,8 @@ packages=(
 if [ "${1:-}" != "--image" ]; then
   packages+=(python3-xarray python3-dask python3-distributed python3-geopandas python3-rioxarray python3-zarr
              python3-netcdf4 python3-psutil chromium chromium-driver python3-selenium)
+  # The principals' test signs JWTs and serves a key set over TLS with keys it makes.
+  packages+=(python3-jwt python3-cryptography)
   # The Debian package's test (tools/test-package.sh): a minimal chroot, lintian, the unit's checks,
   # a network namespace for the installed daemon.
   packages+=(debootstrap lintian systemd iproute2 zstd)
