@@ -5,11 +5,14 @@ Every response this script receives is validated with python3-jsonschema against
 that openapi.yaml gives for that path, method, status and media type, and every status must be
 documented there: the document and the server cannot drift apart. Request bodies are validated
 against the document too. GDAL (a client nobody here wrote) reads a result through /vsicurl/.
-Also: SIGKILL in the middle of a job and a restart; SIGTERM shuts down cleanly.
+Also: SIGKILL in the middle of a job and a restart; SIGTERM shuts down cleanly. A second server
+with principals (issue 52): /me, the 401s with their WWW-Authenticate, a job's principal, the
+principal filter of /jobs, and the 429s of the allowances, each validated the same way.
 
 usage: test_openapi.py RVORONOI_BINARY SOURCE_DIR
 """
 import base64
+import hashlib
 import json
 import os
 import re
@@ -172,6 +175,73 @@ def b64(path):
     return base64.b64encode(open(path, "rb").read()).decode()
 
 
+def principals(tmp):
+    """Issue 52 against the document: a server with two principals and small allowances."""
+    tokens = {"alice": "alice-" + os.urandom(8).hex(), "root": "root-" + os.urandom(8).hex()}
+    roles = {"alice": "user", "root": "admin"}
+    config = {"jobs": {"workers": 1, "queue_length": 4, "threads_per_job": 1},
+              "limits": {"cells_per_principal_per_hour": 1000},
+              "auth": {"principals": [{"name": n, "role": roles[n], "token_sha256": hashlib.sha256(t.encode()).hexdigest()}
+                                      for n, t in tokens.items()]}}
+    s = Server(os.path.join(tmp, "principals"), config)
+    alice = {"Authorization": "Bearer " + tokens["alice"]}
+    root = {"Authorization": "Bearer " + tokens["root"]}
+    try:
+        _, h, _ = request(s, "GET", "/me", expect=401)
+        check(h.get("WWW-Authenticate", "").startswith("Bearer"), f"401 without a token: {h.get('WWW-Authenticate')}")
+        _, h, _ = request(s, "GET", "/me", headers={"Authorization": "Bearer not-" + tokens["alice"]}, expect=401)
+        challenge = h.get("WWW-Authenticate", "")
+        check('error="invalid_token"' in challenge and 'error_description="' in challenge,
+              f"a refused token is told why: {challenge}")
+        _, _, me = request(s, "GET", "/me", headers=alice, expect=200)
+        me = json.loads(me)
+        check((me["name"], me["role"], me["authentication"]) == ("alice", "user", "token"), f"/me as alice: {me}")
+        _, _, me = request(s, "GET", "/me", headers=root, expect=200)
+        check(json.loads(me)["role"] == "admin", f"/me as root: {me}")
+        demo = json.load(open(os.path.join(SOURCE, "fixtures", "demo_basepoints.geojson")))
+        body = {"inputs": {"seeds": demo, "ownerField": "state", "resolution": 2000}, "outputs": {"ownership": {}}}
+        validate(body, DOC["components"]["schemas"]["execute"], "execute request body")
+        _, _, st = request(s, "POST", "/processes/voronoi/execution", body,
+                           dict(alice, Prefer="respond-async"), expect=201)
+        st = json.loads(st)
+        check(st.get("principal") == "alice", f"the job's principal: {st}")
+        job = st["jobID"]
+        end = time.time() + 60
+        while time.time() < end:
+            _, _, doc = request(s, "GET", f"/jobs/{job}", headers=alice, expect=200)
+            if json.loads(doc)["status"] in ("successful", "failed"):
+                break
+            time.sleep(0.05)
+        _, _, jobs = request(s, "GET", "/jobs?principal=alice&limit=1", headers=root, expect=200)
+        jobs = json.loads(jobs)
+        check([j["principal"] for j in jobs["jobs"]] == ["alice"]
+              and any("principal=alice" in l["href"] for l in jobs["links"] if l["rel"] == "next"),
+              f"an admin lists alice's jobs, the next link repeats the filter: {jobs}")
+        _, _, jobs = request(s, "GET", "/jobs?principal=root", headers=alice, expect=200)
+        check(json.loads(jobs)["jobs"] == [], f"a user naming another principal lists nothing: {jobs}")
+        request(s, "GET", "/jobs?principal=", headers=root, expect=400)
+        request(s, "GET", f"/jobs/{job}", headers=root, expect=200)
+        # Over the cells of the hour: a grid known up front is refused at once (429, Retry-After) ...
+        known = dict(body, inputs=dict(body["inputs"], extent=[340000, 6140000, 400000, 6200000]))
+        _, h, problem = request(s, "POST", "/processes/voronoi/execution", known, alice, expect=429)
+        check(json.loads(problem)["type"] == "https://rvoronoi.dev/problems/over-quota"
+              and int(h.get("Retry-After", "0")) >= 1, f"429 over-quota with Retry-After: {h} {problem}")
+        # ... one known only once planned fails with that problem: its results answer 429.
+        _, _, st = request(s, "POST", "/processes/voronoi/execution", body,
+                           dict(alice, Prefer="respond-async"), expect=201)
+        job = json.loads(st)["jobID"]
+        end = time.time() + 60
+        while time.time() < end:
+            _, _, doc = request(s, "GET", f"/jobs/{job}", headers=alice, expect=200)
+            if json.loads(doc)["status"] in ("successful", "failed"):
+                break
+            time.sleep(0.05)
+        request(s, "GET", f"/jobs/{job}/results", headers=alice, expect=429)
+    finally:
+        if s.proc.poll() is None:
+            s.stop()
+
+
 def main():
     tmp = tempfile.mkdtemp(prefix="rv_openapi_")
     data = os.path.join(tmp, "data")
@@ -194,6 +264,12 @@ def main():
         check(api == open(os.path.join(SOURCE, "openapi.yaml"), "rb").read(), "/api serves openapi.yaml verbatim")
         check(yaml.safe_load(api)["openapi"].startswith("3.0"), "/api is OpenAPI 3.0")
         request(s, "GET", "/health", expect=200)
+        # Without authentication whoever asks is the anonymous admin.
+        _, _, me = request(s, "GET", "/me", expect=200)
+        me = json.loads(me)
+        check((me["name"], me["role"], me["authentication"]) == ("anonymous", "admin", "none") and "expires" not in me,
+              f"/me without authentication: {me}")
+        request(s, "HEAD", "/me", expect=200)
         request(s, "GET", "/processes", expect=200)
         _, _, desc = request(s, "GET", "/processes/voronoi", expect=200)
         desc = json.loads(desc)
@@ -442,6 +518,8 @@ def main():
         # SIGTERM: graceful, exit status 0.
         code = s.stop(signal.SIGTERM)
         check(code == 0, f"exit status after SIGTERM: {code}")
+
+        principals(tmp)
     finally:
         if s.proc.poll() is None:
             s.proc.kill()
