@@ -3,8 +3,10 @@
 // server's problem+json shown in plain words, downloads fetched with the token.
 //
 // Everything a server or an upload says goes into text nodes (textContent), never into markup.
-// The token is kept in this tab's sessionStorage, sent as "Authorization: Bearer" on every
-// request a page makes (downloads and the map's raster reads included), never put in a URL.
+// The token (one the administrator gave, or an identity provider's JWT: both are bearer tokens)
+// is kept in this tab's sessionStorage, sent as "Authorization: Bearer" on every request a page
+// makes (downloads and the map's raster reads included), never put in a URL. The header says
+// who that token signs in as (GET /me).
 
 export const TOKEN_KEY = "rvoronoi-token";
 
@@ -60,7 +62,7 @@ export class Problem extends Error {
   }
 }
 
-export async function getJson(url) {
+async function fetchJson(url) {
   const u = new URL(url, location.href);
   u.searchParams.delete("f");
   const r = await fetch(u, { headers: headers("application/json") });
@@ -68,6 +70,17 @@ export async function getJson(url) {
   const body = type.includes("json") ? await r.json() : await r.text();
   if (!r.ok) throw new Problem(r.status, typeof body === "object" ? body : { detail: body });
   return body;
+}
+
+export async function getJson(url) {
+  try {
+    return await fetchJson(url);
+  } catch (e) {
+    // The token stopped working meanwhile (a JWT expired, the administrator removed it): the
+    // header, which said who it signed in as, asks again.
+    if (e instanceof Problem && e.status === 401) sessionStale();
+    throw e;
+  }
 }
 
 // ---- Problems and the token ---------------------------------------------------------------
@@ -86,7 +99,7 @@ export function problemView(p, onToken) {
 export function tokenForm(onToken) {
   const input = el("input", { id: "token", name: "token", type: "password", autocomplete: "off", required: "" });
   const form = el("form", { class: "token" },
-    el("label", { for: "token", text: "Access token (given by the administrator of this server)" }),
+    el("label", { for: "token", text: "Access token (given by the administrator of this server, or your identity provider's token)" }),
     input,
     el("button", { type: "submit", text: "Use this token" }));
   form.addEventListener("submit", (ev) => {
@@ -97,15 +110,68 @@ export function tokenForm(onToken) {
   return form;
 }
 
-// The header's token line: "Token set" and a button that forgets it, then runs `onForget`.
-export function sessionBar(onForget) {
+// ---- Who is signed in ------------------------------------------------------------------------
+
+// GET /me, asked once per token: a page that draws itself again (a job's page while it runs)
+// does not ask again. { doc } or { problem }.
+let who = { token: null, answer: null, onForget: null };
+
+function whoAmI() {
+  const t = token();
+  if (who.token !== t || !who.answer) {
+    const answer = fetchJson("/me").then((doc) => ({ doc }), (problem) => {
+      // Only a refusal of the token is kept; anything else (a network error) is asked again.
+      if (!(problem instanceof Problem && problem.status === 401) && who.answer === answer) who.answer = null;
+      return { problem };
+    });
+    who = { ...who, token: t, answer };
+  }
+  return who.answer;
+}
+
+// A request was refused 401: when the header said "signed in", it asks /me again.
+async function sessionStale() {
+  const answer = who.answer;
+  if (!answer || !(await answer).doc || who.answer !== answer) return;
+  who.answer = null;
+  if (who.onForget) sessionBar(who.onForget);
+}
+
+// The header's line: who the token signs in as ("Signed in as alice (user)", the name a link to
+// /me) and a button that forgets the token, then runs `onForget`; "Not signed in" when the
+// server refuses the token or needs one; "Open server" when it asks for none. data-session says
+// which (signed-in, signed-out, open, unknown) for scripts and tests.
+export async function sessionBar(onForget) {
   const bar = document.getElementById("session");
   if (!bar) return;
-  bar.replaceChildren();
-  if (token()) {
-    bar.append("Token set ",
-      el("button", { type: "button", text: "Forget", onclick: () => { sessionStorage.removeItem(TOKEN_KEY); onForget(); } }));
+  who.onForget = onForget;
+  const t = token();
+  const { doc, problem } = await whoAmI();
+  if (token() !== t) return;  // the token changed meanwhile: a later call draws the line
+  const forget = () => el("button", { type: "button", text: "Forget", title: "Forget the token in this tab",
+    onclick: () => { sessionStorage.removeItem(TOKEN_KEY); onForget(); } });
+  const parts = [];
+  let state;
+  bar.removeAttribute("title");
+  if (doc && doc.authentication === "none") {
+    state = "open";
+    parts.push(el("span", { class: "open", text: "Open server", title: "This server asks for no token: everyone using it sees every job." }));
+  } else if (doc) {
+    state = "signed-in";
+    parts.push(el("span", { class: "who" }, "Signed in as ", el("a", { href: "/me?f=html", text: String(doc.name) }),
+      " (" + String(doc.role) + ")"));
+    if (doc.expires) bar.title = "The token expires " + new Date(doc.expires).toLocaleString();
+  } else if (problem instanceof Problem && problem.status === 401) {
+    state = "signed-out";
+    parts.push(el("span", { class: "who", text: "Not signed in" }));
+    if (t) bar.title = problem.body.detail || problem.message;  // why the token was refused
+  } else {
+    state = "unknown";  // /me could not be asked
+    if (t) parts.push(el("span", { class: "who", text: "Token set" }));
   }
+  if (t) parts.push(" ", forget());
+  bar.replaceChildren(...parts);
+  bar.dataset.session = state;
 }
 
 // ---- Files ----------------------------------------------------------------------------

@@ -6,7 +6,7 @@
 // script to the page; links are followed only within this origin. With authentication on, the
 // person types the access token once; it is kept in this tab's sessionStorage and sent as
 // "Authorization: Bearer" on every request the page makes, downloads included (they are fetched,
-// then saved from memory), and never put in a URL.
+// then saved from memory), and never put in a URL. The header says who it signs in as (/me).
 
 import { el, sessionBar, table, facts, headers, Problem, getJson, problemView as problemBox, humanBytes, download } from "./client.js";
 
@@ -97,11 +97,19 @@ function statusBadge(s) {
   return el("span", { class: "status " + s, text: s });
 }
 
+// A principal's name, linking to the list of its jobs (an admin's view of one principal).
+function principalLink(name) {
+  return name ? pageLink("/jobs?principal=" + encodeURIComponent(name), name) : "";
+}
+
 function jobList(doc) {
   const rows = (doc.jobs || []).map((j) => [pageLink("/jobs/" + encodeURIComponent(j.jobID), j.jobID), statusBadge(j.status),
-    j.progress !== undefined ? j.progress + " %" : "", j.created || "", j.message || ""]);
+    j.progress !== undefined ? j.progress + " %" : "", principalLink(j.principal), j.created || "", j.message || ""]);
   const next = (doc.links || []).find((l) => l.rel === "next");
-  return [el("h1", { text: "Jobs" }), rows.length ? table(["Job", "Status", "Progress", "Created", "Message"], rows) : el("p", { text: "No jobs yet." }),
+  const only = new URLSearchParams(location.search).get("principal");
+  return [el("h1", { text: only ? "Jobs of " + only : "Jobs" }),
+    only ? el("p", {}, pageLink("/jobs", "Every job you may see")) : null,
+    rows.length ? table(["Job", "Status", "Progress", "Principal", "Created", "Message"], rows) : el("p", { text: "No jobs yet." }),
     next ? el("p", {}, pageLink(next.href, "Next page")) : null];
 }
 
@@ -112,7 +120,7 @@ function jobStatus(doc) {
   const nodes = [el("h1", { text: "Job " + doc.jobID }),
     el("p", {}, statusBadge(doc.status), " ", bar, " ", el("span", { text: (doc.progress || 0) + " %" })),
     el("p", { class: "lead", text: doc.message || "" }),
-    facts([["Process", doc.processID || ""], ["Created", doc.created || ""], ["Started", doc.started || ""],
+    facts([["Process", doc.processID || ""], ["Principal", principalLink(doc.principal)], ["Created", doc.created || ""], ["Started", doc.started || ""],
       ["Finished", doc.finished || ""], ["Updated", doc.updated || ""]]),
     el("h2", { text: "Links" }), linksTable(doc.links)];
   if (doc.status === "accepted" || doc.status === "running") {
@@ -177,6 +185,15 @@ function apiDocument(text) {
     el("pre", { text: typeof text === "string" ? text : JSON.stringify(text, null, 2) })];
 }
 
+// GET /me: who the token signs in as.
+function me(doc) {
+  const how = { none: "none: this server asks for no token", token: "a token of this server", jwt: "a token of the identity provider (JWT)" };
+  const title = doc.authentication === "none" ? "Open server" : "Signed in as " + doc.name;
+  const rows = [["Name", doc.name || ""], ["Role", doc.role || ""], ["Authentication", how[doc.authentication] || doc.authentication || ""]];
+  if (doc.expires) rows.push(["Expires", new Date(doc.expires).toLocaleString() + " (" + doc.expires + ")"]);
+  return [el("h1", { text: title }), facts(rows), el("h2", { text: "Links" }), linksTable(doc.links)];
+}
+
 function health(doc) {
   return [el("h1", { text: "Health" }), el("pre", { text: JSON.stringify(doc, null, 2) })];
 }
@@ -190,6 +207,7 @@ const VIEWS = [
   [/^\/jobs\/[^/]+$/, jobStatus],
   [/^\/jobs\/[^/]+\/results$/, results],
   [/^\/health$/, health],
+  [/^\/me$/, me],
 ];
 
 async function render() {

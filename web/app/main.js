@@ -30,6 +30,7 @@ const ADVICE = {
   403: "This token may not do that.",
   409: "The job was cancelled or changed meanwhile.",
   413: "The file is larger than this server accepts in one request.",
+  429: "That is over your allowance on this server (jobs at once, or grid cells per hour): the message says when to try again.",
   503: "The server is busy: try again in a moment.",
 };
 

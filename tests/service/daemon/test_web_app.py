@@ -17,9 +17,11 @@ Against daemons this test starts (without and with a bearer token):
      problem shown in plain words;
   4. hostile data: a GeoJSON whose owner label is <script>alert(1)</script> and whose file name
      and field name are markup: shown as text, nothing runs, nothing is injected;
-  5. with authentication on: the page asks for the token, then the whole run works (the COG
-     reads carry the header) and the token appears in no URL the daemon saw; that daemon allows
-     too few vertices for drawing the seeds: the page describes them without and says so;
+  5. with authentication on: the page asks for the token (its header says "Not signed in"), then
+     says who signed in ("Signed in as alice (user)") and the whole run works (the COG reads
+     carry the header) and the token appears in no URL the daemon saw; that daemon allows too
+     few vertices for drawing the seeds: the page describes them without and says so; without
+     authentication the header says "Open server";
   6. accessibility basics on every state: labelled fields, alt texts.
 Screenshots go to ARTEFACT_DIR.
 """
@@ -33,7 +35,7 @@ import time
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from daemon_harness import Daemon  # noqa: E402
-from test_web_pages import accessibility, check, closed_daemon, HOSTILE, outcome  # noqa: E402
+from test_web_pages import accessibility, check, closed_daemon, HOSTILE, outcome, session  # noqa: E402
 
 import numpy as np  # noqa: E402
 from osgeo import gdal  # noqa: E402
@@ -212,6 +214,9 @@ def api_checks(d):
 
 def oresund_run(drv, d, base, tag):
     check(open_app(drv, base) == "ready", "%s: the page starts" % tag)
+    if tag == "open":
+        line = session(drv, "open")
+        check(line == "Open server", "the map page's header says the server is open: %r" % line)
     accessibility(drv, tag + " start")
     check(load(drv, os.path.join(FIXTURES, "oresund.gpkg")) == "described", "%s: the GeoPackage is described" % tag)
     owner = drv.find_element(By.ID, "in-ownerField")
@@ -364,11 +369,14 @@ def hostile(drv, base, tmp):
 
 def with_token(drv, d, base, downloads):
     check(open_app(drv, base) == "token", "the page asks for a token")
+    check(session(drv, "signed-out") == "Not signed in", "the map page's header says nobody is signed in")
     accessibility(drv, "token")
     drv.find_element(By.ID, "token").send_keys(d.token)
     drv.find_element(By.CSS_SELECTOR, "form.token button").click()
     time.sleep(0.5)
     wait_state(drv, ("ready",), 30)
+    line = session(drv, "signed-in")
+    check(line.startswith("Signed in as alice (user)") and "Forget" in line, "the map page's header says who: %r" % line)
     _, own = oresund_run(drv, d, base, "auth")
     check("too large to draw" in drv.find_element(By.ID, "panel").text,
           "over preview_max_vertices, the page says the seeds are not drawn")

@@ -12,11 +12,19 @@ Against daemons this test starts (without and with a bearer token):
   3. hostile data: a job whose owner label is <script>...</script> and an <img onerror> label:
      the labels show as text, nothing runs (no alert, no injected element), and the page's
      markup holds no element from them;
-  4. with authentication on, the page asks for the token (a labelled field), then renders with
-     it; the token never appears in a URL;
+  4. with authentication on (a principal of auth.principals, by its token's SHA-256), the page
+     asks for the token (a labelled field), the header says "Not signed in", then renders with
+     it: the header says "Signed in as alice (user)", the job list has a Principal column with
+     her name and a job's page names her among its facts; Forget signs out; the token never
+     appears in a URL. Without authentication the header says "Open server". A deprecated
+     plaintext token (auth.tokens) signs in as its principal "token-<8 hex of its SHA-256>"; an
+     identity provider's JWT (RS256, its key in auth.jwt's key set) typed in the same field signs
+     in as its subject, the header giving its expiry;
   5. accessibility basics: every form field has a label, every image an alt text.
 Screenshots of each page go to ARTEFACT_DIR.
 """
+import base64
+import hashlib
 import json
 import os
 import sys
@@ -88,6 +96,13 @@ def settle(drv, text=None, seconds=20):
         and (text is None or text in d.find_element(By.ID, "content").text))
 
 
+def session(drv, state, seconds=20):
+    """Waits until the header's session line is in `state` (data-session); returns its text."""
+    WebDriverWait(drv, seconds).until(
+        lambda d: d.find_element(By.ID, "session").get_attribute("data-session") == state)
+    return drv.find_element(By.ID, "session").text
+
+
 def console_errors(drv):
     return [e for e in drv.get_log("browser") if e["level"] == "SEVERE"]
 
@@ -133,6 +148,8 @@ def pages(drv, base, job, hostile):
     for path, text, name in visits:
         drv.get(base + path)
         settle(drv, text)
+        line = session(drv, "open")
+        check(line == "Open server", "%s: the header says the server is open: %r" % (path, line))
         shot(drv, name)
         errors = console_errors(drv)
         check(not errors, "%s: console errors %s" % (path, errors))
@@ -144,6 +161,10 @@ def pages(drv, base, job, hostile):
             for r in drv.find_elements(By.CSS_SELECTOR, "table tbody tr") if r.find_elements(By.TAG_NAME, "td")}
     check("metric" in rows and "auto" in rows["metric"][3], "the metric input shows its default: %s" % rows.get("metric"))
     check("resolution" in rows and "number" in rows["resolution"][2], "the resolution input shows its type")
+    # Without authentication every job is the anonymous principal's.
+    drv.get(base + "/jobs?f=html")
+    settle(drv, job)
+    check(job_row(drv, job).get("Principal") == "anonymous", "the job list names the anonymous principal")
     # Results: sizes, the owners of the report (as text), the preview with its alt text.
     drv.get(base + "/jobs/%s/results?f=html" % job)
     settle(drv, "Owners")
@@ -169,9 +190,20 @@ def pages(drv, base, job, hostile):
         pass
 
 
-def with_token(drv, d, base, token):
+def job_row(drv, job):
+    """The job list's row of `job`: {column header: cell text}."""
+    head = [th.text for th in drv.find_elements(By.CSS_SELECTOR, "#content table thead th")]
+    for r in drv.find_elements(By.CSS_SELECTOR, "#content table tbody tr"):
+        cells = [td.text for td in r.find_elements(By.TAG_NAME, "td")]
+        if cells and cells[0] == job:
+            return dict(zip(head, cells))
+    return {}
+
+
+def with_token(drv, d, base, token, name="alice"):
     drv.get(base + "/jobs?f=html")
     settle(drv, "Access token")
+    check(session(drv, "signed-out") == "Not signed in", "the header says nobody is signed in")
     shot(drv, "token-form")
     accessibility(drv, "token form")
     check("401" in drv.find_element(By.ID, "content").text, "the page says why it needs a token")
@@ -182,7 +214,24 @@ def with_token(drv, d, base, token):
     field.send_keys(token)
     drv.find_element(By.CSS_SELECTOR, "form.token button").click()
     settle(drv, "Jobs")
+    line = session(drv, "signed-in")
+    check(line.startswith("Signed in as %s (user)" % name) and "Forget" in line, "the header says who: %r" % line)
+    shot(drv, "signed-in")
     job = run_job(d, ["A", "B"], {"Authorization": "Bearer " + token})
+    drv.get(base + "/jobs?f=html")
+    settle(drv, job)
+    row = job_row(drv, job)
+    check(row.get("Principal") == name, "the job list's Principal column names %s: %s" % (name, row))
+    check(session(drv, "signed-in").startswith("Signed in as %s (user)" % name), "the header, on the next page")
+    drv.get(base + "/jobs/%s?f=html" % job)
+    settle(drv, "successful")
+    facts = {r.find_element(By.TAG_NAME, "th").text: r.find_element(By.TAG_NAME, "td").text
+             for r in drv.find_elements(By.CSS_SELECTOR, "table.facts tr")}
+    check(facts.get("Principal") == name, "the job's page names its principal: %s" % facts)
+    drv.get(base + "/me?f=html")
+    settle(drv, "Signed in as " + name)
+    text = drv.find_element(By.ID, "content").text
+    check("user" in text and "a token of this server" in text, "/me as a page: %r" % text)
     drv.get(base + "/jobs/%s/results?f=html" % job)
     settle(drv, "Owners")
     shot(drv, "results-with-token")
@@ -208,12 +257,90 @@ def with_token(drv, d, base, token):
         check(fetched[0][0].endswith("/results/ownership") and fetched[0][1] == 200,
               "the download was fetched with the token: %s" % fetched)
         check("/jobs/%s" % job in drv.current_url, "the page stayed")
+    # Forget: the token is dropped, the header says so and the page asks for one again.
+    drv.find_element(By.CSS_SELECTOR, "#session button").click()
+    check(session(drv, "signed-out") == "Not signed in", "after Forget, nobody is signed in")
+    settle(drv, "Access token")
+    # A wrong token: refused, the header says so (and keeps Forget to drop it).
+    drv.find_element(By.ID, "token").send_keys("not-" + token)
+    drv.find_element(By.CSS_SELECTOR, "form.token button").click()
+    line = session(drv, "signed-out")
+    check(line.startswith("Not signed in") and "Forget" in line, "a refused token signs nobody in: %r" % line)
+    check(drv.find_element(By.ID, "session").get_attribute("title") == "the bearer token is not valid for this server",
+          "the header tells why the token was refused")
+    drv.execute_script("sessionStorage.clear()")
+    drv.get_log("browser")  # the refused requests are logged by the browser
 
 
-def closed_daemon(binary, tmp, config=None):
-    """A daemon (rvoronoi `binary`) under tmp that requires a fresh bearer token: (daemon, token)."""
+def deprecated_token(drv, d, base, token):
+    """A plaintext token of auth.tokens: its principal is named after the token's SHA-256."""
+    drv.execute_script("sessionStorage.clear()")
+    drv.get(base + "/jobs?f=html")
+    settle(drv, "Access token")
+    drv.find_element(By.ID, "token").send_keys(token)
+    drv.find_element(By.CSS_SELECTOR, "form.token button").click()
+    settle(drv, "Jobs")
+    name = "token-" + hashlib.sha256(token.encode()).hexdigest()[:8]
+    line = session(drv, "signed-in")
+    check(line.startswith("Signed in as %s (user)" % name), "a deprecated token signs in as %s: %r" % (name, line))
+    drv.execute_script("sessionStorage.clear()")
+
+
+def b64url(data):
+    return base64.urlsafe_b64encode(data).rstrip(b"=").decode()
+
+
+def jwt_daemon(binary, tmp, subject):
+    """A daemon that takes an identity provider's JWTs (an RSA key made here, its JWKS in a file)
+    and such a token for `subject`, valid ten minutes: (daemon, token)."""
+    from cryptography.hazmat.primitives import hashes
+    from cryptography.hazmat.primitives.asymmetric import padding, rsa
+    key = rsa.generate_private_key(public_exponent=65537, key_size=2048)
+    pub = key.public_key().public_numbers()
+    number = lambda n: b64url(n.to_bytes((n.bit_length() + 7) // 8, "big"))  # noqa: E731
+    jwks = os.path.join(tmp, "jwks.json")
+    with open(jwks, "w") as f:
+        json.dump({"keys": [{"kty": "RSA", "kid": "k1", "use": "sig", "alg": "RS256", "n": number(pub.n), "e": number(pub.e)}]}, f)
+    issuer, now = "https://idp.example.org/realms/test", int(time.time())
+    header = {"alg": "RS256", "typ": "JWT", "kid": "k1"}
+    claims = {"iss": issuer, "aud": "rvoronoi", "sub": subject, "iat": now, "exp": now + 600}
+    signing_input = b64url(json.dumps(header).encode()) + "." + b64url(json.dumps(claims).encode())
+    signature = key.sign(signing_input.encode(), padding.PKCS1v15(), hashes.SHA256())
+    config = {"auth": {"jwt": {"issuer": issuer, "audience": "rvoronoi", "jwks_file": jwks}}}
+    return Daemon([binary, "serve"], os.path.join(tmp, "closed-jwt"), config), signing_input + "." + b64url(signature)
+
+
+def with_jwt(drv, base, token, subject):
+    drv.execute_script("sessionStorage.clear()")
+    drv.get(base + "/jobs?f=html")
+    settle(drv, "Access token")
+    drv.find_element(By.ID, "token").send_keys(token)
+    drv.find_element(By.CSS_SELECTOR, "form.token button").click()
+    settle(drv, "Jobs")
+    line = session(drv, "signed-in")
+    check(line.startswith("Signed in as %s (user)" % subject), "a JWT signs in as its subject: %r" % line)
+    title = drv.find_element(By.ID, "session").get_attribute("title")
+    check(title.startswith("The token expires "), "the header gives the JWT's expiry: %r" % title)
+    drv.get(base + "/me?f=html")
+    settle(drv, "Signed in as " + subject)
+    text = drv.find_element(By.ID, "content").text
+    check("identity provider" in text and "Expires" in text, "/me of a JWT as a page: %r" % text)
+    shot(drv, "me-jwt")
+    drv.execute_script("sessionStorage.clear()")
+
+
+def closed_daemon(binary, tmp, config=None, name="alice", deprecated=False):
+    """A daemon (rvoronoi `binary`) under tmp that requires a fresh bearer token: (daemon, token).
+
+    The token is the principal `name`'s (a user of auth.principals, configured by its SHA-256),
+    or, `deprecated`, a plaintext token of auth.tokens."""
     token = "s3cret-" + os.urandom(6).hex()
-    return Daemon([binary, "serve"], os.path.join(tmp, "closed"), dict(config or {}, auth={"tokens": [token]})), token
+    if deprecated:
+        auth = {"tokens": [token]}
+    else:
+        auth = {"principals": [{"name": name, "role": "user", "token_sha256": hashlib.sha256(token.encode()).hexdigest()}]}
+    directory = os.path.join(tmp, "closed-deprecated" if deprecated else "closed")
+    return Daemon([binary, "serve"], directory, dict(config or {}, auth=auth)), token
 
 
 def outcome(what, artefacts):
@@ -241,6 +368,16 @@ def main():
             d, token = closed_daemon(RVORONOI, tmp)
             try:
                 with_token(drv, d, "http://127.0.0.1:%d" % d.port, token)
+            finally:
+                d.stop()
+            d, token = closed_daemon(RVORONOI, tmp, deprecated=True)
+            try:
+                deprecated_token(drv, d, "http://127.0.0.1:%d" % d.port, token)
+            finally:
+                d.stop()
+            d, token = jwt_daemon(RVORONOI, tmp, "carol")
+            try:
+                with_jwt(drv, "http://127.0.0.1:%d" % d.port, token, "carol")
             finally:
                 d.stop()
     finally:
