@@ -74,7 +74,8 @@ class JobStore {
   // Newest first; `status` empty = any; `principal` empty = anyone's.
   std::vector<JobRecord> list(int limit, int offset, const std::vector<JobStatus>& status = {},
                               const std::string& principal = "") const;
-  // The jobs created at or after `since` (RFC 3339) that charged cells.
+  // The jobs created at or after `since` (RFC 3339) that charged cells (not those refused over
+  // the allowance once planned).
   std::vector<CellCharge> charges_since(const std::string& since) const;
   // How many jobs each principal owns, for the startup's account of the store.
   std::vector<std::pair<std::string, int64_t>> count_by_principal() const;

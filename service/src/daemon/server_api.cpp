@@ -354,8 +354,11 @@ json results_document(const JobRecord& r, const std::string& base) {
   return doc;
 }
 
-// The answer about a job that has no results to give.
-[[noreturn]] void throw_no_results(const JobRecord& r) {
+// The answer about a job that has no results to give. A job that failed over its principal's
+// hourly allowance answers 429 with the Retry-After its grid needs now (`jobs`).
+[[noreturn]] void throw_no_results(const JobRecord& r, const JobManager& jobs) {
+  if (r.status == JobStatus::failed && r.error_kind == to_string(ErrorKind::over_quota))
+    throw QuotaExceeded(r.message, jobs.cells_retry_after(r.principal, r.cells));
   switch (r.status) {
     case JobStatus::accepted:
     case JobStatus::running:
@@ -549,17 +552,18 @@ void Api::route(const Context& ctx, const std::shared_ptr<Respond>& respond) {
 void Api::landing(const Request& req, const std::vector<std::string>&) const {
   const std::string& base = req.ctx.base;
   req.reply(json_response(
-      200, {{"title", "rvoronoi"},
-            {"description", "Raster Voronoi diagrams for maritime boundary delimitation (OGC API - Processes 1.0)"},
-            {"version", kVersion},
-            {"links",
-             {link(base + "/", "self", kJson, "this document"),
-              link(base + "/api", "service-desc", "application/vnd.oai.openapi;version=3.0", "the API definition"),
-              link(base + "/conformance", std::string(kOgcRel) + "conformance", kJson, "conformance classes"),
-              link(base + "/processes", std::string(kOgcRel) + "processes", kJson, "processes"),
-              link(base + "/jobs", std::string(kOgcRel) + "job-list", kJson, "jobs"),
-              link(base + "/health", "status", kJson, "health"),
-              link(base + "/app", "related", "text/html", "map page: run a delimitation and look at it")}}}));
+      200,
+      {{"title", "rvoronoi"},
+       {"description", "Raster Voronoi diagrams for maritime boundary delimitation (OGC API - Processes 1.0)"},
+       {"version", kVersion},
+       {"links",
+        {link(base + "/", "self", kJson, "this document"),
+         link(base + "/api", "service-desc", "application/vnd.oai.openapi;version=3.0", "the API definition"),
+         link(base + "/conformance", std::string(kOgcRel) + "conformance", kJson, "conformance classes"),
+         link(base + "/processes", std::string(kOgcRel) + "processes", kJson, "processes"),
+         link(base + "/jobs", std::string(kOgcRel) + "job-list", kJson, "jobs"),
+         link(base + "/health", "status", kJson, "health"), link(base + "/me", "related", kJson, "who is signed in"),
+         link(base + "/app", "related", "text/html", "map page: run a delimitation and look at it")}}}));
 }
 
 void Api::conformance(const Request& req, const std::vector<std::string>&) const {
@@ -624,13 +628,13 @@ void Api::execute(const Request& req, const std::vector<std::string>& seg) const
   }
   const bool raw = ex.raw;
   const std::string dir = jobs_.job_dir(id).string();
-  auto on_done = [respond = req.respond, raw, base, dir, path = req.ctx.path](const JobRecord& rec) {
+  auto on_done = [respond = req.respond, raw, base, dir, path = req.ctx.path, &jobs = jobs_](const JobRecord& rec) {
     ApiResponse r;
     try {
       // The client waiting here asked for this job; if someone dismissed it meanwhile, say so
       // (409) rather than "no such job".
       if (rec.status == JobStatus::dismissed) throw Error(ErrorKind::cancelled, rec.message);
-      if (rec.status != JobStatus::successful) throw_no_results(rec);
+      if (rec.status != JobStatus::successful) throw_no_results(rec, jobs);
       if (raw) {
         const std::string& o = rec.outputs.front();
         r = file_response(dir + "/" + file_of(rec, o), media_of(rec, o), "",
@@ -723,14 +727,14 @@ void Api::job(const Request& req, const std::vector<std::string>& seg) const {
 
 void Api::results(const Request& req, const std::vector<std::string>& seg) const {
   const JobRecord rec = find_job(store_, seg[1], req.ctx.request.principal);
-  if (rec.status != JobStatus::successful) throw_no_results(rec);
+  if (rec.status != JobStatus::successful) throw_no_results(rec, jobs_);
   req.reply(json_response(200, results_document(rec, req.ctx.base)));
 }
 
 void Api::result_file(const Request& req, const std::vector<std::string>& seg) const {
   const std::string& id = seg[1];
   const JobRecord rec = find_job(store_, id, req.ctx.request.principal);
-  if (rec.status != JobStatus::successful) throw_no_results(rec);
+  if (rec.status != JobStatus::successful) throw_no_results(rec, jobs_);
   const std::string& output = seg[3];
   const bool sidecar = output == "ownership.aux.xml";
   const std::string output_id = sidecar ? "ownership" : output;

@@ -80,6 +80,10 @@ std::filesystem::path JobManager::job_dir(const std::string& id) const {
   return std::filesystem::path(config_.data_dir) / "jobs" / id;
 }
 
+int64_t JobManager::cells_retry_after(const std::string& principal, int64_t cells) const {
+  return cells_.retry_after(principal, cells);
+}
+
 int JobManager::running_count() const {
   std::lock_guard lock(mutex_);
   return static_cast<int>(running_.size());
@@ -412,11 +416,16 @@ JobRecord JobManager::run_task(Task& task) {
   hooks.reserve_memory = [&memory, cancel, id](int64_t bytes) { memory.need(bytes, true, cancel.get(), "job " + id); };
   // A grid known only from its seeds is charged to the principal's hour now (refused, failing
   // the job, when over it) and recorded with the job, so that a restart counts it too.
+  // The record keeps the grid's size either way: a job failed over the allowance answers with
+  // the Retry-After its cells need (and the store's charges leave such jobs out).
   hooks.planned = [this, &rec, &task](int64_t cells) {
+    {
+      std::lock_guard lock(mutex_);
+      rec.cells = cells;
+    }
     if (!task.charged) cells_.charge(task.principal, cells);
     task.charged = true;
     std::lock_guard lock(mutex_);
-    rec.cells = cells;
     if (!running_.at(rec.id).dismissed) store_.update(rec);
   };
   Outcome outcome = execute(runner_, spec, limits_, hooks, id, dir);

@@ -68,6 +68,9 @@ class JobManager {
   // cancels them and joins the workers. Idempotent.
   void shutdown(std::chrono::duration<double> grace);
 
+  // Seconds until `cells` fit in `principal`'s hourly allowance (CellAllowance::retry_after).
+  int64_t cells_retry_after(const std::string& principal, int64_t cells) const;
+
   int running_count() const;
   int queued_count() const;
 

@@ -9,6 +9,7 @@
 #include <deque>
 #include <map>
 #include <mutex>
+#include <optional>
 #include <string>
 
 #include "rv/field/error.hpp"
@@ -42,6 +43,9 @@ class CellAllowance {
   // take the last hour's charges over the allowance: Retry-After is when enough of them age out
   // (a grid larger than the whole allowance is refused with the hour).
   void charge(const std::string& principal, int64_t cells, Clock::time_point now = Clock::now());
+  // Seconds until `cells` more would fit in `principal`'s hour (1 when they fit now; the whole
+  // hour for a grid over the allowance): the Retry-After of a job that failed over it.
+  int64_t retry_after(const std::string& principal, int64_t cells, Clock::time_point now = Clock::now()) const;
   // Gives a charge back (a submission refused after it was charged).
   void refund(const std::string& principal, int64_t cells);
   // The cells charged to `principal` within the hour before `now`.
@@ -55,6 +59,10 @@ class CellAllowance {
     int64_t cells;
   };
   void expire(std::deque<Charge>& charges, Clock::time_point now) const;
+  // When `cells` more fit beside `charges` (expired ones removed): `now` if they fit, never for a
+  // grid over the allowance (nullopt). Call with mutex_ held.
+  std::optional<Clock::time_point> fits_at(const std::deque<Charge>& charges, int64_t cells,
+                                           Clock::time_point now) const;
 
   int64_t limit_;
   mutable std::mutex mutex_;

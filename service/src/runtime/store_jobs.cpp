@@ -246,7 +246,10 @@ std::vector<JobRecord> JobStore::list(int limit, int offset, const std::vector<J
 std::vector<CellCharge> JobStore::charges_since(const std::string& since) const {
   std::lock_guard lock(mutex_);
   // RFC 3339 UTC timestamps of one fixed format order as text.
-  Statement s(db_, "SELECT principal, created, cells FROM jobs WHERE created >= ?1 AND cells > 0");
+  // A job refused over the allowance once planned keeps its size, but charged nothing.
+  Statement s(db_,
+              "SELECT principal, created, cells FROM jobs WHERE created >= ?1 AND cells > 0"
+              " AND NOT (status = 'failed' AND error_kind = 'over_quota')");
   s.bind(1, since);
   std::vector<CellCharge> out;
   while (s.step()) out.push_back(CellCharge{s.display_text(0), s.display_text(1), s.integer(2)});

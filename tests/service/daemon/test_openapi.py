@@ -236,7 +236,8 @@ def principals(tmp):
             if json.loads(doc)["status"] in ("successful", "failed"):
                 break
             time.sleep(0.05)
-        request(s, "GET", f"/jobs/{job}/results", headers=alice, expect=429)
+        _, h, _ = request(s, "GET", f"/jobs/{job}/results", headers=alice, expect=429)
+        check(int(h.get("Retry-After", "0")) >= 1, f"a job failed over its allowance: Retry-After {h}")
     finally:
         if s.proc.poll() is None:
             s.stop()

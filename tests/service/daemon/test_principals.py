@@ -522,8 +522,12 @@ def limits(tmp):
         check(st == 201, f"a grid from the seeds is accepted first: {st} {doc}")
         end = wait_done(d, doc["jobID"], TOKENS["alice"])
         check(end["status"] == "failed" and "cells per hour" in end["message"], f"and fails over the allowance: {end}")
-        check(d.request("GET", f"/jobs/{doc['jobID']}/results", None, bearer(TOKENS["alice"]))[0] == 429,
-              "its results answer 429")
+        st, h, _ = d.request("GET", f"/jobs/{doc['jobID']}/results", None, bearer(TOKENS["alice"]))
+        retry = int(h.get("retry-after", "0"))
+        check(st == 429 and 3000 < retry <= 3600, f"its results answer 429 with Retry-After: {st} {retry}")
+        # Synchronously the same grid is answered 429 with Retry-After.
+        st, h, _ = d.request("POST", "/processes/voronoi/execution", seeds_body(resolution=400), bearer(TOKENS["alice"]))
+        check(st == 429 and 3000 < int(h.get("retry-after", "0")) <= 3600, f"a synchronous one: {st} {h}")
     finally:
         d.stop()
     # A restart hands out no fresh hour.
