@@ -20,6 +20,7 @@
 #include <fstream>
 #include <memory>
 
+#include "../base64_text.hpp"
 #include "auth/crypto.hpp"
 #include "auth/jwks.hpp"
 #include "auth/jwt.hpp"
@@ -34,23 +35,7 @@ using nlohmann::json;
 using rv::auth::base64url_decode;
 namespace fs = std::filesystem;
 
-std::string b64u(std::string_view bytes) {
-  static const char* const kAlphabet = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789-_";
-  std::string out;
-  size_t i = 0;
-  for (; i + 2 < bytes.size(); i += 3) {
-    const uint32_t n = (uint8_t(bytes[i]) << 16) | (uint8_t(bytes[i + 1]) << 8) | uint8_t(bytes[i + 2]);
-    for (int k = 18; k >= 0; k -= 6) out += kAlphabet[(n >> k) & 63];
-  }
-  if (i < bytes.size()) {
-    uint32_t n = uint8_t(bytes[i]) << 16;
-    if (i + 1 < bytes.size()) n |= uint8_t(bytes[i + 1]) << 8;
-    out += kAlphabet[(n >> 18) & 63];
-    out += kAlphabet[(n >> 12) & 63];
-    if (i + 1 < bytes.size()) out += kAlphabet[(n >> 6) & 63];
-  }
-  return out;
-}
+std::string b64u(std::string_view bytes) { return rv::test::base64(bytes, true); }
 
 using Key = std::unique_ptr<EVP_PKEY, decltype(&EVP_PKEY_free)>;
 Key rsa_key(unsigned bits) { return Key(EVP_RSA_gen(bits), EVP_PKEY_free); }

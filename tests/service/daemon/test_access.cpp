@@ -17,6 +17,7 @@
 #include <sstream>
 #include <thread>
 
+#include "../base64_text.hpp"
 #include "daemon/server_auth.hpp"
 #include "http_client.hpp"
 #include "rv/field/error.hpp"
@@ -44,24 +45,7 @@ std::string read_file(const fs::path& p) {
   return ss.str();
 }
 
-std::string base64(const std::string& bytes) {
-  static const char* const kAlphabet = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
-  std::string out;
-  size_t i = 0;
-  for (; i + 2 < bytes.size(); i += 3) {
-    const uint32_t n = (uint8_t(bytes[i]) << 16) | (uint8_t(bytes[i + 1]) << 8) | uint8_t(bytes[i + 2]);
-    for (int k = 18; k >= 0; k -= 6) out += kAlphabet[(n >> k) & 63];
-  }
-  if (i < bytes.size()) {
-    uint32_t n = uint8_t(bytes[i]) << 16;
-    if (i + 1 < bytes.size()) n |= uint8_t(bytes[i + 1]) << 8;
-    out += kAlphabet[(n >> 18) & 63];
-    out += kAlphabet[(n >> 12) & 63];
-    out += i + 1 < bytes.size() ? kAlphabet[(n >> 6) & 63] : '=';
-    out += '=';
-  }
-  return out;
-}
+std::string base64(const std::string& bytes) { return rv::test::base64(bytes); }
 
 json demo_seeds() { return json::parse(read_file(source_dir() + "/fixtures/demo_basepoints.geojson")); }
 

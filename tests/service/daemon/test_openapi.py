@@ -159,10 +159,10 @@ def execute(server, body, prefer_async=False, expect=None):
     return request(server, "POST", "/processes/voronoi/execution", body, headers, expect)
 
 
-def wait_status(server, job, states, seconds=60):
+def wait_status(server, job, states, seconds=60, headers=None):
     end = time.time() + seconds
     while time.time() < end:
-        _, _, p = request(server, "GET", f"/jobs/{job}", expect=200)
+        _, _, p = request(server, "GET", f"/jobs/{job}", headers=headers, expect=200)
         s = json.loads(p)
         if s["status"] in states:
             return s
@@ -206,12 +206,7 @@ def principals(tmp):
         st = json.loads(st)
         check(st.get("principal") == "alice", f"the job's principal: {st}")
         job = st["jobID"]
-        end = time.time() + 60
-        while time.time() < end:
-            _, _, doc = request(s, "GET", f"/jobs/{job}", headers=alice, expect=200)
-            if json.loads(doc)["status"] in ("successful", "failed"):
-                break
-            time.sleep(0.05)
+        wait_status(s, job, ("successful", "failed"), headers=alice)
         _, _, jobs = request(s, "GET", "/jobs?principal=alice&limit=1", headers=root, expect=200)
         jobs = json.loads(jobs)
         check([j["principal"] for j in jobs["jobs"]] == ["alice"]
@@ -230,12 +225,7 @@ def principals(tmp):
         _, _, st = request(s, "POST", "/processes/voronoi/execution", body,
                            dict(alice, Prefer="respond-async"), expect=201)
         job = json.loads(st)["jobID"]
-        end = time.time() + 60
-        while time.time() < end:
-            _, _, doc = request(s, "GET", f"/jobs/{job}", headers=alice, expect=200)
-            if json.loads(doc)["status"] in ("successful", "failed"):
-                break
-            time.sleep(0.05)
+        wait_status(s, job, ("successful", "failed"), headers=alice)
         _, h, _ = request(s, "GET", f"/jobs/{job}/results", headers=alice, expect=429)
         check(int(h.get("Retry-After", "0")) >= 1, f"a job failed over its allowance: Retry-After {h}")
     finally:

@@ -272,14 +272,19 @@ def with_token(drv, d, base, token, name="alice"):
     drv.get_log("browser")  # the refused requests are logged by the browser
 
 
-def deprecated_token(drv, d, base, token):
-    """A plaintext token of auth.tokens: its principal is named after the token's SHA-256."""
+def sign_in(drv, base, token):
+    """A fresh tab's session: the job list, the token typed into its form."""
     drv.execute_script("sessionStorage.clear()")
     drv.get(base + "/jobs?f=html")
     settle(drv, "Access token")
     drv.find_element(By.ID, "token").send_keys(token)
     drv.find_element(By.CSS_SELECTOR, "form.token button").click()
     settle(drv, "Jobs")
+
+
+def deprecated_token(drv, d, base, token):
+    """A plaintext token of auth.tokens: its principal is named after the token's SHA-256."""
+    sign_in(drv, base, token)
     name = "token-" + hashlib.sha256(token.encode()).hexdigest()[:8]
     line = session(drv, "signed-in")
     check(line.startswith("Signed in as %s (user)" % name), "a deprecated token signs in as %s: %r" % (name, line))
@@ -311,12 +316,7 @@ def jwt_daemon(binary, tmp, subject):
 
 
 def with_jwt(drv, base, token, subject):
-    drv.execute_script("sessionStorage.clear()")
-    drv.get(base + "/jobs?f=html")
-    settle(drv, "Access token")
-    drv.find_element(By.ID, "token").send_keys(token)
-    drv.find_element(By.CSS_SELECTOR, "form.token button").click()
-    settle(drv, "Jobs")
+    sign_in(drv, base, token)
     line = session(drv, "signed-in")
     check(line.startswith("Signed in as %s (user)" % subject), "a JWT signs in as its subject: %r" % line)
     title = drv.find_element(By.ID, "session").get_attribute("title")
