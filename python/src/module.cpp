@@ -58,6 +58,7 @@ const char* type_name(rv::OptionType t) {
     case rv::OptionType::distance_list:
       return "distances";
     case rv::OptionType::file:
+    case rv::OptionType::layers:
       return "path";
     case rv::OptionType::length:
       return "length";

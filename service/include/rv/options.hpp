@@ -45,6 +45,10 @@ enum class OptionType {
   file,                // a path the CLI writes or reads (CLI only)
   length,              // one length >= 0: CLI "1mm", "0.5 m" or a plain number in the distance units;
                        // JSON the same, or {"value": 1, "unit": "mm"} (parse_length)
+  layers,              // vector layers: the CLI a path; a process input uploads (a GeoJSON
+                       // FeatureCollection, or a base64 qualified value of GeoPackage, zipped
+                       // Shapefile or FlatGeobuf; the daemon stages them, server_execute.hpp); the
+                       // Python module a path. `repeatable`: several (an array) allowed.
 };
 
 // A checked value, as the option's type makes it.
@@ -74,6 +78,15 @@ struct OptionSpec {
   bool required = false;                  // process input with minOccurs 1
   // Puts the checked value into the job (the CLI's defaults are the JobSpec's own).
   void (*apply)(JobSpec& spec, const OptionValue& value) = nullptr;
+  // What a client needs beyond the JSON schema, carried in the process description as schema
+  // extensions OGC clients ignore (process_input_description), so that QGIS, the map page's
+  // form and any other client are made from this table:
+  std::string_view field_of = "";  // x-rvoronoi-field-of: an attribute of this layers input's features
+  // x-rvoronoi-unit: "m" (metres), "crs" (the grid CRS's units: degrees or metres), "distance"
+  // (the job's distanceUnits), "cells"; lengths and distance lists carry their own units.
+  std::string_view unit = "";
+  std::string_view geometry = "";  // layers: x-rvoronoi-upload's geometry, "any", "polygon" or "line"
+  bool crs = false;                // x-rvoronoi-crs: a CRS definition (an authority code, URI or WKT)
 };
 
 // The options of `rvoronoi compute` / the process "voronoi", in --help order.
@@ -105,7 +118,8 @@ std::string option_keyword(const OptionSpec& option);
 std::string options_help(std::string_view section, int width = 100);
 
 // The process description's entry for a process input: title, description, minOccurs,
-// maxOccurs and a JSON schema made from the type, choices and default.
+// maxOccurs and a JSON schema made from the type, choices and default, with the x-rvoronoi-*
+// extensions (OptionSpec).
 nlohmann::json process_input_description(const OptionSpec& option);
 
 }  // namespace rv

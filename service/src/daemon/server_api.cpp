@@ -118,32 +118,6 @@ json process_summary(const std::string& base) {
 
 json process_description(const std::string& base) {
   json d = process_summary(base);
-  static const json inputs = json::parse(R"json({
-    "seeds": {
-      "title": "Seed layers",
-      "description": "The seeds: a GeoJSON FeatureCollection, an array of them, or an uploaded GeoPackage, zipped Shapefile or FlatGeobuf as a base64 qualified value. References (href) are not accepted.",
-      "minOccurs": 1, "maxOccurs": 1,
-      "schema": {"oneOf": [
-        {"type": "object", "required": ["type", "features"],
-         "properties": {"type": {"type": "string", "enum": ["FeatureCollection"]}, "features": {"type": "array"}}},
-        {"type": "object", "required": ["value"],
-         "properties": {"value": {"oneOf": [{"type": "string"}, {"type": "object"}]},
-           "mediaType": {"type": "string", "enum": ["application/geo+json", "application/json", "application/geopackage+sqlite3", "application/zip", "application/flatgeobuf"]},
-           "encoding": {"type": "string", "enum": ["base64"]}}},
-        {"type": "array", "minItems": 1, "items": {"type": "object"}}
-      ]}
-    },
-    "relevantArea": {
-      "title": "Relevant area",
-      "description": "The disproportionality test's relevant area: polygons, uploaded as a seed layer is (a GeoJSON FeatureCollection or a base64 qualified value). Each owner's sea and land area within it, its relevant coast (the parts of its seeds nearest to the area's cells, or relevantCoasts) and the ratios of their shares go into the report (deliverables.regions.relevant_area).",
-      "minOccurs": 0, "maxOccurs": 1
-    },
-    "relevantCoasts": {
-      "title": "Relevant coasts",
-      "description": "Lines giving each owner's relevant coast (owned through ownerField, as the seeds), instead of the parts of the seeds nearest to the relevant area; uploaded as a seed layer is. Needs relevantArea.",
-      "minOccurs": 0, "maxOccurs": 1
-    }
-  })json");
   static const json outputs = json::parse(R"json({
     "ownership": {"title": "Ownership raster", "description": "Owner codes (0 = none) in the narrowest integer type that holds them (Byte up to 255 owners, UInt16 up to 65535, else Int32), a Cloud Optimized GeoTIFF with a raster attribute table (served also as ownership.aux.xml).",
       "schema": {"type": "string", "contentEncoding": "binary", "contentMediaType": "image/tiff; application=geotiff; profile=cloud-optimized"}},
@@ -180,15 +154,8 @@ json process_description(const std::string& base) {
     "preview": {"title": "Quicklook", "description": "PNG map: each owner's sea in its colour, land (inside the seed polygons), boundaries and dashed limit lines, owner labels, a legend with the owners' sea areas (when regions are made) and a scale bar; one pixel per cell, or per n x n cells (the smallest integer n keeping the long side within 2000 px; the report's deliverables.preview gives it).",
       "schema": {"type": "string", "contentEncoding": "binary", "contentMediaType": "image/png"}}
   })json");
-  // The seeds are the daemon's own input (uploads); every other one comes from the option
-  // table, in its order (rv/options.hpp).
-  json all = inputs;
-  // The other uploads take one layer, as each element of the seeds does.
-  for (const char* upload : {"relevantArea", "relevantCoasts"}) {
-    json one = json::object();
-    one["oneOf"] = json::array({inputs["seeds"]["schema"]["oneOf"][0], inputs["seeds"]["schema"]["oneOf"][1]});
-    all[upload]["schema"] = one;
-  }
+  // Every input comes from the option table, in its order (rv/options.hpp), uploads included.
+  json all = json::object();
   for (const OptionSpec& o : job_options())
     if (!o.input.empty()) all[std::string(o.input)] = process_input_description(o);
   d["inputs"] = all;

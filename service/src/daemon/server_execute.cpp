@@ -354,12 +354,15 @@ namespace {
 // seeds: one layer or an array of layers, staged in /vsimem/.
 void stage_seeds(const json& in, Execution& ex) {
   ex.inputs_summary["seeds"] = stage_seed_input(in, ex.spec.seeds, *ex.uploads);
-  // The disproportionality test's layers, uploaded as the seeds are (and read as confined).
-  for (const auto& [input, target] : {std::pair{"relevantArea", &ex.spec.outputs.relevant_area},
-                                      std::pair{"relevantCoasts", &ex.spec.outputs.relevant_coasts}}) {
-    if (!in.contains(input)) continue;
+  // The other uploads of the option table (the disproportionality test's layers), uploaded as
+  // the seeds are (and read as confined), each put into the job by its option.
+  for (const OptionSpec& o : job_options()) {
+    const std::string input(o.input);
+    if (o.type != OptionType::layers || input == "seeds" || !in.contains(input)) continue;
     auto [path, s] = stage_seed_layer(in.at(input), input, input, *ex.uploads);
-    *target = path;
+    OptionValue v;
+    v.text = path;
+    o.apply(ex.spec, v);
     ex.inputs_summary[input] = s;
   }
 }
@@ -369,12 +372,12 @@ void stage_seeds(const json& in, Execution& ex) {
 void apply_inputs(const json& in, Execution& ex) {
   std::string bbox_crs;
   for (const auto& [key, value] : in.items()) {
-    if (key == "seeds" || key == "relevantArea" || key == "relevantCoasts") continue;  // uploads
     const OptionSpec* option = find_input(key);
     if (option == nullptr) {
       throw Error(ErrorKind::invalid_argument,
                   "unknown input '" + quote_input(key) + "' (see GET /processes/voronoi for the inputs)");
     }
+    if (option->type == OptionType::layers) continue;  // uploads: staged above
     OptionValue v = parse_input_value(*option, value);
     if (key == "crs") v.text = checked_crs(value, "crs");
     if (!v.box_crs.empty()) bbox_crs = checked_crs(v.box_crs, "extent.crs");

@@ -190,6 +190,7 @@ OptionValue parse_cli_value(const OptionSpec& o, const std::vector<std::string>&
     }
     case OptionType::text:
     case OptionType::file:
+    case OptionType::layers:
       if (words.at(0).empty()) src.bad("must not be empty");
       v.text = words.at(0);
       return v;
@@ -262,6 +263,21 @@ OptionValue parse_json_value(const OptionSpec& o, const json& raw, std::string_v
       v.text = j.get<std::string>();
       if (v.text.empty()) src.bad("must not be empty");
       return v;
+    case OptionType::layers:
+      // Paths (the Python module); the daemon stages uploads itself and never comes here with one.
+      if (j.is_array() && o.repeatable) {
+        if (j.empty()) src.bad("the array of layers is empty");
+        for (const json& item : j) {
+          if (!item.is_string() || item.get_ref<const std::string&>().empty())
+            src.bad("must be a path or an array of paths");
+          v.items.push_back(item.get<std::string>());
+        }
+        return v;
+      }
+      if (!j.is_string()) src.bad(std::string("must be a path, got ") + j.type_name());
+      v.text = j.get<std::string>();
+      if (v.text.empty()) src.bad("must not be empty");
+      return v;
     case OptionType::choice:
       if (!j.is_string()) src.bad(std::string("must be a string, got ") + j.type_name());
       return choice_value(o, j.get_ref<const std::string&>(), src);
@@ -316,6 +332,33 @@ std::string options_help(std::string_view section, int width) {
   return out;
 }
 
+namespace {
+
+// An upload: one layer as a GeoJSON FeatureCollection or a base64 qualified value of a binary
+// format; several (repeatable) as an array of them.
+json upload_schema(const OptionSpec& o) {
+  const json collection = {
+      {"type", "object"},
+      {"required", {"type", "features"}},
+      {"properties",
+       {{"type", {{"type", "string"}, {"enum", {"FeatureCollection"}}}}, {"features", {{"type", "array"}}}}}};
+  const json qualified = {{"type", "object"},
+                          {"required", {"value"}},
+                          {"properties",
+                           {{"value", {{"oneOf", {{{"type", "string"}}, {{"type", "object"}}}}}},
+                            {"mediaType",
+                             {{"type", "string"},
+                              {"enum",
+                               {"application/geo+json", "application/json", "application/geopackage+sqlite3",
+                                "application/zip", "application/flatgeobuf"}}}},
+                            {"encoding", {{"type", "string"}, {"enum", {"base64"}}}}}}};
+  json one_of = json::array({collection, qualified});
+  if (o.repeatable) one_of.push_back({{"type", "array"}, {"minItems", 1}, {"items", {{"type", "object"}}}});
+  return {{"oneOf", one_of}};
+}
+
+}  // namespace
+
 json process_input_description(const OptionSpec& o) {
   json schema;
   switch (o.type) {
@@ -334,6 +377,9 @@ json process_input_description(const OptionSpec& o) {
     case OptionType::text:
     case OptionType::file:
       schema = {{"type", "string"}, {"minLength", 1}};
+      break;
+    case OptionType::layers:
+      schema = upload_schema(o);
       break;
     case OptionType::choice: {
       json values = json::array();
@@ -388,6 +434,14 @@ json process_input_description(const OptionSpec& o) {
     else if (o.type == OptionType::nonnegative_number || o.type == OptionType::positive_number)
       schema["default"] = std::strtod(std::string(o.default_text).c_str(), nullptr);
   }
+  // What a client needs beyond the schema (rv/options.hpp: OptionSpec): OGC clients ignore
+  // members named x-*.
+  if (!o.field_of.empty()) schema["x-rvoronoi-field-of"] = std::string(o.field_of);
+  if (!o.unit.empty()) schema["x-rvoronoi-unit"] = std::string(o.unit);
+  if (o.crs) schema["x-rvoronoi-crs"] = true;
+  if (o.type == OptionType::layers)
+    schema["x-rvoronoi-upload"] = {{"geometry", std::string(o.geometry.empty() ? "any" : o.geometry)},
+                                   {"multiple", o.repeatable}};
   return {{"title", std::string(o.title)},
           {"description", std::string(o.help)},
           {"minOccurs", o.required ? 1 : 0},

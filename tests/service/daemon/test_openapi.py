@@ -271,7 +271,8 @@ def main():
         # openapi.yaml says of it: types, allowed values, defaults, bounds.
         documented = DOC["components"]["schemas"]["voronoiInputs"]["properties"]
         for name, entry in desc["inputs"].items():
-            # The uploads (seed layers) are described by hand, not from the option table.
+            # The uploads (seed layers) are option-table entries too; openapi.yaml gives their
+            # forms in its own words (the execute request's schema).
             if name in ("seeds", "relevantArea", "relevantCoasts") or name not in documented:
                 continue
             mine, theirs = schema_core(entry["schema"]), schema_core(documented[name])

@@ -64,9 +64,18 @@ TEST(Options, EachOptionIsDeclaredOnceAndComplete) {
     if (o.type == OptionType::file) {
       EXPECT_TRUE(o.input.empty()) << "files are the CLI's: " << o.flag;
     }
+    // A field names an attribute of an upload's features; only uploads have a geometry.
+    if (!o.field_of.empty()) {
+      const OptionSpec* layers = find_input(o.field_of);
+      ASSERT_NE(layers, nullptr) << o.title;
+      EXPECT_EQ(layers->type, OptionType::layers) << o.title;
+    }
+    EXPECT_EQ(o.type == OptionType::layers, !o.geometry.empty()) << o.title;
   }
-  // The process inputs of the voronoi process, besides the seeds: the API's ids stay as they are.
-  EXPECT_EQ(inputs, (std::set<std::string_view>{"ownerField",      "weightField",
+  // The process inputs of the voronoi process, uploads included: the API's ids stay as they are.
+  EXPECT_EQ(inputs, (std::set<std::string_view>{"seeds",           "relevantArea",
+                                                "relevantCoasts",  "onConflict",
+                                                "ownerField",      "weightField",
                                                 "reachField",      "effectField",
                                                 "borderTolerance", "transformAccuracy",
                                                 "allowBallpark",   "resolution",
@@ -203,6 +212,33 @@ TEST(Options, HelpAndDescriptionComeFromTheTable) {
   const json t = process_input_description(*find_input("lineTolerance"));
   EXPECT_EQ(t["schema"]["default"], "1mm");
   EXPECT_EQ(t["schema"]["oneOf"].size(), 3u);
+}
+
+// What a client needs beyond the schema (issue 53), in the description as x-rvoronoi-* members:
+// which upload a field belongs to, the uploads' geometry, units, CRS inputs.
+TEST(Options, TheDescriptionCarriesWhatAClientNeeds) {
+  auto schema = [](std::string_view input) { return process_input_description(*find_input(input))["schema"]; };
+  for (const char* field : {"ownerField", "weightField", "reachField", "effectField"})
+    EXPECT_EQ(schema(field)["x-rvoronoi-field-of"], "seeds") << field;
+  EXPECT_EQ(schema("seeds")["x-rvoronoi-upload"], (json{{"geometry", "any"}, {"multiple", true}}));
+  EXPECT_EQ(schema("seeds")["oneOf"].size(), 3u);  // a collection, a qualified value, an array of them
+  EXPECT_EQ(process_input_description(*find_input("seeds"))["minOccurs"], 1);
+  EXPECT_EQ(schema("relevantArea")["x-rvoronoi-upload"], (json{{"geometry", "polygon"}, {"multiple", false}}));
+  EXPECT_EQ(schema("relevantArea")["oneOf"].size(), 2u);
+  EXPECT_EQ(schema("relevantCoasts")["x-rvoronoi-upload"]["geometry"], "line");
+  EXPECT_EQ(schema("resolution")["x-rvoronoi-unit"], "crs");
+  EXPECT_EQ(schema("maxDistance")["x-rvoronoi-unit"], "distance");
+  EXPECT_EQ(schema("borderTolerance")["x-rvoronoi-unit"], "m");
+  EXPECT_EQ(schema("simplify")["x-rvoronoi-unit"], "cells");
+  EXPECT_EQ(schema("crs")["x-rvoronoi-crs"], true);
+  EXPECT_FALSE(schema("metric").contains("x-rvoronoi-unit"));
+  EXPECT_EQ(schema("onConflict")["enum"], (json{"error", "lower-code"}));
+  // The Python module passes paths for uploads: one, or several for the seeds.
+  const OptionValue one = parse_json_value(*find_input("relevantArea"), "area.gpkg", "relevant_area");
+  EXPECT_EQ(one.text, "area.gpkg");
+  const OptionValue two = parse_json_value(*find_input("seeds"), json{"a.gpkg", "b.geojson"}, "seeds");
+  EXPECT_EQ(two.items, (std::vector<std::string>{"a.gpkg", "b.geojson"}));
+  EXPECT_THROW(parse_json_value(*find_input("relevantArea"), json{"a", "b"}, "relevant_area"), Error);
 }
 
 }  // namespace
