@@ -10,6 +10,7 @@
 #include <filesystem>
 
 #include "../common/atomic_file.hpp"
+#include "auth/crypto.hpp"
 #include "daemon/server_seeds.hpp"
 #include "daemon/server_web.hpp"
 #include "runtime/principal_usage.hpp"
@@ -47,6 +48,22 @@ ApiResponse json_response(unsigned status, const json& body, const char* type = 
   r.status = status;
   r.headers.emplace_back("Content-Type", type);
   r.body = json_text(body);
+  return r;
+}
+
+// A description with its validator: clients that cache descriptions (the QGIS provider) ask
+// again with If-None-Match and get 304 while nothing changed. A strong ETag: the body's SHA-256.
+ApiResponse validated(const ApiRequest& request, ApiResponse r) {
+  const std::string etag = "\"" + auth::to_hex(auth::sha256(r.body)).substr(0, 32) + "\"";
+  r.headers.emplace_back("ETag", etag);
+  r.headers.emplace_back("Cache-Control", "no-cache");
+  if (if_none_match_matches(request.if_none_match, etag)) {
+    ApiResponse not_modified;
+    not_modified.status = 304;
+    not_modified.headers.emplace_back("ETag", etag);
+    not_modified.headers.emplace_back("Cache-Control", "no-cache");
+    return not_modified;
+  }
   return r;
 }
 
@@ -570,13 +587,16 @@ void Api::me(const Request& req, const std::vector<std::string>&) const {
 
 void Api::process_list(const Request& req, const std::vector<std::string>&) const {
   const std::string& base = req.ctx.base;
-  req.reply(json_response(200, {{"processes", json::array({process_summary(base), describe_seeds_summary(base)})},
-                                {"links", json::array({link(base + "/processes", "self", kJson, "processes")})}}));
+  req.reply(
+      validated(req.ctx.request,
+                json_response(200, {{"processes", json::array({process_summary(base), describe_seeds_summary(base)})},
+                                    {"links", json::array({link(base + "/processes", "self", kJson, "processes")})}})));
 }
 
 void Api::process(const Request& req, const std::vector<std::string>& seg) const {
-  req.reply(json_response(200, seg[1] == kDescribeSeedsId ? describe_seeds_description(req.ctx.base, config_)
-                                                          : process_description(req.ctx.base)));
+  req.reply(validated(req.ctx.request,
+                      json_response(200, seg[1] == kDescribeSeedsId ? describe_seeds_description(req.ctx.base, config_)
+                                                                    : process_description(req.ctx.base))));
 }
 
 void Api::execute(const Request& req, const std::vector<std::string>& seg) const {

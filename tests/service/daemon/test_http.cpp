@@ -249,6 +249,25 @@ TEST_F(Daemon, StaticAssetsAnswer304OnlyToAnIfNoneMatchThatNamesThem) {
   }
 }
 
+// Process descriptions carry a strong ETag (issue 53: the QGIS provider caches them) and answer
+// 304 to an If-None-Match that names it; another process or a changed tag gets the document.
+TEST_F(Daemon, ProcessDescriptionsAreValidated) {
+  start(test_config(dir_ / "data"));
+  for (const std::string path : {"/processes", "/processes/voronoi", "/processes/describe-seeds"}) {
+    const Reply first = get(port_, path);
+    ASSERT_EQ(first.status, 200) << path;
+    const std::string etag = first.header("etag");
+    ASSERT_EQ(etag.size(), 34u) << etag;
+    ASSERT_EQ(etag.front(), '"');
+    EXPECT_EQ(get(port_, path).header("etag"), etag) << "the same document, the same tag";
+    const Reply again = get(port_, path, {{"If-None-Match", etag}});
+    EXPECT_EQ(again.status, 304) << path;
+    EXPECT_TRUE(again.body.empty());
+    EXPECT_EQ(get(port_, path, {{"If-None-Match", "\"0123\""}}).status, 200) << path;
+  }
+  EXPECT_NE(get(port_, "/processes/voronoi").header("etag"), get(port_, "/processes/describe-seeds").header("etag"));
+}
+
 TEST_F(Daemon, SyncExecutionEqualsTheFacade) {
   start(test_config(dir_ / "data"));
   const Reference ref = facade_reference(dir_, 2000);
