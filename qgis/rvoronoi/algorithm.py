@@ -1,0 +1,252 @@
+"""One Processing algorithm per described process (rvoronoi:voronoi, rvoronoi:describe-seeds),
+its parameters made from the description (parameters.py), run on the server as an asynchronous
+job: the layers uploaded as GeoPackage, progress and the status message into `feedback`,
+cancelling dismisses the job, a problem+json becomes a QgsProcessingException with its title and
+detail, and the results are downloaded into the destinations.
+"""
+import base64
+import json
+import os
+import tempfile
+import time
+
+from qgis.core import (
+    QgsCoordinateReferenceSystem,
+    QgsProcessingAlgorithm,
+    QgsProcessingException,
+    QgsProcessingParameterFileDestination,
+    QgsProcessingParameterRasterDestination,
+    QgsProcessingParameterVectorDestination,
+    QgsProject,
+    QgsVectorFileWriter,
+    QgsVectorLayer,
+)
+
+from .client import Client, ServerError
+from .parameters import input_parameter, media_type_for, output_parameter, upper_snake
+
+POLL_S = 0.25
+
+
+def crs_text(crs):
+    """A CRS as the server takes it: its authority code, else its WKT."""
+    return crs.authid() or crs.toWkt(QgsCoordinateReferenceSystem.WKT_PREFERRED)
+
+
+def geopackage_upload(layer, directory, index):
+    """`layer` (any vector layer QGIS opens, its selection and filter as it stands) written as a
+    GeoPackage with its CRS, as the execute request's qualified value."""
+    path = os.path.join(directory, f"seeds_{index}.gpkg")
+    options = QgsVectorFileWriter.SaveVectorOptions()
+    options.driverName = "GPKG"
+    options.layerName = layer.name() or f"layer_{index}"
+    result = QgsVectorFileWriter.writeAsVectorFormatV3(layer, path, QgsProject.instance().transformContext(), options)
+    if result[0] != QgsVectorFileWriter.NoError:
+        raise QgsProcessingException(f"cannot write layer '{layer.name()}' as a GeoPackage: {result[1]}")
+    with open(path, "rb") as f:
+        data = base64.b64encode(f.read()).decode()
+    return {"value": data, "mediaType": "application/geopackage+sqlite3", "encoding": "base64"}
+
+
+class DescribedAlgorithm(QgsProcessingAlgorithm):
+    def __init__(self, process_id, description):
+        super().__init__()
+        self.process_id = process_id
+        self.description = description
+
+    # ---- What QGIS shows -------------------------------------------------------------------
+
+    def name(self):
+        return self.process_id
+
+    def displayName(self):  # noqa: N802
+        return self.description.get("title") or self.process_id
+
+    def group(self):
+        return "Delimitation"
+
+    def groupId(self):  # noqa: N802
+        return "delimitation"
+
+    def shortHelpString(self):  # noqa: N802
+        return self.description.get("description", "")
+
+    def tags(self):
+        return list(self.description.get("keywords", []))
+
+    def createInstance(self):  # noqa: N802
+        return DescribedAlgorithm(self.process_id, self.description)
+
+    def initAlgorithm(self, config=None):  # noqa: N802
+        for input_id, entry in self.description.get("inputs", {}).items():
+            self.addParameter(input_parameter(input_id, entry))
+        for output_id, entry in self.description.get("outputs", {}).items():
+            self.addParameter(output_parameter(output_id, entry))
+
+    # ---- A run --------------------------------------------------------------------------------
+
+    def _inputs(self, parameters, context, feedback, directory):
+        """The execute request's inputs from the values given (only those given)."""
+        inputs = {}
+        grid_crs = None
+        for p in self.parameterDefinitions():
+            meta = p.metadata().get("rvoronoi", {})
+            input_id, kind = meta.get("input"), meta.get("kind")
+            if input_id is None or parameters.get(p.name()) in (None, "", []):
+                continue
+            name = p.name()
+            if kind == "upload":
+                if p.type() == "multilayer":
+                    layers = self.parameterAsLayerList(parameters, name, context)
+                else:
+                    layers = [self.parameterAsVectorLayer(parameters, name, context)]
+                layers = [layer for layer in layers if layer is not None]
+                if not layers:
+                    raise QgsProcessingException(f"{p.description()}: no vector layer could be opened")
+                for layer in layers:
+                    if not isinstance(layer, QgsVectorLayer):
+                        raise QgsProcessingException(f"{p.description()}: '{layer.name()}' is not a vector layer")
+                uploads = [geopackage_upload(layer, directory, f"{input_id}_{i}") for i, layer in enumerate(layers)]
+                feedback.pushInfo(f"{p.description()}: {len(uploads)} layer(s) as GeoPackage")
+                inputs[input_id] = uploads if p.type() == "multilayer" else uploads[0]
+            elif kind == "field":
+                value = self.parameterAsString(parameters, name, context)
+                if value:
+                    inputs[input_id] = value
+            elif kind == "crs":
+                crs = self.parameterAsCrs(parameters, name, context)
+                if crs.isValid():
+                    grid_crs = crs
+                    inputs[input_id] = crs_text(crs)
+            elif kind == "enum":
+                inputs[input_id] = self.parameterAsEnumString(parameters, name, context)
+            elif kind == "boolean":
+                inputs[input_id] = self.parameterAsBool(parameters, name, context)
+            elif kind == "integer":
+                inputs[input_id] = self.parameterAsInt(parameters, name, context)
+            elif kind == "number":
+                inputs[input_id] = self.parameterAsDouble(parameters, name, context)
+            elif kind == "list":
+                text = self.parameterAsString(parameters, name, context)
+                inputs[input_id] = [item.strip() for item in text.split(",") if item.strip()]
+            elif kind == "unknown":
+                text = self.parameterAsString(parameters, name, context)
+                try:
+                    inputs[input_id] = json.loads(text)
+                except ValueError:
+                    inputs[input_id] = text
+            elif kind != "extent":
+                inputs[input_id] = self.parameterAsString(parameters, name, context)
+        # The extent last: in the grid's CRS when one is given (the server wants them to agree),
+        # else in its own, which then defines the grid's.
+        for p in self.parameterDefinitions():
+            meta = p.metadata().get("rvoronoi", {})
+            if meta.get("kind") != "extent" or parameters.get(p.name()) in (None, ""):
+                continue
+            crs = grid_crs or self.parameterAsExtentCrs(parameters, p.name(), context)
+            box = self.parameterAsExtent(parameters, p.name(), context, crs)
+            extent = {"bbox": [box.xMinimum(), box.yMinimum(), box.xMaximum(), box.yMaximum()]}
+            if crs.isValid():
+                extent["crs"] = crs_text(crs)
+            inputs[meta["input"]] = extent
+        return inputs
+
+    def _destinations(self, parameters, context):
+        """{output id: (parameter name, path)} of every destination given."""
+        out = {}
+        for p in self.destinationParameterDefinitions():
+            output_id = p.metadata().get("rvoronoi", {}).get("output")
+            if output_id is None:
+                continue
+            if isinstance(p, (QgsProcessingParameterRasterDestination, QgsProcessingParameterVectorDestination)):
+                path = self.parameterAsOutputLayer(parameters, p.name(), context)
+            elif isinstance(p, QgsProcessingParameterFileDestination):
+                path = self.parameterAsFileOutput(parameters, p.name(), context)
+            else:
+                continue
+            if path:
+                out[output_id] = (p.name(), path)
+        return out
+
+    def processAlgorithm(self, parameters, context, feedback):  # noqa: N802
+        if self.process_id != "voronoi":
+            raise QgsProcessingException(f"rvoronoi:{self.process_id} runs on the server's pages; "
+                                         "this provider runs rvoronoi:voronoi")
+        try:
+            client = Client(feedback=feedback)
+        except ServerError as e:
+            raise QgsProcessingException(str(e))
+        outputs_described = self.description.get("outputs", {})
+        with tempfile.TemporaryDirectory(prefix="rvoronoi_qgis_") as directory:
+            inputs = self._inputs(parameters, context, feedback, directory)
+            destinations = self._destinations(parameters, context)
+            requested = {}
+            for output_id, (_, path) in destinations.items():
+                media = media_type_for(output_id, outputs_described.get(output_id, {}), path)
+                requested[output_id] = {"format": {"mediaType": media}} if media else {}
+            requested.setdefault("report", {})
+            job = self._submit(client, inputs, requested, feedback)
+            self._follow(client, job, feedback)
+            results = {}
+            for output_id, (name, path) in destinations.items():
+                self._fetch(client, job, output_id, path, directory, feedback)
+                results[name] = path
+            return results
+
+    def _submit(self, client, inputs, outputs, feedback):
+        try:
+            _, _, doc = client.call("POST", f"/processes/{self.process_id}/execution",
+                                    {"inputs": inputs, "outputs": outputs}, {"Prefer": "respond-async"}, ok=(201,))
+        except ServerError as e:
+            raise QgsProcessingException(str(e))
+        job = doc["jobID"]
+        feedback.pushInfo(f"job {job} on {client.url}")
+        return job
+
+    def _follow(self, client, job, feedback):
+        """Polls the job to its end: progress and messages into `feedback`; a cancel dismisses it."""
+        last = None
+        while True:
+            if feedback.isCanceled():
+                try:
+                    client.call("DELETE", f"/jobs/{job}")
+                except ServerError as e:
+                    feedback.reportError(f"dismissing job {job}: {e}")
+                raise QgsProcessingException(f"cancelled: job {job} was dismissed")
+            try:
+                _, _, status = client.call("GET", f"/jobs/{job}")
+            except ServerError as e:
+                raise QgsProcessingException(str(e))
+            feedback.setProgress(status.get("progress", 0))
+            if status.get("message") != last:
+                last = status.get("message")
+                feedback.setProgressText(last or "")
+            if status["status"] == "successful":
+                return
+            if status["status"] in ("failed", "dismissed"):
+                try:
+                    client.call("GET", f"/jobs/{job}/results")
+                except ServerError as e:
+                    raise QgsProcessingException(str(e))
+                raise QgsProcessingException(status.get("message") or status["status"])
+            time.sleep(POLL_S)
+
+    def _fetch(self, client, job, output_id, path, directory, feedback):
+        """Downloads one result into its destination; a vector destination of another format than
+        the server writes is converted."""
+        ext = path.rsplit(".", 1)[-1].lower() if "." in path else ""
+        convert = output_id in ("boundaries", "tripoints", "limits", "regions") and ext not in ("gpkg", "geojson", "json")
+        target = os.path.join(directory, f"{output_id}.gpkg") if convert else path
+        try:
+            size = client.download(f"/jobs/{job}/results/{output_id}", target)
+        except ServerError as e:
+            raise QgsProcessingException(f"{output_id}: {e}")
+        if convert:
+            layer = QgsVectorLayer(target, output_id, "ogr")
+            options = QgsVectorFileWriter.SaveVectorOptions()
+            options.driverName = QgsVectorFileWriter.driverForExtension(ext) or "GPKG"
+            result = QgsVectorFileWriter.writeAsVectorFormatV3(layer, path, QgsProject.instance().transformContext(),
+                                                               options)
+            if result[0] != QgsVectorFileWriter.NoError:
+                raise QgsProcessingException(f"{output_id}: cannot write {path}: {result[1]}")
+        feedback.pushInfo(f"{output_id}: {size} bytes -> {path}")
