@@ -31,6 +31,8 @@ if [ "${1:-}" != "--image" ]; then
              python3-netcdf4 python3-psutil chromium chromium-driver python3-selenium)
   # The principals' test signs JWTs and serves a key set over TLS with keys it makes.
   packages+=(python3-jwt python3-cryptography)
+  # The QGIS provider's test: Debian's QGIS 3.22, headless (qgis_process.bin, PyQGIS).
+  packages+=(qgis python3-qgis)
   # The Debian package's test (tools/test-package.sh): a minimal chroot, lintian, the unit's checks,
   # a network namespace for the installed daemon.
   packages+=(debootstrap lintian systemd iproute2 zstd)

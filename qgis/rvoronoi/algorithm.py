@@ -177,6 +177,13 @@ class DescribedAlgorithm(QgsProcessingAlgorithm):
         except ServerError as e:
             raise QgsProcessingException(str(e))
         outputs_described = self.description.get("outputs", {})
+        # Who the server takes us for, before any upload: a refused token is said at once, not after
+        # megabytes of layers (a server refusing a request answers before reading its body).
+        try:
+            _, _, me = client.call("GET", "/me")
+        except ServerError as e:
+            raise QgsProcessingException(str(e))
+        feedback.pushInfo(f"{client.url}: signed in as {me.get('name')} ({me.get('role')})")
         with tempfile.TemporaryDirectory(prefix="rvoronoi_qgis_") as directory:
             inputs = self._inputs(parameters, context, feedback, directory)
             destinations = self._destinations(parameters, context)

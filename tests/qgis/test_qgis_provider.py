@@ -1,0 +1,351 @@
+"""The QGIS Processing provider (issue 53), headless on Debian's QGIS 3.22.
+
+Against a daemon this test starts (authentication on: a principal whose token sits in a QGIS
+authentication database the test makes, with its master password in a file):
+  1. `qgis_process.bin plugins enable rvoronoi`, the algorithm listed, its parameters named in
+     upper snake case;
+  2. rvoronoi:voronoi on the Øresund and on the western Baltic (onConflict lower-code) through
+     qgis_process: every file equals the CLI's for the same options (rasters by content, lines
+     and regions feature for feature);
+  3. a bad input's message, a missing token, an unreachable server (the cached descriptions still
+     give the algorithm), a URL that is not the API: one clear message each, never a traceback;
+     the token never in what qgis_process prints;
+  4. cancelling a run (PyQGIS, a feedback that cancels once the job is submitted) dismisses the
+     job on the server;
+  5. a description with an extra input of every kind (and one of a kind unknown to the plugin)
+     becomes the parameters it should, the unknown one as text with a warning.
+QGIS's /usr/bin/qgis_process wrapper may add options (QGIS_OPTS) that 3.22's qgis_process refuses;
+the test calls /usr/bin/qgis_process.bin, with QT_QPA_PLATFORM=offscreen.
+
+usage: test_qgis_provider.py RVORONOI SOURCE_DIR
+"""
+import hashlib
+import http.server
+import json
+import os
+import subprocess
+import sys
+import tempfile
+import threading
+import time
+
+from osgeo import gdal, ogr
+
+SOURCE = sys.argv[2]
+RVORONOI = sys.argv[1]
+sys.path.insert(0, os.path.join(SOURCE, "tests", "service", "daemon"))
+from daemon_harness import Daemon  # noqa: E402
+
+QGIS_PROCESS = "/usr/bin/qgis_process.bin"
+TOKEN = "qgis-analyst-token-" + os.urandom(12).hex()
+FAILURES = []
+gdal.UseExceptions()
+
+
+def check(condition, what):
+    if not condition:
+        FAILURES.append(what)
+        print("FAIL:", what, flush=True)
+
+
+class Qgis:
+    """qgis_process (and PyQGIS scripts) in a profile of their own, the plugin from the repository."""
+
+    def __init__(self, tmp):
+        self.home = os.path.join(tmp, "home")
+        os.makedirs(self.home)
+        self.auth_dir = os.path.join(tmp, "auth")
+        os.makedirs(self.auth_dir)
+        self.master = os.path.join(tmp, "master-password")
+        with open(self.master, "w") as f:
+            f.write("master-" + os.urandom(8).hex())
+        self.env = dict(os.environ, HOME=self.home, QT_QPA_PLATFORM="offscreen", XDG_RUNTIME_DIR=tmp,
+                        QGIS_PLUGINPATH=os.path.join(SOURCE, "qgis"), QGIS_AUTH_DB_DIR_PATH=self.auth_dir,
+                        QGIS_AUTH_PASSWORD_FILE=self.master)
+        self.authcfg = self.script(AUTH_SCRIPT, open(self.master).read(), TOKEN).strip().splitlines()[-1]
+
+    def script(self, code, *args, env=None):
+        proc = subprocess.run(["/usr/bin/python3", "-c", code] + list(args), capture_output=True, text=True,
+                              env=dict(self.env, **(env or {})), timeout=300)
+        if proc.returncode != 0:
+            raise RuntimeError(f"PyQGIS script failed: {proc.stderr[-2000:]}")
+        return proc.stdout
+
+    def run(self, *args, env=None):
+        proc = subprocess.run([QGIS_PROCESS] + list(args), capture_output=True, text=True,
+                              env=dict(self.env, **(env or {})), timeout=600)
+        return proc.returncode, proc.stdout + proc.stderr
+
+
+# A Basic configuration whose password is the token: QGIS 3.22 has no bearer method.
+AUTH_SCRIPT = """
+import sys
+from qgis.core import QgsApplication, QgsAuthMethodConfig
+app = QgsApplication([], False)
+app.initQgis()
+manager = QgsApplication.authManager()
+assert manager.setMasterPassword(sys.argv[1], True)
+config = QgsAuthMethodConfig("Basic")
+config.setName("rvoronoi server")
+config.setConfig("username", "token")
+config.setConfig("password", sys.argv[2])
+assert manager.storeAuthenticationConfig(config)[0]
+print(config.id())
+app.exitQgis()
+"""
+
+# Cancelling: the provider from the repository in a standalone PyQGIS, a feedback that cancels
+# once the job is on the server; prints the job id.
+CANCEL_SCRIPT = """
+import os, re, sys
+from qgis.core import QgsApplication, QgsProcessingFeedback, QgsProcessingContext
+app = QgsApplication([], False)
+app.initQgis()
+sys.path.insert(0, os.environ["QGIS_PLUGINPATH"])
+sys.path.insert(0, "/usr/share/qgis/python/plugins")
+from processing.core.Processing import Processing
+Processing.initialize()
+from rvoronoi.provider import RvoronoiProvider
+provider = RvoronoiProvider()
+QgsApplication.processingRegistry().addProvider(provider)
+
+class Cancelling(QgsProcessingFeedback):
+    job = None
+    def pushInfo(self, text):
+        m = re.match(r"job ([0-9a-f]{32})", text)
+        if m:
+            Cancelling.job = m.group(1)
+            self.cancel()
+        super().pushInfo(text)
+
+alg = QgsApplication.processingRegistry().createAlgorithmById("rvoronoi:voronoi")
+params = {"SEEDS": [sys.argv[1]], "OWNER_FIELD": "iso2", "RESOLUTION": float(sys.argv[2]), "OWNERSHIP": sys.argv[3]}
+class Errors(Cancelling):
+    errors = []
+    def reportError(self, text, fatal=False):
+        Errors.errors.append(text)
+        super().reportError(text, fatal)
+
+feedback = Errors()
+results, ok = alg.run(params, QgsProcessingContext(), feedback)
+print("cancelled: " + " / ".join(Errors.errors) if not ok else "not cancelled")
+print(Cancelling.job)
+"""
+
+# The parameters of a description with an extra input of every kind.
+KINDS_SCRIPT = """
+import json, os, sys
+from qgis.core import QgsApplication, QgsMessageLog
+app = QgsApplication([], False)
+app.initQgis()
+sys.path.insert(0, os.environ["QGIS_PLUGINPATH"])
+from rvoronoi.parameters import input_parameter
+warnings = []
+QgsApplication.messageLog().messageReceived.connect(lambda m, tag, level: warnings.append(m))
+entries = json.loads(sys.argv[1])
+out = {}
+for input_id, entry in entries.items():
+    p = input_parameter(input_id, entry)
+    out[input_id] = [p.name(), p.type(), int(p.flags()) & int(p.FlagOptional) != 0, getattr(p, "parentLayerParameterName", lambda: "")()]
+QgsApplication.processEvents()
+print(json.dumps({"params": out, "warnings": warnings}))
+"""
+
+EXTRA_INPUTS = {
+    "coastLayers": {"title": "Coasts", "minOccurs": 1,
+                    "schema": {"x-rvoronoi-upload": {"geometry": "line", "multiple": True}, "oneOf": []}},
+    "basinArea": {"title": "Basin", "minOccurs": 0,
+                  "schema": {"x-rvoronoi-upload": {"geometry": "polygon", "multiple": False}, "oneOf": []}},
+    "rankField": {"title": "Rank field", "schema": {"type": "string", "x-rvoronoi-field-of": "coastLayers"}},
+    "gridCrs": {"title": "CRS", "schema": {"type": "string", "x-rvoronoi-crs": True}},
+    "window": {"title": "Window", "schema": {"oneOf": [{"type": "array", "minItems": 4, "maxItems": 4}, {"type": "object"}]}},
+    "friction": {"title": "Friction", "schema": {"type": "number", "minimum": 0, "default": 1.5, "x-rvoronoi-unit": "m"}},
+    "passes": {"title": "Passes", "schema": {"type": "integer", "minimum": 1, "maximum": 9}},
+    "strict": {"title": "Strict", "schema": {"type": "boolean", "default": True}},
+    "mode": {"title": "Mode", "schema": {"type": "string", "enum": ["fast", "exact"], "default": "exact"}},
+    "radii": {"title": "Radii", "schema": {"type": "array", "items": {"oneOf": [{"type": "string"}]}}},
+    "gap": {"title": "Gap", "schema": {"oneOf": [{"type": "string"}, {"type": "number"}]}},
+    "oddity": {"title": "Oddity", "schema": {"type": "object"}},
+}
+EXPECTED_KINDS = {
+    "coastLayers": ("COAST_LAYERS", "multilayer", False), "basinArea": ("BASIN_AREA", "vector", True),
+    "rankField": ("RANK_FIELD", "field", True), "gridCrs": ("GRID_CRS", "crs", True),
+    "window": ("WINDOW", "extent", True), "friction": ("FRICTION", "number", True),
+    "passes": ("PASSES", "number", True), "strict": ("STRICT", "boolean", True), "mode": ("MODE", "enum", True),
+    "radii": ("RADII", "string", True), "gap": ("GAP", "string", True), "oddity": ("ODDITY", "string", True),
+}
+
+
+# ---- Comparing files ---------------------------------------------------------------------------
+
+def same_raster(a, b, what):
+    da, db = gdal.Open(a), gdal.Open(b)
+    check((da.RasterXSize, da.RasterYSize, da.RasterCount) == (db.RasterXSize, db.RasterYSize, db.RasterCount),
+          f"{what}: raster size")
+    check(da.GetGeoTransform() == db.GetGeoTransform(), f"{what}: geotransform")
+    for i in range(1, da.RasterCount + 1):
+        ba, bb = da.GetRasterBand(i), db.GetRasterBand(i)
+        check(ba.DataType == bb.DataType and ba.GetNoDataValue() == bb.GetNoDataValue(), f"{what}: band {i} type")
+        check(ba.ReadRaster() == bb.ReadRaster(), f"{what}: band {i} content")
+
+
+def features(path):
+    ds = ogr.Open(path)
+    out = []
+    for layer in ds:
+        for f in layer:
+            attrs = {k: v for k, v in f.items().items()}
+            out.append((layer.GetName() if layer.GetName() not in ("", None) else "", attrs,
+                        f.GetGeometryRef().ExportToIsoWkt() if f.GetGeometryRef() else None))
+    return out
+
+
+def same_vector(a, b, what):
+    fa, fb = features(a), features(b)
+    check(len(fa) == len(fb), f"{what}: {len(fa)} features, the CLI's {len(fb)}")
+    for i, (x, y) in enumerate(zip(fa, fb)):
+        if x[1] != y[1] or x[2] != y[2]:
+            check(False, f"{what}: feature {i} differs: {x[1]} / {y[1]}")
+            break
+
+
+OUTPUTS = {"OWNERSHIP": ("ownership", "o.tif"), "DISTANCE": ("distance", "d.tif"),
+           "BOUNDARIES": ("boundaries", "b.geojson"), "TRIPOINTS": ("tripoints", "t.gpkg"),
+           "LIMITS": ("limits", "l.geojson"), "REGIONS": ("regions", "r.gpkg")}
+
+
+def compare_case(q, tmp, name, fixture, resolution, extra_cli, extra_qgis):
+    out_q, out_c = os.path.join(tmp, name, "qgis"), os.path.join(tmp, name, "cli")
+    os.makedirs(out_q)
+    os.makedirs(out_c)
+    seeds = os.path.join(SOURCE, "fixtures", fixture)
+    args = ["run", "rvoronoi:voronoi", "--", f"SEEDS={seeds}", "OWNER_FIELD=iso2", f"RESOLUTION={resolution}",
+            "LIMIT_DISTANCES=12nmi"] + extra_qgis
+    for param, (_, file) in OUTPUTS.items():
+        args.append(f"{param}={os.path.join(out_q, file)}")
+    began = time.time()
+    code, text = q.run(*args)
+    took = time.time() - began
+    check(code == 0, f"{name}: qgis_process run: exit {code}: {text[-1500:]}")
+    check(TOKEN not in text, f"{name}: the token in qgis_process's output")
+    cli = [RVORONOI, "compute", seeds, "--owner-field", "iso2", "--resolution", str(resolution), "--quiet",
+           "--limit-distances", "12nmi"] + extra_cli
+    for param, (flag, file) in OUTPUTS.items():
+        cli += [f"--{flag}", os.path.join(out_c, file)]
+    subprocess.run(cli, check=True, capture_output=True)
+    for param, (_, file) in OUTPUTS.items():
+        a, b = os.path.join(out_q, file), os.path.join(out_c, file)
+        if not os.path.exists(a):
+            check(False, f"{name}: {param} not written")
+            continue
+        (same_raster if file.endswith(".tif") else same_vector)(a, b, f"{name} {param}")
+    check(len(features(os.path.join(out_q, "b.geojson"))) > 0, f"{name}: boundaries were drawn")
+    print(f"{name}: qgis_process run {took:.1f} s", flush=True)
+
+
+# ---- A server that is not the API ------------------------------------------------------------
+
+class NotTheApi:
+    def __init__(self):
+        class Handler(http.server.BaseHTTPRequestHandler):
+            def do_GET(self):
+                body = b"<html><body>a wiki</body></html>"
+                self.send_response(200)
+                self.send_header("Content-Type", "text/html")
+                self.send_header("Content-Length", str(len(body)))
+                self.end_headers()
+                self.wfile.write(body)
+
+            def log_message(self, *args):
+                pass
+
+        self.httpd = http.server.ThreadingHTTPServer(("127.0.0.1", 0), Handler)
+        self.url = f"http://127.0.0.1:{self.httpd.server_address[1]}"
+        threading.Thread(target=self.httpd.serve_forever, daemon=True).start()
+
+
+def free_port():
+    import socket
+    s = socket.socket()
+    s.bind(("127.0.0.1", 0))
+    port = s.getsockname()[1]
+    s.close()
+    return port
+
+
+def main():
+    with tempfile.TemporaryDirectory(prefix="rv_qgis_") as tmp:
+        began = time.time()
+        q = Qgis(tmp)
+        config = {"auth": {"principals": [{"name": "analyst", "role": "user",
+                                           "token_sha256": hashlib.sha256(TOKEN.encode()).hexdigest()}]},
+                  "jobs": {"workers": 1, "queue_length": 8}}
+        d = Daemon([RVORONOI, "serve"], os.path.join(tmp, "data"), config)
+        url = f"http://127.0.0.1:{d.port}"
+        q.env.update(RVORONOI_URL=url, RVORONOI_AUTHCFG=q.authcfg)
+        try:
+            # 1. The plugin, its algorithm and parameters.
+            code, text = q.run("plugins", "enable", "rvoronoi")
+            check(code == 0, f"plugins enable: {code} {text[-500:]}")
+            code, text = q.run("help", "rvoronoi:voronoi")
+            check(code == 0, f"help: {code} {text[-800:]}")
+            for name in ("SEEDS:", "OWNER_FIELD:", "RESOLUTION:", "EXTENT:", "METRIC:", "MAX_DISTANCE:",
+                         "LIMIT_DISTANCES:", "WEIGHT_FIELD:", "ON_CONFLICT:", "RELEVANT_AREA:", "OWNERSHIP:",
+                         "NEAREST_FEATURE:", "BOUNDARIES:", "TRIPOINTS:", "TURNING_POINTS:", "PREVIEW:", "REPORT:"):
+                check(name in text, f"help names the parameter {name}")
+            # 2. The same files as the CLI.
+            compare_case(q, tmp, "oresund", "oresund.gpkg", 0.01, [], [])
+            compare_case(q, tmp, "baltic", "baltic_west.gpkg", 0.01, ["--on-conflict", "lower-code"],
+                         ["ON_CONFLICT=lower-code"])
+            # 3. Failures, each one clear line.
+            seeds = os.path.join(SOURCE, "fixtures", "oresund.gpkg")
+            base = ["run", "rvoronoi:voronoi", "--", f"SEEDS={seeds}", "RESOLUTION=0.05",
+                    f"OWNERSHIP={os.path.join(tmp, 'x.tif')}"]
+            code, text = q.run(*(base + ["OWNER_FIELD=nosuch"]))
+            check(code != 0 and "owner field 'nosuch'" in text and "Traceback" not in text,
+                  f"a bad input: {code} {text[-600:]}")
+            code, text = q.run(*(base + ["OWNER_FIELD=iso2"]), env={"RVORONOI_AUTHCFG": ""})
+            check(code != 0 and "bearer token" in text and "Traceback" not in text, f"no token: {code} {text[-1600:]!r}")
+            dead = f"http://127.0.0.1:{free_port()}"
+            code, text = q.run("list", env={"RVORONOI_URL": dead})
+            check("rvoronoi:voronoi" not in text, "an unreached server never seen before gives no algorithm")
+            # (The cache is per server: the daemon's descriptions, cached above, serve when it is down.)
+            d.stop()
+            code, text = q.run("list")
+            check("rvoronoi:voronoi" in text, f"the daemon down: the cached algorithm is listed: {text[-400:]}")
+            code, text = q.run(*(base + ["OWNER_FIELD=iso2"]))
+            check(code != 0 and "cannot be reached" in text and "Traceback" not in text,
+                  f"the daemon down: a run says so: {code} {text[-600:]}")
+            wiki = NotTheApi()
+            code, text = q.run(*(base + ["OWNER_FIELD=iso2"]), env={"RVORONOI_URL": wiki.url})
+            check(code != 0 and "not the rvoronoi API" in text and "Traceback" not in text,
+                  f"not the API: {code} {text[-600:]}")
+            wiki.httpd.shutdown()
+            # 4. Cancelling dismisses the job (a grid large enough to be running when cancelled).
+            d = Daemon([RVORONOI, "serve"], os.path.join(tmp, "data"), config)
+            q.env.update(RVORONOI_URL=f"http://127.0.0.1:{d.port}")
+            out = q.script(CANCEL_SCRIPT, seeds, "0.0002", os.path.join(tmp, "cancelled.tif"))
+            lines = out.strip().splitlines()
+            check(lines and lines[0].startswith("cancelled:"), f"the run was cancelled: {out[-400:]}")
+            job = lines[-1] if lines else ""
+            status, _, doc = d.json("GET", f"/jobs/{job}", headers={"Authorization": f"Bearer {TOKEN}"})
+            check(status == 200 and doc.get("status") == "dismissed", f"the job was dismissed: {status} {doc}")
+            # 5. An extra input of every kind.
+            got = json.loads(q.script(KINDS_SCRIPT, json.dumps(EXTRA_INPUTS)).strip().splitlines()[-1])
+            for input_id, (name, kind, optional) in EXPECTED_KINDS.items():
+                p = got["params"].get(input_id)
+                check(p and p[0] == name and p[1] == kind and p[2] == optional,
+                      f"extra input {input_id}: {p}, expected {(name, kind, optional)}")
+            check(got["params"]["rankField"][3] == "COAST_LAYERS", "a field is bound to its layer input")
+            check(any("oddity" in w for w in got["warnings"]), f"an unknown kind is warned about: {got['warnings']}")
+        finally:
+            d.stop()
+        print(f"qgis provider: {time.time() - began:.1f} s", flush=True)
+    if FAILURES:
+        print(f"{len(FAILURES)} failure(s)")
+        sys.exit(1)
+    print("all QGIS provider checks passed")
+
+
+if __name__ == "__main__":
+    main()
