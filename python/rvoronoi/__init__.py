@@ -27,7 +27,7 @@ for _kind, _name in _rvoronoi.error_kinds:
 del _kind, _name
 
 __version__ = _rvoronoi.version
-__all__ = ["compute", "describe", "keywords", "Error"] + [name for _, name in _rvoronoi.error_kinds]
+__all__ = ["compute", "describe", "run", "process_description", "keywords", "Error"] + [name for _, name in _rvoronoi.error_kinds]
 
 _PRODUCTS = ("ownership", "distance", "nearest_feature")
 _DELIVERABLES = {"boundaries": ".geojson", "tripoints": ".geojson", "limits": ".geojson", "regions": ".geojson",
@@ -157,6 +157,45 @@ def compute(seeds, *, chunks=None, nearest_feature=False, deliverables=None, max
     ds = _dataset.dataset({p: result[p] for p in products}, job.grid, job.owners, job.unit, job.metric,
                           result["report"])
     return (ds, lines) if wanted else ds
+
+
+def run(seeds, outputs, *, progress=None, cancelled=None, max_cells=_rvoronoi.default_max_cells, **options):
+    """Runs a whole job and writes its files as `rvoronoi compute` does: the same engine, options,
+    writers and report, for callers that want files, not arrays (the QGIS provider's local mode).
+
+    seeds: as compute() takes them.
+    outputs: {process output id: path}, the ids of process_description()["outputs"]: ownership,
+        distance, nearestFeature (GeoTIFF), boundaries, tripoints, limits, regions (.geojson,
+        .json or .gpkg), margin (GeoTIFF), preview (.png), turningPoints (.json or .csv), report
+        (.json). The file's extension chooses its format, as on the CLI.
+    progress: called as progress(stage, fraction) while the job runs (stage: read, compute,
+        validate, write, deliver; fraction in [0, 1] of that stage), from the job's threads.
+    cancelled: called with each progress report; True stops the job (rvoronoi.Cancelled), and
+        nothing partial is left.
+    **options: the CLI's options, as compute() takes them.
+
+    Returns the report (a dict). Raises rvoronoi.Error subclasses; an exception raised by
+    progress or cancelled stops the job and is raised again here.
+    """
+    from . import _seeds
+
+    options_json = _options_json(options)
+    max_cells = _max_cells(max_cells)
+    files_out = {}
+    for name, path in dict(outputs).items():
+        if not isinstance(name, str) or not isinstance(path, (str, os.PathLike)):
+            raise InvalidArgument("outputs: a mapping of output ids to paths")  # noqa: F821
+        files_out[name] = os.fspath(path)
+    with _seeds.SeedFiles(seeds) as files:
+        report = _rvoronoi.run_files(files.paths, options_json, files_out, progress, cancelled, max_cells)
+    return json.loads(report)
+
+
+def process_description():
+    """The description of the process "voronoi" (OGC API - Processes), exactly as an rvoronoi daemon
+    serves it at /processes/voronoi (links relative): every input with its schema and the
+    x-rvoronoi-* members clients are made from, every output with its media types."""
+    return json.loads(_rvoronoi.process_description())
 
 
 def describe(seeds, *, crs=None, features=False):

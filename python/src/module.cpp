@@ -12,7 +12,10 @@
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
 
+#include <atomic>
+#include <map>
 #include <memory>
+#include <mutex>
 #include <optional>
 #include <set>
 #include <string>
@@ -207,12 +210,69 @@ class Job {
   rv::PreparedJob job_;
 };
 
+// The files of a whole job, written as the CLI writes them (rvoronoi.run): `outputs` maps process
+// output ids (ownership, distance, nearestFeature, report, boundaries, tripoints, limits, regions,
+// margin, preview, turningPoints) to paths. `progress(stage, fraction)` is called as the job goes,
+// and `cancelled()` with it: True stops the job (rv::Error cancelled, nothing partial left).
+// Either may be None. Returns the report as JSON text. The GIL is released while the job runs
+// and taken for each call back; an exception a call back raises stops the job and is raised here.
+std::string run_files(const std::vector<std::string>& seeds, const std::string& options_json,
+                      const std::map<std::string, std::string>& outputs, py::object progress, py::object cancelled,
+                      int64_t max_cells) {
+  rv::JobSpec spec = make_spec(seeds, options_json);
+  rv::OutputRequest& out = spec.outputs;
+  const std::map<std::string, std::string*> targets = {{"ownership", &out.ownership},
+                                                       {"distance", &out.distance},
+                                                       {"nearestFeature", &out.nearest_feature},
+                                                       {"report", &out.report},
+                                                       {"boundaries", &out.boundaries},
+                                                       {"tripoints", &out.tripoints},
+                                                       {"limits", &out.limits},
+                                                       {"regions", &out.regions},
+                                                       {"margin", &out.margin},
+                                                       {"preview", &out.preview},
+                                                       {"turningPoints", &out.turning_points}};
+  for (const auto& [id, path] : outputs) {
+    const auto it = targets.find(id);
+    if (it == targets.end()) throw rv::Error(rv::ErrorKind::invalid_argument, "outputs: no output '" + id + "'");
+    *it->second = path;
+  }
+  rv::JobLimits limits;
+  limits.max_cells = max_cells;
+  std::atomic<bool> cancel{false};
+  std::mutex error_mutex;
+  std::optional<py::error_already_set> raised;
+  rv::JobHooks hooks;
+  hooks.cancel = &cancel;
+  hooks.progress = [&](const std::string& stage, double fraction) {
+    py::gil_scoped_acquire gil;
+    try {
+      if (!progress.is_none()) progress(stage, fraction);
+      if (!cancelled.is_none() && cancelled().cast<bool>()) cancel = true;
+    } catch (py::error_already_set& e) {
+      std::lock_guard lock(error_mutex);
+      if (!raised) raised.emplace(std::move(e));
+      cancel = true;
+    }
+  };
+  rv::JobResult result;
+  try {
+    py::gil_scoped_release free;
+    result = rv::run_job(spec, limits, hooks);
+  } catch (const rv::Error&) {
+    if (raised) throw std::move(*raised);
+    throw;
+  }
+  return rv::json_text(result.report, 2);
+}
+
 py::list keywords() {
   py::list out;
   for (const rv::OptionSpec& o : rv::job_options()) {
     if (!is_keyword(o)) continue;
     py::dict d;
     d["keyword"] = rv::option_keyword(o);
+    d["input"] = std::string(o.input);  // the process input it is ("" = the CLI's and the module's only)
     d["type"] = type_name(o.type);
     d["section"] = std::string(o.section);
     d["title"] = std::string(o.title);
@@ -304,6 +364,12 @@ PYBIND11_MODULE(_rvoronoi, m) {
   // The daemon's default grid limit, the default of rvoronoi.compute(max_cells=...).
   m.attr("default_max_cells") = rv::JobLimits{}.max_cells;
   m.def("keywords", &keywords, "The keyword options of rvoronoi.compute, from the option table.");
+  m.def(
+      "process_description", [] { return rv::json_text(rv::process_description(""), 2); },
+      "The process description of 'voronoi' as JSON text, as the daemon serves it (use rvoronoi.process_description).");
+  m.def("run_files", &run_files, py::arg("seeds"), py::arg("options"), py::arg("outputs"), py::arg("progress"),
+        py::arg("cancelled"), py::arg("max_cells") = rv::JobLimits{}.max_cells,
+        "A whole job's files, as the CLI writes them (use rvoronoi.run).");
   m.def("describe_seeds", &describe_seeds, py::arg("paths"), py::arg("crs"), py::arg("features"),
         "The description of seed files as JSON text (use rvoronoi.describe).");
   py::class_<Job>(m, "Job")

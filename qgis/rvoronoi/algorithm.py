@@ -26,6 +26,25 @@ from .client import Client, ServerError
 from .parameters import input_parameter, media_type_for, output_parameter, upper_snake
 
 POLL_S = 0.25
+VECTOR_OUTPUTS = ("boundaries", "tripoints", "limits", "regions")
+# The stages' shares of the whole, as the daemon reports a job's progress.
+STAGES = {"read": (0, 10), "compute": (10, 90), "validate": (50, 90), "write": (90, 99), "deliver": (90, 99)}
+
+
+def overall_percent(stage, fraction):
+    lo, hi = STAGES.get(stage, (0, 10))
+    return lo + (hi - lo) * min(max(fraction, 0.0), 1.0)
+
+
+def convert_vector(source, path, output_id):
+    """A vector file written again in the format `path`'s extension names (Shapefile, ...)."""
+    ext = path.rsplit(".", 1)[-1].lower() if "." in path else ""
+    layer = QgsVectorLayer(source, output_id, "ogr")
+    options = QgsVectorFileWriter.SaveVectorOptions()
+    options.driverName = QgsVectorFileWriter.driverForExtension(ext) or "GPKG"
+    result = QgsVectorFileWriter.writeAsVectorFormatV3(layer, path, QgsProject.instance().transformContext(), options)
+    if result[0] != QgsVectorFileWriter.NoError:
+        raise QgsProcessingException(f"{output_id}: cannot write {path}: {result[1]}")
 
 
 def crs_text(crs):
@@ -33,9 +52,9 @@ def crs_text(crs):
     return crs.authid() or crs.toWkt(QgsCoordinateReferenceSystem.WKT_PREFERRED)
 
 
-def geopackage_upload(layer, directory, index):
-    """`layer` (any vector layer QGIS opens, its selection and filter as it stands) written as a
-    GeoPackage with its CRS, as the execute request's qualified value."""
+def geopackage_file(layer, directory, index):
+    """`layer` (any vector layer QGIS opens, its filter as it stands) written as a GeoPackage with
+    its CRS; returns the file's path."""
     path = os.path.join(directory, f"seeds_{index}.gpkg")
     options = QgsVectorFileWriter.SaveVectorOptions()
     options.driverName = "GPKG"
@@ -43,16 +62,22 @@ def geopackage_upload(layer, directory, index):
     result = QgsVectorFileWriter.writeAsVectorFormatV3(layer, path, QgsProject.instance().transformContext(), options)
     if result[0] != QgsVectorFileWriter.NoError:
         raise QgsProcessingException(f"cannot write layer '{layer.name()}' as a GeoPackage: {result[1]}")
-    with open(path, "rb") as f:
+    return path
+
+
+def geopackage_upload(layer, directory, index):
+    """The layer as the execute request's qualified value: a base64 GeoPackage."""
+    with open(geopackage_file(layer, directory, index), "rb") as f:
         data = base64.b64encode(f.read()).decode()
     return {"value": data, "mediaType": "application/geopackage+sqlite3", "encoding": "base64"}
 
 
 class DescribedAlgorithm(QgsProcessingAlgorithm):
-    def __init__(self, process_id, description):
+    def __init__(self, process_id, description, local=False):
         super().__init__()
         self.process_id = process_id
         self.description = description
+        self.local = local  # run through the Python module in QGIS's own process
 
     # ---- What QGIS shows -------------------------------------------------------------------
 
@@ -75,7 +100,7 @@ class DescribedAlgorithm(QgsProcessingAlgorithm):
         return list(self.description.get("keywords", []))
 
     def createInstance(self):  # noqa: N802
-        return DescribedAlgorithm(self.process_id, self.description)
+        return DescribedAlgorithm(self.process_id, self.description, self.local)
 
     def initAlgorithm(self, config=None):  # noqa: N802
         for input_id, entry in self.description.get("inputs", {}).items():
@@ -85,8 +110,10 @@ class DescribedAlgorithm(QgsProcessingAlgorithm):
 
     # ---- A run --------------------------------------------------------------------------------
 
-    def _inputs(self, parameters, context, feedback, directory):
-        """The execute request's inputs from the values given (only those given)."""
+    def _inputs(self, parameters, context, feedback, directory, upload):
+        """The execute request's inputs from the values given (only those given); each layer of an
+        upload input becomes upload(layer, directory, name): a qualified value for the server, a
+        path for the module."""
         inputs = {}
         grid_crs = None
         for p in self.parameterDefinitions():
@@ -106,7 +133,7 @@ class DescribedAlgorithm(QgsProcessingAlgorithm):
                 for layer in layers:
                     if not isinstance(layer, QgsVectorLayer):
                         raise QgsProcessingException(f"{p.description()}: '{layer.name()}' is not a vector layer")
-                uploads = [geopackage_upload(layer, directory, f"{input_id}_{i}") for i, layer in enumerate(layers)]
+                uploads = [upload(layer, directory, f"{input_id}_{i}") for i, layer in enumerate(layers)]
                 feedback.pushInfo(f"{p.description()}: {len(uploads)} layer(s) as GeoPackage")
                 inputs[input_id] = uploads if p.type() == "multilayer" else uploads[0]
             elif kind == "field":
@@ -172,6 +199,11 @@ class DescribedAlgorithm(QgsProcessingAlgorithm):
         if self.process_id != "voronoi":
             raise QgsProcessingException(f"rvoronoi:{self.process_id} runs on the server's pages; "
                                          "this provider runs rvoronoi:voronoi")
+        if self.local:
+            return self._run_locally(parameters, context, feedback)
+        return self._run_on_server(parameters, context, feedback)
+
+    def _run_on_server(self, parameters, context, feedback):
         try:
             client = Client(feedback=feedback)
         except ServerError as e:
@@ -185,7 +217,7 @@ class DescribedAlgorithm(QgsProcessingAlgorithm):
             raise QgsProcessingException(str(e))
         feedback.pushInfo(f"{client.url}: signed in as {me.get('name')} ({me.get('role')})")
         with tempfile.TemporaryDirectory(prefix="rvoronoi_qgis_") as directory:
-            inputs = self._inputs(parameters, context, feedback, directory)
+            inputs = self._inputs(parameters, context, feedback, directory, geopackage_upload)
             destinations = self._destinations(parameters, context)
             requested = {}
             for output_id, (_, path) in destinations.items():
@@ -199,6 +231,55 @@ class DescribedAlgorithm(QgsProcessingAlgorithm):
                 self._fetch(client, job, output_id, path, directory, feedback)
                 results[name] = path
             return results
+
+    def _run_locally(self, parameters, context, feedback):
+        """The same job through the Python module in QGIS's own process: the layers as GeoPackage
+        files, the inputs as the module's keywords (the option table's), the files written as the
+        CLI writes them."""
+        from . import module
+
+        rvoronoi = module.load()
+        if rvoronoi is None:
+            raise QgsProcessingException("the rvoronoi Python module is not installed (the local mode needs it)")
+        keyword_of = {k["input"]: k["keyword"] for k in rvoronoi.keywords() if k.get("input")}
+        with tempfile.TemporaryDirectory(prefix="rvoronoi_qgis_") as directory:
+            inputs = self._inputs(parameters, context, feedback, directory, geopackage_file)
+            seeds = inputs.pop("seeds")
+            options = {}
+            for input_id, value in inputs.items():
+                if input_id not in keyword_of:
+                    raise QgsProcessingException(f"input '{input_id}' has no keyword in the local module")
+                options[keyword_of[input_id]] = value
+            outputs, converted = {}, {}
+            for output_id, (name, path) in self._destinations(parameters, context).items():
+                ext = path.rsplit(".", 1)[-1].lower() if "." in path else ""
+                if output_id in VECTOR_OUTPUTS and ext not in ("gpkg", "geojson", "json"):
+                    converted[output_id] = (path, os.path.join(directory, f"{output_id}.gpkg"))
+                    outputs[output_id] = converted[output_id][1]
+                else:
+                    outputs[output_id] = path
+            outputs.setdefault("report", os.path.join(directory, "report.json"))
+            names = {output_id: name for output_id, (name, _) in self._destinations(parameters, context).items()}
+            feedback.pushInfo(f"local: rvoronoi {rvoronoi.__version__}")
+
+            said = []
+
+            def progress(stage, fraction):
+                feedback.setProgress(overall_percent(stage, fraction))
+                if not said or said[-1] != stage:
+                    said.append(stage)
+                    feedback.setProgressText(f"running: {stage}")
+
+            try:
+                rvoronoi.run(seeds, outputs, progress=progress, cancelled=feedback.isCanceled, **options)
+            except rvoronoi.Cancelled:
+                raise QgsProcessingException("cancelled")
+            except rvoronoi.Error as e:
+                raise QgsProcessingException(f"{type(e).__name__}: {e}")
+            for output_id, (path, written) in converted.items():
+                convert_vector(written, path, output_id)
+                outputs[output_id] = path
+            return {names[o]: p for o, p in outputs.items() if o in names}
 
     def _submit(self, client, inputs, outputs, feedback):
         try:
@@ -242,18 +323,12 @@ class DescribedAlgorithm(QgsProcessingAlgorithm):
         """Downloads one result into its destination; a vector destination of another format than
         the server writes is converted."""
         ext = path.rsplit(".", 1)[-1].lower() if "." in path else ""
-        convert = output_id in ("boundaries", "tripoints", "limits", "regions") and ext not in ("gpkg", "geojson", "json")
+        convert = output_id in VECTOR_OUTPUTS and ext not in ("gpkg", "geojson", "json")
         target = os.path.join(directory, f"{output_id}.gpkg") if convert else path
         try:
             size = client.download(f"/jobs/{job}/results/{output_id}", target)
         except ServerError as e:
             raise QgsProcessingException(f"{output_id}: {e}")
         if convert:
-            layer = QgsVectorLayer(target, output_id, "ogr")
-            options = QgsVectorFileWriter.SaveVectorOptions()
-            options.driverName = QgsVectorFileWriter.driverForExtension(ext) or "GPKG"
-            result = QgsVectorFileWriter.writeAsVectorFormatV3(layer, path, QgsProject.instance().transformContext(),
-                                                               options)
-            if result[0] != QgsVectorFileWriter.NoError:
-                raise QgsProcessingException(f"{output_id}: cannot write {path}: {result[1]}")
+            convert_vector(target, path, output_id)
         feedback.pushInfo(f"{output_id}: {size} bytes -> {path}")

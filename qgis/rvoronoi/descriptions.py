@@ -84,9 +84,13 @@ def from_server(client=None):
 
 def from_module():
     """{process id: description} of the local Python module, when it can be imported."""
+    from . import module
     try:
-        import rvoronoi  # noqa: F401 (the packaged module)
-    except ImportError:
+        rvoronoi = module.load()
+    except ImportError as e:
+        QgsMessageLog.logMessage(f"the rvoronoi module cannot be loaded: {e}", LOG_TAG, Qgis.Warning)
+        return {}
+    if rvoronoi is None:
         return {}
     describe = getattr(rvoronoi, "process_description", None)
     if describe is None:

@@ -62,15 +62,15 @@ class RvoronoiProvider(QgsProcessingProvider):
     def loadAlgorithms(self):  # noqa: N802
         self._configured()
         wanted = client.mode()
-        found = {}
+        found, local = {}, False
         if wanted in ("server", "auto") and client.server_url():
             found = descriptions.from_server()
         elif wanted in ("local", "auto"):
-            found = descriptions.from_module()
+            found, local = descriptions.from_module(), True
         if not found:
             QgsMessageLog.logMessage("no rvoronoi algorithms: set the server's URL in the Processing options "
                                      "(Providers > rvoronoi) or RVORONOI_URL, or install the Python module",
                                      descriptions.LOG_TAG, Qgis.Warning)
         for process_id, description in sorted(found.items()):
             if process_id == "voronoi":  # describe-seeds helps the pages; QGIS reads layers itself
-                self.addAlgorithm(DescribedAlgorithm(process_id, description))
+                self.addAlgorithm(DescribedAlgorithm(process_id, description, local))

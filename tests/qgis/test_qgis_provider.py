@@ -5,8 +5,9 @@ authentication database the test makes, with its master password in a file):
   1. `qgis_process.bin plugins enable rvoronoi`, the algorithm listed, its parameters named in
      upper snake case;
   2. rvoronoi:voronoi on the Øresund and on the western Baltic (onConflict lower-code) through
-     qgis_process: every file equals the CLI's for the same options (rasters by content, lines
-     and regions feature for feature);
+     qgis_process, against the daemon and locally (the Python module in QGIS's process, mode
+     local): every file equals the CLI's for the same options (rasters by content, lines and
+     regions feature for feature); a Shapefile destination is converted;
   3. a bad input's message, a missing token, an unreachable server (the cached descriptions still
      give the algorithm), a URL that is not the API: one clear message each, never a traceback;
      the token never in what qgis_process prints;
@@ -17,7 +18,7 @@ authentication database the test makes, with its master password in a file):
 QGIS's /usr/bin/qgis_process wrapper may add options (QGIS_OPTS) that 3.22's qgis_process refuses;
 the test calls /usr/bin/qgis_process.bin, with QT_QPA_PLATFORM=offscreen.
 
-usage: test_qgis_provider.py RVORONOI SOURCE_DIR
+usage: test_qgis_provider.py RVORONOI SOURCE_DIR PYTHON_MODULE_DIR
 """
 import hashlib
 import http.server
@@ -33,6 +34,7 @@ from osgeo import gdal, ogr
 
 SOURCE = sys.argv[2]
 RVORONOI = sys.argv[1]
+MODULE_DIR = sys.argv[3]
 sys.path.insert(0, os.path.join(SOURCE, "tests", "service", "daemon"))
 from daemon_harness import Daemon  # noqa: E402
 
@@ -214,7 +216,7 @@ OUTPUTS = {"OWNERSHIP": ("ownership", "o.tif"), "DISTANCE": ("distance", "d.tif"
            "LIMITS": ("limits", "l.geojson"), "REGIONS": ("regions", "r.gpkg")}
 
 
-def compare_case(q, tmp, name, fixture, resolution, extra_cli, extra_qgis):
+def compare_case(q, tmp, name, fixture, resolution, extra_cli, extra_qgis, env=None):
     out_q, out_c = os.path.join(tmp, name, "qgis"), os.path.join(tmp, name, "cli")
     os.makedirs(out_q)
     os.makedirs(out_c)
@@ -224,7 +226,7 @@ def compare_case(q, tmp, name, fixture, resolution, extra_cli, extra_qgis):
     for param, (_, file) in OUTPUTS.items():
         args.append(f"{param}={os.path.join(out_q, file)}")
     began = time.time()
-    code, text = q.run(*args)
+    code, text = q.run(*args, env=env)
     took = time.time() - began
     check(code == 0, f"{name}: qgis_process run: exit {code}: {text[-1500:]}")
     check(TOKEN not in text, f"{name}: the token in qgis_process's output")
@@ -297,6 +299,16 @@ def main():
             compare_case(q, tmp, "oresund", "oresund.gpkg", 0.01, [], [])
             compare_case(q, tmp, "baltic", "baltic_west.gpkg", 0.01, ["--on-conflict", "lower-code"],
                          ["ON_CONFLICT=lower-code"])
+            local = {"RVORONOI_MODE": "local", "RVORONOI_URL": "", "PYTHONPATH": MODULE_DIR}
+            compare_case(q, tmp, "oresund-local", "oresund.gpkg", 0.01, [], [], env=local)
+            compare_case(q, tmp, "baltic-local", "baltic_west.gpkg", 0.01, ["--on-conflict", "lower-code"],
+                         ["ON_CONFLICT=lower-code"], env=local)
+            shp = os.path.join(tmp, "boundaries.shp")
+            code, text = q.run("run", "rvoronoi:voronoi", "--", f"SEEDS={os.path.join(SOURCE, 'fixtures', 'oresund.gpkg')}",
+                               "OWNER_FIELD=iso2", "RESOLUTION=0.01", f"BOUNDARIES={shp}",
+                               f"OWNERSHIP={os.path.join(tmp, 'shp.tif')}", env=local)
+            check(code == 0 and len(features(shp)) == len(features(os.path.join(tmp, "oresund-local", "cli", "b.geojson"))),
+                  f"a Shapefile destination: {code} {text[-400:]}")
             # 3. Failures, each one clear line.
             seeds = os.path.join(SOURCE, "fixtures", "oresund.gpkg")
             base = ["run", "rvoronoi:voronoi", "--", f"SEEDS={seeds}", "RESOLUTION=0.05",

@@ -122,4 +122,12 @@ std::string options_help(std::string_view section, int width = 100);
 // extensions (OptionSpec).
 nlohmann::json process_input_description(const OptionSpec& option);
 
+// The process "voronoi" as OGC API - Processes describes it (process_description.cpp): its summary
+// (id, title, version, job control, links under `base`, e.g. "http://host:8080"; "" gives
+// relative links), and the whole description: the summary, every process input of the table
+// and the outputs with their media types. The daemon's /processes/voronoi, the Python module's
+// rvoronoi.process_description() and the clients made from them share it.
+nlohmann::json process_summary(const std::string& base);
+nlohmann::json process_description(const std::string& base);
+
 }  // namespace rv
