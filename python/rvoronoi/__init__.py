@@ -32,7 +32,8 @@ __all__ = ["compute", "describe", "run", "process_description", "keywords", "Err
 _PRODUCTS = ("ownership", "distance", "nearest_feature")
 _DELIVERABLES = {"boundaries": ".geojson", "tripoints": ".geojson", "limits": ".geojson", "regions": ".geojson",
                  "turning_points": ".json"}
-_KEYWORDS = {k["keyword"]: k for k in _rvoronoi.keywords()}
+_RUN_KEYWORDS = {k["keyword"]: k for k in _rvoronoi.keywords()}
+_KEYWORDS = {name: k for name, k in _RUN_KEYWORDS.items() if not k["run_only"]}
 
 
 def keywords():
@@ -66,12 +67,13 @@ def _check_finite(name, value):
             _check_finite("%s.%s" % (name, key), item)
 
 
-def _options_json(options):
-    unknown = sorted(set(options) - set(_KEYWORDS))
+def _options_json(options, caller="compute", known=None):
+    known = _KEYWORDS if known is None else known
+    unknown = sorted(set(options) - set(known))
     if unknown:
-        raise TypeError("compute() got unexpected keyword argument%s %s; the options are: %s"
-                        % ("s" if len(unknown) > 1 else "", ", ".join(repr(u) for u in unknown),
-                           ", ".join(sorted(_KEYWORDS))))
+        raise TypeError("%s() got unexpected keyword argument%s %s; the options are: %s"
+                        % (caller, "s" if len(unknown) > 1 else "", ", ".join(repr(u) for u in unknown),
+                           ", ".join(sorted(known))))
     for name, value in options.items():
         _check_finite(name, value)
     return json.dumps(options, default=_json_default, allow_nan=False)
@@ -172,14 +174,15 @@ def run(seeds, outputs, *, progress=None, cancelled=None, max_cells=_rvoronoi.de
         validate, write, deliver; fraction in [0, 1] of that stage), from the job's threads.
     cancelled: called with each progress report; True stops the job (rvoronoi.Cancelled), and
         nothing partial is left.
-    **options: the CLI's options, as compute() takes them.
+    **options: the CLI's options, as compute() takes them, and how the rasters are written:
+        compression (fast, small, deflate, none) and cog (Cloud Optimized GeoTIFFs).
 
     Returns the report (a dict). Raises rvoronoi.Error subclasses; an exception raised by
     progress or cancelled stops the job and is raised again here.
     """
     from . import _seeds
 
-    options_json = _options_json(options)
+    options_json = _options_json(options, "run", _RUN_KEYWORDS)
     max_cells = _max_cells(max_cells)
     files_out = {}
     for name, path in dict(outputs).items():
@@ -261,7 +264,7 @@ def _compute_chunked(seeds, chunks, products, options, options_json, max_cells):
 
 def _describe_options():
     lines = ["", "Options (the CLI's, from its option table):", ""]
-    for k in _rvoronoi.keywords():
+    for k in _KEYWORDS.values():
         head = "%s (%s)" % (k["keyword"], k["type"])
         if k["choices"]:
             head += ": " + " | ".join(k["choices"])

@@ -42,6 +42,10 @@ const std::set<std::string, std::less<>> kNotKeywords = {
 
 bool is_keyword(const rv::OptionSpec& o) { return !o.flag.empty() && !kNotKeywords.contains(o.flag); }
 
+// What rvoronoi.run takes besides (it writes files): how they are written.
+const std::set<std::string, std::less<>> kFileKeywords = {"compression", "cog"};
+bool is_run_keyword(const rv::OptionSpec& o) { return is_keyword(o) || kFileKeywords.contains(o.flag); }
+
 const char* type_name(rv::OptionType t) {
   switch (t) {
     case rv::OptionType::positive_number:
@@ -77,7 +81,7 @@ std::vector<py::object>& error_classes() {
 }
 
 // The JobSpec of seed paths and keyword options (JSON text: keyword -> value).
-rv::JobSpec make_spec(const std::vector<std::string>& seeds, const std::string& options_json) {
+rv::JobSpec make_spec(const std::vector<std::string>& seeds, const std::string& options_json, bool files = false) {
   rv::JobSpec spec;
   spec.seeds.paths = seeds;
   nlohmann::json options;
@@ -91,8 +95,10 @@ rv::JobSpec make_spec(const std::vector<std::string>& seeds, const std::string& 
     if (value.is_null()) continue;  // None: the option's default
     const rv::OptionSpec* o = nullptr;
     for (const rv::OptionSpec& c : rv::job_options())
-      if (is_keyword(c) && rv::option_keyword(c) == key) o = &c;
-    if (!o) throw rv::Error(rv::ErrorKind::invalid_argument, key + ": not an option of rvoronoi.compute");
+      if ((files ? is_run_keyword(c) : is_keyword(c)) && rv::option_keyword(c) == key) o = &c;
+    if (!o)
+      throw rv::Error(rv::ErrorKind::invalid_argument,
+                      key + (files ? ": not an option of rvoronoi.run" : ": not an option of rvoronoi.compute"));
     o->apply(spec, rv::parse_json_value(*o, value, key));
   }
   return spec;
@@ -219,7 +225,7 @@ class Job {
 std::string run_files(const std::vector<std::string>& seeds, const std::string& options_json,
                       const std::map<std::string, std::string>& outputs, py::object progress, py::object cancelled,
                       int64_t max_cells) {
-  rv::JobSpec spec = make_spec(seeds, options_json);
+  rv::JobSpec spec = make_spec(seeds, options_json, true);
   rv::OutputRequest& out = spec.outputs;
   const std::map<std::string, std::string*> targets = {{"ownership", &out.ownership},
                                                        {"distance", &out.distance},
@@ -269,8 +275,9 @@ std::string run_files(const std::vector<std::string>& seeds, const std::string& 
 py::list keywords() {
   py::list out;
   for (const rv::OptionSpec& o : rv::job_options()) {
-    if (!is_keyword(o)) continue;
+    if (!is_run_keyword(o)) continue;
     py::dict d;
+    d["run_only"] = !is_keyword(o);  // rvoronoi.run's alone (how its files are written)
     d["keyword"] = rv::option_keyword(o);
     d["input"] = std::string(o.input);  // the process input it is ("" = the CLI's and the module's only)
     d["type"] = type_name(o.type);

@@ -224,6 +224,69 @@ class AgainstTheCli(unittest.TestCase):
             self.assertIn("WGS 84", g.GetProjection())
 
 
+class Files(unittest.TestCase):
+    """rvoronoi.run writes a whole job's files as the CLI does (issue 53: the QGIS provider's local
+    mode); rvoronoi.process_description() is the daemon's description."""
+
+    def test_the_files_equal_the_clis(self):
+        from osgeo import gdal
+        seeds = os.path.join(SOURCE, "fixtures", "oresund.gpkg")
+        options = {"owner_field": "iso2", "resolution": 0.02, "limit_distances": ["12nmi"]}
+        stages = []
+        with tempfile.TemporaryDirectory() as out:
+            mine = {"ownership": "o.tif", "distance": "d.tif", "boundaries": "b.geojson", "limits": "l.geojson",
+                    "report": "r.json", "turningPoints": "t.csv"}
+            report = rvoronoi.run(seeds, {k: os.path.join(out, "mine_" + v) for k, v in mine.items()},
+                                  progress=lambda stage, fraction: stages.append((stage, fraction)), **options)
+            subprocess.run([RVORONOI, "compute", seeds, "--owner-field", "iso2", "--resolution", "0.02", "--quiet",
+                            "--limit-distances", "12nmi", "--ownership", os.path.join(out, "o.tif"),
+                            "--distance", os.path.join(out, "d.tif"), "--boundaries", os.path.join(out, "b.geojson"),
+                            "--limits", os.path.join(out, "l.geojson"), "--turning-points",
+                            os.path.join(out, "t.csv")], check=True)
+            for raster in ("o.tif", "d.tif"):
+                a, b = gdal.Open(os.path.join(out, "mine_" + raster)), gdal.Open(os.path.join(out, raster))
+                self.assertEqual(a.ReadRaster(), b.ReadRaster(), raster)
+                self.assertEqual(a.GetGeoTransform(), b.GetGeoTransform(), raster)
+            for text in ("b.geojson", "l.geojson", "t.csv"):
+                with open(os.path.join(out, "mine_" + text)) as f, open(os.path.join(out, text)) as g:
+                    self.assertEqual(f.read(), g.read(), text)
+            with open(os.path.join(out, "mine_r.json")) as f:
+                self.assertEqual(json.load(f)["grid"], report["grid"])
+        self.assertEqual(stages[0], ("read", 0.0))
+        self.assertIn("compute", {s for s, _ in stages})
+        self.assertTrue(all(0.0 <= f <= 1.0 for _, f in stages))
+
+    def test_cancelling_and_a_raising_callback_leave_nothing(self):
+        seeds = os.path.join(SOURCE, "fixtures", "oresund.gpkg")
+        with tempfile.TemporaryDirectory() as out:
+            target = {"ownership": os.path.join(out, "o.tif"), "boundaries": os.path.join(out, "b.geojson")}
+            with self.assertRaises(rvoronoi.Cancelled):
+                rvoronoi.run(seeds, target, cancelled=lambda: True, owner_field="iso2", resolution=0.01)
+            self.assertEqual(os.listdir(out), [])
+
+            def progress(stage, fraction):
+                if stage == "compute":
+                    raise KeyError("the caller's own")
+            with self.assertRaises(KeyError):
+                rvoronoi.run(seeds, target, progress=progress, owner_field="iso2", resolution=0.01)
+            self.assertEqual(os.listdir(out), [])
+            with self.assertRaises(rvoronoi.InvalidArgument):
+                rvoronoi.run(seeds, {"nosuch": os.path.join(out, "x")}, owner_field="iso2", resolution=0.01)
+
+    def test_the_description_is_the_daemons(self):
+        d = rvoronoi.process_description()
+        self.assertEqual(d["id"], "voronoi")
+        self.assertEqual(d["inputs"]["seeds"]["minOccurs"], 1)
+        self.assertEqual(d["inputs"]["ownerField"]["schema"]["x-rvoronoi-field-of"], "seeds")
+        self.assertIn("ownership", d["outputs"])
+        keyword_inputs = {k["input"] for k in rvoronoi.keywords() if k["input"]}
+        self.assertEqual({k["keyword"] for k in rvoronoi.keywords() if k["run_only"]}, {"compression", "cog"})
+        with self.assertRaises(TypeError):
+            rvoronoi.compute(os.path.join(SOURCE, "fixtures", "oresund.gpkg"), compression="small")
+        # Every described input but the seeds (compute's own argument) is a keyword.
+        self.assertEqual(keyword_inputs, set(d["inputs"]) - {"seeds", "baseJob"})
+
+
 class Errors(unittest.TestCase):
     def test_kinds_classes_and_messages(self):
         pts = os.path.join(FIX, "coast_points.geojson")
@@ -447,7 +510,7 @@ class Package(unittest.TestCase):
         computes = [n for n in tree.body if isinstance(n, ast.FunctionDef) and n.name == "compute"]
         self.assertEqual(len(computes), 2)  # overloads: without and with deliverables
         real = inspect.signature(rvoronoi.compute).parameters
-        wanted = {k["keyword"] for k in rvoronoi.keywords()} | {
+        wanted = {k["keyword"] for k in rvoronoi.keywords() if not k["run_only"]} | {
             p.name for p in real.values() if p.kind is p.KEYWORD_ONLY}
         for c in computes:
             self.assertEqual({a.arg for a in c.args.kwonlyargs}, wanted)
