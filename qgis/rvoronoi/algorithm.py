@@ -24,6 +24,7 @@ from qgis.core import (
 
 from .client import Client, ServerError
 from .parameters import input_parameter, media_type_for, output_parameter, upper_snake
+from .styles import Styler
 
 POLL_S = 0.25
 VECTOR_OUTPUTS = ("boundaries", "tripoints", "limits", "regions")
@@ -230,6 +231,10 @@ class DescribedAlgorithm(QgsProcessingAlgorithm):
             for output_id, (name, path) in destinations.items():
                 self._fetch(client, job, output_id, path, directory, feedback)
                 results[name] = path
+            report = destinations.get("report", (None, os.path.join(directory, "report.json")))[1]
+            if "report" not in destinations:
+                self._fetch(client, job, "report", report, directory, feedback)
+            self._style_on_load(context, destinations, report)
             return results
 
     def _run_locally(self, parameters, context, feedback):
@@ -279,7 +284,21 @@ class DescribedAlgorithm(QgsProcessingAlgorithm):
             for output_id, (path, written) in converted.items():
                 convert_vector(written, path, output_id)
                 outputs[output_id] = path
+            self._style_on_load(context, {o: (names[o], p) for o, p in outputs.items() if o in names},
+                                outputs["report"])
             return {names[o]: p for o, p in outputs.items() if o in names}
+
+    @staticmethod
+    def _style_on_load(context, destinations, report_path):
+        """The results QGIS loads when the run ends are styled then, from the report's owners."""
+        try:
+            with open(report_path) as f:
+                owners = json.load(f).get("seeds", {}).get("owners", [])
+        except (OSError, ValueError):
+            owners = []
+        for output_id, (_, path) in destinations.items():
+            if context.willLoadLayerOnCompletion(path):
+                context.layerToLoadOnCompletionDetails(path).setPostProcessor(Styler.create(output_id, owners))
 
     def _submit(self, client, inputs, outputs, feedback):
         try:

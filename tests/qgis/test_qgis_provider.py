@@ -13,12 +13,14 @@ authentication database the test makes, with its master password in a file):
      the token never in what qgis_process prints;
   4. cancelling a run (PyQGIS, a feedback that cancels once the job is submitted) dismisses the
      job on the server;
-  5. a description with an extra input of every kind (and one of a kind unknown to the plugin)
+  5. the styled results rendered offscreen: the ownership raster in each owner's colour from the
+     report, cell for cell; the whole map (an artefact) with its boundaries and red tripoints;
+  6. a description with an extra input of every kind (and one of a kind unknown to the plugin)
      becomes the parameters it should, the unknown one as text with a warning.
 QGIS's /usr/bin/qgis_process wrapper may add options (QGIS_OPTS) that 3.22's qgis_process refuses;
 the test calls /usr/bin/qgis_process.bin, with QT_QPA_PLATFORM=offscreen.
 
-usage: test_qgis_provider.py RVORONOI SOURCE_DIR PYTHON_MODULE_DIR
+usage: test_qgis_provider.py RVORONOI SOURCE_DIR PYTHON_MODULE_DIR [ARTEFACT_DIR]
 """
 import hashlib
 import http.server
@@ -35,6 +37,7 @@ from osgeo import gdal, ogr
 SOURCE = sys.argv[2]
 RVORONOI = sys.argv[1]
 MODULE_DIR = sys.argv[3]
+ARTEFACTS = sys.argv[4] if len(sys.argv) > 4 else tempfile.gettempdir()
 sys.path.insert(0, os.path.join(SOURCE, "tests", "service", "daemon"))
 from daemon_harness import Daemon  # noqa: E402
 
@@ -178,6 +181,67 @@ EXPECTED_KINDS = {
 }
 
 
+# The styled results rendered offscreen (QgsMapRendererParallelJob, one pixel per cell): the
+# ownership raster alone, checked cell by cell against the owners' colours in the report, and
+# the whole map (rasters, lines, tripoints, regions) as a test artefact, checked for its marks.
+RENDER_SCRIPT = """
+import json, os, sys
+from qgis.core import (QgsApplication, QgsMapRendererParallelJob, QgsMapSettings, QgsRasterLayer, QgsVectorLayer,
+                       QgsProject)
+from qgis.PyQt.QtCore import QSize
+from qgis.PyQt.QtGui import QColor
+app = QgsApplication([], False)
+app.initQgis()
+sys.path.insert(0, os.environ["QGIS_PLUGINPATH"])
+from rvoronoi.styles import style
+out, artefact = sys.argv[1], sys.argv[2]
+owners = json.load(open(os.path.join(out, "report.json")))["seeds"]["owners"]
+raster = QgsRasterLayer(os.path.join(out, "o.tif"), "ownership")
+assert raster.isValid()
+assert style(raster, "ownership", owners)
+layers = {"boundaries": "b.geojson", "limits": "l.geojson", "tripoints": "t.gpkg", "regions": "r.gpkg"}
+vectors = []
+for output_id, name in layers.items():
+    layer = QgsVectorLayer(os.path.join(out, name), output_id, "ogr")
+    assert layer.isValid(), name
+    assert style(layer, output_id, owners), output_id
+    vectors.append(layer)
+
+def render(map_layers, path):
+    settings = QgsMapSettings()
+    settings.setLayers(map_layers)
+    settings.setDestinationCrs(raster.crs())
+    settings.setExtent(raster.extent())
+    settings.setOutputSize(QSize(raster.width(), raster.height()))
+    settings.setBackgroundColor(QColor(255, 255, 255))
+    job = QgsMapRendererParallelJob(settings)
+    job.start()
+    job.waitForFinished()
+    image = job.renderedImage()
+    image.save(path, "PNG")
+    return image
+
+alone = render([raster], os.path.join(artefact, "ownership.png"))
+block = raster.dataProvider().block(1, raster.extent(), raster.width(), raster.height())
+colour = {int(o["code"]): QColor(o["colour"]).rgb() for o in owners}
+checked = wrong = 0
+for row in range(0, raster.height(), 7):
+    for col in range(0, raster.width(), 7):
+        code = int(block.value(row, col))
+        if code in colour:
+            checked += 1
+            wrong += alone.pixel(col, row) != colour[code]
+whole = render(vectors + [raster], os.path.join(artefact, "styled.png"))
+seen = set()
+for row in range(whole.height()):
+    for col in range(whole.width()):
+        seen.add(whole.pixel(col, row))
+marks = {"tripoint": QColor("#e31a1c").rgb() in seen, "boundary": QColor("#1a1a1a").rgb() in seen}
+print(json.dumps({"checked": checked, "wrong": wrong, "owners": len(owners), "marks": marks,
+                  "size": [whole.width(), whole.height()]}))
+"""
+
+
 # ---- Comparing files ---------------------------------------------------------------------------
 
 def same_raster(a, b, what):
@@ -225,6 +289,7 @@ def compare_case(q, tmp, name, fixture, resolution, extra_cli, extra_qgis, env=N
             "LIMIT_DISTANCES=12nmi"] + extra_qgis
     for param, (_, file) in OUTPUTS.items():
         args.append(f"{param}={os.path.join(out_q, file)}")
+    args.append(f"REPORT={os.path.join(out_q, 'report.json')}")
     began = time.time()
     code, text = q.run(*args, env=env)
     took = time.time() - began
@@ -299,6 +364,14 @@ def main():
             compare_case(q, tmp, "oresund", "oresund.gpkg", 0.01, [], [])
             compare_case(q, tmp, "baltic", "baltic_west.gpkg", 0.01, ["--on-conflict", "lower-code"],
                          ["ON_CONFLICT=lower-code"])
+            # The styled result, rendered offscreen.
+            artefacts = os.path.join(ARTEFACTS, "qgis")
+            os.makedirs(artefacts, exist_ok=True)
+            got = json.loads(q.script(RENDER_SCRIPT, os.path.join(tmp, "baltic", "qgis"), artefacts)
+                             .strip().splitlines()[-1])
+            check(got["checked"] > 100 and got["wrong"] == 0 and got["owners"] == 4,
+                  f"the ownership raster renders in the owners' colours: {got}")
+            check(all(got["marks"].values()), f"the styled map shows tripoints and boundaries: {got}")
             local = {"RVORONOI_MODE": "local", "RVORONOI_URL": "", "PYTHONPATH": MODULE_DIR}
             compare_case(q, tmp, "oresund-local", "oresund.gpkg", 0.01, [], [], env=local)
             compare_case(q, tmp, "baltic-local", "baltic_west.gpkg", 0.01, ["--on-conflict", "lower-code"],
