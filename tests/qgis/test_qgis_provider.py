@@ -15,7 +15,9 @@ authentication database the test makes, with its master password in a file):
      job on the server;
   5. the styled results rendered offscreen: the ownership raster in each owner's colour from the
      report, cell for cell; the whole map (an artefact) with its boundaries and red tripoints;
-  6. a description with an extra input of every kind (and one of a kind unknown to the plugin)
+  6. the Processing model of qgis/tests (reproject the seeds, rvoronoi, clip the regions) through
+     qgis_process, and batch mode (one process running a row of parameters after another);
+  7. a description with an extra input of every kind (and one of a kind unknown to the plugin)
      becomes the parameters it should, the unknown one as text with a warning.
 QGIS's /usr/bin/qgis_process wrapper may add options (QGIS_OPTS) that 3.22's qgis_process refuses;
 the test calls /usr/bin/qgis_process.bin, with QT_QPA_PLATFORM=offscreen.
@@ -242,6 +244,77 @@ print(json.dumps({"checked": checked, "wrong": wrong, "owners": len(owners), "ma
 """
 
 
+# Batch mode: one algorithm run for each row of parameters in one QGIS process, as the batch
+# dialog does (processing.run per row); prints each row's ownership raster's size.
+BATCH_SCRIPT = """
+import json, os, sys
+from qgis.core import QgsApplication
+app = QgsApplication([], False)
+app.initQgis()
+sys.path.insert(0, os.environ["QGIS_PLUGINPATH"])
+sys.path.insert(0, "/usr/share/qgis/python/plugins")
+from processing.core.Processing import Processing
+Processing.initialize()
+import processing
+from rvoronoi.provider import RvoronoiProvider
+provider = RvoronoiProvider()
+QgsApplication.processingRegistry().addProvider(provider)
+from osgeo import gdal
+rows = json.loads(sys.argv[1])
+sizes = []
+for row in rows:
+    result = processing.run("rvoronoi:voronoi", row)
+    ds = gdal.Open(result["OWNERSHIP"])
+    sizes.append([ds.RasterXSize, ds.RasterYSize, os.path.exists(row["BOUNDARIES"])])
+print(json.dumps(sizes))
+"""
+
+AREA = {"type": "FeatureCollection", "crs": {"type": "name", "properties": {"name": "urn:ogc:def:crs:OGC:1.3:CRS84"}},
+        "features": [{"type": "Feature", "properties": {"name": "box"}, "geometry": {
+            "type": "Polygon", "coordinates": [[[12.4, 55.5], [12.9, 55.5], [12.9, 56.0], [12.4, 56.0], [12.4, 55.5]]]}}]}
+
+
+def model_and_batch(q, tmp):
+    """The model of qgis/tests (reproject, rvoronoi, clip) through qgis_process, and batch mode."""
+    seeds = os.path.join(SOURCE, "fixtures", "oresund.gpkg")
+    area = os.path.join(tmp, "area.geojson")
+    with open(area, "w") as f:
+        json.dump(AREA, f)
+    clipped = os.path.join(tmp, "clipped.gpkg")
+    code, text = q.run("run", os.path.join(SOURCE, "qgis", "tests", "reproject_voronoi_clip.model3"), "--",
+                       f"seeds={seeds}", "owner_field=iso2", "grid_crs=EPSG:3035", "resolution=500", f"area={area}",
+                       f"clip:clipped_regions={clipped}", f"voronoi:ownership={os.path.join(tmp, 'model.tif')}")
+    check(code == 0 and "Model processed OK" in text, f"the model runs: {code} {text[-800:]}")
+    if code == 0:
+        ds = ogr.Open(clipped)
+        layer = ds.GetLayer(0)
+        owners = sorted(f.GetField("owner") for f in layer)
+        check(owners == [1, 2], f"the model's clipped regions: one per owner {owners}")
+        check(layer.GetSpatialRef().GetAuthorityCode(None) == "3035", "the model's regions are in the grid CRS")
+        from osgeo import osr
+        box = ogr.CreateGeometryFromJson(json.dumps(AREA["features"][0]["geometry"]))
+        wgs, laea = osr.SpatialReference(), osr.SpatialReference()
+        wgs.ImportFromEPSG(4326)
+        wgs.SetAxisMappingStrategy(osr.OAMS_TRADITIONAL_GIS_ORDER)
+        laea.ImportFromEPSG(3035)
+        laea.SetAxisMappingStrategy(osr.OAMS_TRADITIONAL_GIS_ORDER)
+        box.Transform(osr.CoordinateTransformation(wgs, laea))
+        layer.ResetReading()
+        inside = [box.Buffer(1.0).Contains(f.GetGeometryRef()) for f in layer]
+        check(len(inside) == 2 and all(inside), f"the regions are clipped to the area: {inside}")
+    rows = [{"SEEDS": [seeds], "OWNER_FIELD": "iso2", "RESOLUTION": r, "OWNERSHIP": os.path.join(tmp, f"batch_{i}.tif"),
+             "BOUNDARIES": os.path.join(tmp, f"batch_{i}.geojson")} for i, r in enumerate((0.05, 0.02, 0.01))]
+    sizes = json.loads(q.script(BATCH_SCRIPT, json.dumps(rows)).strip().splitlines()[-1])
+    expected = []
+    for i, r in enumerate((0.05, 0.02, 0.01)):
+        out = os.path.join(tmp, f"batch_cli_{i}.tif")
+        subprocess.run([RVORONOI, "compute", seeds, "--owner-field", "iso2", "--resolution", str(r), "--quiet",
+                        "--ownership", out], check=True)
+        ds = gdal.Open(out)
+        expected.append([ds.RasterXSize, ds.RasterYSize, True])
+    check(sizes == expected, f"batch mode: each row its own grid and files: {sizes} / {expected}")
+
+
 # ---- Comparing files ---------------------------------------------------------------------------
 
 def same_raster(a, b, what):
@@ -372,6 +445,7 @@ def main():
             check(got["checked"] > 100 and got["wrong"] == 0 and got["owners"] == 4,
                   f"the ownership raster renders in the owners' colours: {got}")
             check(all(got["marks"].values()), f"the styled map shows tripoints and boundaries: {got}")
+            model_and_batch(q, tmp)
             local = {"RVORONOI_MODE": "local", "RVORONOI_URL": "", "PYTHONPATH": MODULE_DIR}
             compare_case(q, tmp, "oresund-local", "oresund.gpkg", 0.01, [], [], env=local)
             compare_case(q, tmp, "baltic-local", "baltic_west.gpkg", 0.01, ["--on-conflict", "lower-code"],
