@@ -2,7 +2,8 @@
 
 Against a daemon this test starts (authentication on: a principal whose token sits in a QGIS
 authentication database the test makes, with its master password in a file):
-  1. `qgis_process.bin plugins enable rvoronoi`, the algorithm listed, its parameters named in
+  1. the plugin installed from the zip of tools/package-qgis.sh, `qgis_process.bin plugins enable
+     rvoronoi`, the algorithm listed, its parameters named in
      upper snake case;
   2. rvoronoi:voronoi on the Øresund and on the western Baltic (onConflict lower-code) through
      qgis_process, against the daemon and locally (the Python module in QGIS's process, mode
@@ -33,6 +34,7 @@ import sys
 import tempfile
 import threading
 import time
+import zipfile
 
 from osgeo import gdal, ogr
 
@@ -56,18 +58,27 @@ def check(condition, what):
 
 
 class Qgis:
-    """qgis_process (and PyQGIS scripts) in a profile of their own, the plugin from the repository."""
+    """qgis_process (and PyQGIS scripts) in a profile of their own, the plugin installed from the zip
+    tools/package-qgis.sh makes (what QGIS's "Install from ZIP" takes)."""
 
     def __init__(self, tmp):
         self.home = os.path.join(tmp, "home")
         os.makedirs(self.home)
+        made = subprocess.run(["bash", os.path.join(SOURCE, "tools", "package-qgis.sh"), os.path.join(tmp, "dist")],
+                              check=True, capture_output=True, text=True).stdout.strip().splitlines()[-1]
+        self.plugins = os.path.join(tmp, "plugins")
+        with zipfile.ZipFile(made) as z:
+            names = z.namelist()
+            check(all(n.startswith("rvoronoi/") for n in names) and "rvoronoi/metadata.txt" in names,
+                  f"the zip holds one folder rvoronoi/ with its metadata: {names}")
+            z.extractall(self.plugins)
         self.auth_dir = os.path.join(tmp, "auth")
         os.makedirs(self.auth_dir)
         self.master = os.path.join(tmp, "master-password")
         with open(self.master, "w") as f:
             f.write("master-" + os.urandom(8).hex())
         self.env = dict(os.environ, HOME=self.home, QT_QPA_PLATFORM="offscreen", XDG_RUNTIME_DIR=tmp,
-                        QGIS_PLUGINPATH=os.path.join(SOURCE, "qgis"), QGIS_AUTH_DB_DIR_PATH=self.auth_dir,
+                        QGIS_PLUGINPATH=self.plugins, QGIS_AUTH_DB_DIR_PATH=self.auth_dir,
                         QGIS_AUTH_PASSWORD_FILE=self.master)
         self.authcfg = self.script(AUTH_SCRIPT, open(self.master).read(), TOKEN).strip().splitlines()[-1]
 
@@ -445,6 +456,11 @@ def main():
             check(got["checked"] > 100 and got["wrong"] == 0 and got["owners"] == 4,
                   f"the ownership raster renders in the owners' colours: {got}")
             check(all(got["marks"].values()), f"the styled map shows tripoints and boundaries: {got}")
+            # The descriptions are fetched once and then validated: 304s, no second full download.
+            described = [json.loads(line) for line in d.log if '"path":"/processes/voronoi"' in line]
+            check(sum(1 for x in described if x["status"] == 200) == 1 and
+                  sum(1 for x in described if x["status"] == 304) >= 2,
+                  f"the description is cached by its ETag: {[x['status'] for x in described]}")
             model_and_batch(q, tmp)
             local = {"RVORONOI_MODE": "local", "RVORONOI_URL": "", "PYTHONPATH": MODULE_DIR}
             compare_case(q, tmp, "oresund-local", "oresund.gpkg", 0.01, [], [], env=local)
