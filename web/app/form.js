@@ -1,12 +1,20 @@
 // The job form, made from the process description (GET /processes/voronoi), which the daemon
 // makes from its option table: every input gets a field of its schema's kind with its title as
-// the label and its description as the help text. The seed file's fields fill the choices of the
-// inputs that name a field (owner, weight, reach, effect).
+// the label and its description as the help text. The description's x-rvoronoi-* members say
+// what the schema cannot (the same ones the QGIS provider is made from): uploads
+// (x-rvoronoi-upload: the page takes the seeds itself), fields of the seed layers
+// (x-rvoronoi-field-of: the seed file's fields fill their choices).
 
 import { el } from "../client.js";
 
-// Inputs the page supplies itself (uploads, the edit of an earlier job) or lays out apart.
-const NOT_IN_FORM = new Set(["seeds", "relevantArea", "relevantCoasts", "baseJob"]);
+// Inputs the page supplies itself (the edit of an earlier job; uploads, by their schema).
+const NOT_IN_FORM = new Set(["baseJob"]);
+const isUpload = (input) => Boolean(schemaOf(input)["x-rvoronoi-upload"]);
+const isField = (input) => Boolean(schemaOf(input)["x-rvoronoi-field-of"]);
+// An extent: an array of four numbers, or an OGC bbox object.
+const isExtent = (input) => (schemaOf(input).oneOf || []).some((v) => v.type === "array" && v.minItems === 4 && v.maxItems === 4);
+const isList = (input) => schemaOf(input).type === "array";
+const inForm = (name, input) => !NOT_IN_FORM.has(name) && !isUpload(input);
 // First, in this order, open; the rest under "More options".
 const MAIN = ["ownerField", "resolution", "extent", "metric", "distanceUnits", "maxDistance", "limitDistances"];
 // The outputs offered; ownership, distance, report and regions are always made (the map, the
@@ -46,7 +54,7 @@ function control(name, input, inventory) {
   const id = fieldId(name);
   const label = input.title || name;
   const described = input.description ? id + "-help" : null;
-  if (name.endsWith("Field")) {
+  if (isField(input)) {
     const numeric = name !== "ownerField";
     const select = el("select", { id, name, "aria-describedby": described });
     select.append(el("option", { value: "", text: name === "ownerField" ? "(none: each feature is its own owner)" : "(none)" }));
@@ -57,13 +65,13 @@ function control(name, input, inventory) {
     if (name === "ownerField" && inventory && inventory.ownerGuess) select.value = inventory.ownerGuess;
     return el("div", { class: "field" }, el("label", { for: id, text: label }), select, help(name, input));
   }
-  if (name === "extent") {
+  if (isExtent(input)) {
     const boxes = ["xmin", "ymin", "xmax", "ymax"].map((c, i) =>
       el("input", { id: id + "-" + i, name: name + "-" + c, type: "number", step: "any", "aria-label": label + ": " + c, placeholder: c }));
     return el("fieldset", { class: "field extent", id, "aria-describedby": described },
       el("legend", { text: label + " (empty: from the seeds)" }), ...boxes, help(name, input));
   }
-  if (name === "limitDistances") {
+  if (isList(input)) {
     return el("div", { class: "field" }, el("label", { for: id, text: label }),
       el("input", { id, name, type: "text", placeholder: "12nmi, 24nmi", "aria-describedby": described }), help(name, input));
   }
@@ -94,7 +102,7 @@ function control(name, input, inventory) {
 // The form's fields for the process description `process` and the seed file `inventory`.
 export function jobFields(process, inventory) {
   const inputs = process.inputs || {};
-  const names = Object.keys(inputs).filter((n) => !NOT_IN_FORM.has(n));
+  const names = Object.keys(inputs).filter((n) => inForm(n, inputs[n]));
   const main = MAIN.filter((n) => names.includes(n));
   const more = names.filter((n) => !MAIN.includes(n));
   const outputs = el("fieldset", { class: "field outputs" }, el("legend", { text: "Also make" }),
@@ -114,18 +122,18 @@ export function jobFields(process, inventory) {
 export function readForm(form, process) {
   const inputs = {};
   for (const [name, input] of Object.entries(process.inputs || {})) {
-    if (NOT_IN_FORM.has(name)) continue;
+    if (!inForm(name, input)) continue;
     const s = schemaOf(input);
-    if (name === "extent") {
+    if (isExtent(input)) {
       const v = [0, 1, 2, 3].map((i) => form.querySelector("#" + fieldId(name) + "-" + i).value.trim());
-      if (v.some((x) => x !== "")) inputs.extent = v.map(Number);
+      if (v.some((x) => x !== "")) inputs[name] = v.map(Number);
       continue;
     }
     const field = form.querySelector("#" + fieldId(name));
     if (!field) continue;
     if (field.type === "checkbox") {
       if (field.checked !== (s.default === true)) inputs[name] = field.checked;
-    } else if (name === "limitDistances") {
+    } else if (isList(input)) {
       const list = field.value.split(",").map((x) => x.trim()).filter(Boolean);
       if (list.length) inputs[name] = list;
     } else if (s.default !== undefined && field.value === String(s.default)) {
