@@ -105,7 +105,7 @@ class DescribedAlgorithm(QgsProcessingAlgorithm):
 
     def initAlgorithm(self, config=None):  # noqa: N802
         for input_id, entry in self.description.get("inputs", {}).items():
-            self.addParameter(input_parameter(input_id, entry))
+            self.addParameter(input_parameter(input_id, entry, self.description))
         for output_id, entry in self.description.get("outputs", {}).items():
             self.addParameter(output_parameter(output_id, entry))
 

@@ -40,6 +40,37 @@ UNIT_WORDS = {"m": "metres", "crs": "units of the grid's CRS", "distance": "the 
               "cells": "cells"}
 
 
+def layers_field_wrapper():
+    """The dialog's widget for a field of a several-layers input (SEEDS): QGIS 3.22's own field
+    widget takes its fields from one layer only and stays empty under a list of layers. This one
+    offers the first layer's fields (an owner field must be in every layer; the job says which
+    layer lacks it). None where Processing's GUI is not there."""
+    try:
+        from processing.gui.wrappers import DIALOG_BATCH, DIALOG_STANDARD, TableFieldWidgetWrapper
+    except ImportError:  # pragma: no cover
+        return None
+
+    class LayersFieldWrapper(TableFieldWidgetWrapper):
+        @staticmethod
+        def _first(value):
+            if isinstance(value, (list, tuple)):
+                return value[0] if value else None
+            return value
+
+        def postInitialize(self, wrappers):  # noqa: N802 (QGIS's name)
+            for wrapper in wrappers:
+                if wrapper.parameterDefinition().name() == self.parameterDefinition().parentLayerParameterName():
+                    if self.dialogType in (DIALOG_STANDARD, DIALOG_BATCH):
+                        self.setLayer(self._first(wrapper.parameterValue()))
+                        wrapper.widgetValueHasChanged.connect(self.parentValueChanged)
+                    break
+
+        def parentValueChanged(self, wrapper):  # noqa: N802
+            self.setLayer(self._first(wrapper.parameterValue()))
+
+    return LayersFieldWrapper
+
+
 def upper_snake(name):
     """ownerField -> OWNER_FIELD; describe-seeds -> DESCRIBE_SEEDS."""
     return re.sub(r"(?<=[a-z0-9])(?=[A-Z])", "_", name).replace("-", "_").upper()
@@ -75,8 +106,9 @@ def help_text(entry):
     return text
 
 
-def input_parameter(input_id, entry):
-    """The Processing parameter of one described input."""
+def input_parameter(input_id, entry, description=None):
+    """The Processing parameter of one described input (`description`: the whole process's, to see
+    what a field's layer input is)."""
     schema = entry.get("schema", {})
     name = upper_snake(input_id)
     title = entry.get("title") or input_id
@@ -91,8 +123,11 @@ def input_parameter(input_id, entry):
         else:
             p = QgsProcessingParameterVectorLayer(name, title, [geometry], None, optional)
     elif kind == "field":
-        p = QgsProcessingParameterField(name, title, None, upper_snake(schema["x-rvoronoi-field-of"]),
-                                        QgsProcessingParameterField.Any, False, optional)
+        parent = schema["x-rvoronoi-field-of"]
+        p = QgsProcessingParameterField(name, title, None, upper_snake(parent), QgsProcessingParameterField.Any, False,
+                                        optional)
+        parent_schema = ((description or {}).get("inputs", {}).get(parent, {}) or {}).get("schema", {})
+        wrapper = layers_field_wrapper() if parent_schema.get("x-rvoronoi-upload", {}).get("multiple") else None
     elif kind == "crs":
         p = QgsProcessingParameterCrs(name, title, None, optional)
     elif kind == "extent":
@@ -116,7 +151,10 @@ def input_parameter(input_id, entry):
                                      "it is offered as text, sent as written", LOG_TAG, Qgis.Warning)
         p = QgsProcessingParameterString(name, title, default if isinstance(default, str) else None, False, optional)
     p.setHelp(help_text(entry))
-    p.setMetadata({"rvoronoi": {"input": input_id, "kind": kind or "unknown"}})
+    metadata = {"rvoronoi": {"input": input_id, "kind": kind or "unknown"}}
+    if kind == "field" and wrapper is not None:
+        metadata["widget_wrapper"] = {"class": wrapper}
+    p.setMetadata(metadata)
     return p
 
 

@@ -18,7 +18,8 @@ authentication database the test makes, with its master password in a file):
      report, cell for cell; the whole map (an artefact) with its boundaries and red tripoints;
   6. the Processing model of qgis/tests (reproject the seeds, rvoronoi, clip the regions) through
      qgis_process, and batch mode (one process running a row of parameters after another);
-  7. a description with an extra input of every kind (and one of a kind unknown to the plugin)
+  7. the dialog's owner-field widget lists the fields of the first seed layer chosen;
+  8. a description with an extra input of every kind (and one of a kind unknown to the plugin)
      becomes the parameters it should, the unknown one as text with a warning.
 QGIS's /usr/bin/qgis_process wrapper may add options (QGIS_OPTS) that 3.22's qgis_process refuses;
 the test calls /usr/bin/qgis_process.bin, with QT_QPA_PLATFORM=offscreen.
@@ -255,6 +256,33 @@ print(json.dumps({"checked": checked, "wrong": wrong, "owners": len(owners), "ma
 """
 
 
+# The dialog's owner-field widget under a list of seed layers: QGIS 3.22's own stays empty; the
+# plugin's (parameters.layers_field_wrapper) offers the first layer's fields.
+GUI_FIELD_SCRIPT = """
+import json, os, sys
+from qgis.core import QgsApplication, QgsProcessingContext, QgsVectorLayer, QgsProject
+from qgis.gui import QgsGui, QgsProcessingGui
+app = QgsApplication([], True)
+app.initQgis()
+sys.path.insert(0, os.environ["QGIS_PLUGINPATH"]); sys.path.insert(0, "/usr/share/qgis/python/plugins")
+from processing.core.Processing import Processing; Processing.initialize()
+from rvoronoi.provider import RvoronoiProvider
+provider = RvoronoiProvider(); QgsApplication.processingRegistry().addProvider(provider)
+alg = QgsApplication.processingRegistry().createAlgorithmById("rvoronoi:voronoi")
+layer = QgsVectorLayer(sys.argv[1], "oresund", "ogr"); QgsProject.instance().addMapLayer(layer)
+context = QgsProcessingContext(); context.setProject(QgsProject.instance())
+seeds = QgsGui.processingGuiRegistry().createParameterWidgetWrapper(alg.parameterDefinition("SEEDS"), QgsProcessingGui.Standard)
+seeds_widget = seeds.createWrappedWidget(context)
+owner = alg.parameterDefinition("OWNER_FIELD")
+wrapper_class = owner.metadata()["widget_wrapper"]["class"]
+field = wrapper_class(owner, None)
+field.postInitialize([seeds, field])
+seeds.setParameterValue([layer.id()], context)
+app.processEvents()
+w = field.widget
+print(json.dumps([w.itemText(i) for i in range(w.count())]))
+"""
+
 # Batch mode: one algorithm run for each row of parameters in one QGIS process, as the batch
 # dialog does (processing.run per row); prints each row's ownership raster's size.
 BATCH_SCRIPT = """
@@ -462,6 +490,9 @@ def main():
                   sum(1 for x in described if x["status"] == 304) >= 2,
                   f"the description is cached by its ETag: {[x['status'] for x in described]}")
             model_and_batch(q, tmp)
+            fields = json.loads(q.script(GUI_FIELD_SCRIPT, os.path.join(SOURCE, "fixtures", "oresund.gpkg"))
+                                .strip().splitlines()[-1])
+            check("iso2" in fields, f"the dialog's owner field lists the seed layer's fields: {fields}")
             local = {"RVORONOI_MODE": "local", "RVORONOI_URL": "", "PYTHONPATH": MODULE_DIR}
             compare_case(q, tmp, "oresund-local", "oresund.gpkg", 0.01, [], [], env=local)
             compare_case(q, tmp, "baltic-local", "baltic_west.gpkg", 0.01, ["--on-conflict", "lower-code"],
