@@ -227,21 +227,10 @@ std::string run_files(const std::vector<std::string>& seeds, const std::string& 
                       int64_t max_cells) {
   rv::JobSpec spec = make_spec(seeds, options_json, true);
   rv::OutputRequest& out = spec.outputs;
-  const std::map<std::string, std::string*> targets = {{"ownership", &out.ownership},
-                                                       {"distance", &out.distance},
-                                                       {"nearestFeature", &out.nearest_feature},
-                                                       {"report", &out.report},
-                                                       {"boundaries", &out.boundaries},
-                                                       {"tripoints", &out.tripoints},
-                                                       {"limits", &out.limits},
-                                                       {"regions", &out.regions},
-                                                       {"margin", &out.margin},
-                                                       {"preview", &out.preview},
-                                                       {"turningPoints", &out.turning_points}};
   for (const auto& [id, path] : outputs) {
-    const auto it = targets.find(id);
-    if (it == targets.end()) throw rv::Error(rv::ErrorKind::invalid_argument, "outputs: no output '" + id + "'");
-    *it->second = path;
+    std::string* target = id == "changes" ? nullptr : rv::output_path(out, id);
+    if (target == nullptr) throw rv::Error(rv::ErrorKind::invalid_argument, "outputs: no output '" + id + "'");
+    *target = path;
   }
   rv::JobLimits limits;
   limits.max_cells = max_cells;

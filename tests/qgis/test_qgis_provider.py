@@ -27,13 +27,11 @@ the test calls /usr/bin/qgis_process.bin, with QT_QPA_PLATFORM=offscreen.
 usage: test_qgis_provider.py RVORONOI SOURCE_DIR PYTHON_MODULE_DIR [ARTEFACT_DIR]
 """
 import hashlib
-import http.server
 import json
 import os
 import subprocess
 import sys
 import tempfile
-import threading
 import time
 import zipfile
 
@@ -44,7 +42,7 @@ RVORONOI = sys.argv[1]
 MODULE_DIR = sys.argv[3]
 ARTEFACTS = sys.argv[4] if len(sys.argv) > 4 else tempfile.gettempdir()
 sys.path.insert(0, os.path.join(SOURCE, "tests", "service", "daemon"))
-from daemon_harness import Daemon  # noqa: E402
+from daemon_harness import Daemon, DocumentServer  # noqa: E402
 
 QGIS_PROCESS = "/usr/bin/qgis_process.bin"
 TOKEN = "qgis-analyst-token-" + os.urandom(12).hex()
@@ -422,27 +420,6 @@ def compare_case(q, tmp, name, fixture, resolution, extra_cli, extra_qgis, env=N
     print(f"{name}: qgis_process run {took:.1f} s", flush=True)
 
 
-# ---- A server that is not the API ------------------------------------------------------------
-
-class NotTheApi:
-    def __init__(self):
-        class Handler(http.server.BaseHTTPRequestHandler):
-            def do_GET(self):
-                body = b"<html><body>a wiki</body></html>"
-                self.send_response(200)
-                self.send_header("Content-Type", "text/html")
-                self.send_header("Content-Length", str(len(body)))
-                self.end_headers()
-                self.wfile.write(body)
-
-            def log_message(self, *args):
-                pass
-
-        self.httpd = http.server.ThreadingHTTPServer(("127.0.0.1", 0), Handler)
-        self.url = f"http://127.0.0.1:{self.httpd.server_address[1]}"
-        threading.Thread(target=self.httpd.serve_forever, daemon=True).start()
-
-
 def free_port():
     import socket
     s = socket.socket()
@@ -522,11 +499,11 @@ def main():
             code, text = q.run(*(base + ["OWNER_FIELD=iso2"]))
             check(code != 0 and "cannot be reached" in text and "Traceback" not in text,
                   f"the daemon down: a run says so: {code} {text[-600:]}")
-            wiki = NotTheApi()
+            wiki = DocumentServer(b"<html><body>a wiki</body></html>", "text/html")
             code, text = q.run(*(base + ["OWNER_FIELD=iso2"]), env={"RVORONOI_URL": wiki.url})
             check(code != 0 and "not the rvoronoi API" in text and "Traceback" not in text,
                   f"not the API: {code} {text[-600:]}")
-            wiki.httpd.shutdown()
+            wiki.close()
             # 4. Cancelling dismisses the job (a grid large enough to be running when cancelled).
             d = Daemon([RVORONOI, "serve"], os.path.join(tmp, "data"), config)
             q.env.update(RVORONOI_URL=f"http://127.0.0.1:{d.port}")

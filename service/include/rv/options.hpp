@@ -128,6 +128,11 @@ nlohmann::json process_input_description(const OptionSpec& option);
 // and the outputs with their media types. The daemon's /processes/voronoi, the Python module's
 // rvoronoi.process_description() and the clients made from them share it.
 nlohmann::json process_summary(const std::string& base);
+
+// The file path of process output `id` in a job's OutputRequest (ownership, distance,
+// nearestFeature, report, boundaries, tripoints, limits, regions, margin, preview, turningPoints,
+// changes); nullptr for any other id. The daemon and the Python module set outputs through it.
+std::string* output_path(OutputRequest& outputs, std::string_view id);
 nlohmann::json process_description(const std::string& base);
 
 }  // namespace rv

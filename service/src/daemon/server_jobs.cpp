@@ -10,6 +10,7 @@
 #include "rv/field/error.hpp"
 #include "rv/field/text.hpp"
 #include "rv/json_text.hpp"
+#include "rv/options.hpp"
 
 namespace rv::daemon {
 namespace {
@@ -305,20 +306,11 @@ JobSpec spec_in_directory(const Execution& execution, const JobRecord& rec, cons
   out.ownership = (dir / output_file_name("ownership", "")).string();
   out.report.clear();
   out.edit_base = (dir / kEditBaseDir).string();
-  std::map<std::string, std::string*> paths = {{"distance", &out.distance},
-                                               {"nearestFeature", &out.nearest_feature},
-                                               {"boundaries", &out.boundaries},
-                                               {"tripoints", &out.tripoints},
-                                               {"limits", &out.limits},
-                                               {"regions", &out.regions},
-                                               {"margin", &out.margin},
-                                               {"preview", &out.preview},
-                                               {"turningPoints", &out.turning_points},
-                                               {"changes", &out.changes}};
   for (size_t i = 0; i < rec.outputs.size(); ++i) {
-    const auto it = paths.find(rec.outputs[i]);
-    if (it == paths.end()) continue;  // ownership and report: above
-    *it->second = (dir / output_file_name(rec.outputs[i], i < rec.formats.size() ? rec.formats[i] : "")).string();
+    const std::string& id = rec.outputs[i];
+    if (id == "ownership" || id == "report") continue;  // above
+    if (std::string* path = output_path(out, id))
+      *path = (dir / output_file_name(id, i < rec.formats.size() ? rec.formats[i] : "")).string();
   }
   return spec;
 }

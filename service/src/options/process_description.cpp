@@ -17,6 +17,24 @@ json link(const std::string& href, const std::string& rel, const std::string& ti
 
 }  // namespace
 
+std::string* output_path(OutputRequest& out, std::string_view id) {
+  const std::pair<std::string_view, std::string*> paths[] = {{"ownership", &out.ownership},
+                                                             {"distance", &out.distance},
+                                                             {"nearestFeature", &out.nearest_feature},
+                                                             {"report", &out.report},
+                                                             {"boundaries", &out.boundaries},
+                                                             {"tripoints", &out.tripoints},
+                                                             {"limits", &out.limits},
+                                                             {"regions", &out.regions},
+                                                             {"margin", &out.margin},
+                                                             {"preview", &out.preview},
+                                                             {"turningPoints", &out.turning_points},
+                                                             {"changes", &out.changes}};
+  for (const auto& [name, path] : paths)
+    if (name == id) return path;
+  return nullptr;
+}
+
 json process_summary(const std::string& base) {
   return {
       {"id", "voronoi"},

@@ -7,9 +7,11 @@ kept in memory (`log`) by a thread, so that a chatty daemon never blocks on a fu
 Only the standard library: http.client for requests.
 """
 import http.client
+import http.server
 import json
 import os
 import signal
+import ssl
 import subprocess
 import threading
 import time
@@ -116,3 +118,40 @@ def wait_for_file(path, seconds, proc=None):
             return False
         time.sleep(0.005)
     return False
+
+
+class DocumentServer:
+    """A local HTTP server of one document (`document`: bytes, or anything JSON can write; it may be
+    swapped while serving), counting its GETs in `fetches`; HTTPS with `tls` = (cert, key) PEM
+    files. An identity provider's key set, a web server that is not the API, ..."""
+
+    def __init__(self, document, content_type, tls=None):
+        self.document = document
+        self.fetches = 0
+        outer = self
+
+        class Handler(http.server.BaseHTTPRequestHandler):
+            def do_GET(self):
+                outer.fetches += 1
+                doc = outer.document
+                body = doc if isinstance(doc, bytes) else json.dumps(doc).encode()
+                self.send_response(200)
+                self.send_header("Content-Type", content_type)
+                self.send_header("Content-Length", str(len(body)))
+                self.end_headers()
+                self.wfile.write(body)
+
+            def log_message(self, *args):
+                pass
+
+        self.httpd = http.server.ThreadingHTTPServer(("127.0.0.1", 0), Handler)
+        port = self.httpd.server_address[1]
+        if tls:
+            context = ssl.SSLContext(ssl.PROTOCOL_TLS_SERVER)
+            context.load_cert_chain(*tls)
+            self.httpd.socket = context.wrap_socket(self.httpd.socket, server_side=True)
+        self.url = f"{'https' if tls else 'http'}://{'localhost' if tls else '127.0.0.1'}:{port}"
+        threading.Thread(target=self.httpd.serve_forever, daemon=True).start()
+
+    def close(self):
+        self.httpd.shutdown()

@@ -29,15 +29,12 @@ usage: test_principals.py RVORONOI SOURCE_DIR
 import base64
 import datetime
 import hashlib
-import http.server
 import json
 import os
 import shutil
 import socket
-import ssl
 import sys
 import tempfile
-import threading
 import time
 
 import jwt  # PyJWT (python3-jwt)
@@ -47,7 +44,7 @@ from cryptography.hazmat.primitives.asymmetric import ec, rsa
 from cryptography.x509.oid import NameOID
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from daemon_harness import Daemon  # noqa: E402
+from daemon_harness import Daemon, DocumentServer  # noqa: E402
 
 RVORONOI, SOURCE = sys.argv[1], sys.argv[2]
 FAILURES = []
@@ -390,37 +387,13 @@ def tls_files(tmp, name):
     return cert_path, key_path
 
 
-class JwksServer:
-    """An HTTPS server of one JWKS document (swappable), counting its fetches."""
+class JwksServer(DocumentServer):
+    """The identity provider: its key set over HTTPS, with a certificate made here."""
 
     def __init__(self, tmp, name, document):
-        self.document = document
-        self.fetches = 0
         self.cert, key = tls_files(tmp, name)
-        outer = self
-
-        class Handler(http.server.BaseHTTPRequestHandler):
-            def do_GET(self):
-                outer.fetches += 1
-                body = json.dumps(outer.document).encode()
-                self.send_response(200)
-                self.send_header("Content-Type", "application/jwk-set+json")
-                self.send_header("Content-Length", str(len(body)))
-                self.end_headers()
-                self.wfile.write(body)
-
-            def log_message(self, *args):
-                pass
-
-        self.httpd = http.server.ThreadingHTTPServer(("127.0.0.1", 0), Handler)
-        context = ssl.SSLContext(ssl.PROTOCOL_TLS_SERVER)
-        context.load_cert_chain(self.cert, key)
-        self.httpd.socket = context.wrap_socket(self.httpd.socket, server_side=True)
-        self.url = f"https://localhost:{self.httpd.server_address[1]}/realms/delimitation/certs"
-        threading.Thread(target=self.httpd.serve_forever, daemon=True).start()
-
-    def close(self):
-        self.httpd.shutdown()
+        super().__init__(document, "application/jwk-set+json", tls=(self.cert, key))
+        self.url += "/realms/delimitation/certs"
 
 
 def rotation(tmp, keys):
