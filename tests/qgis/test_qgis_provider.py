@@ -113,10 +113,13 @@ app.exitQgis()
 
 # Cancelling: the provider from the repository in a standalone PyQGIS, a feedback that cancels
 # once the job is on the server; prints the job id.
-CANCEL_SCRIPT = """
-import os, re, sys
-from qgis.core import QgsApplication, QgsProcessingFeedback, QgsProcessingContext
-app = QgsApplication([], False)
+# What every PyQGIS script below starts with: QGIS (with its GUI classes when `gui`), Processing,
+# and the plugin's provider registered (kept in `provider`: the registry does not own it).
+def with_provider(body, gui=False):
+    return f"""
+import json, os, re, sys
+from qgis.core import QgsApplication, QgsProcessingContext, QgsProcessingFeedback, QgsProject, QgsVectorLayer
+app = QgsApplication([], {gui})
 app.initQgis()
 sys.path.insert(0, os.environ["QGIS_PLUGINPATH"])
 sys.path.insert(0, "/usr/share/qgis/python/plugins")
@@ -125,7 +128,10 @@ Processing.initialize()
 from rvoronoi.provider import RvoronoiProvider
 provider = RvoronoiProvider()
 QgsApplication.processingRegistry().addProvider(provider)
+""" + body
 
+
+CANCEL_SCRIPT = with_provider("""
 class Cancelling(QgsProcessingFeedback):
     job = None
     def pushInfo(self, text):
@@ -147,7 +153,7 @@ feedback = Errors()
 results, ok = alg.run(params, QgsProcessingContext(), feedback)
 print("cancelled: " + " / ".join(Errors.errors) if not ok else "not cancelled")
 print(Cancelling.job)
-"""
+""")
 
 # The parameters of a description with an extra input of every kind.
 KINDS_SCRIPT = """
@@ -256,16 +262,8 @@ print(json.dumps({"checked": checked, "wrong": wrong, "owners": len(owners), "ma
 
 # The dialog's owner-field widget under a list of seed layers: QGIS 3.22's own stays empty; the
 # plugin's (parameters.layers_field_wrapper) offers the first layer's fields.
-GUI_FIELD_SCRIPT = """
-import json, os, sys
-from qgis.core import QgsApplication, QgsProcessingContext, QgsVectorLayer, QgsProject
+GUI_FIELD_SCRIPT = with_provider("""
 from qgis.gui import QgsGui, QgsProcessingGui
-app = QgsApplication([], True)
-app.initQgis()
-sys.path.insert(0, os.environ["QGIS_PLUGINPATH"]); sys.path.insert(0, "/usr/share/qgis/python/plugins")
-from processing.core.Processing import Processing; Processing.initialize()
-from rvoronoi.provider import RvoronoiProvider
-provider = RvoronoiProvider(); QgsApplication.processingRegistry().addProvider(provider)
 alg = QgsApplication.processingRegistry().createAlgorithmById("rvoronoi:voronoi")
 layer = QgsVectorLayer(sys.argv[1], "oresund", "ogr"); QgsProject.instance().addMapLayer(layer)
 context = QgsProcessingContext(); context.setProject(QgsProject.instance())
@@ -279,23 +277,12 @@ seeds.setParameterValue([layer.id()], context)
 app.processEvents()
 w = field.widget
 print(json.dumps([w.itemText(i) for i in range(w.count())]))
-"""
+""", gui=True)
 
 # Batch mode: one algorithm run for each row of parameters in one QGIS process, as the batch
 # dialog does (processing.run per row); prints each row's ownership raster's size.
-BATCH_SCRIPT = """
-import json, os, sys
-from qgis.core import QgsApplication
-app = QgsApplication([], False)
-app.initQgis()
-sys.path.insert(0, os.environ["QGIS_PLUGINPATH"])
-sys.path.insert(0, "/usr/share/qgis/python/plugins")
-from processing.core.Processing import Processing
-Processing.initialize()
+BATCH_SCRIPT = with_provider("""
 import processing
-from rvoronoi.provider import RvoronoiProvider
-provider = RvoronoiProvider()
-QgsApplication.processingRegistry().addProvider(provider)
 from osgeo import gdal
 rows = json.loads(sys.argv[1])
 sizes = []
@@ -304,7 +291,7 @@ for row in rows:
     ds = gdal.Open(result["OWNERSHIP"])
     sizes.append([ds.RasterXSize, ds.RasterYSize, os.path.exists(row["BOUNDARIES"])])
 print(json.dumps(sizes))
-"""
+""")
 
 AREA = {"type": "FeatureCollection", "crs": {"type": "name", "properties": {"name": "urn:ogc:def:crs:OGC:1.3:CRS84"}},
         "features": [{"type": "Feature", "properties": {"name": "box"}, "geometry": {
