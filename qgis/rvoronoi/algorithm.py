@@ -23,7 +23,7 @@ from qgis.core import (
 )
 
 from .client import Client, ServerError
-from .parameters import input_parameter, media_type_for, output_parameter, upper_snake
+from .parameters import extension, input_parameter, media_type_for, output_parameter
 from .styles import Styler
 
 POLL_S = 0.25
@@ -39,7 +39,7 @@ def overall_percent(stage, fraction):
 
 def convert_vector(source, path, output_id):
     """A vector file written again in the format `path`'s extension names (Shapefile, ...)."""
-    ext = path.rsplit(".", 1)[-1].lower() if "." in path else ""
+    ext = extension(path)
     layer = QgsVectorLayer(source, output_id, "ogr")
     options = QgsVectorFileWriter.SaveVectorOptions()
     options.driverName = QgsVectorFileWriter.driverForExtension(ext) or "GPKG"
@@ -255,16 +255,17 @@ class DescribedAlgorithm(QgsProcessingAlgorithm):
                 if input_id not in keyword_of:
                     raise QgsProcessingException(f"input '{input_id}' has no keyword in the local module")
                 options[keyword_of[input_id]] = value
+            destinations = self._destinations(parameters, context)
             outputs, converted = {}, {}
-            for output_id, (name, path) in self._destinations(parameters, context).items():
-                ext = path.rsplit(".", 1)[-1].lower() if "." in path else ""
+            for output_id, (name, path) in destinations.items():
+                ext = extension(path)
                 if output_id in VECTOR_OUTPUTS and ext not in ("gpkg", "geojson", "json"):
                     converted[output_id] = (path, os.path.join(directory, f"{output_id}.gpkg"))
                     outputs[output_id] = converted[output_id][1]
                 else:
                     outputs[output_id] = path
             outputs.setdefault("report", os.path.join(directory, "report.json"))
-            names = {output_id: name for output_id, (name, _) in self._destinations(parameters, context).items()}
+            names = {output_id: name for output_id, (name, _) in destinations.items()}
             feedback.pushInfo(f"local: rvoronoi {rvoronoi.__version__}")
 
             said = []
@@ -341,7 +342,7 @@ class DescribedAlgorithm(QgsProcessingAlgorithm):
     def _fetch(self, client, job, output_id, path, directory, feedback):
         """Downloads one result into its destination; a vector destination of another format than
         the server writes is converted."""
-        ext = path.rsplit(".", 1)[-1].lower() if "." in path else ""
+        ext = extension(path)
         convert = output_id in VECTOR_OUTPUTS and ext not in ("gpkg", "geojson", "json")
         target = os.path.join(directory, f"{output_id}.gpkg") if convert else path
         try:

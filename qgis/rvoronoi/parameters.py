@@ -71,6 +71,17 @@ def layers_field_wrapper():
     return LayersFieldWrapper
 
 
+def extension(path):
+    """A destination's extension, lower case ("" for none)."""
+    return path.rsplit(".", 1)[-1].lower() if "." in path else ""
+
+
+def media_types(entry):
+    """The media types a described output can be written as."""
+    schema = entry.get("schema", {})
+    return [v.get("contentMediaType", "") for v in schema.get("oneOf", [schema])]
+
+
 def upper_snake(name):
     """ownerField -> OWNER_FIELD; describe-seeds -> DESCRIBE_SEEDS."""
     return re.sub(r"(?<=[a-z0-9])(?=[A-Z])", "_", name).replace("-", "_").upper()
@@ -160,8 +171,7 @@ def input_parameter(input_id, entry, description=None):
 
 def output_parameter(output_id, entry):
     """The destination of one described output: a raster, a vector file or a file."""
-    schema = entry.get("schema", {})
-    types = [v.get("contentMediaType", "") for v in schema.get("oneOf", [schema])]
+    types = media_types(entry)
     name = upper_snake(output_id)
     title = entry.get("title") or output_id
     # Only the ownership raster is made by default: the others when a destination is given.
@@ -186,9 +196,8 @@ def output_parameter(output_id, entry):
 
 def media_type_for(output_id, entry, path):
     """The media type to ask the server for, from the destination's extension ("" = the default)."""
-    schema = entry.get("schema", {})
-    types = [v.get("contentMediaType", "") for v in schema.get("oneOf", [schema])]
-    ext = path.rsplit(".", 1)[-1].lower() if "." in path else ""
+    types = media_types(entry)
+    ext = extension(path)
     wanted = {"gpkg": "geopackage", "geojson": "geo+json", "json": "json", "csv": "text/csv", "png": "image/png",
               "tif": "image/tiff", "tiff": "image/tiff"}.get(ext)
     for t in types:

@@ -3,6 +3,7 @@
 #include <openssl/crypto.h>
 #include <openssl/evp.h>
 
+#include "runtime/server_util.hpp"
 #include "rv/field/error.hpp"
 
 namespace rv::auth {
@@ -15,16 +16,7 @@ Sha256 sha256(std::string_view bytes) {
   return out;
 }
 
-std::string to_hex(const Sha256& digest) {
-  static constexpr char kDigits[] = "0123456789abcdef";
-  std::string out;
-  out.reserve(64);
-  for (const unsigned char b : digest) {
-    out += kDigits[b >> 4];
-    out += kDigits[b & 15];
-  }
-  return out;
-}
+std::string to_hex(const Sha256& digest) { return daemon::hex(digest); }
 
 std::optional<Sha256> sha256_from_hex(std::string_view hex) {
   if (hex.size() != 64) return std::nullopt;

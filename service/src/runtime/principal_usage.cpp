@@ -4,6 +4,10 @@
 
 namespace rv::daemon {
 
+int64_t CellAllowance::total(const std::deque<Charge>& q) {
+  return std::accumulate(q.begin(), q.end(), int64_t{0}, [](int64_t s, const Charge& c) { return s + c.cells; });
+}
+
 void CellAllowance::expire(std::deque<Charge>& charges, Clock::time_point now) const {
   while (!charges.empty() && charges.front().at + kWindow <= now) charges.pop_front();
 }
@@ -21,8 +25,7 @@ std::optional<CellAllowance::Clock::time_point> CellAllowance::fits_at(const std
                                                                        Clock::time_point now) const {
   if (limit_ <= 0) return now;
   if (cells > limit_) return std::nullopt;
-  const int64_t used =
-      std::accumulate(q.begin(), q.end(), int64_t{0}, [](int64_t s, const Charge& c) { return s + c.cells; });
+  const int64_t used = total(q);
   // The oldest charges age out first: they fit when enough of them have.
   int64_t left = used;
   Clock::time_point when = now;
@@ -43,8 +46,7 @@ void CellAllowance::charge(const std::string& principal, int64_t cells, Clock::t
                             std::to_string(limit_) + " cells per hour of each principal on this server",
                         kWindow.count());
   if (*fits > now) {
-    const int64_t used =
-        std::accumulate(q.begin(), q.end(), int64_t{0}, [](int64_t s, const Charge& c) { return s + c.cells; });
+    const int64_t used = total(q);
     const int64_t wait = std::chrono::ceil<std::chrono::seconds>(*fits - now).count();
     throw QuotaExceeded("this principal's jobs of the last hour used " + std::to_string(used) + " of its " +
                             std::to_string(limit_) + " cells per hour; this grid needs " + std::to_string(cells) +
@@ -77,7 +79,7 @@ int64_t CellAllowance::used(const std::string& principal, Clock::time_point now)
   std::lock_guard lock(mutex_);
   auto& q = charges_[principal];
   expire(q, now);
-  return std::accumulate(q.begin(), q.end(), int64_t{0}, [](int64_t s, const Charge& c) { return s + c.cells; });
+  return total(q);
 }
 
 }  // namespace rv::daemon

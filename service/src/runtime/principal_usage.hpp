@@ -59,6 +59,7 @@ class CellAllowance {
     int64_t cells;
   };
   void expire(std::deque<Charge>& charges, Clock::time_point now) const;
+  static int64_t total(const std::deque<Charge>& charges);
   // When `cells` more fit beside `charges` (expired ones removed): `now` if they fit, never for a
   // grid over the allowance (nullopt). Call with mutex_ held.
   std::optional<Clock::time_point> fits_at(const std::deque<Charge>& charges, int64_t cells,

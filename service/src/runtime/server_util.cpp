@@ -24,14 +24,18 @@ std::string new_job_id() {
     }
     got += static_cast<size_t>(n);
   }
+  return hex(bytes);
+}
+
+std::string hex(std::span<const unsigned char> bytes) {
   static constexpr char kHex[] = "0123456789abcdef";
-  std::string id;
-  id.reserve(32);
-  for (unsigned char b : bytes) {
-    id += kHex[b >> 4];
-    id += kHex[b & 15];
+  std::string out;
+  out.reserve(2 * bytes.size());
+  for (const unsigned char b : bytes) {
+    out += kHex[b >> 4];
+    out += kHex[b & 15];
   }
-  return id;
+  return out;
 }
 
 bool is_job_id(std::string_view id) {

@@ -4,6 +4,7 @@
 
 #include <chrono>
 #include <optional>
+#include <span>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -14,6 +15,8 @@ namespace rv::daemon {
 
 // 128 random bits from the kernel's CSPRNG (getrandom), as 32 lower-case hex digits.
 std::string new_job_id();
+// Lower-case hex of `bytes` (two digits a byte).
+std::string hex(std::span<const unsigned char> bytes);
 // True iff `id` has the shape new_job_id() produces. Checked before an id reaches the file
 // system, so a crafted id can never name a path outside the data directory.
 bool is_job_id(std::string_view id);
