@@ -757,6 +757,23 @@ void EditChanges::add(const EditChanges& o) {
   owner_cells += o.owner_cells;
   distance_only_cells += o.distance_only_cells;
   for (const auto& [pair, area] : o.moved) moved[pair] += area;
+  if (!o.any()) return;
+  take_cell(o.col0, o.row0);
+  take_cell(o.col1 - 1, o.row1 - 1);
+}
+
+void EditChanges::take_cell(int64_t col, int64_t row) {
+  if (!any()) {
+    col0 = col;
+    row0 = row;
+    col1 = col + 1;
+    row1 = row + 1;
+    return;
+  }
+  col0 = std::min(col0, col);
+  row0 = std::min(row0, row);
+  col1 = std::max(col1, col + 1);
+  row1 = std::max(row1, row + 1);
 }
 
 ChangeTally::ChangeTally(const SeedSet& base_seeds, const SeedSet& edited_seeds, const GridSpec& grid,
@@ -789,6 +806,7 @@ int32_t ChangeTally::count(int32_t sb, float db, int32_t se, float de, int64_t c
   const int32_t ob = owner_of(base_seeds_, sb), oe = owner_of(edited_seeds_, se);
   const bool owner_changed = (ob == 0 ? 0 : code_in_edited_[static_cast<size_t>(ob)]) != oe;
   const bool distance_changed = std::bit_cast<uint32_t>(db) != std::bit_cast<uint32_t>(de);
+  if (owner_changed || distance_changed) out.take_cell(col, row);
   if (!owner_changed) {
     out.distance_only_cells += distance_changed;
     return distance_changed ? 2 : 0;

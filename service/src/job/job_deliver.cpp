@@ -71,7 +71,9 @@ struct StripDeliverables::State {
     NearestField rows;  // the fed rows of a strip that holds others too
   };
   std::optional<Taking> taking;
-  bool lines_wanted = false;  // boundaries (a deliverable, or what regions, the preview or the report read)
+  bool lines_wanted = false;      // boundaries (a deliverable, or what regions, the preview or the report read)
+  BoundaryResult boundary_lines;  // finish()'s
+  LimitResult limit_lines;
 
   State(JobRun& r, const PreparedJob& j, bool s, const PartialEffectResult* p)
       : run(r), job(j), streamed(s), partial(p) {}
@@ -158,6 +160,9 @@ void StripDeliverables::take_lines_from(std::map<std::string, LinePieces> base,
   st_->taking->fed = std::move(fed);
   st_->taking->site_map = std::move(site_map);
 }
+
+const BoundaryResult& StripDeliverables::boundaries() const { return st_->boundary_lines; }
+const LimitResult& StripDeliverables::limits() const { return st_->limit_lines; }
 
 std::map<std::string, LinePieces> StripDeliverables::line_pieces() {
   st_->complete_lines();
@@ -573,8 +578,10 @@ void StripDeliverables::finish() {
   run.check_cancel();
   run.progress("deliver", 0.0);
   s.complete_lines();
-  const BoundaryResult boundaries = s.take_boundaries();
-  const LimitResult limits = s.take_limits();
+  s.boundary_lines = s.take_boundaries();
+  s.limit_lines = s.take_limits();
+  const BoundaryResult& boundaries = s.boundary_lines;
+  const LimitResult& limits = s.limit_lines;
   run.check_cancel();
   // The line files are written (GDAL: a dataset of their own each) while the regions are made:
   // serialising their vertices is the longer part of most jobs' finish.

@@ -140,6 +140,10 @@ class StripDeliverables {
   // After the last strip, before finish(): every line extraction's pieces, by name (what the run
   // keeps for edits of it).
   std::map<std::string, LinePieces> line_pieces();
+  // After finish(): the boundaries and tripoints, and the limit lines, as written (empty when not
+  // made).
+  const BoundaryResult& boundaries() const;
+  const LimitResult& limits() const;
 
  private:
   static GeoTiffOptions margin_options(const JobRun& run, const PreparedJob& job);

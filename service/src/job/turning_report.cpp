@@ -1,6 +1,8 @@
 // The turning-point report (turning_report.hpp).
 #include "job/turning_report.hpp"
 
+#include "rv/gdal/memory_files.hpp"
+
 #include <array>
 #include <cmath>
 #include <memory>
@@ -251,10 +253,20 @@ std::string csv_field(const nlohmann::json& v) {
 
 }  // namespace
 
+namespace {
+// A file, or a memory file (a session's deliverables, rv/gdal/memory_files.hpp).
+void write_text(const std::string& path, const std::string& text) {
+  if (path.rfind("/vsimem/", 0) == 0)
+    write_memory_file(path, text);
+  else
+    write_file_atomically(path, text);
+}
+}  // namespace
+
 void write_turning_report(const std::string& path, const nlohmann::json& report) {
   const bool csv = path.size() >= 4 && path.compare(path.size() - 4, 4, ".csv") == 0;
   if (!csv) {
-    write_file_atomically(path, report.dump(1) + "\n");
+    write_text(path, report.dump(1) + "\n");
     return;
   }
   // One row per turning point; a side's second basepoint (where it changes) in the columns 2.
@@ -336,7 +348,7 @@ void write_turning_report(const std::string& path, const nlohmann::json& report)
       out += "\n";
     }
   }
-  write_file_atomically(path, out);
+  write_text(path, out);
 }
 
 }  // namespace rv::detail

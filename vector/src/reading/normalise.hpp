@@ -42,6 +42,9 @@ struct SeedPart {
 // the closing repeat of a ring.
 int64_t remove_duplicate_vertices(std::vector<Vec2>& vertices, bool ring);
 
+// A closed OGR ring of `v` (closure implied: the first vertex is repeated at the end).
+std::unique_ptr<OGRLinearRing> make_ring(const std::vector<Vec2>& v);
+
 // Finds pairs of parts of different owners whose interiors intersect. Candidate pairs come from
 // a sweep over the parts' envelopes sorted by xmin, then GEOS (prepared geometries for large
 // parts) decides. Two polygons whose overlap holds no disc of diameter `border_tolerance` metres

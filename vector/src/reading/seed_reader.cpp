@@ -185,14 +185,6 @@ std::vector<Vec2> vertices_of(const OGRSimpleCurve& c) {
   return v;
 }
 
-std::unique_ptr<OGRLinearRing> make_ring(const std::vector<Vec2>& v) {
-  auto ring = std::make_unique<OGRLinearRing>();
-  ring->setNumPoints(static_cast<int>(v.size() + 1), FALSE);
-  for (size_t i = 0; i < v.size(); ++i) ring->setPoint(static_cast<int>(i), v[i].x, v[i].y);
-  ring->setPoint(static_cast<int>(v.size()), v.front().x, v.front().y);
-  return ring;
-}
-
 bool has_dotdot_component(const std::string& path) {
   size_t start = 0;
   while (start <= path.size()) {
@@ -856,7 +848,7 @@ class Reader {
       rings.push_back(std::move(v));
     }
     auto clean = std::make_unique<OGRPolygon>();
-    for (const auto& v : rings) clean->addRingDirectly(make_ring(v).release());
+    for (const auto& v : rings) clean->addRingDirectly(detail::make_ring(v).release());
 
     std::vector<std::unique_ptr<OGRPolygon>> result;
     {

@@ -165,7 +165,13 @@ struct EditChanges {
   // ellipsoid for geodesic fields, CRS units squared for planar ones. A cell's area is its
   // square's (ring_area, rv/lines/regions.hpp).
   std::map<std::pair<std::string, std::string>, double> moved;
+  // The box of the cells whose owner or distance changed, grid columns [col0, col1) and rows
+  // [row0, row1); col1 == 0 when none did.
+  int64_t col0 = 0, row0 = 0, col1 = 0, row1 = 0;
+  bool any() const { return col1 > col0; }
   void add(const EditChanges& other);
+  // Widens the box to take in cell (col, row).
+  void take_cell(int64_t col, int64_t row);
 };
 
 // The changes from `base` (a field of `base_seeds`) to `edited` (of `edited_seeds`) over the same

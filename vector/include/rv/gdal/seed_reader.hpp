@@ -306,3 +306,21 @@ SeedInventory describe_seed_files(const SeedReadOptions& options, bool with_feat
 CrsInfo describe_crs(const std::string& definition);
 
 }  // namespace rv
+
+namespace rv {
+
+// The checks load_seeds makes of a file's features, for features edited in memory (a session's
+// edits, service/include/rv/session.hpp), where a refusal must leave the seeds as they were:
+//  - every polygon part of `features` is valid as it stands (OGR/GEOS IsValid): an edit is
+//    refused, not repaired (the reader repairs a file's polygons with MakeValid; an editor's
+//    polygon is the analyst's to fix);
+//  - no part of `features` meets a part of another owner beyond touching (ConflictPolicy::error's
+//    rule, land-border slivers narrower than `border_tolerance` metres allowed; with
+//    ConflictPolicy::lower_code nothing is refused, as the reader refuses nothing).
+// `seeds`: the whole edited set, in `crs` (its WKT; empty: no CRS, the tolerance in CRS units).
+// Throws rv::Error(invalid_input) naming the feature for an invalid polygon, rv::Error(conflict)
+// naming both features for a conflict. Thread-safe (GEOS contexts per call).
+void check_edited_features(const SeedSet& seeds, const std::vector<int32_t>& features, const std::string& crs_wkt,
+                           ConflictPolicy policy, double border_tolerance);
+
+}  // namespace rv

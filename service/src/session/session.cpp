@@ -1,0 +1,521 @@
+// Live what-if sessions (rv/session.hpp): the field kept in memory and edited in place
+// (rv::Edit), the lines extracted again only near the change (rv::Edit::line_rows), the
+// deliverables made by the job's own stage (StripDeliverables) into memory files, so that they
+// are a fresh job's by construction.
+#include "rv/session.hpp"
+
+#include <algorithm>
+#include <array>
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <deque>
+#include <exception>
+#include <map>
+#include <optional>
+#include <unordered_set>
+
+#include "job/job_run.hpp"
+#include "rv/edit/edit.hpp"
+#include "rv/engine/engine.hpp"
+#include "rv/field/error.hpp"
+#include "rv/gdal/memory_files.hpp"
+#include "rv/gdal/seed_reader.hpp"
+#include "rv/lines/regions.hpp"
+#include "session/session_features.hpp"
+#include "session/session_lines.hpp"
+
+namespace rv {
+namespace {
+
+using json = nlohmann::json;
+using detail::Clock;
+using detail::seconds_since;
+
+std::atomic<int64_t> g_sessions{0};  // names each session's memory directory
+
+// One step of the session: the slots it changed.
+struct Step {
+  std::vector<detail::SlotChange> changes;
+  int64_t memory_bytes() const {
+    int64_t b = static_cast<int64_t>(sizeof(Step) + changes.capacity() * sizeof(detail::SlotChange));
+    // The replaced features are held by the step alone (the session holds the current ones).
+    for (const detail::SlotChange& c : changes)
+      if (c.before)
+        for (const FeaturePart& p : c.before->parts) {
+          b += static_cast<int64_t>(sizeof(FeaturePart) + p.vertices.capacity() * sizeof(Vec2));
+          for (const Ring& r : p.rings) b += static_cast<int64_t>(r.capacity() * sizeof(Vec2));
+        }
+    return b;
+  }
+};
+
+// Each cell's area as the edit's tally measures it (its square, rv/lines/regions.hpp's ring_area),
+// summed per owner code over the whole field.
+std::vector<double> owner_cell_areas(const NearestField& field, const SeedSet& seeds, const GridSpec& g) {
+  std::vector<double> area(static_cast<size_t>(seeds.owner_count()) + 1, 0.0);
+  const bool per_row = field.metric.kind == MetricSpec::geodesic;
+  for (int64_t r = 0; r < g.height; ++r) {
+    const double y1 = g.ymax - static_cast<double>(r) * g.res;
+    double row_area = 0.0;
+    if (per_row) {
+      const std::array<Vec2, 4> ring{Vec2{g.xmin, y1}, Vec2{g.xmin + g.res, y1}, Vec2{g.xmin + g.res, y1 - g.res},
+                                     Vec2{g.xmin, y1 - g.res}};
+      row_area = ring_area(ring, field.metric, nullptr, g.res);
+    }
+    const int32_t* s = field.site.row(r);
+    for (int64_t c = 0; c < g.width; ++c) {
+      if (s[c] == kNoSite) continue;
+      double a = row_area;
+      if (!per_row) {
+        const double x0 = g.xmin + static_cast<double>(c) * g.res;
+        const std::array<Vec2, 4> ring{Vec2{x0, y1}, Vec2{x0 + g.res, y1}, Vec2{x0 + g.res, y1 - g.res},
+                                       Vec2{x0, y1 - g.res}};
+        a = ring_area(ring, field.metric, nullptr, g.res);
+      }
+      area[static_cast<size_t>(seeds.site_owner(s[c]))] += a;
+    }
+  }
+  return area;
+}
+
+}  // namespace
+
+struct Session::State {
+  JobSpec spec;  // outputs: the kept deliverables' memory files
+  JobLimits job_limits;
+  SessionLimits limits;
+  PreparedJob job;
+  std::string dir;  // /vsimem/ directory of the deliverables while they are written
+  std::optional<detail::SessionFeatures> features;
+  std::vector<size_t> slot_of;  // per feature of job.loaded.seeds, its slot
+  NearestField field;
+  TileSummaries tiles;
+  std::map<std::string, LinePieces> pieces;
+  std::map<std::string, std::string> texts;  // deliverable name -> its file's text
+  std::map<std::string, std::string> paths;  // deliverable name -> memory file
+  detail::SessionLines lines;
+  json report = json::object();             // the deliverables' report entries, as the job's
+  std::map<std::string, double> cell_area;  // per owner label: its cells' area
+  std::deque<Step> undo, redo;
+  int64_t steps = 0;
+
+  // The deliverables of the current field and seeds; `edit` (with the summaries before it):
+  // only the rows near its changes extracted again. Returns what the answer says of the lines.
+  json deliver(const Edit* edit, const TileSummaries* before, json& recompute);
+  // Moves the field and seeds to `edited` (its features' slots `slot_of`, input positions
+  // `position`) and answers what changed; on failure the session is as it was.
+  json update(SeedSet edited, std::vector<size_t> slot_of, std::vector<int64_t> position);
+  json areas_json() const;
+  json step(const std::vector<detail::SlotChange>& changes, bool undoing, bool check);
+  int64_t memory_bytes() const;
+};
+
+json Session::State::deliver(const Edit* edit, const TileSummaries* before, json& recompute) {
+  const JobHooks none;
+  detail::JobRun run(spec, job_limits, none);
+  detail::StripDeliverables d(run, job, false);
+  int64_t extracted = job.grid.height;
+  std::string why;
+  if (edit != nullptr && !pieces.empty()) {
+    std::map<std::string, LinePieces> base;
+    std::vector<LinePieces> list;
+    for (const auto& [name, key] : d.line_keys()) {
+      const auto it = pieces.find(name);
+      if (it == pieces.end() || it->second.key() != key) {
+        why = "no pieces of " + name;
+        break;
+      }
+      base[name] = it->second;
+      list.push_back(it->second);
+    }
+    if (why.empty() && d.needs_every_cell()) why = "a deliverable reads every cell";
+    if (why.empty()) {
+      double floor = 0.0;
+      if (spec.outputs.limits_per_owner && !spec.outputs.limits.empty())
+        for (const double v : job.limit_distances) floor = std::max(floor, v);
+      std::vector<std::pair<int64_t, int64_t>> fed = edit->line_rows(*before, list, floor);
+      extracted = 0;
+      for (const auto& [a, b] : fed) extracted += b - a;
+      d.take_lines_from(std::move(base), std::move(fed), edit->site_map());
+    }
+  }
+  d.add(field);
+  pieces = d.line_pieces();
+  d.finish();
+  std::map<std::string, std::string> now;
+  for (const auto& [name, path] : paths) now[name] = read_memory_file(path);
+  remove_memory_files(dir);
+  texts = std::move(now);
+  report = run.report["deliverables"];
+  recompute["rows_extracted"] = extracted;
+  recompute["rows_taken"] = job.grid.height - extracted;
+  if (!why.empty()) recompute["why_every_row"] = why;
+  return lines.update(d.boundaries(), d.limits(), job.loaded.seeds.owner_labels(), job.to_output);
+}
+
+json Session::State::areas_json() const {
+  json out = json::array();
+  const std::vector<std::string>& labels = job.loaded.seeds.owner_labels();
+  std::map<std::string, json> regions;
+  if (report.contains("regions"))
+    for (const json& a : report["regions"]["areas"]) regions[a["label"].get<std::string>()] = a;
+  for (const std::string& l : labels) {
+    json a = {{"label", l}, {"cells_area", cell_area.count(l) ? cell_area.at(l) : 0.0}};
+    if (const auto it = regions.find(l); it != regions.end()) {
+      a["area"] = it->second["area"];
+      a["sea_area"] = it->second["sea_area"];
+      a["land_area"] = it->second["land_area"];
+    }
+    out.push_back(std::move(a));
+  }
+  return out;
+}
+
+json Session::State::update(SeedSet edited, std::vector<size_t> new_slot_of, std::vector<int64_t> position) {
+  const auto started = Clock::now();
+  json timings = json::object();
+  // The seeds move into the job before the edit is prepared and made: rv::Edit keeps both sets
+  // by reference, and a preparation names the set it was made for.
+  SeedSet old_seeds = std::move(job.loaded.seeds);
+  std::vector<int64_t> old_position = std::move(job.loaded.input_position);
+  std::shared_ptr<const PreparedSeeds> old_prepared = job.compute.prepared;
+  job.loaded.seeds = std::move(edited);
+  job.loaded.input_position = std::move(position);
+  job.compute.prepared = nullptr;
+  const TileSummaries old_tiles = tiles;
+  bool applied = false;
+  // Back to the seeds before: the field by the inverse edit (exact by the same construction).
+  auto restore = [&] {
+    if (applied) {
+      ComputeOptions back = job.compute;
+      back.prepared = old_prepared;
+      const Edit undo_edit(job.loaded.seeds, old_seeds, job.grid, back);
+      const EditPlan p = undo_edit.plan(field, &tiles);
+      undo_edit.apply(field, p, field);
+    }
+    job.loaded.seeds = std::move(old_seeds);
+    job.loaded.input_position = std::move(old_position);
+    job.compute.prepared = old_prepared;
+    tiles = old_tiles;
+  };
+  try {
+    job.compute.prepared = prepare(job.loaded.seeds, job.grid, job.compute);
+    timings["prepare"] = seconds_since(started);
+    auto t = Clock::now();
+    const Edit edit(old_seeds, job.loaded.seeds, job.grid, job.compute);
+    const EditPlan plan = edit.plan(field, &tiles);
+    const ChangeTally tallier(old_seeds, job.loaded.seeds, job.grid, nullptr);
+    const ChangeTally::MaskedCells before = ChangeTally::masked_cells(plan.mask, field);
+    timings["plan"] = seconds_since(t);
+    t = Clock::now();
+    applied = true;
+    edit.apply(field, plan, field);
+    timings["field"] = seconds_since(t);
+    t = Clock::now();
+    const EditChanges changes = tallier.measure_masked(plan.mask, before, field, nullptr);
+    // The summaries of the tiles the edit recomputed.
+    std::vector<uint8_t> fresh(tiles.max_cost.size(), 0);
+    for (int64_t r = 0; r < job.grid.height; ++r)
+      for (const auto& [c0, c1] : plan.mask.rows[static_cast<size_t>(r)])
+        for (int64_t c = c0; c < c1; c += TileSummaries::kTile - c % TileSummaries::kTile)
+          fresh[tiles.tile_of(c, r)] = 1;
+    tiles.add(field.site.data(), field.distance.data(), 0, job.grid.height, job.grid.width, job.loaded.seeds,
+              fresh.data());
+    timings["tally"] = seconds_since(t);
+    t = Clock::now();
+    json recompute = {{"cells", plan.cells}, {"cells_of_removed", plan.removed_cells}};
+    const std::vector<size_t> old_slot_of = slot_of;
+    json lines_changed = deliver(&edit, &old_tiles, recompute);
+    timings["deliverables"] = seconds_since(t);
+    slot_of = std::move(new_slot_of);
+    for (const auto& [pair, area] : changes.moved) {
+      if (!pair.first.empty()) cell_area[pair.first] -= area;
+      if (!pair.second.empty()) cell_area[pair.second] += area;
+    }
+    json moved = json::array();
+    for (const auto& [pair, area] : changes.moved)
+      moved.push_back({{"from", pair.first.empty() ? json() : json(pair.first)},
+                       {"to", pair.second.empty() ? json() : json(pair.second)},
+                       {"area", area}});
+    json answer = {
+        {"cells",
+         {{"owner_changed", changes.owner_cells},
+          {"distance_only", changes.distance_only_cells},
+          {"box", changes.any() ? json::array({changes.col0, changes.row0, changes.col1, changes.row1}) : json()}}},
+        {"moved", moved},
+        {"areas", areas_json()},
+        {"area_units", report.contains("regions") ? report["regions"]["area_units"] : json(job.unit + "^2")},
+        {"lines", {{"boundaries", lines_changed["boundaries"]}, {"limits", lines_changed["limits"]}}},
+        {"tripoints", lines_changed["tripoints"]},
+        {"recompute", recompute}};
+    if (texts.count("turning_points")) answer["turning_points"] = json::parse(texts["turning_points"]);
+    if (report.contains("regions") && report["regions"].contains("relevant_area"))
+      answer["relevant_area"] = report["regions"]["relevant_area"];
+    timings["total"] = seconds_since(started);
+    answer["timings"] = timings;
+    return answer;
+  } catch (...) {
+    restore();
+    throw;
+  }
+}
+
+json Session::State::step(const std::vector<detail::SlotChange>& changes, bool undoing, bool check) {
+  const auto started = Clock::now();
+  features->apply(changes, undoing);
+  try {
+    std::vector<size_t> new_slot_of;
+    std::vector<int64_t> position;
+    SeedSet edited = features->build(new_slot_of, position);
+    const double built = seconds_since(started);
+    if (check) {
+      std::unordered_set<size_t> touched;
+      for (const detail::SlotChange& c : changes) touched.insert(c.slot);
+      std::vector<int32_t> edited_features;
+      for (size_t f = 0; f < new_slot_of.size(); ++f)
+        if (touched.contains(new_slot_of[f])) edited_features.push_back(static_cast<int32_t>(f));
+      check_edited_features(edited, edited_features, job.loaded.seed_crs.wkt, spec.seeds.on_conflict,
+                            spec.seeds.border_tolerance);
+    }
+    const double checked = seconds_since(started) - built;
+    json answer = update(std::move(edited), std::move(new_slot_of), std::move(position));
+    answer["timings"]["seeds"] = built;
+    answer["timings"]["checks"] = checked;
+    if (limits.max_memory_bytes > 0 && memory_bytes() > limits.max_memory_bytes) {
+      // Over the limit: back to the state before, by the same path.
+      features->apply(changes, !undoing);
+      std::vector<size_t> s;
+      std::vector<int64_t> p;
+      SeedSet back = features->build(s, p);
+      update(std::move(back), std::move(s), std::move(p));
+      throw Error(ErrorKind::too_large, "the edit would take the session past its memory limit (" +
+                                            std::to_string(limits.max_memory_bytes) + " bytes)");
+    }
+    answer["timings"]["total"] = seconds_since(started);
+    return answer;
+  } catch (const Error& e) {
+    if (e.kind() != ErrorKind::too_large) features->apply(changes, !undoing);
+    throw;
+  } catch (...) {
+    features->apply(changes, !undoing);
+    throw;
+  }
+}
+
+int64_t Session::State::memory_bytes() const {
+  int64_t b =
+      static_cast<int64_t>(field.site.cells().size() * sizeof(int32_t) + field.distance.cells().size() * sizeof(float));
+  b += static_cast<int64_t>(tiles.max_distance.size() * (2 * sizeof(float) + 1));
+  b += job.loaded.seeds.memory_bytes() + static_cast<int64_t>(job.loaded.input_position.capacity() * sizeof(int64_t));
+  b += features->memory_bytes() + lines.memory_bytes();
+  b += static_cast<int64_t>(slot_of.capacity() * sizeof(size_t));
+  for (const auto& [name, p] : pieces) b += static_cast<int64_t>(p.encode().size());
+  for (const auto& [name, t] : texts) b += static_cast<int64_t>(t.size());
+  for (const Step& s : undo) b += s.memory_bytes();
+  for (const Step& s : redo) b += s.memory_bytes();
+  return b;
+}
+
+Session::Session() : st_(std::make_unique<State>()) {}
+Session::~Session() {
+  if (st_ && !st_->dir.empty()) remove_memory_files(st_->dir);
+}
+
+std::unique_ptr<Session> Session::create(const JobSpec& spec, const SessionLimits& limits, const JobLimits& job_limits,
+                                         const JobHooks& hooks) {
+  if (spec.method != Method::exact)
+    throw Error(ErrorKind::invalid_argument, "a session takes the exact method only (the scans are not edited)");
+  if (spec.validate) throw Error(ErrorKind::invalid_argument, "a session does not validate; run a job for that");
+  if (!spec.base_report.empty() || spec.window)
+    throw Error(ErrorKind::invalid_argument, "a session starts from seeds, not from a base or a window");
+  if (limits.undo_depth < 0) throw Error(ErrorKind::invalid_argument, "the undo depth must be >= 0");
+  const OutputRequest& o = spec.outputs;
+  std::unique_ptr<Session> s(new Session());
+  State& st = *s->st_;
+  st.dir = "/vsimem/rvoronoi-session/" + std::to_string(++g_sessions);
+  st.limits = limits;
+  st.job_limits = job_limits;
+  st.spec = spec;
+  OutputRequest& out = st.spec.outputs;
+  out = OutputRequest{};
+  out.limit_distances = o.limit_distances;
+  out.limits_per_owner = o.limits_per_owner;
+  out.simplify_cells = o.simplify_cells;
+  out.line_tolerance = o.line_tolerance;
+  out.relevant_area = o.relevant_area;
+  out.relevant_coasts = o.relevant_coasts;
+  out.keep_for_edits = false;
+  auto keep = [&](const std::string& given, std::string& into, const char* name, const char* ext) {
+    if (given.empty()) return;
+    into = st.dir + "/" + name + ext;
+    st.paths[name] = into;
+  };
+  keep(o.boundaries, out.boundaries, "boundaries", ".geojson");
+  keep(o.tripoints, out.tripoints, "tripoints", ".geojson");
+  keep(o.limits, out.limits, "limits", ".geojson");
+  keep(o.regions, out.regions, "regions", ".geojson");
+  keep(o.turning_points, out.turning_points, "turning_points", ".json");
+  if (st.paths.empty())
+    throw Error(ErrorKind::invalid_argument,
+                "a session keeps deliverables: ask for one or more of boundaries, tripoints, limits, regions, "
+                "turning points");
+  st.job = prepare_job(st.spec, job_limits, hooks);
+  PreparedJob& job = st.job;
+  if (job.partial.any())
+    throw Error(ErrorKind::invalid_argument,
+                "sessions do not take partial effect yet (its field follows every feature's effect); run jobs");
+  if (job.located())
+    throw Error(ErrorKind::invalid_argument,
+                "sessions do not take the geodesic metric on a projected grid yet; use a longitude/latitude grid or "
+                "the planar metric");
+  const int64_t field_bytes = job.grid.cell_count() * 8;
+  if (limits.max_memory_bytes > 0 && field_bytes > limits.max_memory_bytes)
+    throw Error(ErrorKind::too_large, "the session's field alone takes " + std::to_string(field_bytes) +
+                                          " bytes, over its memory limit of " +
+                                          std::to_string(limits.max_memory_bytes));
+  if (hooks.reserve_memory) hooks.reserve_memory(field_bytes);
+  detail::CoordinateBounds bounds;
+  bounds.geographic = job.loaded.seed_crs.geographic;
+  bounds.limit = kMaxSeedCoordinate;
+  st.features.emplace(job.loaded.seeds, job.loaded.input_position, job.to_output, bounds);
+  std::vector<int64_t> position;
+  // The seeds as the session builds them: the same set, checked (a feature's parts come back to
+  // the same sites).
+  SeedSet built = st.features->build(st.slot_of, position);
+  if (built.sites().size() != job.loaded.seeds.sites().size())
+    throw Error(ErrorKind::internal, "session: the seeds' parts do not make the seeds again");
+  job.compute.prepared = prepare(job.loaded.seeds, job.grid, job.compute);
+  ComputeOptions co = job.compute;
+  co.progress = [&](double f) {
+    if (hooks.progress) hooks.progress("compute", f);
+  };
+  co.cancel = hooks.cancel;
+  st.field = compute(job.loaded.seeds, job.grid, co);
+  st.tiles = TileSummaries::for_grid(job.grid);
+  st.tiles.add(st.field.site.data(), st.field.distance.data(), 0, job.grid.height, job.grid.width, job.loaded.seeds);
+  const std::vector<double> area = owner_cell_areas(st.field, job.loaded.seeds, job.grid);
+  for (size_t c = 1; c < area.size(); ++c) st.cell_area[job.loaded.seeds.owner_labels()[c - 1]] = area[c];
+  // The hooks are the creation's: nothing of them is kept.
+  job.compute.cancel = nullptr;
+  job.compute.progress = nullptr;
+  if (hooks.progress) hooks.progress("deliver", 0.0);
+  json recompute;
+  st.deliver(nullptr, nullptr, recompute);
+  if (limits.max_memory_bytes > 0 && st.memory_bytes() > limits.max_memory_bytes)
+    throw Error(ErrorKind::too_large, "the session takes " + std::to_string(st.memory_bytes()) +
+                                          " bytes, over its memory limit of " +
+                                          std::to_string(limits.max_memory_bytes));
+  return s;
+}
+
+json Session::edit(const json& edits) {
+  State& st = *st_;
+  Step step{st.features->plan(edits)};
+  json answer = st.step(step.changes, false, true);
+  answer["edits"] = edits.size();
+  answer["step"] = ++st.steps;
+  st.undo.push_back(std::move(step));
+  while (st.undo.size() > static_cast<size_t>(st.limits.undo_depth)) st.undo.pop_front();
+  st.redo.clear();
+  return answer;
+}
+
+json Session::undo() {
+  State& st = *st_;
+  if (st.undo.empty()) throw Error(ErrorKind::invalid_argument, "nothing to undo");
+  json answer = st.step(st.undo.back().changes, true, false);
+  st.redo.push_back(std::move(st.undo.back()));
+  st.undo.pop_back();
+  answer["step"] = --st.steps;
+  answer["undone"] = true;
+  return answer;
+}
+
+json Session::redo() {
+  State& st = *st_;
+  if (st.redo.empty()) throw Error(ErrorKind::invalid_argument, "nothing to redo");
+  json answer = st.step(st.redo.back().changes, false, false);
+  st.undo.push_back(std::move(st.redo.back()));
+  st.redo.pop_back();
+  answer["step"] = ++st.steps;
+  answer["redone"] = true;
+  return answer;
+}
+
+json Session::info() const {
+  const State& st = *st_;
+  const GridSpec& g = st.job.grid;
+  json owners = json::array();
+  for (size_t c = 0; c < st.job.loaded.seeds.owner_labels().size(); ++c)
+    owners.push_back({{"code", c + 1}, {"label", st.job.loaded.seeds.owner_labels()[c]}});
+  return {{"grid",
+           {{"xmin", g.xmin},
+            {"ymax", g.ymax},
+            {"res", g.res},
+            {"width", g.width},
+            {"height", g.height},
+            {"crs", st.job.loaded.crs.name}}},
+          {"metric", st.job.metric.kind == MetricSpec::geodesic ? "geodesic" : "planar"},
+          {"distance_units", st.job.unit},
+          {"owners", owners},
+          {"features", st.job.loaded.seeds.features().size()},
+          {"areas", st.areas_json()},
+          {"area_units", st.report.contains("regions") ? st.report["regions"]["area_units"] : json(st.job.unit + "^2")},
+          {"deliverables", deliverables()},
+          {"memory_bytes", memory_bytes()},
+          {"bytes_per_cell",
+           static_cast<double>(memory_bytes()) / static_cast<double>(std::max<int64_t>(1, g.cell_count()))},
+          {"steps", st.steps},
+          {"undo", st.undo.size()},
+          {"redo", st.redo.size()}};
+}
+
+json Session::features() const {
+  json fc = st_->features->geojson();
+  // GeoJSON means longitude/latitude; other CRSs are named the way GDAL and older readers take.
+  const CrsInfo& crs = st_->job.loaded.seed_crs;
+  if (!crs.geographic && !crs.wkt.empty()) fc["crs"] = {{"type", "name"}, {"properties", {{"name", crs.wkt}}}};
+  return fc;
+}
+
+std::vector<std::string> Session::deliverables() const {
+  std::vector<std::string> out;
+  for (const char* name : kSessionDeliverables)
+    if (st_->texts.count(name)) out.emplace_back(name);
+  return out;
+}
+
+const std::string& Session::deliverable(const std::string& name) const {
+  const auto it = st_->texts.find(name);
+  if (it == st_->texts.end()) throw Error(ErrorKind::not_found, "the session keeps no deliverable \"" + name + "\"");
+  return it->second;
+}
+
+JobResult Session::save(const OutputRequest& outputs, const JobHooks& hooks) const {
+  // The files asked for, with the session's options for its lines (what it was prepared with).
+  JobSpec spec = st_->spec;
+  const OutputRequest& kept = st_->spec.outputs;
+  spec.outputs = outputs;
+  spec.outputs.limit_distances = kept.limit_distances;
+  spec.outputs.limits_per_owner = kept.limits_per_owner;
+  spec.outputs.simplify_cells = kept.simplify_cells;
+  spec.outputs.line_tolerance = kept.line_tolerance;
+  spec.outputs.relevant_area = kept.relevant_area;
+  spec.outputs.relevant_coasts = kept.relevant_coasts;
+  if (!spec.outputs.limits.empty() && spec.outputs.limit_distances.empty())
+    throw Error(ErrorKind::invalid_argument, "the session has no limit distances: it cannot save limits");
+  PreparedJob job = st_->job;
+  job.compute.prepared = nullptr;  // made for the session's own copy of the seeds
+  job.compute.cancel = hooks.cancel;
+  return run_prepared(spec, job, st_->job_limits, hooks);
+}
+
+const SeedSet& Session::seeds() const { return st_->job.loaded.seeds; }
+const GridSpec& Session::grid() const { return st_->job.grid; }
+const PreparedJob& Session::job() const { return st_->job; }
+const NearestField& Session::field() const { return st_->field; }
+int64_t Session::steps() const { return st_->steps; }
+int64_t Session::memory_bytes() const { return st_->memory_bytes(); }
+
+}  // namespace rv

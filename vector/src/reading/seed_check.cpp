@@ -1,0 +1,111 @@
+// The reader's checks for features edited in memory (rv/gdal/seed_reader.hpp,
+// check_edited_features): polygon validity and conflicts between owners, over the edited
+// features and the parts whose boxes meet theirs.
+#include <algorithm>
+#include <memory>
+#include <unordered_set>
+
+#include "common/gdal_util.hpp"
+#include "reading/normalise.hpp"
+#include "rv/edit/feature_parts.hpp"
+#include "rv/field/error.hpp"
+#include "rv/gdal/seed_reader.hpp"
+
+namespace rv {
+namespace {
+
+std::unique_ptr<OGRGeometry> part_geometry(const FeaturePart& part, int64_t& vertices) {
+  switch (part.kind) {
+    case FeaturePart::Kind::point:
+      vertices = 1;
+      return std::make_unique<OGRPoint>(part.vertices.front().x, part.vertices.front().y);
+    case FeaturePart::Kind::line: {
+      auto line = std::make_unique<OGRLineString>();
+      line->setNumPoints(static_cast<int>(part.vertices.size()), FALSE);
+      for (size_t i = 0; i < part.vertices.size(); ++i)
+        line->setPoint(static_cast<int>(i), part.vertices[i].x, part.vertices[i].y);
+      vertices = static_cast<int64_t>(part.vertices.size());
+      return line;
+    }
+    case FeaturePart::Kind::polygon: {
+      auto poly = std::make_unique<OGRPolygon>();
+      vertices = 0;
+      for (const Ring& r : part.rings) {
+        poly->addRingDirectly(detail::make_ring(r).release());
+        vertices += static_cast<int64_t>(r.size());
+      }
+      return poly;
+    }
+  }
+  return nullptr;
+}
+
+int dimension(FeaturePart::Kind k) { return k == FeaturePart::Kind::point ? 0 : k == FeaturePart::Kind::line ? 1 : 2; }
+
+bool meets(const OGREnvelope& a, const OGREnvelope& b) {
+  return a.MinX <= b.MaxX && b.MinX <= a.MaxX && a.MinY <= b.MaxY && b.MinY <= a.MaxY;
+}
+
+// A part's box from its vertices, without making its geometry.
+OGREnvelope envelope_of(const FeaturePart& p) {
+  OGREnvelope e;
+  auto take = [&](const Vec2& v) { e.Merge(v.x, v.y); };
+  for (const Vec2& v : p.vertices) take(v);
+  for (const Ring& r : p.rings)
+    for (const Vec2& v : r) take(v);
+  return e;
+}
+
+}  // namespace
+
+void check_edited_features(const SeedSet& seeds, const std::vector<int32_t>& features, const std::string& crs_wkt,
+                           ConflictPolicy policy, double border_tolerance) {
+  gdal_init();
+  const std::vector<std::vector<FeaturePart>> parts = feature_parts(seeds);
+  const std::unordered_set<int32_t> edited(features.begin(), features.end());
+  auto make = [&](int32_t f, const FeaturePart& p) {
+    detail::SeedPart part;
+    part.geometry = part_geometry(p, part.vertices);
+    part.geometry->getEnvelope(&part.envelope);
+    part.feature = f;
+    part.owner = seeds.features()[static_cast<size_t>(f)].owner;
+    part.dimension = dimension(p.kind);
+    return part;
+  };
+  std::vector<detail::SeedPart> checked;
+  for (const int32_t f : features) {
+    for (const FeaturePart& p : parts[static_cast<size_t>(f)]) {
+      detail::SeedPart part = make(f, p);
+      if (part.dimension == 2) {
+        gdal::ErrorCapture quiet;  // GEOS explains invalidity through warnings; we state our own
+        if (!part.geometry->IsValid())
+          throw Error(ErrorKind::invalid_input,
+                      seeds.feature_name(f) +
+                          ": the edited polygon is not valid (a ring crosses itself or another, or a hole lies "
+                          "outside its shell); move the vertex elsewhere");
+      }
+      checked.push_back(std::move(part));
+    }
+  }
+  if (policy != ConflictPolicy::error || checked.empty()) return;
+  // The other owners' parts that may meet an edited one; pairs between two of them were checked
+  // when they were read or edited.
+  const size_t edited_parts = checked.size();
+  for (size_t f = 0; f < parts.size(); ++f) {
+    if (edited.contains(static_cast<int32_t>(f))) continue;
+    const int32_t owner = seeds.features()[f].owner;
+    for (const FeaturePart& p : parts[f]) {
+      const OGREnvelope box = envelope_of(p);
+      const bool near =
+          std::any_of(checked.begin(), checked.begin() + static_cast<std::ptrdiff_t>(edited_parts),
+                      [&](const detail::SeedPart& e) { return e.owner != owner && meets(e.envelope, box); });
+      if (near) checked.push_back(make(static_cast<int32_t>(f), p));
+    }
+  }
+  gdal::SrsPtr srs;
+  if (!crs_wkt.empty()) srs = gdal::parse_srs(crs_wkt);
+  SeedReadReport report;
+  detail::check_conflicts(checked, seeds, policy, border_tolerance, srs.get(), report);
+}
+
+}  // namespace rv
