@@ -412,7 +412,12 @@ struct Edit::State {
     removed.build(base_seeds, sites.removed, grid, options);
     // Owners in another order of codes: the cells inside polygons of two owners may change hands.
     if (match.owners_reordered) removed.any = removed.all = true;
+    // Weights or reaches given or taken away switch a geodesic field between the exact method's
+    // kernels and the adjusted method, whose distances agree with them to one float ulp, not
+    // bit for bit (rv/geodesic/geodesic.hpp): every cell is computed again by the new one.
+    every_cell = options.metric.kind == MetricSpec::geodesic && base_seeds.adjusted() != edited.adjusted();
   }
+  bool every_cell = false;
   // Whether a cell centre (grid coordinates) lies in a box of changed edges.
   bool in_box(Vec2 p) const {
     for (const SeedSet::Box& b : boxes)
@@ -453,6 +458,10 @@ Edit::State::Part Edit::State::plan_part(const NearestField& base, const Window&
   const auto nsites = static_cast<int32_t>(base_seeds.sites().size());
   Part part;
   part.spans.resize(static_cast<size_t>(ph));
+  if (every_cell) {
+    for (auto& row : part.spans) row.emplace_back(c0, c1);
+    return part;
+  }
   // Per cell: 1 where it must be computed again; the base cost elsewhere.
   std::vector<uint8_t> marked(static_cast<size_t>(pw * ph), 0);
   std::vector<double> cost(static_cast<size_t>(pw * ph), std::numeric_limits<double>::infinity());
@@ -535,6 +544,7 @@ Edit::State::TileNeed Edit::State::tile_need(int64_t tr, int64_t tc, const TileS
   const int64_t gc0 = tc * T, gr0 = tr * T;
   const int64_t gc1 = std::min(grid.width, gc0 + T), gr1 = std::min(grid.height, gr0 + T);
   TileNeed n{removed.any, added.any, box_meets(gc0, gr0, gc1, gr1)};
+  if (every_cell) return TileNeed{true, true, true};
   if (tiles) {
     const size_t k = static_cast<size_t>(tr * tiles->cols + tc);
     const double max_d = tiles->max_distance[k], max_c = tiles->max_cost[k];

@@ -14,7 +14,9 @@
 // job's files on them byte for byte, the areas a fresh job's.
 //
 // Frozen at creation: the grid (extent, cell size, CRS), the metric, the options, and the owner
-// codes (labels in their order; a new owner takes the next code).
+// codes (labels in their order; a new owner takes the next code, and an owner left without
+// features keeps its code: the deliverables and saved jobs number owners as the session does,
+// where a seed file of the features would number them afresh).
 //
 // Feature ids: strings, stable for the session's life: the features read get their 1-based
 // input position ("1", "2", ...), added ones "n1", "n2", ... (never reused).

@@ -107,7 +107,7 @@ struct Session::State {
   // `position`) and answers what changed; on failure the session is as it was.
   json update(SeedSet edited, std::vector<size_t> slot_of, std::vector<int64_t> position);
   json areas_json() const;
-  json step(const std::vector<detail::SlotChange>& changes, bool undoing, bool check);
+  json step(const std::vector<detail::SlotChange>& changes, bool undoing);
   int64_t memory_bytes() const;
 };
 
@@ -261,7 +261,7 @@ json Session::State::update(SeedSet edited, std::vector<size_t> new_slot_of, std
   }
 }
 
-json Session::State::step(const std::vector<detail::SlotChange>& changes, bool undoing, bool check) {
+json Session::State::step(const std::vector<detail::SlotChange>& changes, bool undoing) {
   const auto started = Clock::now();
   features->apply(changes, undoing);
   try {
@@ -269,17 +269,37 @@ json Session::State::step(const std::vector<detail::SlotChange>& changes, bool u
     std::vector<int64_t> position;
     SeedSet edited = features->build(new_slot_of, position);
     const double built = seconds_since(started);
-    if (check) {
-      std::unordered_set<size_t> touched;
-      for (const detail::SlotChange& c : changes) touched.insert(c.slot);
-      std::vector<int32_t> edited_features;
-      for (size_t f = 0; f < new_slot_of.size(); ++f)
-        if (touched.contains(new_slot_of[f])) edited_features.push_back(static_cast<int32_t>(f));
-      check_edited_features(edited, edited_features, job.loaded.seed_crs.wkt, spec.seeds.on_conflict,
-                            spec.seeds.border_tolerance);
-    }
+    // Undo and redo come back to states that passed; their slivers are found again all the same.
+    std::unordered_set<size_t> touched;
+    for (const detail::SlotChange& c : changes) touched.insert(c.slot);
+    std::vector<int32_t> edited_features;
+    for (size_t f = 0; f < new_slot_of.size(); ++f)
+      if (touched.contains(new_slot_of[f])) edited_features.push_back(static_cast<int32_t>(f));
+    const std::vector<BorderSliver> slivers = check_edited_features(
+        edited, edited_features, job.loaded.seed_crs.wkt, spec.seeds.on_conflict, spec.seeds.border_tolerance);
     const double checked = seconds_since(started) - built;
+    const std::vector<size_t> old_slot_of = slot_of;
+    const std::vector<BorderSliver> old_slivers = job.loaded.report.slivers;
+    const detail::SessionLines old_lines = lines;
     json answer = update(std::move(edited), std::move(new_slot_of), std::move(position));
+    // The seeds' report (what a saved job states) names the land-border slivers by feature:
+    // those of untouched features renumbered, the edited features' as the check found them.
+    std::unordered_map<size_t, int32_t> index_of_slot;
+    for (size_t f = 0; f < slot_of.size(); ++f) index_of_slot[slot_of[f]] = static_cast<int32_t>(f);
+    std::vector<BorderSliver> now;
+    for (BorderSliver b : old_slivers) {
+      const size_t sa = old_slot_of[static_cast<size_t>(b.feature_a)],
+                   sb = old_slot_of[static_cast<size_t>(b.feature_b)];
+      if (touched.contains(sa) || touched.contains(sb) || !index_of_slot.contains(sa) || !index_of_slot.contains(sb))
+        continue;
+      b.feature_a = index_of_slot[sa];
+      b.feature_b = index_of_slot[sb];
+      if (b.feature_a > b.feature_b) std::swap(b.feature_a, b.feature_b);
+      now.push_back(b);
+    }
+    now.insert(now.end(), slivers.begin(), slivers.end());
+    job.loaded.report.slivers = std::move(now);
+    job.loaded.report.sliver_count = static_cast<int64_t>(job.loaded.report.slivers.size());
     answer["timings"]["seeds"] = built;
     answer["timings"]["checks"] = checked;
     if (limits.max_memory_bytes > 0 && memory_bytes() > limits.max_memory_bytes) {
@@ -289,6 +309,9 @@ json Session::State::step(const std::vector<detail::SlotChange>& changes, bool u
       std::vector<int64_t> p;
       SeedSet back = features->build(s, p);
       update(std::move(back), std::move(s), std::move(p));
+      lines = old_lines;
+      job.loaded.report.slivers = old_slivers;
+      job.loaded.report.sliver_count = static_cast<int64_t>(old_slivers.size());
       throw Error(ErrorKind::too_large, "the edit would take the session past its memory limit (" +
                                             std::to_string(limits.max_memory_bytes) + " bytes)");
     }
@@ -412,7 +435,7 @@ std::unique_ptr<Session> Session::create(const JobSpec& spec, const SessionLimit
 json Session::edit(const json& edits) {
   State& st = *st_;
   Step step{st.features->plan(edits)};
-  json answer = st.step(step.changes, false, true);
+  json answer = st.step(step.changes, false);
   answer["edits"] = edits.size();
   answer["step"] = ++st.steps;
   st.undo.push_back(std::move(step));
@@ -424,7 +447,7 @@ json Session::edit(const json& edits) {
 json Session::undo() {
   State& st = *st_;
   if (st.undo.empty()) throw Error(ErrorKind::invalid_argument, "nothing to undo");
-  json answer = st.step(st.undo.back().changes, true, false);
+  json answer = st.step(st.undo.back().changes, true);
   st.redo.push_back(std::move(st.undo.back()));
   st.undo.pop_back();
   answer["step"] = --st.steps;
@@ -435,7 +458,7 @@ json Session::undo() {
 json Session::redo() {
   State& st = *st_;
   if (st.redo.empty()) throw Error(ErrorKind::invalid_argument, "nothing to redo");
-  json answer = st.step(st.redo.back().changes, false, false);
+  json answer = st.step(st.redo.back().changes, false);
   st.undo.push_back(std::move(st.redo.back()));
   st.redo.pop_back();
   answer["step"] = ++st.steps;

@@ -58,8 +58,9 @@ OGREnvelope envelope_of(const FeaturePart& p) {
 
 }  // namespace
 
-void check_edited_features(const SeedSet& seeds, const std::vector<int32_t>& features, const std::string& crs_wkt,
-                           ConflictPolicy policy, double border_tolerance) {
+std::vector<BorderSliver> check_edited_features(const SeedSet& seeds, const std::vector<int32_t>& features,
+                                                const std::string& crs_wkt, ConflictPolicy policy,
+                                                double border_tolerance) {
   gdal_init();
   const std::vector<std::vector<FeaturePart>> parts = feature_parts(seeds);
   const std::unordered_set<int32_t> edited(features.begin(), features.end());
@@ -87,7 +88,7 @@ void check_edited_features(const SeedSet& seeds, const std::vector<int32_t>& fea
       checked.push_back(std::move(part));
     }
   }
-  if (policy != ConflictPolicy::error || checked.empty()) return;
+  if (policy != ConflictPolicy::error || checked.empty()) return {};
   // The other owners' parts that may meet an edited one; pairs between two of them were checked
   // when they were read or edited.
   const size_t edited_parts = checked.size();
@@ -106,6 +107,7 @@ void check_edited_features(const SeedSet& seeds, const std::vector<int32_t>& fea
   if (!crs_wkt.empty()) srs = gdal::parse_srs(crs_wkt);
   SeedReadReport report;
   detail::check_conflicts(checked, seeds, policy, border_tolerance, srs.get(), report);
+  return report.slivers;
 }
 
 }  // namespace rv

@@ -12,6 +12,10 @@
 // site of the kept feature, renumbered. Recomputing the cells of the mask (ComputeOptions::mask)
 // over the renumbered base field gives the fresh field of the edited seeds, cell for cell.
 //
+// One exception: on a geodesic field, an edit that gives the first weight or reach, or takes the
+// last away, changes the method every cell is computed by (the adjusted method's distances agree
+// with the exact kernels' to one float ulp, not bit for bit): its plan is every cell.
+//
 // Units: metric units (the field's). Pure functions over value types; thread-safe.
 #pragma once
 

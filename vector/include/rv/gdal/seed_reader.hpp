@@ -318,9 +318,11 @@ namespace rv {
 //    rule, land-border slivers narrower than `border_tolerance` metres allowed; with
 //    ConflictPolicy::lower_code nothing is refused, as the reader refuses nothing).
 // `seeds`: the whole edited set, in `crs` (its WKT; empty: no CRS, the tolerance in CRS units).
-// Throws rv::Error(invalid_input) naming the feature for an invalid polygon, rv::Error(conflict)
-// naming both features for a conflict. Thread-safe (GEOS contexts per call).
-void check_edited_features(const SeedSet& seeds, const std::vector<int32_t>& features, const std::string& crs_wkt,
-                           ConflictPolicy policy, double border_tolerance);
+// Returns the land-border slivers found between `features` and their neighbours (feature
+// indices of `seeds`). Throws rv::Error(invalid_input) naming the feature for an invalid polygon,
+// rv::Error(conflict) naming both features for a conflict. Thread-safe (GEOS contexts per call).
+std::vector<BorderSliver> check_edited_features(const SeedSet& seeds, const std::vector<int32_t>& features,
+                                                const std::string& crs_wkt, ConflictPolicy policy,
+                                                double border_tolerance);
 
 }  // namespace rv
