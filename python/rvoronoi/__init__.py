@@ -27,13 +27,15 @@ for _kind, _name in _rvoronoi.error_kinds:
 del _kind, _name
 
 __version__ = _rvoronoi.version
-__all__ = ["compute", "describe", "run", "process_description", "keywords", "Error"] + [name for _, name in _rvoronoi.error_kinds]
+__all__ = ["compute", "describe", "run", "process_description", "keywords", "Session", "Error"] + [name for _, name in _rvoronoi.error_kinds]
 
 _PRODUCTS = ("ownership", "distance", "nearest_feature")
 _DELIVERABLES = {"boundaries": ".geojson", "tripoints": ".geojson", "limits": ".geojson", "regions": ".geojson",
                  "turning_points": ".json"}
 _RUN_KEYWORDS = {k["keyword"]: k for k in _rvoronoi.keywords()}
 _KEYWORDS = {name: k for name, k in _RUN_KEYWORDS.items() if not k["run_only"]}
+
+from ._session import Session  # noqa: E402  (after the tables it reads)
 
 
 def keywords():

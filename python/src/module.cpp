@@ -21,12 +21,14 @@
 #include <string>
 #include <vector>
 
+#include "rv/engine/outputs.hpp"
 #include "rv/error_map.hpp"
 #include "rv/field/error.hpp"
 #include "rv/job.hpp"
 #include "rv/json_text.hpp"
 #include "rv/options.hpp"
 #include "rv/seed_description.hpp"
+#include "rv/session.hpp"
 #include "rv/version.hpp"
 
 namespace py = pybind11;
@@ -261,6 +263,91 @@ std::string run_files(const std::vector<std::string>& seeds, const std::string& 
   return rv::json_text(result.report, 2);
 }
 
+// A live what-if session (rv/session.hpp) in this process: rvoronoi.Session's engine. Edits,
+// answers and documents cross as JSON text; the field as arrays in the job's units.
+class Session {
+ public:
+  // deliverables: names among boundaries, tripoints, limits, regions, turning_points.
+  Session(const std::vector<std::string>& seeds, const std::string& options_json,
+          const std::vector<std::string>& deliverables, int undo_depth, int64_t max_cells) {
+    rv::JobSpec spec = make_spec(seeds, options_json);
+    rv::OutputRequest& out = spec.outputs;
+    for (const std::string& name : deliverables) {
+      std::string* target = name == "turning_points" ? &out.turning_points : rv::output_path(out, name);
+      if (target == nullptr || name == "ownership" || name == "distance" || name == "nearestFeature" ||
+          name == "report" || name == "margin" || name == "preview" || name == "changes")
+        throw rv::Error(
+            rv::ErrorKind::invalid_argument,
+            "deliverables: '" + name + "' is not one of boundaries, tripoints, limits, regions, turning_points");
+      *target = name;
+    }
+    rv::SessionLimits limits;
+    limits.undo_depth = undo_depth;
+    rv::JobLimits job_limits;
+    job_limits.max_cells = max_cells;
+    py::gil_scoped_release free;
+    session_ = rv::Session::create(spec, limits, job_limits);
+  }
+  std::string edit(const std::string& edits) {
+    nlohmann::json e;
+    try {
+      e = nlohmann::json::parse(edits);
+    } catch (const nlohmann::json::exception& x) {
+      throw rv::Error(rv::ErrorKind::invalid_argument, std::string("edits are not JSON: ") + x.what());
+    }
+    py::gil_scoped_release free;
+    return rv::json_text(session_->edit(e));
+  }
+  std::string undo() {
+    py::gil_scoped_release free;
+    return rv::json_text(session_->undo());
+  }
+  std::string redo() {
+    py::gil_scoped_release free;
+    return rv::json_text(session_->redo());
+  }
+  std::string info() const { return rv::json_text(session_->info()); }
+  std::string features() const { return rv::json_text(session_->features()); }
+  std::vector<std::string> deliverables() const { return session_->deliverables(); }
+  std::string deliverable(const std::string& name) const { return session_->deliverable(name); }
+  py::dict grid() const { return grid_dict(session_->grid()); }
+  std::vector<std::string> owners() const { return session_->seeds().owner_labels(); }
+  std::string unit() const { return session_->job().unit; }
+  std::string metric() const { return session_->job().metric.kind == rv::MetricSpec::geodesic ? "geodesic" : "planar"; }
+  // The field as the files hold it: owner codes, distances in the job's units, 1-based input
+  // positions of the nearest feature.
+  py::dict arrays() const {
+    const rv::PreparedJob& job = session_->job();
+    rv::Raster<int32_t> owner, feature;
+    rv::Raster<float> distance;
+    {
+      py::gil_scoped_release free;
+      owner = rv::owner_raster(session_->seeds(), session_->field());
+      distance = rv::scaled_distance(session_->field(), job.to_output);
+      feature = rv::feature_raster(session_->seeds(), session_->field(), 0, job.loaded.input_position);
+    }
+    py::dict d;
+    d["ownership"] = to_numpy(std::move(owner));
+    d["distance"] = to_numpy(std::move(distance));
+    d["nearest_feature"] = to_numpy(std::move(feature));
+    return d;
+  }
+  // The files of an ordinary job on the current seeds (process output ids -> paths); the report.
+  std::string save(const std::map<std::string, std::string>& outputs) const {
+    rv::OutputRequest out;
+    for (const auto& [id, path] : outputs) {
+      std::string* target = id == "changes" ? nullptr : rv::output_path(out, id);
+      if (target == nullptr) throw rv::Error(rv::ErrorKind::invalid_argument, "outputs: no output '" + id + "'");
+      *target = path;
+    }
+    py::gil_scoped_release free;
+    return rv::json_text(session_->save(out).report, 2);
+  }
+
+ private:
+  std::unique_ptr<rv::Session> session_;
+};
+
 py::list keywords() {
   py::list out;
   for (const rv::OptionSpec& o : rv::job_options()) {
@@ -378,4 +465,22 @@ PYBIND11_MODULE(_rvoronoi, m) {
       .def_property_readonly("unit", &Job::unit)
       .def_property_readonly("metric", &Job::metric)
       .def("run", &Job::run, py::arg("window"), py::arg("products"), py::arg("outputs"), py::arg("describe") = true);
+  py::class_<Session>(m, "Session")
+      .def(py::init<const std::vector<std::string>&, const std::string&, const std::vector<std::string>&, int,
+                    int64_t>(),
+           py::arg("seeds"), py::arg("options"), py::arg("deliverables"), py::arg("undo_depth") = 50,
+           py::arg("max_cells") = rv::JobLimits{}.max_cells)
+      .def("edit", &Session::edit, py::arg("edits"))
+      .def("undo", &Session::undo)
+      .def("redo", &Session::redo)
+      .def("info", &Session::info)
+      .def("features", &Session::features)
+      .def("deliverables", &Session::deliverables)
+      .def("deliverable", &Session::deliverable, py::arg("name"))
+      .def("arrays", &Session::arrays)
+      .def("save", &Session::save, py::arg("outputs"))
+      .def_property_readonly("grid", &Session::grid)
+      .def_property_readonly("owners", &Session::owners)
+      .def_property_readonly("unit", &Session::unit)
+      .def_property_readonly("metric", &Session::metric);
 }

@@ -519,7 +519,12 @@ class Package(unittest.TestCase):
         text = ast.unparse(computes[0])
         self.assertIn("metric: Literal['auto', 'planar', 'geodesic'] | None=None", text)
         classes = {n.name for n in tree.body if isinstance(n, ast.ClassDef)}
-        self.assertEqual(classes, {"Error"} | {name for _, name in rvoronoi._rvoronoi.error_kinds})
+        self.assertEqual(classes, {"Error", "Session"} | {name for _, name in rvoronoi._rvoronoi.error_kinds})
+        # The session takes compute()'s keyword options too.
+        session = next(n for n in tree.body if isinstance(n, ast.ClassDef) and n.name == "Session")
+        init = next(n for n in session.body if isinstance(n, ast.FunctionDef) and n.name == "__init__")
+        self.assertEqual({a.arg for a in init.args.kwonlyargs},
+                         {k["keyword"] for k in rvoronoi.keywords() if not k["run_only"]} | {"undo_depth", "max_cells"})
         functions = {n.name for n in tree.body if isinstance(n, ast.FunctionDef)}
         self.assertTrue({"compute", "describe", "keywords"} <= functions)
 

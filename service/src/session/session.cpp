@@ -406,8 +406,12 @@ std::unique_ptr<Session> Session::create(const JobSpec& spec, const SessionLimit
   // The seeds as the session builds them: the same set, checked (a feature's parts come back to
   // the same sites).
   SeedSet built = st.features->build(st.slot_of, position);
-  if (built.sites().size() != job.loaded.seeds.sites().size())
-    throw Error(ErrorKind::internal, "session: the seeds' parts do not make the seeds again");
+  const std::vector<Site>& a = built.sites();
+  const std::vector<Site>& b = job.loaded.seeds.sites();
+  const bool same = a.size() == b.size() && std::equal(a.begin(), a.end(), b.begin(), [](const Site& x, const Site& y) {
+                      return x.a == y.a && x.b == y.b && x.feature == y.feature && x.kind == y.kind;
+                    });
+  if (!same) throw Error(ErrorKind::internal, "session: the seeds' parts do not make the seeds again");
   job.compute.prepared = prepare(job.loaded.seeds, job.grid, job.compute);
   ComputeOptions co = job.compute;
   co.progress = [&](double f) {

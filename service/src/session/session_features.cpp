@@ -75,7 +75,14 @@ SessionFeatures::SessionFeatures(const SeedSet& seeds, const std::vector<int64_t
                                  CoordinateBounds bounds)
     : labels_(seeds.owner_labels()), to_output_(to_output), bounds_(bounds) {
   std::vector<std::vector<FeaturePart>> parts = feature_parts(seeds);
-  for (size_t f = 0; f < parts.size(); ++f) {
+  // Slots in input order (the seed set groups its features by owner): a session's features, and a
+  // file of them, list the features as the input did, and number them as it did.
+  std::vector<size_t> order(parts.size());
+  for (size_t f = 0; f < order.size(); ++f) order[f] = f;
+  if (input_position.size() == parts.size())
+    std::stable_sort(order.begin(), order.end(),
+                     [&](size_t a, size_t b) { return input_position[a] < input_position[b]; });
+  for (const size_t f : order) {
     const Feature& in = seeds.features()[f];
     auto out = std::make_shared<SessionFeature>();
     out->id = std::to_string(f < input_position.size() ? input_position[f] : static_cast<int64_t>(f) + 1);

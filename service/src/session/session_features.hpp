@@ -1,8 +1,8 @@
 // Internal to rv::Session: the session's seed features (each with an id that stays for the
 // session's life), the five edit operations on them, and the seed set they make.
 //
-// Features sit in slots in input order: the features read at creation in the seed set's order,
-// then those added. A removed feature leaves its slot empty, so that undo can put it back where
+// Features sit in slots in input order: the features read at creation in the order of their
+// input positions, then those added. A removed feature leaves its slot empty, so that undo can put it back where
 // it was. The seed set is built as the reader builds one (rv/gdal/seed_reader.hpp): grouped by
 // owner code, in input order within an owner; owner codes are the labels' order, frozen at
 // creation, a new label taking the next code.

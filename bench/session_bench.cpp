@@ -1,0 +1,154 @@
+// Live what-if sessions (issue 54, rv/session.hpp) on the issue's two cases: what the analyst
+// waits for after an edit (server time of Session::edit, median and worst of N), against a fresh
+// job of the same request (rvoronoi compute with the same deliverables and an ownership raster),
+// and the session's memory per cell.
+//
+//   session_bench baltic RES N FIXTURES_DIR   western Baltic, geodesic, boundaries, tripoints,
+//                                             12/24 nmi limits, regions; N DK coast vertices
+//                                             moved by about 100 m
+//   session_bench points SIZE N               SIZE x SIZE planar cells, 50,000 random points of
+//                                             8 owners, boundaries, tripoints, regions; N points
+//                                             moved by 5 cells
+//
+// Prints one line per edit (its timings by stage) and a summary table (Markdown).
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <random>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "rv/job.hpp"
+#include "rv/session.hpp"
+
+using json = nlohmann::json;
+namespace fs = std::filesystem;
+
+namespace {
+
+double seconds_of(std::chrono::steady_clock::time_point t) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
+}
+
+double median(std::vector<double> v) {
+  std::sort(v.begin(), v.end());
+  return v.empty() ? 0.0 : v.size() % 2 ? v[v.size() / 2] : 0.5 * (v[v.size() / 2 - 1] + v[v.size() / 2]);
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  if (argc < 4) {
+    std::fprintf(stderr, "usage: session_bench baltic RES N FIXTURES_DIR | points SIZE N\n");
+    return 2;
+  }
+  const std::string which = argv[1];
+  const int n = std::atoi(argv[3]);
+  const fs::path dir = fs::temp_directory_path() / "rv_session_bench";
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  rv::JobSpec spec;
+  spec.threads = 0;
+  rv::OutputRequest& o = spec.outputs;
+  o.boundaries = (dir / "boundaries.geojson").string();
+  o.tripoints = (dir / "tripoints.geojson").string();
+  o.regions = (dir / "regions.geojson").string();
+  std::mt19937 rng(54);
+  if (which == "baltic") {
+    if (argc < 5) return 2;
+    spec.seeds.paths = {(fs::path(argv[4]) / "baltic_west.gpkg").string()};
+    spec.seeds.owner_field = "iso2";
+    spec.seeds.border_tolerance = 10.0;
+    spec.grid.resolution = std::atof(argv[2]);
+    spec.metric = rv::MetricRequest::geodesic;
+    spec.distance_units = rv::DistanceUnit::nmi;
+    o.limits = (dir / "limits.geojson").string();
+    o.limit_distances = {"12nmi", "24nmi"};
+  } else {
+    const int64_t size = std::atoll(argv[2]);
+    json fc = {{"type", "FeatureCollection"},
+               {"crs", {{"type", "name"}, {"properties", {{"name", "urn:ogc:def:crs:EPSG::32633"}}}}},
+               {"features", json::array()}};
+    std::uniform_real_distribution<double> u(0.0, static_cast<double>(size));
+    for (int i = 0; i < 50000; ++i)
+      fc["features"].push_back({{"type", "Feature"},
+                                {"properties", {{"owner", "O" + std::to_string(i % 8)}}},
+                                {"geometry", {{"type", "Point"}, {"coordinates", {u(rng), u(rng)}}}}});
+    std::ofstream(dir / "points.geojson") << fc.dump();
+    spec.seeds.paths = {(dir / "points.geojson").string()};
+    spec.seeds.owner_field = "owner";
+    spec.grid.resolution = 1.0;
+    spec.grid.extent = {0.0, 0.0, static_cast<double>(size), static_cast<double>(size)};
+  }
+  // The fresh job the user would otherwise run: the same deliverables and an ownership raster.
+  rv::JobSpec fresh = spec;
+  fresh.outputs.ownership = (dir / "ownership.tif").string();
+  fresh.outputs.report = (dir / "report.json").string();
+  auto t = std::chrono::steady_clock::now();
+  rv::run_job(fresh);
+  const double fresh_s = seconds_of(t);
+  t = std::chrono::steady_clock::now();
+  std::unique_ptr<rv::Session> session = rv::Session::create(spec);
+  const double create_s = seconds_of(t);
+  const json features = session->features();
+  std::vector<double> total;
+  std::vector<json> stages;
+  for (int k = 0; k < n; ++k) {
+    json edit;
+    if (which == "baltic") {
+      for (const json& f : features["features"]) {
+        if (f["properties"]["owner"] != "DK") continue;
+        const json& parts = f["geometry"]["geometries"];
+        const size_t part = std::uniform_int_distribution<size_t>(0, parts.size() - 1)(rng);
+        const json& ring = parts[part]["coordinates"][0];
+        const size_t v = std::uniform_int_distribution<size_t>(0, ring.size() - 2)(rng);
+        json to = ring[v];
+        to[0] = to[0].get<double>() + 0.0012;
+        to[1] = to[1].get<double>() + 0.0005;
+        edit = {{"op", "move-vertex"}, {"feature", f["id"]}, {"path", {part, 0, v}}, {"to", to}};
+      }
+    } else {
+      const json& f = features["features"][std::uniform_int_distribution<size_t>(0, 49999)(rng)];
+      json to = f["geometry"]["coordinates"];
+      to[0] = to[0].get<double>() + 5.0;
+      to[1] = to[1].get<double>() - 3.0;
+      edit = {{"op", "move-vertex"}, {"feature", f["id"]}, {"path", json::array()}, {"to", to}};
+    }
+    t = std::chrono::steady_clock::now();
+    json answer;
+    try {
+      answer = session->edit(json::array({edit}));
+    } catch (const std::exception& e) {
+      std::printf("edit %d refused: %s\n", k, e.what());
+      continue;
+    }
+    total.push_back(seconds_of(t));
+    stages.push_back(answer["timings"]);
+    std::printf("edit %d: %.3f s %s cells %s\n", k, total.back(), answer["timings"].dump().c_str(),
+                answer["recompute"].dump().c_str());
+    // Back again, so that every edit starts from the same state.
+    session->undo();
+  }
+  const json info = session->info();
+  std::vector<double> field, deliver;
+  for (const json& s : stages) {
+    field.push_back(s["field"].get<double>() + s["plan"].get<double>() + s["prepare"].get<double>());
+    deliver.push_back(s["deliverables"].get<double>());
+  }
+  std::printf(
+      "\n| case | cells | fresh job s | session create s | edit median s | edit worst s | of which field "
+      "(median) s | deliverables (median) s | edit / fresh | bytes per cell "
+      "|\n|---|---|---|---|---|---|---|---|---|---|\n");
+  const auto cells = session->grid().width * session->grid().height;
+  std::printf("| %s %s | %lld | %.3f | %.3f | %.3f | %.3f | %.4f | %.3f | %.1f %% | %.2f |\n", which.c_str(), argv[2],
+              static_cast<long long>(cells), fresh_s, create_s, median(total),
+              total.empty() ? 0.0 : *std::max_element(total.begin(), total.end()), median(field), median(deliver),
+              100.0 * median(total) / fresh_s, info["bytes_per_cell"].get<double>());
+  fs::remove_all(dir);
+  return 0;
+}
