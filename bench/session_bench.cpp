@@ -7,8 +7,9 @@
 //                                             12/24 nmi limits, regions; N DK coast vertices
 //                                             moved by about 100 m
 //   session_bench points SIZE N               SIZE x SIZE planar cells, 50,000 random points of
-//                                             8 owners, boundaries, tripoints, regions; N points
-//                                             moved by 5 cells
+//                                             8 owners, the field alone (the case: the
+//                                             fresh job writes the ownership and distance
+//                                             rasters); N points moved by 5 cells
 //
 // Prints one line per edit (its timings by stage) and a summary table (Markdown).
 #include <algorithm>
@@ -55,20 +56,20 @@ int main(int argc, char** argv) {
   rv::JobSpec spec;
   spec.threads = 0;
   rv::OutputRequest& o = spec.outputs;
-  o.boundaries = (dir / "boundaries.geojson").string();
-  o.tripoints = (dir / "tripoints.geojson").string();
-  o.regions = (dir / "regions.geojson").string();
   std::mt19937 rng(54);
   if (which == "baltic") {
     if (argc < 5) return 2;
     spec.seeds.paths = {(fs::path(argv[4]) / "baltic_west.gpkg").string()};
     spec.seeds.owner_field = "iso2";
     spec.seeds.border_tolerance = 10.0;
+    o.boundaries = (dir / "boundaries.geojson").string();
+    o.tripoints = (dir / "tripoints.geojson").string();
     spec.grid.resolution = std::atof(argv[2]);
     spec.metric = rv::MetricRequest::geodesic;
     spec.distance_units = rv::DistanceUnit::nmi;
     o.limits = (dir / "limits.geojson").string();
     o.limit_distances = {"12nmi", "24nmi"};
+    o.regions = (dir / "regions.geojson").string();
   } else {
     const int64_t size = std::atoll(argv[2]);
     json fc = {{"type", "FeatureCollection"},
@@ -85,9 +86,11 @@ int main(int argc, char** argv) {
     spec.grid.resolution = 1.0;
     spec.grid.extent = {0.0, 0.0, static_cast<double>(size), static_cast<double>(size)};
   }
-  // The fresh job the user would otherwise run: the same deliverables and an ownership raster.
+  // The fresh job the user would otherwise run: the same deliverables and an ownership raster
+  // (and the distance raster where the session keeps the field alone).
   rv::JobSpec fresh = spec;
   fresh.outputs.ownership = (dir / "ownership.tif").string();
+  if (which == "points") fresh.outputs.distance = (dir / "distance.tif").string();
   fresh.outputs.report = (dir / "report.json").string();
   auto t = std::chrono::steady_clock::now();
   rv::run_job(fresh);

@@ -124,6 +124,16 @@ class SessionTest(unittest.TestCase):
         raster = gdal.Open(os.path.join(out, "own.tif")).ReadAsArray()
         np.testing.assert_array_equal(raster, self.s.to_dataset().owner.values)
 
+    def test_field_alone(self):
+        s = rvoronoi.Session(self.path, (), **OPTIONS)
+        self.assertEqual(s._s.deliverables(), [])
+        a = s.edit({"op": "set", "feature": "1", "properties": {"owner": "D"}})
+        self.assertGreater(a["cells"]["owner_changed"], 0)
+        self.assertEqual(a["recompute"]["rows_extracted"], 0)
+        self.assertEqual(set(s.areas.index), {"A", "B", "C", "D"})
+        self.assertNotIn("area", s.areas.columns)  # no regions: the cells' areas alone
+        self.assertEqual(s.features.loc["1", "owner"], "D")
+
     def test_bad_edits_change_nothing(self):
         before = (self.s._s.features(), self.s._s.deliverable("boundaries"))
         for edit, cls in [({"op": "remove", "feature": "404"}, rvoronoi.InvalidArgument),

@@ -67,8 +67,9 @@ class Session {
   // Reads and plans the seeds as prepare_job does, computes the field whole and the
   // deliverables `spec` asks for: any non-empty one of its outputs boundaries, tripoints,
   // limits, regions and turning_points is kept (the paths themselves are not written; raster
-  // outputs, the report and the others are ignored). Throws rv::Error as run_job does, and
-  // invalid_argument for what sessions do not take (above) or asking for no deliverable;
+  // outputs, the report and the others are ignored; with none, the session keeps the field
+  // alone: its owners' areas are the cells'). Throws rv::Error as run_job does, and
+  // invalid_argument for what sessions do not take (above);
   // too_large when the session would exceed limits.max_memory_bytes.
   static std::unique_ptr<Session> create(const JobSpec& spec, const SessionLimits& limits = {},
                                          const JobLimits& job_limits = {}, const JobHooks& hooks = {});

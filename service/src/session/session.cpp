@@ -112,6 +112,11 @@ struct Session::State {
 };
 
 json Session::State::deliver(const Edit* edit, const TileSummaries* before, json& recompute) {
+  if (paths.empty()) {  // the field alone
+    recompute["rows_extracted"] = 0;
+    recompute["rows_taken"] = 0;
+    return lines.update(BoundaryResult{}, LimitResult{}, job.loaded.seeds.owner_labels(), job.to_output);
+  }
   const JobHooks none;
   detail::JobRun run(spec, job_limits, none);
   detail::StripDeliverables d(run, job, false);
@@ -379,10 +384,6 @@ std::unique_ptr<Session> Session::create(const JobSpec& spec, const SessionLimit
   keep(o.limits, out.limits, "limits", ".geojson");
   keep(o.regions, out.regions, "regions", ".geojson");
   keep(o.turning_points, out.turning_points, "turning_points", ".json");
-  if (st.paths.empty())
-    throw Error(ErrorKind::invalid_argument,
-                "a session keeps deliverables: ask for one or more of boundaries, tripoints, limits, regions, "
-                "turning points");
   st.job = prepare_job(st.spec, job_limits, hooks);
   PreparedJob& job = st.job;
   if (job.partial.any())
