@@ -79,6 +79,16 @@ std::vector<double> owner_cell_areas(const NearestField& field, const SeedSet& s
   return area;
 }
 
+// What shapes a session's lines and regions (frozen with it): copied onto other outputs.
+void copy_line_options(const OutputRequest& from, OutputRequest& to) {
+  to.limit_distances = from.limit_distances;
+  to.limits_per_owner = from.limits_per_owner;
+  to.simplify_cells = from.simplify_cells;
+  to.line_tolerance = from.line_tolerance;
+  to.relevant_area = from.relevant_area;
+  to.relevant_coasts = from.relevant_coasts;
+}
+
 }  // namespace
 
 struct Session::State {
@@ -367,12 +377,7 @@ std::unique_ptr<Session> Session::create(const JobSpec& spec, const SessionLimit
   st.spec = spec;
   OutputRequest& out = st.spec.outputs;
   out = OutputRequest{};
-  out.limit_distances = o.limit_distances;
-  out.limits_per_owner = o.limits_per_owner;
-  out.simplify_cells = o.simplify_cells;
-  out.line_tolerance = o.line_tolerance;
-  out.relevant_area = o.relevant_area;
-  out.relevant_coasts = o.relevant_coasts;
+  copy_line_options(o, out);
   out.keep_for_edits = false;
   auto keep = [&](const std::string& given, std::string& into, const char* name, const char* ext) {
     if (given.empty()) return;
@@ -525,12 +530,7 @@ JobResult Session::save(const OutputRequest& outputs, const JobHooks& hooks) con
   JobSpec spec = st_->spec;
   const OutputRequest& kept = st_->spec.outputs;
   spec.outputs = outputs;
-  spec.outputs.limit_distances = kept.limit_distances;
-  spec.outputs.limits_per_owner = kept.limits_per_owner;
-  spec.outputs.simplify_cells = kept.simplify_cells;
-  spec.outputs.line_tolerance = kept.line_tolerance;
-  spec.outputs.relevant_area = kept.relevant_area;
-  spec.outputs.relevant_coasts = kept.relevant_coasts;
+  copy_line_options(kept, spec.outputs);
   if (!spec.outputs.limits.empty() && spec.outputs.limit_distances.empty())
     throw Error(ErrorKind::invalid_argument, "the session has no limit distances: it cannot save limits");
   PreparedJob job = st_->job;
