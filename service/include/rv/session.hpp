@@ -77,10 +77,12 @@ class Session {
   Session(const Session&) = delete;
   Session& operator=(const Session&) = delete;
 
-  // Applies `edits` (a JSON array, in order, as one step) and answers what changed:
+  // Applies `edits` (a JSON array, in order, as one step) and answers what changed (areas in
+  // "area_units", the job's distance units squared; "cells_area" sums the squares of the cells
+  // an owner holds, "area" is the regions' when they are kept):
   //   {"step", "edits", "cells": {"owner_changed", "distance_only", "box": [col0, row0, col1,
-  //   row1] | null}, "moved": [{"from", "to", "area"}], "areas": [{"owner", "label", "area",
-  //   "sea_area", "land_area"}], "area_units", "lines": {kind: {"added": [...], "changed": [...],
+  //   row1] | null}, "moved": [{"from", "to", "area"}], "areas": [{"label", "cells_area", and with
+  //   regions "area", "sea_area", "land_area"}], "area_units", "lines": {kind: {"added": [...], "changed": [...],
   //   "removed": [ids]}}, "tripoints": {...}, "turning_points"?, "relevant_area"?, "recompute":
   //   {"cells", "rows_extracted", "rows_taken"}, "timings": {...}}
   // Operations (coordinates in the seeds' CRS; reach in the job's distance units):

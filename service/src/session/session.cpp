@@ -172,11 +172,12 @@ json Session::State::deliver(const Edit* edit, const TileSummaries* before, json
 json Session::State::areas_json() const {
   json out = json::array();
   const std::vector<std::string>& labels = job.loaded.seeds.owner_labels();
+  const double to_area = job.to_output * job.to_output;  // metric units squared -> area_units
   std::map<std::string, json> regions;
   if (report.contains("regions"))
     for (const json& a : report["regions"]["areas"]) regions[a["label"].get<std::string>()] = a;
   for (const std::string& l : labels) {
-    json a = {{"label", l}, {"cells_area", cell_area.count(l) ? cell_area.at(l) : 0.0}};
+    json a = {{"label", l}, {"cells_area", (cell_area.count(l) ? cell_area.at(l) : 0.0) * to_area}};
     if (const auto it = regions.find(l); it != regions.end()) {
       a["area"] = it->second["area"];
       a["sea_area"] = it->second["sea_area"];
@@ -252,7 +253,7 @@ json Session::State::update(SeedSet edited, std::vector<size_t> new_slot_of, std
     for (const auto& [pair, area] : changes.moved)
       moved.push_back({{"from", pair.first.empty() ? json() : json(pair.first)},
                        {"to", pair.second.empty() ? json() : json(pair.second)},
-                       {"area", area}});
+                       {"area", area * job.to_output * job.to_output}});
     json answer = {
         {"cells",
          {{"owner_changed", changes.owner_cells},
