@@ -102,6 +102,7 @@ struct Session::State {
   NearestField field;
   TileSummaries tiles;
   std::map<std::string, LinePieces> pieces;
+  mutable int64_t piece_bytes = -1;          // their encoded size, measured when memory is asked (-1: not yet)
   std::map<std::string, std::string> texts;  // deliverable name -> its file's text
   std::map<std::string, std::string> paths;  // deliverable name -> memory file
   detail::SessionLines lines;
@@ -157,6 +158,7 @@ json Session::State::deliver(const Edit* edit, const TileSummaries* before, json
   }
   d.add(field);
   pieces = d.line_pieces();
+  piece_bytes = -1;
   d.finish();
   std::map<std::string, std::string> now;
   for (const auto& [name, path] : paths) now[name] = read_memory_file(path);
@@ -241,7 +243,6 @@ json Session::State::update(SeedSet edited, std::vector<size_t> new_slot_of, std
     timings["tally"] = seconds_since(t);
     t = Clock::now();
     json recompute = {{"cells", plan.cells}, {"cells_of_removed", plan.removed_cells}};
-    const std::vector<size_t> old_slot_of = slot_of;
     json lines_changed = deliver(&edit, &old_tiles, recompute);
     timings["deliverables"] = seconds_since(t);
     slot_of = std::move(new_slot_of);
@@ -349,7 +350,11 @@ int64_t Session::State::memory_bytes() const {
   b += job.loaded.seeds.memory_bytes() + static_cast<int64_t>(job.loaded.input_position.capacity() * sizeof(int64_t));
   b += features->memory_bytes() + lines.memory_bytes();
   b += static_cast<int64_t>(slot_of.capacity() * sizeof(size_t));
-  for (const auto& [name, p] : pieces) b += static_cast<int64_t>(p.encode().size());
+  if (piece_bytes < 0) {
+    piece_bytes = 0;
+    for (const auto& [name, p] : pieces) piece_bytes += static_cast<int64_t>(p.encode().size());
+  }
+  b += piece_bytes;
   for (const auto& [name, t] : texts) b += static_cast<int64_t>(t.size());
   for (const Step& s : undo) b += s.memory_bytes();
   for (const Step& s : redo) b += s.memory_bytes();
@@ -479,6 +484,7 @@ json Session::redo() {
 
 json Session::info() const {
   const State& st = *st_;
+  const int64_t bytes = memory_bytes();
   const GridSpec& g = st.job.grid;
   json owners = json::array();
   for (size_t c = 0; c < st.job.loaded.seeds.owner_labels().size(); ++c)
@@ -497,9 +503,8 @@ json Session::info() const {
           {"areas", st.areas_json()},
           {"area_units", st.report.contains("regions") ? st.report["regions"]["area_units"] : json(st.job.unit + "^2")},
           {"deliverables", deliverables()},
-          {"memory_bytes", memory_bytes()},
-          {"bytes_per_cell",
-           static_cast<double>(memory_bytes()) / static_cast<double>(std::max<int64_t>(1, g.cell_count()))},
+          {"memory_bytes", bytes},
+          {"bytes_per_cell", static_cast<double>(bytes) / static_cast<double>(std::max<int64_t>(1, g.cell_count()))},
           {"steps", st.steps},
           {"undo", st.undo.size()},
           {"redo", st.redo.size()}};
