@@ -18,6 +18,10 @@
 //                 "preview_max_vertices": 2000000,
 //                 "jobs_per_principal": 0, "cells_per_principal_per_hour": 0 },
 //     "auth": { "principals": [], "token_file": "", "tokens": [], "jwt": {...} },
+//     "sessions": { "max_sessions": 16, "max_per_principal": 0, "max_memory_bytes": 0,
+//                   "session_memory_bytes": 0, "undo_depth": 50, "idle_expiry_s": 3600,
+//                   "workers": 2, "pending_per_session": 8 },
+//     "daemon_name": ""
 //   }
 // Authentication (AuthConfig below): with no principal configured (the default) every route is
 // open and every job belongs to the principal "anonymous". With principals (hashed tokens, the
@@ -120,6 +124,21 @@ struct PrincipalLimits {
   int64_t cells_per_hour = 0;  // grid cells of the jobs submitted within the last hour
 };
 
+// Live what-if sessions (the "sessions" object; issue 54). A session holds its field and lines in
+// memory until it is deleted or has been idle for idle_expiry_s; a restart loses every session.
+struct SessionsConfig {
+  int max_sessions = 16;             // held at once (creating or ready); one more: 503 with Retry-After
+  int max_per_principal = 0;         // held by one principal (admins signed in as such aside); 0 = no
+                                     // limit of its own; one more: 429
+  int64_t max_memory_bytes = 0;      // every session's memory together; 0 = half the memory account;
+                                     // a session or an edit that would pass it: 503 with Retry-After
+  int64_t session_memory_bytes = 0;  // one session; 0 = max_memory_bytes; past it: 422 too large
+  int undo_depth = 50;               // steps each session keeps for undo
+  double idle_expiry_s = 3600.0;     // a session unused this long is deleted (then 404, saying so)
+  int workers = 2;                   // threads running sessions' edits and reads, beside the job workers
+  int pending_per_session = 8;       // requests waiting behind a session's running one; one more: 503
+};
+
 struct ServerConfig {
   std::string host = "127.0.0.1";
   int port = 8080;  // 0 = ephemeral (tests)
@@ -138,10 +157,19 @@ struct ServerConfig {
   int64_t preview_max_vertices = 2'000'000;
   AuthConfig auth;
   PrincipalLimits principal_limits;
+  SessionsConfig sessions;
+  // Names this daemon in its session ids ([a-z0-9-], 1..63 characters), so that a shared service
+  // can tell which daemon holds a session; "" = the host name and the port listened on.
+  std::string daemon_name;
 
   // The bytes of the memory account: total_memory_bytes, else 80 % of physical memory.
   int64_t memory_budget() const;
 };
+
+// The bytes every session together may hold (sessions.max_memory_bytes, else half of
+// memory_budget()), and one session (sessions.session_memory_bytes, else that).
+int64_t sessions_memory_budget(const ServerConfig& config);
+int64_t session_memory_limit(const ServerConfig& config);
 
 // Parses "host:port" (IPv6 as "[::1]:8080") into config.host/config.port.
 // Throws rv::Error(invalid_argument).

@@ -62,6 +62,24 @@ struct SessionLimits {
 inline constexpr const char* kSessionDeliverables[] = {"boundaries", "tripoints", "limits", "regions",
                                                        "turning_points"};
 
+// What Session::save() needs, copied at one step: the seeds, grid and options. Later edits of
+// the session do not reach it (a job made from a session and queued behind others saves the
+// state it was asked for). Immutable; thread-safe.
+class SessionSnapshot {
+ public:
+  // As Session::save().
+  JobResult save(const OutputRequest& outputs, const JobHooks& hooks = {}) const;
+  // The session's spec (its kept deliverables' outputs) and its prepared job, as copied.
+  const JobSpec& spec() const { return spec_; }
+  const PreparedJob& job() const { return job_; }
+
+ private:
+  friend class Session;
+  JobSpec spec_;
+  PreparedJob job_;
+  JobLimits limits_;
+};
+
 class Session {
  public:
   // Reads and plans the seeds as prepare_job does, computes the field whole and the
@@ -117,6 +135,11 @@ class Session {
   // report) with the session's seeds, grid and options; its files equal a fresh run's on the
   // edited seeds. Throws as run_job.
   JobResult save(const OutputRequest& outputs, const JobHooks& hooks = {}) const;
+  // The current state for saving later (its seeds copied: about the seeds' memory).
+  std::shared_ptr<const SessionSnapshot> snapshot() const;
+  // The memory limit of later steps (SessionLimits::max_memory_bytes; 0 = none): a daemon
+  // lowers it when its sessions together near their limit.
+  void set_memory_limit(int64_t bytes);
 
   const SeedSet& seeds() const;
   const GridSpec& grid() const;

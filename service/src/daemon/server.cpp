@@ -457,6 +457,7 @@ struct Server::Impl {
   std::unique_ptr<daemon::MemoryAccount> memory;
   std::unique_ptr<daemon::RequestPool> describe_pool;
   std::unique_ptr<daemon::JobManager> jobs;
+  std::unique_ptr<daemon::SessionManager> sessions;
   std::unique_ptr<daemon::Api> api;
   std::unique_ptr<Shared> shared;
   net::io_context ioc;
@@ -534,7 +535,10 @@ void Server::start() {
   s.memory = std::make_unique<daemon::MemoryAccount>(s.config.memory_budget());
   s.describe_pool = std::make_unique<daemon::RequestPool>(s.config.jobs.describe_workers);
   s.jobs = std::make_unique<daemon::JobManager>(*s.store, s.config, s.runner, *s.memory);
-  s.api = std::make_unique<daemon::Api>(s.config, *s.store, *s.jobs, *s.memory, *s.describe_pool);
+  s.sessions = std::make_unique<daemon::SessionManager>(
+      s.config, *s.jobs, *s.memory,
+      s.config.daemon_name.empty() ? daemon::default_daemon_name(s.port) : s.config.daemon_name);
+  s.api = std::make_unique<daemon::Api>(s.config, *s.store, *s.jobs, *s.memory, *s.describe_pool, *s.sessions);
   s.shared = std::make_unique<Shared>(s.config, *s.api);
   s.shared->auth.start();  // the identity provider's keys, before the first request
   s.listener = std::make_shared<Listener>(s.ioc, std::move(acceptor), *s.shared);
@@ -563,6 +567,7 @@ void Server::start() {
                    json_escape(s.config.data_dir) + ",\"auth\":\"" + (s.config.auth.enabled() ? "bearer" : "off") +
                    "\",\"principals\":" + std::to_string(s.config.auth.principals.size()) +
                    ",\"jwt\":" + (s.config.auth.jwt.enabled() ? "true" : "false") +
+                   ",\"daemon\":" + json_escape(s.sessions->daemon_name()) +
                    ",\"interrupted_jobs_failed\":" + std::to_string(interrupted.size()) + "}");
 }
 
@@ -573,6 +578,7 @@ void Server::stop() {
   s.listener->close();
   // Running jobs get the grace period, then are cancelled; queued ones are failed at once.
   s.jobs->shutdown(std::chrono::duration<double>(s.config.jobs.shutdown_grace_s));
+  s.sessions->stop();       // after the jobs: creations under way ended there; requests waiting fail
   s.describe_pool->stop();  // the descriptions under way answer first
   // Let the answers already on their way (synchronous executions that just ended) be written.
   const auto until = std::chrono::steady_clock::now() + std::chrono::seconds(2);
@@ -587,6 +593,7 @@ void Server::stop() {
   s.shared->auth.stop();
   s.listener.reset();
   s.api.reset();
+  s.sessions.reset();
   s.jobs.reset();  // its workers are joined; the store closes after it
   s.describe_pool.reset();
   s.memory.reset();

@@ -43,14 +43,6 @@ class OgcNotFound : public Error {
   std::string ogc_type_;
 };
 
-ApiResponse json_response(unsigned status, const json& body, const char* type = kJson) {
-  ApiResponse r;
-  r.status = status;
-  r.headers.emplace_back("Content-Type", type);
-  r.body = json_text(body);
-  return r;
-}
-
 // A description with its validator: clients that cache descriptions (the QGIS provider) ask
 // again with If-None-Match and get 304 while nothing changed. A strong ETag: the body's SHA-256.
 ApiResponse validated(const ApiRequest& request, ApiResponse r) {
@@ -118,6 +110,14 @@ std::string file_of(const JobRecord& r, const std::string& id) { return output_f
 
 }  // namespace
 
+ApiResponse json_response(unsigned status, const json& body, const char* type) {
+  ApiResponse r;
+  r.status = status;
+  r.headers.emplace_back("Content-Type", type);
+  r.body = json_text(body);
+  return r;
+}
+
 FileHandle::~FileHandle() {
   if (fd >= 0) ::close(fd);
 }
@@ -134,16 +134,14 @@ ApiResponse problem_response(unsigned status, const std::string& type, const std
   return r;
 }
 
-struct Api::Context {
-  const ApiRequest& request;
-  std::string path;
-  std::map<std::string, std::vector<std::string>> query;
-  std::string base;  // scheme://host[:port], no trailing slash
-};
-
 Api::Api(const ServerConfig& config, JobStore& store, JobManager& jobs, MemoryAccount& memory,
-         RequestPool& describe_pool)
-    : config_(config), store_(store), jobs_(jobs), memory_(memory), describe_pool_(describe_pool) {}
+         RequestPool& describe_pool, SessionManager& sessions)
+    : config_(config),
+      store_(store),
+      jobs_(jobs),
+      memory_(memory),
+      describe_pool_(describe_pool),
+      sessions_(sessions) {}
 
 ApiResponse problem_of_current_exception(const std::string& path) {
   try {
@@ -455,6 +453,15 @@ void Api::route(const Context& ctx, const std::shared_ptr<Respond>& respond) {
       {{"jobs", "*"}, "GET, HEAD, DELETE", &Api::job},
       {{"jobs", "*", "results"}, "GET, HEAD", &Api::results},
       {{"jobs", "*", "results", "*"}, "GET, HEAD", &Api::result_file},
+      {{"sessions"}, "GET, HEAD, POST", &Api::session_list},
+      {{"sessions", "*"}, "GET, HEAD, DELETE", &Api::session},
+      {{"sessions", "*", "features"}, "GET, HEAD", &Api::session_features},
+      {{"sessions", "*", "deliverables"}, "GET, HEAD", &Api::session_deliverables},
+      {{"sessions", "*", "deliverables", "*"}, "GET, HEAD", &Api::session_deliverable},
+      {{"sessions", "*", "edits"}, "POST", &Api::session_step},
+      {{"sessions", "*", "undo"}, "POST", &Api::session_step},
+      {{"sessions", "*", "redo"}, "POST", &Api::session_step},
+      {{"sessions", "*", "jobs"}, "POST", &Api::session_jobs},
   };
   const Request req{ctx, respond};
   const std::vector<std::string> seg = path_segments(ctx.path);
@@ -482,6 +489,7 @@ void Api::landing(const Request& req, const std::vector<std::string>&) const {
          link(base + "/conformance", std::string(kOgcRel) + "conformance", kJson, "conformance classes"),
          link(base + "/processes", std::string(kOgcRel) + "processes", kJson, "processes"),
          link(base + "/jobs", std::string(kOgcRel) + "job-list", kJson, "jobs"),
+         link(base + "/sessions", "related", kJson, "live what-if sessions: edit seeds, see what changes"),
          link(base + "/health", "status", kJson, "health"), link(base + "/me", "related", kJson, "who is signed in"),
          link(base + "/app", "related", "text/html", "map page: run a delimitation and look at it")}}}));
 }
@@ -508,6 +516,7 @@ void Api::health(const Request& req, const std::vector<std::string>&) const {
        {"workers", config_.jobs.workers},
        {"queueLength", config_.jobs.queue_length},
        {"describing", describe_pool_.busy()},
+       {"sessions", {{"held", sessions_.count()}, {"memoryBytes", sessions_.memory_bytes()}}},
        {"memory",
         {{"budgetBytes", memory_.total()}, {"reservedBytes", memory_.reserved()}, {"waiting", memory_.waiting()}}}}));
 }
@@ -536,22 +545,29 @@ void Api::process(const Request& req, const std::vector<std::string>& seg) const
 }
 
 void Api::execute(const Request& req, const std::vector<std::string>& seg) const {
-  const std::string& base = req.ctx.base;
   if (seg[1] == kDescribeSeedsId) return describe(req);
   const json body = parse_body_json(req.ctx.request.body);
   const std::string id = new_job_id();
-  Execution ex = parse_execution(body, id, config_);
-  const auth::Principal& who = req.ctx.request.principal;
-  if (prefers_respond_async(req.ctx.request.prefer)) {
-    const JobRecord rec = jobs_.submit(id, std::move(ex), who);
+  submit_job(JobAnswer::of(req), id, parse_execution(body, id, config_));
+}
+
+Api::JobAnswer Api::JobAnswer::of(const Request& req) {
+  return {req.respond, req.ctx.base, req.ctx.path, prefers_respond_async(req.ctx.request.prefer),
+          req.ctx.request.principal};
+}
+
+void Api::submit_job(const JobAnswer& to, const std::string& id, Execution ex) const {
+  const std::string& base = to.base;
+  if (to.async) {
+    const JobRecord rec = jobs_.submit(id, std::move(ex), to.who);
     ApiResponse r = json_response(201, status_info(rec, base));
     r.headers.emplace_back("Location", base + "/jobs/" + id);
     r.headers.emplace_back("Preference-Applied", "respond-async");
-    return req.reply(std::move(r));
+    return (*to.respond)(std::move(r));
   }
   const bool raw = ex.raw;
   const std::string dir = jobs_.job_dir(id).string();
-  auto on_done = [respond = req.respond, raw, base, dir, path = req.ctx.path, &jobs = jobs_](const JobRecord& rec) {
+  auto on_done = [respond = to.respond, raw, base, dir, path = to.path, &jobs = jobs_](const JobRecord& rec) {
     ApiResponse r;
     try {
       // The client waiting here asked for this job; if someone dismissed it meanwhile, say so
@@ -571,7 +587,7 @@ void Api::execute(const Request& req, const std::vector<std::string>& seg) const
     r.headers.emplace_back("Link", "<" + base + "/jobs/" + rec.id + ">; rel=\"monitor\"");
     (*respond)(std::move(r));
   };
-  jobs_.submit(id, std::move(ex), who, on_done);  // answered by on_done
+  jobs_.submit(id, std::move(ex), to.who, on_done);  // answered by on_done
 }
 
 void Api::describe(const Request& req) const {

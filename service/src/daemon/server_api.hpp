@@ -14,6 +14,7 @@
 
 #include "auth/principal.hpp"
 #include "daemon/server_jobs.hpp"
+#include "daemon/server_sessions.hpp"
 #include "rv/server_config.hpp"
 #include "rv/store_jobs.hpp"
 
@@ -67,17 +68,26 @@ ApiResponse last_resort_problem();
 // the error table, JSON errors as invalid_argument, bad_alloc as too_large, anything else as
 // internal; never throws.
 ApiResponse problem_of_current_exception(const std::string& path);
+// A JSON document as the response body (Content-Type `type`).
+ApiResponse json_response(unsigned status, const nlohmann::json& body, const char* type = kMediaJson);
 
 using Respond = std::function<void(ApiResponse)>;
 
 class Api {
  public:
   // Descriptions of seed files run on `describe_pool`, each reserving its memory in `memory`.
-  Api(const ServerConfig& config, JobStore& store, JobManager& jobs, MemoryAccount& memory, RequestPool& describe_pool);
+  Api(const ServerConfig& config, JobStore& store, JobManager& jobs, MemoryAccount& memory, RequestPool& describe_pool,
+      SessionManager& sessions);
   // Calls `respond` exactly once, on this thread or (synchronous execution) a worker thread.
   void handle(const ApiRequest& request, Respond respond);
 
-  struct Context;
+  // The request as an action reads it.
+  struct Context {
+    const ApiRequest& request;
+    std::string path;
+    std::map<std::string, std::vector<std::string>> query;
+    std::string base;  // scheme://host[:port], no trailing slash
+  };
   // What an action answers to: the parsed request and the one way to answer it.
   struct Request {
     const Context& ctx;
@@ -103,12 +113,34 @@ class Api {
   void job(const Request& req, const std::vector<std::string>& seg) const;
   void results(const Request& req, const std::vector<std::string>& seg) const;
   void result_file(const Request& req, const std::vector<std::string>& seg) const;
+  // Live what-if sessions (server_api_sessions.cpp).
+  void session_list(const Request& req, const std::vector<std::string>& seg) const;
+  void session(const Request& req, const std::vector<std::string>& seg) const;
+  void session_features(const Request& req, const std::vector<std::string>& seg) const;
+  void session_deliverables(const Request& req, const std::vector<std::string>& seg) const;
+  void session_deliverable(const Request& req, const std::vector<std::string>& seg) const;
+  void session_step(const Request& req, const std::vector<std::string>& seg) const;  // edits, undo, redo
+  void session_jobs(const Request& req, const std::vector<std::string>& seg) const;
+  void create_session(const Request& req) const;
+  // Whom a submitted job answers, copied out of the request (a session submits from its thread,
+  // after the request's context is gone).
+  struct JobAnswer {
+    std::shared_ptr<Respond> respond;
+    std::string base, path;
+    bool async = false;  // Prefer: respond-async
+    auth::Principal who;
+    static JobAnswer of(const Request& req);
+  };
+  // Submits job `id` and answers as an execution does: 201 with its status for respond-async,
+  // else its results (or raw output) once it ends.
+  void submit_job(const JobAnswer& to, const std::string& id, Execution ex) const;
 
   const ServerConfig& config_;
   JobStore& store_;
   JobManager& jobs_;
   MemoryAccount& memory_;
   RequestPool& describe_pool_;
+  SessionManager& sessions_;
 };
 
 // The repository's openapi.yaml, embedded at build time.

@@ -157,6 +157,8 @@ std::string requested_media_type(const json& options, const std::string& id) {
   return f.at("mediaType").get<std::string>();
 }
 
+}  // namespace
+
 void parse_outputs(const json& body, Execution& ex) {
   struct Chosen {
     std::string id, mode, media;
@@ -215,8 +217,6 @@ void parse_outputs(const json& body, Execution& ex) {
                 "not supported); request one output or use \"document\"");
   }
 }
-
-}  // namespace
 
 const OutputInfo* find_output(std::string_view id) {
   for (const OutputInfo& o : output_table())

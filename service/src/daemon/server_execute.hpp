@@ -4,6 +4,7 @@
 // definitions are restricted to authority codes, OGC URIs and WKT, seed paths are always ours).
 #pragma once
 
+#include <functional>
 #include <memory>
 #include <string>
 #include <string_view>
@@ -79,6 +80,9 @@ struct Execution {
   std::shared_ptr<VsiMemFiles> uploads;   // keeps the seed files alive until the job ends
   // The grid's cells when extent and resolution give them up front; 0 = known once planned.
   int64_t cells = 0;
+  // What computes the job instead of the server's runner (a job made from a live session saves
+  // the session's state); empty = the runner.
+  std::function<JobResult(const JobSpec&, const JobLimits&, const JobHooks&)> run;
 };
 
 // Throws rv::Error: invalid_argument (malformed request or parameter, naming the input),
@@ -86,6 +90,11 @@ struct Execution {
 // unsupported (multipart raw responses, callbacks), too_large (grid over the configured limits
 // when extent and resolution make it known up front).
 Execution parse_execution(const nlohmann::json& body, const std::string& job_id, const ServerConfig& config);
+
+// The "outputs" and "response" members of an execute request into `ex` (outputs, transmission,
+// formats, raw): with no outputs, the ownership and distance rasters and the report. Throws
+// rv::Error(invalid_argument / unsupported) as parse_execution.
+void parse_outputs(const nlohmann::json& body, Execution& ex);
 
 // The input "seeds" of `in` (one layer or an array: GeoJSON, or a base64 GeoPackage, zipped
 // Shapefile or FlatGeobuf) written to `files`; their paths appended to read.paths and the reading

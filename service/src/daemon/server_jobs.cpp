@@ -153,6 +153,39 @@ std::string JobManager::snapshot_base(const std::string& base, const std::string
   return (to / output_file_name("report", "")).string();
 }
 
+namespace {
+
+// The limits bind every principal but the admins who signed in as such (on a server without
+// authentication the anonymous principal is everyone, and bound by them).
+bool exempt_from_limits(const auth::Principal& who) { return who.role == Role::admin && who.how != "none"; }
+
+}  // namespace
+
+void JobManager::charge_cells(const auth::Principal& who, int64_t cells) {
+  if (!exempt_from_limits(who)) cells_.charge(who.name, cells);
+}
+
+void JobManager::submit_work(const std::string& name, const auth::Principal& who,
+                             std::shared_ptr<std::atomic<bool>> cancel, std::function<void()> run,
+                             std::function<void()> dropped) {
+  std::lock_guard lock(mutex_);
+  if (stopping_) throw Error(ErrorKind::busy, "the server is shutting down; retry later");
+  const size_t capacity = static_cast<size_t>(config_.jobs.queue_length + std::max(1, config_.jobs.workers));
+  if (queue_.size() + running_.size() >= capacity)
+    throw Error(ErrorKind::busy, "all " + std::to_string(config_.jobs.workers) + " workers are busy and " +
+                                     std::to_string(queue_.size()) + " jobs are waiting; retry later");
+  if (!exempt_from_limits(who)) check_job_count(who.name);
+  Task t;
+  t.id = name;
+  t.principal = who.name;
+  t.charged = true;
+  t.work = std::move(run);
+  t.dropped = std::move(dropped);
+  t.cancel = std::move(cancel);
+  queue_.push_back(std::move(t));
+  work_cv_.notify_one();
+}
+
 JobRecord JobManager::submit(const std::string& id, Execution execution, const auth::Principal& who, Done on_done) {
   JobRecord rec;
   rec.id = id;
@@ -175,9 +208,7 @@ JobRecord JobManager::submit(const std::string& id, Execution execution, const a
     throw Error(ErrorKind::busy, "all " + std::to_string(config_.jobs.workers) + " workers are busy and " +
                                      std::to_string(queue_.size()) + " jobs are waiting; retry later");
   }
-  // The limits bind every principal but the admins who signed in as such (on a server without
-  // authentication the anonymous principal is everyone, and bound by them).
-  const bool exempt = who.role == Role::admin && who.how != "none";
+  const bool exempt = exempt_from_limits(who);
   if (!exempt) check_job_count(who.name);
   // A grid known up front is charged now (refused now when over the allowance); others when
   // they are planned.
@@ -195,7 +226,13 @@ JobRecord JobManager::submit(const std::string& id, Execution execution, const a
     std::filesystem::remove(job_dir(id), ec);  // only if empty: never another job's files
     throw;
   }
-  queue_.push_back(Task{id, std::move(execution), std::move(on_done), who.name, charged || exempt});
+  Task t;
+  t.id = id;
+  t.execution = std::move(execution);
+  t.on_done = std::move(on_done);
+  t.principal = who.name;
+  t.charged = charged || exempt;
+  queue_.push_back(std::move(t));
   work_cv_.notify_one();
   return rec;
 }
@@ -211,10 +248,19 @@ void JobManager::worker_loop() {
       queue_.pop_front();
       Running r;
       r.principal = task.principal;
-      r.cancel = std::make_shared<std::atomic<bool>>(false);
+      r.cancel = task.cancel ? task.cancel : std::make_shared<std::atomic<bool>>(false);
       r.deadline = std::chrono::steady_clock::now() + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
                                                           std::chrono::duration<double>(config_.jobs.job_timeout_s));
       running_.emplace(task.id, r);
+    }
+    if (task.work) {
+      task.work();  // answers for itself and never throws
+      {
+        std::lock_guard lock(mutex_);
+        running_.erase(task.id);
+      }
+      idle_cv_.notify_all();
+      continue;
     }
     JobRecord final_record;
     try {
@@ -420,7 +466,7 @@ JobRecord JobManager::run_task(Task& task) {
     std::lock_guard lock(mutex_);
     if (!running_.at(rec.id).dismissed) store_.update(rec);
   };
-  Outcome outcome = execute(runner_, spec, limits_, hooks, id, dir);
+  Outcome outcome = execute(task.execution.run ? task.execution.run : runner_, spec, limits_, hooks, id, dir);
   memory.release();
   task.execution.uploads.reset();  // the in-memory seed files are no longer needed
   remove_dir(dir / kBaseSnapshotDir);
@@ -511,6 +557,11 @@ void JobManager::shutdown(std::chrono::duration<double> grace) {
     while (!queue_.empty()) {
       Task t = std::move(queue_.front());
       queue_.pop_front();
+      if (t.work) {
+        dropped.push_back(std::move(t));
+        dropped_records.emplace_back();
+        continue;
+      }
       if (auto rec = store_.get(t.id)) {
         rec->status = JobStatus::failed;
         rec->error_kind = std::string(to_string(ErrorKind::busy));
@@ -528,7 +579,13 @@ void JobManager::shutdown(std::chrono::duration<double> grace) {
       r.cancel->store(true);
     }
   }
-  for (size_t i = 0; i < dropped.size(); ++i) notify_done(dropped[i].on_done, dropped_records[i]);
+  for (size_t i = 0; i < dropped.size(); ++i) {
+    if (dropped[i].work) {
+      if (dropped[i].dropped) dropped[i].dropped();
+    } else {
+      notify_done(dropped[i].on_done, dropped_records[i]);
+    }
+  }
   for (std::thread& w : workers_) w.join();
   {
     std::lock_guard lock(mutex_);

@@ -61,6 +61,18 @@ class JobManager {
   // successful, nothing kept).
   JobRecord submit(const std::string& id, Execution execution, const auth::Principal& who, Done on_done = {});
 
+  // Queues work that is not a stored job (a live session's creation) on the same workers and
+  // queue as jobs, counted as `who`'s job while it waits or runs: `run` is called on a worker
+  // thread with `cancel`, which the watchdog sets after jobs.job_timeout_s (as for a job) and the
+  // caller may set; if the server shuts down first, `dropped` is called instead. Neither may
+  // throw. Throws as submit() (busy, QuotaExceeded for the principal's job count).
+  void submit_work(const std::string& name, const auth::Principal& who, std::shared_ptr<std::atomic<bool>> cancel,
+                   std::function<void()> run, std::function<void()> dropped);
+
+  // Charges `cells` to `who`'s hourly allowance (nothing for admins signed in as such). Throws
+  // QuotaExceeded when over it.
+  void charge_cells(const auth::Principal& who, int64_t cells);
+
   // Dismisses a job; returns its record afterwards, or nullopt when there is no such job.
   std::optional<JobRecord> dismiss(const std::string& id);
 
@@ -81,6 +93,10 @@ class JobManager {
     Done on_done;
     std::string principal;
     bool charged = false;  // its cells were charged at submission (known up front), or need none
+    // Work that is not a stored job (submit_work): run instead of the job; dropped on shutdown.
+    std::function<void()> work;
+    std::function<void()> dropped;
+    std::shared_ptr<std::atomic<bool>> cancel;
   };
   struct Running {
     std::string principal;

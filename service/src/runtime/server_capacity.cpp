@@ -20,6 +20,7 @@ MemoryAccount::Reservation& MemoryAccount::Reservation::operator=(Reservation&& 
     release();
     account_ = o.account_;
     held_ = o.held_;
+    standing_ = o.standing_;
     o.account_ = nullptr;
     o.held_ = 0;
   }
@@ -34,8 +35,24 @@ void MemoryAccount::Reservation::need(int64_t bytes, bool wait, const std::atomi
 
 void MemoryAccount::Reservation::release() {
   if (account_ == nullptr || held_ == 0) return;
-  account_->give_back(held_, true);
+  account_->give_back(held_, !standing_);
   held_ = 0;
+}
+
+void MemoryAccount::Reservation::settle(int64_t bytes) {
+  if (account_ != nullptr) account_->settle(*this, bytes);
+}
+
+void MemoryAccount::settle(Reservation& r, int64_t bytes) {
+  {
+    std::lock_guard lock(mutex_);
+    const int64_t keep = std::clamp<int64_t>(bytes, 0, r.held_);
+    reserved_ -= r.held_ - keep;
+    if (r.held_ > 0 && !r.standing_) --holders_;
+    r.held_ = keep;
+    r.standing_ = true;
+  }
+  freed_.notify_all();
 }
 
 int64_t MemoryAccount::reserved() const {
@@ -60,7 +77,7 @@ void MemoryAccount::grow(Reservation& r, int64_t bytes, bool wait, const std::at
     const int64_t free = total_ - reserved_;
     if (bytes - r.held_ > free) return false;
     const int64_t target = std::clamp(bytes + bytes / 4, bytes, r.held_ + free);
-    if (r.held_ == 0) ++holders_;
+    if (r.held_ == 0 && !r.standing_) ++holders_;
     reserved_ += target - r.held_;
     r.held_ = target;
     return true;

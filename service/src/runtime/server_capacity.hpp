@@ -42,7 +42,9 @@ class MemoryAccount {
    public:
     Reservation() = default;
     ~Reservation() { release(); }
-    Reservation(Reservation&& o) noexcept : account_(o.account_), held_(o.held_) { o.account_ = nullptr; }
+    Reservation(Reservation&& o) noexcept : account_(o.account_), held_(o.held_), standing_(o.standing_) {
+      o.account_ = nullptr;
+    }
     Reservation& operator=(Reservation&& o) noexcept;
     Reservation(const Reservation&) = delete;
     Reservation& operator=(const Reservation&) = delete;
@@ -54,12 +56,18 @@ class MemoryAccount {
     void need(int64_t bytes, bool wait, const std::atomic<bool>* cancel, const std::string& what);
     int64_t held() const { return held_; }
     void release();
+    // Keeps `bytes` (at most what it holds), gives the rest back, and makes the reservation a
+    // standing one: memory held until the work is deleted, by work that never waits for more
+    // (a live session; its need() calls are then wait = false). Standing reservations do not
+    // count as holders in the deadlock rule: a job that waits only for them gives way.
+    void settle(int64_t bytes);
 
    private:
     friend class MemoryAccount;
     explicit Reservation(MemoryAccount* a) : account_(a) {}
     MemoryAccount* account_ = nullptr;
     int64_t held_ = 0;
+    bool standing_ = false;
   };
 
   // An empty reservation on this account (holds nothing until need()).
@@ -72,6 +80,7 @@ class MemoryAccount {
  private:
   void grow(Reservation& r, int64_t bytes, bool wait, const std::atomic<bool>* cancel, const std::string& what);
   void give_back(int64_t bytes, bool holder_ends);
+  void settle(Reservation& r, int64_t bytes);
 
   const int64_t total_;
   mutable std::mutex mutex_;

@@ -1,5 +1,6 @@
 #include "rv/server_config.hpp"
 
+#include <algorithm>
 #include <fstream>
 #include <set>
 #include <sstream>
@@ -94,7 +95,9 @@ void parse_listen(const std::string& listen, ServerConfig& config) {
 
 ServerConfig parse_server_config(const json& doc) {
   ServerConfig c;
-  check_keys(doc, "", {"listen", "data_dir", "public_url", "web_dir", "http", "jobs", "limits", "auth"});
+  check_keys(
+      doc, "",
+      {"listen", "data_dir", "public_url", "web_dir", "http", "jobs", "limits", "auth", "sessions", "daemon_name"});
   if (doc.contains("listen")) parse_listen(get_string(doc, "listen", ""), c);
   c.data_dir = get_string(doc, "data_dir", c.data_dir);
   if (c.data_dir.empty()) bad("data_dir", "must not be empty");
@@ -145,6 +148,27 @@ ServerConfig parse_server_config(const json& doc) {
         get_int(l, "limits", "cells_per_principal_per_hour", c.principal_limits.cells_per_hour, 0);
   }
   if (doc.contains("auth")) parse_auth_config(doc.at("auth"), c.auth);
+  if (doc.contains("sessions")) {
+    const json& s = doc.at("sessions");
+    check_keys(s, "sessions",
+               {"max_sessions", "max_per_principal", "max_memory_bytes", "session_memory_bytes", "undo_depth",
+                "idle_expiry_s", "workers", "pending_per_session"});
+    SessionsConfig& z = c.sessions;
+    z.max_sessions = static_cast<int>(get_int(s, "sessions", "max_sessions", z.max_sessions, 0));
+    z.max_per_principal = static_cast<int>(get_int(s, "sessions", "max_per_principal", z.max_per_principal, 0));
+    z.max_memory_bytes = get_int(s, "sessions", "max_memory_bytes", z.max_memory_bytes, 0);
+    z.session_memory_bytes = get_int(s, "sessions", "session_memory_bytes", z.session_memory_bytes, 0);
+    z.undo_depth = static_cast<int>(get_int(s, "sessions", "undo_depth", z.undo_depth, 0));
+    if (z.undo_depth > 100000) bad("sessions.undo_depth", "must be at most 100000");
+    z.idle_expiry_s = get_seconds(s, "sessions", "idle_expiry_s", z.idle_expiry_s);
+    z.workers = static_cast<int>(get_int(s, "sessions", "workers", z.workers, 1));
+    z.pending_per_session = static_cast<int>(get_int(s, "sessions", "pending_per_session", z.pending_per_session, 0));
+  }
+  c.daemon_name = get_string(doc, "daemon_name", c.daemon_name);
+  if (!c.daemon_name.empty() &&
+      (c.daemon_name.size() > 63 ||
+       c.daemon_name.find_first_not_of("abcdefghijklmnopqrstuvwxyz0123456789-") != std::string::npos))
+    bad("daemon_name", "must be 1..63 characters of a-z, 0-9 and '-'");
   return c;
 }
 
@@ -166,6 +190,16 @@ int64_t ServerConfig::memory_budget() const {
   const long page_size = sysconf(_SC_PAGE_SIZE);
   const int64_t physical = pages > 0 && page_size > 0 ? int64_t{pages} * page_size : 0;
   return physical / 10 * 8;
+}
+
+int64_t sessions_memory_budget(const ServerConfig& config) {
+  return config.sessions.max_memory_bytes > 0 ? config.sessions.max_memory_bytes : config.memory_budget() / 2;
+}
+
+int64_t session_memory_limit(const ServerConfig& config) {
+  const int64_t all = sessions_memory_budget(config);
+  const int64_t one = config.sessions.session_memory_bytes;
+  return one > 0 ? std::min(one, all) : all;
 }
 
 JobLimits effective_limits(const ServerConfig& config) {

@@ -532,18 +532,31 @@ const std::string& Session::deliverable(const std::string& name) const {
 }
 
 JobResult Session::save(const OutputRequest& outputs, const JobHooks& hooks) const {
+  return snapshot()->save(outputs, hooks);
+}
+
+std::shared_ptr<const SessionSnapshot> Session::snapshot() const {
+  auto s = std::make_shared<SessionSnapshot>();
+  s->spec_ = st_->spec;
+  s->job_ = st_->job;
+  s->job_.compute.prepared = nullptr;  // made for the session's own copy of the seeds
+  s->limits_ = st_->job_limits;
+  return s;
+}
+
+JobResult SessionSnapshot::save(const OutputRequest& outputs, const JobHooks& hooks) const {
   // The files asked for, with the session's options for its lines (what it was prepared with).
-  JobSpec spec = st_->spec;
-  const OutputRequest& kept = st_->spec.outputs;
+  JobSpec spec = spec_;
   spec.outputs = outputs;
-  copy_line_options(kept, spec.outputs);
+  copy_line_options(spec_.outputs, spec.outputs);
   if (!spec.outputs.limits.empty() && spec.outputs.limit_distances.empty())
     throw Error(ErrorKind::invalid_argument, "the session has no limit distances: it cannot save limits");
-  PreparedJob job = st_->job;
-  job.compute.prepared = nullptr;  // made for the session's own copy of the seeds
+  PreparedJob job = job_;
   job.compute.cancel = hooks.cancel;
-  return run_prepared(spec, job, st_->job_limits, hooks);
+  return run_prepared(spec, job, limits_, hooks);
 }
+
+void Session::set_memory_limit(int64_t bytes) { st_->limits.max_memory_bytes = std::max<int64_t>(bytes, 0); }
 
 const SeedSet& Session::seeds() const { return st_->job.loaded.seeds; }
 const GridSpec& Session::grid() const { return st_->job.grid; }

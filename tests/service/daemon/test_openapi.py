@@ -233,6 +233,51 @@ def principals(tmp):
             s.stop()
 
 
+def sessions(s, demo):
+    """Issue 54 against the document: every /sessions resource, its answers validated."""
+    body = {"inputs": {"seeds": demo, "ownerField": "state", "resolution": 2000, "limitDistances": ["20000"]},
+            "outputs": {"boundaries": {}, "tripoints": {}, "limits": {}, "regions": {}}}
+    validate(body, DOC["components"]["schemas"]["sessionCreate"], "session create body")
+    _, h, doc = request(s, "POST", "/sessions", body, expect=201)
+    sid = json.loads(doc)["sessionID"]
+    check(re.fullmatch(DOC["components"]["parameters"]["sessionID"]["schema"]["pattern"], sid) is not None,
+          f"the session id {sid} has the documented form")
+    request(s, "GET", "/sessions", expect=200)
+    request(s, "GET", f"/sessions/{sid}", expect=200)
+    _, _, fc = request(s, "GET", f"/sessions/{sid}/features", expect=200)
+    first = json.loads(fc)["features"][0]
+    request(s, "GET", f"/sessions/{sid}/deliverables", expect=200)
+    for name in ("boundaries", "tripoints", "limits", "regions"):
+        request(s, "GET", f"/sessions/{sid}/deliverables/{name}", expect=200)
+    request(s, "GET", f"/sessions/{sid}/deliverables/turningPoints", expect=404)
+    x, y = first["geometry"]["coordinates"]
+    edit = {"edits": [{"op": "move-vertex", "feature": first["id"], "path": [], "to": [x + 3000, y + 2000]}]}
+    for e in edit["edits"]:
+        validate(e, DOC["components"]["schemas"]["sessionEditOperation"], "edit operation")
+    request(s, "POST", f"/sessions/{sid}/edits", edit, expect=200)
+    request(s, "POST", f"/sessions/{sid}/edits", {"edits": [{"op": "remove", "feature": "no-such"}]}, expect=400)
+    request(s, "POST", f"/sessions/{sid}/undo", expect=200)
+    request(s, "POST", f"/sessions/{sid}/redo", expect=200)
+    request(s, "POST", f"/sessions/{sid}/redo", expect=400)
+    request(s, "POST", f"/sessions/{sid}/jobs", {"outputs": {"ownership": {}, "boundaries": {}}}, expect=200)
+    request(s, "POST", f"/sessions/{sid}/jobs", {"outputs": {"ownership": {}}}, {"Prefer": "respond-async"},
+            expect=201)
+    request(s, "POST", f"/sessions/{sid}/jobs", {"outputs": {"changes": {}}}, expect=400)
+    _, h, doc = request(s, "POST", "/sessions", body, {"Prefer": "respond-async"}, expect=202)
+    second = json.loads(doc)["sessionID"]
+    request(s, "POST", "/sessions", {"inputs": body["inputs"], "outputs": {"distance": {}}}, expect=400)
+    request(s, "DELETE", f"/sessions/{sid}", expect=200)
+    request(s, "GET", f"/sessions/{sid}", expect=404)
+    request(s, "GET", "/sessions/not-a-session", expect=404)
+    end = time.time() + 60
+    while time.time() < end:
+        _, _, doc = request(s, "GET", f"/sessions/{second}", expect=200)
+        if json.loads(doc)["status"] != "creating":
+            break
+        time.sleep(0.05)
+    request(s, "DELETE", f"/sessions/{second}", expect=200)
+
+
 def main():
     tmp = tempfile.mkdtemp(prefix="rv_openapi_")
     data = os.path.join(tmp, "data")
@@ -477,6 +522,8 @@ def main():
                   and meta.get("LAYOUT") == "COG", f"compression {profile}: {meta}")
             d = None
         request(s, "POST", exe, {"inputs": {"seeds": demo, "resolution": 2000, "compression": "lzw"}}, expect=400)
+
+        sessions(s, demo)
 
         # Dismiss, then SIGKILL during a running job, then restart.
         slow = {"inputs": {"seeds": demo, "ownerField": "state", "resolution": 10, "method": "brute-force"}}

@@ -92,6 +92,38 @@ TEST(Config, TheExampleFileHoldsTheDefaults) {
   EXPECT_EQ(e.limits.max_vertices, d.limits.max_vertices);
   EXPECT_EQ(e.limits.max_input_bytes, d.limits.max_input_bytes);
   EXPECT_EQ(e.http.max_connections, d.http.max_connections);
+  EXPECT_EQ(e.sessions.max_sessions, d.sessions.max_sessions);
+  EXPECT_EQ(e.sessions.max_per_principal, d.sessions.max_per_principal);
+  EXPECT_EQ(e.sessions.max_memory_bytes, d.sessions.max_memory_bytes);
+  EXPECT_EQ(e.sessions.session_memory_bytes, d.sessions.session_memory_bytes);
+  EXPECT_EQ(e.sessions.undo_depth, d.sessions.undo_depth);
+  EXPECT_EQ(e.sessions.idle_expiry_s, d.sessions.idle_expiry_s);
+  EXPECT_EQ(e.sessions.workers, d.sessions.workers);
+  EXPECT_EQ(e.sessions.pending_per_session, d.sessions.pending_per_session);
+  EXPECT_EQ(e.daemon_name, d.daemon_name);
+}
+
+TEST(Config, SessionKeysAndTheirBudgets) {
+  rv::ServerConfig c = rv::parse_server_config(json::parse(
+      R"({"limits": {"total_memory_bytes": 1000000}, "daemon_name": "node-7",
+          "sessions": {"max_sessions": 3, "max_memory_bytes": 600000, "session_memory_bytes": 900000,
+                       "undo_depth": 5, "idle_expiry_s": 0.5, "workers": 1}})"));
+  EXPECT_EQ(c.daemon_name, "node-7");
+  EXPECT_EQ(c.sessions.max_sessions, 3);
+  EXPECT_EQ(c.sessions.undo_depth, 5);
+  EXPECT_DOUBLE_EQ(c.sessions.idle_expiry_s, 0.5);
+  EXPECT_EQ(rv::sessions_memory_budget(c), 600000);
+  EXPECT_EQ(rv::session_memory_limit(c), 600000);  // one session never above all of them
+  c = rv::parse_server_config(json::parse(R"({"limits": {"total_memory_bytes": 1000000}})"));
+  EXPECT_EQ(rv::sessions_memory_budget(c), 500000);  // half the account by default
+  EXPECT_NE(
+      message_of([] { rv::parse_server_config(json::parse(R"({"daemon_name": "Node_7"})")); }).find("daemon_name"),
+      std::string::npos);
+  EXPECT_NE(
+      message_of([] { rv::parse_server_config(json::parse(R"({"sessions": {"undo": 5}})")); }).find("sessions.undo"),
+      std::string::npos);
+  EXPECT_EQ(kind_of([] { rv::parse_server_config(json::parse(R"({"sessions": {"workers": 0}})")); }),
+            ErrorKind::invalid_argument);
 }
 
 TEST(Config, MistakesAreRefusedNamingTheKey) {
