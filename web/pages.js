@@ -46,9 +46,12 @@ function linksTable(links) {
       return el("button", { type: "button", class: "link", text: l.title || name,
         onclick: () => download(u.href, name).catch((e) => show(problemView(e))) });
     }
+    // What answers a POST only (a session's edits, undo, redo, jobs) is no page to open.
+    if ((l.title || "").startsWith("POST")) return el("code", { text: u ? u.pathname : l.href });
     return pageLink(l.href, l.title || l.href);
   };
-  return table(["Link", "Relation", "Type"], (links || []).map((l) => [cell(l), l.rel || "", l.type || ""]));
+  return table(["Link", "Relation", "Type"], (links || []).map((l) => [cell(l),
+    (l.title || "").startsWith("POST") ? l.rel + " · " + l.title : l.rel || "", l.type || ""]));
 }
 
 function landing(doc) {
@@ -198,6 +201,60 @@ function health(doc) {
   return [el("h1", { text: "Health" }), el("pre", { text: JSON.stringify(doc, null, 2) })];
 }
 
+// ---- Live what-if sessions (/sessions) -----------------------------------------------------
+
+const fmtNumber = (v) => (typeof v === "number" ? v.toLocaleString("en", { maximumSignificantDigits: 7 }) : "");
+
+function sessionList(doc) {
+  const rows = (doc.sessions || []).map((x) => [pageLink("/sessions/" + encodeURIComponent(x.sessionID), x.sessionID),
+    statusBadge(x.status), principalLink(x.principal), x.memoryBytes !== undefined ? humanBytes(x.memoryBytes) : "",
+    x.lastUsed || "", x.expires || ""]);
+  return [el("h1", { text: "Sessions" }),
+    el("p", { class: "lead", text: "Live what-if sessions on the daemon " + (doc.daemon || "") +
+      ": a job kept in memory whose seeds are edited step by step (POST /sessions with an execution request creates one)." }),
+    rows.length ? table(["Session", "Status", "Principal", "Memory", "Last used", "Expires"], rows) : el("p", { text: "No sessions." })];
+}
+
+function sessionStatus(doc) {
+  const nodes = [el("h1", { text: "Session " + doc.sessionID }),
+    el("p", {}, statusBadge(doc.status), " ", el("span", { text: doc.message || "" })),
+    facts([["Daemon", doc.daemon || ""], ["Principal", principalLink(doc.principal)], ["Created", doc.created || ""],
+      ["Last used", doc.lastUsed || ""], ["Expires", doc.expires || ""],
+      ["Grid", doc.grid ? doc.grid.width + " × " + doc.grid.height + " cells of " + doc.grid.res + " (" + doc.grid.crs + ")" : ""],
+      ["Metric", doc.metric || ""], ["Steps", doc.steps !== undefined ? doc.steps + " (undo " + doc.undo + ", redo " + doc.redo + ")" : ""],
+      ["Memory", doc.memory_bytes !== undefined ? humanBytes(doc.memory_bytes) + " (" + fmtNumber(doc.bytes_per_cell) + " bytes a cell)" : ""]])];
+  if (doc.areas) {
+    const regions = doc.areas.some((a) => a.area !== undefined);
+    nodes.push(el("h2", { text: "Areas (" + (doc.area_units || "") + ")" }),
+      table(regions ? ["Owner", "Cells' area", "Region", "Sea", "Land"] : ["Owner", "Cells' area"],
+        doc.areas.map((a) => (regions ? [a.label, fmtNumber(a.cells_area), fmtNumber(a.area), fmtNumber(a.sea_area), fmtNumber(a.land_area)]
+          : [a.label, fmtNumber(a.cells_area)]))));
+  }
+  nodes.push(el("h2", { text: "Links" }), linksTable(doc.links));
+  if (doc.status === "creating") pollTimer = setTimeout(render, 1000);
+  return nodes;
+}
+
+function sessionDeliverables(doc) {
+  return [el("h1", { text: "Deliverables kept" }),
+    table(["Deliverable", "Type"], (doc.deliverables || []).map((d) => [pageLink(d.href, d.id), d.type])),
+    el("h2", { text: "Links" }), linksTable(doc.links)];
+}
+
+// A GeoJSON collection (a session's features, a deliverable) as a table of its features.
+function featureTable(doc, path) {
+  const features = doc.features || [];
+  const keys = [...new Set(features.flatMap((f) => Object.keys(f.properties || {})))].slice(0, 8);
+  const vertices = (g) => (g ? JSON.stringify(g.coordinates || []).split("],[").length : 0);
+  const rows = features.slice(0, 2000).map((f) => [f.id !== undefined ? String(f.id) : "", (f.geometry || {}).type || "",
+    String(vertices(f.geometry)), ...keys.map((k) => { const v = (f.properties || {})[k]; return v === null || v === undefined ? "" : typeof v === "object" ? JSON.stringify(v) : String(v); })]);
+  const session = path.split("/")[2] || "";
+  return [el("h1", { text: path.split("/").pop() + " of session " + session }),
+    pageLink("/sessions/" + encodeURIComponent(session), "Session status"),
+    el("p", { class: "muted", text: features.length + " features" + (features.length > 2000 ? " (the first 2000 shown)" : "") }),
+    table(["Id", "Geometry", "Vertices", ...keys], rows)];
+}
+
 const VIEWS = [
   [/^\/$/, landing],
   [/^\/conformance$/, conformance],
@@ -208,6 +265,10 @@ const VIEWS = [
   [/^\/jobs\/[^/]+\/results$/, results],
   [/^\/health$/, health],
   [/^\/me$/, me],
+  [/^\/sessions$/, sessionList],
+  [/^\/sessions\/[^/]+$/, sessionStatus],
+  [/^\/sessions\/[^/]+\/deliverables$/, sessionDeliverables],
+  [/^\/sessions\/[^/]+\/(features|deliverables\/(boundaries|tripoints|limits|regions))$/, featureTable],
 ];
 
 async function render() {

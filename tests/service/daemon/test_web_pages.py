@@ -49,6 +49,7 @@ def check(condition, what):
     if not condition:
         FAILURES.append(what)
         print("FAIL:", what, flush=True)
+    return condition
 
 
 def job_body(labels):
@@ -188,6 +189,36 @@ def pages(drv, base, job, hostile):
         check(False, "an alert opened: %s" % alert.text)
     except Exception:
         pass
+
+
+def session_pages(drv, d, base, hostile):
+    """The session resources (issue 54) as pages: list, status with the owners' areas, the
+    deliverables kept, the features and a deliverable as tables; labels stay text."""
+    body = job_body(hostile)
+    body["outputs"] = {"boundaries": {}, "regions": {}}
+    status, _, doc = d.json("POST", "/sessions", body)
+    if not check(status == 201, "session created: %s %s" % (status, doc)):
+        return
+    sid = doc["sessionID"]
+    visits = [("/sessions?f=html", sid, "sessions"), ("/sessions/%s?f=html" % sid, "Areas", "session"),
+              ("/sessions/%s/deliverables?f=html" % sid, "boundaries", "session-deliverables"),
+              ("/sessions/%s/features?f=html" % sid, "3 features", "session-features"),
+              ("/sessions/%s/deliverables/regions?f=html" % sid, "2 features", "session-regions")]
+    for path, text, name in visits:
+        drv.get(base + path)
+        settle(drv, text)
+        shot(drv, name)
+        errors = console_errors(drv)
+        check(not errors, "%s: console errors %s" % (path, errors))
+        accessibility(drv, path)
+        injected = drv.execute_script("return document.querySelectorAll('#content [onerror], #content script').length")
+        check(injected == 0, "%s: an element made from the labels" % path)
+    drv.get(base + "/sessions/%s?f=html" % sid)
+    settle(drv, "Areas")
+    text = drv.find_element(By.ID, "content").text
+    for label in hostile:
+        check(label in text, "the session's area table shows the label %r as text" % label)
+    check("Region" in text and "Cells' area" in text, "the session's areas: cells' and regions'")
 
 
 def job_row(drv, job):
@@ -363,6 +394,7 @@ def main():
                 labels = [HOSTILE, HOSTILE_IMG]
                 job = run_job(d, labels)
                 pages(drv, "http://127.0.0.1:%d" % d.port, job, labels)
+                session_pages(drv, d, "http://127.0.0.1:%d" % d.port, labels)
             finally:
                 d.stop()
             d, token = closed_daemon(RVORONOI, tmp)
