@@ -12,10 +12,13 @@ import { el, table, sessionBar, headers, Problem, getJson, problemView, humanByt
 import { ACCEPT, seedInput, describeSeeds, postJson } from "./upload.js";
 import { jobFields, readForm, niceNumber } from "./form.js";
 import { MapView, projectionFor } from "./map.js";
+import { EditMode } from "./edit.js";
 
 const panel = document.getElementById("panel");
 const cellBox = document.getElementById("cell");
 const view = new MapView("map");
+// The map for scripts on this page's element (the browser tests find a feature's pixel with it).
+document.getElementById("map").rvoronoiView = view;
 const state = { process: null, file: null, seeds: null, inventory: null, job: null, report: null, pollTimer: 0 };
 
 function setState(s) {
@@ -58,6 +61,7 @@ const sections = {
   job: el("section", { "aria-labelledby": "h-job", hidden: "" }),
   progress: el("section", { "aria-labelledby": "h-progress", hidden: "" }),
   result: el("section", { "aria-labelledby": "h-result", hidden: "" }),
+  edit: el("section", { "aria-labelledby": "h-edit", hidden: "" }),
 };
 
 function seedPicker() {
@@ -158,6 +162,11 @@ function buildForm() {
 async function runJob(form) {
   clearTimeout(state.pollTimer);
   const { inputs, outputs } = readForm(form, state.process);
+  state.request = { inputs, outputs };
+  if (state.edit) {
+    state.edit.stop();
+    state.edit = null;
+  }
   const bar = el("progress", { id: "job-progress", max: "100", value: "0", "aria-label": "Job progress" });
   const message = el("p", { id: "job-message", class: "muted", role: "status", text: "Sending the job…" });
   const cancel = el("button", { type: "button", text: "Cancel" });
@@ -260,7 +269,8 @@ function legend(report) {
 }
 
 function layerToggles() {
-  const names = [["owners", "Owners' sea"], ["seeds", "Seeds"], ["boundaries", "Boundaries"], ["tripoints", "Tripoints"], ["limits", "Limits"]];
+  const names = [["owners", "Owners' sea"], ["regions", "Regions"], ["seeds", "Seeds"], ["edit", "Seeds being edited"],
+    ["boundaries", "Boundaries"], ["tripoints", "Tripoints"], ["limits", "Limits"]];
   const box = el("fieldset", { class: "toggles" }, el("legend", { text: "Layers" }));
   for (const [name, text] of names) {
     const layer = view.layers[name];
@@ -308,21 +318,51 @@ async function showResults(id, inputs) {
     downloads.append(el("li", {}, el("button", { type: "button", class: "link", text: "ownership.tif.aux.xml", onclick: () => download(sidecar, "ownership.tif.aux.xml").catch((e) => downloads.append(problemBox(e))) }),
       " (the raster attribute table: keep it beside ownership.tif)"));
   }
+  const toggles = el("div", { id: "toggles" }, layerToggles());
+  const editButton = el("button", { type: "button", id: "edit-start", text: "What if… (edit the seeds)",
+    onclick: () => startEdit(byLabel, toggles, editButton) });
+  sections.edit.hidden = true;
   sections.result.replaceChildren(
     el("h2", { id: "h-result", text: "4 · Result" }),
     el("p", {}, "Job ", el("a", { href: "/jobs/" + id + "?f=html", text: id }), " · " + (report.grid ? report.grid.width + " × " + report.grid.height + " cells" : "")),
-    layerToggles(), ...legend(report),
-    el("h3", { text: "Downloads" }), downloads);
+    toggles, ...legend(report),
+    el("h3", { text: "Downloads" }), downloads, editButton);
   sections.result.hidden = false;
   sections.result.scrollIntoView({ block: "start" });
   cellBox.textContent = "Click the map for a cell's owner and distance.";
   setState("done");
 }
 
+// ---- What if: a live session of the job ---------------------------------------------------------
+
+async function startEdit(byLabel, toggles, button) {
+  const { inputs, outputs } = state.request;
+  if (inputs.crs) {
+    sections.edit.replaceChildren(el("h2", { id: "h-edit", text: "5 · What if" }),
+      el("p", { text: "Editing needs the seeds in the grid's CRS; this job reprojects them (its CRS option)." }));
+    sections.edit.hidden = false;
+    return;
+  }
+  button.disabled = true;
+  // The session keeps the job's lines and regions; a saved job writes the job's own outputs.
+  const keep = {};
+  for (const name of ["boundaries", "tripoints", "limits", "regions"]) if (outputs[name]) keep[name] = {};
+  const saveOutputs = { ...outputs };
+  delete saveOutputs.changes;
+  const edit = new EditMode(view, sections.edit, { inputs: { ...inputs, seeds: state.seeds }, outputs: keep, saveOutputs },
+    (label) => byLabel.get(label), problemBox);
+  state.edit = edit;
+  await edit.start();
+  // The owners' raster is the job's, not the session's: the regions stand for it while editing.
+  toggles.replaceChildren(layerToggles());
+  cellBox.textContent = "Editing: drag a basepoint or a vertex; click a feature to weight, reach or remove it.";
+  sections.edit.scrollIntoView({ block: "start" });
+}
+
 // ---- The cell read-out ------------------------------------------------------------------------
 
 view.map.on("singleclick", async (ev) => {
-  if (!state.report) return;
+  if (!state.report || state.edit) return;  // while editing, a click picks a feature (edit.js)
   try {
     const c = await view.cellAt(ev.coordinate);
     if (!c) {

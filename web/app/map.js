@@ -116,6 +116,25 @@ export class MapView {
     this.setLayer(name, new VectorLayer({ source, style: STYLES[name] }), z);
   }
 
+  // A job's or session's regions (one multipolygon per owner, GeoJSON with its "label") filled in
+  // the owners' colours, `colourOf(label)`, under the lines: the owners' sea as the deliverable
+  // draws it (a live session's, where no raster of the current state exists).
+  showRegions(collection, colourOf) {
+    if (!collection) return this.setLayer("regions", null);
+    const format = new GeoJSON({ dataProjection: this.projection, featureProjection: this.projection });
+    const source = new VectorSource({ features: format.readFeatures(collection) });
+    const cache = new Map();
+    const style = (f) => {
+      const colour = colourOf(String(f.get("label"))) || "#999999";
+      if (!cache.has(colour)) {
+        const rgb = [1, 3, 5].map((i) => parseInt(colour.slice(i, i + 2), 16));
+        cache.set(colour, new Style({ fill: new Fill({ color: [...rgb, 0.75] }), stroke: new Stroke({ color: colour, width: 0.5 }) }));
+      }
+      return cache.get(colour);
+    };
+    this.setLayer("regions", new VectorLayer({ source, style }), 1);
+  }
+
   // The owner raster at `url` in the colours `colours` (code -> CSS colour); `distanceUrl` for
   // the cell read-out.
   showOwners(url, distanceUrl, colours) {

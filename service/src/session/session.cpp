@@ -165,6 +165,7 @@ json Session::State::deliver(const Edit* edit, const TileSummaries* before, json
   remove_memory_files(dir);
   texts = std::move(now);
   report = run.report["deliverables"];
+  if (run.timings.contains("deliverables")) recompute["deliverables_s"] = run.timings["deliverables"];
   recompute["rows_extracted"] = extracted;
   recompute["rows_taken"] = job.grid.height - extracted;
   if (!why.empty()) recompute["why_every_row"] = why;

@@ -384,6 +384,116 @@ def with_token(drv, d, base, downloads):
     check(not any(d.token in line for line in d.log), "the token appears in no logged request")
 
 
+def map_pixel(drv, coordinate):
+    return drv.execute_script(
+        "return document.getElementById('map').rvoronoiView.map.getPixelFromCoordinate(arguments[0]);", coordinate)
+
+
+def drag(drv, pixel, by):
+    """Presses at `pixel` of the map (from its top left), moves by `by` pixels in steps, releases."""
+    m = drv.find_element(By.ID, "map")
+    dx, dy = pixel[0] - m.size["width"] / 2, pixel[1] - m.size["height"] / 2
+    chain = ActionChains(drv).move_to_element_with_offset(m, int(round(dx)), int(round(dy))).click_and_hold()
+    for _ in range(4):
+        chain = chain.move_by_offset(by[0] // 4, by[1] // 4).pause(0.05)
+    chain.release().perform()
+
+
+def wait_step(drv, step, seconds=60):
+    WebDriverWait(drv, seconds).until(
+        lambda x: page_state(x) == "editing" and x.find_element(By.ID, "edit-step").get_attribute("data-step") == str(step))
+
+
+def line_set(coordinates_list):
+    return sorted(json.dumps([[round(float(c), 6) for c in p] for p in line]) for line in coordinates_list)
+
+
+def edit_run(drv, d, base):
+    """Issue 54's map page test: the what-if mode on a live session. Drag a point, check that the
+    drawn boundary is the session's and that the areas changed by the session's amounts; undo;
+    pick and remove a feature; move a vertex by typed coordinates; save as a job."""
+    check(open_app(drv, base) == "ready", "edit: the page starts")
+    check(load(drv, os.path.join(FIXTURES, "demo_basepoints.geojson")) == "described", "edit: the points are described")
+    check(run(drv, resolution="250") == "done", "edit: the job ran")
+    drv.find_element(By.ID, "edit-start").click()
+    check(wait_state(drv, ("editing", "edit-failed"), 120) == "editing",
+          "edit: the session started: %s" % drv.find_element(By.ID, "panel").text[-400:])
+    accessibility(drv, "edit mode")
+    sid = drv.find_element(By.ID, "edit-step").get_attribute("data-session")
+    _, _, start = d.json("GET", "/sessions/" + sid)
+    start_area = {a["label"]: a["area"] for a in start["areas"]}
+    _, _, fc = d.json("GET", "/sessions/%s/features" % sid)
+    first = fc["features"][0]
+    at = first["geometry"]["coordinates"]
+    drag(drv, map_pixel(drv, at), (48, 36))
+    wait_step(drv, 1)
+    shot(drv, "edit-dragged")
+    _, _, fc = d.json("GET", "/sessions/%s/features" % sid)
+    moved = fc["features"][0]["geometry"]["coordinates"]
+    check(moved != at, "edit: the dragged point moved on the server: %s -> %s" % (at, moved))
+    pixel = map_pixel(drv, moved)
+    start_pixel = map_pixel(drv, at)
+    check(abs(pixel[0] - start_pixel[0] - 48) <= 3 and abs(pixel[1] - start_pixel[1] - 36) <= 3,
+          "edit: the point went where it was dropped: %s from %s" % (pixel, start_pixel))
+    drawn = drv.execute_script(
+        "return document.getElementById('map').rvoronoiView.layers.boundaries.getSource().getFeatures()"
+        ".map(f => f.getGeometry().getCoordinates());")
+    _, _, served = d.json("GET", "/sessions/%s/deliverables/boundaries" % sid)
+    check(line_set(drawn) == line_set([f["geometry"]["coordinates"] for f in served["features"]]),
+          "edit: the drawn boundaries are the session's (%d drawn, %d served)" % (len(drawn), len(served["features"])))
+    _, _, now = d.json("GET", "/sessions/" + sid)
+    rows = {r.get_attribute("data-owner"): r for r in drv.find_elements(By.CSS_SELECTOR, "#edit-areas tr[data-owner]")}
+    changed = 0
+    for a in now["areas"]:
+        r = rows.get(a["label"])
+        if not check(r is not None, "edit: the area table lists %s" % a["label"]):
+            continue
+        page_area, page_change = float(r.get_attribute("data-area")), float(r.get_attribute("data-change"))
+        want = a["area"] - start_area[a["label"]]
+        check(page_area == a["area"] and abs(page_change - want) <= 1e-9 * max(1.0, abs(a["area"])),
+              "edit: %s's area %r, change %r; the session says %r, %r" % (a["label"], page_area, page_change, a["area"], want))
+        changed += want != 0
+        if want != 0:
+            check((a["label"] + " +" if want > 0 else a["label"] + " −") in r.text, "edit: the change is shown signed: %s" % r.text)
+    check(changed >= 2, "edit: the drag moved sea between owners (%d owners changed)" % changed)
+    # Undo: back to the start.
+    drv.find_element(By.ID, "edit-undo").click()
+    wait_step(drv, 0)
+    changes = [float(r.get_attribute("data-change")) for r in drv.find_elements(By.CSS_SELECTOR, "#edit-areas tr[data-owner]")]
+    check(changes and all(c == 0 for c in changes), "edit: undo brings the areas back: %s" % changes)
+    # Pick a feature by a click and remove it.
+    second = fc["features"][1]
+    pixel = map_pixel(drv, second["geometry"]["coordinates"])
+    m = drv.find_element(By.ID, "map")
+    ActionChains(drv).move_to_element_with_offset(m, int(pixel[0] - m.size["width"] / 2),
+                                                  int(pixel[1] - m.size["height"] / 2)).click().perform()
+    WebDriverWait(drv, 10).until(lambda x: ("Feature " + second["id"]) in x.find_element(By.ID, "edit-feature").text)
+    drv.find_element(By.ID, "pick-remove").click()
+    wait_step(drv, 1)
+    _, _, fc2 = d.json("GET", "/sessions/%s/features" % sid)
+    check(second["id"] not in [f["id"] for f in fc2["features"]], "edit: the picked feature was removed")
+    # A vertex moved by typed coordinates.
+    third = fc["features"][2]
+    x, y = third["geometry"]["coordinates"]
+    for fid, value in (("move-feature", third["id"]), ("move-path", ""), ("move-x", str(x + 700)), ("move-y", str(y - 300))):
+        field = drv.find_element(By.ID, fid)
+        field.clear()
+        field.send_keys(value)
+    drv.find_element(By.CSS_SELECTOR, "#edit-move button[type=submit]").click()
+    wait_step(drv, 2)
+    _, _, fc3 = d.json("GET", "/sessions/%s/features" % sid)
+    got = [f for f in fc3["features"] if f["id"] == third["id"]][0]["geometry"]["coordinates"]
+    check(got == [x + 700, y - 300], "edit: the typed move reached the server: %s" % got)
+    # Save as job.
+    drv.find_element(By.ID, "edit-save").click()
+    WebDriverWait(drv, 30).until(lambda x: x.find_elements(By.ID, "edit-saved"))
+    job = drv.find_element(By.ID, "edit-saved").text
+    status = d.wait_status(job, ("successful", "failed"), 120)
+    check(status["status"] == "successful", "edit: the saved job ran: %s" % status)
+    shot(drv, "edit-done")
+    check(not errors(drv), "edit: no JavaScript errors: %s" % errors(drv))
+
+
 def main():
     os.makedirs(ARTEFACTS, exist_ok=True)
     with tempfile.TemporaryDirectory() as tmp:
@@ -396,6 +506,7 @@ def main():
                 api_checks(d)
                 oresund_run(drv, d, "http://127.0.0.1:%d" % d.port, "open")
                 check(not errors(drv), "no JavaScript errors: %s" % errors(drv))
+                edit_run(drv, d, "http://127.0.0.1:%d" % d.port)
                 baltic_run(drv, "http://127.0.0.1:%d" % d.port)
                 too_large(drv, "http://127.0.0.1:%d" % d.port)
                 drv.get_log("browser")  # the 413 itself is logged by the browser
