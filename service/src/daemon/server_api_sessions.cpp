@@ -8,6 +8,7 @@
 #include "daemon/server_execute.hpp"
 #include "runtime/server_util.hpp"
 #include "rv/field/error.hpp"
+#include "rv/field/parallel.hpp"
 #include "rv/options.hpp"
 
 namespace rv::daemon {
@@ -133,6 +134,9 @@ void Api::create_session(const Request& req) const {
                 "input 'baseJob': a session starts from seeds; edit it with POST /sessions/{id}/edits");
   for (const Kept* k : keep)
     if (std::string* path = output_path(ex.spec.outputs, k->output)) *path = k->name;
+  // The analyst waits for every step: a session's work runs on every hardware thread (a job's on
+  // its share, jobs.threads_per_job), and so do the jobs saved from it.
+  ex.spec.threads = config_.jobs.threads_per_job > 0 ? config_.jobs.threads_per_job : resolve_threads(0);
   const bool async = prefers_respond_async(req.ctx.request.prefer);
   const std::string base = req.ctx.base;
   const std::string path = req.ctx.path;

@@ -609,10 +609,12 @@ void StripDeliverables::finish() {
     if (!s.out().boundaries.empty()) run.wrote("boundaries", s.out().boundaries);
     if (!s.out().tripoints.empty()) run.wrote("tripoints", s.out().tripoints);
     s.times["boundaries"] = s.boundary_seconds + boundary_write;
+    s.times["boundaries_write"] = boundary_write;
   }
   if (s.limits) {
     run.wrote("limits", s.out().limits);
     s.times["limits"] = s.limit_seconds + limit_write;
+    s.times["limits_write"] = limit_write;
   }
   if (!s.out().turning_points.empty()) {
     run.check_cancel();
