@@ -237,14 +237,22 @@ def part_one_to_four(tmp):
         check(steps == [3, 4, 5], f"concurrent edits' steps {steps} {[a[0] for a in answers]}")
         equal_to_fresh(d, sid, alice, "after concurrent edits")
         # Edits run ahead of queued jobs: one worker busy on a large job, another job queued.
-        big = {"inputs": {**inputs(seed_collection()), "resolution": 4}, "outputs": {"ownership": {}}}
+        # The running job is made slow (brute force over 23 million cells) so that it still runs
+        # when the edit answers, whatever the machine's load.
+        big = {"inputs": {**inputs(seed_collection()), "resolution": 3, "method": "brute-force"},
+               "outputs": {"ownership": {}}}
         del big["inputs"]["limitDistances"]
         _, _, slow = d.json("POST", "/processes/voronoi/execution", big, {**root, "Prefer": "respond-async"})
         _, _, queued = d.json("POST", "/processes/voronoi/execution", big, {**root, "Prefer": "respond-async"})
+        end = time.time() + 30
+        while d.json("GET", f"/jobs/{slow['jobID']}", None, root)[2]["status"] == "accepted" and time.time() < end:
+            time.sleep(0.01)
         status, _, answer = edit(d, sid, [{"op": "set", "feature": "3", "properties": {"weight": 1.1}}], alice)
         check(status == 200, f"edit beside jobs: {status} {answer}")
         _, _, q = d.json("GET", f"/jobs/{queued['jobID']}", None, root)
-        check(q["status"] == "accepted", f"the edit waited for the jobs (the queued job is {q['status']})")
+        _, _, r = d.json("GET", f"/jobs/{slow['jobID']}", None, root)
+        check(q["status"] == "accepted" and r["status"] == "running",
+              f"the edit waited for the jobs (the running job is {r['status']}, the queued one {q['status']})")
         for j in (slow, queued):
             d.json("DELETE", f"/jobs/{j['jobID']}", None, root)
 

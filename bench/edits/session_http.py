@@ -2,15 +2,15 @@
 """Live what-if sessions through the daemon (issue 54): the server time of an edit as a client
 sees it, from sending the request to its last byte (localhost), median and worst of N random edits.
 
-    bench/session_http.py RVORONOI baltic RES N FIXTURES   the western Baltic, geodesic, boundaries,
+    bench/edits/session_http.py RVORONOI baltic RES N FIXTURES   the western Baltic, geodesic, boundaries,
                                                         tripoints, 12/24 nmi limits, regions; each
                                                         edit moves one DK coast vertex ~100 m
-    bench/session_http.py RVORONOI points SIZE N           SIZE x SIZE planar cells, 50,000 random
+    bench/edits/session_http.py RVORONOI points SIZE N           SIZE x SIZE planar cells, 50,000 random
                                                         points of 8 owners, the field alone; each
                                                         edit moves one point by 5 cells
 
 Each edit is undone (untimed) before the next, so that every edit starts from the session's first
-state, as bench/session_bench.cpp does in process. Prints one line per edit and a Markdown row.
+state, as bench/edits/session_bench.cpp does in process. Prints one line per edit and a Markdown row.
 """
 import base64
 import json
@@ -21,7 +21,7 @@ import sys
 import tempfile
 import time
 
-sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "tests", "service", "daemon"))
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "tests", "service", "daemon"))
 from daemon_harness import Daemon  # noqa: E402
 
 

@@ -11,7 +11,7 @@
 #include <random>
 #include <vector>
 
-#include "bench_case.hpp"
+#include "../bench_case.hpp"
 #include "rv/edit/edit.hpp"
 #include "rv/engine/engine.hpp"
 

@@ -1,9 +1,9 @@
 #!/usr/bin/env python3
 """Edits of a finished job against fresh runs (issue 32), the whole `rvoronoi compute` command.
 
-    /usr/bin/python3 bench/edits.py --binary build/service/rvoronoi [--side 10000] [--seeds 50000]
+    /usr/bin/python3 bench/edits/edits.py --binary build/service/rvoronoi [--side 10000] [--seeds 50000]
         [--repeats 3] [--work DIR] [--outputs ownership,distance] > table.md
-    /usr/bin/python3 bench/edits.py --binary build/service/rvoronoi --coast [--resolution 0.0004] > table.md
+    /usr/bin/python3 bench/edits/edits.py --binary build/service/rvoronoi --coast [--resolution 0.0004] > table.md
 
 --coast: the western Baltic of fixtures/ (four states, each one multipolygon, geodesic on
 WGS84) with boundaries, tripoints and 12 / 24 nmi limits besides the rasters. The edit moves one
@@ -82,7 +82,7 @@ def same_files(a, b, outputs):
             sys.exit(f"{o}: the edit's file differs from the fresh run's ({a} vs {b})")
 
 
-FIXTURES = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "fixtures")
+FIXTURES = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "fixtures")
 COAST_FILES = ["ownership.tif", "distance.tif", "boundaries.geojson", "tripoints.geojson", "limits.geojson"]
 
 
