@@ -46,12 +46,24 @@ X0, Y0, EPSG = 400000.0, 6100000.0, 32633
 
 
 def write_points(path, pts):
+    """Points (id, x, y) owned by their id, or (id, x, y, owner)."""
     with open(path, "w") as f:
         f.write('{"type":"FeatureCollection","crs":{"type":"name","properties":{"name":"urn:ogc:def:crs:EPSG::%d"}},'
                 '"features":[\n' % EPSG)
         f.write(",\n".join('{"type":"Feature","id":%d,"properties":{"id":%d},"geometry":{"type":"Point",'
-                           '"coordinates":[%r,%r]}}' % (i, i, x, y) for i, x, y in pts))
+                           '"coordinates":[%r,%r]}}' % (p[0], p[3] if len(p) > 3 else p[0], p[1], p[2]) for p in pts))
         f.write("]}\n")
+
+
+def mixed(p, k):
+    """Issue 54's case: three points removed, two moved, two added, one point given another's owner."""
+    q = list(p)
+    q[k + 300] = (q[k + 300][0], q[k + 300][1] + 5.0, q[k + 300][2] - 3.0)
+    q[k + 400] = (q[k + 400][0], q[k + 400][1] - 4.0, q[k + 400][2] + 6.0)
+    q[k + 500] = (q[k + 500][0], q[k + 500][1], q[k + 500][2], q[k + 501][0])
+    for i in (k + 200, k, k - 200):
+        del q[i]
+    return q + [(len(p) + 1, p[k][1] + 7.0, p[k][2] + 2.0), (len(p) + 2, p[k + 50][1] - 6.0, p[k + 50][2] + 1.0)]
 
 
 def command(binary, seeds, side, outdir, outputs, report=True, base=None):
@@ -192,6 +204,7 @@ def main():
     ap.add_argument("--work", default="/tmp/rv_edits_bench")
     ap.add_argument("--outputs", default="ownership,distance")
     ap.add_argument("--old", help="another build's binary, whose edits are timed alongside")
+    ap.add_argument("--only", help="only the edits whose name starts so (e.g. remove)")
     a = ap.parse_args()
     if a.coast:
         return coast(a)
@@ -213,7 +226,10 @@ def main():
     k = len(pts) // 2
     edits = [("move one point", lambda p: p[:k] + [(p[k][0], p[k][1] + 5.0, p[k][2] - 3.0)] + p[k + 1:]),
              ("remove one point", lambda p: p[:k] + p[k + 1:]),
-             ("add one point", lambda p: p + [(len(p) + 1, p[k][1] + 7.0, p[k][2] + 2.0)])]
+             ("add one point", lambda p: p + [(len(p) + 1, p[k][1] + 7.0, p[k][2] + 2.0)]),
+             ("remove 3, move 2, add 2, one owner changed", lambda p: mixed(p, k))]
+    if a.only:
+        edits = [e for e in edits if e[0].startswith(a.only)]
     for name, edit in edits:
         write_points(seeds, edit(pts))
         e_dir, f_dir = os.path.join(a.work, "edit"), os.path.join(a.work, "fresh")

@@ -38,8 +38,9 @@ void copy_from(StreamTarget& t, const EditBase& base, const char* role, const Co
 
 }  // namespace
 
-void attach_edit(StreamJob& stream, StreamEdit& st, const JobSpec& spec, const PreparedJob& job, EditBase& base) {
-  stream.compute.prepared = prepare(job.loaded.seeds, job.grid, stream.compute);
+void attach_edit(StreamJob& stream, StreamEdit& st, const JobSpec& spec, const PreparedJob& job, EditBase& base,
+                 std::shared_ptr<const PreparedSeeds> prepared) {
+  stream.compute.prepared = prepared ? std::move(prepared) : prepare(job.loaded.seeds, job.grid, stream.compute);
   st.edit.emplace(base.seeds(), job.loaded.seeds, job.grid, stream.compute);
   st.tallier.emplace(base.seeds(), job.loaded.seeds, job.grid, job.compute.geolocator.get());
   st.tally.tiles_read.assign(base.tiles().max_cost.size(), false);

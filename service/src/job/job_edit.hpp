@@ -30,8 +30,10 @@ struct StreamEdit {
 
 // Makes `stream` an edit of `base`: its source, the changes raster (spec.outputs.changes), and
 // on each target whose tiles can be copied, the base's file and checksums. `stream`'s targets
-// (the job's rasters) must be in place; `st`, `base` and `job` must outlive the run.
-void attach_edit(StreamJob& stream, StreamEdit& st, const JobSpec& spec, const PreparedJob& job, EditBase& base);
+// (the job's rasters) must be in place; `st`, `base` and `job` must outlive the run. `prepared`:
+// the job's seeds prepared (rv::prepare) already, else prepared here.
+void attach_edit(StreamJob& stream, StreamEdit& st, const JobSpec& spec, const PreparedJob& job, EditBase& base,
+                 std::shared_ptr<const PreparedSeeds> prepared = nullptr);
 
 // An edit's lines (after attach_edit): the rows near the edit's changes extracted again, every
 // other row's pieces taken from the base's (rv::Edit::line_rows, StripDeliverables::

@@ -121,6 +121,110 @@ TEST(TiffTiles, EveryProfileAndTypeDecodesBitForBit) {
   }
 }
 
+// Every tile of `path` decoded by TileDecompressor equals GDAL's block of it, byte for byte.
+// Returns the tiles compared.
+int decoded_like_gdal(const std::string& path) {
+  detail::RawTileFile raw(path, detail::TileFormat{}, path, detail::RawTileFile::Access::raw);
+  const detail::StoredTiles& stored = raw.stored();
+  EXPECT_TRUE(stored.decodable) << path;
+  if (!stored.decodable) return 0;
+  const auto ds = open(path);
+  GDALRasterBand* band = ds->GetRasterBand(1);
+  int bx = 0, by = 0;
+  band->GetBlockSize(&bx, &by);
+  EXPECT_EQ(bx, stored.format.width);
+  EXPECT_EQ(by, stored.format.height);
+  const size_t bytes = static_cast<size_t>(bx) * by * stored.format.sample_bytes;
+  EXPECT_EQ(static_cast<int>(bytes / (static_cast<size_t>(bx) * by)),
+            GDALGetDataTypeSizeBytes(band->GetRasterDataType()));
+  detail::TileDecompressor decoder(stored.format);
+  std::vector<uint8_t> buf, ours(bytes), theirs(bytes);
+  int tiles = 0;
+  for (int64_t ty = 0; ty * by < ds->GetRasterYSize(); ++ty)
+    for (int64_t tx = 0; tx < raw.tiles_across(); ++tx) {
+      decoder.decode(raw.read(tx, ty, buf), ours.data());
+      EXPECT_EQ(band->ReadBlock(static_cast<int>(tx), static_cast<int>(ty), theirs.data()), CE_None);
+      // The cells inside the image (what an edit takes; GDAL may fill an edge tile's outside).
+      const int64_t rows = std::min<int64_t>(by, ds->GetRasterYSize() - ty * by);
+      const int64_t cols = std::min<int64_t>(bx, ds->GetRasterXSize() - tx * bx);
+      const auto row_bytes = static_cast<size_t>(bx) * stored.format.sample_bytes;
+      for (int64_t r = 0; r < rows; ++r)
+        EXPECT_EQ(std::memcmp(ours.data() + r * row_bytes, theirs.data() + r * row_bytes,
+                              static_cast<size_t>(cols) * stored.format.sample_bytes),
+                  0)
+            << path << " tile " << tx << ", " << ty << " row " << r;
+      ++tiles;
+    }
+  return tiles;
+}
+
+// The decoder an edit recodes its base's tiles with (tiff_tiles.hpp): every profile and type,
+// of the files written here and of files GDAL (libtiff's encoder) wrote, decoded as GDAL decodes
+// them; a damaged tile is an error, not garbage.
+TEST(TiffTiles, TheDecoderReadsEveryProfileAsGdalDoes) {
+  gdal_init();
+  ScratchDir dir;
+  const GridSpec grid = grid_of(300, 290);
+  const Raster<float> dist = distances_for(grid);
+  for (const Compression c : {Compression::fast, Compression::small, Compression::deflate, Compression::none}) {
+    for (const int64_t max_code : {int64_t{200}, int64_t{60000}, int64_t{-1}}) {
+      GeoTiffOptions o;
+      o.compression = c;
+      o.max_code = max_code;
+      const std::string path = dir.file("d_" + std::string(to_string(c)) + std::to_string(max_code) + ".tif");
+      write_geotiff(path, codes_for(grid, max_code), 0.0, o);
+      EXPECT_EQ(decoded_like_gdal(path), 4);
+    }
+    GeoTiffOptions o;
+    o.compression = c;
+    const std::string path = dir.file("df_" + std::string(to_string(c)) + ".tif");
+    write_geotiff(path, dist, -1.0, o);
+    EXPECT_EQ(decoded_like_gdal(path), 4);
+  }
+  // Written by GDAL's own encoders (libtiff): ZSTD and DEFLATE, each predictor.
+  GDALDriver* gtiff = GetGDALDriverManager()->GetDriverByName("GTiff");
+  struct Case {
+    const char* compress;
+    const char* predictor;
+    GDALDataType type;
+  } cases[] = {{"ZSTD", "2", GDT_UInt16},  {"DEFLATE", "2", GDT_Int32},   {"ZSTD", "1", GDT_Byte},
+               {"ZSTD", "3", GDT_Float32}, {"DEFLATE", "3", GDT_Float32}, {"NONE", "1", GDT_Int16}};
+  for (const Case& k : cases) {
+    const std::string path = dir.file(std::string("g_") + k.compress + k.predictor + ".tif");
+    CPLStringList options;
+    options.SetNameValue("TILED", "YES");
+    options.SetNameValue("BLOCKXSIZE", "256");
+    options.SetNameValue("BLOCKYSIZE", "256");
+    options.SetNameValue("COMPRESS", k.compress);
+    if (std::string(k.compress) != "NONE") options.SetNameValue("PREDICTOR", k.predictor);
+    {
+      std::unique_ptr<GDALDataset> ds(gtiff->Create(path.c_str(), 300, 290, 1, k.type, options.List()));
+      ASSERT_TRUE(ds);
+      const Raster<int32_t> codes = codes_for(grid, k.type == GDT_Byte ? 200 : k.type == GDT_UInt16 ? 60000 : 30000);
+      if (k.type == GDT_Float32)
+        ASSERT_EQ(ds->GetRasterBand(1)->RasterIO(GF_Write, 0, 0, 300, 290, const_cast<float*>(dist.cells().data()), 300,
+                                                 290, GDT_Float32, 0, 0),
+                  CE_None);
+      else
+        ASSERT_EQ(ds->GetRasterBand(1)->RasterIO(GF_Write, 0, 0, 300, 290, const_cast<int32_t*>(codes.cells().data()),
+                                                 300, 290, GDT_Int32, 0, 0),
+                  CE_None);
+    }
+    SCOPED_TRACE(path);
+    EXPECT_EQ(decoded_like_gdal(path), 4);
+  }
+  // A damaged tile: cut short, or other bytes.
+  const std::string path = dir.file("d_fast-1.tif");
+  detail::RawTileFile raw(path, detail::TileFormat{}, path, detail::RawTileFile::Access::raw);
+  std::vector<uint8_t> buf;
+  const detail::EncodedTile t = raw.read(0, 0, buf);
+  std::vector<uint8_t> out(static_cast<size_t>(256 * 256 * raw.stored().format.sample_bytes));
+  detail::TileDecompressor decoder(raw.stored().format);
+  expect_error(ErrorKind::io, [&] { decoder.decode({t.data, t.size / 2}, out.data()); }, {"does not decode"});
+  std::vector<uint8_t> junk(t.size, 0x5a);
+  expect_error(ErrorKind::io, [&] { decoder.decode({junk.data(), junk.size()}, out.data()); }, {"does not decode"});
+}
+
 TEST(TiffTiles, TheFileDoesNotDependOnTheThreadCount) {
   ScratchDir dir;
   // Ten tiles across: several chunks per band, and bands of 256 and of 44 rows.

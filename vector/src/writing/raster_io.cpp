@@ -388,6 +388,11 @@ struct GeoTiffStripWriter<T>::State {
   // The earlier file opened by GDAL, to decode tiles whose cells are needed: remapped tiles, and a
   // COG's copied tiles (its overviews are made from every cell).
   gdal::DatasetPtr earlier_ds;
+  // Where the earlier file's tiles are of a layout TileDecompressor undoes (tiff_tiles.hpp): they
+  // are decoded here instead, `threads` at a time (GDAL's reads decode one tile after another on
+  // the writer's thread: the whole cost of recoding a file whose codes all moved).
+  std::vector<detail::TileDecompressor> decoders;  // one per thread; empty: GDAL decodes
+  std::vector<std::vector<uint8_t>> copied_bytes;  // the band's copied tiles, as stored
   std::vector<int32_t> remap;  // integer files: earlier value v -> remap[v] (copied tiles re-encoded)
   std::vector<T> band;         // a band of rows completed from the earlier file
   // checksum64 of each full-resolution tile appended (tile_checksums()).
@@ -548,7 +553,12 @@ struct GeoTiffStripWriter<T>::State {
     // Where the copied tiles' cells are needed (remapped, or a COG's overviews), the band is
     // completed from the earlier file; the caller's cells elsewhere.
     const T* cells = rows;
-    if (copy != nullptr && (!remap.empty() || cog)) {
+    if (copy != nullptr && (!remap.empty() || cog) && !decoders.empty()) {
+      band.assign(rows, rows + h * window.width);
+      complete_band(h, by, *copy, earlier_tile_bytes);
+      cells = band.data();
+      if (!remap.empty()) copy = nullptr;  // every tile encoded from the completed band
+    } else if (copy != nullptr && (!remap.empty() || cog)) {
       band.assign(rows, rows + h * window.width);
       for (int64_t bx = 0; bx < across; ++bx) {
         if (!(*copy)[static_cast<size_t>(bx)]) continue;
@@ -588,6 +598,74 @@ struct GeoTiffStripWriter<T>::State {
     });
     if (cog) cog->pyramid->add_rows(cells, h);
     rows_written += h;
+  }
+
+  // The copied tiles of band `by` (flagged in `copy`) decoded into `band` (h rows), remapped
+  // where the codes moved: their stored bytes read (and, when remapped, checked) on this thread,
+  // decoded on `threads`.
+  template <class TileBytes>
+  void complete_band(int64_t h, int64_t by, const std::vector<bool>& copy, TileBytes&& earlier_tile_bytes) {
+    std::vector<int64_t> list;
+    for (int64_t bx = 0; bx < static_cast<int64_t>(copy.size()); ++bx)
+      if (copy[static_cast<size_t>(bx)]) list.push_back(bx);
+    copied_bytes.resize(std::max(copied_bytes.size(), list.size()));
+    std::vector<detail::EncodedTile> stored(list.size());
+    for (size_t i = 0; i < list.size(); ++i) {
+      const detail::EncodedTile t =
+          remap.empty() ? earlier->read(list[i], by, earlier_tile) : earlier_tile_bytes(list[i]).first;
+      copied_bytes[i].assign(t.data, t.data + t.size);
+      stored[i] = {copied_bytes[i].data(), t.size};
+    }
+    const detail::StoredTiles& layout = earlier->stored();
+    const auto tile_bytes = static_cast<size_t>(layout.format.width) * static_cast<size_t>(layout.format.height) *
+                            static_cast<size_t>(layout.format.sample_bytes);
+    std::vector<std::vector<uint8_t>> raw(decoders.size());
+    detail::parallel_for(
+        static_cast<int>(decoders.size()), static_cast<int64_t>(list.size()),
+        [&](int64_t i, int worker) {
+          std::vector<uint8_t>& tile = raw[static_cast<size_t>(worker)];
+          tile.resize(tile_bytes);
+          decoders[static_cast<size_t>(worker)].decode(stored[static_cast<size_t>(i)], tile.data());
+          const int64_t x0 = list[static_cast<size_t>(i)] * kBlock, w = std::min<int64_t>(kBlock, window.width - x0);
+          for (int64_t r = 0; r < h; ++r)
+            take_row(tile.data() + static_cast<size_t>(r) * static_cast<size_t>(layout.format.width) *
+                                       static_cast<size_t>(layout.format.sample_bytes),
+                     band.data() + r * window.width + x0, w, layout);
+        },
+        [](int) {});
+  }
+
+  // One row of a decoded tile (`w` samples as stored) into the band, in T, through the remap.
+  // Branch-free per cell: an unknown value maps to -1, found once the row is done.
+  void take_row(const uint8_t* from, T* to, int64_t w, const detail::StoredTiles& layout) const {
+    if constexpr (PixelType<T>::floating) {
+      std::memcpy(to, from, static_cast<size_t>(w) * sizeof(T));
+    } else {
+      const int32_t* map = remap.data();
+      const auto n = static_cast<int64_t>(remap.size());
+      int32_t any_bad = 0;
+      auto row = [&](auto sample) {
+        using S = decltype(sample);
+        for (int64_t c = 0; c < w; ++c) {
+          S u;
+          std::memcpy(&u, from + c * static_cast<int64_t>(sizeof(S)), sizeof(S));
+          const auto v = static_cast<int64_t>(u);
+          const int32_t out = map == nullptr ? static_cast<int32_t>(v) : (v >= 0 && v < n ? map[v] : -1);
+          any_bad |= out;
+          to[c] = static_cast<T>(out);
+        }
+      };
+      const int bytes = layout.format.sample_bytes;
+      if (bytes == 1) {
+        layout.is_signed ? row(int8_t{}) : row(uint8_t{});
+      } else if (bytes == 2) {
+        layout.is_signed ? row(int16_t{}) : row(uint16_t{});
+      } else {
+        layout.is_signed ? row(int32_t{}) : row(uint32_t{});
+      }
+      if (map != nullptr && any_bad < 0)
+        throw Error(ErrorKind::invalid_input, earlier_display + " holds a value its run did not write");
+    }
   }
 
   // The tile whose left column is x0 of rows `width` cells wide, in the file's type. Edge tiles:
@@ -772,7 +850,18 @@ void GeoTiffStripWriter<T>::take_tiles_from(const std::string& earlier, std::vec
                                                  "cannot be read: " +
                                                  e.what());
   }
-  if (s.cog || !remap.empty()) s.earlier_ds = open_raster(earlier).ds;
+  // Decoded here where the earlier file's layout allows (tiles of the same size, samples of
+  // the file's kind), else by GDAL.
+  const detail::StoredTiles& stored = s.earlier->stored();
+  const bool decodes =
+      stored.decodable && stored.format.width == kBlock && stored.format.height == kBlock &&
+      (PixelType<T>::floating ? stored.format.floating && stored.format.sample_bytes == 4 : !stored.format.floating);
+  s.decoders.clear();
+  if ((s.cog || !remap.empty()) && decodes) {
+    for (int i = 0; i < std::max(1, s.threads); ++i) s.decoders.emplace_back(stored.format);
+  } else if (s.cog || !remap.empty()) {
+    s.earlier_ds = open_raster(earlier).ds;
+  }
   s.remap = std::move(remap);
   s.earlier_checksums = std::move(checksums);
   s.earlier_display = display.empty() ? earlier : display;

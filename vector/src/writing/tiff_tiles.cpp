@@ -37,6 +37,21 @@ void float_predict_row(uint8_t* row, int n, int bytes, uint8_t* scratch) {
   for (int i = 1; i < count; ++i) row[i] = static_cast<uint8_t>(scratch[i] - scratch[i - 1]);
 }
 
+// Predictor 2 undone: each sample the sum of the differences before it, with wraparound.
+template <class U>
+void accumulate_row(U* row, int n) {
+  for (int i = 1; i < n; ++i) row[i] = static_cast<U>(row[i] + row[i - 1]);
+}
+
+// Predictor 3 undone: the bytes summed back across the row, then the planes put back into samples.
+void float_unpredict_row(uint8_t* row, int n, int bytes, uint8_t* scratch) {
+  const int count = n * bytes;
+  scratch[0] = row[0];
+  for (int i = 1; i < count; ++i) scratch[i] = static_cast<uint8_t>(row[i] + scratch[i - 1]);
+  for (int i = 0; i < n; ++i)
+    for (int b = 0; b < bytes; ++b) row[i * bytes + b] = scratch[(bytes - 1 - b) * n + i];
+}
+
 [[noreturn]] void codec_failed(const char* what) {
   throw Error(ErrorKind::internal, std::string("tile encoding: ") + what);
 }
@@ -107,6 +122,71 @@ EncodedTile TileCompressor::encode(uint8_t* tile, std::vector<uint8_t>& out) {
     }
   }
   codec_failed("unknown codec");
+}
+
+TileDecompressor::TileDecompressor(const TileFormat& format) : format_(format) {
+  if (format_.codec == TileCodec::zstd) {
+    zstd_ = ZSTD_createDCtx();
+    if (zstd_ == nullptr) throw std::bad_alloc();
+  } else if (format_.codec == TileCodec::deflate) {
+    deflate_ = libdeflate_alloc_decompressor();
+    if (deflate_ == nullptr) throw std::bad_alloc();
+  }
+  if (format_.predictor == 3) row_.resize(static_cast<size_t>(format_.width * format_.sample_bytes));
+}
+
+TileDecompressor::~TileDecompressor() {
+  ZSTD_freeDCtx(zstd_);
+  libdeflate_free_decompressor(deflate_);
+}
+
+TileDecompressor::TileDecompressor(TileDecompressor&& other) noexcept
+    : format_(other.format_),
+      zstd_(std::exchange(other.zstd_, nullptr)),
+      deflate_(std::exchange(other.deflate_, nullptr)),
+      row_(std::move(other.row_)) {}
+
+void TileDecompressor::decode(EncodedTile bytes, uint8_t* tile) {
+  const int w = format_.width, h = format_.height, sample = format_.sample_bytes;
+  const size_t row_bytes = static_cast<size_t>(w) * static_cast<size_t>(sample);
+  const size_t n = row_bytes * static_cast<size_t>(h);
+  auto bad = [](const std::string& why) { throw Error(ErrorKind::io, "a stored tile does not decode: " + why); };
+  switch (format_.codec) {
+    case TileCodec::none:
+      if (bytes.size != n) bad("its size is not the tile's");
+      std::memcpy(tile, bytes.data, n);
+      break;
+    case TileCodec::zstd: {
+      const size_t got = ZSTD_decompressDCtx(zstd_, tile, n, bytes.data, bytes.size);
+      if (ZSTD_isError(got)) bad(ZSTD_getErrorName(got));
+      if (got != n) bad("ZSTD gave " + std::to_string(got) + " bytes of " + std::to_string(n));
+      break;
+    }
+    case TileCodec::deflate: {
+      size_t got = 0;
+      if (libdeflate_zlib_decompress(deflate_, bytes.data, bytes.size, tile, n, &got) != LIBDEFLATE_SUCCESS || got != n)
+        bad("DEFLATE data damaged or of another size");
+      break;
+    }
+  }
+  if (format_.predictor == 2) {
+    for (int r = 0; r < h; ++r) {
+      uint8_t* row = tile + static_cast<size_t>(r) * row_bytes;
+      switch (sample) {
+        case 1:
+          accumulate_row(row, w);
+          break;
+        case 2:
+          accumulate_row(reinterpret_cast<uint16_t*>(row), w);
+          break;
+        default:
+          accumulate_row(reinterpret_cast<uint32_t*>(row), w);
+          break;
+      }
+    }
+  } else if (format_.predictor == 3) {
+    for (int r = 0; r < h; ++r) float_unpredict_row(tile + static_cast<size_t>(r) * row_bytes, w, sample, row_.data());
+  }
 }
 
 // libtiff's I/O goes through GDAL's virtual file layer, so that every path GDAL writes (a
@@ -197,6 +277,23 @@ void RawTileFile::open(const std::string& path, const TileFormat& format, Access
                                : sample_format == SAMPLEFORMAT_INT ? SAMPLEFORMAT_INT
                                                                    : SAMPLEFORMAT_UINT;
   constexpr bool little_endian_host = std::endian::native == std::endian::little;
+  // How the tiles are stored, for a reader that decodes them itself.
+  TileFormat& f = stored_.format;
+  f.codec = compression == COMPRESSION_ZSTD                                                  ? TileCodec::zstd
+            : compression == COMPRESSION_ADOBE_DEFLATE || compression == COMPRESSION_DEFLATE ? TileCodec::deflate
+                                                                                             : TileCodec::none;
+  f.predictor = predictor;
+  f.sample_bytes = bits / 8;
+  f.floating = sample_format == SAMPLEFORMAT_IEEEFP;
+  f.width = static_cast<int>(tile_w);
+  f.height = static_cast<int>(tile_h);
+  stored_.is_signed = sample_format == SAMPLEFORMAT_INT;
+  const bool known_codec = compression == COMPRESSION_NONE || compression == COMPRESSION_ZSTD ||
+                           compression == COMPRESSION_ADOBE_DEFLATE || compression == COMPRESSION_DEFLATE;
+  stored_.decodable = known_codec && (bits == 8 || bits == 16 || bits == 32) && spp == 1 &&
+                      (predictor == 1 || predictor == 2 || (predictor == 3 && f.floating)) &&
+                      TIFFIsByteSwapped(tif_) == 0 && little_endian_host && TIFFIsTiled(tif_) && tile_w > 0 &&
+                      tile_h > 0;
   if (access == Access::raw) {
     if (!TIFFIsTiled(tif_) || spp != 1 || tile_w == 0 || tile_h == 0 || width == 0 || height == 0)
       fail("it is not a tiled raster of one band");

@@ -18,7 +18,9 @@
 
 struct tiff;
 struct ZSTD_CCtx_s;
+struct ZSTD_DCtx_s;
 struct libdeflate_compressor;
+struct libdeflate_decompressor;
 
 namespace rv::detail {
 
@@ -65,6 +67,38 @@ class TileCompressor {
   std::vector<uint8_t> row_;  // predictor 3's row scratch
 };
 
+// How an existing file's tiles are stored (RawTileFile::stored()). `decodable`: TileDecompressor
+// undoes its codec and predictor (no codec, ZSTD or DEFLATE; predictor 1, 2, or 3 on floats;
+// 8, 16 or 32-bit samples in the host's byte order).
+struct StoredTiles {
+  TileFormat format;
+  bool is_signed = false;  // integer samples: SAMPLEFORMAT_INT
+  bool decodable = false;
+};
+
+// Codec then predictor undone for one stored tile: what TileCompressor (or libtiff) encoded, back
+// to width * height samples, row-major, native byte order. One per thread: it owns the codec's
+// state. Not thread-safe; movable.
+class TileDecompressor {
+ public:
+  explicit TileDecompressor(const TileFormat& format);
+  ~TileDecompressor();
+  TileDecompressor(TileDecompressor&& other) noexcept;
+  TileDecompressor& operator=(TileDecompressor&&) = delete;
+  TileDecompressor(const TileDecompressor&) = delete;
+  TileDecompressor& operator=(const TileDecompressor&) = delete;
+
+  // Decodes `bytes` into `tile` (width * height * sample_bytes bytes). Throws rv::Error(io) when
+  // they do not decode to exactly one tile.
+  void decode(EncodedTile bytes, uint8_t* tile);
+
+ private:
+  TileFormat format_;
+  ZSTD_DCtx_s* zstd_ = nullptr;
+  libdeflate_decompressor* deflate_ = nullptr;
+  std::vector<uint8_t> row_;  // predictor 3's row scratch
+};
+
 // A tiled TIFF opened through GDAL's virtual file layer (any path GDAL can write, /vsimem/
 // included): for update, to which encoded tiles are appended, or read-only, from which a tile's
 // encoded bytes are read as they are (an earlier file whose unchanged tiles a new one copies), or
@@ -86,6 +120,8 @@ class RawTileFile {
 
   // Tiles across the image.
   int64_t tiles_across() const { return tiles_across_; }
+  // How the file's tiles are stored (read from its tags).
+  const StoredTiles& stored() const { return stored_; }
   // Appends the encoded bytes of tile (bx, by) (Access::update). Throws rv::Error(io).
   void append(int64_t bx, int64_t by, EncodedTile bytes);
   // The encoded bytes of tile (bx, by) as stored, into `buf` (grown as needed): valid until the
@@ -105,6 +141,7 @@ class RawTileFile {
   std::string errors_;  // libtiff's error messages for this handle
   int64_t tiles_across_ = 0;
   int64_t tiles_down_ = 0;
+  StoredTiles stored_;
   const char* verb_ = "writing";  // for messages: "reading" an earlier file
 
   friend struct RawTileFileAccess;
