@@ -91,36 +91,6 @@ Raster<float> distances_for(const GridSpec& grid) {
   return r;
 }
 
-TEST(TiffTiles, EveryProfileAndTypeDecodesBitForBit) {
-  gdal_init();
-  ScratchDir dir;
-  // Neither side a multiple of the tile size: edge tiles in both directions, 2 x 2 tiles.
-  const GridSpec grid = grid_of(300, 290);
-  const Raster<float> dist = distances_for(grid);
-  for (const Compression c : {Compression::fast, Compression::small, Compression::deflate, Compression::none}) {
-    for (const int64_t max_code : {int64_t{200}, int64_t{60000}, int64_t{-1}}) {
-      const std::string tag = std::string(to_string(c)) + "_" + std::to_string(max_code);
-      SCOPED_TRACE(tag);
-      GeoTiffOptions o;
-      o.compression = c;
-      o.max_code = max_code;
-      const Raster<int32_t> codes = codes_for(grid, max_code);
-      const std::string ours = dir.file("i_" + tag + ".tif");
-      write_geotiff(ours, codes, 0.0, o);
-      EXPECT_EQ(read_int32(ours).cells(), codes.cells());
-    }
-    const std::string tag(to_string(c));
-    SCOPED_TRACE(tag);
-    GeoTiffOptions o;
-    o.compression = c;
-    const std::string ours = dir.file("f_" + tag + ".tif");
-    write_geotiff(ours, dist, -1.0, o);
-    const std::vector<uint8_t> cells = raw_cells(ours);
-    ASSERT_EQ(cells.size(), dist.cells().size() * sizeof(float));
-    EXPECT_EQ(std::memcmp(cells.data(), dist.cells().data(), cells.size()), 0);
-  }
-}
-
 // Every tile of `path` decoded by TileDecompressor equals GDAL's block of it, byte for byte.
 // Returns the tiles compared.
 int decoded_like_gdal(const std::string& path) {
@@ -158,29 +128,46 @@ int decoded_like_gdal(const std::string& path) {
   return tiles;
 }
 
-// The decoder an edit recodes its base's tiles with (tiff_tiles.hpp): every profile and type,
-// of the files written here and of files GDAL (libtiff's encoder) wrote, decoded as GDAL decodes
-// them; a damaged tile is an error, not garbage.
-TEST(TiffTiles, TheDecoderReadsEveryProfileAsGdalDoes) {
+TEST(TiffTiles, EveryProfileAndTypeDecodesBitForBit) {
   gdal_init();
   ScratchDir dir;
+  // Neither side a multiple of the tile size: edge tiles in both directions, 2 x 2 tiles.
   const GridSpec grid = grid_of(300, 290);
   const Raster<float> dist = distances_for(grid);
   for (const Compression c : {Compression::fast, Compression::small, Compression::deflate, Compression::none}) {
     for (const int64_t max_code : {int64_t{200}, int64_t{60000}, int64_t{-1}}) {
+      const std::string tag = std::string(to_string(c)) + "_" + std::to_string(max_code);
+      SCOPED_TRACE(tag);
       GeoTiffOptions o;
       o.compression = c;
       o.max_code = max_code;
-      const std::string path = dir.file("d_" + std::string(to_string(c)) + std::to_string(max_code) + ".tif");
-      write_geotiff(path, codes_for(grid, max_code), 0.0, o);
-      EXPECT_EQ(decoded_like_gdal(path), 4);
+      const Raster<int32_t> codes = codes_for(grid, max_code);
+      const std::string ours = dir.file("i_" + tag + ".tif");
+      write_geotiff(ours, codes, 0.0, o);
+      EXPECT_EQ(read_int32(ours).cells(), codes.cells());
+      EXPECT_EQ(decoded_like_gdal(ours), 4);  // and by the edits' own decoder
     }
+    const std::string tag(to_string(c));
+    SCOPED_TRACE(tag);
     GeoTiffOptions o;
     o.compression = c;
-    const std::string path = dir.file("df_" + std::string(to_string(c)) + ".tif");
-    write_geotiff(path, dist, -1.0, o);
-    EXPECT_EQ(decoded_like_gdal(path), 4);
+    const std::string ours = dir.file("f_" + tag + ".tif");
+    write_geotiff(ours, dist, -1.0, o);
+    const std::vector<uint8_t> cells = raw_cells(ours);
+    ASSERT_EQ(cells.size(), dist.cells().size() * sizeof(float));
+    EXPECT_EQ(std::memcmp(cells.data(), dist.cells().data(), cells.size()), 0);
+    EXPECT_EQ(decoded_like_gdal(ours), 4);
   }
+}
+
+// The decoder an edit recodes its base's tiles with (tiff_tiles.hpp) on files GDAL (libtiff's
+// encoder) wrote, as GDAL decodes them (the files written here: the test above); a damaged tile is
+// an error, not garbage.
+TEST(TiffTiles, TheDecoderReadsGdalsTilesAndRefusesDamagedOnes) {
+  gdal_init();
+  ScratchDir dir;
+  const GridSpec grid = grid_of(300, 290);
+  const Raster<float> dist = distances_for(grid);
   // Written by GDAL's own encoders (libtiff): ZSTD and DEFLATE, each predictor.
   GDALDriver* gtiff = GetGDALDriverManager()->GetDriverByName("GTiff");
   struct Case {
@@ -214,7 +201,10 @@ TEST(TiffTiles, TheDecoderReadsEveryProfileAsGdalDoes) {
     EXPECT_EQ(decoded_like_gdal(path), 4);
   }
   // A damaged tile: cut short, or other bytes.
-  const std::string path = dir.file("d_fast-1.tif");
+  const std::string path = dir.file("damaged.tif");
+  GeoTiffOptions o;
+  o.compression = Compression::fast;
+  write_geotiff(path, codes_for(grid, -1), 0.0, o);
   detail::RawTileFile raw(path, detail::TileFormat{}, path, detail::RawTileFile::Access::raw);
   std::vector<uint8_t> buf;
   const detail::EncodedTile t = raw.read(0, 0, buf);
