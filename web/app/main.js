@@ -353,6 +353,12 @@ async function startEdit(byLabel, toggles, button) {
     (label) => byLabel.get(label), problemBox);
   state.edit = edit;
   await edit.start();
+  if (document.body.dataset.state === "edit-failed") {
+    // The session was refused (its problem is shown): the map and its read-out as they were.
+    state.edit = null;
+    button.disabled = false;
+    return;
+  }
   // The owners' raster is the job's, not the session's: the regions stand for it while editing.
   toggles.replaceChildren(layerToggles());
   cellBox.textContent = "Editing: drag a basepoint or a vertex; click a feature to weight, reach or remove it.";
