@@ -20,9 +20,11 @@ stamp() { date +%s; }
 
 if [[ " $stages " == *" asan "* ]]; then
   t0=$(stamp)
-  # The benchmarks are left out: the stage runs none of them (label bench), and compiling them
-  # with the sanitizers was minutes of CI's budget.
-  cmake -S . -B build-asan -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DRV_SANITIZE=ON -DRV_BUILD_BENCH=OFF >/dev/null
+  # The benchmarks are left out: the stage runs none of them (label bench). Debug information is
+  # line tables only (-g1): a report's stack still names every function, file and line, and the
+  # build is about a fifth shorter (server.cpp under ASan: 119 s against 153 s with -g).
+  cmake -S . -B build-asan -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DRV_SANITIZE=ON -DRV_BUILD_BENCH=OFF \
+    -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O2 -g1 -DNDEBUG" -DCMAKE_C_FLAGS_RELWITHDEBINFO="-O2 -g1 -DNDEBUG" >/dev/null
   cmake --build build-asan -j "$jobs"
   t1=$(stamp)
   # The bench smoke test (label bench) runs third-party tools; it adds time, not sanitizer coverage.
