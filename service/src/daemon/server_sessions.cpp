@@ -286,10 +286,11 @@ void SessionManager::build(const std::shared_ptr<Held>& held, JobSpec spec, std:
     try {
       throw;
     } catch (const Error& e) {
-      // The uploads' paths in the names the client knows (seeds[n], ...).
+      // The uploads' paths in the names the client knows (seeds[n], ...); an error that names
+      // none is passed on as it is (a QuotaExceeded keeps its Retry-After).
       message = client_names(valid_utf8(e.what()), upload_id);
       kind = std::string(to_string(e.kind()));
-      error = std::make_exception_ptr(Error(e.kind(), message));
+      if (message != e.what()) error = std::make_exception_ptr(Error(e.kind(), message));
     } catch (const std::bad_alloc&) {
       message = "the session ran out of memory; use a coarser resolution or a smaller extent";
       kind = std::string(to_string(ErrorKind::too_large));

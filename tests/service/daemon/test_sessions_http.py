@@ -20,7 +20,8 @@ Against daemons this test starts:
      (429), one session's memory (422), every session's memory together (503).
   6. Endings: DELETE (then 404 "was deleted"), idle expiry (404 "expired"), a restart (404 "lost
      when this daemon restarted", while a job saved from the session survives), an id naming
-     another daemon (404 naming it); asynchronous creation (202, a status to poll).
+     another daemon (404 naming it); asynchronous creation (202, a status to poll); a session's
+     grid counted in its principal's cells of the hour (429 with Retry-After).
 Only the standard library and the harness (files compare as bytes).
 usage: test_sessions_http.py RVORONOI
 """
@@ -343,10 +344,24 @@ def part_five_six(tmp):
         check(d.stop() == 0, "daemon exit status")
 
 
+def hourly_cells(tmp):
+    # A session's grid counts in its principal's cells of the hour, as a job's: the second one is
+    # over the allowance, 429 with Retry-After.
+    d = Daemon([RVORONOI, "serve"], os.path.join(tmp, "data3"), {"limits": {"cells_per_principal_per_hour": 100000}})
+    try:
+        status, _, doc = d.json("POST", "/sessions", session_body(seed_collection()))
+        check(status == 201, f"a session within the hour's cells: {status} {doc}")
+        status, h, doc = d.json("POST", "/sessions", session_body(seed_collection()))
+        check(status == 429 and int(h.get("retry-after", "0")) >= 1, f"over the hour's cells: {status} {h} {doc}")
+    finally:
+        check(d.stop() == 0, "daemon exit status")
+
+
 def main():
     with tempfile.TemporaryDirectory() as tmp:
         part_one_to_four(tmp)
         part_five_six(tmp)
+        hourly_cells(tmp)
     if FAILURES:
         print(f"{len(FAILURES)} failure(s)")
         sys.exit(1)
