@@ -21,16 +21,8 @@ namespace {
 constexpr size_t kGoneKept = 4096;  // ids whose fate is remembered for their owners' 404s
 constexpr int64_t kSessionsRetryAfterS = 30;
 
-std::string mib(int64_t bytes) { return std::to_string((bytes + (int64_t{1} << 20) - 1) >> 20) + " MiB"; }
-
 bool is_hex(std::string_view s) {
   return std::all_of(s.begin(), s.end(), [](char c) { return (c >= '0' && c <= '9') || (c >= 'a' && c <= 'f'); });
-}
-
-std::string seconds_text(double s) {
-  char buf[32];
-  std::snprintf(buf, sizeof buf, "%g", s);
-  return buf;
 }
 
 }  // namespace
@@ -255,7 +247,7 @@ void SessionManager::build(const std::shared_ptr<Held>& held, JobSpec spec, std:
       // Over what the other sessions leave, not over one session's limit: come back later.
       if (e.kind() == ErrorKind::too_large && room < one_)
         throw Error(ErrorKind::busy, std::string(e.what()) + "; the sessions on this daemon hold " +
-                                         mib(budget_ - room) + " of their " + mib(budget_) +
+                                         mib_text(budget_ - room) + " of their " + mib_text(budget_) +
                                          ", retry when one is deleted or expires");
       throw;
     }
@@ -265,8 +257,8 @@ void SessionManager::build(const std::shared_ptr<Held>& held, JobSpec spec, std:
     std::lock_guard lock(mutex_);
     if (held->gone) throw Error(ErrorKind::cancelled, held->gone_reason);
     if (bytes_ + bytes > budget_)
-      throw Error(ErrorKind::busy, "the session takes " + mib(bytes) + " and the sessions on this daemon hold " +
-                                       mib(bytes_) + " of their " + mib(budget_) +
+      throw Error(ErrorKind::busy, "the session takes " + mib_text(bytes) + " and the sessions on this daemon hold " +
+                                       mib_text(bytes_) + " of their " + mib_text(budget_) +
                                        "; retry when one is deleted or expires");
     memory.settle(bytes);
     held->memory = std::move(memory);
@@ -425,7 +417,7 @@ void SessionManager::run_one(const std::shared_ptr<Held>& held, Queued q) {
     } catch (const Error& e) {
       if (q.changes && e.kind() == ErrorKind::too_large && limit < one_)
         throw Error(ErrorKind::busy, std::string(e.what()) + "; the sessions on this daemon hold nearly their " +
-                                         mib(budget_) + ", retry when one is deleted or expires");
+                                         mib_text(budget_) + ", retry when one is deleted or expires");
       throw;
     }
     if (q.changes) {

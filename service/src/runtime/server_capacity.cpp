@@ -3,15 +3,10 @@
 #include <algorithm>
 #include <chrono>
 
+#include "runtime/server_util.hpp"
 #include "rv/field/error.hpp"
 
 namespace rv::daemon {
-
-namespace {
-
-std::string mib(int64_t bytes) { return std::to_string((bytes + (int64_t{1} << 20) - 1) >> 20) + " MiB"; }
-
-}  // namespace
 
 MemoryAccount::MemoryAccount(int64_t total_bytes) : total_(std::max<int64_t>(total_bytes, 0)) {}
 
@@ -68,8 +63,8 @@ int MemoryAccount::waiting() const {
 void MemoryAccount::grow(Reservation& r, int64_t bytes, bool wait, const std::atomic<bool>* cancel,
                          const std::string& what) {
   if (bytes > total_)
-    throw Error(ErrorKind::too_large,
-                what + " needs about " + mib(bytes) + ", more than this server's memory budget of " + mib(total_));
+    throw Error(ErrorKind::too_large, what + " needs about " + mib_text(bytes) +
+                                          ", more than this server's memory budget of " + mib_text(total_));
   std::unique_lock lock(mutex_);
   // A grant a quarter above the request: an estimate that grows feature by feature asks the
   // account a few dozen times, not once per feature.
@@ -83,8 +78,8 @@ void MemoryAccount::grow(Reservation& r, int64_t bytes, bool wait, const std::at
     return true;
   };
   if (try_grant()) return;
-  const std::string refused = what + " needs about " + mib(bytes) + " of memory and " + mib(total_ - reserved_) +
-                              " of this server's " + mib(total_) + " are free";
+  const std::string refused = what + " needs about " + mib_text(bytes) + " of memory and " +
+                              mib_text(total_ - reserved_) + " of this server's " + mib_text(total_) + " are free";
   if (!wait) throw Error(ErrorKind::busy, refused + "; retry later");
   const uint64_t ticket = ++next_ticket_;
   waiting_[ticket] = Waiter{r.held_ > 0, bytes - r.held_};

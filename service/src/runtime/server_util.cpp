@@ -1,5 +1,7 @@
 #include "runtime/server_util.hpp"
 
+#include <cstdio>
+
 #include <sys/random.h>
 #include <unistd.h>
 
@@ -25,6 +27,14 @@ std::string new_job_id() {
     got += static_cast<size_t>(n);
   }
   return hex(bytes);
+}
+
+std::string mib_text(int64_t bytes) { return std::to_string((bytes + (int64_t{1} << 20) - 1) >> 20) + " MiB"; }
+
+std::string seconds_text(double seconds) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%g", seconds);
+  return buf;
 }
 
 std::string hex(std::span<const unsigned char> bytes) {

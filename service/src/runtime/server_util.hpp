@@ -3,6 +3,7 @@
 #pragma once
 
 #include <chrono>
+#include <cstdint>
 #include <optional>
 #include <span>
 #include <string>
@@ -15,6 +16,10 @@ namespace rv::daemon {
 
 // 128 random bits from the kernel's CSPRNG (getrandom), as 32 lower-case hex digits.
 std::string new_job_id();
+// Bytes as whole MiB, rounded up ("12 MiB"), and seconds as "%g" ("3600", "0.5"): the forms
+// messages give limits in.
+std::string mib_text(int64_t bytes);
+std::string seconds_text(double seconds);
 // Lower-case hex of `bytes` (two digits a byte).
 std::string hex(std::span<const unsigned char> bytes);
 // True iff `id` has the shape new_job_id() produces. Checked before an id reaches the file
