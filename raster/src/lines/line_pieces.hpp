@@ -19,6 +19,9 @@ namespace rv {
 
 struct LinePieces::Data {
   std::string key;  // StripLines' key: the grid and the request's parts that shape the pieces
+  // Made by StripLines::pieces() in this process, not decoded: every vertex was measured by the
+  // metric of the seeds it names, so take_rows need not measure it again (decoded bytes are).
+  bool measured_here = false;
   int64_t width = 0, height = 0;
   struct Boundary {
     std::vector<boundary_stages::Crossing> crossings;  // row: the edge's

@@ -63,15 +63,21 @@ Chains chain_links(int32_t node_count, const std::vector<std::array<int32_t, 2>>
 
 void FieldRows::set_strip(const NearestField& strip) {
   const Window w = strip.site.window();
-  if (w.col0 != 0 || w.width != strip.site.grid().width || !(strip.distance.window() == w) ||
-      (started_ && (w.width != width_ || w.row0 != strip_row1_)))
+  set_strip(strip, w.row0, w.row0 + w.height);
+}
+
+void FieldRows::set_strip(const NearestField& strip, int64_t row0, int64_t row1) {
+  const Window w = strip.site.window();
+  if (w.col0 != 0 || w.width != strip.site.grid().width || !(strip.distance.window() == w) || row0 < w.row0 ||
+      row1 > w.row0 + w.height || row0 >= row1 || (started_ && (w.width != width_ || row0 != strip_row1_)))
     throw Error(ErrorKind::invalid_argument, "strips of a field must be whole rows of the grid, in order");
-  if (!started_) carry_row0_ = w.row0;
+  if (!started_) carry_row0_ = row0;
   started_ = true;
   strip_ = &strip;
   width_ = w.width;
-  strip_row0_ = w.row0;
-  strip_row1_ = w.row0 + w.height;
+  strip_base_ = w.row0;
+  strip_row0_ = row0;
+  strip_row1_ = row1;
 }
 
 void FieldRows::keep_from(int64_t from) {

@@ -177,6 +177,8 @@ class FieldRows {
   // The next strip: full rows of the grid, starting at row1() (or any row when nothing is
   // held). Throws rv::Error(invalid_argument) for a strip of other columns or out of order.
   void set_strip(const NearestField& strip);
+  // Rows [row0, row1) of `strip` (which holds them) as the next strip.
+  void set_strip(const NearestField& strip, int64_t row0, int64_t row1);
   // Copies rows [from, row1()) (from >= row0()) so that they outlive the strip in hand.
   void keep_from(int64_t from);
   // Holds nothing: the next strip may start at any row.
@@ -184,10 +186,10 @@ class FieldRows {
   int64_t row0() const { return carry_row0_; }  // the first row held
   int64_t row1() const { return strip_row1_; }  // one past the last
   const int32_t* site_row(int64_t r) const {
-    return r >= strip_row0_ ? strip_->site.row(r - strip_row0_) : carry_site_.data() + (r - carry_row0_) * width_;
+    return r >= strip_row0_ ? strip_->site.row(r - strip_base_) : carry_site_.data() + (r - carry_row0_) * width_;
   }
   const float* distance_row(int64_t r) const {
-    return r >= strip_row0_ ? strip_->distance.row(r - strip_row0_)
+    return r >= strip_row0_ ? strip_->distance.row(r - strip_base_)
                             : carry_distance_.data() + (r - carry_row0_) * width_;
   }
   int32_t site(int64_t c, int64_t r) const { return site_row(r)[c]; }
@@ -197,8 +199,9 @@ class FieldRows {
   const NearestField* strip_ = nullptr;
   bool started_ = false;
   int64_t width_ = 0;
-  int64_t strip_row0_ = 0, strip_row1_ = 0;
-  int64_t carry_row0_ = 0;  // carry rows are [carry_row0_, strip_row0_)
+  int64_t strip_row0_ = 0, strip_row1_ = 0;  // the rows of the strip in hand read
+  int64_t strip_base_ = 0;                   // the strip's first row
+  int64_t carry_row0_ = 0;                   // carry rows are [carry_row0_, strip_row0_)
   std::vector<int32_t> carry_site_;
   std::vector<float> carry_distance_;
 };

@@ -146,7 +146,7 @@ struct BoundaryRun {
   }
 
   // Rows [*_to, row1) of every stage taken from the base's pieces `p`.
-  void take(const Pieces::Boundary& p, int64_t W, int64_t row1, std::span<const int32_t> site_map) {
+  void take(const Pieces::Boundary& p, int64_t W, int64_t row1, std::span<const int32_t> site_map, bool verify) {
     using namespace boundary_stages;
     auto edge_row = [W](int64_t e) { return e / 2 / W; };
     const size_t x0 =
@@ -167,7 +167,7 @@ struct BoundaryRun {
       checked_owner(cr.owner_lo, owners);
       checked_owner(cr.owner_hi, owners);
       if (cr.edge < 0 || cr.edge >= 2 * W * b.H) refuse_piece("crossing");
-      check_crossing(b.g, b.index.metric(), cell, cr.edge, cr.v);
+      if (verify) check_crossing(b.g, b.index.metric(), cell, cr.edge, cr.v);
       auto [it, fresh] = x.on_edge.try_emplace(cr.edge, static_cast<int32_t>(x.crossings.size()), 0);
       ++it->second.second;
       x.crossings.push_back(cr);
@@ -179,7 +179,7 @@ struct BoundaryRun {
       Tripoint tp = p.tripoints[i];
       for (int32_t& s : tp.sites) s = mapped_site(site_map, s, sites);
       for (const int32_t o : tp.owners) checked_owner(o, owners);
-      check_tripoint(b.index.metric(), cell, tp);
+      if (verify) check_tripoint(b.index.metric(), cell, tp);
       file_tripoint(b, t, tp, p.tripoint_row[i]);
     }
     for (const auto& u : p.unplaced)
@@ -276,7 +276,7 @@ struct LimitRun {
   }
 
   // Rows [*_to, row1) of both stages taken from the base's pieces `p`.
-  void take(const Pieces::Limit& p, int64_t row1, std::span<const int32_t> site_map) {
+  void take(const Pieces::Limit& p, int64_t row1, std::span<const int32_t> site_map, bool verify) {
     const int64_t W = t.grid.W;
     auto edge_row = [&](size_t i) { return p.edges[i] / 2 / W; };
     const size_t x0 = first_at(p.edges.size(), crossings_to, edge_row);
@@ -288,9 +288,9 @@ struct LimitRun {
       LimitVertex v = p.verts[i];
       v.site = mapped_site(site_map, v.site, t.grid.owner_of_site.size());
       if (p.edges[i] < 0 || p.edges[i] >= 2 * W * t.grid.H) refuse_piece("limit vertex");
-      check_on_edge(t.grid.g, p.edges[i], v.p);
+      if (verify) check_on_edge(t.grid.g, p.edges[i], v.p);
       // The owned area's edge (regions) ends where a reach does: its distance is not D.
-      if (t.owner != kOwnedEdge &&
+      if (verify && t.owner != kOwnedEdge &&
           !measured(v.residual, std::abs(t.grid.metric.distance(v.p, v.site) - t.D), t.grid.cell))
         refuse_piece("limit vertex");
       x.verts.push_back(v);
@@ -443,21 +443,26 @@ StripLines& StripLines::operator=(StripLines&&) noexcept = default;
 int64_t StripLines::rows() const { return impl_->have; }
 
 void StripLines::add(const NearestField& strip) {
+  const Window w = strip.site.window();
+  add(strip, w.row0, w.row0 + w.height);
+}
+
+void StripLines::add(const NearestField& strip, int64_t row0, int64_t row1) {
   Impl& m = *impl_;
   check_metric(strip, m.index.metric());
   const Window w = strip.site.window();
-  if (!(strip.site.grid() == m.g) || w.row0 != m.have || w.height < 1 || w.col0 != 0 || w.width != m.g.width ||
-      !(strip.distance.window() == w))
+  if (!(strip.site.grid() == m.g) || row0 != m.have || row0 < w.row0 || row1 > w.row0 + w.height || row0 >= row1 ||
+      w.col0 != 0 || w.width != m.g.width || !(strip.distance.window() == w))
     throw Error(ErrorKind::invalid_argument, "strips of a field must be whole rows of the grid, in order");
-  m.have = w.row0 + w.height;
+  m.have = row1;
   int64_t keep = m.have;  // the first row a stage still reads
   for (BoundaryRun& run : m.boundary) {
-    run.b.rows.set_strip(strip);
+    run.b.rows.set_strip(strip, row0, row1);
     run.advance(m.have);
     keep = std::min(keep, run.links_to);
   }
   if (m.limit_grid) {
-    m.limit_grid->rows.set_strip(strip);
+    m.limit_grid->rows.set_strip(strip, row0, row1);
     for (LimitRun& run : m.limits) {
       run.advance(m.have);
       keep = std::min(keep, run.crossings_to);
@@ -477,6 +482,7 @@ LinePieces StripLines::pieces() const {
     throw Error(ErrorKind::invalid_argument, "line pieces asked for after the lines were taken");
   auto d = std::make_shared<Pieces>();
   d->key = m.key;
+  d->measured_here = true;
   d->width = m.g.width;
   d->height = m.g.height;
   for (const BoundaryRun& run : m.boundary) d->boundary.push_back(run.pieces());
@@ -492,9 +498,10 @@ void StripLines::take_rows(const LinePieces& base, int64_t row1, std::span<const
     throw Error(ErrorKind::invalid_argument, "line pieces taken for rows " + std::to_string(m.have) + " to " +
                                                  std::to_string(row1) + " of " + std::to_string(m.g.height));
   const Pieces& p = *base.d_;
-  for (size_t i = 0; i < m.boundary.size(); ++i) m.boundary[i].take(p.boundary.at(i), m.g.width, row1, site_map);
+  for (size_t i = 0; i < m.boundary.size(); ++i)
+    m.boundary[i].take(p.boundary.at(i), m.g.width, row1, site_map, !p.measured_here);
   if (m.limit_grid) m.limit_grid->rows.restart();
-  for (size_t i = 0; i < m.limits.size(); ++i) m.limits[i].take(p.limits.at(i), row1, site_map);
+  for (size_t i = 0; i < m.limits.size(); ++i) m.limits[i].take(p.limits.at(i), row1, site_map, !p.measured_here);
   m.have = row1;
 }
 

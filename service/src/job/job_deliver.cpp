@@ -68,7 +68,6 @@ struct StripDeliverables::State {
     std::map<std::string, LinePieces> base;
     std::vector<std::pair<int64_t, int64_t>> fed;
     std::vector<int32_t> site_map;
-    NearestField rows;  // the fed rows of a strip that holds others too
   };
   std::optional<Taking> taking;
   bool lines_wanted = false;      // boundaries (a deliverable, or what regions, the preview or the report read)
@@ -120,19 +119,7 @@ void StripDeliverables::State::feed(StripLines& lines, const std::string& name, 
     const int64_t lo = std::max(a, w.row0), hi = std::min(b, w.row0 + w.height);
     if (lo >= hi) continue;
     if (lines.rows() < lo) lines.take_rows(taking->base.at(name), lo, taking->site_map);
-    if (lo == w.row0 && hi == w.row0 + w.height) {
-      lines.add(strip);
-      continue;
-    }
-    NearestField& part = taking->rows;
-    const Window sub{0, lo, w.width, hi - lo};
-    part.site.retarget(strip.site.grid(), sub);
-    part.distance.retarget(strip.distance.grid(), sub);
-    std::copy_n(strip.site.row(lo - w.row0), sub.width * sub.height, part.site.data());
-    std::copy_n(strip.distance.row(lo - w.row0), sub.width * sub.height, part.distance.data());
-    part.metric = strip.metric;
-    part.geolocator = strip.geolocator;
-    lines.add(part);
+    lines.add(strip, lo, hi);
   }
 }
 

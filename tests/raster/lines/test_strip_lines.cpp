@@ -1,7 +1,8 @@
 // StripLines (rv/lines/strip_lines.hpp): boundaries, tripoints and limit lines taken in strip by
 // strip equal the whole field's, vertex for vertex, for every strip height (one row, a few, more
-// than the stages' lags, uneven), planar and geodesic, with polygons, lines, points, four owners
-// and a max distance; strips out of order and early requests are refused.
+// than the stages' lags, uneven), strips of their own or row ranges of the whole field read in
+// place, planar and geodesic, with polygons, lines, points, four owners and a max distance;
+// strips out of order and early requests are refused.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -62,6 +63,17 @@ struct Case {
     }
     return lines;
   }
+  // The lines from row ranges of the given heights of the whole field (add(strip, row0, row1):
+  // read where they lie, not copied).
+  StripLines ranges(const std::vector<int64_t>& heights) const {
+    StripLines lines(grid, *index, request);
+    for (int64_t row0 = 0, k = 0; row0 < grid.height; ++k) {
+      const int64_t h = std::min(heights[static_cast<size_t>(k) % heights.size()], grid.height - row0);
+      lines.add(whole, row0, row0 + h);
+      row0 += h;
+    }
+    return lines;
+  }
 };
 
 void check_every_strip_height(Case& k, std::vector<double> limits) {
@@ -79,6 +91,10 @@ void check_every_strip_height(Case& k, std::vector<double> limits) {
       EXPECT_EQ(lines.rows(), k.grid.height);
       test::expect_same_lines(lines.take_boundaries(), whole_b);
       test::expect_same_lines(lines.take_limits(), whole_l);
+      StripLines from_ranges = k.ranges(heights);
+      EXPECT_EQ(from_ranges.rows(), k.grid.height);
+      test::expect_same_lines(from_ranges.take_boundaries(), whole_b);
+      test::expect_same_lines(from_ranges.take_limits(), whole_l);
     }
   }
 }
@@ -121,6 +137,16 @@ TEST(StripLines, StripsOutOfOrderAndEarlyRequestsAreRefused) {
   EXPECT_EQ(lines.rows(), 5);
   EXPECT_THROW(lines.take_boundaries(), Error);  // rows missing
   EXPECT_THROW(lines.add(strip), Error);         // the same rows again
+  // Row ranges: within the strip, starting where the last ended, not empty.
+  o.window = Window{0, 5, k.grid.width, 10};
+  compute_into(k.seeds, k.grid, o, strip);
+  EXPECT_THROW(lines.add(strip, 6, 9), Error);    // a gap before row 6
+  EXPECT_THROW(lines.add(strip, 5, 5), Error);    // no rows
+  EXPECT_THROW(lines.add(strip, 5, 16), Error);   // beyond the strip
+  EXPECT_THROW(lines.add(k.whole, 4, 9), Error);  // rows already in
+  lines.add(strip, 5, 9);
+  lines.add(k.whole, 9, 12);
+  EXPECT_EQ(lines.rows(), 12);
   EXPECT_THROW(StripLines(k.grid, *k.index, LineRequest{false, {}, {0.0}, {}}), Error);
 }
 

@@ -82,6 +82,9 @@ class StripLines {
   // rv::Error(invalid_argument) otherwise (nothing taken in). After any other exception (the
   // stages' own) the extraction cannot go on.
   void add(const NearestField& strip);
+  // Rows [row0, row1) of `strip` (which holds them; row0 where the last strip ended), as add()
+  // of a strip of those rows, without copying them out.
+  void add(const NearestField& strip, int64_t row0, int64_t row1);
   // Rows taken in so far.
   int64_t rows() const;
 
@@ -102,7 +105,10 @@ class StripLines {
   // `site_map`: per site of the base's seeds, the site of this extraction's seeds (empty: the
   // same). The next strip then starts at row1. Throws rv::Error(invalid_argument) for another key,
   // a row1 not after rows() or beyond the grid, or a piece naming a site the map drops;
-  // rv::Error(invalid_input) for a piece naming a site or an owner these seeds do not have.
+  // rv::Error(invalid_input) for a piece naming a site or an owner these seeds do not have, and,
+  // for decoded pieces (LinePieces::decode: bytes from outside), for a vertex not on its edge or
+  // not at the distances the metric measures there now (pieces made by pieces() in this process
+  // were measured when made, and are not measured again).
   void take_rows(const LinePieces& base, int64_t row1, std::span<const int32_t> site_map = {});
   // After the last row: the lines. Throws rv::Error(invalid_argument) when rows are missing.
   // Each may be called once.
