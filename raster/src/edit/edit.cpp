@@ -555,24 +555,20 @@ Edit::State::TileNeed Edit::State::tile_need(int64_t tr, int64_t tc, const TileS
   return n;
 }
 
-std::vector<std::pair<int64_t, int64_t>> Edit::line_rows(const TileSummaries& tiles,
-                                                         std::span<const LinePieces> base_pieces,
-                                                         double reach_floor) const {
+std::vector<uint8_t> Edit::line_tiles(const TileSummaries& tiles, double reach_floor) const {
   const State& st = *st_;
   const GridSpec& g = st.grid;
   st.check_tiles(&tiles);
   constexpr int64_t T = TileSummaries::kTile;
-  const int64_t pad = 2 * StripLines::kDependRows;
-  const std::vector<std::pair<int64_t, int64_t>> every{{0, g.height}};
+  std::vector<uint8_t> near(static_cast<size_t>(tiles.cols * tiles.rows), 1);
   if (st.base_seeds.adjusted() || st.edited.adjusted() || st.match.owners_reordered || st.options.geolocator ||
       st.added.all || st.removed.all)
-    return every;
+    return near;
   // One cell's diagonal in metric units, at most: the extraction measures within a few of them of
   // a row's cells (a degree of latitude is at most 111.7 km, one of longitude less).
   const double diag =
       std::sqrt(2.0) * g.res * (st.options.metric.kind == MetricSpec::geodesic ? 111700.0 : 1.0) * (1.0 + kSlack);
   const std::vector<uint8_t> changed = tiles_to_read(tiles);
-  std::vector<std::pair<int64_t, int64_t>> rows;
   for (int64_t tr = 0; tr < tiles.rows; ++tr)
     for (int64_t tc = 0; tc < tiles.cols; ++tc) {
       const auto k = static_cast<size_t>(tr * tiles.cols + tc);
@@ -580,13 +576,27 @@ std::vector<std::pair<int64_t, int64_t>> Edit::line_rows(const TileSummaries& ti
       double reach = std::max(static_cast<double>(tiles.max_distance[k]), reach_floor);
       if (tiles.unowned[k]) reach = std::max(reach, st.options.max_distance);
       reach = reach * (1.0 + kSlack) + 4.0 * diag;
-      const bool near = changed[k] ||
-                        st.box_meets(std::max<int64_t>(0, c0 - 3), std::max<int64_t>(0, r0 - 3),
-                                     std::min(g.width, c1 + 3), std::min(g.height, r1 + 3)) ||
-                        !std::isfinite(reach) || (st.removed.any && st.removed.may_own(g, c0, r0, c1, r1, reach)) ||
-                        (st.added.any && st.added.may_own(g, c0, r0, c1, r1, reach));
-      if (near) rows.emplace_back(r0, r1);
+      near[k] = changed[k] ||
+                st.box_meets(std::max<int64_t>(0, c0 - 3), std::max<int64_t>(0, r0 - 3), std::min(g.width, c1 + 3),
+                             std::min(g.height, r1 + 3)) ||
+                !std::isfinite(reach) || (st.removed.any && st.removed.may_own(g, c0, r0, c1, r1, reach)) ||
+                (st.added.any && st.added.may_own(g, c0, r0, c1, r1, reach));
     }
+  return near;
+}
+
+std::vector<std::pair<int64_t, int64_t>> Edit::line_rows(const TileSummaries& tiles,
+                                                         std::span<const LinePieces> base_pieces,
+                                                         double reach_floor) const {
+  const State& st = *st_;
+  const GridSpec& g = st.grid;
+  constexpr int64_t T = TileSummaries::kTile;
+  const int64_t pad = 2 * StripLines::kDependRows;
+  const std::vector<uint8_t> near = line_tiles(tiles, reach_floor);
+  std::vector<std::pair<int64_t, int64_t>> rows;
+  for (int64_t tr = 0; tr < tiles.rows; ++tr)
+    for (int64_t tc = 0; tc < tiles.cols; ++tc)
+      if (near[static_cast<size_t>(tr * tiles.cols + tc)]) rows.emplace_back(tr * T, std::min(g.height, tr * T + T));
   for (const LinePieces& p : base_pieces)
     for (const int64_t r : p.rows_naming_dropped(st.remap)) rows.emplace_back(r, r + 1);
   for (auto& [a, b] : rows) {

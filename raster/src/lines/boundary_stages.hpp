@@ -34,6 +34,13 @@
 #include "rv/lines/boundaries.hpp"
 #include "rv/lines/residual.hpp"
 
+namespace rv {
+template <class V, class Stat>
+struct SegmentMemo;
+template <class V, class Stat>
+class SegmentReuse;
+}  // namespace rv
+
 namespace rv::boundary_stages {
 
 // A point of the equidistance locus between owners owner_lo < owner_hi on grid edge `edge`
@@ -168,6 +175,12 @@ class LineRefiner {
   struct Added {
     int64_t turning_points = 0, arc_points = 0;
     LineResidual locus, arcs;  // the segments of the locus, and of reaches' arcs
+    void merge(const Added& o) {
+      turning_points += o.turning_points;
+      arc_points += o.arc_points;
+      locus.merge(o.locus);
+      arcs.merge(o.arcs);
+    }
   };
   // Refines segments [i0, i1) of a line's vertices (in order; a closed line's last vertex repeats
   // its first; segment i joins vertices i and i + 1) and measures every segment of the result:
@@ -175,8 +188,15 @@ class LineRefiner {
   // is not).
   // Segments are refined independently of each other: any split of a line gives the same line.
   // `bows`: each final segment's bow (rv/lines/residual.hpp) appended in order, when given.
+  // `each`: per segment, in order, where its points end in `out` and its bows in `bows`, and what
+  // it added alone (merged in order, the segments' Added make `n`'s increase), when given.
+  struct Segment {
+    size_t out_end = 0, bows_end = 0;
+    Added added;
+  };
   void refine_segments(int32_t owner_a, int32_t owner_b, const std::vector<BoundaryVertex>& vertices, size_t i0,
-                       size_t i1, std::vector<BoundaryVertex>& out, Added& n, std::vector<Bow>* bows = nullptr) const;
+                       size_t i1, std::vector<BoundaryVertex>& out, Added& n, std::vector<Bow>* bows = nullptr,
+                       std::vector<Segment>* each = nullptr) const;
   // Measures the segments of a line as they are (a simplified line): the largest distance from a
   // segment's midpoint to the locus, metric units (land segments left out).
   double measure(int32_t owner_a, int32_t owner_b, const std::vector<BoundaryVertex>& vertices) const;
@@ -235,8 +255,13 @@ inline bool land_segment(const BoundaryVertex& u, const BoundaryVertex& v) { ret
 // refiner's tolerance (when given) and measured, then simplified with Douglas-Peucker at `tol`
 // CRS units; the statistics (vertices, residuals, points added) summed in line order. On
 // `threads` threads, over blocks of segments of every line; the result independent of them.
+// With a refiner, `reuse` (an earlier state's segments an edit leaves valid) gives the segments
+// it holds instead of refining them again, and `record` gets every segment's refinement (for the
+// next state), when given: the lines are the same.
+using BoundaryMemo = SegmentMemo<BoundaryVertex, LineRefiner::Added>;
 void finish_lines(std::vector<BoundaryLine>& lines, const LineRefiner* refiner, double tol, BoundaryStats& stats,
-                  int threads);
+                  int threads, const SegmentReuse<BoundaryVertex, LineRefiner::Added>* reuse = nullptr,
+                  BoundaryMemo* record = nullptr);
 
 // The links chained into lines per owner pair, finished as finish_lines does (refined with
 // `refiner` when given, simplified with Douglas-Peucker at `tol` CRS units), in a deterministic

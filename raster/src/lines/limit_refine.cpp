@@ -201,13 +201,20 @@ std::vector<LimitVertex> LimitRefiner::refine(const std::vector<LimitVertex>& v,
 }
 
 void LimitRefiner::refine_segments(const std::vector<LimitVertex>& v, size_t i0, size_t i1,
-                                   std::vector<LimitVertex>& result, LineResidual& r, int64_t& corners) const {
+                                   std::vector<LimitVertex>& result, LineResidual& r, int64_t& corners,
+                                   std::vector<Segment>* each) const {
   std::vector<End> out;
   for (size_t i = i0; i < i1; ++i) {
+    // Each segment measured on its own, then merged (the same sums and maxima, the first worst).
+    LineResidual s;
+    int64_t c = 0;
     out.clear();
-    between(End{v[i], kNoSite}, End{v[i + 1], kNoSite}, 0, out, r, corners);
+    between(End{v[i], kNoSite}, End{v[i + 1], kNoSite}, 0, out, s, c);
     for (const End& e : out) result.push_back(e.v);
     result.push_back(v[i + 1]);
+    r.merge(s);
+    corners += c;
+    if (each != nullptr) each->push_back(Segment{result.size(), Measured{s, c}});
   }
 }
 

@@ -29,6 +29,13 @@
 #include "rv/engine/site_metric.hpp"
 #include "rv/lines/limits.hpp"
 
+namespace rv {
+template <class V, class Stat>
+struct SegmentMemo;
+template <class V, class Stat>
+class SegmentReuse;
+}  // namespace rv
+
 namespace rv::limit_stages {
 
 // What every stage of one extraction reads (rows: line_tools::FieldRows, a whole field or the
@@ -117,8 +124,22 @@ class LimitRefiner {
   std::vector<LimitVertex> refine(const std::vector<LimitVertex>& v, LineResidual& r, int64_t& corners) const;
   // The same for segments [i0, i1) of a chain: the points added within them and each segment's
   // end after it, appended to `out` (vertex i0 is not). Segments are refined independently.
+  // `each`: per segment, in order, where its points end in `out` and what it measured and added
+  // alone (merged in order, they make `r`'s and `corners`' increase), when given.
+  struct Measured {
+    LineResidual residual;
+    int64_t corners = 0;
+    void merge(const Measured& o) {
+      residual.merge(o.residual);
+      corners += o.corners;
+    }
+  };
+  struct Segment {
+    size_t out_end = 0;
+    Measured measured;
+  };
   void refine_segments(const std::vector<LimitVertex>& v, size_t i0, size_t i1, std::vector<LimitVertex>& out,
-                       LineResidual& r, int64_t& corners) const;
+                       LineResidual& r, int64_t& corners, std::vector<Segment>* each = nullptr) const;
   // The largest distance from a segment's midpoint to the level (a simplified chain).
   double measure(const std::vector<LimitVertex>& v) const;
 
@@ -148,7 +169,13 @@ class LimitRefiner {
 // Appends the lines to result.lines (and its vertex count, largest residual and the residual
 // along them). `refiner`: the level followed between the vertices (null: the vertices on cell
 // edges alone, unmeasured); on the grid's threads, over blocks of segments of every chain.
+// With a refiner, `reuse` (an earlier state's segments of this target an edit leaves valid) gives
+// the segments it holds instead of refining them again, and `record` gets every segment's
+// refinement (for the next state), when given: the lines are the same.
+using LimitMemo = SegmentMemo<LimitVertex, LimitRefiner::Measured>;
 void chain_limit_lines(const Target& t, const LimitCrossings& x, const std::vector<std::array<int32_t, 2>>& links,
-                       double tol, LimitResult& result, const LimitRefiner* refiner = nullptr);
+                       double tol, LimitResult& result, const LimitRefiner* refiner = nullptr,
+                       const SegmentReuse<LimitVertex, LimitRefiner::Measured>* reuse = nullptr,
+                       LimitMemo* record = nullptr);
 
 }  // namespace rv::limit_stages

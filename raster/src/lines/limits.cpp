@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "lines/limit_stages.hpp"
+#include "lines/line_pieces.hpp"
 #include "lines/line_tools.hpp"
 #include "rv/engine/owner_index.hpp"
 #include "rv/engine/site_metric.hpp"
@@ -314,7 +315,8 @@ std::vector<std::array<int32_t, 2>> limit_links(const Target& t, const InsideRow
 // ---- Stage 4: chains -------------------------------------------------------------------------
 
 void chain_limit_lines(const Target& t, const LimitCrossings& x, const std::vector<std::array<int32_t, 2>>& links,
-                       double tol, LimitResult& result, const LimitRefiner* refiner) {
+                       double tol, LimitResult& result, const LimitRefiner* refiner,
+                       const SegmentReuse<LimitVertex, LimitRefiner::Measured>* reuse, LimitMemo* record) {
   const Chains chains =
       chain_links(static_cast<int32_t>(x.verts.size()), links, std::vector<bool>(x.verts.size(), false));
   std::vector<std::vector<LimitVertex>> verts(chains.node_lists.size());
@@ -329,15 +331,40 @@ void chain_limit_lines(const Target& t, const LimitCrossings& x, const std::vect
       std::vector<LimitVertex> out;
       LineResidual residual;
       int64_t corners = 0;
+      std::vector<LimitMemo::Entry> kept;  // with `record`: its segments
+      int64_t taken = 0;                   // of which taken from `reuse`
     };
     std::vector<Block> blocks;
     for (size_t k = 0; k < verts.size(); ++k)
       for (size_t i = 0; i + 1 < verts[k].size(); i += kBlock)
-        blocks.push_back(Block{k, i, std::min(i + kBlock, verts[k].size() - 1), {}, {}, 0});
+        blocks.push_back(Block{k, i, std::min(i + kBlock, verts[k].size() - 1), {}, {}, 0, {}, 0});
+    const std::vector<Bow> no_bows;
     detail::parallel_for(t.grid.threads, static_cast<int64_t>(blocks.size()), [&](int64_t k, int) {
       Block& b = blocks[static_cast<size_t>(k)];
-      refiner->refine_segments(verts[b.chain], b.i0, b.i1, b.out, b.residual, b.corners);
+      const std::vector<LimitVertex>& v = verts[b.chain];
+      if (reuse == nullptr && record == nullptr) {
+        refiner->refine_segments(v, b.i0, b.i1, b.out, b.residual, b.corners);
+        return;
+      }
+      // Segment by segment: a valid earlier one taken, runs of the others refined together.
+      std::vector<LimitRefiner::Segment> each;
+      std::vector<Bow> no_bows_here;
+      LimitRefiner::Measured total;
+      b.taken = refine_with_memo(reuse, record != nullptr ? &b.kept : nullptr, 0, 0, v, b.i0, b.i1, b.out, no_bows_here,
+                                 total, [&](size_t i, size_t j, std::vector<RefinedRun<LimitRefiner::Measured>>& runs) {
+                                   each.clear();
+                                   refiner->refine_segments(v, i, j, b.out, total.residual, total.corners, &each);
+                                   for (const LimitRefiner::Segment& sg : each)
+                                     runs.push_back({sg.out_end, 0, sg.measured});
+                                 });
+      b.residual.merge(total.residual);
+      b.corners += total.corners;
     });
+    if (record != nullptr)
+      for (Block& b : blocks) {
+        record->append(std::move(b.kept), b.i0 == 0 ? &verts[b.chain].front() : nullptr, b.out, no_bows);
+        record->taken += b.taken;
+      }
     std::vector<std::vector<LimitVertex>> joined(verts.size());
     for (size_t k = 0; k < verts.size(); ++k)
       if (!verts[k].empty()) joined[k].push_back(verts[k].front());

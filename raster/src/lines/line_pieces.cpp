@@ -1,7 +1,9 @@
-// LinePieces (rv/lines/strip_lines.hpp) as bytes, and the checks an edit runs on them. The layout is
-// flat, field by field (never a struct's bytes, whose padding is undefined: equal pieces must give
-// equal bytes, since the run records their checksum).
+// LinePieces (rv/lines/strip_lines.hpp) as bytes, and the checks an edit runs on them. The layout
+// is flat, field by field (never a struct's bytes, whose padding is undefined: equal pieces must
+// give equal bytes, since the run records their checksum). Also the comparisons by which an
+// edit's refinement finds its segments in an earlier state's (RefinedSegments).
 #include <algorithm>
+#include <bit>
 #include <string_view>
 
 #include "field/byte_codec.hpp"
@@ -272,6 +274,65 @@ std::vector<int64_t> LinePieces::rows_naming_dropped(std::span<const int32_t> si
   std::sort(rows.begin(), rows.end());
   rows.erase(std::unique(rows.begin(), rows.end()), rows.end());
   return rows;
+}
+
+}  // namespace rv
+
+namespace rv {
+namespace {
+
+// A site of an earlier state in this one's numbering (kNoSite where it is gone).
+int32_t renumbered(int32_t s, std::span<const int32_t> map) {
+  if (s == kNoSite || map.empty()) return s;
+  return s >= 0 && static_cast<size_t>(s) < map.size() ? map[static_cast<size_t>(s)] : kNoSite;
+}
+bool same_bits(double x, double y) { return std::bit_cast<uint64_t>(x) == std::bit_cast<uint64_t>(y); }
+bool same_site(int32_t now, int32_t old, std::span<const int32_t> map) {
+  return old == kNoSite ? now == kNoSite : now != kNoSite && renumbered(old, map) == now;
+}
+
+}  // namespace
+
+bool same_vertex(const BoundaryVertex& now, const BoundaryVertex& old, std::span<const int32_t> map) {
+  return same_bits(now.p.x, old.p.x) && same_bits(now.p.y, old.p.y) && same_site(now.site_a, old.site_a, map) &&
+         same_site(now.site_b, old.site_b, map) && same_bits(now.distance, old.distance) &&
+         same_bits(now.residual, old.residual) && same_bits(now.distance_a, old.distance_a) &&
+         same_bits(now.distance_b, old.distance_b) && now.arc == old.arc;
+}
+
+bool same_vertex(const LimitVertex& now, const LimitVertex& old, std::span<const int32_t> map) {
+  return same_bits(now.p.x, old.p.x) && same_bits(now.p.y, old.p.y) && same_site(now.site, old.site, map) &&
+         same_bits(now.residual, old.residual);
+}
+
+bool renumber(BoundaryVertex& v, std::span<const int32_t> map) {
+  const int32_t a = renumbered(v.site_a, map), b = renumbered(v.site_b, map);
+  if ((v.site_a != kNoSite && a == kNoSite) || (v.site_b != kNoSite && b == kNoSite)) return false;
+  v.site_a = a;
+  v.site_b = b;
+  return true;
+}
+
+bool renumber(LimitVertex& v, std::span<const int32_t> map) {
+  const int32_t s = renumbered(v.site, map);
+  if (v.site != kNoSite && s == kNoSite) return false;
+  v.site = s;
+  return true;
+}
+
+uint64_t segment_hash(int32_t a, int32_t b, Vec2 u, Vec2 v) {
+  // splitmix64's finaliser over the words, one after another.
+  auto mix = [](uint64_t h, uint64_t x) {
+    h ^= x + 0x9e3779b97f4a7c15ULL + (h << 6) + (h >> 2);
+    h ^= h >> 30;
+    h *= 0xbf58476d1ce4e5b9ULL;
+    h ^= h >> 27;
+    h *= 0x94d049bb133111ebULL;
+    return h ^ (h >> 31);
+  };
+  uint64_t h = mix(static_cast<uint64_t>(static_cast<uint32_t>(a)), static_cast<uint64_t>(static_cast<uint32_t>(b)));
+  for (const double d : {u.x, u.y, v.x, v.y}) h = mix(h, std::bit_cast<uint64_t>(d));
+  return h;
 }
 
 }  // namespace rv

@@ -30,6 +30,7 @@
 #include <vector>
 
 #include "lines/boundary_stages.hpp"
+#include "lines/line_pieces.hpp"
 #include "lines/line_tools.hpp"
 #include "rv/field/parallel.hpp"
 #include "rv/lines/simplify.hpp"
@@ -126,8 +127,8 @@ Vec2 LineRefiner::normal_towards(const End& e, const End& other) const {
 }
 
 void LineRefiner::refine_segments(int32_t a, int32_t b, const std::vector<BoundaryVertex>& vertices, size_t i0,
-                                  size_t i1, std::vector<BoundaryVertex>& result, Added& n,
-                                  std::vector<Bow>* bows) const {
+                                  size_t i1, std::vector<BoundaryVertex>& result, Added& n, std::vector<Bow>* bows,
+                                  std::vector<Segment>* each) const {
   std::vector<End> out;
   End u;
   u.v = vertices[i0];
@@ -136,12 +137,15 @@ void LineRefiner::refine_segments(int32_t a, int32_t b, const std::vector<Bounda
     End v;
     v.v = vertices[i + 1];
     set_normal(v);
-    const int64_t before = n.turning_points + n.arc_points;
+    // Each segment counted on its own, then merged (the same sums and maxima, the first worst).
+    Added s;
     out.clear();
-    between(u, v, 0, a, b, out, n, bows);
+    between(u, v, 0, a, b, out, s, bows);
     for (const End& e : out) result.push_back(e.v);
     result.push_back(v.v);
-    (u.v.arc != 0 || v.v.arc != 0 ? n.arcs : n.locus).added += n.turning_points + n.arc_points - before;
+    (u.v.arc != 0 || v.v.arc != 0 ? s.arcs : s.locus).added += s.turning_points + s.arc_points;
+    n.merge(s);
+    if (each != nullptr) each->push_back(Segment{result.size(), bows != nullptr ? bows->size() : 0, s});
     u = std::move(v);
   }
 }
@@ -501,7 +505,7 @@ bool LineRefiner::checked_arc(Vec2 p, int8_t arc, int32_t site, int32_t a, int32
 }
 
 void finish_lines(std::vector<BoundaryLine>& lines, const LineRefiner* refiner, double tol, BoundaryStats& stats,
-                  int threads) {
+                  int threads, const SegmentReuse<BoundaryVertex, LineRefiner::Added>* reuse, BoundaryMemo* record) {
   // The refinement runs over blocks of segments of every line at once: a coast's few long lines
   // would leave threads idle were each line one task. Blocks are cut by position alone, and each
   // segment is refined on its own, so the result does not depend on the threads.
@@ -511,17 +515,37 @@ void finish_lines(std::vector<BoundaryLine>& lines, const LineRefiner* refiner, 
     std::vector<BoundaryVertex> out;
     LineRefiner::Added added;
     std::vector<Bow> bows;
+    std::vector<BoundaryMemo::Entry> kept;  // with `record`: its segments
+    int64_t taken = 0;                      // of which taken from `reuse`
   };
   std::vector<Block> blocks;
   for (size_t k = 0; k < lines.size(); ++k)
     for (size_t i = 0; i + 1 < lines[k].vertices.size(); i += kBlock)
-      blocks.push_back(Block{k, i, std::min(i + kBlock, lines[k].vertices.size() - 1), {}, {}, {}});
+      blocks.push_back(Block{k, i, std::min(i + kBlock, lines[k].vertices.size() - 1), {}, {}, {}, {}, 0});
   if (refiner != nullptr)
     detail::parallel_for(threads, static_cast<int64_t>(blocks.size()), [&](int64_t k, int) {
       Block& b = blocks[static_cast<size_t>(k)];
       const BoundaryLine& line = lines[b.line];
-      refiner->refine_segments(line.owner_a, line.owner_b, line.vertices, b.i0, b.i1, b.out, b.added, &b.bows);
+      const std::vector<BoundaryVertex>& v = line.vertices;
+      if (reuse == nullptr && record == nullptr) {
+        refiner->refine_segments(line.owner_a, line.owner_b, v, b.i0, b.i1, b.out, b.added, &b.bows);
+        return;
+      }
+      // Segment by segment: a valid earlier one taken, runs of the others refined together.
+      std::vector<LineRefiner::Segment> each;
+      b.taken = refine_with_memo(
+          reuse, record != nullptr ? &b.kept : nullptr, line.owner_a, line.owner_b, v, b.i0, b.i1, b.out, b.bows,
+          b.added, [&](size_t i, size_t j, std::vector<RefinedRun<LineRefiner::Added>>& runs) {
+            each.clear();
+            refiner->refine_segments(line.owner_a, line.owner_b, v, i, j, b.out, b.added, &b.bows, &each);
+            for (const LineRefiner::Segment& sg : each) runs.push_back({sg.out_end, sg.bows_end, sg.added});
+          });
     });
+  if (refiner != nullptr && record != nullptr)
+    for (Block& b : blocks) {
+      record->append(std::move(b.kept), b.i0 == 0 ? &lines[b.line].vertices.front() : nullptr, b.out, b.bows);
+      record->taken += b.taken;
+    }
   std::vector<int64_t> before(lines.size());
   if (refiner != nullptr) {
     std::vector<std::vector<BoundaryVertex>> joined(lines.size());

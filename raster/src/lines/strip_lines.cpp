@@ -218,7 +218,8 @@ struct BoundaryRun {
     return p;
   }
 
-  BoundaryResult finish() {
+  BoundaryResult finish(const SegmentReuse<BoundaryVertex, boundary_stages::LineRefiner::Added>* reuse = nullptr,
+                        boundary_stages::BoundaryMemo* record = nullptr) {
     using namespace boundary_stages;
     // The stages' counters are the sums of their rows' (rows taken from a base bring theirs).
     int64_t* counter[RowCounts::kCounters] = {&stats.crossings, &stats.sliver_crossings, &stats.unresolved_slivers,
@@ -240,7 +241,7 @@ struct BoundaryRun {
     const Vec2 middle = line_tools::centre(b.g, b.W / 2, b.H / 2);
     const CrsScale scale(b.index.metric(), middle, b.g.res);
     const LineRefiner refiner(b.index, line_tolerance, b.ftol, scale, std::max(scale.at0.x, scale.at0.y));
-    finish_lines(result.lines, &refiner, tol, result.stats, b.threads);
+    finish_lines(result.lines, &refiner, tol, result.stats, b.threads, reuse, record);
     result.lone_crossings = lone_crossings(x, links);
     for (const Tripoint& tp : t.tripoints) {
       const bool land = tp.distances[0] == 0.0 || tp.distances[1] == 0.0 || tp.distances[2] == 0.0;
@@ -334,6 +335,16 @@ struct StripLines::Impl {
   int64_t have = 0;
   bool boundaries_taken = false, limits_taken = false;
   std::string key;
+  std::string refine_key;  // key and the line tolerances: what shapes a refinement
+  // With keep_refined: the earlier state's segments, the rows changed since, its site map, and
+  // what this extraction refines.
+  struct Keeping {
+    RefinedSegments before;
+    ChangedTiles changed;
+    std::vector<int32_t> site_map;
+    std::shared_ptr<RefinedSegments::Data> now;
+  };
+  std::optional<Keeping> keeping;
 
   Impl(const GridSpec& grid, const OwnerIndex& i) : g(grid), index(i) {}
 
@@ -434,6 +445,9 @@ StripLines::StripLines(const GridSpec& grid, const OwnerIndex& index, const Line
     put(" owned_edge ", static_cast<int>(request.owned_edge));
     for (double d : request.limit_distances) put(" at ", d);
   }
+  auto bits = [](double d) { return std::to_string(std::bit_cast<uint64_t>(d)); };
+  m.refine_key = key + "; refined to " + bits(m.boundary.empty() ? 0.0 : m.boundary.front().line_tolerance) + " and " +
+                 bits(m.limit_line_tolerance);
 }
 
 StripLines::~StripLines() = default;
@@ -505,13 +519,67 @@ void StripLines::take_rows(const LinePieces& base, int64_t row1, std::span<const
   m.have = row1;
 }
 
+void StripLines::keep_refined(RefinedSegments before, ChangedTiles changed, std::vector<int32_t> site_map) {
+  Impl& m = *impl_;
+  if (m.boundaries_taken || m.limits_taken)
+    throw Error(ErrorKind::invalid_argument, "refinements kept from after the lines were taken");
+  if (!before.empty() && (before.d_->key != m.refine_key || before.d_->limits.size() != m.limits.size()))
+    throw Error(ErrorKind::invalid_argument, "refined segments of another extraction (grid, request or tolerances)");
+  if (!before.empty()) {
+    const int64_t T = changed.size;
+    if (T <= 0 || changed.flags.size() != static_cast<size_t>(((m.g.width + T - 1) / T) * ((m.g.height + T - 1) / T)))
+      throw Error(ErrorKind::invalid_argument, "the changed tiles do not cover the grid");
+  }
+  m.keeping.emplace();
+  m.keeping->before = std::move(before);
+  m.keeping->changed = std::move(changed);
+  m.keeping->site_map = std::move(site_map);
+  m.keeping->now = std::make_shared<RefinedSegments::Data>();
+  m.keeping->now->key = m.refine_key;
+}
+
+RefinedSegments StripLines::refined() const {
+  const Impl& m = *impl_;
+  if (!m.keeping || (!m.boundary.empty() && !m.boundaries_taken) || (!m.limits.empty() && !m.limits_taken))
+    throw Error(ErrorKind::invalid_argument, "refined segments asked for before the lines were taken, or not kept");
+  return RefinedSegments(m.keeping->now);
+}
+
+RefinedSegments::RefinedSegments() = default;
+RefinedSegments::RefinedSegments(std::shared_ptr<const Data> d) : d_(std::move(d)) {}
+bool RefinedSegments::empty() const { return !d_; }
+int64_t RefinedSegments::segments() const {
+  if (!d_) return 0;
+  auto n = static_cast<int64_t>(d_->boundary.entries.size());
+  for (const auto& l : d_->limits) n += static_cast<int64_t>(l.entries.size());
+  return n;
+}
+int64_t RefinedSegments::segments_taken() const {
+  if (!d_) return 0;
+  int64_t n = d_->boundary.taken;
+  for (const auto& l : d_->limits) n += l.taken;
+  return n;
+}
+int64_t RefinedSegments::memory_bytes() const {
+  if (!d_) return 0;
+  int64_t n = d_->boundary.memory_bytes();
+  for (const auto& l : d_->limits) n += l.memory_bytes();
+  return n;
+}
+
 BoundaryResult StripLines::take_boundaries() {
   Impl& m = *impl_;
   m.require_all("boundaries");
   if (m.boundary.empty() || m.boundaries_taken)
     throw Error(ErrorKind::invalid_argument, "boundaries not requested, or already taken");
   m.boundaries_taken = true;
-  return m.boundary.front().finish();
+  if (!m.keeping) return m.boundary.front().finish();
+  Impl::Keeping& k = *m.keeping;
+  std::optional<SegmentReuse<BoundaryVertex, boundary_stages::LineRefiner::Added>> reuse;
+  if (!k.before.empty()) reuse.emplace(k.before.d_->boundary, m.g, k.changed, k.site_map);
+  BoundaryResult result = m.boundary.front().finish(reuse ? &*reuse : nullptr, &k.now->boundary);
+  k.now->boundary.shrink_to_fit();
+  return result;
 }
 
 LimitResult StripLines::take_limits() {
@@ -522,9 +590,16 @@ LimitResult StripLines::take_limits() {
   LimitResult result;
   const CrsScale scale(m.limit_grid ? m.limit_grid->metric : m.index.metric(),
                        line_tools::centre(m.g, m.g.width / 2, m.g.height / 2), m.g.res);
-  for (LimitRun& run : m.limits) {
+  if (m.keeping) m.keeping->now->limits.resize(m.limits.size());
+  for (size_t i = 0; i < m.limits.size(); ++i) {
+    LimitRun& run = m.limits[i];
     const limit_stages::LimitRefiner refiner(run.t, m.limit_line_tolerance, scale);
-    limit_stages::chain_limit_lines(run.t, run.x, run.links, m.limit_tol, result, &refiner);
+    std::optional<SegmentReuse<LimitVertex, limit_stages::LimitRefiner::Measured>> reuse;
+    if (m.keeping && !m.keeping->before.empty())
+      reuse.emplace(m.keeping->before.d_->limits.at(i), m.g, m.keeping->changed, m.keeping->site_map);
+    limit_stages::chain_limit_lines(run.t, run.x, run.links, m.limit_tol, result, &refiner, reuse ? &*reuse : nullptr,
+                                    m.keeping ? &m.keeping->now->limits[i] : nullptr);
+    if (m.keeping) m.keeping->now->limits[i].shrink_to_fit();
   }
   return result;
 }

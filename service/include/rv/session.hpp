@@ -102,7 +102,8 @@ class Session {
   //   row1] | null}, "moved": [{"from", "to", "area"}], "areas": [{"label", "cells_area", and with
   //   regions "area", "sea_area", "land_area"}], "area_units", "lines": {kind: {"added": [...], "changed": [...],
   //   "removed": [ids]}}, "tripoints": {...}, "turning_points"?, "relevant_area"?, "recompute":
-  //   {"cells", "rows_extracted", "rows_taken"}, "timings": {...}}
+  //   {"cells", "rows_extracted", "rows_taken", "segments_refined", "segments_taken"}, "timings":
+  //   {...}}
   // Operations (coordinates in the seeds' CRS; reach in the job's distance units):
   //   {"op": "replace", "feature": ID, "geometry": GEOJSON}
   //   {"op": "move-vertex", "feature": ID, "path": [...], "to": [x, y]}: path [] for a point,
@@ -147,7 +148,8 @@ class Session {
   // The field in metric units (NearestField: sites index seeds()).
   const NearestField& field() const;
   int64_t steps() const;  // steps made (undo counts back)
-  // Bytes held: the field, its tile summaries, the seeds and features, the line pieces, the
+  // Bytes held: the field, its tile summaries, the seeds and features, the line pieces and their
+  // refinement (segment by segment), the
   // deliverables' text, the undo and redo steps.
   int64_t memory_bytes() const;
 

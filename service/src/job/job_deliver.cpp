@@ -70,6 +70,8 @@ struct StripDeliverables::State {
     std::vector<int32_t> site_map;
   };
   std::optional<Taking> taking;
+  // keep_refined's `before` and `changed`
+  std::optional<std::pair<std::map<std::string, RefinedSegments>, ChangedTiles>> keeping;
   bool lines_wanted = false;      // boundaries (a deliverable, or what regions, the preview or the report read)
   BoundaryResult boundary_lines;  // finish()'s
   LimitResult limit_lines;
@@ -146,6 +148,16 @@ void StripDeliverables::take_lines_from(std::map<std::string, LinePieces> base,
   st_->taking->base = std::move(base);
   st_->taking->fed = std::move(fed);
   st_->taking->site_map = std::move(site_map);
+}
+
+void StripDeliverables::keep_refined(std::map<std::string, RefinedSegments> before, ChangedTiles changed) {
+  st_->keeping.emplace(std::move(before), std::move(changed));
+}
+
+std::map<std::string, RefinedSegments> StripDeliverables::refined_segments() const {
+  std::map<std::string, RefinedSegments> out;
+  for (auto& [name, lines] : st_->lines()) out[name] = lines->refined();
+  return out;
 }
 
 const BoundaryResult& StripDeliverables::boundaries() const { return st_->boundary_lines; }
@@ -565,6 +577,15 @@ void StripDeliverables::finish() {
   run.check_cancel();
   run.progress("deliver", 0.0);
   s.complete_lines();
+  if (s.keeping)
+    for (auto& [name, lines] : s.lines()) {
+      // Earlier segments are valid only beside an edit's rows taken from its base.
+      const auto it = s.keeping->first.find(name);
+      if (s.taking && it != s.keeping->first.end())
+        lines->keep_refined(it->second, s.keeping->second, s.taking->site_map);
+      else
+        lines->keep_refined();
+    }
   s.boundary_lines = s.take_boundaries();
   s.limit_lines = s.take_limits();
   const BoundaryResult& boundaries = s.boundary_lines;

@@ -140,6 +140,13 @@ class StripDeliverables {
   // After the last strip, before finish(): every line extraction's pieces, by name (what the run
   // keeps for edits of it).
   std::map<std::string, LinePieces> line_pieces();
+  // Before finish(): the lines' refinement keeps what it does (refined_segments()), and, for an
+  // edit's lines (take_lines_from), takes the segments of `before` (an earlier state's
+  // refined_segments(), by name) that the edit's `changed` tiles leave valid
+  // (rv::StripLines::keep_refined).
+  void keep_refined(std::map<std::string, RefinedSegments> before, ChangedTiles changed);
+  // After finish(), with keep_refined: every line extraction's refined segments, by name.
+  std::map<std::string, RefinedSegments> refined_segments() const;
   // After finish(): the boundaries and tripoints, and the limit lines, as written (empty when not
   // made).
   const BoundaryResult& boundaries() const;

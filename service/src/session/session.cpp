@@ -102,9 +102,10 @@ struct Session::State {
   NearestField field;
   TileSummaries tiles;
   std::map<std::string, LinePieces> pieces;
-  mutable int64_t piece_bytes = -1;          // their encoded size, measured when memory is asked (-1: not yet)
-  std::map<std::string, std::string> texts;  // deliverable name -> its file's text
-  std::map<std::string, std::string> paths;  // deliverable name -> memory file
+  mutable int64_t piece_bytes = -1;                // their encoded size, measured when memory is asked (-1: not yet)
+  std::map<std::string, RefinedSegments> refined;  // the lines' refinement, segment by segment
+  std::map<std::string, std::string> texts;        // deliverable name -> its file's text
+  std::map<std::string, std::string> paths;        // deliverable name -> memory file
   detail::SessionLines lines;
   json report = json::object();             // the deliverables' report entries, as the job's
   std::map<std::string, double> cell_area;  // per owner label: its cells' area
@@ -133,6 +134,7 @@ json Session::State::deliver(const Edit* edit, const TileSummaries* before, json
   detail::StripDeliverables d(run, job, false);
   int64_t extracted = job.grid.height;
   std::string why;
+  ChangedTiles changed;  // where the edit may have changed the lines' measurements
   if (edit != nullptr && !pieces.empty()) {
     std::map<std::string, LinePieces> base;
     std::vector<LinePieces> list;
@@ -154,12 +156,17 @@ json Session::State::deliver(const Edit* edit, const TileSummaries* before, json
       extracted = 0;
       for (const auto& [a, b] : fed) extracted += b - a;
       d.take_lines_from(std::move(base), std::move(fed), edit->site_map());
+      changed = ChangedTiles{TileSummaries::kTile, edit->line_tiles(*before, floor)};
     }
   }
+  d.keep_refined(refined, std::move(changed));
   d.add(field);
-  pieces = d.line_pieces();
-  piece_bytes = -1;
+  std::map<std::string, LinePieces> now_pieces = d.line_pieces();
   d.finish();
+  // Kept once the deliverables are made (a step that fails keeps the state before).
+  pieces = std::move(now_pieces);
+  piece_bytes = -1;
+  refined = d.refined_segments();
   std::map<std::string, std::string> now;
   for (const auto& [name, path] : paths) now[name] = read_memory_file(path);
   remove_memory_files(dir);
@@ -168,6 +175,13 @@ json Session::State::deliver(const Edit* edit, const TileSummaries* before, json
   if (run.timings.contains("deliverables")) recompute["deliverables_s"] = run.timings["deliverables"];
   recompute["rows_extracted"] = extracted;
   recompute["rows_taken"] = job.grid.height - extracted;
+  int64_t segments = 0, taken = 0;
+  for (const auto& [name, r] : refined) {
+    segments += r.segments();
+    taken += r.segments_taken();
+  }
+  recompute["segments_refined"] = segments - taken;
+  recompute["segments_taken"] = taken;
   if (!why.empty()) recompute["why_every_row"] = why;
   return lines.update(d.boundaries(), d.limits(), job.loaded.seeds.owner_labels(), job.to_output);
 }
@@ -356,6 +370,7 @@ int64_t Session::State::memory_bytes() const {
     for (const auto& [name, p] : pieces) piece_bytes += static_cast<int64_t>(p.encode().size());
   }
   b += piece_bytes;
+  for (const auto& [name, r] : refined) b += r.memory_bytes();
   for (const auto& [name, t] : texts) b += static_cast<int64_t>(t.size());
   for (const Step& s : undo) b += s.memory_bytes();
   for (const Step& s : redo) b += s.memory_bytes();

@@ -3,7 +3,9 @@
 // lines; the pieces survive their bytes, and damaged bytes are refused; an edit that extracts
 // only Edit::line_rows and takes every other row from its base gives a fresh extraction's lines,
 // vertex for vertex, for moves, removals, additions and owner changes, planar and geodesic, with
-// boundaries, limits for all owners and per owner, and a max distance; and leaves rows to take.
+// boundaries, limits for all owners and per owner, and a max distance; and leaves rows to take;
+// and so does one that also takes the base's refined segments away from those rows
+// (StripLines::keep_refined), taking some and refining the others.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -196,7 +198,14 @@ void check_edit(const Lines& l, const SeedSet& base, const SeedSet& edited, cons
   const int64_t H = l.grid.height;
   const auto base_metric = l.metric_of(base);
   const OwnerIndex base_index(*base_metric);
-  const LinePieces pieces = l.extract(base_index, base, {{0, H}}).pieces();
+  StripLines base_lines = l.extract(base_index, base, {{0, H}});
+  const LinePieces pieces = base_lines.pieces();
+  base_lines.keep_refined();
+  base_lines.take_boundaries();
+  base_lines.take_limits();
+  const RefinedSegments refined = base_lines.refined();
+  EXPECT_GT(refined.segments(), 100);
+  EXPECT_EQ(refined.segments_taken(), 0);
   const NearestField base_field = rv::compute(base, l.grid, l.compute);
   TileSummaries tiles = TileSummaries::for_grid(l.grid);
   tiles.add(base_field.site.data(), base_field.distance.data(), 0, H, l.grid.width, base);
@@ -214,8 +223,28 @@ void check_edit(const Lines& l, const SeedSet& base, const SeedSet& edited, cons
   const auto metric = l.metric_of(edited);
   const OwnerIndex index(*metric);
   StripLines taken = l.extract(index, edited, fed, &pieces, edit.site_map());
+  // The refinement too: the segments away from the rows fed taken from the base's.
+  taken.keep_refined(refined, ChangedTiles{TileSummaries::kTile, edit.line_tiles(tiles, floor)}, edit.site_map());
   StripLines fresh = l.extract(index, edited, {{0, H}});
   expect_same(taken, fresh);
+  const RefinedSegments now = taken.refined();
+  if (expect_rows_taken) {
+    EXPECT_GT(now.segments_taken(), 0);
+  }
+  // Every segment where no row is fed (nothing changed); else those near the changed tiles
+  // refined.
+  if (fed.empty()) {
+    EXPECT_EQ(now.segments_taken(), now.segments());
+  } else {
+    EXPECT_LT(now.segments_taken(), now.segments());
+  }
+  // Refined segments of another extraction are refused.
+  LineRequest other = l.request;
+  other.limit_distances = {3.0};
+  StripLines foreign(l.grid, index, other);
+  EXPECT_THROW(foreign.keep_refined(refined, ChangedTiles{TileSummaries::kTile, edit.line_tiles(tiles, floor)}), Error);
+  StripLines uncovered(l.grid, index, l.request);
+  EXPECT_THROW(uncovered.keep_refined(refined, ChangedTiles{TileSummaries::kTile, {}}), Error);
 }
 
 // Edits of one kind each, and several at once, of seed sets spread over three bands of tiles.

@@ -132,6 +132,13 @@ class Edit {
   // seeds with weights or reaches, owners in another order, a projected geodesic grid.
   std::vector<std::pair<int64_t, int64_t>> line_rows(const TileSummaries& tiles,
                                                      std::span<const LinePieces> base_pieces, double reach_floor) const;
+  // Per tile of the grid (TileSummaries order), 1 where the edit may change a cell or a
+  // measurement by the metric within it, as line_rows reads them (before its rows are widened):
+  // a tile it may change, one its changed features' box meets, or one where a removed or an added
+  // site may be measured; every tile where line_rows gives every row. A line segment whose
+  // tiles (its ends' cells widened by two) are all 0 measures as it did before the edit
+  // (rv::StripLines::keep_refined).
+  std::vector<uint8_t> line_tiles(const TileSummaries& tiles, double reach_floor) const;
 
   // The plan for `base`, the base field over any window of the grid (the field of the base seeds
   // computed with the same options). With `tiles` (the base field's summaries over the whole

@@ -7,6 +7,7 @@
 #include <span>
 #include <string>
 #include <string_view>
+#include <utility>
 #include <vector>
 
 #include "rv/engine/engine.hpp"
@@ -57,6 +58,34 @@ class LinePieces {
   explicit LinePieces(std::shared_ptr<const Data> d);
   std::shared_ptr<const Data> d_;
   friend class StripLines;
+};
+
+// What a StripLines extraction's refinement did, segment by segment (the points it added between
+// the vertices on cell edges, their bows and what it counted), for its boundaries, its limit
+// lines and the owned area's edge: what a session keeps so that the next extraction, of its
+// edited field, refines again only the segments near the edit (StripLines::keep_refined). In
+// memory only. Cheap to copy (shared, immutable). Thread safety: const functions from any thread.
+class RefinedSegments {
+ public:
+  RefinedSegments();
+  bool empty() const;
+  int64_t segments() const;        // segments of the lines before refinement
+  int64_t segments_taken() const;  // of which taken from the earlier state, not refined again
+  int64_t memory_bytes() const;
+
+  struct Data;
+
+ private:
+  explicit RefinedSegments(std::shared_ptr<const Data> d);
+  std::shared_ptr<const Data> d_;
+  friend class StripLines;
+};
+
+// Where an edit may have changed the field's cells or a measurement by the metric: a flag per
+// square tile of `size` cells, row-major over the grid, 1 where it may (rv::Edit::line_tiles).
+struct ChangedTiles {
+  int64_t size = 0;
+  std::vector<uint8_t> flags;
 };
 
 // Boundaries, tripoints and limit lines taken in strip by strip from an exact field that is
@@ -110,6 +139,18 @@ class StripLines {
   // not at the distances the metric measures there now (pieces made by pieces() in this process
   // were measured when made, and are not measured again).
   void take_rows(const LinePieces& base, int64_t row1, std::span<const int32_t> site_map = {});
+  // Before take_*: the refinement keeps what it does (refined()), and takes from `before` (an
+  // earlier state's refined(), of an extraction with the same key and line tolerances; empty:
+  // none) the segments whose ends are bit for bit the same (their sites renumbered by `site_map`,
+  // as take_rows) and whose cells, widened by two at each side, lie in tiles `changed` flags 0
+  // (since `before`, neither the field's cells nor any measurement by the metric changed there)
+  // instead of refining them again. The lines are the same, vertex for vertex. Throws
+  // rv::Error(invalid_argument) for a `before` of another extraction, or `changed` tiles that do
+  // not cover the grid.
+  void keep_refined(RefinedSegments before = {}, ChangedTiles changed = {}, std::vector<int32_t> site_map = {});
+  // After take_boundaries and take_limits (those requested), with keep_refined: every segment
+  // refined or taken.
+  RefinedSegments refined() const;
   // After the last row: the lines. Throws rv::Error(invalid_argument) when rows are missing.
   // Each may be called once.
   BoundaryResult take_boundaries();
