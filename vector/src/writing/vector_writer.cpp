@@ -1,10 +1,7 @@
 #include "rv/gdal/vector_writer.hpp"
 
-#include <unistd.h>
-
 #include <algorithm>
 #include <array>
-#include <atomic>
 #include <cerrno>
 #include <cstring>
 #include <map>
@@ -16,6 +13,7 @@
 #include "common/gdal_util.hpp"
 #include "rv/field/error.hpp"
 #include "rv/field/parallel.hpp"
+#include "writing/geojson_text.hpp"
 
 namespace rv {
 namespace {
@@ -44,12 +42,7 @@ const char* driver_for(const std::string& path) {
 class VectorFile {
  public:
   explicit VectorFile(const std::string& path) : target_(path) {
-    static std::atomic<uint64_t> counter{0};
-    const size_t slash = path.find_last_of('/');
-    const std::string dir = slash == std::string::npos ? "." : path.substr(0, slash == 0 ? 1 : slash);
-    const std::string name = slash == std::string::npos ? path : path.substr(slash + 1);
-    temp_ = (dir == "/" ? "" : dir) + "/." + name + ".tmp-" + std::to_string(::getpid()) + "-" +
-            std::to_string(counter.fetch_add(1)) + "." + lower_extension(path);
+    temp_ = writing::hidden_temporary(path, lower_extension(path));
     GDALDriver* driver = GetGDALDriverManager()->GetDriverByName(driver_for(path));
     if (driver == nullptr)
       throw Error(ErrorKind::unsupported, std::string("GDAL has no ") + driver_for(path) + " driver");
@@ -120,9 +113,54 @@ int feature_of(const SeedSet& s, int32_t site) { return site == kNoSite ? 0 : s.
 
 }  // namespace
 
+namespace {
+
+bool geojson(const std::string& path) { return std::string(driver_for(path)) == "GeoJSON"; }
+
+// The GeoJSON files, written as GDAL writes them (writing/geojson_text.hpp), fields in the order
+// of the GeoPackage layers' below.
+void geojson_boundaries(const std::string& path, const BoundaryResult& b, const SeedSet& s,
+                        const VectorOutputOptions& o) {
+  writing::GeoJsonText text("boundaries", o.crs, resolve_threads(o.threads));
+  std::vector<Vec2> pts;
+  std::vector<int> fa, fb;
+  for (const BoundaryLine& line : b.lines) {
+    pts.clear();
+    fa.clear();
+    fb.clear();
+    double worst = 0.0;
+    for (const BoundaryVertex& v : line.vertices) {
+      pts.push_back(v.p);
+      fa.push_back(feature_of(s, v.site_a));
+      fb.push_back(feature_of(s, v.site_b));
+      worst = std::max(worst, v.residual);
+    }
+    text.begin_feature();
+    text.property("owner_a", int64_t{line.owner_a});
+    text.property("owner_b", int64_t{line.owner_b});
+    text.property("label_a", label_of(s, line.owner_a));
+    text.property("label_b", label_of(s, line.owner_b));
+    text.property("closed", int64_t{line.closed ? 1 : 0});
+    text.property("vertex_count", static_cast<int64_t>(line.vertices.size()));
+    text.property("max_residual", worst * o.distance_factor);
+    text.property("units", o.distance_units);
+    text.property("features_a", std::span<const int>(fa));
+    text.property("features_b", std::span<const int>(fb));
+    text.line(pts);
+    text.end_feature();
+  }
+  writing::write_text_file(path, text.finish());
+}
+
+}  // namespace
+
 void write_boundaries(const std::string& path, const BoundaryResult& b, const SiteMetric& metric,
                       const VectorOutputOptions& o) {
   const SeedSet& s = metric.seeds();
+  if (geojson(path)) {
+    geojson_boundaries(path, b, s, o);
+    return;
+  }
   VectorFile file(path);
   const bool gpkg = std::string(driver_for(path)) == "GPKG";
   bool weighted = false;
@@ -227,6 +265,23 @@ void write_boundaries(const std::string& path, const BoundaryResult& b, const Si
 void write_tripoints(const std::string& path, const BoundaryResult& b, const SiteMetric& metric,
                      const VectorOutputOptions& o) {
   const SeedSet& s = metric.seeds();
+  if (geojson(path)) {
+    writing::GeoJsonText text("tripoints", o.crs);
+    for (const Tripoint& t : b.tripoints) {
+      text.begin_feature();
+      for (int i = 0; i < 3; ++i) text.property(("owner_" + std::to_string(i + 1)).c_str(), int64_t{t.owners[i]});
+      for (int i = 0; i < 3; ++i) text.property(("label_" + std::to_string(i + 1)).c_str(), label_of(s, t.owners[i]));
+      for (int i = 0; i < 3; ++i)
+        text.property(("feature_" + std::to_string(i + 1)).c_str(), int64_t{feature_of(s, t.sites[i])});
+      text.property("distance", t.distance * o.distance_factor);
+      text.property("residual", t.residual * o.distance_factor);
+      text.property("units", o.distance_units);
+      text.point(t.p);
+      text.end_feature();
+    }
+    writing::write_text_file(path, text.finish());
+    return;
+  }
   VectorFile file(path);
   OGRLayer* l = file.layer("tripoints", wkbPoint, o.crs);
   for (const char* name : {"owner_1", "owner_2", "owner_3"}) file.field(l, name, OFTInteger);
@@ -256,6 +311,29 @@ void write_tripoints(const std::string& path, const BoundaryResult& b, const Sit
 }
 
 void write_limits(const std::string& path, const LimitResult& limits, const SeedSet& s, const VectorOutputOptions& o) {
+  if (geojson(path)) {
+    writing::GeoJsonText text("limits", o.crs, resolve_threads(o.threads));
+    std::vector<Vec2> pts;
+    for (const LimitLine& line : limits.lines) {
+      pts.clear();
+      double worst = 0.0;
+      for (const LimitVertex& v : line.vertices) {
+        pts.push_back(v.p);
+        worst = std::max(worst, v.residual);
+      }
+      text.begin_feature();
+      text.property("distance", line.distance * o.distance_factor);
+      text.property("units", o.distance_units);
+      text.property("owner", int64_t{line.owner});
+      text.property("label", line.owner == 0 ? std::string("all") : label_of(s, line.owner));
+      text.property("closed", int64_t{line.closed ? 1 : 0});
+      text.property("max_residual", worst * o.distance_factor);
+      text.line(pts);
+      text.end_feature();
+    }
+    writing::write_text_file(path, text.finish());
+    return;
+  }
   VectorFile file(path);
   OGRLayer* l = file.layer("limits", wkbLineString, o.crs);
   file.field(l, "distance", OFTReal);
@@ -391,6 +469,23 @@ struct OwnerParts {
   double relevant_land = 0.0, relevant_sea = 0.0;  // within the relevant area
 };
 
+void geojson_regions(const std::string& path, const std::vector<OwnerParts>& parts, const SeedSet& s,
+                     const std::string& area_units, const VectorOutputOptions& o) {
+  writing::GeoJsonText text("regions", o.crs, resolve_threads(o.threads));
+  for (const OwnerParts& part : parts) {
+    text.begin_feature();
+    text.property("owner", int64_t{part.owner});
+    text.property("label", label_of(s, part.owner));
+    text.property("area", part.land_area + part.sea_area);
+    text.property("land_area", part.land_area);
+    text.property("sea_area", part.sea_area);
+    text.property("area_units", area_units);
+    text.polygons(*part.region);
+    text.end_feature();
+  }
+  writing::write_text_file(path, text.finish());
+}
+
 // The grid's outline, closed, appended to a line or ring.
 void add_outline(OGRLineString& line, const GridSpec& g) {
   line.addPoint(g.xmin, g.ymax);
@@ -521,6 +616,10 @@ RegionStats write_line_regions(const std::string& path, const LineRegions& r, co
                            part.relevant_land + part.relevant_sea, part.relevant_land, part.relevant_sea});
   stats.owners = static_cast<int64_t>(parts.size());
   if (path.empty()) return stats;
+  if (geojson(path)) {
+    geojson_regions(path, parts, s, r.area_units, o);
+    return stats;
+  }
   VectorFile file(path);
   const bool gpkg = std::string(driver_for(path)) == "GPKG";
   OGRLayer* l = file.layer("regions", wkbMultiPolygon, o.crs);
