@@ -1,12 +1,11 @@
 // GeoJSON text (vector/src/writing/geojson_text.hpp) against GDAL's GeoJSON driver, the oracle:
 // coordinates formatted as GDAL's OGRFormatDouble formats them (15 decimals) for two million
-// values over every magnitude the grids use and for crafted ones whose digits end in runs of
-// zeros or nines (where GDAL rounds further); and whole collections -- points, lines of many
-// vertices (formatted on threads), polygons and multipolygons with holes, integer, real, string
-// and integer-list properties (quotes, slashes, control characters, UTF-8, integers as reals,
-// negative zero, tiny and huge values), in a longitude/latitude CRS, a projected one and none,
-// with no feature at all -- equal to GDAL's file byte for byte. And the writers: a file in place
-// (renamed from a temporary one), nothing left where the directory does not exist.
+// values over every magnitude the grids use and for crafted ones with runs of zeros or nines of
+// every length at every position near their end (where GDAL rounds further); and whole collections -- points, lines of
+// many vertices (formatted on threads), polygons and multipolygons with holes, integer, real, string and integer-list
+// properties (quotes, slashes, control characters, UTF-8, integers as reals, negative zero, tiny and huge values), in a
+// longitude/latitude CRS, a projected one and none, with no feature at all -- equal to GDAL's file byte for byte. And
+// the writers: a file in place (renamed from a temporary one), nothing left where the directory does not exist.
 #include <gtest/gtest.h>
 
 #include <unistd.h>
@@ -66,13 +65,15 @@ TEST(GeoJsonText, CoordinatesAreGdals) {
       check(std::nextafter(base, 1e300));
       check(std::nextafter(base, -1e300));
     }
-  // Decimal strings with runs of zeros and nines at every position near the end.
+  // Decimal strings with runs of zeros and nines of every length from two to seven at every
+  // position near the end, small and large integer parts.
   for (int digits = 1; digits <= 15; ++digits)
     for (const char run : {'0', '9'})
-      for (int i = 0; i < 500; ++i) {
-        std::string s = std::to_string(k(rng) % 1000) + ".";
+      for (int i = 0; i < 1200; ++i) {
+        const int length = 2 + i % 6;
+        std::string s = std::to_string(k(rng) % (i % 4 < 2 ? 1000 : 1000000)) + ".";
         for (int d = 0; d < 15; ++d)
-          s.push_back(d >= digits && d < digits + 6 ? run : static_cast<char>('0' + k(rng) % 10));
+          s.push_back(d >= digits && d < digits + length ? run : static_cast<char>('0' + k(rng) % 10));
         double v = 0.0;
         std::from_chars(s.data(), s.data() + s.size(), v);
         check(v);

@@ -1,7 +1,8 @@
 // GeoJSON text as GDAL writes it (writing/geojson_text.hpp). What GDAL 3.6's GeoJSON driver does,
 // as observed and checked by the tests: a coordinate goes through OGRFormatDouble with 15
 // decimals, fixed notation, which rounds the digits away where they end in a run of zeros or
-// nines (taken as the binary value's noise) and then drops trailing zeros, keeping one decimal;
+// nines (taken as the binary value's noise; about one value in 25,000) and then drops trailing
+// zeros, keeping one decimal;
 // a real property is printed with 17 significant digits ("%.17g") and ".0" added where that has
 // neither a point nor an exponent; features are json-c's spaced objects, one per line, joined
 // by ",\n".
@@ -26,12 +27,17 @@
 namespace rv::writing {
 namespace {
 
-// Whether GDAL may round a fixed 15-decimal string further: a pair of zeros or nines among its
-// last nine characters (the patterns its rounding looks for lie there; wider than they are, so
-// that every string it could change goes to it).
+// Whether GDAL may round a fixed 15-decimal string further: a run of three or more zeros or
+// nines among its last eleven characters. (The strings it changes have runs of four or five
+// there, as its rounding looks for; the test checks every run length at every position.)
 bool gdal_may_round(const char* s, size_t len) {
-  for (size_t i = len >= 10 ? len - 10 : 0; i + 1 < len; ++i)
-    if ((s[i] == '0' && s[i + 1] == '0') || (s[i] == '9' && s[i + 1] == '9')) return true;
+  int run = 0;
+  char of = 0;
+  for (size_t i = len >= 11 ? len - 11 : 0; i < len; ++i) {
+    run = (s[i] == '0' || s[i] == '9') && s[i] == of ? run + 1 : 1;
+    of = s[i];
+    if (run >= 3 && (of == '0' || of == '9')) return true;
+  }
   return false;
 }
 

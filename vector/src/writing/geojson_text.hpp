@@ -3,8 +3,9 @@
 // writing a coast's lines through OGR spends most of its time in the C library's decimal
 // formatting, one coordinate at a time, through a string stream each. Here a coordinate is
 // formatted with std::to_chars (fixed, 15 decimals, trailing zeros dropped) and handed to GDAL's
-// own formatter only where that one rounds the digits further (a run of zeros or nines near the
-// end); lines are formatted on several threads, in blocks of vertices.
+// own formatter only where that one may round the digits further (a run of three zeros or nines
+// near the end: about one value in fifty); lines are formatted on several threads, in blocks of
+// vertices.
 // The header (the layer's name and CRS member) is GDAL's own: an empty layer written by the
 // driver. Internal to rv_vector.
 // Thread safety: a GeoJsonText is used by one thread (its line coordinates use `threads`); the
