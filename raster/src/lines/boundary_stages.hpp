@@ -34,13 +34,6 @@
 #include "rv/lines/boundaries.hpp"
 #include "rv/lines/residual.hpp"
 
-namespace rv {
-template <class V, class Stat>
-struct SegmentMemo;
-template <class V, class Stat>
-class SegmentReuse;
-}  // namespace rv
-
 namespace rv::boundary_stages {
 
 // A point of the equidistance locus between owners owner_lo < owner_hi on grid edge `edge`

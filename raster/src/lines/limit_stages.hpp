@@ -29,13 +29,6 @@
 #include "rv/engine/site_metric.hpp"
 #include "rv/lines/limits.hpp"
 
-namespace rv {
-template <class V, class Stat>
-struct SegmentMemo;
-template <class V, class Stat>
-class SegmentReuse;
-}  // namespace rv
-
 namespace rv::limit_stages {
 
 // What every stage of one extraction reads (rows: line_tools::FieldRows, a whole field or the

@@ -16,6 +16,15 @@
 #include "rv/field/parallel.hpp"
 #include "rv/lines/residual.hpp"
 
+namespace rv {
+// What a refinement keeps of each segment, and the segments an edit leaves valid (line_pieces.hpp):
+// the stages take them by pointer.
+template <class V, class Stat>
+struct SegmentMemo;
+template <class V, class Stat>
+class SegmentReuse;
+}  // namespace rv
+
 namespace rv::line_tools {
 
 inline Vec2 centre(const GridSpec& g, int64_t col, int64_t row) { return Vec2{g.centre_x(col), g.centre_y(row)}; }
