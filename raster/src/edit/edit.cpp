@@ -9,6 +9,7 @@
 #include <functional>
 #include <limits>
 #include <memory>
+#include <optional>
 #include <string>
 #include <unordered_map>
 #include <unordered_set>
@@ -392,14 +393,21 @@ struct Edit::State {
 
   std::vector<SeedSet::Box> boxes;  // cells whose centre is in one are computed again
 
-  State(const SeedSet& b, const SeedSet& e, const GridSpec& g, const ComputeOptions& o)
+  State(const SeedSet& b, const SeedSet& e, const GridSpec& g, const ComputeOptions& o,
+        std::optional<FeatureMatch> given = std::nullopt)
       : base_seeds(b), edited(e), grid(g), options(o) {
     if (options.method != Method::exact)
       throw Error(ErrorKind::invalid_argument, "edit: only the exact method recomputes a part of a field");
     options.window.reset();
     options.mask = nullptr;
     options.progress = nullptr;
-    match = match_features(base_seeds, edited);
+    if (given) {
+      match = std::move(*given);
+      check_given_match();
+      match.owners_reordered = owners_reordered(base_seeds, edited);
+    } else {
+      match = match_features(base_seeds, edited);
+    }
     // Interiors kept across a change of their edges need the boxes in the grid's CRS: not on a
     // projected geodesic grid (the seeds are in longitude/latitude there).
     SiteMatch sites = match_sites(base_seeds, edited, match, options.geolocator == nullptr);
@@ -418,6 +426,32 @@ struct Edit::State {
     every_cell = options.metric.kind == MetricSpec::geodesic && base_seeds.adjusted() != edited.adjusted();
   }
   bool every_cell = false;
+
+  // A caller's match fits the sets: sizes, pairs both ways, in order, and each pair with as many
+  // sites of each kind (site ranges as match_sites reads them).
+  void check_given_match() const {
+    const auto nb = static_cast<int32_t>(base_seeds.features().size()),
+               ne = static_cast<int32_t>(edited.features().size());
+    if (match.edited_of_base.size() != static_cast<size_t>(nb) ||
+        match.base_of_edited.size() != static_cast<size_t>(ne))
+      throw Error(ErrorKind::invalid_argument, "edit: the given feature match does not fit the seed sets");
+    const auto rb = site_ranges(base_seeds), re = site_ranges(edited);
+    int32_t last = -1;
+    for (int32_t f = 0; f < ne; ++f) {
+      const int32_t k = match.base_of_edited[static_cast<size_t>(f)];
+      if (k < 0) continue;
+      if (k >= nb || k <= last || match.edited_of_base[static_cast<size_t>(k)] != f ||
+          rb[static_cast<size_t>(k)].second - rb[static_cast<size_t>(k)].first !=
+              re[static_cast<size_t>(f)].second - re[static_cast<size_t>(f)].first)
+        throw Error(ErrorKind::invalid_argument, "edit: the given feature match does not fit the seed sets");
+      last = k;
+    }
+    for (int32_t k = 0; k < nb; ++k) {
+      const int32_t f = match.edited_of_base[static_cast<size_t>(k)];
+      if (f >= ne || (f >= 0 && match.base_of_edited[static_cast<size_t>(f)] != k))
+        throw Error(ErrorKind::invalid_argument, "edit: the given feature match does not fit the seed sets");
+    }
+  }
   // Whether a cell centre (grid coordinates) lies in a box of changed edges.
   bool in_box(Vec2 p) const {
     for (const SeedSet::Box& b : boxes)
@@ -531,6 +565,9 @@ Edit::State::Part Edit::State::plan_part(const NearestField& base, const Window&
 
 Edit::Edit(const SeedSet& base_seeds, const SeedSet& edited, const GridSpec& grid, const ComputeOptions& options)
     : st_(std::make_unique<State>(base_seeds, edited, grid, options)) {}
+Edit::Edit(const SeedSet& base_seeds, const SeedSet& edited, const GridSpec& grid, const ComputeOptions& options,
+           FeatureMatch match)
+    : st_(std::make_unique<State>(base_seeds, edited, grid, options, std::move(match))) {}
 Edit::~Edit() = default;
 Edit::Edit(Edit&&) noexcept = default;
 

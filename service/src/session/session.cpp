@@ -13,6 +13,7 @@
 #include <exception>
 #include <map>
 #include <optional>
+#include <unordered_map>
 #include <unordered_set>
 
 #include "job/job_run.hpp"
@@ -116,8 +117,10 @@ struct Session::State {
   // only the rows near its changes extracted again. Returns what the answer says of the lines.
   json deliver(const Edit* edit, const TileSummaries* before, json& recompute);
   // Moves the field and seeds to `edited` (its features' slots `slot_of`, input positions
-  // `position`) and answers what changed; on failure the session is as it was.
-  json update(SeedSet edited, std::vector<size_t> slot_of, std::vector<int64_t> position);
+  // `position`; the slots the step changed `touched`) and answers what changed; on failure the
+  // session is as it was.
+  json update(SeedSet edited, std::vector<size_t> slot_of, std::vector<int64_t> position,
+              const std::unordered_set<size_t>& touched);
   json areas_json() const;
   json step(const std::vector<detail::SlotChange>& changes, bool undoing);
   int64_t memory_bytes() const;
@@ -205,7 +208,32 @@ json Session::State::areas_json() const {
   return out;
 }
 
-json Session::State::update(SeedSet edited, std::vector<size_t> new_slot_of, std::vector<int64_t> position) {
+namespace {
+
+// The features of two states of a session paired by slot: a slot the step did not touch holds the
+// same feature in both (features keep their slots' order), a touched one is removed and added.
+FeatureMatch match_by_slot(const std::vector<size_t>& before, const std::vector<size_t>& after,
+                           const std::unordered_set<size_t>& touched) {
+  FeatureMatch m;
+  m.edited_of_base.assign(before.size(), -1);
+  m.base_of_edited.assign(after.size(), -1);
+  std::unordered_map<size_t, int32_t> was;
+  was.reserve(before.size());
+  for (size_t f = 0; f < before.size(); ++f)
+    if (!touched.contains(before[f])) was.emplace(before[f], static_cast<int32_t>(f));
+  for (size_t f = 0; f < after.size(); ++f) {
+    const auto it = was.find(after[f]);
+    if (it == was.end()) continue;
+    m.base_of_edited[f] = it->second;
+    m.edited_of_base[static_cast<size_t>(it->second)] = static_cast<int32_t>(f);
+  }
+  return m;
+}
+
+}  // namespace
+
+json Session::State::update(SeedSet edited, std::vector<size_t> new_slot_of, std::vector<int64_t> position,
+                            const std::unordered_set<size_t>& touched) {
   const auto started = Clock::now();
   json timings = json::object();
   // The seeds move into the job before the edit is prepared and made: rv::Edit keeps both sets
@@ -236,7 +264,7 @@ json Session::State::update(SeedSet edited, std::vector<size_t> new_slot_of, std
     job.compute.prepared = prepare(job.loaded.seeds, job.grid, job.compute);
     timings["prepare"] = seconds_since(started);
     auto t = Clock::now();
-    const Edit edit(old_seeds, job.loaded.seeds, job.grid, job.compute);
+    const Edit edit(old_seeds, job.loaded.seeds, job.grid, job.compute, match_by_slot(slot_of, new_slot_of, touched));
     const EditPlan plan = edit.plan(field, &tiles);
     const ChangeTally tallier(old_seeds, job.loaded.seeds, job.grid, nullptr);
     const ChangeTally::MaskedCells before = ChangeTally::masked_cells(plan.mask, field);
@@ -313,7 +341,7 @@ json Session::State::step(const std::vector<detail::SlotChange>& changes, bool u
     const std::vector<size_t> old_slot_of = slot_of;
     const std::vector<BorderSliver> old_slivers = job.loaded.report.slivers;
     const detail::SessionLines old_lines = lines;
-    json answer = update(std::move(edited), std::move(new_slot_of), std::move(position));
+    json answer = update(std::move(edited), std::move(new_slot_of), std::move(position), touched);
     // The seeds' report (what a saved job states) names the land-border slivers by feature:
     // those of untouched features renumbered, the edited features' as the check found them.
     std::unordered_map<size_t, int32_t> index_of_slot;
@@ -340,7 +368,7 @@ json Session::State::step(const std::vector<detail::SlotChange>& changes, bool u
       std::vector<size_t> s;
       std::vector<int64_t> p;
       SeedSet back = features->build(s, p);
-      update(std::move(back), std::move(s), std::move(p));
+      update(std::move(back), std::move(s), std::move(p), touched);
       lines = old_lines;
       job.loaded.report.slivers = old_slivers;
       job.loaded.report.sliver_count = static_cast<int64_t>(old_slivers.size());

@@ -16,6 +16,7 @@
 
 #include "rv/edit/edit.hpp"
 #include "rv/engine/engine.hpp"
+#include "rv/field/error.hpp"
 #include "seed_gen.hpp"
 
 namespace rv {
@@ -261,6 +262,54 @@ TEST(Edit, FeaturesMatchByGeometryOwnerAndAdjustments) {
   const std::vector<int32_t> sites = edited_sites(base, build({specs[1], specs[2]}), m);
   EXPECT_EQ(sites[0], kNoSite);
   EXPECT_EQ(sites[1], 0);  // the line's segment
+}
+
+// A caller's match (a session knows which features it changed): the match_features one, or one
+// that leaves kept features unpaired, gives the fresh field; one that does not fit is refused.
+TEST(Edit, AGivenMatchGivesTheSameField) {
+  std::vector<Spec> specs = {{"A", GeometryKind::point, {{10, 10}}},
+                             {"B", GeometryKind::line, {{40, 20}, {60, 70}}},
+                             {"A", GeometryKind::polygon, {{80, 60}, {95, 60}, {85, 80}}},
+                             {"C", GeometryKind::point, {{20, 80}}}};
+  const GridSpec grid = test::grid_of(120, 100, 1.0);
+  ComputeOptions options;
+  options.threads = 2;
+  const SeedSet base = build(specs);
+  const NearestField before = compute(base, grid, options);
+  std::vector<Spec> next = specs;
+  next[0].points[0] = Vec2{30, 30};  // the first point moved
+  const SeedSet edited = build(next);
+  const NearestField fresh = compute(edited, grid, options);
+  auto field_of = [&](FeatureMatch m) {
+    const Edit edit(base, edited, grid, options, std::move(m));
+    NearestField out = before;
+    edit.apply(out, edit.plan(out), out);
+    return out;
+  };
+  FeatureMatch by_geometry = match_features(base, edited);
+  EXPECT_EQ(by_geometry.kept(), 3);
+  EXPECT_EQ(differing(field_of(by_geometry), fresh), 0);
+  FeatureMatch fewer = by_geometry;  // the polygon taken as removed and added
+  fewer.edited_of_base[2] = -1;
+  fewer.base_of_edited[2] = -1;
+  EXPECT_EQ(differing(field_of(fewer), fresh), 0);
+  FeatureMatch none;
+  none.edited_of_base.assign(4, -1);
+  none.base_of_edited.assign(4, -1);
+  EXPECT_EQ(differing(field_of(none), fresh), 0);
+  // Out of order, one-sided, a point paired with a polygon, the wrong sizes: refused.
+  FeatureMatch swapped = by_geometry;
+  std::swap(swapped.edited_of_base[1], swapped.edited_of_base[2]);
+  std::swap(swapped.base_of_edited[1], swapped.base_of_edited[2]);
+  FeatureMatch one_sided = by_geometry;
+  one_sided.edited_of_base[3] = -1;
+  FeatureMatch kinds = none;
+  kinds.edited_of_base[0] = 2;
+  kinds.base_of_edited[2] = 0;
+  FeatureMatch sizes = by_geometry;
+  sizes.base_of_edited.pop_back();
+  for (const FeatureMatch* m : {&swapped, &one_sided, &kinds, &sizes})
+    EXPECT_THROW(Edit(base, edited, grid, options, *m), Error);
 }
 
 }  // namespace

@@ -103,6 +103,14 @@ struct EditPlan {
 class Edit {
  public:
   Edit(const SeedSet& base_seeds, const SeedSet& edited, const GridSpec& grid, const ComputeOptions& options);
+  // The same with the features matched by the caller, who knows which it changed (a session),
+  // instead of by their geometry (match_features, which hashes every feature): `match` pairs only
+  // features that are the same in both sets (geometry, owner, weight, reach), in the same order;
+  // any it leaves unpaired is taken as removed and added (more cells computed, the same field).
+  // Its owners_reordered is worked out here. Throws rv::Error(invalid_argument) for a match that
+  // does not fit the sets (sizes, a pair whose parts or sites differ in number, pairs out of order).
+  Edit(const SeedSet& base_seeds, const SeedSet& edited, const GridSpec& grid, const ComputeOptions& options,
+       FeatureMatch match);
   ~Edit();
   Edit(Edit&&) noexcept;
   Edit& operator=(Edit&&) = delete;
