@@ -329,40 +329,35 @@ void chain_limit_lines(const Target& t, const LimitCrossings& x, const std::vect
     struct Block {
       size_t chain, i0, i1;
       std::vector<LimitVertex> out;
-      LineResidual residual;
-      int64_t corners = 0;
+      LimitRefiner::Measured measured;
       std::vector<LimitMemo::Entry> kept;  // with `record`: its segments
       int64_t taken = 0;                   // of which taken from `reuse`
     };
     std::vector<Block> blocks;
     for (size_t k = 0; k < verts.size(); ++k)
       for (size_t i = 0; i + 1 < verts[k].size(); i += kBlock)
-        blocks.push_back(Block{k, i, std::min(i + kBlock, verts[k].size() - 1), {}, {}, 0, {}, 0});
-    const std::vector<Bow> no_bows;
+        blocks.push_back(Block{k, i, std::min(i + kBlock, verts[k].size() - 1), {}, {}, {}, 0});
     detail::parallel_for(t.grid.threads, static_cast<int64_t>(blocks.size()), [&](int64_t k, int) {
       Block& b = blocks[static_cast<size_t>(k)];
       const std::vector<LimitVertex>& v = verts[b.chain];
       if (reuse == nullptr && record == nullptr) {
-        refiner->refine_segments(v, b.i0, b.i1, b.out, b.residual, b.corners);
+        refiner->refine_segments(v, b.i0, b.i1, b.out, b.measured.residual, b.measured.corners);
         return;
       }
       // Segment by segment: a valid earlier one taken, runs of the others refined together.
       std::vector<LimitRefiner::Segment> each;
-      std::vector<Bow> no_bows_here;
-      LimitRefiner::Measured total;
-      b.taken = refine_with_memo(reuse, record != nullptr ? &b.kept : nullptr, 0, 0, v, b.i0, b.i1, b.out, no_bows_here,
-                                 total, [&](size_t i, size_t j, std::vector<RefinedRun<LimitRefiner::Measured>>& runs) {
-                                   each.clear();
-                                   refiner->refine_segments(v, i, j, b.out, total.residual, total.corners, &each);
-                                   for (const LimitRefiner::Segment& sg : each)
-                                     runs.push_back({sg.out_end, 0, sg.measured});
-                                 });
-      b.residual.merge(total.residual);
-      b.corners += total.corners;
+      std::vector<Bow> no_bows;  // (limit lines have none)
+      b.taken =
+          refine_with_memo(reuse, record != nullptr ? &b.kept : nullptr, 0, 0, v, b.i0, b.i1, b.out, no_bows,
+                           b.measured, [&](size_t i, size_t j, std::vector<RefinedRun<LimitRefiner::Measured>>& runs) {
+                             each.clear();
+                             refiner->refine_segments(v, i, j, b.out, b.measured.residual, b.measured.corners, &each);
+                             for (const LimitRefiner::Segment& sg : each) runs.push_back({sg.out_end, 0, sg.measured});
+                           });
     });
     if (record != nullptr)
       for (Block& b : blocks) {
-        record->append(std::move(b.kept), b.i0 == 0 ? &verts[b.chain].front() : nullptr, b.out, no_bows);
+        record->append(std::move(b.kept), b.i0 == 0 ? &verts[b.chain].front() : nullptr, b.out, {});
         record->taken += b.taken;
       }
     std::vector<std::vector<LimitVertex>> joined(verts.size());
@@ -370,8 +365,8 @@ void chain_limit_lines(const Target& t, const LimitCrossings& x, const std::vect
       if (!verts[k].empty()) joined[k].push_back(verts[k].front());
     for (Block& b : blocks) {
       joined[b.chain].insert(joined[b.chain].end(), b.out.begin(), b.out.end());
-      result.residual.merge(b.residual);
-      result.corners += b.corners;
+      result.residual.merge(b.measured.residual);
+      result.corners += b.measured.corners;
     }
     for (size_t k = 0; k < verts.size(); ++k)
       if (!verts[k].empty()) verts[k] = std::move(joined[k]);

@@ -178,9 +178,16 @@ void GeoJsonText::property(const char* name, std::span<const int> list) {
   feature_.append(" ]");
 }
 
+void GeoJsonText::geometry(const char* type) {
+  // The properties closed (an empty object is "{ }"), the geometry opened up to its coordinates.
+  feature_.append(first_property_ ? "}, \"geometry\": { \"type\": \"" : " }, \"geometry\": { \"type\": \"");
+  feature_.append(type);
+  feature_.append("\", \"coordinates\": ");
+}
+
 void GeoJsonText::point(Vec2 p) {
-  feature_.append(first_property_ ? "}, \"geometry\": { \"type\": \"Point\", \"coordinates\": [ "
-                                  : " }, \"geometry\": { \"type\": \"Point\", \"coordinates\": [ ");
+  geometry("Point");
+  feature_.append("[ ");
   append_coordinate(feature_, p.x);
   feature_.append(", ");
   append_coordinate(feature_, p.y);
@@ -214,8 +221,7 @@ void GeoJsonText::coordinates(std::span<const Vec2> points) {
 }
 
 void GeoJsonText::line(std::span<const Vec2> points) {
-  feature_.append(first_property_ ? "}, \"geometry\": { \"type\": \"LineString\", \"coordinates\": "
-                                  : " }, \"geometry\": { \"type\": \"LineString\", \"coordinates\": ");
+  geometry("LineString");
   coordinates(points);
   feature_.append(" }");
 }
@@ -230,8 +236,7 @@ void GeoJsonText::polygons(const OGRGeometry& g) {
   } else {
     throw Error(ErrorKind::internal, "GeoJSON text: polygons expected");
   }
-  feature_.append(first_property_ ? "}, \"geometry\": { \"type\": " : " }, \"geometry\": { \"type\": ");
-  feature_.append(type == wkbPolygon ? "\"Polygon\", \"coordinates\": " : "\"MultiPolygon\", \"coordinates\": ");
+  geometry(type == wkbPolygon ? "Polygon" : "MultiPolygon");
   if (type == wkbMultiPolygon) feature_.append(parts.empty() ? "[ ]" : "[ ");
   for (size_t k = 0; k < parts.size(); ++k) {
     if (k > 0) feature_.append(", ");

@@ -57,6 +57,7 @@ class GeoJsonText {
 
  private:
   void key(const char* name);
+  void geometry(const char* type);
   void coordinates(std::span<const Vec2> points);
   std::string header_, end_, features_, feature_;
   int threads_;
