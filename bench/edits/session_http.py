@@ -9,8 +9,11 @@ sees it, from sending the request to its last byte (localhost), median and worst
                                                         points of 8 owners, the field alone; each
                                                         edit moves one point by 5 cells
 
-Each edit is undone (untimed) before the next, so that every edit starts from the session's first
-state, as bench/edits/session_bench.cpp does in process. Prints one line per edit and a Markdown row.
+After each edit the map page's reads are timed too: the regions (their file, like every
+deliverable's, is made by the first read after a step) and the session's status (the regions'
+areas); "edit and page" is the edit and those reads together. Each edit is undone (untimed, its
+reads made) before the next, so that every edit starts from the session's first state, as
+bench/edits/session_bench.cpp does in process. Prints one line per edit and a Markdown row.
 """
 import base64
 import json
@@ -54,7 +57,15 @@ def main():
             assert status == 201, (status, doc)
             sid = doc["sessionID"]
             _, _, features = d.json("GET", f"/sessions/{sid}/features")
-            client, server = [], []
+            client, server, page = [], [], []
+            kept = body["outputs"].keys()
+
+            def page_reads():
+                if "regions" in kept:
+                    status, _, _ = d.request("GET", f"/sessions/{sid}/deliverables/regions")
+                    assert status == 200
+                d.json("GET", f"/sessions/{sid}")
+
             for k in range(n):
                 if case == "baltic":
                     f = next(f for f in features["features"] if f["properties"]["owner"] == "DK")
@@ -73,19 +84,25 @@ def main():
                 client.append(time.perf_counter() - t)
                 assert status == 200, (status, answer)
                 server.append(answer["timings"]["server_s"])
-                print(f"edit {k}: {client[-1]:.3f} s (server {server[-1]:.3f} s; cells {answer['cells']['owner_changed']})",
-                      flush=True)
+                t = time.perf_counter()
+                page_reads()
+                page.append(client[-1] + time.perf_counter() - t)
+                print(f"edit {k}: {client[-1]:.3f} s (server {server[-1]:.3f} s; cells {answer['cells']['owner_changed']}; "
+                      f"with the page's reads {page[-1]:.3f} s)", flush=True)
                 status, _, _ = d.json("POST", f"/sessions/{sid}/undo", {})
                 assert status == 200
+                page_reads()
             _, _, info = d.json("GET", f"/sessions/{sid}")
         finally:
             d.stop()
     print()
-    print("| case | cells | session create s | edit median s | edit worst s | server_s median | bytes per cell |")
-    print("|---|---|---|---|---|---|---|")
+    print("| case | cells | session create s | edit median s | edit worst s | server_s median | "
+          "edit and page median s | edit and page worst s | bytes per cell |")
+    print("|---|---|---|---|---|---|---|---|---|")
     cells = info["grid"]["width"] * info["grid"]["height"]
     print(f"| {case} {size} | {cells:,} | {create:.2f} | {statistics.median(client):.3f} | {max(client):.3f} | "
-          f"{statistics.median(server):.3f} | {info['bytes_per_cell']:.2f} |")
+          f"{statistics.median(server):.3f} | {statistics.median(page):.3f} | {max(page):.3f} | "
+          f"{info['bytes_per_cell']:.2f} |")
 
 
 if __name__ == "__main__":

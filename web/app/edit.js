@@ -1,10 +1,12 @@
 // The map page's "what if" mode (issue 54): after a result, a live session of the daemon holds the
 // same job; the person drags a basepoint or a vertex of a coast or island (OpenLayers' Modify),
 // or picks a feature to weight it, give it a reach or remove it, or types a vertex's new
-// coordinates; each change is one step of the session (POST /sessions/{id}/edits), and the
-// boundaries, tripoints, limits and regions are drawn again from the session's deliverables as
-// the step left them, with each owner's area and its change since the start. Undo, redo and
-// "Save as job" are the session's.
+// coordinates; each change is one step of the session (POST /sessions/{id}/edits). The step's
+// answer redraws what it changed at once: the features it touched, the boundaries, tripoints and
+// limits it added, changed and removed (by the lines' ids, GET /sessions/{id}/lines keying the
+// lines first drawn), and each owner's area and its change since the start; then the regions are
+// read again (they change with every owner's cells) and the areas become the regions'. Undo,
+// redo and "Save as job" are the session's.
 //
 // The page keeps no rule of its own: what an edit changes, and every number shown, is the
 // daemon's answer. Requests go one at a time, in the order the person made them.
@@ -120,7 +122,9 @@ export class EditMode {
     }
     this.id = status.sessionID;
     this.units = status.area_units || "";
-    this.start_areas = new Map((status.areas || []).map((a) => [a.label, a.area !== undefined ? a.area : a.cells_area]));
+    // Each owner's area at the start, the regions' and the cells' (a step answers with the
+    // cells'; the regions' follow when they are read).
+    this.start_areas = new Map((status.areas || []).map((a) => [a.label, a]));
     this.drawPanel(status);
     this.editLayer = new VectorLayer({ source: new VectorSource(), style: (f) => (f === this.picked ? PICKED : EDITABLE) });
     this.view.setLayer("edit", this.editLayer, 6);
@@ -164,7 +168,7 @@ export class EditMode {
       el("div", { class: "buttons" }, undo, redo, save), this.message, this.table, this.featureBox, this.moveForm);
   }
 
-  // The session's features, deliverables and areas as they are now.
+  // The session's features and deliverables as they are now, the lines keyed by their ids.
   async refresh() {
     const fc = await getJson("/sessions/" + this.id + "/features");
     const source = this.editLayer.getSource();
@@ -179,14 +183,67 @@ export class EditMode {
       if (again) this.pick(again);
       else this.featureBox.replaceChildren(el("p", { class: "muted", text: "No feature picked." }));
     }
-    const kept = (this.request.outputs && Object.keys(this.request.outputs)) || [];
+    const kept = this.kept();
+    const ids = await getJson("/sessions/" + this.id + "/lines");
     for (const name of ["boundaries", "tripoints", "limits"]) {
-      this.view.showVector(name, kept.includes(name) ? await getJson("/sessions/" + this.id + "/deliverables/" + name) : null);
+      const fc = kept.includes(name) ? await getJson("/sessions/" + this.id + "/deliverables/" + name) : null;
+      if (fc) fc.features.forEach((f, i) => { f.id = ids[name][i]; });
+      this.view.showVector(name, fc);
     }
-    if (kept.includes("regions")) this.view.showRegions(await getJson("/sessions/" + this.id + "/deliverables/regions"), this.colourOf);
+    await this.redrawRegions();
   }
 
-  // One step (edits, undo or redo), then everything drawn again from the session.
+  kept() {
+    return (this.request.outputs && Object.keys(this.request.outputs)) || [];
+  }
+
+  // The regions read again, and the areas they give.
+  async redrawRegions() {
+    if (!this.kept().includes("regions")) return;
+    this.view.showRegions(await getJson("/sessions/" + this.id + "/deliverables/regions"), this.colourOf);
+    const status = await getJson("/sessions/" + this.id);
+    this.areas(status.areas || []);
+  }
+
+  // The lines and features a step added, changed and removed, redrawn from its answer.
+  patch(answer) {
+    const replace = (source, changes, read) => {
+      if (!source || !changes) return;
+      for (const id of changes.removed || []) {
+        const f = source.getFeatureById(id);
+        if (f) source.removeFeature(f);
+      }
+      for (const entry of [...(changes.changed || []), ...(changes.added || [])]) {
+        const old = source.getFeatureById(entry.id);
+        if (old) source.removeFeature(old);
+        source.addFeature(read(entry));
+      }
+    };
+    const line = (entry) => {
+      const { geometry, id, ...properties } = entry;
+      return this.format.readFeature({ type: "Feature", id, properties, geometry });
+    };
+    const lines = answer.lines || {};
+    for (const name of ["boundaries", "limits"]) {
+      const layer = this.view.layers[name];
+      replace(layer && layer.getSource(), lines[name], line);
+    }
+    const tri = this.view.layers.tripoints;
+    replace(tri && tri.getSource(), answer.tripoints, line);
+    const features = answer.features || {};
+    const source = this.editLayer.getSource();
+    replace(source, { removed: features.removed, changed: features.changed, added: features.added }, (f) => this.format.readFeature(f));
+    for (const id of features.removed || []) this.geometry.delete(String(id));
+    for (const f of [...(features.changed || []), ...(features.added || [])]) this.geometry.set(String(f.id), f.geometry);
+    if (this.picked && !source.getFeatureById(this.picked.getId())) {
+      this.picked = null;
+      this.featureBox.replaceChildren(el("p", { class: "muted", text: "No feature picked." }));
+    } else if (this.picked) {
+      this.pick(source.getFeatureById(this.picked.getId()));
+    }
+  }
+
+  // One step (edits, undo or redo), then what it changed drawn again.
   edit(edits) {
     return this.enqueue(async () => {
       const answer = await postJson("/sessions/" + this.id + "/edits", { edits });
@@ -202,7 +259,7 @@ export class EditMode {
   }
 
   async answered(answer) {
-    await this.refresh();
+    this.patch(answer);
     this.areas(answer.areas || []);
     const moved = (answer.moved || []).filter((m) => m.area > 0).map((m) =>
       (m.from || "nobody") + " → " + (m.to || "nobody") + " " + km2(m.area, this.units).toLocaleString("en", { maximumFractionDigits: 3 }) + (this.units === "m^2" ? " km²" : " " + this.units));
@@ -212,16 +269,20 @@ export class EditMode {
     this.message.replaceChildren(el("p", { text: (answer.cells ? answer.cells.owner_changed.toLocaleString("en") + " cells changed owner" : "") +
       (moved.length ? "; " + moved.join(", ") : "") + "; " + changedLines + (changedLines === 1 ? " line" : " lines") + " changed · " +
       ((answer.timings && answer.timings.server_s) || 0).toFixed(3) + " s on the server" }));
+    await this.redrawRegions();
     this.stepLine.dataset.step = String(answer.step);
     this.stepLine.textContent = "Session " + this.id + " · step " + answer.step + (answer.undone ? " (undone)" : answer.redone ? " (redone)" : "") + ".";
   }
 
-  // The area table: each owner's area now and its change since the session began.
+  // The area table: each owner's area now and its change since the session began, the regions'
+  // when `list` has them, else the cells'.
   areas(list) {
     const unit = this.units === "m^2" ? "km²" : this.units.replace("^2", "²");
     const rows = list.map((a) => {
-      const now = a.area !== undefined ? a.area : a.cells_area;
-      const start = this.start_areas.has(a.label) ? this.start_areas.get(a.label) : 0;
+      const kind = a.area !== undefined ? "area" : "cells_area";
+      const now = a[kind];
+      const first = this.start_areas.get(a.label);
+      const start = first && first[kind] !== undefined ? first[kind] : 0;
       const change = km2(now - start, this.units);
       return el("tr", { "data-owner": a.label, "data-area": String(now), "data-change": String(now - start) },
         el("td", { class: "owner", text: a.label }),

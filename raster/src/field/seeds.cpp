@@ -1,5 +1,6 @@
 #include "rv/field/seeds.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <limits>
@@ -119,6 +120,66 @@ SeedSet SeedSet::without(const std::vector<bool>& drop, std::vector<int32_t>& si
     if (f < 0) continue;
     out.polygons_.push_back(Polygon{f, new_site[static_cast<size_t>(p.area_site)], p.rings});
   }
+  return out;
+}
+
+SeedSet SeedSet::replaced(const std::vector<int32_t>& features, const SeedSet& by) const {
+  auto wrong = [](const std::string& what) { throw Error(ErrorKind::internal, "SeedSet::replaced: " + what); };
+  if (features.size() != by.features_.size()) wrong("one replacement per feature");
+  if (by.owner_labels_.size() < owner_labels_.size() ||
+      !std::equal(owner_labels_.begin(), owner_labels_.end(), by.owner_labels_.begin()))
+    wrong("the replacements number owners otherwise");
+  for (size_t i = 0; i < features.size(); ++i) {
+    const int32_t f = features[i];
+    if (f < 0 || static_cast<size_t>(f) >= features_.size() || (i > 0 && f <= features[i - 1]))
+      wrong("features out of range or order");
+    if (by.features_[i].owner != features_[static_cast<size_t>(f)].owner) wrong("a replacement changes its owner");
+  }
+  SeedSet out;
+  out.owner_labels_ = owner_labels_;
+  out.owner_index_ = owner_index_;
+  out.features_ = features_;
+  for (size_t i = 0; i < features.size(); ++i) out.features_[static_cast<size_t>(features[i])] = by.features_[i];
+  // Sites: this set's, each replaced feature's run swapped for its replacement's. Polygons follow
+  // their area sites, whose indices shift by the runs' differences.
+  std::vector<int32_t> moved_site(sites_.size(), -1), by_site(by.sites_.size(), -1);
+  out.sites_.reserve(sites_.size() + by.sites_.size());
+  size_t s = 0, t = 0;
+  for (size_t i = 0; i < features.size(); ++i) {
+    const int32_t f = features[i];
+    for (; s < sites_.size() && sites_[s].feature < f; ++s) {
+      moved_site[s] = static_cast<int32_t>(out.sites_.size());
+      out.sites_.push_back(sites_[s]);
+    }
+    while (s < sites_.size() && sites_[s].feature == f) ++s;
+    for (; t < by.sites_.size() && by.sites_[t].feature == static_cast<int32_t>(i); ++t) {
+      by_site[t] = static_cast<int32_t>(out.sites_.size());
+      Site x = by.sites_[t];
+      x.feature = f;
+      out.add_site(x);
+    }
+  }
+  for (; s < sites_.size(); ++s) {
+    moved_site[s] = static_cast<int32_t>(out.sites_.size());
+    out.sites_.push_back(sites_[s]);
+  }
+  if (t != by.sites_.size()) wrong("the replacements' sites out of feature order");
+  size_t p = 0, q = 0;
+  auto keep = [&](const Polygon& x) {
+    out.polygons_.push_back(Polygon{x.feature, moved_site[static_cast<size_t>(x.area_site)], x.rings});
+  };
+  for (size_t i = 0; i < features.size(); ++i) {
+    const int32_t f = features[i];
+    for (; p < polygons_.size() && polygons_[p].feature < f; ++p) keep(polygons_[p]);
+    while (p < polygons_.size() && polygons_[p].feature == f) ++p;
+    for (; q < by.polygons_.size() && by.polygons_[q].feature == static_cast<int32_t>(i); ++q)
+      out.polygons_.push_back(
+          Polygon{f, by_site[static_cast<size_t>(by.polygons_[q].area_site)], by.polygons_[q].rings});
+  }
+  for (; p < polygons_.size(); ++p) keep(polygons_[p]);
+  if (q != by.polygons_.size()) wrong("the replacements' polygons out of feature order");
+  for (const Polygon& x : out.polygons_)
+    if (x.area_site < 0) wrong("a polygon out of feature order");
   return out;
 }
 

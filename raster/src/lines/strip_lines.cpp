@@ -538,9 +538,14 @@ void StripLines::keep_refined(RefinedSegments before, ChangedTiles changed, std:
   m.keeping->now->key = m.refine_key;
 }
 
+bool StripLines::taken() const {
+  const Impl& m = *impl_;
+  return (m.boundary.empty() || m.boundaries_taken) && (m.limits.empty() || m.limits_taken);
+}
+
 RefinedSegments StripLines::refined() const {
   const Impl& m = *impl_;
-  if (!m.keeping || (!m.boundary.empty() && !m.boundaries_taken) || (!m.limits.empty() && !m.limits_taken))
+  if (!m.keeping || !taken())
     throw Error(ErrorKind::invalid_argument, "refined segments asked for before the lines were taken, or not kept");
   return RefinedSegments(m.keeping->now);
 }

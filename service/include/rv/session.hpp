@@ -5,9 +5,10 @@
 // nearest site and its distance per cell), the pieces of its lines, and the deliverables asked
 // for (boundaries, tripoints, limits, regions, turning points) as the job would write them.
 // An edit (edit()) changes the seeds; the session then recomputes only the cells the edit can
-// change (rv::Edit, seed paper 004), extracts again only the line pieces near them, makes the
-// deliverables from those, and answers with the change: cells (and their box), area moved
-// between owners, the new areas, the lines added, changed and removed.
+// change (rv::Edit, seed paper 004), extracts again only the line pieces near them, refines
+// again only the segments near them, and answers with the change: cells (and their box), area
+// moved between owners, the new areas, the lines added, changed and removed. The deliverables'
+// files (and the regions) are made from those lines when first read.
 //
 // What holds after every step, undo and redo included (tested against fresh computations):
 // the field equals compute() on the edited seeds cell for cell, the deliverables equal a fresh
@@ -97,13 +98,15 @@ class Session {
 
   // Applies `edits` (a JSON array, in order, as one step) and answers what changed (areas in
   // "area_units", the job's distance units squared; "cells_area" sums the squares of the cells
-  // an owner holds, "area" is the regions' when they are kept):
+  // an owner holds, updated by the change; "area" is the regions', given when the step makes the
+  // files, see deliverables()):
   //   {"step", "edits", "cells": {"owner_changed", "distance_only", "box": [col0, row0, col1,
-  //   row1] | null}, "moved": [{"from", "to", "area"}], "areas": [{"label", "cells_area", and with
-  //   regions "area", "sea_area", "land_area"}], "area_units", "lines": {kind: {"added": [...], "changed": [...],
-  //   "removed": [ids]}}, "tripoints": {...}, "turning_points"?, "relevant_area"?, "recompute":
-  //   {"cells", "rows_extracted", "rows_taken", "segments_refined", "segments_taken"}, "timings":
-  //   {...}}
+  //   row1] | null}, "moved": [{"from", "to", "area"}], "areas": [{"label", "cells_area", and
+  //   "area", "sea_area", "land_area"?}], "area_units", "lines": {kind: {"added": [...],
+  //   "changed": [...], "removed": [ids]}}, "tripoints": {...}, "features": {"added": [...],
+  //   "changed": [...], "removed": [ids]} (features() entries), "turning_points"?,
+  //   "relevant_area"?, "recompute": {"cells", "lines_s", "rows_extracted", "rows_taken",
+  //   "segments_refined", "segments_taken"}, "timings": {...}}
   // Operations (coordinates in the seeds' CRS; reach in the job's distance units):
   //   {"op": "replace", "feature": ID, "geometry": GEOJSON}
   //   {"op": "move-vertex", "feature": ID, "path": [...], "to": [x, y]}: path [] for a point,
@@ -130,8 +133,16 @@ class Session {
   nlohmann::json features() const;
   // The names of the deliverables kept (kSessionDeliverables' order), and one's current text.
   // Throws rv::Error(not_found) for a name not kept.
+  // The deliverables' files are made when first read after a step (deliverable(), info(),
+  // save() does not need them): a step answers once its lines are made. A step whose answer
+  // carries what only the files give (turning points, the relevant area's ratios) makes them
+  // with it.
   std::vector<std::string> deliverables() const;
   const std::string& deliverable(const std::string& name) const;
+  // The current lines' ids (see "Line ids"), {"boundaries": [...], "limits": [...],
+  // "tripoints": [...]}, each in the order of its deliverable's features: with them a client
+  // keys the lines it drew from the deliverables and patches them from each answer.
+  nlohmann::json line_ids() const;
   // Runs an ordinary job on the current seeds: `spec`'s outputs (files, rasters in memory, the
   // report) with the session's seeds, grid and options; its files equal a fresh run's on the
   // edited seeds. Throws as run_job.

@@ -457,6 +457,7 @@ void Api::route(const Context& ctx, const std::shared_ptr<Respond>& respond) {
       {{"sessions", "*"}, "GET, HEAD, DELETE", &Api::session},
       {{"sessions", "*", "features"}, "GET, HEAD", &Api::session_features},
       {{"sessions", "*", "deliverables"}, "GET, HEAD", &Api::session_deliverables},
+      {{"sessions", "*", "lines"}, "GET, HEAD", &Api::session_lines},
       {{"sessions", "*", "deliverables", "*"}, "GET, HEAD", &Api::session_deliverable},
       {{"sessions", "*", "edits"}, "POST", &Api::session_step},
       {{"sessions", "*", "undo"}, "POST", &Api::session_step},

@@ -117,6 +117,7 @@ class Api {
   void session_list(const Request& req, const std::vector<std::string>& seg) const;
   void session(const Request& req, const std::vector<std::string>& seg) const;
   void session_features(const Request& req, const std::vector<std::string>& seg) const;
+  void session_lines(const Request& req, const std::vector<std::string>& seg) const;
   void session_deliverables(const Request& req, const std::vector<std::string>& seg) const;
   void session_deliverable(const Request& req, const std::vector<std::string>& seg) const;
   void session_step(const Request& req, const std::vector<std::string>& seg) const;  // edits, undo, redo

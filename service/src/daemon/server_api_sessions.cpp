@@ -181,6 +181,13 @@ void Api::session_features(const Request& req, const std::vector<std::string>& s
       answer_failure(req.respond, req.ctx.path));
 }
 
+void Api::session_lines(const Request& req, const std::vector<std::string>& seg) const {
+  sessions_.run(
+      seg[1], req.ctx.request.principal, false,
+      [respond = req.respond](Session& s) { (*respond)(json_response(200, s.line_ids())); },
+      answer_failure(req.respond, req.ctx.path));
+}
+
 void Api::session_deliverables(const Request& req, const std::vector<std::string>& seg) const {
   const std::string self = req.ctx.base + "/sessions/" + seg[1];
   sessions_.run(

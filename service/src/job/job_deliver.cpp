@@ -73,7 +73,8 @@ struct StripDeliverables::State {
   // keep_refined's `before` and `changed`
   std::optional<std::pair<std::map<std::string, RefinedSegments>, ChangedTiles>> keeping;
   bool lines_wanted = false;      // boundaries (a deliverable, or what regions, the preview or the report read)
-  BoundaryResult boundary_lines;  // finish()'s
+  bool lines_finished = false;    // finish_lines() done
+  BoundaryResult boundary_lines;  // finish_lines()'s
   LimitResult limit_lines;
 
   State(JobRun& r, const PreparedJob& j, bool s, const PartialEffectResult* p)
@@ -156,7 +157,8 @@ void StripDeliverables::keep_refined(std::map<std::string, RefinedSegments> befo
 
 std::map<std::string, RefinedSegments> StripDeliverables::refined_segments() const {
   std::map<std::string, RefinedSegments> out;
-  for (auto& [name, lines] : st_->lines()) out[name] = lines->refined();
+  for (auto& [name, lines] : st_->lines())
+    if (lines->taken()) out[name] = lines->refined();
   return out;
 }
 
@@ -570,12 +572,12 @@ void StripDeliverables::State::write_quicklook(const BoundaryResult& boundaries,
   }
 }
 
-void StripDeliverables::finish() {
+void StripDeliverables::finish_lines() {
   State& s = *st_;
-  JobRun& run = s.run;
+  if (s.lines_finished) return;
   const auto started = Clock::now();
-  run.check_cancel();
-  run.progress("deliver", 0.0);
+  s.run.check_cancel();
+  s.run.progress("deliver", 0.0);
   s.complete_lines();
   if (s.keeping)
     for (auto& [name, lines] : s.lines()) {
@@ -588,6 +590,15 @@ void StripDeliverables::finish() {
     }
   s.boundary_lines = s.take_boundaries();
   s.limit_lines = s.take_limits();
+  s.lines_finished = true;
+  s.wall_seconds += seconds_since(started);
+}
+
+void StripDeliverables::finish() {
+  State& s = *st_;
+  JobRun& run = s.run;
+  finish_lines();
+  const auto started = Clock::now();
   const BoundaryResult& boundaries = s.boundary_lines;
   const LimitResult& limits = s.limit_lines;
   run.check_cancel();

@@ -122,7 +122,10 @@ class StripDeliverables {
   // `measured`: the field the distance limits and the max-distance line are drawn from, when not
   // `strip` (partial effect: the full-effect field; the rest follows the rule's `strip`).
   void add(const NearestField& strip, const NearestField* measured = nullptr);
-  // Writes every requested deliverable.
+  // After the last strip: the lines joined, refined and taken (boundaries(), limits(), the
+  // report's entries), nothing written yet. finish() calls it when it was not called.
+  void finish_lines();
+  // Writes every requested deliverable (and the regions' lines, taken here).
   void finish();
 
   // Whether add() reads every cell of every strip: the quicklook, the margin raster and the
@@ -145,10 +148,11 @@ class StripDeliverables {
   // refined_segments(), by name) that the edit's `changed` tiles leave valid
   // (rv::StripLines::keep_refined).
   void keep_refined(std::map<std::string, RefinedSegments> before, ChangedTiles changed);
-  // After finish(), with keep_refined: every line extraction's refined segments, by name.
+  // With keep_refined: the refined segments of every line extraction taken so far, by name (after
+  // finish_lines() the boundaries and limits, after finish() the regions' too).
   std::map<std::string, RefinedSegments> refined_segments() const;
-  // After finish(): the boundaries and tripoints, and the limit lines, as written (empty when not
-  // made).
+  // After finish_lines(): the boundaries and tripoints, and the limit lines, as written (empty
+  // when not made).
   const BoundaryResult& boundaries() const;
   const LimitResult& limits() const;
 

@@ -92,6 +92,14 @@ void copy_line_options(const OutputRequest& from, OutputRequest& to) {
 
 }  // namespace
 
+// A step's deliverables between its lines and its files: the lines taken (what the answer
+// says), the files and the regions made when first read (Session::State::files).
+struct PendingFiles {
+  JobHooks hooks;  // none: JobRun keeps a reference
+  std::unique_ptr<detail::JobRun> run;
+  std::unique_ptr<detail::StripDeliverables> d;
+};
+
 struct Session::State {
   JobSpec spec;  // outputs: the kept deliverables' memory files
   JobLimits job_limits;
@@ -103,19 +111,33 @@ struct Session::State {
   NearestField field;
   TileSummaries tiles;
   std::map<std::string, LinePieces> pieces;
-  mutable int64_t piece_bytes = -1;                // their encoded size, measured when memory is asked (-1: not yet)
-  std::map<std::string, RefinedSegments> refined;  // the lines' refinement, segment by segment
-  std::map<std::string, std::string> texts;        // deliverable name -> its file's text
-  std::map<std::string, std::string> paths;        // deliverable name -> memory file
+  mutable int64_t piece_bytes = -1;  // their encoded size, measured when memory is asked (-1: not yet)
+  // The lines' refinement, segment by segment, of the current state (the regions' edges only
+  // once its files are made).
+  mutable std::map<std::string, RefinedSegments> refined;
+  // The current state's files: made by the step (`pending`, lines taken) and written when first
+  // read, or `stale` (a step failed after its state's files were dropped: made again whole).
+  mutable std::unique_ptr<PendingFiles> pending;
+  mutable bool stale = false;
+  mutable std::map<std::string, std::string> texts;  // deliverable name -> its file's text, once made
+  mutable int64_t text_bytes = 0;                    // the texts' size when last made
+  mutable double files_seconds = 0.0;                // the last making of the files
+  std::map<std::string, std::string> paths;          // deliverable name -> memory file
   detail::SessionLines lines;
-  json report = json::object();             // the deliverables' report entries, as the job's
+  mutable json report = json::object();     // the deliverables' report entries, as the job's, once made
   std::map<std::string, double> cell_area;  // per owner label: its cells' area
   std::deque<Step> undo, redo;
   int64_t steps = 0;
 
-  // The deliverables of the current field and seeds; `edit` (with the summaries before it):
-  // only the rows near its changes extracted again. Returns what the answer says of the lines.
+  // The lines of the current field and seeds; `edit` (with the summaries before it): only the
+  // rows near its changes extracted again. The files wait in `pending`. Returns what the answer
+  // says of the lines.
   json deliver(const Edit* edit, const TileSummaries* before, json& recompute);
+  // The current state's files and report, made now if they are not.
+  void files() const;
+  // Whether the answer of a step carries what only the files give (turning points, the relevant
+  // area's ratios): then they are made with the step.
+  bool files_answer() const { return paths.count("turning_points") != 0 || !spec.outputs.relevant_area.empty(); }
   // Moves the field and seeds to `edited` (its features' slots `slot_of`, input positions
   // `position`; the slots the step changed `touched`) and answers what changed; on failure the
   // session is as it was.
@@ -132,9 +154,11 @@ json Session::State::deliver(const Edit* edit, const TileSummaries* before, json
     recompute["rows_taken"] = 0;
     return lines.update(BoundaryResult{}, LimitResult{}, job.loaded.seeds.owner_labels(), job.to_output);
   }
-  const JobHooks none;
-  detail::JobRun run(spec, job_limits, none);
-  detail::StripDeliverables d(run, job, false);
+  const auto started = Clock::now();
+  auto p = std::make_unique<PendingFiles>();
+  p->run = std::make_unique<detail::JobRun>(spec, job_limits, p->hooks);
+  p->d = std::make_unique<detail::StripDeliverables>(*p->run, job, false);
+  detail::StripDeliverables& d = *p->d;
   int64_t extracted = job.grid.height;
   std::string why;
   ChangedTiles changed;  // where the edit may have changed the lines' measurements
@@ -165,17 +189,16 @@ json Session::State::deliver(const Edit* edit, const TileSummaries* before, json
   d.keep_refined(refined, std::move(changed));
   d.add(field);
   std::map<std::string, LinePieces> now_pieces = d.line_pieces();
-  d.finish();
-  // Kept once the deliverables are made (a step that fails keeps the state before).
+  d.finish_lines();
+  // Kept once the lines are made (a step that fails keeps the state before).
   pieces = std::move(now_pieces);
   piece_bytes = -1;
   refined = d.refined_segments();
-  std::map<std::string, std::string> now;
-  for (const auto& [name, path] : paths) now[name] = read_memory_file(path);
-  remove_memory_files(dir);
-  texts = std::move(now);
-  report = run.report["deliverables"];
-  if (run.timings.contains("deliverables")) recompute["deliverables_s"] = run.timings["deliverables"];
+  pending = std::move(p);
+  stale = false;
+  texts.clear();
+  report = json::object();
+  recompute["lines_s"] = seconds_since(started);
   recompute["rows_extracted"] = extracted;
   recompute["rows_taken"] = job.grid.height - extracted;
   int64_t segments = 0, taken = 0;
@@ -187,6 +210,38 @@ json Session::State::deliver(const Edit* edit, const TileSummaries* before, json
   recompute["segments_taken"] = taken;
   if (!why.empty()) recompute["why_every_row"] = why;
   return lines.update(d.boundaries(), d.limits(), job.loaded.seeds.owner_labels(), job.to_output);
+}
+
+void Session::State::files() const {
+  if (paths.empty() || (!pending && !stale)) return;
+  const auto started = Clock::now();
+  if (!pending) {  // the files of a state whose step's files were dropped: made whole again
+    auto p = std::make_unique<PendingFiles>();
+    p->run = std::make_unique<detail::JobRun>(spec, job_limits, p->hooks);
+    p->d = std::make_unique<detail::StripDeliverables>(*p->run, job, false);
+    p->d->keep_refined({}, {});
+    p->d->add(field);
+    pending = std::move(p);
+  }
+  try {
+    pending->d->finish();
+    std::map<std::string, std::string> now;
+    for (const auto& [name, path] : paths) now[name] = read_memory_file(path);
+    remove_memory_files(dir);
+    texts = std::move(now);
+  } catch (...) {
+    remove_memory_files(dir);
+    throw;
+  }
+  report = pending->run->report["deliverables"];
+  // The regions' edges refined for this state: the next step takes from them too.
+  for (auto& [name, r] : pending->d->refined_segments())
+    if (!refined.contains(name)) refined[name] = std::move(r);
+  pending.reset();
+  stale = false;
+  text_bytes = 0;
+  for (const auto& [name, t] : texts) text_bytes += static_cast<int64_t>(t.size());
+  files_seconds = seconds_since(started);
 }
 
 json Session::State::areas_json() const {
@@ -217,15 +272,16 @@ FeatureMatch match_by_slot(const std::vector<size_t>& before, const std::vector<
   FeatureMatch m;
   m.edited_of_base.assign(before.size(), -1);
   m.base_of_edited.assign(after.size(), -1);
-  std::unordered_map<size_t, int32_t> was;
-  was.reserve(before.size());
+  size_t slots = 0;
+  for (const size_t s : before) slots = std::max(slots, s + 1);
+  std::vector<int32_t> was(slots, -1);  // per slot, its feature before
   for (size_t f = 0; f < before.size(); ++f)
-    if (!touched.contains(before[f])) was.emplace(before[f], static_cast<int32_t>(f));
+    if (!touched.contains(before[f])) was[before[f]] = static_cast<int32_t>(f);
   for (size_t f = 0; f < after.size(); ++f) {
-    const auto it = was.find(after[f]);
-    if (it == was.end()) continue;
-    m.base_of_edited[f] = it->second;
-    m.edited_of_base[static_cast<size_t>(it->second)] = static_cast<int32_t>(f);
+    const int32_t b = after[f] < slots ? was[after[f]] : -1;
+    if (b < 0) continue;
+    m.base_of_edited[f] = b;
+    m.edited_of_base[static_cast<size_t>(b)] = static_cast<int32_t>(f);
   }
   return m;
 }
@@ -245,6 +301,7 @@ json Session::State::update(SeedSet edited, std::vector<size_t> new_slot_of, std
   job.loaded.input_position = std::move(position);
   job.compute.prepared = nullptr;
   const TileSummaries old_tiles = tiles;
+  const PendingFiles* old_pending = pending.get();
   bool applied = false;
   // Back to the seeds before: the field by the inverse edit (exact by the same construction).
   auto restore = [&] {
@@ -259,6 +316,16 @@ json Session::State::update(SeedSet edited, std::vector<size_t> new_slot_of, std
     job.loaded.input_position = std::move(old_position);
     job.compute.prepared = old_prepared;
     tiles = old_tiles;
+    if (pending.get() != old_pending) {
+      // The lines went ahead of the state restored: its files are made again whole when read,
+      // and the next step extracts every row.
+      pending.reset();
+      texts.clear();
+      report = json::object();
+      stale = true;
+      pieces.clear();
+      refined.clear();
+    }
   };
   try {
     job.compute.prepared = prepare(job.loaded.seeds, job.grid, job.compute);
@@ -287,7 +354,12 @@ json Session::State::update(SeedSet edited, std::vector<size_t> new_slot_of, std
     t = Clock::now();
     json recompute = {{"cells", plan.cells}, {"cells_of_removed", plan.removed_cells}};
     json lines_changed = deliver(&edit, &old_tiles, recompute);
-    timings["deliverables"] = seconds_since(t);
+    timings["lines"] = seconds_since(t);
+    if (files_answer()) {
+      t = Clock::now();
+      files();
+      timings["files"] = seconds_since(t);
+    }
     slot_of = std::move(new_slot_of);
     for (const auto& [pair, area] : changes.moved) {
       if (!pair.first.empty()) cell_area[pair.first] -= area;
@@ -327,7 +399,15 @@ json Session::State::step(const std::vector<detail::SlotChange>& changes, bool u
   try {
     std::vector<size_t> new_slot_of;
     std::vector<int64_t> position;
-    SeedSet edited = features->build(new_slot_of, position);
+    std::optional<SeedSet> quick = features->rebuild(job.loaded.seeds, slot_of, changes, undoing);
+    SeedSet edited;
+    if (quick) {  // the same features in the same order: their slots and positions stay
+      edited = std::move(*quick);
+      new_slot_of = slot_of;
+      position = job.loaded.input_position;
+    } else {
+      edited = features->build(new_slot_of, position);
+    }
     const double built = seconds_since(started);
     // Undo and redo come back to states that passed; their slivers are found again all the same.
     std::unordered_set<size_t> touched;
@@ -336,7 +416,11 @@ json Session::State::step(const std::vector<detail::SlotChange>& changes, bool u
     for (size_t f = 0; f < new_slot_of.size(); ++f)
       if (touched.contains(new_slot_of[f])) edited_features.push_back(static_cast<int32_t>(f));
     const std::vector<BorderSliver> slivers = check_edited_features(
-        edited, edited_features, job.loaded.seed_crs.wkt, spec.seeds.on_conflict, spec.seeds.border_tolerance);
+        edited, edited_features,
+        [&](int32_t f) -> const std::vector<FeaturePart>& {
+          return features->at(new_slot_of[static_cast<size_t>(f)])->parts;
+        },
+        job.loaded.seed_crs.wkt, spec.seeds.on_conflict, spec.seeds.border_tolerance);
     const double checked = seconds_since(started) - built;
     const std::vector<size_t> old_slot_of = slot_of;
     const std::vector<BorderSliver> old_slivers = job.loaded.report.slivers;
@@ -344,14 +428,16 @@ json Session::State::step(const std::vector<detail::SlotChange>& changes, bool u
     json answer = update(std::move(edited), std::move(new_slot_of), std::move(position), touched);
     // The seeds' report (what a saved job states) names the land-border slivers by feature:
     // those of untouched features renumbered, the edited features' as the check found them.
-    std::unordered_map<size_t, int32_t> index_of_slot;
-    for (size_t f = 0; f < slot_of.size(); ++f) index_of_slot[slot_of[f]] = static_cast<int32_t>(f);
+    std::vector<int32_t> index_of_slot;
+    if (!old_slivers.empty()) {
+      index_of_slot.assign(features->slots(), -1);
+      for (size_t f = 0; f < slot_of.size(); ++f) index_of_slot[slot_of[f]] = static_cast<int32_t>(f);
+    }
     std::vector<BorderSliver> now;
     for (BorderSliver b : old_slivers) {
       const size_t sa = old_slot_of[static_cast<size_t>(b.feature_a)],
                    sb = old_slot_of[static_cast<size_t>(b.feature_b)];
-      if (touched.contains(sa) || touched.contains(sb) || !index_of_slot.contains(sa) || !index_of_slot.contains(sb))
-        continue;
+      if (touched.contains(sa) || touched.contains(sb) || index_of_slot[sa] < 0 || index_of_slot[sb] < 0) continue;
       b.feature_a = index_of_slot[sa];
       b.feature_b = index_of_slot[sb];
       if (b.feature_a > b.feature_b) std::swap(b.feature_a, b.feature_b);
@@ -375,6 +461,18 @@ json Session::State::step(const std::vector<detail::SlotChange>& changes, bool u
       throw Error(ErrorKind::too_large, "the edit would take the session past its memory limit (" +
                                             std::to_string(limits.max_memory_bytes) + " bytes)");
     }
+    // The features the step changed, as GET .../features gives them (a client redraws those).
+    json added = json::array(), changed_features = json::array(), removed = json::array();
+    for (const detail::SlotChange& c : changes) {
+      const detail::FeaturePtr& was = undoing ? c.after : c.before;
+      const detail::FeaturePtr& now = features->at(c.slot);
+      if (!now && !was) continue;  // added and removed in the one step
+      if (!now)
+        removed.push_back(was->id);
+      else
+        (was ? changed_features : added).push_back(features->feature_json(*now));
+    }
+    answer["features"] = {{"added", added}, {"changed", changed_features}, {"removed", removed}};
     answer["timings"]["total"] = seconds_since(started);
     return answer;
   } catch (const Error& e) {
@@ -399,7 +497,17 @@ int64_t Session::State::memory_bytes() const {
   }
   b += piece_bytes;
   for (const auto& [name, r] : refined) b += r.memory_bytes();
+  // The files once made; while they wait, their size when last made (about what they will take)
+  // and the lines taken for them.
   for (const auto& [name, t] : texts) b += static_cast<int64_t>(t.size());
+  if (pending) {
+    b += text_bytes;
+    const detail::StripDeliverables& d = *pending->d;
+    for (const BoundaryLine& l : d.boundaries().lines)
+      b += static_cast<int64_t>(sizeof(BoundaryLine) + l.vertices.capacity() * sizeof(l.vertices[0]));
+    for (const LimitLine& l : d.limits().lines)
+      b += static_cast<int64_t>(sizeof(LimitLine) + l.vertices.capacity() * sizeof(l.vertices[0]));
+  }
   for (const Step& s : undo) b += s.memory_bytes();
   for (const Step& s : redo) b += s.memory_bytes();
   return b;
@@ -485,6 +593,7 @@ std::unique_ptr<Session> Session::create(const JobSpec& spec, const SessionLimit
   if (hooks.progress) hooks.progress("deliver", 0.0);
   json recompute;
   st.deliver(nullptr, nullptr, recompute);
+  st.files();
   if (limits.max_memory_bytes > 0 && st.memory_bytes() > limits.max_memory_bytes)
     throw Error(ErrorKind::too_large, "the session takes " + std::to_string(st.memory_bytes()) +
                                           " bytes, over its memory limit of " +
@@ -528,6 +637,7 @@ json Session::redo() {
 
 json Session::info() const {
   const State& st = *st_;
+  st.files();  // the regions' areas
   const int64_t bytes = memory_bytes();
   const GridSpec& g = st.job.grid;
   json owners = json::array();
@@ -562,14 +672,22 @@ json Session::features() const {
   return fc;
 }
 
+json Session::line_ids() const {
+  json out = json::object();
+  for (const char* kind : {"boundaries", "limits", "tripoints"}) out[kind] = st_->lines.ids(kind);
+  return out;
+}
+
 std::vector<std::string> Session::deliverables() const {
   std::vector<std::string> out;
   for (const char* name : kSessionDeliverables)
-    if (st_->texts.count(name)) out.emplace_back(name);
+    if (st_->paths.count(name)) out.emplace_back(name);
   return out;
 }
 
 const std::string& Session::deliverable(const std::string& name) const {
+  if (!st_->paths.count(name)) throw Error(ErrorKind::not_found, "the session keeps no deliverable \"" + name + "\"");
+  st_->files();
   const auto it = st_->texts.find(name);
   if (it == st_->texts.end()) throw Error(ErrorKind::not_found, "the session keeps no deliverable \"" + name + "\"");
   return it->second;

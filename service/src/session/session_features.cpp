@@ -310,27 +310,58 @@ SeedSet SessionFeatures::build(std::vector<size_t>& slot_of, std::vector<int64_t
   slot_of.clear();
   position.clear();
   for (const auto& [code, s] : order) {
-    const SessionFeature& f = *slots_[s];
-    const int32_t index = seeds.add_feature(code, f.source);
-    add_parts(seeds, index, f.parts);
-    seeds.set_adjustment(index, f.weight, f.reach);
-    if (f.effect != 1.0) seeds.set_effect(index, f.effect);
+    add_feature(seeds, code, *slots_[s]);
     slot_of.push_back(s);
     position.push_back(pos[s]);
   }
   return seeds;
 }
 
+void SessionFeatures::add_feature(SeedSet& seeds, int32_t code, const SessionFeature& f) {
+  const int32_t index = seeds.add_feature(code, f.source);
+  add_parts(seeds, index, f.parts);
+  seeds.set_adjustment(index, f.weight, f.reach);
+  if (f.effect != 1.0) seeds.set_effect(index, f.effect);
+}
+
+std::optional<SeedSet> SessionFeatures::rebuild(const SeedSet& current, const std::vector<size_t>& slot_of,
+                                                const std::vector<SlotChange>& changes, bool undo) const {
+  for (const SlotChange& c : changes) {
+    const FeaturePtr& was = undo ? c.after : c.before;
+    const FeaturePtr& now = c.slot < slots_.size() ? slots_[c.slot] : nullptr;
+    if (!was || !now || was->owner != now->owner) return std::nullopt;
+  }
+  if (current.features().size() != slot_of.size()) return std::nullopt;
+  std::vector<int32_t> index_of_slot(slots_.size(), -1);
+  for (size_t f = 0; f < slot_of.size(); ++f) index_of_slot[slot_of[f]] = static_cast<int32_t>(f);
+  std::vector<std::pair<int32_t, size_t>> touched;
+  for (const SlotChange& c : changes) {
+    if (index_of_slot[c.slot] < 0) return std::nullopt;
+    touched.emplace_back(index_of_slot[c.slot], c.slot);
+  }
+  std::sort(touched.begin(), touched.end());
+  SeedSet by;
+  for (const std::string& l : labels_) by.owner_code(l);
+  std::vector<int32_t> features;
+  for (const auto& [f, slot] : touched) {
+    add_feature(by, by.owner_code(slots_[slot]->owner), *slots_[slot]);
+    features.push_back(f);
+  }
+  return current.replaced(features, by);
+}
+
+json SessionFeatures::feature_json(const SessionFeature& f) const {
+  json props = {{"owner", f.owner},
+                {"weight", f.weight},
+                {"reach", std::isfinite(f.reach) ? json(f.reach * to_output_) : json()},
+                {"kind", kind_name(f.parts)}};
+  return {{"type", "Feature"}, {"id", f.id}, {"properties", props}, {"geometry", geometry(f.parts)}};
+}
+
 json SessionFeatures::geojson() const {
   json features = json::array();
-  for (const FeaturePtr& f : slots_) {
-    if (!f) continue;
-    json props = {{"owner", f->owner},
-                  {"weight", f->weight},
-                  {"reach", std::isfinite(f->reach) ? json(f->reach * to_output_) : json()},
-                  {"kind", kind_name(f->parts)}};
-    features.push_back({{"type", "Feature"}, {"id", f->id}, {"properties", props}, {"geometry", geometry(f->parts)}});
-  }
+  for (const FeaturePtr& f : slots_)
+    if (f) features.push_back(feature_json(*f));
   return {{"type", "FeatureCollection"}, {"features", features}};
 }
 

@@ -14,6 +14,7 @@
 #include <limits>
 #include <map>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -66,16 +67,27 @@ class SessionFeatures {
   // per feature its 1-based input position (counting only the slots in use). Throws
   // rv::Error(invalid_input) when no feature is left.
   SeedSet build(std::vector<size_t>& slot_of, std::vector<int64_t>& position) const;
+  // What build() gives after `changes` were applied (undo: their `before`s put back), made from
+  // `current`, the set build() gave before them (its features' slots `slot_of`), with the
+  // changed features replaced (rv::SeedSet::replaced): the same set for a fraction of the work.
+  // Empty when the step adds or removes a feature or gives one another owner (the order of the
+  // features changes): then build() makes it. The features' slots and positions stay those of
+  // `current`.
+  std::optional<SeedSet> rebuild(const SeedSet& current, const std::vector<size_t>& slot_of,
+                                 const std::vector<SlotChange>& changes, bool undo) const;
   // The owner labels, in code order (frozen at creation, new ones after).
   const std::vector<std::string>& labels() const { return labels_; }
   // A GeoJSON FeatureCollection of the features in input order: each with its string "id", and
   // properties owner, weight, reach (job units, null: none), kind.
   nlohmann::json geojson() const;
+  // One feature as geojson() writes it.
+  nlohmann::json feature_json(const SessionFeature& f) const;
   const FeaturePtr& at(size_t slot) const { return slots_[slot]; }
   size_t slots() const { return slots_.size(); }
   int64_t memory_bytes() const;
 
  private:
+  static void add_feature(SeedSet& seeds, int32_t code, const SessionFeature& f);
   FeaturePtr parse_added(const nlohmann::json& edit, const std::string& where) const;
   std::vector<FeaturePart> parse_geometry(const nlohmann::json& g, const std::string& where) const;
   Vec2 parse_position(const nlohmann::json& p, const std::string& where) const;

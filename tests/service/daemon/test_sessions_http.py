@@ -129,6 +129,57 @@ def equal_to_fresh(d, sid, headers, what):
     return mine, fc
 
 
+def drawing(d, sid, headers):
+    """What a client draws of the session's lines: per kind, line id (GET .../lines, in the
+    deliverable's order) -> its coordinates (rounded to 1e-6, as the deliverable's text and the
+    answer's JSON write the same doubles with different digits)."""
+    status, _, ids = d.json("GET", f"/sessions/{sid}/lines", None, headers)
+    check(status == 200, f"line ids: {status} {ids}")
+    out = {}
+    for kind in ("boundaries", "limits", "tripoints"):
+        _, _, fc = d.json("GET", f"/sessions/{sid}/deliverables/{kind}", None, headers)
+        check(len(ids[kind]) == len(fc["features"]) and len(set(ids[kind])) == len(ids[kind]),
+              f"{kind}: {len(ids[kind])} ids for {len(fc['features'])} features")
+        out[kind] = {i: rounded(f["geometry"]["coordinates"]) for i, f in zip(ids[kind], fc["features"])}
+    return out
+
+
+def rounded(coordinates):
+    if isinstance(coordinates[0], list):
+        return [rounded(c) for c in coordinates]
+    return [round(float(c), 6) for c in coordinates]
+
+
+def patched(drawn, answer):
+    """`drawn` (drawing()) changed by a step's answer as a client redraws it."""
+    out = {kind: dict(lines) for kind, lines in drawn.items()}
+    for kind, changes in (("boundaries", answer["lines"]["boundaries"]), ("limits", answer["lines"]["limits"]),
+                          ("tripoints", answer["tripoints"])):
+        for i in changes["removed"]:
+            check(i in out[kind], f"{kind}: the answer removes {i}, which was not drawn")
+            out[kind].pop(i, None)
+        for e in changes["changed"]:
+            check(e["id"] in out[kind], f"{kind}: the answer changes {e['id']}, which was not drawn")
+        for e in changes["added"]:
+            check(e["id"] not in out[kind], f"{kind}: the answer adds {e['id']}, which was drawn")
+        for e in changes["changed"] + changes["added"]:
+            out[kind][e["id"]] = rounded(e["geometry"]["coordinates"])
+    return out
+
+
+def redrawn_from_answer(d, sid, headers, drawn, answer, what):
+    """The drawing patched by the answer equals the session's lines read again, and the answer's
+    changed features are the session's."""
+    now = drawing(d, sid, headers)
+    check(patched(drawn, answer) == now, f"{what}: the lines patched by the answer are not the session's")
+    served = {f["id"]: f for f in d.json("GET", f"/sessions/{sid}/features", None, headers)[2]["features"]}
+    for f in answer["features"]["changed"] + answer["features"]["added"]:
+        check(served.get(f["id"]) == f, f"{what}: the answer's feature {f['id']} is not the session's")
+    for i in answer["features"]["removed"]:
+        check(i not in served, f"{what}: the answer removes feature {i}, which the session still has")
+    return now
+
+
 def edit(d, sid, edits, headers):
     return d.json("POST", f"/sessions/{sid}/edits", {"edits": edits}, headers)
 
@@ -163,6 +214,7 @@ def part_one_to_four(tmp):
         ids = [f["id"] for f in fc["features"]]
         check(ids == [str(i) for i in range(1, 9)], f"feature ids {ids}")
         start, _ = equal_to_fresh(d, sid, alice, "created")
+        drawn = drawing(d, sid, alice)
         status, _, listing = d.json("GET", f"/sessions/{sid}/deliverables", None, alice)
         check(status == 200 and [x["id"] for x in listing["deliverables"]] == DELIVERABLES, f"list {listing}")
         status, _, doc = d.json("GET", f"/sessions/{sid}/deliverables/turningPoints", None, alice)
@@ -175,13 +227,17 @@ def part_one_to_four(tmp):
         check(answer["cells"]["owner_changed"] > 0 and answer["cells"]["box"] is not None, f"cells {answer}")
         check(any(m["area"] > 0 for m in answer["moved"]), f"moved {answer['moved']}")
         check("server_s" in answer["timings"] and "boundaries" in answer["lines"], f"answer {answer}")
+        check([f["id"] for f in answer["features"]["changed"]] == ["2"] and not answer["features"]["added"] and
+              not answer["features"]["removed"], f"the answer's features {answer['features']}")
         one, fc1 = equal_to_fresh(d, sid, alice, "after a point moved")
+        drawn = redrawn_from_answer(d, sid, alice, drawn, answer, "edit 1")
         check(one["boundaries"] != start["boundaries"], "the move changed no boundary")
         status, _, answer = edit(d, sid, [
             {"op": "move-vertex", "feature": "7", "path": [0, 1], "to": [402700, 6113200]},
             {"op": "set", "feature": "5", "properties": {"weight": 1.3}}], alice)
         check(status == 200 and answer["step"] == 2 and answer["edits"] == 2, f"edit 2: {status} {answer}")
         two, fc2 = equal_to_fresh(d, sid, alice, "after a vertex moved and a weight set")
+        drawn = redrawn_from_answer(d, sid, alice, drawn, answer, "edit 2")
         rasters = ["ownership", "distance", "nearestFeature", "boundaries", "regions"]
         status, h, doc = d.json("POST", f"/sessions/{sid}/jobs", {"outputs": {o: {} for o in rasters}}, alice)
         if check(status == 200, f"session job: {status} {doc}"):
@@ -196,9 +252,12 @@ def part_one_to_four(tmp):
         status, _, answer = d.json("POST", f"/sessions/{sid}/undo", None, alice)
         check(status == 200 and answer["step"] == 1 and answer.get("undone"), f"undo {status} {answer}")
         check(deliverables(d, sid, alice) == one, "undo: the deliverables are not those of step 1")
+        check(sorted(f["id"] for f in answer["features"]["changed"]) == ["5", "7"], f"undo: {answer['features']}")
+        drawn = redrawn_from_answer(d, sid, alice, drawn, answer, "undo")
         status, _, answer = d.json("POST", f"/sessions/{sid}/redo", None, alice)
         check(status == 200 and answer["step"] == 2, f"redo {status} {answer}")
         check(deliverables(d, sid, alice) == two, "redo: the deliverables are not those of step 2")
+        drawn = redrawn_from_answer(d, sid, alice, drawn, answer, "redo")
 
         # 3. Bad edits: 400, one line, nothing changed.
         before = d.json("GET", f"/sessions/{sid}/features", None, alice)[2]

@@ -441,6 +441,18 @@ def edit_run(drv, d, base):
     _, _, served = d.json("GET", "/sessions/%s/deliverables/boundaries" % sid)
     check(line_set(drawn) == line_set([f["geometry"]["coordinates"] for f in served["features"]]),
           "edit: the drawn boundaries are the session's (%d drawn, %d served)" % (len(drawn), len(served["features"])))
+    # Redrawn from the step's answer: the lines keep the session's ids, and the page read the
+    # boundaries once (when the session began), not again after the step.
+    drawn_ids = drv.execute_script(
+        "return document.getElementById('map').rvoronoiView.layers.boundaries.getSource().getFeatures()"
+        ".map(f => f.getId());")
+    _, _, ids = d.json("GET", "/sessions/%s/lines" % sid)
+    check(sorted(drawn_ids) == sorted(ids["boundaries"]), "edit: the drawn lines' ids %s are not the session's %s"
+          % (sorted(drawn_ids), sorted(ids["boundaries"])))
+    reads = drv.execute_script(
+        "return performance.getEntriesByType('resource').map(e => e.name)"
+        ".filter(n => n.includes('/sessions/" + sid + "/deliverables/boundaries')).length;")
+    check(reads == 1, "edit: the page read the session's boundaries %d times; once, then the answer" % reads)
     _, _, now = d.json("GET", "/sessions/" + sid)
     rows = {r.get_attribute("data-owner"): r for r in drv.find_elements(By.CSS_SELECTOR, "#edit-areas tr[data-owner]")}
     changed = 0

@@ -61,8 +61,16 @@ OGREnvelope envelope_of(const FeaturePart& p) {
 std::vector<BorderSliver> check_edited_features(const SeedSet& seeds, const std::vector<int32_t>& features,
                                                 const std::string& crs_wkt, ConflictPolicy policy,
                                                 double border_tolerance) {
-  gdal_init();
   const std::vector<std::vector<FeaturePart>> parts = feature_parts(seeds);
+  return check_edited_features(
+      seeds, features, [&](int32_t f) -> const std::vector<FeaturePart>& { return parts[static_cast<size_t>(f)]; },
+      crs_wkt, policy, border_tolerance);
+}
+
+std::vector<BorderSliver> check_edited_features(const SeedSet& seeds, const std::vector<int32_t>& features,
+                                                const FeaturePartsOf& parts_of, const std::string& crs_wkt,
+                                                ConflictPolicy policy, double border_tolerance) {
+  gdal_init();
   const std::unordered_set<int32_t> edited(features.begin(), features.end());
   auto make = [&](int32_t f, const FeaturePart& p) {
     detail::SeedPart part;
@@ -75,7 +83,7 @@ std::vector<BorderSliver> check_edited_features(const SeedSet& seeds, const std:
   };
   std::vector<detail::SeedPart> checked;
   for (const int32_t f : features) {
-    for (const FeaturePart& p : parts[static_cast<size_t>(f)]) {
+    for (const FeaturePart& p : parts_of(f)) {
       detail::SeedPart part = make(f, p);
       if (part.dimension == 2) {
         gdal::ErrorCapture quiet;  // GEOS explains invalidity through warnings; we state our own
@@ -92,10 +100,10 @@ std::vector<BorderSliver> check_edited_features(const SeedSet& seeds, const std:
   // The other owners' parts that may meet an edited one; pairs between two of them were checked
   // when they were read or edited.
   const size_t edited_parts = checked.size();
-  for (size_t f = 0; f < parts.size(); ++f) {
+  for (size_t f = 0; f < seeds.features().size(); ++f) {
     if (edited.contains(static_cast<int32_t>(f))) continue;
     const int32_t owner = seeds.features()[f].owner;
-    for (const FeaturePart& p : parts[f]) {
+    for (const FeaturePart& p : parts_of(static_cast<int32_t>(f))) {
       const OGREnvelope box = envelope_of(p);
       const bool near =
           std::any_of(checked.begin(), checked.begin() + static_cast<std::ptrdiff_t>(edited_parts),

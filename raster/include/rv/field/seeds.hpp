@@ -108,6 +108,12 @@ class SeedSet {
   // and codes (an owner may be left without features), the kept features, sites and polygons in
   // their order. `site_of` receives, per site of the copy, its index here.
   SeedSet without(const std::vector<bool>& drop, std::vector<int32_t>& site_of) const;
+  // A copy with feature `features[i]` (ascending, distinct) replaced by feature i of `by` (its
+  // kind, source, adjustments, sites and polygons), everything else as here: what adding the
+  // features again in order with the replacements gives, in O(sites + polygons) copying. `by`
+  // numbers owners as this set does, and each replacement keeps its feature's owner (so the
+  // order stays). Throws rv::Error(internal) where that does not hold.
+  SeedSet replaced(const std::vector<int32_t>& features, const SeedSet& by) const;
   // A seed set from its parts as sites(), polygons(), features() and owner_labels() give them
   // (rv/edit/seed_archive.hpp reads them back). Throws rv::Error(invalid_input) where they do not fit
   // together: a site's or polygon's feature out of range or out of order, a polygon's area site

@@ -151,6 +151,8 @@ class StripLines {
   // After take_boundaries and take_limits (those requested), with keep_refined: every segment
   // refined or taken.
   RefinedSegments refined() const;
+  // Whether every kind of line requested has been taken (refined() may be asked).
+  bool taken() const;
   // After the last row: the lines. Throws rv::Error(invalid_argument) when rows are missing.
   // Each may be called once.
   BoundaryResult take_boundaries();

@@ -30,6 +30,7 @@
 #include <string>
 #include <vector>
 
+#include "rv/edit/feature_parts.hpp"
 #include "rv/field/seeds.hpp"
 
 namespace rv {
@@ -324,5 +325,12 @@ namespace rv {
 std::vector<BorderSliver> check_edited_features(const SeedSet& seeds, const std::vector<int32_t>& features,
                                                 const std::string& crs_wkt, ConflictPolicy policy,
                                                 double border_tolerance);
+// The same checks with each feature's parts as the caller keeps them: `parts_of(f)` returns
+// what rv::feature_parts(seeds)[f] would (a session holds its features' parts, and making them
+// for every feature of a large set costs more than the checks).
+using FeaturePartsOf = std::function<const std::vector<FeaturePart>&(int32_t feature)>;
+std::vector<BorderSliver> check_edited_features(const SeedSet& seeds, const std::vector<int32_t>& features,
+                                                const FeaturePartsOf& parts_of, const std::string& crs_wkt,
+                                                ConflictPolicy policy, double border_tolerance);
 
 }  // namespace rv
