@@ -592,7 +592,7 @@ Edit::State::TileNeed Edit::State::tile_need(int64_t tr, int64_t tc, const TileS
   return n;
 }
 
-std::vector<uint8_t> Edit::line_tiles(const TileSummaries& tiles, double reach_floor) const {
+std::vector<uint8_t> Edit::line_tiles(const TileSummaries& tiles, double reach_floor, const EditPlan* plan) const {
   const State& st = *st_;
   const GridSpec& g = st.grid;
   st.check_tiles(&tiles);
@@ -605,7 +605,14 @@ std::vector<uint8_t> Edit::line_tiles(const TileSummaries& tiles, double reach_f
   // a row's cells (a degree of latitude is at most 111.7 km, one of longitude less).
   const double diag =
       std::sqrt(2.0) * g.res * (st.options.metric.kind == MetricSpec::geodesic ? 111700.0 : 1.0) * (1.0 + kSlack);
-  const std::vector<uint8_t> changed = tiles_to_read(tiles);
+  std::vector<uint8_t> changed;
+  if (plan != nullptr && plan->window.col0 == 0 && plan->window.row0 == 0 && plan->window.width == g.width &&
+      plan->window.height == g.height) {
+    changed.assign(near.size(), 0);
+    for (const int64_t k : plan->tiles_read) changed[static_cast<size_t>(k)] = 1;
+  } else {
+    changed = tiles_to_read(tiles);
+  }
   for (int64_t tr = 0; tr < tiles.rows; ++tr)
     for (int64_t tc = 0; tc < tiles.cols; ++tc) {
       const auto k = static_cast<size_t>(tr * tiles.cols + tc);
@@ -625,11 +632,19 @@ std::vector<uint8_t> Edit::line_tiles(const TileSummaries& tiles, double reach_f
 std::vector<std::pair<int64_t, int64_t>> Edit::line_rows(const TileSummaries& tiles,
                                                          std::span<const LinePieces> base_pieces,
                                                          double reach_floor) const {
+  const std::vector<uint8_t> near = line_tiles(tiles, reach_floor);
+  return line_rows(near, base_pieces);
+}
+
+std::vector<std::pair<int64_t, int64_t>> Edit::line_rows(std::span<const uint8_t> near,
+                                                         std::span<const LinePieces> base_pieces) const {
   const State& st = *st_;
   const GridSpec& g = st.grid;
   constexpr int64_t T = TileSummaries::kTile;
   const int64_t pad = 2 * StripLines::kDependRows;
-  const std::vector<uint8_t> near = line_tiles(tiles, reach_floor);
+  const struct { int64_t cols, rows; } tiles{(g.width + T - 1) / T, (g.height + T - 1) / T};
+  if (near.size() != static_cast<size_t>(tiles.cols * tiles.rows))
+    throw Error(ErrorKind::invalid_argument, "edit: the line tiles do not fit the grid");
   std::vector<std::pair<int64_t, int64_t>> rows;
   for (int64_t tr = 0; tr < tiles.rows; ++tr)
     for (int64_t tc = 0; tc < tiles.cols; ++tc)
@@ -674,6 +689,7 @@ EditPlan Edit::plan(const NearestField& base, const TileSummaries* tiles) const 
   EditPlan plan;
   plan.match = st.match;
   const Window w = base.site.window();
+  plan.window = w;
   plan.mask = CellMask::none(w);
   st.check_tiles(tiles);
   // The tiles of the window (clipped to it), and which of them must be read.

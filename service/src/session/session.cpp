@@ -132,7 +132,7 @@ struct Session::State {
   // The lines of the current field and seeds; `edit` (with the summaries before it): only the
   // rows near its changes extracted again. The files wait in `pending`. Returns what the answer
   // says of the lines.
-  json deliver(const Edit* edit, const TileSummaries* before, json& recompute);
+  json deliver(const Edit* edit, const EditPlan* plan, const TileSummaries* before, json& recompute);
   // The current state's files and report, made now if they are not.
   void files() const;
   // Whether the answer of a step carries what only the files give (turning points, the relevant
@@ -148,7 +148,7 @@ struct Session::State {
   int64_t memory_bytes() const;
 };
 
-json Session::State::deliver(const Edit* edit, const TileSummaries* before, json& recompute) {
+json Session::State::deliver(const Edit* edit, const EditPlan* plan, const TileSummaries* before, json& recompute) {
   if (paths.empty()) {  // the field alone
     recompute["rows_extracted"] = 0;
     recompute["rows_taken"] = 0;
@@ -179,11 +179,12 @@ json Session::State::deliver(const Edit* edit, const TileSummaries* before, json
       double floor = 0.0;
       if (spec.outputs.limits_per_owner && !spec.outputs.limits.empty())
         for (const double v : job.limit_distances) floor = std::max(floor, v);
-      std::vector<std::pair<int64_t, int64_t>> fed = edit->line_rows(*before, list, floor);
+      std::vector<uint8_t> near = edit->line_tiles(*before, floor, plan);
+      std::vector<std::pair<int64_t, int64_t>> fed = edit->line_rows(near, list);
       extracted = 0;
       for (const auto& [a, b] : fed) extracted += b - a;
       d.take_lines_from(std::move(base), std::move(fed), edit->site_map());
-      changed = ChangedTiles{TileSummaries::kTile, edit->line_tiles(*before, floor)};
+      changed = ChangedTiles{TileSummaries::kTile, std::move(near)};
     }
   }
   d.keep_refined(refined, std::move(changed));
@@ -353,7 +354,7 @@ json Session::State::update(SeedSet edited, std::vector<size_t> new_slot_of, std
     timings["tally"] = seconds_since(t);
     t = Clock::now();
     json recompute = {{"cells", plan.cells}, {"cells_of_removed", plan.removed_cells}};
-    json lines_changed = deliver(&edit, &old_tiles, recompute);
+    json lines_changed = deliver(&edit, &plan, &old_tiles, recompute);
     timings["lines"] = seconds_since(t);
     if (files_answer()) {
       t = Clock::now();
@@ -592,7 +593,7 @@ std::unique_ptr<Session> Session::create(const JobSpec& spec, const SessionLimit
   job.compute.progress = nullptr;
   if (hooks.progress) hooks.progress("deliver", 0.0);
   json recompute;
-  st.deliver(nullptr, nullptr, recompute);
+  st.deliver(nullptr, nullptr, nullptr, recompute);
   st.files();
   if (limits.max_memory_bytes > 0 && st.memory_bytes() > limits.max_memory_bytes)
     throw Error(ErrorKind::too_large, "the session takes " + std::to_string(st.memory_bytes()) +

@@ -215,6 +215,13 @@ void check_edit(const Lines& l, const SeedSet& base, const SeedSet& edited, cons
     for (double d : l.request.limit_distances) floor = std::max(floor, d);
   const std::vector<LinePieces> kept{LinePieces::decode(pieces.encode())};
   const auto fed = edit.line_rows(tiles, kept, floor);
+  // The tiles from the edit's plan (what a session passes) are the tiles worked out again, and
+  // the rows from given tiles the rows.
+  const EditPlan plan = edit.plan(base_field, &tiles);
+  const std::vector<uint8_t> near = edit.line_tiles(tiles, floor);
+  EXPECT_EQ(edit.line_tiles(tiles, floor, &plan), near);
+  EXPECT_EQ(edit.line_rows(near, kept), fed);
+  EXPECT_THROW(edit.line_rows(std::vector<uint8_t>(near.size() + 1, 0), kept), Error);
   int64_t fed_rows = 0;
   for (const auto& [a, b] : fed) fed_rows += b - a;
   if (expect_rows_taken) {

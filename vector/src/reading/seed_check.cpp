@@ -1,9 +1,9 @@
 // The reader's checks for features edited in memory (rv/gdal/seed_reader.hpp,
 // check_edited_features): polygon validity and conflicts between owners, over the edited
-// features and the parts whose boxes meet theirs.
+// features and the parts whose boxes meet theirs (found from the set's sites and polygons, so
+// that the other features' parts are read only where they come near).
 #include <algorithm>
 #include <memory>
-#include <unordered_set>
 
 #include "common/gdal_util.hpp"
 #include "reading/normalise.hpp"
@@ -71,7 +71,6 @@ std::vector<BorderSliver> check_edited_features(const SeedSet& seeds, const std:
                                                 const FeaturePartsOf& parts_of, const std::string& crs_wkt,
                                                 ConflictPolicy policy, double border_tolerance) {
   gdal_init();
-  const std::unordered_set<int32_t> edited(features.begin(), features.end());
   auto make = [&](int32_t f, const FeaturePart& p) {
     detail::SeedPart part;
     part.geometry = part_geometry(p, part.vertices);
@@ -100,9 +99,32 @@ std::vector<BorderSliver> check_edited_features(const SeedSet& seeds, const std:
   // The other owners' parts that may meet an edited one; pairs between two of them were checked
   // when they were read or edited.
   const size_t edited_parts = checked.size();
-  for (size_t f = 0; f < seeds.features().size(); ++f) {
-    if (edited.contains(static_cast<int32_t>(f))) continue;
-    const int32_t owner = seeds.features()[f].owner;
+  const std::vector<Feature>& all = seeds.features();
+  std::vector<char> near_edit(all.size(), 0);  // 1: edited; 2: a site or polygon near an edited part
+  for (const int32_t f : features) near_edit[static_cast<size_t>(f)] = 1;
+  auto meets_edited = [&](int32_t f, const OGREnvelope& box) {
+    const int32_t owner = all[static_cast<size_t>(f)].owner;
+    return std::any_of(checked.begin(), checked.begin() + static_cast<std::ptrdiff_t>(edited_parts),
+                       [&](const detail::SeedPart& e) { return e.owner != owner && meets(e.envelope, box); });
+  };
+  // A first pass over the sites and polygons as the set stores them, one after the other: what
+  // meets a part must meet one of its segments' or points' boxes, or its polygon's box.
+  for (const Site& x : seeds.sites()) {
+    if (x.kind == SiteKind::area || near_edit[static_cast<size_t>(x.feature)] != 0) continue;
+    OGREnvelope box;
+    box.Merge(x.a.x, x.a.y);
+    box.Merge(x.b.x, x.b.y);
+    if (meets_edited(x.feature, box)) near_edit[static_cast<size_t>(x.feature)] = 2;
+  }
+  for (const Polygon& poly : seeds.polygons()) {
+    if (near_edit[static_cast<size_t>(poly.feature)] != 0 || poly.rings.empty()) continue;
+    OGREnvelope box;
+    for (const Vec2& v : poly.rings.front()) box.Merge(v.x, v.y);
+    if (meets_edited(poly.feature, box)) near_edit[static_cast<size_t>(poly.feature)] = 2;
+  }
+  for (size_t f = 0; f < all.size(); ++f) {
+    if (near_edit[f] != 2) continue;
+    const int32_t owner = all[f].owner;
     for (const FeaturePart& p : parts_of(static_cast<int32_t>(f))) {
       const OGREnvelope box = envelope_of(p);
       const bool near =
@@ -111,6 +133,7 @@ std::vector<BorderSliver> check_edited_features(const SeedSet& seeds, const std:
       if (near) checked.push_back(make(static_cast<int32_t>(f), p));
     }
   }
+  if (checked.size() < 2) return {};  // one part alone meets nothing (the CRS is not even read)
   gdal::SrsPtr srs;
   if (!crs_wkt.empty()) srs = gdal::parse_srs(crs_wkt);
   SeedReadReport report;

@@ -83,7 +83,8 @@ struct TileSummaries {
 
 struct EditPlan {
   FeatureMatch match;
-  CellMask mask;                // window-relative, the base field's window
+  Window window;                // the base field's window
+  CellMask mask;                // window-relative
   int64_t cells = 0;            // cells in the mask
   int64_t removed_cells = 0;    // of them, cells whose base feature is not kept
   int64_t blocks_measured = 0;  // blocks of cells an added feature could not be ruled out of
@@ -140,13 +141,19 @@ class Edit {
   // seeds with weights or reaches, owners in another order, a projected geodesic grid.
   std::vector<std::pair<int64_t, int64_t>> line_rows(const TileSummaries& tiles,
                                                      std::span<const LinePieces> base_pieces, double reach_floor) const;
+  // The same rows from line_tiles()' flags, made once by the caller (who also passes them to
+  // rv::StripLines::keep_refined).
+  std::vector<std::pair<int64_t, int64_t>> line_rows(std::span<const uint8_t> line_tiles,
+                                                     std::span<const LinePieces> base_pieces) const;
   // Per tile of the grid (TileSummaries order), 1 where the edit may change a cell or a
   // measurement by the metric within it, as line_rows reads them (before its rows are widened):
   // a tile it may change, one its changed features' box meets, or one where a removed or an added
   // site may be measured; every tile where line_rows gives every row. A line segment whose
   // tiles (its ends' cells widened by two) are all 0 measures as it did before the edit
   // (rv::StripLines::keep_refined).
-  std::vector<uint8_t> line_tiles(const TileSummaries& tiles, double reach_floor) const;
+  // `plan`, when given, is this edit's plan of the whole grid with the same summaries: the tiles
+  // it reads are those the edit may change (what tiles_to_read would work out again).
+  std::vector<uint8_t> line_tiles(const TileSummaries& tiles, double reach_floor, const EditPlan* plan = nullptr) const;
 
   // The plan for `base`, the base field over any window of the grid (the field of the base seeds
   // computed with the same options). With `tiles` (the base field's summaries over the whole
