@@ -58,7 +58,7 @@ def main():
             sid = doc["sessionID"]
             _, _, features = d.json("GET", f"/sessions/{sid}/features")
             client, server, page = [], [], []
-            kept = body["outputs"].keys()
+            kept = body.get("outputs", {}).keys()
 
             def page_reads():
                 if "regions" in kept:

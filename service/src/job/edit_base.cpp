@@ -5,6 +5,8 @@
 
 #include <algorithm>
 #include <atomic>
+#include <chrono>
+#include <exception>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
@@ -144,11 +146,11 @@ std::map<std::string, LinePieces> kept_line_pieces(const nlohmann::json& m, cons
   return out;
 }
 
-// The rasters the manifest names, by role: each relative to the directory, with one checksum per
-// tile of the grid (`tile_count`). Throws as EditBase's constructor; nlohmann::json's errors and
-// std::invalid_argument for members of the wrong form.
+// The rasters the manifest names, by role: each relative to the directory, with its tiles'
+// checksums (their count is checked against the grid by the constructor). Throws as EditBase's
+// constructor; nlohmann::json's errors and std::invalid_argument for members of the wrong form.
 std::map<std::string, EditBase::Earlier> kept_rasters(const nlohmann::json& m, const fs::path& dir,
-                                                      const std::string& dir_name, int64_t tile_count) {
+                                                      const std::string& dir_name) {
   std::map<std::string, EditBase::Earlier> out;
   for (const auto& [role, e] : m.at("rasters").items()) {
     EditBase::Earlier r;
@@ -168,8 +170,6 @@ std::map<std::string, EditBase::Earlier> kept_rasters(const nlohmann::json& m, c
       if (hex.size() != 16) throw nlohmann::json::type_error::create(302, "a checksum of 16 digits", nullptr);
       r.checksums.push_back(std::stoull(hex, nullptr, 16));
     }
-    if (static_cast<int64_t>(r.checksums.size()) != tile_count)
-      throw Error(ErrorKind::invalid_input, "base: " + dir_name + "/manifest.json does not fit its grid");
     out[role] = std::move(r);
   }
   return out;
@@ -289,10 +289,88 @@ struct EditBase::State {
   MetricSpec metric;
   std::shared_ptr<const Geolocator> geolocator;
   int64_t next_row = 0;
+  double files_seconds = 0.0;  // EditBase::read_files'
 };
 
+// What EditBase reads of a base before the job is known: the report, the manifest and the files
+// it names, parsed and decoded. A failure is kept where the constructor would have met it: before
+// the job is compared with the base (`early`: the report, the manifest, its format) or after
+// (`late`: the seed archive, the site codes, the line pieces, the rasters' entries).
+struct EditBaseFiles {
+  std::string report;
+  fs::path dir;
+  std::string dir_name;
+  nlohmann::json manifest;
+  SeedArchive archive;
+  std::vector<int32_t> site_of_code;
+  std::map<std::string, LinePieces> lines;
+  std::map<std::string, EditBase::Earlier> rasters;
+  std::exception_ptr early, late;
+  double seconds = 0.0;
+};
+
+std::shared_ptr<EditBaseFiles> EditBase::read_files(const std::string& report) {
+  const auto started = std::chrono::steady_clock::now();
+  auto f = std::make_shared<EditBaseFiles>();
+  f->report = report;
+  const fs::path report_path(report);
+  const std::string name = report_path.filename().string();
+  try {
+    nlohmann::json r;
+    try {
+      r = nlohmann::json::parse(read_whole(report, name));
+    } catch (const nlohmann::json::exception&) {
+      throw Error(ErrorKind::invalid_input, "base: " + name + " is not a JSON report");
+    }
+    if (!r.is_object() || !r.contains("edit_base") || !r["edit_base"].is_string())
+      throw Error(ErrorKind::invalid_input,
+                  "base: " + name +
+                      " names nothing kept for edits (only streamed runs of the exact method with a "
+                      "report keep their field)");
+    f->dir = report_path.parent_path() / r["edit_base"].get<std::string>();
+    f->dir_name = f->dir.filename().string();
+    try {
+      f->manifest = nlohmann::json::parse(read_whole((f->dir / "manifest.json").string(), f->dir_name + "/manifest.json"));
+    } catch (const nlohmann::json::exception&) {
+      throw Error(ErrorKind::invalid_input, "base: " + f->dir_name + "/manifest.json is damaged");
+    }
+    const nlohmann::json& m = f->manifest;
+    // A manifest with a member of the wrong type is as damaged as one that does not parse.
+    if (!m.is_object() || m.value("format", "") != kFormat || m.value("version", 0) != kFormatVersion ||
+        !m.contains("grid") || !m["grid"].is_object())
+      throw Error(ErrorKind::invalid_input, "base: " + f->dir_name + "/manifest.json is not a kept base of this version");
+  } catch (...) {
+    f->early = std::current_exception();
+    return f;
+  }
+  try {
+    const nlohmann::json& m = f->manifest;
+    try {
+      const std::string seeds = read_kept(f->dir, f->dir_name, m.at("seeds"));
+      f->archive = decode_seed_archive(seeds);
+      if (static_cast<int64_t>(f->archive.seeds.sites().size()) != m.value("sites", int64_t{-1}))
+        throw Error(ErrorKind::invalid_input, "base: " + f->dir_name + "/manifest.json does not fit its seeds");
+      f->site_of_code =
+          site_codes(m, f->dir, f->dir_name, static_cast<int32_t>(f->archive.seeds.sites().size()));
+      f->lines = kept_line_pieces(m, f->dir, f->dir_name);
+      f->rasters = kept_rasters(m, f->dir, f->dir_name);
+    } catch (const nlohmann::json::exception&) {
+      throw Error(ErrorKind::invalid_input, "base: " + f->dir_name + "/manifest.json is damaged");
+    } catch (const std::invalid_argument&) {
+      throw Error(ErrorKind::invalid_input, "base: " + f->dir_name + "/manifest.json is damaged");
+    }
+  } catch (...) {
+    f->late = std::current_exception();
+  }
+  f->seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+  return f;
+}
+
 EditBase::EditBase(const std::string& report, const JobSpec& spec, const PreparedJob& job)
-    : st_(std::make_unique<State>()), report_(report) {
+    : EditBase(read_files(report), spec, job) {}
+
+EditBase::EditBase(std::shared_ptr<EditBaseFiles> files, const JobSpec& spec, const PreparedJob& job)
+    : st_(std::make_unique<State>()), report_(files->report) {
   if (spec.method != Method::exact)
     throw Error(ErrorKind::invalid_argument,
                 "base: an edit recomputes part of a field, which only the exact method does (method " +
@@ -301,33 +379,13 @@ EditBase::EditBase(const std::string& report, const JobSpec& spec, const Prepare
   if (job.partial.any())
     throw Error(ErrorKind::invalid_argument,
                 "base: partial effect compares whole fields; an edit of it is a fresh run (drop the base)");
-  const fs::path report_path(report);
-  const std::string name = report_path.filename().string();
-  nlohmann::json r;
-  try {
-    r = nlohmann::json::parse(read_whole(report, name));
-  } catch (const nlohmann::json::exception&) {
-    throw Error(ErrorKind::invalid_input, "base: " + name + " is not a JSON report");
-  }
-  if (!r.is_object() || !r.contains("edit_base") || !r["edit_base"].is_string())
-    throw Error(ErrorKind::invalid_input,
-                "base: " + name +
-                    " names nothing kept for edits (only streamed runs of the exact method with a "
-                    "report keep their field)");
-  const fs::path dir = report_path.parent_path() / r["edit_base"].get<std::string>();
-  const std::string dir_name = dir.filename().string();
+  if (files->early) std::rethrow_exception(files->early);
+  const std::string& dir_name = files->dir_name;
   State& st = *st_;
-  try {
-    st.manifest = nlohmann::json::parse(read_whole((dir / "manifest.json").string(), dir_name + "/manifest.json"));
-  } catch (const nlohmann::json::exception&) {
-    throw Error(ErrorKind::invalid_input, "base: " + dir_name + "/manifest.json is damaged");
-  }
+  st.files_seconds = files->seconds;
+  st.manifest = std::move(files->manifest);
   const nlohmann::json& m = st.manifest;
-  // A manifest with a member of the wrong type is as damaged as one that does not parse.
   try {
-    if (!m.is_object() || m.value("format", "") != kFormat || m.value("version", 0) != kFormatVersion ||
-        !m.contains("grid") || !m["grid"].is_object())
-      throw Error(ErrorKind::invalid_input, "base: " + dir_name + "/manifest.json is not a kept base of this version");
     std::string diff = differences(m, request_params(spec, job));
     // A grid taken from the seeds' extent moves with them: name the base's extent to give instead.
     if (diff.find("grid ") != std::string::npos && !spec.grid.extent && !m["grid"].value("crs", "").empty()) {
@@ -342,10 +400,8 @@ EditBase::EditBase(const std::string& report, const JobSpec& spec, const Prepare
       }
     }
     if (!diff.empty()) throw Error(ErrorKind::invalid_argument, "base: the job differs from its base: " + diff);
-    const std::string seeds = read_kept(dir, dir_name, m.at("seeds"));
-    st.archive = decode_seed_archive(seeds);
-    if (static_cast<int64_t>(st.archive.seeds.sites().size()) != m.value("sites", int64_t{-1}))
-      throw Error(ErrorKind::invalid_input, "base: " + dir_name + "/manifest.json does not fit its seeds");
+    if (files->late) std::rethrow_exception(files->late);
+    st.archive = std::move(files->archive);
     try {
       const nlohmann::json& t = m.at("tiles");
       st.tiles = TileSummaries::for_grid(job.grid);
@@ -361,11 +417,14 @@ EditBase::EditBase(const std::string& report, const JobSpec& spec, const Prepare
     } catch (const std::exception&) {
       throw Error(ErrorKind::invalid_input, "base: " + dir_name + "/manifest.json has no tile summaries of its grid");
     }
-    st.site_of_code = site_codes(m, dir, dir_name, static_cast<int32_t>(st.archive.seeds.sites().size()));
-    st.lines = kept_line_pieces(m, dir, dir_name);
+    st.site_of_code = std::move(files->site_of_code);
+    st.lines = std::move(files->lines);
     st.identity_codes = !m.contains("site_codes");
     const int64_t tile_count = ((job.grid.width + kTile - 1) / kTile) * ((job.grid.height + kTile - 1) / kTile);
-    st.rasters = kept_rasters(m, dir, dir_name, tile_count);
+    st.rasters = std::move(files->rasters);
+    for (const auto& [role, r] : st.rasters)
+      if (static_cast<int64_t>(r.checksums.size()) != tile_count)
+        throw Error(ErrorKind::invalid_input, "base: " + dir_name + "/manifest.json does not fit its grid");
   } catch (const nlohmann::json::exception&) {
     throw Error(ErrorKind::invalid_input, "base: " + dir_name + "/manifest.json is damaged");
   } catch (const std::invalid_argument&) {
@@ -394,6 +453,7 @@ EditBase::EditBase(const std::string& report, const JobSpec& spec, const Prepare
 EditBase::~EditBase() = default;
 
 const SeedSet& EditBase::seeds() const { return st_->archive.seeds; }
+double EditBase::files_seconds() const { return st_->files_seconds; }
 const std::vector<int64_t>& EditBase::numbering() const { return st_->archive.numbering; }
 const std::vector<int32_t>& EditBase::site_of_code() const { return st_->site_of_code; }
 

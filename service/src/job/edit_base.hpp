@@ -100,6 +100,8 @@ class EditBaseWriter {
   bool committed_ = false;
 };
 
+struct EditBaseFiles;
+
 // A finished run opened as the base of an edit. The constructor reads the report, its kept
 // directory's manifest and seed set, and opens the two rasters (held open: the base may be
 // replaced or deleted while the edit runs). Throws rv::Error: not_found (report, directory or
@@ -110,6 +112,15 @@ class EditBaseWriter {
 class EditBase {
  public:
   EditBase(const std::string& report, const JobSpec& spec, const PreparedJob& job);
+  // The same from files read ahead (read_files), while the job's seeds were being read: the
+  // errors are those, in the same order, that the constructor above throws.
+  EditBase(std::shared_ptr<EditBaseFiles> files, const JobSpec& spec, const PreparedJob& job);
+  // What of the base can be read before the job is known (the report, the manifest, the seed
+  // archive, the site codes, the line pieces, the rasters' entries), parsed and decoded. Never
+  // throws: a failure is kept for the constructor. Thread-safe (reads files only).
+  static std::shared_ptr<EditBaseFiles> read_files(const std::string& report);
+  // The seconds read_files took.
+  double files_seconds() const;
   ~EditBase();
   const SeedSet& seeds() const;
   // Per base feature, its number in the nearest-feature raster (empty: its index + 1).

@@ -750,6 +750,11 @@ TEST_F(EditJobErrors, MissingOrModifiedBaseFilesAreRefused) {
   expect_refused(other, fake, ErrorKind::invalid_input, "names nothing kept for edits");
   fake.outputs.report = (dir_ / "none.json").string();
   expect_refused(other, fake, ErrorKind::not_found, "none.json is missing");
+  // Seeds that cannot be read and a base that is gone: the seeds' error first, as before the base
+  // was read ahead on another core.
+  JobSpec unread = spec(c, "unread");
+  unread.seeds.paths = {(dir_ / "no_seeds.geojson").string()};
+  expect_refused(unread, fake, ErrorKind::not_found, "no_seeds.geojson");
   // The changes raster without a base.
   JobSpec lone = spec(c, "lone");
   lone.outputs.changes = (dir_ / "lone" / "changes.tif").string();
