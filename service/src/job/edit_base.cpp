@@ -6,10 +6,10 @@
 #include <algorithm>
 #include <atomic>
 #include <chrono>
-#include <exception>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <exception>
 #include <filesystem>
 #include <fstream>
 #include <limits>
@@ -330,7 +330,8 @@ std::shared_ptr<EditBaseFiles> EditBase::read_files(const std::string& report) {
     f->dir = report_path.parent_path() / r["edit_base"].get<std::string>();
     f->dir_name = f->dir.filename().string();
     try {
-      f->manifest = nlohmann::json::parse(read_whole((f->dir / "manifest.json").string(), f->dir_name + "/manifest.json"));
+      f->manifest =
+          nlohmann::json::parse(read_whole((f->dir / "manifest.json").string(), f->dir_name + "/manifest.json"));
     } catch (const nlohmann::json::exception&) {
       throw Error(ErrorKind::invalid_input, "base: " + f->dir_name + "/manifest.json is damaged");
     }
@@ -338,7 +339,8 @@ std::shared_ptr<EditBaseFiles> EditBase::read_files(const std::string& report) {
     // A manifest with a member of the wrong type is as damaged as one that does not parse.
     if (!m.is_object() || m.value("format", "") != kFormat || m.value("version", 0) != kFormatVersion ||
         !m.contains("grid") || !m["grid"].is_object())
-      throw Error(ErrorKind::invalid_input, "base: " + f->dir_name + "/manifest.json is not a kept base of this version");
+      throw Error(ErrorKind::invalid_input,
+                  "base: " + f->dir_name + "/manifest.json is not a kept base of this version");
   } catch (...) {
     f->early = std::current_exception();
     return f;
@@ -350,8 +352,7 @@ std::shared_ptr<EditBaseFiles> EditBase::read_files(const std::string& report) {
       f->archive = decode_seed_archive(seeds);
       if (static_cast<int64_t>(f->archive.seeds.sites().size()) != m.value("sites", int64_t{-1}))
         throw Error(ErrorKind::invalid_input, "base: " + f->dir_name + "/manifest.json does not fit its seeds");
-      f->site_of_code =
-          site_codes(m, f->dir, f->dir_name, static_cast<int32_t>(f->archive.seeds.sites().size()));
+      f->site_of_code = site_codes(m, f->dir, f->dir_name, static_cast<int32_t>(f->archive.seeds.sites().size()));
       f->lines = kept_line_pieces(m, f->dir, f->dir_name);
       f->rasters = kept_rasters(m, f->dir, f->dir_name);
     } catch (const nlohmann::json::exception&) {

@@ -889,8 +889,7 @@ void assemble_report(detail::JobRun& run, const PreparedJob& job, const detail::
   report["outputs"] = run.outputs;
 }
 
-// The stages after prepare_job, with run.plan. `base_files`: an edit's base read ahead (else
-// read here).
+// The stages after prepare_job, with run.plan (`base_files`: an edit's base read ahead, or null).
 JobResult run_stages(detail::JobRun& run, const PreparedJob& job, const detail::MemoryWatch* memory,
                      detail::Clock::time_point start, std::shared_ptr<detail::EditBaseFiles> base_files = nullptr) {
   const JobSpec& spec = run.spec;
@@ -905,9 +904,7 @@ JobResult run_stages(detail::JobRun& run, const PreparedJob& job, const detail::
   std::shared_ptr<const PreparedSeeds> prepared;
   if (!spec.base_report.empty()) {
     const auto t = detail::Clock::now();
-    // The edited seeds are prepared for the engine on another core while the base is opened
-    // (its manifest parsed, its seed archive decoded): both take a tenth of a second on 50,000
-    // points, and neither needs the other.
+    // The edited seeds are prepared for the engine on another core while the base is opened.
     std::future<std::shared_ptr<const PreparedSeeds>> preparing;
     if (!job.compute.prepared)
       preparing = std::async(std::launch::async, [&job] { return prepare(job.loaded.seeds, job.grid, job.compute); });
@@ -976,8 +973,7 @@ JobResult run_job(const JobSpec& spec, const JobLimits& limits, const JobHooks& 
   std::optional<detail::MemoryWatch> memory;
   if (spec.outputs.describe) memory.emplace();
   detail::JobRun run(spec, limits, hooks);
-  // An edit's base is read on another core while the seeds are read (neither needs the other;
-  // each takes a few tenths of a second on 50,000 features): its errors come after the seeds'.
+  // An edit's base is read on another core while the seeds are read (its errors come after theirs).
   std::future<std::shared_ptr<detail::EditBaseFiles>> base_files;
   if (!spec.base_report.empty())
     base_files = std::async(std::launch::async, [&spec] { return detail::EditBase::read_files(spec.base_report); });
