@@ -231,7 +231,10 @@ void Session::State::files() const {
     remove_memory_files(dir);
     texts = std::move(now);
   } catch (...) {
+    // A stage failed part way: the files are made again whole when next read.
     remove_memory_files(dir);
+    pending.reset();
+    stale = true;
     throw;
   }
   report = pending->run->report["deliverables"];
@@ -302,8 +305,8 @@ json Session::State::update(SeedSet edited, std::vector<size_t> new_slot_of, std
   job.loaded.input_position = std::move(position);
   job.compute.prepared = nullptr;
   const TileSummaries old_tiles = tiles;
-  const PendingFiles* old_pending = pending.get();
-  bool applied = false;
+  const detail::SessionLines old_lines = lines;
+  bool applied = false, delivered = false;
   // Back to the seeds before: the field by the inverse edit (exact by the same construction).
   auto restore = [&] {
     if (applied) {
@@ -317,7 +320,8 @@ json Session::State::update(SeedSet edited, std::vector<size_t> new_slot_of, std
     job.loaded.input_position = std::move(old_position);
     job.compute.prepared = old_prepared;
     tiles = old_tiles;
-    if (pending.get() != old_pending) {
+    lines = old_lines;
+    if (delivered) {
       // The lines went ahead of the state restored: its files are made again whole when read,
       // and the next step extracts every row.
       pending.reset();
@@ -355,6 +359,7 @@ json Session::State::update(SeedSet edited, std::vector<size_t> new_slot_of, std
     t = Clock::now();
     json recompute = {{"cells", plan.cells}, {"cells_of_removed", plan.removed_cells}};
     json lines_changed = deliver(&edit, &plan, &old_tiles, recompute);
+    delivered = true;
     timings["lines"] = seconds_since(t);
     if (files_answer()) {
       t = Clock::now();
