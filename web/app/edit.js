@@ -232,7 +232,7 @@ export class EditMode {
     replace(tri && tri.getSource(), answer.tripoints, line);
     const features = answer.features || {};
     const source = this.editLayer.getSource();
-    replace(source, { removed: features.removed, changed: features.changed, added: features.added }, (f) => this.format.readFeature(f));
+    replace(source, features, (f) => this.format.readFeature(f));
     for (const id of features.removed || []) this.geometry.delete(String(id));
     for (const f of [...(features.changed || []), ...(features.added || [])]) this.geometry.set(String(f.id), f.geometry);
     if (this.picked && !source.getFeatureById(this.picked.getId())) {
