@@ -93,10 +93,17 @@ class Session:
         return _frame(doc, self._crs(doc))
 
     def lines(self, name):
-        """A deliverable as it stands: boundaries, tripoints, limits or regions as a GeoDataFrame,
+        """A deliverable as it stands: boundaries, tripoints, limits or regions as a GeoDataFrame
+        (boundaries, tripoints and limits indexed by their line ids, those of the edits' answers),
         turning_points as the treaty table (a dict)."""
         doc = json.loads(self._s.deliverable(name))
-        return doc if name == "turning_points" else _frame(doc, self._crs(doc))
+        if name == "turning_points":
+            return doc
+        ids = json.loads(self._s.line_ids()).get(name)
+        if ids is not None and len(ids) == len(doc.get("features", [])):
+            for f, i in zip(doc["features"], ids):
+                f["id"] = i
+        return _frame(doc, self._crs(doc))
 
     @property
     def areas(self):

@@ -310,6 +310,7 @@ class Session {
   std::string features() const { return rv::json_text(session_->features()); }
   std::vector<std::string> deliverables() const { return session_->deliverables(); }
   std::string deliverable(const std::string& name) const { return session_->deliverable(name); }
+  std::string line_ids() const { return rv::json_text(session_->line_ids()); }
   py::dict grid() const { return grid_dict(session_->grid()); }
   std::vector<std::string> owners() const { return session_->seeds().owner_labels(); }
   std::string unit() const { return session_->job().unit; }
@@ -477,6 +478,7 @@ PYBIND11_MODULE(_rvoronoi, m) {
       .def("features", &Session::features)
       .def("deliverables", &Session::deliverables)
       .def("deliverable", &Session::deliverable, py::arg("name"))
+      .def("line_ids", &Session::line_ids)
       .def("arrays", &Session::arrays)
       .def("save", &Session::save, py::arg("outputs"))
       .def_property_readonly("grid", &Session::grid)

@@ -98,6 +98,18 @@ class SessionTest(unittest.TestCase):
         areas1 = self.s.areas
         for label, delta in moved.items():
             self.assertAlmostEqual(areas1.loc[label, "cells_area"] - areas0.loc[label, "cells_area"], delta, delta=1e-6)
+        # The lines indexed by the ids the answer names: each changed or added line is there, as
+        # the answer draws it.
+        from shapely.geometry import shape
+        b = self.s.lines("boundaries")
+        self.assertEqual(b.index.name, "id")
+        entries = a["lines"]["boundaries"]["changed"] + a["lines"]["boundaries"]["added"]
+        self.assertGreater(len(entries), 0)
+        for e in entries:
+            self.assertIn(e["id"], b.index)
+            self.assertTrue(shape(e["geometry"]).equals_exact(b.geometry[e["id"]], 1e-6), e["id"])
+        for i in a["lines"]["boundaries"]["removed"]:
+            self.assertNotIn(i, b.index)
         self.check_fresh("moved")
         a = self.s.edit([{"op": "add", "properties": {"owner": "C"},
                           "geometry": {"type": "Point", "coordinates": [X0 + 3000.0, Y0 + 17000.0]}},
