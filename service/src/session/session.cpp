@@ -98,6 +98,13 @@ struct PendingFiles {
   JobHooks hooks;  // none: JobRun keeps a reference
   std::unique_ptr<detail::JobRun> run;
   std::unique_ptr<detail::StripDeliverables> d;
+
+  static std::unique_ptr<PendingFiles> make(const JobSpec& spec, const JobLimits& limits, const PreparedJob& job) {
+    auto p = std::make_unique<PendingFiles>();
+    p->run = std::make_unique<detail::JobRun>(spec, limits, p->hooks);
+    p->d = std::make_unique<detail::StripDeliverables>(*p->run, job, false);
+    return p;
+  }
 };
 
 struct Session::State {
@@ -155,9 +162,7 @@ json Session::State::deliver(const Edit* edit, const EditPlan* plan, const TileS
     return lines.update(BoundaryResult{}, LimitResult{}, job.loaded.seeds.owner_labels(), job.to_output);
   }
   const auto started = Clock::now();
-  auto p = std::make_unique<PendingFiles>();
-  p->run = std::make_unique<detail::JobRun>(spec, job_limits, p->hooks);
-  p->d = std::make_unique<detail::StripDeliverables>(*p->run, job, false);
+  std::unique_ptr<PendingFiles> p = PendingFiles::make(spec, job_limits, job);
   detail::StripDeliverables& d = *p->d;
   int64_t extracted = job.grid.height;
   std::string why;
@@ -217,9 +222,7 @@ void Session::State::files() const {
   if (paths.empty() || (!pending && !stale)) return;
   const auto started = Clock::now();
   if (!pending) {  // the files of a state whose step's files were dropped: made whole again
-    auto p = std::make_unique<PendingFiles>();
-    p->run = std::make_unique<detail::JobRun>(spec, job_limits, p->hooks);
-    p->d = std::make_unique<detail::StripDeliverables>(*p->run, job, false);
+    std::unique_ptr<PendingFiles> p = PendingFiles::make(spec, job_limits, job);
     p->d->keep_refined({}, {});
     p->d->add(field);
     pending = std::move(p);
