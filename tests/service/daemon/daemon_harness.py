@@ -122,16 +122,18 @@ def wait_for_file(path, seconds, proc=None):
 
 class DocumentServer:
     """A local HTTP server of one document (`document`: bytes, or anything JSON can write; it may be
-    swapped while serving), counting its GETs in `fetches`; HTTPS with `tls` = (cert, key) PEM
+    swapped while serving), counting its GETs in `fetches` (their monotonic times in `fetch_times`); HTTPS with `tls` = (cert, key) PEM
     files. An identity provider's key set, a web server that is not the API, ..."""
 
     def __init__(self, document, content_type, tls=None):
         self.document = document
         self.fetches = 0
+        self.fetch_times = []
         outer = self
 
         class Handler(http.server.BaseHTTPRequestHandler):
             def do_GET(self):
+                outer.fetch_times.append(time.monotonic())
                 outer.fetches += 1
                 doc = outer.document
                 body = doc if isinstance(doc, bytes) else json.dumps(doc).encode()

@@ -425,13 +425,18 @@ def rotation(tmp, keys):
         check(server.fetches == 1, f"https: fetched once at start ({server.fetches})")
         for _ in range(20):
             check(d.request("GET", "/me", None, bearer(keys.token(kid="k1")))[0] == 200, "https: k1")
-        check(server.fetches == 1, f"https: cached, not fetched per request ({server.fetches})")
-        # Unknown key ids do not make the daemon hammer its provider: at most one fetch a second.
-        start, began = server.fetches, time.time()
+        # Known keys fetch nothing: any further fetch is the 2 s refresh period's (a slow machine
+        # may see one), never one per request.
+        gaps = [b - a for a, b in zip(server.fetch_times, server.fetch_times[1:])]
+        check(all(g >= 1.9 for g in gaps), f"https: cached, not fetched per request ({server.fetches}, gaps {gaps})")
+        # Unknown key ids do not make the daemon hammer its provider: fetches at least the minimum
+        # interval (1 s) apart.
+        start = server.fetches
         for i in range(30):
             d.request("GET", "/me", None, bearer(keys.token(kid=f"nobody-{i}")))
-        elapsed = time.time() - began
-        check(server.fetches - start <= 1 + int(elapsed), f"https: {server.fetches - start} fetches for 30 unknown ids in {elapsed:.1f} s")
+        gaps = [b - a for a, b in zip(server.fetch_times[start - 1:], server.fetch_times[start:])]
+        check(all(g >= 0.9 for g in gaps),
+              f"https: unknown ids fetch at most once a second ({server.fetches - start}, gaps {gaps})")
         server.document = keys.jwks("k2")
         time.sleep(1.1)
         check(d.request("GET", "/me", None, bearer(keys.token(kid="k2")))[0] == 200, "https: k2 after the rotation")
