@@ -290,7 +290,25 @@ struct EditBase::State {
   std::shared_ptr<const Geolocator> geolocator;
   int64_t next_row = 0;
   double files_seconds = 0.0;  // EditBase::read_files'
+  EditBase::Costs costs;
 };
+
+namespace {
+
+// The manifest's "costs" (EditBaseWriter::set_costs). Advisory: what is missing or malformed is
+// left unknown, never an error (a base without them is edited by recoding, as before they were kept).
+EditBase::Costs read_costs(const nlohmann::json& m) {
+  EditBase::Costs c;
+  const auto it = m.find("costs");
+  if (it == m.end() || !it->is_object()) return c;
+  if (const auto e = it->find("engine_cpu_s"); e != it->end() && e->is_number()) c.engine_cpu_s = e->get<double>();
+  if (const auto w = it->find("encode_s"); w != it->end() && w->is_object())
+    for (const auto& [role, v] : w->items())
+      if (v.is_number()) c.encode_s[role] = v.get<double>();
+  return c;
+}
+
+}  // namespace
 
 // What EditBase reads of a base before the job is known: the report, the manifest and the files
 // it names, parsed and decoded. A failure is kept where the constructor would have met it: before
@@ -386,6 +404,7 @@ EditBase::EditBase(std::shared_ptr<EditBaseFiles> files, const JobSpec& spec, co
   st.files_seconds = files->seconds;
   st.manifest = std::move(files->manifest);
   const nlohmann::json& m = st.manifest;
+  st.costs = read_costs(m);
   try {
     std::string diff = differences(m, request_params(spec, job));
     // A grid taken from the seeds' extent moves with them: name the base's extent to give instead.
@@ -479,6 +498,8 @@ SiteCodeTable edit_site_codes(const EditBase& base, const Edit& edit, size_t edi
   return t;
 }
 const TileSummaries& EditBase::tiles() const { return st_->tiles; }
+
+const EditBase::Costs& EditBase::costs() const { return st_->costs; }
 
 std::optional<EditBase::Earlier> EditBase::earlier(const std::string& role) const {
   const auto it = st_->rasters.find(role);
@@ -689,10 +710,13 @@ nlohmann::json edit_report(const EditBase& base, const Edit& edit, const SeedSet
           {"area_moved", moved},
           {"area_units", geodesic ? "m2" : "crs-units^2"},
           {"strips", tally.strips},
+          {"strips_by_engine", tally.strips_by_engine},
+          {"files_where_codes_move", tally.choice},
           {"timings_s",
            {{"read_base", tally.read_seconds},
             {"plan", tally.plan_seconds},
             {"recompute", tally.apply_seconds},
+            {"engine", tally.engine_seconds},
             {"tally", tally.tally_seconds}}}};
 }
 

@@ -85,6 +85,9 @@ class EditBaseWriter {
   TileSummaries tiles;
   // The run's line pieces by extraction ("boundaries", "limits", "reach"), kept as lines_<name>.bin.
   void set_line_pieces(const std::map<std::string, LinePieces>& pieces);
+  // What producing this run's field and files cost, for an edit of it to weigh recoding against
+  // encoding afresh (EditBase::costs): kept in the manifest as given.
+  void set_costs(const nlohmann::json& costs) { manifest_["costs"] = costs; }
   // Writes the manifest and renames the directory into place (the old one, if any, removed).
   // Returns the directory's path.
   std::string commit();
@@ -130,6 +133,20 @@ class EditBase {
   const std::vector<int32_t>& site_of_code() const;
   // The base field's per-tile summaries (from the manifest).
   const TileSummaries& tiles() const;
+  // What making the base's field and files cost, as its run measured them (EditBaseWriter::
+  // set_costs; an edit that copied a file or patched the field carries its own base's figures):
+  // the engine's time over the whole grid times its threads, and per raster role (record's) the
+  // writer's time to encode every tile afresh. Seconds; negative or absent where not known (a
+  // base kept before they were recorded).
+  struct Costs {
+    double engine_cpu_s = -1.0;
+    std::map<std::string, double> encode_s;
+    double encode(const std::string& role) const {
+      const auto i = encode_s.find(role);
+      return i == encode_s.end() ? -1.0 : i->second;
+    }
+  };
+  const Costs& costs() const;
   const std::string& report_path() const { return report_; }
   // A raster the base run wrote (EditBaseWriter::record's roles), for a writer to copy tiles from:
   // its path, its name in messages, its tile checksums. Empty when the base did not write one.
@@ -187,6 +204,9 @@ struct EditTally {
   std::vector<bool> tiles_read;                   // per tile of the grid (TileSummaries order): its cells read
   std::vector<bool> tiles_planned;                // ... the plan could not rule it out (a subset)
   double read_seconds = 0.0, plan_seconds = 0.0, apply_seconds = 0.0, tally_seconds = 0.0;
+  double engine_seconds = 0.0;  // strips computed whole by the engine (attach_edit's choice)
+  int64_t strips_by_engine = 0;
+  nlohmann::json choice;  // how the files are made where their codes move, and why (attach_edit)
   EditChanges changes;
 };
 nlohmann::json edit_report(const EditBase& base, const Edit& edit, const SeedSet& edited, const EditTally& tally,

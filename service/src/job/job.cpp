@@ -692,14 +692,14 @@ void compute_streamed(detail::JobRun& run, const PreparedJob& job, const RasterT
   run.progress("compute", 0.0);
   const detail::StreamStats st = detail::run_streamed(stream);
   if (base) {
-    edit.tally.tiles_copied = st.tiles_copied;
-    edit.tally.tiles_recoded = st.tiles_recoded;
-    edit.tally.not_copied = st.not_copied;
+    std::tie(edit.tally.tiles_copied, edit.tally.tiles_recoded, edit.tally.not_copied) =
+        std::tie(st.tiles_copied, st.tiles_recoded, st.not_copied);
     run.report["edit"] = detail::edit_report(*base, *edit.edit, job.loaded.seeds, edit.tally, job.grid,
                                              job.metric.kind == MetricSpec::geodesic);
   }
   if (base && !spec.base_name.empty()) run.report["edit"]["base"] = spec.base_name;
   if (!edit_lines.is_null()) run.report["edit"]["lines"] = edit_lines;
+  if (keep) keep->set_costs(detail::run_costs(stream, st, base, base ? &edit : nullptr));
   run.compute_seconds = st.compute;
   run.contested_cells = st.contested_cells;
   run.threads_used = st.threads;

@@ -36,6 +36,72 @@ void copy_from(StreamTarget& t, const EditBase& base, const char* role, const Co
   }
 }
 
+// The kept base's name of a product's raster (EditBaseWriter::record's roles), or null.
+const char* role_of(Product p) {
+  switch (p) {
+    case Product::site:
+      return "site";
+    case Product::metric_distance:
+      return "distance";
+    case Product::ownership:
+      return "ownership";
+    case Product::nearest_feature:
+      return "nearest_feature";
+    case Product::distance:
+      return "output_distance";
+    default:
+      return nullptr;
+  }
+}
+
+// Decoding a tile costs about a quarter of encoding it (ZSTD and DEFLATE alike decode several
+// times faster than they encode): recoding a code file costs its encoding afresh plus a quarter,
+// and reading the base field whole a quarter of encoding its two rasters (bench/RESULTS-edits.md,
+// session 40).
+constexpr double kDecodeShare = 0.25;
+
+struct CodeChoice {
+  bool afresh = false;        // the code files whose codes move are encoded afresh
+  bool engine_whole = false;  // where every cell is needed, the engine computes it
+  nlohmann::json why;
+};
+
+// Weighs, by the base's costs, recoding every tile of the code files whose codes move against
+// producing every cell (the engine, or the base field read whole) and encoding them afresh.
+// Unknown costs keep the recoding (and the base field read where every cell is needed).
+CodeChoice choose_codes(const StreamJob& stream, const EditBase& base, const EditCodes& codes) {
+  const EditBase::Costs& c = base.costs();
+  auto decode = [&](const char* role) {
+    const double e = c.encode(role);
+    return e < 0.0 ? -1.0 : kDecodeShare * e;
+  };
+  const double read_whole =
+      decode("site") < 0.0 || decode("distance") < 0.0 ? -1.0 : decode("site") + decode("distance");
+  double recode = 0.0;
+  bool known = true, moves = false;
+  for (const StreamTarget& t : stream.targets) {
+    const bool owners = t.product == Product::ownership, features = t.product == Product::nearest_feature;
+    const CodeMap* m = owners ? &codes.owners : features ? &codes.features : nullptr;
+    const char* role = owners ? "ownership" : "nearest_feature";
+    if (m == nullptr || !m->valid || m->identity || !base.earlier(role)) continue;
+    moves = true;
+    known = known && decode(role) >= 0.0;
+    recode += std::max(0.0, decode(role));
+  }
+  CodeChoice out;
+  out.engine_whole = c.engine_cpu_s >= 0.0 && read_whole >= 0.0 && c.engine_cpu_s < read_whole;
+  const double every_cell = out.engine_whole ? c.engine_cpu_s : read_whole;
+  out.afresh = moves && known && every_cell >= 0.0 && every_cell < recode;
+  if (moves)
+    out.why = {{"made", out.afresh ? "afresh" : "recoded"},
+               {"every_cell_by", out.engine_whole ? "engine" : "reading the base"},
+               {"estimate_s",
+                {{"recoding", known ? nlohmann::json(recode) : nlohmann::json()},
+                 {"engine_cpu", c.engine_cpu_s >= 0.0 ? nlohmann::json(c.engine_cpu_s) : nlohmann::json()},
+                 {"reading_base", read_whole >= 0.0 ? nlohmann::json(read_whole) : nlohmann::json()}}}};
+  return out;
+}
+
 }  // namespace
 
 void attach_edit(StreamJob& stream, StreamEdit& st, const JobSpec& spec, const PreparedJob& job, EditBase& base,
@@ -61,14 +127,40 @@ void attach_edit(StreamJob& stream, StreamEdit& st, const JobSpec& spec, const P
     if (t.product == Product::distance) copy_from(t, base, "output_distance");
     if (t.product == Product::nearest_feature) copy_from(t, base, "nearest_feature", &st.codes.features);
   }
+  const CodeChoice choice = choose_codes(stream, base, st.codes);
+  st.tally.choice = choice.why;
+  st.engine_whole = choice.engine_whole;
+  st.compute = stream.compute;
+  st.seeds = &job.loaded.seeds;
+  st.grid = job.grid;
+  for (StreamTarget& t : stream.targets) {
+    const bool coded = t.product == Product::ownership || t.product == Product::nearest_feature;
+    if (coded && choice.afresh && !t.earlier_remap.empty()) {
+      t.earlier.clear();
+      t.earlier_checksums.clear();
+      t.earlier_remap.clear();
+    }
+  }
+  st.plan_tiles = st.to_read;
   const bool codes = !spec.outputs.changes.empty();
   const int64_t across = base.tiles().cols;
   // The base strip is read into the strip's own buffers and edited in place; the base's values of
-  // the cells the plan recomputes are kept aside for the tally.
+  // the cells the plan recomputes are kept aside for the tally. Where every cell is needed and the
+  // engine is the cheaper way to them, the base is read only where the plan reads it, and the
+  // engine computes the strip whole (equal to the edit's cells: both are the edited seeds' field).
   stream.source = [&st, &base, codes, across](const Window& w, NearestField& field, std::vector<int32_t>& changes,
                                               std::vector<uint8_t>& fresh, bool all_cells) {
     EditTally& tally = st.tally;
-    const std::vector<uint8_t>* only = all_cells ? nullptr : &st.to_read;
+    const bool engine = all_cells && st.engine_whole;
+    const std::vector<uint8_t>* only = engine ? &st.plan_tiles : all_cells ? nullptr : &st.to_read;
+    auto compute_whole = [&] {
+      timed_add(tally.engine_seconds, [&] {
+        ComputeOptions o = st.compute;
+        o.window = w;
+        compute_into(*st.seeds, st.grid, o, field);
+      });
+      ++tally.strips_by_engine;
+    };
     timed_add(tally.read_seconds, [&] { base.read(w.row0, w.height, field, only); });
     const int64_t bands = (w.height + kTile - 1) / kTile;
     ++tally.strips;
@@ -82,6 +174,7 @@ void attach_edit(StreamJob& stream, StreamEdit& st, const JobSpec& spec, const P
                      [](uint8_t t) { return t != 0; })) {
       fresh.assign(static_cast<size_t>(bands * across), 0);
       if (codes) changes.assign(static_cast<size_t>(w.cell_count()), 0);
+      if (engine) compute_whole();
       return;
     }
     EditPlan plan;
@@ -89,8 +182,9 @@ void attach_edit(StreamJob& stream, StreamEdit& st, const JobSpec& spec, const P
     ChangeTally::MaskedCells before;
     timed_add(tally.apply_seconds, [&] {
       before = ChangeTally::masked_cells(plan.mask, field);
-      st.edit->apply(field, plan, field, only);
+      if (!engine) st.edit->apply(field, plan, field, only);
     });
+    if (engine) compute_whole();
     // The tiles with cells of the plan are encoded again; the files copy the others.
     fresh.assign(static_cast<size_t>(bands * across), 0);
     for (int64_t r = 0; r < w.height; ++r)
@@ -163,15 +257,8 @@ void attach_keep(StreamJob& stream, EditBaseWriter& keep, const EditBase* base, 
                                  "edit_base_distance");
     if (base) copy_from(d, *base, "distance");
   }
-  for (StreamTarget& t : stream.targets) {
-    const char* role = t.product == Product::site              ? "site"
-                       : t.product == Product::metric_distance ? "distance"
-                       : t.product == Product::ownership       ? "ownership"
-                       : t.product == Product::nearest_feature ? "nearest_feature"
-                       : t.product == Product::distance        ? "output_distance"
-                                                               : nullptr;
-    if (role != nullptr) t.checksums = keep.record(role, t.path);
-  }
+  for (StreamTarget& t : stream.targets)
+    if (const char* role = role_of(t.product)) t.checksums = keep.record(role, t.path);
   StreamTarget& d = *std::find_if(stream.targets.begin(), stream.targets.end(), [&](const StreamTarget& t) {
     return t.product == (keep.shares_distance() ? Product::distance : Product::metric_distance);
   });
@@ -193,6 +280,36 @@ void attach_keep(StreamJob& stream, EditBaseWriter& keep, const EditBase* base, 
         t.unowned[i] = b.unowned[i];
       }
   };
+}
+
+nlohmann::json run_costs(const StreamJob& stream, const StreamStats& stats, const EditBase* base,
+                         const StreamEdit* edit) {
+  const EditBase::Costs none;
+  const EditBase::Costs& was = base ? base->costs() : none;
+  // The engine over the whole grid: a fresh run's, or an edit's that computed every strip; else
+  // the base's figure carried (an edit that recomputed some cells says nothing of the whole).
+  double engine = was.engine_cpu_s;
+  if (base == nullptr || (edit && edit->tally.strips > 0 && edit->tally.strips_by_engine == edit->tally.strips))
+    engine = (base ? edit->tally.engine_seconds : stats.compute) * std::max(1, stats.threads);
+  nlohmann::json encode = nlohmann::json::object();
+  for (const StreamTarget& t : stream.targets) {
+    const char* role = role_of(t.product);
+    if (role == nullptr) continue;
+    const auto copied = [&](const std::map<std::string, int64_t>& m) {
+      const auto i = m.find(t.name);
+      return i != m.end() && i->second >= 0;
+    };
+    const bool afresh = t.earlier.empty() || !(copied(stats.tiles_copied) || copied(stats.tiles_recoded));
+    const auto w = stats.write.find(t.name);
+    const double s = afresh && w != stats.write.end() ? w->second : was.encode(role);
+    if (s >= 0.0) encode[role] = s;
+  }
+  // The job's distance raster when it is the kept one (EditBaseWriter::shares_distance).
+  if (!encode.contains("distance") && encode.contains("output_distance"))
+    encode["distance"] = encode["output_distance"];
+  nlohmann::json out = {{"encode_s", encode}};
+  if (engine >= 0.0) out["engine_cpu_s"] = engine;
+  return out;
 }
 
 }  // namespace rv::detail

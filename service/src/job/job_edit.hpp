@@ -25,11 +25,23 @@ struct StreamEdit {
   // Per tile of the grid, 1 where its cells are read: the edit may change it, or the lines
   // extract its rows again (attach_edit_lines).
   std::vector<uint8_t> to_read;
+  // The tiles the plan reads (to_read before the lines' rows were added).
+  std::vector<uint8_t> plan_tiles;
   EditCodes codes;  // the base's codes -> the edit's
+  // Where every cell is needed (a file encodes every tile), whether the engine computes the strips
+  // whole, the base read only on the plan's tiles, rather than the base field read whole: the
+  // cheaper by the base's costs (EditBase::costs).
+  bool engine_whole = false;
+  ComputeOptions compute;  // the engine's options for whole strips (window set per strip)
+  const SeedSet* seeds = nullptr;
+  GridSpec grid;
 };
 
 // Makes `stream` an edit of `base`: its source, the changes raster (spec.outputs.changes), and
-// on each target whose tiles can be copied, the base's file and checksums. `stream`'s targets
+// on each target whose tiles can be copied, the base's file and checksums. A code file (owners,
+// features) whose codes move is recoded tile by tile from the base's, or encoded afresh where the
+// base's costs show that decoding every tile costs more than producing every cell (by the engine,
+// or by reading the base field whole); the report's edit entry says which and why. `stream`'s targets
 // (the job's rasters) must be in place; `st`, `base` and `job` must outlive the run. `prepared`:
 // the job's seeds prepared (rv::prepare) already, else prepared here.
 void attach_edit(StreamJob& stream, StreamEdit& st, const JobSpec& spec, const PreparedJob& job, EditBase& base,
@@ -49,5 +61,11 @@ nlohmann::json attach_edit_lines(StreamJob& stream, StreamEdit& st, StripDeliver
 // Call after attach_edit. Everything given must outlive the run.
 void attach_keep(StreamJob& stream, EditBaseWriter& keep, const EditBase* base, const StreamEdit* edit,
                  const PreparedJob& job);
+
+// What producing this run's field and files cost (EditBaseWriter::set_costs, EditBase::Costs),
+// from the streamed run's figures: its own where it made a thing afresh, else its base's (`base`
+// and `edit` null for a fresh run).
+nlohmann::json run_costs(const StreamJob& stream, const StreamStats& stats, const EditBase* base,
+                         const StreamEdit* edit);
 
 }  // namespace rv::detail

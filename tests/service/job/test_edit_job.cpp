@@ -532,9 +532,33 @@ TEST_F(EditJob, UnchangedTilesAreCopied) {
     }
     EXPECT_TRUE(fs::is_empty(dir_ / sub));
   };
+  // The costs a base's manifest records (EditBaseWriter::set_costs) replaced, so that the choice
+  // between recoding and encoding afresh does not hang on this machine's timings; null removes them.
+  auto set_costs = [&](const JobSpec& b, const nlohmann::json& costs) {
+    const fs::path m = fs::path(b.outputs.report + ".rvbase") / "manifest.json";
+    nlohmann::json j = nlohmann::json::parse(read_text(m));
+    if (costs.is_null())
+      j.erase("costs");
+    else
+      j["costs"] = costs;
+    std::ofstream(m, std::ios::trunc) << j.dump();
+  };
+  // Recoding a tile costs a quarter of encoding it; reading the base whole, a quarter of its two
+  // rasters'.
+  const nlohmann::json recode_cheaper = {
+      {"engine_cpu_s", 1000.0},
+      {"encode_s", {{"site", 4.0}, {"distance", 4.0}, {"ownership", 1.0}, {"nearest_feature", 1.0}}}};
   write_seeds(feats, c);
   const JobSpec base = rasters_only("b", false);
   run_job(base);
+  // A run records what its engine and each file's encoding cost.
+  {
+    const nlohmann::json m =
+        nlohmann::json::parse(read_text(fs::path(base.outputs.report + ".rvbase") / "manifest.json"));
+    EXPECT_GE(m.at("costs").at("engine_cpu_s").get<double>(), 0.0) << m.dump();
+    for (const char* role : {"site", "distance", "ownership", "nearest_feature", "output_distance"})
+      EXPECT_GE(m.at("costs").at("encode_s").value(role, -1.0), 0.0) << role << " " << m["costs"].dump();
+  }
 
   // A point moved: every file copies all but the tiles with changed cells.
   feats[30].pts[0][0] += 40.0;
@@ -554,7 +578,9 @@ TEST_F(EditJob, UnchangedTilesAreCopied) {
   // and the kept site codes (the base's, whatever the sites' indices) are copied as they are. No
   // cell is read but in the tiles the edit may change.
   feats.erase(feats.begin() + 20);
+  set_costs(moved, recode_cheaper);
   auto [removed, r] = run_pair(moved, "remove", false);
+  EXPECT_EQ(r.at("files_where_codes_move").value("made", ""), "recoded") << r.dump();
   const int64_t unchanged = tiles - r.at("tiles_encoded").get<int64_t>();
   EXPECT_LT(r.at("tiles_read").get<int64_t>(), tiles) << r.dump();
   EXPECT_FALSE(r.at("tiles_copied").contains("nearest_feature")) << r.dump();
@@ -567,9 +593,63 @@ TEST_F(EditJob, UnchangedTilesAreCopied) {
   for (const Feat& f : feats)
     if (f.owner != first) kept.push_back(f);
   std::swap(feats, kept);
+  set_costs(removed, recode_cheaper);
   auto [dropped, o] = run_pair(removed, "drop", false);
   EXPECT_GT(o.at("tiles_recoded").value("ownership", int64_t{-2}), 0) << o.dump();
   std::swap(feats, kept);
+  write_seeds(feats, c);
+  // An edit that patched the field carries its base's engine cost; it encoded nothing afresh, so
+  // its encoding costs are its base's too.
+  {
+    const nlohmann::json m =
+        nlohmann::json::parse(read_text(fs::path(removed.outputs.report + ".rvbase") / "manifest.json"));
+    EXPECT_EQ(m.at("costs").at("engine_cpu_s").get<double>(), 1000.0) << m.dump();
+    EXPECT_EQ(m.at("costs").at("encode_s").value("nearest_feature", -1.0), 1.0) << m.dump();
+  }
+
+  // The same removal where the engine is cheaper than recoding: the nearest-feature file is
+  // encoded afresh from strips the engine computes whole; the base is read only where the plan
+  // reads it, and the other files still copy their unchanged tiles.
+  const Feat removed_feature = feats[20];
+  feats.erase(feats.begin() + 20);
+  set_costs(removed, {{"engine_cpu_s", 0.0},
+                      {"encode_s", {{"site", 4.0}, {"distance", 4.0}, {"ownership", 1.0}, {"nearest_feature", 1.0}}}});
+  {
+    auto [engine, n] = run_pair(removed, "engine", false);
+    EXPECT_EQ(n.at("files_where_codes_move").value("made", ""), "afresh") << n.dump();
+    EXPECT_EQ(n.at("files_where_codes_move").value("every_cell_by", ""), "engine") << n.dump();
+    EXPECT_EQ(n.at("strips_by_engine"), n.at("strips")) << n.dump();
+    EXPECT_TRUE(n.at("tiles_recoded").empty()) << n.dump();
+    EXPECT_FALSE(n.at("tiles_copied").contains("nearest_feature")) << n.dump();
+    EXPECT_LT(n.at("tiles_read").get<int64_t>(), tiles) << n.dump();
+    for (const char* f : {"ownership", "distance", "edit_base_site"})
+      EXPECT_EQ(n.at("tiles_copied").value(f, int64_t{-2}), tiles - n.at("tiles_encoded").get<int64_t>())
+          << f << " " << n.dump();
+    // It computed every strip: its own engine time is what it records.
+    const nlohmann::json m =
+        nlohmann::json::parse(read_text(fs::path(engine.outputs.report + ".rvbase") / "manifest.json"));
+    EXPECT_LT(m.at("costs").at("engine_cpu_s").get<double>(), 1000.0) << m.dump();
+    EXPECT_NE(m.at("costs").at("encode_s").value("nearest_feature", 1.0), 1.0) << m.dump();
+  }
+  // ... where reading the base whole is the cheaper way to every cell: every tile read.
+  set_costs(removed, {{"engine_cpu_s", 1000.0},
+                      {"encode_s", {{"site", 1.0}, {"distance", 1.0}, {"ownership", 1.0}, {"nearest_feature", 9.0}}}});
+  {
+    auto [whole, n] = run_pair(removed, "whole", false);
+    EXPECT_EQ(n.at("files_where_codes_move").value("made", ""), "afresh") << n.dump();
+    EXPECT_EQ(n.at("files_where_codes_move").value("every_cell_by", ""), "reading the base") << n.dump();
+    EXPECT_EQ(n.at("strips_by_engine"), 0) << n.dump();
+    EXPECT_EQ(n.at("tiles_read").get<int64_t>(), tiles) << n.dump();
+    EXPECT_TRUE(n.at("tiles_recoded").empty()) << n.dump();
+  }
+  // ... and with no costs recorded (a base kept before they were): recoded, as before.
+  set_costs(removed, nullptr);
+  {
+    auto [unknown, n] = run_pair(removed, "unknown", false);
+    EXPECT_EQ(n.at("files_where_codes_move").value("made", ""), "recoded") << n.dump();
+    EXPECT_GT(n.at("tiles_recoded").value("nearest_feature", int64_t{-2}), 0) << n.dump();
+  }
+  feats.insert(feats.begin() + 20, removed_feature);
   write_seeds(feats, c);
 
   // COGs: a COG base and a COG edit copy their full-resolution tiles (the overviews are made
