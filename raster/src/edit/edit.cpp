@@ -11,8 +11,8 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <string_view>
 #include <unordered_map>
-#include <unordered_set>
 #include <vector>
 
 #include "rv/engine/owner_index.hpp"
@@ -103,16 +103,17 @@ bool same_feature(const FeatureKeys& x, int32_t fx, const FeatureKeys& y, int32_
   return true;
 }
 
-// Whether the owners both sets have come in a different order of codes.
+// Whether the owners both sets have come in a different order of codes: the owners they share,
+// walked in the base's order, do not have rising codes in the edited set.
 bool owners_reordered(const SeedSet& base, const SeedSet& edited) {
-  auto present = [](const SeedSet& in, const SeedSet& other) {
-    const std::unordered_set<std::string> there(other.owner_labels().begin(), other.owner_labels().end());
-    std::vector<std::string> out;
-    for (const std::string& l : in.owner_labels())
-      if (there.count(l) != 0) out.push_back(l);
-    return out;
-  };
-  return present(base, edited) != present(edited, base);
+  const std::vector<int32_t> to = owner_codes_in(base, edited);
+  int32_t last = 0;
+  for (size_t c = 1; c < to.size(); ++c) {
+    if (to[c] < 0) continue;
+    if (to[c] < last) return true;
+    last = to[c];
+  }
+  return false;
 }
 
 // The sites of `set` with `pick` set, as one owner's seed set (their distances, weights and
@@ -151,6 +152,18 @@ std::string source_key(const std::string& source) {
 
 int64_t FeatureMatch::kept() const {
   return std::count_if(edited_of_base.begin(), edited_of_base.end(), [](int32_t e) { return e >= 0; });
+}
+
+std::vector<int32_t> owner_codes_in(const SeedSet& from, const SeedSet& to) {
+  std::unordered_map<std::string_view, int32_t> code;
+  code.reserve(to.owner_labels().size());
+  for (size_t i = 0; i < to.owner_labels().size(); ++i) code.emplace(to.owner_labels()[i], static_cast<int32_t>(i + 1));
+  std::vector<int32_t> out(from.owner_labels().size() + 1, 0);
+  for (size_t i = 0; i < from.owner_labels().size(); ++i) {
+    const auto it = code.find(from.owner_labels()[i]);
+    out[i + 1] = it == code.end() ? -1 : it->second;
+  }
+  return out;
 }
 
 FeatureMatch match_features(const SeedSet& base, const SeedSet& edited) {
@@ -853,14 +866,7 @@ ChangeTally::ChangeTally(const SeedSet& base_seeds, const SeedSet& edited_seeds,
                          const Geolocator* geolocator)
     : base_seeds_(base_seeds), edited_seeds_(edited_seeds), grid_(grid), geolocator_(geolocator) {
   // Owners by label: each base code's code in the edited set (-1 for an owner the edit dropped).
-  std::unordered_map<std::string, int32_t> edited_code;
-  for (size_t i = 0; i < edited_seeds.owner_labels().size(); ++i)
-    edited_code.emplace(edited_seeds.owner_labels()[i], static_cast<int32_t>(i + 1));
-  code_in_edited_.assign(base_seeds.owner_labels().size() + 1, 0);
-  for (size_t i = 0; i < base_seeds.owner_labels().size(); ++i) {
-    const auto it = edited_code.find(base_seeds.owner_labels()[i]);
-    code_in_edited_[i + 1] = it == edited_code.end() ? -1 : it->second;
-  }
+  code_in_edited_ = owner_codes_in(base_seeds, edited_seeds);
 }
 
 EditChanges tally_changes(const NearestField& base, const SeedSet& base_seeds, const NearestField& edited,

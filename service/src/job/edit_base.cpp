@@ -301,7 +301,7 @@ EditBase::Costs read_costs(const nlohmann::json& m) {
   EditBase::Costs c;
   const auto it = m.find("costs");
   if (it == m.end() || !it->is_object()) return c;
-  if (const auto e = it->find("engine_cpu_s"); e != it->end() && e->is_number()) c.engine_cpu_s = e->get<double>();
+  if (const auto e = it->find("engine_s"); e != it->end() && e->is_number()) c.engine_s = e->get<double>();
   if (const auto w = it->find("encode_s"); w != it->end() && w->is_object())
     for (const auto& [role, v] : w->items())
       if (v.is_number()) c.encode_s[role] = v.get<double>();
@@ -604,15 +604,10 @@ EditCodes code_maps(const EditBase& base, const Edit& edit, const LoadedSeeds& e
     m.identity = m.identity && (to < 0 || to == static_cast<int32_t>(from));
   };
   // Owners by label.
-  std::unordered_map<std::string, int32_t> code;
-  for (size_t i = 0; i < edited.seeds.owner_labels().size(); ++i)
-    code.emplace(edited.seeds.owner_labels()[i], static_cast<int32_t>(i + 1));
-  out.owners.to.assign(b.owner_labels().size() + 1, -1);
+  const std::vector<int32_t> owners = owner_codes_in(b, edited.seeds);
+  out.owners.to.assign(owners.size(), -1);
   out.owners.to[0] = 0;
-  for (size_t i = 0; i < b.owner_labels().size(); ++i) {
-    const auto it = code.find(b.owner_labels()[i]);
-    set(out.owners, i + 1, it == code.end() ? -1 : it->second);
-  }
+  for (size_t i = 1; i < owners.size(); ++i) set(out.owners, i, owners[i]);
   // Features by their numbers in each run, through their sites: a feature changed only in
   // geometry keeps the cells of its unchanged sites.
   const std::vector<int32_t>& remap = edit.site_map();

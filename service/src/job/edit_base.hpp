@@ -135,11 +135,11 @@ class EditBase {
   const TileSummaries& tiles() const;
   // What making the base's field and files cost, as its run measured them (EditBaseWriter::
   // set_costs; an edit that copied a file or patched the field carries its own base's figures):
-  // the engine's time over the whole grid times its threads, and per raster role (record's) the
+  // the engine's wall time over the whole grid, and per raster role (record's) the
   // writer's time to encode every tile afresh. Seconds; negative or absent where not known (a
   // base kept before they were recorded).
   struct Costs {
-    double engine_cpu_s = -1.0;
+    double engine_s = -1.0;
     std::map<std::string, double> encode_s;
     double encode(const std::string& role) const {
       const auto i = encode_s.find(role);

@@ -55,9 +55,9 @@ const char* role_of(Product p) {
 }
 
 // Decoding a tile costs about a quarter of encoding it (ZSTD and DEFLATE alike decode several
-// times faster than they encode): recoding a code file costs its encoding afresh plus a quarter,
-// and reading the base field whole a quarter of encoding its two rasters (bench/RESULTS-edits.md,
-// session 40).
+// times faster than they encode): recoding a code file takes its writer its encoding time afresh
+// plus a quarter, and reading the base field whole a quarter of its two rasters' encoding time
+// (bench/RESULTS-edits.md, sessions 39 and 40).
 constexpr double kDecodeShare = 0.25;
 
 struct CodeChoice {
@@ -67,8 +67,11 @@ struct CodeChoice {
 };
 
 // Weighs, by the base's costs, recoding every tile of the code files whose codes move against
-// producing every cell (the engine, or the base field read whole) and encoding them afresh.
-// Unknown costs keep the recoding (and the base field read where every cell is needed).
+// producing every cell (the engine, or the base field read whole) and encoding them afresh. The
+// cells are produced on the computing thread while the files' writers encode beside it, and the
+// slowest writer is what the job waits for: so the engine's wall time (not its threads' sum) is
+// set against the writers' extra time to decode. Unknown costs keep the recoding (and the base
+// field read where every cell is needed).
 CodeChoice choose_codes(const StreamJob& stream, const EditBase& base, const EditCodes& codes) {
   const EditBase::Costs& c = base.costs();
   auto decode = [&](const char* role) {
@@ -89,15 +92,15 @@ CodeChoice choose_codes(const StreamJob& stream, const EditBase& base, const Edi
     recode += std::max(0.0, decode(role));
   }
   CodeChoice out;
-  out.engine_whole = c.engine_cpu_s >= 0.0 && read_whole >= 0.0 && c.engine_cpu_s < read_whole;
-  const double every_cell = out.engine_whole ? c.engine_cpu_s : read_whole;
+  out.engine_whole = c.engine_s >= 0.0 && read_whole >= 0.0 && c.engine_s < read_whole;
+  const double every_cell = out.engine_whole ? c.engine_s : read_whole;
   out.afresh = moves && known && every_cell >= 0.0 && every_cell < recode;
   if (moves)
     out.why = {{"made", out.afresh ? "afresh" : "recoded"},
                {"every_cell_by", out.engine_whole ? "engine" : "reading the base"},
                {"estimate_s",
                 {{"recoding", known ? nlohmann::json(recode) : nlohmann::json()},
-                 {"engine_cpu", c.engine_cpu_s >= 0.0 ? nlohmann::json(c.engine_cpu_s) : nlohmann::json()},
+                 {"engine", c.engine_s >= 0.0 ? nlohmann::json(c.engine_s) : nlohmann::json()},
                  {"reading_base", read_whole >= 0.0 ? nlohmann::json(read_whole) : nlohmann::json()}}}};
   return out;
 }
@@ -288,9 +291,9 @@ nlohmann::json run_costs(const StreamJob& stream, const StreamStats& stats, cons
   const EditBase::Costs& was = base ? base->costs() : none;
   // The engine over the whole grid: a fresh run's, or an edit's that computed every strip; else
   // the base's figure carried (an edit that recomputed some cells says nothing of the whole).
-  double engine = was.engine_cpu_s;
+  double engine = was.engine_s;
   if (base == nullptr || (edit && edit->tally.strips > 0 && edit->tally.strips_by_engine == edit->tally.strips))
-    engine = (base ? edit->tally.engine_seconds : stats.compute) * std::max(1, stats.threads);
+    engine = base ? edit->tally.engine_seconds : stats.compute;
   nlohmann::json encode = nlohmann::json::object();
   for (const StreamTarget& t : stream.targets) {
     const char* role = role_of(t.product);
@@ -308,7 +311,7 @@ nlohmann::json run_costs(const StreamJob& stream, const StreamStats& stats, cons
   if (!encode.contains("distance") && encode.contains("output_distance"))
     encode["distance"] = encode["output_distance"];
   nlohmann::json out = {{"encode_s", encode}};
-  if (engine >= 0.0) out["engine_cpu_s"] = engine;
+  if (engine >= 0.0) out["engine_s"] = engine;
   return out;
 }
 

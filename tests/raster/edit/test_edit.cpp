@@ -264,6 +264,28 @@ TEST(Edit, FeaturesMatchByGeometryOwnerAndAdjustments) {
   EXPECT_EQ(sites[1], 0);  // the line's segment
 }
 
+// Owners are paired by label, whatever their codes; their order is "reordered" only where two
+// owners both sets hold come in the other order.
+TEST(Edit, OwnersPairByLabel) {
+  auto set = [](const std::vector<std::string>& owners) {
+    std::vector<Spec> specs;
+    for (size_t i = 0; i < owners.size(); ++i)
+      specs.push_back({owners[i], GeometryKind::point, {{static_cast<double>(i), 1.0}}});
+    return build(specs);
+  };
+  const SeedSet abc = set({"A", "B", "C"});
+  EXPECT_EQ(owner_codes_in(abc, set({"C", "A", "D"})), (std::vector<int32_t>{0, 2, -1, 1}));
+  EXPECT_EQ(owner_codes_in(abc, abc), (std::vector<int32_t>{0, 1, 2, 3}));
+  EXPECT_EQ(owner_codes_in(abc, set({"D"})), (std::vector<int32_t>{0, -1, -1, -1}));
+  EXPECT_EQ(owner_codes_in(set({"A", "A"}), abc), (std::vector<int32_t>{0, 1}));  // one code per label
+  // An owner dropped or added keeps the others' order; two swapped do not.
+  EXPECT_FALSE(match_features(abc, set({"A", "C"})).owners_reordered);
+  EXPECT_FALSE(match_features(abc, set({"A", "D", "B", "C"})).owners_reordered);
+  EXPECT_FALSE(match_features(abc, set({"D"})).owners_reordered);
+  EXPECT_TRUE(match_features(abc, set({"A", "C", "B"})).owners_reordered);
+  EXPECT_TRUE(match_features(abc, set({"C", "D", "A"})).owners_reordered);
+}
+
 // A caller's match (a session knows which features it changed): the match_features one, or one
 // that leaves kept features unpaired, gives the fresh field; one that does not fit is refused.
 TEST(Edit, AGivenMatchGivesTheSameField) {

@@ -546,7 +546,7 @@ TEST_F(EditJob, UnchangedTilesAreCopied) {
   // Recoding a tile costs a quarter of encoding it; reading the base whole, a quarter of its two
   // rasters'.
   const nlohmann::json recode_cheaper = {
-      {"engine_cpu_s", 1000.0},
+      {"engine_s", 1000.0},
       {"encode_s", {{"site", 4.0}, {"distance", 4.0}, {"ownership", 1.0}, {"nearest_feature", 1.0}}}};
   write_seeds(feats, c);
   const JobSpec base = rasters_only("b", false);
@@ -555,7 +555,7 @@ TEST_F(EditJob, UnchangedTilesAreCopied) {
   {
     const nlohmann::json m =
         nlohmann::json::parse(read_text(fs::path(base.outputs.report + ".rvbase") / "manifest.json"));
-    EXPECT_GE(m.at("costs").at("engine_cpu_s").get<double>(), 0.0) << m.dump();
+    EXPECT_GE(m.at("costs").at("engine_s").get<double>(), 0.0) << m.dump();
     for (const char* role : {"site", "distance", "ownership", "nearest_feature", "output_distance"})
       EXPECT_GE(m.at("costs").at("encode_s").value(role, -1.0), 0.0) << role << " " << m["costs"].dump();
   }
@@ -603,7 +603,7 @@ TEST_F(EditJob, UnchangedTilesAreCopied) {
   {
     const nlohmann::json m =
         nlohmann::json::parse(read_text(fs::path(removed.outputs.report + ".rvbase") / "manifest.json"));
-    EXPECT_EQ(m.at("costs").at("engine_cpu_s").get<double>(), 1000.0) << m.dump();
+    EXPECT_EQ(m.at("costs").at("engine_s").get<double>(), 1000.0) << m.dump();
     EXPECT_EQ(m.at("costs").at("encode_s").value("nearest_feature", -1.0), 1.0) << m.dump();
   }
 
@@ -612,7 +612,7 @@ TEST_F(EditJob, UnchangedTilesAreCopied) {
   // reads it, and the other files still copy their unchanged tiles.
   const Feat removed_feature = feats[20];
   feats.erase(feats.begin() + 20);
-  set_costs(removed, {{"engine_cpu_s", 0.0},
+  set_costs(removed, {{"engine_s", 0.0},
                       {"encode_s", {{"site", 4.0}, {"distance", 4.0}, {"ownership", 1.0}, {"nearest_feature", 1.0}}}});
   {
     auto [engine, n] = run_pair(removed, "engine", false);
@@ -628,11 +628,11 @@ TEST_F(EditJob, UnchangedTilesAreCopied) {
     // It computed every strip: its own engine time is what it records.
     const nlohmann::json m =
         nlohmann::json::parse(read_text(fs::path(engine.outputs.report + ".rvbase") / "manifest.json"));
-    EXPECT_LT(m.at("costs").at("engine_cpu_s").get<double>(), 1000.0) << m.dump();
+    EXPECT_LT(m.at("costs").at("engine_s").get<double>(), 1000.0) << m.dump();
     EXPECT_NE(m.at("costs").at("encode_s").value("nearest_feature", 1.0), 1.0) << m.dump();
   }
   // ... where reading the base whole is the cheaper way to every cell: every tile read.
-  set_costs(removed, {{"engine_cpu_s", 1000.0},
+  set_costs(removed, {{"engine_s", 1000.0},
                       {"encode_s", {{"site", 1.0}, {"distance", 1.0}, {"ownership", 1.0}, {"nearest_feature", 9.0}}}});
   {
     auto [whole, n] = run_pair(removed, "whole", false);

@@ -829,8 +829,9 @@ void GeoTiffStripWriter<T>::take_tiles_from(const std::string& earlier, std::vec
   if (!state_ || state_->finished) throw Error(ErrorKind::invalid_argument, "GeoTIFF writer: already finished");
   State& s = *state_;
   typename State::Scope scope;
-  // The same cells: extent and cell size of the window (the layout is RawTileFile's check).
-  const GridSpec g = read_grid(earlier);
+  // The same cells: extent and cell size of the window (the layout is RawTileFile's check), which
+  // the TIFF holds itself: its sidecar (the categories) is not parsed.
+  const GridSpec g = detail::open_raster(earlier, false).grid;
   const GridSpec& grid = s.grid;
   const double xmin = grid.xmin + static_cast<double>(s.window.col0) * grid.res;
   const double ymax = grid.ymax - static_cast<double>(s.window.row0) * grid.res;

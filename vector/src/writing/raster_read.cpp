@@ -5,6 +5,7 @@
 #include <cstring>
 #include <exception>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -29,11 +30,13 @@ Error modified_tile(const std::string& display, int64_t bx, int64_t by, int64_t 
                    "-" + std::to_string(std::min(width, (bx + 1) * kTile) - 1) + ")");
 }
 
-OpenedRaster open_raster(const std::string& path) {
+OpenedRaster open_raster(const std::string& path, bool with_sidecar) {
   gdal_init();
   if (!gdal::path_exists(path)) throw Error(ErrorKind::not_found, "raster not found: " + path);
   gdal::ErrorCapture capture;
   OpenedRaster r;
+  std::optional<gdal::ThreadConfigOption> pam;
+  if (!with_sidecar) pam.emplace("GDAL_PAM_ENABLED", "NO");
   r.ds.reset(
       GDALDataset::FromHandle(GDALOpenEx(path.c_str(), GDAL_OF_RASTER | GDAL_OF_READONLY, nullptr, nullptr, nullptr)));
   if (!r.ds) throw Error(ErrorKind::invalid_input, path + ": not a raster GDAL can read" + capture.suffix());

@@ -55,6 +55,11 @@ struct FeatureMatch {
 };
 FeatureMatch match_features(const SeedSet& base, const SeedSet& edited);
 
+// Owners by label: per owner code of `from` (1..n; index 0 is 0), the code of the owner with the
+// same label in `to`, or -1 where `to` has none. O(owners) time and memory; the labels are not
+// copied (the sets must stay alive only during the call). Thread-safe.
+std::vector<int32_t> owner_codes_in(const SeedSet& from, const SeedSet& to);
+
 // Per base site, the same site of its kept feature in the edited set; kNoSite for the sites of
 // features not kept.
 std::vector<int32_t> edited_sites(const SeedSet& base, const SeedSet& edited, const FeatureMatch& match);
