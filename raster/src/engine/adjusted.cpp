@@ -17,6 +17,7 @@
 // comparison and tie rule (lowest site index among equal costs) as the brute-force sweep here.
 #include <algorithm>
 #include <cmath>
+#include <deque>
 #include <limits>
 #include <memory>
 #include <vector>
@@ -85,7 +86,11 @@ class BlockBalls {
 class AdjustedPolicy {
  public:
   struct Worker {
-    std::vector<std::vector<int32_t>> levels;  // candidates per depth
+    // Candidates per depth. A deque: growing it keeps every reference to the levels already made,
+    // and callers hold one level while asking for the next (a vector's growth left such a
+    // reference dangling where the arguments were evaluated left to right, as clang does; its
+    // AddressSanitizer caught it).
+    std::deque<std::vector<int32_t>> levels;
     std::vector<int32_t>& at(int depth) {
       if (levels.size() <= static_cast<size_t>(depth)) levels.resize(static_cast<size_t>(depth) + 1);
       return levels[static_cast<size_t>(depth)];
