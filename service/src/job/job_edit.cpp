@@ -83,9 +83,10 @@ CodeChoice choose_codes(const StreamJob& stream, const EditBase& base, const Edi
   double recode = 0.0;
   bool known = true, moves = false;
   for (const StreamTarget& t : stream.targets) {
-    const bool owners = t.product == Product::ownership, features = t.product == Product::nearest_feature;
-    const CodeMap* m = owners ? &codes.owners : features ? &codes.features : nullptr;
-    const char* role = owners ? "ownership" : "nearest_feature";
+    const CodeMap* m = t.product == Product::ownership         ? &codes.owners
+                       : t.product == Product::nearest_feature ? &codes.features
+                                                               : nullptr;
+    const char* role = role_of(t.product);
     if (m == nullptr || !m->valid || m->identity || !base.earlier(role)) continue;
     moves = true;
     known = known && decode(role) >= 0.0;
@@ -124,43 +125,37 @@ void attach_edit(StreamJob& stream, StreamEdit& st, const JobSpec& spec, const P
   // Each file copies from the base's file of the same product the tiles where the edit changes no
   // cell: their bytes where the codes of what the base's cells hold are the same in both runs
   // (distances always are), else decoded and coded again.
+  // A code file whose codes move is recoded from the base's, or encoded afresh (choose_codes).
   st.codes = code_maps(base, *st.edit, job.loaded);
-  for (StreamTarget& t : stream.targets) {
-    if (t.product == Product::ownership) copy_from(t, base, "ownership", &st.codes.owners);
-    if (t.product == Product::distance) copy_from(t, base, "output_distance");
-    if (t.product == Product::nearest_feature) copy_from(t, base, "nearest_feature", &st.codes.features);
-  }
   const CodeChoice choice = choose_codes(stream, base, st.codes);
   st.tally.choice = choice.why;
-  st.engine_whole = choice.engine_whole;
-  st.compute = stream.compute;
-  st.seeds = &job.loaded.seeds;
-  st.grid = job.grid;
+  auto coded_from = [&](StreamTarget& t, const char* role, const CodeMap& m) {
+    if (!(choice.afresh && !m.identity)) copy_from(t, base, role, &m);
+  };
   for (StreamTarget& t : stream.targets) {
-    const bool coded = t.product == Product::ownership || t.product == Product::nearest_feature;
-    if (coded && choice.afresh && !t.earlier_remap.empty()) {
-      t.earlier.clear();
-      t.earlier_checksums.clear();
-      t.earlier_remap.clear();
-    }
+    if (t.product == Product::ownership) coded_from(t, "ownership", st.codes.owners);
+    if (t.product == Product::distance) copy_from(t, base, "output_distance");
+    if (t.product == Product::nearest_feature) coded_from(t, "nearest_feature", st.codes.features);
   }
-  st.plan_tiles = st.to_read;
   const bool codes = !spec.outputs.changes.empty();
   const int64_t across = base.tiles().cols;
   // The base strip is read into the strip's own buffers and edited in place; the base's values of
   // the cells the plan recomputes are kept aside for the tally. Where every cell is needed and the
   // engine is the cheaper way to them, the base is read only where the plan reads it, and the
   // engine computes the strip whole (equal to the edit's cells: both are the edited seeds' field).
-  stream.source = [&st, &base, codes, across](const Window& w, NearestField& field, std::vector<int32_t>& changes,
-                                              std::vector<uint8_t>& fresh, bool all_cells) {
+  // (The plan's tiles: to_read before attach_edit_lines adds the lines' rows.)
+  stream.source = [&st, &base, codes, across, engine_whole = choice.engine_whole, plan_tiles = st.to_read,
+                   compute = stream.compute, seeds = &job.loaded.seeds,
+                   grid = job.grid](const Window& w, NearestField& field, std::vector<int32_t>& changes,
+                                    std::vector<uint8_t>& fresh, bool all_cells) {
     EditTally& tally = st.tally;
-    const bool engine = all_cells && st.engine_whole;
-    const std::vector<uint8_t>* only = engine ? &st.plan_tiles : all_cells ? nullptr : &st.to_read;
+    const bool engine = all_cells && engine_whole;
+    const std::vector<uint8_t>* only = engine ? &plan_tiles : all_cells ? nullptr : &st.to_read;
     auto compute_whole = [&] {
       timed_add(tally.engine_seconds, [&] {
-        ComputeOptions o = st.compute;
+        ComputeOptions o = compute;
         o.window = w;
-        compute_into(*st.seeds, st.grid, o, field);
+        compute_into(*seeds, grid, o, field);
       });
       ++tally.strips_by_engine;
     };

@@ -25,16 +25,7 @@ struct StreamEdit {
   // Per tile of the grid, 1 where its cells are read: the edit may change it, or the lines
   // extract its rows again (attach_edit_lines).
   std::vector<uint8_t> to_read;
-  // The tiles the plan reads (to_read before the lines' rows were added).
-  std::vector<uint8_t> plan_tiles;
   EditCodes codes;  // the base's codes -> the edit's
-  // Where every cell is needed (a file encodes every tile), whether the engine computes the strips
-  // whole, the base read only on the plan's tiles, rather than the base field read whole: the
-  // cheaper by the base's costs (EditBase::costs).
-  bool engine_whole = false;
-  ComputeOptions compute;  // the engine's options for whole strips (window set per strip)
-  const SeedSet* seeds = nullptr;
-  GridSpec grid;
 };
 
 // Makes `stream` an edit of `base`: its source, the changes raster (spec.outputs.changes), and
