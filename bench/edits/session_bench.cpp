@@ -11,7 +11,9 @@
 //                                             fresh job writes the ownership and distance
 //                                             rasters); N points moved by 5 cells
 //
-// Prints one line per edit (its timings by stage) and a summary table (Markdown).
+// Prints one line per edit (its timings by stage) and a summary table (Markdown). With the
+// environment variable SESSION_BENCH_EDITS_ONLY set, the deliverables are not read after the
+// edits (their files never made): for profiling the steps alone.
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
@@ -49,6 +51,7 @@ int main(int argc, char** argv) {
     return 2;
   }
   const std::string which = argv[1];
+  const bool edits_only = std::getenv("SESSION_BENCH_EDITS_ONLY") != nullptr;
   const int n = std::atoi(argv[3]);
   const fs::path dir = fs::temp_directory_path() / "rv_session_bench";
   fs::remove_all(dir);
@@ -134,13 +137,15 @@ int main(int argc, char** argv) {
     stages.push_back(answer["timings"]);
     // What a map page reads next: every deliverable (their files are made on this first read).
     t = std::chrono::steady_clock::now();
-    for (const std::string& name : session->deliverables()) (void)session->deliverable(name);
+    if (!edits_only)
+      for (const std::string& name : session->deliverables()) (void)session->deliverable(name);
     files.push_back(seconds_of(t));
     std::printf("edit %d: %.3f s %s cells %s; files %.3f s\n", k, total.back(), answer["timings"].dump().c_str(),
                 answer["recompute"].dump().c_str(), files.back());
     // Back again, so that every edit starts from the same state (its files read, as a page does).
     session->undo();
-    for (const std::string& name : session->deliverables()) (void)session->deliverable(name);
+    if (!edits_only)
+      for (const std::string& name : session->deliverables()) (void)session->deliverable(name);
   }
   const json info = session->info();
   std::vector<double> field, lines, both;

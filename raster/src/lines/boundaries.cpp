@@ -342,7 +342,8 @@ void place_crossings(const BoundaryGrid& b, const Segment& sg, std::vector<Cross
 
 }  // namespace
 
-void find_crossings(const BoundaryGrid& b, int64_t row0, int64_t row1, CrossingSet& x, BoundaryStats& stats) {
+void find_crossings(const BoundaryGrid& b, int64_t row0, int64_t row1, CrossingSet& x, BoundaryStats& stats,
+                    const CrossingFromBase* from_base) {
   const std::vector<Segment> segments = owner_changes(b, row0, row1);
   stats.crossings += static_cast<int64_t>(segments.size());
   auto row_of = [&](int64_t edge) { return edge / 2 / b.W; };
@@ -356,9 +357,16 @@ void find_crossings(const BoundaryGrid& b, int64_t row0, int64_t row1, CrossingS
   std::vector<int64_t> unresolved(segments.size(), 0);  // per segment
   detail::parallel_for(b.threads, chunks, [&](int64_t k, int) {
     const size_t end = std::min(segments.size(), static_cast<size_t>((k + 1) * chunk));
-    for (size_t i = static_cast<size_t>(k * chunk); i < end; ++i)
-      place_crossings(b, segments[i], chunk_crossings[static_cast<size_t>(k)], chunk_slivers[static_cast<size_t>(k)],
-                      unresolved[i]);
+    for (size_t i = static_cast<size_t>(k * chunk); i < end; ++i) {
+      const Segment& sg = segments[i];
+      const int32_t lo = std::min(sg.from, sg.to), hi = std::max(sg.from, sg.to);
+      BoundaryVertex v;
+      if (from_base != nullptr && (*from_base)(sg.edge, lo, hi, v))
+        chunk_crossings[static_cast<size_t>(k)].push_back(Crossing{sg.edge, lo, hi, v});
+      else
+        place_crossings(b, sg, chunk_crossings[static_cast<size_t>(k)], chunk_slivers[static_cast<size_t>(k)],
+                        unresolved[i]);
+    }
   });
   const size_t slivers_before = x.sliver_at.size();
   for (size_t k = 0; k < chunk_crossings.size(); ++k) {

@@ -23,6 +23,7 @@
 
 #include <array>
 #include <cstdint>
+#include <functional>
 #include <map>
 #include <set>
 #include <unordered_map>
@@ -117,8 +118,15 @@ inline int64_t pair_key(int32_t a, int32_t b) {
   return (static_cast<int64_t>(std::min(a, b)) << 32) | static_cast<int64_t>(std::max(a, b));
 }
 
-// Appends the crossings of rows [row0, row1) (rows up to row1 read) to `x`.
-void find_crossings(const BoundaryGrid& b, int64_t row0, int64_t row1, CrossingSet& x, BoundaryStats& stats);
+// An edit's crossings taken from its base instead of placed again (rv::StripLines::take_measured):
+// given an edge and the owners lo < hi of its two cells, true with the base's vertex there in `v`,
+// or false where the edge is to be placed. Called from find_crossings' threads at once.
+using CrossingFromBase = std::function<bool(int64_t edge, int32_t owner_lo, int32_t owner_hi, BoundaryVertex& v)>;
+
+// Appends the crossings of rows [row0, row1) (rows up to row1 read) to `x`. With `from_base`, an
+// edge it gives a vertex for holds that one crossing (no owner between) instead of one placed.
+void find_crossings(const BoundaryGrid& b, int64_t row0, int64_t row1, CrossingSet& x, BoundaryStats& stats,
+                    const CrossingFromBase* from_base = nullptr);
 // Appends the tripoints of the squares of rows [row0, row1) to `t` (a tripoint already in `t`
 // is not added again), and to `unplaced` the multi-owner squares where none converged. Reads
 // the crossings of rows up to row1.

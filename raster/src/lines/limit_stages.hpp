@@ -21,6 +21,7 @@
 
 #include <array>
 #include <cstdint>
+#include <functional>
 #include <unordered_map>
 #include <vector>
 
@@ -89,8 +90,14 @@ struct InsideRows {
 // Appends the flags of rows [row0, row1) to `inside`, which must end at row0 (or be empty: it
 // then starts there).
 void inside_flags(const Target& t, int64_t row0, int64_t row1, InsideRows& inside);
-// The crossings of rows [row0, row1); reads the flags of rows up to row1.
-LimitCrossings limit_crossings(const Target& t, const InsideRows& inside, int64_t row0, int64_t row1);
+// An edit's limit vertices taken from its base instead of placed again
+// (rv::StripLines::take_measured): true with the base's vertex on `edge` in `v`, or false where
+// the edge is to be placed. Called from limit_crossings' threads at once.
+using LimitVertexFromBase = std::function<bool(int64_t edge, LimitVertex& v)>;
+// The crossings of rows [row0, row1); reads the flags of rows up to row1. With `from_base`, an
+// edge it gives a vertex for holds that one.
+LimitCrossings limit_crossings(const Target& t, const InsideRows& inside, int64_t row0, int64_t row1,
+                               const LimitVertexFromBase* from_base = nullptr);
 // Appends the crossings of `part` (the rows after those of `x`) to `x`.
 void append(LimitCrossings& x, LimitCrossings&& part);
 // The links of the squares of rows [row0, row1); reads flags and crossings of rows up to row1.

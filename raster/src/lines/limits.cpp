@@ -169,7 +169,8 @@ void inside_flags(const Target& t, int64_t row0, int64_t row1, InsideRows& insid
 // ---- Stage 2: crossings ----------------------------------------------------------------------
 // Every edge between an inside and an outside cell, its vertex placed at distance D.
 
-LimitCrossings limit_crossings(const Target& t, const InsideRows& inside, int64_t row0, int64_t row1) {
+LimitCrossings limit_crossings(const Target& t, const InsideRows& inside, int64_t row0, int64_t row1,
+                               const LimitVertexFromBase* from_base) {
   const LimitGrid& lg = t.grid;
   const int64_t W = lg.W, H = lg.H;
   LimitCrossings x;
@@ -191,6 +192,7 @@ LimitCrossings limit_crossings(const Target& t, const InsideRows& inside, int64_
     const size_t end = std::min(x.edges.size(), static_cast<size_t>((k + 1) * chunk));
     std::vector<int32_t> cands;
     for (size_t i = static_cast<size_t>(k * chunk); i < end; ++i) {
+      if (from_base != nullptr && (*from_base)(x.edges[i], x.verts[i])) continue;
       const int64_t id = x.edges[i] / 2;
       const int64_t c = id % W, r = id / W;
       const Vec2 p0 = centre(lg.g, c, r);

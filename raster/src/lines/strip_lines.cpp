@@ -12,6 +12,7 @@
 // position on are kept between strips (FieldRows::keep_from), a handful.
 #include <algorithm>
 #include <array>
+#include <atomic>
 #include <bit>
 #include <cmath>
 #include <optional>
@@ -113,6 +114,21 @@ void check_tripoint(const SiteMetric& metric, double cell, const Tripoint& tp) {
     refuse_piece("tripoint");
 }
 
+// Whether edge `edge` (of a grid `W` x `H`) lies where neither the field's cells nor a measurement
+// by the metric changed: its two cells, widened as a kept segment's are (SegmentReuse::kMargin),
+// in tiles `changed` flags 0. A vertex on it is placed by measurements along it alone.
+bool edge_unchanged(const ChangedTiles& changed, int64_t W, int64_t H, int64_t edge) {
+  using Reuse = SegmentReuse<BoundaryVertex, boundary_stages::LineRefiner::Added>;
+  const int64_t T = changed.size, cols = (W + T - 1) / T;
+  const int64_t cell = edge / 2, c = cell % W, r = cell / W;
+  const int64_t c0 = std::max<int64_t>(0, c - Reuse::kMargin), r0 = std::max<int64_t>(0, r - Reuse::kMargin);
+  const int64_t c1 = std::min(W - 1, c + 1 + Reuse::kMargin), r1 = std::min(H - 1, r + 1 + Reuse::kMargin);
+  for (int64_t tr = r0 / T; tr <= r1 / T; ++tr)
+    for (int64_t tc = c0 / T; tc <= c1 / T; ++tc)
+      if (changed.flags[static_cast<size_t>(tr * cols + tc)] != 0) return false;
+  return true;
+}
+
 // One boundary extraction in progress.
 struct BoundaryRun {
   boundary_stages::BoundaryGrid b;
@@ -127,13 +143,14 @@ struct BoundaryRun {
   BoundaryStats stats;
   boundary_stages::RowCounts counts;                         // per row: what stats counted there (b.counts points here)
   int64_t crossings_to = 0, tripoints_to = 0, links_to = 0;  // rows done: [0, *_to)
+  const boundary_stages::CrossingFromBase* from_base = nullptr;  // StripLines::take_measured
 
   // Every stage as far as rows [0, have) allow (to the end when they are all in).
   void advance(int64_t have) {
     using namespace boundary_stages;
     const bool all = have == b.H;
     const int64_t xc = all ? b.H : std::max(crossings_to, have - 1);
-    find_crossings(b, crossings_to, xc, x, stats);
+    find_crossings(b, crossings_to, xc, x, stats, from_base);
     crossings_to = xc;
     const int64_t tp = all ? b.H : std::max(tripoints_to, crossings_to - 1);
     find_tripoints(b, x, tripoints_to, tp, t, unplaced, stats);
@@ -260,6 +277,7 @@ struct LimitRun {
   limit_stages::LimitCrossings x;
   std::vector<std::array<int32_t, 2>> links;
   int64_t crossings_to = 0, links_to = 0;
+  const limit_stages::LimitVertexFromBase* from_base = nullptr;  // StripLines::take_measured
 
   void advance(int64_t have) {
     using namespace limit_stages;
@@ -267,7 +285,7 @@ struct LimitRun {
     const bool all = have == H;
     inside_flags(t, inside.row1(), have, inside);
     const int64_t xc = all ? H : std::max(crossings_to, have - 1);
-    append(x, limit_crossings(t, inside, crossings_to, xc));
+    append(x, limit_crossings(t, inside, crossings_to, xc, from_base));
     crossings_to = xc;
     const int64_t ln = all ? H : std::max(links_to, crossings_to - 1);
     const auto part = limit_links(t, inside, x, links_to, ln);
@@ -345,6 +363,16 @@ struct StripLines::Impl {
     std::shared_ptr<RefinedSegments::Data> now;
   };
   std::optional<Keeping> keeping;
+  // With take_measured: the base, its unchanged tiles and site map, and the runs' look-ups.
+  struct Measured {
+    LinePieces base;
+    ChangedTiles changed;
+    std::vector<int32_t> site_map;
+    boundary_stages::CrossingFromBase crossing;
+    std::vector<limit_stages::LimitVertexFromBase> limit;  // per limit run
+    std::atomic<int64_t> taken{0};                         // vertices taken (the look-ups run on threads)
+  };
+  std::unique_ptr<Measured> measured;
 
   Impl(const GridSpec& grid, const OwnerIndex& i) : g(grid), index(i) {}
 
@@ -517,6 +545,64 @@ void StripLines::take_rows(const LinePieces& base, int64_t row1, std::span<const
   if (m.limit_grid) m.limit_grid->rows.restart();
   for (size_t i = 0; i < m.limits.size(); ++i) m.limits[i].take(p.limits.at(i), row1, site_map, !p.measured_here);
   m.have = row1;
+}
+
+void StripLines::take_measured(const LinePieces& base, ChangedTiles changed, std::vector<int32_t> site_map) {
+  Impl& m = *impl_;
+  if (base.empty() || base.key() != m.key)
+    throw Error(ErrorKind::invalid_argument, "line pieces of another extraction (grid, request or seeds' adjustments)");
+  const int64_t W = m.g.width, H = m.g.height, T = changed.size;
+  if (T <= 0 || changed.flags.size() != static_cast<size_t>(((W + T - 1) / T) * ((H + T - 1) / T)))
+    throw Error(ErrorKind::invalid_argument, "the changed tiles do not cover the grid");
+  if (m.have != 0) throw Error(ErrorKind::invalid_argument, "vertices taken from a base after the first row");
+  // Decoded pieces (bytes from outside) are measured, not taken: only this process's own
+  // measurements are known to be the metric's.
+  if (!base.d_->measured_here) return;
+  m.measured = std::make_unique<Impl::Measured>();
+  Impl::Measured& u = *m.measured;
+  u.base = base;
+  u.changed = std::move(changed);
+  u.site_map = std::move(site_map);
+  const Pieces& p = *u.base.d_;
+  if (!p.boundary.empty() && !m.boundary.empty()) {
+    const Pieces::Boundary& pb = p.boundary.front();
+    // The base's crossings and slivers are in edge order (rows in order, each row's edges too).
+    u.crossing = [&pb, &u, W, H](int64_t edge, int32_t lo, int32_t hi, BoundaryVertex& v) {
+      if (!edge_unchanged(u.changed, W, H, edge)) return false;
+      const auto it = std::partition_point(pb.crossings.begin(), pb.crossings.end(),
+                                           [edge](const boundary_stages::Crossing& c) { return c.edge < edge; });
+      if (it == pb.crossings.end() || it->edge != edge || it->owner_lo != lo || it->owner_hi != hi) return false;
+      if (std::next(it) != pb.crossings.end() && std::next(it)->edge == edge) return false;
+      if (std::binary_search(pb.slivers.begin(), pb.slivers.end(), std::pair<int64_t, int32_t>{edge, INT32_MIN},
+                             [](const auto& a, const auto& b) { return a.first < b.first; }))
+        return false;
+      v = it->v;
+      if (!renumber(v, u.site_map)) return false;
+      u.taken.fetch_add(1, std::memory_order_relaxed);
+      return true;
+    };
+    m.boundary.front().from_base = &u.crossing;
+  }
+  if (p.limits.size() == m.limits.size()) {
+    u.limit.resize(m.limits.size());
+    for (size_t i = 0; i < m.limits.size(); ++i) {
+      const Pieces::Limit& pl = p.limits[i];
+      u.limit[i] = [&pl, &u, W, H](int64_t edge, LimitVertex& v) {
+        if (!edge_unchanged(u.changed, W, H, edge)) return false;
+        const auto it = std::lower_bound(pl.edges.begin(), pl.edges.end(), edge);
+        if (it == pl.edges.end() || *it != edge) return false;
+        v = pl.verts[static_cast<size_t>(it - pl.edges.begin())];
+        if (!renumber(v, u.site_map)) return false;
+        u.taken.fetch_add(1, std::memory_order_relaxed);
+        return true;
+      };
+      m.limits[i].from_base = &u.limit[i];
+    }
+  }
+}
+
+int64_t StripLines::vertices_taken() const {
+  return impl_->measured ? impl_->measured->taken.load(std::memory_order_relaxed) : 0;
 }
 
 void StripLines::keep_refined(RefinedSegments before, ChangedTiles changed, std::vector<int32_t> site_map) {

@@ -144,11 +144,21 @@ std::map<std::string, std::string> StripDeliverables::line_keys() const {
 }
 
 void StripDeliverables::take_lines_from(std::map<std::string, LinePieces> base,
-                                        std::vector<std::pair<int64_t, int64_t>> fed, std::vector<int32_t> site_map) {
-  st_->taking.emplace();
-  st_->taking->base = std::move(base);
-  st_->taking->fed = std::move(fed);
-  st_->taking->site_map = std::move(site_map);
+                                        std::vector<std::pair<int64_t, int64_t>> fed, std::vector<int32_t> site_map,
+                                        const ChangedTiles& changed) {
+  State& s = *st_;
+  s.taking.emplace();
+  s.taking->base = std::move(base);
+  s.taking->fed = std::move(fed);
+  s.taking->site_map = std::move(site_map);
+  if (changed.size > 0)
+    for (auto& [name, lines] : s.lines()) lines->take_measured(s.taking->base.at(name), changed, s.taking->site_map);
+}
+
+int64_t StripDeliverables::vertices_taken() const {
+  int64_t n = 0;
+  for (auto& [name, lines] : st_->lines()) n += lines->vertices_taken();
+  return n;
 }
 
 void StripDeliverables::keep_refined(std::map<std::string, RefinedSegments> before, ChangedTiles changed) {

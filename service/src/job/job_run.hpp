@@ -138,8 +138,12 @@ class StripDeliverables {
   // disjoint [row0, row1) ranges, rv::Edit::line_rows) and every other row's pieces from `base`,
   // an extraction of the edit's base by name, with the key line_keys() gives, its sites
   // renumbered by `site_map` (rv::StripLines::take_rows). The strips' other rows are not read.
+  // With `changed` (rv::Edit::line_tiles' flags), the fed rows' vertices on edges in tiles it
+  // leaves unchanged are taken from `base` too (rv::StripLines::take_measured).
   void take_lines_from(std::map<std::string, LinePieces> base, std::vector<std::pair<int64_t, int64_t>> fed,
-                       std::vector<int32_t> site_map);
+                       std::vector<int32_t> site_map, const ChangedTiles& changed = {});
+  // The vertices the lines took from take_lines_from's base instead of placing them.
+  int64_t vertices_taken() const;
   // After the last strip, before finish(): every line extraction's pieces, by name (what the run
   // keeps for edits of it).
   std::map<std::string, LinePieces> line_pieces();

@@ -164,6 +164,12 @@ json Session::State::deliver(const Edit* edit, const EditPlan* plan, const TileS
   const auto started = Clock::now();
   std::unique_ptr<PendingFiles> p = PendingFiles::make(spec, job_limits, job);
   detail::StripDeliverables& d = *p->d;
+  json& stages = recompute["lines_stages_s"];
+  auto lap = [&stages, t = started](const char* name) mutable {
+    stages[name] = seconds_since(t);
+    t = Clock::now();
+  };
+  lap("setup");
   int64_t extracted = job.grid.height;
   std::string why;
   ChangedTiles changed;  // where the edit may have changed the lines' measurements
@@ -188,14 +194,17 @@ json Session::State::deliver(const Edit* edit, const EditPlan* plan, const TileS
       std::vector<std::pair<int64_t, int64_t>> fed = edit->line_rows(near, list);
       extracted = 0;
       for (const auto& [a, b] : fed) extracted += b - a;
-      d.take_lines_from(std::move(base), std::move(fed), edit->site_map());
       changed = ChangedTiles{TileSummaries::kTile, std::move(near)};
+      d.take_lines_from(std::move(base), std::move(fed), edit->site_map(), changed);
     }
   }
+  lap("rows");
   d.keep_refined(refined, std::move(changed));
   d.add(field);
   std::map<std::string, LinePieces> now_pieces = d.line_pieces();
+  lap("extract");
   d.finish_lines();
+  lap("chain");
   // Kept once the lines are made (a step that fails keeps the state before).
   pieces = std::move(now_pieces);
   piece_bytes = -1;
@@ -207,6 +216,7 @@ json Session::State::deliver(const Edit* edit, const EditPlan* plan, const TileS
   recompute["lines_s"] = seconds_since(started);
   recompute["rows_extracted"] = extracted;
   recompute["rows_taken"] = job.grid.height - extracted;
+  recompute["vertices_taken"] = d.vertices_taken();
   int64_t segments = 0, taken = 0;
   for (const auto& [name, r] : refined) {
     segments += r.segments();
@@ -215,7 +225,9 @@ json Session::State::deliver(const Edit* edit, const EditPlan* plan, const TileS
   recompute["segments_refined"] = segments - taken;
   recompute["segments_taken"] = taken;
   if (!why.empty()) recompute["why_every_row"] = why;
-  return lines.update(d.boundaries(), d.limits(), job.loaded.seeds.owner_labels(), job.to_output);
+  json out = lines.update(d.boundaries(), d.limits(), job.loaded.seeds.owner_labels(), job.to_output);
+  lap("ids");
+  return out;
 }
 
 void Session::State::files() const {

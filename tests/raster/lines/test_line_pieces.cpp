@@ -5,7 +5,8 @@
 // vertex for vertex, for moves, removals, additions and owner changes, planar and geodesic, with
 // boundaries, limits for all owners and per owner, and a max distance; and leaves rows to take;
 // and so does one that also takes the base's refined segments away from those rows
-// (StripLines::keep_refined), taking some and refining the others.
+// (StripLines::keep_refined), taking some and refining the others; and one that also takes the
+// fed rows' vertices on edges the edit left unchanged (StripLines::take_measured).
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -56,9 +57,13 @@ struct Lines {
   }
   // Extracts rows `fed` (sorted, disjoint ranges) from strips of `seeds`' field and takes the
   // others from `base` (none: every row fed).
+  // With `unchanged`, the fed rows' vertices on edges in its unflagged tiles are taken from
+  // `base` (StripLines::take_measured).
   StripLines extract(const OwnerIndex& index, const SeedSet& seeds, const std::vector<std::pair<int64_t, int64_t>>& fed,
-                     const LinePieces* base = nullptr, std::span<const int32_t> site_map = {}) const {
+                     const LinePieces* base = nullptr, std::span<const int32_t> site_map = {},
+                     const ChangedTiles* unchanged = nullptr) const {
     StripLines lines(grid, index, request);
+    if (unchanged != nullptr) lines.take_measured(*base, *unchanged, {site_map.begin(), site_map.end()});
     for (const auto& [a, b] : fed) {
       if (lines.rows() < a) lines.take_rows(*base, a, site_map);
       for (int64_t r = a; r < b; r += 37) lines.add(rows(seeds, r, std::min(b, r + 37)));
@@ -234,6 +239,24 @@ void check_edit(const Lines& l, const SeedSet& base, const SeedSet& edited, cons
   taken.keep_refined(refined, ChangedTiles{TileSummaries::kTile, edit.line_tiles(tiles, floor)}, edit.site_map());
   StripLines fresh = l.extract(index, edited, {{0, H}});
   expect_same(taken, fresh);
+  // And the fed rows' crossings and limit vertices on edges the edit left unchanged taken from the
+  // base's pieces instead of placed again: the same lines.
+  const ChangedTiles changed{TileSummaries::kTile, near};
+  StripLines measured = l.extract(index, edited, fed, &pieces, edit.site_map(), &changed);
+  StripLines fresh_again = l.extract(index, edited, {{0, H}});
+  expect_same(measured, fresh_again);
+  if (expect_rows_taken && !fed.empty()) {
+    EXPECT_GT(measured.vertices_taken(), 0);
+  }
+  // Decoded pieces are placed, not taken; a base of another extraction, tiles that do not cover
+  // the grid, and a call after the first row are refused.
+  StripLines decoded(l.grid, index, l.request);
+  decoded.take_measured(kept.front(), changed, edit.site_map());
+  decoded.add(l.rows(edited, 0, 2));
+  EXPECT_EQ(decoded.vertices_taken(), 0);
+  EXPECT_THROW(decoded.take_measured(pieces, changed, edit.site_map()), Error);
+  StripLines uncovered_tiles(l.grid, index, l.request);
+  EXPECT_THROW(uncovered_tiles.take_measured(pieces, ChangedTiles{TileSummaries::kTile, {}}), Error);
   const RefinedSegments now = taken.refined();
   if (expect_rows_taken) {
     EXPECT_GT(now.segments_taken(), 0);
@@ -250,6 +273,7 @@ void check_edit(const Lines& l, const SeedSet& base, const SeedSet& edited, cons
   other.limit_distances = {3.0};
   StripLines foreign(l.grid, index, other);
   EXPECT_THROW(foreign.keep_refined(refined, ChangedTiles{TileSummaries::kTile, edit.line_tiles(tiles, floor)}), Error);
+  EXPECT_THROW(foreign.take_measured(pieces, changed), Error);
   StripLines uncovered(l.grid, index, l.request);
   EXPECT_THROW(uncovered.keep_refined(refined, ChangedTiles{TileSummaries::kTile, {}}), Error);
 }

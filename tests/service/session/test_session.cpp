@@ -336,7 +336,7 @@ TEST_F(SessionTest, RandomEditsPlanarEqualFreshRuns) {
   s.seeds.reach_field.reset();  // the file has none; edits give reaches
   std::unique_ptr<Session> session = Session::create(s);
   check_fresh(*session, s, nullptr, "created");
-  int added = 0, undos = 0, redos = 0, taken_rows = 0, owners_moved = 0;
+  int added = 0, undos = 0, redos = 0, taken_rows = 0, owners_moved = 0, taken_vertices = 0;
   bool adjusted = false;
   for (int step = 0; step < 24; ++step) {
     json answer;
@@ -366,6 +366,7 @@ TEST_F(SessionTest, RandomEditsPlanarEqualFreshRuns) {
     }
     check_fresh(*session, s, answer, "step " + std::to_string(step) + ": " + answer.dump().substr(0, 200));
     taken_rows += answer["recompute"]["rows_taken"].get<int64_t>() > 0;
+    taken_vertices += answer["recompute"]["vertices_taken"].get<int64_t>() > 0;
     owners_moved += answer["cells"]["owner_changed"].get<int64_t>() > 0;
     adjusted |= session->seeds().adjusted();
   }
@@ -375,6 +376,7 @@ TEST_F(SessionTest, RandomEditsPlanarEqualFreshRuns) {
   EXPECT_GT(undos, 0);
   EXPECT_GT(owners_moved, 5);
   EXPECT_GT(taken_rows, 0);
+  EXPECT_GT(taken_vertices, 0) << "no step took a vertex of its rows from the kept pieces";
   EXPECT_TRUE(adjusted);
 }
 
@@ -558,7 +560,7 @@ TEST_F(SessionTest, BalticGeodesicEditsEqualFreshRuns) {
   }();
   ASSERT_EQ(dk_geometry["type"], "GeometryCollection");
   std::mt19937 rng(54);
-  int moved = 0, refused = 0, taken = 0;
+  int moved = 0, refused = 0, taken = 0, taken_vertices = 0;
   for (int step = 0; step < 3; ++step) {
     const size_t part = std::uniform_int_distribution<size_t>(0, dk_geometry["geometries"].size() - 1)(rng);
     const json& ring = dk_geometry["geometries"][part]["coordinates"][0];
@@ -577,10 +579,12 @@ TEST_F(SessionTest, BalticGeodesicEditsEqualFreshRuns) {
     }
     ++moved;
     taken += answer["recompute"]["rows_taken"].get<int64_t>() > 0;
+    taken_vertices += answer["recompute"]["vertices_taken"].get<int64_t>() > 0;
     check_fresh(*session, s, answer, "move " + std::to_string(step));
   }
   EXPECT_GE(moved, 2);
   EXPECT_GT(taken, 0) << "no step took lines from the kept pieces";
+  EXPECT_GT(taken_vertices, 0) << "no step took a vertex of its rows from the kept pieces";
   std::string se, de;
   for (const json& f : features["features"]) {
     if (f["properties"]["owner"] == "SE") se = f["id"].get<std::string>();

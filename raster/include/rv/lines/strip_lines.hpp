@@ -139,6 +139,20 @@ class StripLines {
   // not at the distances the metric measures there now (pieces made by pieces() in this process
   // were measured when made, and are not measured again).
   void take_rows(const LinePieces& base, int64_t row1, std::span<const int32_t> site_map = {});
+  // Before the first row: the rows added afterwards take a boundary crossing or a limit vertex
+  // from `base` (an earlier run's pieces(), key() equal) instead of placing it again, on an edge
+  // whose two cells, widened by two at each side, lie in tiles `changed` flags 0 (since `base`,
+  // neither the field's cells nor any measurement by the metric changed there:
+  // rv::Edit::line_tiles), its sites renumbered by `site_map` (as take_rows): the same
+  // measurements would place it there. A boundary edge is taken where the base placed one
+  // crossing on it, of the same owners, with no owner passing between. The pieces are the same,
+  // vertex for vertex. Pieces decoded from bytes (LinePieces::decode) are not taken from: their
+  // vertices are placed. Keeps a reference-counted copy of `base`. Throws
+  // rv::Error(invalid_argument) for another key, tiles that do not cover the grid, or a call
+  // after the first row.
+  void take_measured(const LinePieces& base, ChangedTiles changed, std::vector<int32_t> site_map = {});
+  // The boundary crossings and limit vertices take_measured took so far.
+  int64_t vertices_taken() const;
   // Before take_*: the refinement keeps what it does (refined()), and takes from `before` (an
   // earlier state's refined(), of an extraction with the same key and line tolerances; empty:
   // none) the segments whose ends are bit for bit the same (their sites renumbered by `site_map`,
