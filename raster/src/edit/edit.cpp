@@ -19,7 +19,6 @@
 #include "rv/engine/site_metric.hpp"
 #include "rv/field/error.hpp"
 #include "rv/field/parallel.hpp"
-#include "rv/lines/regions.hpp"
 #include "rv/lines/strip_lines.hpp"
 
 namespace rv {
@@ -218,6 +217,8 @@ std::vector<int32_t> edited_sites(const SeedSet& base, const SeedSet& edited, co
 namespace {
 
 constexpr int64_t kBlock = 16;
+constexpr int64_t kSubBlock = 4;   // plan_part's second bound, within a block that may be won
+constexpr int64_t kSuperTile = 4;  // tiles bounded together first (tile_bounds)
 
 // Relative slack on a base cost: the Float32 distance's rounding (2^-24), generously.
 constexpr double kSlack = 1e-6;
@@ -380,14 +381,25 @@ struct FeatureGroup {
   // `max_cost` (and some are unowned: `unowned`).
   bool may_win(const GridSpec& grid, int64_t c0, int64_t r0, int64_t c1, int64_t r1, double max_cost,
                bool unowned) const {
-    if (all) return true;
-    const double near = box_bound(*metric, *plain, grid, c0, r0, c1, r1);
-    if (near > r_max) return false;
-    return unowned || near / w_max <= max_cost;
+    const double least = min_cost(grid, c0, r0, c1, r1);
+    return std::isfinite(least) && (unowned || least <= max_cost);
   }
-  // Whether a feature of the group can be nearer than `max_distance` to a cell of the box.
-  bool may_own(const GridSpec& grid, int64_t c0, int64_t r0, int64_t c1, int64_t r1, double max_distance) const {
-    return all || box_bound(*metric, *plain, grid, c0, r0, c1, r1) <= max_distance;
+  // The same for a box whose cells are at least `near` (box_bound) from the group.
+  bool may_win_beyond(double near, double max_cost, bool unowned) const {
+    if (all) return true;
+    const double least = near > r_max ? std::numeric_limits<double>::infinity() : near / w_max;
+    return std::isfinite(least) && (unowned || least <= max_cost);
+  }
+  // The distance beyond which may_win_beyond is false (at least).
+  double win_limit(double max_cost, bool unowned) const {
+    return unowned ? r_max : std::min(r_max, max_cost * w_max * (1.0 + 1e-9));
+  }
+  // A lower bound of the group's cost at every cell of the box: infinite where no feature of the
+  // group reaches it, 0 for `all`.
+  double min_cost(const GridSpec& grid, int64_t c0, int64_t r0, int64_t c1, int64_t r1) const {
+    if (all) return 0.0;
+    const double near = box_bound(*metric, *plain, grid, c0, r0, c1, r1);
+    return near > r_max ? std::numeric_limits<double>::infinity() : near / w_max;
   }
 };
 
@@ -492,7 +504,22 @@ struct Edit::State {
     bool by_removal = false, by_addition = false, boxed = false;
     bool any() const { return by_removal || by_addition || boxed; }
   };
-  TileNeed tile_need(int64_t tr, int64_t tc, const TileSummaries* tiles) const;
+  // Tiles [tr0, tr1) x [tc0, tc1) of the grid.
+  struct TileRange {
+    int64_t tr0, tc0, tr1, tc1;
+    int64_t rows() const { return tr1 - tr0; }
+    int64_t cols() const { return tc1 - tc0; }
+  };
+  // Per tile of `range` (row-major), why it must be read (`tiles`: the base field's summaries;
+  // without them every tile may hold cells of a removed or an added feature).
+  std::vector<TileNeed> tile_needs(const TileRange& range, const TileSummaries* tiles) const;
+  // Per tile of `range` (row-major), a lower bound of the distance from `group`'s features to the
+  // tile's cell centres (box_bound), or a value above the tile's `limit` where none of its cells
+  // is within it. Tiles are bounded by blocks of kSuperTile x kSuperTile first: a block's bound
+  // above every limit of its tiles stands for theirs (a far edit measures a few blocks, not every
+  // tile). A negative limit asks for no bound. 0 for a group of `all`.
+  std::vector<double> tile_bounds(const FeatureGroup& group, const TileRange& range,
+                                  std::span<const double> limit) const;
   void check_tiles(const TileSummaries* tiles) const;
   // `boxed`: cells in a box of changed polygon edges may be there.
   Part plan_part(const NearestField& base, const Window& w, int64_t c0, int64_t r0, int64_t c1, int64_t r1,
@@ -551,12 +578,26 @@ Edit::State::Part Edit::State::plan_part(const NearestField& base, const Window&
         const int64_t gc = w.col0 + c0, gr = w.row0 + r0;
         if (!added.may_win(grid, gc + a0, gr + b0, gc + a1, gr + b1, block_cost, unowned)) continue;
         ++part.blocks;
-        for (int64_t r = b0; r < b1; ++r)
-          for (int64_t c = a0; c < a1; ++c) {
-            const size_t i = static_cast<size_t>(r * pw + c);
-            if (marked[i]) continue;
-            const OwnerIndex::Hit h = added.adjusted->nearest(Vec2{grid.centre_x(gc + c), grid.centre_y(gr + r)});
-            if (h.site != kNoSite && h.cost <= cost[i]) marked[i] = 1;
+        // Bounded again by quarters of the block's side: the group's cost in a sub-block is at
+        // least its bound, so a cell whose cost is below it keeps its owner and is not measured.
+        // Where the added features win a few cells at the edge of their region (a moved vertex),
+        // most cells of a block that may be won are not.
+        for (int64_t sb = b0; sb < b1; sb += kSubBlock)
+          for (int64_t sa = a0; sa < a1; sa += kSubBlock) {
+            const int64_t sa1 = std::min(a1, sa + kSubBlock), sb1 = std::min(b1, sb + kSubBlock);
+            bool open = false;
+            for (int64_t r = sb; r < sb1 && !open; ++r)
+              for (int64_t c = sa; c < sa1; ++c) open = open || !marked[static_cast<size_t>(r * pw + c)];
+            if (!open) continue;
+            const double least = added.min_cost(grid, gc + sa, gr + sb, gc + sa1, gr + sb1);
+            if (std::isinf(least)) continue;
+            for (int64_t r = sb; r < sb1; ++r)
+              for (int64_t c = sa; c < sa1; ++c) {
+                const size_t i = static_cast<size_t>(r * pw + c);
+                if (marked[i] || cost[i] < least) continue;
+                const OwnerIndex::Hit h = added.adjusted->nearest(Vec2{grid.centre_x(gc + c), grid.centre_y(gr + r)});
+                if (h.site != kNoSite && h.cost <= cost[i]) marked[i] = 1;
+              }
           }
       }
   }
@@ -589,20 +630,66 @@ const std::vector<int32_t>& Edit::site_map() const { return st_->remap; }
 
 bool Edit::keeps_indices() const { return st_->keeps_indices; }
 
-Edit::State::TileNeed Edit::State::tile_need(int64_t tr, int64_t tc, const TileSummaries* tiles) const {
+std::vector<double> Edit::State::tile_bounds(const FeatureGroup& group, const TileRange& range,
+                                             std::span<const double> limit) const {
+  constexpr int64_t T = TileSummaries::kTile, S = kSuperTile;
+  const int64_t rows = range.rows(), cols = range.cols();
+  std::vector<double> out(static_cast<size_t>(rows * cols), 0.0);
+  if (group.all || !group.any) return out;
+  // Tiles [a0, a1) x [b0, b1) of the range, as cells of the grid.
+  auto bound = [&](int64_t a0, int64_t b0, int64_t a1, int64_t b1) {
+    return box_bound(*group.metric, *group.plain, grid, (range.tc0 + a0) * T, (range.tr0 + b0) * T,
+                     std::min(grid.width, (range.tc0 + a1) * T), std::min(grid.height, (range.tr0 + b1) * T));
+  };
+  const int64_t block_rows = (rows + S - 1) / S, block_cols = (cols + S - 1) / S;
+  detail::parallel_for(resolve_threads(options.threads), block_rows * block_cols, [&](int64_t k, int) {
+    const int64_t b0 = k / block_cols * S, a0 = k % block_cols * S;
+    const int64_t b1 = std::min(rows, b0 + S), a1 = std::min(cols, a0 + S);
+    auto at = [&](int64_t a, int64_t b) -> double& { return out[static_cast<size_t>(b * cols + a)]; };
+    double most = -1.0;
+    for (int64_t b = b0; b < b1; ++b)
+      for (int64_t a = a0; a < a1; ++a) most = std::max(most, limit[static_cast<size_t>(b * cols + a)]);
+    const double whole = most < 0.0 ? std::numeric_limits<double>::infinity() : bound(a0, b0, a1, b1);
+    for (int64_t b = b0; b < b1; ++b)
+      for (int64_t a = a0; a < a1; ++a) at(a, b) = whole > most ? whole : bound(a, b, a + 1, b + 1);
+  });
+  return out;
+}
+
+std::vector<Edit::State::TileNeed> Edit::State::tile_needs(const TileRange& range, const TileSummaries* tiles) const {
   constexpr int64_t T = TileSummaries::kTile;
-  const int64_t gc0 = tc * T, gr0 = tr * T;
-  const int64_t gc1 = std::min(grid.width, gc0 + T), gr1 = std::min(grid.height, gr0 + T);
-  TileNeed n{removed.any, added.any, box_meets(gc0, gr0, gc1, gr1)};
-  if (every_cell) return TileNeed{true, true, true};
-  if (tiles) {
+  const auto n = static_cast<size_t>(range.rows() * range.cols());
+  std::vector<TileNeed> out(n);
+  if (every_cell) {
+    std::fill(out.begin(), out.end(), TileNeed{true, true, true});
+    return out;
+  }
+  std::vector<double> removal(n, -1.0), addition(n, -1.0);
+  for (size_t i = 0; i < n; ++i) {
+    const int64_t tr = range.tr0 + static_cast<int64_t>(i) / range.cols();
+    const int64_t tc = range.tc0 + static_cast<int64_t>(i) % range.cols();
+    const int64_t gc0 = tc * T, gr0 = tr * T;
+    out[i] = TileNeed{removed.any, added.any,
+                      box_meets(gc0, gr0, std::min(grid.width, gc0 + T), std::min(grid.height, gr0 + T))};
+    if (!tiles) continue;
+    const size_t k = static_cast<size_t>(tr * tiles->cols + tc);
+    const double max_d = tiles->max_distance[k];
+    if (removed.any && max_d >= 0.0) removal[i] = max_d * (1.0 + kSlack);
+    if (added.any) addition[i] = added.win_limit(tiles->max_cost[k] * (1.0 + kSlack), tiles->unowned[k] != 0);
+  }
+  if (!tiles) return out;
+  const std::vector<double> near_removed = tile_bounds(removed, range, removal);
+  const std::vector<double> near_added = tile_bounds(added, range, addition);
+  for (size_t i = 0; i < n; ++i) {
+    const int64_t tr = range.tr0 + static_cast<int64_t>(i) / range.cols();
+    const int64_t tc = range.tc0 + static_cast<int64_t>(i) % range.cols();
     const size_t k = static_cast<size_t>(tr * tiles->cols + tc);
     const double max_d = tiles->max_distance[k], max_c = tiles->max_cost[k];
-    const bool unowned = tiles->unowned[k] != 0;
-    n.by_removal = n.by_removal && max_d >= 0.0 && removed.may_own(grid, gc0, gr0, gc1, gr1, max_d * (1.0 + kSlack));
-    n.by_addition = n.by_addition && added.may_win(grid, gc0, gr0, gc1, gr1, max_c * (1.0 + kSlack), unowned);
+    out[i].by_removal = out[i].by_removal && max_d >= 0.0 && near_removed[i] <= max_d * (1.0 + kSlack);
+    out[i].by_addition =
+        out[i].by_addition && added.may_win_beyond(near_added[i], max_c * (1.0 + kSlack), tiles->unowned[k] != 0);
   }
-  return n;
+  return out;
 }
 
 std::vector<uint8_t> Edit::line_tiles(const TileSummaries& tiles, double reach_floor, const EditPlan* plan) const {
@@ -626,19 +713,27 @@ std::vector<uint8_t> Edit::line_tiles(const TileSummaries& tiles, double reach_f
   } else {
     changed = tiles_to_read(tiles);
   }
+  // Per tile: flagged already (changed, or near a box of changed edges), or the distance within
+  // which a removed or an added site may be measured there.
+  std::vector<double> reach(near.size(), -1.0);
   for (int64_t tr = 0; tr < tiles.rows; ++tr)
     for (int64_t tc = 0; tc < tiles.cols; ++tc) {
       const auto k = static_cast<size_t>(tr * tiles.cols + tc);
       const int64_t c0 = tc * T, r0 = tr * T, c1 = std::min(g.width, c0 + T), r1 = std::min(g.height, r0 + T);
-      double reach = std::max(static_cast<double>(tiles.max_distance[k]), reach_floor);
-      if (tiles.unowned[k]) reach = std::max(reach, st.options.max_distance);
-      reach = reach * (1.0 + kSlack) + 4.0 * diag;
+      double d = std::max(static_cast<double>(tiles.max_distance[k]), reach_floor);
+      if (tiles.unowned[k]) d = std::max(d, st.options.max_distance);
+      d = d * (1.0 + kSlack) + 4.0 * diag;
       near[k] = changed[k] ||
                 st.box_meets(std::max<int64_t>(0, c0 - 3), std::max<int64_t>(0, r0 - 3), std::min(g.width, c1 + 3),
                              std::min(g.height, r1 + 3)) ||
-                !std::isfinite(reach) || (st.removed.any && st.removed.may_own(g, c0, r0, c1, r1, reach)) ||
-                (st.added.any && st.added.may_own(g, c0, r0, c1, r1, reach));
+                !std::isfinite(d);
+      if (!near[k]) reach[k] = d;
     }
+  const State::TileRange all{0, 0, tiles.rows, tiles.cols};
+  const std::vector<double> removed = st.removed.any ? st.tile_bounds(st.removed, all, reach) : std::vector<double>{};
+  const std::vector<double> added = st.added.any ? st.tile_bounds(st.added, all, reach) : std::vector<double>{};
+  for (size_t k = 0; k < near.size(); ++k)
+    near[k] = near[k] || (st.removed.any && removed[k] <= reach[k]) || (st.added.any && added[k] <= reach[k]);
   return near;
 }
 
@@ -689,9 +784,8 @@ std::vector<uint8_t> Edit::tiles_to_read(const TileSummaries& tiles) const {
   const State& st = *st_;
   st.check_tiles(&tiles);
   std::vector<uint8_t> out(static_cast<size_t>(tiles.cols * tiles.rows), 0);
-  for (int64_t tr = 0; tr < tiles.rows; ++tr)
-    for (int64_t tc = 0; tc < tiles.cols; ++tc)
-      out[static_cast<size_t>(tr * tiles.cols + tc)] = st.tile_need(tr, tc, &tiles).any() ? 1 : 0;
+  const std::vector<State::TileNeed> need = st.tile_needs(State::TileRange{0, 0, tiles.rows, tiles.cols}, &tiles);
+  for (size_t k = 0; k < need.size(); ++k) out[k] = need[k].any() ? 1 : 0;
   return out;
 }
 
@@ -711,9 +805,11 @@ EditPlan Edit::plan(const NearestField& base, const TileSummaries* tiles) const 
     State::TileNeed need;
   };
   std::vector<Part> parts;
-  for (int64_t tr = w.row0 / T; tr * T < w.row0 + w.height; ++tr)
-    for (int64_t tc = w.col0 / T; tc * T < w.col0 + w.width; ++tc) {
-      const State::TileNeed need = st.tile_need(tr, tc, tiles);
+  const State::TileRange range{w.row0 / T, w.col0 / T, (w.row0 + w.height + T - 1) / T, (w.col0 + w.width + T - 1) / T};
+  const std::vector<State::TileNeed> needs = st.tile_needs(range, tiles);
+  for (int64_t tr = range.tr0; tr < range.tr1; ++tr)
+    for (int64_t tc = range.tc0; tc < range.tc1; ++tc) {
+      const State::TileNeed& need = needs[static_cast<size_t>((tr - range.tr0) * range.cols() + (tc - range.tc0))];
       if (!need.any()) continue;
       const int64_t gc0 = tc * T, gr0 = tr * T;
       const int64_t gc1 = std::min(g.width, gc0 + T), gr1 = std::min(g.height, gr0 + T);
@@ -789,175 +885,6 @@ void Edit::apply(const NearestField& base, const EditPlan& plan, NearestField& o
   o.window = w;
   o.mask = std::make_shared<const CellMask>(plan.mask);
   compute_into(st.edited, st.grid, o, out);
-}
-
-TileSummaries TileSummaries::for_grid(const GridSpec& grid) {
-  TileSummaries t;
-  t.cols = (grid.width + kTile - 1) / kTile;
-  t.rows = (grid.height + kTile - 1) / kTile;
-  const auto n = static_cast<size_t>(t.cols * t.rows);
-  t.max_distance.assign(n, -1.0f);
-  t.max_cost.assign(n, -1.0f);
-  t.unowned.assign(n, 0);
-  return t;
-}
-
-void TileSummaries::add(const int32_t* site, const float* distance, int64_t row0, int64_t rows, int64_t width,
-                        const SeedSet& seeds, const uint8_t* only) {
-  const auto& sites = seeds.sites();
-  const auto& features = seeds.features();
-  // Without weights a cost is its distance: no site's feature to look up per cell.
-  const bool weighted = std::any_of(features.begin(), features.end(), [](const Feature& f) { return f.weight != 1.0; });
-  for (int64_t r = 0; r < rows; ++r) {
-    const size_t tile_row = static_cast<size_t>((row0 + r) / kTile * cols);
-    for (int64_t c0 = 0; c0 < width; c0 += kTile) {
-      if (only && !only[static_cast<size_t>(((row0 + r) / kTile - row0 / kTile) * cols + c0 / kTile)]) continue;
-      const size_t k = tile_row + static_cast<size_t>(c0 / kTile);
-      float max_d = max_distance[k];
-      double max_c = max_cost[k];
-      bool none = unowned[k] != 0;
-      for (int64_t c = c0; c < std::min(width, c0 + kTile); ++c) {
-        const size_t i = static_cast<size_t>(r * width + c);
-        const int32_t s = site[i];
-        if (s == kNoSite) {
-          none = true;
-          continue;
-        }
-        max_d = std::max(max_d, distance[i]);
-        if (weighted) {
-          const double w = features[static_cast<size_t>(sites[static_cast<size_t>(s)].feature)].weight;
-          max_c = std::max(max_c, static_cast<double>(distance[i]) / w);
-        }
-      }
-      max_distance[k] = max_d;
-      if (!weighted) max_c = std::max(max_c, static_cast<double>(max_d));
-      // Rounded up: the summary bounds every cost of the tile.
-      const auto fc = static_cast<float>(max_c);
-      max_cost[k] = static_cast<double>(fc) < max_c ? std::nextafter(fc, std::numeric_limits<float>::infinity()) : fc;
-      unowned[k] = none ? 1 : 0;
-    }
-  }
-}
-
-void EditChanges::add(const EditChanges& o) {
-  owner_cells += o.owner_cells;
-  distance_only_cells += o.distance_only_cells;
-  for (const auto& [pair, area] : o.moved) moved[pair] += area;
-  if (!o.any()) return;
-  take_cell(o.col0, o.row0);
-  take_cell(o.col1 - 1, o.row1 - 1);
-}
-
-void EditChanges::take_cell(int64_t col, int64_t row) {
-  if (!any()) {
-    col0 = col;
-    row0 = row;
-    col1 = col + 1;
-    row1 = row + 1;
-    return;
-  }
-  col0 = std::min(col0, col);
-  row0 = std::min(row0, row);
-  col1 = std::max(col1, col + 1);
-  row1 = std::max(row1, row + 1);
-}
-
-ChangeTally::ChangeTally(const SeedSet& base_seeds, const SeedSet& edited_seeds, const GridSpec& grid,
-                         const Geolocator* geolocator)
-    : base_seeds_(base_seeds), edited_seeds_(edited_seeds), grid_(grid), geolocator_(geolocator) {
-  // Owners by label: each base code's code in the edited set (-1 for an owner the edit dropped).
-  code_in_edited_ = owner_codes_in(base_seeds, edited_seeds);
-}
-
-EditChanges tally_changes(const NearestField& base, const SeedSet& base_seeds, const NearestField& edited,
-                          const SeedSet& edited_seeds, const GridSpec& grid, const Geolocator* geolocator,
-                          int32_t* codes, const CellMask* only) {
-  return ChangeTally(base_seeds, edited_seeds, grid, geolocator).measure(base, edited, codes, only);
-}
-
-int32_t ChangeTally::count(int32_t sb, float db, int32_t se, float de, int64_t col, int64_t row,
-                           const MetricSpec& metric, EditChanges& out,
-                           std::unordered_map<int64_t, double>& rows) const {
-  auto owner_of = [](const SeedSet& s, int32_t site) { return site == kNoSite ? 0 : s.site_owner(site); };
-  auto label = [](const SeedSet& s, int32_t code) {
-    return code <= 0 ? std::string() : s.owner_labels()[static_cast<size_t>(code - 1)];
-  };
-  const int32_t ob = owner_of(base_seeds_, sb), oe = owner_of(edited_seeds_, se);
-  const bool owner_changed = (ob == 0 ? 0 : code_in_edited_[static_cast<size_t>(ob)]) != oe;
-  const bool distance_changed = std::bit_cast<uint32_t>(db) != std::bit_cast<uint32_t>(de);
-  if (owner_changed || distance_changed) out.take_cell(col, row);
-  if (!owner_changed) {
-    out.distance_only_cells += distance_changed;
-    return distance_changed ? 2 : 0;
-  }
-  ++out.owner_cells;
-  // The area of a cell: its square, measured as the regions' rings are (per row on
-  // longitude/latitude grids, where it depends on the row alone).
-  auto cell_area = [&] {
-    const GridSpec& g = grid_;
-    const double x0 = g.xmin + static_cast<double>(col) * g.res;
-    const double y1 = g.ymax - static_cast<double>(row) * g.res;
-    const std::array<Vec2, 4> ring{Vec2{x0, y1}, Vec2{x0 + g.res, y1}, Vec2{x0 + g.res, y1 - g.res},
-                                   Vec2{x0, y1 - g.res}};
-    return ring_area(ring, metric, geolocator_, g.res);
-  };
-  double area = 0.0;
-  if (metric.kind == MetricSpec::geodesic && geolocator_ == nullptr) {
-    const auto it = rows.find(row);
-    area = it != rows.end() ? it->second : (rows[row] = cell_area());
-  } else {
-    area = cell_area();
-  }
-  out.moved[{label(base_seeds_, ob), label(edited_seeds_, oe)}] += area;
-  return 1;
-}
-
-EditChanges ChangeTally::measure(const NearestField& base, const NearestField& edited, int32_t* codes,
-                                 const CellMask* only) const {
-  const Window w = base.site.window();
-  if (!(edited.site.window() == w)) throw Error(ErrorKind::invalid_argument, "tally_changes: the windows differ");
-  if (only != nullptr) {
-    if (!only->fits(w)) throw Error(ErrorKind::invalid_argument, "tally_changes: the mask does not fit the window");
-    return measure_masked(*only, masked_cells(*only, base), edited, codes);
-  }
-  std::unordered_map<int64_t, double> rows;
-  EditChanges out;
-  for (int64_t r = 0; r < w.height; ++r)
-    for (int64_t c = 0; c < w.width; ++c) {
-      const int32_t code = count(base.site.at(c, r), base.distance.at(c, r), edited.site.at(c, r),
-                                 edited.distance.at(c, r), w.col0 + c, w.row0 + r, edited.metric, out, rows);
-      if (codes) codes[r * w.width + c] = code;
-    }
-  return out;
-}
-
-ChangeTally::MaskedCells ChangeTally::masked_cells(const CellMask& mask, const NearestField& base) {
-  MaskedCells out;
-  for (int64_t r = 0; r < base.site.height(); ++r)
-    for (const auto& [c0, c1] : mask.rows[static_cast<size_t>(r)])
-      for (int64_t c = c0; c < c1; ++c) {
-        out.site.push_back(base.site.at(c, r));
-        out.distance.push_back(base.distance.at(c, r));
-      }
-  return out;
-}
-
-EditChanges ChangeTally::measure_masked(const CellMask& mask, const MaskedCells& base, const NearestField& edited,
-                                        int32_t* codes) const {
-  const Window w = edited.site.window();
-  if (!mask.fits(w)) throw Error(ErrorKind::invalid_argument, "tally_changes: the mask does not fit the window");
-  if (codes) std::fill(codes, codes + w.cell_count(), 0);
-  std::unordered_map<int64_t, double> rows;
-  EditChanges out;
-  size_t k = 0;
-  for (int64_t r = 0; r < w.height; ++r)
-    for (const auto& [c0, c1] : mask.rows[static_cast<size_t>(r)])
-      for (int64_t c = c0; c < c1; ++c, ++k) {
-        const int32_t code = count(base.site[k], base.distance[k], edited.site.at(c, r), edited.distance.at(c, r),
-                                   w.col0 + c, w.row0 + r, edited.metric, out, rows);
-        if (codes) codes[r * w.width + c] = code;
-      }
-  return out;
 }
 
 EditPlan plan_edit(const NearestField& base, const SeedSet& base_seeds, const SeedSet& edited, const GridSpec& grid,
