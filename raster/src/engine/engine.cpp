@@ -422,7 +422,10 @@ std::shared_ptr<const PreparedSeeds> prepare_checked(const SeedSet& seeds, const
     p->index = std::make_unique<const detail::BucketIndex>(p->local, p->geometric);
   p->site_scale = detail::site_scale(p->local, p->geometric);
   if (seeds.adjusted()) {
-    p->site_metric = make_site_metric(seeds, grid, options);
+    // Its own sites (sharing p's would make a cycle; sharing another prepared set's, a stale one).
+    ComputeOptions alone = options;
+    alone.prepared = nullptr;
+    p->site_metric = make_site_metric(seeds, grid, alone);
     p->adjusted_cap = options.max_distance;
     p->adjusted_index =
         std::make_unique<const OwnerIndex>(*p->site_metric, OwnerIndex::Measure::adjusted, options.max_distance);

@@ -7,6 +7,7 @@
 #include <limits>
 #include <vector>
 
+#include "engine/engine_internal.hpp"
 #include "rv/engine/owner_index.hpp"
 #include "rv/engine/site_metric.hpp"
 #include "rv/field/error.hpp"
@@ -197,7 +198,12 @@ std::unique_ptr<SiteMetric> make_site_metric(const SeedSet& seeds, const GridSpe
   if (options.geolocator != nullptr)
     return std::make_unique<LocatedGeodesicSiteMetric>(seeds, options.metric, options.geolocator,
                                                        options.grid_polygons);
-  if (options.metric.kind == MetricSpec::geodesic) return std::make_unique<GeodesicSiteMetric>(seeds, options.metric);
+  if (options.metric.kind == MetricSpec::geodesic) {
+    const std::shared_ptr<const PreparedSeeds>& p = options.prepared;
+    if (p && p->seeds == &seeds && p->site_count == seeds.sites().size() && p->geo && p->metric == options.metric)
+      return std::make_unique<GeodesicSiteMetric>(seeds, options.metric, p);
+    return std::make_unique<GeodesicSiteMetric>(seeds, options.metric);
+  }
   return std::make_unique<PlanarSiteMetric>(seeds, Vec2{grid.xmin, grid.ymax});
 }
 

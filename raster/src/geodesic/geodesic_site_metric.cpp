@@ -6,6 +6,8 @@
 #include <cmath>
 #include <limits>
 #include <numbers>
+#include <optional>
+#include <utility>
 
 #include "engine/engine_internal.hpp"
 #include "rv/engine/site_metric.hpp"
@@ -15,27 +17,41 @@
 namespace rv {
 
 struct GeodesicSiteMetric::Impl {
-  Impl(const SeedSet& seeds, const MetricSpec& m)
+  Impl(const SeedSet& seeds, const MetricSpec& m, std::shared_ptr<const PreparedSeeds> p)
       : measure(m),
-        sites(m, seeds),
+        prepared(std::move(p)),
         geod(m.semi_major, m.flattening),
         earth(m.semi_major, m.flattening),
         // The largest radius of curvature of the ellipsoid (a^2/b at the poles when oblate,
         // a when prolate): no path moves faster in latitude or along a parallel than this.
-        k_max(m.flattening >= 0.0 ? m.semi_major / (1.0 - m.flattening) : m.semi_major) {}
+        k_max(m.flattening >= 0.0 ? m.semi_major / (1.0 - m.flattening) : m.semi_major) {
+    if (!prepared) own.emplace(m, seeds);
+    sites = prepared ? &*prepared->geo : &*own;
+  }
   GeodesicMeasure measure;
   // Every site prepared once, as the engine prepares them (its segments' geodesic lines and
   // pieces): a segment's distance is then its search alone, where GeodesicMeasure prepares the
   // edge on every call (most of the boundaries' time went there), and the lines are measured by
-  // the very arithmetic that decided the field.
-  detail::GeoSites sites;
+  // the very arithmetic that decided the field. Its own, or the engine's, shared.
+  std::optional<detail::GeoSites> own;
+  std::shared_ptr<const PreparedSeeds> prepared;
+  const detail::GeoSites* sites = nullptr;
   GeographicLib::Geodesic geod;
   GeographicLib::Geocentric earth;
   double k_max;
 };
 
 GeodesicSiteMetric::GeodesicSiteMetric(const SeedSet& seeds, const MetricSpec& metric)
-    : SiteMetric(seeds), impl_(std::make_unique<Impl>(seeds, metric)) {}
+    : SiteMetric(seeds), impl_(std::make_unique<Impl>(seeds, metric, nullptr)) {}
+
+GeodesicSiteMetric::GeodesicSiteMetric(const SeedSet& seeds, const MetricSpec& metric,
+                                       std::shared_ptr<const PreparedSeeds> prepared)
+    : SiteMetric(seeds) {
+  if (!prepared || prepared->seeds != &seeds || prepared->site_count != seeds.sites().size() || !prepared->geo ||
+      !(prepared->metric == metric))
+    throw Error(ErrorKind::invalid_argument, "a geodesic metric shares the sites prepared for its own seeds only");
+  impl_ = std::make_unique<Impl>(seeds, metric, std::move(prepared));
+}
 
 GeodesicSiteMetric::~GeodesicSiteMetric() = default;
 
@@ -46,7 +62,7 @@ double GeodesicSiteMetric::distance(Vec2 p, int32_t site) const {
       return impl_->measure.point_distance(p, s.a);
     case SiteKind::segment:
       if (!(p.y >= -90.0 && p.y <= 90.0)) throw Error(ErrorKind::invalid_argument, "latitude outside [-90, 90]");
-      return impl_->sites.distance(impl_->sites.cell(p.x, p.y), site);
+      return impl_->sites->distance(impl_->sites->cell(p.x, p.y), site);
     case SiteKind::area:
       break;
   }
@@ -61,7 +77,7 @@ bool GeodesicSiteMetric::ties_at_vertex(Vec2 p, int32_t site, const VertexHit& h
   end.lat = hit.vertex.y;
   end.lon = hit.vertex.x;
   end.azi_to_cell = hit.direction;
-  return impl_->sites.attains_at_vertex(impl_->sites.cell(p.x, p.y), site, end, d);
+  return impl_->sites->attains_at_vertex(impl_->sites->cell(p.x, p.y), site, end, d);
 }
 
 double GeodesicSiteMetric::distance_at_vertex(Vec2 p, int32_t site, Vec2& gradient, VertexHit& hit) const {
@@ -83,7 +99,7 @@ double GeodesicSiteMetric::distance_at_vertex(Vec2 p, int32_t site, Vec2& gradie
     case SiteKind::segment: {
       if (!(p.y >= -90.0 && p.y <= 90.0)) throw Error(ErrorKind::invalid_argument, "latitude outside [-90, 90]");
       detail::GeoEnd end;
-      d = impl_->sites.distance(impl_->sites.cell(p.x, p.y), site, &end);
+      d = impl_->sites->distance(impl_->sites->cell(p.x, p.y), site, &end);
       azi = end.azi_at_cell;
       if (end.valid) hit = VertexHit{true, Vec2{end.lon, end.lat}, end.azi_to_cell};
       break;
@@ -147,12 +163,12 @@ double GeodesicSiteMetric::distance_lower_bound(Vec2 p, int32_t site) const {
 void GeodesicSiteMetric::distance_lower_bounds(Vec2 p, std::span<const int32_t> sites, std::span<double> out) const {
   // The chord bounds of the prepared sites (a point, or an edge's capsule: within millimetres of
   // the distance near a coast), less the engines' slack for their rounding; areas 0.
-  const detail::GeoCell cell = impl_->sites.cell(p.x, std::clamp(p.y, -90.0, 90.0));
+  const detail::GeoCell cell = impl_->sites->cell(p.x, std::clamp(p.y, -90.0, 90.0));
   for (size_t i = 0; i < sites.size(); ++i) {
     const int32_t site = sites[i];
     out[i] = seeds().sites()[static_cast<size_t>(site)].kind == SiteKind::area
                  ? 0.0
-                 : std::max(impl_->sites.lower_bound(cell, site) - detail::kGeoSlack, 0.0);
+                 : std::max(impl_->sites->lower_bound(cell, site) - detail::kGeoSlack, 0.0);
   }
 }
 
@@ -163,10 +179,10 @@ Vec2 GeodesicSiteMetric::nearest_point(Vec2 p, int32_t site) const {
   if (!(p.y >= -90.0 && p.y <= 90.0)) throw Error(ErrorKind::invalid_argument, "latitude outside [-90, 90]");
   // Where distance()'s own search found the minimum: a vertex as given, or the foot on the edge.
   detail::GeoEnd end;
-  impl_->sites.distance(impl_->sites.cell(p.x, p.y), site, &end);
+  impl_->sites->distance(impl_->sites->cell(p.x, p.y), site, &end);
   if (end.valid) return Vec2{end.lon, end.lat};
   double lat = 0.0, lon = 0.0;
-  impl_->sites.position(site, end.foot, lat, lon);
+  impl_->sites->position(site, end.foot, lat, lon);
   return Vec2{lon, lat};
 }
 

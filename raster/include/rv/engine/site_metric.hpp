@@ -152,6 +152,10 @@ class PlanarSiteMetric final : public SiteMetric {
 class GeodesicSiteMetric final : public SiteMetric {
  public:
   GeodesicSiteMetric(const SeedSet& seeds, const MetricSpec& metric);
+  // Measures with the sites `prepared` holds (prepare() of these very seeds with this metric),
+  // shared rather than prepared again; the same distances, bit for bit. Throws
+  // rv::Error(invalid_argument) where `prepared` is not of them.
+  GeodesicSiteMetric(const SeedSet& seeds, const MetricSpec& metric, std::shared_ptr<const PreparedSeeds> prepared);
   ~GeodesicSiteMetric() override;
   double distance(Vec2 p, int32_t site) const override;
   double distance_at_vertex(Vec2 p, int32_t site, Vec2& gradient, VertexHit& hit) const override;
@@ -202,7 +206,8 @@ class LocatedGeodesicSiteMetric final : public SiteMetric {
 // The site metric of a field computed with these seeds, grid and options (the deliverables'
 // measure and the adjusted method's): planar (origin the grid's (xmin, ymax)), geodesic, or,
 // with options.geolocator, located geodesic over options.grid_polygons. Keeps a reference to
-// `seeds`. Errors as the metrics' constructors.
+// `seeds`. Errors as the metrics' constructors. A geodesic metric shares options.prepared's sites
+// where it was made from these seeds with this metric.
 std::unique_ptr<SiteMetric> make_site_metric(const SeedSet& seeds, const GridSpec& grid, const ComputeOptions& options);
 
 }  // namespace rv
