@@ -143,7 +143,8 @@ int main(int argc, char** argv) {
     std::printf("edit %d: %.3f s %s cells %s; files %.3f s\n", k, total.back(), answer["timings"].dump().c_str(),
                 answer["recompute"].dump().c_str(), files.back());
     // Back again, so that every edit starts from the same state (its files read, as a page does).
-    session->undo();
+    const json undone = session->undo();
+    if (edits_only) std::printf("undo %d: %s\n", k, undone["timings"].dump().c_str());
     if (!edits_only)
       for (const std::string& name : session->deliverables()) (void)session->deliverable(name);
   }

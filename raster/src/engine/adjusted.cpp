@@ -33,6 +33,7 @@ namespace rv::detail {
 namespace {
 
 constexpr int64_t kAdjustedTile = 64;  // top-level tile edge, cells (aligned to the grid)
+static_assert(detail::kTileBand % kAdjustedTile == 0);
 constexpr int64_t kLeafCells = 64;     // blocks this small are decided per cell
 // Longest way across a block in metres: beyond this no corner bound is needed (the ellipsoid's
 // half circumference is under 20,004 km).

@@ -518,11 +518,34 @@ void compute_into(const SeedSet& seeds, const GridSpec& grid, const ComputeOptio
   out.geolocator = options.geolocator;
   std::optional<InteriorSpans> spans;
   if (!seeds.polygons().empty()) {
+    // Under a mask, the interiors of the bands of rows it touches alone (an edit's few hundred
+    // rows, not the grid's thousands): no block of the other rows is solved or written.
+    Window laid = window;
+    if (ctx.mask != nullptr) {
+      const auto& rows = ctx.mask->rows;
+      int64_t first = 0, last = static_cast<int64_t>(rows.size());
+      while (first < last && rows[static_cast<size_t>(first)].empty()) ++first;
+      while (last > first && rows[static_cast<size_t>(last - 1)].empty()) --last;
+      if (first < last) {
+        constexpr int64_t B = detail::kTileBand;
+        first = std::max(window.row0, (window.row0 + first) / B * B) - window.row0;
+        last = std::min(window.row0 + window.height, (window.row0 + last + B - 1) / B * B) - window.row0;
+      }
+      laid = Window{window.col0, window.row0 + first, window.width, last - first};
+    }
     // Projected geodesic grids: the seeds' polygons are in degrees and cannot be laid on the
     // grid's rows; their copies in the grid's CRS are, and are tested in its plane.
-    spans.emplace(geolocator != nullptr ? build_interiors(seeds, *options.grid_polygons, grid, window)
-                  : geodesic            ? build_interiors(seeds, geodesic_polygons(seeds), grid, window)
-                                        : build_interiors(seeds, grid, window));
+    InteriorSpans built = laid.height == 0     ? InteriorSpans{laid, {}, 0}
+                          : geolocator != nullptr ? build_interiors(seeds, *options.grid_polygons, grid, laid)
+                          : geodesic              ? build_interiors(seeds, geodesic_polygons(seeds), grid, laid)
+                                                  : build_interiors(seeds, grid, laid);
+    if (laid == window) {
+      spans.emplace(std::move(built));
+    } else {
+      spans.emplace(InteriorSpans{window, {}, built.contested_cells});
+      spans->rows.resize(static_cast<size_t>(window.height));
+      std::move(built.rows.begin(), built.rows.end(), spans->rows.begin() + (laid.row0 - window.row0));
+    }
     ctx.interiors = &*spans;
   }
   progress.check_cancel();

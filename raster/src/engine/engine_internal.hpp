@@ -21,6 +21,11 @@ class OwnerIndex;
 
 namespace rv::detail {
 
+// A multiple of every exact method's top-level tile edge (planar and adjusted 64 cells, geodesic
+// 256; tiles aligned to the grid): a block the engine solves under a mask lies within the rows
+// of these bands that hold a masked cell (each method's file asserts it divides this).
+inline constexpr int64_t kTileBand = 256;
+
 // Throttled, serialised progress reporting plus cancellation polling.
 class Progress {
  public:

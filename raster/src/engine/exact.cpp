@@ -35,6 +35,7 @@ namespace rv::detail {
 namespace {
 
 constexpr int64_t kPlanarTile = 64;    // top-level tile edge, cells (tiles aligned to the grid)
+static_assert(detail::kTileBand % kPlanarTile == 0);
 constexpr size_t kDominanceMax = 16;   // candidate lists longer than this skip the O(k^2) test
 constexpr size_t kLeafCandidates = 8;  // ...when they have at most this many candidates
 // Blocks this small are solved per cell (32 x 32: the fewest instructions counted, with the

@@ -44,6 +44,7 @@
 namespace rv::detail {
 
 inline constexpr int64_t kGeoTile = 256;  // top-level tile edge, cells (tiles aligned to the grid; 128
+static_assert(kTileBand % kGeoTile == 0);
                                           // before: 256 computes the same bits with a quarter of the
                                           // top-level lower bounds, all sites against each tile)
 // Blocks with segments this small (or smaller) are leaves, solved by the row kernels or per cell.

@@ -138,7 +138,8 @@ struct NearestField {
   // The deliverables measure such fields with LocatedGeodesicSiteMetric (rv/engine/site_metric.hpp).
   std::shared_ptr<const Geolocator> geolocator;
   double seconds = 0.0;  // wall time of the computation
-  // Cells whose centre lies inside polygons of two or more owners (decided for the lower code).
+  // Cells whose centre lies inside polygons of two or more owners (decided for the lower code),
+  // in the window's rows (with a mask: in the bands of 256 grid rows that hold its spans).
   int64_t contested_cells = 0;
   int threads = 1;  // threads actually used
 };
