@@ -33,11 +33,11 @@ namespace rv::detail {
 namespace {
 
 constexpr int64_t kAdjustedTile = 64;  // top-level tile edge, cells (aligned to the grid)
-static_assert(detail::kTileBand % kAdjustedTile == 0);
 constexpr int64_t kLeafCells = 64;     // blocks this small are decided per cell
 // Longest way across a block in metres: beyond this no corner bound is needed (the ellipsoid's
 // half circumference is under 20,004 km).
 constexpr double kAnywhere = 2.1e7;
+static_assert(detail::kTileBand % kAdjustedTile == 0);
 
 // The cell centres of a block as a ball: the middle and a radius holding every centre.
 //   planar: the farthest corner (the distance from a point is convex, so its maximum over a

@@ -535,7 +535,7 @@ void compute_into(const SeedSet& seeds, const GridSpec& grid, const ComputeOptio
     }
     // Projected geodesic grids: the seeds' polygons are in degrees and cannot be laid on the
     // grid's rows; their copies in the grid's CRS are, and are tested in its plane.
-    InteriorSpans built = laid.height == 0     ? InteriorSpans{laid, {}, 0}
+    InteriorSpans built = laid.height == 0        ? InteriorSpans{laid, {}, 0}
                           : geolocator != nullptr ? build_interiors(seeds, *options.grid_polygons, grid, laid)
                           : geodesic              ? build_interiors(seeds, geodesic_polygons(seeds), grid, laid)
                                                   : build_interiors(seeds, grid, laid);

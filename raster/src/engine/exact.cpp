@@ -35,12 +35,12 @@ namespace rv::detail {
 namespace {
 
 constexpr int64_t kPlanarTile = 64;    // top-level tile edge, cells (tiles aligned to the grid)
-static_assert(detail::kTileBand % kPlanarTile == 0);
 constexpr size_t kDominanceMax = 16;   // candidate lists longer than this skip the O(k^2) test
 constexpr size_t kLeafCandidates = 8;  // ...when they have at most this many candidates
 // Blocks this small are solved per cell (32 x 32: the fewest instructions counted, with the
 // dominance test).
 constexpr int64_t kLeafCells = 1024;
+static_assert(detail::kTileBand % kPlanarTile == 0);
 
 struct Rect {  // local frame; x0 <= x1, y0 <= y1
   double x0, y0, x1, y1;

@@ -44,9 +44,9 @@
 namespace rv::detail {
 
 inline constexpr int64_t kGeoTile = 256;  // top-level tile edge, cells (tiles aligned to the grid; 128
-static_assert(kTileBand % kGeoTile == 0);
                                           // before: 256 computes the same bits with a quarter of the
                                           // top-level lower bounds, all sites against each tile)
+static_assert(kTileBand % kGeoTile == 0);
 // Blocks with segments this small (or smaller) are leaves, solved by the row kernels or per cell.
 // 16 x 16 rather than 8 x 8: a leaf's set-up (interpolants gathered, weights, one reduction per
 // row and candidate) is spread over 4x the cells, for a few more candidates per cell (faster on
