@@ -88,7 +88,8 @@ class Session:
 
     @property
     def features(self):
-        """The seed features, indexed by id (a GeoDataFrame: owner, weight, reach, kind)."""
+        """The seed features, indexed by id (a GeoDataFrame: owner, weight, reach, kind, and the
+        effect in a session made with partial effect)."""
         doc = json.loads(self._s.features())
         return _frame(doc, self._crs(doc))
 

@@ -31,8 +31,13 @@
 // of the one the merged line overlaps most, the others are removed. Tripoints likewise, by
 // owners and nearest position.
 //
-// Not (yet) taken by sessions, refused at creation with one line: partial effect (its field
-// follows every feature's effect, so an edit recomputes it whole), the geodesic metric on a
+// Partial effect (features of one owner with an effect below 1): its field follows every
+// feature's effect, so each step of such a session computes the whole job again (the fields at
+// full and nil effect, the rule's field and lines) and says so in its answer
+// (recompute.whole); its features carry their effect, which "set" may change. The same holds
+// after every step. Such a session keeps both fields (16 bytes a cell).
+//
+// Not (yet) taken by sessions, refused at creation with one line: the geodesic metric on a
 // projected grid, scan methods and validation.
 //
 // Thread safety: one call at a time per session (the daemon runs one session's steps in order);

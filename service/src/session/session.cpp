@@ -22,6 +22,7 @@
 #include "rv/field/error.hpp"
 #include "rv/gdal/memory_files.hpp"
 #include "rv/gdal/seed_reader.hpp"
+#include "rv/lines/partial_effect.hpp"
 #include "rv/lines/regions.hpp"
 #include "session/session_features.hpp"
 #include "session/session_lines.hpp"
@@ -99,10 +100,12 @@ struct PendingFiles {
   std::unique_ptr<detail::JobRun> run;
   std::unique_ptr<detail::StripDeliverables> d;
 
-  static std::unique_ptr<PendingFiles> make(const JobSpec& spec, const JobLimits& limits, const PreparedJob& job) {
+  // `partial`: a partial effect's fields and lines (kept alive by the session while these are).
+  static std::unique_ptr<PendingFiles> make(const JobSpec& spec, const JobLimits& limits, const PreparedJob& job,
+                                            const PartialEffectResult* partial) {
     auto p = std::make_unique<PendingFiles>();
     p->run = std::make_unique<detail::JobRun>(spec, limits, p->hooks);
-    p->d = std::make_unique<detail::StripDeliverables>(*p->run, job, false);
+    p->d = std::make_unique<detail::StripDeliverables>(*p->run, job, false, partial);
     return p;
   }
 };
@@ -116,6 +119,10 @@ struct Session::State {
   std::optional<detail::SessionFeatures> features;
   std::vector<size_t> slot_of;  // per feature of job.loaded.seeds, its slot
   NearestField field;
+  // With partial effect (job.partial): the fields at full and nil effect and the rule's lines,
+  // made whole again by every step (update_whole); `field` is the rule's.
+  std::unique_ptr<PartialEffectResult> partial;
+  bool whole_steps = false;  // made with partial effect: every step computes the whole job again
   TileSummaries tiles;
   std::map<std::string, LinePieces> pieces;
   mutable int64_t piece_bytes = -1;  // their encoded size, measured when memory is asked (-1: not yet)
@@ -150,6 +157,20 @@ struct Session::State {
   // session is as it was.
   json update(SeedSet edited, std::vector<size_t> slot_of, std::vector<int64_t> position,
               const std::unordered_set<size_t>& touched);
+  // The same for a session with partial effect: the field and the lines made whole again.
+  json update_whole(SeedSet edited, std::vector<size_t> slot_of, std::vector<int64_t> position);
+  json apply_seeds(SeedSet edited, std::vector<size_t> slot_of, std::vector<int64_t> position,
+                   const std::unordered_set<size_t>& touched) {
+    return whole_steps ? update_whole(std::move(edited), std::move(slot_of), std::move(position))
+                       : update(std::move(edited), std::move(slot_of), std::move(position), touched);
+  }
+  // A step's answer from its change (the cells' areas updated by it), lines and timings.
+  json answer_of(const EditChanges& changes, const json& lines_changed, json recompute, json timings,
+                 Clock::time_point started);
+  // The field (and with partial effect its fields and lines) of the current seeds, computed whole.
+  void compute_whole(const JobHooks* hooks);
+  // The current field into `d` (with partial effect, the full-effect field for the limits).
+  void add_field(detail::StripDeliverables& d) const { d.add(field, partial ? &partial->full : nullptr); }
   json areas_json() const;
   json step(const std::vector<detail::SlotChange>& changes, bool undoing);
   int64_t memory_bytes() const;
@@ -162,7 +183,7 @@ json Session::State::deliver(const Edit* edit, const EditPlan* plan, const TileS
     return lines.update(BoundaryResult{}, LimitResult{}, job.loaded.seeds.owner_labels(), job.to_output);
   }
   const auto started = Clock::now();
-  std::unique_ptr<PendingFiles> p = PendingFiles::make(spec, job_limits, job);
+  std::unique_ptr<PendingFiles> p = PendingFiles::make(spec, job_limits, job, partial.get());
   detail::StripDeliverables& d = *p->d;
   json& stages = recompute["lines_stages_s"];
   auto lap = [&stages, t = started](const char* name) mutable {
@@ -200,7 +221,7 @@ json Session::State::deliver(const Edit* edit, const EditPlan* plan, const TileS
   }
   lap("rows");
   d.keep_refined(refined, std::move(changed));
-  d.add(field);
+  add_field(d);
   std::map<std::string, LinePieces> now_pieces = d.line_pieces();
   lap("extract");
   d.finish_lines();
@@ -234,9 +255,9 @@ void Session::State::files() const {
   if (paths.empty() || (!pending && !stale)) return;
   const auto started = Clock::now();
   if (!pending) {  // the files of a state whose step's files were dropped: made whole again
-    std::unique_ptr<PendingFiles> p = PendingFiles::make(spec, job_limits, job);
+    std::unique_ptr<PendingFiles> p = PendingFiles::make(spec, job_limits, job, partial.get());
     p->d->keep_refined({}, {});
-    p->d->add(field);
+    add_field(*p->d);
     pending = std::move(p);
   }
   try {
@@ -306,6 +327,132 @@ FeatureMatch match_by_slot(const std::vector<size_t>& before, const std::vector<
 }
 
 }  // namespace
+
+void Session::State::compute_whole(const JobHooks* hooks) {
+  ComputeOptions co = job.compute;
+  if (hooks != nullptr) {
+    co.progress = [hooks](double f) {
+      if (hooks->progress) hooks->progress("compute", f);
+    };
+    co.cancel = hooks->cancel;
+  }
+  if (whole_steps) {
+    // An edit may leave no partial feature (then the plain field), or one the rule refuses
+    // (invalid_input: the step is refused).
+    job.partial = partial_effect_of(job.loaded.seeds);
+    if (job.partial.any()) {
+      BoundaryOptions lines;
+      lines.simplify_cells = spec.outputs.simplify_cells;
+      lines.line_tolerance = job.line_tolerance;
+      lines.threads = spec.threads;
+      const OutputRequest& out = spec.outputs;
+      const bool draw =
+          !out.boundaries.empty() || !out.tripoints.empty() || out.regions_wanted() || !out.preview.empty();
+      // The nil-effect seeds are computed with these options too: no preparation of these seeds.
+      job.compute.prepared = nullptr;
+      co.prepared = nullptr;
+      // Made in place (a prvalue, never moved): its metrics refer to its own nil-effect seeds.
+      std::unique_ptr<PartialEffectResult> r(
+          new PartialEffectResult(compute_partial_effect(job.loaded.seeds, job.grid, co, lines, draw)));
+      field = std::move(r->field);
+      partial = std::move(r);
+      return;
+    }
+    partial.reset();
+  }
+  job.compute.prepared = prepare(job.loaded.seeds, job.grid, job.compute);
+  co.prepared = job.compute.prepared;
+  field = compute(job.loaded.seeds, job.grid, co);
+}
+
+json Session::State::answer_of(const EditChanges& changes, const json& lines_changed, json recompute, json timings,
+                               Clock::time_point started) {
+  for (const auto& [pair, area] : changes.moved) {
+    if (!pair.first.empty()) cell_area[pair.first] -= area;
+    if (!pair.second.empty()) cell_area[pair.second] += area;
+  }
+  json moved = json::array();
+  for (const auto& [pair, area] : changes.moved)
+    moved.push_back({{"from", pair.first.empty() ? json() : json(pair.first)},
+                     {"to", pair.second.empty() ? json() : json(pair.second)},
+                     {"area", area * job.to_output * job.to_output}});
+  json answer = {
+      {"cells",
+       {{"owner_changed", changes.owner_cells},
+        {"distance_only", changes.distance_only_cells},
+        {"box", changes.any() ? json::array({changes.col0, changes.row0, changes.col1, changes.row1}) : json()}}},
+      {"moved", moved},
+      {"areas", areas_json()},
+      {"area_units", report.contains("regions") ? report["regions"]["area_units"] : json(job.unit + "^2")},
+      {"lines", {{"boundaries", lines_changed["boundaries"]}, {"limits", lines_changed["limits"]}}},
+      {"tripoints", lines_changed["tripoints"]},
+      {"recompute", std::move(recompute)}};
+  if (texts.count("turning_points")) answer["turning_points"] = json::parse(texts["turning_points"]);
+  if (report.contains("regions") && report["regions"].contains("relevant_area"))
+    answer["relevant_area"] = report["regions"]["relevant_area"];
+  timings["total"] = seconds_since(started);
+  answer["timings"] = std::move(timings);
+  return answer;
+}
+
+json Session::State::update_whole(SeedSet edited, std::vector<size_t> new_slot_of, std::vector<int64_t> position) {
+  const auto started = Clock::now();
+  json timings = json::object();
+  SeedSet old_seeds = std::move(job.loaded.seeds);
+  std::vector<int64_t> old_position = std::move(job.loaded.input_position);
+  const PartialEffect old_effect = job.partial;
+  std::shared_ptr<const PreparedSeeds> old_prepared = job.compute.prepared;
+  std::unique_ptr<PartialEffectResult> old_partial = std::move(partial);
+  NearestField before = std::move(field);
+  const TileSummaries old_tiles = tiles;
+  const detail::SessionLines old_lines = lines;
+  job.loaded.seeds = std::move(edited);
+  job.loaded.input_position = std::move(position);
+  bool delivered = false;
+  try {
+    compute_whole(nullptr);
+    timings["field"] = seconds_since(started);
+    auto t = Clock::now();
+    const EditChanges changes =
+        ChangeTally(old_seeds, job.loaded.seeds, job.grid, nullptr).measure(before, field, nullptr);
+    tiles = TileSummaries::for_grid(job.grid);
+    tiles.add(field.site.data(), field.distance.data(), 0, job.grid.height, job.grid.width, job.loaded.seeds);
+    timings["tally"] = seconds_since(t);
+    t = Clock::now();
+    json recompute = {{"cells", job.grid.cell_count()},
+                      {"whole",
+                       "partial effect: its field follows every feature's effect, so each step computes "
+                       "the whole job again"}};
+    const json lines_changed = deliver(nullptr, nullptr, nullptr, recompute);
+    delivered = true;
+    timings["lines"] = seconds_since(t);
+    if (files_answer()) {
+      t = Clock::now();
+      files();
+      timings["files"] = seconds_since(t);
+    }
+    slot_of = std::move(new_slot_of);
+    return answer_of(changes, lines_changed, std::move(recompute), std::move(timings), started);
+  } catch (...) {
+    job.loaded.seeds = std::move(old_seeds);
+    job.loaded.input_position = std::move(old_position);
+    job.partial = old_effect;
+    job.compute.prepared = old_prepared;
+    partial = std::move(old_partial);
+    field = std::move(before);
+    tiles = old_tiles;
+    lines = old_lines;
+    if (delivered) {
+      pending.reset();
+      texts.clear();
+      report = json::object();
+      stale = true;
+      pieces.clear();
+      refined.clear();
+    }
+    throw;
+  }
+}
 
 json Session::State::update(SeedSet edited, std::vector<size_t> new_slot_of, std::vector<int64_t> position,
                             const std::unordered_set<size_t>& touched) {
@@ -382,32 +529,7 @@ json Session::State::update(SeedSet edited, std::vector<size_t> new_slot_of, std
       timings["files"] = seconds_since(t);
     }
     slot_of = std::move(new_slot_of);
-    for (const auto& [pair, area] : changes.moved) {
-      if (!pair.first.empty()) cell_area[pair.first] -= area;
-      if (!pair.second.empty()) cell_area[pair.second] += area;
-    }
-    json moved = json::array();
-    for (const auto& [pair, area] : changes.moved)
-      moved.push_back({{"from", pair.first.empty() ? json() : json(pair.first)},
-                       {"to", pair.second.empty() ? json() : json(pair.second)},
-                       {"area", area * job.to_output * job.to_output}});
-    json answer = {
-        {"cells",
-         {{"owner_changed", changes.owner_cells},
-          {"distance_only", changes.distance_only_cells},
-          {"box", changes.any() ? json::array({changes.col0, changes.row0, changes.col1, changes.row1}) : json()}}},
-        {"moved", moved},
-        {"areas", areas_json()},
-        {"area_units", report.contains("regions") ? report["regions"]["area_units"] : json(job.unit + "^2")},
-        {"lines", {{"boundaries", lines_changed["boundaries"]}, {"limits", lines_changed["limits"]}}},
-        {"tripoints", lines_changed["tripoints"]},
-        {"recompute", recompute}};
-    if (texts.count("turning_points")) answer["turning_points"] = json::parse(texts["turning_points"]);
-    if (report.contains("regions") && report["regions"].contains("relevant_area"))
-      answer["relevant_area"] = report["regions"]["relevant_area"];
-    timings["total"] = seconds_since(started);
-    answer["timings"] = timings;
-    return answer;
+    return answer_of(changes, lines_changed, std::move(recompute), std::move(timings), started);
   } catch (...) {
     restore();
     throw;
@@ -446,7 +568,7 @@ json Session::State::step(const std::vector<detail::SlotChange>& changes, bool u
     const std::vector<size_t> old_slot_of = slot_of;
     const std::vector<BorderSliver> old_slivers = job.loaded.report.slivers;
     const detail::SessionLines old_lines = lines;
-    json answer = update(std::move(edited), std::move(new_slot_of), std::move(position), touched);
+    json answer = apply_seeds(std::move(edited), std::move(new_slot_of), std::move(position), touched);
     // The seeds' report (what a saved job states) names the land-border slivers by feature:
     // those of untouched features renumbered, the edited features' as the check found them.
     std::vector<int32_t> index_of_slot;
@@ -475,7 +597,7 @@ json Session::State::step(const std::vector<detail::SlotChange>& changes, bool u
       std::vector<size_t> s;
       std::vector<int64_t> p;
       SeedSet back = features->build(s, p);
-      update(std::move(back), std::move(s), std::move(p), touched);
+      apply_seeds(std::move(back), std::move(s), std::move(p), touched);
       lines = old_lines;
       job.loaded.report.slivers = old_slivers;
       job.loaded.report.sliver_count = static_cast<int64_t>(old_slivers.size());
@@ -508,6 +630,12 @@ json Session::State::step(const std::vector<detail::SlotChange>& changes, bool u
 int64_t Session::State::memory_bytes() const {
   int64_t b =
       static_cast<int64_t>(field.site.cells().size() * sizeof(int32_t) + field.distance.cells().size() * sizeof(float));
+  if (partial) {
+    const NearestField& full = partial->full;
+    b +=
+        static_cast<int64_t>(full.site.cells().size() * sizeof(int32_t) + full.distance.cells().size() * sizeof(float));
+    b += partial->nil_seeds.memory_bytes();
+  }
   b += static_cast<int64_t>(tiles.max_distance.size() * (2 * sizeof(float) + 1));
   b += job.loaded.seeds.memory_bytes() + static_cast<int64_t>(job.loaded.input_position.capacity() * sizeof(int64_t));
   b += features->memory_bytes() + lines.memory_bytes();
@@ -570,14 +698,13 @@ std::unique_ptr<Session> Session::create(const JobSpec& spec, const SessionLimit
   keep(o.turning_points, out.turning_points, "turning_points", ".json");
   st.job = prepare_job(st.spec, job_limits, hooks);
   PreparedJob& job = st.job;
-  if (job.partial.any())
-    throw Error(ErrorKind::invalid_argument,
-                "sessions do not take partial effect yet (its field follows every feature's effect); run jobs");
+  st.whole_steps = job.partial.any();
   if (job.located())
     throw Error(ErrorKind::invalid_argument,
                 "sessions do not take the geodesic metric on a projected grid yet; use a longitude/latitude grid or "
                 "the planar metric");
-  const int64_t field_bytes = job.grid.cell_count() * 8;
+  // With partial effect, the fields at full effect and by the rule.
+  const int64_t field_bytes = job.grid.cell_count() * (st.whole_steps ? 16 : 8);
   if (limits.max_memory_bytes > 0 && field_bytes > limits.max_memory_bytes)
     throw Error(ErrorKind::too_large, "the session's field alone takes " + std::to_string(field_bytes) +
                                           " bytes, over its memory limit of " +
@@ -587,6 +714,7 @@ std::unique_ptr<Session> Session::create(const JobSpec& spec, const SessionLimit
   bounds.geographic = job.loaded.seed_crs.geographic;
   bounds.limit = kMaxSeedCoordinate;
   st.features.emplace(job.loaded.seeds, job.loaded.input_position, job.to_output, bounds);
+  if (st.whole_steps) st.features->allow_effects();
   std::vector<int64_t> position;
   // The seeds as the session builds them: the same set, checked (a feature's parts come back to
   // the same sites).
@@ -597,13 +725,7 @@ std::unique_ptr<Session> Session::create(const JobSpec& spec, const SessionLimit
                       return x.a == y.a && x.b == y.b && x.feature == y.feature && x.kind == y.kind;
                     });
   if (!same) throw Error(ErrorKind::internal, "session: the seeds' parts do not make the seeds again");
-  job.compute.prepared = prepare(job.loaded.seeds, job.grid, job.compute);
-  ComputeOptions co = job.compute;
-  co.progress = [&](double f) {
-    if (hooks.progress) hooks.progress("compute", f);
-  };
-  co.cancel = hooks.cancel;
-  st.field = compute(job.loaded.seeds, job.grid, co);
+  st.compute_whole(&hooks);
   st.tiles = TileSummaries::for_grid(job.grid);
   st.tiles.add(st.field.site.data(), st.field.distance.data(), 0, job.grid.height, job.grid.width, job.loaded.seeds);
   const std::vector<double> area = owner_cell_areas(st.field, job.loaded.seeds, job.grid);

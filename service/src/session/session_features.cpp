@@ -182,8 +182,13 @@ void SessionFeatures::set_properties(SessionFeature& f, const json& props, const
           refuse(where, "reach: a finite number > 0 in the job's distance units, or null for none");
         f.reach = value.get<double>() / to_output_;
       }
+    } else if (key == "effect" && effects_) {
+      if (!value.is_number() || !(value.get<double>() >= 0.0 && value.get<double>() <= 1.0))
+        refuse(where, "effect: a number in [0, 1]");
+      f.effect = value.get<double>();
     } else {
-      refuse(where, "property \"" + key + "\" cannot be set (owner, weight, reach)");
+      refuse(where, "property \"" + key + "\" cannot be set (owner, weight, reach" +
+                        (effects_ ? ", effect)" : "; effect in a session made with partial effect)"));
     }
   }
 }
@@ -355,6 +360,7 @@ json SessionFeatures::feature_json(const SessionFeature& f) const {
                 {"weight", f.weight},
                 {"reach", std::isfinite(f.reach) ? json(f.reach * to_output_) : json()},
                 {"kind", kind_name(f.parts)}};
+  if (effects_) props["effect"] = f.effect;
   return {{"type", "Feature"}, {"id", f.id}, {"properties", props}, {"geometry", geometry(f.parts)}};
 }
 

@@ -78,10 +78,14 @@ class SessionFeatures {
   // The owner labels, in code order (frozen at creation, new ones after).
   const std::vector<std::string>& labels() const { return labels_; }
   // A GeoJSON FeatureCollection of the features in input order: each with its string "id", and
-  // properties owner, weight, reach (job units, null: none), kind.
+  // properties owner, weight, reach (job units, null: none), kind, and with allow_effects() the
+  // effect.
   nlohmann::json geojson() const;
   // One feature as geojson() writes it.
   nlohmann::json feature_json(const SessionFeature& f) const;
+  // Whether "set" takes "effect" (a session with partial effect: its steps compute the whole job
+  // again) and features carry it (geojson()).
+  void allow_effects() { effects_ = true; }
   const FeaturePtr& at(size_t slot) const { return slots_[slot]; }
   size_t slots() const { return slots_.size(); }
   int64_t memory_bytes() const;
@@ -99,6 +103,7 @@ class SessionFeatures {
   double to_output_ = 1.0;
   CoordinateBounds bounds_;
   mutable int64_t next_added_ = 1;  // ids "n1", "n2", ... of added features, never reused
+  bool effects_ = false;            // allow_effects()
 };
 
 }  // namespace rv::detail

@@ -29,6 +29,7 @@
 #include "rv/field/error.hpp"
 #include "rv/gdal/seed_reader.hpp"
 #include "rv/job.hpp"
+#include "rv/lines/partial_effect.hpp"
 #include "rv/lines/regions.hpp"
 #include "rv/session.hpp"
 
@@ -302,9 +303,14 @@ json random_edit(const json& features, std::mt19937& rng, double x0, double y0, 
 }
 
 // Points of four owners, a line and an island, planar (UTM 33N metres). Under AddressSanitizer
-// (GCC defines __SANITIZE_ADDRESS__) on cells of 100 m instead of 50 m: a quarter of the cells,
-// the same edits and checks, inside CI's time for the sanitizer stage.
-#ifdef __SANITIZE_ADDRESS__
+// (GCC defines __SANITIZE_ADDRESS__, clang answers __has_feature) on cells of 100 m instead of 50 m: a quarter of the
+// cells, the same edits and checks, inside CI's time for the sanitizer stage.
+#if defined(__has_feature)
+#if __has_feature(address_sanitizer)
+#define RV_TEST_ASAN 1
+#endif
+#endif
+#if defined(__SANITIZE_ADDRESS__) || defined(RV_TEST_ASAN)
 constexpr double kPlanarCell = 100.0;
 #else
 constexpr double kPlanarCell = 50.0;
@@ -598,6 +604,117 @@ TEST_F(SessionTest, BalticGeodesicEditsEqualFreshRuns) {
   check_fresh(*session, s, answer, "remove");
   answer = session->undo();
   check_fresh(*session, s, answer, "undo");
+}
+
+}  // namespace
+}  // namespace rv
+
+namespace rv {
+namespace {
+
+// A session with partial effect (an island of B at half effect): every step computes the whole
+// job again and says so; after each step, undo and redo included, its field is
+// compute_partial_effect's on its seeds, cell for cell, its deliverables a fresh job's on its
+// features (with their effect) byte for byte, and its regions' areas that job's. "set" changes
+// an effect there and is refused one in a session without partial effect.
+TEST_F(SessionTest, PartialEffectStepsComputeTheWholeJob) {
+  const double x0 = 500000.0, y0 = 6000000.0, size = 30000.0;
+  auto at = [&](double x, double y) { return json::array({x0 + x, y0 + y}); };
+  auto feature = [](const char* owner, double effect, const char* type, json coordinates) {
+    return json{{"type", "Feature"},
+                {"properties", {{"owner", owner}, {"weight", 1.0}, {"effect", effect}}},
+                {"geometry", {{"type", type}, {"coordinates", std::move(coordinates)}}}};
+  };
+  json fc = {{"type", "FeatureCollection"},
+             {"crs", {{"type", "name"}, {"properties", {{"name", "urn:ogc:def:crs:EPSG::32633"}}}}},
+             {"features", json::array()}};
+  fc["features"].push_back(
+      feature("A", 1.0, "LineString", json::array({at(3000, 2000), at(4000, 15000), at(2500, 28000)})));
+  fc["features"].push_back(
+      feature("B", 1.0, "LineString", json::array({at(27000, 2000), at(26000, 15000), at(27500, 28000)})));
+  fc["features"].push_back(
+      feature("B", 0.5, "Polygon",
+              json::array({json::array({at(13000, 14000), at(14500, 14000), at(14500, 15500), at(13000, 14000)})})));
+  fc["features"].push_back(feature("A", 1.0, "Point", at(8000, 6000)));
+  const fs::path seeds = dir_ / "partial.geojson";
+  std::ofstream(seeds) << fc.dump();
+  JobSpec s = spec(seeds.string(), kPlanarCell, {x0, y0, x0 + size, y0 + size}, "2500");
+  s.seeds.reach_field.reset();
+  s.seeds.effect_field = "effect";
+  s.outputs.turning_points.clear();  // (not with partial effect)
+  std::unique_ptr<Session> session = Session::create(s);
+  auto check = [&](const json& answer, const std::string& what) {
+    SCOPED_TRACE(what);
+    if (!answer.is_null()) {
+      EXPECT_TRUE(answer["recompute"]["whole"].is_string()) << answer["recompute"].dump();
+      EXPECT_EQ(answer["recompute"]["cells"], session->grid().cell_count());
+    }
+    BoundaryOptions lines;
+    lines.simplify_cells = s.outputs.simplify_cells;
+    lines.line_tolerance = session->job().line_tolerance;
+    lines.threads = 2;
+    ComputeOptions co = session->job().compute;
+    co.prepared = nullptr;
+    const PartialEffectResult fresh = compute_partial_effect(session->seeds(), session->grid(), co, lines, true);
+    const NearestField& field = session->field();
+    ASSERT_EQ(fresh.field.site.cells().size(), field.site.cells().size());
+    int64_t differ = 0;
+    for (size_t i = 0; i < field.site.cells().size(); ++i)
+      differ += fresh.field.site.cells()[i] != field.site.cells()[i] ||
+                std::bit_cast<uint32_t>(fresh.field.distance.cells()[i]) !=
+                    std::bit_cast<uint32_t>(field.distance.cells()[i]);
+    EXPECT_EQ(differ, 0) << "cells that differ from compute_partial_effect's field";
+    const fs::path run = dir_ / ("partial_" + std::to_string(++runs_));
+    fs::create_directories(run);
+    std::ofstream(run / "seeds.geojson") << session->features().dump();
+    JobSpec f = s;
+    f.seeds.paths = {(run / "seeds.geojson").string()};
+    f.seeds.target_crs = session->job().loaded.crs.wkt;
+    f.outputs.boundaries = (run / "boundaries.geojson").string();
+    f.outputs.tripoints = (run / "tripoints.geojson").string();
+    f.outputs.limits = (run / "limits.geojson").string();
+    f.outputs.regions = (run / "regions.geojson").string();
+    const JobResult r = run_job(f);
+    for (const std::string& name : session->deliverables())
+      EXPECT_TRUE(session->deliverable(name) == read_text(run / (name + ext_of(name)))) << name << " differs";
+    std::map<std::string, double> fresh_area;
+    for (const json& a : r.report["deliverables"]["regions"]["areas"])
+      fresh_area[a["label"].get<std::string>()] = a["area"].get<double>();
+    for (const json& a : session->info()["areas"]) {
+      const std::string label = a["label"].get<std::string>();
+      ASSERT_TRUE(fresh_area.count(label)) << label;
+      EXPECT_NEAR(a["area"].get<double>(), fresh_area[label], 1e-9 * fresh_area[label]) << label;
+    }
+  };
+  check(nullptr, "created");
+  EXPECT_EQ(session->features()["features"][2]["properties"]["effect"], 0.5);
+  json answer =
+      session->edit({{{"op", "move-vertex"}, {"feature", "3"}, {"path", {0, 0, 1}}, {"to", at(15500, 13500)}}});
+  check(answer, "island vertex moved");
+  EXPECT_GT(answer["cells"]["owner_changed"].get<int64_t>(), 0);
+  answer = session->edit({{{"op", "set"}, {"feature", "3"}, {"properties", {{"effect", 0.25}}}}});
+  check(answer, "effect set");
+  EXPECT_GT(answer["cells"]["owner_changed"].get<int64_t>(), 0);
+  answer = session->edit({{{"op", "remove"}, {"feature", "4"}}});
+  check(answer, "point removed");
+  check(session->undo(), "undo");
+  check(session->redo(), "redo");
+  // The rule refuses an owner all of whose features are partial: refused, nothing changed.
+  const std::string before = session->deliverable("boundaries");
+  EXPECT_THROW(session->edit({{{"op", "set"}, {"feature", "2"}, {"properties", {{"effect", 0.5}}}}}), Error);
+  EXPECT_EQ(session->deliverable("boundaries"), before);
+  check(nullptr, "after the refused edit");
+  // Without partial effect, no effect is set.
+  JobSpec plain = s;
+  plain.seeds.effect_field.reset();
+  std::unique_ptr<Session> other = Session::create(plain);
+  EXPECT_FALSE(other->features()["features"][0]["properties"].contains("effect"));
+  try {
+    other->edit({{{"op", "set"}, {"feature", "3"}, {"properties", {{"effect", 0.5}}}}});
+    ADD_FAILURE() << "an effect set in a session without partial effect";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("effect"), std::string::npos) << e.what();
+  }
 }
 
 }  // namespace
