@@ -555,16 +555,24 @@ bool arc_tripoint(const BoundaryGrid& b, const CrossingSet& x, int64_t c, int64_
         seen[static_cast<size_t>(at - o.begin())] = true;
     }
     if (other || !(seen[0] && seen[1] && seen[2])) continue;
+    // Each owner's site there: its arc's, or its nearest within reach. An owner none of whose
+    // sites reaches the point (its arc ends just short of it) makes no tripoint here.
+    std::array<int32_t, 3> site{};
+    for (int k = 0; k < 3; ++k) {
+      const auto arc = std::find_if(arcs.begin(), arcs.end(), [&](const Arc& q) { return q.owner == o[k]; });
+      site[static_cast<size_t>(k)] = arc != arcs.end() && std::abs(on_arc(*arc, p)) <= 4.0 * b.ftol
+                                         ? arc->site
+                                         : index.nearest_of(p, o[static_cast<size_t>(k)]).site;
+    }
+    if (std::find(site.begin(), site.end(), kNoSite) != site.end()) continue;
     double worst = 0.0;
     for (double v : f(p)) worst = std::max(worst, std::abs(v));
     out = Tripoint{};
     out.p = p;
     out.residual = worst;
     for (int k = 0; k < 3; ++k) {
-      const auto arc = std::find_if(arcs.begin(), arcs.end(), [&](const Arc& q) { return q.owner == o[k]; });
-      const OwnerIndex::Hit hit = index.nearest_of(p, o[static_cast<size_t>(k)]);
       out.owners[k] = o[static_cast<size_t>(k)];
-      out.sites[k] = arc != arcs.end() && std::abs(on_arc(*arc, p)) <= 4.0 * b.ftol ? arc->site : hit.site;
+      out.sites[k] = site[static_cast<size_t>(k)];
       out.distances[k] = m.distance(p, out.sites[k]);
       out.distance += out.distances[k] / 3.0;
       out.cost += out.distances[k] / index.weight_of(out.sites[k]) / 3.0;

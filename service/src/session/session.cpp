@@ -471,16 +471,18 @@ json Session::State::update(SeedSet edited, std::vector<size_t> new_slot_of, std
   bool applied = false, delivered = false;
   // Back to the seeds before: the field by the inverse edit (exact by the same construction).
   auto restore = [&] {
-    if (applied) {
-      ComputeOptions back = job.compute;
-      back.prepared = old_prepared;
-      const Edit undo_edit(job.loaded.seeds, old_seeds, job.grid, back);
-      const EditPlan p = undo_edit.plan(field, &tiles);
-      undo_edit.apply(field, p, field);
-    }
+    // The seeds before go back first: their preparation names the job's set, which the inverse
+    // edit computes into. Its plan reads every cell: the summaries may be the edited field's or
+    // not yet, depending on where the step failed.
+    SeedSet edited_now = std::move(job.loaded.seeds);
     job.loaded.seeds = std::move(old_seeds);
     job.loaded.input_position = std::move(old_position);
     job.compute.prepared = old_prepared;
+    if (applied) {
+      const Edit undo_edit(edited_now, job.loaded.seeds, job.grid, job.compute);
+      const EditPlan p = undo_edit.plan(field, nullptr);
+      undo_edit.apply(field, p, field);
+    }
     tiles = old_tiles;
     lines = old_lines;
     if (delivered) {

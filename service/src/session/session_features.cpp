@@ -180,7 +180,7 @@ void SessionFeatures::set_properties(SessionFeature& f, const json& props, const
       } else {
         if (!value.is_number() || !(value.get<double>() > 0.0) || !std::isfinite(value.get<double>()))
           refuse(where, "reach: a finite number > 0 in the job's distance units, or null for none");
-        f.reach = value.get<double>() / to_output_;
+        f.reach = value.get<double>() * (1.0 / to_output_);  // as a job reads it (SeedSet::scale_reaches)
       }
     } else if (key == "effect" && effects_) {
       if (!value.is_number() || !(value.get<double>() >= 0.0 && value.get<double>() <= 1.0))
