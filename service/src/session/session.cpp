@@ -164,9 +164,20 @@ struct Session::State {
     return whole_steps ? update_whole(std::move(edited), std::move(slot_of), std::move(position))
                        : update(std::move(edited), std::move(slot_of), std::move(position), touched);
   }
-  // A step's answer from its change (the cells' areas updated by it), lines and timings.
-  json answer_of(const EditChanges& changes, const json& lines_changed, json recompute, json timings,
-                 Clock::time_point started);
+  // The end of a step whose lines are made: the files when its answer needs them, the features'
+  // slots, the cells' areas updated by the change, and the answer with its lines and timings.
+  json finish_step(const EditChanges& changes, const json& lines_changed, json recompute, json timings,
+                   Clock::time_point started, std::vector<size_t> new_slot_of);
+  // After a failed step whose lines went ahead of the state restored: that state's files are
+  // made again whole when read, and the next step extracts every row.
+  void drop_files() {
+    pending.reset();
+    texts.clear();
+    report = json::object();
+    stale = true;
+    pieces.clear();
+    refined.clear();
+  }
   // The field (and with partial effect its fields and lines) of the current seeds, computed whole.
   void compute_whole(const JobHooks* hooks);
   // The current field into `d` (with partial effect, the full-effect field for the limits).
@@ -365,8 +376,14 @@ void Session::State::compute_whole(const JobHooks* hooks) {
   field = compute(job.loaded.seeds, job.grid, co);
 }
 
-json Session::State::answer_of(const EditChanges& changes, const json& lines_changed, json recompute, json timings,
-                               Clock::time_point started) {
+json Session::State::finish_step(const EditChanges& changes, const json& lines_changed, json recompute, json timings,
+                                 Clock::time_point started, std::vector<size_t> new_slot_of) {
+  if (files_answer()) {
+    const auto t = Clock::now();
+    files();
+    timings["files"] = seconds_since(t);
+  }
+  slot_of = std::move(new_slot_of);
   for (const auto& [pair, area] : changes.moved) {
     if (!pair.first.empty()) cell_area[pair.first] -= area;
     if (!pair.second.empty()) cell_area[pair.second] += area;
@@ -426,13 +443,8 @@ json Session::State::update_whole(SeedSet edited, std::vector<size_t> new_slot_o
     const json lines_changed = deliver(nullptr, nullptr, nullptr, recompute);
     delivered = true;
     timings["lines"] = seconds_since(t);
-    if (files_answer()) {
-      t = Clock::now();
-      files();
-      timings["files"] = seconds_since(t);
-    }
-    slot_of = std::move(new_slot_of);
-    return answer_of(changes, lines_changed, std::move(recompute), std::move(timings), started);
+    return finish_step(changes, lines_changed, std::move(recompute), std::move(timings), started,
+                       std::move(new_slot_of));
   } catch (...) {
     job.loaded.seeds = std::move(old_seeds);
     job.loaded.input_position = std::move(old_position);
@@ -442,14 +454,7 @@ json Session::State::update_whole(SeedSet edited, std::vector<size_t> new_slot_o
     field = std::move(before);
     tiles = old_tiles;
     lines = old_lines;
-    if (delivered) {
-      pending.reset();
-      texts.clear();
-      report = json::object();
-      stale = true;
-      pieces.clear();
-      refined.clear();
-    }
+    if (delivered) drop_files();
     throw;
   }
 }
@@ -485,16 +490,7 @@ json Session::State::update(SeedSet edited, std::vector<size_t> new_slot_of, std
     }
     tiles = old_tiles;
     lines = old_lines;
-    if (delivered) {
-      // The lines went ahead of the state restored: its files are made again whole when read,
-      // and the next step extracts every row.
-      pending.reset();
-      texts.clear();
-      report = json::object();
-      stale = true;
-      pieces.clear();
-      refined.clear();
-    }
+    if (delivered) drop_files();
   };
   try {
     job.compute.prepared = prepare(job.loaded.seeds, job.grid, job.compute);
@@ -525,13 +521,8 @@ json Session::State::update(SeedSet edited, std::vector<size_t> new_slot_of, std
     json lines_changed = deliver(&edit, &plan, &old_tiles, recompute);
     delivered = true;
     timings["lines"] = seconds_since(t);
-    if (files_answer()) {
-      t = Clock::now();
-      files();
-      timings["files"] = seconds_since(t);
-    }
-    slot_of = std::move(new_slot_of);
-    return answer_of(changes, lines_changed, std::move(recompute), std::move(timings), started);
+    return finish_step(changes, lines_changed, std::move(recompute), std::move(timings), started,
+                       std::move(new_slot_of));
   } catch (...) {
     restore();
     throw;

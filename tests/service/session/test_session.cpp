@@ -93,6 +93,20 @@ class SessionTest : public ::testing::Test {
     return s;
   }
 
+  // The western Baltic's coasts (fixtures/baltic_west.gpkg), geodesic, distances in nautical
+  // miles, at `res` degrees; no output yet.
+  static JobSpec baltic_spec(double res) {
+    JobSpec s;
+    s.seeds.paths = {test::fixture("baltic_west.gpkg")};
+    s.seeds.owner_field = "iso2";
+    s.seeds.border_tolerance = 10.0;
+    s.grid.resolution = res;
+    s.metric = MetricRequest::geodesic;
+    s.distance_units = DistanceUnit::nmi;
+    s.threads = 2;
+    return s;
+  }
+
   // Everything a step must leave: the field of compute(), the files of a fresh job on the
   // features as a file, its areas.
   void check_fresh(const Session& session, const JobSpec& base, const json& answer, const std::string& what) {
@@ -540,14 +554,7 @@ namespace {
 // vertices moved by about 100 m, a weight (the adjusted method, every cell computed again), a
 // state removed and put back by undo.
 TEST_F(SessionTest, BalticGeodesicEditsEqualFreshRuns) {
-  JobSpec s;
-  s.seeds.paths = {test::fixture("baltic_west.gpkg")};
-  s.seeds.owner_field = "iso2";
-  s.seeds.border_tolerance = 10.0;
-  s.grid.resolution = 0.01;
-  s.metric = MetricRequest::geodesic;
-  s.distance_units = DistanceUnit::nmi;
-  s.threads = 2;
+  JobSpec s = baltic_spec(0.01);
   s.outputs.boundaries = "b.geojson";
   s.outputs.tripoints = "t.geojson";
   s.outputs.limits = "l.geojson";
@@ -730,14 +737,7 @@ namespace {
 // the states given weights and reaches; undo and redo. After every step the session equals a
 // fresh computation and a fresh job (check_fresh).
 TEST_F(SessionTest, BalticGeodesicRandomEditsEqualFreshRuns) {
-  JobSpec s;
-  s.seeds.paths = {test::fixture("baltic_west.gpkg")};
-  s.seeds.owner_field = "iso2";
-  s.seeds.border_tolerance = 10.0;
-  s.grid.resolution = 0.02;
-  s.metric = MetricRequest::geodesic;
-  s.distance_units = DistanceUnit::nmi;
-  s.threads = 2;
+  JobSpec s = baltic_spec(0.02);
   s.outputs.boundaries = "b.geojson";
   s.outputs.tripoints = "t.geojson";
   s.outputs.limits = "l.geojson";
@@ -798,14 +798,7 @@ namespace {
 // DK given a reach of about 20 nmi: the job of those seeds runs, its boundaries and tripoints
 // as a fresh job's.
 TEST_F(SessionTest, AReachArcShortOfATripointSquareIsNoTripoint) {
-  JobSpec s;
-  s.seeds.paths = {test::fixture("baltic_west.gpkg")};
-  s.seeds.owner_field = "iso2";
-  s.seeds.border_tolerance = 10.0;
-  s.grid.resolution = 0.03;
-  s.metric = MetricRequest::geodesic;
-  s.distance_units = DistanceUnit::nmi;
-  s.threads = 2;
+  JobSpec s = baltic_spec(0.03);
   s.outputs.boundaries = "b.geojson";
   s.outputs.tripoints = "t.geojson";
   std::unique_ptr<Session> session = Session::create(s);
@@ -836,14 +829,7 @@ namespace {
 // the regions cannot join, which a fresh job refuses too) rolls back: the error is the job's,
 // and the session is as it was (field, features, files).
 TEST_F(SessionTest, AStepThatFailsAfterItsCellsRollsBack) {
-  JobSpec s;
-  s.seeds.paths = {test::fixture("baltic_west.gpkg")};
-  s.seeds.owner_field = "iso2";
-  s.seeds.border_tolerance = 10.0;
-  s.grid.resolution = 0.02;
-  s.metric = MetricRequest::geodesic;
-  s.distance_units = DistanceUnit::nmi;
-  s.threads = 2;
+  JobSpec s = baltic_spec(0.02);
   s.outputs.boundaries = "b.geojson";
   s.outputs.regions = "r.geojson";
   const json area = {
