@@ -94,8 +94,8 @@ class SessionTest : public ::testing::Test {
   }
 
   // The western Baltic's coasts (fixtures/baltic_west.gpkg), geodesic, distances in nautical
-  // miles, at `res` degrees; no output yet.
-  static JobSpec baltic_spec(double res) {
+  // miles, at `res` degrees; with `lines`, boundaries, tripoints, 12 nmi limits and regions.
+  static JobSpec baltic_spec(double res, bool lines = false) {
     JobSpec s;
     s.seeds.paths = {test::fixture("baltic_west.gpkg")};
     s.seeds.owner_field = "iso2";
@@ -104,6 +104,13 @@ class SessionTest : public ::testing::Test {
     s.metric = MetricRequest::geodesic;
     s.distance_units = DistanceUnit::nmi;
     s.threads = 2;
+    if (lines) {
+      s.outputs.boundaries = "b.geojson";
+      s.outputs.tripoints = "t.geojson";
+      s.outputs.limits = "l.geojson";
+      s.outputs.regions = "r.geojson";
+      s.outputs.limit_distances = {"12nmi"};  // (turning points: the planar case; here they cost seconds a step)
+    }
     return s;
   }
 
@@ -554,12 +561,7 @@ namespace {
 // vertices moved by about 100 m, a weight (the adjusted method, every cell computed again), a
 // state removed and put back by undo.
 TEST_F(SessionTest, BalticGeodesicEditsEqualFreshRuns) {
-  JobSpec s = baltic_spec(0.01);
-  s.outputs.boundaries = "b.geojson";
-  s.outputs.tripoints = "t.geojson";
-  s.outputs.limits = "l.geojson";
-  s.outputs.regions = "r.geojson";
-  s.outputs.limit_distances = {"12nmi"};  // (turning points: the planar case; here they cost seconds a step)
+  JobSpec s = baltic_spec(0.01, true);
   std::unique_ptr<Session> session = Session::create(s);
   check_fresh(*session, s, nullptr, "created");
   const json features = session->features();
@@ -737,12 +739,7 @@ namespace {
 // the states given weights and reaches; undo and redo. After every step the session equals a
 // fresh computation and a fresh job (check_fresh).
 TEST_F(SessionTest, BalticGeodesicRandomEditsEqualFreshRuns) {
-  JobSpec s = baltic_spec(0.02);
-  s.outputs.boundaries = "b.geojson";
-  s.outputs.tripoints = "t.geojson";
-  s.outputs.limits = "l.geojson";
-  s.outputs.regions = "r.geojson";
-  s.outputs.limit_distances = {"12nmi"};
+  JobSpec s = baltic_spec(0.02, true);
   std::unique_ptr<Session> session = Session::create(s);
   check_fresh(*session, s, nullptr, "created");
   const GridSpec& g = session->grid();
