@@ -115,6 +115,22 @@ bool renumber(BoundaryVertex& v, std::span<const int32_t> site_map);
 bool renumber(LimitVertex& v, std::span<const int32_t> site_map);
 uint64_t segment_hash(int32_t a, int32_t b, Vec2 u, Vec2 v);
 
+// Whether every tile of `changed` over cells [c0, c1] x [r0, r1] of a grid `width` x `height`
+// (inclusive; clamped to the grid) is flagged 0: neither the field nor a measurement by the metric
+// changed there (rv::Edit::line_tiles).
+inline bool tiles_unchanged(const ChangedTiles& changed, int64_t width, int64_t height, int64_t c0, int64_t r0,
+                            int64_t c1, int64_t r1) {
+  const int64_t T = changed.size, cols = (width + T - 1) / T, rows = (height + T - 1) / T;
+  c0 = std::clamp<int64_t>(c0, 0, width - 1);
+  c1 = std::clamp<int64_t>(c1, 0, width - 1);
+  r0 = std::clamp<int64_t>(r0, 0, height - 1);
+  r1 = std::clamp<int64_t>(r1, 0, height - 1);
+  for (int64_t tr = r0 / T; tr <= r1 / T && tr < rows; ++tr)
+    for (int64_t tc = c0 / T; tc <= c1 / T && tc < cols; ++tc)
+      if (changed.flags[static_cast<size_t>(tr * cols + tc)] != 0) return false;
+  return true;
+}
+
 // The segments of an earlier state's SegmentMemo an edit leaves valid, found by their ends: those
 // whose cells, widened by kMargin at each side, lie in tiles of `changed` flagged 0 (where neither
 // the field nor a measurement by the metric changed: rv::Edit::line_tiles). A refinement measures
@@ -130,20 +146,14 @@ class SegmentReuse {
   SegmentReuse(const SegmentMemo<V, Stat>& memo, const GridSpec& grid, const ChangedTiles& changed,
                std::span<const int32_t> site_map)
       : memo_(memo), map_(site_map) {
-    const int64_t T = changed.size, cols = (grid.width + T - 1) / T, rows = (grid.height + T - 1) / T;
     auto col_of = [&](double x) { return static_cast<int64_t>(std::floor((x - grid.xmin) / grid.res)); };
     auto row_of = [&](double y) { return static_cast<int64_t>(std::floor((grid.ymax - y) / grid.res)); };
     auto valid = [&](const Entry& e) {
       const Vec2 u = memo.start(e).p, v = memo.end(e).p;
       if (!(std::isfinite(u.x) && std::isfinite(u.y) && std::isfinite(v.x) && std::isfinite(v.y))) return false;
-      const int64_t c0 = std::clamp<int64_t>(std::min(col_of(u.x), col_of(v.x)) - kMargin, 0, grid.width - 1),
-                    c1 = std::clamp<int64_t>(std::max(col_of(u.x), col_of(v.x)) + kMargin, 0, grid.width - 1),
-                    r0 = std::clamp<int64_t>(std::min(row_of(u.y), row_of(v.y)) - kMargin, 0, grid.height - 1),
-                    r1 = std::clamp<int64_t>(std::max(row_of(u.y), row_of(v.y)) + kMargin, 0, grid.height - 1);
-      for (int64_t tr = r0 / T; tr <= r1 / T && tr < rows; ++tr)
-        for (int64_t tc = c0 / T; tc <= c1 / T && tc < cols; ++tc)
-          if (changed.flags[static_cast<size_t>(tr * cols + tc)] != 0) return false;
-      return true;
+      return tiles_unchanged(changed, grid.width, grid.height, std::min(col_of(u.x), col_of(v.x)) - kMargin,
+                             std::min(row_of(u.y), row_of(v.y)) - kMargin, std::max(col_of(u.x), col_of(v.x)) + kMargin,
+                             std::max(row_of(u.y), row_of(v.y)) + kMargin);
     };
     size_t n = 0;
     for (const Entry& e : memo.entries) n += valid(e) ? 1 : 0;

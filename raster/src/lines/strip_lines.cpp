@@ -118,15 +118,9 @@ void check_tripoint(const SiteMetric& metric, double cell, const Tripoint& tp) {
 // by the metric changed: its two cells, widened as a kept segment's are (SegmentReuse::kMargin),
 // in tiles `changed` flags 0. A vertex on it is placed by measurements along it alone.
 bool edge_unchanged(const ChangedTiles& changed, int64_t W, int64_t H, int64_t edge) {
-  using Reuse = SegmentReuse<BoundaryVertex, boundary_stages::LineRefiner::Added>;
-  const int64_t T = changed.size, cols = (W + T - 1) / T;
+  constexpr int64_t M = SegmentReuse<BoundaryVertex, boundary_stages::LineRefiner::Added>::kMargin;
   const int64_t cell = edge / 2, c = cell % W, r = cell / W;
-  const int64_t c0 = std::max<int64_t>(0, c - Reuse::kMargin), r0 = std::max<int64_t>(0, r - Reuse::kMargin);
-  const int64_t c1 = std::min(W - 1, c + 1 + Reuse::kMargin), r1 = std::min(H - 1, r + 1 + Reuse::kMargin);
-  for (int64_t tr = r0 / T; tr <= r1 / T; ++tr)
-    for (int64_t tc = c0 / T; tc <= c1 / T; ++tc)
-      if (changed.flags[static_cast<size_t>(tr * cols + tc)] != 0) return false;
-  return true;
+  return tiles_unchanged(changed, W, H, c - M, r - M, c + 1 + M, r + 1 + M);
 }
 
 // One boundary extraction in progress.
