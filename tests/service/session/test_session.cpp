@@ -691,7 +691,8 @@ TEST_F(SessionTest, PartialEffectStepsComputeTheWholeJob) {
     std::map<std::string, double> fresh_area;
     for (const json& a : r.report["deliverables"]["regions"]["areas"])
       fresh_area[a["label"].get<std::string>()] = a["area"].get<double>();
-    for (const json& a : session->info()["areas"]) {
+    const json info = session->info();  // the loop below must not outlive a temporary
+    for (const json& a : info["areas"]) {
       const std::string label = a["label"].get<std::string>();
       ASSERT_TRUE(fresh_area.count(label)) << label;
       EXPECT_NEAR(a["area"].get<double>(), fresh_area[label], 1e-9 * fresh_area[label]) << label;
