@@ -77,7 +77,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
       require(rv::is_valid_utf8(label));
       report.push_back(label);
     }
-    for (const rv::Feature& feature : loaded.seeds.features()) require(rv::is_valid_utf8(feature.source));
+    for (const rv::Feature& feature : loaded.seeds.features()) require(rv::is_valid_utf8(feature.source.str()));
     for (const std::string& w : loaded.report.warnings) {
       require(rv::is_valid_utf8(w));
       report.push_back(w);

@@ -26,7 +26,7 @@ int32_t SeedSet::owner_code(const std::string& label) {
   return it->second;
 }
 
-int32_t SeedSet::add_feature(int32_t owner, std::string source) {
+int32_t SeedSet::add_feature(int32_t owner, SourceText source) {
   if (owner < 1 || owner > owner_count())
     throw Error(ErrorKind::internal, "add_feature: owner code " + std::to_string(owner) + " was never registered");
   if (features_.size() >= static_cast<size_t>(std::numeric_limits<int32_t>::max()))
@@ -56,7 +56,7 @@ GeometryKind merge_kind(bool had_sites, GeometryKind old_kind, GeometryKind add)
 
 std::string SeedSet::feature_name(int32_t feature) const {
   const Feature& f = features_[static_cast<size_t>(feature)];
-  return f.source.empty() ? "feature " + std::to_string(feature + 1) : f.source;
+  return f.source.empty() ? "feature " + std::to_string(feature + 1) : f.source.str();
 }
 
 void SeedSet::set_adjustment(int32_t feature, double weight, double reach) {
@@ -68,8 +68,11 @@ void SeedSet::set_adjustment(int32_t feature, double weight, double reach) {
   if (std::isnan(reach) || !(reach > 0.0))
     throw Error(ErrorKind::invalid_input,
                 feature_name(feature) + ": the reach must be a distance above 0 (got " + number(reach) + ")");
-  features_[static_cast<size_t>(feature)].weight = weight;
-  features_[static_cast<size_t>(feature)].reach = reach;
+  Feature& f = features_[static_cast<size_t>(feature)];
+  adjusted_features_ -= is_adjusted(f);
+  f.weight = weight;
+  f.reach = reach;
+  adjusted_features_ += is_adjusted(f);
 }
 
 void SeedSet::set_effect(int32_t feature, double effect) {
@@ -85,12 +88,12 @@ void SeedSet::scale_reaches(double factor) {
   if (!std::isfinite(factor) || !(factor > 0.0)) throw Error(ErrorKind::internal, "scale_reaches: bad factor");
   for (Feature& f : features_)
     if (std::isfinite(f.reach)) f.reach *= factor;
+  count_adjusted();  // a reach may overflow to infinity
 }
 
-bool SeedSet::adjusted() const {
-  for (const Feature& f : features_)
-    if (f.weight != 1.0 || std::isfinite(f.reach)) return true;
-  return false;
+void SeedSet::count_adjusted() {
+  adjusted_features_ = 0;
+  for (const Feature& f : features_) adjusted_features_ += is_adjusted(f);
 }
 
 SeedSet SeedSet::without(const std::vector<bool>& drop, std::vector<int32_t>& site_of) const {
@@ -120,6 +123,7 @@ SeedSet SeedSet::without(const std::vector<bool>& drop, std::vector<int32_t>& si
     if (f < 0) continue;
     out.polygons_.push_back(Polygon{f, new_site[static_cast<size_t>(p.area_site)], p.rings});
   }
+  out.count_adjusted();
   return out;
 }
 
@@ -139,7 +143,12 @@ SeedSet SeedSet::replaced(const std::vector<int32_t>& features, const SeedSet& b
   out.owner_labels_ = owner_labels_;
   out.owner_index_ = owner_index_;
   out.features_ = features_;
-  for (size_t i = 0; i < features.size(); ++i) out.features_[static_cast<size_t>(features[i])] = by.features_[i];
+  out.adjusted_features_ = adjusted_features_;
+  for (size_t i = 0; i < features.size(); ++i) {
+    Feature& f = out.features_[static_cast<size_t>(features[i])];
+    out.adjusted_features_ += is_adjusted(by.features_[i]) - is_adjusted(f);
+    f = by.features_[i];
+  }
   // Sites: this set's, each replaced feature's run swapped for its replacement's. Polygons follow
   // their area sites, whose indices shift by the runs' differences.
   std::vector<int32_t> moved_site(sites_.size(), -1), by_site(by.sites_.size(), -1);
@@ -217,6 +226,7 @@ SeedSet SeedSet::from_parts(std::vector<Site> sites, std::vector<Polygon> polygo
   out.polygons_ = std::move(polygons);
   out.features_ = std::move(features);
   out.owner_labels_ = std::move(owner_labels);
+  out.count_adjusted();
   return out;
 }
 
@@ -294,6 +304,15 @@ int64_t SeedSet::geometric_site_count() const {
   return n;
 }
 
+int64_t SourceText::heap_bytes() const {
+  if (!text_) return 0;
+  // make_shared's one block: the control block's table pointer and two counts, and the string;
+  // the text's own buffer past the short-string capacity, with the allocator's word.
+  constexpr auto word = static_cast<int64_t>(sizeof(void*));
+  const int64_t own = text_->capacity() > 15 ? static_cast<int64_t>(text_->capacity()) + 1 + word : 0;
+  return 2 * static_cast<int64_t>(sizeof(int32_t)) + static_cast<int64_t>(sizeof(std::string)) + word + own;
+}
+
 int64_t SeedSet::memory_bytes() const {
   constexpr auto block = static_cast<int64_t>(sizeof(void*));
   auto text = [&](const std::string& s) {
@@ -307,7 +326,7 @@ int64_t SeedSet::memory_bytes() const {
     for (const Ring& r : p.rings) bytes += static_cast<int64_t>(r.capacity() * sizeof(Vec2)) + block;
   }
   bytes += static_cast<int64_t>(features_.capacity() * sizeof(Feature));
-  for (const Feature& f : features_) bytes += text(f.source) - static_cast<int64_t>(sizeof(std::string));
+  for (const Feature& f : features_) bytes += f.source.heap_bytes();
   for (const std::string& label : owner_labels_) {
     // The label, its copy as the index's key, the index node and its bucket.
     bytes += 2 * text(label) + static_cast<int64_t>(sizeof(int32_t)) + 3 * block;

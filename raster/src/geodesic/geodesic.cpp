@@ -92,7 +92,7 @@ void GeoSites::prepare(const std::vector<Site>& sites, const SeedSet* seeds) {
     if (s.kind == SiteKind::area) continue;
     for (const Vec2& v : {s.a, s.b}) {
       if (!(v.y >= -90.0 && v.y <= 90.0) || !std::isfinite(v.x)) {
-        std::string where = seeds ? seeds->features()[static_cast<size_t>(s.feature)].source : std::string();
+        std::string where = seeds ? seeds->features()[static_cast<size_t>(s.feature)].source.str() : std::string();
         if (where.empty()) where = "feature " + std::to_string(s.feature);
         throw Error(ErrorKind::invalid_input,
                     where + ": latitude " + std::to_string(v.y) +

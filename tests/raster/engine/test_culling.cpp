@@ -167,6 +167,38 @@ CellMask random_mask(const Window& w, uint32_t seed) {
   return m;
 }
 
+TEST(Culling, AMaskedRunVisitsExactlyTheTilesWithAMaskedCell) {
+  // tiles_to_solve finds the tiles from the mask's spans; the oracle asks every tile of the
+  // window. Windows off the tile grid, spans across tile edges, empty rows, and no mask.
+  std::mt19937_64 rng(21);
+  for (const Window w : {Window{0, 0, 300, 260}, Window{17, 40, 250, 190}, Window{63, 1, 130, 129}}) {
+    constexpr int64_t kTile = 64;
+    const int64_t tx0 = w.col0 / kTile, ty0 = w.row0 / kTile;
+    const int64_t ntx = (w.col0 + w.width - 1) / kTile - tx0 + 1, nty = (w.row0 + w.height - 1) / kTile - ty0 + 1;
+    const SeedSet s;
+    const GridSpec g = test::grid_of(400, 300);
+    const std::vector<LocalSite> local;
+    const std::vector<int32_t> geometric;
+    for (uint32_t trial = 0; trial < 5; ++trial) {
+      const CellMask mask =
+          trial == 0 ? CellMask::none(w) : random_mask(w, 300 + trial + static_cast<uint32_t>(rng() % 9));
+      detail::EngineContext ctx{s, g, w, local, geometric, 0.0, 1, nullptr};
+      ctx.mask = &mask;
+      std::vector<int64_t> expected;
+      for (int64_t t = 0; t < ntx * nty; ++t) {
+        const int64_t gx = (tx0 + t % ntx) * kTile - w.col0, gy = (ty0 + t / ntx) * kTile - w.row0;
+        if (mask.any(std::max<int64_t>(gx, 0), std::max<int64_t>(gy, 0), std::min(gx + kTile, w.width),
+                     std::min(gy + kTile, w.height)))
+          expected.push_back(t);
+      }
+      EXPECT_EQ(detail::tiles_to_solve(ctx, kTile, tx0, ty0, ntx, nty), expected) << "trial " << trial;
+      if (trial > 0) EXPECT_FALSE(expected.empty());
+    }
+    detail::EngineContext all{s, g, w, local, geometric, 0.0, 1, nullptr};
+    EXPECT_EQ(detail::tiles_to_solve(all, kTile, tx0, ty0, ntx, nty).size(), static_cast<size_t>(ntx * nty));
+  }
+}
+
 // Every masked cell, and every other cell written (not no-site), has the full computation's
 // value; tiles of `tile` cells without a masked cell are left alone but for interior cells.
 // Returns the number of cells written outside the mask.

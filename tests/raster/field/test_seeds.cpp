@@ -1,9 +1,12 @@
 // SeedSet::replaced (rv/field/seeds.hpp): a copy with some features replaced equals the set
 // built again feature by feature with the replacements, sites, polygons (their area sites) and
-// features alike; what does not fit is refused.
+// features alike; what does not fit is refused. SeedSet::adjusted, kept as a count, says what a
+// scan of the features says after every way a set is made or changed; copies share their
+// features' source names.
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cmath>
 #include <limits>
 #include <random>
 #include <string>
@@ -77,8 +80,16 @@ SeedSet labelled(int owners) {
   return s;
 }
 
+// The oracle of SeedSet::adjusted: a scan of the features.
+bool scanned_adjusted(const SeedSet& s) {
+  return std::any_of(s.features().begin(), s.features().end(),
+                     [](const Feature& f) { return f.weight != 1.0 || std::isfinite(f.reach); });
+}
+
 void expect_same(const SeedSet& a, const SeedSet& b) {
   ASSERT_EQ(a.owner_labels(), b.owner_labels());
+  EXPECT_EQ(a.adjusted(), scanned_adjusted(a));
+  EXPECT_EQ(b.adjusted(), scanned_adjusted(b));
   ASSERT_EQ(a.features().size(), b.features().size());
   for (size_t f = 0; f < a.features().size(); ++f) {
     const Feature &x = a.features()[f], &y = b.features()[f];
@@ -160,6 +171,53 @@ TEST(SeedSet, ReplacedRefusesWhatDoesNotFit) {
   EXPECT_TRUE(refused({0}, relabelled));   // owners numbered otherwise
   EXPECT_FALSE(refused({0, 1}, two));      // and one that fits
   EXPECT_NO_THROW(base.replaced({}, labelled(2)));
+}
+
+TEST(SeedSet, AdjustedFollowsEveryChange) {
+  SeedSet s = labelled(2);
+  std::mt19937 rng(5);
+  Made plain = random_made(rng, 1, 0);
+  plain.weight = 1.0;
+  plain.reach = std::numeric_limits<double>::infinity();
+  add(s, plain);
+  add(s, plain);
+  EXPECT_FALSE(s.adjusted());
+  s.set_adjustment(1, 2.0, std::numeric_limits<double>::infinity());
+  EXPECT_TRUE(s.adjusted());
+  s.set_adjustment(0, 1.0, 10.0);
+  s.set_adjustment(1, 1.0, std::numeric_limits<double>::infinity());
+  EXPECT_TRUE(s.adjusted()) << "feature 0 keeps a reach";
+  s.scale_reaches(1e308);  // 10 * 1e308 overflows: the reach is infinite, the feature plain
+  EXPECT_EQ(s.adjusted(), scanned_adjusted(s));
+  EXPECT_FALSE(s.adjusted());
+  s.set_adjustment(0, 1.0, 10.0);
+  std::vector<int32_t> site_of;
+  EXPECT_FALSE(s.without({true, false}, site_of).adjusted()) << "the adjusted feature dropped";
+  EXPECT_TRUE(s.without({false, true}, site_of).adjusted());
+  SeedSet by = labelled(2);
+  add(by, plain);
+  EXPECT_FALSE(s.replaced({0}, by).adjusted()) << "the adjusted feature replaced by a plain one";
+  const SeedSet copy = s;
+  EXPECT_TRUE(copy.adjusted());
+  const SeedSet parts = SeedSet::from_parts(s.sites(), s.polygons(), s.features(), s.owner_labels());
+  EXPECT_TRUE(parts.adjusted());
+}
+
+TEST(SeedSet, CopiesShareTheirSourceNames) {
+  SeedSet s = labelled(1);
+  const std::string name = "a long source name: coast.gpkg:coastline:fid 123456";
+  s.add_point(s.add_feature(1, name), Vec2{1.0, 2.0});
+  s.add_point(s.add_feature(1), Vec2{3.0, 4.0});
+  const SeedSet copy = s;
+  EXPECT_EQ(copy.features()[0].source.str(), name);
+  EXPECT_EQ(&copy.features()[0].source.str(), &s.features()[0].source.str()) << "one text, shared";
+  EXPECT_TRUE(copy.features()[1].source.empty());
+  EXPECT_EQ(copy.feature_name(1), "feature 2");
+  // The name's bytes are counted: its shared block and its text.
+  SeedSet unnamed = labelled(1);
+  unnamed.add_point(unnamed.add_feature(1), Vec2{1.0, 2.0});
+  unnamed.add_point(unnamed.add_feature(1), Vec2{3.0, 4.0});
+  EXPECT_GE(s.memory_bytes() - unnamed.memory_bytes(), static_cast<int64_t>(name.size()));
 }
 
 }  // namespace

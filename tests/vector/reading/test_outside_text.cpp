@@ -105,8 +105,8 @@ TEST_F(OutsideText, FieldAndLayerNamesInMessagesAreEscaped) {
   o.owner_field.reset();
   const LoadedSeeds l = load_seeds(o);
   for (const Feature& f : l.seeds.features()) {
-    EXPECT_TRUE(is_valid_utf8(f.source)) << f.source;
-    EXPECT_NE(f.source.find("se\\xFF:fid"), std::string::npos) << f.source;
+    EXPECT_TRUE(is_valid_utf8(f.source.str())) << f.source;
+    EXPECT_NE(f.source.str().find("se\\xFF:fid"), std::string::npos) << f.source;
   }
 }
 

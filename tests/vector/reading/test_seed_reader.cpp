@@ -63,7 +63,7 @@ TEST(SeedReader, CoastIsTheSameFromGeoJsonGeoPackageAndZippedShapefile) {
   std::vector<std::string> sources;
   for (const Feature& f : gpkg.seeds.features()) {
     owners.push_back(f.owner);
-    sources.push_back(f.source.substr(f.source.find("coast.gpkg:")));  // file:layer:fid
+    sources.push_back(f.source.str().substr(f.source.str().find("coast.gpkg:")));  // file:layer:fid
   }
   EXPECT_EQ(owners, (std::vector<int32_t>{1, 1, 1, 2, 2, 3}));
   EXPECT_EQ(gpkg.input_position, (std::vector<int64_t>{1, 3, 6, 2, 5, 4}));
@@ -95,7 +95,7 @@ TEST(SeedReader, EveryGeometryTypeFromGeoJsonGeoPackageAndFlatGeobuf) {
   for (size_t i = 0; i < kinds.size(); ++i) EXPECT_EQ(s.features()[i].kind, kinds[i]) << "feature " << i;
   EXPECT_EQ(s.owner_labels(), (std::vector<std::string>{"P", "MP", "L", "ML", "H", "MPG", "GC"}));
   EXPECT_EQ(s.features()[3].owner, 3);
-  EXPECT_NE(s.features()[3].source.find("all_types:fid 7"), std::string::npos) << s.features()[3].source;
+  EXPECT_NE(s.features()[3].source.str().find("all_types:fid 7"), std::string::npos) << s.features()[3].source;
   // 1 + 2 points, 2 + 2 segments, holed square 4 + 4 + area, two squares 2 x (4 + area),
   // collection point + segment, 3D line 1 segment.
   EXPECT_EQ(s.sites().size(), 29u);

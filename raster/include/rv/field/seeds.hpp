@@ -16,8 +16,11 @@
 // Not thread-safe for mutation; const access is safe from any number of threads.
 #pragma once
 
+#include <cmath>
 #include <cstdint>
 #include <limits>
+#include <memory>
+#include <ostream>
 #include <span>
 #include <string>
 #include <unordered_map>
@@ -53,10 +56,37 @@ struct Polygon {
 
 enum class GeometryKind : uint8_t { point, line, polygon, mixed };
 
+// A feature's source name, immutable and shared by the copies of a seed set: copying a set of
+// 50,000 features (each step of a session does) copies pointers, not 50,000 strings. Empty when
+// the feature has no name. Thread safety: as std::shared_ptr<const std::string> (copies may be
+// made and read from any number of threads).
+class SourceText {
+ public:
+  SourceText() = default;
+  SourceText(std::string text)  // NOLINT(google-explicit-constructor): a name is given as text
+      : text_(text.empty() ? nullptr : std::make_shared<const std::string>(std::move(text))) {}
+  SourceText(const char* text) : SourceText(std::string(text)) {}  // NOLINT(google-explicit-constructor)
+  const std::string& str() const { return text_ ? *text_ : empty_text(); }
+  operator const std::string&() const { return str(); }  // NOLINT(google-explicit-constructor)
+  bool empty() const { return !text_; }
+  // The bytes this name holds apart from the feature (0 when shared ownership is not counted):
+  // the shared block and the text's own buffer.
+  int64_t heap_bytes() const;
+  friend bool operator==(const SourceText& a, const SourceText& b) { return a.str() == b.str(); }
+  friend std::ostream& operator<<(std::ostream& o, const SourceText& s) { return o << s.str(); }
+
+ private:
+  static const std::string& empty_text() {
+    static const std::string none;
+    return none;
+  }
+  std::shared_ptr<const std::string> text_;
+};
+
 struct Feature {
   int32_t owner = 0;  // owner code, 1..owner_count()
   GeometryKind kind = GeometryKind::point;
-  std::string source;  // where it came from, for messages ("file.gpkg:layer:fid 7")
+  SourceText source;  // where it came from, for messages ("file.gpkg:layer:fid 7")
   // The delimitation adjustments (SeedSet::set_adjustment): the feature's distance d counts as
   // d / weight (a multiplicatively weighted, "equiratio" comparison; weight > 0 and finite), and
   // only where d <= reach (metric units; an island with a reach of 12 nmi is enclaved in a 12 nmi
@@ -82,7 +112,7 @@ class SeedSet {
   // Registers an owner label and returns its code (1-based; the same label gets the same code).
   int32_t owner_code(const std::string& label);
   // Adds a feature owned by `owner` (a code from owner_code) and returns its 0-based index.
-  int32_t add_feature(int32_t owner, std::string source = {});
+  int32_t add_feature(int32_t owner, SourceText source = {});
 
   // Geometry of the most recently added feature (feature must be the last index; sites stay in
   // feature order). Coordinates must be finite: otherwise rv::Error(invalid_input) naming the
@@ -103,7 +133,7 @@ class SeedSet {
   // metric's.
   void scale_reaches(double factor);
   // True when some feature has a weight other than 1 or a finite reach.
-  bool adjusted() const;
+  bool adjusted() const { return adjusted_features_ > 0; }
   // A copy without the features whose `drop` entry (one per feature) is true: the same owners
   // and codes (an owner may be left without features), the kept features, sites and polygons in
   // their order. `site_of` receives, per site of the copy, its index here.
@@ -148,6 +178,8 @@ class SeedSet {
 
  private:
   void check_feature(int32_t feature) const;
+  static int is_adjusted(const Feature& f) { return f.weight != 1.0 || std::isfinite(f.reach); }
+  void count_adjusted();  // adjusted_features_ from features_
   void add_site(const Site& s);
 
   std::vector<Site> sites_;
@@ -155,6 +187,7 @@ class SeedSet {
   std::vector<Feature> features_;
   std::vector<std::string> owner_labels_;
   std::unordered_map<std::string, int32_t> owner_index_;
+  int64_t adjusted_features_ = 0;  // features whose weight or reach is not the default: O(1) adjusted()
 };
 
 }  // namespace rv
