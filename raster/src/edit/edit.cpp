@@ -219,6 +219,10 @@ namespace {
 constexpr int64_t kBlock = 16;
 constexpr int64_t kSubBlock = 4;   // plan_part's second bound, within a block that may be won
 constexpr int64_t kSuperTile = 4;  // tiles bounded together first (tile_bounds)
+// The rows of a tile line_tiles tells apart: a tile's flag holds one bit per band of kLineBand
+// rows (an edit near a coast flags a few bands of a few tiles, and the rows extracted again are
+// those bands', not the tiles' 256).
+constexpr int64_t kLineBand = TileSummaries::kTile / TileSummaries::kBands;
 
 // Relative slack on a base cost: the Float32 distance's rounding (2^-24), generously.
 constexpr double kSlack = 1e-6;
@@ -520,6 +524,11 @@ struct Edit::State {
   // tile). A negative limit asks for no bound. 0 for a group of `all`.
   std::vector<double> tile_bounds(const FeatureGroup& group, const TileRange& range,
                                   std::span<const double> limit) const;
+  // A lower bound of the distance from `group`'s features to the centres of cells [c0, c1) x
+  // [r0, r1) of the grid (box_bound; 0 for a group of `all`).
+  double group_bound(const FeatureGroup& group, int64_t c0, int64_t r0, int64_t c1, int64_t r1) const {
+    return group.all ? 0.0 : box_bound(*group.metric, *group.plain, grid, c0, r0, c1, r1);
+  }
   void check_tiles(const TileSummaries* tiles) const;
   // `boxed`: cells in a box of changed polygon edges may be there.
   Part plan_part(const NearestField& base, const Window& w, int64_t c0, int64_t r0, int64_t c1, int64_t r1,
@@ -696,8 +705,10 @@ std::vector<uint8_t> Edit::line_tiles(const TileSummaries& tiles, double reach_f
   const State& st = *st_;
   const GridSpec& g = st.grid;
   st.check_tiles(&tiles);
-  constexpr int64_t T = TileSummaries::kTile;
-  std::vector<uint8_t> near(static_cast<size_t>(tiles.cols * tiles.rows), 1);
+  constexpr int64_t T = TileSummaries::kTile, B = kLineBand;
+  constexpr uint8_t kWhole = 0xFF;
+  static_assert(T % B == 0 && T / B == 8, "a tile's bands are the bits of its flag");
+  std::vector<uint8_t> near(static_cast<size_t>(tiles.cols * tiles.rows), kWhole);
   if (st.base_seeds.adjusted() || st.edited.adjusted() || st.match.owners_reordered || st.options.geolocator ||
       st.added.all || st.removed.all)
     return near;
@@ -705,35 +716,65 @@ std::vector<uint8_t> Edit::line_tiles(const TileSummaries& tiles, double reach_f
   // a row's cells (a degree of latitude is at most 111.7 km, one of longitude less).
   const double diag =
       std::sqrt(2.0) * g.res * (st.options.metric.kind == MetricSpec::geodesic ? 111700.0 : 1.0) * (1.0 + kSlack);
-  std::vector<uint8_t> changed;
+  // The bands where the field may change: those the plan's mask meets (a tile it read may keep
+  // every cell), or every band of a tile the plan would read.
+  std::vector<uint8_t> changed(near.size(), 0);
   if (plan != nullptr && plan->window.col0 == 0 && plan->window.row0 == 0 && plan->window.width == g.width &&
       plan->window.height == g.height) {
-    changed.assign(near.size(), 0);
-    for (const int64_t k : plan->tiles_read) changed[static_cast<size_t>(k)] = 1;
+    for (int64_t r = 0; r < g.height; ++r)
+      for (const auto& [c0, c1] : plan->mask.rows[static_cast<size_t>(r)])
+        for (int64_t tc = c0 / T; tc <= (c1 - 1) / T; ++tc)
+          changed[static_cast<size_t>(r / T * tiles.cols + tc)] |= static_cast<uint8_t>(1u << (r % T / B));
   } else {
-    changed = tiles_to_read(tiles);
+    const std::vector<uint8_t> read = tiles_to_read(tiles);
+    for (size_t k = 0; k < read.size(); ++k) changed[k] = read[k] ? kWhole : 0;
   }
-  // Per tile: flagged already (changed, or near a box of changed edges), or the distance within
-  // which a removed or an added site may be measured there.
-  std::vector<double> reach(near.size(), -1.0);
-  for (int64_t tr = 0; tr < tiles.rows; ++tr)
-    for (int64_t tc = 0; tc < tiles.cols; ++tc) {
-      const auto k = static_cast<size_t>(tr * tiles.cols + tc);
-      const int64_t c0 = tc * T, r0 = tr * T, c1 = std::min(g.width, c0 + T), r1 = std::min(g.height, r0 + T);
-      double d = std::max(static_cast<double>(tiles.max_distance[k]), reach_floor);
-      if (tiles.unowned[k]) d = std::max(d, st.options.max_distance);
-      d = d * (1.0 + kSlack) + 4.0 * diag;
-      near[k] = changed[k] ||
-                st.box_meets(std::max<int64_t>(0, c0 - 3), std::max<int64_t>(0, r0 - 3), std::min(g.width, c1 + 3),
-                             std::min(g.height, r1 + 3)) ||
-                !std::isfinite(d);
-      if (!near[k]) reach[k] = d;
-    }
+  // Per tile and band, the distance within which a removed or an added site may be measured
+  // there: from its largest distance, the floor, and the max distance where it has unowned cells;
+  // none (every band) where it is not finite. A tile's reach is its bands' largest.
+  auto reach_of = [&](float max_distance, uint8_t unowned) {
+    double d = std::max(static_cast<double>(max_distance), reach_floor);
+    if (unowned) d = std::max(d, st.options.max_distance);
+    d = d * (1.0 + kSlack) + 4.0 * diag;
+    return std::isfinite(d) ? d : -1.0;
+  };
+  constexpr int64_t kBands = TileSummaries::kBands;
+  std::vector<double> reach(near.size(), -1.0), band_reach(near.size() * kBands, -1.0);
+  for (size_t k = 0; k < near.size(); ++k) {
+    reach[k] = reach_of(tiles.max_distance[k], tiles.unowned[k]);
+    for (size_t b = 0; b < kBands; ++b)
+      band_reach[k * kBands + b] =
+          tiles.has_bands() && reach[k] >= 0.0
+              ? reach_of(tiles.band_max_distance[k * kBands + b], tiles.band_unowned[k * kBands + b])
+              : reach[k];
+  }
   const State::TileRange all{0, 0, tiles.rows, tiles.cols};
   const std::vector<double> removed = st.removed.any ? st.tile_bounds(st.removed, all, reach) : std::vector<double>{};
   const std::vector<double> added = st.added.any ? st.tile_bounds(st.added, all, reach) : std::vector<double>{};
-  for (size_t k = 0; k < near.size(); ++k)
-    near[k] = near[k] || (st.removed.any && removed[k] <= reach[k]) || (st.added.any && added[k] <= reach[k]);
+  // A tile's flag: the bands (bit b: rows [b * B, b * B + B) of the tile) a box of changed edges
+  // meets, the field may change in, or a removed or an added site may be measured in.
+  for (int64_t tr = 0; tr < tiles.rows; ++tr)
+    for (int64_t tc = 0; tc < tiles.cols; ++tc) {
+      const auto k = static_cast<size_t>(tr * tiles.cols + tc);
+      if (reach[k] < 0.0) continue;  // every band
+      const int64_t c0 = tc * T, c1 = std::min(g.width, c0 + T);
+      const bool removal = st.removed.any && removed[k] <= reach[k], addition = st.added.any && added[k] <= reach[k];
+      const bool boxed = st.box_meets(std::max<int64_t>(0, c0 - 3), std::max<int64_t>(0, tr * T - 3),
+                                      std::min(g.width, c1 + 3), std::min(g.height, tr * T + T + 3));
+      uint8_t bands = changed[k];
+      for (int64_t b = 0; b < T / B && (removal || addition || boxed); ++b) {
+        const int64_t r0 = tr * T + b * B, r1 = std::min(g.height, r0 + B);
+        if (r0 >= g.height) break;
+        const double d = band_reach[k * kBands + static_cast<size_t>(b)];
+        const bool in = d < 0.0 ||
+                        (boxed && st.box_meets(std::max<int64_t>(0, c0 - 3), std::max<int64_t>(0, r0 - 3),
+                                               std::min(g.width, c1 + 3), std::min(g.height, r1 + 3))) ||
+                        (removal && st.group_bound(st.removed, c0, r0, c1, r1) <= d) ||
+                        (addition && st.group_bound(st.added, c0, r0, c1, r1) <= d);
+        if (in) bands |= static_cast<uint8_t>(1u << b);
+      }
+      near[k] = bands;
+    }
   return near;
 }
 
@@ -754,9 +795,14 @@ std::vector<std::pair<int64_t, int64_t>> Edit::line_rows(std::span<const uint8_t
   if (near.size() != static_cast<size_t>(tiles.cols * tiles.rows))
     throw Error(ErrorKind::invalid_argument, "edit: the line tiles do not fit the grid");
   std::vector<std::pair<int64_t, int64_t>> rows;
+  constexpr int64_t B = kLineBand;
   for (int64_t tr = 0; tr < tiles.rows; ++tr)
-    for (int64_t tc = 0; tc < tiles.cols; ++tc)
-      if (near[static_cast<size_t>(tr * tiles.cols + tc)]) rows.emplace_back(tr * T, std::min(g.height, tr * T + T));
+    for (int64_t tc = 0; tc < tiles.cols; ++tc) {
+      const uint8_t bands = near[static_cast<size_t>(tr * tiles.cols + tc)];
+      for (int64_t b = 0; b < T / B; ++b)
+        if (bands & (1u << b) && tr * T + b * B < g.height)
+          rows.emplace_back(tr * T + b * B, std::min(g.height, tr * T + b * B + B));
+    }
   for (const LinePieces& p : base_pieces)
     for (const int64_t r : p.rows_naming_dropped(st.remap)) rows.emplace_back(r, r + 1);
   for (auto& [a, b] : rows) {

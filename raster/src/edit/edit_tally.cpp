@@ -21,6 +21,8 @@ TileSummaries TileSummaries::for_grid(const GridSpec& grid) {
   t.max_distance.assign(n, -1.0f);
   t.max_cost.assign(n, -1.0f);
   t.unowned.assign(n, 0);
+  t.band_max_distance.assign(n * kBands, -1.0f);
+  t.band_unowned.assign(n * kBands, 0);
   return t;
 }
 
@@ -30,14 +32,16 @@ void TileSummaries::add(const int32_t* site, const float* distance, int64_t row0
   const auto& features = seeds.features();
   // Without weights a cost is its distance: no site's feature to look up per cell.
   const bool weighted = std::any_of(features.begin(), features.end(), [](const Feature& f) { return f.weight != 1.0; });
+  const bool bands = has_bands() && band_unowned.size() == band_max_distance.size();
   for (int64_t r = 0; r < rows; ++r) {
     const size_t tile_row = static_cast<size_t>((row0 + r) / kTile * cols);
+    const auto band = static_cast<size_t>((row0 + r) % kTile / (kTile / kBands));
     for (int64_t c0 = 0; c0 < width; c0 += kTile) {
       if (only && !only[static_cast<size_t>(((row0 + r) / kTile - row0 / kTile) * cols + c0 / kTile)]) continue;
       const size_t k = tile_row + static_cast<size_t>(c0 / kTile);
-      float max_d = max_distance[k];
+      float max_d = -1.0f;
       double max_c = max_cost[k];
-      bool none = unowned[k] != 0;
+      bool none = false;
       for (int64_t c = c0; c < std::min(width, c0 + kTile); ++c) {
         const size_t i = static_cast<size_t>(r * width + c);
         const int32_t s = site[i];
@@ -51,6 +55,12 @@ void TileSummaries::add(const int32_t* site, const float* distance, int64_t row0
           max_c = std::max(max_c, static_cast<double>(distance[i]) / w);
         }
       }
+      if (bands) {
+        band_max_distance[k * kBands + band] = std::max(band_max_distance[k * kBands + band], max_d);
+        band_unowned[k * kBands + band] |= none ? 1 : 0;
+      }
+      max_d = std::max(max_d, max_distance[k]);
+      none = none || unowned[k] != 0;
       max_distance[k] = max_d;
       if (!weighted) max_c = std::max(max_c, static_cast<double>(max_d));
       // Rounded up: the summary bounds every cost of the tile.

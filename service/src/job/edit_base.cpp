@@ -258,8 +258,15 @@ std::string EditBaseWriter::commit() {
     lines[name]["key"] = kb.first;
   }
   if (!lines.empty()) manifest_["line_pieces"] = lines;
-  manifest_["tiles"] = {{"size", TileSummaries::kTile},       {"cols", tiles.cols},         {"rows", tiles.rows},
-                        {"max_distance", tiles.max_distance}, {"max_cost", tiles.max_cost}, {"unowned", tiles.unowned}};
+  manifest_["tiles"] = {{"size", TileSummaries::kTile},
+                        {"cols", tiles.cols},
+                        {"rows", tiles.rows},
+                        {"max_distance", tiles.max_distance},
+                        {"max_cost", tiles.max_cost},
+                        {"unowned", tiles.unowned},
+                        {"bands", TileSummaries::kBands},
+                        {"band_max_distance", tiles.band_max_distance},
+                        {"band_unowned", tiles.band_unowned}};
   write_file_atomically(temp_ + "/manifest.json", json_text(manifest_, 1) + "\n");
   std::error_code ec;
   std::string old;
@@ -434,6 +441,15 @@ EditBase::EditBase(std::shared_ptr<EditBaseFiles> files, const JobSpec& spec, co
       const size_t n = static_cast<size_t>(st.tiles.cols * st.tiles.rows);
       if (st.tiles.max_distance.size() != n || st.tiles.max_cost.size() != n || st.tiles.unowned.size() != n)
         throw Error(ErrorKind::invalid_input, "");
+      // The bands' summaries, where the base has them of this layout (else the tiles' stand for them).
+      st.tiles.band_max_distance.clear();
+      st.tiles.band_unowned.clear();
+      if (t.value("bands", int64_t{0}) == TileSummaries::kBands && t.contains("band_max_distance")) {
+        st.tiles.band_max_distance = t.at("band_max_distance").get<std::vector<float>>();
+        st.tiles.band_unowned = t.at("band_unowned").get<std::vector<uint8_t>>();
+        if (!st.tiles.has_bands() || st.tiles.band_unowned.size() != st.tiles.band_max_distance.size())
+          throw Error(ErrorKind::invalid_input, "");
+      }
     } catch (const std::exception&) {
       throw Error(ErrorKind::invalid_input, "base: " + dir_name + "/manifest.json has no tile summaries of its grid");
     }

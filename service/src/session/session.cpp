@@ -629,7 +629,8 @@ int64_t Session::State::memory_bytes() const {
         static_cast<int64_t>(full.site.cells().size() * sizeof(int32_t) + full.distance.cells().size() * sizeof(float));
     b += partial->nil_seeds.memory_bytes();
   }
-  b += static_cast<int64_t>(tiles.max_distance.size() * (2 * sizeof(float) + 1));
+  b += static_cast<int64_t>(tiles.max_distance.size() * (2 * sizeof(float) + 1) +
+                            tiles.band_max_distance.size() * (sizeof(float) + 1));
   b += job.loaded.seeds.memory_bytes() + static_cast<int64_t>(job.loaded.input_position.capacity() * sizeof(int64_t));
   b += features->memory_bytes() + lines.memory_bytes();
   b += static_cast<int64_t>(slot_of.capacity() * sizeof(size_t));

@@ -177,6 +177,61 @@ TEST(Edit, GeodesicEditsEqualAFreshRun) {
 // (tiles_to_read) are those plan() reads, and an edit made in place with only those tiles valid --
 // every other cell spoiled -- gives a fresh run's cells there, reading no spoiled cell; every other
 // tile is the base's, renumbered, in the fresh run too (a file may copy it).
+TEST(Edit, TileSummariesHoldEachBandsLargestDistanceAndUnownedCells) {
+  // The oracle: a scan of each tile's and band's cells. A max distance leaves cells unowned; a
+  // second add of some tiles (as a session after a step) keeps the largest of both.
+  const GridSpec grid = test::grid_of(700, 560, 1.0);
+  std::mt19937_64 rng(8);
+  std::vector<Spec> specs;
+  for (int i = 0; i < 40; ++i) specs.push_back(random_spec(rng, 0.0, 0.0, 700.0, 560.0, false));
+  ComputeOptions options;
+  options.max_distance = 60.0;
+  const SeedSet seeds = build(specs);
+  const NearestField field = compute(seeds, grid, options);
+  TileSummaries tiles = TileSummaries::for_grid(grid);
+  ASSERT_TRUE(tiles.has_bands());
+  tiles.add(field.site.data(), field.distance.data(), 0, grid.height, grid.width, seeds);
+  constexpr int64_t T = TileSummaries::kTile, B = T / TileSummaries::kBands;
+  auto check = [&](const NearestField& f, const char* what) {
+    SCOPED_TRACE(what);
+    int64_t unowned_bands = 0;
+    for (int64_t tr = 0; tr < tiles.rows; ++tr)
+      for (int64_t tc = 0; tc < tiles.cols; ++tc) {
+        const auto k = static_cast<size_t>(tr * tiles.cols + tc);
+        float tile_max = -1.0f;
+        for (int64_t b = 0; b < TileSummaries::kBands; ++b) {
+          float most = -1.0f;
+          bool none = false;
+          for (int64_t r = tr * T + b * B; r < std::min(grid.height, tr * T + b * B + B); ++r)
+            for (int64_t c = tc * T; c < std::min(grid.width, tc * T + T); ++c) {
+              if (f.site.at(c, r) == kNoSite)
+                none = true;
+              else
+                most = std::max(most, f.distance.at(c, r));
+            }
+          const size_t i = k * TileSummaries::kBands + static_cast<size_t>(b);
+          EXPECT_EQ(tiles.band_max_distance[i], most) << "tile " << k << " band " << b;
+          EXPECT_EQ(tiles.band_unowned[i] != 0, none) << "tile " << k << " band " << b;
+          unowned_bands += none ? 1 : 0;
+          tile_max = std::max(tile_max, most);
+        }
+        EXPECT_EQ(tiles.max_distance[k], tile_max) << "tile " << k;
+      }
+    EXPECT_GT(unowned_bands, 0);
+  };
+  check(field, "whole grid");
+  // Tile (1, 1) taken in again from a field whose distances there are larger: its summaries grow
+  // to the new values (the larger of both), the others' stay.
+  NearestField larger = field;
+  for (int64_t r = T; r < 2 * T; ++r)
+    for (int64_t c = T; c < 2 * T; ++c)
+      if (larger.site.at(c, r) != kNoSite) larger.distance.at(c, r) += 1.0f;
+  std::vector<uint8_t> only(static_cast<size_t>(tiles.cols * tiles.rows), 0);
+  only[static_cast<size_t>(tiles.cols + 1)] = 1;
+  tiles.add(larger.site.data(), larger.distance.data(), 0, grid.height, grid.width, seeds, only.data());
+  check(larger, "one tile again");
+}
+
 TEST(Edit, OnlyTheTilesToReadAreRead) {
   const GridSpec grid = test::grid_of(700, 560, 1.0);  // 3 x 3 tiles of 256, the last ones partial
   std::mt19937_64 rng(7);

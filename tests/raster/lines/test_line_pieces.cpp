@@ -220,13 +220,31 @@ void check_edit(const Lines& l, const SeedSet& base, const SeedSet& edited, cons
     for (double d : l.request.limit_distances) floor = std::max(floor, d);
   const std::vector<LinePieces> kept{LinePieces::decode(pieces.encode())};
   const auto fed = edit.line_rows(tiles, kept, floor);
-  // The tiles from the edit's plan (what a session passes) are the tiles worked out again, and
-  // the rows from given tiles the rows.
+  // The bands from the edit's plan (what a session passes: those its mask meets) are among the
+  // bands worked out without it (every band of a tile the plan reads), and the rows from given
+  // bands the rows.
   const EditPlan plan = edit.plan(base_field, &tiles);
-  const std::vector<uint8_t> near = edit.line_tiles(tiles, floor);
-  EXPECT_EQ(edit.line_tiles(tiles, floor, &plan), near);
-  EXPECT_EQ(edit.line_rows(near, kept), fed);
+  const std::vector<uint8_t> near = edit.line_tiles(tiles, floor, &plan);
+  const std::vector<uint8_t> without_plan = edit.line_tiles(tiles, floor);
+  ASSERT_EQ(near.size(), without_plan.size());
+  for (size_t k = 0; k < near.size(); ++k) ASSERT_EQ(near[k] & ~without_plan[k], 0) << "tile " << k;
+  EXPECT_EQ(edit.line_rows(without_plan, kept), fed);
   EXPECT_THROW(edit.line_rows(std::vector<uint8_t>(near.size() + 1, 0), kept), Error);
+  // The rows of the plan's bands, taken where the others are not, give the fresh lines too.
+  {
+    const std::vector<std::pair<int64_t, int64_t>> fed_by_plan = edit.line_rows(near, kept);
+    int64_t rows_by_plan = 0, rows_without = 0;
+    for (const auto& [a, b] : fed_by_plan) rows_by_plan += b - a;
+    for (const auto& [a, b] : fed) rows_without += b - a;
+    EXPECT_LE(rows_by_plan, rows_without);
+    const auto metric = l.metric_of(edited);
+    const OwnerIndex index(*metric);
+    const ChangedTiles by_plan{TileSummaries::kTile, near};
+    StripLines banded = l.extract(index, edited, fed_by_plan, &pieces, edit.site_map(), &by_plan);
+    banded.keep_refined(refined, by_plan, edit.site_map());
+    StripLines fresh = l.extract(index, edited, {{0, H}});
+    expect_same(banded, fresh);
+  }
   int64_t fed_rows = 0;
   for (const auto& [a, b] : fed) fed_rows += b - a;
   if (expect_rows_taken) {

@@ -819,6 +819,24 @@ TEST_F(EditJobErrors, MissingOrModifiedBaseFilesAreRefused) {
   }
   expect_refused(spec(c, "manifest"), base, ErrorKind::invalid_input, "manifest.json is damaged");
   std::ofstream(kept / "manifest.json") << manifest_text;
+  // A base of the layout before the bands' summaries (the tiles' alone) edits as well, the tiles'
+  // values standing for their bands; bands of another size are refused.
+  {
+    nlohmann::json older = nlohmann::json::parse(manifest_text);
+    ASSERT_EQ(older["tiles"]["bands"], 8);
+    for (const char* key : {"bands", "band_max_distance", "band_unowned"}) older["tiles"].erase(key);
+    std::ofstream(kept / "manifest.json") << older.dump();
+    JobSpec no_bands = spec(c, "no_bands");
+    no_bands.base_report = base.outputs.report;
+    EXPECT_NO_THROW(run_job(no_bands));
+    for (const char* file : {"own.tif", "dist.tif", "boundaries.geojson", "limits.geojson"})
+      EXPECT_TRUE(read_text(dir_ / "ok" / file) == read_text(dir_ / "no_bands" / file)) << file;
+    nlohmann::json short_bands = nlohmann::json::parse(manifest_text);
+    short_bands["tiles"]["band_unowned"].erase(0);
+    std::ofstream(kept / "manifest.json") << short_bands.dump();
+    expect_refused(spec(c, "short_bands"), base, ErrorKind::invalid_input, "has no tile summaries of its grid");
+    std::ofstream(kept / "manifest.json") << manifest_text;
+  }
   fs::remove(kept / "site.tif");
   expect_refused(spec(c, "site"), base, ErrorKind::not_found, "site.tif is missing");
   fs::remove_all(kept);

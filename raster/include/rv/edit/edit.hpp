@@ -75,6 +75,13 @@ struct TileSummaries {
   std::vector<float> max_distance;  // per tile, row-major; -1 while the tile has no owned cell
   std::vector<float> max_cost;      // rounded up to float
   std::vector<uint8_t> unowned;     // 1 where some cell has no owner
+  // The same largest distance and unowned flag per band of kTile / kBands rows of each tile
+  // (index tile * kBands + band), which rv::Edit::line_tiles reads; empty (a base saved without
+  // them): each tile's values stand for its bands.
+  static constexpr int64_t kBands = 8;
+  std::vector<float> band_max_distance;
+  std::vector<uint8_t> band_unowned;
+  bool has_bands() const { return band_max_distance.size() == max_distance.size() * kBands; }
 
   static TileSummaries for_grid(const GridSpec& grid);
   // Takes in whole rows [row0, row0 + rows) of the grid: sites and distances (metric units) of
@@ -137,27 +144,30 @@ class Edit {
   // The rows of the grid whose line pieces (rv::StripLines) an edit extracts again, as sorted,
   // disjoint [row0, row1) ranges; the pieces of every other row are its base's (`base_pieces`,
   // the base run's extractions with the same keys), renumbered by site_map() (StripLines::take_rows).
-  // A row is extracted again when it lies within 2 * StripLines::kDependRows rows of a tile the
-  // edit may change (tiles_to_read) or of a tile where a removed or an added site may be measured
-  // by the extraction: within the tile's largest distance, or `reach_floor` (metric units: the
-  // largest limit distance drawn per owner, measured from a cell of any owner), or the max
-  // distance where the tile has unowned cells, of a point a few cells from it; or of a piece
-  // that names a removed site. Every row (one range over the grid) where pieces cannot be taken:
-  // seeds with weights or reaches, owners in another order, a projected geodesic grid.
+  // A row is extracted again when it lies within 2 * StripLines::kDependRows rows of a band of
+  // 32 rows of a tile (line_tiles) where the edit may change a cell (tiles_to_read) or where a
+  // removed or an added site may be measured by the extraction: within the band's largest
+  // distance, or `reach_floor` (metric units: the largest limit distance drawn per owner,
+  // measured from a cell of any owner), or the max distance where the band has unowned cells,
+  // of a point a few cells from it; or of a piece that names a removed site. Every row (one
+  // range over the grid) where pieces cannot be taken: seeds with weights or reaches, owners in
+  // another order, a projected geodesic grid.
   std::vector<std::pair<int64_t, int64_t>> line_rows(const TileSummaries& tiles,
                                                      std::span<const LinePieces> base_pieces, double reach_floor) const;
   // The same rows from line_tiles()' flags, made once by the caller (who also passes them to
   // rv::StripLines::keep_refined).
   std::vector<std::pair<int64_t, int64_t>> line_rows(std::span<const uint8_t> line_tiles,
                                                      std::span<const LinePieces> base_pieces) const;
-  // Per tile of the grid (TileSummaries order), 1 where the edit may change a cell or a
-  // measurement by the metric within it, as line_rows reads them (before its rows are widened):
-  // a tile it may change, one its changed features' box meets, or one where a removed or an added
-  // site may be measured; every tile where line_rows gives every row. A line segment whose
-  // tiles (its ends' cells widened by two) are all 0 measures as it did before the edit
-  // (rv::StripLines::keep_refined).
-  // `plan`, when given, is this edit's plan of the whole grid with the same summaries: the tiles
-  // it reads are those the edit may change (what tiles_to_read would work out again).
+  // Per tile of the grid (TileSummaries order), the bands of its rows (bit b: the tile's rows
+  // [32 b, 32 b + 32)) where the edit may change a cell or a measurement by the metric, as
+  // line_rows reads them (before its rows are widened): bands it may change, bands its changed
+  // features' box meets (widened by 3 cells), and bands where a removed or an added site may be
+  // measured; 0xFF (every band of every tile) where line_rows gives every row. A line segment
+  // whose tiles (its ends' cells widened by two) are all 0 measures as it did before the edit
+  // (rv::StripLines::keep_refined, which reads a tile's flag as a whole).
+  // `plan`, when given, is this edit's plan of the whole grid with the same summaries: the bands
+  // its mask meets are those the edit may change; without it, every band of each tile the plan
+  // would read (tiles_to_read), a superset.
   std::vector<uint8_t> line_tiles(const TileSummaries& tiles, double reach_floor, const EditPlan* plan = nullptr) const;
 
   // The plan for `base`, the base field over any window of the grid (the field of the base seeds
