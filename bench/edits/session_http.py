@@ -89,6 +89,7 @@ def main():
                 page.append(client[-1] + time.perf_counter() - t)
                 print(f"edit {k}: {client[-1]:.3f} s (server {server[-1]:.3f} s, of which the step "
                       f"{answer['timings']['total']:.3f} s: {json.dumps(answer['timings'])}; "
+                      f"lines: {json.dumps({k: v for k, v in answer['recompute'].items() if k != 'whole'})}; "
                       f"cells {answer['cells']['owner_changed']}; with the page's reads {page[-1]:.3f} s)", flush=True)
                 status, _, _ = d.json("POST", f"/sessions/{sid}/undo", {})
                 assert status == 200
