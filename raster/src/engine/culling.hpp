@@ -117,18 +117,12 @@ void solve_block(const EngineContext& ctx, Policy& p, typename Policy::Worker& w
   p.split(b, [&](const Block& part) { solve_block(ctx, p, wk, depth + 1, part); });
 }
 
-// The tiles of the window to solve, as indices t (column t % ntx, row t / ntx of the window's
-// tiles, first tile (tx0, ty0)), ascending: every tile, or under a mask the tiles with a masked
-// cell, found from the mask's spans in one pass (an edit's mask of a few thousand cells in a grid
-// of 1e8 then asks no question of the other tiles).
+// The tiles of the window with a masked cell, as indices t (column t % ntx, row t / ntx of the
+// window's tiles, first tile (tx0, ty0)), ascending, found from the mask's spans in one pass (an
+// edit's mask of a few thousand cells in a grid of 1e8 then asks no question of the other
+// tiles). Needs ctx.mask.
 inline std::vector<int64_t> tiles_to_solve(const EngineContext& ctx, int64_t tile, int64_t tx0, int64_t ty0,
                                            int64_t ntx, int64_t nty) {
-  std::vector<int64_t> out;
-  if (ctx.mask == nullptr) {
-    out.resize(static_cast<size_t>(ntx * nty));
-    for (size_t t = 0; t < out.size(); ++t) out[t] = static_cast<int64_t>(t);
-    return out;
-  }
   const Window& w = ctx.window;
   std::vector<uint8_t> hit(static_cast<size_t>(ntx * nty), 0);
   for (int64_t r = 0; r < w.height; ++r) {
@@ -137,6 +131,7 @@ inline std::vector<int64_t> tiles_to_solve(const EngineContext& ctx, int64_t til
       for (int64_t tx = (w.col0 + c0) / tile - tx0; tx <= (w.col0 + c1 - 1) / tile - tx0; ++tx)
         hit[static_cast<size_t>(ty * ntx + tx)] = 1;
   }
+  std::vector<int64_t> out;
   for (size_t t = 0; t < hit.size(); ++t)
     if (hit[t]) out.push_back(static_cast<int64_t>(t));
   return out;
@@ -154,21 +149,27 @@ void run_tiles(const EngineContext& ctx, Policy& p) {
   const int64_t tx0 = w.col0 / kTile, tx1 = (w.col0 + w.width - 1) / kTile;
   const int64_t ty0 = w.row0 / kTile, ty1 = (w.row0 + w.height - 1) / kTile;
   const int64_t ntx = tx1 - tx0 + 1, nty = ty1 - ty0 + 1;
-  const std::vector<int64_t> tiles = tiles_to_solve(ctx, kTile, tx0, ty0, ntx, nty);
-  auto tile_of = [&](int64_t t) {
+  // Under a mask, the tiles it meets (the others' cells advance the progress at once); else all.
+  std::vector<int64_t> masked;
+  if (ctx.mask != nullptr) masked = tiles_to_solve(ctx, kTile, tx0, ty0, ntx, nty);
+  const int64_t count = ctx.mask != nullptr ? static_cast<int64_t>(masked.size()) : ntx * nty;
+  auto tile_of = [&](int64_t i) {
+    const int64_t t = ctx.mask != nullptr ? masked[static_cast<size_t>(i)] : i;
     const int64_t gx = (tx0 + t % ntx) * kTile, gy = (ty0 + t / ntx) * kTile;
     return Block{std::max<int64_t>(gx - w.col0, 0), std::max<int64_t>(gy - w.row0, 0),
                  std::min(gx + kTile - w.col0, w.width), std::min(gy + kTile - w.row0, w.height), kTile};
   };
-  int64_t skipped = w.width * w.height;
-  for (const int64_t t : tiles) skipped -= tile_of(t).cells();
-  if (skipped > 0) ctx.progress->advance(skipped);
+  if (ctx.mask != nullptr) {
+    int64_t skipped = w.width * w.height;
+    for (int64_t i = 0; i < count; ++i) skipped -= tile_of(i).cells();
+    if (skipped > 0) ctx.progress->advance(skipped);
+  }
   std::vector<typename Policy::Worker> workers(static_cast<size_t>(ctx.threads));
   parallel_for(
-      ctx.threads, static_cast<int64_t>(tiles.size()),
+      ctx.threads, count,
       [&](int64_t i, int worker) {
         typename Policy::Worker& wk = workers[static_cast<size_t>(worker)];
-        const Block tile = tile_of(tiles[static_cast<size_t>(i)]);
+        const Block tile = tile_of(i);
         if (in_mask(ctx, tile) && p.start_tile(wk, tile)) solve_block(ctx, p, wk, 0, tile);
         ctx.progress->advance(tile.cells());
       },
