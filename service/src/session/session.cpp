@@ -233,8 +233,9 @@ json Session::State::deliver(const Edit* edit, const EditPlan* plan, const TileS
   lap("rows");
   d.keep_refined(refined, std::move(changed));
   add_field(d);
-  std::map<std::string, LinePieces> now_pieces = d.line_pieces();
   lap("extract");
+  std::map<std::string, LinePieces> now_pieces = d.line_pieces();
+  lap("pieces");
   d.finish_lines();
   lap("chain");
   // Kept once the lines are made (a step that fails keeps the state before).
