@@ -92,6 +92,17 @@ const std::string& LinePieces::key() const {
   return d_ ? d_->key : none;
 }
 
+int64_t LinePieces::memory_bytes() const {
+  if (!d_) return 0;
+  auto bytes = [](const auto& v) { return static_cast<int64_t>(v.capacity() * sizeof(v[0])); };
+  int64_t b = static_cast<int64_t>(sizeof(Data) + d_->key.capacity());
+  for (const Data::Boundary& p : d_->boundary)
+    b += bytes(p.crossings) + bytes(p.slivers) + bytes(p.tripoints) + bytes(p.tripoint_row) + bytes(p.links) +
+         bytes(p.link_pair) + bytes(p.link_row) + bytes(p.unplaced) + bytes(p.counts);
+  for (const Data::Limit& p : d_->limits) b += bytes(p.edges) + bytes(p.verts) + bytes(p.links) + bytes(p.link_row);
+  return b;
+}
+
 std::string LinePieces::encode() const {
   if (!d_) throw Error(ErrorKind::invalid_argument, "line pieces: none to encode");
   const Data& d = *d_;

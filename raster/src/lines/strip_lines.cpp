@@ -171,6 +171,10 @@ struct BoundaryRun {
     const int64_t dt = static_cast<int64_t>(t.tripoints.size()) - static_cast<int64_t>(t0);
     const size_t sites = b.owner_of_site.size();
     const size_t owners = static_cast<size_t>(b.index.metric().seeds().owner_count());
+    // Room for the rows' crossings at once (an edit takes most of the grid's rows in two calls;
+    // growing the index by rehashing cost more than filling it).
+    x.on_edge.reserve(x.on_edge.size() + (x1 - x0));
+    x.crossings.reserve(x.crossings.size() + (x1 - x0));
     for (size_t i = x0; i < x1; ++i) {
       Crossing cr = p.crossings[i];
       cr.v.site_a = mapped_site(site_map, cr.v.site_a, sites);
@@ -295,6 +299,9 @@ struct LimitRun {
     const size_t x0 = first_at(p.edges.size(), crossings_to, edge_row);
     const size_t x1 = first_at(p.edges.size(), row1, edge_row);
     const int64_t dx = static_cast<int64_t>(x.edges.size()) - static_cast<int64_t>(x0);
+    x.at.reserve(x.at.size() + (x1 - x0));  // (as the boundaries' index)
+    x.edges.reserve(x.edges.size() + (x1 - x0));
+    x.verts.reserve(x.verts.size() + (x1 - x0));
     for (size_t i = x0; i < x1; ++i) {
       x.at.emplace(p.edges[i], static_cast<int32_t>(x.edges.size()));
       x.edges.push_back(p.edges[i]);

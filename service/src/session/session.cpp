@@ -125,7 +125,7 @@ struct Session::State {
   bool whole_steps = false;  // made with partial effect: every step computes the whole job again
   TileSummaries tiles;
   std::map<std::string, LinePieces> pieces;
-  mutable int64_t piece_bytes = -1;  // their encoded size, measured when memory is asked (-1: not yet)
+  mutable int64_t piece_bytes = -1;  // their bytes in memory, counted when memory is asked (-1: not yet)
   // The lines' refinement, segment by segment, of the current state (the regions' edges only
   // once its files are made).
   mutable std::map<std::string, RefinedSegments> refined;
@@ -637,7 +637,7 @@ int64_t Session::State::memory_bytes() const {
   b += static_cast<int64_t>(slot_of.capacity() * sizeof(size_t));
   if (piece_bytes < 0) {
     piece_bytes = 0;
-    for (const auto& [name, p] : pieces) piece_bytes += static_cast<int64_t>(p.encode().size());
+    for (const auto& [name, p] : pieces) piece_bytes += p.memory_bytes();
   }
   b += piece_bytes;
   for (const auto& [name, r] : refined) b += r.memory_bytes();

@@ -205,6 +205,11 @@ void check_edit(const Lines& l, const SeedSet& base, const SeedSet& edited, cons
   const OwnerIndex base_index(*base_metric);
   StripLines base_lines = l.extract(base_index, base, {{0, H}});
   const LinePieces pieces = base_lines.pieces();
+  // Their bytes in memory, counted without encoding: none for no pieces; a decoded copy holds the
+  // same arrays at their sizes, never more than the extraction's capacities.
+  EXPECT_EQ(LinePieces().memory_bytes(), 0);
+  EXPECT_GT(pieces.memory_bytes(), static_cast<int64_t>(pieces.key().size()));
+  EXPECT_LE(LinePieces::decode(pieces.encode()).memory_bytes(), pieces.memory_bytes());
   base_lines.keep_refined();
   base_lines.take_boundaries();
   base_lines.take_limits();

@@ -44,6 +44,9 @@ class LinePieces {
   // StripLines::key() of the extraction that made them.
   const std::string& key() const;
   std::string encode() const;
+  // The bytes the pieces hold in memory (their arrays' capacities and the key), without encoding
+  // them: a session counts it after every step.
+  int64_t memory_bytes() const;
   // Throws rv::Error(invalid_input) for bytes that are not pieces of this format (magic, version,
   // truncated, trailing bytes, a row or a link out of range, rows out of order).
   static LinePieces decode(std::string_view bytes);
