@@ -123,6 +123,18 @@ bool edge_unchanged(const ChangedTiles& changed, int64_t W, int64_t H, int64_t e
   return tiles_unchanged(changed, W, H, c - M, r - M, c + 1 + M, r + 1 + M);
 }
 
+// Room for `n` more elements in a vector or an unordered map, growing at least twofold (a base's
+// rows are taken in a few large calls, or, in a streamed edit, in many small ones).
+template <class C>
+void room_for(C& c, size_t n) {
+  if constexpr (requires { c.capacity(); }) {
+    if (c.size() + n > c.capacity()) c.reserve(std::max(c.size() + n, 2 * c.capacity()));
+  } else {
+    if (static_cast<double>(c.size() + n) > static_cast<double>(c.bucket_count()) * c.max_load_factor())
+      c.reserve(std::max(c.size() + n, 2 * c.size()));
+  }
+}
+
 // One boundary extraction in progress.
 struct BoundaryRun {
   boundary_stages::BoundaryGrid b;
@@ -171,10 +183,10 @@ struct BoundaryRun {
     const int64_t dt = static_cast<int64_t>(t.tripoints.size()) - static_cast<int64_t>(t0);
     const size_t sites = b.owner_of_site.size();
     const size_t owners = static_cast<size_t>(b.index.metric().seeds().owner_count());
-    // Room for the rows' crossings at once (an edit takes most of the grid's rows in two calls;
-    // growing the index by rehashing cost more than filling it).
-    x.on_edge.reserve(x.on_edge.size() + (x1 - x0));
-    x.crossings.reserve(x.crossings.size() + (x1 - x0));
+    // Room for the rows' crossings at once (a session's step takes most of the grid's rows in two
+    // calls, and rehashing the index as it grew cost more than filling it).
+    room_for(x.on_edge, x1 - x0);
+    room_for(x.crossings, x1 - x0);
     for (size_t i = x0; i < x1; ++i) {
       Crossing cr = p.crossings[i];
       cr.v.site_a = mapped_site(site_map, cr.v.site_a, sites);
@@ -299,9 +311,9 @@ struct LimitRun {
     const size_t x0 = first_at(p.edges.size(), crossings_to, edge_row);
     const size_t x1 = first_at(p.edges.size(), row1, edge_row);
     const int64_t dx = static_cast<int64_t>(x.edges.size()) - static_cast<int64_t>(x0);
-    x.at.reserve(x.at.size() + (x1 - x0));  // (as the boundaries' index)
-    x.edges.reserve(x.edges.size() + (x1 - x0));
-    x.verts.reserve(x.verts.size() + (x1 - x0));
+    room_for(x.at, x1 - x0);  // (as the boundaries')
+    room_for(x.edges, x1 - x0);
+    room_for(x.verts, x1 - x0);
     for (size_t i = x0; i < x1; ++i) {
       x.at.emplace(p.edges[i], static_cast<int32_t>(x.edges.size()));
       x.edges.push_back(p.edges[i]);

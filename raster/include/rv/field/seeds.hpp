@@ -69,8 +69,8 @@ class SourceText {
   const std::string& str() const { return text_ ? *text_ : empty_text(); }
   operator const std::string&() const { return str(); }  // NOLINT(google-explicit-constructor)
   bool empty() const { return !text_; }
-  // The bytes this name holds apart from the feature (0 when shared ownership is not counted):
-  // the shared block and the text's own buffer.
+  // The bytes this name holds apart from the feature: the shared block and the text's own
+  // buffer, counted in full by every copy (a set's memory counts the names it may outlive).
   int64_t heap_bytes() const;
   friend bool operator==(const SourceText& a, const SourceText& b) { return a.str() == b.str(); }
   friend std::ostream& operator<<(std::ostream& o, const SourceText& s) { return o << s.str(); }
