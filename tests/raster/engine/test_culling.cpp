@@ -192,7 +192,9 @@ TEST(Culling, AMaskedRunVisitsExactlyTheTilesWithAMaskedCell) {
           expected.push_back(t);
       }
       EXPECT_EQ(detail::tiles_to_solve(ctx, kTile, tx0, ty0, ntx, nty), expected) << "trial " << trial;
-      if (trial > 0) EXPECT_FALSE(expected.empty());
+      if (trial > 0) {
+        EXPECT_FALSE(expected.empty());
+      }
     }
   }
 }
