@@ -738,16 +738,8 @@ std::vector<uint8_t> Edit::line_tiles(const TileSummaries& tiles, double reach_f
     d = d * (1.0 + kSlack) + 4.0 * diag;
     return std::isfinite(d) ? d : -1.0;
   };
-  constexpr int64_t kBands = TileSummaries::kBands;
-  std::vector<double> reach(near.size(), -1.0), band_reach(near.size() * kBands, -1.0);
-  for (size_t k = 0; k < near.size(); ++k) {
-    reach[k] = reach_of(tiles.max_distance[k], tiles.unowned[k]);
-    for (size_t b = 0; b < kBands; ++b)
-      band_reach[k * kBands + b] =
-          tiles.has_bands() && reach[k] >= 0.0
-              ? reach_of(tiles.band_max_distance[k * kBands + b], tiles.band_unowned[k * kBands + b])
-              : reach[k];
-  }
+  std::vector<double> reach(near.size(), -1.0);
+  for (size_t k = 0; k < near.size(); ++k) reach[k] = reach_of(tiles.max_distance[k], tiles.unowned[k]);
   const State::TileRange all{0, 0, tiles.rows, tiles.cols};
   const std::vector<double> removed = st.removed.any ? st.tile_bounds(st.removed, all, reach) : std::vector<double>{};
   const std::vector<double> added = st.added.any ? st.tile_bounds(st.added, all, reach) : std::vector<double>{};
@@ -765,7 +757,8 @@ std::vector<uint8_t> Edit::line_tiles(const TileSummaries& tiles, double reach_f
       for (int64_t b = 0; b < T / B && (removal || addition || boxed); ++b) {
         const int64_t r0 = tr * T + b * B, r1 = std::min(g.height, r0 + B);
         if (r0 >= g.height) break;
-        const double d = band_reach[k * kBands + static_cast<size_t>(b)];
+        const size_t kb = k * TileSummaries::kBands + static_cast<size_t>(b);
+        const double d = tiles.has_bands() ? reach_of(tiles.band_max_distance[kb], tiles.band_unowned[kb]) : reach[k];
         const bool in = d < 0.0 ||
                         (boxed && st.box_meets(std::max<int64_t>(0, c0 - 3), std::max<int64_t>(0, r0 - 3),
                                                std::min(g.width, c1 + 3), std::min(g.height, r1 + 3))) ||

@@ -32,7 +32,7 @@ void TileSummaries::add(const int32_t* site, const float* distance, int64_t row0
   const auto& features = seeds.features();
   // Without weights a cost is its distance: no site's feature to look up per cell.
   const bool weighted = std::any_of(features.begin(), features.end(), [](const Feature& f) { return f.weight != 1.0; });
-  const bool bands = has_bands() && band_unowned.size() == band_max_distance.size();
+  const bool bands = has_bands();
   for (int64_t r = 0; r < rows; ++r) {
     const size_t tile_row = static_cast<size_t>((row0 + r) / kTile * cols);
     const auto band = static_cast<size_t>((row0 + r) % kTile / (kTile / kBands));

@@ -170,7 +170,7 @@ void run_tiles(const EngineContext& ctx, Policy& p) {
       [&](int64_t i, int worker) {
         typename Policy::Worker& wk = workers[static_cast<size_t>(worker)];
         const Block tile = tile_of(i);
-        if (in_mask(ctx, tile) && p.start_tile(wk, tile)) solve_block(ctx, p, wk, 0, tile);
+        if (p.start_tile(wk, tile)) solve_block(ctx, p, wk, 0, tile);  // (every tile here meets the mask)
         ctx.progress->advance(tile.cells());
       },
       [&](int worker) { p.workers_done(workers[static_cast<size_t>(worker)]); });

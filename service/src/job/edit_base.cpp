@@ -447,8 +447,7 @@ EditBase::EditBase(std::shared_ptr<EditBaseFiles> files, const JobSpec& spec, co
       if (t.value("bands", int64_t{0}) == TileSummaries::kBands && t.contains("band_max_distance")) {
         st.tiles.band_max_distance = t.at("band_max_distance").get<std::vector<float>>();
         st.tiles.band_unowned = t.at("band_unowned").get<std::vector<uint8_t>>();
-        if (!st.tiles.has_bands() || st.tiles.band_unowned.size() != st.tiles.band_max_distance.size())
-          throw Error(ErrorKind::invalid_input, "");
+        if (!st.tiles.has_bands()) throw Error(ErrorKind::invalid_input, "");
       }
     } catch (const std::exception&) {
       throw Error(ErrorKind::invalid_input, "base: " + dir_name + "/manifest.json has no tile summaries of its grid");

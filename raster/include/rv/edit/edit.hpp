@@ -81,7 +81,9 @@ struct TileSummaries {
   static constexpr int64_t kBands = 8;
   std::vector<float> band_max_distance;
   std::vector<uint8_t> band_unowned;
-  bool has_bands() const { return band_max_distance.size() == max_distance.size() * kBands; }
+  bool has_bands() const {
+    return band_max_distance.size() == max_distance.size() * kBands && band_unowned.size() == band_max_distance.size();
+  }
 
   static TileSummaries for_grid(const GridSpec& grid);
   // Takes in whole rows [row0, row0 + rows) of the grid: sites and distances (metric units) of
