@@ -382,15 +382,22 @@ void chain_limit_lines(const Target& t, const LimitCrossings& x, const std::vect
   std::vector<Done> done(verts.size());
   detail::parallel_for(t.grid.threads, static_cast<int64_t>(done.size()), [&](int64_t k, int) {
     Done& d = done[static_cast<size_t>(k)];
-    const std::vector<LimitVertex>& v = verts[static_cast<size_t>(k)];
+    std::vector<LimitVertex>& v = verts[static_cast<size_t>(k)];
     d.line.distance = t.D;
     d.line.owner = t.owner;
     d.line.closed = chains.closed[static_cast<size_t>(k)];
     d.before = static_cast<int64_t>(v.size());
+    if (!(tol > 0.0) || v.size() <= 2) {  // nothing to simplify: the chain is the line
+      d.line.vertices = std::move(v);
+      d.line.vertices.shrink_to_fit();
+      return;
+    }
     std::vector<Vec2> pts;
     pts.reserve(v.size());
     for (const LimitVertex& p : v) pts.push_back(p.p);
-    for (size_t i : simplify_indices(pts, tol)) d.line.vertices.push_back(v[i]);
+    const std::vector<size_t> keep = simplify_indices(pts, tol);
+    d.line.vertices.reserve(keep.size());
+    for (size_t i : keep) d.line.vertices.push_back(v[i]);
     if (refiner != nullptr && d.line.vertices.size() != v.size()) d.simplified = refiner->measure(d.line.vertices);
   });
   for (Done& d : done) {

@@ -155,14 +155,18 @@ class SegmentReuse {
                              std::min(row_of(u.y), row_of(v.y)) - kMargin, std::max(col_of(u.x), col_of(v.x)) + kMargin,
                              std::max(row_of(u.y), row_of(v.y)) + kMargin);
     };
+    valid_.resize(memo.entries.size());
     size_t n = 0;
-    for (const Entry& e : memo.entries) n += valid(e) ? 1 : 0;
+    for (size_t i = 0; i < memo.entries.size(); ++i) {
+      valid_[i] = valid(memo.entries[i]) ? 1 : 0;
+      n += valid_[i];
+    }
     size_t size = 16;
     while (size < 2 * n) size *= 2;
     slots_.assign(size, 0);
     for (size_t i = 0; i < memo.entries.size(); ++i) {
       const Entry& e = memo.entries[i];
-      if (!valid(e)) continue;
+      if (valid_[i] == 0) continue;
       size_t s = segment_hash(e.a, e.b, memo.start(e).p, memo.end(e).p) & (size - 1);
       while (slots_[s] != 0) s = (s + 1) & (size - 1);
       slots_[s] = static_cast<uint32_t>(i + 1);
@@ -177,6 +181,17 @@ class SegmentReuse {
       if (e.a == a && e.b == b && same_vertex(u, memo_.start(e), map_) && same_vertex(v, memo_.end(e), map_)) return &e;
     }
     return nullptr;
+  }
+  // The entry after `e` (one this reuse returned) when it is valid, goes on along e's line (its
+  // start is e's end) and is segment u -> v of owners a, b, where u equals e's end; else null.
+  // A line unchanged over a stretch is found entry after entry in memory order this way, without
+  // the index's scattered reads.
+  const Entry* after(const Entry* e, int32_t a, int32_t b, const V& v) const {
+    const auto i = static_cast<size_t>(e - memo_.entries.data()) + 1;
+    if (i >= memo_.entries.size() || valid_[i] == 0) return nullptr;
+    const Entry& n = memo_.entries[i];
+    if (n.u_at != e->out1 - 1 || n.a != a || n.b != b || !same_vertex(v, memo_.end(n), map_)) return nullptr;
+    return &n;
   }
   // Appends entry e's points (renumbered) to `out` and its bows to `bows`; false, with nothing
   // appended, where one of its points names a site the edit removed.
@@ -198,6 +213,7 @@ class SegmentReuse {
   const SegmentMemo<V, Stat>& memo_;
   std::span<const int32_t> map_;
   std::vector<uint32_t> slots_;  // entry index + 1; 0: empty
+  std::vector<uint8_t> valid_;   // per entry: 1 where the edit left it valid
 };
 
 }  // namespace rv
@@ -228,7 +244,13 @@ int64_t refine_with_memo(const SegmentReuse<V, Stat>* reuse, std::vector<typenam
       kept->push_back(Entry{0, static_cast<uint32_t>(out0), static_cast<uint32_t>(out1), static_cast<uint32_t>(bow0),
                             static_cast<uint32_t>(bow1), a, b, st});
   };
-  auto held = [&](size_t i) { return reuse != nullptr ? reuse->find(a, b, v[i], v[i + 1]) : nullptr; };
+  const Entry* last = nullptr;  // the entry taken for the segment before, if it was
+  auto held = [&](size_t i) -> const Entry* {
+    if (reuse == nullptr) return nullptr;
+    if (last != nullptr)
+      if (const Entry* n = reuse->after(last, a, b, v[i + 1])) return n;
+    return reuse->find(a, b, v[i], v[i + 1]);
+  };
   int64_t taken = 0;
   std::vector<RefinedRun<Stat>> runs;
   for (size_t i = i0; i < i1;) {
@@ -239,8 +261,10 @@ int64_t refine_with_memo(const SegmentReuse<V, Stat>* reuse, std::vector<typenam
       entry(out0, out.size(), bow0, bows.size(), e->stat);
       ++taken;
       ++i;
+      last = e;
       continue;
     }
+    last = nullptr;
     size_t j = i + 1;
     while (j < i1 && held(j) == nullptr) ++j;
     runs.clear();

@@ -244,6 +244,18 @@ struct BoundaryRun {
     p.counts = counts.rows;
     return p;
   }
+  // After finish() (which reads them last), the pieces but the tripoints moved into `p`: finish()
+  // takes the tripoints (and may add to them), so keep_pieces copies them before.
+  void move_pieces(Pieces::Boundary& p) {
+    p.crossings = std::move(x.crossings);
+    p.slivers.assign(x.sliver_at.begin(), x.sliver_at.end());
+    std::sort(p.slivers.begin(), p.slivers.end());
+    p.links = std::move(links.links);
+    p.link_pair = std::move(links.pair);
+    p.link_row = std::move(links.row);
+    p.unplaced = std::move(unplaced);
+    p.counts = std::move(counts.rows);
+  }
 
   BoundaryResult finish(const SegmentReuse<BoundaryVertex, boundary_stages::LineRefiner::Added>* reuse = nullptr,
                         boundary_stages::BoundaryMemo* record = nullptr) {
@@ -338,15 +350,30 @@ struct LimitRun {
 
   Pieces::Limit pieces() const {
     Pieces::Limit p;
+    p.link_row = link_rows();
     p.edges = x.edges;
     p.verts = x.verts;
     p.links = links;
-    // A link joins crossings on two edges of its square, one of them on the square's top row.
-    const int64_t W = t.grid.W;
-    for (const auto& l : links)
-      p.link_row.push_back(static_cast<int32_t>(
-          std::min(x.edges[static_cast<size_t>(l[0])], x.edges[static_cast<size_t>(l[1])]) / 2 / W));
     return p;
+  }
+  // The same, moved out (after the chains, which read them last).
+  Pieces::Limit move_pieces() {
+    Pieces::Limit p;
+    p.link_row = link_rows();
+    p.edges = std::move(x.edges);
+    p.verts = std::move(x.verts);
+    p.links = std::move(links);
+    return p;
+  }
+  // A link joins crossings on two edges of its square, one of them on the square's top row.
+  std::vector<int32_t> link_rows() const {
+    const int64_t W = t.grid.W;
+    std::vector<int32_t> rows;
+    rows.reserve(links.size());
+    for (const auto& l : links)
+      rows.push_back(static_cast<int32_t>(
+          std::min(x.edges[static_cast<size_t>(l[0])], x.edges[static_cast<size_t>(l[1])]) / 2 / W));
+    return rows;
   }
 };
 
@@ -386,6 +413,8 @@ struct StripLines::Impl {
     std::atomic<int64_t> taken{0};                         // vertices taken (the look-ups run on threads)
   };
   std::unique_ptr<Measured> measured;
+  // With keep_pieces: the pieces, filled as the lines are taken.
+  std::shared_ptr<Pieces> kept;
 
   Impl(const GridSpec& grid, const OwnerIndex& i) : g(grid), index(i) {}
 
@@ -545,6 +574,27 @@ LinePieces StripLines::pieces() const {
   return LinePieces(std::move(d));
 }
 
+void StripLines::keep_pieces() {
+  Impl& m = *impl_;
+  m.require_all("line pieces");
+  if (m.boundaries_taken || m.limits_taken)
+    throw Error(ErrorKind::invalid_argument, "line pieces kept from after the lines were taken");
+  m.kept = std::make_shared<Pieces>();
+  m.kept->key = m.key;
+  m.kept->measured_here = true;
+  m.kept->width = m.g.width;
+  m.kept->height = m.g.height;
+  m.kept->boundary.resize(m.boundary.size());
+  m.kept->limits.resize(m.limits.size());
+}
+
+LinePieces StripLines::kept_pieces() const {
+  const Impl& m = *impl_;
+  if (!m.kept || !taken())
+    throw Error(ErrorKind::invalid_argument, "kept line pieces asked for before the lines were taken, or not kept");
+  return LinePieces(m.kept);
+}
+
 void StripLines::take_rows(const LinePieces& base, int64_t row1, std::span<const int32_t> site_map) {
   Impl& m = *impl_;
   if (base.empty() || base.key() != m.key)
@@ -677,12 +727,22 @@ BoundaryResult StripLines::take_boundaries() {
   if (m.boundary.empty() || m.boundaries_taken)
     throw Error(ErrorKind::invalid_argument, "boundaries not requested, or already taken");
   m.boundaries_taken = true;
-  if (!m.keeping) return m.boundary.front().finish();
-  Impl::Keeping& k = *m.keeping;
-  std::optional<SegmentReuse<BoundaryVertex, boundary_stages::LineRefiner::Added>> reuse;
-  if (!k.before.empty()) reuse.emplace(k.before.d_->boundary, m.g, k.changed, k.site_map);
-  BoundaryResult result = m.boundary.front().finish(reuse ? &*reuse : nullptr, &k.now->boundary);
-  k.now->boundary.shrink_to_fit();
+  BoundaryRun& run = m.boundary.front();
+  if (m.kept) {
+    m.kept->boundary.front().tripoints = run.t.tripoints;
+    m.kept->boundary.front().tripoint_row = run.t.found_row;
+  }
+  BoundaryResult result;
+  if (!m.keeping) {
+    result = run.finish();
+  } else {
+    Impl::Keeping& k = *m.keeping;
+    std::optional<SegmentReuse<BoundaryVertex, boundary_stages::LineRefiner::Added>> reuse;
+    if (!k.before.empty()) reuse.emplace(k.before.d_->boundary, m.g, k.changed, k.site_map);
+    result = run.finish(reuse ? &*reuse : nullptr, &k.now->boundary);
+    k.now->boundary.shrink_to_fit();
+  }
+  if (m.kept) run.move_pieces(m.kept->boundary.front());
   return result;
 }
 
@@ -704,6 +764,7 @@ LimitResult StripLines::take_limits() {
     limit_stages::chain_limit_lines(run.t, run.x, run.links, m.limit_tol, result, &refiner, reuse ? &*reuse : nullptr,
                                     m.keeping ? &m.keeping->now->limits[i] : nullptr);
     if (m.keeping) m.keeping->now->limits[i].shrink_to_fit();
+    if (m.kept) m.kept->limits[i] = run.move_pieces();
   }
   return result;
 }

@@ -182,6 +182,17 @@ std::map<std::string, LinePieces> StripDeliverables::line_pieces() {
   return out;
 }
 
+void StripDeliverables::keep_line_pieces() {
+  st_->complete_lines();
+  for (auto& [name, lines] : st_->lines()) lines->keep_pieces();
+}
+
+std::map<std::string, LinePieces> StripDeliverables::kept_line_pieces() {
+  std::map<std::string, LinePieces> out;
+  for (auto& [name, lines] : st_->lines()) out[name] = lines->taken() ? lines->kept_pieces() : lines->pieces();
+  return out;
+}
+
 StripDeliverables::StripDeliverables(JobRun& run, const PreparedJob& job, bool streamed,
                                      const PartialEffectResult* partial)
     : st_(std::make_unique<State>(run, job, streamed, partial)) {

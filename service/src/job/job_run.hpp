@@ -147,6 +147,11 @@ class StripDeliverables {
   // After the last strip, before finish(): every line extraction's pieces, by name (what the run
   // keeps for edits of it).
   std::map<std::string, LinePieces> line_pieces();
+  // The same without copying them (a session's step): keep_line_pieces() after the last strip,
+  // before finish_lines(); kept_line_pieces() after it (an extraction finish_lines() does not
+  // take, the regions' reach, is copied then).
+  void keep_line_pieces();
+  std::map<std::string, LinePieces> kept_line_pieces();
   // Before finish(): the lines' refinement keeps what it does (refined_segments()), and, for an
   // edit's lines (take_lines_from), takes the segments of `before` (an earlier state's
   // refined_segments(), by name) that the edit's `changed` tiles leave valid

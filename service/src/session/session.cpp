@@ -234,9 +234,9 @@ json Session::State::deliver(const Edit* edit, const EditPlan* plan, const TileS
   d.keep_refined(refined, std::move(changed));
   add_field(d);
   lap("extract");
-  std::map<std::string, LinePieces> now_pieces = d.line_pieces();
-  lap("pieces");
+  d.keep_line_pieces();
   d.finish_lines();
+  std::map<std::string, LinePieces> now_pieces = d.kept_line_pieces();
   lap("chain");
   // Kept once the lines are made (a step that fails keeps the state before).
   pieces = std::move(now_pieces);

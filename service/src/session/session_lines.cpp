@@ -12,14 +12,18 @@ namespace {
 
 using json = nlohmann::json;
 
+// A line's coordinates hashed a word at a time (splitmix64's finaliser over the running value):
+// an edit's answer hashes every vertex of every line, so a byte-wise hash cost a multiply per
+// byte.
 struct Hasher {
-  uint64_t h = 1469598103934665603ULL;  // FNV-1a
+  uint64_t h = 1469598103934665603ULL;
   void add(double v) {
-    const auto bits = std::bit_cast<uint64_t>(v);
-    for (int i = 0; i < 8; ++i) {
-      h ^= (bits >> (8 * i)) & 0xff;
-      h *= 1099511628211ULL;
-    }
+    h ^= std::bit_cast<uint64_t>(v) + 0x9e3779b97f4a7c15ULL + (h << 6) + (h >> 2);
+    h ^= h >> 30;
+    h *= 0xbf58476d1ce4e5b9ULL;
+    h ^= h >> 27;
+    h *= 0x94d049bb133111ebULL;
+    h ^= h >> 31;
   }
 };
 

@@ -115,6 +115,39 @@ TEST(LinePieces, AnyRowsTakenFromTheSameFieldGiveTheSameLines) {
   }
 }
 
+// Pieces kept as the lines are taken (StripLines::keep_pieces, moved rather than copied) equal
+// those copied before, byte for byte, and leave the lines as they are without; they are refused
+// before the last row, after a take, and before every take.
+TEST(LinePieces, PiecesKeptAsTheLinesAreTakenEqualACopyBefore) {
+  const Spec spec;
+  const Lines l = planar_lines(spec);
+  const SeedSet seeds = make_seeds(7, spec, 1.0, {0.0, 0.0});
+  const auto metric = l.metric_of(seeds);
+  const OwnerIndex index(*metric);
+  const int64_t H = l.grid.height;
+  StripLines copied = l.extract(index, seeds, {{0, H}});
+  const std::string before = copied.pieces().encode();
+  StripLines kept = l.extract(index, seeds, {{0, H}});
+  kept.keep_pieces();
+  EXPECT_THROW(kept.kept_pieces(), Error);  // no line taken yet
+  test::expect_same_lines(kept.take_boundaries(), copied.take_boundaries());
+  EXPECT_THROW(kept.kept_pieces(), Error);  // the limits not taken yet
+  test::expect_same_lines(kept.take_limits(), copied.take_limits());
+  const LinePieces pieces = kept.kept_pieces();
+  EXPECT_EQ(pieces.encode(), before);
+  EXPECT_EQ(pieces.key(), kept.key());
+  // The kept pieces serve an edit as the copied ones do.
+  StripLines taken = l.extract(index, seeds, {{300, 340}}, &pieces);
+  StripLines fresh = l.extract(index, seeds, {{0, H}});
+  expect_same(taken, fresh);
+  StripLines partial(l.grid, index, l.request);
+  partial.add(l.rows(seeds, 0, 10));
+  EXPECT_THROW(partial.keep_pieces(), Error);  // rows missing
+  StripLines late = l.extract(index, seeds, {{0, H}});
+  late.take_boundaries();
+  EXPECT_THROW(late.keep_pieces(), Error);  // a take before
+}
+
 TEST(LinePieces, DamagedOrForeignPiecesAreRefused) {
   const Spec spec;
   Lines l = planar_lines(spec);

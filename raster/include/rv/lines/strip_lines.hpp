@@ -130,6 +130,14 @@ class StripLines {
   const std::string& key() const;
   // After the last row (before take_*): every piece so far (LinePieces).
   LinePieces pieces() const;
+  // After the last row, before take_*: the pieces are kept as the lines are taken, their arrays
+  // moved into the kept pieces once the chains no longer read them instead of copied before
+  // (a session keeps every step's pieces for the next). Throws rv::Error(invalid_argument) before
+  // the last row or after a take_*.
+  void keep_pieces();
+  // After keep_pieces() and every take_* (taken()): the pieces, equal to what pieces() gave
+  // before the lines were taken. Throws rv::Error(invalid_argument) otherwise.
+  LinePieces kept_pieces() const;
   // Rows [rows(), row1) taken from `base` (an earlier run's pieces(), key() equal) instead of
   // strips, as though their strips had been added: for an edit, rows whose pieces are the base's
   // (neither the field's cells nor any measurement by the metric changed within kDependRows rows
