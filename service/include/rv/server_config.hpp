@@ -16,7 +16,8 @@
 //                 "validate_max_cells": 4000000, "max_features": 10000000,
 //                 "max_vertices": 100000000, "max_input_bytes": 2147483648,
 //                 "preview_max_vertices": 2000000,
-//                 "jobs_per_principal": 0, "cells_per_principal_per_hour": 0 },
+//                 "jobs_per_principal": 0, "cells_per_principal_per_hour": 0,
+//                 "retained_free_bytes": 1073741824 },
 //     "auth": { "principals": [], "token_file": "", "tokens": [], "jwt": {...} },
 //     "sessions": { "max_sessions": 16, "max_per_principal": 0, "max_memory_bytes": 0,
 //                   "session_memory_bytes": 0, "undo_depth": 50, "idle_expiry_s": 3600,
@@ -155,6 +156,13 @@ struct ServerConfig {
   // describe-seeds returns the features (for drawing) of uploads of at most this many vertices
   // (limits.preview_max_vertices); larger ones are described without them.
   int64_t preview_max_vertices = 2'000'000;
+  // Freed memory the C library keeps for reuse at the top of each allocator arena instead of
+  // handing it back to the system (limits.retained_free_bytes; glibc's M_TRIM_THRESHOLD, with
+  // M_MMAP_THRESHOLD fixed at its largest, 32 MiB, so that blocks above that, rasters, go back at
+  // once). A session's steps free and allocate again tens of megabytes each on the sessions'
+  // threads: given back and faulted in again every step, they cost more than the step's own work.
+  // Outside the memory account. 0 = the C library's adaptive defaults; see AllocatorSettings.
+  int64_t retained_free_bytes = int64_t{1} << 30;
   AuthConfig auth;
   PrincipalLimits principal_limits;
   SessionsConfig sessions;
@@ -165,6 +173,18 @@ struct ServerConfig {
   // The bytes of the memory account: total_memory_bytes, else 80 % of physical memory.
   int64_t memory_budget() const;
 };
+
+// What the daemon sets in the C library's allocator at start (apply_allocator_settings): nothing
+// when retained_free_bytes is 0 or when the environment's GLIBC_TUNABLES (`tunables`, null when
+// unset) sets a malloc tunable itself (the operator's word wins); else the two thresholds.
+struct AllocatorSettings {
+  bool apply = false;
+  int64_t mmap_threshold = 0, trim_threshold = 0;
+};
+AllocatorSettings allocator_settings(const ServerConfig& config, const char* tunables);
+// Applies allocator_settings(config, getenv("GLIBC_TUNABLES")) (mallopt); returns them. Call
+// before any thread starts.
+AllocatorSettings apply_allocator_settings(const ServerConfig& config);
 
 // The bytes every session together may hold (sessions.max_memory_bytes, else half of
 // memory_budget()), and one session (sessions.session_memory_bytes, else that).

@@ -1,9 +1,14 @@
 #include "rv/server_config.hpp"
 
+#include <malloc.h>
+
 #include <algorithm>
+#include <cstdlib>
 #include <fstream>
+#include <limits>
 #include <set>
 #include <sstream>
+#include <string_view>
 #include <thread>
 
 #include <unistd.h>
@@ -130,10 +135,10 @@ ServerConfig parse_server_config(const json& doc) {
   }
   if (doc.contains("limits")) {
     const json& l = doc.at("limits");
-    check_keys(
-        l, "limits",
-        {"max_cells", "max_memory_bytes", "total_memory_bytes", "validate_max_cells", "max_features", "max_vertices",
-         "max_input_bytes", "preview_max_vertices", "jobs_per_principal", "cells_per_principal_per_hour"});
+    check_keys(l, "limits",
+               {"max_cells", "max_memory_bytes", "total_memory_bytes", "validate_max_cells", "max_features",
+                "max_vertices", "max_input_bytes", "preview_max_vertices", "jobs_per_principal",
+                "cells_per_principal_per_hour", "retained_free_bytes"});
     c.limits.max_cells = get_int(l, "limits", "max_cells", c.limits.max_cells, 1);
     c.limits.max_memory_bytes = get_int(l, "limits", "max_memory_bytes", c.limits.max_memory_bytes, 0);
     c.total_memory_bytes = get_int(l, "limits", "total_memory_bytes", c.total_memory_bytes, 0);
@@ -146,6 +151,9 @@ ServerConfig parse_server_config(const json& doc) {
     c.principal_limits.jobs = static_cast<int>(get_int(l, "limits", "jobs_per_principal", c.principal_limits.jobs, 0));
     c.principal_limits.cells_per_hour =
         get_int(l, "limits", "cells_per_principal_per_hour", c.principal_limits.cells_per_hour, 0);
+    c.retained_free_bytes = get_int(l, "limits", "retained_free_bytes", c.retained_free_bytes, 0);
+    if (c.retained_free_bytes > std::numeric_limits<int>::max())
+      bad("limits.retained_free_bytes", "must be at most 2147483647 (the C library takes an int)");
   }
   if (doc.contains("auth")) parse_auth_config(doc.at("auth"), c.auth);
   if (doc.contains("sessions")) {
@@ -190,6 +198,26 @@ int64_t ServerConfig::memory_budget() const {
   const long page_size = sysconf(_SC_PAGE_SIZE);
   const int64_t physical = pages > 0 && page_size > 0 ? int64_t{pages} * page_size : 0;
   return physical / 10 * 8;
+}
+
+AllocatorSettings allocator_settings(const ServerConfig& config, const char* tunables) {
+  AllocatorSettings s;
+  if (config.retained_free_bytes <= 0) return s;
+  if (tunables != nullptr && std::string_view(tunables).find("glibc.malloc.") != std::string_view::npos) return s;
+  s.apply = true;
+  s.mmap_threshold = int64_t{32} << 20;  // glibc's largest (HEAP_MAX_SIZE / 2 on 64-bit hosts)
+  s.trim_threshold = config.retained_free_bytes;
+  return s;
+}
+
+AllocatorSettings apply_allocator_settings(const ServerConfig& config) {
+  AllocatorSettings s = allocator_settings(config, std::getenv("GLIBC_TUNABLES"));
+  // Setting either threshold ends glibc's adaptive ones, which raise the mmap threshold to the
+  // largest block freed and trim above twice that: both are set, the trim one first.
+  if (s.apply && (mallopt(M_TRIM_THRESHOLD, static_cast<int>(s.trim_threshold)) != 1 ||
+                  mallopt(M_MMAP_THRESHOLD, static_cast<int>(s.mmap_threshold)) != 1))
+    s.apply = false;
+  return s;
 }
 
 int64_t sessions_memory_budget(const ServerConfig& config) {

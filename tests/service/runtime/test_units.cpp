@@ -92,6 +92,7 @@ TEST(Config, TheExampleFileHoldsTheDefaults) {
   EXPECT_EQ(e.limits.max_vertices, d.limits.max_vertices);
   EXPECT_EQ(e.limits.max_input_bytes, d.limits.max_input_bytes);
   EXPECT_EQ(e.http.max_connections, d.http.max_connections);
+  EXPECT_EQ(e.retained_free_bytes, d.retained_free_bytes);
   EXPECT_EQ(e.sessions.max_sessions, d.sessions.max_sessions);
   EXPECT_EQ(e.sessions.max_per_principal, d.sessions.max_per_principal);
   EXPECT_EQ(e.sessions.max_memory_bytes, d.sessions.max_memory_bytes);
@@ -101,6 +102,31 @@ TEST(Config, TheExampleFileHoldsTheDefaults) {
   EXPECT_EQ(e.sessions.workers, d.sessions.workers);
   EXPECT_EQ(e.sessions.pending_per_session, d.sessions.pending_per_session);
   EXPECT_EQ(e.daemon_name, d.daemon_name);
+}
+
+// The allocator's thresholds: from limits.retained_free_bytes, none when it is 0 or when the
+// environment sets a malloc tunable; above an int refused.
+TEST(Config, AllocatorSettingsFollowTheKeyUnlessTheEnvironmentSetsThem) {
+  rv::ServerConfig c;
+  rv::AllocatorSettings s = rv::allocator_settings(c, nullptr);
+  EXPECT_TRUE(s.apply);
+  EXPECT_EQ(s.trim_threshold, int64_t{1} << 30);
+  EXPECT_EQ(s.mmap_threshold, int64_t{32} << 20);
+  c = rv::parse_server_config(json::parse(R"({"limits": {"retained_free_bytes": 268435456}})"));
+  s = rv::allocator_settings(c, "glibc.pthread.mutex_spin_count=10");
+  EXPECT_TRUE(s.apply);
+  EXPECT_EQ(s.trim_threshold, 268435456);
+  EXPECT_FALSE(rv::allocator_settings(c, "glibc.malloc.arena_max=1").apply);
+  c = rv::parse_server_config(json::parse(R"({"limits": {"retained_free_bytes": 0}})"));
+  EXPECT_FALSE(rv::allocator_settings(c, nullptr).apply);
+  EXPECT_NE(message_of([] {
+              rv::parse_server_config(json::parse(R"({"limits": {"retained_free_bytes": 4294967296}})"));
+            }).find("limits.retained_free_bytes"),
+            std::string::npos);
+  EXPECT_NE(message_of([] {
+              rv::parse_server_config(json::parse(R"({"limits": {"retained_free_bytes": -1}})"));
+            }).find("retained_free_bytes"),
+            std::string::npos);
 }
 
 TEST(Config, SessionKeysAndTheirBudgets) {
