@@ -83,7 +83,6 @@ void JwksSource::refresh_then(std::function<void()> done) {
 }
 
 bool JwksSource::load() {
-  const auto began = std::chrono::steady_clock::now();
   const bool from_file = !config_.jwks_file.empty();
   const std::string where = from_file ? config_.jwks_file : config_.jwks_url;
   std::string error;
@@ -95,7 +94,7 @@ bool JwksSource::load() {
       stamp = stamp_of(config_.jwks_file);
       std::lock_guard lock(mutex_);
       if (stamp == file_stamp_ && keys_) {
-        last_load_ = began;
+        last_load_ = std::chrono::steady_clock::now();
         return true;  // unchanged: nothing to read
       }
     }
@@ -111,7 +110,7 @@ bool JwksSource::load() {
     error = e.what();
   }
   std::lock_guard lock(mutex_);
-  last_load_ = began;
+  last_load_ = std::chrono::steady_clock::now();
   if (!fresh) {
     log_("{\"event\":\"jwks_failed\",\"source\":" + json_text(nlohmann::json(where)) + ",\"error\":" +
          json_text(nlohmann::json(error)) + ",\"keeping\":" + std::to_string(keys_ ? keys_->keys.size() : 0) + "}");

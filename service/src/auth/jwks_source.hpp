@@ -39,8 +39,10 @@ class JwksSource {
   // The current set; nullptr before any load succeeded.
   std::shared_ptr<const KeySet> keys() const;
   // Asks for a load now (a token named a key the set lacks) and calls `done` once it ended, on the
-  // source's thread. When the last load began less than jwks_min_interval_s ago, `done` runs at
-  // once on this thread instead: unknown key ids cannot make the server hammer its provider.
+  // source's thread. When the last load ended less than jwks_min_interval_s ago, `done` runs at
+  // once on this thread instead: unknown key ids cannot make the server hammer its provider. (From
+  // its end, not its start: the provider then sees requests at least that far apart however long
+  // a fetch's connection took.)
   void refresh_then(std::function<void()> done);
 
  private:
@@ -55,8 +57,8 @@ class JwksSource {
   std::vector<std::function<void()>> waiting_;
   bool requested_ = false;
   bool stopping_ = false;
-  std::chrono::steady_clock::time_point last_load_{};
-  std::string file_stamp_;  // the key file's size and modification time at its last read
+  std::chrono::steady_clock::time_point last_load_{};  // when the last load ended
+  std::string file_stamp_;                             // the key file's size and modification time at its last read
   std::thread thread_;
 };
 

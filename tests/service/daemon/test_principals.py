@@ -430,12 +430,14 @@ def rotation(tmp, keys):
         gaps = [b - a for a, b in zip(server.fetch_times, server.fetch_times[1:])]
         check(all(g >= 1.9 for g in gaps), f"https: cached, not fetched per request ({server.fetches}, gaps {gaps})")
         # Unknown key ids do not make the daemon hammer its provider: fetches at least the minimum
-        # interval (1 s) apart.
+        # interval (1 s) apart as the provider sees them. The interval runs from a fetch's end, so
+        # the next request arrives at least 1 s after this one did, however slow the connections
+        # (a loaded host once saw 0.87 s between arrivals when it ran from a fetch's start).
         start = server.fetches
         for i in range(30):
             d.request("GET", "/me", None, bearer(keys.token(kid=f"nobody-{i}")))
         gaps = [b - a for a, b in zip(server.fetch_times[start - 1:], server.fetch_times[start:])]
-        check(all(g >= 0.9 for g in gaps),
+        check(all(g >= 0.99 for g in gaps),
               f"https: unknown ids fetch at most once a second ({server.fetches - start}, gaps {gaps})")
         server.document = keys.jwks("k2")
         time.sleep(1.1)
