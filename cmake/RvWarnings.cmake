@@ -12,8 +12,13 @@ function(rv_target_defaults target)
     target_link_options(${target} PRIVATE -fsanitize=address,undefined,float-cast-overflow)
   endif()
   # Fuzz builds: coverage instrumentation for libFuzzer everywhere; the fuzz targets themselves
-  # link libFuzzer's main with -fsanitize=fuzzer (tests/fuzz/CMakeLists.txt).
-  if(RV_FUZZ)
+  # link libFuzzer's main with -fsanitize=fuzzer (tests/fuzz/CMakeLists.txt). A build that also
+  # runs the test suite (RV_SANITIZE with RV_FUZZ, CI's one clang build) instruments edges only
+  # (8-bit counters and their table, what libFuzzer's coverage feedback reads): the comparison
+  # hooks of -fsanitize=fuzzer-no-link would cost a call at every comparison in every test.
+  if(RV_FUZZ AND RV_SANITIZE)
+    target_compile_options(${target} PRIVATE -fsanitize-coverage=inline-8bit-counters,pc-table)
+  elseif(RV_FUZZ)
     target_compile_options(${target} PRIVATE -fsanitize=fuzzer-no-link)
   endif()
   if(RV_TSAN)
