@@ -413,8 +413,10 @@ struct StripLines::Impl {
     std::atomic<int64_t> taken{0};                         // vertices taken (the look-ups run on threads)
   };
   std::unique_ptr<Measured> measured;
-  // With keep_pieces: the pieces, filled as the lines are taken.
+  // With keep_pieces: the pieces, filled as the lines are taken (kept_runs: the runs whose pieces
+  // are in; a take that failed part way leaves it short, and kept_pieces() refuses).
   std::shared_ptr<Pieces> kept;
+  size_t kept_runs = 0;
 
   Impl(const GridSpec& grid, const OwnerIndex& i) : g(grid), index(i) {}
 
@@ -590,8 +592,9 @@ void StripLines::keep_pieces() {
 
 LinePieces StripLines::kept_pieces() const {
   const Impl& m = *impl_;
-  if (!m.kept || !taken())
-    throw Error(ErrorKind::invalid_argument, "kept line pieces asked for before the lines were taken, or not kept");
+  if (!m.kept || !taken() || m.kept_runs != m.boundary.size() + m.limits.size())
+    throw Error(ErrorKind::invalid_argument,
+                "kept line pieces asked for before the lines were taken (or after a take failed), or not kept");
   return LinePieces(m.kept);
 }
 
@@ -742,7 +745,10 @@ BoundaryResult StripLines::take_boundaries() {
     result = run.finish(reuse ? &*reuse : nullptr, &k.now->boundary);
     k.now->boundary.shrink_to_fit();
   }
-  if (m.kept) run.move_pieces(m.kept->boundary.front());
+  if (m.kept) {
+    run.move_pieces(m.kept->boundary.front());
+    ++m.kept_runs;
+  }
   return result;
 }
 
@@ -764,7 +770,10 @@ LimitResult StripLines::take_limits() {
     limit_stages::chain_limit_lines(run.t, run.x, run.links, m.limit_tol, result, &refiner, reuse ? &*reuse : nullptr,
                                     m.keeping ? &m.keeping->now->limits[i] : nullptr);
     if (m.keeping) m.keeping->now->limits[i].shrink_to_fit();
-    if (m.kept) m.kept->limits[i] = run.move_pieces();
+    if (m.kept) {
+      m.kept->limits[i] = run.move_pieces();
+      ++m.kept_runs;
+    }
   }
   return result;
 }

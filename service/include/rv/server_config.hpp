@@ -185,6 +185,9 @@ AllocatorSettings allocator_settings(const ServerConfig& config, const char* tun
 // Applies allocator_settings(config, getenv("GLIBC_TUNABLES")) (mallopt); returns them. Call
 // before any thread starts.
 AllocatorSettings apply_allocator_settings(const ServerConfig& config);
+// What apply_allocator_settings last set in this process (the allocator is the process's): none
+// before it ran. The daemon's "listening" line reports it.
+AllocatorSettings applied_allocator_settings();
 
 // The bytes every session together may hold (sessions.max_memory_bytes, else half of
 // memory_budget()), and one session (sessions.session_memory_bytes, else that).

@@ -22,12 +22,9 @@ int serve_main(const ServeOptions& options, JobRunner runner) {
     ServerConfig config = options.config_file.empty() ? ServerConfig{} : load_server_config(options.config_file);
     if (!options.listen.empty()) parse_listen(options.listen, config);
     if (!options.data_dir.empty()) config.data_dir = options.data_dir;
-    // Before any thread: what the allocator keeps of freed memory (ServerConfig::retained_free_bytes).
-    const AllocatorSettings allocator = apply_allocator_settings(config);
-    daemon::log_line("{\"time\":\"" + daemon::now_rfc3339() + "\",\"event\":\"allocator\",\"retained_free_bytes\":" +
-                     std::to_string(allocator.apply ? allocator.trim_threshold : 0) +
-                     ",\"mmap_threshold\":" + std::to_string(allocator.apply ? allocator.mmap_threshold : 0) +
-                     ",\"set\":" + (allocator.apply ? "true" : "false") + "}");
+    // Before any thread: what the allocator keeps of freed memory (ServerConfig::retained_free_bytes;
+    // the "listening" line reports it).
+    apply_allocator_settings(config);
     gdal_init();
 
     // SIGTERM/SIGINT are blocked in every thread (the server's threads inherit the mask) and

@@ -568,7 +568,8 @@ void Server::start() {
                    "\",\"principals\":" + std::to_string(s.config.auth.principals.size()) +
                    ",\"jwt\":" + (s.config.auth.jwt.enabled() ? "true" : "false") +
                    ",\"daemon\":" + json_escape(s.sessions->daemon_name()) +
-                   ",\"interrupted_jobs_failed\":" + std::to_string(interrupted.size()) + "}");
+                   ",\"interrupted_jobs_failed\":" + std::to_string(interrupted.size()) +
+                   ",\"retained_free_bytes\":" + std::to_string(applied_allocator_settings().trim_threshold) + "}");
 }
 
 void Server::stop() {

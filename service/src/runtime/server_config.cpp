@@ -6,6 +6,7 @@
 #include <cstdlib>
 #include <fstream>
 #include <limits>
+#include <mutex>
 #include <set>
 #include <sstream>
 #include <string_view>
@@ -210,6 +211,11 @@ AllocatorSettings allocator_settings(const ServerConfig& config, const char* tun
   return s;
 }
 
+namespace {
+std::mutex applied_mutex;
+AllocatorSettings applied;
+}  // namespace
+
 AllocatorSettings apply_allocator_settings(const ServerConfig& config) {
   AllocatorSettings s = allocator_settings(config, std::getenv("GLIBC_TUNABLES"));
   // Setting either threshold ends glibc's adaptive ones, which raise the mmap threshold to the
@@ -217,7 +223,14 @@ AllocatorSettings apply_allocator_settings(const ServerConfig& config) {
   if (s.apply && (mallopt(M_TRIM_THRESHOLD, static_cast<int>(s.trim_threshold)) != 1 ||
                   mallopt(M_MMAP_THRESHOLD, static_cast<int>(s.mmap_threshold)) != 1))
     s.apply = false;
+  std::lock_guard lock(applied_mutex);
+  if (s.apply) applied = s;
   return s;
+}
+
+AllocatorSettings applied_allocator_settings() {
+  std::lock_guard lock(applied_mutex);
+  return applied;
 }
 
 int64_t sessions_memory_budget(const ServerConfig& config) {

@@ -13,6 +13,7 @@
 #include <cmath>
 #include <cstring>
 #include <limits>
+#include <memory>
 #include <random>
 #include <string>
 #include <vector>
@@ -92,6 +93,21 @@ Lines planar_lines(const Spec& s, double max_distance = kInf) {
   return l;
 }
 
+// One planar field's lines: its seeds (from `seed`), metric and index.
+struct PlanarField {
+  Spec spec;
+  Lines l = planar_lines(spec);
+  SeedSet seeds;
+  std::unique_ptr<SiteMetric> metric;
+  std::unique_ptr<OwnerIndex> index;
+  int64_t H = l.grid.height;
+  explicit PlanarField(uint32_t seed)
+      : seeds(make_seeds(seed, spec, 1.0, {0.0, 0.0})),
+        metric(l.metric_of(seeds)),
+        index(std::make_unique<OwnerIndex>(*metric)) {}
+  StripLines whole() const { return l.extract(*index, seeds, {{0, H}}); }
+};
+
 TEST(LinePieces, AnyRowsTakenFromTheSameFieldGiveTheSameLines) {
   const Spec spec;
   const Lines l = planar_lines(spec);
@@ -119,15 +135,11 @@ TEST(LinePieces, AnyRowsTakenFromTheSameFieldGiveTheSameLines) {
 // those copied before, byte for byte, and leave the lines as they are without; they are refused
 // before the last row, after a take, and before every take.
 TEST(LinePieces, PiecesKeptAsTheLinesAreTakenEqualACopyBefore) {
-  const Spec spec;
-  const Lines l = planar_lines(spec);
-  const SeedSet seeds = make_seeds(7, spec, 1.0, {0.0, 0.0});
-  const auto metric = l.metric_of(seeds);
-  const OwnerIndex index(*metric);
-  const int64_t H = l.grid.height;
-  StripLines copied = l.extract(index, seeds, {{0, H}});
+  const PlanarField f(7);
+  const Lines& l = f.l;
+  StripLines copied = f.whole();
   const std::string before = copied.pieces().encode();
-  StripLines kept = l.extract(index, seeds, {{0, H}});
+  StripLines kept = f.whole();
   kept.keep_pieces();
   EXPECT_THROW(kept.kept_pieces(), Error);  // no line taken yet
   test::expect_same_lines(kept.take_boundaries(), copied.take_boundaries());
@@ -137,13 +149,13 @@ TEST(LinePieces, PiecesKeptAsTheLinesAreTakenEqualACopyBefore) {
   EXPECT_EQ(pieces.encode(), before);
   EXPECT_EQ(pieces.key(), kept.key());
   // The kept pieces serve an edit as the copied ones do.
-  StripLines taken = l.extract(index, seeds, {{300, 340}}, &pieces);
-  StripLines fresh = l.extract(index, seeds, {{0, H}});
+  StripLines taken = l.extract(*f.index, f.seeds, {{300, 340}}, &pieces);
+  StripLines fresh = f.whole();
   expect_same(taken, fresh);
-  StripLines partial(l.grid, index, l.request);
-  partial.add(l.rows(seeds, 0, 10));
+  StripLines partial(l.grid, *f.index, l.request);
+  partial.add(l.rows(f.seeds, 0, 10));
   EXPECT_THROW(partial.keep_pieces(), Error);  // rows missing
-  StripLines late = l.extract(index, seeds, {{0, H}});
+  StripLines late = f.whole();
   late.take_boundaries();
   EXPECT_THROW(late.keep_pieces(), Error);  // a take before
 }
@@ -180,13 +192,12 @@ TEST(LinePieces, DamagedOrForeignPiecesAreRefused) {
 // written anew by anyone) are refused when taken, since each vertex taken must be what the seeds
 // measure at it: a crossing moved along its edge or off it, a distance or a residual changed.
 TEST(LinePieces, PiecesThatAreNotWhatTheSeedsMeasureAreRefused) {
-  const Spec spec;
-  const Lines l = planar_lines(spec);
-  const SeedSet seeds = make_seeds(4, spec, 1.0, {0.0, 0.0});
-  const auto metric = l.metric_of(seeds);
-  const OwnerIndex index(*metric);
-  const int64_t H = l.grid.height;
-  StripLines whole = l.extract(index, seeds, {{0, H}});
+  const PlanarField f(4);
+  const Lines& l = f.l;
+  const SeedSet& seeds = f.seeds;
+  const OwnerIndex& index = *f.index;
+  const int64_t H = f.H;
+  StripLines whole = f.whole();
   const std::string bytes = whole.pieces().encode();
   // The layout (line_pieces.cpp): magic, version, key, width, height, one boundary, then its
   // crossings (count, then 73 bytes each: edge, two owners, vertex p.x p.y, sites, distance,

@@ -108,8 +108,10 @@ def kill_during_compute_and_write(tmp):
     data = os.path.join(tmp, "data")
     pause = os.path.join(tmp, "pause")
 
-    # A finished job, then SIGKILL of an idle daemon.
+    # A finished job, then SIGKILL of an idle daemon. Its first line reports what it set in the
+    # allocator (limits.retained_free_bytes, default 1 GiB).
     d = Daemon([CRASH_DAEMON], data, CONFIG)
+    check(d.startup.get("retained_free_bytes") == 1 << 30, f"startup reports the allocator's setting: {d.startup}")
     status, _, doc = d.json("POST", "/processes/voronoi/execution", job_body(500))
     check(status == 200, f"first job: {status} {doc}")
     done = doc["ownership"]["href"].split("/jobs/")[1].split("/")[0]
@@ -122,8 +124,10 @@ def kill_during_compute_and_write(tmp):
     check(wait_for_file(os.path.join(pause, "paused"), 60, d.proc), "the job reached the compute stage")
     check(d.wait_status(computing, {"running"}, 5)["status"] == "running", "held job is running")
     d.kill9()
-    d = Daemon([CRASH_DAEMON], data, CONFIG)
+    # A malloc tunable in the environment is the operator's: the daemon sets nothing.
+    d = Daemon([CRASH_DAEMON], data, CONFIG, env={"GLIBC_TUNABLES": "glibc.malloc.arena_max=4"})
     check(d.startup.get("interrupted_jobs_failed") == 1, f"startup reports one interrupted job: {d.startup}")
+    check(d.startup.get("retained_free_bytes") == 0, f"a malloc tunable leaves the allocator alone: {d.startup}")
     expect_interrupted(d, computing, data)
     check(fetch_results(d, done) == before, "finished results are identical after SIGKILL and restart")
     d.kill9()

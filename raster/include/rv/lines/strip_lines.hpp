@@ -136,7 +136,8 @@ class StripLines {
   // the last row or after a take_*.
   void keep_pieces();
   // After keep_pieces() and every take_* (taken()): the pieces, equal to what pieces() gave
-  // before the lines were taken. Throws rv::Error(invalid_argument) otherwise.
+  // before the lines were taken. Throws rv::Error(invalid_argument) otherwise, and after a take_*
+  // that threw.
   LinePieces kept_pieces() const;
   // Rows [rows(), row1) taken from `base` (an earlier run's pieces(), key() equal) instead of
   // strips, as though their strips had been added: for an edit, rows whose pieces are the base's
