@@ -233,8 +233,7 @@ struct BoundaryRun {
   Pieces::Boundary pieces() const {
     Pieces::Boundary p;
     p.crossings = x.crossings;
-    p.slivers.assign(x.sliver_at.begin(), x.sliver_at.end());
-    std::sort(p.slivers.begin(), p.slivers.end());
+    p.slivers = sorted_slivers();
     p.tripoints = t.tripoints;
     p.tripoint_row = t.found_row;
     p.links = links.links;
@@ -244,12 +243,17 @@ struct BoundaryRun {
     p.counts = counts.rows;
     return p;
   }
+  // The sliver crossings' owners by edge, in edge order (the map's order is not the pieces').
+  std::vector<std::pair<int64_t, int32_t>> sorted_slivers() const {
+    std::vector<std::pair<int64_t, int32_t>> out(x.sliver_at.begin(), x.sliver_at.end());
+    std::sort(out.begin(), out.end());
+    return out;
+  }
   // After finish() (which reads them last), the pieces but the tripoints moved into `p`: finish()
   // takes the tripoints (and may add to them), so keep_pieces copies them before.
   void move_pieces(Pieces::Boundary& p) {
     p.crossings = std::move(x.crossings);
-    p.slivers.assign(x.sliver_at.begin(), x.sliver_at.end());
-    std::sort(p.slivers.begin(), p.slivers.end());
+    p.slivers = sorted_slivers();
     p.links = std::move(links.links);
     p.link_pair = std::move(links.pair);
     p.link_row = std::move(links.row);

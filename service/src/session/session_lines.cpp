@@ -2,30 +2,16 @@
 #include "session/session_lines.hpp"
 
 #include <algorithm>
-#include <bit>
 #include <functional>
 #include <limits>
 #include <map>
+
+#include "rv/field/checksum.hpp"
 
 namespace rv::detail {
 namespace {
 
 using json = nlohmann::json;
-
-// A line's coordinates hashed a word at a time (splitmix64's finaliser over the running value):
-// an edit's answer hashes every vertex of every line, so a byte-wise hash cost a multiply per
-// byte.
-struct Hasher {
-  uint64_t h = 1469598103934665603ULL;
-  void add(double v) {
-    h ^= std::bit_cast<uint64_t>(v) + 0x9e3779b97f4a7c15ULL + (h << 6) + (h >> 2);
-    h ^= h >> 30;
-    h *= 0xbf58476d1ce4e5b9ULL;
-    h ^= h >> 27;
-    h *= 0x94d049bb133111ebULL;
-    h ^= h >> 31;
-  }
-};
 
 std::array<double, 4> empty_box() {
   const double inf = std::numeric_limits<double>::infinity();
@@ -59,13 +45,14 @@ json SessionLines::update(const BoundaryResult& boundaries, const LimitResult& l
   auto line_record = [](const auto& vertices, std::string group) {
     Record r;
     r.box = empty_box();
-    Hasher h;
+    // Every vertex of every line is hashed at each step: the checksum's word-at-a-time mix.
+    uint64_t h = 0;
     for (const auto& v : vertices) {
       take(r.box, v.p);
-      h.add(v.p.x);
-      h.add(v.p.y);
+      const double xy[2] = {v.p.x, v.p.y};
+      h = checksum64(xy, sizeof xy, h);
     }
-    r.hash = h.h;
+    r.hash = h;
     r.group = std::move(group);
     return r;
   };
