@@ -16,6 +16,7 @@ packages=(
   libgtest-dev libgmock-dev
   pybind11-dev python3-dev python3-pip python3-venv python3-setuptools python3-wheel
   libboost-dev libsqlite3-dev nlohmann-json3-dev libssl-dev ca-certificates
+  libpq-dev
   libopencv-dev
   python3-jsonschema python3-yaml python3-numpy
   clang-format-14
@@ -36,6 +37,9 @@ if [ "${1:-}" != "--image" ]; then
   # The Debian package's test (tools/test-package.sh): a minimal chroot, lintian, the unit's checks,
   # a network namespace for the installed daemon.
   packages+=(debootstrap lintian systemd iproute2 zstd)
+  # The shared service's tests (issue 55) start a PostgreSQL 15 server of their own (initdb in a
+  # temporary folder, as the postgres user) and an S3 server from npm (tests/package.json).
+  packages+=(postgresql-15)
 fi
 if [ "${1:-}" = "--sanitizers" ]; then
   packages+=(clang-14 libclang-rt-14-dev)

@@ -9,6 +9,7 @@
 #include "rv/field/error.hpp"
 #include "rv/field/text.hpp"
 #include "rv/json_text.hpp"
+#include "store/job_columns.hpp"
 
 namespace rv {
 namespace {
@@ -56,70 +57,20 @@ class Statement {
   sqlite3_stmt* stmt_ = nullptr;
 };
 
-constexpr const char* kColumns =
-    "id, process_id, status, message, error_kind, progress, created, started, finished, updated, "
-    "inputs, outputs, transmission, report, formats, principal, cells";
-
-// The strings of a stored JSON array; anything else (a damaged column) reads as none.
-std::vector<std::string> string_list(const nlohmann::json& doc) {
-  std::vector<std::string> out;
-  if (!doc.is_array()) return out;
-  for (const auto& item : doc)
-    if (item.is_string()) out.push_back(item.get<std::string>());
-  return out;
-}
-
 JobRecord read_row(const Statement& s) {
-  JobRecord r;
-  // Every column is read so that a damaged or older record still opens: the worst it can do is
-  // show an empty field, never fail the request (or the listing) that reads it.
-  r.id = s.display_text(0);
-  r.process_id = s.display_text(1);
-  try {
-    r.status = parse_job_status(s.text(2));
-  } catch (const Error&) {
-    r.status = JobStatus::failed;
-  }
-  r.message = s.display_text(3);
-  r.error_kind = s.display_text(4);
-  r.progress = static_cast<int>(std::clamp<int64_t>(s.integer(5), 0, 100));
-  r.created = s.display_text(6);
-  r.started = s.display_text(7);
-  r.finished = s.display_text(8);
-  r.updated = s.display_text(9);
-  r.inputs = parse_stored_json(s.text(10));
-  if (!r.inputs.is_object()) r.inputs = nlohmann::json::object();
-  r.outputs = string_list(parse_stored_json(s.text(11)));
-  r.transmission = string_list(parse_stored_json(s.text(12)));
-  const std::string report = s.text(13);
-  if (!report.empty()) {
-    r.report = parse_stored_json(report);
-    if (r.report.is_discarded()) r.report = nullptr;
-  }
-  r.formats = string_list(parse_stored_json(s.text(14)));
-  r.principal = s.display_text(15);
-  r.cells = std::max<int64_t>(s.integer(16), 0);
-  return r;
+  return store::record_from_texts([&s](int col) { return s.text(col); });
 }
 
 void bind_record(Statement& s, const JobRecord& r) {
-  s.bind(1, r.id);
-  s.bind(2, r.process_id);
-  s.bind(3, std::string(to_string(r.status)));
-  s.bind(4, valid_utf8(r.message));
-  s.bind(5, r.error_kind);
-  s.bind(6, int64_t{r.progress});
-  s.bind(7, r.created);
-  s.bind(8, r.started);
-  s.bind(9, r.finished);
-  s.bind(10, r.updated);
-  s.bind(11, json_text(r.inputs));
-  s.bind(12, json_text(nlohmann::json(r.outputs)));
-  s.bind(13, json_text(nlohmann::json(r.transmission)));
-  s.bind(14, r.report.is_null() ? std::string() : json_text(r.report));
-  s.bind(15, json_text(nlohmann::json(r.formats)));
-  s.bind(16, r.principal);
-  s.bind(17, r.cells);
+  const auto texts = store::record_texts(r);
+  for (int i = 0; i < store::kRecordColumnCount; ++i) {
+    if (i == store::kProgressColumn)
+      s.bind(i + 1, int64_t{r.progress});
+    else if (i == store::kCellsColumn)
+      s.bind(i + 1, r.cells);
+    else
+      s.bind(i + 1, texts[static_cast<size_t>(i)]);
+  }
 }
 
 }  // namespace
@@ -196,7 +147,7 @@ void JobStore::exec(const char* sql) const {
 
 void JobStore::insert(const JobRecord& job) {
   std::lock_guard lock(mutex_);
-  Statement s(db_, (std::string("INSERT INTO jobs (") + kColumns +
+  Statement s(db_, (std::string("INSERT INTO jobs (") + store::kRecordColumns +
                     ") VALUES (?1,?2,?3,?4,?5,?6,?7,?8,?9,?10,?11,?12,?13,?14,?15,?16,?17)")
                        .c_str());
   bind_record(s, job);
@@ -215,7 +166,7 @@ void JobStore::update(const JobRecord& job) {
 
 std::optional<JobRecord> JobStore::get(const std::string& id) const {
   std::lock_guard lock(mutex_);
-  Statement s(db_, (std::string("SELECT ") + kColumns + " FROM jobs WHERE id=?1").c_str());
+  Statement s(db_, (std::string("SELECT ") + store::kRecordColumns + " FROM jobs WHERE id=?1").c_str());
   s.bind(1, id);
   if (!s.step()) return std::nullopt;
   return read_row(s);
@@ -223,7 +174,7 @@ std::optional<JobRecord> JobStore::get(const std::string& id) const {
 
 std::vector<JobRecord> JobStore::list(int limit, int offset, const std::vector<JobStatus>& status,
                                       const std::string& principal) const {
-  std::string sql = std::string("SELECT ") + kColumns + " FROM jobs WHERE 1";
+  std::string sql = std::string("SELECT ") + store::kRecordColumns + " FROM jobs WHERE 1";
   if (!status.empty()) {
     sql += " AND status IN (";
     for (size_t i = 0; i < status.size(); ++i) sql += i ? ",?" : "?";
