@@ -22,8 +22,12 @@
 //     "sessions": { "max_sessions": 16, "max_per_principal": 0, "max_memory_bytes": 0,
 //                   "session_memory_bytes": 0, "undo_depth": 50, "idle_expiry_s": 3600,
 //                   "workers": 2, "pending_per_session": 8 },
-//     "daemon_name": ""
+//     "daemon_name": "",
+//     "store": "sqlite", "store_password_file": "", "store_connections": 8,
+//     "results": "", "results_shared": false
 //   }
+// jobs also takes, for a shared store: "lease_s": 30, "max_attempts": 3, "retry_backoff_s": 10,
+// "poll_s": 2, "retention_s": 0.
 // Authentication (AuthConfig below): with no principal configured (the default) every route is
 // open and every job belongs to the principal "anonymous". With principals (hashed tokens, the
 // deprecated plaintext tokens, or an identity provider's JWTs), every route except /,
@@ -72,6 +76,35 @@ struct JobsConfig {
   // SIGTERM: running jobs get this long, then are cancelled. Below the 30 s a container runtime
   // (docker stop, compose stop_grace_period) waits before SIGKILL, so cancellation finishes.
   double shutdown_grace_s = 20.0;
+  // With a shared store (StoreConfig): a claimed job's lease; heartbeats renew it every third of
+  // it, and a job whose lease expires (its daemon died or lost the database) is queued again.
+  double lease_s = 30.0;
+  int max_attempts = 3;           // claims of one job before it fails (its daemons kept dying)
+  double retry_backoff_s = 10.0;  // attempt n waits retry_backoff_s x 2^(n-1) before it runs again
+  double poll_s = 2.0;            // how often an idle worker looks at the shared queue unprompted
+  // Finished jobs (with their inputs and results) are deleted this long after they ended;
+  // 0 = kept until dismissed. Applies to a shared store.
+  double retention_s = 0.0;
+  // The sweep removes job folders no job names (and attempts a finished job does not name) once
+  // untouched this long: well above the seconds between a request's write and its row's commit.
+  double orphan_grace_s = 3600.0;
+};
+
+// Where jobs are kept (the top-level `store`, `store_password_file`, `results`, `results_shared`).
+// "sqlite" (the default): the embedded store in data_dir, results in data_dir/jobs, one daemon.
+// A postgresql:// URI: the shared store and queue of several daemons (issue 55); its password
+// comes from store_password_file or the environment (RVORONOI_STORE_PASSWORD, or libpq's own
+// PGPASSWORD / ~/.pgpass), never from the URI, and is never logged.
+struct StoreConfig {
+  std::string uri = "sqlite";
+  std::string password;       // read from password_file or the environment; never logged
+  std::string password_file;  // as configured, for messages
+  int connections = 8;        // the pool of connections to PostgreSQL
+  // Results (and a shared store's stored requests): "" = data_dir/jobs. A shared store needs a
+  // folder every daemon reaches, and says so with results_shared.
+  std::string results;
+  bool results_shared = false;
+  bool shared() const { return uri != "sqlite"; }
 };
 
 // Who may use the server, and with which rights. A principal's name owns its jobs; "anonymous"
@@ -166,6 +199,7 @@ struct ServerConfig {
   AuthConfig auth;
   PrincipalLimits principal_limits;
   SessionsConfig sessions;
+  StoreConfig store;
   // Names this daemon in its session ids ([a-z0-9-], 1..63 characters), so that a shared service
   // can tell which daemon holds a session; "" = the host name and the port listened on.
   std::string daemon_name;

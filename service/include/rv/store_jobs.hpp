@@ -49,6 +49,9 @@ struct JobRecord {
   // The grid's cells, once known (at submission when the extent is given, else once planned);
   // what the job counts against its principal's hourly allowance. 0 = not known.
   int64_t cells = 0;
+  // A shared store's jobs: where the successful attempt published its files, relative to the
+  // results location ("<id>/<attempt>"); "" = the job's directory (the SQLite store).
+  std::string results;
 };
 
 // What one job charged its principal: for the hourly allowance, restored at start.
@@ -58,7 +61,23 @@ struct CellCharge {
   int64_t cells = 0;
 };
 
-class JobStore {
+// What the API reads of the jobs, whichever store keeps them (this SQLite store, or the shared
+// PostgreSQL store of service/src/store/store_postgres.hpp).
+class JobRecords {
+ public:
+  virtual ~JobRecords() = default;
+  virtual std::optional<JobRecord> get(const std::string& id) const = 0;
+  // Newest first; `status` empty = any; `principal` empty = anyone's.
+  virtual std::vector<JobRecord> list(int limit, int offset, const std::vector<JobStatus>& status = {},
+                                      const std::string& principal = "") const = 0;
+  // The jobs created at or after `since` (RFC 3339) that charged cells (not those refused over
+  // the allowance once planned).
+  virtual std::vector<CellCharge> charges_since(const std::string& since) const = 0;
+  // How many jobs each principal owns, for the startup's account of the store.
+  virtual std::vector<std::pair<std::string, int64_t>> count_by_principal() const = 0;
+};
+
+class JobStore final : public JobRecords {
  public:
   // Opens (creating if needed) the database file. Throws rv::Error(io).
   explicit JobStore(const std::filesystem::path& db_path);
@@ -70,15 +89,11 @@ class JobStore {
   void insert(const JobRecord& job);
   // Writes every mutable field of an existing job.
   void update(const JobRecord& job);
-  std::optional<JobRecord> get(const std::string& id) const;
-  // Newest first; `status` empty = any; `principal` empty = anyone's.
+  std::optional<JobRecord> get(const std::string& id) const override;
   std::vector<JobRecord> list(int limit, int offset, const std::vector<JobStatus>& status = {},
-                              const std::string& principal = "") const;
-  // The jobs created at or after `since` (RFC 3339) that charged cells (not those refused over
-  // the allowance once planned).
-  std::vector<CellCharge> charges_since(const std::string& since) const;
-  // How many jobs each principal owns, for the startup's account of the store.
-  std::vector<std::pair<std::string, int64_t>> count_by_principal() const;
+                              const std::string& principal = "") const override;
+  std::vector<CellCharge> charges_since(const std::string& since) const override;
+  std::vector<std::pair<std::string, int64_t>> count_by_principal() const override;
 
   // At startup: every job still accepted or running belonged to a process that is gone (its
   // inputs lived in memory). Marks them failed with `message`; returns their ids.

@@ -47,8 +47,11 @@ int serve_main(const ServeOptions& options, JobRunner runner) {
     sigwait(&signals, &received);
     daemon::log_line("{\"time\":\"" + daemon::now_rfc3339() + "\",\"event\":\"signal\",\"signal\":\"" +
                      (received == SIGTERM ? "SIGTERM" : "SIGINT") +
-                     "\",\"action\":\"graceful shutdown: no new connections, queued jobs failed, running jobs get " +
-                     nlohmann::json(config.jobs.shutdown_grace_s).dump() + " s, then are cancelled\"}");
+                     "\",\"action\":\"graceful shutdown: no new connections, " +
+                     (config.store.shared() ? "queued jobs stay in the shared queue, running jobs get "
+                                            : "queued jobs failed, running jobs get ") +
+                     nlohmann::json(config.jobs.shutdown_grace_s).dump() + " s, then are cancelled" +
+                     (config.store.shared() ? " and queued again" : "") + "\"}");
     server.stop();
     return 0;
   } catch (const Error& e) {

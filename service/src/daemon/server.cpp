@@ -433,7 +433,7 @@ class Listener : public std::enable_shared_from_this<Listener> {
 // With authentication on, jobs of the anonymous principal (stored before principals, or while
 // the server was open) are the admins' alone to see: say so at start, and say when no admin is
 // configured to see them.
-void log_anonymous_jobs(const JobStore& store, const AuthConfig& auth) {
+void log_anonymous_jobs(const JobRecords& store, const AuthConfig& auth) {
   int64_t anonymous = 0;
   for (const auto& [principal, count] : store.count_by_principal())
     if (principal == auth::kAnonymous) anonymous = count;
@@ -453,7 +453,8 @@ void log_anonymous_jobs(const JobStore& store, const AuthConfig& auth) {
 struct Server::Impl {
   ServerConfig config;
   JobRunner runner;
-  std::unique_ptr<JobStore> store;
+  std::unique_ptr<JobStore> store;                        // the SQLite store, or
+  std::unique_ptr<store::PostgresJobStore> shared_store;  // the shared one (config `store`)
   std::unique_ptr<daemon::MemoryAccount> memory;
   std::unique_ptr<daemon::RequestPool> describe_pool;
   std::unique_ptr<daemon::JobManager> jobs;
@@ -502,19 +503,28 @@ void Server::start() {
       }
     }
   } lock_guard{s.lock_fd};
-  s.store = std::make_unique<JobStore>(std::filesystem::path(s.config.data_dir) / "jobs.sqlite");
-  // Decision (documented in openapi.yaml): a job that was queued or running when the previous
-  // process died cannot be resumed (its uploaded inputs lived in memory); it is failed with a
-  // message saying so, and whatever it had written is deleted.
-  const auto interrupted = s.store->fail_interrupted(
-      "the server stopped (crash or restart) before this job finished; resubmit it", daemon::now_rfc3339());
-  for (const std::string& id : interrupted) {
-    if (daemon::is_job_id(id)) {
-      std::error_code ec;
-      std::filesystem::remove_all(std::filesystem::path(s.config.data_dir) / "jobs" / id, ec);
+  std::vector<std::string> interrupted;
+  if (s.config.store.shared()) {
+    // Unreachable at start: one line, and the daemon exits (Error(busy) to serve_main).
+    s.shared_store = std::make_unique<store::PostgresJobStore>(
+        pg::ConnectInfo{s.config.store.uri, s.config.store.password, "rvoronoi", 5}, s.config.store.connections);
+  } else {
+    s.store = std::make_unique<JobStore>(std::filesystem::path(s.config.data_dir) / "jobs.sqlite");
+    // Decision (documented in openapi.yaml): a job that was queued or running when the previous
+    // process died cannot be resumed (its uploaded inputs lived in memory); it is failed with a
+    // message saying so, and whatever it had written is deleted. (A shared store's reaper
+    // queues such jobs again.)
+    interrupted = s.store->fail_interrupted(
+        "the server stopped (crash or restart) before this job finished; resubmit it", daemon::now_rfc3339());
+    for (const std::string& id : interrupted) {
+      if (daemon::is_job_id(id)) {
+        std::error_code ec;
+        std::filesystem::remove_all(std::filesystem::path(s.config.data_dir) / "jobs" / id, ec);
+      }
     }
   }
-  if (s.config.auth.enabled()) log_anonymous_jobs(*s.store, s.config.auth);
+  const JobRecords& records = s.shared_store ? static_cast<const JobRecords&>(*s.shared_store) : *s.store;
+  if (s.config.auth.enabled()) log_anonymous_jobs(records, s.config.auth);
 
   beast::error_code ec;
   const auto address = net::ip::make_address(s.config.host, ec);
@@ -534,11 +544,18 @@ void Server::start() {
 
   s.memory = std::make_unique<daemon::MemoryAccount>(s.config.memory_budget());
   s.describe_pool = std::make_unique<daemon::RequestPool>(s.config.jobs.describe_workers);
-  s.jobs = std::make_unique<daemon::JobManager>(*s.store, s.config, s.runner, *s.memory);
-  s.sessions = std::make_unique<daemon::SessionManager>(
-      s.config, *s.jobs, *s.memory,
-      s.config.daemon_name.empty() ? daemon::default_daemon_name(s.port) : s.config.daemon_name);
-  s.api = std::make_unique<daemon::Api>(s.config, *s.store, *s.jobs, *s.memory, *s.describe_pool, *s.sessions);
+  const std::string daemon_name =
+      s.config.daemon_name.empty() ? daemon::default_daemon_name(s.port) : s.config.daemon_name;
+  if (s.shared_store) {
+    // The leases' holder: fresh at every start, so that a restarted daemon never mistakes the
+    // leases of its previous life for its own.
+    s.jobs = std::make_unique<daemon::JobManager>(*s.shared_store, s.config, s.runner, *s.memory,
+                                                  daemon_name + "/" + daemon::new_job_id().substr(0, 16));
+  } else {
+    s.jobs = std::make_unique<daemon::JobManager>(*s.store, s.config, s.runner, *s.memory);
+  }
+  s.sessions = std::make_unique<daemon::SessionManager>(s.config, *s.jobs, *s.memory, daemon_name);
+  s.api = std::make_unique<daemon::Api>(s.config, records, *s.jobs, *s.memory, *s.describe_pool, *s.sessions);
   s.shared = std::make_unique<Shared>(s.config, *s.api);
   s.shared->auth.start();  // the identity provider's keys, before the first request
   s.listener = std::make_shared<Listener>(s.ioc, std::move(acceptor), *s.shared);
@@ -568,7 +585,8 @@ void Server::start() {
                    "\",\"principals\":" + std::to_string(s.config.auth.principals.size()) +
                    ",\"jwt\":" + (s.config.auth.jwt.enabled() ? "true" : "false") +
                    ",\"daemon\":" + json_escape(s.sessions->daemon_name()) +
-                   ",\"interrupted_jobs_failed\":" + std::to_string(interrupted.size()) +
+                   ",\"interrupted_jobs_failed\":" + std::to_string(interrupted.size()) + ",\"store\":\"" +
+                   (s.shared_store ? "postgresql" : "sqlite") + "\"" +
                    ",\"retained_free_bytes\":" + std::to_string(applied_allocator_settings().trim_threshold) + "}");
 }
 
@@ -599,6 +617,7 @@ void Server::stop() {
   s.describe_pool.reset();
   s.memory.reset();
   s.store.reset();
+  s.shared_store.reset();
   if (s.lock_fd >= 0) {
     ::close(s.lock_fd);
     s.lock_fd = -1;

@@ -134,7 +134,7 @@ ApiResponse problem_response(unsigned status, const std::string& type, const std
   return r;
 }
 
-Api::Api(const ServerConfig& config, JobStore& store, JobManager& jobs, MemoryAccount& memory,
+Api::Api(const ServerConfig& config, const JobRecords& store, JobManager& jobs, MemoryAccount& memory,
          RequestPool& describe_pool, SessionManager& sessions)
     : config_(config),
       store_(store),
@@ -294,7 +294,7 @@ json results_document(const JobRecord& r, const std::string& base) {
 
 // The job `id` as `who` may see it. Another principal's job is answered exactly as one that does
 // not exist: the same problem, word for word.
-JobRecord find_job(const JobStore& store, const std::string& id, const auth::Principal& who) {
+JobRecord find_job(const JobRecords& store, const std::string& id, const auth::Principal& who) {
   if (!is_job_id(id)) throw OgcNotFound("no-such-job", "no job '" + id.substr(0, 64) + "'");
   auto r = store.get(id);
   if (!r || !auth::may_see(who, r->principal)) throw OgcNotFound("no-such-job", "no job '" + id + "'");
@@ -511,15 +511,16 @@ void Api::api_document(const Request& req, const std::vector<std::string>&) cons
 
 void Api::health(const Request& req, const std::vector<std::string>&) const {
   req.reply(json_response(
-      200,
-      {{"status", "ok"},
-       {"jobs", {{"running", jobs_.running_count()}, {"queued", jobs_.queued_count()}}},
-       {"workers", config_.jobs.workers},
-       {"queueLength", config_.jobs.queue_length},
-       {"describing", describe_pool_.busy()},
-       {"sessions", {{"held", sessions_.count()}, {"memoryBytes", sessions_.memory_bytes()}}},
-       {"memory",
-        {{"budgetBytes", memory_.total()}, {"reservedBytes", memory_.reserved()}, {"waiting", memory_.waiting()}}}}));
+      200, {{"status", "ok"},
+            {"jobs", {{"running", jobs_.running_count()}, {"queued", jobs_.queued_count()}}},
+            {"workers", config_.jobs.workers},
+            {"queueLength", config_.jobs.queue_length},
+            {"describing", describe_pool_.busy()},
+            {"sessions", {{"held", sessions_.count()}, {"memoryBytes", sessions_.memory_bytes()}}},
+            {"memory",
+             {{"budgetBytes", memory_.total()}, {"reservedBytes", memory_.reserved()}, {"waiting", memory_.waiting()}}},
+            {"store",
+             {{"kind", config_.store.shared() ? "postgresql" : "sqlite"}, {"reachable", jobs_.store_reachable()}}}}));
 }
 
 void Api::me(const Request& req, const std::vector<std::string>&) const {
@@ -549,7 +550,10 @@ void Api::execute(const Request& req, const std::vector<std::string>& seg) const
   if (seg[1] == kDescribeSeedsId) return describe(req);
   const json body = parse_body_json(req.ctx.request.body);
   const std::string id = new_job_id();
-  submit_job(JobAnswer::of(req), id, parse_execution(body, id, config_));
+  Execution ex = parse_execution(body, id, config_);
+  // A shared store keeps the request for whichever daemon claims the job.
+  if (config_.store.shared()) ex.request = req.ctx.request.body;
+  submit_job(JobAnswer::of(req), id, std::move(ex));
 }
 
 Api::JobAnswer Api::JobAnswer::of(const Request& req) {
@@ -567,8 +571,7 @@ void Api::submit_job(const JobAnswer& to, const std::string& id, Execution ex) c
     return (*to.respond)(std::move(r));
   }
   const bool raw = ex.raw;
-  const std::string dir = jobs_.job_dir(id).string();
-  auto on_done = [respond = to.respond, raw, base, dir, path = to.path, &jobs = jobs_](const JobRecord& rec) {
+  auto on_done = [respond = to.respond, raw, base, path = to.path, &jobs = jobs_](const JobRecord& rec) {
     ApiResponse r;
     try {
       // The client waiting here asked for this job; if someone dismissed it meanwhile, say so
@@ -577,7 +580,7 @@ void Api::submit_job(const JobAnswer& to, const std::string& id, Execution ex) c
       if (rec.status != JobStatus::successful) throw_no_results(rec, jobs);
       if (raw) {
         const std::string& o = rec.outputs.front();
-        r = file_response(dir + "/" + file_of(rec, o), media_of(rec, o), "",
+        r = file_response(jobs.result_dir(rec).string() + "/" + file_of(rec, o), media_of(rec, o), "",
                           "the result file of job " + rec.id + " is missing");
       } else {
         r = json_response(200, results_document(rec, base));
@@ -683,7 +686,7 @@ void Api::result_file(const Request& req, const std::vector<std::string>& seg) c
                 "job " + id + " has no output '" + output.substr(0, 64) + "' (requested outputs only)");
   }
   // The file name is ours, never the client's: only the id (checked hex) and a fixed name.
-  std::string file = jobs_.job_dir(id).string() + "/" + file_of(rec, output_id);
+  std::string file = jobs_.result_dir(rec).string() + "/" + file_of(rec, output_id);
   if (sidecar) file += ".aux.xml";
   req.reply(file_response(file, media_of(rec, output), req.ctx.request.range,
                           "job " + id + " has no file for output '" + output + "'"));

@@ -76,8 +76,8 @@ using Respond = std::function<void(ApiResponse)>;
 class Api {
  public:
   // Descriptions of seed files run on `describe_pool`, each reserving its memory in `memory`.
-  Api(const ServerConfig& config, JobStore& store, JobManager& jobs, MemoryAccount& memory, RequestPool& describe_pool,
-      SessionManager& sessions);
+  Api(const ServerConfig& config, const JobRecords& store, JobManager& jobs, MemoryAccount& memory,
+      RequestPool& describe_pool, SessionManager& sessions);
   // Calls `respond` exactly once, on this thread or (synchronous execution) a worker thread.
   void handle(const ApiRequest& request, Respond respond);
 
@@ -137,7 +137,7 @@ class Api {
   void submit_job(const JobAnswer& to, const std::string& id, Execution ex) const;
 
   const ServerConfig& config_;
-  JobStore& store_;
+  const JobRecords& store_;
   JobManager& jobs_;
   MemoryAccount& memory_;
   RequestPool& describe_pool_;

@@ -83,6 +83,9 @@ struct Execution {
   // What computes the job instead of the server's runner (a job made from a live session saves
   // the session's state); empty = the runner.
   std::function<JobResult(const JobSpec&, const JobLimits&, const JobHooks&)> run;
+  // The execute request's body as received, kept with a shared store (which stores it, so that
+  // whichever daemon claims the job parses it again); "" = not kept.
+  std::string request;
 };
 
 // Throws rv::Error: invalid_argument (malformed request or parameter, naming the input),

@@ -37,31 +37,42 @@ void write_file_atomically(const std::filesystem::path& path, const std::string&
   }
 }
 
-// Tells a waiting client that its job ended. The callback builds an answer and must not take a
-// worker (or the thread that dismissed the job) down with it if that fails: logged, dropped.
-void notify_done(const JobManager::Done& on_done, const JobRecord& record) {
-  if (!on_done) return;
-  try {
-    on_done(record);
-  } catch (...) {
-    log_line("{\"time\":\"" + now_rfc3339() + "\",\"event\":\"answer_failed\",\"job\":\"" + record.id + "\"}");
-  }
-}
-
 }  // namespace
 
 JobManager::JobManager(JobStore& store, const ServerConfig& config, JobRunner runner, MemoryAccount& memory)
-    : store_(store),
+    : store_(&store),
+      root_(std::filesystem::path(config.data_dir) / "jobs"),
       config_(config),
       runner_(std::move(runner)),
       memory_(memory),
       limits_(effective_limits(config)),
       cells_(config.principal_limits.cells_per_hour) {
-  std::filesystem::create_directories(std::filesystem::path(config_.data_dir) / "jobs");
   // The hour before this start counts: a restart hands out no fresh allowance.
   const auto now = std::chrono::system_clock::now();
-  for (const CellCharge& c : store_.charges_since(rfc3339(now - CellAllowance::kWindow)))
+  for (const CellCharge& c : store_->charges_since(rfc3339(now - CellAllowance::kWindow)))
     if (const auto at = parse_rfc3339(c.created)) cells_.restore(c.principal, *at, c.cells);
+  start_threads();
+}
+
+JobManager::JobManager(store::PostgresJobStore& shared, const ServerConfig& config, JobRunner runner,
+                       MemoryAccount& memory, std::string holder)
+    : shared_(&shared),
+      holder_(std::move(holder)),
+      root_(config.store.results),
+      config_(config),
+      runner_(std::move(runner)),
+      memory_(memory),
+      limits_(effective_limits(config)),
+      cells_(config.principal_limits.cells_per_hour) {
+  start_threads();
+  heartbeat_ = std::thread([this] { heartbeat_loop(); });
+  listener_ = std::thread([this] { listen_loop(); });
+}
+
+void JobManager::start_threads() {
+  std::error_code ec;
+  std::filesystem::create_directories(root_, ec);
+  if (ec) throw Error(ErrorKind::io, "the jobs' folder '" + root_.string() + "': " + ec.message());
   for (int i = 0; i < std::max(1, config_.jobs.workers); ++i) {
     workers_.emplace_back([this] { worker_loop(); });
   }
@@ -72,7 +83,17 @@ JobManager::~JobManager() { shutdown(std::chrono::duration<double>(0)); }
 
 std::filesystem::path JobManager::job_dir(const std::string& id) const {
   if (!is_job_id(id)) throw Error(ErrorKind::internal, "job_dir: not a job id");
-  return std::filesystem::path(config_.data_dir) / "jobs" / id;
+  return root_ / id;
+}
+
+std::filesystem::path JobManager::result_dir(const JobRecord& rec) const {
+  if (!shared_ || rec.results.empty()) return job_dir(rec.id);
+  // "<id>/<attempt>", written by this program: checked all the same before it names a path.
+  const std::string attempt = rec.results.substr(std::min(rec.results.size(), rec.id.size() + 1));
+  if (rec.results.compare(0, rec.id.size() + 1, rec.id + "/") != 0 || attempt.empty() ||
+      attempt.find_first_not_of("0123456789") != std::string::npos)
+    throw Error(ErrorKind::internal, "job " + rec.id + " names damaged results");
+  return job_dir(rec.id) / attempt;
 }
 
 int64_t JobManager::cells_retry_after(const std::string& principal, int64_t cells) const {
@@ -95,10 +116,7 @@ void JobManager::check_job_count(const std::string& principal) const {
   int count = 0;
   for (const Task& t : queue_) count += t.principal == principal;
   for (const auto& [id, r] : running_) count += r.principal == principal;
-  if (count >= limit)
-    throw QuotaExceeded("this principal has " + std::to_string(count) + " jobs queued or running, the most " +
-                            std::to_string(limit) + " this server allows each; retry when one has finished",
-                        kJobsRetryAfterS);
+  if (count >= limit) throw too_many_jobs(count, limit);
 }
 
 std::string JobManager::snapshot_base(const std::string& base, const std::string& id,
@@ -107,7 +125,7 @@ std::string JobManager::snapshot_base(const std::string& base, const std::string
   // resource requested, the process, exists (a 404 would say it does not).
   auto bad = [](const std::string& what) { throw Error(ErrorKind::invalid_argument, "input 'baseJob': " + what); };
   if (!is_job_id(base)) bad("not a job id");
-  const std::optional<JobRecord> rec = store_.get(base);
+  const std::optional<JobRecord> rec = shared_ ? shared_->get(base) : store_->get(base);
   // Another principal's job is no job, exactly as one that does not exist.
   if (!rec || rec->status == JobStatus::dismissed || !auth::may_see(who, rec->principal)) bad("no job " + base);
   if (rec->status != JobStatus::successful)
@@ -115,7 +133,7 @@ std::string JobManager::snapshot_base(const std::string& base, const std::string
   // The base's report and kept field, linked into the new job's directory now: the base job may
   // be deleted while this one waits or runs, and its files then live on under these names.
   namespace fs = std::filesystem;
-  const fs::path from = job_dir(base), to = job_dir(id) / kBaseSnapshotDir;
+  const fs::path from = result_dir(*rec), to = job_dir(id) / kBaseSnapshotDir;
   if (!fs::exists(from / kEditBaseDir / "manifest.json"))
     bad("job " + base + " kept nothing for edits (only streamed jobs of the exact method do)");
   std::error_code ec;
@@ -147,13 +165,40 @@ std::string JobManager::snapshot_base(const std::string& base, const std::string
   return (to / output_file_name("report", "")).string();
 }
 
-namespace {
+// Tells a waiting client that its job ended. The callback builds an answer and must not take a
+// worker (or the thread that dismissed the job) down with it if that fails: logged, dropped.
+void notify_done(const std::function<void(const JobRecord&)>& on_done, const JobRecord& record) {
+  if (!on_done) return;
+  try {
+    on_done(record);
+  } catch (...) {
+    log_line("{\"time\":\"" + now_rfc3339() + "\",\"event\":\"answer_failed\",\"job\":\"" + record.id + "\"}");
+  }
+}
 
-// The limits bind every principal but the admins who signed in as such (on a server without
-// authentication the anonymous principal is everyone, and bound by them).
+JobRecord accepted_record(const std::string& id, const Execution& execution, const auth::Principal& who) {
+  JobRecord rec;
+  rec.id = id;
+  rec.process_id = "voronoi";
+  rec.status = JobStatus::accepted;
+  rec.message = "queued";
+  rec.created = rec.updated = now_rfc3339();
+  rec.inputs = execution.inputs_summary;
+  rec.outputs = execution.outputs;
+  rec.transmission = execution.transmission;
+  rec.formats = execution.formats;
+  rec.principal = who.name;
+  rec.cells = execution.cells;
+  return rec;
+}
+
 bool exempt_from_limits(const auth::Principal& who) { return who.role == Role::admin && who.how != "none"; }
 
-}  // namespace
+QuotaExceeded too_many_jobs(int64_t count, int limit) {
+  return QuotaExceeded("this principal has " + std::to_string(count) + " jobs queued or running, the most " +
+                           std::to_string(limit) + " this server allows each; retry when one has finished",
+                       kJobsRetryAfterS);
+}
 
 void JobManager::charge_cells(const auth::Principal& who, int64_t cells) {
   if (!exempt_from_limits(who)) cells_.charge(who.name, cells);
@@ -181,18 +226,8 @@ void JobManager::submit_work(const std::string& name, const auth::Principal& who
 }
 
 JobRecord JobManager::submit(const std::string& id, Execution execution, const auth::Principal& who, Done on_done) {
-  JobRecord rec;
-  rec.id = id;
-  rec.process_id = "voronoi";
-  rec.status = JobStatus::accepted;
-  rec.message = "queued";
-  rec.created = rec.updated = now_rfc3339();
-  rec.inputs = execution.inputs_summary;
-  rec.outputs = execution.outputs;
-  rec.transmission = execution.transmission;
-  rec.formats = execution.formats;
-  rec.principal = who.name;
-  rec.cells = execution.cells;
+  if (shared_) return submit_shared(id, std::move(execution), who, std::move(on_done));
+  const JobRecord rec = accepted_record(id, execution, who);
 
   std::lock_guard lock(mutex_);
   if (stopping_) throw Error(ErrorKind::busy, "the server is shutting down; resubmit the job later");
@@ -212,7 +247,7 @@ JobRecord JobManager::submit(const std::string& id, Execution execution, const a
   try {
     if (!execution.spec.base_name.empty())
       execution.spec.base_report = snapshot_base(execution.spec.base_name, id, who);
-    store_.insert(rec);
+    store_->insert(rec);
   } catch (...) {
     if (charged && !exempt) cells_.refund(who.name, execution.cells);
     std::error_code ec;
@@ -231,22 +266,52 @@ JobRecord JobManager::submit(const std::string& id, Execution execution, const a
   return rec;
 }
 
+bool JobManager::next_task(Task& task) {
+  std::unique_lock lock(mutex_);
+  for (;;) {
+    if (!queue_.empty()) {
+      task = std::move(queue_.front());
+      queue_.pop_front();
+      break;
+    }
+    if (stopping_) return false;  // nothing left
+    if (!shared_) {
+      work_cv_.wait(lock, [this] { return stopping_ || !queue_.empty(); });
+      continue;
+    }
+    // The shared queue, outside the lock (a database call); then a nap until a notification, a
+    // local task or the poll interval.
+    const uint64_t hint = queue_hint_;
+    lock.unlock();
+    std::optional<Task> claimed = claim_shared();
+    lock.lock();
+    if (claimed && stopping_) {
+      lock.unlock();
+      release_lease(*claimed->lease, "queued again: the daemon that claimed it is shutting down");
+      return false;
+    }
+    if (claimed) {
+      task = std::move(*claimed);
+      break;
+    }
+    work_cv_.wait_for(lock, std::chrono::duration<double>(config_.jobs.poll_s),
+                      [&] { return stopping_ || !queue_.empty() || queue_hint_ != hint; });
+  }
+  Running r;
+  r.principal = task.principal;
+  r.cancel = task.cancel ? task.cancel : std::make_shared<std::atomic<bool>>(false);
+  r.deadline = std::chrono::steady_clock::now() + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                                                      std::chrono::duration<double>(config_.jobs.job_timeout_s));
+  r.lease = task.lease;
+  r.leased_at = task.leased_at;
+  running_.emplace(task.id, r);
+  return true;
+}
+
 void JobManager::worker_loop() {
   for (;;) {
     Task task;
-    {
-      std::unique_lock lock(mutex_);
-      work_cv_.wait(lock, [this] { return stopping_ || !queue_.empty(); });
-      if (queue_.empty()) return;  // stopping, nothing left
-      task = std::move(queue_.front());
-      queue_.pop_front();
-      Running r;
-      r.principal = task.principal;
-      r.cancel = task.cancel ? task.cancel : std::make_shared<std::atomic<bool>>(false);
-      r.deadline = std::chrono::steady_clock::now() + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
-                                                          std::chrono::duration<double>(config_.jobs.job_timeout_s));
-      running_.emplace(task.id, r);
-    }
+    if (!next_task(task)) return;
     if (task.work) {
       task.work();  // answers for itself and never throws
       {
@@ -319,18 +384,41 @@ void JobManager::update_progress(JobRecord& record, const std::string& stage, do
   const int percent = static_cast<int>(lo + (hi - lo) * f);
   if (percent <= last_percent) return;  // monotonic, and at most ~100 store writes per job
   last_percent = percent;
-  std::lock_guard lock(mutex_);
-  const auto it = running_.find(record.id);
-  if (it == running_.end() || it->second.dismissed) return;
-  record.progress = percent;
-  record.message = "running: " + stage;
-  record.updated = now_rfc3339();
+  {
+    std::lock_guard lock(mutex_);
+    record.progress = percent;
+    record.message = "running: " + stage;
+    record.updated = now_rfc3339();
+  }
   try {
-    store_.update(record);
+    write_running(record.id, record);
   } catch (const std::exception&) {
     // Progress is advisory, and this runs on an engine thread: a failed write must not end
     // the computation. The final status is written (and its failure handled) by the worker.
   }
+}
+
+bool JobManager::write_running(const std::string& id, const JobRecord& rec) {
+  if (!shared_) {
+    std::lock_guard lock(mutex_);
+    const auto it = running_.find(id);
+    if (it == running_.end() || it->second.dismissed) return false;
+    store_->update(rec);
+    return true;
+  }
+  std::optional<store::Lease> lease;
+  JobRecord copy;
+  {
+    std::lock_guard lock(mutex_);
+    const auto it = running_.find(id);
+    if (it == running_.end() || it->second.dismissed || it->second.lost || !it->second.lease) return false;
+    lease = it->second.lease;
+    copy = rec;
+  }
+  // Outside the lock: a database call may wait for a connection, and /health must not.
+  if (shared_->write_running(*lease, copy)) return true;
+  lose_lease(id);
+  return false;
 }
 
 namespace {
@@ -416,26 +504,35 @@ Outcome execute(const JobRunner& runner, const JobSpec& spec, const JobLimits& l
 
 JobRecord JobManager::run_task(Task& task) {
   const std::string& id = task.id;
-  const std::filesystem::path dir = job_dir(id);
+  // A shared store's attempts write apart: a worker that lost its lease cannot touch the files
+  // of the attempt that replaced it.
+  const std::filesystem::path dir = task.lease ? job_dir(id) / std::to_string(task.lease->attempt) : job_dir(id);
   std::shared_ptr<std::atomic<bool>> cancel;
   std::optional<JobRecord> stored;
   {
     std::lock_guard lock(mutex_);
     cancel = running_.at(id).cancel;
-    stored = store_.get(id);
   }
+  stored = task.lease ? std::optional<JobRecord>(task.claimed) : store_->get(id);
   if (!stored) throw Error(ErrorKind::internal, "job " + id + " vanished from the store");
   JobRecord rec = *stored;
+  if (task.from_queue) {
+    // Parsed again from the stored request, as the daemon that accepted it did: a request that
+    // no longer parses (a build that reads it otherwise) fails the job with the reason.
+    try {
+      task.execution = load_execution(id);
+    } catch (const Error& e) {
+      record_end(rec, e.kind(), client_message(e, id, dir), nullptr, dir);
+      return rec;
+    }
+  }
   const JobSpec spec = spec_in_directory(task.execution, rec, dir);
 
   rec.status = JobStatus::running;
   rec.message = "running";
-  rec.started = rec.updated = now_rfc3339();
+  rec.started = rec.updated = task.lease ? rec.started : now_rfc3339();
   rec.progress = 0;
-  {
-    std::lock_guard lock(mutex_);
-    if (!running_.at(id).dismissed) store_.update(rec);
-  }
+  if (!task.lease) write_running(id, rec);  // a shared store's claim recorded it
 
   int last_percent = 0;
   JobHooks hooks;
@@ -455,58 +552,72 @@ JobRecord JobManager::run_task(Task& task) {
       std::lock_guard lock(mutex_);
       rec.cells = cells;
     }
+    if (task.lease && !task.charged) {
+      task.charged = true;
+      if (!shared_->charge_planned(*task.lease, cells, [&](const store::AdmissionView& v) {
+            admit_shared(v, task.who, cells, false, false);
+          }))
+        lose_lease(rec.id);
+      return;
+    }
     if (!task.charged) cells_.charge(task.principal, cells);
     task.charged = true;
-    std::lock_guard lock(mutex_);
-    if (!running_.at(rec.id).dismissed) store_.update(rec);
+    write_running(rec.id, rec);
   };
   Outcome outcome = execute(task.execution.run ? task.execution.run : runner_, spec, limits_, hooks, id, dir);
   memory.release();
-  task.execution.uploads.reset();  // the in-memory seed files are no longer needed
-  remove_dir(dir / kBaseSnapshotDir);
+  task.execution.uploads.reset();                       // the in-memory seed files are no longer needed
+  if (!task.lease) remove_dir(dir / kBaseSnapshotDir);  // a shared job's attempts may need it again
   record_end(rec, outcome.error_kind, outcome.message, outcome.result.report, dir);
   return rec;
 }
 
-void JobManager::record_end(JobRecord& rec, const std::optional<ErrorKind>& error_kind, const std::string& message,
-                            const nlohmann::json& report, const std::filesystem::path& dir) {
-  std::lock_guard lock(mutex_);
-  const Running& r = running_.at(rec.id);
-  if (r.dismissed) {
-    // dismiss() has recorded the status already; the files go whatever run_job returned.
-    remove_dir(dir);
-    rec = store_.get(rec.id).value_or(rec);
-    return;
-  }
+void JobManager::end_record(JobRecord& rec, const std::optional<ErrorKind>& error_kind, const std::string& message,
+                            const nlohmann::json& report, bool timed_out, bool shut_down) const {
   rec.finished = rec.updated = now_rfc3339();
   if (!error_kind) {
     rec.status = JobStatus::successful;
     rec.message = "finished";
     rec.progress = 100;
     rec.report = report;
-  } else {
-    rec.status = JobStatus::failed;
-    rec.error_kind = std::string(to_string(*error_kind));
-    rec.message = message;
-    if (r.timed_out) {
-      rec.error_kind = std::string(to_string(ErrorKind::too_large));
-      rec.message = "the job exceeded this server's time limit of " + seconds_text(config_.jobs.job_timeout_s) +
-                    " s and was cancelled";
-    } else if (r.shutdown) {
-      rec.error_kind = std::string(to_string(ErrorKind::busy));
-      rec.message = "the server shut down while the job was running; resubmit it";
-    }
-    remove_dir(dir);
+    return;
   }
-  store_.update(rec);
+  rec.status = JobStatus::failed;
+  rec.error_kind = std::string(to_string(*error_kind));
+  rec.message = message;
+  if (timed_out) {
+    rec.error_kind = std::string(to_string(ErrorKind::too_large));
+    rec.message = "the job exceeded this server's time limit of " + seconds_text(config_.jobs.job_timeout_s) +
+                  " s and was cancelled";
+  } else if (shut_down) {
+    rec.error_kind = std::string(to_string(ErrorKind::busy));
+    rec.message = "the server shut down while the job was running; resubmit it";
+  }
+}
+
+void JobManager::record_end(JobRecord& rec, const std::optional<ErrorKind>& error_kind, const std::string& message,
+                            const nlohmann::json& report, const std::filesystem::path& dir) {
+  if (shared_) return record_end_shared(rec, error_kind, message, report, dir);
+  std::lock_guard lock(mutex_);
+  const Running& r = running_.at(rec.id);
+  if (r.dismissed) {
+    // dismiss() has recorded the status already; the files go whatever run_job returned.
+    remove_dir(dir);
+    rec = store_->get(rec.id).value_or(rec);
+    return;
+  }
+  end_record(rec, error_kind, message, report, r.timed_out, r.shutdown);
+  if (rec.status == JobStatus::failed) remove_dir(dir);
+  store_->update(rec);
 }
 
 std::optional<JobRecord> JobManager::dismiss(const std::string& id) {
+  if (shared_) return dismiss_shared(id);
   std::optional<Task> dropped;
   std::optional<JobRecord> rec;
   {
     std::lock_guard lock(mutex_);
-    rec = store_.get(id);
+    rec = store_->get(id);
     if (!rec) return std::nullopt;
     if (rec->status == JobStatus::dismissed) return rec;
     const std::string now = now_rfc3339();
@@ -533,7 +644,7 @@ std::optional<JobRecord> JobManager::dismiss(const std::string& id) {
     rec->status = JobStatus::dismissed;
     rec->finished = rec->finished.empty() ? now : rec->finished;
     rec->updated = now;
-    store_.update(*rec);
+    store_->update(*rec);
   }
   if (dropped) notify_done(dropped->on_done, *rec);
   return rec;
@@ -556,12 +667,12 @@ void JobManager::shutdown(std::chrono::duration<double> grace) {
         dropped_records.emplace_back();
         continue;
       }
-      if (auto rec = store_.get(t.id)) {
+      if (auto rec = t.lease ? std::optional<JobRecord>(t.claimed) : store_->get(t.id)) {
         rec->status = JobStatus::failed;
         rec->error_kind = std::string(to_string(ErrorKind::busy));
         rec->message = "the server shut down before the job started; resubmit it";
         rec->finished = rec->updated = now;
-        store_.update(*rec);
+        if (!t.lease) store_->update(*rec);  // a shared store's: below, outside the lock
         dropped_records.push_back(*rec);
         dropped.push_back(std::move(t));
       }
@@ -576,9 +687,17 @@ void JobManager::shutdown(std::chrono::duration<double> grace) {
   for (size_t i = 0; i < dropped.size(); ++i) {
     if (dropped[i].work) {
       if (dropped[i].dropped) dropped[i].dropped();
-    } else {
-      notify_done(dropped[i].on_done, dropped_records[i]);
+      continue;
     }
+    if (dropped[i].lease) {
+      try {
+        shared_->finish(*dropped[i].lease, dropped_records[i], "");
+      } catch (const std::exception&) {
+        // The store is away: the job's lease expires, and a reaper fails it (only this daemon
+        // could have run it).
+      }
+    }
+    notify_done(dropped[i].on_done, dropped_records[i]);
   }
   for (std::thread& w : workers_) w.join();
   {
@@ -587,6 +706,12 @@ void JobManager::shutdown(std::chrono::duration<double> grace) {
   }
   watchdog_cv_.notify_all();
   watchdog_.join();
+  if (shared_) {
+    shared_stop_ = true;
+    shared_cv_.notify_all();
+    heartbeat_.join();
+    listener_.join();
+  }
 }
 
 void JobManager::watchdog_loop() {

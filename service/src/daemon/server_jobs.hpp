@@ -5,6 +5,16 @@
 // Dismissal: a queued job is dropped, a running job is cancelled through JobHooks::cancel; in
 // every case the job's status becomes "dismissed" at once and its files are deleted (by the
 // worker, for a running job, when run_job() returns).
+// Shared store (config `store` a postgresql:// URI; issue 55): jobs submitted for later wait in
+// the database's queue with their request stored in the results folder, and any daemon's free
+// worker claims them (woken by a notification, or polling every jobs.poll_s). A claimed job runs
+// under a lease that a heartbeat renews every third of jobs.lease_s; every write of its state is
+// fenced by the lease, and a worker that lost it (reaped after its daemon stalled, or dismissed on
+// another daemon) cancels its computation and publishes nothing. Results go to
+// <results>/<id>/<attempt>/. The reaper of every daemon requeues expired leases with backoff; a
+// daemon shutting down hands its running jobs back. Synchronous executions and a live session's
+// jobs run on the daemon that took them (their client or state is here): they are recorded
+// running at once, and fail if that daemon stops.
 // Thread safety: every public member may be called from any thread.
 #pragma once
 
@@ -28,6 +38,7 @@
 #include "rv/field/error.hpp"
 #include "rv/server.hpp"
 #include "rv/store_jobs.hpp"
+#include "store/store_postgres.hpp"
 
 namespace rv::daemon {
 
@@ -35,6 +46,16 @@ namespace rv::daemon {
 // (removed when it ends).
 inline constexpr const char* kEditBaseDir = "edit-base";
 inline constexpr const char* kBaseSnapshotDir = "base-snapshot";
+
+// Tells a waiting client that its job ended; a callback that throws is logged and dropped.
+void notify_done(const std::function<void(const JobRecord&)>& on_done, const JobRecord& record);
+// A new job's record, accepted (queued) now, as `who`'s.
+JobRecord accepted_record(const std::string& id, const Execution& execution, const auth::Principal& who);
+// The limits bind every principal but the admins who signed in as such (on a server without
+// authentication the anonymous principal is everyone, and bound by them).
+bool exempt_from_limits(const auth::Principal& who);
+// The refusal of a principal with `count` jobs unfinished, at the most `limit`.
+QuotaExceeded too_many_jobs(int64_t count, int limit);
 
 class JobManager {
  public:
@@ -45,10 +66,18 @@ class JobManager {
   // Each job reserves its memory estimate in `memory` as it goes (JobHooks::reserve_memory),
   // waiting there while other work holds it, and returns it when it ends.
   JobManager(JobStore& store, const ServerConfig& config, JobRunner runner, MemoryAccount& memory);
+  // On the shared store: `holder` names this process's leases (fresh at every start).
+  JobManager(store::PostgresJobStore& shared, const ServerConfig& config, JobRunner runner, MemoryAccount& memory,
+             std::string holder);
   ~JobManager();  // shutdown(0) if still running
 
-  // The directory of a job's result files (the id must satisfy is_job_id()).
+  // The directory of a job's files (the id must satisfy is_job_id()): its results with the
+  // SQLite store; with a shared store its stored request, base snapshot and attempts.
   std::filesystem::path job_dir(const std::string& id) const;
+  // The directory of a finished job's result files.
+  std::filesystem::path result_dir(const JobRecord& rec) const;
+  // Whether the shared store answered this daemon's last heartbeat (always true without one).
+  bool store_reachable() const { return store_reachable_.load(); }
 
   // Records the job as `who`'s, accepted, and queues it. Throws rv::Error(busy) when the queue is
   // full or the server is shutting down, QuotaExceeded (over_quota) when `who` has
@@ -97,6 +126,13 @@ class JobManager {
     std::function<void()> work;
     std::function<void()> dropped;
     std::shared_ptr<std::atomic<bool>> cancel;
+    // A shared store's job: the lease it runs under, and whether its execution must still be
+    // parsed from the stored request (claimed from the queue).
+    std::optional<store::Lease> lease;
+    bool from_queue = false;
+    JobRecord claimed;                                // the record as claimed or inserted running
+    std::chrono::steady_clock::time_point leased_at;  // when the claim had committed
+    auth::Principal who;                              // for the charge of cells planned later
   };
   struct Running {
     std::string principal;
@@ -105,10 +141,48 @@ class JobManager {
     bool dismissed = false;
     bool timed_out = false;
     bool shutdown = false;
+    std::optional<store::Lease> lease;
+    bool lost = false;  // the lease no longer holds the job: publish nothing
+    std::chrono::steady_clock::time_point leased_at;
   };
 
+  // Waits for the next task (the local queue first, then a shared store's) and registers it as
+  // running; false when the manager is stopping.
+  bool next_task(Task& task);
   void worker_loop();
   void watchdog_loop();
+  void start_threads();
+  // Shared store (server_jobs_shared.cpp).
+  JobRecord submit_shared(const std::string& id, Execution execution, const auth::Principal& who, Done on_done);
+  // Admission on the shared store: the queue's length (when `queued`), the principal's jobs and
+  // hourly cells (`cells` > 0) as every daemon's submissions left them. Throws busy / QuotaExceeded.
+  // `new_job`: a submission (counted against the principal's jobs), else a charge of cells
+  // planned later.
+  void admit_shared(const store::AdmissionView& v, const auth::Principal& who, int64_t cells, bool queued,
+                    bool new_job) const;
+  // The next job of the shared queue as a task; nullopt when none waits or the store is away.
+  std::optional<Task> claim_shared();
+  // The claimed job's execution, from its stored request.
+  Execution load_execution(const std::string& id) const;
+  std::optional<JobRecord> dismiss_shared(const std::string& id);
+  // Writes the running job's record (false for a dismissed one): fenced by its lease on a shared
+  // store (false, and the job cancelled, when the lease was lost), plainly on the SQLite store.
+  bool write_running(const std::string& id, const JobRecord& rec);
+  // Marks a running job's lease lost and cancels its computation.
+  void lose_lease(const std::string& id);
+  // Hands a claimed job back to the shared queue (best effort: else its lease expires).
+  void release_lease(const store::Lease& lease, const std::string& message);
+  // How a shared job ended, published under its lease (see record_end).
+  void record_end_shared(JobRecord& rec, const std::optional<ErrorKind>& error_kind, const std::string& message,
+                         const nlohmann::json& report, const std::filesystem::path& dir);
+  // The jobs whose lease a heartbeat or notification says is gone: cancel, publish nothing.
+  void leases_lost(const std::vector<store::Lease>& held, std::chrono::steady_clock::time_point asked_at);
+  void learn_dismissed(const std::string& id);
+  void heartbeat_loop();
+  void listen_loop();
+  // The reaper, then (every minute at most) retention and the orphan sweep.
+  void sweep_shared(std::chrono::steady_clock::time_point& next_sweep);
+  void sweep_orphans();
   // The base job's files linked into job `id`'s directory; returns the linked report's path.
   // Call with mutex_ held.
   std::string snapshot_base(const std::string& base, const std::string& id, const auth::Principal& who) const;
@@ -119,11 +193,19 @@ class JobManager {
   JobRecord run_task(Task& task);
   // Records how the job ended (unless it was dismissed meanwhile), removing its files if it
   // failed; `rec` becomes the final record.
+  // The final record of a job that ended with `error_kind` (none = successful): status, message,
+  // report, the time; a timeout or a shutdown said as such.
+  void end_record(JobRecord& rec, const std::optional<ErrorKind>& error_kind, const std::string& message,
+                  const nlohmann::json& report, bool timed_out, bool shut_down) const;
   void record_end(JobRecord& rec, const std::optional<ErrorKind>& error_kind, const std::string& message,
                   const nlohmann::json& report, const std::filesystem::path& dir);
   void update_progress(JobRecord& record, const std::string& stage, double fraction, bool validate, int& last_percent);
 
-  JobStore& store_;
+  JobStore* store_ = nullptr;                  // the SQLite store, or
+  store::PostgresJobStore* shared_ = nullptr;  // the shared one
+  std::string holder_;
+  std::filesystem::path root_;  // the jobs' directories
+  std::atomic<bool> store_reachable_{true};
   const ServerConfig& config_;
   JobRunner runner_;
   MemoryAccount& memory_;
@@ -138,8 +220,13 @@ class JobManager {
   std::map<std::string, Running> running_;
   bool stopping_ = false;
   bool joined_ = false;
+  uint64_t queue_hint_ = 0;  // counts the shared queue's notifications
   std::vector<std::thread> workers_;
   std::thread watchdog_;
+  std::thread heartbeat_, listener_;  // shared store only
+  std::atomic<bool> shared_stop_{false};
+  std::mutex shared_mutex_;  // for shared_cv_ only
+  std::condition_variable shared_cv_;
 };
 
 }  // namespace rv::daemon

@@ -43,7 +43,7 @@ void check_keys(const json& object, const std::string& where, const std::set<std
 int64_t get_int(const json& object, const std::string& where, const char* key, int64_t fallback, int64_t min_value) {
   if (!object.contains(key)) return fallback;
   const json& v = object.at(key);
-  const std::string name = where + "." + key;
+  const std::string name = where.empty() ? std::string(key) : where + "." + key;
   if (!v.is_number_integer()) bad(name, "must be an integer");
   const int64_t x = v.get<int64_t>();
   if (x < min_value) bad(name, "must be >= " + std::to_string(min_value));
@@ -53,7 +53,7 @@ int64_t get_int(const json& object, const std::string& where, const char* key, i
 double get_seconds(const json& object, const std::string& where, const char* key, double fallback) {
   if (!object.contains(key)) return fallback;
   const json& v = object.at(key);
-  const std::string name = where + "." + key;
+  const std::string name = where.empty() ? std::string(key) : where + "." + key;
   if (!v.is_number()) bad(name, "must be a number of seconds");
   const double x = v.get<double>();
   if (!(x > 0.0) || x > 1e7) bad(name, "must be > 0 and at most 1e7 seconds");
@@ -99,11 +99,58 @@ void parse_listen(const std::string& listen, ServerConfig& config) {
   config.port = std::stoi(port);
 }
 
+namespace {
+
+// The top-level keys of the store: what it is, its password, where results go.
+void parse_store_config(const json& doc, ServerConfig& c) {
+  StoreConfig& st = c.store;
+  st.uri = get_string(doc, "store", st.uri);
+  st.connections = static_cast<int>(get_int(doc, "", "store_connections", st.connections, 2));
+  st.results = get_string(doc, "results", st.results);
+  if (doc.contains("results_shared")) {
+    if (!doc.at("results_shared").is_boolean()) bad("results_shared", "must be true or false");
+    st.results_shared = doc.at("results_shared").get<bool>();
+  }
+  st.password_file = get_string(doc, "store_password_file", st.password_file);
+  if (!st.shared()) {
+    if (st.uri != "sqlite") bad("store", "must be \"sqlite\" or a postgresql:// URI");
+    return;
+  }
+  if (st.uri.rfind("postgresql://", 0) != 0 && st.uri.rfind("postgres://", 0) != 0)
+    bad("store", "must be \"sqlite\" or a postgresql:// URI");
+  // A password in the URI would be in every place the URI is shown: refused, never echoed.
+  const std::string rest = st.uri.substr(st.uri.find("://") + 3);
+  const size_t at = rest.find('@'), slash = rest.find('/');
+  if (at != std::string::npos && (slash == std::string::npos || at < slash) &&
+      rest.substr(0, at).find(':') != std::string::npos)
+    bad("store", "must not contain a password; give it in store_password_file or RVORONOI_STORE_PASSWORD");
+  if (st.uri.find("password=") != std::string::npos)
+    bad("store", "must not contain a password; give it in store_password_file or RVORONOI_STORE_PASSWORD");
+  if (!st.password_file.empty()) {
+    std::ifstream in(st.password_file, std::ios::binary);
+    if (!in) throw Error(ErrorKind::not_found, "store_password_file '" + st.password_file + "' cannot be read");
+    std::getline(in, st.password);
+    while (!st.password.empty() && (st.password.back() == '\r' || st.password.back() == ' ')) st.password.pop_back();
+    if (st.password.empty()) bad("store_password_file", "holds no password on its first line");
+  } else if (const char* env = std::getenv("RVORONOI_STORE_PASSWORD"); env && *env) {
+    st.password = env;
+  }
+  if (st.results.rfind("s3://", 0) == 0)
+    bad("results", "s3:// storage is not in this build yet; use a folder every daemon mounts");
+  if (st.results.empty()) bad("results", "a shared store needs a results folder every daemon mounts");
+  if (!st.results_shared)
+    bad("results",
+        "a shared store needs results every daemon reaches: a folder all of them mount, with "
+        "\"results_shared\": true");
+}
+
+}  // namespace
+
 ServerConfig parse_server_config(const json& doc) {
   ServerConfig c;
-  check_keys(
-      doc, "",
-      {"listen", "data_dir", "public_url", "web_dir", "http", "jobs", "limits", "auth", "sessions", "daemon_name"});
+  check_keys(doc, "",
+             {"listen", "data_dir", "public_url", "web_dir", "http", "jobs", "limits", "auth", "sessions",
+              "daemon_name", "store", "store_password_file", "store_connections", "results", "results_shared"});
   if (doc.contains("listen")) parse_listen(get_string(doc, "listen", ""), c);
   c.data_dir = get_string(doc, "data_dir", c.data_dir);
   if (c.data_dir.empty()) bad("data_dir", "must not be empty");
@@ -126,13 +173,24 @@ ServerConfig parse_server_config(const json& doc) {
   if (doc.contains("jobs")) {
     const json& j = doc.at("jobs");
     check_keys(j, "jobs",
-               {"workers", "queue_length", "threads_per_job", "job_timeout_s", "shutdown_grace_s", "describe_workers"});
+               {"workers", "queue_length", "threads_per_job", "job_timeout_s", "shutdown_grace_s", "describe_workers",
+                "lease_s", "max_attempts", "retry_backoff_s", "poll_s", "retention_s", "orphan_grace_s"});
     c.jobs.workers = static_cast<int>(get_int(j, "jobs", "workers", c.jobs.workers, 1));
     c.jobs.queue_length = static_cast<int>(get_int(j, "jobs", "queue_length", c.jobs.queue_length, 0));
     c.jobs.threads_per_job = static_cast<int>(get_int(j, "jobs", "threads_per_job", c.jobs.threads_per_job, 0));
     c.jobs.job_timeout_s = get_seconds(j, "jobs", "job_timeout_s", c.jobs.job_timeout_s);
     c.jobs.shutdown_grace_s = get_seconds(j, "jobs", "shutdown_grace_s", c.jobs.shutdown_grace_s);
     c.jobs.describe_workers = static_cast<int>(get_int(j, "jobs", "describe_workers", c.jobs.describe_workers, 1));
+    c.jobs.lease_s = get_seconds(j, "jobs", "lease_s", c.jobs.lease_s);
+    c.jobs.max_attempts = static_cast<int>(get_int(j, "jobs", "max_attempts", c.jobs.max_attempts, 1));
+    c.jobs.retry_backoff_s = get_seconds(j, "jobs", "retry_backoff_s", c.jobs.retry_backoff_s);
+    c.jobs.poll_s = get_seconds(j, "jobs", "poll_s", c.jobs.poll_s);
+    c.jobs.orphan_grace_s = get_seconds(j, "jobs", "orphan_grace_s", c.jobs.orphan_grace_s);
+    if (j.contains("retention_s") && j.at("retention_s") == 0) {
+      c.jobs.retention_s = 0;
+    } else {
+      c.jobs.retention_s = get_seconds(j, "jobs", "retention_s", c.jobs.retention_s);
+    }
   }
   if (doc.contains("limits")) {
     const json& l = doc.at("limits");
@@ -178,6 +236,7 @@ ServerConfig parse_server_config(const json& doc) {
       (c.daemon_name.size() > 63 ||
        c.daemon_name.find_first_not_of("abcdefghijklmnopqrstuvwxyz0123456789-") != std::string::npos))
     bad("daemon_name", "must be 1..63 characters of a-z, 0-9 and '-'");
+  parse_store_config(doc, c);
   return c;
 }
 

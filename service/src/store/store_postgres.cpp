@@ -40,6 +40,7 @@ CREATE TABLE rv_jobs (
   retryable boolean NOT NULL DEFAULT true,
   attempt integer NOT NULL DEFAULT 0,
   max_attempts integer NOT NULL DEFAULT 3,
+  exempt boolean NOT NULL DEFAULT false,
   holder text,
   lease_until timestamptz,
   run_after timestamptz NOT NULL DEFAULT now(),
@@ -59,8 +60,14 @@ CREATE INDEX rv_jobs_parent ON rv_jobs (parent) WHERE parent IS NOT NULL;
 // Any fixed number: the lock that serialises migrations between daemons starting together.
 constexpr const char* kMigrationLock = "7267766f726f6e6f";  // pg_advisory_lock takes a bigint
 
-JobRecord record_at(const pg::Result& r, int row, int first_col = 0) {
-  return record_from_texts([&](int col) { return r.text(row, first_col + col); });
+// The record's columns and where its results are: what every read selects.
+const std::string kSelect = std::string(kRecordColumns) + ", results";
+constexpr int kSelectCount = kRecordColumnCount + 1;
+
+JobRecord record_at(const pg::Result& r, int row) {
+  JobRecord rec = record_from_texts([&](int col) { return r.text(row, col); });
+  rec.results = r.text(row, kRecordColumnCount);
+  return rec;
 }
 
 pg::Params record_params(const JobRecord& rec) {
@@ -140,46 +147,43 @@ AdmissionView PostgresJobStore::admission_view(pg::Transaction& tx, const std::s
   return v;
 }
 
-void PostgresJobStore::enqueue(const JobRecord& rec, const QueueEntry& entry,
-                               const std::function<void(const AdmissionView&)>& admit) {
+void PostgresJobStore::insert(const JobRecord& rec, const QueueEntry& entry,
+                              const std::function<void(const AdmissionView&)>& admit, const Lease* lease,
+                              double lease_s) {
   auto c = pool_.acquire();
   pg::Transaction tx(*c);
   if (admit) admit(admission_view(tx, rec.principal));
-  JobRecord queued = rec;
-  queued.status = JobStatus::accepted;
-  pg::Params p = record_params(queued);
+  JobRecord row = rec;
+  row.status = lease ? JobStatus::running : JobStatus::accepted;
+  pg::Params p = record_params(row);
   p.push_back(entry.kind);
   p.push_back(entry.parent.empty() ? std::nullopt : std::optional<std::string>(entry.parent));
   p.push_back(entry.payload);
   p.push_back(entry.retryable ? "true" : "false");
   p.push_back(pg::param(int64_t{entry.max_attempts}));
+  p.push_back(entry.exempt ? "true" : "false");
+  p.push_back(pg::param(int64_t{lease ? lease->attempt : 0}));
+  p.push_back(lease ? std::optional<std::string>(lease->holder) : std::nullopt);
+  p.push_back(seconds_param(lease_s));
   tx.exec(std::string("INSERT INTO rv_jobs (") + kRecordColumns +
-              ", kind, parent, payload, retryable, max_attempts) VALUES"
-              " ($1,$2,$3,$4,$5,$6,$7,$8,$9,$10,$11,$12,$13,$14,$15,$16,$17,$18,$19,$20,$21,$22)",
+              ", kind, parent, payload, retryable, max_attempts, exempt, attempt, holder, lease_until) VALUES"
+              " ($1,$2,$3,$4,$5,$6,$7,$8,$9,$10,$11,$12,$13,$14,$15,$16,$17,$18,$19,$20,$21,$22,$23,$24,$25,"
+              "  CASE WHEN $25::text IS NULL THEN NULL ELSE now() + $26::double precision * interval '1 second' END)",
           p);
-  tx.exec(std::string("SELECT pg_notify('") + kQueuedChannel + "', $1)", {rec.id});
+  if (!lease) tx.exec(std::string("SELECT pg_notify('") + kQueuedChannel + "', $1)", {rec.id});
   tx.commit();
 }
 
+void PostgresJobStore::enqueue(const JobRecord& rec, const QueueEntry& entry,
+                               const std::function<void(const AdmissionView&)>& admit) {
+  insert(rec, entry, admit, nullptr, 0);
+}
+
 Lease PostgresJobStore::insert_running(const JobRecord& rec, const QueueEntry& entry, const std::string& holder,
-                                       double lease_s) {
-  auto c = pool_.acquire();
-  JobRecord running = rec;
-  running.status = JobStatus::running;
-  pg::Params p = record_params(running);
-  p.push_back(entry.kind);
-  p.push_back(entry.parent.empty() ? std::nullopt : std::optional<std::string>(entry.parent));
-  p.push_back(entry.payload);
-  p.push_back(entry.retryable ? "true" : "false");
-  p.push_back(pg::param(int64_t{entry.max_attempts}));
-  p.push_back(holder);
-  p.push_back(seconds_param(lease_s));
-  c->exec(std::string("INSERT INTO rv_jobs (") + kRecordColumns +
-              ", kind, parent, payload, retryable, max_attempts, attempt, holder, lease_until) VALUES"
-              " ($1,$2,$3,$4,$5,$6,$7,$8,$9,$10,$11,$12,$13,$14,$15,$16,$17,$18,$19,$20,$21,$22,"
-              "  1, $23, now() + $24::double precision * interval '1 second')",
-          p);
-  return Lease{rec.id, 1, holder};
+                                       double lease_s, const std::function<void(const AdmissionView&)>& admit) {
+  const Lease lease{rec.id, 1, holder};
+  insert(rec, entry, admit, &lease, lease_s);
+  return lease;
 }
 
 std::optional<Claim> PostgresJobStore::claim(const std::string& holder, double lease_s, const std::string& now_text) {
@@ -192,18 +196,19 @@ std::optional<Claim> PostgresJobStore::claim(const std::string& holder, double l
       " WHERE id = (SELECT id FROM rv_jobs WHERE status = 'accepted' AND run_after <= now()"
       "             ORDER BY created_at, id LIMIT 1 FOR UPDATE SKIP LOCKED)"
       " RETURNING " +
-          std::string(kRecordColumns) + ", kind, coalesce(parent, ''), payload, retryable, max_attempts, attempt",
+          kSelect + ", kind, coalesce(parent, ''), payload, retryable, max_attempts, attempt, exempt",
       {holder, seconds_param(lease_s), now_text});
   if (r.rows() == 0) return std::nullopt;
   Claim out;
   out.record = record_at(r, 0);
-  const int k = kRecordColumnCount;
+  const int k = kSelectCount;
   out.entry.kind = r.text(0, k);
   out.entry.parent = r.text(0, k + 1);
   out.entry.payload = r.text(0, k + 2);
   out.entry.retryable = r.boolean(0, k + 3);
   out.entry.max_attempts = static_cast<int>(r.integer(0, k + 4));
   out.lease = Lease{out.record.id, static_cast<int>(r.integer(0, k + 5)), holder};
+  out.entry.exempt = r.boolean(0, k + 6);
   return out;
 }
 
@@ -287,13 +292,22 @@ std::vector<Reaped> PostgresJobStore::reap(double backoff_s, const std::string& 
   return out;
 }
 
-std::optional<std::pair<JobRecord, JobRecord>> PostgresJobStore::dismiss(const std::string& id,
-                                                                         const std::string& message,
-                                                                         const std::string& now_text) {
+bool PostgresJobStore::release(const Lease& lease, const std::string& message, const std::string& now_text) {
+  auto c = pool_.acquire();
+  const pg::Result r = c->exec(
+      "UPDATE rv_jobs SET status = 'accepted', holder = NULL, lease_until = NULL, run_after = now(),"
+      " max_attempts = max_attempts + 1, progress = 0, message = $4, updated = $5"
+      " WHERE id = $1 AND attempt = $2 AND holder = $3 AND status = 'running' AND retryable",
+      {lease.id, pg::param(int64_t{lease.attempt}), lease.holder, message, now_text});
+  if (r.affected() == 1) c->exec(std::string("SELECT pg_notify('") + kQueuedChannel + "', $1)", {lease.id});
+  return r.affected() == 1;
+}
+
+std::optional<std::pair<JobRecord, JobRecord>> PostgresJobStore::dismiss(
+    const std::string& id, const std::function<std::string(const JobRecord&)>& message, const std::string& now_text) {
   auto c = pool_.acquire();
   pg::Transaction tx(*c);
-  const pg::Result before =
-      tx.exec("SELECT " + std::string(kRecordColumns) + " FROM rv_jobs WHERE id = $1 FOR UPDATE", {id});
+  const pg::Result before = tx.exec("SELECT " + kSelect + " FROM rv_jobs WHERE id = $1 FOR UPDATE", {id});
   if (before.rows() == 0) return std::nullopt;
   JobRecord old = record_at(before, 0);
   if (old.status == JobStatus::dismissed) return std::make_pair(old, old);
@@ -302,13 +316,13 @@ std::optional<std::pair<JobRecord, JobRecord>> PostgresJobStore::dismiss(const s
       " finished = CASE WHEN finished = '' THEN $3 ELSE finished END,"
       " holder = NULL, lease_until = NULL, finished_at = coalesce(finished_at, now())"
       " WHERE id = $1 RETURNING " +
-          std::string(kRecordColumns),
-      {id, message, now_text});
+          kSelect,
+      {id, message(old), now_text});
   // The tasks of a split job go with it: their holders learn it as the job's do.
   tx.exec(
       "UPDATE rv_jobs SET status = 'dismissed', message = $2, updated = $3, holder = NULL, lease_until = NULL,"
       " finished_at = coalesce(finished_at, now()) WHERE parent = $1 AND status <> 'dismissed'",
-      {id, message, now_text});
+      {id, "the job these tasks belong to was dismissed", now_text});
   tx.exec(std::string("SELECT pg_notify('") + kDismissedChannel + "', $1)", {id});
   tx.commit();
   return std::make_pair(old, record_at(after, 0));
@@ -328,8 +342,7 @@ std::vector<Expired> PostgresJobStore::expire(double retention_s, int limit) {
 
 std::optional<JobRecord> PostgresJobStore::get(const std::string& id) const {
   auto c = pool_.acquire();
-  const pg::Result r =
-      c->exec("SELECT " + std::string(kRecordColumns) + " FROM rv_jobs WHERE id = $1 AND kind = 'job'", {id});
+  const pg::Result r = c->exec("SELECT " + kSelect + " FROM rv_jobs WHERE id = $1 AND kind = 'job'", {id});
   if (r.rows() == 0) return std::nullopt;
   return record_at(r, 0);
 }
@@ -344,7 +357,7 @@ std::optional<QueueEntry> PostgresJobStore::entry(const std::string& id) const {
 
 std::vector<JobRecord> PostgresJobStore::list(int limit, int offset, const std::vector<JobStatus>& status,
                                               const std::string& principal) const {
-  std::string sql = "SELECT " + std::string(kRecordColumns) + " FROM rv_jobs WHERE kind = 'job'";
+  std::string sql = "SELECT " + kSelect + " FROM rv_jobs WHERE kind = 'job'";
   pg::Params p;
   if (!status.empty()) {
     sql += " AND status IN (";

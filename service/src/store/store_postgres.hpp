@@ -46,6 +46,7 @@ struct QueueEntry {
   std::string payload;       // the storage key of the stored request; "" = nothing to rerun
   bool retryable = true;     // false: only the daemon that took it can run it (a live session's)
   int max_attempts = 3;      // claims before a job whose daemons keep disappearing fails
+  bool exempt = false;       // its principal was exempt from the limits when it submitted (an admin)
 };
 
 // What an admission check sees, read under the principal's lock: nothing of it changes until
@@ -84,7 +85,7 @@ struct Expired {
   std::string results;
 };
 
-class PostgresJobStore {
+class PostgresJobStore final : public JobRecords {
  public:
   // Connects (up to `pool_size` connections) and brings the schema to this build's version.
   // Throws rv::Error(busy) when the server cannot be reached, rv::Error(unsupported) when the
@@ -101,7 +102,9 @@ class PostgresJobStore {
                const std::function<void(const AdmissionView&)>& admit = {});
   // Inserts the job as running under a fresh lease of `holder`: work that the daemon taking the
   // request runs itself (a synchronous execution, a live session's job).
-  Lease insert_running(const JobRecord& rec, const QueueEntry& entry, const std::string& holder, double lease_s);
+  // Admitted as enqueue's.
+  Lease insert_running(const JobRecord& rec, const QueueEntry& entry, const std::string& holder, double lease_s,
+                       const std::function<void(const AdmissionView&)>& admit = {});
 
   // The oldest job that may run now, as attempt n+1 held by `holder` for `lease_s`; nullopt when
   // none waits. The record comes back running (started, message "running").
@@ -124,21 +127,26 @@ class PostgresJobStore {
   // for attempt n) or fails them; `now_text` is the record's time.
   std::vector<Reaped> reap(double backoff_s, const std::string& now_text);
 
-  // Marks the job dismissed (any state but dismissed) with `message`, and notifies its holder.
-  // Returns the record before and after; nullopt when there is no such job.
-  std::optional<std::pair<JobRecord, JobRecord>> dismiss(const std::string& id, const std::string& message,
+  // Marks the job dismissed (any state but dismissed) with the message `message` makes of its
+  // record before, and notifies its holder. Returns the record before and after; nullopt when
+  // there is no such job.
+  std::optional<std::pair<JobRecord, JobRecord>> dismiss(const std::string& id,
+                                                         const std::function<std::string(const JobRecord&)>& message,
                                                          const std::string& now_text);
+  // Hands a running job back to the queue at once (its daemon is shutting down): fenced, and not
+  // counted against its attempts. False when the lease was lost.
+  bool release(const Lease& lease, const std::string& message, const std::string& now_text);
 
   // Deletes jobs finished more than `retention_s` ago (at most `limit`), with their tasks.
   std::vector<Expired> expire(double retention_s, int limit);
 
-  std::optional<JobRecord> get(const std::string& id) const;
+  // The record, with where its results were published (JobRecord::results).
+  std::optional<JobRecord> get(const std::string& id) const override;
   std::optional<QueueEntry> entry(const std::string& id) const;
-  // Newest first; `status` empty = any; `principal` empty = anyone's.
   std::vector<JobRecord> list(int limit, int offset, const std::vector<JobStatus>& status = {},
-                              const std::string& principal = "") const;
-  std::vector<CellCharge> charges_since(const std::string& since) const;
-  std::vector<std::pair<std::string, int64_t>> count_by_principal() const;
+                              const std::string& principal = "") const override;
+  std::vector<CellCharge> charges_since(const std::string& since) const override;
+  std::vector<std::pair<std::string, int64_t>> count_by_principal() const override;
   // The payload and results keys every stored job names (the orphan sweep keeps these).
   std::vector<std::string> referenced_keys() const;
 
@@ -149,6 +157,9 @@ class PostgresJobStore {
 
  private:
   AdmissionView admission_view(pg::Transaction& tx, const std::string& principal) const;
+  // The job as accepted, or as running under `lease` (not null) for `lease_s`.
+  void insert(const JobRecord& rec, const QueueEntry& entry, const std::function<void(const AdmissionView&)>& admit,
+              const Lease* lease, double lease_s);
   void migrate();
   mutable pg::Pool pool_;
   int version_before_ = 0;

@@ -48,6 +48,10 @@ JobRecord record(const std::string& id, const std::string& principal = "alice", 
   return r;
 }
 
+std::function<std::string(const JobRecord&)> msg(const std::string& text) {
+  return [text](const JobRecord&) { return text; };
+}
+
 std::string id_of(int i) {
   char buf[40];
   std::snprintf(buf, sizeof buf, "%032x", i);
@@ -225,7 +229,7 @@ TEST_F(PostgresStore, HeartbeatsKeepALeaseAndDismissalEndsIt) {
     EXPECT_EQ(store->heartbeat("h", 0.3).size(), 2u);
     EXPECT_TRUE(store->reap(0, "t").empty());
   }
-  const auto d = store->dismiss(id_of(10), "dismissed by the client", "t-d");
+  const auto d = store->dismiss(id_of(10), msg("dismissed by the client"), "t-d");
   ASSERT_TRUE(d);
   EXPECT_EQ(d->first.status, JobStatus::running);
   EXPECT_EQ(d->second.status, JobStatus::dismissed);
@@ -236,9 +240,9 @@ TEST_F(PostgresStore, HeartbeatsKeepALeaseAndDismissalEndsIt) {
   late.status = JobStatus::successful;
   EXPECT_FALSE(store->finish(a->lease, late, "r"));
   EXPECT_EQ(store->get(id_of(10))->status, JobStatus::dismissed);
-  EXPECT_FALSE(store->dismiss(id_of(99), "m", "t"));
+  EXPECT_FALSE(store->dismiss(id_of(99), msg("m"), "t"));
   // A second dismissal changes nothing.
-  const auto again = store->dismiss(id_of(10), "other", "t-e");
+  const auto again = store->dismiss(id_of(10), msg("other"), "t-e");
   EXPECT_EQ(again->second.message, "dismissed by the client");
 }
 
@@ -255,9 +259,9 @@ TEST_F(PostgresStore, ADismissalRacingTheReaperAlwaysWins) {
   });
   std::thread claimer([&] {
     for (int k = 0; k < 200; ++k)
-      if (auto c = store->claim("rescuer", 30, "t")) store->dismiss(c->record.id, "dismissed", "t");
+      if (auto c = store->claim("rescuer", 30, "t")) store->dismiss(c->record.id, msg("dismissed"), "t");
   });
-  for (int i = 0; i < kJobs; ++i) store->dismiss(id_of(100 + i), "dismissed", "t");
+  for (int i = 0; i < kJobs; ++i) store->dismiss(id_of(100 + i), msg("dismissed"), "t");
   reaper.join();
   claimer.join();
   for (int i = 0; i < kJobs; ++i) EXPECT_EQ(store->get(id_of(100 + i))->status, JobStatus::dismissed) << i;
@@ -315,7 +319,7 @@ TEST_F(PostgresStore, QueueingAndDismissalNotifyListeners) {
   ASSERT_EQ(n.size(), 1u);
   EXPECT_EQ(n[0].channel, PostgresJobStore::kQueuedChannel);
   EXPECT_EQ(n[0].payload, id_of(400));
-  store->dismiss(id_of(400), "m", "t");
+  store->dismiss(id_of(400), msg("m"), "t");
   n = listener.wait_notifications(std::chrono::milliseconds(3000));
   ASSERT_EQ(n.size(), 1u);
   EXPECT_EQ(n[0].channel, PostgresJobStore::kDismissedChannel);

@@ -1,0 +1,411 @@
+// The job manager on a shared store (issue 55): submission into the database's queue, claims,
+// the lease's heartbeat, fenced ends, dismissal across daemons, the reaper and the sweeps.
+#include <fstream>
+#include <set>
+#include <sstream>
+
+#include "common/atomic_file.hpp"
+#include "daemon/server_jobs.hpp"
+#include "runtime/server_util.hpp"
+#include "rv/field/text.hpp"
+#include "rv/json_text.hpp"
+
+namespace rv::daemon {
+namespace {
+
+namespace fs = std::filesystem;
+
+constexpr const char* kRequestFile = "request.json";
+
+void remove_dir(const fs::path& dir) {
+  std::error_code ec;
+  fs::remove_all(dir, ec);  // best effort: a leftover directory costs disk, and the sweep finds it
+}
+
+std::string what_of_current() {
+  try {
+    throw;
+  } catch (const std::exception& e) {
+    return e.what();
+  } catch (...) {
+    return "unknown exception";
+  }
+}
+
+// A folder the sweep may judge: untouched for at least `grace`.
+bool older_than(const fs::path& p, double grace_s) {
+  std::error_code ec;
+  const auto t = fs::last_write_time(p, ec);
+  if (ec) return false;
+  return fs::file_time_type::clock::now() - t > std::chrono::duration<double>(grace_s);
+}
+
+}  // namespace
+
+void JobManager::admit_shared(const store::AdmissionView& v, const auth::Principal& who, int64_t cells, bool queued,
+                              bool new_job) const {
+  // The shared queue's length bounds jobs waiting for any daemon (at least one may wait).
+  const int64_t most = std::max(1, config_.jobs.queue_length);
+  if (queued && v.queued >= most)
+    throw Error(ErrorKind::busy, std::to_string(v.queued) +
+                                     " jobs are waiting in the shared queue, the most it holds (" +
+                                     std::to_string(most) + "); retry later");
+  if (exempt_from_limits(who)) return;
+  const int limit = config_.principal_limits.jobs;
+  if (new_job && limit > 0 && v.principal_unfinished >= limit) throw too_many_jobs(v.principal_unfinished, limit);
+  if (cells > 0 && config_.principal_limits.cells_per_hour > 0) {
+    // The rule of the one-daemon server, over the charges every daemon recorded.
+    CellAllowance hour(config_.principal_limits.cells_per_hour);
+    for (const auto& [at, c] : v.charges) hour.restore(who.name, at, c);
+    hour.charge(who.name, cells, v.now);
+  }
+}
+
+JobRecord JobManager::submit_shared(const std::string& id, Execution execution, const auth::Principal& who,
+                                    Done on_done) {
+  JobRecord rec = accepted_record(id, execution, who);
+  // A synchronous client waits on this daemon, and a session's job saves state only this daemon
+  // holds: they run here. Jobs submitted for later go to the shared queue with their request.
+  const bool here = on_done || execution.run || execution.request.empty();
+  {
+    std::lock_guard lock(mutex_);
+    if (stopping_) throw Error(ErrorKind::busy, "the server is shutting down; resubmit the job later");
+    const size_t capacity = static_cast<size_t>(config_.jobs.queue_length + std::max(1, config_.jobs.workers));
+    if (here && queue_.size() + running_.size() >= capacity)
+      throw Error(ErrorKind::busy, "all " + std::to_string(config_.jobs.workers) + " workers are busy and " +
+                                       std::to_string(queue_.size()) + " jobs are waiting; retry later");
+  }
+  store::QueueEntry entry;
+  entry.max_attempts = config_.jobs.max_attempts;
+  entry.exempt = exempt_from_limits(who);
+  const int64_t cells = execution.cells;
+  auto admit = [&](const store::AdmissionView& v) { admit_shared(v, who, cells, !here, true); };
+  std::error_code ec;
+  fs::create_directories(job_dir(id), ec);
+  if (ec) throw Error(ErrorKind::io, "cannot create the job's folder: " + ec.message());
+  try {
+    // An edit's copy of its base, in the job's folder every daemon reaches: the base may be
+    // deleted while this job waits, or is attempted again.
+    if (!execution.spec.base_name.empty())
+      execution.spec.base_report = snapshot_base(execution.spec.base_name, id, who);
+    if (!here) {
+      // Persisted before the row that names it, and the row committed before the 201.
+      write_file_atomically((job_dir(id) / kRequestFile).string(), execution.request);
+      entry.payload = id + "/" + kRequestFile;
+      shared_->enqueue(rec, entry, admit);
+      return rec;
+    }
+    entry.retryable = false;
+    rec.status = JobStatus::running;
+    rec.message = "running";
+    rec.started = rec.created;
+    Task t;
+    t.lease = shared_->insert_running(rec, entry, holder_, config_.jobs.lease_s, admit);
+    t.leased_at = std::chrono::steady_clock::now();
+    t.id = id;
+    t.claimed = rec;
+    t.execution = std::move(execution);
+    t.on_done = std::move(on_done);
+    t.principal = who.name;
+    t.who = who;
+    t.charged = cells > 0 || entry.exempt;
+    std::lock_guard lock(mutex_);
+    queue_.push_back(std::move(t));
+    work_cv_.notify_one();
+    return rec;
+  } catch (...) {
+    remove_dir(job_dir(id));
+    throw;
+  }
+}
+
+std::optional<JobManager::Task> JobManager::claim_shared() {
+  std::optional<store::Claim> c;
+  try {
+    c = shared_->claim(holder_, config_.jobs.lease_s, now_rfc3339());
+  } catch (...) {
+    // The store is away: the heartbeat says so in the log; the worker naps and tries again.
+    return std::nullopt;
+  }
+  if (!c) return std::nullopt;
+  Task t;
+  t.id = c->record.id;
+  t.principal = c->record.principal;
+  t.who.name = c->record.principal;
+  t.who.role = c->entry.exempt ? Role::admin : Role::user;
+  t.who.how = "stored";
+  t.lease = c->lease;
+  t.leased_at = std::chrono::steady_clock::now();
+  t.from_queue = true;
+  t.claimed = c->record;
+  t.charged = c->record.cells > 0 || c->entry.exempt;
+  log_event("{\"event\":\"claimed\",\"job\":\"" + t.id + "\",\"attempt\":" + std::to_string(c->lease.attempt) + "}");
+  return t;
+}
+
+Execution JobManager::load_execution(const std::string& id) const {
+  std::ifstream in(job_dir(id) / kRequestFile, std::ios::binary);
+  if (!in) throw Error(ErrorKind::io, "the job's stored request cannot be read from the results folder");
+  std::stringstream text;
+  text << in.rdbuf();
+  const nlohmann::json body = nlohmann::json::parse(text.str(), nullptr, false);
+  if (body.is_discarded()) throw Error(ErrorKind::internal, "the job's stored request is damaged");
+  Execution ex = parse_execution(body, id, config_);
+  if (!ex.spec.base_name.empty())
+    ex.spec.base_report = (job_dir(id) / kBaseSnapshotDir / output_file_name("report", "")).string();
+  return ex;
+}
+
+void JobManager::lose_lease(const std::string& id) {
+  std::lock_guard lock(mutex_);
+  if (const auto it = running_.find(id); it != running_.end()) {
+    it->second.lost = true;
+    it->second.cancel->store(true);
+  }
+}
+
+void JobManager::release_lease(const store::Lease& lease, const std::string& message) {
+  try {
+    shared_->release(lease, message, now_rfc3339());
+  } catch (...) {
+    // The store is away: the lease expires, and a reaper queues the job again.
+  }
+}
+
+void JobManager::record_end_shared(JobRecord& rec, const std::optional<ErrorKind>& error_kind,
+                                   const std::string& message, const nlohmann::json& report, const fs::path& dir) {
+  bool dismissed = false, lost = false, timed_out = false, shut_down = false;
+  store::Lease lease;
+  {
+    std::lock_guard lock(mutex_);
+    const Running& r = running_.at(rec.id);
+    dismissed = r.dismissed;
+    lost = r.lost;
+    timed_out = r.timed_out;
+    shut_down = r.shutdown;
+    lease = *r.lease;
+  }
+  auto stored = [&] {
+    try {
+      if (auto now = shared_->get(rec.id)) rec = *now;
+    } catch (...) {
+    }
+  };
+  if (!dismissed && !lost && shut_down &&
+      shared_->release(lease, "queued again: the daemon running it shut down", now_rfc3339())) {
+    remove_dir(dir);  // another daemon starts it afresh
+    stored();
+    return;
+  }
+  bool published = false;
+  if (!dismissed && !lost) {
+    end_record(rec, error_kind, message, report, timed_out, shut_down);
+    rec.results = rec.status == JobStatus::successful ? rec.id + "/" + std::to_string(lease.attempt) : "";
+    // The store may be away for a while (a restart): the end is worth waiting for as long as the
+    // lease would last; after that a reaper gives the job to another attempt anyway.
+    const auto until = std::chrono::steady_clock::now() + std::chrono::duration<double>(config_.jobs.lease_s);
+    for (;;) {
+      try {
+        published = shared_->finish(lease, rec, rec.results);
+        break;
+      } catch (const Error& e) {
+        if (e.kind() != ErrorKind::busy || std::chrono::steady_clock::now() > until) break;
+        std::this_thread::sleep_for(std::chrono::milliseconds(500));
+      }
+    }
+  }
+  if (published) {
+    if (rec.status == JobStatus::failed) remove_dir(dir);
+    remove_dir(job_dir(rec.id) / kBaseSnapshotDir);
+    return;
+  }
+  // Not ours to publish: this attempt's files go; the job is as the store says.
+  remove_dir(dir);
+  stored();
+  if (rec.status == JobStatus::dismissed) remove_dir(job_dir(rec.id));
+}
+
+std::optional<JobRecord> JobManager::dismiss_shared(const std::string& id) {
+  auto message = [](const JobRecord& before) -> std::string {
+    if (before.status == JobStatus::accepted) return "dismissed by the client before it started";
+    if (before.status == JobStatus::running) return "dismissed by the client; the computation was cancelled";
+    return "dismissed by the client; its results were deleted";
+  };
+  const auto d = shared_->dismiss(id, message, now_rfc3339());
+  if (!d) return std::nullopt;
+  const auto& [before, after] = *d;
+  if (before.status == JobStatus::dismissed) return after;
+  std::optional<Task> dropped;
+  bool running_here = false;
+  {
+    std::lock_guard lock(mutex_);
+    for (auto it = queue_.begin(); it != queue_.end(); ++it)
+      if (it->id == id) {
+        dropped = std::move(*it);
+        queue_.erase(it);
+        break;
+      }
+    if (const auto r = running_.find(id); r != running_.end()) {
+      r->second.dismissed = true;
+      r->second.cancel->store(true);
+      running_here = true;
+    }
+  }
+  // A job running on another daemon: that daemon removes its files when it learns it.
+  if (!running_here && (before.status != JobStatus::running || dropped)) remove_dir(job_dir(id));
+  if (dropped) notify_done(dropped->on_done, after);
+  return after;
+}
+
+void JobManager::learn_dismissed(const std::string& id) {
+  if (!is_job_id(id)) return;
+  std::optional<Task> dropped;
+  {
+    std::lock_guard lock(mutex_);
+    if (const auto r = running_.find(id); r != running_.end()) {
+      r->second.dismissed = true;
+      r->second.cancel->store(true);
+    }
+    for (auto it = queue_.begin(); it != queue_.end(); ++it)
+      if (it->id == id) {
+        dropped = std::move(*it);
+        queue_.erase(it);
+        break;
+      }
+  }
+  if (!dropped) return;
+  remove_dir(job_dir(id));
+  JobRecord rec = dropped->claimed;
+  try {
+    if (auto now = shared_->get(id)) rec = *now;
+  } catch (...) {
+  }
+  notify_done(dropped->on_done, rec);
+}
+
+void JobManager::leases_lost(const std::vector<store::Lease>& held, std::chrono::steady_clock::time_point asked_at) {
+  std::set<std::pair<std::string, int>> live;
+  for (const store::Lease& l : held) live.emplace(l.id, l.attempt);
+  std::vector<std::string> gone_queued;
+  {
+    std::lock_guard lock(mutex_);
+    // Only leases taken before the heartbeat asked: a claim committed after it is not in its answer.
+    for (auto& [id, r] : running_)
+      if (r.lease && r.leased_at < asked_at && !live.count({id, r.lease->attempt}) && !r.lost) {
+        r.lost = true;
+        r.cancel->store(true);
+        log_event("{\"event\":\"lease_lost\",\"job\":\"" + id + "\",\"attempt\":" + std::to_string(r.lease->attempt) +
+                  "}");
+      }
+    for (const Task& t : queue_)
+      if (t.lease && t.leased_at < asked_at && !live.count({t.id, t.lease->attempt})) gone_queued.push_back(t.id);
+  }
+  for (const std::string& id : gone_queued) learn_dismissed(id);
+}
+
+void JobManager::heartbeat_loop() {
+  const auto period = std::chrono::duration<double>(config_.jobs.lease_s / 3);
+  auto next_sweep = std::chrono::steady_clock::now();
+  std::unique_lock lock(shared_mutex_);
+  while (!shared_stop_) {
+    lock.unlock();
+    const auto asked = std::chrono::steady_clock::now();
+    try {
+      const auto held = shared_->heartbeat(holder_, config_.jobs.lease_s);
+      if (!store_reachable_.exchange(true)) log_event("{\"event\":\"store_reachable\"}");
+      leases_lost(held, asked);
+    } catch (...) {
+      // Leases are not judged without an answer: the running jobs go on, and their ends wait
+      // (record_end_shared) for the store to come back within their lease.
+      const std::string what = what_of_current();
+      if (store_reachable_.exchange(false))
+        log_event("{\"event\":\"store_unreachable\",\"error\":" + json_text(valid_utf8(what)) + "}");
+    }
+    sweep_shared(next_sweep);
+    lock.lock();
+    shared_cv_.wait_for(lock, period, [this] { return shared_stop_.load(); });
+  }
+}
+
+void JobManager::sweep_shared(std::chrono::steady_clock::time_point& next_sweep) {
+  try {
+    for (const store::Reaped& r : shared_->reap(config_.jobs.retry_backoff_s, now_rfc3339()))
+      log_event("{\"event\":\"reaped\",\"job\":\"" + r.id + "\",\"attempt\":" + std::to_string(r.attempt) +
+                ",\"requeued\":" + (r.requeued ? "true" : "false") + "}");
+  } catch (...) {
+    return;  // the store is away; the heartbeat logged it
+  }
+  const auto now = std::chrono::steady_clock::now();
+  if (now < next_sweep) return;
+  next_sweep = now + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                         std::chrono::duration<double>(std::min(60.0, config_.jobs.orphan_grace_s)));
+  try {
+    if (config_.jobs.retention_s > 0)
+      for (const store::Expired& e : shared_->expire(config_.jobs.retention_s, 1000))
+        if (is_job_id(e.id)) remove_dir(job_dir(e.id));
+    sweep_orphans();
+  } catch (...) {
+  }
+}
+
+void JobManager::sweep_orphans() {
+  // Folders no job names (a daemon died between writing a request and committing its row, or
+  // retention's deletion of the row outlived its files), and attempts a finished job does not
+  // name (a worker died before removing the files of a lost lease). Judged only once untouched
+  // for jobs.orphan_grace_s: a submission writes its request just before its row.
+  std::error_code ec;
+  for (const fs::directory_entry& e : fs::directory_iterator(root_, ec)) {
+    const std::string id = e.path().filename().string();
+    if (!is_job_id(id) || !e.is_directory()) continue;
+    std::optional<JobRecord> rec = shared_->get(id);
+    if (!rec) {
+      if (older_than(e.path(), config_.jobs.orphan_grace_s)) {
+        remove_dir(e.path());
+        log_event("{\"event\":\"orphan_removed\",\"job\":\"" + id + "\"}");
+      }
+      continue;
+    }
+    if (rec->status == JobStatus::accepted || rec->status == JobStatus::running) continue;
+    const std::string keep = rec->results.empty() ? "" : rec->results.substr(id.size() + 1);
+    for (const fs::directory_entry& a : fs::directory_iterator(e.path(), ec)) {
+      const std::string name = a.path().filename().string();
+      if (name.find_first_not_of("0123456789") == std::string::npos && name != keep &&
+          older_than(a.path(), config_.jobs.orphan_grace_s))
+        remove_dir(a.path());
+    }
+  }
+}
+
+void JobManager::listen_loop() {
+  std::unique_ptr<pg::Connection> c;
+  auto wake = [this] {
+    {
+      std::lock_guard lock(mutex_);
+      ++queue_hint_;
+    }
+    work_cv_.notify_all();
+  };
+  while (!shared_stop_) {
+    try {
+      if (!c || !c->ok()) {
+        c = std::make_unique<pg::Connection>(shared_->connect_info());
+        c->exec(std::string("LISTEN ") + store::PostgresJobStore::kQueuedChannel);
+        c->exec(std::string("LISTEN ") + store::PostgresJobStore::kDismissedChannel);
+        wake();  // whatever was queued while no one listened
+      }
+      for (const pg::Notification& n : c->wait_notifications(std::chrono::milliseconds(500))) {
+        if (n.channel == store::PostgresJobStore::kQueuedChannel)
+          wake();
+        else if (n.channel == store::PostgresJobStore::kDismissedChannel)
+          learn_dismissed(n.payload);
+      }
+    } catch (...) {
+      // A hint only: polling carries on without it. Connect again after a pause.
+      c.reset();
+      std::unique_lock lock(shared_mutex_);
+      shared_cv_.wait_for(lock, std::chrono::seconds(1), [this] { return shared_stop_.load(); });
+    }
+  }
+}
+
+}  // namespace rv::daemon
