@@ -554,10 +554,7 @@ JobRecord JobManager::run_task(Task& task) {
     }
     if (task.lease && !task.charged) {
       task.charged = true;
-      if (!shared_->charge_planned(*task.lease, cells, [&](const store::AdmissionView& v) {
-            admit_shared(v, task.who, cells, false, false);
-          }))
-        lose_lease(rec.id);
+      charge_planned_shared(task, cells);
       return;
     }
     if (!task.charged) cells_.charge(task.principal, cells);

@@ -168,6 +168,8 @@ class JobManager {
   // Writes the running job's record (false for a dismissed one): fenced by its lease on a shared
   // store (false, and the job cancelled, when the lease was lost), plainly on the SQLite store.
   bool write_running(const std::string& id, const JobRecord& rec);
+  // Charges the cells a claimed job learnt once planned (see run_task), waiting out the store.
+  void charge_planned_shared(const Task& task, int64_t cells);
   // Marks a running job's lease lost and cancels its computation.
   void lose_lease(const std::string& id);
   // Hands a claimed job back to the shared queue (best effort: else its lease expires).

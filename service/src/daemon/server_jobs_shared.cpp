@@ -156,6 +156,30 @@ Execution JobManager::load_execution(const std::string& id) const {
   return ex;
 }
 
+void JobManager::charge_planned_shared(const Task& task, int64_t cells) {
+  // The store being away is not the job's fault: wait for it as a job's end does (the lease is
+  // renewed meanwhile once it is back); past that, the job goes back to the queue through its
+  // lease. Over the allowance (QuotaExceeded) fails the job, as on one daemon.
+  const auto until =
+      std::chrono::steady_clock::now() + std::chrono::duration<double>(std::max(60.0, 2 * config_.jobs.lease_s));
+  for (;;) {
+    try {
+      if (!shared_->charge_planned(*task.lease, cells, [&](const store::AdmissionView& v) {
+            admit_shared(v, task.who, cells, false, false);
+          }))
+        lose_lease(task.id);
+      return;
+    } catch (const Error& e) {
+      if (e.kind() != ErrorKind::busy) throw;
+      if (std::chrono::steady_clock::now() > until) {
+        lose_lease(task.id);
+        return;
+      }
+      std::this_thread::sleep_for(std::chrono::milliseconds(500));
+    }
+  }
+}
+
 void JobManager::lose_lease(const std::string& id) {
   std::lock_guard lock(mutex_);
   if (const auto it = running_.find(id); it != running_.end()) {
@@ -201,9 +225,11 @@ void JobManager::record_end_shared(JobRecord& rec, const std::optional<ErrorKind
   if (!dismissed && !lost) {
     end_record(rec, error_kind, message, report, timed_out, shut_down);
     rec.results = rec.status == JobStatus::successful ? rec.id + "/" + std::to_string(lease.attempt) : "";
-    // The store may be away for a while (a restart): the end is worth waiting for as long as the
-    // lease would last; after that a reaper gives the job to another attempt anyway.
-    const auto until = std::chrono::steady_clock::now() + std::chrono::duration<double>(config_.jobs.lease_s);
+    // The store may be away for a while (a restart). The fence is the holder and the attempt,
+    // not the clock: until a reaper has requeued the job, its end may still be published, and the
+    // heartbeat renews the lease meanwhile. Worth a minute's wait, or the lease's if longer.
+    const auto until =
+        std::chrono::steady_clock::now() + std::chrono::duration<double>(std::max(60.0, 2 * config_.jobs.lease_s));
     for (;;) {
       try {
         published = shared_->finish(lease, rec, rec.results);
@@ -310,8 +336,16 @@ void JobManager::heartbeat_loop() {
   while (!shared_stop_) {
     lock.unlock();
     const auto asked = std::chrono::steady_clock::now();
+    std::vector<std::string> ids;  // the leases this daemon still means to hold
+    {
+      std::lock_guard jobs_lock(mutex_);
+      for (const auto& [id, r] : running_)
+        if (r.lease) ids.push_back(id);
+      for (const Task& t : queue_)
+        if (t.lease) ids.push_back(t.id);
+    }
     try {
-      const auto held = shared_->heartbeat(holder_, config_.jobs.lease_s);
+      const auto held = shared_->heartbeat(holder_, config_.jobs.lease_s, ids);
       if (!store_reachable_.exchange(true)) log_event("{\"event\":\"store_reachable\"}");
       leases_lost(held, asked);
     } catch (...) {

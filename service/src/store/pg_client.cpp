@@ -15,7 +15,11 @@ namespace {
 std::string one_line(const char* message) {
   std::string s = message ? message : "";
   for (char& ch : s)
-    if (ch == '\n' || ch == '\r') ch = ' ';
+    if (ch == '\n' || ch == '\r' || ch == '\t') ch = ' ';
+  std::string out;
+  for (char ch : s)
+    if (ch != ' ' || (!out.empty() && out.back() != ' ')) out += ch;  // runs of blanks as one
+  s = out;
   while (!s.empty() && s.back() == ' ') s.pop_back();
   return valid_utf8(s);
 }

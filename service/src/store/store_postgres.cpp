@@ -212,12 +212,21 @@ std::optional<Claim> PostgresJobStore::claim(const std::string& holder, double l
   return out;
 }
 
-std::vector<Lease> PostgresJobStore::heartbeat(const std::string& holder, double lease_s) {
+std::vector<Lease> PostgresJobStore::heartbeat(const std::string& holder, double lease_s,
+                                               const std::vector<std::string>& ids) {
+  if (ids.empty()) return {};
+  // A text[] literal: the ids are the daemon's own (hex), quoted all the same.
+  std::string array = "{";
+  for (const std::string& id : ids) {
+    if (id.find_first_of("\"\\{},") != std::string::npos) throw Error(ErrorKind::internal, "heartbeat: bad job id");
+    array += (array.size() > 1 ? ",\"" : "\"") + id + "\"";
+  }
+  array += "}";
   auto c = pool_.acquire();
   const pg::Result r = c->exec(
       "UPDATE rv_jobs SET lease_until = now() + $2::double precision * interval '1 second'"
-      " WHERE holder = $1 AND status = 'running' RETURNING id, attempt",
-      {holder, seconds_param(lease_s)});
+      " WHERE holder = $1 AND status = 'running' AND id = ANY($3::text[]) RETURNING id, attempt",
+      {holder, seconds_param(lease_s), array});
   std::vector<Lease> out;
   for (int i = 0; i < r.rows(); ++i) out.push_back(Lease{r.text(i, 0), static_cast<int>(r.integer(i, 1)), holder});
   return out;

@@ -110,9 +110,11 @@ class PostgresJobStore final : public JobRecords {
   // none waits. The record comes back running (started, message "running").
   std::optional<Claim> claim(const std::string& holder, double lease_s, const std::string& now_text);
 
-  // Renews every lease `holder` has; returns the leases still held (a job missing from them was
-  // reaped or dismissed: its worker must stop and publish nothing).
-  std::vector<Lease> heartbeat(const std::string& holder, double lease_s);
+  // Renews `holder`'s leases of the jobs `ids` (those its workers still run or wait to run: a
+  // lease its daemon gave up on is left to expire); returns the leases still held (a job missing
+  // from them was reaped or dismissed: its worker must stop and publish nothing). A lease that
+  // expired but was not reaped yet is renewed: nobody else holds it.
+  std::vector<Lease> heartbeat(const std::string& holder, double lease_s, const std::vector<std::string>& ids);
 
   // Fenced writes: applied only while `lease` holds the job; false when it no longer does.
   // write_running: progress, message, cells and `updated` of a running job.

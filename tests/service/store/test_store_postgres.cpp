@@ -226,14 +226,14 @@ TEST_F(PostgresStore, HeartbeatsKeepALeaseAndDismissalEndsIt) {
   ASSERT_TRUE(a && b);
   for (int i = 0; i < 6; ++i) {
     std::this_thread::sleep_for(std::chrono::milliseconds(100));
-    EXPECT_EQ(store->heartbeat("h", 0.3).size(), 2u);
+    EXPECT_EQ(store->heartbeat("h", 0.3, {id_of(10), id_of(11)}).size(), 2u);
     EXPECT_TRUE(store->reap(0, "t").empty());
   }
   const auto d = store->dismiss(id_of(10), msg("dismissed by the client"), "t-d");
   ASSERT_TRUE(d);
   EXPECT_EQ(d->first.status, JobStatus::running);
   EXPECT_EQ(d->second.status, JobStatus::dismissed);
-  const auto held = store->heartbeat("h", 0.3);
+  const auto held = store->heartbeat("h", 0.3, {id_of(10), id_of(11)});
   ASSERT_EQ(held.size(), 1u);
   EXPECT_EQ(held[0].id, id_of(11));
   JobRecord late = a->record;
@@ -266,7 +266,9 @@ TEST_F(PostgresStore, ADismissalRacingTheReaperAlwaysWins) {
   claimer.join();
   for (int i = 0; i < kJobs; ++i) EXPECT_EQ(store->get(id_of(100 + i))->status, JobStatus::dismissed) << i;
   EXPECT_FALSE(store->claim("after", 30, "t"));
-  EXPECT_TRUE(store->heartbeat("dying", 30).empty());
+  std::vector<std::string> all;
+  for (int i = 0; i < kJobs; ++i) all.push_back(id_of(100 + i));
+  EXPECT_TRUE(store->heartbeat("dying", 30, all).empty());
 }
 
 TEST_F(PostgresStore, AdmissionSeesEveryDaemonsSubmissions) {
