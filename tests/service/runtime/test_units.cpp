@@ -68,6 +68,56 @@ TEST(Config, DefaultsWorkAndKeysAreParsed) {
   EXPECT_GT(rv::effective_limits(d).max_memory_bytes, 0);  // resolved from physical memory
 }
 
+TEST(Config, AStoreIsSqliteOrAPostgresUriWithItsPasswordApart) {
+  const rv::ServerConfig d = rv::parse_server_config(nlohmann::json::object());
+  EXPECT_FALSE(d.store.shared());
+  auto refused = [](const nlohmann::json& doc, const std::string& key) {
+    try {
+      rv::parse_server_config(doc);
+      ADD_FAILURE() << doc.dump() << " was accepted";
+    } catch (const rv::Error& e) {
+      EXPECT_NE(std::string(e.what()).find(key), std::string::npos) << e.what();
+      EXPECT_EQ(std::string(e.what()).find("hunter2"), std::string::npos) << e.what();  // never echoed
+    }
+  };
+  const std::string uri = "postgresql://rv@db.example.org:5432/rvoronoi";
+  refused({{"store", "mysql://x"}}, "store");
+  refused({{"store", "postgresql://rv:hunter2@db/rv"}, {"results", "/srv"}, {"results_shared", true}}, "password");
+  refused({{"store", uri + "?password=hunter2"}, {"results", "/srv"}, {"results_shared", true}}, "password");
+  // Several daemons need one results location, and a local folder must be said to be shared.
+  refused({{"store", uri}}, "results");
+  refused({{"store", uri}, {"results", "/srv/rv"}}, "results_shared");
+  refused({{"store", uri}, {"results", "/srv/rv"}, {"results_shared", "yes"}}, "results_shared");
+  refused(
+      {{"store", uri}, {"results", "/srv/rv"}, {"results_shared", true}, {"store_password_file", "/nonexistent/pw"}},
+      "store_password_file");
+  refused({{"jobs", {{"lease_s", 0}}}}, "jobs.lease_s");
+  refused({{"jobs", {{"max_attempts", 0}}}}, "jobs.max_attempts");
+
+  const auto dir = std::filesystem::temp_directory_path() / ("rv-units-store-" + std::to_string(::getpid()));
+  std::filesystem::create_directories(dir);
+  std::ofstream(dir / "pw") << "hunter2\n";
+  const rv::ServerConfig c = rv::parse_server_config({{"store", uri},
+                                                      {"results", "/srv/rv"},
+                                                      {"results_shared", true},
+                                                      {"store_password_file", (dir / "pw").string()},
+                                                      {"store_connections", 4},
+                                                      {"jobs", {{"lease_s", 12}, {"retention_s", 86400}}}});
+  std::filesystem::remove_all(dir);
+  EXPECT_TRUE(c.store.shared());
+  EXPECT_EQ(c.store.uri, uri);
+  EXPECT_EQ(c.store.password, "hunter2");
+  EXPECT_EQ(c.store.connections, 4);
+  EXPECT_EQ(c.jobs.lease_s, 12);
+  EXPECT_EQ(c.jobs.retention_s, 86400);
+  // Or from the environment.
+  ::setenv("RVORONOI_STORE_PASSWORD", "from-env", 1);
+  const rv::ServerConfig e =
+      rv::parse_server_config({{"store", uri}, {"results", "/srv/rv"}, {"results_shared", true}});
+  ::unsetenv("RVORONOI_STORE_PASSWORD");
+  EXPECT_EQ(e.store.password, "from-env");
+}
+
 TEST(Config, TheExampleFileHoldsTheDefaults) {
   const char* src = std::getenv("RV_SOURCE_DIR");
   ASSERT_NE(src, nullptr);
@@ -93,6 +143,16 @@ TEST(Config, TheExampleFileHoldsTheDefaults) {
   EXPECT_EQ(e.limits.max_input_bytes, d.limits.max_input_bytes);
   EXPECT_EQ(e.http.max_connections, d.http.max_connections);
   EXPECT_EQ(e.retained_free_bytes, d.retained_free_bytes);
+  EXPECT_EQ(e.jobs.lease_s, d.jobs.lease_s);
+  EXPECT_EQ(e.jobs.max_attempts, d.jobs.max_attempts);
+  EXPECT_EQ(e.jobs.retry_backoff_s, d.jobs.retry_backoff_s);
+  EXPECT_EQ(e.jobs.poll_s, d.jobs.poll_s);
+  EXPECT_EQ(e.jobs.retention_s, d.jobs.retention_s);
+  EXPECT_EQ(e.jobs.orphan_grace_s, d.jobs.orphan_grace_s);
+  EXPECT_EQ(e.store.uri, d.store.uri);
+  EXPECT_EQ(e.store.connections, d.store.connections);
+  EXPECT_EQ(e.store.results, d.store.results);
+  EXPECT_EQ(e.store.results_shared, d.store.results_shared);
   EXPECT_EQ(e.sessions.max_sessions, d.sessions.max_sessions);
   EXPECT_EQ(e.sessions.max_per_principal, d.sessions.max_per_principal);
   EXPECT_EQ(e.sessions.max_memory_bytes, d.sessions.max_memory_bytes);

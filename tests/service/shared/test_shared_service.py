@@ -20,6 +20,9 @@ and at the end: every job ended once (none accepted or running, every failure wi
 the sweep leaves no folder no job names (a planted one included) and only each job's published
 attempt, and the daemons still standing answered /health throughout.
 
+Before them: a store that cannot be reached, a local results folder not said to be shared and a
+password in the URI each stop the daemon with one line.
+
 Not yet here (the issue's remaining parts): S3 storage, jobs split into bands.
 
 usage: test_shared_service.py RVORONOI SOURCE_DIR
@@ -161,6 +164,26 @@ def health_watch(cluster, stop, failures):
                 if i not in cluster.down:
                     failures.append((i, repr(e)))
         time.sleep(0.25)
+
+
+def step_refusals(tmp, pg):
+    """Bad set-ups get one line and an exit code, before the daemon listens."""
+    import subprocess
+    from postgres_harness import free_port
+    cases = [({"store": f"postgresql://rv@127.0.0.1:{free_port()}/postgres", "results": os.path.join(tmp, "r"),
+               "results_shared": True}, 10, "the job store is unavailable"),
+             ({"store": pg.uri(), "results": os.path.join(tmp, "r")}, 2, "results_shared"),
+             ({"store": "postgresql://rv:hunter2@127.0.0.1/x", "results": "/r", "results_shared": True}, 2,
+              "must not contain a password")]
+    for i, (config, code, words) in enumerate(cases):
+        path = os.path.join(tmp, f"refused{i}.json")
+        with open(path, "w") as f:
+            json.dump(config, f)
+        p = subprocess.run([RVORONOI, "serve", "--listen", "127.0.0.1:0", "--data-dir", os.path.join(tmp, f"x{i}"),
+                            "--config", path], capture_output=True, text=True, timeout=60)
+        lines = p.stderr.strip().splitlines()
+        check(p.returncode == code and len(lines) == 1 and words in lines[0] and "hunter2" not in p.stderr,
+              f"refused set-up {i}: exit {p.returncode}, {p.stderr!r}")
 
 
 def step_many_jobs(c, ref):
@@ -320,6 +343,7 @@ def main():
     stop = threading.Event()
     health_failures = []
     try:
+        step_refusals(tmp, pg)
         c = Cluster(tmp, pg)
         ref = Reference(tmp)
         watcher = threading.Thread(target=health_watch, args=(c, stop, health_failures), daemon=True)
