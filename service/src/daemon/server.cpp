@@ -549,8 +549,11 @@ void Server::start() {
   if (s.shared_store) {
     // The leases' holder: fresh at every start, so that a restarted daemon never mistakes the
     // leases of its previous life for its own.
-    s.jobs = std::make_unique<daemon::JobManager>(*s.shared_store, s.config, s.runner, *s.memory,
-                                                  daemon_name + "/" + daemon::new_job_id().substr(0, 16));
+    const std::string url =
+        s.config.public_url.empty() ? "http://" + s.config.host + ":" + std::to_string(s.port) : s.config.public_url;
+    s.jobs =
+        std::make_unique<daemon::JobManager>(*s.shared_store, s.config, s.runner, *s.memory,
+                                             daemon_name + "/" + daemon::new_job_id().substr(0, 16), daemon_name, url);
   } else {
     s.jobs = std::make_unique<daemon::JobManager>(*s.store, s.config, s.runner, *s.memory);
   }

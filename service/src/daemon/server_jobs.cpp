@@ -55,9 +55,11 @@ JobManager::JobManager(JobStore& store, const ServerConfig& config, JobRunner ru
 }
 
 JobManager::JobManager(store::PostgresJobStore& shared, const ServerConfig& config, JobRunner runner,
-                       MemoryAccount& memory, std::string holder)
+                       MemoryAccount& memory, std::string holder, std::string name, std::string url)
     : shared_(&shared),
       holder_(std::move(holder)),
+      name_(std::move(name)),
+      url_(std::move(url)),
       root_(config.store.results),
       config_(config),
       runner_(std::move(runner)),

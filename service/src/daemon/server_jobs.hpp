@@ -67,8 +67,9 @@ class JobManager {
   // waiting there while other work holds it, and returns it when it ends.
   JobManager(JobStore& store, const ServerConfig& config, JobRunner runner, MemoryAccount& memory);
   // On the shared store: `holder` names this process's leases (fresh at every start).
+  // `name` and `url` say where this daemon answers (announced to the other daemons).
   JobManager(store::PostgresJobStore& shared, const ServerConfig& config, JobRunner runner, MemoryAccount& memory,
-             std::string holder);
+             std::string holder, std::string name, std::string url);
   ~JobManager();  // shutdown(0) if still running
 
   // The directory of a job's files (the id must satisfy is_job_id()): its results with the
@@ -76,6 +77,9 @@ class JobManager {
   std::filesystem::path job_dir(const std::string& id) const;
   // The directory of a finished job's result files.
   std::filesystem::path result_dir(const JobRecord& rec) const;
+  // Where the daemon `name` of a shared store answers, as it announced itself ("" when unknown
+  // or without a shared store; never throws).
+  std::string daemon_url(const std::string& name) const;
   // Whether the shared store answered this daemon's last heartbeat (always true without one).
   bool store_reachable() const { return store_reachable_.load(); }
 
@@ -205,7 +209,7 @@ class JobManager {
 
   JobStore* store_ = nullptr;                  // the SQLite store, or
   store::PostgresJobStore* shared_ = nullptr;  // the shared one
-  std::string holder_;
+  std::string holder_, name_, url_;
   std::filesystem::path root_;  // the jobs' directories
   std::atomic<bool> store_reachable_{true};
   const ServerConfig& config_;

@@ -180,6 +180,16 @@ void JobManager::charge_planned_shared(const Task& task, int64_t cells) {
   }
 }
 
+std::string JobManager::daemon_url(const std::string& name) const {
+  if (!shared_) return "";
+  try {
+    const auto d = shared_->daemon(name);
+    return d ? d->first : "";
+  } catch (...) {
+    return "";
+  }
+}
+
 void JobManager::lose_lease(const std::string& id) {
   std::lock_guard lock(mutex_);
   if (const auto it = running_.find(id); it != running_.end()) {
@@ -345,6 +355,7 @@ void JobManager::heartbeat_loop() {
         if (t.lease) ids.push_back(t.id);
     }
     try {
+      shared_->announce(name_, url_, holder_);
       const auto held = shared_->heartbeat(holder_, config_.jobs.lease_s, ids);
       if (!store_reachable_.exchange(true)) log_event("{\"event\":\"store_reachable\"}");
       leases_lost(held, asked);

@@ -113,9 +113,15 @@ std::shared_ptr<SessionManager::Held> SessionManager::find(const std::string& id
       !is_hex(std::string_view(id).substr(first + 1, 8)) || !is_hex(std::string_view(id).substr(second + 1)))
     throw Error(ErrorKind::not_found, "no session " + shown);
   const std::string daemon = id.substr(0, first);
-  if (daemon != name_)
+  if (daemon != name_) {
+    // On a shared service the daemons announce where they answer: point there. No redirect: a
+    // browser drops Authorization when a redirect crosses origins, and the client must know.
+    const std::string url = jobs_.daemon_url(daemon);
     throw Error(ErrorKind::not_found, "session " + shown + " is held by the daemon '" + daemon.substr(0, 63) +
-                                          "', not by this one ('" + name_ + "'); ask that daemon");
+                                          "', not by this one ('" + name_ + "'); ask that daemon" +
+                                          (url.empty() ? std::string() : ", at " + url + "/sessions/" + id) +
+                                          ", with the same token");
+  }
   if (id.compare(first + 1, 8, run_) != 0)
     throw Error(ErrorKind::not_found, "session " + shown +
                                           " was lost when this daemon restarted: sessions live in memory and a "

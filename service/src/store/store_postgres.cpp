@@ -54,6 +54,12 @@ CREATE INDEX rv_jobs_principal ON rv_jobs (principal, created_at);
 CREATE INDEX rv_jobs_listing ON rv_jobs (created DESC, id);
 CREATE INDEX rv_jobs_finished ON rv_jobs (finished_at) WHERE finished_at IS NOT NULL;
 CREATE INDEX rv_jobs_parent ON rv_jobs (parent) WHERE parent IS NOT NULL;
+CREATE TABLE rv_daemons (
+  name text PRIMARY KEY,
+  url text NOT NULL,
+  holder text NOT NULL,
+  seen_at timestamptz NOT NULL DEFAULT now()
+);
 )sql",
 };
 
@@ -408,6 +414,22 @@ std::vector<std::pair<std::string, int64_t>> PostgresJobStore::count_by_principa
   std::vector<std::pair<std::string, int64_t>> out;
   for (int i = 0; i < r.rows(); ++i) out.emplace_back(r.text(i, 0), r.integer(i, 1));
   return out;
+}
+
+void PostgresJobStore::announce(const std::string& name, const std::string& url, const std::string& holder) {
+  auto c = pool_.acquire();
+  c->exec(
+      "INSERT INTO rv_daemons (name, url, holder) VALUES ($1, $2, $3) ON CONFLICT (name) DO UPDATE"
+      " SET url = EXCLUDED.url, holder = EXCLUDED.holder, seen_at = now()",
+      {name, url, holder});
+}
+
+std::optional<std::pair<std::string, double>> PostgresJobStore::daemon(const std::string& name) const {
+  auto c = pool_.acquire();
+  const pg::Result r =
+      c->exec("SELECT url, extract(epoch FROM now() - seen_at) FROM rv_daemons WHERE name = $1", {name});
+  if (r.rows() == 0) return std::nullopt;
+  return std::make_pair(r.text(0, 0), std::stod(r.text(0, 1)));
 }
 
 std::vector<std::string> PostgresJobStore::referenced_keys() const {

@@ -149,6 +149,12 @@ class PostgresJobStore final : public JobRecords {
                               const std::string& principal = "") const override;
   std::vector<CellCharge> charges_since(const std::string& since) const override;
   std::vector<std::pair<std::string, int64_t>> count_by_principal() const override;
+  // The daemons: each says where it answers (its heartbeat renews it), so that one can point a
+  // client to another (a live session is held by one daemon). daemon(): its URL and the seconds
+  // since it was last seen; nullopt for a name never announced.
+  void announce(const std::string& name, const std::string& url, const std::string& holder);
+  std::optional<std::pair<std::string, double>> daemon(const std::string& name) const;
+
   // The payload and results keys every stored job names (the orphan sweep keeps these).
   std::vector<std::string> referenced_keys() const;
 

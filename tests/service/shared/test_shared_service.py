@@ -16,6 +16,8 @@ its own SQLite store, the one-daemon reference. The scenario, each step checked 
      heartbeat, publishes nothing, and its files go;
   5. an edit (baseJob) run on a daemon other than the one that ran its base: equal to the
      reference's edit;
+  6. a live session held by one daemon: another answers its requests with a pointer to the holder's
+     address (announced in the store), not a redirect;
 and at the end: every job ended once (none accepted or running, every failure with a reason),
 the sweep leaves no folder no job names (a planted one included) and only each job's published
 attempt, and the daemons still standing answered /health throughout.
@@ -316,6 +318,26 @@ def step_edit(c, ref):
     return [base, edit]
 
 
+def step_session_pointer(c):
+    """A live session stays on its daemon; another daemon points there (no redirect)."""
+    b = body(1000, outputs=("boundaries",))
+    del b["outputs"]["report"]
+    st, _, doc = c.daemons[0].json("POST", "/sessions", b, bearer("alice"))
+    check(st == 201, f"a session on d0: {st} {doc}")
+    if st != 201:
+        return
+    sid = doc["sessionID"]
+    check(sid.startswith("d0."), f"the session id names its daemon: {sid}")
+    time.sleep(1.2)  # a heartbeat announces d0's address
+    st, h, doc = c.daemons[1].json("GET", f"/sessions/{sid}", headers=bearer("alice"))
+    url = f"http://127.0.0.1:{c.daemons[0].port}/sessions/{sid}"
+    check(st == 404 and "location" not in h and url in doc.get("detail", ""),
+          f"d1 points to d0 for its session: {st} {doc}")
+    st, _, doc = c.daemons[0].json("GET", f"/sessions/{sid}", headers=bearer("alice"))
+    check(st == 200 and doc.get("status") == "ready", f"d0 holds it: {st}")
+    c.daemons[0].json("DELETE", f"/sessions/{sid}", headers=bearer("alice"))
+
+
 def final_checks(c, planted):
     rows = c.pg.psql("SELECT status, count(*) FROM rv_jobs GROUP BY status ORDER BY status")
     print("final statuses:", rows, flush=True)
@@ -355,6 +377,7 @@ def main():
         step_store_outage(c, ref)
         step_dismiss(c)
         step_edit(c, ref)
+        step_session_pointer(c)
         final_checks(c, planted)
         stop.set()
         watcher.join()
