@@ -18,6 +18,8 @@ its own SQLite store, the one-daemon reference. The scenario, each step checked 
      reference's edit;
   6. a live session held by one daemon: another answers its requests with a pointer to the holder's
      address (announced in the store), not a redirect;
+  7. limits per principal across daemons: a third job on a third daemon past two unfinished (429),
+     an hour's cells used up by jobs of other daemons (429 with the Retry-After of the hour);
 and at the end: every job ended once (none accepted or running, every failure with a reason),
 the sweep leaves no folder no job names (a planted one included) and only each job's published
 attempt, and the daemons still standing answered /health throughout.
@@ -48,7 +50,7 @@ RVORONOI = sys.argv[1]
 SOURCE = sys.argv[2]
 FAILURES = []
 TOKENS = {"alice": "alice-token-shared-1", "bob": "bob-token-shared-2", "carol": "carol-token-shared-3",
-          "root": "root-token-shared-4"}
+          "root": "root-token-shared-4", "dave": "dave-token-shared-5"}
 USERS = ["alice", "bob", "carol"]
 
 
@@ -84,8 +86,8 @@ class Cluster:
         self.daemons = [self.start(i) for i in range(3)]
         self.down = set()  # indices deliberately stopped
 
-    def start(self, i):
-        config = {"store": self.pg.uri(), "store_password_file": self.pg.password_file, "results": self.results,
+    def start(self, i, limits=None):
+        config = {"limits": limits or {},"store": self.pg.uri(), "store_password_file": self.pg.password_file, "results": self.results,
                   "results_shared": True, "daemon_name": f"d{i}", "auth": auth_config(),
                   "jobs": {"workers": 1, "threads_per_job": 1, "poll_s": 0.5, "lease_s": 3, "retry_backoff_s": 0.5,
                            "queue_length": 1000, "orphan_grace_s": 2, "job_timeout_s": 600}}
@@ -338,6 +340,28 @@ def step_session_pointer(c):
     c.daemons[0].json("DELETE", f"/sessions/{sid}", headers=bearer("alice"))
 
 
+def step_limits(c):
+    """A principal's limits count its jobs on every daemon (the counters are the store's)."""
+    c.down.update(range(3))  # restarted on purpose with the limits
+    for d in c.daemons:
+        d.stop()
+    c.daemons = [c.start(i, {"jobs_per_principal": 2, "cells_per_principal_per_hour": 3_000_000}) for i in range(3)]
+    c.down.clear()
+    b = body(1, outputs=("ownership",))
+    b["inputs"]["extent"] = [340000, 6150000, 341000, 6151000]  # 1e6 cells, known up front
+    first = submit(c.daemons[0], "dave", b)
+    second = submit(c.daemons[1], "dave", b)
+    st, h, doc = c.daemons[2].json("POST", "/processes/voronoi/execution", b, dict(bearer("dave"), Prefer="respond-async"))
+    check(st == 429 and "retry-after" in h and "2 jobs queued or running" in doc.get("detail", ""),
+          f"dave's third job on a third daemon: {st} {doc}")
+    for job in (first, second):
+        check(wait_done(c.daemons[2], job, "dave")["status"] == "successful", f"dave's job {job}")
+    check(submit(c.daemons[2], "dave", b) is not None, "dave's third million cells fit the hour")
+    st, h, doc = c.daemons[0].json("POST", "/processes/voronoi/execution", b, dict(bearer("dave"), Prefer="respond-async"))
+    check(st == 429 and int(h.get("retry-after", "0")) > 60 and "cells per hour" in doc.get("detail", ""),
+          f"a fourth million over the hour's 3e6, on another daemon: {st} {h.get('retry-after')} {doc}")
+
+
 def final_checks(c, planted):
     rows = c.pg.psql("SELECT status, count(*) FROM rv_jobs GROUP BY status ORDER BY status")
     print("final statuses:", rows, flush=True)
@@ -378,6 +402,7 @@ def main():
         step_dismiss(c)
         step_edit(c, ref)
         step_session_pointer(c)
+        step_limits(c)
         final_checks(c, planted)
         stop.set()
         watcher.join()
