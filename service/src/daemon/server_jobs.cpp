@@ -99,7 +99,18 @@ std::filesystem::path JobManager::result_dir(const JobRecord& rec) const {
 }
 
 int64_t JobManager::cells_retry_after(const std::string& principal, int64_t cells) const {
-  return cells_.retry_after(principal, cells);
+  if (!shared_) return cells_.retry_after(principal, cells);
+  // A shared store's hour is every daemon's: read from it (the store away: the rule's answer
+  // without the charges, at least a second).
+  CellAllowance hour(config_.principal_limits.cells_per_hour);
+  try {
+    const auto now = std::chrono::system_clock::now();
+    for (const CellCharge& c : shared_->charges_since(rfc3339(now - CellAllowance::kWindow)))
+      if (const auto at = parse_rfc3339(c.created); at && c.principal == principal)
+        hour.restore(principal, *at, c.cells);
+  } catch (const std::exception&) {
+  }
+  return hour.retry_after(principal, cells);
 }
 
 int JobManager::running_count() const {

@@ -17,9 +17,10 @@ its own SQLite store, the one-daemon reference. The scenario, each step checked 
   5. an edit (baseJob) run on a daemon other than the one that ran its base: equal to the
      reference's edit;
   6. a live session held by one daemon: another answers its requests with a pointer to the holder's
-     address (announced in the store), not a redirect;
+     address (announced in the store), not a redirect; a job saved from it is served by any daemon;
   7. limits per principal across daemons: a third job on a third daemon past two unfinished (429),
      an hour's cells used up by jobs of other daemons (429 with the Retry-After of the hour);
+  8. retention (the daemons restarted with retention_s 30): step 1's jobs go, rows and files;
 and at the end: every job ended once (none accepted or running, every failure with a reason),
 the sweep leaves no folder no job names (a planted one included) and only each job's published
 attempt, and the daemons still standing answered /health throughout.
@@ -86,11 +87,13 @@ class Cluster:
         self.daemons = [self.start(i) for i in range(3)]
         self.down = set()  # indices deliberately stopped
 
-    def start(self, i, limits=None):
+    def start(self, i, limits=None, retention_s=None):
         config = {"limits": limits or {},"store": self.pg.uri(), "store_password_file": self.pg.password_file, "results": self.results,
                   "results_shared": True, "daemon_name": f"d{i}", "auth": auth_config(),
                   "jobs": {"workers": 1, "threads_per_job": 1, "poll_s": 0.5, "lease_s": 3, "retry_backoff_s": 0.5,
                            "queue_length": 1000, "orphan_grace_s": 2, "job_timeout_s": 600}}
+        if retention_s:
+            config["jobs"]["retention_s"] = retention_s
         return Daemon([RVORONOI, "serve"], os.path.join(self.tmp, f"d{i}"), config)
 
     def holder(self, job, seconds=60):
@@ -337,6 +340,15 @@ def step_session_pointer(c):
           f"d1 points to d0 for its session: {st} {doc}")
     st, _, doc = c.daemons[0].json("GET", f"/sessions/{sid}", headers=bearer("alice"))
     check(st == 200 and doc.get("status") == "ready", f"d0 holds it: {st}")
+    # A job saved from the session runs on its daemon, and is any daemon's to serve.
+    st, _, doc = c.daemons[0].json("POST", f"/sessions/{sid}/jobs", {"outputs": {"ownership": {}}},
+                                   dict(bearer("alice"), Prefer="respond-async"))
+    check(st == 201, f"a job saved from the session: {st} {doc}")
+    if st == 201:
+        job = doc["jobID"]
+        check(wait_done(c.daemons[2], job, "alice")["status"] == "successful", "the session's job succeeded")
+        st, _, data = c.daemons[2].request("GET", f"/jobs/{job}/results/ownership", headers=bearer("alice"))
+        check(st == 200 and data[:2] in (b"II", b"MM"), f"d2 serves the session's job: {st}")
     c.daemons[0].json("DELETE", f"/sessions/{sid}", headers=bearer("alice"))
 
 
@@ -345,7 +357,8 @@ def step_limits(c):
     c.down.update(range(3))  # restarted on purpose with the limits
     for d in c.daemons:
         d.stop()
-    c.daemons = [c.start(i, {"jobs_per_principal": 2, "cells_per_principal_per_hour": 3_000_000}) for i in range(3)]
+    c.daemons = [c.start(i, {"jobs_per_principal": 2, "cells_per_principal_per_hour": 3_000_000}, retention_s=30)
+                 for i in range(3)]
     c.down.clear()
     b = body(1, outputs=("ownership",))
     b["inputs"]["extent"] = [340000, 6150000, 341000, 6151000]  # 1e6 cells, known up front
@@ -360,6 +373,18 @@ def step_limits(c):
     st, h, doc = c.daemons[0].json("POST", "/processes/voronoi/execution", b, dict(bearer("dave"), Prefer="respond-async"))
     check(st == 429 and int(h.get("retry-after", "0")) > 60 and "cells per hour" in doc.get("detail", ""),
           f"a fourth million over the hour's 3e6, on another daemon: {st} {h.get('retry-after')} {doc}")
+
+
+def step_retention(c, early):
+    """Jobs finished more than retention_s ago go, row, request and results."""
+    end = time.time() + 60
+    while time.time() < end and any(os.path.exists(os.path.join(c.results, j)) for j in early):
+        time.sleep(0.5)
+    check(not any(os.path.exists(os.path.join(c.results, j)) for j in early), "retention removed the early jobs' files")
+    st, _, _ = c.daemons[1].json("GET", f"/jobs/{early[0]}", headers=bearer("root"))
+    check(st == 404, f"an expired job is gone: {st}")
+    rows = c.pg.psql("SELECT count(*) FROM rv_jobs WHERE id IN (" + ",".join(f"'{j}'" for j in early) + ")")
+    check(rows == [["0"]], f"their rows are deleted: {rows}")
 
 
 def final_checks(c, planted):
@@ -396,13 +421,14 @@ def main():
         watcher.start()
         planted = os.path.join(c.results, "ab" * 16)
         os.makedirs(os.path.join(planted, "1"))
-        step_many_jobs(c, ref)
+        early = step_many_jobs(c, ref)
         step_kill(c, ref)
         step_store_outage(c, ref)
         step_dismiss(c)
         step_edit(c, ref)
         step_session_pointer(c)
         step_limits(c)
+        step_retention(c, early)
         final_checks(c, planted)
         stop.set()
         watcher.join()
