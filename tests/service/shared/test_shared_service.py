@@ -8,7 +8,8 @@ its own SQLite store, the one-daemon reference. The scenario, each step checked 
      read from a daemon other than the one it was submitted to; no principal sees another's job;
   2. kill -9 of the daemon running a job: the job's lease expires, another daemon runs it again
      (attempt 2), and its results equal the reference's; the killed daemon comes back with a fresh
-     worker id;
+     worker id; a daemon stopped by SIGTERM hands its running job back at once (not counted as an
+     attempt), and another daemon runs it;
   3. PostgreSQL stopped for 10 s, then started again: every daemon answers /health (the store
      unreachable), requests that need the store get 503 with Retry-After, and jobs submitted
      before finish afterwards;
@@ -91,7 +92,8 @@ class Cluster:
         config = {"limits": limits or {},"store": self.pg.uri(), "store_password_file": self.pg.password_file, "results": self.results,
                   "results_shared": True, "daemon_name": f"d{i}", "auth": auth_config(),
                   "jobs": {"workers": 1, "threads_per_job": 1, "poll_s": 0.5, "lease_s": 3, "retry_backoff_s": 0.5,
-                           "queue_length": 1000, "orphan_grace_s": 2, "job_timeout_s": 600}}
+                           "queue_length": 1000, "orphan_grace_s": 2, "job_timeout_s": 600,
+                           "shutdown_grace_s": 0.5}}
         if retention_s:
             config["jobs"]["retention_s"] = retention_s
         return Daemon([RVORONOI, "serve"], os.path.join(self.tmp, f"d{i}"), config)
@@ -242,7 +244,21 @@ def step_kill(c, ref):
           "the rerun's raster equals the one-daemon run's")
     c.daemons[h] = c.start(h)
     c.down.discard(h)
-    return [job]
+    # SIGTERM instead: the daemon hands its running job back at once (not counted as an attempt).
+    job2 = submit(c.daemons[1], "bob", b)
+    h2 = c.holder(job2)
+    time.sleep(0.3)
+    c.down.add(h2)
+    check(c.daemons[h2].stop() == 0, "a daemon stops cleanly on SIGTERM with a job running")
+    doc = wait_done(c.daemons[(h2 + 1) % 3], job2, "bob")
+    rows = c.pg.psql(f"SELECT attempt, max_attempts, results FROM rv_jobs WHERE id = '{job2}'")
+    check(doc["status"] == "successful" and rows and rows[0][0] == "2" and rows[0][1] == "4",
+          f"the job handed back on SIGTERM ran again, not counted against its attempts: {doc['status']} {rows}")
+    check(files(c.daemons[(h2 + 2) % 3], job2, ["ownership"], "bob")["ownership"] == expected["ownership"],
+          "the handed-back job's raster equals the one-daemon run's")
+    c.daemons[h2] = c.start(h2)
+    c.down.discard(h2)
+    return [job, job2]
 
 
 def step_store_outage(c, ref):

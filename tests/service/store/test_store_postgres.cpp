@@ -217,6 +217,29 @@ TEST_F(PostgresStore, TheReaperBacksOffThenFailsWithAReason) {
   EXPECT_NE(store->get(id_of(9))->message.find("only that daemon"), std::string::npos);
 }
 
+TEST_F(PostgresStore, AJobHandedBackRunsAgainWithoutCountingAnAttempt) {
+  auto store = open();
+  QueueEntry once;
+  once.max_attempts = 1;
+  store->enqueue(record(id_of(20)), once);
+  auto a = store->claim("a", 30, "t");
+  ASSERT_TRUE(a);
+  EXPECT_FALSE(store->release(rv::store::Lease{id_of(20), 1, "someone else"}, "m", "t"));
+  EXPECT_TRUE(store->release(a->lease, "queued again: its daemon shut down", "t2"));
+  EXPECT_FALSE(store->release(a->lease, "again", "t3"));  // the lease went with it
+  const auto rec = store->get(id_of(20));
+  EXPECT_EQ(rec->status, JobStatus::accepted);
+  EXPECT_EQ(rec->message, "queued again: its daemon shut down");
+  auto b = store->claim("b", 0.1, "t");
+  ASSERT_TRUE(b);
+  EXPECT_EQ(b->lease.attempt, 2);
+  EXPECT_EQ(b->entry.max_attempts, 2);  // the hand-back did not use up its one attempt
+  // Work only its daemon could run is not handed back: it fails with its daemon.
+  const auto lease = store->insert_running(record(id_of(21)), QueueEntry{"job", "", "", false, 3}, "c", 30);
+  EXPECT_FALSE(store->release(lease, "m", "t"));
+  EXPECT_EQ(store->get(id_of(21))->status, JobStatus::running);
+}
+
 TEST_F(PostgresStore, HeartbeatsKeepALeaseAndDismissalEndsIt) {
   auto store = open();
   store->enqueue(record(id_of(10)), QueueEntry{});
