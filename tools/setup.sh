@@ -72,3 +72,14 @@ if ! cmp -s "$web/package-lock.json" "$web/node_modules/.rvoronoi-lock" 2>/dev/n
   npm ci --prefix "$web" --ignore-scripts --no-audit --no-fund --loglevel=error
   cp "$web/package-lock.json" "$web/node_modules/.rvoronoi-lock"
 fi
+
+# The S3 server the shared service's tests start (tests/service/shared/package.json: s3rver), the
+# same way; not in the daemon image.
+if [ "${1:-}" != "--image" ]; then
+  shared="$(cd "$(dirname "$0")/.." && pwd)/tests/service/shared"
+  if ! cmp -s "$shared/package-lock.json" "$shared/node_modules/.rvoronoi-lock" 2>/dev/null; then
+    echo "setup: installing the tests' S3 server (npm ci in tests/service/shared/)"
+    npm ci --prefix "$shared" --ignore-scripts --no-audit --no-fund --loglevel=error
+    cp "$shared/package-lock.json" "$shared/node_modules/.rvoronoi-lock"
+  fi
+fi

@@ -17,6 +17,8 @@
 #include <stdexcept>
 #include <string>
 
+#include "free_port.hpp"
+
 namespace rv::test {
 
 class PostgresServer {
@@ -81,20 +83,6 @@ class PostgresServer {
   std::string prefix() const { return as_postgres_ ? "runuser -u postgres -- " : ""; }
   static void run(const std::string& cmd) {
     if (std::system(cmd.c_str()) != 0) throw std::runtime_error("failed: " + cmd);
-  }
-  static int free_port() {
-    const int s = ::socket(AF_INET, SOCK_STREAM, 0);
-    sockaddr_in a{};
-    a.sin_family = AF_INET;
-    a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-    socklen_t len = sizeof a;
-    if (::bind(s, reinterpret_cast<sockaddr*>(&a), sizeof a) != 0 ||
-        ::getsockname(s, reinterpret_cast<sockaddr*>(&a), &len) != 0) {
-      ::close(s);
-      throw std::runtime_error("no free port");
-    }
-    ::close(s);
-    return ntohs(a.sin_port);
   }
 
   std::filesystem::path dir_;

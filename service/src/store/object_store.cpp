@@ -1,0 +1,238 @@
+#include "store/object_store.hpp"
+
+#include <cpl_error.h>
+#include <cpl_string.h>
+#include <cpl_vsi.h>
+
+#include <algorithm>
+#include <fstream>
+#include <memory>
+
+#include "common/atomic_file.hpp"
+#include "rv/field/error.hpp"
+#include "rv/field/text.hpp"
+
+namespace rv::store {
+namespace {
+
+// The storage's own words for the last failure (GDAL's error, e.g. the S3 server's message).
+std::string last_error(const std::string& what) {
+  const char* msg = CPLGetLastErrorMsg();
+  std::string why = msg && *msg ? msg : "unknown error";
+  return valid_utf8(what + ": " + why);
+}
+
+struct VsiClose {
+  void operator()(VSILFILE* f) const {
+    if (f) VSIFCloseL(f);
+  }
+};
+using VsiFile = std::unique_ptr<VSILFILE, VsiClose>;
+
+// GDAL caches what it learnt of /vsis3/ paths (sizes, listings). Other daemons write the same
+// bucket, and a recursive removal leaves listings behind: what is asked is asked afresh.
+void forget_cached(const std::string& vsi_path, bool remote) {
+  if (remote) VSICurlPartialClearCache(vsi_path.c_str());
+}
+
+void check_key(std::string_view key) {
+  if (!is_object_key(key))
+    throw Error(ErrorKind::internal, "not an object key: '" + std::string(key.substr(0, 80)) + "'");
+}
+
+// Writes `bytes` sequentially to the VSI path `path`; checks the close, where an upload ends.
+void write_object(const std::string& path, const char* data, size_t size, const std::string& what) {
+  CPLErrorReset();
+  VSILFILE* f = VSIFOpenL(path.c_str(), "wb");
+  if (!f) throw Error(ErrorKind::io, last_error("cannot write " + what));
+  const size_t written = size ? VSIFWriteL(data, 1, size, f) : 0;
+  const int closed = VSIFCloseL(f);
+  if (written != size || closed != 0) throw Error(ErrorKind::io, last_error("cannot write " + what));
+}
+
+}  // namespace
+
+bool is_object_key(std::string_view key) {
+  if (key.empty() || key.front() == '/' || key.back() == '/' || key.size() > 512) return false;
+  if (key.find_first_not_of("abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789._-/") !=
+      std::string_view::npos)
+    return false;
+  size_t at = 0;
+  while (at <= key.size()) {
+    size_t end = key.find('/', at);
+    if (end == std::string_view::npos) end = key.size();
+    const std::string_view part = key.substr(at, end - at);
+    if (part.empty() || part == "." || part == "..") return false;
+    at = end + 1;
+  }
+  return true;
+}
+
+ObjectStore::ObjectStore(const std::string& location) : location_(location) {
+  if (location.rfind("s3://", 0) == 0) {
+    std::string rest = location.substr(5);
+    while (!rest.empty() && rest.back() == '/') rest.pop_back();
+    const std::string bucket = rest.substr(0, rest.find('/'));
+    if (bucket.empty() || (rest.size() > bucket.size() && !is_object_key(rest.substr(bucket.size() + 1))) ||
+        bucket.find_first_not_of("abcdefghijklmnopqrstuvwxyz0123456789.-") != std::string::npos)
+      throw Error(ErrorKind::invalid_argument, "results: '" + location.substr(0, 200) +
+                                                   "' is no s3://bucket/prefix (a bucket name, then a prefix of "
+                                                   "letters, digits and . _ - /)");
+    root_ = "/vsis3/" + rest;
+    remote_ = true;
+  } else {
+    if (location.empty()) throw Error(ErrorKind::invalid_argument, "results: an empty location");
+    root_ = std::filesystem::absolute(location).lexically_normal().string();
+    while (root_.size() > 1 && root_.back() == '/') root_.pop_back();
+  }
+}
+
+std::string ObjectStore::path(std::string_view key) const {
+  check_key(key);
+  return root_ + "/" + std::string(key);
+}
+
+void ObjectStore::put(std::string_view key, std::string_view bytes) const {
+  const std::string p = path(key);
+  if (!remote_) {
+    std::error_code ec;
+    std::filesystem::create_directories(std::filesystem::path(p).parent_path(), ec);
+    write_file_atomically(p, bytes);
+    return;
+  }
+  write_object(p, bytes.data(), bytes.size(), std::string(key));
+}
+
+void ObjectStore::put_file(std::string_view key, const std::filesystem::path& local) const {
+  std::ifstream in(local, std::ios::binary);
+  if (!in) throw Error(ErrorKind::io, "cannot read " + local.filename().string());
+  const std::string p = path(key);
+  if (!remote_) {
+    std::error_code ec;
+    std::filesystem::create_directories(std::filesystem::path(p).parent_path(), ec);
+    std::filesystem::copy_file(local, p, std::filesystem::copy_options::overwrite_existing, ec);
+    if (ec) throw Error(ErrorKind::io, "cannot write " + std::string(key) + ": " + ec.message());
+    return;
+  }
+  // Streamed in blocks: a raster may be larger than memory should hold twice.
+  CPLErrorReset();
+  VsiFile out(VSIFOpenL(p.c_str(), "wb"));
+  if (!out) throw Error(ErrorKind::io, last_error("cannot write " + std::string(key)));
+  std::vector<char> block(size_t{8} << 20);
+  while (in) {
+    in.read(block.data(), static_cast<std::streamsize>(block.size()));
+    const size_t n = static_cast<size_t>(in.gcount());
+    if (n && VSIFWriteL(block.data(), 1, n, out.get()) != n)
+      throw Error(ErrorKind::io, last_error("cannot write " + std::string(key)));
+  }
+  if (VSIFCloseL(out.release()) != 0) throw Error(ErrorKind::io, last_error("cannot write " + std::string(key)));
+}
+
+int ObjectStore::put_tree(std::string_view prefix, const std::filesystem::path& local) const {
+  int count = 0;
+  std::error_code ec;
+  for (auto it = std::filesystem::recursive_directory_iterator(local, ec);
+       !ec && it != std::filesystem::recursive_directory_iterator(); it.increment(ec)) {
+    if (!it->is_regular_file()) continue;
+    const std::string rel = it->path().lexically_relative(local).generic_string();
+    put_file(std::string(prefix) + "/" + rel, it->path());
+    ++count;
+  }
+  if (ec) throw Error(ErrorKind::io, "cannot read " + local.filename().string() + ": " + ec.message());
+  return count;
+}
+
+std::optional<std::string> ObjectStore::get(std::string_view key) const {
+  const std::string p = path(key);
+  forget_cached(p, remote_);
+  VSIStatBufL st;
+  if (VSIStatExL(p.c_str(), &st, VSI_STAT_EXISTS_FLAG | VSI_STAT_NATURE_FLAG | VSI_STAT_SIZE_FLAG) != 0 ||
+      VSI_ISDIR(st.st_mode))
+    return std::nullopt;
+  CPLErrorReset();
+  VsiFile f(VSIFOpenL(p.c_str(), "rb"));
+  if (!f) throw Error(ErrorKind::io, last_error("cannot read " + std::string(key)));
+  std::string out;
+  std::vector<char> block(size_t{1} << 20);
+  for (;;) {
+    const size_t n = VSIFReadL(block.data(), 1, block.size(), f.get());
+    out.append(block.data(), n);
+    if (n < block.size()) break;
+  }
+  // A short read is a failure (this GDAL has no error flag on a handle): the size is known.
+  if (out.size() != static_cast<size_t>(st.st_size))
+    throw Error(ErrorKind::io, last_error("cannot read " + std::string(key) + " whole"));
+  return out;
+}
+
+int ObjectStore::get_tree(std::string_view prefix, const std::filesystem::path& local) const {
+  int count = 0;
+  for (const std::string& name : list(prefix)) {
+    const std::string key = std::string(prefix) + "/" + name;
+    if (!is_object_key(key)) continue;  // nothing this program wrote
+    VSIStatBufL st;
+    if (VSIStatL(path(key).c_str(), &st) != 0) continue;
+    if (VSI_ISDIR(st.st_mode)) {
+      count += get_tree(key, local / name);
+      continue;
+    }
+    const auto bytes = get(key);
+    if (!bytes) continue;
+    std::error_code ec;
+    std::filesystem::create_directories(local, ec);
+    write_file_atomically((local / name).string(), *bytes);
+    ++count;
+  }
+  return count;
+}
+
+std::vector<std::string> ObjectStore::list(std::string_view prefix) const {
+  const std::string p = prefix.empty() ? root_ : path(prefix);
+  forget_cached(p, remote_);
+  // On a bucket, every key below the prefix, cut at its first '/': listings with a delimiter are
+  // not answered alike by every S3-compatible server (s3rver leaves out the "folders" of keys two
+  // levels down), a flat listing is.
+  char** names = remote_ ? VSIReadDirRecursive(p.c_str()) : VSIReadDir(p.c_str());
+  std::vector<std::string> out;
+  for (char** n = names; n && *n; ++n) {
+    const std::string_view name(*n);
+    const std::string_view first = name.substr(0, name.find('/'));
+    if (!first.empty() && first != "." && first != "..") out.emplace_back(first);
+  }
+  CSLDestroy(names);
+  std::sort(out.begin(), out.end());
+  out.erase(std::unique(out.begin(), out.end()), out.end());
+  return out;
+}
+
+bool ObjectStore::exists(std::string_view key) const {
+  const std::string p = path(key);
+  forget_cached(p, remote_);
+  VSIStatBufL st;
+  return VSIStatExL(p.c_str(), &st, VSI_STAT_EXISTS_FLAG) == 0;
+}
+
+void ObjectStore::remove_tree(std::string_view prefix) const {
+  const std::string p = path(prefix);
+  if (!remote_) {
+    std::error_code ec;
+    std::filesystem::remove_all(p, ec);
+    if (ec) throw Error(ErrorKind::io, "cannot remove " + std::string(prefix) + ": " + ec.message());
+    return;
+  }
+  forget_cached(p, remote_);
+  VSIStatBufL st;
+  if (VSIStatExL(p.c_str(), &st, VSI_STAT_EXISTS_FLAG | VSI_STAT_NATURE_FLAG) != 0) return;
+  CPLErrorReset();
+  const int rc = VSI_ISDIR(st.st_mode) ? VSIRmdirRecursive(p.c_str()) : VSIUnlink(p.c_str());
+  forget_cached(root_, remote_);
+  if (rc != 0) throw Error(ErrorKind::io, last_error("cannot remove " + std::string(prefix)));
+}
+
+bool ObjectStore::abort_pending_uploads() const {
+  if (!remote_) return false;
+  CPLErrorReset();
+  return VSIAbortPendingUploads((root_ + "/").c_str()) != 0;
+}
+
+}  // namespace rv::store

@@ -1,0 +1,65 @@
+// Where a shared store keeps the jobs' stored requests, results and edit bases (issue 55): a
+// folder every daemon mounts, or an S3-compatible bucket through GDAL's /vsis3/, configured by
+// GDAL's standard settings (environment or GDAL config options): AWS_S3_ENDPOINT, AWS_HTTPS,
+// AWS_VIRTUAL_HOSTING (FALSE for path-style addressing), AWS_REGION, and the keys from
+// AWS_ACCESS_KEY_ID / AWS_SECRET_ACCESS_KEY or a credentials file (AWS_CONFIG_FILE,
+// CPL_AWS_CREDENTIALS_FILE).
+//
+// Keys are '/'-separated relative paths below the location ("<job>/<attempt>/ownership.tif"),
+// of letters, digits, '.', '_', '-' and '/', never "..": checked, since they name files.
+// Writing: an object is written in one sequential upload (a /vsis3/ write cannot seek), so
+// callers write to a local scratch file first and put it; a local file is written under a
+// temporary name and renamed. Errors: rv::Error(io), with the storage's own message.
+// Thread safety: every member may be called from any thread (GDAL's VSI handlers are).
+#pragma once
+
+#include <filesystem>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+namespace rv::store {
+
+class ObjectStore {
+ public:
+  // `location`: a folder, or "s3://bucket[/prefix]". Throws rv::Error(invalid_argument) for a
+  // malformed one.
+  explicit ObjectStore(const std::string& location);
+
+  bool remote() const { return remote_; }
+  const std::string& location() const { return location_; }
+  // The path GDAL's VSI functions open for `key` (a /vsis3/ path, or a local one).
+  std::string path(std::string_view key) const;
+  // Writes `bytes` as `key`.
+  void put(std::string_view key, std::string_view bytes) const;
+  // Copies the local file `local` to `key`.
+  void put_file(std::string_view key, const std::filesystem::path& local) const;
+  // Copies every regular file below the local folder `local` to keys below `prefix`, keeping
+  // their relative paths; returns how many.
+  int put_tree(std::string_view prefix, const std::filesystem::path& local) const;
+  // The object's bytes; nullopt when there is none. Throws rv::Error(io) for any other failure.
+  std::optional<std::string> get(std::string_view key) const;
+  // Copies every object below `prefix` into the local folder `local`, keeping relative paths;
+  // returns how many.
+  int get_tree(std::string_view prefix, const std::filesystem::path& local) const;
+  // The names directly below `prefix` ("" = the location itself), objects and "folders", sorted;
+  // none when it is missing. On a bucket it reads every key below `prefix` (a flat listing).
+  std::vector<std::string> list(std::string_view prefix) const;
+  bool exists(std::string_view key) const;
+  // Removes `prefix` and everything below it; nothing there is no error.
+  void remove_tree(std::string_view prefix) const;
+  // Aborts the multipart uploads left open below the location (a daemon that died mid-upload),
+  // where the server allows listing them; false when it does not (or for a local folder).
+  bool abort_pending_uploads() const;
+
+ private:
+  std::string location_;  // as configured
+  std::string root_;      // the VSI path of the location, without a trailing '/'
+  bool remote_ = false;
+};
+
+// Whether `key` is a key ObjectStore accepts (see the header's comment).
+bool is_object_key(std::string_view key);
+
+}  // namespace rv::store
