@@ -164,6 +164,8 @@ class JobManager {
   // planned later.
   void admit_shared(const store::AdmissionView& v, const auth::Principal& who, int64_t cells, bool queued,
                     bool new_job) const;
+  // Whether the shared store holds job `id` (false when it cannot be asked).
+  bool stored(const std::string& id) const;
   // The next job of the shared queue as a task; nullopt when none waits or the store is away.
   std::optional<Task> claim_shared();
   // The claimed job's execution, from its stored request.

@@ -92,7 +92,13 @@ JobRecord JobManager::submit_shared(const std::string& id, Execution execution, 
       // Persisted before the row that names it, and the row committed before the 201.
       write_file_atomically((job_dir(id) / kRequestFile).string(), execution.request);
       entry.payload = id + "/" + kRequestFile;
-      shared_->enqueue(rec, entry, admit);
+      try {
+        shared_->enqueue(rec, entry, admit);
+      } catch (const Error& e) {
+        // The connection broke around the commit: the row may have been committed all the same,
+        // and then the job is accepted (any daemon will run it), its files must stay.
+        if (e.kind() != ErrorKind::busy || !stored(id)) throw;
+      }
       return rec;
     }
     entry.retryable = false;
@@ -116,6 +122,14 @@ JobRecord JobManager::submit_shared(const std::string& id, Execution execution, 
   } catch (...) {
     remove_dir(job_dir(id));
     throw;
+  }
+}
+
+bool JobManager::stored(const std::string& id) const {
+  try {
+    return shared_->get(id).has_value();
+  } catch (...) {
+    return false;
   }
 }
 
