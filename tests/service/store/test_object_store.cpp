@@ -8,8 +8,15 @@
 #include <cpl_conv.h>
 #include <cpl_vsi.h>
 
+#include <netinet/in.h>
+#include <sys/socket.h>
+#include <unistd.h>
+
+#include <atomic>
 #include <fstream>
+#include <mutex>
 #include <random>
+#include <thread>
 
 #include "free_port.hpp"
 #include "rv/field/error.hpp"
@@ -147,6 +154,101 @@ TEST(ObjectLocations, AServerThatIsGoneFailsWithItsReason) {
   s3().configure_gdal();
   CPLSetConfigOption("GDAL_HTTP_MAX_RETRY", nullptr);
   EXPECT_FALSE(ObjectStore("/tmp").abort_pending_uploads());
+}
+
+// A fake S3 endpoint that knows two requests, as GDAL's own tests fake S3: the listing of pending
+// multipart uploads (two, one of them under the location) and their abort; it records what it
+// was asked. s3rver lists no uploads, so the abort path is tested here.
+class FakeUploads {
+ public:
+  FakeUploads() : port_(rv::test::free_port()) {
+    fd_ = ::socket(AF_INET, SOCK_STREAM, 0);
+    sockaddr_in a{};
+    a.sin_family = AF_INET;
+    a.sin_port = htons(static_cast<uint16_t>(port_));
+    a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    int one = 1;
+    ::setsockopt(fd_, SOL_SOCKET, SO_REUSEADDR, &one, sizeof one);
+    if (::bind(fd_, reinterpret_cast<sockaddr*>(&a), sizeof a) != 0 || ::listen(fd_, 8) != 0)
+      throw std::runtime_error("fake endpoint: cannot listen");
+    thread_ = std::thread([this] { serve(); });
+  }
+  ~FakeUploads() {
+    stop_ = true;
+    ::shutdown(fd_, SHUT_RDWR);
+    ::close(fd_);
+    thread_.join();
+  }
+  int port() const { return port_; }
+  std::vector<std::string> requests() {
+    std::lock_guard lock(m_);
+    return requests_;
+  }
+
+ private:
+  void serve() {
+    while (!stop_) {
+      const int c = ::accept(fd_, nullptr, nullptr);
+      if (c < 0) return;
+      // An idle connection is closed after a moment (the client keeps it for reuse): the server
+      // thread must get back to accept() and its stop flag.
+      timeval t{0, 200000};
+      ::setsockopt(c, SOL_SOCKET, SO_RCVTIMEO, &t, sizeof t);
+      for (;;) {  // keep-alive: requests on one connection until it closes
+        std::string head;
+        char ch;
+        while (head.find("\r\n\r\n") == std::string::npos && ::read(c, &ch, 1) == 1) head += ch;
+        if (head.empty()) break;
+        const std::string line = head.substr(0, head.find("\r\n"));
+        {
+          std::lock_guard lock(m_);
+          requests_.push_back(line);
+        }
+        std::string body, status = "200 OK";
+        if (line.rfind("GET ", 0) == 0 && line.find("uploads") != std::string::npos) {
+          body =
+              "<?xml version=\"1.0\" encoding=\"UTF-8\"?><ListMultipartUploadsResult><Bucket>rv</Bucket>"
+              "<IsTruncated>false</IsTruncated>"
+              "<Upload><Key>runs/job1/1/ownership.tif</Key><UploadId>U1</UploadId></Upload>"
+              "<Upload><Key>runs/job2/1/distance.tif</Key><UploadId>U2</UploadId></Upload>"
+              "</ListMultipartUploadsResult>";
+        } else if (line.rfind("DELETE ", 0) == 0) {
+          status = "204 No Content";
+        } else {
+          status = "404 Not Found";
+        }
+        const std::string answer = "HTTP/1.1 " + status + "\r\nContent-Length: " + std::to_string(body.size()) +
+                                   "\r\nContent-Type: application/xml\r\n\r\n" + body;
+        if (::write(c, answer.data(), answer.size()) < 0) break;
+      }
+      ::close(c);
+    }
+  }
+  int port_;
+  int fd_ = -1;
+  std::atomic<bool> stop_{false};
+  std::thread thread_;
+  std::mutex m_;
+  std::vector<std::string> requests_;
+};
+
+TEST(ObjectLocations, PendingUploadsAreAbortedWhereTheServerListsThem) {
+  FakeUploads fake;
+  s3().configure_gdal();
+  CPLSetConfigOption("AWS_S3_ENDPOINT", ("127.0.0.1:" + std::to_string(fake.port())).c_str());
+  EXPECT_TRUE(ObjectStore("s3://rv/runs").abort_pending_uploads());
+  s3().configure_gdal();
+  const auto asked = fake.requests();
+  int aborted = 0;
+  for (const std::string& r : asked) {
+    if (r.rfind("DELETE ", 0) == 0) {
+      ++aborted;
+      EXPECT_TRUE(r.find("uploadId=U1") != std::string::npos || r.find("uploadId=U2") != std::string::npos) << r;
+    }
+  }
+  EXPECT_EQ(aborted, 2) << ::testing::PrintToString(asked);
+  // s3rver lists no uploads: nothing to abort, said as such.
+  EXPECT_FALSE(ObjectStore("s3://" + s3().bucket() + "/runs").abort_pending_uploads());
 }
 
 }  // namespace
