@@ -214,7 +214,10 @@ QuotaExceeded too_many_jobs(int64_t count, int limit) {
 }
 
 void JobManager::charge_cells(const auth::Principal& who, int64_t cells) {
-  if (!exempt_from_limits(who)) cells_.charge(who.name, cells);
+  if (exempt_from_limits(who)) return;
+  if (!shared_) return cells_.charge(who.name, cells);
+  // On a shared store the hour is every daemon's (a session's grid counts on all of them).
+  shared_->charge(who.name, cells, [&](const store::AdmissionView& v) { admit_shared(v, who, cells, false, false); });
 }
 
 void JobManager::submit_work(const std::string& name, const auth::Principal& who,

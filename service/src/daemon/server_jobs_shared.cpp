@@ -89,6 +89,10 @@ JobRecord JobManager::submit_shared(const std::string& id, Execution execution, 
     if (!execution.spec.base_name.empty())
       execution.spec.base_report = snapshot_base(execution.spec.base_name, id, who);
     if (!here) {
+      // The uploads this daemon staged while checking the request go before the row exists: a
+      // worker of this daemon may claim the job at once and stage them again under the same
+      // names, which this Execution's end would otherwise unlink under it.
+      execution.uploads.reset();
       // Persisted before the row that names it, and the row committed before the 201.
       write_file_atomically((job_dir(id) / kRequestFile).string(), execution.request);
       entry.payload = id + "/" + kRequestFile;

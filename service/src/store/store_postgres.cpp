@@ -54,6 +54,13 @@ CREATE INDEX rv_jobs_principal ON rv_jobs (principal, created_at);
 CREATE INDEX rv_jobs_listing ON rv_jobs (created DESC, id);
 CREATE INDEX rv_jobs_finished ON rv_jobs (finished_at) WHERE finished_at IS NOT NULL;
 CREATE INDEX rv_jobs_parent ON rv_jobs (parent) WHERE parent IS NOT NULL;
+CREATE TABLE rv_charges (
+  id bigserial PRIMARY KEY,
+  principal text NOT NULL,
+  cells bigint NOT NULL,
+  created_at timestamptz NOT NULL DEFAULT now()
+);
+CREATE INDEX rv_charges_principal ON rv_charges (principal, created_at);
 CREATE TABLE rv_daemons (
   name text PRIMARY KEY,
   url text NOT NULL,
@@ -143,10 +150,15 @@ AdmissionView PostgresJobStore::admission_view(pg::Transaction& tx, const std::s
   v.principal_unfinished = counts.integer(0, 0);
   v.queued = counts.integer(0, 1);
   v.now = from_epoch(std::stod(counts.text(0, 2)));
+  // The hour's charges: its jobs' cells (not those refused over the allowance once planned), and
+  // the charges that are no job (a live session's grid).
   const pg::Result charges = tx.exec(
-      "SELECT extract(epoch FROM created_at), cells FROM rv_jobs WHERE principal = $1 AND kind = 'job'"
-      " AND created_at > now() - interval '1 hour' AND cells > 0"
-      " AND NOT (status = 'failed' AND error_kind = 'over_quota') ORDER BY created_at",
+      "SELECT extract(epoch FROM at), cells FROM ("
+      " SELECT created_at AS at, cells FROM rv_jobs WHERE principal = $1 AND kind = 'job'"
+      "  AND created_at > now() - interval '1 hour' AND cells > 0"
+      "  AND NOT (status = 'failed' AND error_kind = 'over_quota')"
+      " UNION ALL SELECT created_at, cells FROM rv_charges WHERE principal = $1"
+      "  AND created_at > now() - interval '1 hour') c ORDER BY at",
       {principal});
   for (int i = 0; i < charges.rows(); ++i)
     v.charges.emplace_back(from_epoch(std::stod(charges.text(i, 0))), charges.integer(i, 1));
@@ -400,7 +412,9 @@ std::vector<CellCharge> PostgresJobStore::charges_since(const std::string& since
   auto c = pool_.acquire();
   const pg::Result r = c->exec(
       "SELECT principal, created, cells FROM rv_jobs WHERE kind = 'job' AND created >= $1 AND cells > 0"
-      " AND NOT (status = 'failed' AND error_kind = 'over_quota')",
+      " AND NOT (status = 'failed' AND error_kind = 'over_quota')"
+      " UNION ALL SELECT principal, to_char(created_at AT TIME ZONE 'UTC', 'YYYY-MM-DD\"T\"HH24:MI:SS.MS\"Z\"'), cells"
+      " FROM rv_charges WHERE created_at > now() - interval '1 hour'",
       {since});
   std::vector<CellCharge> out;
   for (int i = 0; i < r.rows(); ++i) out.push_back(CellCharge{r.text(i, 0), r.text(i, 1), r.integer(i, 2)});
@@ -414,6 +428,17 @@ std::vector<std::pair<std::string, int64_t>> PostgresJobStore::count_by_principa
   std::vector<std::pair<std::string, int64_t>> out;
   for (int i = 0; i < r.rows(); ++i) out.emplace_back(r.text(i, 0), r.integer(i, 1));
   return out;
+}
+
+void PostgresJobStore::charge(const std::string& principal, int64_t cells,
+                              const std::function<void(const AdmissionView&)>& admit) {
+  auto c = pool_.acquire();
+  pg::Transaction tx(*c);
+  if (admit) admit(admission_view(tx, principal));
+  tx.exec("INSERT INTO rv_charges (principal, cells) VALUES ($1, $2)", {principal, pg::param(cells)});
+  // An hour on, a charge counts no more: kept no longer.
+  tx.exec("DELETE FROM rv_charges WHERE created_at < now() - interval '1 hour'");
+  tx.commit();
 }
 
 void PostgresJobStore::announce(const std::string& name, const std::string& url, const std::string& holder) {

@@ -125,6 +125,10 @@ class PostgresJobStore final : public JobRecords {
   // hour as for enqueue, and throws to refuse. False when the lease was lost.
   bool charge_planned(const Lease& lease, int64_t cells, const std::function<void(const AdmissionView&)>& admit);
 
+  // Charges `cells` that are no job's (a live session's grid) to `principal`'s hour, after `admit`
+  // saw the hour as for enqueue (and may throw to refuse).
+  void charge(const std::string& principal, int64_t cells, const std::function<void(const AdmissionView&)>& admit);
+
   // Puts running jobs whose lease expired back in the queue (run again after backoff_s x 2^(n-1)
   // for attempt n) or fails them; `now_text` is the record's time.
   std::vector<Reaped> reap(double backoff_s, const std::string& now_text);
@@ -147,6 +151,7 @@ class PostgresJobStore final : public JobRecords {
   std::optional<QueueEntry> entry(const std::string& id) const;
   std::vector<JobRecord> list(int limit, int offset, const std::vector<JobStatus>& status = {},
                               const std::string& principal = "") const override;
+  // The jobs' charges since `since`, and every other charge of the last hour.
   std::vector<CellCharge> charges_since(const std::string& since) const override;
   std::vector<std::pair<std::string, int64_t>> count_by_principal() const override;
   // The daemons: each says where it answers (its heartbeat renews it), so that one can point a

@@ -331,6 +331,20 @@ TEST_F(PostgresStore, AdmissionSeesEveryDaemonsSubmissions) {
                Error);
   EXPECT_EQ(store->get(c->record.id)->cells, 700);
   EXPECT_FALSE(store->charge_planned(rv::store::Lease{c->record.id, 9, "h"}, 1, {}));
+  // Charges that are no job (a session's grid) count in the same hour, for every daemon.
+  store->charge("frank", 300, {});
+  int64_t hour = 0;
+  store->charge("frank", 1, [&](const rv::store::AdmissionView& v) {
+    for (const auto& [at, cells] : v.charges) hour += cells;
+  });
+  EXPECT_EQ(hour, 700 + 300);
+  EXPECT_THROW(
+      store->charge("frank", 5, [](const rv::store::AdmissionView&) { throw Error(ErrorKind::over_quota, "x"); }),
+      Error);
+  int64_t listed = 0;
+  for (const auto& ch : store->charges_since("2000-01-01T00:00:00.000Z"))
+    if (ch.principal == "frank") listed += ch.cells;
+  EXPECT_EQ(listed, 700 + 300 + 1);  // the refused charge left nothing
 }
 
 TEST_F(PostgresStore, QueueingAndDismissalNotifyListeners) {
