@@ -321,8 +321,9 @@ void check_body_members(const json& body) {
 // relevantArea.<ext>, relevantCoasts.<ext>); the client knows its layers as seeds[n] and the
 // inputs by name.
 std::string client_names(std::string message, const std::string& id) {
-  const std::regex vsi("(/vsizip/)?/vsimem/rvoronoi/" + id + "/seeds_([0-9]+)\\.[a-z]+");
-  const std::regex named("(/vsizip/)?/vsimem/rvoronoi/" + id + "/(relevantArea|relevantCoasts)\\.[a-z]+");
+  // A claimed attempt stages under "<id>-a<attempt>" (parse_execution's `staging`).
+  const std::regex vsi("(/vsizip/)?/vsimem/rvoronoi/" + id + "(?:-a[0-9]+)?/seeds_([0-9]+)\\.[a-z]+");
+  const std::regex named("(/vsizip/)?/vsimem/rvoronoi/" + id + "(?:-a[0-9]+)?/(relevantArea|relevantCoasts)\\.[a-z]+");
   return std::regex_replace(std::regex_replace(message, vsi, "seeds[$2]"), named, "$2");
 }
 
@@ -439,12 +440,13 @@ void check_changes_pairing(const Execution& ex) {
 
 }  // namespace
 
-Execution parse_execution(const json& body, const std::string& job_id, const ServerConfig& config) {
+Execution parse_execution(const json& body, const std::string& job_id, const ServerConfig& config,
+                          const std::string& staging) {
   check_body_members(body);
   const json& in = body.at("inputs");
   Execution ex;
   ex.inputs_summary = json::object();
-  ex.uploads = std::make_shared<VsiMemFiles>("/vsimem/rvoronoi/" + job_id);
+  ex.uploads = std::make_shared<VsiMemFiles>("/vsimem/rvoronoi/" + (staging.empty() ? job_id : staging));
   stage_seeds(in, ex);
   apply_inputs(in, ex);
   const int workers = std::max(1, config.jobs.workers);

@@ -92,7 +92,10 @@ struct Execution {
 // invalid_input (seed data of the wrong kind, naming the input and its position),
 // unsupported (multipart raw responses, callbacks), too_large (grid over the configured limits
 // when extent and resolution make it known up front).
-Execution parse_execution(const nlohmann::json& body, const std::string& job_id, const ServerConfig& config);
+// `staging` names the uploads' /vsimem/ folder instead of the job id (a claimed attempt's
+// "<id>-a<n>": two attempts of one job on one daemon never share their files).
+Execution parse_execution(const nlohmann::json& body, const std::string& job_id, const ServerConfig& config,
+                          const std::string& staging = "");
 
 // The "outputs" and "response" members of an execute request into `ex` (outputs, transmission,
 // formats, raw): with no outputs, the ownership and distance rasters and the report. Throws

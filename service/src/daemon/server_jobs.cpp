@@ -536,7 +536,7 @@ JobRecord JobManager::run_task(Task& task) {
     // Parsed again from the stored request, as the daemon that accepted it did: a request that
     // no longer parses (a build that reads it otherwise) fails the job with the reason.
     try {
-      task.execution = load_execution(id);
+      task.execution = load_execution(id, task.lease->attempt);
     } catch (const Error& e) {
       record_end(rec, e.kind(), client_message(e, id, dir), nullptr, dir);
       return rec;

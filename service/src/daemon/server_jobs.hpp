@@ -169,7 +169,7 @@ class JobManager {
   // The next job of the shared queue as a task; nullopt when none waits or the store is away.
   std::optional<Task> claim_shared();
   // The claimed job's execution, from its stored request.
-  Execution load_execution(const std::string& id) const;
+  Execution load_execution(const std::string& id, int attempt) const;
   std::optional<JobRecord> dismiss_shared(const std::string& id);
   // Writes the running job's record (false for a dismissed one): fenced by its lease on a shared
   // store (false, and the job cancelled, when the lease was lost), plainly on the SQLite store.

@@ -161,14 +161,14 @@ std::optional<JobManager::Task> JobManager::claim_shared() {
   return t;
 }
 
-Execution JobManager::load_execution(const std::string& id) const {
+Execution JobManager::load_execution(const std::string& id, int attempt) const {
   std::ifstream in(job_dir(id) / kRequestFile, std::ios::binary);
   if (!in) throw Error(ErrorKind::io, "the job's stored request cannot be read from the results folder");
   std::stringstream text;
   text << in.rdbuf();
   const nlohmann::json body = nlohmann::json::parse(text.str(), nullptr, false);
   if (body.is_discarded()) throw Error(ErrorKind::internal, "the job's stored request is damaged");
-  Execution ex = parse_execution(body, id, config_);
+  Execution ex = parse_execution(body, id, config_, id + "-a" + std::to_string(attempt));
   if (!ex.spec.base_name.empty())
     ex.spec.base_report = (job_dir(id) / kBaseSnapshotDir / output_file_name("report", "")).string();
   return ex;

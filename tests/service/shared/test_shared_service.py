@@ -6,6 +6,7 @@ its own SQLite store, the one-daemon reference. The scenario, each step checked 
   1. 120 asynchronous jobs from three principals, submitted round the daemons: every one
      successful, claimed by every daemon, its rasters and lines byte for byte the reference's,
      read from a daemon other than the one it was submitted to; no principal sees another's job;
+     a damaged upload fails where it is claimed, its message naming seeds[0] as the client knows it;
   2. kill -9 of the daemon running a job: the job's lease expires, another daemon runs it again
      (attempt 2), and its results equal the reference's; the killed daemon comes back with a fresh
      worker id; a daemon stopped by SIGTERM hands its running job back at once (not counted as an
@@ -219,6 +220,15 @@ def step_many_jobs(c, ref):
     st, _, mine = c.daemons[1].json("GET", "/jobs?limit=1000", headers=bearer("alice"))
     check(st == 200 and len(mine["jobs"]) == 40 and all(j.get("principal", "alice") == "alice" for j in mine["jobs"]),
           f"alice lists her 40 jobs only: {len(mine.get('jobs', []))}")
+    # A damaged upload fails on whichever daemon claims it, named as the client knows it.
+    import base64
+    damaged = body(4000)
+    damaged["inputs"]["seeds"] = {"value": base64.b64encode(b"SQLite format 3\0" + b"\x07" * 5000).decode(),
+                                  "mediaType": "application/geopackage+sqlite3", "encoding": "base64"}
+    bad = submit(c.daemons[0], "carol", damaged)
+    doc = wait_done(c.daemons[1], bad, "carol")
+    check(doc["status"] == "failed" and doc.get("message", "").startswith("input 'seeds': seeds[0]") and
+          "/vsimem" not in doc.get("message", ""), f"a damaged upload's failure names seeds[0]: {doc.get('message')}")
     bobs = next(job for job, who, _, _ in jobs if who == "bob")
     for path in (f"/jobs/{bobs}", f"/jobs/{bobs}/results", f"/jobs/{bobs}/results/ownership"):
         st, _, _ = c.daemons[2].request("GET", path, headers=bearer("alice"))
