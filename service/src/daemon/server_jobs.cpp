@@ -69,6 +69,7 @@ JobManager::JobManager(store::PostgresJobStore& shared, const ServerConfig& conf
   start_threads();
   heartbeat_ = std::thread([this] { heartbeat_loop(); });
   listener_ = std::thread([this] { listen_loop(); });
+  sweeper_ = std::thread([this] { sweep_loop(); });
 }
 
 void JobManager::start_threads() {
@@ -724,6 +725,7 @@ void JobManager::shutdown(std::chrono::duration<double> grace) {
     shared_cv_.notify_all();
     heartbeat_.join();
     listener_.join();
+    sweeper_.join();
   }
 }
 

@@ -188,8 +188,9 @@ class JobManager {
   void learn_dismissed(const std::string& id);
   void heartbeat_loop();
   void listen_loop();
-  // The reaper, then (every minute at most) retention and the orphan sweep.
-  void sweep_shared(std::chrono::steady_clock::time_point& next_sweep);
+  // Retention and the orphan sweep, every minute (or jobs.orphan_grace_s if shorter), on a thread
+  // of their own; the heartbeat's thread runs the reaper.
+  void sweep_loop();
   void sweep_orphans();
   // The base job's files linked into job `id`'s directory; returns the linked report's path.
   // Call with mutex_ held.
@@ -231,7 +232,7 @@ class JobManager {
   uint64_t queue_hint_ = 0;  // counts the shared queue's notifications
   std::vector<std::thread> workers_;
   std::thread watchdog_;
-  std::thread heartbeat_, listener_;  // shared store only
+  std::thread heartbeat_, listener_, sweeper_;  // shared store only
   std::atomic<bool> shared_stop_{false};
   std::mutex shared_mutex_;  // for shared_cv_ only
   std::condition_variable shared_cv_;

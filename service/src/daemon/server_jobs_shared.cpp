@@ -1,6 +1,7 @@
 // The job manager on a shared store (issue 55): submission into the database's queue, claims,
 // the lease's heartbeat, fenced ends, dismissal across daemons, the reaper and the sweeps.
 #include <fstream>
+#include <map>
 #include <set>
 #include <sstream>
 
@@ -359,7 +360,6 @@ void JobManager::leases_lost(const std::vector<store::Lease>& held, std::chrono:
 
 void JobManager::heartbeat_loop() {
   const auto period = std::chrono::duration<double>(config_.jobs.lease_s / 3);
-  auto next_sweep = std::chrono::steady_clock::now();
   std::unique_lock lock(shared_mutex_);
   while (!shared_stop_) {
     lock.unlock();
@@ -384,30 +384,34 @@ void JobManager::heartbeat_loop() {
       if (store_reachable_.exchange(false))
         log_event("{\"event\":\"store_unreachable\",\"error\":" + json_text(valid_utf8(what)) + "}");
     }
-    sweep_shared(next_sweep);
+    try {
+      for (const store::Reaped& r : shared_->reap(config_.jobs.retry_backoff_s, now_rfc3339()))
+        log_event("{\"event\":\"reaped\",\"job\":\"" + r.id + "\",\"attempt\":" + std::to_string(r.attempt) +
+                  ",\"requeued\":" + (r.requeued ? "true" : "false") + "}");
+    } catch (...) {
+      // The store is away; logged above.
+    }
     lock.lock();
     shared_cv_.wait_for(lock, period, [this] { return shared_stop_.load(); });
   }
 }
 
-void JobManager::sweep_shared(std::chrono::steady_clock::time_point& next_sweep) {
-  try {
-    for (const store::Reaped& r : shared_->reap(config_.jobs.retry_backoff_s, now_rfc3339()))
-      log_event("{\"event\":\"reaped\",\"job\":\"" + r.id + "\",\"attempt\":" + std::to_string(r.attempt) +
-                ",\"requeued\":" + (r.requeued ? "true" : "false") + "}");
-  } catch (...) {
-    return;  // the store is away; the heartbeat logged it
-  }
-  const auto now = std::chrono::steady_clock::now();
-  if (now < next_sweep) return;
-  next_sweep = now + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
-                         std::chrono::duration<double>(std::min(60.0, config_.jobs.orphan_grace_s)));
-  try {
-    if (config_.jobs.retention_s > 0)
-      for (const store::Expired& e : shared_->expire(config_.jobs.retention_s, 1000))
-        if (is_job_id(e.id)) remove_dir(job_dir(e.id));
-    sweep_orphans();
-  } catch (...) {
+void JobManager::sweep_loop() {
+  // Apart from the heartbeat: a sweep over many folders must never delay a lease's renewal.
+  const auto period = std::chrono::duration<double>(std::min(60.0, config_.jobs.orphan_grace_s));
+  std::unique_lock lock(shared_mutex_);
+  while (!shared_stop_) {
+    lock.unlock();
+    try {
+      if (config_.jobs.retention_s > 0)
+        for (const store::Expired& e : shared_->expire(config_.jobs.retention_s, 1000))
+          if (is_job_id(e.id)) remove_dir(job_dir(e.id));
+      sweep_orphans();
+    } catch (...) {
+      // The store is away: the next round sweeps.
+    }
+    lock.lock();
+    shared_cv_.wait_for(lock, period, [this] { return shared_stop_.load(); });
   }
 }
 
@@ -415,26 +419,37 @@ void JobManager::sweep_orphans() {
   // Folders no job names (a daemon died between writing a request and committing its row, or
   // retention's deletion of the row outlived its files), and attempts a finished job does not
   // name (a worker died before removing the files of a lost lease). Judged only once untouched
-  // for jobs.orphan_grace_s: a submission writes its request just before its row.
+  // for jobs.orphan_grace_s: a submission writes its request just before its row. The store is
+  // asked about a thousand folders at a time.
+  std::vector<fs::path> folders;
   std::error_code ec;
-  for (const fs::directory_entry& e : fs::directory_iterator(root_, ec)) {
-    const std::string id = e.path().filename().string();
-    if (!is_job_id(id) || !e.is_directory()) continue;
-    std::optional<JobRecord> rec = shared_->get(id);
-    if (!rec) {
-      if (older_than(e.path(), config_.jobs.orphan_grace_s)) {
-        remove_dir(e.path());
-        log_event("{\"event\":\"orphan_removed\",\"job\":\"" + id + "\"}");
+  for (const fs::directory_entry& e : fs::directory_iterator(root_, ec))
+    if (is_job_id(e.path().filename().string()) && e.is_directory()) folders.push_back(e.path());
+  for (size_t at = 0; at < folders.size(); at += 1000) {
+    const size_t end = std::min(folders.size(), at + 1000);
+    std::vector<std::string> ids;
+    for (size_t i = at; i < end; ++i) ids.push_back(folders[i].filename().string());
+    std::map<std::string, JobRecord> known;
+    for (JobRecord& r : shared_->get_many(ids)) known.emplace(r.id, std::move(r));
+    for (size_t i = at; i < end; ++i) {
+      const std::string& id = ids[i - at];
+      const auto it = known.find(id);
+      if (it == known.end()) {
+        if (older_than(folders[i], config_.jobs.orphan_grace_s)) {
+          remove_dir(folders[i]);
+          log_event("{\"event\":\"orphan_removed\",\"job\":\"" + id + "\"}");
+        }
+        continue;
       }
-      continue;
-    }
-    if (rec->status == JobStatus::accepted || rec->status == JobStatus::running) continue;
-    const std::string keep = rec->results.empty() ? "" : rec->results.substr(id.size() + 1);
-    for (const fs::directory_entry& a : fs::directory_iterator(e.path(), ec)) {
-      const std::string name = a.path().filename().string();
-      if (name.find_first_not_of("0123456789") == std::string::npos && name != keep &&
-          older_than(a.path(), config_.jobs.orphan_grace_s))
-        remove_dir(a.path());
+      const JobRecord& rec = it->second;
+      if (rec.status == JobStatus::accepted || rec.status == JobStatus::running) continue;
+      const std::string keep = rec.results.empty() ? "" : rec.results.substr(id.size() + 1);
+      for (const fs::directory_entry& a : fs::directory_iterator(folders[i], ec)) {
+        const std::string name = a.path().filename().string();
+        if (name.find_first_not_of("0123456789") == std::string::npos && name != keep &&
+            older_than(a.path(), config_.jobs.orphan_grace_s))
+          remove_dir(a.path());
+      }
     }
   }
 }

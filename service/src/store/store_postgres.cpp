@@ -96,6 +96,16 @@ std::string seconds_param(double s) {
   return buf;
 }
 
+// A text[] literal of job ids (the daemons' own, hex), each quoted all the same.
+std::string text_array(const std::vector<std::string>& ids) {
+  std::string array = "{";
+  for (const std::string& id : ids) {
+    if (id.find_first_of("\"\\{},") != std::string::npos) throw Error(ErrorKind::internal, "not a job id: " + id);
+    array += (array.size() > 1 ? ",\"" : "\"") + id + "\"";
+  }
+  return array + "}";
+}
+
 std::chrono::system_clock::time_point from_epoch(double s) {
   return std::chrono::system_clock::time_point(
       std::chrono::duration_cast<std::chrono::system_clock::duration>(std::chrono::duration<double>(s)));
@@ -233,13 +243,7 @@ std::optional<Claim> PostgresJobStore::claim(const std::string& holder, double l
 std::vector<Lease> PostgresJobStore::heartbeat(const std::string& holder, double lease_s,
                                                const std::vector<std::string>& ids) {
   if (ids.empty()) return {};
-  // A text[] literal: the ids are the daemon's own (hex), quoted all the same.
-  std::string array = "{";
-  for (const std::string& id : ids) {
-    if (id.find_first_of("\"\\{},") != std::string::npos) throw Error(ErrorKind::internal, "heartbeat: bad job id");
-    array += (array.size() > 1 ? ",\"" : "\"") + id + "\"";
-  }
-  array += "}";
+  const std::string array = text_array(ids);
   auto c = pool_.acquire();
   const pg::Result r = c->exec(
       "UPDATE rv_jobs SET lease_until = now() + $2::double precision * interval '1 second'"
@@ -372,6 +376,16 @@ std::optional<JobRecord> PostgresJobStore::get(const std::string& id) const {
   const pg::Result r = c->exec("SELECT " + kSelect + " FROM rv_jobs WHERE id = $1 AND kind = 'job'", {id});
   if (r.rows() == 0) return std::nullopt;
   return record_at(r, 0);
+}
+
+std::vector<JobRecord> PostgresJobStore::get_many(const std::vector<std::string>& ids) const {
+  if (ids.empty()) return {};
+  auto c = pool_.acquire();
+  const pg::Result r =
+      c->exec("SELECT " + kSelect + " FROM rv_jobs WHERE id = ANY($1::text[]) AND kind = 'job'", {text_array(ids)});
+  std::vector<JobRecord> out;
+  for (int i = 0; i < r.rows(); ++i) out.push_back(record_at(r, i));
+  return out;
 }
 
 std::optional<QueueEntry> PostgresJobStore::entry(const std::string& id) const {

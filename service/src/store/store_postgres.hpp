@@ -148,6 +148,8 @@ class PostgresJobStore final : public JobRecords {
 
   // The record, with where its results were published (JobRecord::results).
   std::optional<JobRecord> get(const std::string& id) const override;
+  // The records of those of `ids` that exist, in no order: one question for many (the sweep's).
+  std::vector<JobRecord> get_many(const std::vector<std::string>& ids) const;
   std::optional<QueueEntry> entry(const std::string& id) const;
   std::vector<JobRecord> list(int limit, int offset, const std::vector<JobStatus>& status = {},
                               const std::string& principal = "") const override;

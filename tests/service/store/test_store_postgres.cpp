@@ -105,6 +105,9 @@ TEST_F(PostgresStore, RecordsReadBackAsTheSqliteStoreKeepsThem) {
   EXPECT_EQ(got->status, JobStatus::accepted);
   EXPECT_EQ(rv::store::record_texts(*got), rv::store::record_texts(r));
   EXPECT_FALSE(store->get(id_of(2)));
+  const auto many = store->get_many({id_of(1), id_of(2)});
+  ASSERT_EQ(many.size(), 1u);
+  EXPECT_EQ(many[0].id, id_of(1));
 
   for (int i = 2; i <= 5; ++i) {
     JobRecord o = record(id_of(i), i % 2 ? "bob" : "carol", i * 100);
