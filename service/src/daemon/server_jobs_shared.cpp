@@ -238,17 +238,26 @@ void JobManager::record_end_shared(JobRecord& rec, const std::optional<ErrorKind
     shut_down = r.shutdown;
     lease = *r.lease;
   }
-  auto stored = [&] {
+  auto reread = [&] {  // the record as the store now has it
     try {
       if (auto now = shared_->get(rec.id)) rec = *now;
     } catch (...) {
     }
   };
-  if (!dismissed && !lost && shut_down &&
-      shared_->release(lease, "queued again: the daemon running it shut down", now_rfc3339())) {
-    remove_dir(dir);  // another daemon starts it afresh
-    stored();
-    return;
+  if (!dismissed && !lost && shut_down) {
+    // Handed back (a job only this daemon could run is not: it fails below). The store away: the
+    // lease expires and a reaper queues the job again; the shutdown does not wait for the store.
+    bool handed_back = false, store_away = false;
+    try {
+      handed_back = shared_->release(lease, "queued again: the daemon running it shut down", now_rfc3339());
+    } catch (...) {
+      store_away = true;
+    }
+    if (handed_back || store_away) {
+      remove_dir(dir);  // another daemon starts it afresh
+      if (handed_back) reread();
+      return;
+    }
   }
   bool published = false;
   if (!dismissed && !lost) {
@@ -276,7 +285,7 @@ void JobManager::record_end_shared(JobRecord& rec, const std::optional<ErrorKind
   }
   // Not ours to publish: this attempt's files go; the job is as the store says.
   remove_dir(dir);
-  stored();
+  reread();
   if (rec.status == JobStatus::dismissed) remove_dir(job_dir(rec.id));
 }
 
