@@ -13,12 +13,12 @@
 #include "rv/options.hpp"
 
 namespace rv::daemon {
-namespace {
-
 void remove_dir(const std::filesystem::path& dir) {
   std::error_code ec;
   std::filesystem::remove_all(dir, ec);  // best effort: a leftover directory only costs disk
 }
+
+namespace {
 
 // Temporary name in the same directory, then rename: a reader never sees half a report.
 void write_file_atomically(const std::filesystem::path& path, const std::string& text) {
@@ -124,6 +124,14 @@ int JobManager::queued_count() const {
   return static_cast<int>(queue_.size());
 }
 
+void JobManager::check_capacity() const {
+  // Capacity counts the workers too: a free worker takes a job even with queue_length 0.
+  const size_t capacity = static_cast<size_t>(config_.jobs.queue_length + std::max(1, config_.jobs.workers));
+  if (queue_.size() + running_.size() >= capacity)
+    throw Error(ErrorKind::busy, "all " + std::to_string(config_.jobs.workers) + " workers are busy and " +
+                                     std::to_string(queue_.size()) + " jobs are waiting; retry later");
+}
+
 void JobManager::check_job_count(const std::string& principal) const {
   const int limit = config_.principal_limits.jobs;
   if (limit <= 0) return;
@@ -226,10 +234,7 @@ void JobManager::submit_work(const std::string& name, const auth::Principal& who
                              std::function<void()> dropped) {
   std::lock_guard lock(mutex_);
   if (stopping_) throw Error(ErrorKind::busy, "the server is shutting down; retry later");
-  const size_t capacity = static_cast<size_t>(config_.jobs.queue_length + std::max(1, config_.jobs.workers));
-  if (queue_.size() + running_.size() >= capacity)
-    throw Error(ErrorKind::busy, "all " + std::to_string(config_.jobs.workers) + " workers are busy and " +
-                                     std::to_string(queue_.size()) + " jobs are waiting; retry later");
+  check_capacity();
   if (!exempt_from_limits(who)) check_job_count(who.name);
   Task t;
   t.id = name;
@@ -248,12 +253,7 @@ JobRecord JobManager::submit(const std::string& id, Execution execution, const a
 
   std::lock_guard lock(mutex_);
   if (stopping_) throw Error(ErrorKind::busy, "the server is shutting down; resubmit the job later");
-  // Capacity counts the workers too: a free worker takes a job even with queue_length 0.
-  const size_t capacity = static_cast<size_t>(config_.jobs.queue_length + std::max(1, config_.jobs.workers));
-  if (queue_.size() + running_.size() >= capacity) {
-    throw Error(ErrorKind::busy, "all " + std::to_string(config_.jobs.workers) + " workers are busy and " +
-                                     std::to_string(queue_.size()) + " jobs are waiting; retry later");
-  }
+  check_capacity();
   const bool exempt = exempt_from_limits(who);
   if (!exempt) check_job_count(who.name);
   // A grid known up front is charged now (refused now when over the allowance); others when

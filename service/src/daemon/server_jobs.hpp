@@ -47,6 +47,9 @@ namespace rv::daemon {
 inline constexpr const char* kEditBaseDir = "edit-base";
 inline constexpr const char* kBaseSnapshotDir = "base-snapshot";
 
+// Removes a job's folder or an attempt's, best effort (a leftover costs disk; a shared store's
+// sweep finds it).
+void remove_dir(const std::filesystem::path& dir);
 // Tells a waiting client that its job ended; a callback that throws is logged and dropped.
 void notify_done(const std::function<void(const JobRecord&)>& on_done, const JobRecord& record);
 // A new job's record, accepted (queued) now, as `who`'s.
@@ -195,6 +198,8 @@ class JobManager {
   // The base job's files linked into job `id`'s directory; returns the linked report's path.
   // Call with mutex_ held.
   std::string snapshot_base(const std::string& base, const std::string& id, const auth::Principal& who) const;
+  // Throws rv::Error(busy) when the workers and the local queue are full. Call with mutex_ held.
+  void check_capacity() const;
   // Throws QuotaExceeded when `principal` has limits.jobs_per_principal jobs queued or running.
   // Call with mutex_ held.
   void check_job_count(const std::string& principal) const;

@@ -18,11 +18,6 @@ namespace fs = std::filesystem;
 
 constexpr const char* kRequestFile = "request.json";
 
-void remove_dir(const fs::path& dir) {
-  std::error_code ec;
-  fs::remove_all(dir, ec);  // best effort: a leftover directory costs disk, and the sweep finds it
-}
-
 std::string what_of_current() {
   try {
     throw;
@@ -71,10 +66,7 @@ JobRecord JobManager::submit_shared(const std::string& id, Execution execution, 
   {
     std::lock_guard lock(mutex_);
     if (stopping_) throw Error(ErrorKind::busy, "the server is shutting down; resubmit the job later");
-    const size_t capacity = static_cast<size_t>(config_.jobs.queue_length + std::max(1, config_.jobs.workers));
-    if (here && queue_.size() + running_.size() >= capacity)
-      throw Error(ErrorKind::busy, "all " + std::to_string(config_.jobs.workers) + " workers are busy and " +
-                                       std::to_string(queue_.size()) + " jobs are waiting; retry later");
+    if (here) check_capacity();
   }
   store::QueueEntry entry;
   entry.max_attempts = config_.jobs.max_attempts;
