@@ -100,8 +100,9 @@ struct StoreConfig {
   std::string password;       // read from password_file or the environment; never logged
   std::string password_file;  // as configured, for messages
   int connections = 8;        // the pool of connections to PostgreSQL
-  // Results (and a shared store's stored requests): "" = data_dir/jobs. A shared store needs a
-  // folder every daemon reaches, and says so with results_shared.
+  // Where a shared store keeps its jobs' files (stored requests, edit bases, results): an
+  // s3://bucket/prefix (GDAL's /vsis3/ with its AWS_* settings), or a folder every daemon mounts,
+  // said so with results_shared. The embedded store keeps them in data_dir/jobs ("" only).
   std::string results;
   bool results_shared = false;
   bool shared() const { return uri != "sqlite"; }

@@ -39,7 +39,7 @@ using daemon::ApiRequest;
 using daemon::ApiResponse;
 using daemon::FileSlice;
 
-// A Beast body that streams a slice of an open file with pread(), 64 KiB at a time: large
+// A Beast body that streams a slice of an open result file (ObjectReader::read_at), 64 KiB at a time: large
 // results (and GDAL's range reads of them) never sit in memory whole.
 struct FileSliceBody {
   using value_type = FileSlice;
@@ -58,10 +58,10 @@ struct FileSliceBody {
         return boost::none;
       }
       const size_t want = static_cast<size_t>(std::min<uint64_t>(left, sizeof buffer_));
-      const ssize_t n = ::pread(body_.file->fd, buffer_, want, static_cast<off_t>(body_.offset + done_));
+      const int64_t n = body_.file->read_at(buffer_, want, body_.offset + done_);
       if (n <= 0) {
-        // The file shrank or the disk failed: end the connection rather than send garbage.
-        ec = beast::error_code(n < 0 ? errno : EIO, beast::system_category());
+        // The file shrank or the storage failed: end the connection rather than send garbage.
+        ec = beast::error_code(EIO, beast::system_category());
         return boost::none;
       }
       done_ += static_cast<uint64_t>(n);

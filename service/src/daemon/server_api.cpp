@@ -118,10 +118,6 @@ ApiResponse json_response(unsigned status, const json& body, const char* type) {
   return r;
 }
 
-FileHandle::~FileHandle() {
-  if (fd >= 0) ::close(fd);
-}
-
 ApiResponse problem_response(unsigned status, const std::string& type, const std::string& title,
                              const std::string& detail, const std::string& instance) {
   // A detail may quote what a client sent or a file held: one line a person can read, not an
@@ -343,24 +339,21 @@ std::optional<ByteRange> parse_range(const std::string& header, uint64_t size) {
   return r;
 }
 
-ApiResponse file_response(const std::string& path, const std::string& media_type, const std::string& range_header,
-                          const std::string& not_found_message) {
-  const int fd = open_regular_file(path);  // nothing but a regular file is ever served
-  if (fd < 0) throw Error(ErrorKind::not_found, not_found_message);
-  auto handle = std::make_shared<FileHandle>(fd);
-  struct stat st {};
-  if (::fstat(fd, &st) != 0) throw Error(ErrorKind::io, "cannot stat a result file");
-  const uint64_t size = static_cast<uint64_t>(st.st_size);
+ApiResponse file_response(std::unique_ptr<store::ObjectReader> reader, const std::string& media_type,
+                          const std::string& range_header, const std::string& not_found_message) {
+  if (!reader) throw Error(ErrorKind::not_found, not_found_message);
+  std::shared_ptr<store::ObjectReader> handle = std::move(reader);
+  const uint64_t size = handle->size();
   ApiResponse r;
   r.headers.emplace_back("Content-Type", media_type);
   r.headers.emplace_back("Accept-Ranges", "bytes");
-  const auto mtime =
-      std::chrono::system_clock::time_point(std::chrono::duration_cast<std::chrono::system_clock::duration>(
-          std::chrono::seconds(st.st_mtim.tv_sec) + std::chrono::nanoseconds(st.st_mtim.tv_nsec)));
+  const auto mtime = handle->modified();
   r.headers.emplace_back("Last-Modified", http_date(mtime));
-  // Result files never change once written (renamed into place): size and mtime identify them.
-  r.headers.emplace_back("ETag", "\"" + std::to_string(size) + "-" + std::to_string(st.st_mtim.tv_sec) + "." +
-                                     std::to_string(st.st_mtim.tv_nsec) + "\"");
+  // Result files never change once written (renamed into place, or one upload): size and time
+  // identify them.
+  const auto ns = std::chrono::duration_cast<std::chrono::nanoseconds>(mtime.time_since_epoch()).count();
+  r.headers.emplace_back("ETag", "\"" + std::to_string(size) + "-" + std::to_string(ns / 1000000000) + "." +
+                                     std::to_string(ns % 1000000000) + "\"");
   FileSlice slice{handle, 0, size};
   if (!range_header.empty()) {
     if (const auto range = parse_range(range_header, size)) {
@@ -580,7 +573,7 @@ void Api::submit_job(const JobAnswer& to, const std::string& id, Execution ex) c
       if (rec.status != JobStatus::successful) throw_no_results(rec, jobs);
       if (raw) {
         const std::string& o = rec.outputs.front();
-        r = file_response(jobs.result_dir(rec).string() + "/" + file_of(rec, o), media_of(rec, o), "",
+        r = file_response(jobs.open_result(rec, file_of(rec, o)), media_of(rec, o), "",
                           "the result file of job " + rec.id + " is missing");
       } else {
         r = json_response(200, results_document(rec, base));
@@ -686,9 +679,9 @@ void Api::result_file(const Request& req, const std::vector<std::string>& seg) c
                 "job " + id + " has no output '" + output.substr(0, 64) + "' (requested outputs only)");
   }
   // The file name is ours, never the client's: only the id (checked hex) and a fixed name.
-  std::string file = jobs_.result_dir(rec).string() + "/" + file_of(rec, output_id);
+  std::string file = file_of(rec, output_id);
   if (sidecar) file += ".aux.xml";
-  req.reply(file_response(file, media_of(rec, output), req.ctx.request.range,
+  req.reply(file_response(jobs_.open_result(rec, file), media_of(rec, output), req.ctx.request.range,
                           "job " + id + " has no file for output '" + output + "'"));
 }
 

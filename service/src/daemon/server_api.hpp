@@ -17,21 +17,14 @@
 #include "daemon/server_sessions.hpp"
 #include "rv/server_config.hpp"
 #include "rv/store_jobs.hpp"
+#include "store/object_store.hpp"
 
 namespace rv::daemon {
 
-// An open file descriptor, closed when the last owner lets go.
-struct FileHandle {
-  explicit FileHandle(int f) : fd(f) {}
-  ~FileHandle();
-  FileHandle(const FileHandle&) = delete;
-  FileHandle& operator=(const FileHandle&) = delete;
-  int fd;
-};
-
-// Bytes [offset, offset + length) of an open file: the body of a (partial) file response.
+// Bytes [offset, offset + length) of an open result file (local, or an object on a bucket): the
+// body of a (partial) file response. The reader is closed when the last owner lets go.
 struct FileSlice {
-  std::shared_ptr<FileHandle> file;
+  std::shared_ptr<store::ObjectReader> file;
   uint64_t offset = 0;
   uint64_t length = 0;
 };

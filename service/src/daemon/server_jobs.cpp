@@ -42,6 +42,7 @@ void write_file_atomically(const std::filesystem::path& path, const std::string&
 JobManager::JobManager(JobStore& store, const ServerConfig& config, JobRunner runner, MemoryAccount& memory)
     : store_(&store),
       root_(std::filesystem::path(config.data_dir) / "jobs"),
+      objects_(root_.string()),
       config_(config),
       runner_(std::move(runner)),
       memory_(memory),
@@ -60,12 +61,21 @@ JobManager::JobManager(store::PostgresJobStore& shared, const ServerConfig& conf
       holder_(std::move(holder)),
       name_(std::move(name)),
       url_(std::move(url)),
-      root_(config.store.results),
+      // On a bucket, data_dir's folder holds what this daemon's attempts write before upload.
+      root_(config.store.results.rfind("s3://", 0) == 0 ? std::filesystem::path(config.data_dir) / "jobs"
+                                                        : std::filesystem::path(config.store.results)),
+      objects_(config.store.results),
       config_(config),
       runner_(std::move(runner)),
       memory_(memory),
       limits_(effective_limits(config)),
       cells_(config.principal_limits.cells_per_hour) {
+  if (objects_.remote()) {
+    // What an earlier life of this daemon wrote there was never uploaded (its leases are gone
+    // with its holder): another attempt runs those jobs.
+    std::error_code ec;
+    for (const auto& e : std::filesystem::directory_iterator(root_, ec)) remove_dir(e.path());
+  }
   start_threads();
   heartbeat_ = std::thread([this] { heartbeat_loop(); });
   listener_ = std::thread([this] { listen_loop(); });
@@ -89,14 +99,36 @@ std::filesystem::path JobManager::job_dir(const std::string& id) const {
   return root_ / id;
 }
 
-std::filesystem::path JobManager::result_dir(const JobRecord& rec) const {
-  if (!shared_ || rec.results.empty()) return job_dir(rec.id);
-  // "<id>/<attempt>", written by this program: checked all the same before it names a path.
+std::string JobManager::results_prefix(const JobRecord& rec) const {
+  if (!shared_ || rec.results.empty()) return rec.id;
+  // "<id>/<attempt>", written by this program: checked all the same before it names a file.
   const std::string attempt = rec.results.substr(std::min(rec.results.size(), rec.id.size() + 1));
   if (rec.results.compare(0, rec.id.size() + 1, rec.id + "/") != 0 || attempt.empty() ||
       attempt.find_first_not_of("0123456789") != std::string::npos)
     throw Error(ErrorKind::internal, "job " + rec.id + " names damaged results");
-  return job_dir(rec.id) / attempt;
+  return rec.results;
+}
+
+std::unique_ptr<store::ObjectReader> JobManager::open_result(const JobRecord& rec, const std::string& name) const {
+  if (!store::is_object_key(name)) throw Error(ErrorKind::internal, "open_result: not a file name");
+  try {
+    return objects_.open(results_prefix(rec) + "/" + name);
+  } catch (const Error& e) {
+    // The storage away is no fault of the request: the client retries.
+    if (e.kind() != ErrorKind::io || !objects_.remote()) throw;
+    throw Error(ErrorKind::busy, std::string("the results storage is unavailable: ") + e.what());
+  }
+}
+
+void JobManager::remove_files(const std::string& prefix) const {
+  remove_dir(root_ / prefix);
+  if (!objects_.remote()) return;
+  try {
+    objects_.remove_tree(prefix);
+  } catch (const std::exception& e) {
+    log_event("{\"event\":\"objects_not_removed\",\"prefix\":" + json_text(prefix) +
+              ",\"error\":" + json_text(valid_utf8(e.what())) + "}");
+  }
 }
 
 int64_t JobManager::cells_retry_after(const std::string& principal, int64_t cells) const {
@@ -152,39 +184,39 @@ std::string JobManager::snapshot_base(const std::string& base, const std::string
   if (!rec || rec->status == JobStatus::dismissed || !auth::may_see(who, rec->principal)) bad("no job " + base);
   if (rec->status != JobStatus::successful)
     bad("job " + base + " is " + std::string(to_string(rec->status)) + "; only a successful job can be edited");
-  // The base's report and kept field, linked into the new job's directory now: the base job may
-  // be deleted while this one waits or runs, and its files then live on under these names.
-  namespace fs = std::filesystem;
-  const fs::path from = result_dir(*rec), to = job_dir(id) / kBaseSnapshotDir;
-  if (!fs::exists(from / kEditBaseDir / "manifest.json"))
-    bad("job " + base + " kept nothing for edits (only streamed jobs of the exact method do)");
-  std::error_code ec;
-  fs::create_directories(to / kEditBaseDir, ec);
-  auto link = [&](const fs::path& a, const fs::path& b) {
-    fs::create_hard_link(a, b, ec);
-    if (ec) fs::copy_file(a, b, fs::copy_options::overwrite_existing, ec);
-    if (ec) throw Error(ErrorKind::io, "cannot keep the base job's files: " + ec.message());
-  };
-  link(from / output_file_name("report", ""), to / output_file_name("report", ""));
-  for (const fs::directory_entry& e : fs::directory_iterator(from / kEditBaseDir, ec))
-    link(e.path(), to / kEditBaseDir / e.path().filename());
-  // The rasters the edit copies tiles from, the job's own beside the directory among them (the
-  // kept distance may be its distance raster).
+  // The base's report and kept field, copied (in a folder: linked) into the new job's snapshot
+  // now: the base job may be deleted while this one waits or runs, and its files then live on.
+  const std::string from = results_prefix(*rec), to = id + "/" + kBaseSnapshotDir;
+  const std::string report = output_file_name("report", ""), kept = std::string(kEditBaseDir);
+  const std::optional<std::string> manifest_text = objects_.get(from + "/" + kept + "/manifest.json");
+  if (!manifest_text) bad("job " + base + " kept nothing for edits (only streamed jobs of the exact method do)");
+  nlohmann::json manifest;
   try {
-    std::ifstream in(from / kEditBaseDir / "manifest.json");
-    const nlohmann::json manifest = nlohmann::json::parse(in);
-    for (const auto& [role, r] : manifest.at("rasters").items()) {
-      const fs::path source = (from / kEditBaseDir / r.at("file").get<std::string>()).lexically_normal();
-      const fs::path rel = source.lexically_relative(from);
-      if (!rel.empty() && *rel.begin() != ".." && source.parent_path() != (from / kEditBaseDir).lexically_normal() &&
-          fs::exists(source) && !fs::exists(to / rel))
-        link(source, to / rel);
-    }
+    manifest = nlohmann::json::parse(*manifest_text);
   } catch (const nlohmann::json::exception&) {
     bad("job " + base + " kept a damaged manifest");
   }
-  if (ec) throw Error(ErrorKind::io, "cannot keep the base job's files: " + ec.message());
-  return (to / output_file_name("report", "")).string();
+  try {
+    objects_.copy(from + "/" + report, to + "/" + report);
+    for (const std::string& name : objects_.list(from + "/" + kept))
+      objects_.copy(from + "/" + kept + "/" + name, to + "/" + kept + "/" + name);
+    // The rasters the edit copies tiles from, the job's own beside the kept folder among them (the
+    // kept distance may be its distance raster).
+    if (manifest.contains("rasters") && manifest["rasters"].is_object())
+      for (const auto& [role, r] : manifest["rasters"].items()) {
+        if (!r.is_object() || !r.contains("file") || !r["file"].is_string())
+          bad("job " + base + " kept a damaged manifest");
+        const std::string rel =
+            std::filesystem::path(kept + "/" + r["file"].get<std::string>()).lexically_normal().generic_string();
+        if (!store::is_object_key(rel) || rel.rfind(kept + "/", 0) == 0) continue;  // outside, or copied above
+        if (objects_.exists(from + "/" + rel) && !objects_.exists(to + "/" + rel))
+          objects_.copy(from + "/" + rel, to + "/" + rel);
+      }
+  } catch (const Error& e) {
+    if (e.kind() != ErrorKind::io) throw;
+    throw Error(ErrorKind::io, std::string("cannot keep the base job's files: ") + e.what());
+  }
+  return (job_dir(id) / kBaseSnapshotDir / report).string();
 }
 
 // Tells a waiting client that its job ended. The callback builds an answer and must not take a
@@ -533,15 +565,17 @@ JobRecord JobManager::run_task(Task& task) {
   stored = task.lease ? std::optional<JobRecord>(task.claimed) : store_->get(id);
   if (!stored) throw Error(ErrorKind::internal, "job " + id + " vanished from the store");
   JobRecord rec = *stored;
-  if (task.from_queue) {
+  try {
     // Parsed again from the stored request, as the daemon that accepted it did: a request that
     // no longer parses (a build that reads it otherwise) fails the job with the reason.
-    try {
-      task.execution = load_execution(id, task.lease->attempt);
-    } catch (const Error& e) {
-      record_end(rec, e.kind(), client_message(e, id, dir), nullptr, dir);
-      return rec;
-    }
+    if (task.from_queue) task.execution = load_execution(id, task.lease->attempt);
+    // An edit on a bucket reads its base's snapshot from this daemon's disk.
+    if (task.lease && !task.execution.spec.base_name.empty()) fetch_base(id);
+  } catch (const Error& e) {
+    // Not the results: the job's own stored files (its request, its base) could not be read.
+    record_end(rec, e.kind(), e.kind() == ErrorKind::io ? valid_utf8(e.what()) : client_message(e, id, dir), nullptr,
+               dir);
+    return rec;
   }
   const JobSpec spec = spec_in_directory(task.execution, rec, dir);
 

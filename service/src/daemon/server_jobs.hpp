@@ -10,12 +10,15 @@
 // worker claims them (woken by a notification, or polling every jobs.poll_s). A claimed job runs
 // under a lease that a heartbeat renews every third of jobs.lease_s; every write of its state is
 // fenced by the lease, and a worker that lost it (reaped after its daemon stalled, or dismissed on
-// another daemon) cancels its computation and publishes nothing. Results go to
-// <results>/<id>/<attempt>/. The reaper of every daemon requeues expired leases with backoff; a
-// daemon shutting down hands its running jobs back. Synchronous executions and a live session's
-// jobs run on the daemon that took them (their client or state is here): they are recorded
-// running at once, and fail if that daemon stops.
-// Thread safety: every public member may be called from any thread.
+// another daemon) cancels its computation and publishes nothing. A shared job's files are objects
+// of `results` (a folder every daemon mounts, or an s3:// bucket): <id>/request.json (written
+// before its row), <id>/base-snapshot/ (an edit's copy of its base), <id>/<attempt>/ (its results).
+// An attempt writes into data_dir's local folder first when `results` is a bucket, and uploads
+// before its end is published (an upload that fails fails the job with the storage's message). The reaper of every
+// daemon requeues expired leases with backoff; a daemon shutting down hands its running jobs back. Synchronous
+// executions and a live session's jobs run on the daemon that took them (their client or state is here): they are
+// recorded running at once, and fail if that daemon stops. Thread safety: every public member may be called from any
+// thread.
 #pragma once
 
 #include <atomic>
@@ -38,6 +41,7 @@
 #include "rv/field/error.hpp"
 #include "rv/server.hpp"
 #include "rv/store_jobs.hpp"
+#include "store/object_store.hpp"
 #include "store/store_postgres.hpp"
 
 namespace rv::daemon {
@@ -75,11 +79,14 @@ class JobManager {
              std::string holder, std::string name, std::string url);
   ~JobManager();  // shutdown(0) if still running
 
-  // The directory of a job's files (the id must satisfy is_job_id()): its results with the
-  // SQLite store; with a shared store its stored request, base snapshot and attempts.
+  // The local directory of a job's files (the id must satisfy is_job_id()): its results with the
+  // SQLite store; with a shared store its stored request, base snapshot and attempts (on a bucket:
+  // a running attempt's files and its base snapshot before upload, or after download).
   std::filesystem::path job_dir(const std::string& id) const;
-  // The directory of a finished job's result files.
-  std::filesystem::path result_dir(const JobRecord& rec) const;
+  // A finished job's result file `name` (a file name of this program's), open for reading by
+  // range wherever the results are; nullptr when there is none. Throws rv::Error(io) when the
+  // storage cannot be asked, internal for a record naming damaged results.
+  std::unique_ptr<store::ObjectReader> open_result(const JobRecord& rec, const std::string& name) const;
   // Where the daemon `name` of a shared store answers, as it announced itself ("" when unknown
   // or without a shared store; never throws).
   std::string daemon_url(const std::string& name) const;
@@ -191,12 +198,23 @@ class JobManager {
   void learn_dismissed(const std::string& id);
   void heartbeat_loop();
   void listen_loop();
+  // The key below `results` of a finished job's result files: "<id>/<attempt>" on a shared store,
+  // the id on the SQLite store.
+  std::string results_prefix(const JobRecord& rec) const;
+  // Removes the files below `prefix` (a job "<id>", or "<id>/<part>"): the local folder, and on a
+  // bucket its objects too; best effort (logged; a shared store's sweep finds what is left).
+  void remove_files(const std::string& prefix) const;
+  // On a bucket: downloads job `id`'s base snapshot into its local folder before an edit runs.
+  void fetch_base(const std::string& id) const;
+  // On a bucket: uploads a successful attempt's files before its end is published; on failure
+  // the record becomes a failure with the storage's message and nothing stays uploaded.
+  void upload_results(JobRecord& rec, const std::filesystem::path& dir) const;
   // Retention and the orphan sweep, every minute (or jobs.orphan_grace_s if shorter), on a thread
   // of their own; the heartbeat's thread runs the reaper.
   void sweep_loop();
   void sweep_orphans();
-  // The base job's files linked into job `id`'s directory; returns the linked report's path.
-  // Call with mutex_ held.
+  // The base job's files copied (linked, in a folder) into job `id`'s base snapshot; returns the
+  // local path its report has when the job runs. Call with mutex_ held.
   std::string snapshot_base(const std::string& base, const std::string& id, const auth::Principal& who) const;
   // Throws rv::Error(busy) when the workers and the local queue are full. Call with mutex_ held.
   void check_capacity() const;
@@ -218,7 +236,8 @@ class JobManager {
   JobStore* store_ = nullptr;                  // the SQLite store, or
   store::PostgresJobStore* shared_ = nullptr;  // the shared one
   std::string holder_, name_, url_;
-  std::filesystem::path root_;  // the jobs' directories
+  std::filesystem::path root_;  // the jobs' local directories
+  store::ObjectStore objects_;  // where the jobs' files are kept (root_ itself, but on a bucket)
   std::atomic<bool> store_reachable_{true};
   const ServerConfig& config_;
   JobRunner runner_;

@@ -1,9 +1,7 @@
 // The job manager on a shared store (issue 55): submission into the database's queue, claims,
 // the lease's heartbeat, fenced ends, dismissal across daemons, the reaper and the sweeps.
-#include <fstream>
 #include <map>
 #include <set>
-#include <sstream>
 
 #include "common/atomic_file.hpp"
 #include "daemon/server_jobs.hpp"
@@ -26,14 +24,6 @@ std::string what_of_current() {
   } catch (...) {
     return "unknown exception";
   }
-}
-
-// A folder the sweep may judge: untouched for at least `grace`.
-bool older_than(const fs::path& p, double grace_s) {
-  std::error_code ec;
-  const auto t = fs::last_write_time(p, ec);
-  if (ec) return false;
-  return fs::file_time_type::clock::now() - t > std::chrono::duration<double>(grace_s);
 }
 
 }  // namespace
@@ -73,11 +63,8 @@ JobRecord JobManager::submit_shared(const std::string& id, Execution execution, 
   entry.exempt = exempt_from_limits(who);
   const int64_t cells = execution.cells;
   auto admit = [&](const store::AdmissionView& v) { admit_shared(v, who, cells, !here, true); };
-  std::error_code ec;
-  fs::create_directories(job_dir(id), ec);
-  if (ec) throw Error(ErrorKind::io, "cannot create the job's folder: " + ec.message());
   try {
-    // An edit's copy of its base, in the job's folder every daemon reaches: the base may be
+    // An edit's copy of its base, among the job's files every daemon reaches: the base may be
     // deleted while this job waits, or is attempted again.
     if (!execution.spec.base_name.empty())
       execution.spec.base_report = snapshot_base(execution.spec.base_name, id, who);
@@ -87,7 +74,12 @@ JobRecord JobManager::submit_shared(const std::string& id, Execution execution, 
       // names, which this Execution's end would otherwise unlink under it.
       execution.uploads.reset();
       // Persisted before the row that names it, and the row committed before the 201.
-      write_file_atomically((job_dir(id) / kRequestFile).string(), execution.request);
+      try {
+        objects_.put(id + "/" + kRequestFile, execution.request);
+      } catch (const Error& e) {
+        if (e.kind() != ErrorKind::io) throw;
+        throw Error(ErrorKind::busy, std::string("the results storage is unavailable: ") + e.what());
+      }
       entry.payload = id + "/" + kRequestFile;
       try {
         shared_->enqueue(rec, entry, admit);
@@ -117,7 +109,7 @@ JobRecord JobManager::submit_shared(const std::string& id, Execution execution, 
     work_cv_.notify_one();
     return rec;
   } catch (...) {
-    remove_dir(job_dir(id));
+    remove_files(id);
     throw;
   }
 }
@@ -155,16 +147,35 @@ std::optional<JobManager::Task> JobManager::claim_shared() {
 }
 
 Execution JobManager::load_execution(const std::string& id, int attempt) const {
-  std::ifstream in(job_dir(id) / kRequestFile, std::ios::binary);
-  if (!in) throw Error(ErrorKind::io, "the job's stored request cannot be read from the results folder");
-  std::stringstream text;
-  text << in.rdbuf();
-  const nlohmann::json body = nlohmann::json::parse(text.str(), nullptr, false);
+  const std::optional<std::string> text = objects_.get(id + "/" + kRequestFile);
+  if (!text) throw Error(ErrorKind::io, "the job's stored request cannot be read from the results storage");
+  const nlohmann::json body = nlohmann::json::parse(*text, nullptr, false);
   if (body.is_discarded()) throw Error(ErrorKind::internal, "the job's stored request is damaged");
   Execution ex = parse_execution(body, id, config_, id + "-a" + std::to_string(attempt));
   if (!ex.spec.base_name.empty())
     ex.spec.base_report = (job_dir(id) / kBaseSnapshotDir / output_file_name("report", "")).string();
   return ex;
+}
+
+void JobManager::fetch_base(const std::string& id) const {
+  if (!objects_.remote()) return;  // the snapshot is in the folder already
+  const std::string key = id + "/" + kBaseSnapshotDir;
+  remove_dir(root_ / key);
+  if (objects_.get_tree(key, root_ / key) == 0)
+    throw Error(ErrorKind::io, "the base job's files kept for this edit are missing from the results");
+}
+
+void JobManager::upload_results(JobRecord& rec, const fs::path& dir) const {
+  if (!objects_.remote() || rec.status != JobStatus::successful) return;
+  try {
+    objects_.put_tree(rec.results, dir);
+  } catch (const std::exception& e) {
+    // Nothing half-uploaded is ever served: the record names no results, and they go.
+    const std::string what = objects_.without_paths(valid_utf8(e.what()));
+    remove_files(rec.results);
+    end_record(rec, ErrorKind::io, "the job's results could not be stored: " + what, nullptr, false, false);
+    rec.results.clear();
+  }
 }
 
 void JobManager::charge_planned_shared(const Task& task, int64_t cells) {
@@ -246,7 +257,7 @@ void JobManager::record_end_shared(JobRecord& rec, const std::optional<ErrorKind
       store_away = true;
     }
     if (handed_back || store_away) {
-      remove_dir(dir);  // another daemon starts it afresh
+      remove_files(rec.id + "/" + std::to_string(lease.attempt));  // another daemon starts it afresh
       if (handed_back) reread();
       return;
     }
@@ -255,6 +266,8 @@ void JobManager::record_end_shared(JobRecord& rec, const std::optional<ErrorKind
   if (!dismissed && !lost) {
     end_record(rec, error_kind, message, report, timed_out, shut_down);
     rec.results = rec.status == JobStatus::successful ? rec.id + "/" + std::to_string(lease.attempt) : "";
+    // On a bucket the results go up first: the row that names them commits after the upload.
+    upload_results(rec, dir);
     // The store may be away for a while (a restart). The fence is the holder and the attempt,
     // not the clock: until a reaper has requeued the job, its end may still be published, and the
     // heartbeat renews the lease meanwhile. Worth a minute's wait, or the lease's if longer.
@@ -270,15 +283,17 @@ void JobManager::record_end_shared(JobRecord& rec, const std::optional<ErrorKind
       }
     }
   }
+  const std::string attempt = rec.id + "/" + std::to_string(lease.attempt);
   if (published) {
-    if (rec.status == JobStatus::failed) remove_dir(dir);
-    remove_dir(job_dir(rec.id) / kBaseSnapshotDir);
+    if (rec.status == JobStatus::failed) remove_files(attempt);
+    if (objects_.remote()) remove_dir(dir);  // uploaded: the local copy is no longer needed
+    remove_files(rec.id + "/" + kBaseSnapshotDir);
     return;
   }
-  // Not ours to publish: this attempt's files go; the job is as the store says.
-  remove_dir(dir);
+  // Not ours to publish: this attempt's files go (uploaded ones too); the job is as the store says.
+  remove_files(attempt);
   reread();
-  if (rec.status == JobStatus::dismissed) remove_dir(job_dir(rec.id));
+  if (rec.status == JobStatus::dismissed) remove_files(rec.id);
 }
 
 std::optional<JobRecord> JobManager::dismiss_shared(const std::string& id) {
@@ -308,7 +323,7 @@ std::optional<JobRecord> JobManager::dismiss_shared(const std::string& id) {
     }
   }
   // A job running on another daemon: that daemon removes its files when it learns it.
-  if (!running_here && (before.status != JobStatus::running || dropped)) remove_dir(job_dir(id));
+  if (!running_here && (before.status != JobStatus::running || dropped)) remove_files(id);
   if (dropped) notify_done(dropped->on_done, after);
   return after;
 }
@@ -330,7 +345,7 @@ void JobManager::learn_dismissed(const std::string& id) {
       }
   }
   if (!dropped) return;
-  remove_dir(job_dir(id));
+  remove_files(id);
   JobRecord rec = dropped->claimed;
   try {
     if (auto now = shared_->get(id)) rec = *now;
@@ -406,8 +421,14 @@ void JobManager::sweep_loop() {
     try {
       if (config_.jobs.retention_s > 0)
         for (const store::Expired& e : shared_->expire(config_.jobs.retention_s, 1000))
-          if (is_job_id(e.id)) remove_dir(job_dir(e.id));
+          if (is_job_id(e.id)) remove_files(e.id);
       sweep_orphans();
+      // Multipart uploads a dead daemon left open cost storage until aborted. The storage cannot
+      // tell them from a live daemon's upload (GDAL aborts every pending one), so only while no
+      // job runs anywhere; a bucket's lifecycle rule (AbortIncompleteMultipartUpload) is the
+      // complement for a service that is never idle (README).
+      if (objects_.remote() && shared_->running() == 0 && objects_.abort_pending_uploads())
+        log_event("{\"event\":\"pending_uploads_aborted\"}");
     } catch (...) {
       // The store is away: the next round sweeps.
     }
@@ -417,40 +438,57 @@ void JobManager::sweep_loop() {
 }
 
 void JobManager::sweep_orphans() {
-  // Folders no job names (a daemon died between writing a request and committing its row, or
-  // retention's deletion of the row outlived its files), and attempts a finished job does not
-  // name (a worker died before removing the files of a lost lease). Judged only once untouched
-  // for jobs.orphan_grace_s: a submission writes its request just before its row. The store is
-  // asked about a thousand folders at a time.
-  std::vector<fs::path> folders;
-  std::error_code ec;
-  for (const fs::directory_entry& e : fs::directory_iterator(root_, ec))
-    if (is_job_id(e.path().filename().string()) && e.is_directory()) folders.push_back(e.path());
-  for (size_t at = 0; at < folders.size(); at += 1000) {
-    const size_t end = std::min(folders.size(), at + 1000);
-    std::vector<std::string> ids;
-    for (size_t i = at; i < end; ++i) ids.push_back(folders[i].filename().string());
+  // Jobs' files no job names (a daemon died between writing a request and committing its row, or
+  // retention's deletion of the row outlived its files), and parts a finished job does not name:
+  // attempts other than its published one (a worker died before removing those of a lost lease)
+  // and a base snapshot left behind. Judged only once nothing below them was written for
+  // jobs.orphan_grace_s: a submission writes its request just before its row. One listing of
+  // every object, then the store is asked about a thousand jobs at a time.
+  using Clock = std::chrono::system_clock;
+  struct Seen {
+    Clock::time_point newest{};
+    std::map<std::string, Clock::time_point> parts;  // second-level names and their newest write
+  };
+  std::map<std::string, Seen> jobs;
+  for (const store::ListedObject& o : objects_.list_all("")) {
+    const size_t slash = o.key.find('/');
+    const std::string id = o.key.substr(0, slash);
+    if (!is_job_id(id)) continue;
+    Seen& s = jobs[id];
+    s.newest = std::max(s.newest, o.modified);
+    if (slash == std::string::npos || slash + 1 >= o.key.size()) continue;
+    const std::string part = o.key.substr(slash + 1, o.key.find('/', slash + 1) - slash - 1);
+    auto& t = s.parts[part];
+    t = std::max(t, o.modified);
+  }
+  const auto old = [&](Clock::time_point t) {
+    return Clock::now() - t > std::chrono::duration<double>(config_.jobs.orphan_grace_s);
+  };
+  std::vector<std::string> ids;
+  for (const auto& [id, seen] : jobs) ids.push_back(id);
+  for (size_t at = 0; at < ids.size(); at += 1000) {
+    const std::vector<std::string> batch(ids.begin() + at, ids.begin() + std::min(ids.size(), at + 1000));
     std::map<std::string, JobRecord> known;
-    for (JobRecord& r : shared_->get_many(ids)) known.emplace(r.id, std::move(r));
-    for (size_t i = at; i < end; ++i) {
-      const std::string& id = ids[i - at];
+    for (JobRecord& r : shared_->get_many(batch)) known.emplace(r.id, std::move(r));
+    for (const std::string& id : batch) {
+      const Seen& seen = jobs.at(id);
       const auto it = known.find(id);
       if (it == known.end()) {
-        if (older_than(folders[i], config_.jobs.orphan_grace_s)) {
-          remove_dir(folders[i]);
+        if (old(seen.newest)) {
+          remove_files(id);
           log_event("{\"event\":\"orphan_removed\",\"job\":\"" + id + "\"}");
         }
         continue;
       }
       const JobRecord& rec = it->second;
       if (rec.status == JobStatus::accepted || rec.status == JobStatus::running) continue;
-      const std::string keep = rec.results.empty() ? "" : rec.results.substr(id.size() + 1);
-      for (const fs::directory_entry& a : fs::directory_iterator(folders[i], ec)) {
-        const std::string name = a.path().filename().string();
-        if (name.find_first_not_of("0123456789") == std::string::npos && name != keep &&
-            older_than(a.path(), config_.jobs.orphan_grace_s))
-          remove_dir(a.path());
+      if (rec.status == JobStatus::dismissed) {
+        if (old(seen.newest)) remove_files(id);
+        continue;
       }
+      const std::string keep = rec.results.empty() ? "" : rec.results.substr(id.size() + 1);
+      for (const auto& [part, when] : seen.parts)
+        if (part != keep && part != kRequestFile && old(when)) remove_files(id + "/" + part);
     }
   }
 }

@@ -114,6 +114,8 @@ void parse_store_config(const json& doc, ServerConfig& c) {
   st.password_file = get_string(doc, "store_password_file", st.password_file);
   if (!st.shared()) {
     if (st.uri != "sqlite") bad("store", "must be \"sqlite\" or a postgresql:// URI");
+    if (!st.results.empty())
+      bad("results", "goes with a postgresql:// store; the embedded store keeps results in data_dir/jobs");
     return;
   }
   if (st.uri.rfind("postgresql://", 0) != 0 && st.uri.rfind("postgres://", 0) != 0)
@@ -135,9 +137,12 @@ void parse_store_config(const json& doc, ServerConfig& c) {
   } else if (const char* env = std::getenv("RVORONOI_STORE_PASSWORD"); env && *env) {
     st.password = env;
   }
-  if (st.results.rfind("s3://", 0) == 0)
-    bad("results", "s3:// storage is not in this build yet; use a folder every daemon mounts");
-  if (st.results.empty()) bad("results", "a shared store needs a results folder every daemon mounts");
+  if (st.results.empty())
+    bad("results",
+        "a shared store needs results every daemon reaches: an s3://bucket/prefix, or a folder all of them mount");
+  // A bucket is shared by every daemon that names it (its form is checked, and the bucket asked,
+  // when the daemon starts).
+  if (st.results.rfind("s3://", 0) == 0) return;
   if (!st.results_shared)
     bad("results",
         "a shared store needs results every daemon reaches: a folder all of them mount, with "

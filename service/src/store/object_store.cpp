@@ -4,6 +4,10 @@
 #include <cpl_string.h>
 #include <cpl_vsi.h>
 
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
 #include <algorithm>
 #include <fstream>
 #include <memory>
@@ -50,7 +54,66 @@ void write_object(const std::string& path, const char* data, size_t size, const 
   if (written != size || closed != 0) throw Error(ErrorKind::io, last_error("cannot write " + what));
 }
 
+std::chrono::system_clock::time_point from_seconds(int64_t s, int64_t ns = 0) {
+  return std::chrono::system_clock::time_point(std::chrono::duration_cast<std::chrono::system_clock::duration>(
+      std::chrono::seconds(s) + std::chrono::nanoseconds(ns)));
+}
+
+class LocalReader final : public ObjectReader {
+ public:
+  LocalReader(int fd, const struct stat& st)
+      : fd_(fd),
+        size_(static_cast<uint64_t>(st.st_size)),
+        modified_(from_seconds(st.st_mtim.tv_sec, st.st_mtim.tv_nsec)) {}
+  ~LocalReader() override { ::close(fd_); }
+  uint64_t size() const override { return size_; }
+  std::chrono::system_clock::time_point modified() const override { return modified_; }
+  int64_t read_at(char* into, size_t n, uint64_t offset) override {
+    const ssize_t got = ::pread(fd_, into, n, static_cast<off_t>(offset));
+    return got < 0 ? -1 : got;
+  }
+
+ private:
+  int fd_;
+  uint64_t size_;
+  std::chrono::system_clock::time_point modified_;
+};
+
+// An object read through GDAL's VSI: on a bucket, ranged GETs (GDAL reads ahead and caches
+// blocks of the handle).
+class VsiReader final : public ObjectReader {
+ public:
+  VsiReader(VsiFile f, uint64_t size, std::chrono::system_clock::time_point modified)
+      : f_(std::move(f)), size_(size), modified_(modified) {}
+  uint64_t size() const override { return size_; }
+  std::chrono::system_clock::time_point modified() const override { return modified_; }
+  int64_t read_at(char* into, size_t n, uint64_t offset) override {
+    if (offset >= size_) return 0;
+    n = static_cast<size_t>(std::min<uint64_t>(n, size_ - offset));
+    if (VSIFSeekL(f_.get(), offset, SEEK_SET) != 0) return -1;
+    const size_t got = VSIFReadL(into, 1, n, f_.get());
+    // Short of the known size is a failure (this GDAL has no error flag on a handle).
+    return got == n ? static_cast<int64_t>(got) : -1;
+  }
+
+ private:
+  VsiFile f_;
+  uint64_t size_;
+  std::chrono::system_clock::time_point modified_;
+};
+
 }  // namespace
+
+std::unique_ptr<ObjectReader> open_local_file(const std::string& path) {
+  const int fd = open_regular_file(path);
+  if (fd < 0) return nullptr;
+  struct stat st {};
+  if (::fstat(fd, &st) != 0) {
+    ::close(fd);
+    throw Error(ErrorKind::io, "cannot stat a result file");
+  }
+  return std::make_unique<LocalReader>(fd, st);
+}
 
 bool is_object_key(std::string_view key) {
   if (key.empty() || key.front() == '/' || key.back() == '/' || key.size() > 512) return false;
@@ -90,6 +153,12 @@ ObjectStore::ObjectStore(const std::string& location) : location_(location) {
 std::string ObjectStore::path(std::string_view key) const {
   check_key(key);
   return root_ + "/" + std::string(key);
+}
+
+std::string ObjectStore::without_paths(std::string message) const {
+  const std::string root = root_ + "/";
+  for (size_t at; (at = message.find(root)) != std::string::npos;) message.erase(at, root.size());
+  return message;
 }
 
 void ObjectStore::put(std::string_view key, std::string_view bytes) const {
@@ -210,6 +279,85 @@ bool ObjectStore::exists(std::string_view key) const {
   forget_cached(p, remote_);
   VSIStatBufL st;
   return VSIStatExL(p.c_str(), &st, VSI_STAT_EXISTS_FLAG) == 0;
+}
+
+std::unique_ptr<ObjectReader> ObjectStore::open(std::string_view key) const {
+  const std::string p = path(key);
+  if (!remote_) return open_local_file(p);
+  forget_cached(p, remote_);
+  VSIStatBufL st;
+  if (VSIStatExL(p.c_str(), &st, VSI_STAT_EXISTS_FLAG | VSI_STAT_NATURE_FLAG | VSI_STAT_SIZE_FLAG) != 0 ||
+      VSI_ISDIR(st.st_mode))
+    return nullptr;
+  CPLErrorReset();
+  VsiFile f(VSIFOpenL(p.c_str(), "rb"));
+  if (!f) throw Error(ErrorKind::io, last_error("cannot read " + std::string(key)));
+  return std::make_unique<VsiReader>(std::move(f), static_cast<uint64_t>(st.st_size), from_seconds(st.st_mtime));
+}
+
+void ObjectStore::copy(std::string_view from, std::string_view to) const {
+  const std::string a = path(from), b = path(to);
+  if (!remote_) {
+    std::error_code ec;
+    std::filesystem::create_directories(std::filesystem::path(b).parent_path(), ec);
+    std::filesystem::remove(b, ec);
+    std::filesystem::create_hard_link(a, b, ec);
+    if (ec) std::filesystem::copy_file(a, b, std::filesystem::copy_options::overwrite_existing, ec);
+    if (ec) throw Error(ErrorKind::io, "cannot copy " + std::string(from) + ": " + ec.message());
+    return;
+  }
+  forget_cached(a, remote_);
+  CPLErrorReset();
+  VsiFile in(VSIFOpenL(a.c_str(), "rb"));
+  if (!in) throw Error(ErrorKind::io, last_error("cannot read " + std::string(from)));
+  VsiFile out(VSIFOpenL(b.c_str(), "wb"));
+  if (!out) throw Error(ErrorKind::io, last_error("cannot write " + std::string(to)));
+  std::vector<char> block(size_t{8} << 20);
+  for (;;) {
+    const size_t n = VSIFReadL(block.data(), 1, block.size(), in.get());
+    if (n && VSIFWriteL(block.data(), 1, n, out.get()) != n)
+      throw Error(ErrorKind::io, last_error("cannot write " + std::string(to)));
+    if (n < block.size()) break;
+  }
+  if (VSIFCloseL(out.release()) != 0) throw Error(ErrorKind::io, last_error("cannot write " + std::string(to)));
+}
+
+std::vector<ListedObject> ObjectStore::list_all(std::string_view prefix) const {
+  const std::string p = prefix.empty() ? root_ : path(prefix);
+  std::vector<ListedObject> out;
+  if (!remote_) {
+    std::error_code ec;
+    for (auto it = std::filesystem::recursive_directory_iterator(p, ec);
+         !ec && it != std::filesystem::recursive_directory_iterator(); it.increment(ec)) {
+      struct stat st {};
+      if (::lstat(it->path().c_str(), &st) != 0) continue;  // removed meanwhile
+      std::string key = it->path().lexically_relative(p).generic_string();
+      if (S_ISDIR(st.st_mode)) {
+        if (!std::filesystem::is_empty(it->path(), ec)) continue;
+        ec.clear();
+        key += "/";
+      } else if (!S_ISREG(st.st_mode)) {
+        continue;
+      }
+      out.push_back({std::move(key), from_seconds(st.st_mtim.tv_sec, st.st_mtim.tv_nsec)});
+    }
+    return out;
+  }
+  forget_cached(p, remote_);
+  CPLErrorReset();
+  VSIDIR* dir = VSIOpenDir(p.c_str(), -1, nullptr);
+  if (!dir) {
+    // A prefix with no object is no error; a storage that cannot be asked is.
+    if (CPLGetLastErrorType() == CE_None) return out;
+    throw Error(ErrorKind::io, last_error("cannot list " + (prefix.empty() ? location_ : std::string(prefix))));
+  }
+  while (const VSIDIREntry* e = VSIGetNextDirEntry(dir)) {
+    if (VSI_ISDIR(e->nMode)) continue;
+    // A time the listing does not give is taken as now: never judged old, never swept.
+    out.push_back({e->pszName, e->bMTimeKnown ? from_seconds(e->nMTime) : std::chrono::system_clock::now()});
+  }
+  VSICloseDir(dir);
+  return out;
 }
 
 void ObjectStore::remove_tree(std::string_view prefix) const {

@@ -13,13 +13,38 @@
 // Thread safety: every member may be called from any thread (GDAL's VSI handlers are).
 #pragma once
 
+#include <chrono>
+#include <cstdint>
 #include <filesystem>
+#include <memory>
 #include <optional>
 #include <string>
 #include <string_view>
 #include <vector>
 
 namespace rv::store {
+
+// An object (or a local file) open for reading by byte range: what an HTTP response streams.
+// Not thread safe: one reader serves one response, from one thread at a time.
+class ObjectReader {
+ public:
+  virtual ~ObjectReader() = default;
+  virtual uint64_t size() const = 0;
+  virtual std::chrono::system_clock::time_point modified() const = 0;
+  // Reads up to `n` bytes at `offset` into `into`; returns how many (0 past the end), or -1 when
+  // the storage failed (the caller ends the response rather than send garbage).
+  virtual int64_t read_at(char* into, size_t n, uint64_t offset) = 0;
+};
+
+// Opens a local regular file (never a link's target's FIFO or a directory: open_regular_file);
+// nullptr when there is none.
+std::unique_ptr<ObjectReader> open_local_file(const std::string& path);
+
+// One object of a listing: its key below the listed prefix, and when it was last written.
+struct ListedObject {
+  std::string key;
+  std::chrono::system_clock::time_point modified;
+};
 
 class ObjectStore {
  public:
@@ -31,6 +56,9 @@ class ObjectStore {
   const std::string& location() const { return location_; }
   // The path GDAL's VSI functions open for `key` (a /vsis3/ path, or a local one).
   std::string path(std::string_view key) const;
+  // `message` without the location's paths (a storage's message names them; a client knows the
+  // objects by key).
+  std::string without_paths(std::string message) const;
   // Writes `bytes` as `key`.
   void put(std::string_view key, std::string_view bytes) const;
   // Copies the local file `local` to `key`.
@@ -47,6 +75,15 @@ class ObjectStore {
   // none when it is missing. On a bucket it reads every key below `prefix` (a flat listing).
   std::vector<std::string> list(std::string_view prefix) const;
   bool exists(std::string_view key) const;
+  // Opens `key` for reading by range; nullptr when there is no such object. Throws rv::Error(io)
+  // when the storage cannot be asked.
+  std::unique_ptr<ObjectReader> open(std::string_view key) const;
+  // Copies the object `from` to `to` (a local folder links it when it can), streamed in blocks.
+  void copy(std::string_view from, std::string_view to) const;
+  // Every object below `prefix` ("" = everything), with its relative key and time, in one flat
+  // listing; on a local folder its empty folders too (as keys ending in '/'), so that a sweep can
+  // judge them.
+  std::vector<ListedObject> list_all(std::string_view prefix) const;
   // Removes `prefix` and everything below it; nothing there is no error.
   void remove_tree(std::string_view prefix) const;
   // Aborts the multipart uploads left open below the location (a daemon that died mid-upload),

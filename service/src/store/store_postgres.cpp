@@ -388,6 +388,11 @@ std::vector<JobRecord> PostgresJobStore::get_many(const std::vector<std::string>
   return out;
 }
 
+int64_t PostgresJobStore::running() const {
+  auto c = pool_.acquire();
+  return c->exec("SELECT count(*) FROM rv_jobs WHERE status = 'running'").integer(0, 0);
+}
+
 std::optional<QueueEntry> PostgresJobStore::entry(const std::string& id) const {
   auto c = pool_.acquire();
   const pg::Result r =

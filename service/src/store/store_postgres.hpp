@@ -151,6 +151,8 @@ class PostgresJobStore final : public JobRecords {
   // The records of those of `ids` that exist, in no order: one question for many (the sweep's).
   std::vector<JobRecord> get_many(const std::vector<std::string>& ids) const;
   std::optional<QueueEntry> entry(const std::string& id) const;
+  // How many jobs and tasks run now, on any daemon.
+  int64_t running() const;
   std::vector<JobRecord> list(int limit, int offset, const std::vector<JobStatus>& status = {},
                               const std::string& principal = "") const override;
   // The jobs' charges since `since`, and every other charge of the last hour.
