@@ -70,6 +70,7 @@ JobManager::JobManager(store::PostgresJobStore& shared, const ServerConfig& conf
       memory_(memory),
       limits_(effective_limits(config)),
       cells_(config.principal_limits.cells_per_hour) {
+  objects_.probe();  // unreachable at start: one line, and the daemon exits
   if (objects_.remote()) {
     // What an earlier life of this daemon wrote there was never uploaded (its leases are gone
     // with its holder): another attempt runs those jobs.

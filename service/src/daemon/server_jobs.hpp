@@ -206,9 +206,6 @@ class JobManager {
   void remove_files(const std::string& prefix) const;
   // On a bucket: downloads job `id`'s base snapshot into its local folder before an edit runs.
   void fetch_base(const std::string& id) const;
-  // On a bucket: uploads a successful attempt's files before its end is published; on failure
-  // the record becomes a failure with the storage's message and nothing stays uploaded.
-  void upload_results(JobRecord& rec, const std::filesystem::path& dir) const;
   // Retention and the orphan sweep, every minute (or jobs.orphan_grace_s if shorter), on a thread
   // of their own; the heartbeat's thread runs the reaper.
   void sweep_loop();

@@ -165,19 +165,6 @@ void JobManager::fetch_base(const std::string& id) const {
     throw Error(ErrorKind::io, "the base job's files kept for this edit are missing from the results");
 }
 
-void JobManager::upload_results(JobRecord& rec, const fs::path& dir) const {
-  if (!objects_.remote() || rec.status != JobStatus::successful) return;
-  try {
-    objects_.put_tree(rec.results, dir);
-  } catch (const std::exception& e) {
-    // Nothing half-uploaded is ever served: the record names no results, and they go.
-    const std::string what = objects_.without_paths(valid_utf8(e.what()));
-    remove_files(rec.results);
-    end_record(rec, ErrorKind::io, "the job's results could not be stored: " + what, nullptr, false, false);
-    rec.results.clear();
-  }
-}
-
 void JobManager::charge_planned_shared(const Task& task, int64_t cells) {
   // The store being away is not the job's fault: wait for it as a job's end does (the lease is
   // renewed meanwhile once it is back); past that, the job goes back to the queue through its
@@ -232,7 +219,8 @@ void JobManager::record_end_shared(JobRecord& rec, const std::optional<ErrorKind
                                    const std::string& message, const nlohmann::json& report, const fs::path& dir) {
   bool dismissed = false, lost = false, timed_out = false, shut_down = false;
   store::Lease lease;
-  {
+  std::shared_ptr<std::atomic<bool>> cancel;
+  auto read_flags = [&] {
     std::lock_guard lock(mutex_);
     const Running& r = running_.at(rec.id);
     dismissed = r.dismissed;
@@ -240,6 +228,26 @@ void JobManager::record_end_shared(JobRecord& rec, const std::optional<ErrorKind
     timed_out = r.timed_out;
     shut_down = r.shutdown;
     lease = *r.lease;
+    cancel = r.cancel;
+  };
+  read_flags();
+  const std::string attempt = rec.id + "/" + std::to_string(lease.attempt);
+  // On a bucket the results go up first: the row that names them commits after the upload. A
+  // dismissal, a lost lease, a timeout or a shutdown stops an upload as it stops a computation;
+  // a storage that fails fails the job with its message. Nothing half-uploaded stays.
+  std::optional<ErrorKind> kind = error_kind;
+  std::string why = message;
+  nlohmann::json kept_report = report;
+  if (!kind && !dismissed && !lost && !shut_down && !timed_out && objects_.remote()) {
+    try {
+      objects_.put_tree(attempt, dir, cancel.get());
+    } catch (const Error& e) {
+      remove_files(attempt);
+      kind = e.kind() == ErrorKind::cancelled ? ErrorKind::cancelled : ErrorKind::io;
+      why = "the job's results could not be stored: " + objects_.without_paths(valid_utf8(e.what()));
+      kept_report = nullptr;
+      read_flags();
+    }
   }
   auto reread = [&] {  // the record as the store now has it
     try {
@@ -257,17 +265,15 @@ void JobManager::record_end_shared(JobRecord& rec, const std::optional<ErrorKind
       store_away = true;
     }
     if (handed_back || store_away) {
-      remove_files(rec.id + "/" + std::to_string(lease.attempt));  // another daemon starts it afresh
+      remove_files(attempt);  // another daemon starts it afresh
       if (handed_back) reread();
       return;
     }
   }
   bool published = false;
   if (!dismissed && !lost) {
-    end_record(rec, error_kind, message, report, timed_out, shut_down);
-    rec.results = rec.status == JobStatus::successful ? rec.id + "/" + std::to_string(lease.attempt) : "";
-    // On a bucket the results go up first: the row that names them commits after the upload.
-    upload_results(rec, dir);
+    end_record(rec, kind, why, kept_report, timed_out, shut_down);
+    rec.results = rec.status == JobStatus::successful ? attempt : "";
     // The store may be away for a while (a restart). The fence is the holder and the attempt,
     // not the clock: until a reaper has requeued the job, its end may still be published, and the
     // heartbeat renews the lease meanwhile. Worth a minute's wait, or the lease's if longer.
@@ -283,7 +289,6 @@ void JobManager::record_end_shared(JobRecord& rec, const std::optional<ErrorKind
       }
     }
   }
-  const std::string attempt = rec.id + "/" + std::to_string(lease.attempt);
   if (published) {
     if (rec.status == JobStatus::failed) remove_files(attempt);
     if (objects_.remote()) remove_dir(dir);  // uploaded: the local copy is no longer needed

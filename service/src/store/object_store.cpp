@@ -39,6 +39,16 @@ void forget_cached(const std::string& vsi_path, bool remote) {
   if (remote) VSICurlPartialClearCache(vsi_path.c_str());
 }
 
+// GDAL's default handler prints warnings (an HTTP failure, a retry) on stderr, where the daemon
+// writes its JSON log: the storage's questions keep them quiet, and its failures carry the message
+// (CPLGetLastErrorMsg is kept whatever the handler). The handler stack is per thread.
+struct QuietErrors {
+  QuietErrors() { CPLPushErrorHandler(CPLQuietErrorHandler); }
+  ~QuietErrors() { CPLPopErrorHandler(); }
+  QuietErrors(const QuietErrors&) = delete;
+  QuietErrors& operator=(const QuietErrors&) = delete;
+};
+
 void check_key(std::string_view key) {
   if (!is_object_key(key))
     throw Error(ErrorKind::internal, "not an object key: '" + std::string(key.substr(0, 80)) + "'");
@@ -88,6 +98,7 @@ class VsiReader final : public ObjectReader {
   uint64_t size() const override { return size_; }
   std::chrono::system_clock::time_point modified() const override { return modified_; }
   int64_t read_at(char* into, size_t n, uint64_t offset) override {
+    const QuietErrors quiet;
     if (offset >= size_) return 0;
     n = static_cast<size_t>(std::min<uint64_t>(n, size_ - offset));
     if (VSIFSeekL(f_.get(), offset, SEEK_SET) != 0) return -1;
@@ -162,6 +173,7 @@ std::string ObjectStore::without_paths(std::string message) const {
 }
 
 void ObjectStore::put(std::string_view key, std::string_view bytes) const {
+  const QuietErrors quiet;
   const std::string p = path(key);
   if (!remote_) {
     std::error_code ec;
@@ -172,7 +184,14 @@ void ObjectStore::put(std::string_view key, std::string_view bytes) const {
   write_object(p, bytes.data(), bytes.size(), std::string(key));
 }
 
-void ObjectStore::put_file(std::string_view key, const std::filesystem::path& local) const {
+void ObjectStore::put_file(std::string_view key, const std::filesystem::path& local,
+                           const std::atomic<bool>* cancel) const {
+  const QuietErrors quiet;
+  auto stop = [&] {
+    if (cancel && cancel->load())
+      throw Error(ErrorKind::cancelled, "the upload of " + std::string(key) + " was cancelled");
+  };
+  stop();
   std::ifstream in(local, std::ios::binary);
   if (!in) throw Error(ErrorKind::io, "cannot read " + local.filename().string());
   const std::string p = path(key);
@@ -187,24 +206,35 @@ void ObjectStore::put_file(std::string_view key, const std::filesystem::path& lo
   CPLErrorReset();
   VsiFile out(VSIFOpenL(p.c_str(), "wb"));
   if (!out) throw Error(ErrorKind::io, last_error("cannot write " + std::string(key)));
-  std::vector<char> block(size_t{8} << 20);
-  while (in) {
-    in.read(block.data(), static_cast<std::streamsize>(block.size()));
-    const size_t n = static_cast<size_t>(in.gcount());
-    if (n && VSIFWriteL(block.data(), 1, n, out.get()) != n)
-      throw Error(ErrorKind::io, last_error("cannot write " + std::string(key)));
+  try {
+    std::vector<char> block(size_t{8} << 20);
+    while (in) {
+      stop();
+      in.read(block.data(), static_cast<std::streamsize>(block.size()));
+      const size_t n = static_cast<size_t>(in.gcount());
+      if (n && VSIFWriteL(block.data(), 1, n, out.get()) != n)
+        throw Error(ErrorKind::io, last_error("cannot write " + std::string(key)));
+    }
+  } catch (...) {
+    // A /vsis3/ handle cannot be abandoned: closing it completes the upload with what it has.
+    // That partial object goes at once.
+    VSIFCloseL(out.release());
+    VSIUnlink(p.c_str());
+    throw;
   }
   if (VSIFCloseL(out.release()) != 0) throw Error(ErrorKind::io, last_error("cannot write " + std::string(key)));
 }
 
-int ObjectStore::put_tree(std::string_view prefix, const std::filesystem::path& local) const {
+int ObjectStore::put_tree(std::string_view prefix, const std::filesystem::path& local,
+                          const std::atomic<bool>* cancel) const {
+  const QuietErrors quiet;
   int count = 0;
   std::error_code ec;
   for (auto it = std::filesystem::recursive_directory_iterator(local, ec);
        !ec && it != std::filesystem::recursive_directory_iterator(); it.increment(ec)) {
     if (!it->is_regular_file()) continue;
     const std::string rel = it->path().lexically_relative(local).generic_string();
-    put_file(std::string(prefix) + "/" + rel, it->path());
+    put_file(std::string(prefix) + "/" + rel, it->path(), cancel);
     ++count;
   }
   if (ec) throw Error(ErrorKind::io, "cannot read " + local.filename().string() + ": " + ec.message());
@@ -212,6 +242,7 @@ int ObjectStore::put_tree(std::string_view prefix, const std::filesystem::path& 
 }
 
 std::optional<std::string> ObjectStore::get(std::string_view key) const {
+  const QuietErrors quiet;
   const std::string p = path(key);
   forget_cached(p, remote_);
   VSIStatBufL st;
@@ -235,6 +266,7 @@ std::optional<std::string> ObjectStore::get(std::string_view key) const {
 }
 
 int ObjectStore::get_tree(std::string_view prefix, const std::filesystem::path& local) const {
+  const QuietErrors quiet;
   int count = 0;
   for (const std::string& name : list(prefix)) {
     const std::string key = std::string(prefix) + "/" + name;
@@ -256,6 +288,7 @@ int ObjectStore::get_tree(std::string_view prefix, const std::filesystem::path& 
 }
 
 std::vector<std::string> ObjectStore::list(std::string_view prefix) const {
+  const QuietErrors quiet;
   const std::string p = prefix.empty() ? root_ : path(prefix);
   forget_cached(p, remote_);
   // On a bucket, every key below the prefix, cut at its first '/': listings with a delimiter are
@@ -275,13 +308,31 @@ std::vector<std::string> ObjectStore::list(std::string_view prefix) const {
 }
 
 bool ObjectStore::exists(std::string_view key) const {
+  const QuietErrors quiet;
   const std::string p = path(key);
   forget_cached(p, remote_);
   VSIStatBufL st;
   return VSIStatExL(p.c_str(), &st, VSI_STAT_EXISTS_FLAG) == 0;
 }
 
+void ObjectStore::probe() const {
+  const QuietErrors quiet;
+  if (!remote_) return;
+  // The bucket itself: a listing of a prefix with nothing below it, or of a bucket that is not
+  // there, answers "nothing" without an error; a bucket that exists answers as a folder.
+  const std::string bucket = root_.substr(0, root_.find('/', std::string("/vsis3/").size()));
+  forget_cached(bucket, remote_);
+  CPLErrorReset();
+  VSIStatBufL st;
+  if (VSIStatExL(bucket.c_str(), &st, VSI_STAT_EXISTS_FLAG | VSI_STAT_NATURE_FLAG) == 0 && VSI_ISDIR(st.st_mode))
+    return;
+  const char* why = CPLGetLastErrorMsg();
+  throw Error(ErrorKind::busy, valid_utf8("the results storage is unavailable: " + location_ + ": " +
+                                          (why && *why ? std::string(why) : "no such bucket, or no access to it")));
+}
+
 std::unique_ptr<ObjectReader> ObjectStore::open(std::string_view key) const {
+  const QuietErrors quiet;
   const std::string p = path(key);
   if (!remote_) return open_local_file(p);
   forget_cached(p, remote_);
@@ -296,6 +347,7 @@ std::unique_ptr<ObjectReader> ObjectStore::open(std::string_view key) const {
 }
 
 void ObjectStore::copy(std::string_view from, std::string_view to) const {
+  const QuietErrors quiet;
   const std::string a = path(from), b = path(to);
   if (!remote_) {
     std::error_code ec;
@@ -323,6 +375,7 @@ void ObjectStore::copy(std::string_view from, std::string_view to) const {
 }
 
 std::vector<ListedObject> ObjectStore::list_all(std::string_view prefix) const {
+  const QuietErrors quiet;
   const std::string p = prefix.empty() ? root_ : path(prefix);
   std::vector<ListedObject> out;
   if (!remote_) {
@@ -361,6 +414,7 @@ std::vector<ListedObject> ObjectStore::list_all(std::string_view prefix) const {
 }
 
 void ObjectStore::remove_tree(std::string_view prefix) const {
+  const QuietErrors quiet;
   const std::string p = path(prefix);
   if (!remote_) {
     std::error_code ec;
@@ -378,6 +432,7 @@ void ObjectStore::remove_tree(std::string_view prefix) const {
 }
 
 bool ObjectStore::abort_pending_uploads() const {
+  const QuietErrors quiet;
   if (!remote_) return false;
   CPLErrorReset();
   return VSIAbortPendingUploads((root_ + "/").c_str()) != 0;

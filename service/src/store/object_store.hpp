@@ -13,6 +13,7 @@
 // Thread safety: every member may be called from any thread (GDAL's VSI handlers are).
 #pragma once
 
+#include <atomic>
 #include <chrono>
 #include <cstdint>
 #include <filesystem>
@@ -61,11 +62,15 @@ class ObjectStore {
   std::string without_paths(std::string message) const;
   // Writes `bytes` as `key`.
   void put(std::string_view key, std::string_view bytes) const;
-  // Copies the local file `local` to `key`.
-  void put_file(std::string_view key, const std::filesystem::path& local) const;
+  // Copies the local file `local` to `key`. `cancel`, when given and set meanwhile, stops the copy
+  // between blocks with rv::Error(cancelled); a copy that fails or is cancelled leaves no object.
+  void put_file(std::string_view key, const std::filesystem::path& local,
+                const std::atomic<bool>* cancel = nullptr) const;
   // Copies every regular file below the local folder `local` to keys below `prefix`, keeping
-  // their relative paths; returns how many.
-  int put_tree(std::string_view prefix, const std::filesystem::path& local) const;
+  // their relative paths; returns how many. `cancel` as for put_file (the files already copied
+  // stay: remove_tree them).
+  int put_tree(std::string_view prefix, const std::filesystem::path& local,
+               const std::atomic<bool>* cancel = nullptr) const;
   // The object's bytes; nullopt when there is none. Throws rv::Error(io) for any other failure.
   std::optional<std::string> get(std::string_view key) const;
   // Copies every object below `prefix` into the local folder `local`, keeping relative paths;
@@ -75,6 +80,9 @@ class ObjectStore {
   // none when it is missing. On a bucket it reads every key below `prefix` (a flat listing).
   std::vector<std::string> list(std::string_view prefix) const;
   bool exists(std::string_view key) const;
+  // Asks the storage whether its bucket is there: throws rv::Error(busy), with the storage's
+  // message, when it cannot be reached or has no such bucket; a daemon checks before it starts.
+  void probe() const;
   // Opens `key` for reading by range; nullptr when there is no such object. Throws rv::Error(io)
   // when the storage cannot be asked.
   std::unique_ptr<ObjectReader> open(std::string_view key) const;

@@ -253,14 +253,21 @@ def step_refusals(tmp, pg):
              ({"store": pg.uri(), "results": os.path.join(tmp, "r")}, 2, "results_shared"),
              ({"store": "postgresql://rv:hunter2@127.0.0.1/x", "results": "/r", "results_shared": True}, 2,
               "must not contain a password")]
+    # A bucket on a server that is not there.
+    dead = {"AWS_S3_ENDPOINT": f"127.0.0.1:{free_port()}", "AWS_HTTPS": "NO", "AWS_VIRTUAL_HOSTING": "FALSE",
+            "AWS_ACCESS_KEY_ID": "K", "AWS_SECRET_ACCESS_KEY": "hunter3", "AWS_REGION": "us-east-1",
+            "GDAL_HTTP_MAX_RETRY": "0"}
+    cases.append(({"store": pg.uri(), "store_password_file": pg.password_file, "results": "s3://rv/jobs"}, 10,
+                  "the results storage is unavailable"))
     for i, (config, code, words) in enumerate(cases):
         path = os.path.join(tmp, f"refused{i}.json")
         with open(path, "w") as f:
             json.dump(config, f)
         p = subprocess.run([RVORONOI, "serve", "--listen", "127.0.0.1:0", "--data-dir", os.path.join(tmp, f"x{i}"),
-                            "--config", path], capture_output=True, text=True, timeout=60)
+                            "--config", path], capture_output=True, text=True, timeout=60,
+                           env=dict(os.environ, **dead))
         lines = p.stderr.strip().splitlines()
-        check(p.returncode == code and len(lines) == 1 and words in lines[0] and "hunter2" not in p.stderr,
+        check(p.returncode == code and len(lines) == 1 and words in lines[0] and "hunter" not in p.stderr,
               f"refused set-up {i}: exit {p.returncode}, {p.stderr!r}")
 
 

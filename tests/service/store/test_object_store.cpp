@@ -1,8 +1,9 @@
 // The shared store's objects (issue 55) in a local folder and on an S3 server the test starts
 // (s3rver, through GDAL's /vsis3/): the same behaviour from both. Bytes and files round trip
 // (a file above GDAL's part size goes up in parts), trees go up and come back, listings,
-// removal, ranges read back as written, keys that could leave the location are refused, and a
-// server that is gone fails with its reason.
+// removal, ranges read back as written (through GDAL and through ObjectReader), copies, timed flat
+// listings, keys that could leave the location are refused, and a server that is gone fails with
+// its reason.
 #include <gtest/gtest.h>
 
 #include <cpl_conv.h>
@@ -12,7 +13,9 @@
 #include <sys/socket.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <atomic>
+#include <chrono>
 #include <fstream>
 #include <mutex>
 #include <random>
@@ -90,6 +93,16 @@ TEST_P(Objects, BytesAndFilesRoundTrip) {
   EXPECT_EQ(VSIFReadL(part.data(), 1, part.size(), f), part.size());
   VSIFCloseL(f);
   EXPECT_EQ(part, big.substr(9'000'001, 1000));
+
+  // A cancelled copy (a dismissal, a shutdown) leaves no object, partial or whole.
+  std::atomic<bool> cancel{true};
+  try {
+    store_->put_file("job/2/ownership.tif", scratch_ / "ownership.tif", &cancel);
+    ADD_FAILURE() << "a cancelled upload went on";
+  } catch (const Error& e) {
+    EXPECT_EQ(e.kind(), ErrorKind::cancelled);
+  }
+  EXPECT_FALSE(store_->exists("job/2/ownership.tif"));
 }
 
 TEST_P(Objects, TreesListAndRemove) {
@@ -115,6 +128,75 @@ TEST_P(Objects, TreesListAndRemove) {
   store_->remove_tree("job/2");              // nothing there: no error
   store_->remove_tree("job/3/report.json");  // one object
   EXPECT_FALSE(store_->exists("job/3/report.json"));
+}
+
+TEST_P(Objects, ReadersServeRangesCopiesAndTimedListings) {
+  const std::string bytes = random_bytes(300'000, 11);
+  const auto before = std::chrono::system_clock::now() - std::chrono::seconds(2);
+  store_->put("job/1/ownership.tif", bytes);
+  // A reader by range, as a response streams it: size, time, bytes at offsets, nothing past the end.
+  auto r = store_->open("job/1/ownership.tif");
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->size(), bytes.size());
+  EXPECT_GE(r->modified(), before - std::chrono::seconds(1));  // S3 times are whole seconds
+  std::string part(70'000, '\0');
+  EXPECT_EQ(r->read_at(part.data(), part.size(), 200'000), 70'000);
+  EXPECT_EQ(part, bytes.substr(200'000, 70'000));
+  EXPECT_EQ(r->read_at(part.data(), part.size(), 250'000), 50'000);  // the tail only
+  EXPECT_EQ(part.substr(0, 50'000), bytes.substr(250'000));
+  EXPECT_EQ(r->read_at(part.data(), part.size(), bytes.size()), 0);
+  EXPECT_FALSE(store_->open("job/1/none.tif"));
+  EXPECT_FALSE(store_->open("job/1"));  // a "folder" is no object
+
+  // Copies: the bytes, under the new key, the source left as it was.
+  store_->copy("job/1/ownership.tif", "job2/base-snapshot/ownership.tif");
+  EXPECT_EQ(store_->get("job2/base-snapshot/ownership.tif").value(), bytes);
+  EXPECT_EQ(store_->get("job/1/ownership.tif").value(), bytes);
+
+  // One flat listing of everything, with times the sweep judges by.
+  store_->put("job/request.json", "{}");
+  std::vector<std::string> keys;
+  for (const rv::store::ListedObject& o : store_->list_all("")) {
+    keys.push_back(o.key);
+    EXPECT_GE(o.modified, before - std::chrono::seconds(1)) << o.key;
+    EXPECT_LE(o.modified, std::chrono::system_clock::now() + std::chrono::seconds(2)) << o.key;
+  }
+  std::sort(keys.begin(), keys.end());
+  EXPECT_EQ(keys,
+            (std::vector<std::string>{"job/1/ownership.tif", "job/request.json", "job2/base-snapshot/ownership.tif"}));
+  keys.clear();
+  for (const auto& o : store_->list_all("job2")) keys.push_back(o.key);
+  EXPECT_EQ(keys, (std::vector<std::string>{"base-snapshot/ownership.tif"}));
+  EXPECT_TRUE(store_->list_all("nothing").empty());
+
+  // A storage's message names its own paths; a client knows the keys.
+  EXPECT_EQ(store_->without_paths("cannot write " + store_->path("job/1/x.tif") + ": failed"),
+            "cannot write job/1/x.tif: failed");
+}
+
+TEST(ObjectLocations, ProbesFindTheBucketOrSayWhy) {
+  s3().configure_gdal();
+  ObjectStore("s3://" + s3().bucket() + "/never/written").probe();  // nothing below it yet: fine
+  try {
+    ObjectStore("s3://no-such-bucket/jobs").probe();
+    ADD_FAILURE() << "a bucket that is not there passed";
+  } catch (const Error& e) {
+    EXPECT_EQ(e.kind(), ErrorKind::busy);
+    EXPECT_NE(std::string(e.what()).find("the results storage is unavailable: s3://no-such-bucket/jobs"),
+              std::string::npos)
+        << e.what();
+  }
+  ObjectStore(std::filesystem::temp_directory_path().string()).probe();  // a folder: nothing to ask
+}
+
+TEST(ObjectLocations, EmptyLocalFoldersAreListedForTheSweep) {
+  const auto root = std::filesystem::temp_directory_path() / ("rv-objects-empty-" + std::to_string(::getpid()));
+  std::filesystem::create_directories(root / "job" / "3");
+  ObjectStore store(root.string());
+  const auto all = store.list_all("");
+  ASSERT_EQ(all.size(), 1u);
+  EXPECT_EQ(all[0].key, "job/3/");
+  std::filesystem::remove_all(root);
 }
 
 TEST_P(Objects, KeysThatCouldLeaveTheLocationAreRefused) {
