@@ -12,7 +12,11 @@ The jobs write the ownership raster alone (it compresses well): the measure is t
 and the queue, not the disk (ownership and distance at 4 m, 132 million cells each, made every
 count of daemons equally slow, bound by writing the distance rasters).
 
-usage: bench/shared_throughput.py RVORONOI SOURCE_DIR [JOBS=30] [ROUNDS=3] [RESOLUTION=6]
+STORAGE s3 puts the results on an S3 server the bench starts (s3rver, tests/service/shared/
+s3_harness.py) instead of a folder: every job then uploads its files, its kept field for edits
+(4 bytes a cell) the largest of them, through s3rver (one Node.js process on the same two cores).
+
+usage: bench/shared_throughput.py RVORONOI SOURCE_DIR [JOBS=30] [ROUNDS=3] [RESOLUTION=6] [STORAGE=folder|s3]
 """
 import json
 import os
@@ -33,6 +37,7 @@ RVORONOI = sys.argv[1]
 JOBS = int(sys.argv[3]) if len(sys.argv) > 3 else 30
 ROUNDS = int(sys.argv[4]) if len(sys.argv) > 4 else 3
 RESOLUTION = float(sys.argv[5]) if len(sys.argv) > 5 else 6.0
+STORAGE = sys.argv[6] if len(sys.argv) > 6 else "folder"
 
 
 def cpu():
@@ -42,13 +47,14 @@ def cpu():
     return platform.processor()
 
 
-def one_round(pg, tmp, count, body):
+def one_round(pg, s3, tmp, count, body):
     results = os.path.join(tmp, f"results-{count}-{time.time_ns()}")
-    config = {"store": pg.uri(), "store_password_file": pg.password_file, "results": results,
-              "results_shared": True, "jobs": {"workers": 1, "threads_per_job": 1, "poll_s": 0.5,
-                                               "queue_length": 10000}}
+    where = {"results": f"s3://{s3.bucket}/r{count}-{time.time_ns()}"} if s3 else {"results": results,
+                                                                                "results_shared": True}
+    config = {"store": pg.uri(), "store_password_file": pg.password_file, **where,
+              "jobs": {"workers": 1, "threads_per_job": 1, "poll_s": 0.5, "queue_length": 10000}}
     daemons = [Daemon([RVORONOI, "serve"], os.path.join(tmp, f"d{count}-{i}-{time.time_ns()}"),
-                      dict(config, daemon_name=f"n{i}")) for i in range(count)]
+                      dict(config, daemon_name=f"n{i}"), env=s3.env if s3 else None) for i in range(count)]
     try:
         t0 = time.perf_counter()
         jobs = []
@@ -87,19 +93,25 @@ def main():
             "outputs": {"ownership": {}, "report": {}}}
     tmp = tempfile.mkdtemp(prefix="rv-throughput-")
     pg = Postgres()
+    s3 = None
+    if STORAGE == "s3":
+        from s3_harness import S3
+        s3 = S3()
     times = {1: [], 2: [], 3: []}
     try:
         for r in range(ROUNDS):
             for count in (1, 2, 3):
-                total, submitted, cpu_s = one_round(pg, tmp, count, body)
+                total, submitted, cpu_s = one_round(pg, s3, tmp, count, body)
                 times[count].append((total, submitted, cpu_s))
                 print(f"round {r + 1}, {count} daemon(s): {total:.2f} s ({JOBS / total:.2f} jobs/s), "
                       f"submissions {submitted:.2f} s, daemons' CPU {cpu_s:.1f} s", flush=True)
     finally:
         pg.close()
+        if s3:
+            s3.close()
         shutil.rmtree(tmp, ignore_errors=True)
     print(f"\nCPU: {cpu()}, {os.cpu_count()} cores; {JOBS} jobs of resolution {RESOLUTION} m "
-          f"(demo_basepoints), {ROUNDS} rounds alternated, medians\n")
+          f"(demo_basepoints), results on {'s3rver' if s3 else 'a folder'}, {ROUNDS} rounds alternated, medians\n")
     print("| daemons | wall s | jobs/s | vs one daemon | submissions s | daemons' CPU s | cores busy |")
     print("|---|---|---|---|---|---|---|")
     base = statistics.median(t for t, _, _ in times[1])

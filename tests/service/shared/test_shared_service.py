@@ -291,6 +291,17 @@ def step_many_jobs(c, ref):
         got = files(c.daemons[(at + 1) % 3], job, outputs, who)
         for o in outputs:
             check(got[o] == expected[o], f"job {job} output {o} equals the one-daemon run's")
+    # Ranges, as a COG is read, from a daemon that neither took nor ran the job.
+    job, who, b, at = jobs[0]
+    _, expected = ref.run(b, outputs)
+    whole = expected["ownership"]
+    st, h, data = c.daemons[(at + 2) % 3].request("GET", f"/jobs/{job}/results/ownership",
+                                                  headers=dict(bearer(who), Range="bytes=100-611"))
+    check(st == 206 and data == whole[100:612] and h.get("content-range") == f"bytes 100-611/{len(whole)}",
+          f"a range of a result: {st} {h.get('content-range')}")
+    st, h, data = c.daemons[(at + 1) % 3].request("GET", f"/jobs/{job}/results/ownership",
+                                                  headers=dict(bearer(who), Range=f"bytes=-{len(whole) // 3}"))
+    check(st == 206 and data == whole[-(len(whole) // 3):], f"a suffix range of a result: {st}")
     # No principal sees another's job.
     st, _, mine = c.daemons[1].json("GET", "/jobs?limit=1000", headers=bearer("alice"))
     hers = (ARGS.jobs + 2) // 3
