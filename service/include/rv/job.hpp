@@ -135,6 +135,23 @@ struct JobSpec {
   // memory only: a window with an output file, a deliverable, validation, partial effect, a base
   // or a scan method is invalid_argument, and so is a window outside the grid.
   std::optional<Window> window;
+  // One band of a grid split across hosts (a shared service's split job): rows [row0, row0 +
+  // rows) of the planned grid, whole width, computed and their field written into the folder
+  // `dir` (site.tif, distance.tif, band.json; service/src/job/job_bands.hpp) for an assembling
+  // run (`bands`) to read. row0 is a multiple of 256, and so is rows unless the band ends at the
+  // grid's last row. A band writes nothing else (an output file, a deliverable or a report is
+  // invalid_argument) and needs a streamed plan (JobPlan); its report says which rows it holds.
+  struct Band {
+    int64_t row0 = 0;
+    int64_t rows = 0;
+    std::string dir;
+  };
+  std::optional<Band> band;
+  // An assembling run of a split job: its field read from these bands' folders (written by band
+  // runs of the same request, in any order; together every row of the grid once) instead of
+  // computed. Everything else is a fresh run's, and so are its files, byte for byte. Needs a
+  // streamed plan; not with a base or a window (invalid_argument).
+  std::vector<std::string> bands;
 };
 
 // How run_job computes and writes a job, decided from the request and the grid alone, before

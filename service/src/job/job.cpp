@@ -15,6 +15,7 @@
 
 #include "common/atomic_file.hpp"
 #include "job/edit_base.hpp"
+#include "job/job_bands.hpp"
 #include "job/job_edit.hpp"
 #include "job/job_run.hpp"
 #include "job/job_stream.hpp"
@@ -310,6 +311,7 @@ int64_t seed_memory_bytes(const LoadedSeeds& loaded) {
 namespace {
 // The cells a job computes: its window's (JobSpec::window), else the grid's.
 int64_t computed_cells(const JobSpec& spec, const GridSpec& grid) {
+  if (spec.band) return spec.band->rows * grid.width;
   return spec.window ? spec.window->cell_count() : grid.cell_count();
 }
 }  // namespace
@@ -319,8 +321,9 @@ JobPlan plan_job(const JobSpec& spec, const GridSpec& grid, int64_t sites, Metri
   JobPlan p;
   const OutputRequest& out = spec.outputs;
   const int64_t cells = computed_cells(spec, grid);
-  const int64_t int_rasters = !out.ownership.empty() + !out.nearest_feature.empty();
-  const int64_t rasters = int_rasters + !out.distance.empty();
+  // A band of a split job writes its site codes and distances (job_bands.hpp).
+  const int64_t int_rasters = !out.ownership.empty() + !out.nearest_feature.empty() + spec.band.has_value();
+  const int64_t rasters = int_rasters + !out.distance.empty() + spec.band.has_value();
   if (spec.method != Method::exact && spec.method != Method::brute_force)
     p.why_whole = "the scan methods propagate inside a window: a strip would differ from the whole grid";
   else if (spec.validate)
@@ -339,8 +342,10 @@ JobPlan plan_job(const JobSpec& spec, const GridSpec& grid, int64_t sites, Metri
                              ? spec.strip_rows
                              : (std::max<int64_t>(1, kStripCells / std::max<int64_t>(grid.width, 1)) + kTileRows - 1) /
                                    kTileRows * kTileRows;
-    // An edit's strips hold whole bands of tiles: its files copy unchanged tiles band by band.
-    const int64_t whole = spec.base_report.empty() ? rows : (rows + kTileRows - 1) / kTileRows * kTileRows;
+    // An edit's strips hold whole bands of tiles: its files copy unchanged tiles band by band; so
+    // do a split job's assembly's, read from its bands (automatic strips are whole bands anyway).
+    const bool whole_bands = !spec.base_report.empty() || !spec.bands.empty();
+    const int64_t whole = whole_bands ? (rows + kTileRows - 1) / kTileRows * kTileRows : rows;
     p.strip_rows = std::clamp<int64_t>(whole, 1, std::max<int64_t>(grid.height, 1));
     p.strips = (grid.height + p.strip_rows - 1) / p.strip_rows;
     const int64_t strip_cells = p.strip_rows * grid.width;
@@ -514,28 +519,6 @@ void read_relevant(const JobSpec& spec, const JobLimits& limits, PreparedJob& jo
                                                 "owner field's values)");
 }
 
-// A window (one chunk of a grid computed in pieces): inside the grid, with outputs in memory
-// only, and a method that computes a window as the same cells of the whole grid.
-void check_window(const JobSpec& spec, const GridSpec& grid) {
-  if (!spec.window) return;
-  const Window& w = *spec.window;
-  const OutputRequest& out = spec.outputs;
-  auto refuse = [](const std::string& why) { throw Error(ErrorKind::invalid_argument, "window: " + why); };
-  if (w.width <= 0 || w.height <= 0 || w.col0 < 0 || w.row0 < 0 || w.col0 + w.width > grid.width ||
-      w.row0 + w.height > grid.height)
-    refuse("rows " + std::to_string(w.row0) + "+" + std::to_string(w.height) + ", columns " + std::to_string(w.col0) +
-           "+" + std::to_string(w.width) + " are not inside the grid of " + std::to_string(grid.height) + " x " +
-           std::to_string(grid.width) + " cells");
-  if (spec.method != Method::exact && spec.method != Method::brute_force)
-    refuse("the scan methods propagate across the whole grid, so a piece of it would differ; use method exact");
-  if (!out.ownership.empty() || !out.distance.empty() || !out.nearest_feature.empty() || out.any_deliverable() ||
-      !out.report.empty() || !out.changes.empty())
-    refuse("a piece of a grid gives its rasters in memory only (no files, no deliverables)");
-  if (spec.validate) refuse("validation compares whole fields");
-  if (spec.seeds.effect_field) refuse("partial effect compares whole fields");
-  if (!spec.base_report.empty()) refuse("an edit covers its base's whole grid");
-}
-
 // Requests refused before anything is computed, and the limits of the planned job.
 void check_plan(const JobSpec& spec, const JobLimits& limits, const PreparedJob& job, const JobPlan& plan) {
   const OutputRequest& out = spec.outputs;
@@ -557,7 +540,7 @@ void check_plan(const JobSpec& spec, const JobLimits& limits, const PreparedJob&
   }
   if (!(out.simplify_cells >= 0.0) || !std::isfinite(out.simplify_cells))
     throw Error(ErrorKind::invalid_argument, "the simplification tolerance must be a non-negative number of cells");
-  check_window(spec, job.grid);
+  detail::check_pieces(spec, job.grid, plan);
   if (!out.describe && !out.report.empty())
     throw Error(ErrorKind::invalid_argument, "a report file needs the report (OutputRequest::describe)");
   const int64_t cells = computed_cells(spec, job.grid);
@@ -689,6 +672,13 @@ void compute_streamed(detail::JobRun& run, const PreparedJob& job, const RasterT
   nlohmann::json edit_lines;
   if (base && deliverables) edit_lines = detail::attach_edit_lines(stream, edit, *deliverables, *base, spec, job);
   if (keep) detail::attach_keep(stream, *keep, base, base ? &edit : nullptr, job);
+  // A split job's assembly: the field read from its bands (job_bands.hpp).
+  std::optional<detail::BandFields> bands;
+  if (!spec.bands.empty()) {
+    bands.emplace(spec.bands, job);
+    detail::attach_bands(stream, *bands);
+    run.timings["bands"] = bands->count();
+  }
   run.progress("compute", 0.0);
   const detail::StreamStats st = detail::run_streamed(stream);
   if (base) {
@@ -894,6 +884,7 @@ JobResult run_stages(detail::JobRun& run, const PreparedJob& job, const detail::
                      detail::Clock::time_point start, std::shared_ptr<detail::EditBaseFiles> base_files = nullptr) {
   const JobSpec& spec = run.spec;
   run.timings["read"] = job.read_seconds;
+  if (spec.band) return detail::run_band(run, job);  // one band of a split job: its field alone
   const RasterTargets targets = raster_targets(spec, job);
   NearestField field;  // the whole field (whole path only)
   MemoryRasters in_memory;
