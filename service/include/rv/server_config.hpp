@@ -88,6 +88,12 @@ struct JobsConfig {
   // The sweep removes job folders no job names (and attempts a finished job does not name) once
   // untouched this long: well above the seconds between a request's write and its row's commit.
   double orphan_grace_s = 3600.0;
+  // A shared store's job of more cells than this whose plan streams (the exact or brute-force
+  // method, no validation, no partial effect, not an edit) is split into bands of whole rows, each
+  // about this many cells (at least 256 rows), that any daemon claims; the daemon that claims the
+  // job once they are computed assembles them (its files a one-daemon run's, byte for byte).
+  // 0 = never split.
+  int64_t split_cells = 0;
 };
 
 // Where jobs are kept (the top-level `store`, `store_password_file`, `results`, `results_shared`).

@@ -493,12 +493,7 @@ JobSpec spec_in_directory(const Execution& execution, const JobRecord& rec, cons
   return spec;
 }
 
-// How a job ended, before it is recorded.
-struct Outcome {
-  std::optional<ErrorKind> error_kind;
-  std::string message;
-  JobResult result;
-};
+}  // namespace
 
 // The message of a failed job as its client should read it.
 std::string client_message(const Error& e, const std::string& id, const std::filesystem::path& dir) {
@@ -520,7 +515,6 @@ std::string client_message(const Error& e, const std::string& id, const std::fil
   return message;
 }
 
-// Runs the job; every exception becomes an Outcome (none leaves a worker).
 Outcome execute(const JobRunner& runner, const JobSpec& spec, const JobLimits& limits, const JobHooks& hooks,
                 const std::string& id, const std::filesystem::path& dir) {
   Outcome o;
@@ -550,8 +544,6 @@ Outcome execute(const JobRunner& runner, const JobSpec& spec, const JobLimits& l
   return o;
 }
 
-}  // namespace
-
 JobRecord JobManager::run_task(Task& task) {
   const std::string& id = task.id;
   // A shared store's attempts write apart: a worker that lost its lease cannot touch the files
@@ -566,6 +558,7 @@ JobRecord JobManager::run_task(Task& task) {
   stored = task.lease ? std::optional<JobRecord>(task.claimed) : store_->get(id);
   if (!stored) throw Error(ErrorKind::internal, "job " + id + " vanished from the store");
   JobRecord rec = *stored;
+  if (task.kind == "band") return run_band(task, rec);
   try {
     // Parsed again from the stored request, as the daemon that accepted it did: a request that
     // no longer parses (a build that reads it otherwise) fails the job with the reason.
@@ -578,7 +571,21 @@ JobRecord JobManager::run_task(Task& task) {
                dir);
     return rec;
   }
-  const JobSpec spec = spec_in_directory(task.execution, rec, dir);
+  JobSpec spec = spec_in_directory(task.execution, rec, dir);
+  try {
+    // A large job is split into bands for every daemon, and assembled once they are computed.
+    if (task.from_queue && split_or_assemble(task, rec, dir, spec)) return rec;
+  } catch (const Error& e) {
+    // The store away is not the job's fault: it stays running, and its lease, no longer renewed,
+    // expires and queues it again. Any other failure is the job's.
+    if (e.kind() == ErrorKind::busy) {
+      lose_lease(id);
+      remove_dir(dir);
+      return rec;
+    }
+    record_end(rec, e.kind(), valid_utf8(e.what()), nullptr, dir);
+    return rec;
+  }
 
   rec.status = JobStatus::running;
   rec.message = "running";

@@ -50,6 +50,7 @@ namespace rv::daemon {
 // (removed when it ends).
 inline constexpr const char* kEditBaseDir = "edit-base";
 inline constexpr const char* kBaseSnapshotDir = "base-snapshot";
+inline constexpr const char* kBandsDir = "bands";  // a split job's bands, "<row0>-a<attempt>" each
 
 // Removes a job's folder or an attempt's, best effort (a leftover costs disk; a shared store's
 // sweep finds it).
@@ -63,6 +64,19 @@ JobRecord accepted_record(const std::string& id, const Execution& execution, con
 bool exempt_from_limits(const auth::Principal& who);
 // The refusal of a principal with `count` jobs unfinished, at the most `limit`.
 QuotaExceeded too_many_jobs(int64_t count, int limit);
+
+// How a job ended, before it is recorded.
+struct Outcome {
+  std::optional<ErrorKind> error_kind;
+  std::string message;
+  JobResult result;
+};
+// Runs the job into `dir` and writes its report there; every exception becomes an Outcome (none
+// leaves a worker).
+Outcome execute(const JobRunner& runner, const JobSpec& spec, const JobLimits& limits, const JobHooks& hooks,
+                const std::string& id, const std::filesystem::path& dir);
+// The message of a failed job as its client should read it (no paths of this server's).
+std::string client_message(const Error& e, const std::string& id, const std::filesystem::path& dir);
 
 class JobManager {
  public:
@@ -144,6 +158,10 @@ class JobManager {
     // parsed from the stored request (claimed from the queue).
     std::optional<store::Lease> lease;
     bool from_queue = false;
+    std::string kind = "job";                         // a shared store's task: "job" or "band"
+    std::string parent;                               // a band's job
+    std::string payload;                              // a band's "<row0>:<rows>"
+    bool split = false;                               // a job split into bands: to be assembled
     JobRecord claimed;                                // the record as claimed or inserted running
     std::chrono::steady_clock::time_point leased_at;  // when the claim had committed
     auth::Principal who;                              // for the charge of cells planned later
@@ -178,8 +196,18 @@ class JobManager {
   bool stored(const std::string& id) const;
   // The next job of the shared queue as a task; nullopt when none waits or the store is away.
   std::optional<Task> claim_shared();
-  // The claimed job's execution, from its stored request.
-  Execution load_execution(const std::string& id, int attempt) const;
+  // The claimed job's execution, from its stored request (of job `id`; its uploads staged under
+  // "<staging>-a<attempt>", the job's id unless given).
+  Execution load_execution(const std::string& id, int attempt, const std::string& staging = "") const;
+  // Split jobs (server_jobs_split.cpp). A claimed job above jobs.split_cells whose plan streams is
+  // queued as bands of whole rows and left to them (true: the task ends here, the job running
+  // without a holder); a job whose bands are all computed is assembled from them (its execution
+  // reads them: `spec`, the job as it runs here, gains them). Without jobs.split_cells, or for a
+  // job that cannot be split, nothing happens.
+  bool split_or_assemble(Task& task, JobRecord& rec, const std::filesystem::path& dir, JobSpec& spec);
+  // Runs a band task to its end (computed, stored under "<job>/bands/<row0>-a<attempt>", ended
+  // fenced by its lease); returns its final record.
+  JobRecord run_band(Task& task, JobRecord rec);
   std::optional<JobRecord> dismiss_shared(const std::string& id);
   // Writes the running job's record (false for a dismissed one): fenced by its lease on a shared
   // store (false, and the job cancelled, when the lease was lost), plainly on the SQLite store.

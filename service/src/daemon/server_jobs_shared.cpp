@@ -141,17 +141,23 @@ std::optional<JobManager::Task> JobManager::claim_shared() {
   t.leased_at = std::chrono::steady_clock::now();
   t.from_queue = true;
   t.claimed = c->record;
-  t.charged = c->record.cells > 0 || c->entry.exempt;
-  log_event("{\"event\":\"claimed\",\"job\":\"" + t.id + "\",\"attempt\":" + std::to_string(c->lease.attempt) + "}");
+  t.kind = c->entry.kind;
+  t.parent = c->entry.parent;
+  t.payload = c->entry.payload;
+  t.split = c->split;
+  t.charged = c->record.cells > 0 || c->entry.exempt || t.kind == "band";  // a band's cells are its job's
+  log_event("{\"event\":\"claimed\",\"job\":\"" + t.id + "\",\"attempt\":" + std::to_string(c->lease.attempt) +
+            (t.kind == "band" ? ",\"band_of\":\"" + t.parent + "\",\"rows\":\"" + t.payload + "\"" : std::string()) +
+            "}");
   return t;
 }
 
-Execution JobManager::load_execution(const std::string& id, int attempt) const {
+Execution JobManager::load_execution(const std::string& id, int attempt, const std::string& staging) const {
   const std::optional<std::string> text = objects_.get(id + "/" + kRequestFile);
   if (!text) throw Error(ErrorKind::io, "the job's stored request cannot be read from the results storage");
   const nlohmann::json body = nlohmann::json::parse(*text, nullptr, false);
   if (body.is_discarded()) throw Error(ErrorKind::internal, "the job's stored request is damaged");
-  Execution ex = parse_execution(body, id, config_, id + "-a" + std::to_string(attempt));
+  Execution ex = parse_execution(body, id, config_, (staging.empty() ? id : staging) + "-a" + std::to_string(attempt));
   if (!ex.spec.base_name.empty())
     ex.spec.base_report = (job_dir(id) / kBaseSnapshotDir / output_file_name("report", "")).string();
   return ex;
@@ -293,6 +299,7 @@ void JobManager::record_end_shared(JobRecord& rec, const std::optional<ErrorKind
     if (rec.status == JobStatus::failed) remove_files(attempt);
     if (objects_.remote()) remove_dir(dir);  // uploaded: the local copy is no longer needed
     remove_files(rec.id + "/" + kBaseSnapshotDir);
+    remove_files(rec.id + "/" + kBandsDir);  // an assembled job's bands
     return;
   }
   // Not ours to publish: this attempt's files go (uploaded ones too); the job is as the store says.

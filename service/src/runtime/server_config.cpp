@@ -177,9 +177,10 @@ ServerConfig parse_server_config(const json& doc) {
   }
   if (doc.contains("jobs")) {
     const json& j = doc.at("jobs");
-    check_keys(j, "jobs",
-               {"workers", "queue_length", "threads_per_job", "job_timeout_s", "shutdown_grace_s", "describe_workers",
-                "lease_s", "max_attempts", "retry_backoff_s", "poll_s", "retention_s", "orphan_grace_s"});
+    check_keys(
+        j, "jobs",
+        {"workers", "queue_length", "threads_per_job", "job_timeout_s", "shutdown_grace_s", "describe_workers",
+         "lease_s", "max_attempts", "retry_backoff_s", "poll_s", "retention_s", "orphan_grace_s", "split_cells"});
     c.jobs.workers = static_cast<int>(get_int(j, "jobs", "workers", c.jobs.workers, 1));
     c.jobs.queue_length = static_cast<int>(get_int(j, "jobs", "queue_length", c.jobs.queue_length, 0));
     c.jobs.threads_per_job = static_cast<int>(get_int(j, "jobs", "threads_per_job", c.jobs.threads_per_job, 0));
@@ -191,6 +192,7 @@ ServerConfig parse_server_config(const json& doc) {
     c.jobs.retry_backoff_s = get_seconds(j, "jobs", "retry_backoff_s", c.jobs.retry_backoff_s);
     c.jobs.poll_s = get_seconds(j, "jobs", "poll_s", c.jobs.poll_s);
     c.jobs.orphan_grace_s = get_seconds(j, "jobs", "orphan_grace_s", c.jobs.orphan_grace_s);
+    c.jobs.split_cells = get_int(j, "jobs", "split_cells", c.jobs.split_cells, 0);
     if (j.contains("retention_s") && j.at("retention_s") == 0) {
       c.jobs.retention_s = 0;
     } else {

@@ -224,7 +224,9 @@ std::optional<Claim> PostgresJobStore::claim(const std::string& holder, double l
       " WHERE id = (SELECT id FROM rv_jobs WHERE status = 'accepted' AND run_after <= now()"
       "             ORDER BY created_at, id LIMIT 1 FOR UPDATE SKIP LOCKED)"
       " RETURNING " +
-          kSelect + ", kind, coalesce(parent, ''), payload, retryable, max_attempts, attempt, exempt",
+          kSelect +
+          ", kind, coalesce(parent, ''), payload, retryable, max_attempts, attempt, exempt,"
+          " EXISTS (SELECT 1 FROM rv_jobs b WHERE b.parent = rv_jobs.id AND b.kind = 'band')",
       {holder, seconds_param(lease_s), now_text});
   if (r.rows() == 0) return std::nullopt;
   Claim out;
@@ -237,6 +239,7 @@ std::optional<Claim> PostgresJobStore::claim(const std::string& holder, double l
   out.entry.max_attempts = static_cast<int>(r.integer(0, k + 4));
   out.lease = Lease{out.record.id, static_cast<int>(r.integer(0, k + 5)), holder};
   out.entry.exempt = r.boolean(0, k + 6);
+  out.split = r.boolean(0, k + 7);
   return out;
 }
 
@@ -295,6 +298,26 @@ bool PostgresJobStore::charge_planned(const Lease& lease, int64_t cells,
   return r.affected() == 1;
 }
 
+namespace {
+
+// A job whose band failed fails with it (`message` names the band), and its other bands go.
+void fail_split_job(pg::Transaction& tx, const std::string& job, const std::string& message, const std::string& kind,
+                    const std::string& now_text) {
+  const pg::Result r = tx.exec(
+      "UPDATE rv_jobs SET status = 'failed', message = $2, error_kind = $3, finished = $4, updated = $4,"
+      " holder = NULL, lease_until = NULL, finished_at = now()"
+      " WHERE id = $1 AND status = 'running' AND holder IS NULL",
+      {job, message, kind, now_text});
+  if (r.affected() == 0) return;
+  tx.exec(
+      "UPDATE rv_jobs SET status = 'dismissed', message = 'another band of the job failed', updated = $2,"
+      " holder = NULL, lease_until = NULL, finished_at = now()"
+      " WHERE parent = $1 AND status IN ('accepted', 'running')",
+      {job, now_text});
+}
+
+}  // namespace
+
 std::vector<Reaped> PostgresJobStore::reap(double backoff_s, const std::string& now_text) {
   auto c = pool_.acquire();
   // One statement: a job is either still running under a live lease (untouched), or requeued, or
@@ -320,7 +343,98 @@ std::vector<Reaped> PostgresJobStore::reap(double backoff_s, const std::string& 
   for (int i = 0; i < r.rows(); ++i)
     out.push_back(Reaped{r.text(i, 0), static_cast<int>(r.integer(i, 1)), r.text(i, 2) == "accepted"});
   if (!out.empty()) c->exec(std::string("SELECT pg_notify('") + kQueuedChannel + "', '')");
+  // A band failed by the reaper fails its job (a split job has no lease of its own to expire).
+  for (const Reaped& x : out) {
+    if (x.requeued) continue;
+    pg::Transaction tx(*c);
+    const pg::Result b = tx.exec(
+        "SELECT parent, payload, message FROM rv_jobs WHERE id = $1 AND kind = 'band' AND parent IS NOT NULL", {x.id});
+    if (b.rows() == 1)
+      fail_split_job(tx, b.text(0, 0), "band of rows " + b.text(0, 1) + " failed: " + b.text(0, 2), "internal",
+                     now_text);
+    tx.commit();
+  }
   return out;
+}
+
+bool PostgresJobStore::split(const Lease& job, const std::vector<BandTask>& bands, const std::string& message,
+                             const std::string& now_text) {
+  auto c = pool_.acquire();
+  pg::Transaction tx(*c);
+  const pg::Result r = tx.exec(
+      "UPDATE rv_jobs SET holder = NULL, lease_until = 'infinity', message = $4, updated = $5"
+      " WHERE id = $1 AND attempt = $2 AND holder = $3 AND status = 'running'"
+      " RETURNING process_id, principal, max_attempts, exempt",
+      {job.id, pg::param(int64_t{job.attempt}), job.holder, message, now_text});
+  if (r.rows() == 0) return false;
+  for (const BandTask& b : bands)
+    tx.exec(
+        "INSERT INTO rv_jobs (id, process_id, status, message, error_kind, progress, created, started, finished,"
+        " updated, inputs, outputs, transmission, report, formats, principal, cells, kind, parent, payload,"
+        " retryable, max_attempts, exempt)"
+        " VALUES ($1, $2, 'accepted', 'queued', '', 0, $3, '', '', $3, '', '', '', '', '', $4, $5, 'band', $6, $7,"
+        " true, $8, $9)",
+        {b.id, r.text(0, 0), now_text, r.text(0, 1), pg::param(b.rows), job.id,
+         std::to_string(b.row0) + ":" + std::to_string(b.rows), r.text(0, 2), r.text(0, 3)});
+  tx.exec(std::string("SELECT pg_notify('") + kQueuedChannel + "', $1)", {job.id});
+  tx.commit();
+  return true;
+}
+
+std::vector<BandTask> PostgresJobStore::bands(const std::string& job) const {
+  auto c = pool_.acquire();
+  const pg::Result r = c->exec(
+      "SELECT id, payload, status, results, message FROM rv_jobs WHERE parent = $1 AND kind = 'band'"
+      " ORDER BY split_part(payload, ':', 1)::bigint",
+      {job});
+  std::vector<BandTask> out;
+  for (int i = 0; i < r.rows(); ++i) {
+    BandTask b;
+    b.id = r.text(i, 0);
+    const std::string payload = r.text(i, 1);
+    const size_t colon = payload.find(':');
+    if (colon == std::string::npos) throw Error(ErrorKind::internal, "band " + b.id + " names no rows");
+    b.row0 = std::stoll(payload.substr(0, colon));
+    b.rows = std::stoll(payload.substr(colon + 1));
+    b.status = parse_job_status(r.text(i, 2));
+    b.results = r.text(i, 3);
+    b.message = r.text(i, 4);
+    out.push_back(std::move(b));
+  }
+  return out;
+}
+
+bool PostgresJobStore::finish_band(const Lease& band, const std::string& job, const JobRecord& rec,
+                                   const std::string& results, const std::string& job_message,
+                                   const std::string& now_text) {
+  if (rec.status != JobStatus::successful && rec.status != JobStatus::failed)
+    throw Error(ErrorKind::internal, "finish_band: a band ends successful or failed");
+  const auto t = record_texts(rec);
+  auto c = pool_.acquire();
+  pg::Transaction tx(*c);
+  // The job's row first, locked: bands ending at once are taken one after the other, so that the
+  // last one sees every other band's end (each alone would see the others still running, and the
+  // job would never be queued to be assembled).
+  tx.exec("SELECT 1 FROM rv_jobs WHERE id = $1 FOR UPDATE", {job});
+  const pg::Result r = tx.exec(
+      "UPDATE rv_jobs SET status = $4, message = $5, error_kind = $6, progress = $7, finished = $8, updated = $8,"
+      " results = $9, holder = NULL, lease_until = NULL, finished_at = now()"
+      " WHERE id = $1 AND attempt = $2 AND holder = $3 AND status = 'running'",
+      {band.id, pg::param(int64_t{band.attempt}), band.holder, t[2], t[3], t[4], t[5], now_text, results});
+  if (r.affected() != 1) return false;
+  if (rec.status == JobStatus::successful) {
+    const pg::Result q = tx.exec(
+        "UPDATE rv_jobs SET status = 'accepted', holder = NULL, lease_until = NULL, run_after = now(),"
+        " max_attempts = max_attempts + 1, message = 'its bands are computed; queued to be assembled', updated = $2"
+        " WHERE id = $1 AND status = 'running' AND holder IS NULL"
+        " AND NOT EXISTS (SELECT 1 FROM rv_jobs WHERE parent = $1 AND kind = 'band' AND status <> 'successful')",
+        {job, now_text});
+    if (q.affected() == 1) tx.exec(std::string("SELECT pg_notify('") + kQueuedChannel + "', $1)", {job});
+  } else {
+    fail_split_job(tx, job, job_message, rec.error_kind.empty() ? "internal" : rec.error_kind, now_text);
+  }
+  tx.commit();
+  return true;
 }
 
 bool PostgresJobStore::release(const Lease& lease, const std::string& message, const std::string& now_text) {

@@ -69,6 +69,7 @@ struct Claim {
   JobRecord record;
   QueueEntry entry;
   Lease lease;
+  bool split = false;  // a job split into bands (claimed to be assembled)
 };
 
 // How the reaper left a job whose lease expired.
@@ -76,6 +77,16 @@ struct Reaped {
   std::string id;
   int attempt = 0;
   bool requeued = false;  // false: failed
+};
+
+// A band of a split job (kind "band"): full-width rows [row0, row0 + rows) of the job's grid.
+struct BandTask {
+  std::string id;  // its own row's id (a job id's form)
+  int64_t row0 = 0;
+  int64_t rows = 0;
+  JobStatus status = JobStatus::accepted;
+  std::string results;  // where its field was stored, once successful
+  std::string message;
 };
 
 // A job deleted by retention: its stored objects go next.
@@ -139,6 +150,20 @@ class PostgresJobStore final : public JobRecords {
   std::optional<std::pair<JobRecord, JobRecord>> dismiss(const std::string& id,
                                                          const std::function<std::string(const JobRecord&)>& message,
                                                          const std::string& now_text);
+  // Split jobs (issue 55). split(): under the job's lease, its bands queued as tasks (kind
+  // "band", the job as parent, payload "<row0>:<rows>", the job's principal and attempts), and
+  // the job left running without a holder (no lease to renew or reap: its bands have theirs)
+  // until its bands end; false when the lease was lost (nothing queued). bands(): a job's bands,
+  // by row. finish_band(): a band's end, fenced as finish(); in the same transaction, when every
+  // band of the job succeeded the job is queued again (to be assembled: its next claim finds
+  // its bands successful; not counted against its attempts), and when this band failed the job
+  // fails with `job_message` and its other bands are dismissed. The reaper fails a job whose band
+  // it failed, likewise.
+  bool split(const Lease& job, const std::vector<BandTask>& bands, const std::string& message,
+             const std::string& now_text);
+  std::vector<BandTask> bands(const std::string& job) const;
+  bool finish_band(const Lease& band, const std::string& job, const JobRecord& rec, const std::string& results,
+                   const std::string& job_message, const std::string& now_text);
   // Hands a running job back to the queue at once (its daemon is shutting down): fenced, and not
   // counted against its attempts. False when the lease was lost.
   bool release(const Lease& lease, const std::string& message, const std::string& now_text);

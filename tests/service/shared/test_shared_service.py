@@ -23,7 +23,11 @@ SQLite store, the one-daemon reference. The scenario, each step checked as it en
      address (announced in the store), not a redirect; a job saved from it is served by any daemon;
   7. limits per principal across daemons: a third job on a third daemon past two unfinished (429),
      an hour's cells used up by jobs of other daemons (429 with the Retry-After of the hour);
-  8. retention (the daemons restarted with retention_s 30): step 1's jobs go, rows and files;
+     (the daemons restarted with retention_s 30 and jobs.split_cells 3.6e6)
+  8. a split job (the issue's step 5): a job of 59 million cells cut into 17 bands of 512 rows,
+     claimed by all three daemons, assembled by one, its rasters and lines byte for byte the
+     one-daemon run's, its bands' files gone after, the bands never listed as jobs;
+  9. retention: step 1's jobs go, rows and files;
 and at the end: every job ended once (none accepted or running, every failure with a reason),
 the sweep leaves no folder no job names (a planted one included) and only each job's published
 attempt, and the daemons still standing answered /health throughout.
@@ -35,10 +39,11 @@ Retry-After, and jobs run again once it is back.
 Before them: a store that cannot be reached, a local results folder not said to be shared and a
 password in the URI each stop the daemon with one line.
 
-By default the scenario runs twice: whole on a bucket, then on a folder with 30 jobs and without
-the steps that test the store alone (3, 6, 7; the daemons are restarted for retention instead).
+By default the scenario runs twice: whole on a bucket, then on a folder with 12 jobs and without
+the steps that test the store or the daemons alone (2, 3, 6, 7; the daemons are restarted for
+split jobs and retention instead).
 
-usage: test_shared_service.py RVORONOI SOURCE_DIR [--storage both|s3|folder] [--jobs N]
+usage: test_shared_service.py RVORONOI SOURCE_DIR [--storage both|s3|folder] [--jobs N] [--split-resolution M]
 """
 import hashlib
 import json
@@ -62,6 +67,7 @@ _args.add_argument("rvoronoi")
 _args.add_argument("source")
 _args.add_argument("--storage", choices=["both", "s3", "folder"], default="both")
 _args.add_argument("--jobs", type=int, default=120)
+_args.add_argument("--split-resolution", type=float, default=6.0)
 ARGS = _args.parse_args()
 RVORONOI = ARGS.rvoronoi
 SOURCE = ARGS.source
@@ -69,6 +75,7 @@ FAILURES = []
 TOKENS = {"alice": "alice-token-shared-1", "bob": "bob-token-shared-2", "carol": "carol-token-shared-3",
           "root": "root-token-shared-4", "dave": "dave-token-shared-5"}
 USERS = ["alice", "bob", "carol"]
+SPLIT_CELLS = 3_600_000  # jobs.split_cells of the last steps' daemons: bands of 512 rows at 6 m
 
 
 def check(condition, what):
@@ -157,8 +164,9 @@ class Cluster:
                   "jobs": {"workers": 1, "threads_per_job": 1, "poll_s": 0.5, "lease_s": 3, "retry_backoff_s": 0.5,
                            "queue_length": 1000, "orphan_grace_s": 2, "job_timeout_s": 600,
                            "shutdown_grace_s": 0.5}}
-        if retention_s:
+        if retention_s:  # the restart for the last steps: retention, and split jobs
             config["jobs"]["retention_s"] = retention_s
+            config["jobs"]["split_cells"] = SPLIT_CELLS
         return Daemon([RVORONOI, "serve"], os.path.join(self.tmp, f"d{i}"), config, env=self.storage.env)
 
     def holder(self, job, seconds=60):
@@ -182,7 +190,7 @@ class Cluster:
 def slow(finer=0):
     """The resolution of a job that runs long enough to be caught running. On a bucket the upload of
     its kept field (8 bytes a cell) takes longer than its computation: coarser there."""
-    return (4 if ARGS.storage == "s3" else 2) + finer
+    return (5 if ARGS.storage == "s3" else 2) + finer
 
 
 def submit(d, who, b):
@@ -526,6 +534,43 @@ def step_limits(c):
           f"a fourth million over the hour's 3e6, on another daemon: {st} {h.get('retry-after')} {doc}")
 
 
+def step_split(c, ref):
+    """A job above jobs.split_cells: its bands computed on every daemon, assembled byte for byte."""
+    outputs = ("ownership", "distance", "boundaries")
+    res = ARGS.split_resolution  # 6 m: 7010 x 8410 cells, 17 bands of 512 rows (the last 218)
+    b = body(res, outputs=outputs)
+    width, height = round(42060 / res), round(50460 / res)  # demo_basepoints' grid
+    band_rows = max(1, SPLIT_CELLS // width // 256) * 256
+    expected_bands = -(-height // band_rows)
+    t0 = time.time()
+    job = submit(c.daemons[0], "root", b)
+    try:
+        doc = wait_done(c.daemons[1], job, "root", seconds=180)
+    except AssertionError:
+        print("bands:", c.pg.psql(f"SELECT id, status, attempt, message, results FROM rv_jobs WHERE parent = '{job}'"))
+        raise
+    per = [sum('"event":"claimed"' in line and f'"band_of":"{job}"' in line for line in list(d.log)) for d in c.daemons]
+    split_by = [i for i, d in enumerate(c.daemons) if any('"event":"split"' in x and job in x for x in list(d.log))]
+    assembled_by = [i for i, d in enumerate(c.daemons)
+                    if any('"event":"assembling"' in x and job in x for x in list(d.log))]
+    print(f"step 5: a job of {width * height / 1e6:.0f} million cells split by d{split_by} in {sum(per)} bands, claimed per daemon {per}, "
+          f"assembled by d{assembled_by}, done in {time.time() - t0:.1f} s", flush=True)
+    check(doc["status"] == "successful", f"the split job succeeded: {doc.get('message')}")
+    check(all(n > 0 for n in per), f"its bands landed on all three daemons: {per}")
+    rows = c.pg.psql(f"SELECT status, count(*) FROM rv_jobs WHERE parent = '{job}' GROUP BY status")
+    check(rows == [["successful", str(expected_bands)]],
+          f"its {expected_bands} bands ended successful, once each: {rows}")
+    _, expected = ref.run(b, list(outputs))
+    got = files(c.daemons[2], job, outputs, "root")
+    for o in outputs:
+        check(got[o] == expected[o], f"the split job's {o} equals the one-daemon run's")
+    check(not {n for n in c.storage.parts().get(job, ()) if n == "bands"}, "its bands' files went with the assembly")
+    st, _, listing = c.daemons[0].json("GET", "/jobs?limit=1000", headers=bearer("root"))
+    check(job in [j["jobID"] for j in listing.get("jobs", [])] and
+          not any(j["jobID"] in [r[0] for r in c.pg.psql(f"SELECT id FROM rv_jobs WHERE parent = '{job}'")]
+                  for j in listing.get("jobs", [])), "the job is listed, its bands are not")
+
+
 def step_retention(c, early):
     """Jobs finished more than retention_s ago go, row, request and results."""
     end = time.time() + 60
@@ -594,8 +639,8 @@ def run_pass(tmp, ref, kind, jobs, full):
         planted = "ab" * 16
         storage.plant(planted)
         early = step_many_jobs(c, ref)
-        step_kill(c, ref)
         if full:
+            step_kill(c, ref)
             step_store_outage(c, ref)
         if kind == "s3":
             step_storage_outage(c, ref)
@@ -606,6 +651,7 @@ def run_pass(tmp, ref, kind, jobs, full):
             step_limits(c)
         else:
             restart_with_retention(c)
+        step_split(c, ref)
         step_retention(c, early)
         final_checks(c, planted)
         stop.set()
@@ -628,7 +674,7 @@ def main():
         if ARGS.storage == "both":
             # The issue's scenario on a bucket; on a folder the steps the storage changes, fewer jobs.
             run_pass(tmp, ref, "s3", ARGS.jobs, True)
-            run_pass(tmp, ref, "folder", 30, False)
+            run_pass(tmp, ref, "folder", 12, False)
         else:
             run_pass(tmp, ref, ARGS.storage, ARGS.jobs, True)
     finally:

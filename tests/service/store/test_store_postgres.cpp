@@ -392,6 +392,136 @@ TEST_F(PostgresStore, RetentionDeletesFinishedJobsWithTheirTasks) {
   EXPECT_TRUE(store->get(id_of(502)));     // unfinished: kept
 }
 
+TEST_F(PostgresStore, ASplitJobWaitsForItsBandsThenIsAssembledOnce) {
+  auto store = open();
+  using rv::store::BandTask;
+  store->enqueue(record(id_of(30), "alice", 900), QueueEntry{});
+  auto job = store->claim("a", 30, "t");
+  ASSERT_TRUE(job);
+  EXPECT_FALSE(job->split);
+  const std::vector<BandTask> cut = {{id_of(31), 0, 512}, {id_of(32), 512, 512}, {id_of(33), 1024, 100}};
+  EXPECT_FALSE(store->split(rv::store::Lease{job->lease.id, job->lease.attempt, "b"}, cut, "m", "t"))
+      << "split under a lease not held";
+  ASSERT_TRUE(store->split(job->lease, cut, "computing in 3 bands", "t"));
+  // The job runs on without a lease: heartbeats, reaping and other fenced writes leave it be.
+  EXPECT_EQ(store->get(id_of(30))->status, JobStatus::running);
+  EXPECT_EQ(store->get(id_of(30))->message, "computing in 3 bands");
+  EXPECT_TRUE(store->heartbeat("a", 30, {id_of(30)}).empty());
+  JobRecord early = record(id_of(30));
+  early.status = JobStatus::successful;
+  EXPECT_FALSE(store->finish(job->lease, early, "x")) << "the job's old lease published";
+  // Its bands: claimed like jobs, never listed as jobs, their rows in the payload.
+  std::vector<rv::store::Claim> bands;
+  while (auto b = store->claim("w", 0.2, "t")) bands.push_back(*b);
+  ASSERT_EQ(bands.size(), 3u);
+  for (const auto& b : bands) {
+    EXPECT_EQ(b.entry.kind, "band");
+    EXPECT_EQ(b.entry.parent, id_of(30));
+    EXPECT_EQ(b.record.principal, "alice");
+    EXPECT_FALSE(store->get(b.record.id)) << "a band is no job";
+  }
+  EXPECT_EQ(store->list(100, 0).size(), 1u);
+  // One band's lease expires: queued again (its job waits on).
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  EXPECT_EQ(store->reap(0, "t").size(), 3u);
+  for (int i = 0; i < 3; ++i) {
+    auto b = store->claim("w2", 30, "t");
+    ASSERT_TRUE(b);
+    JobRecord done = b->record;
+    done.status = JobStatus::successful;
+    const std::string results = id_of(30) + "/bands/" + b->entry.payload;
+    ASSERT_TRUE(store->finish_band(b->lease, id_of(30), done, results, "", "t"));
+    EXPECT_FALSE(store->finish_band(b->lease, id_of(30), done, results, "", "t")) << "a band ends once";
+    // Until the last band ends, the job is not queued.
+    if (i < 2) EXPECT_EQ(store->get(id_of(30))->status, JobStatus::running);
+  }
+  const auto listed = store->bands(id_of(30));
+  ASSERT_EQ(listed.size(), 3u);
+  EXPECT_EQ(listed[0].row0, 0);
+  EXPECT_EQ(listed[2].rows, 100);
+  for (const auto& b : listed) EXPECT_EQ(b.status, JobStatus::successful);
+  // Queued again, and claimed to be assembled (attempt 2, not counted against its attempts).
+  EXPECT_EQ(store->get(id_of(30))->status, JobStatus::accepted);
+  auto assemble = store->claim("c", 30, "t");
+  ASSERT_TRUE(assemble);
+  EXPECT_EQ(assemble->record.id, id_of(30));
+  EXPECT_TRUE(assemble->split);
+  EXPECT_EQ(assemble->lease.attempt, 2);
+  EXPECT_EQ(assemble->entry.max_attempts, 4);
+  JobRecord end = assemble->record;
+  end.status = JobStatus::successful;
+  EXPECT_TRUE(store->finish(assemble->lease, end, id_of(30) + "/2"));
+
+  // A band that fails fails its job, naming the band, and the other bands go.
+  store->enqueue(record(id_of(40)), QueueEntry{});
+  auto j2 = store->claim("a", 30, "t");
+  ASSERT_TRUE(store->split(j2->lease, {{id_of(41), 0, 256}, {id_of(42), 256, 256}}, "m", "t"));
+  auto b1 = store->claim("w", 30, "t");
+  ASSERT_TRUE(b1);
+  JobRecord failed = b1->record;
+  failed.status = JobStatus::failed;
+  failed.error_kind = "too_large";
+  failed.message = "out of memory";
+  ASSERT_TRUE(
+      store->finish_band(b1->lease, id_of(40), failed, "", "the band of rows 0..256 failed: out of memory", "t-f"));
+  const auto j2rec = store->get(id_of(40));
+  EXPECT_EQ(j2rec->status, JobStatus::failed);
+  EXPECT_EQ(j2rec->error_kind, "too_large");
+  EXPECT_EQ(j2rec->message, "the band of rows 0..256 failed: out of memory");
+  EXPECT_FALSE(store->claim("w", 30, "t")) << "the other band was dismissed";
+  // The reaper failing a band fails its job likewise.
+  store->enqueue(record(id_of(50)), QueueEntry{"job", "", "", true, 1});
+  auto j3 = store->claim("a", 30, "t");
+  ASSERT_TRUE(store->split(j3->lease, {{id_of(51), 0, 256}}, "m", "t"));
+  ASSERT_TRUE(store->claim("w", 0.1, "t"));
+  std::this_thread::sleep_for(std::chrono::milliseconds(250));
+  ASSERT_EQ(store->reap(0, "t").size(), 1u);
+  EXPECT_EQ(store->get(id_of(50))->status, JobStatus::failed);
+  EXPECT_NE(store->get(id_of(50))->message.find("band of rows 0:256 failed"), std::string::npos)
+      << store->get(id_of(50))->message;
+  // Dismissing a split job dismisses its bands (their holders learn it by their heartbeat).
+  store->enqueue(record(id_of(60)), QueueEntry{});
+  auto j4 = store->claim("a", 30, "t");
+  ASSERT_TRUE(store->split(j4->lease, {{id_of(61), 0, 256}, {id_of(62), 256, 256}}, "m", "t"));
+  auto b4 = store->claim("w", 30, "t");
+  ASSERT_TRUE(b4);
+  ASSERT_TRUE(store->dismiss(id_of(60), msg("dismissed"), "t"));
+  EXPECT_TRUE(store->heartbeat("w", 30, {b4->record.id}).empty());
+  EXPECT_FALSE(store->claim("w", 30, "t"));
+}
+
+TEST_F(PostgresStore, BandsEndingAtOnceQueueTheirJobOnce) {
+  // Each band's end checks whether every other band has ended: without taking them one after the
+  // other, the last two ending at once each see the other running, and the job waits for ever.
+  auto store = open(10);
+  for (int round = 0; round < 5; ++round) {
+    const std::string job = id_of(100 + round * 10);
+    store->enqueue(record(job), QueueEntry{});
+    auto j = store->claim("a", 30, "t");
+    ASSERT_TRUE(j);
+    std::vector<rv::store::BandTask> cut;
+    for (int k = 0; k < 8; ++k) cut.push_back({id_of(100 + round * 10 + 1 + k), k * 256, 256});
+    ASSERT_TRUE(store->split(j->lease, cut, "m", "t"));
+    std::vector<rv::store::Claim> bands;
+    while (auto b = store->claim("w", 30, "t")) bands.push_back(*b);
+    ASSERT_EQ(bands.size(), 8u);
+    std::vector<std::thread> threads;
+    for (const auto& b : bands)
+      threads.emplace_back([&store, b, job] {
+        JobRecord done = b.record;
+        done.status = JobStatus::successful;
+        EXPECT_TRUE(store->finish_band(b.lease, job, done, job + "/bands/" + b.entry.payload, "", "t"));
+      });
+    for (std::thread& t : threads) t.join();
+    EXPECT_EQ(store->get(job)->status, JobStatus::accepted) << "round " << round;
+    auto assemble = store->claim("c", 30, "t");
+    ASSERT_TRUE(assemble);
+    EXPECT_EQ(assemble->record.id, job);
+    EXPECT_TRUE(assemble->split);
+    EXPECT_FALSE(store->claim("c", 30, "t")) << "queued twice";
+  }
+}
+
 TEST_F(PostgresStore, AnUnreachableServerIsUnavailableAndNeverShowsThePassword) {
   rv::pg::ConnectInfo closed{"postgresql://rv@127.0.0.1:1/postgres", "s3cret-pw", "rv-test", 2};
   try {
