@@ -27,7 +27,7 @@
 //     "results": "", "results_shared": false
 //   }
 // jobs also takes, for a shared store: "lease_s": 30, "max_attempts": 3, "retry_backoff_s": 10,
-// "poll_s": 2, "retention_s": 0.
+// "poll_s": 2, "retention_s": 0, "orphan_grace_s": 3600, "split_cells": 0.
 // Authentication (AuthConfig below): with no principal configured (the default) every route is
 // open and every job belongs to the principal "anonymous". With principals (hashed tokens, the
 // deprecated plaintext tokens, or an identity provider's JWTs), every route except /,

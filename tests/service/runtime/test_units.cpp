@@ -102,7 +102,8 @@ TEST(Config, AStoreIsSqliteOrAPostgresUriWithItsPasswordApart) {
                                                       {"results_shared", true},
                                                       {"store_password_file", (dir / "pw").string()},
                                                       {"store_connections", 4},
-                                                      {"jobs", {{"lease_s", 12}, {"retention_s", 86400}}}});
+                                                      {"jobs", {{"lease_s", 12}, {"retention_s", 86400},
+                                                                {"split_cells", 50000000}}}});
   std::filesystem::remove_all(dir);
   EXPECT_TRUE(c.store.shared());
   EXPECT_EQ(c.store.uri, uri);
@@ -110,6 +111,12 @@ TEST(Config, AStoreIsSqliteOrAPostgresUriWithItsPasswordApart) {
   EXPECT_EQ(c.store.connections, 4);
   EXPECT_EQ(c.jobs.lease_s, 12);
   EXPECT_EQ(c.jobs.retention_s, 86400);
+  EXPECT_EQ(c.jobs.split_cells, 50000000);
+  // A bucket is shared by every daemon that names it; the embedded store keeps its own results.
+  EXPECT_EQ(rv::parse_server_config({{"store", uri}, {"results", "s3://rv-jobs/prod"}}).store.results,
+            "s3://rv-jobs/prod");
+  refused({{"results", "/srv/rv"}}, "goes with a postgresql:// store");
+  refused({{"jobs", {{"split_cells", -1}}}}, "jobs.split_cells");
   // Or from the environment.
   ::setenv("RVORONOI_STORE_PASSWORD", "from-env", 1);
   const rv::ServerConfig e =
