@@ -39,9 +39,9 @@ Retry-After, and jobs run again once it is back.
 Before them: a store that cannot be reached, a local results folder not said to be shared and a
 password in the URI each stop the daemon with one line.
 
-By default the scenario runs twice: whole on a bucket, then on a folder with 12 jobs and without
-the steps that test the store or the daemons alone (2, 3, 6, 7; the daemons are restarted for
-split jobs and retention instead).
+By default the scenario runs twice: whole on a bucket, then on a folder with 12 jobs, an edit, a
+split job, retention and the sweep (the steps that test the store or the daemons alone, 2, 3, 4,
+6 and 7, run on the bucket only; the daemons are restarted for split jobs and retention instead).
 
 usage: test_shared_service.py RVORONOI SOURCE_DIR [--storage both|s3|folder] [--jobs N] [--split-resolution M]
 """
@@ -644,7 +644,8 @@ def run_pass(tmp, ref, kind, jobs, full):
             step_store_outage(c, ref)
         if kind == "s3":
             step_storage_outage(c, ref)
-        step_dismiss(c)
+        if full:
+            step_dismiss(c)
         step_edit(c, ref)
         if full:
             step_session_pointer(c)
