@@ -68,6 +68,7 @@ _args.add_argument("source")
 _args.add_argument("--storage", choices=["both", "s3", "folder"], default="both")
 _args.add_argument("--jobs", type=int, default=120)
 _args.add_argument("--split-resolution", type=float, default=6.0)
+_args.add_argument("--split-cells", type=int, default=3_600_000)
 ARGS = _args.parse_args()
 RVORONOI = ARGS.rvoronoi
 SOURCE = ARGS.source
@@ -75,7 +76,7 @@ FAILURES = []
 TOKENS = {"alice": "alice-token-shared-1", "bob": "bob-token-shared-2", "carol": "carol-token-shared-3",
           "root": "root-token-shared-4", "dave": "dave-token-shared-5"}
 USERS = ["alice", "bob", "carol"]
-SPLIT_CELLS = 3_600_000  # jobs.split_cells of the last steps' daemons: bands of 512 rows at 6 m
+SPLIT_CELLS = ARGS.split_cells  # jobs.split_cells of the last steps' daemons: bands of 512 rows at 6 m
 
 
 def check(condition, what):

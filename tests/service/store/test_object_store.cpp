@@ -93,6 +93,20 @@ TEST_P(Objects, BytesAndFilesRoundTrip) {
   EXPECT_EQ(VSIFReadL(part.data(), 1, part.size(), f), part.size());
   VSIFCloseL(f);
   EXPECT_EQ(part, big.substr(9'000'001, 1000));
+  // Read as a response streams it, 64 KiB at a time past several read-ahead blocks, then backwards.
+  auto reader = store_->open("job/1/ownership.tif");
+  ASSERT_TRUE(reader);
+  std::string streamed;
+  std::vector<char> chunk(64 << 10);
+  for (uint64_t at = 0; at < reader->size();) {
+    const int64_t got = reader->read_at(chunk.data(), chunk.size(), at);
+    ASSERT_GT(got, 0) << "at " << at;
+    streamed.append(chunk.data(), static_cast<size_t>(got));
+    at += static_cast<uint64_t>(got);
+  }
+  EXPECT_TRUE(streamed == big) << "the streamed object differs";
+  ASSERT_EQ(reader->read_at(chunk.data(), 100, 5'000'000), 100);
+  EXPECT_EQ(std::string(chunk.data(), 100), big.substr(5'000'000, 100));
 
   // A cancelled copy (a dismissal, a shutdown) leaves no object, partial or whole.
   std::atomic<bool> cancel{true};
