@@ -117,7 +117,7 @@ std::unique_ptr<store::ObjectReader> JobManager::open_result(const JobRecord& re
   } catch (const Error& e) {
     // The storage away is no fault of the request: the client retries.
     if (e.kind() != ErrorKind::io || !objects_.remote()) throw;
-    throw Error(ErrorKind::busy, std::string("the results storage is unavailable: ") + e.what());
+    throw Error(ErrorKind::busy, "the results storage is unavailable: " + objects_.without_paths(valid_utf8(e.what())));
   }
 }
 

@@ -78,7 +78,8 @@ JobRecord JobManager::submit_shared(const std::string& id, Execution execution, 
         objects_.put(id + "/" + kRequestFile, execution.request);
       } catch (const Error& e) {
         if (e.kind() != ErrorKind::io) throw;
-        throw Error(ErrorKind::busy, std::string("the results storage is unavailable: ") + e.what());
+        throw Error(ErrorKind::busy,
+                    "the results storage is unavailable: " + objects_.without_paths(valid_utf8(e.what())));
       }
       entry.payload = id + "/" + kRequestFile;
       try {

@@ -97,13 +97,13 @@ TEST(Config, AStoreIsSqliteOrAPostgresUriWithItsPasswordApart) {
   const auto dir = std::filesystem::temp_directory_path() / ("rv-units-store-" + std::to_string(::getpid()));
   std::filesystem::create_directories(dir);
   std::ofstream(dir / "pw") << "hunter2\n";
-  const rv::ServerConfig c = rv::parse_server_config({{"store", uri},
-                                                      {"results", "/srv/rv"},
-                                                      {"results_shared", true},
-                                                      {"store_password_file", (dir / "pw").string()},
-                                                      {"store_connections", 4},
-                                                      {"jobs", {{"lease_s", 12}, {"retention_s", 86400},
-                                                                {"split_cells", 50000000}}}});
+  const rv::ServerConfig c =
+      rv::parse_server_config({{"store", uri},
+                               {"results", "/srv/rv"},
+                               {"results_shared", true},
+                               {"store_password_file", (dir / "pw").string()},
+                               {"store_connections", 4},
+                               {"jobs", {{"lease_s", 12}, {"retention_s", 86400}, {"split_cells", 50000000}}}});
   std::filesystem::remove_all(dir);
   EXPECT_TRUE(c.store.shared());
   EXPECT_EQ(c.store.uri, uri);

@@ -69,6 +69,7 @@ _args.add_argument("--storage", choices=["both", "s3", "folder"], default="both"
 _args.add_argument("--jobs", type=int, default=120)
 _args.add_argument("--split-resolution", type=float, default=6.0)
 _args.add_argument("--split-cells", type=int, default=3_600_000)
+_args.add_argument("--split-outputs", default="ownership,distance,boundaries")
 ARGS = _args.parse_args()
 RVORONOI = ARGS.rvoronoi
 SOURCE = ARGS.source
@@ -425,7 +426,15 @@ def step_storage_outage(c, ref):
     from s3_harness import BIN
     s3.proc = subprocess.Popen([BIN, "-d", s3.dir, "-p", str(s3.port), "-a", "127.0.0.1", "--silent"],
                                stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-    time.sleep(1.0)
+    import socket
+    end = time.time() + 60  # answering again (a loaded machine starts Node.js slowly)
+    while time.time() < end:
+        try:
+            socket.create_connection(("127.0.0.1", s3.port), timeout=1).close()
+            break
+        except OSError:
+            time.sleep(0.1)
+    time.sleep(0.5)
     print(f"step 3b: the S3 server was stopped under d{h}'s job; it failed with: {doc.get('message')}", flush=True)
     b = body(1000)
     again = submit(c.daemons[0], "alice", b)
@@ -537,7 +546,7 @@ def step_limits(c):
 
 def step_split(c, ref):
     """A job above jobs.split_cells: its bands computed on every daemon, assembled byte for byte."""
-    outputs = ("ownership", "distance", "boundaries")
+    outputs = tuple(ARGS.split_outputs.split(","))
     res = ARGS.split_resolution  # 6 m: 7010 x 8410 cells, 17 bands of 512 rows (the last 218)
     b = body(res, outputs=outputs)
     width, height = round(42060 / res), round(50460 / res)  # demo_basepoints' grid
