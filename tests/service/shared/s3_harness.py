@@ -26,20 +26,27 @@ class S3:
         self.bucket = bucket
         self.dir = tempfile.mkdtemp(prefix="rv-s3-")
         self.port = free_port()
-        self.proc = subprocess.Popen([BIN, "-d", self.dir, "-p", str(self.port), "-a", "127.0.0.1",
-                                      "--configure-bucket", bucket, "--silent"],
-                                     stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-        end = time.time() + 30
+        self.proc = None
+        self.start(["--configure-bucket", bucket])
+        self.env = {"AWS_S3_ENDPOINT": f"127.0.0.1:{self.port}", "AWS_HTTPS": "NO", "AWS_VIRTUAL_HOSTING": "FALSE",
+                    "AWS_ACCESS_KEY_ID": "S3RVER", "AWS_SECRET_ACCESS_KEY": "S3RVER", "AWS_REGION": "us-east-1"}
+
+    def start(self, extra=()):
+        """Starts s3rver on the folder and port (again, after stop()) and waits until it answers."""
+        self.proc = subprocess.Popen([BIN, "-d", self.dir, "-p", str(self.port), "-a", "127.0.0.1", *extra,
+                                      "--silent"], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        end = time.time() + 60  # a loaded machine starts Node.js slowly
         while time.time() < end:
             try:
                 socket.create_connection(("127.0.0.1", self.port), timeout=1).close()
-                break
+                return
             except OSError:
                 time.sleep(0.05)
-        else:
-            raise RuntimeError("s3rver did not start")
-        self.env = {"AWS_S3_ENDPOINT": f"127.0.0.1:{self.port}", "AWS_HTTPS": "NO", "AWS_VIRTUAL_HOSTING": "FALSE",
-                    "AWS_ACCESS_KEY_ID": "S3RVER", "AWS_SECRET_ACCESS_KEY": "S3RVER", "AWS_REGION": "us-east-1"}
+        raise RuntimeError("s3rver did not start")
+
+    def stop(self):
+        self.proc.send_signal(signal.SIGTERM)
+        self.proc.wait(timeout=10)
 
     def keys(self, prefix):
         """Every object key below s3://bucket/prefix, relative to it, asked afresh."""

@@ -410,8 +410,7 @@ def step_storage_outage(c, ref):
             break
         time.sleep(0.05)
     s3 = c.storage.s3
-    s3.proc.send_signal(15)
-    s3.proc.wait(timeout=10)
+    s3.stop()
     st, h2, doc = c.daemons[(h + 1) % 3].json("POST", "/processes/voronoi/execution", body(1000),
                                               dict(bearer("alice"), Prefer="respond-async"))
     check(st == 503 and "retry-after" in h2 and "results storage is unavailable" in doc.get("detail", ""),
@@ -422,18 +421,7 @@ def step_storage_outage(c, ref):
     st, _, data = c.daemons[(h + 2) % 3].request("GET", f"/jobs/{job}/results/ownership", headers=bearer("bob"))
     check(st != 200 and b"could not be stored" in data, f"nothing of it is served, the failure instead: {st} {data[:200]}")
     check(not any(p.isdigit() for p in c.storage.parts().get(job, ())), "no attempt of it stays in the bucket")
-    import subprocess
-    from s3_harness import BIN
-    s3.proc = subprocess.Popen([BIN, "-d", s3.dir, "-p", str(s3.port), "-a", "127.0.0.1", "--silent"],
-                               stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-    import socket
-    end = time.time() + 60  # answering again (a loaded machine starts Node.js slowly)
-    while time.time() < end:
-        try:
-            socket.create_connection(("127.0.0.1", s3.port), timeout=1).close()
-            break
-        except OSError:
-            time.sleep(0.1)
+    s3.start()
     time.sleep(0.5)
     print(f"step 3b: the S3 server was stopped under d{h}'s job; it failed with: {doc.get('message')}", flush=True)
     b = body(1000)
