@@ -218,6 +218,27 @@ class JobManager {
   void lose_lease(const std::string& id);
   // Hands a claimed job back to the shared queue (best effort: else its lease expires).
   void release_lease(const store::Lease& lease, const std::string& message);
+  // How a shared task stands at its end, as the running table says.
+  struct EndState {
+    bool dismissed = false, lost = false, timed_out = false, shut_down = false;
+    store::Lease lease;
+    std::shared_ptr<std::atomic<bool>> cancel;
+    bool ours() const { return !dismissed && !lost; }  // its end is still this daemon's to publish
+  };
+  EndState end_state(const std::string& id) const;
+  // On a bucket, uploads a finished task's folder `dir` as `key` before its end is published,
+  // unless it failed (`kind` set) or was stopped. A dismissal, a lost lease, a timeout or a
+  // shutdown stops the upload as it stops a computation; a storage that fails turns the outcome
+  // into the failure (`kind`, `why` prefixed by `what_failed`), `state` is read again, and what
+  // went up is removed. True when the upload failed.
+  bool upload_results(const std::string& id, const std::string& key, const std::filesystem::path& dir,
+                      const std::string& what_failed, EndState& state, std::optional<ErrorKind>& kind,
+                      std::string& why);
+  // Runs `write`, a write to the shared store, again every half second while the store is away
+  // (busy), for a minute or two leases, whichever is longer: until a reaper has requeued the job
+  // its fenced end may still be published, and the heartbeat renews the lease meanwhile. False
+  // when the store stayed away; other errors are thrown.
+  bool wait_out_store(const std::function<void()>& write) const;
   // How a shared job ended, published under its lease (see record_end).
   void record_end_shared(JobRecord& rec, const std::optional<ErrorKind>& error_kind, const std::string& message,
                          const nlohmann::json& report, const std::filesystem::path& dir);

@@ -173,26 +173,61 @@ void JobManager::fetch_base(const std::string& id) const {
 }
 
 void JobManager::charge_planned_shared(const Task& task, int64_t cells) {
-  // The store being away is not the job's fault: wait for it as a job's end does (the lease is
-  // renewed meanwhile once it is back); past that, the job goes back to the queue through its
-  // lease. Over the allowance (QuotaExceeded) fails the job, as on one daemon.
+  // The store being away is not the job's fault: wait for it as a job's end does; past that, the
+  // job goes back to the queue through its lease. Over the allowance (QuotaExceeded) fails the
+  // job, as on one daemon.
+  const bool through = wait_out_store([&] {
+    if (!shared_->charge_planned(*task.lease, cells, [&](const store::AdmissionView& v) {
+          admit_shared(v, task.who, cells, false, false);
+        }))
+      lose_lease(task.id);
+  });
+  if (!through) lose_lease(task.id);
+}
+
+bool JobManager::wait_out_store(const std::function<void()>& write) const {
   const auto until =
       std::chrono::steady_clock::now() + std::chrono::duration<double>(std::max(60.0, 2 * config_.jobs.lease_s));
   for (;;) {
     try {
-      if (!shared_->charge_planned(*task.lease, cells, [&](const store::AdmissionView& v) {
-            admit_shared(v, task.who, cells, false, false);
-          }))
-        lose_lease(task.id);
-      return;
+      write();
+      return true;
     } catch (const Error& e) {
-      if (e.kind() != ErrorKind::busy) throw;
-      if (std::chrono::steady_clock::now() > until) {
-        lose_lease(task.id);
-        return;
+      if (e.kind() != ErrorKind::busy || std::chrono::steady_clock::now() > until) {
+        if (e.kind() == ErrorKind::busy) return false;
+        throw;
       }
       std::this_thread::sleep_for(std::chrono::milliseconds(500));
     }
+  }
+}
+
+JobManager::EndState JobManager::end_state(const std::string& id) const {
+  std::lock_guard lock(mutex_);
+  const Running& r = running_.at(id);
+  EndState s;
+  s.dismissed = r.dismissed;
+  s.lost = r.lost;
+  s.timed_out = r.timed_out;
+  s.shut_down = r.shutdown;
+  s.lease = *r.lease;
+  s.cancel = r.cancel;
+  return s;
+}
+
+bool JobManager::upload_results(const std::string& id, const std::string& key, const fs::path& dir,
+                                const std::string& what_failed, EndState& state, std::optional<ErrorKind>& kind,
+                                std::string& why) {
+  if (kind || !state.ours() || state.shut_down || state.timed_out || !objects_.remote()) return false;
+  try {
+    objects_.put_tree(key, dir, state.cancel.get());
+    return false;
+  } catch (const Error& e) {
+    remove_files(key);
+    kind = e.kind() == ErrorKind::cancelled ? ErrorKind::cancelled : ErrorKind::io;
+    why = what_failed + ": " + objects_.without_paths(valid_utf8(e.what()));
+    state = end_state(id);
+    return true;
   }
 }
 
@@ -224,45 +259,23 @@ void JobManager::release_lease(const store::Lease& lease, const std::string& mes
 
 void JobManager::record_end_shared(JobRecord& rec, const std::optional<ErrorKind>& error_kind,
                                    const std::string& message, const nlohmann::json& report, const fs::path& dir) {
-  bool dismissed = false, lost = false, timed_out = false, shut_down = false;
-  store::Lease lease;
-  std::shared_ptr<std::atomic<bool>> cancel;
-  auto read_flags = [&] {
-    std::lock_guard lock(mutex_);
-    const Running& r = running_.at(rec.id);
-    dismissed = r.dismissed;
-    lost = r.lost;
-    timed_out = r.timed_out;
-    shut_down = r.shutdown;
-    lease = *r.lease;
-    cancel = r.cancel;
-  };
-  read_flags();
+  EndState state = end_state(rec.id);
+  const store::Lease lease = state.lease;
   const std::string attempt = rec.id + "/" + std::to_string(lease.attempt);
-  // On a bucket the results go up first: the row that names them commits after the upload. A
-  // dismissal, a lost lease, a timeout or a shutdown stops an upload as it stops a computation;
-  // a storage that fails fails the job with its message. Nothing half-uploaded stays.
+  // On a bucket the results go up first: the row that names them commits after the upload.
+  // Nothing half-uploaded stays.
   std::optional<ErrorKind> kind = error_kind;
   std::string why = message;
   nlohmann::json kept_report = report;
-  if (!kind && !dismissed && !lost && !shut_down && !timed_out && objects_.remote()) {
-    try {
-      objects_.put_tree(attempt, dir, cancel.get());
-    } catch (const Error& e) {
-      remove_files(attempt);
-      kind = e.kind() == ErrorKind::cancelled ? ErrorKind::cancelled : ErrorKind::io;
-      why = "the job's results could not be stored: " + objects_.without_paths(valid_utf8(e.what()));
-      kept_report = nullptr;
-      read_flags();
-    }
-  }
+  if (upload_results(rec.id, attempt, dir, "the job's results could not be stored", state, kind, why))
+    kept_report = nullptr;
   auto reread = [&] {  // the record as the store now has it
     try {
       if (auto now = shared_->get(rec.id)) rec = *now;
     } catch (...) {
     }
   };
-  if (!dismissed && !lost && shut_down) {
+  if (state.ours() && state.shut_down) {
     // Handed back (a job only this daemon could run is not: it fails below). The store away: the
     // lease expires and a reaper queues the job again; the shutdown does not wait for the store.
     bool handed_back = false, store_away = false;
@@ -278,22 +291,13 @@ void JobManager::record_end_shared(JobRecord& rec, const std::optional<ErrorKind
     }
   }
   bool published = false;
-  if (!dismissed && !lost) {
-    end_record(rec, kind, why, kept_report, timed_out, shut_down);
+  if (state.ours()) {
+    end_record(rec, kind, why, kept_report, state.timed_out, state.shut_down);
     rec.results = rec.status == JobStatus::successful ? attempt : "";
-    // The store may be away for a while (a restart). The fence is the holder and the attempt,
-    // not the clock: until a reaper has requeued the job, its end may still be published, and the
-    // heartbeat renews the lease meanwhile. Worth a minute's wait, or the lease's if longer.
-    const auto until =
-        std::chrono::steady_clock::now() + std::chrono::duration<double>(std::max(60.0, 2 * config_.jobs.lease_s));
-    for (;;) {
-      try {
-        published = shared_->finish(lease, rec, rec.results);
-        break;
-      } catch (const Error& e) {
-        if (e.kind() != ErrorKind::busy || std::chrono::steady_clock::now() > until) break;
-        std::this_thread::sleep_for(std::chrono::milliseconds(500));
-      }
+    try {
+      wait_out_store([&] { published = shared_->finish(lease, rec, rec.results); });
+    } catch (const Error&) {
+      // Not published: treated below as a job no longer ours.
     }
   }
   if (published) {

@@ -126,30 +126,12 @@ JobRecord JobManager::run_band(Task& task, JobRecord rec) {
     outcome.message = valid_utf8(e.what());
   }
   task.execution.uploads.reset();
-  bool dismissed = false, lost = false, timed_out = false, shut_down = false;
-  auto read_flags = [&] {
-    std::lock_guard lock(mutex_);
-    const Running& r = running_.at(task.id);
-    dismissed = r.dismissed;
-    lost = r.lost;
-    timed_out = r.timed_out;
-    shut_down = r.shutdown;
-  };
-  read_flags();
+  EndState state = end_state(task.id);
   std::optional<ErrorKind> kind = outcome.error_kind;
   std::string why = outcome.message;
-  if (!kind && !dismissed && !lost && !shut_down && !timed_out && objects_.remote()) {
-    try {
-      objects_.put_tree(key, dir, cancel.get());
-    } catch (const Error& e) {
-      remove_files(key);
-      kind = e.kind() == ErrorKind::cancelled ? ErrorKind::cancelled : ErrorKind::io;
-      why = "the band could not be stored: " + objects_.without_paths(valid_utf8(e.what()));
-      read_flags();
-    }
-  }
+  upload_results(task.id, key, dir, "the band could not be stored", state, kind, why);
   if (objects_.remote()) remove_dir(dir);  // uploaded, or not to be kept
-  if (!dismissed && !lost && shut_down) {
+  if (state.ours() && state.shut_down) {
     try {
       shared_->release(lease, "queued again: the daemon running it shut down", now_rfc3339());
     } catch (...) {
@@ -159,21 +141,17 @@ JobRecord JobManager::run_band(Task& task, JobRecord rec) {
     return rec;
   }
   bool published = false;
-  if (!dismissed && !lost) {
-    end_record(rec, kind, why, nullptr, timed_out, shut_down);
+  if (state.ours()) {
+    end_record(rec, kind, why, nullptr, state.timed_out, state.shut_down);
     const std::string job_message =
         "the band of rows " + std::to_string(row0) + ".." + std::to_string(row0 + rows) + " failed: " + rec.message;
-    const auto until =
-        std::chrono::steady_clock::now() + std::chrono::duration<double>(std::max(60.0, 2 * config_.jobs.lease_s));
-    for (;;) {
-      try {
+    try {
+      wait_out_store([&] {
         published = shared_->finish_band(lease, task.parent, rec, rec.status == JobStatus::successful ? key : "",
                                          job_message, now_rfc3339());
-        break;
-      } catch (const Error& e) {
-        if (e.kind() != ErrorKind::busy || std::chrono::steady_clock::now() > until) break;
-        std::this_thread::sleep_for(std::chrono::milliseconds(500));
-      }
+      });
+    } catch (const Error&) {
+      // Not published: the band's files go below; the job is as the store says.
     }
   }
   if (!published || rec.status != JobStatus::successful) remove_files(key);
