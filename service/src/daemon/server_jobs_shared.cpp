@@ -177,9 +177,8 @@ void JobManager::charge_planned_shared(const Task& task, int64_t cells) {
   // job goes back to the queue through its lease. Over the allowance (QuotaExceeded) fails the
   // job, as on one daemon.
   const bool through = wait_out_store([&] {
-    if (!shared_->charge_planned(*task.lease, cells, [&](const store::AdmissionView& v) {
-          admit_shared(v, task.who, cells, false, false);
-        }))
+    if (!shared_->charge_planned(
+            *task.lease, cells, [&](const store::AdmissionView& v) { admit_shared(v, task.who, cells, false, false); }))
       lose_lease(task.id);
   });
   if (!through) lose_lease(task.id);
