@@ -1,0 +1,62 @@
+// The distance by sea: for every cell, the nearest seed along a path that crosses no barrier
+// (rv/sea/visibility.hpp), the length of that path, and the last barrier vertex on it.
+//
+// The statement (planar metric): a cell x on land (Visibility::on_land) has no owner. Elsewhere
+// its distance is the least, over the seed sites whose nearest point x sees, of the straight
+// distance, and over the barrier vertices v that x sees (in a wedge of v), of D(v) + |v - x|,
+// where D(v) is v's own distance by sea: a shortest path bends only at barrier vertices, and its
+// last leg ends at the nearest point of a site. A cell inside a seed polygon that is not land
+// has distance 0 (the half-open interior of rv/field/interior.hpp).
+//
+// Ties: a cell that sees a site at the straight nearest distance takes the straight field's
+// answer (the lowest site index among the nearest), bit for bit: the distance is the same
+// float, computed the same way. Otherwise candidates compare by (distance, site, vertex), a site
+// seen directly before any vertex. D(v) keeps the lowest site among equal paths, so a vertex
+// equidistant from two owners hands the region behind it to the lower site, hence the lower
+// owner code, as every engine's tie rule does.
+//
+// Invariant: when every barrier is also a seed, no path to the nearest site is blocked (it would
+// meet a seed on the way), so the field off land equals the straight one bit for bit.
+//
+// Scope of this reference: the planar metric, without weights, reaches or partial effect (those
+// change what a path may reach: rv::Error(unsupported)). Seeds with a vertex strictly on land
+// are refused (rv::Error(invalid_input), the feature named). Pure; deterministic for any thread
+// count.
+#pragma once
+
+#include <cstdint>
+#include <limits>
+
+#include "rv/engine/engine.hpp"
+#include "rv/field/grid.hpp"
+#include "rv/field/raster.hpp"
+#include "rv/field/seeds.hpp"
+#include "rv/sea/barriers.hpp"
+
+namespace rv {
+
+inline constexpr int32_t kNoVia = -1;
+
+struct SeaField {
+  // site and distance as the straight field's (kNoSite / kNoDistance on land, beyond the maximum
+  // distance, and where no seed can be reached).
+  NearestField field;
+  // The last barrier vertex on the cell's path (an index of Visibility(barriers translated to
+  // the grid's local frame).vertex, i.e. of the barriers' distinct vertex positions in
+  // first-appearance order), kNoVia where the seed is seen directly or there is none.
+  Raster<int32_t> via;
+  int64_t land_cells = 0;         // cells on land
+  int64_t unreachable_cells = 0;  // sea cells no seed reaches
+  int32_t barrier_vertices = 0;   // distinct barrier vertices
+  int64_t visibility_tests = 0;   // straight paths tested
+  double max_detour = 1.0;        // the largest path length over straight distance to the nearest site
+};
+
+// The reference: every cell against every site and every vertex, shortest paths between vertices
+// by Dijkstra over the full visibility graph. For small grids and the tests' oracle only: O(V^2
+// (E + V)) to prepare and O(cells (S + V) (E + V)) to fill. Throws rv::Error(invalid_input) for
+// seeds without sites or with a vertex on land, rv::Error(unsupported) for the cases above.
+SeaField brute_force_sea(const SeedSet& seeds, const Barriers& barriers, const GridSpec& grid, const Window& window,
+                         double max_distance = std::numeric_limits<double>::infinity(), int threads = 0);
+
+}  // namespace rv

@@ -1,0 +1,21 @@
+// The exact orientation predicate the distance by sea decides every visibility with.
+//
+// orient(a, b, c) is the sign of the determinant (b - a) x (c - a): +1 when c lies to the left of
+// the directed line a -> b (counter-clockwise turn), -1 to the right, 0 exactly on it. Exact for
+// every finite double input (no rounding can flip or zero the sign): a floating-point filter
+// answers almost every call; the rest are decided by exact expansion arithmetic. Inputs whose
+// products overflow (coordinates beyond about 1e150) are outside the contract.
+// Pure, thread-safe.
+#pragma once
+
+#include "rv/field/seeds.hpp"
+
+namespace rv::sea {
+
+int orient(const Vec2& a, const Vec2& b, const Vec2& c);
+
+// Where c lies on the line through a and b (orient(a, b, c) == 0 assumed), compared along the
+// line's dominant axis: -1 before a, 0 at a, +1 after a towards b (a != b). Exact.
+int along(const Vec2& a, const Vec2& b, const Vec2& c);
+
+}  // namespace rv::sea

@@ -1,0 +1,232 @@
+#include "rv/sea/visibility.hpp"
+
+#include <algorithm>
+#include <cfloat>
+#include <cmath>
+
+#include "sea/orient.hpp"
+
+namespace rv {
+namespace {
+
+using sea::along;
+using sea::orient;
+
+// Angles round `at` are compared exactly: first the half-plane (upper, from east inclusive, to
+// west exclusive), then the turn between the two directions.
+int half(Vec2 at, Vec2 e) { return (e.y > at.y || (e.y == at.y && e.x > at.x)) ? 0 : 1; }
+bool angle_less(Vec2 at, Vec2 e1, Vec2 e2) {
+  const int h1 = half(at, e1), h2 = half(at, e2);
+  if (h1 != h2) return h1 < h2;
+  return orient(at, e1, e2) > 0;
+}
+bool same_direction(Vec2 at, Vec2 e1, Vec2 e2) { return half(at, e1) == half(at, e2) && orient(at, e1, e2) == 0; }
+
+// Strictly between a and b on their segment (p on the line through them assumed).
+bool strictly_between(Vec2 a, Vec2 b, Vec2 p) { return along(a, b, p) > 0 && along(b, a, p) > 0; }
+
+bool position_less(Vec2 a, Vec2 b) { return a.x < b.x || (a.x == b.x && a.y < b.y); }
+
+// How far a computed end may lie off the boundary it belongs on: a few units in the last place of
+// the coordinates involved.
+double end_slack(Vec2 p, Vec2 q) {
+  const double m = std::max({std::abs(q.x), std::abs(q.y), std::abs(p.x - q.x), std::abs(p.y - q.y)});
+  return 64.0 * DBL_EPSILON * m;
+}
+double line_distance(Vec2 a, Vec2 b, Vec2 q) {
+  const double dx = b.x - a.x, dy = b.y - a.y;
+  return std::abs(dx * (q.y - a.y) - dy * (q.x - a.x)) / std::hypot(dx, dy);
+}
+
+}  // namespace
+
+int Visibility::Star::wedge_towards(Vec2 x, bool ccw) const {
+  const int n = static_cast<int>(rays.size());
+  if (n == 0) return 0;
+  const auto it = std::lower_bound(rays.begin(), rays.end(), x, [&](Vec2 r, Vec2 d) { return angle_less(at, r, d); });
+  const int i = static_cast<int>(it - rays.begin());
+  if (i < n && same_direction(at, rays[static_cast<size_t>(i)], x)) return ccw ? i : (i + n - 1) % n;
+  return (i + n - 1) % n;
+}
+
+Visibility::Visibility(Barriers barriers) : barriers_(std::move(barriers)) {
+  std::vector<Vec2> positions;
+  auto add_vertex = [&](Vec2 v) { positions.push_back(v); };
+  for (const Barriers::Polygon& p : barriers_.polygons())
+    for (const Ring& r : p.rings)
+      for (size_t i = 0; i < r.size(); ++i) {
+        edges_.push_back(Edge{r[i], r[(i + 1) % r.size()], true});
+        add_vertex(r[i]);
+      }
+  for (const Barriers::Line& l : barriers_.lines())
+    for (size_t i = 0; i < l.vertices.size(); ++i) {
+      if (i + 1 < l.vertices.size()) edges_.push_back(Edge{l.vertices[i], l.vertices[i + 1], false});
+      add_vertex(l.vertices[i]);
+    }
+  // Distinct positions in first-appearance order.
+  std::vector<int32_t> order(positions.size());
+  for (size_t i = 0; i < order.size(); ++i) order[i] = static_cast<int32_t>(i);
+  std::stable_sort(order.begin(), order.end(),
+                   [&](int32_t a, int32_t b) { return position_less(positions[a], positions[b]); });
+  std::vector<uint8_t> first(positions.size(), 0);
+  for (size_t i = 0; i < order.size(); ++i)
+    if (i == 0 || !(positions[order[i]] == positions[order[i - 1]])) first[order[i]] = 1;
+  for (size_t i = 0; i < positions.size(); ++i)
+    if (first[i]) stars_.push_back(build_star(positions[i]));
+  by_position_.resize(stars_.size());
+  for (size_t i = 0; i < stars_.size(); ++i) by_position_[i] = static_cast<int32_t>(i);
+  std::sort(by_position_.begin(), by_position_.end(),
+            [&](int32_t a, int32_t b) { return position_less(stars_[a].at, stars_[b].at); });
+}
+
+int32_t Visibility::vertex_at(Vec2 p) const {
+  const auto it = std::lower_bound(by_position_.begin(), by_position_.end(), p,
+                                   [&](int32_t v, Vec2 x) { return position_less(stars_[v].at, x); });
+  if (it != by_position_.end() && stars_[*it].at == p) return *it;
+  return -1;
+}
+
+Visibility::Star Visibility::build_star(Vec2 p) const {
+  Star s;
+  s.at = p;
+  struct Cone {
+    Vec2 out, in;  // land from the direction of `out` counter-clockwise to that of `in`
+  };
+  std::vector<Cone> cones;
+  bool inside_land = false;
+  for (const Barriers::Polygon& poly : barriers_.polygons()) {
+    bool on_boundary = false;
+    int crossings = 0;
+    for (const Ring& r : poly.rings) {
+      const size_t n = r.size();
+      for (size_t i = 0; i < n; ++i) {
+        const Vec2 a = r[i], b = r[(i + 1) % n];
+        if (a == p) {
+          on_boundary = true;
+          const Vec2 prev = r[(i + n - 1) % n];
+          s.rays.push_back(b);
+          s.rays.push_back(prev);
+          cones.push_back(Cone{b, prev});
+          continue;
+        }
+        if (b == p) {
+          on_boundary = true;  // its rays come with the visit at b
+          continue;
+        }
+        const int o = orient(a, b, p);
+        if (o == 0 && strictly_between(a, b, p)) {
+          on_boundary = true;
+          s.rays.push_back(a);
+          s.rays.push_back(b);
+          cones.push_back(Cone{b, a});
+          continue;
+        }
+        // Even-odd crossings of the ray from p towards +x (half-open in y).
+        if ((a.y > p.y) != (b.y > p.y)) {
+          const bool up = b.y > a.y;
+          if (up ? o > 0 : o < 0) ++crossings;
+        }
+      }
+    }
+    if (!on_boundary && (crossings & 1)) inside_land = true;
+  }
+  for (const Barriers::Line& l : barriers_.lines())
+    for (size_t i = 0; i + 1 < l.vertices.size(); ++i) {
+      const Vec2 a = l.vertices[i], b = l.vertices[i + 1];
+      if (a == p) {
+        s.rays.push_back(b);
+      } else if (b == p) {
+        s.rays.push_back(a);
+      } else if (orient(a, b, p) == 0 && strictly_between(a, b, p)) {
+        s.rays.push_back(a);
+        s.rays.push_back(b);
+      }
+    }
+  std::sort(s.rays.begin(), s.rays.end(), [&](Vec2 a, Vec2 b) { return angle_less(p, a, b); });
+  s.rays.erase(std::unique(s.rays.begin(), s.rays.end(), [&](Vec2 a, Vec2 b) { return same_direction(p, a, b); }),
+               s.rays.end());
+  const int n = static_cast<int>(s.rays.size());
+  s.sea.assign(static_cast<size_t>(std::max(1, n)), inside_land ? 0 : 1);
+  auto index_of = [&](Vec2 e) { return s.wedge_towards(e, true); };  // on a ray: that ray's index
+  for (const Cone& c : cones) {
+    const int from = index_of(c.out), to = index_of(c.in);
+    if (from == to) continue;  // a spike: no area
+    for (int k = from; k != to; k = (k + 1) % n) s.sea[static_cast<size_t>(k)] = 0;
+  }
+  return s;
+}
+
+Visibility::Star Visibility::star_at(Vec2 p) const {
+  const int32_t v = vertex_at(p);
+  return v >= 0 ? stars_[static_cast<size_t>(v)] : build_star(p);
+}
+
+bool Visibility::on_land(Vec2 p) const {
+  const int32_t v = vertex_at(p);
+  const Star built = v >= 0 ? Star{} : build_star(p);
+  const Star& s = v >= 0 ? stars_[static_cast<size_t>(v)] : built;
+  return std::none_of(s.sea.begin(), s.sea.end(), [](uint8_t x) { return x != 0; });
+}
+
+bool Visibility::sees(const Place& from, const Place& to) const {
+  const Vec2 p = from.at, q = to.at;
+  const int32_t pv = from.vertex >= 0 ? from.vertex : vertex_at(p);
+  const Star p_built = pv >= 0 ? Star{} : build_star(p);
+  const Star& ps = pv >= 0 ? stars_[static_cast<size_t>(pv)] : p_built;
+  if (p == q) {
+    if (from.wedge >= 0) return ps.sea[static_cast<size_t>(from.wedge)] != 0;
+    return std::any_of(ps.sea.begin(), ps.sea.end(), [](uint8_t x) { return x != 0; });
+  }
+  const double slack = to.exact ? 0.0 : end_slack(p, q);
+  // A transversal crossing of any edge's interior: through a line, or into land.
+  for (const Edge& e : edges_) {
+    const int o1 = orient(p, q, e.a), o2 = orient(p, q, e.b);
+    if (o1 * o2 >= 0) continue;
+    const int o3 = orient(e.a, e.b, p);
+    int o4 = orient(e.a, e.b, q);
+    if (o4 != 0 && slack > 0.0 && line_distance(e.a, e.b, q) <= slack) o4 = 0;
+    if (o3 * o4 < 0) return false;
+  }
+  // The barrier vertices the path touches between its ends, in order from p.
+  std::vector<int32_t> touches;
+  for (int32_t v = 0; v < vertex_count(); ++v) {
+    const Vec2 w = vertex(v);
+    if (orient(p, q, w) != 0 || !strictly_between(p, q, w)) continue;
+    if (slack > 0.0 && std::hypot(w.x - q.x, w.y - q.y) <= slack) continue;  // the end itself
+    touches.push_back(v);
+  }
+  std::sort(touches.begin(), touches.end(), [&](int32_t a, int32_t b) { return along(vertex(a), q, vertex(b)) > 0; });
+  // Which side of the path (left, right of p -> q) it may be nudged to: along a barrier edge the
+  // side decides the wedge, and it cannot change while the path runs along edges.
+  bool side[2];
+  for (int s = 0; s < 2; ++s) {
+    const int k = ps.wedge_towards(q, s == 0);
+    side[s] = ps.sea[static_cast<size_t>(k)] && (from.wedge < 0 || k == from.wedge);
+  }
+  auto any = [&] { return side[0] || side[1]; };
+  if (!any()) return false;
+  for (int32_t v : touches) {
+    const Star& ts = stars_[static_cast<size_t>(v)];
+    bool next[2] = {false, false};
+    for (int s = 0; s < 2; ++s) {
+      if (!side[s]) continue;
+      const int back = ts.wedge_towards(p, s == 1);  // left of travel lies clockwise of the way back
+      if (!ts.sea[static_cast<size_t>(back)]) continue;
+      for (int s2 = 0; s2 < 2; ++s2)
+        if (ts.wedge_towards(q, s2 == 0) == back) next[s2] = true;
+    }
+    side[0] = next[0];
+    side[1] = next[1];
+    if (!any()) return false;
+  }
+  if (to.vertex < 0 || to.wedge < 0) return true;  // the last piece was found sea at its start
+  const Star& qs = stars_[static_cast<size_t>(to.vertex)];
+  for (int s = 0; s < 2; ++s) {
+    if (!side[s]) continue;
+    const int back = qs.wedge_towards(p, s == 1);
+    if (qs.sea[static_cast<size_t>(back)] && back == to.wedge) return true;
+  }
+  return false;
+}
+
+}  // namespace rv

@@ -1,0 +1,336 @@
+// The distance by sea's reference field against closed forms: a wall, a seed behind a wall's end
+// against one in view (the hyperbola branch) and a third for a tripoint, a regular 64-gon island,
+// a strait narrower than a cell, a mirror-symmetric layout, the invariant with barriers that are
+// seeds, the tie behind a vertex, unreachable seas and the refusals.
+#include <gtest/gtest.h>
+
+#include <bit>
+#include <cmath>
+#include <random>
+
+#include "rv/field/error.hpp"
+#include "rv/sea/sea_field.hpp"
+#include "rv/sea/visibility.hpp"
+#include "seed_gen.hpp"
+
+namespace rv {
+namespace {
+
+double dist(Vec2 a, Vec2 b) { return std::hypot(a.x - b.x, a.y - b.y); }
+Vec2 centre(const GridSpec& g, int64_t c, int64_t r) { return Vec2{g.centre_x(c), g.centre_y(r)}; }
+
+SeedSet points(std::initializer_list<std::pair<std::string, Vec2>> list) {
+  SeedSet s;
+  for (const auto& [owner, p] : list) s.add_point(s.add_feature(s.owner_code(owner)), p);
+  return s;
+}
+
+// Whether the open segment p-q crosses the vertical wall x = wx, y in (y0, y1) (touching its ends
+// is not crossing).
+bool crosses_wall(Vec2 p, Vec2 q, double wx, double y0, double y1) {
+  if ((p.x - wx) * (q.x - wx) >= 0) return false;
+  const double y = p.y + (q.y - p.y) * (wx - p.x) / (q.x - p.x);
+  return y > y0 && y < y1;
+}
+
+// The path length from seed s to x round a vertical wall from a to b: straight when the wall is
+// not in the way, else over the nearer end.
+double wall_path(Vec2 s, Vec2 x, Vec2 a, Vec2 b) {
+  if (!crosses_wall(s, x, a.x, a.y, b.y)) return dist(s, x);
+  return std::min(dist(s, a) + dist(a, x), dist(s, b) + dist(b, x));
+}
+
+// Every cell against the closed form of several point seeds round one vertical wall: owners where
+// the two best paths differ by more than `margin`, distances to float rounding.
+void expect_wall_closed_form(const std::vector<Vec2>& seeds, Vec2 a, Vec2 b, const GridSpec& g, int64_t* hidden_cells) {
+  SeedSet s;
+  for (size_t i = 0; i < seeds.size(); ++i) s.add_point(s.add_feature(s.owner_code("o" + std::to_string(i))), seeds[i]);
+  Barriers walls;
+  walls.add_line(std::vector<Vec2>{a, b}, "wall");
+  const SeaField f = brute_force_sea(s, walls, g, g.full_window());
+  EXPECT_EQ(f.land_cells, 0);
+  EXPECT_EQ(f.unreachable_cells, 0);
+  EXPECT_EQ(f.barrier_vertices, 2);
+  *hidden_cells = 0;
+  for (int64_t r = 0; r < g.height; ++r)
+    for (int64_t c = 0; c < g.width; ++c) {
+      const Vec2 x = centre(g, c, r);
+      std::vector<std::pair<double, size_t>> paths;
+      for (size_t i = 0; i < seeds.size(); ++i) paths.emplace_back(wall_path(seeds[i], x, a, b), i);
+      std::sort(paths.begin(), paths.end());
+      const int32_t site = f.field.site.at(c, r);
+      ASSERT_GE(site, 0);
+      if (paths.size() < 2 || paths[1].first - paths[0].first > 1e-9)
+        ASSERT_EQ(site, static_cast<int32_t>(paths[0].second)) << c << "," << r;
+      ASSERT_NEAR(f.field.distance.at(c, r), paths[0].first, 1e-6 * paths[0].first + 1e-9) << c << "," << r;
+      const bool hidden = crosses_wall(seeds[static_cast<size_t>(site)], x, a.x, a.y, b.y);
+      *hidden_cells += hidden;
+      // The via: the wall's end the path bends at, or none where the seed is seen.
+      if (hidden)
+        ASSERT_TRUE(f.via.at(c, r) == 0 || f.via.at(c, r) == 1) << c << "," << r;
+      else if (paths.size() < 2 || paths[1].first - paths[0].first > 1e-9)
+        ASSERT_EQ(f.via.at(c, r), kNoVia) << c << "," << r;
+    }
+}
+
+TEST(SeaField, WallShadowGoesRoundTheNearerEnd) {
+  const GridSpec g = test::grid_of(40, 40);
+  int64_t hidden = 0;
+  expect_wall_closed_form({{10.3, 20.6}}, {20, 10}, {20, 30}, g, &hidden);
+  EXPECT_GT(hidden, 150);  // a real shadow
+}
+
+TEST(SeaField, SeedBehindTheWallsEndAgainstOneInView) {
+  // s1 behind the wall's end A (|s1 - A| < |s2 - A|): where x sees A and s2 but not s1, the line is
+  // the hyperbola branch |s1 - A| + |x - A| = |x - s2|. A third seed gives a tripoint on it.
+  const Vec2 a{20, 25}, b{20, 60};
+  const Vec2 s1{14.2, 31.7}, s2{33.1, 38.3};
+  ASSERT_LT(dist(s1, a), dist(s2, a));
+  const GridSpec g = test::grid_of(48, 48);
+  int64_t hidden = 0;
+  expect_wall_closed_form({s1, s2}, a, b, g, &hidden);
+  EXPECT_GT(hidden, 50);
+  // The hyperbola is really there: cells of s1 behind the wall, and cells of s2 beside them.
+  expect_wall_closed_form({s1, s2, {40.6, 8.9}}, a, b, g, &hidden);
+  EXPECT_GT(hidden, 20);
+}
+
+TEST(SeaField, ATieAtAVertexHandsTheRegionBehindItToTheLowerSite) {
+  // Two seeds at the same distance from the wall's end A, both hidden from the cells behind it:
+  // those cells take the lower site (here the second owner added first: site 0).
+  const Vec2 a{20, 20}, b{20, 45};
+  const Vec2 s_lo{20 - 6, 20 + 8};  // 10 from A
+  const Vec2 s_hi{20 - 8, 20 + 6};  // 10 from A
+  SeedSet s = points({{"second", s_hi}, {"first", s_lo}});
+  Barriers walls;
+  walls.add_line(std::vector<Vec2>{a, b}, "wall");
+  const GridSpec g = test::grid_of(40, 50);
+  const SeaField f = brute_force_sea(s, walls, g, g.full_window());
+  int64_t behind = 0;
+  for (int64_t r = 0; r < g.height; ++r)
+    for (int64_t c = 0; c < g.width; ++c) {
+      const Vec2 x = centre(g, c, r);
+      if (!crosses_wall(s_lo, x, a.x, a.y, b.y) || !crosses_wall(s_hi, x, a.x, a.y, b.y)) continue;
+      if (dist(x, a) + 10.0 > dist(x, b) + std::min(dist(s_lo, b), dist(s_hi, b)) - 1e-6) continue;  // round B
+      ++behind;
+      ASSERT_EQ(f.field.site.at(c, r), 0) << c << "," << r;
+      ASSERT_EQ(f.via.at(c, r), 0);
+    }
+  EXPECT_GT(behind, 40);
+}
+
+// A regular n-gon island (centre c, circumradius R): the shortest path between two points outside
+// runs along tangents and the polygon's edge chain; the minimum over both ways round and every
+// pair of vertices each end sees.
+double around_polygon(const std::vector<Vec2>& poly, Vec2 s, Vec2 x, const Visibility& vis) {
+  if (vis.sees(Visibility::Place{s}, Visibility::Place{x})) return dist(s, x);
+  const size_t n = poly.size();
+  double best = std::numeric_limits<double>::infinity();
+  for (size_t i = 0; i < n; ++i) {
+    if (!vis.sees(Visibility::Place{s}, Visibility::Place{poly[i]})) continue;
+    for (size_t j = 0; j < n; ++j) {
+      if (!vis.sees(Visibility::Place{poly[j]}, Visibility::Place{x})) continue;
+      double ccw = 0, cw = 0;
+      for (size_t k = i; k != j; k = (k + 1) % n) ccw += dist(poly[k], poly[(k + 1) % n]);
+      for (size_t k = i; k != j; k = (k + n - 1) % n) cw += dist(poly[k], poly[(k + n - 1) % n]);
+      best = std::min(best, dist(s, poly[i]) + std::min(ccw, cw) + dist(poly[j], x));
+    }
+  }
+  return best;
+}
+
+TEST(SeaField, Regular64GonIslandTangentChainTangent) {
+  const Vec2 c{25.3, 24.7};
+  const double radius = 9.5;
+  std::vector<Vec2> poly;
+  for (int i = 0; i < 64; ++i) {
+    const double t = 2 * M_PI * (i + 0.25) / 64;
+    poly.push_back({c.x + radius * std::cos(t), c.y + radius * std::sin(t)});
+  }
+  Barriers island;
+  island.add_polygon({poly}, "island");
+  const Visibility vis(island);
+  const Vec2 seed{6.2, 23.9};
+  SeedSet s = points({{"port", seed}});
+  const GridSpec g = test::grid_of(50, 50);
+  const SeaField f = brute_force_sea(s, island, g, g.full_window());
+  int64_t shadow = 0, land = 0;
+  for (int64_t r = 0; r < g.height; ++r)
+    for (int64_t col = 0; col < g.width; ++col) {
+      const Vec2 x = centre(g, col, r);
+      if (vis.on_land(x)) {
+        ++land;
+        ASSERT_EQ(f.field.site.at(col, r), kNoSite);
+        ASSERT_EQ(f.via.at(col, r), kNoVia);
+        continue;
+      }
+      const double want = around_polygon(poly, seed, x, vis);
+      shadow += want > dist(seed, x) + 1e-9;
+      ASSERT_EQ(f.field.site.at(col, r), 0);
+      ASSERT_NEAR(f.field.distance.at(col, r), want, 1e-6 * want) << col << "," << r;
+    }
+  EXPECT_EQ(f.land_cells, land);
+  EXPECT_GT(land, 200);
+  EXPECT_GT(shadow, 100);
+  EXPECT_GT(f.max_detour, 1.05);
+}
+
+TEST(SeaField, StraitNarrowerThanACellStaysOpen) {
+  // Two land masses 0.2 apart, reaching far beyond the grid (the way round them is longer than
+  // any path through the strait); cells are 1 wide and no centre lies in the strait.
+  Barriers b;
+  b.add_polygon({{{-60, 10}, {14.9, 10}, {14.9, 20}, {-60, 20}}}, "west");
+  b.add_polygon({{{15.1, 10}, {90, 10}, {90, 20}, {15.1, 20}}}, "east");
+  SeedSet s = points({{"south", {15.0, 3.3}}});
+  const GridSpec g = test::grid_of(30, 30);
+  const SeaField f = brute_force_sea(s, b, g, g.full_window());
+  EXPECT_EQ(f.unreachable_cells, 0);
+  const Visibility vis(b.translated({0, 0}));
+  for (int64_t r = 0; r < 10; ++r)  // the northern sea (y > 20)
+    for (int64_t c = 0; c < g.width; ++c) {
+      const Vec2 x = centre(g, c, r);
+      ASSERT_EQ(f.field.site.at(c, r), 0);
+      // Through the strait: over its mouth (15, 20) at worst.
+      const double via_mouth = std::min(dist({15.0, 3.3}, {14.9, 20}) + dist({14.9, 20}, x),
+                                        dist({15.0, 3.3}, {15.1, 20}) + dist({15.1, 20}, x));
+      const double want =
+          vis.sees(Visibility::Place{{15.0, 3.3}}, Visibility::Place{x}) ? dist({15.0, 3.3}, x) : via_mouth;
+      ASSERT_NEAR(f.field.distance.at(c, r), want, 1e-5) << c << "," << r;
+      ASSERT_LT(f.field.distance.at(c, r), 45.0);  // not round the land masses
+    }
+}
+
+TEST(SeaField, MirrorSymmetricLayoutPutsTheLineOnTheAxis) {
+  // Mirror image about x = 20, no barrier vertex on the axis; no cell centre on it either.
+  Barriers b;
+  b.add_polygon({{{8, 12}, {15, 14}, {13, 22}}}, "west island");
+  b.add_polygon({{{32, 12}, {27, 22}, {25, 14}}}, "east island");
+  b.add_line(std::vector<Vec2>{{17, 30}, {12, 33}}, "west boom");
+  b.add_line(std::vector<Vec2>{{23, 30}, {28, 33}}, "east boom");
+  SeedSet s = points({{"west", {9.5, 18.5}}, {"east", {30.5, 18.5}}});
+  const GridSpec g = test::grid_of(40, 40);
+  const SeaField f = brute_force_sea(s, b, g, g.full_window());
+  for (int64_t r = 0; r < g.height; ++r)
+    for (int64_t c = 0; c < g.width; ++c) {
+      const int64_t m = g.width - 1 - c;
+      ASSERT_EQ(f.field.site.at(c, r) == kNoSite, f.field.site.at(m, r) == kNoSite);
+      if (f.field.site.at(c, r) == kNoSite) continue;
+      ASSERT_EQ(f.field.site.at(c, r), c < 20 ? 0 : 1) << c << "," << r;
+      ASSERT_NEAR(f.field.distance.at(c, r), f.field.distance.at(m, r), 1e-5);
+    }
+}
+
+TEST(SeaField, BarriersThatAreSeedsChangeNothing) {
+  // Coasts as both seeds and land, with ports among them: off land the field is the straight
+  // one, bit for bit.
+  std::mt19937_64 rng(5);
+  std::uniform_real_distribution<double> u(0.0, 40.0);
+  int rounds_compared = 0;
+  for (int round = 0; round < 12; ++round) {
+    SeedSet s;
+    Barriers b;
+    for (int k = 0; k < 4; ++k) {
+      const Vec2 c{u(rng), u(rng)};
+      Ring ring;
+      const int n = 3 + static_cast<int>(rng() % 5);
+      for (int i = 0; i < n; ++i) {
+        const double t = 2 * M_PI * i / n, r = 2.0 + u(rng) / 10.0;
+        ring.push_back({c.x + r * std::cos(t), c.y + r * std::sin(t)});
+      }
+      const int32_t f = s.add_feature(s.owner_code(k % 2 ? "A" : "B"));
+      if (k == 3) {
+        s.add_polyline(f, std::vector<Vec2>(ring.begin(), ring.end()));  // a line that is a barrier line too
+        b.add_line(std::vector<Vec2>(ring.begin(), ring.end()), "line");
+      } else {
+        s.add_polygon(f, {ring});
+        b.add_polygon({ring}, "land");
+      }
+    }
+    s.add_point(s.add_feature(s.owner_code("A")), {u(rng), u(rng)});
+    const GridSpec g = test::grid_of(48, 48, 1.0, -4.0, 44.0);
+    ComputeOptions o;
+    o.method = Method::brute_force;
+    NearestField straight;
+    try {
+      straight = compute(s, g, o);
+    } catch (const Error&) {
+      continue;
+    }
+    SeaField sea;
+    try {
+      sea = brute_force_sea(s, b, g, g.full_window());
+    } catch (const Error& e) {
+      ASSERT_EQ(e.kind(), ErrorKind::invalid_input);  // the random point fell on land
+      continue;
+    }
+    const Visibility vis(b);
+    int64_t compared = 0;
+    for (int64_t r = 0; r < g.height; ++r)
+      for (int64_t c = 0; c < g.width; ++c) {
+        if (vis.on_land(centre(g, c, r))) {
+          ASSERT_EQ(sea.field.site.at(c, r), kNoSite);
+          continue;
+        }
+        ++compared;
+        ASSERT_EQ(sea.field.site.at(c, r), straight.site.at(c, r)) << round << ": " << c << "," << r;
+        ASSERT_EQ(std::bit_cast<uint32_t>(sea.field.distance.at(c, r)),
+                  std::bit_cast<uint32_t>(straight.distance.at(c, r)));
+        ASSERT_EQ(sea.via.at(c, r), kNoVia);
+      }
+    EXPECT_GT(compared, 1000);
+    ++rounds_compared;
+  }
+  EXPECT_GE(rounds_compared, 6);
+}
+
+TEST(SeaField, PortsOnTheCoastAndAnEnclosedLagoon) {
+  // An atoll with a closed lagoon: its port on the outer coast serves the sea outside, the one in
+  // the lagoon only the lagoon.
+  Barriers b;
+  b.add_polygon({{{10, 10}, {30, 10}, {30, 30}, {10, 30}}, {{15, 15}, {25, 15}, {25, 25}, {15, 25}}}, "atoll");
+  SeedSet s = points({{"lagoon", {20, 15}}, {"outside", {20, 10}}});
+  const GridSpec g = test::grid_of(40, 40);
+  const SeaField f = brute_force_sea(s, b, g, g.full_window());
+  const Visibility vis(b);
+  int64_t lagoon = 0;
+  for (int64_t r = 0; r < g.height; ++r)
+    for (int64_t c = 0; c < g.width; ++c) {
+      const Vec2 x = centre(g, c, r);
+      if (vis.on_land(x)) continue;
+      const bool inside = x.x > 15 && x.x < 25 && x.y > 15 && x.y < 25;
+      lagoon += inside;
+      ASSERT_EQ(f.field.site.at(c, r), inside ? 0 : 1) << c << "," << r;
+    }
+  EXPECT_EQ(lagoon, 100);
+  EXPECT_EQ(f.unreachable_cells, 0);
+  // Without the outer port the sea outside is unreachable, and counted.
+  SeedSet only = points({{"lagoon", {20, 15}}});
+  const SeaField g2 = brute_force_sea(only, b, g, g.full_window());
+  EXPECT_EQ(g2.unreachable_cells, 40 * 40 - 400);
+}
+
+TEST(SeaField, Refusals) {
+  Barriers b;
+  b.add_polygon({{{10, 10}, {20, 10}, {20, 20}, {10, 20}}}, "land.gpkg:coast:fid 3");
+  const GridSpec g = test::grid_of(30, 30);
+  SeedSet inside;
+  inside.add_point(inside.add_feature(inside.owner_code("A"), "ports.gpkg:ports:fid 9"), {15, 15});
+  try {
+    brute_force_sea(inside, b, g, g.full_window());
+    FAIL() << "a seed inside a barrier was taken";
+  } catch (const Error& e) {
+    EXPECT_EQ(e.kind(), ErrorKind::invalid_input);
+    EXPECT_NE(std::string(e.what()).find("ports.gpkg:ports:fid 9"), std::string::npos) << e.what();
+  }
+  SeedSet weighted = points({{"A", {5, 5}}});
+  weighted.set_adjustment(0, 2.0, std::numeric_limits<double>::infinity());
+  try {
+    brute_force_sea(weighted, b, g, g.full_window());
+    FAIL() << "weights were taken";
+  } catch (const Error& e) {
+    EXPECT_EQ(e.kind(), ErrorKind::unsupported);
+  }
+}
+
+}  // namespace
+}  // namespace rv

@@ -1,0 +1,229 @@
+// Visibility among barriers: the exact orientation predicate, land and sea for points, and which
+// straight paths are free (touching, running along, wedges at lines and at touching polygons).
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+
+#include "rv/sea/visibility.hpp"
+#include "sea/orient.hpp"
+
+namespace rv {
+namespace {
+
+using Place = Visibility::Place;
+
+// The exact sign of the determinant for coordinates in [1, 4): multiples of 2^-52 there, so
+// scaled by 2^52 they are integers below 2^54 whose products fit 128 bits.
+int integer_orient(Vec2 a, Vec2 b, Vec2 c) {
+  auto i = [](double v) { return static_cast<__int128>(std::ldexp(v, 52)); };
+  const __int128 det = (i(b.x) - i(a.x)) * (i(c.y) - i(a.y)) - (i(b.y) - i(a.y)) * (i(c.x) - i(a.x));
+  return det > 0 ? 1 : (det < 0 ? -1 : 0);
+}
+
+TEST(Orient, ExactOnNearlyCollinearPoints) {
+  std::mt19937_64 rng(7);
+  std::uniform_real_distribution<double> u(1.0, 2.0);
+  int zeros = 0, naive_wrong = 0;
+  for (int i = 0; i < 20000; ++i) {
+    const Vec2 a{u(rng), u(rng)}, b{u(rng), u(rng)};
+    const double t = u(rng) - 1.0;
+    // A point on the line a-b rounded, then nudged by a few units in the last place.
+    Vec2 c{a.x + t * (b.x - a.x), a.y + t * (b.y - a.y)};
+    const int nudge = static_cast<int>(rng() % 7) - 3;
+    for (int k = 0; k < std::abs(nudge); ++k) c.y = std::nextafter(c.y, nudge > 0 ? 4.0 : 0.0);
+    const int want = integer_orient(a, b, c);
+    ASSERT_EQ(sea::orient(a, b, c), want) << i;
+    ASSERT_EQ(sea::orient(b, c, a), want) << i;  // cyclic
+    ASSERT_EQ(sea::orient(b, a, c), -want) << i;
+    zeros += want == 0;
+    const double naive = (b.x - a.x) * (c.y - a.y) - (b.y - a.y) * (c.x - a.x);
+    naive_wrong += (naive > 0) - (naive < 0) != want;
+  }
+  // The cases are hard enough that plain floating point gets some wrong.
+  EXPECT_GT(naive_wrong, 100);
+  // Exactly collinear dyadic triples (a, a + d, a + 2d, all exact): zero both ways.
+  for (int i = 0; i < 1000; ++i) {
+    const auto k = [&] { return static_cast<double>(rng() % 512) / 1024.0; };
+    const Vec2 a{1 + k(), 1 + k()}, d{k(), k()};
+    const Vec2 b{a.x + d.x, a.y + d.y}, c{a.x + 2 * d.x, a.y + 2 * d.y};
+    ASSERT_EQ(integer_orient(a, b, c), 0);
+    ASSERT_EQ(sea::orient(a, b, c), 0);
+    ASSERT_EQ(sea::orient(c, a, b), 0);
+    ++zeros;
+  }
+  // Exactly collinear in binary: zero.
+  EXPECT_EQ(sea::orient({0.5, 0.5}, {12, 12}, {24.25, 24.25}), 0);
+  EXPECT_EQ(sea::orient({0, 0}, {1, 0}, {5, 1e-300}), 1);
+  EXPECT_EQ(sea::orient({0, 0}, {1, 0}, {5, -1e-300}), -1);
+}
+
+Barriers square_island(double x0, double y0, double x1, double y1) {
+  Barriers b;
+  b.add_polygon({{{x0, y0}, {x1, y0}, {x1, y1}, {x0, y1}}}, "island");
+  return b;
+}
+
+bool sees(const Visibility& v, Vec2 a, Vec2 b) { return v.sees(Place{a}, Place{b}); }
+
+TEST(Visibility, SquareIslandBlocksTouchesAndRunsAlong) {
+  const Visibility v(square_island(2, 2, 4, 4));
+  EXPECT_FALSE(sees(v, {0, 3}, {6, 3}));    // through
+  EXPECT_TRUE(sees(v, {0, 4}, {6, 4}));     // along the top edge
+  EXPECT_TRUE(sees(v, {0, 5}, {6, 5}));     // past
+  EXPECT_TRUE(sees(v, {3, 5}, {5, 3}));     // grazing the corner (4, 4)
+  EXPECT_FALSE(sees(v, {5, 5}, {3, 3}));    // into land through the corner
+  EXPECT_TRUE(sees(v, {5, 5}, {3, 4}));     // ends on the top edge, from above
+  EXPECT_TRUE(sees(v, {5, 5}, {4, 4}));     // ends at the corner
+  EXPECT_TRUE(sees(v, {3, 6}, {3, 4}));     // ends on the edge
+  EXPECT_FALSE(sees(v, {3, 6}, {3, 3.5}));  // ends inside
+  EXPECT_TRUE(v.on_land({3, 3}));
+  EXPECT_FALSE(v.on_land({3, 4}));  // the coast is sea
+  EXPECT_FALSE(v.on_land({4, 4}));
+  EXPECT_FALSE(v.on_land({5, 5}));
+  // Its corners: one sea wedge each.
+  ASSERT_EQ(v.vertex_count(), 4);
+  for (int32_t i = 0; i < 4; ++i) {
+    const auto& s = v.vertex_star(i);
+    EXPECT_EQ(s.wedges(), 2);
+    EXPECT_EQ(s.sea[0] + s.sea[1], 1);
+  }
+}
+
+TEST(Visibility, HoleIsSeaAndClosed) {
+  Barriers b;
+  b.add_polygon({{{0, 0}, {10, 0}, {10, 10}, {0, 10}}, {{3, 3}, {7, 3}, {7, 7}, {3, 7}}}, "atoll");
+  const Visibility v(b);
+  EXPECT_FALSE(v.on_land({5, 5}));
+  EXPECT_TRUE(v.on_land({1, 1}));
+  EXPECT_TRUE(sees(v, {4, 4}, {6, 6}));
+  EXPECT_TRUE(sees(v, {3, 5}, {7, 5}));  // across the lagoon from coast to coast
+  EXPECT_FALSE(sees(v, {5, 5}, {12, 5}));
+}
+
+TEST(Visibility, PolygonsMeetingAtACornerCloseThePassage) {
+  Barriers b;
+  b.add_polygon({{{0, 0}, {2, 0}, {2, 2}, {0, 2}}}, "sw");
+  b.add_polygon({{{2, 2}, {4, 2}, {4, 4}, {2, 4}}}, "ne");
+  const Visibility v(b);
+  EXPECT_FALSE(sees(v, {0, 4}, {4, 0}));  // through the corner where they meet
+  EXPECT_TRUE(sees(v, {0, 4}, {2, 2}));   // to it
+  EXPECT_TRUE(sees(v, {4, 0}, {2, 2}));
+  const int32_t corner = v.vertex_at({2, 2});
+  ASSERT_GE(corner, 0);
+  const auto& s = v.vertex_star(corner);
+  EXPECT_EQ(s.wedges(), 4);
+  EXPECT_EQ(s.sea[0] + s.sea[1] + s.sea[2] + s.sea[3], 2);
+  // A path may arrive in one wedge and not leave by the other.
+  const int nw = s.wedge_towards({0, 4}, true), se = s.wedge_towards({4, 0}, true);
+  EXPECT_NE(nw, se);
+  EXPECT_TRUE(v.sees(Place{{0, 4}}, v.at_vertex(corner, nw)));
+  EXPECT_FALSE(v.sees(Place{{0, 4}}, v.at_vertex(corner, se)));
+}
+
+TEST(Visibility, SharedBorderIsLand) {
+  Barriers b;
+  b.add_polygon({{{0, 0}, {2, 0}, {2, 2}, {0, 2}}}, "west");
+  b.add_polygon({{{2, 0}, {4, 0}, {4, 2}, {2, 2}}}, "east");
+  const Visibility v(b);
+  EXPECT_TRUE(v.on_land({2, 1}));   // on the border, land both sides
+  EXPECT_FALSE(v.on_land({2, 0}));  // the coast where the border meets the sea
+  EXPECT_FALSE(v.on_land({1, 0}));
+  EXPECT_FALSE(sees(v, {2, -1}, {2, 3}));  // along the border
+  EXPECT_FALSE(sees(v, {1, -1}, {3, 1}));  // into the land at the border's end
+  EXPECT_TRUE(sees(v, {-1, 0}, {5, 0}));   // along the common coast
+  EXPECT_TRUE(sees(v, {2, -1}, {2, 0}));
+}
+
+TEST(Visibility, LinesAreCrossedNowhere) {
+  Barriers b;
+  b.add_line(std::vector<Vec2>{{0, 1}, {2, 0}, {4, 1}}, "boom");
+  const Visibility v(b);
+  EXPECT_FALSE(sees(v, {1, -1}, {1, 2}));  // through an edge
+  EXPECT_FALSE(sees(v, {2, -1}, {2, 1}));  // through the inner vertex
+  EXPECT_TRUE(sees(v, {1, -1}, {3, -1}));
+  EXPECT_TRUE(sees(v, {-1, 1}, {5, 1}));   // touching both ends
+  EXPECT_TRUE(sees(v, {-1, 2}, {1, -1}));  // past the end (0, 1)
+  EXPECT_FALSE(v.on_land({2, 0}));
+  // The inner vertex has a wedge per side, the ends one each.
+  EXPECT_EQ(v.vertex_star(v.vertex_at({2, 0})).wedges(), 2);
+  EXPECT_EQ(v.vertex_star(v.vertex_at({0, 1})).wedges(), 1);
+  // A path bending at the inner vertex stays on its side.
+  const auto& s = v.vertex_star(v.vertex_at({2, 0}));
+  const int below = s.wedge_towards({2, -1}, true), above = s.wedge_towards({2, 1}, true);
+  EXPECT_NE(below, above);
+  EXPECT_TRUE(v.sees(Place{{2, -1}}, v.at_vertex(v.vertex_at({2, 0}), below)));
+  EXPECT_FALSE(v.sees(Place{{2, -1}}, v.at_vertex(v.vertex_at({2, 0}), above)));
+}
+
+TEST(Visibility, RunningAlongALineKeepsOneSide) {
+  Barriers crossing, touching;
+  crossing.add_line(std::vector<Vec2>{{0, 2}, {1, 0}, {3, 0}, {4, -2}}, "crossing");
+  touching.add_line(std::vector<Vec2>{{0, 2}, {1, 0}, {3, 0}, {4, 2}}, "touching");
+  EXPECT_FALSE(sees(Visibility(crossing), {-1, 0}, {5, 0}));
+  EXPECT_TRUE(sees(Visibility(touching), {-1, 0}, {5, 0}));
+  EXPECT_TRUE(sees(Visibility(crossing), {1, 0}, {3, 0}));  // along its middle edge, end to end
+}
+
+TEST(Visibility, StraitNarrowerThanACellIsOpen) {
+  Barriers b;
+  b.add_polygon({{{0, 0}, {4.9, 0}, {4.9, 10}, {0, 10}}}, "west");
+  b.add_polygon({{{5.1, 0}, {10, 0}, {10, 10}, {5.1, 10}}}, "east");
+  const Visibility v(b);
+  EXPECT_TRUE(sees(v, {5, -3}, {5, 13}));
+  EXPECT_TRUE(sees(v, {4.95, -1}, {5.05, 11}));
+  EXPECT_FALSE(sees(v, {4.5, -1}, {5.5, 11}));
+}
+
+TEST(Visibility, ComputedEndOnTheCoastIsTakenAsOnIt) {
+  // A coast edge that is not axis-parallel: the foot of a perpendicular on it is rounded.
+  Barriers b;
+  b.add_polygon({{{0.1, 0.3}, {7.3, 2.9}, {3.3, 9.7}}}, "land");
+  const Visibility v(b);
+  const Vec2 a{0.1, 0.3}, e{7.3, 2.9};
+  int rounded_inland = 0;
+  for (int i = 1; i < 200; ++i) {
+    const double t = i / 200.0;
+    const Vec2 foot{a.x + t * (e.x - a.x), a.y + t * (e.y - a.y)};
+    // The sea side of the edge a -> e is its right: below.
+    const Vec2 from{foot.x + 0.8 * (e.y - a.y), foot.y - 0.8 * (e.x - a.x)};
+    Place end{foot};
+    end.exact = false;
+    EXPECT_TRUE(v.sees(Place{from}, end)) << t;
+    rounded_inland += sea::orient(a, e, foot) > 0;
+  }
+  EXPECT_GT(rounded_inland, 0);  // some feet did round inland: the allowance is exercised
+}
+
+// Random barriers: visibility is symmetric, and a free path's points are all sea.
+TEST(Visibility, SymmetricAndSeaAlongFreePaths) {
+  std::mt19937_64 rng(11);
+  std::uniform_int_distribution<int> coord(0, 20);
+  for (int round = 0; round < 30; ++round) {
+    Barriers b;
+    for (int k = 0; k < 3; ++k) {
+      const double x = coord(rng), y = coord(rng);
+      b.add_polygon({{{x, y}, {x + 1 + coord(rng) % 4, y}, {x + coord(rng) % 3, y + 1 + coord(rng) % 4}}}, "tri");
+    }
+    b.add_line(std::vector<Vec2>{{double(coord(rng)), double(coord(rng))},
+                                 {double(coord(rng)), double(coord(rng))},
+                                 {double(coord(rng)), double(coord(rng))}},
+               "line");
+    const Visibility v(b);
+    for (int i = 0; i < 200; ++i) {
+      // Integer points hit vertices and run along edges often.
+      const Vec2 p{double(coord(rng)), double(coord(rng))}, q{double(coord(rng)), double(coord(rng))};
+      if (v.on_land(p) || v.on_land(q)) continue;
+      const bool pq = sees(v, p, q);
+      ASSERT_EQ(pq, sees(v, q, p)) << round << " " << i;
+      if (!pq) continue;
+      for (int k = 1; k < 16; ++k) {
+        const Vec2 m{p.x + (q.x - p.x) * k / 16.0, p.y + (q.y - p.y) * k / 16.0};
+        ASSERT_FALSE(v.on_land(m)) << round << " " << i << " " << k;
+      }
+    }
+  }
+}
+
+}  // namespace
+}  // namespace rv
