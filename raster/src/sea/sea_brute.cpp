@@ -11,69 +11,19 @@
 #include "rv/field/planar.hpp"
 #include "rv/sea/sea_field.hpp"
 #include "rv/sea/visibility.hpp"
+#include "sea/sea_prepare.hpp"
 
 namespace rv {
 namespace {
 
-using Place = Visibility::Place;
+using sea::Best;
+using sea::length;
+using sea::nearest_point;
+using sea::Node;
+using sea::Place;
+using sea::Prepared;
 
-// A path's value: (distance, site, via); lower is better, ties to the lower site, then to a site
-// seen directly (via -1) before a vertex, then to the lower vertex.
-struct Best {
-  double d = std::numeric_limits<double>::infinity();
-  int32_t site = kNoSite;
-  int32_t via = kNoVia;
-  bool operator<(const Best& o) const { return std::tie(d, site, via) < std::tie(o.d, o.site, o.via); }
-};
-
-// The nearest point of a site from x (the local frame), as planar_key measures it, and whether it
-// is an input vertex (exact) rather than a computed foot.
-Place nearest_point(const LocalSite& s, Vec2 x) {
-  double t = ((x.x - s.ax) * s.dx + (x.y - s.ay) * s.dy) * s.inv_len2;
-  t = std::clamp(t, 0.0, 1.0);
-  if (t == 0.0) return Place{Vec2{s.ax, s.ay}};
-  if (t == 1.0) return Place{Vec2{s.bx(), s.by()}};
-  Place p{Vec2{s.ax + t * s.dx, s.ay + t * s.dy}};
-  p.exact = false;
-  return p;
-}
-
-double length(Vec2 a, Vec2 b) { return std::sqrt((a.x - b.x) * (a.x - b.x) + (a.y - b.y) * (a.y - b.y)); }
-
-// The seeds and barriers in the grid's local frame, checked.
-struct Prepared {
-  Visibility vis;
-  std::vector<LocalSite> local;
-  std::vector<int32_t> geometric;  // point and segment sites
-};
-
-Prepared prepare(const SeedSet& seeds, const Barriers& barriers, const GridSpec& grid) {
-  if (seeds.geometric_site_count() == 0) throw Error(ErrorKind::invalid_input, "the seeds have no sites");
-  if (seeds.adjusted())
-    throw Error(ErrorKind::unsupported,
-                "the distance by sea does not take weights or reaches yet: they change which seed a path may reach");
-  for (const Feature& f : seeds.features())
-    if (f.effect != 1.0) throw Error(ErrorKind::unsupported, "the distance by sea does not take partial effect yet");
-  Prepared p{Visibility(barriers.translated(Vec2{grid.xmin, grid.ymax})), to_local(seeds, grid), {}};
-  for (int32_t i = 0; i < static_cast<int32_t>(seeds.sites().size()); ++i) {
-    const Site& s = seeds.sites()[static_cast<size_t>(i)];
-    if (s.kind == SiteKind::area) continue;
-    p.geometric.push_back(i);
-    const LocalSite& l = p.local[static_cast<size_t>(i)];
-    for (Vec2 end : {Vec2{l.ax, l.ay}, Vec2{l.bx(), l.by()}})
-      if (p.vis.on_land(end))
-        throw Error(ErrorKind::invalid_input, "the seed " + seeds.feature_name(s.feature) +
-                                                  " has a vertex inside a barrier: a seed may lie on a barrier's "
-                                                  "boundary, not inside it");
-  }
-  return p;
-}
-
-// D(v) per (vertex, sea wedge) node, by Dijkstra over the full visibility graph.
-struct Node {
-  int32_t vertex;
-  int wedge;
-};
+// D(v) per bend node, by Dijkstra over the full visibility graph.
 struct VertexDistances {
   std::vector<Node> nodes;
   std::vector<Best> dist;
@@ -82,21 +32,24 @@ struct VertexDistances {
 VertexDistances vertex_distances(const Prepared& p, std::atomic<int64_t>& tests) {
   const Visibility& vis = p.vis;
   VertexDistances out;
-  for (int32_t v = 0; v < vis.vertex_count(); ++v)
-    for (int k = 0; k < vis.vertex_star(v).wedges(); ++k)
-      if (vis.vertex_star(v).sea[static_cast<size_t>(k)]) out.nodes.push_back(Node{v, k});
+  out.nodes = sea::bend_nodes(vis);
   const std::vector<Node>& nodes = out.nodes;
   std::vector<Best>& dist = out.dist;
   dist.resize(nodes.size());
+  // Each node's best site seen directly: the first seen in (key, site) order, as for cells.
+  std::vector<std::pair<double, int32_t>> order;
   for (size_t n = 0; n < nodes.size(); ++n) {
     const Place at = vis.at_vertex(nodes[n].vertex, nodes[n].wedge);
-    for (int32_t id : p.geometric) {
-      const LocalSite& s = p.local[static_cast<size_t>(id)];
-      const double key = planar_key(at.at.x, at.at.y, s);
-      Best c{std::sqrt(key), id, kNoVia};
-      if (!(c < dist[n])) continue;
+    order.clear();
+    for (int32_t id : p.geometric)
+      order.emplace_back(planar_key(at.at.x, at.at.y, p.local[static_cast<size_t>(id)]), id);
+    std::sort(order.begin(), order.end());
+    for (const auto& [key, id] : order) {
       ++tests;
-      if (key == 0.0 || vis.sees(at, nearest_point(s, at.at))) dist[n] = c;
+      if (key == 0.0 || vis.sees(at, nearest_point(p.local[static_cast<size_t>(id)], at.at))) {
+        dist[n] = Best{std::sqrt(key), id, kNoVia};
+        break;
+      }
     }
   }
   std::vector<uint8_t> settled(nodes.size(), 0);
@@ -121,8 +74,9 @@ VertexDistances vertex_distances(const Prepared& p, std::atomic<int64_t>& tests)
 
 // One sea cell at x, off every seed polygon: its best path, whether it is the straight field's
 // answer (the straight nearest site seen), and k0, the straight nearest key.
-Best cell_value(const Prepared& p, const VertexDistances& vd, Vec2 x, std::vector<std::pair<double, int32_t>>& order,
-                bool& straight, double& k0, int64_t& asked) {
+Best cell_value(const Prepared& p, const VertexDistances& vd, const Place& at,
+                std::vector<std::pair<double, int32_t>>& order, bool& straight, double& k0, int64_t& asked) {
+  const Vec2 x = at.at;
   order.clear();
   for (int32_t id : p.geometric) order.emplace_back(planar_key(x.x, x.y, p.local[static_cast<size_t>(id)]), id);
   std::sort(order.begin(), order.end());
@@ -131,7 +85,7 @@ Best cell_value(const Prepared& p, const VertexDistances& vd, Vec2 x, std::vecto
   straight = false;
   for (const auto& [key, id] : order) {
     ++asked;
-    if (p.vis.sees(Place{x}, nearest_point(p.local[static_cast<size_t>(id)], x))) {
+    if (p.vis.sees(at, nearest_point(p.local[static_cast<size_t>(id)], x))) {
       best = Best{std::sqrt(key), id, kNoVia};
       straight = key == k0;
       break;
@@ -145,7 +99,7 @@ Best cell_value(const Prepared& p, const VertexDistances& vd, Vec2 x, std::vecto
     const Best c{vd.dist[n].d + length(v.at, x), vd.dist[n].site, vd.nodes[n].vertex};
     if (!(c < best)) continue;
     ++asked;
-    if (p.vis.sees(Place{x}, v)) best = c;
+    if (p.vis.sees(at, v)) best = c;
   }
   return best;
 }
@@ -154,7 +108,7 @@ Best cell_value(const Prepared& p, const VertexDistances& vd, Vec2 x, std::vecto
 
 SeaField brute_force_sea(const SeedSet& seeds, const Barriers& barriers, const GridSpec& grid, const Window& window,
                          double max_distance, int threads) {
-  const Prepared p = prepare(seeds, barriers, grid);
+  const Prepared p = sea::prepare(seeds, barriers, grid);
   std::atomic<int64_t> tests{0};
   const VertexDistances vd = vertex_distances(p, tests);
 
@@ -177,7 +131,8 @@ SeaField brute_force_sea(const SeedSet& seeds, const Barriers& barriers, const G
     int64_t asked = 0;
     for (int64_t c = 0; c < window.width; ++c) {
       const Vec2 x{grid.local_x(window.col0 + c), grid.local_y(window.row0 + r)};
-      if (p.vis.on_land(x)) {
+      const Visibility::Ground ground = p.vis.classify(x);
+      if (ground == Visibility::Ground::land) {
         ++land[static_cast<size_t>(worker)];
         continue;
       }
@@ -190,7 +145,9 @@ SeaField brute_force_sea(const SeedSet& seeds, const Barriers& barriers, const G
       }
       bool straight = false;
       double k0 = 0.0;
-      const Best best = cell_value(p, vd, x, order, straight, k0, asked);
+      Place at{x};
+      at.open = ground == Visibility::Ground::open_sea;
+      const Best best = cell_value(p, vd, at, order, straight, k0, asked);
       if (best.site == kNoSite) {
         ++unreachable[static_cast<size_t>(worker)];
         continue;

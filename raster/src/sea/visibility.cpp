@@ -4,6 +4,7 @@
 #include <cfloat>
 #include <cmath>
 
+#include "sea/edge_index.hpp"
 #include "sea/orient.hpp"
 
 namespace rv {
@@ -49,19 +50,23 @@ int Visibility::Star::wedge_towards(Vec2 x, bool ccw) const {
   return (i + n - 1) % n;
 }
 
-Visibility::Visibility(Barriers barriers) : barriers_(std::move(barriers)) {
+struct Visibility::Index {
+  sea::EdgeIndex buckets;
+};
+
+Visibility::Visibility(Barriers barriers, bool indexed) : barriers_(std::move(barriers)) {
   std::vector<Vec2> positions;
-  auto add_vertex = [&](Vec2 v) { positions.push_back(v); };
-  for (const Barriers::Polygon& p : barriers_.polygons())
-    for (const Ring& r : p.rings)
-      for (size_t i = 0; i < r.size(); ++i) {
-        edges_.push_back(Edge{r[i], r[(i + 1) % r.size()], true});
-        add_vertex(r[i]);
+  const auto& polygons = barriers_.polygons();
+  for (size_t k = 0; k < polygons.size(); ++k)
+    for (const Ring& r : polygons[k].rings)
+      for (size_t i = 0, n = r.size(); i < n; ++i) {
+        edges_.push_back(Edge{r[i], r[(i + 1) % n], r[(i + n - 1) % n], static_cast<int32_t>(k)});
+        positions.push_back(r[i]);
       }
   for (const Barriers::Line& l : barriers_.lines())
     for (size_t i = 0; i < l.vertices.size(); ++i) {
-      if (i + 1 < l.vertices.size()) edges_.push_back(Edge{l.vertices[i], l.vertices[i + 1], false});
-      add_vertex(l.vertices[i]);
+      if (i + 1 < l.vertices.size()) edges_.push_back(Edge{l.vertices[i], l.vertices[i + 1], l.vertices[i], -1});
+      positions.push_back(l.vertices[i]);
     }
   // Distinct positions in first-appearance order.
   std::vector<int32_t> order(positions.size());
@@ -71,12 +76,40 @@ Visibility::Visibility(Barriers barriers) : barriers_(std::move(barriers)) {
   std::vector<uint8_t> first(positions.size(), 0);
   for (size_t i = 0; i < order.size(); ++i)
     if (i == 0 || !(positions[order[i]] == positions[order[i - 1]])) first[order[i]] = 1;
+  std::vector<Vec2> vertices;
   for (size_t i = 0; i < positions.size(); ++i)
-    if (first[i]) stars_.push_back(build_star(positions[i]));
+    if (first[i]) vertices.push_back(positions[i]);
+  east_ = 1.0;
+  for (const Vec2& v : vertices) east_ = std::max(east_, std::abs(v.x) + 1.0);
+  if (indexed) {
+    std::vector<sea::EdgeIndex::Segment> segments;
+    segments.reserve(edges_.size());
+    for (const Edge& e : edges_) segments.push_back({e.a, e.b});
+    auto index = std::make_shared<Index>();
+    index->buckets = sea::EdgeIndex(segments, vertices);
+    index_ = std::move(index);
+  }
+  stars_.reserve(vertices.size());
+  for (const Vec2& v : vertices) stars_.push_back(build_star(v));
   by_position_.resize(stars_.size());
   for (size_t i = 0; i < stars_.size(); ++i) by_position_[i] = static_cast<int32_t>(i);
   std::sort(by_position_.begin(), by_position_.end(),
             [&](int32_t a, int32_t b) { return position_less(stars_[a].at, stars_[b].at); });
+}
+
+void Visibility::candidates(Vec2 p, Vec2 q, std::vector<int32_t>& edges, std::vector<int32_t>& vertices) const {
+  if (!index_) {
+    edges.resize(edges_.size());
+    for (size_t i = 0; i < edges.size(); ++i) edges[i] = static_cast<int32_t>(i);
+    vertices.resize(stars_.size());
+    for (size_t i = 0; i < vertices.size(); ++i) vertices[i] = static_cast<int32_t>(i);
+    return;
+  }
+  index_->buckets.along(p, q, edges, vertices);
+  std::sort(edges.begin(), edges.end());
+  edges.erase(std::unique(edges.begin(), edges.end()), edges.end());
+  std::sort(vertices.begin(), vertices.end());
+  vertices.erase(std::unique(vertices.begin(), vertices.end()), vertices.end());
 }
 
 int32_t Visibility::vertex_at(Vec2 p) const {
@@ -93,46 +126,27 @@ Visibility::Star Visibility::build_star(Vec2 p) const {
     Vec2 out, in;  // land from the direction of `out` counter-clockwise to that of `in`
   };
   std::vector<Cone> cones;
-  bool inside_land = false;
-  for (const Barriers::Polygon& poly : barriers_.polygons()) {
+  // Per polygon met: whether p is on its boundary, and the parity of its edges crossing the ray
+  // from p towards +x (half-open in y). Every polygon round p crosses that ray, so the edges the
+  // ray may meet are enough.
+  struct Met {
+    int32_t polygon;
     bool on_boundary = false;
     int crossings = 0;
-    for (const Ring& r : poly.rings) {
-      const size_t n = r.size();
-      for (size_t i = 0; i < n; ++i) {
-        const Vec2 a = r[i], b = r[(i + 1) % n];
-        if (a == p) {
-          on_boundary = true;
-          const Vec2 prev = r[(i + n - 1) % n];
-          s.rays.push_back(b);
-          s.rays.push_back(prev);
-          cones.push_back(Cone{b, prev});
-          continue;
-        }
-        if (b == p) {
-          on_boundary = true;  // its rays come with the visit at b
-          continue;
-        }
-        const int o = orient(a, b, p);
-        if (o == 0 && strictly_between(a, b, p)) {
-          on_boundary = true;
-          s.rays.push_back(a);
-          s.rays.push_back(b);
-          cones.push_back(Cone{b, a});
-          continue;
-        }
-        // Even-odd crossings of the ray from p towards +x (half-open in y).
-        if ((a.y > p.y) != (b.y > p.y)) {
-          const bool up = b.y > a.y;
-          if (up ? o > 0 : o < 0) ++crossings;
-        }
-      }
-    }
-    if (!on_boundary && (crossings & 1)) inside_land = true;
-  }
-  for (const Barriers::Line& l : barriers_.lines())
-    for (size_t i = 0; i + 1 < l.vertices.size(); ++i) {
-      const Vec2 a = l.vertices[i], b = l.vertices[i + 1];
+  };
+  std::vector<Met> met;
+  auto state = [&](int32_t polygon) -> Met& {
+    for (Met& m : met)
+      if (m.polygon == polygon) return m;
+    met.push_back(Met{polygon});
+    return met.back();
+  };
+  std::vector<int32_t> near_edges, near_vertices;
+  candidates(p, Vec2{std::max(p.x + 1.0, east_), p.y}, near_edges, near_vertices);
+  for (int32_t id : near_edges) {
+    const Edge& e = edges_[static_cast<size_t>(id)];
+    const Vec2 a = e.a, b = e.b;
+    if (e.polygon < 0) {
       if (a == p) {
         s.rays.push_back(b);
       } else if (b == p) {
@@ -141,7 +155,35 @@ Visibility::Star Visibility::build_star(Vec2 p) const {
         s.rays.push_back(a);
         s.rays.push_back(b);
       }
+      continue;
     }
+    Met& m = state(e.polygon);
+    if (a == p) {
+      m.on_boundary = true;
+      s.rays.push_back(b);
+      s.rays.push_back(e.prev);
+      cones.push_back(Cone{b, e.prev});
+      continue;
+    }
+    if (b == p) {
+      m.on_boundary = true;  // its rays come with the visit at b
+      continue;
+    }
+    const int o = orient(a, b, p);
+    if (o == 0 && strictly_between(a, b, p)) {
+      m.on_boundary = true;
+      s.rays.push_back(a);
+      s.rays.push_back(b);
+      cones.push_back(Cone{b, a});
+      continue;
+    }
+    if ((a.y > p.y) != (b.y > p.y)) {
+      const bool up = b.y > a.y;
+      if (up ? o > 0 : o < 0) ++m.crossings;
+    }
+  }
+  const bool inside_land =
+      std::any_of(met.begin(), met.end(), [](const Met& m) { return !m.on_boundary && (m.crossings & 1); });
   std::sort(s.rays.begin(), s.rays.end(), [&](Vec2 a, Vec2 b) { return angle_less(p, a, b); });
   s.rays.erase(std::unique(s.rays.begin(), s.rays.end(), [&](Vec2 a, Vec2 b) { return same_direction(p, a, b); }),
                s.rays.end());
@@ -168,18 +210,37 @@ bool Visibility::on_land(Vec2 p) const {
   return std::none_of(s.sea.begin(), s.sea.end(), [](uint8_t x) { return x != 0; });
 }
 
+Visibility::Ground Visibility::classify(Vec2 p) const {
+  const int32_t v = vertex_at(p);
+  const Star built = v >= 0 ? Star{} : build_star(p);
+  const Star& s = v >= 0 ? stars_[static_cast<size_t>(v)] : built;
+  if (std::none_of(s.sea.begin(), s.sea.end(), [](uint8_t x) { return x != 0; })) return Ground::land;
+  return s.rays.empty() ? Ground::open_sea : Ground::on_barrier;
+}
+
 bool Visibility::sees(const Place& from, const Place& to) const {
   const Vec2 p = from.at, q = to.at;
-  const int32_t pv = from.vertex >= 0 ? from.vertex : vertex_at(p);
-  const Star p_built = pv >= 0 ? Star{} : build_star(p);
+  const int32_t pv = from.vertex >= 0 ? from.vertex : from.open ? -1 : vertex_at(p);
+  Star p_built;
+  if (pv < 0 && from.open) {
+    p_built.at = p;
+    p_built.sea = {1};
+  } else if (pv < 0) {
+    p_built = build_star(p);
+  }
   const Star& ps = pv >= 0 ? stars_[static_cast<size_t>(pv)] : p_built;
   if (p == q) {
+    // No way from one wedge of a point into another but round a barrier.
+    if (from.wedge >= 0 && to.wedge >= 0 && from.wedge != to.wedge) return false;
     if (from.wedge >= 0) return ps.sea[static_cast<size_t>(from.wedge)] != 0;
     return std::any_of(ps.sea.begin(), ps.sea.end(), [](uint8_t x) { return x != 0; });
   }
   const double slack = to.exact ? 0.0 : end_slack(p, q);
   // A transversal crossing of any edge's interior: through a line, or into land.
-  for (const Edge& e : edges_) {
+  std::vector<int32_t> near_edges, near_vertices;
+  candidates(p, q, near_edges, near_vertices);
+  for (int32_t id : near_edges) {
+    const Edge& e = edges_[static_cast<size_t>(id)];
     const int o1 = orient(p, q, e.a), o2 = orient(p, q, e.b);
     if (o1 * o2 >= 0) continue;
     const int o3 = orient(e.a, e.b, p);
@@ -189,7 +250,7 @@ bool Visibility::sees(const Place& from, const Place& to) const {
   }
   // The barrier vertices the path touches between its ends, in order from p.
   std::vector<int32_t> touches;
-  for (int32_t v = 0; v < vertex_count(); ++v) {
+  for (int32_t v : near_vertices) {
     const Vec2 w = vertex(v);
     if (orient(p, q, w) != 0 || !strictly_between(p, q, w)) continue;
     if (slack > 0.0 && std::hypot(w.x - q.x, w.y - q.y) <= slack) continue;  // the end itself

@@ -1,4 +1,5 @@
-// The distance by sea's reference field against closed forms: a wall, a seed behind a wall's end
+// The distance by sea against closed forms, both engines (the exact one checked against the
+// reference cell for cell in every case): a wall, a seed behind a wall's end
 // against one in view (the hyperbola branch) and a third for a tripoint, a regular 64-gon island,
 // a strait narrower than a cell, a mirror-symmetric layout, the invariant with barriers that are
 // seeds, the tie behind a vertex, unreachable seas and the refusals.
@@ -15,6 +16,27 @@
 
 namespace rv {
 namespace {
+
+// Both engines on one layout: the exact engine's field must equal the reference's cell for cell
+// (owner, via, distance to the bit) and agree on the counts; returns the exact engine's.
+SeaField sea_field(const SeedSet& seeds, const Barriers& barriers, const GridSpec& g) {
+  const SeaField reference = brute_force_sea(seeds, barriers, g, g.full_window());
+  const SeaField exact = compute_sea(seeds, barriers, g, g.full_window());
+  EXPECT_EQ(exact.land_cells, reference.land_cells);
+  EXPECT_EQ(exact.unreachable_cells, reference.unreachable_cells);
+  EXPECT_EQ(exact.barrier_vertices, reference.barrier_vertices);
+  EXPECT_EQ(exact.max_detour, reference.max_detour);
+  for (int64_t r = 0; r < g.height; ++r)
+    for (int64_t c = 0; c < g.width; ++c) {
+      EXPECT_EQ(exact.field.site.at(c, r), reference.field.site.at(c, r)) << c << "," << r;
+      EXPECT_EQ(exact.via.at(c, r), reference.via.at(c, r)) << c << "," << r;
+      EXPECT_EQ(std::bit_cast<uint32_t>(exact.field.distance.at(c, r)),
+                std::bit_cast<uint32_t>(reference.field.distance.at(c, r)))
+          << c << "," << r;
+      if (::testing::Test::HasFailure()) return exact;
+    }
+  return exact;
+}
 
 double dist(Vec2 a, Vec2 b) { return std::hypot(a.x - b.x, a.y - b.y); }
 Vec2 centre(const GridSpec& g, int64_t c, int64_t r) { return Vec2{g.centre_x(c), g.centre_y(r)}; }
@@ -47,7 +69,7 @@ void expect_wall_closed_form(const std::vector<Vec2>& seeds, Vec2 a, Vec2 b, con
   for (size_t i = 0; i < seeds.size(); ++i) s.add_point(s.add_feature(s.owner_code("o" + std::to_string(i))), seeds[i]);
   Barriers walls;
   walls.add_line(std::vector<Vec2>{a, b}, "wall");
-  const SeaField f = brute_force_sea(s, walls, g, g.full_window());
+  const SeaField f = sea_field(s, walls, g);
   EXPECT_EQ(f.land_cells, 0);
   EXPECT_EQ(f.unreachable_cells, 0);
   EXPECT_EQ(f.barrier_vertices, 2);
@@ -60,16 +82,19 @@ void expect_wall_closed_form(const std::vector<Vec2>& seeds, Vec2 a, Vec2 b, con
       std::sort(paths.begin(), paths.end());
       const int32_t site = f.field.site.at(c, r);
       ASSERT_GE(site, 0);
-      if (paths.size() < 2 || paths[1].first - paths[0].first > 1e-9)
+      const bool clear = paths.size() < 2 || paths[1].first - paths[0].first > 1e-9;
+      if (clear) {
         ASSERT_EQ(site, static_cast<int32_t>(paths[0].second)) << c << "," << r;
+      }
       ASSERT_NEAR(f.field.distance.at(c, r), paths[0].first, 1e-6 * paths[0].first + 1e-9) << c << "," << r;
       const bool hidden = crosses_wall(seeds[static_cast<size_t>(site)], x, a.x, a.y, b.y);
       *hidden_cells += hidden;
       // The via: the wall's end the path bends at, or none where the seed is seen.
-      if (hidden)
+      if (hidden) {
         ASSERT_TRUE(f.via.at(c, r) == 0 || f.via.at(c, r) == 1) << c << "," << r;
-      else if (paths.size() < 2 || paths[1].first - paths[0].first > 1e-9)
+      } else if (clear) {
         ASSERT_EQ(f.via.at(c, r), kNoVia) << c << "," << r;
+      }
     }
 }
 
@@ -105,7 +130,7 @@ TEST(SeaField, ATieAtAVertexHandsTheRegionBehindItToTheLowerSite) {
   Barriers walls;
   walls.add_line(std::vector<Vec2>{a, b}, "wall");
   const GridSpec g = test::grid_of(40, 50);
-  const SeaField f = brute_force_sea(s, walls, g, g.full_window());
+  const SeaField f = sea_field(s, walls, g);
   int64_t behind = 0;
   for (int64_t r = 0; r < g.height; ++r)
     for (int64_t c = 0; c < g.width; ++c) {
@@ -153,7 +178,7 @@ TEST(SeaField, Regular64GonIslandTangentChainTangent) {
   const Vec2 seed{6.2, 23.9};
   SeedSet s = points({{"port", seed}});
   const GridSpec g = test::grid_of(50, 50);
-  const SeaField f = brute_force_sea(s, island, g, g.full_window());
+  const SeaField f = sea_field(s, island, g);
   int64_t shadow = 0, land = 0;
   for (int64_t r = 0; r < g.height; ++r)
     for (int64_t col = 0; col < g.width; ++col) {
@@ -183,7 +208,7 @@ TEST(SeaField, StraitNarrowerThanACellStaysOpen) {
   b.add_polygon({{{15.1, 10}, {90, 10}, {90, 20}, {15.1, 20}}}, "east");
   SeedSet s = points({{"south", {15.0, 3.3}}});
   const GridSpec g = test::grid_of(30, 30);
-  const SeaField f = brute_force_sea(s, b, g, g.full_window());
+  const SeaField f = sea_field(s, b, g);
   EXPECT_EQ(f.unreachable_cells, 0);
   const Visibility vis(b.translated({0, 0}));
   for (int64_t r = 0; r < 10; ++r)  // the northern sea (y > 20)
@@ -209,7 +234,7 @@ TEST(SeaField, MirrorSymmetricLayoutPutsTheLineOnTheAxis) {
   b.add_line(std::vector<Vec2>{{23, 30}, {28, 33}}, "east boom");
   SeedSet s = points({{"west", {9.5, 18.5}}, {"east", {30.5, 18.5}}});
   const GridSpec g = test::grid_of(40, 40);
-  const SeaField f = brute_force_sea(s, b, g, g.full_window());
+  const SeaField f = sea_field(s, b, g);
   for (int64_t r = 0; r < g.height; ++r)
     for (int64_t c = 0; c < g.width; ++c) {
       const int64_t m = g.width - 1 - c;
@@ -258,7 +283,7 @@ TEST(SeaField, BarriersThatAreSeedsChangeNothing) {
     }
     SeaField sea;
     try {
-      sea = brute_force_sea(s, b, g, g.full_window());
+      sea = sea_field(s, b, g);
     } catch (const Error& e) {
       ASSERT_EQ(e.kind(), ErrorKind::invalid_input);  // the random point fell on land
       continue;
@@ -290,7 +315,7 @@ TEST(SeaField, PortsOnTheCoastAndAnEnclosedLagoon) {
   b.add_polygon({{{10, 10}, {30, 10}, {30, 30}, {10, 30}}, {{15, 15}, {25, 15}, {25, 25}, {15, 25}}}, "atoll");
   SeedSet s = points({{"lagoon", {20, 15}}, {"outside", {20, 10}}});
   const GridSpec g = test::grid_of(40, 40);
-  const SeaField f = brute_force_sea(s, b, g, g.full_window());
+  const SeaField f = sea_field(s, b, g);
   const Visibility vis(b);
   int64_t lagoon = 0;
   for (int64_t r = 0; r < g.height; ++r)
@@ -305,7 +330,7 @@ TEST(SeaField, PortsOnTheCoastAndAnEnclosedLagoon) {
   EXPECT_EQ(f.unreachable_cells, 0);
   // Without the outer port the sea outside is unreachable, and counted.
   SeedSet only = points({{"lagoon", {20, 15}}});
-  const SeaField g2 = brute_force_sea(only, b, g, g.full_window());
+  const SeaField g2 = sea_field(only, b, g);
   EXPECT_EQ(g2.unreachable_cells, 40 * 40 - 400);
 }
 
@@ -315,21 +340,72 @@ TEST(SeaField, Refusals) {
   const GridSpec g = test::grid_of(30, 30);
   SeedSet inside;
   inside.add_point(inside.add_feature(inside.owner_code("A"), "ports.gpkg:ports:fid 9"), {15, 15});
-  try {
-    brute_force_sea(inside, b, g, g.full_window());
-    FAIL() << "a seed inside a barrier was taken";
-  } catch (const Error& e) {
-    EXPECT_EQ(e.kind(), ErrorKind::invalid_input);
-    EXPECT_NE(std::string(e.what()).find("ports.gpkg:ports:fid 9"), std::string::npos) << e.what();
+  for (bool exact : {false, true}) {
+    try {
+      exact ? compute_sea(inside, b, g, g.full_window()) : brute_force_sea(inside, b, g, g.full_window());
+      FAIL() << "a seed inside a barrier was taken";
+    } catch (const Error& e) {
+      EXPECT_EQ(e.kind(), ErrorKind::invalid_input);
+      EXPECT_NE(std::string(e.what()).find("ports.gpkg:ports:fid 9"), std::string::npos) << e.what();
+    }
   }
   SeedSet weighted = points({{"A", {5, 5}}});
   weighted.set_adjustment(0, 2.0, std::numeric_limits<double>::infinity());
-  try {
-    brute_force_sea(weighted, b, g, g.full_window());
-    FAIL() << "weights were taken";
-  } catch (const Error& e) {
-    EXPECT_EQ(e.kind(), ErrorKind::unsupported);
+  for (bool exact : {false, true}) {
+    try {
+      exact ? compute_sea(weighted, b, g, g.full_window()) : brute_force_sea(weighted, b, g, g.full_window());
+      FAIL() << "weights were taken";
+    } catch (const Error& e) {
+      EXPECT_EQ(e.kind(), ErrorKind::unsupported);
+    }
   }
+}
+
+// Random archipelagos (islands with lagoons, booms, islands touching at corners) with point and
+// line seeds on the coasts and at sea: the exact engine equals the reference cell for cell.
+TEST(SeaField, RandomArchipelagosExactEqualsTheReference) {
+  std::mt19937_64 rng(31);
+  std::uniform_int_distribution<int> coord(0, 36);
+  int64_t via_cells = 0, rounds = 0;
+  for (int round = 0; round < 10; ++round) {
+    Barriers b;
+    std::vector<Ring> outlines;
+    for (int k = 0; k < 7; ++k) {
+      const double x = coord(rng), y = coord(rng), w = 2 + coord(rng) % 7, h = 2 + coord(rng) % 7;
+      std::vector<Ring> rings{{{x, y}, {x + w, y}, {x + w * 0.6, y + h}, {x, y + h * 0.8}}};
+      if (w > 5 && h > 5) rings.push_back({{x + 1.5, y + 1.5}, {x + 3, y + 1.5}, {x + 2.5, y + 3}});
+      outlines.push_back(rings[0]);
+      b.add_polygon(rings, "island");
+    }
+    b.add_line(std::vector<Vec2>{{double(coord(rng)), double(coord(rng))}, {double(coord(rng)), double(coord(rng))}},
+               "boom");
+    const Visibility vis(b);
+    SeedSet s;
+    int seeds = 0;
+    for (int k = 0; k < 12 && seeds < 5; ++k) {
+      const Vec2 p{coord(rng) + 0.25, coord(rng) + 0.75};
+      if (vis.on_land(p)) continue;
+      s.add_point(s.add_feature(s.owner_code(seeds % 2 ? "A" : "B")), p);
+      ++seeds;
+    }
+    // A port on a coast, and a coast as a line seed.
+    const Ring& o = outlines[static_cast<size_t>(round) % outlines.size()];
+    s.add_point(s.add_feature(s.owner_code("C")), {(o[0].x + o[1].x) / 2, (o[0].y + o[1].y) / 2});
+    s.add_polyline(s.add_feature(s.owner_code("D")), std::vector<Vec2>{o[1], o[2]});
+    const GridSpec g = test::grid_of(40, 40, 1.0, -1.0, 41.0);
+    SeaField f;
+    try {
+      f = sea_field(s, b, g);
+    } catch (const Error& e) {
+      ASSERT_EQ(e.kind(), ErrorKind::invalid_input) << e.what();  // a coast seed inside another island
+      continue;
+    }
+    ++rounds;
+    for (int64_t r = 0; r < g.height; ++r)
+      for (int64_t c = 0; c < g.width; ++c) via_cells += f.via.at(c, r) != kNoVia;
+  }
+  EXPECT_GE(rounds, 5);
+  EXPECT_GT(via_cells, 500);  // paths round land, not only straight ones
 }
 
 }  // namespace

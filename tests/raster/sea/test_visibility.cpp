@@ -15,9 +15,10 @@ using Place = Visibility::Place;
 
 // The exact sign of the determinant for coordinates in [1, 4): multiples of 2^-52 there, so
 // scaled by 2^52 they are integers below 2^54 whose products fit 128 bits.
+__extension__ typedef __int128 Int128;
 int integer_orient(Vec2 a, Vec2 b, Vec2 c) {
-  auto i = [](double v) { return static_cast<__int128>(std::ldexp(v, 52)); };
-  const __int128 det = (i(b.x) - i(a.x)) * (i(c.y) - i(a.y)) - (i(b.y) - i(a.y)) * (i(c.x) - i(a.x));
+  auto i = [](double v) { return static_cast<Int128>(std::ldexp(v, 52)); };
+  const Int128 det = (i(b.x) - i(a.x)) * (i(c.y) - i(a.y)) - (i(b.y) - i(a.y)) * (i(c.x) - i(a.x));
   return det > 0 ? 1 : (det < 0 ? -1 : 0);
 }
 
@@ -222,6 +223,57 @@ TEST(Visibility, SymmetricAndSeaAlongFreePaths) {
         ASSERT_FALSE(v.on_land(m)) << round << " " << i << " " << k;
       }
     }
+  }
+}
+
+}  // namespace
+}  // namespace rv
+
+namespace rv {
+namespace {
+
+// The index answers as the full scan does: stars of every vertex, land, and free paths, on
+// random islands, holes and lines, near the origin and at UTM-like coordinates.
+TEST(Visibility, IndexAnswersAsTheFullScan) {
+  std::mt19937_64 rng(23);
+  for (const Vec2 offset : {Vec2{0, 0}, Vec2{512345.25, 6123456.5}}) {
+    std::uniform_int_distribution<int> coord(0, 60);
+    Barriers b;
+    for (int k = 0; k < 25; ++k) {
+      const double x = offset.x + coord(rng), y = offset.y + coord(rng);
+      const double w = 1 + coord(rng) % 8, h = 1 + coord(rng) % 8;
+      std::vector<Ring> rings{{{x, y}, {x + w, y}, {x + w, y + h}, {x, y + h}}};
+      if (w > 3 && h > 3) rings.push_back({{x + 1, y + 1}, {x + 2, y + 1}, {x + 2, y + 2}, {x + 1, y + 2}});
+      b.add_polygon(rings, "island");
+    }
+    for (int k = 0; k < 8; ++k)
+      b.add_line(std::vector<Vec2>{{offset.x + coord(rng), offset.y + coord(rng)},
+                                   {offset.x + coord(rng), offset.y + coord(rng)},
+                                   {offset.x + coord(rng), offset.y + coord(rng)}},
+                 "line");
+    const Visibility indexed(b), full(b, false);
+    ASSERT_EQ(indexed.vertex_count(), full.vertex_count());
+    for (int32_t v = 0; v < full.vertex_count(); ++v) {
+      ASSERT_EQ(indexed.vertex(v), full.vertex(v));
+      ASSERT_EQ(indexed.vertex_star(v).rays, full.vertex_star(v).rays);
+      ASSERT_EQ(indexed.vertex_star(v).sea, full.vertex_star(v).sea);
+    }
+    int64_t free_paths = 0, blocked = 0;
+    for (int i = 0; i < 4000; ++i) {
+      const Vec2 p{offset.x + coord(rng) + (i % 3) * 0.5, offset.y + coord(rng)};
+      const Vec2 q{offset.x + coord(rng), offset.y + coord(rng) + (i % 5) * 0.25};
+      ASSERT_EQ(indexed.on_land(p), full.on_land(p));
+      ASSERT_EQ(indexed.classify(q) == Visibility::Ground::land, full.on_land(q));
+      if (full.on_land(p) || full.on_land(q)) continue;
+      Visibility::Place from{p};
+      from.open = full.classify(p) == Visibility::Ground::open_sea;
+      const bool want = full.sees(Place{p}, Place{q});
+      ASSERT_EQ(indexed.sees(from, Place{q}), want) << i;
+      ASSERT_EQ(indexed.sees(Place{p}, Place{q}), want) << i;
+      (want ? free_paths : blocked) += 1;
+    }
+    EXPECT_GT(free_paths, 100);
+    EXPECT_GT(blocked, 200);
   }
 }
 

@@ -24,7 +24,9 @@
 // count.
 #pragma once
 
+#include <atomic>
 #include <cstdint>
+#include <functional>
 #include <limits>
 
 #include "rv/engine/engine.hpp"
@@ -48,9 +50,28 @@ struct SeaField {
   int64_t land_cells = 0;         // cells on land
   int64_t unreachable_cells = 0;  // sea cells no seed reaches
   int32_t barrier_vertices = 0;   // distinct barrier vertices
+  int64_t bend_nodes = 0;         // (vertex, sea wedge) pairs wider than a half-turn: where paths may bend
   int64_t visibility_tests = 0;   // straight paths tested
   double max_detour = 1.0;        // the largest path length over straight distance to the nearest site
 };
+
+// How the exact engine runs. Progress in [0, 1] is called from worker threads, never
+// concurrently... at most about 100 times; when `cancel` becomes true the engine throws
+// rv::Error(cancelled).
+struct SeaOptions {
+  double max_distance = std::numeric_limits<double>::infinity();  // metric units
+  int threads = 0;                                                // 0: every hardware thread
+  const std::atomic<bool>* cancel = nullptr;
+  std::function<void(double)> progress;
+};
+
+// The exact engine: the same field as brute_force_sea (owners and vias cell for cell; distances
+// to the last bit of the float but where two paths tie to rounding), with every search ordered by
+// a lower bound: bend nodes settled by a Dijkstra that finds each node's last bend in a tree of
+// the settled ones rather than over a visibility graph, and cells searched the same way. Throws
+// as brute_force_sea, and rv::Error(cancelled).
+SeaField compute_sea(const SeedSet& seeds, const Barriers& barriers, const GridSpec& grid, const Window& window,
+                     const SeaOptions& options = {});
 
 // The reference: every cell against every site and every vertex, shortest paths between vertices
 // by Dijkstra over the full visibility graph. For small grids and the tests' oracle only: O(V^2

@@ -21,13 +21,16 @@
 // false), a computed point such as the foot of a perpendicular on a coast segment, may lie a few
 // units in the last place off the boundary it belongs on, and is taken as on it.
 //
-// Costs (the reference implementation, the oracle's; an engine indexes the edges): building is
-// O(V E) for V vertices and E edges; sees() is O(E + V), plus O(E) for an end that is not a
-// barrier vertex.
+// Costs, for V vertices and E edges. With the index (the default: a uniform grid of about 2E
+// buckets), sees() takes time in proportion to the buckets along the path and the edges and
+// vertices in them; a point's wedges (star_at, on_land, classify, and sees() from a start that
+// is neither a vertex nor Place::open) those along a ray from it to the east. Without the index
+// every query scans every edge and vertex: O(E + V), the reference the index is tested against.
 // Thread safety: immutable once built; const access from any number of threads.
 #pragma once
 
 #include <cstdint>
+#include <memory>
 #include <vector>
 
 #include "rv/field/seeds.hpp"
@@ -37,7 +40,8 @@ namespace rv {
 
 class Visibility {
  public:
-  explicit Visibility(Barriers barriers);
+  // `indexed` false: every query scans every edge and vertex (the reference).
+  explicit Visibility(Barriers barriers, bool indexed = true);
 
   const Barriers& barriers() const { return barriers_; }
 
@@ -64,17 +68,23 @@ class Visibility {
   int32_t vertex_at(Vec2 p) const;
 
   // Where a straight path starts or ends: a point, or a barrier vertex in one of its wedges
-  // (`wedge` its index; -1: any). `exact` false for a computed end (see above).
+  // (`wedge` its index; -1: any). `exact` false for a computed end (see above). `open`: the
+  // caller knows the point is sea and on no barrier (classify() said so), which spares the
+  // start's wedges from being worked out.
   struct Place {
     Vec2 at;
     int32_t vertex = -1;
     int wedge = -1;
     bool exact = true;
+    bool open = false;
   };
   Place at_vertex(int32_t v, int wedge) const { return Place{vertex(v), v, wedge, true}; }
 
   // Land (see above). Exact.
   bool on_land(Vec2 p) const;
+  // Land, open sea (sea on no barrier), or sea on a barrier's boundary. Exact.
+  enum class Ground { land, open_sea, on_barrier };
+  Ground classify(Vec2 p) const;
   // Whether the straight path from `from` to `to` is free, leaving `from` and reaching `to`
   // within their wedges where given. A path of length zero is free where its place is sea.
   bool sees(const Place& from, const Place& to) const;
@@ -82,14 +92,20 @@ class Visibility {
  private:
   struct Edge {
     Vec2 a, b;
-    bool polygon;  // land on its left
+    Vec2 prev;        // a polygon edge: the ring's vertex before a
+    int32_t polygon;  // its polygon (land on its left), or -1 for a line's edge
   };
   Star build_star(Vec2 p) const;
+  // The edges and vertices a closed segment may meet: all of them without the index.
+  void candidates(Vec2 p, Vec2 q, std::vector<int32_t>& edges, std::vector<int32_t>& vertices) const;
 
+  struct Index;
   Barriers barriers_;
+  std::shared_ptr<const Index> index_;
   std::vector<Edge> edges_;
   std::vector<Star> stars_;           // per vertex
   std::vector<int32_t> by_position_;  // vertex indices sorted by (x, y)
+  double east_ = 1.0;                 // beyond every vertex's x: where a ray east has met them all
 };
 
 }  // namespace rv

@@ -1,0 +1,78 @@
+// A uniform grid of buckets over the barriers' edges and vertices: which of them a straight
+// segment may meet, in time proportional to the buckets it crosses rather than to the barriers.
+//
+// The answer is a superset (every edge that meets the closed segment, every vertex on it, and
+// some that do not): the exact predicates decide. Buckets are walked with a margin of a
+// billionth of their size, so rounding in the walk never drops a bucket the segment touches.
+// Immutable once built; const access from any number of threads.
+#pragma once
+
+#include <algorithm>
+#include <cstdint>
+#include <utility>
+#include <vector>
+
+#include "rv/field/seeds.hpp"
+
+namespace rv::sea {
+
+class EdgeIndex {
+ public:
+  struct Segment {
+    Vec2 a, b;
+  };
+  // About two buckets per edge over the vertices' bounding box, at most 4096 a side.
+  EdgeIndex(const std::vector<Segment>& edges, const std::vector<Vec2>& vertices);
+  EdgeIndex() = default;
+
+  // Appends the edges and vertices of every bucket the closed segment p-q may meet (each once
+  // per bucket; the caller removes repeats when it needs to).
+  void along(Vec2 p, Vec2 q, std::vector<int32_t>& edges, std::vector<int32_t>& vertices) const;
+  // The buckets a closed segment may meet, as indices, in row order.
+  template <class F>
+  void buckets(Vec2 p, Vec2 q, F&& f) const;
+
+  int64_t bucket_count() const { return cols_ * rows_; }
+
+ private:
+  int64_t column(double x) const;
+  int64_t row(double y) const;
+
+  double x0_ = 0, y0_ = 0, size_ = 1, pad_ = 0;
+  int64_t cols_ = 0, rows_ = 0;
+  std::vector<uint32_t> edge_start_, vertex_start_;  // per bucket, then one past the last
+  std::vector<int32_t> edge_ids_, vertex_ids_;
+};
+
+template <class F>
+void EdgeIndex::buckets(Vec2 p, Vec2 q, F&& f) const {
+  if (cols_ == 0) return;
+  const double ymin = std::min(p.y, q.y) - pad_, ymax = std::max(p.y, q.y) + pad_;
+  const double top = y0_ + static_cast<double>(rows_) * size_, right = x0_ + static_cast<double>(cols_) * size_;
+  if (ymax < y0_ || ymin > top || std::max(p.x, q.x) + pad_ < x0_ || std::min(p.x, q.x) - pad_ > right) return;
+  const int64_t r0 = row(ymin), r1 = row(ymax);
+  for (int64_t r = r0; r <= r1; ++r) {
+    // The segment's x-range within this row of buckets (widened by the margin).
+    const double lo = std::max(ymin, y0_ + static_cast<double>(r) * size_ - pad_);
+    const double hi = std::min(ymax, y0_ + static_cast<double>(r + 1) * size_ + pad_);
+    double xa, xb;
+    if (p.y == q.y) {
+      xa = std::min(p.x, q.x);
+      xb = std::max(p.x, q.x);
+    } else {
+      const double slope = (q.x - p.x) / (q.y - p.y);
+      const double ya = std::clamp(lo, std::min(p.y, q.y), std::max(p.y, q.y));
+      const double yb = std::clamp(hi, std::min(p.y, q.y), std::max(p.y, q.y));
+      xa = p.x + (ya - p.y) * slope;
+      xb = p.x + (yb - p.y) * slope;
+      if (xa > xb) std::swap(xa, xb);
+    }
+    xa -= pad_;
+    xb += pad_;
+    if (xb < x0_ || xa > right) continue;
+    const int64_t c0 = column(xa), c1 = column(xb);
+    for (int64_t c = c0; c <= c1; ++c) f(r * cols_ + c);
+  }
+}
+
+}  // namespace rv::sea

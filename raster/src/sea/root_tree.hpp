@@ -1,0 +1,90 @@
+// A static kd-tree over boxes with additive weights: the roots a path may leave from (seed sites,
+// bend nodes with their distance by sea), searched in increasing order of weight plus distance.
+//
+// Items are fixed at construction; each has a weight, +infinity (absent) until set. Subtree
+// minima are kept up to date by set_weight (O(log n)). nearest() visits items in increasing
+// order of a lower bound of weight + |x - box| and lets the caller stop.
+// Thread safety: const access (nearest) from any number of threads; set_weight is not.
+#pragma once
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <functional>
+#include <limits>
+#include <queue>
+#include <vector>
+
+#include "rv/field/seeds.hpp"
+
+namespace rv::sea {
+
+class RootTree {
+ public:
+  struct Box {
+    Vec2 lo, hi;
+  };
+  explicit RootTree(const std::vector<Box>& items);
+  RootTree() = default;
+
+  void set_weight(int32_t item, double weight);
+  double weight(int32_t item) const { return weight_[static_cast<size_t>(item)]; }
+
+  // Calls visit(item, bound) for present items in increasing order of bound (a lower bound of
+  // weight + the distance from x to the item's box, never above it) until visit returns false.
+  template <class F>
+  void nearest(Vec2 x, F&& visit) const;
+
+ private:
+  static constexpr int kLeaf = 8;
+  struct Node {
+    Box box;
+    double min_weight = std::numeric_limits<double>::infinity();
+    int32_t first = 0, count = 0;  // a leaf's items in order_
+    int32_t left = -1, right = -1, parent = -1;
+  };
+  int32_t build(int32_t first, int32_t count, int32_t parent, int depth, const std::vector<Box>& items);
+  static double box_distance(const Box& b, Vec2 x) {
+    const double dx = std::max({b.lo.x - x.x, 0.0, x.x - b.hi.x});
+    const double dy = std::max({b.lo.y - x.y, 0.0, x.y - b.hi.y});
+    return std::sqrt(dx * dx + dy * dy);
+  }
+
+  std::vector<Node> nodes_;
+  std::vector<int32_t> order_;  // items by leaf
+  std::vector<int32_t> leaf_;   // item -> its leaf node
+  std::vector<Box> boxes_;      // per item
+  std::vector<double> weight_;  // per item
+};
+
+template <class F>
+void RootTree::nearest(Vec2 x, F&& visit) const {
+  if (nodes_.empty()) return;
+  // Entries: (bound, node) for subtrees, (bound, -1 - item) for items.
+  using Entry = std::pair<double, int32_t>;
+  std::priority_queue<Entry, std::vector<Entry>, std::greater<Entry>> queue;
+  if (std::isfinite(nodes_[0].min_weight)) queue.emplace(nodes_[0].min_weight + box_distance(nodes_[0].box, x), 0);
+  while (!queue.empty()) {
+    const auto [bound, id] = queue.top();
+    queue.pop();
+    if (id < 0) {
+      if (!visit(-1 - id, bound)) return;
+      continue;
+    }
+    const Node& n = nodes_[static_cast<size_t>(id)];
+    if (n.left < 0) {
+      for (int32_t i = n.first; i < n.first + n.count; ++i) {
+        const int32_t item = order_[static_cast<size_t>(i)];
+        const double w = weight_[static_cast<size_t>(item)];
+        if (std::isfinite(w)) queue.emplace(w + box_distance(boxes_[static_cast<size_t>(item)], x), -1 - item);
+      }
+      continue;
+    }
+    for (int32_t child : {n.left, n.right}) {
+      const Node& c = nodes_[static_cast<size_t>(child)];
+      if (std::isfinite(c.min_weight)) queue.emplace(c.min_weight + box_distance(c.box, x), child);
+    }
+  }
+}
+
+}  // namespace rv::sea

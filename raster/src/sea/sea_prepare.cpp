@@ -1,0 +1,47 @@
+#include "sea/sea_prepare.hpp"
+
+#include "rv/field/error.hpp"
+#include "sea/orient.hpp"
+
+namespace rv::sea {
+
+Prepared prepare(const SeedSet& seeds, const Barriers& barriers, const GridSpec& grid) {
+  if (seeds.geometric_site_count() == 0) throw Error(ErrorKind::invalid_input, "the seeds have no sites");
+  if (seeds.adjusted())
+    throw Error(ErrorKind::unsupported,
+                "the distance by sea does not take weights or reaches yet: they change which seed a path may reach");
+  for (const Feature& f : seeds.features())
+    if (f.effect != 1.0) throw Error(ErrorKind::unsupported, "the distance by sea does not take partial effect yet");
+  Prepared p{Visibility(barriers.translated(Vec2{grid.xmin, grid.ymax})), to_local(seeds, grid), {}};
+  for (int32_t i = 0; i < static_cast<int32_t>(seeds.sites().size()); ++i) {
+    const Site& s = seeds.sites()[static_cast<size_t>(i)];
+    if (s.kind == SiteKind::area) continue;
+    p.geometric.push_back(i);
+    const LocalSite& l = p.local[static_cast<size_t>(i)];
+    for (Vec2 end : {Vec2{l.ax, l.ay}, Vec2{l.bx(), l.by()}})
+      if (p.vis.on_land(end))
+        throw Error(ErrorKind::invalid_input, "the seed " + seeds.feature_name(s.feature) +
+                                                  " has a vertex inside a barrier: a seed may lie on a barrier's "
+                                                  "boundary, not inside it");
+  }
+  return p;
+}
+
+std::vector<Node> bend_nodes(const Visibility& vis) {
+  std::vector<Node> nodes;
+  for (int32_t v = 0; v < vis.vertex_count(); ++v) {
+    const Visibility::Star& s = vis.vertex_star(v);
+    const int n = static_cast<int>(s.rays.size());
+    for (int k = 0; k < s.wedges(); ++k) {
+      if (!s.sea[static_cast<size_t>(k)]) continue;
+      // The wedge from ray k counter-clockwise to ray k + 1 is wider than a half-turn when that
+      // turn is clockwise (exactly a half-turn: collinear and opposite, not a bend).
+      const bool reflex =
+          n == 1 || orient(s.at, s.rays[static_cast<size_t>(k)], s.rays[static_cast<size_t>((k + 1) % n)]) < 0;
+      if (reflex) nodes.push_back(Node{v, k});
+    }
+  }
+  return nodes;
+}
+
+}  // namespace rv::sea

@@ -1,0 +1,62 @@
+// What every engine of the distance by sea starts from: the seeds and barriers in the grid's
+// local frame, checked; the nodes a shortest path may bend at; the value a path is compared by.
+#pragma once
+
+#include <atomic>
+#include <cmath>
+#include <limits>
+#include <tuple>
+#include <vector>
+
+#include "rv/field/planar.hpp"
+#include "rv/field/seeds.hpp"
+#include "rv/sea/sea_field.hpp"
+#include "rv/sea/visibility.hpp"
+
+namespace rv::sea {
+
+using Place = Visibility::Place;
+
+// A path's value: (distance, site, via); lower is better, ties to the lower site, then to a site
+// seen directly (via -1) before a vertex, then to the lower vertex.
+struct Best {
+  double d = std::numeric_limits<double>::infinity();
+  int32_t site = kNoSite;
+  int32_t via = kNoVia;
+  bool operator<(const Best& o) const { return std::tie(d, site, via) < std::tie(o.d, o.site, o.via); }
+};
+
+struct Prepared {
+  Visibility vis;
+  std::vector<LocalSite> local;
+  std::vector<int32_t> geometric;  // point and segment sites
+};
+
+// Checks the seeds (sites, no weights, reaches or partial effect, no vertex on land: rv::Error
+// naming the feature) and moves seeds and barriers to the grid's local frame.
+Prepared prepare(const SeedSet& seeds, const Barriers& barriers, const GridSpec& grid);
+
+// Where a shortest path may bend: a barrier vertex in a sea wedge wider than a half-turn. A taut
+// path turns round land, so it bends only where the sea's angle exceeds 180 degrees; elsewhere
+// it could be pulled straighter. (A line's end has one wedge all round, so it qualifies.)
+struct Node {
+  int32_t vertex;
+  int wedge;
+};
+std::vector<Node> bend_nodes(const Visibility& vis);
+
+// The nearest point of a site from x (the local frame), as planar_key measures it, marked
+// computed (not exact) where it is the foot of a perpendicular.
+inline Place nearest_point(const LocalSite& s, Vec2 x) {
+  double t = ((x.x - s.ax) * s.dx + (x.y - s.ay) * s.dy) * s.inv_len2;
+  t = std::clamp(t, 0.0, 1.0);
+  if (t == 0.0) return Place{Vec2{s.ax, s.ay}};
+  if (t == 1.0) return Place{Vec2{s.bx(), s.by()}};
+  Place p{Vec2{s.ax + t * s.dx, s.ay + t * s.dy}};
+  p.exact = false;
+  return p;
+}
+
+inline double length(Vec2 a, Vec2 b) { return std::sqrt((a.x - b.x) * (a.x - b.x) + (a.y - b.y) * (a.y - b.y)); }
+
+}  // namespace rv::sea
