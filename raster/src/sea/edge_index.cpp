@@ -37,14 +37,20 @@ EdgeIndex::EdgeIndex(const std::vector<Segment>& edges, const std::vector<Vec2>&
   const auto n = static_cast<size_t>(cols_ * rows_);
   // Counting pass, then filling (compressed rows).
   std::vector<uint32_t> count(n + 1, 0);
-  for (const Segment& e : edges) buckets(e.a, e.b, [&](int64_t b) { ++count[static_cast<size_t>(b)]; });
+  for (const Segment& e : edges)
+    buckets(e.a, e.b, [&](int64_t b) {
+      ++count[static_cast<size_t>(b)];
+      return true;
+    });
   edge_start_.assign(n + 1, 0);
   for (size_t i = 0; i < n; ++i) edge_start_[i + 1] = edge_start_[i] + count[i];
   edge_ids_.resize(edge_start_[n]);
   std::vector<uint32_t> at(edge_start_.begin(), edge_start_.end() - 1);
   for (size_t i = 0; i < edges.size(); ++i)
-    buckets(edges[i].a, edges[i].b,
-            [&](int64_t b) { edge_ids_[at[static_cast<size_t>(b)]++] = static_cast<int32_t>(i); });
+    buckets(edges[i].a, edges[i].b, [&](int64_t b) {
+      edge_ids_[at[static_cast<size_t>(b)]++] = static_cast<int32_t>(i);
+      return true;
+    });
   std::fill(count.begin(), count.end(), 0);
   auto bucket_of = [&](Vec2 v) { return static_cast<size_t>(row(v.y) * cols_ + column(v.x)); };
   for (const Vec2& v : vertices) ++count[bucket_of(v)];
@@ -60,6 +66,7 @@ void EdgeIndex::along(Vec2 p, Vec2 q, std::vector<int32_t>& edges, std::vector<i
     const auto i = static_cast<size_t>(b);
     edges.insert(edges.end(), edge_ids_.begin() + edge_start_[i], edge_ids_.begin() + edge_start_[i + 1]);
     vertices.insert(vertices.end(), vertex_ids_.begin() + vertex_start_[i], vertex_ids_.begin() + vertex_start_[i + 1]);
+    return true;
   });
 }
 

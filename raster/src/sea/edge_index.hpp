@@ -28,9 +28,20 @@ class EdgeIndex {
   // Appends the edges and vertices of every bucket the closed segment p-q may meet (each once
   // per bucket; the caller removes repeats when it needs to).
   void along(Vec2 p, Vec2 q, std::vector<int32_t>& edges, std::vector<int32_t>& vertices) const;
-  // The buckets a closed segment may meet, as indices, in row order.
+  // The buckets a closed segment may meet, as indices, from p's end towards q's (rows, then
+  // columns within a row); f returns false to stop the walk.
   template <class F>
   void buckets(Vec2 p, Vec2 q, F&& f) const;
+  // Calls f(edges, edge count, vertices, vertex count) bucket by bucket along p-q, from p's end,
+  // until it returns false.
+  template <class F>
+  void visit(Vec2 p, Vec2 q, F&& f) const {
+    buckets(p, q, [&](int64_t b) {
+      const auto i = static_cast<size_t>(b);
+      return f(edge_ids_.data() + edge_start_[i], edge_start_[i + 1] - edge_start_[i],
+               vertex_ids_.data() + vertex_start_[i], vertex_start_[i + 1] - vertex_start_[i]);
+    });
+  }
 
   int64_t bucket_count() const { return cols_ * rows_; }
 
@@ -50,8 +61,9 @@ void EdgeIndex::buckets(Vec2 p, Vec2 q, F&& f) const {
   const double ymin = std::min(p.y, q.y) - pad_, ymax = std::max(p.y, q.y) + pad_;
   const double top = y0_ + static_cast<double>(rows_) * size_, right = x0_ + static_cast<double>(cols_) * size_;
   if (ymax < y0_ || ymin > top || std::max(p.x, q.x) + pad_ < x0_ || std::min(p.x, q.x) - pad_ > right) return;
-  const int64_t r0 = row(ymin), r1 = row(ymax);
-  for (int64_t r = r0; r <= r1; ++r) {
+  const int64_t r_first = row(p.y <= q.y ? ymin : ymax), r_last = row(p.y <= q.y ? ymax : ymin);
+  const int64_t r_step = r_first <= r_last ? 1 : -1;
+  for (int64_t r = r_first;; r += r_step) {
     // The segment's x-range within this row of buckets (widened by the margin).
     const double lo = std::max(ymin, y0_ + static_cast<double>(r) * size_ - pad_);
     const double hi = std::min(ymax, y0_ + static_cast<double>(r + 1) * size_ + pad_);
@@ -69,9 +81,17 @@ void EdgeIndex::buckets(Vec2 p, Vec2 q, F&& f) const {
     }
     xa -= pad_;
     xb += pad_;
-    if (xb < x0_ || xa > right) continue;
-    const int64_t c0 = column(xa), c1 = column(xb);
-    for (int64_t c = c0; c <= c1; ++c) f(r * cols_ + c);
+    if (!(xb < x0_ || xa > right)) {
+      const int64_t c0 = column(xa), c1 = column(xb);
+      if (p.x <= q.x) {
+        for (int64_t c = c0; c <= c1; ++c)
+          if (!f(r * cols_ + c)) return;
+      } else {
+        for (int64_t c = c1; c >= c0; --c)
+          if (!f(r * cols_ + c)) return;
+      }
+    }
+    if (r == r_last) break;
   }
 }
 

@@ -27,6 +27,7 @@ using sea::Prepared;
 struct VertexDistances {
   std::vector<Node> nodes;
   std::vector<Best> dist;
+  std::vector<Vec2> from;  // where each node's path came from: its previous bend or its site's point
 };
 
 VertexDistances vertex_distances(const Prepared& p, std::atomic<int64_t>& tests) {
@@ -36,6 +37,7 @@ VertexDistances vertex_distances(const Prepared& p, std::atomic<int64_t>& tests)
   const std::vector<Node>& nodes = out.nodes;
   std::vector<Best>& dist = out.dist;
   dist.resize(nodes.size());
+  out.from.resize(nodes.size());
   // Each node's best site seen directly: the first seen in (key, site) order, as for cells.
   std::vector<std::pair<double, int32_t>> order;
   for (size_t n = 0; n < nodes.size(); ++n) {
@@ -48,6 +50,7 @@ VertexDistances vertex_distances(const Prepared& p, std::atomic<int64_t>& tests)
       ++tests;
       if (key == 0.0 || vis.sees(at, nearest_point(p.local[static_cast<size_t>(id)], at.at))) {
         dist[n] = Best{std::sqrt(key), id, kNoVia};
+        out.from[n] = key == 0.0 ? at.at : nearest_point(p.local[static_cast<size_t>(id)], at.at).at;
         break;
       }
     }
@@ -63,10 +66,13 @@ VertexDistances vertex_distances(const Prepared& p, std::atomic<int64_t>& tests)
     for (size_t n = 0; n < nodes.size(); ++n) {
       if (settled[n]) continue;
       const Place to = vis.at_vertex(nodes[n].vertex, nodes[n].wedge);
-      const Best c{dist[u].d + length(from.at, to.at), dist[u].site, kNoVia};
-      if (!(c < dist[n])) continue;
+      const Best c{dist[u].d + length(from.at, to.at), dist[u].site, nodes[u].vertex};
+      if (!(c < dist[n]) || !sea::taut(vis, nodes[u], out.from[u], to.at)) continue;
       ++tests;
-      if (vis.sees(from, to)) dist[n] = c;
+      if (vis.sees(from, to)) {
+        dist[n] = c;
+        out.from[n] = from.at;
+      }
     }
   }
   return out;
@@ -97,7 +103,7 @@ Best cell_value(const Prepared& p, const VertexDistances& vd, const Place& at,
     if (!std::isfinite(vd.dist[n].d)) continue;
     const Place v = p.vis.at_vertex(vd.nodes[n].vertex, vd.nodes[n].wedge);
     const Best c{vd.dist[n].d + length(v.at, x), vd.dist[n].site, vd.nodes[n].vertex};
-    if (!(c < best)) continue;
+    if (!(c < best) || !sea::taut(p.vis, vd.nodes[n], vd.from[n], x)) continue;
     ++asked;
     if (p.vis.sees(at, v)) best = c;
   }

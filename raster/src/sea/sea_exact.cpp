@@ -112,7 +112,9 @@ struct Searches {
 struct Bends {
   std::vector<Node> nodes;
   std::vector<Best> dist;
-  RootTree roots;  // weight: the node's distance once settled
+  std::vector<Vec2> from;  // where each node's path came from: its previous bend or its site's point
+  RootTree roots;          // weight: the node's distance once settled
+  int64_t evaluations = 0;
 };
 
 std::vector<RootTree::Box> node_boxes(const Visibility& vis, const std::vector<Node>& nodes) {
@@ -132,7 +134,7 @@ Best via_bends(const Prepared& p, const Bends& b, const Place& at, Best best, in
     if (n.vertex == skip_vertex) return true;
     const Best& d = b.dist[static_cast<size_t>(item)];
     const Best c{d.d + length(p.vis.vertex(n.vertex), at.at), d.site, n.vertex};
-    if (!(c < best)) return true;
+    if (!(c < best) || !sea::taut(p.vis, n, b.from[static_cast<size_t>(item)], at.at)) return true;
     ++tests;
     if (p.vis.sees(at, p.vis.at_vertex(n.vertex, n.wedge))) best = c;
     return true;
@@ -146,6 +148,7 @@ Bends settle_bends(const Prepared& p, const Searches& search, int64_t& tests, co
   b.nodes = sea::bend_nodes(vis);
   const size_t n = b.nodes.size();
   b.dist.assign(n, Best{});
+  b.from.assign(n, Vec2{});
   const std::vector<RootTree::Box> boxes = node_boxes(vis, b.nodes);
   b.roots = RootTree(boxes);
   RootTree open(boxes);  // weight: the key of a node not yet settled
@@ -190,6 +193,7 @@ Bends settle_bends(const Prepared& p, const Searches& search, int64_t& tests, co
     if (cancel && (++steps & 255) == 0 && cancel->load(std::memory_order_relaxed))
       throw Error(ErrorKind::cancelled, "computation cancelled");
     const Node& node = b.nodes[u];
+    ++b.evaluations;
     const Place at = vis.at_vertex(node.vertex, node.wedge);
     const Searches::Direct d = search.direct(at, tests);
     const Best val = via_bends(p, b, at, d.best, tests, node.vertex);
@@ -203,6 +207,10 @@ Bends settle_bends(const Prepared& p, const Searches& search, int64_t& tests, co
     if (val.d < bound || !std::isfinite(bound)) {
       settled[u] = 1;
       b.dist[u] = val;
+      if (val.via != kNoVia)
+        b.from[u] = vis.vertex(val.via);
+      else if (val.site != kNoSite)
+        b.from[u] = val.d == 0.0 ? at.at : nearest_point(p.local[static_cast<size_t>(val.site)], at.at).at;
       open.set_weight(i, std::numeric_limits<double>::infinity());
       if (std::isfinite(val.d)) {
         b.roots.set_weight(i, val.d);
@@ -228,6 +236,7 @@ SeaField compute_sea(const SeedSet& seeds, const Barriers& barriers, const GridS
   const Searches search(p);
   int64_t bend_tests = 0;
   const Bends bends = settle_bends(p, search, bend_tests, options.cancel);
+  const double bends_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 
   SeaField out;
   out.field.site = Raster<int32_t>(grid, window, kNoSite);
@@ -236,6 +245,7 @@ SeaField compute_sea(const SeedSet& seeds, const Barriers& barriers, const GridS
   out.via = Raster<int32_t>(grid, window, kNoVia);
   out.barrier_vertices = p.vis.vertex_count();
   out.bend_nodes = static_cast<int64_t>(bends.nodes.size());
+  out.bends_seconds = bends_seconds;
   const InteriorSpans interiors = build_interiors(seeds, grid, window);
   out.field.contested_cells = interiors.contested_cells;
   const double max_key = std::isfinite(options.max_distance) ? options.max_distance * options.max_distance
@@ -285,6 +295,8 @@ SeaField compute_sea(const SeedSet& seeds, const Barriers& barriers, const GridS
       options.progress(static_cast<double>(done) / static_cast<double>(window.height));
   });
   out.visibility_tests = bend_tests;
+  out.bend_tests = bend_tests;
+  out.bend_evaluations = bends.evaluations;
   for (const Tally& t : tally) {
     out.land_cells += t.land;
     out.unreachable_cells += t.unreachable;

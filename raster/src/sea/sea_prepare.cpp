@@ -44,4 +44,39 @@ std::vector<Node> bend_nodes(const Visibility& vis) {
   return nodes;
 }
 
+namespace {
+
+// Ranks of directions from `at` by their counter-clockwise angle from the direction of `a`:
+// whether the angle to d1 is less than the angle to d2 (a itself has angle 0).
+bool before(Vec2 at, Vec2 a, Vec2 d1, Vec2 d2) {
+  auto half = [&](Vec2 d) {
+    const int o = orient(at, a, d);
+    if (o > 0) return 0;
+    if (o < 0) return 1;
+    // On the line through a: angle 0 when in a's direction, else a half-turn.
+    const bool same = (d.x - at.x) * (a.x - at.x) + (d.y - at.y) * (a.y - at.y) > 0;
+    return same ? -1 : 1;
+  };
+  const int h1 = half(d1), h2 = half(d2);
+  if (h1 != h2) return h1 < h2;
+  if (h1 == -1) return false;
+  return orient(at, d1, d2) > 0;
+}
+
+}  // namespace
+
+bool taut(const Visibility& vis, const Node& node, Vec2 from, Vec2 x) {
+  const Visibility::Star& s = vis.vertex_star(node.vertex);
+  if (from == s.at) return true;
+  const int o = orient(s.at, from, x);
+  if (o == 0) return false;  // straight on, or straight back: no bend
+  // The land next to this wedge runs counter-clockwise from ray k + 1 to ray k; it lies in the
+  // counter-clockwise sweep from the arrival to the departure when its far ray (k) comes after
+  // the arrival's direction and no later than the departure's.
+  const int n = static_cast<int>(s.rays.size());
+  const Vec2 land_end = s.rays[static_cast<size_t>(node.wedge % n)];
+  const bool land_ccw = before(s.at, from, from, land_end) && !before(s.at, from, x, land_end);
+  return land_ccw ? o > 0 : o < 0;
+}
+
 }  // namespace rv::sea

@@ -45,6 +45,13 @@ struct Node {
 };
 std::vector<Node> bend_nodes(const Visibility& vis);
 
+// Whether a path that reached bend node `node` from `from` (its previous bend, or the point of
+// the site it left) may bend there towards x: the turn wraps round the land at the node (the
+// shorter way round from the arrival to the departure passes over the land), so that no path
+// straighter than it exists nearby. A path that starts at the node (from == the node: a seed
+// touches it) may leave in any direction. Necessary for a shortest path's bend; exact.
+bool taut(const Visibility& vis, const Node& node, Vec2 from, Vec2 x);
+
 // The nearest point of a site from x (the local frame), as planar_key measures it, marked
 // computed (not exact) where it is the foot of a perpendicular.
 inline Place nearest_point(const LocalSite& s, Vec2 x) {

@@ -237,25 +237,40 @@ bool Visibility::sees(const Place& from, const Place& to) const {
   }
   const double slack = to.exact ? 0.0 : end_slack(p, q);
   // A transversal crossing of any edge's interior: through a line, or into land.
-  std::vector<int32_t> near_edges, near_vertices;
-  candidates(p, q, near_edges, near_vertices);
-  for (int32_t id : near_edges) {
+  // Bucket by bucket from p: a crossing ends the search at once; the vertices on the path are
+  // gathered for what follows.
+  std::vector<int32_t> touches;
+  auto crossed = [&](int32_t id) {
     const Edge& e = edges_[static_cast<size_t>(id)];
     const int o1 = orient(p, q, e.a), o2 = orient(p, q, e.b);
-    if (o1 * o2 >= 0) continue;
+    if (o1 * o2 >= 0) return false;
     const int o3 = orient(e.a, e.b, p);
     int o4 = orient(e.a, e.b, q);
     if (o4 != 0 && slack > 0.0 && line_distance(e.a, e.b, q) <= slack) o4 = 0;
-    if (o3 * o4 < 0) return false;
-  }
-  // The barrier vertices the path touches between its ends, in order from p.
-  std::vector<int32_t> touches;
-  for (int32_t v : near_vertices) {
+    return o3 * o4 < 0;
+  };
+  auto touch = [&](int32_t v) {
     const Vec2 w = vertex(v);
-    if (orient(p, q, w) != 0 || !strictly_between(p, q, w)) continue;
-    if (slack > 0.0 && std::hypot(w.x - q.x, w.y - q.y) <= slack) continue;  // the end itself
+    if (orient(p, q, w) != 0 || !strictly_between(p, q, w)) return;
+    if (slack > 0.0 && std::hypot(w.x - q.x, w.y - q.y) <= slack) return;  // the end itself
     touches.push_back(v);
+  };
+  bool blocked = false;
+  if (index_) {
+    index_->buckets.visit(p, q, [&](const int32_t* edges, size_t ne, const int32_t* vertices, size_t nv) {
+      for (size_t i = 0; i < ne; ++i)
+        if (crossed(edges[i])) {
+          blocked = true;
+          return false;
+        }
+      for (size_t i = 0; i < nv; ++i) touch(vertices[i]);
+      return true;
+    });
+  } else {
+    for (int32_t id = 0; id < static_cast<int32_t>(edges_.size()) && !blocked; ++id) blocked = crossed(id);
+    for (int32_t v = 0; v < vertex_count() && !blocked; ++v) touch(v);
   }
+  if (blocked) return false;
   std::sort(touches.begin(), touches.end(), [&](int32_t a, int32_t b) { return along(vertex(a), q, vertex(b)) > 0; });
   // Which side of the path (left, right of p -> q) it may be nudged to: along a barrier edge the
   // side decides the wedge, and it cannot change while the path runs along edges.

@@ -401,8 +401,26 @@ TEST(SeaField, RandomArchipelagosExactEqualsTheReference) {
       continue;
     }
     ++rounds;
+    // Independently of both engines: the distance by sea is 1-Lipschitz along free paths, so
+    // neighbours that see each other differ by at most their distance apart (a bend wrongly
+    // left out would show as a jump).
+    const Visibility local(b);
     for (int64_t r = 0; r < g.height; ++r)
-      for (int64_t c = 0; c < g.width; ++c) via_cells += f.via.at(c, r) != kNoVia;
+      for (int64_t c = 0; c < g.width; ++c) {
+        via_cells += f.via.at(c, r) != kNoVia;
+        if (f.field.site.at(c, r) == kNoSite) continue;
+        for (int64_t dr = -1; dr <= 1; ++dr)
+          for (int64_t dc = -1; dc <= 1; ++dc) {
+            const int64_t r2 = r + dr, c2 = c + dc;
+            if (r2 < 0 || c2 < 0 || r2 >= g.height || c2 >= g.width || f.field.site.at(c2, r2) == kNoSite) continue;
+            const Vec2 x = centre(g, c, r), y = centre(g, c2, r2);
+            // A centre on a barrier line touches both sides; a path may not pass through it.
+            if (local.classify(y) != Visibility::Ground::open_sea) continue;
+            if (!local.sees(Visibility::Place{x}, Visibility::Place{y})) continue;
+            ASSERT_LE(f.field.distance.at(c, r), f.field.distance.at(c2, r2) + dist(x, y) + 1e-4)
+                << round << ": " << c << "," << r << " next to " << c2 << "," << r2;
+          }
+      }
   }
   EXPECT_GE(rounds, 5);
   EXPECT_GT(via_cells, 500);  // paths round land, not only straight ones

@@ -51,8 +51,11 @@ struct SeaField {
   int64_t unreachable_cells = 0;  // sea cells no seed reaches
   int32_t barrier_vertices = 0;   // distinct barrier vertices
   int64_t bend_nodes = 0;         // (vertex, sea wedge) pairs wider than a half-turn: where paths may bend
-  int64_t visibility_tests = 0;   // straight paths tested
+  int64_t visibility_tests = 0;   // straight paths tested, all told
+  int64_t bend_tests = 0;         // of which while settling the bend nodes
+  int64_t bend_evaluations = 0;   // the exact engine: bend nodes evaluated (a node may be more than once)
   double max_detour = 1.0;        // the largest path length over straight distance to the nearest site
+  double bends_seconds = 0.0;     // the exact engine: wall time settling the bend nodes
 };
 
 // How the exact engine runs. Progress in [0, 1] is called from worker threads, never

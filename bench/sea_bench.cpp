@@ -1,0 +1,126 @@
+// The distance by sea on a real coast: the western Baltic's land (fixtures/baltic_west.gpkg, four
+// states, about 7,300 vertices) as barriers, and ports on its coasts as seeds (every k-th coast
+// vertex, owned by its state), in UTM 33N with the planar metric. Times the straight exact field
+// of the same ports and grid against the exact engine of the distance by sea, alternating, and
+// prints medians, the engine's counts (bend nodes, visibility tests, land, unreachable cells,
+// largest detour) and the share of cells whose path bends.
+//
+//   sea_bench [--data fixtures/baltic_west.gpkg] [--ports 200] [--res 1000] [--runs 3] [--threads 0]
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <string>
+#include <vector>
+
+#include "rv/engine/engine.hpp"
+#include "rv/gdal/seed_reader.hpp"
+#include "rv/sea/sea_field.hpp"
+#include "rv/sea/visibility.hpp"
+
+using namespace rv;
+
+namespace {
+
+double median(std::vector<double> v) {
+  std::sort(v.begin(), v.end());
+  return v[v.size() / 2];
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  std::string data = "fixtures/baltic_west.gpkg";
+  int ports = 200, runs = 3, threads = 0;
+  double res = 1000.0;
+  for (int i = 1; i + 1 < argc; i += 2) {
+    const std::string a = argv[i];
+    if (a == "--data")
+      data = argv[i + 1];
+    else if (a == "--ports")
+      ports = std::atoi(argv[i + 1]);
+    else if (a == "--res")
+      res = std::atof(argv[i + 1]);
+    else if (a == "--runs")
+      runs = std::atoi(argv[i + 1]);
+    else if (a == "--threads")
+      threads = std::atoi(argv[i + 1]);
+    else {
+      std::fprintf(stderr, "sea_bench: unknown option %s\n", a.c_str());
+      return 2;
+    }
+  }
+  gdal_init();
+  SeedReadOptions read;
+  read.paths = {data};
+  read.owner_field = "iso2";
+  read.target_crs = "EPSG:32633";
+  read.on_conflict = ConflictPolicy::lower_code;
+  const LoadedSeeds land = load_seeds(read);
+
+  // The land as barriers; ports every k-th coast vertex that is not inside another state's land.
+  Barriers barriers;
+  int64_t coast_vertices = 0;
+  for (const Polygon& p : land.seeds.polygons()) {
+    barriers.add_polygon(p.rings, land.seeds.features()[static_cast<size_t>(p.feature)].source);
+    for (const Ring& r : p.rings) coast_vertices += static_cast<int64_t>(r.size());
+  }
+  const Visibility vis(barriers);
+  const int64_t step = std::max<int64_t>(1, coast_vertices / ports);
+  SeedSet seeds;
+  int64_t k = 0;
+  for (const Polygon& p : land.seeds.polygons()) {
+    const std::string& owner =
+        land.seeds.owner_labels()[static_cast<size_t>(land.seeds.features()[static_cast<size_t>(p.feature)].owner - 1)];
+    for (const Ring& r : p.rings)
+      for (const Vec2& v : r)
+        if (k++ % step == 0 && !vis.on_land(v) && seeds.features().size() < static_cast<size_t>(ports))
+          seeds.add_point(seeds.add_feature(seeds.owner_code(owner)), v);
+  }
+  const SeedSet::Box box = land.seeds.bounds();
+  const GridSpec grid = make_aligned_grid(box.xmin, box.ymin, box.xmax, box.ymax, res, "EPSG:32633");
+  std::printf("sea_bench: %s, %lld barrier vertices, %zu ports, grid %lld x %lld (%.2e cells) at %g m, threads %d\n",
+              data.c_str(), static_cast<long long>(coast_vertices), seeds.features().size(),
+              static_cast<long long>(grid.width), static_cast<long long>(grid.height),
+              static_cast<double>(grid.width * grid.height), res, threads);
+
+  ComputeOptions straight_options;
+  straight_options.threads = threads;
+  SeaOptions sea_options;
+  sea_options.threads = threads;
+  std::vector<double> straight_s, sea_s, bends_s;
+  SeaField last;
+  for (int run = 0; run < runs; ++run) {
+    auto t0 = std::chrono::steady_clock::now();
+    const NearestField straight = compute(seeds, grid, straight_options);
+    auto t1 = std::chrono::steady_clock::now();
+    last = compute_sea(seeds, barriers, grid, grid.full_window(), sea_options);
+    auto t2 = std::chrono::steady_clock::now();
+    straight_s.push_back(std::chrono::duration<double>(t1 - t0).count());
+    sea_s.push_back(std::chrono::duration<double>(t2 - t1).count());
+    bends_s.push_back(last.bends_seconds);
+    (void)straight;
+  }
+  int64_t bent = 0, sea_cells = 0;
+  for (int64_t r = 0; r < grid.height; ++r)
+    for (int64_t c = 0; c < grid.width; ++c) {
+      sea_cells += last.field.site.at(c, r) != kNoSite;
+      bent += last.via.at(c, r) != kNoVia;
+    }
+  const double cells = static_cast<double>(grid.width * grid.height);
+  std::printf("straight exact   median %.3f s (%.0f ns/cell)\n", median(straight_s), median(straight_s) / cells * 1e9);
+  std::printf("by sea, exact    median %.3f s (%.0f ns/cell), of which bend nodes %.3f s: %.1fx the straight field\n",
+              median(sea_s), median(sea_s) / cells * 1e9, median(bends_s), median(sea_s) / median(straight_s));
+  std::printf("bend nodes: %lld evaluations, %lld visibility tests\n", static_cast<long long>(last.bend_evaluations),
+              static_cast<long long>(last.bend_tests));
+  std::printf(
+      "bend nodes %lld of %d vertices; visibility tests %lld (%.1f per sea cell); land %lld, unreachable %lld; "
+      "cells whose path bends %.1f%%; largest detour %.3f\n",
+      static_cast<long long>(last.bend_nodes), last.barrier_vertices, static_cast<long long>(last.visibility_tests),
+      static_cast<double>(last.visibility_tests) / std::max<int64_t>(1, sea_cells),
+      static_cast<long long>(last.land_cells), static_cast<long long>(last.unreachable_cells),
+      100.0 * static_cast<double>(bent) / std::max<int64_t>(1, sea_cells), last.max_detour);
+  return 0;
+}
