@@ -42,15 +42,7 @@ int exact_sign(const std::array<double, N>& terms) {
 
 }  // namespace
 
-int orient(const Vec2& a, const Vec2& b, const Vec2& c) {
-  const double l = (b.x - a.x) * (c.y - a.y);
-  const double r = (b.y - a.y) * (c.x - a.x);
-  const double det = l - r;
-  // The rounded determinant's error is below (3 + 16 eps) eps (|l| + |r|) (Shewchuk 1997, the
-  // "ccwerrboundA" bound); the factor here is larger and safe.
-  const double bound = 4.0e-16 * (std::abs(l) + std::abs(r));
-  if (det > bound) return 1;
-  if (det < -bound) return -1;
+int orient_exact(const Vec2& a, const Vec2& b, const Vec2& c) {
   // Exact: each difference as hi + lo, each product of two such pairs as four exact products.
   double bxh, bxl, cyh, cyl, byh, byl, cxh, cxl;
   two_sum(b.x, -a.x, bxh, bxl);

@@ -8,11 +8,26 @@
 // Pure, thread-safe.
 #pragma once
 
+#include <cmath>
+
 #include "rv/field/seeds.hpp"
 
 namespace rv::sea {
 
-int orient(const Vec2& a, const Vec2& b, const Vec2& c);
+// The exact evaluation, for the calls the filter below cannot decide.
+int orient_exact(const Vec2& a, const Vec2& b, const Vec2& c);
+
+inline int orient(const Vec2& a, const Vec2& b, const Vec2& c) {
+  const double l = (b.x - a.x) * (c.y - a.y);
+  const double r = (b.y - a.y) * (c.x - a.x);
+  const double det = l - r;
+  // The rounded determinant's error is below (3 + 16 eps) eps (|l| + |r|) (Shewchuk 1997, the
+  // "ccwerrboundA" bound); the factor here is larger and safe.
+  const double bound = 4.0e-16 * (std::abs(l) + std::abs(r));
+  if (det > bound) return 1;
+  if (det < -bound) return -1;
+  return orient_exact(a, b, c);
+}
 
 // Where c lies on the line through a and b (orient(a, b, c) == 0 assumed), compared along the
 // line's dominant axis: -1 before a, 0 at a, +1 after a towards b (a != b). Exact.

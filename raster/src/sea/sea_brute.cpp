@@ -38,20 +38,17 @@ VertexDistances vertex_distances(const Prepared& p, std::atomic<int64_t>& tests)
   std::vector<Best>& dist = out.dist;
   dist.resize(nodes.size());
   out.from.resize(nodes.size());
-  // Each node's best site seen directly: the first seen in (key, site) order, as for cells.
-  std::vector<std::pair<double, int32_t>> order;
+  // Each node's best site seen directly, by (distance, site).
   for (size_t n = 0; n < nodes.size(); ++n) {
     const Place at = vis.at_vertex(nodes[n].vertex, nodes[n].wedge);
-    order.clear();
-    for (int32_t id : p.geometric)
-      order.emplace_back(planar_key(at.at.x, at.at.y, p.local[static_cast<size_t>(id)]), id);
-    std::sort(order.begin(), order.end());
-    for (const auto& [key, id] : order) {
+    for (int32_t id : p.geometric) {
+      const double key = planar_key(at.at.x, at.at.y, p.local[static_cast<size_t>(id)]);
+      const Best c{std::sqrt(key), id, kNoVia};
+      if (!(c < dist[n])) continue;
       ++tests;
       if (key == 0.0 || vis.sees(at, nearest_point(p.local[static_cast<size_t>(id)], at.at))) {
-        dist[n] = Best{std::sqrt(key), id, kNoVia};
+        dist[n] = c;
         out.from[n] = key == 0.0 ? at.at : nearest_point(p.local[static_cast<size_t>(id)], at.at).at;
-        break;
       }
     }
   }
@@ -89,13 +86,19 @@ Best cell_value(const Prepared& p, const VertexDistances& vd, const Place& at,
   k0 = order.front().first;
   Best best;
   straight = false;
+  // The straight field's answer when its nearest site (the lowest index at k0) is seen.
+  const int32_t nearest = order.front().second;
+  ++asked;
+  if (p.vis.sees(at, nearest_point(p.local[static_cast<size_t>(nearest)], x))) {
+    straight = true;
+    return Best{std::sqrt(k0), nearest, kNoVia};
+  }
+  // Else the best site seen, by (distance, site).
   for (const auto& [key, id] : order) {
+    const Best c{std::sqrt(key), id, kNoVia};
+    if (!(c < best)) continue;
     ++asked;
-    if (p.vis.sees(at, nearest_point(p.local[static_cast<size_t>(id)], x))) {
-      best = Best{std::sqrt(key), id, kNoVia};
-      straight = key == k0;
-      break;
-    }
+    if (p.vis.sees(at, nearest_point(p.local[static_cast<size_t>(id)], x))) best = c;
   }
   if (straight) return best;
   // Hidden: a path round the vertices may be shorter than any site seen directly.

@@ -40,12 +40,19 @@ using sea::RootTree;
 // search stops only when its bound is above the best by more than that.
 bool beyond(double bound, double best) { return bound > best + 1e-12 * best; }
 
+// The searches every evaluation runs: the straight nearest site, and the best path over the
+// sites seen and the bend nodes settled so far, in one tree ordered by weight plus distance.
 struct Searches {
   const Prepared& p;
   RootTree sites;                // the geometric sites by their boxes, weight 0
-  std::vector<int32_t> site_of;  // tree item -> site index
+  RootTree all;                  // the sites (items [0, S)), then the bend nodes (S + node), weighted once settled
+  std::vector<int32_t> site_of;  // site item -> site index
+  std::vector<Node> nodes;
+  std::vector<Best> dist;  // per node, once settled
+  std::vector<Vec2> from;  // where each node's path came from: its previous bend or its site's point
+  int64_t evaluations = 0;
 
-  explicit Searches(const Prepared& prepared) : p(prepared) {
+  explicit Searches(const Prepared& prepared) : p(prepared), nodes(sea::bend_nodes(prepared.vis)) {
     std::vector<RootTree::Box> boxes;
     for (int32_t id : p.geometric) {
       const LocalSite& s = p.local[static_cast<size_t>(id)];
@@ -54,109 +61,71 @@ struct Searches {
       site_of.push_back(id);
     }
     sites = RootTree(boxes);
-    for (size_t i = 0; i < boxes.size(); ++i) sites.set_weight(static_cast<int32_t>(i), 0.0);
+    for (const Node& n : nodes) boxes.push_back({p.vis.vertex(n.vertex), p.vis.vertex(n.vertex)});
+    all = RootTree(boxes);
+    for (size_t i = 0; i < site_of.size(); ++i) {
+      sites.set_weight(static_cast<int32_t>(i), 0.0);
+      all.set_weight(static_cast<int32_t>(i), 0.0);
+    }
+    dist.assign(nodes.size(), Best{});
+    from.assign(nodes.size(), Vec2{});
   }
+  int32_t site_items() const { return static_cast<int32_t>(site_of.size()); }
 
-  // The straight nearest key from x (k0), and the best site x sees by (key, site): the
-  // straight field's answer when its key is k0. Candidates arrive in order of their box's
-  // distance; one is final once a later box is farther than its own distance, so they are
-  // tested in (key, site) order and the search stops at the first seen.
-  struct Direct {
-    double k0 = std::numeric_limits<double>::infinity();
-    Best best;
-    bool straight = false;
-  };
-  Direct direct(const Place& at, int64_t& tests) const {
-    Direct out;
-    const Vec2 x = at.at;
-    using Candidate = std::pair<double, int32_t>;  // (key, site)
-    std::priority_queue<Candidate, std::vector<Candidate>, std::greater<Candidate>> waiting;
-    bool found = false;
-    auto test_first = [&] {
-      const auto [key, id] = waiting.top();
-      waiting.pop();
-      if (!std::isfinite(out.k0)) out.k0 = key;  // the first final candidate is the nearest
-      ++tests;
-      if (key == 0.0 || p.vis.sees(at, nearest_point(p.local[static_cast<size_t>(id)], x))) {
-        out.best = Best{std::sqrt(key), id, kNoVia};
-        out.straight = key == out.k0;
-        found = true;
-      }
-    };
+  // The straight field's nearest site from x: (k0, the lowest site index at k0).
+  std::pair<double, int32_t> straight(Vec2 x) const {
+    std::pair<double, int32_t> best{std::numeric_limits<double>::infinity(), kNoSite};
     sites.nearest(x, [&](int32_t item, double bound) {
-      while (!waiting.empty() && beyond(bound * bound, waiting.top().first)) {
-        test_first();
-        if (found) return false;
-      }
+      if (beyond(bound * bound, best.first)) return false;
       const int32_t id = site_of[static_cast<size_t>(item)];
-      waiting.emplace(planar_key(x.x, x.y, p.local[static_cast<size_t>(id)]), id);
+      best = std::min(best, {planar_key(x.x, x.y, p.local[static_cast<size_t>(id)]), id});
       return true;
     });
-    while (!found && !waiting.empty()) test_first();
-    return out;
+    return best;
   }
 
-  // The straight nearest distance from x: a lower bound of its distance by sea.
-  double straight(Vec2 x) const {
-    double k0 = std::numeric_limits<double>::infinity();
-    sites.nearest(x, [&](int32_t item, double bound) {
-      if (beyond(bound * bound, k0)) return false;
-      k0 = std::min(k0, planar_key(x.x, x.y, p.local[static_cast<size_t>(site_of[static_cast<size_t>(item)])]));
+  // The best path from `at` over the sites it sees and the settled bends it sees (taut there),
+  // if better than `best`; bends at `skip_vertex` are not roots (a path cannot turn from one
+  // wedge of a vertex into another).
+  Best best_path(const Place& at, Best best, int64_t& tests, int32_t skip_vertex = -1) const {
+    const Vec2 x = at.at;
+    all.nearest(x, [&](int32_t item, double bound) {
+      if (beyond(bound, best.d)) return false;
+      if (item < site_items()) {
+        const int32_t id = site_of[static_cast<size_t>(item)];
+        const double key = planar_key(x.x, x.y, p.local[static_cast<size_t>(id)]);
+        const Best c{std::sqrt(key), id, kNoVia};
+        if (!(c < best)) return true;
+        ++tests;
+        if (key == 0.0 || p.vis.sees(at, nearest_point(p.local[static_cast<size_t>(id)], x))) best = c;
+        return true;
+      }
+      const auto k = static_cast<size_t>(item - site_items());
+      const Node& n = nodes[k];
+      if (n.vertex == skip_vertex) return true;
+      const Best c{dist[k].d + length(p.vis.vertex(n.vertex), x), dist[k].site, n.vertex};
+      if (!(c < best) || !sea::taut(p.vis, n, from[k], x)) return true;
+      ++tests;
+      if (p.vis.sees(at, p.vis.at_vertex(n.vertex, n.wedge))) best = c;
       return true;
     });
-    return std::sqrt(k0);
+    return best;
   }
 };
 
-// The bend nodes with their distances, and a tree of the settled ones to search.
-struct Bends {
-  std::vector<Node> nodes;
-  std::vector<Best> dist;
-  std::vector<Vec2> from;  // where each node's path came from: its previous bend or its site's point
-  RootTree roots;          // weight: the node's distance once settled
-  int64_t evaluations = 0;
-};
-
-std::vector<RootTree::Box> node_boxes(const Visibility& vis, const std::vector<Node>& nodes) {
-  std::vector<RootTree::Box> boxes;
-  boxes.reserve(nodes.size());
-  for (const Node& n : nodes) boxes.push_back({vis.vertex(n.vertex), vis.vertex(n.vertex)});
-  return boxes;
-}
-
-// The best path from `at` over the settled bends it sees, if better than `best`; bends at
-// `skip_vertex` are not roots (a path cannot turn from one wedge of a vertex into another).
-Best via_bends(const Prepared& p, const Bends& b, const Place& at, Best best, int64_t& tests,
-               int32_t skip_vertex = -1) {
-  b.roots.nearest(at.at, [&](int32_t item, double bound) {
-    if (beyond(bound, best.d)) return false;
-    const Node& n = b.nodes[static_cast<size_t>(item)];
-    if (n.vertex == skip_vertex) return true;
-    const Best& d = b.dist[static_cast<size_t>(item)];
-    const Best c{d.d + length(p.vis.vertex(n.vertex), at.at), d.site, n.vertex};
-    if (!(c < best) || !sea::taut(p.vis, n, b.from[static_cast<size_t>(item)], at.at)) return true;
-    ++tests;
-    if (p.vis.sees(at, p.vis.at_vertex(n.vertex, n.wedge))) best = c;
-    return true;
-  });
-  return best;
-}
-
-Bends settle_bends(const Prepared& p, const Searches& search, int64_t& tests, const std::atomic<bool>* cancel) {
+void settle_bends(Searches& b, int64_t& tests, const std::atomic<bool>* cancel) {
+  const Prepared& p = b.p;
   const Visibility& vis = p.vis;
-  Bends b;
-  b.nodes = sea::bend_nodes(vis);
   const size_t n = b.nodes.size();
-  b.dist.assign(n, Best{});
-  b.from.assign(n, Vec2{});
-  const std::vector<RootTree::Box> boxes = node_boxes(vis, b.nodes);
-  b.roots = RootTree(boxes);
+  std::vector<RootTree::Box> boxes;
+  boxes.reserve(n);
+  for (const Node& node : b.nodes) boxes.push_back({vis.vertex(node.vertex), vis.vertex(node.vertex)});
   RootTree open(boxes);  // weight: the key of a node not yet settled
   std::vector<double> key(n);
   using Entry = std::pair<double, int32_t>;
   std::priority_queue<Entry, std::vector<Entry>, std::greater<Entry>> queue;
   for (size_t i = 0; i < n; ++i) {
-    key[i] = search.straight(vis.vertex(b.nodes[i].vertex));
+    key[i] = std::sqrt(b.straight(vis.vertex(b.nodes[i].vertex)).first);
     open.set_weight(static_cast<int32_t>(i), key[i]);
     queue.emplace(key[i], static_cast<int32_t>(i));
   }
@@ -195,8 +164,7 @@ Bends settle_bends(const Prepared& p, const Searches& search, int64_t& tests, co
     const Node& node = b.nodes[u];
     ++b.evaluations;
     const Place at = vis.at_vertex(node.vertex, node.wedge);
-    const Searches::Direct d = search.direct(at, tests);
-    const Best val = via_bends(p, b, at, d.best, tests, node.vertex);
+    const Best val = b.best_path(at, Best{}, tests, node.vertex);
     // The least a path through a node not yet settled can be: its key plus the way from it.
     double bound = std::numeric_limits<double>::infinity();
     open.nearest(at.at, [&](int32_t item, double lower) {
@@ -213,7 +181,7 @@ Bends settle_bends(const Prepared& p, const Searches& search, int64_t& tests, co
         b.from[u] = val.d == 0.0 ? at.at : nearest_point(p.local[static_cast<size_t>(val.site)], at.at).at;
       open.set_weight(i, std::numeric_limits<double>::infinity());
       if (std::isfinite(val.d)) {
-        b.roots.set_weight(i, val.d);
+        b.all.set_weight(b.site_items() + i, val.d);
         farthest = std::max(farthest, val.d);
       }
       continue;
@@ -224,7 +192,6 @@ Bends settle_bends(const Prepared& p, const Searches& search, int64_t& tests, co
     open.set_weight(i, key[u]);
     queue.emplace(key[u], i);
   }
-  return b;
 }
 
 }  // namespace
@@ -233,9 +200,9 @@ SeaField compute_sea(const SeedSet& seeds, const Barriers& barriers, const GridS
                      const SeaOptions& options) {
   const auto start = std::chrono::steady_clock::now();
   const Prepared p = sea::prepare(seeds, barriers, grid);
-  const Searches search(p);
+  Searches search(p);
   int64_t bend_tests = 0;
-  const Bends bends = settle_bends(p, search, bend_tests, options.cancel);
+  settle_bends(search, bend_tests, options.cancel);
   const double bends_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 
   SeaField out;
@@ -244,7 +211,7 @@ SeaField compute_sea(const SeedSet& seeds, const Barriers& barriers, const GridS
   out.field.metric = MetricSpec{};
   out.via = Raster<int32_t>(grid, window, kNoVia);
   out.barrier_vertices = p.vis.vertex_count();
-  out.bend_nodes = static_cast<int64_t>(bends.nodes.size());
+  out.bend_nodes = static_cast<int64_t>(search.nodes.size());
   out.bends_seconds = bends_seconds;
   const InteriorSpans interiors = build_interiors(seeds, grid, window);
   out.field.contested_cells = interiors.contested_cells;
@@ -263,9 +230,14 @@ SeaField compute_sea(const SeedSet& seeds, const Barriers& barriers, const GridS
     Tally& t = tally[static_cast<size_t>(worker)];
     const auto& spans = interiors.rows[static_cast<size_t>(r)];
     auto span = spans.begin();
+    const double y = grid.local_y(window.row0 + r);
+    std::vector<double> xs(static_cast<size_t>(window.width));
+    for (int64_t c = 0; c < window.width; ++c) xs[static_cast<size_t>(c)] = grid.local_x(window.col0 + c);
+    std::vector<Visibility::Ground> grounds(static_cast<size_t>(window.width));
+    p.vis.classify_row(y, xs.data(), window.width, grounds.data());
     for (int64_t c = 0; c < window.width; ++c) {
-      const Vec2 x{grid.local_x(window.col0 + c), grid.local_y(window.row0 + r)};
-      const Visibility::Ground ground = p.vis.classify(x);
+      const Vec2 x{xs[static_cast<size_t>(c)], y};
+      const Visibility::Ground ground = grounds[static_cast<size_t>(c)];
       if (ground == Visibility::Ground::land) {
         ++t.land;
         continue;
@@ -278,17 +250,20 @@ SeaField compute_sea(const SeedSet& seeds, const Barriers& barriers, const GridS
       }
       Place at{x};
       at.open = ground == Visibility::Ground::open_sea;
-      const Searches::Direct d = search.direct(at, t.tests);
-      const Best best = d.straight ? d.best : via_bends(p, bends, at, d.best, t.tests);
+      // The straight field's answer where its nearest site is seen; else the best path.
+      const auto [k0, nearest] = search.straight(x);
+      ++t.tests;
+      const bool straight = p.vis.sees(at, nearest_point(p.local[static_cast<size_t>(nearest)], x));
+      const Best best = straight ? Best{std::sqrt(k0), nearest, kNoVia} : search.best_path(at, Best{}, t.tests);
       if (best.site == kNoSite) {
         ++t.unreachable;
         continue;
       }
-      if (d.straight ? d.k0 > max_key : best.d > options.max_distance) continue;
+      if (straight ? k0 > max_key : best.d > options.max_distance) continue;
       out.field.site.at(c, r) = best.site;
       out.field.distance.at(c, r) = static_cast<float>(best.d);
       out.via.at(c, r) = best.via;
-      if (d.k0 > 0.0) t.detour = std::max(t.detour, best.d / std::sqrt(d.k0));
+      if (k0 > 0.0) t.detour = std::max(t.detour, best.d / std::sqrt(k0));
     }
     const int64_t done = rows_done.fetch_add(1) + 1;
     if (options.progress && (done * 100 / window.height) != ((done - 1) * 100 / window.height))
@@ -296,7 +271,7 @@ SeaField compute_sea(const SeedSet& seeds, const Barriers& barriers, const GridS
   });
   out.visibility_tests = bend_tests;
   out.bend_tests = bend_tests;
-  out.bend_evaluations = bends.evaluations;
+  out.bend_evaluations = search.evaluations;
   for (const Tally& t : tally) {
     out.land_cells += t.land;
     out.unreachable_cells += t.unreachable;

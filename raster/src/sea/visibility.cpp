@@ -218,6 +218,66 @@ Visibility::Ground Visibility::classify(Vec2 p) const {
   return s.rays.empty() ? Ground::open_sea : Ground::on_barrier;
 }
 
+void Visibility::classify_row(double y, const double* xs, int64_t n, Ground* out) const {
+  if (n <= 0) return;
+  std::vector<int32_t> near_edges, near_vertices;
+  candidates(Vec2{std::min(xs[0], -east_) - 1.0, y}, Vec2{std::max(xs[n - 1], east_) + 1.0, y}, near_edges,
+             near_vertices);
+  std::vector<uint8_t> on_barrier(static_cast<size_t>(n), 0);
+  // The centres a point of the row at x lies between: the index of the first centre at or
+  // beyond x (by the rounded x; the exact tests below correct it).
+  auto first_at = [&](double x) { return static_cast<int64_t>(std::lower_bound(xs, xs + n, x) - xs); };
+  auto mark_on = [&](int64_t i) { on_barrier[static_cast<size_t>(i)] = 1; };
+  // Per polygon met, the number of centres left of each of its crossings (half-open in y).
+  std::vector<std::pair<int32_t, int64_t>> splits;
+  for (int32_t id : near_edges) {
+    const Edge& e = edges_[static_cast<size_t>(id)];
+    const Vec2 a = e.a, b = e.b;
+    if (std::min(a.y, b.y) > y || std::max(a.y, b.y) < y) continue;
+    if (a.y == y && b.y == y) {  // along the row: the centres on it are on the barrier
+      for (int64_t i = first_at(std::min(a.x, b.x)); i < n && xs[i] <= std::max(a.x, b.x); ++i) mark_on(i);
+      continue;
+    }
+    const double x = a.x + (y - a.y) * (b.x - a.x) / (b.y - a.y);
+    const int64_t guess = first_at(x);
+    const bool counted = e.polygon >= 0 && (a.y > y) != (b.y > y);
+    const bool up = b.y > a.y;
+    auto left = [&](int64_t i) {  // centre i lies left of the edge's crossing of the row
+      const int o = orient(a, b, Vec2{xs[i], y});
+      if (o == 0) mark_on(i);
+      return up ? o > 0 : o < 0;
+    };
+    int64_t m = std::clamp<int64_t>(guess, 0, n);
+    while (m > 0 && !left(m - 1)) --m;
+    while (m < n && left(m)) ++m;
+    if (m < n) left(m);  // a centre exactly on the crossing is on the barrier
+    if (counted) splits.emplace_back(e.polygon, m);
+  }
+  for (int32_t v : near_vertices) {  // a centre at a vertex (also a peak the half-open rule skips)
+    const Vec2 w = vertex(v);
+    if (w.y != y) continue;
+    const int64_t i = first_at(w.x);
+    if (i < n && xs[i] == w.x) mark_on(i);
+  }
+  // Even-odd per polygon: between its 2k-th and (2k+1)-th crossing (in centres) is inside; land
+  // where any polygon is.
+  std::sort(splits.begin(), splits.end());
+  std::vector<int32_t> depth(static_cast<size_t>(n) + 1, 0);
+  for (size_t i = 0; i + 1 < splits.size(); ++i) {
+    if (splits[i].first != splits[i + 1].first) continue;
+    ++depth[static_cast<size_t>(splits[i].second)];
+    --depth[static_cast<size_t>(splits[i + 1].second)];
+    ++i;
+  }
+  int32_t inside = 0;
+  for (int64_t i = 0; i < n; ++i) {
+    inside += depth[static_cast<size_t>(i)];
+    out[i] = on_barrier[static_cast<size_t>(i)] ? classify(Vec2{xs[i], y})
+             : inside > 0                       ? Ground::land
+                                                : Ground::open_sea;
+  }
+}
+
 bool Visibility::sees(const Place& from, const Place& to) const {
   const Vec2 p = from.at, q = to.at;
   const int32_t pv = from.vertex >= 0 ? from.vertex : from.open ? -1 : vertex_at(p);
@@ -240,8 +300,12 @@ bool Visibility::sees(const Place& from, const Place& to) const {
   // Bucket by bucket from p: a crossing ends the search at once; the vertices on the path are
   // gathered for what follows.
   std::vector<int32_t> touches;
+  const double xlo = std::min(p.x, q.x), xhi = std::max(p.x, q.x), ylo = std::min(p.y, q.y), yhi = std::max(p.y, q.y);
   auto crossed = [&](int32_t id) {
     const Edge& e = edges_[static_cast<size_t>(id)];
+    if (std::max(e.a.x, e.b.x) < xlo || std::min(e.a.x, e.b.x) > xhi || std::max(e.a.y, e.b.y) < ylo ||
+        std::min(e.a.y, e.b.y) > yhi)
+      return false;
     const int o1 = orient(p, q, e.a), o2 = orient(p, q, e.b);
     if (o1 * o2 >= 0) return false;
     const int o3 = orient(e.a, e.b, p);

@@ -279,3 +279,44 @@ TEST(Visibility, IndexAnswersAsTheFullScan) {
 
 }  // namespace
 }  // namespace rv
+
+namespace rv {
+namespace {
+
+// A row at a time answers as a point at a time, also where centres fall on edges, vertices,
+// edges along the row, shared borders and lines.
+TEST(Visibility, RowsClassifyAsPoints) {
+  std::mt19937_64 rng(41);
+  std::uniform_int_distribution<int> coord(0, 30);
+  for (int round = 0; round < 8; ++round) {
+    Barriers b;
+    for (int k = 0; k < 12; ++k) {
+      const double x = coord(rng), y = coord(rng), w = 1 + coord(rng) % 6, h = 1 + coord(rng) % 6;
+      std::vector<Ring> rings{{{x, y}, {x + w, y}, {x + w, y + h}, {x + (k % 3), y + h + (k % 2)}}};
+      if (w > 3 && h > 3) rings.push_back({{x + 1, y + 1}, {x + 2, y + 1}, {x + 2, y + 2}});
+      b.add_polygon(rings, "island");
+    }
+    b.add_polygon({{{2, 2}, {4, 2}, {4, 4}, {2, 4}}}, "west");  // a shared border
+    b.add_polygon({{{4, 2}, {6, 2}, {6, 4}, {4, 4}}}, "east");
+    b.add_line(std::vector<Vec2>{{double(coord(rng)), double(coord(rng))}, {double(coord(rng)), 7.0}}, "line");
+    const Visibility v(b);
+    int64_t on = 0, land = 0;
+    for (double y = -0.5; y <= 32; y += 0.5) {
+      std::vector<double> xs;
+      for (double x = -1; x <= 32; x += 0.5) xs.push_back(x);
+      std::vector<Visibility::Ground> row(xs.size());
+      v.classify_row(y, xs.data(), static_cast<int64_t>(xs.size()), row.data());
+      for (size_t i = 0; i < xs.size(); ++i) {
+        const Visibility::Ground want = v.classify({xs[i], y});
+        ASSERT_EQ(static_cast<int>(row[i]), static_cast<int>(want)) << round << ": " << xs[i] << "," << y;
+        on += want == Visibility::Ground::on_barrier;
+        land += want == Visibility::Ground::land;
+      }
+    }
+    EXPECT_GT(on, 100);
+    EXPECT_GT(land, 100);
+  }
+}
+
+}  // namespace
+}  // namespace rv

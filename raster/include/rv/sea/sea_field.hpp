@@ -8,10 +8,10 @@
 // last leg ends at the nearest point of a site. A cell inside a seed polygon that is not land
 // has distance 0 (the half-open interior of rv/field/interior.hpp).
 //
-// Ties: a cell that sees a site at the straight nearest distance takes the straight field's
-// answer (the lowest site index among the nearest), bit for bit: the distance is the same
-// float, computed the same way. Otherwise candidates compare by (distance, site, vertex), a site
-// seen directly before any vertex. D(v) keeps the lowest site among equal paths, so a vertex
+// Ties: a cell that sees the straight field's nearest site (the lowest site index at the least
+// distance) takes the straight field's answer bit for bit: the distance is the same float,
+// computed the same way. Otherwise candidates compare by (distance, site, vertex), a site seen
+// directly before any vertex. D(v) keeps the lowest site among equal paths, so a vertex
 // equidistant from two owners hands the region behind it to the lower site, hence the lower
 // owner code, as every engine's tie rule does.
 //

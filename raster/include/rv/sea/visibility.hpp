@@ -85,6 +85,10 @@ class Visibility {
   // Land, open sea (sea on no barrier), or sea on a barrier's boundary. Exact.
   enum class Ground { land, open_sea, on_barrier };
   Ground classify(Vec2 p) const;
+  // classify() for the points (xs[i], y), i in [0, n), xs ascending (a row of cell centres),
+  // written to out: the same answers, in time proportional to the edges the row meets plus n
+  // (plus classify() for the few points on a barrier).
+  void classify_row(double y, const double* xs, int64_t n, Ground* out) const;
   // Whether the straight path from `from` to `to` is free, leaving `from` and reaching `to`
   // within their wedges where given. A path of length zero is free where its place is sea.
   bool sees(const Place& from, const Place& to) const;
