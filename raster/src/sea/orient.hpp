@@ -26,6 +26,10 @@ inline int orient(const Vec2& a, const Vec2& b, const Vec2& c) {
   const double bound = 4.0e-16 * (std::abs(l) + std::abs(r));
   if (det > bound) return 1;
   if (det < -bound) return -1;
+  // A difference of two doubles is zero exactly when they are equal, so a factor that rounds to
+  // zero is zero: both products are then exactly zero, and so is the determinant.
+  if ((b.x == a.x || c.y == a.y) && (b.y == a.y || c.x == a.x)) return 0;
+  if (c == b || c == a) return 0;  // a repeated point: common where a path ends at a vertex
   return orient_exact(a, b, c);
 }
 

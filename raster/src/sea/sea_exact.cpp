@@ -87,8 +87,23 @@ struct Searches {
   // The best path from `at` over the sites it sees and the settled bends it sees (taut there),
   // if better than `best`; bends at `skip_vertex` are not roots (a path cannot turn from one
   // wedge of a vertex into another).
-  Best best_path(const Place& at, Best best, int64_t& tests, int32_t skip_vertex = -1) const {
+  //
+  // `blockers` (one entry per item of `all`, or null): the edge that last blocked each root
+  // from a neighbouring point. A root still blocked by it is hidden at the cost of one crossing
+  // test instead of a walk along the path; the entries are hints, every answer is exact.
+  Best best_path(const Place& at, Best best, int64_t& tests, int32_t skip_vertex = -1,
+                 std::vector<int32_t>* blockers = nullptr) const {
     const Vec2 x = at.at;
+    auto seen = [&](int32_t item, const Place& to) {
+      if (blockers) {
+        int32_t& b = (*blockers)[static_cast<size_t>(item)];
+        if (b >= 0 && p.vis.crosses(b, at, to)) return false;
+        ++tests;
+        return p.vis.sees(at, to, &b);
+      }
+      ++tests;
+      return p.vis.sees(at, to);
+    };
     all.nearest(x, [&](int32_t item, double bound) {
       if (beyond(bound, best.d)) return false;
       if (item < site_items()) {
@@ -96,8 +111,7 @@ struct Searches {
         const double key = planar_key(x.x, x.y, p.local[static_cast<size_t>(id)]);
         const Best c{std::sqrt(key), id, kNoVia};
         if (!(c < best)) return true;
-        ++tests;
-        if (key == 0.0 || p.vis.sees(at, nearest_point(p.local[static_cast<size_t>(id)], x))) best = c;
+        if (key == 0.0 || seen(item, nearest_point(p.local[static_cast<size_t>(id)], x))) best = c;
         return true;
       }
       const auto k = static_cast<size_t>(item - site_items());
@@ -105,8 +119,7 @@ struct Searches {
       if (n.vertex == skip_vertex) return true;
       const Best c{dist[k].d + length(p.vis.vertex(n.vertex), x), dist[k].site, n.vertex};
       if (!(c < best) || !sea::taut(p.vis, n, from[k], x)) return true;
-      ++tests;
-      if (p.vis.sees(at, p.vis.at_vertex(n.vertex, n.wedge))) best = c;
+      if (seen(item, p.vis.at_vertex(n.vertex, n.wedge))) best = c;
       return true;
     });
     return best;
@@ -223,11 +236,16 @@ SeaField compute_sea(const SeedSet& seeds, const Barriers& barriers, const GridS
     double detour = 1.0;
   };
   std::vector<Tally> tally(static_cast<size_t>(workers));
+  // Per worker, the edge that last hid each root (see best_path): neighbouring cells are mostly
+  // hidden from the same roots by the same edges.
+  std::vector<std::vector<int32_t>> blockers(static_cast<size_t>(workers));
   std::atomic<int64_t> rows_done{0};
   detail::parallel_for(workers, window.height, [&](int64_t r, int worker) {
     if (options.cancel && options.cancel->load(std::memory_order_relaxed))
       throw Error(ErrorKind::cancelled, "computation cancelled");
     Tally& t = tally[static_cast<size_t>(worker)];
+    std::vector<int32_t>& hint = blockers[static_cast<size_t>(worker)];
+    if (hint.empty()) hint.assign(static_cast<size_t>(search.site_items()) + search.nodes.size(), -1);
     const auto& spans = interiors.rows[static_cast<size_t>(r)];
     auto span = spans.begin();
     const double y = grid.local_y(window.row0 + r);
@@ -254,7 +272,8 @@ SeaField compute_sea(const SeedSet& seeds, const Barriers& barriers, const GridS
       const auto [k0, nearest] = search.straight(x);
       ++t.tests;
       const bool straight = p.vis.sees(at, nearest_point(p.local[static_cast<size_t>(nearest)], x));
-      const Best best = straight ? Best{std::sqrt(k0), nearest, kNoVia} : search.best_path(at, Best{}, t.tests);
+      const Best best =
+          straight ? Best{std::sqrt(k0), nearest, kNoVia} : search.best_path(at, Best{}, t.tests, -1, &hint);
       if (best.site == kNoSite) {
         ++t.unreachable;
         continue;

@@ -75,7 +75,10 @@ bool taut(const Visibility& vis, const Node& node, Vec2 from, Vec2 x) {
   // the arrival's direction and no later than the departure's.
   const int n = static_cast<int>(s.rays.size());
   const Vec2 land_end = s.rays[static_cast<size_t>(node.wedge % n)];
-  const bool land_ccw = before(s.at, from, from, land_end) && !before(s.at, from, x, land_end);
+  const bool land_at_arrival =
+      orient(s.at, from, land_end) == 0 &&
+      (land_end.x - s.at.x) * (from.x - s.at.x) + (land_end.y - s.at.y) * (from.y - s.at.y) > 0;
+  const bool land_ccw = !land_at_arrival && !before(s.at, from, x, land_end);
   return land_ccw ? o > 0 : o < 0;
 }
 

@@ -278,7 +278,25 @@ void Visibility::classify_row(double y, const double* xs, int64_t n, Ground* out
   }
 }
 
-bool Visibility::sees(const Place& from, const Place& to) const {
+bool Visibility::crossing(const Edge& e, Vec2 p, Vec2 q, double slack) const {
+  if (std::max(e.a.x, e.b.x) < std::min(p.x, q.x) || std::min(e.a.x, e.b.x) > std::max(p.x, q.x) ||
+      std::max(e.a.y, e.b.y) < std::min(p.y, q.y) || std::min(e.a.y, e.b.y) > std::max(p.y, q.y))
+    return false;
+  const int o1 = orient(p, q, e.a), o2 = orient(p, q, e.b);
+  if (o1 * o2 >= 0) return false;
+  const int o3 = orient(e.a, e.b, p);
+  int o4 = orient(e.a, e.b, q);
+  if (o4 != 0 && slack > 0.0 && line_distance(e.a, e.b, q) <= slack) o4 = 0;
+  return o3 * o4 < 0;
+}
+
+bool Visibility::crosses(int32_t edge, const Place& from, const Place& to) const {
+  if (from.at == to.at) return false;
+  return crossing(edges_[static_cast<size_t>(edge)], from.at, to.at, to.exact ? 0.0 : end_slack(from.at, to.at));
+}
+
+bool Visibility::sees(const Place& from, const Place& to, int32_t* blocker) const {
+  if (blocker) *blocker = -1;
   const Vec2 p = from.at, q = to.at;
   const int32_t pv = from.vertex >= 0 ? from.vertex : from.open ? -1 : vertex_at(p);
   Star p_built;
@@ -300,18 +318,10 @@ bool Visibility::sees(const Place& from, const Place& to) const {
   // Bucket by bucket from p: a crossing ends the search at once; the vertices on the path are
   // gathered for what follows.
   std::vector<int32_t> touches;
-  const double xlo = std::min(p.x, q.x), xhi = std::max(p.x, q.x), ylo = std::min(p.y, q.y), yhi = std::max(p.y, q.y);
   auto crossed = [&](int32_t id) {
-    const Edge& e = edges_[static_cast<size_t>(id)];
-    if (std::max(e.a.x, e.b.x) < xlo || std::min(e.a.x, e.b.x) > xhi || std::max(e.a.y, e.b.y) < ylo ||
-        std::min(e.a.y, e.b.y) > yhi)
-      return false;
-    const int o1 = orient(p, q, e.a), o2 = orient(p, q, e.b);
-    if (o1 * o2 >= 0) return false;
-    const int o3 = orient(e.a, e.b, p);
-    int o4 = orient(e.a, e.b, q);
-    if (o4 != 0 && slack > 0.0 && line_distance(e.a, e.b, q) <= slack) o4 = 0;
-    return o3 * o4 < 0;
+    if (!crossing(edges_[static_cast<size_t>(id)], p, q, slack)) return false;
+    if (blocker) *blocker = id;
+    return true;
   };
   auto touch = [&](int32_t v) {
     const Vec2 w = vertex(v);

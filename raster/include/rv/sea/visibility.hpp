@@ -91,7 +91,13 @@ class Visibility {
   void classify_row(double y, const double* xs, int64_t n, Ground* out) const;
   // Whether the straight path from `from` to `to` is free, leaving `from` and reaching `to`
   // within their wedges where given. A path of length zero is free where its place is sea.
-  bool sees(const Place& from, const Place& to) const;
+  // `blocker`, when given: the edge whose crossing blocked the path, else -1 (free, or blocked
+  // otherwise: a wedge, a closed-off point).
+  bool sees(const Place& from, const Place& to, int32_t* blocker = nullptr) const;
+  // Whether edge `edge` (an index of the blocker sees() names) crosses the path from `from` to
+  // `to`, which it then blocks: a cheap proof that a path is blocked, for a blocker found on a
+  // neighbouring path. Exact, as sees().
+  bool crosses(int32_t edge, const Place& from, const Place& to) const;
 
  private:
   struct Edge {
@@ -100,6 +106,8 @@ class Visibility {
     int32_t polygon;  // its polygon (land on its left), or -1 for a line's edge
   };
   Star build_star(Vec2 p) const;
+  // A transversal crossing of the edge's interior by the open path p-q (`slack`: see Place::exact).
+  bool crossing(const Edge& e, Vec2 p, Vec2 q, double slack) const;
   // The edges and vertices a closed segment may meet: all of them without the index.
   void candidates(Vec2 p, Vec2 q, std::vector<int32_t>& edges, std::vector<int32_t>& vertices) const;
 
