@@ -34,6 +34,12 @@ class RootTree {
   // weight + the distance from x to the item's box, never above it) until visit returns false.
   template <class F>
   void nearest(Vec2 x, F&& visit) const;
+  // Depth first, nearer subtree first: calls visit(item, bound) for every present item whose
+  // bound is not above limit() (read again before each subtree and item, so the caller may
+  // lower it as it finds better). Without a priority queue: the cheaper search when the caller
+  // starts from a good limit.
+  template <class L, class F>
+  void within(Vec2 x, L&& limit, F&& visit) const;
 
  private:
   static constexpr int kLeaf = 8;
@@ -83,6 +89,39 @@ void RootTree::nearest(Vec2 x, F&& visit) const {
     for (int32_t child : {n.left, n.right}) {
       const Node& c = nodes_[static_cast<size_t>(child)];
       if (std::isfinite(c.min_weight)) queue.emplace(c.min_weight + box_distance(c.box, x), child);
+    }
+  }
+}
+
+template <class L, class F>
+void RootTree::within(Vec2 x, L&& limit, F&& visit) const {
+  if (nodes_.empty()) return;
+  int32_t stack[128];
+  int top = 0;
+  stack[top++] = 0;
+  while (top > 0) {
+    const Node& n = nodes_[static_cast<size_t>(stack[--top])];
+    if (!std::isfinite(n.min_weight) || n.min_weight + box_distance(n.box, x) > limit()) continue;
+    if (n.left < 0) {
+      for (int32_t i = n.first; i < n.first + n.count; ++i) {
+        const int32_t item = order_[static_cast<size_t>(i)];
+        const double w = weight_[static_cast<size_t>(item)];
+        if (!std::isfinite(w)) continue;
+        const double bound = w + box_distance(boxes_[static_cast<size_t>(item)], x);
+        if (bound <= limit()) visit(item, bound);
+      }
+      continue;
+    }
+    const Node& l = nodes_[static_cast<size_t>(n.left)];
+    const Node& r = nodes_[static_cast<size_t>(n.right)];
+    const double bl = l.min_weight + box_distance(l.box, x), br = r.min_weight + box_distance(r.box, x);
+    // The nearer child is searched first: pushed last.
+    if (bl <= br) {
+      stack[top++] = n.right;
+      stack[top++] = n.left;
+    } else {
+      stack[top++] = n.left;
+      stack[top++] = n.right;
     }
   }
 }

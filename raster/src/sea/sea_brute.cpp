@@ -121,16 +121,10 @@ SeaField brute_force_sea(const SeedSet& seeds, const Barriers& barriers, const G
   std::atomic<int64_t> tests{0};
   const VertexDistances vd = vertex_distances(p, tests);
 
-  SeaField out;
-  out.field.site = Raster<int32_t>(grid, window, kNoSite);
-  out.field.distance = Raster<float>(grid, window, kNoDistance);
-  out.field.metric = MetricSpec{};
-  out.via = Raster<int32_t>(grid, window, kNoVia);
-  out.barrier_vertices = p.vis.vertex_count();
+  SeaField out = sea::empty_field(p, grid, window);
   const InteriorSpans interiors = build_interiors(seeds, grid, window);
   out.field.contested_cells = interiors.contested_cells;
-  const double max_key =
-      std::isfinite(max_distance) ? max_distance * max_distance : std::numeric_limits<double>::infinity();
+  const double max_key = sea::max_key_of(max_distance);
   const int workers = resolve_threads(threads);
   std::vector<int64_t> land(static_cast<size_t>(workers), 0), unreachable(static_cast<size_t>(workers), 0);
   std::vector<double> detour(static_cast<size_t>(workers), 1.0);

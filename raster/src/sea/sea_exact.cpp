@@ -91,9 +91,13 @@ struct Searches {
   // `blockers` (one entry per item of `all`, or null): the edge that last blocked each root
   // from a neighbouring point. A root still blocked by it is hidden at the cost of one crossing
   // test instead of a walk along the path; the entries are hints, every answer is exact.
+  //
+  // `first` (an item of `all`, or -1): tried before the search (a neighbour's root), so that the
+  // search starts from a good limit.
   Best best_path(const Place& at, Best best, int64_t& tests, int32_t skip_vertex = -1,
-                 std::vector<int32_t>* blockers = nullptr) const {
+                 std::vector<int32_t>* blockers = nullptr, int32_t first = -1, int32_t* winner = nullptr) const {
     const Vec2 x = at.at;
+    int32_t won = -1;
     auto seen = [&](int32_t item, const Place& to) {
       if (blockers) {
         int32_t& b = (*blockers)[static_cast<size_t>(item)];
@@ -104,24 +108,32 @@ struct Searches {
       ++tests;
       return p.vis.sees(at, to);
     };
-    all.nearest(x, [&](int32_t item, double bound) {
-      if (beyond(bound, best.d)) return false;
+    auto consider = [&](int32_t item) {
       if (item < site_items()) {
         const int32_t id = site_of[static_cast<size_t>(item)];
         const double key = planar_key(x.x, x.y, p.local[static_cast<size_t>(id)]);
         const Best c{std::sqrt(key), id, kNoVia};
-        if (!(c < best)) return true;
-        if (key == 0.0 || seen(item, nearest_point(p.local[static_cast<size_t>(id)], x))) best = c;
-        return true;
+        if (!(c < best)) return;
+        if (key == 0.0 || seen(item, nearest_point(p.local[static_cast<size_t>(id)], x))) {
+          best = c;
+          won = item;
+        }
+        return;
       }
       const auto k = static_cast<size_t>(item - site_items());
       const Node& n = nodes[k];
-      if (n.vertex == skip_vertex) return true;
+      if (n.vertex == skip_vertex || !std::isfinite(dist[k].d)) return;
       const Best c{dist[k].d + length(p.vis.vertex(n.vertex), x), dist[k].site, n.vertex};
-      if (!(c < best) || !sea::taut(p.vis, n, from[k], x)) return true;
-      if (seen(item, p.vis.at_vertex(n.vertex, n.wedge))) best = c;
-      return true;
-    });
+      if (!(c < best) || !sea::taut(p.vis, n, from[k], x)) return;
+      if (seen(item, p.vis.at_vertex(n.vertex, n.wedge))) {
+        best = c;
+        won = item;
+      }
+    };
+    if (first >= 0 && std::isfinite(all.weight(first))) consider(first);
+    all.within(
+        x, [&] { return best.d + 1e-12 * best.d; }, [&](int32_t item, double) { consider(item); });
+    if (winner) *winner = won >= 0 ? won : first;
     return best;
   }
 };
@@ -218,18 +230,12 @@ SeaField compute_sea(const SeedSet& seeds, const Barriers& barriers, const GridS
   settle_bends(search, bend_tests, options.cancel);
   const double bends_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 
-  SeaField out;
-  out.field.site = Raster<int32_t>(grid, window, kNoSite);
-  out.field.distance = Raster<float>(grid, window, kNoDistance);
-  out.field.metric = MetricSpec{};
-  out.via = Raster<int32_t>(grid, window, kNoVia);
-  out.barrier_vertices = p.vis.vertex_count();
+  SeaField out = sea::empty_field(p, grid, window);
   out.bend_nodes = static_cast<int64_t>(search.nodes.size());
   out.bends_seconds = bends_seconds;
   const InteriorSpans interiors = build_interiors(seeds, grid, window);
   out.field.contested_cells = interiors.contested_cells;
-  const double max_key = std::isfinite(options.max_distance) ? options.max_distance * options.max_distance
-                                                             : std::numeric_limits<double>::infinity();
+  const double max_key = sea::max_key_of(options.max_distance);
   const int workers = resolve_threads(options.threads);
   struct Tally {
     int64_t land = 0, unreachable = 0, tests = 0;
@@ -245,6 +251,7 @@ SeaField compute_sea(const SeedSet& seeds, const Barriers& barriers, const GridS
       throw Error(ErrorKind::cancelled, "computation cancelled");
     Tally& t = tally[static_cast<size_t>(worker)];
     std::vector<int32_t>& hint = blockers[static_cast<size_t>(worker)];
+    int32_t last = -1;  // the root of the row's previous bent cell
     if (hint.empty()) hint.assign(static_cast<size_t>(search.site_items()) + search.nodes.size(), -1);
     const auto& spans = interiors.rows[static_cast<size_t>(r)];
     auto span = spans.begin();
@@ -272,8 +279,8 @@ SeaField compute_sea(const SeedSet& seeds, const Barriers& barriers, const GridS
       const auto [k0, nearest] = search.straight(x);
       ++t.tests;
       const bool straight = p.vis.sees(at, nearest_point(p.local[static_cast<size_t>(nearest)], x));
-      const Best best =
-          straight ? Best{std::sqrt(k0), nearest, kNoVia} : search.best_path(at, Best{}, t.tests, -1, &hint);
+      const Best best = straight ? Best{std::sqrt(k0), nearest, kNoVia}
+                                 : search.best_path(at, Best{}, t.tests, -1, &hint, last, &last);
       if (best.site == kNoSite) {
         ++t.unreachable;
         continue;

@@ -27,6 +27,16 @@ Prepared prepare(const SeedSet& seeds, const Barriers& barriers, const GridSpec&
   return p;
 }
 
+SeaField empty_field(const Prepared& p, const GridSpec& grid, const Window& window) {
+  SeaField out;
+  out.field.site = Raster<int32_t>(grid, window, kNoSite);
+  out.field.distance = Raster<float>(grid, window, kNoDistance);
+  out.field.metric = MetricSpec{};
+  out.via = Raster<int32_t>(grid, window, kNoVia);
+  out.barrier_vertices = p.vis.vertex_count();
+  return out;
+}
+
 std::vector<Node> bend_nodes(const Visibility& vis) {
   std::vector<Node> nodes;
   for (int32_t v = 0; v < vis.vertex_count(); ++v) {

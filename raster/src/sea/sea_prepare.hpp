@@ -64,6 +64,13 @@ inline Place nearest_point(const LocalSite& s, Vec2 x) {
   return p;
 }
 
+// An empty field of the window (no owner anywhere) with the barriers' vertex count, and the
+// straight key a maximum distance allows (+infinity for none).
+SeaField empty_field(const Prepared& p, const GridSpec& grid, const Window& window);
+inline double max_key_of(double max_distance) {
+  return std::isfinite(max_distance) ? max_distance * max_distance : std::numeric_limits<double>::infinity();
+}
+
 inline double length(Vec2 a, Vec2 b) { return std::sqrt((a.x - b.x) * (a.x - b.x) + (a.y - b.y) * (a.y - b.y)); }
 
 }  // namespace rv::sea

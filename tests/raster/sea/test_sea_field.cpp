@@ -334,6 +334,40 @@ TEST(SeaField, PortsOnTheCoastAndAnEnclosedLagoon) {
   EXPECT_EQ(g2.unreachable_cells, 40 * 40 - 400);
 }
 
+TEST(SeaField, MaximumDistanceCutsPathsNotStraightLines) {
+  // Behind the wall a cell's path is longer than its straight distance: the limit cuts the path.
+  SeedSet s = points({{"a", {10.3, 20.6}}, {"b", {33.2, 8.7}}});
+  Barriers walls;
+  walls.add_line(std::vector<Vec2>{{20, 10}, {20, 30}}, "wall");
+  const GridSpec g = test::grid_of(40, 40);
+  const SeaField all = compute_sea(s, walls, g, g.full_window());
+  SeaOptions limited;
+  limited.max_distance = 15.0;
+  const SeaField cut = compute_sea(s, walls, g, g.full_window(), limited);
+  const SeaField reference = brute_force_sea(s, walls, g, g.full_window(), 15.0);
+  int64_t kept = 0, dropped = 0, dropped_by_path = 0;
+  for (int64_t r = 0; r < g.height; ++r)
+    for (int64_t c = 0; c < g.width; ++c) {
+      ASSERT_EQ(cut.field.site.at(c, r), reference.field.site.at(c, r));
+      ASSERT_EQ(cut.field.distance.at(c, r), reference.field.distance.at(c, r));
+      const float d = all.field.distance.at(c, r);
+      if (d <= 15.0f) {
+        ++kept;
+        ASSERT_EQ(cut.field.site.at(c, r), all.field.site.at(c, r));
+        ASSERT_EQ(cut.field.distance.at(c, r), d);
+      } else {
+        ++dropped;
+        ASSERT_EQ(cut.field.site.at(c, r), kNoSite);
+        ASSERT_EQ(cut.field.distance.at(c, r), kNoDistance);
+        const Vec2 x = centre(g, c, r);
+        dropped_by_path += std::min(dist(x, {10.3, 20.6}), dist(x, {33.2, 8.7})) <= 15.0;
+      }
+    }
+  EXPECT_GT(kept, 300);
+  EXPECT_GT(dropped, 300);
+  EXPECT_GT(dropped_by_path, 10);  // within 15 in a straight line, beyond it by sea
+}
+
 TEST(SeaField, Refusals) {
   Barriers b;
   b.add_polygon({{{10, 10}, {20, 10}, {20, 20}, {10, 20}}}, "land.gpkg:coast:fid 3");
