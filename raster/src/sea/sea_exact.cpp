@@ -221,18 +221,41 @@ void settle_bends(Searches& b, int64_t& tests, const std::atomic<bool>* cancel) 
 
 }  // namespace
 
+class PreparedSea {
+ public:
+  PreparedSea(const SeedSet& seeds, const Barriers& barriers, const GridSpec& grid, const SeaOptions& options)
+      : prepared(sea::prepare(seeds, barriers, grid)), search(prepared) {
+    const auto start = std::chrono::steady_clock::now();
+    settle_bends(search, bend_tests, options.cancel);
+    bends_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  }
+  PreparedSea(const PreparedSea&) = delete;
+  PreparedSea& operator=(const PreparedSea&) = delete;
+
+  const Prepared prepared;
+  Searches search;  // refers to `prepared`: the object is never moved
+  int64_t bend_tests = 0;
+  double bends_seconds = 0.0;
+};
+
+std::shared_ptr<const PreparedSea> prepare_sea(const SeedSet& seeds, const Barriers& barriers, const GridSpec& grid,
+                                               const SeaOptions& options) {
+  return std::make_shared<const PreparedSea>(seeds, barriers, grid, options);
+}
+
 SeaField compute_sea(const SeedSet& seeds, const Barriers& barriers, const GridSpec& grid, const Window& window,
                      const SeaOptions& options) {
   const auto start = std::chrono::steady_clock::now();
-  const Prepared p = sea::prepare(seeds, barriers, grid);
-  Searches search(p);
-  int64_t bend_tests = 0;
-  settle_bends(search, bend_tests, options.cancel);
-  const double bends_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  const bool shared = options.prepared != nullptr;
+  const std::shared_ptr<const PreparedSea> prepared =
+      shared ? options.prepared : prepare_sea(seeds, barriers, grid, options);
+  const Prepared& p = prepared->prepared;
+  const Searches& search = prepared->search;
+  const int64_t bend_tests = shared ? 0 : prepared->bend_tests;
 
   SeaField out = sea::empty_field(p, grid, window);
   out.bend_nodes = static_cast<int64_t>(search.nodes.size());
-  out.bends_seconds = bends_seconds;
+  out.bends_seconds = shared ? 0.0 : prepared->bends_seconds;
   const InteriorSpans interiors = build_interiors(seeds, grid, window);
   out.field.contested_cells = interiors.contested_cells;
   const double max_key = sea::max_key_of(options.max_distance);
@@ -297,7 +320,7 @@ SeaField compute_sea(const SeedSet& seeds, const Barriers& barriers, const GridS
   });
   out.visibility_tests = bend_tests;
   out.bend_tests = bend_tests;
-  out.bend_evaluations = search.evaluations;
+  out.bend_evaluations = shared ? 0 : search.evaluations;
   for (const Tally& t : tally) {
     out.land_cells += t.land;
     out.unreachable_cells += t.unreachable;

@@ -462,3 +462,50 @@ TEST(SeaField, RandomArchipelagosExactEqualsTheReference) {
 
 }  // namespace
 }  // namespace rv
+
+namespace rv {
+namespace {
+
+// Strips of one grid computed one after the other on one preparation give the whole field (a
+// streamed job's way), and the bend nodes are settled once.
+TEST(SeaField, StripsOfOnePreparationMakeTheWholeField) {
+  Barriers b;
+  b.add_polygon({{{10, 10}, {30, 10}, {30, 30}, {10, 30}}, {{15, 15}, {25, 15}, {25, 25}, {15, 25}}}, "atoll");
+  b.add_line(std::vector<Vec2>{{33, 2}, {36, 20}}, "boom");
+  SeedSet s = points({{"lagoon", {20, 15}}, {"outside", {20, 10}}, {"east", {38.5, 9.5}}});
+  const GridSpec g = test::grid_of(40, 40);
+  const SeaField whole = compute_sea(s, b, g, g.full_window());
+  SeaOptions o;
+  o.prepared = prepare_sea(s, b, g);
+  int64_t land = 0;
+  for (int64_t row0 = 0; row0 < g.height; row0 += 13) {
+    const Window w{0, row0, g.width, std::min<int64_t>(13, g.height - row0)};
+    const SeaField strip = compute_sea(s, b, g, w, o);
+    EXPECT_EQ(strip.bends_seconds, 0.0);
+    EXPECT_EQ(strip.bend_tests, 0);
+    land += strip.land_cells;
+    for (int64_t r = 0; r < w.height; ++r)
+      for (int64_t c = 0; c < w.width; ++c) {
+        ASSERT_EQ(strip.field.site.at(c, r), whole.field.site.at(c, row0 + r));
+        ASSERT_EQ(strip.field.distance.at(c, r), whole.field.distance.at(c, row0 + r));
+        ASSERT_EQ(strip.via.at(c, r), whole.via.at(c, row0 + r));
+      }
+  }
+  EXPECT_EQ(land, whole.land_cells);
+  EXPECT_GT(whole.bend_tests, 0);
+  // Any number of threads gives the same field (the per-thread hints change the work only).
+  for (int threads : {1, 3}) {
+    SeaOptions t;
+    t.threads = threads;
+    const SeaField f = compute_sea(s, b, g, g.full_window(), t);
+    for (int64_t r = 0; r < g.height; ++r)
+      for (int64_t c = 0; c < g.width; ++c) {
+        ASSERT_EQ(f.field.site.at(c, r), whole.field.site.at(c, r));
+        ASSERT_EQ(f.field.distance.at(c, r), whole.field.distance.at(c, r));
+        ASSERT_EQ(f.via.at(c, r), whole.via.at(c, r));
+      }
+  }
+}
+
+}  // namespace
+}  // namespace rv

@@ -28,6 +28,7 @@
 #include <cstdint>
 #include <functional>
 #include <limits>
+#include <memory>
 
 #include "rv/engine/engine.hpp"
 #include "rv/field/grid.hpp"
@@ -61,18 +62,31 @@ struct SeaField {
 // How the exact engine runs. Progress in [0, 1] is called from worker threads, never
 // concurrently... at most about 100 times; when `cancel` becomes true the engine throws
 // rv::Error(cancelled).
+class PreparedSea;  // see prepare_sea() below
+
 struct SeaOptions {
   double max_distance = std::numeric_limits<double>::infinity();  // metric units
   int threads = 0;                                                // 0: every hardware thread
   const std::atomic<bool>* cancel = nullptr;
   std::function<void(double)> progress;
+  // Optional: what prepare_sea() made for these seeds, barriers and grid. Windows of one grid
+  // computed one after the other (a streamed job's strips) share it instead of settling the
+  // bend nodes again; the field then reports bends_seconds 0 and bend_tests 0.
+  std::shared_ptr<const PreparedSea> prepared;
 };
+
+// The part of compute_sea that does not depend on the window: the checked seeds and barriers,
+// the bend nodes and their distances by sea. Throws as compute_sea. Immutable; shared by any
+// number of computations at once.
+std::shared_ptr<const PreparedSea> prepare_sea(const SeedSet& seeds, const Barriers& barriers, const GridSpec& grid,
+                                               const SeaOptions& options = {});
 
 // The exact engine: the same field as brute_force_sea (owners and vias cell for cell; distances
 // to the last bit of the float but where two paths tie to rounding), with every search ordered by
 // a lower bound: bend nodes settled by a Dijkstra that finds each node's last bend in a tree of
 // the settled ones rather than over a visibility graph, and cells searched the same way. Throws
-// as brute_force_sea, and rv::Error(cancelled).
+// as brute_force_sea, and rv::Error(cancelled). With options.prepared, `seeds`, `barriers` and
+// `grid` must be those it was prepared for (the interiors are read from `seeds`).
 SeaField compute_sea(const SeedSet& seeds, const Barriers& barriers, const GridSpec& grid, const Window& window,
                      const SeaOptions& options = {});
 
