@@ -16,12 +16,8 @@
 namespace rv {
 namespace {
 
-using sea::Best;
-using sea::length;
-using sea::nearest_point;
-using sea::Node;
-using sea::Place;
-using sea::Prepared;
+// The engines' shared parts (sea/sea_prepare.hpp, sea/root_tree.hpp).
+using namespace ::rv::sea;
 
 // D(v) per bend node, by Dijkstra over the full visibility graph.
 struct VertexDistances {

@@ -28,13 +28,8 @@
 namespace rv {
 namespace {
 
-using sea::Best;
-using sea::length;
-using sea::nearest_point;
-using sea::Node;
-using sea::Place;
-using sea::Prepared;
-using sea::RootTree;
+// The engines' shared parts (sea/sea_prepare.hpp, sea/root_tree.hpp).
+using namespace ::rv::sea;
 
 // A bound may exceed the value it bounds by rounding (a box's distance against a segment's): a
 // search stops only when its bound is above the best by more than that.
