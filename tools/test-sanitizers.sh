@@ -7,7 +7,8 @@
 #      against 37 s, one after the other on the project's 2-core VM), and it evaluates arguments
 #      left to right where GCC goes right to left, so the main build (GCC) and this stage see both
 #      orders (clang's ASan found a use-after-free that GCC's order hid);
-#   2. the libFuzzer targets of tests/fuzz, each run for RV_FUZZ_SECONDS (default 20) from its
+#   2. the libFuzzer targets of tests/fuzz, each run for RV_FUZZ_SECONDS (default 15: twelve
+#      targets, three minutes, kept so since CI neared its hour) from its
 #      seed corpus in tests/fuzz/corpus/<target>/. A crash, sanitizer report, leak or timeout
 #      fails CI; the input is kept under build-asan/fuzz-artifacts/ to reproduce with
 #      `build-asan/tests/fuzz/<target> <file>`.
@@ -22,7 +23,7 @@ cd "$(dirname "$0")/.."
 bash tools/setup.sh --sanitizers
 jobs=$(nproc)
 stages=${RV_SANITIZER_STAGES:-asan fuzz}
-fuzz_seconds=${RV_FUZZ_SECONDS:-20}
+fuzz_seconds=${RV_FUZZ_SECONDS:-15}
 root=$PWD
 
 stamp() { date +%s; }
