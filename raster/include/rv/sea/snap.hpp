@@ -1,0 +1,32 @@
+// Seeds on the coast: a port surveyed a few metres inland, or a coast line digitised against
+// another source's land, is moved onto the barriers' boundary rather than refused.
+//
+// Every seed vertex (points, line and polygon vertices) that lies on land (rv/sea/visibility.hpp)
+// within `tolerance` (the seeds' CRS units; metres where projected) of the sea is moved to the
+// nearest point of the barriers' boundary, then, where rounding left that point on land, a few
+// units in the last place further out, until it is sea. The same position everywhere it occurs
+// (a polygon's ring and its edges' sites) moves alike, so features stay closed. A vertex farther
+// inside land than `tolerance` is rv::Error(invalid_input) naming the feature and how deep it
+// lies. A segment whose ends are sea but which crosses land is left as it is (a line seed may
+// cross a headland; its distances are measured from its nearest points that a path reaches).
+//
+// Pure; the barriers are in the seeds' frame. Cost: O(E) per vertex on land, nothing for the
+// others beyond the land test.
+#pragma once
+
+#include <cstdint>
+
+#include "rv/field/seeds.hpp"
+#include "rv/sea/barriers.hpp"
+
+namespace rv {
+
+struct SnappedSeeds {
+  SeedSet seeds;
+  int64_t moved = 0;        // distinct positions moved
+  double largest_move = 0;  // the farthest any moved (seeds' CRS units)
+};
+
+SnappedSeeds snap_to_sea(const SeedSet& seeds, const Barriers& barriers, double tolerance);
+
+}  // namespace rv

@@ -1,0 +1,88 @@
+#include "rv/sea/snap.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <map>
+#include <utility>
+
+#include "rv/field/error.hpp"
+#include "rv/sea/visibility.hpp"
+
+namespace rv {
+namespace {
+
+// The nearest point of segment a-b to p.
+Vec2 foot(Vec2 a, Vec2 b, Vec2 p) {
+  const double dx = b.x - a.x, dy = b.y - a.y;
+  const double len2 = dx * dx + dy * dy;
+  double t = len2 > 0.0 ? ((p.x - a.x) * dx + (p.y - a.y) * dy) / len2 : 0.0;
+  t = std::clamp(t, 0.0, 1.0);
+  return Vec2{a.x + t * dx, a.y + t * dy};
+}
+
+double length(Vec2 a, Vec2 b) { return std::hypot(a.x - b.x, a.y - b.y); }
+
+}  // namespace
+
+SnappedSeeds snap_to_sea(const SeedSet& seeds, const Barriers& barriers, double tolerance) {
+  SnappedSeeds out;
+  if (!(tolerance >= 0.0) || !std::isfinite(tolerance))
+    throw Error(ErrorKind::invalid_argument, "the snapping tolerance must be a finite number of metres, 0 or more");
+  const Visibility vis(barriers);
+  std::map<std::pair<double, double>, Vec2> moved;  // position -> where it goes
+  auto place = [&](Vec2 v, int32_t feature) -> Vec2 {
+    const auto key = std::make_pair(v.x, v.y);
+    if (const auto it = moved.find(key); it != moved.end()) return it->second;
+    if (!vis.on_land(v)) return v;
+    // The nearest point of every barrier polygon's boundary (lines have no inside to leave).
+    Vec2 best = v;
+    double best_d = std::numeric_limits<double>::infinity();
+    for (const Barriers::Polygon& p : barriers.polygons())
+      for (const Ring& r : p.rings)
+        for (size_t i = 0; i < r.size(); ++i) {
+          const Vec2 f = foot(r[i], r[(i + 1) % r.size()], v);
+          const double d = length(f, v);
+          if (d < best_d) {
+            best_d = d;
+            best = f;
+          }
+        }
+    if (!(best_d <= tolerance))
+      throw Error(ErrorKind::invalid_input,
+                  "the seed " + seeds.feature_name(feature) + " lies " + std::to_string(best_d) +
+                      " inside a barrier (more than the snapping tolerance of " + std::to_string(tolerance) +
+                      "): a seed may lie on a barrier's boundary");
+    // Onto the boundary; where rounding left the point on land, out along the same direction by
+    // growing steps of a unit in the last place until it is sea.
+    Vec2 to = best;
+    const double dx = best.x - v.x, dy = best.y - v.y, len = std::hypot(dx, dy);
+    const double ulp = std::numeric_limits<double>::epsilon() * std::max({std::abs(best.x), std::abs(best.y), 1e-300});
+    for (double step = ulp; vis.on_land(to) && step < 1e6 * ulp; step *= 2.0)
+      to = len > 0.0 ? Vec2{best.x + dx / len * step, best.y + dy / len * step} : Vec2{best.x + step, best.y};
+    if (vis.on_land(to))
+      throw Error(ErrorKind::internal, "the seed " + seeds.feature_name(feature) + " could not be moved off land");
+    moved.emplace(key, to);
+    ++out.moved;
+    out.largest_move = std::max(out.largest_move, length(to, v));
+    return to;
+  };
+  std::vector<Site> sites = seeds.sites();
+  for (Site& s : sites) {
+    if (s.kind == SiteKind::area) continue;
+    s.a = place(s.a, s.feature);
+    s.b = s.kind == SiteKind::point ? s.a : place(s.b, s.feature);
+  }
+  std::vector<Polygon> polygons = seeds.polygons();
+  for (Polygon& p : polygons)
+    for (Ring& r : p.rings)
+      for (Vec2& v : r) v = place(v, p.feature);
+  if (out.moved == 0) {
+    out.seeds = seeds;
+    return out;
+  }
+  out.seeds = SeedSet::from_parts(std::move(sites), std::move(polygons), seeds.features(), seeds.owner_labels());
+  return out;
+}
+
+}  // namespace rv

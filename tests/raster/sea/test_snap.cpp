@@ -1,0 +1,104 @@
+// Seeds on the coast: vertices on land within the tolerance move onto the coast and end at sea;
+// deeper ones are refused by name; the rest is untouched.
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "rv/field/error.hpp"
+#include "rv/sea/sea_field.hpp"
+#include "rv/sea/snap.hpp"
+#include "rv/sea/visibility.hpp"
+#include "seed_gen.hpp"
+
+namespace rv {
+namespace {
+
+// Land below a diagonal coast from (0.1, 0.3) to (40.7, 21.9) (not axis-parallel: the nearest
+// points on it are rounded).
+Barriers diagonal_land() {
+  Barriers b;
+  b.add_polygon({{{0.1, 0.3}, {40.7, 21.9}, {40.7, -10}, {0.1, -10}}}, "land.gpkg:land:fid 1");
+  return b;
+}
+
+// A point `depth` inland, square to the coast, at fraction t along it.
+Vec2 inland(double t, double depth) {
+  const Vec2 a{0.1, 0.3}, e{40.7, 21.9};
+  const double len = std::hypot(e.x - a.x, e.y - a.y);
+  return {a.x + t * (e.x - a.x) + depth * (e.y - a.y) / len, a.y + t * (e.y - a.y) - depth * (e.x - a.x) / len};
+}
+
+TEST(Snap, PortsJustInlandMoveOntoTheCoast) {
+  const Barriers land = diagonal_land();
+  const Visibility vis(land);
+  SeedSet s;
+  const Vec2 port = inland(0.37, 0.3), sea_port{12.5, 30.25};
+  ASSERT_TRUE(vis.on_land(port));
+  s.add_point(s.add_feature(s.owner_code("A"), "ports.gpkg:ports:fid 4"), port);
+  s.add_point(s.add_feature(s.owner_code("B"), "ports.gpkg:ports:fid 5"), sea_port);
+  const SnappedSeeds snapped = snap_to_sea(s, land, 1.0);
+  EXPECT_EQ(snapped.moved, 1);
+  EXPECT_NEAR(snapped.largest_move, 0.3, 1e-9);
+  const Vec2 now = snapped.seeds.sites()[0].a;
+  EXPECT_FALSE(vis.on_land(now));
+  EXPECT_EQ(snapped.seeds.sites()[1].a, sea_port);  // at sea: untouched
+  // The moved port serves the sea in front of it.
+  const GridSpec g = test::grid_of(40, 40, 1.0, 0.0, 40.0);
+  const SeaField f = compute_sea(snapped.seeds, land, g, g.full_window());
+  int64_t owned = 0;
+  for (int64_t r = 0; r < g.height; ++r)
+    for (int64_t c = 0; c < g.width; ++c) owned += f.field.site.at(c, r) == 0;
+  EXPECT_GT(owned, 50);
+  // Unsnapped, the port is refused.
+  EXPECT_THROW(compute_sea(s, land, g, g.full_window()), Error);
+}
+
+TEST(Snap, DeeperThanTheToleranceIsRefusedByName) {
+  SeedSet s;
+  s.add_point(s.add_feature(s.owner_code("A"), "ports.gpkg:ports:fid 4"), inland(0.5, 2.0));
+  try {
+    snap_to_sea(s, diagonal_land(), 1.0);
+    FAIL() << "a port 2 inland was moved with a tolerance of 1";
+  } catch (const Error& e) {
+    EXPECT_EQ(e.kind(), ErrorKind::invalid_input);
+    EXPECT_NE(std::string(e.what()).find("ports.gpkg:ports:fid 4"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("inside a barrier"), std::string::npos) << e.what();
+  }
+  EXPECT_THROW(snap_to_sea(s, diagonal_land(), -1.0), Error);
+}
+
+TEST(Snap, ALineMovesAsOneAndStaysConnected) {
+  // A coast line digitised a little inland: every vertex moves, shared ends alike.
+  const Barriers land = diagonal_land();
+  const Visibility vis(land);
+  SeedSet s;
+  const int32_t f = s.add_feature(s.owner_code("coast"), "coast.gpkg:coast:fid 2");
+  s.add_polyline(f, std::vector<Vec2>{inland(0.2, 0.05), inland(0.3, 0.2), inland(0.45, 0.1), inland(0.6, 0.0)});
+  const SnappedSeeds snapped = snap_to_sea(s, land, 0.5);
+  EXPECT_EQ(snapped.moved, 3);  // the last vertex is on the coast already (or rounds to sea)
+  const auto& sites = snapped.seeds.sites();
+  ASSERT_EQ(sites.size(), 3u);
+  for (size_t i = 0; i < sites.size(); ++i) {
+    EXPECT_FALSE(vis.on_land(sites[i].a));
+    EXPECT_FALSE(vis.on_land(sites[i].b));
+    if (i > 0) EXPECT_EQ(sites[i].a, sites[i - 1].b);
+  }
+  EXPECT_LE(snapped.largest_move, 0.2 + 1e-9);
+}
+
+TEST(Snap, NothingOnLandNothingMoves) {
+  SeedSet s;
+  s.add_point(s.add_feature(s.owner_code("A")), {5.5, 30.5});
+  s.add_polygon(s.add_feature(s.owner_code("B")), {{{20, 30}, {25, 30}, {25, 35}}});
+  const SnappedSeeds snapped = snap_to_sea(s, diagonal_land(), 1.0);
+  EXPECT_EQ(snapped.moved, 0);
+  EXPECT_EQ(snapped.largest_move, 0.0);
+  ASSERT_EQ(snapped.seeds.sites().size(), s.sites().size());
+  for (size_t i = 0; i < s.sites().size(); ++i) {
+    EXPECT_EQ(snapped.seeds.sites()[i].a, s.sites()[i].a);
+    EXPECT_EQ(snapped.seeds.sites()[i].b, s.sites()[i].b);
+  }
+}
+
+}  // namespace
+}  // namespace rv
