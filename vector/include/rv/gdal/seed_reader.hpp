@@ -32,6 +32,7 @@
 
 #include "rv/edit/feature_parts.hpp"
 #include "rv/field/seeds.hpp"
+#include "rv/sea/barriers.hpp"
 
 namespace rv {
 
@@ -332,5 +333,23 @@ using FeaturePartsOf = std::function<const std::vector<FeaturePart>&(int32_t fea
 std::vector<BorderSliver> check_edited_features(const SeedSet& seeds, const std::vector<int32_t>& features,
                                                 const FeaturePartsOf& parts_of, const std::string& crs_wkt,
                                                 ConflictPolicy policy, double border_tolerance);
+
+}  // namespace rv
+
+namespace rv {
+
+// Barriers for the distance by sea (rv/sea/barriers.hpp), read as seeds are read: the same
+// formats, confinement, limits, reprojection into options.target_crs and normalisation
+// (invalid polygons repaired), with every feature a barrier of its own: owner_field and the
+// adjustment fields are ignored, and barriers may overlap and cross freely (land polygons that
+// share a border, a boom across a bay). Polygons become land; lines, barrier lines (rebuilt from
+// their segments, one line per run of connected segments). A point feature is
+// rv::Error(invalid_input) naming it: a point bars no path. Throws as load_seeds otherwise.
+struct LoadedBarriers {
+  Barriers barriers;
+  CrsInfo crs;
+  SeedReadReport report;
+};
+LoadedBarriers load_barriers(const SeedReadOptions& options);
 
 }  // namespace rv
