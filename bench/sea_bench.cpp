@@ -5,13 +5,18 @@
 // prints medians, the engine's counts (bend nodes, visibility tests, land, unreachable cells,
 // largest detour) and the share of cells whose path bends.
 //
-//   sea_bench [--data fixtures/baltic_west.gpkg] [--ports 200] [--res 1000] [--runs 3] [--threads 0]
+//   sea_bench [--data fixtures/baltic_west.gpkg | --wiggly N] [--ports 200] [--res 1000] [--runs 3] [--threads 0]
+//
+// --wiggly N: instead of the fixture, a synthetic archipelago of nine fractal-like islands of
+// N vertices in all (each island's radius a sum of random harmonics), over the fixture's box in
+// UTM 33N, four owners: how the engine's time grows with the coast's vertex count.
 #include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <random>
 #include <string>
 #include <vector>
 
@@ -24,6 +29,21 @@ using namespace rv;
 
 namespace {
 
+// A closed ring round (cx, cy) of n vertices whose radius is a sum of random harmonics.
+Ring wiggly_ring(double cx, double cy, double radius, int n, std::mt19937_64& rng) {
+  std::uniform_real_distribution<double> phase(0.0, 2.0 * M_PI);
+  std::vector<std::pair<double, double>> harmonics;  // (k, phase)
+  for (int k = 2; k <= 256; k *= 2) harmonics.emplace_back(k, phase(rng));
+  Ring ring;
+  for (int i = 0; i < n; ++i) {
+    const double t = 2.0 * M_PI * i / n;
+    double r = 1.0;
+    for (const auto& [k, ph] : harmonics) r += 0.25 / std::sqrt(k) * std::sin(k * t + ph) / 2.0;
+    ring.push_back({cx + radius * r * std::cos(t), cy + radius * r * std::sin(t)});
+  }
+  return ring;
+}
+
 double median(std::vector<double> v) {
   std::sort(v.begin(), v.end());
   return v[v.size() / 2];
@@ -33,12 +53,14 @@ double median(std::vector<double> v) {
 
 int main(int argc, char** argv) {
   std::string data = "fixtures/baltic_west.gpkg";
-  int ports = 200, runs = 3, threads = 0;
+  int ports = 200, runs = 3, threads = 0, wiggly = 0;
   double res = 1000.0;
   for (int i = 1; i + 1 < argc; i += 2) {
     const std::string a = argv[i];
     if (a == "--data")
       data = argv[i + 1];
+    else if (a == "--wiggly")
+      wiggly = std::atoi(argv[i + 1]);
     else if (a == "--ports")
       ports = std::atoi(argv[i + 1]);
     else if (a == "--res")
@@ -52,34 +74,45 @@ int main(int argc, char** argv) {
       return 2;
     }
   }
-  gdal_init();
-  SeedReadOptions read;
-  read.paths = {data};
-  read.owner_field = "iso2";
-  read.target_crs = "EPSG:32633";
-  read.on_conflict = ConflictPolicy::lower_code;
-  const LoadedSeeds land = load_seeds(read);
-
+  SeedSet land_seeds;
+  if (wiggly > 0) {
+    std::mt19937_64 rng(7);
+    for (int i = 0; i < 9; ++i) {
+      const int32_t f = land_seeds.add_feature(land_seeds.owner_code(std::string(1, static_cast<char>('A' + i % 4))),
+                                               "island " + std::to_string(i + 1));
+      land_seeds.add_polygon(
+          f, {wiggly_ring(330000 + 130000 * (i % 3), 6020000 + 90000 * (i / 3), 38000, wiggly / 9, rng)});
+    }
+    data = "synthetic archipelago";
+  } else {
+    gdal_init();
+    SeedReadOptions read;
+    read.paths = {data};
+    read.owner_field = "iso2";
+    read.target_crs = "EPSG:32633";
+    read.on_conflict = ConflictPolicy::lower_code;
+    land_seeds = load_seeds(read).seeds;
+  }
   // The land as barriers; ports every k-th coast vertex that is not inside another state's land.
   Barriers barriers;
   int64_t coast_vertices = 0;
-  for (const Polygon& p : land.seeds.polygons()) {
-    barriers.add_polygon(p.rings, land.seeds.features()[static_cast<size_t>(p.feature)].source);
+  for (const Polygon& p : land_seeds.polygons()) {
+    barriers.add_polygon(p.rings, land_seeds.features()[static_cast<size_t>(p.feature)].source);
     for (const Ring& r : p.rings) coast_vertices += static_cast<int64_t>(r.size());
   }
   const Visibility vis(barriers);
   const int64_t step = std::max<int64_t>(1, coast_vertices / ports);
   SeedSet seeds;
   int64_t k = 0;
-  for (const Polygon& p : land.seeds.polygons()) {
+  for (const Polygon& p : land_seeds.polygons()) {
     const std::string& owner =
-        land.seeds.owner_labels()[static_cast<size_t>(land.seeds.features()[static_cast<size_t>(p.feature)].owner - 1)];
+        land_seeds.owner_labels()[static_cast<size_t>(land_seeds.features()[static_cast<size_t>(p.feature)].owner - 1)];
     for (const Ring& r : p.rings)
       for (const Vec2& v : r)
         if (k++ % step == 0 && !vis.on_land(v) && seeds.features().size() < static_cast<size_t>(ports))
           seeds.add_point(seeds.add_feature(seeds.owner_code(owner)), v);
   }
-  const SeedSet::Box box = land.seeds.bounds();
+  const SeedSet::Box box = land_seeds.bounds();
   const GridSpec grid = make_aligned_grid(box.xmin, box.ymin, box.xmax, box.ymax, res, "EPSG:32633");
   std::printf("sea_bench: %s, %lld barrier vertices, %zu ports, grid %lld x %lld (%.2e cells) at %g m, threads %d\n",
               data.c_str(), static_cast<long long>(coast_vertices), seeds.features().size(),

@@ -5,7 +5,10 @@
 namespace rv::sea {
 
 RootTree::RootTree(const std::vector<Box>& items)
-    : leaf_(items.size(), -1), boxes_(items), weight_(items.size(), std::numeric_limits<double>::infinity()) {
+    : leaf_(items.size(), -1),
+      boxes_(items),
+      weight_(items.size(), std::numeric_limits<double>::infinity()),
+      stamp_(items.size(), 0) {
   if (items.empty()) return;
   order_.resize(items.size());
   for (size_t i = 0; i < items.size(); ++i) order_[i] = static_cast<int32_t>(i);
@@ -50,8 +53,10 @@ int32_t RootTree::build(int32_t first, int32_t count, int32_t parent, int depth,
 
 void RootTree::set_weight(int32_t item, double weight) {
   weight_[static_cast<size_t>(item)] = weight;
+  const uint64_t stamp = stamp_[static_cast<size_t>(item)] = ++clock_;
   for (int32_t n = leaf_[static_cast<size_t>(item)]; n >= 0; n = nodes_[static_cast<size_t>(n)].parent) {
     Node& node = nodes_[static_cast<size_t>(n)];
+    node.max_stamp = stamp;  // the newest: every subtree above holds it
     double m = std::numeric_limits<double>::infinity();
     if (node.left < 0) {
       for (int32_t i = node.first; i < node.first + node.count; ++i)
@@ -60,7 +65,6 @@ void RootTree::set_weight(int32_t item, double weight) {
       m = std::min(nodes_[static_cast<size_t>(node.left)].min_weight,
                    nodes_[static_cast<size_t>(node.right)].min_weight);
     }
-    if (m == node.min_weight) break;  // nothing above changes
     node.min_weight = m;
   }
 }

@@ -27,7 +27,9 @@ class RootTree {
   explicit RootTree(const std::vector<Box>& items);
   RootTree() = default;
 
+  // Sets an item's weight and stamps it with the tree's next stamp (1, 2, ...).
   void set_weight(int32_t item, double weight);
+  uint64_t stamp() const { return clock_; }  // the last stamp given
   double weight(int32_t item) const { return weight_[static_cast<size_t>(item)]; }
 
   // Calls visit(item, bound) for present items in increasing order of bound (a lower bound of
@@ -38,14 +40,16 @@ class RootTree {
   // bound is not above limit() (read again before each subtree and item, so the caller may
   // lower it as it finds better). Without a priority queue: the cheaper search when the caller
   // starts from a good limit.
+  // `since`: only items stamped after it (0: all).
   template <class L, class F>
-  void within(Vec2 x, L&& limit, F&& visit) const;
+  void within(Vec2 x, L&& limit, F&& visit, uint64_t since = 0) const;
 
  private:
   static constexpr int kLeaf = 8;
   struct Node {
     Box box;
     double min_weight = std::numeric_limits<double>::infinity();
+    uint64_t max_stamp = 0;
     int32_t first = 0, count = 0;  // a leaf's items in order_
     int32_t left = -1, right = -1, parent = -1;
   };
@@ -57,10 +61,12 @@ class RootTree {
   }
 
   std::vector<Node> nodes_;
-  std::vector<int32_t> order_;  // items by leaf
-  std::vector<int32_t> leaf_;   // item -> its leaf node
-  std::vector<Box> boxes_;      // per item
-  std::vector<double> weight_;  // per item
+  std::vector<int32_t> order_;   // items by leaf
+  std::vector<int32_t> leaf_;    // item -> its leaf node
+  std::vector<Box> boxes_;       // per item
+  std::vector<double> weight_;   // per item
+  std::vector<uint64_t> stamp_;  // per item: when its weight was last set
+  uint64_t clock_ = 0;
 };
 
 template <class F>
@@ -94,19 +100,20 @@ void RootTree::nearest(Vec2 x, F&& visit) const {
 }
 
 template <class L, class F>
-void RootTree::within(Vec2 x, L&& limit, F&& visit) const {
+void RootTree::within(Vec2 x, L&& limit, F&& visit, uint64_t since) const {
   if (nodes_.empty()) return;
   int32_t stack[128];
   int top = 0;
   stack[top++] = 0;
   while (top > 0) {
     const Node& n = nodes_[static_cast<size_t>(stack[--top])];
-    if (!std::isfinite(n.min_weight) || n.min_weight + box_distance(n.box, x) > limit()) continue;
+    if (n.max_stamp <= since || !std::isfinite(n.min_weight) || n.min_weight + box_distance(n.box, x) > limit())
+      continue;
     if (n.left < 0) {
       for (int32_t i = n.first; i < n.first + n.count; ++i) {
         const int32_t item = order_[static_cast<size_t>(i)];
         const double w = weight_[static_cast<size_t>(item)];
-        if (!std::isfinite(w)) continue;
+        if (!std::isfinite(w) || stamp_[static_cast<size_t>(item)] <= since) continue;
         const double bound = w + box_distance(boxes_[static_cast<size_t>(item)], x);
         if (bound <= limit()) visit(item, bound);
       }

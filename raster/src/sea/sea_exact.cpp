@@ -89,8 +89,12 @@ struct Searches {
   //
   // `first` (an item of `all`, or -1): tried before the search (a neighbour's root), so that the
   // search starts from a good limit.
+  //
+  // `since` (a stamp of `all`): only roots settled after it are searched; `best` is then the
+  // answer over those before (a node evaluated again).
   Best best_path(const Place& at, Best best, int64_t& tests, int32_t skip_vertex = -1,
-                 std::vector<int32_t>* blockers = nullptr, int32_t first = -1, int32_t* winner = nullptr) const {
+                 std::vector<int32_t>* blockers = nullptr, int32_t first = -1, int32_t* winner = nullptr,
+                 uint64_t since = 0) const {
     const Vec2 x = at.at;
     int32_t won = -1;
     auto seen = [&](int32_t item, const Place& to) {
@@ -127,7 +131,7 @@ struct Searches {
     };
     if (first >= 0 && std::isfinite(all.weight(first))) consider(first);
     all.within(
-        x, [&] { return best.d + 1e-12 * best.d; }, [&](int32_t item, double) { consider(item); });
+        x, [&] { return best.d + 1e-12 * best.d; }, [&](int32_t item, double) { consider(item); }, since);
     if (winner) *winner = won >= 0 ? won : first;
     return best;
   }
@@ -150,6 +154,11 @@ void settle_bends(Searches& b, int64_t& tests, const std::atomic<bool>* cancel) 
     queue.emplace(key[i], static_cast<int32_t>(i));
   }
   std::vector<uint8_t> settled(n, 0);
+  // The edge that last hid each root (see best_path): nodes evaluated one after the other are
+  // often hidden from the same roots by the same headland.
+  std::vector<int32_t> hint(static_cast<size_t>(b.site_items()) + n, -1);
+  std::vector<Best> last_val(n);        // each node's best path when last evaluated
+  std::vector<uint64_t> seen_at(n, 0);  // and the stamp of `all` then
   // Nodes no seed can reach (a lagoon without a port) never settle: their keys only climb. While
   // a reachable node waits, the first node not yet settled on its path is at most the diameter
   // of everything beyond the farthest node settled (or a site it sees), so a least key above that
@@ -184,7 +193,10 @@ void settle_bends(Searches& b, int64_t& tests, const std::atomic<bool>* cancel) 
     const Node& node = b.nodes[u];
     ++b.evaluations;
     const Place at = vis.at_vertex(node.vertex, node.wedge);
-    const Best val = b.best_path(at, Best{}, tests, node.vertex);
+    // Evaluated before: only the roots settled since can do better.
+    const Best val = b.best_path(at, last_val[u], tests, node.vertex, &hint, -1, nullptr, seen_at[u]);
+    last_val[u] = val;
+    seen_at[u] = b.all.stamp();
     // The least a path through a node not yet settled can be: its key plus the way from it.
     double bound = std::numeric_limits<double>::infinity();
     open.nearest(at.at, [&](int32_t item, double lower) {

@@ -314,6 +314,21 @@ bool Visibility::sees(const Place& from, const Place& to, int32_t* blocker) cons
     return std::any_of(ps.sea.begin(), ps.sea.end(), [](uint8_t x) { return x != 0; });
   }
   const double slack = to.exact ? 0.0 : end_slack(p, q);
+  // The ends' wedges first (a few exact tests): a path that cannot leave its start's wedge, or
+  // reach its end's, is blocked before any walk along it.
+  {
+    bool leaves = false, arrives = !(to.vertex >= 0 && to.wedge >= 0);
+    for (int s = 0; s < 2; ++s) {
+      const int k = ps.wedge_towards(q, s == 0);
+      leaves = leaves || (ps.sea[static_cast<size_t>(k)] && (from.wedge < 0 || k == from.wedge));
+      if (!arrives) {
+        const Star& qs = stars_[static_cast<size_t>(to.vertex)];
+        const int back = qs.wedge_towards(p, s == 1);
+        arrives = qs.sea[static_cast<size_t>(back)] && back == to.wedge;
+      }
+    }
+    if (!leaves || !arrives) return false;
+  }
   // A transversal crossing of any edge's interior: through a line, or into land.
   // Bucket by bucket from p: a crossing ends the search at once; the vertices on the path are
   // gathered for what follows.
