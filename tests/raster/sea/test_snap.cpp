@@ -73,9 +73,11 @@ TEST(Snap, ALineMovesAsOneAndStaysConnected) {
   const Visibility vis(land);
   SeedSet s;
   const int32_t f = s.add_feature(s.owner_code("coast"), "coast.gpkg:coast:fid 2");
-  s.add_polyline(f, std::vector<Vec2>{inland(0.2, 0.05), inland(0.3, 0.2), inland(0.45, 0.1), inland(0.6, 0.0)});
+  // It starts at the coast's own first vertex (exactly on it, whatever the rounding).
+  s.add_polyline(f, std::vector<Vec2>{inland(0.0, 0.0), inland(0.2, 0.05), inland(0.3, 0.2), inland(0.45, 0.1)});
+  ASSERT_EQ(s.sites()[0].a, (Vec2{0.1, 0.3}));
   const SnappedSeeds snapped = snap_to_sea(s, land, 0.5);
-  EXPECT_EQ(snapped.moved, 3);  // the last vertex is on the coast already (or rounds to sea)
+  EXPECT_EQ(snapped.moved, 3);
   const auto& sites = snapped.seeds.sites();
   ASSERT_EQ(sites.size(), 3u);
   for (size_t i = 0; i < sites.size(); ++i) {
