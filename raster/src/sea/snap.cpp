@@ -8,9 +8,12 @@
 
 #include "rv/field/error.hpp"
 #include "rv/sea/visibility.hpp"
+#include "sea/sea_prepare.hpp"
 
 namespace rv {
 namespace {
+
+using sea::length;
 
 // The nearest point of segment a-b to p.
 Vec2 foot(Vec2 a, Vec2 b, Vec2 p) {
@@ -20,8 +23,6 @@ Vec2 foot(Vec2 a, Vec2 b, Vec2 p) {
   t = std::clamp(t, 0.0, 1.0);
   return Vec2{a.x + t * dx, a.y + t * dy};
 }
-
-double length(Vec2 a, Vec2 b) { return std::hypot(a.x - b.x, a.y - b.y); }
 
 }  // namespace
 

@@ -203,12 +203,7 @@ Visibility::Star Visibility::star_at(Vec2 p) const {
   return v >= 0 ? stars_[static_cast<size_t>(v)] : build_star(p);
 }
 
-bool Visibility::on_land(Vec2 p) const {
-  const int32_t v = vertex_at(p);
-  const Star built = v >= 0 ? Star{} : build_star(p);
-  const Star& s = v >= 0 ? stars_[static_cast<size_t>(v)] : built;
-  return std::none_of(s.sea.begin(), s.sea.end(), [](uint8_t x) { return x != 0; });
-}
+bool Visibility::on_land(Vec2 p) const { return classify(p) == Ground::land; }
 
 Visibility::Ground Visibility::classify(Vec2 p) const {
   const int32_t v = vertex_at(p);
