@@ -250,6 +250,19 @@ std::shared_ptr<const PreparedSea> prepare_sea(const SeedSet& seeds, const Barri
   return std::make_shared<const PreparedSea>(seeds, barriers, grid, options);
 }
 
+SeaPreparation preparation_of(const PreparedSea& prepared) {
+  return SeaPreparation{prepared.prepared.vis.vertex_count(), static_cast<int64_t>(prepared.search.nodes.size()),
+                        prepared.bend_tests, prepared.bends_seconds};
+}
+
+Vec2 via_position(const PreparedSea& prepared, const GridSpec& grid, int32_t via) {
+  if (via < 0 || via >= prepared.prepared.vis.vertex_count())
+    throw Error(ErrorKind::internal, "no such barrier vertex");
+  const Vec2 local = prepared.prepared.vis.vertex(via);
+  // The inverse of Barriers::translated(Vec2{grid.xmin, grid.ymax}) (sea::prepare).
+  return Vec2{local.x + grid.xmin, local.y + grid.ymax};
+}
+
 SeaField compute_sea(const SeedSet& seeds, const Barriers& barriers, const GridSpec& grid, const Window& window,
                      const SeaOptions& options) {
   const auto start = std::chrono::steady_clock::now();

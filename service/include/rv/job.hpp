@@ -11,6 +11,7 @@
 #include <atomic>
 #include <cstdint>
 #include <functional>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
@@ -21,6 +22,7 @@
 #include "rv/gdal/raster_io.hpp"
 #include "rv/gdal/seed_reader.hpp"
 #include "rv/lines/partial_effect.hpp"
+#include "rv/sea/sea_field.hpp"
 
 namespace rv {
 
@@ -60,6 +62,10 @@ struct OutputRequest {
   // streamed runs only; "" = the report's path with ".rvbase" when there is a report, else none.
   std::string edit_base;
   bool keep_for_edits = true;  // false: keep nothing (no later edit can name this run as its base)
+  // The distance by sea (JobSpec::barriers): Int32 GeoTIFF of the last barrier vertex on each
+  // cell's path (1-based, numbered as rv/sea/sea_field.hpp's SeaField::via, plus one), 0 where
+  // the seed is seen directly or no seed is reached; the report lists the vertices it names.
+  std::string via;
   // Rasters handed to the caller in memory (JobResult::rasters) instead of, or besides, files:
   // front ends that give arrays to their users (the Python module). A job with any of them
   // computes its field whole (JobPlan::why_whole), of JobSpec::window when set.
@@ -152,6 +158,15 @@ struct JobSpec {
   // computed. Everything else is a fresh run's, and so are its files, byte for byte. Needs a
   // streamed plan; not with a base or a window (invalid_argument).
   std::vector<std::string> bands;
+  // The distance by sea (rv/sea/sea_field.hpp): vector files of land polygons and barrier lines
+  // (read as the seeds are, rv::load_barriers) that no path may cross; empty = straight
+  // distances. Planar metric and the exact or brute-force method; not with weights, reaches,
+  // partial effect, deliverables, an edit, a window of a split job's band (invalid_argument or
+  // unsupported naming the conflict).
+  std::vector<std::string> barriers;
+  // How far inland a seed vertex may lie and be moved onto the coast (rv/sea/snap.hpp); a length
+  // (parse_length) in metres unless it names its unit; CRS units where the seeds have no CRS.
+  std::string snap_tolerance = "1m";
 };
 
 // How run_job computes and writes a job, decided from the request and the grid alone, before
@@ -268,6 +283,17 @@ struct PreparedJob {
   PartialEffect
       partial;  // the seeds' partial effect (rv/lines/partial_effect.hpp); partial.any(): computed by its rule
   bool located() const { return compute.geolocator != nullptr; }  // geodesic on a projected grid
+  // The distance by sea (JobSpec::barriers); null without barriers. The seeds above are already
+  // moved onto the coast.
+  struct Sea {
+    LoadedBarriers loaded;        // in the grid's CRS
+    double snap_tolerance = 0.0;  // CRS units
+    int64_t snapped = 0;          // seed positions moved onto the coast
+    double largest_snap = 0.0;    // CRS units
+    // The bend nodes settled once for every strip and window (prepare_sea).
+    std::shared_ptr<const PreparedSea> prepared;
+  };
+  std::shared_ptr<Sea> sea;
 };
 
 // run_job on a job prepare_job already read and planned, from a spec that differs from `spec` at

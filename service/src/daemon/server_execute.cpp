@@ -317,14 +317,18 @@ void check_body_members(const json& body) {
   }
 }
 
-// Upload paths in messages are ours (/vsimem/rvoronoi/<id>/seeds_<n>.<ext>,
-// relevantArea.<ext>, relevantCoasts.<ext>); the client knows its layers as seeds[n] and the
-// inputs by name.
+// Upload paths in messages are ours (/vsimem/rvoronoi/<id>/seeds_<n>.<ext>, <input>.<ext>,
+// <input>_<n>.<ext> for the other uploads of the option table); the client knows its layers as
+// seeds[n], barriers[n] and the inputs by name.
 std::string client_names(std::string message, const std::string& id) {
   // A claimed attempt stages under "<id>-a<attempt>" (parse_execution's `staging`).
-  const std::regex vsi("(/vsizip/)?/vsimem/rvoronoi/" + id + "(?:-a[0-9]+)?/seeds_([0-9]+)\\.[a-z]+");
-  const std::regex named("(/vsizip/)?/vsimem/rvoronoi/" + id + "(?:-a[0-9]+)?/(relevantArea|relevantCoasts)\\.[a-z]+");
-  return std::regex_replace(std::regex_replace(message, vsi, "seeds[$2]"), named, "$2");
+  const std::string dir = "(/vsizip/)?/vsimem/rvoronoi/" + id + "(?:-a[0-9]+)?/";
+  std::string inputs;
+  for (const OptionSpec& o : job_options())
+    if (o.type == OptionType::layers) inputs += (inputs.empty() ? "" : "|") + std::string(o.input);
+  const std::regex listed(dir + "(" + inputs + ")_([0-9]+)\\.[a-z]+");
+  const std::regex named(dir + "(" + inputs + ")\\.[a-z]+");
+  return std::regex_replace(std::regex_replace(message, listed, "$2[$3]"), named, "$2");
 }
 
 json stage_seed_input(const json& in, SeedReadOptions& read, VsiMemFiles& files) {
@@ -360,7 +364,23 @@ void stage_seeds(const json& in, Execution& ex) {
   for (const OptionSpec& o : job_options()) {
     const std::string input(o.input);
     if (o.type != OptionType::layers || input == "seeds" || !in.contains(input)) continue;
-    auto [path, s] = stage_seed_layer(in.at(input), input, input, *ex.uploads);
+    const json& value = in.at(input);
+    // A repeatable upload (the barriers) may be an array of layers, staged as <input>_<n>.
+    if (o.repeatable && value.is_array()) {
+      if (value.empty()) bad(input, "the array of layers is empty");
+      json summary = json::array();
+      for (size_t i = 0; i < value.size(); ++i) {
+        auto [path, s] = stage_seed_layer(value[i], input + "[" + std::to_string(i) + "]",
+                                          input + "_" + std::to_string(i), *ex.uploads);
+        OptionValue v;
+        v.text = path;
+        o.apply(ex.spec, v);
+        summary.push_back(s);
+      }
+      ex.inputs_summary[input] = summary;
+      continue;
+    }
+    auto [path, s] = stage_seed_layer(value, input, input, *ex.uploads);
     OptionValue v;
     v.text = path;
     o.apply(ex.spec, v);

@@ -508,8 +508,10 @@ std::string client_message(const Error& e, const std::string& id, const std::fil
   // the message names one of the other uploads).
   if (e.kind() == ErrorKind::invalid_input || e.kind() == ErrorKind::conflict) {
     std::string input = "seeds";
-    for (const char* upload : {"relevantArea", "relevantCoasts"})
-      if (message.find(upload) != std::string::npos) input = upload;
+    for (const OptionSpec& o : job_options())
+      if (o.type == OptionType::layers && o.input != "seeds" && message.find(o.input) != std::string::npos)
+        input = std::string(o.input);
+    if (message.rfind(input + ": ", 0) == 0) message.erase(0, input.size() + 2);  // said once
     message = "input '" + input + "': " + message;
   }
   return message;

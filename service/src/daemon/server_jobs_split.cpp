@@ -61,7 +61,9 @@ bool JobManager::split_or_assemble(Task& task, JobRecord& rec, const fs::path& d
     log_event("{\"event\":\"assembling\",\"job\":\"" + task.id + "\",\"bands\":" + std::to_string(bands.size()) + "}");
     return false;
   }
-  if (config_.jobs.split_cells <= 0 || !spec.base_report.empty() || !spec.base_name.empty() || spec.window)
+  // (A job by sea is not split: its bends are settled once for the whole grid.)
+  if (config_.jobs.split_cells <= 0 || !spec.base_report.empty() || !spec.base_name.empty() || spec.window ||
+      !spec.barriers.empty())
     return false;
   // The grid and the plan, as the run would make them (the seeds read once more): a request that
   // fails here fails in its run below, with its own message.

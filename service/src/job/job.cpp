@@ -18,6 +18,7 @@
 #include "job/job_bands.hpp"
 #include "job/job_edit.hpp"
 #include "job/job_run.hpp"
+#include "job/job_sea.hpp"
 #include "job/job_stream.hpp"
 #include "job/memory_watch.hpp"
 #include "rv/edit/edit.hpp"
@@ -344,7 +345,8 @@ JobPlan plan_job(const JobSpec& spec, const GridSpec& grid, int64_t sites, Metri
                                    kTileRows * kTileRows;
     // An edit's strips hold whole bands of tiles: its files copy unchanged tiles band by band; so
     // do a split job's assembly's, read from its bands (automatic strips are whole bands anyway).
-    const bool whole_bands = !spec.base_report.empty() || !spec.bands.empty();
+    // And so are the strips by sea (a strip source's, job_sea.hpp).
+    const bool whole_bands = !spec.base_report.empty() || !spec.bands.empty() || !spec.barriers.empty();
     const int64_t whole = whole_bands ? (rows + kTileRows - 1) / kTileRows * kTileRows : rows;
     p.strip_rows = std::clamp<int64_t>(whole, 1, std::max<int64_t>(grid.height, 1));
     p.strips = (grid.height + p.strip_rows - 1) / p.strip_rows;
@@ -355,6 +357,8 @@ JobPlan plan_job(const JobSpec& spec, const GridSpec& grid, int64_t sites, Metri
     p.memory_bytes = estimate_memory(spec.method, 2 * strip_cells, sites, metric) + strip_cells * 4 * int_rasters +
                      rasters * (kTileRows * grid.width * 4 + kWriterBytes) + seed_bytes;
     if (out.any_deliverable()) p.memory_bytes += deliverables_memory(spec, grid, strip_cells);
+    // By sea: the engine's own via raster and a strip of via codes per buffer.
+    if (!spec.barriers.empty()) p.memory_bytes += strip_cells * 4 * 3;
     // An edit: the plan's per-cell flags and costs of the tiles it reads (at most a strip's); the
     // base's strip is read into the strip buffers and edited in place.
     // Each file copying from its base's completes a band of tile rows from it where it needs the
@@ -383,12 +387,11 @@ JobPlan plan_job(const JobSpec& spec, const GridSpec& grid, int64_t sites, Metri
 }
 
 namespace {
-
 // The stricter of two limits, where 0 means none.
 int64_t stricter(int64_t a, int64_t b) { return a <= 0 ? b : b <= 0 ? a : std::min(a, b); }
+}  // namespace
 
-// Seed reading under the job's limits and the memory limit for reading.
-SeedReadOptions with_limits(SeedReadOptions read, const JobLimits& limits) {
+SeedReadOptions detail::with_limits(SeedReadOptions read, const JobLimits& limits) {
   read.max_features = stricter(read.max_features, limits.max_features);
   read.max_vertices = stricter(read.max_vertices, limits.max_vertices);
   read.max_input_bytes = stricter(read.max_input_bytes, limits.max_input_bytes);
@@ -396,9 +399,11 @@ SeedReadOptions with_limits(SeedReadOptions read, const JobLimits& limits) {
   return read;
 }
 
+namespace {
+
 // Stage "read": the seeds with the job's limits and the memory limit for reading.
 LoadedSeeds read_seeds(const JobSpec& spec, const JobLimits& limits, const JobHooks& hooks) {
-  SeedReadOptions read = with_limits(seed_options_for_metric(spec.seeds, spec.metric), limits);
+  SeedReadOptions read = detail::with_limits(seed_options_for_metric(spec.seeds, spec.metric), limits);
   read.on_reading_bytes = hooks.reserve_memory;
   if (read.target_crs.empty() && !spec.grid.like.empty()) {
     // Outputs must line up with the template raster, so the seeds go into its CRS.
@@ -490,7 +495,7 @@ void read_relevant(const JobSpec& spec, const JobLimits& limits, PreparedJob& jo
   base.reach_field.reset();
   base.effect_field.reset();
   base.on_conflict = ConflictPolicy::lower_code;
-  SeedReadOptions area = with_limits(base, limits);
+  SeedReadOptions area = detail::with_limits(base, limits);
   area.paths = {out.relevant_area};
   area.target_crs = job.loaded.crs.wkt;
   area.geographic_seeds = false;
@@ -499,7 +504,7 @@ void read_relevant(const JobSpec& spec, const JobLimits& limits, PreparedJob& jo
     throw Error(ErrorKind::invalid_input, "the relevant area (" + out.relevant_area + ") holds no polygon");
   if (out.relevant_coasts.empty()) return;
   // The uploads' limits too (the daemon reads them as it reads the seeds).
-  SeedReadOptions coasts = with_limits(seed_options_for_metric(spec.seeds, spec.metric), limits);
+  SeedReadOptions coasts = detail::with_limits(seed_options_for_metric(spec.seeds, spec.metric), limits);
   coasts.paths = {out.relevant_coasts};
   coasts.layers.clear();
   coasts.weight_field.reset();
@@ -528,6 +533,7 @@ void check_plan(const JobSpec& spec, const JobLimits& limits, const PreparedJob&
                 "the margin raster is not available for the geodesic metric on a projected grid yet; use a "
                 "geographic (longitude/latitude) grid (--crs EPSG:4326), or metric planar");
   check_adjustments(spec, job);
+  detail::check_sea_plan(spec, job);
   if (!out.turning_points.empty()) {
     const std::string& tp = out.turning_points;
     auto ends = [&](const char* ext) {
@@ -570,10 +576,13 @@ PreparedJob prepare_job(const JobSpec& spec, const JobLimits& limits, const JobH
   if (hooks.progress) hooks.progress("read", 1.0);
   if (hooks.cancel && hooks.cancel->load()) throw Error(ErrorKind::cancelled, "job dismissed");
 
-  // Grid, metric, units, limits: everything is decided before the big allocations.
-  job.grid = plan_grid(spec.grid, job.loaded);
+  // Metric, barriers, grid, units, limits: everything is decided before the big allocations.
   const MetricPlan mp = plan_metric(spec.metric, spec.distance_units, job.loaded.crs);
   job.metric = mp.metric;
+  // The distance by sea: the barriers read, and the seeds moved onto the coast before the grid
+  // is drawn round them.
+  detail::read_barriers(spec, detail::with_limits(seed_options_for_metric(spec.seeds, spec.metric), limits), job);
+  job.grid = plan_grid(spec.grid, job.loaded);
   job.to_output = mp.to_output;
   job.unit = mp.unit;
   job.compute.metric = mp.metric;
@@ -597,6 +606,7 @@ PreparedJob prepare_job(const JobSpec& spec, const JobLimits& limits, const JobH
   check_plan(spec, limits, job, job.plan);
   if (hooks.planned) hooks.planned(job.grid.cell_count());
   if (hooks.reserve_memory) hooks.reserve_memory(job.plan.memory_bytes);
+  detail::settle_sea(job, hooks);
   return job;
 }
 
@@ -662,6 +672,17 @@ void compute_streamed(detail::JobRun& run, const PreparedJob& job, const RasterT
   if (!spec.outputs.distance.empty()) target(Product::distance, spec.outputs.distance, targets.distance, "distance");
   if (!spec.outputs.nearest_feature.empty())
     target(Product::nearest_feature, spec.outputs.nearest_feature, targets.feature, "nearest_feature");
+  // By sea: the strips are compute_sea's, with their vias (job_sea.hpp).
+  std::optional<detail::SeaRun> sea;
+  if (job.sea) {
+    sea.emplace(job);
+    const bool via = !spec.outputs.via.empty();
+    if (via) target(Product::codes, spec.outputs.via, detail::via_options(spec, job), "via");
+    stream.source = [&sea, via, compute = stream.compute](const Window& w, NearestField& field,
+                                                          std::vector<int32_t>& codes, std::vector<uint8_t>&, bool) {
+      sea->compute(w, field, via ? &codes : nullptr, compute);
+    };
+  }
   // The edit of a finished run, and what this run keeps for edits of it (job_edit.hpp).
   detail::StreamEdit edit;
   if (base) {
@@ -690,6 +711,7 @@ void compute_streamed(detail::JobRun& run, const PreparedJob& job, const RasterT
   if (base && !spec.base_name.empty()) run.report["edit"]["base"] = spec.base_name;
   if (!edit_lines.is_null()) run.report["edit"]["lines"] = edit_lines;
   if (keep) keep->set_costs(detail::run_costs(stream, st, base, base ? &edit : nullptr));
+  if (sea) run.report["sea"] = sea->report();
   run.compute_seconds = st.compute;
   run.contested_cells = st.contested_cells;
   run.threads_used = st.threads;
@@ -711,12 +733,23 @@ void compute_streamed(detail::JobRun& run, const PreparedJob& job, const RasterT
 }
 
 // Stage "compute": the whole field.
-NearestField compute_whole(detail::JobRun& run, const PreparedJob& job) {
+// By sea (job_sea.hpp), the vias too when asked for: into `via`, and the report's "sea".
+NearestField compute_whole(detail::JobRun& run, const PreparedJob& job, std::vector<int32_t>& via) {
   ComputeOptions options = job.compute;
   options.window = run.spec.window;
   options.cancel = run.hooks.cancel;
   options.progress = [&](double f) { run.progress("compute", f); };
-  NearestField field = compute(job.loaded.seeds, job.grid, options);
+  NearestField field;
+  if (job.sea) {
+    detail::SeaRun sea(job);
+    const auto t = detail::Clock::now();
+    sea.compute(run.spec.window.value_or(job.grid.full_window()), field, run.spec.outputs.via.empty() ? nullptr : &via,
+                options);
+    field.seconds = detail::seconds_since(t);
+    run.report["sea"] = sea.report();
+  } else {
+    field = compute(job.loaded.seeds, job.grid, options);
+  }
   run.compute_seconds = field.seconds;
   run.contested_cells = field.contested_cells;
   run.threads_used = field.threads;
@@ -762,7 +795,11 @@ void validate_stage(detail::JobRun& run, const PreparedJob& job, const NearestFi
     ComputeOptions brute = job.compute;
     brute.method = Method::brute_force;
     brute.progress = [&](double f) { run.progress("validate", f); };
-    const NearestField reference = compute(job.loaded.seeds, job.grid, brute);
+    NearestField reference;
+    if (job.sea)
+      detail::SeaRun(job).compute(job.grid.full_window(), reference, nullptr, brute);
+    else
+      reference = compute(job.loaded.seeds, job.grid, brute);
     const ValidationStats v = compare_fields(job.loaded.seeds, field, reference);
     run.report["validation"] = {{"reference", "brute-force"},
                                 {"cells", v.cells},
@@ -916,7 +953,7 @@ JobResult run_stages(detail::JobRun& run, const PreparedJob& job, const detail::
   }
   // A streamed run with a report keeps its field for edits of it.
   std::unique_ptr<detail::EditBaseWriter> keep;
-  if (run.plan.streamed && spec.outputs.keep_for_edits &&
+  if (run.plan.streamed && spec.outputs.keep_for_edits && !job.sea &&
       !(spec.outputs.report.empty() && spec.outputs.edit_base.empty()))
     keep = std::make_unique<detail::EditBaseWriter>(spec, job);
   if (run.plan.streamed) {
@@ -928,9 +965,11 @@ JobResult run_stages(detail::JobRun& run, const PreparedJob& job, const detail::
     in_memory = keep_in_memory(run, job, partial.field);
     detail::deliver(run, job, partial.field, &partial);
   } else {
-    field = compute_whole(run, job);
+    std::vector<int32_t> via;
+    field = compute_whole(run, job, via);
     validate_stage(run, job, field);
     write_rasters(run, job, field, targets);
+    if (!via.empty()) detail::write_via(run, job, via);
     detail::deliver(run, job, field);
     in_memory = keep_in_memory(run, job, field, &field);
   }
@@ -985,7 +1024,7 @@ JobResult run_prepared(const JobSpec& spec, const PreparedJob& job, const JobLim
 }
 
 SeedInventory describe_seeds(const SeedReadOptions& seeds, const JobLimits& limits, bool with_features) {
-  return describe_seed_files(with_limits(seeds, limits), with_features);
+  return describe_seed_files(detail::with_limits(seeds, limits), with_features);
 }
 
 }  // namespace rv

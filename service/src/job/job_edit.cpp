@@ -120,7 +120,7 @@ void attach_edit(StreamJob& stream, StreamEdit& st, const JobSpec& spec, const P
     GeoTiffOptions o = raster_options(spec);
     o.max_code = 2;
     o.metadata["CONTENT"] = "1 = owner changed, 2 = only the distance changed, 0 = unchanged (edit of a finished run)";
-    add_target(stream, Product::changes, spec.outputs.changes, o, "changes");
+    add_target(stream, Product::codes, spec.outputs.changes, o, "changes");
   }
   // Each file copies from the base's file of the same product the tiles where the edit changes no
   // cell: their bytes where the codes of what the base's cells hold are the same in both runs

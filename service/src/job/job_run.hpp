@@ -106,6 +106,10 @@ inline void remove_raster_file(const std::string& path) {
 // What every GeoTIFF of the job shares: COG or not, threads, compression.
 GeoTiffOptions raster_options(const JobSpec& spec);
 
+// Seed reading under the job's limits (features, vertices, input bytes) and the memory limit for
+// reading: the stricter of each and the options' own.
+SeedReadOptions with_limits(SeedReadOptions read, const JobLimits& limits);
+
 // The maritime deliverables of a job (boundaries, tripoints, limits, regions, margin, preview)
 // from its exact field taken in strip by strip (a streamed job), or as one whole field: each
 // written to its file, counted in the report's "deliverables", timed in

@@ -61,7 +61,7 @@ void lower_priority() {
 struct Strip {
   NearestField field;
   std::vector<float> metric_distance;  // the distances before conversion (a metric_distance target, factor != 1)
-  std::vector<int32_t> changes;        // a changes target's codes (from the strip source)
+  std::vector<int32_t> codes;          // a codes target's codes (from the strip source)
   std::vector<uint8_t> fresh;          // per tile of the strip, from the source (StreamJob::source)
   int64_t row0 = 0;
   int64_t rows = 0;
@@ -77,7 +77,7 @@ AnyWriter open_writer(const StreamTarget& t, const GridSpec& grid) {
     case StreamTarget::Product::ownership:
     case StreamTarget::Product::nearest_feature:
     case StreamTarget::Product::site:
-    case StreamTarget::Product::changes:
+    case StreamTarget::Product::codes:
       break;
   }
   return GeoTiffStripWriter<int32_t>(t.path, grid, grid.full_window(), 0.0, t.options);
@@ -182,8 +182,8 @@ void write_file(StreamState& st, size_t i) {
                 out[c] = in[c] == kNoSite ? 0 : target.site_codes[static_cast<size_t>(in[c])];
             }));
           break;
-        case StreamTarget::Product::changes:
-          write_codes(s.changes.data());
+        case StreamTarget::Product::codes:
+          write_codes(s.codes.data());
           break;
         case StreamTarget::Product::distance:
           // (Observed only in metric units: StreamJob::distance_factor 1.)
@@ -240,10 +240,11 @@ void compute_strips(StreamState& st, int64_t strip_rows, StreamStats& stats, Rep
         throw Error(ErrorKind::internal, "a strip source's strips must hold whole bands of tiles");
       const auto t = Clock::now();
       s.fresh.clear();
-      job.source(*options.window, s.field, s.changes, s.fresh, st.all_cells);
+      job.source(*options.window, s.field, s.codes, s.fresh, st.all_cells);
       if (!s.fresh.empty() && static_cast<int64_t>(s.fresh.size()) != (s.rows + kTileSide - 1) / kTileSide * st.across)
         throw Error(ErrorKind::internal, "a strip source's tile flags do not fit its strip");
       s.field.seconds = seconds_since(t);
+      report("compute", static_cast<double>(row0 + s.rows) / static_cast<double>(st.height));
     } else {
       compute_into(*job.seeds, job.grid, options, s.field);
     }
@@ -314,7 +315,7 @@ StreamStats run_streamed(const StreamJob& job) {
         stats.not_copied[t.name] = e.what();
       }
     }
-    if (t.product != StreamTarget::Product::changes && !st.copies[i]) st.all_cells = true;
+    if (t.product != StreamTarget::Product::codes && !st.copies[i]) st.all_cells = true;
   }
   stats.all_cells = st.all_cells;
   st.write_seconds.assign(job.targets.size(), 0.0);

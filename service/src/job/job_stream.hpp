@@ -19,9 +19,10 @@ namespace rv::detail {
 
 // One GeoTIFF of a streamed job.
 // site: the field's site index + 1 (0 = none); metric_distance: the distance in metric units,
-// before the job's unit conversion; changes: the codes the strip source left in Strip::changes.
+// before the job's unit conversion; codes: the codes the strip source left in Strip::codes (an
+// edit's changes, the vias of the distance by sea).
 struct StreamTarget {
-  enum class Product { ownership, distance, nearest_feature, site, metric_distance, changes };
+  enum class Product { ownership, distance, nearest_feature, site, metric_distance, codes };
   Product product = Product::ownership;
   std::string path;
   GeoTiffOptions options;
@@ -65,16 +66,17 @@ struct StreamJob {
   std::function<void(const NearestField& strip)> on_strip;
   // Whether on_strip reads every cell of a source's strips (else only those the source reads).
   bool on_strip_every_cell = true;
-  // When set, produces each strip's field instead of the engine (an edit of a finished run):
-  // fills `field` over `window` (distances in metric units) and, when a target is a changes
-  // raster, `changes` with one code per cell. Called on the computing thread, strips in order.
+  // When set, produces each strip's field instead of the engine (an edit of a finished run, the
+  // distance by sea): fills `field` over `window` (distances in metric units) and, when a target
+  // is a codes raster, `codes` with one code per cell. Called on the computing thread, strips in
+  // order.
   // Strips then start on a 256-row band of tiles and hold whole bands (but the last). `fresh`:
   // one flag per 256 x 256 tile of the strip (tiles across the grid, row-major over its bands),
   // 1 where the tile's cells may differ from the earlier files' (encoded again), 0 where they do
   // not (copied from each target's earlier file); or left empty: every tile encoded.
   // `all_cells`: some target encodes every tile or on_strip reads every cell, so every cell of
   // `field` must be valid; otherwise only those of the tiles flagged 1.
-  std::function<void(const Window& window, NearestField& field, std::vector<int32_t>& changes,
+  std::function<void(const Window& window, NearestField& field, std::vector<int32_t>& codes,
                      std::vector<uint8_t>& fresh, bool all_cells)>
       source;
 };

@@ -197,6 +197,49 @@ const std::vector<OptionSpec> kOptions = {
      false,
      false,
      [](JobSpec& s, const OptionValue& v) { s.seeds.allow_ballpark = v.flag; }},
+    {"barriers",
+     "barriers",
+     OptionType::layers,
+     "FILE",
+     "seeds",
+     "Barriers (distance by sea)",
+     "Land polygons and barrier lines (breakwaters, booms) that no path may cross: distances are then measured "
+     "by sea, along the shortest path around them, exactly (bending only at the barriers' vertices). Cells "
+     "strictly inside a barrier polygon have no owner; a path may touch a barrier and run along it. Read as the "
+     "seeds are (repeatable; any format they accept). When the seeds are the coast itself (coasts as both seeds "
+     "and land), nothing changes: a path that a seed blocks passes nearer to that seed. They matter when the "
+     "seeds are not the barriers: ports or farms as seeds and land as barriers. Planar metric (a projected grid) "
+     "and the exact method; not with weights, reaches, partial effect or the line deliverables yet.",
+     "",
+     {},
+     0,
+     0,
+     true,
+     false,
+     [](JobSpec& s, const OptionValue& v) {
+       if (!v.text.empty()) s.barriers.push_back(v.text);
+       for (const std::string& path : v.items) s.barriers.push_back(path);
+     },
+     "",
+     "",
+     "any"},
+    {"snapTolerance",
+     "snap-tolerance",
+     OptionType::length,
+     "LENGTH",
+     "seeds",
+     "Snap tolerance (distance by sea)",
+     "With barriers: a seed vertex inside land by no more than this is moved onto the nearest point of the "
+     "coast (a port surveyed a few metres inland); one deeper inside is refused, the feature named. \"1m\", "
+     "\"5 m\", a plain number in metres (CRS units for data without a CRS), or {\"value\": 1, \"unit\": \"m\"}; "
+     "units mm, cm, m, km, nmi. The report gives how many seeds moved and the largest move (sea.snap).",
+     "1m",
+     {},
+     0,
+     0,
+     false,
+     false,
+     [](JobSpec& s, const OptionValue& v) { s.snap_tolerance = v.text; }},
     // grid
     {"resolution",
      "resolution",
@@ -463,6 +506,21 @@ const std::vector<OptionSpec> kOptions = {
      false,
      false,
      [](JobSpec& s, const OptionValue& v) { s.outputs.nearest_feature = v.text; }},
+    {"",
+     "via",
+     OptionType::file,
+     "V.tif",
+     "outputs",
+     "Via raster (distance by sea)",
+     "with barriers: the number of the last barrier vertex on each cell's path by sea (0 = the seed seen "
+     "directly, or none reached; Int32); the report's sea.via_vertices gives each number's position",
+     "",
+     {},
+     0,
+     0,
+     false,
+     false,
+     [](JobSpec& s, const OptionValue& v) { s.outputs.via = v.text; }},
     {"",
      "report",
      OptionType::file,

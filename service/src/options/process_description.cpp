@@ -29,7 +29,8 @@ std::string* output_path(OutputRequest& out, std::string_view id) {
                                                              {"margin", &out.margin},
                                                              {"preview", &out.preview},
                                                              {"turningPoints", &out.turning_points},
-                                                             {"changes", &out.changes}};
+                                                             {"changes", &out.changes},
+                                                             {"via", &out.via}};
   for (const auto& [name, path] : paths)
     if (name == id) return path;
   return nullptr;
@@ -85,6 +86,8 @@ json process_description(const std::string& base) {
       "schema": {"oneOf": [
         {"type": "object", "contentMediaType": "application/json"},
         {"type": "string", "contentMediaType": "text/csv"}]}},
+    "via": {"title": "Via raster", "description": "With barriers (the distance by sea): the number of the last barrier vertex on each cell's path (0 = the seed seen directly, or none reached), in the narrowest integer type that holds them, a Cloud Optimized GeoTIFF; the report's sea.via_vertices gives each number's position in the grid's CRS.",
+      "schema": {"type": "string", "contentEncoding": "binary", "contentMediaType": "image/tiff; application=geotiff; profile=cloud-optimized"}},
     "changes": {"title": "Changes raster", "description": "With baseJob: 1 where the edit changed a cell's owner, 2 where only its distance changed, 0 elsewhere (Byte).",
       "schema": {"type": "string", "contentEncoding": "binary", "contentMediaType": "image/tiff; application=geotiff; profile=cloud-optimized"}},
     "preview": {"title": "Quicklook", "description": "PNG map: each owner's sea in its colour, land (inside the seed polygons), boundaries and dashed limit lines, owner labels, a legend with the owners' sea areas (when regions are made) and a scale bar; one pixel per cell, or per n x n cells (the smallest integer n keeping the long side within 2000 px; the report's deliverables.preview gives it).",

@@ -83,7 +83,9 @@ TEST(Snap, ALineMovesAsOneAndStaysConnected) {
   for (size_t i = 0; i < sites.size(); ++i) {
     EXPECT_FALSE(vis.on_land(sites[i].a));
     EXPECT_FALSE(vis.on_land(sites[i].b));
-    if (i > 0) EXPECT_EQ(sites[i].a, sites[i - 1].b);
+    if (i > 0) {
+      EXPECT_EQ(sites[i].a, sites[i - 1].b);
+    }
   }
   EXPECT_LE(snapped.largest_move, 0.2 + 1e-9);
 }

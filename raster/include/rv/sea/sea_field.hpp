@@ -81,6 +81,20 @@ struct SeaOptions {
 std::shared_ptr<const PreparedSea> prepare_sea(const SeedSet& seeds, const Barriers& barriers, const GridSpec& grid,
                                                const SeaOptions& options = {});
 
+// What preparing measured: the distinct barrier vertices (SeaField::barrier_vertices), the bend
+// nodes, the straight paths tested while settling them, and its wall time in seconds.
+struct SeaPreparation {
+  int32_t barrier_vertices = 0;
+  int64_t bend_nodes = 0;
+  int64_t bend_tests = 0;
+  double seconds = 0.0;
+};
+SeaPreparation preparation_of(const PreparedSea& prepared);
+
+// The position of vertex `via` (SeaField::via, 0 <= via < barrier_vertices) in the grid's CRS
+// (`grid`: the one prepared for). Throws rv::Error(internal) for any other index.
+Vec2 via_position(const PreparedSea& prepared, const GridSpec& grid, int32_t via);
+
 // The exact engine: the same field as brute_force_sea (owners and vias cell for cell; distances
 // to the last bit of the float but where two paths tie to rounding), with every search ordered by
 // a lower bound: bend nodes settled by a Dijkstra that finds each node's last bend in a tree of

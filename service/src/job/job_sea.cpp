@@ -1,0 +1,187 @@
+// The distance by sea in a job. See job_sea.hpp for the contract.
+#include "job/job_sea.hpp"
+
+#include <algorithm>
+
+#include "job/job_run.hpp"
+#include "rv/field/error.hpp"
+#include "rv/sea/snap.hpp"
+
+namespace rv::detail {
+namespace {
+
+[[noreturn]] void refuse(ErrorKind kind, const std::string& what) { throw Error(kind, "barriers: " + what); }
+
+// An error from reading or snapping, its message said to be about the barriers.
+template <class F>
+auto about_barriers(F&& f) {
+  try {
+    return f();
+  } catch (const Error& e) {
+    const std::string m = e.what();
+    if (m.rfind("barriers", 0) == 0) throw;
+    throw Error(e.kind(), "barriers: " + m);
+  }
+}
+
+}  // namespace
+
+void read_barriers(const JobSpec& spec, const SeedReadOptions& read, PreparedJob& job) {
+  if (spec.barriers.empty()) return;
+  if (spec.method != Method::exact && spec.method != Method::brute_force)
+    refuse(ErrorKind::invalid_argument,
+           "the distance by sea needs the exact (or brute-force) method: the scans propagate from cell to cell, "
+           "not around the barriers' vertices");
+  if (job.metric.kind != MetricSpec::planar)
+    refuse(ErrorKind::unsupported,
+           "the distance by sea is planar for now: give a projected grid (--crs, e.g. a UTM zone) and --metric "
+           "planar");
+  if (spec.band) refuse(ErrorKind::invalid_argument, "a split job's band does not compute by sea");
+  const SeedSet& seeds = job.loaded.seeds;
+  if (seeds.adjusted())
+    refuse(ErrorKind::unsupported,
+           "the distance by sea is not available with weights or reaches yet: they change which seeds a path may "
+           "reach");
+  if (spec.seeds.effect_field)
+    refuse(ErrorKind::unsupported, "the distance by sea is not available with partial effect yet");
+
+  auto sea = std::make_shared<PreparedJob::Sea>();
+  SeedReadOptions options = read;
+  options.paths = spec.barriers;
+  options.layers.clear();
+  options.owner_field.reset();
+  options.weight_field.reset();
+  options.reach_field.reset();
+  options.effect_field.reset();
+  options.on_conflict = ConflictPolicy::lower_code;
+  options.target_crs = job.loaded.crs.wkt;
+  options.geographic_seeds = false;
+  sea->loaded = about_barriers([&] { return load_barriers(options); });
+  if (sea->loaded.barriers.empty()) refuse(ErrorKind::invalid_input, "the layers hold no polygon or line");
+
+  // Metres (or the length's own unit) to CRS units; CRS units where the seeds have none.
+  const Length tolerance = about_barriers([&] { return parse_length(spec.snap_tolerance); });
+  const double metres = tolerance.value * tolerance.metres_per_unit;
+  sea->snap_tolerance = job.loaded.crs.wkt.empty() ? tolerance.value : metres / job.loaded.crs.linear_unit;
+  SnappedSeeds snapped = about_barriers([&] { return snap_to_sea(seeds, sea->loaded.barriers, sea->snap_tolerance); });
+  job.loaded.seeds = std::move(snapped.seeds);
+  sea->snapped = snapped.moved;
+  sea->largest_snap = snapped.largest_move;
+  job.sea = std::move(sea);
+}
+
+void check_sea_plan(const JobSpec& spec, const PreparedJob& job) {
+  if (!job.sea) {
+    if (!spec.outputs.via.empty())
+      throw Error(ErrorKind::invalid_argument,
+                  "the via raster needs barriers (--barriers): it is the distance by sea's");
+    return;
+  }
+  const OutputRequest& out = spec.outputs;
+  if (out.any_deliverable())
+    refuse(ErrorKind::unsupported,
+           "boundaries, tripoints, limits, regions, the margin, the preview and turning points are not drawn under "
+           "the distance by sea yet; ask for the rasters (ownership, distance, nearest feature, via)");
+  if (!spec.base_report.empty())
+    refuse(ErrorKind::unsupported, "an edit of a run by sea is not available yet: run it again with the new seeds");
+  if (!spec.bands.empty()) refuse(ErrorKind::invalid_argument, "a split job's assembly does not compute by sea");
+}
+
+void settle_sea(PreparedJob& job, const JobHooks& hooks) {
+  if (!job.sea) return;
+  SeaOptions options;
+  options.threads = job.compute.threads;
+  options.cancel = hooks.cancel;
+  options.max_distance = job.compute.max_distance;
+  job.sea->prepared =
+      about_barriers([&] { return prepare_sea(job.loaded.seeds, job.sea->loaded.barriers, job.grid, options); });
+}
+
+void SeaRun::compute(const Window& window, NearestField& field, std::vector<int32_t>* via,
+                     const ComputeOptions& compute) {
+  const PreparedJob::Sea& sea = *job_.sea;
+  SeaField f;
+  if (compute.method == Method::brute_force) {
+    f = brute_force_sea(job_.loaded.seeds, sea.loaded.barriers, job_.grid, window, compute.max_distance,
+                        compute.threads);
+  } else {
+    SeaOptions options;
+    options.max_distance = compute.max_distance;
+    options.threads = compute.threads;
+    options.cancel = compute.cancel;
+    options.progress = compute.progress;
+    options.prepared = sea.prepared;
+    f = compute_sea(job_.loaded.seeds, sea.loaded.barriers, job_.grid, window, options);
+  }
+  land_ += f.land_cells;
+  unreachable_ += f.unreachable_cells;
+  tests_ += f.visibility_tests;
+  detour_ = std::max(detour_, f.max_detour);
+  if (named_.empty()) named_.assign(static_cast<size_t>(std::max(f.barrier_vertices, 0)), 0);
+  if (via) {
+    const int64_t n = window.cell_count();
+    via->resize(static_cast<size_t>(n));
+    const int32_t* v = f.via.data();
+    for (int64_t c = 0; c < n; ++c) {
+      (*via)[static_cast<size_t>(c)] = v[c] + 1;  // kNoVia (-1) -> 0
+      if (v[c] >= 0 && static_cast<size_t>(v[c]) < named_.size()) named_[static_cast<size_t>(v[c])] = 1;
+    }
+  }
+  field = std::move(f.field);
+}
+
+nlohmann::json SeaRun::report() const {
+  const PreparedJob::Sea& sea = *job_.sea;
+  const Barriers& b = sea.loaded.barriers;
+  const SeaPreparation prep = sea.prepared ? preparation_of(*sea.prepared) : SeaPreparation{};
+  nlohmann::json r;
+  r["barriers"] = {{"features", sea.loaded.report.features_read},
+                   {"polygons", b.polygons().size()},
+                   {"lines", b.lines().size()},
+                   {"vertices", prep.barrier_vertices},
+                   {"polygons_repaired", sea.loaded.report.polygons_repaired},
+                   {"warnings", sea.loaded.report.warnings}};
+  // In the grid CRS's units (metres on a projected grid in metres).
+  r["snap"] = {{"tolerance", sea.snap_tolerance}, {"moved", sea.snapped}, {"largest_move", sea.largest_snap}};
+  r["bend_nodes"] = prep.bend_nodes;
+  r["bends_seconds"] = prep.seconds;
+  r["visibility_tests"] = {{"all", tests_ + prep.bend_tests}, {"bends", prep.bend_tests}};
+  r["land_cells"] = land_;
+  r["unreachable_cells"] = unreachable_;
+  r["max_detour"] = detour_;
+  // The vertices the via raster names: [number, x, y] in the grid's CRS.
+  if (std::find(named_.begin(), named_.end(), 1) != named_.end()) {
+    nlohmann::json vertices = nlohmann::json::array();
+    for (size_t v = 0; v < named_.size(); ++v) {
+      if (!named_[v]) continue;
+      const Vec2 at = via_position(*sea.prepared, job_.grid, static_cast<int32_t>(v));
+      vertices.push_back({static_cast<int64_t>(v) + 1, at.x, at.y});
+    }
+    r["via_vertices"] = std::move(vertices);
+  }
+  return r;
+}
+
+GeoTiffOptions via_options(const JobSpec& spec, const PreparedJob& job) {
+  GeoTiffOptions o = raster_options(spec);
+  o.categorical = true;
+  o.max_code = job.sea && job.sea->prepared ? preparation_of(*job.sea->prepared).barrier_vertices : 0;
+  o.metadata["CONTENT"] =
+      "number of the last barrier vertex on the path by sea (0 = the seed seen directly, or none reached); the "
+      "report's sea.via_vertices gives each number's position";
+  return o;
+}
+
+void write_via(JobRun& run, const PreparedJob& job, const std::vector<int32_t>& via) {
+  const std::string& path = run.spec.outputs.via;
+  timed(run.write_times, "via", [&] {
+    Raster<int32_t> r(job.grid, 0);
+    if (via.size() != r.cells().size()) throw Error(ErrorKind::internal, "the via raster does not cover the grid");
+    std::copy(via.begin(), via.end(), r.cells().begin());
+    run.will_write(path);
+    write_geotiff(path, r, 0.0, via_options(run.spec, job));
+  });
+  run.wrote("via", path);
+}
+
+}  // namespace rv::detail

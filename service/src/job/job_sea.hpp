@@ -1,0 +1,67 @@
+// Internal to run_job (rv/job.hpp): the distance by sea in a job (JobSpec::barriers).
+//
+// The job reads the barriers after the seeds, into the grid's CRS and under the same limits,
+// moves seeds lying just inland onto the coast, settles the bend nodes once (prepare_sea), and
+// then computes its field window by window with rv::compute_sea instead of the straight engine:
+// a streamed job's strips through StreamJob::source, a whole field (a window, rasters in memory,
+// validation) in one piece. Everything after the field (codes, units, files, report) is the
+// straight job's.
+// Not part of the public API. Thread safety: one SeaRun per job, used from the job's thread.
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "job/job_run.hpp"
+#include "rv/field/raster.hpp"
+#include "rv/job.hpp"
+
+namespace rv::detail {
+
+// Stage "read", after the seeds and the metric: refuses what the distance by sea does not do
+// (one line each, naming the option), reads the barriers (`read`: the seeds' options with the
+// job's limits) into the seeds' CRS, and moves the seeds within the snap tolerance of the sea
+// onto the coast (job.loaded.seeds). Sets job.sea. Throws rv::Error as load_barriers and
+// snap_to_sea do, their messages starting "barriers: ".
+void read_barriers(const JobSpec& spec, const SeedReadOptions& read, PreparedJob& job);
+
+// Refusals that need the planned job (deliverables, an edit). No-op without barriers.
+void check_sea_plan(const JobSpec& spec, const PreparedJob& job);
+
+// Settles the bend nodes for every window of the job (job.sea->prepared). Honours the hooks'
+// cancellation.
+void settle_sea(PreparedJob& job, const JobHooks& hooks);
+
+// One job's fields by sea and what computing them measured, summed over its windows.
+class SeaRun {
+ public:
+  explicit SeaRun(const PreparedJob& job) : job_(job) {}
+
+  // The field over `window` into `field` (distances in metric units, straight-field conventions)
+  // and, when `via` is not null, one code per cell into it: the last barrier vertex's number + 1,
+  // 0 where the seed is seen directly or none is reached. `progress` in [0, 1] of the window.
+  void compute(const Window& window, NearestField& field, std::vector<int32_t>* via, const ComputeOptions& options);
+
+  // The report's "sea" entry: the barriers, the snapping, the visibility work, land and
+  // unreachable cells, the largest detour, and (with a via raster) the vertices it names with
+  // their positions in the grid's CRS.
+  nlohmann::json report() const;
+
+ private:
+  const PreparedJob& job_;
+  int64_t land_ = 0, unreachable_ = 0, tests_ = 0;
+  double detour_ = 1.0;
+  std::vector<uint8_t> named_;  // per barrier vertex: some cell's via
+};
+
+// The GeoTIFF options of the via raster (OutputRequest::via).
+GeoTiffOptions via_options(const JobSpec& spec, const PreparedJob& job);
+
+// The whole path's via raster (codes as SeaRun::compute makes them, over the whole grid): written
+// to OutputRequest::via and listed in the outputs.
+void write_via(JobRun& run, const PreparedJob& job, const std::vector<int32_t>& via);
+
+}  // namespace rv::detail
