@@ -412,42 +412,6 @@ LoadedSeeds read_seeds(const JobSpec& spec, const JobLimits& limits, const JobHo
   return load_seeds(read);
 }
 
-// The limit lines' distances in metric units (metres on geodesic grids, CRS units on planar).
-std::vector<double> limit_distances_in_metric_units(const JobSpec& spec, const PreparedJob& job) {
-  const OutputRequest& out = spec.outputs;
-  if (!out.limits.empty() && out.limit_distances.empty())
-    throw Error(ErrorKind::invalid_argument, "limit lines need limit distances (e.g. --limit-distances 12nmi,24nmi)");
-  const bool geodesic = job.metric.kind == MetricSpec::geodesic;
-  std::vector<double> metric;
-  for (const std::string& text : out.limit_distances) {
-    const LimitDistance d = parse_limit_distance(text);
-    if (d.unit.empty()) {
-      metric.push_back(d.value / job.to_output);
-      continue;
-    }
-    if (!geodesic && job.loaded.crs.wkt.empty())
-      throw Error(ErrorKind::invalid_argument, "limit distance '" + text + "' has a unit, but the seeds have no CRS");
-    metric.push_back(d.value * metres_per_unit(parse_distance_unit(d.unit)) /
-                     (geodesic ? 1.0 : job.loaded.crs.linear_unit));
-  }
-  for (double d : metric)
-    if (d > job.compute.max_distance)
-      throw Error(ErrorKind::invalid_argument,
-                  "a limit distance exceeds the max distance: cells beyond it have no distance to draw the line in");
-  return metric;
-}
-
-// The line tolerance in metric units: a length with a unit in metres (CRS units where the seeds
-// have no CRS: the default 1 mm is then 0.001 of them), a plain number in the distance units.
-double line_tolerance_in_metric_units(const JobSpec& spec, const PreparedJob& job) {
-  const Length l = parse_length(spec.outputs.line_tolerance);
-  if (l.unit.empty()) return l.value / job.to_output;
-  const bool geodesic = job.metric.kind == MetricSpec::geodesic;
-  if (geodesic) return l.value * l.metres_per_unit;
-  if (job.loaded.crs.wkt.empty()) return l.value * l.metres_per_unit;  // CRS units taken as metres
-  return l.value * l.metres_per_unit / job.loaded.crs.linear_unit;
-}
-
 // What weights and reaches cannot be combined with (yet), refused before anything is computed.
 void check_adjustments(const JobSpec& spec, const PreparedJob& job) {
   const SeedSet& seeds = job.loaded.seeds;
@@ -476,52 +440,6 @@ void check_adjustments(const JobSpec& spec, const PreparedJob& job) {
   if (!out.margin.empty())
     throw Error(ErrorKind::unsupported,
                 "the margin raster is not available with weights or reaches: it measures unweighted distances");
-}
-
-// The relevant area (its polygons, in the grid's CRS) and the relevant coasts (in the seeds'
-// CRS, owned as the seeds are), read with the seeds' confinement and limits; refused when the
-// area holds no polygon, the coasts no line, or a coast's owner has no seeds.
-void read_relevant(const JobSpec& spec, const JobLimits& limits, PreparedJob& job) {
-  const OutputRequest& out = spec.outputs;
-  if (out.relevant_area.empty()) {
-    if (!out.relevant_coasts.empty())
-      throw Error(ErrorKind::invalid_argument, "relevant coasts need a relevant area (--relevant-area)");
-    return;
-  }
-  SeedReadOptions base = spec.seeds;
-  base.layers.clear();
-  base.owner_field.reset();
-  base.weight_field.reset();
-  base.reach_field.reset();
-  base.effect_field.reset();
-  base.on_conflict = ConflictPolicy::lower_code;
-  SeedReadOptions area = detail::with_limits(base, limits);
-  area.paths = {out.relevant_area};
-  area.target_crs = job.loaded.crs.wkt;
-  area.geographic_seeds = false;
-  job.relevant_area = load_seeds(area);
-  if (job.relevant_area->seeds.polygons().empty())
-    throw Error(ErrorKind::invalid_input, "the relevant area (" + out.relevant_area + ") holds no polygon");
-  if (out.relevant_coasts.empty()) return;
-  // The uploads' limits too (the daemon reads them as it reads the seeds).
-  SeedReadOptions coasts = detail::with_limits(seed_options_for_metric(spec.seeds, spec.metric), limits);
-  coasts.paths = {out.relevant_coasts};
-  coasts.layers.clear();
-  coasts.weight_field.reset();
-  coasts.reach_field.reset();
-  coasts.effect_field.reset();
-  coasts.on_conflict = ConflictPolicy::lower_code;
-  coasts.target_crs = job.loaded.crs.wkt;
-  job.relevant_coasts = load_seeds(coasts);
-  const SeedSet& cs = job.relevant_coasts->seeds;
-  if (cs.geometric_site_count() == 0)
-    throw Error(ErrorKind::invalid_input, "the relevant coasts (" + out.relevant_coasts + ") hold no line");
-  const std::vector<std::string>& owners = job.loaded.seeds.owner_labels();
-  for (const std::string& label : cs.owner_labels())
-    if (std::find(owners.begin(), owners.end(), label) == owners.end())
-      throw Error(ErrorKind::invalid_input, "the relevant coasts name owner '" + label +
-                                                "', which has no seeds (owners are matched by the " +
-                                                "owner field's values)");
 }
 
 // Requests refused before anything is computed, and the limits of the planned job.
@@ -597,10 +515,10 @@ PreparedJob prepare_job(const JobSpec& spec, const JobLimits& limits, const JobH
   }
   // Reaches are given in the job's distance units, like the max distance.
   job.loaded.seeds.scale_reaches(1.0 / job.to_output);
-  job.limit_distances = limit_distances_in_metric_units(spec, job);
-  job.line_tolerance = line_tolerance_in_metric_units(spec, job);
+  job.limit_distances = detail::limit_distances_in_metric_units(spec, job);
+  job.line_tolerance = detail::line_tolerance_in_metric_units(spec, job);
   job.partial = partial_effect_of(job.loaded.seeds);
-  read_relevant(spec, limits, job);
+  detail::read_relevant(spec, limits, job);
   job.plan = plan_job(spec, job.grid, static_cast<int64_t>(job.loaded.seeds.sites().size()), mp.metric.kind,
                       seed_memory_bytes(job.loaded));
   check_plan(spec, limits, job, job.plan);

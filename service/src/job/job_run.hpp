@@ -110,6 +110,22 @@ GeoTiffOptions raster_options(const JobSpec& spec);
 // reading: the stricter of each and the options' own.
 SeedReadOptions with_limits(SeedReadOptions read, const JobLimits& limits);
 
+// The options of layers read beside the seeds (job_inputs.cpp): `read` (the seeds' own, limits
+// applied) for `paths`, every layer of them, without the owner and adjustment fields, nothing
+// refused as a conflict, into the job's grid CRS.
+SeedReadOptions other_layers(SeedReadOptions read, std::vector<std::string> paths, const PreparedJob& job);
+
+// The limit lines' distances in metric units (metres on geodesic grids, CRS units on planar);
+// refused when a limit lies beyond the max distance or names a unit without a CRS.
+std::vector<double> limit_distances_in_metric_units(const JobSpec& spec, const PreparedJob& job);
+// The line tolerance in metric units: a length with a unit in metres (CRS units where the seeds
+// have no CRS: the default 1 mm is then 0.001 of them), a plain number in the distance units.
+double line_tolerance_in_metric_units(const JobSpec& spec, const PreparedJob& job);
+// The relevant area (its polygons, in the grid's CRS) and the relevant coasts (in the seeds'
+// CRS, owned as the seeds are), read with the seeds' confinement and limits; refused when the
+// area holds no polygon, the coasts no line, or a coast's owner has no seeds.
+void read_relevant(const JobSpec& spec, const JobLimits& limits, PreparedJob& job);
+
 // The maritime deliverables of a job (boundaries, tripoints, limits, regions, margin, preview)
 // from its exact field taken in strip by strip (a streamed job), or as one whole field: each
 // written to its file, counted in the report's "deliverables", timed in

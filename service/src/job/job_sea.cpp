@@ -46,21 +46,17 @@ void read_barriers(const JobSpec& spec, const SeedReadOptions& read, PreparedJob
     refuse(ErrorKind::unsupported, "the distance by sea is not available with partial effect yet");
 
   auto sea = std::make_shared<PreparedJob::Sea>();
-  SeedReadOptions options = read;
-  options.paths = spec.barriers;
-  options.layers.clear();
-  options.owner_field.reset();
-  options.weight_field.reset();
-  options.reach_field.reset();
-  options.effect_field.reset();
-  options.on_conflict = ConflictPolicy::lower_code;
-  options.target_crs = job.loaded.crs.wkt;
-  options.geographic_seeds = false;
+  const SeedReadOptions options = other_layers(read, spec.barriers, job);
   sea->loaded = about_barriers([&] { return load_barriers(options); });
   if (sea->loaded.barriers.empty()) refuse(ErrorKind::invalid_input, "the layers hold no polygon or line");
 
   // Metres (or the length's own unit) to CRS units; CRS units where the seeds have none.
-  const Length tolerance = about_barriers([&] { return parse_length(spec.snap_tolerance); });
+  Length tolerance;
+  try {
+    tolerance = parse_length(spec.snap_tolerance);
+  } catch (const Error& e) {
+    throw Error(e.kind(), std::string("snap tolerance: ") + e.what());
+  }
   const double metres = tolerance.value * tolerance.metres_per_unit;
   sea->snap_tolerance = job.loaded.crs.wkt.empty() ? tolerance.value : metres / job.loaded.crs.linear_unit;
   SnappedSeeds snapped = about_barriers([&] { return snap_to_sea(seeds, sea->loaded.barriers, sea->snap_tolerance); });

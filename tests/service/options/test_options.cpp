@@ -73,19 +73,14 @@ TEST(Options, EachOptionIsDeclaredOnceAndComplete) {
     EXPECT_EQ(o.type == OptionType::layers, !o.geometry.empty()) << o.title;
   }
   // The process inputs of the voronoi process, uploads included: the API's ids stay as they are.
-  EXPECT_EQ(inputs, (std::set<std::string_view>{"seeds",           "relevantArea",
-                                                "relevantCoasts",  "onConflict",
-                                                "ownerField",      "weightField",
-                                                "reachField",      "effectField",
-                                                "borderTolerance", "transformAccuracy",
-                                                "allowBallpark",   "resolution",
-                                                "extent",          "crs",
-                                                "metric",          "method",
-                                                "maxDistance",     "distanceUnits",
-                                                "validate",        "limitDistances",
-                                                "limitsPerOwner",  "simplify",
-                                                "lineTolerance",   "compression",
-                                                "baseJob"}));
+  EXPECT_EQ(inputs,
+            (std::set<std::string_view>{"seeds",          "barriers",       "snapTolerance",   "relevantArea",
+                                        "relevantCoasts", "onConflict",     "ownerField",      "weightField",
+                                        "reachField",     "effectField",    "borderTolerance", "transformAccuracy",
+                                        "allowBallpark",  "resolution",     "extent",          "crs",
+                                        "metric",         "method",         "maxDistance",     "distanceUnits",
+                                        "validate",       "limitDistances", "limitsPerOwner",  "simplify",
+                                        "lineTolerance",  "compression",    "baseJob"}));
 }
 
 TEST(Options, TheCliAndTheProcessInputsMakeTheSameJob) {

@@ -1,0 +1,328 @@
+// The distance by sea in a job (JobSpec::barriers, service/src/job/job_sea.hpp): the files are
+// the core engine's field cell for cell, streamed or whole, for any strip height and thread count;
+// validation runs the brute-force oracle by sea; coasts as both seeds and land change nothing off
+// the land; seeds just inland are moved onto the coast, deeper ones refused; cells no seed reaches
+// have no owner; and every combination the distance by sea does not do is refused in one line,
+// with nothing written.
+#include <gtest/gtest.h>
+
+#include <unistd.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <set>
+#include <string>
+
+#include <nlohmann/json.hpp>
+
+#include "rv/engine/outputs.hpp"
+#include "rv/field/error.hpp"
+#include "rv/gdal/raster_io.hpp"
+#include "rv/job.hpp"
+
+namespace fs = std::filesystem;
+
+#include "fixtures.hpp"
+#include "geotiff_compare.hpp"
+
+namespace rv {
+namespace {
+
+using test::expect_same_geotiff;
+using test::fixture;
+
+constexpr const char* kUtm33 = R"("crs": {"type": "name", "properties": {"name": "urn:ogc:def:crs:EPSG::32633"}})";
+
+class SeaJob : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = fs::temp_directory_path() / ("rv_sea_job_" + std::to_string(::getpid()) + "_" +
+                                        ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    fs::remove_all(dir_);
+    fs::create_directories(dir_);
+  }
+  void TearDown() override { fs::remove_all(dir_); }
+
+  // Twelve ports on the Øresund's coasts (fixtures/oresund_ports.geojson, owners DK and SE) and
+  // the two states' land as barriers, in UTM 33N: 160 x 280 cells of 250 m over the strait.
+  JobSpec ports_spec(const std::string& sub) const {
+    JobSpec s;
+    s.seeds.paths = {fixture("oresund_ports.geojson")};
+    s.seeds.owner_field = "owner";
+    s.seeds.target_crs = "EPSG:32633";
+    s.metric = MetricRequest::planar;
+    s.barriers = {fixture("oresund.gpkg")};
+    s.grid.resolution = 250.0;
+    s.grid.extent = std::array<double, 4>{330000.0, 6150000.0, 370000.0, 6220000.0};
+    return with_outputs(s, sub);
+  }
+  JobSpec with_outputs(JobSpec s, const std::string& sub) const {
+    fs::create_directories(dir_ / sub);
+    s.outputs.ownership = (dir_ / sub / "own.tif").string();
+    s.outputs.distance = (dir_ / sub / "dist.tif").string();
+    s.outputs.nearest_feature = (dir_ / sub / "feat.tif").string();
+    s.outputs.via = (dir_ / sub / "via.tif").string();
+    s.outputs.report = (dir_ / sub / "report.json").string();
+    return s;
+  }
+  std::string write(const std::string& name, const std::string& text) const {
+    const std::string path = (dir_ / name).string();
+    std::ofstream(path) << text;
+    return path;
+  }
+  // The refusal of `spec`: its kind and message, and nothing left in its outputs' folder.
+  Error refused(const JobSpec& spec) const {
+    const fs::path folder = fs::path(spec.outputs.ownership).parent_path();
+    try {
+      run_job(spec);
+    } catch (const Error& e) {
+      EXPECT_TRUE(fs::is_empty(folder)) << e.what();
+      return e;
+    }
+    ADD_FAILURE() << "not refused";
+    return Error(ErrorKind::internal, "not refused");
+  }
+
+  fs::path dir_;
+};
+
+nlohmann::json read_json(const std::string& path) { return nlohmann::json::parse(std::ifstream(path)); }
+
+TEST_F(SeaJob, FilesAreTheEngineFieldCellForCell) {
+  const JobSpec spec = ports_spec("a");
+  const JobResult result = run_job(spec);
+  const PreparedJob job = prepare_job(spec);
+  ASSERT_TRUE(job.sea);
+  SeaOptions options;
+  options.prepared = job.sea->prepared;
+  const SeaField f = compute_sea(job.loaded.seeds, job.sea->loaded.barriers, job.grid, job.grid.full_window(), options);
+
+  const Raster<int32_t> own = read_int32(spec.outputs.ownership);
+  const Raster<float> dist = read_float32(spec.outputs.distance);
+  const Raster<int32_t> via = read_int32(spec.outputs.via);
+  const Raster<int32_t> expected_owner = owner_raster(job.loaded.seeds, f.field, 1);
+  ASSERT_EQ(own.cells().size(), f.field.site.cells().size());
+  int64_t land = 0, bent = 0, direct = 0;
+  std::set<int32_t> vias;
+  for (size_t c = 0; c < own.cells().size(); ++c) {
+    ASSERT_EQ(own.cells()[c], expected_owner.cells()[c]) << c;
+    ASSERT_EQ(dist.cells()[c], f.field.distance.cells()[c]) << c;  // metres both: bit for bit
+    ASSERT_EQ(via.cells()[c], f.via.cells()[c] + 1) << c;
+    land += own.cells()[c] == 0;
+    if (via.cells()[c] > 0) {
+      ++bent;
+      vias.insert(via.cells()[c]);
+    } else if (own.cells()[c] != 0) {
+      ++direct;
+    }
+  }
+  // The strait bends paths round Zealand's and Scania's headlands; land has no owner.
+  EXPECT_GT(bent, 1000);
+  EXPECT_GT(direct, 1000);
+  EXPECT_EQ(land, f.land_cells);
+  EXPECT_GT(land, 5000);
+
+  const nlohmann::json sea = read_json(spec.outputs.report).at("sea");
+  EXPECT_EQ(sea.at("land_cells").get<int64_t>(), f.land_cells);
+  EXPECT_EQ(sea.at("unreachable_cells").get<int64_t>(), 0);
+  EXPECT_EQ(sea.at("barriers").at("features").get<int64_t>(), 2);
+  EXPECT_EQ(sea.at("barriers").at("vertices").get<int32_t>(), f.barrier_vertices);
+  EXPECT_EQ(sea.at("bend_nodes").get<int64_t>(), f.bend_nodes);
+  EXPECT_GT(sea.at("visibility_tests").at("all").get<int64_t>(), sea.at("visibility_tests").at("bends").get<int64_t>());
+  EXPECT_GT(sea.at("max_detour").get<double>(), 1.0);
+  EXPECT_EQ(sea.at("snap").at("moved").get<int64_t>(), 0);  // the ports are the land's own vertices
+  // The via vertices listed are those the raster names, each at a vertex of the land.
+  std::set<int32_t> listed;
+  const Barriers& barriers = job.sea->loaded.barriers;
+  for (const nlohmann::json& v : sea.at("via_vertices")) {
+    listed.insert(v.at(0).get<int32_t>());
+    const Vec2 at{v.at(1).get<double>(), v.at(2).get<double>()};
+    double nearest = INFINITY;
+    for (const Barriers::Polygon& p : barriers.polygons())
+      for (const Ring& r : p.rings)
+        for (const Vec2& q : r) nearest = std::min(nearest, std::hypot(q.x - at.x, q.y - at.y));
+    EXPECT_LT(nearest, 1e-6) << v;
+  }
+  EXPECT_EQ(listed, vias);
+  EXPECT_TRUE(result.report.at("streaming").at("streamed").get<bool>());
+}
+
+TEST_F(SeaJob, StreamedEqualsWholeForAnyStripHeightAndThreads) {
+  JobSpec whole = ports_spec("whole");
+  whole.strip_rows = -1;
+  whole.threads = 1;
+  run_job(whole);
+  for (const auto& [rows, threads] : {std::pair<int64_t, int>{256, 2}, {0, 1}, {1, 2}}) {
+    JobSpec s = ports_spec("s" + std::to_string(rows) + "_" + std::to_string(threads));
+    s.strip_rows = rows;
+    s.threads = threads;
+    const JobResult r = run_job(s);
+    EXPECT_TRUE(r.report.at("streaming").at("streamed").get<bool>());
+    // A source's strips hold whole bands of tiles: 256 rows, then the last 24 (the automatic
+    // height: the whole grid).
+    EXPECT_EQ(r.report.at("streaming").at("rows_per_strip").get<int64_t>(), rows == 0 ? 280 : 256);
+    for (auto member :
+         {&OutputRequest::ownership, &OutputRequest::distance, &OutputRequest::nearest_feature, &OutputRequest::via})
+      expect_same_geotiff(whole.outputs.*member, s.outputs.*member);
+  }
+}
+
+TEST_F(SeaJob, ValidationRunsTheOracleBySea) {
+  JobSpec s = ports_spec("v");
+  s.grid.resolution = 1000.0;
+  s.validate = true;
+  const nlohmann::json v = run_job(s).report.at("validation");
+  EXPECT_EQ(v.at("cells").get<int64_t>(), 40 * 70);
+  EXPECT_EQ(v.at("wrong_cells").get<int64_t>(), 0);
+  EXPECT_EQ(v.at("wrong_owner_cells").get<int64_t>(), 0);
+  EXPECT_EQ(v.at("nodata_mismatch").get<int64_t>(), 0);
+}
+
+// Coasts as both seeds and land: off the land the field is the straight one, bit for bit; the
+// cells without an owner are land, where the straight field says 0 (inside a seed polygon).
+TEST_F(SeaJob, CoastsAsSeedsAndLandChangeNothingOffLand) {
+  JobSpec sea;
+  sea.seeds.paths = {fixture("oresund.gpkg")};
+  sea.seeds.owner_field = "iso2";
+  sea.seeds.target_crs = "EPSG:32633";
+  sea.metric = MetricRequest::planar;
+  sea.grid.resolution = 500.0;
+  JobSpec straight = with_outputs(sea, "straight");
+  straight.outputs.via.clear();
+  sea.barriers = {fixture("oresund.gpkg")};
+  sea = with_outputs(sea, "sea");
+  run_job(straight);
+  const nlohmann::json report = run_job(sea).report;
+  const Raster<int32_t> own_sea = read_int32(sea.outputs.ownership), own = read_int32(straight.outputs.ownership);
+  const Raster<float> dist_sea = read_float32(sea.outputs.distance), dist = read_float32(straight.outputs.distance);
+  const Raster<int32_t> via = read_int32(sea.outputs.via);
+  int64_t land = 0, compared = 0;
+  for (size_t c = 0; c < own.cells().size(); ++c) {
+    EXPECT_EQ(via.cells()[c], 0) << c;  // no path bends: it would meet a seed first
+    if (own_sea.cells()[c] == 0) {
+      ++land;
+      EXPECT_EQ(dist.cells()[c], 0.0f) << c;
+      EXPECT_EQ(dist_sea.cells()[c], static_cast<float>(kNoDistance)) << c;
+      continue;
+    }
+    ++compared;
+    ASSERT_EQ(own_sea.cells()[c], own.cells()[c]) << c;
+    ASSERT_EQ(dist_sea.cells()[c], dist.cells()[c]) << c;
+  }
+  EXPECT_EQ(land, report.at("sea").at("land_cells").get<int64_t>());
+  EXPECT_GT(land, 10000);
+  EXPECT_GT(compared, 10000);
+  EXPECT_EQ(report.at("sea").at("unreachable_cells").get<int64_t>(), 0);
+}
+
+// An island with a lagoon (a polygon with a hole) in UTM 33N, 10 km across, the lagoon 2 km.
+std::string island_with_lagoon() {
+  return std::string(R"({"type": "FeatureCollection", )") + kUtm33 + R"(, "features": [
+    {"type": "Feature", "properties": {"name": "island"}, "geometry": {"type": "Polygon", "coordinates": [
+      [[400000, 6200000], [410000, 6200000], [410000, 6210000], [400000, 6210000], [400000, 6200000]],
+      [[404000, 6204000], [404000, 6206000], [406000, 6206000], [406000, 6204000], [404000, 6204000]]]}}]})";
+}
+
+std::string points(const std::string& features) {
+  return std::string(R"({"type": "FeatureCollection", )") + kUtm33 + R"(, "features": [)" + features + "]}";
+}
+
+std::string point(const char* owner, double x, double y) {
+  return std::string(R"({"type": "Feature", "properties": {"owner": ")") + owner +
+         R"("}, "geometry": {"type": "Point", "coordinates": [)" + std::to_string(x) + ", " + std::to_string(y) + "]}}";
+}
+
+TEST_F(SeaJob, CellsNoSeedReachesHaveNoOwnerAndAreCounted) {
+  JobSpec s;
+  s.seeds.paths = {write("lagoon_port.geojson", points(point("L", 405300.0, 6205200.0)))};
+  s.seeds.owner_field = "owner";
+  s.barriers = {write("island.geojson", island_with_lagoon())};
+  s.grid.resolution = 250.0;
+  s.grid.extent = std::array<double, 4>{398000.0, 6198000.0, 412000.0, 6212000.0};
+  s = with_outputs(s, "l");
+  const nlohmann::json sea = run_job(s).report.at("sea");
+  const Raster<int32_t> own = read_int32(s.outputs.ownership);
+  const Raster<float> dist = read_float32(s.outputs.distance);
+  const GridSpec& g = own.grid();
+  int64_t outside = 0, lagoon = 0;
+  for (int64_t r = 0; r < g.height; ++r)
+    for (int64_t c = 0; c < g.width; ++c) {
+      const double x = g.centre_x(c), y = g.centre_y(r);
+      const size_t i = static_cast<size_t>(r * g.width + c);
+      const bool in_lagoon = x > 404000 && x < 406000 && y > 6204000 && y < 6206000;
+      const bool in_island = x > 400000 && x < 410000 && y > 6200000 && y < 6210000;
+      if (in_lagoon) {
+        ++lagoon;
+        EXPECT_EQ(own.cells()[i], 1);
+        EXPECT_NEAR(dist.cells()[i], std::hypot(x - 405300.0, y - 6205200.0), 1e-2);
+      } else if (!in_island) {
+        ++outside;
+        EXPECT_EQ(own.cells()[i], 0);
+        EXPECT_EQ(dist.cells()[i], static_cast<float>(kNoDistance));
+      }
+    }
+  EXPECT_EQ(lagoon, 64);
+  EXPECT_EQ(sea.at("unreachable_cells").get<int64_t>(), outside);
+  EXPECT_GT(outside, 1000);
+}
+
+TEST_F(SeaJob, SeedsJustInlandMoveOntoTheCoastDeeperOnesAreRefused) {
+  // The island's west edge is x = 400000: one port 0.4 m inside it, one at sea.
+  const std::string ports =
+      write("ports.geojson", points(point("A", 400000.4, 6203000.0) + ", " + point("B", 412000.0, 6205000.0)));
+  JobSpec s;
+  s.seeds.paths = {ports};
+  s.seeds.owner_field = "owner";
+  s.barriers = {write("island.geojson", island_with_lagoon())};
+  s.grid.resolution = 500.0;
+  s.grid.extent = std::array<double, 4>{395000.0, 6195000.0, 415000.0, 6215000.0};
+  s = with_outputs(s, "snap");
+  const nlohmann::json snap = run_job(s).report.at("sea").at("snap");
+  EXPECT_EQ(snap.at("moved").get<int64_t>(), 1);
+  EXPECT_NEAR(snap.at("largest_move").get<double>(), 0.4, 1e-6);
+  EXPECT_EQ(snap.at("tolerance").get<double>(), 1.0);
+  // West of the island the cells are A's: it stands on the coast now.
+  EXPECT_EQ(read_int32(s.outputs.ownership).cells()[static_cast<size_t>(20 * 40 + 2)], 1);
+
+  JobSpec strict = with_outputs(s, "strict");
+  strict.snap_tolerance = "10cm";
+  const Error e = refused(strict);
+  EXPECT_EQ(e.kind(), ErrorKind::invalid_input);
+  EXPECT_NE(std::string(e.what()).find("barriers: the seed"), std::string::npos) << e.what();
+  EXPECT_NE(std::string(e.what()).find("ports.geojson"), std::string::npos) << e.what();
+}
+
+TEST_F(SeaJob, WhatTheDistanceBySeaDoesNotDoIsRefusedInOneLine) {
+  auto expect = [&](JobSpec s, ErrorKind kind, const std::string& words) {
+    const Error e = refused(s);
+    EXPECT_EQ(e.kind(), kind) << e.what();
+    EXPECT_NE(std::string(e.what()).find(words), std::string::npos) << e.what();
+    EXPECT_EQ(std::string(e.what()).find('\n'), std::string::npos) << e.what();
+  };
+  JobSpec scan = ports_spec("scan");
+  scan.method = Method::hv_scan;
+  expect(scan, ErrorKind::invalid_argument, "barriers: the distance by sea needs the exact");
+  JobSpec geodesic = ports_spec("geodesic");
+  geodesic.metric = MetricRequest::geodesic;
+  expect(geodesic, ErrorKind::unsupported, "planar for now");
+  JobSpec lines = ports_spec("lines");
+  lines.outputs.boundaries = (dir_ / "lines" / "b.geojson").string();
+  expect(lines, ErrorKind::unsupported, "not drawn under the distance by sea yet");
+  JobSpec via = ports_spec("via");
+  via.barriers.clear();
+  expect(via, ErrorKind::invalid_argument, "the via raster needs barriers");
+  JobSpec point_barriers = ports_spec("points");
+  point_barriers.barriers = {fixture("oresund_ports.geojson")};
+  expect(point_barriers, ErrorKind::invalid_input, "barriers: ");
+  JobSpec inland = ports_spec("inland");
+  inland.seeds.paths = {write("inland.geojson", R"({"type": "FeatureCollection", "features": [
+      {"type": "Feature", "properties": {"owner": "DK"}, "geometry": {"type": "Point", "coordinates": [12.3, 55.6]}}]})")};
+  expect(inland, ErrorKind::invalid_input, "inland.geojson");
+  JobSpec tolerance = ports_spec("tolerance");
+  tolerance.snap_tolerance = "1 furlong";
+  expect(tolerance, ErrorKind::invalid_argument, "snap tolerance: length '1 furlong'");
+}
+
+}  // namespace
+}  // namespace rv
