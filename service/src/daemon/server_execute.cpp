@@ -128,6 +128,7 @@ const std::vector<OutputInfo>& output_table() {
       {"preview", "preview", {{kMediaPng, "png"}}},
       {"turningPoints", "turning_points", {{kMediaJson, "json"}, {kMediaCsv, "csv"}}},
       {"changes", "changes", {{kMediaGeoTiff, "tif"}}},
+      {"via", "via", {{kMediaGeoTiff, "tif"}}},
   };
   return table;
 }
@@ -143,7 +144,7 @@ std::string media_key(std::string_view m) {
 
 std::string id_list() {
   std::string s;
-  for (const char* id : kOutputIds) s += (s.empty() ? "" : ", ") + std::string(id);
+  for (const OutputInfo& o : output_table()) s += (s.empty() ? "" : ", ") + std::string(o.id);
   return s;
 }
 
@@ -197,9 +198,9 @@ void parse_outputs(const json& body, Execution& ex) {
               {"distance", "reference", kMediaGeoTiff},
               {"report", "value", kMediaJson}};
   }
-  for (const char* id : kOutputIds) {
+  for (const OutputInfo& o : output_table()) {
     for (const Chosen& c : chosen) {
-      if (c.id == id) {
+      if (c.id == o.id) {
         ex.outputs.push_back(c.id);
         ex.transmission.push_back(c.mode);
         ex.formats.push_back(c.media);
@@ -458,6 +459,13 @@ void check_changes_pairing(const Execution& ex) {
     throw Error(ErrorKind::invalid_argument, "output 'changes': needs the input baseJob (the job this one edits)");
 }
 
+// The via raster is the distance by sea's: without barriers it is a mistake to report now.
+void check_via_pairing(const Execution& ex) {
+  const bool via = std::find(ex.outputs.begin(), ex.outputs.end(), "via") != ex.outputs.end();
+  if (via && ex.spec.barriers.empty())
+    throw Error(ErrorKind::invalid_argument, "output 'via': needs the input barriers (it is the distance by sea's)");
+}
+
 }  // namespace
 
 Execution parse_execution(const json& body, const std::string& job_id, const ServerConfig& config,
@@ -476,6 +484,7 @@ Execution parse_execution(const json& body, const std::string& job_id, const Ser
   parse_outputs(body, ex);
   check_limits_pairing(in, ex);
   check_changes_pairing(ex);
+  check_via_pairing(ex);
   return ex;
 }
 

@@ -33,11 +33,6 @@ class VsiMemFiles {
   std::vector<std::string> files_;
 };
 
-// The outputs of the process, in the order of OutputRequest.
-inline constexpr const char* kOutputIds[] = {"ownership",  "distance",  "nearestFeature", "report",
-                                             "boundaries", "tripoints", "limits",         "regions",
-                                             "margin",     "preview",   "turningPoints",  "changes"};
-
 // Media types of the result files.
 inline constexpr const char* kMediaGeoTiff = "image/tiff; application=geotiff; profile=cloud-optimized";
 inline constexpr const char* kMediaJson = "application/json";

@@ -669,6 +669,10 @@ std::unique_ptr<Session> Session::create(const JobSpec& spec, const SessionLimit
   if (spec.validate) throw Error(ErrorKind::invalid_argument, "a session does not validate; run a job for that");
   if (!spec.base_report.empty() || spec.window)
     throw Error(ErrorKind::invalid_argument, "a session starts from seeds, not from a base or a window");
+  if (!spec.barriers.empty())
+    throw Error(ErrorKind::unsupported,
+                "barriers: a session does not compute by sea yet (its edits recompute straight distances); run a "
+                "job for that");
   if (limits.undo_depth < 0) throw Error(ErrorKind::invalid_argument, "the undo depth must be >= 0");
   const OutputRequest& o = spec.outputs;
   std::unique_ptr<Session> s(new Session());

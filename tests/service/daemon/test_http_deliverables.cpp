@@ -478,3 +478,71 @@ TEST_F(DaemonDeliverables, BadOutputsAndLimitDistancesAre400) {
 }
 
 }  // namespace
+
+// The distance by sea over HTTP: the barriers uploaded as a layer or an array of layers, the via
+// raster returned, every cell checked against the closed form of one point behind a wall
+// (d = |s - x| where x sees s, else the least of |s - v| + |v - x| over the wall's ends v); and
+// the pairings and barriers the daemon refuses, each a 400 naming the input.
+TEST_F(DaemonDeliverables, TheDistanceBySeaGoesAroundUploadedBarriers) {
+  const std::vector<Seed> seeds = {{"W", kX0 + 1030.0, kY0 + 1470.0}};
+  const double wx = kX0 + 2000.0, wy0 = kY0 + 600.0, wy1 = kY0 + 2400.0;  // the wall, north-south
+  json wall = seed_collection({});
+  json feature = json::object();
+  feature["type"] = "Feature";
+  feature["properties"] = json::object();
+  feature["geometry"] = {{"type", "LineString"},
+                         {"coordinates", json::array({json::array({wx, wy0}), json::array({wx, wy1})})}};
+  wall["features"].push_back(feature);
+  for (const json& barriers : {wall, json::array({wall})}) {
+    json body = {
+        {"inputs", inputs_for(seeds)},
+        {"outputs",
+         {{"distance", json::object()}, {"via", json::object()}, {"report", {{"transmissionMode", "reference"}}}}}};
+    body["inputs"]["barriers"] = barriers;
+    const Reply r = post(body);
+    ASSERT_EQ(r.status, 200u) << r.body;
+    const json results = r.json();
+    fetch(results, "distance", "image/tiff; application=geotiff; profile=cloud-optimized", "d.tif");
+    fetch(results, "via", "image/tiff; application=geotiff; profile=cloud-optimized", "v.tif");
+    const rv::Raster<float> d = rv::read_float32((dir_ / "d.tif").string());
+    const rv::Raster<int32_t> via = rv::read_int32((dir_ / "v.tif").string());
+    const Seed& s = seeds[0];
+    int shadow = 0;
+    for (int row = 0; row < kHeight; ++row)
+      for (int col = 0; col < kWidth; ++col) {
+        const double x = centre_x(col), y = centre_y(row);
+        // The straight path from s crosses the wall's line x = wx between its ends.
+        const double t = (wx - s.x) / (x - s.x);
+        const bool hidden = x > wx && t > 0.0 && t < 1.0 && s.y + t * (y - s.y) > wy0 && s.y + t * (y - s.y) < wy1;
+        double expected = std::hypot(x - s.x, y - s.y);
+        if (hidden) {
+          ++shadow;
+          expected = std::min(std::hypot(wx - s.x, wy0 - s.y) + std::hypot(x - wx, y - wy0),
+                              std::hypot(wx - s.x, wy1 - s.y) + std::hypot(x - wx, y - wy1));
+        }
+        const size_t i = static_cast<size_t>(row * kWidth + col);
+        EXPECT_NEAR(d.cells()[i], expected, 1e-3 * expected) << col << ", " << row;
+        EXPECT_EQ(via.cells()[i] != 0, hidden) << col << ", " << row;
+      }
+    EXPECT_GT(shadow, 200);
+    const json report = get(path_of(results["report"]["href"].get<std::string>())).json();
+    EXPECT_EQ(report["sea"]["barriers"]["lines"], 1);
+    EXPECT_EQ(report["sea"]["via_vertices"].size(), 2u);
+  }
+  // Refused before any job: a point as a barrier, the via raster without barriers, a scan by sea.
+  json points = seed_collection(seeds);
+  json body = {{"inputs", inputs_for(seeds)}, {"outputs", {{"ownership", json::object()}}}};
+  body["inputs"]["barriers"] = json::array({wall, points});
+  const Reply point_barrier = post(body);  // invalid input (its data), not an invalid parameter
+  EXPECT_EQ(point_barrier.status, 400u);
+  EXPECT_NE(point_barrier.json()["detail"].get<std::string>().find(
+                "input 'barriers': the barrier barriers[1]:barriers_1:fid 0 is a point"),
+            std::string::npos)
+      << point_barrier.body;
+  body["inputs"].erase("barriers");
+  body["outputs"]["via"] = json::object();
+  expect_problem_400(post(body), "output 'via': needs the input barriers");
+  body["inputs"]["barriers"] = wall;
+  body["inputs"]["method"] = "hv-scan";
+  expect_problem_400(post(body), "needs the exact");
+}
