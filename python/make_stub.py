@@ -76,6 +76,7 @@ def stub():
     explicit = {
         "chunks": "tuple[int, int] | None = None",
         "nearest_feature": "bool = False",
+        "via": "bool = False",
         "max_cells": "int = ...",
     }
     names = explicit_parameters()

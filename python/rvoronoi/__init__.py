@@ -29,7 +29,7 @@ del _kind, _name
 __version__ = _rvoronoi.version
 __all__ = ["compute", "describe", "run", "process_description", "keywords", "Session", "Error"] + [name for _, name in _rvoronoi.error_kinds]
 
-_PRODUCTS = ("ownership", "distance", "nearest_feature")
+_PRODUCTS = ("ownership", "distance", "nearest_feature", "via")
 _DELIVERABLES = {"boundaries": ".geojson", "tripoints": ".geojson", "limits": ".geojson", "regions": ".geojson",
                  "turning_points": ".json"}
 _RUN_KEYWORDS = {k["keyword"]: k for k in _rvoronoi.keywords()}
@@ -100,8 +100,8 @@ def _read_deliverable(name, path, crs_wkt):
     return geopandas.GeoDataFrame.from_features(features, crs=crs)
 
 
-def _products(nearest_feature):
-    return ["ownership", "distance"] + (["nearest_feature"] if nearest_feature else [])
+def _products(nearest_feature, via=False):
+    return ["ownership", "distance"] + (["nearest_feature"] if nearest_feature else []) + (["via"] if via else [])
 
 
 def _max_cells(value):
@@ -111,8 +111,8 @@ def _max_cells(value):
     return operator.index(value)
 
 
-def compute(seeds, *, chunks=None, nearest_feature=False, deliverables=None, max_cells=_rvoronoi.default_max_cells,
-            **options):
+def compute(seeds, *, chunks=None, nearest_feature=False, via=False, deliverables=None,
+            max_cells=_rvoronoi.default_max_cells, **options):
     """Computes the raster Voronoi diagram of `seeds` on a grid.
 
     seeds: a path (any source GDAL/OGR reads: GeoPackage, Shapefile, GeoJSON, FlatGeobuf, a .zip of
@@ -123,6 +123,9 @@ def compute(seeds, *, chunks=None, nearest_feature=False, deliverables=None, max
         one engine thread unless `threads` says otherwise (Dask runs chunks side by side).
     nearest_feature: also return `nearest_feature` (the 1-based position of the nearest seed
         feature in the input).
+    via: with `barriers` (the distance by sea: land polygons and barrier lines, a path or a list
+        of paths), also return `via`: the last barrier vertex on each cell's path, 0 where the
+        seed is seen directly (the report's sea.via_vertices gives each number's position).
     deliverables: names among "boundaries", "tripoints", "limits" (needs limit_distances),
         "regions", "turning_points": computed from the same field (once), returned beside the
         dataset as GeoDataFrames (GeoJSON mappings without GeoPandas; turning points as the
@@ -131,7 +134,7 @@ def compute(seeds, *, chunks=None, nearest_feature=False, deliverables=None, max
         2^34); over it, TooLarge before anything is computed. Raise it on purpose for a bigger grid.
     **options: the CLI's options (see below and rvoronoi.keywords()).
 
-    Returns an xarray.Dataset (owner, distance[, nearest_feature] on x/y cell centres, CRS in the
+    Returns an xarray.Dataset (owner, distance[, nearest_feature][, via] on x/y cell centres, CRS in the
     CF `spatial_ref` variable, the owner table as CF flags, the report as JSON text in
     attrs["rvoronoi_report"]); with deliverables, (dataset, {name: deliverable}).
     Raises rvoronoi.Error subclasses; TypeError for an unknown keyword.
@@ -143,7 +146,7 @@ def compute(seeds, *, chunks=None, nearest_feature=False, deliverables=None, max
         options = dict(options, threads=1)
     options_json = _options_json(options)
     max_cells = _max_cells(max_cells)
-    products = _products(nearest_feature)
+    products = _products(nearest_feature, via)
     wanted = list(deliverables or [])
     for name in wanted:
         if name not in _DELIVERABLES:
@@ -253,8 +256,9 @@ def _compute_chunked(seeds, chunks, products, options, options_json, max_cells):
             if text.startswith("window: "):
                 raise InvalidArgument("chunks: " + text[len("window: "):]) from None  # noqa: F821
             raise
-        file_options = {k: os.fspath(v) for k, v in options.items()
-                        if v is not None and _KEYWORDS[k]["type"] == "path"}
+        # (A repeatable one, the barriers, may name a list of files.)
+        file_options = {k: [os.fspath(p) for p in v] if isinstance(v, (list, tuple)) else os.fspath(v)
+                        for k, v in options.items() if v is not None and _KEYWORDS[k]["type"] == "path"}
         shipped_options = json.dumps({k: v for k, v in json.loads(options_json).items() if k not in file_options})
         bundle, digest = _seeds.bundle(files.paths, file_options)
     digest = hashlib.sha256((digest + shipped_options + str(max_cells)).encode()).hexdigest()[:32]

@@ -25,7 +25,7 @@ import numpy as np
 
 from . import _rvoronoi, _seeds
 
-_DTYPES = {"ownership": np.int32, "distance": np.float32, "nearest_feature": np.int32}
+_DTYPES = {"ownership": np.int32, "distance": np.float32, "nearest_feature": np.int32, "via": np.int32}
 
 _jobs = {}  # digest -> (directory, _rvoronoi.Job), per worker process
 _jobs_lock = threading.Lock()

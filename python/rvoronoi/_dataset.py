@@ -10,6 +10,7 @@
 - `distance`: distance to the nearest seed in the job's units (`units`), -1 where none
   (`_FillValue` -1 in its encoding).
 - `nearest_feature`: 1-based position of the nearest seed feature in the input, 0 = none.
+- `via` (with barriers): the last barrier vertex on each cell's path by sea, 0 = none.
 - Dataset attributes: `rvoronoi_report` (the report as JSON text), `metric`, `distance_units`.
 """
 import json
@@ -79,6 +80,14 @@ def dataset(arrays, grid, owners, unit, metric, report, window=None):
         })
         feature.encoding["_FillValue"] = np.int32(0)
         data["nearest_feature"] = feature
+    if "via" in arrays:
+        via = xr.DataArray(arrays["via"], dims=("y", "x"), attrs={
+            "long_name": "number of the last barrier vertex on the path by sea (0 = the seed seen directly, "
+                         "or none reached); the report's sea.via_vertices gives each number's position",
+            "grid_mapping": "spatial_ref",
+        })
+        via.encoding["_FillValue"] = np.int32(0)
+        data["via"] = via
     ds = xr.Dataset(data, coords=coords)
     ds.x.attrs.update({"axis": "X", "long_name": "x coordinate of the cell centre"})
     ds.y.attrs.update({"axis": "Y", "long_name": "y coordinate of the cell centre"})

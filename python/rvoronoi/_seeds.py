@@ -115,13 +115,17 @@ def _files_of(path):
 def bundle(paths, file_options):
     """The bytes a worker needs: every seed source and every file an option names.
 
-    `file_options`: keyword -> path of the options whose value is a file (e.g. `like`).
+    `file_options`: keyword -> path of the options whose value is a file (e.g. `like`), or a list
+    of paths (`barriers`).
     Returns (bundle, token): the bundle maps each source to its files' bytes; the token is a digest
     of all of it (the worker's cache key, the Dask graph's name).
     """
     sources = []
     digest = hashlib.sha256()
-    for role, path in [("seeds", p) for p in paths] + [("option:" + k, v) for k, v in sorted(file_options.items())]:
+    roles = [("seeds", p) for p in paths]
+    for k, v in sorted(file_options.items()):
+        roles += [("options:" + k, p) for p in v] if isinstance(v, list) else [("option:" + k, v)]
+    for role, path in roles:
         files = []
         main = None
         for rel, full in _files_of(path):
@@ -136,7 +140,7 @@ def bundle(paths, file_options):
 
 
 def unpack(bundle_value, directory):
-    """Writes a bundle under `directory`; returns (seed paths, option keyword -> path)."""
+    """Writes a bundle under `directory`; returns (seed paths, option keyword -> path or list)."""
     seeds, options = [], {}
     for i, src in enumerate(bundle_value["sources"]):
         base = os.path.join(directory, str(i))
@@ -148,6 +152,8 @@ def unpack(bundle_value, directory):
         main = os.path.join(base, src["main"])
         if src["role"] == "seeds":
             seeds.append(main)
+        elif src["role"].startswith("options:"):
+            options.setdefault(src["role"][len("options:"):], []).append(main)
         else:
             options[src["role"][len("option:"):]] = main
     return seeds, options

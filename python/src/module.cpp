@@ -40,7 +40,7 @@ namespace {
 const std::set<std::string, std::less<>> kNotKeywords = {
     "ownership", "distance", "nearest-feature", "report",  "cog",           "compression", "boundaries",   "tripoints",
     "limits",    "regions",  "turning-points",  "changes", "margin-raster", "preview",     "no-edit-base", "strip-rows",
-    "base"};
+    "base",      "via"};
 
 bool is_keyword(const rv::OptionSpec& o) { return !o.flag.empty() && !kNotKeywords.contains(o.flag); }
 
@@ -165,7 +165,7 @@ class Job {
   std::string unit() const { return job_.unit; }
   std::string metric() const { return job_.metric.kind == rv::MetricSpec::geodesic ? "geodesic" : "planar"; }
 
-  // products: any of "ownership", "distance", "nearest_feature"; outputs: deliverable name ->
+  // products: any of "ownership", "distance", "nearest_feature", "via"; outputs: deliverable name ->
   // file (boundaries, tripoints, limits, regions, turning_points; whole grid only); describe:
   // whether to assemble the report (a chunk's caller does not keep it).
   py::dict run(const std::optional<std::vector<int64_t>>& window, const std::vector<std::string>& products,
@@ -180,8 +180,11 @@ class Job {
         spec.outputs.in_memory.distance = true;
       else if (p == "nearest_feature")
         spec.outputs.in_memory.nearest_feature = true;
+      else if (p == "via")
+        spec.outputs.in_memory.via = true;
       else
-        throw rv::Error(rv::ErrorKind::invalid_argument, "product '" + p + "': ownership, distance or nearest_feature");
+        throw rv::Error(rv::ErrorKind::invalid_argument,
+                        "product '" + p + "': ownership, distance, nearest_feature or via");
     }
     rv::OutputRequest& out = spec.outputs;
     for (const auto& [name, path] : outputs) {
@@ -209,6 +212,7 @@ class Job {
     if (spec.outputs.in_memory.ownership) d["ownership"] = to_numpy(std::move(r.rasters.ownership));
     if (spec.outputs.in_memory.distance) d["distance"] = to_numpy(std::move(r.rasters.distance));
     if (spec.outputs.in_memory.nearest_feature) d["nearest_feature"] = to_numpy(std::move(r.rasters.nearest_feature));
+    if (spec.outputs.in_memory.via) d["via"] = to_numpy(std::move(r.rasters.via));
     return d;
   }
 

@@ -231,6 +231,22 @@ class WithoutACluster(unittest.TestCase):
             self.assertTrue(same_bits(got.distance.values, like.distance.values))
             self.assertEqual(like.owner.shape, whole.owner.shape)
 
+    def test_barriers_travel_with_the_chunks(self):
+        # The distance by sea chunked: the barrier layers (a list of files) shipped in the bundle;
+        # every chunk settles its worker's bends once, and the arrays, vias included, equal the
+        # whole grid's bit for bit.
+        import dask
+        ports = os.path.join(FIX, "oresund_ports.geojson")
+        land = os.path.join(FIX, "oresund.gpkg")
+        options = {"owner_field": "owner", "barriers": [land], "crs": "EPSG:32633", "metric": "planar",
+                   "resolution": 500.0, "extent": [330000.0, 6150000.0, 370000.0, 6220000.0]}
+        whole = rvoronoi.compute(ports, via=True, **options)
+        with dask.config.set(scheduler="threads"):
+            got = rvoronoi.compute(ports, via=True, chunks=(37, 23), **options).compute()
+        for name in ("owner", "distance", "via"):
+            self.assertTrue(same_bits(got[name].values, whole[name].values), name)
+        self.assertGreater(int((whole.via.values > 0).sum()), 100)
+
     def test_bad_chunks(self):
         seeds = os.path.join(FIX, "coast_points.geojson")
         for bad in ((0, 10), (10,), "big", (1.5, 3)):

@@ -163,6 +163,32 @@ class AgainstTheCli(unittest.TestCase):
             self.check_case(path, {"owner_field": "owner", "weight_field": "weight", "resolution": 50.0,
                                    "extent": [400000, 6100000, 410000, 6106000]})
 
+    def test_distance_by_sea_equals_the_cli(self):
+        # Ports on the Øresund's coasts, the two states' land as barriers: owner, distance and
+        # feature as the CLI's (check_case), the vias too; without barriers the vias are refused.
+        ports = os.path.join(FIX, "oresund_ports.geojson")
+        options = {"owner_field": "owner", "barriers": ORESUND, "crs": "EPSG:32633", "metric": "planar",
+                   "resolution": 500.0, "extent": [330000.0, 6150000.0, 370000.0, 6220000.0]}
+        self.check_case(ports, options)
+        with tempfile.TemporaryDirectory() as out:
+            path = os.path.join(out, "via.tif")
+            subprocess.run([RVORONOI, "compute", ports, "--quiet", "--owner-field", "owner", "--barriers", ORESUND,
+                            "--crs", "EPSG:32633", "--metric", "planar", "--resolution", "500", "--extent", "330000",
+                            "6150000", "370000", "6220000", "--via", path], check=True)
+            theirs = gdal.Open(path).ReadAsArray()
+        ds = rvoronoi.compute(ports, via=True, **options)
+        self.assertTrue(same_bits(ds.via.values, theirs), "vias differ")
+        self.assertGreater(int((ds.via.values > 0).sum()), 100, "paths bend round the headlands")
+        self.assertTrue(((ds.owner.values == 0) == (ds.distance.values == -1)).all(), "land has neither")
+        report = json.loads(ds.attrs["rvoronoi_report"])
+        self.assertEqual(report["sea"]["barriers"]["features"], 2)
+        with self.assertRaises(rvoronoi.InvalidArgument) as caught:
+            rvoronoi.compute(ports, via=True, owner_field="owner", crs="EPSG:32633", resolution=500.0)
+        self.assertIn("the via raster needs barriers", str(caught.exception))
+        with self.assertRaises(rvoronoi.InvalidArgument) as caught:
+            rvoronoi.compute(ports, method="hv-scan", **options)
+        self.assertIn("barriers: the distance by sea needs the exact", str(caught.exception))
+
     def test_frame_and_mapping_equal_the_file(self):
         import geopandas
         path = os.path.join(FIX, "coast_polygons.geojson")

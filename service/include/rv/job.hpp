@@ -71,7 +71,8 @@ struct OutputRequest {
   // computes its field whole (JobPlan::why_whole), of JobSpec::window when set.
   struct InMemory {
     bool ownership = false, distance = false, nearest_feature = false;
-    bool any() const { return ownership || distance || nearest_feature; }
+    bool via = false;  // the distance by sea's (OutputRequest::via's codes); needs barriers
+    bool any() const { return ownership || distance || nearest_feature || via; }
   } in_memory;
   // false: no report is assembled (JobResult::report holds nothing) and the job's memory is not
   // watched: the pieces of a grid computed in chunks, many small runs whose callers keep only
@@ -247,6 +248,7 @@ struct MemoryRasters {
   Raster<int32_t> ownership;
   Raster<float> distance;
   Raster<int32_t> nearest_feature;
+  Raster<int32_t> via;  // as OutputRequest::via codes them
 };
 
 struct JobResult {

@@ -292,11 +292,12 @@ int cmd_compute(Args& args) {
   CommonOptions o = parse(args, false);
   if (o.spec.seeds.paths.empty()) throw Error(ErrorKind::invalid_argument, "compute: no seed file given");
   const OutputRequest& out = o.spec.outputs;
-  if (out.ownership.empty() && out.distance.empty() && out.nearest_feature.empty() && !out.any_deliverable())
+  if (out.ownership.empty() && out.distance.empty() && out.nearest_feature.empty() && out.via.empty() &&
+      !out.any_deliverable())
     throw Error(ErrorKind::invalid_argument,
                 "compute: nothing to write: give --ownership FILE.tif, --distance FILE.tif, --nearest-feature "
-                "FILE.tif or a deliverable (--boundaries, --tripoints, --limits, --regions, --margin-raster, "
-                "--preview)");
+                "FILE.tif, --via FILE.tif or a deliverable (--boundaries, --tripoints, --limits, --regions, "
+                "--margin-raster, --preview)");
   ProgressBar bar(!o.quiet);
   JobHooks hooks;
   hooks.progress = [&](const std::string& stage, double f) { bar.update(stage, f); };

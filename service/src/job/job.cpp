@@ -323,7 +323,8 @@ JobPlan plan_job(const JobSpec& spec, const GridSpec& grid, int64_t sites, Metri
   const OutputRequest& out = spec.outputs;
   const int64_t cells = computed_cells(spec, grid);
   // A band of a split job writes its site codes and distances (job_bands.hpp).
-  const int64_t int_rasters = !out.ownership.empty() + !out.nearest_feature.empty() + spec.band.has_value();
+  const int64_t int_rasters =
+      !out.ownership.empty() + !out.nearest_feature.empty() + !out.via.empty() + spec.band.has_value();
   const int64_t rasters = int_rasters + !out.distance.empty() + spec.band.has_value();
   if (spec.method != Method::exact && spec.method != Method::brute_force)
     p.why_whole = "the scan methods propagate inside a window: a strip would differ from the whole grid";
@@ -661,8 +662,8 @@ NearestField compute_whole(detail::JobRun& run, const PreparedJob& job, std::vec
   if (job.sea) {
     detail::SeaRun sea(job);
     const auto t = detail::Clock::now();
-    sea.compute(run.spec.window.value_or(job.grid.full_window()), field, run.spec.outputs.via.empty() ? nullptr : &via,
-                options);
+    const bool vias = !run.spec.outputs.via.empty() || run.spec.outputs.in_memory.via;
+    sea.compute(run.spec.window.value_or(job.grid.full_window()), field, vias ? &via : nullptr, options);
     field.seconds = detail::seconds_since(t);
     run.report["sea"] = sea.report();
   } else {
@@ -771,8 +772,9 @@ void write_rasters(detail::JobRun& run, const PreparedJob& job, const NearestFie
 // `spent`: the same field when nothing reads it after this call: its buffers then become the
 // results (the owner codes written over the site indices, the distances moved), so that a chunk
 // of a grid allocates no more than the engine did.
+// `via`: the vias by sea over the same cells (compute_whole), moved into the results when asked for.
 MemoryRasters keep_in_memory(detail::JobRun& run, const PreparedJob& job, const NearestField& field,
-                             NearestField* spent = nullptr) {
+                             NearestField* spent = nullptr, std::vector<int32_t>* via = nullptr) {
   const JobSpec& spec = run.spec;
   const OutputRequest::InMemory& want = spec.outputs.in_memory;
   const SeedSet& seeds = job.loaded.seeds;
@@ -790,6 +792,11 @@ MemoryRasters keep_in_memory(detail::JobRun& run, const PreparedJob& job, const 
       r.ownership = owner_raster(seeds, std::move(spent->site), spec.threads);
     else if (want.ownership)
       r.ownership = owner_raster(seeds, field, spec.threads);
+    if (want.via && via) {
+      r.via = Raster<int32_t>(field.site.grid(), field.site.window(), Uninitialized{});
+      if (via->size() != r.via.cells().size()) throw Error(ErrorKind::internal, "the vias do not cover the field");
+      std::copy(via->begin(), via->end(), r.via.cells().begin());
+    }
   });
   return r;
 }
@@ -887,9 +894,9 @@ JobResult run_stages(detail::JobRun& run, const PreparedJob& job, const detail::
     field = compute_whole(run, job, via);
     validate_stage(run, job, field);
     write_rasters(run, job, field, targets);
-    if (!via.empty()) detail::write_via(run, job, via);
+    if (!spec.outputs.via.empty()) detail::write_via(run, job, via);
     detail::deliver(run, job, field);
-    in_memory = keep_in_memory(run, job, field, &field);
+    in_memory = keep_in_memory(run, job, field, &field, &via);
   }
   std::string edit_base_dir;
   if (keep) {

@@ -68,7 +68,7 @@ void read_barriers(const JobSpec& spec, const SeedReadOptions& read, PreparedJob
 
 void check_sea_plan(const JobSpec& spec, const PreparedJob& job) {
   if (!job.sea) {
-    if (!spec.outputs.via.empty())
+    if (!spec.outputs.via.empty() || spec.outputs.in_memory.via)
       throw Error(ErrorKind::invalid_argument,
                   "the via raster needs barriers (--barriers): it is the distance by sea's");
     return;
