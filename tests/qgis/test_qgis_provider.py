@@ -407,6 +407,37 @@ def compare_case(q, tmp, name, fixture, resolution, extra_cli, extra_qgis, env=N
     print(f"{name}: qgis_process run {took:.1f} s", flush=True)
 
 
+def sea_case(q, tmp, name, env=None):
+    """The distance by sea from QGIS: ports as seeds, the land as a barrier layer (BARRIERS, a
+    multi-layer parameter made from the description's upload marker), the via raster as a
+    destination; the same files as the CLI's."""
+    out_q, out_c = os.path.join(tmp, name, "qgis"), os.path.join(tmp, name, "cli")
+    os.makedirs(out_q)
+    os.makedirs(out_c)
+    ports = os.path.join(SOURCE, "fixtures", "oresund_ports.geojson")
+    land = os.path.join(SOURCE, "fixtures", "oresund.gpkg")
+    files = {"OWNERSHIP": ("ownership", "o.tif"), "DISTANCE": ("distance", "d.tif"), "VIA": ("via", "v.tif")}
+    args = ["run", "rvoronoi:voronoi", "--", f"SEEDS={ports}", "OWNER_FIELD=owner", f"BARRIERS={land}",
+            "CRS=EPSG:32633", "METRIC=planar", "RESOLUTION=500", "EXTENT=330000,370000,6150000,6220000 [EPSG:32633]"]
+    args += [f"{param}={os.path.join(out_q, file)}" for param, (_, file) in files.items()]
+    code, text = q.run(*args, env=env)
+    check(code == 0, f"{name}: qgis_process run: exit {code}: {text[-1500:]}")
+    cli = [RVORONOI, "compute", ports, "--owner-field", "owner", "--barriers", land, "--crs", "EPSG:32633",
+           "--metric", "planar", "--resolution", "500", "--extent", "330000", "6150000", "370000", "6220000",
+           "--quiet"]
+    for _, (flag, file) in files.items():
+        cli += [f"--{flag}", os.path.join(out_c, file)]
+    subprocess.run(cli, check=True, capture_output=True)
+    for param, (_, file) in files.items():
+        a, b = os.path.join(out_q, file), os.path.join(out_c, file)
+        if not os.path.exists(a):
+            check(False, f"{name}: {param} not written")
+            continue
+        same_raster(a, b, f"{name} {param}")
+    via = gdal.Open(os.path.join(out_c, "v.tif")).ReadAsArray()
+    check(int((via > 0).sum()) > 100, f"{name}: paths bend round the land")
+
+
 def free_port():
     import socket
     s = socket.socket()
@@ -434,12 +465,14 @@ def main():
             check(code == 0, f"help: {code} {text[-800:]}")
             for name in ("SEEDS:", "OWNER_FIELD:", "RESOLUTION:", "EXTENT:", "METRIC:", "MAX_DISTANCE:",
                          "LIMIT_DISTANCES:", "WEIGHT_FIELD:", "ON_CONFLICT:", "RELEVANT_AREA:", "OWNERSHIP:",
-                         "NEAREST_FEATURE:", "BOUNDARIES:", "TRIPOINTS:", "TURNING_POINTS:", "PREVIEW:", "REPORT:"):
+                         "NEAREST_FEATURE:", "BOUNDARIES:", "TRIPOINTS:", "TURNING_POINTS:", "PREVIEW:", "REPORT:",
+                         "BARRIERS:", "SNAP_TOLERANCE:", "VIA:"):
                 check(name in text, f"help names the parameter {name}")
             # 2. The same files as the CLI.
             compare_case(q, tmp, "oresund", "oresund.gpkg", 0.01, [], [])
             compare_case(q, tmp, "baltic", "baltic_west.gpkg", 0.01, ["--on-conflict", "lower-code"],
                          ["ON_CONFLICT=lower-code"])
+            sea_case(q, tmp, "sea")
             # The styled result, rendered offscreen.
             artefacts = os.path.join(ARTEFACTS, "qgis")
             os.makedirs(artefacts, exist_ok=True)
@@ -461,6 +494,7 @@ def main():
             compare_case(q, tmp, "oresund-local", "oresund.gpkg", 0.01, [], [], env=local)
             compare_case(q, tmp, "baltic-local", "baltic_west.gpkg", 0.01, ["--on-conflict", "lower-code"],
                          ["ON_CONFLICT=lower-code"], env=local)
+            sea_case(q, tmp, "sea-local", env=local)
             shp = os.path.join(tmp, "boundaries.shp")
             code, text = q.run("run", "rvoronoi:voronoi", "--", f"SEEDS={os.path.join(SOURCE, 'fixtures', 'oresund.gpkg')}",
                                "OWNER_FIELD=iso2", "RESOLUTION=0.01", f"BOUNDARIES={shp}",
