@@ -6,6 +6,7 @@
 // (x-rvoronoi-field-of: the seed file's fields fill their choices).
 
 import { el } from "../client.js";
+import { ACCEPT } from "./upload.js";
 
 // Inputs the page supplies itself (the edit of an earlier job; uploads, by their schema).
 const NOT_IN_FORM = new Set(["baseJob"]);
@@ -99,6 +100,47 @@ function control(name, input, inventory) {
   return el("div", { class: "field" }, el("label", { for: id, text: label }), el("input", attrs), help(name, input));
 }
 
+// The distance by sea (the process's "barriers" upload): a switch and the barrier layer it asks
+// for. Paths go around the barriers, so they matter when the seeds are not them: with the coast
+// itself as the seeds nothing changes (a path a seed blocks passes nearer to that seed). What the
+// distance by sea does not draw yet (the lines, the regions' areas) is turned off while it is on.
+const SEA_OFF = ["out-boundaries", "out-tripoints", "out-turningPoints", "out-margin", "out-preview", "in-limitDistances"];
+
+function bySea(process) {
+  const input = (process.inputs || {}).barriers;
+  if (!input) return null;
+  const box = el("input", { id: "by-sea", name: "by-sea", type: "checkbox", "aria-controls": "sea-layer" });
+  const file = el("input", { id: "barrier-file", type: "file", accept: ACCEPT, "aria-describedby": "sea-help" });
+  const layer = el("div", { class: "field", id: "sea-layer", hidden: "" },
+    el("label", { for: "barrier-file", text: "Barrier layer: land polygons, lines no path crosses" }), file,
+    el("p", { class: "help", id: "sea-help", text: "For example the land while the seeds are ports or farms. With only " +
+      "the coasts loaded as seeds it would change nothing. The distance by sea is planar: for longitude/latitude " +
+      "seeds give a projected CRS under More options. Boundary lines, tripoints and limits are not drawn by sea yet." }));
+  box.addEventListener("change", () => {
+    layer.hidden = !box.checked;
+    const form = box.form;
+    for (const id of SEA_OFF) {
+      const f = form && form.querySelector("#" + id);
+      if (!f) continue;
+      f.disabled = box.checked;
+      if (box.checked && f.type === "checkbox") f.checked = false;
+      if (box.checked && f.type === "text") f.value = "";
+    }
+    const metric = form && form.querySelector("#in-metric");
+    if (metric && box.checked) metric.value = "planar";
+  });
+  return el("fieldset", { class: "field sea" }, el("legend", { text: input.title || "Distance by sea" }),
+    el("div", { class: "check" }, box, el("label", { for: "by-sea", text: "By sea: around land and barriers" })), layer);
+}
+
+// Whether the form asks for the distance by sea, and its barrier file (or null).
+export function seaChoice(form) {
+  const box = form.querySelector("#by-sea");
+  if (!box || !box.checked) return { bySea: false, file: null };
+  const file = form.querySelector("#barrier-file");
+  return { bySea: true, file: file && file.files[0] ? file.files[0] : null };
+}
+
 // The form's fields for the process description `process` and the seed file `inventory`.
 export function jobFields(process, inventory) {
   const inputs = process.inputs || {};
@@ -113,6 +155,7 @@ export function jobFields(process, inventory) {
     }));
   return [
     ...main.map((n) => control(n, inputs[n], inventory)),
+    bySea(process),
     outputs,
     el("details", { class: "more" }, el("summary", { text: "More options" }), ...more.map((n) => control(n, inputs[n], inventory))),
   ];
@@ -147,5 +190,10 @@ export function readForm(form, process) {
   for (const [id] of OPTIONAL_OUTPUTS) if (form.querySelector("#out-" + id).checked) outputs[id] = {};
   // Limit lines exactly when there are distances for them (the daemon refuses either alone).
   if (inputs.limitDistances) outputs.limits = {};
+  // By sea: the vias instead of what it does not make yet (regions are drawn from the lines).
+  if (seaChoice(form).bySea) {
+    delete outputs.regions;
+    outputs.via = {};
+  }
   return { inputs, outputs };
 }

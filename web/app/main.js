@@ -10,7 +10,7 @@ import "ol/ol.css";
 import "./app.css";
 import { el, table, sessionBar, headers, Problem, getJson, problemView, humanBytes, download, saveBlob } from "../client.js";
 import { ACCEPT, seedInput, describeSeeds, postJson } from "./upload.js";
-import { jobFields, readForm, niceNumber } from "./form.js";
+import { jobFields, readForm, niceNumber, seaChoice } from "./form.js";
 import { MapView, projectionFor } from "./map.js";
 import { EditMode } from "./edit.js";
 
@@ -162,6 +162,7 @@ function buildForm() {
 async function runJob(form) {
   clearTimeout(state.pollTimer);
   const { inputs, outputs } = readForm(form, state.process);
+  const sea = seaChoice(form);
   state.request = { inputs, outputs };
   if (state.edit) {
     state.edit.stop();
@@ -179,6 +180,10 @@ async function runJob(form) {
     const crs = inputs.crs || "";
     if (crs !== (state.inventory.requestedCrs || "")) {
       state.inventory = { ...inventoryOf(await describeSeeds(state.seeds, crs)), requestedCrs: crs };
+    }
+    if (sea.bySea) {
+      if (!sea.file) throw new Problem(0, { title: "By sea needs a barrier layer", detail: "Choose the file of the land (polygons) or barrier lines that paths go around." });
+      inputs.barriers = await seedInput(sea.file);
     }
     const status = await postJson("/processes/voronoi/execution", { inputs: { ...inputs, seeds: state.seeds }, outputs },
       { Prefer: "respond-async" });
@@ -247,19 +252,22 @@ function legend(report) {
   const km2 = regions.area_units === "m^2";
   const unit = km2 ? " (km²)" : regions.area_units ? " (" + regions.area_units.replace("^2", "²") + ")" : "";
   const shown = owners.slice(0, 200);
+  // (No areas without regions: a run by sea makes none yet.)
+  const withAreas = areas.size > 0;
   const rows = shown.map((o) => {
     const a = areas.get(o.code) || {};
     const fmt = (v) => (v === undefined ? "" : (km2 ? v / 1e6 : Number(v)).toLocaleString("en", { maximumFractionDigits: 1 }));
     return el("tr", {},
       el("td", {}, el("span", { class: "swatch", style: null, "data-colour": o.colour, role: "img", "aria-label": "colour " + o.colour })),
       el("td", { class: "owner", text: o.label }),
-      el("td", { class: "num", text: fmt(a.sea_area) }),
-      el("td", { class: "num", text: fmt(a.land_area) }));
+      withAreas ? el("td", { class: "num", text: fmt(a.sea_area) }) : null,
+      withAreas ? el("td", { class: "num", text: fmt(a.land_area) }) : null);
   });
   const t = el("table", { class: "legend", id: "legend" },
     el("caption", { text: "Owners" }),
     el("thead", {}, el("tr", {}, el("th", { scope: "col", text: "" }), el("th", { scope: "col", text: "Owner" }),
-      el("th", { scope: "col", text: "Sea" + unit }), el("th", { scope: "col", text: "Land" + unit }))),
+      withAreas ? el("th", { scope: "col", text: "Sea" + unit }) : null,
+      withAreas ? el("th", { scope: "col", text: "Land" + unit }) : null)),
     el("tbody", {}, ...rows));
   // Colours through the CSSOM, which the page's policy allows (no style attributes in markup).
   for (const s of t.querySelectorAll(".swatch")) s.style.background = s.dataset.colour;
@@ -337,6 +345,12 @@ async function showResults(id, inputs) {
 
 async function startEdit(byLabel, toggles, button) {
   const { inputs, outputs } = state.request;
+  if (inputs.barriers) {
+    sections.edit.replaceChildren(el("h2", { id: "h-edit", text: "5 · What if" }),
+      el("p", { text: "Editing does not compute by sea yet: change the seeds and compute again." }));
+    sections.edit.hidden = false;
+    return;
+  }
   if (inputs.crs) {
     sections.edit.replaceChildren(el("h2", { id: "h-edit", text: "5 · What if" }),
       el("p", { text: "Editing needs the seeds in the grid's CRS; this job reprojects them (its CRS option)." }));
@@ -379,8 +393,9 @@ view.map.on("singleclick", async (ev) => {
     const owner = ((state.report.seeds && state.report.seeds.owners) || []).find((o) => o.code === c.code);
     const units = state.report.distance_units || "";
     const where = "cell row " + c.row + ", column " + c.col + " (" + c.x.toPrecision(9) + ", " + c.y.toPrecision(9) + ")";
+    const none = state.report.sea ? "No owner (land, or no seed reaches it by sea)" : "No owner (beyond the maximum distance)";
     cellBox.textContent = c.code === 0
-      ? "No owner (beyond the maximum distance) · " + where
+      ? none + " · " + where
       : "Owner " + (owner ? owner.label : "code " + c.code) + " · distance " + c.distance.toLocaleString("en", { maximumFractionDigits: 3 }) + " " + units + " · " + where;
     // The values and the map coordinate clicked, for scripts (and the tests) to check.
     Object.assign(cellBox.dataset, { row: c.row, col: c.col, code: c.code, distance: c.distance, x: ev.coordinate[0], y: ev.coordinate[1] });

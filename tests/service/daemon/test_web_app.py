@@ -29,6 +29,7 @@ import base64
 import gzip
 import json
 import os
+import subprocess
 import sys
 import tempfile
 import time
@@ -315,6 +316,35 @@ def baltic_run(drv, base):
     check(n > 30, "the tripoints are drawn (%d pixels)" % n)
 
 
+def sea_run(drv, d, base):
+    """The distance by sea: ports as the seeds, the "By sea" switch and the land as the barrier
+    layer, a projected CRS; the owners' sea on the map is the CLI's, cell for cell."""
+    open_app(drv, base)
+    ports = os.path.join(FIXTURES, "oresund_ports.geojson")
+    land = os.path.join(FIXTURES, "oresund.gpkg")
+    check(load(drv, ports) == "described", "the ports are described")
+    check(drv.find_element(By.ID, "sea-layer").get_attribute("hidden") is not None, "the barrier layer waits for the switch")
+    drv.find_element(By.ID, "by-sea").click()
+    check(drv.find_element(By.ID, "sea-layer").is_displayed(), "the switch asks for the barrier layer")
+    check(not drv.find_element(By.ID, "out-boundaries").is_enabled(), "the lines are turned off by sea")
+    drv.find_element(By.ID, "barrier-file").send_keys(land)
+    drv.find_element(By.CSS_SELECTOR, "details.more summary").click()
+    drv.find_element(By.ID, "in-crs").send_keys("EPSG:32633")
+    check(run(drv, resolution="500") == "done", "the run by sea: %s" % drv.find_element(By.ID, "panel").text[-400:])
+    job = job_id(drv)
+    own = raster(d, job, "ownership")
+    names = [b.text for b in drv.find_elements(By.CSS_SELECTOR, "#downloads button")]
+    check("via.tif" in names and "boundaries.geojson" not in names, "the downloads by sea: %s" % names)
+    with tempfile.TemporaryDirectory() as tmp:
+        path = os.path.join(tmp, "o.tif")
+        subprocess.run([RVORONOI, "compute", ports, "--owner-field", "owner", "--barriers", land, "--crs", "EPSG:32633",
+                        "--metric", "planar", "--resolution", "500", "--ownership", path, "--quiet"], check=True)
+        cli = gdal.Open(path).ReadAsArray()
+    check(own.shape == cli.shape and np.array_equal(own, cli), "the page's run by sea equals the CLI's")
+    check(int((own == 0).sum()) > 1000, "land has no owner")
+    shot(drv, "by-sea")
+
+
 def download(drv, downloads, name, expect):
     [b for b in drv.find_elements(By.CSS_SELECTOR, "#downloads button") if b.text == name][0].click()
     path = os.path.join(downloads, name)
@@ -520,6 +550,7 @@ def main():
                 check(not errors(drv), "no JavaScript errors: %s" % errors(drv))
                 edit_run(drv, d, "http://127.0.0.1:%d" % d.port)
                 baltic_run(drv, "http://127.0.0.1:%d" % d.port)
+                sea_run(drv, d, "http://127.0.0.1:%d" % d.port)
                 too_large(drv, "http://127.0.0.1:%d" % d.port)
                 drv.get_log("browser")  # the 413 itself is logged by the browser
                 hostile(drv, "http://127.0.0.1:%d" % d.port, tmp)
