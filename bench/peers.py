@@ -8,6 +8,8 @@ prints a markdown table and writes it, with the machine and the command line, to
 
   peers.py [--quick] [--out DIR] [--results FILE] [--rvoronoi PATH] [--timeout S]
            [--repeats N] [--max-cells N] [--cases NAME,...] [--profile]
+  peers.py --sea [--quick] [--out DIR] [--results FILE] [--rvoronoi PATH] [--repeats N]
+           (the distance by sea against GRASS r.cost and scikit-image: bench/peers_sea.py)
 
 Accuracy. Every cell is measured against an exact reference computed by rvoronoi (brute force
 where cells x seeds is small, exact otherwise: exact equals brute force cell for cell, which the
@@ -974,6 +976,10 @@ def encoding_options(case, outdir, md):
 
 def main():
     global ARGS
+    # The distance by sea has its own cases, tools and measures (bench/peers_sea.py).
+    if "--sea" in sys.argv[1:]:
+        import peers_sea
+        return peers_sea.main([a for a in sys.argv[1:] if a != "--sea"])
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--quick", action="store_true", help="small sizes (about a minute): the CI smoke test")
     ap.add_argument("--out", default=None, help="work folder (default: build/bench-peers[-quick])")

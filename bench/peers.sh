@@ -22,7 +22,8 @@ for a in "$@"; do
   esac
 done
 
-peers=(time python3-numpy python3-scipy python3-opencv gdal-bin python3-gdal grass-core saga python3-geographiclib)
+peers=(time python3-numpy python3-scipy python3-opencv gdal-bin python3-gdal grass-core saga python3-geographiclib
+       python3-skimage)
 if [ "$install" -eq 1 ]; then
   missing=()
   for p in "${peers[@]}"; do
