@@ -12,7 +12,7 @@ int64_t EdgeIndex::row(double y) const {
   return std::clamp<int64_t>(static_cast<int64_t>(std::floor((y - y0_) / size_)), 0, rows_ - 1);
 }
 
-EdgeIndex::EdgeIndex(const std::vector<Segment>& edges, const std::vector<Vec2>& vertices) {
+EdgeIndex::EdgeIndex(const std::vector<Segment>& edges, const std::vector<Vec2>& vertices, double slack) {
   if (vertices.empty()) return;
   double xmin = vertices[0].x, xmax = xmin, ymin = vertices[0].y, ymax = ymin;
   for (const Vec2& v : vertices) {
@@ -31,7 +31,7 @@ EdgeIndex::EdgeIndex(const std::vector<Segment>& edges, const std::vector<Vec2>&
   x0_ = xmin;
   y0_ = ymin;
   size_ = size;
-  pad_ = 1e-9 * size + 1e-12 * magnitude;
+  pad_ = 1e-9 * size + 1e-12 * magnitude + slack;
   cols_ = std::max<int64_t>(1, static_cast<int64_t>(std::floor(w / size)) + 1);
   rows_ = std::max<int64_t>(1, static_cast<int64_t>(std::floor(h / size)) + 1);
   const auto n = static_cast<size_t>(cols_ * rows_);

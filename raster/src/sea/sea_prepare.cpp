@@ -1,7 +1,6 @@
 #include "sea/sea_prepare.hpp"
 
 #include "rv/field/error.hpp"
-#include "sea/orient.hpp"
 
 namespace rv::sea {
 
@@ -47,7 +46,7 @@ std::vector<Node> bend_nodes(const Visibility& vis) {
       // The wedge from ray k counter-clockwise to ray k + 1 is wider than a half-turn when that
       // turn is clockwise (exactly a half-turn: collinear and opposite, not a bend).
       const bool reflex =
-          n == 1 || orient(s.at, s.rays[static_cast<size_t>(k)], s.rays[static_cast<size_t>((k + 1) % n)]) < 0;
+          n == 1 || vis.orient(s.at, s.rays[static_cast<size_t>(k)], s.rays[static_cast<size_t>((k + 1) % n)]) < 0;
       if (reflex) nodes.push_back(Node{v, k});
     }
   }
@@ -58,9 +57,9 @@ namespace {
 
 // Ranks of directions from `at` by their counter-clockwise angle from the direction of `a`:
 // whether the angle to d1 is less than the angle to d2 (a itself has angle 0).
-bool before(Vec2 at, Vec2 a, Vec2 d1, Vec2 d2) {
+bool before(const Visibility& vis, Vec2 at, Vec2 a, Vec2 d1, Vec2 d2) {
   auto half = [&](Vec2 d) {
-    const int o = orient(at, a, d);
+    const int o = vis.orient(at, a, d);
     if (o > 0) return 0;
     if (o < 0) return 1;
     // On the line through a: angle 0 when in a's direction, else a half-turn.
@@ -70,7 +69,7 @@ bool before(Vec2 at, Vec2 a, Vec2 d1, Vec2 d2) {
   const int h1 = half(d1), h2 = half(d2);
   if (h1 != h2) return h1 < h2;
   if (h1 == -1) return false;
-  return orient(at, d1, d2) > 0;
+  return vis.orient(at, d1, d2) > 0;
 }
 
 }  // namespace
@@ -78,7 +77,7 @@ bool before(Vec2 at, Vec2 a, Vec2 d1, Vec2 d2) {
 bool taut(const Visibility& vis, const Node& node, Vec2 from, Vec2 x) {
   const Visibility::Star& s = vis.vertex_star(node.vertex);
   if (from == s.at) return true;
-  const int o = orient(s.at, from, x);
+  const int o = vis.orient(s.at, from, x);
   if (o == 0) return false;  // straight on, or straight back: no bend
   // The land next to this wedge runs counter-clockwise from ray k + 1 to ray k; it lies in the
   // counter-clockwise sweep from the arrival to the departure when its far ray (k) comes after
@@ -86,9 +85,9 @@ bool taut(const Visibility& vis, const Node& node, Vec2 from, Vec2 x) {
   const int n = static_cast<int>(s.rays.size());
   const Vec2 land_end = s.rays[static_cast<size_t>(node.wedge % n)];
   const bool land_at_arrival =
-      orient(s.at, from, land_end) == 0 &&
+      vis.orient(s.at, from, land_end) == 0 &&
       (land_end.x - s.at.x) * (from.x - s.at.x) + (land_end.y - s.at.y) * (from.y - s.at.y) > 0;
-  const bool land_ccw = !land_at_arrival && !before(s.at, from, x, land_end);
+  const bool land_ccw = !land_at_arrival && !before(vis, s.at, from, x, land_end);
   return land_ccw ? o > 0 : o < 0;
 }
 

@@ -11,17 +11,29 @@ namespace rv {
 namespace {
 
 using sea::along;
-using sea::orient;
+
+// The orientation predicate of a reading: planar (exact in the plane), or the geodesic frame's.
+int turn(const GeodesicFrame* frame, const Vec2& a, const Vec2& b, const Vec2& c) {
+  return frame ? frame->orient(a, b, c) : sea::orient(a, b, c);
+}
 
 // Angles round `at` are compared exactly: first the half-plane (upper, from east inclusive, to
-// west exclusive), then the turn between the two directions.
-int half(Vec2 at, Vec2 e) { return (e.y > at.y || (e.y == at.y && e.x > at.x)) ? 0 : 1; }
-bool angle_less(Vec2 at, Vec2 e1, Vec2 e2) {
-  const int h1 = half(at, e1), h2 = half(at, e2);
-  if (h1 != h2) return h1 < h2;
-  return orient(at, e1, e2) > 0;
+// west exclusive), then the turn between the two directions. Geodesic: "east" is the geodesic
+// towards a point east of `at` in the frame's plane, and the halves are its two sides.
+int half(const GeodesicFrame* frame, Vec2 at, Vec2 e) {
+  if (!frame) return (e.y > at.y || (e.y == at.y && e.x > at.x)) ? 0 : 1;
+  const Vec2 east = frame->east_of(at);
+  const int o = frame->orient(at, east, e);
+  return (o > 0 || (o == 0 && along(at, east, e) > 0)) ? 0 : 1;
 }
-bool same_direction(Vec2 at, Vec2 e1, Vec2 e2) { return half(at, e1) == half(at, e2) && orient(at, e1, e2) == 0; }
+bool angle_less(const GeodesicFrame* frame, Vec2 at, Vec2 e1, Vec2 e2) {
+  const int h1 = half(frame, at, e1), h2 = half(frame, at, e2);
+  if (h1 != h2) return h1 < h2;
+  return turn(frame, at, e1, e2) > 0;
+}
+bool same_direction(const GeodesicFrame* frame, Vec2 at, Vec2 e1, Vec2 e2) {
+  return half(frame, at, e1) == half(frame, at, e2) && turn(frame, at, e1, e2) == 0;
+}
 
 // Strictly between a and b on their segment (p on the line through them assumed).
 bool strictly_between(Vec2 a, Vec2 b, Vec2 p) { return along(a, b, p) > 0 && along(b, a, p) > 0; }
@@ -44,17 +56,21 @@ double line_distance(Vec2 a, Vec2 b, Vec2 q) {
 int Visibility::Star::wedge_towards(Vec2 x, bool ccw) const {
   const int n = static_cast<int>(rays.size());
   if (n == 0) return 0;
-  const auto it = std::lower_bound(rays.begin(), rays.end(), x, [&](Vec2 r, Vec2 d) { return angle_less(at, r, d); });
+  const auto it =
+      std::lower_bound(rays.begin(), rays.end(), x, [&](Vec2 r, Vec2 d) { return angle_less(frame, at, r, d); });
   const int i = static_cast<int>(it - rays.begin());
-  if (i < n && same_direction(at, rays[static_cast<size_t>(i)], x)) return ccw ? i : (i + n - 1) % n;
+  if (i < n && same_direction(frame, at, rays[static_cast<size_t>(i)], x)) return ccw ? i : (i + n - 1) % n;
   return (i + n - 1) % n;
 }
+
+int Visibility::orient(const Vec2& a, const Vec2& b, const Vec2& c) const { return turn(frame_.get(), a, b, c); }
 
 struct Visibility::Index {
   sea::EdgeIndex buckets;
 };
 
-Visibility::Visibility(Barriers barriers, bool indexed) : barriers_(std::move(barriers)) {
+Visibility::Visibility(Barriers barriers, bool indexed, std::shared_ptr<const GeodesicFrame> frame)
+    : barriers_(std::move(barriers)), frame_(std::move(frame)) {
   std::vector<Vec2> positions;
   const auto& polygons = barriers_.polygons();
   for (size_t k = 0; k < polygons.size(); ++k)
@@ -86,7 +102,8 @@ Visibility::Visibility(Barriers barriers, bool indexed) : barriers_(std::move(ba
     segments.reserve(edges_.size());
     for (const Edge& e : edges_) segments.push_back({e.a, e.b});
     auto index = std::make_shared<Index>();
-    index->buckets = sea::EdgeIndex(segments, vertices);
+    // (Geodesic: an edge's or a path's image bends off its chord by up to the frame's deviation.)
+    index->buckets = sea::EdgeIndex(segments, vertices, frame_ ? frame_->deviation() : 0.0);
     index_ = std::move(index);
   }
   stars_.reserve(vertices.size());
@@ -122,6 +139,7 @@ int32_t Visibility::vertex_at(Vec2 p) const {
 Visibility::Star Visibility::build_star(Vec2 p) const {
   Star s;
   s.at = p;
+  s.frame = frame_.get();
   struct Cone {
     Vec2 out, in;  // land from the direction of `out` counter-clockwise to that of `in`
   };
@@ -142,7 +160,12 @@ Visibility::Star Visibility::build_star(Vec2 p) const {
     return met.back();
   };
   std::vector<int32_t> near_edges, near_vertices;
-  candidates(p, Vec2{std::max(p.x + 1.0, east_), p.y}, near_edges, near_vertices);
+  // The ray: planar, the horizontal from p east; geodesic, the geodesic from p to a point east of
+  // every vertex by more than any edge's image bends, so that it leaves every polygon. A vertex
+  // counts as below the ray when on it (half-open), the same for every edge that has it.
+  const Vec2 far{std::max(p.x + 1.0, east_) + (frame_ ? frame_->deviation() : 0.0), p.y};
+  auto above = [&](Vec2 v) { return frame_ ? orient(p, far, v) > 0 : v.y > p.y; };
+  candidates(p, far, near_edges, near_vertices);
   for (int32_t id : near_edges) {
     const Edge& e = edges_[static_cast<size_t>(id)];
     const Vec2 a = e.a, b = e.b;
@@ -177,15 +200,17 @@ Visibility::Star Visibility::build_star(Vec2 p) const {
       cones.push_back(Cone{b, a});
       continue;
     }
-    if ((a.y > p.y) != (b.y > p.y)) {
-      const bool up = b.y > a.y;
+    const bool a_above = above(a), b_above = above(b);
+    if (a_above != b_above) {
+      const bool up = b_above;
       if (up ? o > 0 : o < 0) ++m.crossings;
     }
   }
   const bool inside_land =
       std::any_of(met.begin(), met.end(), [](const Met& m) { return !m.on_boundary && (m.crossings & 1); });
-  std::sort(s.rays.begin(), s.rays.end(), [&](Vec2 a, Vec2 b) { return angle_less(p, a, b); });
-  s.rays.erase(std::unique(s.rays.begin(), s.rays.end(), [&](Vec2 a, Vec2 b) { return same_direction(p, a, b); }),
+  const GeodesicFrame* f = frame_.get();
+  std::sort(s.rays.begin(), s.rays.end(), [&](Vec2 a, Vec2 b) { return angle_less(f, p, a, b); });
+  s.rays.erase(std::unique(s.rays.begin(), s.rays.end(), [&](Vec2 a, Vec2 b) { return same_direction(f, p, a, b); }),
                s.rays.end());
   const int n = static_cast<int>(s.rays.size());
   s.sea.assign(static_cast<size_t>(std::max(1, n)), inside_land ? 0 : 1);
@@ -215,6 +240,10 @@ Visibility::Ground Visibility::classify(Vec2 p) const {
 
 void Visibility::classify_row(double y, const double* xs, int64_t n, Ground* out) const {
   if (n <= 0) return;
+  if (frame_) {  // (the row's crossings below are planar: point by point for the geodesic reading)
+    for (int64_t i = 0; i < n; ++i) out[i] = classify(Vec2{xs[i], y});
+    return;
+  }
   std::vector<int32_t> near_edges, near_vertices;
   candidates(Vec2{std::min(xs[0], -east_) - 1.0, y}, Vec2{std::max(xs[n - 1], east_) + 1.0, y}, near_edges,
              near_vertices);
@@ -274,8 +303,10 @@ void Visibility::classify_row(double y, const double* xs, int64_t n, Ground* out
 }
 
 bool Visibility::crossing(const Edge& e, Vec2 p, Vec2 q, double slack) const {
-  if (std::max(e.a.x, e.b.x) < std::min(p.x, q.x) || std::min(e.a.x, e.b.x) > std::max(p.x, q.x) ||
-      std::max(e.a.y, e.b.y) < std::min(p.y, q.y) || std::min(e.a.y, e.b.y) > std::max(p.y, q.y))
+  // (Boxes apart by more than the images' bending, geodesic.)
+  const double bend = frame_ ? frame_->deviation() : 0.0;
+  if (std::max(e.a.x, e.b.x) + bend < std::min(p.x, q.x) || std::min(e.a.x, e.b.x) - bend > std::max(p.x, q.x) ||
+      std::max(e.a.y, e.b.y) + bend < std::min(p.y, q.y) || std::min(e.a.y, e.b.y) - bend > std::max(p.y, q.y))
     return false;
   const int o1 = orient(p, q, e.a), o2 = orient(p, q, e.b);
   if (o1 * o2 >= 0) return false;

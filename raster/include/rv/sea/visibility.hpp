@@ -15,6 +15,12 @@
 // side. So a path may touch a barrier and run along it, but not slip through a line at a vertex
 // nor between two polygons that meet.
 //
+// Geodesic reading (a GeodesicFrame given): the barriers' coordinates are the frame's plane, and
+// every edge and path is the geodesic between its ends: the same rule with the frame's
+// orientation predicate (rv/sea/geodesic_frame.hpp), which is the geodesic one. Also exact, to
+// GeographicLib's precision; a path through a barrier vertex that only GeographicLib's rounding
+// puts on the path is taken to pass on one side of it.
+//
 // Planar reading: edges are straight segments in the barriers' frame. Every decision (crossings,
 // touches, wedges, land) is made with exact orientation predicates, so visibility is symmetric
 // and never depends on rounding, with one allowance: the far end of a path (`Place::exact`
@@ -35,15 +41,21 @@
 
 #include "rv/field/seeds.hpp"
 #include "rv/sea/barriers.hpp"
+#include "rv/sea/geodesic_frame.hpp"
 
 namespace rv {
 
 class Visibility {
  public:
-  // `indexed` false: every query scans every edge and vertex (the reference).
-  explicit Visibility(Barriers barriers, bool indexed = true);
+  // `indexed` false: every query scans every edge and vertex (the reference). `frame`: the
+  // geodesic reading, the barriers in its plane (shared, kept alive); null: the planar one.
+  explicit Visibility(Barriers barriers, bool indexed = true, std::shared_ptr<const GeodesicFrame> frame = nullptr);
 
   const Barriers& barriers() const { return barriers_; }
+  const GeodesicFrame* frame() const { return frame_.get(); }
+  // The orientation predicate of this reading (rv/sea orient.hpp's, or the frame's): +1 when c
+  // lies left of the path from a through b, -1 right, 0 on it.
+  int orient(const Vec2& a, const Vec2& b, const Vec2& c) const;
 
   // The free directions round a point: the barrier edges at it, by their far ends, sorted
   // counter-clockwise from east, and per wedge (from ray k to ray k + 1, the last wrapping to the
@@ -52,7 +64,8 @@ class Visibility {
   struct Star {
     Vec2 at;
     std::vector<Vec2> rays;
-    std::vector<uint8_t> sea;  // one entry per wedge: max(1, rays.size())
+    std::vector<uint8_t> sea;              // one entry per wedge: max(1, rays.size())
+    const GeodesicFrame* frame = nullptr;  // the reading its directions are ordered in
     int wedges() const { return static_cast<int>(sea.size()); }
     // The wedge the direction towards `x` (x != at) lies in; on a ray, the wedge on its
     // counter-clockwise side when `ccw`, else the one on its clockwise side.
@@ -87,7 +100,7 @@ class Visibility {
   Ground classify(Vec2 p) const;
   // classify() for the points (xs[i], y), i in [0, n), xs ascending (a row of cell centres),
   // written to out: the same answers, in time proportional to the edges the row meets plus n
-  // (plus classify() for the few points on a barrier).
+  // (plus classify() for the few points on a barrier). Geodesic reading: classify() per point.
   void classify_row(double y, const double* xs, int64_t n, Ground* out) const;
   // Whether the straight path from `from` to `to` is free, leaving `from` and reaching `to`
   // within their wedges where given. A path of length zero is free where its place is sea.
@@ -113,6 +126,7 @@ class Visibility {
 
   struct Index;
   Barriers barriers_;
+  std::shared_ptr<const GeodesicFrame> frame_;
   std::shared_ptr<const Index> index_;
   std::vector<Edge> edges_;
   std::vector<Star> stars_;           // per vertex

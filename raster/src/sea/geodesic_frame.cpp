@@ -1,0 +1,123 @@
+#include "rv/sea/geodesic_frame.hpp"
+
+#include <GeographicLib/Geodesic.hpp>
+#include <GeographicLib/GeodesicLine.hpp>
+#include <GeographicLib/Gnomonic.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <vector>
+
+#include "rv/field/error.hpp"
+
+namespace rv {
+
+struct GeodesicFrame::Impl {
+  GeographicLib::Geodesic earth;
+  GeographicLib::Gnomonic gnomonic;
+  double lon0, lat0;
+  Impl(double a, double f, double lon, double lat) : earth(a, f), gnomonic(earth), lon0(lon), lat0(lat) {}
+};
+
+namespace {
+
+// How far past its ends the straight line through two points of a geodesic may be used: the
+// bending measured between a box's points, end to end, grows about with the square of the
+// length, and a line through two nearby points of a geodesic is followed across the whole box:
+// up to four times the end-to-end figure. Twice that again for what sampling may miss.
+constexpr double kSafety = 8.0;
+constexpr int kSamples = 48;  // points along each measured geodesic
+constexpr int kSide = 5;      // box points a side: corners, edges and inside
+
+}  // namespace
+
+GeodesicFrame::GeodesicFrame(const MetricSpec& metric, double lon_min, double lat_min, double lon_max, double lat_max) {
+  if (metric.kind != MetricSpec::geodesic)
+    throw Error(ErrorKind::invalid_argument, "a geodesic frame needs the geodesic metric");
+  if (!(std::isfinite(lon_min) && std::isfinite(lat_min) && std::isfinite(lon_max) && std::isfinite(lat_max)) ||
+      lon_min > lon_max || lat_min > lat_max || lat_min < -90.0 || lat_max > 90.0)
+    throw Error(ErrorKind::invalid_argument, "a geodesic frame needs a box of longitudes and latitudes");
+  impl_ = std::make_unique<Impl>(metric.semi_major, metric.flattening, 0.5 * (lon_min + lon_max),
+                                 0.5 * (lat_min + lat_max));
+  const Impl& m = *impl_;
+  // The box's reach from its centre: at most 40 degrees of arc (its enlargement below, 80).
+  const double quarter = m.earth.EquatorialRadius() * M_PI / 2.0;
+  for (double lon : {lon_min, lon_max})
+    for (double lat : {lat_min, lat_max}) {
+      double s12;
+      m.earth.Inverse(m.lat0, m.lon0, lat, lon, s12);
+      if (s12 > quarter * (40.0 / 90.0))
+        throw Error(ErrorKind::invalid_argument,
+                    "the data reach more than 40 degrees of arc from their middle: too far for one geodesic frame");
+    }
+  // The bending of geodesics between points of the box (enlarged by half its size each way, for
+  // the reference directions the predicates draw from its points), end to end.
+  const double w = lon_max - lon_min, h = lat_max - lat_min;
+  std::vector<Vec2> points;
+  for (int i = 0; i < kSide; ++i)
+    for (int j = 0; j < kSide; ++j)
+      points.push_back(Vec2{lon_min - 0.5 * w + 2.0 * w * i / (kSide - 1),
+                            std::clamp(lat_min - 0.5 * h + 2.0 * h * j / (kSide - 1), -89.0, 89.0)});
+  double worst = 0.0;
+  for (size_t i = 0; i < points.size(); ++i)
+    for (size_t k = i + 1; k < points.size(); ++k) {
+      const Vec2 a = forward(points[i]), b = forward(points[k]);
+      const double len = std::hypot(b.x - a.x, b.y - a.y);
+      if (!(len > 0.0)) continue;
+      const GeographicLib::GeodesicLine line = m.earth.InverseLine(points[i].y, points[i].x, points[k].y, points[k].x);
+      for (int s = 1; s < kSamples; ++s) {
+        double lat, lon;
+        line.Position(line.Distance() * s / kSamples, lat, lon);
+        const Vec2 p = forward(Vec2{lon, lat});
+        worst = std::max(worst, std::abs((b.x - a.x) * (p.y - a.y) - (b.y - a.y) * (p.x - a.x)) / len);
+      }
+    }
+  // (Plus a micrometre: the floor for a box too small to bend anything measurably.)
+  deviation_ = kSafety * worst + 1e-6;
+  const Vec2 west = forward(Vec2{lon_min, impl_->lat0}), east = forward(Vec2{lon_max, impl_->lat0});
+  reach_ = std::max(1.0, 0.5 * (east.x - west.x));
+}
+
+GeodesicFrame::~GeodesicFrame() = default;
+
+Vec2 GeodesicFrame::forward(Vec2 lonlat) const {
+  double x, y;
+  impl_->gnomonic.Forward(impl_->lat0, impl_->lon0, lonlat.y, lonlat.x, x, y);
+  if (!std::isfinite(x) || !std::isfinite(y))
+    throw Error(ErrorKind::invalid_argument, "a point beyond the geodesic frame's reach");
+  return Vec2{x, y};
+}
+
+Vec2 GeodesicFrame::reverse(Vec2 plane) const {
+  double lat, lon;
+  impl_->gnomonic.Reverse(impl_->lat0, impl_->lon0, plane.x, plane.y, lat, lon);
+  return Vec2{lon, lat};
+}
+
+int GeodesicFrame::orient(const Vec2& a, const Vec2& b, const Vec2& c) const {
+  if (a == b || c == a || c == b) return 0;
+  const double l = (b.x - a.x) * (c.y - a.y);
+  const double r = (b.y - a.y) * (c.x - a.x);
+  const double det = l - r;
+  // det is |b - a| times c's distance from the straight line through a and b; the geodesic's
+  // image lies within deviation() of that line, and the rounding of det within the planar
+  // predicate's bound (rv/sea orient.hpp) of it.
+  const double bound = 4.0e-16 * (std::abs(l) + std::abs(r)) + std::hypot(b.x - a.x, b.y - a.y) * deviation_;
+  if (det > bound) return 1;
+  if (det < -bound) return -1;
+  return orient_exact(a, b, c);
+}
+
+int GeodesicFrame::orient_exact(const Vec2& a, const Vec2& b, const Vec2& c) const {
+  exact_tests_.fetch_add(1, std::memory_order_relaxed);
+  const Vec2 pa = reverse(a), pb = reverse(b), pc = reverse(c);
+  double azi_b, azi_c, back;
+  impl_->earth.Inverse(pa.y, pa.x, pb.y, pb.x, azi_b, back);
+  impl_->earth.Inverse(pa.y, pa.x, pc.y, pc.x, azi_c, back);
+  // Azimuths turn clockwise: c is left of the way to b when its azimuth is smaller, by less than
+  // a half-turn (the sine's sign, which also reads a point behind a correctly).
+  const double s = std::sin((azi_c - azi_b) * (M_PI / 180.0));
+  return s < 0.0 ? 1 : s > 0.0 ? -1 : 0;
+}
+
+}  // namespace rv

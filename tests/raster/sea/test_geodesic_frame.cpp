@@ -1,0 +1,204 @@
+// The geodesic reading of the distance by sea's visibility (rv/sea/geodesic_frame.hpp): the
+// frame's orientation predicate against GeographicLib's geodesics, down to points a tenth of a
+// millimetre off them; the western Baltic's 428 km clip edge along 53.8 N read as its geodesic
+// (2.4 km north of the parallel at its middle), land on one side of it to the millimetre; and
+// whole paths against barrier lines, against an oracle that tests crossings with GeographicLib's
+// azimuths directly, near-degenerate ones included.
+#include <gtest/gtest.h>
+
+#include <GeographicLib/Geodesic.hpp>
+#include <GeographicLib/GeodesicLine.hpp>
+
+#include <cmath>
+#include <random>
+#include <vector>
+
+#include "rv/field/error.hpp"
+#include "rv/sea/geodesic_frame.hpp"
+#include "rv/sea/visibility.hpp"
+
+namespace rv {
+namespace {
+
+const GeographicLib::Geodesic& wgs84() { return GeographicLib::Geodesic::WGS84(); }
+
+MetricSpec geodesic_metric() {
+  MetricSpec m;
+  m.kind = MetricSpec::geodesic;
+  return m;
+}
+
+// The western Baltic's box (fixtures/baltic_west.gpkg).
+std::shared_ptr<const GeodesicFrame> baltic_frame() {
+  return std::make_shared<const GeodesicFrame>(geodesic_metric(), 9.0, 53.8, 15.5, 56.2);
+}
+
+// The point `offset` metres to the left (positive) or right of the geodesic from a to b, beside
+// its point at fraction t of the way (t may lie outside [0, 1]: beyond the ends).
+Vec2 beside(Vec2 a, Vec2 b, double t, double offset) {
+  const GeographicLib::GeodesicLine line = wgs84().InverseLine(a.y, a.x, b.y, b.x);
+  double lat, lon, azi;
+  line.Position(t * line.Distance(), lat, lon, azi);
+  double lat2, lon2;
+  wgs84().Direct(lat, lon, azi + (offset > 0 ? -90.0 : 90.0), std::abs(offset), lat2, lon2);
+  return Vec2{lon2, lat2};
+}
+
+// Which side of the geodesic from a through b the point c lies, from GeographicLib's azimuths
+// (the oracle, written apart from the frame's).
+int side(Vec2 a, Vec2 b, Vec2 c) {
+  double s, azi_b, azi_c, back;
+  wgs84().Inverse(a.y, a.x, b.y, b.x, s, azi_b, back);
+  wgs84().Inverse(a.y, a.x, c.y, c.x, s, azi_c, back);
+  const double d = std::remainder(azi_c - azi_b, 360.0);
+  return d < 0 ? 1 : d > 0 ? -1 : 0;
+}
+
+TEST(GeodesicFrame, RoundTripsAndMeasuresItsBending) {
+  const auto frame = baltic_frame();
+  for (const Vec2 p : {Vec2{9.0, 53.8}, Vec2{15.5, 56.2}, Vec2{12.25, 55.0}, Vec2{10.1, 55.9}}) {
+    const Vec2 back = frame->reverse(frame->forward(p));
+    EXPECT_NEAR(back.x, p.x, 1e-11);
+    EXPECT_NEAR(back.y, p.y, 1e-11);
+  }
+  // The clip edge's image bends off its chord by millimetres: the frame allows for more.
+  const Vec2 a{9.0, 53.8}, b{15.5, 53.8};
+  const Vec2 pa = frame->forward(a), pb = frame->forward(b);
+  const GeographicLib::GeodesicLine line = wgs84().InverseLine(a.y, a.x, b.y, b.x);
+  double worst = 0.0;
+  for (int i = 1; i < 100; ++i) {
+    double lat, lon;
+    line.Position(line.Distance() * i / 100.0, lat, lon);
+    const Vec2 p = frame->forward(Vec2{lon, lat});
+    worst = std::max(worst, std::abs((pb.x - pa.x) * (p.y - pa.y) - (pb.y - pa.y) * (p.x - pa.x)) /
+                                std::hypot(pb.x - pa.x, pb.y - pa.y));
+  }
+  EXPECT_GT(worst, 1e-3);
+  EXPECT_LT(worst, 1e-2);
+  EXPECT_GT(frame->deviation(), worst);
+  EXPECT_LT(frame->deviation(), 5.0);
+  // Refusals: a box too large for one frame, a planar metric.
+  EXPECT_THROW(GeodesicFrame(geodesic_metric(), -60.0, -10.0, 60.0, 10.0), Error);
+  EXPECT_THROW(GeodesicFrame(MetricSpec{}, 9.0, 53.8, 15.5, 56.2), Error);
+}
+
+TEST(GeodesicFrame, OrientationIsTheGeodesicOneDownToATenthOfAMillimetre) {
+  const auto frame = baltic_frame();
+  std::mt19937_64 rng(56);
+  std::uniform_real_distribution<double> lon(9.0, 15.5), lat(53.8, 56.2), t(-0.3, 1.3);
+  const double offsets[] = {1e-4, -1e-4, 1e-3, -1e-3, 1e-2, -1e-2, 1.0, -1.0, 100.0, -100.0};
+  int checked = 0;
+  const int64_t exact_before = frame->exact_tests();
+  for (int i = 0; i < 300; ++i) {
+    const Vec2 a{lon(rng), lat(rng)}, b{lon(rng), lat(rng)};
+    const double along = t(rng);
+    for (double offset : offsets) {
+      const Vec2 c = beside(a, b, along, offset);
+      if (c.x < 9.0 || c.x > 15.5 || c.y < 53.8 || c.y > 56.2) continue;
+      const int want = side(a, b, c);
+      ASSERT_EQ(want, offset > 0 ? 1 : -1) << "the oracle's own construction";
+      ASSERT_EQ(frame->orient(frame->forward(a), frame->forward(b), frame->forward(c)), want)
+          << a.x << " " << a.y << " -> " << b.x << " " << b.y << ", " << offset << " m at " << along;
+      ++checked;
+    }
+  }
+  EXPECT_GT(checked, 1500);
+  // Points within the bending of the chord went to the exact test.
+  EXPECT_GT(frame->exact_tests() - exact_before, 500);
+  // Ends and repeated points are on the line.
+  const Vec2 a = frame->forward(Vec2{10, 54}), b = frame->forward(Vec2{14, 56});
+  EXPECT_EQ(frame->orient(a, b, a), 0);
+  EXPECT_EQ(frame->orient(a, b, b), 0);
+  EXPECT_EQ(frame->orient(a, a, b), 0);
+}
+
+// A 4.5-degree clip edge (9.0 E to 13.5 E along 53.8 N, as the western Baltic's) of a land
+// polygon north of it: read as the geodesic between its ends, which runs 2.4 km north of the
+// parallel at 11.25 E. A point a millimetre north of the geodesic is land, a millimetre south
+// sea; the parallel is sea.
+TEST(GeodesicFrame, TheClipEdgeIsItsGeodesicForTheLandTest) {
+  const auto frame = baltic_frame();
+  const Vec2 sw{9.0, 53.8}, se{13.5, 53.8}, ne{13.5, 55.0}, nw{9.0, 55.0};
+  Barriers barriers;
+  barriers.add_polygon({Ring{frame->forward(sw), frame->forward(se), frame->forward(ne), frame->forward(nw)}},
+                       SourceText{"clip"});
+  const Visibility vis(barriers, true, frame);
+  const Visibility reference(barriers, false, frame);
+  // The geodesic's middle, where it crosses 11.25 E, heading east.
+  const GeographicLib::GeodesicLine line = wgs84().InverseLine(sw.y, sw.x, se.y, se.x);
+  double lat_mid, lon_mid, azi_mid;
+  line.Position(0.5 * line.Distance(), lat_mid, lon_mid, azi_mid);
+  EXPECT_NEAR(lon_mid, 11.25, 1e-9);
+  EXPECT_NEAR(azi_mid, 90.0, 1e-9);
+  double north_of_parallel;
+  wgs84().Inverse(53.8, 11.25, lat_mid, lon_mid, north_of_parallel);
+  EXPECT_GT(north_of_parallel, 2200.0);
+  EXPECT_LT(north_of_parallel, 2600.0);
+  for (const double metres : {1e-3, 1e-2, 1.0, 100.0}) {
+    double lat_n, lon_n, lat_s, lon_s;
+    wgs84().Direct(lat_mid, lon_mid, 0.0, metres, lat_n, lon_n);
+    wgs84().Direct(lat_mid, lon_mid, 180.0, metres, lat_s, lon_s);
+    for (const Visibility* v : {&vis, &reference}) {
+      EXPECT_EQ(v->classify(frame->forward(Vec2{lon_n, lat_n})), Visibility::Ground::land) << metres;
+      EXPECT_EQ(v->classify(frame->forward(Vec2{lon_s, lat_s})), Visibility::Ground::open_sea) << metres;
+    }
+  }
+  EXPECT_EQ(vis.classify(frame->forward(Vec2{11.25, 53.8})), Visibility::Ground::open_sea);
+  // A row of centres across the edge, classified at once, as point by point.
+  std::vector<double> xs;
+  const Vec2 mid = frame->forward(Vec2{lon_mid, lat_mid});
+  for (int i = -50; i <= 50; ++i) xs.push_back(mid.x + 4000.0 * i);
+  for (double dy : {-1e-3, 1e-3, -5.0, 5.0}) {
+    std::vector<Visibility::Ground> row(xs.size());
+    vis.classify_row(mid.y + dy, xs.data(), static_cast<int64_t>(xs.size()), row.data());
+    for (size_t i = 0; i < xs.size(); ++i) EXPECT_EQ(row[i], vis.classify(Vec2{xs[i], mid.y + dy})) << i << " " << dy;
+  }
+}
+
+// Paths across barrier lines, each decided against crossings tested with GeographicLib's azimuths
+// in longitude and latitude: random ones, and ones ending a millimetre either side of a barrier.
+TEST(GeodesicFrame, PathsAreBlockedExactlyWhenTheirGeodesicsCross) {
+  const auto frame = baltic_frame();
+  std::mt19937_64 rng(4956);
+  std::uniform_real_distribution<double> lon(9.2, 15.3), lat(53.9, 56.1), u(0.05, 0.95);
+  std::vector<std::pair<Vec2, Vec2>> walls;
+  Barriers barriers;
+  for (int i = 0; i < 12; ++i) {
+    const Vec2 a{lon(rng), lat(rng)}, b{lon(rng), lat(rng)};
+    walls.emplace_back(a, b);
+    const std::vector<Vec2> plane{frame->forward(a), frame->forward(b)};
+    barriers.add_line(plane);
+  }
+  const Visibility vis(barriers, true, frame);
+  const Visibility reference(barriers, false, frame);
+  auto crosses = [](Vec2 p, Vec2 q, Vec2 a, Vec2 b) {
+    return side(a, b, p) * side(a, b, q) < 0 && side(p, q, a) * side(p, q, b) < 0;
+  };
+  int blocked = 0, free_paths = 0;
+  auto check = [&](Vec2 p, Vec2 q) {
+    bool want = true;
+    for (const auto& [a, b] : walls) want = want && !crosses(p, q, a, b);
+    const Visibility::Place from{frame->forward(p)}, to{frame->forward(q)};
+    ASSERT_EQ(vis.sees(from, to), want) << p.x << " " << p.y << " -> " << q.x << " " << q.y;
+    ASSERT_EQ(reference.sees(from, to), want);
+    (want ? free_paths : blocked) += 1;
+  };
+  for (int i = 0; i < 400; ++i) check(Vec2{lon(rng), lat(rng)}, Vec2{lon(rng), lat(rng)});
+  // Ends a millimetre (and a tenth of one) either side of a wall, the path running across it.
+  for (int i = 0; i < 200; ++i) {
+    const auto& [a, b] = walls[static_cast<size_t>(i) % walls.size()];
+    const double at = u(rng);
+    for (double offset : {1e-3, -1e-3, 1e-4, -1e-4}) {
+      const Vec2 near = beside(a, b, at, offset), far = beside(a, b, at, offset > 0 ? 20000.0 : -20000.0);
+      check(near, far);
+      check(far, near);
+      const Vec2 other = beside(a, b, at, offset > 0 ? -20000.0 : 20000.0);
+      check(near, other);
+    }
+  }
+  EXPECT_GT(blocked, 300);
+  EXPECT_GT(free_paths, 300);
+}
+
+}  // namespace
+}  // namespace rv
