@@ -69,13 +69,16 @@ std::string Barriers::name(int32_t barrier) const {
 }
 
 Barriers Barriers::translated(Vec2 origin) const {
+  return mapped([&](Vec2 v) { return Vec2{v.x - origin.x, v.y - origin.y}; });
+}
+
+Barriers Barriers::mapped(const std::function<Vec2(Vec2)>& f) const {
   Barriers out = *this;
-  auto move = [&](Vec2& v) { v = Vec2{v.x - origin.x, v.y - origin.y}; };
   for (Polygon& p : out.polygons_)
     for (Ring& r : p.rings)
-      for (Vec2& v : r) move(v);
+      for (Vec2& v : r) v = f(v);
   for (Line& l : out.lines_)
-    for (Vec2& v : l.vertices) move(v);
+    for (Vec2& v : l.vertices) v = f(v);
   return out;
 }
 

@@ -58,6 +58,14 @@ GeodesicFrame::GeodesicFrame(const MetricSpec& metric, double lon_min, double la
     for (int j = 0; j < kSide; ++j)
       points.push_back(Vec2{lon_min - 0.5 * w + 2.0 * w * i / (kSide - 1),
                             std::clamp(lat_min - 0.5 * h + 2.0 * h * j / (kSide - 1), -89.0, 89.0)});
+  // The scale grows away from the centre (radially 1 / rk^2, rk the reciprocal azimuthal scale
+  // GeographicLib gives): its largest is at the enlarged box's farthest points.
+  for (const Vec2& q : points) {
+    double x, y, azi, rk;
+    m.gnomonic.Forward(m.lat0, m.lon0, q.y, q.x, x, y, azi, rk);
+    if (rk > 0.0) max_scale_ = std::max(max_scale_, 1.0 / (rk * rk));
+  }
+  max_scale_ *= 1.0 + 1e-6;
   double worst = 0.0;
   for (size_t i = 0; i < points.size(); ++i)
     for (size_t k = i + 1; k < points.size(); ++k) {

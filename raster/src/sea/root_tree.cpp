@@ -4,8 +4,9 @@
 
 namespace rv::sea {
 
-RootTree::RootTree(const std::vector<Box>& items)
-    : leaf_(items.size(), -1),
+RootTree::RootTree(const std::vector<Box>& items, double scale)
+    : scale_(scale),
+      leaf_(items.size(), -1),
       boxes_(items),
       weight_(items.size(), std::numeric_limits<double>::infinity()),
       stamp_(items.size(), 0) {

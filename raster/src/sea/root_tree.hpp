@@ -24,7 +24,9 @@ class RootTree {
   struct Box {
     Vec2 lo, hi;
   };
-  explicit RootTree(const std::vector<Box>& items);
+  // `scale`: bounds take the distance to a box times it (a geodesic frame's plane distances made
+  // lower bounds of metres: 1 / its largest scale).
+  explicit RootTree(const std::vector<Box>& items, double scale = 1.0);
   RootTree() = default;
 
   // Sets an item's weight and stamps it with the tree's next stamp (1, 2, ...).
@@ -54,12 +56,13 @@ class RootTree {
     int32_t left = -1, right = -1, parent = -1;
   };
   int32_t build(int32_t first, int32_t count, int32_t parent, int depth, const std::vector<Box>& items);
-  static double box_distance(const Box& b, Vec2 x) {
+  double box_distance(const Box& b, Vec2 x) const {
     const double dx = std::max({b.lo.x - x.x, 0.0, x.x - b.hi.x});
     const double dy = std::max({b.lo.y - x.y, 0.0, x.y - b.hi.y});
-    return std::sqrt(dx * dx + dy * dy);
+    return std::sqrt(dx * dx + dy * dy) * scale_;
   }
 
+  double scale_ = 1.0;
   std::vector<Node> nodes_;
   std::vector<int32_t> order_;   // items by leaf
   std::vector<int32_t> leaf_;    // item -> its leaf node

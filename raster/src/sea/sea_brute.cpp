@@ -37,8 +37,9 @@ VertexDistances vertex_distances(const Prepared& p, std::atomic<int64_t>& tests)
   // Each node's best site seen directly, by (distance, site).
   for (size_t n = 0; n < nodes.size(); ++n) {
     const Place at = vis.at_vertex(nodes[n].vertex, nodes[n].wedge);
+    const Spot spot = p.vertex_spot(nodes[n].vertex);
     for (int32_t id : p.geometric) {
-      const double key = planar_key(at.at.x, at.at.y, p.local[static_cast<size_t>(id)]);
+      const double key = p.site_key(spot, id);
       const Best c{std::sqrt(key), id, kNoVia};
       if (!(c < dist[n])) continue;
       ++tests;
@@ -59,7 +60,8 @@ VertexDistances vertex_distances(const Prepared& p, std::atomic<int64_t>& tests)
     for (size_t n = 0; n < nodes.size(); ++n) {
       if (settled[n]) continue;
       const Place to = vis.at_vertex(nodes[n].vertex, nodes[n].wedge);
-      const Best c{dist[u].d + length(from.at, to.at), dist[u].site, nodes[u].vertex};
+      const Best c{dist[u].d + p.vertex_length(nodes[u].vertex, p.vertex_spot(nodes[n].vertex)), dist[u].site,
+                   nodes[u].vertex};
       if (!(c < dist[n]) || !sea::taut(vis, nodes[u], out.from[u], to.at)) continue;
       ++tests;
       if (vis.sees(from, to)) {
@@ -73,11 +75,11 @@ VertexDistances vertex_distances(const Prepared& p, std::atomic<int64_t>& tests)
 
 // One sea cell at x, off every seed polygon: its best path, whether it is the straight field's
 // answer (the straight nearest site seen), and k0, the straight nearest key.
-Best cell_value(const Prepared& p, const VertexDistances& vd, const Place& at,
+Best cell_value(const Prepared& p, const VertexDistances& vd, const Place& at, const Spot& spot,
                 std::vector<std::pair<double, int32_t>>& order, bool& straight, double& k0, int64_t& asked) {
   const Vec2 x = at.at;
   order.clear();
-  for (int32_t id : p.geometric) order.emplace_back(planar_key(x.x, x.y, p.local[static_cast<size_t>(id)]), id);
+  for (int32_t id : p.geometric) order.emplace_back(p.site_key(spot, id), id);
   std::sort(order.begin(), order.end());
   k0 = order.front().first;
   Best best;
@@ -101,7 +103,7 @@ Best cell_value(const Prepared& p, const VertexDistances& vd, const Place& at,
   for (size_t n = 0; n < vd.nodes.size(); ++n) {
     if (!std::isfinite(vd.dist[n].d)) continue;
     const Place v = p.vis.at_vertex(vd.nodes[n].vertex, vd.nodes[n].wedge);
-    const Best c{vd.dist[n].d + length(v.at, x), vd.dist[n].site, vd.nodes[n].vertex};
+    const Best c{vd.dist[n].d + p.vertex_length(vd.nodes[n].vertex, spot), vd.dist[n].site, vd.nodes[n].vertex};
     if (!(c < best) || !sea::taut(p.vis, vd.nodes[n], vd.from[n], x)) continue;
     ++asked;
     if (p.vis.sees(at, v)) best = c;
@@ -112,12 +114,12 @@ Best cell_value(const Prepared& p, const VertexDistances& vd, const Place& at,
 }  // namespace
 
 SeaField brute_force_sea(const SeedSet& seeds, const Barriers& barriers, const GridSpec& grid, const Window& window,
-                         double max_distance, int threads) {
-  const Prepared p = sea::prepare(seeds, barriers, grid);
+                         double max_distance, int threads, const MetricSpec& metric) {
+  const Prepared p = sea::prepare(seeds, barriers, grid, metric);
   std::atomic<int64_t> tests{0};
   const VertexDistances vd = vertex_distances(p, tests);
 
-  SeaField out = sea::empty_field(p, grid, window);
+  SeaField out = sea::empty_field(p, grid, window, metric);
   const InteriorSpans interiors = build_interiors(seeds, grid, window);
   out.field.contested_cells = interiors.contested_cells;
   const double max_key = sea::max_key_of(max_distance);
@@ -129,7 +131,8 @@ SeaField brute_force_sea(const SeedSet& seeds, const Barriers& barriers, const G
     std::vector<std::pair<double, int32_t>> order;
     int64_t asked = 0;
     for (int64_t c = 0; c < window.width; ++c) {
-      const Vec2 x{grid.local_x(window.col0 + c), grid.local_y(window.row0 + r)};
+      const Spot spot = p.cell(grid, window.col0 + c, window.row0 + r);
+      const Vec2 x = spot.at;
       const Visibility::Ground ground = p.vis.classify(x);
       if (ground == Visibility::Ground::land) {
         ++land[static_cast<size_t>(worker)];
@@ -146,7 +149,7 @@ SeaField brute_force_sea(const SeedSet& seeds, const Barriers& barriers, const G
       double k0 = 0.0;
       Place at{x};
       at.open = ground == Visibility::Ground::open_sea;
-      const Best best = cell_value(p, vd, at, order, straight, k0, asked);
+      const Best best = cell_value(p, vd, at, spot, order, straight, k0, asked);
       if (best.site == kNoSite) {
         ++unreachable[static_cast<size_t>(worker)];
         continue;

@@ -48,6 +48,7 @@ struct Searches {
   int64_t evaluations = 0;
 
   explicit Searches(const Prepared& prepared) : p(prepared), nodes(sea::bend_nodes(prepared.vis)) {
+    // (Geodesic: the trees' bounds are plane distances scaled down to metres they cannot exceed.)
     std::vector<RootTree::Box> boxes;
     for (int32_t id : p.geometric) {
       const LocalSite& s = p.local[static_cast<size_t>(id)];
@@ -55,9 +56,9 @@ struct Searches {
           {{std::min(s.ax, s.bx()), std::min(s.ay, s.by())}, {std::max(s.ax, s.bx()), std::max(s.ay, s.by())}});
       site_of.push_back(id);
     }
-    sites = RootTree(boxes);
+    sites = RootTree(boxes, p.lower_scale());
     for (const Node& n : nodes) boxes.push_back({p.vis.vertex(n.vertex), p.vis.vertex(n.vertex)});
-    all = RootTree(boxes);
+    all = RootTree(boxes, p.lower_scale());
     for (size_t i = 0; i < site_of.size(); ++i) {
       sites.set_weight(static_cast<int32_t>(i), 0.0);
       all.set_weight(static_cast<int32_t>(i), 0.0);
@@ -68,12 +69,12 @@ struct Searches {
   int32_t site_items() const { return static_cast<int32_t>(site_of.size()); }
 
   // The straight field's nearest site from x: (k0, the lowest site index at k0).
-  std::pair<double, int32_t> straight(Vec2 x) const {
+  std::pair<double, int32_t> straight(const Spot& x) const {
     std::pair<double, int32_t> best{std::numeric_limits<double>::infinity(), kNoSite};
-    sites.nearest(x, [&](int32_t item, double bound) {
+    sites.nearest(x.at, [&](int32_t item, double bound) {
       if (beyond(bound * bound, best.first)) return false;
       const int32_t id = site_of[static_cast<size_t>(item)];
-      best = std::min(best, {planar_key(x.x, x.y, p.local[static_cast<size_t>(id)]), id});
+      best = std::min(best, {p.site_key(x, id), id});
       return true;
     });
     return best;
@@ -92,7 +93,7 @@ struct Searches {
   //
   // `since` (a stamp of `all`): only roots settled after it are searched; `best` is then the
   // answer over those before (a node evaluated again).
-  Best best_path(const Place& at, Best best, int64_t& tests, int32_t skip_vertex = -1,
+  Best best_path(const Place& at, const Spot& spot, Best best, int64_t& tests, int32_t skip_vertex = -1,
                  std::vector<int32_t>* blockers = nullptr, int32_t first = -1, int32_t* winner = nullptr,
                  uint64_t since = 0) const {
     const Vec2 x = at.at;
@@ -110,7 +111,7 @@ struct Searches {
     auto consider = [&](int32_t item) {
       if (item < site_items()) {
         const int32_t id = site_of[static_cast<size_t>(item)];
-        const double key = planar_key(x.x, x.y, p.local[static_cast<size_t>(id)]);
+        const double key = p.site_key(spot, id);
         const Best c{std::sqrt(key), id, kNoVia};
         if (!(c < best)) return;
         if (key == 0.0 || seen(item, nearest_point(p.local[static_cast<size_t>(id)], x))) {
@@ -122,7 +123,7 @@ struct Searches {
       const auto k = static_cast<size_t>(item - site_items());
       const Node& n = nodes[k];
       if (n.vertex == skip_vertex || !std::isfinite(dist[k].d)) return;
-      const Best c{dist[k].d + length(p.vis.vertex(n.vertex), x), dist[k].site, n.vertex};
+      const Best c{dist[k].d + p.vertex_length(n.vertex, spot), dist[k].site, n.vertex};
       if (!(c < best) || !sea::taut(p.vis, n, from[k], x)) return;
       if (seen(item, p.vis.at_vertex(n.vertex, n.wedge))) {
         best = c;
@@ -144,12 +145,12 @@ void settle_bends(Searches& b, int64_t& tests, const std::atomic<bool>* cancel) 
   std::vector<RootTree::Box> boxes;
   boxes.reserve(n);
   for (const Node& node : b.nodes) boxes.push_back({vis.vertex(node.vertex), vis.vertex(node.vertex)});
-  RootTree open(boxes);  // weight: the key of a node not yet settled
+  RootTree open(boxes, p.lower_scale());  // weight: the key of a node not yet settled
   std::vector<double> key(n);
   using Entry = std::pair<double, int32_t>;
   std::priority_queue<Entry, std::vector<Entry>, std::greater<Entry>> queue;
   for (size_t i = 0; i < n; ++i) {
-    key[i] = std::sqrt(b.straight(vis.vertex(b.nodes[i].vertex)).first);
+    key[i] = std::sqrt(b.straight(p.vertex_spot(b.nodes[i].vertex)).first);
     open.set_weight(static_cast<int32_t>(i), key[i]);
     queue.emplace(key[i], static_cast<int32_t>(i));
   }
@@ -178,7 +179,9 @@ void settle_bends(Searches& b, int64_t& tests, const std::atomic<bool>* cancel) 
       cover({l.ax, l.ay});
       cover({l.bx(), l.by()});
     }
-    if (xmin <= xmax) diameter = length({xmin, ymin}, {xmax, ymax});
+    // (Geodesic: a geodesic's image bends by millimetres, so its length is its plane distance
+    // to well within the margin.)
+    if (xmin <= xmax) diameter = length({xmin, ymin}, {xmax, ymax}) * (p.geodesic ? 1.01 : 1.0);
   }
   double farthest = 0.0;
   int64_t steps = 0;
@@ -194,7 +197,8 @@ void settle_bends(Searches& b, int64_t& tests, const std::atomic<bool>* cancel) 
     ++b.evaluations;
     const Place at = vis.at_vertex(node.vertex, node.wedge);
     // Evaluated before: only the roots settled since can do better.
-    const Best val = b.best_path(at, last_val[u], tests, node.vertex, &hint, -1, nullptr, seen_at[u]);
+    const Best val =
+        b.best_path(at, p.vertex_spot(node.vertex), last_val[u], tests, node.vertex, &hint, -1, nullptr, seen_at[u]);
     last_val[u] = val;
     seen_at[u] = b.all.stamp();
     // The least a path through a node not yet settled can be: its key plus the way from it.
@@ -231,7 +235,7 @@ void settle_bends(Searches& b, int64_t& tests, const std::atomic<bool>* cancel) 
 class PreparedSea {
  public:
   PreparedSea(const SeedSet& seeds, const Barriers& barriers, const GridSpec& grid, const SeaOptions& options)
-      : prepared(sea::prepare(seeds, barriers, grid)), search(prepared) {
+      : prepared(sea::prepare(seeds, barriers, grid, options.metric)), search(prepared) {
     const auto start = std::chrono::steady_clock::now();
     settle_bends(search, bend_tests, options.cancel);
     bends_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
@@ -258,7 +262,9 @@ SeaPreparation preparation_of(const PreparedSea& prepared) {
 Vec2 via_position(const PreparedSea& prepared, const GridSpec& grid, int32_t via) {
   if (via < 0 || via >= prepared.prepared.vis.vertex_count())
     throw Error(ErrorKind::internal, "no such barrier vertex");
-  const Vec2 local = prepared.prepared.vis.vertex(via);
+  const sea::Prepared& p = prepared.prepared;
+  if (p.geodesic) return p.vertex_ll[static_cast<size_t>(via)];
+  const Vec2 local = p.vis.vertex(via);
   // The inverse of Barriers::translated(Vec2{grid.xmin, grid.ymax}) (sea::prepare).
   return Vec2{local.x + grid.xmin, local.y + grid.ymax};
 }
@@ -273,7 +279,7 @@ SeaField compute_sea(const SeedSet& seeds, const Barriers& barriers, const GridS
   const Searches& search = prepared->search;
   const int64_t bend_tests = shared ? 0 : prepared->bend_tests;
 
-  SeaField out = sea::empty_field(p, grid, window);
+  SeaField out = sea::empty_field(p, grid, window, options.metric);
   out.bend_nodes = static_cast<int64_t>(search.nodes.size());
   out.bends_seconds = shared ? 0.0 : prepared->bends_seconds;
   const InteriorSpans interiors = build_interiors(seeds, grid, window);
@@ -298,13 +304,21 @@ SeaField compute_sea(const SeedSet& seeds, const Barriers& barriers, const GridS
     if (hint.empty()) hint.assign(static_cast<size_t>(search.site_items()) + search.nodes.size(), -1);
     const auto& spans = interiors.rows[static_cast<size_t>(r)];
     auto span = spans.begin();
-    const double y = grid.local_y(window.row0 + r);
+    std::vector<Spot> spots(static_cast<size_t>(window.width));
+    for (int64_t c = 0; c < window.width; ++c)
+      spots[static_cast<size_t>(c)] = p.cell(grid, window.col0 + c, window.row0 + r);
     std::vector<double> xs(static_cast<size_t>(window.width));
-    for (int64_t c = 0; c < window.width; ++c) xs[static_cast<size_t>(c)] = grid.local_x(window.col0 + c);
+    for (int64_t c = 0; c < window.width; ++c) xs[static_cast<size_t>(c)] = spots[static_cast<size_t>(c)].at.x;
     std::vector<Visibility::Ground> grounds(static_cast<size_t>(window.width));
-    p.vis.classify_row(y, xs.data(), window.width, grounds.data());
+    if (p.geodesic) {  // (a row of a longitude/latitude grid is no straight line in the plane)
+      for (int64_t c = 0; c < window.width; ++c)
+        grounds[static_cast<size_t>(c)] = p.vis.classify(spots[static_cast<size_t>(c)].at);
+    } else {
+      p.vis.classify_row(spots.empty() ? 0.0 : spots[0].at.y, xs.data(), window.width, grounds.data());
+    }
     for (int64_t c = 0; c < window.width; ++c) {
-      const Vec2 x{xs[static_cast<size_t>(c)], y};
+      const Spot& spot = spots[static_cast<size_t>(c)];
+      const Vec2 x = spot.at;
       const Visibility::Ground ground = grounds[static_cast<size_t>(c)];
       if (ground == Visibility::Ground::land) {
         ++t.land;
@@ -319,11 +333,11 @@ SeaField compute_sea(const SeedSet& seeds, const Barriers& barriers, const GridS
       Place at{x};
       at.open = ground == Visibility::Ground::open_sea;
       // The straight field's answer where its nearest site is seen; else the best path.
-      const auto [k0, nearest] = search.straight(x);
+      const auto [k0, nearest] = search.straight(spot);
       ++t.tests;
       const bool straight = p.vis.sees(at, nearest_point(p.local[static_cast<size_t>(nearest)], x));
       const Best best = straight ? Best{std::sqrt(k0), nearest, kNoVia}
-                                 : search.best_path(at, Best{}, t.tests, -1, &hint, last, &last);
+                                 : search.best_path(at, spot, Best{}, t.tests, -1, &hint, last, &last);
       if (best.site == kNoSite) {
         ++t.unreachable;
         continue;

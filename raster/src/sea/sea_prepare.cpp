@@ -1,17 +1,88 @@
 #include "sea/sea_prepare.hpp"
 
+#include <algorithm>
+#include <map>
+#include <utility>
+
 #include "rv/field/error.hpp"
 
 namespace rv::sea {
 
-Prepared prepare(const SeedSet& seeds, const Barriers& barriers, const GridSpec& grid) {
+// Every site's ends sea (a seed may lie on a barrier's boundary, not inside it).
+void check_seeds(Prepared& p, const SeedSet& seeds);
+
+namespace {
+
+// The geodesic frame for a longitude/latitude grid, its barriers and point seeds: centred in the
+// box that holds them all.
+std::shared_ptr<const GeodesicFrame> frame_for(const SeedSet& seeds, const Barriers& barriers, const GridSpec& grid,
+                                               const MetricSpec& metric) {
+  double x0 = grid.xmin, x1 = grid.xmax(), y0 = grid.ymin(), y1 = grid.ymax;
+  auto cover = [&](Vec2 v) {
+    x0 = std::min(x0, v.x);
+    x1 = std::max(x1, v.x);
+    y0 = std::min(y0, v.y);
+    y1 = std::max(y1, v.y);
+  };
+  for (const Barriers::Polygon& p : barriers.polygons())
+    for (const Ring& r : p.rings)
+      for (const Vec2& v : r) cover(v);
+  for (const Barriers::Line& l : barriers.lines())
+    for (const Vec2& v : l.vertices) cover(v);
+  for (const Site& s : seeds.sites()) cover(s.a);
+  return std::make_shared<const GeodesicFrame>(metric, x0, y0, x1, y1);
+}
+
+}  // namespace
+
+Prepared prepare(const SeedSet& seeds, const Barriers& barriers, const GridSpec& grid, const MetricSpec& metric) {
   if (seeds.geometric_site_count() == 0) throw Error(ErrorKind::invalid_input, "the seeds have no sites");
   if (seeds.adjusted())
     throw Error(ErrorKind::unsupported,
                 "the distance by sea does not take weights or reaches yet: they change which seed a path may reach");
   for (const Feature& f : seeds.features())
     if (f.effect != 1.0) throw Error(ErrorKind::unsupported, "the distance by sea does not take partial effect yet");
-  Prepared p{Visibility(barriers.translated(Vec2{grid.xmin, grid.ymax})), to_local(seeds, grid), {}};
+  if (metric.kind != MetricSpec::geodesic) {
+    Prepared p{Visibility(barriers.translated(Vec2{grid.xmin, grid.ymax})), to_local(seeds, grid), {}};
+    check_seeds(p, seeds);
+    return p;
+  }
+  // Geodesic: points as seeds (a coast line's nearest point along its geodesic edges is the
+  // geodesic engine's, not yet this one's).
+  if (!seeds.polygons().empty() ||
+      std::any_of(seeds.sites().begin(), seeds.sites().end(), [](const Site& s) { return s.kind != SiteKind::point; }))
+    throw Error(ErrorKind::unsupported,
+                "the distance by sea on the ellipsoid takes points as seeds for now (ports, farms); lines and "
+                "polygons as seeds need a projected grid and the planar metric");
+  const std::shared_ptr<const GeodesicFrame> frame = frame_for(seeds, barriers, grid, metric);
+  Prepared p{Visibility(barriers.mapped([&](Vec2 v) { return frame->forward(v); }), true, frame), {}, {}};
+  p.geodesic = std::make_shared<const GeodesicMeasure>(metric);
+  p.max_scale = frame->max_scale();
+  for (const Site& s : seeds.sites()) {
+    const Vec2 at = frame->forward(s.a);
+    p.local.push_back(LocalSite{at.x, at.y, 0.0, 0.0, 0.0});
+    p.site_ll.push_back(s.a);
+  }
+  // Each vertex's own longitude and latitude (the barriers' as given, by their plane position).
+  std::map<std::pair<double, double>, Vec2> given;
+  auto note = [&](Vec2 v) {
+    const Vec2 at = frame->forward(v);
+    given.emplace(std::make_pair(at.x, at.y), v);
+  };
+  for (const Barriers::Polygon& poly : barriers.polygons())
+    for (const Ring& r : poly.rings)
+      for (const Vec2& v : r) note(v);
+  for (const Barriers::Line& l : barriers.lines())
+    for (const Vec2& v : l.vertices) note(v);
+  for (int32_t v = 0; v < p.vis.vertex_count(); ++v) {
+    const auto it = given.find(std::make_pair(p.vis.vertex(v).x, p.vis.vertex(v).y));
+    p.vertex_ll.push_back(it != given.end() ? it->second : frame->reverse(p.vis.vertex(v)));
+  }
+  check_seeds(p, seeds);
+  return p;
+}
+
+void check_seeds(Prepared& p, const SeedSet& seeds) {
   for (int32_t i = 0; i < static_cast<int32_t>(seeds.sites().size()); ++i) {
     const Site& s = seeds.sites()[static_cast<size_t>(i)];
     if (s.kind == SiteKind::area) continue;
@@ -23,14 +94,13 @@ Prepared prepare(const SeedSet& seeds, const Barriers& barriers, const GridSpec&
                                                   " has a vertex inside a barrier: a seed may lie on a barrier's "
                                                   "boundary, not inside it");
   }
-  return p;
 }
 
-SeaField empty_field(const Prepared& p, const GridSpec& grid, const Window& window) {
+SeaField empty_field(const Prepared& p, const GridSpec& grid, const Window& window, const MetricSpec& metric) {
   SeaField out;
   out.field.site = Raster<int32_t>(grid, window, kNoSite);
   out.field.distance = Raster<float>(grid, window, kNoDistance);
-  out.field.metric = MetricSpec{};
+  out.field.metric = metric;
   out.via = Raster<int32_t>(grid, window, kNoVia);
   out.barrier_vertices = p.vis.vertex_count();
   return out;

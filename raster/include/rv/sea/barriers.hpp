@@ -13,6 +13,7 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <span>
 #include <string>
 #include <vector>
@@ -48,6 +49,9 @@ class Barriers {
   std::string name(int32_t barrier) const;
   // A copy with every coordinate minus `origin` (the engines' local frame, GridSpec::local_x).
   Barriers translated(Vec2 origin) const;
+  // A copy with every vertex v replaced by f(v) (into a geodesic frame's plane); f must keep
+  // orientation (land on the left) and distinct vertices distinct.
+  Barriers mapped(const std::function<Vec2(Vec2)>& f) const;
   // The number of vertices over every ring and line.
   int64_t vertex_count() const;
 

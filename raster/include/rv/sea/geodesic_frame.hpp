@@ -50,6 +50,9 @@ class GeodesicFrame {
   // The largest distance (metres) between a geodesic's image and the straight line through any
   // two of its points, over the box, as the predicate allows for it.
   double deviation() const { return deviation_; }
+  // The largest scale of the projection over the box (enlarged as for the deviation), with a
+  // margin: a plane distance d means at least d / max_scale() metres on the ellipsoid.
+  double max_scale() const { return max_scale_; }
   // The geodesic reading of the orientation of plane points a, b, c: +1 when c lies left of the
   // geodesic from a through b, -1 right, 0 when c is a or b (or a is b) or lies on that geodesic
   // to GeographicLib's precision.
@@ -65,6 +68,7 @@ class GeodesicFrame {
   struct Impl;
   std::unique_ptr<Impl> impl_;
   double deviation_ = 0.0;
+  double max_scale_ = 1.0;
   double reach_ = 1.0;  // half the box's width in the plane (metres, at least 1)
   mutable std::atomic<int64_t> exact_tests_{0};
 };

@@ -65,6 +65,10 @@ struct SeaField {
 class PreparedSea;  // see prepare_sea() below
 
 struct SeaOptions {
+  // Planar: the grid's CRS units. Geodesic: metres on the metric's ellipsoid, paths and barrier
+  // edges geodesics (rv/sea/geodesic_frame.hpp); the grid, the barriers and the seeds in
+  // longitude/latitude degrees, the seeds points (lines and polygons: rv::Error(unsupported)).
+  MetricSpec metric;
   double max_distance = std::numeric_limits<double>::infinity();  // metric units
   int threads = 0;                                                // 0: every hardware thread
   const std::atomic<bool>* cancel = nullptr;
@@ -109,6 +113,7 @@ SeaField compute_sea(const SeedSet& seeds, const Barriers& barriers, const GridS
 // (E + V)) to prepare and O(cells (S + V) (E + V)) to fill. Throws rv::Error(invalid_input) for
 // seeds without sites or with a vertex on land, rv::Error(unsupported) for the cases above.
 SeaField brute_force_sea(const SeedSet& seeds, const Barriers& barriers, const GridSpec& grid, const Window& window,
-                         double max_distance = std::numeric_limits<double>::infinity(), int threads = 0);
+                         double max_distance = std::numeric_limits<double>::infinity(), int threads = 0,
+                         const MetricSpec& metric = {});
 
 }  // namespace rv

@@ -1,0 +1,166 @@
+// The distance by sea on the ellipsoid (SeaOptions::metric geodesic): paths and barrier edges are
+// geodesics, distances GeographicLib's. Against a closed form (a port behind a wall: the straight
+// geodesic where seen, else the shorter way round an end, each leg GeographicLib's inverse
+// problem, the wall's shadow from an azimuth oracle), and the exact engine against the reference
+// cell for cell on random archipelagos of longitude/latitude; points only as seeds.
+#include <gtest/gtest.h>
+
+#include <GeographicLib/Geodesic.hpp>
+
+#include <cmath>
+#include <random>
+#include <vector>
+
+#include "rv/field/error.hpp"
+#include "rv/sea/geodesic_frame.hpp"
+#include "rv/sea/sea_field.hpp"
+#include "rv/sea/visibility.hpp"
+#include "seed_gen.hpp"
+
+namespace rv {
+namespace {
+
+const GeographicLib::Geodesic& wgs84() { return GeographicLib::Geodesic::WGS84(); }
+
+MetricSpec geodesic() {
+  MetricSpec m;
+  m.kind = MetricSpec::geodesic;
+  return m;
+}
+
+double metres(Vec2 a, Vec2 b) {
+  double s;
+  wgs84().Inverse(a.y, a.x, b.y, b.x, s);
+  return s;
+}
+
+// Which side of the geodesic from a through b the point c lies (GeographicLib's azimuths).
+int side(Vec2 a, Vec2 b, Vec2 c) {
+  double s, azi_b, azi_c, back;
+  wgs84().Inverse(a.y, a.x, b.y, b.x, s, azi_b, back);
+  wgs84().Inverse(a.y, a.x, c.y, c.x, s, azi_c, back);
+  const double d = std::remainder(azi_c - azi_b, 360.0);
+  return d < 0 ? 1 : d > 0 ? -1 : 0;
+}
+
+bool crosses(Vec2 p, Vec2 q, Vec2 a, Vec2 b) {
+  return side(a, b, p) * side(a, b, q) < 0 && side(p, q, a) * side(p, q, b) < 0;
+}
+
+SeaOptions on_the_ellipsoid() {
+  SeaOptions o;
+  o.metric = geodesic();
+  return o;
+}
+
+// Both engines: owners and vias cell for cell, distances to GeographicLib's rounding.
+SeaField both(const SeedSet& seeds, const Barriers& barriers, const GridSpec& g) {
+  const SeaField reference = brute_force_sea(seeds, barriers, g, g.full_window(), INFINITY, 0, geodesic());
+  const SeaField exact = compute_sea(seeds, barriers, g, g.full_window(), on_the_ellipsoid());
+  EXPECT_EQ(exact.land_cells, reference.land_cells);
+  EXPECT_EQ(exact.unreachable_cells, reference.unreachable_cells);
+  for (int64_t r = 0; r < g.height; ++r)
+    for (int64_t c = 0; c < g.width; ++c) {
+      EXPECT_EQ(exact.field.site.at(c, r), reference.field.site.at(c, r)) << c << "," << r;
+      EXPECT_EQ(exact.via.at(c, r), reference.via.at(c, r)) << c << "," << r;
+      EXPECT_NEAR(exact.field.distance.at(c, r), reference.field.distance.at(c, r),
+                  1e-6 * std::abs(reference.field.distance.at(c, r)))
+          << c << "," << r;
+      if (::testing::Test::HasFailure()) return exact;
+    }
+  return exact;
+}
+
+// A port west of a 45 km wall running north-south (a geodesic), on a 0.02-degree grid of the
+// western Baltic's latitudes: in the wall's shadow the path goes round the nearer end.
+TEST(SeaGeodesic, WallShadowGoesRoundTheNearerEnd) {
+  const Vec2 a{10.5, 55.1}, b{10.5, 55.5}, s{10.21, 55.33};
+  Barriers barriers;
+  barriers.add_line(std::vector<Vec2>{a, b}, "wall");
+  SeedSet seeds;
+  seeds.add_point(seeds.add_feature(seeds.owner_code("P")), s);
+  const GridSpec g = test::grid_of(50, 30, 0.02, 10.0, 55.6);
+  const SeaField f = both(seeds, barriers, g);
+  int hidden = 0;
+  for (int64_t r = 0; r < g.height; ++r)
+    for (int64_t c = 0; c < g.width; ++c) {
+      const Vec2 x{g.centre_x(c), g.centre_y(r)};
+      const bool behind = crosses(s, x, a, b);
+      const double want = behind ? std::min(metres(s, a) + metres(a, x), metres(s, b) + metres(b, x)) : metres(s, x);
+      EXPECT_NEAR(f.field.distance.at(c, r), want, 1e-6 * want + 1e-3) << c << "," << r;
+      EXPECT_EQ(f.via.at(c, r) != kNoVia, behind) << c << "," << r;
+      EXPECT_EQ(f.field.site.at(c, r), 0);
+      hidden += behind;
+    }
+  EXPECT_GT(hidden, 200);
+  EXPECT_EQ(f.field.metric.kind, MetricSpec::geodesic);
+}
+
+// Random islands (longitude/latitude quadrilaterals, some with a lake), a boom, ports of two
+// owners at sea: the exact engine equals the reference; distances grow by at most the geodesic
+// between neighbours that see each other.
+TEST(SeaGeodesic, RandomArchipelagosExactEqualsTheReference) {
+  std::mt19937_64 rng(56);
+  std::uniform_real_distribution<double> lon(12.0, 12.9), lat(55.3, 55.8), size(0.03, 0.12);
+  int rounds = 0;
+  int64_t bent = 0;
+  for (int round = 0; round < 6; ++round) {
+    Barriers b;
+    for (int k = 0; k < 6; ++k) {
+      const double x = lon(rng), y = lat(rng), w = size(rng), h = size(rng) * 0.6;
+      std::vector<Ring> rings{{{x, y}, {x + w, y}, {x + w * 0.6, y + h}, {x, y + h * 0.8}}};
+      if (w > 0.08) rings.push_back({{x + 0.02, y + 0.01}, {x + 0.04, y + 0.01}, {x + 0.03, y + 0.025}});
+      b.add_polygon(rings, "island");
+    }
+    b.add_line(std::vector<Vec2>{{lon(rng), lat(rng)}, {lon(rng), lat(rng)}}, "boom");
+    SeedSet s;
+    int ports = 0;
+    for (int k = 0; k < 20 && ports < 5; ++k) {
+      const Vec2 p{lon(rng), lat(rng)};
+      s.add_point(s.add_feature(s.owner_code(ports % 2 ? "A" : "B")), p);
+      ++ports;
+    }
+    const GridSpec g = test::grid_of(45, 30, 0.02, 12.0, 55.9);
+    SeaField f;
+    try {
+      f = both(s, b, g);
+    } catch (const Error& e) {
+      ASSERT_EQ(e.kind(), ErrorKind::invalid_input) << e.what();  // a port on an island
+      continue;
+    }
+    ++rounds;
+    // Independently of the engines' searches: neighbours that see each other differ by at most
+    // the geodesic between them.
+    const auto frame = std::make_shared<const GeodesicFrame>(geodesic(), 12.0, 55.3, 12.9 + 0.12, 55.9);
+    const Visibility vis(b.mapped([&](Vec2 v) { return frame->forward(v); }), true, frame);
+    for (int64_t r = 0; r < g.height; ++r)
+      for (int64_t c = 0; c < g.width; ++c) {
+        bent += f.via.at(c, r) != kNoVia;
+        if (f.field.site.at(c, r) == kNoSite || c + 1 >= g.width || f.field.site.at(c + 1, r) == kNoSite) continue;
+        const Vec2 x{g.centre_x(c), g.centre_y(r)}, y{g.centre_x(c + 1), g.centre_y(r)};
+        if (!vis.sees(Visibility::Place{frame->forward(x)}, Visibility::Place{frame->forward(y)})) continue;
+        EXPECT_LE(std::abs(f.field.distance.at(c, r) - f.field.distance.at(c + 1, r)), metres(x, y) + 1e-3)
+            << round << ": " << c << "," << r;
+      }
+  }
+  EXPECT_GE(rounds, 3);
+  EXPECT_GT(bent, 100);
+}
+
+TEST(SeaGeodesic, LinesAndPolygonsAsSeedsArePlanarForNow) {
+  Barriers barriers;
+  barriers.add_line(std::vector<Vec2>{{10.5, 55.1}, {10.5, 55.5}}, "wall");
+  SeedSet seeds;
+  seeds.add_polyline(seeds.add_feature(seeds.owner_code("C")), std::vector<Vec2>{{10.1, 55.2}, {10.2, 55.4}});
+  const GridSpec g = test::grid_of(10, 10, 0.05, 10.0, 55.6);
+  try {
+    compute_sea(seeds, barriers, g, g.full_window(), on_the_ellipsoid());
+    ADD_FAILURE() << "not refused";
+  } catch (const Error& e) {
+    EXPECT_EQ(e.kind(), ErrorKind::unsupported);
+    EXPECT_NE(std::string(e.what()).find("points as seeds"), std::string::npos) << e.what();
+  }
+}
+
+}  // namespace
+}  // namespace rv
