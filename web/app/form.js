@@ -114,8 +114,9 @@ function bySea(process) {
   const layer = el("div", { class: "field", id: "sea-layer", hidden: "" },
     el("label", { for: "barrier-file", text: "Barrier layer: land polygons, lines no path crosses" }), file,
     el("p", { class: "help", id: "sea-help", text: "For example the land while the seeds are ports or farms. With only " +
-      "the coasts loaded as seeds it would change nothing. The distance by sea is planar: for longitude/latitude " +
-      "seeds give a projected CRS under More options. Boundary lines, tripoints and limits are not drawn by sea yet." }));
+      "the coasts loaded as seeds it would change nothing. On a longitude/latitude grid paths are geodesics (points " +
+      "as seeds); for lines or polygons as seeds give a projected CRS under More options. Boundary lines, " +
+      "tripoints and limits are not drawn by sea yet." }));
   box.addEventListener("change", () => {
     layer.hidden = !box.checked;
     const form = box.form;
@@ -126,8 +127,6 @@ function bySea(process) {
       if (box.checked && f.type === "checkbox") f.checked = false;
       if (box.checked && f.type === "text") f.value = "";
     }
-    const metric = form && form.querySelector("#in-metric");
-    if (metric && box.checked) metric.value = "planar";
   });
   return el("fieldset", { class: "field sea" }, el("legend", { text: input.title || "Distance by sea" }),
     el("div", { class: "check" }, box, el("label", { for: "by-sea", text: "By sea: around land and barriers" })), layer);

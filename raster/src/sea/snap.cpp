@@ -26,16 +26,22 @@ Vec2 foot(Vec2 a, Vec2 b, Vec2 p) {
 
 }  // namespace
 
-SnappedSeeds snap_to_sea(const SeedSet& seeds, const Barriers& barriers, double tolerance) {
+SnappedSeeds snap_to_sea(const SeedSet& seeds, const Barriers& given, double tolerance,
+                         std::shared_ptr<const GeodesicFrame> frame) {
   SnappedSeeds out;
   if (!(tolerance >= 0.0) || !std::isfinite(tolerance))
     throw Error(ErrorKind::invalid_argument, "the snapping tolerance must be a finite number of metres, 0 or more");
-  const Visibility vis(barriers);
+  // Everything below in the plane (geodesic: the frame's), back to longitude/latitude at the end.
+  const GeodesicFrame* f = frame.get();
+  auto to_plane = [&](Vec2 v) { return f ? f->forward(v) : v; };
+  const Barriers barriers = f ? given.mapped(to_plane) : given;
+  const Visibility vis(barriers, true, frame);
   std::map<std::pair<double, double>, Vec2> moved;  // position -> where it goes
-  auto place = [&](Vec2 v, int32_t feature) -> Vec2 {
-    const auto key = std::make_pair(v.x, v.y);
+  auto place = [&](Vec2 given_v, int32_t feature) -> Vec2 {
+    const auto key = std::make_pair(given_v.x, given_v.y);
     if (const auto it = moved.find(key); it != moved.end()) return it->second;
-    if (!vis.on_land(v)) return v;
+    const Vec2 v = to_plane(given_v);
+    if (!vis.on_land(v)) return given_v;
     // The nearest point of every barrier polygon's boundary (lines have no inside to leave).
     Vec2 best = v;
     double best_d = std::numeric_limits<double>::infinity();
@@ -55,18 +61,27 @@ SnappedSeeds snap_to_sea(const SeedSet& seeds, const Barriers& barriers, double 
                       " inside a barrier (more than the snapping tolerance of " + std::to_string(tolerance) +
                       "): a seed may lie on a barrier's boundary");
     // Onto the boundary; where rounding left the point on land, out along the same direction by
-    // growing steps of a unit in the last place until it is sea.
-    Vec2 to = best;
+    // growing steps of a unit in the last place (geodesic: from a micrometre, and judged after
+    // the round trip to longitude/latitude and back) until it is sea.
+    Vec2 to = best, result = best;
     const double dx = best.x - v.x, dy = best.y - v.y, len = std::hypot(dx, dy);
     const double ulp = std::numeric_limits<double>::epsilon() * std::max({std::abs(best.x), std::abs(best.y), 1e-300});
-    for (double step = ulp; vis.on_land(to) && step < 1e6 * ulp; step *= 2.0)
+    const double first = f ? std::max(ulp, 1e-6) : ulp;
+    auto land_after = [&](Vec2 p) {
+      result = f ? f->reverse(p) : p;
+      return vis.on_land(f ? f->forward(result) : p);
+    };
+    bool on_land = f ? true : land_after(to);  // (geodesic: onto the boundary is not enough)
+    for (double step = first; on_land && step < 1e6 * first; step *= 2.0) {
       to = len > 0.0 ? Vec2{best.x + dx / len * step, best.y + dy / len * step} : Vec2{best.x + step, best.y};
-    if (vis.on_land(to))
+      on_land = land_after(to);
+    }
+    if (on_land)
       throw Error(ErrorKind::internal, "the seed " + seeds.feature_name(feature) + " could not be moved off land");
-    moved.emplace(key, to);
+    moved.emplace(key, result);
     ++out.moved;
     out.largest_move = std::max(out.largest_move, length(to, v));
-    return to;
+    return result;
   };
   std::vector<Site> sites = seeds.sites();
   for (Site& s : sites) {

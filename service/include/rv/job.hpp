@@ -161,7 +161,8 @@ struct JobSpec {
   std::vector<std::string> bands;
   // The distance by sea (rv/sea/sea_field.hpp): vector files of land polygons and barrier lines
   // (read as the seeds are, rv::load_barriers) that no path may cross; empty = straight
-  // distances. Planar metric and the exact or brute-force method; not with weights, reaches,
+  // distances. Geodesic on a longitude/latitude grid (point seeds), planar on a projected one;
+  // the exact or brute-force method; not with weights, reaches,
   // partial effect, deliverables, an edit, a window of a split job's band (invalid_argument or
   // unsupported naming the conflict).
   std::vector<std::string> barriers;

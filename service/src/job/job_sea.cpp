@@ -2,6 +2,7 @@
 #include "job/job_sea.hpp"
 
 #include <algorithm>
+#include <cmath>
 
 #include "job/job_run.hpp"
 #include "rv/field/error.hpp"
@@ -11,6 +12,31 @@ namespace rv::detail {
 namespace {
 
 [[noreturn]] void refuse(ErrorKind kind, const std::string& what) { throw Error(kind, "barriers: " + what); }
+
+// A geodesic frame over the barriers and the seeds' sites (longitude/latitude).
+std::shared_ptr<const GeodesicFrame> frame_over(const Barriers& barriers, const SeedSet& seeds,
+                                                const MetricSpec& metric) {
+  double x0 = INFINITY, y0 = INFINITY, x1 = -INFINITY, y1 = -INFINITY;
+  auto cover = [&](Vec2 v) {
+    x0 = std::min(x0, v.x);
+    x1 = std::max(x1, v.x);
+    y0 = std::min(y0, v.y);
+    y1 = std::max(y1, v.y);
+  };
+  for (const Barriers::Polygon& p : barriers.polygons())
+    for (const Ring& r : p.rings)
+      for (const Vec2& v : r) cover(v);
+  for (const Barriers::Line& l : barriers.lines())
+    for (const Vec2& v : l.vertices) cover(v);
+  for (const Site& s : seeds.sites()) {
+    cover(s.a);
+    cover(s.b);
+  }
+  for (const Polygon& p : seeds.polygons())
+    for (const Ring& r : p.rings)
+      for (const Vec2& v : r) cover(v);
+  return std::make_shared<const GeodesicFrame>(metric, x0, y0, x1, y1);
+}
 
 // An error from reading or snapping, its message said to be about the barriers.
 template <class F>
@@ -32,10 +58,11 @@ void read_barriers(const JobSpec& spec, const SeedReadOptions& read, PreparedJob
     refuse(ErrorKind::invalid_argument,
            "the distance by sea needs the exact (or brute-force) method: the scans propagate from cell to cell, "
            "not around the barriers' vertices");
-  if (job.metric.kind != MetricSpec::planar)
+  const bool geodesic = job.metric.kind == MetricSpec::geodesic;
+  if (geodesic && !job.loaded.crs.geographic)
     refuse(ErrorKind::unsupported,
-           "the distance by sea is planar for now: give a projected grid (--crs, e.g. a UTM zone) and --metric "
-           "planar");
+           "the distance by sea on the ellipsoid needs a longitude/latitude grid (--crs EPSG:4326); on a projected "
+           "grid give --metric planar");
   if (spec.band) refuse(ErrorKind::invalid_argument, "a split job's band does not compute by sea");
   const SeedSet& seeds = job.loaded.seeds;
   if (seeds.adjusted())
@@ -59,7 +86,14 @@ void read_barriers(const JobSpec& spec, const SeedReadOptions& read, PreparedJob
   }
   const double metres = tolerance.value * tolerance.metres_per_unit;
   sea->snap_tolerance = job.loaded.crs.wkt.empty() ? tolerance.value : metres / job.loaded.crs.linear_unit;
-  SnappedSeeds snapped = about_barriers([&] { return snap_to_sea(seeds, sea->loaded.barriers, sea->snap_tolerance); });
+  // (Geodesic: decided in a frame over the barriers and the seeds, in metres.)
+  std::shared_ptr<const GeodesicFrame> frame;
+  if (geodesic) {
+    sea->snap_tolerance = metres;
+    frame = about_barriers([&] { return frame_over(sea->loaded.barriers, seeds, job.metric); });
+  }
+  SnappedSeeds snapped =
+      about_barriers([&] { return snap_to_sea(seeds, sea->loaded.barriers, sea->snap_tolerance, frame); });
   job.loaded.seeds = std::move(snapped.seeds);
   sea->snapped = snapped.moved;
   sea->largest_snap = snapped.largest_move;
@@ -86,6 +120,7 @@ void check_sea_plan(const JobSpec& spec, const PreparedJob& job) {
 void settle_sea(PreparedJob& job, const JobHooks& hooks) {
   if (!job.sea) return;
   SeaOptions options;
+  options.metric = job.metric;
   options.threads = job.compute.threads;
   options.cancel = hooks.cancel;
   options.max_distance = job.compute.max_distance;
@@ -99,9 +134,10 @@ void SeaRun::compute(const Window& window, NearestField& field, std::vector<int3
   SeaField f;
   if (compute.method == Method::brute_force) {
     f = brute_force_sea(job_.loaded.seeds, sea.loaded.barriers, job_.grid, window, compute.max_distance,
-                        compute.threads);
+                        compute.threads, job_.metric);
   } else {
     SeaOptions options;
+    options.metric = job_.metric;
     options.max_distance = compute.max_distance;
     options.threads = compute.threads;
     options.cancel = compute.cancel;
@@ -137,7 +173,7 @@ nlohmann::json SeaRun::report() const {
                    {"vertices", prep.barrier_vertices},
                    {"polygons_repaired", sea.loaded.report.polygons_repaired},
                    {"warnings", sea.loaded.report.warnings}};
-  // In the grid CRS's units (metres on a projected grid in metres).
+  // Metres on the ellipsoid (geodesic), else in the grid CRS's units (metres on a projected grid).
   r["snap"] = {{"tolerance", sea.snap_tolerance}, {"moved", sea.snapped}, {"largest_move", sea.largest_snap}};
   r["bend_nodes"] = prep.bend_nodes;
   r["bends_seconds"] = prep.seconds;

@@ -104,5 +104,31 @@ TEST(Snap, NothingOnLandNothingMoves) {
   }
 }
 
+// On the ellipsoid: a port 0.4 m inside a longitude/latitude island (its west edge along 11.0 E,
+// a geodesic) is moved onto the coast, seen from the geodesic frame as sea, and stays sea in a
+// frame of another centre; at a tolerance of 0.1 m it is refused.
+TEST(Snap, OnTheEllipsoidInMetres) {
+  MetricSpec metric;
+  metric.kind = MetricSpec::geodesic;
+  Barriers land;
+  land.add_polygon({Ring{{11.0, 55.0}, {11.3, 55.0}, {11.3, 55.2}, {11.0, 55.2}}}, "island");
+  // 0.4 m east of the edge at 55.1 N (the edge is a meridian: due east is perpendicular).
+  const double east = 0.4 / (111320.0 * std::cos(55.1 * M_PI / 180.0));
+  SeedSet s;
+  s.add_point(s.add_feature(s.owner_code("A")), {11.0 + east, 55.1});
+  const auto frame = std::make_shared<const GeodesicFrame>(metric, 10.9, 54.9, 11.4, 55.3);
+  const SnappedSeeds snapped = snap_to_sea(s, land, 1.0, frame);
+  EXPECT_EQ(snapped.moved, 1);
+  EXPECT_NEAR(snapped.largest_move, 0.4, 0.01);
+  const Vec2 moved = snapped.seeds.sites()[0].a;
+  EXPECT_LT(moved.x, 11.0 + east);
+  const auto other = std::make_shared<const GeodesicFrame>(metric, 10.0, 54.0, 12.0, 56.0);
+  for (const auto& f : {frame, other}) {
+    const Visibility vis(land.mapped([&](Vec2 v) { return f->forward(v); }), true, f);
+    EXPECT_FALSE(vis.on_land(f->forward(moved)));
+  }
+  EXPECT_THROW(snap_to_sea(s, land, 0.1, frame), Error);
+}
+
 }  // namespace
 }  // namespace rv

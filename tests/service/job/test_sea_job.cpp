@@ -148,6 +148,47 @@ TEST_F(SeaJob, FilesAreTheEngineFieldCellForCell) {
   EXPECT_TRUE(result.report.at("streaming").at("streamed").get<bool>());
 }
 
+// On the ellipsoid (a longitude/latitude grid, the metric geodesic by default): the files are
+// the core engine's geodesic field, and validation by the oracle finds nothing.
+TEST_F(SeaJob, OnTheEllipsoidTheFilesAreTheGeodesicField) {
+  JobSpec spec = ports_spec("geo");
+  spec.seeds.target_crs.clear();
+  spec.metric = MetricRequest::automatic;
+  spec.grid.extent = std::array<double, 4>{12.3, 55.4, 13.0, 56.15};
+  spec.grid.resolution = 0.005;
+  const nlohmann::json report = run_job(spec).report;
+  EXPECT_EQ(report.at("metric"), "geodesic");
+  const PreparedJob job = prepare_job(spec);
+  SeaOptions options;
+  options.metric = job.metric;
+  options.prepared = job.sea->prepared;
+  const SeaField f = compute_sea(job.loaded.seeds, job.sea->loaded.barriers, job.grid, job.grid.full_window(), options);
+  const Raster<float> dist = read_float32(spec.outputs.distance);
+  const Raster<int32_t> via = read_int32(spec.outputs.via);
+  int64_t bent = 0;
+  for (size_t c = 0; c < dist.cells().size(); ++c) {
+    ASSERT_EQ(dist.cells()[c], f.field.distance.cells()[c]) << c;
+    ASSERT_EQ(via.cells()[c], f.via.cells()[c] + 1) << c;
+    bent += via.cells()[c] > 0;
+  }
+  EXPECT_GT(bent, 1000);
+  // The via vertices are given in longitude and latitude.
+  for (const nlohmann::json& v : report.at("sea").at("via_vertices")) {
+    EXPECT_GT(v.at(1).get<double>(), 12.0);
+    EXPECT_LT(v.at(2).get<double>(), 56.3);
+  }
+  JobSpec checked = ports_spec("geo_checked");
+  checked.seeds.target_crs.clear();
+  checked.metric = MetricRequest::automatic;
+  checked.grid.extent = std::array<double, 4>{12.3, 55.4, 13.0, 56.15};
+  checked.grid.resolution = 0.02;
+  checked.validate = true;
+  const nlohmann::json v = run_job(checked).report.at("validation");
+  EXPECT_EQ(v.at("wrong_owner_cells").get<int64_t>(), 0);
+  EXPECT_EQ(v.at("nodata_mismatch").get<int64_t>(), 0);
+  EXPECT_LT(v.at("max_error").get<double>(), 1e-2);
+}
+
 TEST_F(SeaJob, StreamedEqualsWholeForAnyStripHeightAndThreads) {
   JobSpec whole = ports_spec("whole");
   whole.strip_rows = -1;
@@ -303,9 +344,18 @@ TEST_F(SeaJob, WhatTheDistanceBySeaDoesNotDoIsRefusedInOneLine) {
   JobSpec scan = ports_spec("scan");
   scan.method = Method::hv_scan;
   expect(scan, ErrorKind::invalid_argument, "barriers: the distance by sea needs the exact");
-  JobSpec geodesic = ports_spec("geodesic");
+  JobSpec geodesic = ports_spec("geodesic");  // on the projected grid
   geodesic.metric = MetricRequest::geodesic;
-  expect(geodesic, ErrorKind::unsupported, "planar for now");
+  expect(geodesic, ErrorKind::unsupported, "needs a longitude/latitude grid");
+  JobSpec coasts = ports_spec("coasts");  // lines as seeds on the ellipsoid
+  coasts.seeds.paths = {write("coast_line.geojson", R"({"type": "FeatureCollection", "features": [
+      {"type": "Feature", "properties": {"owner": "DK"}, "geometry": {"type": "LineString",
+       "coordinates": [[12.62, 55.70], [12.66, 55.68]]}}]})")};
+  coasts.seeds.target_crs.clear();
+  coasts.metric = MetricRequest::automatic;
+  coasts.grid.extent = std::array<double, 4>{12.3, 55.4, 13.0, 56.15};
+  coasts.grid.resolution = 0.01;
+  expect(coasts, ErrorKind::unsupported, "points as seeds");
   JobSpec lines = ports_spec("lines");
   lines.outputs.boundaries = (dir_ / "lines" / "b.geojson").string();
   expect(lines, ErrorKind::unsupported, "not drawn under the distance by sea yet");

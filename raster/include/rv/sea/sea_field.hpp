@@ -18,10 +18,14 @@
 // Invariant: when every barrier is also a seed, no path to the nearest site is blocked (it would
 // meet a seed on the way), so the field off land equals the straight one bit for bit.
 //
-// Scope of this reference: the planar metric, without weights, reaches or partial effect (those
-// change what a path may reach: rv::Error(unsupported)). Seeds with a vertex strictly on land
-// are refused (rv::Error(invalid_input), the feature named). Pure; deterministic for any thread
-// count.
+// Geodesic metric (SeaOptions::metric): the same statement on the ellipsoid, every straight path
+// and barrier edge the geodesic between its ends (visibility decided in a GeodesicFrame,
+// rv/sea/geodesic_frame.hpp), every length GeographicLib's; grid, barriers and seeds in
+// longitude/latitude degrees, the seeds points (lines and polygons: rv::Error(unsupported)).
+//
+// Scope: without weights, reaches or partial effect (those change what a path may reach:
+// rv::Error(unsupported)). Seeds with a vertex strictly on land are refused
+// (rv::Error(invalid_input), the feature named). Pure; deterministic for any thread count.
 #pragma once
 
 #include <atomic>

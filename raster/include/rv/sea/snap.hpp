@@ -10,14 +10,22 @@
 // lies. A segment whose ends are sea but which crosses land is left as it is (a line seed may
 // cross a headland; its distances are measured from its nearest points that a path reaches).
 //
+// Geodesic (`frame` given): seeds and barriers in longitude/latitude, land and the nearest
+// boundary point decided in the frame's plane (edges read as geodesics, rv/sea/visibility.hpp),
+// `tolerance` and the moves in metres as the plane measures them (within its scale of the
+// ellipsoid's: GeodesicFrame::max_scale), the moved point stepped out by at least a micrometre so
+// that it stays sea through the projection's round trip.
+//
 // Pure; the barriers are in the seeds' frame. Cost: O(E) per vertex on land, nothing for the
 // others beyond the land test.
 #pragma once
 
 #include <cstdint>
+#include <memory>
 
 #include "rv/field/seeds.hpp"
 #include "rv/sea/barriers.hpp"
+#include "rv/sea/geodesic_frame.hpp"
 
 namespace rv {
 
@@ -27,6 +35,7 @@ struct SnappedSeeds {
   double largest_move = 0;  // the farthest any moved (seeds' CRS units)
 };
 
-SnappedSeeds snap_to_sea(const SeedSet& seeds, const Barriers& barriers, double tolerance);
+SnappedSeeds snap_to_sea(const SeedSet& seeds, const Barriers& barriers, double tolerance,
+                         std::shared_ptr<const GeodesicFrame> frame = nullptr);
 
 }  // namespace rv
