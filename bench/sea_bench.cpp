@@ -6,6 +6,11 @@
 // largest detour) and the share of cells whose path bends.
 //
 //   sea_bench [--data fixtures/baltic_west.gpkg | --wiggly N] [--ports 200] [--res 1000] [--runs 3] [--threads 0]
+//             [--geodesic 1] [--ports-out FILE.geojson]
+//
+// --geodesic 1: the fixture in longitude/latitude, the grid in degrees (--res 0.01), both fields
+// geodesic (the straight one the exact geodesic engine's). --ports-out: the ports chosen, as a
+// GeoJSON file (owner field "owner"), for timing whole jobs with the CLI.
 //
 // --wiggly N: instead of the fixture, a synthetic archipelago of nine fractal-like islands of
 // N vertices in all (each island's radius a sum of random harmonics), over the fixture's box in
@@ -22,6 +27,7 @@
 
 #include "rv/engine/engine.hpp"
 #include "rv/gdal/seed_reader.hpp"
+#include "rv/sea/geodesic_frame.hpp"
 #include "rv/sea/sea_field.hpp"
 #include "rv/sea/visibility.hpp"
 
@@ -52,8 +58,8 @@ double median(std::vector<double> v) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  std::string data = "fixtures/baltic_west.gpkg";
-  int ports = 200, runs = 3, threads = 0, wiggly = 0;
+  std::string data = "fixtures/baltic_west.gpkg", ports_out;
+  int ports = 200, runs = 3, threads = 0, wiggly = 0, geodesic = 0;
   double res = 1000.0;
   for (int i = 1; i + 1 < argc; i += 2) {
     const std::string a = argv[i];
@@ -69,6 +75,10 @@ int main(int argc, char** argv) {
       runs = std::atoi(argv[i + 1]);
     else if (a == "--threads")
       threads = std::atoi(argv[i + 1]);
+    else if (a == "--geodesic")
+      geodesic = std::atoi(argv[i + 1]);
+    else if (a == "--ports-out")
+      ports_out = argv[i + 1];
     else {
       std::fprintf(stderr, "sea_bench: unknown option %s\n", a.c_str());
       return 2;
@@ -89,7 +99,7 @@ int main(int argc, char** argv) {
     SeedReadOptions read;
     read.paths = {data};
     read.owner_field = "iso2";
-    read.target_crs = "EPSG:32633";
+    read.target_crs = geodesic ? "" : "EPSG:32633";
     read.on_conflict = ConflictPolicy::lower_code;
     land_seeds = load_seeds(read).seeds;
   }
@@ -100,7 +110,13 @@ int main(int argc, char** argv) {
     barriers.add_polygon(p.rings, land_seeds.features()[static_cast<size_t>(p.feature)].source);
     for (const Ring& r : p.rings) coast_vertices += static_cast<int64_t>(r.size());
   }
-  const Visibility vis(barriers);
+  MetricSpec metric;
+  if (geodesic) metric.kind = MetricSpec::geodesic;
+  const SeedSet::Box box = land_seeds.bounds();
+  std::shared_ptr<const GeodesicFrame> frame;
+  if (geodesic) frame = std::make_shared<const GeodesicFrame>(metric, box.xmin, box.ymin, box.xmax, box.ymax);
+  const Visibility vis(frame ? barriers.mapped([&](Vec2 v) { return frame->forward(v); }) : barriers, true, frame);
+  auto plane = [&](Vec2 v) { return frame ? frame->forward(v) : v; };
   const int64_t step = std::max<int64_t>(1, coast_vertices / ports);
   SeedSet seeds;
   int64_t k = 0;
@@ -109,20 +125,43 @@ int main(int argc, char** argv) {
         land_seeds.owner_labels()[static_cast<size_t>(land_seeds.features()[static_cast<size_t>(p.feature)].owner - 1)];
     for (const Ring& r : p.rings)
       for (const Vec2& v : r)
-        if (k++ % step == 0 && !vis.on_land(v) && seeds.features().size() < static_cast<size_t>(ports))
+        if (k++ % step == 0 && !vis.on_land(plane(v)) && seeds.features().size() < static_cast<size_t>(ports))
           seeds.add_point(seeds.add_feature(seeds.owner_code(owner)), v);
   }
-  const SeedSet::Box box = land_seeds.bounds();
-  const GridSpec grid = make_aligned_grid(box.xmin, box.ymin, box.xmax, box.ymax, res, "EPSG:32633");
-  std::printf("sea_bench: %s, %lld barrier vertices, %zu ports, grid %lld x %lld (%.2e cells) at %g m, threads %d\n",
-              data.c_str(), static_cast<long long>(coast_vertices), seeds.features().size(),
-              static_cast<long long>(grid.width), static_cast<long long>(grid.height),
-              static_cast<double>(grid.width * grid.height), res, threads);
+  if (!ports_out.empty()) {
+    FILE* f = std::fopen(ports_out.c_str(), "w");
+    if (!f) return 2;
+    std::fprintf(f,
+                 "{\"type\": \"FeatureCollection\", \"crs\": {\"type\": \"name\", \"properties\": {\"name\": \"%s\"}}, "
+                 "\"features\": [\n",
+                 geodesic ? "urn:ogc:def:crs:OGC:1.3:CRS84" : "urn:ogc:def:crs:EPSG::32633");
+    for (size_t i = 0; i < seeds.sites().size(); ++i) {
+      const Site& s = seeds.sites()[i];
+      const std::string& owner =
+          seeds.owner_labels()[static_cast<size_t>(seeds.features()[static_cast<size_t>(s.feature)].owner - 1)];
+      std::fprintf(f,
+                   "%s{\"type\": \"Feature\", \"properties\": {\"owner\": \"%s\"}, \"geometry\": {\"type\": \"Point\", "
+                   "\"coordinates\": [%.17g, %.17g]}}\n",
+                   i ? "," : "", owner.c_str(), s.a.x, s.a.y);
+    }
+    std::fprintf(f, "]}\n");
+    std::fclose(f);
+  }
+  const GridSpec grid =
+      make_aligned_grid(box.xmin, box.ymin, box.xmax, box.ymax, res, geodesic ? "EPSG:4326" : "EPSG:32633");
+  std::printf(
+      "sea_bench: %s, %lld barrier vertices, %zu ports, grid %lld x %lld (%.2e cells) at %g %s, %s, threads "
+      "%d\n",
+      data.c_str(), static_cast<long long>(coast_vertices), seeds.features().size(), static_cast<long long>(grid.width),
+      static_cast<long long>(grid.height), static_cast<double>(grid.width * grid.height), res,
+      geodesic ? "degrees" : "m", geodesic ? "geodesic" : "planar", threads);
 
   ComputeOptions straight_options;
   straight_options.threads = threads;
+  straight_options.metric = metric;
   SeaOptions sea_options;
   sea_options.threads = threads;
+  sea_options.metric = metric;
   std::vector<double> straight_s, sea_s, bends_s;
   SeaField last;
   for (int run = 0; run < runs; ++run) {

@@ -110,7 +110,8 @@ int GeodesicFrame::orient(const Vec2& a, const Vec2& b, const Vec2& c) const {
   // det is |b - a| times c's distance from the straight line through a and b; the geodesic's
   // image lies within deviation() of that line, and the rounding of det within the planar
   // predicate's bound (rv/sea orient.hpp) of it.
-  const double bound = 4.0e-16 * (std::abs(l) + std::abs(r)) + std::hypot(b.x - a.x, b.y - a.y) * deviation_;
+  const double dx = b.x - a.x, dy = b.y - a.y;
+  const double bound = 4.0e-16 * (std::abs(l) + std::abs(r)) + std::sqrt(dx * dx + dy * dy) * deviation_;
   if (det > bound) return 1;
   if (det < -bound) return -1;
   return orient_exact(a, b, c);

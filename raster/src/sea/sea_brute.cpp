@@ -158,8 +158,11 @@ SeaField brute_force_sea(const SeedSet& seeds, const Barriers& barriers, const G
       out.field.site.at(c, r) = best.site;
       out.field.distance.at(c, r) = static_cast<float>(best.d);
       out.via.at(c, r) = best.via;
-      if (k0 > 0.0)
-        detour[static_cast<size_t>(worker)] = std::max(detour[static_cast<size_t>(worker)], best.d / std::sqrt(k0));
+      // (Paths that bend, over the straight distance as the straight field stores it, a float, as
+      // the exact engine.)
+      if (k0 > 0.0 && !straight)
+        detour[static_cast<size_t>(worker)] = std::max(
+            detour[static_cast<size_t>(worker)], best.d / static_cast<double>(static_cast<float>(std::sqrt(k0))));
     }
     tests += asked;
   });

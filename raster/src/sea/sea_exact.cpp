@@ -10,8 +10,9 @@
 //   key(r) + |r - v|; so when the evaluated path is shorter than the least of those (searched
 //   the same way) it is final, else the node goes back with that bound as its key, which is
 //   larger than the key it had: every step settles a node or raises a key.
-// - Cells: the straight nearest site if seen (the straight field's answer, bit for bit), else the
-//   best site seen and the best settled node seen, each searched in order of its bound.
+// - Cells: the straight field of the window first (the straight exact engine's, rv/engine), then
+//   per cell its nearest site if seen (the straight field's answer, bit for bit), else the best
+//   site seen and the best settled node seen, each searched in order of its bound.
 #include <algorithm>
 #include <atomic>
 #include <chrono>
@@ -284,7 +285,16 @@ SeaField compute_sea(const SeedSet& seeds, const Barriers& barriers, const GridS
   out.bends_seconds = shared ? 0.0 : prepared->bends_seconds;
   const InteriorSpans interiors = build_interiors(seeds, grid, window);
   out.field.contested_cells = interiors.contested_cells;
-  const double max_key = sea::max_key_of(options.max_distance);
+  // The straight field: each cell's nearest site and distance, as every engine of the straight
+  // distance answers them (a cell that sees that site takes them as they are).
+  ComputeOptions straight_options;
+  straight_options.method = Method::exact;
+  straight_options.metric = options.metric;
+  straight_options.threads = options.threads;
+  straight_options.max_distance = options.max_distance;
+  straight_options.window = window;
+  straight_options.cancel = options.cancel;
+  const NearestField straight_field = compute(seeds, grid, straight_options);
   const int workers = resolve_threads(options.threads);
   struct Tally {
     int64_t land = 0, unreachable = 0, tests = 0;
@@ -312,7 +322,10 @@ SeaField compute_sea(const SeedSet& seeds, const Barriers& barriers, const GridS
     std::vector<Visibility::Ground> grounds(static_cast<size_t>(window.width));
     if (p.geodesic) {  // (a row of a longitude/latitude grid is no straight line in the plane)
       for (int64_t c = 0; c < window.width; ++c)
-        grounds[static_cast<size_t>(c)] = p.vis.classify(spots[static_cast<size_t>(c)].at);
+        grounds[static_cast<size_t>(c)] =
+            c == 0 ? p.vis.classify(spots[0].at)
+                   : p.vis.classify_next(spots[static_cast<size_t>(c - 1)].at, grounds[static_cast<size_t>(c - 1)],
+                                         spots[static_cast<size_t>(c)].at);
     } else {
       p.vis.classify_row(spots.empty() ? 0.0 : spots[0].at.y, xs.data(), window.width, grounds.data());
     }
@@ -332,21 +345,27 @@ SeaField compute_sea(const SeedSet& seeds, const Barriers& barriers, const GridS
       }
       Place at{x};
       at.open = ground == Visibility::Ground::open_sea;
-      // The straight field's answer where its nearest site is seen; else the best path.
-      const auto [k0, nearest] = search.straight(spot);
+      // The straight field's answer where its nearest site is seen; else the best path. (None
+      // within the maximum distance: no path by sea is shorter than the straight line.)
+      const int32_t nearest = straight_field.site.at(c, r);
+      if (nearest == kNoSite) continue;
+      const float d0 = straight_field.distance.at(c, r);
       ++t.tests;
-      const bool straight = p.vis.sees(at, nearest_point(p.local[static_cast<size_t>(nearest)], x));
-      const Best best = straight ? Best{std::sqrt(k0), nearest, kNoVia}
-                                 : search.best_path(at, spot, Best{}, t.tests, -1, &hint, last, &last);
+      if (p.vis.sees(at, nearest_point(p.local[static_cast<size_t>(nearest)], x))) {
+        out.field.site.at(c, r) = nearest;
+        out.field.distance.at(c, r) = d0;
+        continue;
+      }
+      const Best best = search.best_path(at, spot, Best{}, t.tests, -1, &hint, last, &last);
       if (best.site == kNoSite) {
         ++t.unreachable;
         continue;
       }
-      if (straight ? k0 > max_key : best.d > options.max_distance) continue;
+      if (best.d > options.max_distance) continue;
       out.field.site.at(c, r) = best.site;
       out.field.distance.at(c, r) = static_cast<float>(best.d);
       out.via.at(c, r) = best.via;
-      if (k0 > 0.0) t.detour = std::max(t.detour, best.d / std::sqrt(k0));
+      if (d0 > 0.0f) t.detour = std::max(t.detour, best.d / static_cast<double>(d0));
     }
     const int64_t done = rows_done.fetch_add(1) + 1;
     if (options.progress && (done * 100 / window.height) != ((done - 1) * 100 / window.height))

@@ -13,7 +13,8 @@ namespace {
 using sea::along;
 
 // The orientation predicate of a reading: planar (exact in the plane), or the geodesic frame's.
-int turn(const GeodesicFrame* frame, const Vec2& a, const Vec2& b, const Vec2& c) {
+// (Inlined: it is the innermost call of every query.)
+[[gnu::always_inline]] inline int turn(const GeodesicFrame* frame, const Vec2& a, const Vec2& b, const Vec2& c) {
   return frame ? frame->orient(a, b, c) : sea::orient(a, b, c);
 }
 
@@ -164,7 +165,7 @@ Visibility::Star Visibility::build_star(Vec2 p) const {
   // every vertex by more than any edge's image bends, so that it leaves every polygon. A vertex
   // counts as below the ray when on it (half-open), the same for every edge that has it.
   const Vec2 far{std::max(p.x + 1.0, east_) + (frame_ ? frame_->deviation() : 0.0), p.y};
-  auto above = [&](Vec2 v) { return frame_ ? orient(p, far, v) > 0 : v.y > p.y; };
+  auto above = [&](Vec2 v) { return frame_ ? turn(frame_.get(), p, far, v) > 0 : v.y > p.y; };
   candidates(p, far, near_edges, near_vertices);
   for (int32_t id : near_edges) {
     const Edge& e = edges_[static_cast<size_t>(id)];
@@ -174,7 +175,7 @@ Visibility::Star Visibility::build_star(Vec2 p) const {
         s.rays.push_back(b);
       } else if (b == p) {
         s.rays.push_back(a);
-      } else if (orient(a, b, p) == 0 && strictly_between(a, b, p)) {
+      } else if (turn(frame_.get(), a, b, p) == 0 && strictly_between(a, b, p)) {
         s.rays.push_back(a);
         s.rays.push_back(b);
       }
@@ -192,7 +193,7 @@ Visibility::Star Visibility::build_star(Vec2 p) const {
       m.on_boundary = true;  // its rays come with the visit at b
       continue;
     }
-    const int o = orient(a, b, p);
+    const int o = turn(frame_.get(), a, b, p);
     if (o == 0 && strictly_between(a, b, p)) {
       m.on_boundary = true;
       s.rays.push_back(a);
@@ -238,6 +239,16 @@ Visibility::Ground Visibility::classify(Vec2 p) const {
   return s.rays.empty() ? Ground::open_sea : Ground::on_barrier;
 }
 
+Visibility::Ground Visibility::classify_next(Vec2 p, Ground p_ground, Vec2 q) const {
+  if (!index_ || p_ground == Ground::on_barrier) return classify(q);
+  bool empty = true;
+  index_->buckets.visit(p, q, [&](const int32_t*, size_t ne, const int32_t*, size_t nv) {
+    empty = ne == 0 && nv == 0;
+    return empty;
+  });
+  return empty ? p_ground : classify(q);
+}
+
 void Visibility::classify_row(double y, const double* xs, int64_t n, Ground* out) const {
   if (n <= 0) return;
   if (frame_) {  // (the row's crossings below are planar: point by point for the geodesic reading)
@@ -267,7 +278,7 @@ void Visibility::classify_row(double y, const double* xs, int64_t n, Ground* out
     const bool counted = e.polygon >= 0 && (a.y > y) != (b.y > y);
     const bool up = b.y > a.y;
     auto left = [&](int64_t i) {  // centre i lies left of the edge's crossing of the row
-      const int o = orient(a, b, Vec2{xs[i], y});
+      const int o = turn(frame_.get(), a, b, Vec2{xs[i], y});
       if (o == 0) mark_on(i);
       return up ? o > 0 : o < 0;
     };
@@ -308,10 +319,10 @@ bool Visibility::crossing(const Edge& e, Vec2 p, Vec2 q, double slack) const {
   if (std::max(e.a.x, e.b.x) + bend < std::min(p.x, q.x) || std::min(e.a.x, e.b.x) - bend > std::max(p.x, q.x) ||
       std::max(e.a.y, e.b.y) + bend < std::min(p.y, q.y) || std::min(e.a.y, e.b.y) - bend > std::max(p.y, q.y))
     return false;
-  const int o1 = orient(p, q, e.a), o2 = orient(p, q, e.b);
+  const int o1 = turn(frame_.get(), p, q, e.a), o2 = turn(frame_.get(), p, q, e.b);
   if (o1 * o2 >= 0) return false;
-  const int o3 = orient(e.a, e.b, p);
-  int o4 = orient(e.a, e.b, q);
+  const int o3 = turn(frame_.get(), e.a, e.b, p);
+  int o4 = turn(frame_.get(), e.a, e.b, q);
   if (o4 != 0 && slack > 0.0 && line_distance(e.a, e.b, q) <= slack) o4 = 0;
   return o3 * o4 < 0;
 }
@@ -366,7 +377,7 @@ bool Visibility::sees(const Place& from, const Place& to, int32_t* blocker) cons
   };
   auto touch = [&](int32_t v) {
     const Vec2 w = vertex(v);
-    if (orient(p, q, w) != 0 || !strictly_between(p, q, w)) return;
+    if (turn(frame_.get(), p, q, w) != 0 || !strictly_between(p, q, w)) return;
     if (slack > 0.0 && std::hypot(w.x - q.x, w.y - q.y) <= slack) return;  // the end itself
     touches.push_back(v);
   };
