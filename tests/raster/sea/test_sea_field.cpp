@@ -7,6 +7,7 @@
 
 #include <bit>
 #include <cmath>
+#include <cstdio>
 #include <random>
 
 #include "rv/field/error.hpp"
@@ -39,6 +40,23 @@ SeaField sea_field(const SeedSet& seeds, const Barriers& barriers, const GridSpe
 }
 
 double dist(Vec2 a, Vec2 b) { return std::hypot(a.x - b.x, a.y - b.y); }
+
+// The largest difference between the engines' distances and a closed form over a case's cells,
+// printed for the record (`ctest -R test_raster_sea_field -V`: the closed-form table).
+struct Worst {
+  const char* name;
+  int64_t cells = 0;
+  double abs = 0.0, rel = 0.0;
+  void add(double got, double want) {
+    ++cells;
+    abs = std::max(abs, std::abs(got - want));
+    if (want > 0) rel = std::max(rel, std::abs(got - want) / want);
+  }
+  ~Worst() {
+    std::printf("closed form | %s | %lld cells | worst |d - closed form| %.3g (relative %.3g)\n", name,
+                static_cast<long long>(cells), abs, rel);
+  }
+};
 Vec2 centre(const GridSpec& g, int64_t c, int64_t r) { return Vec2{g.centre_x(c), g.centre_y(r)}; }
 
 SeedSet points(std::initializer_list<std::pair<std::string, Vec2>> list) {
@@ -64,7 +82,9 @@ double wall_path(Vec2 s, Vec2 x, Vec2 a, Vec2 b) {
 
 // Every cell against the closed form of several point seeds round one vertical wall: owners where
 // the two best paths differ by more than `margin`, distances to float rounding.
-void expect_wall_closed_form(const std::vector<Vec2>& seeds, Vec2 a, Vec2 b, const GridSpec& g, int64_t* hidden_cells) {
+void expect_wall_closed_form(const std::vector<Vec2>& seeds, Vec2 a, Vec2 b, const GridSpec& g, int64_t* hidden_cells,
+                             const char* name) {
+  Worst worst{name};
   SeedSet s;
   for (size_t i = 0; i < seeds.size(); ++i) s.add_point(s.add_feature(s.owner_code("o" + std::to_string(i))), seeds[i]);
   Barriers walls;
@@ -87,6 +107,7 @@ void expect_wall_closed_form(const std::vector<Vec2>& seeds, Vec2 a, Vec2 b, con
         ASSERT_EQ(site, static_cast<int32_t>(paths[0].second)) << c << "," << r;
       }
       ASSERT_NEAR(f.field.distance.at(c, r), paths[0].first, 1e-6 * paths[0].first + 1e-9) << c << "," << r;
+      worst.add(f.field.distance.at(c, r), paths[0].first);
       const bool hidden = crosses_wall(seeds[static_cast<size_t>(site)], x, a.x, a.y, b.y);
       *hidden_cells += hidden;
       // The via: the wall's end the path bends at, or none where the seed is seen.
@@ -101,7 +122,8 @@ void expect_wall_closed_form(const std::vector<Vec2>& seeds, Vec2 a, Vec2 b, con
 TEST(SeaField, WallShadowGoesRoundTheNearerEnd) {
   const GridSpec g = test::grid_of(40, 40);
   int64_t hidden = 0;
-  expect_wall_closed_form({{10.3, 20.6}}, {20, 10}, {20, 30}, g, &hidden);
+  expect_wall_closed_form({{10.3, 20.6}}, {20, 10}, {20, 30}, g, &hidden,
+                          "a wall, one seed (its shadow round the nearer end)");
   EXPECT_GT(hidden, 150);  // a real shadow
 }
 
@@ -113,10 +135,10 @@ TEST(SeaField, SeedBehindTheWallsEndAgainstOneInView) {
   ASSERT_LT(dist(s1, a), dist(s2, a));
   const GridSpec g = test::grid_of(48, 48);
   int64_t hidden = 0;
-  expect_wall_closed_form({s1, s2}, a, b, g, &hidden);
+  expect_wall_closed_form({s1, s2}, a, b, g, &hidden, "a seed behind the wall's end against one in view (hyperbola)");
   EXPECT_GT(hidden, 50);
   // The hyperbola is really there: cells of s1 behind the wall, and cells of s2 beside them.
-  expect_wall_closed_form({s1, s2, {40.6, 8.9}}, a, b, g, &hidden);
+  expect_wall_closed_form({s1, s2, {40.6, 8.9}}, a, b, g, &hidden, "the same with a third seed (a tripoint on it)");
   EXPECT_GT(hidden, 20);
 }
 
@@ -180,6 +202,7 @@ TEST(SeaField, Regular64GonIslandTangentChainTangent) {
   const GridSpec g = test::grid_of(50, 50);
   const SeaField f = sea_field(s, island, g);
   int64_t shadow = 0, land = 0;
+  Worst worst{"a regular 64-gon island (tangent, edge chain, tangent)"};
   for (int64_t r = 0; r < g.height; ++r)
     for (int64_t col = 0; col < g.width; ++col) {
       const Vec2 x = centre(g, col, r);
@@ -193,6 +216,7 @@ TEST(SeaField, Regular64GonIslandTangentChainTangent) {
       shadow += want > dist(seed, x) + 1e-9;
       ASSERT_EQ(f.field.site.at(col, r), 0);
       ASSERT_NEAR(f.field.distance.at(col, r), want, 1e-6 * want) << col << "," << r;
+      worst.add(f.field.distance.at(col, r), want);
     }
   EXPECT_EQ(f.land_cells, land);
   EXPECT_GT(land, 200);
@@ -211,6 +235,7 @@ TEST(SeaField, StraitNarrowerThanACellStaysOpen) {
   const SeaField f = sea_field(s, b, g);
   EXPECT_EQ(f.unreachable_cells, 0);
   const Visibility vis(b.translated({0, 0}));
+  Worst worst{"a strait 0.2 cells wide (open, through its mouth)"};
   for (int64_t r = 0; r < 10; ++r)  // the northern sea (y > 20)
     for (int64_t c = 0; c < g.width; ++c) {
       const Vec2 x = centre(g, c, r);
@@ -221,6 +246,7 @@ TEST(SeaField, StraitNarrowerThanACellStaysOpen) {
       const double want =
           vis.sees(Visibility::Place{{15.0, 3.3}}, Visibility::Place{x}) ? dist({15.0, 3.3}, x) : via_mouth;
       ASSERT_NEAR(f.field.distance.at(c, r), want, 1e-5) << c << "," << r;
+      worst.add(f.field.distance.at(c, r), want);
       ASSERT_LT(f.field.distance.at(c, r), 45.0);  // not round the land masses
     }
 }
@@ -235,6 +261,7 @@ TEST(SeaField, MirrorSymmetricLayoutPutsTheLineOnTheAxis) {
   SeedSet s = points({{"west", {9.5, 18.5}}, {"east", {30.5, 18.5}}});
   const GridSpec g = test::grid_of(40, 40);
   const SeaField f = sea_field(s, b, g);
+  Worst worst{"a mirror-symmetric layout (the line on the axis; d against its mirror cell)"};
   for (int64_t r = 0; r < g.height; ++r)
     for (int64_t c = 0; c < g.width; ++c) {
       const int64_t m = g.width - 1 - c;
@@ -242,6 +269,7 @@ TEST(SeaField, MirrorSymmetricLayoutPutsTheLineOnTheAxis) {
       if (f.field.site.at(c, r) == kNoSite) continue;
       ASSERT_EQ(f.field.site.at(c, r), c < 20 ? 0 : 1) << c << "," << r;
       ASSERT_NEAR(f.field.distance.at(c, r), f.field.distance.at(m, r), 1e-5);
+      worst.add(f.field.distance.at(c, r), f.field.distance.at(m, r));
     }
 }
 

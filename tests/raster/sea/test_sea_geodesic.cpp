@@ -8,6 +8,7 @@
 #include <GeographicLib/Geodesic.hpp>
 
 #include <cmath>
+#include <cstdio>
 #include <random>
 #include <vector>
 
@@ -82,18 +83,22 @@ TEST(SeaGeodesic, WallShadowGoesRoundTheNearerEnd) {
   const GridSpec g = test::grid_of(50, 30, 0.02, 10.0, 55.6);
   const SeaField f = both(seeds, barriers, g);
   int hidden = 0;
+  double worst = 0.0;
   for (int64_t r = 0; r < g.height; ++r)
     for (int64_t c = 0; c < g.width; ++c) {
       const Vec2 x{g.centre_x(c), g.centre_y(r)};
       const bool behind = crosses(s, x, a, b);
       const double want = behind ? std::min(metres(s, a) + metres(a, x), metres(s, b) + metres(b, x)) : metres(s, x);
       EXPECT_NEAR(f.field.distance.at(c, r), want, 1e-6 * want + 1e-3) << c << "," << r;
+      worst = std::max(worst, std::abs(f.field.distance.at(c, r) - want));
       EXPECT_EQ(f.via.at(c, r) != kNoVia, behind) << c << "," << r;
       EXPECT_EQ(f.field.site.at(c, r), 0);
       hidden += behind;
     }
   EXPECT_GT(hidden, 200);
   EXPECT_EQ(f.field.metric.kind, MetricSpec::geodesic);
+  std::printf("closed form | a 45 km wall on the ellipsoid, one port | %lld cells | worst |d - closed form| %.3g m\n",
+              static_cast<long long>(g.width * g.height), worst);
 }
 
 // Random islands (longitude/latitude quadrilaterals, some with a lake), a boom, ports of two
