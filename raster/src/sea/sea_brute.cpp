@@ -161,8 +161,8 @@ SeaField brute_force_sea(const SeedSet& seeds, const Barriers& barriers, const G
       // (Paths that bend, over the straight distance as the straight field stores it, a float, as
       // the exact engine.)
       if (k0 > 0.0 && !straight)
-        detour[static_cast<size_t>(worker)] = std::max(
-            detour[static_cast<size_t>(worker)], best.d / static_cast<double>(static_cast<float>(std::sqrt(k0))));
+        detour[static_cast<size_t>(worker)] = std::max(detour[static_cast<size_t>(worker)],
+                                                       best.d / static_cast<double>(static_cast<float>(std::sqrt(k0))));
     }
     tests += asked;
   });
