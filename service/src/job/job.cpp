@@ -19,7 +19,6 @@
 #include "job/job_edit.hpp"
 #include "job/job_run.hpp"
 #include "job/job_sea.hpp"
-#include "job/job_stream.hpp"
 #include "job/memory_watch.hpp"
 #include "rv/edit/edit.hpp"
 #include "rv/engine/outputs.hpp"
@@ -32,6 +31,7 @@
 #include "rv/lines/boundaries.hpp"
 #include "rv/preview.hpp"
 #include "rv/version.hpp"
+#include "stream/job_stream.hpp"
 
 namespace rv {
 namespace {

@@ -25,8 +25,8 @@
 #include <nlohmann/json.hpp>
 
 #include "job/job_run.hpp"
-#include "job/job_stream.hpp"
 #include "rv/job.hpp"
+#include "stream/job_stream.hpp"
 
 namespace rv::detail {
 

@@ -11,9 +11,9 @@
 
 #include "job/edit_base.hpp"
 #include "job/job_run.hpp"
-#include "job/job_stream.hpp"
 #include "rv/edit/edit.hpp"
 #include "rv/job.hpp"
+#include "stream/job_stream.hpp"
 
 namespace rv::detail {
 

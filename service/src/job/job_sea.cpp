@@ -92,8 +92,8 @@ void read_barriers(const JobSpec& spec, const SeedReadOptions& read, PreparedJob
     sea->snap_tolerance = metres;
     frame = about_barriers([&] { return frame_over(sea->loaded.barriers, seeds, job.metric); });
   }
-  SnappedSeeds snapped =
-      about_barriers([&] { return snap_to_sea(seeds, sea->loaded.barriers, sea->snap_tolerance, frame); });
+  // (A seed deeper inland than the tolerance is the seeds' fault: its message names the seed.)
+  SnappedSeeds snapped = snap_to_sea(seeds, sea->loaded.barriers, sea->snap_tolerance, frame);
   job.loaded.seeds = std::move(snapped.seeds);
   sea->snapped = snapped.moved;
   sea->largest_snap = snapped.largest_move;

@@ -10,7 +10,7 @@
 // Determinism: strips are computed and written in row order, each strip's cells equal the
 // whole grid's (exact and brute force compute any window identically), and the conversion is
 // per cell, so the files do not depend on strip height or thread count.
-#include "job/job_stream.hpp"
+#include "stream/job_stream.hpp"
 
 #include <algorithm>
 #include <array>
@@ -25,9 +25,9 @@
 #include <sys/resource.h>
 #include <unistd.h>
 
-#include "job/strip_handoff.hpp"
 #include "rv/engine/outputs.hpp"
 #include "rv/field/error.hpp"
+#include "stream/strip_handoff.hpp"
 
 namespace rv::detail {
 namespace {

@@ -1,5 +1,5 @@
 // The streaming path's hand-off of strip buffers between the computing thread and one writer
-// thread per file (service/src/job/strip_handoff.hpp), driven directly: every writer sees every
+// thread per file (service/src/stream/strip_handoff.hpp), driven directly: every writer sees every
 // strip in fill order, a buffer comes back to the computing side only when every writer is done
 // with it, and a writer's failure or the computing side's stop ends the stream without a hang
 // (a hang fails the test by CTest's timeout); the files are reported in the writers' order.
@@ -14,7 +14,7 @@
 #include <thread>
 #include <vector>
 
-#include "job/strip_handoff.hpp"
+#include "stream/strip_handoff.hpp"
 
 namespace rv::detail {
 namespace {
