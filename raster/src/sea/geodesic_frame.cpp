@@ -129,4 +129,32 @@ int GeodesicFrame::orient_exact(const Vec2& a, const Vec2& b, const Vec2& c) con
   return s < 0.0 ? 1 : s > 0.0 ? -1 : 0;
 }
 
+std::shared_ptr<const GeodesicFrame> frame_for(const MetricSpec& metric, const Barriers& barriers, const SeedSet& seeds,
+                                               LonLatBox box) {
+  double x0 = INFINITY, y0 = INFINITY, x1 = -INFINITY, y1 = -INFINITY;
+  auto cover = [&](Vec2 v) {
+    x0 = std::min(x0, v.x);
+    x1 = std::max(x1, v.x);
+    y0 = std::min(y0, v.y);
+    y1 = std::max(y1, v.y);
+  };
+  if (box.xmin <= box.xmax) {
+    cover({box.xmin, box.ymin});
+    cover({box.xmax, box.ymax});
+  }
+  for (const Barriers::Polygon& p : barriers.polygons())
+    for (const Ring& r : p.rings)
+      for (const Vec2& v : r) cover(v);
+  for (const Barriers::Line& l : barriers.lines())
+    for (const Vec2& v : l.vertices) cover(v);
+  for (const Site& s : seeds.sites()) {
+    cover(s.a);
+    cover(s.b);
+  }
+  for (const Polygon& p : seeds.polygons())
+    for (const Ring& r : p.rings)
+      for (const Vec2& v : r) cover(v);
+  return std::make_shared<const GeodesicFrame>(metric, x0, y0, x1, y1);
+}
+
 }  // namespace rv

@@ -11,30 +11,6 @@ namespace rv::sea {
 // Every site's ends sea (a seed may lie on a barrier's boundary, not inside it).
 void check_seeds(Prepared& p, const SeedSet& seeds);
 
-namespace {
-
-// The geodesic frame for a longitude/latitude grid, its barriers and point seeds: centred in the
-// box that holds them all.
-std::shared_ptr<const GeodesicFrame> frame_for(const SeedSet& seeds, const Barriers& barriers, const GridSpec& grid,
-                                               const MetricSpec& metric) {
-  double x0 = grid.xmin, x1 = grid.xmax(), y0 = grid.ymin(), y1 = grid.ymax;
-  auto cover = [&](Vec2 v) {
-    x0 = std::min(x0, v.x);
-    x1 = std::max(x1, v.x);
-    y0 = std::min(y0, v.y);
-    y1 = std::max(y1, v.y);
-  };
-  for (const Barriers::Polygon& p : barriers.polygons())
-    for (const Ring& r : p.rings)
-      for (const Vec2& v : r) cover(v);
-  for (const Barriers::Line& l : barriers.lines())
-    for (const Vec2& v : l.vertices) cover(v);
-  for (const Site& s : seeds.sites()) cover(s.a);
-  return std::make_shared<const GeodesicFrame>(metric, x0, y0, x1, y1);
-}
-
-}  // namespace
-
 Prepared prepare(const SeedSet& seeds, const Barriers& barriers, const GridSpec& grid, const MetricSpec& metric) {
   if (seeds.geometric_site_count() == 0) throw Error(ErrorKind::invalid_input, "the seeds have no sites");
   if (seeds.adjusted())
@@ -54,7 +30,9 @@ Prepared prepare(const SeedSet& seeds, const Barriers& barriers, const GridSpec&
     throw Error(ErrorKind::unsupported,
                 "the distance by sea on the ellipsoid takes points as seeds for now (ports, farms); lines and "
                 "polygons as seeds need a projected grid and the planar metric");
-  const std::shared_ptr<const GeodesicFrame> frame = frame_for(seeds, barriers, grid, metric);
+  // The frame centred in the grid, the barriers and the seeds.
+  const std::shared_ptr<const GeodesicFrame> frame =
+      frame_for(metric, barriers, seeds, LonLatBox{grid.xmin, grid.ymin(), grid.xmax(), grid.ymax});
   Prepared p{Visibility(barriers.mapped([&](Vec2 v) { return frame->forward(v); }), true, frame), {}, {}};
   p.geodesic = std::make_shared<const GeodesicMeasure>(metric);
   p.max_scale = frame->max_scale();

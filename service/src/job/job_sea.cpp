@@ -13,31 +13,6 @@ namespace {
 
 [[noreturn]] void refuse(ErrorKind kind, const std::string& what) { throw Error(kind, "barriers: " + what); }
 
-// A geodesic frame over the barriers and the seeds' sites (longitude/latitude).
-std::shared_ptr<const GeodesicFrame> frame_over(const Barriers& barriers, const SeedSet& seeds,
-                                                const MetricSpec& metric) {
-  double x0 = INFINITY, y0 = INFINITY, x1 = -INFINITY, y1 = -INFINITY;
-  auto cover = [&](Vec2 v) {
-    x0 = std::min(x0, v.x);
-    x1 = std::max(x1, v.x);
-    y0 = std::min(y0, v.y);
-    y1 = std::max(y1, v.y);
-  };
-  for (const Barriers::Polygon& p : barriers.polygons())
-    for (const Ring& r : p.rings)
-      for (const Vec2& v : r) cover(v);
-  for (const Barriers::Line& l : barriers.lines())
-    for (const Vec2& v : l.vertices) cover(v);
-  for (const Site& s : seeds.sites()) {
-    cover(s.a);
-    cover(s.b);
-  }
-  for (const Polygon& p : seeds.polygons())
-    for (const Ring& r : p.rings)
-      for (const Vec2& v : r) cover(v);
-  return std::make_shared<const GeodesicFrame>(metric, x0, y0, x1, y1);
-}
-
 // An error from reading or snapping, its message said to be about the barriers.
 template <class F>
 auto about_barriers(F&& f) {
@@ -90,7 +65,7 @@ void read_barriers(const JobSpec& spec, const SeedReadOptions& read, PreparedJob
   std::shared_ptr<const GeodesicFrame> frame;
   if (geodesic) {
     sea->snap_tolerance = metres;
-    frame = about_barriers([&] { return frame_over(sea->loaded.barriers, seeds, job.metric); });
+    frame = about_barriers([&] { return frame_for(job.metric, sea->loaded.barriers, seeds); });
   }
   // (A seed deeper inland than the tolerance is the seeds' fault: its message names the seed.)
   SnappedSeeds snapped = snap_to_sea(seeds, sea->loaded.barriers, sea->snap_tolerance, frame);

@@ -13,6 +13,7 @@
 #include <random>
 #include <vector>
 
+#include "geodesic_oracle.hpp"
 #include "rv/field/error.hpp"
 #include "rv/sea/geodesic_frame.hpp"
 #include "rv/sea/visibility.hpp"
@@ -20,13 +21,10 @@
 namespace rv {
 namespace {
 
-const GeographicLib::Geodesic& wgs84() { return GeographicLib::Geodesic::WGS84(); }
-
-MetricSpec geodesic_metric() {
-  MetricSpec m;
-  m.kind = MetricSpec::geodesic;
-  return m;
-}
+using test::crosses;
+using test::geodesic_metric;
+using test::side;
+using test::wgs84;
 
 // The western Baltic's box (fixtures/baltic_west.gpkg).
 std::shared_ptr<const GeodesicFrame> baltic_frame() {
@@ -42,16 +40,6 @@ Vec2 beside(Vec2 a, Vec2 b, double t, double offset) {
   double lat2, lon2;
   wgs84().Direct(lat, lon, azi + (offset > 0 ? -90.0 : 90.0), std::abs(offset), lat2, lon2);
   return Vec2{lon2, lat2};
-}
-
-// Which side of the geodesic from a through b the point c lies, from GeographicLib's azimuths
-// (the oracle, written apart from the frame's).
-int side(Vec2 a, Vec2 b, Vec2 c) {
-  double s, azi_b, azi_c, back;
-  wgs84().Inverse(a.y, a.x, b.y, b.x, s, azi_b, back);
-  wgs84().Inverse(a.y, a.x, c.y, c.x, s, azi_c, back);
-  const double d = std::remainder(azi_c - azi_b, 360.0);
-  return d < 0 ? 1 : d > 0 ? -1 : 0;
 }
 
 TEST(GeodesicFrame, RoundTripsAndMeasuresItsBending) {
@@ -171,9 +159,6 @@ TEST(GeodesicFrame, PathsAreBlockedExactlyWhenTheirGeodesicsCross) {
   }
   const Visibility vis(barriers, true, frame);
   const Visibility reference(barriers, false, frame);
-  auto crosses = [](Vec2 p, Vec2 q, Vec2 a, Vec2 b) {
-    return side(a, b, p) * side(a, b, q) < 0 && side(p, q, a) * side(p, q, b) < 0;
-  };
   int blocked = 0, free_paths = 0;
   auto check = [&](Vec2 p, Vec2 q) {
     bool want = true;

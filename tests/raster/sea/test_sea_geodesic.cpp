@@ -12,6 +12,7 @@
 #include <random>
 #include <vector>
 
+#include "geodesic_oracle.hpp"
 #include "rv/field/error.hpp"
 #include "rv/sea/geodesic_frame.hpp"
 #include "rv/sea/sea_field.hpp"
@@ -21,32 +22,10 @@
 namespace rv {
 namespace {
 
-const GeographicLib::Geodesic& wgs84() { return GeographicLib::Geodesic::WGS84(); }
+using test::crosses;
+using test::metres;
 
-MetricSpec geodesic() {
-  MetricSpec m;
-  m.kind = MetricSpec::geodesic;
-  return m;
-}
-
-double metres(Vec2 a, Vec2 b) {
-  double s;
-  wgs84().Inverse(a.y, a.x, b.y, b.x, s);
-  return s;
-}
-
-// Which side of the geodesic from a through b the point c lies (GeographicLib's azimuths).
-int side(Vec2 a, Vec2 b, Vec2 c) {
-  double s, azi_b, azi_c, back;
-  wgs84().Inverse(a.y, a.x, b.y, b.x, s, azi_b, back);
-  wgs84().Inverse(a.y, a.x, c.y, c.x, s, azi_c, back);
-  const double d = std::remainder(azi_c - azi_b, 360.0);
-  return d < 0 ? 1 : d > 0 ? -1 : 0;
-}
-
-bool crosses(Vec2 p, Vec2 q, Vec2 a, Vec2 b) {
-  return side(a, b, p) * side(a, b, q) < 0 && side(p, q, a) * side(p, q, b) < 0;
-}
+MetricSpec geodesic() { return test::geodesic_metric(); }
 
 SeaOptions on_the_ellipsoid() {
   SeaOptions o;

@@ -29,6 +29,7 @@
 
 #include "rv/field/metric.hpp"
 #include "rv/field/seeds.hpp"
+#include "rv/sea/barriers.hpp"
 
 namespace rv {
 
@@ -72,5 +73,14 @@ class GeodesicFrame {
   double reach_ = 1.0;  // half the box's width in the plane (metres, at least 1)
   mutable std::atomic<int64_t> exact_tests_{0};
 };
+
+// A frame centred in everything given, in longitude/latitude: the barriers, the seeds (sites and
+// polygons) and, when `box` is not empty (xmin > xmax: empty), that box too (a grid's). Throws
+// as the constructor.
+struct LonLatBox {
+  double xmin = 1.0, ymin = 1.0, xmax = -1.0, ymax = -1.0;
+};
+std::shared_ptr<const GeodesicFrame> frame_for(const MetricSpec& metric, const Barriers& barriers, const SeedSet& seeds,
+                                               LonLatBox box = {});
 
 }  // namespace rv
