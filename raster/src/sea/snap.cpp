@@ -2,8 +2,10 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <limits>
 #include <map>
+#include <string>
 #include <utility>
 
 #include "rv/field/error.hpp"
@@ -22,6 +24,13 @@ Vec2 foot(Vec2 a, Vec2 b, Vec2 p) {
   double t = len2 > 0.0 ? ((p.x - a.x) * dx + (p.y - a.y) * dy) / len2 : 0.0;
   t = std::clamp(t, 0.0, 1.0);
   return Vec2{a.x + t * dx, a.y + t * dy};
+}
+
+// A length for a message: four significant digits ("1351", "0.4", "12.35").
+std::string short_number(double v) {
+  char text[32];
+  std::snprintf(text, sizeof text, "%.4g", v);
+  return text;
 }
 
 }  // namespace
@@ -56,10 +65,10 @@ SnappedSeeds snap_to_sea(const SeedSet& seeds, const Barriers& given, double tol
           }
         }
     if (!(best_d <= tolerance))
-      throw Error(ErrorKind::invalid_input,
-                  "the seed " + seeds.feature_name(feature) + " lies " + std::to_string(best_d) +
-                      " inside a barrier (more than the snapping tolerance of " + std::to_string(tolerance) +
-                      "): a seed may lie on a barrier's boundary");
+      throw Error(ErrorKind::invalid_input, "the seed " + seeds.feature_name(feature) + " lies " +
+                                                short_number(best_d) +
+                                                " inside a barrier (more than the snapping tolerance of " +
+                                                short_number(tolerance) + "): a seed may lie on a barrier's boundary");
     // Onto the boundary; where rounding left the point on land, out along the same direction by
     // growing steps of a unit in the last place (geodesic: from a micrometre, and judged after
     // the round trip to longitude/latitude and back) until it is sea.
