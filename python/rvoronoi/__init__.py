@@ -123,8 +123,8 @@ def compute(seeds, *, chunks=None, nearest_feature=False, via=False, deliverable
         one engine thread unless `threads` says otherwise (Dask runs chunks side by side).
     nearest_feature: also return `nearest_feature` (the 1-based position of the nearest seed
         feature in the input).
-    via: with `barriers` (the distance by sea: land polygons and barrier lines, a path or a list
-        of paths), also return `via`: the last barrier vertex on each cell's path, 0 where the
+    via: with `barriers` (the distance by sea: land polygons and barrier lines, given as the seeds
+        are: a path, a GeoJSON mapping, a GeoDataFrame, or a list of them), also return `via`: the last barrier vertex on each cell's path, 0 where the
         seed is seen directly (the report's sea.via_vertices gives each number's position).
     deliverables: names among "boundaries", "tripoints", "limits" (needs limit_distances),
         "regions", "turning_points": computed from the same field (once), returned beside the
@@ -139,6 +139,13 @@ def compute(seeds, *, chunks=None, nearest_feature=False, via=False, deliverable
     attrs["rvoronoi_report"]); with deliverables, (dataset, {name: deliverable}).
     Raises rvoronoi.Error subclasses; TypeError for an unknown keyword.
     """
+    from . import _seeds
+
+    with _seeds.LayerOptions(options) as options:
+        return _compute(seeds, chunks, nearest_feature, via, deliverables, max_cells, options)
+
+
+def _compute(seeds, chunks, nearest_feature, via, deliverables, max_cells, options):
     from . import _dataset, _seeds
 
     if chunks is not None and "threads" not in options:
@@ -187,15 +194,16 @@ def run(seeds, outputs, *, progress=None, cancelled=None, max_cells=_rvoronoi.de
     """
     from . import _seeds
 
-    options_json = _options_json(options, "run", _RUN_KEYWORDS)
-    max_cells = _max_cells(max_cells)
-    files_out = {}
-    for name, path in dict(outputs).items():
-        if not isinstance(name, str) or not isinstance(path, (str, os.PathLike)):
-            raise InvalidArgument("outputs: a mapping of output ids to paths")  # noqa: F821
-        files_out[name] = os.fspath(path)
-    with _seeds.SeedFiles(seeds) as files:
-        report = _rvoronoi.run_files(files.paths, options_json, files_out, progress, cancelled, max_cells)
+    with _seeds.LayerOptions(options) as options:
+        options_json = _options_json(options, "run", _RUN_KEYWORDS)
+        max_cells = _max_cells(max_cells)
+        files_out = {}
+        for name, path in dict(outputs).items():
+            if not isinstance(name, str) or not isinstance(path, (str, os.PathLike)):
+                raise InvalidArgument("outputs: a mapping of output ids to paths")  # noqa: F821
+            files_out[name] = os.fspath(path)
+        with _seeds.SeedFiles(seeds) as files:
+            report = _rvoronoi.run_files(files.paths, options_json, files_out, progress, cancelled, max_cells)
     return json.loads(report)
 
 

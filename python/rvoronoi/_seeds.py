@@ -39,12 +39,13 @@ def _frame_geojson(frame):
 class SeedFiles:
     """The seed sources of one call as paths, and the temporary files that back them."""
 
-    def __init__(self, seeds):
+    def __init__(self, seeds, what="seeds"):
         self._tmp = None
+        self._what = what
         self.paths = []
         items = seeds if isinstance(seeds, (list, tuple)) else [seeds]
         if not items:
-            raise TypeError("seeds: at least one seed source is needed")
+            raise TypeError("%s: at least one source is needed" % what)
         self._temporary = []
         for i, item in enumerate(items):
             self.paths.append(self._path_of(item, i))
@@ -56,8 +57,8 @@ class SeedFiles:
 
     def _temp(self, text, index):
         if self._tmp is None:
-            self._tmp = tempfile.mkdtemp(prefix="rvoronoi-seeds-")
-        path = os.path.join(self._tmp, "seeds%d.geojson" % index)
+            self._tmp = tempfile.mkdtemp(prefix="rvoronoi-%s-" % self._what)
+        path = os.path.join(self._tmp, "%s%d.geojson" % (self._what, index))
         with open(path, "w", encoding="utf-8") as f:
             f.write(text)
         return path
@@ -70,10 +71,10 @@ class SeedFiles:
         if isinstance(item, dict) or hasattr(item, "__geo_interface__"):
             mapping = item if isinstance(item, dict) else item.__geo_interface__
             if mapping.get("type") not in ("FeatureCollection", "Feature"):
-                raise TypeError("seeds: a mapping must be a GeoJSON FeatureCollection or Feature")
+                raise TypeError("%s: a mapping must be a GeoJSON FeatureCollection or Feature" % self._what)
             return self._temp(json.dumps(mapping), index)
-        raise TypeError("seeds: a path, a list of paths, a GeoJSON mapping or a GeoDataFrame, got %s"
-                        % type(item).__name__)
+        raise TypeError("%s: a path, a list of paths, a GeoJSON mapping or a GeoDataFrame, got %s"
+                        % (self._what, type(item).__name__))
 
     def close(self):
         if self._tmp:
@@ -88,6 +89,35 @@ class SeedFiles:
 
     def __del__(self):
         self.close()
+
+
+class LayerOptions:
+    """Keyword options whose value is a vector layer (the barriers), given as the seeds may be:
+    mappings and frames written to temporary GeoJSON files (with their CRS) for as long as the
+    `with` block lasts; the block sees the options with paths in their place."""
+
+    NAMES = ("barriers",)
+
+    def __init__(self, options):
+        self.options = dict(options)
+        self._files = []
+        for name in self.NAMES:
+            value = self.options.get(name)
+            if value is None:
+                continue
+            items = value if isinstance(value, (list, tuple)) else [value]
+            if all(isinstance(v, (str, os.PathLike)) for v in items):
+                continue
+            files = SeedFiles(value, what=name)
+            self._files.append(files)
+            self.options[name] = list(files.paths) if isinstance(value, (list, tuple)) else files.paths[0]
+
+    def __enter__(self):
+        return self.options
+
+    def __exit__(self, *exc):
+        for f in self._files:
+            f.close()
 
 
 def _files_of(path):

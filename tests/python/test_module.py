@@ -188,6 +188,13 @@ class AgainstTheCli(unittest.TestCase):
         with self.assertRaises(rvoronoi.InvalidArgument) as caught:
             rvoronoi.compute(ports, method="hv-scan", **options)
         self.assertIn("barriers: the distance by sea needs the exact", str(caught.exception))
+        # The barriers as a GeoDataFrame or a mapping, as the seeds may be: the same field.
+        import geopandas
+        frame = geopandas.read_file(ORESUND)
+        for given in (frame, [json.loads(frame.to_json())], [ORESUND]):
+            other = rvoronoi.compute(ports, via=True, **dict(options, barriers=given))
+            self.assertTrue(same_bits(other.distance.values, ds.distance.values))
+            self.assertTrue(same_bits(other.via.values, ds.via.values))
 
     def test_frame_and_mapping_equal_the_file(self):
         import geopandas
