@@ -96,6 +96,43 @@ Vec2 GeodesicFrame::forward(Vec2 lonlat) const {
   return Vec2{x, y};
 }
 
+void GeodesicFrame::forward_row(double lat, double lon0, double dlon, int64_t n, Vec2* out) const {
+  if (n <= 0) return;
+  // Exact points at most 8 cells and about 1 km apart: the cubic's error falls as the fourth
+  // power of their spacing (micrometres at 10 km, below 1e-10 m at 1 km).
+  int64_t step = 8;
+  if (n > 1) {
+    const Vec2 a = forward(Vec2{lon0, lat}), b = forward(Vec2{lon0 + dlon, lat});
+    const double spacing = std::hypot(b.x - a.x, b.y - a.y);
+    if (spacing > 0.0) step = std::clamp<int64_t>(static_cast<int64_t>(1000.0 / spacing), 1, 8);
+  }
+  const int64_t kStep = step;
+  const int64_t knots = (n - 1) / kStep + 1;
+  std::vector<Vec2> at(static_cast<size_t>(knots));
+  for (int64_t j = 0; j < knots; ++j)
+    at[static_cast<size_t>(j)] = forward(Vec2{lon0 + static_cast<double>(j * kStep) * dlon, lat});
+  for (int64_t i = 0; i < n; ++i) {
+    const int64_t j = i / kStep, r = i % kStep;
+    if (r == 0) {
+      out[i] = at[static_cast<size_t>(j)];
+    } else if (j >= 1 && j + 2 < knots) {
+      // Lagrange's cubic through the knots j-1 .. j+2 (at t = -1, 0, 1, 2), at t in (0, 1).
+      const double t = static_cast<double>(r) / kStep;
+      const double w[4] = {-t * (t - 1) * (t - 2) / 6, (t + 1) * (t - 1) * (t - 2) / 2, -(t + 1) * t * (t - 2) / 2,
+                           (t + 1) * t * (t - 1) / 6};
+      Vec2 p{0.0, 0.0};
+      for (int k = 0; k < 4; ++k) {
+        const Vec2& q = at[static_cast<size_t>(j - 1 + k)];
+        p.x += w[k] * q.x;
+        p.y += w[k] * q.y;
+      }
+      out[i] = p;
+    } else {
+      out[i] = forward(Vec2{lon0 + static_cast<double>(i) * dlon, lat});
+    }
+  }
+}
+
 Vec2 GeodesicFrame::reverse(Vec2 plane) const {
   double lat, lon;
   impl_->gnomonic.Reverse(impl_->lat0, impl_->lon0, plane.x, plane.y, lat, lon);

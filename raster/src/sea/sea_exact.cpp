@@ -231,6 +231,23 @@ void settle_bends(Searches& b, int64_t& tests, const std::atomic<bool>* cancel) 
   }
 }
 
+// The cells of row r of the window where the engines hold them (on the ellipsoid the row is one
+// parallel, projected as one: GeodesicFrame::forward_row).
+std::vector<Spot> row_spots(const Prepared& p, const GridSpec& grid, const Window& window, int64_t r) {
+  std::vector<Spot> spots(static_cast<size_t>(window.width));
+  if (!p.geodesic) {
+    for (int64_t c = 0; c < window.width; ++c)
+      spots[static_cast<size_t>(c)] = p.cell(grid, window.col0 + c, window.row0 + r);
+    return spots;
+  }
+  std::vector<Vec2> plane(static_cast<size_t>(window.width));
+  const double lat = grid.centre_y(window.row0 + r);
+  p.vis.frame()->forward_row(lat, grid.centre_x(window.col0), grid.res, window.width, plane.data());
+  for (int64_t c = 0; c < window.width; ++c)
+    spots[static_cast<size_t>(c)] = Spot{plane[static_cast<size_t>(c)], Vec2{grid.centre_x(window.col0 + c), lat}};
+  return spots;
+}
+
 }  // namespace
 
 class PreparedSea {
@@ -314,9 +331,7 @@ SeaField compute_sea(const SeedSet& seeds, const Barriers& barriers, const GridS
     if (hint.empty()) hint.assign(static_cast<size_t>(search.site_items()) + search.nodes.size(), -1);
     const auto& spans = interiors.rows[static_cast<size_t>(r)];
     auto span = spans.begin();
-    std::vector<Spot> spots(static_cast<size_t>(window.width));
-    for (int64_t c = 0; c < window.width; ++c)
-      spots[static_cast<size_t>(c)] = p.cell(grid, window.col0 + c, window.row0 + r);
+    const std::vector<Spot> spots = row_spots(p, grid, window, r);
     std::vector<double> xs(static_cast<size_t>(window.width));
     for (int64_t c = 0; c < window.width; ++c) xs[static_cast<size_t>(c)] = spots[static_cast<size_t>(c)].at.x;
     std::vector<Visibility::Ground> grounds(static_cast<size_t>(window.width));
