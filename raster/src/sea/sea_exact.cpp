@@ -124,8 +124,11 @@ struct Searches {
       const auto k = static_cast<size_t>(item - site_items());
       const Node& n = nodes[k];
       if (n.vertex == skip_vertex || !std::isfinite(dist[k].d)) return;
+      // The taut test (a few turns) before the length: on the ellipsoid a length is an inverse
+      // problem, and the test rejects most candidates.
+      if (!sea::taut(p.vis, n, from[k], x)) return;
       const Best c{dist[k].d + p.vertex_length(n.vertex, spot), dist[k].site, n.vertex};
-      if (!(c < best) || !sea::taut(p.vis, n, from[k], x)) return;
+      if (!(c < best)) return;
       if (seen(item, p.vis.at_vertex(n.vertex, n.wedge))) {
         best = c;
         won = item;
