@@ -253,10 +253,27 @@ std::vector<Spot> row_spots(const Prepared& p, const GridSpec& grid, const Windo
 
 }  // namespace
 
+namespace {
+
+// The straight exact engine's options for the field a computation by sea starts from.
+ComputeOptions straight_options(const SeaOptions& options) {
+  ComputeOptions o;
+  o.method = Method::exact;
+  o.metric = options.metric;
+  o.threads = options.threads;
+  o.max_distance = options.max_distance;
+  o.cancel = options.cancel;
+  return o;
+}
+
+}  // namespace
+
 class PreparedSea {
  public:
   PreparedSea(const SeedSet& seeds, const Barriers& barriers, const GridSpec& grid, const SeaOptions& options)
-      : prepared(sea::prepare(seeds, barriers, grid, options.metric)), search(prepared) {
+      : prepared(sea::prepare(seeds, barriers, grid, options.metric)),
+        search(prepared),
+        straight(rv::prepare(seeds, grid, straight_options(options))) {
     const auto start = std::chrono::steady_clock::now();
     settle_bends(search, bend_tests, options.cancel);
     bends_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
@@ -266,6 +283,8 @@ class PreparedSea {
 
   const Prepared prepared;
   Searches search;  // refers to `prepared`: the object is never moved
+  // The straight engine's preparation of the seeds, for every window's straight field.
+  const std::shared_ptr<const PreparedSeeds> straight;
   int64_t bend_tests = 0;
   double bends_seconds = 0.0;
 };
@@ -307,14 +326,10 @@ SeaField compute_sea(const SeedSet& seeds, const Barriers& barriers, const GridS
   out.field.contested_cells = interiors.contested_cells;
   // The straight field: each cell's nearest site and distance, as every engine of the straight
   // distance answers them (a cell that sees that site takes them as they are).
-  ComputeOptions straight_options;
-  straight_options.method = Method::exact;
-  straight_options.metric = options.metric;
-  straight_options.threads = options.threads;
-  straight_options.max_distance = options.max_distance;
-  straight_options.window = window;
-  straight_options.cancel = options.cancel;
-  const NearestField straight_field = compute(seeds, grid, straight_options);
+  ComputeOptions straight = straight_options(options);
+  straight.window = window;
+  straight.prepared = prepared->straight;
+  const NearestField straight_field = compute(seeds, grid, straight);
   const int workers = resolve_threads(options.threads);
   struct Tally {
     int64_t land = 0, unreachable = 0, tests = 0;
