@@ -251,10 +251,6 @@ std::vector<Spot> row_spots(const Prepared& p, const GridSpec& grid, const Windo
   return spots;
 }
 
-}  // namespace
-
-namespace {
-
 // The straight exact engine's options for the field a computation by sea starts from.
 ComputeOptions straight_options(const SeaOptions& options) {
   ComputeOptions o;
@@ -271,9 +267,7 @@ ComputeOptions straight_options(const SeaOptions& options) {
 class PreparedSea {
  public:
   PreparedSea(const SeedSet& seeds, const Barriers& barriers, const GridSpec& grid, const SeaOptions& options)
-      : prepared(sea::prepare(seeds, barriers, grid, options.metric)),
-        search(prepared),
-        straight(rv::prepare(seeds, grid, straight_options(options))) {
+      : prepared(sea::prepare(seeds, barriers, grid, options.metric)), search(prepared) {
     const auto start = std::chrono::steady_clock::now();
     settle_bends(search, bend_tests, options.cancel);
     bends_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
@@ -283,11 +277,14 @@ class PreparedSea {
 
   const Prepared prepared;
   Searches search;  // refers to `prepared`: the object is never moved
-  // The straight engine's preparation of the seeds, for every window's straight field.
-  const std::shared_ptr<const PreparedSeeds> straight;
   int64_t bend_tests = 0;
   double bends_seconds = 0.0;
 };
+
+std::shared_ptr<const PreparedSeeds> prepare_straight(const SeedSet& seeds, const GridSpec& grid,
+                                                      const SeaOptions& options) {
+  return rv::prepare(seeds, grid, straight_options(options));
+}
 
 std::shared_ptr<const PreparedSea> prepare_sea(const SeedSet& seeds, const Barriers& barriers, const GridSpec& grid,
                                                const SeaOptions& options) {
@@ -328,7 +325,7 @@ SeaField compute_sea(const SeedSet& seeds, const Barriers& barriers, const GridS
   // distance answers them (a cell that sees that site takes them as they are).
   ComputeOptions straight = straight_options(options);
   straight.window = window;
-  straight.prepared = prepared->straight;
+  straight.prepared = options.straight;
   const NearestField straight_field = compute(seeds, grid, straight);
   const int workers = resolve_threads(options.threads);
   struct Tally {

@@ -19,7 +19,8 @@ Prepared prepare(const SeedSet& seeds, const Barriers& barriers, const GridSpec&
   for (const Feature& f : seeds.features())
     if (f.effect != 1.0) throw Error(ErrorKind::unsupported, "the distance by sea does not take partial effect yet");
   if (metric.kind != MetricSpec::geodesic) {
-    Prepared p{Visibility(barriers.translated(Vec2{grid.xmin, grid.ymax})), to_local(seeds, grid), {}};
+    Prepared p{
+        Visibility(barriers.translated(Vec2{grid.xmin, grid.ymax})), to_local(seeds, grid), {}, nullptr, {}, {}, 1.0};
     check_seeds(p, seeds);
     return p;
   }
@@ -33,7 +34,13 @@ Prepared prepare(const SeedSet& seeds, const Barriers& barriers, const GridSpec&
   // The frame centred in the grid, the barriers and the seeds.
   const std::shared_ptr<const GeodesicFrame> frame =
       frame_for(metric, barriers, seeds, LonLatBox{grid.xmin, grid.ymin(), grid.xmax(), grid.ymax});
-  Prepared p{Visibility(barriers.mapped([&](Vec2 v) { return frame->forward(v); }), true, frame), {}, {}};
+  Prepared p{Visibility(barriers.mapped([&](Vec2 v) { return frame->forward(v); }), true, frame),
+             {},
+             {},
+             nullptr,
+             {},
+             {},
+             1.0};
   p.geodesic = std::make_shared<const GeodesicMeasure>(metric);
   p.max_scale = frame->max_scale();
   for (const Site& s : seeds.sites()) {

@@ -103,6 +103,24 @@ void settle_sea(PreparedJob& job, const JobHooks& hooks) {
       about_barriers([&] { return prepare_sea(job.loaded.seeds, job.sea->loaded.barriers, job.grid, options); });
 }
 
+namespace {
+
+SeaOptions sea_options(const PreparedJob& job, const ComputeOptions& compute) {
+  SeaOptions options;
+  options.metric = job.metric;
+  options.max_distance = compute.max_distance;
+  options.threads = compute.threads;
+  options.cancel = compute.cancel;
+  options.progress = compute.progress;
+  return options;
+}
+
+}  // namespace
+
+SeaRun::SeaRun(const PreparedJob& job) : job_(job) {
+  straight_ = prepare_straight(job.loaded.seeds, job.grid, sea_options(job, job.compute));
+}
+
 void SeaRun::compute(const Window& window, NearestField& field, std::vector<int32_t>* via,
                      const ComputeOptions& compute) {
   const PreparedJob::Sea& sea = *job_.sea;
@@ -111,13 +129,9 @@ void SeaRun::compute(const Window& window, NearestField& field, std::vector<int3
     f = brute_force_sea(job_.loaded.seeds, sea.loaded.barriers, job_.grid, window, compute.max_distance,
                         compute.threads, job_.metric);
   } else {
-    SeaOptions options;
-    options.metric = job_.metric;
-    options.max_distance = compute.max_distance;
-    options.threads = compute.threads;
-    options.cancel = compute.cancel;
-    options.progress = compute.progress;
+    SeaOptions options = sea_options(job_, compute);
     options.prepared = sea.prepared;
+    options.straight = straight_;
     f = compute_sea(job_.loaded.seeds, sea.loaded.barriers, job_.grid, window, options);
   }
   land_ += f.land_cells;

@@ -38,7 +38,9 @@ void settle_sea(PreparedJob& job, const JobHooks& hooks);
 // One job's fields by sea and what computing them measured, summed over its windows.
 class SeaRun {
  public:
-  explicit SeaRun(const PreparedJob& job) : job_(job) {}
+  // Prepares the straight engine for the job's seeds where they now lie (a PreparedJob may have
+  // been moved since prepare_job).
+  explicit SeaRun(const PreparedJob& job);
 
   // The field over `window` into `field` (distances in metric units, straight-field conventions)
   // and, when `via` is not null, one code per cell into it: the last barrier vertex's number + 1,
@@ -52,6 +54,7 @@ class SeaRun {
 
  private:
   const PreparedJob& job_;
+  std::shared_ptr<const PreparedSeeds> straight_;
   int64_t land_ = 0, unreachable_ = 0, tests_ = 0;
   double detour_ = 1.0;
   std::vector<uint8_t> named_;  // per barrier vertex: some cell's via

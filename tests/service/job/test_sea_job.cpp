@@ -209,6 +209,29 @@ TEST_F(SeaJob, StreamedEqualsWholeForAnyStripHeightAndThreads) {
   }
 }
 
+// A front end that keeps a prepared job (the Python module's, by move assignment) and runs it
+// later, whole and streamed: the seeds have moved since the bend nodes were settled, and the run
+// is still the job's own, file for file.
+TEST_F(SeaJob, APreparedJobMovedBeforeItRunsGivesTheSameFiles) {
+  for (const int64_t rows : {int64_t{-1}, int64_t{64}}) {
+    JobSpec direct = ports_spec("direct" + std::to_string(rows));
+    direct.strip_rows = rows;
+    run_job(direct);
+    JobSpec later = ports_spec("later" + std::to_string(rows));
+    later.strip_rows = rows;
+    PreparedJob kept;
+    {
+      PreparedJob made = prepare_job(later);
+      kept = std::move(made);
+    }
+    ASSERT_TRUE(kept.sea);
+    run_prepared(later, kept);
+    for (auto member :
+         {&OutputRequest::ownership, &OutputRequest::distance, &OutputRequest::nearest_feature, &OutputRequest::via})
+      expect_same_geotiff(direct.outputs.*member, later.outputs.*member);
+  }
+}
+
 TEST_F(SeaJob, ValidationRunsTheOracleBySea) {
   JobSpec s = ports_spec("v");
   s.grid.resolution = 1000.0;

@@ -81,6 +81,11 @@ struct SeaOptions {
   // computed one after the other (a streamed job's strips) share it instead of settling the
   // bend nodes again; the field then reports bends_seconds 0 and bend_tests 0.
   std::shared_ptr<const PreparedSea> prepared;
+  // Optional: the straight exact engine's preparation of the same seeds for the same grid and
+  // metric (rv::prepare with Method::exact; rv/engine/engine.hpp), for the straight field every
+  // window starts from. Without it each call prepares its own. It names the seed set object it
+  // was made for: one made before that object was moved is refused (rv::Error(invalid_argument)).
+  std::shared_ptr<const PreparedSeeds> straight;
 };
 
 // The part of compute_sea that does not depend on the window: the checked seeds and barriers,
@@ -88,6 +93,11 @@ struct SeaOptions {
 // number of computations at once.
 std::shared_ptr<const PreparedSea> prepare_sea(const SeedSet& seeds, const Barriers& barriers, const GridSpec& grid,
                                                const SeaOptions& options = {});
+
+// The straight engine's preparation SeaOptions::straight takes, for `seeds` (this object: keep it
+// in place while the result is used) over `grid` with options.metric. Throws as rv::prepare.
+std::shared_ptr<const PreparedSeeds> prepare_straight(const SeedSet& seeds, const GridSpec& grid,
+                                                      const SeaOptions& options = {});
 
 // What preparing measured: the distinct barrier vertices (SeaField::barrier_vertices), the bend
 // nodes, the straight paths tested while settling them, and its wall time in seconds.
