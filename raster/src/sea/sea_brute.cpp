@@ -39,13 +39,14 @@ VertexDistances vertex_distances(const Prepared& p, std::atomic<int64_t>& tests)
     const Place at = vis.at_vertex(nodes[n].vertex, nodes[n].wedge);
     const Spot spot = p.vertex_spot(nodes[n].vertex);
     for (int32_t id : p.geometric) {
-      const double key = p.site_key(spot, id);
+      Place to{at.at};
+      const double key = p.site_key(spot, id, &to);
       const Best c{std::sqrt(key), id, kNoVia};
       if (!(c < dist[n])) continue;
       ++tests;
-      if (key == 0.0 || vis.sees(at, nearest_point(p.local[static_cast<size_t>(id)], at.at))) {
+      if (key == 0.0 || vis.sees(at, to)) {
         dist[n] = c;
-        out.from[n] = key == 0.0 ? at.at : nearest_point(p.local[static_cast<size_t>(id)], at.at).at;
+        out.from[n] = key == 0.0 ? at.at : to.at;
       }
     }
   }
@@ -87,7 +88,7 @@ Best cell_value(const Prepared& p, const VertexDistances& vd, const Place& at, c
   // The straight field's answer when its nearest site (the lowest index at k0) is seen.
   const int32_t nearest = order.front().second;
   ++asked;
-  if (p.vis.sees(at, nearest_point(p.local[static_cast<size_t>(nearest)], x))) {
+  if (p.vis.sees(at, p.site_place(nearest, spot))) {
     straight = true;
     return Best{std::sqrt(k0), nearest, kNoVia};
   }
@@ -96,7 +97,7 @@ Best cell_value(const Prepared& p, const VertexDistances& vd, const Place& at, c
     const Best c{std::sqrt(key), id, kNoVia};
     if (!(c < best)) continue;
     ++asked;
-    if (p.vis.sees(at, nearest_point(p.local[static_cast<size_t>(id)], x))) best = c;
+    if (p.vis.sees(at, p.site_place(id, spot))) best = c;
   }
   if (straight) return best;
   // Hidden: a path round the vertices may be shorter than any site seen directly.

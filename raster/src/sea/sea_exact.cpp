@@ -49,12 +49,15 @@ struct Searches {
   int64_t evaluations = 0;
 
   explicit Searches(const Prepared& prepared) : p(prepared), nodes(sea::bend_nodes(prepared.vis)) {
-    // (Geodesic: the trees' bounds are plane distances scaled down to metres they cannot exceed.)
+    // (Geodesic: the trees' bounds are plane distances scaled down to metres they cannot exceed,
+    // a segment's box widened by the bending of its image.)
     std::vector<RootTree::Box> boxes;
+    const double bend = p.vis.frame() ? p.vis.frame()->deviation() : 0.0;
     for (int32_t id : p.geometric) {
       const LocalSite& s = p.local[static_cast<size_t>(id)];
-      boxes.push_back(
-          {{std::min(s.ax, s.bx()), std::min(s.ay, s.by())}, {std::max(s.ax, s.bx()), std::max(s.ay, s.by())}});
+      const double w = p.segment(id) ? bend : 0.0;
+      boxes.push_back({{std::min(s.ax, s.bx()) - w, std::min(s.ay, s.by()) - w},
+                       {std::max(s.ax, s.bx()) + w, std::max(s.ay, s.by()) + w}});
       site_of.push_back(id);
     }
     sites = RootTree(boxes, p.lower_scale());
@@ -112,10 +115,11 @@ struct Searches {
     auto consider = [&](int32_t item) {
       if (item < site_items()) {
         const int32_t id = site_of[static_cast<size_t>(item)];
-        const double key = p.site_key(spot, id);
+        Place to{x};
+        const double key = p.site_key(spot, id, &to);
         const Best c{std::sqrt(key), id, kNoVia};
         if (!(c < best)) return;
-        if (key == 0.0 || seen(item, nearest_point(p.local[static_cast<size_t>(id)], x))) {
+        if (key == 0.0 || seen(item, to)) {
           best = c;
           won = item;
         }
@@ -218,7 +222,7 @@ void settle_bends(Searches& b, int64_t& tests, const std::atomic<bool>* cancel) 
       if (val.via != kNoVia)
         b.from[u] = vis.vertex(val.via);
       else if (val.site != kNoSite)
-        b.from[u] = val.d == 0.0 ? at.at : nearest_point(p.local[static_cast<size_t>(val.site)], at.at).at;
+        b.from[u] = val.d == 0.0 ? at.at : p.site_place(val.site, p.vertex_spot(node.vertex)).at;
       open.set_weight(i, std::numeric_limits<double>::infinity());
       if (std::isfinite(val.d)) {
         b.all.set_weight(b.site_items() + i, val.d);
@@ -381,7 +385,7 @@ SeaField compute_sea(const SeedSet& seeds, const Barriers& barriers, const GridS
       if (nearest == kNoSite) continue;
       const float d0 = straight_field.distance.at(c, r);
       ++t.tests;
-      if (p.vis.sees(at, nearest_point(p.local[static_cast<size_t>(nearest)], x))) {
+      if (p.vis.sees(at, p.site_place(nearest, spot))) {
         out.field.site.at(c, r) = nearest;
         out.field.distance.at(c, r) = d0;
         continue;

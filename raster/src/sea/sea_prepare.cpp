@@ -4,6 +4,7 @@
 #include <map>
 #include <utility>
 
+#include "field/geodesic_sites.hpp"
 #include "rv/field/error.hpp"
 
 namespace rv::sea {
@@ -19,34 +20,32 @@ Prepared prepare(const SeedSet& seeds, const Barriers& barriers, const GridSpec&
   for (const Feature& f : seeds.features())
     if (f.effect != 1.0) throw Error(ErrorKind::unsupported, "the distance by sea does not take partial effect yet");
   if (metric.kind != MetricSpec::geodesic) {
-    Prepared p{
-        Visibility(barriers.translated(Vec2{grid.xmin, grid.ymax})), to_local(seeds, grid), {}, nullptr, {}, {}, 1.0};
+    Prepared p(Visibility(barriers.translated(Vec2{grid.xmin, grid.ymax})));
+    p.local = to_local(seeds, grid);
+    for (const Site& s : seeds.sites()) p.end_b.push_back(Vec2{s.b.x - grid.xmin, s.b.y - grid.ymax});
     check_seeds(p, seeds);
     return p;
   }
-  // Geodesic: points as seeds (a coast line's nearest point along its geodesic edges is the
-  // geodesic engine's, not yet this one's).
-  if (!seeds.polygons().empty() ||
-      std::any_of(seeds.sites().begin(), seeds.sites().end(), [](const Site& s) { return s.kind != SiteKind::point; }))
-    throw Error(ErrorKind::unsupported,
-                "the distance by sea on the ellipsoid takes points as seeds for now (ports, farms); lines and "
-                "polygons as seeds need a projected grid and the planar metric");
   // The frame centred in the grid, the barriers and the seeds.
   const std::shared_ptr<const GeodesicFrame> frame =
       frame_for(metric, barriers, seeds, LonLatBox{grid.xmin, grid.ymin(), grid.xmax(), grid.ymax});
-  Prepared p{Visibility(barriers.mapped([&](Vec2 v) { return frame->forward(v); }), true, frame),
-             {},
-             {},
-             nullptr,
-             {},
-             {},
-             1.0};
+  Prepared p(Visibility(barriers.mapped([&](Vec2 v) { return frame->forward(v); }), true, frame));
   p.geodesic = std::make_shared<const GeodesicMeasure>(metric);
   p.max_scale = frame->max_scale();
+  p.geo_sites = std::make_shared<const detail::GeoSites>(metric, seeds);
   for (const Site& s : seeds.sites()) {
-    const Vec2 at = frame->forward(s.a);
-    p.local.push_back(LocalSite{at.x, at.y, 0.0, 0.0, 0.0});
+    const Vec2 a = frame->forward(s.a);
+    LocalSite l{a.x, a.y, 0.0, 0.0, 0.0};
+    if (s.kind == SiteKind::segment) {
+      const Vec2 b = frame->forward(s.b);
+      l.dx = b.x - a.x;
+      l.dy = b.y - a.y;
+      const double len2 = l.dx * l.dx + l.dy * l.dy;
+      l.inv_len2 = len2 > 0.0 ? 1.0 / len2 : 0.0;
+    }
+    p.local.push_back(l);
     p.site_ll.push_back(s.a);
+    p.end_b.push_back(s.kind == SiteKind::segment ? frame->forward(s.b) : a);
   }
   // Each vertex's own longitude and latitude (the barriers' as given, by their plane position).
   std::map<std::pair<double, double>, Vec2> given;
@@ -67,13 +66,33 @@ Prepared prepare(const SeedSet& seeds, const Barriers& barriers, const GridSpec&
   return p;
 }
 
+double Prepared::segment_distance(const Spot& x, int32_t site, Place* foot) const {
+  detail::GeoEnd end;
+  const double d = geo_sites->distance(geo_sites->cell(x.ll.x, x.ll.y), site, foot ? &end : nullptr);
+  if (!foot) return d;
+  const LocalSite& l = local[static_cast<size_t>(site)];
+  const Vec2 a = site_ll[static_cast<size_t>(site)];
+  if (end.valid) {  // at an end: its image, as the barriers' vertices are made
+    *foot = end.lon == a.x && end.lat == a.y ? Place{Vec2{l.ax, l.ay}} : Place{end_b[static_cast<size_t>(site)]};
+  } else if (std::isnan(end.foot)) {  // x on the segment (distance 0): x itself
+    *foot = Place{x.at};
+    foot->exact = false;
+  } else {
+    double lat, lon;
+    geo_sites->position(site, end.foot, lat, lon);
+    *foot = Place{vis.frame()->forward(Vec2{lon, lat})};
+    foot->exact = false;
+  }
+  return d;
+}
+
 void check_seeds(Prepared& p, const SeedSet& seeds) {
   for (int32_t i = 0; i < static_cast<int32_t>(seeds.sites().size()); ++i) {
     const Site& s = seeds.sites()[static_cast<size_t>(i)];
     if (s.kind == SiteKind::area) continue;
     p.geometric.push_back(i);
     const LocalSite& l = p.local[static_cast<size_t>(i)];
-    for (Vec2 end : {Vec2{l.ax, l.ay}, Vec2{l.bx(), l.by()}})
+    for (Vec2 end : {Vec2{l.ax, l.ay}, p.end_b[static_cast<size_t>(i)]})
       if (p.vis.on_land(end))
         throw Error(ErrorKind::invalid_input, "the seed " + seeds.feature_name(s.feature) +
                                                   " has a vertex inside a barrier: a seed may lie on a barrier's "

@@ -9,6 +9,7 @@
 #include <limits>
 #include <memory>
 #include <tuple>
+#include <utility>
 #include <vector>
 
 #include "rv/field/metric.hpp"
@@ -17,6 +18,10 @@
 #include "rv/geodesic/geodesic.hpp"
 #include "rv/sea/sea_field.hpp"
 #include "rv/sea/visibility.hpp"
+
+namespace rv::detail {
+class GeoSites;  // field/geodesic_sites.hpp
+}
 
 namespace rv::sea {
 
@@ -33,6 +38,19 @@ struct Best {
 
 inline double length(Vec2 a, Vec2 b) { return std::sqrt((a.x - b.x) * (a.x - b.x) + (a.y - b.y) * (a.y - b.y)); }
 
+// The nearest point of a site from x (the local frame), as planar_key measures it, marked
+// computed (not exact) where it is the foot of a perpendicular. `b`: the site's second end as
+// the barriers' vertices are made (s.bx(), s.by() may differ from it in the last place).
+inline Place nearest_point(const LocalSite& s, Vec2 b, Vec2 x) {
+  double t = ((x.x - s.ax) * s.dx + (x.y - s.ay) * s.dy) * s.inv_len2;
+  t = std::clamp(t, 0.0, 1.0);
+  if (t == 0.0) return Place{Vec2{s.ax, s.ay}};
+  if (t == 1.0) return Place{b};
+  Place p{Vec2{s.ax + t * s.dx, s.ay + t * s.dy}};
+  p.exact = false;
+  return p;
+}
+
 // A point as the engines hold it: where it is in the plane, and (geodesic) its longitude and
 // latitude, which its distances are measured from.
 struct Spot {
@@ -41,6 +59,7 @@ struct Spot {
 };
 
 struct Prepared {
+  explicit Prepared(Visibility visibility) : vis(std::move(visibility)) {}
   Visibility vis;
   std::vector<LocalSite> local;    // the sites in the plane
   std::vector<int32_t> geometric;  // point and segment sites
@@ -48,15 +67,44 @@ struct Prepared {
   // vertices' and the point sites' positions there, and the frame's largest scale (a plane
   // distance d is at least d / max_scale metres: the search trees' lower bounds).
   std::shared_ptr<const GeodesicMeasure> geodesic;
-  std::vector<Vec2> vertex_ll, site_ll;
+  std::vector<Vec2> vertex_ll, site_ll;  // site_ll: a site's first end (a point's position)
+  // Each site's second end in the plane, made as the barriers' vertices are (so that a seed's
+  // end on a barrier vertex is that vertex, bit for bit); a point's position for a point.
+  std::vector<Vec2> end_b;
   double max_scale = 1.0;
+  // Geodesic: the sites as the straight geodesic engine measures them (a segment site: the
+  // distance to its geodesic segment, and the nearest point of it).
+  std::shared_ptr<const detail::GeoSites> geo_sites;
 
-  // A site's key from x (its squared distance: planar_key, or the geodesic distance squared).
-  double site_key(const Spot& x, int32_t site) const {
-    if (!geodesic) return planar_key(x.at.x, x.at.y, local[static_cast<size_t>(site)]);
+  // A site's key from x (its squared distance: planar_key, or the geodesic distance squared),
+  // and (`nearest` not null) the site's nearest point from x as the end of a straight path to
+  // it: a site's end is its exact image (a barrier vertex it lies on is that vertex, bit for
+  // bit); a point inside a segment is computed (Place::exact false: planar the foot of the
+  // perpendicular, geodesic the foot on the geodesic segment, GeoSites' to well under a
+  // micrometre, then projected).
+  double site_key(const Spot& x, int32_t site, Place* nearest = nullptr) const {
+    const LocalSite& l = local[static_cast<size_t>(site)];
+    if (!geodesic) {
+      if (nearest) *nearest = nearest_point(l, end_b[static_cast<size_t>(site)], x.at);
+      return planar_key(x.at.x, x.at.y, l);
+    }
+    if (segment(site)) {
+      const double d = segment_distance(x, site, nearest);
+      return d * d;
+    }
+    if (nearest) *nearest = Place{Vec2{l.ax, l.ay}};
     const double d = geodesic->point_distance(x.ll, site_ll[static_cast<size_t>(site)]);
     return d * d;
   }
+  Place site_place(int32_t site, const Spot& x) const {
+    Place nearest{x.at};
+    site_key(x, site, &nearest);
+    return nearest;
+  }
+  // Whether a site is a segment (in the plane: its ends' images differ).
+  bool segment(int32_t site) const { return local[static_cast<size_t>(site)].inv_len2 != 0.0; }
+  // Geodesic, a segment site: the distance in metres, and (`foot` not null) its nearest point.
+  double segment_distance(const Spot& x, int32_t site, Place* foot) const;
   // The length of the straight path from vertex v to x.
   double vertex_length(int32_t v, const Spot& x) const {
     if (!geodesic) return length(vis.vertex(v), x.at);
@@ -78,7 +126,7 @@ struct Prepared {
 // Checks the seeds (sites, no weights, reaches or partial effect, no vertex on land: rv::Error
 // naming the feature) and moves seeds and barriers into the plane: the grid's local frame
 // (planar), or a geodesic frame over the grid, the barriers and the seeds (geodesic: a
-// longitude/latitude grid and point seeds; rv::Error(unsupported) for lines and polygons).
+// longitude/latitude grid; a line's or polygon's edges geodesics, as the barriers' are).
 Prepared prepare(const SeedSet& seeds, const Barriers& barriers, const GridSpec& grid, const MetricSpec& metric);
 
 // Where a shortest path may bend: a barrier vertex in a sea wedge wider than a half-turn. A taut
@@ -96,18 +144,6 @@ std::vector<Node> bend_nodes(const Visibility& vis);
 // straighter than it exists nearby. A path that starts at the node (from == the node: a seed
 // touches it) may leave in any direction. Necessary for a shortest path's bend; exact.
 bool taut(const Visibility& vis, const Node& node, Vec2 from, Vec2 x);
-
-// The nearest point of a site from x (the local frame), as planar_key measures it, marked
-// computed (not exact) where it is the foot of a perpendicular.
-inline Place nearest_point(const LocalSite& s, Vec2 x) {
-  double t = ((x.x - s.ax) * s.dx + (x.y - s.ay) * s.dy) * s.inv_len2;
-  t = std::clamp(t, 0.0, 1.0);
-  if (t == 0.0) return Place{Vec2{s.ax, s.ay}};
-  if (t == 1.0) return Place{Vec2{s.bx(), s.by()}};
-  Place p{Vec2{s.ax + t * s.dx, s.ay + t * s.dy}};
-  p.exact = false;
-  return p;
-}
 
 // An empty field of the window (no owner anywhere) with the barriers' vertex count, and the
 // straight key a maximum distance allows (+infinity for none).

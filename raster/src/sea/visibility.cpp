@@ -43,9 +43,11 @@ bool position_less(Vec2 a, Vec2 b) { return a.x < b.x || (a.x == b.x && a.y < b.
 
 // How far a computed end may lie off the boundary it belongs on: a few units in the last place of
 // the coordinates involved.
-double end_slack(Vec2 p, Vec2 q) {
+// Geodesic: a computed end lies on a geodesic edge to GeoSites' precision (well under a
+// micrometre), whose image lies within the frame's deviation of the edge's chord.
+double end_slack(const GeodesicFrame* frame, Vec2 p, Vec2 q) {
   const double m = std::max({std::abs(q.x), std::abs(q.y), std::abs(p.x - q.x), std::abs(p.y - q.y)});
-  return 64.0 * DBL_EPSILON * m;
+  return 64.0 * DBL_EPSILON * m + (frame ? frame->deviation() + 1e-6 : 0.0);
 }
 double line_distance(Vec2 a, Vec2 b, Vec2 q) {
   const double dx = b.x - a.x, dy = b.y - a.y;
@@ -329,7 +331,8 @@ bool Visibility::crossing(const Edge& e, Vec2 p, Vec2 q, double slack) const {
 
 bool Visibility::crosses(int32_t edge, const Place& from, const Place& to) const {
   if (from.at == to.at) return false;
-  return crossing(edges_[static_cast<size_t>(edge)], from.at, to.at, to.exact ? 0.0 : end_slack(from.at, to.at));
+  return crossing(edges_[static_cast<size_t>(edge)], from.at, to.at,
+                  to.exact ? 0.0 : end_slack(frame_.get(), from.at, to.at));
 }
 
 bool Visibility::sees(const Place& from, const Place& to, int32_t* blocker) const {
@@ -350,7 +353,7 @@ bool Visibility::sees(const Place& from, const Place& to, int32_t* blocker) cons
     if (from.wedge >= 0) return ps.sea[static_cast<size_t>(from.wedge)] != 0;
     return std::any_of(ps.sea.begin(), ps.sea.end(), [](uint8_t x) { return x != 0; });
   }
-  const double slack = to.exact ? 0.0 : end_slack(p, q);
+  const double slack = to.exact ? 0.0 : end_slack(frame_.get(), p, q);
   // The ends' wedges first (a few exact tests): a path that cannot leave its start's wedge, or
   // reach its end's, is blocked before any walk along it.
   {

@@ -21,7 +21,9 @@
 // Geodesic metric (SeaOptions::metric): the same statement on the ellipsoid, every straight path
 // and barrier edge the geodesic between its ends (visibility decided in a GeodesicFrame,
 // rv/sea/geodesic_frame.hpp), every length GeographicLib's; grid, barriers and seeds in
-// longitude/latitude degrees, the seeds points (lines and polygons: rv::Error(unsupported)).
+// longitude/latitude degrees. A line's or polygon's edges are geodesics: a path ends at the
+// edge's point nearest to it (the straight geodesic engine's measure), which, computed, counts
+// as on a barrier edge within the frame's deviation() of it.
 //
 // Scope: without weights, reaches or partial effect (those change what a path may reach:
 // rv::Error(unsupported)). Seeds with a vertex strictly on land are refused
@@ -71,7 +73,7 @@ class PreparedSea;  // see prepare_sea() below
 struct SeaOptions {
   // Planar: the grid's CRS units. Geodesic: metres on the metric's ellipsoid, paths and barrier
   // edges geodesics (rv/sea/geodesic_frame.hpp); the grid, the barriers and the seeds in
-  // longitude/latitude degrees, the seeds points (lines and polygons: rv::Error(unsupported)).
+  // longitude/latitude degrees.
   MetricSpec metric;
   double max_distance = std::numeric_limits<double>::infinity();  // metric units
   int threads = 0;                                                // 0: every hardware thread

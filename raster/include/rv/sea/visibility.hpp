@@ -19,7 +19,8 @@
 // every edge and path is the geodesic between its ends: the same rule with the frame's
 // orientation predicate (rv/sea/geodesic_frame.hpp), which is the geodesic one. Also exact, to
 // GeographicLib's precision; a path through a barrier vertex that only GeographicLib's rounding
-// puts on the path is taken to pass on one side of it.
+// puts on the path is taken to pass on one side of it. A computed far end (`Place::exact` false,
+// below) is taken as on a barrier edge within the frame's deviation() (plus a micrometre) of it.
 //
 // Planar reading: edges are straight segments in the barriers' frame. Every decision (crossings,
 // touches, wedges, land) is made with exact orientation predicates, so visibility is symmetric
