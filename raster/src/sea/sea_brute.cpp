@@ -116,15 +116,26 @@ Best cell_value(const Prepared& p, const VertexDistances& vd, const Place& at, c
 
 SeaField brute_force_sea(const SeedSet& seeds, const Barriers& barriers, const GridSpec& grid, const Window& window,
                          double max_distance, int threads, const MetricSpec& metric) {
-  const Prepared p = sea::prepare(seeds, barriers, grid, metric);
+  SeaOptions options;
+  options.max_distance = max_distance;
+  options.threads = threads;
+  options.metric = metric;
+  return brute_force_sea(seeds, barriers, grid, window, options);
+}
+
+SeaField brute_force_sea(const SeedSet& seeds, const Barriers& barriers, const GridSpec& grid, const Window& window,
+                         const SeaOptions& options) {
+  const double max_distance = options.max_distance;
+  const MetricSpec& metric = options.metric;
+  const Prepared p = sea::prepare(seeds, barriers, grid, metric, options.geolocator);
   std::atomic<int64_t> tests{0};
   const VertexDistances vd = vertex_distances(p, tests);
 
   SeaField out = sea::empty_field(p, grid, window, metric);
-  const InteriorSpans interiors = build_interiors(seeds, grid, window);
+  const InteriorSpans interiors = interiors_of(seeds, options.grid_polygons.get(), grid, window);
   out.field.contested_cells = interiors.contested_cells;
   const double max_key = sea::max_key_of(max_distance);
-  const int workers = resolve_threads(threads);
+  const int workers = resolve_threads(options.threads);
   std::vector<int64_t> land(static_cast<size_t>(workers), 0), unreachable(static_cast<size_t>(workers), 0);
   std::vector<double> detour(static_cast<size_t>(workers), 1.0);
   detail::parallel_for(workers, window.height, [&](int64_t r, int worker) {

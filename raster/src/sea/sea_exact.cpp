@@ -247,6 +247,17 @@ std::vector<Spot> row_spots(const Prepared& p, const GridSpec& grid, const Windo
       spots[static_cast<size_t>(c)] = p.cell(grid, window.col0 + c, window.row0 + r);
     return spots;
   }
+  if (p.geolocator) {  // a projected grid's row, located as one batch
+    std::vector<double> x(static_cast<size_t>(window.width)), y(x.size(), grid.centre_y(window.row0 + r));
+    std::vector<double> lon(x.size()), lat(x.size());
+    for (int64_t c = 0; c < window.width; ++c) x[static_cast<size_t>(c)] = grid.centre_x(window.col0 + c);
+    p.geolocator->to_lonlat(x.data(), y.data(), lon.data(), lat.data(), x.size());
+    for (size_t c = 0; c < x.size(); ++c) {
+      const Vec2 ll{lon[c], lat[c]};
+      spots[c] = Spot{p.vis.frame()->forward(ll), ll};
+    }
+    return spots;
+  }
   std::vector<Vec2> plane(static_cast<size_t>(window.width));
   const double lat = grid.centre_y(window.row0 + r);
   p.vis.frame()->forward_row(lat, grid.centre_x(window.col0), grid.res, window.width, plane.data());
@@ -260,6 +271,8 @@ ComputeOptions straight_options(const SeaOptions& options) {
   ComputeOptions o;
   o.method = Method::exact;
   o.metric = options.metric;
+  o.geolocator = options.geolocator;
+  o.grid_polygons = options.grid_polygons;
   o.threads = options.threads;
   o.max_distance = options.max_distance;
   o.cancel = options.cancel;
@@ -271,7 +284,7 @@ ComputeOptions straight_options(const SeaOptions& options) {
 class PreparedSea {
  public:
   PreparedSea(const SeedSet& seeds, const Barriers& barriers, const GridSpec& grid, const SeaOptions& options)
-      : prepared(sea::prepare(seeds, barriers, grid, options.metric)), search(prepared) {
+      : prepared(sea::prepare(seeds, barriers, grid, options.metric, options.geolocator)), search(prepared) {
     const auto start = std::chrono::steady_clock::now();
     settle_bends(search, bend_tests, options.cancel);
     bends_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
@@ -304,6 +317,12 @@ Vec2 via_position(const PreparedSea& prepared, const GridSpec& grid, int32_t via
   if (via < 0 || via >= prepared.prepared.vis.vertex_count())
     throw Error(ErrorKind::internal, "no such barrier vertex");
   const sea::Prepared& p = prepared.prepared;
+  if (p.geolocator) {
+    const Vec2 ll = p.vertex_ll[static_cast<size_t>(via)];
+    Vec2 at;
+    p.geolocator->to_grid(&ll.x, &ll.y, &at.x, &at.y, 1);
+    return at;
+  }
   if (p.geodesic) return p.vertex_ll[static_cast<size_t>(via)];
   const Vec2 local = p.vis.vertex(via);
   // The inverse of Barriers::translated(Vec2{grid.xmin, grid.ymax}) (sea::prepare).
@@ -323,7 +342,7 @@ SeaField compute_sea(const SeedSet& seeds, const Barriers& barriers, const GridS
   SeaField out = sea::empty_field(p, grid, window, options.metric);
   out.bend_nodes = static_cast<int64_t>(search.nodes.size());
   out.bends_seconds = shared ? 0.0 : prepared->bends_seconds;
-  const InteriorSpans interiors = build_interiors(seeds, grid, window);
+  const InteriorSpans interiors = interiors_of(seeds, options.grid_polygons.get(), grid, window);
   out.field.contested_cells = interiors.contested_cells;
   // The straight field: each cell's nearest site and distance, as every engine of the straight
   // distance answers them (a cell that sees that site takes them as they are).

@@ -12,7 +12,46 @@ namespace rv::sea {
 // Every site's ends sea (a seed may lie on a barrier's boundary, not inside it).
 void check_seeds(Prepared& p, const SeedSet& seeds);
 
-Prepared prepare(const SeedSet& seeds, const Barriers& barriers, const GridSpec& grid, const MetricSpec& metric) {
+namespace {
+
+// The longitudes and latitudes a grid covers: its extent's own (geographic), or (projected) the
+// box of its outline's located points, a cell's spacing apart and the corners.
+LonLatBox grid_box(const GridSpec& grid, const Geolocator* geolocator) {
+  if (!geolocator) return LonLatBox{grid.xmin, grid.ymin(), grid.xmax(), grid.ymax};
+  std::vector<double> x, y;
+  auto add = [&](double px, double py) {
+    x.push_back(px);
+    y.push_back(py);
+  };
+  for (int64_t c = 0; c <= grid.width; ++c) {
+    add(grid.xmin + static_cast<double>(c) * grid.res, grid.ymax);
+    add(grid.xmin + static_cast<double>(c) * grid.res, grid.ymin());
+  }
+  for (int64_t r = 0; r <= grid.height; ++r) {
+    add(grid.xmin, grid.ymax - static_cast<double>(r) * grid.res);
+    add(grid.xmax(), grid.ymax - static_cast<double>(r) * grid.res);
+  }
+  std::vector<double> lon(x.size()), lat(x.size());
+  geolocator->to_lonlat(x.data(), y.data(), lon.data(), lat.data(), x.size());
+  LonLatBox box{lon[0], lat[0], lon[0], lat[0]};
+  for (size_t i = 0; i < lon.size(); ++i) {
+    box.xmin = std::min(box.xmin, lon[i]);
+    box.xmax = std::max(box.xmax, lon[i]);
+    box.ymin = std::min(box.ymin, lat[i]);
+    box.ymax = std::max(box.ymax, lat[i]);
+  }
+  return box;
+}
+
+}  // namespace
+
+InteriorSpans interiors_of(const SeedSet& seeds, const std::vector<Polygon>* grid_polygons, const GridSpec& grid,
+                           const Window& window) {
+  return grid_polygons ? build_interiors(seeds, *grid_polygons, grid, window) : build_interiors(seeds, grid, window);
+}
+
+Prepared prepare(const SeedSet& seeds, const Barriers& barriers, const GridSpec& grid, const MetricSpec& metric,
+                 std::shared_ptr<const Geolocator> geolocator) {
   if (seeds.geometric_site_count() == 0) throw Error(ErrorKind::invalid_input, "the seeds have no sites");
   if (seeds.adjusted())
     throw Error(ErrorKind::unsupported,
@@ -20,6 +59,9 @@ Prepared prepare(const SeedSet& seeds, const Barriers& barriers, const GridSpec&
   for (const Feature& f : seeds.features())
     if (f.effect != 1.0) throw Error(ErrorKind::unsupported, "the distance by sea does not take partial effect yet");
   if (metric.kind != MetricSpec::geodesic) {
+    if (geolocator)
+      throw Error(ErrorKind::invalid_argument,
+                  "a geolocator is only meaningful with the geodesic metric (planar measures in the grid's CRS)");
     Prepared p(Visibility(barriers.translated(Vec2{grid.xmin, grid.ymax})));
     p.local = to_local(seeds, grid);
     for (const Site& s : seeds.sites()) p.end_b.push_back(Vec2{s.b.x - grid.xmin, s.b.y - grid.ymax});
@@ -28,11 +70,12 @@ Prepared prepare(const SeedSet& seeds, const Barriers& barriers, const GridSpec&
   }
   // The frame centred in the grid, the barriers and the seeds.
   const std::shared_ptr<const GeodesicFrame> frame =
-      frame_for(metric, barriers, seeds, LonLatBox{grid.xmin, grid.ymin(), grid.xmax(), grid.ymax});
+      frame_for(metric, barriers, seeds, grid_box(grid, geolocator.get()));
   Prepared p(Visibility(barriers.mapped([&](Vec2 v) { return frame->forward(v); }), true, frame));
   p.geodesic = std::make_shared<const GeodesicMeasure>(metric);
   p.max_scale = frame->max_scale();
   p.geo_sites = std::make_shared<const detail::GeoSites>(metric, seeds);
+  p.geolocator = std::move(geolocator);
   for (const Site& s : seeds.sites()) {
     const Vec2 a = frame->forward(s.a);
     LocalSite l{a.x, a.y, 0.0, 0.0, 0.0};

@@ -12,6 +12,8 @@
 #include <utility>
 #include <vector>
 
+#include "rv/field/geolocate.hpp"
+#include "rv/field/interior.hpp"
 #include "rv/field/metric.hpp"
 #include "rv/field/planar.hpp"
 #include "rv/field/seeds.hpp"
@@ -113,10 +115,17 @@ struct Prepared {
   Spot vertex_spot(int32_t v) const {
     return Spot{vis.vertex(v), geodesic ? vertex_ll[static_cast<size_t>(v)] : Vec2{}};
   }
+  // Geodesic on a projected grid: what locates its cell centres on the ellipsoid (else null).
+  std::shared_ptr<const Geolocator> geolocator;
+
   // A cell's centre.
   Spot cell(const GridSpec& grid, int64_t col, int64_t row) const {
     if (!geodesic) return Spot{Vec2{grid.local_x(col), grid.local_y(row)}, Vec2{}};
-    const Vec2 ll{grid.centre_x(col), grid.centre_y(row)};
+    Vec2 ll{grid.centre_x(col), grid.centre_y(row)};
+    if (geolocator) {
+      const double x = ll.x, y = ll.y;
+      geolocator->to_lonlat(&x, &y, &ll.x, &ll.y, 1);
+    }
     return Spot{vis.frame()->forward(ll), ll};
   }
   // Lower bounds in the measure's units from plane distances: d * lower_scale().
@@ -125,9 +134,16 @@ struct Prepared {
 
 // Checks the seeds (sites, no weights, reaches or partial effect, no vertex on land: rv::Error
 // naming the feature) and moves seeds and barriers into the plane: the grid's local frame
-// (planar), or a geodesic frame over the grid, the barriers and the seeds (geodesic: a
-// longitude/latitude grid; a line's or polygon's edges geodesics, as the barriers' are).
-Prepared prepare(const SeedSet& seeds, const Barriers& barriers, const GridSpec& grid, const MetricSpec& metric);
+// (planar), or a geodesic frame over the grid, the barriers and the seeds (geodesic: seeds and
+// barriers in longitude/latitude, a line's or polygon's edges geodesics as the barriers' are;
+// the grid in longitude/latitude too, or projected with a geolocator for its cell centres).
+Prepared prepare(const SeedSet& seeds, const Barriers& barriers, const GridSpec& grid, const MetricSpec& metric,
+                 std::shared_ptr<const Geolocator> geolocator = nullptr);
+
+// The polygon seeds' interiors over a window: in the grid's plane on `grid_polygons` when given
+// (a projected geodesic grid, as the straight engines test them), else on the seeds' own.
+InteriorSpans interiors_of(const SeedSet& seeds, const std::vector<Polygon>* grid_polygons, const GridSpec& grid,
+                           const Window& window);
 
 // Where a shortest path may bend: a barrier vertex in a sea wedge wider than a half-turn. A taut
 // path turns round land, so it bends only where the sea's angle exceeds 180 degrees; elsewhere

@@ -34,10 +34,6 @@ void read_barriers(const JobSpec& spec, const SeedReadOptions& read, PreparedJob
            "the distance by sea needs the exact (or brute-force) method: the scans propagate from cell to cell, "
            "not around the barriers' vertices");
   const bool geodesic = job.metric.kind == MetricSpec::geodesic;
-  if (geodesic && !job.loaded.crs.geographic)
-    refuse(ErrorKind::unsupported,
-           "the distance by sea on the ellipsoid needs a longitude/latitude grid (--crs EPSG:4326); on a projected "
-           "grid give --metric planar");
   if (spec.band) refuse(ErrorKind::invalid_argument, "a split job's band does not compute by sea");
   const SeedSet& seeds = job.loaded.seeds;
   if (seeds.adjusted())
@@ -48,7 +44,9 @@ void read_barriers(const JobSpec& spec, const SeedReadOptions& read, PreparedJob
     refuse(ErrorKind::unsupported, "the distance by sea is not available with partial effect yet");
 
   auto sea = std::make_shared<PreparedJob::Sea>();
-  const SeedReadOptions options = other_layers(read, spec.barriers, job);
+  SeedReadOptions options = other_layers(read, spec.barriers, job);
+  // (Geodesic on a projected grid: in its geographic base, as the seeds; the cells are located.)
+  options.geographic_seeds = geodesic && !job.loaded.crs.geographic;
   sea->loaded = about_barriers([&] { return load_barriers(options); });
   if (sea->loaded.barriers.empty()) refuse(ErrorKind::invalid_input, "the layers hold no polygon or line");
 
@@ -96,6 +94,8 @@ void settle_sea(PreparedJob& job, const JobHooks& hooks) {
   if (!job.sea) return;
   SeaOptions options;
   options.metric = job.metric;
+  options.geolocator = job.compute.geolocator;
+  options.grid_polygons = job.compute.grid_polygons;
   options.threads = job.compute.threads;
   options.cancel = hooks.cancel;
   options.max_distance = job.compute.max_distance;
@@ -108,6 +108,8 @@ namespace {
 SeaOptions sea_options(const PreparedJob& job, const ComputeOptions& compute) {
   SeaOptions options;
   options.metric = job.metric;
+  options.geolocator = job.compute.geolocator;
+  options.grid_polygons = job.compute.grid_polygons;
   options.max_distance = compute.max_distance;
   options.threads = compute.threads;
   options.cancel = compute.cancel;
@@ -125,11 +127,10 @@ void SeaRun::compute(const Window& window, NearestField& field, std::vector<int3
                      const ComputeOptions& compute) {
   const PreparedJob::Sea& sea = *job_.sea;
   SeaField f;
+  SeaOptions options = sea_options(job_, compute);
   if (compute.method == Method::brute_force) {
-    f = brute_force_sea(job_.loaded.seeds, sea.loaded.barriers, job_.grid, window, compute.max_distance,
-                        compute.threads, job_.metric);
+    f = brute_force_sea(job_.loaded.seeds, sea.loaded.barriers, job_.grid, window, options);
   } else {
-    SeaOptions options = sea_options(job_, compute);
     options.prepared = sea.prepared;
     options.straight = straight_;
     f = compute_sea(job_.loaded.seeds, sea.loaded.barriers, job_.grid, window, options);

@@ -209,7 +209,7 @@ const std::vector<OptionSpec> kOptions = {
      "seeds are (repeatable; any format they accept). When the seeds are the coast itself (coasts as both seeds "
      "and land), nothing changes: a path that a seed blocks passes nearer to that seed. They matter when the "
      "seeds are not the barriers: ports or farms as seeds and land as barriers. Geodesic on a longitude/latitude "
-     "grid (paths, barrier and seed edges geodesics), planar on a projected one; the exact method; "
+     "grid or with the geodesic metric (paths, barrier and seed edges geodesics), else planar; the exact method; "
      "not with weights, reaches, partial effect or the line deliverables yet.",
      "",
      {},

@@ -7,10 +7,12 @@
 #include <gtest/gtest.h>
 
 #include <GeographicLib/Geodesic.hpp>
+#include <GeographicLib/UTMUPS.hpp>
 
 #include <cmath>
 #include <cstdio>
 #include <random>
+#include <set>
 #include <vector>
 
 #include "geodesic_oracle.hpp"
@@ -19,6 +21,7 @@
 #include "rv/sea/sea_field.hpp"
 #include "rv/sea/visibility.hpp"
 #include "seed_gen.hpp"
+#include "utm33.hpp"
 
 namespace rv {
 namespace {
@@ -79,6 +82,66 @@ TEST(SeaGeodesic, WallShadowGoesRoundTheNearerEnd) {
   EXPECT_EQ(f.field.metric.kind, MetricSpec::geodesic);
   std::printf("closed form | a 45 km wall on the ellipsoid, one port | %lld cells | worst |d - closed form| %.3g m\n",
               static_cast<long long>(g.width * g.height), worst);
+}
+
+// The same wall and port on a projected grid (UTM 33N cells of 1 km, located on WGS84 by a
+// geolocator): every cell centre located, then the same closed form; the vias' positions come
+// back in the grid's CRS. Exact equals the reference cell for cell.
+TEST(SeaGeodesic, OnAProjectedGridTheCellsAreLocated) {
+  const Vec2 a{14.5, 55.1}, b{14.5, 55.5}, s{14.21, 55.33};
+  Barriers barriers;
+  barriers.add_line(std::vector<Vec2>{a, b}, "wall");
+  SeedSet seeds;
+  seeds.add_point(seeds.add_feature(seeds.owner_code("P")), s);
+  GridSpec g;
+  g.xmin = 440000.0;
+  g.ymax = 6160000.0;
+  g.res = 1000.0;
+  g.width = 60;
+  g.height = 60;
+  SeaOptions options = on_the_ellipsoid();
+  options.geolocator = std::make_shared<const test::Utm33>();
+  const SeaField reference = brute_force_sea(seeds, barriers, g, g.full_window(), options);
+  const SeaField f = compute_sea(seeds, barriers, g, g.full_window(), options);
+  int hidden = 0;
+  double worst = 0.0;
+  for (int64_t r = 0; r < g.height; ++r)
+    for (int64_t c = 0; c < g.width; ++c) {
+      Vec2 x;
+      GeographicLib::UTMUPS::Reverse(33, true, g.centre_x(c), g.centre_y(r), x.y, x.x);
+      const bool behind = crosses(s, x, a, b);
+      const double want = behind ? std::min(metres(s, a) + metres(a, x), metres(s, b) + metres(b, x)) : metres(s, x);
+      ASSERT_NEAR(f.field.distance.at(c, r), want, 1e-6 * want + 1e-3) << c << "," << r;
+      worst = std::max(worst, std::abs(f.field.distance.at(c, r) - want));
+      ASSERT_EQ(f.via.at(c, r) != kNoVia, behind) << c << "," << r;
+      ASSERT_EQ(f.field.site.at(c, r), 0);
+      ASSERT_EQ(reference.field.site.at(c, r), 0);
+      ASSERT_EQ(reference.via.at(c, r), f.via.at(c, r)) << c << "," << r;
+      ASSERT_NEAR(reference.field.distance.at(c, r), f.field.distance.at(c, r), 1e-6 * want);
+      hidden += behind;
+    }
+  EXPECT_GT(hidden, 200);
+  // The vias are the wall's ends, given back in UTM metres.
+  options.prepared = prepare_sea(seeds, barriers, g, options);
+  std::set<int32_t> vias;
+  for (int32_t v : f.via.cells())
+    if (v != kNoVia) vias.insert(v);
+  ASSERT_FALSE(vias.empty());
+  for (int32_t v : vias) {
+    const Vec2 at = via_position(*options.prepared, g, v);
+    int zone;
+    bool north;
+    Vec2 utm_a, utm_b;
+    GeographicLib::UTMUPS::Forward(a.y, a.x, zone, north, utm_a.x, utm_a.y, 33);
+    GeographicLib::UTMUPS::Forward(b.y, b.x, zone, north, utm_b.x, utm_b.y, 33);
+    const double to_end =
+        std::min(std::hypot(at.x - utm_a.x, at.y - utm_a.y), std::hypot(at.x - utm_b.x, at.y - utm_b.y));
+    EXPECT_LT(to_end, 1e-6) << v;
+  }
+  std::printf(
+      "closed form | a 45 km wall on a projected grid (UTM 33N, located cells), one port | %lld cells | "
+      "worst |d - closed form| %.3g m\n",
+      static_cast<long long>(g.width * g.height), worst);
 }
 
 // Random islands (longitude/latitude quadrilaterals, some with a lake), a boom, ports of two

@@ -192,6 +192,59 @@ TEST_F(SeaJob, OnTheEllipsoidTheFilesAreTheGeodesicField) {
   EXPECT_LT(v.at("max_error").get<double>(), 1e-2);
 }
 
+// The geodesic metric on the projected grid (UTM 33N): every cell centre located on WGS84 (the
+// job's geolocator), the seeds and barriers read in longitude/latitude; the files are the core
+// engine's field with that geolocator, the vias' positions are UTM metres, and the oracle by sea
+// agrees.
+TEST_F(SeaJob, OnAProjectedGridTheGeodesicFieldIsLocated) {
+  JobSpec spec = ports_spec("projected");
+  spec.metric = MetricRequest::geodesic;
+  const nlohmann::json report = run_job(spec).report;
+  EXPECT_EQ(report.at("metric"), "geodesic");
+  const PreparedJob job = prepare_job(spec);
+  ASSERT_TRUE(job.compute.geolocator);
+  SeaOptions options;
+  options.metric = job.metric;
+  options.geolocator = job.compute.geolocator;
+  options.grid_polygons = job.compute.grid_polygons;
+  const SeaField f = compute_sea(job.loaded.seeds, job.sea->loaded.barriers, job.grid, job.grid.full_window(), options);
+  const Raster<float> dist = read_float32(spec.outputs.distance);
+  const Raster<int32_t> via = read_int32(spec.outputs.via);
+  int64_t bent = 0, land = 0;
+  for (size_t c = 0; c < dist.cells().size(); ++c) {
+    ASSERT_EQ(dist.cells()[c], f.field.distance.cells()[c]) << c;
+    ASSERT_EQ(via.cells()[c], f.via.cells()[c] + 1) << c;
+    bent += via.cells()[c] > 0;
+    land += f.field.site.cells()[c] == kNoSite;
+  }
+  EXPECT_GT(bent, 1000);
+  EXPECT_GT(land, 10000);
+  // Against the planar run of the same grid: within the scale error of UTM (under 0.1 % here).
+  JobSpec planar = ports_spec("projected_planar");
+  run_job(planar);
+  const Raster<float> flat = read_float32(planar.outputs.distance);
+  for (size_t c = 0; c < dist.cells().size(); ++c)
+    if (flat.cells()[c] > 1000.0f) {
+      ASSERT_NEAR(dist.cells()[c] / flat.cells()[c], 1.0, 2e-3) << c;
+    }
+  // The vias' positions in the grid's CRS: UTM metres inside the grid.
+  ASSERT_FALSE(report.at("sea").at("via_vertices").empty());
+  for (const nlohmann::json& v : report.at("sea").at("via_vertices")) {
+    EXPECT_GT(v.at(1).get<double>(), 330000.0);
+    EXPECT_LT(v.at(1).get<double>(), 370000.0);
+    EXPECT_GT(v.at(2).get<double>(), 6150000.0);
+    EXPECT_LT(v.at(2).get<double>(), 6220000.0);
+  }
+  JobSpec checked = ports_spec("projected_checked");
+  checked.metric = MetricRequest::geodesic;
+  checked.grid.resolution = 1000.0;
+  checked.validate = true;
+  const nlohmann::json v = run_job(checked).report.at("validation");
+  EXPECT_EQ(v.at("wrong_owner_cells").get<int64_t>(), 0);
+  EXPECT_EQ(v.at("nodata_mismatch").get<int64_t>(), 0);
+  EXPECT_LT(v.at("max_error").get<double>(), 1e-2);
+}
+
 TEST_F(SeaJob, StreamedEqualsWholeForAnyStripHeightAndThreads) {
   JobSpec whole = ports_spec("whole");
   whole.strip_rows = -1;
@@ -386,9 +439,6 @@ TEST_F(SeaJob, WhatTheDistanceBySeaDoesNotDoIsRefusedInOneLine) {
   JobSpec scan = ports_spec("scan");
   scan.method = Method::hv_scan;
   expect(scan, ErrorKind::invalid_argument, "barriers: the distance by sea needs the exact");
-  JobSpec geodesic = ports_spec("geodesic");  // on the projected grid
-  geodesic.metric = MetricRequest::geodesic;
-  expect(geodesic, ErrorKind::unsupported, "needs a longitude/latitude grid");
   JobSpec lines = ports_spec("lines");
   lines.outputs.boundaries = (dir_ / "lines" / "b.geojson").string();
   expect(lines, ErrorKind::unsupported, "not drawn under the distance by sea yet");

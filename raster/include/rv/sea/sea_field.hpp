@@ -75,6 +75,12 @@ struct SeaOptions {
   // edges geodesics (rv/sea/geodesic_frame.hpp); the grid, the barriers and the seeds in
   // longitude/latitude degrees.
   MetricSpec metric;
+  // Geodesic on a projected grid (as ComputeOptions' fields, rv/engine/engine.hpp): what locates
+  // the grid's cell centres on the ellipsoid (the seeds and barriers are then in longitude/
+  // latitude, the barriers' edges and paths geodesics as on a geographic grid), and the seed
+  // polygons in the grid's CRS for their interiors (needed when the seeds have polygons).
+  std::shared_ptr<const Geolocator> geolocator;
+  std::shared_ptr<const std::vector<Polygon>> grid_polygons;
   double max_distance = std::numeric_limits<double>::infinity();  // metric units
   int threads = 0;                                                // 0: every hardware thread
   const std::atomic<bool>* cancel = nullptr;
@@ -112,7 +118,8 @@ struct SeaPreparation {
 SeaPreparation preparation_of(const PreparedSea& prepared);
 
 // The position of vertex `via` (SeaField::via, 0 <= via < barrier_vertices) in the grid's CRS
-// (`grid`: the one prepared for). Throws rv::Error(internal) for any other index.
+// (`grid`: the one prepared for; a projected geodesic grid's through its geolocator's to_grid).
+// Throws rv::Error(internal) for any other index.
 Vec2 via_position(const PreparedSea& prepared, const GridSpec& grid, int32_t via);
 
 // The exact engine: the same field as brute_force_sea (owners and vias cell for cell; distances
@@ -131,5 +138,9 @@ SeaField compute_sea(const SeedSet& seeds, const Barriers& barriers, const GridS
 SeaField brute_force_sea(const SeedSet& seeds, const Barriers& barriers, const GridSpec& grid, const Window& window,
                          double max_distance = std::numeric_limits<double>::infinity(), int threads = 0,
                          const MetricSpec& metric = {});
+// The same with the options compute_sea takes (metric, geolocator and grid polygons, maximum
+// distance, threads; not prepared, straight, cancel or progress).
+SeaField brute_force_sea(const SeedSet& seeds, const Barriers& barriers, const GridSpec& grid, const Window& window,
+                         const SeaOptions& options);
 
 }  // namespace rv
