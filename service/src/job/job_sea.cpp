@@ -90,19 +90,6 @@ void check_sea_plan(const JobSpec& spec, const PreparedJob& job) {
   if (!spec.bands.empty()) refuse(ErrorKind::invalid_argument, "a split job's assembly does not compute by sea");
 }
 
-void settle_sea(PreparedJob& job, const JobHooks& hooks) {
-  if (!job.sea) return;
-  SeaOptions options;
-  options.metric = job.metric;
-  options.geolocator = job.compute.geolocator;
-  options.grid_polygons = job.compute.grid_polygons;
-  options.threads = job.compute.threads;
-  options.cancel = hooks.cancel;
-  options.max_distance = job.compute.max_distance;
-  job.sea->prepared =
-      about_barriers([&] { return prepare_sea(job.loaded.seeds, job.sea->loaded.barriers, job.grid, options); });
-}
-
 namespace {
 
 SeaOptions sea_options(const PreparedJob& job, const ComputeOptions& compute) {
@@ -118,6 +105,15 @@ SeaOptions sea_options(const PreparedJob& job, const ComputeOptions& compute) {
 }
 
 }  // namespace
+
+void settle_sea(PreparedJob& job, const JobHooks& hooks) {
+  if (!job.sea) return;
+  SeaOptions options = sea_options(job, job.compute);
+  options.cancel = hooks.cancel;
+  options.progress = nullptr;
+  job.sea->prepared =
+      about_barriers([&] { return prepare_sea(job.loaded.seeds, job.sea->loaded.barriers, job.grid, options); });
+}
 
 SeaRun::SeaRun(const PreparedJob& job) : job_(job) {
   straight_ = prepare_straight(job.loaded.seeds, job.grid, sea_options(job, job.compute));
