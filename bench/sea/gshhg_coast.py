@@ -17,7 +17,7 @@ script joins them into polygons:
 The result (EPSG:4326, one polygon per feature, field `iso2` = "XX": the bench ignores owners of
 barriers) goes to the output file. Real vertices only: nothing is densified.
 
-  bench/gshhg_coast.py --res f --out /tmp/baltic_gshhg_f.gpkg [--no-install]
+  bench/sea/gshhg_coast.py --res f --out /tmp/baltic_gshhg_f.gpkg [--no-install]
 """
 import argparse
 import os
