@@ -3,7 +3,8 @@
 // vertex, owned by its state), in UTM 33N with the planar metric. Times the straight exact field
 // of the same ports and grid against the exact engine of the distance by sea, alternating, and
 // prints medians, the engine's counts (bend nodes, visibility tests, land, unreachable cells,
-// largest detour) and the share of cells whose path bends.
+// largest detour), the share of cells whose path bends, and a digest of the field by sea (to
+// check that an optimisation changes no cell).
 //
 //   sea_bench [--data fixtures/baltic_west.gpkg | --wiggly N] [--ports 200] [--res 1000] [--runs 3] [--threads 0]
 //             [--geodesic 1] [--ports-out FILE.geojson]
@@ -18,6 +19,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
@@ -194,5 +196,22 @@ int main(int argc, char** argv) {
       static_cast<double>(last.visibility_tests) / std::max<int64_t>(1, sea_cells),
       static_cast<long long>(last.land_cells), static_cast<long long>(last.unreachable_cells),
       100.0 * static_cast<double>(bent) / std::max<int64_t>(1, sea_cells), last.max_detour);
+  // The field's fingerprint (owners, distances' bits, vias): an optimisation of the engine must
+  // leave it unchanged.
+  uint64_t h = 1469598103934665603ull;
+  auto mix = [&h](uint32_t v) {
+    for (int k = 0; k < 4; ++k) {
+      h ^= (v >> (8 * k)) & 0xffu;
+      h *= 1099511628211ull;
+    }
+  };
+  for (size_t c = 0; c < last.field.site.cells().size(); ++c) {
+    mix(static_cast<uint32_t>(last.field.site.cells()[c]));
+    uint32_t bits;
+    std::memcpy(&bits, &last.field.distance.cells()[c], sizeof bits);
+    mix(bits);
+    mix(static_cast<uint32_t>(last.via.cells()[c]));
+  }
+  std::printf("field digest %016llx\n", static_cast<unsigned long long>(h));
   return 0;
 }
