@@ -42,9 +42,12 @@ class RootTree {
   // bound is not above limit() (read again before each subtree and item, so the caller may
   // lower it as it finds better). Without a priority queue: the cheaper search when the caller
   // starts from a good limit.
-  // `since`: only items stamped after it (0: all).
+  // `since`, `seen`: an item stamped no later than `since` is skipped when its bound is at most
+  // `seen` (searched before up to that bound); seen +infinity (the default): every such item,
+  // whole subtrees at once.
   template <class L, class F>
-  void within(Vec2 x, L&& limit, F&& visit, uint64_t since = 0) const;
+  void within(Vec2 x, L&& limit, F&& visit, uint64_t since = 0,
+              double seen = std::numeric_limits<double>::infinity()) const;
 
  private:
   static constexpr int kLeaf = 8;
@@ -103,21 +106,24 @@ void RootTree::nearest(Vec2 x, F&& visit) const {
 }
 
 template <class L, class F>
-void RootTree::within(Vec2 x, L&& limit, F&& visit, uint64_t since) const {
+void RootTree::within(Vec2 x, L&& limit, F&& visit, uint64_t since, double seen) const {
   if (nodes_.empty()) return;
+  const bool all_seen = std::isinf(seen) && seen > 0.0;
   int32_t stack[128];
   int top = 0;
   stack[top++] = 0;
   while (top > 0) {
     const Node& n = nodes_[static_cast<size_t>(stack[--top])];
-    if (n.max_stamp <= since || !std::isfinite(n.min_weight) || n.min_weight + box_distance(n.box, x) > limit())
+    if ((all_seen && n.max_stamp <= since) || !std::isfinite(n.min_weight) ||
+        n.min_weight + box_distance(n.box, x) > limit())
       continue;
     if (n.left < 0) {
       for (int32_t i = n.first; i < n.first + n.count; ++i) {
         const int32_t item = order_[static_cast<size_t>(i)];
         const double w = weight_[static_cast<size_t>(item)];
-        if (!std::isfinite(w) || stamp_[static_cast<size_t>(item)] <= since) continue;
+        if (!std::isfinite(w) || (all_seen && stamp_[static_cast<size_t>(item)] <= since)) continue;
         const double bound = w + box_distance(boxes_[static_cast<size_t>(item)], x);
+        if (stamp_[static_cast<size_t>(item)] <= since && bound <= seen) continue;
         if (bound <= limit()) visit(item, bound);
       }
       continue;

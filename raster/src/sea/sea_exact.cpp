@@ -95,11 +95,16 @@ struct Searches {
   // `first` (an item of `all`, or -1): tried before the search (a neighbour's root), so that the
   // search starts from a good limit.
   //
-  // `since` (a stamp of `all`): only roots settled after it are searched; `best` is then the
-  // answer over those before (a node evaluated again).
+  // `since`, `searched` (a stamp of `all` and a bound): the roots settled by then whose bound is
+  // at most `searched` were searched before (a node evaluated again) and are skipped; `best` is then
+  // the answer over them.
+  //
+  // `cap`: only roots whose bound is at most cap are searched (the answer is exact when below
+  // it; else it is some path, or none).
   Best best_path(const Place& at, const Spot& spot, Best best, int64_t& tests, int32_t skip_vertex = -1,
                  std::vector<int32_t>* blockers = nullptr, int32_t first = -1, int32_t* winner = nullptr,
-                 uint64_t since = 0) const {
+                 uint64_t since = 0, double searched = std::numeric_limits<double>::infinity(),
+                 double cap = std::numeric_limits<double>::infinity()) const {
     const Vec2 x = at.at;
     int32_t won = -1;
     auto seen = [&](int32_t item, const Place& to) {
@@ -140,7 +145,8 @@ struct Searches {
     };
     if (first >= 0 && std::isfinite(all.weight(first))) consider(first);
     all.within(
-        x, [&] { return best.d + 1e-12 * best.d; }, [&](int32_t item, double) { consider(item); }, since);
+        x, [&] { return std::min(best.d + 1e-12 * best.d, cap); }, [&](int32_t item, double) { consider(item); }, since,
+        searched);
     if (winner) *winner = won >= 0 ? won : first;
     return best;
   }
@@ -168,6 +174,8 @@ void settle_bends(Searches& b, int64_t& tests, const std::atomic<bool>* cancel) 
   std::vector<int32_t> hint(static_cast<size_t>(b.site_items()) + n, -1);
   std::vector<Best> last_val(n);        // each node's best path when last evaluated
   std::vector<uint64_t> seen_at(n, 0);  // and the stamp of `all` then
+  // and the bound its roots were searched to then (none before the first evaluation)
+  std::vector<double> seen_bound(n, -std::numeric_limits<double>::infinity());
   // Nodes no seed can reach (a lagoon without a port) never settle: their keys only climb. While
   // a reachable node waits, the first node not yet settled on its path is at most the diameter
   // of everything beyond the farthest node settled (or a site it sees), so a least key above that
@@ -204,11 +212,6 @@ void settle_bends(Searches& b, int64_t& tests, const std::atomic<bool>* cancel) 
     const Node& node = b.nodes[u];
     ++b.evaluations;
     const Place at = vis.at_vertex(node.vertex, node.wedge);
-    // Evaluated before: only the roots settled since can do better.
-    const Best val =
-        b.best_path(at, p.vertex_spot(node.vertex), last_val[u], tests, node.vertex, &hint, -1, nullptr, seen_at[u]);
-    last_val[u] = val;
-    seen_at[u] = b.all.stamp();
     // The least a path through a node not yet settled can be: its key plus the way from it.
     double bound = std::numeric_limits<double>::infinity();
     open.nearest(at.at, [&](int32_t item, double lower) {
@@ -216,6 +219,15 @@ void settle_bends(Searches& b, int64_t& tests, const std::atomic<bool>* cancel) 
       bound = lower;
       return false;
     });
+    // Only a path below that bound settles the node, so only the roots that could give one are
+    // searched (a node deep in a shadow would otherwise test every root settled meanwhile, at
+    // every evaluation); those searched before (settled by then, within the bound then) are not
+    // searched again: the best of them is last_val.
+    const Best val = b.best_path(at, p.vertex_spot(node.vertex), last_val[u], tests, node.vertex, &hint, -1, nullptr,
+                                 seen_at[u], seen_bound[u], bound);
+    last_val[u] = val;
+    seen_at[u] = b.all.stamp();
+    seen_bound[u] = bound;
     if (val.d < bound || !std::isfinite(bound)) {
       settled[u] = 1;
       b.dist[u] = val;
