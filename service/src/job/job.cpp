@@ -518,6 +518,7 @@ PreparedJob prepare_job(const JobSpec& spec, const JobLimits& limits, const JobH
   job.loaded.seeds.scale_reaches(1.0 / job.to_output);
   job.limit_distances = detail::limit_distances_in_metric_units(spec, job);
   job.line_tolerance = detail::line_tolerance_in_metric_units(spec, job);
+  detail::nil_effect_by_sea(job);
   job.partial = partial_effect_of(job.loaded.seeds);
   detail::read_relevant(spec, limits, job);
   job.plan = plan_job(spec, job.grid, static_cast<int64_t>(job.loaded.seeds.sites().size()), mp.metric.kind,

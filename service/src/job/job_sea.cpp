@@ -6,6 +6,7 @@
 
 #include "job/job_run.hpp"
 #include "rv/field/error.hpp"
+#include "rv/lines/partial_effect.hpp"
 #include "rv/sea/snap.hpp"
 
 namespace rv::detail {
@@ -40,8 +41,6 @@ void read_barriers(const JobSpec& spec, const SeedReadOptions& read, PreparedJob
     refuse(ErrorKind::unsupported,
            "the distance by sea is not available with weights or reaches yet: they change which seeds a path may "
            "reach");
-  if (spec.seeds.effect_field)
-    refuse(ErrorKind::unsupported, "the distance by sea is not available with partial effect yet");
 
   auto sea = std::make_shared<PreparedJob::Sea>();
   SeedReadOptions options = other_layers(read, spec.barriers, job);
@@ -105,6 +104,54 @@ SeaOptions sea_options(const PreparedJob& job, const ComputeOptions& compute) {
 }
 
 }  // namespace
+
+namespace {
+
+// The features `drop` marks taken out of the loaded seeds: the seed set (SeedSet::without), their
+// input positions, and (projected geodesic) their polygons in the grid's CRS, renumbered as the
+// seed set's.
+void drop_features(LoadedSeeds& loaded, const std::vector<bool>& drop) {
+  std::vector<int32_t> site_of;
+  SeedSet kept = loaded.seeds.without(drop, site_of);
+  std::vector<int32_t> new_feature(drop.size(), -1), new_site(loaded.seeds.sites().size(), -1);
+  int32_t next = 0;
+  std::vector<int64_t> positions;
+  for (size_t f = 0; f < drop.size(); ++f) {
+    if (drop[f]) continue;
+    new_feature[f] = next++;
+    if (f < loaded.input_position.size()) positions.push_back(loaded.input_position[f]);
+  }
+  for (size_t s = 0; s < site_of.size(); ++s) new_site[static_cast<size_t>(site_of[s])] = static_cast<int32_t>(s);
+  if (loaded.grid_polygons) {
+    auto polygons = std::make_shared<std::vector<Polygon>>();
+    for (const Polygon& p : *loaded.grid_polygons) {
+      if (drop[static_cast<size_t>(p.feature)]) continue;
+      Polygon q = p;
+      q.feature = new_feature[static_cast<size_t>(p.feature)];
+      q.area_site = new_site[static_cast<size_t>(p.area_site)];
+      polygons->push_back(std::move(q));
+    }
+    loaded.grid_polygons = std::move(polygons);
+  }
+  loaded.seeds = std::move(kept);
+  if (!loaded.input_position.empty()) loaded.input_position = std::move(positions);
+}
+
+}  // namespace
+
+void nil_effect_by_sea(PreparedJob& job) {
+  if (!job.sea) return;
+  const PartialEffect effect = partial_effect_of(job.loaded.seeds);
+  if (!effect.any()) return;
+  if (effect.effect > 0.0)
+    refuse(ErrorKind::unsupported,
+           "partial effect above 0 lies between two lines (the boundaries with and without the features), which "
+           "the distance by sea does not draw yet; effect 0 is taken (the features are no seeds, and stay land "
+           "where the barriers have them)");
+  drop_features(job.loaded, effect.partial);
+  if (job.loaded.seeds.geometric_site_count() == 0)
+    refuse(ErrorKind::invalid_input, "with the features of effect 0 taken out no seed is left");
+}
 
 void settle_sea(PreparedJob& job, const JobHooks& hooks) {
   if (!job.sea) return;

@@ -31,6 +31,12 @@ void read_barriers(const JobSpec& spec, const SeedReadOptions& read, PreparedJob
 // Refusals that need the planned job (deliverables, an edit). No-op without barriers.
 void check_sea_plan(const JobSpec& spec, const PreparedJob& job);
 
+// Partial effect by sea (no-op without barriers or partial features): features of effect 0 are
+// no seeds (they stay land where the barriers have them) and are taken out of job.loaded, after
+// the grid is planned with them as with any seeds; an effect above 0 is refused in one line
+// (it needs the lines by sea).
+void nil_effect_by_sea(PreparedJob& job);
+
 // Settles the bend nodes for every window of the job (job.sea->prepared). Honours the hooks'
 // cancellation.
 void settle_sea(PreparedJob& job, const JobHooks& hooks);

@@ -288,6 +288,47 @@ TEST_F(SeaJob, APreparedJobMovedBeforeItRunsGivesTheSameFiles) {
   }
 }
 
+// Partial effect by sea: an island of SE's in the strait given effect 0 is no seed but stays
+// land (it is among the barriers): the run equals one without it among the seeds, file for file
+// (the same grid, the same feature numbers); an effect above 0 is refused in one line.
+TEST_F(SeaJob, AnIslandOfNilEffectIsNoSeedButStaysLand) {
+  nlohmann::json ports = read_json(fixture("oresund_ports.geojson"));
+  for (nlohmann::json& f : ports.at("features")) f["properties"]["effect"] = 1.0;
+  const nlohmann::json island = {
+      {"type", "Feature"},
+      {"properties", {{"owner", "SE"}, {"effect", 0.0}}},
+      {"geometry",
+       {{"type", "Polygon"}, {"coordinates", {{{12.66, 55.88}, {12.72, 55.88}, {12.69, 55.93}, {12.66, 55.88}}}}}}};
+  const std::string island_only =
+      write("island.geojson", nlohmann::json{{"type", "FeatureCollection"}, {"features", {island}}}.dump());
+  nlohmann::json with_island = ports;
+  with_island["features"].push_back(island);
+  JobSpec nil = ports_spec("nil");
+  nil.seeds.paths = {write("ports_and_island.geojson", with_island.dump())};
+  nil.seeds.effect_field = "effect";
+  nil.barriers.push_back(island_only);
+  JobSpec without = ports_spec("without");
+  without.barriers.push_back(island_only);
+  const nlohmann::json report = run_job(nil).report;
+  run_job(without);
+  for (auto member :
+       {&OutputRequest::ownership, &OutputRequest::distance, &OutputRequest::nearest_feature, &OutputRequest::via})
+    expect_same_geotiff(without.outputs.*member, nil.outputs.*member);
+  // The island is land: more land than without it among the barriers.
+  JobSpec open_strait = ports_spec("open");
+  const nlohmann::json open_report = run_job(open_strait).report;
+  EXPECT_GT(report.at("sea").at("land_cells").get<int64_t>(), open_report.at("sea").at("land_cells").get<int64_t>());
+
+  JobSpec half = ports_spec("half");
+  with_island["features"].back()["properties"]["effect"] = 0.5;
+  half.seeds.paths = {write("ports_and_half_island.geojson", with_island.dump())};
+  half.seeds.effect_field = "effect";
+  half.barriers.push_back(island_only);
+  const Error e = refused(half);
+  EXPECT_EQ(e.kind(), ErrorKind::unsupported) << e.what();
+  EXPECT_EQ(std::string(e.what()).find("barriers: partial effect above 0"), 0u) << e.what();
+}
+
 TEST_F(SeaJob, ValidationRunsTheOracleBySea) {
   JobSpec s = ports_spec("v");
   s.grid.resolution = 1000.0;
