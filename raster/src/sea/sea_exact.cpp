@@ -107,10 +107,16 @@ struct Searches {
                  double cap = std::numeric_limits<double>::infinity()) const {
     const Vec2 x = at.at;
     int32_t won = -1;
+    // Whether the edge that last hid the root from a neighbour still does (one crossing test).
+    auto hinted = [&](int32_t item, const Place& to) {
+      if (!blockers) return false;
+      const int32_t b = (*blockers)[static_cast<size_t>(item)];
+      return b >= 0 && p.vis.crosses(b, at, to);
+    };
     auto seen = [&](int32_t item, const Place& to) {
       if (blockers) {
         int32_t& b = (*blockers)[static_cast<size_t>(item)];
-        if (b >= 0 && p.vis.crosses(b, at, to)) return false;
+        if (hinted(item, to)) return false;
         ++tests;
         return p.vis.sees(at, to, &b);
       }
@@ -136,9 +142,13 @@ struct Searches {
       // The taut test (a few turns) before the length: on the ellipsoid a length is an inverse
       // problem, and the test rejects most candidates.
       if (!sea::taut(p.vis, n, from[k], x)) return;
+      const Place to = p.vis.at_vertex(n.vertex, n.wedge);
+      // On the ellipsoid the hint too: most candidates a cell's search meets are hidden, and
+      // mostly by the edge that hid them from its neighbour.
+      if (p.geodesic && hinted(item, to)) return;
       const Best c{dist[k].d + p.vertex_length(n.vertex, spot), dist[k].site, n.vertex};
       if (!(c < best)) return;
-      if (seen(item, p.vis.at_vertex(n.vertex, n.wedge))) {
+      if (seen(item, to)) {
         best = c;
         won = item;
       }
