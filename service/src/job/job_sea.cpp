@@ -149,6 +149,8 @@ void nil_effect_by_sea(PreparedJob& job) {
            "the distance by sea does not draw yet; effect 0 is taken (the features are no seeds, and stay land "
            "where the barriers have them)");
   drop_features(job.loaded, effect.partial);
+  // (Projected geodesic: the engine's copy of the grid polygons follows.)
+  if (job.compute.grid_polygons) job.compute.grid_polygons = job.loaded.grid_polygons;
   if (job.loaded.seeds.geometric_site_count() == 0)
     refuse(ErrorKind::invalid_input, "with the features of effect 0 taken out no seed is left");
 }

@@ -294,6 +294,15 @@ TEST_F(SeaJob, APreparedJobMovedBeforeItRunsGivesTheSameFiles) {
 TEST_F(SeaJob, AnIslandOfNilEffectIsNoSeedButStaysLand) {
   nlohmann::json ports = read_json(fixture("oresund_ports.geojson"));
   for (nlohmann::json& f : ports.at("features")) f["properties"]["effect"] = 1.0;
+  // A fish farm at sea (a polygon seed of full effect, no barrier): its interior is owned, so the
+  // polygons' numbering must survive the island's removal.
+  ports["features"].push_back(
+      {{"type", "Feature"},
+       {"properties", {{"owner", "DK"}, {"effect", 1.0}}},
+       {"geometry",
+        {{"type", "Polygon"},
+         {"coordinates", {{{12.74, 55.74}, {12.77, 55.74}, {12.77, 55.755}, {12.74, 55.755}, {12.74, 55.74}}}}}}});
+  const std::string ports_and_farm = write("ports_and_farm.geojson", ports.dump());
   const nlohmann::json island = {
       {"type", "Feature"},
       {"properties", {{"owner", "SE"}, {"effect", 0.0}}},
@@ -303,21 +312,33 @@ TEST_F(SeaJob, AnIslandOfNilEffectIsNoSeedButStaysLand) {
       write("island.geojson", nlohmann::json{{"type", "FeatureCollection"}, {"features", {island}}}.dump());
   nlohmann::json with_island = ports;
   with_island["features"].push_back(island);
-  JobSpec nil = ports_spec("nil");
-  nil.seeds.paths = {write("ports_and_island.geojson", with_island.dump())};
-  nil.seeds.effect_field = "effect";
-  nil.barriers.push_back(island_only);
-  JobSpec without = ports_spec("without");
-  without.barriers.push_back(island_only);
-  const nlohmann::json report = run_job(nil).report;
-  run_job(without);
-  for (auto member :
-       {&OutputRequest::ownership, &OutputRequest::distance, &OutputRequest::nearest_feature, &OutputRequest::via})
-    expect_same_geotiff(without.outputs.*member, nil.outputs.*member);
-  // The island is land: more land than without it among the barriers.
-  JobSpec open_strait = ports_spec("open");
-  const nlohmann::json open_report = run_job(open_strait).report;
-  EXPECT_GT(report.at("sea").at("land_cells").get<int64_t>(), open_report.at("sea").at("land_cells").get<int64_t>());
+  const std::string seeds = write("ports_and_island.geojson", with_island.dump());
+  // Planar in UTM 33N, and geodesic on that projected grid (the island's polygon in the grid's
+  // CRS for its interior goes too).
+  for (const MetricRequest metric : {MetricRequest::planar, MetricRequest::geodesic}) {
+    const std::string name = metric == MetricRequest::planar ? "planar" : "geodesic";
+    SCOPED_TRACE(name);
+    JobSpec nil = ports_spec("nil_" + name);
+    nil.metric = metric;
+    nil.seeds.paths = {seeds};
+    nil.seeds.effect_field = "effect";
+    nil.barriers.push_back(island_only);
+    JobSpec without = ports_spec("without_" + name);
+    without.metric = metric;
+    without.seeds.paths = {ports_and_farm};
+    without.barriers.push_back(island_only);
+    const nlohmann::json report = run_job(nil).report;
+    run_job(without);
+    for (auto member :
+         {&OutputRequest::ownership, &OutputRequest::distance, &OutputRequest::nearest_feature, &OutputRequest::via})
+      expect_same_geotiff(without.outputs.*member, nil.outputs.*member);
+    // The island is land: more land than without it among the barriers.
+    JobSpec open_strait = ports_spec("open_" + name);
+    open_strait.metric = metric;
+    open_strait.seeds.paths = {ports_and_farm};
+    const nlohmann::json open_report = run_job(open_strait).report;
+    EXPECT_GT(report.at("sea").at("land_cells").get<int64_t>(), open_report.at("sea").at("land_cells").get<int64_t>());
+  }
 
   JobSpec half = ports_spec("half");
   with_island["features"].back()["properties"]["effect"] = 0.5;
