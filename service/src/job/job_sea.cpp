@@ -103,10 +103,6 @@ SeaOptions sea_options(const PreparedJob& job, const ComputeOptions& compute) {
   return options;
 }
 
-}  // namespace
-
-namespace {
-
 // The features `drop` marks taken out of the loaded seeds: the seed set (SeedSet::without), their
 // input positions, and (projected geodesic) their polygons in the grid's CRS, renumbered as the
 // seed set's.
