@@ -113,10 +113,11 @@ struct Searches {
       const int32_t b = (*blockers)[static_cast<size_t>(item)];
       return b >= 0 && p.vis.crosses(b, at, to);
     };
-    auto seen = [&](int32_t item, const Place& to) {
+    // (`hint_tested`: the caller has just asked hinted() and it said no.)
+    auto seen = [&](int32_t item, const Place& to, bool hint_tested = false) {
       if (blockers) {
         int32_t& b = (*blockers)[static_cast<size_t>(item)];
-        if (hinted(item, to)) return false;
+        if (!hint_tested && hinted(item, to)) return false;
         ++tests;
         return p.vis.sees(at, to, &b);
       }
@@ -148,7 +149,7 @@ struct Searches {
       if (p.geodesic && hinted(item, to)) return;
       const Best c{dist[k].d + p.vertex_length(n.vertex, spot), dist[k].site, n.vertex};
       if (!(c < best)) return;
-      if (seen(item, to)) {
+      if (seen(item, to, p.geodesic != nullptr)) {
         best = c;
         won = item;
       }

@@ -160,10 +160,6 @@ void settle_sea(PreparedJob& job, const JobHooks& hooks) {
       about_barriers([&] { return prepare_sea(job.loaded.seeds, job.sea->loaded.barriers, job.grid, options); });
 }
 
-SeaRun::SeaRun(const PreparedJob& job) : job_(job) {
-  straight_ = prepare_straight(job.loaded.seeds, job.grid, sea_options(job, job.compute));
-}
-
 void SeaRun::compute(const Window& window, NearestField& field, std::vector<int32_t>* via,
                      const ComputeOptions& compute) {
   const PreparedJob::Sea& sea = *job_.sea;
@@ -173,6 +169,8 @@ void SeaRun::compute(const Window& window, NearestField& field, std::vector<int3
     f = brute_force_sea(job_.loaded.seeds, sea.loaded.barriers, job_.grid, window, options);
   } else {
     options.prepared = sea.prepared;
+    // (Made at the first window, where the job's seeds now lie; the oracle needs none.)
+    if (!straight_) straight_ = prepare_straight(job_.loaded.seeds, job_.grid, options);
     options.straight = straight_;
     f = compute_sea(job_.loaded.seeds, sea.loaded.barriers, job_.grid, window, options);
   }

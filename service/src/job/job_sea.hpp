@@ -44,9 +44,7 @@ void settle_sea(PreparedJob& job, const JobHooks& hooks);
 // One job's fields by sea and what computing them measured, summed over its windows.
 class SeaRun {
  public:
-  // Prepares the straight engine for the job's seeds where they now lie (a PreparedJob may have
-  // been moved since prepare_job).
-  explicit SeaRun(const PreparedJob& job);
+  explicit SeaRun(const PreparedJob& job) : job_(job) {}
 
   // The field over `window` into `field` (distances in metric units, straight-field conventions)
   // and, when `via` is not null, one code per cell into it: the last barrier vertex's number + 1,
@@ -60,6 +58,8 @@ class SeaRun {
 
  private:
   const PreparedJob& job_;
+  // The straight engine's preparation of the job's seeds where they lie when the run starts (a
+  // PreparedJob may have been moved since prepare_job), shared by the run's windows.
   std::shared_ptr<const PreparedSeeds> straight_;
   int64_t land_ = 0, unreachable_ = 0, tests_ = 0;
   double detour_ = 1.0;
