@@ -124,6 +124,8 @@ double SiteMetric::distance_at_vertex(Vec2 p, int32_t site, Vec2& gradient, Vert
 
 bool SiteMetric::ties_at_vertex(Vec2, int32_t, const VertexHit&, double) const { return false; }
 
+bool SiteMetric::open_between(Vec2, Vec2) const { return true; }
+
 double SiteMetric::distance_lower_bound(Vec2 p, int32_t site) const { return lower_bound(embed(p), site_bounds(site)); }
 
 void SiteMetric::distance_lower_bounds(Vec2 p, std::span<const int32_t> sites, std::span<double> out) const {

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <numbers>
 #include <string>
 
 #include "field/geodesic_sites.hpp"
@@ -437,6 +438,27 @@ double GeodesicMeasure::point_distance(Vec2 p, Vec2 q) const {
   double d;
   impl_->geod.Inverse(p.y, p.x, q.y, q.x, d);
   return d;
+}
+
+double GeodesicMeasure::point_distance(Vec2 p, Vec2 q, Vec2& gradient) const {
+  if (!(p.y >= -90.0 && p.y <= 90.0 && q.y >= -90.0 && q.y <= 90.0))
+    throw Error(ErrorKind::invalid_argument, "latitude outside [-90, 90]");
+  double d, azi1, azi2;
+  impl_->geod.Inverse(p.y, p.x, q.y, q.x, d, azi1, azi2);
+  gradient = d > 0.0 ? this->gradient(p, azi1 + 180.0)
+                     : Vec2{std::numeric_limits<double>::quiet_NaN(), std::numeric_limits<double>::quiet_NaN()};
+  return d;
+}
+
+Vec2 GeodesicMeasure::gradient(Vec2 p, double azimuth) const {
+  // Moving p by (dlon, dlat) degrees moves it N cos(lat) dlon east and M dlat north (N, M the
+  // radii of curvature across and along the meridian); the distance grows by the move's
+  // component along the azimuth.
+  const double a = impl_->geod.EquatorialRadius(), f = impl_->geod.Flattening(), e2 = f * (2.0 - f);
+  const double rad = std::numbers::pi / 180.0;
+  const double sphi = std::sin(p.y * rad), w2 = 1.0 - e2 * sphi * sphi;
+  const double n = a / std::sqrt(w2), m = a * (1.0 - e2) / (w2 * std::sqrt(w2));
+  return Vec2{n * std::cos(p.y * rad) * std::sin(azimuth * rad) * rad, m * std::cos(azimuth * rad) * rad};
 }
 
 double GeodesicMeasure::segment_distance(Vec2 p, Vec2 a, Vec2 b) const {

@@ -108,13 +108,7 @@ double GeodesicSiteMetric::distance_at_vertex(Vec2 p, int32_t site, Vec2& gradie
       return distance(p, site);
   }
   if (!(d > 0.0) || !std::isfinite(azi)) return d;
-  // Moving p by (dlon, dlat) degrees moves it N cos(lat) dlon east and M dlat north (N, M the
-  // radii of curvature across and along the meridian); d grows by the move's component along azi.
-  const double a = impl_->geod.EquatorialRadius(), f = impl_->geod.Flattening(), e2 = f * (2.0 - f);
-  const double rad = std::numbers::pi / 180.0;
-  const double sphi = std::sin(p.y * rad), w2 = 1.0 - e2 * sphi * sphi;
-  const double n = a / std::sqrt(w2), m = a * (1.0 - e2) / (w2 * std::sqrt(w2));
-  gradient = Vec2{n * std::cos(p.y * rad) * std::sin(azi * rad) * rad, m * std::cos(azi * rad) * rad};
+  gradient = impl_->measure.gradient(p, azi);
   return d;
 }
 

@@ -241,6 +241,9 @@ void place_crossings(const BoundaryGrid& b, const Segment& sg, std::vector<Cross
   const Vec2 p0 = centre(b.g, c, r);
   const Vec2 p1 = (sg.edge % 2 == 0) ? centre(b.g, c + 1, r) : centre(b.g, c, r + 1);
   const OwnerIndex& index = b.index;
+  // (By sea: two cells on either side of a barrier are not neighbours; their line, if they have
+  // one, runs elsewhere.)
+  if (!index.metric().open_between(p0, p1)) return;
   const double ftol = b.ftol;
   // Every query is on the segment p0-p1: per owner, the few sites that can be nearest anywhere on
   // it are gathered once (OwnerIndex::candidates_of, from a ball around its middle holding the

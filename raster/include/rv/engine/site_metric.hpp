@@ -101,6 +101,11 @@ class SiteMetric {
   // distance_lower_bound(p, sites[i]) into out[i] for every i (out.size() == sites.size()): one
   // position's work done once for many sites.
   virtual void distance_lower_bounds(Vec2 p, std::span<const int32_t> sites, std::span<double> out) const;
+  // Whether distances change continuously along the straight way from a to b (grid-CRS
+  // positions): true but where the metric's domain has an edge on it (the distance by sea,
+  // rv/sea/sea_metric.hpp: a or b on land, or a barrier across the way). The deliverables place
+  // no equidistance point on a way between two cell centres that is not open. Default: true.
+  virtual bool open_between(Vec2 a, Vec2 b) const;
 
   // Lower bound of the metric distance from the embedded position q to anything in the box.
   static double lower_bound(const Vec3& q, const Box3& b);

@@ -49,6 +49,12 @@ class GeodesicMeasure {
 
   // Distance in metres between two (lon, lat) positions.
   double point_distance(Vec2 p, Vec2 q) const;
+  // The same distance, to the bit, with its gradient with respect to p: metres per degree of
+  // longitude and latitude (NaN where p == q).
+  double point_distance(Vec2 p, Vec2 q, Vec2& gradient) const;
+  // The gradient at p (metres per degree of longitude and latitude) of a distance that grows at
+  // one metre per metre in the direction `azimuth` (degrees clockwise from north) and not across it.
+  Vec2 gradient(Vec2 p, double azimuth) const;
   // Distance in metres from p to the geodesic segment a-b (a == b: the point distance).
   // Prepares the edge on every call (one more inverse problem); for many cells against the same
   // edges use compute(). Throws rv::Error(invalid_argument) for a latitude beyond +-90.

@@ -1,0 +1,53 @@
+// The distance by sea as the deliverables measure it: a SiteMetric (rv/engine/site_metric.hpp)
+// whose distance from a position to a site runs by sea, so that an OwnerIndex over it, and the
+// boundaries and tripoints placed with that index (rv/lines/boundaries.hpp), follow the distance
+// by sea of rv/sea/sea_field.hpp.
+//
+// Lines need each owner's own distance, d_X(p), not only the nearest seed's: the bend nodes are
+// settled again once per owner over that owner's sites alone (the exact engine's Dijkstra), so
+// that every node v knows D_X(v) and the site its path starts from. For a site s of owner X,
+// distance(p, s) is the least of
+//   - the straight distance to s, where p sees the site's nearest point, and
+//   - D_X(v) + |v - p|, over the nodes v whose path starts at s, that p sees, with the path
+//     taut at v;
+// so the least over X's sites is d_X(p), exactly as compute_sea's statement has it (the same
+// visibility, the same nodes). One site's value is never below its own distance by sea, and is
+// equal to it where the site is its owner's nearest (exact ties of two sites aside); the straight
+// distance bounds it from below, which is what the index's searches need, so the straight
+// metric's embedding and bounds serve unchanged.
+//
+// Positions are grid-CRS coordinates as the straight metrics'; distances metric units (planar:
+// CRS units; geodesic: metres, on a projected grid the positions located by the geolocator). On
+// land (Visibility::on_land) every geometric site is at +infinity. Area sites are measured as by
+// the straight metric (0 inside the polygon; its rings carry the distance outside).
+// Gradients: planar a unit vector, geodesic metres per degree, none (NaN) on a projected geodesic
+// grid. nearest_point(): the point of the site the path starts from. open_between(a, b): a and b
+// are sea and the straight way between them crosses no barrier.
+//
+// Thread safety: immutable after construction; const functions from any number of threads.
+#pragma once
+
+#include <memory>
+
+#include "rv/engine/site_metric.hpp"
+#include "rv/sea/sea_field.hpp"
+
+namespace rv {
+
+// What making the metric measured: the owners settled, the straight paths tested while settling
+// them, and the wall time.
+struct SeaMetricStats {
+  int32_t owners = 0;
+  int64_t bend_tests = 0;
+  double seconds = 0.0;
+};
+
+// The metric of the distance by sea for `seeds`, `barriers` and `grid` with `options` (metric,
+// geolocator and grid polygons, threads for the owners' settling, cancel; options.prepared, when
+// given, must be prepare_sea()'s of the same seeds, barriers and grid: its frame and nodes are
+// shared). Keeps references to `seeds`, which must outlive it. Throws as prepare_sea, and
+// rv::Error(cancelled).
+std::unique_ptr<SiteMetric> make_sea_site_metric(const SeedSet& seeds, const Barriers& barriers, const GridSpec& grid,
+                                                 const SeaOptions& options = {}, SeaMetricStats* stats = nullptr);
+
+}  // namespace rv

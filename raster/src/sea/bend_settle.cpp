@@ -1,0 +1,201 @@
+// The bend nodes' distances by sea: see sea_exact.cpp for the method, bend_settle.hpp for the
+// parts.
+#include "sea/bend_settle.hpp"
+
+#include <cmath>
+#include <queue>
+
+#include "rv/field/error.hpp"
+
+namespace rv::sea {
+
+Searches::Searches(const Prepared& prepared) : Searches(prepared, prepared.geometric) {}
+
+Searches::Searches(const Prepared& prepared, const std::vector<int32_t>& geometric)
+    : p(prepared), nodes(sea::bend_nodes(prepared.vis)) {
+  // (Geodesic: the trees' bounds are plane distances scaled down to metres they cannot exceed,
+  // a segment's box widened by the bending of its image.)
+  std::vector<RootTree::Box> boxes;
+  const double bend = p.vis.frame() ? p.vis.frame()->deviation() : 0.0;
+  for (int32_t id : geometric) {
+    const LocalSite& s = p.local[static_cast<size_t>(id)];
+    const double w = p.segment(id) ? bend : 0.0;
+    boxes.push_back({{std::min(s.ax, s.bx()) - w, std::min(s.ay, s.by()) - w},
+                     {std::max(s.ax, s.bx()) + w, std::max(s.ay, s.by()) + w}});
+    site_of.push_back(id);
+  }
+  sites = RootTree(boxes, p.lower_scale());
+  for (const Node& n : nodes) boxes.push_back({p.vis.vertex(n.vertex), p.vis.vertex(n.vertex)});
+  all = RootTree(boxes, p.lower_scale());
+  for (size_t i = 0; i < site_of.size(); ++i) {
+    sites.set_weight(static_cast<int32_t>(i), 0.0);
+    all.set_weight(static_cast<int32_t>(i), 0.0);
+  }
+  dist.assign(nodes.size(), Best{});
+  from.assign(nodes.size(), Vec2{});
+  prev.assign(nodes.size(), -1);
+}
+
+Best Searches::best_path(const Place& at, const Spot& spot, Best best, int64_t& tests, int32_t skip_vertex,
+                         std::vector<int32_t>* blockers, int32_t first, int32_t* winner, uint64_t since,
+                         double searched, double cap) const {
+  const Vec2 x = at.at;
+  int32_t won = -1;
+  // Whether the edge that last hid the root from a neighbour still does (one crossing test).
+  auto hinted = [&](int32_t item, const Place& to) {
+    if (!blockers) return false;
+    const int32_t b = (*blockers)[static_cast<size_t>(item)];
+    return b >= 0 && p.vis.crosses(b, at, to);
+  };
+  // (`hint_tested`: the caller has just asked hinted() and it said no.)
+  auto seen = [&](int32_t item, const Place& to, bool hint_tested = false) {
+    if (blockers) {
+      int32_t& b = (*blockers)[static_cast<size_t>(item)];
+      if (!hint_tested && hinted(item, to)) return false;
+      ++tests;
+      return p.vis.sees(at, to, &b);
+    }
+    ++tests;
+    return p.vis.sees(at, to);
+  };
+  auto consider = [&](int32_t item) {
+    if (item < site_items()) {
+      const int32_t id = site_of[static_cast<size_t>(item)];
+      Place to{x};
+      const double key = p.site_key(spot, id, &to);
+      const Best c{std::sqrt(key), id, kNoVia};
+      if (!(c < best)) return;
+      if (key == 0.0 || seen(item, to)) {
+        best = c;
+        won = item;
+      }
+      return;
+    }
+    const auto k = static_cast<size_t>(item - site_items());
+    const Node& n = nodes[k];
+    if (n.vertex == skip_vertex || !std::isfinite(dist[k].d)) return;
+    // The taut test (a few turns) before the length: on the ellipsoid a length is an inverse
+    // problem, and the test rejects most candidates.
+    if (!sea::taut(p.vis, n, from[k], x)) return;
+    const Place to = p.vis.at_vertex(n.vertex, n.wedge);
+    // On the ellipsoid the hint too: most candidates a cell's search meets are hidden, and
+    // mostly by the edge that hid them from its neighbour.
+    if (p.geodesic && hinted(item, to)) return;
+    const Best c{dist[k].d + p.vertex_length(n.vertex, spot), dist[k].site, n.vertex};
+    if (!(c < best)) return;
+    if (seen(item, to, p.geodesic != nullptr)) {
+      best = c;
+      won = item;
+    }
+  };
+  if (first >= 0 && std::isfinite(all.weight(first))) consider(first);
+  all.within(
+      x, [&] { return std::min(best.d + 1e-12 * best.d, cap); }, [&](int32_t item, double) { consider(item); }, since,
+      searched);
+  if (winner) *winner = won >= 0 ? won : first;
+  return best;
+}
+
+void settle_bends(Searches& b, int64_t& tests, const std::atomic<bool>* cancel) {
+  const Prepared& p = b.p;
+  const Visibility& vis = p.vis;
+  const size_t n = b.nodes.size();
+  std::vector<RootTree::Box> boxes;
+  boxes.reserve(n);
+  for (const Node& node : b.nodes) boxes.push_back({vis.vertex(node.vertex), vis.vertex(node.vertex)});
+  RootTree open(boxes, p.lower_scale());  // weight: the key of a node not yet settled
+  std::vector<double> key(n);
+  using Entry = std::pair<double, int32_t>;
+  std::priority_queue<Entry, std::vector<Entry>, std::greater<Entry>> queue;
+  for (size_t i = 0; i < n; ++i) {
+    key[i] = std::sqrt(b.straight(p.vertex_spot(b.nodes[i].vertex)).first);
+    open.set_weight(static_cast<int32_t>(i), key[i]);
+    queue.emplace(key[i], static_cast<int32_t>(i));
+  }
+  std::vector<uint8_t> settled(n, 0);
+  // The edge that last hid each root (see best_path): nodes evaluated one after the other are
+  // often hidden from the same roots by the same headland.
+  std::vector<int32_t> hint(static_cast<size_t>(b.site_items()) + n, -1);
+  std::vector<Best> last_val(n);          // each node's best path when last evaluated
+  std::vector<int32_t> last_root(n, -1);  // and the item of `all` it came from (-1: none yet)
+  std::vector<uint64_t> seen_at(n, 0);    // and the stamp of `all` then
+  // and the bound its roots were searched to then (none before the first evaluation)
+  std::vector<double> seen_bound(n, -std::numeric_limits<double>::infinity());
+  // Nodes no seed can reach (a lagoon without a port) never settle: their keys only climb. While
+  // a reachable node waits, the first node not yet settled on its path is at most the diameter
+  // of everything beyond the farthest node settled (or a site it sees), so a least key above that
+  // means every node left is unreachable.
+  double diameter = 0.0;
+  {
+    double xmin = std::numeric_limits<double>::infinity(), ymin = xmin, xmax = -xmin, ymax = -xmin;
+    auto cover = [&](Vec2 v) {
+      xmin = std::min(xmin, v.x);
+      ymin = std::min(ymin, v.y);
+      xmax = std::max(xmax, v.x);
+      ymax = std::max(ymax, v.y);
+    };
+    for (const Node& node : b.nodes) cover(vis.vertex(node.vertex));
+    for (int32_t id : p.geometric) {
+      const LocalSite& l = p.local[static_cast<size_t>(id)];
+      cover({l.ax, l.ay});
+      cover({l.bx(), l.by()});
+    }
+    // (Geodesic: a geodesic's image bends by millimetres, so its length is its plane distance
+    // to well within the margin.)
+    if (xmin <= xmax) diameter = length({xmin, ymin}, {xmax, ymax}) * (p.geodesic ? 1.01 : 1.0);
+  }
+  double farthest = 0.0;
+  int64_t steps = 0;
+  while (!queue.empty()) {
+    const auto [k, i] = queue.top();
+    queue.pop();
+    const auto u = static_cast<size_t>(i);
+    if (settled[u] || k != key[u]) continue;
+    if (k > (farthest + diameter) * (1 + 1e-9)) break;  // the rest is unreachable
+    if (cancel && (++steps & 255) == 0 && cancel->load(std::memory_order_relaxed))
+      throw Error(ErrorKind::cancelled, "computation cancelled");
+    const Node& node = b.nodes[u];
+    ++b.evaluations;
+    const Place at = vis.at_vertex(node.vertex, node.wedge);
+    // The least a path through a node not yet settled can be: its key plus the way from it.
+    double bound = std::numeric_limits<double>::infinity();
+    open.nearest(at.at, [&](int32_t item, double lower) {
+      if (b.nodes[static_cast<size_t>(item)].vertex == node.vertex) return true;
+      bound = lower;
+      return false;
+    });
+    // Only a path below that bound settles the node, so only the roots that could give one are
+    // searched (a node deep in a shadow would otherwise test every root settled meanwhile, at
+    // every evaluation); those searched before (settled by then, within the bound then) are not
+    // searched again: the best of them is last_val.
+    int32_t won = -1;
+    const Best val = b.best_path(at, p.vertex_spot(node.vertex), last_val[u], tests, node.vertex, &hint, -1, &won,
+                                 seen_at[u], seen_bound[u], bound);
+    if (won >= 0) last_root[u] = won;
+    last_val[u] = val;
+    seen_at[u] = b.all.stamp();
+    seen_bound[u] = bound;
+    if (val.d < bound || !std::isfinite(bound)) {
+      settled[u] = 1;
+      b.dist[u] = val;
+      b.prev[u] = last_root[u] >= b.site_items() ? last_root[u] - b.site_items() : -1;
+      if (val.via != kNoVia)
+        b.from[u] = vis.vertex(val.via);
+      else if (val.site != kNoSite)
+        b.from[u] = val.d == 0.0 ? at.at : p.site_place(val.site, p.vertex_spot(node.vertex)).at;
+      open.set_weight(i, std::numeric_limits<double>::infinity());
+      if (std::isfinite(val.d)) {
+        b.all.set_weight(b.site_items() + i, val.d);
+        farthest = std::max(farthest, val.d);
+      }
+      continue;
+    }
+    // Not yet final: back in the queue with the larger bound (at least one step of rounding up,
+    // so that the queue moves on; the settle test above uses the bound as computed).
+    key[u] = std::max(bound, std::nextafter(k, std::numeric_limits<double>::infinity()));
+    open.set_weight(i, key[u]);
+    queue.emplace(key[u], i);
+  }
+}
+
+}  // namespace rv::sea

@@ -1,0 +1,105 @@
+// The bend nodes' distances by sea (internal to rv_raster): the searches every evaluation runs,
+// the Dijkstra without a graph that settles the nodes (sea_exact.cpp's first half, explained
+// there), and what prepare_sea() keeps.
+// Thread safety: a Searches is filled by settle_bends (one thread), then only read (any number).
+#pragma once
+
+#include <algorithm>
+#include <atomic>
+#include <cstdint>
+#include <limits>
+#include <utility>
+#include <vector>
+
+#include "rv/sea/sea_field.hpp"
+#include "sea/root_tree.hpp"
+#include "sea/sea_prepare.hpp"
+
+namespace rv::sea {
+
+// A bound may exceed the value it bounds by rounding (a box's distance against a segment's): a
+// search stops only when its bound is above the best by more than that.
+inline bool beyond(double bound, double best) { return bound > best + 1e-12 * best; }
+
+// The searches every evaluation runs: the straight nearest site, and the best path over the
+// sites seen and the bend nodes settled so far, in one tree ordered by weight plus distance.
+struct Searches {
+  const Prepared& p;
+  RootTree sites;                // the geometric sites by their boxes, weight 0
+  RootTree all;                  // the sites (items [0, S)), then the bend nodes (S + node), weighted once settled
+  std::vector<int32_t> site_of;  // site item -> site index
+  std::vector<Node> nodes;
+  std::vector<Best> dist;     // per node, once settled
+  std::vector<Vec2> from;     // where each node's path came from: its previous bend or its site's point
+  std::vector<int32_t> prev;  // per settled node: its previous bend (a node), or -1 (it sees its site)
+  int64_t evaluations = 0;
+
+  // Over `sites` (geometric sites of `prepared`, ascending: one owner's, for its own distances by
+  // sea), or every geometric site.
+  explicit Searches(const Prepared& prepared);
+  Searches(const Prepared& prepared, const std::vector<int32_t>& sites);
+  int32_t site_items() const { return static_cast<int32_t>(site_of.size()); }
+
+  // The straight field's nearest site from x: (k0, the lowest site index at k0).
+  std::pair<double, int32_t> straight(const Spot& x) const {
+    std::pair<double, int32_t> best{std::numeric_limits<double>::infinity(), kNoSite};
+    sites.nearest(x.at, [&](int32_t item, double bound) {
+      if (beyond(bound * bound, best.first)) return false;
+      const int32_t id = site_of[static_cast<size_t>(item)];
+      best = std::min(best, {p.site_key(x, id), id});
+      return true;
+    });
+    return best;
+  }
+
+  // The best path from `at` over the sites it sees and the settled bends it sees (taut there),
+  // if better than `best`; bends at `skip_vertex` are not roots (a path cannot turn from one
+  // wedge of a vertex into another).
+  //
+  // `blockers` (one entry per item of `all`, or null): the edge that last blocked each root
+  // from a neighbouring point. A root still blocked by it is hidden at the cost of one crossing
+  // test instead of a walk along the path; the entries are hints, every answer is exact.
+  //
+  // `first` (an item of `all`, or -1): tried before the search (a neighbour's root), so that the
+  // search starts from a good limit.
+  //
+  // `since`, `searched` (a stamp of `all` and a bound): the roots settled by then whose bound is
+  // at most `searched` were searched before (a node evaluated again) and are skipped; `best` is then
+  // the answer over them.
+  //
+  // `cap`: only roots whose bound is at most cap are searched (the answer is exact when below
+  // it; else it is some path, or none).
+  Best best_path(const Place& at, const Spot& spot, Best best, int64_t& tests, int32_t skip_vertex = -1,
+                 std::vector<int32_t>* blockers = nullptr, int32_t first = -1, int32_t* winner = nullptr,
+                 uint64_t since = 0, double searched = std::numeric_limits<double>::infinity(),
+                 double cap = std::numeric_limits<double>::infinity()) const;
+};
+
+// Settles every node of `b` reachable from its sites (b.dist, b.from, b.prev; b.all weighted),
+// counting the straight paths tested into `tests`. Throws rv::Error(cancelled) when `cancel`
+// becomes true.
+void settle_bends(Searches& b, int64_t& tests, const std::atomic<bool>* cancel);
+
+}  // namespace rv::sea
+
+namespace rv {
+
+// What prepare_sea() makes (rv/sea/sea_field.hpp).
+class PreparedSea {
+ public:
+  PreparedSea(const SeedSet& seeds, const Barriers& barriers, const GridSpec& grid, const SeaOptions& options)
+      : prepared(sea::prepare(seeds, barriers, grid, options.metric, options.geolocator)), search(prepared) {
+    const auto start = std::chrono::steady_clock::now();
+    sea::settle_bends(search, bend_tests, options.cancel);
+    bends_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  }
+  PreparedSea(const PreparedSea&) = delete;
+  PreparedSea& operator=(const PreparedSea&) = delete;
+
+  const sea::Prepared prepared;
+  sea::Searches search;  // refers to `prepared`: the object is never moved
+  int64_t bend_tests = 0;
+  double bends_seconds = 0.0;
+};
+
+}  // namespace rv

@@ -1,0 +1,233 @@
+// The distance by sea as a SiteMetric. See rv/sea/sea_metric.hpp for the contract.
+#include "rv/sea/sea_metric.hpp"
+
+#include <chrono>
+#include <cmath>
+#include <limits>
+#include <utility>
+#include <vector>
+
+#include "rv/field/error.hpp"
+#include "rv/field/parallel.hpp"
+#include "sea/bend_settle.hpp"
+
+namespace rv {
+namespace {
+
+using namespace ::rv::sea;
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+// One site's roots beyond itself: the nodes of its owner's settling whose path starts at it, in
+// a tree weighted by their distance by sea.
+struct SiteRoots {
+  const Searches* search = nullptr;
+  std::vector<int32_t> nodes;  // tree item -> node of `search`
+  RootTree tree;
+};
+
+class SeaSiteMetric final : public SiteMetric {
+ public:
+  SeaSiteMetric(const SeedSet& seeds, const Barriers& barriers, const GridSpec& grid, const SeaOptions& options,
+                SeaMetricStats* stats)
+      : SiteMetric(seeds, located(options) ? *options.grid_polygons : seeds.polygons()),
+        grid_(grid),
+        polygons_(options.grid_polygons) {
+    ComputeOptions straight;
+    straight.metric = options.metric;
+    straight.geolocator = options.geolocator;
+    straight.grid_polygons = options.grid_polygons;
+    inner_ = make_site_metric(seeds, grid, straight);
+    sea_ = options.prepared ? options.prepared : prepare_sea(seeds, barriers, grid, options);
+    settle_owners(seeds, options, stats);
+  }
+
+  double distance(Vec2 p, int32_t site) const override {
+    Vec2 gradient;
+    VertexHit hit;
+    return distance_at_vertex(p, site, gradient, hit);
+  }
+  double distance_at_vertex(Vec2 p, int32_t site, Vec2& gradient, VertexHit& hit) const override {
+    hit = VertexHit{};
+    if (seeds().sites()[static_cast<size_t>(site)].kind == SiteKind::area)
+      return inner_->distance_at_vertex(p, site, gradient, hit);
+    const Path path = best(p, site);
+    gradient = path.gradient;
+    return path.d;
+  }
+  Vec2 nearest_point(Vec2 p, int32_t site) const override {
+    if (seeds().sites()[static_cast<size_t>(site)].kind == SiteKind::area) return inner_->nearest_point(p, site);
+    const Path path = best(p, site);
+    if (path.node < 0) return inner_->nearest_point(p, site);
+    // The path's first bend: the site's point nearest to it is where the path starts.
+    const Searches& s = *roots_[static_cast<size_t>(roots_of_site_[static_cast<size_t>(site)])].search;
+    int32_t first = path.node;
+    while (s.prev[static_cast<size_t>(first)] >= 0) first = s.prev[static_cast<size_t>(first)];
+    const Vec2 bend = via_position(*sea_, grid_, s.nodes[static_cast<size_t>(first)].vertex);
+    return inner_->nearest_point(bend, site);
+  }
+  double point_distance(Vec2 a, Vec2 b) const override { return inner_->point_distance(a, b); }
+  Vec3 embed(Vec2 p) const override { return inner_->embed(p); }
+  Box3 site_bounds(int32_t site) const override { return inner_->site_bounds(site); }
+  double distance_lower_bound(Vec2 p, int32_t site) const override { return inner_->distance_lower_bound(p, site); }
+  void distance_lower_bounds(Vec2 p, std::span<const int32_t> sites, std::span<double> out) const override {
+    inner_->distance_lower_bounds(p, sites, out);
+  }
+  bool open_between(Vec2 a, Vec2 b) const override {
+    const Where wa = where(a), wb = where(b);
+    if (wa.ground == Visibility::Ground::land || wb.ground == Visibility::Ground::land) return false;
+    return prepared().vis.sees(place(wa), place(wb));
+  }
+
+ private:
+  static bool located(const SeaOptions& o) { return o.geolocator != nullptr && o.grid_polygons != nullptr; }
+  const Prepared& prepared() const { return sea_->prepared; }
+
+  // A position where the engines hold it, and its ground.
+  struct Where {
+    Spot spot;
+    Visibility::Ground ground = Visibility::Ground::land;
+  };
+  Where where(Vec2 p) const {
+    // (The index measures several sites at one position: its ground is worked out once.)
+    thread_local const SeaSiteMetric* cached_by = nullptr;
+    thread_local Vec2 cached_at{kNaN, kNaN};
+    thread_local Where cached;
+    if (cached_by == this && cached_at.x == p.x && cached_at.y == p.y) return cached;
+    const Prepared& pr = prepared();
+    Where w;
+    if (!pr.geodesic) {
+      w.spot = Spot{Vec2{p.x - grid_.xmin, p.y - grid_.ymax}, Vec2{}};
+    } else {
+      Vec2 ll = p;
+      if (pr.geolocator) pr.geolocator->to_lonlat(&p.x, &p.y, &ll.x, &ll.y, 1);
+      w.spot = Spot{pr.vis.frame()->forward(ll), ll};
+    }
+    w.ground = pr.vis.classify(w.spot.at);
+    cached_by = this;
+    cached_at = p;
+    cached = w;
+    return w;
+  }
+  static Visibility::Place place(const Where& w) {
+    Visibility::Place at{w.spot.at};
+    at.open = w.ground == Visibility::Ground::open_sea;
+    return at;
+  }
+
+  // A site's best path to p: its length, its last bend (a node of the owner's settling, -1 for a
+  // straight path), and the length's gradient at p.
+  struct Path {
+    double d = std::numeric_limits<double>::infinity();
+    int32_t node = -1;
+    Vec2 gradient{kNaN, kNaN};
+  };
+  Path best(Vec2 p, int32_t site) const {
+    Path out;
+    const Where w = where(p);
+    if (w.ground == Visibility::Ground::land) return out;
+    const Prepared& pr = prepared();
+    const Visibility::Place at = place(w);
+    Visibility::Place foot{w.spot.at};
+    const double key = pr.site_key(w.spot, site, &foot);
+    if (key == 0.0 || pr.vis.sees(at, foot)) {
+      VertexHit hit;
+      out.d = inner_->distance_at_vertex(p, site, out.gradient, hit);
+    }
+    const int32_t r = roots_of_site_[static_cast<size_t>(site)];
+    if (r < 0) return out;
+    const SiteRoots& roots = roots_[static_cast<size_t>(r)];
+    const Searches& s = *roots.search;
+    int32_t won = -1;
+    roots.tree.within(
+        w.spot.at, [&] { return out.d + 1e-12 * out.d; },
+        [&](int32_t item, double) {
+          const int32_t k = roots.nodes[static_cast<size_t>(item)];
+          const Node& n = s.nodes[static_cast<size_t>(k)];
+          if (!sea::taut(pr.vis, n, s.from[static_cast<size_t>(k)], w.spot.at)) return;
+          const double d = s.dist[static_cast<size_t>(k)].d + pr.vertex_length(n.vertex, w.spot);
+          if (!(d < out.d)) return;
+          if (!pr.vis.sees(at, pr.vis.at_vertex(n.vertex, n.wedge))) return;
+          out.d = d;
+          won = k;
+        });
+    if (won < 0) return out;
+    out.node = won;
+    const int32_t v = s.nodes[static_cast<size_t>(won)].vertex;
+    if (!pr.geodesic) {
+      const Vec2 q = pr.vis.vertex(v);
+      const double dx = w.spot.at.x - q.x, dy = w.spot.at.y - q.y, len = std::hypot(dx, dy);
+      out.gradient = len > 0.0 ? Vec2{dx / len, dy / len} : Vec2{kNaN, kNaN};
+    } else if (pr.geolocator) {
+      out.gradient = Vec2{kNaN, kNaN};
+    } else {
+      pr.geodesic->point_distance(w.spot.ll, pr.vertex_ll[static_cast<size_t>(v)], out.gradient);
+    }
+    return out;
+  }
+
+  // Per owner, the bend nodes settled over its sites alone; then per site, the nodes its paths
+  // reach first.
+  void settle_owners(const SeedSet& seeds, const SeaOptions& options, SeaMetricStats* stats) {
+    const auto start = std::chrono::steady_clock::now();
+    const Prepared& pr = prepared();
+    const int32_t owners = seeds.owner_count();
+    std::vector<std::vector<int32_t>> sites(static_cast<size_t>(owners));
+    for (int32_t id : pr.geometric) sites[static_cast<size_t>(seeds.site_owner(id) - 1)].push_back(id);
+    searches_.resize(static_cast<size_t>(owners));
+    std::vector<int64_t> tests(static_cast<size_t>(owners), 0);
+    detail::parallel_for(resolve_threads(options.threads), owners, [&](int64_t o, int) {
+      const auto k = static_cast<size_t>(o);
+      if (sites[k].empty()) return;
+      searches_[k] = std::make_unique<Searches>(pr, sites[k]);
+      settle_bends(*searches_[k], tests[k], options.cancel);
+    });
+    roots_of_site_.assign(seeds.sites().size(), -1);
+    for (const auto& s : searches_) {
+      if (!s) continue;
+      std::vector<std::vector<int32_t>> by_site(seeds.sites().size());
+      for (size_t k = 0; k < s->nodes.size(); ++k)
+        if (std::isfinite(s->dist[k].d))
+          by_site[static_cast<size_t>(s->dist[k].site)].push_back(static_cast<int32_t>(k));
+      for (size_t site = 0; site < by_site.size(); ++site) {
+        if (by_site[site].empty()) continue;
+        SiteRoots roots;
+        roots.search = s.get();
+        roots.nodes = std::move(by_site[site]);
+        std::vector<RootTree::Box> boxes;
+        for (int32_t k : roots.nodes) {
+          const Vec2 v = pr.vis.vertex(s->nodes[static_cast<size_t>(k)].vertex);
+          boxes.push_back({v, v});
+        }
+        roots.tree = RootTree(boxes, pr.lower_scale());
+        for (size_t i = 0; i < roots.nodes.size(); ++i)
+          roots.tree.set_weight(static_cast<int32_t>(i), s->dist[static_cast<size_t>(roots.nodes[i])].d);
+        roots_of_site_[site] = static_cast<int32_t>(roots_.size());
+        roots_.push_back(std::move(roots));
+      }
+    }
+    if (stats) {
+      stats->owners = owners;
+      stats->bend_tests = 0;
+      for (int64_t t : tests) stats->bend_tests += t;
+      stats->seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    }
+  }
+
+  GridSpec grid_;
+  std::shared_ptr<const std::vector<Polygon>> polygons_;  // the base's polygons, when located
+  std::unique_ptr<SiteMetric> inner_;                     // the straight metric: bounds and straight legs
+  std::shared_ptr<const PreparedSea> sea_;
+  std::vector<std::unique_ptr<Searches>> searches_;  // per owner code - 1 (null: no geometric site)
+  std::vector<SiteRoots> roots_;
+  std::vector<int32_t> roots_of_site_;  // site -> its entry of roots_, or -1
+};
+
+}  // namespace
+
+std::unique_ptr<SiteMetric> make_sea_site_metric(const SeedSet& seeds, const Barriers& barriers, const GridSpec& grid,
+                                                 const SeaOptions& options, SeaMetricStats* stats) {
+  return std::make_unique<SeaSiteMetric>(seeds, barriers, grid, options, stats);
+}
+
+}  // namespace rv

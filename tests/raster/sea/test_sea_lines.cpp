@@ -1,0 +1,200 @@
+// Lines under the distance by sea: the metric by sea (rv/sea/sea_metric.hpp) gives each owner's
+// own distance by sea, cell for cell the reference's for that owner's seeds alone; boundaries
+// and tripoints placed with it lie on the closed forms round a wall (the hyperbola branch behind
+// its end, and a tripoint on it), and never cross a barrier.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <random>
+
+#include "rv/engine/owner_index.hpp"
+#include "rv/field/error.hpp"
+#include "rv/lines/boundaries.hpp"
+#include "rv/sea/sea_field.hpp"
+#include "rv/sea/sea_metric.hpp"
+#include "rv/sea/visibility.hpp"
+#include "seed_gen.hpp"
+
+namespace rv {
+namespace {
+
+double dist(Vec2 a, Vec2 b) { return std::hypot(a.x - b.x, a.y - b.y); }
+Vec2 centre(const GridSpec& g, int64_t c, int64_t r) { return Vec2{g.centre_x(c), g.centre_y(r)}; }
+
+// Whether the open segment p-q crosses the vertical wall x = wx, y in (y0, y1).
+bool crosses_wall(Vec2 p, Vec2 q, double wx, double y0, double y1) {
+  if ((p.x - wx) * (q.x - wx) >= 0) return false;
+  const double y = p.y + (q.y - p.y) * (wx - p.x) / (q.x - p.x);
+  return y > y0 && y < y1;
+}
+
+// The path from s to x round a vertical wall from a to b: straight when the wall is not in the
+// way, else over the nearer end (written apart from the engines).
+double wall_path(Vec2 s, Vec2 x, Vec2 a, Vec2 b) {
+  if (!crosses_wall(s, x, a.x, a.y, b.y)) return dist(s, x);
+  return std::min(dist(s, a) + dist(a, x), dist(s, b) + dist(b, x));
+}
+
+// Random islands (some with a lake), a boom, point seeds of three owners at sea, a port on a
+// coast and a coast line as a seed of a fourth: the layouts the field's random test uses.
+struct Archipelago {
+  Barriers barriers;
+  SeedSet seeds;
+};
+bool archipelago(std::mt19937_64& rng, Archipelago& out) {
+  std::uniform_int_distribution<int> coord(0, 36);
+  std::vector<Ring> outlines;
+  for (int k = 0; k < 6; ++k) {
+    const double x = coord(rng), y = coord(rng), w = 2 + coord(rng) % 7, h = 2 + coord(rng) % 7;
+    std::vector<Ring> rings{{{x, y}, {x + w, y}, {x + w * 0.6, y + h}, {x, y + h * 0.8}}};
+    if (w > 5 && h > 5) rings.push_back({{x + 1.5, y + 1.5}, {x + 3, y + 1.5}, {x + 2.5, y + 3}});
+    outlines.push_back(rings[0]);
+    out.barriers.add_polygon(rings, "island");
+  }
+  out.barriers.add_line(
+      std::vector<Vec2>{{double(coord(rng)), double(coord(rng))}, {double(coord(rng)), double(coord(rng))}}, "boom");
+  const Visibility vis(out.barriers);
+  int placed = 0;
+  for (int k = 0; k < 20 && placed < 7; ++k) {
+    const Vec2 p{coord(rng) + 0.25, coord(rng) + 0.75};
+    if (vis.on_land(p)) continue;
+    out.seeds.add_point(
+        out.seeds.add_feature(out.seeds.owner_code(std::string(1, static_cast<char>('A' + placed % 3)))), p);
+    ++placed;
+  }
+  const Ring& o = outlines[0];
+  out.seeds.add_point(out.seeds.add_feature(out.seeds.owner_code("A")), {(o[0].x + o[1].x) / 2, (o[0].y + o[1].y) / 2});
+  out.seeds.add_polyline(out.seeds.add_feature(out.seeds.owner_code("D")), std::vector<Vec2>{o[1], o[2]});
+  return placed >= 3;
+}
+
+// Each owner's distance by sea from the metric's index, cell for cell against the reference run
+// on that owner's seeds alone; and the nearest owner against the exact engine's field.
+TEST(SeaLines, EachOwnersDistanceIsTheReferencesForItsSeedsAlone) {
+  std::mt19937_64 rng(57);
+  const GridSpec g = test::grid_of(40, 40, 1.0, -1.0, 41.0);
+  int rounds = 0;
+  int64_t compared = 0, behind_land = 0;
+  double worst = 0.0;
+  for (int round = 0; round < 8; ++round) {
+    Archipelago a;
+    if (!archipelago(rng, a)) continue;
+    std::unique_ptr<SiteMetric> metric;
+    SeaField field;
+    try {
+      field = compute_sea(a.seeds, a.barriers, g, g.full_window());
+      metric = make_sea_site_metric(a.seeds, a.barriers, g);
+    } catch (const Error& e) {
+      ASSERT_EQ(e.kind(), ErrorKind::invalid_input) << e.what();  // a coast seed inside another island
+      continue;
+    }
+    ++rounds;
+    const OwnerIndex index(*metric);
+    for (int32_t owner = 1; owner <= a.seeds.owner_count(); ++owner) {
+      std::vector<bool> drop(a.seeds.features().size());
+      for (size_t f = 0; f < drop.size(); ++f) drop[f] = a.seeds.features()[f].owner != owner;
+      std::vector<int32_t> site_of;
+      const SeedSet alone = a.seeds.without(drop, site_of);
+      const SeaField reference = brute_force_sea(alone, a.barriers, g, g.full_window());
+      for (int64_t r = 0; r < g.height; ++r)
+        for (int64_t c = 0; c < g.width; ++c) {
+          const OwnerIndex::Hit hit = index.nearest_of(centre(g, c, r), owner);
+          const int32_t want = reference.field.site.at(c, r);
+          if (want == kNoSite) {
+            ASSERT_EQ(hit.site, kNoSite) << round << ": " << c << "," << r << " owner " << owner;
+            continue;
+          }
+          ASSERT_NE(hit.site, kNoSite) << round << ": " << c << "," << r << " owner " << owner;
+          const double d = reference.field.distance.at(c, r);
+          ASSERT_NEAR(hit.distance, d, 1e-6 * d + 1e-9) << round << ": " << c << "," << r << " owner " << owner;
+          worst = std::max(worst, std::abs(hit.distance - d));
+          ++compared;
+          behind_land += reference.via.at(c, r) != kNoVia;
+        }
+    }
+    // The index's nearest owner is the field's wherever the field's path is clearly the best.
+    for (int64_t r = 0; r < g.height; ++r)
+      for (int64_t c = 0; c < g.width; ++c) {
+        const int32_t site = field.field.site.at(c, r);
+        const OwnerIndex::Hit hit = index.nearest(centre(g, c, r));
+        if (site == kNoSite) {
+          ASSERT_EQ(hit.site, kNoSite);
+          continue;
+        }
+        ASSERT_NEAR(hit.distance, field.field.distance.at(c, r), 1e-6 * hit.distance + 1e-9);
+        const OwnerIndex::Hit other = index.nearest_not_of(centre(g, c, r), a.seeds.site_owner(site));
+        if (other.distance - hit.distance > 1e-6 * hit.distance + 1e-9)
+          ASSERT_EQ(a.seeds.site_owner(hit.site), a.seeds.site_owner(site)) << round << ": " << c << "," << r;
+      }
+  }
+  EXPECT_GE(rounds, 5);
+  EXPECT_GT(behind_land, 2000);  // owners reached round land, not only straight
+  std::printf("each owner's distance by sea: %lld cells, worst |d - reference| %.3g\n",
+              static_cast<long long>(compared), worst);
+}
+
+// Boundaries and tripoints by sea round a vertical wall from a to b, every vertex against the
+// closed form; returns the vertices that lie in the first seed's shadow (on the hyperbola branch).
+struct WallLines {
+  BoundaryResult lines;
+  int64_t hidden_vertices = 0;
+};
+WallLines wall_lines(const std::vector<Vec2>& points, Vec2 a, Vec2 b, const GridSpec& g) {
+  SeedSet s;
+  for (size_t i = 0; i < points.size(); ++i)
+    s.add_point(s.add_feature(s.owner_code("o" + std::to_string(i))), points[i]);
+  Barriers walls;
+  walls.add_line(std::vector<Vec2>{a, b}, "wall");
+  const SeaField field = compute_sea(s, walls, g, g.full_window());
+  const std::unique_ptr<SiteMetric> metric = make_sea_site_metric(s, walls, g);
+  const OwnerIndex index(*metric);
+  BoundaryOptions options;
+  options.line_tolerance = 1e-4;
+  WallLines out;
+  out.lines = extract_boundaries(field.field, index, options);
+  auto path = [&](size_t i, Vec2 x) { return wall_path(points[i], x, a, b); };
+  double worst = 0.0;
+  for (const BoundaryLine& line : out.lines.lines) {
+    const auto i = static_cast<size_t>(line.owner_a - 1), k = static_cast<size_t>(line.owner_b - 1);
+    for (size_t v = 0; v < line.vertices.size(); ++v) {
+      const Vec2 x = line.vertices[v].p;
+      EXPECT_NEAR(path(i, x), path(k, x), 1e-9 * path(i, x)) << x.x << "," << x.y;
+      EXPECT_NEAR(line.vertices[v].distance, path(i, x), 1e-9 * path(i, x));
+      worst = std::max(worst, std::abs(path(i, x) - path(k, x)));
+      // No third seed nearer.
+      for (size_t j = 0; j < points.size(); ++j) EXPECT_GE(path(j, x), path(i, x) * (1 - 1e-9));
+      out.hidden_vertices += crosses_wall(points[i], x, a.x, a.y, b.y) || crosses_wall(points[k], x, a.x, a.y, b.y);
+      // A line never crosses the wall.
+      if (v > 0) EXPECT_FALSE(crosses_wall(line.vertices[v - 1].p, x, a.x, a.y, b.y)) << x.x << "," << x.y;
+    }
+  }
+  for (const Tripoint& t : out.lines.tripoints) {
+    const double d0 = path(static_cast<size_t>(t.owners[0] - 1), t.p);
+    for (int k = 1; k < 3; ++k) EXPECT_NEAR(path(static_cast<size_t>(t.owners[k] - 1), t.p), d0, 1e-9 * d0);
+    worst = std::max(worst, std::abs(path(static_cast<size_t>(t.owners[2] - 1), t.p) - d0));
+  }
+  EXPECT_EQ(out.lines.stats.locus.unresolved, 0);
+  EXPECT_LE(out.lines.stats.locus.max_midpoint, 1e-4);
+  std::printf("lines by sea round a wall: %zu lines, %zu tripoints, worst |d_a - d_b| %.3g, chords within %.3g\n",
+              out.lines.lines.size(), out.lines.tripoints.size(), worst, out.lines.stats.locus.max_midpoint);
+  return out;
+}
+
+TEST(SeaLines, TheHyperbolaBehindAWallsEndAndATripointOnIt) {
+  const Vec2 a{20, 25}, b{20, 60};
+  const Vec2 s1{14.2, 31.7}, s2{33.1, 38.3};
+  const GridSpec g = test::grid_of(48, 48);
+  const WallLines two = wall_lines({s1, s2}, a, b, g);
+  ASSERT_EQ(two.lines.lines.size(), 1u);
+  EXPECT_GT(two.hidden_vertices, 10);         // the hyperbola branch, not only the bisector
+  EXPECT_GT(two.lines.stats.locus.added, 0);  // its curve followed between cell edges
+  const WallLines three = wall_lines({s1, s2, {40.6, 8.9}}, a, b, g);
+  ASSERT_EQ(three.lines.tripoints.size(), 1u);
+  const Tripoint& t = three.lines.tripoints[0];
+  EXPECT_TRUE(crosses_wall(s1, t.p, a.x, a.y, b.y)) << t.p.x << "," << t.p.y;  // on the hyperbola
+  EXPECT_EQ(three.lines.lines.size(), 3u);
+}
+
+}  // namespace
+}  // namespace rv
