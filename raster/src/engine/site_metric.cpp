@@ -126,6 +126,10 @@ bool SiteMetric::ties_at_vertex(Vec2, int32_t, const VertexHit&, double) const {
 
 bool SiteMetric::open_between(Vec2, Vec2) const { return true; }
 
+void SiteMetric::domain_edges_near(Vec2, double, std::vector<int32_t>& out) const { out.clear(); }
+
+bool SiteMetric::domain_edge_point(int32_t, double, Vec2, Vec2&) const { return false; }
+
 double SiteMetric::distance_lower_bound(Vec2 p, int32_t site) const { return lower_bound(embed(p), site_bounds(site)); }
 
 void SiteMetric::distance_lower_bounds(Vec2 p, std::span<const int32_t> sites, std::span<double> out) const {

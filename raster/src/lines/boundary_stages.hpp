@@ -306,5 +306,15 @@ void close_missing_tripoints(const BoundaryGrid& b, double max_distance, std::ve
 // line is left as it was. Counts the ends moved in stats.ends_on_owned_edge.
 void end_at_owned_edge(const BoundaryGrid& b, double max_distance, const std::vector<Tripoint>& tripoints,
                        std::vector<BoundaryLine>& lines, BoundaryStats& stats);
+// Lines that stop at a barrier (a metric with domain edges: the distance by sea). Extraction
+// leaves such an end at the last crossing of two owners' cells, up to a cell short of the coast
+// or boom (cells a barrier parts are not neighbours). Each open end off the frame of the
+// outermost centres and not at a tripoint gets the junction appended: the point of a barrier
+// edge within two cells of it where the two owners' distances by sea are equal (approached from
+// the end's side, SiteMetric::domain_edge_point), no third owner nearer, and the way from the
+// end to it open; of several, the nearest. Where none is found the line is left as it was.
+// Counts the ends moved in stats.ends_on_barriers.
+void end_at_barriers(const BoundaryGrid& b, const std::vector<Tripoint>& tripoints, std::vector<BoundaryLine>& lines,
+                     BoundaryStats& stats);
 
 }  // namespace rv::boundary_stages

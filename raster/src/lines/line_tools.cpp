@@ -100,12 +100,12 @@ void FieldRows::keep_from(int64_t from) {
 void check_metric(const NearestField& field, const SiteMetric& metric) {
   // A projected geodesic field needs a metric that locates grid positions on the ellipsoid,
   // and only such a field may use one.
-  const bool located_metric = dynamic_cast<const LocatedGeodesicSiteMetric*>(&metric) != nullptr;
+  const bool located_metric = metric.kind() == SiteMetric::Kind::located_geodesic;
   if (static_cast<bool>(field.geolocator) != located_metric)
     throw Error(ErrorKind::invalid_argument,
                 field.geolocator ? "a field of a projected geodesic grid needs a LocatedGeodesicSiteMetric"
                                  : "a LocatedGeodesicSiteMetric measures fields of projected geodesic grids only");
-  const bool geodesic_metric = located_metric || dynamic_cast<const GeodesicSiteMetric*>(&metric) != nullptr;
+  const bool geodesic_metric = metric.kind() != SiteMetric::Kind::planar;
   if ((field.metric.kind == MetricSpec::geodesic) != geodesic_metric)
     throw Error(ErrorKind::invalid_argument, std::string("the deliverables' metric must be the field's (") +
                                                  std::string(to_string(field.metric.kind)) + ")");
@@ -131,7 +131,7 @@ std::vector<int32_t> owner_of_sites(const SeedSet& seeds) {
 }
 
 CrsScale::CrsScale(const SiteMetric& m, Vec2 p0, double res) {
-  lonlat = dynamic_cast<const GeodesicSiteMetric*>(&m) != nullptr;
+  lonlat = m.kind() == SiteMetric::Kind::geodesic;
   lat0 = p0.y;
   // A step small against any line's curvature, large against the distances' rounding.
   const double h = 1e-3 * res;

@@ -158,7 +158,8 @@ Raster<float> margin_raster(const NearestField& field, const OwnerIndex& index, 
   for (const Polygon& p : seeds.polygons()) area_sites.push_back(p.area_site);
   const bool check_contested = field.contested_cells > 0;
 
-  const bool planar = dynamic_cast<const PlanarSiteMetric*>(&metric) != nullptr;
+  // (The other owner's straight field answers the planar case; by sea it would not.)
+  const bool planar = metric.kind() == SiteMetric::Kind::planar && metric.straight();
   if (!planar) return margin_by_owner_runs(field, metric, nthreads);
   const NearestField other = compute_other_owner(seeds, field, nthreads);
   detail::parallel_for(nthreads, w.height, [&](int64_t r, int) {

@@ -281,6 +281,7 @@ struct BoundaryRun {
     join_close_tripoints(t.tripoints, b.g.res, result.lines);
     close_missing_tripoints(b, max_distance, t.tripoints, result.lines, result.stats);
     end_at_owned_edge(b, max_distance, t.tripoints, result.lines, result.stats);
+    end_at_barriers(b, t.tripoints, result.lines, result.stats);
     const Vec2 middle = line_tools::centre(b.g, b.W / 2, b.H / 2);
     const CrsScale scale(b.index.metric(), middle, b.g.res);
     const LineRefiner refiner(b.index, line_tolerance, b.ftol, scale, std::max(scale.at0.x, scale.at0.y));
@@ -507,9 +508,10 @@ StripLines::StripLines(const GridSpec& grid, const OwnerIndex& index, const Line
   put(" ", m.g.ymax);
   put(" res ", m.g.res);
   put("; adjusted ", static_cast<int>(index.adjusted()));
-  key += dynamic_cast<const LocatedGeodesicSiteMetric*>(&metric) != nullptr ? "; located geodesic"
-         : dynamic_cast<const GeodesicSiteMetric*>(&metric) != nullptr      ? "; geodesic"
-                                                                            : "; planar";
+  key += metric.kind() == SiteMetric::Kind::located_geodesic ? "; located geodesic"
+         : metric.kind() == SiteMetric::Kind::geodesic       ? "; geodesic"
+                                                             : "; planar";
+  if (!metric.straight()) key += "; by sea";
   if (request.boundaries) {
     put("; boundaries tol ", request.boundary.tolerance_cells);
     put(" max ", request.boundary.max_distance);

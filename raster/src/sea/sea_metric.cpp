@@ -1,6 +1,8 @@
 // The distance by sea as a SiteMetric. See rv/sea/sea_metric.hpp for the contract.
 #include "rv/sea/sea_metric.hpp"
 
+#include <GeographicLib/Geodesic.hpp>
+
 #include <chrono>
 #include <cmath>
 #include <limits>
@@ -39,6 +41,9 @@ class SeaSiteMetric final : public SiteMetric {
     straight.grid_polygons = options.grid_polygons;
     inner_ = make_site_metric(seeds, grid, straight);
     sea_ = options.prepared ? options.prepared : prepare_sea(seeds, barriers, grid, options);
+    if (options.metric.kind == MetricSpec::geodesic)
+      geod_ = std::make_unique<GeographicLib::Geodesic>(options.metric.semi_major, options.metric.flattening);
+    list_edges();
     settle_owners(seeds, options, stats);
   }
 
@@ -66,6 +71,8 @@ class SeaSiteMetric final : public SiteMetric {
     const Vec2 bend = via_position(*sea_, grid_, s.nodes[static_cast<size_t>(first)].vertex);
     return inner_->nearest_point(bend, site);
   }
+  Kind kind() const override { return inner_->kind(); }
+  bool straight() const override { return false; }
   double point_distance(Vec2 a, Vec2 b) const override { return inner_->point_distance(a, b); }
   Vec3 embed(Vec2 p) const override { return inner_->embed(p); }
   Box3 site_bounds(int32_t site) const override { return inner_->site_bounds(site); }
@@ -78,10 +85,94 @@ class SeaSiteMetric final : public SiteMetric {
     if (wa.ground == Visibility::Ground::land || wb.ground == Visibility::Ground::land) return false;
     return prepared().vis.sees(place(wa), place(wb));
   }
+  void domain_edges_near(Vec2 p, double radius, std::vector<int32_t>& out) const override {
+    out.clear();
+    const Vec2 at = plane_of(p);
+    // The radius in the plane: the farther of its images along x and y, with a margin (the
+    // frame's scale varies little over a few cells) and the images' bending.
+    const Vec2 ex = plane_of(Vec2{p.x + radius, p.y}), ey = plane_of(Vec2{p.x, p.y + radius});
+    const double bend = prepared().vis.frame() ? prepared().vis.frame()->deviation() : 0.0;
+    const double r = 1.5 * std::max(length(at, ex), length(at, ey)) + bend;
+    for (size_t i = 0; i < edges_.size(); ++i)
+      if (segment_distance(at, edges_[i].a, edges_[i].b) <= r) out.push_back(static_cast<int32_t>(i));
+  }
+  bool domain_edge_point(int32_t edge, double t, Vec2 side, Vec2& out) const override {
+    const Prepared& pr = prepared();
+    const Edge& e = edges_[static_cast<size_t>(edge)];
+    Vec2 q;
+    if (!geod_) {
+      q = Vec2{e.a.x + t * (e.b.x - e.a.x), e.a.y + t * (e.b.y - e.a.y)};
+    } else {  // (on the geodesic itself, then in the plane)
+      double s12, azi1, azi2, lat, lon;
+      geod_->Inverse(e.a_ll.y, e.a_ll.x, e.b_ll.y, e.b_ll.x, s12, azi1, azi2);
+      geod_->Direct(e.a_ll.y, e.a_ll.x, azi1, t * s12, lat, lon);
+      q = pr.vis.frame()->forward(Vec2{e.a_ll.x + std::remainder(lon - e.a_ll.x, 360.0), lat});
+    }
+    const int o = pr.vis.orient(e.a, e.b, plane_of(side));
+    if (o == 0) return false;
+    const double len = length(e.a, e.b);
+    Vec2 n{-(e.b.y - e.a.y) / len, (e.b.x - e.a.x) / len};  // to the left of a -> b
+    if (o < 0) n = Vec2{-n.x, -n.y};
+    const double bend = pr.vis.frame() ? pr.vis.frame()->deviation() : 0.0;
+    const double scale = std::max({std::abs(q.x), std::abs(q.y), len});
+    for (double eps = 16.0 * std::numeric_limits<double>::epsilon() * scale; eps <= 1e-6 * len + 2.0 * bend;
+         eps *= 4.0) {
+      const Vec2 moved{q.x + eps * n.x, q.y + eps * n.y};
+      if (pr.vis.orient(e.a, e.b, moved) != o || pr.vis.classify(moved) == Visibility::Ground::land) continue;
+      out = grid_of(moved);
+      return true;
+    }
+    return false;
+  }
 
  private:
   static bool located(const SeaOptions& o) { return o.geolocator != nullptr && o.grid_polygons != nullptr; }
   const Prepared& prepared() const { return sea_->prepared; }
+
+  // A barrier edge in the plane, and (geodesic) its ends' longitudes and latitudes.
+  struct Edge {
+    Vec2 a, b, a_ll, b_ll;
+  };
+  void list_edges() {
+    const Prepared& pr = prepared();
+    auto ll_of = [&](Vec2 at) {
+      if (!pr.geodesic) return Vec2{};
+      const int32_t v = pr.vis.vertex_at(at);
+      return v >= 0 ? pr.vertex_ll[static_cast<size_t>(v)] : pr.vis.frame()->reverse(at);
+    };
+    auto add = [&](Vec2 a, Vec2 b) {
+      if (!(a == b)) edges_.push_back(Edge{a, b, ll_of(a), ll_of(b)});
+    };
+    for (const Barriers::Polygon& poly : pr.vis.barriers().polygons())
+      for (const Ring& r : poly.rings)
+        for (size_t i = 0; i < r.size(); ++i) add(r[i], r[(i + 1) % r.size()]);
+    for (const Barriers::Line& l : pr.vis.barriers().lines())
+      for (size_t i = 0; i + 1 < l.vertices.size(); ++i) add(l.vertices[i], l.vertices[i + 1]);
+  }
+  static double segment_distance(Vec2 p, Vec2 a, Vec2 b) {
+    const double dx = b.x - a.x, dy = b.y - a.y, l2 = dx * dx + dy * dy;
+    const double t = l2 > 0.0 ? std::clamp(((p.x - a.x) * dx + (p.y - a.y) * dy) / l2, 0.0, 1.0) : 0.0;
+    return length(p, Vec2{a.x + t * dx, a.y + t * dy});
+  }
+
+  // Grid-CRS positions to the plane the engines decide in, and back.
+  Spot spot_of(Vec2 p) const {
+    const Prepared& pr = prepared();
+    if (!pr.geodesic) return Spot{Vec2{p.x - grid_.xmin, p.y - grid_.ymax}, Vec2{}};
+    Vec2 ll = p;
+    if (pr.geolocator) pr.geolocator->to_lonlat(&p.x, &p.y, &ll.x, &ll.y, 1);
+    return Spot{pr.vis.frame()->forward(ll), ll};
+  }
+  Vec2 plane_of(Vec2 p) const { return spot_of(p).at; }
+  Vec2 grid_of(Vec2 at) const {
+    const Prepared& pr = prepared();
+    if (!pr.geodesic) return Vec2{at.x + grid_.xmin, at.y + grid_.ymax};
+    const Vec2 ll = pr.vis.frame()->reverse(at);
+    if (!pr.geolocator) return ll;
+    Vec2 g;
+    pr.geolocator->to_grid(&ll.x, &ll.y, &g.x, &g.y, 1);
+    return g;
+  }
 
   // A position where the engines hold it, and its ground.
   struct Where {
@@ -94,16 +185,9 @@ class SeaSiteMetric final : public SiteMetric {
     thread_local Vec2 cached_at{kNaN, kNaN};
     thread_local Where cached;
     if (cached_by == this && cached_at.x == p.x && cached_at.y == p.y) return cached;
-    const Prepared& pr = prepared();
     Where w;
-    if (!pr.geodesic) {
-      w.spot = Spot{Vec2{p.x - grid_.xmin, p.y - grid_.ymax}, Vec2{}};
-    } else {
-      Vec2 ll = p;
-      if (pr.geolocator) pr.geolocator->to_lonlat(&p.x, &p.y, &ll.x, &ll.y, 1);
-      w.spot = Spot{pr.vis.frame()->forward(ll), ll};
-    }
-    w.ground = pr.vis.classify(w.spot.at);
+    w.spot = spot_of(p);
+    w.ground = prepared().vis.classify(w.spot.at);
     cached_by = this;
     cached_at = p;
     cached = w;
@@ -220,7 +304,9 @@ class SeaSiteMetric final : public SiteMetric {
   std::shared_ptr<const PreparedSea> sea_;
   std::vector<std::unique_ptr<Searches>> searches_;  // per owner code - 1 (null: no geometric site)
   std::vector<SiteRoots> roots_;
-  std::vector<int32_t> roots_of_site_;  // site -> its entry of roots_, or -1
+  std::vector<int32_t> roots_of_site_;             // site -> its entry of roots_, or -1
+  std::vector<Edge> edges_;                        // the domain's edges: every barrier edge
+  std::unique_ptr<GeographicLib::Geodesic> geod_;  // geodesic: points along an edge
 };
 
 }  // namespace

@@ -8,6 +8,7 @@
 #include <cstdio>
 #include <random>
 
+#include "geodesic_oracle.hpp"
 #include "rv/engine/owner_index.hpp"
 #include "rv/field/error.hpp"
 #include "rv/lines/boundaries.hpp"
@@ -139,6 +140,7 @@ TEST(SeaLines, EachOwnersDistanceIsTheReferencesForItsSeedsAlone) {
 struct WallLines {
   BoundaryResult lines;
   int64_t hidden_vertices = 0;
+  int64_t ends_on_wall = 0;
 };
 WallLines wall_lines(const std::vector<Vec2>& points, Vec2 a, Vec2 b, const GridSpec& g) {
   SeedSet s;
@@ -176,8 +178,19 @@ WallLines wall_lines(const std::vector<Vec2>& points, Vec2 a, Vec2 b, const Grid
   }
   EXPECT_EQ(out.lines.stats.locus.unresolved, 0);
   EXPECT_LE(out.lines.stats.locus.max_midpoint, 1e-4);
-  std::printf("lines by sea round a wall: %zu lines, %zu tripoints, worst |d_a - d_b| %.3g, chords within %.3g\n",
-              out.lines.lines.size(), out.lines.tripoints.size(), worst, out.lines.stats.locus.max_midpoint);
+  // The line that meets the wall ends on it (from the side it comes from).
+  for (const BoundaryLine& line : out.lines.lines)
+    for (const BoundaryVertex* e : {&line.vertices.front(), &line.vertices.back()})
+      if (std::abs(e->p.x - a.x) < 0.5 && e->p.y > a.y && e->p.y < b.y) {
+        EXPECT_NEAR(e->p.x, a.x, 1e-9);
+        ++out.ends_on_wall;
+      }
+  EXPECT_EQ(out.lines.stats.ends_on_barriers, out.ends_on_wall);
+  std::printf(
+      "lines by sea round a wall: %zu lines, %zu tripoints, %lld ends on the wall, worst |d_a - d_b| %.3g, chords "
+      "within %.3g\n",
+      out.lines.lines.size(), out.lines.tripoints.size(), static_cast<long long>(out.lines.stats.ends_on_barriers),
+      worst, out.lines.stats.locus.max_midpoint);
   return out;
 }
 
@@ -189,11 +202,131 @@ TEST(SeaLines, TheHyperbolaBehindAWallsEndAndATripointOnIt) {
   ASSERT_EQ(two.lines.lines.size(), 1u);
   EXPECT_GT(two.hidden_vertices, 10);         // the hyperbola branch, not only the bisector
   EXPECT_GT(two.lines.stats.locus.added, 0);  // its curve followed between cell edges
+  EXPECT_EQ(two.ends_on_wall, 1);             // where the hyperbola meets the wall's far side
   const WallLines three = wall_lines({s1, s2, {40.6, 8.9}}, a, b, g);
   ASSERT_EQ(three.lines.tripoints.size(), 1u);
   const Tripoint& t = three.lines.tripoints[0];
   EXPECT_TRUE(crosses_wall(s1, t.p, a.x, a.y, b.y)) << t.p.x << "," << t.p.y;  // on the hyperbola
   EXPECT_EQ(three.lines.lines.size(), 3u);
+  EXPECT_EQ(three.ends_on_wall, 1);
+}
+
+// Two ports in a channel between two coasts: their boundary runs from coast to coast, its ends on
+// the coasts exactly. With a boom from the south coast partway across, the boundary runs from
+// the north coast to the boom's far face, where the path round the boom's tip meets the other
+// port's straight one.
+struct Channel {
+  Barriers land;
+  SeedSet seeds;
+  BoundaryResult lines;
+};
+Channel channel(Vec2 a, Vec2 b, bool boom) {
+  Channel c;
+  c.land.add_polygon({{{0, 0}, {40, 0}, {40, 10}, {0, 10}}}, "south");
+  c.land.add_polygon({{{0, 30}, {40, 30}, {40, 40}, {0, 40}}}, "north");
+  if (boom) c.land.add_line(std::vector<Vec2>{{30, 10}, {30, 24}}, "boom");
+  c.seeds.add_point(c.seeds.add_feature(c.seeds.owner_code("A")), a);
+  c.seeds.add_point(c.seeds.add_feature(c.seeds.owner_code("B")), b);
+  const GridSpec g = test::grid_of(40, 40);
+  const SeaField field = compute_sea(c.seeds, c.land, g, g.full_window());
+  const std::unique_ptr<SiteMetric> metric = make_sea_site_metric(c.seeds, c.land, g);
+  const OwnerIndex index(*metric);
+  c.lines = extract_boundaries(field.field, index);
+  return c;
+}
+
+TEST(SeaLines, ABoundaryEndsOnTheCoastsItMeets) {
+  const Vec2 a{12.25, 21.5}, b{27.75, 17.5};
+  const Channel open = channel(a, b, false);
+  ASSERT_EQ(open.lines.lines.size(), 1u);
+  const std::vector<BoundaryVertex>& v = open.lines.lines[0].vertices;
+  EXPECT_NEAR(std::min(v.front().p.y, v.back().p.y), 10.0, 1e-9);
+  EXPECT_NEAR(std::max(v.front().p.y, v.back().p.y), 30.0, 1e-9);
+  for (const BoundaryVertex& x : v) EXPECT_NEAR(dist(x.p, a), dist(x.p, b), 1e-9) << x.p.x << "," << x.p.y;
+  EXPECT_EQ(open.lines.stats.ends_on_barriers, 2);
+
+  // The boom from (30, 10) to its tip (30, 24): a port hidden by it goes round the tip.
+  const Vec2 ba{26, 15}, bb{35, 13}, tip{30, 24};
+  const Channel boomed = channel(ba, bb, true);
+  ASSERT_EQ(boomed.lines.lines.size(), 1u);
+  auto by_sea = [&](Vec2 port, Vec2 x) {
+    return crosses_wall(port, x, 30, 10, 24) ? dist(port, tip) + dist(tip, x) : dist(port, x);
+  };
+  int64_t round_the_tip = 0;
+  for (const BoundaryVertex& x : boomed.lines.lines[0].vertices) {
+    EXPECT_NEAR(by_sea(ba, x.p), by_sea(bb, x.p), 1e-9) << x.p.x << "," << x.p.y;
+    round_the_tip += crosses_wall(ba, x.p, 30, 10, 24);
+  }
+  EXPECT_GT(round_the_tip, 2);
+  const std::vector<BoundaryVertex>& w = boomed.lines.lines[0].vertices;
+  const Vec2 north = w.front().p.y > w.back().p.y ? w.front().p : w.back().p;
+  const Vec2 on_boom = w.front().p.y > w.back().p.y ? w.back().p : w.front().p;
+  EXPECT_NEAR(north.y, 30.0, 1e-9);
+  EXPECT_NEAR(on_boom.x, 30.0, 1e-9);  // on the boom's far face
+  EXPECT_GT(on_boom.x, 30.0);
+  EXPECT_GT(on_boom.y, 10.0);
+  EXPECT_LT(on_boom.y, 24.0);
+  EXPECT_EQ(boomed.lines.stats.ends_on_barriers, 2);
+}
+
+}  // namespace
+}  // namespace rv
+
+namespace rv {
+namespace {
+
+// On the ellipsoid: two ports either side of a 45 km wall (a geodesic) at the western Baltic's
+// latitudes, one behind the wall's south end. Every vertex of their boundary is equidistant by
+// GeographicLib's lengths round the wall (visibility by GeographicLib's azimuths), and the line
+// ends on the wall's far side.
+TEST(SeaLines, OnTheEllipsoidTheLineFollowsGeodesicPathsRoundAWall) {
+  const Vec2 a{10.5, 55.1}, b{10.5, 55.5}, s1{10.38, 55.16}, s2{10.78, 55.27};
+  Barriers wall;
+  wall.add_line(std::vector<Vec2>{a, b}, "wall");
+  SeedSet seeds;
+  seeds.add_point(seeds.add_feature(seeds.owner_code("W")), s1);
+  seeds.add_point(seeds.add_feature(seeds.owner_code("E")), s2);
+  const GridSpec g = test::grid_of(50, 30, 0.02, 10.0, 55.6);
+  SeaOptions options;
+  options.metric = test::geodesic_metric();
+  const SeaField field = compute_sea(seeds, wall, g, g.full_window(), options);
+  const std::unique_ptr<SiteMetric> metric = make_sea_site_metric(seeds, wall, g, options);
+  const OwnerIndex index(*metric);
+  const BoundaryResult r = extract_boundaries(field.field, index);
+  // The line of the hyperbola behind the south end, and (the east port nearer the north end)
+  // one on the west side behind the north end.
+  ASSERT_EQ(r.lines.size(), 2u);
+  auto by_sea = [&](Vec2 s, Vec2 x) {
+    using test::metres;
+    return test::crosses(s, x, a, b) ? std::min(metres(s, a) + metres(a, x), metres(s, b) + metres(b, x))
+                                     : metres(s, x);
+  };
+  double worst = 0.0;
+  int64_t behind_west = 0, behind_east = 0, vertices = 0;
+  int ends_on_wall = 0, east_face = 0;
+  for (const BoundaryLine& line : r.lines) {
+    for (const BoundaryVertex& v : line.vertices) {
+      const double d1 = by_sea(s1, v.p), d2 = by_sea(s2, v.p);
+      EXPECT_NEAR(d1, d2, 1e-5) << v.p.x << "," << v.p.y;
+      EXPECT_NEAR(v.distance, d1, 1e-5);
+      worst = std::max(worst, std::abs(d1 - d2));
+      behind_west += test::crosses(s1, v.p, a, b);
+      behind_east += test::crosses(s2, v.p, a, b);
+      ++vertices;
+    }
+    for (const Vec2 end : {line.vertices.front().p, line.vertices.back().p})
+      if (test::segment_foot(end, a, b).metres < 1e-3) {
+        ++ends_on_wall;
+        east_face += end.x > 10.5;
+      }
+  }
+  EXPECT_GT(behind_west, 5);
+  EXPECT_GT(behind_east, 5);
+  EXPECT_EQ(ends_on_wall, 2);  // one on each face
+  EXPECT_EQ(east_face, 1);
+  EXPECT_EQ(r.stats.ends_on_barriers, 2);
+  std::printf("lines by sea on the ellipsoid round a 45 km wall: %lld vertices, worst |d_1 - d_2| %.3g m\n",
+              static_cast<long long>(vertices), worst);
 }
 
 }  // namespace

@@ -56,6 +56,13 @@ class SiteMetric {
   SiteMetric(const SiteMetric&) = delete;
   SiteMetric& operator=(const SiteMetric&) = delete;
 
+  // What the metric is: planar, geodesic on longitude/latitude grids, or geodesic with grid
+  // positions located on the ellipsoid (a projected grid's); and whether its distance is the
+  // straight one (false: by sea, rv/sea/sea_metric.hpp), which some shortcuts need.
+  enum class Kind { planar, geodesic, located_geodesic };
+  virtual Kind kind() const = 0;
+  virtual bool straight() const { return true; }
+
   // Exact distance (metric units, >= 0) from p to the site: point -> to the point; segment ->
   // to the nearest point of the closed segment; area -> 0 when p is inside the polygon (even-odd
   // rule over its rings), +infinity outside (the polygon's rings are segment sites of the same
@@ -106,6 +113,16 @@ class SiteMetric {
   // rv/sea/sea_metric.hpp: a or b on land, or a barrier across the way). The deliverables place
   // no equidistance point on a way between two cell centres that is not open. Default: true.
   virtual bool open_between(Vec2 a, Vec2 b) const;
+  // Where the domain has edges (the distance by sea: the barriers' boundaries; a straight metric
+  // has none): the ids of the edges that may come within `radius` CRS units of p, into `out`
+  // (cleared first), so that a line which stops short of an edge can be carried onto it.
+  virtual void domain_edges_near(Vec2 p, double radius, std::vector<int32_t>& out) const;
+  // The point of domain edge `edge` at fraction t in [0, 1] of its length from its first end, as
+  // approached from the side where `side` lies: moved off the edge by the least amount (a few
+  // units in the last place of the edge's length, at most a micrometre's order) that puts it on
+  // that side and in the domain. Grid-CRS coordinates into `out`; false where there is none
+  // (`side` on the edge's line, or the edge's side towards it is not the domain's).
+  virtual bool domain_edge_point(int32_t edge, double t, Vec2 side, Vec2& out) const;
 
   // Lower bound of the metric distance from the embedded position q to anything in the box.
   static double lower_bound(const Vec3& q, const Box3& b);
@@ -138,6 +155,7 @@ class SiteMetric {
 class PlanarSiteMetric final : public SiteMetric {
  public:
   PlanarSiteMetric(const SeedSet& seeds, Vec2 origin);
+  Kind kind() const override { return Kind::planar; }
   double distance(Vec2 p, int32_t site) const override;
   double distance_at_vertex(Vec2 p, int32_t site, Vec2& gradient, VertexHit& hit) const override;
   Vec2 nearest_point(Vec2 p, int32_t site) const override;
@@ -162,6 +180,7 @@ class GeodesicSiteMetric final : public SiteMetric {
   // rv::Error(invalid_argument) where `prepared` is not of them.
   GeodesicSiteMetric(const SeedSet& seeds, const MetricSpec& metric, std::shared_ptr<const PreparedSeeds> prepared);
   ~GeodesicSiteMetric() override;
+  Kind kind() const override { return Kind::geodesic; }
   double distance(Vec2 p, int32_t site) const override;
   double distance_at_vertex(Vec2 p, int32_t site, Vec2& gradient, VertexHit& hit) const override;
   bool ties_at_vertex(Vec2 p, int32_t site, const VertexHit& hit, double d) const override;
@@ -192,6 +211,7 @@ class LocatedGeodesicSiteMetric final : public SiteMetric {
   LocatedGeodesicSiteMetric(const SeedSet& seeds, const MetricSpec& metric,
                             std::shared_ptr<const Geolocator> geolocator,
                             std::shared_ptr<const std::vector<Polygon>> grid_polygons);
+  Kind kind() const override { return Kind::located_geodesic; }
   double distance(Vec2 p, int32_t site) const override;
   Vec2 nearest_point(Vec2 p, int32_t site) const override;
   double point_distance(Vec2 a, Vec2 b) const override;

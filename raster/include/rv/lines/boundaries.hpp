@@ -123,6 +123,9 @@ struct BoundaryStats {
   int64_t vertices_before_simplify = 0;
   int64_t vertices = 0;
   int64_t ends_on_owned_edge = 0;  // line ends carried to where the owned area ends
+  // By sea (SiteMetric::domain_edges_near): line ends carried onto the barrier they meet (a
+  // coast, a boom), where the two owners' distances by sea are equal on its edge.
+  int64_t ends_on_barriers = 0;
   // Tripoints a crowded square's search missed, found from the ends of their lines (also in
   // unresolved_tripoints, which counts the squares).
   int64_t missing_tripoints_found = 0;
