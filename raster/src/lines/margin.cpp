@@ -132,11 +132,37 @@ Raster<float> margin_by_owner_runs(const NearestField& field, const SiteMetric& 
   return out;
 }
 
+// A metric that is not straight (by sea): the other owners' distance per cell from the index,
+// which measures it (no engine run over the other owners' seeds would: it knows no barriers).
+Raster<float> margin_by_index(const NearestField& field, const OwnerIndex& index, int threads) {
+  const SeedSet& seeds = index.metric().seeds();
+  if (seeds.adjusted())
+    throw Error(ErrorKind::unsupported,
+                "the margin raster is not available with weights or reaches: it measures unweighted distances");
+  const GridSpec& g = field.site.grid();
+  const Window w = field.site.window();
+  Raster<float> out(g, w, kNoDistance);
+  if (seeds.owner_count() <= 1) return out;
+  const std::vector<int32_t> owner_of_site = owner_of_sites(seeds);
+  detail::parallel_for(resolve_threads(threads), w.height, [&](int64_t r, int) {
+    for (int64_t c = 0; c < w.width; ++c) {
+      const int32_t s = field.site.at(c, r);
+      if (s == kNoSite) continue;
+      const Vec2 p = centre(g, w.col0 + c, w.row0 + r);
+      const OwnerIndex::Hit other = index.nearest_not_of(p, owner_of_site[static_cast<size_t>(s)]);
+      if (other.site == kNoSite) continue;
+      out.at(c, r) = static_cast<float>(std::max(0.0, other.distance - static_cast<double>(field.distance.at(c, r))));
+    }
+  });
+  return out;
+}
+
 }  // namespace
 
 Raster<float> margin_raster(const NearestField& field, const OwnerIndex& index, int threads) {
   const SiteMetric& metric = index.metric();
   check_metric(field, metric);
+  if (!metric.straight()) return margin_by_index(field, index, threads);
   // The per-owner engine runs below would need the other owners' polygons in the grid's CRS,
   // which the field does not carry.
   if (field.geolocator)

@@ -114,12 +114,13 @@ class SeaSiteMetric final : public SiteMetric {
     Vec2 n{-(e.b.y - e.a.y) / len, (e.b.x - e.a.x) / len};  // to the left of a -> b
     if (o < 0) n = Vec2{-n.x, -n.y};
     const double bend = pr.vis.frame() ? pr.vis.frame()->deviation() : 0.0;
-    const double scale = std::max({std::abs(q.x), std::abs(q.y), len});
+    const double scale = std::max({std::abs(q.x), std::abs(q.y), len, std::abs(grid_.xmin), std::abs(grid_.ymax)});
     for (double eps = 16.0 * std::numeric_limits<double>::epsilon() * scale; eps <= 1e-6 * len + 2.0 * bend;
          eps *= 4.0) {
-      const Vec2 moved{q.x + eps * n.x, q.y + eps * n.y};
-      if (pr.vis.orient(e.a, e.b, moved) != o || pr.vis.classify(moved) == Visibility::Ground::land) continue;
-      out = grid_of(moved);
+      // (Tested where the grid's coordinates put it: their rounding may take back a small move.)
+      const Vec2 at = grid_of(Vec2{q.x + eps * n.x, q.y + eps * n.y}), back = plane_of(at);
+      if (pr.vis.orient(e.a, e.b, back) != o || pr.vis.classify(back) == Visibility::Ground::land) continue;
+      out = at;
       return true;
     }
     return false;

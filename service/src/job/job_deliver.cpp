@@ -27,14 +27,27 @@
 #include "rv/lines/relevant_coasts.hpp"
 #include "rv/lines/strip_lines.hpp"
 #include "rv/preview.hpp"
+#include "rv/sea/sea_metric.hpp"
 
 namespace rv::detail {
 namespace {
 
 // The deliverables measure with the field's own metric (projected geodesic grids: located on
-// the ellipsoid, positions and outputs in the grid's CRS).
-std::unique_ptr<SiteMetric> site_metric(const PreparedJob& job) {
-  return make_site_metric(job.loaded.seeds, job.grid, job.compute);
+// the ellipsoid, positions and outputs in the grid's CRS; by sea, the distance by sea, each
+// owner's bend nodes settled on the job's threads, what that took into `report`).
+std::unique_ptr<SiteMetric> site_metric(const PreparedJob& job, const JobRun& run, nlohmann::json& report) {
+  if (!job.sea) return make_site_metric(job.loaded.seeds, job.grid, job.compute);
+  SeaOptions options;
+  options.metric = job.metric;
+  options.geolocator = job.compute.geolocator;
+  options.grid_polygons = job.compute.grid_polygons;
+  options.threads = run.spec.threads;
+  options.cancel = run.hooks.cancel;
+  options.prepared = job.sea->prepared;
+  SeaMetricStats stats;
+  auto metric = make_sea_site_metric(job.loaded.seeds, job.sea->loaded.barriers, job.grid, options, &stats);
+  report["by_sea"] = {{"owners_settled", stats.owners}, {"bend_tests", stats.bend_tests}, {"seconds", stats.seconds}};
+  return metric;
 }
 
 }  // namespace
@@ -199,7 +212,7 @@ StripDeliverables::StripDeliverables(JobRun& run, const PreparedJob& job, bool s
   State& s = *st_;
   const OutputRequest& out = s.out();
   const GridSpec& g = job.grid;
-  s.metric = site_metric(job);
+  s.metric = site_metric(job, run, s.report);
   // With weights or reaches the max distance ends every reach, as the engine compares.
   s.index = job.loaded.seeds.adjusted()
                 ? std::make_unique<OwnerIndex>(*s.metric, OwnerIndex::Measure::adjusted, job.compute.max_distance)
@@ -348,6 +361,7 @@ BoundaryResult StripDeliverables::State::take_boundaries() {
                             {"turning_points", st.turning_points},
                             {"arc_points", st.arc_points},
                             {"ends_on_owned_edge", st.ends_on_owned_edge},
+                            {"ends_on_barriers", st.ends_on_barriers},
                             {"missing_tripoints_found", st.missing_tripoints_found},
                             {"sliver_crossings", st.sliver_crossings},
                             {"unresolved_slivers", st.unresolved_slivers},

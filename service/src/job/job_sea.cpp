@@ -80,10 +80,10 @@ void check_sea_plan(const JobSpec& spec, const PreparedJob& job) {
     return;
   }
   const OutputRequest& out = spec.outputs;
-  if (out.any_deliverable())
+  if (!out.limits.empty() || out.regions_wanted() || !out.turning_points.empty())
     refuse(ErrorKind::unsupported,
-           "boundaries, tripoints, limits, regions, the margin, the preview and turning points are not drawn under "
-           "the distance by sea yet; ask for the rasters (ownership, distance, nearest feature, via)");
+           "limits, regions and turning points are not drawn under the distance by sea yet; boundaries, tripoints, "
+           "the margin and the preview are, and the rasters (ownership, distance, nearest feature, via)");
   if (!spec.base_report.empty())
     refuse(ErrorKind::unsupported, "an edit of a run by sea is not available yet: run it again with the new seeds");
   if (!spec.bands.empty()) refuse(ErrorKind::invalid_argument, "a split job's assembly does not compute by sea");

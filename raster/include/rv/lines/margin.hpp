@@ -1,5 +1,6 @@
 // The margin raster: per owned cell, how much farther the nearest other owner is than its own.
-// Refuses adjusted seeds, and (for now, rv::Error(unsupported)) projected geodesic fields.
+// Refuses adjusted seeds, and (for now, rv::Error(unsupported)) projected geodesic fields but by
+// sea.
 #pragma once
 
 #include "rv/engine/engine.hpp"
@@ -15,7 +16,9 @@ namespace rv {
 // has margin 0. Planar fields use the exact engine's tile culling with an owner filter
 // (compute_other_owner, margins from double distances); other metrics run the exact engine once
 // per owner, on the window of that owner's cells, over the other owners' seeds (margins from the
-// Float32 distances: a few millimetres of rounding at 100 km).
+// Float32 distances: a few millimetres of rounding at 100 km). By sea (a metric that is not
+// straight, rv/sea/sea_metric.hpp) each cell asks the index for the other owners' distance by
+// sea (OwnerIndex::nearest_not_of), less the field's own; projected geodesic grids included.
 Raster<float> margin_raster(const NearestField& field, const OwnerIndex& index, int threads = 0);
 
 // The exact engine's culling, restricted per cell to sites whose owner differs from the owner

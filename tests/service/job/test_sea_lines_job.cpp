@@ -1,0 +1,225 @@
+// Lines by sea in a job: the Øresund's ports (DK and SE) with the land as barriers. The boundary
+// file's vertices are equidistant by sea (each owner's distance measured by the exact engine on
+// that owner's ports alone, at the vertex), its lines keep to the sea and end on the grid's edge
+// or on a coast; the margin raster is the difference of the two owners' own fields by sea; the
+// preview is drawn; the report says what the lines by sea cost. Limits, regions and turning
+// points by sea are refused in one line.
+#include <gtest/gtest.h>
+#include <ogrsf_frmts.h>
+#include <unistd.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <string>
+
+#include <nlohmann/json.hpp>
+
+#include "fixtures.hpp"
+#include "geodesic_oracle.hpp"
+#include "rv/field/error.hpp"
+#include "rv/gdal/raster_io.hpp"
+#include "rv/job.hpp"
+#include "rv/sea/visibility.hpp"
+
+namespace fs = std::filesystem;
+
+namespace rv {
+namespace {
+
+using test::fixture;
+
+// (The checks, below the fixture.)
+void expect_lines_by_sea(const JobSpec& s, double on_coast);
+
+class SeaLinesJob : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = fs::temp_directory_path() / ("rv_sea_lines_" + std::to_string(::getpid()) + "_" +
+                                        ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    fs::remove_all(dir_);
+    fs::create_directories(dir_);
+  }
+  void TearDown() override { fs::remove_all(dir_); }
+
+  // The ports and the land in UTM 33N, 250 m cells over the strait, with boundaries, tripoints,
+  // the margin and the preview.
+  JobSpec spec(const std::string& sub) const {
+    JobSpec s;
+    s.seeds.paths = {fixture("oresund_ports.geojson")};
+    s.seeds.owner_field = "owner";
+    s.seeds.target_crs = "EPSG:32633";
+    s.metric = MetricRequest::planar;
+    s.barriers = {fixture("oresund.gpkg")};
+    s.grid.resolution = 250.0;
+    s.grid.extent = std::array<double, 4>{330000.0, 6150000.0, 370000.0, 6220000.0};
+    fs::create_directories(dir_ / sub);
+    s.outputs.ownership = (dir_ / sub / "own.tif").string();
+    s.outputs.distance = (dir_ / sub / "dist.tif").string();
+    s.outputs.boundaries = (dir_ / sub / "boundaries.geojson").string();
+    s.outputs.tripoints = (dir_ / sub / "tripoints.geojson").string();
+    s.outputs.margin = (dir_ / sub / "margin.tif").string();
+    s.outputs.preview = (dir_ / sub / "preview.png").string();
+    s.outputs.report = (dir_ / sub / "report.json").string();
+    return s;
+  }
+  fs::path dir_;
+};
+
+// One owner's distance by sea at p: the exact engine on that owner's seeds alone, over a grid
+// of one cell centred on p (metres, Float32 as the engine's rasters hold it).
+double owner_distance_at(const PreparedJob& job, int32_t owner, Vec2 p) {
+  std::vector<bool> drop(job.loaded.seeds.features().size());
+  for (size_t f = 0; f < drop.size(); ++f) drop[f] = job.loaded.seeds.features()[f].owner != owner;
+  std::vector<int32_t> site_of;
+  const SeedSet alone = job.loaded.seeds.without(drop, site_of);
+  GridSpec g;
+  g.res = job.loaded.crs.geographic ? 1e-6 : 1.0;
+  g.width = g.height = 1;
+  g.xmin = p.x - 0.5 * g.res;
+  g.ymax = p.y + 0.5 * g.res;
+  SeaOptions options;
+  options.metric = job.metric;
+  const SeaField f = compute_sea(alone, job.sea->loaded.barriers, g, g.full_window(), options);
+  const float d = f.field.distance.at(0, 0);
+  return d == kNoDistance ? INFINITY : static_cast<double>(d);
+}
+
+// The nearest distance from p to an edge of the barriers in metres: straight edges of a
+// projected grid, or (`geodesic`, longitude/latitude) geodesic ones, measured along
+// GeographicLib's geodesic (edges farther than 0.01 degrees left out).
+double to_coast(const Barriers& barriers, Vec2 p, bool geodesic) {
+  double best = INFINITY;
+  auto edge = [&](Vec2 a, Vec2 b) {
+    const double dx = b.x - a.x, dy = b.y - a.y, l2 = dx * dx + dy * dy;
+    const double t = l2 > 0 ? std::clamp(((p.x - a.x) * dx + (p.y - a.y) * dy) / l2, 0.0, 1.0) : 0.0;
+    const double chord = std::hypot(p.x - a.x - t * dx, p.y - a.y - t * dy);
+    if (!geodesic)
+      best = std::min(best, chord);
+    else if (chord < 0.01)
+      best = std::min(best, test::segment_foot(p, a, b).metres);
+  };
+  for (const Barriers::Polygon& poly : barriers.polygons())
+    for (const Ring& r : poly.rings)
+      for (size_t i = 0; i < r.size(); ++i) edge(r[i], r[(i + 1) % r.size()]);
+  return best;
+}
+
+// Runs `s` and checks its boundaries, margin and preview (see the file's head); `on_coast`: how
+// near a coast an end must lie (metres).
+void expect_lines_by_sea(const JobSpec& s, double on_coast) {
+  const nlohmann::json report = run_job(s).report;
+  const PreparedJob job = prepare_job(s);
+  ASSERT_TRUE(job.sea);
+  const Barriers& land = job.sea->loaded.barriers;
+  const Visibility vis(land);
+  const GridSpec& g = job.grid;
+  const bool geodesic = job.metric.kind == MetricSpec::geodesic;
+
+  GDALDataset* ds = GDALDataset::Open(s.outputs.boundaries.c_str(), GDAL_OF_VECTOR);
+  ASSERT_NE(ds, nullptr);
+  OGRLayer* layer = ds->GetLayer(0);
+  int lines = 0, checked = 0, ends_on_coast = 0, ends_on_frame = 0;
+  double worst = 0.0;
+  for (OGRFeature* f; (f = layer->GetNextFeature()) != nullptr; OGRFeature::DestroyFeature(f)) {
+    ++lines;
+    const OGRLineString* ls = f->GetGeometryRef()->toLineString();
+    const int n = ls->getNumPoints();
+    ASSERT_GE(n, 2);
+    for (int i = 0; i < n; ++i) {
+      const Vec2 p{ls->getX(i), ls->getY(i)};
+      // (On the ellipsoid the coast's edges are geodesics, which the planar reading here does
+      // not follow: a point on one may read as inland by centimetres.)
+      EXPECT_TRUE(!vis.on_land(p) || (geodesic && to_coast(land, p, true) < on_coast)) << p.x << "," << p.y;
+
+      if (i % 20 == 0 || i == n - 1) {
+        const double dk = owner_distance_at(job, 1, p), se = owner_distance_at(job, 2, p);
+        EXPECT_NEAR(dk, se, 2e-7 * dk + 5e-3) << p.x << "," << p.y;
+        worst = std::max(worst, std::abs(dk - se));
+        ++checked;
+      }
+    }
+    for (const int i : {0, n - 1}) {
+      const Vec2 p{ls->getX(i), ls->getY(i)};
+      const bool frame =
+          p.x <= g.xmin + g.res || p.x >= g.xmax() - g.res || p.y <= g.ymin() + g.res || p.y >= g.ymax - g.res;
+      const bool coast = to_coast(land, p, geodesic) < on_coast;
+      ends_on_frame += frame;
+      ends_on_coast += coast;
+      EXPECT_TRUE(frame || coast) << "an end in the open sea at " << p.x << "," << p.y;
+    }
+  }
+  GDALClose(GDALDataset::ToHandle(ds));
+  EXPECT_GE(lines, 1);
+  EXPECT_GT(checked, 30);
+  std::printf("deliverables: %s\n", report.at("timings_s").at("deliverables").dump().c_str());
+  EXPECT_GT(ends_on_coast, 0);
+  std::printf("boundaries by sea: %d lines, %d vertices checked, worst |d_DK - d_SE| %.3g m, %d ends on the coast\n",
+              lines, checked, worst, ends_on_coast);
+
+  const nlohmann::json& b = report.at("deliverables").at("boundaries");
+  EXPECT_EQ(b.at("ends_on_barriers").get<int>(), ends_on_coast);
+  EXPECT_EQ(report.at("deliverables").at("by_sea").at("owners_settled").get<int>(), 2);
+
+  // The margin: the other owner's distance by sea minus the own, cell for cell against the two
+  // owners' own fields by sea (Float32 both).
+  auto alone = [&](int32_t owner) {
+    std::vector<bool> drop(job.loaded.seeds.features().size());
+    for (size_t f = 0; f < drop.size(); ++f) drop[f] = job.loaded.seeds.features()[f].owner != owner;
+    std::vector<int32_t> site_of;
+    const SeedSet seeds = job.loaded.seeds.without(drop, site_of);
+    SeaOptions options;
+    options.metric = job.metric;
+    return compute_sea(seeds, land, g, g.full_window(), options).field.distance;
+  };
+  const Raster<float> dk = alone(1), se = alone(2);
+  const Raster<float> margin = read_float32(s.outputs.margin);
+  const Raster<int32_t> own = read_int32(s.outputs.ownership);
+  int64_t cells = 0;
+  for (size_t i = 0; i < margin.cells().size(); ++i) {
+    if (own.cells()[i] == 0) continue;
+    const double want = std::abs(static_cast<double>(dk.cells()[i]) - static_cast<double>(se.cells()[i]));
+    ASSERT_NEAR(margin.cells()[i], want, 1e-6 * std::max(dk.cells()[i], se.cells()[i]) + 1e-2) << i;
+    ++cells;
+  }
+  EXPECT_GT(cells, 10000);
+  EXPECT_GT(fs::file_size(s.outputs.preview), 1000u);
+}
+
+TEST_F(SeaLinesJob, BoundariesBySeaAreEquidistantBySeaAndEndOnTheCoast) { expect_lines_by_sea(spec("utm"), 1e-6); }
+
+// The same on the ellipsoid (a longitude/latitude grid of 0.005 degrees, geodesic paths): an end
+// on a coast lies on its geodesic edge within a millimetre.
+TEST_F(SeaLinesJob, OnTheEllipsoidToo) {
+  JobSpec s = spec("geo");
+  s.seeds.target_crs.clear();
+  s.metric = MetricRequest::automatic;
+  s.grid.extent = std::array<double, 4>{12.3, 55.4, 13.0, 56.15};
+  s.grid.resolution = 0.005;
+  expect_lines_by_sea(s, 1e-3);
+}
+
+TEST_F(SeaLinesJob, LimitsRegionsAndTurningPointsBySeaAreRefusedInOneLine) {
+  for (int k = 0; k < 3; ++k) {
+    JobSpec s = spec("r" + std::to_string(k));
+    const fs::path folder = fs::path(s.outputs.ownership).parent_path();
+    if (k == 0) {
+      s.outputs.limits = (folder / "limits.geojson").string();
+      s.outputs.limit_distances = {"12nmi"};
+    }
+    if (k == 1) s.outputs.regions = (folder / "regions.geojson").string();
+    if (k == 2) s.outputs.turning_points = (folder / "turning.csv").string();
+    try {
+      run_job(s);
+      ADD_FAILURE() << "not refused";
+    } catch (const Error& e) {
+      EXPECT_EQ(e.kind(), ErrorKind::unsupported) << e.what();
+      EXPECT_NE(std::string(e.what()).find("not drawn under the distance by sea yet"), std::string::npos) << e.what();
+      EXPECT_EQ(std::string(e.what()).find('\n'), std::string::npos);
+      EXPECT_TRUE(fs::is_empty(folder)) << e.what();
+    }
+  }
+}
+
+}  // namespace
+}  // namespace rv
