@@ -450,6 +450,22 @@ double GeodesicMeasure::point_distance(Vec2 p, Vec2 q, Vec2& gradient) const {
   return d;
 }
 
+std::vector<Vec2> GeodesicMeasure::along(Vec2 a, Vec2 b, double step) const {
+  if (!(a.y >= -90.0 && a.y <= 90.0 && b.y >= -90.0 && b.y <= 90.0))
+    throw Error(ErrorKind::invalid_argument, "latitude outside [-90, 90]");
+  double s12, azi1, azi2;
+  impl_->geod.Inverse(a.y, a.x, b.y, b.x, s12, azi1, azi2);
+  const auto n = static_cast<int64_t>(std::ceil(s12 / step));
+  std::vector<Vec2> out{a};
+  for (int64_t k = 1; k < n; ++k) {
+    double lat, lon;
+    impl_->geod.Direct(a.y, a.x, azi1, s12 * static_cast<double>(k) / static_cast<double>(n), lat, lon);
+    out.push_back(Vec2{a.x + std::remainder(lon - a.x, 360.0), lat});
+  }
+  if (!(a == b)) out.push_back(b);
+  return out;
+}
+
 Vec2 GeodesicMeasure::gradient(Vec2 p, double azimuth) const {
   // Moving p by (dlon, dlat) degrees moves it N cos(lat) dlon east and M dlat north (N, M the
   // radii of curvature across and along the meridian); the distance grows by the move's

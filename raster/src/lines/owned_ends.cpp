@@ -181,6 +181,7 @@ bool onto_barrier(const BoundaryGrid& b, std::vector<int32_t>& edges, BoundaryLi
   jv.distance_b = best->b.distance;
   jv.distance = 0.5 * (best->a.distance + best->b.distance);
   jv.residual = std::abs(best->a.cost - best->b.cost);
+  jv.on_barrier = true;
   line.vertices.push_back(jv);
   return true;
 }

@@ -496,6 +496,20 @@ class EdgeBuilder {
       v.pop_back();
     }
     const Vec2 end = v.back();
+    // By sea: an end on a barrier (end_at_barriers) goes a thousandth of a cell on into it, so
+    // that it crosses the barrier's edge in the regions' linework (straight there, where the
+    // edge is a geodesic: the end lies on the geodesic) and is noded with it; the stub is a
+    // dangle the faces drop.
+    const BoundaryVertex& last = front ? line.vertices.front() : line.vertices.back();
+    if (last.on_barrier && last.p.x == end.x && last.p.y == end.y && v.size() >= 2) {
+      const Vec2 prev = v[v.size() - 2];
+      const double len = std::hypot(end.x - prev.x, end.y - prev.y);
+      if (len > 0.0) {
+        const double k = 1e-3 * g_.res / len;
+        v.push_back(Vec2{end.x + k * (end.x - prev.x), end.y + k * (end.y - prev.y)});
+        return;
+      }
+    }
     Vec2 j, on_line;
     // (A lone crossing on the frame: one end goes to the grid's edge, the other inwards.)
     const bool came_from_edge = v.size() >= 2 && outside_frame(g_, v[v.size() - 2]);

@@ -20,6 +20,7 @@
 #include "rv/field/geolocate.hpp"
 #include "rv/gdal/raster_io.hpp"
 #include "rv/gdal/vector_writer.hpp"
+#include "rv/geodesic/geodesic.hpp"
 #include "rv/lines/boundaries.hpp"
 #include "rv/lines/limits.hpp"
 #include "rv/lines/margin.hpp"
@@ -48,6 +49,45 @@ std::unique_ptr<SiteMetric> site_metric(const PreparedJob& job, const JobRun& ru
   auto metric = make_sea_site_metric(job.loaded.seeds, job.sea->loaded.barriers, job.grid, options, &stats);
   report["by_sea"] = {{"owners_settled", stats.owners}, {"bend_tests", stats.bend_tests}, {"seconds", stats.seconds}};
   return metric;
+}
+
+// By sea: the barriers' rings (closed) and lines in the grid's CRS, for the regions' faces. On the
+// ellipsoid an edge is a geodesic: followed in steps of a fifth of a cell (its chord then lies
+// within a few micrometres of it), located back into a projected grid's CRS.
+std::vector<std::vector<Vec2>> barrier_linework(const PreparedJob& job) {
+  const Barriers& barriers = job.sea->loaded.barriers;
+  std::vector<std::vector<Vec2>> out;
+  std::optional<GeodesicMeasure> measure;
+  double step = 0.0;
+  if (job.metric.kind == MetricSpec::geodesic) {
+    measure.emplace(job.metric);
+    const GridSpec& g = job.grid;
+    const Vec2 mid{g.centre_x(g.width / 2), g.centre_y(g.height / 2)};
+    std::unique_ptr<SiteMetric> m = make_site_metric(job.loaded.seeds, g, job.compute);
+    step = 0.2 * m->point_distance(mid, Vec2{mid.x + g.res, mid.y});
+  }
+  auto add = [&](const std::vector<Vec2>& pts) {
+    std::vector<Vec2> line;
+    for (size_t i = 0; i + 1 < pts.size(); ++i) {
+      const std::vector<Vec2> piece =
+          measure ? measure->along(pts[i], pts[i + 1], step) : std::vector<Vec2>{pts[i], pts[i + 1]};
+      line.insert(line.end(), piece.begin() + (line.empty() ? 0 : 1), piece.end());
+    }
+    if (job.compute.geolocator)
+      for (Vec2& p : line) {
+        const Vec2 ll = p;
+        job.compute.geolocator->to_grid(&ll.x, &ll.y, &p.x, &p.y, 1);
+      }
+    out.push_back(std::move(line));
+  };
+  for (const Barriers::Polygon& poly : barriers.polygons())
+    for (const Ring& r : poly.rings) {
+      std::vector<Vec2> closed(r.begin(), r.end());
+      if (!closed.empty()) closed.push_back(closed.front());
+      add(closed);
+    }
+  for (const Barriers::Line& l : barriers.lines()) add(l.vertices);
+  return out;
 }
 
 }  // namespace
@@ -449,6 +489,7 @@ void StripDeliverables::State::write_region_polygons(const BoundaryResult& bound
   LineRegions lr;
   lr.edges = std::move(edges.edges);
   lr.grid = s.job.grid;
+  if (s.job.sea) lr.outline = barrier_linework(s.job);
   lr.owner_of = [&](Vec2 p) {
     return s.partial ? partial_owner_at(*s.partial, p, max_distance) : owner_at(*s.index, p, max_distance);
   };

@@ -11,6 +11,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <string>
 
 #include <nlohmann/json.hpp>
@@ -60,6 +61,7 @@ class SeaLinesJob : public ::testing::Test {
     s.outputs.tripoints = (dir_ / sub / "tripoints.geojson").string();
     s.outputs.margin = (dir_ / sub / "margin.tif").string();
     s.outputs.preview = (dir_ / sub / "preview.png").string();
+    s.outputs.regions = (dir_ / sub / "regions.gpkg").string();
     s.outputs.report = (dir_ / sub / "report.json").string();
     return s;
   }
@@ -184,6 +186,62 @@ void expect_lines_by_sea(const JobSpec& s, double on_coast) {
   }
   EXPECT_GT(cells, 10000);
   EXPECT_GT(fs::file_size(s.outputs.preview), 1000u);
+
+  // The regions: each owner's sea, bounded by the boundaries, the coasts and the grid's edge.
+  // Areas within 2 % of the owner's cells (a cell's area each), the land outside them all.
+  std::map<int32_t, int64_t> cells_of;
+  for (int32_t o : own.cells())
+    if (o > 0) ++cells_of[o];
+  const nlohmann::json& regions = report.at("deliverables").at("regions");
+  ASSERT_EQ(regions.at("owners").get<int>(), 2);
+  const OGRGeometry* land_union = nullptr;
+  OGRMultiPolygon land_polygons;
+  for (const Barriers::Polygon& poly : land.polygons()) {
+    OGRPolygon p;
+    for (const Ring& r : poly.rings) {
+      OGRLinearRing lr;
+      // (On the ellipsoid the coast's edges are geodesics: followed in steps of 50 m.)
+      for (size_t i = 0; i < r.size(); ++i) {
+        const Vec2 u = r[i], w = r[(i + 1) % r.size()];
+        lr.addPoint(u.x, u.y);
+        if (!geodesic) continue;
+        const GeographicLib::GeodesicLine gl = test::wgs84().InverseLine(u.y, u.x, w.y, w.x);
+        const int n = static_cast<int>(std::ceil(gl.Distance() / 50.0));
+        for (int k = 1; k < n; ++k) {
+          double lat, lon;
+          gl.Position(gl.Distance() * k / n, lat, lon);
+          lr.addPoint(lon, lat);
+        }
+      }
+      lr.closeRings();
+      p.addRing(&lr);
+    }
+    land_polygons.addGeometry(&p);
+  }
+  std::unique_ptr<OGRGeometry> merged(land_polygons.UnionCascaded());
+  land_union = merged.get();
+  GDALDataset* rd = GDALDataset::Open(s.outputs.regions.c_str(), GDAL_OF_VECTOR);
+  ASSERT_NE(rd, nullptr);
+  OGRLayer* rl = rd->GetLayerByName("regions");
+  ASSERT_NE(rl, nullptr);
+  int owners = 0;
+  for (OGRFeature* f; (f = rl->GetNextFeature()) != nullptr; OGRFeature::DestroyFeature(f)) {
+    ++owners;
+    const int32_t owner = f->GetFieldAsInteger("owner");
+    const double area = f->GetFieldAsDouble("area");
+    const double cell_area = geodesic ? area / static_cast<double>(cells_of[owner]) : g.res * g.res;
+    if (!geodesic) EXPECT_NEAR(area, static_cast<double>(cells_of[owner]) * cell_area, 0.02 * area) << owner;
+    EXPECT_EQ(f->GetFieldAsDouble("land_area"), 0.0);
+    // (Areas in the grid's plane, square degrees on the ellipsoid: the regions follow the coast's
+    // geodesics in steps of a fifth of a cell, the land here in steps of 50 m.)
+    std::unique_ptr<OGRGeometry> wet(f->GetGeometryRef()->Intersection(land_union));
+    const double on_land = wet && !wet->IsEmpty() ? wet->toMultiPolygon()->get_Area() : 0.0;
+    std::unique_ptr<OGRGeometry> plane(f->GetGeometryRef()->clone());
+    const double plane_area = dynamic_cast<OGRMultiPolygon*>(plane.get())->get_Area();
+    EXPECT_LT(on_land, (geodesic ? 1e-7 : 1e-9) * plane_area) << owner;
+  }
+  GDALClose(GDALDataset::ToHandle(rd));
+  EXPECT_EQ(owners, 2);
 }
 
 TEST_F(SeaLinesJob, BoundariesBySeaAreEquidistantBySeaAndEndOnTheCoast) { expect_lines_by_sea(spec("utm"), 1e-6); }
@@ -199,7 +257,7 @@ TEST_F(SeaLinesJob, OnTheEllipsoidToo) {
   expect_lines_by_sea(s, 1e-3);
 }
 
-TEST_F(SeaLinesJob, LimitsRegionsAndTurningPointsBySeaAreRefusedInOneLine) {
+TEST_F(SeaLinesJob, LimitsTurningPointsAndRegionsWithAMaxDistanceAreRefusedInOneLine) {
   for (int k = 0; k < 3; ++k) {
     JobSpec s = spec("r" + std::to_string(k));
     const fs::path folder = fs::path(s.outputs.ownership).parent_path();
@@ -207,14 +265,17 @@ TEST_F(SeaLinesJob, LimitsRegionsAndTurningPointsBySeaAreRefusedInOneLine) {
       s.outputs.limits = (folder / "limits.geojson").string();
       s.outputs.limit_distances = {"12nmi"};
     }
-    if (k == 1) s.outputs.regions = (folder / "regions.geojson").string();
+    if (k == 1) s.max_distance = 5000.0;
     if (k == 2) s.outputs.turning_points = (folder / "turning.csv").string();
     try {
       run_job(s);
-      ADD_FAILURE() << "not refused";
+      ADD_FAILURE() << "not refused: " << k;
     } catch (const Error& e) {
       EXPECT_EQ(e.kind(), ErrorKind::unsupported) << e.what();
-      EXPECT_NE(std::string(e.what()).find("not drawn under the distance by sea yet"), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find(k == 1 ? "with a max distance are not drawn yet"
+                                                  : "not drawn under the distance by sea yet"),
+                std::string::npos)
+          << e.what();
       EXPECT_EQ(std::string(e.what()).find('\n'), std::string::npos);
       EXPECT_TRUE(fs::is_empty(folder)) << e.what();
     }

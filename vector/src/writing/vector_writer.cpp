@@ -573,6 +573,22 @@ RegionStats write_line_regions(const std::string& path, const LineRegions& r, co
     for (const Vec2& p : edge) ls.addPoint(p.x, p.y);
     lines.addGeometry(&ls);
   }
+  if (!r.outline.empty()) {
+    OGRMultiLineString outline;
+    for (const std::vector<Vec2>& edge : r.outline) {
+      if (edge.size() < 2) continue;
+      OGRLineString ls;
+      for (const Vec2& p : edge) ls.addPoint(p.x, p.y);
+      outline.addGeometry(&ls);
+    }
+    OGRPolygon frame;
+    OGRLinearRing ring;
+    add_outline(ring, g);
+    frame.addRing(&ring);
+    const GeometryPtr inside = checked(outline.Intersection(&frame), "clipping the barriers to the grid", capture);
+    const std::unique_ptr<OGRMultiLineString> clipped = lines_of(inside.get());
+    for (const OGRLineString* ls : *clipped) lines.addGeometry(ls);
+  }
   // A union with a point on the lines nodes every edge of both (GDAL 3.6 has no unary union).
   const OGRPoint corner(g.xmin, g.ymax);
   const GeometryPtr noded = checked(lines.Union(&corner), "noding the lines", capture);

@@ -33,6 +33,7 @@
 
 #include <cstdint>
 #include <memory>
+#include <vector>
 
 #include "rv/field/metric.hpp"
 #include "rv/field/seeds.hpp"
@@ -55,6 +56,9 @@ class GeodesicMeasure {
   // The gradient at p (metres per degree of longitude and latitude) of a distance that grows at
   // one metre per metre in the direction `azimuth` (degrees clockwise from north) and not across it.
   Vec2 gradient(Vec2 p, double azimuth) const;
+  // Points along the geodesic from a to b at most `step` metres apart, a and b included (as
+  // given), longitudes continuous from a's.
+  std::vector<Vec2> along(Vec2 a, Vec2 b, double step) const;
   // Distance in metres from p to the geodesic segment a-b (a == b: the point distance).
   // Prepares the edge on every call (one more inverse problem); for many cells against the same
   // edges use compute(). Throws rv::Error(invalid_argument) for a latitude beyond +-90.

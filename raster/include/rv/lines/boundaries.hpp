@@ -53,6 +53,9 @@ struct BoundaryVertex {
   // where one side's site reaches that far: 1, site_a's (distance_a is its reach); 2, site_b's;
   // 0, the locus. `residual` is then |d - reach| of that site.
   int8_t arc = 0;
+  // By sea: the line's end on a barrier's edge (BoundaryStats::ends_on_barriers), on the side it
+  // comes from (within a few units in the last place of the coordinates).
+  bool on_barrier = false;
 };
 
 struct BoundaryLine {

@@ -52,6 +52,8 @@ namespace rv {
 // LineRequest::owned_edge: lines of owner kOwnedEdge, which are then the only ones read): all of
 // the above holds with "at the max distance" read as "at the reach of the owner's deepest site"
 // (OwnerIndex::deepest), the junctions where both owners' deepest sites are at their reach.
+// By sea, a line that ends on a barrier (BoundaryVertex::on_barrier) is carried a thousandth of a
+// cell on across it, for the barriers' own edges to close the faces (LineRegions::outline).
 // What an edge follows: a boundary's locus (owners a < b), the max-distance line or the owned
 // area's edge (its level), or nothing exact (a stretch joined where the cells show less than the
 // owners' geometry).

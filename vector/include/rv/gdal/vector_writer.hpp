@@ -80,6 +80,10 @@ struct RegionStats {
 // the geometry engine fails (rv::Error(unsupported) when GDAL was built without GEOS).
 struct LineRegions {
   std::vector<std::vector<Vec2>> edges;
+  // More linework that bounds faces, clipped to the grid (by sea: the barriers' rings and lines,
+  // where the lines that meet a barrier end; the faces on land hold no owned cell and are left
+  // out).
+  std::vector<std::vector<Vec2>> outline;
   GridSpec grid;
   std::function<int32_t(Vec2)> owner_of;              // 0: no owner (the face is left out)
   std::function<double(std::span<const Vec2>)> area;  // of one ring, >= 0; thread-safe
