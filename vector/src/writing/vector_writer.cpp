@@ -552,15 +552,10 @@ std::vector<OwnerParts> land_and_sea(const std::map<int32_t, std::unique_ptr<OGR
   return parts;
 }
 
-}  // namespace
-
-RegionStats write_line_regions(const std::string& path, const LineRegions& r, const SeedSet& s,
-                               const std::vector<Polygon>& polygons, const VectorOutputOptions& o) {
-  gdal::ErrorCapture capture;
-  if (!OGRGeometryFactory::haveGEOS())
-    throw Error(ErrorKind::unsupported, "regions along the boundary lines need GDAL built with GEOS");
+// The regions' linework before noding: the grid's outline, every edge, and the outline's lines
+// clipped to the grid.
+OGRMultiLineString region_linework(const LineRegions& r, const gdal::ErrorCapture& capture) {
   const GridSpec& g = r.grid;
-  // The linework: the grid's outline and every edge; noded by a union, then polygonized.
   OGRMultiLineString lines;
   {
     OGRLineString frame;
@@ -589,6 +584,20 @@ RegionStats write_line_regions(const std::string& path, const LineRegions& r, co
     const std::unique_ptr<OGRMultiLineString> clipped = lines_of(inside.get());
     for (const OGRLineString* ls : *clipped) lines.addGeometry(ls);
   }
+  return lines;
+}
+
+}  // namespace
+
+RegionStats write_line_regions(const std::string& path, const LineRegions& r, const SeedSet& s,
+                               const std::vector<Polygon>& polygons, const VectorOutputOptions& o) {
+  gdal::ErrorCapture capture;
+  if (!OGRGeometryFactory::haveGEOS())
+    throw Error(ErrorKind::unsupported, "regions along the boundary lines need GDAL built with GEOS");
+  const GridSpec& g = r.grid;
+  // The linework: the grid's outline, every edge and the outline's; noded by a union, then
+  // polygonized.
+  const OGRMultiLineString lines = region_linework(r, capture);
   // A union with a point on the lines nodes every edge of both (GDAL 3.6 has no unary union).
   const OGRPoint corner(g.xmin, g.ymax);
   const GeometryPtr noded = checked(lines.Union(&corner), "noding the lines", capture);
