@@ -103,8 +103,8 @@ function control(name, input, inventory) {
 // The distance by sea (the process's "barriers" upload): a switch and the barrier layer it asks
 // for. Paths go around the barriers, so they matter when the seeds are not them: with the coast
 // itself as the seeds nothing changes (a path a seed blocks passes nearer to that seed). What the
-// distance by sea does not draw yet (the lines, the regions' areas) is turned off while it is on.
-const SEA_OFF = ["out-boundaries", "out-tripoints", "out-turningPoints", "out-margin", "out-preview", "in-limitDistances"];
+// distance by sea does not draw yet (limits, turning points) is turned off while it is on.
+const SEA_OFF = ["out-turningPoints", "in-limitDistances"];
 
 function bySea(process) {
   const input = (process.inputs || {}).barriers;
@@ -114,9 +114,9 @@ function bySea(process) {
   const layer = el("div", { class: "field", id: "sea-layer", hidden: "" },
     el("label", { for: "barrier-file", text: "Barrier layer: land polygons, lines no path crosses" }), file,
     el("p", { class: "help", id: "sea-help", text: "For example the land while the seeds are ports or farms. With only " +
-      "the coasts loaded as seeds it would change nothing. On a longitude/latitude grid paths are geodesics (points " +
-      "as seeds); for lines or polygons as seeds give a projected CRS under More options. Boundary lines, " +
-      "tripoints and limits are not drawn by sea yet." }));
+      "the coasts loaded as seeds it would change nothing. On a longitude/latitude grid paths and edges are " +
+      "geodesics. Boundary lines, tripoints and regions follow the distance by sea and end on the coasts they " +
+      "meet; limits and turning points are not drawn by sea yet, nor regions with a max distance." }));
   box.addEventListener("change", () => {
     layer.hidden = !box.checked;
     const form = box.form;
@@ -189,9 +189,10 @@ export function readForm(form, process) {
   for (const [id] of OPTIONAL_OUTPUTS) if (form.querySelector("#out-" + id).checked) outputs[id] = {};
   // Limit lines exactly when there are distances for them (the daemon refuses either alone).
   if (inputs.limitDistances) outputs.limits = {};
-  // By sea: the vias instead of what it does not make yet (regions are drawn from the lines).
+  // By sea: the vias too; no regions with a max distance (the max-distance line by sea is not
+  // drawn yet).
   if (seaChoice(form).bySea) {
-    delete outputs.regions;
+    if (inputs.maxDistance !== undefined) delete outputs.regions;
     outputs.via = {};
   }
   return { inputs, outputs };

@@ -326,7 +326,8 @@ def sea_run(drv, d, base):
     check(drv.find_element(By.ID, "sea-layer").get_attribute("hidden") is not None, "the barrier layer waits for the switch")
     drv.find_element(By.ID, "by-sea").click()
     check(drv.find_element(By.ID, "sea-layer").is_displayed(), "the switch asks for the barrier layer")
-    check(not drv.find_element(By.ID, "out-boundaries").is_enabled(), "the lines are turned off by sea")
+    check(drv.find_element(By.ID, "out-boundaries").is_enabled(), "the boundaries stay on by sea")
+    check(not drv.find_element(By.ID, "in-limitDistances").is_enabled(), "the limits are turned off by sea")
     drv.find_element(By.ID, "barrier-file").send_keys(land)
     drv.find_element(By.CSS_SELECTOR, "details.more summary").click()
     drv.find_element(By.ID, "in-crs").send_keys("EPSG:32633")
@@ -334,7 +335,8 @@ def sea_run(drv, d, base):
     job = job_id(drv)
     own = raster(d, job, "ownership")
     names = [b.text for b in drv.find_elements(By.CSS_SELECTOR, "#downloads button")]
-    check("via.tif" in names and "boundaries.geojson" not in names, "the downloads by sea: %s" % names)
+    check("via.tif" in names and "boundaries.geojson" in names and "regions.geojson" in names,
+          "the downloads by sea: %s" % names)
     with tempfile.TemporaryDirectory() as tmp:
         path = os.path.join(tmp, "o.tif")
         subprocess.run([RVORONOI, "compute", ports, "--owner-field", "owner", "--barriers", land, "--crs", "EPSG:32633",
@@ -342,6 +344,14 @@ def sea_run(drv, d, base):
         cli = gdal.Open(path).ReadAsArray()
     check(own.shape == cli.shape and np.array_equal(own, cli), "the page's run by sea equals the CLI's")
     check(int((own == 0).sum()) > 1000, "land has no owner")
+    # The regions by sea: each state's sea area in the legend, as the report gives it.
+    _, _, report = d.json("GET", "/jobs/%s/results" % job, headers=d_headers(d))
+    areas = {a["label"]: a for a in report["report"]["value"]["deliverables"]["regions"]["areas"]}
+    legend = drv.find_element(By.ID, "legend").text
+    for label in ("DK", "SE"):
+        km2 = "{:,.1f}".format(areas[label]["sea_area"] / 1e6)
+        check(label in legend and km2 in legend, "by sea: the legend lists %s with its sea area %s km²: %s"
+              % (label, km2, legend))
     shot(drv, "by-sea")
 
 
