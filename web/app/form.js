@@ -103,8 +103,8 @@ function control(name, input, inventory) {
 // The distance by sea (the process's "barriers" upload): a switch and the barrier layer it asks
 // for. Paths go around the barriers, so they matter when the seeds are not them: with the coast
 // itself as the seeds nothing changes (a path a seed blocks passes nearer to that seed). What the
-// distance by sea does not draw yet (limits, turning points) is turned off while it is on.
-const SEA_OFF = ["out-turningPoints", "in-limitDistances"];
+// distance by sea does not draw yet (turning points) is turned off while it is on.
+const SEA_OFF = ["out-turningPoints"];
 
 function bySea(process) {
   const input = (process.inputs || {}).barriers;
@@ -115,8 +115,8 @@ function bySea(process) {
     el("label", { for: "barrier-file", text: "Barrier layer: land polygons, lines no path crosses" }), file,
     el("p", { class: "help", id: "sea-help", text: "For example the land while the seeds are ports or farms. With only " +
       "the coasts loaded as seeds it would change nothing. On a longitude/latitude grid paths and edges are " +
-      "geodesics. Boundary lines, tripoints and regions follow the distance by sea and end on the coasts they " +
-      "meet; limits and turning points are not drawn by sea yet, nor regions with a max distance." }));
+      "geodesics. Boundary lines, tripoints, limits and regions follow the distance by sea and end on the coasts " +
+      "they meet; turning points are not drawn by sea yet, nor regions with a max distance." }));
   box.addEventListener("change", () => {
     layer.hidden = !box.checked;
     const form = box.form;

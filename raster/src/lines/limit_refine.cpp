@@ -81,7 +81,10 @@ bool LimitRefiner::onto_level(Vec2 start, int32_t site, double max_move, LimitVe
     // The level of a distance curves by at most 1 / radius, and the step's length in metric
     // units is at most |f| times the ratio of the grid's two scales: what the step leaves is
     // below half the curvature times its square. Where that is within the root tolerance the
-    // point is on the level without measuring it again, the bound its residual.
+    // point is on the level without measuring it again, the bound its residual. (By sea the
+    // level curves round a bend's vertex at the radius of the path's last leg, shorter than D:
+    // measured again.)
+    if (!t_.grid.metric.straight()) continue;
     const Vec2 sc = scale_.at(p);
     const double stretch = std::max(sc.x, sc.y) / std::min(sc.x, sc.y);
     const double left = 0.5 * (f * stretch) * (f * stretch) / radius(site);
@@ -169,6 +172,8 @@ void LimitRefiner::between(const End& u, const End& v, int depth, std::vector<En
     // Pieces for a circle's sagitta, a little finer than it needs; a corner's chord is halved.
     const int k =
         s2 == kNoSite ? std::clamp(static_cast<int>(std::ceil(std::sqrt(off / (kPieceAt * tol_)))), 2, kMaxPieces) : 2;
+    const Vec2 sc = scale_.at(mid);
+    const double off_crs = off / std::min(sc.x, sc.y);  // (metric units to CRS units)
     std::vector<End> pts;
     pts.reserve(static_cast<size_t>(k) + 1);
     pts.push_back(u);
@@ -176,7 +181,9 @@ void LimitRefiner::between(const End& u, const End& v, int depth, std::vector<En
     for (int i = 1; i < k && ok; ++i) {
       LimitVertex lv;
       const Vec2 at_chord = lerp(u.v.p, v.v.p, static_cast<double>(i) / k);
-      ok = any ? across(u.v.p, v.v.p, at_chord, lv) : onto_level(at_chord, s1, chord / k, lv);
+      // (A point of the chord is at most about the middle's offset from the level, which on a
+      // tight arc -- by sea, round a bend's vertex -- may exceed a piece's length.)
+      ok = any ? across(u.v.p, v.v.p, at_chord, lv) : onto_level(at_chord, s1, std::max(chord / k, 2.0 * off_crs), lv);
       if (ok) pts.push_back(End{lv, kNoSite});
     }
     if (ok) {

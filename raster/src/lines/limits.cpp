@@ -197,6 +197,11 @@ LimitCrossings limit_crossings(const Target& t, const InsideRows& inside, int64_
       const int64_t c = id % W, r = id / W;
       const Vec2 p0 = centre(lg.g, c, r);
       const Vec2 p1 = (x.edges[i] % 2 == 0) ? centre(lg.g, c + 1, r) : centre(lg.g, c, r + 1);
+      // (By sea: a cell beside land is inside while land is not; no level crosses between them.)
+      if (!lg.metric.open_between(p0, p1)) {
+        x.verts[i].residual = std::numeric_limits<double>::quiet_NaN();
+        continue;
+      }
       if (t.owner == kOwnedEdge) {
         // The edge of the owned area is rare (a few cells per reach's arc): each query searches
         // the whole index, and the root of d - reach is bracketed (Illinois) from the two ends.
@@ -258,6 +263,16 @@ LimitCrossings limit_crossings(const Target& t, const InsideRows& inside, int64_
       x.verts[i] = LimitVertex{p, h.site, std::abs(h.distance - t.D)};
     }
   });
+  // The edges marked closed above left out.
+  size_t kept = 0;
+  for (size_t i = 0; i < x.edges.size(); ++i) {
+    if (std::isnan(x.verts[i].residual)) continue;
+    x.edges[kept] = x.edges[i];
+    x.verts[kept] = x.verts[i];
+    ++kept;
+  }
+  x.edges.resize(kept);
+  x.verts.resize(kept);
   x.at.reserve(x.edges.size() * 2);
   for (size_t i = 0; i < x.edges.size(); ++i) x.at.emplace(x.edges[i], static_cast<int32_t>(i));
   return x;
@@ -297,17 +312,24 @@ std::vector<std::array<int32_t, 2>> limit_links(const Target& t, const InsideRow
         n[static_cast<size_t>(k)] = it == x.at.end() ? -1 : it->second;
         if (it != x.at.end()) present.push_back(k);
       }
-      if (present.size() == 2) {
-        links.push_back({n[static_cast<size_t>(present[0])], n[static_cast<size_t>(present[1])]});
-      } else if (present.size() == 4) {
+      // (By sea an edge a barrier crosses has no crossing: the line ends in the square, to be
+      // carried onto the barrier; a pair is linked only where both its crossings are there.)
+      auto link = [&](int k1, int k2) {
+        if (n[static_cast<size_t>(k1)] >= 0 && n[static_cast<size_t>(k2)] >= 0)
+          links.push_back({n[static_cast<size_t>(k1)], n[static_cast<size_t>(k2)]});
+      };
+      const bool saddle = in[0] == in[2] && in[1] == in[3];
+      if (!saddle) {
+        if (present.size() == 2) link(present[0], present[1]);
+      } else if (!present.empty()) {
         // Saddle: the centre's side decides which diagonal pair of corners is connected.
         const bool centre_in = t.at(square_mid(lg.g, c, r)).distance <= t.D;
         if (centre_in == in[0]) {  // corners 0 and 2 connected: cut off 1 and 3
-          links.push_back({n[0], n[1]});
-          links.push_back({n[2], n[3]});
+          link(0, 1);
+          link(2, 3);
         } else {
-          links.push_back({n[3], n[0]});
-          links.push_back({n[1], n[2]});
+          link(3, 0);
+          link(1, 2);
         }
       }
     }
@@ -315,6 +337,22 @@ std::vector<std::array<int32_t, 2>> limit_links(const Target& t, const InsideRow
 }
 
 // ---- Stage 4: chains -------------------------------------------------------------------------
+
+namespace {
+
+// The level's junction with a barrier edge near the back end of `v` (by sea), appended.
+bool level_onto_barrier(const Target& t, std::vector<LimitVertex>& v) {
+  const LimitGrid& lg = t.grid;
+  auto f = [&](Vec2 p) { return t.at(p).distance - t.D; };
+  auto accept = [&](Vec2 p) { return std::abs(f(p)) <= 1e3 * lg.ftol; };
+  Vec2 j;
+  if (!onto_domain_edge(lg.metric, v.back().p, 2.0 * lg.g.res, lg.ftol, f, accept, j)) return false;
+  const OwnerIndex::Hit h = t.at(j);
+  v.push_back(LimitVertex{j, h.site, std::abs(h.distance - t.D), true});
+  return true;
+}
+
+}  // namespace
 
 void chain_limit_lines(const Target& t, const LimitCrossings& x, const std::vector<std::array<int32_t, 2>>& links,
                        double tol, LimitResult& result, const LimitRefiner* refiner,
@@ -324,6 +362,16 @@ void chain_limit_lines(const Target& t, const LimitCrossings& x, const std::vect
   std::vector<std::vector<LimitVertex>> verts(chains.node_lists.size());
   for (size_t k = 0; k < verts.size(); ++k)
     for (int32_t n : chains.node_lists[k]) verts[k].push_back(x.verts[static_cast<size_t>(n)]);
+  // By sea: an open line's end short of a barrier carried onto it, before the lines are refined.
+  for (size_t k = 0; k < verts.size(); ++k) {
+    if (chains.closed[k] || verts[k].empty()) continue;
+    for (int end = 0; end < 2; ++end) {
+      std::vector<LimitVertex>& v = verts[k];
+      if (end == 1) std::reverse(v.begin(), v.end());
+      if (!on_centre_frame(t.grid.g, v.back().p) && level_onto_barrier(t, v)) ++result.ends_on_barriers;
+      if (end == 1) std::reverse(v.begin(), v.end());
+    }
+  }
   // Refined over blocks of segments of every chain at once (one limit line may be most of the
   // work); each segment on its own, so the result does not depend on the threads.
   if (refiner != nullptr) {

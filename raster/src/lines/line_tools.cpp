@@ -167,6 +167,41 @@ Bow CrsScale::bow(Vec2 p, Vec2 q, double f, Vec2 g) const {
   return b;
 }
 
+bool onto_domain_edge(const SiteMetric& m, Vec2 end, double radius, double ftol, const std::function<double(Vec2)>& f,
+                      const std::function<bool(Vec2)>& accept, Vec2& out) {
+  std::vector<int32_t> edges;
+  m.domain_edges_near(end, radius, edges);
+  double best_gap = std::numeric_limits<double>::infinity();
+  for (int32_t edge : edges) {
+    auto along = [&](double t) {
+      Vec2 p;
+      return m.domain_edge_point(edge, t, end, p) ? f(p) : std::numeric_limits<double>::quiet_NaN();
+    };
+    // (A few samples an edge: the edges near a line's end are short against the curves of the
+    // loci a cell holds.)
+    constexpr int kSamples = 16;
+    double t0 = 0.0, f0 = along(0.0);
+    for (int k = 1; k <= kSamples; ++k) {
+      const double t1 = static_cast<double>(k) / kSamples, f1 = along(t1);
+      if (std::isfinite(f0) && std::isfinite(f1) && (f0 <= 0.0) != (f1 <= 0.0)) {
+        const double w = t1 - t0;
+        const double t = t0 + w * find_root([&](double u) { return along(t0 + w * u); }, f0, f1, ftol, 1e-15);
+        Vec2 p;
+        if (m.domain_edge_point(edge, t, end, p)) {
+          const double gap = std::hypot(p.x - end.x, p.y - end.y);
+          if (gap < best_gap && gap <= radius && accept(p) && m.open_between(end, p)) {
+            out = p;
+            best_gap = gap;
+          }
+        }
+      }
+      t0 = t1;
+      f0 = f1;
+    }
+  }
+  return std::isfinite(best_gap);
+}
+
 }  // namespace rv::line_tools
 
 namespace rv {

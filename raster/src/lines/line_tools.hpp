@@ -9,6 +9,7 @@
 #include <array>
 #include <cmath>
 #include <cstdint>
+#include <functional>
 #include <limits>
 #include <vector>
 
@@ -289,6 +290,14 @@ inline bool on_centre_frame(const GridSpec& g, Vec2 p) {
   return p.x == g.centre_x(0) || p.x == g.centre_x(g.width - 1) || p.y == g.centre_y(0) ||
          p.y == g.centre_y(g.height - 1);
 }
+
+// Where a line that stops short of the metric's domain edge (SiteMetric::domain_edges_near: a
+// barrier by sea) meets it: on the edges within `radius` CRS units of `end`, approached from
+// `end`'s side (domain_edge_point), the points where `f` (the line's locus function, metric
+// units) changes sign -- sampled, then solved to `ftol` (Illinois) -- and of those `accept`s and
+// that `end` sees (open_between), the nearest to `end`. False where there is none.
+bool onto_domain_edge(const SiteMetric& m, Vec2 end, double radius, double ftol, const std::function<double(Vec2)>& f,
+                      const std::function<bool(Vec2)>& accept, Vec2& out);
 
 // Strictly between the frame of the outermost centres and the grid's edge (or on the edge).
 inline bool outside_frame(const GridSpec& g, Vec2 p) {

@@ -10,7 +10,6 @@
 #include <array>
 #include <cmath>
 #include <limits>
-#include <optional>
 #include <vector>
 
 #include "lines/boundary_stages.hpp"
@@ -126,61 +125,27 @@ void end_at_owned_edge(const BoundaryGrid& b, double max_distance, const std::ve
 namespace {
 
 // The junction of the back end of `line` with a barrier edge near it (see end_at_barriers).
-bool onto_barrier(const BoundaryGrid& b, std::vector<int32_t>& edges, BoundaryLine& line) {
-  const SiteMetric& m = b.index.metric();
-  const Vec2 end = line.vertices.back().p;
-  m.domain_edges_near(end, 2.0 * b.g.res, edges);
-  if (edges.empty()) return false;
+bool onto_barrier(const BoundaryGrid& b, BoundaryLine& line) {
   const int32_t oa = line.owner_a, ob = line.owner_b;
-  struct Junction {
-    Vec2 p;
-    OwnerIndex::Hit a, b;
+  auto f = [&](Vec2 p) { return b.index.nearest_of(p, oa).cost - b.index.nearest_of(p, ob).cost; };
+  // (On the locus, and no third owner nearer.)
+  auto accept = [&](Vec2 p) {
+    const OwnerIndex::Hit ha = b.index.nearest_of(p, oa), hb = b.index.nearest_of(p, ob);
+    const OwnerIndex::Hit third = b.index.nearest_third(p, oa, ob, std::max(ha.cost, hb.cost));
+    const bool clear = third.site == kNoSite || third.cost >= std::min(ha.cost, hb.cost) - 4.0 * b.ftol;
+    return clear && std::abs(ha.cost - hb.cost) <= 1e3 * b.ftol;
   };
-  std::optional<Junction> best;
-  double best_gap = std::numeric_limits<double>::infinity();
-  auto at = [&](int32_t edge, double t, Vec2& p) { return m.domain_edge_point(edge, t, end, p); };
-  for (int32_t edge : edges) {
-    // The difference of the two distances by sea along the edge: sampled, then each change of
-    // sign solved (Illinois) to the tolerance.
-    auto f = [&](double t) {
-      Vec2 p;
-      if (!at(edge, t, p)) return std::numeric_limits<double>::quiet_NaN();
-      return b.index.nearest_of(p, oa).cost - b.index.nearest_of(p, ob).cost;
-    };
-    constexpr int kSamples = 16;
-    double t0 = 0.0, f0 = f(0.0);
-    for (int k = 1; k <= kSamples; ++k) {
-      const double t1 = static_cast<double>(k) / kSamples, f1 = f(t1);
-      if (std::isfinite(f0) && std::isfinite(f1) && (f0 <= 0.0) != (f1 <= 0.0)) {
-        const double w = t1 - t0;
-        const double t = t0 + w * find_root([&](double u) { return f(t0 + w * u); }, f0, f1, b.ftol, 1e-15);
-        Vec2 p;
-        if (at(edge, t, p)) {
-          const double gap = std::hypot(p.x - end.x, p.y - end.y);
-          if (gap < best_gap && gap <= 2.0 * b.g.res) {
-            const OwnerIndex::Hit ha = b.index.nearest_of(p, oa), hb = b.index.nearest_of(p, ob);
-            const OwnerIndex::Hit third = b.index.nearest_third(p, oa, ob, std::max(ha.cost, hb.cost));
-            const bool clear = third.site == kNoSite || third.cost >= std::min(ha.cost, hb.cost) - 4.0 * b.ftol;
-            if (clear && std::abs(ha.cost - hb.cost) <= 1e3 * b.ftol && m.open_between(end, p)) {
-              best = Junction{p, ha, hb};
-              best_gap = gap;
-            }
-          }
-        }
-      }
-      t0 = t1;
-      f0 = f1;
-    }
-  }
-  if (!best) return false;
+  Vec2 j;
+  if (!onto_domain_edge(b.index.metric(), line.vertices.back().p, 2.0 * b.g.res, b.ftol, f, accept, j)) return false;
+  const OwnerIndex::Hit ha = b.index.nearest_of(j, oa), hb = b.index.nearest_of(j, ob);
   BoundaryVertex jv;
-  jv.p = best->p;
-  jv.site_a = best->a.site;
-  jv.site_b = best->b.site;
-  jv.distance_a = best->a.distance;
-  jv.distance_b = best->b.distance;
-  jv.distance = 0.5 * (best->a.distance + best->b.distance);
-  jv.residual = std::abs(best->a.cost - best->b.cost);
+  jv.p = j;
+  jv.site_a = ha.site;
+  jv.site_b = hb.site;
+  jv.distance_a = ha.distance;
+  jv.distance_b = hb.distance;
+  jv.distance = 0.5 * (ha.distance + hb.distance);
+  jv.residual = std::abs(ha.cost - hb.cost);
   jv.on_barrier = true;
   line.vertices.push_back(jv);
   return true;
@@ -190,7 +155,6 @@ bool onto_barrier(const BoundaryGrid& b, std::vector<int32_t>& edges, BoundaryLi
 
 void end_at_barriers(const BoundaryGrid& b, const std::vector<Tripoint>& tripoints, std::vector<BoundaryLine>& lines,
                      BoundaryStats& stats) {
-  std::vector<int32_t> edges;
   for (BoundaryLine& line : lines) {
     if (line.closed || line.vertices.empty()) continue;
     for (int end = 0; end < 2; ++end) {
@@ -198,7 +162,7 @@ void end_at_barriers(const BoundaryGrid& b, const std::vector<Tripoint>& tripoin
       const Vec2 p = line.vertices.back().p;
       const bool at_tripoint =
           std::any_of(tripoints.begin(), tripoints.end(), [&](const Tripoint& t) { return t.p == p; });
-      if (!on_centre_frame(b.g, p) && !at_tripoint && onto_barrier(b, edges, line)) {
+      if (!on_centre_frame(b.g, p) && !at_tripoint && onto_barrier(b, line)) {
         ++stats.vertices;
         ++stats.ends_on_barriers;
         stats.max_residual = std::max(stats.max_residual, line.vertices.back().residual);

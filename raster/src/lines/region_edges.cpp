@@ -28,6 +28,15 @@ using namespace line_tools;
 
 namespace {
 
+// By sea: the point a thousandth of a cell on from a line's end on a barrier, in the direction
+// it arrives from `prev` (see carry_on).
+Vec2 across_barrier(Vec2 prev, Vec2 end, double res) {
+  const double len = std::hypot(end.x - prev.x, end.y - prev.y);
+  if (!(len > 0.0)) return end;
+  const double k = 1e-3 * res / len;
+  return Vec2{end.x + k * (end.x - prev.x), end.y + k * (end.y - prev.y)};
+}
+
 // The vertex on the grid's edge that continues a line ending at `end`, a point on or outside the
 // frame of the outermost cell centres: on the edge beyond it, where f (the line's locus: d_a - d_b, or
 // d - D for a distance limit) changes sign.
@@ -502,13 +511,8 @@ class EdgeBuilder {
     // dangle the faces drop.
     const BoundaryVertex& last = front ? line.vertices.front() : line.vertices.back();
     if (last.on_barrier && last.p.x == end.x && last.p.y == end.y && v.size() >= 2) {
-      const Vec2 prev = v[v.size() - 2];
-      const double len = std::hypot(end.x - prev.x, end.y - prev.y);
-      if (len > 0.0) {
-        const double k = 1e-3 * g_.res / len;
-        v.push_back(Vec2{end.x + k * (end.x - prev.x), end.y + k * (end.y - prev.y)});
-        return;
-      }
+      v.push_back(across_barrier(v[v.size() - 2], end, g_.res));
+      return;
     }
     Vec2 j, on_line;
     // (A lone crossing on the frame: one end goes to the grid's edge, the other inwards.)

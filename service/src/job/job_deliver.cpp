@@ -448,6 +448,7 @@ LimitResult StripDeliverables::State::take_limits() {
                         {"max_residual_cells", limits.max_residual / s.cell_length},
                         {"vertices_before_simplify", limits.vertices_before_simplify},
                         {"corners", limits.corners},
+                        {"ends_on_barriers", limits.ends_on_barriers},
                         {"along_lines", s.residual_json(limits.residual, limits.simplified_midpoint)}};
   s.limit_seconds += seconds_since(t);
   return limits;

@@ -12,6 +12,7 @@
 #include "rv/engine/owner_index.hpp"
 #include "rv/field/error.hpp"
 #include "rv/lines/boundaries.hpp"
+#include "rv/lines/limits.hpp"
 #include "rv/sea/sea_field.hpp"
 #include "rv/sea/sea_metric.hpp"
 #include "rv/sea/visibility.hpp"
@@ -233,6 +234,53 @@ Channel channel(Vec2 a, Vec2 b, bool boom) {
   const OwnerIndex index(*metric);
   c.lines = extract_boundaries(field.field, index);
   return c;
+}
+
+// A limit by sea: a port west of a wall, the line at distance D by sea. West of the wall and
+// round its ends the level is the circle |x - s| = D; behind the wall it is the circle round
+// the wall's nearer end of radius D - |s - end|. Every vertex at D by the closed form (the line
+// follows it between cell edges), none across the wall, and the two ends on the wall's far face.
+TEST(SeaLines, ALimitBySeaGoesRoundTheWallsEnds) {
+  const Vec2 a{20, 12}, b{20, 28}, s{14.3, 19.6};
+  const double D = 12.5;
+  SeedSet seeds;
+  seeds.add_point(seeds.add_feature(seeds.owner_code("P")), s);
+  Barriers wall;
+  wall.add_line(std::vector<Vec2>{a, b}, "wall");
+  const GridSpec g = test::grid_of(40, 40);
+  const SeaField field = compute_sea(seeds, wall, g, g.full_window());
+  const std::unique_ptr<SiteMetric> metric = make_sea_site_metric(seeds, wall, g);
+  const OwnerIndex index(*metric);
+  LimitOptions options;
+  options.line_tolerance = 1e-4;
+  const std::vector<double> distances{D};
+  const LimitResult r = extract_limits(field.field, index, distances, options);
+  int64_t behind = 0, vertices = 0;
+  double worst = 0.0;
+  int on_wall = 0;
+  for (const LimitLine& line : r.lines) {
+    for (size_t i = 0; i < line.vertices.size(); ++i) {
+      const Vec2 x = line.vertices[i].p;
+      EXPECT_NEAR(wall_path(s, x, a, b), D, 1e-9 * D) << x.x << "," << x.y;
+      worst = std::max(worst, std::abs(wall_path(s, x, a, b) - D));
+      behind += crosses_wall(s, x, a.x, a.y, b.y);
+      ++vertices;
+      if (i > 0) EXPECT_FALSE(crosses_wall(line.vertices[i - 1].p, x, a.x, a.y, b.y)) << x.x << "," << x.y;
+    }
+    if (line.closed) continue;
+    for (const LimitVertex* e : {&line.vertices.front(), &line.vertices.back()})
+      if (e->on_barrier) {
+        ++on_wall;
+        EXPECT_NEAR(e->p.x, a.x, 1e-9);
+        EXPECT_GT(e->p.x, a.x);  // the far face, reached round an end
+      }
+  }
+  EXPECT_EQ(on_wall, 2);
+  EXPECT_EQ(r.ends_on_barriers, 2);
+  EXPECT_GT(behind, 10);
+  EXPECT_EQ(r.residual.unresolved, 0) << r.residual.worst_x << "," << r.residual.worst_y;
+  std::printf("a limit by sea round a wall: %zu lines, %lld vertices, worst |d - D| %.3g, chords within %.3g\n",
+              r.lines.size(), static_cast<long long>(vertices), worst, r.residual.max_midpoint);
 }
 
 TEST(SeaLines, ABoundaryEndsOnTheCoastsItMeets) {

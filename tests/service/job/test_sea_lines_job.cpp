@@ -2,8 +2,9 @@
 // file's vertices are equidistant by sea (each owner's distance measured by the exact engine on
 // that owner's ports alone, at the vertex), its lines keep to the sea and end on the grid's edge
 // or on a coast; the margin raster is the difference of the two owners' own fields by sea; the
-// preview is drawn; the report says what the lines by sea cost. Limits, regions and turning
-// points by sea are refused in one line.
+// preview is drawn; the regions are each owner's sea; limits by sea lie at their distance by sea
+// and end on the coasts; the report says what the lines by sea cost. Turning points, the
+// relevant area and regions with a max distance by sea are refused in one line.
 #include <gtest/gtest.h>
 #include <ogrsf_frmts.h>
 #include <unistd.h>
@@ -230,7 +231,9 @@ void expect_lines_by_sea(const JobSpec& s, double on_coast) {
     const int32_t owner = f->GetFieldAsInteger("owner");
     const double area = f->GetFieldAsDouble("area");
     const double cell_area = geodesic ? area / static_cast<double>(cells_of[owner]) : g.res * g.res;
-    if (!geodesic) EXPECT_NEAR(area, static_cast<double>(cells_of[owner]) * cell_area, 0.02 * area) << owner;
+    if (!geodesic) {
+      EXPECT_NEAR(area, static_cast<double>(cells_of[owner]) * cell_area, 0.02 * area) << owner;
+    }
     EXPECT_EQ(f->GetFieldAsDouble("land_area"), 0.0);
     // (Areas in the grid's plane, square degrees on the ellipsoid: the regions follow the coast's
     // geodesics in steps of a fifth of a cell, the land here in steps of 50 m.)
@@ -257,22 +260,68 @@ TEST_F(SeaLinesJob, OnTheEllipsoidToo) {
   expect_lines_by_sea(s, 1e-3);
 }
 
-TEST_F(SeaLinesJob, LimitsTurningPointsAndRegionsWithAMaxDistanceAreRefusedInOneLine) {
+// A 5 km limit by sea: every vertex is 5 km by sea from the nearest port (the exact engine at
+// the vertex), and the open ends lie on a coast or the grid's edge.
+TEST_F(SeaLinesJob, ALimitBySeaLiesAtItsDistanceBySeaAndEndsOnTheCoasts) {
+  JobSpec s = spec("limits");
+  const fs::path folder = fs::path(s.outputs.ownership).parent_path();
+  s.outputs.limits = (folder / "limits.geojson").string();
+  s.outputs.limit_distances = {"5km"};
+  const nlohmann::json report = run_job(s).report;
+  const PreparedJob job = prepare_job(s);
+  const Barriers& land = job.sea->loaded.barriers;
+  const GridSpec& g = job.grid;
+  GDALDataset* ds = GDALDataset::Open(s.outputs.limits.c_str(), GDAL_OF_VECTOR);
+  ASSERT_NE(ds, nullptr);
+  int checked = 0, on_coast = 0;
+  double worst = 0.0;
+  for (OGRFeature* f; (f = ds->GetLayer(0)->GetNextFeature()) != nullptr; OGRFeature::DestroyFeature(f)) {
+    const OGRLineString* ls = f->GetGeometryRef()->toLineString();
+    const int n = ls->getNumPoints();
+    for (int i = 0; i < n; i += 100) {
+      const Vec2 p{ls->getX(i), ls->getY(i)};
+      GridSpec one;
+      one.res = 1.0;
+      one.width = one.height = 1;
+      one.xmin = p.x - 0.5;
+      one.ymax = p.y + 0.5;
+      const double d = compute_sea(job.loaded.seeds, land, one, one.full_window()).field.distance.at(0, 0);
+      EXPECT_NEAR(d, 5000.0, 2e-3) << p.x << "," << p.y;
+      worst = std::max(worst, std::abs(d - 5000.0));
+      ++checked;
+    }
+    const bool closed = ls->get_IsClosed();
+    if (closed) continue;
+    for (const int i : {0, n - 1}) {
+      const Vec2 p{ls->getX(i), ls->getY(i)};
+      const bool frame =
+          p.x <= g.xmin + g.res || p.x >= g.xmax() - g.res || p.y <= g.ymin() + g.res || p.y >= g.ymax - g.res;
+      const bool coast = to_coast(land, p, false) < 1e-6;
+      on_coast += coast;
+      EXPECT_TRUE(frame || coast) << "a limit's end in the open sea at " << p.x << "," << p.y;
+    }
+  }
+  GDALClose(GDALDataset::ToHandle(ds));
+  EXPECT_GT(checked, 100);
+  EXPECT_GT(on_coast, 4);
+  EXPECT_EQ(report.at("deliverables").at("limits").at("ends_on_barriers").get<int>(), on_coast);
+  std::printf("a 5 km limit by sea: %d vertices checked, worst |d - 5 km| %.3g m (Float32), %d ends on a coast\n",
+              checked, worst, on_coast);
+}
+
+TEST_F(SeaLinesJob, TurningPointsRelevantAreaAndRegionsWithAMaxDistanceAreRefusedInOneLine) {
   for (int k = 0; k < 3; ++k) {
     JobSpec s = spec("r" + std::to_string(k));
     const fs::path folder = fs::path(s.outputs.ownership).parent_path();
-    if (k == 0) {
-      s.outputs.limits = (folder / "limits.geojson").string();
-      s.outputs.limit_distances = {"12nmi"};
-    }
-    if (k == 1) s.max_distance = 5000.0;
-    if (k == 2) s.outputs.turning_points = (folder / "turning.csv").string();
+    if (k == 0) s.outputs.turning_points = (folder / "turning.csv").string();
+    if (k == 1) s.outputs.relevant_area = fixture("oresund.gpkg");
+    if (k == 2) s.max_distance = 8000.0;
     try {
       run_job(s);
       ADD_FAILURE() << "not refused: " << k;
     } catch (const Error& e) {
       EXPECT_EQ(e.kind(), ErrorKind::unsupported) << e.what();
-      EXPECT_NE(std::string(e.what()).find(k == 1 ? "with a max distance are not drawn yet"
+      EXPECT_NE(std::string(e.what()).find(k == 2 ? "with a max distance are not drawn yet"
                                                   : "not drawn under the distance by sea yet"),
                 std::string::npos)
           << e.what();

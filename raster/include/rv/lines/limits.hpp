@@ -21,6 +21,9 @@ struct LimitVertex {
   Vec2 p;
   int32_t site = kNoSite;  // controlling site at p
   double residual = 0.0;   // |d(p) - D|, metric units
+  // By sea: the line's end on a barrier's edge (LimitResult::ends_on_barriers), on the side it
+  // comes from.
+  bool on_barrier = false;
 };
 
 // LimitLine::owner of the owned area's edge (LineRequest::owned_edge).
@@ -59,6 +62,10 @@ struct LimitResult {
   // level, the corners and arc points added.
   LineResidual residual;
   int64_t corners = 0;
+  // By sea (a metric with domain edges, rv/sea/sea_metric.hpp): two cells a barrier parts are
+  // not neighbours, so a level line that meets a coast or a boom stops a cell short of it; its
+  // end is carried onto the barrier's edge where d = D (from the side it comes from).
+  int64_t ends_on_barriers = 0;
   // With simplification: the largest distance from a simplified segment's midpoint to the level
   // (metric units; 0 without).
   double simplified_midpoint = 0.0;
