@@ -503,8 +503,7 @@ TEST_F(SeaJob, WhatTheDistanceBySeaDoesNotDoIsRefusedInOneLine) {
   expect(scan, ErrorKind::invalid_argument, "barriers: the distance by sea needs the exact");
   JobSpec lines = ports_spec("lines");
   lines.outputs.boundaries = (dir_ / "lines" / "b.geojson").string();
-  lines.outputs.limits = (dir_ / "lines" / "l.geojson").string();
-  lines.outputs.limit_distances = {"12nmi"};
+  lines.outputs.turning_points = (dir_ / "lines" / "t.csv").string();
   expect(lines, ErrorKind::unsupported, "not drawn under the distance by sea yet");
   JobSpec via = ports_spec("via");
   via.barriers.clear();
