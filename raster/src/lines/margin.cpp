@@ -136,9 +136,6 @@ Raster<float> margin_by_owner_runs(const NearestField& field, const SiteMetric& 
 // which measures it (no engine run over the other owners' seeds would: it knows no barriers).
 Raster<float> margin_by_index(const NearestField& field, const OwnerIndex& index, int threads) {
   const SeedSet& seeds = index.metric().seeds();
-  if (seeds.adjusted())
-    throw Error(ErrorKind::unsupported,
-                "the margin raster is not available with weights or reaches: it measures unweighted distances");
   const GridSpec& g = field.site.grid();
   const Window w = field.site.window();
   Raster<float> out(g, w, kNoDistance);
@@ -162,7 +159,11 @@ Raster<float> margin_by_index(const NearestField& field, const OwnerIndex& index
 Raster<float> margin_raster(const NearestField& field, const OwnerIndex& index, int threads) {
   const SiteMetric& metric = index.metric();
   check_metric(field, metric);
-  if (!metric.straight()) return margin_by_index(field, index, threads);
+  if (!metric.straight()) {
+    if (metric.seeds().adjusted())
+      throw Error(ErrorKind::unsupported, "the margin raster by sea is not available with weights or reaches");
+    return margin_by_index(field, index, threads);
+  }
   // The per-owner engine runs below would need the other owners' polygons in the grid's CRS,
   // which the field does not carry.
   if (field.geolocator)

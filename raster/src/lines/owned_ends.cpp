@@ -21,6 +21,18 @@ using namespace line_tools;
 
 namespace {
 
+// A line's end at p with the two owners' hits there (residual and arc left to the caller).
+BoundaryVertex junction(Vec2 p, const OwnerIndex::Hit& a, const OwnerIndex::Hit& b) {
+  BoundaryVertex v;
+  v.p = p;
+  v.site_a = a.site;
+  v.site_b = b.site;
+  v.distance_a = a.distance;
+  v.distance_b = b.distance;
+  v.distance = 0.5 * (a.distance + b.distance);
+  return v;
+}
+
 // How far beyond its reach an owner is at p (<= 0 where it counts).
 struct Beyond {
   const OwnerIndex& index;
@@ -60,14 +72,7 @@ bool carry_back(const BoundaryGrid& b, const Beyond& beyond, const std::vector<T
     return false;
   }
   if (v.back().p.x == j.x && v.back().p.y == j.y) return true;
-  const OwnerIndex::Hit ha = beyond.hit(j, oa), hb = beyond.hit(j, ob);
-  BoundaryVertex jv;
-  jv.p = j;
-  jv.site_a = ha.site;
-  jv.site_b = hb.site;
-  jv.distance_a = ha.distance;
-  jv.distance_b = hb.distance;
-  jv.distance = 0.5 * (ha.distance + hb.distance);
+  BoundaryVertex jv = junction(j, beyond.hit(j, oa), beyond.hit(j, ob));
   const std::array<double, 2> r = f(j);
   jv.residual = std::max(std::abs(r[0]), std::abs(r[1]));
   jv.arc = v.back().arc;
@@ -138,13 +143,7 @@ bool onto_barrier(const BoundaryGrid& b, BoundaryLine& line) {
   Vec2 j;
   if (!onto_domain_edge(b.index.metric(), line.vertices.back().p, 2.0 * b.g.res, b.ftol, f, accept, j)) return false;
   const OwnerIndex::Hit ha = b.index.nearest_of(j, oa), hb = b.index.nearest_of(j, ob);
-  BoundaryVertex jv;
-  jv.p = j;
-  jv.site_a = ha.site;
-  jv.site_b = hb.site;
-  jv.distance_a = ha.distance;
-  jv.distance_b = hb.distance;
-  jv.distance = 0.5 * (ha.distance + hb.distance);
+  BoundaryVertex jv = junction(j, ha, hb);
   jv.residual = std::abs(ha.cost - hb.cost);
   jv.on_barrier = true;
   line.vertices.push_back(jv);

@@ -14,6 +14,7 @@
 #include "rv/sea/sea_field.hpp"
 #include "rv/sea/visibility.hpp"
 #include "seed_gen.hpp"
+#include "wall_paths.hpp"
 
 namespace rv {
 namespace {
@@ -39,8 +40,6 @@ SeaField sea_field(const SeedSet& seeds, const Barriers& barriers, const GridSpe
   return exact;
 }
 
-double dist(Vec2 a, Vec2 b) { return std::hypot(a.x - b.x, a.y - b.y); }
-
 // The largest difference between the engines' distances and a closed form over a case's cells,
 // printed for the record (`ctest -R test_raster_sea_field -V`: the closed-form table).
 struct Worst {
@@ -65,20 +64,9 @@ SeedSet points(std::initializer_list<std::pair<std::string, Vec2>> list) {
   return s;
 }
 
-// Whether the open segment p-q crosses the vertical wall x = wx, y in (y0, y1) (touching its ends
-// is not crossing).
-bool crosses_wall(Vec2 p, Vec2 q, double wx, double y0, double y1) {
-  if ((p.x - wx) * (q.x - wx) >= 0) return false;
-  const double y = p.y + (q.y - p.y) * (wx - p.x) / (q.x - p.x);
-  return y > y0 && y < y1;
-}
-
-// The path length from seed s to x round a vertical wall from a to b: straight when the wall is
-// not in the way, else over the nearer end.
-double wall_path(Vec2 s, Vec2 x, Vec2 a, Vec2 b) {
-  if (!crosses_wall(s, x, a.x, a.y, b.y)) return dist(s, x);
-  return std::min(dist(s, a) + dist(a, x), dist(s, b) + dist(b, x));
-}
+using test::crosses_wall;
+using test::dist;
+using test::wall_path;
 
 // Every cell against the closed form of several point seeds round one vertical wall: owners where
 // the two best paths differ by more than `margin`, distances to float rounding.

@@ -17,26 +17,16 @@
 #include "rv/sea/sea_metric.hpp"
 #include "rv/sea/visibility.hpp"
 #include "seed_gen.hpp"
+#include "wall_paths.hpp"
 
 namespace rv {
 namespace {
 
-double dist(Vec2 a, Vec2 b) { return std::hypot(a.x - b.x, a.y - b.y); }
 Vec2 centre(const GridSpec& g, int64_t c, int64_t r) { return Vec2{g.centre_x(c), g.centre_y(r)}; }
 
-// Whether the open segment p-q crosses the vertical wall x = wx, y in (y0, y1).
-bool crosses_wall(Vec2 p, Vec2 q, double wx, double y0, double y1) {
-  if ((p.x - wx) * (q.x - wx) >= 0) return false;
-  const double y = p.y + (q.y - p.y) * (wx - p.x) / (q.x - p.x);
-  return y > y0 && y < y1;
-}
-
-// The path from s to x round a vertical wall from a to b: straight when the wall is not in the
-// way, else over the nearer end (written apart from the engines).
-double wall_path(Vec2 s, Vec2 x, Vec2 a, Vec2 b) {
-  if (!crosses_wall(s, x, a.x, a.y, b.y)) return dist(s, x);
-  return std::min(dist(s, a) + dist(a, x), dist(s, b) + dist(b, x));
-}
+using test::crosses_wall;
+using test::dist;
+using test::wall_path;
 
 // Random islands (some with a lake), a boom, point seeds of three owners at sea, a port on a
 // coast and a coast line as a seed of a fourth: the layouts the field's random test uses.
@@ -126,8 +116,9 @@ TEST(SeaLines, EachOwnersDistanceIsTheReferencesForItsSeedsAlone) {
         }
         ASSERT_NEAR(hit.distance, field.field.distance.at(c, r), 1e-6 * hit.distance + 1e-9);
         const OwnerIndex::Hit other = index.nearest_not_of(centre(g, c, r), a.seeds.site_owner(site));
-        if (other.distance - hit.distance > 1e-6 * hit.distance + 1e-9)
+        if (other.distance - hit.distance > 1e-6 * hit.distance + 1e-9) {
           ASSERT_EQ(a.seeds.site_owner(hit.site), a.seeds.site_owner(site)) << round << ": " << c << "," << r;
+        }
       }
   }
   EXPECT_GE(rounds, 5);
@@ -169,7 +160,9 @@ WallLines wall_lines(const std::vector<Vec2>& points, Vec2 a, Vec2 b, const Grid
       for (size_t j = 0; j < points.size(); ++j) EXPECT_GE(path(j, x), path(i, x) * (1 - 1e-9));
       out.hidden_vertices += crosses_wall(points[i], x, a.x, a.y, b.y) || crosses_wall(points[k], x, a.x, a.y, b.y);
       // A line never crosses the wall.
-      if (v > 0) EXPECT_FALSE(crosses_wall(line.vertices[v - 1].p, x, a.x, a.y, b.y)) << x.x << "," << x.y;
+      if (v > 0) {
+        EXPECT_FALSE(crosses_wall(line.vertices[v - 1].p, x, a.x, a.y, b.y)) << x.x << "," << x.y;
+      }
     }
   }
   for (const Tripoint& t : out.lines.tripoints) {
@@ -265,7 +258,9 @@ TEST(SeaLines, ALimitBySeaGoesRoundTheWallsEnds) {
       worst = std::max(worst, std::abs(wall_path(s, x, a, b) - D));
       behind += crosses_wall(s, x, a.x, a.y, b.y);
       ++vertices;
-      if (i > 0) EXPECT_FALSE(crosses_wall(line.vertices[i - 1].p, x, a.x, a.y, b.y)) << x.x << "," << x.y;
+      if (i > 0) {
+        EXPECT_FALSE(crosses_wall(line.vertices[i - 1].p, x, a.x, a.y, b.y)) << x.x << "," << x.y;
+      }
     }
     if (line.closed) continue;
     for (const LimitVertex* e : {&line.vertices.front(), &line.vertices.back()})
