@@ -181,9 +181,10 @@ void LimitRefiner::between(const End& u, const End& v, int depth, std::vector<En
     for (int i = 1; i < k && ok; ++i) {
       LimitVertex lv;
       const Vec2 at_chord = lerp(u.v.p, v.v.p, static_cast<double>(i) / k);
-      // (A point of the chord is at most about the middle's offset from the level, which on a
-      // tight arc -- by sea, round a bend's vertex -- may exceed a piece's length.)
-      ok = any ? across(u.v.p, v.v.p, at_chord, lv) : onto_level(at_chord, s1, std::max(chord / k, 2.0 * off_crs), lv);
+      // (By sea a point of the chord is at most about the middle's offset from the level, which
+      // on a tight arc round a bend's vertex may exceed a piece's length.)
+      const double reach = t_.grid.metric.straight() ? chord / k : std::max(chord / k, 2.0 * off_crs);
+      ok = any ? across(u.v.p, v.v.p, at_chord, lv) : onto_level(at_chord, s1, reach, lv);
       if (ok) pts.push_back(End{lv, kNoSite});
     }
     if (ok) {
