@@ -346,7 +346,7 @@ bool level_onto_barrier(const Target& t, std::vector<LimitVertex>& v) {
   auto f = [&](Vec2 p) { return t.at(p).distance - t.D; };
   auto accept = [&](Vec2 p) { return std::abs(f(p)) <= 1e3 * lg.ftol; };
   Vec2 j;
-  if (!onto_domain_edge(lg.metric, v.back().p, 2.0 * lg.g.res, lg.ftol, f, accept, j)) return false;
+  if (!onto_domain_edge(lg.metric, v.back().p, 4.0 * lg.g.res, lg.ftol, f, accept, j)) return false;
   const OwnerIndex::Hit h = t.at(j);
   v.push_back(LimitVertex{j, h.site, std::abs(h.distance - t.D), true});
   return true;

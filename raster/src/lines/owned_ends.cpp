@@ -141,7 +141,7 @@ bool onto_barrier(const BoundaryGrid& b, BoundaryLine& line) {
     return clear && std::abs(ha.cost - hb.cost) <= 1e3 * b.ftol;
   };
   Vec2 j;
-  if (!onto_domain_edge(b.index.metric(), line.vertices.back().p, 2.0 * b.g.res, b.ftol, f, accept, j)) return false;
+  if (!onto_domain_edge(b.index.metric(), line.vertices.back().p, 4.0 * b.g.res, b.ftol, f, accept, j)) return false;
   const OwnerIndex::Hit ha = b.index.nearest_of(j, oa), hb = b.index.nearest_of(j, ob);
   BoundaryVertex jv = junction(j, ha, hb);
   jv.residual = std::abs(ha.cost - hb.cost);
