@@ -3,6 +3,7 @@
 
 #include <GeographicLib/Geodesic.hpp>
 
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <limits>
@@ -182,14 +183,16 @@ class SeaSiteMetric final : public SiteMetric {
   };
   Where where(Vec2 p) const {
     // (The index measures several sites at one position: its ground is worked out once.)
-    thread_local const SeaSiteMetric* cached_by = nullptr;
+    // (Keyed by the metric's serial number, not its address: a metric made where another was
+    // freed must not read that one's answer.)
+    thread_local uint64_t cached_by = 0;
     thread_local Vec2 cached_at{kNaN, kNaN};
     thread_local Where cached;
-    if (cached_by == this && cached_at.x == p.x && cached_at.y == p.y) return cached;
+    if (cached_by == serial_ && cached_at.x == p.x && cached_at.y == p.y) return cached;
     Where w;
     w.spot = spot_of(p);
     w.ground = prepared().vis.classify(w.spot.at);
-    cached_by = this;
+    cached_by = serial_;
     cached_at = p;
     cached = w;
     return w;
@@ -299,6 +302,12 @@ class SeaSiteMetric final : public SiteMetric {
     }
   }
 
+  // This metric's number among all made in the process (from 1): what the position cache is keyed by.
+  const uint64_t serial_ = next_serial();
+  static uint64_t next_serial() {
+    static std::atomic<uint64_t> count{0};
+    return ++count;
+  }
   GridSpec grid_;
   std::shared_ptr<const std::vector<Polygon>> polygons_;  // the base's polygons, when located
   std::unique_ptr<SiteMetric> inner_;                     // the straight metric: bounds and straight legs
