@@ -25,6 +25,7 @@ namespace fs = std::filesystem;
 
 #include "fixtures.hpp"
 #include "geotiff_compare.hpp"
+#include "sea_ports.hpp"
 
 namespace rv {
 namespace {
@@ -47,14 +48,7 @@ class SeaJob : public ::testing::Test {
   // Twelve ports on the Øresund's coasts (fixtures/oresund_ports.geojson, owners DK and SE) and
   // the two states' land as barriers, in UTM 33N: 160 x 280 cells of 250 m over the strait.
   JobSpec ports_spec(const std::string& sub) const {
-    JobSpec s;
-    s.seeds.paths = {fixture("oresund_ports.geojson")};
-    s.seeds.owner_field = "owner";
-    s.seeds.target_crs = "EPSG:32633";
-    s.metric = MetricRequest::planar;
-    s.barriers = {fixture("oresund.gpkg")};
-    s.grid.resolution = 250.0;
-    s.grid.extent = std::array<double, 4>{330000.0, 6150000.0, 370000.0, 6220000.0};
+    JobSpec s = test::oresund_ports_by_sea();
     return with_outputs(s, sub);
   }
   JobSpec with_outputs(JobSpec s, const std::string& sub) const {

@@ -23,6 +23,7 @@
 #include "rv/gdal/raster_io.hpp"
 #include "rv/job.hpp"
 #include "rv/sea/visibility.hpp"
+#include "sea_ports.hpp"
 
 namespace fs = std::filesystem;
 
@@ -47,14 +48,7 @@ class SeaLinesJob : public ::testing::Test {
   // The ports and the land in UTM 33N, 250 m cells over the strait, with boundaries, tripoints,
   // the margin and the preview.
   JobSpec spec(const std::string& sub) const {
-    JobSpec s;
-    s.seeds.paths = {fixture("oresund_ports.geojson")};
-    s.seeds.owner_field = "owner";
-    s.seeds.target_crs = "EPSG:32633";
-    s.metric = MetricRequest::planar;
-    s.barriers = {fixture("oresund.gpkg")};
-    s.grid.resolution = 250.0;
-    s.grid.extent = std::array<double, 4>{330000.0, 6150000.0, 370000.0, 6220000.0};
+    JobSpec s = test::oresund_ports_by_sea();
     fs::create_directories(dir_ / sub);
     s.outputs.ownership = (dir_ / sub / "own.tif").string();
     s.outputs.distance = (dir_ / sub / "dist.tif").string();
