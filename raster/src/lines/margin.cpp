@@ -159,21 +159,17 @@ Raster<float> margin_by_index(const NearestField& field, const OwnerIndex& index
 Raster<float> margin_raster(const NearestField& field, const OwnerIndex& index, int threads) {
   const SiteMetric& metric = index.metric();
   check_metric(field, metric);
-  if (!metric.straight()) {
-    if (metric.seeds().adjusted())
-      throw Error(ErrorKind::unsupported, "the margin raster by sea is not available with weights or reaches");
-    return margin_by_index(field, index, threads);
-  }
+  const SeedSet& seeds = metric.seeds();
+  if (seeds.adjusted())
+    throw Error(ErrorKind::unsupported,
+                "the margin raster is not available with weights or reaches: it measures unweighted distances");
+  if (!metric.straight()) return margin_by_index(field, index, threads);
   // The per-owner engine runs below would need the other owners' polygons in the grid's CRS,
   // which the field does not carry.
   if (field.geolocator)
     throw Error(ErrorKind::unsupported,
                 "the margin raster is not available for the geodesic metric on a projected "
                 "grid yet; use a geographic (longitude/latitude) grid, or metric planar");
-  const SeedSet& seeds = metric.seeds();
-  if (seeds.adjusted())
-    throw Error(ErrorKind::unsupported,
-                "the margin raster is not available with weights or reaches: it measures unweighted distances");
   const GridSpec& g = field.site.grid();
   const Window w = field.site.window();
   Raster<float> out(g, w, kNoDistance);
@@ -185,8 +181,7 @@ Raster<float> margin_raster(const NearestField& field, const OwnerIndex& index, 
   for (const Polygon& p : seeds.polygons()) area_sites.push_back(p.area_site);
   const bool check_contested = field.contested_cells > 0;
 
-  // (The other owner's straight field answers the planar case; by sea it would not.)
-  const bool planar = metric.kind() == SiteMetric::Kind::planar && metric.straight();
+  const bool planar = metric.kind() == SiteMetric::Kind::planar;
   if (!planar) return margin_by_owner_runs(field, metric, nthreads);
   const NearestField other = compute_other_owner(seeds, field, nthreads);
   detail::parallel_for(nthreads, w.height, [&](int64_t r, int) {

@@ -104,9 +104,8 @@ class SeaSiteMetric final : public SiteMetric {
     if (!geod_) {
       q = Vec2{e.a.x + t * (e.b.x - e.a.x), e.a.y + t * (e.b.y - e.a.y)};
     } else {  // (on the geodesic itself, then in the plane)
-      double s12, azi1, azi2, lat, lon;
-      geod_->Inverse(e.a_ll.y, e.a_ll.x, e.b_ll.y, e.b_ll.x, s12, azi1, azi2);
-      geod_->Direct(e.a_ll.y, e.a_ll.x, azi1, t * s12, lat, lon);
+      double lat, lon;
+      geod_->Direct(e.a_ll.y, e.a_ll.x, e.azimuth, t * e.metres, lat, lon);
       q = pr.vis.frame()->forward(Vec2{e.a_ll.x + std::remainder(lon - e.a_ll.x, 360.0), lat});
     }
     const int o = pr.vis.orient(e.a, e.b, plane_of(side));
@@ -131,9 +130,11 @@ class SeaSiteMetric final : public SiteMetric {
   static bool located(const SeaOptions& o) { return o.geolocator != nullptr && o.grid_polygons != nullptr; }
   const Prepared& prepared() const { return sea_->prepared; }
 
-  // A barrier edge in the plane, and (geodesic) its ends' longitudes and latitudes.
+  // A barrier edge in the plane, and (geodesic) its ends' longitudes and latitudes, its length
+  // in metres and its azimuth at a (what points along it are found from).
   struct Edge {
     Vec2 a, b, a_ll, b_ll;
+    double metres = 0.0, azimuth = 0.0;
   };
   void list_edges() {
     const Prepared& pr = prepared();
@@ -143,7 +144,13 @@ class SeaSiteMetric final : public SiteMetric {
       return v >= 0 ? pr.vertex_ll[static_cast<size_t>(v)] : pr.vis.frame()->reverse(at);
     };
     auto add = [&](Vec2 a, Vec2 b) {
-      if (!(a == b)) edges_.push_back(Edge{a, b, ll_of(a), ll_of(b)});
+      if (a == b) return;
+      Edge e{a, b, ll_of(a), ll_of(b)};
+      if (geod_) {
+        double azi2;
+        geod_->Inverse(e.a_ll.y, e.a_ll.x, e.b_ll.y, e.b_ll.x, e.metres, e.azimuth, azi2);
+      }
+      edges_.push_back(e);
     };
     for (const Barriers::Polygon& poly : pr.vis.barriers().polygons())
       for (const Ring& r : poly.rings)

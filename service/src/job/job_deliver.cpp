@@ -54,18 +54,13 @@ std::unique_ptr<SiteMetric> site_metric(const PreparedJob& job, const JobRun& ru
 // By sea: the barriers' rings (closed) and lines in the grid's CRS, for the regions' faces. On the
 // ellipsoid an edge is a geodesic: followed in steps of a fifth of a cell (its chord then lies
 // within a few micrometres of it), located back into a projected grid's CRS.
-std::vector<std::vector<Vec2>> barrier_linework(const PreparedJob& job) {
+// `cell_length`: one cell in metric units near the grid's centre.
+std::vector<std::vector<Vec2>> barrier_linework(const PreparedJob& job, double cell_length) {
   const Barriers& barriers = job.sea->loaded.barriers;
   std::vector<std::vector<Vec2>> out;
   std::optional<GeodesicMeasure> measure;
-  double step = 0.0;
-  if (job.metric.kind == MetricSpec::geodesic) {
-    measure.emplace(job.metric);
-    const GridSpec& g = job.grid;
-    const Vec2 mid{g.centre_x(g.width / 2), g.centre_y(g.height / 2)};
-    std::unique_ptr<SiteMetric> m = make_site_metric(job.loaded.seeds, g, job.compute);
-    step = 0.2 * m->point_distance(mid, Vec2{mid.x + g.res, mid.y});
-  }
+  if (job.metric.kind == MetricSpec::geodesic) measure.emplace(job.metric);
+  const double step = 0.2 * cell_length;
   auto add = [&](const std::vector<Vec2>& pts) {
     std::vector<Vec2> line;
     for (size_t i = 0; i + 1 < pts.size(); ++i) {
@@ -490,7 +485,7 @@ void StripDeliverables::State::write_region_polygons(const BoundaryResult& bound
   LineRegions lr;
   lr.edges = std::move(edges.edges);
   lr.grid = s.job.grid;
-  if (s.job.sea) lr.outline = barrier_linework(s.job);
+  if (s.job.sea) lr.outline = barrier_linework(s.job, s.cell_length);
   lr.owner_of = [&](Vec2 p) {
     return s.partial ? partial_owner_at(*s.partial, p, max_distance) : owner_at(*s.index, p, max_distance);
   };

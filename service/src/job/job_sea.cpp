@@ -85,7 +85,7 @@ void check_sea_plan(const JobSpec& spec, const PreparedJob& job) {
            "turning points and the relevant area are not drawn under the distance by sea yet; boundaries, "
            "tripoints, limits, regions, the margin and the preview are, and the rasters (ownership, distance, "
            "nearest feature, via)");
-  if (out.regions_wanted() && (spec.max_distance || std::isfinite(job.compute.max_distance)))
+  if (out.regions_wanted() && std::isfinite(job.compute.max_distance))
     refuse(ErrorKind::unsupported,
            "regions by sea with a max distance are not drawn yet (where the max-distance line by sea meets the "
            "coasts the faces are not closed yet); leave out the max distance or the regions");
