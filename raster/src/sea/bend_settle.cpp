@@ -41,6 +41,11 @@ Best Searches::best_path(const Place& at, const Spot& spot, Best best, int64_t& 
                          double searched, double cap) const {
   const Vec2 x = at.at;
   int32_t won = -1;
+  // On the ellipsoid a candidate's chord decides most candidates before its inverse problem.
+  const Prepared::Xyz xyz = p.geodesic ? p.xyz(spot.ll) : Prepared::Xyz{};
+  auto chord_beyond = [&](const Prepared::Xyz& from, double weight) {
+    return p.geodesic && weight + Prepared::chord_below(from, xyz) > best.d;
+  };
   // Whether the edge that last hid the root from a neighbour still does (one crossing test).
   auto hinted = [&](int32_t item, const Place& to) {
     if (!blockers) return false;
@@ -61,6 +66,19 @@ Best Searches::best_path(const Place& at, const Spot& spot, Best best, int64_t& 
   auto consider = [&](int32_t item) {
     if (item < site_items()) {
       const int32_t id = site_of[static_cast<size_t>(item)];
+      // A point site on the ellipsoid: its chord, then whether it is seen, then its length (most
+      // candidates the chord lets through are nearer than the best but hidden).
+      if (p.geodesic && !p.segment(id)) {
+        if (chord_beyond(p.site_xyz[static_cast<size_t>(id)], 0.0)) return;
+        const Place to = p.site_place(id, spot);
+        if (spot.ll != p.site_ll[static_cast<size_t>(id)] && !seen(item, to)) return;
+        const Best c{std::sqrt(p.site_key(spot, id)), id, kNoVia};
+        if (c < best) {
+          best = c;
+          won = item;
+        }
+        return;
+      }
       Place to{x};
       const double key = p.site_key(spot, id, &to);
       const Best c{std::sqrt(key), id, kNoVia};
@@ -78,12 +96,23 @@ Best Searches::best_path(const Place& at, const Spot& spot, Best best, int64_t& 
     // problem, and the test rejects most candidates.
     if (!sea::taut(p.vis, n, from[k], x)) return;
     const Place to = p.vis.at_vertex(n.vertex, n.wedge);
-    // On the ellipsoid the hint too: most candidates a cell's search meets are hidden, and
-    // mostly by the edge that hid them from its neighbour.
-    if (p.geodesic && hinted(item, to)) return;
+    if (p.geodesic) {
+      // On the ellipsoid the chord, the hint (most candidates a cell's search meets are hidden,
+      // and mostly by the edge that hid them from its neighbour) and the visibility test come
+      // before the length: the chord is within 1e-5 of it, so what it lets through is mostly
+      // better than the best but hidden.
+      if (chord_beyond(p.vertex_xyz[static_cast<size_t>(n.vertex)], dist[k].d)) return;
+      if (hinted(item, to) || !seen(item, to, true)) return;
+      const Best c{dist[k].d + p.vertex_length(n.vertex, spot), dist[k].site, n.vertex};
+      if (c < best) {
+        best = c;
+        won = item;
+      }
+      return;
+    }
     const Best c{dist[k].d + p.vertex_length(n.vertex, spot), dist[k].site, n.vertex};
     if (!(c < best)) return;
-    if (seen(item, to, p.geodesic != nullptr)) {
+    if (seen(item, to)) {
       best = c;
       won = item;
     }

@@ -74,6 +74,8 @@ Prepared prepare(const SeedSet& seeds, const Barriers& barriers, const GridSpec&
   Prepared p(Visibility(barriers.mapped([&](Vec2 v) { return frame->forward(v); }), true, frame));
   p.geodesic = std::make_shared<const GeodesicMeasure>(metric);
   p.max_scale = frame->max_scale();
+  p.semi_major = metric.semi_major;
+  p.e2 = metric.flattening * (2.0 - metric.flattening);
   p.geo_sites = std::make_shared<const detail::GeoSites>(metric, seeds);
   p.geolocator = std::move(geolocator);
   for (const Site& s : seeds.sites()) {
@@ -105,8 +107,17 @@ Prepared prepare(const SeedSet& seeds, const Barriers& barriers, const GridSpec&
     const auto it = given.find(std::make_pair(p.vis.vertex(v).x, p.vis.vertex(v).y));
     p.vertex_ll.push_back(it != given.end() ? it->second : frame->reverse(p.vis.vertex(v)));
   }
+  for (const Vec2& ll : p.vertex_ll) p.vertex_xyz.push_back(p.xyz(ll));
+  for (const Vec2& ll : p.site_ll) p.site_xyz.push_back(p.xyz(ll));
   check_seeds(p, seeds);
   return p;
+}
+
+Prepared::Xyz Prepared::xyz(Vec2 ll) const {
+  constexpr double kRad = M_PI / 180.0;
+  const double sl = std::sin(ll.y * kRad), cl = std::cos(ll.y * kRad);
+  const double n = semi_major / std::sqrt(1.0 - e2 * sl * sl);  // the prime vertical's radius
+  return Xyz{n * cl * std::cos(ll.x * kRad), n * cl * std::sin(ll.x * kRad), n * (1.0 - e2) * sl};
 }
 
 double Prepared::segment_distance(const Spot& x, int32_t site, Place* foot) const {

@@ -243,12 +243,23 @@ Visibility::Ground Visibility::classify(Vec2 p) const {
 
 Visibility::Ground Visibility::classify_next(Vec2 p, Ground p_ground, Vec2 q) const {
   if (!index_ || p_ground == Ground::on_barrier) return classify(q);
-  bool empty = true;
-  index_->buckets.visit(p, q, [&](const int32_t*, size_t ne, const int32_t*, size_t nv) {
-    empty = ne == 0 && nv == 0;
-    return empty;
+  // The ground changes only where a path meets an edge (it enters or leaves land, or reaches a
+  // boundary); every vertex is an edge's end. So q's ground is p's when the closed segment p-q
+  // meets no edge of the buckets along it: the four orientations of the two segments' ends
+  // exclude a meeting unless both pairs straddle or touch (collinear pieces included), and any
+  // doubt is settled by classify(q).
+  bool apart = true;
+  index_->buckets.visit(p, q, [&](const int32_t* edges, size_t ne, const int32_t*, size_t) {
+    for (size_t i = 0; i < ne && apart; ++i) {
+      const Edge& e = edges_[static_cast<size_t>(edges[i])];
+      const int o1 = turn(frame_.get(), e.a, e.b, p), o2 = turn(frame_.get(), e.a, e.b, q);
+      if (o1 * o2 > 0) continue;
+      const int o3 = turn(frame_.get(), p, q, e.a), o4 = turn(frame_.get(), p, q, e.b);
+      apart = o3 * o4 > 0;
+    }
+    return apart;
   });
-  return empty ? p_ground : classify(q);
+  return apart ? p_ground : classify(q);
 }
 
 void Visibility::classify_row(double y, const double* xs, int64_t n, Ground* out) const {

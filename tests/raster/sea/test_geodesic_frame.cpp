@@ -11,6 +11,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <map>
 #include <random>
 #include <vector>
 
@@ -204,6 +205,69 @@ TEST(GeodesicFrame, PathsAreBlockedExactlyWhenTheirGeodesicsCross) {
   }
   EXPECT_GT(blocked, 300);
   EXPECT_GT(free_paths, 300);
+}
+
+// The next cell's ground from the last one's (classify_next) is classify()'s, on the geodesic
+// reading: steps along rows of a 0.002-degree grid over islands with holes, two polygons sharing
+// a border and a line; steps ending exactly on every vertex; and steps across every edge ending a
+// millimetre and a tenth of one either side of its geodesic.
+TEST(GeodesicFrame, TheNextCellsGroundIsItsOwn) {
+  const auto frame = baltic_frame();
+  std::mt19937_64 rng(2026);
+  std::uniform_real_distribution<double> lon(11.0, 11.4), lat(54.9, 55.2), size(0.01, 0.08), u(0.05, 0.95);
+  Barriers barriers;
+  std::vector<std::pair<Vec2, Vec2>> edges;  // in longitude and latitude
+  auto add_ring = [&](const std::vector<Vec2>& ll) {
+    Ring plane;
+    for (size_t i = 0; i < ll.size(); ++i) {
+      plane.push_back(frame->forward(ll[i]));
+      edges.emplace_back(ll[i], ll[(i + 1) % ll.size()]);
+    }
+    return plane;
+  };
+  for (int k = 0; k < 10; ++k) {
+    const double x = lon(rng), y = lat(rng), w = size(rng), h = size(rng);
+    std::vector<Ring> rings{add_ring({{x, y}, {x + w, y}, {x + w, y + h}, {x + 0.3 * w, y + 1.2 * h}})};
+    if (w > 0.04 && h > 0.04)
+      rings.push_back(add_ring({{x + 0.01, y + 0.01}, {x + 0.02, y + 0.01}, {x + 0.02, y + 0.02}}));
+    barriers.add_polygon(rings, SourceText{"island"});
+  }
+  barriers.add_polygon({add_ring({{11.1, 55.0}, {11.15, 55.0}, {11.15, 55.05}, {11.1, 55.05}})}, SourceText{"west"});
+  barriers.add_polygon({add_ring({{11.15, 55.0}, {11.2, 55.0}, {11.2, 55.05}, {11.15, 55.05}})}, SourceText{"east"});
+  const Vec2 l0{11.05, 54.95}, l1{11.3, 55.12};
+  barriers.add_line(std::vector<Vec2>{frame->forward(l0), frame->forward(l1)});
+  edges.emplace_back(l0, l1);
+  const Visibility vis(barriers, true, frame);
+  int64_t steps = 0, changes = 0;
+  std::map<Visibility::Ground, int64_t> seen;
+  auto step = [&](Vec2 p_ll, Vec2 q_ll) {
+    const Vec2 p = frame->forward(p_ll), q = frame->forward(q_ll);
+    const Visibility::Ground from = vis.classify(p), want = vis.classify(q);
+    ++seen[want];
+    if (from == Visibility::Ground::on_barrier) return;  // (not asked of it)
+    ASSERT_EQ(vis.classify_next(p, from, q), want) << p_ll.x << " " << p_ll.y << " -> " << q_ll.x << " " << q_ll.y;
+    ++steps;
+    changes += from != want;
+  };
+  for (double y = 54.88; y < 55.3; y += 0.002)
+    for (double x = 10.98; x < 11.5; x += 0.002) step(Vec2{x, y}, Vec2{x + 0.002, y});
+  for (const auto& [a, b] : edges) {
+    for (const Vec2& d : {Vec2{0.002, 0.0}, Vec2{-0.002, 0.001}, Vec2{0.0, -0.002}})
+      step(Vec2{a.x + d.x, a.y + d.y}, a);
+    const double at = u(rng);
+    for (double offset : {1e-3, -1e-3, 1e-4, -1e-4}) {
+      step(beside(a, b, at, offset > 0 ? -150.0 : 150.0), beside(a, b, at, offset));
+      step(beside(a, b, at, offset > 0 ? 150.0 : -150.0), beside(a, b, at, offset));
+    }
+  }
+  std::printf("%lld steps, %lld change the ground; land %lld, open sea %lld, on a barrier %lld\n",
+              static_cast<long long>(steps), static_cast<long long>(changes),
+              static_cast<long long>(seen[Visibility::Ground::land]),
+              static_cast<long long>(seen[Visibility::Ground::open_sea]),
+              static_cast<long long>(seen[Visibility::Ground::on_barrier]));
+  EXPECT_GT(changes, 500);
+  EXPECT_GT(seen[Visibility::Ground::land], 1000);
+  EXPECT_GT(seen[Visibility::Ground::on_barrier], 40);
 }
 
 }  // namespace

@@ -103,9 +103,9 @@ class Visibility {
   // written to out: the same answers, in time proportional to the edges the row meets plus n
   // (plus classify() for the few points on a barrier). Geodesic reading: classify() per point.
   void classify_row(double y, const double* xs, int64_t n, Ground* out) const;
-  // classify(q) knowing the ground of p (not on a barrier): the same where no barrier edge or
-  // vertex comes near the segment p-q (its index buckets hold none: a proof in time proportional
-  // to the buckets), else classify(q). For the next cell of a row.
+  // classify(q) knowing the ground of p (not on a barrier): the same where the segment p-q meets
+  // no barrier edge (a proof in time proportional to the index buckets along it and the edges
+  // they hold), else classify(q). For the next cell of a row.
   Ground classify_next(Vec2 p, Ground p_ground, Vec2 q) const;
   // Whether the straight path from `from` to `to` is free, leaving `from` and reaching `to`
   // within their wedges where given. A path of length zero is free where its place is sea.
