@@ -92,16 +92,16 @@ Best Searches::best_path(const Place& at, const Spot& spot, Best best, int64_t& 
     const auto k = static_cast<size_t>(item - site_items());
     const Node& n = nodes[k];
     if (n.vertex == skip_vertex || !std::isfinite(dist[k].d)) return;
+    // On the ellipsoid the chord first (a few products: within 1e-5 of the length).
+    if (chord_beyond(p.vertex_xyz[static_cast<size_t>(n.vertex)], dist[k].d)) return;
     // The taut test (a few turns) before the length: on the ellipsoid a length is an inverse
     // problem, and the test rejects most candidates.
     if (!sea::taut(p.vis, n, from[k], x)) return;
     const Place to = p.vis.at_vertex(n.vertex, n.wedge);
     if (p.geodesic) {
-      // On the ellipsoid the chord, the hint (most candidates a cell's search meets are hidden,
-      // and mostly by the edge that hid them from its neighbour) and the visibility test come
-      // before the length: the chord is within 1e-5 of it, so what it lets through is mostly
-      // better than the best but hidden.
-      if (chord_beyond(p.vertex_xyz[static_cast<size_t>(n.vertex)], dist[k].d)) return;
+      // On the ellipsoid the hint (most candidates a cell's search meets are hidden, and mostly
+      // by the edge that hid them from its neighbour) and the visibility test come before the
+      // length too: what the chord lets through is mostly better than the best but hidden.
       if (hinted(item, to) || !seen(item, to, true)) return;
       const Best c{dist[k].d + p.vertex_length(n.vertex, spot), dist[k].site, n.vertex};
       if (c < best) {
