@@ -116,7 +116,7 @@ function bySea(process) {
     el("p", { class: "help", id: "sea-help", text: "For example the land while the seeds are ports or farms. With only " +
       "the coasts loaded as seeds it would change nothing. On a longitude/latitude grid paths and edges are " +
       "geodesics. Boundary lines, tripoints, limits and regions follow the distance by sea and end on the coasts " +
-      "they meet; turning points are not drawn by sea yet, nor regions with a max distance." }));
+      "they meet; turning points are not drawn by sea yet." }));
   box.addEventListener("change", () => {
     layer.hidden = !box.checked;
     const form = box.form;
@@ -189,11 +189,7 @@ export function readForm(form, process) {
   for (const [id] of OPTIONAL_OUTPUTS) if (form.querySelector("#out-" + id).checked) outputs[id] = {};
   // Limit lines exactly when there are distances for them (the daemon refuses either alone).
   if (inputs.limitDistances) outputs.limits = {};
-  // By sea: the vias too; no regions with a max distance (the max-distance line by sea is not
-  // drawn yet).
-  if (seaChoice(form).bySea) {
-    if (inputs.maxDistance !== undefined) delete outputs.regions;
-    outputs.via = {};
-  }
+  // By sea: the vias too.
+  if (seaChoice(form).bySea) outputs.via = {};
   return { inputs, outputs };
 }

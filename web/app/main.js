@@ -252,7 +252,7 @@ function legend(report) {
   const km2 = regions.area_units === "m^2";
   const unit = km2 ? " (km²)" : regions.area_units ? " (" + regions.area_units.replace("^2", "²") + ")" : "";
   const shown = owners.slice(0, 200);
-  // (No areas without regions: a run by sea with a max distance makes none yet.)
+  // (No areas without regions: a run that asked for none.)
   const withAreas = areas.size > 0;
   const rows = shown.map((o) => {
     const a = areas.get(o.code) || {};

@@ -310,11 +310,17 @@ void end_at_owned_edge(const BoundaryGrid& b, double max_distance, const std::ve
 // leaves such an end at the last crossing of two owners' cells, up to a cell short of the coast
 // or boom (cells a barrier parts are not neighbours). Each open end off the frame of the
 // outermost centres and not at a tripoint gets the junction appended: the point of a barrier
-// edge within two cells of it where the two owners' distances by sea are equal (approached from
+// edge within four cells of it where the two owners' distances by sea are equal (approached from
 // the end's side, SiteMetric::domain_edge_point), no third owner nearer, and the way from the
 // end to it open; of several, the nearest. Where none is found the line is left as it was.
 // Counts the ends moved in stats.ends_on_barriers.
 void end_at_barriers(const BoundaryGrid& b, const std::vector<Tripoint>& tripoints, std::vector<BoundaryLine>& lines,
                      BoundaryStats& stats);
+// By sea, a crossing linked to none (`lone`, lone_crossings) where the line crosses a channel
+// narrower than the squares around it (a barrier parts every other pair of their corners): made a
+// line of its own when it reaches a barrier on both sides (end_at_barriers' junction one way,
+// then the nearest on the far side), and taken out of `lone`. Counts as end_at_barriers.
+void cross_channels(const BoundaryGrid& b, std::vector<BoundaryLine>& lone, std::vector<BoundaryLine>& lines,
+                    BoundaryStats& stats);
 
 }  // namespace rv::boundary_stages

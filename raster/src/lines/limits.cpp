@@ -340,13 +340,16 @@ std::vector<std::array<int32_t, 2>> limit_links(const Target& t, const InsideRow
 
 namespace {
 
-// The level's junction with a barrier edge near the back end of `v` (by sea), appended.
+// The level's junction with a barrier edge near the back end of `v` (by sea), appended; for a
+// line of one crossing whose front end went onto a barrier already, on the far side from that.
 bool level_onto_barrier(const Target& t, std::vector<LimitVertex>& v) {
   const LimitGrid& lg = t.grid;
   auto f = [&](Vec2 p) { return t.at(p).distance - t.D; };
   auto accept = [&](Vec2 p) { return std::abs(f(p)) <= 1e3 * lg.ftol; };
   Vec2 j;
-  if (!onto_domain_edge(lg.metric, v.back().p, 4.0 * lg.g.res, lg.ftol, f, accept, j)) return false;
+  const bool lone = v.size() == 2 && v.front().on_barrier && !v.back().on_barrier;
+  if (!onto_domain_edge(lg.metric, v.back().p, 4.0 * lg.g.res, lg.ftol, f, accept, j, lone ? &v.front().p : nullptr))
+    return false;
   const OwnerIndex::Hit h = t.at(j);
   v.push_back(LimitVertex{j, h.site, std::abs(h.distance - t.D), true});
   return true;
@@ -357,8 +360,20 @@ bool level_onto_barrier(const Target& t, std::vector<LimitVertex>& v) {
 void chain_limit_lines(const Target& t, const LimitCrossings& x, const std::vector<std::array<int32_t, 2>>& links,
                        double tol, LimitResult& result, const LimitRefiner* refiner,
                        const SegmentReuse<LimitVertex, LimitRefiner::Measured>* reuse, LimitMemo* record) {
-  const Chains chains =
-      chain_links(static_cast<int32_t>(x.verts.size()), links, std::vector<bool>(x.verts.size(), false));
+  Chains chains = chain_links(static_cast<int32_t>(x.verts.size()), links, std::vector<bool>(x.verts.size(), false));
+  // By sea a crossing can be linked to none: the level crosses a channel narrower than the
+  // squares around it (a barrier parts every other pair of its corners). It is a line of its own,
+  // from one barrier to another.
+  if (!t.grid.metric.straight()) {
+    std::vector<bool> linked(x.verts.size(), false);
+    for (const auto& l : links) linked[static_cast<size_t>(l[0])] = linked[static_cast<size_t>(l[1])] = true;
+    for (size_t n = 0; n < linked.size(); ++n)
+      if (!linked[n]) {
+        chains.node_lists.push_back({static_cast<int32_t>(n)});
+        chains.closed.push_back(false);
+        chains.first_link.push_back(-1);
+      }
+  }
   std::vector<std::vector<LimitVertex>> verts(chains.node_lists.size());
   for (size_t k = 0; k < verts.size(); ++k)
     for (int32_t n : chains.node_lists[k]) verts[k].push_back(x.verts[static_cast<size_t>(n)]);

@@ -168,7 +168,10 @@ Bow CrsScale::bow(Vec2 p, Vec2 q, double f, Vec2 g) const {
 }
 
 bool onto_domain_edge(const SiteMetric& m, Vec2 end, double radius, double ftol, const std::function<double(Vec2)>& f,
-                      const std::function<bool(Vec2)>& accept, Vec2& out) {
+                      const std::function<bool(Vec2)>& accept, Vec2& out, const Vec2* away) {
+  auto ahead = [&](Vec2 p) {
+    return away == nullptr || (p.x - end.x) * (away->x - end.x) + (p.y - end.y) * (away->y - end.y) < 0.0;
+  };
   std::vector<int32_t> edges;
   m.domain_edges_near(end, radius, edges);
   double best_gap = std::numeric_limits<double>::infinity();
@@ -189,7 +192,7 @@ bool onto_domain_edge(const SiteMetric& m, Vec2 end, double radius, double ftol,
         Vec2 p;
         if (m.domain_edge_point(edge, t, end, p)) {
           const double gap = std::hypot(p.x - end.x, p.y - end.y);
-          if (gap < best_gap && gap <= radius && accept(p) && m.open_between(end, p)) {
+          if (gap < best_gap && gap <= radius && ahead(p) && accept(p) && m.open_between(end, p)) {
             out = p;
             best_gap = gap;
           }

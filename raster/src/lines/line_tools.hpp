@@ -296,8 +296,10 @@ inline bool on_centre_frame(const GridSpec& g, Vec2 p) {
 // `end`'s side (domain_edge_point), the points where `f` (the line's locus function, metric
 // units) changes sign -- sampled, then solved to `ftol` (Illinois) -- and of those `accept`s and
 // that `end` sees (open_between), the nearest to `end`. False where there is none.
+// `away` (or null): only points on the far side of `end` from it (a line of one vertex, whose
+// other end went towards `away`, leaves the other way).
 bool onto_domain_edge(const SiteMetric& m, Vec2 end, double radius, double ftol, const std::function<double(Vec2)>& f,
-                      const std::function<bool(Vec2)>& accept, Vec2& out);
+                      const std::function<bool(Vec2)>& accept, Vec2& out, const Vec2* away = nullptr);
 
 // Strictly between the frame of the outermost centres and the grid's edge (or on the edge).
 inline bool outside_frame(const GridSpec& g, Vec2 p) {

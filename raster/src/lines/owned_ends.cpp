@@ -129,8 +129,9 @@ void end_at_owned_edge(const BoundaryGrid& b, double max_distance, const std::ve
 
 namespace {
 
-// The junction of the back end of `line` with a barrier edge near it (see end_at_barriers).
-bool onto_barrier(const BoundaryGrid& b, BoundaryLine& line) {
+// The junction of the back end of `line` with a barrier edge near it (see end_at_barriers); with
+// `away`, on the far side of the end from it.
+bool onto_barrier(const BoundaryGrid& b, BoundaryLine& line, const Vec2* away = nullptr) {
   const int32_t oa = line.owner_a, ob = line.owner_b;
   auto f = [&](Vec2 p) { return b.index.nearest_of(p, oa).cost - b.index.nearest_of(p, ob).cost; };
   // (On the locus, and no third owner nearer.)
@@ -141,7 +142,8 @@ bool onto_barrier(const BoundaryGrid& b, BoundaryLine& line) {
     return clear && std::abs(ha.cost - hb.cost) <= 1e3 * b.ftol;
   };
   Vec2 j;
-  if (!onto_domain_edge(b.index.metric(), line.vertices.back().p, 4.0 * b.g.res, b.ftol, f, accept, j)) return false;
+  if (!onto_domain_edge(b.index.metric(), line.vertices.back().p, 4.0 * b.g.res, b.ftol, f, accept, j, away))
+    return false;
   const OwnerIndex::Hit ha = b.index.nearest_of(j, oa), hb = b.index.nearest_of(j, ob);
   BoundaryVertex jv = junction(j, ha, hb);
   jv.residual = std::abs(ha.cost - hb.cost);
@@ -169,6 +171,30 @@ void end_at_barriers(const BoundaryGrid& b, const std::vector<Tripoint>& tripoin
       if (end == 1) std::reverse(line.vertices.begin(), line.vertices.end());
     }
   }
+}
+
+void cross_channels(const BoundaryGrid& b, std::vector<BoundaryLine>& lone, std::vector<BoundaryLine>& lines,
+                    BoundaryStats& stats) {
+  if (b.index.metric().straight()) return;
+  std::vector<BoundaryLine> left;
+  for (BoundaryLine& line : lone) {
+    if (line.vertices.size() == 1 && onto_barrier(b, line)) {
+      const Vec2 first = line.vertices.back().p;
+      std::reverse(line.vertices.begin(), line.vertices.end());
+      if (onto_barrier(b, line, &first)) {
+        for (size_t k : {size_t{0}, size_t{2}}) {
+          ++stats.vertices;
+          ++stats.ends_on_barriers;
+          stats.max_residual = std::max(stats.max_residual, line.vertices[k].residual);
+        }
+        lines.push_back(std::move(line));
+        continue;
+      }
+      line.vertices.erase(line.vertices.begin());  // (only one side: left as it was)
+    }
+    left.push_back(std::move(line));
+  }
+  lone = std::move(left);
 }
 
 }  // namespace rv::boundary_stages

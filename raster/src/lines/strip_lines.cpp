@@ -282,11 +282,12 @@ struct BoundaryRun {
     close_missing_tripoints(b, max_distance, t.tripoints, result.lines, result.stats);
     end_at_owned_edge(b, max_distance, t.tripoints, result.lines, result.stats);
     end_at_barriers(b, t.tripoints, result.lines, result.stats);
+    result.lone_crossings = lone_crossings(x, links);
+    cross_channels(b, result.lone_crossings, result.lines, result.stats);
     const Vec2 middle = line_tools::centre(b.g, b.W / 2, b.H / 2);
     const CrsScale scale(b.index.metric(), middle, b.g.res);
     const LineRefiner refiner(b.index, line_tolerance, b.ftol, scale, std::max(scale.at0.x, scale.at0.y));
     finish_lines(result.lines, &refiner, tol, result.stats, b.threads, reuse, record);
-    result.lone_crossings = lone_crossings(x, links);
     for (const Tripoint& tp : t.tripoints) {
       const bool land = tp.distances[0] == 0.0 || tp.distances[1] == 0.0 || tp.distances[2] == 0.0;
       double& worst = land ? result.stats.max_residual_on_land : result.stats.max_residual;

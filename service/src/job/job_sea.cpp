@@ -85,10 +85,6 @@ void check_sea_plan(const JobSpec& spec, const PreparedJob& job) {
            "turning points and the relevant area are not drawn under the distance by sea yet; boundaries, "
            "tripoints, limits, regions, the margin and the preview are, and the rasters (ownership, distance, "
            "nearest feature, via)");
-  if (out.regions_wanted() && std::isfinite(job.compute.max_distance))
-    refuse(ErrorKind::unsupported,
-           "regions by sea with a max distance are not drawn yet (where the max-distance line by sea meets the "
-           "coasts the faces are not closed yet); leave out the max distance or the regions");
   if (!spec.base_report.empty())
     refuse(ErrorKind::unsupported, "an edit of a run by sea is not available yet: run it again with the new seeds");
   if (!spec.bands.empty()) refuse(ErrorKind::invalid_argument, "a split job's assembly does not compute by sea");

@@ -211,7 +211,7 @@ const std::vector<OptionSpec> kOptions = {
      "seeds are not the barriers: ports or farms as seeds and land as barriers. Geodesic on a longitude/latitude "
      "grid or with the geodesic metric (paths, barrier and seed edges geodesics), else planar; the exact method; "
      "boundaries, tripoints, limits, regions, the margin and the preview follow the distance by sea; not with "
-     "weights, reaches, partial effect above 0, turning points or regions with a max distance yet.",
+     "weights, reaches, partial effect above 0, turning points or the relevant area yet.",
      "",
      {},
      0,

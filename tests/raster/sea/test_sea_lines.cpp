@@ -278,6 +278,65 @@ TEST(SeaLines, ALimitBySeaGoesRoundTheWallsEnds) {
               r.lines.size(), static_cast<long long>(vertices), worst, r.residual.max_midpoint);
 }
 
+// A channel 0.6 cells wide, one column of centres along it, between two coasts: a line that
+// crosses it has one crossing, which no square links to another (the barriers part every other
+// pair of their corners). It is still a line, from one coast to the other: the limit of a port
+// south of the channel at the distance that crosses it, and the boundary of that port and one
+// north of it. Without them the sea either side of the line would be one face of the regions.
+struct NarrowChannel {
+  Barriers land;
+  GridSpec g = test::grid_of(40, 40);
+  NarrowChannel() {
+    land.add_polygon({{{0, 15}, {20.2, 15}, {20.2, 25}, {0, 25}}}, "west");
+    land.add_polygon({{{20.8, 15}, {40, 15}, {40, 25}, {20.8, 25}}}, "east");
+  }
+  // The line of `lines` with both ends on the channel's coasts (x 20.2 and 20.8); null if none.
+  template <class Line>
+  static const Line* across(const std::vector<Line>& lines) {
+    for (const Line& l : lines) {
+      if (l.vertices.size() < 2 || !l.vertices.front().on_barrier || !l.vertices.back().on_barrier) continue;
+      const double x0 = std::min(l.vertices.front().p.x, l.vertices.back().p.x);
+      const double x1 = std::max(l.vertices.front().p.x, l.vertices.back().p.x);
+      if (std::abs(x0 - 20.2) < 1e-9 && std::abs(x1 - 20.8) < 1e-9) return &l;
+    }
+    return nullptr;
+  }
+};
+
+TEST(SeaLines, ALineAcrossAChannelNarrowerThanACellIsDrawn) {
+  const NarrowChannel c;
+  const Vec2 south{20.5, 2.5}, north{20.5, 37.5};
+  {
+    SeedSet seeds;
+    seeds.add_point(seeds.add_feature(seeds.owner_code("S")), south);
+    const SeaField field = compute_sea(seeds, c.land, c.g, c.g.full_window());
+    const std::unique_ptr<SiteMetric> metric = make_sea_site_metric(seeds, c.land, c.g);
+    const OwnerIndex index(*metric);
+    const double D = 15.6;  // the level at y = 18.1, in the channel
+    const std::vector<double> distances{D};
+    const LimitResult r = extract_limits(field.field, index, distances, LimitOptions{});
+    const LimitLine* line = NarrowChannel::across(r.lines);
+    ASSERT_NE(line, nullptr) << r.lines.size() << " lines";
+    for (const LimitVertex& v : line->vertices) {
+      EXPECT_NEAR(dist(v.p, south), D, 1e-9) << v.p.x << "," << v.p.y;  // the port sees the channel
+      EXPECT_GT(v.p.y, 15.0);
+      EXPECT_LT(v.p.y, 25.0);
+    }
+  }
+  SeedSet seeds;
+  seeds.add_point(seeds.add_feature(seeds.owner_code("S")), south);
+  seeds.add_point(seeds.add_feature(seeds.owner_code("N")), north);
+  const SeaField field = compute_sea(seeds, c.land, c.g, c.g.full_window());
+  const std::unique_ptr<SiteMetric> metric = make_sea_site_metric(seeds, c.land, c.g);
+  const OwnerIndex index(*metric);
+  const BoundaryResult r = extract_boundaries(field.field, index);
+  const BoundaryLine* line = NarrowChannel::across(r.lines);
+  ASSERT_NE(line, nullptr) << r.lines.size() << " lines";
+  for (const BoundaryVertex& v : line->vertices) EXPECT_NEAR(v.p.y, 20.0, 1e-9) << v.p.x;  // the bisector
+  EXPECT_EQ(r.stats.ends_on_barriers, 2);
+  EXPECT_TRUE(r.lone_crossings.empty());
+}
+
 TEST(SeaLines, ABoundaryEndsOnTheCoastsItMeets) {
   const Vec2 a{12.25, 21.5}, b{27.75, 17.5};
   const Channel open = channel(a, b, false);

@@ -318,7 +318,8 @@ def baltic_run(drv, base):
 
 def sea_run(drv, d, base):
     """The distance by sea: ports as the seeds, the "By sea" switch and the land as the barrier
-    layer, a projected CRS; the owners' sea on the map is the CLI's, cell for cell."""
+    layer, a projected CRS and a max distance of 8 km; the owners' sea on the map is the CLI's,
+    cell for cell, and the regions' areas are their cells'."""
     open_app(drv, base)
     ports = os.path.join(FIXTURES, "oresund_ports.geojson")
     land = os.path.join(FIXTURES, "oresund.gpkg")
@@ -332,6 +333,7 @@ def sea_run(drv, d, base):
     drv.find_element(By.ID, "barrier-file").send_keys(land)
     drv.find_element(By.CSS_SELECTOR, "details.more summary").click()
     drv.find_element(By.ID, "in-crs").send_keys("EPSG:32633")
+    drv.find_element(By.ID, "in-maxDistance").send_keys("8000")
     check(run(drv, resolution="500") == "done", "the run by sea: %s" % drv.find_element(By.ID, "panel").text[-400:])
     job = job_id(drv)
     own = raster(d, job, "ownership")
@@ -341,7 +343,8 @@ def sea_run(drv, d, base):
     with tempfile.TemporaryDirectory() as tmp:
         path = os.path.join(tmp, "o.tif")
         subprocess.run([RVORONOI, "compute", ports, "--owner-field", "owner", "--barriers", land, "--crs", "EPSG:32633",
-                        "--metric", "planar", "--resolution", "500", "--ownership", path, "--quiet"], check=True)
+                        "--metric", "planar", "--resolution", "500", "--max-distance", "8000", "--ownership", path,
+                        "--quiet"], check=True)
         cli = gdal.Open(path).ReadAsArray()
     check(own.shape == cli.shape and np.array_equal(own, cli), "the page's run by sea equals the CLI's")
     check(int((own == 0).sum()) > 1000, "land has no owner")
@@ -349,10 +352,14 @@ def sea_run(drv, d, base):
     _, _, report = d.json("GET", "/jobs/%s/results" % job, headers=d_headers(d))
     areas = {a["label"]: a for a in report["report"]["value"]["deliverables"]["regions"]["areas"]}
     legend = drv.find_element(By.ID, "legend").text
-    for label in ("DK", "SE"):
+    for code, label in ((1, "DK"), (2, "SE")):
         km2 = "{:,.1f}".format(areas[label]["sea_area"] / 1e6)
         check(label in legend and km2 in legend, "by sea: the legend lists %s with its sea area %s km²: %s"
               % (label, km2, legend))
+        # (Cells of 500 m: 0.25 km² each; the regions follow the lines, the cells step round them.)
+        cells = int((own == code).sum()) * 0.25
+        check(abs(areas[label]["sea_area"] / 1e6 - cells) <= 0.04 * cells,
+              "by sea within 8 km: %s's region %.1f km², its cells %.1f km²" % (label, areas[label]["sea_area"] / 1e6, cells))
     shot(drv, "by-sea")
 
 
