@@ -181,11 +181,17 @@ bool onto_domain_edge(const SiteMetric& m, Vec2 end, double radius, double ftol,
       return m.domain_edge_point(edge, t, end, p) ? f(p) : std::numeric_limits<double>::quiet_NaN();
     };
     // (A few samples an edge: the edges near a line's end are short against the curves of the
-    // loci a cell holds.)
+    // loci a cell holds. Not at the edge's ends themselves: a point of one edge within a
+    // micrometre of its end, on a geodesic edge, has no reliable direction towards that vertex,
+    // and its visibility can say it sees through the land behind the vertex. A level crossing
+    // the coast at the vertex itself, within a millionth of the edge, is missed and the line's
+    // end left where it was.)
     constexpr int kSamples = 16;
-    double t0 = 0.0, f0 = along(0.0);
+    constexpr double kEnd = 1e-6;
+    auto sample = [&](int k) { return kEnd + (1.0 - 2.0 * kEnd) * static_cast<double>(k) / kSamples; };
+    double t0 = sample(0), f0 = along(t0);
     for (int k = 1; k <= kSamples; ++k) {
-      const double t1 = static_cast<double>(k) / kSamples, f1 = along(t1);
+      const double t1 = sample(k), f1 = along(t1);
       if (std::isfinite(f0) && std::isfinite(f1) && (f0 <= 0.0) != (f1 <= 0.0)) {
         const double w = t1 - t0;
         const double t = t0 + w * find_root([&](double u) { return along(t0 + w * u); }, f0, f1, ftol, 1e-15);
