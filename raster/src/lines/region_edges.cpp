@@ -166,8 +166,10 @@ class ReachLines {
   // The point of the lines nearest `target` within `radius` (CRS units; at most three cells), on
   // a segment with both ends in `square` when one is given: filed to be inserted as a vertex,
   // and returned in `out`. False when there is none. `exact`: the target is the exact junction,
-  // where the point moves once the lines follow their level (moves()).
-  bool attach(Vec2 target, const std::optional<Box>& square, double radius, Vec2& out, bool exact = false) {
+  // where the point moves once the lines follow their level (moves()). `away` (or null): only
+  // points on the far side of `target` from it.
+  bool attach(Vec2 target, const std::optional<Box>& square, double radius, Vec2& out, bool exact = false,
+              const Vec2* away = nullptr) {
     const auto [c0, r0] = cell(target);
     const double eps = 1e-9 * g_.res;
     double best = radius;
@@ -183,6 +185,8 @@ class ReachLines {
           const double t = nearest_t(a, b, target);
           const Vec2 q = lerp(a, b, t);
           const double d = std::hypot(q.x - target.x, q.y - target.y);
+          if (away && (q.x - target.x) * (away->x - target.x) + (q.y - target.y) * (away->y - target.y) >= 0.0)
+            continue;
           if (d <= best) {
             best = d;
             found = Insert{k, i, t, q};
@@ -556,11 +560,16 @@ class EdgeBuilder {
       }
     if (reach_) {
       const bool exact = junction_at(line.owner_a, line.owner_b, end, j);
+      // By sea, a lone crossing whose first end went to the edge: its second end goes the other
+      // way (the nearest point of the edge is the one the first end took, across a sliver of
+      // unowned sea round a pocket the owners' discs leave between them).
+      const bool lone = !index_.metric().straight() && line.vertices.size() == 1 && v.size() == 2;
+      const Vec2* away = lone ? &v.front() : nullptr;
       // With reaches the edge has its corners as vertices (where two sites' arcs meet, which no
       // cell edge crosses): a corner in the square before splits the chord across this one, and
       // the line ends on the corner itself.
-      if (reach_lines_->attach(exact ? j : end, square, 3.0 * g_.res, on_line, exact) ||
-          (exact && margins_ && reach_lines_->attach(j, std::nullopt, g_.res, on_line, true))) {
+      if (reach_lines_->attach(exact ? j : end, square, 3.0 * g_.res, on_line, exact, away) ||
+          (exact && margins_ && reach_lines_->attach(j, std::nullopt, g_.res, on_line, true, away))) {
         // (A line ended at the junction already, end_at_owned_edge, may meet the edge there.)
         if (!(on_line.x == end.x && on_line.y == end.y)) v.push_back(on_line);
         return;
