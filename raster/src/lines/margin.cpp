@@ -91,7 +91,8 @@ SeedSet seeds_without(const SeedSet& seeds, int32_t excluded) {
 // the seeds of all other owners, gives the other-owner distance of O's cells exactly as the
 // engine measures it (its culling bounds are the metric's own). Cells inside another owner's
 // polygon get distance 0 there, so contested cells come out as margin 0.
-Raster<float> margin_by_owner_runs(const NearestField& field, const SiteMetric& metric, int threads) {
+Raster<float> margin_by_owner_runs(const NearestField& field, const SiteMetric& metric, int threads,
+                                   const OtherOwnersField& other_field = nullptr) {
   const SeedSet& seeds = metric.seeds();
   if (seeds.adjusted())
     throw Error(ErrorKind::unsupported,
@@ -115,11 +116,12 @@ Raster<float> margin_by_owner_runs(const NearestField& field, const SiteMetric& 
     if (b[2] < 0) continue;
     const SeedSet others = seeds_without(seeds, o);
     if (others.sites().empty()) continue;
+    const Window window{w.col0 + b[0], w.row0 + b[1], b[2] - b[0] + 1, b[3] - b[1] + 1};
     ComputeOptions co;
     co.metric = field.metric;
     co.threads = threads;
-    co.window = Window{w.col0 + b[0], w.row0 + b[1], b[2] - b[0] + 1, b[3] - b[1] + 1};
-    const NearestField other = compute(others, g, co);
+    co.window = window;
+    const NearestField other = other_field ? other_field(o, others, window) : compute(others, g, co);
     for (int64_t r = b[1]; r <= b[3]; ++r)
       for (int64_t c = b[0]; c <= b[2]; ++c) {
         const int32_t s = field.site.at(c, r);
@@ -156,14 +158,17 @@ Raster<float> margin_by_index(const NearestField& field, const OwnerIndex& index
 
 }  // namespace
 
-Raster<float> margin_raster(const NearestField& field, const OwnerIndex& index, int threads) {
+Raster<float> margin_raster(const NearestField& field, const OwnerIndex& index, int threads,
+                            const OtherOwnersField& other_field) {
   const SiteMetric& metric = index.metric();
   check_metric(field, metric);
   const SeedSet& seeds = metric.seeds();
   if (seeds.adjusted())
     throw Error(ErrorKind::unsupported,
                 "the margin raster is not available with weights or reaches: it measures unweighted distances");
-  if (!metric.straight()) return margin_by_index(field, index, threads);
+  if (!metric.straight())
+    return other_field ? margin_by_owner_runs(field, metric, threads, other_field)
+                       : margin_by_index(field, index, threads);
   // The per-owner engine runs below would need the other owners' polygons in the grid's CRS,
   // which the field does not carry.
   if (field.geolocator)

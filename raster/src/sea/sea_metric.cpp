@@ -223,9 +223,17 @@ class SeaSiteMetric final : public SiteMetric {
     if (w.ground == Visibility::Ground::land) return out;
     const Prepared& pr = prepared();
     const Visibility::Place at = place(w);
+    // (A point site on the ellipsoid: its place without its length, which the inner metric
+    // measures once it is seen.)
     Visibility::Place foot{w.spot.at};
-    const double key = pr.site_key(w.spot, site, &foot);
-    if (key == 0.0 || pr.vis.sees(at, foot)) {
+    bool on_site = false;
+    if (pr.geodesic && !pr.segment(site)) {
+      foot = pr.site_place(site, w.spot);
+      on_site = w.spot.ll == pr.site_ll[static_cast<size_t>(site)];
+    } else {
+      on_site = pr.site_key(w.spot, site, &foot) == 0.0;
+    }
+    if (on_site || pr.vis.sees(at, foot)) {
       VertexHit hit;
       out.d = inner_->distance_at_vertex(p, site, out.gradient, hit);
     }
@@ -234,13 +242,27 @@ class SeaSiteMetric final : public SiteMetric {
     const SiteRoots& roots = roots_[static_cast<size_t>(r)];
     const Searches& s = *roots.search;
     int32_t won = -1;
+    // On the ellipsoid a root's chord first (a lower bound of its length within 1e-5), then the
+    // taut and visibility tests, then the length (an inverse problem), as the field's search.
+    const Prepared::Xyz xyz = pr.geodesic ? pr.xyz(w.spot.ll) : Prepared::Xyz{};
     roots.tree.within(
         w.spot.at, [&] { return out.d + 1e-12 * out.d; },
         [&](int32_t item, double) {
           const int32_t k = roots.nodes[static_cast<size_t>(item)];
           const Node& n = s.nodes[static_cast<size_t>(k)];
+          const double weight = s.dist[static_cast<size_t>(k)].d;
+          if (pr.geodesic && weight + Prepared::chord_below(pr.vertex_xyz[static_cast<size_t>(n.vertex)], xyz) > out.d)
+            return;
           if (!sea::taut(pr.vis, n, s.from[static_cast<size_t>(k)], w.spot.at)) return;
-          const double d = s.dist[static_cast<size_t>(k)].d + pr.vertex_length(n.vertex, w.spot);
+          if (pr.geodesic) {
+            if (!pr.vis.sees(at, pr.vis.at_vertex(n.vertex, n.wedge))) return;
+            const double d = weight + pr.vertex_length(n.vertex, w.spot);
+            if (!(d < out.d)) return;
+            out.d = d;
+            won = k;
+            return;
+          }
+          const double d = weight + pr.vertex_length(n.vertex, w.spot);
           if (!(d < out.d)) return;
           if (!pr.vis.sees(at, pr.vis.at_vertex(n.vertex, n.wedge))) return;
           out.d = d;

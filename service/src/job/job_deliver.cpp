@@ -13,6 +13,7 @@
 #include <GeographicLib/Geodesic.hpp>
 
 #include "job/job_run.hpp"
+#include "job/job_sea.hpp"
 #include "job/turning_report.hpp"
 #include "rv/engine/outputs.hpp"
 #include "rv/engine/owner_index.hpp"
@@ -104,6 +105,7 @@ struct StripDeliverables::State {
   std::optional<RelevantCoasts> relevant_coasts;
   std::optional<PreviewSample> preview;
   std::optional<GeoTiffStripWriter<float>> margin_writer;  // streamed
+  OtherOwnersField sea_margin;                             // by sea: the margin's per-owner engine
   double boundary_seconds = 0.0, limit_seconds = 0.0, margin_seconds = 0.0, region_seconds = 0.0;
   double wall_seconds = 0.0;  // in add() and finish(): the deliverables' own wall time, writes included
   VectorOutputOptions vector;
@@ -339,7 +341,8 @@ void StripDeliverables::add(const NearestField& strip, const NearestField* measu
   if (s.relevant_coasts) s.region_seconds += seconds([&] { s.relevant_coasts->add(strip); });
   if (!out.margin.empty()) {
     s.margin_seconds += seconds([&] {
-      Raster<float> margin = margin_raster(strip, *s.index, s.run.spec.threads);
+      if (s.job.sea && !s.sea_margin) s.sea_margin = sea_other_owners(s.job, s.run.hooks.cancel);
+      Raster<float> margin = margin_raster(strip, *s.index, s.run.spec.threads, s.sea_margin);
       if (s.job.to_output != 1.0)
         for (float& v : margin.cells())
           if (v != kNoDistance) v = static_cast<float>(v * s.job.to_output);

@@ -3,6 +3,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
+#include <map>
+#include <memory>
 
 #include "job/job_run.hpp"
 #include "rv/field/error.hpp"
@@ -159,6 +162,22 @@ void settle_sea(PreparedJob& job, const JobHooks& hooks) {
   options.progress = nullptr;
   job.sea->prepared =
       about_barriers([&] { return prepare_sea(job.loaded.seeds, job.sea->loaded.barriers, job.grid, options); });
+}
+
+OtherOwnersField sea_other_owners(const PreparedJob& job, const std::atomic<bool>* cancel) {
+  if (!job.sea) return nullptr;
+  auto settled = std::make_shared<std::map<int32_t, std::shared_ptr<const PreparedSea>>>();
+  return [&job, cancel, settled](int32_t owner, const SeedSet& others, const Window& window) {
+    SeaOptions options = sea_options(job, job.compute);
+    options.max_distance = std::numeric_limits<double>::infinity();
+    options.cancel = cancel;
+    options.progress = nullptr;
+    std::shared_ptr<const PreparedSea>& prepared = (*settled)[owner];
+    if (!prepared)
+      prepared = about_barriers([&] { return prepare_sea(others, job.sea->loaded.barriers, job.grid, options); });
+    options.prepared = prepared;
+    return compute_sea(others, job.sea->loaded.barriers, job.grid, window, options).field;
+  };
 }
 
 void SeaRun::compute(const Window& window, NearestField& field, std::vector<int32_t>* via,

@@ -9,6 +9,7 @@
 // Not part of the public API. Thread safety: one SeaRun per job, used from the job's thread.
 #pragma once
 
+#include <atomic>
 #include <cstdint>
 #include <functional>
 #include <vector>
@@ -18,6 +19,7 @@
 #include "job/job_run.hpp"
 #include "rv/field/raster.hpp"
 #include "rv/job.hpp"
+#include "rv/lines/margin.hpp"
 
 namespace rv::detail {
 
@@ -40,6 +42,12 @@ void nil_effect_by_sea(PreparedJob& job);
 // Settles the bend nodes for every window of the job (job.sea->prepared). Honours the hooks'
 // cancellation.
 void settle_sea(PreparedJob& job, const JobHooks& hooks);
+
+// The margin's engine by sea (rv/lines/margin.hpp's OtherOwnersField): compute_sea over the
+// other owners' seeds with the job's barriers, metric and threads, no maximum distance; the bend
+// nodes of each owner's "others" settled once and kept for every strip. Null without barriers.
+// The returned function refers to `job`, which must outlive it; one thread at a time.
+OtherOwnersField sea_other_owners(const PreparedJob& job, const std::atomic<bool>* cancel);
 
 // One job's fields by sea and what computing them measured, summed over its windows.
 class SeaRun {

@@ -3,6 +3,9 @@
 // sea.
 #pragma once
 
+#include <cstdint>
+#include <functional>
+
 #include "rv/engine/engine.hpp"
 #include "rv/engine/owner_index.hpp"
 #include "rv/field/raster.hpp"
@@ -17,9 +20,15 @@ namespace rv {
 // (compute_other_owner, margins from double distances); other metrics run the exact engine once
 // per owner, on the window of that owner's cells, over the other owners' seeds (margins from the
 // Float32 distances: a few millimetres of rounding at 100 km). By sea (a metric that is not
-// straight, rv/sea/sea_metric.hpp) each cell asks the index for the other owners' distance by
-// sea (OwnerIndex::nearest_not_of), less the field's own; projected geodesic grids included.
-Raster<float> margin_raster(const NearestField& field, const OwnerIndex& index, int threads = 0);
+// straight, rv/sea/sea_metric.hpp) the same per owner with `other_field`, the caller's engine of
+// that metric (compute_sea with the barriers): other_field(owner, others, window) is the field of
+// seed set `others` (every owner's seeds but `owner`'s, the same codes) over `window` (a window
+// of the field's grid) with no maximum distance. Without it, each cell asks the index for the
+// other owners' distance by sea (OwnerIndex::nearest_not_of): the same values, cell by cell.
+// Projected geodesic grids included by sea.
+using OtherOwnersField = std::function<NearestField(int32_t owner, const SeedSet& others, const Window& window)>;
+Raster<float> margin_raster(const NearestField& field, const OwnerIndex& index, int threads = 0,
+                            const OtherOwnersField& other_field = nullptr);
 
 // The exact engine's culling, restricted per cell to sites whose owner differs from the owner
 // of the cell's site in `own` (planar metric, whole-grid or windowed field as computed by
