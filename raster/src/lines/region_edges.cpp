@@ -447,23 +447,13 @@ class EdgeBuilder {
             // By sea: an end on a barrier goes a thousandth of a cell on into it, as a boundary's
             // does (carry_on), so that the faces close against the coast.
             const LimitVertex& last = at_end ? line.vertices.back() : line.vertices.front();
-            if (last.on_barrier && pts.size() >= 2) {
-              const Vec2 prev = at_end ? pts[pts.size() - 2] : pts[1];
-              const Vec2 q = across_barrier(prev, end, g_.res);
-              if (at_end) {
-                pts.push_back(q);
-                owners.push_back(owners.back());
-              } else {
-                pts.insert(pts.begin(), q);
-                owners.insert(owners.begin(), owners.front());
-              }
-              continue;
-            }
-            if (!on_centre_frame(g_, end)) {
+            const bool on_barrier = last.on_barrier && pts.size() >= 2;
+            if (!on_barrier && !on_centre_frame(g_, end)) {
               ++out_.dangling_ends;
               continue;
             }
-            const Vec2 q = edge_vertex(g_, end, on_d, ftol_);
+            const Vec2 q = on_barrier ? across_barrier(at_end ? pts[pts.size() - 2] : pts[1], end, g_.res)
+                                      : edge_vertex(g_, end, on_d, ftol_);
             if (at_end) {
               pts.push_back(q);
               owners.push_back(owners.back());
