@@ -43,8 +43,9 @@ Best Searches::best_path(const Place& at, const Spot& spot, Best best, int64_t& 
   int32_t won = -1;
   // On the ellipsoid a candidate's chord decides most candidates before its inverse problem.
   const Prepared::Xyz xyz = p.geodesic ? p.xyz(spot.ll) : Prepared::Xyz{};
+  // (Geodesic only: the positions exist only there.)
   auto chord_beyond = [&](const Prepared::Xyz& from, double weight) {
-    return p.geodesic && weight + Prepared::chord_below(from, xyz) > best.d;
+    return weight + Prepared::chord_below(from, xyz) > best.d;
   };
   // Whether the edge that last hid the root from a neighbour still does (one crossing test).
   auto hinted = [&](int32_t item, const Place& to) {
@@ -93,7 +94,7 @@ Best Searches::best_path(const Place& at, const Spot& spot, Best best, int64_t& 
     const Node& n = nodes[k];
     if (n.vertex == skip_vertex || !std::isfinite(dist[k].d)) return;
     // On the ellipsoid the chord first (a few products: within 1e-5 of the length).
-    if (chord_beyond(p.vertex_xyz[static_cast<size_t>(n.vertex)], dist[k].d)) return;
+    if (p.geodesic && chord_beyond(p.vertex_xyz[static_cast<size_t>(n.vertex)], dist[k].d)) return;
     // The taut test (a few turns) before the length: on the ellipsoid a length is an inverse
     // problem, and the test rejects most candidates.
     if (!sea::taut(p.vis, n, from[k], x)) return;
