@@ -42,11 +42,7 @@ Best Searches::best_path(const Place& at, const Spot& spot, Best best, int64_t& 
   const Vec2 x = at.at;
   int32_t won = -1;
   // On the ellipsoid a candidate's chord decides most candidates before its inverse problem.
-  const Prepared::Xyz xyz = p.geodesic ? p.xyz(spot.ll) : Prepared::Xyz{};
-  // (Geodesic only: the positions exist only there.)
-  auto chord_beyond = [&](const Prepared::Xyz& from, double weight) {
-    return weight + Prepared::chord_below(from, xyz) > best.d;
-  };
+  const Prepared::Xyz xyz = p.spot_xyz(spot);
   // Whether the edge that last hid the root from a neighbour still does (one crossing test).
   auto hinted = [&](int32_t item, const Place& to) {
     if (!blockers) return false;
@@ -70,7 +66,7 @@ Best Searches::best_path(const Place& at, const Spot& spot, Best best, int64_t& 
       // A point site on the ellipsoid: its chord, then whether it is seen, then its length (most
       // candidates the chord lets through are nearer than the best but hidden).
       if (p.geodesic && !p.segment(id)) {
-        if (chord_beyond(p.site_xyz[static_cast<size_t>(id)], 0.0)) return;
+        if (Prepared::chord_below(p.site_xyz[static_cast<size_t>(id)], xyz) > best.d) return;
         const Place to = p.site_place(id, spot);
         if (spot.ll != p.site_ll[static_cast<size_t>(id)] && !seen(item, to)) return;
         const Best c{std::sqrt(p.site_key(spot, id)), id, kNoVia};
@@ -93,30 +89,17 @@ Best Searches::best_path(const Place& at, const Spot& spot, Best best, int64_t& 
     const auto k = static_cast<size_t>(item - site_items());
     const Node& n = nodes[k];
     if (n.vertex == skip_vertex || !std::isfinite(dist[k].d)) return;
-    // On the ellipsoid the chord first (a few products: within 1e-5 of the length).
-    if (p.geodesic && chord_beyond(p.vertex_xyz[static_cast<size_t>(n.vertex)], dist[k].d)) return;
-    // The taut test (a few turns) before the length: on the ellipsoid a length is an inverse
-    // problem, and the test rejects most candidates.
-    if (!sea::taut(p.vis, n, from[k], x)) return;
-    const Place to = p.vis.at_vertex(n.vertex, n.wedge);
-    if (p.geodesic) {
-      // On the ellipsoid the hint (most candidates a cell's search meets are hidden, and mostly
-      // by the edge that hid them from its neighbour) and the visibility test come before the
-      // length too: what the chord lets through is mostly better than the best but hidden.
-      if (hinted(item, to) || !seen(item, to, true)) return;
-      const Best c{dist[k].d + p.vertex_length(n.vertex, spot), dist[k].site, n.vertex};
-      if (c < best) {
-        best = c;
-        won = item;
-      }
-      return;
-    }
-    const Best c{dist[k].d + p.vertex_length(n.vertex, spot), dist[k].site, n.vertex};
-    if (!(c < best)) return;
-    if (seen(item, to)) {
-      best = c;
-      won = item;
-    }
+    // (seen(): the hint first -- most candidates a cell's search meets are hidden, and mostly by
+    // the edge that hid them from its neighbour.)
+    const double d = through(
+        k, spot, xyz, best.d,
+        [&](double length) {
+          return Best{length, dist[k].site, n.vertex} < best;
+        },
+        [&](const Place& to) { return seen(item, to); });
+    if (!std::isfinite(d)) return;
+    best = Best{d, dist[k].site, n.vertex};
+    won = item;
   };
   if (first >= 0 && std::isfinite(all.weight(first))) consider(first);
   all.within(

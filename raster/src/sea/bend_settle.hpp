@@ -69,6 +69,29 @@ struct Searches {
   //
   // `cap`: only roots whose bound is at most cap are searched (the answer is exact when below
   // it; else it is some path, or none).
+  // Settled node k as the last bend of a path to `spot` (`xyz`: Prepared::spot_xyz(spot)): the
+  // path's length when it is taut at the node, `better(length)` holds and `seen(place)` says the
+  // node's place sees the spot; else +infinity. A length above `limit` is never better. The tests
+  // run cheapest first: on the ellipsoid the chord (a lower bound of the length) against
+  // `limit`, taut, seen, then the length (an inverse problem); planar taut, the length, then seen.
+  // The field's searches and the sea metric's (rv/sea/sea_metric.hpp) accept paths by it alike.
+  template <class Better, class Seen>
+  double through(size_t k, const Spot& spot, const Prepared::Xyz& xyz, double limit, Better&& better,
+                 Seen&& seen) const {
+    constexpr double kNone = std::numeric_limits<double>::infinity();
+    const Node& n = nodes[k];
+    const double weight = dist[k].d;
+    if (p.geodesic && weight + Prepared::chord_below(p.vertex_xyz[static_cast<size_t>(n.vertex)], xyz) > limit)
+      return kNone;
+    if (!taut(p.vis, n, from[k], spot.at)) return kNone;
+    const Place to = p.vis.at_vertex(n.vertex, n.wedge);
+    if (p.geodesic && !seen(to)) return kNone;  // (what the chord lets through is mostly hidden)
+    const double d = weight + p.vertex_length(n.vertex, spot);
+    if (!better(d)) return kNone;
+    if (!p.geodesic && !seen(to)) return kNone;
+    return d;
+  }
+
   Best best_path(const Place& at, const Spot& spot, Best best, int64_t& tests, int32_t skip_vertex = -1,
                  std::vector<int32_t>* blockers = nullptr, int32_t first = -1, int32_t* winner = nullptr,
                  uint64_t since = 0, double searched = std::numeric_limits<double>::infinity(),

@@ -242,29 +242,16 @@ class SeaSiteMetric final : public SiteMetric {
     const SiteRoots& roots = roots_[static_cast<size_t>(r)];
     const Searches& s = *roots.search;
     int32_t won = -1;
-    // On the ellipsoid a root's chord first (a lower bound of its length within 1e-5), then the
-    // taut and visibility tests, then the length (an inverse problem), as the field's search.
-    const Prepared::Xyz xyz = pr.geodesic ? pr.xyz(w.spot.ll) : Prepared::Xyz{};
+    // (The roots' tests in the field's order: Searches::through.)
+    const Prepared::Xyz xyz = pr.spot_xyz(w.spot);
     roots.tree.within(
         w.spot.at, [&] { return out.d + 1e-12 * out.d; },
         [&](int32_t item, double) {
           const int32_t k = roots.nodes[static_cast<size_t>(item)];
-          const Node& n = s.nodes[static_cast<size_t>(k)];
-          const double weight = s.dist[static_cast<size_t>(k)].d;
-          if (pr.geodesic && weight + Prepared::chord_below(pr.vertex_xyz[static_cast<size_t>(n.vertex)], xyz) > out.d)
-            return;
-          if (!sea::taut(pr.vis, n, s.from[static_cast<size_t>(k)], w.spot.at)) return;
-          if (pr.geodesic) {
-            if (!pr.vis.sees(at, pr.vis.at_vertex(n.vertex, n.wedge))) return;
-            const double d = weight + pr.vertex_length(n.vertex, w.spot);
-            if (!(d < out.d)) return;
-            out.d = d;
-            won = k;
-            return;
-          }
-          const double d = weight + pr.vertex_length(n.vertex, w.spot);
-          if (!(d < out.d)) return;
-          if (!pr.vis.sees(at, pr.vis.at_vertex(n.vertex, n.wedge))) return;
+          const double d = s.through(
+              static_cast<size_t>(k), w.spot, xyz, out.d, [&](double length) { return length < out.d; },
+              [&](const Visibility::Place& to) { return pr.vis.sees(at, to); });
+          if (!std::isfinite(d)) return;
           out.d = d;
           won = k;
         });

@@ -147,6 +147,7 @@ struct Prepared {
   };
   std::vector<Xyz> vertex_xyz, site_xyz;  // per barrier vertex; per site, its first end
   Xyz xyz(Vec2 ll) const;
+  Xyz spot_xyz(const Spot& s) const { return geodesic ? xyz(s.ll) : Xyz{}; }  // (planar: unused)
   // The chord between two positions less its rounding (coordinates of 6.4e6 m carry errors of
   // nanometres) and GeographicLib's own error (15 nm): never above the distance the inverse
   // problem returns for the same two points.

@@ -63,6 +63,15 @@ class SeaLinesJob : public ::testing::Test {
     s.outputs.report = (dir_ / sub / "report.json").string();
     return s;
   }
+  // `s` with the ownership, the regions and the report in folder `sub`, within `max_distance`.
+  JobSpec within(JobSpec s, const std::string& sub, double max_distance) const {
+    fs::create_directories(dir_ / sub);
+    s.outputs.ownership = (dir_ / sub / "own.tif").string();
+    s.outputs.regions = (dir_ / sub / "regions.gpkg").string();
+    s.outputs.report = (dir_ / sub / "report.json").string();
+    s.max_distance = max_distance;
+    return s;
+  }
   fs::path dir_;
 };
 
@@ -366,13 +375,7 @@ int64_t expect_regions_are_the_owned_cells(const JobSpec& s, int owners_wanted) 
 // islet off the Swedish coast and the coast (one crossing, drawn as a line of its own). Before,
 // the sea beyond 8 km behind the islet was one face with Sweden's (21 % too much).
 TEST_F(SeaLinesJob, RegionsWithinAMaxDistanceAreEachOwnersSeaWithinIt) {
-  JobSpec s = test::oresund_ports_by_sea();
-  fs::create_directories(dir_ / "max");
-  s.outputs.ownership = (dir_ / "max" / "own.tif").string();
-  s.outputs.regions = (dir_ / "max" / "regions.gpkg").string();
-  s.outputs.report = (dir_ / "max" / "report.json").string();
-  s.max_distance = 8000.0;
-  EXPECT_GT(expect_regions_are_the_owned_cells(s, 2), 8000);
+  EXPECT_GT(expect_regions_are_the_owned_cells(within(test::oresund_ports_by_sea(), "max", 8000.0), 2), 8000);
 }
 
 // The western Baltic's 200 ports by sea, geodesic, within 12 nmi, south of Langeland: where the
@@ -388,12 +391,7 @@ TEST_F(SeaLinesJob, RegionsWithinAMaxDistanceCloseRoundAPocketBetweenTwoOwnersDi
   s.barriers = {fixture("baltic_west.gpkg")};
   s.grid.resolution = 0.005;
   s.grid.extent = std::array<double, 4>{10.5, 54.4, 11.1, 54.9};
-  fs::create_directories(dir_ / "pocket");
-  s.outputs.ownership = (dir_ / "pocket" / "own.tif").string();
-  s.outputs.regions = (dir_ / "pocket" / "regions.gpkg").string();
-  s.outputs.report = (dir_ / "pocket" / "report.json").string();
-  s.max_distance = 22224.0;
-  EXPECT_GT(expect_regions_are_the_owned_cells(s, 2), 5000);
+  EXPECT_GT(expect_regions_are_the_owned_cells(within(s, "pocket", 22224.0), 2), 5000);
 }
 
 TEST_F(SeaLinesJob, TurningPointsAndTheRelevantAreaAreRefusedInOneLine) {
