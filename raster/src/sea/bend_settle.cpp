@@ -2,6 +2,7 @@
 // parts.
 #include "sea/bend_settle.hpp"
 
+#include <chrono>
 #include <cmath>
 #include <queue>
 
@@ -212,3 +213,22 @@ void settle_bends(Searches& b, int64_t& tests, const std::atomic<bool>* cancel) 
 }
 
 }  // namespace rv::sea
+
+namespace rv {
+
+PreparedSea::PreparedSea(const SeedSet& seeds, const Barriers& barriers, const GridSpec& grid,
+                         const SeaOptions& options)
+    : prepared(sea::prepare(seeds, barriers, grid, options.metric, options.geolocator)), search(prepared) {
+  const auto start = std::chrono::steady_clock::now();
+  if (!seeds.adjusted()) {
+    sea::settle_bends(search, bend_tests, options.cancel);
+  } else {
+    for (sea::SiteClass& c : sea::site_classes(seeds, prepared.geometric)) {
+      classes.push_back(Class{c.weight, c.reach, std::make_unique<sea::Searches>(prepared, c.sites)});
+      sea::settle_bends(*classes.back().search, bend_tests, options.cancel);
+    }
+  }
+  bends_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
+}  // namespace rv

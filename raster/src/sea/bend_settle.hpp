@@ -8,6 +8,7 @@
 #include <atomic>
 #include <cstdint>
 #include <limits>
+#include <memory>
 #include <utility>
 #include <vector>
 
@@ -110,19 +111,29 @@ namespace rv {
 // What prepare_sea() makes (rv/sea/sea_field.hpp).
 class PreparedSea {
  public:
-  PreparedSea(const SeedSet& seeds, const Barriers& barriers, const GridSpec& grid, const SeaOptions& options)
-      : prepared(sea::prepare(seeds, barriers, grid, options.metric, options.geolocator)), search(prepared) {
-    const auto start = std::chrono::steady_clock::now();
-    sea::settle_bends(search, bend_tests, options.cancel);
-    bends_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  }
+  PreparedSea(const SeedSet& seeds, const Barriers& barriers, const GridSpec& grid, const SeaOptions& options);
   PreparedSea(const PreparedSea&) = delete;
   PreparedSea& operator=(const PreparedSea&) = delete;
 
+  // Seeds with weights or reaches: per class of sites (sea::site_classes), the nodes settled
+  // over its sites alone; `search` is then left unsettled (no path is over every site).
+  struct Class {
+    double weight = 1.0;
+    double reach = std::numeric_limits<double>::infinity();
+    std::unique_ptr<sea::Searches> search;  // refers to `prepared`
+  };
+
   const sea::Prepared prepared;
   sea::Searches search;  // refers to `prepared`: the object is never moved
+  std::vector<Class> classes;
   int64_t bend_tests = 0;
   double bends_seconds = 0.0;
+  // The nodes evaluated while settling (every class's).
+  int64_t evaluations() const {
+    int64_t n = search.evaluations;
+    for (const Class& c : classes) n += c.search->evaluations;
+    return n;
+  }
 };
 
 }  // namespace rv

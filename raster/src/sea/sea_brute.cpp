@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <atomic>
 #include <cmath>
+#include <limits>
 #include <tuple>
 
 #include "rv/field/error.hpp"
@@ -19,14 +20,14 @@ namespace {
 // The engines' shared parts (sea/sea_prepare.hpp, sea/root_tree.hpp).
 using namespace ::rv::sea;
 
-// D(v) per bend node, by Dijkstra over the full visibility graph.
+// D(v) per bend node over `sites` (geometric sites), by Dijkstra over the full visibility graph.
 struct VertexDistances {
   std::vector<Node> nodes;
   std::vector<Best> dist;
   std::vector<Vec2> from;  // where each node's path came from: its previous bend or its site's point
 };
 
-VertexDistances vertex_distances(const Prepared& p, std::atomic<int64_t>& tests) {
+VertexDistances vertex_distances(const Prepared& p, const std::vector<int32_t>& sites, std::atomic<int64_t>& tests) {
   const Visibility& vis = p.vis;
   VertexDistances out;
   out.nodes = sea::bend_nodes(vis);
@@ -38,7 +39,7 @@ VertexDistances vertex_distances(const Prepared& p, std::atomic<int64_t>& tests)
   for (size_t n = 0; n < nodes.size(); ++n) {
     const Place at = vis.at_vertex(nodes[n].vertex, nodes[n].wedge);
     const Spot spot = p.vertex_spot(nodes[n].vertex);
-    for (int32_t id : p.geometric) {
+    for (int32_t id : sites) {
       Place to{at.at};
       const double key = p.site_key(spot, id, &to);
       const Best c{std::sqrt(key), id, kNoVia};
@@ -74,13 +75,15 @@ VertexDistances vertex_distances(const Prepared& p, std::atomic<int64_t>& tests)
   return out;
 }
 
-// One sea cell at x, off every seed polygon: its best path, whether it is the straight field's
-// answer (the straight nearest site seen), and k0, the straight nearest key.
-Best cell_value(const Prepared& p, const VertexDistances& vd, const Place& at, const Spot& spot,
-                std::vector<std::pair<double, int32_t>>& order, bool& straight, double& k0, int64_t& asked) {
+// One sea cell at x, off every seed polygon: its best path over `sites` (vd: over the same),
+// whether it is the straight field's answer (the straight nearest site seen), and k0, the straight
+// nearest key.
+Best cell_value(const Prepared& p, const std::vector<int32_t>& sites, const VertexDistances& vd, const Place& at,
+                const Spot& spot, std::vector<std::pair<double, int32_t>>& order, bool& straight, double& k0,
+                int64_t& asked) {
   const Vec2 x = at.at;
   order.clear();
-  for (int32_t id : p.geometric) order.emplace_back(p.site_key(spot, id), id);
+  for (int32_t id : sites) order.emplace_back(p.site_key(spot, id), id);
   std::sort(order.begin(), order.end());
   k0 = order.front().first;
   Best best;
@@ -129,7 +132,14 @@ SeaField brute_force_sea(const SeedSet& seeds, const Barriers& barriers, const G
   const MetricSpec& metric = options.metric;
   const Prepared p = sea::prepare(seeds, barriers, grid, metric, options.geolocator);
   std::atomic<int64_t> tests{0};
-  const VertexDistances vd = vertex_distances(p, tests);
+  // Adjusted seeds: per class of (weight, reach) its own distances, the cheapest class's path
+  // (sea::site_classes); else one class of every site.
+  constexpr double kInf = std::numeric_limits<double>::infinity();
+  const bool adjusted = seeds.adjusted();
+  const std::vector<SiteClass> classes =
+      adjusted ? sea::site_classes(seeds, p.geometric) : std::vector<SiteClass>{SiteClass{1.0, kInf, p.geometric}};
+  std::vector<VertexDistances> vds;
+  for (const SiteClass& cls : classes) vds.push_back(vertex_distances(p, cls.sites, tests));
 
   SeaField out = sea::empty_field(p, grid, window, metric);
   const InteriorSpans interiors = interiors_of(seeds, options.grid_polygons.get(), grid, window);
@@ -157,16 +167,38 @@ SeaField brute_force_sea(const SeedSet& seeds, const Barriers& barriers, const G
         out.field.distance.at(c, r) = 0.0f;
         continue;
       }
-      bool straight = false;
-      double k0 = 0.0;
       Place at{x};
       at.open = ground == Visibility::Ground::open_sea;
-      const Best best = cell_value(p, vd, at, spot, order, straight, k0, asked);
-      if (best.site == kNoSite) {
+      Best best;
+      double cost = kInf, k0 = 0.0;
+      bool straight = false, reached = false;
+      for (size_t k = 0; k < classes.size(); ++k) {
+        bool s = false;
+        double key = 0.0;
+        const Best b = cell_value(p, classes[k].sites, vds[k], at, spot, order, s, key, asked);
+        if (b.site == kNoSite) continue;
+        reached = true;
+        if (!adjusted) {
+          if (s ? key > max_key : b.d > max_distance) continue;
+          best = b;
+          straight = s;
+          k0 = key;
+          continue;
+        }
+        const double c =
+            adjusted_distance(seeds.features()[static_cast<size_t>(seeds.site_feature(b.site))], b.d, max_distance);
+        if (c < cost || (c == cost && c < kInf && b.site < best.site)) {
+          best = b;
+          cost = c;
+          straight = s;
+          k0 = key;
+        }
+      }
+      if (!reached) {
         ++unreachable[static_cast<size_t>(worker)];
         continue;
       }
-      if (straight ? k0 > max_key : best.d > max_distance) continue;
+      if (best.site == kNoSite) continue;
       out.field.site.at(c, r) = best.site;
       out.field.distance.at(c, r) = static_cast<float>(best.d);
       out.via.at(c, r) = best.via;

@@ -13,6 +13,8 @@
 // - Cells: the straight field of the window first (the straight exact engine's, rv/engine), then
 //   per cell its nearest site if seen (the straight field's answer, bit for bit), else the best
 //   site seen and the best settled node seen, each searched in order of its bound.
+// - Seeds with weights or reaches: the same per class of (weight, reach) (sea::site_classes),
+//   each with its own settled nodes, and the cheapest class's path (adjusted_path below).
 #include <algorithm>
 #include <atomic>
 #include <chrono>
@@ -59,6 +61,24 @@ std::vector<Spot> row_spots(const Prepared& p, const GridSpec& grid, const Windo
   return spots;
 }
 
+// The ground under each cell of a row (row_spots()).
+std::vector<Visibility::Ground> row_grounds(const Prepared& p, const std::vector<Spot>& spots) {
+  const auto width = static_cast<int64_t>(spots.size());
+  std::vector<Visibility::Ground> grounds(spots.size());
+  if (p.geodesic) {  // (a row of a longitude/latitude grid is no straight line in the plane)
+    for (int64_t c = 0; c < width; ++c)
+      grounds[static_cast<size_t>(c)] =
+          c == 0 ? p.vis.classify(spots[0].at)
+                 : p.vis.classify_next(spots[static_cast<size_t>(c - 1)].at, grounds[static_cast<size_t>(c - 1)],
+                                       spots[static_cast<size_t>(c)].at);
+    return grounds;
+  }
+  std::vector<double> xs(spots.size());
+  for (size_t c = 0; c < spots.size(); ++c) xs[c] = spots[c].at.x;
+  p.vis.classify_row(spots.empty() ? 0.0 : spots[0].at.y, xs.data(), width, grounds.data());
+  return grounds;
+}
+
 // The straight exact engine's options for the field a computation by sea starts from.
 ComputeOptions straight_options(const SeaOptions& options) {
   ComputeOptions o;
@@ -70,6 +90,63 @@ ComputeOptions straight_options(const SeaOptions& options) {
   o.max_distance = options.max_distance;
   o.cancel = options.cancel;
   return o;
+}
+
+// A cell's answer over the classes of adjusted seeds (PreparedSea::classes): per class its
+// shortest path (its straight nearest site where seen, else the search), the cheapest by
+// adjusted_distance, ties to the lower site. A class whose straight distance already costs more
+// than the best so far cannot win (no path by sea is shorter than the straight line), and its
+// search stops at the length that would tie. `d0`: the winning class's straight distance, 0 where
+// its path is that class's straight nearest site seen (no detour). `unreachable`: no class has
+// any path to the cell at all (as opposed to none within its reach).
+struct ClassHints {
+  std::vector<int32_t> blockers;  // Searches::best_path's hints, per item of the class's tree
+  int32_t last = -1;              // the root of the row's previous bent cell
+};
+Best adjusted_path(const PreparedSea& prepared, const SeedSet& seeds, const Place& at, const Spot& spot,
+                   double max_distance, std::vector<ClassHints>& hints, int64_t& tests, double& d0, bool& unreachable) {
+  constexpr double kInf = std::numeric_limits<double>::infinity();
+  const Prepared& p = prepared.prepared;
+  Best won;
+  double won_cost = kInf;
+  unreachable = false;
+  std::vector<size_t> unanswered;  // classes searched within their reach that found no path
+  for (size_t k = 0; k < prepared.classes.size(); ++k) {
+    const PreparedSea::Class& cls = prepared.classes[k];
+    const Searches& s = *cls.search;
+    const auto [k0, nearest] = s.straight(spot);
+    if (nearest == kNoSite) continue;
+    const double straight = std::sqrt(k0);
+    const double cap = std::min(max_distance, cls.reach);
+    const double limit = won.site == kNoSite ? cap : std::min(cap, won_cost * cls.weight * (1.0 + 1e-12));
+    if (straight > limit) continue;
+    ClassHints& h = hints[k];
+    if (h.blockers.empty()) h.blockers.assign(static_cast<size_t>(s.site_items()) + s.nodes.size(), -1);
+    Best b;
+    ++tests;
+    const bool seen = p.vis.sees(at, p.site_place(nearest, spot));
+    if (seen)
+      b = Best{straight, nearest, kNoVia};
+    else
+      b = s.best_path(at, spot, Best{}, tests, -1, &h.blockers, h.last, &h.last, 0, kInf, limit);
+    if (b.site == kNoSite) {
+      if (won.site == kNoSite) unanswered.push_back(k);
+      continue;
+    }
+    const double cost =
+        adjusted_distance(seeds.features()[static_cast<size_t>(seeds.site_feature(b.site))], b.d, max_distance);
+    if (cost < won_cost || (cost == won_cost && cost < kInf && b.site < won.site)) {
+      won = b;
+      won_cost = cost;
+      d0 = seen ? 0.0 : straight;
+    }
+  }
+  if (won.site != kNoSite) return won;
+  // (Only cells no class reaches within its reach ask whether any path reaches them at all.)
+  unreachable = !unanswered.empty();
+  for (size_t k : unanswered)
+    if (prepared.classes[k].search->best_path(at, spot, Best{}, tests).site != kNoSite) unreachable = false;
+  return won;
 }
 
 }  // namespace
@@ -122,10 +199,12 @@ SeaField compute_sea(const SeedSet& seeds, const Barriers& barriers, const GridS
   out.field.contested_cells = interiors.contested_cells;
   // The straight field: each cell's nearest site and distance, as every engine of the straight
   // distance answers them (a cell that sees that site takes them as they are).
+  // (Adjusted seeds: each class finds its own straight nearest site.)
+  const bool adjusted = !prepared->classes.empty();
   ComputeOptions straight = straight_options(options);
   straight.window = window;
   straight.prepared = options.straight;
-  const NearestField straight_field = compute(seeds, grid, straight);
+  const NearestField straight_field = adjusted ? NearestField{} : compute(seeds, grid, straight);
   const int workers = resolve_threads(options.threads);
   struct Tally {
     int64_t land = 0, unreachable = 0, tests = 0;
@@ -135,6 +214,8 @@ SeaField compute_sea(const SeedSet& seeds, const Barriers& barriers, const GridS
   // Per worker, the edge that last hid each root (see best_path): neighbouring cells are mostly
   // hidden from the same roots by the same edges.
   std::vector<std::vector<int32_t>> blockers(static_cast<size_t>(workers));
+  std::vector<std::vector<ClassHints>> class_hints(static_cast<size_t>(workers),
+                                                   std::vector<ClassHints>(prepared->classes.size()));
   std::atomic<int64_t> rows_done{0};
   detail::parallel_for(workers, window.height, [&](int64_t r, int worker) {
     if (options.cancel && options.cancel->load(std::memory_order_relaxed))
@@ -143,21 +224,12 @@ SeaField compute_sea(const SeedSet& seeds, const Barriers& barriers, const GridS
     std::vector<int32_t>& hint = blockers[static_cast<size_t>(worker)];
     int32_t last = -1;  // the root of the row's previous bent cell
     if (hint.empty()) hint.assign(static_cast<size_t>(search.site_items()) + search.nodes.size(), -1);
+    std::vector<ClassHints>& hints = class_hints[static_cast<size_t>(worker)];
+    for (ClassHints& h : hints) h.last = -1;
     const auto& spans = interiors.rows[static_cast<size_t>(r)];
     auto span = spans.begin();
     const std::vector<Spot> spots = row_spots(p, grid, window, r);
-    std::vector<double> xs(static_cast<size_t>(window.width));
-    for (int64_t c = 0; c < window.width; ++c) xs[static_cast<size_t>(c)] = spots[static_cast<size_t>(c)].at.x;
-    std::vector<Visibility::Ground> grounds(static_cast<size_t>(window.width));
-    if (p.geodesic) {  // (a row of a longitude/latitude grid is no straight line in the plane)
-      for (int64_t c = 0; c < window.width; ++c)
-        grounds[static_cast<size_t>(c)] =
-            c == 0 ? p.vis.classify(spots[0].at)
-                   : p.vis.classify_next(spots[static_cast<size_t>(c - 1)].at, grounds[static_cast<size_t>(c - 1)],
-                                         spots[static_cast<size_t>(c)].at);
-    } else {
-      p.vis.classify_row(spots.empty() ? 0.0 : spots[0].at.y, xs.data(), window.width, grounds.data());
-    }
+    const std::vector<Visibility::Ground> grounds = row_grounds(p, spots);
     for (int64_t c = 0; c < window.width; ++c) {
       const Spot& spot = spots[static_cast<size_t>(c)];
       const Vec2 x = spot.at;
@@ -174,6 +246,20 @@ SeaField compute_sea(const SeedSet& seeds, const Barriers& barriers, const GridS
       }
       Place at{x};
       at.open = ground == Visibility::Ground::open_sea;
+      if (adjusted) {
+        double d0 = 0.0;
+        bool unreachable = false;
+        const Best best =
+            adjusted_path(*prepared, seeds, at, spot, options.max_distance, hints, t.tests, d0, unreachable);
+        t.unreachable += unreachable ? 1 : 0;
+        if (best.site == kNoSite) continue;
+        out.field.site.at(c, r) = best.site;
+        out.field.distance.at(c, r) = static_cast<float>(best.d);
+        out.via.at(c, r) = best.via;
+        // (Over the straight distance as a float, as the reference.)
+        if (d0 > 0.0) t.detour = std::max(t.detour, best.d / static_cast<double>(static_cast<float>(d0)));
+        continue;
+      }
       // The straight field's answer where its nearest site is seen; else the best path. (None
       // within the maximum distance: no path by sea is shorter than the straight line.)
       const int32_t nearest = straight_field.site.at(c, r);
@@ -202,7 +288,7 @@ SeaField compute_sea(const SeedSet& seeds, const Barriers& barriers, const GridS
   });
   out.visibility_tests = bend_tests;
   out.bend_tests = bend_tests;
-  out.bend_evaluations = shared ? 0 : search.evaluations;
+  out.bend_evaluations = shared ? 0 : prepared->evaluations();
   for (const Tally& t : tally) {
     out.land_cells += t.land;
     out.unreachable_cells += t.unreachable;

@@ -270,19 +270,30 @@ class SeaSiteMetric final : public SiteMetric {
     return out;
   }
 
-  // Per owner, the bend nodes settled over its sites alone; then per site, the nodes its paths
-  // reach first.
+  // Per owner, the bend nodes settled over its sites alone (with weights or reaches, over each
+  // class of its sites alone, sea::site_classes: a site's cost is its length over its weight, so
+  // the cheapest of an owner's paths is the shortest of some class's); then per site, the nodes
+  // its paths reach first.
   void settle_owners(const SeedSet& seeds, const SeaOptions& options, SeaMetricStats* stats) {
     const auto start = std::chrono::steady_clock::now();
     const Prepared& pr = prepared();
     const int32_t owners = seeds.owner_count();
-    std::vector<std::vector<int32_t>> sites(static_cast<size_t>(owners));
-    for (int32_t id : pr.geometric) sites[static_cast<size_t>(seeds.site_owner(id) - 1)].push_back(id);
-    searches_.resize(static_cast<size_t>(owners));
-    std::vector<int64_t> tests(static_cast<size_t>(owners), 0);
-    detail::parallel_for(resolve_threads(options.threads), owners, [&](int64_t o, int) {
-      const auto k = static_cast<size_t>(o);
-      if (sites[k].empty()) return;
+    std::vector<std::vector<int32_t>> of_owner(static_cast<size_t>(owners));
+    for (int32_t id : pr.geometric) of_owner[static_cast<size_t>(seeds.site_owner(id) - 1)].push_back(id);
+    std::vector<std::vector<int32_t>> sites;
+    for (const std::vector<int32_t>& owned : of_owner) {
+      if (owned.empty()) continue;
+      if (!seeds.adjusted()) {
+        sites.push_back(owned);
+        continue;
+      }
+      for (SiteClass& c : site_classes(seeds, owned)) sites.push_back(std::move(c.sites));
+    }
+    const auto groups = static_cast<int64_t>(sites.size());
+    searches_.resize(sites.size());
+    std::vector<int64_t> tests(sites.size(), 0);
+    detail::parallel_for(resolve_threads(options.threads), groups, [&](int64_t g, int) {
+      const auto k = static_cast<size_t>(g);
       searches_[k] = std::make_unique<Searches>(pr, sites[k]);
       settle_bends(*searches_[k], tests[k], options.cancel);
     });
@@ -328,7 +339,7 @@ class SeaSiteMetric final : public SiteMetric {
   std::shared_ptr<const std::vector<Polygon>> polygons_;  // the base's polygons, when located
   std::unique_ptr<SiteMetric> inner_;                     // the straight metric: bounds and straight legs
   std::shared_ptr<const PreparedSea> sea_;
-  std::vector<std::unique_ptr<Searches>> searches_;  // per owner code - 1 (null: no geometric site)
+  std::vector<std::unique_ptr<Searches>> searches_;  // per owner with geometric sites (per class of them)
   std::vector<SiteRoots> roots_;
   std::vector<int32_t> roots_of_site_;             // site -> its entry of roots_, or -1
   std::vector<Edge> edges_;                        // the domain's edges: every barrier edge

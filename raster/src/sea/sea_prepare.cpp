@@ -45,6 +45,18 @@ LonLatBox grid_box(const GridSpec& grid, const Geolocator* geolocator) {
 
 }  // namespace
 
+std::vector<SiteClass> site_classes(const SeedSet& seeds, const std::vector<int32_t>& sites) {
+  std::vector<SiteClass> out;
+  std::map<std::pair<double, double>, size_t> index;
+  for (int32_t id : sites) {
+    const Feature& f = seeds.features()[static_cast<size_t>(seeds.site_feature(id))];
+    const auto [it, added] = index.emplace(std::make_pair(f.weight, f.reach), out.size());
+    if (added) out.push_back(SiteClass{f.weight, f.reach, {}});
+    out[it->second].sites.push_back(id);
+  }
+  return out;
+}
+
 InteriorSpans interiors_of(const SeedSet& seeds, const std::vector<Polygon>* grid_polygons, const GridSpec& grid,
                            const Window& window) {
   return grid_polygons ? build_interiors(seeds, *grid_polygons, grid, window) : build_interiors(seeds, grid, window);
@@ -53,9 +65,6 @@ InteriorSpans interiors_of(const SeedSet& seeds, const std::vector<Polygon>* gri
 Prepared prepare(const SeedSet& seeds, const Barriers& barriers, const GridSpec& grid, const MetricSpec& metric,
                  std::shared_ptr<const Geolocator> geolocator) {
   if (seeds.geometric_site_count() == 0) throw Error(ErrorKind::invalid_input, "the seeds have no sites");
-  if (seeds.adjusted())
-    throw Error(ErrorKind::unsupported,
-                "the distance by sea does not take weights or reaches yet: they change which seed a path may reach");
   for (const Feature& f : seeds.features())
     if (f.effect != 1.0) throw Error(ErrorKind::unsupported, "the distance by sea does not take partial effect yet");
   if (metric.kind != MetricSpec::geodesic) {

@@ -157,13 +157,25 @@ struct Prepared {
   }
 };
 
-// Checks the seeds (sites, no weights, reaches or partial effect, no vertex on land: rv::Error
-// naming the feature) and moves seeds and barriers into the plane: the grid's local frame
-// (planar), or a geodesic frame over the grid, the barriers and the seeds (geodesic: seeds and
-// barriers in longitude/latitude, a line's or polygon's edges geodesics as the barriers' are;
-// the grid in longitude/latitude too, or projected with a geolocator for its cell centres).
+// Checks the seeds (sites, no partial effect, no vertex on land: rv::Error naming the feature) and moves seeds and
+// barriers into the plane: the grid's local frame (planar), or a geodesic frame over the grid, the barriers and the
+// seeds (geodesic: seeds and barriers in longitude/latitude, a line's or polygon's edges geodesics as the barriers'
+// are; the grid in longitude/latitude too, or projected with a geolocator for its cell centres).
 Prepared prepare(const SeedSet& seeds, const Barriers& barriers, const GridSpec& grid, const MetricSpec& metric,
                  std::shared_ptr<const Geolocator> geolocator = nullptr);
+
+// Seeds with weights or reaches (SeedSet::adjusted): a path's cost is its length over its
+// site's weight, where the length is within the site's reach (adjusted_distance). Sites of one
+// (weight, reach) compare by length alone, so the cheapest path of such a class is its shortest
+// one, the unweighted statement over its sites; a position's answer is the least cost over the
+// classes (ties to the lower site). `sites` (ascending) grouped by their feature's weight and
+// reach, classes in order of their first site, sites ascending within each.
+struct SiteClass {
+  double weight = 1.0;
+  double reach = std::numeric_limits<double>::infinity();
+  std::vector<int32_t> sites;
+};
+std::vector<SiteClass> site_classes(const SeedSet& seeds, const std::vector<int32_t>& sites);
 
 // The polygon seeds' interiors over a window: in the grid's plane on `grid_polygons` when given
 // (a projected geodesic grid, as the straight engines test them), else on the seeds' own.

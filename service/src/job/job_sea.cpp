@@ -40,10 +40,6 @@ void read_barriers(const JobSpec& spec, const SeedReadOptions& read, PreparedJob
   const bool geodesic = job.metric.kind == MetricSpec::geodesic;
   if (spec.band) refuse(ErrorKind::invalid_argument, "a split job's band does not compute by sea");
   const SeedSet& seeds = job.loaded.seeds;
-  if (seeds.adjusted())
-    refuse(ErrorKind::unsupported,
-           "the distance by sea is not available with weights or reaches yet: they change which seeds a path may "
-           "reach");
 
   auto sea = std::make_shared<PreparedJob::Sea>();
   SeedReadOptions options = other_layers(read, spec.barriers, job);

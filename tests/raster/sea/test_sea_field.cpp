@@ -10,6 +10,7 @@
 #include <cstdio>
 #include <random>
 
+#include "engines_agree.hpp"
 #include "rv/field/error.hpp"
 #include "rv/sea/sea_field.hpp"
 #include "rv/sea/visibility.hpp"
@@ -19,25 +20,9 @@
 namespace rv {
 namespace {
 
-// Both engines on one layout: the exact engine's field must equal the reference's cell for cell
-// (owner, via, distance to the bit) and agree on the counts; returns the exact engine's.
+// Both engines on one layout, the exact one's field returned (engines_agree.hpp).
 SeaField sea_field(const SeedSet& seeds, const Barriers& barriers, const GridSpec& g) {
-  const SeaField reference = brute_force_sea(seeds, barriers, g, g.full_window());
-  const SeaField exact = compute_sea(seeds, barriers, g, g.full_window());
-  EXPECT_EQ(exact.land_cells, reference.land_cells);
-  EXPECT_EQ(exact.unreachable_cells, reference.unreachable_cells);
-  EXPECT_EQ(exact.barrier_vertices, reference.barrier_vertices);
-  EXPECT_EQ(exact.max_detour, reference.max_detour);
-  for (int64_t r = 0; r < g.height; ++r)
-    for (int64_t c = 0; c < g.width; ++c) {
-      EXPECT_EQ(exact.field.site.at(c, r), reference.field.site.at(c, r)) << c << "," << r;
-      EXPECT_EQ(exact.via.at(c, r), reference.via.at(c, r)) << c << "," << r;
-      EXPECT_EQ(std::bit_cast<uint32_t>(exact.field.distance.at(c, r)),
-                std::bit_cast<uint32_t>(reference.field.distance.at(c, r)))
-          << c << "," << r;
-      if (::testing::Test::HasFailure()) return exact;
-    }
-  return exact;
+  return test::engines_agree(seeds, barriers, g);
 }
 
 // The largest difference between the engines' distances and a closed form over a case's cells,
@@ -399,12 +384,13 @@ TEST(SeaField, Refusals) {
       EXPECT_NE(std::string(e.what()).find("ports.gpkg:ports:fid 9"), std::string::npos) << e.what();
     }
   }
-  SeedSet weighted = points({{"A", {5, 5}}});
-  weighted.set_adjustment(0, 2.0, std::numeric_limits<double>::infinity());
+  // (Partial effect compares two whole fields: the job's stage, not the engine's.)
+  SeedSet partial = points({{"A", {5, 5}}, {"B", {25, 5}}});
+  partial.set_effect(1, 0.5);
   for (bool exact : {false, true}) {
     try {
-      exact ? compute_sea(weighted, b, g, g.full_window()) : brute_force_sea(weighted, b, g, g.full_window());
-      FAIL() << "weights were taken";
+      exact ? compute_sea(partial, b, g, g.full_window()) : brute_force_sea(partial, b, g, g.full_window());
+      FAIL() << "partial effect was taken";
     } catch (const Error& e) {
       EXPECT_EQ(e.kind(), ErrorKind::unsupported);
     }

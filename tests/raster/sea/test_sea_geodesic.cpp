@@ -12,6 +12,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <limits>
 #include <random>
 #include <set>
 #include <vector>
@@ -84,6 +85,44 @@ TEST(SeaGeodesic, WallShadowGoesRoundTheNearerEnd) {
   EXPECT_EQ(f.field.metric.kind, MetricSpec::geodesic);
   std::printf("closed form | a 45 km wall on the ellipsoid, one port | %lld cells | worst |d - closed form| %.3g m\n",
               static_cast<long long>(g.width * g.height), worst);
+}
+
+// Weights on the ellipsoid: a port of weight 2 west of the wall against one of weight 1 east of
+// it, and a reach of 40 km on the heavy one. Cost = geodesic path / weight within the reach; the
+// owners where the costs differ by more than rounding, the distances the closed form's.
+TEST(SeaGeodesic, WeightsAndAReachCountThePathOnTheEllipsoid) {
+  const Vec2 a{10.5, 55.1}, b{10.5, 55.5}, heavy{10.21, 55.33}, light{10.86, 55.27};
+  Barriers barriers;
+  barriers.add_line(std::vector<Vec2>{a, b}, "wall");
+  const GridSpec g = test::grid_of(50, 30, 0.02, 10.0, 55.6);
+  auto path = [&](Vec2 s, Vec2 x) {
+    return crosses(s, x, a, b) ? std::min(metres(s, a) + metres(a, x), metres(s, b) + metres(b, x)) : metres(s, x);
+  };
+  for (const double reach : {std::numeric_limits<double>::infinity(), 40000.0}) {
+    SeedSet seeds;
+    seeds.add_point(seeds.add_feature(seeds.owner_code("heavy")), heavy);
+    seeds.add_point(seeds.add_feature(seeds.owner_code("light")), light);
+    seeds.set_adjustment(0, 2.0, reach);
+    const SeaField f = both(seeds, barriers, g);
+    int64_t round_the_wall = 0, beyond_reach = 0;
+    for (int64_t r = 0; r < g.height; ++r)
+      for (int64_t c = 0; c < g.width; ++c) {
+        const Vec2 x{g.centre_x(c), g.centre_y(r)};
+        const double dh = path(heavy, x), dl = path(light, x);
+        const double ch = dh > reach ? INFINITY : dh / 2.0;
+        if (std::abs(ch - dl) < 1e-6 * dl) continue;
+        const int32_t want = ch < dl ? 0 : 1;
+        ASSERT_EQ(f.field.site.at(c, r), want) << c << "," << r;
+        const double d = want == 0 ? dh : dl;
+        ASSERT_NEAR(f.field.distance.at(c, r), d, 1e-6 * d + 1e-3) << c << "," << r;
+        round_the_wall += want == 0 && crosses(heavy, x, a, b);
+        beyond_reach += want == 1 && dh / 2.0 < dl;  // the heavy one's by cost, but out of reach
+      }
+    EXPECT_GT(round_the_wall, 50) << reach;
+    if (std::isfinite(reach)) {
+      EXPECT_GT(beyond_reach, 50);
+    }
+  }
 }
 
 // The same wall and port on a projected grid (UTM 33N cells of 1 km, located on WGS84 by a

@@ -25,8 +25,19 @@
 // edge's point nearest to it (the straight geodesic engine's measure), which, computed, counts
 // as on a barrier edge within the frame's deviation() of it.
 //
-// Scope: without weights, reaches or partial effect (those change what a path may reach:
-// rv::Error(unsupported)). Seeds with a vertex strictly on land are refused
+// Weights and reaches (Feature, rv/field/seeds.hpp): a path from a site costs its length over the
+// site's weight, and only where the length is within the site's reach (adjusted_distance); the
+// cell's site is the cheapest path's (ties to the lower site), its distance and via that path's.
+// Paths are still shortest paths: the sites of one (weight, reach) class are compared by length
+// and searched as above over that class alone, bend nodes settled per class, and the classes
+// compared by cost. A heavier seed's region may so reach round a lighter one's land; a reach
+// ends where the path by sea reaches it, not the straight line. The straight field's bit for bit
+// answer (Ties, above) is for unadjusted seeds: adjusted ones are measured as the oracle measures
+// them (the straight distance to a seen site, the sum of the legs of a bent path), which may
+// differ from the straight engines' float in the last place.
+//
+// Scope: without partial effect (rv::Error(unsupported): the partial-effect stage compares two
+// whole fields, rv/lines/partial_effect.hpp). Seeds with a vertex strictly on land are refused
 // (rv::Error(invalid_input), the feature named). Pure; deterministic for any thread count.
 #pragma once
 

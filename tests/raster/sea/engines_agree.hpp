@@ -1,0 +1,36 @@
+// Both engines of the distance by sea on one layout: the exact engine's field must equal the
+// reference's cell for cell (owner, via, distance to the bit) and agree on the counts. What
+// every field test of the distance by sea checks first.
+#pragma once
+
+#include <gtest/gtest.h>
+
+#include <bit>
+#include <cstdint>
+
+#include "rv/sea/sea_field.hpp"
+
+namespace rv::test {
+
+// Returns the exact engine's field (the first difference fails the test and returns at once).
+inline SeaField engines_agree(const SeedSet& seeds, const Barriers& barriers, const GridSpec& g,
+                              const SeaOptions& options = {}) {
+  const SeaField reference = brute_force_sea(seeds, barriers, g, g.full_window(), options);
+  const SeaField exact = compute_sea(seeds, barriers, g, g.full_window(), options);
+  EXPECT_EQ(exact.land_cells, reference.land_cells);
+  EXPECT_EQ(exact.unreachable_cells, reference.unreachable_cells);
+  EXPECT_EQ(exact.barrier_vertices, reference.barrier_vertices);
+  EXPECT_EQ(exact.max_detour, reference.max_detour);
+  for (int64_t r = 0; r < g.height; ++r)
+    for (int64_t c = 0; c < g.width; ++c) {
+      EXPECT_EQ(exact.field.site.at(c, r), reference.field.site.at(c, r)) << c << "," << r;
+      EXPECT_EQ(exact.via.at(c, r), reference.via.at(c, r)) << c << "," << r;
+      EXPECT_EQ(std::bit_cast<uint32_t>(exact.field.distance.at(c, r)),
+                std::bit_cast<uint32_t>(reference.field.distance.at(c, r)))
+          << c << "," << r;
+      if (::testing::Test::HasFailure()) return exact;
+    }
+  return exact;
+}
+
+}  // namespace rv::test
