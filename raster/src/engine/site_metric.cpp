@@ -126,6 +126,10 @@ bool SiteMetric::ties_at_vertex(Vec2, int32_t, const VertexHit&, double) const {
 
 bool SiteMetric::open_between(Vec2, Vec2) const { return true; }
 
+int32_t SiteMetric::last_bend(Vec2, int32_t) const { return -1; }
+
+Vec2 SiteMetric::bend_position(int32_t) const { throw Error(ErrorKind::internal, "a straight metric has no bends"); }
+
 void SiteMetric::domain_edges_near(Vec2, double, std::vector<int32_t>& out) const { out.clear(); }
 
 bool SiteMetric::domain_edge_point(int32_t, double, Vec2, Vec2&) const { return false; }

@@ -17,6 +17,8 @@
 
 #include "lines/boundary_stages.hpp"
 #include "lines/line_tools.hpp"
+#include "lines/reach_arc.hpp"
+#include "lines/tie_edge.hpp"
 #include "rv/engine/owner_index.hpp"
 #include "rv/engine/site_metric.hpp"
 #include "rv/field/error.hpp"
@@ -171,61 +173,46 @@ std::vector<std::array<int64_t, 2>> mixed_squares(const BoundaryGrid& b, int64_t
       });
 }
 
-// Where the costs of owners x (nearest towards p0) and y (towards p1) jump between two positions
-// of segment p0-p1 instead of crossing: a site's reach ends there (x's nearest inside it
-// reaching its reach) or begins (y's). The arc point solves d_s = reach_s on the segment by
-// Newton's method with the site's gradient; the vertex has that site on its side (arc 1: x's,
-// 2: y's, in x-y order) and the other side's nearest beyond. `between`: the larger of the two
-// winners' costs there, which a third owner must beat to come between. site kNoSite: no reach
-// explains the jump (left as it was).
-struct ArcPoint {
-  int32_t site = kNoSite;
-  double t = 0.0, between = 0.0;
-  BoundaryVertex vertex;
+// Every query of a crossing is on the cell-centre segment p0-p1: per owner, the few sites that
+// can be nearest anywhere on it are gathered once (OwnerIndex::candidates_of, from a ball around
+// its middle holding the segment: edge_reach), and each query measures only those: the same hits
+// as nearest_of. The cells' own sites bound the gathering.
+struct SegmentSites {
+  SegmentSites(const BoundaryGrid& b, const Segment& sg, Vec2 p0, Vec2 p1)
+      : index(b.index), mid(lerp(p0, p1, 0.5)), reach(edge_reach(b.index.metric(), mid, p0, p1)) {
+    const int64_t cell_id = sg.edge / 2;
+    const int64_t c = cell_id % b.W, r = cell_id / b.W;
+    const bool across = sg.edge % 2 == 0;
+    hint[sg.from] = b.rows.site(c, r);
+    hint[sg.to] = across ? b.rows.site(c + 1, r) : b.rows.site(c, r + 1);
+    // The two owners' nearest distances at the middle, bounded without measuring: the field's
+    // (Float32, relative rounding below 1e-7) at their centres, plus the way from there.
+    at_most[sg.from] = nearest_at_most(b.rows.distance(c, r), reach);
+    at_most[sg.to] = nearest_at_most(across ? b.rows.distance(c + 1, r) : b.rows.distance(c, r + 1), reach);
+  }
+  OwnerIndex::Hit nearest_of(Vec2 p, int32_t owner, Vec2* gradient) {
+    auto [it, fresh] = candidates.try_emplace(owner);
+    if (fresh) {
+      const auto h = hint.find(owner);
+      const auto m = at_most.find(owner);
+      index.candidates_of(mid, reach, owner, h == hint.end() ? kNoSite : h->second, it->second,
+                          m == at_most.end() ? std::numeric_limits<double>::infinity() : m->second);
+    }
+    return index.nearest_among(p, it->second, gradient);
+  }
+  const OwnerIndex& index;
+  const Vec2 mid;
+  const double reach;
+  std::unordered_map<int32_t, int32_t> hint;  // per owner, a site of it near the segment
+  std::unordered_map<int32_t, double> at_most;
+  std::unordered_map<int32_t, std::vector<int32_t>> candidates;
 };
 
-template <class NearestOf>
-ArcPoint reach_arc(const OwnerIndex& index, NearestOf&& nearest_of, Vec2 p0, Vec2 p1, int32_t x, int32_t y, double t0,
-                   double t1, double t, double ftol) {
-  ArcPoint out;
-  const SiteMetric& m = index.metric();
-  const double step = 1e-7;
-  const Vec2 inside = lerp(p0, p1, std::max(t0, t - step)), beyond = lerp(p0, p1, std::min(t1, t + step));
-  const OwnerIndex::Hit xin = nearest_of(inside, x, nullptr), yin = nearest_of(beyond, y, nullptr);
-  if (xin.site == kNoSite || yin.site == kNoSite) return out;
-  const Vec2 p = lerp(p0, p1, t);
-  const double gx = std::abs(m.distance(p, xin.site) - index.reach_of(xin.site));
-  const double gy = std::abs(m.distance(p, yin.site) - index.reach_of(yin.site));
-  if (!std::isfinite(std::min(gx, gy))) return out;
-  const bool x_side = gx <= gy;
-  const int32_t s = x_side ? xin.site : yin.site;
-  const double r = index.reach_of(s);
-  Vec2 grad;
-  auto g = [&](double u) { return m.distance_and_gradient(lerp(p0, p1, u), s, grad) - r; };
-  auto g_slope = [&](double u) {
-    const double value = g(u);
-    return std::pair{value, grad.x * (p1.x - p0.x) + grad.y * (p1.y - p0.y)};
-  };
-  // x's site is inside its reach towards p0; y's towards p1.
-  const double lo = std::max(t0, t - 1e-6), hi = std::min(t1, t + 1e-6);
-  out.t = newton_then_bracket(g, g_slope, t, lo, hi, x_side, ftol);
-  const Vec2 q = lerp(p0, p1, out.t);
-  const double ds = m.distance(q, s);
-  // The other side's nearest where it wins: beyond the arc for y, inside it for x.
-  const OwnerIndex::Hit other = x_side ? nearest_of(beyond, y, nullptr) : nearest_of(inside, x, nullptr);
-  const double d_other = m.distance(q, other.site);
-  const double c_s = ds / index.weight_of(s), c_other = d_other / index.weight_of(other.site);
-  out.site = s;
-  out.between = std::max(c_s, c_other);
-  out.vertex = BoundaryVertex{q,
-                              x_side ? s : other.site,
-                              x_side ? other.site : s,
-                              0.5 * (ds + d_other),
-                              std::abs(ds - r),
-                              x_side ? ds : d_other,
-                              x_side ? d_other : ds,
-                              static_cast<int8_t>(x_side ? 1 : 2)};
-  return out;
+// A vertex with its two sides swapped (owner a's becoming b's).
+void flip_sides(BoundaryVertex& v) {
+  std::swap(v.site_a, v.site_b);
+  std::swap(v.distance_a, v.distance_b);
+  if (v.arc != 0) v.arc = static_cast<int8_t>(3 - v.arc);
 }
 
 // The crossings of one segment, in order along it. A third owner nearer than both at the A-B
@@ -245,31 +232,9 @@ void place_crossings(const BoundaryGrid& b, const Segment& sg, std::vector<Cross
   // one, runs elsewhere.)
   if (!index.metric().open_between(p0, p1)) return;
   const double ftol = b.ftol;
-  // Every query is on the segment p0-p1: per owner, the few sites that can be nearest anywhere on
-  // it are gathered once (OwnerIndex::candidates_of, from a ball around its middle holding the
-  // segment: edge_reach), and each query measures only those: the same hits as nearest_of. The
-  // cells' own sites bound the gathering.
-  const Vec2 mid = lerp(p0, p1, 0.5);
-  const double reach = edge_reach(index.metric(), mid, p0, p1);
-  std::unordered_map<int32_t, int32_t> hint;
-  hint[sg.from] = b.rows.site(c, r);
-  hint[sg.to] = sg.edge % 2 == 0 ? b.rows.site(c + 1, r) : b.rows.site(c, r + 1);
-  // The two owners' nearest distances at the middle, bounded without measuring: the field's
-  // (Float32, relative rounding below 1e-7) at their centres, plus the way from there.
-  std::unordered_map<int32_t, double> at_most;
-  at_most[sg.from] = nearest_at_most(b.rows.distance(c, r), reach);
-  at_most[sg.to] = nearest_at_most(sg.edge % 2 == 0 ? b.rows.distance(c + 1, r) : b.rows.distance(c, r + 1), reach);
-  std::unordered_map<int32_t, std::vector<int32_t>> candidates;
-  auto nearest_of = [&](Vec2 p, int32_t owner, Vec2* gradient) {
-    auto [it, fresh] = candidates.try_emplace(owner);
-    if (fresh) {
-      const auto h = hint.find(owner);
-      const auto m = at_most.find(owner);
-      index.candidates_of(mid, reach, owner, h == hint.end() ? kNoSite : h->second, it->second,
-                          m == at_most.end() ? std::numeric_limits<double>::infinity() : m->second);
-    }
-    return index.nearest_among(p, it->second, gradient);
-  };
+  SegmentSites sites(b, sg, p0, p1);
+  std::unordered_map<int32_t, int32_t>& hint = sites.hint;
+  auto nearest_of = [&](Vec2 p, int32_t owner, Vec2* gradient) { return sites.nearest_of(p, owner, gradient); };
   // Owner x is nearest at t0, owner y at t1: place the x-y root, or split at the owner found
   // nearer there. Appends in order of t.
   auto place = [&](auto&& self, int32_t x, int32_t y, double t0, double t1, int depth) -> void {
@@ -301,10 +266,29 @@ void place_crossings(const BoundaryGrid& b, const Segment& sg, std::vector<Cross
     Vec2 p = lerp(p0, p1, t);
     hits(p);
     OwnerIndex::Hit hx = last_x, hy = last_y;
-    BoundaryVertex v{p,           hx.site,    hy.site, 0.5 * (hx.distance + hy.distance), std::abs(hx.cost - hy.cost),
-                     hx.distance, hy.distance};
+    BoundaryVertex v = vertex_between(p, hx, hy);
     // The cost a third owner must beat to come between: the two sides' common cost on the locus.
     double between = 0.5 * (hx.cost + hy.cost);
+    // By sea, a tie region (tie_edge.hpp): one cell centre in it, the other not, and the root
+    // found anywhere in it; the line runs along its edge instead.
+    if (!index.metric().straight() && hx.cost == hy.cost && std::isfinite(hx.cost)) {
+      const double edge = tie_edge_on(
+          [&](double u) {
+            f(u);
+            return ties(index.metric(), lerp(p0, p1, u), last_x, last_y);
+          },
+          t0, t1);
+      if (!std::isnan(edge)) {
+        t = edge;
+        p = lerp(p0, p1, t);
+        hits(p);
+        hx = last_x;
+        hy = last_y;
+        v = vertex_between(p, hx, hy);
+        v.tie = true;
+        between = hx.cost;
+      }
+    }
     if (!(v.residual <= 4.0 * ftol) && index.adjusted()) {
       // The costs jump there: a reach ends (or begins) between the two sides, and the line is
       // that site's arc (reach_arc).
@@ -333,11 +317,7 @@ void place_crossings(const BoundaryGrid& b, const Segment& sg, std::vector<Cross
       self(self, z, y, t, t1, depth + 1);
       return;
     }
-    if (x > y) {
-      std::swap(v.site_a, v.site_b);
-      std::swap(v.distance_a, v.distance_b);
-      if (v.arc != 0) v.arc = static_cast<int8_t>(3 - v.arc);
-    }
+    if (x > y) flip_sides(v);
     out.push_back(Crossing{sg.edge, std::min(x, y), std::max(x, y), v});
   };
   place(place, sg.from, sg.to, 0.0, 1.0, 0);

@@ -221,6 +221,8 @@ class LineRefiner {
   // The ends' two sites' locus point from the chord's middle (Newton's method), within max_off.
   bool onto_locus(const End& u, const End& v, double max_off, End& out) const;
   bool checked(Vec2 p, int32_t a, int32_t b, const End& u, const End& v, double max_off, End& out) const;
+  bool tie_apex(const End& u, const End& v, int32_t a, int32_t b, End& out) const;
+  bool tie_edge(const BoundaryVertex& u, const BoundaryVertex& v, int32_t a, int32_t b, End& out, double& off) const;
   // The chord's perpendicular through its middle, max_off either side; whether p lies between
   // the ends along the chord and within max_off of it.
   static std::array<Vec2, 2> perpendicular(const End& u, const End& v, double max_off);

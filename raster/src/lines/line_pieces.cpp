@@ -18,6 +18,8 @@ constexpr uint32_t kVersion = 1;
 using detail::ByteReader;
 using detail::ByteWriter;
 
+constexpr int8_t kTieBit = 4;  // BoundaryVertex::tie, stored beside its arc
+
 void put_vertex(ByteWriter& o, const BoundaryVertex& v) {
   o.vec(v.p);
   o.put(v.site_a);
@@ -26,7 +28,7 @@ void put_vertex(ByteWriter& o, const BoundaryVertex& v) {
   o.put(v.residual);
   o.put(v.distance_a);
   o.put(v.distance_b);
-  o.put(v.arc);
+  o.put(static_cast<int8_t>(v.arc | (v.tie ? kTieBit : 0)));  // (arc is 0, 1 or 2: one byte holds both)
 }
 
 BoundaryVertex get_vertex(ByteReader& in) {
@@ -38,7 +40,9 @@ BoundaryVertex get_vertex(ByteReader& in) {
   v.residual = in.get<double>();
   v.distance_a = in.get<double>();
   v.distance_b = in.get<double>();
-  v.arc = in.get<int8_t>();
+  const auto arc = in.get<int8_t>();
+  v.arc = static_cast<int8_t>(arc & ~kTieBit);
+  v.tie = (arc & kTieBit) != 0;
   return v;
 }
 
@@ -308,7 +312,7 @@ bool same_vertex(const BoundaryVertex& now, const BoundaryVertex& old, std::span
   return same_bits(now.p.x, old.p.x) && same_bits(now.p.y, old.p.y) && same_site(now.site_a, old.site_a, map) &&
          same_site(now.site_b, old.site_b, map) && same_bits(now.distance, old.distance) &&
          same_bits(now.residual, old.residual) && same_bits(now.distance_a, old.distance_a) &&
-         same_bits(now.distance_b, old.distance_b) && now.arc == old.arc;
+         same_bits(now.distance_b, old.distance_b) && now.arc == old.arc && now.tie == old.tie;
 }
 
 bool same_vertex(const LimitVertex& now, const LimitVertex& old, std::span<const int32_t> map) {

@@ -32,6 +32,7 @@
 #include "lines/boundary_stages.hpp"
 #include "lines/line_pieces.hpp"
 #include "lines/line_tools.hpp"
+#include "lines/tie_edge.hpp"
 #include "rv/field/parallel.hpp"
 #include "rv/lines/simplify.hpp"
 
@@ -164,6 +165,12 @@ double LineRefiner::midpoint_offset(const BoundaryVertex& u, const BoundaryVerte
                                     Bow* bow) const {
   const Vec2 mid = lerp(u.p, v.p, 0.5);
   Vec2 g;
+  if (u.tie && v.tie) {  // along a tie region's edge: the distance to it (the costs' difference is 0 inside)
+    End edge;
+    double off = std::numeric_limits<double>::quiet_NaN();
+    if (bow != nullptr) *bow = Bow{};
+    return tie_edge(u, v, a, b, edge, off) ? off : std::numeric_limits<double>::quiet_NaN();
+  }
   if (u.arc != 0 || v.arc != 0) {
     // On an arc the distance to it is |d - reach| (a distance's gradient has unit length); where
     // an arc meets the locus, the nearer of the two curves.
@@ -272,6 +279,37 @@ void LineRefiner::between(const End& u, const End& v, int depth, int32_t a, int3
   // circular arc (the same sites) strays 0.5 c tan(angle / 4), a corner (another site takes
   // over) at most 0.5 c tan(angle / 2). No normal known: nothing estimated (the midpoint
   // decides). A change of site that does not turn the locus (collinear edges) adds nothing.
+  // By sea, along a tie region's edge (BoundaryVertex::tie): split at the edge's point across the
+  // middle (tie_edge) while the chord strays from it by more than the tolerance.
+  if (u.v.tie && v.v.tie) {
+    End edge;
+    double off = 0.0;
+    if (tie_edge(u.v, v.v, a, b, edge, off)) {
+      if (depth < kMaxDepth && tol_ > 0.0 && off > kSplitAt * tol_) {
+        ++n.arc_points;
+        between(u, edge, depth + 1, a, b, out, n, bows);
+        out.push_back(edge);
+        between(edge, v, depth + 1, a, b, out, n, bows);
+        return;
+      }
+      if (bows != nullptr) bows->push_back(Bow{});
+      const Vec2 m = lerp(u.v.p, v.v.p, 0.5);
+      r.add(off, m.x, m.y, tol_ > 0.0 ? tol_ : std::numeric_limits<double>::infinity());
+      return;
+    }
+  }
+  // From a tie region's edge to the rest of the locus: the line turns at the region's apex, the
+  // barrier vertex where the tied paths bend.
+  if (depth < kMaxDepth && u.v.tie != v.v.tie) {
+    End apex;
+    if (tie_apex(u, v, a, b, apex)) {
+      ++n.turning_points;
+      between(u, apex, depth + 1, a, b, out, n, bows);
+      out.push_back(apex);
+      between(apex, v, depth + 1, a, b, out, n, bows);
+      return;
+    }
+  }
   const Vec2 nu = normal_towards(u, v), nv = normal_towards(v, u);
   const double angle = std::atan2(std::abs(nu.x * nv.y - nu.y * nv.x), nu.x * nv.x + nu.y * nv.y);
   double stray = angle >= 3.0 ? chord : 0.5 * chord * std::tan((same ? 0.25 : 0.5) * angle);
@@ -306,6 +344,61 @@ void LineRefiner::between(const End& u, const End& v, int depth, int32_t a, int3
   const Vec2 m = lerp(u.v.p, v.v.p, 0.5);
   r.add(off, m.x, m.y, tol_ > 0.0 ? tol_ : std::numeric_limits<double>::infinity());
   r.max_estimate = std::max(r.max_estimate, estimate);
+}
+
+bool LineRefiner::tie_edge(const BoundaryVertex& u, const BoundaryVertex& v, int32_t a, int32_t b, End& out,
+                           double& off) const {
+  // The costs are equal to the bit over the whole region, so no root of their difference marks
+  // its edge: the edge's point across the chord's middle is found by bisection on whether the
+  // two owners tie there (equal costs, the paths bending last at one vertex), between the middle
+  // and the end of the perpendicular (half a chord each way) on the other side of the edge.
+  OwnerIndex::Hit ha, hb;
+  auto tied = [&](Vec2 p) {
+    ha = index_.nearest_of(p, a, u.site_a);
+    hb = index_.nearest_of(p, b, u.site_b);
+    return ties(index_.metric(), p, ha, hb);
+  };
+  End eu, ev;
+  eu.v = u;
+  ev.v = v;
+  const double chord = std::hypot(v.p.x - u.p.x, v.p.y - u.p.y);
+  const std::array<Vec2, 2> ends = perpendicular(eu, ev, 0.5 * chord);
+  const Vec2 mid = lerp(u.p, v.p, 0.5);
+  Vec2 in = mid, parted = mid;
+  if (tied(mid)) {
+    if (!tied(ends[0]))
+      parted = ends[0];
+    else if (!tied(ends[1]))
+      parted = ends[1];
+    else
+      return false;
+  } else {
+    if (tied(ends[0]))
+      in = ends[0];
+    else if (tied(ends[1]))
+      in = ends[1];
+    else
+      return false;
+  }
+  const Vec2 from = in;
+  const Vec2 edge = lerp(from, parted, last_tied([&](double s) { return tied(lerp(from, parted, s)); }, 0.0, 1.0));
+  if (!tied(edge)) return false;
+  out = End{};
+  out.v = vertex_between(edge, ha, hb);
+  out.v.tie = true;
+  off = index_.metric().point_distance(mid, edge);
+  return true;
+}
+
+bool LineRefiner::tie_apex(const End& u, const End& v, int32_t a, int32_t b, End& out) const {
+  const BoundaryVertex& tied = u.v.tie ? u.v : v.v;
+  const int32_t bend = index_.metric().last_bend(tied.p, tied.site_a);
+  if (bend < 0) return false;
+  // (Anywhere across the chord: the apex is where the edge turns, which the chord cuts.)
+  const double chord = std::hypot(v.v.p.x - u.v.p.x, v.v.p.y - u.v.p.y);
+  if (!checked(index_.metric().bend_position(bend), a, b, u, v, chord, out)) return false;
+  out.v.tie = true;
+  return true;
 }
 
 bool LineRefiner::turning_point(const End& u, const End& v, int32_t a, int32_t b, double max_off, End& out) const {
@@ -582,7 +675,7 @@ void finish_lines(std::vector<BoundaryLine>& lines, const LineRefiner* refiner, 
     }
     line.vertices.shrink_to_fit();
   });
-  stats.vertices = stats.vertices_before_simplify = 0;
+  stats.vertices = stats.vertices_before_simplify = stats.tie_vertices = 0;
   stats.max_residual = stats.max_residual_on_land = 0.0;
   for (size_t i = 0; i < lines.size(); ++i) {
     stats.vertices_before_simplify += before[i];
@@ -595,6 +688,7 @@ void finish_lines(std::vector<BoundaryLine>& lines, const LineRefiner* refiner, 
       LineResidual& r = v.arc != 0 ? stats.arcs : stats.locus;
       double& at = on_land(v) ? r.max_vertex_on_land : r.max_vertex;
       at = std::max(at, v.residual);
+      stats.tie_vertices += v.tie ? 1 : 0;
     }
     stats.vertices += static_cast<int64_t>(line.vertices.size());
   }

@@ -72,6 +72,14 @@ class SeaSiteMetric final : public SiteMetric {
     const Vec2 bend = via_position(*sea_, grid_, s.nodes[static_cast<size_t>(first)].vertex);
     return inner_->nearest_point(bend, site);
   }
+  int32_t last_bend(Vec2 p, int32_t site) const override {
+    if (seeds().sites()[static_cast<size_t>(site)].kind == SiteKind::area) return -1;
+    const Path path = best(p, site);
+    if (path.node < 0) return -1;
+    const Searches& s = *roots_[static_cast<size_t>(roots_of_site_[static_cast<size_t>(site)])].search;
+    return s.nodes[static_cast<size_t>(path.node)].vertex;
+  }
+  Vec2 bend_position(int32_t vertex) const override { return via_position(*sea_, grid_, vertex); }
   Kind kind() const override { return inner_->kind(); }
   bool straight() const override { return false; }
   double point_distance(Vec2 a, Vec2 b) const override { return inner_->point_distance(a, b); }

@@ -400,6 +400,7 @@ BoundaryResult StripDeliverables::State::take_boundaries() {
                             {"arc_points", st.arc_points},
                             {"ends_on_owned_edge", st.ends_on_owned_edge},
                             {"ends_on_barriers", st.ends_on_barriers},
+                            {"tie_vertices", st.tie_vertices},
                             {"missing_tripoints_found", st.missing_tripoints_found},
                             {"sliver_crossings", st.sliver_crossings},
                             {"unresolved_slivers", st.unresolved_slivers},

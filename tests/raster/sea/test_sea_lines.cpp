@@ -1,7 +1,8 @@
 // Lines under the distance by sea: the metric by sea (rv/sea/sea_metric.hpp) gives each owner's
 // own distance by sea, cell for cell the reference's for that owner's seeds alone; boundaries
 // and tripoints placed with it lie on the closed forms round a wall (the hyperbola branch behind
-// its end, and a tripoint on it), and never cross a barrier.
+// its end, and a tripoint on it), and never cross a barrier; a tie region behind a vertex is the
+// lower site's, its edge the line.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -429,6 +430,72 @@ TEST(SeaLines, OnTheEllipsoidTheLineFollowsGeodesicPathsRoundAWall) {
   EXPECT_EQ(r.stats.ends_on_barriers, 2);
   std::printf("lines by sea on the ellipsoid round a 45 km wall: %lld vertices, worst |d_1 - d_2| %.3g m\n",
               static_cast<long long>(vertices), worst);
+}
+
+// A tie region: two seeds 10 from a wall's end A, both hidden from the sea behind it, where their
+// paths by sea are 10 + |x - A| both, equal to the bit; the field gives it to the lower site (the
+// "lo" owner). Beside it, between the two shadows, "hi" sees its cells directly and is nearer.
+// The boundary east of the wall runs along the tie region's edge, "hi"'s shadow ray from A (on
+// which the two distances are equal, and beyond which they part): every vertex there on the ray
+// and flagged tie. (Without the tie rule the root search ends anywhere in the tied area: a
+// staircase through its cells.) The two distances part quadratically off the ray (the path
+// round A is longer than the straight one by about h^2 / 2 (1/10 + 1/|x - A|) at an offset h),
+// so in doubles they stay equal to about 1e-6 of it at 20 units from A: the tolerance.
+TEST(SeaLines, ATieRegionBehindAVertexIsOwnedByTheLowerSiteAndTheLineRunsAlongItsEdge) {
+  const Vec2 a{20, 20}, b{20, 45}, lo{14, 28}, hi{12, 26};
+  ASSERT_EQ(dist(lo, a), 10.0);
+  ASSERT_EQ(dist(hi, a), 10.0);
+  SeedSet seeds;
+  seeds.add_point(seeds.add_feature(seeds.owner_code("lo")), lo);
+  seeds.add_point(seeds.add_feature(seeds.owner_code("hi")), hi);
+  Barriers wall;
+  wall.add_line(std::vector<Vec2>{a, b}, "wall");
+  const GridSpec g = test::grid_of(40, 50);
+  const SeaField field = compute_sea(seeds, wall, g, g.full_window());
+  const std::unique_ptr<SiteMetric> metric = make_sea_site_metric(seeds, wall, g);
+  const OwnerIndex index(*metric);
+  BoundaryOptions options;
+  options.line_tolerance = 1e-4;
+  const BoundaryResult r = extract_boundaries(field.field, index, options);
+  ASSERT_EQ(r.lines.size(), 1u);
+  // The ray from A away from hi: points A + u (A - hi) / 10, u >= 0.
+  const Vec2 dir{(a.x - hi.x) / 10.0, (a.y - hi.y) / 10.0};
+  int64_t tied = 0, behind = 0, cells = 0, apex = 0;
+  for (const BoundaryVertex& v : r.lines[0].vertices) {
+    if (v.p.x == a.x && v.p.y == a.y) {  // where the bisector turns onto the tie region's edge
+      EXPECT_TRUE(v.tie);
+      ++apex;
+      ++tied;
+      continue;
+    }
+    if (v.p.x <= a.x) {  // the bisector west of the wall (through A)
+      EXPECT_FALSE(v.tie);
+      EXPECT_NEAR(dist(v.p, lo), dist(v.p, hi), 1e-9 * dist(v.p, lo));
+      continue;
+    }
+    ++behind;
+    const double off = (v.p.x - a.x) * dir.y - (v.p.y - a.y) * dir.x;  // signed distance from the ray's line
+    EXPECT_NEAR(off, 0.0, 2e-6) << v.p.x << "," << v.p.y;
+    EXPECT_TRUE(v.tie) << v.p.x << "," << v.p.y;
+    EXPECT_EQ(v.residual, 0.0);
+    tied += v.tie;
+    EXPECT_NEAR(v.distance, 10.0 + dist(v.p, a), 1e-9 * v.distance);
+  }
+  EXPECT_GT(behind, 15);
+  EXPECT_EQ(apex, 1);
+  EXPECT_EQ(r.stats.tie_vertices, tied);
+  // The tie region (both hidden, beyond the ray): the lower site's cells.
+  for (int64_t row = 0; row < g.height; ++row)
+    for (int64_t c = 0; c < g.width; ++c) {
+      const Vec2 x = centre(g, c, row);
+      if (!crosses_wall(lo, x, a.x, a.y, b.y) || !crosses_wall(hi, x, a.x, a.y, b.y)) continue;
+      if (wall_path(lo, x, a, b) != 10.0 + dist(x, a)) continue;  // (round B instead)
+      ASSERT_EQ(field.field.site.at(c, row), 0) << c << "," << row;
+      ++cells;
+    }
+  EXPECT_GT(cells, 100);
+  std::printf("a tie region by sea: %lld cells, the line along its edge %lld vertices, all on the ray\n",
+              static_cast<long long>(cells), static_cast<long long>(behind));
 }
 
 }  // namespace

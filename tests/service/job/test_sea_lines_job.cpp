@@ -4,8 +4,9 @@
 // or on a coast; the margin raster is the difference of the two owners' own fields by sea; the
 // preview is drawn; the regions are each owner's sea; limits by sea lie at their distance by sea
 // and end on the coasts, and with a max distance the regions are each owner's sea within it;
-// the report says what the lines by sea cost. Turning points and the relevant area by sea are
-// refused in one line.
+// the report says what the lines by sea cost; with weights and reaches the lines are at equal
+// cost by sea or on a reach's arc by sea. Turning points and the relevant area by sea are refused
+// in one line.
 #include <gtest/gtest.h>
 #include <ogrsf_frmts.h>
 #include <unistd.h>
@@ -21,6 +22,7 @@
 
 #include "fixtures.hpp"
 #include "geodesic_oracle.hpp"
+#include "rv/engine/outputs.hpp"
 #include "rv/field/error.hpp"
 #include "rv/gdal/raster_io.hpp"
 #include "rv/job.hpp"
@@ -392,6 +394,155 @@ TEST_F(SeaLinesJob, RegionsWithinAMaxDistanceCloseRoundAPocketBetweenTwoOwnersDi
   s.grid.resolution = 0.005;
   s.grid.extent = std::array<double, 4>{10.5, 54.4, 11.1, 54.9};
   EXPECT_GT(expect_regions_are_the_owned_cells(within(s, "pocket", 22224.0), 2), 5000);
+}
+
+// Weights and reaches by sea in a job: the Danish ports weigh 1.5, and DK6 (mid-strait off
+// Amager) reaches only 5 km by sea. The files are the core engine's field cell for cell, other
+// than the unweighted run's; every boundary vertex is at equal cost by sea (each owner's cheapest
+// path: the engine on that owner's ports alone) or on DK6's reach (its path by sea 5 km long);
+// the regions are each owner's cells.
+TEST_F(SeaLinesJob, WeightsAndReachesCountThePathBySea) {
+  nlohmann::json ports = nlohmann::json::parse(std::ifstream(fixture("oresund_ports.geojson")));
+  for (nlohmann::json& f : ports.at("features")) {
+    nlohmann::json& p = f.at("properties");
+    p["w"] = p.at("owner") == "DK" ? 1.5 : 1.0;
+    p["reach"] = p.at("port") == "DK6" ? nlohmann::json(5000.0) : nlohmann::json(nullptr);
+  }
+  JobSpec s = spec("weighted");
+  s.outputs.margin.clear();  // (the margin measures unweighted distances: refused with weights)
+  s.seeds.paths = {(dir_ / "weighted_ports.geojson").string()};
+  std::ofstream(s.seeds.paths[0]) << ports.dump();
+  s.seeds.weight_field = "w";
+  s.seeds.reach_field = "reach";
+  expect_regions_are_the_owned_cells(s, 2);
+  const PreparedJob job = prepare_job(s);
+  ASSERT_TRUE(job.sea);
+  const SeedSet& seeds = job.loaded.seeds;
+  ASSERT_TRUE(seeds.adjusted());
+  const Barriers& land = job.sea->loaded.barriers;
+  SeaOptions options;
+  options.metric = job.metric;
+  const SeaField f = compute_sea(seeds, land, job.grid, job.grid.full_window(), options);
+  const Raster<int32_t> own = read_int32(s.outputs.ownership);
+  const Raster<float> dist = read_float32(s.outputs.distance);
+  const Raster<int32_t> want = owner_raster(seeds, f.field, 1);
+  JobSpec plain = spec("plain");
+  plain.outputs = OutputRequest{};
+  plain.outputs.ownership = (dir_ / "plain" / "own.tif").string();
+  run_job(plain);
+  const Raster<int32_t> unweighted = read_int32(plain.outputs.ownership);
+  int64_t differ = 0;
+  for (size_t c = 0; c < own.cells().size(); ++c) {
+    ASSERT_EQ(own.cells()[c], want.cells()[c]) << c;
+    ASSERT_EQ(dist.cells()[c], f.field.distance.cells()[c]) << c;
+    differ += own.cells()[c] != unweighted.cells()[c];
+  }
+  EXPECT_GT(differ, 500);
+
+  // One owner's cheapest cost by sea at p, and DK6's own path length (reach left out).
+  auto cost_at = [&](int32_t owner, Vec2 p, bool dk6_alone) {
+    std::vector<bool> drop(seeds.features().size());
+    for (size_t k = 0; k < drop.size(); ++k)
+      drop[k] = dk6_alone ? std::isinf(seeds.features()[k].reach) : seeds.features()[k].owner != owner;
+    std::vector<int32_t> site_of;
+    SeedSet alone = seeds.without(drop, site_of);
+    if (dk6_alone) alone.set_adjustment(0, 1.0, INFINITY);
+    GridSpec g;
+    g.res = 1.0;
+    g.width = g.height = 1;
+    g.xmin = p.x - 0.5;
+    g.ymax = p.y + 0.5;
+    const SeaField one = compute_sea(alone, land, g, g.full_window(), options);
+    const int32_t site = one.field.site.at(0, 0);
+    if (site == kNoSite) return static_cast<double>(INFINITY);
+    return static_cast<double>(one.field.distance.at(0, 0)) /
+           alone.features()[static_cast<size_t>(alone.site_feature(site))].weight;
+  };
+  Vec2 dk6;
+  for (size_t k = 0; k < seeds.features().size(); ++k)
+    if (std::isfinite(seeds.features()[k].reach)) dk6 = seeds.sites()[k].a;  // (one point site per port)
+  GDALDataset* ds = GDALDataset::Open(s.outputs.boundaries.c_str(), GDAL_OF_VECTOR);
+  ASSERT_NE(ds, nullptr);
+  int64_t equal = 0, on_reach = 0;
+  for (OGRFeature* feature; (feature = ds->GetLayer(0)->GetNextFeature()) != nullptr;
+       OGRFeature::DestroyFeature(feature)) {
+    const OGRLineString* ls = feature->GetGeometryRef()->toLineString();
+    for (int i = 0; i < ls->getNumPoints(); ++i) {
+      const Vec2 p{ls->getX(i), ls->getY(i)};
+      // (Each check runs the engine on one owner's ports: every 60th vertex, and every 15th near
+      // DK6, where its reach's arc may be the line.)
+      if (i % (std::hypot(p.x - dk6.x, p.y - dk6.y) < 6000.0 ? 15 : 60) != 0) continue;
+      const double dk = cost_at(1, p, false), se = cost_at(2, p, false);
+      if (std::abs(dk - se) < 2e-7 * se + 5e-3) {
+        ++equal;
+        continue;
+      }
+      EXPECT_NEAR(cost_at(1, p, true), 5000.0, 5e-3) << p.x << "," << p.y << ": " << dk << " " << se;
+      ++on_reach;
+    }
+  }
+  GDALClose(GDALDataset::ToHandle(ds));
+  EXPECT_GT(equal, 20);
+  EXPECT_GT(on_reach, 5);
+  std::printf("boundaries by sea with weights: %lld vertices at equal cost, %lld on DK6's 5 km reach by sea\n",
+              static_cast<long long>(equal), static_cast<long long>(on_reach));
+}
+
+// A tie region in the files: two ports 10 km from a breakwater's end, both hidden from the sea
+// behind it (UTM 33N, 1 km cells). The boundary's vertices along the tie region's edge are counted
+// in the report, per line in the GeoJSON file and flagged per vertex in the GeoPackage; the sea
+// behind the breakwater's end is the first port's owner's.
+TEST_F(SeaLinesJob, ATieRegionIsSaidInTheFilesAndTheReport) {
+  auto at = [](double x, double y) {
+    return "[" + std::to_string(400000 + x * 1000) + ", " + std::to_string(6000000 + y * 1000) + "]";
+  };
+  const std::string crs = R"("crs": {"type": "name", "properties": {"name": "urn:ogc:def:crs:EPSG::32633"}})";
+  const fs::path seeds = dir_ / "tie_ports.geojson", wall = dir_ / "tie_wall.geojson";
+  std::ofstream(seeds) << R"({"type": "FeatureCollection", )" << crs << R"(, "features": [
+      {"type": "Feature", "properties": {"owner": "lo"}, "geometry": {"type": "Point", "coordinates": )"
+                       << at(14, 28) << R"(}},
+      {"type": "Feature", "properties": {"owner": "hi"}, "geometry": {"type": "Point", "coordinates": )"
+                       << at(12, 26) << "}}]}";
+  std::ofstream(wall) << R"({"type": "FeatureCollection", )" << crs << R"(, "features": [
+      {"type": "Feature", "properties": {}, "geometry": {"type": "LineString", "coordinates": [)"
+                      << at(20, 20) << ", " << at(20, 45) << "]}}]}";
+  int64_t counted[2] = {0, 0};
+  for (const char* ext : {"geojson", "gpkg"}) {
+    JobSpec s;
+    s.seeds.paths = {seeds.string()};
+    s.seeds.owner_field = "owner";
+    s.barriers = {wall.string()};
+    s.grid.resolution = 1000.0;
+    s.grid.extent = std::array<double, 4>{400000.0, 6000000.0, 440000.0, 6050000.0};
+    fs::create_directories(dir_ / ext);
+    s.outputs.ownership = (dir_ / ext / "own.tif").string();
+    s.outputs.boundaries = (dir_ / ext / (std::string("b.") + ext)).string();
+    s.outputs.report = (dir_ / ext / "report.json").string();
+    const nlohmann::json report = run_job(s).report;
+    const int64_t ties = report.at("deliverables").at("boundaries").at("tie_vertices").get<int64_t>();
+    EXPECT_GT(ties, 15) << ext;
+    const Raster<int32_t> own = read_int32(s.outputs.ownership);
+    EXPECT_EQ(own.at(30, 20), 1);  // (30.5, 29.5) km: behind the breakwater's end, tied: "lo"'s
+    GDALDataset* ds = GDALDataset::Open(s.outputs.boundaries.c_str(), GDAL_OF_VECTOR);
+    ASSERT_NE(ds, nullptr);
+    OGRLayer* lines = ds->GetLayerByName("boundaries");
+    ASSERT_NE(lines, nullptr);
+    int64_t per_line = 0;
+    for (OGRFeature* f; (f = lines->GetNextFeature()) != nullptr; OGRFeature::DestroyFeature(f))
+      per_line += f->GetFieldAsInteger64("tie_vertices");
+    EXPECT_EQ(per_line, ties) << ext;
+    if (std::string(ext) == "gpkg") {
+      OGRLayer* verts = ds->GetLayerByName("boundary_vertices");
+      ASSERT_NE(verts, nullptr);
+      int64_t flagged = 0;
+      for (OGRFeature* f; (f = verts->GetNextFeature()) != nullptr; OGRFeature::DestroyFeature(f))
+        flagged += f->GetFieldAsInteger("tie");
+      EXPECT_EQ(flagged, ties);
+    }
+    GDALClose(GDALDataset::ToHandle(ds));
+    counted[std::string(ext) == "gpkg"] = ties;
+  }
+  EXPECT_EQ(counted[0], counted[1]);
 }
 
 TEST_F(SeaLinesJob, TurningPointsAndTheRelevantAreaAreRefusedInOneLine) {

@@ -117,11 +117,25 @@ namespace {
 
 bool geojson(const std::string& path) { return std::string(driver_for(path)) == "GeoJSON"; }
 
+// A line's vertices on the edge of a tie region by sea (BoundaryVertex::tie); and whether any
+// line has one (the field `tie_vertices` is written only then).
+int64_t tie_vertices(const BoundaryLine& line) {
+  int64_t n = 0;
+  for (const BoundaryVertex& v : line.vertices) n += v.tie ? 1 : 0;
+  return n;
+}
+bool any_tie(const BoundaryResult& b) {
+  for (const BoundaryLine& line : b.lines)
+    if (tie_vertices(line) > 0) return true;
+  return false;
+}
+
 // The GeoJSON files, written as GDAL writes them (writing/geojson_text.hpp), fields in the order
 // of the GeoPackage layers' below.
 void geojson_boundaries(const std::string& path, const BoundaryResult& b, const SeedSet& s,
                         const VectorOutputOptions& o) {
   writing::GeoJsonText text("boundaries", o.crs, resolve_threads(o.threads));
+  const bool ties = any_tie(b);
   std::vector<Vec2> pts;
   std::vector<int> fa, fb;
   for (const BoundaryLine& line : b.lines) {
@@ -146,6 +160,7 @@ void geojson_boundaries(const std::string& path, const BoundaryResult& b, const 
     text.property("units", o.distance_units);
     text.property("features_a", std::span<const int>(fa));
     text.property("features_b", std::span<const int>(fb));
+    if (ties) text.property("tie_vertices", tie_vertices(line));
     text.line(pts);
     text.end_feature();
   }
@@ -176,6 +191,8 @@ void write_boundaries(const std::string& path, const BoundaryResult& b, const Si
   file.field(lines, "units", OFTString);
   file.field(lines, "features_a", OFTIntegerList);
   file.field(lines, "features_b", OFTIntegerList);
+  const bool ties = any_tie(b);
+  if (ties) file.field(lines, "tie_vertices", OFTInteger);
   OGRLayer* verts = nullptr;
   if (gpkg) {
     verts = file.layer("boundary_vertices", wkbPoint, o.crs);
@@ -187,6 +204,7 @@ void write_boundaries(const std::string& path, const BoundaryResult& b, const Si
     // Weighted lines: the two true distances differ (d_a / w_a = d_b / w_b), each side's its own.
     if (weighted)
       for (const char* name : {"distance_a", "distance_b"}) file.field(verts, name, OFTReal);
+    if (ties) file.field(verts, "tie", OFTInteger);
   }
   // The basepoints (each vertex's controlling positions): geodesic projections onto segments,
   // the dearest part of the file, measured on the threads before the serial writing.
@@ -229,6 +247,7 @@ void write_boundaries(const std::string& path, const BoundaryResult& b, const Si
     f->SetField("units", o.distance_units.c_str());
     f->SetField("features_a", static_cast<int>(fa.size()), fa.data());
     f->SetField("features_b", static_cast<int>(fb.size()), fb.data());
+    if (ties) f->SetField("tie_vertices", static_cast<int>(tie_vertices(line)));
     file.add(lines, f.get());
     if (!verts) continue;
     for (const BoundaryVertex& v : line.vertices) {
@@ -255,6 +274,7 @@ void write_boundaries(const std::string& path, const BoundaryResult& b, const Si
         pf->SetField("distance_a", v.distance_a * o.distance_factor);
         pf->SetField("distance_b", v.distance_b * o.distance_factor);
       }
+      if (ties) pf->SetField("tie", v.tie ? 1 : 0);
       file.add(verts, pf.get());
     }
   }

@@ -113,6 +113,14 @@ class SiteMetric {
   // rv/sea/sea_metric.hpp: a or b on land, or a barrier across the way). The deliverables place
   // no equidistance point on a way between two cell centres that is not open. Default: true.
   virtual bool open_between(Vec2 a, Vec2 b) const;
+  // The barrier vertex the site's path to p bends at last (by sea: an index of the barriers'
+  // distinct vertices, rv/sea/sea_field.hpp's via), or -1 where the path is straight. Two owners
+  // whose paths bend last at one vertex with equal costs tie over the whole area behind it
+  // (BoundaryVertex::tie). Default: -1 (a straight metric's paths never bend).
+  virtual int32_t last_bend(Vec2 p, int32_t site) const;
+  // Where bend vertex `vertex` (from last_bend) is, in the grid's CRS. Default (no bends):
+  // rv::Error(internal).
+  virtual Vec2 bend_position(int32_t vertex) const;
   // Where the domain has edges (the distance by sea: the barriers' boundaries; a straight metric
   // has none): the ids of the edges that may come within `radius` CRS units of p, into `out`
   // (cleared first), so that a line which stops short of an edge can be carried onto it.

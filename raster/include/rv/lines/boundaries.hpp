@@ -56,6 +56,13 @@ struct BoundaryVertex {
   // By sea: the line's end on a barrier's edge (BoundaryStats::ends_on_barriers), on the side it
   // comes from (within a few units in the last place of the coordinates).
   bool on_barrier = false;
+  // By sea: on the edge of a tie region. Behind a barrier vertex equidistant by sea from both
+  // owners, where both owners' paths bend last at that vertex, the two costs are equal to the
+  // bit over a whole area, not on a line; the field gives that area to the lower site (every
+  // engine's tie rule), and the line runs along its edge, where the costs part: the vertex is the
+  // last tied point of its cell-centre segment (to the last bit of the segment's parameter), on
+  // the lower owner's side of the line.
+  bool tie = false;
 };
 
 struct BoundaryLine {
@@ -129,6 +136,8 @@ struct BoundaryStats {
   // By sea (SiteMetric::domain_edges_near): line ends carried onto the barrier they meet (a
   // coast, a boom), where the two owners' distances by sea are equal on its edge.
   int64_t ends_on_barriers = 0;
+  // By sea: the lines' vertices on the edge of a tie region (BoundaryVertex::tie).
+  int64_t tie_vertices = 0;
   // Tripoints a crowded square's search missed, found from the ends of their lines (also in
   // unresolved_tripoints, which counts the squares).
   int64_t missing_tripoints_found = 0;
