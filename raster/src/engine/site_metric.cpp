@@ -650,6 +650,19 @@ OwnerIndex::Hit OwnerIndex::nearest_third(Vec2 p, int32_t a, int32_t b, double w
   return best.site == kNone ? Hit{} : best;
 }
 
+OwnerIndex::Hit OwnerIndex::nearest_within(Vec2 p, int32_t owner, double within) const {
+  if (owner < 0 || owner > static_cast<int32_t>(trees_.size())) return Hit{};
+  const Vec3 q = metric_.embed(p);
+  constexpr int32_t kNone = std::numeric_limits<int32_t>::max();  // (as in nearest_third)
+  Hit best{kNone, within, within};
+  for (size_t o = 0; o < trees_.size(); ++o) {
+    if ((owner != 0 && static_cast<int32_t>(o) + 1 != owner) || trees_[o]->nodes.empty()) continue;
+    if (trees_[o]->root_bound(q) > best.cost) continue;
+    trees_[o]->search(metric_, 0, p, q, best);
+  }
+  return best.site == kNone ? Hit{} : best;
+}
+
 OwnerIndex::Hit OwnerIndex::nearest_not_of(Vec2 p, int32_t owner, Hit known) const {
   // Owners in order of their trees' lower bounds, so the first search makes the rest prune.
   const Vec3 q = metric_.embed(p);

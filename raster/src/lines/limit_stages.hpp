@@ -66,6 +66,11 @@ struct Target {
     }
     return owner == 0 ? grid.index.nearest(p) : grid.index.nearest_of(p, owner);
   }
+  // Whether at(p).distance <= D (the owned edge aside), measuring only what may be within D.
+  bool reached(Vec2 p) const {
+    if (owner == kOwnedEdge) return at(p).distance <= D;
+    return grid.index.nearest_within(p, owner, D).site != kNoSite;
+  }
 };
 
 // The crossings of a range of rows: their edges, vertices, and each edge's index.

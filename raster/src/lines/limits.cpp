@@ -45,6 +45,9 @@ constexpr int64_t kBlock = 8;
 // -1: decide per cell; 0: the whole block is outside; 1: inside.
 int settle_block(const Target& t, int64_t c0, int64_t r0, int64_t c1, int64_t r1) {
   if (t.owner == 0 && t.grid.field_is_nearest) return -1;
+  // (By sea a distance changes by more than the way between two points a barrier parts: a
+  // block's middle bounds nothing beyond it.)
+  if (!t.grid.metric.straight()) return -1;
   const LimitGrid& lg = t.grid;
   const Vec2 a = centre(lg.g, c0, r0), b = centre(lg.g, c1 - 1, r1 - 1);
   const Vec2 mid{0.5 * (a.x + b.x), 0.5 * (a.y + b.y)};
@@ -70,7 +73,7 @@ bool cell_inside(const Target& t, int64_t c, int64_t r, int32_t s, double d) {
     if (own && d > t.D + slack) return false;
     if (!own && d > t.D + slack) return false;  // d_owner >= d > D
   }
-  return t.at(centre(lg.g, c, r)).distance <= t.D;
+  return t.reached(centre(lg.g, c, r));
 }
 
 }  // namespace

@@ -7,6 +7,7 @@
 #include <chrono>
 #include <cmath>
 #include <limits>
+#include <mutex>
 #include <utility>
 #include <vector>
 
@@ -35,7 +36,10 @@ class SeaSiteMetric final : public SiteMetric {
                 SeaMetricStats* stats)
       : SiteMetric(seeds, located(options) ? *options.grid_polygons : seeds.polygons()),
         grid_(grid),
-        polygons_(options.grid_polygons) {
+        polygons_(options.grid_polygons),
+        threads_(options.threads),
+        cancel_(options.cancel),
+        stats_(stats) {
     ComputeOptions straight;
     straight.metric = options.metric;
     straight.geolocator = options.geolocator;
@@ -45,7 +49,6 @@ class SeaSiteMetric final : public SiteMetric {
     if (options.metric.kind == MetricSpec::geodesic)
       geod_ = std::make_unique<GeographicLib::Geodesic>(options.metric.semi_major, options.metric.flattening);
     list_edges();
-    settle_owners(seeds, options, stats);
   }
 
   double distance(Vec2 p, int32_t site) const override {
@@ -63,7 +66,7 @@ class SeaSiteMetric final : public SiteMetric {
   }
   Vec2 nearest_point(Vec2 p, int32_t site) const override {
     if (seeds().sites()[static_cast<size_t>(site)].kind == SiteKind::area) return inner_->nearest_point(p, site);
-    const Path path = best(p, site);
+    const Path path = best(p, site);  // (settles the owners: roots_ below is filled)
     if (path.node < 0) return inner_->nearest_point(p, site);
     // The path's first bend: the site's point nearest to it is where the path starts.
     const Searches& s = *roots_[static_cast<size_t>(roots_of_site_[static_cast<size_t>(site)])].search;
@@ -226,6 +229,7 @@ class SeaSiteMetric final : public SiteMetric {
     Vec2 gradient{kNaN, kNaN};
   };
   Path best(Vec2 p, int32_t site) const {
+    settled();
     Path out;
     const Where w = where(p);
     if (w.ground == Visibility::Ground::land) return out;
@@ -278,11 +282,18 @@ class SeaSiteMetric final : public SiteMetric {
     return out;
   }
 
+  // The owners' settling, at the first distance asked (once, whichever thread asks first; the
+  // others wait): a metric made for a margin alone, which runs the engine per owner instead, never
+  // pays for it. A failed settling (cancelled) is tried again by the next.
+  void settled() const {
+    std::call_once(settle_once_, [this] { const_cast<SeaSiteMetric*>(this)->settle_owners(seeds()); });
+  }
+
   // Per owner, the bend nodes settled over its sites alone (with weights or reaches, over each
   // class of its sites alone, sea::site_classes: a site's cost is its length over its weight, so
   // the cheapest of an owner's paths is the shortest of some class's); then per site, the nodes
   // its paths reach first.
-  void settle_owners(const SeedSet& seeds, const SeaOptions& options, SeaMetricStats* stats) {
+  void settle_owners(const SeedSet& seeds) {
     const auto start = std::chrono::steady_clock::now();
     const Prepared& pr = prepared();
     const int32_t owners = seeds.owner_count();
@@ -300,10 +311,10 @@ class SeaSiteMetric final : public SiteMetric {
     const auto groups = static_cast<int64_t>(sites.size());
     searches_.resize(sites.size());
     std::vector<int64_t> tests(sites.size(), 0);
-    detail::parallel_for(resolve_threads(options.threads), groups, [&](int64_t g, int) {
+    detail::parallel_for(resolve_threads(threads_), groups, [&](int64_t g, int) {
       const auto k = static_cast<size_t>(g);
       searches_[k] = std::make_unique<Searches>(pr, sites[k]);
-      settle_bends(*searches_[k], tests[k], options.cancel);
+      settle_bends(*searches_[k], tests[k], cancel_);
     });
     roots_of_site_.assign(seeds.sites().size(), -1);
     for (const auto& s : searches_) {
@@ -329,11 +340,11 @@ class SeaSiteMetric final : public SiteMetric {
         roots_.push_back(std::move(roots));
       }
     }
-    if (stats) {
-      stats->owners = owners;
-      stats->bend_tests = 0;
-      for (int64_t t : tests) stats->bend_tests += t;
-      stats->seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    if (stats_) {
+      stats_->owners = owners;
+      stats_->bend_tests = 0;
+      for (int64_t t : tests) stats_->bend_tests += t;
+      stats_->seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     }
   }
 
@@ -347,6 +358,11 @@ class SeaSiteMetric final : public SiteMetric {
   std::shared_ptr<const std::vector<Polygon>> polygons_;  // the base's polygons, when located
   std::unique_ptr<SiteMetric> inner_;                     // the straight metric: bounds and straight legs
   std::shared_ptr<const PreparedSea> sea_;
+  const int threads_;  // the owners' settling's
+  const std::atomic<bool>* cancel_;
+  SeaMetricStats* stats_;
+  mutable std::once_flag settle_once_;
+  // Filled by the settling (settled()), then only read.
   std::vector<std::unique_ptr<Searches>> searches_;  // per owner with geometric sites (per class of them)
   std::vector<SiteRoots> roots_;
   std::vector<int32_t> roots_of_site_;             // site -> its entry of roots_, or -1

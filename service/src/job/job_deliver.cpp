@@ -36,8 +36,9 @@ namespace {
 
 // The deliverables measure with the field's own metric (projected geodesic grids: located on
 // the ellipsoid, positions and outputs in the grid's CRS; by sea, the distance by sea, each
-// owner's bend nodes settled on the job's threads, what that took into `report`).
-std::unique_ptr<SiteMetric> site_metric(const PreparedJob& job, const JobRun& run, nlohmann::json& report) {
+// owner's bend nodes settled on the job's threads when a deliverable first asks, what that took
+// into `stats`).
+std::unique_ptr<SiteMetric> site_metric(const PreparedJob& job, const JobRun& run, SeaMetricStats& stats) {
   if (!job.sea) return make_site_metric(job.loaded.seeds, job.grid, job.compute);
   SeaOptions options;
   options.metric = job.metric;
@@ -46,10 +47,7 @@ std::unique_ptr<SiteMetric> site_metric(const PreparedJob& job, const JobRun& ru
   options.threads = run.spec.threads;
   options.cancel = run.hooks.cancel;
   options.prepared = job.sea->prepared;
-  SeaMetricStats stats;
-  auto metric = make_sea_site_metric(job.loaded.seeds, job.sea->loaded.barriers, job.grid, options, &stats);
-  report["by_sea"] = {{"owners_settled", stats.owners}, {"bend_tests", stats.bend_tests}, {"seconds", stats.seconds}};
-  return metric;
+  return make_sea_site_metric(job.loaded.seeds, job.sea->loaded.barriers, job.grid, options, &stats);
 }
 
 // By sea: the barriers' rings (closed) and lines in the grid's CRS, for the regions' faces. On the
@@ -106,6 +104,7 @@ struct StripDeliverables::State {
   std::optional<PreviewSample> preview;
   std::optional<GeoTiffStripWriter<float>> margin_writer;  // streamed
   OtherOwnersField sea_margin;                             // by sea: the margin's per-owner engine
+  SeaMetricStats sea_stats;                                // by sea: the metric's owners' settling
   double boundary_seconds = 0.0, limit_seconds = 0.0, margin_seconds = 0.0, region_seconds = 0.0;
   double wall_seconds = 0.0;  // in add() and finish(): the deliverables' own wall time, writes included
   VectorOutputOptions vector;
@@ -249,7 +248,7 @@ StripDeliverables::StripDeliverables(JobRun& run, const PreparedJob& job, bool s
   State& s = *st_;
   const OutputRequest& out = s.out();
   const GridSpec& g = job.grid;
-  s.metric = site_metric(job, run, s.report);
+  s.metric = site_metric(job, run, s.sea_stats);
   // With weights or reaches the max distance ends every reach, as the engine compares.
   s.index = job.loaded.seeds.adjusted()
                 ? std::make_unique<OwnerIndex>(*s.metric, OwnerIndex::Measure::adjusted, job.compute.max_distance)
@@ -735,6 +734,11 @@ void StripDeliverables::finish() {
   // The per-deliverable times overlap where files are written side by side; "wall" does not.
   s.times["wall"] = s.wall_seconds + seconds_since(started);
   for (auto& [k, v] : s.times.items()) run.timings["deliverables"][k] = v;
+  // (By sea: 0 owners settled where no deliverable asked the metric: a margin alone.)
+  if (s.job.sea)
+    s.report["by_sea"] = {{"owners_settled", s.sea_stats.owners},
+                          {"bend_tests", s.sea_stats.bend_tests},
+                          {"seconds", s.sea_stats.seconds}};
   run.report["deliverables"] = s.report;
 }
 

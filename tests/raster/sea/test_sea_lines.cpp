@@ -279,6 +279,44 @@ TEST(SeaLines, ALimitBySeaGoesRoundTheWallsEnds) {
               r.lines.size(), static_cast<long long>(vertices), worst, r.residual.max_midpoint);
 }
 
+// Limits by sea where the field's site is not each cell's nearest to the limit's seeds: per owner
+// (the port west of the wall and one far east of it), and with a weight on the western port
+// (the field then names the cheapest site, the limit measures true distances). Every vertex at
+// D by the closed form, the western port's line round the wall's ends as above.
+TEST(SeaLines, LimitsPerOwnerAndWithWeightsBySeaLieAtTheirDistanceBySea) {
+  const Vec2 a{20, 12}, b{20, 28}, s{14.3, 19.6}, q{33.5, 36.5};
+  const double D = 12.5;
+  Barriers wall;
+  wall.add_line(std::vector<Vec2>{a, b}, "wall");
+  const GridSpec g = test::grid_of(40, 40);
+  for (const double weight : {1.0, 2.0}) {
+    SeedSet seeds;
+    seeds.add_point(seeds.add_feature(seeds.owner_code("P")), s);
+    seeds.add_point(seeds.add_feature(seeds.owner_code("Q")), q);
+    seeds.set_adjustment(0, weight, std::numeric_limits<double>::infinity());
+    const SeaField field = compute_sea(seeds, wall, g, g.full_window());
+    const std::unique_ptr<SiteMetric> metric = make_sea_site_metric(seeds, wall, g);
+    const OwnerIndex index(*metric, weight != 1.0 ? OwnerIndex::Measure::adjusted : OwnerIndex::Measure::plain);
+    LimitOptions options;
+    options.line_tolerance = 1e-4;
+    options.per_owner = weight == 1.0;
+    const std::vector<double> distances{D};
+    const LimitResult r = extract_limits(field.field, index, distances, options);
+    int64_t behind = 0, vertices = 0;
+    for (const LimitLine& line : r.lines)
+      for (const LimitVertex& v : line.vertices) {
+        const double dp = wall_path(s, v.p, a, b), dq = dist(q, v.p);
+        const double want = line.owner == 1 ? dp : line.owner == 2 ? dq : std::min(dp, dq);
+        EXPECT_NEAR(want, D, 1e-9 * D) << weight << ": " << line.owner << " " << v.p.x << "," << v.p.y;
+        behind += crosses_wall(s, v.p, a.x, a.y, b.y) && std::abs(dp - D) < 1e-6;
+        ++vertices;
+      }
+    EXPECT_GT(vertices, 100) << weight;
+    EXPECT_GT(behind, 10) << weight;  // round the wall's ends
+    EXPECT_EQ(r.ends_on_barriers, 2) << weight;
+  }
+}
+
 // A channel 0.6 cells wide, one column of centres along it, between two coasts: a line that
 // crosses it has one crossing, which no square links to another (the barriers part every other
 // pair of their corners). It is still a line, from one coast to the other: the limit of a port

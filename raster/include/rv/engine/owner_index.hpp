@@ -64,6 +64,10 @@ class OwnerIndex {
   // Nearest site of the owners other than a and b, if one is within `within` of p (ties with it
   // included); {kNoSite, inf} otherwise. Whether a third owner comes between two.
   Hit nearest_third(Vec2 p, int32_t a, int32_t b, double within) const;
+  // The nearest site of `owner` (0: of any owner), if its cost is within `within` of p (ties
+  // included); {kNoSite, inf} otherwise. Only sites whose lower bound is within are measured:
+  // whether a level is reached, without measuring what lies beyond it.
+  Hit nearest_within(Vec2 p, int32_t owner, double within) const;
   // The sites of `owner` that can be nearest to, or tie with the nearest at, some position within
   // metric distance `reach` of `centre` (ascending indices, into `out`): every other site's lower
   // bound from the ball exceeds the distance of `hint` (or of the nearest, without a valid hint)

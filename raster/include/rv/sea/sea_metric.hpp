@@ -24,7 +24,7 @@
 // grid. nearest_point(): the point of the site the path starts from. open_between(a, b): a and b
 // are sea and the straight way between them crosses no barrier.
 //
-// Thread safety: immutable after construction; const functions from any number of threads.
+// Thread safety: const functions from any number of threads (the lazy settling is synchronised).
 #pragma once
 
 #include <memory>
@@ -34,8 +34,8 @@
 
 namespace rv {
 
-// What making the metric measured: the owners settled, the straight paths tested while settling
-// them, and the wall time.
+// What settling the owners measured: the owners settled, the straight paths tested while
+// settling them, and the wall time.
 struct SeaMetricStats {
   int32_t owners = 0;
   int64_t bend_tests = 0;
@@ -45,8 +45,12 @@ struct SeaMetricStats {
 // The metric of the distance by sea for `seeds`, `barriers` and `grid` with `options` (metric,
 // geolocator and grid polygons, threads for the owners' settling, cancel; options.prepared, when
 // given, must be prepare_sea()'s of the same seeds, barriers and grid: its frame and nodes are
-// shared). Keeps references to `seeds`, which must outlive it. Throws as prepare_sea, and
-// rv::Error(cancelled).
+// shared). Keeps references to `seeds`, which must outlive it. Throws as prepare_sea.
+// The owners' bend nodes are settled at the first distance asked of it (once, on options.threads
+// threads; the other askers wait), so a metric asked nothing (a margin alone, which runs the
+// engine per owner) costs no settling; that first call may throw rv::Error(cancelled) when
+// *options.cancel becomes true (the next call tries again). `stats`, when given, is filled then:
+// it and options.cancel must outlive the metric.
 std::unique_ptr<SiteMetric> make_sea_site_metric(const SeedSet& seeds, const Barriers& barriers, const GridSpec& grid,
                                                  const SeaOptions& options = {}, SeaMetricStats* stats = nullptr);
 
