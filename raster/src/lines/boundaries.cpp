@@ -17,8 +17,7 @@
 
 #include "lines/boundary_stages.hpp"
 #include "lines/line_tools.hpp"
-#include "lines/reach_arc.hpp"
-#include "lines/tie_edge.hpp"
+#include "lines/locus/tie_edge.hpp"
 #include "rv/engine/owner_index.hpp"
 #include "rv/engine/site_metric.hpp"
 #include "rv/field/error.hpp"

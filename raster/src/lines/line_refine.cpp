@@ -32,7 +32,7 @@
 #include "lines/boundary_stages.hpp"
 #include "lines/line_pieces.hpp"
 #include "lines/line_tools.hpp"
-#include "lines/tie_edge.hpp"
+#include "lines/locus/tie_edge.hpp"
 #include "rv/field/parallel.hpp"
 #include "rv/lines/simplify.hpp"
 

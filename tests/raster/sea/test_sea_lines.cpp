@@ -19,6 +19,7 @@
 #include "rv/sea/visibility.hpp"
 #include "seed_gen.hpp"
 #include "wall_paths.hpp"
+#include "wall_sea.hpp"
 
 namespace rv {
 namespace {
@@ -239,16 +240,12 @@ TEST(SeaLines, ALimitBySeaGoesRoundTheWallsEnds) {
   const double D = 12.5;
   SeedSet seeds;
   seeds.add_point(seeds.add_feature(seeds.owner_code("P")), s);
-  Barriers wall;
-  wall.add_line(std::vector<Vec2>{a, b}, "wall");
   const GridSpec g = test::grid_of(40, 40);
-  const SeaField field = compute_sea(seeds, wall, g, g.full_window());
-  const std::unique_ptr<SiteMetric> metric = make_sea_site_metric(seeds, wall, g);
-  const OwnerIndex index(*metric);
+  const test::WallSea sea(seeds, a, b, g);
   LimitOptions options;
   options.line_tolerance = 1e-4;
   const std::vector<double> distances{D};
-  const LimitResult r = extract_limits(field.field, index, distances, options);
+  const LimitResult r = extract_limits(sea.field.field, *sea.index, distances, options);
   int64_t behind = 0, vertices = 0;
   double worst = 0.0;
   int on_wall = 0;
@@ -286,22 +283,18 @@ TEST(SeaLines, ALimitBySeaGoesRoundTheWallsEnds) {
 TEST(SeaLines, LimitsPerOwnerAndWithWeightsBySeaLieAtTheirDistanceBySea) {
   const Vec2 a{20, 12}, b{20, 28}, s{14.3, 19.6}, q{33.5, 36.5};
   const double D = 12.5;
-  Barriers wall;
-  wall.add_line(std::vector<Vec2>{a, b}, "wall");
   const GridSpec g = test::grid_of(40, 40);
   for (const double weight : {1.0, 2.0}) {
     SeedSet seeds;
     seeds.add_point(seeds.add_feature(seeds.owner_code("P")), s);
     seeds.add_point(seeds.add_feature(seeds.owner_code("Q")), q);
     seeds.set_adjustment(0, weight, std::numeric_limits<double>::infinity());
-    const SeaField field = compute_sea(seeds, wall, g, g.full_window());
-    const std::unique_ptr<SiteMetric> metric = make_sea_site_metric(seeds, wall, g);
-    const OwnerIndex index(*metric, weight != 1.0 ? OwnerIndex::Measure::adjusted : OwnerIndex::Measure::plain);
+    const test::WallSea sea(seeds, a, b, g);
     LimitOptions options;
     options.line_tolerance = 1e-4;
     options.per_owner = weight == 1.0;
     const std::vector<double> distances{D};
-    const LimitResult r = extract_limits(field.field, index, distances, options);
+    const LimitResult r = extract_limits(sea.field.field, *sea.index, distances, options);
     int64_t behind = 0, vertices = 0;
     for (const LimitLine& line : r.lines)
       for (const LimitVertex& v : line.vertices) {
@@ -486,15 +479,12 @@ TEST(SeaLines, ATieRegionBehindAVertexIsOwnedByTheLowerSiteAndTheLineRunsAlongIt
   SeedSet seeds;
   seeds.add_point(seeds.add_feature(seeds.owner_code("lo")), lo);
   seeds.add_point(seeds.add_feature(seeds.owner_code("hi")), hi);
-  Barriers wall;
-  wall.add_line(std::vector<Vec2>{a, b}, "wall");
   const GridSpec g = test::grid_of(40, 50);
-  const SeaField field = compute_sea(seeds, wall, g, g.full_window());
-  const std::unique_ptr<SiteMetric> metric = make_sea_site_metric(seeds, wall, g);
-  const OwnerIndex index(*metric);
+  const test::WallSea sea(seeds, a, b, g);
+  const SeaField& field = sea.field;
   BoundaryOptions options;
   options.line_tolerance = 1e-4;
-  const BoundaryResult r = extract_boundaries(field.field, index, options);
+  const BoundaryResult r = extract_boundaries(field.field, *sea.index, options);
   ASSERT_EQ(r.lines.size(), 1u);
   // The ray from A away from hi: points A + u (A - hi) / 10, u >= 0.
   const Vec2 dir{(a.x - hi.x) / 10.0, (a.y - hi.y) / 10.0};

@@ -20,6 +20,7 @@
 #include "rv/sea/visibility.hpp"
 #include "seed_gen.hpp"
 #include "wall_paths.hpp"
+#include "wall_sea.hpp"
 
 namespace rv {
 namespace {
@@ -221,12 +222,11 @@ TEST(SeaWeights, TheLinesMetricGivesEachOwnersCheapestPathAndTheBoundaryIsTheOva
     s.add_point(f, points[i].at);
     s.set_adjustment(f, points[i].weight, points[i].reach);
   }
-  Barriers wall;
-  wall.add_line(std::vector<Vec2>{a, b}, "wall");
   const GridSpec g = test::grid_of(48, 48);
-  const SeaField field = compute_sea(s, wall, g, g.full_window());
-  const std::unique_ptr<SiteMetric> metric = make_sea_site_metric(s, wall, g);
-  const OwnerIndex index(*metric);
+  const test::WallSea sea(s, a, b, g);
+  const Barriers& wall = sea.wall;
+  const SeaField& field = sea.field;
+  const OwnerIndex& index = *sea.index;
   ASSERT_TRUE(index.adjusted());
   int64_t compared = 0;
   for (int32_t owner = 1; owner <= s.owner_count(); ++owner) {

@@ -1,7 +1,7 @@
 // Tie regions by sea (BoundaryVertex::tie): behind a barrier vertex equidistant from two owners,
 // where both owners' paths bend last at that vertex, their costs are equal to the bit over an
 // area. No root of the costs' difference marks such an area's edge (it is 0 throughout), so the
-// crossings (boundaries.cpp) and the refinement (line_refine.cpp) find the edge by bisection on
+// crossings (lines/boundaries.cpp) and the refinement (lines/line_refine.cpp) find the edge by bisection on
 // whether the two owners tie. Internal to rv_raster; pure functions of their arguments.
 #pragma once
 
