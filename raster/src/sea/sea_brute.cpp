@@ -171,13 +171,17 @@ SeaField brute_force_sea(const SeedSet& seeds, const Barriers& barriers, const G
       at.open = ground == Visibility::Ground::open_sea;
       Best best;
       double cost = kInf, k0 = 0.0;
-      bool straight = false, reached = false;
+      // (Adjusted: unreachable where some class is within its reach in a straight line and none
+      // of those has a path, as the exact engine counts.)
+      bool straight = false, reached = false, within = !adjusted;
       for (size_t k = 0; k < classes.size(); ++k) {
         bool s = false;
         double key = 0.0;
         const Best b = cell_value(p, classes[k].sites, vds[k], at, spot, order, s, key, asked);
+        const bool near = !adjusted || std::sqrt(key) <= std::min(max_distance, classes[k].reach);
+        within = within || near;
         if (b.site == kNoSite) continue;
-        reached = true;
+        reached = reached || near;
         if (!adjusted) {
           if (s ? key > max_key : b.d > max_distance) continue;
           best = b;
@@ -195,7 +199,7 @@ SeaField brute_force_sea(const SeedSet& seeds, const Barriers& barriers, const G
         }
       }
       if (!reached) {
-        ++unreachable[static_cast<size_t>(worker)];
+        unreachable[static_cast<size_t>(worker)] += within ? 1 : 0;
         continue;
       }
       if (best.site == kNoSite) continue;

@@ -97,8 +97,9 @@ ComputeOptions straight_options(const SeaOptions& options) {
 // adjusted_distance, ties to the lower site. A class whose straight distance already costs more
 // than the best so far cannot win (no path by sea is shorter than the straight line), and its
 // search stops at the length that would tie. `d0`: the winning class's straight distance, 0 where
-// its path is that class's straight nearest site seen (no detour). `unreachable`: no class has
-// any path to the cell at all (as opposed to none within its reach).
+// its path is that class's straight nearest site seen (no detour). `unreachable`: some class is
+// within its reach of the cell in a straight line, and none of those has any path to it at all
+// (as opposed to none within the reach).
 struct ClassHints {
   std::vector<int32_t> blockers;  // Searches::best_path's hints, per item of the class's tree
   int32_t last = -1;              // the root of the row's previous bent cell
@@ -111,6 +112,7 @@ Best adjusted_path(const PreparedSea& prepared, const SeedSet& seeds, const Plac
   double won_cost = kInf;
   unreachable = false;
   std::vector<size_t> unanswered;  // classes searched within their reach that found no path
+  bool found = false;              // some class searched found a path (within its reach or not)
   for (size_t k = 0; k < prepared.classes.size(); ++k) {
     const PreparedSea::Class& cls = prepared.classes[k];
     const Searches& s = *cls.search;
@@ -130,9 +132,10 @@ Best adjusted_path(const PreparedSea& prepared, const SeedSet& seeds, const Plac
     else
       b = s.best_path(at, spot, Best{}, tests, -1, &h.blockers, h.last, &h.last, 0, kInf, limit);
     if (b.site == kNoSite) {
-      if (won.site == kNoSite) unanswered.push_back(k);
+      unanswered.push_back(k);
       continue;
     }
+    found = true;
     const double cost =
         adjusted_distance(seeds.features()[static_cast<size_t>(seeds.site_feature(b.site))], b.d, max_distance);
     if (cost < won_cost || (cost == won_cost && cost < kInf && b.site < won.site)) {
@@ -143,7 +146,7 @@ Best adjusted_path(const PreparedSea& prepared, const SeedSet& seeds, const Plac
   }
   if (won.site != kNoSite) return won;
   // (Only cells no class reaches within its reach ask whether any path reaches them at all.)
-  unreachable = !unanswered.empty();
+  unreachable = !found && !unanswered.empty();
   for (size_t k : unanswered)
     if (prepared.classes[k].search->best_path(at, spot, Best{}, tests).site != kNoSite) unreachable = false;
   return won;
