@@ -469,9 +469,9 @@ TEST_F(SeaLinesJob, WeightsAndReachesCountThePathBySea) {
     const OGRLineString* ls = feature->GetGeometryRef()->toLineString();
     for (int i = 0; i < ls->getNumPoints(); ++i) {
       const Vec2 p{ls->getX(i), ls->getY(i)};
-      // (Each check runs the engine on one owner's ports: every 60th vertex, and every 15th near
+      // (Each check runs the engine on one owner's ports: every 120th vertex, and every 30th near
       // DK6, where its reach's arc may be the line.)
-      if (i % (std::hypot(p.x - dk6.x, p.y - dk6.y) < 6000.0 ? 15 : 60) != 0) continue;
+      if (i % (std::hypot(p.x - dk6.x, p.y - dk6.y) < 6000.0 ? 30 : 120) != 0) continue;
       const double dk = cost_at(1, p, false), se = cost_at(2, p, false);
       if (std::abs(dk - se) < 2e-7 * se + 5e-3) {
         ++equal;
