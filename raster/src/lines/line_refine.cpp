@@ -275,10 +275,6 @@ void LineRefiner::between(const End& u, const End& v, int depth, int32_t a, int3
       arcs ? (u.v.arc == v.v.arc && arc_site(u.v) == arc_site(v.v)) || (v.v.arc != 0 && on_arc_of(u.v, v.v)) ||
                  (u.v.arc != 0 && on_arc_of(v.v, u.v))
            : shares(u.v.site_a, u.alt_a, v.v.site_a, v.alt_a) && shares(u.v.site_b, u.alt_b, v.v.site_b, v.alt_b);
-  // How far the locus can stray from the chord, from the turn of its normal between the ends: a
-  // circular arc (the same sites) strays 0.5 c tan(angle / 4), a corner (another site takes
-  // over) at most 0.5 c tan(angle / 2). No normal known: nothing estimated (the midpoint
-  // decides). A change of site that does not turn the locus (collinear edges) adds nothing.
   // By sea, along a tie region's edge (BoundaryVertex::tie): split at the edge's point across the
   // middle (tie_edge) while the chord strays from it by more than the tolerance.
   if (u.v.tie && v.v.tie) {
@@ -310,6 +306,10 @@ void LineRefiner::between(const End& u, const End& v, int depth, int32_t a, int3
       return;
     }
   }
+  // How far the locus can stray from the chord, from the turn of its normal between the ends: a
+  // circular arc (the same sites) strays 0.5 c tan(angle / 4), a corner (another site takes
+  // over) at most 0.5 c tan(angle / 2). No normal known: nothing estimated (the midpoint
+  // decides). A change of site that does not turn the locus (collinear edges) adds nothing.
   const Vec2 nu = normal_towards(u, v), nv = normal_towards(v, u);
   const double angle = std::atan2(std::abs(nu.x * nv.y - nu.y * nv.x), nu.x * nv.x + nu.y * nv.y);
   double stray = angle >= 3.0 ? chord : 0.5 * chord * std::tan((same ? 0.25 : 0.5) * angle);
