@@ -328,6 +328,12 @@ void end_at_barriers(const BoundaryGrid& b, const std::vector<Tripoint>& tripoin
 void cross_channels(const BoundaryGrid& b, std::vector<BoundaryLine>& lone, std::vector<BoundaryLine>& lines,
                     BoundaryStats& stats);
 
+// The boundary vertex at p between the hits of its two sides (each owner's nearest there).
+inline BoundaryVertex vertex_between(Vec2 p, const OwnerIndex::Hit& a, const OwnerIndex::Hit& b) {
+  return BoundaryVertex{p,          a.site,    b.site, 0.5 * (a.distance + b.distance), std::abs(a.cost - b.cost),
+                        a.distance, b.distance};
+}
+
 // A crossing where a reach ends (Feature::reach) rather than where two owners' costs meet (one
 // of find_crossings' cases, boundaries.cpp).
 // Where the costs of owners x (nearest towards p0) and y (towards p1) jump between two positions

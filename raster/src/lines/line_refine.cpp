@@ -506,7 +506,7 @@ bool LineRefiner::checked(Vec2 p, int32_t a, int32_t b, const End& u, const End&
   const OwnerIndex::Hit third = index_.nearest_third(p, a, b, hb.cost);
   if (third.site != kNoSite && third.cost < 0.5 * (ha.cost + hb.cost) - 4.0 * ftol_ - residual) return false;
   out = End{};
-  out.v = BoundaryVertex{p, ha.site, hb.site, 0.5 * (ha.distance + hb.distance), residual, ha.distance, hb.distance};
+  out.v = vertex_between(p, ha, hb);
   // A second site of a side tied with the first here (a turning point's, or the two edges at a
   // coast's vertex), so that the stretches on both sides read as the same sites.
   auto tie = [&](const OwnerIndex::Hit& h, std::array<int32_t, 4> sites) {

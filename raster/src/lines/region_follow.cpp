@@ -140,10 +140,7 @@ void follow(RegionEdges& e, const OwnerIndex& index, const GridSpec& g, double D
     } else if (locus.kind == EdgeLocus::pair && !partial) {
       // The carried-on ends: the first and last segments.
       auto vertex = [&](Vec2 p) {
-        const OwnerIndex::Hit ha = index.nearest_of(p, locus.a), hb = index.nearest_of(p, locus.b);
-        return BoundaryVertex{
-            p,           ha.site,    hb.site, 0.5 * (ha.distance + hb.distance), std::abs(ha.cost - hb.cost),
-            ha.distance, hb.distance};
+        return boundary_stages::vertex_between(p, index.nearest_of(p, locus.a), index.nearest_of(p, locus.b));
       };
       const size_t n = pts.size();
       std::vector<BoundaryVertex> v;

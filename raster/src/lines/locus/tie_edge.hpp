@@ -10,7 +10,6 @@
 
 #include "rv/engine/owner_index.hpp"
 #include "rv/engine/site_metric.hpp"
-#include "rv/lines/boundaries.hpp"
 
 namespace rv::boundary_stages {
 
@@ -43,12 +42,6 @@ double tie_edge_on(Tied&& tied_at, double t0, double t1) {
   const bool tied0 = tied_at(t0), tied1 = tied_at(t1);
   if (tied0 == tied1) return std::nan("");
   return last_tied(tied_at, tied0 ? t0 : t1, tied0 ? t1 : t0);
-}
-
-// The boundary vertex at p between the hits of its two sides.
-inline BoundaryVertex vertex_between(Vec2 p, const OwnerIndex::Hit& a, const OwnerIndex::Hit& b) {
-  return BoundaryVertex{p,          a.site,    b.site, 0.5 * (a.distance + b.distance), std::abs(a.cost - b.cost),
-                        a.distance, b.distance};
 }
 
 }  // namespace rv::boundary_stages
