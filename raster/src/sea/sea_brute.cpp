@@ -171,14 +171,14 @@ SeaField brute_force_sea(const SeedSet& seeds, const Barriers& barriers, const G
       at.open = ground == Visibility::Ground::open_sea;
       Best best;
       double cost = kInf, k0 = 0.0;
-      // (Adjusted: unreachable where some class is within its reach in a straight line and none
-      // of those has a path, as the exact engine counts.)
-      bool straight = false, reached = false, within = !adjusted;
+      // (Unreachable where some seed (class) is within the maximum distance (and its reach) in a
+      // straight line and none of those has a path at all, as the exact engine counts.)
+      bool straight = false, reached = false, within = false;
       for (size_t k = 0; k < classes.size(); ++k) {
         bool s = false;
         double key = 0.0;
         const Best b = cell_value(p, classes[k].sites, vds[k], at, spot, order, s, key, asked);
-        const bool near = !adjusted || std::sqrt(key) <= std::min(max_distance, classes[k].reach);
+        const bool near = adjusted ? std::sqrt(key) <= std::min(max_distance, classes[k].reach) : key <= max_key;
         within = within || near;
         if (b.site == kNoSite) continue;
         reached = reached || near;

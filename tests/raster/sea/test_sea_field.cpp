@@ -335,6 +335,37 @@ TEST(SeaField, PortsOnTheCoastAndAnEnclosedLagoon) {
   EXPECT_EQ(g2.unreachable_cells, 40 * 40 - 400);
 }
 
+TEST(SeaField, UnreachableCountsOnlyWithinTheMaximumDistanceInBothEngines) {
+  // The atoll's lagoon port alone, with a maximum distance: sea outside the atoll that the port
+  // lies within 12 of in a straight line is unreachable (no path leaves the lagoon) and counted;
+  // sea beyond 12 has no owner either way and is not counted. The exact engine and the oracle
+  // count alike, and both equal the count from the cells' centres.
+  Barriers b;
+  b.add_polygon({{{10, 10}, {30, 10}, {30, 30}, {10, 30}}, {{15, 15}, {25, 15}, {25, 25}, {15, 25}}}, "atoll");
+  SeedSet only = points({{"lagoon", {20, 15}}});
+  const GridSpec g = test::grid_of(40, 40);
+  SeaOptions limited;
+  limited.max_distance = 12.0;
+  const SeaField exact = compute_sea(only, b, g, g.full_window(), limited);
+  const SeaField reference = brute_force_sea(only, b, g, g.full_window(), 12.0);
+  const Visibility vis(b);
+  int64_t expected = 0, beyond = 0;
+  for (int64_t r = 0; r < g.height; ++r)
+    for (int64_t c = 0; c < g.width; ++c) {
+      const Vec2 x = centre(g, c, r);
+      if (vis.on_land(x)) continue;
+      const bool lagoon = x.x > 15 && x.x < 25 && x.y > 15 && x.y < 25;
+      if (lagoon) continue;
+      ASSERT_EQ(exact.field.site.at(c, r), kNoSite) << c << "," << r;
+      ASSERT_EQ(reference.field.site.at(c, r), kNoSite) << c << "," << r;
+      (dist(x, {20, 15}) <= 12.0 ? expected : beyond) += 1;
+    }
+  EXPECT_GT(expected, 50);
+  EXPECT_GT(beyond, 500);
+  EXPECT_EQ(exact.unreachable_cells, expected);
+  EXPECT_EQ(reference.unreachable_cells, expected);
+}
+
 TEST(SeaField, MaximumDistanceCutsPathsNotStraightLines) {
   // Behind the wall a cell's path is longer than its straight distance: the limit cuts the path.
   SeedSet s = points({{"a", {10.3, 20.6}}, {"b", {33.2, 8.7}}});

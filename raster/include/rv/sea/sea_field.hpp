@@ -65,15 +65,19 @@ struct SeaField {
   // the grid's local frame).vertex, i.e. of the barriers' distinct vertex positions in
   // first-appearance order), kNoVia where the seed is seen directly or there is none.
   Raster<int32_t> via;
-  int64_t land_cells = 0;         // cells on land
-  int64_t unreachable_cells = 0;  // sea cells no seed reaches
-  int32_t barrier_vertices = 0;   // distinct barrier vertices
-  int64_t bend_nodes = 0;         // (vertex, sea wedge) pairs wider than a half-turn: where paths may bend
-  int64_t visibility_tests = 0;   // straight paths tested, all told
-  int64_t bend_tests = 0;         // of which while settling the bend nodes
-  int64_t bend_evaluations = 0;   // the exact engine: bend nodes evaluated (a node may be more than once)
-  double max_detour = 1.0;        // the largest path length over straight distance to the nearest site
-  double bends_seconds = 0.0;     // the exact engine: wall time settling the bend nodes
+  int64_t land_cells = 0;  // cells on land
+  // Sea cells that some seed lies within the maximum distance of (and within its reach, with
+  // reaches) in a straight line, and that no path by sea from those seeds reaches at all (a sea
+  // enclosed by land without a seed); cells beyond every seed's maximum distance or reach are
+  // not counted, whatever the land between.
+  int64_t unreachable_cells = 0;
+  int32_t barrier_vertices = 0;  // distinct barrier vertices
+  int64_t bend_nodes = 0;        // (vertex, sea wedge) pairs wider than a half-turn: where paths may bend
+  int64_t visibility_tests = 0;  // straight paths tested, all told
+  int64_t bend_tests = 0;        // of which while settling the bend nodes
+  int64_t bend_evaluations = 0;  // the exact engine: bend nodes evaluated (a node may be more than once)
+  double max_detour = 1.0;       // the largest path length over straight distance to the nearest site
+  double bends_seconds = 0.0;    // the exact engine: wall time settling the bend nodes
 };
 
 // How the exact engine runs. Progress in [0, 1] is called from worker threads, never
