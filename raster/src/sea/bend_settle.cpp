@@ -110,7 +110,7 @@ Best Searches::best_path(const Place& at, const Spot& spot, Best best, int64_t& 
   return best;
 }
 
-void settle_bends(Searches& b, int64_t& tests, const std::atomic<bool>* cancel) {
+void settle_bends(Searches& b, int64_t& tests, const std::atomic<bool>* cancel, double within) {
   const Prepared& p = b.p;
   const Visibility& vis = p.vis;
   const size_t n = b.nodes.size();
@@ -166,6 +166,7 @@ void settle_bends(Searches& b, int64_t& tests, const std::atomic<bool>* cancel) 
     const auto u = static_cast<size_t>(i);
     if (settled[u] || k != key[u]) continue;
     if (k > (farthest + diameter) * (1 + 1e-9)) break;  // the rest is unreachable
+    if (k > within) break;                              // (a key is a lower bound: every node left is farther)
     if (cancel && (++steps & 255) == 0 && cancel->load(std::memory_order_relaxed))
       throw Error(ErrorKind::cancelled, "computation cancelled");
     const Node& node = b.nodes[u];

@@ -102,7 +102,13 @@ struct Searches {
 // Settles every node of `b` reachable from its sites (b.dist, b.from, b.prev; b.all weighted),
 // counting the straight paths tested into `tests`. Throws rv::Error(cancelled) when `cancel`
 // becomes true.
-void settle_bends(Searches& b, int64_t& tests, const std::atomic<bool>* cancel);
+// `within` (metric units): only the nodes whose distance by sea is at most `within` are settled
+// (all of them: nodes are settled in increasing order of distance, so the search stops once the
+// least lower bound left exceeds it); the others stay unsettled (dist +infinity), as if no seed
+// reached them. A path that bends only at settled nodes is then found as before; one through an
+// unsettled node is longer than `within`.
+void settle_bends(Searches& b, int64_t& tests, const std::atomic<bool>* cancel,
+                  double within = std::numeric_limits<double>::infinity());
 
 }  // namespace rv::sea
 

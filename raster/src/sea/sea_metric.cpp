@@ -33,13 +33,16 @@ struct SiteRoots {
 class SeaSiteMetric final : public SiteMetric {
  public:
   SeaSiteMetric(const SeedSet& seeds, const Barriers& barriers, const GridSpec& grid, const SeaOptions& options,
-                SeaMetricStats* stats)
+                SeaMetricStats* stats, double settle_within)
       : SiteMetric(seeds, located(options) ? *options.grid_polygons : seeds.polygons()),
         grid_(grid),
         polygons_(options.grid_polygons),
         threads_(options.threads),
         cancel_(options.cancel),
-        stats_(stats) {
+        stats_(stats),
+        within_(settle_within) {
+    if (!(settle_within > 0.0))
+      throw Error(ErrorKind::invalid_argument, "the owners' settling needs a positive distance to settle within");
     ComputeOptions straight;
     straight.metric = options.metric;
     straight.geolocator = options.geolocator;
@@ -314,7 +317,7 @@ class SeaSiteMetric final : public SiteMetric {
     detail::parallel_for(resolve_threads(threads_), groups, [&](int64_t g, int) {
       const auto k = static_cast<size_t>(g);
       searches_[k] = std::make_unique<Searches>(pr, sites[k]);
-      settle_bends(*searches_[k], tests[k], cancel_);
+      settle_bends(*searches_[k], tests[k], cancel_, within_);
     });
     roots_of_site_.assign(seeds.sites().size(), -1);
     for (const auto& s : searches_) {
@@ -345,6 +348,7 @@ class SeaSiteMetric final : public SiteMetric {
       stats_->bend_tests = 0;
       for (int64_t t : tests) stats_->bend_tests += t;
       stats_->seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+      stats_->within = within_;
     }
   }
 
@@ -361,6 +365,7 @@ class SeaSiteMetric final : public SiteMetric {
   const int threads_;  // the owners' settling's
   const std::atomic<bool>* cancel_;
   SeaMetricStats* stats_;
+  const double within_;  // the owners' nodes settled up to this distance by sea
   mutable std::once_flag settle_once_;
   // Filled by the settling (settled()), then only read.
   std::vector<std::unique_ptr<Searches>> searches_;  // per owner with geometric sites (per class of them)
@@ -373,8 +378,9 @@ class SeaSiteMetric final : public SiteMetric {
 }  // namespace
 
 std::unique_ptr<SiteMetric> make_sea_site_metric(const SeedSet& seeds, const Barriers& barriers, const GridSpec& grid,
-                                                 const SeaOptions& options, SeaMetricStats* stats) {
-  return std::make_unique<SeaSiteMetric>(seeds, barriers, grid, options, stats);
+                                                 const SeaOptions& options, SeaMetricStats* stats,
+                                                 double settle_within) {
+  return std::make_unique<SeaSiteMetric>(seeds, barriers, grid, options, stats, settle_within);
 }
 
 }  // namespace rv

@@ -36,9 +36,10 @@ namespace {
 
 // The deliverables measure with the field's own metric (projected geodesic grids: located on
 // the ellipsoid, positions and outputs in the grid's CRS; by sea, the distance by sea, each
-// owner's bend nodes settled on the job's threads when a deliverable first asks, what that took
-// into `stats`).
-std::unique_ptr<SiteMetric> site_metric(const PreparedJob& job, const JobRun& run, SeaMetricStats& stats) {
+// owner's bend nodes settled on the job's threads when a deliverable first asks, up to
+// `settle_within` (sea_settle_within), what that took into `stats`).
+std::unique_ptr<SiteMetric> site_metric(const PreparedJob& job, const JobRun& run, SeaMetricStats& stats,
+                                        double settle_within) {
   if (!job.sea) return make_site_metric(job.loaded.seeds, job.grid, job.compute);
   SeaOptions options;
   options.metric = job.metric;
@@ -47,7 +48,7 @@ std::unique_ptr<SiteMetric> site_metric(const PreparedJob& job, const JobRun& ru
   options.threads = run.spec.threads;
   options.cancel = run.hooks.cancel;
   options.prepared = job.sea->prepared;
-  return make_sea_site_metric(job.loaded.seeds, job.sea->loaded.barriers, job.grid, options, &stats);
+  return make_sea_site_metric(job.loaded.seeds, job.sea->loaded.barriers, job.grid, options, &stats, settle_within);
 }
 
 // By sea: the barriers' rings (closed) and lines in the grid's CRS, for the regions' faces. On the
@@ -243,12 +244,12 @@ std::map<std::string, LinePieces> StripDeliverables::kept_line_pieces() {
 }
 
 StripDeliverables::StripDeliverables(JobRun& run, const PreparedJob& job, bool streamed,
-                                     const PartialEffectResult* partial)
+                                     const PartialEffectResult* partial, double sea_settle_within)
     : st_(std::make_unique<State>(run, job, streamed, partial)) {
   State& s = *st_;
   const OutputRequest& out = s.out();
   const GridSpec& g = job.grid;
-  s.metric = site_metric(job, run, s.sea_stats);
+  s.metric = site_metric(job, run, s.sea_stats, sea_settle_within);
   // With weights or reaches the max distance ends every reach, as the engine compares.
   s.index = job.loaded.seeds.adjusted()
                 ? std::make_unique<OwnerIndex>(*s.metric, OwnerIndex::Measure::adjusted, job.compute.max_distance)
@@ -735,10 +736,12 @@ void StripDeliverables::finish() {
   s.times["wall"] = s.wall_seconds + seconds_since(started);
   for (auto& [k, v] : s.times.items()) run.timings["deliverables"][k] = v;
   // (By sea: 0 owners settled where no deliverable asked the metric: a margin alone.)
-  if (s.job.sea)
+  if (s.job.sea) {
     s.report["by_sea"] = {{"owners_settled", s.sea_stats.owners},
                           {"bend_tests", s.sea_stats.bend_tests},
                           {"seconds", s.sea_stats.seconds}};
+    if (std::isfinite(s.sea_stats.within)) s.report["by_sea"]["settled_within"] = s.sea_stats.within * s.job.to_output;
+  }
   run.report["deliverables"] = s.report;
 }
 
@@ -748,6 +751,33 @@ GeoTiffOptions raster_options(const JobSpec& spec) {
   o.threads = spec.threads;
   o.compression = spec.outputs.compression;
   return o;
+}
+
+double sea_settle_within(const PreparedJob& job, const NearestField& field) {
+  constexpr double kInf = std::numeric_limits<double>::infinity();
+  if (!job.sea) return kInf;
+  // The farthest any owned cell is from its seed by sea (metric units).
+  float farthest = -1.0f;
+  for (float d : field.distance.cells())
+    if (std::isfinite(d)) farthest = std::max(farthest, d);
+  if (farthest < 0.0f) return kInf;
+  // With weights an owner competes for a cell up to the heaviest weight over the lightest times the
+  // winner's length (its cost is at most the winner's).
+  double lightest = kInf, heaviest = 0.0;
+  for (const Feature& f : job.loaded.seeds.features()) {
+    lightest = std::min(lightest, f.weight);
+    heaviest = std::max(heaviest, f.weight);
+  }
+  const double ratio = lightest > 0.0 && heaviest >= lightest ? heaviest / lightest : 1.0;
+  double level = 0.0;
+  for (double l : job.limit_distances) level = std::max(level, l);
+  // A cell's diagonal in metric units, generously (on the ellipsoid a degree is at most 112 km).
+  const bool degrees = job.metric.kind == MetricSpec::geodesic && !job.compute.geolocator;
+  const double cell = job.grid.res * (degrees ? 1.12e5 : 1.0) * std::sqrt(2.0) * 1.01;
+  // The margin: the lines ask at positions between cells, at the grid's frame and on coasts,
+  // which can lie farther than any cell centre; half as far again, and 16 cells.
+  const double within = 1.5 * std::max(static_cast<double>(farthest) * ratio, level) + 16.0 * cell;
+  return std::isfinite(within) && within > 0.0 ? within : kInf;
 }
 
 void deliver(JobRun& run, const PreparedJob& job, const NearestField& computed, const PartialEffectResult* partial) {
@@ -764,7 +794,7 @@ void deliver(JobRun& run, const PreparedJob& job, const NearestField& computed, 
     field = &exact;
     run.timings["deliverables"]["exact_field"] = exact.seconds;
   }
-  StripDeliverables d(run, job, false, partial);
+  StripDeliverables d(run, job, false, partial, sea_settle_within(job, *field));
   d.add(*field, partial != nullptr ? &partial->full : nullptr);
   d.finish();
 }

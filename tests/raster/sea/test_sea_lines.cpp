@@ -5,6 +5,7 @@
 // lower site's, its edge the line.
 #include <gtest/gtest.h>
 
+#include <bit>
 #include <cmath>
 #include <cstdio>
 #include <random>
@@ -127,6 +128,89 @@ TEST(SeaLines, EachOwnersDistanceIsTheReferencesForItsSeedsAlone) {
   EXPECT_GT(behind_land, 2000);  // owners reached round land, not only straight
   std::printf("each owner's distance by sea: %lld cells, worst |d - reference| %.3g\n",
               static_cast<long long>(compared), worst);
+}
+
+// Owners settled only within a distance by sea (make_sea_site_metric's settle_within): every
+// site's and owner's distance up to it is the fully settled metric's, to the bit; beyond it some
+// length above it or none. Settled within half as far again as the field's largest distance plus
+// a margin (the job's rule), the boundaries and tripoints are the fully settled ones, vertex for
+// vertex; and the settling tested fewer paths.
+TEST(SeaLines, OwnersSettledWithinADistanceAreExactUpToIt) {
+  std::mt19937_64 rng(58);
+  const GridSpec g = test::grid_of(40, 40, 1.0, -1.0, 41.0);
+  int rounds = 0;
+  int64_t within = 0, beyond = 0, sites_beyond = 0, lines_compared = 0;
+  for (int round = 0; round < 10; ++round) {
+    Archipelago a;
+    if (!archipelago(rng, a)) continue;
+    SeaField field;
+    SeaMetricStats all_stats, cut_stats;
+    std::unique_ptr<SiteMetric> all;
+    try {
+      field = compute_sea(a.seeds, a.barriers, g, g.full_window());
+      all = make_sea_site_metric(a.seeds, a.barriers, g, {}, &all_stats);
+    } catch (const Error& e) {
+      ASSERT_EQ(e.kind(), ErrorKind::invalid_input) << e.what();
+      continue;
+    }
+    ++rounds;
+    const double reach = 9.0;
+    const std::unique_ptr<SiteMetric> cut = make_sea_site_metric(a.seeds, a.barriers, g, {}, &cut_stats, reach);
+    const OwnerIndex full_index(*all), cut_index(*cut);
+    for (int64_t r = 0; r < g.height; ++r)
+      for (int64_t c = 0; c < g.width; ++c) {
+        const Vec2 p = centre(g, c, r);
+        for (int32_t site = 0; site < static_cast<int32_t>(a.seeds.sites().size()); ++site) {
+          const double d = all->distance(p, site), e = cut->distance(p, site);
+          if (d <= reach) {
+            ASSERT_EQ(std::bit_cast<uint64_t>(d), std::bit_cast<uint64_t>(e)) << round << ": " << c << "," << r;
+          } else {
+            ASSERT_GT(e, reach) << round << ": " << c << "," << r << " site " << site;
+            sites_beyond += std::isfinite(d);
+          }
+        }
+        for (int32_t owner = 1; owner <= a.seeds.owner_count(); ++owner) {
+          const OwnerIndex::Hit h = full_index.nearest_of(p, owner), k = cut_index.nearest_of(p, owner);
+          if (h.distance <= reach) {
+            ++within;
+            ASSERT_EQ(h.site, k.site) << round << ": " << c << "," << r << " owner " << owner;
+            ASSERT_EQ(std::bit_cast<uint64_t>(h.distance), std::bit_cast<uint64_t>(k.distance));
+          } else {
+            ++beyond;
+            ASSERT_TRUE(k.site == kNoSite || k.distance > reach) << round << ": " << c << "," << r;
+          }
+        }
+      }
+    EXPECT_LT(cut_stats.bend_tests, all_stats.bend_tests) << round;
+    EXPECT_EQ(cut_stats.within, reach);
+    // The job's rule: half as far again as the field's largest distance, and 16 cells.
+    float farthest = 0.0f;
+    for (float d : field.field.distance.cells())
+      if (std::isfinite(d)) farthest = std::max(farthest, d);
+    const std::unique_ptr<SiteMetric> ruled =
+        make_sea_site_metric(a.seeds, a.barriers, g, {}, nullptr, 1.5 * farthest + 16.0 * std::sqrt(2.0));
+    BoundaryOptions options;
+    options.line_tolerance = 1e-4;
+    const BoundaryResult want = extract_boundaries(field.field, full_index, options);
+    const BoundaryResult got = extract_boundaries(field.field, OwnerIndex(*ruled), options);
+    ASSERT_EQ(got.lines.size(), want.lines.size()) << round;
+    for (size_t i = 0; i < want.lines.size(); ++i) {
+      ASSERT_EQ(got.lines[i].vertices.size(), want.lines[i].vertices.size()) << round << " line " << i;
+      for (size_t v = 0; v < want.lines[i].vertices.size(); ++v) {
+        ASSERT_EQ(got.lines[i].vertices[v].p, want.lines[i].vertices[v].p) << round << " line " << i;
+        ++lines_compared;
+      }
+    }
+    ASSERT_EQ(got.tripoints.size(), want.tripoints.size()) << round;
+    for (size_t t = 0; t < want.tripoints.size(); ++t) ASSERT_EQ(got.tripoints[t].p, want.tripoints[t].p);
+  }
+  EXPECT_GE(rounds, 5);
+  EXPECT_GT(within, 10000);
+  EXPECT_GT(beyond, 1000);        // owners farther than the distance settled within
+  EXPECT_GT(sites_beyond, 1000);  // sites with a path beyond it, not sought
+  EXPECT_GT(lines_compared, 200);
+  std::printf("settled within 9: %lld owner distances within, %lld beyond; %lld line vertices as settled whole\n",
+              static_cast<long long>(within), static_cast<long long>(beyond), static_cast<long long>(lines_compared));
 }
 
 // Boundaries and tripoints by sea round a vertical wall from a to b, every vertex against the

@@ -27,6 +27,7 @@
 // Thread safety: const functions from any number of threads (the lazy settling is synchronised).
 #pragma once
 
+#include <limits>
 #include <memory>
 
 #include "rv/engine/site_metric.hpp"
@@ -35,11 +36,12 @@
 namespace rv {
 
 // What settling the owners measured: the owners settled, the straight paths tested while
-// settling them, and the wall time.
+// settling them, the wall time, and the distance by sea they were settled to (settle_within).
 struct SeaMetricStats {
   int32_t owners = 0;
   int64_t bend_tests = 0;
   double seconds = 0.0;
+  double within = std::numeric_limits<double>::infinity();
 };
 
 // The metric of the distance by sea for `seeds`, `barriers` and `grid` with `options` (metric,
@@ -51,7 +53,19 @@ struct SeaMetricStats {
 // engine per owner) costs no settling; that first call may throw rv::Error(cancelled) when
 // *options.cancel becomes true (the next call tries again). `stats`, when given, is filled then:
 // it and options.cancel must outlive the metric.
+//
+// `settle_within` (metric units, > 0): each owner's bend nodes are settled only up to that
+// distance by sea from the owner's seeds. Distances are then exact wherever they are at most
+// `settle_within`; a larger one comes out as some path's length above `settle_within`, or
+// +infinity (a path bending at a node farther than that from its owner is not sought). So the
+// nearest owner at a position, and every comparison of an owner within `settle_within` with any
+// other, are exactly as with every node settled; two owners both farther than it are not compared
+// exactly. The lines ask for owners at their own positions (between two owners' cells, at three
+// owners' meeting, on a limit's level): a bound of the field's largest distance, with a margin,
+// and of the largest limit level, leaves them unchanged, and spares the settling of the nodes an
+// owner reaches only round many headlands, which is most of it. +infinity: every node settled.
 std::unique_ptr<SiteMetric> make_sea_site_metric(const SeedSet& seeds, const Barriers& barriers, const GridSpec& grid,
-                                                 const SeaOptions& options = {}, SeaMetricStats* stats = nullptr);
+                                                 const SeaOptions& options = {}, SeaMetricStats* stats = nullptr,
+                                                 double settle_within = std::numeric_limits<double>::infinity());
 
 }  // namespace rv
