@@ -110,65 +110,96 @@ Best Searches::best_path(const Place& at, const Spot& spot, Best best, int64_t& 
   return best;
 }
 
-void settle_bends(Searches& b, int64_t& tests, const std::atomic<bool>* cancel, double within) {
+// The Dijkstra's state between runs.
+struct Settling::State {
+  std::unique_ptr<RootTree> open;  // weight: the key of a node not yet settled
+  std::vector<double> key;
+  using Entry = std::pair<double, int32_t>;
+  std::priority_queue<Entry, std::vector<Entry>, std::greater<Entry>> queue;
+  std::vector<uint8_t> settled;
+  // The edge that last hid each root (see best_path): nodes evaluated one after the other are
+  // often hidden from the same roots by the same headland.
+  std::vector<int32_t> hint;
+  std::vector<Best> last_val;      // each node's best path when last evaluated
+  std::vector<int32_t> last_root;  // and the item of `all` it came from (-1: none yet)
+  std::vector<uint64_t> seen_at;   // and the stamp of `all` then
+  std::vector<double> seen_bound;  // and the bound its roots were searched to then
+  double diameter = 0.0, farthest = 0.0;
+  int64_t steps = 0;
+};
+
+Settling::Settling(Searches& b) : b_(b), st_(std::make_unique<State>()) {
   const Prepared& p = b.p;
   const Visibility& vis = p.vis;
+  State& st = *st_;
   const size_t n = b.nodes.size();
   std::vector<RootTree::Box> boxes;
   boxes.reserve(n);
   for (const Node& node : b.nodes) boxes.push_back({vis.vertex(node.vertex), vis.vertex(node.vertex)});
-  RootTree open(boxes, p.lower_scale());  // weight: the key of a node not yet settled
-  std::vector<double> key(n);
-  using Entry = std::pair<double, int32_t>;
-  std::priority_queue<Entry, std::vector<Entry>, std::greater<Entry>> queue;
+  st.open = std::make_unique<RootTree>(boxes, p.lower_scale());
+  st.key.resize(n);
   for (size_t i = 0; i < n; ++i) {
-    key[i] = std::sqrt(b.straight(p.vertex_spot(b.nodes[i].vertex)).first);
-    open.set_weight(static_cast<int32_t>(i), key[i]);
-    queue.emplace(key[i], static_cast<int32_t>(i));
+    st.key[i] = std::sqrt(b.straight(p.vertex_spot(b.nodes[i].vertex)).first);
+    st.open->set_weight(static_cast<int32_t>(i), st.key[i]);
+    st.queue.emplace(st.key[i], static_cast<int32_t>(i));
   }
-  std::vector<uint8_t> settled(n, 0);
-  // The edge that last hid each root (see best_path): nodes evaluated one after the other are
-  // often hidden from the same roots by the same headland.
-  std::vector<int32_t> hint(static_cast<size_t>(b.site_items()) + n, -1);
-  std::vector<Best> last_val(n);          // each node's best path when last evaluated
-  std::vector<int32_t> last_root(n, -1);  // and the item of `all` it came from (-1: none yet)
-  std::vector<uint64_t> seen_at(n, 0);    // and the stamp of `all` then
-  // and the bound its roots were searched to then (none before the first evaluation)
-  std::vector<double> seen_bound(n, -std::numeric_limits<double>::infinity());
+  st.settled.assign(n, 0);
+  st.hint.assign(static_cast<size_t>(b.site_items()) + n, -1);
+  st.last_val.assign(n, Best{});
+  st.last_root.assign(n, -1);
+  st.seen_at.assign(n, 0);
+  // (none searched before the first evaluation)
+  st.seen_bound.assign(n, -std::numeric_limits<double>::infinity());
   // Nodes no seed can reach (a lagoon without a port) never settle: their keys only climb. While
   // a reachable node waits, the first node not yet settled on its path is at most the diameter
   // of everything beyond the farthest node settled (or a site it sees), so a least key above that
   // means every node left is unreachable.
-  double diameter = 0.0;
-  {
-    double xmin = std::numeric_limits<double>::infinity(), ymin = xmin, xmax = -xmin, ymax = -xmin;
-    auto cover = [&](Vec2 v) {
-      xmin = std::min(xmin, v.x);
-      ymin = std::min(ymin, v.y);
-      xmax = std::max(xmax, v.x);
-      ymax = std::max(ymax, v.y);
-    };
-    for (const Node& node : b.nodes) cover(vis.vertex(node.vertex));
-    for (int32_t id : p.geometric) {
-      const LocalSite& l = p.local[static_cast<size_t>(id)];
-      cover({l.ax, l.ay});
-      cover({l.bx(), l.by()});
-    }
-    // (Geodesic: a geodesic's image bends by millimetres, so its length is its plane distance
-    // to well within the margin.)
-    if (xmin <= xmax) diameter = length({xmin, ymin}, {xmax, ymax}) * (p.geodesic ? 1.01 : 1.0);
+  double xmin = std::numeric_limits<double>::infinity(), ymin = xmin, xmax = -xmin, ymax = -xmin;
+  auto cover = [&](Vec2 v) {
+    xmin = std::min(xmin, v.x);
+    ymin = std::min(ymin, v.y);
+    xmax = std::max(xmax, v.x);
+    ymax = std::max(ymax, v.y);
+  };
+  for (const Node& node : b.nodes) cover(vis.vertex(node.vertex));
+  for (int32_t id : p.geometric) {
+    const LocalSite& l = p.local[static_cast<size_t>(id)];
+    cover({l.ax, l.ay});
+    cover({l.bx(), l.by()});
   }
-  double farthest = 0.0;
-  int64_t steps = 0;
+  // (Geodesic: a geodesic's image bends by millimetres, so its length is its plane distance
+  // to well within the margin.)
+  if (xmin <= xmax) st.diameter = length({xmin, ymin}, {xmax, ymax}) * (p.geodesic ? 1.01 : 1.0);
+}
+
+Settling::~Settling() = default;
+
+bool Settling::done() const { return st_->queue.empty(); }
+
+void Settling::run(int64_t& tests, const std::atomic<bool>* cancel, double within) {
+  Searches& b = b_;
+  const Prepared& p = b.p;
+  const Visibility& vis = p.vis;
+  State& st = *st_;
+  RootTree& open = *st.open;
+  auto& queue = st.queue;
+  auto& key = st.key;
   while (!queue.empty()) {
     const auto [k, i] = queue.top();
-    queue.pop();
     const auto u = static_cast<size_t>(i);
-    if (settled[u] || k != key[u]) continue;
-    if (k > (farthest + diameter) * (1 + 1e-9)) break;  // the rest is unreachable
-    if (k > within) break;                              // (a key is a lower bound: every node left is farther)
-    if (cancel && (++steps & 255) == 0 && cancel->load(std::memory_order_relaxed))
+    if (st.settled[u] || k != key[u]) {  // (an older entry of a node since settled or raised)
+      queue.pop();
+      continue;
+    }
+    if (k > (st.farthest + st.diameter) * (1 + 1e-9)) {  // the rest is unreachable
+      queue = {};
+      break;
+    }
+    // (A key is a lower bound: every node left is farther. The entry stays for the next run.)
+    if (k > within) break;
+    if (cancel && (++st.steps & 255) == 0 && cancel->load(std::memory_order_relaxed))
       throw Error(ErrorKind::cancelled, "computation cancelled");
+    queue.pop();
     const Node& node = b.nodes[u];
     ++b.evaluations;
     const Place at = vis.at_vertex(node.vertex, node.wedge);
@@ -184,16 +215,16 @@ void settle_bends(Searches& b, int64_t& tests, const std::atomic<bool>* cancel, 
     // every evaluation); those searched before (settled by then, within the bound then) are not
     // searched again: the best of them is last_val.
     int32_t won = -1;
-    const Best val = b.best_path(at, p.vertex_spot(node.vertex), last_val[u], tests, node.vertex, &hint, -1, &won,
-                                 seen_at[u], seen_bound[u], bound);
-    if (won >= 0) last_root[u] = won;
-    last_val[u] = val;
-    seen_at[u] = b.all.stamp();
-    seen_bound[u] = bound;
+    const Best val = b.best_path(at, p.vertex_spot(node.vertex), st.last_val[u], tests, node.vertex, &st.hint, -1, &won,
+                                 st.seen_at[u], st.seen_bound[u], bound);
+    if (won >= 0) st.last_root[u] = won;
+    st.last_val[u] = val;
+    st.seen_at[u] = b.all.stamp();
+    st.seen_bound[u] = bound;
     if (val.d < bound || !std::isfinite(bound)) {
-      settled[u] = 1;
+      st.settled[u] = 1;
       b.dist[u] = val;
-      b.prev[u] = last_root[u] >= b.site_items() ? last_root[u] - b.site_items() : -1;
+      b.prev[u] = st.last_root[u] >= b.site_items() ? st.last_root[u] - b.site_items() : -1;
       if (val.via != kNoVia)
         b.from[u] = vis.vertex(val.via);
       else if (val.site != kNoSite)
@@ -201,7 +232,7 @@ void settle_bends(Searches& b, int64_t& tests, const std::atomic<bool>* cancel, 
       open.set_weight(i, std::numeric_limits<double>::infinity());
       if (std::isfinite(val.d)) {
         b.all.set_weight(b.site_items() + i, val.d);
-        farthest = std::max(farthest, val.d);
+        st.farthest = std::max(st.farthest, val.d);
       }
       continue;
     }
@@ -211,7 +242,10 @@ void settle_bends(Searches& b, int64_t& tests, const std::atomic<bool>* cancel, 
     open.set_weight(i, key[u]);
     queue.emplace(key[u], i);
   }
+  within_ = queue.empty() ? std::numeric_limits<double>::infinity() : std::max(within_, within);
 }
+
+void settle_bends(Searches& b, int64_t& tests, const std::atomic<bool>* cancel) { Settling(b).run(tests, cancel); }
 
 }  // namespace rv::sea
 

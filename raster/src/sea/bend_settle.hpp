@@ -99,16 +99,35 @@ struct Searches {
                  double cap = std::numeric_limits<double>::infinity()) const;
 };
 
-// Settles every node of `b` reachable from its sites (b.dist, b.from, b.prev; b.all weighted),
-// counting the straight paths tested into `tests`. Throws rv::Error(cancelled) when `cancel`
-// becomes true.
-// `within` (metric units): only the nodes whose distance by sea is at most `within` are settled
-// (all of them: nodes are settled in increasing order of distance, so the search stops once the
-// least lower bound left exceeds it); the others stay unsettled (dist +infinity), as if no seed
-// reached them. A path that bends only at settled nodes is then found as before; one through an
-// unsettled node is longer than `within`.
-void settle_bends(Searches& b, int64_t& tests, const std::atomic<bool>* cancel,
-                  double within = std::numeric_limits<double>::infinity());
+// The settling of a Searches' bend nodes, resumable: run(within) settles every node whose
+// distance by sea is at most `within` (all of them: nodes are settled in increasing order of
+// distance, and the search pauses before the first lower bound above `within`), and a later
+// run(farther) goes on from there, settling exactly what one run to `farther` would have. Nodes
+// not yet settled have dist +infinity, as if no seed reached them: a path that bends only at
+// settled nodes is found as before, and one through a node not settled is longer than `within`.
+// Thread safety: run() writes the Searches (b.dist, b.from, b.prev; b.all weighted): no other
+// use of either meanwhile. Keeps a reference to `b`, which must outlive it and not move.
+class Settling {
+ public:
+  explicit Settling(Searches& b);
+  ~Settling();
+  // Counts the straight paths tested into `tests`. Throws rv::Error(cancelled) when `cancel`
+  // becomes true; the settling is then in no state to go on (make a new Searches and Settling).
+  void run(int64_t& tests, const std::atomic<bool>* cancel, double within = std::numeric_limits<double>::infinity());
+  // Every reachable node settled.
+  bool done() const;
+  // The distance every node up to which is settled (+infinity once done()).
+  double settled_within() const { return within_; }
+
+ private:
+  struct State;
+  Searches& b_;
+  std::unique_ptr<State> st_;
+  double within_ = 0.0;
+};
+
+// Settles every node of `b` reachable from its sites (Settling::run to +infinity).
+void settle_bends(Searches& b, int64_t& tests, const std::atomic<bool>* cancel);
 
 }  // namespace rv::sea
 

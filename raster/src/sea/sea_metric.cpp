@@ -41,8 +41,8 @@ class SeaSiteMetric final : public SiteMetric {
         cancel_(options.cancel),
         stats_(stats),
         within_(settle_within) {
-    if (!(settle_within > 0.0))
-      throw Error(ErrorKind::invalid_argument, "the owners' settling needs a positive distance to settle within");
+    if (!(settle_within >= 0.0))
+      throw Error(ErrorKind::invalid_argument, "the owners' settling needs a distance to settle within, 0 or more");
     ComputeOptions straight;
     straight.metric = options.metric;
     straight.geolocator = options.geolocator;
@@ -289,15 +289,30 @@ class SeaSiteMetric final : public SiteMetric {
   // others wait): a metric made for a margin alone, which runs the engine per owner instead, never
   // pays for it. A failed settling (cancelled) is tried again by the next.
   void settled() const {
-    std::call_once(settle_once_, [this] { const_cast<SeaSiteMetric*>(this)->settle_owners(seeds()); });
+    if (ready_.load(std::memory_order_acquire)) return;
+    const std::lock_guard<std::mutex> lock(settle_mutex_);
+    if (ready_.load(std::memory_order_relaxed)) return;
+    const_cast<SeaSiteMetric*>(this)->settle_owners(seeds());
+    ready_.store(true, std::memory_order_release);
   }
 
+ public:
+  // (settle_sea_metric_within)
+  void settle_within(double within) {
+    if (!(within >= 0.0))
+      throw Error(ErrorKind::invalid_argument, "the owners' settling needs a distance to settle within, 0 or more");
+    const std::lock_guard<std::mutex> lock(settle_mutex_);
+    if (within <= within_) return;
+    within_ = within;
+    if (ready_.load(std::memory_order_relaxed)) run_groups();  // (else the first distance asked settles)
+  }
+
+ private:
   // Per owner, the bend nodes settled over its sites alone (with weights or reaches, over each
   // class of its sites alone, sea::site_classes: a site's cost is its length over its weight, so
-  // the cheapest of an owner's paths is the shortest of some class's); then per site, the nodes
-  // its paths reach first.
+  // the cheapest of an owner's paths is the shortest of some class's), up to within_; then per
+  // site, the nodes its paths reach first.
   void settle_owners(const SeedSet& seeds) {
-    const auto start = std::chrono::steady_clock::now();
     const Prepared& pr = prepared();
     const int32_t owners = seeds.owner_count();
     std::vector<std::vector<int32_t>> of_owner(static_cast<size_t>(owners));
@@ -311,17 +326,45 @@ class SeaSiteMetric final : public SiteMetric {
       }
       for (SiteClass& c : site_classes(seeds, owned)) sites.push_back(std::move(c.sites));
     }
-    const auto groups = static_cast<int64_t>(sites.size());
-    searches_.resize(sites.size());
-    std::vector<int64_t> tests(sites.size(), 0);
-    detail::parallel_for(resolve_threads(threads_), groups, [&](int64_t g, int) {
-      const auto k = static_cast<size_t>(g);
-      searches_[k] = std::make_unique<Searches>(pr, sites[k]);
-      settle_bends(*searches_[k], tests[k], cancel_, within_);
+    // (From the start: a settling cancelled before is in no state to go on.)
+    const auto start = std::chrono::steady_clock::now();
+    groups_.clear();
+    groups_.resize(sites.size());
+    detail::parallel_for(resolve_threads(threads_), static_cast<int64_t>(sites.size()), [&](int64_t g, int) {
+      Group& group = groups_[static_cast<size_t>(g)];
+      group.search = std::make_unique<Searches>(pr, sites[static_cast<size_t>(g)]);
+      group.settling = std::make_unique<Settling>(*group.search);
     });
+    if (stats_) {
+      *stats_ = SeaMetricStats{};
+      stats_->seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    }
+    run_groups();
+  }
+
+  // Every group's settling run on to within_, then the sites' roots indexed again.
+  void run_groups() {
+    const auto start = std::chrono::steady_clock::now();
+    std::vector<int64_t> tests(groups_.size(), 0);
+    detail::parallel_for(resolve_threads(threads_), static_cast<int64_t>(groups_.size()), [&](int64_t g, int) {
+      groups_[static_cast<size_t>(g)].settling->run(tests[static_cast<size_t>(g)], cancel_, within_);
+    });
+    index_roots(seeds());
+    if (stats_) {
+      stats_->owners = seeds().owner_count();
+      for (int64_t t : tests) stats_->bend_tests += t;
+      stats_->seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+      stats_->within = within_;
+    }
+  }
+
+  // Per site, the settled nodes its paths reach first, in a tree weighted by their distance.
+  void index_roots(const SeedSet& seeds) {
+    const Prepared& pr = prepared();
+    roots_.clear();
     roots_of_site_.assign(seeds.sites().size(), -1);
-    for (const auto& s : searches_) {
-      if (!s) continue;
+    for (const Group& group : groups_) {
+      const Searches* s = group.search.get();
       std::vector<std::vector<int32_t>> by_site(seeds.sites().size());
       for (size_t k = 0; k < s->nodes.size(); ++k)
         if (std::isfinite(s->dist[k].d))
@@ -329,7 +372,7 @@ class SeaSiteMetric final : public SiteMetric {
       for (size_t site = 0; site < by_site.size(); ++site) {
         if (by_site[site].empty()) continue;
         SiteRoots roots;
-        roots.search = s.get();
+        roots.search = s;
         roots.nodes = std::move(by_site[site]);
         std::vector<RootTree::Box> boxes;
         for (int32_t k : roots.nodes) {
@@ -342,13 +385,6 @@ class SeaSiteMetric final : public SiteMetric {
         roots_of_site_[site] = static_cast<int32_t>(roots_.size());
         roots_.push_back(std::move(roots));
       }
-    }
-    if (stats_) {
-      stats_->owners = owners;
-      stats_->bend_tests = 0;
-      for (int64_t t : tests) stats_->bend_tests += t;
-      stats_->seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-      stats_->within = within_;
     }
   }
 
@@ -365,10 +401,15 @@ class SeaSiteMetric final : public SiteMetric {
   const int threads_;  // the owners' settling's
   const std::atomic<bool>* cancel_;
   SeaMetricStats* stats_;
-  const double within_;  // the owners' nodes settled up to this distance by sea
-  mutable std::once_flag settle_once_;
-  // Filled by the settling (settled()), then only read.
-  std::vector<std::unique_ptr<Searches>> searches_;  // per owner with geometric sites (per class of them)
+  double within_;  // the owners' nodes settled (or to be) up to this distance by sea
+  mutable std::mutex settle_mutex_;
+  mutable std::atomic<bool> ready_{false};  // settled up to within_
+  // Filled by the settling (settled(), settle_within()), then only read.
+  struct Group {
+    std::unique_ptr<Searches> search;  // per owner with geometric sites (per class of them)
+    std::unique_ptr<Settling> settling;
+  };
+  std::vector<Group> groups_;
   std::vector<SiteRoots> roots_;
   std::vector<int32_t> roots_of_site_;             // site -> its entry of roots_, or -1
   std::vector<Edge> edges_;                        // the domain's edges: every barrier edge
@@ -381,6 +422,12 @@ std::unique_ptr<SiteMetric> make_sea_site_metric(const SeedSet& seeds, const Bar
                                                  const SeaOptions& options, SeaMetricStats* stats,
                                                  double settle_within) {
   return std::make_unique<SeaSiteMetric>(seeds, barriers, grid, options, stats, settle_within);
+}
+
+void settle_sea_metric_within(SiteMetric& metric, double within) {
+  auto* sea = dynamic_cast<SeaSiteMetric*>(&metric);
+  if (!sea) throw Error(ErrorKind::internal, "settle_sea_metric_within: not a metric of the distance by sea");
+  sea->settle_within(within);
 }
 
 }  // namespace rv

@@ -51,6 +51,33 @@ std::unique_ptr<SiteMetric> site_metric(const PreparedJob& job, const JobRun& ru
   return make_sea_site_metric(job.loaded.seeds, job.sea->loaded.barriers, job.grid, options, &stats, settle_within);
 }
 
+// By sea: how far the lines' metric settles each owner's bend nodes (make_sea_site_metric's
+// settle_within, metric units) for a field whose largest distance is `farthest` (metric units; < 0:
+// no owned cell): half as far again as `farthest` times the heaviest weight over the lightest, or
+// as the largest limit level, whichever is larger, plus 16 cells; 0 without an owned cell or a
+// limit.
+double sea_settle_within(const PreparedJob& job, double farthest) {
+  constexpr double kInf = std::numeric_limits<double>::infinity();
+  // With weights an owner competes for a cell up to the heaviest weight over the lightest times the
+  // winner's length (its cost is at most the winner's).
+  double lightest = kInf, heaviest = 0.0;
+  for (const Feature& f : job.loaded.seeds.features()) {
+    lightest = std::min(lightest, f.weight);
+    heaviest = std::max(heaviest, f.weight);
+  }
+  const double ratio = lightest > 0.0 && heaviest >= lightest ? heaviest / lightest : 1.0;
+  double level = 0.0;
+  for (double l : job.limit_distances) level = std::max(level, l);
+  // A cell's diagonal in metric units, generously (on the ellipsoid a degree is at most 112 km).
+  const bool degrees = job.metric.kind == MetricSpec::geodesic && !job.compute.geolocator;
+  const double cell = job.grid.res * (degrees ? 1.12e5 : 1.0) * std::sqrt(2.0) * 1.01;
+  // The margin: the lines ask at positions between cells, at the grid's frame and on coasts,
+  // which can lie farther than any cell centre; half as far again, and 16 cells.
+  if (farthest < 0.0 && level == 0.0) return 0.0;
+  const double within = 1.5 * std::max(std::max(farthest, 0.0) * ratio, level) + 16.0 * cell;
+  return std::isfinite(within) ? within : kInf;
+}
+
 // By sea: the barriers' rings (closed) and lines in the grid's CRS, for the regions' faces. On the
 // ellipsoid an edge is a geodesic: followed in steps of a fifth of a cell (its chord then lies
 // within a few micrometres of it), located back into a projected grid's CRS.
@@ -106,6 +133,7 @@ struct StripDeliverables::State {
   std::optional<GeoTiffStripWriter<float>> margin_writer;  // streamed
   OtherOwnersField sea_margin;                             // by sea: the margin's per-owner engine
   SeaMetricStats sea_stats;                                // by sea: the metric's owners' settling
+  double sea_farthest = -1.0;  // by sea: the largest distance of the strips added (metric units)
   double boundary_seconds = 0.0, limit_seconds = 0.0, margin_seconds = 0.0, region_seconds = 0.0;
   double wall_seconds = 0.0;  // in add() and finish(): the deliverables' own wall time, writes included
   VectorOutputOptions vector;
@@ -244,12 +272,13 @@ std::map<std::string, LinePieces> StripDeliverables::kept_line_pieces() {
 }
 
 StripDeliverables::StripDeliverables(JobRun& run, const PreparedJob& job, bool streamed,
-                                     const PartialEffectResult* partial, double sea_settle_within)
+                                     const PartialEffectResult* partial)
     : st_(std::make_unique<State>(run, job, streamed, partial)) {
   State& s = *st_;
   const OutputRequest& out = s.out();
   const GridSpec& g = job.grid;
-  s.metric = site_metric(job, run, s.sea_stats, sea_settle_within);
+  // (By sea: nothing settled beyond the seeds until add() knows how far the strips' cells lie.)
+  s.metric = site_metric(job, run, s.sea_stats, 0.0);
   // With weights or reaches the max distance ends every reach, as the engine compares.
   s.index = job.loaded.seeds.adjusted()
                 ? std::make_unique<OwnerIndex>(*s.metric, OwnerIndex::Measure::adjusted, job.compute.max_distance)
@@ -331,6 +360,13 @@ void StripDeliverables::add(const NearestField& strip, const NearestField* measu
     f();
     return seconds_since(t);
   };
+  if (s.job.sea) {
+    // The lines' metric settles the owners as far as the field's cells so far ask (and, where
+    // they were settled for earlier strips, goes on from there).
+    for (float d : strip.distance.cells())
+      if (std::isfinite(d)) s.sea_farthest = std::max(s.sea_farthest, static_cast<double>(d));
+    settle_sea_metric_within(*s.metric, sea_settle_within(s.job, s.sea_farthest));
+  }
   if (s.boundaries) s.boundary_seconds += seconds([&] { s.feed(*s.boundaries, "boundaries", strip); });
   const NearestField& lines_from = measured != nullptr ? *measured : strip;
   if (s.limits) s.limit_seconds += seconds([&] { s.feed(*s.limits, "limits", lines_from); });
@@ -753,33 +789,6 @@ GeoTiffOptions raster_options(const JobSpec& spec) {
   return o;
 }
 
-double sea_settle_within(const PreparedJob& job, const NearestField& field) {
-  constexpr double kInf = std::numeric_limits<double>::infinity();
-  if (!job.sea) return kInf;
-  // The farthest any owned cell is from its seed by sea (metric units).
-  float farthest = -1.0f;
-  for (float d : field.distance.cells())
-    if (std::isfinite(d)) farthest = std::max(farthest, d);
-  if (farthest < 0.0f) return kInf;
-  // With weights an owner competes for a cell up to the heaviest weight over the lightest times the
-  // winner's length (its cost is at most the winner's).
-  double lightest = kInf, heaviest = 0.0;
-  for (const Feature& f : job.loaded.seeds.features()) {
-    lightest = std::min(lightest, f.weight);
-    heaviest = std::max(heaviest, f.weight);
-  }
-  const double ratio = lightest > 0.0 && heaviest >= lightest ? heaviest / lightest : 1.0;
-  double level = 0.0;
-  for (double l : job.limit_distances) level = std::max(level, l);
-  // A cell's diagonal in metric units, generously (on the ellipsoid a degree is at most 112 km).
-  const bool degrees = job.metric.kind == MetricSpec::geodesic && !job.compute.geolocator;
-  const double cell = job.grid.res * (degrees ? 1.12e5 : 1.0) * std::sqrt(2.0) * 1.01;
-  // The margin: the lines ask at positions between cells, at the grid's frame and on coasts,
-  // which can lie farther than any cell centre; half as far again, and 16 cells.
-  const double within = 1.5 * std::max(static_cast<double>(farthest) * ratio, level) + 16.0 * cell;
-  return std::isfinite(within) && within > 0.0 ? within : kInf;
-}
-
 void deliver(JobRun& run, const PreparedJob& job, const NearestField& computed, const PartialEffectResult* partial) {
   if (!run.spec.outputs.any_deliverable()) return;
   run.check_cancel();
@@ -794,7 +803,7 @@ void deliver(JobRun& run, const PreparedJob& job, const NearestField& computed, 
     field = &exact;
     run.timings["deliverables"]["exact_field"] = exact.seconds;
   }
-  StripDeliverables d(run, job, false, partial, sea_settle_within(job, *field));
+  StripDeliverables d(run, job, false, partial);
   d.add(*field, partial != nullptr ? &partial->full : nullptr);
   d.finish();
 }

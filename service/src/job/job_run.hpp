@@ -9,7 +9,6 @@
 
 #include <chrono>
 #include <filesystem>
-#include <limits>
 #include <map>
 #include <memory>
 #include <optional>
@@ -138,11 +137,10 @@ class StripDeliverables {
   // `partial`: a job with partial effect (whole only): its lines are the rule's
   // (PartialEffectResult::boundaries, not extracted again), regions' faces are owned by the rule,
   // and distance limits measure its full-effect field (add's `measured`). Kept by reference.
-  // `sea_settle_within` (by sea): how far by sea the owners' bend nodes are settled for the lines
-  // (make_sea_site_metric's settle_within; sea_settle_within() for a whole field); +infinity (a
-  // streamed job, whose field's largest distance is not known before its lines): all of them.
-  StripDeliverables(JobRun& run, const PreparedJob& job, bool streamed, const PartialEffectResult* partial = nullptr,
-                    double sea_settle_within = std::numeric_limits<double>::infinity());
+  // By sea the lines' metric settles each owner's bend nodes only as far by sea as the strips added
+  // so far ask (half as far again as their largest distance, or the largest limit, and 16 cells):
+  // add() raises it before their lines are drawn.
+  StripDeliverables(JobRun& run, const PreparedJob& job, bool streamed, const PartialEffectResult* partial = nullptr);
   ~StripDeliverables();
   // `measured`: the field the distance limits and the max-distance line are drawn from, when not
   // `strip` (partial effect: the full-effect field; the rest follows the rule's `strip`).
@@ -195,12 +193,6 @@ class StripDeliverables {
   struct State;
   std::unique_ptr<State> st_;
 };
-
-// By sea: how far the lines' metric settles each owner's bend nodes for a whole field
-// (make_sea_site_metric's settle_within, metric units): half as far again as the field's largest
-// distance (times the heaviest weight over the lightest) or the largest limit level, whichever is
-// larger, plus 16 cells; +infinity without barriers or without an owned cell.
-double sea_settle_within(const PreparedJob& job, const NearestField& field);
 
 // The deliverables of a job computed whole, from its field (a scan's: the exact field is
 // computed for them). Nothing when none is requested.

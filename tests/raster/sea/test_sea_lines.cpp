@@ -132,9 +132,10 @@ TEST(SeaLines, EachOwnersDistanceIsTheReferencesForItsSeedsAlone) {
 
 // Owners settled only within a distance by sea (make_sea_site_metric's settle_within): every
 // site's and owner's distance up to it is the fully settled metric's, to the bit; beyond it some
-// length above it or none. Settled within half as far again as the field's largest distance plus
-// a margin (the job's rule), the boundaries and tripoints are the fully settled ones, vertex for
-// vertex; and the settling tested fewer paths.
+// length above it or none. A settling raised to it from a shorter one (settle_sea_metric_within)
+// gives the same, having tested as many paths. Settled within half as far again as the field's
+// largest distance plus a margin (the job's rule), the boundaries and tripoints are the fully
+// settled ones, vertex for vertex; and the settling tested fewer paths.
 TEST(SeaLines, OwnersSettledWithinADistanceAreExactUpToIt) {
   std::mt19937_64 rng(58);
   const GridSpec g = test::grid_of(40, 40, 1.0, -1.0, 41.0);
@@ -156,12 +157,19 @@ TEST(SeaLines, OwnersSettledWithinADistanceAreExactUpToIt) {
     ++rounds;
     const double reach = 9.0;
     const std::unique_ptr<SiteMetric> cut = make_sea_site_metric(a.seeds, a.barriers, g, {}, &cut_stats, reach);
+    SeaMetricStats raised_stats;
+    const std::unique_ptr<SiteMetric> raised = make_sea_site_metric(a.seeds, a.barriers, g, {}, &raised_stats, 4.0);
+    const double first = raised->distance(centre(g, 20, 20), 0);  // (settles to 4)
+    EXPECT_TRUE(first <= 4.0 || first > 4.0);                     // (a number or +infinity, not NaN)
+    const int64_t tests_to_4 = raised_stats.bend_tests;
+    settle_sea_metric_within(*raised, reach);
     const OwnerIndex full_index(*all), cut_index(*cut);
     for (int64_t r = 0; r < g.height; ++r)
       for (int64_t c = 0; c < g.width; ++c) {
         const Vec2 p = centre(g, c, r);
         for (int32_t site = 0; site < static_cast<int32_t>(a.seeds.sites().size()); ++site) {
           const double d = all->distance(p, site), e = cut->distance(p, site);
+          ASSERT_EQ(std::bit_cast<uint64_t>(raised->distance(p, site)), std::bit_cast<uint64_t>(e));
           if (d <= reach) {
             ASSERT_EQ(std::bit_cast<uint64_t>(d), std::bit_cast<uint64_t>(e)) << round << ": " << c << "," << r;
           } else {
@@ -183,6 +191,9 @@ TEST(SeaLines, OwnersSettledWithinADistanceAreExactUpToIt) {
       }
     EXPECT_LT(cut_stats.bend_tests, all_stats.bend_tests) << round;
     EXPECT_EQ(cut_stats.within, reach);
+    EXPECT_LT(tests_to_4, cut_stats.bend_tests) << round;
+    EXPECT_EQ(raised_stats.bend_tests, cut_stats.bend_tests) << round;
+    EXPECT_EQ(raised_stats.within, reach);
     // The job's rule: half as far again as the field's largest distance, and 16 cells.
     float farthest = 0.0f;
     for (float d : field.field.distance.cells())

@@ -54,7 +54,7 @@ struct SeaMetricStats {
 // *options.cancel becomes true (the next call tries again). `stats`, when given, is filled then:
 // it and options.cancel must outlive the metric.
 //
-// `settle_within` (metric units, > 0): each owner's bend nodes are settled only up to that
+// `settle_within` (metric units, >= 0): each owner's bend nodes are settled only up to that
 // distance by sea from the owner's seeds. Distances are then exact wherever they are at most
 // `settle_within`; a larger one comes out as some path's length above `settle_within`, or
 // +infinity (a path bending at a node farther than that from its owner is not sought). So the
@@ -63,9 +63,20 @@ struct SeaMetricStats {
 // exactly. The lines ask for owners at their own positions (between two owners' cells, at three
 // owners' meeting, on a limit's level): a bound of the field's largest distance, with a margin,
 // and of the largest limit level, leaves them unchanged, and spares the settling of the nodes an
-// owner reaches only round many headlands, which is most of it. +infinity: every node settled.
+// owner reaches only round many headlands, which is most of it. +infinity: every node settled;
+// 0: none beyond the seeds until settle_sea_metric_within raises it (a streamed job raises it
+// strip by strip, as the field's largest distance grows).
 std::unique_ptr<SiteMetric> make_sea_site_metric(const SeedSet& seeds, const Barriers& barriers, const GridSpec& grid,
                                                  const SeaOptions& options = {}, SeaMetricStats* stats = nullptr,
                                                  double settle_within = std::numeric_limits<double>::infinity());
+
+// Raises the distance a metric of make_sea_site_metric settles its owners within to `within`
+// (metric units, >= 0; nothing when not above the present one). Where the owners were settled
+// already the settling goes on from where it stopped (what one settling to `within` would have
+// settled, to the bit), on the metric's threads, into its stats (bend_tests and seconds add up).
+// Not to be called while any other call on the metric runs (a streamed job calls it between
+// strips). Throws rv::Error(invalid_argument) for within < 0 or NaN, rv::Error(internal) for a metric
+// of another kind, rv::Error(cancelled) as the settling.
+void settle_sea_metric_within(SiteMetric& metric, double within);
 
 }  // namespace rv
