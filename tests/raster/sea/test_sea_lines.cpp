@@ -621,5 +621,88 @@ TEST(SeaLines, ATieRegionBehindAVertexIsOwnedByTheLowerSiteAndTheLineRunsAlongIt
               static_cast<long long>(cells), static_cast<long long>(behind));
 }
 
+// The tie region on the ellipsoid: a 40 km wall from A north-east (azimuth 45 degrees), two seeds
+// south of A placed symmetrically about A's meridian, so that their geodesic distances to A are
+// equal to the bit (the inverse problem's longitude difference is taken by its magnitude). The
+// east seed ("lo", the lower site) is hidden from the sea beyond the meridian north of A, the
+// west one ("hi") from the sea beyond its own shadow geodesic (the geodesic from it through A,
+// continued); between the wall and that geodesic both paths bend at A, equal lengths to the bit:
+// the tie region, "lo"'s. The boundary runs up A's meridian (the two seeds' bisector), turns at A
+// and follows the shadow geodesic, every vertex beyond A on it (within a millimetre: off the
+// geodesic the two lengths part quadratically, and stay equal in doubles a fraction of a
+// millimetre away) and flagged tie, its distance the path round A.
+TEST(SeaLines, OnTheEllipsoidATieRegionsEdgeIsTheShadowGeodesic) {
+  using test::metres;
+  const GeographicLib::Geodesic& earth = test::wgs84();
+  const Vec2 a{10.5, 55.1};
+  Vec2 b;
+  earth.Direct(a.y, a.x, 45.0, 40e3, b.y, b.x);
+  const Vec2 lo{10.6, 54.95}, hi{10.4, 54.95};
+  ASSERT_EQ(metres(lo, a), metres(hi, a));
+  Barriers wall;
+  wall.add_line(std::vector<Vec2>{a, b}, "wall");
+  SeedSet seeds;
+  seeds.add_point(seeds.add_feature(seeds.owner_code("lo")), lo);
+  seeds.add_point(seeds.add_feature(seeds.owner_code("hi")), hi);
+  const GridSpec g = test::grid_of(80, 65, 0.01, 10.2, 55.5);
+  SeaOptions options;
+  options.metric = test::geodesic_metric();
+  const SeaField field = compute_sea(seeds, wall, g, g.full_window(), options);
+  const std::unique_ptr<SiteMetric> metric = make_sea_site_metric(seeds, wall, g, options);
+  const OwnerIndex index(*metric);
+  BoundaryOptions lines;
+  lines.line_tolerance = 1e-3;
+  const BoundaryResult r = extract_boundaries(field.field, index, lines);
+  ASSERT_EQ(r.lines.size(), 1u);
+  // The shadow geodesic: from A on at the azimuth the geodesic from "hi" arrives with.
+  double s12, azi1, ray;
+  earth.Inverse(hi.y, hi.x, a.y, a.x, s12, azi1, ray);
+  const double round_a = metres(hi, a);
+  int64_t on_meridian = 0, beyond = 0, apex = 0, tied = 0, cells = 0;
+  double worst = 0.0;
+  for (const BoundaryVertex& v : r.lines[0].vertices) {
+    tied += v.tie;
+    if (v.p.x == a.x && v.p.y == a.y) {
+      EXPECT_TRUE(v.tie);
+      ++apex;
+      continue;
+    }
+    if (v.p.y < a.y) {  // south of A: the bisector, A's meridian
+      EXPECT_FALSE(v.tie) << v.p.x << "," << v.p.y;
+      EXPECT_NEAR(v.p.x, a.x, 1e-9) << v.p.y;
+      ++on_meridian;
+      continue;
+    }
+    double d, az, back;
+    earth.Inverse(a.y, a.x, v.p.y, v.p.x, d, az, back);
+    const double off = d * std::sin((az - ray) * M_PI / 180.0);
+    EXPECT_NEAR(off, 0.0, 1e-3) << v.p.x << "," << v.p.y;
+    worst = std::max(worst, std::abs(off));
+    EXPECT_TRUE(v.tie) << v.p.x << "," << v.p.y;
+    EXPECT_NEAR(v.distance, round_a + d, 1e-6 * v.distance);
+    ++beyond;
+  }
+  EXPECT_EQ(apex, 1);
+  EXPECT_GT(on_meridian, 5);
+  EXPECT_GT(beyond, 10);
+  EXPECT_EQ(r.stats.tie_vertices, tied);
+  // The tie region: cells beyond the shadow geodesic and short of the wall, round A both.
+  for (int64_t row = 0; row < g.height; ++row)
+    for (int64_t c = 0; c < g.width; ++c) {
+      const Vec2 x{g.centre_x(c), g.centre_y(row)};
+      double d, az, back;
+      earth.Inverse(a.y, a.x, x.y, x.x, d, az, back);
+      if (!(az > ray + 0.5 && az < 44.5) || d > 30e3 || d < 2e3) continue;
+      ASSERT_EQ(field.field.site.at(c, row), 0) << c << "," << row;
+      ASSERT_NEAR(field.field.distance.at(c, row), round_a + d, 1e-6 * (round_a + d) + 0.01);
+      ++cells;
+    }
+  EXPECT_GT(cells, 50);
+  std::printf(
+      "a tie region on the ellipsoid: %lld cells, the line along its edge %lld vertices, worst off the shadow "
+      "geodesic %.3g m\n",
+      static_cast<long long>(cells), static_cast<long long>(beyond), worst);
+}
+
 }  // namespace
 }  // namespace rv
