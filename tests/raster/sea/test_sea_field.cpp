@@ -16,6 +16,7 @@
 #include "rv/sea/visibility.hpp"
 #include "seed_gen.hpp"
 #include "wall_paths.hpp"
+#include "wall_sea.hpp"
 
 namespace rv {
 namespace {
@@ -43,11 +44,7 @@ struct Worst {
 };
 Vec2 centre(const GridSpec& g, int64_t c, int64_t r) { return Vec2{g.centre_x(c), g.centre_y(r)}; }
 
-SeedSet points(std::initializer_list<std::pair<std::string, Vec2>> list) {
-  SeedSet s;
-  for (const auto& [owner, p] : list) s.add_point(s.add_feature(s.owner_code(owner)), p);
-  return s;
-}
+SeedSet points(std::initializer_list<std::pair<std::string, Vec2>> list) { return test::named_points(list); }
 
 using test::crosses_wall;
 using test::dist;

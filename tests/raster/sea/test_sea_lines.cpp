@@ -510,18 +510,12 @@ namespace {
 // ends on the wall's far side.
 TEST(SeaLines, OnTheEllipsoidTheLineFollowsGeodesicPathsRoundAWall) {
   const Vec2 a{10.5, 55.1}, b{10.5, 55.5}, s1{10.38, 55.16}, s2{10.78, 55.27};
-  Barriers wall;
-  wall.add_line(std::vector<Vec2>{a, b}, "wall");
-  SeedSet seeds;
-  seeds.add_point(seeds.add_feature(seeds.owner_code("W")), s1);
-  seeds.add_point(seeds.add_feature(seeds.owner_code("E")), s2);
+  const SeedSet seeds = test::named_points({{"W", s1}, {"E", s2}});
   const GridSpec g = test::grid_of(50, 30, 0.02, 10.0, 55.6);
   SeaOptions options;
   options.metric = test::geodesic_metric();
-  const SeaField field = compute_sea(seeds, wall, g, g.full_window(), options);
-  const std::unique_ptr<SiteMetric> metric = make_sea_site_metric(seeds, wall, g, options);
-  const OwnerIndex index(*metric);
-  const BoundaryResult r = extract_boundaries(field.field, index);
+  const test::WallSea sea(seeds, a, b, g, options);
+  const BoundaryResult r = extract_boundaries(sea.field.field, *sea.index);
   // The line of the hyperbola behind the south end, and (the east port nearer the north end)
   // one on the west side behind the north end.
   ASSERT_EQ(r.lines.size(), 2u);
@@ -571,9 +565,7 @@ TEST(SeaLines, ATieRegionBehindAVertexIsOwnedByTheLowerSiteAndTheLineRunsAlongIt
   const Vec2 a{20, 20}, b{20, 45}, lo{14, 28}, hi{12, 26};
   ASSERT_EQ(dist(lo, a), 10.0);
   ASSERT_EQ(dist(hi, a), 10.0);
-  SeedSet seeds;
-  seeds.add_point(seeds.add_feature(seeds.owner_code("lo")), lo);
-  seeds.add_point(seeds.add_feature(seeds.owner_code("hi")), hi);
+  const SeedSet seeds = test::named_points({{"lo", lo}, {"hi", hi}});
   const GridSpec g = test::grid_of(40, 50);
   const test::WallSea sea(seeds, a, b, g);
   const SeaField& field = sea.field;
@@ -639,20 +631,15 @@ TEST(SeaLines, OnTheEllipsoidATieRegionsEdgeIsTheShadowGeodesic) {
   earth.Direct(a.y, a.x, 45.0, 40e3, b.y, b.x);
   const Vec2 lo{10.6, 54.95}, hi{10.4, 54.95};
   ASSERT_EQ(metres(lo, a), metres(hi, a));
-  Barriers wall;
-  wall.add_line(std::vector<Vec2>{a, b}, "wall");
-  SeedSet seeds;
-  seeds.add_point(seeds.add_feature(seeds.owner_code("lo")), lo);
-  seeds.add_point(seeds.add_feature(seeds.owner_code("hi")), hi);
+  const SeedSet seeds = test::named_points({{"lo", lo}, {"hi", hi}});
   const GridSpec g = test::grid_of(80, 65, 0.01, 10.2, 55.5);
   SeaOptions options;
   options.metric = test::geodesic_metric();
-  const SeaField field = compute_sea(seeds, wall, g, g.full_window(), options);
-  const std::unique_ptr<SiteMetric> metric = make_sea_site_metric(seeds, wall, g, options);
-  const OwnerIndex index(*metric);
+  const test::WallSea sea(seeds, a, b, g, options);
+  const SeaField& field = sea.field;
   BoundaryOptions lines;
   lines.line_tolerance = 1e-3;
-  const BoundaryResult r = extract_boundaries(field.field, index, lines);
+  const BoundaryResult r = extract_boundaries(field.field, *sea.index, lines);
   ASSERT_EQ(r.lines.size(), 1u);
   // The shadow geodesic: from A on at the azimuth the geodesic from "hi" arrives with.
   double s12, azi1, ray;
