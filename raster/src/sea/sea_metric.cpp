@@ -26,6 +26,7 @@ constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 // a tree weighted by their distance by sea.
 struct SiteRoots {
   const Searches* search = nullptr;
+  int32_t first_hint = 0;      // where `search`'s nodes start among the hints (SeaSiteMetric::hints)
   std::vector<int32_t> nodes;  // tree item -> node of `search`
   RootTree tree;
 };
@@ -248,7 +249,15 @@ class SeaSiteMetric final : public SiteMetric {
     } else {
       on_site = pr.site_key(w.spot, site, &foot) == 0.0;
     }
-    if (on_site || pr.vis.sees(at, foot)) {
+    // (The edge that last hid each root from a position this thread measured: the lines ask at
+    // positions close together, and one crossing test proves most hidden roots hidden again.)
+    std::vector<int32_t>& hint = hints();
+    auto seen = [&](size_t item, const Visibility::Place& to) {
+      int32_t& b = hint[item];
+      if (b >= 0 && pr.vis.crosses(b, at, to)) return false;
+      return pr.vis.sees(at, to, &b);
+    };
+    if (on_site || seen(static_cast<size_t>(site), foot)) {
       VertexHit hit;
       out.d = inner_->distance_at_vertex(p, site, out.gradient, hit);
     }
@@ -265,7 +274,7 @@ class SeaSiteMetric final : public SiteMetric {
           const int32_t k = roots.nodes[static_cast<size_t>(item)];
           const double d = s.through(
               static_cast<size_t>(k), w.spot, xyz, out.d, [&](double length) { return length < out.d; },
-              [&](const Visibility::Place& to) { return pr.vis.sees(at, to); });
+              [&](const Visibility::Place& to) { return seen(static_cast<size_t>(roots.first_hint + k), to); });
           if (!std::isfinite(d)) return;
           out.d = d;
           won = k;
@@ -363,8 +372,11 @@ class SeaSiteMetric final : public SiteMetric {
     const Prepared& pr = prepared();
     roots_.clear();
     roots_of_site_.assign(seeds.sites().size(), -1);
+    auto first_hint = static_cast<int32_t>(seeds.sites().size());
     for (const Group& group : groups_) {
       const Searches* s = group.search.get();
+      const int32_t group_hint = first_hint;
+      first_hint += static_cast<int32_t>(s->nodes.size());
       std::vector<std::vector<int32_t>> by_site(seeds.sites().size());
       for (size_t k = 0; k < s->nodes.size(); ++k)
         if (std::isfinite(s->dist[k].d))
@@ -373,6 +385,7 @@ class SeaSiteMetric final : public SiteMetric {
         if (by_site[site].empty()) continue;
         SiteRoots roots;
         roots.search = s;
+        roots.first_hint = group_hint;
         roots.nodes = std::move(by_site[site]);
         std::vector<RootTree::Box> boxes;
         for (int32_t k : roots.nodes) {
@@ -386,6 +399,19 @@ class SeaSiteMetric final : public SiteMetric {
         roots_.push_back(std::move(roots));
       }
     }
+    hint_count_ = static_cast<size_t>(first_hint);
+  }
+
+  // This thread's hints for this metric: per site (its index), then per node of each group, the
+  // edge that last hid it (-1: none known). Hints only: every answer is exact without them.
+  std::vector<int32_t>& hints() const {
+    thread_local uint64_t hints_by = 0;
+    thread_local std::vector<int32_t> hint;
+    if (hints_by != serial_ || hint.size() != hint_count_) {
+      hint.assign(hint_count_, -1);
+      hints_by = serial_;
+    }
+    return hint;
   }
 
   // This metric's number among all made in the process (from 1): what the position cache is keyed by.
@@ -411,6 +437,7 @@ class SeaSiteMetric final : public SiteMetric {
   };
   std::vector<Group> groups_;
   std::vector<SiteRoots> roots_;
+  size_t hint_count_ = 0;                          // sites, then every group's nodes
   std::vector<int32_t> roots_of_site_;             // site -> its entry of roots_, or -1
   std::vector<Edge> edges_;                        // the domain's edges: every barrier edge
   std::unique_ptr<GeographicLib::Geodesic> geod_;  // geodesic: points along an edge
