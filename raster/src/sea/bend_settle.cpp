@@ -174,8 +174,6 @@ Settling::Settling(Searches& b) : b_(b), st_(std::make_unique<State>()) {
 
 Settling::~Settling() = default;
 
-bool Settling::done() const { return st_->queue.empty(); }
-
 void Settling::run(int64_t& tests, const std::atomic<bool>* cancel, double within) {
   Searches& b = b_;
   const Prepared& p = b.p;
@@ -242,7 +240,6 @@ void Settling::run(int64_t& tests, const std::atomic<bool>* cancel, double withi
     open.set_weight(i, key[u]);
     queue.emplace(key[u], i);
   }
-  within_ = queue.empty() ? std::numeric_limits<double>::infinity() : std::max(within_, within);
 }
 
 void settle_bends(Searches& b, int64_t& tests, const std::atomic<bool>* cancel) { Settling(b).run(tests, cancel); }

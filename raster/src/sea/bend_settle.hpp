@@ -114,16 +114,11 @@ class Settling {
   // Counts the straight paths tested into `tests`. Throws rv::Error(cancelled) when `cancel`
   // becomes true; the settling is then in no state to go on (make a new Searches and Settling).
   void run(int64_t& tests, const std::atomic<bool>* cancel, double within = std::numeric_limits<double>::infinity());
-  // Every reachable node settled.
-  bool done() const;
-  // The distance every node up to which is settled (+infinity once done()).
-  double settled_within() const { return within_; }
 
  private:
   struct State;
   Searches& b_;
   std::unique_ptr<State> st_;
-  double within_ = 0.0;
 };
 
 // Settles every node of `b` reachable from its sites (Settling::run to +infinity).

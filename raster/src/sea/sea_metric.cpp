@@ -313,7 +313,13 @@ class SeaSiteMetric final : public SiteMetric {
     const std::lock_guard<std::mutex> lock(settle_mutex_);
     if (within <= within_) return;
     within_ = within;
-    if (ready_.load(std::memory_order_relaxed)) run_groups();  // (else the first distance asked settles)
+    if (!ready_.load(std::memory_order_relaxed)) return;  // (the first distance asked settles)
+    try {
+      run_groups();
+    } catch (...) {
+      ready_.store(false, std::memory_order_release);  // (cancelled: settled again from the start when asked)
+      throw;
+    }
   }
 
  private:
