@@ -41,9 +41,7 @@ class SeaSiteMetric final : public SiteMetric {
         threads_(options.threads),
         cancel_(options.cancel),
         stats_(stats),
-        within_(settle_within) {
-    if (!(settle_within >= 0.0))
-      throw Error(ErrorKind::invalid_argument, "the owners' settling needs a distance to settle within, 0 or more");
+        within_(checked_within(settle_within)) {
     ComputeOptions straight;
     straight.metric = options.metric;
     straight.geolocator = options.geolocator;
@@ -142,6 +140,11 @@ class SeaSiteMetric final : public SiteMetric {
   }
 
  private:
+  static double checked_within(double within) {
+    if (!(within >= 0.0))
+      throw Error(ErrorKind::invalid_argument, "the owners' settling needs a distance to settle within, 0 or more");
+    return within;
+  }
   static bool located(const SeaOptions& o) { return o.geolocator != nullptr && o.grid_polygons != nullptr; }
   const Prepared& prepared() const { return sea_->prepared; }
 
@@ -308,8 +311,7 @@ class SeaSiteMetric final : public SiteMetric {
  public:
   // (settle_sea_metric_within)
   void settle_within(double within) {
-    if (!(within >= 0.0))
-      throw Error(ErrorKind::invalid_argument, "the owners' settling needs a distance to settle within, 0 or more");
+    checked_within(within);
     const std::lock_guard<std::mutex> lock(settle_mutex_);
     if (within <= within_) return;
     within_ = within;
