@@ -7,11 +7,12 @@
 // check that an optimisation changes no cell).
 //
 //   sea_bench [--data fixtures/baltic_west.gpkg | --wiggly N] [--ports 200] [--res 1000] [--runs 3] [--threads 0]
-//             [--geodesic 1] [--ports-out FILE.geojson]
+//             [--geodesic 1] [--ports-out FILE.geojson] [--cell-by-cell 1]
 //
 // --geodesic 1: the fixture in longitude/latitude, the grid in degrees (--res 0.01), both fields
 // geodesic (the straight one the exact geodesic engine's). --ports-out: the ports chosen, as a
-// GeoJSON file (owner field "owner"), for timing whole jobs with the CLI.
+// GeoJSON file (owner field "owner"), for timing whole jobs with the CLI. --cell-by-cell 1: the
+// exact engine answers every cell alone (SeaOptions::cell_by_cell), the reference of its blocks.
 //
 // --wiggly N: instead of the fixture, a synthetic archipelago of nine fractal-like islands of
 // N vertices in all (each island's radius a sum of random harmonics), over the fixture's box in
@@ -61,7 +62,7 @@ double median(std::vector<double> v) {
 
 int main(int argc, char** argv) {
   std::string data = "fixtures/baltic_west.gpkg", ports_out;
-  int ports = 200, runs = 3, threads = 0, wiggly = 0, geodesic = 0;
+  int ports = 200, runs = 3, threads = 0, wiggly = 0, geodesic = 0, cell_by_cell = 0;
   double res = 1000.0;
   for (int i = 1; i + 1 < argc; i += 2) {
     const std::string a = argv[i];
@@ -79,6 +80,8 @@ int main(int argc, char** argv) {
       threads = std::atoi(argv[i + 1]);
     else if (a == "--geodesic")
       geodesic = std::atoi(argv[i + 1]);
+    else if (a == "--cell-by-cell")
+      cell_by_cell = std::atoi(argv[i + 1]);
     else if (a == "--ports-out")
       ports_out = argv[i + 1];
     else {
@@ -164,6 +167,7 @@ int main(int argc, char** argv) {
   SeaOptions sea_options;
   sea_options.threads = threads;
   sea_options.metric = metric;
+  sea_options.cell_by_cell = cell_by_cell != 0;
   std::vector<double> straight_s, sea_s, bends_s;
   SeaField last;
   for (int run = 0; run < runs; ++run) {

@@ -61,51 +61,13 @@ Best Searches::best_path(const Place& at, const Spot& spot, Best best, int64_t& 
     ++tests;
     return p.vis.sees(at, to);
   };
-  auto consider = [&](int32_t item) {
-    if (item < site_items()) {
-      const int32_t id = site_of[static_cast<size_t>(item)];
-      // A point site on the ellipsoid: its chord, then whether it is seen, then its length (most
-      // candidates the chord lets through are nearer than the best but hidden).
-      if (p.geodesic && !p.segment(id)) {
-        if (Prepared::chord_below(p.site_xyz[static_cast<size_t>(id)], xyz) > best.d) return;
-        const Place to = p.site_place(id, spot);
-        if (spot.ll != p.site_ll[static_cast<size_t>(id)] && !seen(item, to)) return;
-        const Best c{std::sqrt(p.site_key(spot, id)), id, kNoVia};
-        if (c < best) {
-          best = c;
-          won = item;
-        }
-        return;
-      }
-      Place to{x};
-      const double key = p.site_key(spot, id, &to);
-      const Best c{std::sqrt(key), id, kNoVia};
-      if (!(c < best)) return;
-      if (key == 0.0 || seen(item, to)) {
-        best = c;
-        won = item;
-      }
-      return;
-    }
-    const auto k = static_cast<size_t>(item - site_items());
-    const Node& n = nodes[k];
-    if (n.vertex == skip_vertex || !std::isfinite(dist[k].d)) return;
-    // (seen(): the hint first -- most candidates a cell's search meets are hidden, and mostly by
-    // the edge that hid them from its neighbour.)
-    const double d = through(
-        k, spot, xyz, best.d,
-        [&](double length) {
-          return Best{length, dist[k].site, n.vertex} < best;
-        },
-        [&](const Place& to) { return seen(item, to); });
-    if (!std::isfinite(d)) return;
-    best = Best{d, dist[k].site, n.vertex};
-    won = item;
+  auto consider_item = [&](int32_t item) {
+    if (consider(item, at, spot, xyz, skip_vertex, best, seen)) won = item;
   };
-  if (first >= 0 && std::isfinite(all.weight(first))) consider(first);
+  if (first >= 0 && std::isfinite(all.weight(first))) consider_item(first);
   all.within(
-      x, [&] { return std::min(best.d + 1e-12 * best.d, cap); }, [&](int32_t item, double) { consider(item); }, since,
-      searched);
+      x, [&] { return std::min(best.d + 1e-12 * best.d, cap); }, [&](int32_t item, double) { consider_item(item); },
+      since, searched);
   if (winner) *winner = won >= 0 ? won : first;
   return best;
 }

@@ -93,6 +93,49 @@ struct Searches {
     return d;
   }
 
+  // Root `item` of `all` as the last leg of a path to `spot` (place `at`), weighed as best_path
+  // weighs every root: taken into `best` when better (Best's order); `seen(item, place)` says
+  // whether the root's place sees `at`. Returns whether it was taken. `xyz`:
+  // Prepared::spot_xyz(spot). The answer over a set of roots is the least of them, in any order.
+  template <class Seen>
+  bool consider(int32_t item, const Place& at, const Spot& spot, const Prepared::Xyz& xyz, int32_t skip_vertex,
+                Best& best, Seen&& seen) const {
+    if (item < site_items()) {
+      const int32_t id = site_of[static_cast<size_t>(item)];
+      // A point site on the ellipsoid: its chord, then whether it is seen, then its length (most
+      // candidates the chord lets through are nearer than the best but hidden).
+      if (p.geodesic && !p.segment(id)) {
+        if (Prepared::chord_below(p.site_xyz[static_cast<size_t>(id)], xyz) > best.d) return false;
+        const Place to = p.site_place(id, spot);
+        if (spot.ll != p.site_ll[static_cast<size_t>(id)] && !seen(item, to)) return false;
+        const Best c{std::sqrt(p.site_key(spot, id)), id, kNoVia};
+        if (!(c < best)) return false;
+        best = c;
+        return true;
+      }
+      Place to{at.at};
+      const double key = p.site_key(spot, id, &to);
+      const Best c{std::sqrt(key), id, kNoVia};
+      if (!(c < best) || !(key == 0.0 || seen(item, to))) return false;
+      best = c;
+      return true;
+    }
+    const auto k = static_cast<size_t>(item - site_items());
+    const Node& n = nodes[k];
+    if (n.vertex == skip_vertex || !std::isfinite(dist[k].d)) return false;
+    // (seen(): the hint first -- most candidates a cell's search meets are hidden, and mostly by
+    // the edge that hid them from its neighbour.)
+    const double d = through(
+        k, spot, xyz, best.d,
+        [&](double length) {
+          return Best{length, dist[k].site, n.vertex} < best;
+        },
+        [&](const Place& to) { return seen(item, to); });
+    if (!std::isfinite(d)) return false;
+    best = Best{d, dist[k].site, n.vertex};
+    return true;
+  }
+
   Best best_path(const Place& at, const Spot& spot, Best best, int64_t& tests, int32_t skip_vertex = -1,
                  std::vector<int32_t>* blockers = nullptr, int32_t first = -1, int32_t* winner = nullptr,
                  uint64_t since = 0, double searched = std::numeric_limits<double>::infinity(),

@@ -9,6 +9,7 @@
 
 #include <algorithm>
 #include <cstdint>
+#include <limits>
 #include <utility>
 #include <vector>
 
@@ -44,6 +45,12 @@ class EdgeIndex {
                vertex_ids_.data() + vertex_start_[i], vertex_start_[i + 1] - vertex_start_[i]);
     });
   }
+
+  // Calls f(edges, edge count, vertices, vertex count) for every bucket a convex polygon
+  // (`poly`, n >= 1 vertices in order) widened by `margin` may meet, row by row, until f returns
+  // false: every edge that comes within `margin` of the polygon and every vertex within it are met.
+  template <class F>
+  void cover(const Vec2* poly, int n, double margin, F&& f) const;
 
   int64_t bucket_count() const { return cols_ * rows_; }
 
@@ -94,6 +101,52 @@ void EdgeIndex::buckets(Vec2 p, Vec2 q, F&& f) const {
       }
     }
     if (r == r_last) break;
+  }
+}
+
+template <class F>
+void EdgeIndex::cover(const Vec2* poly, int n, double margin, F&& f) const {
+  if (cols_ == 0 || n <= 0) return;
+  const double pad = pad_ + margin;
+  double xmin = poly[0].x, xmax = xmin, ymin = poly[0].y, ymax = ymin;
+  for (int i = 1; i < n; ++i) {
+    xmin = std::min(xmin, poly[i].x);
+    xmax = std::max(xmax, poly[i].x);
+    ymin = std::min(ymin, poly[i].y);
+    ymax = std::max(ymax, poly[i].y);
+  }
+  const double top = y0_ + static_cast<double>(rows_) * size_, right = x0_ + static_cast<double>(cols_) * size_;
+  if (ymax + pad < y0_ || ymin - pad > top || xmax + pad < x0_ || xmin - pad > right) return;
+  for (int64_t r = row(ymin - pad), r_last = row(ymax + pad); r <= r_last; ++r) {
+    // The polygon's x-extent within this row of buckets widened by the pad: a convex polygon's
+    // is that of its boundary clipped to the row.
+    const double lo = y0_ + static_cast<double>(r) * size_ - pad, hi = y0_ + static_cast<double>(r + 1) * size_ + pad;
+    double xa = std::numeric_limits<double>::infinity(), xb = -xa;
+    for (int i = 0; i < n; ++i) {
+      const Vec2 a = poly[i], b = poly[(i + 1) % n];
+      if (std::max(a.y, b.y) < lo || std::min(a.y, b.y) > hi) continue;
+      if (a.y == b.y) {
+        xa = std::min({xa, a.x, b.x});
+        xb = std::max({xb, a.x, b.x});
+        continue;
+      }
+      for (const double y : {lo, hi}) {
+        const double t = std::clamp((y - a.y) / (b.y - a.y), 0.0, 1.0);
+        const double x = a.x + t * (b.x - a.x);
+        xa = std::min(xa, x);
+        xb = std::max(xb, x);
+      }
+    }
+    if (!(xa <= xb)) continue;
+    xa -= pad;
+    xb += pad;
+    if (xb < x0_ || xa > right) continue;
+    for (int64_t c = column(xa), c_last = column(xb); c <= c_last; ++c) {
+      const auto i = static_cast<size_t>(r * cols_ + c);
+      if (!f(edge_ids_.data() + edge_start_[i], edge_start_[i + 1] - edge_start_[i],
+             vertex_ids_.data() + vertex_start_[i], vertex_start_[i + 1] - vertex_start_[i]))
+        return;
+    }
   }
 }
 

@@ -47,7 +47,16 @@ class RootTree {
   // whole subtrees at once.
   template <class L, class F>
   void within(Vec2 x, L&& limit, F&& visit, uint64_t since = 0,
-              double seen = std::numeric_limits<double>::infinity()) const;
+              double seen = std::numeric_limits<double>::infinity()) const {
+    within_by([&](const Box& b) { return box_distance(b, x); }, limit, visit, since, seen);
+  }
+  // The same for every point of box q at once: bounds of weight + the distance between the
+  // item's box and q (a lower bound for each point of q).
+  template <class L, class F>
+  void within(const Box& q, L&& limit, F&& visit) const {
+    within_by([&](const Box& b) { return boxes_distance(b, q); }, limit, visit, 0,
+              std::numeric_limits<double>::infinity());
+  }
 
  private:
   static constexpr int kLeaf = 8;
@@ -64,6 +73,14 @@ class RootTree {
     const double dy = std::max({b.lo.y - x.y, 0.0, x.y - b.hi.y});
     return std::sqrt(dx * dx + dy * dy) * scale_;
   }
+
+  double boxes_distance(const Box& b, const Box& q) const {
+    const double dx = std::max({b.lo.x - q.hi.x, 0.0, q.lo.x - b.hi.x});
+    const double dy = std::max({b.lo.y - q.hi.y, 0.0, q.lo.y - b.hi.y});
+    return std::sqrt(dx * dx + dy * dy) * scale_;
+  }
+  template <class D, class L, class F>
+  void within_by(D&& distance, L&& limit, F&& visit, uint64_t since, double seen) const;
 
   double scale_ = 1.0;
   std::vector<Node> nodes_;
@@ -105,8 +122,8 @@ void RootTree::nearest(Vec2 x, F&& visit) const {
   }
 }
 
-template <class L, class F>
-void RootTree::within(Vec2 x, L&& limit, F&& visit, uint64_t since, double seen) const {
+template <class D, class L, class F>
+void RootTree::within_by(D&& distance, L&& limit, F&& visit, uint64_t since, double seen) const {
   if (nodes_.empty()) return;
   const bool all_seen = std::isinf(seen) && seen > 0.0;
   int32_t stack[128];
@@ -114,15 +131,14 @@ void RootTree::within(Vec2 x, L&& limit, F&& visit, uint64_t since, double seen)
   stack[top++] = 0;
   while (top > 0) {
     const Node& n = nodes_[static_cast<size_t>(stack[--top])];
-    if ((all_seen && n.max_stamp <= since) || !std::isfinite(n.min_weight) ||
-        n.min_weight + box_distance(n.box, x) > limit())
+    if ((all_seen && n.max_stamp <= since) || !std::isfinite(n.min_weight) || n.min_weight + distance(n.box) > limit())
       continue;
     if (n.left < 0) {
       for (int32_t i = n.first; i < n.first + n.count; ++i) {
         const int32_t item = order_[static_cast<size_t>(i)];
         const double w = weight_[static_cast<size_t>(item)];
         if (!std::isfinite(w) || (all_seen && stamp_[static_cast<size_t>(item)] <= since)) continue;
-        const double bound = w + box_distance(boxes_[static_cast<size_t>(item)], x);
+        const double bound = w + distance(boxes_[static_cast<size_t>(item)]);
         if (stamp_[static_cast<size_t>(item)] <= since && bound <= seen) continue;
         if (bound <= limit()) visit(item, bound);
       }
@@ -130,7 +146,7 @@ void RootTree::within(Vec2 x, L&& limit, F&& visit, uint64_t since, double seen)
     }
     const Node& l = nodes_[static_cast<size_t>(n.left)];
     const Node& r = nodes_[static_cast<size_t>(n.right)];
-    const double bl = l.min_weight + box_distance(l.box, x), br = r.min_weight + box_distance(r.box, x);
+    const double bl = l.min_weight + distance(l.box), br = r.min_weight + distance(r.box);
     // The nearer child is searched first: pushed last.
     if (bl <= br) {
       stack[top++] = n.right;

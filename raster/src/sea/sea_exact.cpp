@@ -26,12 +26,17 @@
 #include "rv/field/parallel.hpp"
 #include "rv/sea/sea_field.hpp"
 #include "sea/bend_settle.hpp"
+#include "sea/sea_cells.hpp"
 
 namespace rv {
 namespace {
 
-// The engines' shared parts (sea/sea_prepare.hpp, sea/root_tree.hpp, sea/bend_settle.hpp).
+// The engines' shared parts (sea/sea_prepare.hpp, sea/root_tree.hpp, sea/bend_settle.hpp,
+// sea/sea_cells.hpp).
 using namespace ::rv::sea;
+
+// The side of a band of rows and of its blocks, in cells.
+constexpr int64_t kBlock = 8;
 
 // The cells of row r of the window where the engines hold them (on the ellipsoid the row is one
 // parallel, projected as one: GeodesicFrame::forward_row).
@@ -61,22 +66,35 @@ std::vector<Spot> row_spots(const Prepared& p, const GridSpec& grid, const Windo
   return spots;
 }
 
-// The ground under each cell of a row (row_spots()).
-std::vector<Visibility::Ground> row_grounds(const Prepared& p, const std::vector<Spot>& spots) {
+// The ground under each cell of a row (row_spots()) where it is `unknown` (the others are those
+// of blocks answered at once: land or open sea).
+void fill_grounds(const Prepared& p, const std::vector<Spot>& spots, Visibility::Ground* grounds,
+                  Visibility::Ground unknown) {
   const auto width = static_cast<int64_t>(spots.size());
-  std::vector<Visibility::Ground> grounds(spots.size());
+  if (std::none_of(grounds, grounds + width, [&](Visibility::Ground g) { return g == unknown; })) return;
   if (p.geodesic) {  // (a row of a longitude/latitude grid is no straight line in the plane)
-    for (int64_t c = 0; c < width; ++c)
-      grounds[static_cast<size_t>(c)] =
-          c == 0 ? p.vis.classify(spots[0].at)
-                 : p.vis.classify_next(spots[static_cast<size_t>(c - 1)].at, grounds[static_cast<size_t>(c - 1)],
-                                       spots[static_cast<size_t>(c)].at);
-    return grounds;
+    for (int64_t c = 0; c < width; ++c) {
+      if (grounds[c] != unknown) continue;
+      const Vec2 x = spots[static_cast<size_t>(c)].at;
+      grounds[c] =
+          c == 0 ? p.vis.classify(x) : p.vis.classify_next(spots[static_cast<size_t>(c - 1)].at, grounds[c - 1], x);
+    }
+    return;
   }
   std::vector<double> xs(spots.size());
   for (size_t c = 0; c < spots.size(); ++c) xs[c] = spots[c].at.x;
-  p.vis.classify_row(spots.empty() ? 0.0 : spots[0].at.y, xs.data(), width, grounds.data());
-  return grounds;
+  std::vector<Visibility::Ground> row(spots.size());
+  p.vis.classify_row(spots.empty() ? 0.0 : spots[0].at.y, xs.data(), width, row.data());
+  for (int64_t c = 0; c < width; ++c)
+    if (grounds[c] == unknown) grounds[c] = row[static_cast<size_t>(c)];
+}
+
+// Whether any cell of [c0, c1) x [r0, r1) lies inside a seed polygon.
+bool inside_any(const InteriorSpans& interiors, int64_t r0, int64_t r1, int64_t c0, int64_t c1) {
+  for (int64_t r = r0; r < r1; ++r)
+    for (const auto& span : interiors.rows[static_cast<size_t>(r)])
+      if (span.col0 < c1 && span.col1 > c0) return true;
+  return false;
 }
 
 // The straight exact engine's options for the field a computation by sea starts from.
@@ -90,66 +108,6 @@ ComputeOptions straight_options(const SeaOptions& options) {
   o.max_distance = options.max_distance;
   o.cancel = options.cancel;
   return o;
-}
-
-// A cell's answer over the classes of adjusted seeds (PreparedSea::classes): per class its
-// shortest path (its straight nearest site where seen, else the search), the cheapest by
-// adjusted_distance, ties to the lower site. A class whose straight distance already costs more
-// than the best so far cannot win (no path by sea is shorter than the straight line), and its
-// search stops at the length that would tie. `d0`: the winning class's straight distance, 0 where
-// its path is that class's straight nearest site seen (no detour). `unreachable`: some class is
-// within its reach of the cell in a straight line, and none of those has any path to it at all
-// (as opposed to none within the reach).
-struct ClassHints {
-  std::vector<int32_t> blockers;  // Searches::best_path's hints, per item of the class's tree
-  int32_t last = -1;              // the root of the row's previous bent cell
-};
-Best adjusted_path(const PreparedSea& prepared, const SeedSet& seeds, const Place& at, const Spot& spot,
-                   double max_distance, std::vector<ClassHints>& hints, int64_t& tests, double& d0, bool& unreachable) {
-  constexpr double kInf = std::numeric_limits<double>::infinity();
-  const Prepared& p = prepared.prepared;
-  Best won;
-  double won_cost = kInf;
-  unreachable = false;
-  std::vector<size_t> unanswered;  // classes searched within their reach that found no path
-  bool found = false;              // some class searched found a path (within its reach or not)
-  for (size_t k = 0; k < prepared.classes.size(); ++k) {
-    const PreparedSea::Class& cls = prepared.classes[k];
-    const Searches& s = *cls.search;
-    const auto [k0, nearest] = s.straight(spot);
-    if (nearest == kNoSite) continue;
-    const double straight = std::sqrt(k0);
-    const double cap = std::min(max_distance, cls.reach);
-    const double limit = won.site == kNoSite ? cap : std::min(cap, won_cost * cls.weight * (1.0 + 1e-12));
-    if (straight > limit) continue;
-    ClassHints& h = hints[k];
-    if (h.blockers.empty()) h.blockers.assign(static_cast<size_t>(s.site_items()) + s.nodes.size(), -1);
-    Best b;
-    ++tests;
-    const bool seen = p.vis.sees(at, p.site_place(nearest, spot));
-    if (seen)
-      b = Best{straight, nearest, kNoVia};
-    else
-      b = s.best_path(at, spot, Best{}, tests, -1, &h.blockers, h.last, &h.last, 0, kInf, limit);
-    if (b.site == kNoSite) {
-      unanswered.push_back(k);
-      continue;
-    }
-    found = true;
-    const double cost =
-        adjusted_distance(seeds.features()[static_cast<size_t>(seeds.site_feature(b.site))], b.d, max_distance);
-    if (cost < won_cost || (cost == won_cost && cost < kInf && b.site < won.site)) {
-      won = b;
-      won_cost = cost;
-      d0 = seen ? 0.0 : straight;
-    }
-  }
-  if (won.site != kNoSite) return won;
-  // (Only cells no class reaches within its reach ask whether any path reaches them at all.)
-  unreachable = !found && !unanswered.empty();
-  for (size_t k : unanswered)
-    if (prepared.classes[k].search->best_path(at, spot, Best{}, tests).site != kNoSite) unreachable = false;
-  return won;
 }
 
 }  // namespace
@@ -209,94 +167,71 @@ SeaField compute_sea(const SeedSet& seeds, const Barriers& barriers, const GridS
   straight.prepared = options.straight;
   const NearestField straight_field = adjusted ? NearestField{} : compute(seeds, grid, straight);
   const int workers = resolve_threads(options.threads);
-  struct Tally {
-    int64_t land = 0, unreachable = 0, tests = 0;
-    double detour = 1.0;
-  };
-  std::vector<Tally> tally(static_cast<size_t>(workers));
-  // Per worker, the edge that last hid each root (see best_path): neighbouring cells are mostly
-  // hidden from the same roots by the same edges.
-  std::vector<std::vector<int32_t>> blockers(static_cast<size_t>(workers));
-  std::vector<std::vector<ClassHints>> class_hints(static_cast<size_t>(workers),
-                                                   std::vector<ClassHints>(prepared->classes.size()));
+  const CellRun run{*prepared, seeds, straight_field, interiors, options.max_distance, out};
+  std::vector<CellWorker> cell_workers(static_cast<size_t>(workers));
+  for (CellWorker& w : cell_workers) {
+    w.blockers.assign(static_cast<size_t>(search.site_items()) + search.nodes.size(), -1);
+    w.classes.resize(prepared->classes.size());
+  }
+  // Bands of kBlock rows, each cut into blocks of kBlock columns: a block clear of barriers is
+  // answered at once (answer_block), every other cell alone.
+  const bool blocks = !adjusted && !options.cell_by_cell;
+  const int64_t bands = (window.height + kBlock - 1) / kBlock;
   std::atomic<int64_t> rows_done{0};
-  detail::parallel_for(workers, window.height, [&](int64_t r, int worker) {
+  detail::parallel_for(workers, bands, [&](int64_t band, int worker) {
     if (options.cancel && options.cancel->load(std::memory_order_relaxed))
       throw Error(ErrorKind::cancelled, "computation cancelled");
-    Tally& t = tally[static_cast<size_t>(worker)];
-    std::vector<int32_t>& hint = blockers[static_cast<size_t>(worker)];
-    int32_t last = -1;  // the root of the row's previous bent cell
-    if (hint.empty()) hint.assign(static_cast<size_t>(search.site_items()) + search.nodes.size(), -1);
-    std::vector<ClassHints>& hints = class_hints[static_cast<size_t>(worker)];
-    for (ClassHints& h : hints) h.last = -1;
-    const auto& spans = interiors.rows[static_cast<size_t>(r)];
-    auto span = spans.begin();
-    const std::vector<Spot> spots = row_spots(p, grid, window, r);
-    const std::vector<Visibility::Ground> grounds = row_grounds(p, spots);
-    for (int64_t c = 0; c < window.width; ++c) {
-      const Spot& spot = spots[static_cast<size_t>(c)];
-      const Vec2 x = spot.at;
-      const Visibility::Ground ground = grounds[static_cast<size_t>(c)];
-      if (ground == Visibility::Ground::land) {
-        ++t.land;
+    CellWorker& w = cell_workers[static_cast<size_t>(worker)];
+    const int64_t r0 = band * kBlock, r1 = std::min(r0 + kBlock, window.height);
+    std::vector<std::vector<Spot>> spots;
+    for (int64_t r = r0; r < r1; ++r) spots.push_back(row_spots(p, grid, window, r));
+    constexpr auto kUnknown = static_cast<Visibility::Ground>(-1);
+    std::vector<Visibility::Ground> grounds(static_cast<size_t>((r1 - r0) * window.width), kUnknown);
+    std::vector<uint8_t> answered(grounds.size(), 0);
+    for (int64_t c0 = 0; blocks && c0 < window.width; c0 += kBlock) {
+      const int64_t c1 = std::min(c0 + kBlock, window.width);
+      if (inside_any(interiors, r0, r1, c0, c1) || !answer_block(run, w, c0, c1, r0, r1, spots, grounds, window.width))
         continue;
-      }
-      while (span != spans.end() && span->col1 <= c) ++span;
-      if (span != spans.end() && c >= span->col0) {
-        out.field.site.at(c, r) = span->site;
-        out.field.distance.at(c, r) = 0.0f;
-        continue;
-      }
-      Place at{x};
-      at.open = ground == Visibility::Ground::open_sea;
-      if (adjusted) {
-        double d0 = 0.0;
-        bool unreachable = false;
-        const Best best =
-            adjusted_path(*prepared, seeds, at, spot, options.max_distance, hints, t.tests, d0, unreachable);
-        t.unreachable += unreachable ? 1 : 0;
-        if (best.site == kNoSite) continue;
-        out.field.site.at(c, r) = best.site;
-        out.field.distance.at(c, r) = static_cast<float>(best.d);
-        out.via.at(c, r) = best.via;
-        // (Over the straight distance as a float, as the reference.)
-        if (d0 > 0.0) t.detour = std::max(t.detour, best.d / static_cast<double>(static_cast<float>(d0)));
-        continue;
-      }
-      // The straight field's answer where its nearest site is seen; else the best path. (None
-      // within the maximum distance: no path by sea is shorter than the straight line.)
-      const int32_t nearest = straight_field.site.at(c, r);
-      if (nearest == kNoSite) continue;
-      const float d0 = straight_field.distance.at(c, r);
-      ++t.tests;
-      if (p.vis.sees(at, p.site_place(nearest, spot))) {
-        out.field.site.at(c, r) = nearest;
-        out.field.distance.at(c, r) = d0;
-        continue;
-      }
-      const Best best = search.best_path(at, spot, Best{}, t.tests, -1, &hint, last, &last);
-      if (best.site == kNoSite) {
-        ++t.unreachable;
-        continue;
-      }
-      if (best.d > options.max_distance) continue;
-      out.field.site.at(c, r) = best.site;
-      out.field.distance.at(c, r) = static_cast<float>(best.d);
-      out.via.at(c, r) = best.via;
-      if (d0 > 0.0f) t.detour = std::max(t.detour, best.d / static_cast<double>(d0));
+      for (int64_t r = r0; r < r1; ++r)
+        std::fill_n(answered.begin() + (r - r0) * window.width + c0, c1 - c0, uint8_t{1});
     }
-    const int64_t done = rows_done.fetch_add(1) + 1;
-    if (options.progress && (done * 100 / window.height) != ((done - 1) * 100 / window.height))
-      options.progress(static_cast<double>(done) / static_cast<double>(window.height));
+    for (int64_t r = r0; r < r1; ++r) {
+      w.last = -1;
+      for (ClassHints& h : w.classes) h.last = -1;
+      const std::vector<Spot>& row = spots[static_cast<size_t>(r - r0)];
+      Visibility::Ground* g = grounds.data() + (r - r0) * window.width;
+      fill_grounds(p, row, g, kUnknown);
+      const auto& spans = interiors.rows[static_cast<size_t>(r)];
+      auto span = spans.begin();
+      const uint8_t* answered_row = answered.data() + (r - r0) * window.width;
+      for (int64_t c = 0; c < window.width; ++c) {
+        if (answered_row[c]) continue;
+        if (g[c] == Visibility::Ground::land) {
+          ++w.land;
+          continue;
+        }
+        while (span != spans.end() && span->col1 <= c) ++span;
+        if (span != spans.end() && c >= span->col0) {
+          out.field.site.at(c, r) = span->site;
+          out.field.distance.at(c, r) = 0.0f;
+          continue;
+        }
+        answer_cell(run, w, c, r, row[static_cast<size_t>(c)], g[c]);
+      }
+      const int64_t done = rows_done.fetch_add(1) + 1;
+      if (options.progress && (done * 100 / window.height) != ((done - 1) * 100 / window.height))
+        options.progress(static_cast<double>(done) / static_cast<double>(window.height));
+    }
   });
   out.visibility_tests = bend_tests;
   out.bend_tests = bend_tests;
   out.bend_evaluations = shared ? 0 : prepared->evaluations();
-  for (const Tally& t : tally) {
-    out.land_cells += t.land;
-    out.unreachable_cells += t.unreachable;
-    out.visibility_tests += t.tests;
-    out.max_detour = std::max(out.max_detour, t.detour);
+  for (const CellWorker& w : cell_workers) {
+    out.land_cells += w.land;
+    out.unreachable_cells += w.unreachable;
+    out.visibility_tests += w.tests;
+    out.block_cells += w.block_cells;
+    out.max_detour = std::max(out.max_detour, w.detour);
   }
   out.field.threads = workers;
   out.field.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();

@@ -43,6 +43,13 @@ LonLatBox grid_box(const GridSpec& grid, const Geolocator* geolocator) {
   return box;
 }
 
+// Whether any seed's edge meets a barrier (Prepared::seeds_meet_barriers).
+bool any_meets(const Prepared& p) {
+  for (size_t s = 0; s < p.local.size(); ++s)
+    if (p.segment(static_cast<int32_t>(s)) && p.vis.meets(Vec2{p.local[s].ax, p.local[s].ay}, p.end_b[s])) return true;
+  return false;
+}
+
 }  // namespace
 
 std::vector<SiteClass> site_classes(const SeedSet& seeds, const std::vector<int32_t>& sites) {
@@ -75,6 +82,7 @@ Prepared prepare(const SeedSet& seeds, const Barriers& barriers, const GridSpec&
     p.local = to_local(seeds, grid);
     for (const Site& s : seeds.sites()) p.end_b.push_back(Vec2{s.b.x - grid.xmin, s.b.y - grid.ymax});
     check_seeds(p, seeds);
+    p.seeds_meet_barriers = any_meets(p);
     return p;
   }
   // The frame centred in the grid, the barriers and the seeds.
@@ -119,6 +127,7 @@ Prepared prepare(const SeedSet& seeds, const Barriers& barriers, const GridSpec&
   for (const Vec2& ll : p.vertex_ll) p.vertex_xyz.push_back(p.xyz(ll));
   for (const Vec2& ll : p.site_ll) p.site_xyz.push_back(p.xyz(ll));
   check_seeds(p, seeds);
+  p.seeds_meet_barriers = any_meets(p);
   return p;
 }
 

@@ -109,6 +109,11 @@ struct Prepared {
     site_key(x, site, &nearest);
     return nearest;
   }
+  // Whether some seed's edge meets a barrier other than at its own ends or along itself
+  // (Visibility::meets). Then a segment site may be seen only past that meeting point, a way to it
+  // the statement does not take (neither its nearest point nor a bend), and the distances need
+  // not keep the triangle inequality the block proofs rest on (sea/sea_cells.hpp).
+  bool seeds_meet_barriers = false;
   // Whether a site is a segment (in the plane: its ends' images differ).
   bool segment(int32_t site) const { return local[static_cast<size_t>(site)].inv_len2 != 0.0; }
   // Geodesic, a segment site: the distance in metres, and (`foot` not null) its nearest point.

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cfloat>
 #include <cmath>
+#include <limits>
 
 #include "sea/edge_index.hpp"
 #include "sea/orient.hpp"
@@ -52,6 +53,106 @@ double end_slack(const GeodesicFrame* frame, Vec2 p, Vec2 q) {
 double line_distance(Vec2 a, Vec2 b, Vec2 q) {
   const double dx = b.x - a.x, dy = b.y - a.y;
   return std::abs(dx * (q.y - a.y) - dy * (q.x - a.x)) / std::hypot(dx, dy);
+}
+
+// A convex polygon of at most five vertices, counter-clockwise (fewer when degenerate), with
+// what apart() projects it on: its bounding box, and per edge the outward unit normal and the
+// polygon's largest projection on it.
+struct Hull {
+  Vec2 p[5];
+  int n = 0;
+  Vec2 lo, hi;
+  Vec2 normal[5];
+  double top[5];
+  void measure() {
+    lo = hi = p[0];
+    for (int i = 1; i < n; ++i) {
+      lo = Vec2{std::min(lo.x, p[i].x), std::min(lo.y, p[i].y)};
+      hi = Vec2{std::max(hi.x, p[i].x), std::max(hi.y, p[i].y)};
+    }
+    for (int i = 0; i < n && n > 1; ++i) {
+      const Vec2 a = p[i], b = p[(i + 1) % n];
+      const double nx = b.y - a.y, ny = a.x - b.x, len = std::sqrt(nx * nx + ny * ny);
+      normal[i] = len > 0.0 ? Vec2{nx / len, ny / len} : Vec2{0.0, 0.0};
+      top[i] = -std::numeric_limits<double>::infinity();
+      for (int j = 0; j < n; ++j) top[i] = std::max(top[i], normal[i].x * p[j].x + normal[i].y * p[j].y);
+    }
+  }
+};
+
+// The hull of `from` and the box's corners (Andrew's monotone chain; collinear points dropped,
+// which rounding may do to a point a few units in the last place outside: the margins cover it).
+Hull hull_of(Vec2 from, Vec2 lo, Vec2 hi) {
+  Vec2 pts[5] = {lo, {hi.x, lo.y}, hi, {lo.x, hi.y}, from};
+  std::sort(pts, pts + 5, position_less);
+  auto cross = [](Vec2 o, Vec2 a, Vec2 b) { return (a.x - o.x) * (b.y - o.y) - (a.y - o.y) * (b.x - o.x); };
+  Vec2 chain[10];
+  int k = 0;
+  for (int i = 0; i < 5; ++i) {
+    while (k >= 2 && cross(chain[k - 2], chain[k - 1], pts[i]) <= 0) --k;
+    chain[k++] = pts[i];
+  }
+  for (int i = 3, t = k + 1; i >= 0; --i) {
+    while (k >= t && cross(chain[k - 2], chain[k - 1], pts[i]) <= 0) --k;
+    chain[k++] = pts[i];
+  }
+  Hull h;
+  h.n = std::max(1, k - 1);
+  for (int i = 0; i < h.n; ++i) h.p[i] = chain[i];
+  h.measure();
+  return h;
+}
+
+// Whether the segment a-b (a point when a == b) lies farther than m from the hull, proved by a
+// separating axis: x and y, the hull's edge normals, the segment's normal and direction (any
+// axis with a gap proves the distance; close to a corner none may, which says false).
+bool apart(const Hull& h, Vec2 a, Vec2 b, double m) {
+  if (std::max(a.x, b.x) < h.lo.x - m || std::min(a.x, b.x) > h.hi.x + m || std::max(a.y, b.y) < h.lo.y - m ||
+      std::min(a.y, b.y) > h.hi.y + m)
+    return true;
+  for (int i = 0; i < h.n && h.n > 1; ++i) {
+    const Vec2 n = h.normal[i];
+    if (std::min(n.x * a.x + n.y * a.y, n.x * b.x + n.y * b.y) - h.top[i] > m) return true;
+  }
+  auto gap_along = [&](double nx, double ny) {
+    const double len = std::sqrt(nx * nx + ny * ny);
+    if (!(len > 0.0)) return false;
+    double hmin = std::numeric_limits<double>::infinity(), hmax = -hmin;
+    for (int i = 0; i < h.n; ++i) {
+      const double v = nx * h.p[i].x + ny * h.p[i].y;
+      hmin = std::min(hmin, v);
+      hmax = std::max(hmax, v);
+    }
+    const double sa = nx * a.x + ny * a.y, sb = nx * b.x + ny * b.y;
+    return std::min(sa, sb) - hmax > m * len || hmin - std::max(sa, sb) > m * len;
+  };
+  return gap_along(b.y - a.y, a.x - b.x) || gap_along(b.x - a.x, b.y - a.y);
+}
+
+// Whether every point of the box lies in wedge k of the star (from ray k counter-clockwise to
+// ray k + 1), farther than m from the lines its rays lie on.
+bool box_in_wedge(const Visibility::Star& s, int k, Vec2 lo, Vec2 hi, double m) {
+  const Vec2 o = s.at;
+  const Vec2 corners[4] = {lo, {hi.x, lo.y}, hi, {lo.x, hi.y}};
+  // Every corner strictly left (sign +1) or right (-1) of the line from o through r.
+  auto side = [&](Vec2 r, double sign) {
+    const double dx = r.x - o.x, dy = r.y - o.y, len = std::sqrt(dx * dx + dy * dy);
+    for (const Vec2& c : corners)
+      if (!(sign * (dx * (c.y - o.y) - dy * (c.x - o.x)) > m * len)) return false;
+    return true;
+  };
+  const int n = static_cast<int>(s.rays.size());
+  const Vec2 r0 = s.rays[static_cast<size_t>(k)], r1 = s.rays[static_cast<size_t>((k + 1) % n)];
+  if (n == 1) {  // all round but the ray itself: either side of its line, or behind o
+    const double dx = r0.x - o.x, dy = r0.y - o.y, len = std::hypot(dx, dy);
+    const bool behind =
+        std::all_of(corners, corners + 4, [&](Vec2 c) { return dx * (c.x - o.x) + dy * (c.y - o.y) < -m * len; });
+    return behind || side(r0, 1.0) || side(r0, -1.0);
+  }
+  const int t = turn(s.frame, o, r0, r1);
+  if (t > 0) return side(r0, 1.0) && side(r1, -1.0);  // less than a half-turn: both half-planes
+  if (t < 0) return side(r0, 1.0) || side(r1, -1.0);  // more: either
+  return side(r0, 1.0);                               // a half-turn
 }
 
 }  // namespace
@@ -443,6 +544,174 @@ bool Visibility::sees(const Place& from, const Place& to, int32_t* blocker) cons
     if (qs.sea[static_cast<size_t>(back)] && back == to.wedge) return true;
   }
   return false;
+}
+
+bool Visibility::meets(Vec2 a, Vec2 b) const {
+  const GeodesicFrame* f = frame_.get();
+  std::vector<int32_t> near_edges, near_vertices;
+  candidates(a, b, near_edges, near_vertices);
+  for (int32_t id : near_edges) {
+    const Edge& e = edges_[static_cast<size_t>(id)];
+    if ((e.a == a && e.b == b) || (e.a == b && e.b == a)) continue;
+    const int o1 = turn(f, a, b, e.a), o2 = turn(f, a, b, e.b);
+    const int o3 = turn(f, e.a, e.b, a), o4 = turn(f, e.a, e.b, b);
+    if (o1 * o2 > 0 || o3 * o4 > 0) continue;  // apart
+    const bool shared = e.a == a || e.a == b || e.b == a || e.b == b;
+    if (o1 == 0 && o2 == 0) {  // on one line: they meet unless they only share an end, back to back
+      if (!shared) {
+        const bool apart_along =
+            (along(a, b, e.a) < 0 && along(a, b, e.b) < 0) || (along(b, a, e.a) < 0 && along(b, a, e.b) < 0);
+        if (apart_along) continue;
+        return true;
+      }
+      const Vec2 p = (e.a == a || e.b == a) ? a : b, q = p == a ? b : a, other = e.a == p ? e.b : e.a;
+      if (along(p, q, other) < 0) continue;
+      return true;
+    }
+    // A touch or a crossing; only an end shared with the edge is no meeting.
+    if (shared && o1 * o2 >= 0 && o3 * o4 >= 0) continue;
+    return true;
+  }
+  return false;
+}
+
+bool Visibility::clear_box(Vec2 lo, Vec2 hi) const {
+  const double bend = frame_ ? frame_->deviation() : 0.0;
+  const double magnitude = std::max({std::abs(lo.x), std::abs(lo.y), std::abs(hi.x), std::abs(hi.y)});
+  // (Points of the box are exact; an edge's image lies within `bend` of its chord.)
+  const double m = bend + 1e-9 * (1.0 + magnitude);
+  const Hull h = hull_of(lo, lo, hi);
+  return region_clear(h.p, h.n, m, m, nullptr);
+}
+
+bool Visibility::sees_box(const Place& from, Vec2 lo, Vec2 hi) const {
+  return sight(from, lo, hi, false) == Sight::seen;
+}
+
+Visibility::Sight Visibility::sight_box(const Place& from, Vec2 lo, Vec2 hi) const { return sight(from, lo, hi, true); }
+
+Visibility::Sight Visibility::sight(const Place& from, Vec2 lo, Vec2 hi, bool hidden_too) const {
+  const Vec2 o = from.at;
+  const double bend = frame_ ? frame_->deviation() : 0.0;
+  const double magnitude =
+      std::max({std::abs(lo.x), std::abs(lo.y), std::abs(hi.x), std::abs(hi.y), std::abs(o.x), std::abs(o.y)});
+  const double eps = 1e-9 * (1.0 + magnitude);
+  const int32_t pv = from.vertex >= 0 ? from.vertex : from.open ? -1 : vertex_at(o);
+  Star built;
+  if (pv < 0 && from.open) {
+    built.at = o;
+    built.sea = {1};
+  } else if (pv < 0) {
+    built = build_star(o);
+  }
+  const Star& s = pv >= 0 ? stars_[static_cast<size_t>(pv)] : built;
+  bool in_wedge = true;
+  if (s.rays.empty()) {
+    if (!s.sea[0]) return Sight::hidden;
+  } else {
+    const int k = s.wedge_towards(Vec2{(lo.x + hi.x) / 2, (lo.y + hi.y) / 2}, true);
+    // (A wedge's side is a geodesic from o: its image within `bend` of the line.)
+    in_wedge = box_in_wedge(s, k, lo, hi, bend + eps);
+    const bool open = s.sea[static_cast<size_t>(k)] && (from.wedge < 0 || k == from.wedge);
+    if (in_wedge && !open) return Sight::hidden;
+    if (!open) return Sight::unknown;
+  }
+  // (The paths' images and the edges' each within `bend` of their chords; vertices are exact.)
+  const Hull h = hull_of(o, lo, hi);
+  if (!hidden_too)
+    return in_wedge && region_clear(h.p, h.n, 2.0 * bend + eps, bend + eps, &o) ? Sight::seen : Sight::unknown;
+  std::vector<int32_t> near;
+  if (region_clear(h.p, h.n, 2.0 * bend + eps, bend + eps, &o, &near) && in_wedge) return Sight::seen;
+  return covers_box(o, lo, hi, near, 2.0 * bend + eps) ? Sight::hidden : Sight::unknown;
+}
+
+bool Visibility::covers_box(Vec2 o, Vec2 lo, Vec2 hi, const std::vector<int32_t>& near, double margin) const {
+  const GeodesicFrame* f = frame_.get();
+  const Vec2 corners[4] = {lo, {hi.x, lo.y}, hi, {lo.x, hi.y}};
+  // Every corner strictly left (sign +1) or right (-1) of the line from o through r, by more
+  // than m (a path's image bends by up to half the margin).
+  auto beside = [&](Vec2 r, double sign, double m) {
+    const double dx = r.x - o.x, dy = r.y - o.y, len = std::sqrt(dx * dx + dy * dy);
+    for (const Vec2& c : corners)
+      if (!(sign * (dx * (c.y - o.y) - dy * (c.x - o.x)) > m * len)) return false;
+    return true;
+  };
+  // The edges whose line separates o from the box, each from its clockwise end to its
+  // counter-clockwise end as o sees them.
+  std::vector<std::pair<Vec2, Vec2>> spans;
+  for (int32_t id : near) {
+    if (id < 0) continue;
+    const Edge& e = edges_[static_cast<size_t>(id)];
+    Vec2 a = e.a, b = e.b;
+    const double dx = b.x - a.x, dy = b.y - a.y, len = std::sqrt(dx * dx + dy * dy);
+    const double so = dx * (o.y - a.y) - dy * (o.x - a.x);
+    if (!(std::abs(so) > margin * len)) continue;
+    const double sign = so > 0 ? -1.0 : 1.0;
+    if (!std::all_of(corners, corners + 4,
+                     [&](Vec2 c) { return sign * (dx * (c.y - a.y) - dy * (c.x - a.x)) > margin * len; }))
+      continue;
+    const int t = turn(f, o, a, b);
+    if (t == 0) continue;
+    if (t < 0) std::swap(a, b);
+    spans.emplace_back(a, b);
+  }
+  const double m = margin / 2;
+  // From an edge whose clockwise end is before the box, edge by edge while each next one starts
+  // strictly before the coverage ends (or at its very vertex), until it reaches past the box.
+  bool have = false;
+  Vec2 end;
+  for (const auto& [a, b] : spans)
+    if (beside(a, 1.0, m) && (!have || turn(f, o, end, b) > 0)) {
+      end = b;
+      have = true;
+    }
+  for (size_t step = 0; have && step <= spans.size(); ++step) {
+    if (beside(end, -1.0, m)) return true;
+    Vec2 next = end;
+    for (const auto& [a, b] : spans)
+      if ((a == end || turn(f, o, a, end) > 0) && turn(f, o, next, b) > 0) next = b;
+    if (next == end) return false;
+    end = next;
+  }
+  return false;
+}
+
+bool Visibility::region_clear(const Vec2* poly, int n, double edge_margin, double vertex_margin, const Vec2* from,
+                              std::vector<int32_t>* near) const {
+  Hull h;
+  h.n = n;
+  std::copy(poly, poly + n, h.p);
+  h.measure();
+  bool clear = true;
+  auto test = [&](const int32_t* edges, size_t ne, const int32_t* vertices, size_t nv) {
+    for (size_t i = 0; i < ne; ++i) {
+      const Edge& e = edges_[static_cast<size_t>(edges[i])];
+      if (apart(h, e.a, e.b, edge_margin)) continue;
+      if (from && (e.a == *from || e.b == *from)) continue;
+      // An edge through `from` (a port on a coast): two of its rays, outside the wedge.
+      if (from && turn(frame_.get(), e.a, e.b, *from) == 0 && strictly_between(e.a, e.b, *from)) continue;
+      clear = false;
+      if (!near) return false;
+      near->push_back(edges[i]);
+    }
+    for (size_t i = 0; i < nv; ++i) {
+      const Vec2 v = vertex(vertices[i]);
+      if ((from && v == *from) || apart(h, v, v, vertex_margin)) continue;
+      clear = false;
+      if (!near) return false;
+      near->push_back(-1 - vertices[i]);
+    }
+    return true;
+  };
+  if (index_) {
+    index_->buckets.cover(poly, n, edge_margin, test);
+    return clear;
+  }
+  std::vector<int32_t> all_edges(edges_.size()), all_vertices(stars_.size());
+  for (size_t i = 0; i < all_edges.size(); ++i) all_edges[i] = static_cast<int32_t>(i);
+  for (size_t i = 0; i < all_vertices.size(); ++i) all_vertices[i] = static_cast<int32_t>(i);
+  test(all_edges.data(), all_edges.size(), all_vertices.data(), all_vertices.size());
+  return clear;
 }
 
 }  // namespace rv

@@ -33,4 +33,29 @@ inline SeaField engines_agree(const SeedSet& seeds, const Barriers& barriers, co
   return exact;
 }
 
+// The exact engine's blocks (SeaOptions::cell_by_cell false) against every cell answered alone:
+// the same field cell for cell (owner, via, distance to the bit) and counts. Returns the blocks'
+// field (the first difference fails the test and returns at once).
+inline SeaField blocks_agree(const SeedSet& seeds, const Barriers& barriers, const GridSpec& g,
+                             SeaOptions options = {}) {
+  options.cell_by_cell = true;
+  const SeaField alone = compute_sea(seeds, barriers, g, g.full_window(), options);
+  options.cell_by_cell = false;
+  const SeaField blocks = compute_sea(seeds, barriers, g, g.full_window(), options);
+  EXPECT_EQ(alone.block_cells, 0);
+  for (int64_t r = 0; r < g.height; ++r)
+    for (int64_t c = 0; c < g.width; ++c) {
+      EXPECT_EQ(blocks.field.site.at(c, r), alone.field.site.at(c, r)) << c << "," << r;
+      EXPECT_EQ(blocks.via.at(c, r), alone.via.at(c, r)) << c << "," << r;
+      EXPECT_EQ(std::bit_cast<uint32_t>(blocks.field.distance.at(c, r)),
+                std::bit_cast<uint32_t>(alone.field.distance.at(c, r)))
+          << c << "," << r;
+      if (::testing::Test::HasFailure()) return blocks;
+    }
+  EXPECT_EQ(blocks.land_cells, alone.land_cells);
+  EXPECT_EQ(blocks.unreachable_cells, alone.unreachable_cells);
+  EXPECT_EQ(blocks.max_detour, alone.max_detour);
+  return blocks;
+}
+
 }  // namespace rv::test

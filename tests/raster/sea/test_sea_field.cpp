@@ -539,3 +539,73 @@ TEST(SeaField, StripsOfOnePreparationMakeTheWholeField) {
 
 }  // namespace
 }  // namespace rv
+
+namespace rv {
+namespace {
+
+// Blocks of cells answered at once (proofs per block) give the field every cell answered alone
+// gives, to the bit: random archipelagos on a grid fine enough that most blocks are clear of
+// land, with ports at sea and on coasts, a coast as a line seed, an island as a polygon seed
+// (its interior cells are no block's), an atoll whose lagoon no port reaches (a block with no
+// path at all), with and without a maximum distance.
+TEST(SeaField, BlocksAnswerAsEveryCellAlone) {
+  std::mt19937_64 rng(57);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  int64_t block_cells = 0, cells = 0, via_cells = 0, unreachable = 0;
+  int rounds = 0;
+  for (int round = 0; round < 6; ++round) {
+    Barriers b;
+    std::vector<Ring> outlines;
+    for (int k = 0; k < 9; ++k) {  // one island in each of 3 x 3 squares of 13 units (the atoll's apart)
+      if (k == 2) continue;
+      const double x = 13 * (k % 3) + 1 + 4 * u(rng), y = 13 * (k / 3) + 1 + 4 * u(rng), w = 1.5 + 6 * u(rng),
+                   h = 1.5 + 6 * u(rng);
+      std::vector<Ring> rings{{{x, y}, {x + w, y}, {x + w * 0.6, y + h}, {x + w * 0.1, y + h * 0.7}, {x, y + h * 0.8}}};
+      outlines.push_back(rings[0]);
+      b.add_polygon(rings, "island");
+    }
+    // An atoll with a wide lagoon no port lies in.
+    b.add_polygon({{{27, 1}, {39, 1}, {39, 12}, {27, 12}}, {{28, 2}, {38, 2}, {38, 11}, {28, 11}}}, "atoll");
+    b.add_line(std::vector<Vec2>{{40 * u(rng), 40 * u(rng)}, {40 * u(rng), 40 * u(rng)}}, "boom");
+    const Visibility vis(b);
+    SeedSet s;
+    int ports = 0;
+    for (int k = 0; k < 20 && ports < 5; ++k) {
+      const Vec2 p{40 * u(rng), 40 * u(rng)};
+      if (vis.classify(p) != Visibility::Ground::open_sea || (p.x > 27 && p.x < 39 && p.y > 1 && p.y < 12)) continue;
+      s.add_point(s.add_feature(s.owner_code(ports % 2 ? "A" : "B")), p);
+      ++ports;
+    }
+    const Ring& o = outlines[static_cast<size_t>(round) % outlines.size()];
+    s.add_point(s.add_feature(s.owner_code("C")), {(o[0].x + o[1].x) / 2, (o[0].y + o[1].y) / 2});
+    s.add_polyline(s.add_feature(s.owner_code("D")), std::vector<Vec2>{o[1], o[2]});
+    const Ring& island = outlines[static_cast<size_t>(round + 1) % outlines.size()];
+    s.add_polygon(s.add_feature(s.owner_code("E")), {island});
+    const GridSpec g = test::grid_of(200, 200, 0.2, 0.0, 40.0);
+    for (const double max_distance : {std::numeric_limits<double>::infinity(), 9.0}) {
+      SeaOptions options;
+      options.max_distance = max_distance;
+      SeaField f;
+      try {
+        f = test::blocks_agree(s, b, g, options);
+      } catch (const Error& e) {
+        ASSERT_EQ(e.kind(), ErrorKind::invalid_input) << e.what();  // a seed inside another island
+        break;
+      }
+      if (HasFailure()) return;
+      ++rounds;
+      block_cells += f.block_cells;
+      cells += g.width * g.height;
+      unreachable += f.unreachable_cells;
+      for (int64_t r = 0; r < g.height; ++r)
+        for (int64_t c = 0; c < g.width; ++c) via_cells += f.via.at(c, r) != kNoVia;
+    }
+  }
+  EXPECT_GE(rounds, 8);
+  EXPECT_GT(block_cells, cells / 2);  // most cells in blocks
+  EXPECT_GT(via_cells, 20000);        // many of them round land
+  EXPECT_GT(unreachable, 1000);       // the lagoon
+}
+
+}  // namespace
+}  // namespace rv

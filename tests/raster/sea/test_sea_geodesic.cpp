@@ -17,6 +17,7 @@
 #include <set>
 #include <vector>
 
+#include "engines_agree.hpp"
 #include "geodesic_oracle.hpp"
 #include "rv/field/error.hpp"
 #include "rv/sea/geodesic_frame.hpp"
@@ -364,6 +365,60 @@ TEST(SeaGeodesic, TheChordBoundsTheGeodesicFromBelow) {
     std::printf("flattening %.6f: worst gap under 100 km %.3g of the distance\n", flattening, worst_short);
     EXPECT_LT(worst_short, 3e-5);  // (a sphere's: 1.0e-5 at 100 km)
   }
+}
+
+}  // namespace
+}  // namespace rv
+
+namespace rv {
+namespace {
+
+// On the ellipsoid too, blocks of cells answered at once give every cell's own answer to the bit:
+// random islands over the Oresund's latitudes on a 0.004-degree grid (most blocks clear of land),
+// ports at sea and on coasts, a coast as a line seed (geodesic), an island as a polygon seed.
+TEST(SeaGeodesic, BlocksAnswerAsEveryCellAlone) {
+  std::mt19937_64 rng(58);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  int rounds = 0;
+  int64_t block_cells = 0, cells = 0, via_cells = 0;
+  for (int round = 0; round < 3; ++round) {
+    Barriers b;
+    std::vector<Ring> outlines;
+    for (int k = 0; k < 6; ++k) {  // one island in each of 3 x 2 squares of 0.3 x 0.25 degrees
+      const double x = 12.0 + 0.3 * (k % 3) + 0.02 + 0.1 * u(rng), y = 55.35 + 0.25 * (k / 3) + 0.02 + 0.08 * u(rng);
+      const double w = 0.03 + 0.12 * u(rng), h = 0.02 + 0.1 * u(rng);
+      std::vector<Ring> rings{{{x, y}, {x + w, y}, {x + w * 0.6, y + h}, {x + w * 0.1, y + h * 0.7}, {x, y + h * 0.8}}};
+      outlines.push_back(rings[0]);
+      b.add_polygon(rings, "island");
+    }
+    b.add_line(
+        std::vector<Vec2>{{12.0 + 0.9 * u(rng), 55.35 + 0.5 * u(rng)}, {12.0 + 0.9 * u(rng), 55.35 + 0.5 * u(rng)}},
+        "boom");
+    SeedSet s;
+    for (int k = 0; k < 5; ++k)
+      s.add_point(s.add_feature(s.owner_code(k % 2 ? "A" : "B")), {12.0 + 0.9 * u(rng), 55.35 + 0.5 * u(rng)});
+    const Ring& o = outlines[static_cast<size_t>(round)];
+    s.add_point(s.add_feature(s.owner_code("C")), {(o[0].x + o[1].x) / 2, (o[0].y + o[1].y) / 2});
+    s.add_polyline(s.add_feature(s.owner_code("D")), std::vector<Vec2>{o[1], o[2]});
+    s.add_polygon(s.add_feature(s.owner_code("E")), {outlines[static_cast<size_t>(round) + 3]});
+    const GridSpec g = test::grid_of(225, 125, 0.004, 12.0, 55.85);
+    SeaField f;
+    try {
+      f = test::blocks_agree(s, b, g, on_the_ellipsoid());
+    } catch (const Error& e) {
+      ASSERT_EQ(e.kind(), ErrorKind::invalid_input) << e.what();  // a port on an island or the boom
+      continue;
+    }
+    if (HasFailure()) return;
+    ++rounds;
+    block_cells += f.block_cells;
+    cells += g.width * g.height;
+    for (int64_t r = 0; r < g.height; ++r)
+      for (int64_t c = 0; c < g.width; ++c) via_cells += f.via.at(c, r) != kNoVia;
+  }
+  EXPECT_GE(rounds, 2);
+  EXPECT_GT(block_cells, cells / 2);
+  EXPECT_GT(via_cells, 5000);
 }
 
 }  // namespace

@@ -73,7 +73,8 @@ struct SeaField {
   int64_t unreachable_cells = 0;
   int32_t barrier_vertices = 0;  // distinct barrier vertices
   int64_t bend_nodes = 0;        // (vertex, sea wedge) pairs wider than a half-turn: where paths may bend
-  int64_t visibility_tests = 0;  // straight paths tested, all told
+  int64_t visibility_tests = 0;  // straight paths tested, all told (a block's proof for a root counts one)
+  int64_t block_cells = 0;       // the exact engine: cells answered in blocks clear of barriers (proofs per block)
   int64_t bend_tests = 0;        // of which while settling the bend nodes
   int64_t bend_evaluations = 0;  // the exact engine: bend nodes evaluated (a node may be more than once)
   double max_detour = 1.0;       // the largest path length over straight distance to the nearest site
@@ -109,6 +110,9 @@ struct SeaOptions {
   // window starts from. Without it each call prepares its own. It names the seed set object it
   // was made for: one made before that object was moved is refused (rv::Error(invalid_argument)).
   std::shared_ptr<const PreparedSeeds> straight;
+  // The exact engine answers blocks of cells clear of barriers at once (proofs made per block);
+  // true: every cell alone, the reference those proofs are tested against. The same field.
+  bool cell_by_cell = false;
 };
 
 // The part of compute_sea that does not depend on the window: the checked seeds and barriers,

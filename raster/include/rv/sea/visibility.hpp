@@ -117,6 +117,37 @@ class Visibility {
   // neighbouring path. Exact, as sees().
   bool crosses(int32_t edge, const Place& from, const Place& to) const;
 
+  // Whether the closed segment a-b (a seed's edge, in the barriers' plane) meets a barrier edge
+  // anywhere but at one of its own ends where that edge ends too, or along the very same edge (a
+  // seed polygon that is a barrier): a crossing, a touch, or a stretch along a different edge.
+  // Exact, as sees().
+  bool meets(Vec2 a, Vec2 b) const;
+
+  // Proofs for many points at once, over a closed box of the plane (lo <= hi componentwise):
+  // true holds for every point of the box; false proves nothing. Both decide with margins in
+  // floating point (a billionth of the coordinates' magnitude, plus on the ellipsoid the frame's
+  // deviation() for each image that may bend), so they say false near the limits the exact
+  // predicates decide; the answers they give are those of the exact predicates. Cost: the index
+  // buckets the region meets and the edges and vertices they hold (without the index, every one).
+  //
+  // No barrier edge or vertex comes near the box: every point of it has the same ground (open
+  // sea or land), and between two points of it that are sea every straight path is free.
+  bool clear_box(Vec2 lo, Vec2 hi) const;
+  // Every straight path from `from` to a point x of the box is free (sees(from, Place{x})): the
+  // box lies strictly inside one sea wedge of `from` (its wedge when given), and no edge or
+  // vertex but those at `from` comes near the region the paths sweep (the hull of `from` and the
+  // box). A path from `from` meets an edge through `from` only there: geodesics from one point
+  // meet again only beyond their conjugate point.
+  bool sees_box(const Place& from, Vec2 lo, Vec2 hi) const;
+  // sees_box's proof, or the opposite one: no straight path from `from` to a point of the box is
+  // free. Hidden is proved when the box lies strictly inside a wedge of `from` that is land or not
+  // its given wedge, or when edges each separating `from` from the box (its line between them)
+  // cover every direction from `from` towards the box: a direction inside an edge's angle from
+  // `from` crosses it, and one through the vertex two such edges share, on either side of it,
+  // would leave that vertex in another wedge than it came in by.
+  enum class Sight { seen, hidden, unknown };
+  Sight sight_box(const Place& from, Vec2 lo, Vec2 hi) const;
+
  private:
   struct Edge {
     Vec2 a, b;
@@ -126,6 +157,15 @@ class Visibility {
   Star build_star(Vec2 p) const;
   // A transversal crossing of the edge's interior by the open path p-q (`slack`: see Place::exact).
   bool crossing(const Edge& e, Vec2 p, Vec2 q, double slack) const;
+  // Whether no edge comes within edge_margin of the convex polygon (n <= 5 vertices, counter-
+  // clockwise) and no vertex within vertex_margin, but those at `from` (when given).
+  // `near` (when given): every edge and vertex found near is appended (edges as themselves,
+  // vertices as -1 - index) instead of stopping at the first.
+  bool region_clear(const Vec2* poly, int n, double edge_margin, double vertex_margin, const Vec2* from,
+                    std::vector<int32_t>* near = nullptr) const;
+  Sight sight(const Place& from, Vec2 lo, Vec2 hi, bool hidden_too) const;
+  // Whether the edges in `near` (indices, others ignored) prove every path from o to the box blocked (sight_box).
+  bool covers_box(Vec2 o, Vec2 lo, Vec2 hi, const std::vector<int32_t>& near, double margin) const;
   // The edges and vertices a closed segment may meet: all of them without the index.
   void candidates(Vec2 p, Vec2 q, std::vector<int32_t>& edges, std::vector<int32_t>& vertices) const;
 

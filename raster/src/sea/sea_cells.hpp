@@ -1,0 +1,70 @@
+// The exact engine's answers for cells (internal to rv_raster; sea_exact.cpp runs them): one
+// cell alone, or a block of cells at once where the block's proofs hold.
+//
+// A cell's answer is its nearest site when it sees it (the straight field's answer, bit for bit),
+// else the best path over the roots it sees (Searches::best_path). A block of open sea with no
+// barrier near it is answered from proofs made once for the block (Visibility::clear_box,
+// sees_box): its ground; the straight nearest sites that see the whole block; and, for the
+// cells whose path bends, the roots that could give any of them its answer (those within an
+// upper bound of the block's distances, as RootTree bounds them), each proved to see the whole
+// block or tested per cell as before. Every cell's answer is the one answer_cell gives it, to
+// the bit: the same roots weighed the same way (Searches::consider), only the order and the
+// proofs of visibility differ.
+// Thread safety: a CellRun is shared read-only by the workers (each writes its own cells of
+// `out`); a CellWorker belongs to one worker.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "rv/engine/engine.hpp"
+#include "rv/field/interior.hpp"
+#include "rv/sea/sea_field.hpp"
+#include "sea/bend_settle.hpp"
+
+namespace rv::sea {
+
+// What every worker of one compute_sea reads.
+struct CellRun {
+  const PreparedSea& prepared;
+  const SeedSet& seeds;
+  const NearestField& straight;  // the window's straight field (empty for adjusted seeds)
+  const InteriorSpans& interiors;
+  double max_distance;
+  SeaField& out;  // each cell written by the worker that answers it
+  const Prepared& p() const { return prepared.prepared; }
+  const Searches& search() const { return prepared.search; }
+  bool adjusted() const { return !prepared.classes.empty(); }
+};
+
+// Hints of one class of adjusted seeds (Searches::best_path's).
+struct ClassHints {
+  std::vector<int32_t> blockers;  // per item of the class's tree
+  int32_t last = -1;              // the root of the previous bent cell
+};
+
+// One worker's hints and counts.
+struct CellWorker {
+  int64_t land = 0, unreachable = 0, tests = 0, block_cells = 0;
+  double detour = 1.0;
+  // Per item of the search's tree, the edge that last hid it (best_path's `blockers`):
+  // neighbouring cells are mostly hidden from the same roots by the same edges.
+  std::vector<int32_t> blockers;
+  int32_t last = -1;  // the root of the previous bent cell
+  std::vector<ClassHints> classes;
+  // Block scratch.
+  std::vector<int64_t> pending;
+};
+
+// Cell (c, r) of the window (its centre `spot`, its ground not land, not inside a seed polygon).
+void answer_cell(const CellRun& run, CellWorker& w, int64_t c, int64_t r, const Spot& spot, Visibility::Ground ground);
+
+// Cells [c0, c1) x [r0, r1) of the window (spots[r - r0][c]: their centres; none inside a seed
+// polygon; seeds not adjusted) when the block is clear of barriers (clear_box): answered, their
+// grounds written to grounds[(r - r0) * stride + c] (land or open sea), and true; else nothing
+// done and false.
+bool answer_block(const CellRun& run, CellWorker& w, int64_t c0, int64_t c1, int64_t r0, int64_t r1,
+                  const std::vector<std::vector<Spot>>& spots, std::vector<Visibility::Ground>& grounds,
+                  int64_t stride);
+
+}  // namespace rv::sea
