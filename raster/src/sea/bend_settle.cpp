@@ -2,6 +2,7 @@
 // parts.
 #include "sea/bend_settle.hpp"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <queue>
@@ -26,10 +27,20 @@ Searches::Searches(const Prepared& prepared, const std::vector<int32_t>& geometr
     site_of.push_back(id);
   }
   sites = RootTree(boxes, p.lower_scale());
+  touch_first = static_cast<int32_t>(site_of.size());
+  // (Sites are ascending: a touch's site is found by bisection.)
+  for (size_t k = 0; k < p.touches.size(); ++k) {
+    const Prepared::Touch& t = p.touches[k];
+    if (!std::binary_search(geometric.begin(), geometric.end(), t.site)) continue;
+    site_of.push_back(t.site);
+    touch_of.push_back(static_cast<int32_t>(k));
+    touch_xyz.push_back(p.geodesic ? p.xyz(t.ll) : Prepared::Xyz{});
+    boxes.push_back({{t.at.at.x - bend, t.at.at.y - bend}, {t.at.at.x + bend, t.at.at.y + bend}});
+  }
   for (const Node& n : nodes) boxes.push_back({p.vis.vertex(n.vertex), p.vis.vertex(n.vertex)});
   all = RootTree(boxes, p.lower_scale());
   for (size_t i = 0; i < site_of.size(); ++i) {
-    sites.set_weight(static_cast<int32_t>(i), 0.0);
+    if (static_cast<int32_t>(i) < touch_first) sites.set_weight(static_cast<int32_t>(i), 0.0);
     all.set_weight(static_cast<int32_t>(i), 0.0);
   }
   dist.assign(nodes.size(), Best{});
@@ -187,8 +198,12 @@ void Settling::run(int64_t& tests, const std::atomic<bool>* cancel, double withi
       b.prev[u] = st.last_root[u] >= b.site_items() ? st.last_root[u] - b.site_items() : -1;
       if (val.via != kNoVia)
         b.from[u] = vis.vertex(val.via);
+      else if (val.d == 0.0)
+        b.from[u] = at.at;
+      else if (const int32_t root = st.last_root[u]; root >= b.touch_first && root < b.site_items())
+        b.from[u] = p.touches[static_cast<size_t>(b.touch_of[static_cast<size_t>(root - b.touch_first)])].at.at;
       else if (val.site != kNoSite)
-        b.from[u] = val.d == 0.0 ? at.at : p.site_place(val.site, p.vertex_spot(node.vertex)).at;
+        b.from[u] = p.site_place(val.site, p.vertex_spot(node.vertex)).at;
       open.set_weight(i, std::numeric_limits<double>::infinity());
       if (std::isfinite(val.d)) {
         b.all.set_weight(b.site_items() + i, val.d);

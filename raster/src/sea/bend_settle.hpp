@@ -26,9 +26,15 @@ inline bool beyond(double bound, double best) { return bound > best + 1e-12 * be
 // sites seen and the bend nodes settled so far, in one tree ordered by weight plus distance.
 struct Searches {
   const Prepared& p;
-  RootTree sites;                // the geometric sites by their boxes, weight 0
-  RootTree all;                  // the sites (items [0, S)), then the bend nodes (S + node), weighted once settled
-  std::vector<int32_t> site_of;  // site item -> site index
+  RootTree sites;  // the geometric sites by their boxes, weight 0
+  // The sites (items [0, touch_first)), the points where their edges meet barriers (items
+  // [touch_first, S): Prepared::touches, weight 0), then the bend nodes (S + node), weighted once
+  // settled.
+  RootTree all;
+  std::vector<int32_t> site_of;  // site or touch item -> site index
+  int32_t touch_first = 0;
+  std::vector<int32_t> touch_of;         // touch item - touch_first -> index in Prepared::touches
+  std::vector<Prepared::Xyz> touch_xyz;  // (geodesic) their positions on the ellipsoid
   std::vector<Node> nodes;
   std::vector<Best> dist;     // per node, once settled
   std::vector<Vec2> from;     // where each node's path came from: its previous bend or its site's point
@@ -100,6 +106,16 @@ struct Searches {
   template <class Seen>
   bool consider(int32_t item, const Place& at, const Spot& spot, const Prepared::Xyz& xyz, int32_t skip_vertex,
                 Best& best, Seen&& seen) const {
+    if (item >= touch_first && item < site_items()) {  // where a site's edge meets a barrier
+      const auto k = static_cast<size_t>(item - touch_first);
+      const Prepared::Touch& t = p.touches[static_cast<size_t>(touch_of[k])];
+      if (p.geodesic && Prepared::chord_below(touch_xyz[k], xyz) > best.d) return false;
+      const double d = p.geodesic ? p.geodesic->point_distance(t.ll, spot.ll) : length(t.at.at, at.at);
+      const Best c{d, t.site, kNoVia};
+      if (!(c < best) || !(d == 0.0 || seen(item, t.at))) return false;
+      best = c;
+      return true;
+    }
     if (item < site_items()) {
       const int32_t id = site_of[static_cast<size_t>(item)];
       // A point site on the ellipsoid: its chord, then whether it is seen, then its length (most

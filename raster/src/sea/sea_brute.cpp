@@ -20,6 +20,20 @@ namespace {
 // The engines' shared parts (sea/sea_prepare.hpp, sea/root_tree.hpp).
 using namespace ::rv::sea;
 
+// The points where the edges of `sites` (ascending) meet barriers (Prepared::touches): roots at
+// distance 0 of their site.
+std::vector<const Prepared::Touch*> touches_of(const Prepared& p, const std::vector<int32_t>& sites) {
+  std::vector<const Prepared::Touch*> out;
+  for (const Prepared::Touch& t : p.touches)
+    if (std::binary_search(sites.begin(), sites.end(), t.site)) out.push_back(&t);
+  return out;
+}
+
+// The length of the straight path from a touch point to x.
+double touch_length(const Prepared& p, const Prepared::Touch& t, const Spot& x) {
+  return p.geodesic ? p.geodesic->point_distance(t.ll, x.ll) : length(t.at.at, x.at);
+}
+
 // D(v) per bend node over `sites` (geometric sites), by Dijkstra over the full visibility graph.
 struct VertexDistances {
   std::vector<Node> nodes;
@@ -48,6 +62,15 @@ VertexDistances vertex_distances(const Prepared& p, const std::vector<int32_t>& 
       if (key == 0.0 || vis.sees(at, to)) {
         dist[n] = c;
         out.from[n] = key == 0.0 ? at.at : to.at;
+      }
+    }
+    for (const Prepared::Touch* t : touches_of(p, sites)) {
+      const Best c{touch_length(p, *t, spot), t->site, kNoVia};
+      if (!(c < dist[n])) continue;
+      ++tests;
+      if (c.d == 0.0 || vis.sees(at, t->at)) {
+        dist[n] = c;
+        out.from[n] = c.d == 0.0 ? at.at : t->at.at;
       }
     }
   }
@@ -103,6 +126,13 @@ Best cell_value(const Prepared& p, const std::vector<int32_t>& sites, const Vert
     if (p.vis.sees(at, p.site_place(id, spot))) best = c;
   }
   if (straight) return best;
+  // Or where its edge meets a barrier, seen.
+  for (const Prepared::Touch* t : touches_of(p, sites)) {
+    const Best c{touch_length(p, *t, spot), t->site, kNoVia};
+    if (!(c < best)) continue;
+    ++asked;
+    if (c.d == 0.0 || p.vis.sees(at, t->at)) best = c;
+  }
   // Hidden: a path round the vertices may be shorter than any site seen directly.
   for (size_t n = 0; n < vd.nodes.size(); ++n) {
     if (!std::isfinite(vd.dist[n].d)) continue;

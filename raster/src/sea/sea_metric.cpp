@@ -8,6 +8,7 @@
 #include <cmath>
 #include <limits>
 #include <mutex>
+#include <span>
 #include <utility>
 #include <vector>
 
@@ -51,6 +52,7 @@ class SeaSiteMetric final : public SiteMetric {
     if (options.metric.kind == MetricSpec::geodesic)
       geod_ = std::make_unique<GeographicLib::Geodesic>(options.metric.semi_major, options.metric.flattening);
     list_edges();
+    list_touches();
   }
 
   double distance(Vec2 p, int32_t site) const override {
@@ -69,6 +71,7 @@ class SeaSiteMetric final : public SiteMetric {
   Vec2 nearest_point(Vec2 p, int32_t site) const override {
     if (seeds().sites()[static_cast<size_t>(site)].kind == SiteKind::area) return inner_->nearest_point(p, site);
     const Path path = best(p, site);  // (settles the owners: roots_ below is filled)
+    if (path.touch >= 0) return grid_of(prepared().touches[static_cast<size_t>(path.touch)].at.at);
     if (path.node < 0) return inner_->nearest_point(p, site);
     // The path's first bend: the site's point nearest to it is where the path starts.
     const Searches& s = *roots_[static_cast<size_t>(roots_of_site_[static_cast<size_t>(site)])].search;
@@ -234,7 +237,24 @@ class SeaSiteMetric final : public SiteMetric {
     double d = std::numeric_limits<double>::infinity();
     int32_t node = -1;
     Vec2 gradient{kNaN, kNaN};
+    int32_t touch = -1;  // a straight path to a point where the site's edge meets a barrier
   };
+  // The points where the site's edges meet barriers (indices of Prepared::touches).
+  std::span<const int32_t> touches_of_site(int32_t site) const {
+    const auto s = static_cast<size_t>(site);
+    if (s + 1 >= touch_start_.size()) return {};
+    return std::span<const int32_t>(touch_list_.data() + touch_start_[s], touch_start_[s + 1] - touch_start_[s]);
+  }
+  void list_touches() {
+    const Prepared& pr = prepared();
+    touch_start_.assign(seeds().sites().size() + 1, 0);
+    for (const Prepared::Touch& t : pr.touches) ++touch_start_[static_cast<size_t>(t.site) + 1];
+    for (size_t i = 1; i < touch_start_.size(); ++i) touch_start_[i] += touch_start_[i - 1];
+    touch_list_.assign(pr.touches.size(), 0);
+    std::vector<size_t> at(touch_start_.begin(), touch_start_.end() - 1);
+    for (size_t k = 0; k < pr.touches.size(); ++k)
+      touch_list_[at[static_cast<size_t>(pr.touches[k].site)]++] = static_cast<int32_t>(k);
+  }
   Path best(Vec2 p, int32_t site) const {
     settled();
     Path out;
@@ -264,6 +284,22 @@ class SeaSiteMetric final : public SiteMetric {
       VertexHit hit;
       out.d = inner_->distance_at_vertex(p, site, out.gradient, hit);
     }
+    // Where the site's edges meet barriers, seen (Prepared::touches).
+    for (const int32_t k : touches_of_site(site)) {
+      const Prepared::Touch& t = pr.touches[static_cast<size_t>(k)];
+      Vec2 gradient{kNaN, kNaN};
+      double d;
+      if (!pr.geodesic) {
+        d = length(w.spot.at, t.at.at);
+        if (d > 0.0) gradient = Vec2{(w.spot.at.x - t.at.at.x) / d, (w.spot.at.y - t.at.at.y) / d};
+      } else {
+        d = pr.geolocator ? pr.geodesic->point_distance(w.spot.ll, t.ll)
+                          : pr.geodesic->point_distance(w.spot.ll, t.ll, gradient);
+      }
+      if (!(d < out.d) || !(d == 0.0 || pr.vis.sees(at, t.at))) continue;
+      out = Path{d, -1, gradient};
+      out.touch = k;
+    }
     const int32_t r = roots_of_site_[static_cast<size_t>(site)];
     if (r < 0) return out;
     const SiteRoots& roots = roots_[static_cast<size_t>(r)];
@@ -284,6 +320,7 @@ class SeaSiteMetric final : public SiteMetric {
         });
     if (won < 0) return out;
     out.node = won;
+    out.touch = -1;
     const int32_t v = s.nodes[static_cast<size_t>(won)].vertex;
     if (!pr.geodesic) {
       const Vec2 q = pr.vis.vertex(v);
@@ -448,6 +485,8 @@ class SeaSiteMetric final : public SiteMetric {
   size_t hint_count_ = 0;                          // sites, then every group's nodes
   std::vector<int32_t> roots_of_site_;             // site -> its entry of roots_, or -1
   std::vector<Edge> edges_;                        // the domain's edges: every barrier edge
+  std::vector<size_t> touch_start_;                // per site, its first entry of touch_list_ (and one past)
+  std::vector<int32_t> touch_list_;                // Prepared::touches by site
   std::unique_ptr<GeographicLib::Geodesic> geod_;  // geodesic: points along an edge
 };
 

@@ -43,11 +43,25 @@ LonLatBox grid_box(const GridSpec& grid, const Geolocator* geolocator) {
   return box;
 }
 
-// Whether any seed's edge meets a barrier (Prepared::seeds_meet_barriers).
-bool any_meets(const Prepared& p) {
-  for (size_t s = 0; s < p.local.size(); ++s)
-    if (p.segment(static_cast<int32_t>(s)) && p.vis.meets(Vec2{p.local[s].ax, p.local[s].ay}, p.end_b[s])) return true;
-  return false;
+// Where the seeds' edges meet the barriers (Prepared::touches), with their longitudes and
+// latitudes on the ellipsoid (a barrier vertex's or a seed end's own, else the frame's reverse).
+void find_touches(Prepared& p, const SeedSet& seeds) {
+  for (size_t s = 0; s < p.local.size(); ++s) {
+    if (!p.segment(static_cast<int32_t>(s))) continue;
+    const Vec2 a{p.local[s].ax, p.local[s].ay}, b = p.end_b[s];
+    for (const Place& m : p.vis.meetings(a, b)) {
+      Vec2 ll;
+      if (p.geodesic) {
+        const int32_t v = p.vis.vertex_at(m.at);
+        ll = v >= 0      ? p.vertex_ll[static_cast<size_t>(v)]
+             : m.at == a ? seeds.sites()[s].a
+             : m.at == b ? seeds.sites()[s].b
+                         : p.vis.frame()->reverse(m.at);
+      }
+      p.touches.push_back(Prepared::Touch{static_cast<int32_t>(s), m, ll});
+    }
+  }
+  p.seeds_meet_barriers = !p.touches.empty();
 }
 
 }  // namespace
@@ -82,7 +96,7 @@ Prepared prepare(const SeedSet& seeds, const Barriers& barriers, const GridSpec&
     p.local = to_local(seeds, grid);
     for (const Site& s : seeds.sites()) p.end_b.push_back(Vec2{s.b.x - grid.xmin, s.b.y - grid.ymax});
     check_seeds(p, seeds);
-    p.seeds_meet_barriers = any_meets(p);
+    find_touches(p, seeds);
     return p;
   }
   // The frame centred in the grid, the barriers and the seeds.
@@ -127,7 +141,7 @@ Prepared prepare(const SeedSet& seeds, const Barriers& barriers, const GridSpec&
   for (const Vec2& ll : p.vertex_ll) p.vertex_xyz.push_back(p.xyz(ll));
   for (const Vec2& ll : p.site_ll) p.site_xyz.push_back(p.xyz(ll));
   check_seeds(p, seeds);
-  p.seeds_meet_barriers = any_meets(p);
+  find_touches(p, seeds);
   return p;
 }
 

@@ -109,10 +109,18 @@ struct Prepared {
     site_key(x, site, &nearest);
     return nearest;
   }
-  // Whether some seed's edge meets a barrier other than at its own ends or along itself
-  // (Visibility::meets). Then a segment site may be seen only past that meeting point, a way to it
-  // the statement does not take (neither its nearest point nor a bend), and the distances need
-  // not keep the triangle inequality the block proofs rest on (sea/sea_cells.hpp).
+  // Where seeds' edges meet barriers away from their ends (Visibility::meetings): each such point
+  // of segment site `site` is a root of its own, reached at distance 0 (a place the site may be
+  // seen only up to, beyond which the barrier hides the rest). A shortest path to a segment ends
+  // at its nearest point from the last bend, at one of its ends, or at such a point: sliding the
+  // end towards the nearest point is shorter unless a barrier stops it there.
+  struct Touch {
+    int32_t site;
+    Place at;  // in the plane (exact false: on the barrier edge to rounding)
+    Vec2 ll;   // geodesic: its longitude and latitude
+  };
+  std::vector<Touch> touches;
+  // Whether some seed's edge meets a barrier (touches not empty).
   bool seeds_meet_barriers = false;
   // Whether a site is a segment (in the plane: its ends' images differ).
   bool segment(int32_t site) const { return local[static_cast<size_t>(site)].inv_len2 != 0.0; }

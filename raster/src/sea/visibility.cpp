@@ -546,33 +546,39 @@ bool Visibility::sees(const Place& from, const Place& to, int32_t* blocker) cons
   return false;
 }
 
-bool Visibility::meets(Vec2 a, Vec2 b) const {
+std::vector<Visibility::Place> Visibility::meetings(Vec2 a, Vec2 b) const {
   const GeodesicFrame* f = frame_.get();
   std::vector<int32_t> near_edges, near_vertices;
   candidates(a, b, near_edges, near_vertices);
+  std::vector<Place> out;
+  auto add = [&](Vec2 at, bool exact) {
+    if (at == a || at == b) exact = false;  // (an end of a-b inside an edge: on it to rounding)
+    for (const Place& m : out)
+      if (m.at == at) return;
+    Place m{at};
+    m.exact = exact;
+    out.push_back(m);
+  };
   for (int32_t id : near_edges) {
     const Edge& e = edges_[static_cast<size_t>(id)];
     if ((e.a == a && e.b == b) || (e.a == b && e.b == a)) continue;
     const int o1 = turn(f, a, b, e.a), o2 = turn(f, a, b, e.b);
     const int o3 = turn(f, e.a, e.b, a), o4 = turn(f, e.a, e.b, b);
     if (o1 * o2 > 0 || o3 * o4 > 0) continue;  // apart
-    const bool shared = e.a == a || e.a == b || e.b == a || e.b == b;
-    if (o1 == 0 && o2 == 0) {  // on one line: they meet unless they only share an end, back to back
-      if (!shared) {
-        const bool apart_along =
-            (along(a, b, e.a) < 0 && along(a, b, e.b) < 0) || (along(b, a, e.a) < 0 && along(b, a, e.b) < 0);
-        if (apart_along) continue;
-        return true;
-      }
-      const Vec2 p = (e.a == a || e.b == a) ? a : b, q = p == a ? b : a, other = e.a == p ? e.b : e.a;
-      if (along(p, q, other) < 0) continue;
-      return true;
+    if (o1 * o2 < 0 && o3 * o4 < 0) {          // a crossing inside both
+      const double d1 = std::abs((b.x - a.x) * (e.a.y - a.y) - (b.y - a.y) * (e.a.x - a.x));
+      const double d2 = std::abs((b.x - a.x) * (e.b.y - a.y) - (b.y - a.y) * (e.b.x - a.x));
+      const double t = d1 + d2 > 0.0 ? d1 / (d1 + d2) : 0.5;
+      add(Vec2{e.a.x + t * (e.b.x - e.a.x), e.a.y + t * (e.b.y - e.a.y)}, false);
+      continue;
     }
-    // A touch or a crossing; only an end shared with the edge is no meeting.
-    if (shared && o1 * o2 >= 0 && o3 * o4 >= 0) continue;
-    return true;
+    // Touches: an end of either strictly inside the other (collinear stretches give both ends).
+    for (const Vec2 v : {e.a, e.b})
+      if (v != a && v != b && turn(f, a, b, v) == 0 && strictly_between(a, b, v)) add(v, true);
+    for (const Vec2 v : {a, b})
+      if (v != e.a && v != e.b && turn(f, e.a, e.b, v) == 0 && strictly_between(e.a, e.b, v)) add(v, false);
   }
-  return false;
+  return out;
 }
 
 bool Visibility::clear_box(Vec2 lo, Vec2 hi) const {

@@ -609,3 +609,48 @@ TEST(SeaField, BlocksAnswerAsEveryCellAlone) {
 
 }  // namespace
 }  // namespace rv
+
+namespace rv {
+namespace {
+
+// A boom across an island's coast that is a seed: a cell beyond the boom from the coast's nearest
+// point sees the coast only from where the boom meets it, and its path ends there (no nearest
+// point, no end, no bend of the path is that place). The island (0,0)-(4,4), seed and land; the
+// boom from (2, 2) to (9, -1.5) meets its east coast at (4, 1). The cell at (7, 0): the coast's
+// nearest point (4, 0) lies beyond the boom; the path to (4, 1) touches it there: sqrt(10).
+TEST(SeaField, ASeedsCoastSeenOnlyPastABoomIsReachedWhereTheBoomMeetsIt) {
+  Barriers b;
+  b.add_polygon({{{0, 0}, {4, 0}, {4, 4}, {0, 4}}}, "island");
+  b.add_line(std::vector<Vec2>{{2, 2}, {9, -1.5}}, "boom");
+  SeedSet s;
+  s.add_polygon(s.add_feature(s.owner_code("island")), {{{0, 0}, {4, 0}, {4, 4}, {0, 4}}});
+  s.add_point(s.add_feature(s.owner_code("port")), {11, -4});
+  const GridSpec g = test::grid_of(12, 10, 1.0, -0.5, 5.5);  // centres on whole numbers, y 5 .. -4
+  const SeaField f = test::engines_agree(s, b, g);
+  if (HasFailure()) return;
+  ASSERT_EQ(centre(g, 7, 5).x, 7.0);
+  ASSERT_EQ(centre(g, 7, 5).y, 0.0);
+  EXPECT_EQ(f.field.site.at(7, 5), 1);  // the east coast (4, 0)-(4, 4)
+  EXPECT_EQ(f.field.distance.at(7, 5), static_cast<float>(std::sqrt(10.0)));
+  EXPECT_EQ(f.via.at(7, 5), kNoVia);  // seen directly, where the boom meets it
+  // Everywhere: the distance by sea keeps the triangle inequality between cells that see each other.
+  const Visibility vis(b);
+  for (int64_t r = 0; r < g.height; ++r)
+    for (int64_t c = 0; c < g.width; ++c)
+      for (int64_t r2 = 0; r2 < g.height; ++r2)
+        for (int64_t c2 = 0; c2 < g.width; ++c2) {
+          if (f.field.site.at(c, r) == kNoSite || f.field.site.at(c2, r2) == kNoSite) continue;
+          const Vec2 x = centre(g, c, r), y = centre(g, c2, r2);
+          if (vis.classify(x) != Visibility::Ground::open_sea || vis.classify(y) != Visibility::Ground::open_sea ||
+              !vis.sees(Visibility::Place{x}, Visibility::Place{y}))
+            continue;
+          ASSERT_LE(f.field.distance.at(c, r), f.field.distance.at(c2, r2) + dist(x, y) + 1e-5)
+              << c << "," << r << " from " << c2 << "," << r2;
+        }
+  // On a grid fine enough for blocks, they answer as every cell alone.
+  const SeaField fine = test::blocks_agree(s, b, test::grid_of(96, 80, 0.125, -0.5, 5.5));
+  EXPECT_GT(fine.block_cells, 1000);
+}
+
+}  // namespace
+}  // namespace rv

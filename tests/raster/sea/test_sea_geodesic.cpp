@@ -397,10 +397,10 @@ TEST(SeaGeodesic, BlocksAnswerAsEveryCellAlone) {
     SeedSet s;
     for (int k = 0; k < 5; ++k)
       s.add_point(s.add_feature(s.owner_code(k % 2 ? "A" : "B")), {12.0 + 0.9 * u(rng), 55.35 + 0.5 * u(rng)});
-    const Ring& o = outlines[static_cast<size_t>(round)];
+    const Ring& o = outlines[static_cast<size_t>(round % 3)];
     s.add_point(s.add_feature(s.owner_code("C")), {(o[0].x + o[1].x) / 2, (o[0].y + o[1].y) / 2});
     s.add_polyline(s.add_feature(s.owner_code("D")), std::vector<Vec2>{o[1], o[2]});
-    s.add_polygon(s.add_feature(s.owner_code("E")), {outlines[static_cast<size_t>(round) + 3]});
+    s.add_polygon(s.add_feature(s.owner_code("E")), {outlines[static_cast<size_t>(round % 3) + 3]});
     const GridSpec g = test::grid_of(225, 125, 0.004, 12.0, 55.85);
     SeaField f;
     try {

@@ -3,10 +3,13 @@
 //
 // The statement (planar metric): a cell x on land (Visibility::on_land) has no owner. Elsewhere
 // its distance is the least, over the seed sites whose nearest point x sees, of the straight
-// distance, and over the barrier vertices v that x sees (in a wedge of v), of D(v) + |v - x|,
-// where D(v) is v's own distance by sea: a shortest path bends only at barrier vertices, and its
-// last leg ends at the nearest point of a site. A cell inside a seed polygon that is not land
-// has distance 0 (the half-open interior of rv/field/interior.hpp).
+// distance, over the points where a site's edge meets a barrier (crosses it, touches it, or
+// leaves it: away from the edge's own ends) that x sees, of the straight distance to them, and
+// over the barrier vertices v that x sees (in a wedge of v), of D(v) + |v - x|, where D(v) is v's
+// own distance by sea: a shortest path bends only at barrier vertices, and its last leg ends at
+// the nearest point of a site, or where a barrier stops it from sliding along the site's edge
+// towards that point (a coast seen only past a boom that meets it). A cell inside a seed polygon
+// that is not land has distance 0 (the half-open interior of rv/field/interior.hpp).
 //
 // Ties: a cell that sees the straight field's nearest site (the lowest site index at the least
 // distance) takes the straight field's answer bit for bit: the distance is the same float,
@@ -23,7 +26,9 @@
 // rv/sea/geodesic_frame.hpp), every length GeographicLib's; grid, barriers and seeds in
 // longitude/latitude degrees. A line's or polygon's edges are geodesics: a path ends at the
 // edge's point nearest to it (the straight geodesic engine's measure), which, computed, counts
-// as on a barrier edge within the frame's deviation() of it.
+// as on a barrier edge within the frame's deviation() of it. Where a seed's edge crosses a
+// barrier edge, the point is where their images cross in the frame's plane (within its
+// deviation() of the geodesics' crossing: millimetres over hundreds of kilometres).
 //
 // Weights and reaches (Feature, rv/field/seeds.hpp): a path from a site costs its length over the
 // site's weight, and only where the length is within the site's reach (adjusted_distance); the

@@ -117,11 +117,14 @@ class Visibility {
   // neighbouring path. Exact, as sees().
   bool crosses(int32_t edge, const Place& from, const Place& to) const;
 
-  // Whether the closed segment a-b (a seed's edge, in the barriers' plane) meets a barrier edge
+  // Where the closed segment a-b (a seed's edge, in the barriers' plane) meets a barrier edge
   // anywhere but at one of its own ends where that edge ends too, or along the very same edge (a
-  // seed polygon that is a barrier): a crossing, a touch, or a stretch along a different edge.
-  // Exact, as sees().
-  bool meets(Vec2 a, Vec2 b) const;
+  // seed polygon that is a barrier): each crossing (computed: Place::exact false; geodesic, where
+  // the chords cross, within the frame's deviation of the geodesics' crossing), each barrier
+  // vertex inside a-b (exact), and each end of a-b inside a barrier edge (exact false: on it to
+  // rounding); a stretch along a different edge gives its two ends. Decided exactly, as sees().
+  std::vector<Place> meetings(Vec2 a, Vec2 b) const;
+  bool meets(Vec2 a, Vec2 b) const { return !meetings(a, b).empty(); }
 
   // Proofs for many points at once, over a closed box of the plane (lo <= hi componentwise):
   // true holds for every point of the box; false proves nothing. Both decide with margins in
