@@ -61,7 +61,6 @@ void find_touches(Prepared& p, const SeedSet& seeds) {
       p.touches.push_back(Prepared::Touch{static_cast<int32_t>(s), m, ll});
     }
   }
-  p.seeds_meet_barriers = !p.touches.empty();
 }
 
 }  // namespace

@@ -120,8 +120,6 @@ struct Prepared {
     Vec2 ll;   // geodesic: its longitude and latitude
   };
   std::vector<Touch> touches;
-  // Whether some seed's edge meets a barrier (touches not empty).
-  bool seeds_meet_barriers = false;
   // Whether a site is a segment (in the plane: its ends' images differ).
   bool segment(int32_t site) const { return local[static_cast<size_t>(site)].inv_len2 != 0.0; }
   // Geodesic, a segment site: the distance in metres, and (`foot` not null) its nearest point.

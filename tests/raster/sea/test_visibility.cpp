@@ -2,9 +2,12 @@
 // straight paths are free (touching, running along, wedges at lines and at touching polygons).
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <memory>
 #include <random>
+#include <string>
 
 #include "rv/sea/geodesic_frame.hpp"
 #include "rv/sea/visibility.hpp"
@@ -434,24 +437,38 @@ namespace rv {
 namespace {
 
 // Where a seed's edge meets a barrier: along the same edge, or at an end it shares with one, is
-// no meeting; a crossing, a touch inside either, or a stretch along another edge is.
-TEST(Visibility, MeetsTellsWhereASeedsEdgeMeetsABarrier) {
+// no meeting; a crossing (computed), a barrier vertex inside the edge (exact), an end of the edge
+// inside a barrier edge (on it to rounding), and a stretch along another edge (its two ends) are.
+std::string meetings_of(const Visibility& v, Vec2 a, Vec2 b) {
+  std::vector<Place> m = v.meetings(a, b);
+  std::sort(m.begin(), m.end(),
+            [](const Place& p, const Place& q) { return p.at.x < q.at.x || (p.at.x == q.at.x && p.at.y < q.at.y); });
+  std::string out;
+  for (const Place& p : m) {
+    char buf[64];
+    std::snprintf(buf, sizeof buf, "%s(%g %g)%s", out.empty() ? "" : " ", p.at.x, p.at.y, p.exact ? "" : "~");
+    out += buf;
+  }
+  return out;
+}
+
+TEST(Visibility, MeetingsAreWhereASeedsEdgeMeetsABarrier) {
   Barriers b;
   b.add_polygon({{{0, 0}, {4, 0}, {4, 4}, {0, 4}}}, "square");
   b.add_line(std::vector<Vec2>{{10, 0}, {10, 4}}, "boom");
   const Visibility v(b);
-  EXPECT_FALSE(v.meets({0, 0}, {4, 0}));    // the square's own edge
-  EXPECT_FALSE(v.meets({4, 0}, {0, 0}));    // the other way round
-  EXPECT_FALSE(v.meets({4, 0}, {7, -2}));   // from a corner out to sea
-  EXPECT_FALSE(v.meets({5, 5}, {7, 7}));    // at sea
-  EXPECT_FALSE(v.meets({4, 0}, {8, 0}));    // on the bottom edge's line, back to back at the corner
-  EXPECT_TRUE(v.meets({8, 2}, {12, 2}));    // across the boom
-  EXPECT_TRUE(v.meets({6, 4}, {10, 2}));    // ending inside the boom
-  EXPECT_FALSE(v.meets({10, 4}, {10, 6}));  // from the boom's end on its line, back to back
-  EXPECT_TRUE(v.meets({2, 0}, {6, 0}));     // along the bottom edge from its middle
-  EXPECT_TRUE(v.meets({2, -2}, {6, 2}));    // through the corner (4, 0)
-  EXPECT_TRUE(v.meets({-2, 2}, {6, 2}));    // across the square
-  EXPECT_TRUE(v.meets({10, -2}, {10, 6}));  // along the whole boom and past it
+  EXPECT_EQ(meetings_of(v, {0, 0}, {4, 0}), "");                // the square's own edge
+  EXPECT_EQ(meetings_of(v, {4, 0}, {0, 0}), "");                // the other way round
+  EXPECT_EQ(meetings_of(v, {4, 0}, {7, -2}), "");               // from a corner out to sea
+  EXPECT_EQ(meetings_of(v, {5, 5}, {7, 7}), "");                // at sea
+  EXPECT_EQ(meetings_of(v, {4, 0}, {8, 0}), "");                // on the bottom edge's line, back to back at the corner
+  EXPECT_EQ(meetings_of(v, {10, 4}, {10, 6}), "");              // from the boom's end on its line, back to back
+  EXPECT_EQ(meetings_of(v, {8, 2}, {12, 2}), "(10 2)~");        // across the boom
+  EXPECT_EQ(meetings_of(v, {6, 4}, {10, 2}), "(10 2)~");        // ending inside the boom
+  EXPECT_EQ(meetings_of(v, {2, 0}, {6, 0}), "(2 0)~ (4 0)");    // along the bottom edge from its middle
+  EXPECT_EQ(meetings_of(v, {2, -2}, {6, 2}), "(4 0)");          // through the corner
+  EXPECT_EQ(meetings_of(v, {-2, 2}, {6, 2}), "(0 2)~ (4 2)~");  // across the square
+  EXPECT_EQ(meetings_of(v, {10, -2}, {10, 6}), "(10 0) (10 4)");  // along the whole boom and past it
 }
 
 }  // namespace

@@ -124,7 +124,6 @@ class Visibility {
   // vertex inside a-b (exact), and each end of a-b inside a barrier edge (exact false: on it to
   // rounding); a stretch along a different edge gives its two ends. Decided exactly, as sees().
   std::vector<Place> meetings(Vec2 a, Vec2 b) const;
-  bool meets(Vec2 a, Vec2 b) const { return !meetings(a, b).empty(); }
 
   // Proofs for many points at once, over a closed box of the plane (lo <= hi componentwise):
   // true holds for every point of the box; false proves nothing. Both decide with margins in
