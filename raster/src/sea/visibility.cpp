@@ -327,6 +327,18 @@ Visibility::Star Visibility::build_star(Vec2 p) const {
   return s;
 }
 
+const Visibility::Star& Visibility::start_star(const Place& from, Star& built) const {
+  const int32_t v = from.vertex >= 0 ? from.vertex : from.open ? -1 : vertex_at(from.at);
+  if (v >= 0) return stars_[static_cast<size_t>(v)];
+  if (from.open) {
+    built.at = from.at;
+    built.sea = {1};
+  } else {
+    built = build_star(from.at);
+  }
+  return built;
+}
+
 Visibility::Star Visibility::star_at(Vec2 p) const {
   const int32_t v = vertex_at(p);
   return v >= 0 ? stars_[static_cast<size_t>(v)] : build_star(p);
@@ -450,15 +462,8 @@ bool Visibility::crosses(int32_t edge, const Place& from, const Place& to) const
 bool Visibility::sees(const Place& from, const Place& to, int32_t* blocker) const {
   if (blocker) *blocker = -1;
   const Vec2 p = from.at, q = to.at;
-  const int32_t pv = from.vertex >= 0 ? from.vertex : from.open ? -1 : vertex_at(p);
   Star p_built;
-  if (pv < 0 && from.open) {
-    p_built.at = p;
-    p_built.sea = {1};
-  } else if (pv < 0) {
-    p_built = build_star(p);
-  }
-  const Star& ps = pv >= 0 ? stars_[static_cast<size_t>(pv)] : p_built;
+  const Star& ps = start_star(from, p_built);
   if (p == q) {
     // No way from one wedge of a point into another but round a barrier.
     if (from.wedge >= 0 && to.wedge >= 0 && from.wedge != to.wedge) return false;
@@ -602,15 +607,8 @@ Visibility::Sight Visibility::sight(const Place& from, Vec2 lo, Vec2 hi, bool hi
   const double magnitude =
       std::max({std::abs(lo.x), std::abs(lo.y), std::abs(hi.x), std::abs(hi.y), std::abs(o.x), std::abs(o.y)});
   const double eps = 1e-9 * (1.0 + magnitude);
-  const int32_t pv = from.vertex >= 0 ? from.vertex : from.open ? -1 : vertex_at(o);
   Star built;
-  if (pv < 0 && from.open) {
-    built.at = o;
-    built.sea = {1};
-  } else if (pv < 0) {
-    built = build_star(o);
-  }
-  const Star& s = pv >= 0 ? stars_[static_cast<size_t>(pv)] : built;
+  const Star& s = start_star(from, built);
   bool in_wedge = true;
   if (s.rays.empty()) {
     if (!s.sea[0]) return Sight::hidden;

@@ -12,6 +12,21 @@
 
 namespace rv::test {
 
+// Whether two fields of grid g are the same cell for cell: owner, via and distance to the bit
+// (the first difference fails the test and returns false at once).
+inline bool same_cells(const SeaField& got, const SeaField& want, const GridSpec& g) {
+  for (int64_t r = 0; r < g.height; ++r)
+    for (int64_t c = 0; c < g.width; ++c) {
+      EXPECT_EQ(got.field.site.at(c, r), want.field.site.at(c, r)) << c << "," << r;
+      EXPECT_EQ(got.via.at(c, r), want.via.at(c, r)) << c << "," << r;
+      EXPECT_EQ(std::bit_cast<uint32_t>(got.field.distance.at(c, r)),
+                std::bit_cast<uint32_t>(want.field.distance.at(c, r)))
+          << c << "," << r;
+      if (::testing::Test::HasFailure()) return false;
+    }
+  return true;
+}
+
 // Returns the exact engine's field (the first difference fails the test and returns at once).
 inline SeaField engines_agree(const SeedSet& seeds, const Barriers& barriers, const GridSpec& g,
                               const SeaOptions& options = {}) {
@@ -21,15 +36,7 @@ inline SeaField engines_agree(const SeedSet& seeds, const Barriers& barriers, co
   EXPECT_EQ(exact.unreachable_cells, reference.unreachable_cells);
   EXPECT_EQ(exact.barrier_vertices, reference.barrier_vertices);
   EXPECT_EQ(exact.max_detour, reference.max_detour);
-  for (int64_t r = 0; r < g.height; ++r)
-    for (int64_t c = 0; c < g.width; ++c) {
-      EXPECT_EQ(exact.field.site.at(c, r), reference.field.site.at(c, r)) << c << "," << r;
-      EXPECT_EQ(exact.via.at(c, r), reference.via.at(c, r)) << c << "," << r;
-      EXPECT_EQ(std::bit_cast<uint32_t>(exact.field.distance.at(c, r)),
-                std::bit_cast<uint32_t>(reference.field.distance.at(c, r)))
-          << c << "," << r;
-      if (::testing::Test::HasFailure()) return exact;
-    }
+  same_cells(exact, reference, g);
   return exact;
 }
 
@@ -43,15 +50,7 @@ inline SeaField blocks_agree(const SeedSet& seeds, const Barriers& barriers, con
   options.cell_by_cell = false;
   const SeaField blocks = compute_sea(seeds, barriers, g, g.full_window(), options);
   EXPECT_EQ(alone.block_cells, 0);
-  for (int64_t r = 0; r < g.height; ++r)
-    for (int64_t c = 0; c < g.width; ++c) {
-      EXPECT_EQ(blocks.field.site.at(c, r), alone.field.site.at(c, r)) << c << "," << r;
-      EXPECT_EQ(blocks.via.at(c, r), alone.via.at(c, r)) << c << "," << r;
-      EXPECT_EQ(std::bit_cast<uint32_t>(blocks.field.distance.at(c, r)),
-                std::bit_cast<uint32_t>(alone.field.distance.at(c, r)))
-          << c << "," << r;
-      if (::testing::Test::HasFailure()) return blocks;
-    }
+  if (!same_cells(blocks, alone, g)) return blocks;
   EXPECT_EQ(blocks.land_cells, alone.land_cells);
   EXPECT_EQ(blocks.unreachable_cells, alone.unreachable_cells);
   EXPECT_EQ(blocks.max_detour, alone.max_detour);

@@ -157,6 +157,9 @@ class Visibility {
     int32_t polygon;  // its polygon (land on its left), or -1 for a line's edge
   };
   Star build_star(Vec2 p) const;
+  // The star round a path's start: its vertex's, one sea wedge for a point known open, else built
+  // into `built` (which the answer may refer to).
+  const Star& start_star(const Place& from, Star& built) const;
   // A transversal crossing of the edge's interior by the open path p-q (`slack`: see Place::exact).
   bool crossing(const Edge& e, Vec2 p, Vec2 q, double slack) const;
   // Whether no edge comes within edge_margin of the convex polygon (n <= 5 vertices, counter-
