@@ -150,9 +150,9 @@ struct Candidate {
   bool sees_all;
 };
 
-// The block's cells whose path bends (`bent`, as row * stride + column offsets into `spots`),
-// more than a few: one answered alone gives an upper bound of them all, and the roots within it
-// are weighed for each (see the header).
+// The block's cells whose path bends (`bent`: (row - r0) * stride + (column - c0) each), more
+// than a few: one answered alone gives an upper bound of them all, and the roots within it are
+// weighed for each (see the header).
 void answer_bent_block(const CellRun& run, CellWorker& w, int64_t c0, int64_t r0, Vec2 lo, Vec2 hi,
                        const std::vector<std::vector<Spot>>& spots, const std::vector<int64_t>& bent, int64_t stride) {
   const Prepared& p = run.p();

@@ -9,7 +9,9 @@
 // upper bound of the block's distances, as RootTree bounds them), each proved to see the whole
 // block or tested per cell as before. Every cell's answer is the one answer_cell gives it, to
 // the bit: the same roots weighed the same way (Searches::consider), only the order and the
-// proofs of visibility differ.
+// proofs of visibility differ. The upper bound rests on the statement's triangle inequality (a
+// cell's distance is at most that of a cell it sees plus the way between), which needs the
+// points where seeds' edges meet barriers among the roots (Prepared::touches).
 // Thread safety: a CellRun is shared read-only by the workers (each writes its own cells of
 // `out`); a CellWorker belongs to one worker.
 #pragma once

@@ -12,7 +12,9 @@
 //   larger than the key it had: every step settles a node or raises a key.
 // - Cells: the straight field of the window first (the straight exact engine's, rv/engine), then
 //   per cell its nearest site if seen (the straight field's answer, bit for bit), else the best
-//   site seen and the best settled node seen, each searched in order of its bound.
+//   site seen and the best settled node seen, each searched in order of its bound. Where no
+//   barrier is near a block of cells, its proofs are made once for the block and each cell gets
+//   the answer it would get alone (sea/sea_cells.hpp).
 // - Seeds with weights or reaches: the same per class of (weight, reach) (sea::site_classes),
 //   each with its own settled nodes, and the cheapest class's path (adjusted_path below).
 #include <algorithm>
