@@ -49,7 +49,18 @@ void find_touches(Prepared& p, const SeedSet& seeds) {
   for (size_t s = 0; s < p.local.size(); ++s) {
     if (!p.segment(static_cast<int32_t>(s))) continue;
     const Vec2 a{p.local[s].ax, p.local[s].ay}, b = p.end_b[s];
-    for (const Place& m : p.vis.meetings(a, b)) {
+    const std::vector<Place> meetings = p.vis.meetings(a, b);
+    // The pieces between the meetings lie each on one side of every barrier: one point tells
+    // whether a piece runs through land.
+    std::vector<double> along{0.0, 1.0};
+    const double dx = b.x - a.x, dy = b.y - a.y, len2 = dx * dx + dy * dy;
+    for (const Place& m : meetings) along.push_back(((m.at.x - a.x) * dx + (m.at.y - a.y) * dy) / len2);
+    std::sort(along.begin(), along.end());
+    for (size_t i = 0; i + 1 < along.size() && !p.seeds_cross_land; ++i) {
+      const double t = (along[i] + along[i + 1]) / 2;
+      if (along[i + 1] > along[i] && p.vis.on_land(Vec2{a.x + t * dx, a.y + t * dy})) p.seeds_cross_land = true;
+    }
+    for (const Place& m : meetings) {
       Vec2 ll;
       if (p.geodesic) {
         const int32_t v = p.vis.vertex_at(m.at);

@@ -120,6 +120,11 @@ struct Prepared {
     Vec2 ll;   // geodesic: its longitude and latitude
   };
   std::vector<Touch> touches;
+  // Whether some seed's edge runs through land between its meetings with the barriers (land
+  // polygons that overlap a seed's coast). Known: the statement may then break the triangle
+  // inequality (a random archipelago with overlapping islands does, in the oracle too), which the
+  // block proofs rest on: such runs answer every bent cell alone (sea/sea_cells.hpp).
+  bool seeds_cross_land = false;
   // Whether a site is a segment (in the plane: its ends' images differ).
   bool segment(int32_t site) const { return local[static_cast<size_t>(site)].inv_len2 != 0.0; }
   // Geodesic, a segment site: the distance in metres, and (`foot` not null) its nearest point.
