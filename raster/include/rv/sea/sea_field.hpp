@@ -9,7 +9,10 @@
 // own distance by sea: a shortest path bends only at barrier vertices, and its last leg ends at
 // the nearest point of a site, or where a barrier stops it from sliding along the site's edge
 // towards that point (a coast seen only past a boom that meets it). A cell inside a seed polygon
-// that is not land has distance 0 (the half-open interior of rv/field/interior.hpp).
+// that is not land has distance 0 (the half-open interior of rv/field/interior.hpp). Known and
+// open: where a seed's edge runs through land (barrier polygons overlapping a seed's coast) this
+// is measured as stated but may break the triangle inequality between cells that see each other
+// (bench/RESULTS-sea.md, session 53).
 //
 // Ties: a cell that sees the straight field's nearest site (the lowest site index at the least
 // distance) takes the straight field's answer bit for bit: the distance is the same float,
