@@ -39,12 +39,14 @@ struct VertexDistances {
   std::vector<Node> nodes;
   std::vector<Best> dist;
   std::vector<Vec2> from;  // where each node's path came from: its previous bend or its site's point
+  std::vector<const Prepared::Touch*> touches;  // where the sites' edges meet barriers (touches_of)
 };
 
 VertexDistances vertex_distances(const Prepared& p, const std::vector<int32_t>& sites, std::atomic<int64_t>& tests) {
   const Visibility& vis = p.vis;
   VertexDistances out;
   out.nodes = sea::bend_nodes(vis);
+  out.touches = touches_of(p, sites);
   const std::vector<Node>& nodes = out.nodes;
   std::vector<Best>& dist = out.dist;
   dist.resize(nodes.size());
@@ -64,7 +66,7 @@ VertexDistances vertex_distances(const Prepared& p, const std::vector<int32_t>& 
         out.from[n] = key == 0.0 ? at.at : to.at;
       }
     }
-    for (const Prepared::Touch* t : touches_of(p, sites)) {
+    for (const Prepared::Touch* t : out.touches) {
       const Best c{touch_length(p, *t, spot), t->site, kNoVia};
       if (!(c < dist[n])) continue;
       ++tests;
@@ -127,7 +129,7 @@ Best cell_value(const Prepared& p, const std::vector<int32_t>& sites, const Vert
   }
   if (straight) return best;
   // Or where its edge meets a barrier, seen.
-  for (const Prepared::Touch* t : touches_of(p, sites)) {
+  for (const Prepared::Touch* t : vd.touches) {
     const Best c{touch_length(p, *t, spot), t->site, kNoVia};
     if (!(c < best)) continue;
     ++asked;
