@@ -8,6 +8,8 @@
 // Pure, thread-safe.
 #pragma once
 
+#include <algorithm>
+#include <cfloat>
 #include <cmath>
 
 #include "rv/field/seeds.hpp"
@@ -31,6 +33,19 @@ inline int orient(const Vec2& a, const Vec2& b, const Vec2& c) {
   if ((b.x == a.x || c.y == a.y) && (b.y == a.y || c.x == a.x)) return 0;
   if (c == b || c == a) return 0;  // a repeated point: common where a path ends at a vertex
   return orient_exact(a, b, c);
+}
+
+// How far a point computed from p and q (a foot of a perpendicular, a crossing) may lie off where
+// it belongs in the plane: a few units in the last place of their coordinates.
+inline double rounding_slack(const Vec2& p, const Vec2& q) {
+  const double m = std::max({std::abs(q.x), std::abs(q.y), std::abs(p.x - q.x), std::abs(p.y - q.y)});
+  return 64.0 * DBL_EPSILON * m;
+}
+
+// The distance from q to the line through a and b (a != b), rounded: for tolerances only.
+inline double line_distance(const Vec2& a, const Vec2& b, const Vec2& q) {
+  const double dx = b.x - a.x, dy = b.y - a.y;
+  return std::abs(dx * (q.y - a.y) - dy * (q.x - a.x)) / std::hypot(dx, dy);
 }
 
 // Where c lies on the line through a and b (orient(a, b, c) == 0 assumed), compared along the

@@ -300,9 +300,9 @@ bool answer_block(const CellRun& run, CellWorker& w, int64_t c0, int64_t c1, int
       }
       bent.push_back((r - r0) * stride + (c - c0));
     }
-  // Fewer bent cells than a few, or seeds through land (Prepared::seeds_cross_land): each alone.
+  // Fewer bent cells than a few: each alone.
   constexpr size_t kFew = 3;
-  if (bent.size() < kFew || p.seeds_cross_land) {
+  if (bent.size() < kFew) {
     for (int64_t k : bent) {
       const int64_t c = c0 + k % stride, r = r0 + k / stride;
       const Spot& spot = spots[static_cast<size_t>(k / stride)][static_cast<size_t>(c)];

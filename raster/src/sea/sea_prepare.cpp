@@ -6,6 +6,7 @@
 
 #include "field/geodesic_sites.hpp"
 #include "rv/field/error.hpp"
+#include "sea/orient.hpp"
 
 namespace rv::sea {
 
@@ -13,6 +14,14 @@ namespace rv::sea {
 void check_seeds(Prepared& p, const SeedSet& seeds);
 
 namespace {
+
+// Whether wedge k of a vertex's star is wider than a half-turn: the wedge from ray k
+// counter-clockwise to ray k + 1 turns clockwise (exactly a half-turn: collinear and opposite, not
+// a bend); a line's end has one wedge, all round.
+bool bends(const Visibility& vis, const Visibility::Star& s, int k) {
+  const int n = static_cast<int>(s.rays.size());
+  return n == 1 || vis.orient(s.at, s.rays[static_cast<size_t>(k)], s.rays[static_cast<size_t>((k + 1) % n)]) < 0;
+}
 
 // The longitudes and latitudes a grid covers: its extent's own (geographic), or (projected) the
 // box of its outline's located points, a cell's spacing apart and the corners.
@@ -46,30 +55,40 @@ LonLatBox grid_box(const GridSpec& grid, const Geolocator* geolocator) {
 // Where the seeds' edges meet the barriers (Prepared::touches), with their longitudes and
 // latitudes on the ellipsoid (a barrier vertex's or a seed end's own, else the frame's reverse).
 void find_touches(Prepared& p, const SeedSet& seeds) {
+  auto add = [&](size_t s, const Place& m) {
+    Vec2 ll;
+    if (p.geodesic) {
+      const int32_t v = p.vis.vertex_at(m.at);
+      ll = v >= 0                                       ? p.vertex_ll[static_cast<size_t>(v)]
+           : m.at == Vec2{p.local[s].ax, p.local[s].ay} ? seeds.sites()[s].a
+           : m.at == p.end_b[s]                         ? seeds.sites()[s].b
+                                                        : p.vis.frame()->reverse(m.at);
+    }
+    p.touches.push_back(Prepared::Touch{static_cast<int32_t>(s), m, ll});
+  };
   for (size_t s = 0; s < p.local.size(); ++s) {
     if (!p.segment(static_cast<int32_t>(s))) continue;
     const Vec2 a{p.local[s].ax, p.local[s].ay}, b = p.end_b[s];
-    const std::vector<Place> meetings = p.vis.meetings(a, b);
-    // The pieces between the meetings lie each on one side of every barrier: one point tells
-    // whether a piece runs through land.
-    std::vector<double> along{0.0, 1.0};
-    const double dx = b.x - a.x, dy = b.y - a.y, len2 = dx * dx + dy * dy;
-    for (const Place& m : meetings) along.push_back(((m.at.x - a.x) * dx + (m.at.y - a.y) * dy) / len2);
-    std::sort(along.begin(), along.end());
-    for (size_t i = 0; i + 1 < along.size() && !p.seeds_cross_land; ++i) {
-      const double t = (along[i] + along[i + 1]) / 2;
-      if (along[i + 1] > along[i] && p.vis.on_land(Vec2{a.x + t * dx, a.y + t * dy})) p.seeds_cross_land = true;
-    }
-    for (const Place& m : meetings) {
-      Vec2 ll;
-      if (p.geodesic) {
-        const int32_t v = p.vis.vertex_at(m.at);
-        ll = v >= 0      ? p.vertex_ll[static_cast<size_t>(v)]
-             : m.at == a ? seeds.sites()[s].a
-             : m.at == b ? seeds.sites()[s].b
-                         : p.vis.frame()->reverse(m.at);
+    for (const Place& m : p.vis.meetings(a, b)) add(s, m);
+    // An end on a barrier vertex, seen from a sea wedge there that is no bend node (where D = 0
+    // would stand for it) and that the edge does not bound: from such a wedge the path cannot
+    // slide along the edge, so it ends at the vertex (two islands meeting at the seed's end, a
+    // coast straight on past it).
+    for (const auto& [end, other] : {std::pair{a, b}, std::pair{b, a}}) {
+      const int32_t v = p.vis.vertex_at(end);
+      if (v < 0) continue;
+      const Visibility::Star& star = p.vis.vertex_star(v);
+      const int n = static_cast<int>(star.rays.size());
+      auto bounds = [&](int k) {
+        const Vec2 r = star.rays[static_cast<size_t>(k % n)];
+        return p.vis.orient(end, r, other) == 0 &&
+               (r.x - end.x) * (other.x - end.x) + (r.y - end.y) * (other.y - end.y) > 0;
+      };
+      for (int k = 0; k < star.wedges(); ++k) {
+        if (!star.sea[static_cast<size_t>(k)] || bends(p.vis, star, k)) continue;  // land, or a bend node
+        if (bounds(k) || bounds(k + 1)) continue;
+        add(s, p.vis.at_vertex(v, k));
       }
-      p.touches.push_back(Prepared::Touch{static_cast<int32_t>(s), m, ll});
     }
   }
 }
@@ -210,15 +229,8 @@ std::vector<Node> bend_nodes(const Visibility& vis) {
   std::vector<Node> nodes;
   for (int32_t v = 0; v < vis.vertex_count(); ++v) {
     const Visibility::Star& s = vis.vertex_star(v);
-    const int n = static_cast<int>(s.rays.size());
-    for (int k = 0; k < s.wedges(); ++k) {
-      if (!s.sea[static_cast<size_t>(k)]) continue;
-      // The wedge from ray k counter-clockwise to ray k + 1 is wider than a half-turn when that
-      // turn is clockwise (exactly a half-turn: collinear and opposite, not a bend).
-      const bool reflex =
-          n == 1 || vis.orient(s.at, s.rays[static_cast<size_t>(k)], s.rays[static_cast<size_t>((k + 1) % n)]) < 0;
-      if (reflex) nodes.push_back(Node{v, k});
-    }
+    for (int k = 0; k < s.wedges(); ++k)
+      if (s.sea[static_cast<size_t>(k)] && bends(vis, s, k)) nodes.push_back(Node{v, k});
   }
   return nodes;
 }
@@ -246,9 +258,16 @@ bool before(const Visibility& vis, Vec2 at, Vec2 a, Vec2 d1, Vec2 d2) {
 
 bool taut(const Visibility& vis, const Node& node, Vec2 from, Vec2 x) {
   const Visibility::Star& s = vis.vertex_star(node.vertex);
-  if (from == s.at) return true;
+  // (A site's nearest point from the node computed a hair off it: the seed's end is on the node.)
+  if (from == s.at || length(from, s.at) <= vis.slack(s.at, from)) return true;
   const int o = vis.orient(s.at, from, x);
-  if (o == 0) return false;  // straight on, or straight back: no bend
+  // Straight on past the node, from a site's computed point (the foot of a perpendicular lies on
+  // the straight path to rounding): the path grazes the node, and that rounding may have put the
+  // straight path itself through the node's land. Its length is the straight one's.
+  const bool on = (from.x - s.at.x) * (x.x - s.at.x) + (from.y - s.at.y) * (x.y - s.at.y) < 0;
+  if (on && (o == 0 || line_distance(x, s.at, from) <= rounding_slack(s.at, from)) && vis.vertex_at(from) < 0)
+    return true;
+  if (o == 0) return false;  // straight on (between barrier vertices), or straight back: no bend
   // The land next to this wedge runs counter-clockwise from ray k + 1 to ray k; it lies in the
   // counter-clockwise sweep from the arrival to the departure when its far ray (k) comes after
   // the arrival's direction and no later than the departure's.

@@ -109,22 +109,19 @@ struct Prepared {
     site_key(x, site, &nearest);
     return nearest;
   }
-  // Where seeds' edges meet barriers away from their ends (Visibility::meetings): each such point
-  // of segment site `site` is a root of its own, reached at distance 0 (a place the site may be
-  // seen only up to, beyond which the barrier hides the rest). A shortest path to a segment ends
-  // at its nearest point from the last bend, at one of its ends, or at such a point: sliding the
-  // end towards the nearest point is shorter unless a barrier stops it there.
+  // Where seeds' edges meet barriers away from their ends (Visibility::meetings), and a segment's
+  // end on a barrier vertex as seen from each sea wedge there that is no bend node and that the
+  // segment does not bound: each such point of segment site `site` is a root of its own, reached
+  // at distance 0 (a place the site may be seen only up to, beyond which the barrier hides the
+  // rest). A shortest path to a segment ends at its nearest point from the last bend, at one of
+  // its ends, or at such a point: sliding the end towards the nearest point is shorter unless a
+  // barrier stops it there. (An end on a bend node is that node's, at D = 0.)
   struct Touch {
     int32_t site;
-    Place at;  // in the plane (exact false: on the barrier edge to rounding)
+    Place at;  // in the plane (exact false: on the barrier edge to rounding; at a vertex: its wedge)
     Vec2 ll;   // geodesic: its longitude and latitude
   };
   std::vector<Touch> touches;
-  // Whether some seed's edge runs through land between its meetings with the barriers (land
-  // polygons that overlap a seed's coast). Known: the statement may then break the triangle
-  // inequality (a random archipelago with overlapping islands does, in the oracle too), which the
-  // block proofs rest on: such runs answer every bent cell alone (sea/sea_cells.hpp).
-  bool seeds_cross_land = false;
   // Whether a site is a segment (in the plane: its ends' images differ).
   bool segment(int32_t site) const { return local[static_cast<size_t>(site)].inv_len2 != 0.0; }
   // Geodesic, a segment site: the distance in metres, and (`foot` not null) its nearest point.
@@ -211,7 +208,8 @@ std::vector<Node> bend_nodes(const Visibility& vis);
 // the site it left) may bend there towards x: the turn wraps round the land at the node (the
 // shorter way round from the arrival to the departure passes over the land), so that no path
 // straighter than it exists nearby. A path that starts at the node (from == the node: a seed
-// touches it) may leave in any direction. Necessary for a shortest path's bend; exact.
+// touches it; or a computed point within Visibility::slack of it, a seed's end on the node
+// measured to rounding) may leave in any direction. Necessary for a shortest path's bend; exact.
 bool taut(const Visibility& vis, const Node& node, Vec2 from, Vec2 x);
 
 // An empty field of the window (no owner anywhere) with the barriers' vertex count, and the

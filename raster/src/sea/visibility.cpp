@@ -12,6 +12,7 @@ namespace rv {
 namespace {
 
 using sea::along;
+using sea::line_distance;
 
 // The orientation predicate of a reading: planar (exact in the plane), or the geodesic frame's.
 // (Inlined: it is the innermost call of every query.)
@@ -47,12 +48,7 @@ bool position_less(Vec2 a, Vec2 b) { return a.x < b.x || (a.x == b.x && a.y < b.
 // Geodesic: a computed end lies on a geodesic edge to GeoSites' precision (well under a
 // micrometre), whose image lies within the frame's deviation of the edge's chord.
 double end_slack(const GeodesicFrame* frame, Vec2 p, Vec2 q) {
-  const double m = std::max({std::abs(q.x), std::abs(q.y), std::abs(p.x - q.x), std::abs(p.y - q.y)});
-  return 64.0 * DBL_EPSILON * m + (frame ? frame->deviation() + 1e-6 : 0.0);
-}
-double line_distance(Vec2 a, Vec2 b, Vec2 q) {
-  const double dx = b.x - a.x, dy = b.y - a.y;
-  return std::abs(dx * (q.y - a.y) - dy * (q.x - a.x)) / std::hypot(dx, dy);
+  return sea::rounding_slack(p, q) + (frame ? frame->deviation() + 1e-6 : 0.0);
 }
 
 // A convex polygon of at most five vertices, counter-clockwise (fewer when degenerate), with
@@ -439,6 +435,8 @@ void Visibility::classify_row(double y, const double* xs, int64_t n, Ground* out
   }
 }
 
+double Visibility::slack(Vec2 p, Vec2 q) const { return end_slack(frame_.get(), p, q); }
+
 bool Visibility::crossing(const Edge& e, Vec2 p, Vec2 q, double slack) const {
   // (Boxes apart by more than the images' bending, geodesic.)
   const double bend = frame_ ? frame_->deviation() : 0.0;
@@ -471,12 +469,22 @@ bool Visibility::sees(const Place& from, const Place& to, int32_t* blocker) cons
     return std::any_of(ps.sea.begin(), ps.sea.end(), [](uint8_t x) { return x != 0; });
   }
   const double slack = to.exact ? 0.0 : end_slack(frame_.get(), p, q);
+  // The direction the path leaves p in. A computed end taken as on a barrier edge that starts at p
+  // (a path along a coast to where a seed's edge crosses it) may lie off the edge's line by
+  // rounding, on the land side as often as not: it leaves along the edge.
+  Vec2 toward = q;
+  if (slack > 0.0)
+    for (const Vec2& r : ps.rays)
+      if (along(p, r, q) > 0 && line_distance(p, r, q) <= slack) {
+        toward = r;
+        break;
+      }
   // The ends' wedges first (a few exact tests): a path that cannot leave its start's wedge, or
   // reach its end's, is blocked before any walk along it.
   {
     bool leaves = false, arrives = !(to.vertex >= 0 && to.wedge >= 0);
     for (int s = 0; s < 2; ++s) {
-      const int k = ps.wedge_towards(q, s == 0);
+      const int k = ps.wedge_towards(toward, s == 0);
       leaves = leaves || (ps.sea[static_cast<size_t>(k)] && (from.wedge < 0 || k == from.wedge));
       if (!arrives) {
         const Star& qs = stars_[static_cast<size_t>(to.vertex)];
@@ -522,7 +530,7 @@ bool Visibility::sees(const Place& from, const Place& to, int32_t* blocker) cons
   // side decides the wedge, and it cannot change while the path runs along edges.
   bool side[2];
   for (int s = 0; s < 2; ++s) {
-    const int k = ps.wedge_towards(q, s == 0);
+    const int k = ps.wedge_towards(toward, s == 0);
     side[s] = ps.sea[static_cast<size_t>(k)] && (from.wedge < 0 || k == from.wedge);
   }
   auto any = [&] { return side[0] || side[1]; };

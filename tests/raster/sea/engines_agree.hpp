@@ -5,10 +5,14 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <bit>
+#include <cmath>
 #include <cstdint>
+#include <vector>
 
 #include "rv/sea/sea_field.hpp"
+#include "rv/sea/visibility.hpp"
 
 namespace rv::test {
 
@@ -55,6 +59,57 @@ inline SeaField blocks_agree(const SeedSet& seeds, const Barriers& barriers, con
   EXPECT_EQ(blocks.unreachable_cells, alone.unreachable_cells);
   EXPECT_EQ(blocks.max_detour, alone.max_detour);
   return blocks;
+}
+
+// Independently of both engines: the distance by sea is 1-Lipschitz along free paths, so two cells
+// whose centres see each other (both on open sea, `reach` cells apart at most in each direction;
+// every pair when reach < 0) differ by at most their distance apart (+ `slack`): a root or a bend
+// wrongly left out shows as a jump. Centres within rounding of a barrier's line are left out (the
+// engines decide them in the grid's frame, this check in the barriers'). Fails the test at the
+// first pair that breaks it and returns false.
+inline bool triangle_inequality_holds(const SeaField& f, const Barriers& barriers, const GridSpec& g, int64_t reach,
+                                      double slack = 1e-4) {
+  const Visibility vis(barriers);
+  auto near_line = [&](Vec2 q) {
+    auto off = [&](Vec2 a, Vec2 b) {
+      const double dx = b.x - a.x, dy = b.y - a.y;
+      return std::abs(dx * (q.y - a.y) - dy * (q.x - a.x)) <= 1e-9 * std::hypot(dx, dy);
+    };
+    for (const Barriers::Polygon& p : barriers.polygons())
+      for (const Ring& r : p.rings)
+        for (size_t i = 0; i < r.size(); ++i)
+          if (off(r[i], r[(i + 1) % r.size()])) return true;
+    for (const Barriers::Line& l : barriers.lines())
+      for (size_t i = 0; i + 1 < l.vertices.size(); ++i)
+        if (off(l.vertices[i], l.vertices[i + 1])) return true;
+    return false;
+  };
+  std::vector<uint8_t> usable(static_cast<size_t>(g.cell_count()));
+  for (int64_t r = 0; r < g.height; ++r)
+    for (int64_t c = 0; c < g.width; ++c) {
+      const Vec2 x{g.centre_x(c), g.centre_y(r)};
+      usable[static_cast<size_t>(r * g.width + c)] =
+          f.field.site.at(c, r) != kNoSite && vis.classify(x) == Visibility::Ground::open_sea && !near_line(x);
+    }
+  const int64_t span = reach < 0 ? std::max(g.width, g.height) : reach;
+  for (int64_t r = 0; r < g.height; ++r)
+    for (int64_t c = 0; c < g.width; ++c) {
+      if (!usable[static_cast<size_t>(r * g.width + c)]) continue;
+      for (int64_t r2 = std::max<int64_t>(0, r - span); r2 <= std::min(g.height - 1, r + span); ++r2)
+        for (int64_t c2 = std::max<int64_t>(0, c - span); c2 <= std::min(g.width - 1, c + span); ++c2) {
+          if (!usable[static_cast<size_t>(r2 * g.width + c2)] || (r2 == r && c2 == c)) continue;
+          const Vec2 x{g.centre_x(c), g.centre_y(r)}, y{g.centre_x(c2), g.centre_y(r2)};
+          const double d = f.field.distance.at(c, r), d2 = f.field.distance.at(c2, r2);
+          if (d <= d2 + std::hypot(x.x - y.x, x.y - y.y) + slack) continue;
+          if (!vis.sees(Visibility::Place{x}, Visibility::Place{y})) continue;
+          ADD_FAILURE() << "the triangle inequality breaks: " << c << "," << r << " (" << x.x << ", " << x.y
+                        << "): " << d << " by site " << f.field.site.at(c, r) << " via " << f.via.at(c, r) << "; " << c2
+                        << "," << r2 << " (" << y.x << ", " << y.y << ") sees it: " << d2 << " by site "
+                        << f.field.site.at(c2, r2) << " via " << f.via.at(c2, r2);
+          return false;
+        }
+    }
+  return true;
 }
 
 }  // namespace rv::test

@@ -11,6 +11,7 @@
 #include <random>
 
 #include "engines_agree.hpp"
+#include "random_archipelago.hpp"
 #include "rv/field/error.hpp"
 #include "rv/sea/sea_field.hpp"
 #include "rv/sea/visibility.hpp"
@@ -426,69 +427,30 @@ TEST(SeaField, Refusals) {
   }
 }
 
-// Random archipelagos (islands with lagoons, booms, islands touching at corners) with point and
-// line seeds on the coasts and at sea: the exact engine equals the reference cell for cell.
+// Random archipelagos (islands that may overlap, with lagoons, booms, islands touching at
+// corners, point and line seeds on the coasts and at sea; random_archipelago.hpp): the exact
+// engine equals the reference cell for cell, and neighbours keep the triangle inequality.
 TEST(SeaField, RandomArchipelagosExactEqualsTheReference) {
   std::mt19937_64 rng(31);
-  std::uniform_int_distribution<int> coord(0, 36);
   int64_t via_cells = 0, rounds = 0;
-  for (int round = 0; round < 10; ++round) {
-    Barriers b;
-    std::vector<Ring> outlines;
-    for (int k = 0; k < 7; ++k) {
-      const double x = coord(rng), y = coord(rng), w = 2 + coord(rng) % 7, h = 2 + coord(rng) % 7;
-      std::vector<Ring> rings{{{x, y}, {x + w, y}, {x + w * 0.6, y + h}, {x, y + h * 0.8}}};
-      if (w > 5 && h > 5) rings.push_back({{x + 1.5, y + 1.5}, {x + 3, y + 1.5}, {x + 2.5, y + 3}});
-      outlines.push_back(rings[0]);
-      b.add_polygon(rings, "island");
-    }
-    b.add_line(std::vector<Vec2>{{double(coord(rng)), double(coord(rng))}, {double(coord(rng)), double(coord(rng))}},
-               "boom");
-    const Visibility vis(b);
-    SeedSet s;
-    int seeds = 0;
-    for (int k = 0; k < 12 && seeds < 5; ++k) {
-      const Vec2 p{coord(rng) + 0.25, coord(rng) + 0.75};
-      if (vis.on_land(p)) continue;
-      s.add_point(s.add_feature(s.owner_code(seeds % 2 ? "A" : "B")), p);
-      ++seeds;
-    }
-    // A port on a coast, and a coast as a line seed.
-    const Ring& o = outlines[static_cast<size_t>(round) % outlines.size()];
-    s.add_point(s.add_feature(s.owner_code("C")), {(o[0].x + o[1].x) / 2, (o[0].y + o[1].y) / 2});
-    s.add_polyline(s.add_feature(s.owner_code("D")), std::vector<Vec2>{o[1], o[2]});
+  for (int round = 0; round < 200; ++round) {
+    const test::Archipelago a = test::random_archipelago(rng, round);
     const GridSpec g = test::grid_of(40, 40, 1.0, -1.0, 41.0);
     SeaField f;
     try {
-      f = sea_field(s, b, g);
+      f = sea_field(a.seeds, a.barriers, g);
     } catch (const Error& e) {
       ASSERT_EQ(e.kind(), ErrorKind::invalid_input) << e.what();  // a coast seed inside another island
       continue;
     }
+    if (HasFailure()) return;
     ++rounds;
-    // Independently of both engines: the distance by sea is 1-Lipschitz along free paths, so
-    // neighbours that see each other differ by at most their distance apart (a bend wrongly
-    // left out would show as a jump).
-    const Visibility local(b);
+    ASSERT_TRUE(test::triangle_inequality_holds(f, a.barriers, g, 1)) << "round " << round;
     for (int64_t r = 0; r < g.height; ++r)
-      for (int64_t c = 0; c < g.width; ++c) {
-        via_cells += f.via.at(c, r) != kNoVia;
-        if (f.field.site.at(c, r) == kNoSite) continue;
-        for (int64_t dr = -1; dr <= 1; ++dr)
-          for (int64_t dc = -1; dc <= 1; ++dc) {
-            const int64_t r2 = r + dr, c2 = c + dc;
-            if (r2 < 0 || c2 < 0 || r2 >= g.height || c2 >= g.width || f.field.site.at(c2, r2) == kNoSite) continue;
-            const Vec2 x = centre(g, c, r), y = centre(g, c2, r2);
-            // A centre on a barrier line touches both sides; a path may not pass through it.
-            if (local.classify(y) != Visibility::Ground::open_sea) continue;
-            if (!local.sees(Visibility::Place{x}, Visibility::Place{y})) continue;
-            ASSERT_LE(f.field.distance.at(c, r), f.field.distance.at(c2, r2) + dist(x, y) + 1e-4)
-                << round << ": " << c << "," << r << " next to " << c2 << "," << r2;
-          }
-      }
+      for (int64_t c = 0; c < g.width; ++c) via_cells += f.via.at(c, r) != kNoVia;
   }
-  EXPECT_GE(rounds, 5);
-  EXPECT_GT(via_cells, 500);  // paths round land, not only straight ones
+  EXPECT_GE(rounds, 150);
+  EXPECT_GT(via_cells, 10000);  // paths round land, not only straight ones
 }
 
 }  // namespace
@@ -606,85 +568,6 @@ TEST(SeaField, BlocksAnswerAsEveryCellAlone) {
   EXPECT_GT(block_cells, cells / 2);  // most cells in blocks
   EXPECT_GT(via_cells, 20000);        // many of them round land
   EXPECT_GT(unreachable, 1000);       // the lagoon
-}
-
-}  // namespace
-}  // namespace rv
-
-namespace rv {
-namespace {
-
-// A boom across an island's coast that is a seed: a cell beyond the boom from the coast's nearest
-// point sees the coast only from where the boom meets it, and its path ends there (no nearest
-// point, no end, no bend of the path is that place). The island (0,0)-(4,4), seed and land; the
-// boom from (2, 2) to (9, -1.5) meets its east coast at (4, 1). The cell at (7, 0): the coast's
-// nearest point (4, 0) lies beyond the boom; the path to (4, 1) touches it there: sqrt(10).
-TEST(SeaField, ASeedsCoastSeenOnlyPastABoomIsReachedWhereTheBoomMeetsIt) {
-  Barriers b;
-  b.add_polygon({{{0, 0}, {4, 0}, {4, 4}, {0, 4}}}, "island");
-  b.add_line(std::vector<Vec2>{{2, 2}, {9, -1.5}}, "boom");
-  SeedSet s;
-  s.add_polygon(s.add_feature(s.owner_code("island")), {{{0, 0}, {4, 0}, {4, 4}, {0, 4}}});
-  s.add_point(s.add_feature(s.owner_code("port")), {11, -4});
-  const GridSpec g = test::grid_of(12, 10, 1.0, -0.5, 5.5);  // centres on whole numbers, y 5 .. -4
-  const SeaField f = test::engines_agree(s, b, g);
-  if (HasFailure()) return;
-  ASSERT_EQ(centre(g, 7, 5).x, 7.0);
-  ASSERT_EQ(centre(g, 7, 5).y, 0.0);
-  EXPECT_EQ(f.field.site.at(7, 5), 1);  // the east coast (4, 0)-(4, 4)
-  EXPECT_EQ(f.field.distance.at(7, 5), static_cast<float>(std::sqrt(10.0)));
-  EXPECT_EQ(f.via.at(7, 5), kNoVia);  // seen directly, where the boom meets it
-  // Everywhere: the distance by sea keeps the triangle inequality between cells that see each other.
-  const Visibility vis(b);
-  for (int64_t r = 0; r < g.height; ++r)
-    for (int64_t c = 0; c < g.width; ++c)
-      for (int64_t r2 = 0; r2 < g.height; ++r2)
-        for (int64_t c2 = 0; c2 < g.width; ++c2) {
-          if (f.field.site.at(c, r) == kNoSite || f.field.site.at(c2, r2) == kNoSite) continue;
-          const Vec2 x = centre(g, c, r), y = centre(g, c2, r2);
-          if (vis.classify(x) != Visibility::Ground::open_sea || vis.classify(y) != Visibility::Ground::open_sea ||
-              !vis.sees(Visibility::Place{x}, Visibility::Place{y}))
-            continue;
-          ASSERT_LE(f.field.distance.at(c, r), f.field.distance.at(c2, r2) + dist(x, y) + 1e-5)
-              << c << "," << r << " from " << c2 << "," << r2;
-        }
-  // On a grid fine enough for blocks, they answer as every cell alone.
-  const SeaField fine = test::blocks_agree(s, b, test::grid_of(96, 80, 0.125, -0.5, 5.5));
-  EXPECT_GT(fine.block_cells, 1000);
-}
-
-}  // namespace
-}  // namespace rv
-
-namespace rv {
-namespace {
-
-// Islands that overlap, a coast seed running through the other island's land (a layout where the
-// statement breaks the triangle inequality, in the oracle too: found in random archipelagos,
-// left open): the blocks then answer every bent cell alone, as every cell alone.
-TEST(SeaField, ASeedThroughLandKeepsTheBlocksToTheCellsOwnAnswers) {
-  Barriers b;
-  b.add_polygon({{{8, 21}, {14, 21}, {11.6, 28}, {8, 26.6}}, {{10.5, 24}, {11, 22.5}, {9.5, 22.5}}}, "west");
-  b.add_polygon({{{9, 23}, {17, 23}, {13.8, 27}, {9, 26.2}}}, "east");
-  b.add_polygon({{{25, 17}, {33, 17}, {29.8, 22}, {25, 21}}}, "south");
-  b.add_line(std::vector<Vec2>{{11, 25}, {5, 26}}, "boom");
-  SeedSet s = test::named_points({{"A", {7.25, 24.75}},
-                                  {"B", {6.25, 29.75}},
-                                  {"A", {8.25, 7.75}},
-                                  {"B", {26.25, 3.75}},
-                                  {"A", {10.25, 14.75}},
-                                  {"C", {11, 21}}});
-  s.add_polyline(s.add_feature(s.owner_code("D")), std::vector<Vec2>{{14, 21}, {11.6, 28}});
-  const GridSpec g = test::grid_of(200, 200, 0.2, 0.0, 40.0);
-  EXPECT_TRUE(sea::prepare(s, b, g, MetricSpec{}).seeds_cross_land);
-  const SeaField f = test::blocks_agree(s, b, g);
-  EXPECT_GT(f.block_cells, 20000);
-  // Without the overlapping island the coast seed runs along sea only: no such run.
-  Barriers apart;
-  apart.add_polygon(b.polygons()[0].rings, "west");
-  apart.add_polygon(b.polygons()[2].rings, "south");
-  apart.add_line(b.lines()[0].vertices, "boom");
-  EXPECT_FALSE(sea::prepare(s, apart, g, MetricSpec{}).seeds_cross_land);
 }
 
 }  // namespace

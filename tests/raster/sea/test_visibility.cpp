@@ -187,6 +187,16 @@ TEST(Visibility, ComputedEndOnTheCoastIsTakenAsOnIt) {
   b.add_polygon({{{0.1, 0.3}, {7.3, 2.9}, {3.3, 9.7}}}, "land");
   const Visibility v(b);
   const Vec2 a{0.1, 0.3}, e{7.3, 2.9};
+  // The edge's ends, from their sea wedges (a path along the coast to a point on it: to where a
+  // seed's edge crosses it, say).
+  auto sea_side = [&](Vec2 corner) {
+    const int32_t id = v.vertex_at(corner);
+    const Visibility::Star& star = v.vertex_star(id);
+    for (int k = 0; k < star.wedges(); ++k)
+      if (star.sea[static_cast<size_t>(k)]) return v.at_vertex(id, k);
+    return Place{corner};
+  };
+  const Place from_a = sea_side(a), from_e = sea_side(e);
   int rounded_inland = 0;
   for (int i = 1; i < 200; ++i) {
     const double t = i / 200.0;
@@ -196,6 +206,10 @@ TEST(Visibility, ComputedEndOnTheCoastIsTakenAsOnIt) {
     Place end{foot};
     end.exact = false;
     EXPECT_TRUE(v.sees(Place{from}, end)) << t;
+    EXPECT_TRUE(v.sees(from_a, end)) << t;
+    EXPECT_TRUE(v.sees(from_e, end)) << t;
+    // (Taken as on the edge, not beyond it: the third corner's wedge is not the way.)
+    EXPECT_FALSE(v.sees(sea_side({3.3, 9.7}), end)) << t;
     rounded_inland += sea::orient(a, e, foot) > 0;
   }
   EXPECT_GT(rounded_inland, 0);  // some feet did round inland: the allowance is exercised

@@ -57,6 +57,10 @@ class Visibility {
   // The orientation predicate of this reading (rv/sea orient.hpp's, or the frame's): +1 when c
   // lies left of the path from a through b, -1 right, 0 on it.
   int orient(const Vec2& a, const Vec2& b, const Vec2& c) const;
+  // How far a computed far end q (Place::exact false) of a path from p may lie off the point or
+  // barrier edge it belongs on: a few units in the last place of their coordinates; geodesic,
+  // plus the frame's deviation() and a micrometre.
+  double slack(Vec2 p, Vec2 q) const;
 
   // The free directions round a point: the barrier edges at it, by their far ends, sorted
   // counter-clockwise from east, and per wedge (from ray k to ray k + 1, the last wrapping to the
