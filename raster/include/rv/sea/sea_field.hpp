@@ -4,15 +4,15 @@
 // The statement (planar metric): a cell x on land (Visibility::on_land) has no owner. Elsewhere
 // its distance is the least, over the seed sites whose nearest point x sees, of the straight
 // distance, over the points where a site's edge meets a barrier (crosses it, touches it, or
-// leaves it: away from the edge's own ends) that x sees, of the straight distance to them, and
-// over the barrier vertices v that x sees (in a wedge of v), of D(v) + |v - x|, where D(v) is v's
-// own distance by sea: a shortest path bends only at barrier vertices, and its last leg ends at
-// the nearest point of a site, or where a barrier stops it from sliding along the site's edge
-// towards that point (a coast seen only past a boom that meets it). A cell inside a seed polygon
-// that is not land has distance 0 (the half-open interior of rv/field/interior.hpp). Known and
-// open: where a seed's edge runs through land (barrier polygons overlapping a seed's coast) this
-// is measured as stated but may break the triangle inequality between cells that see each other
-// (bench/RESULTS-sea.md, session 53).
+// leaves it: away from the edge's own ends) and the edge's ends on a barrier vertex (seen from a
+// sea wedge there that the edge does not bound) that x sees, of the straight distance to them,
+// and over the barrier vertices v that x sees (in a wedge of v), of D(v) + |v - x|, where D(v) is
+// v's own distance by sea: a shortest path bends only at barrier vertices, and its last leg ends
+// at the nearest point of a site, at an end of it, or where a barrier stops it from sliding along
+// the site's edge towards that point (a coast seen only past a boom that meets it). So a seed's
+// edge that runs into land is reached only where it is at sea (from where it leaves the land),
+// and the distance keeps the triangle inequality between cells that see each other. A cell inside
+// a seed polygon that is not land has distance 0 (the half-open interior of rv/field/interior.hpp).
 //
 // Ties: a cell that sees the straight field's nearest site (the lowest site index at the least
 // distance) takes the straight field's answer bit for bit: the distance is the same float,
