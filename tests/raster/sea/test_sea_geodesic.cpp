@@ -477,3 +477,45 @@ TEST(SeaGeodesic, RandomOverlappingArchipelagosKeepTheTriangleInequality) {
 
 }  // namespace
 }  // namespace rv
+
+namespace rv {
+namespace {
+
+// On the ellipsoid: two islands sharing the corner (12.29 E, 55.5 N), their south coasts falling
+// away from it east and west (so that the sea south of the corner is under a half-turn: no bend
+// node there); the coast seed D runs from the corner north-west between them (the west island's
+// east coast). South of the coasts D's nearest point lies past the west island's land: the path
+// ends at D's end, the corner, a root of D from that wedge. Every cell south of both coasts within
+// 1.5 km of longitude of the corner: owner D, no via, the geodesic to the corner.
+TEST(SeaGeodesic, ASeedsEndWhereTwoIslandsMeetIsReachedFromTheirOtherSide) {
+  const Vec2 corner{12.29, 55.5};
+  Barriers b;
+  b.add_polygon({{corner, {12.34, 55.4985}, {12.32, 55.55}, {12.29, 55.54}}}, "east");
+  b.add_polygon({{{12.26, 55.4985}, corner, {12.278, 55.52}, {12.26, 55.516}}}, "west");
+  SeedSet s;
+  s.add_polyline(s.add_feature(s.owner_code("D")), std::vector<Vec2>{corner, {12.278, 55.52}});
+  const GridSpec g = test::grid_of(50, 30, 0.001, 12.265, 55.505);
+  const SeaField f = both(s, b, g);
+  if (HasFailure()) return;
+  int cells = 0, past_the_land = 0;
+  for (int64_t r = 0; r < g.height; ++r)
+    for (int64_t c = 0; c < g.width; ++c) {
+      const Vec2 x{g.centre_x(c), g.centre_y(r)};
+      if (x.y >= 55.4975 || std::abs(x.x - corner.x) > 0.0235) continue;
+      const double want = metres(x, corner);
+      EXPECT_EQ(f.field.site.at(c, r), 0) << c << "," << r;
+      EXPECT_EQ(f.via.at(c, r), kNoVia) << c << "," << r;
+      EXPECT_NEAR(f.field.distance.at(c, r), want, 1e-6 * want + 1e-3) << c << "," << r;
+      ++cells;
+      // (The foot of the perpendicular on D inside it, roughly: behind the west island.)
+      past_the_land += (x.x - corner.x) * -0.012 * std::cos(55.5 * M_PI / 180) * std::cos(55.5 * M_PI / 180) +
+                           (x.y - corner.y) * 0.02 >
+                       0;
+    }
+  EXPECT_GT(cells, 500);
+  EXPECT_GE(past_the_land, 5);
+  EXPECT_TRUE(test::same_cells(test::blocks_agree(s, b, g, on_the_ellipsoid()), f, g));
+}
+
+}  // namespace
+}  // namespace rv
