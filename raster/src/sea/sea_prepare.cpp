@@ -74,7 +74,8 @@ void find_touches(Prepared& p, const SeedSet& seeds) {
     // would stand for it) and that the edge does not bound: from such a wedge the path cannot
     // slide along the edge, so it ends at the vertex (two islands meeting at the seed's end, a
     // coast straight on past it).
-    for (const auto& [end, other] : {std::pair{a, b}, std::pair{b, a}}) {
+    for (const std::pair<Vec2, Vec2>& ends : {std::pair{a, b}, std::pair{b, a}}) {
+      const Vec2 end = ends.first, other = ends.second;  // (plain names: the lambda below takes them)
       const int32_t v = p.vis.vertex_at(end);
       if (v < 0) continue;
       const Visibility::Star& star = p.vis.vertex_star(v);
