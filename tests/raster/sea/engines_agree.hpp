@@ -64,16 +64,17 @@ inline SeaField blocks_agree(const SeedSet& seeds, const Barriers& barriers, con
 // Independently of both engines: the distance by sea is 1-Lipschitz along free paths, so two cells
 // whose centres see each other (both on open sea, `reach` cells apart at most in each direction;
 // every pair when reach < 0) differ by at most their distance apart (+ `slack`): a root or a bend
-// wrongly left out shows as a jump. Centres within rounding of a barrier's line are left out (the
+// wrongly left out shows as a jump. Centres within rounding of a barrier edge are left out (the
 // engines decide them in the grid's frame, this check in the barriers'). Fails the test at the
 // first pair that breaks it and returns false.
 inline bool triangle_inequality_holds(const SeaField& f, const Barriers& barriers, const GridSpec& g, int64_t reach,
                                       double slack = 1e-4) {
   const Visibility vis(barriers);
   auto near_line = [&](Vec2 q) {
-    auto off = [&](Vec2 a, Vec2 b) {
-      const double dx = b.x - a.x, dy = b.y - a.y;
-      return std::abs(dx * (q.y - a.y) - dy * (q.x - a.x)) <= 1e-9 * std::hypot(dx, dy);
+    auto off = [&](Vec2 a, Vec2 b) {  // within rounding of the segment a-b
+      const double dx = b.x - a.x, dy = b.y - a.y, len2 = dx * dx + dy * dy;
+      const double t = std::clamp(((q.x - a.x) * dx + (q.y - a.y) * dy) / len2, 0.0, 1.0);
+      return std::hypot(q.x - a.x - t * dx, q.y - a.y - t * dy) <= 1e-9 * std::sqrt(len2);
     };
     for (const Barriers::Polygon& p : barriers.polygons())
       for (const Ring& r : p.rings)
