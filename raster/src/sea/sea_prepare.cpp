@@ -259,15 +259,20 @@ bool before(const Visibility& vis, Vec2 at, Vec2 a, Vec2 d1, Vec2 d2) {
 
 bool taut(const Visibility& vis, const Node& node, Vec2 from, Vec2 x) {
   const Visibility::Star& s = vis.vertex_star(node.vertex);
-  // (A site's nearest point from the node computed a hair off it: the seed's end is on the node.)
-  if (from == s.at || length(from, s.at) <= vis.slack(s.at, from)) return true;
+  if (from == s.at) return true;
+  // (Squared lengths: this runs for every root a search weighs.)
+  const double ax = from.x - s.at.x, ay = from.y - s.at.y, bx = x.x - s.at.x, by = x.y - s.at.y;
+  // A site's nearest point from the node computed a hair off it: the seed's end is on the node.
+  const double near = vis.slack(s.at, from);
+  if (ax * ax + ay * ay <= near * near) return true;
   const int o = vis.orient(s.at, from, x);
   // Straight on past the node, from a site's computed point (the foot of a perpendicular lies on
   // the straight path to rounding): the path grazes the node, and that rounding may have put the
   // straight path itself through the node's land. Its length is the straight one's.
-  const bool on = (from.x - s.at.x) * (x.x - s.at.x) + (from.y - s.at.y) * (x.y - s.at.y) < 0;
-  if (on && (o == 0 || line_distance(x, s.at, from) <= rounding_slack(s.at, from)) && vis.vertex_at(from) < 0)
-    return true;
+  if (ax * bx + ay * by < 0) {
+    const double cross = ax * by - ay * bx, r = rounding_slack(s.at, from);
+    if ((o == 0 || cross * cross <= r * r * (bx * bx + by * by)) && vis.vertex_at(from) < 0) return true;
+  }
   if (o == 0) return false;  // straight on (between barrier vertices), or straight back: no bend
   // The land next to this wedge runs counter-clockwise from ray k + 1 to ray k; it lies in the
   // counter-clockwise sweep from the arrival to the departure when its far ray (k) comes after
