@@ -15,12 +15,14 @@
 #include <chrono>
 #include <cmath>
 #include <limits>
+#include <optional>
 #include <string>
 #include <utility>
 #include <vector>
 
 #include "lines/boundary_stages.hpp"
 #include "lines/line_tools.hpp"
+#include "lines/partial_follow.hpp"
 #include "rv/field/error.hpp"
 #include "rv/field/parallel.hpp"
 #include "rv/lines/regions.hpp"
@@ -336,6 +338,9 @@ struct LineRewrite {
   PartialLineStats& stats;
   const std::vector<TripointPlan>& plans;
   double per_crs;  // metric units per CRS unit (the larger axis): offsets measured as lengths
+  // By sea (a metric that is not straight): the nil-effect index, for the band (partial_follow).
+  const OwnerIndex* nil_index = nullptr;
+  const GridSpec* grid = nullptr;
 
   const TripointPlan* plan_at(Vec2 p) const {
     for (const TripointPlan& t : plans)
@@ -480,9 +485,66 @@ struct LineRewrite {
 
   std::string label(int32_t owner) const { return owner_label(seeds, owner); }
 
-  void rewrite(BoundaryLine& line, double cell) const {
+  // By sea: the level the locus is, for partial_follow.
+  partial_follow::Level level() const {
+    partial_follow::Level l;
+    l.balance = [this](Vec2 p) { return rule.balance(p, X); };
+    l.in_band = [this](Vec2 p) { return owner_at(index, p) == B && owner_at(*nil_index, p) == X; };
+    l.metric = &index.metric();
+    l.grid = *grid;
+    l.ftol = ftol;
+    l.tol = tol;
+    l.per_crs = per_crs;
+    return l;
+  }
+
+  // By sea: the band v[i..j]'s locus followed from its turning points (partial_follow.hpp): from P
+  // to Q where it gets there; else from P to where land or the frame stops it, the line cut there
+  // (what `out` holds so far goes to `pieces`), and from that stop back to Q. An open end of the
+  // band (the line's end) is followed to from the turning point on its other side.
+  void band_by_sea(const std::vector<BoundaryVertex>& v, size_t i, size_t j, std::vector<BoundaryVertex>& out,
+                   std::vector<std::vector<BoundaryVertex>>& pieces) const {
+    const bool open_start = i == 0, open_end = j + 1 == v.size();
+    std::optional<Vec2> P, Q;
+    if (!open_start) P = turning(v[i - 1], v[i]);
+    if (!open_end) Q = turning(v[j + 1], v[j]);
+    const partial_follow::Level l = level();
+    auto followed = [&](Vec2 from, const Vec2* to) {
+      partial_follow::Followed f = partial_follow::follow(l, from, to, stats.residual);
+      if (f.stop == partial_follow::Stop::lost)
+        throw Error(ErrorKind::unsupported, "partial effect: the partial-effect line of owners " + label(B) + " and " +
+                                                label(X) + " could not be followed by sea from (" +
+                                                std::to_string(from.x) + ", " + std::to_string(from.y) +
+                                                "); its lines are not drawn (the rasters are exact)");
+      ++stats.stretches;
+      stats.points += static_cast<int64_t>(f.points.size());
+      if (f.stop == partial_follow::Stop::coast) ++stats.coast_ends;
+      return f;
+    };
+    auto add = [&](const std::vector<Vec2>& pts, bool coast_first, bool coast_last) {
+      const size_t first = out.size();
+      for (const Vec2 p : pts)
+        if (out.empty() || !(out.back().p == p)) out.push_back(vertex(p));
+      if (coast_first && out.size() > first) out[first].on_barrier = true;
+      if (coast_last && out.size() > first) out.back().on_barrier = true;
+    };
+    if (P) {
+      const partial_follow::Followed a = followed(*P, Q ? &*Q : nullptr);
+      add(a.points, false, a.stop == partial_follow::Stop::coast);
+      if (a.stop == partial_follow::Stop::target || !Q) return;
+      if (out.size() >= 2) pieces.push_back(std::move(out));
+      out.clear();
+    }
+    partial_follow::Followed b = followed(*Q, nullptr);
+    std::reverse(b.points.begin(), b.points.end());
+    add(b.points, b.stop == partial_follow::Stop::coast, false);
+  }
+
+  // Rewrites `line`; by sea, where land cuts a band's locus, the line's pieces after the first go
+  // to `more`. False where the line has no partial vertex (left as it was).
+  bool rewrite(BoundaryLine& line, double cell, std::vector<BoundaryLine>& more) const {
     std::vector<BoundaryVertex>& v = line.vertices;
-    if (std::none_of(v.begin(), v.end(), [&](const BoundaryVertex& x) { return partial(x); })) return;
+    if (std::none_of(v.begin(), v.end(), [&](const BoundaryVertex& x) { return partial(x); })) return false;
     if (line.closed) {
       // Start at a common vertex: the bands are then runs inside the line.
       v.pop_back();
@@ -506,6 +568,7 @@ struct LineRewrite {
     const bool turned = !line.closed && partial(v.front()) && plan_at(v.front().p) != nullptr;
     if (turned) std::reverse(v.begin(), v.end());
     std::vector<BoundaryVertex> out;
+    std::vector<std::vector<BoundaryVertex>> pieces;  // by sea: what land cut off before `out`
     for (size_t i = 0; i < v.size();) {
       if (!partial(v[i])) {
         out.push_back(v[i++]);
@@ -520,6 +583,12 @@ struct LineRewrite {
       if (tp != nullptr) {
         to_tripoint(v, i, *tp, cell, out);
         break;
+      }
+      if (nil_index != nullptr) {
+        band_by_sea(v, i, j, out, pieces);
+        i = j + 1;
+        if (i < v.size() && !out.empty() && out.back().p == v[i].p) ++i;
+        continue;
       }
       Vec2 P{}, Q{};
       if (!open_start) P = turning(v[i - 1], v[i]);
@@ -541,7 +610,28 @@ struct LineRewrite {
       if (i < v.size() && !out.empty() && out.back().p == v[i].p) ++i;
     }
     if (turned) std::reverse(out.begin(), out.end());
-    v = std::move(out);
+    line.bows.clear();  // (of the full-effect line's segments)
+    if (pieces.empty()) {
+      v = std::move(out);
+      return true;
+    }
+    // Cut by land: a ring becomes one open line (its last piece joined to its first), and each
+    // piece is a line of its own.
+    if (line.closed) {
+      std::vector<BoundaryVertex>& head = pieces.front();
+      if (!out.empty() && out.back().p == head.front().p) out.pop_back();
+      out.insert(out.end(), head.begin(), head.end());
+      pieces.erase(pieces.begin());
+      line.closed = false;
+    }
+    if (out.size() >= 2) pieces.push_back(std::move(out));
+    if (pieces.empty()) throw Error(ErrorKind::internal, "partial effect: a line cut by land left no piece");
+    for (size_t k = 1; k < pieces.size(); ++k) {
+      BoundaryLine piece{line.owner_a, line.owner_b, false, std::move(pieces[k]), {}};
+      more.push_back(std::move(piece));
+    }
+    v = std::move(pieces.front());
+    return true;
   }
 
   void append(std::vector<BoundaryVertex>& out, const std::vector<Vec2>& pts) const {
@@ -723,7 +813,7 @@ int64_t extend_at_tripoints(const PartialEffectRule& rule, const std::vector<Tri
 
 BoundaryResult partial_boundaries(const PartialEffectRule& rule, const SeedSet& seeds, const OwnerIndex& index,
                                   const GridSpec& grid, double ftol, double line_tolerance, double simplify_cells,
-                                  PartialLineStats& stats) {
+                                  PartialLineStats& stats, const OwnerIndex* nil_index) {
   BoundaryResult out = rule.full_lines();
   const PartialEffect& pe = rule.effect();
   if (!pe.any()) return out;
@@ -735,19 +825,38 @@ BoundaryResult partial_boundaries(const PartialEffectRule& rule, const SeedSet& 
   const double per_crs = std::max(scale.at0.x, scale.at0.y);
   const double tol = std::max(line_tolerance / per_crs, 1e-9 * grid.res), simplify = simplify_cells * grid.res;
   int64_t vertices = 0;
+  auto simplified = [&](BoundaryLine& line) {
+    std::vector<Vec2> pts;
+    for (const BoundaryVertex& v : line.vertices) pts.push_back(v.p);
+    std::vector<BoundaryVertex> kept;
+    for (size_t j : simplify_indices(pts, simplify)) kept.push_back(line.vertices[j]);
+    line.vertices = std::move(kept);
+  };
+  std::vector<BoundaryLine> more;  // by sea: the pieces of lines that land cut
   for (BoundaryLine& line : out.lines) {
     if (line.owner_a == B || line.owner_b == B) {
-      LineRewrite w{
-          rule,  seeds, index,  ftol, tol, B, line.owner_a == B ? line.owner_b : line.owner_a, line.owner_a == B,
-          stats, plans, per_crs};
-      w.rewrite(line, grid.res);
-      std::vector<Vec2> pts;
-      for (const BoundaryVertex& v : line.vertices) pts.push_back(v.p);
-      std::vector<BoundaryVertex> kept;
-      for (size_t j : simplify_indices(pts, simplify)) kept.push_back(line.vertices[j]);
-      line.vertices = std::move(kept);
+      LineRewrite w{rule,
+                    seeds,
+                    index,
+                    ftol,
+                    tol,
+                    B,
+                    line.owner_a == B ? line.owner_b : line.owner_a,
+                    line.owner_a == B,
+                    stats,
+                    plans,
+                    per_crs,
+                    index.metric().straight() ? nullptr : nil_index,
+                    &grid};
+      const size_t before = more.size();
+      if (w.rewrite(line, grid.res, more)) simplified(line);
+      for (size_t k = before; k < more.size(); ++k) simplified(more[k]);
     }
     vertices += static_cast<int64_t>(line.vertices.size());
+  }
+  for (BoundaryLine& line : more) {
+    vertices += static_cast<int64_t>(line.vertices.size());
+    out.lines.push_back(std::move(line));
   }
   vertices += extend_at_tripoints(rule, plans, index, out);
   out.stats.vertices = vertices;
@@ -756,12 +865,19 @@ BoundaryResult partial_boundaries(const PartialEffectRule& rule, const SeedSet& 
 }
 
 PartialEffectResult compute_partial_effect(const SeedSet& seeds, const GridSpec& grid, const ComputeOptions& options,
-                                           const BoundaryOptions& lines, bool draw_lines) {
+                                           const BoundaryOptions& lines, bool draw_lines,
+                                           const PartialEngines& engines) {
   const auto start = std::chrono::steady_clock::now();
+  auto field_of = [&](const SeedSet& s, bool nil) {
+    return engines.field ? engines.field(s, nil) : compute(s, grid, options);
+  };
+  auto metric_of = [&](const SeedSet& s, const NearestField& f, bool nil) {
+    return engines.metric ? engines.metric(s, f, nil) : make_site_metric(s, grid, options);
+  };
   PartialEffectResult r;
   const PartialEffect pe = partial_effect_of(seeds);
-  r.full = compute(seeds, grid, options);
-  r.metric = make_site_metric(seeds, grid, options);
+  r.full = field_of(seeds, false);
+  r.metric = metric_of(seeds, r.full, false);
   r.index = std::make_unique<OwnerIndex>(*r.metric);
   BoundaryResult full_lines = extract_boundaries(r.full, *r.index, lines);
   if (!pe.any()) {
@@ -771,9 +887,9 @@ PartialEffectResult compute_partial_effect(const SeedSet& seeds, const GridSpec&
     return r;
   }
   std::vector<int32_t> site_of;
-  r.nil_seeds = seeds.without(pe.partial, site_of);
-  const NearestField nil = compute(r.nil_seeds, grid, options);
-  r.nil_metric = make_site_metric(r.nil_seeds, grid, options);
+  r.nil_seeds = std::make_shared<const SeedSet>(seeds.without(pe.partial, site_of));
+  const NearestField nil = field_of(*r.nil_seeds, true);
+  r.nil_metric = metric_of(*r.nil_seeds, nil, true);
   r.nil_index = std::make_unique<OwnerIndex>(*r.nil_metric);
   BoundaryResult nil_lines = extract_boundaries(nil, *r.nil_index, lines);
   r.rule = std::make_unique<PartialEffectRule>(seeds, pe, std::move(nil_lines), site_of, std::move(full_lines), grid,
@@ -781,8 +897,8 @@ PartialEffectResult compute_partial_effect(const SeedSet& seeds, const GridSpec&
   r.field = partial_field(r.full, nil, site_of, seeds, *r.rule, options.threads);
   const double ftol = std::max(lines.tolerance_cells, 1e-15) * cell_metric(grid, *r.metric);
   if (draw_lines)
-    r.boundaries =
-        partial_boundaries(*r.rule, seeds, *r.index, grid, ftol, lines.line_tolerance, lines.simplify_cells, r.stats);
+    r.boundaries = partial_boundaries(*r.rule, seeds, *r.index, grid, ftol, lines.line_tolerance, lines.simplify_cells,
+                                      r.stats, r.nil_index.get());
   r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return r;
 }

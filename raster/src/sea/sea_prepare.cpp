@@ -116,8 +116,6 @@ InteriorSpans interiors_of(const SeedSet& seeds, const std::vector<Polygon>* gri
 Prepared prepare(const SeedSet& seeds, const Barriers& barriers, const GridSpec& grid, const MetricSpec& metric,
                  std::shared_ptr<const Geolocator> geolocator) {
   if (seeds.geometric_site_count() == 0) throw Error(ErrorKind::invalid_input, "the seeds have no sites");
-  for (const Feature& f : seeds.features())
-    if (f.effect != 1.0) throw Error(ErrorKind::unsupported, "the distance by sea does not take partial effect yet");
   if (metric.kind != MetricSpec::geodesic) {
     if (geolocator)
       throw Error(ErrorKind::invalid_argument,

@@ -170,7 +170,7 @@ struct Prepared {
   }
 };
 
-// Checks the seeds (sites, no partial effect, no vertex on land: rv::Error naming the feature) and moves seeds and
+// Checks the seeds (sites, no vertex on land: rv::Error naming the feature) and moves seeds and
 // barriers into the plane: the grid's local frame (planar), or a geodesic frame over the grid, the barriers and the
 // seeds (geodesic: seeds and barriers in longitude/latitude, a line's or polygon's edges geodesics as the barriers'
 // are; the grid in longitude/latitude too, or projected with a geolocator for its cell centres).

@@ -678,8 +678,9 @@ NearestField compute_whole(detail::JobRun& run, const PreparedJob& job, std::vec
 }
 
 // Stage "compute" with partial effect: the full- and nil-effect fields, their lines, the rule's
-// field and lines (rv/lines/partial_effect.hpp), and the report's entry for it.
-PartialEffectResult compute_partial(detail::JobRun& run, const PreparedJob& job) {
+// field and lines (rv/lines/partial_effect.hpp), and the report's entry for it. By sea, the vias
+// of the rule's field into `via` when the outputs ask for them.
+PartialEffectResult compute_partial(detail::JobRun& run, const PreparedJob& job, std::vector<int32_t>& via) {
   const JobSpec& spec = run.spec;
   run.progress("compute", 0.0);
   BoundaryOptions lines;
@@ -688,7 +689,22 @@ PartialEffectResult compute_partial(detail::JobRun& run, const PreparedJob& job)
   lines.threads = spec.threads;
   const OutputRequest& out = spec.outputs;
   const bool draw = !out.boundaries.empty() || !out.tripoints.empty() || out.regions_wanted() || !out.preview.empty();
-  PartialEffectResult r = compute_partial_effect(job.loaded.seeds, job.grid, job.compute, lines, draw);
+  // By sea: both fields and their lines by sea (job_sea.hpp), the vias of the rule's field.
+  std::optional<detail::SeaPartial> sea;
+  ComputeOptions compute = job.compute;
+  if (job.sea) {
+    compute.progress = [&](double f) { run.progress("compute", f); };
+    sea.emplace(job, compute, !out.via.empty() || out.in_memory.via);
+  }
+  PartialEffectResult r =
+      compute_partial_effect(job.loaded.seeds, job.grid, compute, lines, draw, sea ? sea->engines() : PartialEngines{});
+  if (sea) {
+    via = sea->vias(r);
+    run.report["sea"] = sea->report();
+    const SeaMetricStats st = sea->metric_stats();
+    run.report["partial_effect_by_sea"] = {
+        {"owners_settled", st.owners}, {"bend_tests", st.bend_tests}, {"seconds", st.seconds}};
+  }
   run.compute_seconds = r.seconds;
   run.contested_cells = r.full.contested_cells;
   run.threads_used = r.full.threads;
@@ -885,10 +901,12 @@ JobResult run_stages(detail::JobRun& run, const PreparedJob& job, const detail::
   if (run.plan.streamed) {
     compute_streamed(run, job, targets, keep.get(), base.get(), std::move(prepared));
   } else if (job.partial.any()) {
-    const PartialEffectResult partial = compute_partial(run, job);
+    std::vector<int32_t> via;
+    const PartialEffectResult partial = compute_partial(run, job, via);
     validate_stage(run, job, partial.full);
     write_rasters(run, job, partial.field, targets);
-    in_memory = keep_in_memory(run, job, partial.field);
+    if (!spec.outputs.via.empty()) detail::write_via(run, job, via);
+    in_memory = keep_in_memory(run, job, partial.field, nullptr, &via);
     detail::deliver(run, job, partial.field, &partial);
   } else {
     std::vector<int32_t> via;

@@ -41,41 +41,8 @@ namespace {
 std::unique_ptr<SiteMetric> site_metric(const PreparedJob& job, const JobRun& run, SeaMetricStats& stats,
                                         double settle_within) {
   if (!job.sea) return make_site_metric(job.loaded.seeds, job.grid, job.compute);
-  SeaOptions options;
-  options.metric = job.metric;
-  options.geolocator = job.compute.geolocator;
-  options.grid_polygons = job.compute.grid_polygons;
-  options.threads = run.spec.threads;
-  options.cancel = run.hooks.cancel;
-  options.prepared = job.sea->prepared;
-  return make_sea_site_metric(job.loaded.seeds, job.sea->loaded.barriers, job.grid, options, &stats, settle_within);
-}
-
-// By sea: how far the lines' metric settles each owner's bend nodes (make_sea_site_metric's
-// settle_within, metric units) for a field whose largest distance is `farthest` (metric units; < 0:
-// no owned cell): half as far again as `farthest` times the heaviest weight over the lightest, or
-// as the largest limit level, whichever is larger, plus 16 cells; 0 without an owned cell or a
-// limit.
-double sea_settle_within(const PreparedJob& job, double farthest) {
-  constexpr double kInf = std::numeric_limits<double>::infinity();
-  // With weights an owner competes for a cell up to the heaviest weight over the lightest times the
-  // winner's length (its cost is at most the winner's).
-  double lightest = kInf, heaviest = 0.0;
-  for (const Feature& f : job.loaded.seeds.features()) {
-    lightest = std::min(lightest, f.weight);
-    heaviest = std::max(heaviest, f.weight);
-  }
-  const double ratio = lightest > 0.0 && heaviest >= lightest ? heaviest / lightest : 1.0;
-  double level = 0.0;
-  for (double l : job.limit_distances) level = std::max(level, l);
-  // A cell's diagonal in metric units, generously (on the ellipsoid a degree is at most 112 km).
-  const bool degrees = job.metric.kind == MetricSpec::geodesic && !job.compute.geolocator;
-  const double cell = job.grid.res * (degrees ? 1.12e5 : 1.0) * std::sqrt(2.0) * 1.01;
-  // The margin: the lines ask at positions between cells, at the grid's frame and on coasts,
-  // which can lie farther than any cell centre; half as far again, and 16 cells.
-  if (farthest < 0.0 && level == 0.0) return 0.0;
-  const double within = 1.5 * std::max(std::max(farthest, 0.0) * ratio, level) + 16.0 * cell;
-  return std::isfinite(within) ? within : kInf;
+  return sea_site_metric(job, job.loaded.seeds, job.sea->prepared, run.spec.threads, run.hooks.cancel, stats,
+                         settle_within);
 }
 
 // By sea: the barriers' rings (closed) and lines in the grid's CRS, for the regions' faces. On the
@@ -448,6 +415,7 @@ BoundaryResult StripDeliverables::State::take_boundaries() {
                             {"along_arcs", s.residual_json(st.arcs, st.simplified_midpoint)}};
   if (s.partial && s.partial->rule)
     s.report["boundaries"]["partial_effect"] = {{"stretches", s.partial->stats.stretches},
+                                                {"coast_ends", s.partial->stats.coast_ends},
                                                 {"locus_points", s.partial->stats.points},
                                                 {"max_residual", s.partial->stats.max_residual * s.job.to_output},
                                                 {"along_lines", s.residual_json(s.partial->stats.residual, 0.0)}};

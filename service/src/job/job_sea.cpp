@@ -138,12 +138,8 @@ void drop_features(LoadedSeeds& loaded, const std::vector<bool>& drop) {
 void nil_effect_by_sea(PreparedJob& job) {
   if (!job.sea) return;
   const PartialEffect effect = partial_effect_of(job.loaded.seeds);
-  if (!effect.any()) return;
-  if (effect.effect > 0.0)
-    refuse(ErrorKind::unsupported,
-           "partial effect above 0 lies between two lines (the boundaries with and without the features), which "
-           "the distance by sea does not draw yet; effect 0 is taken (the features are no seeds, and stay land "
-           "where the barriers have them)");
+  // (Above 0 the job computes both fields by sea and the rule between their lines: SeaPartial.)
+  if (!effect.any() || effect.effect > 0.0) return;
   drop_features(job.loaded, effect.partial);
   // (Projected geodesic: the engine's copy of the grid polygons follows.)
   if (job.compute.grid_polygons) job.compute.grid_polygons = job.loaded.grid_polygons;
@@ -179,16 +175,17 @@ OtherOwnersField sea_other_owners(const PreparedJob& job, const std::atomic<bool
 void SeaRun::compute(const Window& window, NearestField& field, std::vector<int32_t>* via,
                      const ComputeOptions& compute) {
   const PreparedJob::Sea& sea = *job_.sea;
+  const SeedSet& seeds = seeds_ ? *seeds_ : job_.loaded.seeds;
   SeaField f;
   SeaOptions options = sea_options(job_, compute);
   if (compute.method == Method::brute_force) {
-    f = brute_force_sea(job_.loaded.seeds, sea.loaded.barriers, job_.grid, window, options);
+    f = brute_force_sea(seeds, sea.loaded.barriers, job_.grid, window, options);
   } else {
-    options.prepared = sea.prepared;
+    options.prepared = seeds_ ? prepared_ : sea.prepared;
     // (Made at the first window, where the job's seeds now lie; the oracle needs none.)
-    if (!straight_) straight_ = prepare_straight(job_.loaded.seeds, job_.grid, options);
+    if (!straight_) straight_ = prepare_straight(seeds, job_.grid, options);
     options.straight = straight_;
-    f = compute_sea(job_.loaded.seeds, sea.loaded.barriers, job_.grid, window, options);
+    f = compute_sea(seeds, sea.loaded.barriers, job_.grid, window, options);
   }
   land_ += f.land_cells;
   unreachable_ += f.unreachable_cells;
@@ -205,6 +202,12 @@ void SeaRun::compute(const Window& window, NearestField& field, std::vector<int3
     }
   }
   field = std::move(f.field);
+}
+
+void SeaRun::name_vias(const std::vector<int32_t>& codes) {
+  std::fill(named_.begin(), named_.end(), uint8_t{0});
+  for (const int32_t c : codes)
+    if (c > 0 && static_cast<size_t>(c) <= named_.size()) named_[static_cast<size_t>(c) - 1] = 1;
 }
 
 nlohmann::json SeaRun::report() const {
@@ -237,6 +240,110 @@ nlohmann::json SeaRun::report() const {
     r["via_vertices"] = std::move(vertices);
   }
   return r;
+}
+
+std::unique_ptr<SiteMetric> sea_site_metric(const PreparedJob& job, const SeedSet& seeds,
+                                            std::shared_ptr<const PreparedSea> prepared, int threads,
+                                            const std::atomic<bool>* cancel, SeaMetricStats& stats,
+                                            double settle_within) {
+  SeaOptions options;
+  options.metric = job.metric;
+  options.geolocator = job.compute.geolocator;
+  options.threads = threads;
+  options.cancel = cancel;
+  // (Projected geodesic grids, whose polygons are the job's seeds', take no partial effect.)
+  options.grid_polygons = &seeds == &job.loaded.seeds ? job.compute.grid_polygons : nullptr;
+  options.prepared = std::move(prepared);
+  return make_sea_site_metric(seeds, job.sea->loaded.barriers, job.grid, options, &stats, settle_within);
+}
+
+double sea_settle_within(const PreparedJob& job, double farthest) {
+  constexpr double kInf = std::numeric_limits<double>::infinity();
+  // With weights an owner competes for a cell up to the heaviest weight over the lightest times the
+  // winner's length (its cost is at most the winner's).
+  double lightest = kInf, heaviest = 0.0;
+  for (const Feature& f : job.loaded.seeds.features()) {
+    lightest = std::min(lightest, f.weight);
+    heaviest = std::max(heaviest, f.weight);
+  }
+  const double ratio = lightest > 0.0 && heaviest >= lightest ? heaviest / lightest : 1.0;
+  double level = 0.0;
+  for (double l : job.limit_distances) level = std::max(level, l);
+  // A cell's diagonal in metric units, generously (on the ellipsoid a degree is at most 112 km).
+  const bool degrees = job.metric.kind == MetricSpec::geodesic && !job.compute.geolocator;
+  const double cell = job.grid.res * (degrees ? 1.12e5 : 1.0) * std::sqrt(2.0) * 1.01;
+  // The margin: the lines ask at positions between cells, at the grid's frame and on coasts,
+  // which can lie farther than any cell centre; half as far again, and 16 cells.
+  if (farthest < 0.0 && level == 0.0) return 0.0;
+  const double within = 1.5 * std::max(std::max(farthest, 0.0) * ratio, level) + 16.0 * cell;
+  return std::isfinite(within) ? within : kInf;
+}
+
+SeaPartial::SeaPartial(const PreparedJob& job, const ComputeOptions& compute, bool vias)
+    : job_(job), compute_(compute), vias_(vias), full_(job) {
+  if (job.compute.geolocator)
+    throw Error(ErrorKind::internal, "partial effect by sea on a projected geodesic grid was not refused");
+}
+
+SeaPartial::~SeaPartial() = default;
+
+PartialEngines SeaPartial::engines() {
+  PartialEngines e;
+  e.field = [this](const SeedSet& seeds, bool nil) {
+    // (The two fields share the job's progress: the full effect's first half, the nil effect's second.)
+    ComputeOptions options = compute_;
+    if (compute_.progress)
+      options.progress = [this, nil](double f) { compute_.progress(0.5 * (f + (nil ? 1.0 : 0.0))); };
+    NearestField field;
+    const Window whole = job_.grid.full_window();
+    if (!nil) {
+      full_.compute(whole, field, vias_ ? &full_via_ : nullptr, options);
+      return field;
+    }
+    std::shared_ptr<const PreparedSea> prepared;
+    if (options.method != Method::brute_force) {
+      SeaOptions o = sea_options(job_, options);
+      o.grid_polygons = nullptr;
+      o.progress = nullptr;
+      prepared = about_barriers([&] { return prepare_sea(seeds, job_.sea->loaded.barriers, job_.grid, o); });
+    }
+    nil_prepared_ = prepared;
+    nil_ = std::make_unique<SeaRun>(job_, seeds, std::move(prepared));
+    nil_->compute(whole, field, vias_ ? &nil_via_ : nullptr, options);
+    return field;
+  };
+  e.metric = [this](const SeedSet& seeds, const NearestField& field, bool nil) {
+    double farthest = -1.0;
+    for (const float d : field.distance.cells())
+      if (std::isfinite(d)) farthest = std::max(farthest, static_cast<double>(d));
+    return sea_site_metric(job_, seeds, nil ? nil_prepared_ : job_.sea->prepared, compute_.threads, compute_.cancel,
+                           stats_[nil ? 1 : 0], sea_settle_within(job_, farthest));
+  };
+  return e;
+}
+
+std::vector<int32_t> SeaPartial::vias(const PartialEffectResult& r) {
+  if (!vias_) return {};
+  std::vector<int32_t> codes = full_via_;
+  const auto& full = r.full.site.cells();
+  const auto& now = r.field.site.cells();
+  if (codes.size() != now.size() || nil_via_.size() != now.size())
+    throw Error(ErrorKind::internal, "the vias do not cover the partial field");
+  for (size_t i = 0; i < now.size(); ++i)
+    if (now[i] != full[i]) codes[i] = nil_via_[i];
+  full_.name_vias(codes);
+  return codes;
+}
+
+nlohmann::json SeaPartial::report() const { return full_.report(); }
+
+SeaMetricStats SeaPartial::metric_stats() const {
+  SeaMetricStats s = stats_[0];
+  s.owners += stats_[1].owners;
+  s.bend_tests += stats_[1].bend_tests;
+  s.seconds += stats_[1].seconds;
+  s.within = std::max(s.within, stats_[1].within);
+  return s;
 }
 
 GeoTiffOptions via_options(const JobSpec& spec, const PreparedJob& job) {

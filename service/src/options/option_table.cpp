@@ -210,8 +210,9 @@ const std::vector<OptionSpec> kOptions = {
      "and land), nothing changes: a path that a seed blocks passes nearer to that seed. They matter when the "
      "seeds are not the barriers: ports or farms as seeds and land as barriers. Geodesic on a longitude/latitude "
      "grid or with the geodesic metric (paths, barrier and seed edges geodesics), else planar; the exact method; "
-     "boundaries, tripoints, limits, regions, the margin and the preview follow the distance by sea, and weights and "
-     "reaches apply to the path by sea; not with partial effect above 0, turning points or the relevant area yet.",
+     "boundaries, tripoints, limits, regions, the margin and the preview follow the distance by sea, weights and "
+     "reaches apply to the path by sea, and partial effect's features stay land where the barriers have them (its "
+     "two lines are lines by sea); not with turning points or the relevant area yet.",
      "",
      {},
      0,

@@ -628,7 +628,7 @@ int64_t Session::State::memory_bytes() const {
     const NearestField& full = partial->full;
     b +=
         static_cast<int64_t>(full.site.cells().size() * sizeof(int32_t) + full.distance.cells().size() * sizeof(float));
-    b += partial->nil_seeds.memory_bytes();
+    b += (partial->nil_seeds ? partial->nil_seeds->memory_bytes() : 0);
   }
   b += static_cast<int64_t>(tiles.max_distance.size() * (2 * sizeof(float) + 1) +
                             tiles.band_max_distance.size() * (sizeof(float) + 1));

@@ -158,12 +158,12 @@ TEST(PartialEffect, GeodesicFieldIsTheRuleAtEveryCell) {
   o.metric = MetricSpec{MetricSpec::geodesic};
   const PartialEffectResult r = compute_partial_effect(s, g, o, BoundaryOptions{});
   ASSERT_TRUE(r.rule);
-  const NearestField nil = compute(r.nil_seeds, g, o);
+  const NearestField nil = compute(*r.nil_seeds, g, o);
   int64_t band = 0, returned = 0;
   for (int64_t row = 0; row < g.height; ++row)
     for (int64_t col = 0; col < g.width; ++col) {
       const int32_t full_owner = s.site_owner(r.full.site.at(col, row));
-      const int32_t nil_owner = r.nil_seeds.site_owner(nil.site.at(col, row));
+      const int32_t nil_owner = r.nil_seeds->site_owner(nil.site.at(col, row));
       const int32_t expected = r.rule->owner(Vec2{g.centre_x(col), g.centre_y(row)}, full_owner, nil_owner);
       ASSERT_EQ(s.site_owner(r.field.site.at(col, row)), expected) << col << "," << row;
       band += full_owner == 2 && nil_owner == 1;

@@ -333,15 +333,64 @@ TEST_F(SeaJob, AnIslandOfNilEffectIsNoSeedButStaysLand) {
     const nlohmann::json open_report = run_job(open_strait).report;
     EXPECT_GT(report.at("sea").at("land_cells").get<int64_t>(), open_report.at("sea").at("land_cells").get<int64_t>());
   }
+}
 
-  JobSpec half = ports_spec("half");
-  with_island["features"].back()["properties"]["effect"] = 0.5;
-  half.seeds.paths = {write("ports_and_half_island.geojson", with_island.dump())};
-  half.seeds.effect_field = "effect";
-  half.barriers.push_back(island_only);
-  const Error e = refused(half);
-  EXPECT_EQ(e.kind(), ErrorKind::unsupported) << e.what();
-  EXPECT_EQ(std::string(e.what()).find("barriers: partial effect above 0"), 0u) << e.what();
+// Partial effect above 0 by sea: the same island at half effect. Each cell is the full-effect
+// run's (effect 1), or where the rule hands it back to the neighbour the nil-effect run's (effect
+// 0: the island no seed but land), owner, distance and via alike; the lines by sea are drawn
+// between them, and the report says what the rule did.
+TEST_F(SeaJob, AnIslandOfHalfEffectTakesEachCellFromTheFullOrTheNilRun) {
+  nlohmann::json ports = read_json(fixture("oresund_ports.geojson"));
+  for (nlohmann::json& f : ports.at("features")) f["properties"]["effect"] = 1.0;
+  const nlohmann::json island = {
+      {"type", "Feature"},
+      {"properties", {{"owner", "SE"}, {"effect", 0.5}}},
+      {"geometry",
+       {{"type", "Polygon"}, {"coordinates", {{{12.66, 55.88}, {12.72, 55.88}, {12.69, 55.93}, {12.66, 55.88}}}}}}};
+  const std::string island_only =
+      write("island.geojson", nlohmann::json{{"type", "FeatureCollection"}, {"features", {island}}}.dump());
+  auto run_at = [&](double effect, const std::string& name) {
+    nlohmann::json seeds = ports;
+    seeds["features"].push_back(island);
+    seeds["features"].back()["properties"]["effect"] = effect;
+    JobSpec s = ports_spec(name);
+    s.seeds.paths = {write(name + ".geojson", seeds.dump())};
+    s.seeds.effect_field = "effect";
+    s.barriers.push_back(island_only);
+    s.outputs.boundaries = (dir_ / name / "lines.gpkg").string();
+    s.outputs.regions = (dir_ / name / "regions.gpkg").string();
+    run_job(s);
+    return s;
+  };
+  const JobSpec half = run_at(0.5, "half"), full = run_at(1.0, "full"), nil = run_at(0.0, "nil");
+  const Raster<int32_t> own = read_int32(half.outputs.ownership), own1 = read_int32(full.outputs.ownership),
+                        own0 = read_int32(nil.outputs.ownership);
+  const Raster<float> dist = read_float32(half.outputs.distance), dist1 = read_float32(full.outputs.distance),
+                      dist0 = read_float32(nil.outputs.distance);
+  const Raster<int32_t> via = read_int32(half.outputs.via), via1 = read_int32(full.outputs.via),
+                        via0 = read_int32(nil.outputs.via);
+  int64_t kept = 0, given_back = 0;
+  for (size_t i = 0; i < own.cells().size(); ++i) {
+    if (own.cells()[i] == own1.cells()[i]) {
+      ++kept;
+      ASSERT_EQ(dist.cells()[i], dist1.cells()[i]) << i;
+      ASSERT_EQ(via.cells()[i], via1.cells()[i]) << i;
+    } else {
+      ++given_back;
+      ASSERT_EQ(own.cells()[i], own0.cells()[i]) << i;
+      ASSERT_EQ(dist.cells()[i], dist0.cells()[i]) << i;
+      ASSERT_EQ(via.cells()[i], via0.cells()[i]) << i;
+    }
+  }
+  EXPECT_GT(given_back, 100);
+  const nlohmann::json report = read_json(half.outputs.report);
+  EXPECT_EQ(report.at("partial_effect").at("cells_to_neighbours").get<int64_t>(), given_back);
+  const nlohmann::json& lines = report.at("deliverables").at("boundaries").at("partial_effect");
+  EXPECT_GE(lines.at("stretches").get<int64_t>(), 1);
+  EXPECT_GE(lines.at("coast_ends").get<int64_t>(), 1);
+  EXPECT_EQ(lines.at("along_lines").at("unresolved_segments").get<int64_t>(), 0);
+  EXPECT_GT(report.at("sea").at("land_cells").get<int64_t>(), 0);
+  EXPECT_TRUE(report.contains("partial_effect_by_sea"));
 }
 
 TEST_F(SeaJob, ValidationRunsTheOracleBySea) {

@@ -27,6 +27,7 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <limits>
 #include <memory>
 #include <vector>
@@ -101,6 +102,7 @@ NearestField partial_field(const NearestField& full, const NearestField& nil, co
 struct PartialLineStats {
   int64_t stretches = 0;      // band stretches of L1 replaced
   int64_t points = 0;         // locus points on them (their ends, on L0 and L1 alike, included)
+  int64_t coast_ends = 0;     // by sea: stretches ended on a coast (BoundaryVertex::on_barrier)
   double max_residual = 0.0;  // largest |balance| at a locus point, metric units
   // The traced stretches' segments: the largest distance from a chord's middle to the locus
   // point across it (rv/lines/residual.hpp; metric units), and the points added.
@@ -123,13 +125,27 @@ struct PartialLineStats {
 // are exact there, the lines are not drawn.
 BoundaryResult partial_boundaries(const PartialEffectRule& rule, const SeedSet& seeds, const OwnerIndex& index,
                                   const GridSpec& grid, double ftol, double line_tolerance, double simplify_cells,
-                                  PartialLineStats& stats);
+                                  PartialLineStats& stats, const OwnerIndex* nil_index = nullptr);
 
-// The whole of it for a field computed whole: the full- and nil-effect fields (compute), their
-// boundaries (extract_boundaries with `lines`), the rule, the partial field and the partial
-// lines (`draw_lines` false: no partial lines, and none of their refusals; the rule still needs
-// L0 and L1). Without partial features, `rule` is null, `field` the full field and `boundaries`
-// its lines. Errors: compute's, extract_boundaries', and the above.
+// How compute_partial_effect makes each effect's field and measure. Empty members: the straight
+// engine (compute) and make_site_metric, with the call's grid and options. The distance by sea
+// passes its own (the service's job does): the two lines are then lines by sea, and the rule
+// between them still measures straight distances to them (it interpolates two lines; it measures
+// no way to a coast).
+struct PartialEngines {
+  // The whole field of `seeds` (the full-effect seeds, then, with `nil`, the nil-effect ones).
+  std::function<NearestField(const SeedSet& seeds, bool nil)> field;
+  // The measure of `seeds` whose field is `field` (the distance by sea settles as far as the
+  // field's distances ask). May keep a reference to `seeds` (it outlives the measure), not to
+  // `field`.
+  std::function<std::unique_ptr<SiteMetric>(const SeedSet& seeds, const NearestField& field, bool nil)> metric;
+};
+
+// The whole of it for a field computed whole: the full- and nil-effect fields (compute, or
+// engines.field), their boundaries (extract_boundaries with `lines`), the rule, the partial field
+// and the partial lines (`draw_lines` false: no partial lines, and none of their refusals; the
+// rule still needs L0 and L1). Without partial features, `rule` is null, `field` the full field
+// and `boundaries` its lines. Errors: compute's (the engines'), extract_boundaries', and the above.
 struct PartialEffectResult {
   NearestField full;   // at full effect (distance limits measure it: an island's own breadth)
   NearestField field;  // by the rule
@@ -138,11 +154,13 @@ struct PartialEffectResult {
   PartialLineStats stats;
   std::unique_ptr<SiteMetric> metric, nil_metric;  // the full- and nil-effect seeds' measures
   std::unique_ptr<OwnerIndex> index, nil_index;    // over them (owner_at by the rule: partial_owner_at)
-  SeedSet nil_seeds;
+  // The nil-effect seeds (held by pointer: nil_metric refers to them, and the result moves).
+  std::shared_ptr<const SeedSet> nil_seeds;
   double seconds = 0.0;  // wall time, both fields and the lines
 };
 PartialEffectResult compute_partial_effect(const SeedSet& seeds, const GridSpec& grid, const ComputeOptions& options,
-                                           const BoundaryOptions& lines, bool draw_lines = true);
+                                           const BoundaryOptions& lines, bool draw_lines = true,
+                                           const PartialEngines& engines = {});
 
 // The owner of position p under the rule (regions' faces): owner_at at full and nil effect
 // (`max_distance`: as owner_at's), then PartialEffectRule::owner.

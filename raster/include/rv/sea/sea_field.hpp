@@ -44,9 +44,11 @@
 // them (the straight distance to a seen site, the sum of the legs of a bent path), which may
 // differ from the straight engines' float in the last place.
 //
-// Scope: without partial effect (rv::Error(unsupported): the partial-effect stage compares two
-// whole fields, rv/lines/partial_effect.hpp). Seeds with a vertex strictly on land are refused
-// (rv::Error(invalid_input), the feature named). Pure; deterministic for any thread count.
+// Partial effect is not read here (Feature::effect): the field is every feature's at full
+// effect, as the straight engines' is; the partial-effect stage compares two whole fields
+// (rv/lines/partial_effect.hpp, with these engines as its PartialEngines). Seeds with a vertex
+// strictly on land are refused (rv::Error(invalid_input), the feature named). Pure; deterministic
+// for any thread count.
 #pragma once
 
 #include <atomic>

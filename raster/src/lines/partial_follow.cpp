@@ -1,0 +1,261 @@
+// The partial-effect locus followed through its band by sea. See partial_follow.hpp.
+#include "lines/partial_follow.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <numbers>
+
+#include "lines/line_tools.hpp"
+
+namespace rv::partial_follow {
+
+using namespace line_tools;
+
+namespace {
+
+constexpr int kMaxDepth = 24;  // chord refinement, as the straight trace's
+
+double norm(Vec2 v) { return std::hypot(v.x, v.y); }
+
+struct Follower {
+  const Level& L;
+  LineResidual& residual;
+  double step;  // CRS units: half a cell
+
+  bool sees(Vec2 a, Vec2 b) const { return L.metric->open_between(a, b) && L.in_band(b); }
+
+  // The root of the balance on segment a-b (its ends of opposite signs), or false.
+  bool root(Vec2 a, Vec2 b, Vec2& out) const {
+    auto f = [&](double t) { return L.balance(lerp(a, b, t)); };
+    const double fa = f(0.0), fb = f(1.0);
+    if (!std::isfinite(fa) || !std::isfinite(fb) || (fa < 0.0) == (fb < 0.0)) return false;
+    out = lerp(a, b, find_root(f, fa, fb, L.ftol, 1e-15));
+    return true;
+  }
+
+  // The first point of the locus from turning point `c`: on the circle of radius `step` round
+  // it, where the balance changes sign between two points in the band (the band is a wedge at a
+  // turning point, L0 on one side, L1 on the other: one change).
+  bool first(Vec2 c, Vec2& out) const {
+    constexpr int kRound = 96;
+    std::vector<Vec2> q(kRound);
+    std::vector<double> f(kRound);
+    std::vector<bool> ok(kRound);
+    for (int k = 0; k < kRound; ++k) {
+      const double a = 2.0 * std::numbers::pi * k / kRound;
+      q[k] = Vec2{c.x + step * std::cos(a), c.y + step * std::sin(a)};
+      ok[k] = sees(c, q[k]);
+      f[k] = ok[k] ? L.balance(q[k]) : 0.0;
+    }
+    for (int k = 0; k < kRound; ++k) {
+      const int n = (k + 1) % kRound;
+      if (!ok[k] || !ok[n] || (f[k] < 0.0) == (f[n] < 0.0)) continue;
+      const double a0 = 2.0 * std::numbers::pi * k / kRound, w = 2.0 * std::numbers::pi / kRound;
+      auto g = [&](double t) {
+        return L.balance(Vec2{c.x + step * std::cos(a0 + w * t), c.y + step * std::sin(a0 + w * t)});
+      };
+      const double t = find_root(g, f[k], f[n], L.ftol, 1e-15);
+      out = Vec2{c.x + step * std::cos(a0 + w * t), c.y + step * std::sin(a0 + w * t)};
+      return true;
+    }
+    return false;
+  }
+
+  // The balance's gradient at p (central differences, per CRS unit).
+  Vec2 gradient(Vec2 p) const {
+    const double h = 1e-4 * L.grid.res;
+    return Vec2{(L.balance(Vec2{p.x + h, p.y}) - L.balance(Vec2{p.x - h, p.y})) / (2.0 * h),
+                (L.balance(Vec2{p.x, p.y + h}) - L.balance(Vec2{p.x, p.y - h})) / (2.0 * h)};
+  }
+
+  // The next point of the locus from c, going on in direction `dir` (unit): a step along the
+  // level's tangent, then the root across it along the gradient; shorter steps where none is
+  // found. False where no step finds one.
+  bool next(Vec2 c, Vec2 dir, Vec2& out) const {
+    const Vec2 g = gradient(c);
+    const double gn = norm(g);
+    if (!(gn > 0.0) || !std::isfinite(gn)) return false;
+    const Vec2 n{g.x / gn, g.y / gn};
+    Vec2 t{-n.y, n.x};
+    if (t.x * dir.x + t.y * dir.y < 0.0) t = Vec2{-t.x, -t.y};
+    for (double s = step; s >= step / 16.0; s *= 0.5) {
+      const Vec2 q{c.x + s * t.x, c.y + s * t.y};
+      if (root(Vec2{q.x - s * n.x, q.y - s * n.y}, Vec2{q.x + s * n.x, q.y + s * n.y}, out) &&
+          norm(Vec2{out.x - c.x, out.y - c.y}) > 0.0)
+        return true;
+    }
+    return false;
+  }
+
+  bool outside_frame(Vec2 p) const {
+    const GridSpec& g = L.grid;
+    return p.x < g.centre_x(0) || p.x > g.centre_x(g.width - 1) || p.y > g.centre_y(0) ||
+           p.y < g.centre_y(g.height - 1);
+  }
+
+  // Where the locus between c (inside the frame) and r (outside) meets the frame: the point
+  // where the chord leaves it, moved along the frame onto the level (within a step).
+  Vec2 onto_frame(Vec2 c, Vec2 r) const {
+    const GridSpec& g = L.grid;
+    const double x0 = g.centre_x(0), x1 = g.centre_x(g.width - 1), y0 = g.centre_y(g.height - 1), y1 = g.centre_y(0);
+    double t = 1.0;
+    bool vertical = false;
+    auto cut = [&](double from, double to, double edge, bool v) {
+      if ((to - edge) * (from - edge) < 0.0 || to == edge) {
+        const double u = (edge - from) / (to - from);
+        if (u < t) {
+          t = u;
+          vertical = v;
+        }
+      }
+    };
+    cut(c.x, r.x, x0, true);
+    cut(c.x, r.x, x1, true);
+    cut(c.y, r.y, y0, false);
+    cut(c.y, r.y, y1, false);
+    Vec2 x = lerp(c, r, t);
+    // (Exactly on the frame, as extraction's line ends are.)
+    if (vertical)
+      x.x = std::abs(x.x - x0) < std::abs(x.x - x1) ? x0 : x1;
+    else
+      x.y = std::abs(x.y - y0) < std::abs(x.y - y1) ? y0 : y1;
+    const Vec2 along = vertical ? Vec2{0.0, step} : Vec2{step, 0.0};
+    Vec2 on;
+    if (root(Vec2{x.x - along.x, x.y - along.y}, Vec2{x.x + along.x, x.y + along.y}, on)) return on;
+    return x;
+  }
+
+  // Where the locus from c (at sea, within two steps of land) meets the coast: on the barrier
+  // edges near c, approached from c's side (SiteMetric::domain_edge_point), the point where the
+  // balance is 0 that c sees, in the band, the nearest to c. Each edge is searched only near c
+  // (a coast's edge may be far longer than a cell, and its balance change sign elsewhere too).
+  bool onto_coast(Vec2 c, Vec2& out) const {
+    const SiteMetric& m = *L.metric;
+    const double radius = 2.0 * step;
+    std::vector<int32_t> edges;
+    m.domain_edges_near(c, radius, edges);
+    double best = std::numeric_limits<double>::infinity();
+    constexpr double kEnd = 1e-9;
+    for (const int32_t edge : edges) {
+      Vec2 e0, e1;
+      if (!m.domain_edge_point(edge, kEnd, c, e0) || !m.domain_edge_point(edge, 1.0 - kEnd, c, e1)) continue;
+      const Vec2 d{e1.x - e0.x, e1.y - e0.y};
+      const double len2 = d.x * d.x + d.y * d.y;
+      if (!(len2 > 0.0)) continue;
+      const double tc = std::clamp(((c.x - e0.x) * d.x + (c.y - e0.y) * d.y) / len2, 0.0, 1.0);
+      // (Twice the radius each way in the edge's parameter: a geodesic edge's is not the chord's.)
+      const double w = std::min(1.0, 4.0 * radius / std::sqrt(len2));
+      const double t0 = std::max(kEnd, tc - w), t1 = std::min(1.0 - kEnd, tc + w);
+      auto along = [&](double t) {
+        Vec2 p;
+        return m.domain_edge_point(edge, t, c, p) ? L.balance(p) : std::numeric_limits<double>::quiet_NaN();
+      };
+      constexpr int kSamples = 32;
+      double ta = t0, fa = along(ta);
+      for (int k = 1; k <= kSamples; ++k) {
+        const double tb = t0 + (t1 - t0) * k / kSamples, fb = along(tb);
+        if (std::isfinite(fa) && std::isfinite(fb) && (fa < 0.0) != (fb < 0.0)) {
+          const double t =
+              ta + (tb - ta) * find_root([&](double u) { return along(ta + (tb - ta) * u); }, fa, fb, L.ftol, 1e-15);
+          Vec2 p;
+          if (m.domain_edge_point(edge, t, c, p)) {
+            const double gap = norm(Vec2{p.x - c.x, p.y - c.y});
+            if (gap < best && gap <= radius && m.open_between(c, p) && L.in_band(p)) {
+              best = gap;
+              out = p;
+            }
+          }
+        }
+        ta = tb;
+        fa = fb;
+      }
+    }
+    return std::isfinite(best);
+  }
+
+  // Midpoints where a chord strays from the locus by more than the tolerance.
+  void refine(Vec2 a, Vec2 b, int depth, std::vector<Vec2>& out) const {
+    const Vec2 d{b.x - a.x, b.y - a.y};
+    const double len = norm(d);
+    const Vec2 mid = lerp(a, b, 0.5);
+    if (!(len > 0.0)) return;
+    const Vec2 n{-d.y / len, d.x / len};
+    Vec2 m;
+    const double reach = 0.5 * len;
+    if (!root(Vec2{mid.x - reach * n.x, mid.y - reach * n.y}, Vec2{mid.x + reach * n.x, mid.y + reach * n.y}, m))
+      return;
+    const double off = norm(Vec2{m.x - mid.x, m.y - mid.y});
+    if (!(off > L.tol) || depth + 1 >= kMaxDepth || !L.metric->open_between(a, m) || !L.metric->open_between(m, b)) {
+      residual.add(off * L.per_crs, mid.x, mid.y, L.tol * L.per_crs);
+      return;
+    }
+    ++residual.added;
+    refine(a, m, depth + 1, out);
+    out.push_back(m);
+    refine(m, b, depth + 1, out);
+  }
+
+  Followed run(Vec2 start, const Vec2* target) const {
+    Followed f;
+    std::vector<Vec2> pts{start};
+    Vec2 p;
+    if (!first(start, p)) return Followed{pts, Stop::lost};
+    pts.push_back(p);
+    // A band is crossed in well under this many steps (its length over half a cell, with room).
+    const auto limit = static_cast<int64_t>(8 * (L.grid.width + L.grid.height)) + 64;
+    Stop stop = Stop::lost;
+    for (int64_t k = 0; k < limit; ++k) {
+      const Vec2 c = pts.back();
+      if (target && norm(Vec2{c.x - target->x, c.y - target->y}) <= 1.5 * step) {
+        if (pts.size() > 2) pts.pop_back();
+        pts.push_back(*target);
+        stop = Stop::target;
+        break;
+      }
+      const Vec2 before = pts[pts.size() - 2];
+      const double dl = norm(Vec2{c.x - before.x, c.y - before.y});
+      const Vec2 dir{(c.x - before.x) / dl, (c.y - before.y) / dl};
+      Vec2 r;
+      if (!next(c, dir, r)) break;
+      if (outside_frame(r)) {
+        pts.push_back(onto_frame(c, r));
+        stop = Stop::frame;
+        break;
+      }
+      if (!L.metric->open_between(c, r)) {
+        // Land across the step: the coast's point where the balance is 0, seen from c.
+        Vec2 at;
+        if (onto_coast(c, at)) {
+          pts.push_back(at);
+          stop = Stop::coast;
+        }
+        break;
+      }
+      if (!L.in_band(r)) {
+        // Out of the band away from land: only where L0 meets L1, at the target.
+        if (target && norm(Vec2{r.x - target->x, r.y - target->y}) <= 3.0 * step) {
+          pts.push_back(*target);
+          stop = Stop::target;
+        }
+        break;
+      }
+      pts.push_back(r);
+    }
+    f.stop = stop;
+    f.points.push_back(pts.front());
+    for (size_t i = 1; i < pts.size(); ++i) {
+      refine(pts[i - 1], pts[i], 0, f.points);
+      f.points.push_back(pts[i]);
+    }
+    return f;
+  }
+};
+
+}  // namespace
+
+Followed follow(const Level& level, Vec2 start, const Vec2* target, LineResidual& residual) {
+  return Follower{level, residual, 0.5 * level.grid.res}.run(start, target);
+}
+
+}  // namespace rv::partial_follow

@@ -1,0 +1,349 @@
+// Partial effect by sea (rv/lines/partial_effect.hpp with the engines by sea as its
+// PartialEngines): the two fields and their lines by sea, the rule between the lines, and the
+// partial line followed through the band where land cuts it (lines/partial_follow.hpp).
+// - The rays of the straight case (test_partial_effect.cpp) with land beyond a coast they meet:
+//   the sea is convex, so every sea cell is the straight rule's; the partial line is the ray at
+//   220 degrees (half effect; 209.69 at a quarter) and ends on the coast where that ray meets it.
+// - An island of B's astride the nil-effect line (coasts as seeds, land as barriers): the nil
+//   line stops at the island's coasts; every cell is the rule at its centre (fields computed
+//   alone, distances to the lines measured here), the reference engines give the same field, and
+//   the partial line lies on the locus, ends on coasts only on a barrier's edge and never crosses
+//   land.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+#include <string>
+
+#include "rv/engine/engine.hpp"
+#include "rv/engine/owner_index.hpp"
+#include "rv/field/error.hpp"
+#include "rv/lines/partial_effect.hpp"
+#include "rv/lines/regions.hpp"
+#include "rv/sea/sea_field.hpp"
+#include "rv/sea/sea_metric.hpp"
+#include "rv/sea/visibility.hpp"
+#include "seed_gen.hpp"
+
+namespace rv {
+namespace {
+
+constexpr double kDeg = std::numbers::pi / 180.0;
+const Vec2 kO{500000.0, 6000000.0};
+
+Vec2 toward(double azimuth_deg, double r) {
+  return Vec2{kO.x + r * std::sin(azimuth_deg * kDeg), kO.y + r * std::cos(azimuth_deg * kDeg)};
+}
+
+double azimuth_of(Vec2 p) {
+  const double az = std::atan2(p.x - kO.x, p.y - kO.y) / kDeg;
+  return az < 0.0 ? az + 360.0 : az;
+}
+
+// The engines by sea over `barriers` and `grid`: exact, or the reference (brute force).
+PartialEngines by_sea(const Barriers& barriers, const GridSpec& grid, bool reference = false) {
+  PartialEngines e;
+  e.field = [&barriers, &grid, reference](const SeedSet& s, bool) {
+    return (reference ? brute_force_sea(s, barriers, grid, grid.full_window())
+                      : compute_sea(s, barriers, grid, grid.full_window()))
+        .field;
+  };
+  e.metric = [&barriers, &grid](const SeedSet& s, const NearestField&, bool) {
+    return make_sea_site_metric(s, barriers, grid);
+  };
+  return e;
+}
+
+// The straight case's rays: A at azimuth 310, B's mainland at 90 and its island at 170, 30 km
+// from O (the A-B line: the ray at 20 degrees; at nil effect the ray at 200, at full the ray at
+// 240).
+SeedSet rays(double effect) {
+  SeedSet s;
+  const int32_t a = s.owner_code("A"), b = s.owner_code("B");
+  s.add_point(s.add_feature(a), toward(310.0, 30000.0));
+  s.add_point(s.add_feature(b), toward(90.0, 30000.0));
+  const int32_t island = s.add_feature(b);
+  s.add_point(island, toward(170.0, 30000.0));
+  s.set_effect(island, effect);
+  return s;
+}
+
+const GridSpec kGrid = test::grid_of(120, 100, 1000.0, 420000.0, 6030000.0);
+
+// Land beyond the coast 40 km from O across azimuth 220: the points p with (p - O).u >= 40 km.
+constexpr double kCoast = 40000.0;
+Barriers land_at_220() {
+  const Vec2 u{std::sin(220.0 * kDeg), std::cos(220.0 * kDeg)}, v{u.y, -u.x};
+  auto at = [&](double along, double across) {
+    return Vec2{kO.x + along * u.x + across * v.x, kO.y + along * u.y + across * v.y};
+  };
+  Barriers b;
+  b.add_polygon({{at(kCoast, -300000.0), at(kCoast, 300000.0), at(400000.0, 300000.0), at(400000.0, -300000.0)}},
+                "coast");
+  return b;
+}
+
+double locus_azimuth(double e) {
+  const double k = e / (1.0 - e);
+  return 200.0 + std::atan(k * std::sin(40.0 * kDeg) / (1.0 + k * std::cos(40.0 * kDeg))) / kDeg;
+}
+
+void check_rays_to_the_coast(double e) {
+  const Barriers land = land_at_220();
+  const SeedSet s = rays(e);
+  const PartialEffectResult sea =
+      compute_partial_effect(s, kGrid, ComputeOptions{}, BoundaryOptions{}, true, by_sea(land, kGrid));
+  const PartialEffectResult straight = compute_partial_effect(s, kGrid, ComputeOptions{}, BoundaryOptions{});
+  ASSERT_TRUE(sea.rule);
+  EXPECT_EQ(sea.stats.coast_ends, 1);
+  // The partial ray and where it meets the coast (the coast's normal is the ray at 220).
+  const double az = locus_azimuth(e);
+  const Vec2 end = toward(az, kCoast / std::cos((220.0 - az) * kDeg));
+  const Vec2 u{std::sin(az * kDeg), std::cos(az * kDeg)};
+  int64_t on_ray = 0, ends_on_coast = 0;
+  for (const BoundaryLine& line : sea.boundaries.lines)
+    for (const BoundaryVertex& v : line.vertices) {
+      const Vec2 q{v.p.x - kO.x, v.p.y - kO.y};
+      if (std::hypot(q.x, q.y) < 1e-6 || q.x * u.x + q.y * u.y <= 0.0) continue;
+      ++on_ray;
+      EXPECT_LT(std::abs(q.x * u.y - q.y * u.x), 1e-5) << "vertex at azimuth " << azimuth_of(v.p);
+      if (v.on_barrier) {
+        ++ends_on_coast;
+        EXPECT_LT(std::hypot(v.p.x - end.x, v.p.y - end.y), 1e-4) << v.p.x << ", " << v.p.y;
+      }
+    }
+  EXPECT_GT(on_ray, 40);
+  EXPECT_EQ(ends_on_coast, 1);
+  EXPECT_LT(sea.stats.max_residual, 1e-6);
+  EXPECT_EQ(sea.stats.residual.unresolved, 0);
+  // The sea is convex: every sea cell is the straight rule's, land cells are no one's.
+  const Visibility vis(land);
+  int64_t sea_cells = 0, land_cells = 0;
+  for (int64_t row = 0; row < kGrid.height; ++row)
+    for (int64_t col = 0; col < kGrid.width; ++col) {
+      const Vec2 p{kGrid.centre_x(col), kGrid.centre_y(row)};
+      if (vis.on_land(p)) {
+        ++land_cells;
+        ASSERT_EQ(sea.field.site.at(col, row), kNoSite) << col << "," << row;
+        continue;
+      }
+      ++sea_cells;
+      ASSERT_EQ(sea.field.site.at(col, row), straight.field.site.at(col, row)) << col << "," << row;
+      ASSERT_EQ(sea.field.distance.at(col, row), straight.field.distance.at(col, row)) << col << "," << row;
+    }
+  EXPECT_GT(land_cells, 1000);
+  EXPECT_GT(sea_cells, 5000);
+}
+
+TEST(SeaPartial, HalfEffectIsTheMedianRayToTheCoast) { check_rays_to_the_coast(0.5); }
+
+TEST(SeaPartial, QuarterEffectIsItsRayToTheCoast) { check_rays_to_the_coast(0.25); }
+
+// The distance from p to a polyline (straight).
+double to_polyline(Vec2 p, const std::vector<BoundaryVertex>& v) {
+  double best = std::numeric_limits<double>::infinity();
+  for (size_t k = 0; k + 1 < v.size(); ++k) {
+    const Vec2 a = v[k].p, b = v[k + 1].p;
+    const double dx = b.x - a.x, dy = b.y - a.y, len2 = dx * dx + dy * dy;
+    const double t = len2 > 0.0 ? std::clamp(((p.x - a.x) * dx + (p.y - a.y) * dy) / len2, 0.0, 1.0) : 0.0;
+    best = std::min(best, std::hypot(a.x + t * dx - p.x, a.y + t * dy - p.y));
+  }
+  if (v.size() == 1) best = std::hypot(v[0].p.x - p.x, v[0].p.y - p.y);
+  return best;
+}
+
+double to_lines(Vec2 p, const BoundaryResult& r, int32_t a, int32_t b) {
+  double best = std::numeric_limits<double>::infinity();
+  for (const BoundaryLine& l : r.lines)
+    if ((l.owner_a == a && l.owner_b == b) || (l.owner_a == b && l.owner_b == a))
+      best = std::min(best, to_polyline(p, l.vertices));
+  return best;
+}
+
+// X's coast in the west, B's in the east (both seeds and land), B's island of half effect astride
+// the median between them (land, and a seed at full effect).
+struct Strait {
+  SeedSet seeds;
+  Barriers land;
+  std::vector<std::vector<Vec2>> coasts;  // the three outlines
+};
+
+// The distance from p to the nearest coast (the outlines' edges).
+double to_coast(Vec2 p, const Strait& s) {
+  double best = std::numeric_limits<double>::infinity();
+  for (const std::vector<Vec2>& ring : s.coasts) {
+    std::vector<BoundaryVertex> closed;
+    for (const Vec2 q : ring) closed.push_back(BoundaryVertex{q});
+    closed.push_back(BoundaryVertex{ring.front()});
+    best = std::min(best, to_polyline(p, closed));
+  }
+  return best;
+}
+// `ports`: X's and B's mainland seeds are ports on their coasts, not the coasts (X's: one, or
+// with `two_ports` two, north and south).
+Strait strait(const std::vector<Vec2>& island, bool ports = false, double effect = 0.5, bool two_ports = false) {
+  Strait s;
+  const int32_t x = s.seeds.owner_code("X"), b = s.seeds.owner_code("B");
+  const std::vector<Vec2> west{{0, 0}, {8, 0}, {9, 20}, {7, 40}, {0, 40}};
+  const std::vector<Vec2> east{{40, 0}, {32, 0}, {31, 18}, {33, 40}, {40, 40}};
+  if (ports) {
+    if (two_ports) {
+      const int32_t f = s.seeds.add_feature(x);
+      s.seeds.add_point(f, {8.25, 4});
+      s.seeds.add_point(f, {7.45, 36});
+    } else {
+      s.seeds.add_point(s.seeds.add_feature(x), {9, 20});
+    }
+    s.seeds.add_point(s.seeds.add_feature(b), {31, 18});
+  } else {
+    s.seeds.add_polygon(s.seeds.add_feature(x), {west});
+    s.seeds.add_polygon(s.seeds.add_feature(b), {east});
+  }
+  const int32_t f = s.seeds.add_feature(b);
+  s.seeds.add_polygon(f, {island});
+  s.seeds.set_effect(f, effect);
+  s.land.add_polygon({west}, "west");
+  s.land.add_polygon({east}, "east");
+  s.land.add_polygon({island}, "island");
+  s.coasts = {west, east, island};
+  return s;
+}
+
+// Every cell is the rule at its centre (the two fields computed alone, the distances to the two
+// lines measured here), the reference engines give the same field, and the partial line lies on
+// the locus, ends on a coast only on a barrier's edge and never crosses land. Returns the lines'
+// statistics, and how many ends of nil-effect lines lie on barriers.
+struct Checked {
+  PartialLineStats stats;
+  int64_t nil_ends_on_land = 0;
+};
+Checked check_rule_and_line(const Strait& s) {
+  const GridSpec g = test::grid_of(160, 160, 0.25);
+  const PartialEffectResult r =
+      compute_partial_effect(s.seeds, g, ComputeOptions{}, BoundaryOptions{}, true, by_sea(s.land, g));
+  if (!r.rule) {
+    ADD_FAILURE() << "no rule";
+    return {};
+  }
+  const int32_t B = 2, X = 1;
+
+  // Every cell: the rule at its centre from the two fields computed alone and the distances to
+  // the two lines measured here.
+  std::vector<bool> partial(s.seeds.features().size(), false);
+  partial[2] = true;
+  std::vector<int32_t> site_of;
+  const SeedSet nil_seeds = s.seeds.without(partial, site_of);
+  const NearestField full = compute_sea(s.seeds, s.land, g, g.full_window()).field;
+  const NearestField nil = compute_sea(nil_seeds, s.land, g, g.full_window()).field;
+  int64_t band = 0, given_back = 0;
+  for (int64_t row = 0; row < g.height; ++row)
+    for (int64_t col = 0; col < g.width; ++col) {
+      const int32_t fs = full.site.at(col, row), ns = nil.site.at(col, row);
+      const int32_t got = r.field.site.at(col, row);
+      if (fs == kNoSite) {
+        EXPECT_EQ(got, kNoSite);
+        continue;
+      }
+      const bool in_band = s.seeds.site_owner(fs) == B && nil_seeds.site_owner(ns) == X;
+      if (!in_band) {
+        EXPECT_EQ(got, fs) << col << "," << row;
+        continue;
+      }
+      ++band;
+      const Vec2 p{g.centre_x(col), g.centre_y(row)};
+      const double d0 = to_lines(p, r.rule->nil_lines(), X, B), d1 = to_lines(p, r.rule->full_lines(), X, B);
+      const double e = r.rule->effect().effect, balance = e * d1 - (1.0 - e) * d0;
+      if (std::abs(balance) < 1e-9) continue;
+      const int32_t expected = balance > 0.0 ? fs : site_of[static_cast<size_t>(ns)];
+      given_back += balance < 0.0;
+      EXPECT_EQ(got, expected) << col << "," << row << " balance " << balance;
+    }
+  EXPECT_GT(band, 200);
+  EXPECT_GT(given_back, 50);
+  EXPECT_LT(given_back, band);
+
+  // The reference engines give the same field.
+  const PartialEffectResult ref =
+      compute_partial_effect(s.seeds, g, ComputeOptions{}, BoundaryOptions{}, false, by_sea(s.land, g, true));
+  EXPECT_EQ(ref.field.site.cells(), r.field.site.cells());
+  EXPECT_EQ(ref.field.distance.cells(), r.field.distance.cells());
+
+  // The partial line: on the locus in the band, on a barrier's edge where it ends on a coast,
+  // never across land.
+  int64_t on_locus = 0, coast_ends = 0;
+  for (const BoundaryLine& l : r.boundaries.lines) {
+    for (size_t k = 0; k < l.vertices.size(); ++k) {
+      const BoundaryVertex& v = l.vertices[k];
+      if (k > 0) EXPECT_TRUE(r.metric->open_between(l.vertices[k - 1].p, v.p)) << v.p.x << ", " << v.p.y;
+      if (v.on_barrier) {
+        ++coast_ends;
+        EXPECT_LT(to_coast(v.p, s), 1e-9) << v.p.x << ", " << v.p.y;
+      }
+      if (owner_at(*r.index, v.p) == B && owner_at(*r.nil_index, v.p) == X && !v.on_barrier) {
+        ++on_locus;
+        EXPECT_LT(std::abs(r.rule->balance(v.p, X)), 1e-6) << v.p.x << ", " << v.p.y;
+      }
+    }
+  }
+  EXPECT_GT(on_locus, 20);
+  // (Each coast end of a partial stretch is a line's end on a barrier; the full lines' own such
+  // ends outside the bands stay.)
+  EXPECT_LE(r.stats.coast_ends, coast_ends);
+  EXPECT_EQ(r.stats.residual.unresolved, 0);
+  Checked out{r.stats};
+  for (const BoundaryLine& l : r.rule->nil_lines().lines)
+    out.nil_ends_on_land += l.vertices.front().on_barrier + l.vertices.back().on_barrier;
+  return out;
+}
+
+// The nil line stops at the island's coasts; the partial line passes the island at sea.
+TEST(SeaPartial, AnIslandAstrideTheNilLineCutsItAndTheRuleHoldsEverywhere) {
+  const Strait s = strait({{18, 17}, {23, 18}, {22, 23}, {17, 22}});
+  const Checked c = check_rule_and_line(s);
+  EXPECT_GE(c.nil_ends_on_land, 2);
+  EXPECT_EQ(c.stats.coast_ends, 0);
+  EXPECT_EQ(c.stats.stretches, 1);
+}
+
+// A wide island: the partial locus meets its coast, and the line is cut there into two, each
+// ending on the coast.
+TEST(SeaPartial, AWideIslandCutsThePartialLineAtItsCoast) {
+  const Strait s = strait({{13, 16}, {23, 18}, {22, 24}, {14, 23}});
+  const PartialLineStats st = check_rule_and_line(s).stats;
+  EXPECT_EQ(st.coast_ends, 2);
+  EXPECT_EQ(st.stretches, 2);
+}
+
+// Ports as seeds: the island's zone at full effect reaches X's coast between X's two ports, so
+// the full line comes in two pieces, each from X's coast to where it rejoins the nil line; each
+// band's locus runs from that turning point to X's coast.
+TEST(SeaPartial, AFullLineEndingOnTheNeighboursCoastGivesLociEndingThere) {
+  const Strait s = strait({{11, 17}, {15, 18}, {14, 23}, {11, 22}}, true, 0.5, true);
+  const PartialLineStats st = check_rule_and_line(s).stats;
+  EXPECT_EQ(st.coast_ends, 2);
+  EXPECT_EQ(st.stretches, 2);
+}
+
+// One port of X's, shut in by the island at full effect: the full line is an arc from X's coast
+// to X's coast round the port, wholly in the band, with no turning point to follow the locus
+// from: refused in one line (the rasters alone can be had, without lines).
+TEST(SeaPartial, AFullLineWhollyInTheBandIsRefusedInOneLine) {
+  const Strait s = strait({{11, 17}, {15, 18}, {14, 23}, {11, 22}}, true, 0.1);
+  const GridSpec g = test::grid_of(160, 160, 0.25);
+  try {
+    compute_partial_effect(s.seeds, g, ComputeOptions{}, BoundaryOptions{}, true, by_sea(s.land, g));
+    FAIL() << "taken";
+  } catch (const Error& e) {
+    EXPECT_EQ(e.kind(), ErrorKind::unsupported);
+    EXPECT_NE(std::string(e.what()).find("wholly in the band"), std::string::npos) << e.what();
+  }
+  // Without the lines the rasters are the rule's.
+  const PartialEffectResult r =
+      compute_partial_effect(s.seeds, g, ComputeOptions{}, BoundaryOptions{}, false, by_sea(s.land, g));
+  ASSERT_TRUE(r.rule);
+  EXPECT_NE(r.field.site.cells(), r.full.site.cells());
+}
+
+}  // namespace
+}  // namespace rv
