@@ -22,7 +22,7 @@
 
 #include "lines/boundary_stages.hpp"
 #include "lines/line_tools.hpp"
-#include "lines/partial_follow.hpp"
+#include "lines/partial/partial_follow.hpp"
 #include "rv/field/error.hpp"
 #include "rv/field/parallel.hpp"
 #include "rv/lines/regions.hpp"

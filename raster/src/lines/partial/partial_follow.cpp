@@ -1,5 +1,5 @@
 // The partial-effect locus followed through its band by sea. See partial_follow.hpp.
-#include "lines/partial_follow.hpp"
+#include "lines/partial/partial_follow.hpp"
 
 #include <algorithm>
 #include <cmath>
