@@ -14,6 +14,9 @@
 // edges. Cells of no owner at nil effect (beyond a max distance from every other seed) that the
 // partial features reach stay B's: the adjustment is between owners, not of an island's own
 // entitlement.
+// By sea (PartialEngines from the distance by sea) L0 and L1 are lines by sea, the partial features
+// at nil effect no seeds but land where the barriers have them; the rule still measures straight
+// distances to the lines as drawn, and partial_boundaries follows the locus through each band.
 //
 // The stages, all pure functions of value types:
 //   partial_effect_of     which owner, which features, which e; the input's rules enforced
@@ -119,7 +122,11 @@ struct PartialLineStats {
 // where it meets that line, the nearer of the two ends to the tripoint is the partial tripoint,
 // the other owner's line follows the X-Y line to it, and so does the X-Y line (pair by pair).
 // Vertices carry the nearest sites of both owners and the true distances to them. `index`: the
-// full-effect field's (B's sites); `grid`: the field's.
+// full-effect field's (B's sites); `grid`: the field's. By sea (`index`'s metric not straight,
+// `nil_index` the nil-effect field's): each band's locus is followed from its turning points;
+// where land cuts it, to the coast (the point where the coast has the balance 0; the vertex
+// BoundaryVertex::on_barrier, counted in PartialLineStats::coast_ends), and the line is cut there
+// into two lines. A line wholly in a band is refused as below.
 // Throws rv::Error(unsupported) where a line is all band (an enclave at full effect, with no
 // nil-effect line beside it), or the lines around a tripoint do not meet as above: the rasters
 // are exact there, the lines are not drawn.
