@@ -448,7 +448,7 @@ struct LineRewrite {
   std::vector<Vec2> nil_chain(const Vec2* P, const Vec2* Q, Vec2 anchor, double cell) const {
     const Vec2 known = P != nullptr ? *P : *Q;
     const BoundaryLine* best = nullptr;
-    Along bu, bv, ba;
+    Along bu, bv;
     double best_off = kInf;
     std::vector<Vec2> best_pts;
     for (const BoundaryLine& l : rule.nil_lines().lines) {
