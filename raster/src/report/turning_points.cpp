@@ -37,6 +37,7 @@ struct Element {
   Kind kind = none;
   Vec2 at;                 // the position (kind position)
   int32_t site = kNoSite;  // the site (kind interior), or the one naming the position
+  int32_t via = -1;        // by sea: the path's last bend (SiteMetric::last_bend), -1 straight
 };
 
 class Finder {
@@ -58,19 +59,22 @@ class Finder {
     return x;
   }
 
+  // By sea the element is the site's with the path's last bend: the locus keeps its form (a
+  // bisector, a hyperbola branch round that bend, a parabola) while both stay.
   Element element(Vec2 p, int32_t site) const {
     if (site == kNoSite) return {};
     const Site& s = metric_.seeds().sites()[static_cast<size_t>(site)];
-    if (s.kind == SiteKind::area) return {Element::interior, p, site};
-    if (s.kind == SiteKind::point) return {Element::position, placed(s.a), site};
+    const int32_t via = metric_.straight() ? -1 : metric_.last_bend(p, site);
+    if (s.kind == SiteKind::area) return {Element::interior, p, site, via};
+    if (s.kind == SiteKind::point) return {Element::position, placed(s.a), site, via};
     const Vec2 foot = metric_.nearest_point(p, site);
     for (const Vec2 end : {placed(s.a), placed(s.b)})
-      if (metric_.point_distance(foot, end) <= tol_) return {Element::position, end, site};
-    return {Element::interior, foot, site};
+      if (metric_.point_distance(foot, end) <= tol_) return {Element::position, end, site, via};
+    return {Element::interior, foot, site, via};
   }
 
   bool same(const Element& x, const Element& y) const {
-    if (x.kind != y.kind) return false;
+    if (x.kind != y.kind || x.via != y.via) return false;
     if (x.kind == Element::interior) return x.site == y.site;
     return x.kind == Element::none || metric_.point_distance(x.at, y.at) <= tol_;
   }
@@ -193,8 +197,13 @@ class Finder {
   }
 
   Basepoint basepoint(Vec2 p, const Element& e) const {
-    return Basepoint{e.site, e.kind == Element::interior ? metric_.nearest_point(p, e.site) : e.at,
-                     e.site == kNoSite ? 0.0 : metric_.distance(p, e.site)};
+    Basepoint b{e.site, e.kind == Element::interior ? metric_.nearest_point(p, e.site) : e.at,
+                e.site == kNoSite ? 0.0 : metric_.distance(p, e.site)};
+    if (e.via >= 0) {
+      b.via = e.via;
+      b.via_at = metric_.bend_position(e.via);
+    }
+    return b;
   }
 
   // Whether two arc vertices lie on arcs of one reach (their arc sites' features reach as far).

@@ -79,10 +79,10 @@ void check_sea_plan(const JobSpec& spec, const PreparedJob& job) {
     return;
   }
   const OutputRequest& out = spec.outputs;
-  if (!out.turning_points.empty() || !out.relevant_area.empty())
+  if (!out.relevant_area.empty())
     refuse(ErrorKind::unsupported,
-           "turning points and the relevant area are not drawn under the distance by sea yet; boundaries, "
-           "tripoints, limits, regions, the margin and the preview are, and the rasters (ownership, distance, "
+           "the relevant area is not measured under the distance by sea yet; boundaries, tripoints, turning "
+           "points, limits, regions, the margin and the preview are, and the rasters (ownership, distance, "
            "nearest feature, via)");
   if (!spec.base_report.empty())
     refuse(ErrorKind::unsupported, "an edit of a run by sea is not available yet: run it again with the new seeds");

@@ -79,6 +79,13 @@ struct Writer {
                     seeds.owner_labels()[static_cast<size_t>(seeds.features()[static_cast<size_t>(f)].owner - 1)]);
     position(b.at, j);
     j["distance"] = b.distance * k;
+    // By sea: the path's last bend (its number as the via raster's codes give it).
+    if (b.via >= 0) {
+      nlohmann::json v;
+      v["vertex"] = b.via + 1;
+      position(b.via_at, v);
+      j["via"] = std::move(v);
+    }
     return j;
   }
   nlohmann::json basepoints(const std::vector<Basepoint>& side) const {
@@ -231,6 +238,8 @@ nlohmann::json turning_report(const BoundaryResult& boundaries, const LimitResul
     report["datum"] = where.datum;
     report["geodesic_units"] = "m";
   }
+  // By sea: distances along the paths, and each basepoint's last bend where its path bends.
+  if (job.sea) report["by_sea"] = true;
   return report;
 }
 
@@ -270,8 +279,16 @@ void write_turning_report(const std::string& path, const nlohmann::json& report)
     return;
   }
   // One row per turning point; a side's second basepoint (where it changes) in the columns 2.
-  const std::vector<std::string> side_cols = {"feature", "owner", "lon", "lat",     "lon_dms",
-                                              "lat_dms", "x",     "y",   "distance"};
+  // By sea each side also names its path's last bend (via_*; empty where the path is straight).
+  std::vector<std::string> side_cols = {"feature", "owner", "lon", "lat", "lon_dms", "lat_dms", "x", "y", "distance"};
+  if (report.value("by_sea", false))
+    for (const char* c : {"via_vertex", "via_lon", "via_lat", "via_x", "via_y"}) side_cols.push_back(c);
+  const nlohmann::json none;
+  // A side's column: its own, or its via's (via_*).
+  auto side_value = [&none](const nlohmann::json& side, const std::string& c) -> nlohmann::json {
+    if (c.rfind("via_", 0) == 0) return side.contains("via") ? side.at("via").value(c.substr(4), none) : none;
+    return side.value(c, none);
+  };
   std::vector<std::string> head = {"line", "seq",     "kind",    "owner_a", "owner_b", "lon",
                                    "lat",  "lon_dms", "lat_dms", "x",       "y"};
   for (const char* side : {"a1", "a2", "b1", "b2"})
@@ -293,7 +310,6 @@ void write_turning_report(const std::string& path, const nlohmann::json& report)
   std::string out;
   for (size_t i = 0; i < head.size(); ++i) out += (i ? "," : "") + head[i];
   out += "\n";
-  const nlohmann::json none;
   size_t line_no = 0;
   for (const auto& line : report.at("lines")) {
     ++line_no;
@@ -306,7 +322,7 @@ void write_turning_report(const std::string& path, const nlohmann::json& report)
         for (size_t k = 0; k < 2; ++k) {
           const nlohmann::json& list = p.at(side);
           for (const std::string& c : side_cols)
-            row.push_back(k < list.size() ? csv_field(list[k].value(c, none)) : "");
+            row.push_back(k < list.size() ? csv_field(side_value(list[k], c)) : "");
         }
       const nlohmann::json next = p.value("to_next", nlohmann::json::object());
       for (const std::string& c : next_cols) row.push_back(csv_field(next.value(c, none)));
@@ -337,7 +353,7 @@ void write_turning_report(const std::string& path, const nlohmann::json& report)
       }
       for (const nlohmann::json* side : std::array<const nlohmann::json*, 4>{&first, &second, &none, &none})
         for (const std::string& c : side_cols)
-          row.push_back(side->is_object() ? csv_field(c == "distance" ? none : side->value(c, none)) : "");
+          row.push_back(side->is_object() ? csv_field(c == "distance" ? none : side_value(*side, c)) : "");
       for (size_t k = 0; k < next_cols.size(); ++k) row.push_back("");
       row.push_back(csv_field(report.value("datum", none)));
       row.push_back(csv_field(report.at("distance_units")));

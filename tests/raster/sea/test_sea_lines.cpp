@@ -17,6 +17,7 @@
 #include "rv/field/error.hpp"
 #include "rv/lines/boundaries.hpp"
 #include "rv/lines/limits.hpp"
+#include "rv/report/turning_points.hpp"
 #include "rv/sea/sea_field.hpp"
 #include "rv/sea/sea_metric.hpp"
 #include "rv/sea/visibility.hpp"
@@ -302,6 +303,44 @@ TEST(SeaLines, TheHyperbolaBehindAWallsEndAndATripointOnIt) {
   EXPECT_TRUE(crosses_wall(s1, t.p, a.x, a.y, b.y)) << t.p.x << "," << t.p.y;  // on the hyperbola
   EXPECT_EQ(three.lines.lines.size(), 3u);
   EXPECT_EQ(three.ends_on_wall, 1);
+}
+
+// The turning point where the line passes from the bisector of s1 and s2 to the hyperbola branch
+// round the wall's end A (behind it s1's path bends at A): on the ray from s1 through A, s1's side
+// changing from the basepoint seen directly to the same basepoint by A (its last bend, named),
+// equidistant from both by the closed form, |s1 - A| + |A - x| = |x - s2| = |x - s1|.
+TEST(SeaLines, ATurningPointWhereTheBisectorBecomesTheHyperbolaNamesTheBend) {
+  const Vec2 a{20, 25}, b{20, 60};
+  const Vec2 s1{14.2, 31.7}, s2{33.1, 38.3};
+  const GridSpec g = test::grid_of(48, 48);
+  const SeedSet seeds = test::named_points({{"o0", s1}, {"o1", s2}});
+  const test::WallSea sea(seeds, a, b, g);
+  BoundaryOptions options;
+  options.line_tolerance = 1e-4;
+  const BoundaryResult lines = extract_boundaries(sea.field.field, *sea.index, options);
+  const std::vector<TurningLine> turning = turning_points(lines, *sea.index);
+  int found = 0;
+  for (const TurningLine& l : turning)
+    for (const TurningPoint& tp : l.points) {
+      // (Either way along the line: the side's two basepoints, before and after.)
+      if (tp.a.size() != 2 || (tp.a[0].via >= 0) == (tp.a[1].via >= 0)) continue;
+      ++found;
+      const Basepoint& bent = tp.a[0].via >= 0 ? tp.a[0] : tp.a[1];
+      const Basepoint& seen = tp.a[0].via >= 0 ? tp.a[1] : tp.a[0];
+      const Vec2 x = tp.p;
+      const Vec2 bend = bent.via_at;
+      EXPECT_LT(std::hypot(bend.x - a.x, bend.y - a.y), 1e-12);
+      EXPECT_LT(std::abs((a.x - s1.x) * (x.y - s1.y) - (a.y - s1.y) * (x.x - s1.x)) / dist(a, s1), 1e-6)
+          << x.x << "," << x.y;
+      EXPECT_NEAR(dist(s1, a) + dist(a, x), dist(x, s2), 1e-6);
+      EXPECT_NEAR(dist(x, s1), dist(x, s2), 1e-6);
+      EXPECT_NEAR(bent.distance, dist(x, s2), 1e-6);
+      EXPECT_NEAR(seen.distance, dist(x, s1), 1e-6);
+      EXPECT_LT(std::hypot(bent.at.x - s1.x, bent.at.y - s1.y), 1e-12);
+      EXPECT_LT(std::hypot(seen.at.x - s1.x, seen.at.y - s1.y), 1e-12);
+      EXPECT_TRUE(tp.b.size() == 1 && tp.b[0].via < 0);
+    }
+  EXPECT_EQ(found, 1);
 }
 
 // Two ports in a channel between two coasts: their boundary runs from coast to coast, its ends on

@@ -32,8 +32,14 @@ namespace rv {
 // corner where both basepoints are at the reach).
 struct Basepoint {
   int32_t site = kNoSite;  // the controlling site
-  Vec2 at;                 // the basepoint (as SiteMetric::nearest_point places it)
-  double distance = 0.0;   // true distance from the turning point, metric units
+  Vec2 at;                 // the basepoint (as SiteMetric::nearest_point places it; by sea where the path starts)
+  double distance = 0.0;   // true distance from the turning point, metric units (by sea: along the path)
+  // By sea (a metric whose paths bend): the path's last barrier vertex (SiteMetric::last_bend;
+  // -1 where the basepoint is seen directly) and its position. The element that controls the
+  // line is the site with that bend: a turning point is also where a side's last bend changes
+  // (the locus passes from a bisector to a hyperbola branch round the bend, or between bends).
+  int32_t via = -1;
+  Vec2 via_at;
 };
 struct TurningPoint {
   enum class Kind { end, turn, start };  // a line's end, a change of basepoint, a ring's first vertex
