@@ -544,10 +544,10 @@ TEST_F(SeaJob, WhatTheDistanceBySeaDoesNotDoIsRefusedInOneLine) {
   JobSpec scan = ports_spec("scan");
   scan.method = Method::hv_scan;
   expect(scan, ErrorKind::invalid_argument, "barriers: the distance by sea needs the exact");
-  JobSpec lines = ports_spec("lines");
-  lines.outputs.boundaries = (dir_ / "lines" / "b.geojson").string();
-  lines.outputs.turning_points = (dir_ / "lines" / "t.csv").string();
-  expect(lines, ErrorKind::unsupported, "not drawn under the distance by sea yet");
+  JobSpec relevant = ports_spec("relevant");
+  relevant.outputs.boundaries = (dir_ / "relevant" / "b.geojson").string();
+  relevant.outputs.relevant_area = fixture("oresund.gpkg");
+  expect(relevant, ErrorKind::unsupported, "not measured under the distance by sea yet");
   JobSpec via = ports_spec("via");
   via.barriers.clear();
   expect(via, ErrorKind::invalid_argument, "the via raster needs barriers");
