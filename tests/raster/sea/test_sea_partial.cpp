@@ -58,13 +58,14 @@ PartialEngines by_sea(const Barriers& barriers, const GridSpec& grid, bool refer
 // The straight case's rays: A at azimuth 310, B's mainland at 90 and its island at 170, 30 km
 // from O (the A-B line: the ray at 20 degrees; at nil effect the ray at 200, at full the ray at
 // 240).
-SeedSet rays(double effect) {
+// `island`: its azimuth (the full line is then the ray at (310 + island) / 2).
+SeedSet rays(double effect, double island_azimuth = 170.0) {
   SeedSet s;
   const int32_t a = s.owner_code("A"), b = s.owner_code("B");
   s.add_point(s.add_feature(a), toward(310.0, 30000.0));
   s.add_point(s.add_feature(b), toward(90.0, 30000.0));
   const int32_t island = s.add_feature(b);
-  s.add_point(island, toward(170.0, 30000.0));
+  s.add_point(island, toward(island_azimuth, 30000.0));
   s.set_effect(island, effect);
   return s;
 }
@@ -84,34 +85,41 @@ Barriers land_at_220() {
   return b;
 }
 
-double locus_azimuth(double e) {
+// The partial ray between the nil ray at 200 degrees and the full one `wedge` degrees on.
+double locus_azimuth(double e, double wedge = 40.0) {
   const double k = e / (1.0 - e);
-  return 200.0 + std::atan(k * std::sin(40.0 * kDeg) / (1.0 + k * std::cos(40.0 * kDeg))) / kDeg;
+  return 200.0 + std::atan(k * std::sin(wedge * kDeg) / (1.0 + k * std::cos(wedge * kDeg))) / kDeg;
 }
 
-void check_rays_to_the_coast(double e) {
+void check_rays_to_the_coast(double e, double island_azimuth = 170.0) {
   const Barriers land = land_at_220();
-  const SeedSet s = rays(e);
+  const SeedSet s = rays(e, island_azimuth);
   const PartialEffectResult sea =
       compute_partial_effect(s, kGrid, ComputeOptions{}, BoundaryOptions{}, true, by_sea(land, kGrid));
   const PartialEffectResult straight = compute_partial_effect(s, kGrid, ComputeOptions{}, BoundaryOptions{});
   ASSERT_TRUE(sea.rule);
   EXPECT_EQ(sea.stats.coast_ends, 1);
   // The partial ray and where it meets the coast (the coast's normal is the ray at 220).
-  const double az = locus_azimuth(e);
+  const double full = (310.0 + island_azimuth) / 2.0, az = locus_azimuth(e, full - 200.0);
   const Vec2 end = toward(az, kCoast / std::cos((220.0 - az) * kDeg));
   const Vec2 u{std::sin(az * kDeg), std::cos(az * kDeg)};
+  // The rule measures distances to the lines as drawn, which stop at the coast: the partial ray
+  // is the closed form where a point's feet on both rays lie before their ends on the coast.
+  auto feet_on_both = [&](Vec2 p) {
+    const double r = std::hypot(p.x - kO.x, p.y - kO.y), a = azimuth_of(p);
+    return r * std::cos((a - 200.0) * kDeg) <= kCoast / std::cos(20.0 * kDeg) &&
+           r * std::cos((full - a) * kDeg) <= kCoast / std::cos((220.0 - full) * kDeg);
+  };
   int64_t on_ray = 0, ends_on_coast = 0;
   for (const BoundaryLine& line : sea.boundaries.lines)
     for (const BoundaryVertex& v : line.vertices) {
       const Vec2 q{v.p.x - kO.x, v.p.y - kO.y};
       if (std::hypot(q.x, q.y) < 1e-6 || q.x * u.x + q.y * u.y <= 0.0) continue;
+      if (v.on_barrier) ++ends_on_coast;
+      if (!feet_on_both(v.p)) continue;
       ++on_ray;
       EXPECT_LT(std::abs(q.x * u.y - q.y * u.x), 1e-5) << "vertex at azimuth " << azimuth_of(v.p);
-      if (v.on_barrier) {
-        ++ends_on_coast;
-        EXPECT_LT(std::hypot(v.p.x - end.x, v.p.y - end.y), 1e-4) << v.p.x << ", " << v.p.y;
-      }
+      if (v.on_barrier) EXPECT_LT(std::hypot(v.p.x - end.x, v.p.y - end.y), 1e-4) << v.p.x << ", " << v.p.y;
     }
   EXPECT_GT(on_ray, 40);
   EXPECT_EQ(ends_on_coast, 1);
@@ -139,6 +147,14 @@ void check_rays_to_the_coast(double e) {
 TEST(SeaPartial, HalfEffectIsTheMedianRayToTheCoast) { check_rays_to_the_coast(0.5); }
 
 TEST(SeaPartial, QuarterEffectIsItsRayToTheCoast) { check_rays_to_the_coast(0.25); }
+
+// The two lines parting at 3 degrees (the island at azimuth 96, beside B's mainland): the locus
+// is found in the narrow wedge between them, the ray at 201.5 degrees as far as the full line
+// runs (it meets the coast first; beyond, the rule measures to its end).
+TEST(SeaPartial, LinesPartingAtASmallAngleGiveTheirRayToo) {
+  EXPECT_NEAR(locus_azimuth(0.5, 3.0), 201.5, 1e-9);
+  check_rays_to_the_coast(0.5, 96.0);
+}
 
 // The distance from p to a polyline (straight).
 double to_polyline(Vec2 p, const std::vector<BoundaryVertex>& v) {

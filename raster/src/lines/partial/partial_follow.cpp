@@ -36,27 +36,22 @@ struct Follower {
 
   // The first point of the locus from turning point `c`: on the circle of radius `step` round
   // it, where the balance changes sign between two points in the band (the band is a wedge at a
-  // turning point, L0 on one side, L1 on the other: one change).
+  // turning point, L0 on one side, L1 on the other: one change). The lines often part at a small
+  // angle, so the circle is sampled finely (the balance is cheap: distances to two polylines) and
+  // only the samples beside a change are asked whether they lie in the band.
   bool first(Vec2 c, Vec2& out) const {
-    constexpr int kRound = 96;
-    std::vector<Vec2> q(kRound);
+    constexpr int kRound = 4096;
+    const double w = 2.0 * std::numbers::pi / kRound;
+    auto on_circle = [&](double a) { return Vec2{c.x + step * std::cos(a), c.y + step * std::sin(a)}; };
     std::vector<double> f(kRound);
-    std::vector<bool> ok(kRound);
-    for (int k = 0; k < kRound; ++k) {
-      const double a = 2.0 * std::numbers::pi * k / kRound;
-      q[k] = Vec2{c.x + step * std::cos(a), c.y + step * std::sin(a)};
-      ok[k] = sees(c, q[k]);
-      f[k] = ok[k] ? L.balance(q[k]) : 0.0;
-    }
+    for (int k = 0; k < kRound; ++k) f[k] = L.balance(on_circle(w * k));
     for (int k = 0; k < kRound; ++k) {
       const int n = (k + 1) % kRound;
-      if (!ok[k] || !ok[n] || (f[k] < 0.0) == (f[n] < 0.0)) continue;
-      const double a0 = 2.0 * std::numbers::pi * k / kRound, w = 2.0 * std::numbers::pi / kRound;
-      auto g = [&](double t) {
-        return L.balance(Vec2{c.x + step * std::cos(a0 + w * t), c.y + step * std::sin(a0 + w * t)});
-      };
-      const double t = find_root(g, f[k], f[n], L.ftol, 1e-15);
-      out = Vec2{c.x + step * std::cos(a0 + w * t), c.y + step * std::sin(a0 + w * t)};
+      if (!std::isfinite(f[k]) || !std::isfinite(f[n]) || (f[k] < 0.0) == (f[n] < 0.0)) continue;
+      if (!sees(c, on_circle(w * k)) || !sees(c, on_circle(w * (k + 1)))) continue;
+      const double a0 = w * k;
+      auto g = [&](double t) { return L.balance(on_circle(a0 + w * t)); };
+      out = on_circle(a0 + w * find_root(g, f[k], f[n], L.ftol, 1e-15));
       return true;
     }
     return false;
