@@ -197,8 +197,10 @@ class Finder {
   }
 
   Basepoint basepoint(Vec2 p, const Element& e) const {
-    Basepoint b{e.site, e.kind == Element::interior ? metric_.nearest_point(p, e.site) : e.at,
-                e.site == kNoSite ? 0.0 : metric_.distance(p, e.site)};
+    Basepoint b;
+    b.site = e.site;
+    b.at = e.kind == Element::interior ? metric_.nearest_point(p, e.site) : e.at;
+    b.distance = e.site == kNoSite ? 0.0 : metric_.distance(p, e.site);
     if (e.via >= 0) {
       b.via = e.via;
       b.via_at = metric_.bend_position(e.via);
