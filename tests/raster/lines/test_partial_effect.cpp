@@ -9,6 +9,7 @@
 #include <cmath>
 #include <numbers>
 
+#include "partial_rays.hpp"
 #include "rv/engine/engine.hpp"
 #include "rv/field/error.hpp"
 #include "rv/lines/partial_effect.hpp"
@@ -17,38 +18,7 @@
 namespace rv {
 namespace {
 
-constexpr double kDeg = std::numbers::pi / 180.0;
-const Vec2 kO{500000.0, 6000000.0};
-
-Vec2 toward(double azimuth_deg, double r) {
-  return Vec2{kO.x + r * std::sin(azimuth_deg * kDeg), kO.y + r * std::cos(azimuth_deg * kDeg)};
-}
-
-double azimuth_of(Vec2 p) {
-  const double az = std::atan2(p.x - kO.x, p.y - kO.y) / kDeg;
-  return az < 0.0 ? az + 360.0 : az;
-}
-
-// A at azimuth 310, B's mainland at 90 and its island at 170, all 30 km from O: the A-B line is
-// the ray at 20 degrees and, at nil effect, the ray at 200; at full effect the ray at 240.
-SeedSet rays(double effect) {
-  SeedSet s;
-  const int32_t a = s.owner_code("A"), b = s.owner_code("B");
-  s.add_point(s.add_feature(a), toward(310.0, 30000.0));
-  s.add_point(s.add_feature(b), toward(90.0, 30000.0));
-  const int32_t island = s.add_feature(b);
-  s.add_point(island, toward(170.0, 30000.0));
-  s.set_effect(island, effect);
-  return s;
-}
-
-const GridSpec kGrid = test::grid_of(120, 100, 1000.0, 420000.0, 6030000.0);
-
-// The partial line's azimuth for effect e: 200 + theta, sin(theta) / sin(40 - theta) = e / (1 - e).
-double locus_azimuth(double e) {
-  const double k = e / (1.0 - e);
-  return 200.0 + std::atan(k * std::sin(40.0 * kDeg) / (1.0 + k * std::cos(40.0 * kDeg))) / kDeg;
-}
+using namespace test::rays;
 
 void check_rays(double e, double expected_azimuth) {
   const SeedSet s = rays(e);

@@ -16,6 +16,7 @@
 #include <numbers>
 #include <string>
 
+#include "partial_rays.hpp"
 #include "rv/engine/engine.hpp"
 #include "rv/engine/owner_index.hpp"
 #include "rv/field/error.hpp"
@@ -29,17 +30,7 @@
 namespace rv {
 namespace {
 
-constexpr double kDeg = std::numbers::pi / 180.0;
-const Vec2 kO{500000.0, 6000000.0};
-
-Vec2 toward(double azimuth_deg, double r) {
-  return Vec2{kO.x + r * std::sin(azimuth_deg * kDeg), kO.y + r * std::cos(azimuth_deg * kDeg)};
-}
-
-double azimuth_of(Vec2 p) {
-  const double az = std::atan2(p.x - kO.x, p.y - kO.y) / kDeg;
-  return az < 0.0 ? az + 360.0 : az;
-}
+using namespace test::rays;
 
 // The engines by sea over `barriers` and `grid`: exact, or the reference (brute force).
 PartialEngines by_sea(const Barriers& barriers, const GridSpec& grid, bool reference = false) {
@@ -55,23 +46,6 @@ PartialEngines by_sea(const Barriers& barriers, const GridSpec& grid, bool refer
   return e;
 }
 
-// The straight case's rays: A at azimuth 310, B's mainland at 90 and its island at 170, 30 km
-// from O (the A-B line: the ray at 20 degrees; at nil effect the ray at 200, at full the ray at
-// 240).
-// `island`: its azimuth (the full line is then the ray at (310 + island) / 2).
-SeedSet rays(double effect, double island_azimuth = 170.0) {
-  SeedSet s;
-  const int32_t a = s.owner_code("A"), b = s.owner_code("B");
-  s.add_point(s.add_feature(a), toward(310.0, 30000.0));
-  s.add_point(s.add_feature(b), toward(90.0, 30000.0));
-  const int32_t island = s.add_feature(b);
-  s.add_point(island, toward(island_azimuth, 30000.0));
-  s.set_effect(island, effect);
-  return s;
-}
-
-const GridSpec kGrid = test::grid_of(120, 100, 1000.0, 420000.0, 6030000.0);
-
 // Land beyond the coast 40 km from O across azimuth 220: the points p with (p - O).u >= 40 km.
 constexpr double kCoast = 40000.0;
 Barriers land_at_220() {
@@ -83,12 +57,6 @@ Barriers land_at_220() {
   b.add_polygon({{at(kCoast, -300000.0), at(kCoast, 300000.0), at(400000.0, 300000.0), at(400000.0, -300000.0)}},
                 "coast");
   return b;
-}
-
-// The partial ray between the nil ray at 200 degrees and the full one `wedge` degrees on.
-double locus_azimuth(double e, double wedge = 40.0) {
-  const double k = e / (1.0 - e);
-  return 200.0 + std::atan(k * std::sin(wedge * kDeg) / (1.0 + k * std::cos(wedge * kDeg))) / kDeg;
 }
 
 void check_rays_to_the_coast(double e, double island_azimuth = 170.0) {
@@ -119,7 +87,9 @@ void check_rays_to_the_coast(double e, double island_azimuth = 170.0) {
       if (!feet_on_both(v.p)) continue;
       ++on_ray;
       EXPECT_LT(std::abs(q.x * u.y - q.y * u.x), 1e-5) << "vertex at azimuth " << azimuth_of(v.p);
-      if (v.on_barrier) EXPECT_LT(std::hypot(v.p.x - end.x, v.p.y - end.y), 1e-4) << v.p.x << ", " << v.p.y;
+      if (v.on_barrier) {
+        EXPECT_LT(std::hypot(v.p.x - end.x, v.p.y - end.y), 1e-4) << v.p.x << ", " << v.p.y;
+      }
     }
   EXPECT_GT(on_ray, 40);
   EXPECT_EQ(ends_on_coast, 1);
@@ -291,7 +261,9 @@ Checked check_rule_and_line(const Strait& s) {
   for (const BoundaryLine& l : r.boundaries.lines) {
     for (size_t k = 0; k < l.vertices.size(); ++k) {
       const BoundaryVertex& v = l.vertices[k];
-      if (k > 0) EXPECT_TRUE(r.metric->open_between(l.vertices[k - 1].p, v.p)) << v.p.x << ", " << v.p.y;
+      if (k > 0) {
+        EXPECT_TRUE(r.metric->open_between(l.vertices[k - 1].p, v.p)) << v.p.x << ", " << v.p.y;
+      }
       if (v.on_barrier) {
         ++coast_ends;
         EXPECT_LT(to_coast(v.p, s), 1e-9) << v.p.x << ", " << v.p.y;
