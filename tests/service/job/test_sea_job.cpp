@@ -86,6 +86,18 @@ class SeaJob : public ::testing::Test {
 
 nlohmann::json read_json(const std::string& path) { return nlohmann::json::parse(std::ifstream(path)); }
 
+// An island of SE's in the strait (the partial-effect tests' feature) of effect `effect`.
+nlohmann::json strait_island(double effect) {
+  return {{"type", "Feature"},
+          {"properties", {{"owner", "SE"}, {"effect", effect}}},
+          {"geometry",
+           {{"type", "Polygon"}, {"coordinates", {{{12.66, 55.88}, {12.72, 55.88}, {12.69, 55.93}, {12.66, 55.88}}}}}}};
+}
+
+std::string feature_collection(const nlohmann::json& features) {
+  return nlohmann::json{{"type", "FeatureCollection"}, {"features", features}}.dump();
+}
+
 TEST_F(SeaJob, FilesAreTheEngineFieldCellForCell) {
   const JobSpec spec = ports_spec("a");
   const JobResult result = run_job(spec);
@@ -297,13 +309,8 @@ TEST_F(SeaJob, AnIslandOfNilEffectIsNoSeedButStaysLand) {
         {{"type", "Polygon"},
          {"coordinates", {{{12.74, 55.74}, {12.77, 55.74}, {12.77, 55.755}, {12.74, 55.755}, {12.74, 55.74}}}}}}});
   const std::string ports_and_farm = write("ports_and_farm.geojson", ports.dump());
-  const nlohmann::json island = {
-      {"type", "Feature"},
-      {"properties", {{"owner", "SE"}, {"effect", 0.0}}},
-      {"geometry",
-       {{"type", "Polygon"}, {"coordinates", {{{12.66, 55.88}, {12.72, 55.88}, {12.69, 55.93}, {12.66, 55.88}}}}}}};
-  const std::string island_only =
-      write("island.geojson", nlohmann::json{{"type", "FeatureCollection"}, {"features", {island}}}.dump());
+  const nlohmann::json island = strait_island(0.0);
+  const std::string island_only = write("island.geojson", feature_collection(nlohmann::json::array({island})));
   nlohmann::json with_island = ports;
   with_island["features"].push_back(island);
   const std::string seeds = write("ports_and_island.geojson", with_island.dump());
@@ -342,13 +349,8 @@ TEST_F(SeaJob, AnIslandOfNilEffectIsNoSeedButStaysLand) {
 TEST_F(SeaJob, AnIslandOfHalfEffectTakesEachCellFromTheFullOrTheNilRun) {
   nlohmann::json ports = read_json(fixture("oresund_ports.geojson"));
   for (nlohmann::json& f : ports.at("features")) f["properties"]["effect"] = 1.0;
-  const nlohmann::json island = {
-      {"type", "Feature"},
-      {"properties", {{"owner", "SE"}, {"effect", 0.5}}},
-      {"geometry",
-       {{"type", "Polygon"}, {"coordinates", {{{12.66, 55.88}, {12.72, 55.88}, {12.69, 55.93}, {12.66, 55.88}}}}}}};
-  const std::string island_only =
-      write("island.geojson", nlohmann::json{{"type", "FeatureCollection"}, {"features", {island}}}.dump());
+  const nlohmann::json island = strait_island(0.5);
+  const std::string island_only = write("island.geojson", feature_collection(nlohmann::json::array({island})));
   auto run_at = [&](double effect, const std::string& name) {
     nlohmann::json seeds = ports;
     seeds["features"].push_back(island);
