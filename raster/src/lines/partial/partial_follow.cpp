@@ -178,8 +178,11 @@ struct Follower {
     const Vec2 n{-d.y / len, d.x / len};
     Vec2 m;
     const double reach = 0.5 * len;
-    if (!root(Vec2{mid.x - reach * n.x, mid.y - reach * n.y}, Vec2{mid.x + reach * n.x, mid.y + reach * n.y}, m))
+    if (!root(Vec2{mid.x - reach * n.x, mid.y - reach * n.y}, Vec2{mid.x + reach * n.x, mid.y + reach * n.y}, m)) {
+      // (No locus point across it within half its length: the chord is counted, not measured.)
+      residual.add(std::numeric_limits<double>::quiet_NaN(), mid.x, mid.y, L.tol * L.per_crs);
       return;
+    }
     const double off = norm(Vec2{m.x - mid.x, m.y - mid.y});
     if (!(off > L.tol) || depth + 1 >= kMaxDepth || !L.metric->open_between(a, m) || !L.metric->open_between(m, b)) {
       residual.add(off * L.per_crs, mid.x, mid.y, L.tol * L.per_crs);
