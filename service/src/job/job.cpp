@@ -679,8 +679,10 @@ NearestField compute_whole(detail::JobRun& run, const PreparedJob& job, std::vec
 
 // Stage "compute" with partial effect: the full- and nil-effect fields, their lines, the rule's
 // field and lines (rv/lines/partial_effect.hpp), and the report's entry for it. By sea, the vias
-// of the rule's field into `via` when the outputs ask for them.
-PartialEffectResult compute_partial(detail::JobRun& run, const PreparedJob& job, std::vector<int32_t>& via) {
+// of the rule's field into `via` when the outputs ask for them, made by `sea`, which must outlive
+// the result (its measures report their settling into it).
+PartialEffectResult compute_partial(detail::JobRun& run, const PreparedJob& job, std::vector<int32_t>& via,
+                                    std::optional<detail::SeaPartial>& sea) {
   const JobSpec& spec = run.spec;
   run.progress("compute", 0.0);
   BoundaryOptions lines;
@@ -690,7 +692,6 @@ PartialEffectResult compute_partial(detail::JobRun& run, const PreparedJob& job,
   const OutputRequest& out = spec.outputs;
   const bool draw = !out.boundaries.empty() || !out.tripoints.empty() || out.regions_wanted() || !out.preview.empty();
   // By sea: both fields and their lines by sea (job_sea.hpp), the vias of the rule's field.
-  std::optional<detail::SeaPartial> sea;
   ComputeOptions compute = job.compute;
   if (job.sea) {
     compute.progress = [&](double f) { run.progress("compute", f); };
@@ -902,7 +903,8 @@ JobResult run_stages(detail::JobRun& run, const PreparedJob& job, const detail::
     compute_streamed(run, job, targets, keep.get(), base.get(), std::move(prepared));
   } else if (job.partial.any()) {
     std::vector<int32_t> via;
-    const PartialEffectResult partial = compute_partial(run, job, via);
+    std::optional<detail::SeaPartial> sea;  // (declared first: it outlives the result)
+    const PartialEffectResult partial = compute_partial(run, job, via, sea);
     validate_stage(run, job, partial.full);
     write_rasters(run, job, partial.field, targets);
     if (!spec.outputs.via.empty()) detail::write_via(run, job, via);

@@ -106,8 +106,8 @@ class SeaRun {
 // Partial effect above 0 by sea: compute_partial_effect's engines (rv/lines/partial_effect.hpp)
 // for one job: the two fields by compute_sea (the nil-effect seeds' bend nodes settled for them),
 // their vias when `vias`, and the lines' measures by sea, each settled as far as its field's
-// distances ask (sea_settle_within). The engines refer to this object, which must outlive them
-// and the result's measures; one job thread.
+// distances ask (sea_settle_within). The engines and the measures they make refer to this object
+// (the measures report their settling into it), which must outlive them; one job thread.
 class SeaPartial {
  public:
   SeaPartial(const PreparedJob& job, const ComputeOptions& compute, bool vias);
