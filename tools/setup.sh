@@ -9,7 +9,8 @@
 set -euo pipefail
 
 packages=(
-  build-essential cmake ninja-build pkg-config
+  # lld: the linker the build asks for (cmake/RvLinker.cmake)
+  build-essential cmake ninja-build pkg-config lld
   libgdal-dev gdal-bin python3-gdal libproj-dev
   libtiff-dev libzstd-dev libdeflate-dev
   libgeographiclib-dev
