@@ -175,20 +175,35 @@ bool onto_domain_edge(const SiteMetric& m, Vec2 end, double radius, double ftol,
   std::vector<int32_t> edges;
   m.domain_edges_near(end, radius, edges);
   double best_gap = std::numeric_limits<double>::infinity();
+  // (Not at the edges' ends themselves: a point of one edge within a micrometre of its end, on a
+  // geodesic edge, has no reliable direction towards that vertex, and its visibility can say it
+  // sees through the land behind the vertex. A level crossing the coast at the vertex itself,
+  // within a millionth of the edge, is missed and the line's end left where it was.)
+  constexpr double kEnd = 1e-6;
   for (int32_t edge : edges) {
     auto along = [&](double t) {
       Vec2 p;
       return m.domain_edge_point(edge, t, end, p) ? f(p) : std::numeric_limits<double>::quiet_NaN();
     };
-    // (A few samples an edge: the edges near a line's end are short against the curves of the
-    // loci a cell holds. Not at the edge's ends themselves: a point of one edge within a
-    // micrometre of its end, on a geodesic edge, has no reliable direction towards that vertex,
-    // and its visibility can say it sees through the land behind the vertex. A level crossing
-    // the coast at the vertex itself, within a millionth of the edge, is missed and the line's
-    // end left where it was.)
+    // Each edge is searched only near `end`: within four radii each way of the foot of `end` on
+    // the edge's chord (a geodesic edge's parameter is not the chord's fraction, hence the
+    // margin). A coast's edge may be far longer than a cell, and the locus can cross it again
+    // far away; every crossing the window leaves out lies beyond the radius. A short edge is
+    // searched whole.
+    Vec2 e0, e1;
+    if (!m.domain_edge_point(edge, kEnd, end, e0) || !m.domain_edge_point(edge, 1.0 - kEnd, end, e1)) continue;
+    const Vec2 d{e1.x - e0.x, e1.y - e0.y};
+    const double len = std::hypot(d.x, d.y);
+    double lo = kEnd, hi = 1.0 - kEnd;
+    if (len > 4.0 * radius) {
+      const double foot = std::clamp(((end.x - e0.x) * d.x + (end.y - e0.y) * d.y) / (len * len), 0.0, 1.0);
+      const double w = 4.0 * radius / len;
+      lo = std::max(lo, foot - w);
+      hi = std::min(hi, foot + w);
+    }
+    // (A few samples across the window: it is short against the curves of the loci a cell holds.)
     constexpr int kSamples = 16;
-    constexpr double kEnd = 1e-6;
-    auto sample = [&](int k) { return kEnd + (1.0 - 2.0 * kEnd) * static_cast<double>(k) / kSamples; };
+    auto sample = [&](int k) { return lo + (hi - lo) * static_cast<double>(k) / kSamples; };
     double t0 = sample(0), f0 = along(t0);
     for (int k = 1; k <= kSamples; ++k) {
       const double t1 = sample(k), f1 = along(t1);

@@ -121,52 +121,14 @@ struct Follower {
     return x;
   }
 
-  // Where the locus from c (at sea, within two steps of land) meets the coast: on the barrier
-  // edges near c, approached from c's side (SiteMetric::domain_edge_point), the point where the
-  // balance is 0 that c sees, in the band, the nearest to c. Each edge is searched only near c
-  // (a coast's edge may be far longer than a cell, and its balance change sign elsewhere too).
+  // Where the locus from c (at sea, within two steps of land) meets the coast: the nearest point
+  // of a barrier edge within two steps, approached from c's side, where the balance is 0, that c
+  // sees and that lies in the band (line_tools::onto_domain_edge, which searches a long coast edge
+  // only near c).
   bool onto_coast(Vec2 c, Vec2& out) const {
-    const SiteMetric& m = *L.metric;
-    const double radius = 2.0 * step;
-    std::vector<int32_t> edges;
-    m.domain_edges_near(c, radius, edges);
-    double best = std::numeric_limits<double>::infinity();
-    constexpr double kEnd = 1e-9;
-    for (const int32_t edge : edges) {
-      Vec2 e0, e1;
-      if (!m.domain_edge_point(edge, kEnd, c, e0) || !m.domain_edge_point(edge, 1.0 - kEnd, c, e1)) continue;
-      const Vec2 d{e1.x - e0.x, e1.y - e0.y};
-      const double len2 = d.x * d.x + d.y * d.y;
-      if (!(len2 > 0.0)) continue;
-      const double tc = std::clamp(((c.x - e0.x) * d.x + (c.y - e0.y) * d.y) / len2, 0.0, 1.0);
-      // (Twice the radius each way in the edge's parameter: a geodesic edge's is not the chord's.)
-      const double w = std::min(1.0, 4.0 * radius / std::sqrt(len2));
-      const double t0 = std::max(kEnd, tc - w), t1 = std::min(1.0 - kEnd, tc + w);
-      auto along = [&](double t) {
-        Vec2 p;
-        return m.domain_edge_point(edge, t, c, p) ? L.balance(p) : std::numeric_limits<double>::quiet_NaN();
-      };
-      constexpr int kSamples = 32;
-      double ta = t0, fa = along(ta);
-      for (int k = 1; k <= kSamples; ++k) {
-        const double tb = t0 + (t1 - t0) * k / kSamples, fb = along(tb);
-        if (std::isfinite(fa) && std::isfinite(fb) && (fa < 0.0) != (fb < 0.0)) {
-          const double t =
-              ta + (tb - ta) * find_root([&](double u) { return along(ta + (tb - ta) * u); }, fa, fb, L.ftol, 1e-15);
-          Vec2 p;
-          if (m.domain_edge_point(edge, t, c, p)) {
-            const double gap = norm(Vec2{p.x - c.x, p.y - c.y});
-            if (gap < best && gap <= radius && m.open_between(c, p) && L.in_band(p)) {
-              best = gap;
-              out = p;
-            }
-          }
-        }
-        ta = tb;
-        fa = fb;
-      }
-    }
-    return std::isfinite(best);
+    return line_tools::onto_domain_edge(
+        *L.metric, c, 2.0 * step, L.ftol, [this](Vec2 p) { return L.balance(p); },
+        [this](Vec2 p) { return L.in_band(p); }, out);
   }
 
   // Midpoints where a chord strays from the locus by more than the tolerance.
