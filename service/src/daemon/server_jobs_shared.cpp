@@ -168,8 +168,16 @@ void JobManager::fetch_base(const std::string& id) const {
   if (!objects_.remote()) return;  // the snapshot is in the folder already
   const std::string key = id + "/" + kBaseSnapshotDir;
   remove_dir(root_ / key);
-  if (objects_.get_tree(key, root_ / key) == 0)
-    throw Error(ErrorKind::io, "the base job's files kept for this edit are missing from the results");
+  int copied = 0;
+  try {
+    copied = objects_.get_tree(key, root_ / key);
+  } catch (const Error& e) {
+    if (e.kind() != ErrorKind::io) throw;
+    remove_dir(root_ / key);  // never half a base
+    throw Error(ErrorKind::io, std::string("the base job's files kept for this edit cannot be read: ") +
+                                   objects_.without_paths(e.what()));
+  }
+  if (copied == 0) throw Error(ErrorKind::io, "the base job's files kept for this edit are missing from the results");
 }
 
 void JobManager::charge_planned_shared(const Task& task, int64_t cells) {
@@ -466,6 +474,10 @@ void JobManager::sweep_orphans() {
     std::map<std::string, Clock::time_point> parts;  // second-level names and their newest write
   };
   std::map<std::string, Seen> jobs;
+  // Ages are judged from the moment the listing began, not from the end of the sweep: the listing
+  // of a whole bucket and the store's answers take time, and a job whose row was committed within
+  // the grace of its first files is then never taken for an orphan, however slow the sweep.
+  const Clock::time_point listed_at = Clock::now();
   for (const store::ListedObject& o : objects_.list_all("")) {
     const size_t slash = o.key.find('/');
     const std::string id = o.key.substr(0, slash);
@@ -478,7 +490,7 @@ void JobManager::sweep_orphans() {
     t = std::max(t, o.modified);
   }
   const auto old = [&](Clock::time_point t) {
-    return Clock::now() - t > std::chrono::duration<double>(config_.jobs.orphan_grace_s);
+    return listed_at - t > std::chrono::duration<double>(config_.jobs.orphan_grace_s);
   };
   std::vector<std::string> ids;
   for (const auto& [id, seen] : jobs) ids.push_back(id);

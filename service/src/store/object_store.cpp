@@ -286,14 +286,17 @@ int ObjectStore::get_tree(std::string_view prefix, const std::filesystem::path& 
   for (const std::string& name : list(prefix)) {
     const std::string key = std::string(prefix) + "/" + name;
     if (!is_object_key(key)) continue;  // nothing this program wrote
+    // Every name the listing gave is copied, or the copy fails: a tree missing one of its files
+    // (removed meanwhile, or a request to the storage that failed) must not pass for the whole.
     VSIStatBufL st;
-    if (VSIStatL(path(key).c_str(), &st) != 0) continue;
+    if (VSIStatL(path(key).c_str(), &st) != 0)
+      throw Error(ErrorKind::io, last_error("cannot read " + key + ", listed a moment before"));
     if (VSI_ISDIR(st.st_mode)) {
       count += get_tree(key, local / name);
       continue;
     }
     const auto bytes = get(key);
-    if (!bytes) continue;
+    if (!bytes) throw Error(ErrorKind::io, "cannot read " + key + ", listed a moment before");
     std::error_code ec;
     std::filesystem::create_directories(local, ec);
     write_file_atomically((local / name).string(), *bytes);
@@ -421,8 +424,10 @@ std::vector<ListedObject> ObjectStore::list_all(std::string_view prefix) const {
   }
   while (const VSIDIREntry* e = VSIGetNextDirEntry(dir)) {
     if (VSI_ISDIR(e->nMode)) continue;
-    // A time the listing does not give is taken as now: never judged old, never swept.
-    out.push_back({e->pszName, e->bMTimeKnown ? from_seconds(e->nMTime) : std::chrono::system_clock::now()});
+    // A time the listing does not give is taken as now: never judged old, never swept. A bucket's
+    // listing gives whole seconds, and the object may have been written at any moment of that
+    // second: its end is taken, so that no object is judged older than it is.
+    out.push_back({e->pszName, e->bMTimeKnown ? from_seconds(e->nMTime + 1) : std::chrono::system_clock::now()});
   }
   VSICloseDir(dir);
   return out;

@@ -41,7 +41,8 @@ class ObjectReader {
 // nullptr when there is none.
 std::unique_ptr<ObjectReader> open_local_file(const std::string& path);
 
-// One object of a listing: its key below the listed prefix, and when it was last written.
+// One object of a listing: its key below the listed prefix, and when it was last written (never
+// earlier than it was: a bucket's time to the second is taken at the end of that second).
 struct ListedObject {
   std::string key;
   std::chrono::system_clock::time_point modified;
@@ -74,7 +75,8 @@ class ObjectStore {
   // The object's bytes; nullopt when there is none. Throws rv::Error(io) for any other failure.
   std::optional<std::string> get(std::string_view key) const;
   // Copies every object below `prefix` into the local folder `local`, keeping relative paths;
-  // returns how many.
+  // returns how many. Throws rv::Error(io) when an object the listing names cannot be read (a
+  // tree is copied whole or not at all; what was copied before stays in `local`).
   int get_tree(std::string_view prefix, const std::filesystem::path& local) const;
   // The names directly below `prefix` ("" = the location itself), objects and "folders", sorted;
   // none when it is missing. On a bucket it reads every key below `prefix` (a flat listing).

@@ -167,13 +167,19 @@ TEST_P(Objects, ReadersServeRangesCopiesAndTimedListings) {
   EXPECT_EQ(store_->get("job2/base-snapshot/ownership.tif").value(), bytes);
   EXPECT_EQ(store_->get("job/1/ownership.tif").value(), bytes);
 
-  // One flat listing of everything, with times the sweep judges by.
+  // One flat listing of everything, with times the sweep judges by: never earlier than the write
+  // (a bucket gives whole seconds; the sweep must not take an object for older than it is). The
+  // 10 ms allow for the file system's coarser clock.
+  const auto written_after = std::chrono::system_clock::now();
   store_->put("job/request.json", "{}");
   std::vector<std::string> keys;
   for (const rv::store::ListedObject& o : store_->list_all("")) {
     keys.push_back(o.key);
     EXPECT_GE(o.modified, before - std::chrono::seconds(1)) << o.key;
     EXPECT_LE(o.modified, std::chrono::system_clock::now() + std::chrono::seconds(2)) << o.key;
+    if (o.key == "job/request.json") {
+      EXPECT_GE(o.modified, written_after - std::chrono::milliseconds(10));
+    }
   }
   std::sort(keys.begin(), keys.end());
   EXPECT_EQ(keys,
@@ -201,6 +207,26 @@ TEST(ObjectLocations, ProbesFindTheBucketOrSayWhy) {
         << e.what();
   }
   ObjectStore(std::filesystem::temp_directory_path().string()).probe();  // a folder: nothing to ask
+}
+
+TEST(ObjectLocations, ATreeWithAnObjectThatCannotBeReadIsNotTakenForTheWhole) {
+  // An edit's base is copied from the results as a tree; one of its files gone between the listing
+  // and its reading (a dangling link here: listed, unreadable) fails the copy, naming it.
+  const auto root = std::filesystem::temp_directory_path() / ("rv-objects-tree-" + std::to_string(::getpid()));
+  std::filesystem::remove_all(root);
+  std::filesystem::create_directories(root / "job" / "base");
+  std::ofstream(root / "job" / "base" / "manifest.json") << "{}";
+  std::filesystem::create_symlink(root / "gone.json", root / "job" / "base" / "report.json");
+  ObjectStore store(root.string());
+  EXPECT_EQ(store.list("job/base"), (std::vector<std::string>{"manifest.json", "report.json"}));
+  try {
+    store.get_tree("job/base", root / "down");
+    ADD_FAILURE() << "a tree missing one of its files was copied";
+  } catch (const Error& e) {
+    EXPECT_EQ(e.kind(), ErrorKind::io);
+    EXPECT_NE(std::string(e.what()).find("job/base/report.json"), std::string::npos) << e.what();
+  }
+  std::filesystem::remove_all(root);
 }
 
 TEST(ObjectLocations, EmptyLocalFoldersAreListedForTheSweep) {
