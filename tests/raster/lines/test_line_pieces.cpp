@@ -194,7 +194,6 @@ TEST(LinePieces, DamagedOrForeignPiecesAreRefused) {
 TEST(LinePieces, PiecesThatAreNotWhatTheSeedsMeasureAreRefused) {
   const PlanarField f(4);
   const Lines& l = f.l;
-  const SeedSet& seeds = f.seeds;
   const OwnerIndex& index = *f.index;
   const int64_t H = f.H;
   StripLines whole = f.whole();

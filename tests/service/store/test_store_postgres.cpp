@@ -58,6 +58,15 @@ std::string id_of(int i) {
   return buf;
 }
 
+// A band of a split job: its id and rows, the rest as a new band's.
+rv::store::BandTask band(const std::string& id, int64_t row0, int64_t rows) {
+  rv::store::BandTask b;
+  b.id = id;
+  b.row0 = row0;
+  b.rows = rows;
+  return b;
+}
+
 class PostgresStore : public ::testing::Test {
  protected:
   void SetUp() override { db_ = server().create_database(); }
@@ -399,7 +408,7 @@ TEST_F(PostgresStore, ASplitJobWaitsForItsBandsThenIsAssembledOnce) {
   auto job = store->claim("a", 30, "t");
   ASSERT_TRUE(job);
   EXPECT_FALSE(job->split);
-  const std::vector<BandTask> cut = {{id_of(31), 0, 512}, {id_of(32), 512, 512}, {id_of(33), 1024, 100}};
+  const std::vector<BandTask> cut = {band(id_of(31), 0, 512), band(id_of(32), 512, 512), band(id_of(33), 1024, 100)};
   EXPECT_FALSE(store->split(rv::store::Lease{job->lease.id, job->lease.attempt, "b"}, cut, "m", "t"))
       << "split under a lease not held";
   ASSERT_TRUE(store->split(job->lease, cut, "computing in 3 bands", "t"));
@@ -433,7 +442,9 @@ TEST_F(PostgresStore, ASplitJobWaitsForItsBandsThenIsAssembledOnce) {
     ASSERT_TRUE(store->finish_band(b->lease, id_of(30), done, results, "", "t"));
     EXPECT_FALSE(store->finish_band(b->lease, id_of(30), done, results, "", "t")) << "a band ends once";
     // Until the last band ends, the job is not queued.
-    if (i < 2) EXPECT_EQ(store->get(id_of(30))->status, JobStatus::running);
+    if (i < 2) {
+      EXPECT_EQ(store->get(id_of(30))->status, JobStatus::running);
+    }
   }
   const auto listed = store->bands(id_of(30));
   ASSERT_EQ(listed.size(), 3u);
@@ -455,7 +466,7 @@ TEST_F(PostgresStore, ASplitJobWaitsForItsBandsThenIsAssembledOnce) {
   // A band that fails fails its job, naming the band, and the other bands go.
   store->enqueue(record(id_of(40)), QueueEntry{});
   auto j2 = store->claim("a", 30, "t");
-  ASSERT_TRUE(store->split(j2->lease, {{id_of(41), 0, 256}, {id_of(42), 256, 256}}, "m", "t"));
+  ASSERT_TRUE(store->split(j2->lease, {band(id_of(41), 0, 256), band(id_of(42), 256, 256)}, "m", "t"));
   auto b1 = store->claim("w", 30, "t");
   ASSERT_TRUE(b1);
   JobRecord failed = b1->record;
@@ -472,7 +483,7 @@ TEST_F(PostgresStore, ASplitJobWaitsForItsBandsThenIsAssembledOnce) {
   // The reaper failing a band fails its job likewise.
   store->enqueue(record(id_of(50)), QueueEntry{"job", "", "", true, 1});
   auto j3 = store->claim("a", 30, "t");
-  ASSERT_TRUE(store->split(j3->lease, {{id_of(51), 0, 256}}, "m", "t"));
+  ASSERT_TRUE(store->split(j3->lease, {band(id_of(51), 0, 256)}, "m", "t"));
   ASSERT_TRUE(store->claim("w", 0.1, "t"));
   std::this_thread::sleep_for(std::chrono::milliseconds(250));
   ASSERT_EQ(store->reap(0, "t").size(), 1u);
@@ -482,7 +493,7 @@ TEST_F(PostgresStore, ASplitJobWaitsForItsBandsThenIsAssembledOnce) {
   // Dismissing a split job dismisses its bands (their holders learn it by their heartbeat).
   store->enqueue(record(id_of(60)), QueueEntry{});
   auto j4 = store->claim("a", 30, "t");
-  ASSERT_TRUE(store->split(j4->lease, {{id_of(61), 0, 256}, {id_of(62), 256, 256}}, "m", "t"));
+  ASSERT_TRUE(store->split(j4->lease, {band(id_of(61), 0, 256), band(id_of(62), 256, 256)}, "m", "t"));
   auto b4 = store->claim("w", 30, "t");
   ASSERT_TRUE(b4);
   ASSERT_TRUE(store->dismiss(id_of(60), msg("dismissed"), "t"));
@@ -500,7 +511,7 @@ TEST_F(PostgresStore, BandsEndingAtOnceQueueTheirJobOnce) {
     auto j = store->claim("a", 30, "t");
     ASSERT_TRUE(j);
     std::vector<rv::store::BandTask> cut;
-    for (int k = 0; k < 8; ++k) cut.push_back({id_of(100 + round * 10 + 1 + k), k * 256, 256});
+    for (int k = 0; k < 8; ++k) cut.push_back(band(id_of(100 + round * 10 + 1 + k), k * 256, 256));
     ASSERT_TRUE(store->split(j->lease, cut, "m", "t"));
     std::vector<rv::store::Claim> bands;
     while (auto b = store->claim("w", 30, "t")) bands.push_back(*b);

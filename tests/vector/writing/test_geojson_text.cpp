@@ -183,7 +183,7 @@ std::string gdal_file(const std::vector<Feature>& features, const std::string& c
       of->SetField("text", f.text.c_str());
       of->SetField("list", static_cast<int>(f.list.size()), f.list.data());
       of->SetGeometryDirectly(ogr_geometry(f).release());
-      l->CreateFeature(of);
+      EXPECT_EQ(l->CreateFeature(of), OGRERR_NONE);
       OGRFeature::DestroyFeature(of);
     }
   }
