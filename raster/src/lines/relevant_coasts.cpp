@@ -6,6 +6,11 @@
 // grid, is at the edge of its site's cells in the area, and only there can the site's extreme
 // basepoints be (inside, the basepoint of a neighbour lies on both sides). Its basepoint is the
 // metric's nearest point, placed along the site by its distance from the site's first end.
+// By sea the basepoint is where the cell's path leaves the site: the straight foot where the cell
+// sees it, else the start of the path to the last bend, the same for every cell behind that bend.
+// It is not linear in the cell's position and jumps where two bends' cells meet (behind a barrier
+// line, which leaves no land cells to make an edge), so the argument for the edge cells does not
+// carry over, and every cell of the area is measured.
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -75,11 +80,16 @@ struct RelevantCoasts::Impl {
     const std::vector<int32_t>* up = row(r - 1);
     const std::vector<int32_t>* down = row(r + 1);
     const SeedSet& seeds = metric.seeds();
+    const bool every_cell = !metric.straight();
     std::vector<int64_t> cols;
     for (const Span& span : area.rows[static_cast<size_t>(r)])
       for (int64_t c = span.col0; c < span.col1; ++c) {
         const int32_t s = here[static_cast<size_t>(c)];
         if (s == kNoSite || seeds.sites()[static_cast<size_t>(s)].kind == SiteKind::area) continue;
+        if (every_cell) {
+          cols.push_back(c);
+          continue;
+        }
         auto differs = [&](const std::vector<int32_t>* other, int64_t oc, int64_t orow) {
           return other == nullptr || !inside(oc, orow) || (*other)[static_cast<size_t>(oc)] != s;
         };

@@ -78,12 +78,6 @@ void check_sea_plan(const JobSpec& spec, const PreparedJob& job) {
                   "the via raster needs barriers (--barriers): it is the distance by sea's");
     return;
   }
-  const OutputRequest& out = spec.outputs;
-  if (!out.relevant_area.empty())
-    refuse(ErrorKind::unsupported,
-           "the relevant area is not measured under the distance by sea yet; boundaries, tripoints, turning "
-           "points, limits, regions, the margin and the preview are, and the rasters (ownership, distance, "
-           "nearest feature, via)");
   if (!spec.base_report.empty())
     refuse(ErrorKind::unsupported, "an edit of a run by sea is not available yet: run it again with the new seeds");
   if (!spec.bands.empty()) refuse(ErrorKind::invalid_argument, "a split job's assembly does not compute by sea");

@@ -212,7 +212,8 @@ const std::vector<OptionSpec> kOptions = {
      "grid or with the geodesic metric (paths, barrier and seed edges geodesics), else planar; the exact method; "
      "boundaries, tripoints, limits, regions, the margin and the preview follow the distance by sea, weights and "
      "reaches apply to the path by sea, and partial effect's features stay land where the barriers have them (its "
-     "two lines are lines by sea); turning points name each side's last bend; not with the relevant area yet.",
+     "two lines are lines by sea); turning points name each side's last bend, and the relevant area's coasts are "
+     "where its cells' paths leave them.",
      "",
      {},
      0,

@@ -4,6 +4,7 @@
 
 #include <cmath>
 
+#include "relevant_strips.hpp"
 #include "rv/engine/engine.hpp"
 #include "rv/engine/site_metric.hpp"
 #include "rv/field/interior.hpp"
@@ -18,25 +19,6 @@ InteriorSpans area_of(const std::vector<Vec2>& ring, const GridSpec& g, SeedSet&
   const int32_t f = holder.add_feature(holder.owner_code("area"));
   holder.add_polygon(f, {Ring(ring.begin(), ring.end())});
   return build_interiors(holder, g, g.full_window());
-}
-
-std::vector<RelevantCoasts::Stretch> stretches(const NearestField& field, const SiteMetric& m,
-                                               const InteriorSpans& area, int64_t strip_rows) {
-  const GridSpec& g = field.site.grid();
-  RelevantCoasts rc(g, m, area);
-  for (int64_t r0 = 0; r0 < g.height; r0 += strip_rows) {
-    const int64_t h = std::min(strip_rows, g.height - r0);
-    NearestField strip;
-    strip.site = Raster<int32_t>(g, Window{0, r0, g.width, h}, kNoSite);
-    strip.distance = Raster<float>(g, Window{0, r0, g.width, h}, kNoDistance);
-    for (int64_t r = 0; r < h; ++r)
-      for (int64_t c = 0; c < g.width; ++c) {
-        strip.site.at(c, r) = field.site.at(c, r0 + r);
-        strip.distance.at(c, r) = field.distance.at(c, r0 + r);
-      }
-    rc.add(strip);
-  }
-  return rc.take();
 }
 
 // A straight coast (y = 0, x from 0 to 100) and an island point far out: the cells of the area
@@ -56,7 +38,7 @@ TEST(RelevantCoasts, TheStretchUnderTheArea) {
   const InteriorSpans area = area_of({{20, 5}, {70, 5}, {70, 25}, {20, 25}}, g, holder);
   for (const int64_t rows : {int64_t{80}, int64_t{7}, int64_t{1}}) {
     SCOPED_TRACE(rows);
-    const auto st = stretches(field, m, area, rows);
+    const auto st = test::relevant_stretches(field, m, area, rows);
     ASSERT_EQ(st.size(), 1u);
     EXPECT_EQ(st[0].site, 0);
     EXPECT_NEAR(st[0].from.x, 20.5, 1e-9);
@@ -66,7 +48,7 @@ TEST(RelevantCoasts, TheStretchUnderTheArea) {
   // An area reaching the island's side: its point counts, with length 0.
   SeedSet holder2;
   const InteriorSpans wide = area_of({{20, 5}, {70, 5}, {70, 75}, {20, 75}}, g, holder2);
-  const auto st = stretches(field, m, wide, 13);
+  const auto st = test::relevant_stretches(field, m, wide, 13);
   ASSERT_EQ(st.size(), 2u);
   EXPECT_EQ(st[1].site, 1);
   EXPECT_EQ(st[1].length, 0.0);

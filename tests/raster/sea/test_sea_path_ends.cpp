@@ -10,7 +10,10 @@
 
 #include "engines_agree.hpp"
 #include "random_archipelago.hpp"
+#include "relevant_strips.hpp"
+#include "rv/engine/engine.hpp"
 #include "rv/field/error.hpp"
+#include "rv/field/interior.hpp"
 #include "rv/sea/sea_field.hpp"
 #include "rv/sea/visibility.hpp"
 #include "seed_gen.hpp"
@@ -201,6 +204,56 @@ TEST(SeaPathEnds, APathGrazingACornerToTheSeedsFootIsStraight) {
   }
   EXPECT_TRUE(test::triangle_inequality_holds(f, b, g, 1));
   EXPECT_TRUE(test::same_cells(test::engines_agree(s, b, g), f, g));
+}
+
+// The relevant coast of a disproportionality test is where the paths of the relevant area's cells
+// leave the coast. A coast (y = 0, x from 0 to 100) with a breakwater in front of it (y = 20, x
+// from 20 to 80), and the area [40, 60] x [30, 50] behind the breakwater. In a straight line the
+// area's cells are nearest to the coast under them, x = 40.5 .. 59.5 (19 long). By sea each path
+// rounds an end of the breakwater, D = 20 there, and leaves the coast at that end's foot: (20, 0)
+// west of x = 50, (80, 0) east of it, so the stretch is 60 long: whole or in strips, and each
+// cell's distance and basepoint are the closed form's.
+TEST(SeaPathEnds, TheRelevantCoastIsWhereTheAreasPathsLeaveTheCoast) {
+  SeedSet s;
+  s.add_polyline(s.add_feature(s.owner_code("coast")), std::vector<Vec2>{{0, 0}, {100, 0}});
+  const GridSpec g = test::grid_of(100, 80, 1.0, 0.0, 79.0);  // centres x = 0.5 .. 99.5, y = 78.5 .. -0.5
+  SeedSet holder;
+  holder.add_polygon(holder.add_feature(holder.owner_code("area")), {{{40, 30}, {60, 30}, {60, 50}, {40, 50}}});
+  const InteriorSpans area = build_interiors(holder, g, g.full_window());
+
+  const NearestField straight = compute(s, g, ComputeOptions{});
+  const PlanarSiteMetric line(s, Vec2{g.xmin, g.ymax});
+  const auto direct = test::relevant_stretches(straight, line, area, g.height);
+  ASSERT_EQ(direct.size(), 1u);
+  EXPECT_NEAR(direct[0].length, 19.0, 1e-9);
+
+  const test::WallSea sea(s, {20, 20}, {80, 20}, g);
+  for (const int64_t rows : {g.height, int64_t{7}, int64_t{1}}) {
+    SCOPED_TRACE(rows);
+    const auto st = test::relevant_stretches(sea.field.field, *sea.metric, area, rows);
+    ASSERT_EQ(st.size(), 1u);
+    EXPECT_EQ(st[0].site, 0);
+    EXPECT_NEAR(st[0].from.x, 20.0, 1e-9);
+    EXPECT_NEAR(st[0].from.y, 0.0, 1e-9);
+    EXPECT_NEAR(st[0].to.x, 80.0, 1e-9);
+    EXPECT_NEAR(st[0].to.y, 0.0, 1e-9);
+    EXPECT_NEAR(st[0].length, 60.0, 1e-9);
+  }
+  // Every cell of the area, not only the edge cells the stretch is taken from.
+  int cells = 0;
+  for (int64_t r = 0; r < g.height; ++r)
+    for (const Span& span : area.rows[static_cast<size_t>(r)])
+      for (int64_t c = span.col0; c < span.col1; ++c) {
+        const Vec2 x = centre(g, c, r);
+        ASSERT_EQ(sea.field.field.site.at(c, r), 0);
+        const Vec2 end = x.x < 50.0 ? Vec2{20, 20} : Vec2{80, 20};
+        EXPECT_NEAR(sea.field.field.distance.at(c, r), 20.0 + dist(x, end), 1e-4) << c << "," << r;
+        const Vec2 foot = sea.metric->nearest_point(x, 0);
+        EXPECT_NEAR(foot.x, end.x, 1e-9) << c << "," << r;
+        EXPECT_NEAR(foot.y, 0.0, 1e-9) << c << "," << r;
+        ++cells;
+      }
+  EXPECT_EQ(cells, 400);
 }
 
 // Random archipelagos on a grid fine enough for blocks (a fifth of a unit): islands overlapping,

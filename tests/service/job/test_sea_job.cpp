@@ -2,8 +2,8 @@
 // the core engine's field cell for cell, streamed or whole, for any strip height and thread count;
 // validation runs the brute-force oracle by sea; coasts as both seeds and land change nothing off
 // the land; seeds just inland are moved onto the coast, deeper ones refused; cells no seed reaches
-// have no owner; and every combination the distance by sea does not do is refused in one line,
-// with nothing written.
+// have no owner; partial effect and the relevant area by sea; and every combination the distance
+// by sea does not do is refused in one line, with nothing written.
 #include <gtest/gtest.h>
 
 #include <unistd.h>
@@ -11,6 +11,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <set>
 #include <string>
 
@@ -296,7 +297,7 @@ TEST_F(SeaJob, APreparedJobMovedBeforeItRunsGivesTheSameFiles) {
 
 // Partial effect by sea: an island of SE's in the strait given effect 0 is no seed but stays
 // land (it is among the barriers): the run equals one without it among the seeds, file for file
-// (the same grid, the same feature numbers); an effect above 0 is refused in one line.
+// (the same grid, the same feature numbers).
 TEST_F(SeaJob, AnIslandOfNilEffectIsNoSeedButStaysLand) {
   nlohmann::json ports = read_json(fixture("oresund_ports.geojson"));
   for (nlohmann::json& f : ports.at("features")) f["properties"]["effect"] = 1.0;
@@ -536,6 +537,60 @@ TEST_F(SeaJob, SeedsJustInlandMoveOntoTheCoastDeeperOnesAreRefused) {
   EXPECT_NE(std::string(e.what()).find("ports.geojson"), std::string::npos) << e.what();
 }
 
+// The disproportionality test by sea (--relevant-area): each owner's relevant coast is where the
+// paths of its cells in the area leave its coast. A's coast runs along y = 6200000 (x 400 to 410
+// km), B's along y = 6208000; a breakwater lies in front of A's, y = 6202000 from x = 402 to 408
+// km; the area is [404, 406] x [6203, 6205] km. In a straight line the area's lower half is A's and
+// its upper half B's, each cell nearest to the coast straight below or above it: 1,750 m each (the
+// first column's centre to the last's). By sea A's paths round the breakwater's ends and leave A's
+// coast at their feet, 402 and 408 km: 6,000 m, though A keeps only the area's lower corners, the
+// nearest to those ends; B sees its coast. The areas add up to the relevant area either way.
+TEST_F(SeaJob, TheRelevantCoastBySeaIsWhereTheAreasPathsLeaveIt) {
+  auto line = [](const char* owner, double x0, double y0, double x1, double y1) {
+    return std::string(R"({"type": "Feature", "properties": {"owner": ")") + owner +
+           R"("}, "geometry": {"type": "LineString", "coordinates": [[)" + std::to_string(x0) + ", " +
+           std::to_string(y0) + "], [" + std::to_string(x1) + ", " + std::to_string(y1) + "]]}}";
+  };
+  JobSpec s;
+  s.seeds.paths = {write("coasts.geojson", points(line("A", 400000, 6200000, 410000, 6200000) + ", " +
+                                                  line("B", 400000, 6208000, 410000, 6208000)))};
+  s.seeds.owner_field = "owner";
+  s.grid.resolution = 250.0;
+  s.grid.extent = std::array<double, 4>{398000.0, 6198000.0, 412000.0, 6212000.0};
+  s.outputs.relevant_area = write("area.geojson", points(R"({"type": "Feature", "properties": {}, "geometry": {
+      "type": "Polygon", "coordinates": [[[404000, 6203000], [406000, 6203000], [406000, 6205000],
+      [404000, 6205000], [404000, 6203000]]]}})"));
+  JobSpec sea = with_outputs(s, "sea");
+  sea.barriers = {write("breakwater.geojson", points(line("-", 402000, 6202000, 408000, 6202000)))};
+  struct Owner {
+    double coast, sea_area;
+  };
+  auto relevance = [](const JobSpec& spec) {
+    const nlohmann::json r = run_job(spec).report.at("deliverables").at("regions").at("relevant_area");
+    EXPECT_NEAR(r.at("area").get<double>(), 4e6, 1e-3);
+    std::map<std::string, Owner> out;
+    double total = 0.0;
+    for (const nlohmann::json& o : r.at("owners")) {
+      out[o.at("label").get<std::string>()] = {o.at("coast_length").get<double>(), o.at("sea_area").get<double>()};
+      total += o.at("sea_area").get<double>();
+    }
+    EXPECT_NEAR(total, 4e6, 1e-3);
+    return out;
+  };
+  JobSpec plain = with_outputs(s, "straight");
+  plain.outputs.via.clear();  // the distance by sea's
+  const auto straight = relevance(plain);
+  ASSERT_EQ(straight.size(), 2u);
+  EXPECT_NEAR(straight.at("A").coast, 1750.0, 1e-6);
+  EXPECT_NEAR(straight.at("B").coast, 1750.0, 1e-6);
+  const auto by_sea = relevance(sea);
+  ASSERT_EQ(by_sea.size(), 2u);
+  EXPECT_NEAR(by_sea.at("A").coast, 6000.0, 1e-6);
+  EXPECT_NEAR(by_sea.at("B").coast, 1750.0, 1e-6);
+  // The breakwater lengthens A's ways: B takes more of the area by sea.
+  EXPECT_GT(by_sea.at("B").sea_area, straight.at("B").sea_area + 1e5);
+}
+
 TEST_F(SeaJob, WhatTheDistanceBySeaDoesNotDoIsRefusedInOneLine) {
   auto expect = [&](JobSpec s, ErrorKind kind, const std::string& words) {
     const Error e = refused(s);
@@ -546,10 +601,6 @@ TEST_F(SeaJob, WhatTheDistanceBySeaDoesNotDoIsRefusedInOneLine) {
   JobSpec scan = ports_spec("scan");
   scan.method = Method::hv_scan;
   expect(scan, ErrorKind::invalid_argument, "barriers: the distance by sea needs the exact");
-  JobSpec relevant = ports_spec("relevant");
-  relevant.outputs.boundaries = (dir_ / "relevant" / "b.geojson").string();
-  relevant.outputs.relevant_area = fixture("oresund.gpkg");
-  expect(relevant, ErrorKind::unsupported, "not measured under the distance by sea yet");
   JobSpec via = ports_spec("via");
   via.barriers.clear();
   expect(via, ErrorKind::invalid_argument, "the via raster needs barriers");

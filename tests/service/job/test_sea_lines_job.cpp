@@ -5,8 +5,8 @@
 // preview is drawn; the regions are each owner's sea; limits by sea lie at their distance by sea
 // and end on the coasts, and with a max distance the regions are each owner's sea within it;
 // the report says what the lines by sea cost; with weights and reaches the lines are at equal
-// cost by sea or on a reach's arc by sea; the turning points name each side's last bend. The
-// relevant area by sea is refused in one line.
+// cost by sea or on a reach's arc by sea; the turning points name each side's last bend; the
+// relevant area gives each owner's sea within it.
 #include <gtest/gtest.h>
 #include <ogrsf_frmts.h>
 #include <unistd.h>
@@ -596,7 +596,7 @@ TEST_F(SeaLinesJob, ATieRegionIsSaidInTheFilesAndTheReport) {
 // bend, a vertex of the land that the point sees, with the path no shorter than the two straight
 // legs through it; the sides' last bends change at turning points (the locus passes between a
 // bisector and hyperbola branches round the headlands); the CSV carries the bends in via_*
-// columns. The relevant area by sea is refused in one line.
+// columns.
 TEST_F(SeaLinesJob, TurningPointsBySeaNameEachSidesLastBend) {
   JobSpec s = spec("t");
   const fs::path folder = fs::path(s.outputs.ownership).parent_path();
@@ -693,21 +693,47 @@ TEST_F(SeaLinesJob, TurningPointsBySeaNameEachSidesLastBend) {
   }
   EXPECT_EQ(rows, points);
   EXPECT_GT(rows_with_a_bend, 5);
+}
 
-  JobSpec r = spec("r");
-  const fs::path rf = fs::path(r.outputs.ownership).parent_path();
-  r.outputs.relevant_area = fixture("oresund.gpkg");
-  try {
-    run_job(r);
-    ADD_FAILURE() << "not refused";
-  } catch (const Error& e) {
-    EXPECT_EQ(e.kind(), ErrorKind::unsupported) << e.what();
-    EXPECT_NE(std::string(e.what()).find("relevant area is not measured under the distance by sea yet"),
-              std::string::npos)
-        << e.what();
-    EXPECT_EQ(std::string(e.what()).find('\n'), std::string::npos);
-    EXPECT_TRUE(fs::is_empty(rf)) << e.what();
+// The disproportionality test by sea on the Øresund (ports as seeds, the land as barriers), over a
+// box of 20 x 30 km across the strait with land on both sides: it runs; the ports are points, so
+// each owner's relevant coast is a point (length 0) and the coast shares are absent; each owner's
+// sea area within the box is its cells' there to 3 % (the regions follow the exact lines and the
+// coasts, the cells their centres), and the two add up to the box less its land.
+TEST_F(SeaLinesJob, TheRelevantAreaBySeaGivesEachOwnersSeaWithinIt) {
+  JobSpec s = spec("relevant");
+  const double x0 = 340000, x1 = 360000, y0 = 6170000, y1 = 6200000;
+  s.outputs.relevant_area = (dir_ / "box.geojson").string();
+  std::ofstream(s.outputs.relevant_area)
+      << R"({"type": "FeatureCollection", "crs": {"type": "name", "properties": {"name": "urn:ogc:def:crs:EPSG::32633"}},
+      "features": [{"type": "Feature", "properties": {}, "geometry": {"type": "Polygon", "coordinates": [[)"
+      << "[" << x0 << ", " << y0 << "], [" << x1 << ", " << y0 << "], [" << x1 << ", " << y1 << "], [" << x0 << ", "
+      << y1 << "], [" << x0 << ", " << y0 << "]]]}}]}";
+  const nlohmann::json r = run_job(s).report.at("deliverables").at("regions").at("relevant_area");
+  const double box = (x1 - x0) * (y1 - y0);
+  EXPECT_NEAR(r.at("area").get<double>(), box, 1e-3);
+  const Raster<int32_t> own = read_int32(s.outputs.ownership);
+  const GridSpec& g = own.grid();
+  std::map<int64_t, double> cells;  // owner code: the area of its cells whose centres lie in the box
+  for (int64_t row = 0; row < g.height; ++row)
+    for (int64_t c = 0; c < g.width; ++c) {
+      const double x = g.centre_x(c), y = g.centre_y(row);
+      const int32_t o = own.cells()[static_cast<size_t>(row * g.width + c)];
+      if (o > 0 && x > x0 && x < x1 && y > y0 && y < y1) cells[o] += g.res * g.res;
+    }
+  ASSERT_EQ(r.at("owners").size(), 2u);
+  double sea = 0.0;
+  for (const nlohmann::json& o : r.at("owners")) {
+    SCOPED_TRACE(o.dump());
+    EXPECT_EQ(o.at("coast_length").get<double>(), 0.0);
+    EXPECT_TRUE(o.at("coast_share").is_null());
+    const double a = o.at("sea_area").get<double>();
+    EXPECT_GT(a, 0.0);
+    EXPECT_NEAR(a, cells.at(o.at("owner").get<int64_t>()), 0.03 * a);
+    sea += a;
   }
+  EXPECT_LT(sea, 0.95 * box);  // land on both sides
+  EXPECT_NEAR(sea, cells.at(1) + cells.at(2), 0.03 * sea);
 }
 
 }  // namespace

@@ -24,7 +24,10 @@ namespace rv {
 // position along a segment is linear in the cell's position) and, to a fraction of a cell, on
 // geodesic ones; so a stretch holds every basepoint of the area's cells and is no longer than
 // the span between them (a site whose cells in the area fall in two separate pieces counts the
-// span between the pieces too). Taken in strip by strip (whole rows in order, as StripLines):
+// span between the pieces too). By sea (a metric that is not straight, rv/sea/sea_metric.hpp) a
+// cell's basepoint is where its path leaves the site, which is not linear in the cell's position
+// (every cell behind one bend has that bend's): every cell of the area is measured, one question of
+// the path each. Taken in strip by strip (whole rows in order, as StripLines):
 // the whole field is never needed. Keeps references to `metric` and `area`.
 // Thread safety: one accumulator per extraction, used from one thread at a time.
 class RelevantCoasts {
