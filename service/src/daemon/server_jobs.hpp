@@ -255,6 +255,11 @@ class JobManager {
   void remove_files(const std::string& prefix) const;
   // On a bucket: downloads job `id`'s base snapshot into its local folder before an edit runs.
   void fetch_base(const std::string& id) const;
+  // Copies the tree of objects below `key` into the local folder `local` (emptied first), whole or
+  // not at all: rv::Error(io) "<what> cannot be read: <why>" (the folder removed again) or "<what>
+  // <missing>" when nothing is there.
+  void fetch_tree(const std::string& key, const std::filesystem::path& local, const std::string& what,
+                  const std::string& missing) const;
   // Retention and the orphan sweep, every minute (or jobs.orphan_grace_s if shorter), on a thread
   // of their own; the heartbeat's thread runs the reaper.
   void sweep_loop();

@@ -167,17 +167,21 @@ Execution JobManager::load_execution(const std::string& id, int attempt, const s
 void JobManager::fetch_base(const std::string& id) const {
   if (!objects_.remote()) return;  // the snapshot is in the folder already
   const std::string key = id + "/" + kBaseSnapshotDir;
-  remove_dir(root_ / key);
+  fetch_tree(key, root_ / key, "the base job's files kept for this edit", "are missing from the results");
+}
+
+void JobManager::fetch_tree(const std::string& key, const std::filesystem::path& local, const std::string& what,
+                            const std::string& missing) const {
+  remove_dir(local);
   int copied = 0;
   try {
-    copied = objects_.get_tree(key, root_ / key);
+    copied = objects_.get_tree(key, local);
   } catch (const Error& e) {
     if (e.kind() != ErrorKind::io) throw;
-    remove_dir(root_ / key);  // never half a base
-    throw Error(ErrorKind::io, std::string("the base job's files kept for this edit cannot be read: ") +
-                                   objects_.without_paths(e.what()));
+    remove_dir(local);  // never half a tree
+    throw Error(ErrorKind::io, what + " cannot be read: " + objects_.without_paths(e.what()));
   }
-  if (copied == 0) throw Error(ErrorKind::io, "the base job's files kept for this edit are missing from the results");
+  if (copied == 0) throw Error(ErrorKind::io, what + " " + missing);
 }
 
 void JobManager::charge_planned_shared(const Task& task, int64_t cells) {

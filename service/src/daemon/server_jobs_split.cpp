@@ -49,19 +49,10 @@ bool JobManager::split_or_assemble(Task& task, JobRecord& rec, const fs::path& d
     std::vector<std::string> dirs;
     for (const store::BandTask& b : bands) {
       const fs::path local = root_ / b.results;
-      if (objects_.remote()) {
-        remove_dir(local);
-        const std::string rows = std::to_string(b.row0) + ".." + std::to_string(b.row0 + b.rows);
-        int copied = 0;
-        try {
-          copied = objects_.get_tree(b.results, local);
-        } catch (const Error& e) {
-          if (e.kind() != ErrorKind::io) throw;
-          throw Error(ErrorKind::io,
-                      "the band of rows " + rows + " cannot be read: " + objects_.without_paths(e.what()));
-        }
-        if (copied == 0) throw Error(ErrorKind::io, "the band of rows " + rows + " is missing from the results");
-      }
+      if (objects_.remote())
+        fetch_tree(b.results, local,
+                   "the band of rows " + std::to_string(b.row0) + ".." + std::to_string(b.row0 + b.rows),
+                   "is missing from the results");
       dirs.push_back(local.string());
     }
     spec.bands = std::move(dirs);
