@@ -10,6 +10,7 @@
 #include <cpl_error.h>
 #include <cpl_http.h>
 #include <gdal_priv.h>
+#include <ogr_geometry.h>
 #include <ogr_spatialref.h>
 
 #include "rv/gdal/seed_reader.hpp"
@@ -103,6 +104,24 @@ class ConfinedScope {
   std::vector<std::unique_ptr<ThreadConfigOption>> options_;
   std::vector<std::string> refused_urls_;
 };
+
+// Sets a line's or ring's vertices to `points`, each mapped to a position by `xy` (returning
+// something with .x and .y). The array is sized once: OGR's addPoint grows it by one vertex per
+// call, a copy of the whole line each time the allocator cannot grow it in place (always under
+// AddressSanitizer), which makes writing a long line quadratic in its vertices.
+template <class Points, class Xy>
+void set_points(OGRSimpleCurve& curve, const Points& points, Xy xy) {
+  curve.setNumPoints(static_cast<int>(points.size()), FALSE);
+  int i = 0;
+  for (const auto& p : points) {
+    const auto v = xy(p);
+    curve.setPoint(i++, v.x, v.y);
+  }
+}
+template <class Points>
+void set_points(OGRSimpleCurve& curve, const Points& points) {
+  set_points(curve, points, [](const auto& p) { return p; });
+}
 
 // The name GDAL should open: a plain "x.zip" (or ".ZIP") becomes "/vsizip/x.zip"; anything
 // already under /vsi... is left alone.

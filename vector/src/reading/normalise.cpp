@@ -15,9 +15,8 @@ namespace rv::detail {
 
 std::unique_ptr<OGRLinearRing> make_ring(const std::vector<Vec2>& v) {
   auto ring = std::make_unique<OGRLinearRing>();
-  ring->setNumPoints(static_cast<int>(v.size() + 1), FALSE);
-  for (size_t i = 0; i < v.size(); ++i) ring->setPoint(static_cast<int>(i), v[i].x, v[i].y);
-  ring->setPoint(static_cast<int>(v.size()), v.front().x, v.front().y);
+  gdal::set_points(*ring, v);
+  ring->addPoint(v.front().x, v.front().y);
   return ring;
 }
 

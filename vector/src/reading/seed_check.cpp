@@ -21,9 +21,7 @@ std::unique_ptr<OGRGeometry> part_geometry(const FeaturePart& part, int64_t& ver
       return std::make_unique<OGRPoint>(part.vertices.front().x, part.vertices.front().y);
     case FeaturePart::Kind::line: {
       auto line = std::make_unique<OGRLineString>();
-      line->setNumPoints(static_cast<int>(part.vertices.size()), FALSE);
-      for (size_t i = 0; i < part.vertices.size(); ++i)
-        line->setPoint(static_cast<int>(i), part.vertices[i].x, part.vertices[i].y);
+      gdal::set_points(*line, part.vertices);
       vertices = static_cast<int64_t>(part.vertices.size());
       return line;
     }

@@ -824,8 +824,7 @@ class Reader {
       return;
     }
     auto line = std::make_unique<OGRLineString>();
-    line->setNumPoints(static_cast<int>(v.size()), FALSE);
-    for (size_t i = 0; i < v.size(); ++i) line->setPoint(static_cast<int>(i), v[i].x, v[i].y);
+    gdal::set_points(*line, v);
     keep_part(std::move(line), feature, owner, 1, static_cast<int64_t>(v.size()));
   }
 

@@ -230,8 +230,8 @@ void write_boundaries(const std::string& path, const BoundaryResult& b, const Si
     OGRLineString ls;
     std::vector<int> fa, fb;
     double worst = 0.0;
+    gdal::set_points(ls, line.vertices, [](const BoundaryVertex& v) { return v.p; });
     for (const BoundaryVertex& v : line.vertices) {
-      ls.addPoint(v.p.x, v.p.y);
       fa.push_back(feature_of(s, v.site_a));
       fb.push_back(feature_of(s, v.site_b));
       worst = std::max(worst, v.residual);
@@ -367,10 +367,8 @@ void write_limits(const std::string& path, const LimitResult& limits, const Seed
     FeaturePtr f(OGRFeature::CreateFeature(l->GetLayerDefn()));
     OGRLineString ls;
     double worst = 0.0;
-    for (const LimitVertex& v : line.vertices) {
-      ls.addPoint(v.p.x, v.p.y);
-      worst = std::max(worst, v.residual);
-    }
+    gdal::set_points(ls, line.vertices, [](const LimitVertex& v) { return v.p; });
+    for (const LimitVertex& v : line.vertices) worst = std::max(worst, v.residual);
     f->SetGeometry(&ls);
     f->SetField("distance", line.distance * o.distance_factor);
     f->SetField("units", o.distance_units.c_str());
@@ -508,11 +506,8 @@ void geojson_regions(const std::string& path, const std::vector<OwnerParts>& par
 
 // The grid's outline, closed, appended to a line or ring.
 void add_outline(OGRLineString& line, const GridSpec& g) {
-  line.addPoint(g.xmin, g.ymax);
-  line.addPoint(g.xmax(), g.ymax);
-  line.addPoint(g.xmax(), g.ymin());
-  line.addPoint(g.xmin, g.ymin());
-  line.addPoint(g.xmin, g.ymax);
+  gdal::set_points(line, std::array<Vec2, 5>{Vec2{g.xmin, g.ymax}, Vec2{g.xmax(), g.ymax}, Vec2{g.xmax(), g.ymin()},
+                                             Vec2{g.xmin, g.ymin()}, Vec2{g.xmin, g.ymax}});
 }
 
 // A polygon of the core as OGR's.
@@ -520,7 +515,7 @@ OGRPolygon ogr_polygon(const Polygon& poly) {
   OGRPolygon p;
   for (const Ring& ring : poly.rings) {
     OGRLinearRing lr;
-    for (const Vec2& v : ring) lr.addPoint(v.x, v.y);
+    gdal::set_points(lr, ring);
     lr.closeRings();
     p.addRing(&lr);
   }
@@ -585,7 +580,7 @@ OGRMultiLineString region_linework(const LineRegions& r, const gdal::ErrorCaptur
   for (const std::vector<Vec2>& edge : r.edges) {
     if (edge.size() < 2) continue;
     OGRLineString ls;
-    for (const Vec2& p : edge) ls.addPoint(p.x, p.y);
+    gdal::set_points(ls, edge);
     lines.addGeometry(&ls);
   }
   if (!r.outline.empty()) {
@@ -593,7 +588,7 @@ OGRMultiLineString region_linework(const LineRegions& r, const gdal::ErrorCaptur
     for (const std::vector<Vec2>& edge : r.outline) {
       if (edge.size() < 2) continue;
       OGRLineString ls;
-      for (const Vec2& p : edge) ls.addPoint(p.x, p.y);
+      gdal::set_points(ls, edge);
       outline.addGeometry(&ls);
     }
     OGRPolygon frame;
