@@ -74,6 +74,7 @@ ARGS = _args.parse_args()
 RVORONOI = ARGS.rvoronoi
 SOURCE = ARGS.source
 FAILURES = []
+STARTED = []  # every daemon started, in order: their logs are kept beside the files on a failure
 TOKENS = {"alice": "alice-token-shared-1", "bob": "bob-token-shared-2", "carol": "carol-token-shared-3",
           "root": "root-token-shared-4", "dave": "dave-token-shared-5"}
 USERS = ["alice", "bob", "carol"]
@@ -84,6 +85,20 @@ def check(condition, what):
     if not condition:
         FAILURES.append(what)
         print("FAIL:", what, flush=True)
+
+
+def started(daemon):
+    STARTED.append(daemon)
+    return daemon
+
+
+def keep_logs(tmp):
+    """Each daemon's stderr (its event log) as logs/<n>-<data folder>.log under `tmp`."""
+    os.makedirs(os.path.join(tmp, "logs"), exist_ok=True)
+    for n, d in enumerate(STARTED):
+        name = f"{n:02d}-{os.path.basename(d.config_path)[:-len('.config.json')]}.log"
+        with open(os.path.join(tmp, "logs", name), "w") as f:
+            f.writelines(list(d.log))
 
 
 def bearer(name):
@@ -169,7 +184,7 @@ class Cluster:
         if retention_s:  # the restart for the last steps: retention, and split jobs
             config["jobs"]["retention_s"] = retention_s
             config["jobs"]["split_cells"] = SPLIT_CELLS
-        return Daemon([RVORONOI, "serve"], os.path.join(self.tmp, f"d{i}"), config, env=self.storage.env)
+        return started(Daemon([RVORONOI, "serve"], os.path.join(self.tmp, f"d{i}"), config, env=self.storage.env))
 
     def holder(self, job, seconds=60):
         """The index of the daemon that claimed `job` last (from its log)."""
@@ -225,7 +240,7 @@ class Reference:
     """The one-daemon server of the SQLite store: what every shared result must equal."""
 
     def __init__(self, tmp):
-        self.d = Daemon([RVORONOI, "serve"], os.path.join(tmp, "reference"), {"jobs": {"threads_per_job": 1}})
+        self.d = started(Daemon([RVORONOI, "serve"], os.path.join(tmp, "reference"), {"jobs": {"threads_per_job": 1}}))
         self.cache = {}
 
     def run(self, b, outputs):
@@ -680,6 +695,7 @@ def run_pass(tmp, ref, kind, jobs, full):
 def main():
     tmp = tempfile.mkdtemp(prefix="rv-shared-")
     ref = None
+    ended = False  # false when an exception ends the run: its files and logs are kept too
     try:
         ref = Reference(tmp)
         if ARGS.storage == "both":
@@ -688,13 +704,16 @@ def main():
             run_pass(tmp, ref, "folder", 12, False)
         else:
             run_pass(tmp, ref, ARGS.storage, ARGS.jobs, True)
+        ended = True
     finally:
         if ref:
             ref.d.stop()
-        if not FAILURES:
+        if ended and not FAILURES:
             shutil.rmtree(tmp, ignore_errors=True)
+        else:
+            keep_logs(tmp)
+            print(f"{len(FAILURES)} failure(s); files kept in {tmp}, each daemon's log in {tmp}/logs", flush=True)
     if FAILURES:
-        print(f"{len(FAILURES)} failure(s); files kept in {tmp}")
         sys.exit(1)
     print("shared service: all checks passed")
 
