@@ -9,7 +9,8 @@
 //     "public_url": "",                     base of absolute links; "" = from the Host header
 //     "web_dir": "",                        the HTML pages' assets; "" = the build's web/
 //     "http": { "max_body_bytes": 67108864, "max_header_bytes": 16384,
-//               "request_timeout_s": 30, "io_threads": 2, "max_connections": 0 },
+//               "request_timeout_s": 30, "min_send_bytes_per_s": 16384, "io_threads": 2,
+//               "max_connections": 0 },
 //     "jobs": { "workers": 2, "queue_length": 16, "threads_per_job": 0,
 //               "job_timeout_s": 3600, "shutdown_grace_s": 20, "describe_workers": 2 },
 //     "limits": { "max_cells": 17179869184, "max_memory_bytes": 0, "total_memory_bytes": 0,
@@ -58,8 +59,13 @@ namespace rv {
 struct HttpConfig {
   int64_t max_body_bytes = int64_t{64} << 20;  // request bodies above this: 413
   int64_t max_header_bytes = 16 * 1024;        // request headers above this: 431
-  double request_timeout_s = 30.0;             // reading one request / writing one response, whole
-  int io_threads = 2;                          // threads running the network event loop
+  // A request must arrive whole within request_timeout_s. A response goes out in pieces, each within
+  // request_timeout_s of the last, and the whole within request_timeout_s + its length /
+  // min_send_bytes_per_s (0 = no such bound): a slow link downloads a large file, a client that
+  // stops reading or reads a trickle to hold the connection is dropped.
+  double request_timeout_s = 30.0;
+  int64_t min_send_bytes_per_s = 16 * 1024;
+  int io_threads = 2;  // threads running the network event loop
   // Connections open at once; beyond it a new connection replaces the one that has waited
   // longest for its request (503 when every one is busy). 0 = from the open-file limit.
   int64_t max_connections = 0;
@@ -148,12 +154,18 @@ struct JwtConfig {
 };
 
 struct AuthConfig {
-  // Every principal with a token: auth.principals, auth.token_file's (read by
-  // parse_server_config), and one per plaintext token of the deprecated auth.tokens (a user named
-  // "token-" and the first 8 hex digits of its hash). Only hashes are kept.
+  // Every principal with a token: auth.principals, one per plaintext token of the deprecated
+  // auth.tokens (a user named "token-" and the first 8 hex digits of its hash), and last
+  // auth.token_file's (read by parse_server_config). Only hashes are kept.
   std::vector<PrincipalConfig> principals;
-  std::string token_file;     // as configured, for messages; "" = none
+  std::string token_file;     // as configured; "" = none
   int deprecated_tokens = 0;  // how many came from plaintext tokens (auth.tokens, a plain token_file)
+  // The token file's part: its principals are the last `token_file_principals`, of which
+  // `token_file_deprecated` plaintext tokens; `token_file_stamp` is the file's as it was read
+  // (auth/file_stamp.hpp). The daemon reads the file again when the stamp changes (reread_token_file).
+  int token_file_principals = 0;
+  int token_file_deprecated = 0;
+  std::string token_file_stamp;
   JwtConfig jwt;
   bool enabled() const { return !principals.empty() || jwt.enabled(); }
 };
@@ -246,6 +258,11 @@ ServerConfig parse_server_config(const nlohmann::json& document);
 
 // The "auth" object of a configuration document into `auth` (auth_config.cpp). Throws as above.
 void parse_auth_config(const nlohmann::json& object, AuthConfig& auth);
+
+// `auth` with its token file read again as the file is now: the file's principals replaced, the
+// others kept. Throws as parse_auth_config for a file that cannot be used (missing, not valid,
+// holding no token, a token or name clashing with another principal's); `auth` is left as it was.
+AuthConfig reread_token_file(const AuthConfig& auth);
 
 // The lower-case hex SHA-256 of `token`'s bytes: what auth.principals[].token_sha256 holds
 // (`printf %s "$TOKEN" | sha256sum`).

@@ -6,6 +6,7 @@
 #include <sstream>
 
 #include "auth/crypto.hpp"
+#include "auth/file_stamp.hpp"
 #include "auth/principal.hpp"
 #include "runtime/config_read.hpp"
 #include "rv/field/error.hpp"
@@ -72,6 +73,9 @@ void parse_principal_list(const json& list, const std::string& where, AuthConfig
 // auth.token_file: JSON (an array of principals, or {"principals": [...]}) as auth.principals, or
 // the older form, one plaintext token per line ('#' comments and blank lines ignored; deprecated).
 void read_token_file(const std::string& path, AuthConfig& auth) {
+  // Stamped before the read: a change made while it reads shows as a change at the next check.
+  auth.token_file_stamp = auth::file_stamp(path);
+  const int deprecated_before = auth.deprecated_tokens;
   std::ifstream in(path, std::ios::binary);
   if (!in) throw Error(ErrorKind::not_found, "configuration key 'auth.token_file': '" + path + "' cannot be opened");
   std::stringstream text;
@@ -106,6 +110,8 @@ void read_token_file(const std::string& path, AuthConfig& auth) {
   }
   // A configured but empty file would silently leave the server open: refuse it.
   if (auth.principals.size() == before) bad("auth.token_file", "'" + path + "' holds no token");
+  auth.token_file_principals = static_cast<int>(auth.principals.size() - before);
+  auth.token_file_deprecated = auth.deprecated_tokens - deprecated_before;
 }
 
 std::vector<std::string> string_or_list(const json& v, const std::string& where) {
@@ -190,6 +196,17 @@ void parse_auth_config(const json& a, AuthConfig& auth) {
   if (!auth.token_file.empty()) read_token_file(auth.token_file, auth);
   if (a.contains("jwt")) parse_jwt(a.at("jwt"), auth.jwt);
   check_unique(auth);
+}
+
+AuthConfig reread_token_file(const AuthConfig& auth) {
+  if (auth.token_file.empty()) throw Error(ErrorKind::internal, "no token file to read again");
+  AuthConfig fresh = auth;
+  fresh.principals.resize(fresh.principals.size() - static_cast<size_t>(auth.token_file_principals));
+  fresh.deprecated_tokens -= auth.token_file_deprecated;
+  fresh.token_file_principals = fresh.token_file_deprecated = 0;
+  read_token_file(fresh.token_file, fresh);
+  check_unique(fresh);
+  return fresh;
 }
 
 }  // namespace rv

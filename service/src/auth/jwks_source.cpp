@@ -1,10 +1,9 @@
 #include "auth/jwks_source.hpp"
 
-#include <sys/stat.h>
-
 #include <fstream>
 #include <sstream>
 
+#include "auth/file_stamp.hpp"
 #include "auth/https_get.hpp"
 #include "rv/field/error.hpp"
 #include "rv/json_text.hpp"
@@ -14,13 +13,6 @@ namespace {
 
 constexpr std::size_t kMaxKeySetBytes = 1 << 20;
 constexpr double kFetchTimeoutS = 10.0;
-
-std::string stamp_of(const std::string& path) {
-  struct stat st {};
-  if (::stat(path.c_str(), &st) != 0) return {};
-  return std::to_string(st.st_size) + "/" + std::to_string(st.st_mtim.tv_sec) + "." +
-         std::to_string(st.st_mtim.tv_nsec);
-}
 
 std::string read_whole(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
@@ -54,7 +46,7 @@ void JwksSource::start() {
     // A configuration error shows at start: the file must be there and usable.
     auto set = std::make_shared<const KeySet>(parse_jwks(read_whole(config_.jwks_file)));
     std::lock_guard lock(mutex_);
-    file_stamp_ = stamp_of(config_.jwks_file);
+    file_stamp_ = file_stamp(config_.jwks_file);
     keys_ = std::move(set);
     last_load_ = std::chrono::steady_clock::now();
   } else {
@@ -91,7 +83,7 @@ bool JwksSource::load() {
   try {
     std::string text;
     if (from_file) {
-      stamp = stamp_of(config_.jwks_file);
+      stamp = file_stamp(config_.jwks_file);
       std::lock_guard lock(mutex_);
       if (stamp == file_stamp_ && keys_) {
         last_load_ = std::chrono::steady_clock::now();

@@ -266,7 +266,6 @@ class Session : public std::enable_shared_from_this<Session> {
   void send(ApiResponse r) {
     status_ = r.status;
     const bool head = method_ == "HEAD";
-    stream_.expires_after(request_timeout());
     if (head) {
       auto res = std::make_shared<http::response<http::empty_body>>();
       prepare(*res, r);
@@ -287,10 +286,32 @@ class Session : public std::enable_shared_from_this<Session> {
     write(res);
   }
 
+  // A response goes out piece by piece (a file body 64 KiB at a time), each piece within
+  // request_timeout_s of the last: a client that stops reading is dropped then, while one on a slow
+  // link may take as long as its download needs, down to http.min_send_bytes_per_s on average
+  // (past that deadline a client reading a trickle to hold the connection is dropped too).
   template <class Message>
   void write(std::shared_ptr<Message> res) {
+    using Serializer = http::serializer<false, typename Message::body_type, typename Message::fields_type>;
+    auto sr = std::make_shared<Serializer>(*res);
+    const auto now = std::chrono::steady_clock::now();
+    const double rate = static_cast<double>(shared_.config.http.min_send_bytes_per_s);
+    const uint64_t length = res->payload_size().value_or(0);
+    deadline_ = rate > 0.0 ? now + request_timeout() +
+                                 std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                                     std::chrono::duration<double>(static_cast<double>(length) / rate))
+                           : std::chrono::steady_clock::time_point::max();
+    write_some(std::move(res), std::move(sr));
+  }
+
+  template <class Message, class Serializer>
+  void write_some(std::shared_ptr<Message> res, std::shared_ptr<Serializer> sr) {
+    const auto now = std::chrono::steady_clock::now();
+    stream_.expires_after(
+        std::min(request_timeout(), std::max(deadline_ - now, std::chrono::steady_clock::duration{})));
     auto self = shared_from_this();
-    http::async_write(stream_, *res, [self, res](beast::error_code ec, std::size_t) {
+    http::async_write_some(stream_, *sr, [self, res, sr](beast::error_code ec, std::size_t) {
+      if (!ec && !sr->is_done()) return self->write_some(res, sr);
       self->log();
       --self->shared_.in_flight;
       if (ec) return self->close();
@@ -340,6 +361,7 @@ class Session : public std::enable_shared_from_this<Session> {
   auth::Principal principal_;  // who the current request comes from (auth/principal.hpp)
   std::string auth_error_;     // why its token was refused, for the log
   unsigned status_ = 0;
+  std::chrono::steady_clock::time_point deadline_{};  // the response being written: its last moment
   unsigned version_ = 11;
   bool keep_alive_ = false;
   std::chrono::steady_clock::time_point started_ = std::chrono::steady_clock::now();

@@ -36,7 +36,7 @@ int64_t now_seconds() {
 }  // namespace
 
 Authenticator::Authenticator(const AuthConfig& config, std::function<void(const std::string&)> log)
-    : enabled_(config.enabled()), principals_(config.principals), jwt_(config.jwt) {
+    : enabled_(config.enabled()), principals_(config, log), jwt_(config.jwt) {
   if (jwt_.enabled()) keys_ = std::make_unique<auth::JwksSource>(jwt_, std::move(log));
 }
 
@@ -71,7 +71,8 @@ Authenticator::Outcome Authenticator::identify(std::string_view token, bool keys
   // is looked up first whatever its shape, so that one shaped like a JWT still works.
   const auth::Sha256 presented = auth::sha256(token);
   const PrincipalConfig* found = nullptr;
-  for (const PrincipalConfig& p : principals_)
+  const auto principals = principals_.current();
+  for (const PrincipalConfig& p : *principals)
     if (auth::digests_equal(presented, p.token_sha256) && found == nullptr) found = &p;
   if (found != nullptr) {
     out.principal.name = found->name;

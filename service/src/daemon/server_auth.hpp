@@ -1,6 +1,7 @@
 // Who a request comes from. With authentication configured (AuthConfig), every route except the
 // open ones needs "Authorization: Bearer <token>": a configured principal's token (compared by
-// its SHA-256, in constant time, with every principal's) or an identity provider's JWT (auth/jwt.hpp).
+// its SHA-256, in constant time, with every principal's; auth.token_file's followed as it is
+// edited, auth/principal_set.hpp) or an identity provider's JWT (auth/jwt.hpp).
 // Without it, every request is the anonymous admin (auth/principal.hpp): the server is open.
 // Refusals are 401 problem+json with a WWW-Authenticate challenge (RFC 6750 3) whose
 // error_description says why a token was refused; never what it held.
@@ -16,6 +17,7 @@
 
 #include "auth/jwks_source.hpp"
 #include "auth/principal.hpp"
+#include "auth/principal_set.hpp"
 #include "daemon/server_api.hpp"
 #include "rv/server_config.hpp"
 
@@ -23,7 +25,7 @@ namespace rv::daemon {
 
 class Authenticator {
  public:
-  // `log` receives the key source's log lines (JSON objects).
+  // `log` receives the key source's and the token file's log lines (JSON objects).
   Authenticator(const AuthConfig& config, std::function<void(const std::string&)> log);
   ~Authenticator();
 
@@ -61,7 +63,7 @@ class Authenticator {
   Outcome identify(std::string_view token, bool keys_refreshed) const;
 
   bool enabled_ = false;
-  std::vector<PrincipalConfig> principals_;
+  auth::PrincipalSet principals_;  // auth.token_file read again when it changes
   JwtConfig jwt_;
   std::unique_ptr<auth::JwksSource> keys_;
 };

@@ -168,11 +168,14 @@ ServerConfig parse_server_config(const json& doc) {
 
   if (doc.contains("http")) {
     const json& h = doc.at("http");
-    check_keys(h, "http", {"max_body_bytes", "max_header_bytes", "request_timeout_s", "io_threads", "max_connections"});
+    check_keys(h, "http",
+               {"max_body_bytes", "max_header_bytes", "request_timeout_s", "min_send_bytes_per_s", "io_threads",
+                "max_connections"});
     c.http.max_body_bytes = get_int(h, "http", "max_body_bytes", c.http.max_body_bytes, 1024);
     c.http.max_header_bytes = get_int(h, "http", "max_header_bytes", c.http.max_header_bytes, 512);
     c.http.max_connections = get_int(h, "http", "max_connections", c.http.max_connections, 0);
     c.http.request_timeout_s = get_seconds(h, "http", "request_timeout_s", c.http.request_timeout_s);
+    c.http.min_send_bytes_per_s = get_int(h, "http", "min_send_bytes_per_s", c.http.min_send_bytes_per_s, 0);
     c.http.io_threads = static_cast<int>(get_int(h, "http", "io_threads", c.http.io_threads, 1));
   }
   if (doc.contains("jobs")) {

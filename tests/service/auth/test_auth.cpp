@@ -8,6 +8,8 @@
 //     the role from a dotted claim, an array or a space-separated list;
 //   - the configuration: principals, roles, duplicates, the token file in both forms, the JWT
 //     section's mistakes, each named by its key and never quoting a token;
+//   - the token file followed as it is edited: its principals replaced, the configuration's kept,
+//     a broken edit keeping the set before it, each change logged once;
 //   - the hourly cell allowance: the window, Retry-After, restore, refund.
 #include <openssl/core_names.h>
 #include <openssl/ec.h>
@@ -24,6 +26,7 @@
 #include "auth/crypto.hpp"
 #include "auth/jwks.hpp"
 #include "auth/jwt.hpp"
+#include "auth/principal_set.hpp"
 #include "runtime/principal_usage.hpp"
 #include "runtime/server_util.hpp"
 #include "rv/field/error.hpp"
@@ -303,6 +306,89 @@ TEST(AuthConfig, PrincipalsTokenFilesAndTheJwtSection) {
       json{{"limits", {{"jobs_per_principal", 3}, {"cells_per_principal_per_hour", 1000000000}}}});
   EXPECT_EQ(l.principal_limits.jobs, 3);
   EXPECT_EQ(l.principal_limits.cells_per_hour, 1'000'000'000);
+}
+
+// The names of a set, in order.
+std::vector<std::string> names(const std::vector<rv::PrincipalConfig>& set) {
+  std::vector<std::string> out;
+  for (const rv::PrincipalConfig& p : set) out.push_back(p.name);
+  return out;
+}
+
+TEST(TokenFile, ReadAgainAsItIsEditedKeepingTheRestAndTheLastGoodSet) {
+  auto principal = [](const std::string& name, const std::string& token, const std::string& role = "user") {
+    return json{{"name", name}, {"role", role}, {"token_sha256", rv::token_sha256_hex(token)}};
+  };
+  const json root = principal("root", "root-token-0123456789abcdef", "admin");
+  const fs::path dir = fs::temp_directory_path() / ("rv_auth_token_file_" + std::to_string(::getpid()));
+  fs::create_directories(dir);
+  const fs::path file = dir / "tokens.json";
+  // Written the safe way (a rename), as an operator's tool would.
+  auto write = [&](const std::string& text) {
+    std::ofstream(dir / "next") << text;
+    fs::rename(dir / "next", file);
+  };
+  write(json::array({principal("alice", "alice-token-0123456789abcdef")}).dump());
+  // The configuration's own principal and a deprecated plaintext token, then the file's.
+  const rv::ServerConfig c = rv::parse_server_config(json{
+      {"auth", {{"principals", {root}}, {"tokens", {"plain-token-0123456789abcdef"}}, {"token_file", file.string()}}}});
+  ASSERT_EQ(names(c.auth.principals), (std::vector<std::string>{"root", c.auth.principals[1].name, "alice"}));
+  EXPECT_EQ(c.auth.token_file_principals, 1);
+  EXPECT_FALSE(c.auth.token_file_stamp.empty());
+
+  // The re-read replaces the file's principals only, and counts the file's plaintext tokens.
+  write("# one a line\nbob-token-0123456789abcdef01\ncarol-token-0123456789abcdef\n");
+  const rv::AuthConfig again = rv::reread_token_file(c.auth);
+  const std::string bob = "token-" + rv::token_sha256_hex("bob-token-0123456789abcdef01").substr(0, 8);
+  const std::string carol = "token-" + rv::token_sha256_hex("carol-token-0123456789abcdef").substr(0, 8);
+  EXPECT_EQ(names(again.principals), (std::vector<std::string>{"root", c.auth.principals[1].name, bob, carol}));
+  EXPECT_EQ(again.deprecated_tokens, 3);
+  EXPECT_EQ(again.token_file_principals, 2);
+  EXPECT_NE(again.token_file_stamp, c.auth.token_file_stamp);
+  // A file giving the configuration's admin a second role, or naming its token again, is refused.
+  write(json::array({principal("root", "another-token-0123456789ab")}).dump());
+  EXPECT_NE(error_of([&] { rv::reread_token_file(c.auth); }).find("two roles"), std::string::npos);
+  write(json::array({principal("mallory", "root-token-0123456789abcdef")}).dump());
+  EXPECT_NE(error_of([&] { rv::reread_token_file(c.auth); }).find("the same token"), std::string::npos);
+
+  // The set a daemon uses, checked on every call here (interval 0).
+  write(json::array({principal("alice", "alice-token-0123456789abcdef")}).dump());
+  const rv::ServerConfig start =
+      rv::parse_server_config(json{{"auth", {{"principals", {root}}, {"token_file", file.string()}}}});
+  std::vector<std::string> log;
+  rv::auth::PrincipalSet set(
+      start.auth, [&](const std::string& line) { log.push_back(line); }, 0.0);
+  EXPECT_EQ(names(*set.current()), (std::vector<std::string>{"root", "alice"}));
+  EXPECT_TRUE(log.empty()) << "unchanged since the configuration read it: " << log.front();
+  const auto held = set.current();
+  write(json{{"principals", {principal("bob", "bob-token-0123456789abcdef01")}}}.dump());
+  EXPECT_EQ(names(*set.current()), (std::vector<std::string>{"root", "bob"}));  // alice revoked
+  EXPECT_EQ(names(*held), (std::vector<std::string>{"root", "alice"})) << "a set in use is not changed under it";
+  ASSERT_EQ(log.size(), 1u);
+  EXPECT_NE(log[0].find("\"event\":\"token_file_loaded\""), std::string::npos) << log[0];
+  EXPECT_NE(log[0].find("\"principals\":1"), std::string::npos) << log[0];
+  set.current();
+  EXPECT_EQ(log.size(), 1u) << "an unchanged file is not read again";
+  // Broken edits: cut short, emptied, removed. Each is logged once, and bob keeps his access.
+  const std::vector<std::pair<std::function<void()>, std::string>> broken = {
+      {[&] { write("[{\"name\": \"bob\", "); }, "not valid JSON"},
+      {[&] { write("\n# nobody\n"); }, "holds no token"},
+      {[&] { fs::remove(file); }, "cannot be opened"}};
+  for (size_t i = 0; i < broken.size(); ++i) {
+    const auto& [edit, why] = broken[i];
+    edit();
+    EXPECT_EQ(names(*set.current()), (std::vector<std::string>{"root", "bob"})) << why;
+    set.current();
+    ASSERT_EQ(log.size(), 2 + i) << why;
+    EXPECT_NE(log.back().find("\"event\":\"token_file_failed\""), std::string::npos) << log.back();
+    EXPECT_NE(log.back().find(why), std::string::npos) << log.back();
+    EXPECT_NE(log.back().find("\"keeping\":1"), std::string::npos) << log.back();
+  }
+  // Mended: read again.
+  write(json::array({principal("carol", "carol-token-0123456789abcdef")}).dump());
+  EXPECT_EQ(names(*set.current()), (std::vector<std::string>{"root", "carol"}));
+  EXPECT_NE(log.back().find("token_file_loaded"), std::string::npos) << log.back();
+  fs::remove_all(dir);
 }
 
 TEST(CellAllowance, AnHourSlidingWindow) {

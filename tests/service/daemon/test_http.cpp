@@ -729,4 +729,123 @@ TEST_F(Daemon, SlowClientsDoNotBlockOthersAndAreCutOff) {
   for (auto& d : slow) EXPECT_TRUE(d->closed_by_server(std::chrono::seconds(5)));
 }
 
+// Asks for `target` on a connection whose receive buffer is small, reads the answer `chunk`
+// bytes at a time with `pause` between reads, and after `stall_after` bytes (0 = never) stops
+// reading for `stall`. Ends when the answer is whole (its Content-Length) or the server ends the
+// connection.
+struct SlowRead {
+  std::string bytes;  // what arrived, header and body
+  bool whole = false;
+  double seconds = 0.0;
+};
+
+SlowRead slow_read(unsigned short port, const std::string& target, size_t chunk, std::chrono::milliseconds pause,
+                   size_t stall_after = 0, std::chrono::milliseconds stall = {}) {
+  SlowRead out;
+  const int fd = ::socket(AF_INET, SOCK_STREAM, 0);
+  const int small = 32 * 1024;
+  ::setsockopt(fd, SOL_SOCKET, SO_RCVBUF, &small, sizeof small);  // before connecting: the window
+  sockaddr_in a{};
+  a.sin_family = AF_INET;
+  a.sin_port = htons(port);
+  a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  if (::connect(fd, reinterpret_cast<sockaddr*>(&a), sizeof a) != 0) {
+    ::close(fd);
+    ADD_FAILURE() << "cannot connect";
+    return out;
+  }
+  const std::string request = "GET " + target + " HTTP/1.1\r\nHost: t\r\nConnection: close\r\n\r\n";
+  EXPECT_EQ(::send(fd, request.data(), request.size(), MSG_NOSIGNAL), static_cast<ssize_t>(request.size()));
+  timeval tv{30, 0};
+  ::setsockopt(fd, SOL_SOCKET, SO_RCVTIMEO, &tv, sizeof tv);
+  const auto t0 = Clock::now();
+  std::vector<char> buf(chunk);
+  size_t expected = 0;  // header and body, once the header is in
+  bool stalled = false;
+  for (;;) {
+    const ssize_t n = ::recv(fd, buf.data(), buf.size(), 0);
+    if (n <= 0) break;  // the end, or a reset
+    out.bytes.append(buf.data(), static_cast<size_t>(n));
+    if (expected == 0) {
+      const size_t end = out.bytes.find("\r\n\r\n");
+      const size_t cl = out.bytes.find("Content-Length: ");
+      if (end != std::string::npos && cl != std::string::npos && cl < end)
+        expected = end + 4 + std::stoull(out.bytes.substr(cl + 16, out.bytes.find("\r\n", cl) - cl - 16));
+    }
+    if (expected != 0 && out.bytes.size() >= expected) break;
+    if (stall_after != 0 && !stalled && out.bytes.size() >= stall_after) {
+      stalled = true;
+      std::this_thread::sleep_for(stall);
+    }
+    std::this_thread::sleep_for(pause);
+  }
+  out.seconds = std::chrono::duration<double>(Clock::now() - t0).count();
+  out.whole = expected != 0 && out.bytes.size() == expected;
+  ::close(fd);
+  return out;
+}
+
+// A finished job's ownership file replaced by `bytes` pseudo-random bytes: a large result to
+// download. Returns its path on the server.
+std::string large_result(unsigned short port, const fs::path& data_dir, size_t bytes) {
+  const Reply created =
+      http_request(port, "POST", "/processes/voronoi/execution", demo_request().dump(), {{"Prefer", "respond-async"}});
+  EXPECT_EQ(created.status, 201) << created.body;
+  const std::string id = created.json()["jobID"];
+  EXPECT_EQ(wait_for(port, id, {"successful", "failed"}, 60)["status"], "successful");
+  const std::string target = path_of(get(port, "/jobs/" + id + "/results").json()["ownership"]["href"]);
+  const size_t size = get(port, target).body.size();
+  std::vector<fs::path> files;
+  for (const auto& e : fs::recursive_directory_iterator(data_dir))
+    if (e.is_regular_file() && e.path().string().find(id) != std::string::npos &&
+        e.path().filename().string().find("ownership") != std::string::npos && e.file_size() == size)
+      files.push_back(e.path());
+  EXPECT_EQ(files.size(), 1u);
+  std::string text(bytes, '\0');
+  uint64_t x = 88172645463325252ull;
+  for (char& c : text) {
+    x ^= x << 13, x ^= x >> 7, x ^= x << 17;
+    c = static_cast<char>(x);
+  }
+  if (!files.empty()) write_file(files[0], text);
+  return target;
+}
+
+TEST_F(Daemon, ALargeResultDownloadsOverASlowLinkAndAStalledReaderIsDropped) {
+  rv::ServerConfig c = test_config(dir_ / "data");
+  c.http.request_timeout_s = 1.0;  // each piece of a response within this of the last
+  start(c);
+  const size_t size = 16u << 20;  // far more than the kernel's buffers hold on the way
+  const std::string target = large_result(port_, dir_ / "data", size);
+  const std::string body = get(port_, target).body;
+  ASSERT_EQ(body.size(), size);
+  // About 1.6 MB/s: several times the timeout, and every byte arrives.
+  const SlowRead slow = slow_read(port_, target, 32 * 1024, std::chrono::milliseconds(20));
+  EXPECT_TRUE(slow.whole) << slow.bytes.size() << " bytes in " << slow.seconds << " s";
+  EXPECT_GT(slow.seconds, 3.0 * c.http.request_timeout_s);
+  EXPECT_EQ(slow.bytes.substr(slow.bytes.size() - std::min(slow.bytes.size(), body.size())), body);
+  // A reader that stops for three timeouts is dropped: it finds the answer cut short.
+  const SlowRead stalled =
+      slow_read(port_, target, 64 * 1024, std::chrono::milliseconds(0), 1u << 20, std::chrono::milliseconds(3000));
+  EXPECT_FALSE(stalled.whole) << stalled.bytes.size() << " bytes";
+  EXPECT_LT(stalled.bytes.size(), size);
+  EXPECT_EQ(get(port_, "/health").status, 200);
+}
+
+TEST_F(Daemon, AResponseBelowTheLeastRateIsDroppedAtItsDeadline) {
+  rv::ServerConfig c = test_config(dir_ / "data");
+  c.http.request_timeout_s = 1.0;
+  c.http.min_send_bytes_per_s = 4 << 20;  // 16 MiB: within 1 + 4 s
+  start(c);
+  const size_t size = 16u << 20;
+  const std::string target = large_result(port_, dir_ / "data", size);
+  // About 1.6 MB/s: never stalls, yet would need some 10 s.
+  const SlowRead trickle = slow_read(port_, target, 32 * 1024, std::chrono::milliseconds(20));
+  EXPECT_FALSE(trickle.whole) << trickle.bytes.size() << " bytes in " << trickle.seconds << " s";
+  EXPECT_LT(trickle.seconds, 9.0);
+  // A reader at full speed is within it.
+  const SlowRead fast = slow_read(port_, target, 256 * 1024, std::chrono::milliseconds(0));
+  EXPECT_TRUE(fast.whole) << fast.bytes.size() << " bytes in " << fast.seconds << " s";
+}
+
 }  // namespace

@@ -20,7 +20,10 @@
 4. Limits per principal: jobs queued or running (429 with Retry-After), cells per hour (429 up
    front with an extent; a grid known only once planned fails its job over_quota), kept across a
    restart.
-5. A store written by the build before principals (fixtures/stores/before-principals): migrated
+5. The token file edited while the daemon runs: a token added is accepted and one removed refused
+   within seconds, with no restart and no signal; broken edits (cut short, emptied, removed) keep
+   the last good set, each logged once with its reason; the configuration's own principals stay.
+6. A store written by the build before principals (fixtures/stores/before-principals): migrated
    in place, its jobs the anonymous principal's, seen by the admin only (results, an edit from
    it), and by everyone again on a server without authentication.
 
@@ -520,7 +523,71 @@ def limits(tmp):
         d.stop()
 
 
-# ---- 5. A store of the build before principals ------------------------------------------------------
+# ---- 5. The token file edited while the daemon runs -----------------------------------------------
+
+def until(condition, seconds=10.0):
+    """Seconds until `condition()` held (polled every 0.05 s), or None after `seconds`."""
+    began = time.time()
+    while time.time() - began < seconds:
+        if condition():
+            return time.time() - began
+        time.sleep(0.05)
+    return None
+
+
+def token_file(tmp):
+    path = os.path.join(tmp, "tokens.json")
+
+    def write(document):  # the safe way: a new file renamed over the old
+        with open(path + ".new", "w") as f:
+            f.write(document if isinstance(document, str) else json.dumps(document))
+        os.replace(path + ".new", path)
+
+    def status(who):
+        return d.request("GET", "/me", None, bearer(TOKENS[who]))[0]
+
+    p = {x["name"]: x for x in principals()}
+    write([p["alice"]])
+    config = {"auth": {"principals": [p["root"]], "token_file": path}}
+    d = Daemon([RVORONOI, "serve"], os.path.join(tmp, "token-file"), config)
+    try:
+        check(status("alice") == 200 and status("bob") == 401 and status("root") == 200,
+              "token file: alice's token and root's (the configuration's) accepted, bob's not")
+        job = own_job(d, TOKENS["alice"])
+        # bob added and alice revoked in one edit.
+        write({"principals": [p["bob"]]})
+        took = until(lambda: status("bob") == 200)
+        check(took is not None and took < 5.0, f"token file: bob's token accepted after the edit ({took} s)")
+        check(status("alice") == 401, "token file: alice's token refused once the edit is read")
+        check(status("root") == 200, "token file: the configuration's principal stays")
+        check(d.request("GET", f"/jobs/{job}", None, bearer(TOKENS["bob"]))[0] == 404,
+              "token file: alice's job is not bob's")
+        check(d.request("GET", f"/jobs/{job}", None, bearer(TOKENS["root"]))[0] == 200,
+              "token file: alice's job stays (the admin sees it)")
+        # Broken edits: the last good set is kept, each failure logged once with its reason.
+        for edit, why in ((lambda: write('[{"name": "alice", '), "not valid JSON"),
+                          (lambda: write("# nobody here\n"), "holds no token"),
+                          (lambda: os.remove(path), "cannot be opened")):
+            edit()
+            logged = until(lambda: sum('"event":"token_file_failed"' in x and why in x for x in list(d.log)) >= 1
+                           if status("bob") == 200 else False)
+            check(logged is not None, f"token file: '{why}' logged while bob's token is still accepted")
+            time.sleep(1.2)
+            status("bob")
+            check(sum('"event":"token_file_failed"' in x and why in x for x in list(d.log)) == 1,
+                  f"token file: '{why}' logged once")
+            check(status("alice") == 401, f"token file: alice's token still refused after '{why}'")
+        write([p["alice"], p["bob"]])
+        check(until(lambda: status("alice") == 200) is not None and status("bob") == 200,
+              "token file: mended, both tokens accepted")
+        loads = [x for x in list(d.log) if '"event":"token_file_loaded"' in x]
+        check(len(loads) == 2 and '"principals":2' in loads[-1], f"token file: each good edit logged once: {loads}")
+        check(not any(TOKENS[n] in "".join(d.log) for n in TOKENS), "token file: no token in the log")
+    finally:
+        d.stop()
+
+
+# ---- 6. A store of the build before principals ------------------------------------------------------
 
 def old_store(tmp):
     data = os.path.join(tmp, "old-store")
@@ -568,9 +635,9 @@ def old_store(tmp):
 def main():
     keys = Keys()
     with tempfile.TemporaryDirectory(prefix="rv_principals_") as tmp:
-        for part in (matrix, jwt_cases, rotation, limits, old_store):
+        for part in (matrix, jwt_cases, rotation, limits, token_file, old_store):
             began = time.time()
-            if part in (limits, old_store):
+            if part in (limits, token_file, old_store):
                 part(tmp)
             else:
                 part(tmp, keys)
