@@ -10,9 +10,10 @@ requests only; it never goes into a URL, a project, a setting or a log.
 import json
 import os
 
-from qgis.core import QgsApplication, QgsAuthMethodConfig, QgsBlockingNetworkRequest, QgsSettings
-from qgis.PyQt.QtCore import QByteArray, QUrl
-from qgis.PyQt.QtNetwork import QNetworkRequest
+from qgis.core import (QgsApplication, QgsAuthMethodConfig, QgsBlockingNetworkRequest, QgsNetworkAccessManager,
+                       QgsSettings)
+from qgis.PyQt.QtCore import QByteArray, QEventLoop, QUrl
+from qgis.PyQt.QtNetwork import QNetworkReply, QNetworkRequest
 
 SETTINGS_URL = "rvoronoi/server_url"
 SETTINGS_AUTHCFG = "rvoronoi/authcfg"
@@ -126,14 +127,63 @@ class Client:
         return status, h, doc
 
     def download(self, path, destination):
-        """Writes the bytes of `path` (a result file) to `destination`."""
-        status, h, payload = self._send("GET", path, accept="*/*")
-        if status != 200:
-            try:
-                problem = json.loads(payload)
-            except ValueError:
-                problem = {}
-            raise ServerError(problem_text(problem, status), status, problem)
-        with open(destination, "wb") as out:
-            out.write(payload)
-        return len(payload)
+        """Writes the bytes of `path` (a result file) to `destination` as they arrive, so that a
+        result of any size costs QGIS a network buffer, not its size in memory. They go to
+        `destination`.part, renamed when whole: a cut connection, a short answer or a cancel (the
+        feedback's) raises ServerError and leaves no file. Returns the number of bytes."""
+        request = self._request(path, "*/*")
+        # Not into QGIS's network cache either: a result is downloaded once, and may be large.
+        request.setAttribute(QNetworkRequest.CacheLoadControlAttribute, QNetworkRequest.AlwaysNetwork)
+        request.setAttribute(QNetworkRequest.CacheSaveControlAttribute, False)
+        reply = QgsNetworkAccessManager.instance().get(request)
+        # Without a bound Qt reads the socket as fast as it can into the reply, whatever the slot
+        # below has taken: the whole file in memory again on a fast link. With it, Qt stops reading
+        # when 1 MiB waits, and TCP slows the sender.
+        reply.setReadBufferSize(1 << 20)
+        part = destination + ".part"
+        written = 0
+        try:
+            with open(part, "wb") as out:
+                def take():
+                    nonlocal written
+                    # A refusal (problem+json, small) is read whole once finished.
+                    if reply.attribute(QNetworkRequest.HttpStatusCodeAttribute) == 200:
+                        data = bytes(reply.readAll())
+                        out.write(data)
+                        written += len(data)
+
+                loop = QEventLoop()
+                reply.readyRead.connect(take)
+                reply.finished.connect(loop.quit)
+                cancel = self.feedback.canceled if self.feedback is not None else None
+                if cancel is not None:
+                    cancel.connect(reply.abort)
+                try:
+                    if not reply.isFinished():
+                        loop.exec_()
+                finally:
+                    if cancel is not None:
+                        cancel.disconnect(reply.abort)
+                take()
+            status = reply.attribute(QNetworkRequest.HttpStatusCodeAttribute)
+            if self.feedback is not None and self.feedback.isCanceled():
+                raise ServerError(f"the download of {path} was cancelled")
+            if status is None:
+                raise ServerError(f"the rvoronoi server at {self.url} cannot be reached: {reply.errorString()}")
+            if int(status) != 200:
+                payload = bytes(reply.readAll())
+                try:
+                    problem = json.loads(payload)
+                except ValueError:
+                    problem = {}
+                raise ServerError(problem_text(problem, int(status)), int(status), problem)
+            length = reply.header(QNetworkRequest.ContentLengthHeader)
+            if reply.error() != QNetworkReply.NoError or (length is not None and int(length) != written):
+                raise ServerError(f"the download of {path} from {self.url} broke off after {written} of "
+                                  f"{length if length is not None else 'unknown'} bytes: {reply.errorString()}")
+            os.replace(part, destination)
+            return written
+        finally:
+            reply.deleteLater()
+            if os.path.exists(part):
+                os.remove(part)

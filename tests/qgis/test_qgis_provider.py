@@ -19,7 +19,10 @@ authentication database the test makes, with its master password in a file):
   6. the Processing model of qgis/tests (reproject the seeds, rvoronoi, clip the regions) through
      qgis_process, and batch mode (one process running a row of parameters after another);
   7. the dialog's owner-field widget lists the fields of the first seed layer chosen;
-  8. a description with an extra input of every kind (and one of a kind unknown to the plugin)
+  8. a result downloaded as it arrives: 256 MiB through the plugin's client grow QGIS's memory by
+     a buffer, not by the file, and equal the bytes sent; an answer cut short and a refusal leave
+     no file (nor its .part);
+  9. a description with an extra input of every kind (and one of a kind unknown to the plugin)
      becomes the parameters it should, the unknown one as text with a warning.
 QGIS's /usr/bin/qgis_process wrapper may add options (QGIS_OPTS) that 3.22's qgis_process refuses;
 the test calls /usr/bin/qgis_process.bin, with QT_QPA_PLATFORM=offscreen.
@@ -27,11 +30,14 @@ the test calls /usr/bin/qgis_process.bin, with QT_QPA_PLATFORM=offscreen.
 usage: test_qgis_provider.py RVORONOI SOURCE_DIR PYTHON_MODULE_DIR [ARTEFACT_DIR]
 """
 import hashlib
+import http.server
 import json
 import os
+import socketserver
 import subprocess
 import sys
 import tempfile
+import threading
 import time
 import zipfile
 
@@ -438,6 +444,90 @@ def sea_case(q, tmp, name, env=None):
     check(int((via > 0).sum()) > 100, f"{name}: paths bend round the land")
 
 
+# A result server for the download: /big streams BIG_CHUNKS chunks of 1 MiB (each a block of
+# random bytes after its own index) with their length announced, /cut announces 64 MiB and stops
+# after 8, /refused answers a problem. Nothing is held whole on either side.
+BIG_CHUNKS = 256
+BLOCK = os.urandom(1 << 20)
+
+
+def chunk(i):
+    return i.to_bytes(8, "little") + BLOCK[8:]
+
+
+class ResultHandler(http.server.BaseHTTPRequestHandler):
+    def do_GET(self):
+        if self.path == "/refused":
+            body = json.dumps({"status": 404, "title": "Not found", "detail": "no such result"}).encode()
+            self.send_response(404)
+            self.send_header("Content-Type", "application/problem+json")
+            self.send_header("Content-Length", str(len(body)))
+            self.end_headers()
+            self.wfile.write(body)
+            return
+        count, sent = (BIG_CHUNKS, BIG_CHUNKS) if self.path == "/big" else (64, 8)
+        self.send_response(200)
+        self.send_header("Content-Type", "image/tiff")
+        self.send_header("Content-Length", str(count << 20))
+        self.end_headers()
+        for i in range(sent):
+            self.wfile.write(chunk(i))
+        self.wfile.flush()
+        self.close_connection = True
+
+    def log_message(self, *args):
+        pass
+
+
+DOWNLOAD_SCRIPT = """
+import json, os, resource, sys
+from qgis.core import QgsApplication
+app = QgsApplication([], False)
+app.initQgis()
+sys.path.insert(0, os.environ["QGIS_PLUGINPATH"])
+from rvoronoi.client import Client, ServerError
+url, folder = sys.argv[1], sys.argv[2]
+client = Client(url=url, authcfg="")
+out = {}
+before = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+out["bytes"] = client.download("/big", os.path.join(folder, "big.tif"))
+out["grew_mib"] = (resource.getrusage(resource.RUSAGE_SELF).ru_maxrss - before) / 1024
+for name in ("cut", "refused"):
+    try:
+        client.download("/" + name, os.path.join(folder, name + ".tif"))
+        out[name] = "no error"
+    except ServerError as e:
+        out[name] = str(e)
+out["files"] = sorted(os.listdir(folder))
+print(json.dumps(out))
+"""
+
+
+def download(q, tmp):
+    server = socketserver.ThreadingTCPServer(("127.0.0.1", 0), ResultHandler)
+    server.daemon_threads = True
+    threading.Thread(target=server.serve_forever, daemon=True).start()
+    folder = os.path.join(tmp, "downloads")
+    os.makedirs(folder)
+    try:
+        got = json.loads(q.script(DOWNLOAD_SCRIPT, f"http://127.0.0.1:{server.server_address[1]}", folder)
+                         .strip().splitlines()[-1])
+    finally:
+        server.shutdown()
+        server.server_close()
+    print(f"download: {got}", flush=True)
+    check(got["bytes"] == BIG_CHUNKS << 20, f"the whole result downloaded: {got['bytes']}")
+    check(got["grew_mib"] < 64, f"a {BIG_CHUNKS} MiB download grew QGIS's peak memory by {got['grew_mib']:.0f} MiB")
+    same = os.path.getsize(os.path.join(folder, "big.tif")) == BIG_CHUNKS << 20
+    with open(os.path.join(folder, "big.tif"), "rb") as f:
+        for i in range(BIG_CHUNKS):
+            same = same and f.read(1 << 20) == chunk(i)
+    check(same, "the downloaded file is the bytes sent")
+    check("broke off" in got["cut"] and str(64 << 20) in got["cut"], f"an answer cut short is an error: {got['cut']}")
+    check("no such result" in got["refused"], f"a refusal gives its problem: {got['refused']}")
+    check(got["files"] == ["big.tif"], f"nothing else is left, no .part: {got['files']}")
+
+
 def free_port():
     import socket
     s = socket.socket()
@@ -534,7 +624,9 @@ def main():
             job = lines[-1] if lines else ""
             status, _, doc = d.json("GET", f"/jobs/{job}", headers={"Authorization": f"Bearer {TOKEN}"})
             check(status == 200 and doc.get("status") == "dismissed", f"the job was dismissed: {status} {doc}")
-            # 5. An extra input of every kind.
+            # 5. A result downloaded as it arrives.
+            download(q, tmp)
+            # 6. An extra input of every kind.
             got = json.loads(q.script(KINDS_SCRIPT, json.dumps(EXTRA_INPUTS)).strip().splitlines()[-1])
             for input_id, (name, kind, optional) in EXPECTED_KINDS.items():
                 p = got["params"].get(input_id)
