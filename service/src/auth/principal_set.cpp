@@ -30,12 +30,19 @@ void PrincipalSet::check_file() const {
     if (now < next_check_ || reading_) return;
     // Due: this request checks; those arriving meanwhile find the next check a period away.
     next_check_ = now + interval_;
-    if (file_stamp(path_) == stamp_) return;
     before = config_;
     reading_ = true;
   }
-  // Read outside the lock: other requests go on with the set they have.
+  // Stat and read outside the lock (the file may sit on a network mount): other requests go on
+  // with the set they have.
   const std::string stamp = file_stamp(path_);
+  {
+    std::lock_guard lock(mutex_);
+    if (stamp == stamp_) {
+      reading_ = false;
+      return;
+    }
+  }
   const std::string path = json_text(nlohmann::json(path_));
   std::string line;
   try {
