@@ -504,7 +504,7 @@ void geojson_regions(const std::string& path, const std::vector<OwnerParts>& par
   writing::write_text_file(path, text.finish());
 }
 
-// The grid's outline, closed, appended to a line or ring.
+// The grid's outline, closed, as the vertices of a line or ring (replacing any it had).
 void add_outline(OGRLineString& line, const GridSpec& g) {
   gdal::set_points(line, std::array<Vec2, 5>{Vec2{g.xmin, g.ymax}, Vec2{g.xmax(), g.ymax}, Vec2{g.xmax(), g.ymin()},
                                              Vec2{g.xmin, g.ymin()}, Vec2{g.xmin, g.ymax}});
