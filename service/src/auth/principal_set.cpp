@@ -30,7 +30,6 @@ void PrincipalSet::check_file() const {
     if (now < next_check_ || reading_) return;
     // Due: this request checks; those arriving meanwhile find the next check a period away.
     next_check_ = now + interval_;
-    before = config_;
     reading_ = true;
   }
   // Stat and read outside the lock (the file may sit on a network mount): other requests go on
@@ -42,6 +41,7 @@ void PrincipalSet::check_file() const {
       reading_ = false;
       return;
     }
+    before = config_;  // copied only when the file changed
   }
   const std::string path = json_text(nlohmann::json(path_));
   std::string line;

@@ -593,15 +593,24 @@ TEST_F(Daemon, BodyAndHeaderLimits) {
 }
 
 // A raw connection for exchanges the Beast client would smooth over.
+// A TCP socket connected to the daemon on the loopback; `connected` tells whether it is. With
+// `receive_buffer` > 0 the socket's receive buffer is set first (before connecting: it sets the
+// window the server sees).
+int loopback_socket(unsigned short port, bool& connected, int receive_buffer = 0) {
+  const int fd = ::socket(AF_INET, SOCK_STREAM, 0);
+  if (receive_buffer > 0) ::setsockopt(fd, SOL_SOCKET, SO_RCVBUF, &receive_buffer, sizeof receive_buffer);
+  sockaddr_in a{};
+  a.sin_family = AF_INET;
+  a.sin_port = htons(port);
+  a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  connected = ::connect(fd, reinterpret_cast<sockaddr*>(&a), sizeof a) == 0;
+  return fd;
+}
+
 class RawConnection {
  public:
   explicit RawConnection(unsigned short port) {
-    fd_ = ::socket(AF_INET, SOCK_STREAM, 0);
-    sockaddr_in a{};
-    a.sin_family = AF_INET;
-    a.sin_port = htons(port);
-    a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-    connected_ = ::connect(fd_, reinterpret_cast<sockaddr*>(&a), sizeof a) == 0;
+    fd_ = loopback_socket(port, connected_);
     timeval tv{5, 0};
     ::setsockopt(fd_, SOL_SOCKET, SO_RCVTIMEO, &tv, sizeof tv);
   }
@@ -664,12 +673,7 @@ TEST_F(Daemon, ExpectContinueAndOneServerPerDataDirectory) {
 class Dribbler {
  public:
   Dribbler(unsigned short port, std::string text, std::chrono::milliseconds interval) {
-    fd_ = ::socket(AF_INET, SOCK_STREAM, 0);
-    sockaddr_in a{};
-    a.sin_family = AF_INET;
-    a.sin_port = htons(port);
-    a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-    connected_ = ::connect(fd_, reinterpret_cast<sockaddr*>(&a), sizeof a) == 0;
+    fd_ = loopback_socket(port, connected_);
     thread_ = std::thread([this, text, interval] {
       for (char ch : text) {
         if (stop_ || ::send(fd_, &ch, 1, MSG_NOSIGNAL) != 1) {
@@ -742,14 +746,9 @@ struct SlowRead {
 SlowRead slow_read(unsigned short port, const std::string& target, size_t chunk, std::chrono::milliseconds pause,
                    size_t stall_after = 0, std::chrono::milliseconds stall = {}) {
   SlowRead out;
-  const int fd = ::socket(AF_INET, SOCK_STREAM, 0);
-  const int small = 32 * 1024;
-  ::setsockopt(fd, SOL_SOCKET, SO_RCVBUF, &small, sizeof small);  // before connecting: the window
-  sockaddr_in a{};
-  a.sin_family = AF_INET;
-  a.sin_port = htons(port);
-  a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-  if (::connect(fd, reinterpret_cast<sockaddr*>(&a), sizeof a) != 0) {
+  bool connected = false;
+  const int fd = loopback_socket(port, connected, 32 * 1024);
+  if (!connected) {
     ::close(fd);
     ADD_FAILURE() << "cannot connect";
     return out;
