@@ -9,6 +9,7 @@
 #include <cmath>
 #include <numbers>
 
+#include "line_compare.hpp"
 #include "partial_rays.hpp"
 #include "rv/engine/engine.hpp"
 #include "rv/field/error.hpp"
@@ -230,6 +231,50 @@ TEST(PartialEffect, TwoNeighboursMeetAtThePartialTripoint) {
   EXPECT_GT(band, 100);
   EXPECT_GT(kept, 0);
   EXPECT_LT(kept, band);
+}
+
+// A port of A's shut in by an island of B's at full effect (no land: the straight metric): the
+// A-B full line is the bisector of the port and the island, frame to frame, every vertex the
+// island's -- wholly in the band, with no turning point. The line is dropped (the rule gives the
+// cells beside it back to A) and the locus, between it and the nil line x = 10, is found where
+// the rule's cells change owner and followed to the frame: every cell by the rule, every A-B
+// vertex on the locus, and a line between every two neighbouring cells of A and B.
+TEST(PartialEffect, AFullLineWhollyInTheBandGivesTheLocusFoundFromTheCells) {
+  SeedSet s;
+  const int32_t a = s.owner_code("A"), b = s.owner_code("B");
+  s.add_point(s.add_feature(a), Vec2{0.0, 0.0});
+  s.add_point(s.add_feature(b), Vec2{20.0, 0.0});
+  const int32_t island = s.add_feature(b);
+  s.add_polygon(island, {{{2.0, -1.0}, {3.0, -1.0}, {3.0, 1.0}, {2.0, 1.0}}});
+  s.set_effect(island, 0.5);
+  const GridSpec g = test::grid_of(160, 120, 0.25, -10.0, 15.0);
+  const PartialEffectResult r = compute_partial_effect(s, g, ComputeOptions{}, BoundaryOptions{});
+  ASSERT_TRUE(r.rule);
+  const NearestField nil = compute(*r.nil_seeds, g, ComputeOptions{});
+  int64_t band = 0, returned = 0;
+  for (int64_t row = 0; row < g.height; ++row)
+    for (int64_t col = 0; col < g.width; ++col) {
+      const int32_t full_owner = s.site_owner(r.full.site.at(col, row));
+      const int32_t nil_owner = r.nil_seeds->site_owner(nil.site.at(col, row));
+      const int32_t expected = r.rule->owner(Vec2{g.centre_x(col), g.centre_y(row)}, full_owner, nil_owner);
+      ASSERT_EQ(s.site_owner(r.field.site.at(col, row)), expected) << col << "," << row;
+      band += full_owner == b && nil_owner == a;
+      returned += expected == a && full_owner == b;
+    }
+  EXPECT_GT(band, 1000);
+  EXPECT_GT(returned, 100);
+  EXPECT_LT(returned, band);
+  EXPECT_EQ(r.stats.stretches, 1);
+  int64_t vertices = 0;
+  for (const BoundaryLine& l : r.boundaries.lines) {
+    EXPECT_FALSE(l.closed);
+    for (const BoundaryVertex& v : l.vertices) {
+      ++vertices;
+      EXPECT_LT(std::abs(r.rule->balance(v.p, a)), 1e-6) << v.p.x << ", " << v.p.y;
+    }
+  }
+  EXPECT_GT(vertices, 20);
+  EXPECT_GT(test::expect_lines_between(r.field, s, g, r.boundaries, a, b, [](Vec2, Vec2) { return true; }), 50);
 }
 
 TEST(PartialEffect, InputRules) {

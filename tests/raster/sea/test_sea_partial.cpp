@@ -9,6 +9,10 @@
 //   alone, distances to the lines measured here), the reference engines give the same field, and
 //   the partial line lies on the locus, ends on coasts only on a barrier's edge and never crosses
 //   land.
+// - A port of X's that the island shuts in at full effect: the full line wholly in the band, the
+//   locus found where the rule's cells change owner and followed from there.
+// Every layout also checks that each two neighbouring cells the rule gives to B and to X have a
+// B-X line between them.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -16,6 +20,7 @@
 #include <numbers>
 #include <string>
 
+#include "line_compare.hpp"
 #include "partial_rays.hpp"
 #include "rv/engine/engine.hpp"
 #include "rv/engine/owner_index.hpp"
@@ -203,6 +208,7 @@ Strait strait(const std::vector<Vec2>& island, bool ports = false, double effect
 struct Checked {
   PartialLineStats stats;
   int64_t nil_ends_on_land = 0;
+  int64_t closed_lines = 0;  // rings among the lines
 };
 Checked check_rule_and_line(const Strait& s) {
   const GridSpec g = test::grid_of(160, 160, 0.25);
@@ -275,11 +281,17 @@ Checked check_rule_and_line(const Strait& s) {
     }
   }
   EXPECT_GT(on_locus, 20);
+  // Every two neighbouring sea cells the rule gives to B and to X, in sight of each other, have a
+  // B-X line between their centres (no piece of the locus left undrawn).
+  const int64_t pairs = test::expect_lines_between(r.field, s.seeds, g, r.boundaries, B, X,
+                                                   [&](Vec2 p, Vec2 q) { return r.metric->open_between(p, q); });
+  EXPECT_GT(pairs, 20);
   // (Each coast end of a partial stretch is a line's end on a barrier; the full lines' own such
   // ends outside the bands stay.)
   EXPECT_LE(r.stats.coast_ends, coast_ends);
   EXPECT_EQ(r.stats.residual.unresolved, 0);
   Checked out{r.stats};
+  for (const BoundaryLine& l : r.boundaries.lines) out.closed_lines += l.closed;
   for (const BoundaryLine& l : r.rule->nil_lines().lines)
     out.nil_ends_on_land += l.vertices.front().on_barrier + l.vertices.back().on_barrier;
   return out;
@@ -315,22 +327,56 @@ TEST(SeaPartial, AFullLineEndingOnTheNeighboursCoastGivesLociEndingThere) {
 
 // One port of X's, shut in by the island at full effect: the full line is an arc from X's coast
 // to X's coast round the port, wholly in the band, with no turning point to follow the locus
-// from: refused in one line (the rasters alone can be had, without lines).
-TEST(SeaPartial, AFullLineWhollyInTheBandIsRefusedInOneLine) {
+// from. The arc is no boundary under the rule (the cells beside it go back to X); the locus,
+// near the nil line at effect 0.1, is found where the rule's cells change owner and followed both
+// ways to the frame: every cell is the rule's, every vertex on the locus, and every pair of
+// neighbouring cells the rule gives to B and to X has a B-X line between their centres.
+TEST(SeaPartial, AFullLineWhollyInTheBandGivesTheLocusFoundFromTheCells) {
+  const Strait s = strait({{11, 17}, {15, 18}, {14, 23}, {11, 22}}, true, 0.1);
+  const Checked c = check_rule_and_line(s);
+  EXPECT_EQ(c.stats.stretches, 1);
+  EXPECT_EQ(c.stats.coast_ends, 0);
+  EXPECT_GT(c.stats.points, 100);
+}
+
+// The same island shutting in the port, at effect 0.6: the locus now lies nearer the arc, and
+// runs from X's coast to the island's on either side of it (two lines, four ends on coasts).
+TEST(SeaPartial, ALocusFoundFromTheCellsEndsOnTheCoast) {
+  const Strait s = strait({{11, 17}, {15, 18}, {14, 23}, {11, 22}}, true, 0.6);
+  const Checked c = check_rule_and_line(s);
+  EXPECT_EQ(c.stats.stretches, 2);
+  EXPECT_EQ(c.stats.coast_ends, 4);
+}
+
+// An enclave: the island lies between X's coast and an islet of X's, so at full effect its zone
+// is a ring round it inside X's zone (a closed full line, all band). At effect 0.95 the locus is
+// a smaller ring round the island, found from the cells and followed round to where it began.
+TEST(SeaPartial, AnEnclaveGivesAClosedLocus) {
+  Strait s = strait({{11.5, 19}, {12.5, 19}, {12.5, 21}, {11.5, 21}}, false, 0.95);
+  s.seeds.add_point(s.seeds.add_feature(s.seeds.owner_code("X")), {16, 20});
+  const Checked c = check_rule_and_line(s);
+  EXPECT_EQ(c.stats.stretches, 1);
+  EXPECT_EQ(c.stats.coast_ends, 0);
+  EXPECT_EQ(c.closed_lines, 1);
+}
+
+// Without the fields the line wholly in the band is still refused in one line, and the rasters
+// alone are the rule's.
+TEST(SeaPartial, AFullLineWhollyInTheBandWithoutTheFieldsIsRefusedInOneLine) {
   const Strait s = strait({{11, 17}, {15, 18}, {14, 23}, {11, 22}}, true, 0.1);
   const GridSpec g = test::grid_of(160, 160, 0.25);
+  const PartialEffectResult r =
+      compute_partial_effect(s.seeds, g, ComputeOptions{}, BoundaryOptions{}, false, by_sea(s.land, g));
+  ASSERT_TRUE(r.rule);
+  EXPECT_NE(r.field.site.cells(), r.full.site.cells());
+  PartialLineStats stats;
   try {
-    compute_partial_effect(s.seeds, g, ComputeOptions{}, BoundaryOptions{}, true, by_sea(s.land, g));
+    partial_boundaries(*r.rule, s.seeds, *r.index, g, 1e-9, 1e-3, 0.0, stats, r.nil_index.get());
     FAIL() << "taken";
   } catch (const Error& e) {
     EXPECT_EQ(e.kind(), ErrorKind::unsupported);
     EXPECT_NE(std::string(e.what()).find("wholly in the band"), std::string::npos) << e.what();
   }
-  // Without the lines the rasters are the rule's.
-  const PartialEffectResult r =
-      compute_partial_effect(s.seeds, g, ComputeOptions{}, BoundaryOptions{}, false, by_sea(s.land, g));
-  ASSERT_TRUE(r.rule);
-  EXPECT_NE(r.field.site.cells(), r.full.site.cells());
 }
 
 }  // namespace

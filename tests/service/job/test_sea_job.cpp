@@ -8,12 +8,14 @@
 
 #include <unistd.h>
 
+#include <array>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <map>
 #include <set>
 #include <string>
+#include <vector>
 
 #include <nlohmann/json.hpp>
 
@@ -394,6 +396,71 @@ TEST_F(SeaJob, AnIslandOfHalfEffectTakesEachCellFromTheFullOrTheNilRun) {
   EXPECT_EQ(lines.at("along_lines").at("unresolved_segments").get<int64_t>(), 0);
   EXPECT_GT(report.at("sea").at("land_cells").get<int64_t>(), 0);
   EXPECT_TRUE(report.contains("partial_effect_by_sea"));
+}
+
+// A port of X's that an island of B's shuts in at full effect (a synthetic strait in UTM 33N:
+// X's and B's coasts as barriers, one port on each, the island a seed and land, effect 0.1). The
+// full line is an arc round the port wholly in the band; the job draws the locus found from the
+// rule's cells instead of refusing, and the regions built on it agree with the cells: each
+// owner's sea area within 0.5 % of its cells' area.
+TEST_F(SeaJob, APortShutInByTheIslandHasItsLinesAndRegions) {
+  auto polygon = [](const std::vector<std::array<double, 2>>& pts) {
+    nlohmann::json ring = nlohmann::json::array();
+    for (const auto& p : pts) ring.push_back({1000.0 * p[0], 1000.0 * p[1]});
+    ring.push_back(ring.front());
+    return nlohmann::json{{"type", "Polygon"}, {"coordinates", nlohmann::json::array({ring})}};
+  };
+  auto feature = [](const std::string& owner, double effect, nlohmann::json geometry) {
+    return nlohmann::json{
+        {"type", "Feature"}, {"properties", {{"owner", owner}, {"effect", effect}}}, {"geometry", std::move(geometry)}};
+  };
+  auto point = [](double x, double y) {
+    return nlohmann::json{{"type", "Point"}, {"coordinates", {x * 1000.0, y * 1000.0}}};
+  };
+  const nlohmann::json west = polygon({{0, 0}, {8, 0}, {9, 20}, {7, 40}, {0, 40}});
+  const nlohmann::json east = polygon({{40, 0}, {32, 0}, {31, 18}, {33, 40}, {40, 40}});
+  const nlohmann::json island = polygon({{11, 17}, {15, 18}, {14, 23}, {11, 22}});
+  const std::string crs = std::string(R"({"type": "FeatureCollection", )") + kUtm33 + R"(, "features": )";
+  const std::string seeds =
+      write("shut_in.geojson", crs +
+                                   nlohmann::json::array({feature("X", 1.0, point(9, 20)),
+                                                          feature("B", 1.0, point(31, 18)), feature("B", 0.1, island)})
+                                       .dump() +
+                                   "}");
+  const std::string land = write(
+      "shut_in_land.geojson",
+      crs +
+          nlohmann::json::array({feature("X", 1.0, west), feature("B", 1.0, east), feature("B", 1.0, island)}).dump() +
+          "}");
+  JobSpec s;
+  s.seeds.paths = {seeds};
+  s.seeds.owner_field = "owner";
+  s.seeds.effect_field = "effect";
+  s.metric = MetricRequest::planar;
+  s.barriers = {land};
+  s.grid.resolution = 250.0;
+  s.grid.extent = std::array<double, 4>{0.0, 0.0, 40000.0, 40000.0};
+  s = with_outputs(s, "shut_in");
+  s.outputs.boundaries = (dir_ / "shut_in" / "lines.geojson").string();
+  s.outputs.regions = (dir_ / "shut_in" / "regions.geojson").string();
+  const nlohmann::json report = run_job(s).report;
+  const nlohmann::json& lines = report.at("deliverables").at("boundaries").at("partial_effect");
+  EXPECT_EQ(lines.at("stretches").get<int64_t>(), 1);
+  EXPECT_EQ(lines.at("along_lines").at("unresolved_segments").get<int64_t>(), 0);
+  EXPECT_GT(report.at("partial_effect").at("cells_to_neighbours").get<int64_t>(), 1000);
+  const nlohmann::json drawn = read_json(s.outputs.boundaries);
+  EXPECT_EQ(drawn.at("features").size(), 1u);
+  const Raster<int32_t> own = read_int32(s.outputs.ownership);
+  std::map<int32_t, double> cells;
+  for (const int32_t o : own.cells())
+    if (o != 0) cells[o] += 250.0 * 250.0;
+  const nlohmann::json regions = read_json(s.outputs.regions);
+  ASSERT_EQ(regions.at("features").size(), 2u);
+  for (const nlohmann::json& f : regions.at("features")) {
+    const int32_t owner = f.at("properties").at("owner").get<int32_t>();
+    const double sea = f.at("properties").at("sea_area").get<double>();
+    EXPECT_NEAR(sea, cells[owner], 0.005 * cells[owner]) << owner;
+  }
 }
 
 TEST_F(SeaJob, ValidationRunsTheOracleBySea) {

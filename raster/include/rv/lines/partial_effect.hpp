@@ -126,13 +126,20 @@ struct PartialLineStats {
 // `nil_index` the nil-effect field's): each band's locus is followed from its turning points;
 // where land cuts it, to the coast (the point where the coast has the balance 0; the vertex
 // BoundaryVertex::on_barrier, counted in PartialLineStats::coast_ends), and the line is cut there
-// into two lines. A line wholly in a band is refused as below.
-// Throws rv::Error(unsupported) where a line is all band (an enclave at full effect, with no
-// nil-effect line beside it), or the lines around a tripoint do not meet as above: the rasters
-// are exact there, the lines are not drawn.
+// into two lines. A full-effect line wholly in its band (every vertex B's partial site: a port of
+// X that the island shuts in, or an enclave of the island's at full effect), not ending at a
+// planned tripoint, has no turning point to follow from: given `full_field` and `rule_field` (the
+// full-effect field and partial_field's, whole, of `grid`) and `nil_index`, in either metric, the
+// line is dropped (the rule gives its side back to X) and the band's loci that no drawn line
+// follows are found where the rule's cells change owner and followed both ways to coasts, the
+// frame or round (lines of their own; a locus between no two cell centres is not drawn).
+// Throws rv::Error(unsupported) where a line is all band and those fields are not given, where a
+// locus so found cannot be followed (it meets a tripoint), or the lines around a tripoint do not
+// meet as above: the rasters are exact there, the lines are not drawn.
 BoundaryResult partial_boundaries(const PartialEffectRule& rule, const SeedSet& seeds, const OwnerIndex& index,
                                   const GridSpec& grid, double ftol, double line_tolerance, double simplify_cells,
-                                  PartialLineStats& stats, const OwnerIndex* nil_index = nullptr);
+                                  PartialLineStats& stats, const OwnerIndex* nil_index = nullptr,
+                                  const NearestField* full_field = nullptr, const NearestField* rule_field = nullptr);
 
 // How compute_partial_effect makes each effect's field and measure. Empty members: the straight
 // engine (compute) and make_site_metric, with the call's grid and options. The distance by sea

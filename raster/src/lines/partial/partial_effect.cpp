@@ -23,6 +23,7 @@
 #include "lines/boundary_stages.hpp"
 #include "lines/line_tools.hpp"
 #include "lines/partial/partial_follow.hpp"
+#include "lines/partial/partial_loci.hpp"
 #include "rv/field/error.hpp"
 #include "rv/field/parallel.hpp"
 #include "rv/lines/regions.hpp"
@@ -341,6 +342,9 @@ struct LineRewrite {
   // By sea (a metric that is not straight): the nil-effect index, for the band (partial_follow).
   const OwnerIndex* nil_index = nullptr;
   const GridSpec* grid = nullptr;
+  // The rule's cells can be had (partial_boundaries' `cells`): a line wholly in its band is left to
+  // them (Rewritten::wholly_in_band) instead of refused.
+  bool by_cells = false;
 
   const TripointPlan* plan_at(Vec2 p) const {
     for (const TripointPlan& t : plans)
@@ -485,11 +489,11 @@ struct LineRewrite {
 
   std::string label(int32_t owner) const { return owner_label(seeds, owner); }
 
-  // By sea: the level the locus is, for partial_follow.
-  partial_follow::Level level() const {
+  // The level the locus is, for partial_follow; `nil`: the nil-effect field's index.
+  partial_follow::Level level(const OwnerIndex& nil) const {
     partial_follow::Level l;
     l.balance = [this](Vec2 p) { return rule.balance(p, X); };
-    l.in_band = [this](Vec2 p) { return owner_at(index, p) == B && owner_at(*nil_index, p) == X; };
+    l.in_band = [this, &nil](Vec2 p) { return owner_at(index, p) == B && owner_at(nil, p) == X; };
     l.metric = &index.metric();
     l.grid = *grid;
     l.ftol = ftol;
@@ -508,7 +512,7 @@ struct LineRewrite {
     std::optional<Vec2> P, Q;
     if (!open_start) P = turning(v[i - 1], v[i]);
     if (!open_end) Q = turning(v[j + 1], v[j]);
-    const partial_follow::Level l = level();
+    const partial_follow::Level l = level(*nil_index);
     auto followed = [&](Vec2 from, const Vec2* to) {
       partial_follow::Followed f = partial_follow::follow(l, from, to, stats.residual);
       if (f.stop == partial_follow::Stop::lost)
@@ -541,10 +545,17 @@ struct LineRewrite {
   }
 
   // Rewrites `line`; by sea, where land cuts a band's locus, the line's pieces after the first go
-  // to `more`. False where the line has no partial vertex (left as it was).
-  bool rewrite(BoundaryLine& line, double cell, std::vector<BoundaryLine>& more) const {
+  // to `more`. `unchanged` where the line has no partial vertex; `wholly_in_band` (the line left
+  // as it was) where every vertex is partial and no end is a planned tripoint, when `by_cells`
+  // (the caller then draws the band's loci from the rule's cells).
+  enum class Rewritten { unchanged, rewritten, wholly_in_band };
+  Rewritten rewrite(BoundaryLine& line, double cell, std::vector<BoundaryLine>& more) const {
     std::vector<BoundaryVertex>& v = line.vertices;
-    if (std::none_of(v.begin(), v.end(), [&](const BoundaryVertex& x) { return partial(x); })) return false;
+    if (std::none_of(v.begin(), v.end(), [&](const BoundaryVertex& x) { return partial(x); }))
+      return Rewritten::unchanged;
+    const bool all = std::all_of(v.begin(), v.end(), [&](const BoundaryVertex& x) { return partial(x); });
+    if (all && by_cells && (line.closed || (plan_at(v.front().p) == nullptr && plan_at(v.back().p) == nullptr)))
+      return Rewritten::wholly_in_band;
     if (line.closed) {
       // Start at a common vertex: the bands are then runs inside the line.
       v.pop_back();
@@ -556,8 +567,7 @@ struct LineRewrite {
                                                 "effect instead (its lines are not drawn; the rasters are exact)");
       std::rotate(v.begin(), common, v.end());
       v.push_back(v.front());
-    } else if (partial(v.front()) && partial(v.back()) &&
-               std::all_of(v.begin(), v.end(), [&](const BoundaryVertex& x) { return partial(x); })) {
+    } else if (all) {
       throw Error(ErrorKind::unsupported, "partial effect: a line of owners " + label(B) + " and " + label(X) +
                                               " lies wholly in the band of the partial features, with no "
                                               "nil-effect stretch to anchor it; its lines are not drawn (the "
@@ -613,7 +623,7 @@ struct LineRewrite {
     line.bows.clear();  // (of the full-effect line's segments)
     if (pieces.empty()) {
       v = std::move(out);
-      return true;
+      return Rewritten::rewritten;
     }
     // Cut by land: a ring becomes one open line (its last piece joined to its first), and each
     // piece is a line of its own.
@@ -631,7 +641,7 @@ struct LineRewrite {
       more.push_back(std::move(piece));
     }
     v = std::move(pieces.front());
-    return true;
+    return Rewritten::rewritten;
   }
 
   void append(std::vector<BoundaryVertex>& out, const std::vector<Vec2>& pts) const {
@@ -809,11 +819,50 @@ int64_t extend_at_tripoints(const PartialEffectRule& rule, const std::vector<Tri
   return added;
 }
 
+// The loci of band (B, w.X) that no line in `out` or `more` follows, from the rule's cells
+// (partial_loci.hpp): the band of a full-effect line wholly in it. Each locus a line of its own,
+// ending on coasts or the frame, or closed.
+std::vector<BoundaryLine> loci_by_cells(const LineRewrite& w, const OwnerIndex& nil, const NearestField& full,
+                                        const NearestField& field, const BoundaryResult& out,
+                                        const std::vector<BoundaryLine>& more) {
+  std::vector<std::vector<Vec2>> drawn;
+  auto add_drawn = [&](const BoundaryLine& l) {
+    if (!((l.owner_a == w.B && l.owner_b == w.X) || (l.owner_a == w.X && l.owner_b == w.B))) return;
+    std::vector<Vec2>& pts = drawn.emplace_back();
+    for (const BoundaryVertex& v : l.vertices) pts.push_back(v.p);
+  };
+  for (const BoundaryLine& l : out.lines) add_drawn(l);
+  for (const BoundaryLine& l : more) add_drawn(l);
+  const partial_follow::Level level = w.level(nil);
+  std::vector<BoundaryLine> lines;
+  for (const partial_follow::Through& t :
+       partial_loci::loci_from_cells(level, full, field, w.seeds, w.B, w.X, drawn, w.stats.residual)) {
+    if (t.first == partial_follow::Stop::lost || t.last == partial_follow::Stop::lost || t.points.size() < 2)
+      throw Error(ErrorKind::unsupported, "partial effect: the partial-effect line of owners " + w.label(w.B) +
+                                              " and " + w.label(w.X) + " could not be followed from (" +
+                                              std::to_string(t.points.front().x) + ", " +
+                                              std::to_string(t.points.front().y) +
+                                              ") where it leaves the band; its lines are not drawn (the rasters "
+                                              "are exact)");
+    BoundaryLine l{w.b_is_a ? w.B : w.X, w.b_is_a ? w.X : w.B, t.first == partial_follow::Stop::closed, {}, {}};
+    for (const Vec2 p : t.points) l.vertices.push_back(w.vertex(p));
+    const bool coast_first = t.first == partial_follow::Stop::coast, coast_last = t.last == partial_follow::Stop::coast;
+    l.vertices.front().on_barrier = coast_first;
+    l.vertices.back().on_barrier = coast_last;
+    ++w.stats.stretches;
+    w.stats.points += static_cast<int64_t>(t.points.size());
+    w.stats.coast_ends += coast_first + coast_last;
+    lines.push_back(std::move(l));
+  }
+  return lines;
+}
+
 }  // namespace
 
 BoundaryResult partial_boundaries(const PartialEffectRule& rule, const SeedSet& seeds, const OwnerIndex& index,
                                   const GridSpec& grid, double ftol, double line_tolerance, double simplify_cells,
-                                  PartialLineStats& stats, const OwnerIndex* nil_index) {
+                                  PartialLineStats& stats, const OwnerIndex* nil_index, const NearestField* full_field,
+                                  const NearestField* rule_field) {
   BoundaryResult out = rule.full_lines();
   const PartialEffect& pe = rule.effect();
   if (!pe.any()) return out;
@@ -824,6 +873,7 @@ BoundaryResult partial_boundaries(const PartialEffectRule& rule, const SeedSet& 
                                    grid.res);
   const double per_crs = std::max(scale.at0.x, scale.at0.y);
   const double tol = std::max(line_tolerance / per_crs, 1e-9 * grid.res), simplify = simplify_cells * grid.res;
+  const bool by_cells = nil_index != nullptr && full_field != nullptr && rule_field != nullptr;
   int64_t vertices = 0;
   auto simplified = [&](BoundaryLine& line) {
     std::vector<Vec2> pts;
@@ -832,27 +882,46 @@ BoundaryResult partial_boundaries(const PartialEffectRule& rule, const SeedSet& 
     for (size_t j : simplify_indices(pts, simplify)) kept.push_back(line.vertices[j]);
     line.vertices = std::move(kept);
   };
-  std::vector<BoundaryLine> more;  // by sea: the pieces of lines that land cut
-  for (BoundaryLine& line : out.lines) {
+  auto rewriter = [&](int32_t X, bool b_is_a) {
+    LineRewrite w{rule, seeds,  index, ftol,  tol,     B,
+                  X,    b_is_a, stats, plans, per_crs, index.metric().straight() ? nullptr : nil_index,
+                  &grid};
+    w.by_cells = by_cells;
+    return w;
+  };
+  std::vector<BoundaryLine> more;                // by sea: the pieces of lines that land cut
+  std::vector<std::pair<int32_t, bool>> wholly;  // neighbours (and B's side) with a line wholly in the band
+  std::vector<bool> dropped(out.lines.size(), false);
+  for (size_t k = 0; k < out.lines.size(); ++k) {
+    BoundaryLine& line = out.lines[k];
     if (line.owner_a == B || line.owner_b == B) {
-      LineRewrite w{rule,
-                    seeds,
-                    index,
-                    ftol,
-                    tol,
-                    B,
-                    line.owner_a == B ? line.owner_b : line.owner_a,
-                    line.owner_a == B,
-                    stats,
-                    plans,
-                    per_crs,
-                    index.metric().straight() ? nullptr : nil_index,
-                    &grid};
+      const int32_t X = line.owner_a == B ? line.owner_b : line.owner_a;
+      const LineRewrite w = rewriter(X, line.owner_a == B);
       const size_t before = more.size();
-      if (w.rewrite(line, grid.res, more)) simplified(line);
-      for (size_t k = before; k < more.size(); ++k) simplified(more[k]);
+      const LineRewrite::Rewritten done = w.rewrite(line, grid.res, more);
+      if (done == LineRewrite::Rewritten::wholly_in_band) {
+        dropped[k] = true;
+        if (std::none_of(wholly.begin(), wholly.end(), [&](const auto& h) { return h.first == X; }))
+          wholly.emplace_back(X, line.owner_a == B);
+        continue;
+      }
+      if (done == LineRewrite::Rewritten::rewritten) simplified(line);
+      for (size_t j = before; j < more.size(); ++j) simplified(more[j]);
     }
     vertices += static_cast<int64_t>(line.vertices.size());
+  }
+  if (!wholly.empty()) {
+    std::vector<BoundaryLine> kept;
+    for (size_t k = 0; k < out.lines.size(); ++k)
+      if (!dropped[k]) kept.push_back(std::move(out.lines[k]));
+    out.lines = std::move(kept);
+  }
+  for (const auto& [X, b_is_a] : wholly) {
+    const LineRewrite w = rewriter(X, b_is_a);
+    for (BoundaryLine& l : loci_by_cells(w, *nil_index, *full_field, *rule_field, out, more)) {
+      simplified(l);
+      more.push_back(std::move(l));
+    }
   }
   for (BoundaryLine& line : more) {
     vertices += static_cast<int64_t>(line.vertices.size());
@@ -898,7 +967,7 @@ PartialEffectResult compute_partial_effect(const SeedSet& seeds, const GridSpec&
   const double ftol = std::max(lines.tolerance_cells, 1e-15) * cell_metric(grid, *r.metric);
   if (draw_lines)
     r.boundaries = partial_boundaries(*r.rule, seeds, *r.index, grid, ftol, lines.line_tolerance, lines.simplify_cells,
-                                      r.stats, r.nil_index.get());
+                                      r.stats, r.nil_index.get(), &r.full, &r.field);
   r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return r;
 }

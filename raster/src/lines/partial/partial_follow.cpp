@@ -80,7 +80,32 @@ struct Follower {
           norm(Vec2{out.x - c.x, out.y - c.y}) > 0.0)
         return true;
     }
-    return false;
+    return round_corner(c, dir, out);
+  }
+
+  // Where the level turns sharply at c (a corner: the nearest part of L0 or L1 changes there, as
+  // on the inner offset of a ring's corner), the tangent's step finds no root across it: the
+  // locus is then taken where it crosses the circle of half a step round c, at the crossing most
+  // along `dir` (the other one leads back). False where the circle has no crossing in the band.
+  bool round_corner(Vec2 c, Vec2 dir, Vec2& out) const {
+    constexpr int kRound = 256;
+    const double r = 0.5 * step, w = 2.0 * std::numbers::pi / kRound;
+    auto on_circle = [&](double a) { return Vec2{c.x + r * std::cos(a), c.y + r * std::sin(a)}; };
+    std::vector<double> f(kRound);
+    for (int k = 0; k < kRound; ++k) f[k] = L.balance(on_circle(w * k));
+    double best = -0.9;  // (a turn of up to about 150 degrees; the crossing behind lies near -1)
+    for (int k = 0; k < kRound; ++k) {
+      const int m = (k + 1) % kRound;
+      if (!std::isfinite(f[k]) || !std::isfinite(f[m]) || (f[k] < 0.0) == (f[m] < 0.0)) continue;
+      const double a0 = w * k;
+      const Vec2 p = on_circle(
+          a0 + w * find_root([&](double u) { return L.balance(on_circle(a0 + w * u)); }, f[k], f[m], L.ftol, 1e-15));
+      const double along = ((p.x - c.x) * dir.x + (p.y - c.y) * dir.y) / r;
+      if (along <= best || !sees(c, p)) continue;
+      best = along;
+      out = p;
+    }
+    return best > -0.9;
   }
 
   bool outside_frame(Vec2 p) const {
@@ -156,59 +181,98 @@ struct Follower {
     refine(m, b, depth + 1, out);
   }
 
-  Followed run(Vec2 start, const Vec2* target) const {
-    Followed f;
-    std::vector<Vec2> pts{start};
-    Vec2 p;
-    if (!first(start, p)) return Followed{pts, Stop::lost};
-    pts.push_back(p);
+  // Walks the locus on from pts.back() (pts: the start, and the points found so far; with one
+  // point, the first step goes along `dir0`): until `target`, the frame, a coast, out of the
+  // band, or back at pts.front() where `closing` (a loop: once more than three steps away from
+  // it, back within one and a half). Appends the points walked; returns how the walk ended.
+  Stop walk(std::vector<Vec2>& pts, Vec2 dir0, const Vec2* target, bool closing) const {
     // A band is crossed in well under this many steps (its length over half a cell, with room).
     const auto limit = static_cast<int64_t>(8 * (L.grid.width + L.grid.height)) + 64;
-    Stop stop = Stop::lost;
+    const Vec2 origin = pts.front();
+    bool away = false;
     for (int64_t k = 0; k < limit; ++k) {
       const Vec2 c = pts.back();
       if (target && norm(Vec2{c.x - target->x, c.y - target->y}) <= 1.5 * step) {
         if (pts.size() > 2) pts.pop_back();
         pts.push_back(*target);
-        stop = Stop::target;
-        break;
+        return Stop::target;
       }
-      const Vec2 before = pts[pts.size() - 2];
-      const double dl = norm(Vec2{c.x - before.x, c.y - before.y});
-      const Vec2 dir{(c.x - before.x) / dl, (c.y - before.y) / dl};
+      const double from_origin = norm(Vec2{c.x - origin.x, c.y - origin.y});
+      away = away || from_origin > 3.0 * step;
+      if (closing && away && from_origin <= 1.5 * step) {
+        pts.back() = origin;
+        return Stop::closed;
+      }
+      Vec2 dir = dir0;
+      if (pts.size() >= 2) {
+        const Vec2 before = pts[pts.size() - 2];
+        const double dl = norm(Vec2{c.x - before.x, c.y - before.y});
+        dir = Vec2{(c.x - before.x) / dl, (c.y - before.y) / dl};
+      }
       Vec2 r;
-      if (!next(c, dir, r)) break;
+      if (!next(c, dir, r)) return Stop::lost;
       if (outside_frame(r)) {
         pts.push_back(onto_frame(c, r));
-        stop = Stop::frame;
-        break;
+        return Stop::frame;
       }
       if (!L.metric->open_between(c, r)) {
         // Land across the step: the coast's point where the balance is 0, seen from c.
         Vec2 at;
-        if (onto_coast(c, at)) {
-          pts.push_back(at);
-          stop = Stop::coast;
-        }
-        break;
+        if (!onto_coast(c, at)) return Stop::lost;
+        pts.push_back(at);
+        return Stop::coast;
       }
       if (!L.in_band(r)) {
         // Out of the band away from land: only where L0 meets L1, at the target.
         if (target && norm(Vec2{r.x - target->x, r.y - target->y}) <= 3.0 * step) {
           pts.push_back(*target);
-          stop = Stop::target;
+          return Stop::target;
         }
-        break;
+        return Stop::lost;
       }
       pts.push_back(r);
     }
-    f.stop = stop;
-    f.points.push_back(pts.front());
+    return Stop::lost;
+  }
+
+  // The walked points with their chords refined onto the locus.
+  std::vector<Vec2> refined(const std::vector<Vec2>& pts) const {
+    std::vector<Vec2> out{pts.front()};
     for (size_t i = 1; i < pts.size(); ++i) {
-      refine(pts[i - 1], pts[i], 0, f.points);
-      f.points.push_back(pts[i]);
+      refine(pts[i - 1], pts[i], 0, out);
+      out.push_back(pts[i]);
     }
-    return f;
+    return out;
+  }
+
+  Followed run(Vec2 start, const Vec2* target) const {
+    std::vector<Vec2> pts{start};
+    Vec2 p;
+    if (!first(start, p)) return Followed{pts, Stop::lost};
+    pts.push_back(p);
+    const Stop stop = walk(pts, Vec2{}, target, false);
+    return Followed{refined(pts), stop};
+  }
+
+  Through through(Vec2 on) const {
+    Through t;
+    const Vec2 g = gradient(on);
+    const double gn = norm(g);
+    if (!(gn > 0.0) || !std::isfinite(gn)) return t;
+    const Vec2 tangent{-g.y / gn, g.x / gn};
+    std::vector<Vec2> ahead{on};
+    t.last = walk(ahead, tangent, nullptr, true);
+    if (t.last == Stop::closed) {
+      t.first = Stop::closed;
+      t.points = refined(ahead);
+      return t;
+    }
+    std::vector<Vec2> behind{on};
+    t.first = walk(behind, Vec2{-tangent.x, -tangent.y}, nullptr, false);
+    std::reverse(behind.begin(), behind.end());
+    behind.insert(behind.end(), ahead.begin() + 1, ahead.end());
+    t.points = refined(behind);
+    return t;
   }
 };
 
@@ -216,6 +280,10 @@ struct Follower {
 
 Followed follow(const Level& level, Vec2 start, const Vec2* target, LineResidual& residual) {
   return Follower{level, residual, 0.5 * level.grid.res}.run(start, target);
+}
+
+Through follow_through(const Level& level, Vec2 on, LineResidual& residual) {
+  return Follower{level, residual, 0.5 * level.grid.res}.through(on);
 }
 
 }  // namespace rv::partial_follow

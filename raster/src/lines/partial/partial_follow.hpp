@@ -11,6 +11,11 @@
 // predicted along the level's tangent, each point placed on it across that step (a root of the
 // balance), until it reaches the other turning point, a coast (its end then on the barrier's edge,
 // where the coast has the balance 0) or the frame.
+// A band with no turning point at all -- a full-effect line wholly in it, such as a port that the
+// island shuts in at full effect -- has no start to follow from; its locus is found where the
+// rule's cells change owner (partial_loci.hpp) and followed both ways from there to coasts or the
+// frame, or round to where it began (follow_through). That holds for the straight metric as well
+// (no land: every step open).
 //
 // Internal to rv_raster. Thread safety: pure over its arguments (the functions must be callable
 // from the calling thread).
@@ -41,6 +46,7 @@ enum class Stop {
   coast,   // ended on a barrier's edge (the last point, BoundaryVertex::on_barrier)
   frame,   // ended on the frame of the outermost cell centres
   lost,    // the level could not be followed on (no root across a step)
+  closed,  // back at its start (follow_through: a loop; the last point is the first)
 };
 
 struct Followed {
@@ -53,5 +59,17 @@ struct Followed {
 // coast or the frame; its chords then made to lie within level.tol of the locus (midpoints
 // added), each chord kept measured into `residual`.
 Followed follow(const Level& level, Vec2 start, const Vec2* target, LineResidual& residual);
+
+// A locus followed both ways from a point of it inside its band.
+struct Through {
+  std::vector<Vec2> points;                    // from one end to the other (closed: last == first)
+  Stop first = Stop::lost, last = Stop::lost;  // how each end was reached (both `closed` for a loop)
+};
+
+// The locus through `on` (a point of it in the band where it crosses no line yet drawn: where
+// the rule's cells change owner, partial_loci.hpp) followed both ways, each to a coast or the
+// frame, or round to `on` again; its chords made to lie within level.tol of the locus as follow's.
+// Empty where the level has no direction at `on`.
+Through follow_through(const Level& level, Vec2 on, LineResidual& residual);
 
 }  // namespace rv::partial_follow
