@@ -236,21 +236,27 @@ TEST(PartialEffect, TwoNeighboursMeetAtThePartialTripoint) {
 // A port of A's shut in by an island of B's at full effect (no land: the straight metric): the
 // A-B full line is the bisector of the port and the island, frame to frame, every vertex the
 // island's -- wholly in the band, with no turning point. The line is dropped (the rule gives the
-// cells beside it back to A) and the locus, between it and the nil line x = 10, is found where
-// the rule's cells change owner and followed to the frame: every cell by the rule, every A-B
-// vertex on the locus, and a line between every two neighbouring cells of A and B.
-TEST(PartialEffect, AFullLineWhollyInTheBandGivesTheLocusFoundFromTheCells) {
+// cells beside it back to A) and the locus, between it and the nil line halfway to B's port, is
+// found where the rule's cells change owner and followed to the frame: every cell by the rule,
+// every A-B vertex on the locus, and a line between every two neighbouring cells of A and B.
+// Planar in units of 1, and geodesic on a longitude/latitude grid in units of 0.01 degree.
+void check_shut_in(bool geodesic) {
+  const double u = geodesic ? 0.01 : 1.0;
+  const Vec2 o = geodesic ? Vec2{10.0, 55.0} : Vec2{0.0, 0.0};
+  auto at = [&](double x, double y) { return Vec2{o.x + x * u, o.y + y * u}; };
   SeedSet s;
   const int32_t a = s.owner_code("A"), b = s.owner_code("B");
-  s.add_point(s.add_feature(a), Vec2{0.0, 0.0});
-  s.add_point(s.add_feature(b), Vec2{20.0, 0.0});
+  s.add_point(s.add_feature(a), at(0.0, 0.0));
+  s.add_point(s.add_feature(b), at(20.0, 0.0));
   const int32_t island = s.add_feature(b);
-  s.add_polygon(island, {{{2.0, -1.0}, {3.0, -1.0}, {3.0, 1.0}, {2.0, 1.0}}});
+  s.add_polygon(island, {{at(2.0, -1.0), at(3.0, -1.0), at(3.0, 1.0), at(2.0, 1.0)}});
   s.set_effect(island, 0.5);
-  const GridSpec g = test::grid_of(160, 120, 0.25, -10.0, 15.0);
-  const PartialEffectResult r = compute_partial_effect(s, g, ComputeOptions{}, BoundaryOptions{});
+  const GridSpec g = test::grid_of(160, 120, 0.25 * u, o.x - 10.0 * u, o.y + 15.0 * u);
+  ComputeOptions opt;
+  if (geodesic) opt.metric = MetricSpec{MetricSpec::geodesic};
+  const PartialEffectResult r = compute_partial_effect(s, g, opt, BoundaryOptions{});
   ASSERT_TRUE(r.rule);
-  const NearestField nil = compute(*r.nil_seeds, g, ComputeOptions{});
+  const NearestField nil = compute(*r.nil_seeds, g, opt);
   int64_t band = 0, returned = 0;
   for (int64_t row = 0; row < g.height; ++row)
     for (int64_t col = 0; col < g.width; ++col) {
@@ -265,17 +271,23 @@ TEST(PartialEffect, AFullLineWhollyInTheBandGivesTheLocusFoundFromTheCells) {
   EXPECT_GT(returned, 100);
   EXPECT_LT(returned, band);
   EXPECT_EQ(r.stats.stretches, 1);
+  // (Metric units: 1e-6 of a unit, planar; a millimetre, geodesic.)
+  const double on_locus = geodesic ? 1e-3 : 1e-6;
   int64_t vertices = 0;
   for (const BoundaryLine& l : r.boundaries.lines) {
     EXPECT_FALSE(l.closed);
     for (const BoundaryVertex& v : l.vertices) {
       ++vertices;
-      EXPECT_LT(std::abs(r.rule->balance(v.p, a)), 1e-6) << v.p.x << ", " << v.p.y;
+      EXPECT_LT(std::abs(r.rule->balance(v.p, a)), on_locus) << v.p.x << ", " << v.p.y;
     }
   }
   EXPECT_GT(vertices, 20);
   EXPECT_GT(test::expect_lines_between(r.field, s, g, r.boundaries, a, b, [](Vec2, Vec2) { return true; }), 50);
 }
+
+TEST(PartialEffect, AFullLineWhollyInTheBandGivesTheLocusFoundFromTheCells) { check_shut_in(false); }
+
+TEST(PartialEffect, OnTheEllipsoidTooTheLocusIsFoundFromTheCells) { check_shut_in(true); }
 
 TEST(PartialEffect, InputRules) {
   SeedSet s = rays(0.5);

@@ -360,6 +360,35 @@ TEST(SeaPartial, AnEnclaveGivesAClosedLocus) {
   EXPECT_EQ(c.closed_lines, 1);
 }
 
+// The same enclave at half effect: the rule gives the whole ring back to X, so the ring is no
+// line and nothing is drawn in its place (only the B-X line between the mainlands, far east);
+// every cell is still the rule's, and every B-X change of owner has its line.
+TEST(SeaPartial, AnEnclaveGivenBackWholeDrawsNoRing) {
+  Strait s = strait({{11.5, 19}, {12.5, 19}, {12.5, 21}, {11.5, 21}}, false, 0.5);
+  s.seeds.add_point(s.seeds.add_feature(s.seeds.owner_code("X")), {16, 20});
+  const GridSpec g = test::grid_of(160, 160, 0.25);
+  const PartialEffectResult r =
+      compute_partial_effect(s.seeds, g, ComputeOptions{}, BoundaryOptions{}, true, by_sea(s.land, g));
+  ASSERT_TRUE(r.rule);
+  const int32_t B = 2, X = 1;
+  int64_t enclave = 0;
+  for (size_t i = 0; i < r.field.site.cells().size(); ++i) {
+    const int32_t fs = r.full.site.cells()[i];
+    if (fs == kNoSite || !r.rule->effect().partial[static_cast<size_t>(s.seeds.site_feature(fs))]) continue;
+    ++enclave;
+    EXPECT_EQ(s.seeds.site_owner(r.field.site.cells()[i]), X) << i;
+  }
+  EXPECT_GT(enclave, 100);
+  EXPECT_EQ(r.stats.stretches, 0);
+  for (const BoundaryLine& l : r.boundaries.lines) {
+    EXPECT_FALSE(l.closed);
+    for (const BoundaryVertex& v : l.vertices) EXPECT_GT(v.p.x, 17.0) << v.p.x << ", " << v.p.y;
+  }
+  EXPECT_GT(test::expect_lines_between(r.field, s.seeds, g, r.boundaries, B, X,
+                                       [&](Vec2 p, Vec2 q) { return r.metric->open_between(p, q); }),
+            100);
+}
+
 // Without the fields the line wholly in the band is still refused in one line, and the rasters
 // alone are the rule's.
 TEST(SeaPartial, AFullLineWhollyInTheBandWithoutTheFieldsIsRefusedInOneLine) {
