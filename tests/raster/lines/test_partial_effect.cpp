@@ -7,7 +7,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <numbers>
+#include <utility>
 
 #include "line_compare.hpp"
 #include "partial_rays.hpp"
@@ -288,6 +290,62 @@ void check_shut_in(bool geodesic) {
 TEST(PartialEffect, AFullLineWhollyInTheBandGivesTheLocusFoundFromTheCells) { check_shut_in(false); }
 
 TEST(PartialEffect, OnTheEllipsoidTooTheLocusIsFoundFromTheCells) { check_shut_in(true); }
+
+// An island far from its owner's nil-effect lines (as Bornholm): three neighbours X, Y and Z round
+// it, B's mainland a line far north. At half effect the balance stays below 0 over the island's
+// whole zone, so no partial line reaches the neighbours' nil-effect lines at the full-effect
+// tripoints: the rule gives the zone back whole, and the result's lines there are the nil-effect
+// ones, meeting at the nil-effect tripoint of X, Y and Z inside the zone. Every cell is the
+// nil-effect run's owner; the lines of every two owners lie on their nil-effect lines (none is
+// left round the island) and separate every two neighbouring cells of theirs; the tripoints are
+// the nil-effect run's.
+TEST(PartialEffect, AnIslandGivenBackWholeAtItsTripointsHasTheNilEffectLines) {
+  SeedSet s;
+  const int32_t x = s.owner_code("X"), y = s.owner_code("Y"), z = s.owner_code("Z"), b = s.owner_code("B");
+  s.add_point(s.add_feature(x), Vec2{0.0, 10.0});
+  s.add_point(s.add_feature(y), Vec2{-9.0, -5.0});
+  s.add_point(s.add_feature(z), Vec2{9.0, -5.0});
+  s.add_polyline(s.add_feature(b), std::vector<Vec2>{{-100.0, 30.0}, {100.0, 30.0}});
+  const int32_t island = s.add_feature(b);
+  s.add_polygon(island, {{{-1.0, -1.0}, {1.0, -1.0}, {1.0, 1.0}, {-1.0, 1.0}}});
+  s.set_effect(island, 0.5);
+  const GridSpec g = test::grid_of(320, 220, 0.25, -40.0, 25.0);
+  const PartialEffectResult r = compute_partial_effect(s, g, ComputeOptions{}, BoundaryOptions{});
+  ASSERT_TRUE(r.rule);
+  const NearestField nil = compute(*r.nil_seeds, g, ComputeOptions{});
+  int64_t taken = 0;
+  for (size_t i = 0; i < nil.site.cells().size(); ++i) {
+    ASSERT_EQ(s.site_owner(r.field.site.cells()[i]), r.nil_seeds->site_owner(nil.site.cells()[i])) << i;
+    taken += s.site_owner(r.full.site.cells()[i]) == b && r.nil_seeds->site_owner(nil.site.cells()[i]) != b;
+  }
+  EXPECT_GT(taken, 500);  // the island's zone at full effect
+  const BoundaryResult& nil_lines = r.rule->nil_lines();
+  auto to_nil_line = [&](Vec2 p, int32_t o1, int32_t o2) {
+    double best = std::numeric_limits<double>::infinity();
+    for (const BoundaryLine& l : nil_lines.lines)
+      if ((l.owner_a == o1 && l.owner_b == o2) || (l.owner_a == o2 && l.owner_b == o1))
+        for (size_t k = 0; k + 1 < l.vertices.size(); ++k)
+          best = std::min(best, to_segment(p, l.vertices[k].p, l.vertices[k + 1].p));
+    return best;
+  };
+  for (const BoundaryLine& l : r.boundaries.lines)
+    for (const BoundaryVertex& v : l.vertices) {
+      EXPECT_LT(to_nil_line(v.p, l.owner_a, l.owner_b), 1e-6)
+          << l.owner_a << "-" << l.owner_b << " " << v.p.x << ", " << v.p.y;
+    }
+  for (const auto& [o1, o2] : {std::pair{x, y}, std::pair{y, z}, std::pair{x, z}})
+    EXPECT_GT(test::expect_lines_between(r.field, s, g, r.boundaries, o1, o2, [](Vec2, Vec2) { return true; }), 20);
+  ASSERT_EQ(r.boundaries.tripoints.size(), nil_lines.tripoints.size());
+  bool inner = false;
+  for (const Tripoint& t : r.boundaries.tripoints) {
+    const bool found = std::any_of(nil_lines.tripoints.begin(), nil_lines.tripoints.end(), [&](const Tripoint& n) {
+      return n.p == t.p && std::equal(n.owners, n.owners + 3, t.owners);
+    });
+    EXPECT_TRUE(found) << t.p.x << ", " << t.p.y;
+    inner = inner || (t.owners[0] == x && t.owners[1] == y && t.owners[2] == z && std::hypot(t.p.x, t.p.y) < 1.0);
+  }
+  EXPECT_TRUE(inner);
+}
 
 TEST(PartialEffect, InputRules) {
   SeedSet s = rays(0.5);

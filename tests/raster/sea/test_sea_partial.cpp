@@ -17,8 +17,10 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <numbers>
 #include <string>
+#include <utility>
 
 #include "line_compare.hpp"
 #include "partial_rays.hpp"
@@ -387,6 +389,58 @@ TEST(SeaPartial, AnEnclaveGivenBackWholeDrawsNoRing) {
   EXPECT_GT(test::expect_lines_between(r.field, s.seeds, g, r.boundaries, B, X,
                                        [&](Vec2 p, Vec2 q) { return r.metric->open_between(p, q); }),
             100);
+}
+
+// An island far from its owner's nil-effect lines, by sea (as Bornholm): three neighbours' ports
+// round it, B's mainland coast far north, the island land in both runs. At half effect the rule
+// gives its whole zone back, so the result is the nil-effect run's: the same owner in every cell,
+// the neighbours' lines their nil-effect lines by sea (ending on the island's coast, where the
+// island is land), the same tripoints, and no line left round the island.
+TEST(SeaPartial, AnIslandGivenBackWholeHasTheNilEffectLinesBySea) {
+  SeedSet s;
+  const int32_t x = s.owner_code("X"), y = s.owner_code("Y"), z = s.owner_code("Z"), b = s.owner_code("B");
+  s.add_point(s.add_feature(x), Vec2{20.0, 30.0});
+  s.add_point(s.add_feature(y), Vec2{11.0, 15.0});
+  s.add_point(s.add_feature(z), Vec2{29.0, 15.0});
+  s.add_polyline(s.add_feature(b), std::vector<Vec2>{{-80.0, 50.0}, {120.0, 50.0}});
+  const std::vector<Vec2> ring{{19.0, 19.0}, {21.0, 19.0}, {21.0, 21.0}, {19.0, 21.0}};
+  const int32_t island = s.add_feature(b);
+  s.add_polygon(island, {ring});
+  s.set_effect(island, 0.5);
+  Barriers land;
+  land.add_polygon({ring}, "island");
+  const GridSpec g = test::grid_of(160, 160, 0.25);
+  const PartialEffectResult r =
+      compute_partial_effect(s, g, ComputeOptions{}, BoundaryOptions{}, true, by_sea(land, g));
+  ASSERT_TRUE(r.rule);
+  const NearestField nil = compute_sea(*r.nil_seeds, land, g, g.full_window()).field;
+  int64_t taken = 0;
+  for (size_t i = 0; i < nil.site.cells().size(); ++i) {
+    const int32_t ns = nil.site.cells()[i];
+    if (ns == kNoSite) {
+      EXPECT_EQ(r.field.site.cells()[i], kNoSite);
+      continue;
+    }
+    ASSERT_EQ(s.site_owner(r.field.site.cells()[i]), r.nil_seeds->site_owner(ns)) << i;
+    taken += s.site_owner(r.full.site.cells()[i]) == b && r.nil_seeds->site_owner(ns) != b;
+  }
+  EXPECT_GT(taken, 500);
+  const BoundaryResult& nil_lines = r.rule->nil_lines();
+  int64_t on_coast = 0;
+  for (const BoundaryLine& l : r.boundaries.lines)
+    for (const BoundaryVertex& v : l.vertices) {
+      double best = std::numeric_limits<double>::infinity();
+      for (const BoundaryLine& n : nil_lines.lines)
+        if (n.owner_a == l.owner_a && n.owner_b == l.owner_b) best = std::min(best, to_polyline(v.p, n.vertices));
+      EXPECT_LT(best, 1e-6) << l.owner_a << "-" << l.owner_b << " " << v.p.x << ", " << v.p.y;
+      on_coast += v.on_barrier;
+    }
+  EXPECT_GE(on_coast, 3);  // the three neighbours' lines end on the island's coast
+  for (const auto& [o1, o2] : {std::pair{x, y}, std::pair{y, z}, std::pair{x, z}})
+    EXPECT_GT(test::expect_lines_between(r.field, s, g, r.boundaries, o1, o2,
+                                         [&](Vec2 p, Vec2 q) { return r.metric->open_between(p, q); }),
+              20);
+  EXPECT_EQ(r.boundaries.tripoints.size(), nil_lines.tripoints.size());
 }
 
 // Without the fields the line wholly in the band is still refused in one line, and the rasters

@@ -133,9 +133,16 @@ struct PartialLineStats {
 // line is dropped (the rule gives its side back to X) and the band's loci that no drawn line
 // follows are found where the rule's cells change owner and followed both ways to coasts, the
 // frame or round (lines of their own; a locus between no two cell centres is not drawn).
+// Where both bands at a full-effect tripoint are given back all along the neighbours' nil-effect
+// line from it (an island far from its owner's nil-effect lines), that tripoint is no tripoint of
+// the result: the neighbours' line follows their nil-effect line to its end (a nil-effect
+// tripoint of three neighbours inside the zone, then one of the result, or a coast or the frame),
+// nil-effect lines lying wholly where both sides are given back are lines of the result, and the
+// island's lines ending there are left to the cells as above.
 // Throws rv::Error(unsupported) where a line is all band and those fields are not given, where a
-// locus so found cannot be followed (it meets a tripoint), or the lines around a tripoint do not
-// meet as above: the rasters are exact there, the lines are not drawn.
+// locus so found cannot be followed (it meets a tripoint), where only one band at a tripoint is
+// given back whole, or the lines around a tripoint do not meet as above: the rasters are exact
+// there, the lines are not drawn.
 BoundaryResult partial_boundaries(const PartialEffectRule& rule, const SeedSet& seeds, const OwnerIndex& index,
                                   const GridSpec& grid, double ftol, double line_tolerance, double simplify_cells,
                                   PartialLineStats& stats, const OwnerIndex* nil_index = nullptr,

@@ -24,6 +24,8 @@
 #include "lines/line_tools.hpp"
 #include "lines/partial/partial_follow.hpp"
 #include "lines/partial/partial_loci.hpp"
+#include "lines/partial/partial_tripoints.hpp"
+#include "lines/partial/polyline_along.hpp"
 #include "rv/field/error.hpp"
 #include "rv/field/parallel.hpp"
 #include "rv/lines/regions.hpp"
@@ -32,15 +34,14 @@
 namespace rv {
 
 using namespace line_tools;
+using namespace polyline_along;
+using partial_tripoints::owner_label;
+using partial_tripoints::TripointPlan;
 
 namespace {
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
 constexpr int kMaxDepth = 12;
-
-std::string owner_label(const SeedSet& seeds, int32_t owner) {
-  return "'" + seeds.owner_labels()[static_cast<size_t>(owner - 1)] + "'";
-}
 
 std::string effect_text(double e) {
   char buf[32];
@@ -235,98 +236,6 @@ NearestField partial_field(const NearestField& full, const NearestField& nil, co
 }
 
 namespace {
-
-// A position along a polyline: segment k, fraction t of it.
-struct Along {
-  size_t k = 0;
-  double t = 0.0, distance = kInf;
-  double at() const { return static_cast<double>(k) + t; }
-};
-
-Along project(const std::vector<Vec2>& pts, Vec2 p) {
-  Along best;
-  for (size_t k = 0; k + 1 < pts.size(); ++k) {
-    const Vec2 a = pts[k], b = pts[k + 1];
-    const double dx = b.x - a.x, dy = b.y - a.y, len2 = dx * dx + dy * dy;
-    const double t = len2 > 0.0 ? std::clamp(((p.x - a.x) * dx + (p.y - a.y) * dy) / len2, 0.0, 1.0) : 0.0;
-    const double d = std::hypot(a.x + t * dx - p.x, a.y + t * dy - p.y);
-    if (d < best.distance) best = Along{k, t, d};
-  }
-  return best;
-}
-
-double length(const std::vector<Vec2>& pts) {
-  double s = 0.0;
-  for (size_t k = 0; k + 1 < pts.size(); ++k) s += std::hypot(pts[k + 1].x - pts[k].x, pts[k + 1].y - pts[k].y);
-  return s;
-}
-
-// The stretch of polyline `pts` from position u to position v (either direction), its ends
-// included; on a closed line (last vertex == first) the shorter of the two ways round.
-std::vector<Vec2> stretch(const std::vector<Vec2>& pts, bool closed, Along u, Along v) {
-  auto point = [&](const Along& a) { return lerp(pts[a.k], pts[a.k + 1], a.t); };
-  auto straight = [&](const Along& from, const Along& to) {
-    std::vector<Vec2> out{point(from)};
-    if (from.at() <= to.at()) {
-      for (size_t m = from.k + 1 + (from.t >= 1.0 ? 1 : 0); static_cast<double>(m) < to.at(); ++m)
-        out.push_back(pts[m]);
-    } else {
-      for (size_t m = from.t > 0.0 ? from.k : from.k - 1; static_cast<double>(m) > to.at() && m < pts.size(); --m)
-        out.push_back(pts[m]);
-    }
-    out.push_back(point(to));
-    return out;
-  };
-  std::vector<Vec2> direct = straight(u, v);
-  if (!closed) return direct;
-  // The other way round: through the closing vertex (pts.front() == pts.back()).
-  const size_t last = pts.size() - 2;  // the last segment
-  std::vector<Vec2> round;
-  if (u.at() <= v.at()) {
-    round = straight(u, Along{0, 0.0, 0.0});
-    const std::vector<Vec2> tail = straight(Along{last, 1.0, 0.0}, v);
-    round.insert(round.end(), tail.begin() + 1, tail.end());
-  } else {
-    round = straight(u, Along{last, 1.0, 0.0});
-    const std::vector<Vec2> tail = straight(Along{0, 0.0, 0.0}, v);
-    round.insert(round.end(), tail.begin() + 1, tail.end());
-  }
-  return length(round) < length(direct) ? round : direct;
-}
-
-// The point at fraction s of a polyline's length (`cum`: its cumulative lengths).
-Vec2 at_fraction(const std::vector<Vec2>& pts, const std::vector<double>& cum, double s) {
-  const double target = s * cum.back();
-  const size_t k = std::min<size_t>(static_cast<size_t>(std::upper_bound(cum.begin(), cum.end(), target) - cum.begin()),
-                                    pts.size() - 1);
-  if (k == 0) return pts.front();
-  const double seg = cum[k] - cum[k - 1];
-  return seg > 0.0 ? lerp(pts[k - 1], pts[k], (target - cum[k - 1]) / seg) : pts[k];
-}
-
-std::vector<double> cumulative(const std::vector<Vec2>& pts) {
-  std::vector<double> cum(pts.size(), 0.0);
-  for (size_t k = 1; k < pts.size(); ++k)
-    cum[k] = cum[k - 1] + std::hypot(pts[k].x - pts[k - 1].x, pts[k].y - pts[k - 1].y);
-  return cum;
-}
-
-// Where the partial features' zone meets two neighbours X and Y at a full-effect tripoint T: the
-// two bands (X's and Y's cells that B takes at full effect) share the nil-effect X-Y line from T
-// into the zone (S). Each band's partial line ends where it meets S (M_X, M_Y: where that
-// neighbour's balance changes sign along S); the one nearer T is the partial tripoint, the other
-// owner's line goes on along S to it, and the X-Y line follows S from T to it.
-struct TripointPlan {
-  size_t index = 0;  // into the tripoints
-  Vec2 T;
-  std::array<int32_t, 2> owners{0, 0};  // X, Y
-  std::vector<Vec2> S;                  // from T
-  std::array<Along, 2> at{};            // M_X, M_Y on S
-  std::array<Vec2, 2> m{};
-  int first = 0;  // whose M is nearer T
-  Vec2 tripoint() const { return m[static_cast<size_t>(first)]; }
-  int side(int32_t owner) const { return owner == owners[0] ? 0 : 1; }
-};
 
 // One line of owners B and X being rewritten.
 struct LineRewrite {
@@ -554,7 +463,12 @@ struct LineRewrite {
     if (std::none_of(v.begin(), v.end(), [&](const BoundaryVertex& x) { return partial(x); }))
       return Rewritten::unchanged;
     const bool all = std::all_of(v.begin(), v.end(), [&](const BoundaryVertex& x) { return partial(x); });
-    if (all && by_cells && (line.closed || (plan_at(v.front().p) == nullptr && plan_at(v.back().p) == nullptr)))
+    // (An end at a planned tripoint whose bands are given back whole has nothing to follow either.)
+    auto free_end = [&](Vec2 p) {
+      const TripointPlan* tp = plan_at(p);
+      return tp == nullptr || tp->whole;
+    };
+    if (all && by_cells && (line.closed || (free_end(v.front().p) && free_end(v.back().p))))
       return Rewritten::wholly_in_band;
     if (line.closed) {
       // Start at a common vertex: the bands are then runs inside the line.
@@ -590,6 +504,11 @@ struct LineRewrite {
       // an end of the line (the edge of the grid or of the owned area) runs to or from there.
       const bool open_start = i == 0, open_end = j + 1 == v.size();
       const TripointPlan* tp = open_end && !open_start ? plan_at(v.back().p) : nullptr;
+      if (tp != nullptr && tp->whole)
+        throw Error(ErrorKind::unsupported,
+                    "partial effect: the line of owners " + label(B) + " and " + label(X) +
+                        " leaves their nil-effect line for a tripoint where the rule gives the zone of the partial "
+                        "features back whole; its lines are not drawn (the rasters are exact)");
       if (tp != nullptr) {
         to_tripoint(v, i, *tp, cell, out);
         break;
@@ -688,137 +607,6 @@ struct LineRewrite {
 
 namespace {
 
-// The plans of the full-effect tripoints where the partial features' zone meets two neighbours.
-std::vector<TripointPlan> plan_tripoints(const PartialEffectRule& rule, const SeedSet& seeds,
-                                         const BoundaryResult& full, double cell, double ftol) {
-  const PartialEffect& pe = rule.effect();
-  const int32_t B = pe.owner;
-  std::vector<TripointPlan> plans;
-  for (size_t n = 0; n < full.tripoints.size(); ++n) {
-    const Tripoint& t = full.tripoints[n];
-    int kb = -1;
-    for (int k = 0; k < 3; ++k)
-      if (t.owners[k] == B && t.sites[k] != kNoSite && pe.partial[static_cast<size_t>(seeds.site_feature(t.sites[k]))])
-        kb = k;
-    if (kb < 0) continue;
-    TripointPlan tp;
-    tp.index = n;
-    tp.T = t.p;
-    for (int k = 0, q = 0; k < 3; ++k)
-      if (k != kb) tp.owners[static_cast<size_t>(q++)] = t.owners[k];
-    const int32_t X = tp.owners[0], Y = tp.owners[1];
-    auto refuse = [&](const std::string& why) {
-      throw Error(ErrorKind::unsupported, "partial effect: where the zone of the partial features of " +
-                                              owner_label(seeds, B) + " meets " + owner_label(seeds, X) + " and " +
-                                              owner_label(seeds, Y) + ", " + why +
-                                              "; the lines of this case are not drawn (the rasters are exact)");
-    };
-    auto of_pair = [&](const BoundaryLine& l) {
-      return (l.owner_a == X && l.owner_b == Y) || (l.owner_a == Y && l.owner_b == X);
-    };
-    // The nil-effect X-Y line through T, and the way from T into the zone: away from the
-    // full-effect X-Y line, which ends at T.
-    std::vector<Vec2> pts;
-    Along uT;
-    for (const BoundaryLine& l : rule.nil_lines().lines) {
-      if (!of_pair(l) || l.closed || l.vertices.size() < 2) continue;
-      std::vector<Vec2> q;
-      for (const BoundaryVertex& v : l.vertices) q.push_back(v.p);
-      const Along u = project(q, tp.T);
-      if (u.distance <= cell && u.distance < uT.distance) {
-        uT = u;
-        pts = std::move(q);
-      }
-    }
-    if (pts.empty()) refuse("their nil-effect line does not pass through the full-effect tripoint");
-    const Vec2* outside = nullptr;
-    for (const BoundaryLine& l : full.lines) {
-      if (!of_pair(l) || l.closed || l.vertices.size() < 2) continue;
-      if (l.vertices.front().p == tp.T) outside = &l.vertices[1].p;
-      if (l.vertices.back().p == tp.T) outside = &l.vertices[l.vertices.size() - 2].p;
-    }
-    if (outside == nullptr) refuse("their full-effect line does not end at the tripoint");
-    const Along uo = project(pts, *outside);
-    const Along end = uo.at() <= uT.at() ? Along{pts.size() - 2, 1.0, 0.0} : Along{0, 0.0, 0.0};
-    tp.S = stretch(pts, false, uT, end);
-    tp.S.front() = tp.T;
-    for (size_t side = 0; side < 2; ++side) {
-      const int32_t owner = tp.owners[side];
-      bool found = false;
-      double f0 = rule.balance(tp.S[0], owner);
-      for (size_t k = 0; k + 1 < tp.S.size() && !found; ++k) {
-        const double f1 = rule.balance(tp.S[k + 1], owner);
-        if (f0 < 0.0 && f1 >= 0.0) {
-          const Vec2 a = tp.S[k], b = tp.S[k + 1];
-          const double u = find_root([&](double x) { return rule.balance(lerp(a, b, x), owner); }, f0, f1, ftol, 1e-15);
-          tp.at[side] = Along{k, u, 0.0};
-          tp.m[side] = lerp(a, b, u);
-          found = true;
-        }
-        f0 = f1;
-      }
-      if (!found)
-        refuse("no partial-effect line of " + owner_label(seeds, owner) +
-               " reaches their nil-effect line (the islands lie far from the nil-effect line of " +
-               owner_label(seeds, B) + " and " + owner_label(seeds, owner) +
-               ", so the rule gives that band back whole); a reach or a weight suits such islands better");
-    }
-    tp.first = tp.at[0].at() <= tp.at[1].at() ? 0 : 1;
-    plans.push_back(std::move(tp));
-  }
-  return plans;
-}
-
-// The neighbours' line at each planned tripoint carried along S to the partial tripoint, and the
-// tripoint moved there. Returns the vertices added.
-int64_t extend_at_tripoints(const PartialEffectRule& rule, const std::vector<TripointPlan>& plans,
-                            const OwnerIndex& index, BoundaryResult& out) {
-  int64_t added = 0;
-  for (const TripointPlan& tp : plans) {
-    const Vec2 M = tp.tripoint();
-    std::vector<Vec2> ext = stretch(tp.S, false, Along{0, 0.0, 0.0}, tp.at[static_cast<size_t>(tp.first)]);
-    ext.back() = M;
-    for (BoundaryLine& l : out.lines) {
-      const bool pair = (l.owner_a == tp.owners[0] && l.owner_b == tp.owners[1]) ||
-                        (l.owner_a == tp.owners[1] && l.owner_b == tp.owners[0]);
-      if (!pair || l.closed || l.vertices.empty()) continue;
-      const bool at_back = l.vertices.back().p == tp.T, at_front = l.vertices.front().p == tp.T;
-      if (!at_back && !at_front) continue;
-      if (at_front) std::reverse(l.vertices.begin(), l.vertices.end());
-      for (size_t k = 1; k < ext.size(); ++k) {
-        const OwnerIndex::Hit ha = index.nearest_of(ext[k], l.owner_a), hb = index.nearest_of(ext[k], l.owner_b);
-        l.vertices.push_back(BoundaryVertex{ext[k], ha.site, hb.site, 0.5 * (ha.distance + hb.distance),
-                                            std::abs(ha.cost - hb.cost), ha.distance, hb.distance});
-        ++added;
-      }
-      if (at_front) std::reverse(l.vertices.begin(), l.vertices.end());
-      break;
-    }
-    Tripoint& t = out.tripoints[tp.index];
-    t.p = M;
-    double distance = 0.0, cost = 0.0;
-    std::array<double, 3> costs{};
-    for (int k = 0; k < 3; ++k) {
-      const OwnerIndex::Hit h = index.nearest_of(M, t.owners[k]);
-      t.sites[k] = h.site;
-      t.distances[k] = h.distance;
-      costs[static_cast<size_t>(k)] = h.cost;
-      distance += h.distance / 3.0;
-      cost += h.cost / 3.0;
-    }
-    t.distance = distance;
-    t.cost = cost;
-    // On the neighbours' line (their costs equal) and on the first owner's partial locus.
-    double neighbours = 0.0;
-    for (int k = 0; k < 3; ++k)
-      for (int q = k + 1; q < 3; ++q)
-        if (t.owners[k] != rule.effect().owner && t.owners[q] != rule.effect().owner)
-          neighbours = std::abs(costs[static_cast<size_t>(k)] - costs[static_cast<size_t>(q)]);
-    t.residual = std::max(neighbours, std::abs(rule.balance(M, tp.owners[static_cast<size_t>(tp.first)])));
-  }
-  return added;
-}
-
 // The loci of band (B, w.X) that no line in `out` or `more` follows, from the rule's cells
 // (partial_loci.hpp): the band of a full-effect line wholly in it. Each locus a line of its own,
 // ending on coasts or the frame, or closed.
@@ -867,7 +655,7 @@ BoundaryResult partial_boundaries(const PartialEffectRule& rule, const SeedSet& 
   const PartialEffect& pe = rule.effect();
   if (!pe.any()) return out;
   const int32_t B = pe.owner;
-  const std::vector<TripointPlan> plans = plan_tripoints(rule, seeds, out, grid.res, ftol);
+  const std::vector<TripointPlan> plans = partial_tripoints::plan_tripoints(rule, seeds, out, index, grid.res, ftol);
   // The tolerance in CRS units, over the larger scale of the two axes (a bound in either).
   const line_tools::CrsScale scale(index.metric(), Vec2{grid.centre_x(grid.width / 2), grid.centre_y(grid.height / 2)},
                                    grid.res);
@@ -927,7 +715,8 @@ BoundaryResult partial_boundaries(const PartialEffectRule& rule, const SeedSet& 
     vertices += static_cast<int64_t>(line.vertices.size());
     out.lines.push_back(std::move(line));
   }
-  vertices += extend_at_tripoints(rule, plans, index, out);
+  vertices += partial_tripoints::extend_at_tripoints(rule, plans, index, out);
+  vertices += partial_tripoints::given_back_zone(rule, seeds, plans, index, grid.res, out);
   out.stats.vertices = vertices;
   out.stats.max_residual = std::max(out.stats.max_residual, stats.max_residual);
   return out;

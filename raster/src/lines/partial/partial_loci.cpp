@@ -79,6 +79,7 @@ std::vector<partial_follow::Through> loci_from_cells(const partial_follow::Level
             line_tools::lerp(a, b,
                              line_tools::find_root([&](double t) { return level.balance(line_tools::lerp(a, b, t)); },
                                                    fa, fb, level.ftol, 1e-15));
+        if (!level.in_band(on)) continue;  // (a root beside another band, across the neighbours' line)
         partial_follow::Through t = partial_follow::follow_through(level, on, residual);
         if (t.points.empty()) continue;
         covered.add(t.points);
