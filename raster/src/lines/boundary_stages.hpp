@@ -321,6 +321,14 @@ void end_at_owned_edge(const BoundaryGrid& b, double max_distance, const std::ve
 // Counts the ends moved in stats.ends_on_barriers.
 void end_at_barriers(const BoundaryGrid& b, const std::vector<Tripoint>& tripoints, std::vector<BoundaryLine>& lines,
                      BoundaryStats& stats);
+// By sea, two open ends of lines of the same two owners (off the frame, not at a tripoint, not on
+// a barrier) within four cells of each other, with the way between them open and the locus
+// passing between them: the line broken where it passes a coast closer than a cell (the cells
+// beside it are parted by land, though the locus stays at sea). Joined, nearest pairs first (one
+// line's two ends make it a ring); finish_lines then refines the joining chord onto the locus.
+// Counts the joins in stats.ends_joined.
+void join_parted_ends(const BoundaryGrid& b, const std::vector<Tripoint>& tripoints, std::vector<BoundaryLine>& lines,
+                      BoundaryStats& stats);
 // By sea, a crossing linked to none (`lone`, lone_crossings) where the line crosses a channel
 // narrower than the squares around it (a barrier parts every other pair of their corners): made a
 // line of its own when it reaches a barrier on both sides (end_at_barriers' junction one way,

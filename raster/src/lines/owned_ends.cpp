@@ -197,4 +197,88 @@ void cross_channels(const BoundaryGrid& b, std::vector<BoundaryLine>& lone, std:
   lone = std::move(left);
 }
 
+void join_parted_ends(const BoundaryGrid& b, const std::vector<Tripoint>& tripoints, std::vector<BoundaryLine>& lines,
+                      BoundaryStats& stats) {
+  const SiteMetric& metric = b.index.metric();
+  if (metric.straight()) return;
+  // The open ends left: (line, which end), neither on the frame, at a tripoint nor on a barrier.
+  struct End {
+    size_t line;
+    bool back;
+    Vec2 p;
+  };
+  std::vector<End> ends;
+  for (size_t n = 0; n < lines.size(); ++n) {
+    const BoundaryLine& l = lines[n];
+    if (l.closed || l.vertices.empty()) continue;
+    for (const bool back : {false, true}) {
+      const BoundaryVertex& v = back ? l.vertices.back() : l.vertices.front();
+      const bool at_tripoint =
+          std::any_of(tripoints.begin(), tripoints.end(), [&](const Tripoint& t) { return t.p == v.p; });
+      if (!v.on_barrier && !at_tripoint && !on_centre_frame(b.g, v.p)) ends.push_back(End{n, back, v.p});
+    }
+  }
+  // Pairs of the same two owners within four cells, the way between them open, and the locus
+  // passing between them (the two owners' costs of opposite signs across the chord's middle).
+  struct Pair {
+    double d;
+    size_t i, j;
+  };
+  std::vector<Pair> pairs;
+  for (size_t i = 0; i < ends.size(); ++i)
+    for (size_t j = i + 1; j < ends.size(); ++j) {
+      const BoundaryLine &li = lines[ends[i].line], &lj = lines[ends[j].line];
+      if (li.owner_a != lj.owner_a || li.owner_b != lj.owner_b) continue;
+      if (ends[i].line == ends[j].line && li.vertices.size() < 3) continue;
+      const Vec2 p = ends[i].p, q = ends[j].p;
+      const double d = std::hypot(q.x - p.x, q.y - p.y);
+      if (!(d <= 4.0 * b.g.res) || !metric.open_between(p, q)) continue;
+      const Vec2 mid = lerp(p, q, 0.5), across{-(q.y - p.y) * 0.5, (q.x - p.x) * 0.5};
+      auto f = [&](Vec2 x) { return b.index.nearest_of(x, li.owner_a).cost - b.index.nearest_of(x, li.owner_b).cost; };
+      const Vec2 u{mid.x - across.x, mid.y - across.y}, w{mid.x + across.x, mid.y + across.y};
+      const double fm = f(mid);
+      const bool between = fm == 0.0 || ((f(u) < 0.0) != (fm < 0.0) && metric.open_between(mid, u)) ||
+                           ((f(w) < 0.0) != (fm < 0.0) && metric.open_between(mid, w));
+      if (between) pairs.push_back(Pair{d, i, j});
+    }
+  std::sort(pairs.begin(), pairs.end(), [](const Pair& x, const Pair& y) {
+    return x.d < y.d || (x.d == y.d && (x.i < y.i || (x.i == y.i && x.j < y.j)));
+  });
+  std::vector<bool> used(ends.size(), false), gone(lines.size(), false);
+  std::vector<size_t> merged_into(lines.size());
+  for (size_t n = 0; n < lines.size(); ++n) merged_into[n] = n;
+  auto root = [&](size_t n) {
+    while (merged_into[n] != n) n = merged_into[n];
+    return n;
+  };
+  for (const Pair& pr : pairs) {
+    if (used[pr.i] || used[pr.j]) continue;
+    used[pr.i] = used[pr.j] = true;
+    const size_t a = root(ends[pr.i].line), c = root(ends[pr.j].line);
+    const Vec2 pa = ends[pr.i].p, pc = ends[pr.j].p;
+    if (a == c) {
+      // Both ends of one line: a ring.
+      BoundaryLine& l = lines[a];
+      if (!(l.vertices.front().p == pa)) std::reverse(l.vertices.begin(), l.vertices.end());
+      l.vertices.push_back(l.vertices.front());
+      l.closed = true;
+    } else {
+      // Line a ends at pa, line c starts at pc: c appended to a.
+      BoundaryLine &la = lines[a], &lc = lines[c];
+      if (!(la.vertices.back().p == pa)) std::reverse(la.vertices.begin(), la.vertices.end());
+      if (!(lc.vertices.front().p == pc)) std::reverse(lc.vertices.begin(), lc.vertices.end());
+      la.vertices.insert(la.vertices.end(), lc.vertices.begin(), lc.vertices.end());
+      la.bows.clear();
+      lc.vertices.clear();
+      gone[c] = true;
+      merged_into[c] = a;
+    }
+    ++stats.ends_joined;
+  }
+  std::vector<BoundaryLine> kept;
+  for (size_t n = 0; n < lines.size(); ++n)
+    if (!gone[n]) kept.push_back(std::move(lines[n]));
+  lines = std::move(kept);
+}
+
 }  // namespace rv::boundary_stages

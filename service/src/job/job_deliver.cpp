@@ -403,6 +403,7 @@ BoundaryResult StripDeliverables::State::take_boundaries() {
                             {"arc_points", st.arc_points},
                             {"ends_on_owned_edge", st.ends_on_owned_edge},
                             {"ends_on_barriers", st.ends_on_barriers},
+                            {"ends_joined", st.ends_joined},
                             {"tie_vertices", st.tie_vertices},
                             {"missing_tripoints_found", st.missing_tripoints_found},
                             {"sliver_crossings", st.sliver_crossings},

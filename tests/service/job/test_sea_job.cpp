@@ -463,6 +463,33 @@ TEST_F(SeaJob, APortShutInByTheIslandHasItsLinesAndRegions) {
   }
 }
 
+// At 750 m the Øresund's DK-SE line by sea passes Ven's coast closer than a cell: the cells on
+// either side of it there are parted by the island's land, so extraction breaks the line in two,
+// though the locus stays at sea. The two ends are joined (boundaries.ends_joined) and the joining
+// chord refined onto the locus; the regions, which need every line to end on a tripoint, a coast
+// or the frame, are drawn, each owner's sea area within 1 % of its cells'.
+TEST_F(SeaJob, ALinePassingACoastCloserThanACellIsJoinedAndBoundsTheRegions) {
+  JobSpec s = ports_spec("ven");
+  s.grid.resolution = 750.0;
+  s.outputs.boundaries = (dir_ / "ven" / "lines.geojson").string();
+  s.outputs.regions = (dir_ / "ven" / "regions.geojson").string();
+  const nlohmann::json report = run_job(s).report;
+  const nlohmann::json& b = report.at("deliverables").at("boundaries");
+  EXPECT_EQ(b.at("ends_joined").get<int64_t>(), 1);
+  EXPECT_EQ(b.at("along_lines").at("unresolved_segments").get<int64_t>(), 0);
+  EXPECT_LT(b.at("max_residual_cells").get<double>(), 1e-6);
+  const Raster<int32_t> own = read_int32(s.outputs.ownership);
+  std::map<int32_t, double> cells;
+  for (const int32_t o : own.cells())
+    if (o != 0) cells[o] += 750.0 * 750.0;
+  const nlohmann::json regions = read_json(s.outputs.regions);
+  ASSERT_EQ(regions.at("features").size(), 2u);
+  for (const nlohmann::json& f : regions.at("features")) {
+    const int32_t owner = f.at("properties").at("owner").get<int32_t>();
+    EXPECT_NEAR(f.at("properties").at("sea_area").get<double>(), cells[owner], 0.01 * cells[owner]) << owner;
+  }
+}
+
 TEST_F(SeaJob, ValidationRunsTheOracleBySea) {
   JobSpec s = ports_spec("v");
   s.grid.resolution = 1000.0;

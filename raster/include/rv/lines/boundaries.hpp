@@ -136,6 +136,9 @@ struct BoundaryStats {
   // By sea (SiteMetric::domain_edges_near): line ends carried onto the barrier they meet (a
   // coast, a boom), where the two owners' distances by sea are equal on its edge.
   int64_t ends_on_barriers = 0;
+  // By sea: lines joined where they passed a coast closer than a cell (their cells parted by land,
+  // the locus at sea between them; boundary_stages::join_parted_ends).
+  int64_t ends_joined = 0;
   // By sea: the lines' vertices on the edge of a tie region (BoundaryVertex::tie).
   int64_t tie_vertices = 0;
   // Tripoints a crowded square's search missed, found from the ends of their lines (also in
