@@ -170,7 +170,7 @@ void JobManager::check_job_count(const std::string& principal) const {
   if (limit <= 0) return;
   int count = 0;
   for (const Task& t : queue_) count += t.principal == principal;
-  for (const auto& [id, r] : running_) count += r.principal == principal;
+  for (const auto& [id, r] : running_) count += r.principal == principal && !r.ended;
   if (count >= limit) throw too_many_jobs(count, limit);
 }
 
@@ -657,7 +657,10 @@ void JobManager::record_end(JobRecord& rec, const std::optional<ErrorKind>& erro
                             const nlohmann::json& report, const std::filesystem::path& dir) {
   if (shared_) return record_end_shared(rec, error_kind, message, report, dir);
   std::lock_guard lock(mutex_);
-  const Running& r = running_.at(rec.id);
+  Running& r = running_.at(rec.id);
+  // Under the same lock as the record: a client that reads the job as finished and submits at
+  // once is not refused for it, while the worker is still letting go of it.
+  r.ended = true;
   if (r.dismissed) {
     // dismiss() has recorded the status already; the files go whatever run_job returned.
     remove_dir(dir);

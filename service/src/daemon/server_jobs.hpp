@@ -176,6 +176,7 @@ class JobManager {
     std::optional<store::Lease> lease;
     bool lost = false;  // the lease no longer holds the job: publish nothing
     std::chrono::steady_clock::time_point leased_at;
+    bool ended = false;  // its end is recorded (a client may see it finished): no longer counted
   };
 
   // Waits for the next task (the local queue first, then a shared store's) and registers it as

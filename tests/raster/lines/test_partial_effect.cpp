@@ -118,6 +118,24 @@ TEST(PartialEffect, FullAndNilEffectAreTheTwoRuns) {
 
 // On the ellipsoid, every cell of the rule's field is the rule at its centre (the field decides
 // blocks at once where the balance's size rules the block out; this checks each cell alone).
+// Every cell of `r` the rule at its centre, from the full-effect field and the nil-effect field
+// computed here; returns the band's cells (full owner b, nil owner x) and those given back to x.
+std::pair<int64_t, int64_t> expect_rule_at_every_cell(const SeedSet& s, const PartialEffectResult& r, const GridSpec& g,
+                                                      const ComputeOptions& o, int32_t b, int32_t x) {
+  const NearestField nil = compute(*r.nil_seeds, g, o);
+  int64_t band = 0, returned = 0;
+  for (int64_t row = 0; row < g.height; ++row)
+    for (int64_t col = 0; col < g.width; ++col) {
+      const int32_t full_owner = s.site_owner(r.full.site.at(col, row));
+      const int32_t nil_owner = r.nil_seeds->site_owner(nil.site.at(col, row));
+      const int32_t expected = r.rule->owner(Vec2{g.centre_x(col), g.centre_y(row)}, full_owner, nil_owner);
+      EXPECT_EQ(s.site_owner(r.field.site.at(col, row)), expected) << col << "," << row;
+      band += full_owner == b && nil_owner == x;
+      returned += expected == x && full_owner == b;
+    }
+  return {band, returned};
+}
+
 TEST(PartialEffect, GeodesicFieldIsTheRuleAtEveryCell) {
   SeedSet s;
   const int32_t a = s.owner_code("A"), b = s.owner_code("B");
@@ -131,17 +149,7 @@ TEST(PartialEffect, GeodesicFieldIsTheRuleAtEveryCell) {
   o.metric = MetricSpec{MetricSpec::geodesic};
   const PartialEffectResult r = compute_partial_effect(s, g, o, BoundaryOptions{});
   ASSERT_TRUE(r.rule);
-  const NearestField nil = compute(*r.nil_seeds, g, o);
-  int64_t band = 0, returned = 0;
-  for (int64_t row = 0; row < g.height; ++row)
-    for (int64_t col = 0; col < g.width; ++col) {
-      const int32_t full_owner = s.site_owner(r.full.site.at(col, row));
-      const int32_t nil_owner = r.nil_seeds->site_owner(nil.site.at(col, row));
-      const int32_t expected = r.rule->owner(Vec2{g.centre_x(col), g.centre_y(row)}, full_owner, nil_owner);
-      ASSERT_EQ(s.site_owner(r.field.site.at(col, row)), expected) << col << "," << row;
-      band += full_owner == 2 && nil_owner == 1;
-      returned += expected == 1 && full_owner == 2;
-    }
+  const auto [band, returned] = expect_rule_at_every_cell(s, r, g, o, 2, 1);
   EXPECT_GT(band, 1000);
   EXPECT_GT(returned, 0);
   EXPECT_LT(returned, band);
@@ -258,17 +266,7 @@ void check_shut_in(bool geodesic) {
   if (geodesic) opt.metric = MetricSpec{MetricSpec::geodesic};
   const PartialEffectResult r = compute_partial_effect(s, g, opt, BoundaryOptions{});
   ASSERT_TRUE(r.rule);
-  const NearestField nil = compute(*r.nil_seeds, g, opt);
-  int64_t band = 0, returned = 0;
-  for (int64_t row = 0; row < g.height; ++row)
-    for (int64_t col = 0; col < g.width; ++col) {
-      const int32_t full_owner = s.site_owner(r.full.site.at(col, row));
-      const int32_t nil_owner = r.nil_seeds->site_owner(nil.site.at(col, row));
-      const int32_t expected = r.rule->owner(Vec2{g.centre_x(col), g.centre_y(row)}, full_owner, nil_owner);
-      ASSERT_EQ(s.site_owner(r.field.site.at(col, row)), expected) << col << "," << row;
-      band += full_owner == b && nil_owner == a;
-      returned += expected == a && full_owner == b;
-    }
+  const auto [band, returned] = expect_rule_at_every_cell(s, r, g, opt, b, a);
   EXPECT_GT(band, 1000);
   EXPECT_GT(returned, 100);
   EXPECT_LT(returned, band);

@@ -89,6 +89,21 @@ class SeaJob : public ::testing::Test {
 
 nlohmann::json read_json(const std::string& path) { return nlohmann::json::parse(std::ifstream(path)); }
 
+// The two regions of `spec` (GeoJSON) against its ownership raster (cells of `cell` x `cell`):
+// each owner's sea area within `relative` of its cells' area.
+void expect_regions_match_cells(const JobSpec& spec, double cell, double relative) {
+  const Raster<int32_t> own = read_int32(spec.outputs.ownership);
+  std::map<int32_t, double> cells;
+  for (const int32_t o : own.cells())
+    if (o != 0) cells[o] += cell * cell;
+  const nlohmann::json regions = read_json(spec.outputs.regions);
+  ASSERT_EQ(regions.at("features").size(), 2u);
+  for (const nlohmann::json& f : regions.at("features")) {
+    const int32_t owner = f.at("properties").at("owner").get<int32_t>();
+    EXPECT_NEAR(f.at("properties").at("sea_area").get<double>(), cells[owner], relative * cells[owner]) << owner;
+  }
+}
+
 // An island of SE's in the strait (the partial-effect tests' feature) of effect `effect`.
 nlohmann::json strait_island(double effect) {
   return {{"type", "Feature"},
@@ -450,17 +465,7 @@ TEST_F(SeaJob, APortShutInByTheIslandHasItsLinesAndRegions) {
   EXPECT_GT(report.at("partial_effect").at("cells_to_neighbours").get<int64_t>(), 1000);
   const nlohmann::json drawn = read_json(s.outputs.boundaries);
   EXPECT_EQ(drawn.at("features").size(), 1u);
-  const Raster<int32_t> own = read_int32(s.outputs.ownership);
-  std::map<int32_t, double> cells;
-  for (const int32_t o : own.cells())
-    if (o != 0) cells[o] += 250.0 * 250.0;
-  const nlohmann::json regions = read_json(s.outputs.regions);
-  ASSERT_EQ(regions.at("features").size(), 2u);
-  for (const nlohmann::json& f : regions.at("features")) {
-    const int32_t owner = f.at("properties").at("owner").get<int32_t>();
-    const double sea = f.at("properties").at("sea_area").get<double>();
-    EXPECT_NEAR(sea, cells[owner], 0.005 * cells[owner]) << owner;
-  }
+  expect_regions_match_cells(s, 250.0, 0.005);
 }
 
 // At 750 m the Øresund's DK-SE line by sea passes Ven's coast closer than a cell: the cells on
@@ -478,16 +483,7 @@ TEST_F(SeaJob, ALinePassingACoastCloserThanACellIsJoinedAndBoundsTheRegions) {
   EXPECT_EQ(b.at("ends_joined").get<int64_t>(), 1);
   EXPECT_EQ(b.at("along_lines").at("unresolved_segments").get<int64_t>(), 0);
   EXPECT_LT(b.at("max_residual_cells").get<double>(), 1e-6);
-  const Raster<int32_t> own = read_int32(s.outputs.ownership);
-  std::map<int32_t, double> cells;
-  for (const int32_t o : own.cells())
-    if (o != 0) cells[o] += 750.0 * 750.0;
-  const nlohmann::json regions = read_json(s.outputs.regions);
-  ASSERT_EQ(regions.at("features").size(), 2u);
-  for (const nlohmann::json& f : regions.at("features")) {
-    const int32_t owner = f.at("properties").at("owner").get<int32_t>();
-    EXPECT_NEAR(f.at("properties").at("sea_area").get<double>(), cells[owner], 0.01 * cells[owner]) << owner;
-  }
+  expect_regions_match_cells(s, 750.0, 0.01);
 }
 
 TEST_F(SeaJob, ValidationRunsTheOracleBySea) {
