@@ -6,10 +6,12 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 #include <numbers>
 #include <utility>
+#include <vector>
 
 #include "line_compare.hpp"
 #include "partial_rays.hpp"
@@ -343,6 +345,98 @@ TEST(PartialEffect, AnIslandGivenBackWholeAtItsTripointsHasTheNilEffectLines) {
     inner = inner || (t.owners[0] == x && t.owners[1] == y && t.owners[2] == z && std::hypot(t.p.x, t.p.y) < 1.0);
   }
   EXPECT_TRUE(inner);
+}
+
+// A neighbour's line that the island holds between two of its tripoints (Rügen between Bornholm
+// and Poland): B's mainland at (-50, 0), its island at (-10, 0), X at (50, 0), Y at (10, 50) and
+// Z at (10, -50). At full effect the B-X line is the island's bisector with X (x = 20) from the
+// B-X-Y tripoint (20, 17) to the B-X-Z one (20, -17), every vertex the island's; at nil effect it
+// is the mainland's (x = 0) from (0, 1) to (0, -1). The half-effect line runs between the two, from
+// the partial tripoint on the X-Y nil line to the one on the X-Z nil line. Every cell by the rule,
+// every B-X vertex off those nil lines on the locus, a line between every two neighbouring cells
+// of two owners, and (planar) the mirror image about y = 0. Planar in units of 1, and geodesic in
+// units of 0.01 degree.
+void check_held_between_tripoints(bool geodesic) {
+  const double u = geodesic ? 0.01 : 1.0;
+  const Vec2 o = geodesic ? Vec2{10.0, 55.0} : Vec2{0.0, 0.0};
+  auto at = [&](double x, double y) { return Vec2{o.x + x * u, o.y + y * u}; };
+  SeedSet s;
+  const int32_t b = s.owner_code("B"), x = s.owner_code("X"), y = s.owner_code("Y"), z = s.owner_code("Z");
+  s.add_point(s.add_feature(b), at(-50.0, 0.0));
+  const int32_t island = s.add_feature(b);
+  s.add_point(island, at(-10.0, 0.0));
+  s.add_point(s.add_feature(x), at(50.0, 0.0));
+  s.add_point(s.add_feature(y), at(10.0, 50.0));
+  s.add_point(s.add_feature(z), at(10.0, -50.0));
+  s.set_effect(island, 0.5);
+  const GridSpec g = test::grid_of(240, 200, 0.5 * u, o.x - 60.0 * u, o.y + 50.0 * u);
+  ComputeOptions opt;
+  if (geodesic) opt.metric = MetricSpec{MetricSpec::geodesic};
+  const PartialEffectResult r = compute_partial_effect(s, g, opt, BoundaryOptions{});
+  ASSERT_TRUE(r.rule);
+  const auto [band, returned] = expect_rule_at_every_cell(s, r, g, opt, b, x);
+  EXPECT_GT(band, 1000);
+  EXPECT_GT(returned, 100);
+  EXPECT_LT(returned, band);
+  const BoundaryResult& nil_lines = r.rule->nil_lines();
+  auto on_nil_line = [&](Vec2 p, int32_t o1, int32_t o2) {
+    for (const BoundaryLine& l : nil_lines.lines)
+      if ((l.owner_a == o1 && l.owner_b == o2) || (l.owner_a == o2 && l.owner_b == o1))
+        for (size_t k = 0; k + 1 < l.vertices.size(); ++k)
+          if (to_segment(p, l.vertices[k].p, l.vertices[k + 1].p) < 1e-9 * u) return true;
+    return false;
+  };
+  const double on_locus = geodesic ? 1e-3 : 1e-6;  // metric units: a millimetre, geodesic
+  const BoundaryLine* bx = nullptr;
+  int64_t checked = 0;
+  for (const BoundaryLine& l : r.boundaries.lines) {
+    if (!((l.owner_a == b && l.owner_b == x) || (l.owner_a == x && l.owner_b == b))) continue;
+    ASSERT_EQ(bx, nullptr) << "one B-X line";
+    bx = &l;
+    for (const BoundaryVertex& v : l.vertices) {
+      if (on_nil_line(v.p, x, y) || on_nil_line(v.p, x, z)) continue;  // along S to a partial tripoint
+      ++checked;
+      EXPECT_LT(std::abs(r.rule->balance(v.p, x)), on_locus) << v.p.x << ", " << v.p.y;
+      EXPECT_GT(v.p.x, at(0.0, 0.0).x);  // strictly between the nil line and the full one
+      EXPECT_LT(v.p.x, at(20.0, 0.0).x);
+    }
+  }
+  ASSERT_NE(bx, nullptr);
+  EXPECT_GT(checked, 20);
+  // Its ends are tripoints of the result, one with Y, one with Z.
+  std::array<bool, 2> ends{false, false};
+  for (const Tripoint& t : r.boundaries.tripoints)
+    for (const Vec2 end : {bx->vertices.front().p, bx->vertices.back().p})
+      if (std::hypot(t.p.x - end.x, t.p.y - end.y) < 1e-9 * u) {
+        const bool with_y = std::find(t.owners, t.owners + 3, y) != t.owners + 3;
+        ends[with_y ? 0 : 1] = true;
+        if (!geodesic) {
+          EXPECT_NEAR(t.p.y, (with_y ? 1.0 : -1.0) * std::abs(end.y), 1e-9);
+        }
+      }
+  EXPECT_TRUE(ends[0] && ends[1]);
+  if (!geodesic) {
+    // The mirror image about y = 0: each vertex's mirror on the line.
+    std::vector<Vec2> pts;
+    for (const BoundaryVertex& v : bx->vertices) pts.push_back(v.p);
+    for (const Vec2 p : pts) {
+      double best = std::numeric_limits<double>::infinity();
+      for (size_t k = 0; k + 1 < pts.size(); ++k)
+        best = std::min(best, to_segment(Vec2{p.x, -p.y}, pts[k], pts[k + 1]));
+      EXPECT_LT(best, 1e-3) << p.x << ", " << p.y;
+    }
+  }
+  for (const auto& [o1, o2] : {std::pair{b, x}, std::pair{b, y}, std::pair{b, z}, std::pair{x, y}, std::pair{x, z}})
+    EXPECT_GT(test::expect_lines_between(r.field, s, g, r.boundaries, o1, o2, [](Vec2, Vec2) { return true; }), 10)
+        << o1 << "-" << o2;
+}
+
+TEST(PartialEffect, ALineTheIslandHoldsBetweenTwoTripointsRunsBetweenThePartialTripoints) {
+  check_held_between_tripoints(false);
+}
+
+TEST(PartialEffect, OnTheEllipsoidTooALineHeldBetweenTwoTripointsRunsBetweenThem) {
+  check_held_between_tripoints(true);
 }
 
 TEST(PartialEffect, InputRules) {

@@ -443,6 +443,77 @@ TEST(SeaPartial, AnIslandGivenBackWholeHasTheNilEffectLinesBySea) {
   EXPECT_EQ(r.boundaries.tripoints.size(), nil_lines.tripoints.size());
 }
 
+// A neighbour's line that the island holds from a tripoint to the coast: B's mainland at
+// (-50, 0), its island at (-10, 0), X at (50, 0), Y at (10, 50), land below y = -12 (no seeds
+// beyond it see round it: every distance is straight). At full effect the B-X line is x = 20 from
+// the B-X-Y tripoint (20, 17) to the coast, every vertex the island's; at nil effect x = 0 from
+// (0, 1). The half-effect line runs from the partial tripoint on the X-Y nil line down to the
+// coast; below y = 1 both lines' nearest points are their feet, so it is x = 10 there, and it ends
+// on the coast at (10, -12).
+TEST(SeaPartial, ALineTheIslandHoldsFromATripointToTheCoastEndsThere) {
+  SeedSet s;
+  const int32_t b = s.owner_code("B"), x = s.owner_code("X"), y = s.owner_code("Y");
+  s.add_point(s.add_feature(b), Vec2{-50.0, 0.0});
+  const int32_t island = s.add_feature(b);
+  s.add_point(island, Vec2{-10.0, 0.0});
+  s.add_point(s.add_feature(x), Vec2{50.0, 0.0});
+  s.add_point(s.add_feature(y), Vec2{10.0, 50.0});
+  s.set_effect(island, 0.5);
+  Barriers land;
+  land.add_polygon({{{-100.0, -12.0}, {100.0, -12.0}, {100.0, -40.0}, {-100.0, -40.0}}}, "land");
+  const GridSpec g = test::grid_of(240, 140, 0.5, -60.0, 50.0);
+  const PartialEffectResult r =
+      compute_partial_effect(s, g, ComputeOptions{}, BoundaryOptions{}, true, by_sea(land, g));
+  ASSERT_TRUE(r.rule);
+  const NearestField nil = compute_sea(*r.nil_seeds, land, g, g.full_window()).field;
+  int64_t band = 0, returned = 0;
+  for (int64_t row = 0; row < g.height; ++row)
+    for (int64_t col = 0; col < g.width; ++col) {
+      const int32_t fs = r.full.site.at(col, row), ns = nil.site.at(col, row);
+      if (fs == kNoSite) {
+        EXPECT_EQ(r.field.site.at(col, row), kNoSite);
+        continue;
+      }
+      const int32_t full_owner = s.site_owner(fs), nil_owner = r.nil_seeds->site_owner(ns);
+      const int32_t expected = r.rule->owner(Vec2{g.centre_x(col), g.centre_y(row)}, full_owner, nil_owner);
+      ASSERT_EQ(s.site_owner(r.field.site.at(col, row)), expected) << col << "," << row;
+      band += full_owner == b && nil_owner == x;
+      returned += full_owner == b && expected == x;
+    }
+  EXPECT_GT(band, 1000);
+  EXPECT_GT(returned, 100);
+  const BoundaryLine* bx = nullptr;
+  for (const BoundaryLine& l : r.boundaries.lines)
+    if ((l.owner_a == b && l.owner_b == x) || (l.owner_a == x && l.owner_b == b)) {
+      ASSERT_EQ(bx, nullptr) << "one B-X line";
+      bx = &l;
+    }
+  ASSERT_NE(bx, nullptr);
+  const BoundaryVertex& coast_end =
+      bx->vertices.front().p.y < bx->vertices.back().p.y ? bx->vertices.front() : bx->vertices.back();
+  EXPECT_TRUE(coast_end.on_barrier);
+  EXPECT_NEAR(coast_end.p.x, 10.0, 1e-6);
+  EXPECT_NEAR(coast_end.p.y, -12.0, 1e-6);
+  int64_t below = 0;
+  for (const BoundaryVertex& v : bx->vertices)
+    if (v.p.y <= 1.0) {
+      ++below;
+      EXPECT_NEAR(v.p.x, 10.0, 1e-6) << v.p.y;
+    }
+  EXPECT_GE(below, 2);
+  const bool at_tripoint =
+      std::any_of(r.boundaries.tripoints.begin(), r.boundaries.tripoints.end(), [&](const Tripoint& t) {
+        const Vec2 top = coast_end.p == bx->vertices.front().p ? bx->vertices.back().p : bx->vertices.front().p;
+        return t.p == top;
+      });
+  EXPECT_TRUE(at_tripoint);
+  for (const auto& [o1, o2] : {std::pair{b, x}, std::pair{b, y}, std::pair{x, y}})
+    EXPECT_GT(test::expect_lines_between(r.field, s, g, r.boundaries, o1, o2,
+                                         [&](Vec2 p, Vec2 q) { return r.metric->open_between(p, q); }),
+              10)
+        << o1 << "-" << o2;
+}
+
 // Without the fields the line wholly in the band is still refused in one line, and the rasters
 // alone are the rule's.
 TEST(SeaPartial, AFullLineWhollyInTheBandWithoutTheFieldsIsRefusedInOneLine) {

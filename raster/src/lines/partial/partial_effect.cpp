@@ -482,6 +482,20 @@ struct LineRewrite {
       std::rotate(v.begin(), common, v.end());
       v.push_back(v.front());
     } else if (all) {
+      // Each end at a tripoint where the zone meets two neighbours, or on the grid's edge or a
+      // coast: the band's locus runs from end to end (a neighbour's line that the island's zone
+      // holds between two of its tripoints: Rügen between Bornholm and Poland).
+      const TripointPlan *first = plan_at(v.front().p), *last = plan_at(v.back().p);
+      if ((first != nullptr && !first->whole) || (last != nullptr && !last->whole)) {
+        if ((first != nullptr && first->whole) || (last != nullptr && last->whole))
+          throw Error(ErrorKind::unsupported,
+                      "partial effect: the line of owners " + label(B) + " and " + label(X) +
+                          " runs from a tripoint where the rule gives the zone of the partial features back whole "
+                          "to one where it does not; its lines are not drawn (the rasters are exact)");
+        v = end_to_end(v, first, last, cell);
+        line.bows.clear();
+        return Rewritten::rewritten;
+      }
       throw Error(ErrorKind::unsupported, "partial effect: a line of owners " + label(B) + " and " + label(X) +
                                               " lies wholly in the band of the partial features, with no "
                                               "nil-effect stretch to anchor it; its lines are not drawn (the "
@@ -563,9 +577,125 @@ struct LineRewrite {
     return Rewritten::rewritten;
   }
 
+  // A point within a billionth of a cell of the last is the same point (where both chains run
+  // along S on either side of M, every pairing's locus point is M): the later one is kept, so that
+  // the line ends exactly where it is sent, but never in place of the line's first point.
   void append(std::vector<BoundaryVertex>& out, const std::vector<Vec2>& pts) const {
-    for (const Vec2 p : pts)
-      if (out.empty() || !(out.back().p == p)) out.push_back(vertex(p));
+    const double same = 1e-9 * grid->res;
+    for (const Vec2 p : pts) {
+      if (out.empty() || !(std::hypot(out.back().p.x - p.x, out.back().p.y - p.y) <= same))
+        out.push_back(vertex(p));
+      else if (out.size() > 1 && !(out.back().p == p))
+        out.back() = vertex(p);
+    }
+  }
+
+  // The nil-effect B-X line from `a` (within a cell of it) to `b`, or, without b, to its end
+  // farther along from a.
+  std::vector<Vec2> nil_from(Vec2 a, const Vec2* b, double cell) const {
+    for (const BoundaryLine& l : rule.nil_lines().lines) {
+      if (!((l.owner_a == B && l.owner_b == X) || (l.owner_a == X && l.owner_b == B)) || l.vertices.size() < 2)
+        continue;
+      std::vector<Vec2> pts;
+      for (const BoundaryVertex& u : l.vertices) pts.push_back(u.p);
+      const Along u = project(pts, a);
+      if (!(u.distance <= cell)) continue;
+      Along w;
+      if (b != nullptr) {
+        w = project(pts, *b);
+        if (!(w.distance <= cell)) continue;
+      } else {
+        if (l.closed) continue;
+        const double half = 0.5 * static_cast<double>(pts.size() - 1);
+        w = u.at() <= half ? Along{pts.size() - 2, 1.0, 0.0} : Along{0, 0.0, 0.0};
+      }
+      std::vector<Vec2> chain = stretch(pts, l.closed, u, w);
+      chain.front() = a;
+      if (b != nullptr) chain.back() = *b;
+      return chain;
+    }
+    throw Error(ErrorKind::unsupported, "partial effect: the full-effect line of owners " + label(B) + " and " +
+                                            label(X) +
+                                            " lies wholly in the band, and no nil-effect line of theirs runs "
+                                            "between its ends; its lines are not drawn (the rasters are exact)");
+  }
+
+  // A line wholly in its band whose ends are each a planned tripoint (not given back whole) or
+  // open (the grid's edge, a coast), at least one a tripoint: the locus from the partial
+  // tripoint of one end to that of the other (or to the open end) between L0 (the nil-effect
+  // line, reached along S from each tripoint) and L1 (the full-effect line, from T along S).
+  std::vector<BoundaryVertex> end_to_end(const std::vector<BoundaryVertex>& v, const TripointPlan* first,
+                                         const TripointPlan* last, double cell) const {
+    auto along_s = [&](const TripointPlan& tp, bool to_t) {  // M_X to T (or S's end), as the line runs
+      const Along at = tp.at[static_cast<size_t>(tp.side(X))];
+      return stretch(tp.S, false, at, to_t ? Along{0, 0.0, 0.0} : Along{tp.S.size() - 2, 1.0, 0.0});
+    };
+    auto join = [](std::vector<Vec2>& c, const std::vector<Vec2>& more) {
+      for (const Vec2 p : more)
+        if (c.empty() || !(c.back() == p)) c.push_back(p);
+    };
+    auto m_of = [&](const TripointPlan& tp) { return tp.m[static_cast<size_t>(tp.side(X))]; };
+    std::vector<Vec2> traced;
+    bool coast_end = false;
+    if (nil_index != nullptr && (first == nullptr || last == nullptr)) {
+      // By sea an open end may be a coast, where L0's and L1's ends need not pair: the locus is
+      // followed from the partial tripoint to wherever it ends.
+      const Vec2 from = m_of(first != nullptr ? *first : *last);
+      const partial_follow::Followed f = partial_follow::follow(level(*nil_index), from, nullptr, stats.residual);
+      if (f.stop == partial_follow::Stop::lost || f.points.size() < 2)
+        throw Error(ErrorKind::unsupported, "partial effect: the partial-effect line of owners " + label(B) + " and " +
+                                                label(X) + " could not be followed by sea from (" +
+                                                std::to_string(from.x) + ", " + std::to_string(from.y) +
+                                                "); its lines are not drawn (the rasters are exact)");
+      traced = f.points;
+      if (first == nullptr) std::reverse(traced.begin(), traced.end());
+      coast_end = f.stop == partial_follow::Stop::coast;
+      stats.coast_ends += coast_end;
+    } else {
+      std::vector<Vec2> c1, c0;
+      if (first != nullptr) {
+        join(c1, along_s(*first, true));
+        join(c0, along_s(*first, false));
+      }
+      for (const BoundaryVertex& u : v) join(c1, {u.p});
+      std::vector<Vec2> tail0;
+      if (last != nullptr) {
+        std::vector<Vec2> tail1 = along_s(*last, true);
+        tail0 = along_s(*last, false);
+        std::reverse(tail1.begin(), tail1.end());
+        std::reverse(tail0.begin(), tail0.end());
+        join(c1, tail1);
+      }
+      if (first != nullptr) {
+        join(c0, nil_from(c0.back(), last != nullptr ? &tail0.front() : nullptr, cell));
+      } else {
+        c0 = nil_from(tail0.front(), nullptr, cell);
+        std::reverse(c0.begin(), c0.end());
+      }
+      join(c0, tail0);
+      if (first != nullptr) c0.front() = c1.front() = m_of(*first);
+      if (last != nullptr) c0.back() = c1.back() = m_of(*last);
+      traced = trace(c0, c1, {first != nullptr, last != nullptr});
+    }
+    std::vector<BoundaryVertex> out;
+    // The owner whose M is farther from T goes on along S to the partial tripoint.
+    if (first != nullptr && first->side(X) != first->first) {
+      const size_t k = static_cast<size_t>(first->side(X)), f = static_cast<size_t>(first->first);
+      std::vector<Vec2> on = stretch(first->S, false, first->at[f], first->at[k]);
+      on.front() = first->tripoint();
+      append(out, on);
+    }
+    append(out, traced);
+    if (last != nullptr && last->side(X) != last->first) {
+      const size_t k = static_cast<size_t>(last->side(X)), f = static_cast<size_t>(last->first);
+      std::vector<Vec2> on = stretch(last->S, false, last->at[k], last->at[f]);
+      on.back() = last->tripoint();
+      append(out, on);
+    }
+    if (coast_end) (first == nullptr ? out.front() : out.back()).on_barrier = true;
+    ++stats.stretches;
+    stats.points += static_cast<int64_t>(traced.size());
+    return out;
   }
 
   // The band from turning point P (between v[i - 1] and v[i]) to the line's end at tripoint
@@ -582,12 +712,10 @@ struct LineRewrite {
     for (size_t q = i; q < v.size(); ++q) c1.push_back(v[q].p);
     const std::vector<Vec2> along_s = stretch(tp.S, false, start, at);
     c1.insert(c1.end(), along_s.begin() + 1, along_s.end());
-    std::vector<Vec2> c0 = nil_chain(&P, nullptr, v[i - 1].p, cell);
+    // L0 from P to the nil-effect tripoint at S's end (known: no direction to guess, even where P
+    // is the common vertex itself).
     const Vec2 t0 = tp.S.back();
-    if (std::hypot(c0.back().x - t0.x, c0.back().y - t0.y) > cell)
-      throw Error(ErrorKind::unsupported, "partial effect: the nil-effect lines of " + label(B) + " and " + label(X) +
-                                              " do not meet at the end of their neighbours' line; the lines of "
-                                              "this case are not drawn (the rasters are exact)");
+    std::vector<Vec2> c0 = nil_chain(&P, &t0, v[i - 1].p, cell);
     const std::vector<Vec2> back = stretch(tp.S, false, end, at);
     c0.insert(c0.end(), back.begin() + 1, back.end());
     c0.back() = c1.back() = tp.m[static_cast<size_t>(k)];
