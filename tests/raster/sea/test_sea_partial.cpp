@@ -11,6 +11,8 @@
 //   land.
 // - A port of X's that the island shuts in at full effect: the full line wholly in the band, the
 //   locus found where the rule's cells change owner and followed from there.
+// - A small island whose zone at full effect takes a stretch of X's coast: the full line in two
+//   pieces, the locus one line through both bands, in front of the coast.
 // Every layout also checks that each two neighbouring cells the rule gives to B and to X have a
 // B-X line between them.
 #include <gtest/gtest.h>
@@ -210,7 +212,9 @@ Strait strait(const std::vector<Vec2>& island, bool ports = false, double effect
 struct Checked {
   PartialLineStats stats;
   int64_t nil_ends_on_land = 0;
-  int64_t closed_lines = 0;  // rings among the lines
+  int64_t closed_lines = 0;      // rings among the lines
+  int64_t bx_lines = 0;          // B-X lines drawn
+  int64_t full_bx_on_coast = 0;  // ends of the full-effect B-X lines on a coast
 };
 Checked check_rule_and_line(const Strait& s) {
   const GridSpec g = test::grid_of(160, 160, 0.25);
@@ -293,7 +297,13 @@ Checked check_rule_and_line(const Strait& s) {
   EXPECT_LE(r.stats.coast_ends, coast_ends);
   EXPECT_EQ(r.stats.residual.unresolved, 0);
   Checked out{r.stats};
-  for (const BoundaryLine& l : r.boundaries.lines) out.closed_lines += l.closed;
+  auto bx = [&](const BoundaryLine& l) { return std::minmax(l.owner_a, l.owner_b) == std::minmax(B, X); };
+  for (const BoundaryLine& l : r.boundaries.lines) {
+    out.closed_lines += l.closed;
+    out.bx_lines += bx(l);
+  }
+  for (const BoundaryLine& l : r.rule->full_lines().lines)
+    if (bx(l)) out.full_bx_on_coast += l.vertices.front().on_barrier + l.vertices.back().on_barrier;
   for (const BoundaryLine& l : r.rule->nil_lines().lines)
     out.nil_ends_on_land += l.vertices.front().on_barrier + l.vertices.back().on_barrier;
   return out;
@@ -325,6 +335,22 @@ TEST(SeaPartial, AFullLineEndingOnTheNeighboursCoastGivesLociEndingThere) {
   const PartialLineStats st = check_rule_and_line(s).stats;
   EXPECT_EQ(st.coast_ends, 2);
   EXPECT_EQ(st.stretches, 2);
+}
+
+// A small island near X's coast between X's two ports: at full effect its zone takes a stretch of
+// that coast, so the full line comes in two pieces, each from a turning point to X's coast; at
+// effect 0.3 the locus passes in front of the coast, from one piece's band into the other's (the
+// band is one). It is one line from turning point to turning point, through both bands, with no
+// end on a coast (before, the walk from the first turning point left the first piece's band and
+// the lines were refused, as Fehmarn's by sea between DE and DK).
+TEST(SeaPartial, ALocusPassingWhereACoastCutTheFullLineRunsOnIntoItsOtherPiece) {
+  const Strait s = strait({{12.5, 19.5}, {13, 19.5}, {13, 20.5}, {12.5, 20.5}}, true, 0.3, true);
+  const Checked c = check_rule_and_line(s);
+  EXPECT_EQ(c.full_bx_on_coast, 2);
+  EXPECT_EQ(c.bx_lines, 1);
+  EXPECT_EQ(c.stats.stretches, 1);
+  EXPECT_EQ(c.stats.coast_ends, 0);
+  EXPECT_EQ(c.closed_lines, 0);
 }
 
 // One port of X's, shut in by the island at full effect: the full line is an arc from X's coast

@@ -15,6 +15,7 @@
 #include <chrono>
 #include <cmath>
 #include <limits>
+#include <map>
 #include <optional>
 #include <string>
 #include <utility>
@@ -254,6 +255,30 @@ struct LineRewrite {
   // The rule's cells can be had (partial_boundaries' `cells`): a line wholly in its band is left to
   // them (Rewritten::wholly_in_band) instead of refused.
   bool by_cells = false;
+  // By sea: the turning points of the bands that run to or from an end of a B-X line (a piece of
+  // a full-effect line that a coast cut where L1 touched it: its band goes on in another piece),
+  // and those a followed locus reached from another piece (that piece's band is drawn; the two
+  // lines are joined there afterwards: join_at).
+  const std::vector<Vec2>* open_turnings = nullptr;
+  std::vector<Vec2>* claimed = nullptr;
+
+  // The turning points of the bands at the ends of `line` (not at a planned tripoint).
+  std::vector<Vec2> end_turnings(const BoundaryLine& line) const {
+    const std::vector<BoundaryVertex>& v = line.vertices;
+    std::vector<Vec2> out;
+    if (line.closed || v.size() < 2) return out;
+    if (partial(v.front()) && plan_at(v.front().p) == nullptr) {
+      size_t j = 0;
+      while (j + 1 < v.size() && partial(v[j + 1])) ++j;
+      if (j + 1 < v.size()) out.push_back(turning(v[j + 1], v[j]));
+    }
+    if (partial(v.back()) && plan_at(v.back().p) == nullptr) {
+      size_t i = v.size() - 1;
+      while (i > 0 && partial(v[i - 1])) --i;
+      if (i > 0) out.push_back(turning(v[i - 1], v[i]));
+    }
+    return out;
+  }
 
   const TripointPlan* plan_at(Vec2 p) const {
     for (const TripointPlan& t : plans)
@@ -422,8 +447,19 @@ struct LineRewrite {
     if (!open_start) P = turning(v[i - 1], v[i]);
     if (!open_end) Q = turning(v[j + 1], v[j]);
     const partial_follow::Level l = level(*nil_index);
+    // A band running to or from the line's end may go on in another piece of the line: its
+    // turning points stop the walk too; one drawn from there already is not drawn again.
+    std::vector<Vec2> others;
+    if (open_turnings != nullptr && open_start != open_end)
+      for (const Vec2 t : *open_turnings)
+        if (!(P && t == *P) && !(Q && t == *Q)) others.push_back(t);
+    auto is_claimed = [&](Vec2 t) {
+      return claimed != nullptr && std::find(claimed->begin(), claimed->end(), t) != claimed->end();
+    };
     auto followed = [&](Vec2 from, const Vec2* to) {
-      partial_follow::Followed f = partial_follow::follow(l, from, to, stats.residual);
+      partial_follow::Followed f =
+          partial_follow::follow(l, from, to, stats.residual, to ? std::vector<Vec2>{} : others);
+      if (f.other >= 0 && claimed != nullptr) claimed->push_back(others[static_cast<size_t>(f.other)]);
       if (f.stop == partial_follow::Stop::lost)
         throw Error(ErrorKind::unsupported, "partial effect: the partial-effect line of owners " + label(B) + " and " +
                                                 label(X) + " could not be followed by sea from (" +
@@ -441,6 +477,10 @@ struct LineRewrite {
       if (coast_first && out.size() > first) out[first].on_barrier = true;
       if (coast_last && out.size() > first) out.back().on_barrier = true;
     };
+    if ((P && !Q && is_claimed(*P)) || (Q && !P && is_claimed(*Q))) {
+      add({P ? *P : *Q}, false, false);
+      return;
+    }
     if (P) {
       const partial_follow::Followed a = followed(*P, Q ? &*Q : nullptr);
       add(a.points, false, a.stop == partial_follow::Stop::coast);
@@ -775,6 +815,33 @@ std::vector<BoundaryLine> loci_by_cells(const LineRewrite& w, const OwnerIndex& 
 
 }  // namespace
 
+namespace {
+
+// The B-X lines that meet end to end at one of `at` (a band followed from one piece of a cut
+// full-effect line into another's: lines/partial_effect.cpp, LineRewrite::claimed) made one.
+void join_at(std::vector<BoundaryLine>& lines, const SeedSet& seeds, int32_t B, int32_t X,
+             const std::vector<Vec2>& at) {
+  auto pair = [&](const BoundaryLine& l) {
+    return !l.closed && ((l.owner_a == B && l.owner_b == X) || (l.owner_a == X && l.owner_b == B));
+  };
+  for (const Vec2 c : at) {
+    auto ending = std::find_if(lines.begin(), lines.end(),
+                               [&](const BoundaryLine& l) { return pair(l) && l.vertices.back().p == c; });
+    auto starting = std::find_if(lines.begin(), lines.end(),
+                                 [&](const BoundaryLine& l) { return pair(l) && l.vertices.front().p == c; });
+    if (ending == lines.end() || starting == lines.end() || ending == starting || ending->owner_a != starting->owner_a)
+      throw Error(ErrorKind::unsupported, "partial effect: the partial-effect line of owners " + owner_label(seeds, B) +
+                                              " and " + owner_label(seeds, X) +
+                                              " followed past a coast does not join its other piece; its lines are "
+                                              "not drawn (the rasters are exact)");
+    ending->vertices.insert(ending->vertices.end(), starting->vertices.begin() + 1, starting->vertices.end());
+    ending->bows.clear();
+    lines.erase(starting);
+  }
+}
+
+}  // namespace
+
 BoundaryResult partial_boundaries(const PartialEffectRule& rule, const SeedSet& seeds, const OwnerIndex& index,
                                   const GridSpec& grid, double ftol, double line_tolerance, double simplify_cells,
                                   PartialLineStats& stats, const OwnerIndex* nil_index, const NearestField* full_field,
@@ -798,13 +865,24 @@ BoundaryResult partial_boundaries(const PartialEffectRule& rule, const SeedSet& 
     for (size_t j : simplify_indices(pts, simplify)) kept.push_back(line.vertices[j]);
     line.vertices = std::move(kept);
   };
+  std::map<int32_t, std::vector<Vec2>> turnings, claimed;  // by neighbour (LineRewrite::open_turnings)
   auto rewriter = [&](int32_t X, bool b_is_a) {
     LineRewrite w{rule, seeds,  index, ftol,  tol,     B,
                   X,    b_is_a, stats, plans, per_crs, index.metric().straight() ? nullptr : nil_index,
                   &grid};
     w.by_cells = by_cells;
+    if (w.nil_index != nullptr) {
+      w.open_turnings = &turnings[X];
+      w.claimed = &claimed[X];
+    }
     return w;
   };
+  if (!index.metric().straight() && nil_index != nullptr)
+    for (const BoundaryLine& line : out.lines)
+      if (line.owner_a == B || line.owner_b == B) {
+        const int32_t X = line.owner_a == B ? line.owner_b : line.owner_a;
+        for (const Vec2 t : rewriter(X, line.owner_a == B).end_turnings(line)) turnings[X].push_back(t);
+      }
   std::vector<BoundaryLine> more;                // by sea: the pieces of lines that land cut
   std::vector<std::pair<int32_t, bool>> wholly;  // neighbours (and B's side) with a line wholly in the band
   std::vector<bool> dropped(out.lines.size(), false);
@@ -843,6 +921,7 @@ BoundaryResult partial_boundaries(const PartialEffectRule& rule, const SeedSet& 
     vertices += static_cast<int64_t>(line.vertices.size());
     out.lines.push_back(std::move(line));
   }
+  for (const auto& [X, at] : claimed) join_at(out.lines, seeds, B, X, at);
   vertices += partial_tripoints::extend_at_tripoints(rule, plans, index, out);
   vertices += partial_tripoints::given_back_zone(rule, seeds, plans, index, grid.res, out);
   out.stats.vertices = vertices;

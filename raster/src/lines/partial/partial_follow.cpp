@@ -185,16 +185,28 @@ struct Follower {
   // point, the first step goes along `dir0`): until `target`, the frame, a coast, out of the
   // band, or back at pts.front() where `closing` (a loop: once more than three steps away from
   // it, back within one and a half). Appends the points walked; returns how the walk ended.
-  Stop walk(std::vector<Vec2>& pts, Vec2 dir0, const Vec2* target, bool closing) const {
+  Stop walk(std::vector<Vec2>& pts, Vec2 dir0, const Vec2* target, bool closing, const std::vector<Vec2>& others = {},
+            int* reached = nullptr) const {
+    // The target, or else the first of `others`, within `reach` of p (-2: none; -1: the target).
+    auto near_target = [&](Vec2 p, double reach) {
+      if (target && norm(Vec2{p.x - target->x, p.y - target->y}) <= reach) return -1;
+      for (size_t k = 0; k < others.size(); ++k)
+        if (norm(Vec2{p.x - others[k].x, p.y - others[k].y}) <= reach) return static_cast<int>(k);
+      return -2;
+    };
+    auto stop_at = [&](int k) {
+      if (reached) *reached = k;
+      return k < 0 ? *target : others[static_cast<size_t>(k)];
+    };
     // A band is crossed in well under this many steps (its length over half a cell, with room).
     const auto limit = static_cast<int64_t>(8 * (L.grid.width + L.grid.height)) + 64;
     const Vec2 origin = pts.front();
     bool away = false;
     for (int64_t k = 0; k < limit; ++k) {
       const Vec2 c = pts.back();
-      if (target && norm(Vec2{c.x - target->x, c.y - target->y}) <= 1.5 * step) {
+      if (const int k = near_target(c, 1.5 * step); k > -2) {
         if (pts.size() > 2) pts.pop_back();
-        pts.push_back(*target);
+        pts.push_back(stop_at(k));
         return Stop::target;
       }
       const double from_origin = norm(Vec2{c.x - origin.x, c.y - origin.y});
@@ -224,8 +236,8 @@ struct Follower {
       }
       if (!L.in_band(r)) {
         // Out of the band away from land: only where L0 meets L1, at the target.
-        if (target && norm(Vec2{r.x - target->x, r.y - target->y}) <= 3.0 * step) {
-          pts.push_back(*target);
+        if (const int k = near_target(r, 3.0 * step); k > -2) {
+          pts.push_back(stop_at(k));
           return Stop::target;
         }
         return Stop::lost;
@@ -245,13 +257,14 @@ struct Follower {
     return out;
   }
 
-  Followed run(Vec2 start, const Vec2* target) const {
+  Followed run(Vec2 start, const Vec2* target, const std::vector<Vec2>& others) const {
     std::vector<Vec2> pts{start};
     Vec2 p;
     if (!first(start, p)) return Followed{pts, Stop::lost};
     pts.push_back(p);
-    const Stop stop = walk(pts, Vec2{}, target, false);
-    return Followed{refined(pts), stop};
+    int reached = -1;
+    const Stop stop = walk(pts, Vec2{}, target, false, others, &reached);
+    return Followed{refined(pts), stop, stop == Stop::target ? reached : -1};
   }
 
   Through through(Vec2 on) const {
@@ -278,8 +291,9 @@ struct Follower {
 
 }  // namespace
 
-Followed follow(const Level& level, Vec2 start, const Vec2* target, LineResidual& residual) {
-  return Follower{level, residual, 0.5 * level.grid.res}.run(start, target);
+Followed follow(const Level& level, Vec2 start, const Vec2* target, LineResidual& residual,
+                const std::vector<Vec2>& others) {
+  return Follower{level, residual, 0.5 * level.grid.res}.run(start, target, others);
 }
 
 Through follow_through(const Level& level, Vec2 on, LineResidual& residual) {

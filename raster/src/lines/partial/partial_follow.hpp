@@ -52,13 +52,18 @@ enum class Stop {
 struct Followed {
   std::vector<Vec2> points;  // from the start on, the start included
   Stop stop = Stop::lost;    // how its last point was reached
+  int other = -1;            // Stop::target at others[other] (-1: at `target`, or not at a target)
 };
 
 // The locus followed from `start` (a turning point, where L1 leaves L0) into the band, until
 // `target` (the turning point where the band closes; null where it runs to a line's end) or a
 // coast or the frame; its chords then made to lie within level.tol of the locus (midpoints
 // added), each chord kept measured into `residual`.
-Followed follow(const Level& level, Vec2 start, const Vec2* target, LineResidual& residual);
+// `others`: further points at which the walk also stops as at a target (the turning points of
+// the same band on other pieces of a full-effect line that a coast cut: the band goes on past
+// the coast's point where L1 touched it).
+Followed follow(const Level& level, Vec2 start, const Vec2* target, LineResidual& residual,
+                const std::vector<Vec2>& others = {});
 
 // A locus followed both ways from a point of it inside its band.
 struct Through {
