@@ -375,6 +375,22 @@ TEST_F(Cli, PartialEffectFromAnAttribute) {
   EXPECT_FALSE(fs::exists(path("t.json")));
 }
 
+// The western Baltic's 200 ports with Zealand's 27 at half effect, straight on the ellipsoid: the
+// DK-SE partial line, traced from the partial tripoint, turns back near Ven and returns to where it
+// began instead of running on to the grid's northern edge, which would leave the Kattegat's DK and
+// SE faces merged in the regions. Until that trace is fixed the lines are refused in one line and
+// nothing is written (before, the doubled line and regions 28,812 cells off were written).
+TEST_F(Cli, APartialLineThatTurnsBackIsRefusedNotDrawn) {
+  const CliRun r = run("compute " + test::fixture("baltic_west_ports_zealand_half.geojson") +
+                       " --owner-field owner --effect-field effect --extent 9.0 53.8 15.5 56.2 --resolution 0.01"
+                       " --quiet --ownership " +
+                       path("z.tif") + " --boundaries " + path("z.geojson") + " --regions " + path("zr.geojson"));
+  expect_refused(r, 7, "the partial-effect line of owners 'DK' and 'SE' turns back to where it began");
+  EXPECT_FALSE(fs::exists(path("z.tif")));
+  EXPECT_FALSE(fs::exists(path("z.geojson")));
+  EXPECT_FALSE(fs::exists(path("zr.geojson")));
+}
+
 // A reach from an attribute, in the job's distance units: 12 nmi on a geographic grid, whose
 // island cells are those within 22,224 m of it on the ellipsoid.
 TEST_F(Cli, ReachFromAnAttributeInDistanceUnits) {

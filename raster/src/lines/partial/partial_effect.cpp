@@ -924,6 +924,21 @@ BoundaryResult partial_boundaries(const PartialEffectRule& rule, const SeedSet& 
   for (const auto& [X, at] : claimed) join_at(out.lines, seeds, B, X, at);
   vertices += partial_tripoints::extend_at_tripoints(rule, plans, index, out);
   vertices += partial_tripoints::given_back_zone(rule, seeds, plans, index, grid.res, out);
+  // An open line that ends where it began, its second and last-but-one vertices one point too, ran
+  // out along a locus and back over itself: the stretch beyond where it turned is missing, and
+  // regions would merge two owners' faces there. Refused, never drawn (seen straight on Zealand at
+  // half effect: bench/RESULTS-sea.md, sessions 59-60). (A line may legitimately leave a point and
+  // come back to it another way.)
+  auto same = [&](Vec2 a, Vec2 b) { return std::hypot(a.x - b.x, a.y - b.y) <= 1e-6 * grid.res; };
+  for (const BoundaryLine& line : out.lines) {
+    const std::vector<BoundaryVertex>& v = line.vertices;
+    if (!line.closed && v.size() > 3 && same(v.front().p, v.back().p) && same(v[1].p, v[v.size() - 2].p))
+      throw Error(ErrorKind::unsupported, "partial effect: the partial-effect line of owners " +
+                                              owner_label(seeds, line.owner_a) + " and " +
+                                              owner_label(seeds, line.owner_b) +
+                                              " turns back to where it began; its lines are not drawn (the rasters "
+                                              "are exact)");
+  }
   out.stats.vertices = vertices;
   out.stats.max_residual = std::max(out.stats.max_residual, stats.max_residual);
   return out;
