@@ -24,6 +24,7 @@
 #include "lines/boundary_stages.hpp"
 #include "lines/line_tools.hpp"
 #include "lines/partial/partial_follow.hpp"
+#include "lines/partial/partial_joins.hpp"
 #include "lines/partial/partial_loci.hpp"
 #include "lines/partial/partial_tripoints.hpp"
 #include "lines/partial/polyline_along.hpp"
@@ -815,33 +816,6 @@ std::vector<BoundaryLine> loci_by_cells(const LineRewrite& w, const OwnerIndex& 
 
 }  // namespace
 
-namespace {
-
-// The B-X lines that meet end to end at one of `at` (a band followed from one piece of a cut
-// full-effect line into another's: lines/partial_effect.cpp, LineRewrite::claimed) made one.
-void join_at(std::vector<BoundaryLine>& lines, const SeedSet& seeds, int32_t B, int32_t X,
-             const std::vector<Vec2>& at) {
-  auto pair = [&](const BoundaryLine& l) {
-    return !l.closed && ((l.owner_a == B && l.owner_b == X) || (l.owner_a == X && l.owner_b == B));
-  };
-  for (const Vec2 c : at) {
-    auto ending = std::find_if(lines.begin(), lines.end(),
-                               [&](const BoundaryLine& l) { return pair(l) && l.vertices.back().p == c; });
-    auto starting = std::find_if(lines.begin(), lines.end(),
-                                 [&](const BoundaryLine& l) { return pair(l) && l.vertices.front().p == c; });
-    if (ending == lines.end() || starting == lines.end() || ending == starting || ending->owner_a != starting->owner_a)
-      throw Error(ErrorKind::unsupported, "partial effect: the partial-effect line of owners " + owner_label(seeds, B) +
-                                              " and " + owner_label(seeds, X) +
-                                              " followed past a coast does not join its other piece; its lines are "
-                                              "not drawn (the rasters are exact)");
-    ending->vertices.insert(ending->vertices.end(), starting->vertices.begin() + 1, starting->vertices.end());
-    ending->bows.clear();
-    lines.erase(starting);
-  }
-}
-
-}  // namespace
-
 BoundaryResult partial_boundaries(const PartialEffectRule& rule, const SeedSet& seeds, const OwnerIndex& index,
                                   const GridSpec& grid, double ftol, double line_tolerance, double simplify_cells,
                                   PartialLineStats& stats, const OwnerIndex* nil_index, const NearestField* full_field,
@@ -921,24 +895,10 @@ BoundaryResult partial_boundaries(const PartialEffectRule& rule, const SeedSet& 
     vertices += static_cast<int64_t>(line.vertices.size());
     out.lines.push_back(std::move(line));
   }
-  for (const auto& [X, at] : claimed) join_at(out.lines, seeds, B, X, at);
+  for (const auto& [X, at] : claimed) partial_joins::join_at(out.lines, seeds, B, X, at);
   vertices += partial_tripoints::extend_at_tripoints(rule, plans, index, out);
   vertices += partial_tripoints::given_back_zone(rule, seeds, plans, index, grid.res, out);
-  // An open line that ends where it began, its second and last-but-one vertices one point too, ran
-  // out along a locus and back over itself: the stretch beyond where it turned is missing, and
-  // regions would merge two owners' faces there. Refused, never drawn (seen straight on Zealand at
-  // half effect: bench/RESULTS-sea.md, sessions 59-60). (A line may legitimately leave a point and
-  // come back to it another way.)
-  auto same = [&](Vec2 a, Vec2 b) { return std::hypot(a.x - b.x, a.y - b.y) <= 1e-6 * grid.res; };
-  for (const BoundaryLine& line : out.lines) {
-    const std::vector<BoundaryVertex>& v = line.vertices;
-    if (!line.closed && v.size() > 3 && same(v.front().p, v.back().p) && same(v[1].p, v[v.size() - 2].p))
-      throw Error(ErrorKind::unsupported, "partial effect: the partial-effect line of owners " +
-                                              owner_label(seeds, line.owner_a) + " and " +
-                                              owner_label(seeds, line.owner_b) +
-                                              " turns back to where it began; its lines are not drawn (the rasters "
-                                              "are exact)");
-  }
+  partial_joins::refuse_turned_back(out.lines, seeds, grid.res);
   out.stats.vertices = vertices;
   out.stats.max_residual = std::max(out.stats.max_residual, stats.max_residual);
   return out;
