@@ -141,8 +141,9 @@ struct PartialLineStats {
 // island's lines ending there are left to the cells as above.
 // Throws rv::Error(unsupported) where a line is all band and those fields are not given, where a
 // locus so found cannot be followed (it meets a tripoint), where only one band at a tripoint is
-// given back whole, or the lines around a tripoint do not meet as above: the rasters are exact
-// there, the lines are not drawn.
+// given back whole, the lines around a tripoint do not meet as above, a band followed by sea into
+// another piece of its full-effect line does not join that piece's line end to end, or a line runs
+// out and back over itself to where it began: the rasters are exact there, the lines are not drawn.
 BoundaryResult partial_boundaries(const PartialEffectRule& rule, const SeedSet& seeds, const OwnerIndex& index,
                                   const GridSpec& grid, double ftol, double line_tolerance, double simplify_cells,
                                   PartialLineStats& stats, const OwnerIndex* nil_index = nullptr,
