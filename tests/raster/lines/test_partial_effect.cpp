@@ -85,6 +85,56 @@ TEST(PartialEffect, HalfEffectIsTheMedianRayAt220) { check_rays(0.5, 220.0); }
 
 TEST(PartialEffect, QuarterEffectIsTheRayAt209_69) { check_rays(0.25, 209.69); }
 
+// The band's turning point O is where B's two sites (the island and the mainland) change along the
+// full-effect line. With O half a cell off the rows of cell centres and moved in small steps, the
+// line has a vertex at O, and rounding decides which of B's sites it carries: where it is the
+// mainland's, the turning point is the common vertex itself and shows by itself no direction along
+// the nil-effect line (the band's chain of it once ran the wrong way there: k 5 to 8 turned about x
+// below). Turned about either axis the lines run the other way (the band first or last along the
+// line): in each of the 40 layouts every vertex is on the common ray or on the locus ray, and the
+// locus ray runs from O out to the frame (turned about both axes L0 and L1 end on two sides of the
+// frame: the locus point on the chord between their ends once stopped 3.3 km short of it).
+TEST(PartialEffect, ABandFromATurningPointOnAVertexRunsToTheFrameWhicheverWayTheLinesRun) {
+  const double az = locus_azimuth(0.5);
+  for (int k = 0; k < 10; ++k)
+    for (const double sx : {1.0, -1.0})
+      for (const double sy : {1.0, -1.0}) {
+        const Vec2 o{kO.x + 37.0 * k, kO.y + 500.0 - 13.0 * (k % 7)};
+        SCOPED_TRACE(testing::Message() << "k " << k << ", x turned " << (sx < 0.0) << ", y turned " << (sy < 0.0));
+        auto dir = [&](double azimuth) { return Vec2{sx * std::sin(azimuth * kDeg), sy * std::cos(azimuth * kDeg)}; };
+        auto at = [&](double azimuth) { return Vec2{o.x + 30000.0 * dir(azimuth).x, o.y + 30000.0 * dir(azimuth).y}; };
+        SeedSet s;
+        const int32_t a = s.owner_code("A"), b = s.owner_code("B");
+        s.add_point(s.add_feature(a), at(310.0));
+        const int32_t island = s.add_feature(b);
+        s.add_point(island, at(170.0));
+        s.set_effect(island, 0.5);
+        s.add_point(s.add_feature(b), at(90.0));
+        const PartialEffectResult r = compute_partial_effect(s, kGrid, ComputeOptions{}, BoundaryOptions{});
+        ASSERT_TRUE(r.rule);
+        ASSERT_EQ(r.boundaries.lines.size(), 1u);
+        const Vec2 common = dir(20.0), locus = dir(az);
+        double farthest = 0.0;
+        Vec2 end = o;
+        for (const BoundaryVertex& v : r.boundaries.lines[0].vertices) {
+          const Vec2 q{v.p.x - o.x, v.p.y - o.y};
+          if (std::hypot(q.x, q.y) < 1e-6) continue;
+          const bool locus_side = q.x * locus.x + q.y * locus.y > 0.0;
+          const Vec2 u = locus_side ? locus : common;
+          EXPECT_LT(std::abs(q.x * u.y - q.y * u.x), 1e-5) << "vertex at " << q.x << ", " << q.y << " from O";
+          if (locus_side && q.x * u.x + q.y * u.y > farthest) {
+            farthest = q.x * u.x + q.y * u.y;
+            end = v.p;
+          }
+        }
+        // The locus ray's last vertex is on the frame of cell centres (37.8 km or more from O).
+        const double off_frame = std::min({std::abs(end.x - kGrid.centre_x(0)), std::abs(end.x - kGrid.centre_x(119)),
+                                           std::abs(end.y - kGrid.centre_y(0)), std::abs(end.y - kGrid.centre_y(99))});
+        EXPECT_LT(off_frame, 1e-6) << "the locus ends at " << end.x << ", " << end.y;
+        EXPECT_GT(farthest, 37000.0);
+      }
+}
+
 // e = 1 is no adjustment at all; e = 0 is the island absent: the nil-effect field's owners and
 // the line on the 200-degree ray.
 TEST(PartialEffect, FullAndNilEffectAreTheTwoRuns) {

@@ -375,20 +375,64 @@ TEST_F(Cli, PartialEffectFromAnAttribute) {
   EXPECT_FALSE(fs::exists(path("t.json")));
 }
 
-// The western Baltic's 200 ports with Zealand's 27 at half effect, straight on the ellipsoid: the
-// DK-SE partial line, traced from the partial tripoint, turns back near Ven and returns to where it
-// began instead of running on to the grid's northern edge, which would leave the Kattegat's DK and
-// SE faces merged in the regions. Until that trace is fixed the lines are refused in one line and
-// nothing is written (before, the doubled line and regions 28,812 cells off were written).
-TEST_F(Cli, APartialLineThatTurnsBackIsRefusedNotDrawn) {
+// Is p inside the GeoJSON (Multi)Polygon `geometry` (even-odd over all its rings)?
+bool inside_geojson(const nlohmann::json& geometry, double x, double y) {
+  const bool multi = geometry["type"] == "MultiPolygon";
+  bool in = false;
+  auto rings_of = [&](const nlohmann::json& polygon) {
+    for (const nlohmann::json& ring : polygon)
+      for (size_t i = 0, j = ring.size() - 1; i < ring.size(); j = i++) {
+        const double ax = ring[i][0], ay = ring[i][1], bx = ring[j][0], by = ring[j][1];
+        if ((ay > y) != (by > y) && x < ax + (y - ay) * (bx - ax) / (by - ay)) in = !in;
+      }
+  };
+  if (multi)
+    for (const nlohmann::json& polygon : geometry["coordinates"]) rings_of(polygon);
+  else
+    rings_of(geometry["coordinates"]);
+  return in;
+}
+
+// The western Baltic's 200 ports with Zealand's 27 at half effect, straight on the ellipsoid. The
+// DK-SE line leaves the full-effect line's band at a turning point that is a vertex of it; the
+// band's stretch of the nil-effect line once ran from there the wrong way, and the partial line,
+// traced from the partial tripoint by Ven and back, never reached the grid's northern edge: the
+// Kattegat's DK and SE faces merged in the regions (28,812 cells off), and later the line was
+// refused. Now: one DK-SE line from the northern edge to the tripoint south of the Sound, no line
+// that comes back to where it began, and over the Sound and the Kattegat every cell in the region
+// of its owner.
+TEST_F(Cli, APartialLineFromATurningPointOnAVertexRunsToTheGridsEdge) {
   const CliRun r = run("compute " + test::fixture("baltic_west_ports_zealand_half.geojson") +
                        " --owner-field owner --effect-field effect --extent 9.0 53.8 15.5 56.2 --resolution 0.01"
                        " --quiet --ownership " +
                        path("z.tif") + " --boundaries " + path("z.geojson") + " --regions " + path("zr.geojson"));
-  expect_refused(r, 7, "the partial-effect line of owners 'DK' and 'SE' turns back to where it began");
-  EXPECT_FALSE(fs::exists(path("z.tif")));
-  EXPECT_FALSE(fs::exists(path("z.geojson")));
-  EXPECT_FALSE(fs::exists(path("zr.geojson")));
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const nlohmann::json lines = nlohmann::json::parse(std::ifstream(path("z.geojson")));
+  int dk_se_from_north = 0;
+  for (const nlohmann::json& f : lines["features"]) {
+    const nlohmann::json& c = f["geometry"]["coordinates"];
+    ASSERT_GE(c.size(), 2u);
+    if (f["properties"]["closed"] == 0)
+      EXPECT_FALSE(c.front() == c.back()) << f["properties"]["label_a"] << "-" << f["properties"]["label_b"];
+    if (f["properties"]["label_a"] != "DK" || f["properties"]["label_b"] != "SE") continue;
+    const double north = std::max(c.front()[1].get<double>(), c.back()[1].get<double>());
+    dk_se_from_north += std::abs(north - 56.195) < 1e-9;
+  }
+  EXPECT_EQ(dk_se_from_north, 1);
+  const Raster<int32_t> own = read_int32(path("z.tif"));
+  const nlohmann::json regions = nlohmann::json::parse(std::ifstream(path("zr.geojson")));
+  int64_t checked = 0, off = 0;
+  for (int64_t row = 0; row < 120; ++row)        // 56.195 to 55.005 N
+    for (int64_t col = 320; col < 430; ++col) {  // 12.205 to 13.295 E
+      const double x = 9.005 + 0.01 * static_cast<double>(col), y = 56.195 - 0.01 * static_cast<double>(row);
+      int32_t in = 0;
+      for (const nlohmann::json& f : regions["features"])
+        if (inside_geojson(f["geometry"], x, y)) in = f["properties"]["owner"].get<int32_t>();
+      ++checked;
+      off += in != own.at(col, row);
+    }
+  EXPECT_EQ(checked, 13200);
+  EXPECT_EQ(off, 0);
 }
 
 // A reach from an attribute, in the job's distance units: 12 nmi on a geographic grid, whose

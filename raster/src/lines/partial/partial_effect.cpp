@@ -14,6 +14,7 @@
 #include <array>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <limits>
 #include <map>
 #include <optional>
@@ -29,7 +30,6 @@
 #include "lines/partial/partial_tripoints.hpp"
 #include "lines/partial/polyline_along.hpp"
 #include "rv/field/error.hpp"
-#include "rv/field/parallel.hpp"
 #include "rv/lines/regions.hpp"
 #include "rv/lines/simplify.hpp"
 
@@ -170,73 +170,6 @@ int32_t PartialEffectRule::owner(Vec2 p, int32_t full_owner, int32_t nil_owner) 
   return (1.0 - e) * distance_to_nil(p, nil_owner) < e * distance_to_full(p, nil_owner) ? B : nil_owner;
 }
 
-NearestField partial_field(const NearestField& full, const NearestField& nil, const std::vector<int32_t>& site_of,
-                           const SeedSet& seeds, const PartialEffectRule& rule, int threads) {
-  check_whole_grid(full);
-  check_whole_grid(nil);
-  if (!(full.site.grid() == nil.site.grid()))
-    throw Error(ErrorKind::internal, "partial_field: the two fields are of different grids");
-  NearestField out = full;
-  const GridSpec& g = full.site.grid();
-  const int32_t B = rule.effect().owner;
-  // The band's neighbour per cell (0: not in a band).
-  auto neighbour = [&](int64_t c, int64_t r) -> int32_t {
-    const int32_t s1 = full.site.at(c, r);
-    if (s1 == kNoSite || seeds.site_owner(s1) != B) return 0;
-    const int32_t n0 = nil.site.at(c, r);
-    if (n0 == kNoSite) return 0;
-    const int32_t o0 = seeds.site_owner(site_of[static_cast<size_t>(n0)]);
-    return o0 == B ? 0 : o0;
-  };
-  auto give_back = [&](int64_t c, int64_t r) {
-    out.site.at(c, r) = site_of[static_cast<size_t>(nil.site.at(c, r))];
-    out.distance.at(c, r) = nil.distance.at(c, r);
-  };
-  // The balance is 1-Lipschitz (both distances are, and e + (1 - e) = 1): where its magnitude at
-  // a block's middle exceeds the block's reach from there, every cell of the block is on that
-  // side, and only the cells near the partial line are decided one by one. The band can be much
-  // of the grid; its line is a curve through it.
-  constexpr int64_t kBlock = 32;
-  auto decide = [&](auto&& self, int64_t c0, int64_t r0, int64_t n, int32_t x) -> void {
-    const int64_t c1 = std::min(c0 + n, g.width) - 1, r1 = std::min(r0 + n, g.height) - 1;
-    if (n <= 2) {
-      for (int64_t r = r0; r <= r1; ++r)
-        for (int64_t c = c0; c <= c1; ++c)
-          if (neighbour(c, r) == x && rule.owner(Vec2{g.centre_x(c), g.centre_y(r)}, B, x) != B) give_back(c, r);
-      return;
-    }
-    const Vec2 mid{0.5 * (g.centre_x(c0) + g.centre_x(c1)), 0.5 * (g.centre_y(r0) + g.centre_y(r1))};
-    double reach = 0.0;
-    for (const Vec2 corner : {Vec2{g.centre_x(c0), g.centre_y(r0)}, Vec2{g.centre_x(c1), g.centre_y(r0)},
-                              Vec2{g.centre_x(c0), g.centre_y(r1)}, Vec2{g.centre_x(c1), g.centre_y(r1)}})
-      reach = std::max(reach, rule.separation(mid, corner));
-    reach = reach * (1.0 + 1e-6) + 1e-9 * g.res;
-    const double balance = rule.balance(mid, x);
-    if (balance > reach) return;  // all B's
-    if (balance < -reach) {
-      for (int64_t r = r0; r <= r1; ++r)
-        for (int64_t c = c0; c <= c1; ++c)
-          if (neighbour(c, r) == x) give_back(c, r);
-      return;
-    }
-    const int64_t h = n / 2;
-    for (const auto& [dc, dr] : {std::pair{0, 0}, {1, 0}, {0, 1}, {1, 1}})
-      if (c0 + dc * h < g.width && r0 + dr * h < g.height) self(self, c0 + dc * h, r0 + dr * h, h, x);
-  };
-  const int64_t bw = (g.width + kBlock - 1) / kBlock, bh = (g.height + kBlock - 1) / kBlock;
-  detail::parallel_for(threads, bw * bh, [&](int64_t k, int) {
-    const int64_t c0 = (k % bw) * kBlock, r0 = (k / bw) * kBlock;
-    std::vector<int32_t> present;
-    for (int64_t r = r0; r < std::min(r0 + kBlock, g.height); ++r)
-      for (int64_t c = c0; c < std::min(c0 + kBlock, g.width); ++c) {
-        const int32_t x = neighbour(c, r);
-        if (x != 0 && std::find(present.begin(), present.end(), x) == present.end()) present.push_back(x);
-      }
-    for (const int32_t x : present) decide(decide, c0, r0, kBlock, x);
-  });
-  return out;
-}
-
 namespace {
 
 // One line of owners B and X being rewritten.
@@ -253,6 +186,8 @@ struct LineRewrite {
   // By sea (a metric that is not straight): the nil-effect index, for the band (partial_follow).
   const OwnerIndex* nil_index = nullptr;
   const GridSpec* grid = nullptr;
+  // The nil-effect index in either metric (which way round the frame a band runs: on_frame).
+  const OwnerIndex* band_nil = nullptr;
   // The rule's cells can be had (partial_boundaries' `cells`): a line wholly in its band is left to
   // them (Rewritten::wholly_in_band) instead of refused.
   bool by_cells = false;
@@ -318,6 +253,42 @@ struct LineRewrite {
     return c.p;  // no turning point inside the chord: the common vertex is the nearest to it
   }
 
+  // The common vertex that shows which way L0 runs from turning point t beside v[k] (a common
+  // vertex): the first of the common run from v[k] on (by `step`, +-1) that is apart from t. t is
+  // v[k] itself where no turning point lies inside the chord, and a point shows no direction
+  // from itself (the chain then ran the wrong way: Zealand straight, bench/RESULTS-sea.md).
+  Vec2 away_from(const std::vector<BoundaryVertex>& v, size_t k, int step, Vec2 t) const {
+    const double apart = 1e-6 * grid->res;
+    for (size_t q = k;; q += static_cast<size_t>(step)) {
+      const size_t next = q + static_cast<size_t>(step);  // (q = 0, step -1: wraps past size())
+      if (std::hypot(v[q].p.x - t.x, v[q].p.y - t.y) > apart || next >= v.size() || partial(v[next])) return v[q].p;
+    }
+  }
+
+  // Where L0 and L1 both end on the frame of cell centres (a band running out of the grid): the
+  // locus point on the frame between their ends a and b, along the way round the frame that the
+  // band holds (the shorter where the nil-effect index is not given). The chord from a to b cuts
+  // the corner the band makes with the frame, so a locus point on it stops short of the frame by
+  // as much as the lines part there (cells beyond it would have no line between B and X).
+  bool on_frame(Vec2 a, Vec2 b, Vec2& out) const {
+    const GridSpec& g = *grid;
+    const std::vector<std::vector<Vec2>> ways = round_rectangle(a, b, g.centre_x(0), g.centre_y(g.height - 1),
+                                                                g.centre_x(g.width - 1), g.centre_y(0), 1e-9 * g.res);
+    if (ways.empty()) return false;
+    const std::vector<Vec2>* way = length(ways[0]) <= length(ways[1]) ? &ways[0] : &ways[1];
+    if (band_nil != nullptr)
+      for (const std::vector<Vec2>& w : ways) {
+        const Vec2 m = at_fraction(w, cumulative(w), 0.5);
+        if (owner_at(index, m) == B && owner_at(*band_nil, m) == X) way = &w;
+      }
+    const std::vector<double> k = cumulative(*way);
+    auto f = [&](double t) { return rule.balance(at_fraction(*way, k, t), X); };
+    const double fa = f(0.0), fb = f(1.0);
+    if (!(fa >= -ftol && fb <= ftol)) return false;
+    out = at_fraction(*way, k, find_root(f, fa, fb, ftol, 1e-15));
+    return true;
+  }
+
   // The locus point on the segment a-b (balance >= 0 at a, on L0; <= 0 at b, on L1).
   bool locus(Vec2 a, Vec2 b, Vec2& out) const {
     auto f = [&](double t) { return rule.balance(lerp(a, b, t), X); };
@@ -344,6 +315,11 @@ struct LineRewrite {
     auto sample = [&](double s, Sample& out) {
       if ((s <= 0.0 && fixed[0]) || (s >= 1.0 && fixed[1])) {
         out = Sample{s, s <= 0.0 ? c1.front() : c1.back()};
+        return true;
+      }
+      if ((s <= 0.0 || s >= 1.0) &&
+          on_frame(s <= 0.0 ? c0.front() : c0.back(), s <= 0.0 ? c1.front() : c1.back(), out.p)) {
+        out.s = s;
         return true;
       }
       out.s = s;
@@ -581,7 +557,7 @@ struct LineRewrite {
       if (!open_start) c1.push_back(P);
       for (size_t k = i; k <= j; ++k) c1.push_back(v[k].p);
       if (!open_end) c1.push_back(Q);
-      const Vec2 anchor = open_end ? v[i - 1].p : v[j + 1].p;
+      const Vec2 anchor = open_end ? away_from(v, i - 1, -1, P) : away_from(v, j + 1, 1, Q);
       const std::vector<Vec2> c0 = nil_chain(open_start ? nullptr : &P, open_end ? nullptr : &Q, anchor, cell);
       const std::vector<Vec2> traced = trace(c0, c1, {!open_start, !open_end});
       for (const Vec2 p : traced) {
@@ -845,6 +821,7 @@ BoundaryResult partial_boundaries(const PartialEffectRule& rule, const SeedSet& 
                   X,    b_is_a, stats, plans, per_crs, index.metric().straight() ? nullptr : nil_index,
                   &grid};
     w.by_cells = by_cells;
+    w.band_nil = nil_index;
     if (w.nil_index != nullptr) {
       w.open_turnings = &turnings[X];
       w.claimed = &claimed[X];

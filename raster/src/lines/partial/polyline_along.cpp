@@ -2,6 +2,7 @@
 #include "lines/partial/polyline_along.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 
 #include "lines/line_tools.hpp"
@@ -73,6 +74,40 @@ std::vector<double> cumulative(const std::vector<Vec2>& pts) {
   for (size_t k = 1; k < pts.size(); ++k)
     cum[k] = cum[k - 1] + std::hypot(pts[k].x - pts[k - 1].x, pts[k].y - pts[k - 1].y);
   return cum;
+}
+
+std::vector<std::vector<Vec2>> round_rectangle(Vec2 a, Vec2 b, double x0, double y0, double x1, double y1, double eps) {
+  const double w = x1 - x0, h = y1 - y0, perimeter = 2.0 * (w + h);
+  // The position along the boundary anticlockwise from (x0, y0); -1 off it.
+  auto position = [&](Vec2 p) {
+    if (std::abs(p.y - y0) <= eps) return std::clamp(p.x - x0, 0.0, w);
+    if (std::abs(p.x - x1) <= eps) return w + std::clamp(p.y - y0, 0.0, h);
+    if (std::abs(p.y - y1) <= eps) return w + h + std::clamp(x1 - p.x, 0.0, w);
+    if (std::abs(p.x - x0) <= eps) return 2.0 * w + h + std::clamp(y1 - p.y, 0.0, h);
+    return -1.0;
+  };
+  const double pa = position(a), pb = position(b);
+  if (pa < 0.0 || pb < 0.0) return {};
+  const std::array<double, 4> corner_at{w, w + h, 2.0 * w + h, perimeter};
+  const std::array<Vec2, 4> corners{Vec2{x1, y0}, Vec2{x1, y1}, Vec2{x0, y1}, Vec2{x0, y0}};
+  // Anticlockwise from a to b: the corners at positions in (pa, pb], round through the start.
+  std::vector<Vec2> ccw{a};
+  const double span = pb >= pa ? pb - pa : pb + perimeter - pa;
+  for (int lap = 0; lap < 2; ++lap)
+    for (size_t k = 0; k < 4; ++k) {
+      const double c = corner_at[k] + lap * perimeter;
+      if (c > pa && c < pa + span) ccw.push_back(corners[k]);
+    }
+  ccw.push_back(b);
+  // Clockwise from a: the corners anticlockwise from b to a, in reverse.
+  std::vector<Vec2> back{b};
+  for (int lap = 0; lap < 2; ++lap)
+    for (size_t k = 0; k < 4; ++k) {
+      const double c = corner_at[k] + lap * perimeter;
+      if (c > pa + span && c < pa + perimeter) back.push_back(corners[k]);
+    }
+  back.push_back(a);
+  return {ccw, std::vector<Vec2>(back.rbegin(), back.rend())};
 }
 
 }  // namespace rv::polyline_along

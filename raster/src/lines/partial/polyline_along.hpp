@@ -37,4 +37,9 @@ std::vector<double> cumulative(const std::vector<Vec2>& pts);
 // The point at fraction s in [0, 1] of a polyline's length (`cum`: cumulative(pts)).
 Vec2 at_fraction(const std::vector<Vec2>& pts, const std::vector<double>& cum, double s);
 
+// The two ways from a to b along the boundary of the rectangle [x0, x1] x [y0, y1] (CRS units;
+// a and b on it, within `eps`): anticlockwise first, then clockwise, each from a to b with the
+// corners between. Empty where a or b is not on the boundary.
+std::vector<std::vector<Vec2>> round_rectangle(Vec2 a, Vec2 b, double x0, double y0, double x1, double y1, double eps);
+
 }  // namespace rv::polyline_along
