@@ -204,16 +204,23 @@ struct LineRewrite {
     std::vector<Vec2> out;
     if (line.closed || v.size() < 2) return out;
     if (partial(v.front()) && plan_at(v.front().p) == nullptr) {
-      size_t j = 0;
-      while (j + 1 < v.size() && partial(v[j + 1])) ++j;
+      const size_t j = run_end(v, 0, 1);
       if (j + 1 < v.size()) out.push_back(turning(v[j + 1], v[j]));
     }
     if (partial(v.back()) && plan_at(v.back().p) == nullptr) {
-      size_t i = v.size() - 1;
-      while (i > 0 && partial(v[i - 1])) --i;
+      const size_t i = run_end(v, v.size() - 1, -1);
       if (i > 0) out.push_back(turning(v[i - 1], v[i]));
     }
     return out;
+  }
+
+  // The last vertex of the run of partial vertices from v[i] (partial) on, by `step` (+-1): a
+  // band's other end along the line.
+  size_t run_end(const std::vector<BoundaryVertex>& v, size_t i, int step) const {
+    for (size_t next = i + static_cast<size_t>(step); next < v.size() && partial(v[next]);
+         next += static_cast<size_t>(step))
+      i = next;  // (i = 0, step -1: next wraps past size())
+    return i;
   }
 
   const TripointPlan* plan_at(Vec2 p) const {
@@ -529,8 +536,7 @@ struct LineRewrite {
         out.push_back(v[i++]);
         continue;
       }
-      size_t j = i;
-      while (j + 1 < v.size() && partial(v[j + 1])) ++j;
+      const size_t j = run_end(v, i, 1);
       // A band between two common vertices runs from turning point P to turning point Q; one at
       // an end of the line (the edge of the grid or of the owned area) runs to or from there.
       const bool open_start = i == 0, open_end = j + 1 == v.size();
@@ -828,12 +834,13 @@ BoundaryResult partial_boundaries(const PartialEffectRule& rule, const SeedSet& 
     }
     return w;
   };
-  if (!index.metric().straight() && nil_index != nullptr)
-    for (const BoundaryLine& line : out.lines)
-      if (line.owner_a == B || line.owner_b == B) {
-        const int32_t X = line.owner_a == B ? line.owner_b : line.owner_a;
-        for (const Vec2 t : rewriter(X, line.owner_a == B).end_turnings(line)) turnings[X].push_back(t);
-      }
+  for (const BoundaryLine& line : out.lines)
+    if (line.owner_a == B || line.owner_b == B) {
+      const int32_t X = line.owner_a == B ? line.owner_b : line.owner_a;
+      const LineRewrite w = rewriter(X, line.owner_a == B);
+      if (w.open_turnings != nullptr)
+        for (const Vec2 t : w.end_turnings(line)) turnings[X].push_back(t);
+    }
   std::vector<BoundaryLine> more;                // by sea: the pieces of lines that land cut
   std::vector<std::pair<int32_t, bool>> wholly;  // neighbours (and B's side) with a line wholly in the band
   std::vector<bool> dropped(out.lines.size(), false);
