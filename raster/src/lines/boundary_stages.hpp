@@ -215,10 +215,14 @@ class LineRefiner {
   double midpoint_offset(const BoundaryVertex& u, const BoundaryVertex& v, int32_t a, int32_t b,
                          Bow* bow = nullptr) const;
   // The point that splits a chord: a turning point, an arc's or the locus' point across the
-  // middle (two edges of one coast sharing a vertex: one smooth stretch); false where none
-  // checks out.
+  // middle (two edges of one coast sharing a vertex: one smooth stretch; or, `loose`, where more
+  // sites change within the chord: between() keeps what it gives only where the line so refined
+  // is simple); false where none checks out.
   bool split(const End& u, const End& v, bool same, bool arcs, double stray, int32_t a, int32_t b, End& mid,
-             bool& turning) const;
+             bool& turning, bool& loose) const;
+  // Whether the line u, out[from..], v is simple: no two of its segments cross, and it comes back
+  // within a millionth of the chord to none of its vertices but the one before.
+  static bool runs_simply(Vec2 u, Vec2 v, const std::vector<End>& out, size_t from);
   bool turning_point(const End& u, const End& v, int32_t a, int32_t b, double max_off, End& out) const;
   bool across_middle(const End& u, const End& v, int32_t a, int32_t b, double max_off, End& out) const;
   // The ends' two sites' locus point from the chord's middle (Newton's method), within max_off.

@@ -214,13 +214,13 @@ double LineRefiner::midpoint_offset(const BoundaryVertex& u, const BoundaryVerte
 }
 
 bool LineRefiner::split(const End& u, const End& v, bool same, bool arcs, double stray, int32_t a, int32_t b, End& mid,
-                        bool& turning) const {
+                        bool& turning, bool& loose) const {
   // The locus this chord stands for lies within about `stray` (CRS units) of it; a locus point
   // much farther away belongs to another stretch (the locus can cross the chord's perpendicular
   // again).
   const double chord = std::hypot(v.v.p.x - u.v.p.x, v.v.p.y - u.v.p.y);
   const double max_off = std::min(2.0 * stray + 1e-9 * chord, chord);
-  turning = false;
+  turning = loose = false;
   // Where a site changes and no turning point of three sites checks out (more sites change
   // within the chord), the chord stays: a root across its middle could be another stretch's.
   if (arcs && same) return across_arc(u, v, a, b, max_off, mid);
@@ -235,9 +235,8 @@ bool LineRefiner::split(const End& u, const End& v, bool same, bool arcs, double
   if ((turning = turning_point(u, v, a, b, max_off, mid))) return true;
   // No turning point of three sites. Where the sites that change are two edges of one coast
   // that share a vertex (equally near over the whole wedge where that vertex is nearest: no
-  // single point where they take over), the locus is one smooth stretch: its point across the middle, with each
-  // owner's true nearest there, is checked like any other. Otherwise (more sites change within
-  // the chord) the chord stays.
+  // single point where they take over), the locus is one smooth stretch: its point across the
+  // middle, with each owner's true nearest there, is checked like any other.
   const std::vector<Site>& sites = index_.metric().seeds().sites();
   auto adjacent = [&](int32_t s1, int32_t s2) {
     if (s1 == s2) return true;
@@ -246,11 +245,18 @@ bool LineRefiner::split(const End& u, const End& v, bool same, bool arcs, double
     if (x.kind != SiteKind::segment || y.kind != SiteKind::segment || x.feature != y.feature) return false;
     return x.a == y.a || x.a == y.b || x.b == y.a || x.b == y.b;
   };
-  // Elsewhere (more sites change within the chord, as near where land borders meet the sea)
-  // the chord stays, counted unresolved where it is off by more than the tolerance: a root
-  // across its middle can belong to another stretch of the pair's locus (and lines crossing at
-  // their tripoints were seen when one was taken).
-  if (!adjacent(u.v.site_a, v.v.site_a) || !adjacent(u.v.site_b, v.v.site_b)) return false;
+  if (adjacent(u.v.site_a, v.v.site_a) && adjacent(u.v.site_b, v.v.site_b))
+    return across_middle(u, v, a, b, max_off, mid);
+  // Elsewhere more changes lie within the chord: several coast edges of one side, far apart, or
+  // by sea one side's site and the bend of the other's path round the land (the turning point of
+  // three sites then lies outside the chord). Such chords once stayed, for fear of a root of
+  // another stretch of the pair's locus, up to 80 m off the locus on the Øresund at 400 m and 98 m
+  // by sea south of Copenhagen (bench/RESULTS-sea.md, session 61). The point across the middle is
+  // taken as checked() takes every point, `loose`: between() keeps the refinement it starts only
+  // where the line from u to v stays simple (a random layout's root of another stretch sent the
+  // line out and back to a turning point). The locus may run back past an end's projection (south
+  // of Copenhagen the corner lies beyond u): no order along the chord is asked.
+  loose = true;
   return across_middle(u, v, a, b, max_off, mid);
 }
 
@@ -317,14 +323,23 @@ void LineRefiner::between(const End& u, const End& v, int depth, int32_t a, int3
   const double estimate = stray * per_crs_;
   const bool may_split = depth < kMaxDepth && tol_ > 0.0;
   End mid;
-  bool turning = false;
-  if (may_split && estimate > tol_ && split(u, v, same, arcs, stray, a, b, mid, turning)) {
+  bool turning = false, loose = false;
+  // Refines on either side of `mid`; a loose split (see split()) is undone where the line it gives
+  // from u to v is not simple (it crosses itself, or comes back to a vertex).
+  auto descend = [&]() {
+    const size_t out0 = out.size(), bows0 = bows != nullptr ? bows->size() : 0;
+    const Added before = n;
     ++(turning ? n.turning_points : n.arc_points);
     between(u, mid, depth + 1, a, b, out, n, bows);
     out.push_back(mid);
     between(mid, v, depth + 1, a, b, out, n, bows);
-    return;
-  }
+    if (!loose || runs_simply(u.v.p, v.v.p, out, out0)) return true;
+    out.resize(out0);
+    if (bows != nullptr) bows->resize(bows0);
+    n = before;
+    return false;
+  };
+  if (may_split && estimate > tol_ && split(u, v, same, arcs, stray, a, b, mid, turning, loose) && descend()) return;
   Bow bow;
   const double off = midpoint_offset(u.v, v.v, a, b, &bow);
   if (may_split && std::isfinite(off) && off > kSplitAt * tol_) {
@@ -332,18 +347,29 @@ void LineRefiner::between(const End& u, const End& v, int depth, int32_t a, int3
     // smaller scale, doubled for the slant of the perpendicular).
     const Vec2 s = scale_.at(u.v.p);
     const double reach = 2.0 * off / std::min(s.x, s.y);
-    if (split(u, v, same, arcs, std::max(stray, reach), a, b, mid, turning)) {
-      ++(turning ? n.turning_points : n.arc_points);
-      between(u, mid, depth + 1, a, b, out, n, bows);
-      out.push_back(mid);
-      between(mid, v, depth + 1, a, b, out, n, bows);
-      return;
-    }
+    if (split(u, v, same, arcs, std::max(stray, reach), a, b, mid, turning, loose) && descend()) return;
   }
   if (bows != nullptr) bows->push_back(bow);
   const Vec2 m = lerp(u.v.p, v.v.p, 0.5);
   r.add(off, m.x, m.y, tol_ > 0.0 ? tol_ : std::numeric_limits<double>::infinity());
   r.max_estimate = std::max(r.max_estimate, estimate);
+}
+
+bool LineRefiner::runs_simply(Vec2 u, Vec2 v, const std::vector<End>& out, size_t from) {
+  std::vector<Vec2> p{u};
+  for (size_t k = from; k < out.size(); ++k) p.push_back(out[k].v.p);
+  p.push_back(v);
+  const double near = 1e-6 * std::hypot(v.x - u.x, v.y - u.y);
+  auto orient = [](Vec2 a, Vec2 b, Vec2 c) { return (b.x - a.x) * (c.y - a.y) - (b.y - a.y) * (c.x - a.x); };
+  for (size_t i = 0; i + 1 < p.size(); ++i)
+    for (size_t j = i + 2; j < p.size(); ++j) {
+      if (std::hypot(p[j].x - p[i].x, p[j].y - p[i].y) <= near) return false;  // back at a vertex
+      if (j + 1 >= p.size()) continue;
+      const double o1 = orient(p[i], p[i + 1], p[j]), o2 = orient(p[i], p[i + 1], p[j + 1]);
+      const double o3 = orient(p[j], p[j + 1], p[i]), o4 = orient(p[j], p[j + 1], p[i + 1]);
+      if (((o1 > 0 && o2 < 0) || (o1 < 0 && o2 > 0)) && ((o3 > 0 && o4 < 0) || (o3 < 0 && o4 > 0))) return false;
+    }
+  return true;
 }
 
 bool LineRefiner::tie_edge(const BoundaryVertex& u, const BoundaryVertex& v, int32_t a, int32_t b, End& out,
