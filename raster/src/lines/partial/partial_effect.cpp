@@ -183,11 +183,13 @@ struct LineRewrite {
   PartialLineStats& stats;
   const std::vector<TripointPlan>& plans;
   double per_crs;  // metric units per CRS unit (the larger axis): offsets measured as lengths
-  // By sea (a metric that is not straight): the nil-effect index, for the band (partial_follow).
+  // The nil-effect index (the band: partial_follow by sea, which way round the frame a band runs);
+  // may be null.
   const OwnerIndex* nil_index = nullptr;
   const GridSpec* grid = nullptr;
-  // The nil-effect index in either metric (which way round the frame a band runs: on_frame).
-  const OwnerIndex* band_nil = nullptr;
+  // A metric that is not straight and the nil-effect index given: each band's locus is followed
+  // (partial_follow), not traced between L0 and L1.
+  bool by_sea = false;
   // The rule's cells can be had (partial_boundaries' `cells`): a line wholly in its band is left to
   // them (Rewritten::wholly_in_band) instead of refused.
   bool by_cells = false;
@@ -283,10 +285,10 @@ struct LineRewrite {
                                                                 g.centre_x(g.width - 1), g.centre_y(0), 1e-9 * g.res);
     if (ways.empty()) return false;
     const std::vector<Vec2>* way = length(ways[0]) <= length(ways[1]) ? &ways[0] : &ways[1];
-    if (band_nil != nullptr)
+    if (nil_index != nullptr)
       for (const std::vector<Vec2>& w : ways) {
         const Vec2 m = at_fraction(w, cumulative(w), 0.5);
-        if (owner_at(index, m) == B && owner_at(*band_nil, m) == X) way = &w;
+        if (owner_at(index, m) == B && owner_at(*nil_index, m) == X) way = &w;
       }
     const std::vector<double> k = cumulative(*way);
     auto f = [&](double t) { return rule.balance(at_fraction(*way, k, t), X); };
@@ -550,7 +552,7 @@ struct LineRewrite {
         to_tripoint(v, i, *tp, cell, out);
         break;
       }
-      if (nil_index != nullptr) {
+      if (by_sea) {
         band_by_sea(v, i, j, out, pieces);
         i = j + 1;
         if (i < v.size() && !out.empty() && out.back().p == v[i].p) ++i;
@@ -660,7 +662,7 @@ struct LineRewrite {
     auto m_of = [&](const TripointPlan& tp) { return tp.m[static_cast<size_t>(tp.side(X))]; };
     std::vector<Vec2> traced;
     bool coast_end = false;
-    if (nil_index != nullptr && (first == nullptr || last == nullptr)) {
+    if (by_sea && (first == nullptr || last == nullptr)) {
       // By sea an open end may be a coast, where L0's and L1's ends need not pair: the locus is
       // followed from the partial tripoint to wherever it ends.
       const Vec2 from = m_of(first != nullptr ? *first : *last);
@@ -823,12 +825,10 @@ BoundaryResult partial_boundaries(const PartialEffectRule& rule, const SeedSet& 
   };
   std::map<int32_t, std::vector<Vec2>> turnings, claimed;  // by neighbour (LineRewrite::open_turnings)
   auto rewriter = [&](int32_t X, bool b_is_a) {
-    LineRewrite w{rule, seeds,  index, ftol,  tol,     B,
-                  X,    b_is_a, stats, plans, per_crs, index.metric().straight() ? nullptr : nil_index,
-                  &grid};
+    LineRewrite w{rule, seeds, index, ftol, tol, B, X, b_is_a, stats, plans, per_crs, nil_index, &grid};
     w.by_cells = by_cells;
-    w.band_nil = nil_index;
-    if (w.nil_index != nullptr) {
+    w.by_sea = !index.metric().straight() && nil_index != nullptr;
+    if (w.by_sea) {
       w.open_turnings = &turnings[X];
       w.claimed = &claimed[X];
     }
