@@ -134,6 +134,10 @@ void SiteMetric::domain_edges_near(Vec2, double, std::vector<int32_t>& out) cons
 
 bool SiteMetric::domain_edge_point(int32_t, double, Vec2, Vec2&) const { return false; }
 
+bool SiteMetric::domain_edge_ends(int32_t, Vec2&, Vec2&) const { return false; }
+
+bool SiteMetric::in_domain(Vec2) const { return true; }
+
 double SiteMetric::distance_lower_bound(Vec2 p, int32_t site) const { return lower_bound(embed(p), site_bounds(site)); }
 
 void SiteMetric::distance_lower_bounds(Vec2 p, std::span<const int32_t> sites, std::span<double> out) const {

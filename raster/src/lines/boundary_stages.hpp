@@ -40,6 +40,18 @@
 
 namespace rv::boundary_stages {
 
+// Two ends (or junctions) i < j of a join stage's candidates, `d` apart (CRS units); the stages take
+// them nearest first, ties by the indices, so that the joins never depend on the order found.
+struct NearPair {
+  double d;
+  size_t i, j;
+};
+inline void sort_nearest_first(std::vector<NearPair>& pairs) {
+  std::sort(pairs.begin(), pairs.end(), [](const NearPair& x, const NearPair& y) {
+    return x.d < y.d || (x.d == y.d && (x.i < y.i || (x.i == y.i && x.j < y.j)));
+  });
+}
+
 // A point of the equidistance locus between owners owner_lo < owner_hi on grid edge `edge`
 // (line_tools.hpp's edge ids).
 struct Crossing {
@@ -339,6 +351,35 @@ void join_parted_ends(const BoundaryGrid& b, const std::vector<Tripoint>& tripoi
 // then the nearest on the far side), and taken out of `lone`. Counts as end_at_barriers.
 void cross_channels(const BoundaryGrid& b, std::vector<BoundaryLine>& lone, std::vector<BoundaryLine>& lines,
                     BoundaryStats& stats);
+// By sea, the lines where no two cells show the change of owner (a sliver of sea along a land
+// border that holds no cell centre, a channel whose cells meet only diagonally, sea between the
+// last cells and the grid's edge): the barrier edges that may come within the grid are walked
+// where the cells may not show their coast (within a cell of the grid's edge, or the four centres
+// round a point of it all on land, or only two diagonal ones at sea), on their sea side(s), at
+// their ends and along an edge longer than two cells about every cell, inside the grid; where the
+// owner changes (both owned, within `max_distance`) the junction is solved as end_at_barriers
+// solves it. A junction that no end of a line of its two owners explains (an end
+// on the barrier at the same point, an open end within two cells, a tripoint of both within two
+// cells) is a line missing: such junctions of the same two owners within four cells of each
+// other, the way between them open and their costs nearly equal at its middle (within a quarter
+// of the chord's length), are paired nearest first and each pair appended as a line of two
+// vertices on the barriers (finish_lines refines the chord onto the locus). A junction left
+// within a cell of the grid's edge gets the line from it to the edge (the point of the nearest
+// side, within a cell and a half, where the costs are equal, the way open; region_edges leaves an
+// end on the edge where it is). Counts the lines in stats.channels_crossed and the junctions left
+// unpaired in stats.coast_changes_unexplained.
+void cross_hidden_channels(const BoundaryGrid& b, double max_distance, const std::vector<Tripoint>& tripoints,
+                           std::vector<BoundaryLine>& lines, BoundaryStats& stats);
+
+// Whether no owner but a and b comes between them at p: their nearest there into ha and hb, and no
+// third owner's cost below the lesser of theirs by more than 4 ftol (ties with it included).
+inline bool no_third_between(const BoundaryGrid& b, int32_t a, int32_t o, Vec2 p, OwnerIndex::Hit& ha,
+                             OwnerIndex::Hit& hb) {
+  ha = b.index.nearest_of(p, a);
+  hb = b.index.nearest_of(p, o);
+  const OwnerIndex::Hit third = b.index.nearest_third(p, a, o, std::max(ha.cost, hb.cost));
+  return third.site == kNoSite || third.cost >= std::min(ha.cost, hb.cost) - 4.0 * b.ftol;
+}
 
 // The boundary vertex at p between the hits of its two sides (each owner's nearest there).
 inline BoundaryVertex vertex_between(Vec2 p, const OwnerIndex::Hit& a, const OwnerIndex::Hit& b) {

@@ -181,10 +181,6 @@ bool onto_domain_edge(const SiteMetric& m, Vec2 end, double radius, double ftol,
   // within a millionth of the edge, is missed and the line's end left where it was.)
   constexpr double kEnd = 1e-6;
   for (int32_t edge : edges) {
-    auto along = [&](double t) {
-      Vec2 p;
-      return m.domain_edge_point(edge, t, end, p) ? f(p) : std::numeric_limits<double>::quiet_NaN();
-    };
     // Each edge is searched only near `end`: within four radii each way of the foot of `end` on
     // the edge's chord (a geodesic edge's parameter is not the chord's fraction, hence the
     // margin). A coast's edge may be far longer than a cell, and the locus can cross it again
@@ -203,27 +199,43 @@ bool onto_domain_edge(const SiteMetric& m, Vec2 end, double radius, double ftol,
     }
     // (A few samples across the window: it is short against the curves of the loci a cell holds.)
     constexpr int kSamples = 16;
-    auto sample = [&](int k) { return lo + (hi - lo) * static_cast<double>(k) / kSamples; };
-    double t0 = sample(0), f0 = along(t0);
-    for (int k = 1; k <= kSamples; ++k) {
-      const double t1 = sample(k), f1 = along(t1);
-      if (std::isfinite(f0) && std::isfinite(f1) && (f0 <= 0.0) != (f1 <= 0.0)) {
-        const double w = t1 - t0;
-        const double t = t0 + w * find_root([&](double u) { return along(t0 + w * u); }, f0, f1, ftol, 1e-15);
-        Vec2 p;
-        if (m.domain_edge_point(edge, t, end, p)) {
-          const double gap = std::hypot(p.x - end.x, p.y - end.y);
-          if (gap < best_gap && gap <= radius && ahead(p) && accept(p) && m.open_between(end, p)) {
-            out = p;
-            best_gap = gap;
-          }
-        }
-      }
-      t0 = t1;
-      f0 = f1;
-    }
+    nearest_root_along([&](double t, Vec2& p) { return m.domain_edge_point(edge, t, end, p); }, lo, hi, kSamples, f,
+                       ftol, end,
+                       [&](Vec2 p) {
+                         const double gap = std::hypot(p.x - end.x, p.y - end.y);
+                         return gap <= radius && ahead(p) && accept(p) && m.open_between(end, p);
+                       },
+                       best_gap, out);
   }
   return std::isfinite(best_gap);
+}
+
+bool nearest_root_along(const std::function<bool(double, Vec2&)>& at, double lo, double hi, int samples,
+                        const std::function<double(Vec2)>& f, double ftol, Vec2 near,
+                        const std::function<bool(Vec2)>& accept, double& best_gap, Vec2& out) {
+  auto along = [&](double t) {
+    Vec2 p;
+    return at(t, p) ? f(p) : std::numeric_limits<double>::quiet_NaN();
+  };
+  auto sample = [&](int k) { return lo + (hi - lo) * static_cast<double>(k) / samples; };
+  bool found = false;
+  double t0 = sample(0), f0 = along(t0);
+  for (int k = 1; k <= samples; ++k) {
+    const double t1 = sample(k), f1 = along(t1);
+    Vec2 p;
+    if (std::isfinite(f0) && std::isfinite(f1) && (f0 <= 0.0) != (f1 <= 0.0) &&
+        at(root_in(along, t0, t1 - t0, f0, f1, ftol), p)) {
+      const double gap = std::hypot(p.x - near.x, p.y - near.y);
+      if (gap < best_gap && accept(p)) {
+        out = p;
+        best_gap = gap;
+        found = true;
+      }
+    }
+    t0 = t1;
+    f0 = f1;
+  }
+  return found;
 }
 
 }  // namespace rv::line_tools

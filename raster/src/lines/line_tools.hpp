@@ -75,6 +75,21 @@ double find_root(F&& f, double f0, double f1, double ftol, double t_tol) {
   return std::abs(fa) <= std::abs(fb) ? a : b;
 }
 
+// A root of f in [t0, t0 + w] given f(t0) = f0 and f(t0 + w) = f1 of opposite signs: find_root
+// on the bracket scaled to [0, 1].
+template <class F>
+double root_in(F&& f, double t0, double w, double f0, double f1, double ftol) {
+  return t0 + w * find_root([&](double u) { return f(t0 + w * u); }, f0, f1, ftol, 1e-15);
+}
+
+// Along a path at(t) (false: no point there), t in [lo, hi] sampled in `samples` equal steps:
+// each place where f changes sign between two samples (both finite), solved to `ftol`; of the
+// roots nearer `near` than `best_gap` that `accept` takes, the nearest goes to `out` and its
+// distance to `best_gap` (the first of equals). True where one did.
+bool nearest_root_along(const std::function<bool(double, Vec2&)>& at, double lo, double hi, int samples,
+                        const std::function<double(Vec2)>& f, double ftol, Vec2 near,
+                        const std::function<bool(Vec2)>& accept, double& best_gap, Vec2& out);
+
 // Newton's method for a root of f in [lo, hi], where f(lo) <= 0 <= f(hi) when `rising` (the
 // reverse otherwise) is known without f having been measured there: g(t) gives {f(t), f'(t)}.
 // From `start`, each measured position narrows the bracket; a step is taken only when it stays
@@ -123,7 +138,7 @@ double newton_then_bracket(F&& f, G&& g, double start, double lo, double hi, boo
   if (!std::isnan(nr.t)) return nr.t;
   const double a = nr.lo, w = nr.hi - nr.lo;
   const double fa = std::isnan(nr.f_lo) ? f(a) : nr.f_lo, fb = std::isnan(nr.f_hi) ? f(nr.hi) : nr.f_hi;
-  return a + w * find_root([&](double u) { return f(a + w * u); }, fa, fb, ftol, 1e-15);
+  return root_in(f, a, w, fa, fb, ftol);
 }
 
 // An upper bound of the nearest distance at the middle of a cell edge, without measuring: the

@@ -136,10 +136,8 @@ bool onto_barrier(const BoundaryGrid& b, BoundaryLine& line, const Vec2* away = 
   auto f = [&](Vec2 p) { return b.index.nearest_of(p, oa).cost - b.index.nearest_of(p, ob).cost; };
   // (On the locus, and no third owner nearer.)
   auto accept = [&](Vec2 p) {
-    const OwnerIndex::Hit ha = b.index.nearest_of(p, oa), hb = b.index.nearest_of(p, ob);
-    const OwnerIndex::Hit third = b.index.nearest_third(p, oa, ob, std::max(ha.cost, hb.cost));
-    const bool clear = third.site == kNoSite || third.cost >= std::min(ha.cost, hb.cost) - 4.0 * b.ftol;
-    return clear && std::abs(ha.cost - hb.cost) <= 1e3 * b.ftol;
+    OwnerIndex::Hit ha, hb;
+    return no_third_between(b, oa, ob, p, ha, hb) && std::abs(ha.cost - hb.cost) <= 1e3 * b.ftol;
   };
   Vec2 j;
   if (!onto_domain_edge(b.index.metric(), line.vertices.back().p, 4.0 * b.g.res, b.ftol, f, accept, j, away))
@@ -220,11 +218,7 @@ void join_parted_ends(const BoundaryGrid& b, const std::vector<Tripoint>& tripoi
   }
   // Pairs of the same two owners within four cells, the way between them open, and the locus
   // passing between them (the two owners' costs of opposite signs across the chord's middle).
-  struct Pair {
-    double d;
-    size_t i, j;
-  };
-  std::vector<Pair> pairs;
+  std::vector<NearPair> pairs;
   for (size_t i = 0; i < ends.size(); ++i)
     for (size_t j = i + 1; j < ends.size(); ++j) {
       const BoundaryLine &li = lines[ends[i].line], &lj = lines[ends[j].line];
@@ -239,11 +233,9 @@ void join_parted_ends(const BoundaryGrid& b, const std::vector<Tripoint>& tripoi
       const double fm = f(mid);
       const bool between = fm == 0.0 || ((f(u) < 0.0) != (fm < 0.0) && metric.open_between(mid, u)) ||
                            ((f(w) < 0.0) != (fm < 0.0) && metric.open_between(mid, w));
-      if (between) pairs.push_back(Pair{d, i, j});
+      if (between) pairs.push_back(NearPair{d, i, j});
     }
-  std::sort(pairs.begin(), pairs.end(), [](const Pair& x, const Pair& y) {
-    return x.d < y.d || (x.d == y.d && (x.i < y.i || (x.i == y.i && x.j < y.j)));
-  });
+  sort_nearest_first(pairs);
   std::vector<bool> used(ends.size(), false), gone(lines.size(), false);
   std::vector<size_t> merged_into(lines.size());
   for (size_t n = 0; n < lines.size(); ++n) merged_into[n] = n;
@@ -251,7 +243,7 @@ void join_parted_ends(const BoundaryGrid& b, const std::vector<Tripoint>& tripoi
     while (merged_into[n] != n) n = merged_into[n];
     return n;
   };
-  for (const Pair& pr : pairs) {
+  for (const NearPair& pr : pairs) {
     if (used[pr.i] || used[pr.j]) continue;
     used[pr.i] = used[pr.j] = true;
     const size_t a = root(ends[pr.i].line), c = root(ends[pr.j].line);

@@ -523,6 +523,9 @@ class EdgeBuilder {
       v.push_back(across_barrier(v[v.size() - 2], end, g_.res));
       return;
     }
+    // By sea, a line found from the coasts beyond the frame (cross_hidden_channels) may end on the
+    // grid's edge itself.
+    if (end.x == g_.xmin || end.x == g_.xmax() || end.y == g_.ymax || end.y == g_.ymin()) return;
     Vec2 j, on_line;
     // (A lone crossing on the frame: one end goes to the grid's edge, the other inwards.)
     const bool came_from_edge = v.size() >= 2 && outside_frame(g_, v[v.size() - 2]);

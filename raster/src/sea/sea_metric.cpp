@@ -113,6 +113,13 @@ class SeaSiteMetric final : public SiteMetric {
     for (size_t i = 0; i < edges_.size(); ++i)
       if (segment_distance(at, edges_[i].a, edges_[i].b) <= r) out.push_back(static_cast<int32_t>(i));
   }
+  bool in_domain(Vec2 p) const override { return where(p).ground != Visibility::Ground::land; }
+  bool domain_edge_ends(int32_t edge, Vec2& first, Vec2& second) const override {
+    const Edge& e = edges_[static_cast<size_t>(edge)];
+    first = grid_of(e.a);
+    second = grid_of(e.b);
+    return true;
+  }
   bool domain_edge_point(int32_t edge, double t, Vec2 side, Vec2& out) const override {
     const Prepared& pr = prepared();
     const Edge& e = edges_[static_cast<size_t>(edge)];

@@ -404,6 +404,8 @@ BoundaryResult StripDeliverables::State::take_boundaries() {
                             {"ends_on_owned_edge", st.ends_on_owned_edge},
                             {"ends_on_barriers", st.ends_on_barriers},
                             {"ends_joined", st.ends_joined},
+                            {"channels_crossed", st.channels_crossed},
+                            {"coast_changes_unexplained", st.coast_changes_unexplained},
                             {"tie_vertices", st.tie_vertices},
                             {"missing_tripoints_found", st.missing_tripoints_found},
                             {"sliver_crossings", st.sliver_crossings},

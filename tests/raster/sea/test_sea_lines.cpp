@@ -505,6 +505,119 @@ TEST(SeaLines, ALineAcrossAChannelNarrowerThanACellIsDrawn) {
   EXPECT_TRUE(r.lone_crossings.empty());
 }
 
+// The boundaries by sea of two ports (each its owner's label and position) among `land`.
+struct Port {
+  const char* owner;
+  Vec2 at;
+};
+BoundaryResult two_ports_by_sea(const Barriers& land, const GridSpec& g, Port a, Port b,
+                                const BoundaryOptions& options = {}) {
+  SeedSet seeds;
+  for (const Port& p : {a, b}) seeds.add_point(seeds.add_feature(seeds.owner_code(p.owner)), p.at);
+  const SeaField field = compute_sea(seeds, land, g, g.full_window());
+  const std::unique_ptr<SiteMetric> metric = make_sea_site_metric(seeds, land, g);
+  const OwnerIndex index(*metric);
+  return extract_boundaries(field.field, index, options);
+}
+
+// A channel 0.4 cells wide between two columns of centres (x 20.6 to 21.0; the centres at 20.5
+// and 21.5 on land), between a port south of it and one north: no cell lies in it, so no two
+// cells either side of the owners' change place a line there, yet the change is in it. Found
+// from the coasts: the line across, from wall to wall, on the closed form. With the northern port
+// behind the channel's mouth its path bends at the mouth's corner (21, 25), and the line is the
+// hyperbola branch |s - x| = |n - c| + |c - x|.
+TEST(SeaLines, AChangeOfOwnerInAChannelWithNoCellIsALineAcrossIt) {
+  Barriers land;
+  land.add_polygon({{{0, 15}, {20.6, 15}, {20.6, 25}, {0, 25}}}, "west");
+  land.add_polygon({{{21.0, 15}, {40, 15}, {40, 25}, {21.0, 25}}}, "east");
+  const GridSpec g = test::grid_of(40, 40);
+  const Vec2 south{20.8, 2.5}, corner{21.0, 25.0};
+  for (const Vec2 north : {Vec2{20.8, 37.3}, Vec2{30.0, 37.0}}) {
+    const bool bent = north.x > 21.0;
+    BoundaryOptions options;
+    options.line_tolerance = 1e-6;
+    const BoundaryResult r = two_ports_by_sea(land, g, {"S", south}, {"N", north}, options);
+    ASSERT_EQ(r.lines.size(), 1u) << bent;
+    const std::vector<BoundaryVertex>& v = r.lines[0].vertices;
+    ASSERT_GE(v.size(), 2u);
+    EXPECT_TRUE(v.front().on_barrier && v.back().on_barrier);
+    EXPECT_NEAR(std::min(v.front().p.x, v.back().p.x), 20.6, 1e-9);
+    EXPECT_NEAR(std::max(v.front().p.x, v.back().p.x), 21.0, 1e-9);
+    auto d_north = [&](Vec2 x) { return bent ? dist(north, corner) + dist(corner, x) : dist(north, x); };
+    for (const BoundaryVertex& x : v) {
+      EXPECT_NEAR(dist(south, x.p), d_north(x.p), 1e-9) << bent << ": " << x.p.x << "," << x.p.y;
+      EXPECT_GT(x.p.y, 15.0);
+      EXPECT_LT(x.p.y, 25.0);
+    }
+    if (!bent) EXPECT_NEAR(v.front().p.y, 19.9, 1e-9);  // the bisector of the two ports
+    EXPECT_EQ(r.stats.channels_crossed, 1) << bent;
+    EXPECT_EQ(r.stats.coast_changes_unexplained, 0) << bent;
+    EXPECT_EQ(r.stats.crossings, 0) << bent;  // (no cell shows the change)
+    EXPECT_EQ(r.stats.locus.unresolved, 0) << bent;
+  }
+}
+
+// A channel along the diagonal y = x through a square of land, 0.42 cells wide: its cells meet
+// only corner to corner (the centres beside them on land), so no two 4-neighbours of the two
+// ports' cells lie either side of the change of owner inside it. Its coasts show it: the line
+// across it is the ports' bisector x + y = 40.5, from bank to bank (both ports see it along the
+// channel); outside the square the cells' two lines run from the grid's edge to its coast.
+TEST(SeaLines, AChangeOfOwnerInAChannelWhoseCellsMeetOnlyDiagonallyIsALineAcrossIt) {
+  Barriers land;
+  land.add_polygon({{{8, 8.3}, {31.7, 32}, {8, 32}}}, "north-west");
+  land.add_polygon({{{8.3, 8}, {32, 8}, {32, 31.7}}}, "south-east");
+  const GridSpec g = test::grid_of(40, 40);
+  const Vec2 s{4, 4}, n{36.5, 36.5};
+  const BoundaryResult r = two_ports_by_sea(land, g, {"S", s}, {"N", n});
+  ASSERT_EQ(r.lines.size(), 3u);
+  int across = 0;
+  for (const BoundaryLine& l : r.lines) {
+    const Vec2 a = l.vertices.front().p, b = l.vertices.back().p;
+    if (std::min(a.x, b.x) > 19.0 && std::max(a.x, b.x) < 21.0) {
+      ++across;
+      for (const BoundaryVertex& v : l.vertices) {
+        EXPECT_NEAR(dist(s, v.p), dist(n, v.p), 1e-9) << v.p.x << "," << v.p.y;
+        EXPECT_NEAR(v.p.x + v.p.y, 40.5, 1e-9) << v.p.x << "," << v.p.y;
+      }
+      EXPECT_TRUE(l.vertices.front().on_barrier && l.vertices.back().on_barrier);
+      EXPECT_NEAR(std::min(a.x, b.x), 20.1, 1e-9);
+      EXPECT_NEAR(std::max(a.x, b.x), 20.4, 1e-9);
+    }
+  }
+  EXPECT_EQ(across, 1);
+  EXPECT_EQ(r.stats.channels_crossed, 1);
+  EXPECT_EQ(r.stats.coast_changes_unexplained, 0);
+}
+
+// A block of land across the grid from beyond its northern edge to 0.3 cells short of its
+// southern one: the seas either side of it meet only in the strip under it, between the last row
+// of centres (on land there) and the grid's edge. The two ports' change of owner lies in that
+// strip, where no cell is: the line runs from the block's southern face to the grid's edge, on
+// the closed form (each path bent at the block's corner on its side).
+TEST(SeaLines, AChangeOfOwnerBetweenTheLastCellsAndTheGridsEdgeIsALineToTheEdge) {
+  Barriers land;
+  land.add_polygon({{{15, 0.3}, {25, 0.3}, {25, 45}, {15, 45}}}, "block");
+  const GridSpec g = test::grid_of(40, 40);
+  const Vec2 w{5, 20}, e{35, 10}, cw{15, 0.3}, ce{25, 0.3};
+  const BoundaryResult r = two_ports_by_sea(land, g, {"W", w}, {"E", e});
+  ASSERT_EQ(r.lines.size(), 1u);
+  const std::vector<BoundaryVertex>& v = r.lines[0].vertices;
+  ASSERT_GE(v.size(), 2u);
+  const BoundaryVertex& coast = v.front().on_barrier ? v.front() : v.back();
+  const BoundaryVertex& edge = v.front().on_barrier ? v.back() : v.front();
+  EXPECT_TRUE(coast.on_barrier);
+  EXPECT_NEAR(coast.p.y, 0.3, 1e-9);
+  EXPECT_EQ(edge.p.y, 0.0);
+  for (const BoundaryVertex& x : v) {
+    EXPECT_NEAR(dist(w, cw) + dist(cw, x.p), dist(e, ce) + dist(ce, x.p), 1e-9) << x.p.x << "," << x.p.y;
+    EXPECT_GT(x.p.x, 15.0);
+    EXPECT_LT(x.p.x, 25.0);
+  }
+  EXPECT_EQ(r.stats.channels_crossed, 1);
+  EXPECT_EQ(r.stats.coast_changes_unexplained, 0);
+  EXPECT_EQ(r.stats.crossings, 0);
+}
+
 TEST(SeaLines, ABoundaryEndsOnTheCoastsItMeets) {
   const Vec2 a{12.25, 21.5}, b{27.75, 17.5};
   const Channel open = channel(a, b, false);

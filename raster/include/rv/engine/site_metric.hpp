@@ -131,6 +131,12 @@ class SiteMetric {
   // that side and in the domain. Grid-CRS coordinates into `out`; false where there is none
   // (`side` on the edge's line, or the edge's side towards it is not the domain's).
   virtual bool domain_edge_point(int32_t edge, double t, Vec2 side, Vec2& out) const;
+  // Whether p lies in the metric's domain (by sea: not strictly inside a barrier polygon; a
+  // straight metric's domain is everywhere). Default: true.
+  virtual bool in_domain(Vec2 p) const;
+  // The two ends of domain edge `edge` (an id from domain_edges_near), in grid-CRS coordinates,
+  // first end first; false where the metric has no domain edges.
+  virtual bool domain_edge_ends(int32_t edge, Vec2& first, Vec2& second) const;
 
   // Lower bound of the metric distance from the embedded position q to anything in the box.
   static double lower_bound(const Vec3& q, const Box3& b);

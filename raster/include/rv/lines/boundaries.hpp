@@ -139,6 +139,11 @@ struct BoundaryStats {
   // By sea: lines joined where they passed a coast closer than a cell (their cells parted by land,
   // the locus at sea between them; boundary_stages::join_parted_ends).
   int64_t ends_joined = 0;
+  // By sea: lines across channels where no cell centre lies beside the change of owner, found
+  // from the coasts (boundary_stages::cross_hidden_channels); and changes of owner along a coast
+  // that no line ends at and none could be drawn from (0 where every one is explained).
+  int64_t channels_crossed = 0;
+  int64_t coast_changes_unexplained = 0;
   // By sea: the lines' vertices on the edge of a tie region (BoundaryVertex::tie).
   int64_t tie_vertices = 0;
   // Tripoints a crowded square's search missed, found from the ends of their lines (also in

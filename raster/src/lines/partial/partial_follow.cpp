@@ -98,8 +98,7 @@ struct Follower {
       const int m = (k + 1) % kRound;
       if (!std::isfinite(f[k]) || !std::isfinite(f[m]) || (f[k] < 0.0) == (f[m] < 0.0)) continue;
       const double a0 = w * k;
-      const Vec2 p = on_circle(
-          a0 + w * find_root([&](double u) { return L.balance(on_circle(a0 + w * u)); }, f[k], f[m], L.ftol, 1e-15));
+      const Vec2 p = on_circle(root_in([&](double a) { return L.balance(on_circle(a)); }, a0, w, f[k], f[m], L.ftol));
       const double along = ((p.x - c.x) * dir.x + (p.y - c.y) * dir.y) / r;
       if (along <= best || !sees(c, p)) continue;
       best = along;

@@ -1,0 +1,340 @@
+// cross_hidden_channels (boundary_stages.hpp): by sea, the lines where no two cells show the change
+// of owner.
+//
+// Why: the lines are found between cells in sight of each other. Where the owner changes inside
+// sea narrower than a cell -- a sliver of sea along a land border, a river mouth, a sound between
+// two islands at a coarse grid -- or between the last cells and the grid's edge, no two such
+// cells lie either side of the change, so no line is drawn there, and the regions make one face
+// of two owners' seas. The coasts show it instead: walked edge by edge, every change of owner
+// along a coast is where a line of those two owners meets it. A change that no line ends at is a
+// line missing; across a channel its other end is the same two owners' change on the opposite
+// coast, and near the grid's edge the edge itself.
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <limits>
+#include <unordered_map>
+#include <vector>
+
+#include "lines/boundary_stages.hpp"
+#include "lines/line_tools.hpp"
+
+namespace rv::boundary_stages {
+
+using namespace line_tools;
+
+namespace {
+
+// Where two owners' distances by sea meet on a barrier's edge, approached from one side.
+struct Junction {
+  Vec2 p;
+  int32_t lo = 0, hi = 0;  // the owners, lo < hi
+  BoundaryVertex v;
+};
+
+// The owner at p (0: none, or beyond max_distance), with `last` the site nearest to the position
+// asked before: measured here, it is the search's first bound (along a coast it mostly stays the
+// nearest; the answer is the same with or without it), and it becomes this one's.
+int32_t owner_at(const BoundaryGrid& b, double max_distance, Vec2 p, int32_t& last) {
+  OwnerIndex::Hit known;
+  if (last != kNoSite) {
+    known.site = last;
+    known.distance = b.index.metric().distance(p, last);
+  }
+  const OwnerIndex::Hit h = b.index.nearest(p, known);
+  if (h.site != kNoSite) last = h.site;
+  return h.site != kNoSite && h.distance <= max_distance ? b.owner_code(h.site) : 0;
+}
+
+// The junction of owners oa and ob on `edge` between parameters t0 and t1, approached from
+// `side`, where oa is the owner towards t0 and ob towards t1 (see the contract); false where the
+// costs do not part there from that side, or a third owner is nearer.
+bool junction_on(const BoundaryGrid& b, int32_t edge, Vec2 side, double t0, double t1, int32_t oa, int32_t ob,
+                 Junction& out) {
+  const SiteMetric& m = b.index.metric();
+  auto f = [&](double t) {
+    Vec2 p;
+    if (!m.domain_edge_point(edge, t, side, p)) return std::numeric_limits<double>::quiet_NaN();
+    return b.index.nearest_of(p, oa).cost - b.index.nearest_of(p, ob).cost;
+  };
+  const double f0 = f(t0), f1 = f(t1);
+  if (!std::isfinite(f0) || !std::isfinite(f1) || (f0 <= 0.0) == (f1 <= 0.0)) return false;
+  Vec2 p;
+  if (!m.domain_edge_point(edge, root_in(f, t0, t1 - t0, f0, f1, b.ftol), side, p)) return false;
+  OwnerIndex::Hit ha, hb;
+  // (Not where either owner's own seed is: coasts that are seeds meet at land borders, where the
+  // lines of the cells end.)
+  if (!no_third_between(b, oa, ob, p, ha, hb) || std::abs(ha.cost - hb.cost) > 1e3 * b.ftol || !(ha.distance > 0.0) ||
+      !(hb.distance > 0.0))
+    return false;
+  out.p = p;
+  out.lo = std::min(oa, ob);
+  out.hi = std::max(oa, ob);
+  out.v = oa < ob ? vertex_between(p, ha, hb) : vertex_between(p, hb, ha);
+  out.v.on_barrier = true;
+  return true;
+}
+
+// What one edge's walk hands the next along a coast: its second end and the owner there (on its
+// one sea side), and the site nearest to the last position asked (owner_at's hint).
+struct Carry {
+  Vec2 end{std::numeric_limits<double>::quiet_NaN(), 0.0};
+  int32_t owner = -1;  // -1: not known (the edge had two sea sides, or none)
+  int32_t last = kNoSite;
+};
+
+// Whether the cells may not show the coast at p: p lies within a cell of the grid's edge (beyond
+// the outermost centres, or in a dual square along them), or the corners of the dual square it
+// lies in are all on land, or only two diagonal ones are at sea (a channel whose cells meet only
+// diagonally), so no pair of cells beside p need place a line through it. (Elsewhere one corner
+// at sea is the common case along a coast, its lines placed with the cells beyond it; two
+// 4-neighbours at sea that land parts are not looked for: their lines are joined across
+// (join_parted_ends), and a visibility test per sample would cost more than the rest of the
+// walk.) Per task, the ground of each cell centre asked is kept: neighbouring samples along a
+// coast share their corners.
+class Hidden {
+ public:
+  explicit Hidden(const BoundaryGrid& b) : b_(b) {}
+  bool operator()(Vec2 p) {
+    const auto c = static_cast<int64_t>(std::floor((p.x - b_.g.xmin) / b_.g.res - 0.5));
+    const auto r = static_cast<int64_t>(std::floor((b_.g.ymax - p.y) / b_.g.res - 0.5));
+    // (Beyond the outermost centres or in the squares along them: a line from the coast there
+    // may run out to the grid's edge past the cells without passing between two.)
+    if (c <= 0 || r <= 0 || c + 1 >= b_.W - 1 || r + 1 >= b_.H - 1) return true;
+    // The corners (c, r), (c + 1, r), (c + 1, r + 1), (c, r + 1).
+    std::array<bool, 4> sea;
+    for (int k = 0; k < 4; ++k) sea[static_cast<size_t>(k)] = at_sea(c + (k == 1 || k == 2), r + (k >= 2));
+    const int n = static_cast<int>(std::count(sea.begin(), sea.end(), true));
+    return n == 0 || (n == 2 && sea[0] == sea[2]);
+  }
+
+ private:
+  bool at_sea(int64_t c, int64_t r) {
+    const auto [it, added] = sea_.try_emplace(r * b_.W + c, false);
+    if (added) it->second = b_.index.metric().in_domain(centre(b_.g, c, r));
+    return it->second;
+  }
+  const BoundaryGrid& b_;
+  std::unordered_map<int64_t, bool> sea_;
+};
+
+// Samples along an edge: its ends, and along an edge longer than two cells one every cell or so
+// (a locus may meet it twice), at parameter t of its length.
+int edge_pieces(const BoundaryGrid& b, Vec2 e0, Vec2 e1) {
+  const double len = std::hypot(e1.x - e0.x, e1.y - e0.y);
+  return len > 2.0 * b.g.res ? static_cast<int>(std::ceil(len / b.g.res)) : 1;
+}
+
+// The owners' changes along domain edge `edge` where the cells do not show its coast (see the
+// contract), appended to `out`, on each of its sides that is sea.
+void junctions_on(const BoundaryGrid& b, double max_distance, int32_t edge, Vec2 e0, Vec2 e1, Hidden& hidden,
+                  Carry& carry, std::vector<Junction>& out) {
+  const SiteMetric& m = b.index.metric();
+  auto inside = [&](Vec2 p) { return p.x > b.g.xmin && p.x < b.g.xmax() && p.y > b.g.ymin() && p.y < b.g.ymax; };
+  // A point off either side of the edge's chord (a polygon's edge has sea on one, a line's on
+  // both).
+  const Vec2 mid = lerp(e0, e1, 0.5), n{-(e1.y - e0.y), e1.x - e0.x};
+  // (Not at the edge's ends themselves, as line_tools::onto_domain_edge: a point within a
+  // micrometre of a vertex has no reliable direction towards it, and a search from a barrier's
+  // vertex itself weighs every path along its edges.)
+  constexpr double kEnd = 1e-6;
+  const int pieces = edge_pieces(b, e0, e1);
+  std::array<Vec2, 2> sea_sides;
+  int n_sides = 0;
+  for (const double s : {1.0, -1.0}) {
+    const Vec2 side{mid.x + s * n.x, mid.y + s * n.y};
+    // (A short edge's land side is told at once by a point a thousandth of its length off its
+    // middle, before the search along its normal that would fail there: along an edge of two
+    // cells or less the chord and the geodesic part by far less.)
+    if (pieces == 1 && !m.in_domain(Vec2{mid.x + 1e-3 * s * n.x, mid.y + 1e-3 * s * n.y})) continue;
+    Vec2 p;
+    if (m.domain_edge_point(edge, 0.5, side, p)) sea_sides[static_cast<size_t>(n_sides++)] = side;
+  }
+  // (A vertex's owner is the same either side of it but where a line meets the coast at the
+  // vertex itself, within a micrometre: asked once where one coast's edges follow each other.)
+  const bool carried = n_sides == 1 && carry.owner >= 0 && e0 == carry.end;
+  int32_t end_owner = -1;
+  struct Sample {
+    double t;
+    Vec2 p;  // on the edge, moved off it to the side walked
+    bool in, hidden;
+    int32_t owner;
+  };
+  std::vector<Sample> samples(static_cast<size_t>(pieces) + 1);
+  for (int si = 0; si < n_sides; ++si) {
+    const Vec2 side = sea_sides[static_cast<size_t>(si)];
+    for (int k = 0; k <= pieces; ++k) {
+      Sample& x = samples[static_cast<size_t>(k)];
+      x.t = k == 0 ? kEnd : k == pieces ? 1.0 - kEnd : static_cast<double>(k) / pieces;
+      x.in = m.domain_edge_point(edge, x.t, side, x.p) && inside(x.p);
+      x.hidden = x.in && hidden(x.p);
+      x.owner = 0;
+    }
+    // Owners asked where the coast is hidden and at the samples beside such stretches (a change
+    // of owner between a shown sample and a hidden one is found too).
+    for (int k = 0; k <= pieces; ++k) {
+      Sample& x = samples[static_cast<size_t>(k)];
+      const bool near_hidden = x.hidden || (k > 0 && samples[static_cast<size_t>(k) - 1].hidden) ||
+                               (k < pieces && samples[static_cast<size_t>(k) + 1].hidden);
+      if (!x.in || !near_hidden) continue;
+      x.owner = k == 0 && carried ? carry.owner : owner_at(b, max_distance, x.p, carry.last);
+      const Sample& w = samples[static_cast<size_t>(k > 0 ? k - 1 : 0)];
+      Junction j;
+      if (k > 0 && x.owner != 0 && w.owner != 0 && x.owner != w.owner &&
+          junction_on(b, edge, side, w.t, x.t, w.owner, x.owner, j))
+        out.push_back(j);
+    }
+    end_owner = samples.back().in && samples.back().owner != 0 ? samples.back().owner : -1;
+  }
+  carry.end = e1;
+  carry.owner = n_sides == 1 ? end_owner : -1;
+}
+
+// Where the locus of junction j's two owners meets the grid's edge beside it, for a junction
+// within a cell of the edge that no other pairs: on the nearest side of the grid's outline,
+// within a cell and a half of j's foot on it, the point where the owners' costs
+// are equal, no third owner nearer and the way from j open; of several, the nearest. False
+// where there is none.
+bool to_grid_edge(const BoundaryGrid& b, const Junction& j, BoundaryVertex& out) {
+  const GridSpec& g = b.g;
+  const double gaps[4] = {j.p.x - g.xmin, g.xmax() - j.p.x, g.ymax - j.p.y, j.p.y - g.ymin()};
+  const int side = static_cast<int>(std::min_element(gaps, gaps + 4) - gaps);
+  if (!(gaps[side] <= g.res)) return false;
+  const bool vertical = side < 2;
+  const Vec2 foot = side == 0   ? Vec2{g.xmin, j.p.y}
+                    : side == 1 ? Vec2{g.xmax(), j.p.y}
+                    : side == 2 ? Vec2{j.p.x, g.ymax}
+                                : Vec2{j.p.x, g.ymin()};
+  const Vec2 along = vertical ? Vec2{0.0, 1.5 * g.res} : Vec2{1.5 * g.res, 0.0};
+  auto clamp = [&](Vec2 p) { return Vec2{std::clamp(p.x, g.xmin, g.xmax()), std::clamp(p.y, g.ymin(), g.ymax)}; };
+  const Vec2 p0 = clamp(Vec2{foot.x - along.x, foot.y - along.y}), p1 = clamp(Vec2{foot.x + along.x, foot.y + along.y});
+  auto f = [&](Vec2 p) { return b.index.nearest_of(p, j.lo).cost - b.index.nearest_of(p, j.hi).cost; };
+  auto accept = [&](Vec2 e) {
+    OwnerIndex::Hit ha, hb;
+    return no_third_between(b, j.lo, j.hi, e, ha, hb) && b.index.metric().open_between(j.p, e);
+  };
+  auto at = [&](double t, Vec2& p) {
+    p = lerp(p0, p1, t);
+    return true;
+  };
+  double best = std::numeric_limits<double>::infinity();
+  Vec2 e;
+  constexpr int kSamples = 12;
+  if (!nearest_root_along(at, 0.0, 1.0, kSamples, f, b.ftol, j.p, accept, best, e)) return false;
+  out = vertex_between(e, b.index.nearest_of(e, j.lo), b.index.nearest_of(e, j.hi));
+  return true;
+}
+
+}  // namespace
+
+void cross_hidden_channels(const BoundaryGrid& b, double max_distance, const std::vector<Tripoint>& tripoints,
+                           std::vector<BoundaryLine>& lines, BoundaryStats& stats) {
+  const SiteMetric& m = b.index.metric();
+  if (m.straight()) return;
+  // Every domain edge that may come within the grid.
+  std::vector<int32_t> edges;
+  const Vec2 middle{b.g.xmin + 0.5 * static_cast<double>(b.W) * b.g.res,
+                    b.g.ymax - 0.5 * static_cast<double>(b.H) * b.g.res};
+  m.domain_edges_near(middle, std::hypot(static_cast<double>(b.W), static_cast<double>(b.H)) * b.g.res, edges);
+  if (edges.empty()) return;
+  // Only coast the cells do not show is walked (hidden, above): an edge with a sample there, by
+  // its chord (an edge's samples on its geodesic are found only for the edges walked). Elsewhere
+  // a line that meets the coast passes between sea cells, which place it (end_at_barriers).
+  auto walked_edge = [&](Vec2 e0, Vec2 e1, Hidden& hidden) {
+    // (Not an edge along the grid's outline: land clipped to the grid's extent has no sea there.)
+    if ((e0.x == e1.x && (e0.x <= b.g.xmin || e0.x >= b.g.xmax())) ||
+        (e0.y == e1.y && (e0.y <= b.g.ymin() || e0.y >= b.g.ymax)))
+      return false;
+    const int pieces = edge_pieces(b, e0, e1);
+    for (int k = 0; k <= pieces; ++k)
+      if (hidden(lerp(e0, e1, static_cast<double>(k) / pieces))) return true;
+    return false;
+  };
+  // The edges in runs of consecutive ids (a ring's edges follow each other: the hint carries along
+  // the coast), walked in parallel; the junctions in the edges' order, whatever the threads.
+  constexpr size_t kRun = 32;
+  const size_t runs = (edges.size() + kRun - 1) / kRun;
+  std::vector<std::vector<Junction>> found(runs);
+  detail::parallel_for(b.threads, static_cast<int64_t>(runs), [&](int64_t r, int) {
+    Carry carry;
+    Hidden hidden(b);
+    for (size_t k = static_cast<size_t>(r) * kRun; k < std::min(edges.size(), (static_cast<size_t>(r) + 1) * kRun);
+         ++k) {
+      Vec2 e0, e1;
+      if (!m.domain_edge_ends(edges[k], e0, e1) || e0 == e1 || !walked_edge(e0, e1, hidden)) {
+        carry.owner = -1;
+        continue;
+      }
+      junctions_on(b, max_distance, edges[k], e0, e1, hidden, carry, found[static_cast<size_t>(r)]);
+    }
+  });
+  std::vector<Junction> all;
+  for (std::vector<Junction>& f : found) all.insert(all.end(), f.begin(), f.end());
+  if (all.empty()) return;
+  // A junction is explained by an end of a line of its two owners: on the barrier at it (the
+  // same point, found by another search of the same edge), or left in the open within two cells
+  // (a line the later stages could not carry; not drawn twice), or by a tripoint of both owners
+  // beside it.
+  // (Two solutions of one junction agree to far less than `same`: each is solved to the root
+  // finder's tolerance on the same edge.)
+  const double same = 1e-4 * b.g.res, near = 2.0 * b.g.res;
+  auto explained = [&](const Junction& j) {
+    for (const BoundaryLine& l : lines) {
+      if (l.owner_a != j.lo || l.owner_b != j.hi || l.vertices.empty()) continue;
+      for (const BoundaryVertex* e : {&l.vertices.front(), &l.vertices.back()}) {
+        const double d = std::hypot(e->p.x - j.p.x, e->p.y - j.p.y);
+        if (d <= (e->on_barrier ? same : near)) return true;
+      }
+    }
+    for (const Tripoint& t : tripoints) {
+      const bool both = std::count(t.owners, t.owners + 3, j.lo) > 0 && std::count(t.owners, t.owners + 3, j.hi) > 0;
+      if (both && std::hypot(t.p.x - j.p.x, t.p.y - j.p.y) <= near) return true;
+    }
+    return false;
+  };
+  std::vector<Junction> open;
+  for (const Junction& j : all)
+    if (!explained(j)) open.push_back(j);
+  // Pairs across a channel: the same two owners, within four cells, the way between them open and
+  // the locus along it (the owners' costs at its middle nearly equal, against the chord's length).
+  std::vector<NearPair> pairs;
+  for (size_t i = 0; i < open.size(); ++i)
+    for (size_t k = i + 1; k < open.size(); ++k) {
+      const Junction &u = open[i], &w = open[k];
+      if (u.lo != w.lo || u.hi != w.hi) continue;
+      const double d = std::hypot(w.p.x - u.p.x, w.p.y - u.p.y);
+      if (!(d > same && d <= 4.0 * b.g.res) || !m.open_between(u.p, w.p)) continue;
+      const Vec2 mid = lerp(u.p, w.p, 0.5);
+      const double f = b.index.nearest_of(mid, u.lo).cost - b.index.nearest_of(mid, u.hi).cost;
+      if (std::abs(f) <= 0.25 * m.point_distance(u.p, w.p)) pairs.push_back(NearPair{d, i, k});
+    }
+  sort_nearest_first(pairs);
+  std::vector<bool> used(open.size(), false);
+  // (A line of two vertices from junction i to `to`.)
+  auto add_line = [&](size_t i, const BoundaryVertex& to) {
+    used[i] = true;
+    BoundaryLine line;
+    line.owner_a = open[i].lo;
+    line.owner_b = open[i].hi;
+    line.vertices = {open[i].v, to};
+    for (const BoundaryVertex& v : line.vertices) stats.max_residual = std::max(stats.max_residual, v.residual);
+    stats.vertices += 2;
+    lines.push_back(std::move(line));
+    ++stats.channels_crossed;
+  };
+  for (const NearPair& pr : pairs) {
+    if (used[pr.i] || used[pr.j]) continue;
+    used[pr.j] = true;
+    add_line(pr.i, open[pr.j].v);
+  }
+  // A junction left within a cell of the grid's edge: its line runs out to the edge (past the
+  // outermost cells without passing between two; region_edges carries the lines that end on the
+  // frame of centres to the edge the same way).
+  for (size_t i = 0; i < open.size(); ++i) {
+    BoundaryVertex e;
+    if (!used[i] && to_grid_edge(b, open[i], e)) add_line(i, e);
+  }
+  stats.coast_changes_unexplained += static_cast<int64_t>(std::count(used.begin(), used.end(), false));
+}
+
+}  // namespace rv::boundary_stages
