@@ -14,6 +14,7 @@
 
 #include "lines/boundary_stages.hpp"
 #include "lines/line_tools.hpp"
+#include "lines/partial/partial_follow.hpp"
 
 namespace rv::boundary_stages {
 
@@ -150,6 +151,43 @@ bool onto_barrier(const BoundaryGrid& b, BoundaryLine& line, const Vec2* away = 
   return true;
 }
 
+// Whether the back end of `line`, just carried onto a barrier (its last vertex), turned back to get
+// there: the junction lies behind the end, seen along the line's last chord before it.
+bool turned_back(const std::vector<BoundaryVertex>& v) {
+  if (v.size() < 3) return false;
+  const Vec2 j = v.back().p, e = v[v.size() - 2].p, q = v[v.size() - 3].p;
+  return (j.x - e.x) * (e.x - q.x) + (j.y - e.y) * (e.y - q.y) < 0.0;
+}
+
+// The back end of `line` followed on along its locus to the coast (see end_at_barriers), in steps
+// of an eighth of a cell over at most eight cells; true (the points walked appended, the last on
+// the barrier) where it gets there.
+bool follow_to_barrier(const BoundaryGrid& b, BoundaryLine& line) {
+  std::vector<BoundaryVertex>& v = line.vertices;
+  if (v.size() < 2) return false;
+  const int32_t oa = line.owner_a, ob = line.owner_b;
+  partial_follow::Level level;
+  level.balance = [&](Vec2 p) { return b.index.nearest_of(p, oa).cost - b.index.nearest_of(p, ob).cost; };
+  level.in_band = [&](Vec2 p) {
+    OwnerIndex::Hit ha, hb;
+    return no_third_between(b, oa, ob, p, ha, hb);
+  };
+  level.metric = &b.index.metric();
+  level.grid = b.g;
+  level.ftol = b.ftol;
+  constexpr int kPerCell = 8, kCells = 8;
+  const Vec2 end = v.back().p, before = v[v.size() - 2].p;
+  const partial_follow::Followed f = partial_follow::follow_on(level, end, Vec2{end.x - before.x, end.y - before.y},
+                                                               b.g.res / kPerCell, kPerCell * kCells);
+  if (f.stop != partial_follow::Stop::coast || f.points.size() < 2) return false;
+  for (size_t k = 1; k < f.points.size(); ++k) {
+    const Vec2 p = f.points[k];
+    v.push_back(vertex_between(p, b.index.nearest_of(p, oa), b.index.nearest_of(p, ob)));
+  }
+  v.back().on_barrier = true;
+  return true;
+}
+
 }  // namespace
 
 void end_at_barriers(const BoundaryGrid& b, const std::vector<Tripoint>& tripoints, std::vector<BoundaryLine>& lines,
@@ -162,6 +200,20 @@ void end_at_barriers(const BoundaryGrid& b, const std::vector<Tripoint>& tripoin
       const bool at_tripoint =
           std::any_of(tripoints.begin(), tripoints.end(), [&](const Tripoint& t) { return t.p == p; });
       if (!on_centre_frame(b.g, p) && !at_tripoint && onto_barrier(b, line)) {
+        // A junction behind the end is another stretch's: the line there goes on where its cells
+        // do not show it (round an islet in a channel narrower than a cell). It is followed on
+        // along the locus; the junction is kept only where the follower does not reach a coast.
+        if (turned_back(line.vertices)) {
+          const BoundaryVertex behind = line.vertices.back();
+          line.vertices.pop_back();
+          const auto before = static_cast<int64_t>(line.vertices.size());
+          if (follow_to_barrier(b, line)) {
+            stats.vertices += static_cast<int64_t>(line.vertices.size()) - before - 1;
+            ++stats.ends_followed;
+          } else {
+            line.vertices.push_back(behind);
+          }
+        }
         ++stats.vertices;
         ++stats.ends_on_barriers;
         stats.max_residual = std::max(stats.max_residual, line.vertices.back().residual);

@@ -404,6 +404,7 @@ BoundaryResult StripDeliverables::State::take_boundaries() {
                             {"ends_on_owned_edge", st.ends_on_owned_edge},
                             {"ends_on_barriers", st.ends_on_barriers},
                             {"ends_joined", st.ends_joined},
+                            {"ends_followed", st.ends_followed},
                             {"channels_crossed", st.channels_crossed},
                             {"coast_changes_unexplained", st.coast_changes_unexplained},
                             {"tie_vertices", st.tie_vertices},

@@ -139,6 +139,9 @@ struct BoundaryStats {
   // By sea: lines joined where they passed a coast closer than a cell (their cells parted by land,
   // the locus at sea between them; boundary_stages::join_parted_ends).
   int64_t ends_joined = 0;
+  // By sea: line ends followed along the locus to the coast where the nearest junction lay behind
+  // them (the line going on round land where its cells do not show it; end_at_barriers).
+  int64_t ends_followed = 0;
   // By sea: lines across channels where no cell centre lies beside the change of owner, found
   // from the coasts (boundary_stages::cross_hidden_channels); and changes of owner along a coast
   // that no line ends at and none could be drawn from (0 where every one is explained).

@@ -185,7 +185,7 @@ struct Follower {
   // band, or back at pts.front() where `closing` (a loop: once more than three steps away from
   // it, back within one and a half). Appends the points walked; returns how the walk ended.
   Stop walk(std::vector<Vec2>& pts, Vec2 dir0, const Vec2* target, bool closing, const std::vector<Vec2>& others = {},
-            int* reached = nullptr) const {
+            int* reached = nullptr, int64_t max_steps = -1) const {
     // The target, or else the first of `others`, within `reach` of p (-2: none; -1: the target).
     auto near_target = [&](Vec2 p, double reach) {
       if (target && norm(Vec2{p.x - target->x, p.y - target->y}) <= reach) return -1;
@@ -198,7 +198,7 @@ struct Follower {
       return k < 0 ? *target : others[static_cast<size_t>(k)];
     };
     // A band is crossed in well under this many steps (its length over half a cell, with room).
-    const auto limit = static_cast<int64_t>(8 * (L.grid.width + L.grid.height)) + 64;
+    const auto limit = max_steps >= 0 ? max_steps : static_cast<int64_t>(8 * (L.grid.width + L.grid.height)) + 64;
     const Vec2 origin = pts.front();
     bool away = false;
     for (int64_t k = 0; k < limit; ++k) {
@@ -221,7 +221,14 @@ struct Follower {
         dir = Vec2{(c.x - before.x) / dl, (c.y - before.y) / dl};
       }
       Vec2 r;
-      if (!next(c, dir, r)) return Stop::lost;
+      if (!next(c, dir, r)) {
+        // Heading into a coast, the steps shrink until none finds the level across it (the
+        // points beyond lie on land): the coast's point where the balance is 0 ends it there.
+        Vec2 at;
+        if (!onto_coast(c, at)) return Stop::lost;
+        pts.push_back(at);
+        return Stop::coast;
+      }
       if (outside_frame(r)) {
         pts.push_back(onto_frame(c, r));
         return Stop::frame;
@@ -289,6 +296,13 @@ struct Follower {
 };
 
 }  // namespace
+
+Followed follow_on(const Level& level, Vec2 from, Vec2 heading, double step, int64_t max_steps) {
+  LineResidual unused;  // (nothing is refined here)
+  std::vector<Vec2> pts{from};
+  const Stop stop = Follower{level, unused, step}.walk(pts, heading, nullptr, false, {}, nullptr, max_steps);
+  return Followed{std::move(pts), stop};
+}
 
 Followed follow(const Level& level, Vec2 start, const Vec2* target, LineResidual& residual,
                 const std::vector<Vec2>& others) {

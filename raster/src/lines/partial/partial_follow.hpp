@@ -21,6 +21,7 @@
 // from the calling thread).
 #pragma once
 
+#include <cstdint>
 #include <functional>
 #include <vector>
 
@@ -76,5 +77,13 @@ struct Through {
 // frame, or round to `on` again; its chords made to lie within level.tol of the locus as follow's.
 // Empty where the level has no direction at `on`.
 Through follow_through(const Level& level, Vec2 on, LineResidual& residual);
+
+// The locus followed on from `from` (a point of it where a line stops; `heading` the way the line
+// goes on there, any length) in steps of `step` CRS units, at most `max_steps` of them: to a coast
+// (the last point on a barrier's edge), the frame, or until the level is lost or leaves the band
+// (Stop::lost, also where the steps run out). The points walked, `from` first, unrefined: the
+// caller refines the chords as it does every other line's. Any two-owner locus will do (the
+// balance the difference of their costs, the band where no third owner is nearer).
+Followed follow_on(const Level& level, Vec2 from, Vec2 heading, double step, int64_t max_steps);
 
 }  // namespace rv::partial_follow
