@@ -337,7 +337,7 @@ void end_at_owned_edge(const BoundaryGrid& b, double max_distance, const std::ve
 // Where that junction lies behind the end (seen along the line's last chord), the line goes on
 // where no cells show it (round an islet in a channel narrower than a cell, the junction then on
 // another stretch of the locus): the end is followed along the locus instead
-// (partial_follow::follow_on, an eighth of a cell a step, up to eight cells) to the coast it
+// (locus_follow::follow_on, an eighth of a cell a step, up to eight cells) to the coast it
 // reaches, and keeps the junction only where the follower gets to none. Counts the ends moved in
 // stats.ends_on_barriers, those followed also in stats.ends_followed.
 void end_at_barriers(const BoundaryGrid& b, const std::vector<Tripoint>& tripoints, std::vector<BoundaryLine>& lines,

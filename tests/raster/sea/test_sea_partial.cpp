@@ -1,6 +1,6 @@
 // Partial effect by sea (rv/lines/partial_effect.hpp with the engines by sea as its
 // PartialEngines): the two fields and their lines by sea, the rule between the lines, and the
-// partial line followed through the band where land cuts it (lines/partial_follow.hpp).
+// partial line followed through the band where land cuts it (lines/locus_follow.hpp).
 // - The rays of the straight case (test_partial_effect.cpp) with land beyond a coast they meet:
 //   the sea is convex, so every sea cell is the straight rule's; the partial line is the ray at
 //   220 degrees (half effect; 209.69 at a quarter) and ends on the coast where that ray meets it.

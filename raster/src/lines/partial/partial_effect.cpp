@@ -24,7 +24,7 @@
 
 #include "lines/boundary_stages.hpp"
 #include "lines/line_tools.hpp"
-#include "lines/partial/partial_follow.hpp"
+#include "lines/locus_follow.hpp"
 #include "lines/partial/partial_joins.hpp"
 #include "lines/partial/partial_loci.hpp"
 #include "lines/partial/partial_tripoints.hpp"
@@ -183,12 +183,12 @@ struct LineRewrite {
   PartialLineStats& stats;
   const std::vector<TripointPlan>& plans;
   double per_crs;  // metric units per CRS unit (the larger axis): offsets measured as lengths
-  // The nil-effect index (the band: partial_follow by sea, which way round the frame a band runs);
+  // The nil-effect index (the band: locus_follow by sea, which way round the frame a band runs);
   // may be null.
   const OwnerIndex* nil_index = nullptr;
   const GridSpec* grid = nullptr;
   // A metric that is not straight and the nil-effect index given: each band's locus is followed
-  // (partial_follow), not traced between L0 and L1.
+  // (locus_follow), not traced between L0 and L1.
   bool by_sea = false;
   // The rule's cells can be had (partial_boundaries' `cells`): a line wholly in its band is left to
   // them (Rewritten::wholly_in_band) instead of refused.
@@ -409,9 +409,9 @@ struct LineRewrite {
 
   std::string label(int32_t owner) const { return owner_label(seeds, owner); }
 
-  // The level the locus is, for partial_follow; `nil`: the nil-effect field's index.
-  partial_follow::Level level(const OwnerIndex& nil) const {
-    partial_follow::Level l;
+  // The level the locus is, for locus_follow; `nil`: the nil-effect field's index.
+  locus_follow::Level level(const OwnerIndex& nil) const {
+    locus_follow::Level l;
     l.balance = [this](Vec2 p) { return rule.balance(p, X); };
     l.in_band = [this, &nil](Vec2 p) { return owner_at(index, p) == B && owner_at(nil, p) == X; };
     l.metric = &index.metric();
@@ -422,7 +422,7 @@ struct LineRewrite {
     return l;
   }
 
-  // By sea: the band v[i..j]'s locus followed from its turning points (partial_follow.hpp): from P
+  // By sea: the band v[i..j]'s locus followed from its turning points (locus_follow.hpp): from P
   // to Q where it gets there; else from P to where land or the frame stops it, the line cut there
   // (what `out` holds so far goes to `pieces`), and from that stop back to Q. An open end of the
   // band (the line's end) is followed to from the turning point on its other side.
@@ -432,7 +432,7 @@ struct LineRewrite {
     std::optional<Vec2> P, Q;
     if (!open_start) P = turning(v[i - 1], v[i]);
     if (!open_end) Q = turning(v[j + 1], v[j]);
-    const partial_follow::Level l = level(*nil_index);
+    const locus_follow::Level l = level(*nil_index);
     // A band running to or from the line's end may go on in another piece of the line: its
     // turning points stop the walk too; one drawn from there already is not drawn again.
     std::vector<Vec2> others;
@@ -443,17 +443,16 @@ struct LineRewrite {
       return claimed != nullptr && std::find(claimed->begin(), claimed->end(), t) != claimed->end();
     };
     auto followed = [&](Vec2 from, const Vec2* to) {
-      partial_follow::Followed f =
-          partial_follow::follow(l, from, to, stats.residual, to ? std::vector<Vec2>{} : others);
+      locus_follow::Followed f = locus_follow::follow(l, from, to, stats.residual, to ? std::vector<Vec2>{} : others);
       if (f.other >= 0 && claimed != nullptr) claimed->push_back(others[static_cast<size_t>(f.other)]);
-      if (f.stop == partial_follow::Stop::lost)
+      if (f.stop == locus_follow::Stop::lost)
         throw Error(ErrorKind::unsupported, "partial effect: the partial-effect line of owners " + label(B) + " and " +
                                                 label(X) + " could not be followed by sea from (" +
                                                 std::to_string(from.x) + ", " + std::to_string(from.y) +
                                                 "); its lines are not drawn (the rasters are exact)");
       ++stats.stretches;
       stats.points += static_cast<int64_t>(f.points.size());
-      if (f.stop == partial_follow::Stop::coast) ++stats.coast_ends;
+      if (f.stop == locus_follow::Stop::coast) ++stats.coast_ends;
       return f;
     };
     auto add = [&](const std::vector<Vec2>& pts, bool coast_first, bool coast_last) {
@@ -468,15 +467,15 @@ struct LineRewrite {
       return;
     }
     if (P) {
-      const partial_follow::Followed a = followed(*P, Q ? &*Q : nullptr);
-      add(a.points, false, a.stop == partial_follow::Stop::coast);
-      if (a.stop == partial_follow::Stop::target || !Q) return;
+      const locus_follow::Followed a = followed(*P, Q ? &*Q : nullptr);
+      add(a.points, false, a.stop == locus_follow::Stop::coast);
+      if (a.stop == locus_follow::Stop::target || !Q) return;
       if (out.size() >= 2) pieces.push_back(std::move(out));
       out.clear();
     }
-    partial_follow::Followed b = followed(*Q, nullptr);
+    locus_follow::Followed b = followed(*Q, nullptr);
     std::reverse(b.points.begin(), b.points.end());
-    add(b.points, b.stop == partial_follow::Stop::coast, false);
+    add(b.points, b.stop == locus_follow::Stop::coast, false);
   }
 
   // Rewrites `line`; by sea, where land cuts a band's locus, the line's pieces after the first go
@@ -666,15 +665,15 @@ struct LineRewrite {
       // By sea an open end may be a coast, where L0's and L1's ends need not pair: the locus is
       // followed from the partial tripoint to wherever it ends.
       const Vec2 from = m_of(first != nullptr ? *first : *last);
-      const partial_follow::Followed f = partial_follow::follow(level(*nil_index), from, nullptr, stats.residual);
-      if (f.stop == partial_follow::Stop::lost || f.points.size() < 2)
+      const locus_follow::Followed f = locus_follow::follow(level(*nil_index), from, nullptr, stats.residual);
+      if (f.stop == locus_follow::Stop::lost || f.points.size() < 2)
         throw Error(ErrorKind::unsupported, "partial effect: the partial-effect line of owners " + label(B) + " and " +
                                                 label(X) + " could not be followed by sea from (" +
                                                 std::to_string(from.x) + ", " + std::to_string(from.y) +
                                                 "); its lines are not drawn (the rasters are exact)");
       traced = f.points;
       if (first == nullptr) std::reverse(traced.begin(), traced.end());
-      coast_end = f.stop == partial_follow::Stop::coast;
+      coast_end = f.stop == locus_follow::Stop::coast;
       stats.coast_ends += coast_end;
     } else {
       std::vector<Vec2> c1, c0;
@@ -774,20 +773,20 @@ std::vector<BoundaryLine> loci_by_cells(const LineRewrite& w, const OwnerIndex& 
   };
   for (const BoundaryLine& l : out.lines) add_drawn(l);
   for (const BoundaryLine& l : more) add_drawn(l);
-  const partial_follow::Level level = w.level(nil);
+  const locus_follow::Level level = w.level(nil);
   std::vector<BoundaryLine> lines;
-  for (const partial_follow::Through& t :
+  for (const locus_follow::Through& t :
        partial_loci::loci_from_cells(level, full, field, w.seeds, w.B, w.X, drawn, w.stats.residual)) {
-    if (t.first == partial_follow::Stop::lost || t.last == partial_follow::Stop::lost || t.points.size() < 2)
+    if (t.first == locus_follow::Stop::lost || t.last == locus_follow::Stop::lost || t.points.size() < 2)
       throw Error(ErrorKind::unsupported, "partial effect: the partial-effect line of owners " + w.label(w.B) +
                                               " and " + w.label(w.X) + " could not be followed from (" +
                                               std::to_string(t.points.front().x) + ", " +
                                               std::to_string(t.points.front().y) +
                                               ") where it leaves the band; its lines are not drawn (the rasters "
                                               "are exact)");
-    BoundaryLine l{w.b_is_a ? w.B : w.X, w.b_is_a ? w.X : w.B, t.first == partial_follow::Stop::closed, {}, {}};
+    BoundaryLine l{w.b_is_a ? w.B : w.X, w.b_is_a ? w.X : w.B, t.first == locus_follow::Stop::closed, {}, {}};
     for (const Vec2 p : t.points) l.vertices.push_back(w.vertex(p));
-    const bool coast_first = t.first == partial_follow::Stop::coast, coast_last = t.last == partial_follow::Stop::coast;
+    const bool coast_first = t.first == locus_follow::Stop::coast, coast_last = t.last == locus_follow::Stop::coast;
     l.vertices.front().on_barrier = coast_first;
     l.vertices.back().on_barrier = coast_last;
     ++w.stats.stretches;

@@ -45,12 +45,12 @@ class Covered {
 
 }  // namespace
 
-std::vector<partial_follow::Through> loci_from_cells(const partial_follow::Level& level, const NearestField& full,
-                                                     const NearestField& field, const SeedSet& seeds, int32_t B,
-                                                     int32_t X, const std::vector<std::vector<Vec2>>& drawn,
-                                                     LineResidual& residual) {
+std::vector<locus_follow::Through> loci_from_cells(const locus_follow::Level& level, const NearestField& full,
+                                                   const NearestField& field, const SeedSet& seeds, int32_t B,
+                                                   int32_t X, const std::vector<std::vector<Vec2>>& drawn,
+                                                   LineResidual& residual) {
   const GridSpec& g = level.grid;
-  std::vector<partial_follow::Through> out;
+  std::vector<locus_follow::Through> out;
   if (full.site.width() != g.width || full.site.height() != g.height || field.site.width() != g.width ||
       field.site.height() != g.height)
     return out;
@@ -80,7 +80,7 @@ std::vector<partial_follow::Through> loci_from_cells(const partial_follow::Level
                              line_tools::find_root([&](double t) { return level.balance(line_tools::lerp(a, b, t)); },
                                                    fa, fb, level.ftol, 1e-15));
         if (!level.in_band(on)) continue;  // (a root beside another band, across the neighbours' line)
-        partial_follow::Through t = partial_follow::follow_through(level, on, residual);
+        locus_follow::Through t = locus_follow::follow_through(level, on, residual);
         if (t.points.empty()) continue;
         covered.add(t.points);
         out.push_back(std::move(t));

@@ -6,7 +6,7 @@
 // an arc round the port, L0 far off) has none, and its locus may touch neither line. The rule's
 // field is exact per cell, so wherever the locus separates two cell centres, one of them is given
 // back to X and its 4-neighbour is kept by B; the balance changes sign between their centres and
-// its root there is a point of the locus to follow both ways (partial_follow::follow_through). A
+// its root there is a point of the locus to follow both ways (locus_follow::follow_through). A
 // piece of locus that passes between no two centres changes no cell's owner: the lines of such a
 // piece are below the grid's resolution and are not drawn (as extraction draws no boundary that
 // separates no two cells).
@@ -18,7 +18,7 @@
 #include <cstdint>
 #include <vector>
 
-#include "lines/partial/partial_follow.hpp"
+#include "lines/locus_follow.hpp"
 #include "rv/engine/engine.hpp"
 #include "rv/field/seeds.hpp"
 
@@ -29,9 +29,9 @@ namespace rv::partial_loci {
 // the cell pair each was found from (deterministic). `full`: the full-effect field; `field`: the
 // rule's (partial_field); both whole fields of level.grid with sites numbered in `seeds`. A
 // locus whose following is lost comes back with that Stop at an end (the caller refuses it).
-std::vector<partial_follow::Through> loci_from_cells(const partial_follow::Level& level, const NearestField& full,
-                                                     const NearestField& field, const SeedSet& seeds, int32_t B,
-                                                     int32_t X, const std::vector<std::vector<Vec2>>& drawn,
-                                                     LineResidual& residual);
+std::vector<locus_follow::Through> loci_from_cells(const locus_follow::Level& level, const NearestField& full,
+                                                   const NearestField& field, const SeedSet& seeds, int32_t B,
+                                                   int32_t X, const std::vector<std::vector<Vec2>>& drawn,
+                                                   LineResidual& residual);
 
 }  // namespace rv::partial_loci

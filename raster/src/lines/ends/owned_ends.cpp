@@ -14,7 +14,7 @@
 
 #include "lines/boundary_stages.hpp"
 #include "lines/line_tools.hpp"
-#include "lines/partial/partial_follow.hpp"
+#include "lines/locus_follow.hpp"
 
 namespace rv::boundary_stages {
 
@@ -166,7 +166,7 @@ bool follow_to_barrier(const BoundaryGrid& b, BoundaryLine& line) {
   std::vector<BoundaryVertex>& v = line.vertices;
   if (v.size() < 2) return false;
   const int32_t oa = line.owner_a, ob = line.owner_b;
-  partial_follow::Level level;
+  locus_follow::Level level;
   level.balance = [&](Vec2 p) { return b.index.nearest_of(p, oa).cost - b.index.nearest_of(p, ob).cost; };
   level.in_band = [&](Vec2 p) {
     OwnerIndex::Hit ha, hb;
@@ -177,9 +177,9 @@ bool follow_to_barrier(const BoundaryGrid& b, BoundaryLine& line) {
   level.ftol = b.ftol;
   constexpr int kPerCell = 8, kCells = 8;
   const Vec2 end = v.back().p, before = v[v.size() - 2].p;
-  const partial_follow::Followed f = partial_follow::follow_on(level, end, Vec2{end.x - before.x, end.y - before.y},
-                                                               b.g.res / kPerCell, kPerCell * kCells);
-  if (f.stop != partial_follow::Stop::coast || f.points.size() < 2) return false;
+  const locus_follow::Followed f = locus_follow::follow_on(level, end, Vec2{end.x - before.x, end.y - before.y},
+                                                           b.g.res / kPerCell, kPerCell * kCells);
+  if (f.stop != locus_follow::Stop::coast || f.points.size() < 2) return false;
   for (size_t k = 1; k < f.points.size(); ++k) {
     const Vec2 p = f.points[k];
     v.push_back(vertex_between(p, b.index.nearest_of(p, oa), b.index.nearest_of(p, ob)));

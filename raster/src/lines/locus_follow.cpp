@@ -1,5 +1,5 @@
-// The partial-effect locus followed through its band by sea. See partial_follow.hpp.
-#include "lines/partial/partial_follow.hpp"
+// A locus followed where cells do not show it. See locus_follow.hpp.
+#include "lines/locus_follow.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -8,7 +8,7 @@
 
 #include "lines/line_tools.hpp"
 
-namespace rv::partial_follow {
+namespace rv::locus_follow {
 
 using namespace line_tools;
 
@@ -313,4 +313,4 @@ Through follow_through(const Level& level, Vec2 on, LineResidual& residual) {
   return Follower{level, residual, 0.5 * level.grid.res}.through(on);
 }
 
-}  // namespace rv::partial_follow
+}  // namespace rv::locus_follow

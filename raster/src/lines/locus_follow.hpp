@@ -1,6 +1,10 @@
-// By sea (rv/lines/partial_effect.hpp): the partial-effect locus followed through its band from a
-// turning point, where land may cut the band.
+// A locus followed where cells do not show it: the zero level of a balance (the difference of two
+// costs) walked in small steps, each point a root across the step, to a coast, the frame or a
+// target. Two users: the partial effect by sea (rv/lines/partial_effect.hpp), through its bands
+// from turning points, where land may cut a band; and a boundary line's end whose cells stop
+// where it goes on round land they do not show (follow_on, boundary_stages::end_at_barriers).
 //
+// The partial effect's bands.
 // Why not the two chains paired by their fraction of length, as partial_effect.cpp traces the
 // straight case: by sea land cuts the lines. The nil-effect line of an island's owner stops at
 // the island's coast where it would cross it, a full-effect line may end on the neighbour's coast,
@@ -29,7 +33,7 @@
 #include "rv/field/grid.hpp"
 #include "rv/lines/residual.hpp"
 
-namespace rv::partial_follow {
+namespace rv::locus_follow {
 
 // What the locus is, and where its band is.
 struct Level {
@@ -86,4 +90,4 @@ Through follow_through(const Level& level, Vec2 on, LineResidual& residual);
 // balance the difference of their costs, the band where no third owner is nearer).
 Followed follow_on(const Level& level, Vec2 from, Vec2 heading, double step, int64_t max_steps);
 
-}  // namespace rv::partial_follow
+}  // namespace rv::locus_follow
