@@ -348,6 +348,9 @@ void LineRefiner::between(const End& u, const End& v, int depth, int32_t a, int3
     const Vec2 s = scale_.at(u.v.p);
     const double reach = 2.0 * off / std::min(s.x, s.y);
     if (split(u, v, same, arcs, std::max(stray, reach), a, b, mid, turning, loose) && descend()) return;
+    // The normals' turn can put the search's ends across another stretch of the locus (the other
+    // arm where it turns sharply, at a tip): then within the measured offset alone.
+    if (reach < stray && split(u, v, same, arcs, reach, a, b, mid, turning, loose) && descend()) return;
   }
   if (bows != nullptr) bows->push_back(bow);
   const Vec2 m = lerp(u.v.p, v.v.p, 0.5);

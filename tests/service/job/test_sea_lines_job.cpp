@@ -500,6 +500,13 @@ TEST_F(SeaLinesJob, RegionsSplitWhereTheOwnerChangesBetweenTheLastCellsAndTheGri
 // along a fjord's coasts is that far off the regions' exact areas.)
 TEST_F(SeaLinesJob, RegionsFollowALineOnRoundAnIsletWhereItsCellsStop) {
   expect_regions_split_from_the_coasts(dir_, "islet", 0.02, {9.2, 54.7, 9.9, 55.0}, 60, 1, "ends_followed", 0.15);
+  // The followed stretch is on the locus like every other: round the tip east of the islet, where
+  // the Danish side's nearest port changes and the line turns back, too (the turning point put
+  // between the walk's points; it was 6.9 m off).
+  const nlohmann::json report = nlohmann::json::parse(std::ifstream(dir_ / "islet" / "report.json"));
+  const nlohmann::json& along = report.at("deliverables").at("boundaries").at("along_lines");
+  EXPECT_EQ(along.at("unresolved_segments").get<int64_t>(), 0);
+  EXPECT_LE(along.at("max_midpoint").get<double>(), along.at("tolerance").get<double>());
 }
 
 // Weights and reaches by sea in a job: the Danish ports weigh 1.5, and DK6 (mid-strait off

@@ -182,7 +182,24 @@ bool follow_to_barrier(const BoundaryGrid& b, BoundaryLine& line) {
   if (f.stop != locus_follow::Stop::coast || f.points.size() < 2) return false;
   for (size_t k = 1; k < f.points.size(); ++k) {
     const Vec2 p = f.points[k];
-    v.push_back(vertex_between(p, b.index.nearest_of(p, oa), b.index.nearest_of(p, ob)));
+    BoundaryVertex w = vertex_between(p, b.index.nearest_of(p, oa), b.index.nearest_of(p, ob));
+    // Where one side's nearest site changes between two points walked the locus turns, at times
+    // sharply (a tip, where the walk rounds the corner on a small circle): the turning point of
+    // the three sites is put between them. The refinement solves a turning point only within its
+    // chord, and at a tip it lies beyond both ends.
+    const BoundaryVertex& u = v.back();
+    const bool a_changes = u.site_a != w.site_a, b_changes = u.site_b != w.site_b;
+    Vec2 t;
+    if (a_changes != b_changes &&
+        equal_costs_point(b.index, a_changes ? u.site_a : u.site_b, a_changes ? w.site_a : w.site_b,
+                          a_changes ? u.site_b : u.site_a, lerp(u.p, p, 0.5),
+                          2.0 * std::hypot(p.x - u.p.x, p.y - u.p.y), b.ftol, t) &&
+        b.index.metric().open_between(u.p, t) && b.index.metric().open_between(t, p)) {
+      OwnerIndex::Hit ha, hb;
+      if (no_third_between(b, oa, ob, t, ha, hb) && std::abs(ha.cost - hb.cost) <= 4.0 * b.ftol)
+        v.push_back(vertex_between(t, ha, hb));
+    }
+    v.push_back(w);
   }
   v.back().on_barrier = true;
   return true;
