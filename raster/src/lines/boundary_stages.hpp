@@ -348,6 +348,14 @@ void end_at_barriers(const BoundaryGrid& b, const std::vector<Tripoint>& tripoin
 // beside it are parted by land, though the locus stays at sea). Joined, nearest pairs first (one
 // line's two ends make it a ring); finish_lines then refines the joining chord onto the locus.
 // Counts the joins in stats.ends_joined.
+// By sea, a line whose locus turns on land: where one side's site changes between two vertices
+// and the stretches' tangents there (from their neighbouring vertices) meet on land within four
+// cells, the locus meets the coast before it would turn (the cells, a cell apart across a coast
+// that cuts their square's corner, linked the two stretches by one chord). The line is parted
+// there, each part ending at its junction with the coast (found as end_at_barriers finds one,
+// ahead of its end). Counts the partings in stats.turns_on_land, their ends in
+// stats.ends_on_barriers.
+void part_where_turning_on_land(const BoundaryGrid& b, std::vector<BoundaryLine>& lines, BoundaryStats& stats);
 void join_parted_ends(const BoundaryGrid& b, const std::vector<Tripoint>& tripoints, std::vector<BoundaryLine>& lines,
                       BoundaryStats& stats);
 // By sea, a crossing linked to none (`lone`, lone_crossings) where the line crosses a channel

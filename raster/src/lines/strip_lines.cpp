@@ -282,6 +282,7 @@ struct BoundaryRun {
     close_missing_tripoints(b, max_distance, t.tripoints, result.lines, result.stats);
     end_at_owned_edge(b, max_distance, t.tripoints, result.lines, result.stats);
     end_at_barriers(b, t.tripoints, result.lines, result.stats);
+    part_where_turning_on_land(b, result.lines, result.stats);
     join_parted_ends(b, t.tripoints, result.lines, result.stats);
     result.lone_crossings = lone_crossings(x, links);
     cross_channels(b, result.lone_crossings, result.lines, result.stats);

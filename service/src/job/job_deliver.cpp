@@ -405,6 +405,7 @@ BoundaryResult StripDeliverables::State::take_boundaries() {
                             {"ends_on_barriers", st.ends_on_barriers},
                             {"ends_joined", st.ends_joined},
                             {"ends_followed", st.ends_followed},
+                            {"turns_on_land", st.turns_on_land},
                             {"channels_crossed", st.channels_crossed},
                             {"coast_changes_unexplained", st.coast_changes_unexplained},
                             {"tie_vertices", st.tie_vertices},

@@ -509,6 +509,20 @@ TEST_F(SeaLinesJob, RegionsFollowALineOnRoundAnIsletWhereItsCellsStop) {
   EXPECT_LE(along.at("max_midpoint").get<double>(), along.at("tolerance").get<double>());
 }
 
+// The same ports at 0.02 deg over the Fehmarn Belt: the Danish-German line comes north to Lolland,
+// where the Danish side's nearest port changes and its locus would turn -- on land, about 100 m inside
+// the coast. Two cell crossings a cell apart, across the coast's corner of their square, stood for
+// both stretches, linked by one chord 325 m off the locus (unresolved). The line is parted where
+// it meets the coast, each part ending on it, and every segment is within the tolerance.
+TEST_F(SeaLinesJob, ALineWhoseLocusWouldTurnOnLandEndsOnTheCoastBothWays) {
+  expect_regions_split_from_the_coasts(dir_, "turn", 0.02, {10.8, 54.4, 11.6, 54.8}, 400, 1, "turns_on_land");
+  const nlohmann::json report = nlohmann::json::parse(std::ifstream(dir_ / "turn" / "report.json"));
+  const nlohmann::json& b = report.at("deliverables").at("boundaries");
+  EXPECT_EQ(b.at("lines").get<int64_t>(), 2);
+  EXPECT_EQ(b.at("along_lines").at("unresolved_segments").get<int64_t>(), 0);
+  EXPECT_LE(b.at("along_lines").at("max_midpoint").get<double>(), b.at("along_lines").at("tolerance").get<double>());
+}
+
 // Weights and reaches by sea in a job: the Danish ports weigh 1.5, and DK6 (mid-strait off
 // Amager) reaches only 5 km by sea. The files are the core engine's field cell for cell, other
 // than the unweighted run's; every boundary vertex is at equal cost by sea (each owner's cheapest

@@ -142,6 +142,9 @@ struct BoundaryStats {
   // By sea: line ends followed along the locus to the coast where the nearest junction lay behind
   // them (the line going on round land where its cells do not show it; end_at_barriers).
   int64_t ends_followed = 0;
+  // By sea: lines parted where their locus would turn on land (it meets the coast first; the
+  // cells linked its two stretches across the coast's corner; part_where_turning_on_land).
+  int64_t turns_on_land = 0;
   // By sea: lines across channels where no cell centre lies beside the change of owner, found
   // from the coasts (boundary_stages::cross_hidden_channels); and changes of owner along a coast
   // that no line ends at and none could be drawn from (0 where every one is explained).

@@ -240,6 +240,62 @@ void end_at_barriers(const BoundaryGrid& b, const std::vector<Tripoint>& tripoin
   }
 }
 
+void part_where_turning_on_land(const BoundaryGrid& b, std::vector<BoundaryLine>& lines, BoundaryStats& stats) {
+  const SiteMetric& m = b.index.metric();
+  if (m.straight()) return;
+  std::vector<BoundaryLine> parts;
+  for (BoundaryLine& line : lines) {
+    std::vector<BoundaryVertex>& v = line.vertices;
+    if (line.closed || v.size() < 4) continue;
+    const int32_t oa = line.owner_a, ob = line.owner_b;
+    auto f = [&](Vec2 p) { return b.index.nearest_of(p, oa).cost - b.index.nearest_of(p, ob).cost; };
+    auto accept = [&](Vec2 p) {
+      OwnerIndex::Hit ha, hb;
+      return no_third_between(b, oa, ob, p, ha, hb) && std::abs(ha.cost - hb.cost) <= 1e3 * b.ftol;
+    };
+    auto on_coast = [&](Vec2 hit) {
+      BoundaryVertex j = vertex_between(hit, b.index.nearest_of(hit, oa), b.index.nearest_of(hit, ob));
+      j.on_barrier = true;
+      return j;
+    };
+    // From the back: each part split off is the line's tail, the rest scanned on.
+    for (size_t i = v.size() - 3; i >= 1; --i) {
+      const BoundaryVertex &u = v[i], &w = v[i + 1];
+      if (u.on_barrier || w.on_barrier || (u.site_a == w.site_a && u.site_b == w.site_b)) continue;
+      // The two stretches' tangents (from the neighbouring vertices) meet at the turn.
+      const Vec2 d1{u.p.x - v[i - 1].p.x, u.p.y - v[i - 1].p.y}, d2{w.p.x - v[i + 2].p.x, w.p.y - v[i + 2].p.y};
+      const double det = d1.x * -d2.y - d1.y * -d2.x;
+      if (!(std::abs(det) > 0.0)) continue;
+      const Vec2 r{w.p.x - u.p.x, w.p.y - u.p.y};
+      const double s = (r.x * -d2.y - r.y * -d2.x) / det, t = (d1.x * r.y - d1.y * r.x) / det;
+      if (!(s > 0.0) || !(t > 0.0)) continue;
+      const Vec2 turn{u.p.x + s * d1.x, u.p.y + s * d1.y};
+      const double reach =
+          1.5 * std::max(std::hypot(turn.x - u.p.x, turn.y - u.p.y), std::hypot(turn.x - w.p.x, turn.y - w.p.y));
+      if (m.in_domain(turn) || !(reach <= 4.0 * b.g.res)) continue;
+      Vec2 j1, j2;
+      const Vec2 back1 = v[i - 1].p, back2 = v[i + 2].p;
+      if (!onto_domain_edge(m, u.p, reach, b.ftol, f, accept, j1, &back1) ||
+          !onto_domain_edge(m, w.p, reach, b.ftol, f, accept, j2, &back2) ||
+          !(std::hypot(j2.x - j1.x, j2.y - j1.y) > 1e-6 * b.g.res))
+        continue;
+      BoundaryLine tail;
+      tail.owner_a = line.owner_a;
+      tail.owner_b = line.owner_b;
+      tail.vertices.push_back(on_coast(j2));
+      tail.vertices.insert(tail.vertices.end(), v.begin() + static_cast<std::ptrdiff_t>(i + 1), v.end());
+      v.resize(i + 1);
+      v.push_back(on_coast(j1));
+      line.bows.clear();
+      parts.push_back(std::move(tail));
+      stats.vertices += 2;
+      stats.ends_on_barriers += 2;
+      ++stats.turns_on_land;
+    }
+  }
+  for (BoundaryLine& part : parts) lines.push_back(std::move(part));
+}
+
 void cross_channels(const BoundaryGrid& b, std::vector<BoundaryLine>& lone, std::vector<BoundaryLine>& lines,
                     BoundaryStats& stats) {
   if (b.index.metric().straight()) return;
