@@ -21,7 +21,7 @@ double norm(Vec2 v) { return std::hypot(v.x, v.y); }
 struct Follower {
   const Level& L;
   LineResidual& residual;
-  double step;  // CRS units: half a cell
+  double step;  // CRS units (half a cell through the partial effect's bands)
 
   bool sees(Vec2 a, Vec2 b) const { return L.metric->open_between(a, b) && L.in_band(b); }
 

@@ -130,24 +130,34 @@ void end_at_owned_edge(const BoundaryGrid& b, double max_distance, const std::ve
 
 namespace {
 
-// The junction of the back end of `line` with a barrier edge near it (see end_at_barriers); with
-// `away`, on the far side of the end from it.
-bool onto_barrier(const BoundaryGrid& b, BoundaryLine& line, const Vec2* away = nullptr) {
-  const int32_t oa = line.owner_a, ob = line.owner_b;
+// Where the locus of owners oa and ob, from `from` (a point of it at sea), meets a barrier edge
+// within `radius` CRS units: the nearest such point, no third owner nearer, seen from `from`; with
+// `away`, on the far side of `from` from it.
+bool coast_junction(const BoundaryGrid& b, int32_t oa, int32_t ob, Vec2 from, double radius, const Vec2* away,
+                    Vec2& j) {
   auto f = [&](Vec2 p) { return b.index.nearest_of(p, oa).cost - b.index.nearest_of(p, ob).cost; };
-  // (On the locus, and no third owner nearer.)
   auto accept = [&](Vec2 p) {
     OwnerIndex::Hit ha, hb;
     return no_third_between(b, oa, ob, p, ha, hb) && std::abs(ha.cost - hb.cost) <= 1e3 * b.ftol;
   };
-  Vec2 j;
-  if (!onto_domain_edge(b.index.metric(), line.vertices.back().p, 4.0 * b.g.res, b.ftol, f, accept, j, away))
-    return false;
+  return onto_domain_edge(b.index.metric(), from, radius, b.ftol, f, accept, j, away);
+}
+
+// The line's vertex at junction j on a barrier.
+BoundaryVertex on_barrier_at(const BoundaryGrid& b, int32_t oa, int32_t ob, Vec2 j) {
   const OwnerIndex::Hit ha = b.index.nearest_of(j, oa), hb = b.index.nearest_of(j, ob);
   BoundaryVertex jv = junction(j, ha, hb);
   jv.residual = std::abs(ha.cost - hb.cost);
   jv.on_barrier = true;
-  line.vertices.push_back(jv);
+  return jv;
+}
+
+// The junction of the back end of `line` with a barrier edge near it (see end_at_barriers); with
+// `away`, on the far side of the end from it.
+bool onto_barrier(const BoundaryGrid& b, BoundaryLine& line, const Vec2* away = nullptr) {
+  Vec2 j;
+  if (!coast_junction(b, line.owner_a, line.owner_b, line.vertices.back().p, 4.0 * b.g.res, away, j)) return false;
+  line.vertices.push_back(on_barrier_at(b, line.owner_a, line.owner_b, j));
   return true;
 }
 
@@ -248,16 +258,6 @@ void part_where_turning_on_land(const BoundaryGrid& b, std::vector<BoundaryLine>
     std::vector<BoundaryVertex>& v = line.vertices;
     if (line.closed || v.size() < 4) continue;
     const int32_t oa = line.owner_a, ob = line.owner_b;
-    auto f = [&](Vec2 p) { return b.index.nearest_of(p, oa).cost - b.index.nearest_of(p, ob).cost; };
-    auto accept = [&](Vec2 p) {
-      OwnerIndex::Hit ha, hb;
-      return no_third_between(b, oa, ob, p, ha, hb) && std::abs(ha.cost - hb.cost) <= 1e3 * b.ftol;
-    };
-    auto on_coast = [&](Vec2 hit) {
-      BoundaryVertex j = vertex_between(hit, b.index.nearest_of(hit, oa), b.index.nearest_of(hit, ob));
-      j.on_barrier = true;
-      return j;
-    };
     // From the back: each part split off is the line's tail, the rest scanned on.
     for (size_t i = v.size() - 3; i >= 1; --i) {
       const BoundaryVertex &u = v[i], &w = v[i + 1];
@@ -275,17 +275,17 @@ void part_where_turning_on_land(const BoundaryGrid& b, std::vector<BoundaryLine>
       if (m.in_domain(turn) || !(reach <= 4.0 * b.g.res)) continue;
       Vec2 j1, j2;
       const Vec2 back1 = v[i - 1].p, back2 = v[i + 2].p;
-      if (!onto_domain_edge(m, u.p, reach, b.ftol, f, accept, j1, &back1) ||
-          !onto_domain_edge(m, w.p, reach, b.ftol, f, accept, j2, &back2) ||
+      if (!coast_junction(b, oa, ob, u.p, reach, &back1, j1) || !coast_junction(b, oa, ob, w.p, reach, &back2, j2) ||
           !(std::hypot(j2.x - j1.x, j2.y - j1.y) > 1e-6 * b.g.res))
         continue;
       BoundaryLine tail;
       tail.owner_a = line.owner_a;
       tail.owner_b = line.owner_b;
-      tail.vertices.push_back(on_coast(j2));
+      tail.vertices.push_back(on_barrier_at(b, oa, ob, j2));
       tail.vertices.insert(tail.vertices.end(), v.begin() + static_cast<std::ptrdiff_t>(i + 1), v.end());
       v.resize(i + 1);
-      v.push_back(on_coast(j1));
+      v.push_back(on_barrier_at(b, oa, ob, j1));
+      stats.max_residual = std::max({stats.max_residual, v.back().residual, tail.vertices.front().residual});
       line.bows.clear();
       parts.push_back(std::move(tail));
       stats.vertices += 2;
