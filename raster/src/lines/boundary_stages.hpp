@@ -342,12 +342,6 @@ void end_at_owned_edge(const BoundaryGrid& b, double max_distance, const std::ve
 // stats.ends_on_barriers, those followed also in stats.ends_followed.
 void end_at_barriers(const BoundaryGrid& b, const std::vector<Tripoint>& tripoints, std::vector<BoundaryLine>& lines,
                      BoundaryStats& stats);
-// By sea, two open ends of lines of the same two owners (off the frame, not at a tripoint, not on
-// a barrier) within four cells of each other, with the way between them open and the locus
-// passing between them: the line broken where it passes a coast closer than a cell (the cells
-// beside it are parted by land, though the locus stays at sea). Joined, nearest pairs first (one
-// line's two ends make it a ring); finish_lines then refines the joining chord onto the locus.
-// Counts the joins in stats.ends_joined.
 // By sea, a line whose locus turns on land: where one side's site changes between two vertices
 // and the stretches' tangents there (from their neighbouring vertices) meet on land within four
 // cells, the locus meets the coast before it would turn (the cells, a cell apart across a coast
@@ -356,6 +350,12 @@ void end_at_barriers(const BoundaryGrid& b, const std::vector<Tripoint>& tripoin
 // ahead of its end). Counts the partings in stats.turns_on_land, their ends in
 // stats.ends_on_barriers.
 void part_where_turning_on_land(const BoundaryGrid& b, std::vector<BoundaryLine>& lines, BoundaryStats& stats);
+// By sea, two open ends of lines of the same two owners (off the frame, not at a tripoint, not on
+// a barrier) within four cells of each other, with the way between them open and the locus
+// passing between them: the line broken where it passes a coast closer than a cell (the cells
+// beside it are parted by land, though the locus stays at sea). Joined, nearest pairs first (one
+// line's two ends make it a ring); finish_lines then refines the joining chord onto the locus.
+// Counts the joins in stats.ends_joined.
 void join_parted_ends(const BoundaryGrid& b, const std::vector<Tripoint>& tripoints, std::vector<BoundaryLine>& lines,
                       BoundaryStats& stats);
 // By sea, a crossing linked to none (`lone`, lone_crossings) where the line crosses a channel
@@ -392,6 +392,19 @@ inline bool no_third_between(const BoundaryGrid& b, int32_t a, int32_t o, Vec2 p
   hb = b.index.nearest_of(p, o);
   const OwnerIndex::Hit third = b.index.nearest_third(p, a, o, std::max(ha.cost, hb.cost));
   return third.site == kNoSite || third.cost >= std::min(ha.cost, hb.cost) - 4.0 * b.ftol;
+}
+
+// Owner a's cost less owner o's at p (each its nearest site's; 0 on their locus).
+inline double cost_gap(const BoundaryGrid& b, int32_t a, int32_t o, Vec2 p) {
+  return b.index.nearest_of(p, a).cost - b.index.nearest_of(p, o).cost;
+}
+
+// Whether a point found on the locus of a and o (a root of cost_gap) counts as one: no third owner
+// between them, and their costs within 1e3 ftol (the root finder's tolerance, with room for a
+// search along a coast's edge). Their nearest into ha and hb.
+inline bool on_pair_locus(const BoundaryGrid& b, int32_t a, int32_t o, Vec2 p, OwnerIndex::Hit& ha,
+                          OwnerIndex::Hit& hb) {
+  return no_third_between(b, a, o, p, ha, hb) && std::abs(ha.cost - hb.cost) <= 1e3 * b.ftol;
 }
 
 // The boundary vertex at p between the hits of its two sides (each owner's nearest there).

@@ -55,7 +55,7 @@ bool junction_on(const BoundaryGrid& b, int32_t edge, Vec2 side, double t0, doub
   auto f = [&](double t) {
     Vec2 p;
     if (!m.domain_edge_point(edge, t, side, p)) return std::numeric_limits<double>::quiet_NaN();
-    return b.index.nearest_of(p, oa).cost - b.index.nearest_of(p, ob).cost;
+    return cost_gap(b, oa, ob, p);
   };
   const double f0 = f(t0), f1 = f(t1);
   if (!std::isfinite(f0) || !std::isfinite(f1) || (f0 <= 0.0) == (f1 <= 0.0)) return false;
@@ -64,9 +64,7 @@ bool junction_on(const BoundaryGrid& b, int32_t edge, Vec2 side, double t0, doub
   OwnerIndex::Hit ha, hb;
   // (Not where either owner's own seed is: coasts that are seeds meet at land borders, where the
   // lines of the cells end.)
-  if (!no_third_between(b, oa, ob, p, ha, hb) || std::abs(ha.cost - hb.cost) > 1e3 * b.ftol || !(ha.distance > 0.0) ||
-      !(hb.distance > 0.0))
-    return false;
+  if (!on_pair_locus(b, oa, ob, p, ha, hb) || !(ha.distance > 0.0) || !(hb.distance > 0.0)) return false;
   out.p = p;
   out.lo = std::min(oa, ob);
   out.hi = std::max(oa, ob);
@@ -208,7 +206,7 @@ bool to_grid_edge(const BoundaryGrid& b, const Junction& j, BoundaryVertex& out)
   const Vec2 along = vertical ? Vec2{0.0, 1.5 * g.res} : Vec2{1.5 * g.res, 0.0};
   auto clamp = [&](Vec2 p) { return Vec2{std::clamp(p.x, g.xmin, g.xmax()), std::clamp(p.y, g.ymin(), g.ymax)}; };
   const Vec2 p0 = clamp(Vec2{foot.x - along.x, foot.y - along.y}), p1 = clamp(Vec2{foot.x + along.x, foot.y + along.y});
-  auto f = [&](Vec2 p) { return b.index.nearest_of(p, j.lo).cost - b.index.nearest_of(p, j.hi).cost; };
+  auto f = [&](Vec2 p) { return cost_gap(b, j.lo, j.hi, p); };
   auto accept = [&](Vec2 e) {
     OwnerIndex::Hit ha, hb;
     return no_third_between(b, j.lo, j.hi, e, ha, hb) && b.index.metric().open_between(j.p, e);
@@ -304,9 +302,8 @@ void cross_hidden_channels(const BoundaryGrid& b, double max_distance, const std
       if (u.lo != w.lo || u.hi != w.hi) continue;
       const double d = std::hypot(w.p.x - u.p.x, w.p.y - u.p.y);
       if (!(d > same && d <= 4.0 * b.g.res) || !m.open_between(u.p, w.p)) continue;
-      const Vec2 mid = lerp(u.p, w.p, 0.5);
-      const double f = b.index.nearest_of(mid, u.lo).cost - b.index.nearest_of(mid, u.hi).cost;
-      if (std::abs(f) <= 0.25 * m.point_distance(u.p, w.p)) pairs.push_back(NearPair{d, i, k});
+      if (std::abs(cost_gap(b, u.lo, u.hi, lerp(u.p, w.p, 0.5))) <= 0.25 * m.point_distance(u.p, w.p))
+        pairs.push_back(NearPair{d, i, k});
     }
   sort_nearest_first(pairs);
   std::vector<bool> used(open.size(), false);

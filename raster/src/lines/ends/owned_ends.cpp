@@ -135,10 +135,10 @@ namespace {
 // `away`, on the far side of `from` from it.
 bool coast_junction(const BoundaryGrid& b, int32_t oa, int32_t ob, Vec2 from, double radius, const Vec2* away,
                     Vec2& j) {
-  auto f = [&](Vec2 p) { return b.index.nearest_of(p, oa).cost - b.index.nearest_of(p, ob).cost; };
+  auto f = [&](Vec2 p) { return cost_gap(b, oa, ob, p); };
   auto accept = [&](Vec2 p) {
     OwnerIndex::Hit ha, hb;
-    return no_third_between(b, oa, ob, p, ha, hb) && std::abs(ha.cost - hb.cost) <= 1e3 * b.ftol;
+    return on_pair_locus(b, oa, ob, p, ha, hb);
   };
   return onto_domain_edge(b.index.metric(), from, radius, b.ftol, f, accept, j, away);
 }
@@ -177,7 +177,7 @@ bool follow_to_barrier(const BoundaryGrid& b, BoundaryLine& line) {
   if (v.size() < 2) return false;
   const int32_t oa = line.owner_a, ob = line.owner_b;
   locus_follow::Level level;
-  level.balance = [&](Vec2 p) { return b.index.nearest_of(p, oa).cost - b.index.nearest_of(p, ob).cost; };
+  level.balance = [&](Vec2 p) { return cost_gap(b, oa, ob, p); };
   level.in_band = [&](Vec2 p) {
     OwnerIndex::Hit ha, hb;
     return no_third_between(b, oa, ob, p, ha, hb);
@@ -353,7 +353,7 @@ void join_parted_ends(const BoundaryGrid& b, const std::vector<Tripoint>& tripoi
       const double d = std::hypot(q.x - p.x, q.y - p.y);
       if (!(d <= 4.0 * b.g.res) || !metric.open_between(p, q)) continue;
       const Vec2 mid = lerp(p, q, 0.5), across{-(q.y - p.y) * 0.5, (q.x - p.x) * 0.5};
-      auto f = [&](Vec2 x) { return b.index.nearest_of(x, li.owner_a).cost - b.index.nearest_of(x, li.owner_b).cost; };
+      auto f = [&](Vec2 x) { return cost_gap(b, li.owner_a, li.owner_b, x); };
       const Vec2 u{mid.x - across.x, mid.y - across.y}, w{mid.x + across.x, mid.y + across.y};
       const double fm = f(mid);
       const bool between = fm == 0.0 || ((f(u) < 0.0) != (fm < 0.0) && metric.open_between(mid, u)) ||
