@@ -241,6 +241,11 @@ class LineRefiner {
   bool onto_locus(const End& u, const End& v, double max_off, End& out) const;
   bool checked(Vec2 p, int32_t a, int32_t b, const End& u, const End& v, double max_off, End& out) const;
   bool tie_apex(const End& u, const End& v, int32_t a, int32_t b, End& out) const;
+  // By sea, the same two sites at both ends but one side's path bending last at another barrier
+  // vertex at each (SiteMetric::last_bend): the corner where the two paths cost the same and the
+  // other side's site as much, by Newton's method on the three costs, checked like a turning
+  // point; false where the bends agree or no such point checks out within the chord.
+  bool bend_corner(const End& u, const End& v, int32_t a, int32_t b, double max_off, End& out) const;
   bool tie_edge(const BoundaryVertex& u, const BoundaryVertex& v, int32_t a, int32_t b, End& out, double& off) const;
   // The chord's perpendicular through its middle, max_off either side; whether p lies between
   // the ends along the chord and within max_off of it.

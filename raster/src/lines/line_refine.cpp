@@ -52,6 +52,31 @@ bool shares(int32_t s1, int32_t alt1, int32_t s2, int32_t alt2) {
   return s1 == s2 || (alt1 != kNoSite && (alt1 == s2 || alt1 == alt2)) || (alt2 != kNoSite && s1 == alt2);
 }
 
+// Where three costs are equal, by Newton's method on the first two's differences from the third
+// from `start`, within `max_move` of it, to `ftol`: costs(p, g1, g2, gt) gives the three at p and
+// their gradients. False when it does not converge there.
+template <class Costs>
+bool equal_three(Costs&& costs, Vec2 start, double max_move, double ftol, Vec2& out) {
+  Vec2 p = start;
+  for (int iter = 0; iter < kNewtonIterations; ++iter) {
+    Vec2 g1, g2, gt;
+    const std::array<double, 3> c = costs(p, g1, g2, gt);
+    const double f0 = c[0] - c[2], f1 = c[1] - c[2];
+    if (!std::isfinite(f0) || !std::isfinite(f1)) return false;
+    if (std::max(std::abs(f0), std::abs(f1)) <= ftol) {
+      out = p;
+      return true;
+    }
+    const double j00 = g1.x - gt.x, j01 = g1.y - gt.y, j10 = g2.x - gt.x, j11 = g2.y - gt.y;
+    const double det = j00 * j11 - j01 * j10;
+    if (!(std::abs(det) > 0.0) || !std::isfinite(det)) return false;
+    const double dx = (f0 * j11 - f1 * j01) / det, dy = (j00 * f1 - j10 * f0) / det;
+    p = Vec2{p.x - dx, p.y - dy};
+    if (!(std::hypot(p.x - start.x, p.y - start.y) <= max_move)) return false;
+  }
+  return false;
+}
+
 }  // namespace
 
 struct LineRefiner::End {
@@ -69,24 +94,11 @@ double site_cost(const OwnerIndex& index, Vec2 p, int32_t site, Vec2& gradient) 
 
 bool equal_costs_point(const OwnerIndex& index, int32_t s1, int32_t s2, int32_t t, Vec2 start, double max_move,
                        double ftol, Vec2& out) {
-  Vec2 p = start;
-  for (int iter = 0; iter < kNewtonIterations; ++iter) {
-    Vec2 g1, g2, gt;
-    const double c1 = site_cost(index, p, s1, g1), c2 = site_cost(index, p, s2, g2), ct = site_cost(index, p, t, gt);
-    const double f0 = c1 - ct, f1 = c2 - ct;
-    if (!std::isfinite(f0) || !std::isfinite(f1)) return false;
-    if (std::max(std::abs(f0), std::abs(f1)) <= ftol) {
-      out = p;
-      return true;
-    }
-    const double j00 = g1.x - gt.x, j01 = g1.y - gt.y, j10 = g2.x - gt.x, j11 = g2.y - gt.y;
-    const double det = j00 * j11 - j01 * j10;
-    if (!(std::abs(det) > 0.0) || !std::isfinite(det)) return false;
-    const double dx = (f0 * j11 - f1 * j01) / det, dy = (j00 * f1 - j10 * f0) / det;
-    p = Vec2{p.x - dx, p.y - dy};
-    if (!(std::hypot(p.x - start.x, p.y - start.y) <= max_move)) return false;
-  }
-  return false;
+  return equal_three(
+      [&](Vec2 p, Vec2& g1, Vec2& g2, Vec2& gt) {
+        return std::array{site_cost(index, p, s1, g1), site_cost(index, p, s2, g2), site_cost(index, p, t, gt)};
+      },
+      start, max_move, ftol, out);
 }
 
 double LineRefiner::cost(Vec2 p, int32_t site, Vec2& gradient) const { return site_cost(index_, p, site, gradient); }
@@ -352,6 +364,18 @@ void LineRefiner::between(const End& u, const End& v, int depth, int32_t a, int3
     // arm where it turns sharply, at a tip): then within the measured offset alone.
     if (reach < stray && split(u, v, same, arcs, reach, a, b, mid, turning, loose) && descend()) return;
   }
+  // Still off the locus with the same sites at both ends: by sea, one side's path may bend last
+  // at another vertex at each end, and the locus has a corner between them that halving only
+  // approaches (by half the offset a level). Solved as a turning point once the halving stops
+  // (checked only here: the bends cost a path search each end), then both halves refined on.
+  if (tol_ > 0.0 && depth <= kMaxDepth && same && !arcs && std::isfinite(off) && off > tol_ &&
+      bend_corner(u, v, a, b, chord, mid)) {
+    ++n.turning_points;
+    between(u, mid, depth + 1, a, b, out, n, bows);
+    out.push_back(mid);
+    between(mid, v, depth + 1, a, b, out, n, bows);
+    return;
+  }
   if (bows != nullptr) bows->push_back(bow);
   const Vec2 m = lerp(u.v.p, v.v.p, 0.5);
   r.add(off, m.x, m.y, tol_ > 0.0 ? tol_ : std::numeric_limits<double>::infinity());
@@ -428,6 +452,50 @@ bool LineRefiner::tie_apex(const End& u, const End& v, int32_t a, int32_t b, End
   if (!checked(index_.metric().bend_position(bend), a, b, u, v, chord, out)) return false;
   out.v.tie = true;
   return true;
+}
+
+bool LineRefiner::bend_corner(const End& u, const End& v, int32_t a, int32_t b, double max_off, End& out) const {
+  const SiteMetric& m = index_.metric();
+  if (m.straight() || u.v.site_a != v.v.site_a || u.v.site_b != v.v.site_b) return false;
+  const double chord = std::hypot(v.v.p.x - u.v.p.x, v.v.p.y - u.v.p.y);
+  const Vec2 mid = lerp(u.v.p, v.v.p, 0.5);
+  // Either side's site s may be the one whose path changes; t is the other side's.
+  for (const auto& [s, t] : {std::pair{u.v.site_a, u.v.site_b}, std::pair{u.v.site_b, u.v.site_a}}) {
+    if (s == kNoSite || t == kNoSite) continue;
+    const int32_t bu = m.last_bend(u.v.p, s), bv = m.last_bend(v.v.p, s);
+    if (bu == bv) continue;
+    // Each end's path as its last straight stretch: from its bend (seen directly: from the
+    // site's point nearest the end) after the length of the path up to there.
+    struct Leg {
+      Vec2 from;
+      double before;
+    };
+    auto leg = [&](const End& e, int32_t bend) {
+      const Vec2 from = bend >= 0 ? m.bend_position(bend) : m.nearest_point(e.v.p, s);
+      return Leg{from, m.distance(e.v.p, s) - m.point_distance(from, e.v.p)};
+    };
+    const Leg lu = leg(u, bu), lv = leg(v, bv);
+    if (!std::isfinite(lu.before) || !std::isfinite(lv.before)) continue;
+    // A leg's cost and its gradient (central differences a thousandth of the chord apart: the
+    // metric gives no gradient of a point-to-point length; Newton's steps need only its
+    // direction, the residual is measured).
+    const double h = 1e-3 * chord;
+    auto leg_cost = [&](const Leg& l, Vec2 p, Vec2& g) {
+      auto at = [&](Vec2 q) { return index_.cost_of(s, l.before + m.point_distance(l.from, q)); };
+      g = Vec2{(at(Vec2{p.x + h, p.y}) - at(Vec2{p.x - h, p.y})) / (2.0 * h),
+               (at(Vec2{p.x, p.y + h}) - at(Vec2{p.x, p.y - h})) / (2.0 * h)};
+      return at(p);
+    };
+    Vec2 p;
+    if (equal_three(
+            [&](Vec2 q, Vec2& g1, Vec2& g2, Vec2& gt) {
+              return std::array{leg_cost(lu, q, g1), leg_cost(lv, q, g2), cost(q, t, gt)};
+            },
+            mid, chord, ftol_, p) &&
+        checked(p, a, b, u, v, max_off, out))
+      return true;
+  }
+  return false;
 }
 
 bool LineRefiner::turning_point(const End& u, const End& v, int32_t a, int32_t b, double max_off, End& out) const {

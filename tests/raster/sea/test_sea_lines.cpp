@@ -343,6 +343,54 @@ TEST(SeaLines, ATurningPointWhereTheBisectorBecomesTheHyperbolaNamesTheBend) {
   EXPECT_EQ(found, 1);
 }
 
+// Where one side's path changes the wall's end it bends round, with the same two seeds on both
+// sides: s1 lies behind the wall's middle, its path to the line round A below and round B above;
+// the line turns at the corner where both paths and s2's straight one are equally long. That
+// corner is a vertex of the line (no chord across it left to halving: every segment within the
+// tolerance), and the turning points name s1's two bends there.
+TEST(SeaLines, ALineTurnsWhereOneSidesPathChangesTheVertexItBendsAt) {
+  const Vec2 a{20, 10}, b{20, 44};
+  const Vec2 s1{18, 28.3}, s2{60.4, 26.1};
+  const GridSpec g = test::grid_of(64, 64);
+  const SeedSet seeds = test::named_points({{"o0", s1}, {"o1", s2}});
+  const test::WallSea sea(seeds, a, b, g);
+  BoundaryOptions options;
+  options.line_tolerance = 1e-6;
+  const BoundaryResult lines = extract_boundaries(sea.field.field, *sea.index, options);
+  ASSERT_EQ(lines.lines.size(), 1u);
+  EXPECT_EQ(lines.stats.locus.unresolved, 0);
+  EXPECT_LE(lines.stats.locus.max_midpoint, 1e-6);
+  // The corner: |s1 - A| + |A - x| = |s1 - B| + |B - x| = |s2 - x|.
+  auto via_a = [&](Vec2 x) { return dist(s1, a) + dist(a, x); };
+  auto via_b = [&](Vec2 x) { return dist(s1, b) + dist(b, x); };
+  int corners = 0;
+  Vec2 corner{};
+  for (const BoundaryVertex& v : lines.lines[0].vertices) {
+    const double d = dist(s2, v.p);
+    EXPECT_NEAR(std::min(via_a(v.p), via_b(v.p)), d, 1e-9 * d) << v.p.x << "," << v.p.y;
+    if (std::abs(via_a(v.p) - d) <= 1e-9 * d && std::abs(via_b(v.p) - d) <= 1e-9 * d) {
+      ++corners;
+      corner = v.p;
+    }
+  }
+  ASSERT_EQ(corners, 1);
+  EXPECT_GT(corner.x, a.x);
+  const std::vector<TurningLine> turning = turning_points(lines, *sea.index);
+  int named = 0;
+  for (const TurningLine& l : turning)
+    for (const TurningPoint& tp : l.points) {
+      if (dist(tp.p, corner) > 1e-12) continue;
+      const std::vector<Basepoint>& side = tp.a.size() == 2 ? tp.a : tp.b;
+      ASSERT_EQ(side.size(), 2u);
+      const Vec2 u = side[0].via_at, w = side[1].via_at;
+      EXPECT_TRUE((dist(u, a) < 1e-12 && dist(w, b) < 1e-12) || (dist(u, b) < 1e-12 && dist(w, a) < 1e-12));
+      ++named;
+    }
+  EXPECT_EQ(named, 1);
+  std::printf("corner where s1's bend changes: (%.9f, %.9f), %lld turning points, chords within %.3g\n", corner.x,
+              corner.y, static_cast<long long>(lines.stats.turning_points), lines.stats.locus.max_midpoint);
+}
+
 // Two ports in a channel between two coasts: their boundary runs from coast to coast, its ends on
 // the coasts exactly. With a boom from the south coast partway across, the boundary runs from
 // the north coast to the boom's far face, where the path round the boom's tip meets the other
