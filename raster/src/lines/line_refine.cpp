@@ -52,31 +52,6 @@ bool shares(int32_t s1, int32_t alt1, int32_t s2, int32_t alt2) {
   return s1 == s2 || (alt1 != kNoSite && (alt1 == s2 || alt1 == alt2)) || (alt2 != kNoSite && s1 == alt2);
 }
 
-// Where three costs are equal, by Newton's method on the first two's differences from the third
-// from `start`, within `max_move` of it, to `ftol`: costs(p, g1, g2, gt) gives the three at p and
-// their gradients. False when it does not converge there.
-template <class Costs>
-bool equal_three(Costs&& costs, Vec2 start, double max_move, double ftol, Vec2& out) {
-  Vec2 p = start;
-  for (int iter = 0; iter < kNewtonIterations; ++iter) {
-    Vec2 g1, g2, gt;
-    const std::array<double, 3> c = costs(p, g1, g2, gt);
-    const double f0 = c[0] - c[2], f1 = c[1] - c[2];
-    if (!std::isfinite(f0) || !std::isfinite(f1)) return false;
-    if (std::max(std::abs(f0), std::abs(f1)) <= ftol) {
-      out = p;
-      return true;
-    }
-    const double j00 = g1.x - gt.x, j01 = g1.y - gt.y, j10 = g2.x - gt.x, j11 = g2.y - gt.y;
-    const double det = j00 * j11 - j01 * j10;
-    if (!(std::abs(det) > 0.0) || !std::isfinite(det)) return false;
-    const double dx = (f0 * j11 - f1 * j01) / det, dy = (j00 * f1 - j10 * f0) / det;
-    p = Vec2{p.x - dx, p.y - dy};
-    if (!(std::hypot(p.x - start.x, p.y - start.y) <= max_move)) return false;
-  }
-  return false;
-}
-
 }  // namespace
 
 struct LineRefiner::End {
@@ -94,11 +69,24 @@ double site_cost(const OwnerIndex& index, Vec2 p, int32_t site, Vec2& gradient) 
 
 bool equal_costs_point(const OwnerIndex& index, int32_t s1, int32_t s2, int32_t t, Vec2 start, double max_move,
                        double ftol, Vec2& out) {
-  return equal_three(
-      [&](Vec2 p, Vec2& g1, Vec2& g2, Vec2& gt) {
-        return std::array{site_cost(index, p, s1, g1), site_cost(index, p, s2, g2), site_cost(index, p, t, gt)};
-      },
-      start, max_move, ftol, out);
+  Vec2 p = start;
+  for (int iter = 0; iter < kNewtonIterations; ++iter) {
+    Vec2 g1, g2, gt;
+    const double c1 = site_cost(index, p, s1, g1), c2 = site_cost(index, p, s2, g2), ct = site_cost(index, p, t, gt);
+    const double f0 = c1 - ct, f1 = c2 - ct;
+    if (!std::isfinite(f0) || !std::isfinite(f1)) return false;
+    if (std::max(std::abs(f0), std::abs(f1)) <= ftol) {
+      out = p;
+      return true;
+    }
+    const double j00 = g1.x - gt.x, j01 = g1.y - gt.y, j10 = g2.x - gt.x, j11 = g2.y - gt.y;
+    const double det = j00 * j11 - j01 * j10;
+    if (!(std::abs(det) > 0.0) || !std::isfinite(det)) return false;
+    const double dx = (f0 * j11 - f1 * j01) / det, dy = (j00 * f1 - j10 * f0) / det;
+    p = Vec2{p.x - dx, p.y - dy};
+    if (!(std::hypot(p.x - start.x, p.y - start.y) <= max_move)) return false;
+  }
+  return false;
 }
 
 double LineRefiner::cost(Vec2 p, int32_t site, Vec2& gradient) const { return site_cost(index_, p, site, gradient); }
@@ -476,24 +464,16 @@ bool LineRefiner::bend_corner(const End& u, const End& v, int32_t a, int32_t b, 
     };
     const Leg lu = leg(u, bu), lv = leg(v, bv);
     if (!std::isfinite(lu.before) || !std::isfinite(lv.before)) continue;
-    // A leg's cost and its gradient (central differences a thousandth of the chord apart: the
-    // metric gives no gradient of a point-to-point length; Newton's steps need only its
-    // direction, the residual is measured).
-    const double h = 1e-3 * chord;
-    auto leg_cost = [&](const Leg& l, Vec2 p, Vec2& g) {
-      auto at = [&](Vec2 q) { return index_.cost_of(s, l.before + m.point_distance(l.from, q)); };
-      g = Vec2{(at(Vec2{p.x + h, p.y}) - at(Vec2{p.x - h, p.y})) / (2.0 * h),
-               (at(Vec2{p.x, p.y + h}) - at(Vec2{p.x, p.y - h})) / (2.0 * h)};
-      return at(p);
+    // Newton's method with a numeric Jacobian (the metric gives no gradient of a point-to-point
+    // length), steps of at most the chord.
+    auto leg_cost = [&](const Leg& l, Vec2 p) { return index_.cost_of(s, l.before + m.point_distance(l.from, p)); };
+    auto f = [&](Vec2 p) {
+      Vec2 g;
+      const double ct = cost(p, t, g);
+      return std::array{leg_cost(lu, p) - ct, leg_cost(lv, p) - ct};
     };
     Vec2 p;
-    if (equal_three(
-            [&](Vec2 q, Vec2& g1, Vec2& g2, Vec2& gt) {
-              return std::array{leg_cost(lu, q, g1), leg_cost(lv, q, g2), cost(q, t, gt)};
-            },
-            mid, chord, ftol_, p) &&
-        checked(p, a, b, u, v, max_off, out))
-      return true;
+    if (line_tools::solve2(f, mid, chord, ftol_, p) && checked(p, a, b, u, v, max_off, out)) return true;
   }
   return false;
 }

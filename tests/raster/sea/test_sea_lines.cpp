@@ -347,28 +347,27 @@ TEST(SeaLines, ATurningPointWhereTheBisectorBecomesTheHyperbolaNamesTheBend) {
 // sides: s1 lies behind the wall's middle, its path to the line round A below and round B above;
 // the line turns at the corner where both paths and s2's straight one are equally long. That
 // corner is a vertex of the line (no chord across it left to halving: every segment within the
-// tolerance), and the turning points name s1's two bends there.
-TEST(SeaLines, ALineTurnsWhereOneSidesPathChangesTheVertexItBendsAt) {
-  const Vec2 a{20, 10}, b{20, 44};
-  const Vec2 s1{18, 28.3}, s2{60.4, 26.1};
-  const GridSpec g = test::grid_of(64, 64);
+// tolerance), and the turning points name s1's two bends there. `length`: the closed form's
+// straight length (plane or geodesic); `tol`: the line tolerance; `near`: equal lengths.
+void corner_of_two_bends(Vec2 a, Vec2 b, Vec2 s1, Vec2 s2, const GridSpec& g, const SeaOptions& options,
+                         double (*length)(Vec2, Vec2), double tol, double near) {
   const SeedSet seeds = test::named_points({{"o0", s1}, {"o1", s2}});
-  const test::WallSea sea(seeds, a, b, g);
-  BoundaryOptions options;
-  options.line_tolerance = 1e-6;
-  const BoundaryResult lines = extract_boundaries(sea.field.field, *sea.index, options);
+  const test::WallSea sea(seeds, a, b, g, options);
+  BoundaryOptions bo;
+  bo.line_tolerance = tol;
+  const BoundaryResult lines = extract_boundaries(sea.field.field, *sea.index, bo);
   ASSERT_EQ(lines.lines.size(), 1u);
   EXPECT_EQ(lines.stats.locus.unresolved, 0);
-  EXPECT_LE(lines.stats.locus.max_midpoint, 1e-6);
+  EXPECT_LE(lines.stats.locus.max_midpoint, tol);
   // The corner: |s1 - A| + |A - x| = |s1 - B| + |B - x| = |s2 - x|.
-  auto via_a = [&](Vec2 x) { return dist(s1, a) + dist(a, x); };
-  auto via_b = [&](Vec2 x) { return dist(s1, b) + dist(b, x); };
+  auto via_a = [&](Vec2 x) { return length(s1, a) + length(a, x); };
+  auto via_b = [&](Vec2 x) { return length(s1, b) + length(b, x); };
   int corners = 0;
   Vec2 corner{};
   for (const BoundaryVertex& v : lines.lines[0].vertices) {
-    const double d = dist(s2, v.p);
-    EXPECT_NEAR(std::min(via_a(v.p), via_b(v.p)), d, 1e-9 * d) << v.p.x << "," << v.p.y;
-    if (std::abs(via_a(v.p) - d) <= 1e-9 * d && std::abs(via_b(v.p) - d) <= 1e-9 * d) {
+    const double d = length(s2, v.p);
+    EXPECT_NEAR(std::min(via_a(v.p), via_b(v.p)), d, near) << v.p.x << "," << v.p.y;
+    if (std::abs(via_a(v.p) - d) <= near && std::abs(via_b(v.p) - d) <= near) {
       ++corners;
       corner = v.p;
     }
@@ -379,16 +378,32 @@ TEST(SeaLines, ALineTurnsWhereOneSidesPathChangesTheVertexItBendsAt) {
   int named = 0;
   for (const TurningLine& l : turning)
     for (const TurningPoint& tp : l.points) {
-      if (dist(tp.p, corner) > 1e-12) continue;
+      // (The report bisects for the change between vertices: within 2^-26 of their spacing.)
+      if (dist(tp.p, corner) > 1e-6 * g.res) continue;
       const std::vector<Basepoint>& side = tp.a.size() == 2 ? tp.a : tp.b;
       ASSERT_EQ(side.size(), 2u);
       const Vec2 u = side[0].via_at, w = side[1].via_at;
       EXPECT_TRUE((dist(u, a) < 1e-12 && dist(w, b) < 1e-12) || (dist(u, b) < 1e-12 && dist(w, a) < 1e-12));
+      EXPECT_NEAR(length(s2, tp.p), std::min(via_a(tp.p), via_b(tp.p)), near);
       ++named;
     }
   EXPECT_EQ(named, 1);
   std::printf("corner where s1's bend changes: (%.9f, %.9f), %lld turning points, chords within %.3g\n", corner.x,
               corner.y, static_cast<long long>(lines.stats.turning_points), lines.stats.locus.max_midpoint);
+}
+
+TEST(SeaLines, ALineTurnsWhereOneSidesPathChangesTheVertexItBendsAt) {
+  corner_of_two_bends({20, 10}, {20, 44}, {18, 28.3}, {60.4, 26.1}, test::grid_of(64, 64), {}, dist, 1e-6, 1e-9);
+}
+
+// The same on the ellipsoid (a unit of the plane's layout 0.01 deg of latitude, 0.0175 of
+// longitude), geodesic lengths from GeographicLib; tolerance a millimetre.
+TEST(SeaLines, OnTheEllipsoidALineTurnsWhereOneSidesPathChangesTheVertexItBendsAt) {
+  auto at = [](double x, double y) { return Vec2{10.0 + 0.0175 * x, 55.0 + 0.01 * y}; };
+  SeaOptions options;
+  options.metric = test::geodesic_metric();
+  corner_of_two_bends(at(20, 10), at(20, 44), at(18, 28.3), at(60.4, 26.1), test::grid_of(112, 64, 0.01, 10.0, 55.64),
+                      options, test::metres, 1e-3, 1e-6);
 }
 
 // Two ports in a channel between two coasts: their boundary runs from coast to coast, its ends on
