@@ -309,8 +309,8 @@ Followed follow(const Level& level, Vec2 start, const Vec2* target, LineResidual
   return Follower{level, residual, 0.5 * level.grid.res}.run(start, target, others);
 }
 
-Through follow_through(const Level& level, Vec2 on, LineResidual& residual) {
-  return Follower{level, residual, 0.5 * level.grid.res}.through(on);
+Through follow_through(const Level& level, Vec2 on, LineResidual& residual, double step) {
+  return Follower{level, residual, step > 0.0 ? step : 0.5 * level.grid.res}.through(on);
 }
 
 }  // namespace rv::locus_follow

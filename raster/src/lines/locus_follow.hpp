@@ -79,8 +79,9 @@ struct Through {
 // The locus through `on` (a point of it in the band where it crosses no line yet drawn: where
 // the rule's cells change owner, partial_loci.hpp) followed both ways, each to a coast or the
 // frame, or round to `on` again; its chords made to lie within level.tol of the locus as follow's.
-// Empty where the level has no direction at `on`.
-Through follow_through(const Level& level, Vec2 on, LineResidual& residual);
+// Empty where the level has no direction at `on`. `step`: CRS units a step (0: half a cell; a
+// channel narrower than that needs a shorter one, or the walk jumps across it).
+Through follow_through(const Level& level, Vec2 on, LineResidual& residual, double step = 0.0);
 
 // The locus followed on from `from` (a point of it where a line stops; `heading` the way the line
 // goes on there, any length) in steps of `step` CRS units, at most `max_steps` of them: to a coast

@@ -523,6 +523,50 @@ TEST_F(SeaLinesJob, ALineWhoseLocusWouldTurnOnLandEndsOnTheCoastBothWays) {
   EXPECT_LE(b.at("along_lines").at("max_midpoint").get<double>(), b.at("along_lines").at("tolerance").get<double>());
 }
 
+// Partial effect by sea on Wolin: the western Baltic's ports at 0.01 deg round the Szczecin
+// Lagoon's mouths, Wolin's four Polish ports at half effect. In the Swina, the channel between
+// Usedom and Wolin (a third of a cell wide), the rule's cells change owner from Polish to German,
+// but the Polish cells there meet the German ones only across corners and a knight's move away:
+// no two 4-neighbours show the change. The locus between them is found from such a pair in sight
+// of each other and followed across the channel from coast to coast (a third stretch, two more
+// ends on coasts); before, the four Polish cells lay in Germany's region.
+TEST_F(SeaLinesJob, APartialLocusInAChannelWhoseCellsMeetOnlyAcrossCornersIsDrawn) {
+  const std::vector<std::array<double, 2>> wolin{{14.2065348732, 53.9164494805},
+                                                 {14.6922026416, 53.9911224649},
+                                                 {14.5756056537, 53.8448915789},
+                                                 {14.2900807464, 53.8577079195}};
+  nlohmann::json ports = nlohmann::json::parse(std::ifstream(fixture("baltic_west_ports.geojson")));
+  int halved = 0;
+  for (nlohmann::json& f : ports.at("features")) {
+    const double x = f.at("geometry").at("coordinates")[0], y = f.at("geometry").at("coordinates")[1];
+    const bool on_wolin = std::any_of(wolin.begin(), wolin.end(), [&](const std::array<double, 2>& p) {
+      return std::abs(p[0] - x) < 1e-9 && std::abs(p[1] - y) < 1e-9;
+    });
+    f["properties"]["effect"] = on_wolin ? 0.5 : 1.0;
+    halved += on_wolin;
+  }
+  ASSERT_EQ(halved, 4);
+  fs::create_directories(dir_ / "swina");
+  const std::string seeds = (dir_ / "swina" / "ports.geojson").string();
+  std::ofstream(seeds) << ports.dump();
+  JobSpec s;
+  s.seeds.paths = {seeds};
+  s.seeds.owner_field = "owner";
+  s.seeds.effect_field = "effect";
+  s.barriers = {fixture("baltic_west.gpkg")};
+  s.grid.resolution = 0.01;
+  s.grid.extent = std::array<double, 4>{14.0, 53.7, 14.6, 54.1};
+  s.outputs.ownership = (dir_ / "swina" / "own.tif").string();
+  s.outputs.regions = (dir_ / "swina" / "regions.gpkg").string();
+  s.outputs.report = (dir_ / "swina" / "report.json").string();
+  EXPECT_GT(expect_regions_are_the_owned_cells(s, 2, 0.05), 600);
+  const nlohmann::json report = nlohmann::json::parse(std::ifstream(s.outputs.report));
+  const nlohmann::json& partial = report.at("deliverables").at("boundaries").at("partial_effect");
+  EXPECT_EQ(partial.at("stretches").get<int64_t>(), 3);
+  EXPECT_EQ(partial.at("coast_ends").get<int64_t>(), 4);
+  EXPECT_EQ(partial.at("along_lines").at("unresolved_segments").get<int64_t>(), 0);
+}
+
 // Weights and reaches by sea in a job: the Danish ports weigh 1.5, and DK6 (mid-strait off
 // Amager) reaches only 5 km by sea. The files are the core engine's field cell for cell, other
 // than the unweighted run's; every boundary vertex is at equal cost by sea (each owner's cheapest

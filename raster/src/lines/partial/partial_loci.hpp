@@ -10,6 +10,11 @@
 // piece of locus that passes between no two centres changes no cell's owner: the lines of such a
 // piece are below the grid's resolution and are not drawn (as extraction draws no boundary that
 // separates no two cells).
+// By sea a channel narrower than a cell may hold centres of both owners that are no
+// 4-neighbours (they meet across corners, or a cell or two apart along the water): a given-back
+// and a kept cell up to two cells apart, in sight of each other, whose way crosses no line yet
+// drawn, also hold a root of the locus; it is followed in steps of an eighth of a cell (half a
+// cell jumps the channel), and left undrawn where that walk is lost.
 //
 // Internal to rv_raster. Thread safety: pure over its arguments (the level's functions are called
 // from the calling thread only).
@@ -25,8 +30,9 @@
 namespace rv::partial_loci {
 
 // The loci of band (B, X) of `level` that pass between two cell centres and that no line in
-// `drawn` already follows (within a cell of it), each followed both ways, in row-major order of
-// the cell pair each was found from (deterministic). `full`: the full-effect field; `field`: the
+// `drawn` already follows (4-neighbours: within a cell of it; pairs farther apart: no line
+// crosses their way), each followed both ways, in row-major order of the cell pair each was
+// found from, the 4-neighbours' first (deterministic). `full`: the full-effect field; `field`: the
 // rule's (partial_field); both whole fields of level.grid with sites numbered in `seeds`. A
 // locus whose following is lost comes back with that Stop at an end (the caller refuses it).
 std::vector<locus_follow::Through> loci_from_cells(const locus_follow::Level& level, const NearestField& full,
