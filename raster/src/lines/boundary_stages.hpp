@@ -237,6 +237,11 @@ class LineRefiner {
   static bool runs_simply(Vec2 u, Vec2 v, const std::vector<End>& out, size_t from);
   bool turning_point(const End& u, const End& v, int32_t a, int32_t b, double max_off, End& out) const;
   bool across_middle(const End& u, const End& v, int32_t a, int32_t b, double max_off, End& out) const;
+  // By sea, where an end of across_middle's perpendicular lies on land: the interval [lo, hi] of
+  // the perpendicular's parameter holding the sign change of f nearest its middle, found at sea,
+  // with f's values at its ends; false where there is none.
+  template <class F>
+  static bool sea_bracket(F&& f, double& f0, double& f1, double& lo, double& hi);
   // The ends' two sites' locus point from the chord's middle (Newton's method), within max_off.
   bool onto_locus(const End& u, const End& v, double max_off, End& out) const;
   bool checked(Vec2 p, int32_t a, int32_t b, const End& u, const End& v, double max_off, End& out) const;

@@ -547,10 +547,43 @@ bool LineRefiner::across_middle(const End& u, const End& v, int32_t a, int32_t b
     const double value = f(t);
     return std::pair{value, (ga.x - gb.x) * (p1.x - p0.x) + (ga.y - gb.y) * (p1.y - p0.y)};
   };
-  const double f0 = f(0.0), f1 = f(1.0);
+  double lo = 0.0, hi = 1.0, f0 = f(lo), f1 = f(hi);
+  if ((!std::isfinite(f0) || !std::isfinite(f1)) && !index_.metric().straight() && !sea_bracket(f, f0, f1, lo, hi))
+    return false;
   if (!std::isfinite(f0) || !std::isfinite(f1) || (f0 < 0.0) == (f1 < 0.0)) return false;
-  const double t = newton_then_bracket(f, with_slope, 0.5, 0.0, 1.0, f0 < 0.0, ftol_);
+  const double t = newton_then_bracket(f, with_slope, 0.5 * (lo + hi), lo, hi, f0 < 0.0, ftol_);
   return checked(lerp(p0, p1, t), a, b, u, v, max_off, out);
+}
+
+template <class F>
+bool LineRefiner::sea_bracket(F&& f, double& f0, double& f1, double& lo, double& hi) {
+  // By sea an end of the perpendicular may lie on land (no cost there): walked out from the
+  // middle both ways in sixteenths while the costs are finite, the sign change nearest the middle
+  // brackets the root (the locus point of this stretch at sea).
+  constexpr int kSteps = 8;
+  const double fm = f(0.5);
+  if (!std::isfinite(fm)) return false;
+  double best = 2.0;
+  for (const double dir : {1.0, -1.0}) {
+    double t_prev = 0.5, f_prev = fm;
+    for (int k = 1; k <= kSteps; ++k) {
+      const double t = 0.5 + dir * k / (2.0 * kSteps), ft = f(t);
+      if (!std::isfinite(ft)) break;
+      if ((ft < 0.0) != (f_prev < 0.0)) {
+        if (std::abs(t - 0.5) < best) {
+          best = std::abs(t - 0.5);
+          lo = std::min(t, t_prev);
+          hi = std::max(t, t_prev);
+          f0 = dir > 0 ? f_prev : ft;
+          f1 = dir > 0 ? ft : f_prev;
+        }
+        break;
+      }
+      t_prev = t;
+      f_prev = ft;
+    }
+  }
+  return best <= 1.0;
 }
 
 std::array<Vec2, 2> LineRefiner::perpendicular(const End& u, const End& v, double max_off) {

@@ -206,8 +206,10 @@ void check_seeds(Prepared& p, const SeedSet& seeds) {
     if (s.kind == SiteKind::area) continue;
     p.geometric.push_back(i);
     const LocalSite& l = p.local[static_cast<size_t>(i)];
+    // (A barrier's own vertex under another barrier, where two barriers overlap, is on a land
+    // border: no path reaches it, and the seed is reached where it is at sea, snap_to_sea.)
     for (Vec2 end : {Vec2{l.ax, l.ay}, p.end_b[static_cast<size_t>(i)]})
-      if (p.vis.on_land(end))
+      if (p.vis.on_land(end) && p.vis.vertex_at(end) < 0)
         throw Error(ErrorKind::invalid_input, "the seed " + seeds.feature_name(s.feature) +
                                                   " has a vertex inside a barrier: a seed may lie on a barrier's "
                                                   "boundary, not inside it");

@@ -293,6 +293,7 @@ struct PreparedJob {
     double snap_tolerance = 0.0;  // CRS units
     int64_t snapped = 0;          // seed positions moved onto the coast
     double largest_snap = 0.0;    // CRS units
+    int64_t on_land_borders = 0;  // seed vertices left on a border between overlapping barriers
     // The bend nodes settled once for every strip and window (prepare_sea).
     std::shared_ptr<const PreparedSea> prepared;
   };

@@ -68,6 +68,7 @@ void read_barriers(const JobSpec& spec, const SeedReadOptions& read, PreparedJob
   job.loaded.seeds = std::move(snapped.seeds);
   sea->snapped = snapped.moved;
   sea->largest_snap = snapped.largest_move;
+  sea->on_land_borders = snapped.on_land_borders;
   job.sea = std::move(sea);
 }
 
@@ -216,7 +217,10 @@ nlohmann::json SeaRun::report() const {
                    {"polygons_repaired", sea.loaded.report.polygons_repaired},
                    {"warnings", sea.loaded.report.warnings}};
   // Metres on the ellipsoid (geodesic), else in the grid CRS's units (metres on a projected grid).
-  r["snap"] = {{"tolerance", sea.snap_tolerance}, {"moved", sea.snapped}, {"largest_move", sea.largest_snap}};
+  r["snap"] = {{"tolerance", sea.snap_tolerance},
+               {"moved", sea.snapped},
+               {"largest_move", sea.largest_snap},
+               {"on_land_borders", sea.on_land_borders}};
   r["bend_nodes"] = prep.bend_nodes;
   r["bends_seconds"] = prep.seconds;
   r["visibility_tests"] = {{"all", tests_ + prep.bend_tests}, {"bends", prep.bend_tests}};

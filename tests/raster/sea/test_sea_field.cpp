@@ -14,6 +14,7 @@
 #include "random_archipelago.hpp"
 #include "rv/field/error.hpp"
 #include "rv/sea/sea_field.hpp"
+#include "rv/sea/snap.hpp"
 #include "rv/sea/visibility.hpp"
 #include "sea/sea_prepare.hpp"
 #include "seed_gen.hpp"
@@ -306,6 +307,69 @@ TEST(SeaField, BarriersThatAreSeedsChangeNothing) {
     ++rounds_compared;
   }
   EXPECT_GE(rounds_compared, 6);
+}
+
+// The same invariant where the states' land overlaps along their borders (coasts as seeds and
+// barriers both, as the western Baltic's are): each random island pair shares a border strip,
+// the seeds' vertices under the other's land stay where they are (snap_to_sea), the engines
+// agree cell for cell, and off land the field is the straight one, bit for bit; with a further
+// island that is land but no seed, the engines still agree.
+TEST(SeaField, OverlappingBarriersThatAreSeedsChangeNothing) {
+  std::mt19937_64 rng(11);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  int rounds_compared = 0, borders = 0;
+  for (int round = 0; round < 10; ++round) {
+    SeedSet s;
+    Barriers b;
+    for (int k = 0; k < 2; ++k) {
+      // Two quadrilaterals side by side, the west one reaching into the east one.
+      const double x0 = 4 + 28 * u(rng), y0 = 4 + 28 * u(rng), w = 3 + 3 * u(rng), h = 4 + 4 * u(rng);
+      const double over = 0.2 + 0.6 * u(rng);
+      const Ring west{{x0, y0}, {x0 + w + over, y0 + 0.3}, {x0 + w + over, y0 + h - 0.2}, {x0, y0 + h}};
+      const Ring east{{x0 + w, y0 + 0.1}, {x0 + 2 * w, y0}, {x0 + 2 * w, y0 + h}, {x0 + w, y0 + h - 0.1}};
+      s.add_polygon(s.add_feature(s.owner_code("A"), "west"), {west});
+      s.add_polygon(s.add_feature(s.owner_code("B"), "east"), {east});
+      b.add_polygon({west}, "west");
+      b.add_polygon({east}, "east");
+    }
+    s.add_point(s.add_feature(s.owner_code("C")), {40 * u(rng), 40 * u(rng)});
+    const GridSpec g = test::grid_of(48, 48, 1.0, -4.0, 44.0);
+    SnappedSeeds snapped;
+    try {
+      snapped = snap_to_sea(s, b, 0.0);
+    } catch (const Error& e) {
+      ASSERT_EQ(e.kind(), ErrorKind::invalid_input);  // the port fell on land, or islands cover one another
+      continue;
+    }
+    borders += snapped.on_land_borders > 0;
+    ComputeOptions o;
+    o.method = Method::brute_force;
+    const NearestField straight = compute(snapped.seeds, g, o);
+    const SeaField sea = sea_field(snapped.seeds, b, g);
+    const Visibility vis(b);
+    int64_t compared = 0;
+    for (int64_t r = 0; r < g.height; ++r)
+      for (int64_t c = 0; c < g.width; ++c) {
+        if (vis.on_land(centre(g, c, r))) continue;
+        ++compared;
+        ASSERT_EQ(sea.field.site.at(c, r), straight.site.at(c, r)) << round << ": " << c << "," << r;
+        ASSERT_EQ(std::bit_cast<uint32_t>(sea.field.distance.at(c, r)),
+                  std::bit_cast<uint32_t>(straight.distance.at(c, r)));
+      }
+    EXPECT_GT(compared, 1000);
+    // Land that is no seed: paths bend round it; the engines still agree.
+    Barriers more = b;
+    const double x = 40 * u(rng), y = 40 * u(rng);
+    more.add_polygon({{{x, y}, {x + 3, y}, {x + 3, y + 2}, {x, y + 2}}}, "rock");
+    try {
+      sea_field(snap_to_sea(snapped.seeds, more, 0.0).seeds, more, g);
+    } catch (const Error& e) {
+      ASSERT_EQ(e.kind(), ErrorKind::invalid_input);  // the rock covers a seed
+    }
+    ++rounds_compared;
+  }
+  EXPECT_GE(rounds_compared, 6);
+  EXPECT_GE(borders, 6);
 }
 
 TEST(SeaField, PortsOnTheCoastAndAnEnclosedLagoon) {

@@ -67,6 +67,47 @@ TEST(Snap, DeeperThanTheToleranceIsRefusedByName) {
   EXPECT_THROW(snap_to_sea(s, diagonal_land(), -1.0), Error);
 }
 
+// Two states' land as seeds and barriers both, overlapping along their border (as the western
+// Baltic's do): A's polygon runs 0.5 into B's. A's vertices under B's land lie on A's own
+// boundary but inside B: a land border no path reaches. They stay where they are (moved, they
+// would end nowhere near a coast: the nearest coast is B's, 1 away), the seed is
+// reached where it is at sea, and the report counts them. A seed all of whose vertices are such
+// lies inside the barriers: refused by name.
+TEST(Snap, AVertexOnALandBorderUnderAnotherBarrierStays) {
+  const Ring a{{0, 0}, {10.5, 1}, {10.5, 9}, {0, 10}}, b{{10, 0}, {20, 0}, {20, 10}, {10, 10}};
+  Barriers land;
+  land.add_polygon({a}, "states:fid 1");
+  land.add_polygon({b}, "states:fid 2");
+  SeedSet s;
+  s.add_polygon(s.add_feature(s.owner_code("A"), "states:fid 1"), {a});
+  s.add_polygon(s.add_feature(s.owner_code("B"), "states:fid 2"), {b});
+  const SnappedSeeds snapped = snap_to_sea(s, land, 0.1);
+  EXPECT_EQ(snapped.moved, 0);
+  EXPECT_EQ(snapped.on_land_borders, 2);  // (10.5, 1) and (10.5, 9): on A's boundary, under B
+  ASSERT_EQ(snapped.seeds.polygons().size(), 2u);
+  EXPECT_EQ(snapped.seeds.polygons()[0].rings[0], a);
+  // Engines take such a seed: the sea round the two states is the straight field's.
+  const GridSpec g = test::grid_of(30, 20, 1.0, -5.0, 15.0);
+  EXPECT_NO_THROW(compute_sea(snapped.seeds, land, g, g.full_window()));
+  // An island of A's wholly under B's land (its every vertex on A's own boundary, inside B).
+  Barriers covered = land;
+  const Ring islet{{12, 2}, {14, 2}, {14, 4}, {12, 4}};
+  covered.add_polygon({islet}, "islets:fid 7");
+  SeedSet t = s;
+  t.add_polygon(t.add_feature(t.owner_code("A"), "islets:fid 7"), {islet});
+  try {
+    snap_to_sea(t, covered, 0.1);
+    FAIL() << "a seed wholly under another barrier was taken";
+  } catch (const Error& e) {
+    EXPECT_EQ(e.kind(), ErrorKind::invalid_input);
+    EXPECT_NE(std::string(e.what()).find("islets:fid 7"), std::string::npos) << e.what();
+  }
+  // A point seed on that border is no land border's vertex: refused as any seed that deep.
+  SeedSet u = s;
+  u.add_point(u.add_feature(u.owner_code("A"), "ports:fid 3"), {10.5, 5.0});
+  EXPECT_THROW(snap_to_sea(u, land, 0.1), Error);
+}
+
 TEST(Snap, ALineMovesAsOneAndStaysConnected) {
   // A coast line digitised a little inland: every vertex moves, shared ends alike.
   const Barriers land = diagonal_land();

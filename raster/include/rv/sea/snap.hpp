@@ -7,8 +7,14 @@
 // units in the last place further out, until it is sea. The same position everywhere it occurs
 // (a polygon's ring and its edges' sites) moves alike, so features stay closed. A vertex farther
 // inside land than `tolerance` is rv::Error(invalid_input) naming the feature and how deep it
-// lies. A segment whose ends are sea but which crosses land is left as it is (a line seed may
-// cross a headland; its distances are measured from its nearest points that a path reaches).
+// lies, but for a line's or a polygon's vertex that lies on a barrier polygon's boundary under
+// another barrier polygon (a land border where two barriers overlap, as neighbouring states' land
+// does when coasts are seeds and barriers both): it stays, reached by no path, the seed reached
+// where it is at sea; a seed all of whose vertices are such is invalid_input (inside the
+// barriers). The boundary a vertex is moved to is the land's: a polygon's edge under another
+// polygon is none. A segment whose ends are sea but which crosses land is left as it is (a line
+// seed may cross a headland; its distances are measured from its nearest points that a path
+// reaches).
 //
 // Geodesic (`frame` given): seeds and barriers in longitude/latitude, land and the nearest
 // boundary point decided in the frame's plane (edges read as geodesics, rv/sea/visibility.hpp),
@@ -31,8 +37,9 @@ namespace rv {
 
 struct SnappedSeeds {
   SeedSet seeds;
-  int64_t moved = 0;        // distinct positions moved
-  double largest_move = 0;  // the farthest any moved (seeds' CRS units)
+  int64_t moved = 0;            // distinct positions moved
+  double largest_move = 0;      // the farthest any moved (seeds' CRS units)
+  int64_t on_land_borders = 0;  // distinct line and polygon vertex positions left on a land border
 };
 
 SnappedSeeds snap_to_sea(const SeedSet& seeds, const Barriers& barriers, double tolerance,
