@@ -32,7 +32,8 @@ class Drawn {
     return false;
   }
 
-  // Whether a line passes within `d` (CRS units, at most a cell) of p.
+  // Whether a line passes within `d` of p (CRS units, at most seven eighths of a cell: a sample of
+  // the line within an eighth of a cell of that point then lies in p's cell or a neighbour).
   bool within(Vec2 p, double d) const {
     const auto col = static_cast<int64_t>(std::floor((p.x - g_.xmin) / g_.res));
     const auto row = static_cast<int64_t>(std::floor((g_.ymax - p.y) / g_.res));
