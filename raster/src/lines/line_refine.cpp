@@ -460,7 +460,8 @@ bool LineRefiner::bend_corner(const End& u, const End& v, int32_t a, int32_t b, 
     };
     auto leg = [&](const End& e, int32_t bend) {
       const Vec2 from = bend >= 0 ? m.bend_position(bend) : m.nearest_point(e.v.p, s);
-      return Leg{from, m.distance(e.v.p, s) - m.point_distance(from, e.v.p)};
+      const double d = s == e.v.site_a ? e.v.distance_a : e.v.distance_b;  // (its true distance by sea)
+      return Leg{from, d - m.point_distance(from, e.v.p)};
     };
     const Leg lu = leg(u, bu), lv = leg(v, bv);
     if (!std::isfinite(lu.before) || !std::isfinite(lv.before)) continue;

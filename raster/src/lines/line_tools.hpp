@@ -30,6 +30,11 @@ namespace rv::line_tools {
 
 inline Vec2 centre(const GridSpec& g, int64_t col, int64_t row) { return Vec2{g.centre_x(col), g.centre_y(row)}; }
 inline Vec2 lerp(Vec2 a, Vec2 b, double t) { return Vec2{a.x + t * (b.x - a.x), a.y + t * (b.y - a.y)}; }
+// The parameter in [0, 1] of the point of segment a-b nearest p (0 for a degenerate segment).
+inline double nearest_t(Vec2 a, Vec2 b, Vec2 p) {
+  const double dx = b.x - a.x, dy = b.y - a.y, len2 = dx * dx + dy * dy;
+  return len2 > 0.0 ? std::clamp(((p.x - a.x) * dx + (p.y - a.y) * dy) / len2, 0.0, 1.0) : 0.0;
+}
 // The centre of dual square (c, r): the grid corner shared by cells (c, r) .. (c + 1, r + 1).
 inline Vec2 square_mid(const GridSpec& g, int64_t c, int64_t r) {
   return Vec2{g.xmin + (static_cast<double>(c) + 1.0) * g.res, g.ymax - (static_cast<double>(r) + 1.0) * g.res};

@@ -86,12 +86,6 @@ bool meeting(const OwnerIndex& index, int32_t a, int32_t b, int32_t c, Vec2 star
   return solve2(f, start, res, ftol, out);
 }
 
-// The parameter in [0, 1] of the point of segment a-b nearest p (0 for a degenerate segment).
-double nearest_t(Vec2 a, Vec2 b, Vec2 p) {
-  const double dx = b.x - a.x, dy = b.y - a.y, len2 = dx * dx + dy * dy;
-  return len2 > 0.0 ? std::clamp(((p.x - a.x) * dx + (p.y - a.y) * dy) / len2, 0.0, 1.0) : 0.0;
-}
-
 // Where segments p0-p1 and q0-q1 cross (not at a shared end): false when they do not.
 bool crossing(Vec2 p0, Vec2 p1, Vec2 q0, Vec2 q1, Vec2& out) {
   const double rx = p1.x - p0.x, ry = p1.y - p0.y, sx = q1.x - q0.x, sy = q1.y - q0.y;

@@ -26,39 +26,26 @@ class Drawn {
   }
 
   bool near(int64_t col, int64_t row) const {
-    for (int64_t r = row - 1; r <= row + 1; ++r)
-      for (int64_t c = col - 1; c <= col + 1; ++c)
-        if (cells_.count(key(c, r)) != 0) return true;
-    return false;
+    return any_near(col, row, [](int32_t) { return true; });
   }
 
   // Whether a line passes within `d` of p (CRS units, at most seven eighths of a cell: a sample of
   // the line within an eighth of a cell of that point then lies in p's cell or a neighbour).
   bool within(Vec2 p, double d) const {
-    const auto col = static_cast<int64_t>(std::floor((p.x - g_.xmin) / g_.res));
-    const auto row = static_cast<int64_t>(std::floor((g_.ymax - p.y) / g_.res));
-    for (int64_t r = row - 1; r <= row + 1; ++r)
-      for (int64_t c = col - 1; c <= col + 1; ++c) {
-        const auto it = cells_.find(key(c, r));
-        if (it == cells_.end()) continue;
-        for (const int32_t id : it->second) {
-          const std::array<Vec2, 2>& sg = segments_[static_cast<size_t>(id)];
-          if (to_segment(p, sg[0], sg[1]) <= d) return true;
-        }
-      }
-    return false;
+    return any_near(static_cast<int64_t>(std::floor((p.x - g_.xmin) / g_.res)),
+                    static_cast<int64_t>(std::floor((g_.ymax - p.y) / g_.res)), [&](int32_t id) {
+                      const std::array<Vec2, 2>& sg = segments_[static_cast<size_t>(id)];
+                      const Vec2 q = line_tools::lerp(sg[0], sg[1], line_tools::nearest_t(sg[0], sg[1], p));
+                      return std::hypot(p.x - q.x, p.y - q.y) <= d;
+                    });
   }
 
   bool crosses(Vec2 a, Vec2 b) const {
     bool met = false;
     for_samples(a, b, [&](int64_t col, int64_t row) {
-      for (int64_t r = row - 1; r <= row + 1 && !met; ++r)
-        for (int64_t c = col - 1; c <= col + 1 && !met; ++c) {
-          const auto it = cells_.find(key(c, r));
-          if (it == cells_.end()) continue;
-          for (const int32_t id : it->second)
-            if (meet(a, b, segments_[static_cast<size_t>(id)][0], segments_[static_cast<size_t>(id)][1])) met = true;
-        }
+      met = met || any_near(col, row, [&](int32_t id) {
+              return meet(a, b, segments_[static_cast<size_t>(id)][0], segments_[static_cast<size_t>(id)][1]);
+            });
     });
     return met;
   }
@@ -92,11 +79,17 @@ class Drawn {
         static_cast<int64_t>(std::floor((g_.ymax - p.y) / g_.res)));
     }
   }
-  // The plane distance from p to segment a-b.
-  static double to_segment(Vec2 p, Vec2 a, Vec2 b) {
-    const double dx = b.x - a.x, dy = b.y - a.y, l2 = dx * dx + dy * dy;
-    const double t = l2 > 0.0 ? std::clamp(((p.x - a.x) * dx + (p.y - a.y) * dy) / l2, 0.0, 1.0) : 0.0;
-    return std::hypot(p.x - a.x - t * dx, p.y - a.y - t * dy);
+  // Whether `hit` holds for a segment filed in cell (col, row) or a neighbour.
+  template <class F>
+  bool any_near(int64_t col, int64_t row, F&& hit) const {
+    for (int64_t r = row - 1; r <= row + 1; ++r)
+      for (int64_t c = col - 1; c <= col + 1; ++c) {
+        const auto it = cells_.find(key(c, r));
+        if (it == cells_.end()) continue;
+        for (const int32_t id : it->second)
+          if (hit(id)) return true;
+      }
+    return false;
   }
   // Whether segments a-b and p-q share a point (touching counts).
   static bool meet(Vec2 a, Vec2 b, Vec2 p, Vec2 q) {

@@ -15,9 +15,8 @@ Along project(const std::vector<Vec2>& pts, Vec2 p) {
   Along best;
   for (size_t k = 0; k + 1 < pts.size(); ++k) {
     const Vec2 a = pts[k], b = pts[k + 1];
-    const double dx = b.x - a.x, dy = b.y - a.y, len2 = dx * dx + dy * dy;
-    const double t = len2 > 0.0 ? std::clamp(((p.x - a.x) * dx + (p.y - a.y) * dy) / len2, 0.0, 1.0) : 0.0;
-    const double d = std::hypot(a.x + t * dx - p.x, a.y + t * dy - p.y);
+    const double t = line_tools::nearest_t(a, b, p);
+    const double d = std::hypot(a.x + t * (b.x - a.x) - p.x, a.y + t * (b.y - a.y) - p.y);
     if (d < best.distance) best = Along{k, t, d};
   }
   return best;
