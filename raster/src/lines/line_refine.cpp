@@ -448,7 +448,10 @@ bool LineRefiner::bend_corner(const End& u, const End& v, int32_t a, int32_t b, 
   const double chord = std::hypot(v.v.p.x - u.v.p.x, v.v.p.y - u.v.p.y);
   const Vec2 mid = lerp(u.v.p, v.v.p, 0.5);
   // Either side's site s may be the one whose path changes; t is the other side's.
-  for (const auto& [s, t] : {std::pair{u.v.site_a, u.v.site_b}, std::pair{u.v.site_b, u.v.site_a}}) {
+  for (const auto& [side, other] : {std::pair{u.v.site_a, u.v.site_b}, std::pair{u.v.site_b, u.v.site_a}}) {
+    // (Plain copies: a lambda may not capture a structured binding before C++20's P1091, which
+    // clang 14 lacks.)
+    const int32_t s = side, t = other;
     if (s == kNoSite || t == kNoSite) continue;
     const int32_t bu = m.last_bend(u.v.p, s), bv = m.last_bend(v.v.p, s);
     if (bu == bv) continue;
