@@ -398,6 +398,7 @@ OwnerIndex::OwnerIndex(const SiteMetric& metric, Measure measure, double cap) : 
     const double w = plain ? 1.0 : f.weight;
     const double r = plain ? std::numeric_limits<double>::infinity() : std::min(f.reach, cap_);
     items[static_cast<size_t>(seeds.site_owner(i) - 1)].push_back(Tree::Item{i, metric.site_bounds(i), w, r});
+    cost_slope_ = std::isfinite(r) ? std::numeric_limits<double>::infinity() : std::max(cost_slope_, 1.0 / w);
   }
   for (auto& list : items) {
     auto tree = std::make_unique<Tree>();

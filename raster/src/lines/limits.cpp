@@ -351,7 +351,11 @@ bool level_onto_barrier(const Target& t, std::vector<LimitVertex>& v) {
   auto accept = [&](Vec2 p) { return std::abs(f(p)) <= 1e3 * lg.ftol; };
   Vec2 j;
   const bool lone = v.size() == 2 && v.front().on_barrier && !v.back().on_barrier;
-  if (!onto_domain_edge(lg.metric, v.back().p, 4.0 * lg.g.res, lg.ftol, f, accept, j, lone ? &v.front().p : nullptr))
+  // (A plain index's nearest distance, and the depth within reach, are 1-Lipschitz along an open
+  // way; an adjusted one's true distance of the cheapest site is not.)
+  const double slope = t.owner == kOwnedEdge || !lg.index.adjusted() ? 1.0 : std::numeric_limits<double>::infinity();
+  if (!onto_domain_edge(lg.metric, v.back().p, 4.0 * lg.g.res, lg.ftol, f, accept, j, lone ? &v.front().p : nullptr,
+                        slope))
     return false;
   const OwnerIndex::Hit h = t.at(j);
   v.push_back(LimitVertex{j, h.site, std::abs(h.distance - t.D), true});

@@ -168,7 +168,7 @@ Bow CrsScale::bow(Vec2 p, Vec2 q, double f, Vec2 g) const {
 }
 
 bool onto_domain_edge(const SiteMetric& m, Vec2 end, double radius, double ftol, const std::function<double(Vec2)>& f,
-                      const std::function<bool(Vec2)>& accept, Vec2& out, const Vec2* away) {
+                      const std::function<bool(Vec2)>& accept, Vec2& out, const Vec2* away, double slope) {
   auto ahead = [&](Vec2 p) {
     return away == nullptr || (p.x - end.x) * (away->x - end.x) + (p.y - end.y) * (away->y - end.y) < 0.0;
   };
@@ -196,6 +196,21 @@ bool onto_domain_edge(const SiteMetric& m, Vec2 end, double radius, double ftol,
       const double w = 4.0 * radius / len;
       lo = std::max(lo, foot - w);
       hi = std::min(hi, foot + w);
+    }
+    // A root between the window's ends p0 and p1 would be within |f(p0)| / slope of p0 and within
+    // |f(p1)| / slope of p1 along the way between them; where that way is open (the edge not
+    // under other land) and its length falls short of the sum, there is none. (The margin covers
+    // the points' moves off the edge into the sea, micrometres.) On a coast both of whose owners'
+    // seeds lie along it (the coasts also the seeds) f keeps one sign along almost every edge,
+    // and every one was sampled in vain.
+    if (std::isfinite(slope) && slope > 0.0) {
+      Vec2 p0, p1;
+      if (m.domain_edge_point(edge, lo, end, p0) && m.domain_edge_point(edge, hi, end, p1)) {
+        const double f0 = f(p0), f1 = f(p1);
+        if (std::isfinite(f0) && std::isfinite(f1) && (f0 < 0.0) == (f1 < 0.0) && f0 != 0.0 && f1 != 0.0 &&
+            std::abs(f0) + std::abs(f1) > slope * 1.01 * m.point_distance(p0, p1) + ftol && m.open_between(p0, p1))
+          continue;
+      }
     }
     // (A few samples across the window: it is short against the curves of the loci a cell holds.)
     constexpr int kSamples = 16;

@@ -319,8 +319,13 @@ inline bool on_centre_frame(const GridSpec& g, Vec2 p) {
 // than four radii is sampled only within four radii of `end`'s foot on it.
 // `away` (or null): only points on the far side of `end` from it (a line of one vertex, whose
 // other end went towards `away`, leaves the other way).
+// `slope` (or +infinity): a bound of how fast f changes along a way at sea, per metric unit (two
+// owners' costs: twice OwnerIndex::cost_slope). An edge whose searched stretch is open along
+// itself and whose two ends' values have one sign and too large for f to reach 0 between them is
+// then left unsampled: the same answer, for two evaluations of f instead of seventeen.
 bool onto_domain_edge(const SiteMetric& m, Vec2 end, double radius, double ftol, const std::function<double(Vec2)>& f,
-                      const std::function<bool(Vec2)>& accept, Vec2& out, const Vec2* away = nullptr);
+                      const std::function<bool(Vec2)>& accept, Vec2& out, const Vec2* away = nullptr,
+                      double slope = std::numeric_limits<double>::infinity());
 
 // Strictly between the frame of the outermost centres and the grid's edge (or on the edge).
 inline bool outside_frame(const GridSpec& g, Vec2 p) {

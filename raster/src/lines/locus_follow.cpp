@@ -152,7 +152,7 @@ struct Follower {
   bool onto_coast(Vec2 c, Vec2& out) const {
     return line_tools::onto_domain_edge(
         *L.metric, c, 2.0 * step, L.ftol, [this](Vec2 p) { return L.balance(p); },
-        [this](Vec2 p) { return L.in_band(p); }, out);
+        [this](Vec2 p) { return L.in_band(p); }, out, nullptr, L.slope);
   }
 
   // Midpoints where a chord strays from the locus by more than the tolerance.

@@ -27,6 +27,7 @@
 
 #include <cstdint>
 #include <functional>
+#include <limits>
 #include <vector>
 
 #include "rv/engine/site_metric.hpp"
@@ -44,6 +45,9 @@ struct Level {
   double ftol = 0.0;                    // |balance| accepted as on the locus, metric units
   double tol = 0.0;                     // the line tolerance, CRS units (chords to the locus)
   double per_crs = 1.0;                 // metric units per CRS unit (residuals as lengths)
+  // How fast the balance can change along an open way, per metric unit (+infinity: unknown);
+  // line_tools::onto_domain_edge's `slope`, for the search of a coast.
+  double slope = std::numeric_limits<double>::infinity();
 };
 
 enum class Stop {

@@ -13,6 +13,7 @@
 #include <random>
 
 #include "geodesic_oracle.hpp"
+#include "lines/line_tools.hpp"
 #include "rv/engine/owner_index.hpp"
 #include "rv/field/error.hpp"
 #include "rv/lines/boundaries.hpp"
@@ -131,6 +132,75 @@ TEST(SeaLines, EachOwnersDistanceIsTheReferencesForItsSeedsAlone) {
   EXPECT_GT(behind_land, 2000);  // owners reached round land, not only straight
   std::printf("each owner's distance by sea: %lld cells, worst |d - reference| %.3g\n",
               static_cast<long long>(compared), worst);
+}
+
+// The search for where a line meets a coast (line_tools::onto_domain_edge) leaves out an edge
+// whose ends' balances have one sign and are too far from 0 for it to reach 0 along the edge
+// (its `slope`, two owners' costs changing at most OwnerIndex::cost_slope() per unit of way):
+// from points all over random archipelagos, with and without weights, the same junction (or
+// none) as the search that samples every edge, for fewer evaluations of the balance. With a reach
+// a cost jumps, the slope is infinite and nothing is left out.
+TEST(SeaLines, TheSearchOfACoastLeavesOutOnlyEdgesWhereTheCostsCannotBalance) {
+  std::mt19937_64 rng(91);
+  std::uniform_real_distribution<double> u(0.0, 40.0);
+  const GridSpec g = test::grid_of(40, 40, 1.0, -1.0, 41.0);
+  int64_t searches = 0, found = 0;
+  int64_t calls_all[2] = {0, 0}, calls_slope[2] = {0, 0};  // [with a reach]
+  for (int round = 0; round < 12; ++round) {
+    Archipelago a;
+    if (!archipelago(rng, a)) continue;
+    const int variant = round % 3;  // 0: no weights; 1: weights 0.5 and 2; 2: a reach
+    for (int32_t f = 0; f < static_cast<int32_t>(a.seeds.features().size()); ++f) {
+      if (variant == 1) a.seeds.set_adjustment(f, f % 2 == 0 ? 0.5 : 2.0, std::numeric_limits<double>::infinity());
+      if (variant == 2 && f == 0) a.seeds.set_adjustment(f, 1.0, 12.0);
+    }
+    std::unique_ptr<SiteMetric> metric;
+    try {
+      metric = make_sea_site_metric(a.seeds, a.barriers, g);
+    } catch (const Error& e) {
+      ASSERT_EQ(e.kind(), ErrorKind::invalid_input) << e.what();
+      continue;
+    }
+    const OwnerIndex index(*metric);
+    const double slope = 2.0 * index.cost_slope();
+    if (variant == 0) EXPECT_EQ(slope, 2.0);
+    if (variant == 1) EXPECT_EQ(slope, 4.0);
+    if (variant == 2) EXPECT_EQ(slope, std::numeric_limits<double>::infinity());
+    const int32_t owners = a.seeds.owner_count();
+    for (int k = 0; k < 60; ++k) {
+      const Vec2 end{u(rng), u(rng)};
+      if (!metric->in_domain(end)) continue;
+      const int32_t oa = 1 + static_cast<int32_t>(rng() % owners), ob = 1 + (oa % owners);
+      int64_t* calls = nullptr;
+      auto gap = [&](Vec2 p) {
+        ++*calls;
+        return index.nearest_of(p, oa).cost - index.nearest_of(p, ob).cost;
+      };
+      auto accept = [&](Vec2) { return true; };
+      Vec2 all{}, cut{};
+      calls = &calls_all[variant == 2];
+      const bool f_all = line_tools::onto_domain_edge(*metric, end, 4.0, 1e-9, gap, accept, all);
+      calls = &calls_slope[variant == 2];
+      const bool f_cut = line_tools::onto_domain_edge(*metric, end, 4.0, 1e-9, gap, accept, cut, nullptr, slope);
+      ASSERT_EQ(f_all, f_cut) << round << ": " << end.x << "," << end.y;
+      if (f_all) {
+        EXPECT_EQ(all.x, cut.x);
+        EXPECT_EQ(all.y, cut.y);
+      }
+      ++searches;
+      found += f_all;
+    }
+  }
+  EXPECT_GT(searches, 300);
+  EXPECT_GT(found, 25);
+  EXPECT_LT(calls_slope[0], calls_all[0] * 9 / 10);
+  EXPECT_EQ(calls_slope[1], calls_all[1]);
+  std::printf(
+      "coast searches: %lld, %lld found; balance evaluated %lld times sampling every edge, %lld "
+      "leaving out what the slope excludes (with a reach: %lld, %lld)\n",
+      static_cast<long long>(searches), static_cast<long long>(found), static_cast<long long>(calls_all[0]),
+      static_cast<long long>(calls_slope[0]), static_cast<long long>(calls_all[1]),
+      static_cast<long long>(calls_slope[1]));
 }
 
 // Owners settled only within a distance by sea (make_sea_site_metric's settle_within): every

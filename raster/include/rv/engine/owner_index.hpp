@@ -51,6 +51,12 @@ class OwnerIndex {
   double reach_of(int32_t site) const;
   // The cost of a true distance `d` to `site` (adjusted_distance of its feature, or d).
   double cost_of(int32_t site, double d) const;
+  // How fast a cost can change with the distance: the largest 1 / weight over the sites (1 in a
+  // plain index or without weights); +infinity where some site has a finite reach (or the index a
+  // cap), its cost jumping to infinity there. An owner's nearest cost then changes by at most
+  // cost_slope() times the way between two points that see each other (distances being
+  // 1-Lipschitz along an open way).
+  double cost_slope() const { return cost_slope_; }
   // Nearest site of owner `owner` (1..K); {kNoSite, inf} if the owner has no sites. `hint`: a
   // site likely to be the nearest (e.g. the one found at a point nearby), measured first so that
   // the search prunes with its distance; the result is the same with any hint or none (a hint
@@ -122,6 +128,7 @@ class OwnerIndex {
   const SiteMetric& metric_;
   bool adjusted_ = false;
   double cap_ = std::numeric_limits<double>::infinity();
+  double cost_slope_ = 1.0;
   std::vector<std::unique_ptr<Tree>> trees_;  // per owner code - 1
 };
 

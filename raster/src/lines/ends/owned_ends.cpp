@@ -140,7 +140,7 @@ bool coast_junction(const BoundaryGrid& b, int32_t oa, int32_t ob, Vec2 from, do
     OwnerIndex::Hit ha, hb;
     return on_pair_locus(b, oa, ob, p, ha, hb);
   };
-  return onto_domain_edge(b.index.metric(), from, radius, b.ftol, f, accept, j, away);
+  return onto_domain_edge(b.index.metric(), from, radius, b.ftol, f, accept, j, away, 2.0 * b.index.cost_slope());
 }
 
 // The line's vertex at junction j on a barrier.
@@ -185,6 +185,7 @@ bool follow_to_barrier(const BoundaryGrid& b, BoundaryLine& line) {
   level.metric = &b.index.metric();
   level.grid = b.g;
   level.ftol = b.ftol;
+  level.slope = 2.0 * b.index.cost_slope();
   constexpr int kPerCell = 8, kCells = 8;
   const Vec2 end = v.back().p, before = v[v.size() - 2].p;
   const locus_follow::Followed f = locus_follow::follow_on(level, end, Vec2{end.x - before.x, end.y - before.y},
