@@ -368,6 +368,16 @@ void part_where_turning_on_land(const BoundaryGrid& b, std::vector<BoundaryLine>
 // Counts the joins in stats.ends_joined.
 void join_parted_ends(const BoundaryGrid& b, const std::vector<Tripoint>& tripoints, std::vector<BoundaryLine>& lines,
                       BoundaryStats& stats);
+// By sea, each open end left (off the frame and the grid's edge, not at a tripoint, not on a
+// barrier: where the cells stop showing the locus, in a fjord narrower than two cells whose land
+// parts them, or short of a coast) followed on along its locus (locus_follow::follow_on, an eighth
+// of a cell a step, up to eight cells) to another open end of the same two owners (the two lines
+// joined through the points walked; its own other end makes a ring) or a coast; left as it was
+// where the walk is lost or reaches the frame of the cell centres (a line there goes on to the
+// grid's edge). Counts the ends followed in stats.ends_followed, the joins also in
+// stats.ends_joined, the coasts reached in stats.ends_on_barriers.
+void follow_open_ends(const BoundaryGrid& b, const std::vector<Tripoint>& tripoints, std::vector<BoundaryLine>& lines,
+                      BoundaryStats& stats);
 // By sea, a crossing linked to none (`lone`, lone_crossings) where the line crosses a channel
 // narrower than the squares around it (a barrier parts every other pair of their corners): made a
 // line of its own when it reaches a barrier on both sides (end_at_barriers' junction one way,

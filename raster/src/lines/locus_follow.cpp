@@ -297,11 +297,13 @@ struct Follower {
 
 }  // namespace
 
-Followed follow_on(const Level& level, Vec2 from, Vec2 heading, double step, int64_t max_steps) {
+Followed follow_on(const Level& level, Vec2 from, Vec2 heading, double step, int64_t max_steps,
+                   const std::vector<Vec2>& others) {
   LineResidual unused;  // (nothing is refined here)
   std::vector<Vec2> pts{from};
-  const Stop stop = Follower{level, unused, step}.walk(pts, heading, nullptr, false, {}, nullptr, max_steps);
-  return Followed{std::move(pts), stop};
+  int reached = -1;
+  const Stop stop = Follower{level, unused, step}.walk(pts, heading, nullptr, false, others, &reached, max_steps);
+  return Followed{std::move(pts), stop, stop == Stop::target ? reached : -1};
 }
 
 Followed follow(const Level& level, Vec2 start, const Vec2* target, LineResidual& residual,

@@ -93,6 +93,9 @@ Through follow_through(const Level& level, Vec2 on, LineResidual& residual, doub
 // (Stop::lost, also where the steps run out). The points walked, `from` first, unrefined: the
 // caller refines the chords as it does every other line's. Any two-owner locus will do (the
 // balance the difference of their costs, the band where no third owner is nearer).
-Followed follow_on(const Level& level, Vec2 from, Vec2 heading, double step, int64_t max_steps);
+// `others`: points at which the walk stops as at a target (Stop::target, Followed::other its
+// index, the last point that point): other lines' ends on the same locus, to join.
+Followed follow_on(const Level& level, Vec2 from, Vec2 heading, double step, int64_t max_steps,
+                   const std::vector<Vec2>& others = {});
 
 }  // namespace rv::locus_follow

@@ -531,6 +531,10 @@ TEST_F(SeaJob, CoastsAsSeedsAndLandChangeNothingOffLand) {
 // where they are (snap: on_land_borders), the field off land is the straight one bit for bit, and
 // the lines by sea lie on the straight lines (to a millionth of a degree) with every chord within
 // the tolerance. Before, the run was refused: a seed with a vertex inside a barrier.
+// The farthest (CRS units) that a vertex of `sea_lines` lies from every straight line of the same
+// two owners in `straight_lines` (GeoJSON boundaries); `vertices` counts the vertices measured.
+double worst_off_straight(const nlohmann::json& straight_lines, const nlohmann::json& sea_lines, int64_t& vertices);
+
 TEST_F(SeaJob, CoastsAsSeedsAndLandWhoseBordersOverlapChangeNothingOffLand) {
   JobSpec sea;
   sea.seeds.paths = {fixture("baltic_west.gpkg")};
@@ -552,14 +556,59 @@ TEST_F(SeaJob, CoastsAsSeedsAndLandWhoseBordersOverlapChangeNothingOffLand) {
   EXPECT_EQ(along.at("unresolved_segments").get<int64_t>(), 0);
   EXPECT_LE(along.at("max_midpoint").get<double>(), along.at("tolerance").get<double>());
   // Every vertex by sea on a straight line of the same two owners.
+  int64_t vertices = 0;
+  const double worst =
+      worst_off_straight(read_json(straight.outputs.boundaries), read_json(sea.outputs.boundaries), vertices);
+  EXPECT_GT(vertices, 10000);
+  EXPECT_LT(worst, 1e-6);
+  std::printf("western Baltic coasts as seeds and land: %lld line vertices by sea, worst %.3g deg off the straight\n",
+              static_cast<long long>(vertices), worst);
+}
+
+// The Flensburg Fjord, narrower than two cells at 0.02 deg, with Denmark and Germany as seeds and
+// land: the cells show the Danish-German line in pieces that land parts (a peninsula's tip, the
+// fjord's bends), which only following the locus from their ends joins. One line from the grid's
+// west edge to its east edge, on the straight line of the same seeds, and regions bounded by it
+// (refused before: ends inside the grid).
+TEST_F(SeaJob, StatesAsSeedsAndLandInAFjordNarrowerThanTwoCellsMeetInOneLine) {
+  JobSpec sea;
+  sea.seeds.paths = {fixture("flensburg_fjord_states.geojson")};
+  sea.seeds.owner_field = "iso2";
+  sea.grid.resolution = 0.02;
+  sea.grid.extent = std::array<double, 4>{9.5, 54.75, 9.9, 54.95};
+  JobSpec straight = with_outputs(sea, "straight");
+  straight.outputs.via.clear();
+  straight.outputs.boundaries = (dir_ / "straight" / "lines.geojson").string();
+  sea.barriers = {fixture("flensburg_fjord_states.geojson")};
+  sea = with_outputs(sea, "sea");
+  sea.outputs.boundaries = (dir_ / "sea" / "lines.geojson").string();
+  sea.outputs.regions = (dir_ / "sea" / "regions.geojson").string();
+  run_job(straight);
+  const nlohmann::json report = run_job(sea).report;
+  const nlohmann::json lines = read_json(sea.outputs.boundaries);
+  ASSERT_EQ(lines.at("features").size(), 1u);
+  const auto v = lines.at("features")[0].at("geometry").at("coordinates").get<std::vector<std::array<double, 2>>>();
+  EXPECT_NEAR(std::min(v.front()[0], v.back()[0]), 9.51, 1e-9);  // the frames of the cell centres
+  EXPECT_NEAR(std::max(v.front()[0], v.back()[0]), 9.89, 1e-9);
+  const nlohmann::json& st = report.at("deliverables").at("boundaries");
+  EXPECT_GE(st.at("ends_joined").get<int64_t>(), 2);
+  EXPECT_EQ(st.at("along_lines").at("unresolved_segments").get<int64_t>(), 0);
+  int64_t vertices = 0;
+  const double worst = worst_off_straight(read_json(straight.outputs.boundaries), lines, vertices);
+  EXPECT_GT(vertices, 100);
+  EXPECT_LT(worst, 1e-6);
+  const nlohmann::json regions = read_json(sea.outputs.regions);
+  EXPECT_EQ(regions.at("features").size(), 2u);
+  std::printf("Flensburg Fjord, states as seeds and land: one line of %lld vertices, worst %.3g deg off the straight\n",
+              static_cast<long long>(vertices), worst);
+}
+
+double worst_off_straight(const nlohmann::json& straight_lines, const nlohmann::json& sea_lines, int64_t& vertices) {
   std::map<std::pair<int, int>, std::vector<std::vector<std::array<double, 2>>>> by_pair;
-  const nlohmann::json straight_lines = read_json(straight.outputs.boundaries),
-                       sea_lines = read_json(sea.outputs.boundaries);
   for (const nlohmann::json& f : straight_lines.at("features"))
     by_pair[{f.at("properties").at("owner_a").get<int>(), f.at("properties").at("owner_b").get<int>()}].push_back(
         f.at("geometry").at("coordinates").get<std::vector<std::array<double, 2>>>());
   double worst = 0.0;
-  int64_t vertices = 0;
   for (const nlohmann::json& f : sea_lines.at("features")) {
     const auto& lines =
         by_pair[{f.at("properties").at("owner_a").get<int>(), f.at("properties").at("owner_b").get<int>()}];
@@ -576,10 +625,7 @@ TEST_F(SeaJob, CoastsAsSeedsAndLandWhoseBordersOverlapChangeNothingOffLand) {
       ++vertices;
     }
   }
-  EXPECT_GT(vertices, 10000);
-  EXPECT_LT(worst, 1e-6);
-  std::printf("western Baltic coasts as seeds and land: %lld line vertices by sea, worst %.3g deg off the straight\n",
-              static_cast<long long>(vertices), worst);
+  return worst;
 }
 
 void SeaJob::expect_coasts_change_nothing(const JobSpec& straight, const JobSpec& sea) {

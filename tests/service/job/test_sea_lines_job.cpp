@@ -167,8 +167,10 @@ void expect_lines_by_sea(const JobSpec& s, double on_coast) {
   EXPECT_GT(checked, 30);
   std::printf("deliverables: %s\n", report.at("timings_s").at("deliverables").dump().c_str());
   EXPECT_GT(ends_on_coast, 0);
-  std::printf("boundaries by sea: %d lines, %d vertices checked, worst |d_DK - d_SE| %.3g m, %d ends on the coast\n",
-              lines, checked, worst, ends_on_coast);
+  std::printf(
+      "boundaries by sea: %d lines, %d vertices checked, worst |d_DK - d_SE| %.3g m, %d ends on the coast, %d on the "
+      "frame\n",
+      lines, checked, worst, ends_on_coast, ends_on_frame);
 
   const nlohmann::json& b = report.at("deliverables").at("boundaries");
   EXPECT_EQ(b.at("ends_on_barriers").get<int>(), ends_on_coast);

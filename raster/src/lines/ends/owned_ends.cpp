@@ -169,16 +169,12 @@ bool turned_back(const std::vector<BoundaryVertex>& v) {
   return (j.x - e.x) * (e.x - q.x) + (j.y - e.y) * (e.y - q.y) < 0.0;
 }
 
-// The back end of `line` followed on along its locus to the coast (see end_at_barriers), in steps
-// of an eighth of a cell over at most eight cells; true (the points walked appended, the last on
-// the barrier) where it gets there.
-bool follow_to_barrier(const BoundaryGrid& b, BoundaryLine& line) {
-  std::vector<BoundaryVertex>& v = line.vertices;
-  if (v.size() < 2) return false;
-  const int32_t oa = line.owner_a, ob = line.owner_b;
+// The level of the locus of `line`'s two owners, for the follower: their balance, and the band
+// where no third owner is nearer.
+locus_follow::Level pair_level(const BoundaryGrid& b, int32_t oa, int32_t ob) {
   locus_follow::Level level;
-  level.balance = [&](Vec2 p) { return cost_gap(b, oa, ob, p); };
-  level.in_band = [&](Vec2 p) {
+  level.balance = [&b, oa, ob](Vec2 p) { return cost_gap(b, oa, ob, p); };
+  level.in_band = [&b, oa, ob](Vec2 p) {
     OwnerIndex::Hit ha, hb;
     return no_third_between(b, oa, ob, p, ha, hb);
   };
@@ -186,13 +182,16 @@ bool follow_to_barrier(const BoundaryGrid& b, BoundaryLine& line) {
   level.grid = b.g;
   level.ftol = b.ftol;
   level.slope = 2.0 * b.index.cost_slope();
-  constexpr int kPerCell = 8, kCells = 8;
-  const Vec2 end = v.back().p, before = v[v.size() - 2].p;
-  const locus_follow::Followed f = locus_follow::follow_on(level, end, Vec2{end.x - before.x, end.y - before.y},
-                                                           b.g.res / kPerCell, kPerCell * kCells);
-  if (f.stop != locus_follow::Stop::coast || f.points.size() < 2) return false;
-  for (size_t k = 1; k < f.points.size(); ++k) {
-    const Vec2 p = f.points[k];
+  return level;
+}
+
+// Appends the points walked along the locus of `line`'s owners (points[0], the line's back end,
+// left out) as its vertices.
+void append_walked(const BoundaryGrid& b, BoundaryLine& line, const std::vector<Vec2>& points) {
+  std::vector<BoundaryVertex>& v = line.vertices;
+  const int32_t oa = line.owner_a, ob = line.owner_b;
+  for (size_t k = 1; k < points.size(); ++k) {
+    const Vec2 p = points[k];
     BoundaryVertex w = vertex_between(p, b.index.nearest_of(p, oa), b.index.nearest_of(p, ob));
     // Where one side's nearest site changes between two points walked the locus turns, at times
     // sharply (a tip, where the walk rounds the corner on a small circle): the turning point of
@@ -212,6 +211,23 @@ bool follow_to_barrier(const BoundaryGrid& b, BoundaryLine& line) {
     }
     v.push_back(w);
   }
+}
+
+// How far the ends are followed: an eighth of a cell a step, over at most eight cells.
+constexpr int kPerCell = 8, kCells = 8;
+
+// The back end of `line` followed on along its locus to the coast (see end_at_barriers), in steps
+// of an eighth of a cell over at most eight cells; true (the points walked appended, the last on
+// the barrier) where it gets there.
+bool follow_to_barrier(const BoundaryGrid& b, BoundaryLine& line) {
+  std::vector<BoundaryVertex>& v = line.vertices;
+  if (v.size() < 2) return false;
+  const locus_follow::Level level = pair_level(b, line.owner_a, line.owner_b);
+  const Vec2 end = v.back().p, before = v[v.size() - 2].p;
+  const locus_follow::Followed f = locus_follow::follow_on(level, end, Vec2{end.x - before.x, end.y - before.y},
+                                                           b.g.res / kPerCell, kPerCell * kCells);
+  if (f.stop != locus_follow::Stop::coast || f.points.size() < 2) return false;
+  append_walked(b, line, f.points);
   v.back().on_barrier = true;
   return true;
 }
@@ -396,6 +412,104 @@ void join_parted_ends(const BoundaryGrid& b, const std::vector<Tripoint>& tripoi
   std::vector<BoundaryLine> kept;
   for (size_t n = 0; n < lines.size(); ++n)
     if (!gone[n]) kept.push_back(std::move(lines[n]));
+  lines = std::move(kept);
+}
+
+void follow_open_ends(const BoundaryGrid& b, const std::vector<Tripoint>& tripoints, std::vector<BoundaryLine>& lines,
+                      BoundaryStats& stats) {
+  if (b.index.metric().straight()) return;
+  auto open = [&](const BoundaryVertex& v) {
+    return !v.on_barrier && !on_centre_frame(b.g, v.p) && !outside_frame(b.g, v.p) &&
+           std::none_of(tripoints.begin(), tripoints.end(), [&](const Tripoint& t) { return t.p == v.p; });
+  };
+  // The open ends, by line and position (a line's ends move to another line when it is joined).
+  struct End {
+    size_t line;
+    Vec2 p;
+  };
+  std::vector<End> ends;
+  for (size_t n = 0; n < lines.size(); ++n) {
+    const BoundaryLine& l = lines[n];
+    if (l.closed || l.vertices.size() < 2 || l.vertices.front().p == l.vertices.back().p) continue;
+    if (open(l.vertices.front())) ends.push_back(End{n, l.vertices.front().p});
+    if (open(l.vertices.back())) ends.push_back(End{n, l.vertices.back().p});
+  }
+  if (ends.empty()) return;
+  std::vector<size_t> merged_into(lines.size());
+  for (size_t n = 0; n < lines.size(); ++n) merged_into[n] = n;
+  auto root = [&](size_t n) {
+    while (merged_into[n] != n) n = merged_into[n];
+    return n;
+  };
+  // Line n turned so that its back end is at p (false where neither end is).
+  auto to_back = [&](size_t n, Vec2 p) {
+    std::vector<BoundaryVertex>& v = lines[n].vertices;
+    if (v.back().p == p) return true;
+    if (!(v.front().p == p)) return false;
+    std::reverse(v.begin(), v.end());
+    return true;
+  };
+  std::vector<bool> done(ends.size(), false);
+  for (size_t i = 0; i < ends.size(); ++i) {
+    if (done[i]) continue;
+    done[i] = true;
+    const size_t n = root(ends[i].line);
+    BoundaryLine& line = lines[n];
+    if (line.closed || !to_back(n, ends[i].p) || line.vertices.size() < 2) continue;
+    // The other open ends of the same two owners: reaching one joins the two lines there.
+    std::vector<Vec2> others;
+    std::vector<size_t> other_end;
+    for (size_t j = 0; j < ends.size(); ++j) {
+      const BoundaryLine& o = lines[root(ends[j].line)];
+      if (done[j] || o.closed || o.owner_a != line.owner_a || o.owner_b != line.owner_b) continue;
+      others.push_back(ends[j].p);
+      other_end.push_back(j);
+    }
+    const std::vector<BoundaryVertex>& v = line.vertices;
+    const Vec2 end = v.back().p, before = v[v.size() - 2].p;
+    const locus_follow::Followed f = locus_follow::follow_on(pair_level(b, line.owner_a, line.owner_b), end,
+                                                             Vec2{end.x - before.x, end.y - before.y},
+                                                             b.g.res / kPerCell, kPerCell * kCells, others);
+    if (f.points.size() < 2) continue;
+    // (A walk that reaches the frame of the cell centres is not taken: by sea a line there goes on
+    // to the grid's edge, which cross_hidden_channels draws.)
+    if (f.stop == locus_follow::Stop::coast) {
+      const auto before_count = static_cast<int64_t>(line.vertices.size());
+      append_walked(b, line, f.points);
+      stats.vertices += static_cast<int64_t>(line.vertices.size()) - before_count;
+      line.bows.clear();
+      ++stats.ends_followed;
+      line.vertices.back().on_barrier = true;
+      ++stats.ends_on_barriers;
+      stats.max_residual = std::max(stats.max_residual, line.vertices.back().residual);
+    } else if (f.stop == locus_follow::Stop::target && f.other >= 0) {
+      const size_t j = other_end[static_cast<size_t>(f.other)];
+      const size_t m = root(ends[j].line);
+      // The other line turned to start at the end reached (the line's own front: a ring).
+      if (m != n && !to_back(m, ends[j].p)) continue;
+      done[j] = true;
+      // The points walked up to the other end (its own vertex, not repeated).
+      const std::vector<Vec2> walked(f.points.begin(), f.points.end() - 1);
+      const auto before_count = static_cast<int64_t>(line.vertices.size());
+      append_walked(b, line, walked);
+      stats.vertices += static_cast<int64_t>(line.vertices.size()) - before_count;
+      line.bows.clear();
+      if (m == n) {
+        line.vertices.push_back(line.vertices.front());
+        line.closed = true;
+      } else {
+        BoundaryLine& o = lines[m];
+        line.vertices.insert(line.vertices.end(), o.vertices.rbegin(), o.vertices.rend());
+        o.vertices.clear();
+        merged_into[m] = n;
+      }
+      ++stats.ends_followed;
+      ++stats.ends_joined;
+    }
+  }
+  std::vector<BoundaryLine> kept;
+  for (BoundaryLine& l : lines)
+    if (!l.vertices.empty()) kept.push_back(std::move(l));
   lines = std::move(kept);
 }
 
