@@ -65,6 +65,25 @@ class SeaJob : public ::testing::Test {
     s.outputs.report = (dir_ / sub / "report.json").string();
     return s;
   }
+  // The states of fixture `states` (owner field iso2, overlaps to the lower code) as seeds at 0.02
+  // deg over `extent`: straight (boundaries in straight/lines.geojson), and by sea with the same
+  // file as the land (sea/lines.geojson); both with with_outputs' rasters and report.
+  std::pair<JobSpec, JobSpec> states_straight_and_by_sea(const std::string& states,
+                                                         std::array<double, 4> extent) const {
+    JobSpec sea;
+    sea.seeds.paths = {fixture(states)};
+    sea.seeds.owner_field = "iso2";
+    sea.seeds.on_conflict = ConflictPolicy::lower_code;
+    sea.grid.resolution = 0.02;
+    sea.grid.extent = extent;
+    JobSpec straight = with_outputs(sea, "straight");
+    straight.outputs.via.clear();
+    straight.outputs.boundaries = (dir_ / "straight" / "lines.geojson").string();
+    sea.barriers = {fixture(states)};
+    sea = with_outputs(sea, "sea");
+    sea.outputs.boundaries = (dir_ / "sea" / "lines.geojson").string();
+    return {straight, sea};
+  }
   std::string write(const std::string& name, const std::string& text) const {
     const std::string path = (dir_ / name).string();
     std::ofstream(path) << text;
@@ -536,18 +555,7 @@ TEST_F(SeaJob, CoastsAsSeedsAndLandChangeNothingOffLand) {
 double worst_off_straight(const nlohmann::json& straight_lines, const nlohmann::json& sea_lines, int64_t& vertices);
 
 TEST_F(SeaJob, CoastsAsSeedsAndLandWhoseBordersOverlapChangeNothingOffLand) {
-  JobSpec sea;
-  sea.seeds.paths = {fixture("baltic_west.gpkg")};
-  sea.seeds.owner_field = "iso2";
-  sea.seeds.on_conflict = ConflictPolicy::lower_code;
-  sea.grid.resolution = 0.02;
-  sea.grid.extent = std::array<double, 4>{9.0, 53.8, 15.5, 56.2};
-  JobSpec straight = with_outputs(sea, "straight");
-  straight.outputs.via.clear();
-  straight.outputs.boundaries = (dir_ / "straight" / "lines.geojson").string();
-  sea.barriers = {fixture("baltic_west.gpkg")};
-  sea = with_outputs(sea, "sea");
-  sea.outputs.boundaries = (dir_ / "sea" / "lines.geojson").string();
+  auto [straight, sea] = states_straight_and_by_sea("baltic_west.gpkg", {9.0, 53.8, 15.5, 56.2});
   expect_coasts_change_nothing(straight, sea);
   const nlohmann::json report = read_json(sea.outputs.report);
   EXPECT_EQ(report.at("sea").at("snap").at("on_land_borders").get<int64_t>(), 4);
@@ -571,17 +579,7 @@ TEST_F(SeaJob, CoastsAsSeedsAndLandWhoseBordersOverlapChangeNothingOffLand) {
 // west edge to its east edge, on the straight line of the same seeds, and regions bounded by it
 // (refused before: ends inside the grid).
 TEST_F(SeaJob, StatesAsSeedsAndLandInAFjordNarrowerThanTwoCellsMeetInOneLine) {
-  JobSpec sea;
-  sea.seeds.paths = {fixture("flensburg_fjord_states.geojson")};
-  sea.seeds.owner_field = "iso2";
-  sea.grid.resolution = 0.02;
-  sea.grid.extent = std::array<double, 4>{9.5, 54.75, 9.9, 54.95};
-  JobSpec straight = with_outputs(sea, "straight");
-  straight.outputs.via.clear();
-  straight.outputs.boundaries = (dir_ / "straight" / "lines.geojson").string();
-  sea.barriers = {fixture("flensburg_fjord_states.geojson")};
-  sea = with_outputs(sea, "sea");
-  sea.outputs.boundaries = (dir_ / "sea" / "lines.geojson").string();
+  auto [straight, sea] = states_straight_and_by_sea("flensburg_fjord_states.geojson", {9.5, 54.75, 9.9, 54.95});
   sea.outputs.regions = (dir_ / "sea" / "regions.geojson").string();
   run_job(straight);
   const nlohmann::json report = run_job(sea).report;
