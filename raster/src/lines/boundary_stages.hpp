@@ -375,9 +375,14 @@ void join_parted_ends(const BoundaryGrid& b, const std::vector<Tripoint>& tripoi
 // joined through the points walked; its own other end makes a ring) or a coast; left as it was
 // where the walk is lost or reaches the frame of the cell centres (a line there goes on to the
 // grid's edge). Counts the ends followed in stats.ends_followed, the joins also in
-// stats.ends_joined, the coasts reached in stats.ends_on_barriers.
-void follow_open_ends(const BoundaryGrid& b, const std::vector<Tripoint>& tripoints, std::vector<BoundaryLine>& lines,
-                      BoundaryStats& stats);
+// stats.ends_joined, the coasts reached in stats.ends_on_barriers. The walk's steps are at most
+// half the way to the nearer side (locus_follow::Level::clearance), so a locus going on up a
+// sliver of sea metres wide between two owners' land is walked up it, to where the two coasts
+// meet (a ten-thousandth of a cell apart, or their crossing reached straight along the two edges'
+// bisector). Not run where a maximum distance (`max_distance` finite) or a reach ends the owned
+// area: lines end on its edge there.
+void follow_open_ends(const BoundaryGrid& b, double max_distance, const std::vector<Tripoint>& tripoints,
+                      std::vector<BoundaryLine>& lines, BoundaryStats& stats);
 // By sea, a crossing linked to none (`lone`, lone_crossings) where the line crosses a channel
 // narrower than the squares around it (a barrier parts every other pair of their corners): made a
 // line of its own when it reaches a barrier on both sides (end_at_barriers' junction one way,

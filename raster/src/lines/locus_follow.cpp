@@ -21,7 +21,11 @@ double norm(Vec2 v) { return std::hypot(v.x, v.y); }
 struct Follower {
   const Level& L;
   LineResidual& residual;
-  double step;  // CRS units (half a cell through the partial effect's bands)
+  mutable double step;  // CRS units (half a cell through the partial effect's bands); see narrowed
+  void narrowed(double s) const { step = s; }
+  // How far across the level a step's root is looked for (CRS units; with Level::clearance, just
+  // under the way to the nearer side).
+  mutable double across = std::numeric_limits<double>::infinity();
 
   bool sees(Vec2 a, Vec2 b) const { return L.metric->open_between(a, b) && L.in_band(b); }
 
@@ -76,7 +80,8 @@ struct Follower {
     if (t.x * dir.x + t.y * dir.y < 0.0) t = Vec2{-t.x, -t.y};
     for (double s = step; s >= step / 16.0; s *= 0.5) {
       const Vec2 q{c.x + s * t.x, c.y + s * t.y};
-      if (root(Vec2{q.x - s * n.x, q.y - s * n.y}, Vec2{q.x + s * n.x, q.y + s * n.y}, out) &&
+      const double a = std::min(s, across);  // (within a channel: across it, not onto its land)
+      if (root(Vec2{q.x - a * n.x, q.y - a * n.y}, Vec2{q.x + a * n.x, q.y + a * n.y}, out) &&
           norm(Vec2{out.x - c.x, out.y - c.y}) > 0.0)
         return true;
     }
@@ -201,8 +206,26 @@ struct Follower {
     const auto limit = max_steps >= 0 ? max_steps : static_cast<int64_t>(8 * (L.grid.width + L.grid.height)) + 64;
     const Vec2 origin = pts.front();
     bool away = false;
+    const double full_step = step;
     for (int64_t k = 0; k < limit; ++k) {
       const Vec2 c = pts.back();
+      double room = std::numeric_limits<double>::infinity();
+      if (L.clearance) {
+        // Where the sides meet (see Level::clearance), the walk ends there.
+        room = L.clearance(c);
+        if (!std::isfinite(room)) return Stop::lost;
+        if (!(room > L.meet)) return pts.size() < 2 ? Stop::lost : Stop::coast;
+        Vec2 at;
+        if (room < full_step && pts.size() >= 2 && L.meeting && L.meeting(c, at)) {
+          const Vec2 d{c.x - pts[pts.size() - 2].x, c.y - pts[pts.size() - 2].y};
+          if ((at.x - c.x) * d.x + (at.y - c.y) * d.y > 0.0 && L.metric->open_between(c, at)) {
+            pts.push_back(at);
+            return Stop::coast;
+          }
+        }
+        narrowed(std::min(full_step, 8.0 * room));
+        across = 0.9 * room;
+      }
       if (const int k = near_target(c, 1.5 * step); k > -2) {
         if (pts.size() > 2) pts.pop_back();
         pts.push_back(stop_at(k));
@@ -221,6 +244,10 @@ struct Follower {
         dir = Vec2{(c.x - before.x) / dl, (c.y - before.y) / dl};
       }
       Vec2 r;
+      // In a channel (clearance given) a step that finds no locus or crosses land is tried again
+      // shorter, down to half the way to the nearer side, before the coast is looked for.
+      while (L.clearance && step > 0.5 * room && (!next(c, dir, r) || !L.metric->open_between(c, r)))
+        narrowed(std::max(0.5 * room, 0.25 * step));
       if (!next(c, dir, r)) {
         // Heading into a coast, the steps shrink until none finds the level across it (the
         // points beyond lie on land): the coast's point where the balance is 0 ends it there.

@@ -48,6 +48,17 @@ struct Level {
   // How fast the balance can change along an open way, per metric unit (+infinity: unknown);
   // line_tools::onto_domain_edge's `slope`, for the search of a coast.
   double slope = std::numeric_limits<double>::infinity();
+  // Optional (follow_on): the way to the nearer of the locus's two sides at p, CRS units (for two
+  // owners' locus, the smaller of their distances, as CRS units at most). Where given, a step is
+  // at most half of it, so the walk goes on up a channel far narrower than a cell (a sliver of sea
+  // between two states' land along their border); and where it falls below `meet` the two sides
+  // meet there (their coasts cross or touch): the walk ends as on a coast.
+  std::function<double(Vec2)> clearance;
+  double meet = 0.0;  // CRS units
+  // With `clearance`: where the two sides meet ahead of p, into `at`, when the locus runs straight
+  // from p to there (the bisector of two coast edges, from p to their crossing); false where it
+  // does not. The walk then ends there, on the coast, if p sees it and it lies ahead.
+  std::function<bool(Vec2 p, Vec2& at)> meeting;
 };
 
 enum class Stop {

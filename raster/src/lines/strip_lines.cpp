@@ -287,7 +287,7 @@ struct BoundaryRun {
     result.lone_crossings = lone_crossings(x, links);
     cross_channels(b, result.lone_crossings, result.lines, result.stats);
     cross_hidden_channels(b, max_distance, t.tripoints, result.lines, result.stats);
-    follow_open_ends(b, t.tripoints, result.lines, result.stats);
+    follow_open_ends(b, max_distance, t.tripoints, result.lines, result.stats);
     const Vec2 middle = line_tools::centre(b.g, b.W / 2, b.H / 2);
     const CrsScale scale(b.index.metric(), middle, b.g.res);
     const LineRefiner refiner(b.index, line_tolerance, b.ftol, scale, std::max(scale.at0.x, scale.at0.y));
