@@ -415,6 +415,71 @@ void join_parted_ends(const BoundaryGrid& b, const std::vector<Tripoint>& tripoi
   lines = std::move(kept);
 }
 
+namespace {
+
+// The level of the locus of owners oa and ob for follow_open_ends: pair_level's, with steps of at
+// most half the way to the nearer side (`per`: metric units per CRS unit) and where the sides meet.
+locus_follow::Level narrow_level(const BoundaryGrid& b, int32_t oa, int32_t ob, double per) {
+  locus_follow::Level level = pair_level(b, oa, ob);
+  // Steps of at most half the way to the nearer side: a locus that runs on up a sliver of sea
+  // along a land border (two states' polygons metres apart, as the western Baltic's are on
+  // Usedom and at the head of the Flensburg Fjord) is walked up it, to where the two coasts
+  // meet or out at its other end.
+  level.clearance = [&b, oa, ob, per](Vec2 p) {
+    return std::min(b.index.nearest_of(p, oa).distance, b.index.nearest_of(p, ob).distance) / per;
+  };
+  level.meet = 1e-4 * b.g.res;
+  // Where the two sides meet: the crossing X of their nearest coast edges, or of one with the
+  // edge next to the other on its ring (where one side's vertex comes within a hair of the
+  // other's edge and their land overlaps beyond), within two cells, ahead; the locus runs
+  // straight there (the two edges' bisector) where the nearest sites halfway are still those
+  // edges or their neighbours.
+  level.meeting = [&b, oa, ob](Vec2 p, Vec2& at) {
+    const std::vector<Site>& sites = b.index.metric().seeds().sites();
+    const int32_t sa = b.index.nearest_of(p, oa).site, sb = b.index.nearest_of(p, ob).site;
+    if (sa == kNoSite || sb == kNoSite) return false;
+    // The site and its neighbours along the same feature's edges.
+    auto near_of = [&](int32_t s) {
+      std::array<int32_t, 3> out{s, kNoSite, kNoSite};
+      for (int k : {-1, 1}) {
+        const int32_t n = s + k;
+        if (n >= 0 && n < static_cast<int32_t>(sites.size()) &&
+            sites[static_cast<size_t>(n)].feature == sites[static_cast<size_t>(s)].feature)
+          out[static_cast<size_t>(k < 0 ? 1 : 2)] = n;
+      }
+      return out;
+    };
+    const std::array<int32_t, 3> na = near_of(sa), nb = near_of(sb);
+    double best = 2.0 * b.g.res;
+    bool found = false;
+    for (const int32_t i : na)
+      for (const int32_t j : nb) {
+        if (i == kNoSite || j == kNoSite || (i != sa && j != sb)) continue;
+        const Site &u = sites[static_cast<size_t>(i)], &w = sites[static_cast<size_t>(j)];
+        const Vec2 du{u.b.x - u.a.x, u.b.y - u.a.y}, dw{w.b.x - w.a.x, w.b.y - w.a.y};
+        const double det = du.x * dw.y - du.y * dw.x;
+        if (!(std::abs(det) > 0.0)) continue;
+        const Vec2 r{w.a.x - u.a.x, w.a.y - u.a.y};
+        const double t = (r.x * dw.y - r.y * dw.x) / det, s = (r.x * du.y - r.y * du.x) / det;
+        if (!(t >= 0.0 && t <= 1.0 && s >= 0.0 && s <= 1.0)) continue;
+        const Vec2 x{u.a.x + t * du.x, u.a.y + t * du.y};
+        const double d = std::hypot(x.x - p.x, x.y - p.y);
+        if (!(d <= best)) continue;
+        const Vec2 mid = lerp(p, x, 0.5);
+        const int32_t ma = b.index.nearest_of(mid, oa).site, mb = b.index.nearest_of(mid, ob).site;
+        if (std::find(na.begin(), na.end(), ma) == na.end() || std::find(nb.begin(), nb.end(), mb) == nb.end())
+          continue;
+        best = d;
+        at = x;
+        found = true;
+      }
+    return found;
+  };
+  return level;
+}
+
+}  // namespace
+
 void follow_open_ends(const BoundaryGrid& b, double max_distance, const std::vector<Tripoint>& tripoints,
                       std::vector<BoundaryLine>& lines, BoundaryStats& stats) {
   // (Where a maximum distance or a reach ends the owned area, lines end on its edge, which the
@@ -475,62 +540,7 @@ void follow_open_ends(const BoundaryGrid& b, double max_distance, const std::vec
     }
     const std::vector<BoundaryVertex>& v = line.vertices;
     const Vec2 end = v.back().p, before = v[v.size() - 2].p;
-    locus_follow::Level level = pair_level(b, line.owner_a, line.owner_b);
-    // Steps of at most half the way to the nearer side: a locus that runs on up a sliver of sea
-    // along a land border (two states' polygons metres apart, as the western Baltic's are on
-    // Usedom and at the head of the Flensburg Fjord) is walked up it, to where the two coasts
-    // meet or out at its other end.
-    const int32_t oa = line.owner_a, ob = line.owner_b;
-    level.clearance = [&b, oa, ob, per](Vec2 p) {
-      return std::min(b.index.nearest_of(p, oa).distance, b.index.nearest_of(p, ob).distance) / per;
-    };
-    level.meet = 1e-4 * b.g.res;
-    // Where the two sides meet: the crossing X of their nearest coast edges, or of one with the
-    // edge next to the other on its ring (where one side's vertex comes within a hair of the
-    // other's edge and their land overlaps beyond), within two cells, ahead; the locus runs
-    // straight there (the two edges' bisector) where the nearest sites halfway are still those
-    // edges or their neighbours.
-    level.meeting = [&b, oa, ob](Vec2 p, Vec2& at) {
-      const std::vector<Site>& sites = b.index.metric().seeds().sites();
-      const int32_t sa = b.index.nearest_of(p, oa).site, sb = b.index.nearest_of(p, ob).site;
-      if (sa == kNoSite || sb == kNoSite) return false;
-      // The site and its neighbours along the same feature's edges.
-      auto near_of = [&](int32_t s) {
-        std::array<int32_t, 3> out{s, kNoSite, kNoSite};
-        for (int k : {-1, 1}) {
-          const int32_t n = s + k;
-          if (n >= 0 && n < static_cast<int32_t>(sites.size()) &&
-              sites[static_cast<size_t>(n)].feature == sites[static_cast<size_t>(s)].feature)
-            out[static_cast<size_t>(k < 0 ? 1 : 2)] = n;
-        }
-        return out;
-      };
-      const std::array<int32_t, 3> na = near_of(sa), nb = near_of(sb);
-      double best = 2.0 * b.g.res;
-      bool found = false;
-      for (const int32_t i : na)
-        for (const int32_t j : nb) {
-          if (i == kNoSite || j == kNoSite || (i != sa && j != sb)) continue;
-          const Site &u = sites[static_cast<size_t>(i)], &w = sites[static_cast<size_t>(j)];
-          const Vec2 du{u.b.x - u.a.x, u.b.y - u.a.y}, dw{w.b.x - w.a.x, w.b.y - w.a.y};
-          const double det = du.x * dw.y - du.y * dw.x;
-          if (!(std::abs(det) > 0.0)) continue;
-          const Vec2 r{w.a.x - u.a.x, w.a.y - u.a.y};
-          const double t = (r.x * dw.y - r.y * dw.x) / det, s = (r.x * du.y - r.y * du.x) / det;
-          if (!(t >= 0.0 && t <= 1.0 && s >= 0.0 && s <= 1.0)) continue;
-          const Vec2 x{u.a.x + t * du.x, u.a.y + t * du.y};
-          const double d = std::hypot(x.x - p.x, x.y - p.y);
-          if (!(d <= best)) continue;
-          const Vec2 mid = lerp(p, x, 0.5);
-          const int32_t ma = b.index.nearest_of(mid, oa).site, mb = b.index.nearest_of(mid, ob).site;
-          if (std::find(na.begin(), na.end(), ma) == na.end() || std::find(nb.begin(), nb.end(), mb) == nb.end())
-            continue;
-          best = d;
-          at = x;
-          found = true;
-        }
-      return found;
-    };
+    const locus_follow::Level level = narrow_level(b, line.owner_a, line.owner_b, per);
     const locus_follow::Followed f = locus_follow::follow_on(level, end, Vec2{end.x - before.x, end.y - before.y},
                                                              b.g.res / kPerCell, kMaxNarrowSteps, others);
     if (f.points.size() < 2) continue;
