@@ -244,11 +244,14 @@ struct Follower {
         dir = Vec2{(c.x - before.x) / dl, (c.y - before.y) / dl};
       }
       Vec2 r;
+      bool found = next(c, dir, r);
       // In a channel (clearance given) a step that finds no locus or crosses land is tried again
       // shorter, down to half the way to the nearer side, before the coast is looked for.
-      while (L.clearance && step > 0.5 * room && (!next(c, dir, r) || !L.metric->open_between(c, r)))
+      while (L.clearance && step > 0.5 * room && (!found || !L.metric->open_between(c, r))) {
         narrowed(std::max(0.5 * room, 0.25 * step));
-      if (!next(c, dir, r)) {
+        found = next(c, dir, r);
+      }
+      if (!found) {
         // Heading into a coast, the steps shrink until none finds the level across it (the
         // points beyond lie on land): the coast's point where the balance is 0 ends it there.
         Vec2 at;
