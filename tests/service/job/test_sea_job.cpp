@@ -40,6 +40,8 @@ using test::fixture;
 
 constexpr const char* kUtm33 = R"("crs": {"type": "name", "properties": {"name": "urn:ogc:def:crs:EPSG::32633"}})";
 
+nlohmann::json read_json(const std::string& path) { return nlohmann::json::parse(std::ifstream(path)); }
+
 class SeaJob : public ::testing::Test {
  protected:
   void SetUp() override {
@@ -84,6 +86,21 @@ class SeaJob : public ::testing::Test {
     sea.outputs.boundaries = (dir_ / "sea" / "lines.geojson").string();
     return {straight, sea};
   }
+  // states_straight_and_by_sea's two runs, by sea with regions: its report and lines, and the
+  // straight lines.
+  struct StatesRun {
+    JobSpec sea;
+    nlohmann::json report, lines, straight_lines;
+  };
+  StatesRun run_states_with_regions(const std::string& states, std::array<double, 4> extent) const {
+    auto [straight, sea] = states_straight_and_by_sea(states, extent);
+    sea.outputs.regions = (dir_ / "sea" / "regions.geojson").string();
+    run_job(straight);
+    StatesRun r{sea, run_job(sea).report, {}, {}};
+    r.lines = read_json(sea.outputs.boundaries);
+    r.straight_lines = read_json(straight.outputs.boundaries);
+    return r;
+  }
   std::string write(const std::string& name, const std::string& text) const {
     const std::string path = (dir_ / name).string();
     std::ofstream(path) << text;
@@ -107,8 +124,6 @@ class SeaJob : public ::testing::Test {
 
   fs::path dir_;
 };
-
-nlohmann::json read_json(const std::string& path) { return nlohmann::json::parse(std::ifstream(path)); }
 
 // The two regions of `spec` (GeoJSON) against its ownership raster (cells of `cell` x `cell`):
 // each owner's sea area within `relative` of its cells' area.
@@ -553,6 +568,19 @@ TEST_F(SeaJob, CoastsAsSeedsAndLandChangeNothingOffLand) {
 // The farthest (CRS units) that a vertex of `sea_lines` lies from every straight line of the same
 // two owners in `straight_lines` (GeoJSON boundaries); `vertices` counts the vertices measured.
 double worst_off_straight(const nlohmann::json& straight_lines, const nlohmann::json& sea_lines, int64_t& vertices);
+// GeoJSON lines without their vertices inside box {x0, y0, x1, y1} (Usedom's slivers, where the
+// straight line crosses land by a chord).
+nlohmann::json outside(nlohmann::json lines, std::array<double, 4> box) {
+  for (nlohmann::json& f : lines.at("features")) {
+    nlohmann::json kept = nlohmann::json::array();
+    for (const nlohmann::json& p : f.at("geometry").at("coordinates")) {
+      const double x = p[0].get<double>(), y = p[1].get<double>();
+      if (!(x > box[0] && x < box[2] && y > box[1] && y < box[3])) kept.push_back(p);
+    }
+    f["geometry"]["coordinates"] = kept;
+  }
+  return lines;
+}
 
 TEST_F(SeaJob, CoastsAsSeedsAndLandWhoseBordersOverlapChangeNothingOffLand) {
   auto [straight, sea] = states_straight_and_by_sea("baltic_west.gpkg", {9.0, 53.8, 15.5, 56.2});
@@ -569,17 +597,10 @@ TEST_F(SeaJob, CoastsAsSeedsAndLandWhoseBordersOverlapChangeNothingOffLand) {
   // Every vertex by sea on a straight line of the same two owners, but in the slivers of sea along
   // the land border across Usedom, where the straight line crosses land by a chord (see
   // StatesAsSeedsAndLandWhoseBorderIsASliverOfSeaMeetUpIt).
-  nlohmann::json sea_lines = read_json(sea.outputs.boundaries);
-  for (nlohmann::json& f : sea_lines.at("features")) {
-    nlohmann::json kept = nlohmann::json::array();
-    for (const nlohmann::json& p : f.at("geometry").at("coordinates"))
-      if (!(p[0].get<double>() > 14.17 && p[0].get<double>() < 14.22 && p[1].get<double>() > 53.905 &&
-            p[1].get<double>() < 53.918))
-        kept.push_back(p);
-    f["geometry"]["coordinates"] = kept;
-  }
   int64_t vertices = 0;
-  const double worst = worst_off_straight(read_json(straight.outputs.boundaries), sea_lines, vertices);
+  const double worst =
+      worst_off_straight(read_json(straight.outputs.boundaries),
+                         outside(read_json(sea.outputs.boundaries), {14.17, 53.905, 14.22, 53.918}), vertices);
   EXPECT_GT(vertices, 10000);
   EXPECT_LT(worst, 1e-6);
   std::printf("western Baltic coasts as seeds and land: %lld line vertices by sea, worst %.3g deg off the straight\n",
@@ -592,11 +613,8 @@ TEST_F(SeaJob, CoastsAsSeedsAndLandWhoseBordersOverlapChangeNothingOffLand) {
 // west edge to its east edge, on the straight line of the same seeds, and regions bounded by it
 // (refused before: ends inside the grid).
 TEST_F(SeaJob, StatesAsSeedsAndLandInAFjordNarrowerThanTwoCellsMeetInOneLine) {
-  auto [straight, sea] = states_straight_and_by_sea("flensburg_fjord_states.geojson", {9.5, 54.75, 9.9, 54.95});
-  sea.outputs.regions = (dir_ / "sea" / "regions.geojson").string();
-  run_job(straight);
-  const nlohmann::json report = run_job(sea).report;
-  const nlohmann::json lines = read_json(sea.outputs.boundaries);
+  const StatesRun run = run_states_with_regions("flensburg_fjord_states.geojson", {9.5, 54.75, 9.9, 54.95});
+  const nlohmann::json &report = run.report, &lines = run.lines;
   ASSERT_EQ(lines.at("features").size(), 1u);
   const auto v = lines.at("features")[0].at("geometry").at("coordinates").get<std::vector<std::array<double, 2>>>();
   EXPECT_NEAR(std::min(v.front()[0], v.back()[0]), 9.51, 1e-9);  // the frames of the cell centres
@@ -605,11 +623,10 @@ TEST_F(SeaJob, StatesAsSeedsAndLandInAFjordNarrowerThanTwoCellsMeetInOneLine) {
   EXPECT_GE(st.at("ends_joined").get<int64_t>(), 2);
   EXPECT_EQ(st.at("along_lines").at("unresolved_segments").get<int64_t>(), 0);
   int64_t vertices = 0;
-  const double worst = worst_off_straight(read_json(straight.outputs.boundaries), lines, vertices);
+  const double worst = worst_off_straight(run.straight_lines, lines, vertices);
   EXPECT_GT(vertices, 100);
   EXPECT_LT(worst, 1e-6);
-  const nlohmann::json regions = read_json(sea.outputs.regions);
-  EXPECT_EQ(regions.at("features").size(), 2u);
+  EXPECT_EQ(read_json(run.sea.outputs.regions).at("features").size(), 2u);
   std::printf("Flensburg Fjord, states as seeds and land: one line of %lld vertices, worst %.3g deg off the straight\n",
               static_cast<long long>(vertices), worst);
 }
@@ -623,11 +640,8 @@ TEST_F(SeaJob, StatesAsSeedsAndLandInAFjordNarrowerThanTwoCellsMeetInOneLine) {
 // the same seeds; on it the straight line crosses the land between the slivers by a chord (both
 // distances 0 there), which the line by sea does not follow.
 TEST_F(SeaJob, StatesAsSeedsAndLandWhoseBorderIsASliverOfSeaMeetUpIt) {
-  auto [straight, sea] = states_straight_and_by_sea("usedom_states.geojson", {14.0, 53.8, 14.4, 54.0});
-  sea.outputs.regions = (dir_ / "sea" / "regions.geojson").string();
-  run_job(straight);
-  const nlohmann::json report = run_job(sea).report;
-  const nlohmann::json lines = read_json(sea.outputs.boundaries);
+  const StatesRun run = run_states_with_regions("usedom_states.geojson", {14.0, 53.8, 14.4, 54.0});
+  const nlohmann::json &report = run.report, &lines = run.lines;
   ASSERT_EQ(lines.at("features").size(), 2u);
   const nlohmann::json& st = report.at("deliverables").at("boundaries");
   EXPECT_EQ(st.at("ends_on_barriers").get<int64_t>(), 2);
@@ -638,18 +652,11 @@ TEST_F(SeaJob, StatesAsSeedsAndLandWhoseBorderIsASliverOfSeaMeetUpIt) {
     EXPECT_GT(inland[1], 53.91) << inland[0] << "," << inland[1];
     EXPECT_LT(inland[1], 53.92) << inland[0] << "," << inland[1];
   }
-  nlohmann::json off_island = lines;
-  for (nlohmann::json& f : off_island.at("features")) {
-    nlohmann::json kept = nlohmann::json::array();
-    for (const nlohmann::json& p : f.at("geometry").at("coordinates"))
-      if (p[1].get<double>() < 53.905 || p[1].get<double>() > 53.918) kept.push_back(p);
-    f["geometry"]["coordinates"] = kept;
-  }
   int64_t vertices = 0;
-  const double worst = worst_off_straight(read_json(straight.outputs.boundaries), off_island, vertices);
+  const double worst = worst_off_straight(run.straight_lines, outside(lines, {14.17, 53.905, 14.22, 53.918}), vertices);
   EXPECT_GT(vertices, 100);
   EXPECT_LT(worst, 1e-6);
-  EXPECT_EQ(read_json(sea.outputs.regions).at("features").size(), 2u);
+  EXPECT_EQ(read_json(run.sea.outputs.regions).at("features").size(), 2u);
   std::printf("Usedom, states as seeds and land: %lld line vertices, worst %.3g deg off the straight\n",
               static_cast<long long>(vertices), worst);
 }
