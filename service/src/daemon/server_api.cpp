@@ -590,25 +590,27 @@ void Api::submit_job(const JobAnswer& to, const std::string& id, Execution ex) c
 void Api::describe(const Request& req) const {
   // Reading uploads takes seconds and gigabytes at the limits: a thread of the pool does it, the
   // network threads go on serving (503 when every thread of the pool is taken).
-  describe_pool_.try_run([this, body = req.ctx.request.body, path = req.ctx.path, respond = req.respond] {
-    ApiResponse r;
-    // Held until the answer is handed on (the description with its features is large too).
-    MemoryAccount::Reservation memory = memory_.open();
-    try {
-      // The request's own bytes (its body, parsed, the uploads staged from it) are held
-      // throughout; the reading's estimate comes on top as it grows. Answered at once: no wait.
-      const int64_t request_bytes = 4 * static_cast<int64_t>(body.size());
-      const std::string what = "describing these seeds";
-      memory.need(request_bytes, false, nullptr, what);
-      const json doc = parse_body_json(body);
-      r = json_response(200, describe_seeds_execute(doc, config_, [&](int64_t reading_bytes) {
-                          memory.need(request_bytes + reading_bytes, false, nullptr, what);
-                        }));
-    } catch (...) {
-      r = problem_of_current_exception(path);
-    }
-    (*respond)(std::move(r));
-  });
+  describe_pool_.try_run(
+      [this, body = req.ctx.request.body, path = req.ctx.path, respond = req.respond]() -> std::function<void()> {
+        ApiResponse r;
+        // Held until the answer is handed on (the description with its features is large too).
+        auto memory = std::make_shared<MemoryAccount::Reservation>(memory_.open());
+        try {
+          // The request's own bytes (its body, parsed, the uploads staged from it) are held
+          // throughout; the reading's estimate comes on top as it grows. Answered at once: no wait.
+          const int64_t request_bytes = 4 * static_cast<int64_t>(body.size());
+          const std::string what = "describing these seeds";
+          memory->need(request_bytes, false, nullptr, what);
+          const json doc = parse_body_json(body);
+          r = json_response(200, describe_seeds_execute(doc, config_, [&](int64_t reading_bytes) {
+                              memory->need(request_bytes + reading_bytes, false, nullptr, what);
+                            }));
+        } catch (...) {
+          r = problem_of_current_exception(path);
+        }
+        // The answer is handed on once the worker is free again (RequestPool::Task).
+        return [respond, memory, r = std::make_shared<ApiResponse>(std::move(r))] { (*respond)(std::move(*r)); };
+      });
 }
 
 void Api::job_list(const Request& req, const std::vector<std::string>&) const {

@@ -136,7 +136,7 @@ RequestPool::RequestPool(int workers) {
 
 RequestPool::~RequestPool() { stop(); }
 
-void RequestPool::try_run(std::function<void()> task) {
+void RequestPool::try_run(Task task) {
   {
     std::lock_guard lock(mutex_);
     if (stopping_ || busy_ + static_cast<int>(tasks_.size()) >= static_cast<int>(threads_.size()))
@@ -149,7 +149,7 @@ void RequestPool::try_run(std::function<void()> task) {
 
 void RequestPool::loop() {
   for (;;) {
-    std::function<void()> task;
+    Task task;
     {
       std::unique_lock lock(mutex_);
       work_.wait(lock, [&] { return stopping_ || !tasks_.empty(); });
@@ -158,9 +158,12 @@ void RequestPool::loop() {
       tasks_.pop_front();
       ++busy_;
     }
-    task();
-    std::lock_guard lock(mutex_);
-    --busy_;
+    const std::function<void()> hand_over = task();
+    {
+      std::lock_guard lock(mutex_);
+      --busy_;
+    }
+    if (hand_over) hand_over();
   }
 }
 

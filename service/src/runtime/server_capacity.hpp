@@ -103,9 +103,13 @@ class RequestPool {
   RequestPool(const RequestPool&) = delete;
   RequestPool& operator=(const RequestPool&) = delete;
 
+  // A request's work: runs on a worker and returns the hand-over of its answer (or an empty
+  // function), which the worker runs once it counts as idle again: a client that sends its next
+  // request as soon as it has the answer finds the worker free, not busy.
+  using Task = std::function<std::function<void()>()>;
   // Runs `task` on an idle worker thread. Throws rv::Error busy when every worker has a task or
-  // the pool is stopping. `task` must not throw (it answers its request itself).
-  void try_run(std::function<void()> task);
+  // the pool is stopping. Neither `task` nor its hand-over may throw (they answer the request).
+  void try_run(Task task);
   // Lets the tasks that run finish, then joins the threads. Idempotent.
   void stop();
   int busy() const;
@@ -116,7 +120,7 @@ class RequestPool {
 
   mutable std::mutex mutex_;
   std::condition_variable work_;
-  std::deque<std::function<void()>> tasks_;
+  std::deque<Task> tasks_;
   int busy_ = 0;
   bool stopping_ = false;
   std::vector<std::thread> threads_;

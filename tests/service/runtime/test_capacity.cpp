@@ -122,10 +122,11 @@ TEST(RequestPool, RunsUpToItsWorkersAndRefusesTheNext) {
   std::condition_variable cv;
   bool go = false;
   std::atomic<int> done{0};
-  auto task = [&] {
+  auto task = [&]() -> std::function<void()> {
     std::unique_lock lock(m);
     cv.wait(lock, [&] { return go; });
     ++done;
+    return {};
   };
   pool.try_run(task);
   pool.try_run(task);
@@ -139,10 +140,42 @@ TEST(RequestPool, RunsUpToItsWorkersAndRefusesTheNext) {
   for (int i = 0; i < 200 && pool.busy() > 0; ++i) std::this_thread::sleep_for(10ms);
   EXPECT_EQ(done.load(), 2);
   EXPECT_EQ(pool.busy(), 0);
-  pool.try_run([&] { ++done; });  // room again
-  pool.stop();                    // lets it finish
+  pool.try_run([&]() -> std::function<void()> {  // room again
+    ++done;
+    return {};
+  });
+  pool.stop();  // lets it finish
   EXPECT_EQ(done.load(), 3);
-  EXPECT_EQ(kind_of([&] { pool.try_run([] {}); }), ErrorKind::busy);
+  EXPECT_EQ(kind_of([&] { pool.try_run([] { return std::function<void()>{}; }); }), ErrorKind::busy);
+}
+
+// A worker counts as idle before its answer is handed over: a client that sends its next request
+// on the answer is not refused as busy (a one-worker pool, the next request sent from within the
+// hand-over). Before, the worker stayed busy until its whole task returned, and on a loaded
+// machine a client's quick succession of requests met 503.
+TEST(RequestPool, AWorkerIsIdleBeforeItsAnswerIsHandedOver) {
+  RequestPool pool(1);
+  std::promise<int> busy_then;
+  std::promise<bool> next_taken;
+  std::atomic<int> ran{0};
+  pool.try_run([&]() -> std::function<void()> {
+    return [&] {
+      busy_then.set_value(pool.busy());
+      try {
+        pool.try_run([&] {
+          ++ran;
+          return std::function<void()>{};
+        });
+        next_taken.set_value(true);
+      } catch (const Error&) {
+        next_taken.set_value(false);
+      }
+    };
+  });
+  EXPECT_EQ(busy_then.get_future().get(), 0);
+  EXPECT_TRUE(next_taken.get_future().get());
+  pool.stop();  // lets the next one run
+  EXPECT_EQ(ran.load(), 1);
 }
 
 }  // namespace
