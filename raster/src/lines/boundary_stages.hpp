@@ -424,6 +424,11 @@ inline double cost_gap(const BoundaryGrid& b, int32_t a, int32_t o, Vec2 p) {
   return b.index.nearest_of(p, a).cost - b.index.nearest_of(p, o).cost;
 }
 
+// Whether p is one of `tripoints` (exactly: a line's end placed at it).
+inline bool at_tripoint(const std::vector<Tripoint>& tripoints, Vec2 p) {
+  return std::any_of(tripoints.begin(), tripoints.end(), [&](const Tripoint& t) { return t.p == p; });
+}
+
 // Whether a point found on the locus of a and o (a root of cost_gap) counts as one: no third owner
 // between them, and their costs within 1e3 ftol (the root finder's tolerance, with room for a
 // search along a coast's edge). Their nearest into ha and hb.

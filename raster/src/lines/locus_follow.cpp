@@ -21,8 +21,8 @@ double norm(Vec2 v) { return std::hypot(v.x, v.y); }
 struct Follower {
   const Level& L;
   LineResidual& residual;
-  mutable double step;  // CRS units (half a cell through the partial effect's bands); see narrowed
-  void narrowed(double s) const { step = s; }
+  // CRS units (half a cell through the partial effect's bands); a walk up a channel narrows it.
+  mutable double step;
   // How far across the level a step's root is looked for (CRS units; with Level::clearance, just
   // under the way to the nearer side).
   mutable double across = std::numeric_limits<double>::infinity();
@@ -223,7 +223,7 @@ struct Follower {
             return Stop::coast;
           }
         }
-        narrowed(std::min(full_step, 8.0 * room));
+        step = std::min(full_step, 8.0 * room);
         across = 0.9 * room;
       }
       if (const int k = near_target(c, 1.5 * step); k > -2) {
@@ -248,7 +248,7 @@ struct Follower {
       // In a channel (clearance given) a step that finds no locus or crosses land is tried again
       // shorter, down to half the way to the nearer side, before the coast is looked for.
       while (L.clearance && step > 0.5 * room && (!found || !L.metric->open_between(c, r))) {
-        narrowed(std::max(0.5 * room, 0.25 * step));
+        step = std::max(0.5 * room, 0.25 * step);
         found = next(c, dir, r);
       }
       if (!found) {

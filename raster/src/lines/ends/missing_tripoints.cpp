@@ -52,7 +52,7 @@ std::vector<LooseEnd> loose_ends(const BoundaryGrid& b, const std::vector<Tripoi
     for (const bool front : {true, false}) {
       const Vec2 p = front ? line.vertices.front().p : line.vertices.back().p;
       if (on_centre_frame(b.g, p) || outside_frame(b.g, p)) continue;
-      if (std::any_of(tripoints.begin(), tripoints.end(), [&](const Tripoint& t) { return t.p == p; })) continue;
+      if (at_tripoint(tripoints, p)) continue;
       LooseEnd e{line.owner_a, line.owner_b, p};
       e.line = l;
       e.front = front;

@@ -10,6 +10,7 @@
 #include <array>
 #include <cmath>
 #include <limits>
+#include <memory>
 #include <vector>
 
 #include "lines/boundary_stages.hpp"
@@ -56,9 +57,7 @@ bool carry_back(const BoundaryGrid& b, const Beyond& beyond, const std::vector<T
   if (on_centre_frame(b.g, end)) return false;
   const int32_t oa = line.owner_a, ob = line.owner_b;
   auto outside = [&](Vec2 p) { return std::max(beyond.of(p, oa), beyond.of(p, ob)) > b.ftol; };
-  const bool at_tripoint =
-      std::any_of(tripoints.begin(), tripoints.end(), [&](const Tripoint& t) { return t.p == end; });
-  if (at_tripoint && !outside(end)) return false;
+  if (at_tripoint(tripoints, end) && !outside(end)) return false;
   auto f = [&](Vec2 p) { return std::array<double, 2>{beyond.of(p, oa), beyond.of(p, ob)}; };
   Vec2 j;
   if (!solve2(f, end, b.g.res, b.ftol, j)) return false;
@@ -97,9 +96,7 @@ void end_at_owned_edge(const BoundaryGrid& b, double max_distance, const std::ve
   for (const BoundaryLine& line : lines)
     if (!line.closed && !line.vertices.empty())
       for (const Vec2 p : {line.vertices.front().p, line.vertices.back().p})
-        if (!on_centre_frame(b.g, p) &&
-            std::none_of(tripoints.begin(), tripoints.end(), [&](const Tripoint& t) { return t.p == p; }))
-          open.push_back(p);
+        if (!on_centre_frame(b.g, p) && !at_tripoint(tripoints, p)) open.push_back(p);
   std::sort(open.begin(), open.end(), [](Vec2 u, Vec2 v) { return u.x < v.x || (u.x == v.x && u.y < v.y); });
   auto crowded = [&](Vec2 p) {
     const double r = 2.0 * b.g.res;
@@ -241,9 +238,7 @@ void end_at_barriers(const BoundaryGrid& b, const std::vector<Tripoint>& tripoin
     for (int end = 0; end < 2; ++end) {
       if (end == 1) std::reverse(line.vertices.begin(), line.vertices.end());
       const Vec2 p = line.vertices.back().p;
-      const bool at_tripoint =
-          std::any_of(tripoints.begin(), tripoints.end(), [&](const Tripoint& t) { return t.p == p; });
-      if (!on_centre_frame(b.g, p) && !at_tripoint && onto_barrier(b, line)) {
+      if (!on_centre_frame(b.g, p) && !at_tripoint(tripoints, p) && onto_barrier(b, line)) {
         // A junction behind the end is another stretch's: the line there goes on where its cells
         // do not show it (round an islet in a channel narrower than a cell). It is followed on
         // along the locus; the junction is kept only where the follower does not reach a coast.
@@ -353,9 +348,8 @@ void join_parted_ends(const BoundaryGrid& b, const std::vector<Tripoint>& tripoi
     if (l.closed || l.vertices.empty()) continue;
     for (const bool back : {false, true}) {
       const BoundaryVertex& v = back ? l.vertices.back() : l.vertices.front();
-      const bool at_tripoint =
-          std::any_of(tripoints.begin(), tripoints.end(), [&](const Tripoint& t) { return t.p == v.p; });
-      if (!v.on_barrier && !at_tripoint && !on_centre_frame(b.g, v.p)) ends.push_back(End{n, back, v.p});
+      if (!v.on_barrier && !at_tripoint(tripoints, v.p) && !on_centre_frame(b.g, v.p))
+        ends.push_back(End{n, back, v.p});
     }
   }
   // Pairs of the same two owners within four cells, the way between them open, and the locus
@@ -425,8 +419,19 @@ locus_follow::Level narrow_level(const BoundaryGrid& b, int32_t oa, int32_t ob, 
   // along a land border (two states' polygons metres apart, as the western Baltic's are on
   // Usedom and at the head of the Flensburg Fjord) is walked up it, to where the two coasts
   // meet or out at its other end.
-  level.clearance = [&b, oa, ob, per](Vec2 p) {
-    return std::min(b.index.nearest_of(p, oa).distance, b.index.nearest_of(p, ob).distance) / per;
+  // (The walk asks both at the same point: the two owners' hits there are measured once.)
+  struct Near {
+    Vec2 p{std::numeric_limits<double>::quiet_NaN(), 0.0};
+    OwnerIndex::Hit a, b;
+  };
+  auto near = std::make_shared<Near>();
+  auto hits = [&b, oa, ob, near](Vec2 p) -> const Near& {
+    if (!(near->p == p)) *near = Near{p, b.index.nearest_of(p, oa), b.index.nearest_of(p, ob)};
+    return *near;
+  };
+  level.clearance = [hits, per](Vec2 p) {
+    const Near& n = hits(p);
+    return std::min(n.a.distance, n.b.distance) / per;
   };
   level.meet = 1e-4 * b.g.res;
   // Where the two sides meet: the crossing X of their nearest coast edges, or of one with the
@@ -434,9 +439,9 @@ locus_follow::Level narrow_level(const BoundaryGrid& b, int32_t oa, int32_t ob, 
   // other's edge and their land overlaps beyond), within two cells, ahead; the locus runs
   // straight there (the two edges' bisector) where the nearest sites halfway are still those
   // edges or their neighbours.
-  level.meeting = [&b, oa, ob](Vec2 p, Vec2& at) {
+  level.meeting = [&b, oa, ob, hits](Vec2 p, Vec2& at) {
     const std::vector<Site>& sites = b.index.metric().seeds().sites();
-    const int32_t sa = b.index.nearest_of(p, oa).site, sb = b.index.nearest_of(p, ob).site;
+    const int32_t sa = hits(p).a.site, sb = hits(p).b.site;
     if (sa == kNoSite || sb == kNoSite) return false;
     // The site and its neighbours along the same feature's edges.
     auto near_of = [&](int32_t s) {
@@ -486,8 +491,7 @@ void follow_open_ends(const BoundaryGrid& b, double max_distance, const std::vec
   // walk does not know: it is not taken there.)
   if (b.index.metric().straight() || std::isfinite(max_distance) || !std::isfinite(b.index.cost_slope())) return;
   auto open = [&](const BoundaryVertex& v) {
-    return !v.on_barrier && !on_centre_frame(b.g, v.p) && !outside_frame(b.g, v.p) &&
-           std::none_of(tripoints.begin(), tripoints.end(), [&](const Tripoint& t) { return t.p == v.p; });
+    return !v.on_barrier && !on_centre_frame(b.g, v.p) && !outside_frame(b.g, v.p) && !at_tripoint(tripoints, v.p);
   };
   // The open ends, by line and position (a line's ends move to another line when it is joined).
   struct End {
@@ -573,7 +577,6 @@ void follow_open_ends(const BoundaryGrid& b, double max_distance, const std::vec
       } else {
         BoundaryLine& o = lines[m];
         line.vertices.insert(line.vertices.end(), o.vertices.rbegin(), o.vertices.rend());
-        o.vertices.clear();
         merged_into[m] = n;
       }
       ++stats.ends_followed;
@@ -581,8 +584,8 @@ void follow_open_ends(const BoundaryGrid& b, double max_distance, const std::vec
     }
   }
   std::vector<BoundaryLine> kept;
-  for (BoundaryLine& l : lines)
-    if (!l.vertices.empty()) kept.push_back(std::move(l));
+  for (size_t n = 0; n < lines.size(); ++n)
+    if (merged_into[n] == n) kept.push_back(std::move(lines[n]));
   lines = std::move(kept);
 }
 
