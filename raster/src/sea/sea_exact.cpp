@@ -40,35 +40,7 @@ using namespace ::rv::sea;
 // The side of a band of rows and of its blocks, in cells.
 constexpr int64_t kBlock = 8;
 
-// The cells of row r of the window where the engines hold them (on the ellipsoid the row is one
-// parallel, projected as one: GeodesicFrame::forward_row).
-std::vector<Spot> row_spots(const Prepared& p, const GridSpec& grid, const Window& window, int64_t r) {
-  std::vector<Spot> spots(static_cast<size_t>(window.width));
-  if (!p.geodesic) {
-    for (int64_t c = 0; c < window.width; ++c)
-      spots[static_cast<size_t>(c)] = p.cell(grid, window.col0 + c, window.row0 + r);
-    return spots;
-  }
-  if (p.geolocator) {  // a projected grid's row, located as one batch
-    std::vector<double> x(static_cast<size_t>(window.width)), y(x.size(), grid.centre_y(window.row0 + r));
-    std::vector<double> lon(x.size()), lat(x.size());
-    for (int64_t c = 0; c < window.width; ++c) x[static_cast<size_t>(c)] = grid.centre_x(window.col0 + c);
-    p.geolocator->to_lonlat(x.data(), y.data(), lon.data(), lat.data(), x.size());
-    for (size_t c = 0; c < x.size(); ++c) {
-      const Vec2 ll{lon[c], lat[c]};
-      spots[c] = Spot{p.vis.frame()->forward(ll), ll};
-    }
-    return spots;
-  }
-  std::vector<Vec2> plane(static_cast<size_t>(window.width));
-  const double lat = grid.centre_y(window.row0 + r);
-  p.vis.frame()->forward_row(lat, grid.centre_x(window.col0), grid.res, window.width, plane.data());
-  for (int64_t c = 0; c < window.width; ++c)
-    spots[static_cast<size_t>(c)] = Spot{plane[static_cast<size_t>(c)], Vec2{grid.centre_x(window.col0 + c), lat}};
-  return spots;
-}
-
-// The ground under each cell of a row (row_spots()) where it is `unknown` (the others are those
+// The ground under each cell of a row (Prepared::row_cells()) where it is `unknown` (the others are those
 // of blocks answered at once: land or open sea).
 void fill_grounds(const Prepared& p, const std::vector<Spot>& spots, Visibility::Ground* grounds,
                   Visibility::Ground unknown) {
@@ -186,7 +158,7 @@ SeaField compute_sea(const SeedSet& seeds, const Barriers& barriers, const GridS
     CellWorker& w = cell_workers[static_cast<size_t>(worker)];
     const int64_t r0 = band * kBlock, r1 = std::min(r0 + kBlock, window.height);
     std::vector<std::vector<Spot>> spots;
-    for (int64_t r = r0; r < r1; ++r) spots.push_back(row_spots(p, grid, window, r));
+    for (int64_t r = r0; r < r1; ++r) spots.push_back(p.row_cells(grid, window, r));
     constexpr auto kUnknown = static_cast<Visibility::Ground>(-1);
     std::vector<Visibility::Ground> grounds(static_cast<size_t>((r1 - r0) * window.width), kUnknown);
     std::vector<uint8_t> answered(grounds.size(), 0);

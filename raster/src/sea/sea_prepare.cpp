@@ -216,6 +216,32 @@ void check_seeds(Prepared& p, const SeedSet& seeds) {
   }
 }
 
+std::vector<Spot> Prepared::row_cells(const GridSpec& grid, const Window& window, int64_t r) const {
+  std::vector<Spot> spots(static_cast<size_t>(window.width));
+  if (!geodesic) {
+    for (int64_t c = 0; c < window.width; ++c)
+      spots[static_cast<size_t>(c)] = Spot{Vec2{grid.local_x(window.col0 + c), grid.local_y(window.row0 + r)}, Vec2{}};
+    return spots;
+  }
+  if (geolocator) {  // a projected grid's row, located as one batch
+    std::vector<double> x(static_cast<size_t>(window.width)), y(x.size(), grid.centre_y(window.row0 + r));
+    std::vector<double> lon(x.size()), lat(x.size());
+    for (int64_t c = 0; c < window.width; ++c) x[static_cast<size_t>(c)] = grid.centre_x(window.col0 + c);
+    geolocator->to_lonlat(x.data(), y.data(), lon.data(), lat.data(), x.size());
+    for (size_t c = 0; c < x.size(); ++c) {
+      const Vec2 ll{lon[c], lat[c]};
+      spots[c] = Spot{vis.frame()->forward(ll), ll};
+    }
+    return spots;
+  }
+  std::vector<Vec2> plane(static_cast<size_t>(window.width));
+  const double lat = grid.centre_y(window.row0 + r);
+  vis.frame()->forward_row(lat, grid.centre_x(window.col0), grid.res, window.width, plane.data());
+  for (int64_t c = 0; c < window.width; ++c)
+    spots[static_cast<size_t>(c)] = Spot{plane[static_cast<size_t>(c)], Vec2{grid.centre_x(window.col0 + c), lat}};
+  return spots;
+}
+
 SeaField empty_field(const Prepared& p, const GridSpec& grid, const Window& window, const MetricSpec& metric) {
   SeaField out;
   out.field.site = Raster<int32_t>(grid, window, kNoSite);

@@ -49,10 +49,10 @@ class GeodesicFrame {
   Vec2 forward(Vec2 lonlat) const;
   Vec2 reverse(Vec2 plane) const;
   // forward() of n points along a parallel, (lon0 + i * dlon, lat), i in [0, n): a row of cells.
-  // Exact at every 8th point (or closer, so that they lie about 1 km apart at most) and near both
-  // ends; between, cubic interpolation of the exact ones (the projection is smooth: within 1e-8 m
-  // of forward(), tested on the western Baltic's rows, far below GeographicLib's own error).
-  // Up to an eighth of the cost.
+  // Exact at points about 4 km (at most 64 cells) apart and near both ends; between, quintic
+  // interpolation of the exact ones (the projection is smooth: within 1e-8 m of forward(), tested
+  // on the western Baltic's rows and on a frame 50 by 30 degrees, below GeographicLib's own
+  // error). Fine rows cost a small fraction of forward() per point.
   void forward_row(double lat, double lon0, double dlon, int64_t n, Vec2* out) const;
   // The largest distance (metres) between a geodesic's image and the straight line through any
   // two of its points, over the box, as the predicate allows for it.
