@@ -6,6 +6,8 @@
 
 #include <algorithm>
 #include <array>
+#include <atomic>
+#include <bit>
 #include <cmath>
 #include <vector>
 
@@ -30,6 +32,31 @@ constexpr double kSafety = 8.0;
 constexpr int kSamples = 48;  // points along each measured geodesic
 constexpr int kSide = 5;      // box points a side: corners, edges and inside
 
+// Frames are told apart in the memos below by a number never given twice (an address may be).
+std::atomic<uint64_t> next_frame_id{1};
+
+// Each thread's memo of the exact orientation test's inverse projections and azimuths: the same
+// points come back test after test (a coast edge's ends, a line's end tested against every edge
+// near it), and each answer costs GeographicLib iterations. Direct-mapped on the points' bits; an
+// answer is GeographicLib's own, so a memo changes no result. 96 KB a thread.
+constexpr size_t kMemo = 1024;
+struct ReverseMemo {
+  uint64_t frame = 0, x = 0, y = 0;
+  Vec2 ll;
+};
+struct AzimuthMemo {
+  uint64_t frame = 0, ax = 0, ay = 0, bx = 0, by = 0;
+  double azimuth = 0.0;
+};
+thread_local std::array<ReverseMemo, kMemo> reverse_memo;
+thread_local std::array<AzimuthMemo, kMemo> azimuth_memo;
+
+uint64_t bits(double v) { return std::bit_cast<uint64_t>(v); }
+size_t memo_slot(uint64_t a, uint64_t b) {
+  const uint64_t h = (a * 0x9E3779B97F4A7C15ULL) ^ ((b + 0x632BE59BD9B4E019ULL) * 0xC2B2AE3D27D4EB4FULL);
+  return static_cast<size_t>((h ^ (h >> 29)) % kMemo);
+}
+
 }  // namespace
 
 GeodesicFrame::GeodesicFrame(const MetricSpec& metric, double lon_min, double lat_min, double lon_max, double lat_max) {
@@ -38,6 +65,7 @@ GeodesicFrame::GeodesicFrame(const MetricSpec& metric, double lon_min, double la
   if (!(std::isfinite(lon_min) && std::isfinite(lat_min) && std::isfinite(lon_max) && std::isfinite(lat_max)) ||
       lon_min > lon_max || lat_min > lat_max || lat_min < -90.0 || lat_max > 90.0)
     throw Error(ErrorKind::invalid_argument, "a geodesic frame needs a box of longitudes and latitudes");
+  id_ = next_frame_id.fetch_add(1, std::memory_order_relaxed);
   impl_ = std::make_unique<Impl>(metric.semi_major, metric.flattening, 0.5 * (lon_min + lon_max),
                                  0.5 * (lat_min + lat_max));
   const Impl& m = *impl_;
@@ -179,10 +207,23 @@ int GeodesicFrame::orient(const Vec2& a, const Vec2& b, const Vec2& c) const {
 
 int GeodesicFrame::orient_exact(const Vec2& a, const Vec2& b, const Vec2& c) const {
   exact_tests_.fetch_add(1, std::memory_order_relaxed);
-  const Vec2 pa = reverse(a), pb = reverse(b), pc = reverse(c);
-  double azi_b, azi_c, back;
-  impl_->earth.Inverse(pa.y, pa.x, pb.y, pb.x, azi_b, back);
-  impl_->earth.Inverse(pa.y, pa.x, pc.y, pc.x, azi_c, back);
+  auto located = [&](const Vec2& p) {
+    ReverseMemo& m = reverse_memo[memo_slot(bits(p.x), bits(p.y))];
+    if (m.frame != id_ || m.x != bits(p.x) || m.y != bits(p.y)) m = ReverseMemo{id_, bits(p.x), bits(p.y), reverse(p)};
+    return m.ll;
+  };
+  const Vec2 pa = located(a);
+  auto azimuth = [&](const Vec2& q) {
+    AzimuthMemo& m = azimuth_memo[memo_slot(bits(a.x) ^ (bits(q.y) << 1), bits(a.y) ^ (bits(q.x) << 1))];
+    if (m.frame != id_ || m.ax != bits(a.x) || m.ay != bits(a.y) || m.bx != bits(q.x) || m.by != bits(q.y)) {
+      const Vec2 pq = located(q);
+      double azi, back;
+      impl_->earth.Inverse(pa.y, pa.x, pq.y, pq.x, azi, back);
+      m = AzimuthMemo{id_, bits(a.x), bits(a.y), bits(q.x), bits(q.y), azi};
+    }
+    return m.azimuth;
+  };
+  const double azi_b = azimuth(b), azi_c = azimuth(c);
   // Azimuths turn clockwise: c is left of the way to b when its azimuth is smaller, by less than
   // a half-turn (the sine's sign, which also reads a point behind a correctly).
   const double s = std::sin((azi_c - azi_b) * (M_PI / 180.0));

@@ -9,10 +9,12 @@
 #include <GeographicLib/Geodesic.hpp>
 #include <GeographicLib/GeodesicLine.hpp>
 
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <map>
 #include <random>
+#include <thread>
 #include <vector>
 
 #include "geodesic_oracle.hpp"
@@ -139,6 +141,63 @@ TEST(GeodesicFrame, OrientationIsTheGeodesicOneDownToATenthOfAMillimetre) {
   EXPECT_EQ(frame->orient(a, b, a), 0);
   EXPECT_EQ(frame->orient(a, b, b), 0);
   EXPECT_EQ(frame->orient(a, a, b), 0);
+}
+
+// The exact test remembers, per thread, the points it located and the azimuths it measured;
+// frames are told apart there though they share plane coordinates, and a frame made where a
+// freed one lay (often the same address) does not inherit its memory.
+TEST(GeodesicFrame, TheExactTestsMemoryTellsFramesApart) {
+  // Triples of plane points, the third on the straight line through the other two: each
+  // frame's answer is the side its geodesic image bends to there (by millimetres), read by the
+  // exact test, and depends on which points of the earth the plane points are in that frame.
+  std::mt19937_64 rng(66);
+  std::uniform_real_distribution<double> x(-150e3, 150e3), y(-100e3, 100e3), t(0.1, 0.9);
+  std::vector<std::array<Vec2, 3>> triples;
+  for (int i = 0; i < 300; ++i) {
+    const Vec2 a{x(rng), y(rng)}, b{x(rng), y(rng)};
+    const double u = t(rng);
+    triples.push_back({a, b, Vec2{a.x + u * (b.x - a.x), a.y + u * (b.y - a.y)}});
+  }
+  // Frames over the western Baltic's box on three ellipsoids (plane points are other places on
+  // each, and a sphere's geodesics are straight), and one over a shifted box.
+  struct Kind {
+    double flattening, shift;
+  };
+  const Kind kinds[] = {{kWgs84Flattening, 0.0}, {0.0, 0.0}, {1.0 / 150.0, 0.0}, {kWgs84Flattening, 0.4}};
+  auto make = [&](size_t k) {
+    MetricSpec m = geodesic_metric();
+    m.flattening = kinds[k].flattening;
+    const double d = kinds[k].shift;
+    return std::make_unique<GeodesicFrame>(m, 9.0 + d, 53.8 + d, 15.5 + d, 56.2 + d);
+  };
+  // Each frame's answers from a thread that never saw another frame.
+  std::vector<std::vector<int>> want(std::size(kinds));
+  for (size_t k = 0; k < want.size(); ++k)
+    std::thread([&] {
+      const auto f = make(k);
+      for (const auto& q : triples) want[k].push_back(f->orient(q[0], q[1], q[2]));
+    }).join();
+  int telling = 0;  // answers a frame reading another's memory would get wrong
+  for (size_t k = 1; k < want.size(); ++k)
+    for (size_t i = 0; i < triples.size(); ++i) telling += want[k][i] != want[0][i] ? 1 : 0;
+  EXPECT_GT(telling, 30);
+  // One thread, the frames interleaved, twice over.
+  std::vector<std::unique_ptr<GeodesicFrame>> frames;
+  for (size_t k = 0; k < want.size(); ++k) frames.push_back(make(k));
+  for (int round = 0; round < 2; ++round)
+    for (size_t i = 0; i < triples.size(); ++i)
+      for (size_t k = 0; k < frames.size(); ++k)
+        ASSERT_EQ(frames[k]->orient(triples[i][0], triples[i][1], triples[i][2]), want[k][i]) << k << " " << i;
+  EXPECT_GE(frames[0]->exact_tests(), static_cast<int64_t>(triples.size()));  // (the exact test's)
+  // Each frame made again where the western Baltic's was just freed.
+  for (size_t k = 1; k < want.size(); ++k) {
+    auto f = make(0);
+    for (const auto& q : triples) (void)f->orient(q[0], q[1], q[2]);
+    f.reset();
+    f = make(k);
+    for (size_t i = 0; i < triples.size(); ++i)
+      ASSERT_EQ(f->orient(triples[i][0], triples[i][1], triples[i][2]), want[k][i]) << k << " " << i;
+  }
 }
 
 // A 4.5-degree clip edge (9.0 E to 13.5 E along 53.8 N, as the western Baltic's) of a land

@@ -77,6 +77,7 @@ class GeodesicFrame {
   double deviation_ = 0.0;
   double max_scale_ = 1.0;
   double reach_ = 1.0;  // half the box's width in the plane (metres, at least 1)
+  uint64_t id_ = 0;     // this frame's number in the exact test's memos
   mutable std::atomic<int64_t> exact_tests_{0};
 };
 
