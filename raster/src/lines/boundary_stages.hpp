@@ -380,8 +380,9 @@ void join_parted_ends(const BoundaryGrid& b, const std::vector<Tripoint>& tripoi
 // sliver of sea metres wide between two owners' land is walked up it, to where the two coasts
 // meet (a ten-thousandth of a cell apart, or their crossing reached straight along the two edges'
 // bisector). Not run where a maximum distance (`max_distance` finite) or a reach ends the owned
-// area: lines end on its edge there.
-void follow_open_ends(const BoundaryGrid& b, double max_distance, const std::vector<Tripoint>& tripoints,
+// area: lines end on its edge there. `per`: metric units per CRS unit, the larger of the two
+// axes' in the grid's middle (a step in CRS units from a length then errs short).
+void follow_open_ends(const BoundaryGrid& b, double max_distance, double per, const std::vector<Tripoint>& tripoints,
                       std::vector<BoundaryLine>& lines, BoundaryStats& stats);
 // By sea, a crossing linked to none (`lone`, lone_crossings) where the line crosses a channel
 // narrower than the squares around it (a barrier parts every other pair of their corners): made a

@@ -287,10 +287,11 @@ struct BoundaryRun {
     result.lone_crossings = lone_crossings(x, links);
     cross_channels(b, result.lone_crossings, result.lines, result.stats);
     cross_hidden_channels(b, max_distance, t.tripoints, result.lines, result.stats);
-    follow_open_ends(b, max_distance, t.tripoints, result.lines, result.stats);
-    const Vec2 middle = line_tools::centre(b.g, b.W / 2, b.H / 2);
-    const CrsScale scale(b.index.metric(), middle, b.g.res);
-    const LineRefiner refiner(b.index, line_tolerance, b.ftol, scale, std::max(scale.at0.x, scale.at0.y));
+    // Metric units per CRS unit in the grid's middle, the larger of the two axes'.
+    const CrsScale scale(b.index.metric(), line_tools::centre(b.g, b.W / 2, b.H / 2), b.g.res);
+    const double per = std::max(scale.at0.x, scale.at0.y);
+    follow_open_ends(b, max_distance, per, t.tripoints, result.lines, result.stats);
+    const LineRefiner refiner(b.index, line_tolerance, b.ftol, scale, per);
     finish_lines(result.lines, &refiner, tol, result.stats, b.threads, reuse, record);
     for (const Tripoint& tp : t.tripoints) {
       const bool land = tp.distances[0] == 0.0 || tp.distances[1] == 0.0 || tp.distances[2] == 0.0;

@@ -216,6 +216,16 @@ constexpr int kPerCell = 8, kCells = 8;
 // The back end of `line` followed on along its locus to the coast (see end_at_barriers), in steps
 // of an eighth of a cell over at most eight cells; true (the points walked appended, the last on
 // the barrier) where it gets there.
+// Where the lines p + s d and q + t e meet: s and t, false where they are parallel.
+bool lines_meet(Vec2 p, Vec2 d, Vec2 q, Vec2 e, double& s, double& t) {
+  const double det = d.x * -e.y - d.y * -e.x;
+  if (!(std::abs(det) > 0.0)) return false;
+  const Vec2 r{q.x - p.x, q.y - p.y};
+  s = (r.x * -e.y - r.y * -e.x) / det;
+  t = (d.x * r.y - d.y * r.x) / det;
+  return true;
+}
+
 bool follow_to_barrier(const BoundaryGrid& b, BoundaryLine& line) {
   std::vector<BoundaryVertex>& v = line.vertices;
   if (v.size() < 2) return false;
@@ -276,11 +286,8 @@ void part_where_turning_on_land(const BoundaryGrid& b, std::vector<BoundaryLine>
       if (u.on_barrier || w.on_barrier || (u.site_a == w.site_a && u.site_b == w.site_b)) continue;
       // The two stretches' tangents (from the neighbouring vertices) meet at the turn.
       const Vec2 d1{u.p.x - v[i - 1].p.x, u.p.y - v[i - 1].p.y}, d2{w.p.x - v[i + 2].p.x, w.p.y - v[i + 2].p.y};
-      const double det = d1.x * -d2.y - d1.y * -d2.x;
-      if (!(std::abs(det) > 0.0)) continue;
-      const Vec2 r{w.p.x - u.p.x, w.p.y - u.p.y};
-      const double s = (r.x * -d2.y - r.y * -d2.x) / det, t = (d1.x * r.y - d1.y * r.x) / det;
-      if (!(s > 0.0) || !(t > 0.0)) continue;
+      double s, t;
+      if (!lines_meet(u.p, d1, w.p, d2, s, t) || !(s > 0.0) || !(t > 0.0)) continue;
       const Vec2 turn{u.p.x + s * d1.x, u.p.y + s * d1.y};
       const double reach =
           1.5 * std::max(std::hypot(turn.x - u.p.x, turn.y - u.p.y), std::hypot(turn.x - w.p.x, turn.y - w.p.y));
@@ -462,11 +469,8 @@ locus_follow::Level narrow_level(const BoundaryGrid& b, int32_t oa, int32_t ob, 
         if (i == kNoSite || j == kNoSite || (i != sa && j != sb)) continue;
         const Site &u = sites[static_cast<size_t>(i)], &w = sites[static_cast<size_t>(j)];
         const Vec2 du{u.b.x - u.a.x, u.b.y - u.a.y}, dw{w.b.x - w.a.x, w.b.y - w.a.y};
-        const double det = du.x * dw.y - du.y * dw.x;
-        if (!(std::abs(det) > 0.0)) continue;
-        const Vec2 r{w.a.x - u.a.x, w.a.y - u.a.y};
-        const double t = (r.x * dw.y - r.y * dw.x) / det, s = (r.x * du.y - r.y * du.x) / det;
-        if (!(t >= 0.0 && t <= 1.0 && s >= 0.0 && s <= 1.0)) continue;
+        double t, s;
+        if (!lines_meet(u.a, du, w.a, dw, t, s) || !(t >= 0.0 && t <= 1.0 && s >= 0.0 && s <= 1.0)) continue;
         const Vec2 x{u.a.x + t * du.x, u.a.y + t * du.y};
         const double d = std::hypot(x.x - p.x, x.y - p.y);
         if (!(d <= best)) continue;
@@ -485,7 +489,7 @@ locus_follow::Level narrow_level(const BoundaryGrid& b, int32_t oa, int32_t ob, 
 
 }  // namespace
 
-void follow_open_ends(const BoundaryGrid& b, double max_distance, const std::vector<Tripoint>& tripoints,
+void follow_open_ends(const BoundaryGrid& b, double max_distance, double per, const std::vector<Tripoint>& tripoints,
                       std::vector<BoundaryLine>& lines, BoundaryStats& stats) {
   // (Where a maximum distance or a reach ends the owned area, lines end on its edge, which the
   // walk does not know: it is not taken there.)
@@ -506,10 +510,6 @@ void follow_open_ends(const BoundaryGrid& b, double max_distance, const std::vec
     if (open(l.vertices.back())) ends.push_back(End{n, l.vertices.back().p});
   }
   if (ends.empty()) return;
-  // Metric units per CRS unit, the larger of the two axes' in the grid's middle (a step in CRS
-  // units from a length then errs short).
-  const CrsScale scale(b.index.metric(), line_tools::centre(b.g, b.W / 2, b.H / 2), b.g.res);
-  const double per = std::max(scale.at0.x, scale.at0.y);
   // (Steps shrink in a sliver: up to a few thousand of them to go up one several kilometres long.)
   constexpr int64_t kMaxNarrowSteps = 8192;
   std::vector<size_t> merged_into(lines.size());
