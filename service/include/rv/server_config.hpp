@@ -18,7 +18,7 @@
 //                 "max_vertices": 100000000, "max_input_bytes": 2147483648,
 //                 "preview_max_vertices": 2000000,
 //                 "jobs_per_principal": 0, "cells_per_principal_per_hour": 0,
-//                 "retained_free_bytes": 1073741824 },
+//                 "retained_free_bytes": 1073741824, "min_free_disk_bytes": 536870912 },
 //     "auth": { "principals": [], "token_file": "", "tokens": [], "jwt": {...} },
 //     "sessions": { "max_sessions": 16, "max_per_principal": 0, "max_memory_bytes": 0,
 //                   "session_memory_bytes": 0, "undo_depth": 50, "idle_expiry_s": 3600,
@@ -215,6 +215,11 @@ struct ServerConfig {
   // threads: given back and faulted in again every step, they cost more than the step's own work.
   // Outside the memory account. 0 = the C library's adaptive defaults; see AllocatorSettings.
   int64_t retained_free_bytes = int64_t{1} << 30;
+  // The free space data_dir's file system must keep (limits.min_free_disk_bytes): below it the
+  // daemon takes no job to run (a submission is answered 503 with Retry-After, a daemon of a
+  // shared store claims nothing from the queue) and /health says "degraded", so that a job is not
+  // refused at the end of its work with "No space left on device". 0 = no floor.
+  int64_t min_free_disk_bytes = int64_t{512} << 20;
   AuthConfig auth;
   PrincipalLimits principal_limits;
   SessionsConfig sessions;

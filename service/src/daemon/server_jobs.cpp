@@ -2,8 +2,10 @@
 
 #include <malloc.h>
 
+#include <algorithm>
 #include <cmath>
 #include <fstream>
+#include <limits>
 #include <system_error>
 
 #include "runtime/server_util.hpp"
@@ -165,6 +167,38 @@ void JobManager::check_capacity() const {
                                      std::to_string(queue_.size()) + " jobs are waiting; retry later");
 }
 
+int64_t JobManager::disk_free_bytes() const {
+  std::error_code ec;
+  const std::filesystem::space_info space = std::filesystem::space(root_, ec);
+  if (ec || space.available == static_cast<std::uintmax_t>(-1)) return -1;
+  return static_cast<int64_t>(std::min<std::uintmax_t>(space.available, std::numeric_limits<int64_t>::max()));
+}
+
+bool JobManager::disk_low() const {
+  const int64_t floor = config_.min_free_disk_bytes;
+  if (floor <= 0) return false;
+  const int64_t free = disk_free_bytes();
+  const bool low = free >= 0 && free < floor;
+  // (Logged when it changes, whoever asked: a worker polling the shared queue, /health.)
+  if (disk_low_.exchange(low) != low)
+    log_event(std::string("{\"event\":\"") + (low ? "disk_low" : "disk_ok") +
+              "\",\"free_bytes\":" + std::to_string(free) + ",\"min_free_disk_bytes\":" + std::to_string(floor) + "}");
+  return low;
+}
+
+void JobManager::check_disk() const {
+  // Refused up front, with nothing written: a job let through would compute for its whole time
+  // and fail on its last write, and could fill the disk under the jobs that fit.
+  const int64_t floor = config_.min_free_disk_bytes;
+  if (floor <= 0) return;
+  const int64_t free = disk_free_bytes();
+  if (free < 0 || free >= floor) return;
+  disk_low();  // (logs the change)
+  throw Error(ErrorKind::busy, "the server's disk has " + std::to_string(free >> 20) +
+                                   " MiB free, less than it keeps free for running jobs (limits.min_free_disk_bytes, " +
+                                   std::to_string(floor >> 20) + " MiB); retry later");
+}
+
 void JobManager::check_job_count(const std::string& principal) const {
   const int limit = config_.principal_limits.jobs;
   if (limit <= 0) return;
@@ -287,6 +321,7 @@ JobRecord JobManager::submit(const std::string& id, Execution execution, const a
   std::lock_guard lock(mutex_);
   if (stopping_) throw Error(ErrorKind::busy, "the server is shutting down; resubmit the job later");
   check_capacity();
+  check_disk();
   const bool exempt = exempt_from_limits(who);
   if (!exempt) check_job_count(who.name);
   // A grid known up front is charged now (refused now when over the allowance); others when

@@ -106,6 +106,11 @@ class JobManager {
   std::string daemon_url(const std::string& name) const;
   // Whether the shared store answered this daemon's last heartbeat (always true without one).
   bool store_reachable() const { return store_reachable_.load(); }
+  // The bytes free to this daemon on the file system of its jobs' local directories (where every
+  // job writes its files, also before they go to a bucket); -1 when the system cannot say.
+  int64_t disk_free_bytes() const;
+  // Whether that is below limits.min_free_disk_bytes (false when unknown or without a floor).
+  bool disk_low() const;
 
   // Records the job as `who`'s, accepted, and queues it. Throws rv::Error(busy) when the queue is
   // full or the server is shutting down, QuotaExceeded (over_quota) when `who` has
@@ -270,6 +275,9 @@ class JobManager {
   std::string snapshot_base(const std::string& base, const std::string& id, const auth::Principal& who) const;
   // Throws rv::Error(busy) when the workers and the local queue are full. Call with mutex_ held.
   void check_capacity() const;
+  // Throws rv::Error(busy) when the jobs' file system has less free space than
+  // limits.min_free_disk_bytes.
+  void check_disk() const;
   // Throws QuotaExceeded when `principal` has limits.jobs_per_principal jobs queued or running.
   // Call with mutex_ held.
   void check_job_count(const std::string& principal) const;
@@ -291,6 +299,7 @@ class JobManager {
   std::filesystem::path root_;  // the jobs' local directories
   store::ObjectStore objects_;  // where the jobs' files are kept (root_ itself, but on a bucket)
   std::atomic<bool> store_reachable_{true};
+  mutable std::atomic<bool> disk_low_{false};  // as disk_low() last found it
   const ServerConfig& config_;
   JobRunner runner_;
   MemoryAccount& memory_;

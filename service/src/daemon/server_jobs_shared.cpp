@@ -56,7 +56,10 @@ JobRecord JobManager::submit_shared(const std::string& id, Execution execution, 
   {
     std::lock_guard lock(mutex_);
     if (stopping_) throw Error(ErrorKind::busy, "the server is shutting down; resubmit the job later");
-    if (here) check_capacity();
+    if (here) {
+      check_capacity();
+      check_disk();
+    }
   }
   store::QueueEntry entry;
   entry.max_attempts = config_.jobs.max_attempts;
@@ -124,6 +127,8 @@ bool JobManager::stored(const std::string& id) const {
 }
 
 std::optional<JobManager::Task> JobManager::claim_shared() {
+  // A daemon short of disk leaves the queue to the others (or to itself once space is freed).
+  if (disk_low()) return std::nullopt;
   std::optional<store::Claim> c;
   try {
     c = shared_->claim(holder_, config_.jobs.lease_s, now_rfc3339());

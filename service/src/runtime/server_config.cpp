@@ -207,7 +207,7 @@ ServerConfig parse_server_config(const json& doc) {
     check_keys(l, "limits",
                {"max_cells", "max_memory_bytes", "total_memory_bytes", "validate_max_cells", "max_features",
                 "max_vertices", "max_input_bytes", "preview_max_vertices", "jobs_per_principal",
-                "cells_per_principal_per_hour", "retained_free_bytes"});
+                "cells_per_principal_per_hour", "retained_free_bytes", "min_free_disk_bytes"});
     c.limits.max_cells = get_int(l, "limits", "max_cells", c.limits.max_cells, 1);
     c.limits.max_memory_bytes = get_int(l, "limits", "max_memory_bytes", c.limits.max_memory_bytes, 0);
     c.total_memory_bytes = get_int(l, "limits", "total_memory_bytes", c.total_memory_bytes, 0);
@@ -223,6 +223,7 @@ ServerConfig parse_server_config(const json& doc) {
     c.retained_free_bytes = get_int(l, "limits", "retained_free_bytes", c.retained_free_bytes, 0);
     if (c.retained_free_bytes > std::numeric_limits<int>::max())
       bad("limits.retained_free_bytes", "must be at most 2147483647 (the C library takes an int)");
+    c.min_free_disk_bytes = get_int(l, "limits", "min_free_disk_bytes", c.min_free_disk_bytes, 0);
   }
   if (doc.contains("auth")) parse_auth_config(doc.at("auth"), c.auth);
   if (doc.contains("sessions")) {

@@ -2,7 +2,7 @@
 """Crash safety of the daemon (issue 8): SIGKILL while a job runs and while it writes its
 results, and a full disk while writing; each time the store opens again, finished results are
 served byte for byte, the interrupted job is failed (never left "running"), and no partial file
-is ever served or left behind.
+is ever served or left behind. And below limits.min_free_disk_bytes no job is taken at all.
 
 Two daemons: `rvoronoi serve` itself (full disk), and rv_crash_daemon, the same server with a
 test-only hook that holds a job at a chosen stage (tests/service/daemon/crash_daemon.cpp), so that the
@@ -222,7 +222,8 @@ def full_disk(tmp):
             resource.setrlimit(resource.RLIMIT_FSIZE, (limit, limit))
 
     try:
-        d = Daemon([RVORONOI, "serve"], data, CONFIG, preexec_fn=preexec)
+        # (No floor of free space: this job must reach the full disk; disk_floor tests the floor.)
+        d = Daemon([RVORONOI, "serve"], data, {**CONFIG, "limits": {"min_free_disk_bytes": 0}}, preexec_fn=preexec)
         status, _, small = d.json("POST", "/processes/voronoi/execution", job_body(2000))
         check(status == 200, f"a small job fits: {status} {small}")
         status, h, problem = d.json("POST", "/processes/voronoi/execution",
@@ -255,10 +256,57 @@ def full_disk(tmp):
             subprocess.run(["umount", "-l", mount], check=False)
 
 
+def disk_floor(tmp):
+    """Below limits.min_free_disk_bytes the daemon takes no job (503, Retry-After, nothing written)
+    and /health says so; with the floor under the free space, the same job runs."""
+    t0 = time.time()
+    data = os.path.join(tmp, "floor")
+    os.makedirs(data)
+    fs = os.statvfs(data)
+    free = fs.f_bavail * fs.f_frsize
+    floor = free + (1 << 30)  # always above what is free, on any disk
+    d = Daemon([RVORONOI, "serve"], data, {**CONFIG, "limits": {"min_free_disk_bytes": floor}})
+    try:
+        status, _, health = d.json("GET", "/health")
+        disk = health.get("disk", {}) if isinstance(health, dict) else {}
+        check(status == 200 and health.get("status") == "degraded", f"/health with the disk low: {status} {health}")
+        check(disk.get("low") is True and disk.get("minFreeBytes") == floor, f"/health's disk: {disk}")
+        check(isinstance(disk.get("freeBytes"), int) and abs(disk["freeBytes"] - free) < (1 << 30),
+              f"/health's free bytes near statvfs's {free}: {disk}")
+        for prefer in ({}, {"Prefer": "respond-async"}):
+            status, h, problem = d.json("POST", "/processes/voronoi/execution", job_body(2000), prefer)
+            detail = problem.get("detail", "") if isinstance(problem, dict) else ""
+            check(status == 503 and h.get("content-type") == "application/problem+json",
+                  f"a job with the disk below the floor is refused 503 ({prefer}): {status} {problem}")
+            check("min_free_disk_bytes" in detail and "MiB free" in detail, f"the problem says why: {detail!r}")
+            check("retry-after" in h, f"the refusal says when to retry: {h}")
+            check(data not in detail, f"the problem names no server path: {detail!r}")
+        _, _, jobs = d.json("GET", "/jobs")
+        check(jobs.get("jobs") == [], f"no job recorded: {jobs}")
+        jobs_dir = os.path.join(data, "jobs")
+        left = os.listdir(jobs_dir) if os.path.isdir(jobs_dir) else []
+        check(left == [], f"nothing written for the refused jobs: {left}")
+        check(any('"event":"disk_low"' in line for line in d.log), "the daemon logs that its disk is low")
+    finally:
+        check(d.stop() == 0, "clean SIGTERM exit with the disk low")
+    # The same daemon with the floor at what a small disk still has: it computes again.
+    d = Daemon([RVORONOI, "serve"], data, {**CONFIG, "limits": {"min_free_disk_bytes": 1 << 20}})
+    try:
+        status, _, health = d.json("GET", "/health")
+        check(health.get("status") == "ok" and health.get("disk", {}).get("low") is False,
+              f"/health with the disk above the floor: {health}")
+        status, _, doc = d.json("POST", "/processes/voronoi/execution", job_body(2000))
+        check(status == 200, f"a job with the disk above the floor runs: {status} {doc}")
+    finally:
+        check(d.stop() == 0, "clean SIGTERM exit")
+    print(f"disk floor: ok ({time.time() - t0:.1f} s)", flush=True)
+
+
 def main():
     tmp = tempfile.mkdtemp(prefix="rv_crash_")
     try:
         kill_during_compute_and_write(tmp)
+        disk_floor(tmp)
         full_disk(tmp)
     finally:
         shutil.rmtree(tmp, ignore_errors=True)

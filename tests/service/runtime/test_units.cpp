@@ -150,6 +150,7 @@ TEST(Config, TheExampleFileHoldsTheDefaults) {
   EXPECT_EQ(e.limits.max_input_bytes, d.limits.max_input_bytes);
   EXPECT_EQ(e.http.max_connections, d.http.max_connections);
   EXPECT_EQ(e.retained_free_bytes, d.retained_free_bytes);
+  EXPECT_EQ(e.min_free_disk_bytes, d.min_free_disk_bytes);
   EXPECT_EQ(e.jobs.lease_s, d.jobs.lease_s);
   EXPECT_EQ(e.jobs.max_attempts, d.jobs.max_attempts);
   EXPECT_EQ(e.jobs.retry_backoff_s, d.jobs.retry_backoff_s);
@@ -193,6 +194,19 @@ TEST(Config, AllocatorSettingsFollowTheKeyUnlessTheEnvironmentSetsThem) {
   EXPECT_NE(message_of([] {
               rv::parse_server_config(json::parse(R"({"limits": {"retained_free_bytes": -1}})"));
             }).find("retained_free_bytes"),
+            std::string::npos);
+}
+
+// The floor of free disk space: 512 MiB unless set, 0 turns it off, a negative one is refused by name.
+TEST(Config, MinFreeDiskBytes) {
+  EXPECT_EQ(rv::ServerConfig{}.min_free_disk_bytes, int64_t{512} << 20);
+  EXPECT_EQ(rv::parse_server_config(json::parse(R"({"limits": {"min_free_disk_bytes": 0}})")).min_free_disk_bytes, 0);
+  EXPECT_EQ(
+      rv::parse_server_config(json::parse(R"({"limits": {"min_free_disk_bytes": 1073741824}})")).min_free_disk_bytes,
+      int64_t{1} << 30);
+  EXPECT_NE(message_of([] {
+              rv::parse_server_config(json::parse(R"({"limits": {"min_free_disk_bytes": -1}})"));
+            }).find("limits.min_free_disk_bytes"),
             std::string::npos);
 }
 

@@ -8,6 +8,9 @@ SQLite store, the one-daemon reference. The scenario, each step checked as it en
      successful, claimed by every daemon, its rasters and lines byte for byte the reference's,
      read from a daemon other than the one it was submitted to; no principal sees another's job;
      a damaged upload fails where it is claimed, its message naming seeds[0] as the client knows it;
+     then one daemon restarted with its disk below limits.min_free_disk_bytes: it claims none of
+     the queue's jobs (the other two run them), refuses a job to run on itself with 503, and its
+     /health says "degraded";
   2. kill -9 of the daemon running a job: the job's lease expires, another daemon runs it again
      (attempt 2), and its results equal the reference's; the killed daemon comes back with a fresh
      worker id; a daemon stopped by SIGTERM hands its running job back at once (not counted as an
@@ -348,6 +351,39 @@ def step_many_jobs(c, ref):
     return [job for job, _, _, _ in jobs]
 
 
+def step_disk_floor(c):
+    """A daemon whose disk is below limits.min_free_disk_bytes claims nothing from the shared queue
+    (the others run every job), refuses a job to run on itself with 503, and says so on /health;
+    restarted with the floor below its free space, it claims again."""
+    c.down.add(2)
+    c.daemons[2].stop()
+    fs = os.statvfs(c.tmp)
+    floor = fs.f_bavail * fs.f_frsize + (1 << 30)  # above what is free, on any disk
+    c.daemons[2] = c.start(2, {"min_free_disk_bytes": floor})
+    c.down.discard(2)
+    low = c.daemons[2]
+    st, _, health = low.json("GET", "/health")
+    check(st == 200 and health.get("status") == "degraded" and health.get("disk", {}).get("low") is True,
+          f"/health of the daemon short of disk: {st} {health}")
+    jobs = [submit(c.daemons[i % 2], USERS[i % 3], body(4000, outputs=("ownership",))) for i in range(6)]
+    # (Its workers keep polling the queue meanwhile: every poll is a chance to claim.)
+    docs = [wait_done(c.daemons[0], job) for job in jobs if job]
+    check(len(docs) == 6 and all(d["status"] == "successful" for d in docs),
+          f"the queue's jobs ran on the other daemons: {[d.get('message') for d in docs]}")
+    check(c.claims(2) == 0, f"the daemon short of disk claimed nothing: {c.claims(2)} claims")
+    check(any('"event":"disk_low"' in line for line in list(low.log)), "it logged that its disk is low")
+    st, h, doc = low.json("POST", "/processes/voronoi/execution", body(4000, outputs=("ownership",)),
+                          bearer("root"))
+    check(st == 503 and "retry-after" in h and "min_free_disk_bytes" in (doc or {}).get("detail", ""),
+          f"a synchronous job on the daemon short of disk: {st} {doc}")
+    c.down.add(2)
+    low.stop()
+    c.daemons[2] = c.start(2)
+    c.down.discard(2)
+    print(f"disk floor: 6 jobs done by d0 and d1 while d2 was short of disk; claims "
+          f"{[c.claims(i) for i in range(3)]}", flush=True)
+
+
 def step_kill(c, ref):
     b = body(slow(), outputs=("ownership",))
     job = submit(c.daemons[0], "alice", b)
@@ -664,6 +700,7 @@ def run_pass(tmp, ref, kind, jobs, full):
         planted = "ab" * 16
         storage.plant(planted)
         early = step_many_jobs(c, ref)
+        step_disk_floor(c)
         if full:
             step_kill(c, ref)
             step_store_outage(c, ref)
