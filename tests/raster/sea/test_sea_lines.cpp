@@ -1,7 +1,8 @@
 // Lines under the distance by sea: the metric by sea (rv/sea/sea_metric.hpp) gives each owner's
 // own distance by sea, cell for cell the reference's for that owner's seeds alone; boundaries
 // and tripoints placed with it lie on the closed forms round a wall (the hyperbola branch behind
-// its end, and a tripoint on it), and never cross a barrier; a tie region behind a vertex is the
+// its end, and a tripoint on it; the parabola of its end against a coast segment), and never
+// cross a barrier; a tie region behind a vertex is the
 // lower site's, its edge the line.
 #include <gtest/gtest.h>
 
@@ -373,6 +374,60 @@ TEST(SeaLines, TheHyperbolaBehindAWallsEndAndATripointOnIt) {
   EXPECT_TRUE(crosses_wall(s1, t.p, a.x, a.y, b.y)) << t.p.x << "," << t.p.y;  // on the hyperbola
   EXPECT_EQ(three.lines.lines.size(), 3u);
   EXPECT_EQ(three.ends_on_wall, 1);
+}
+
+// A barrier vertex against a segment: behind the wall's end A the first seed's path bends at A,
+// and where the second seed, a coast line y = 5 from x = 28 to 44, is nearest at the foot of a
+// perpendicular, the line is the parabola |s1 - A| + |x - A| = y - 5 (focus A, directrix
+// y = 5 + |s1 - A|). Every vertex of the line east of the wall lies on the locus of the closed
+// forms; enough of them lie on the parabola itself (s1 hidden, the foot inside the segment), and
+// those at the foot are on that parabola.
+TEST(SeaLines, TheParabolaOfAVertexAgainstASegment) {
+  const Vec2 a{20, 25}, b{20, 60}, s1{14.2, 31.7};
+  const double y0 = 5.0, x0 = 28.0, x1 = 44.0;
+  SeedSet s;
+  s.add_point(s.add_feature(s.owner_code("behind")), s1);
+  const std::vector<Vec2> coast{{x0, y0}, {x1, y0}};
+  s.add_polyline(s.add_feature(s.owner_code("coast")), coast);
+  Barriers walls;
+  walls.add_line(std::vector<Vec2>{a, b}, "wall");
+  const GridSpec g = test::grid_of(48, 48);
+  const SeaField field = compute_sea(s, walls, g, g.full_window());
+  const std::unique_ptr<SiteMetric> metric = make_sea_site_metric(s, walls, g);
+  const OwnerIndex index(*metric);
+  BoundaryOptions options;
+  options.line_tolerance = 1e-4;
+  const BoundaryResult lines = extract_boundaries(field.field, index, options);
+  auto to_coast = [&](Vec2 x) {  // east of the wall the whole coast is in view
+    const double t = std::clamp(x.x, x0, x1);
+    return dist(x, Vec2{t, y0});
+  };
+  const double k = dist(s1, a);
+  int64_t east = 0, on_parabola = 0;
+  double worst = 0.0;
+  for (const BoundaryLine& line : lines.lines)
+    for (const BoundaryVertex& v : line.vertices) {
+      const Vec2 x = v.p;
+      if (x.x <= a.x + 1e-9) continue;
+      ++east;
+      const double d1 = wall_path(s1, x, a, b), d2 = to_coast(x);
+      EXPECT_NEAR(d1, d2, 1e-9 * d2) << x.x << "," << x.y;
+      EXPECT_NEAR(v.distance, d2, 1e-9 * d2) << x.x << "," << x.y;
+      worst = std::max(worst, std::abs(d1 - d2));
+      if (crosses_wall(s1, x, a.x, a.y, b.y) && x.x > x0 && x.x < x1) {
+        ++on_parabola;
+        EXPECT_NEAR(k + dist(x, a), x.y - y0, 1e-9 * (x.y - y0)) << x.x << "," << x.y;
+      }
+    }
+  EXPECT_EQ(lines.stats.locus.unresolved, 0);
+  EXPECT_LE(lines.stats.locus.max_midpoint, 1e-4);
+  EXPECT_GT(east, 20);
+  EXPECT_GT(on_parabola, 10);
+  EXPECT_GT(lines.stats.locus.added, 0);  // the curve followed between cell edges
+  std::printf(
+      "a vertex against a segment: %lld line vertices east of the wall, %lld on the parabola, worst |d_a - "
+      "d_b| %.3g\n",
+      static_cast<long long>(east), static_cast<long long>(on_parabola), worst);
 }
 
 // The turning point where the line passes from the bisector of s1 and s2 to the hyperbola branch

@@ -1,7 +1,8 @@
 // Weights and reaches by sea (rv/sea/sea_field.hpp): a seed's cost is its path length by sea over
 // its weight, within its reach. Both engines, cell for cell, against closed forms round a wall
 // (where a heavier seed's path bends round the wall's end against a seed in view, the line is a
-// Cartesian oval), a reach that ends where the path by sea reaches it, and random archipelagos
+// Cartesian oval), a reach that ends where the path by sea reaches it, an island beyond its reach
+// that is no seed but still land, and random archipelagos
 // with weights and reaches; the lines' metric gives each owner's cheapest path, and boundaries
 // drawn with it lie on the oval.
 #include <gtest/gtest.h>
@@ -145,6 +146,61 @@ TEST(SeaWeights, AReachEndsWhereThePathBySeaReachesIt) {
   const WallCount three =
       expect_wall_closed_form({{{14.3, 26.6}, 2.5, 13.0}, {{36.2, 7.4}, 1.0, 30.0}, {{5.5, 44.5}, 0.8}}, a, b, g, 25.0);
   EXPECT_GT(three.changed, 50);
+}
+
+// An island that is a seed with a reach of 3 and also land: within its reach it owns the sea
+// round it; beyond, it is no seed but still land, so a port west of it reaches the sea east of it
+// only round its corners (|p - c1| + |c1 - c2| + |c2 - x| over the nearer pair of corners), never
+// in a straight line through it; its own cells are land. Both engines, every cell.
+TEST(SeaWeights, AnIslandOutOfItsReachIsNoSeedButStillLand) {
+  const double lo = 16.0, hi = 24.0, reach = 3.0;
+  const Vec2 port{4.0, 20.3};
+  const std::vector<Ring> square{{{lo, lo}, {hi, lo}, {hi, hi}, {lo, hi}}};
+  SeedSet s;
+  const int32_t island = s.add_feature(s.owner_code("island"));
+  s.add_polygon(island, square);
+  s.set_adjustment(island, 1.0, reach);
+  s.add_point(s.add_feature(s.owner_code("port")), port);
+  Barriers land;
+  land.add_polygon(square, "island");
+  const GridSpec g = test::grid_of(40, 40);
+  const SeaField f = test::engines_agree(s, land, g);
+  const int32_t port_site = static_cast<int32_t>(s.sites().size()) - 1;
+  int64_t inside = 0, near = 0, shadow = 0, detoured = 0;
+  for (int64_t r = 0; r < g.height; ++r)
+    for (int64_t c = 0; c < g.width; ++c) {
+      const Vec2 x = centre(g, c, r);
+      const int32_t site = f.field.site.at(c, r);
+      if (x.x > lo && x.x < hi && x.y > lo && x.y < hi) {
+        ++inside;
+        EXPECT_EQ(site, kNoSite) << c << "," << r;
+        continue;
+      }
+      const double to_island = std::hypot(std::max({lo - x.x, 0.0, x.x - hi}), std::max({lo - x.y, 0.0, x.y - hi}));
+      if (x.x > hi && x.y > lo && x.y < hi) {
+        // East of the island, facing it: the island's sea within its reach, else the port's round it.
+        if (to_island <= reach) {
+          ++near;
+          EXPECT_TRUE(site != kNoSite && s.site_feature(site) == island) << c << "," << r;
+          EXPECT_NEAR(f.field.distance.at(c, r), to_island, 1e-6) << c << "," << r;
+          continue;
+        }
+        ++shadow;
+        const double over_top = dist(port, {lo, hi}) + (hi - lo) + dist({hi, hi}, x);
+        const double under = dist(port, {lo, lo}) + (hi - lo) + dist({hi, lo}, x);
+        const double want = std::min(over_top, under);
+        EXPECT_EQ(site, port_site) << c << "," << r;
+        EXPECT_NEAR(f.field.distance.at(c, r), want, 1e-6 * want) << c << "," << r;
+        EXPECT_GT(want, dist(port, x) * (1 + 1e-6)) << c << "," << r;  // (no straight line through the island)
+        detoured += want > dist(port, x) + 1.0;
+      }
+      if (::testing::Test::HasFailure()) return;
+    }
+  EXPECT_EQ(inside, 64);
+  EXPECT_EQ(f.land_cells, 64);
+  EXPECT_EQ(near, 3 * 8);
+  EXPECT_GT(shadow, 100);
+  EXPECT_GT(detoured, 20);
 }
 
 // Random archipelagos (islands with lagoons, a boom) with point and line seeds of three owners

@@ -763,6 +763,66 @@ TEST_F(SeaJob, CellsNoSeedReachesHaveNoOwnerAndAreCounted) {
   EXPECT_GT(outside, 1000);
 }
 
+// Barriers are read as seeds are, so a self-intersecting polygon is repaired (GEOS MakeValid) and
+// said so: a bow tie of two triangles pinched at (405000, 6205000) is the land its two lobes are.
+// Its field is that of the two triangles given as a valid multipolygon, cell for cell; the report
+// counts the repair and warns of it by name; the cells in the lobes are land, those in the two
+// wedges of sea between them are not.
+TEST_F(SeaJob, ASelfIntersectingBarrierIsRepairedAsASeedIsAndSaidSo) {
+  const std::string seeds =
+      write("ports.geojson", points(point("W", 397000.0, 6205000.0) + ", " + point("E", 413000.0, 6203000.0)));
+  auto run = [&](const std::string& name, const std::string& geometry) {
+    JobSpec s;
+    s.seeds.paths = {seeds};
+    s.seeds.owner_field = "owner";
+    s.barriers = {write(name + ".geojson", std::string(R"({"type": "FeatureCollection", )") + kUtm33 +
+                                               R"(, "features": [{"type": "Feature", "properties": {"name": "bow tie"},
+                                                  "geometry": )" +
+                                               geometry + "}]}")};
+    s.grid.resolution = 250.0;
+    s.grid.extent = std::array<double, 4>{395000.0, 6197000.0, 415000.0, 6213000.0};
+    s = with_outputs(s, name);
+    return std::make_pair(s, run_job(s).report);
+  };
+  const auto [tie, tie_report] =
+      run("bowtie", R"({"type": "Polygon", "coordinates": [[[400000, 6200000], [410000, 6210000], [410000, 6200000],
+                   [400000, 6210000], [400000, 6200000]]]})");
+  const auto [valid, valid_report] = run("triangles", R"({"type": "MultiPolygon", "coordinates": [
+                      [[[400000, 6200000], [405000, 6205000], [400000, 6210000], [400000, 6200000]]],
+                      [[[410000, 6200000], [410000, 6210000], [405000, 6205000], [410000, 6200000]]]]})");
+  const nlohmann::json& barriers = tie_report.at("sea").at("barriers");
+  EXPECT_EQ(barriers.at("polygons_repaired").get<int64_t>(), 1) << barriers.dump();
+  EXPECT_EQ(valid_report.at("sea").at("barriers").at("polygons_repaired").get<int64_t>(), 0);
+  const auto& warnings = barriers.at("warnings");
+  ASSERT_EQ(warnings.size(), 1u) << barriers.dump();
+  EXPECT_NE(warnings[0].get<std::string>().find("repaired into 2 polygon(s)"), std::string::npos) << warnings[0];
+  const Raster<int32_t> own = read_int32(tie.outputs.ownership), own_valid = read_int32(valid.outputs.ownership);
+  const Raster<float> dist = read_float32(tie.outputs.distance), dist_valid = read_float32(valid.outputs.distance);
+  ASSERT_EQ(own.cells().size(), own_valid.cells().size());
+  for (size_t i = 0; i < own.cells().size(); ++i) {
+    ASSERT_EQ(own.cells()[i], own_valid.cells()[i]) << i;
+    ASSERT_EQ(dist.cells()[i], dist_valid.cells()[i]) << i;
+  }
+  const GridSpec& g = own.grid();
+  int64_t lobes = 0, wedges = 0;
+  for (int64_t r = 0; r < g.height; ++r)
+    for (int64_t c = 0; c < g.width; ++c) {
+      const double x = g.centre_x(c) - 405000.0, y = g.centre_y(r) - 6205000.0;
+      if (std::abs(std::abs(x) - std::abs(y)) < 1.0 || std::abs(x) >= 5000.0 || std::abs(y) >= 5000.0) continue;
+      const int32_t o = own.cells()[static_cast<size_t>(r * g.width + c)];
+      if (std::abs(y) < std::abs(x)) {  // in a lobe: land
+        ++lobes;
+        EXPECT_EQ(o, 0) << x << " " << y;
+      } else {  // in the sea between the lobes, above or below the pinch
+        ++wedges;
+        EXPECT_NE(o, 0) << x << " " << y;
+      }
+    }
+  EXPECT_GT(lobes, 600);
+  EXPECT_GT(wedges, 600);
+  EXPECT_EQ(tie_report.at("sea").at("land_cells").get<int64_t>(), lobes);
+}
+
 TEST_F(SeaJob, SeedsJustInlandMoveOntoTheCoastDeeperOnesAreRefused) {
   // The island's west edge is x = 400000: one port 0.4 m inside it, one at sea.
   const std::string ports =
