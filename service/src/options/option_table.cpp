@@ -517,7 +517,8 @@ const std::vector<OptionSpec> kOptions = {
      "outputs",
      "Via raster (distance by sea)",
      "with barriers: the number of the last barrier vertex on each cell's path by sea (0 = the seed seen "
-     "directly, or none reached; Int32); the report's sea.via_vertices gives each number's position",
+     "directly, or none reached; the narrowest integer type that holds them: Byte, UInt16 or Int32); the report's "
+     "sea.via_vertices gives each number's position",
      "",
      {},
      0,
