@@ -102,9 +102,8 @@ function control(name, input, inventory) {
 
 // The distance by sea (the process's "barriers" upload): a switch and the barrier layer it asks
 // for. Paths go around the barriers, so they matter when the seeds are not them: with the coast
-// itself as the seeds nothing changes (a path a seed blocks passes nearer to that seed). What the
-// distance by sea does not draw yet (turning points) is turned off while it is on.
-const SEA_OFF = ["out-turningPoints"];
+// itself as the seeds nothing changes (a path a seed blocks passes nearer to that seed). Every
+// deliverable is offered by sea too.
 
 function bySea(process) {
   const input = (process.inputs || {}).barriers;
@@ -116,17 +115,9 @@ function bySea(process) {
     el("p", { class: "help", id: "sea-help", text: "For example the land while the seeds are ports or farms. With only " +
       "the coasts loaded as seeds it would change nothing. On a longitude/latitude grid paths and edges are " +
       "geodesics. Boundary lines, tripoints, limits and regions follow the distance by sea and end on the coasts " +
-      "they meet; turning points are not drawn by sea yet." }));
+      "they meet; turning points name each side's last bend." }));
   box.addEventListener("change", () => {
     layer.hidden = !box.checked;
-    const form = box.form;
-    for (const id of SEA_OFF) {
-      const f = form && form.querySelector("#" + id);
-      if (!f) continue;
-      f.disabled = box.checked;
-      if (box.checked && f.type === "checkbox") f.checked = false;
-      if (box.checked && f.type === "text") f.value = "";
-    }
   });
   return el("fieldset", { class: "field sea" }, el("legend", { text: input.title || "Distance by sea" }),
     el("div", { class: "check" }, box, el("label", { for: "by-sea", text: "By sea: around land and barriers" })), layer);

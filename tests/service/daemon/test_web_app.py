@@ -318,8 +318,9 @@ def baltic_run(drv, base):
 
 def sea_run(drv, d, base):
     """The distance by sea: ports as the seeds, the "By sea" switch and the land as the barrier
-    layer, a projected CRS and a max distance of 8 km; the owners' sea on the map is the CLI's,
-    cell for cell, and the regions' areas are their cells'."""
+    layer, a projected CRS and a max distance of 8 km, the turning points asked for; the owners' sea
+    on the map is the CLI's, cell for cell, the regions' areas are their cells', and the turning
+    points by sea are made and offered, the CLI's lines and points."""
     open_app(drv, base)
     ports = os.path.join(FIXTURES, "oresund_ports.geojson")
     land = os.path.join(FIXTURES, "oresund.gpkg")
@@ -329,7 +330,11 @@ def sea_run(drv, d, base):
     check(drv.find_element(By.ID, "sea-layer").is_displayed(), "the switch asks for the barrier layer")
     check(drv.find_element(By.ID, "out-boundaries").is_enabled(), "the boundaries stay on by sea")
     check(drv.find_element(By.ID, "in-limitDistances").is_enabled(), "the limits stay on by sea")
-    check(not drv.find_element(By.ID, "out-turningPoints").is_enabled(), "the turning points are turned off by sea")
+    turning = drv.find_element(By.ID, "out-turningPoints")
+    check(turning.is_enabled(), "the turning points stay on offer by sea")
+    if not turning.is_selected():
+        turning.click()
+    check(turning.is_selected(), "the turning points are asked for by sea")
     drv.find_element(By.ID, "barrier-file").send_keys(land)
     drv.find_element(By.CSS_SELECTOR, "details.more summary").click()
     drv.find_element(By.ID, "in-crs").send_keys("EPSG:32633")
@@ -338,15 +343,27 @@ def sea_run(drv, d, base):
     job = job_id(drv)
     own = raster(d, job, "ownership")
     names = [b.text for b in drv.find_elements(By.CSS_SELECTOR, "#downloads button")]
-    check("via.tif" in names and "boundaries.geojson" in names and "regions.geojson" in names,
-          "the downloads by sea: %s" % names)
+    check("via.tif" in names and "boundaries.geojson" in names and "regions.geojson" in names
+          and "turningPoints.json" in names, "the downloads by sea: %s" % names)
+    status, _, turning = d.json("GET", "/jobs/%s/results/turningPoints" % job, headers=d_headers(d))
+    check(status == 200 and isinstance(turning, dict), "GET turningPoints by sea: %s" % status)
+    turning = turning if isinstance(turning, dict) else {}
+    points = sum(len(line["points"]) for line in turning.get("lines", []))
+    check(turning.get("by_sea") is True and points > 0,
+          "the turning points by sea: %d points, by_sea %r" % (points, turning.get("by_sea")))
     with tempfile.TemporaryDirectory() as tmp:
-        path = os.path.join(tmp, "o.tif")
+        path, table = os.path.join(tmp, "o.tif"), os.path.join(tmp, "tp.json")
         subprocess.run([RVORONOI, "compute", ports, "--owner-field", "owner", "--barriers", land, "--crs", "EPSG:32633",
                         "--metric", "planar", "--resolution", "500", "--max-distance", "8000", "--ownership", path,
-                        "--quiet"], check=True)
+                        "--turning-points", table, "--quiet"], check=True)
         cli = gdal.Open(path).ReadAsArray()
+        with open(table) as f:
+            cli_turning = json.load(f)
     check(own.shape == cli.shape and np.array_equal(own, cli), "the page's run by sea equals the CLI's")
+    cli_points = sum(len(line["points"]) for line in cli_turning["lines"])
+    check(len(turning.get("lines", [])) == len(cli_turning["lines"]) and points == cli_points,
+          "the page's turning points by sea are the CLI's: %d lines, %d points; the CLI %d, %d"
+          % (len(turning.get("lines", [])), points, len(cli_turning["lines"]), cli_points))
     check(int((own == 0).sum()) > 1000, "land has no owner")
     # The regions by sea: each state's sea area in the legend, as the report gives it.
     _, _, report = d.json("GET", "/jobs/%s/results" % job, headers=d_headers(d))
