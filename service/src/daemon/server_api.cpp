@@ -503,14 +503,14 @@ void Api::api_document(const Request& req, const std::vector<std::string>&) cons
 }
 
 void Api::health(const Request& req, const std::vector<std::string>&) const {
-  const bool store_reachable = jobs_.store_reachable();
+  const bool store_reachable = jobs_.store_reachable(), results_reachable = jobs_.results_reachable();
   const int64_t free = jobs_.disk_free_bytes();
   const bool disk_low = jobs_.disk_low();
   json disk = {{"minFreeBytes", config_.min_free_disk_bytes}, {"low", disk_low}};
   disk["freeBytes"] = free >= 0 ? json(free) : json(nullptr);
   // Still 200: the daemon is up and answers; "degraded" tells a monitor that it is refusing work.
   req.reply(json_response(
-      200, {{"status", store_reachable && !disk_low ? "ok" : "degraded"},
+      200, {{"status", store_reachable && results_reachable && !disk_low ? "ok" : "degraded"},
             {"jobs", {{"running", jobs_.running_count()}, {"queued", jobs_.queued_count()}}},
             {"workers", config_.jobs.workers},
             {"queueLength", config_.jobs.queue_length},
@@ -519,6 +519,7 @@ void Api::health(const Request& req, const std::vector<std::string>&) const {
             {"memory",
              {{"budgetBytes", memory_.total()}, {"reservedBytes", memory_.reserved()}, {"waiting", memory_.waiting()}}},
             {"store", {{"kind", config_.store.shared() ? "postgresql" : "sqlite"}, {"reachable", store_reachable}}},
+            {"results", {{"kind", jobs_.results_kind()}, {"reachable", results_reachable}}},
             {"disk", std::move(disk)}}));
 }
 

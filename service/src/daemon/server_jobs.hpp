@@ -106,6 +106,11 @@ class JobManager {
   std::string daemon_url(const std::string& name) const;
   // Whether the shared store answered this daemon's last heartbeat (always true without one).
   bool store_reachable() const { return store_reachable_.load(); }
+  // Where the results are kept ("s3" for a bucket, else "folder"), and whether the last probe of
+  // the sweep (a shared store's, every min(60 s, jobs.orphan_grace_s)) reached them (always true
+  // without a shared store).
+  const char* results_kind() const { return objects_.remote() ? "s3" : "folder"; }
+  bool results_reachable() const { return results_reachable_.load(); }
   // The bytes free to this daemon on the file system of its jobs' local directories (where every
   // job writes its files, also before they go to a bucket); -1 when the system cannot say.
   int64_t disk_free_bytes() const;
@@ -270,6 +275,9 @@ class JobManager {
   // of their own; the heartbeat's thread runs the reaper.
   void sweep_loop();
   void sweep_orphans();
+  // Asks the results storage whether it is there (ObjectStore::probe; a shared folder: whether it
+  // is a folder) into results_reachable_, logging a change.
+  void probe_results();
   // The base job's files copied (linked, in a folder) into job `id`'s base snapshot; returns the
   // local path its report has when the job runs. Call with mutex_ held.
   std::string snapshot_base(const std::string& base, const std::string& id, const auth::Principal& who) const;
@@ -300,6 +308,7 @@ class JobManager {
   store::ObjectStore objects_;  // where the jobs' files are kept (root_ itself, but on a bucket)
   std::atomic<bool> store_reachable_{true};
   mutable std::atomic<bool> disk_low_{false};  // as disk_low() last found it
+  std::atomic<bool> results_reachable_{true};  // as probe_results() last found them
   const ServerConfig& config_;
   JobRunner runner_;
   MemoryAccount& memory_;

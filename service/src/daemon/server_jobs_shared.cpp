@@ -451,6 +451,7 @@ void JobManager::sweep_loop() {
   std::unique_lock lock(shared_mutex_);
   while (!shared_stop_) {
     lock.unlock();
+    probe_results();
     try {
       if (config_.jobs.retention_s > 0)
         for (const store::Expired& e : shared_->expire(config_.jobs.retention_s, 1000))
@@ -468,6 +469,24 @@ void JobManager::sweep_loop() {
     lock.lock();
     shared_cv_.wait_for(lock, period, [this] { return shared_stop_.load(); });
   }
+}
+
+void JobManager::probe_results() {
+  // On the sweep's thread, not the heartbeat's: a storage that hangs must not delay a lease.
+  std::string why;
+  try {
+    objects_.probe();
+    std::error_code ec;
+    if (!objects_.remote() && !std::filesystem::is_directory(objects_.location(), ec))
+      why = "the results folder is not there";
+  } catch (const std::exception& e) {
+    why = e.what();
+  }
+  const bool reachable = why.empty();
+  if (results_reachable_.exchange(reachable) == reachable) return;
+  log_event(reachable ? std::string("{\"event\":\"results_reachable\"}")
+                      : "{\"event\":\"results_unreachable\",\"error\":" +
+                            json_text(valid_utf8(objects_.without_paths(why))) + "}");
 }
 
 void JobManager::sweep_orphans() {

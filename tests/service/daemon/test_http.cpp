@@ -195,6 +195,10 @@ TEST_F(Daemon, DiscoveryEndpoints) {
   const json health = get(port_, "/health").json();
   EXPECT_EQ(health["status"], "ok");
   EXPECT_EQ(health["jobs"]["running"], 0);
+  EXPECT_EQ(health["results"], json({{"kind", "folder"}, {"reachable", true}}));
+  EXPECT_EQ(health["store"], json({{"kind", "sqlite"}, {"reachable", true}}));
+  EXPECT_GT(health["disk"]["freeBytes"].get<int64_t>(), 0);
+  EXPECT_EQ(health["disk"]["low"], false);
 
   expect_problem(get(port_, "/processes/nope"), 404, kOgc + "no-such-process");
   expect_problem(get(port_, "/jobs/0123456789abcdef0123456789abcdef"), 404, kOgc + "no-such-job");

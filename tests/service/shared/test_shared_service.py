@@ -37,7 +37,8 @@ attempt, and the daemons still standing answered /health throughout.
 
 On a bucket, one step more after step 3: the S3 server stopped while a job runs fails that job
 with the storage's message (nothing of it is served), a submission meanwhile gets 503 with
-Retry-After, and jobs run again once it is back.
+Retry-After, /health says the results storage is unreachable (and "ok" again once it is back),
+and jobs run again once it is back.
 
 Before them: a store that cannot be reached, a local results folder not said to be shared and a
 password in the URI each stop the daemon with one line.
@@ -365,6 +366,8 @@ def step_disk_floor(c):
     st, _, health = low.json("GET", "/health")
     check(st == 200 and health.get("status") == "degraded" and health.get("disk", {}).get("low") is True,
           f"/health of the daemon short of disk: {st} {health}")
+    kind = "s3" if ARGS.storage == "s3" else "folder"
+    check(health.get("results") == {"kind": kind, "reachable": True}, f"/health's results storage: {health}")
     jobs = [submit(c.daemons[i % 2], USERS[i % 3], body(4000, outputs=("ownership",))) for i in range(6)]
     # (Its workers keep polling the queue meanwhile: every poll is a chance to claim.)
     docs = [wait_done(c.daemons[0], job) for job in jobs if job]
@@ -450,6 +453,19 @@ def step_store_outage(c, ref):
     return jobs + [slow_job]
 
 
+def results_health(d, reachable, seconds=20):
+    """/health once its results storage's reachability is `reachable` (the sweep probes every
+    min(60 s, orphan_grace_s): 2 s here), or the last answer."""
+    end = time.time() + seconds
+    doc = {}
+    while time.time() < end:
+        _, _, doc = d.json("GET", "/health", timeout=5)
+        if isinstance(doc, dict) and doc.get("results", {}).get("reachable") is reachable:
+            return doc
+        time.sleep(0.2)
+    return doc if isinstance(doc, dict) else {}
+
+
 def step_storage_outage(c, ref):
     """The S3 server away while a job runs: the job fails with the storage's message."""
     job = submit(c.daemons[1], "bob", body(slow(1), outputs=("ownership",)))
@@ -466,6 +482,9 @@ def step_storage_outage(c, ref):
                                               dict(bearer("alice"), Prefer="respond-async"))
     check(st == 503 and "retry-after" in h2 and "results storage is unavailable" in doc.get("detail", ""),
           f"a submission while the storage is away: {st} {doc}")
+    away = results_health(c.daemons[(h + 2) % 3], False)
+    check(away.get("results") == {"kind": "s3", "reachable": False} and away.get("status") == "degraded",
+          f"/health says the results storage is away: {away}")
     doc = wait_done(c.daemons[h], job, "bob")
     check(doc["status"] == "failed" and "could not be stored" in doc.get("message", ""),
           f"the job whose upload failed says why: {doc['status']} {doc.get('message')}")
@@ -474,6 +493,11 @@ def step_storage_outage(c, ref):
     check(not any(p.isdigit() for p in c.storage.parts().get(job, ())), "no attempt of it stays in the bucket")
     s3.start()
     time.sleep(0.5)
+    back = results_health(c.daemons[(h + 2) % 3], True)
+    check(back.get("results", {}).get("reachable") is True and back.get("status") == "ok",
+          f"/health says the results storage is back: {back}")
+    check(any('"event":"results_unreachable"' in line for line in list(c.daemons[(h + 2) % 3].log)),
+          "the daemon logged the storage away")
     print(f"step 3b: the S3 server was stopped under d{h}'s job; it failed with: {doc.get('message')}", flush=True)
     b = body(1000)
     again = submit(c.daemons[0], "alice", b)
