@@ -505,7 +505,7 @@ void Api::api_document(const Request& req, const std::vector<std::string>&) cons
 void Api::health(const Request& req, const std::vector<std::string>&) const {
   const bool store_reachable = jobs_.store_reachable(), results_reachable = jobs_.results_reachable();
   const int64_t free = jobs_.disk_free_bytes();
-  const bool disk_low = jobs_.disk_low();
+  const bool disk_low = jobs_.disk_low(free);
   json disk = {{"minFreeBytes", config_.min_free_disk_bytes}, {"low", disk_low}};
   disk["freeBytes"] = free >= 0 ? json(free) : json(nullptr);
   // Still 200: the daemon is up and answers; "degraded" tells a monitor that it is refusing work.

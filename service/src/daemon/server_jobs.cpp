@@ -174,10 +174,9 @@ int64_t JobManager::disk_free_bytes() const {
   return static_cast<int64_t>(std::min<std::uintmax_t>(space.available, std::numeric_limits<int64_t>::max()));
 }
 
-bool JobManager::disk_low() const {
+bool JobManager::disk_low(int64_t free) const {
   const int64_t floor = config_.min_free_disk_bytes;
   if (floor <= 0) return false;
-  const int64_t free = disk_free_bytes();
   const bool low = free >= 0 && free < floor;
   // (Logged when it changes, whoever asked: a worker polling the shared queue, /health.)
   if (disk_low_.exchange(low) != low)
@@ -192,8 +191,7 @@ void JobManager::check_disk() const {
   const int64_t floor = config_.min_free_disk_bytes;
   if (floor <= 0) return;
   const int64_t free = disk_free_bytes();
-  if (free < 0 || free >= floor) return;
-  disk_low();  // (logs the change)
+  if (!disk_low(free)) return;
   throw Error(ErrorKind::busy, "the server's disk has " + std::to_string(free >> 20) +
                                    " MiB free, less than it keeps free for running jobs (limits.min_free_disk_bytes, " +
                                    std::to_string(floor >> 20) + " MiB); retry later");
@@ -317,11 +315,11 @@ void JobManager::submit_work(const std::string& name, const auth::Principal& who
 JobRecord JobManager::submit(const std::string& id, Execution execution, const auth::Principal& who, Done on_done) {
   if (shared_) return submit_shared(id, std::move(execution), who, std::move(on_done));
   const JobRecord rec = accepted_record(id, execution, who);
+  check_disk();
 
   std::lock_guard lock(mutex_);
   if (stopping_) throw Error(ErrorKind::busy, "the server is shutting down; resubmit the job later");
   check_capacity();
-  check_disk();
   const bool exempt = exempt_from_limits(who);
   if (!exempt) check_job_count(who.name);
   // A grid known up front is charged now (refused now when over the allowance); others when

@@ -114,8 +114,9 @@ class JobManager {
   // The bytes free to this daemon on the file system of its jobs' local directories (where every
   // job writes its files, also before they go to a bucket); -1 when the system cannot say.
   int64_t disk_free_bytes() const;
-  // Whether that is below limits.min_free_disk_bytes (false when unknown or without a floor).
-  bool disk_low() const;
+  // Whether `free` (disk_free_bytes()) is below limits.min_free_disk_bytes (false when unknown or
+  // without a floor); logs a change since the last call.
+  bool disk_low(int64_t free) const;
 
   // Records the job as `who`'s, accepted, and queues it. Throws rv::Error(busy) when the queue is
   // full or the server is shutting down, QuotaExceeded (over_quota) when `who` has
@@ -284,7 +285,8 @@ class JobManager {
   // Throws rv::Error(busy) when the workers and the local queue are full. Call with mutex_ held.
   void check_capacity() const;
   // Throws rv::Error(busy) when the jobs' file system has less free space than
-  // limits.min_free_disk_bytes.
+  // limits.min_free_disk_bytes. Call without mutex_ held: a shared folder's file system may be a
+  // network one, and /health takes mutex_ too.
   void check_disk() const;
   // Throws QuotaExceeded when `principal` has limits.jobs_per_principal jobs queued or running.
   // Call with mutex_ held.

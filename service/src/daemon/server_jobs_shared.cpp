@@ -53,13 +53,11 @@ JobRecord JobManager::submit_shared(const std::string& id, Execution execution, 
   // A synchronous client waits on this daemon, and a session's job saves state only this daemon
   // holds: they run here. Jobs submitted for later go to the shared queue with their request.
   const bool here = on_done || execution.run || execution.request.empty();
+  if (here) check_disk();
   {
     std::lock_guard lock(mutex_);
     if (stopping_) throw Error(ErrorKind::busy, "the server is shutting down; resubmit the job later");
-    if (here) {
-      check_capacity();
-      check_disk();
-    }
+    if (here) check_capacity();
   }
   store::QueueEntry entry;
   entry.max_attempts = config_.jobs.max_attempts;
@@ -128,7 +126,7 @@ bool JobManager::stored(const std::string& id) const {
 
 std::optional<JobManager::Task> JobManager::claim_shared() {
   // A daemon short of disk leaves the queue to the others (or to itself once space is freed).
-  if (disk_low()) return std::nullopt;
+  if (disk_low(disk_free_bytes())) return std::nullopt;
   std::optional<store::Claim> c;
   try {
     c = shared_->claim(holder_, config_.jobs.lease_s, now_rfc3339());
