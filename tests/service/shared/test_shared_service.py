@@ -355,7 +355,7 @@ def step_many_jobs(c, ref):
 def step_disk_floor(c):
     """A daemon whose disk is below limits.min_free_disk_bytes claims nothing from the shared queue
     (the others run every job), refuses a job to run on itself with 503, and says so on /health;
-    restarted with the floor below its free space, it claims again."""
+    then it is restarted with the default floor (the split step counts its claims again)."""
     c.down.add(2)
     c.daemons[2].stop()
     fs = os.statvfs(c.tmp)
