@@ -213,9 +213,6 @@ void append_walked(const BoundaryGrid& b, BoundaryLine& line, const std::vector<
 // How far the ends are followed: an eighth of a cell a step, over at most eight cells.
 constexpr int kPerCell = 8, kCells = 8;
 
-// The back end of `line` followed on along its locus to the coast (see end_at_barriers), in steps
-// of an eighth of a cell over at most eight cells; true (the points walked appended, the last on
-// the barrier) where it gets there.
 // Where the lines p + s d and q + t e meet: s and t, false where they are parallel.
 bool lines_meet(Vec2 p, Vec2 d, Vec2 q, Vec2 e, double& s, double& t) {
   const double det = d.x * -e.y - d.y * -e.x;
@@ -226,6 +223,9 @@ bool lines_meet(Vec2 p, Vec2 d, Vec2 q, Vec2 e, double& s, double& t) {
   return true;
 }
 
+// The back end of `line` followed on along its locus to the coast (see end_at_barriers), in steps
+// of an eighth of a cell over at most eight cells; true (the points walked appended, the last on
+// the barrier) where it gets there.
 bool follow_to_barrier(const BoundaryGrid& b, BoundaryLine& line) {
   std::vector<BoundaryVertex>& v = line.vertices;
   if (v.size() < 2) return false;
