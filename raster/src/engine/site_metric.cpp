@@ -122,6 +122,12 @@ double SiteMetric::distance_at_vertex(Vec2 p, int32_t site, Vec2& gradient, Vert
   return distance(p, site);
 }
 
+double SiteMetric::distance_within(Vec2 p, int32_t site, double, Vec2& gradient, VertexHit& hit) const {
+  return distance_at_vertex(p, site, gradient, hit);
+}
+
+int32_t SiteMetric::search_start(Vec2, int32_t) const { return kNoSite; }
+
 bool SiteMetric::ties_at_vertex(Vec2, int32_t, const VertexHit&, double) const { return false; }
 
 bool SiteMetric::open_between(Vec2, Vec2) const { return true; }
@@ -335,7 +341,12 @@ struct OwnerIndex::Tree {
         // The box holds a whole edge around its middle; the metric's own bound is far tighter
         // for the edge's neighbours along a coast, which then go unmeasured.
         if (ruled_out(cost_bound(m.distance_lower_bound(p, id), weight[k], r), best.cost)) continue;
-        const double d = m.distance(p, id);
+        // Only a distance within the reach whose cost is at most the best's counts (a value above
+        // `within` fails one of the two tests below).
+        const double within = std::min(r, best.cost * weight[k] * (1.0 + 1e-12));
+        Vec2 gradient;
+        SiteMetric::VertexHit hit;
+        const double d = m.distance_within(p, id, within, gradient, hit);
         if (d > r) continue;
         const double c = d / weight[k];
         if (c < best.cost || (c == best.cost && id < best.site)) best = Hit{id, d, c};
@@ -439,6 +450,8 @@ OwnerIndex::Hit OwnerIndex::nearest_of(Vec2 p, int32_t owner, int32_t hint) cons
     const double d = metric_.distance(p, hint);
     const double c = cost_of(hint, d);
     if (!adjusted_ || std::isfinite(c)) best = Hit{hint, d, c};
+  } else {
+    best = start_of(p, owner);
   }
   const Tree& t = *trees_[static_cast<size_t>(owner - 1)];
   if (!t.nodes.empty()) t.search(metric_, 0, p, metric_.embed(p), best);
@@ -453,6 +466,16 @@ OwnerIndex::Hit OwnerIndex::deepest(Vec2 p, int32_t owner) const {
     if ((owner == 0 || static_cast<int32_t>(o) + 1 == owner) && !trees_[o]->nodes.empty())
       trees_[o]->search_deepest(metric_, 0, p, q, best);
   return best;
+}
+
+OwnerIndex::Hit OwnerIndex::start_of(Vec2 p, int32_t owner) const {
+  const int32_t site = metric_.search_start(p, owner);
+  const SeedSet& seeds = metric_.seeds();
+  if (site < 0 || site >= static_cast<int32_t>(seeds.sites().size()) || seeds.site_owner(site) != owner) return Hit{};
+  const double d = metric_.distance(p, site);
+  const double c = cost_of(site, d);
+  // (An infinite cost would keep the site as the answer where no site of the owner is reached.)
+  return std::isfinite(c) ? Hit{site, d, c} : Hit{};
 }
 
 double OwnerIndex::ball_bound(const Hit& h, double reach) const {
@@ -589,7 +612,9 @@ OwnerIndex::Hit OwnerIndex::nearest_among(Vec2 p, const std::vector<int32_t>& si
   auto measure = [&](int32_t id) {
     Vec2 g;
     SiteMetric::VertexHit v;
-    const double d = metric_.distance_at_vertex(p, id, g, v);
+    // (Adjusted: cost_of's reach and cap decide; without, a distance above the best's cannot win.)
+    const double within = adjusted_ ? std::numeric_limits<double>::infinity() : best.cost * (1.0 + 1e-12);
+    const double d = metric_.distance_within(p, id, within, g, v);
     const double c = cost_of(id, d);
     if (!std::isfinite(c)) return;
     if (c < best.cost || (c == best.cost && id < best.site)) {
@@ -687,6 +712,10 @@ OwnerIndex::Hit OwnerIndex::nearest_not_of(Vec2 p, int32_t owner, Hit known) con
   }
   for (const auto& [lb, o] : order) {
     if (lb > best.cost) break;
+    if (!std::isfinite(best.cost)) {
+      const Hit start = start_of(p, o + 1);
+      if (start.site != kNoSite) best = start;
+    }
     trees_[static_cast<size_t>(o)]->search(metric_, 0, p, q, best);
   }
   return best;

@@ -68,6 +68,41 @@ class SeaSiteMetric final : public SiteMetric {
     gradient = path.gradient;
     return path.d;
   }
+  double distance_within(Vec2 p, int32_t site, double bound, Vec2& gradient, VertexHit& hit) const override {
+    hit = VertexHit{};
+    if (seeds().sites()[static_cast<size_t>(site)].kind == SiteKind::area)
+      return inner_->distance_at_vertex(p, site, gradient, hit);
+    const Path path = best(p, site, bound);
+    gradient = path.gradient;
+    return path.d;
+  }
+  // The owner's shortest path over all its roots at once, as the field finds a cell's (each
+  // group of the owner searched; with weights or reaches the cheapest of them): its site.
+  int32_t search_start(Vec2 p, int32_t owner) const override {
+    settled();
+    const Where w = where(p);
+    if (w.ground == Visibility::Ground::land) return kNoSite;
+    const Visibility::Place at = place(w);
+    int32_t won = kNoSite;
+    double won_cost = std::numeric_limits<double>::infinity();
+    std::vector<StartHints>& hints = start_hints();
+    for (size_t g = 0; g < groups_.size(); ++g) {
+      if (group_owner_[g] != owner) continue;
+      int64_t tests = 0;
+      StartHints& h = hints[g];
+      const Best b = groups_[g].search->best_path(at, w.spot, Best{}, tests, -1, &h.blockers, h.last, &h.last);
+      if (b.site == kNoSite) continue;
+      const double cost =
+          seeds().adjusted()
+              ? adjusted_distance(seeds().features()[static_cast<size_t>(seeds().site_feature(b.site))], b.d)
+              : b.d;
+      if (cost < won_cost) {
+        won = b.site;
+        won_cost = cost;
+      }
+    }
+    return won;
+  }
   Vec2 nearest_point(Vec2 p, int32_t site) const override {
     if (seeds().sites()[static_cast<size_t>(site)].kind == SiteKind::area) return inner_->nearest_point(p, site);
     const Path path = best(p, site);  // (settles the owners: roots_ below is filled)
@@ -262,23 +297,33 @@ class SeaSiteMetric final : public SiteMetric {
     for (size_t k = 0; k < pr.touches.size(); ++k)
       touch_list_[at[static_cast<size_t>(pr.touches[k].site)]++] = static_cast<int32_t>(k);
   }
-  Path best(Vec2 p, int32_t site) const {
+  // `bound`: a path longer than it need not be found (the result is then any length above it).
+  Path best(Vec2 p, int32_t site, double bound = std::numeric_limits<double>::infinity()) const {
     settled();
     Path out;
     const Where w = where(p);
     if (w.ground == Visibility::Ground::land) return out;
     const Prepared& pr = prepared();
     const Visibility::Place at = place(w);
+    const Prepared::Xyz xyz = pr.spot_xyz(w.spot);
     // (A point site on the ellipsoid: its place without its length, which the inner metric
     // measures once it is seen.)
     Visibility::Place foot{w.spot.at};
     bool on_site = false;
+    double straight = 0.0;  // at most the straight distance to the site
     if (pr.geodesic && !pr.segment(site)) {
       foot = pr.site_place(site, w.spot);
       on_site = w.spot.ll == pr.site_ll[static_cast<size_t>(site)];
+      straight = Prepared::chord_below(pr.site_xyz[static_cast<size_t>(site)], xyz);
     } else {
-      on_site = pr.site_key(w.spot, site, &foot) == 0.0;
+      const double key = pr.site_key(w.spot, site, &foot);
+      on_site = key == 0.0;
+      straight = std::sqrt(key);
     }
+    // Every path to the site is at least the straight line: a site farther than the bound in a
+    // straight line is measured no further. (The slack covers the rounding of lengths measured
+    // by different routes: to the nanometre on the ellipsoid.)
+    if (straight > bound + 1e-9 * bound + (pr.geodesic ? 1e-6 : 0.0)) return out;
     // (The edge that last hid each root from a position this thread measured: the lines ask at
     // positions close together, and one crossing test proves most hidden roots hidden again.)
     std::vector<int32_t>& hint = hints();
@@ -303,7 +348,7 @@ class SeaSiteMetric final : public SiteMetric {
         d = pr.geolocator ? pr.geodesic->point_distance(w.spot.ll, t.ll)
                           : pr.geodesic->point_distance(w.spot.ll, t.ll, gradient);
       }
-      if (!(d < out.d) || !(d == 0.0 || pr.vis.sees(at, t.at))) continue;
+      if (!(d < out.d) || d > bound || !(d == 0.0 || pr.vis.sees(at, t.at))) continue;
       out = Path{d, -1, gradient};
       out.touch = k;
     }
@@ -312,14 +357,16 @@ class SeaSiteMetric final : public SiteMetric {
     const SiteRoots& roots = roots_[static_cast<size_t>(r)];
     const Searches& s = *roots.search;
     int32_t won = -1;
-    // (The roots' tests in the field's order: Searches::through.)
-    const Prepared::Xyz xyz = pr.spot_xyz(w.spot);
+    // (The roots' tests in the field's order: Searches::through. Roots whose paths are longer
+    // than the bound are left unvisited, as those longer than the best so far are.)
+    const auto limit = [&] { return std::min(out.d, bound); };
     roots.tree.within(
-        w.spot.at, [&] { return out.d + 1e-12 * out.d; },
+        w.spot.at, [&] { return limit() + 1e-12 * limit(); },
         [&](int32_t item, double) {
           const int32_t k = roots.nodes[static_cast<size_t>(item)];
           const double d = s.through(
-              static_cast<size_t>(k), w.spot, xyz, out.d, [&](double length) { return length < out.d; },
+              static_cast<size_t>(k), w.spot, xyz, limit(),
+              [&](double length) { return length < out.d && length <= bound; },
               [&](const Visibility::Place& to) { return seen(static_cast<size_t>(roots.first_hint + k), to); });
           if (!std::isfinite(d)) return;
           out.d = d;
@@ -379,13 +426,16 @@ class SeaSiteMetric final : public SiteMetric {
     std::vector<std::vector<int32_t>> of_owner(static_cast<size_t>(owners));
     for (int32_t id : pr.geometric) of_owner[static_cast<size_t>(seeds.site_owner(id) - 1)].push_back(id);
     std::vector<std::vector<int32_t>> sites;
-    for (const std::vector<int32_t>& owned : of_owner) {
+    group_owner_.clear();
+    for (size_t o = 0; o < of_owner.size(); ++o) {
+      const std::vector<int32_t>& owned = of_owner[o];
       if (owned.empty()) continue;
       if (!seeds.adjusted()) {
         sites.push_back(owned);
-        continue;
+      } else {
+        for (SiteClass& c : site_classes(seeds, owned)) sites.push_back(std::move(c.sites));
       }
-      for (SiteClass& c : site_classes(seeds, owned)) sites.push_back(std::move(c.sites));
+      group_owner_.resize(sites.size(), static_cast<int32_t>(o) + 1);
     }
     // (From the start: a settling cancelled before is in no state to go on.)
     const auto start = std::chrono::steady_clock::now();
@@ -466,6 +516,26 @@ class SeaSiteMetric final : public SiteMetric {
     return hint;
   }
 
+  // This thread's hints for search_start, per group: the edge that last hid each root of its
+  // search, and the root of its last answer (Searches::best_path's `blockers` and `first`).
+  struct StartHints {
+    std::vector<int32_t> blockers;
+    int32_t last = -1;
+  };
+  std::vector<StartHints>& start_hints() const {
+    thread_local uint64_t hints_by = 0;
+    thread_local std::vector<StartHints> hints;
+    if (hints_by != serial_ || hints.size() != groups_.size()) {
+      hints.assign(groups_.size(), StartHints{});
+      for (size_t g = 0; g < groups_.size(); ++g) {
+        const Searches& s = *groups_[g].search;
+        hints[g].blockers.assign(static_cast<size_t>(s.site_items()) + s.nodes.size(), -1);
+      }
+      hints_by = serial_;
+    }
+    return hints;
+  }
+
   // This metric's number among all made in the process (from 1): what the position cache is keyed by.
   const uint64_t serial_ = next_serial();
   static uint64_t next_serial() {
@@ -488,6 +558,7 @@ class SeaSiteMetric final : public SiteMetric {
     std::unique_ptr<Settling> settling;
   };
   std::vector<Group> groups_;
+  std::vector<int32_t> group_owner_;  // per group, its owner's code
   std::vector<SiteRoots> roots_;
   size_t hint_count_ = 0;                          // sites, then every group's nodes
   std::vector<int32_t> roots_of_site_;             // site -> its entry of roots_, or -1

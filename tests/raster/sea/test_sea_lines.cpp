@@ -42,22 +42,28 @@ struct Archipelago {
   Barriers barriers;
   SeedSet seeds;
 };
-bool archipelago(std::mt19937_64& rng, Archipelago& out) {
+// `at`: where a position of the layout goes (the same draws whatever it is).
+bool archipelago(
+    std::mt19937_64& rng, Archipelago& out, Vec2 (*at)(Vec2) = [](Vec2 p) { return p; }) {
   std::uniform_int_distribution<int> coord(0, 36);
   std::vector<Ring> outlines;
+  auto placed_at = [&](Ring ring) {
+    for (Vec2& v : ring) v = at(v);
+    return ring;
+  };
   for (int k = 0; k < 6; ++k) {
     const double x = coord(rng), y = coord(rng), w = 2 + coord(rng) % 7, h = 2 + coord(rng) % 7;
-    std::vector<Ring> rings{{{x, y}, {x + w, y}, {x + w * 0.6, y + h}, {x, y + h * 0.8}}};
-    if (w > 5 && h > 5) rings.push_back({{x + 1.5, y + 1.5}, {x + 3, y + 1.5}, {x + 2.5, y + 3}});
+    std::vector<Ring> rings{placed_at({{x, y}, {x + w, y}, {x + w * 0.6, y + h}, {x, y + h * 0.8}})};
+    if (w > 5 && h > 5) rings.push_back(placed_at({{x + 1.5, y + 1.5}, {x + 3, y + 1.5}, {x + 2.5, y + 3}}));
     outlines.push_back(rings[0]);
     out.barriers.add_polygon(rings, "island");
   }
-  out.barriers.add_line(
-      std::vector<Vec2>{{double(coord(rng)), double(coord(rng))}, {double(coord(rng)), double(coord(rng))}}, "boom");
+  out.barriers.add_line(placed_at({{double(coord(rng)), double(coord(rng))}, {double(coord(rng)), double(coord(rng))}}),
+                        "boom");
   const Visibility vis(out.barriers);
   int placed = 0;
   for (int k = 0; k < 20 && placed < 7; ++k) {
-    const Vec2 p{coord(rng) + 0.25, coord(rng) + 0.75};
+    const Vec2 p = at(Vec2{coord(rng) + 0.25, coord(rng) + 0.75});
     if (vis.on_land(p)) continue;
     out.seeds.add_point(
         out.seeds.add_feature(out.seeds.owner_code(std::string(1, static_cast<char>('A' + placed % 3)))), p);
@@ -133,6 +139,156 @@ TEST(SeaLines, EachOwnersDistanceIsTheReferencesForItsSeedsAlone) {
   EXPECT_GT(behind_land, 2000);  // owners reached round land, not only straight
   std::printf("each owner's distance by sea: %lld cells, worst |d - reference| %.3g\n",
               static_cast<long long>(compared), worst);
+}
+
+// The sea metric as it is, but with the owners' searches started elsewhere (SiteMetric::
+// search_start): nowhere, or at the owner's last site (mostly not its nearest); counting the
+// sites measured.
+class StartedElsewhere final : public SiteMetric {
+ public:
+  enum class Start { as_is, none, last };
+  StartedElsewhere(const SiteMetric& m, Start start) : SiteMetric(m.seeds()), m_(m), start_(start) {}
+  Kind kind() const override { return m_.kind(); }
+  bool straight() const override { return m_.straight(); }
+  double distance(Vec2 p, int32_t site) const override {
+    ++measured;
+    return m_.distance(p, site);
+  }
+  double distance_at_vertex(Vec2 p, int32_t site, Vec2& gradient, VertexHit& hit) const override {
+    ++measured;
+    return m_.distance_at_vertex(p, site, gradient, hit);
+  }
+  double distance_within(Vec2 p, int32_t site, double bound, Vec2& gradient, VertexHit& hit) const override {
+    ++measured;
+    return m_.distance_within(p, site, bound, gradient, hit);
+  }
+  Vec2 nearest_point(Vec2 p, int32_t site) const override { return m_.nearest_point(p, site); }
+  double point_distance(Vec2 a, Vec2 b) const override { return m_.point_distance(a, b); }
+  Vec3 embed(Vec2 p) const override { return m_.embed(p); }
+  Box3 site_bounds(int32_t site) const override { return m_.site_bounds(site); }
+  double distance_lower_bound(Vec2 p, int32_t site) const override { return m_.distance_lower_bound(p, site); }
+  int32_t search_start(Vec2 p, int32_t owner) const override {
+    if (start_ == Start::as_is) return m_.search_start(p, owner);
+    if (start_ == Start::none) return kNoSite;
+    for (auto site = static_cast<int32_t>(seeds().sites().size()) - 1; site >= 0; --site)
+      if (seeds().site_owner(site) == owner) return site;
+    return kNoSite;
+  }
+  mutable int64_t measured = 0;
+
+ private:
+  const SiteMetric& m_;
+  const Start start_;
+};
+
+// The owners' searches by sea start from the owner's own shortest path over all its roots
+// (search_start, as the field finds a cell's) and measure each other site only up to the best so
+// far (distance_within): the same hits, to the bit, as started nowhere or at a far site, over
+// random archipelagos in the plane (with and without weights, with a reach) and on the
+// ellipsoid; the start's distance is the owner's; distance_within is the distance wherever that
+// is within the bound, and above the bound elsewhere; and the searches measure fewer sites.
+TEST(SeaLines, AnOwnersSearchBySeaFindsTheSameSiteFromAnyStart) {
+  std::mt19937_64 rng(68);
+  std::uniform_real_distribution<double> u(0.0, 40.0), f(0.0, 2.0);
+  const GridSpec plane = test::grid_of(40, 40, 1.0, -1.0, 41.0);
+  // (A unit of the layout 0.0175 deg of longitude and 0.01 of latitude, near 55 N.)
+  auto on_ellipsoid = [](Vec2 p) { return Vec2{10.0 + 0.0175 * p.x, 55.0 + 0.01 * p.y}; };
+  const GridSpec sphere = test::grid_of(40, 40, 0.0175, 10.0 - 0.0175, 55.41);
+  int64_t points = 0, hits = 0, behind = 0, within_checked = 0, cut = 0;
+  int64_t measured[3] = {0, 0, 0};  // as is, none, last
+  for (int round = 0; round < 16; ++round) {
+    const int variant = round % 4;  // 0: plane; 1: weights 0.5 and 2; 2: a reach; 3: the ellipsoid
+    Archipelago a;
+    if (!(variant == 3 ? archipelago(rng, a, on_ellipsoid) : archipelago(rng, a))) continue;
+    for (int32_t k = 0; k < static_cast<int32_t>(a.seeds.features().size()); ++k) {
+      if (variant == 1) a.seeds.set_adjustment(k, k % 2 == 0 ? 0.5 : 2.0, std::numeric_limits<double>::infinity());
+      if (variant == 2 && k == 0) a.seeds.set_adjustment(k, 1.0, 12.0);
+    }
+    const GridSpec& g = variant == 3 ? sphere : plane;
+    SeaOptions options;
+    if (variant == 3) options.metric = test::geodesic_metric();
+    std::unique_ptr<SiteMetric> metric;
+    try {
+      metric = make_sea_site_metric(a.seeds, a.barriers, g, options);
+    } catch (const Error& e) {
+      ASSERT_EQ(e.kind(), ErrorKind::invalid_input) << e.what();
+      continue;
+    }
+    const StartedElsewhere as_is(*metric, StartedElsewhere::Start::as_is), none(*metric, StartedElsewhere::Start::none),
+        last(*metric, StartedElsewhere::Start::last);
+    const OwnerIndex ia(as_is), in(none), il(last);
+    const int32_t owners = a.seeds.owner_count();
+    for (int k = 0; k < 120; ++k) {
+      const Vec2 p = variant == 3 ? on_ellipsoid(Vec2{u(rng), u(rng)}) : Vec2{u(rng), u(rng)};
+      if (!metric->in_domain(p)) continue;
+      ++points;
+      auto same = [&](const OwnerIndex::Hit& x, const OwnerIndex::Hit& y, const char* what) {
+        ASSERT_EQ(x.site, y.site) << what << " " << round << ": " << p.x << "," << p.y;
+        ASSERT_EQ(std::bit_cast<uint64_t>(x.distance), std::bit_cast<uint64_t>(y.distance)) << what << " " << round;
+        ASSERT_EQ(std::bit_cast<uint64_t>(x.cost), std::bit_cast<uint64_t>(y.cost)) << what << " " << round;
+      };
+      for (int32_t owner = 1; owner <= owners; ++owner) {
+        const OwnerIndex::Hit h = ia.nearest_of(p, owner);
+        same(h, in.nearest_of(p, owner), "nearest_of, started nowhere");
+        same(h, il.nearest_of(p, owner), "nearest_of, started at the last site");
+        const OwnerIndex::Hit other = ia.nearest_not_of(p, owner);
+        same(other, in.nearest_not_of(p, owner), "nearest_not_of, started nowhere");
+        same(other, il.nearest_not_of(p, owner), "nearest_not_of, started at the last site");
+        if (h.site == kNoSite) continue;
+        ++hits;
+        behind += metric->last_bend(p, h.site) >= 0;
+        // The start is the owner's shortest path by sea: its distance (or cost) is the hit's.
+        const int32_t start = metric->search_start(p, owner);
+        ASSERT_NE(start, kNoSite) << round << ": " << p.x << "," << p.y;
+        ASSERT_EQ(a.seeds.site_owner(start), owner);
+        const double c = ia.cost_of(start, metric->distance(p, start));
+        ASSERT_NEAR(c, h.cost, 1e-9 * h.cost + 1e-9) << round << ": " << p.x << "," << p.y << " owner " << owner;
+      }
+      const OwnerIndex::Hit nearest = ia.nearest(p);
+      same(nearest, in.nearest(p), "nearest, started nowhere");
+      same(nearest, il.nearest(p), "nearest, started at the last site");
+      // distance_within: the distance where it is within the bound, else above the bound.
+      for (int32_t site = 0; site < static_cast<int32_t>(a.seeds.sites().size()); ++site) {
+        if (a.seeds.sites()[static_cast<size_t>(site)].kind == SiteKind::area) continue;
+        const double d = metric->distance(p, site);
+        Vec2 gd, gw;
+        SiteMetric::VertexHit hd, hw;
+        metric->distance_at_vertex(p, site, gd, hd);
+        const double full = std::isfinite(d) ? d : 50.0;
+        for (const double bound : {d, std::nextafter(d, 0.0), f(rng) * full, 0.0}) {
+          if (!(bound >= 0.0)) continue;
+          const double w = metric->distance_within(p, site, bound, gw, hw);
+          ++within_checked;
+          if (d <= bound) {
+            ASSERT_EQ(std::bit_cast<uint64_t>(w), std::bit_cast<uint64_t>(d)) << round << ": site " << site;
+            if (!std::isnan(gd.x)) ASSERT_EQ(std::bit_cast<uint64_t>(gw.x), std::bit_cast<uint64_t>(gd.x));
+          } else {
+            ASSERT_GT(w, bound) << round << ": site " << site << " at " << p.x << "," << p.y;
+            cut += w > d;  // (left unmeasured: something above the bound stands for it)
+          }
+        }
+      }
+    }
+    measured[0] += as_is.measured;
+    measured[1] += none.measured;
+    measured[2] += last.measured;
+  }
+  EXPECT_GT(points, 1000);
+  EXPECT_GT(hits, 3000);
+  EXPECT_GT(behind, 300);  // hits whose path bends round land
+  EXPECT_GT(within_checked, 30000);
+  EXPECT_GT(cut, 1000);
+  // Started from the owner's shortest path, the searches measure fewer sites than from nowhere
+  // or from a far site.
+  EXPECT_LT(measured[0], measured[1] * 9 / 10);
+  EXPECT_LT(measured[0], measured[2]);
+  std::printf(
+      "owners' searches by sea: %lld points, %lld hits (%lld bent), the same from every start; sites "
+      "measured %lld started by the path search, %lld started nowhere, %lld at the last site; "
+      "distance_within checked %lld times, %lld left unmeasured\n",
+      static_cast<long long>(points), static_cast<long long>(hits), static_cast<long long>(behind),
+      static_cast<long long>(measured[0]), static_cast<long long>(measured[1]), static_cast<long long>(measured[2]),
+      static_cast<long long>(within_checked), static_cast<long long>(cut));
 }
 
 // The search for where a line meets a coast (line_tools::onto_domain_edge) leaves out an edge

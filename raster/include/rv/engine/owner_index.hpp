@@ -60,7 +60,7 @@ class OwnerIndex {
   // Nearest site of owner `owner` (1..K); {kNoSite, inf} if the owner has no sites. `hint`: a
   // site likely to be the nearest (e.g. the one found at a point nearby), measured first so that
   // the search prunes with its distance; the result is the same with any hint or none (a hint
-  // not of `owner` is ignored).
+  // not of `owner` is ignored). Without a hint the metric's SiteMetric::search_start serves.
   Hit nearest_of(Vec2 p, int32_t owner, int32_t hint = kNoSite) const;
   // Nearest site of any owner other than `owner` (owner 0: of any owner at all). `known`: a hit
   // already measured at p (metric().distance(p, known.site) == known.distance, a site not of
@@ -118,6 +118,10 @@ class OwnerIndex {
   // nearest's cost at any position within `reach` of the centre, from a hit measured there
   // (+infinity when that hit can leave its reach within the ball, or there is none).
   double ball_bound(const Hit& at_centre, double reach) const;
+  // The metric's likely nearest site of `owner` at p (SiteMetric::search_start), measured: a
+  // start for a search that has no bound yet. Hit{} where the metric offers none, or its cost is
+  // infinite.
+  Hit start_of(Vec2 p, int32_t owner) const;
   // ball_bound of `nearest` (measured at the centre: of `owner`, or with `others` of every owner
   // but it, 0 meaning none), or where that hit can leave its reach in the ball, of the nearest
   // site that reaches over all of it.

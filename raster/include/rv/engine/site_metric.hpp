@@ -82,6 +82,19 @@ class SiteMetric {
   // "no slope known". In `hit`: whether it was attained at a vertex of the site's line (the
   // vertex's canonical distance, the same bits from every edge that shares it); by default never.
   virtual double distance_at_vertex(Vec2 p, int32_t site, Vec2& gradient, VertexHit& hit) const;
+  // distance_at_vertex(p, site, gradient, hit), the same bits, where that distance is at most
+  // `bound`; elsewhere any value above `bound` (infinity allowed; gradient and hit then
+  // unspecified). For searches that take a site only at or under their best so far: a metric
+  // whose distance is a search of its own (by sea: over the paths that bend round land) stops
+  // it at the bound. Default: distance_at_vertex.
+  virtual double distance_within(Vec2 p, int32_t site, double bound, Vec2& gradient, VertexHit& hit) const;
+  // A site of owner `owner` (1..K) whose distance from p is likely the owner's least, found for
+  // much less than measuring the owner's sites one by one costs, or kNoSite. A start for the
+  // searches of an owner's sites (OwnerIndex), whose results never depend on it. Default: kNoSite
+  // (a straight metric's lower bounds order its searches well enough; by sea the nearest sites
+  // in a straight line are often hidden, and the owner's search over its bend nodes finds the
+  // way round at once).
+  virtual int32_t search_start(Vec2 p, int32_t owner) const;
   // The same without the vertex.
   double distance_and_gradient(Vec2 p, int32_t site, Vec2& gradient) const {
     VertexHit hit;
