@@ -200,6 +200,9 @@ int main(int argc, char** argv) {
       static_cast<double>(last.visibility_tests) / std::max<int64_t>(1, sea_cells),
       static_cast<long long>(last.land_cells), static_cast<long long>(last.unreachable_cells),
       100.0 * static_cast<double>(bent) / std::max<int64_t>(1, sea_cells), last.max_detour);
+  std::printf("cells in blocks %lld; bent cells' lengths interpolated %lld, from %lld patches\n",
+              static_cast<long long>(last.block_cells), static_cast<long long>(last.interpolated_cells),
+              static_cast<long long>(last.length_patches));
   // The field's fingerprint (owners, distances' bits, vias): an optimisation of the engine must
   // leave it unchanged.
   uint64_t h = 1469598103934665603ull;

@@ -1,4 +1,4 @@
-// The bend nodes' distances by sea: see sea_exact.cpp for the method, bend_settle.hpp for the
+// The bend nodes' distances by sea: see sea_exact/sea_exact.cpp for the method, bend_settle.hpp for the
 // parts.
 #include "sea/bend_settle.hpp"
 

@@ -1,5 +1,5 @@
 // The bend nodes' distances by sea (internal to rv_raster): the searches every evaluation runs,
-// the Dijkstra without a graph that settles the nodes (sea_exact.cpp's first half, explained
+// the Dijkstra without a graph that settles the nodes (sea_exact/sea_exact.cpp's first half, explained
 // there), and what prepare_sea() keeps.
 // Thread safety: a Searches is filled by settle_bends (one thread), then only read (any number).
 #pragma once

@@ -1,6 +1,7 @@
 #include "sea/sea_prepare.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <map>
 #include <utility>
 
@@ -310,6 +311,42 @@ bool taut(const Visibility& vis, const Node& node, Vec2 from, Vec2 x) {
       (land_end.x - s.at.x) * (from.x - s.at.x) + (land_end.y - s.at.y) * (from.y - s.at.y) > 0;
   const bool land_ccw = !land_at_arrival && !before(vis, s.at, from, x, land_end);
   return land_ccw ? o > 0 : o < 0;
+}
+
+bool never_taut(const Visibility& vis, const Node& node, Vec2 from, Vec2 lo, Vec2 hi) {
+  // taut()'s cases by the land's far ray (angle L counter-clockwise from the arrival's
+  // direction): L within the half-turn (side > 0), the departures are those with angle in
+  // [L, half-turn): left of the arrival's line and not right of the ray; beyond it (side < 0),
+  // in (half-turn, L): right of the arrival's line and right of the ray. On the arrival's line
+  // (side 0) or from the node itself, no proof is tried.
+  const Visibility::Star& s = vis.vertex_star(node.vertex);
+  const Vec2 v = s.at;
+  const double ax = from.x - v.x, ay = from.y - v.y;
+  const double near = vis.slack(v, from);
+  if (from == v || ax * ax + ay * ay <= 4.0 * near * near || s.rays.empty()) return false;
+  const Vec2 land_end = s.rays[static_cast<size_t>(node.wedge % static_cast<int>(s.rays.size()))];
+  const int side = vis.orient(v, from, land_end);
+  if (side == 0) return false;
+  const double la = std::hypot(ax, ay);
+  const double lx = land_end.x - v.x, ly = land_end.y - v.y, ll = std::hypot(lx, ly);
+  const double r = rounding_slack(v, from);
+  const Vec2 corners[4] = {lo, Vec2{hi.x, lo.y}, Vec2{lo.x, hi.y}, hi};
+  bool out_arrival = true, out_ray = true;  // every corner outside that half-plane
+  bool one_side = true, behind = true;      // no corner near the straight continuation
+  for (const Vec2& c : corners) {
+    const double bx = c.x - v.x, by = c.y - v.y;
+    const double margin = vis.slack(v, c);
+    const double straight_on = r * std::hypot(bx, by) / la + margin;  // taut()'s allowance, and the slack
+    const double da = (ax * by - ay * bx) / la;                       // > 0: left of the arrival's line
+    const double dl = (lx * by - ly * bx) / ll;                       // > 0: left of the land's far ray
+    if (!(side > 0 ? da < -straight_on : da > straight_on)) out_arrival = false;
+    if (!(side > 0 ? dl < -margin : dl > margin)) out_ray = false;
+    if (std::abs(da) <= straight_on) one_side = false;
+    if (!(ax * bx + ay * by > la * margin)) behind = false;
+  }
+  // (Beside the ray alone, the box must also keep off the straight continuation, which taut()
+  // accepts within rounding whatever the ray.)
+  return out_arrival || (out_ray && (one_side || behind));
 }
 
 }  // namespace rv::sea

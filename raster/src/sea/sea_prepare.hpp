@@ -207,6 +207,13 @@ std::vector<Node> bend_nodes(const Visibility& vis);
 // measured to rounding) may leave in any direction. Necessary for a shortest path's bend; exact.
 bool taut(const Visibility& vis, const Node& node, Vec2 from, Vec2 x);
 
+// Whether taut(vis, node, from, x) is false for every x of the box [lo, hi] (plane coordinates),
+// proved from the box's corners: the departures taut() accepts lie in the sector between the
+// land's far ray at the node and the arrival's straight continuation (narrower than a half-turn),
+// and the box lies wholly outside one of the two half-planes that bound it, by more than the
+// reading's slack (and, beside the arrival's line, the straight-on allowance). False when unsure.
+bool never_taut(const Visibility& vis, const Node& node, Vec2 from, Vec2 lo, Vec2 hi);
+
 // An empty field of the window (no owner anywhere) with the barriers' vertex count, and the
 // straight key a maximum distance allows (+infinity for none).
 SeaField empty_field(const Prepared& p, const GridSpec& grid, const Window& window, const MetricSpec& metric);

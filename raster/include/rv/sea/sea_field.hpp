@@ -85,6 +85,12 @@ struct SeaField {
   int64_t bend_nodes = 0;        // (vertex, sea wedge) pairs wider than a half-turn: where paths may bend
   int64_t visibility_tests = 0;  // straight paths tested, all told (a block's proof for a root counts one)
   int64_t block_cells = 0;       // the exact engine: cells answered in blocks clear of barriers (proofs per block)
+  // The exact engine on a longitude/latitude grid: cells of such blocks whose path bends answered
+  // with the length from their last bend interpolated over the block (each such answer is the
+  // one the inverse problem gives, to the bit), and the interpolations built.
+  int64_t interpolated_cells = 0;
+  int64_t length_patches = 0;
+  int64_t length_retries = 0;    // such cells weighed again exactly: two roots within the error
   int64_t bend_tests = 0;        // of which while settling the bend nodes
   int64_t bend_evaluations = 0;  // the exact engine: bend nodes evaluated (a node may be more than once)
   double max_detour = 1.0;       // the largest path length over straight distance to the nearest site

@@ -14,7 +14,7 @@
 //   per cell its nearest site if seen (the straight field's answer, bit for bit), else the best
 //   site seen and the best settled node seen, each searched in order of its bound. Where no
 //   barrier is near a block of cells, its proofs are made once for the block and each cell gets
-//   the answer it would get alone (sea/sea_cells.hpp).
+//   the answer it would get alone (sea_exact/sea_cells.hpp).
 // - Seeds with weights or reaches: the same per class of (weight, reach) (sea::site_classes),
 //   each with its own settled nodes, and the cheapest class's path (adjusted_path below).
 #include <algorithm>
@@ -28,17 +28,21 @@
 #include "rv/field/parallel.hpp"
 #include "rv/sea/sea_field.hpp"
 #include "sea/bend_settle.hpp"
-#include "sea/sea_cells.hpp"
+#include "sea_exact/sea_cells.hpp"
 
 namespace rv {
 namespace {
 
 // The engines' shared parts (sea/sea_prepare.hpp, sea/root_tree.hpp, sea/bend_settle.hpp,
-// sea/sea_cells.hpp).
+// sea_exact/sea_cells.hpp).
 using namespace ::rv::sea;
 
-// The side of a band of rows and of its blocks, in cells.
-constexpr int64_t kBlock = 8;
+// The side of a band of rows and of its largest blocks, and of the smallest blocks, in cells.
+// A block not clear of barriers is tried again as four (a quadtree down to kMinBlock): large
+// blocks share their proofs and their cells' interpolated lengths among many cells, small ones
+// leave fewer cells near coasts to be answered alone.
+constexpr int64_t kBlock = 16;
+constexpr int64_t kMinBlock = 4;
 
 // The ground under each cell of a row (Prepared::row_cells()) where it is `unknown` (the others are those
 // of blocks answered at once: land or open sea).
@@ -148,7 +152,8 @@ SeaField compute_sea(const SeedSet& seeds, const Barriers& barriers, const GridS
     w.classes.resize(prepared->classes.size());
   }
   // Bands of kBlock rows, each cut into blocks of kBlock columns: a block clear of barriers is
-  // answered at once (answer_block), every other cell alone.
+  // answered at once (answer_block), else its quarters are tried, down to kMinBlock; every other
+  // cell alone.
   const bool blocks = !adjusted && !options.cell_by_cell;
   const int64_t bands = (window.height + kBlock - 1) / kBlock;
   std::atomic<int64_t> rows_done{0};
@@ -162,13 +167,22 @@ SeaField compute_sea(const SeedSet& seeds, const Barriers& barriers, const GridS
     constexpr auto kUnknown = static_cast<Visibility::Ground>(-1);
     std::vector<Visibility::Ground> grounds(static_cast<size_t>((r1 - r0) * window.width), kUnknown);
     std::vector<uint8_t> answered(grounds.size(), 0);
-    for (int64_t c0 = 0; blocks && c0 < window.width; c0 += kBlock) {
-      const int64_t c1 = std::min(c0 + kBlock, window.width);
-      if (inside_any(interiors, r0, r1, c0, c1) || !answer_block(run, w, c0, c1, r0, r1, spots, grounds, window.width))
-        continue;
-      for (int64_t r = r0; r < r1; ++r)
-        std::fill_n(answered.begin() + (r - r0) * window.width + c0, c1 - c0, uint8_t{1});
-    }
+    auto try_block = [&](auto&& self, int64_t c0, int64_t c1, int64_t b0, int64_t b1, int64_t side) -> void {
+      if (!inside_any(interiors, b0, b1, c0, c1) &&
+          answer_block(run, w, c0, c1, b0, b1, &spots[static_cast<size_t>(b0 - r0)],
+                       grounds.data() + (b0 - r0) * window.width, window.width)) {
+        for (int64_t r = b0; r < b1; ++r)
+          std::fill_n(answered.begin() + (r - r0) * window.width + c0, c1 - c0, uint8_t{1});
+        return;
+      }
+      if (side <= kMinBlock) return;
+      const int64_t half = side / 2;
+      for (int64_t qr = b0; qr < b1; qr += half)
+        for (int64_t qc = c0; qc < c1; qc += half)
+          self(self, qc, std::min(qc + half, c1), qr, std::min(qr + half, b1), half);
+    };
+    for (int64_t c0 = 0; blocks && c0 < window.width; c0 += kBlock)
+      try_block(try_block, c0, std::min(c0 + kBlock, window.width), r0, r1, kBlock);
     for (int64_t r = r0; r < r1; ++r) {
       w.last = -1;
       for (ClassHints& h : w.classes) h.last = -1;
@@ -205,6 +219,9 @@ SeaField compute_sea(const SeedSet& seeds, const Barriers& barriers, const GridS
     out.unreachable_cells += w.unreachable;
     out.visibility_tests += w.tests;
     out.block_cells += w.block_cells;
+    out.interpolated_cells += w.interpolated;
+    out.length_patches += w.patches;
+    out.length_retries += w.patch_retries;
     out.max_detour = std::max(out.max_detour, w.detour);
   }
   out.field.threads = workers;

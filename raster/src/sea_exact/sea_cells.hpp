@@ -48,11 +48,15 @@ struct ClassHints {
 // One worker's hints and counts.
 struct CellWorker {
   int64_t land = 0, unreachable = 0, tests = 0, block_cells = 0;
+  // Bent blocks' lengths (length_patch.hpp): patches built, cells answered from them, cells
+  // weighed again exactly because two roots came within the patches' error.
+  int64_t patches = 0, interpolated = 0, patch_retries = 0;
   double detour = 1.0;
   // Per item of the search's tree, the edge that last hid it (best_path's `blockers`):
   // neighbouring cells are mostly hidden from the same roots by the same edges.
   std::vector<int32_t> blockers;
-  int32_t last = -1;  // the root of the previous bent cell
+  int32_t last = -1;        // the root of the previous bent cell
+  int32_t block_root = -1;  // the root that won the last bent cell answered in a block
   std::vector<ClassHints> classes;
   // Block scratch.
   std::vector<int64_t> pending;
@@ -66,7 +70,6 @@ void answer_cell(const CellRun& run, CellWorker& w, int64_t c, int64_t r, const 
 // grounds written to grounds[(r - r0) * stride + c] (land or open sea), and true; else nothing
 // done and false.
 bool answer_block(const CellRun& run, CellWorker& w, int64_t c0, int64_t c1, int64_t r0, int64_t r1,
-                  const std::vector<std::vector<Spot>>& spots, std::vector<Visibility::Ground>& grounds,
-                  int64_t stride);
+                  const std::vector<Spot>* spots, Visibility::Ground* grounds, int64_t stride);
 
 }  // namespace rv::sea

@@ -1,0 +1,59 @@
+// The geodesic length from one fixed point (a root of paths by sea: a bend node's vertex or a
+// point site) to the cells of one block of a longitude/latitude grid, interpolated (internal to
+// rv_raster; sea_cells.cpp uses it for the cells whose path bends).
+//
+// The quantity interpolated is the straight geodesic engine's point form (geodesic/
+// geodesic_interpolant.hpp): q = length / chord to the point, a bicubic over 4 x 4 nodes at
+// thirds of the block, so that a cell's length is q times its chord. Building takes 16 inverse
+// problems at the nodes and one at the block's centre, where the patch must agree with
+// GeographicLib within kPatchCheck or it is not used. A length taken from a patch is within
+// kPatchError of GeographicLib's (a margin 100 times the check: the straight engine measured a
+// cell's worst error under twice its block's centre error); callers decide anything closer than
+// that with GeographicLib's own length, so that every answer is the one it would be without
+// patches, to the bit.
+//
+// Units: metres (lengths, ECEF positions), degrees (longitude, latitude). Thread safety: a built
+// patch is immutable; build on one thread.
+#pragma once
+
+#include <cstdint>
+
+#include "sea/sea_prepare.hpp"
+
+namespace rv::sea {
+
+inline constexpr double kPatchCheck = 1e-7;  // metres: accepted error at the block's centre
+inline constexpr double kPatchError = 1e-5;  // metres: the margin every decision keeps
+// Degrees: the largest span of a block in longitude and in latitude. Beyond, the cubics stray
+// from the quantity well away from the centre while the centre still checks (up to 7e-7 m
+// measured over 1.6 degrees, 60 times the centre's error); within it, the worst cell measured is
+// under 1e-8 m (tests/raster/sea/test_sea_blocks.cpp).
+inline constexpr double kPatchSpan = 0.4;
+
+// The block's cells: columns c0 .. c1 and rows r0 .. r1 of the window, both ends included
+// (c1 - c0 >= 3, r1 - r0 >= 3), whose centres' longitudes and latitudes are linear in the column
+// and the row from ll0 (cell c0, r0) to ll1 (cell c1, r1).
+struct PatchBlock {
+  int64_t c0, r0, c1, r1;
+  Vec2 ll0, ll1;
+};
+
+class LengthPatch {
+ public:
+  // Builds the patch of the length from `ll` (its ECEF position `xyz`) over `block`; usable()
+  // says whether the centre's check held, the block spans at most kPatchSpan each way and no
+  // node lay within a millimetre of the point.
+  LengthPatch(const Prepared& p, Vec2 ll, const Prepared::Xyz& xyz, const PatchBlock& block);
+  bool usable() const { return usable_; }
+  // The length to cell (c, r) of the block, whose ECEF position is `at` (Prepared::spot_xyz),
+  // within kPatchError of the inverse problem's. Only when usable().
+  double length(int64_t c, int64_t r, const Prepared::Xyz& at) const;
+
+ private:
+  Prepared::Xyz xyz_;
+  PatchBlock block_;
+  double q_[4][4] = {};
+  bool usable_ = false;
+};
+
+}  // namespace rv::sea

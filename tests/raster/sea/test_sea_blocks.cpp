@@ -1,0 +1,227 @@
+// The exact engine's blocks by sea (raster/src/sea_exact/sea_cells.cpp): the parts that let a block of
+// cells be answered without an inverse problem or a visibility proof per cell, each against
+// what it stands in for.
+// - A length patch (sea_exact/length_patch.hpp) against GeographicLib's inverse problem, cell by cell.
+// - never_taut (sea/sea_prepare.hpp), which leaves a bend out of a block before its visibility
+//   proof, against taut() at points all over the box.
+// - Blocks with patches against every cell answered alone, to the bit, with and without a
+//   maximum distance.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <memory>
+#include <random>
+#include <vector>
+
+#include "engines_agree.hpp"
+#include "geodesic_oracle.hpp"
+#include "random_archipelago.hpp"
+#include "rv/field/error.hpp"
+#include "rv/geodesic/geodesic.hpp"
+#include "rv/sea/sea_field.hpp"
+#include "sea/bend_settle.hpp"
+#include "sea/sea_prepare.hpp"
+#include "sea_exact/length_patch.hpp"
+#include "seed_gen.hpp"
+
+namespace rv {
+namespace {
+
+SeaOptions on_the_ellipsoid() {
+  SeaOptions o;
+  o.metric = test::geodesic_metric();
+  return o;
+}
+
+// Patches over blocks of 4 to 32 cells of grids from 0.0002 to 0.02 degrees across the western
+// Baltic's latitudes, from points anywhere within 3 degrees (inside the block too, metres from a
+// cell): every usable patch's length at every cell is within a hundredth of kPatchError of
+// GeographicLib's, and every patch within kPatchSpan is usable; a block beyond that span, or a
+// point on a node, gives none.
+TEST(SeaBlocks, APatchsLengthsAreGeographicLibsWithinItsError) {
+  const MetricSpec metric = test::geodesic_metric();
+  sea::Prepared p(Visibility(Barriers{}));
+  p.semi_major = metric.semi_major;
+  p.e2 = metric.flattening * (2.0 - metric.flattening);
+  p.geodesic = std::make_shared<const GeodesicMeasure>(metric);
+  std::mt19937_64 rng(2026);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  const double resolutions[] = {0.0002, 0.001, 0.004, 0.01, 0.02};
+  const int64_t sides[] = {4, 8, 16, 32};
+  int within = 0, usable = 0, beyond = 0;
+  int64_t cells = 0;
+  double worst = 0.0;
+  for (int k = 0; k < 400; ++k) {
+    const double res = resolutions[k % 5];
+    const int64_t w = sides[(k / 5) % 4], h = sides[(k / 20) % 4];
+    const Vec2 ll0{9.0 + 6.0 * u(rng), 56.2 - 2.4 * u(rng)};  // the block's first cell (north-west)
+    const Vec2 ll1{ll0.x + res * static_cast<double>(w - 1), ll0.y - res * static_cast<double>(h - 1)};
+    // A third of the points within the block's own span, the rest up to 3 degrees away.
+    const double spread = k % 3 == 0 ? 0.0 : 3.0 * u(rng);
+    const Vec2 at{ll0.x + (ll1.x - ll0.x) * u(rng) + spread * (2.0 * u(rng) - 1.0),
+                  ll0.y + (ll1.y - ll0.y) * u(rng) + spread * (2.0 * u(rng) - 1.0)};
+    const sea::PatchBlock block{100, 200, 100 + w - 1, 200 + h - 1, ll0, ll1};
+    const sea::LengthPatch patch(p, at, p.xyz(at), block);
+    if (ll1.x - ll0.x > sea::kPatchSpan || ll0.y - ll1.y > sea::kPatchSpan) {
+      ++beyond;
+      EXPECT_FALSE(patch.usable()) << res << " x " << w << " x " << h;
+      continue;
+    }
+    ++within;
+    if (!patch.usable()) continue;
+    ++usable;
+    for (int64_t r = 0; r < h; ++r)
+      for (int64_t c = 0; c < w; ++c) {
+        const Vec2 cell{ll0.x + res * static_cast<double>(c), ll0.y - res * static_cast<double>(r)};
+        const double want = p.geodesic->point_distance(at, cell);
+        const double got = patch.length(100 + c, 200 + r, p.xyz(cell));
+        worst = std::max(worst, std::abs(got - want));
+        ++cells;
+      }
+  }
+  std::printf("%d patches within the span, %d usable; %lld cells, worst error %.3g m; %d beyond the span\n", within,
+              usable, static_cast<long long>(cells), worst, beyond);
+  EXPECT_LT(worst, sea::kPatchError / 100.0);
+  EXPECT_EQ(usable, within);
+  EXPECT_GT(within, 300);
+  EXPECT_GT(beyond, 20);
+  // A point on the block's first cell (a node): no patch.
+  const Vec2 ll0{12.0, 55.0}, ll1{12.0 + 0.001 * 15, 55.0 - 0.001 * 15};
+  EXPECT_FALSE(sea::LengthPatch(p, ll0, p.xyz(ll0), sea::PatchBlock{0, 0, 15, 15, ll0, ll1}).usable());
+}
+
+// never_taut over random archipelagos, planar and on the ellipsoid: for every settled bend and
+// boxes of every size near it (straddling its arrival line and its land's far ray too), a box it
+// proves untaut holds no taut departure among 12 x 12 points over it, corners and edges
+// included. It must prove many boxes, and many others must hold taut departures (the test has
+// something to tell apart).
+TEST(SeaBlocks, ABoxProvedUntautHoldsNoTautDeparture) {
+  std::mt19937_64 rng(77);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  int64_t proved = 0, taut_boxes = 0, points = 0;
+  for (int round = 0; round < 12; ++round) {
+    const bool ellipsoid = round % 2 == 1;
+    auto to = [&](Vec2 v) { return ellipsoid ? Vec2{12.0 + 0.02 * v.x, 55.3 + 0.0125 * v.y} : v; };
+    const test::Archipelago a = test::random_archipelago(rng, round, to);
+    const GridSpec g = ellipsoid ? test::grid_of(40, 25, 0.02, 12.0, 55.8) : test::grid_of(40, 40, 1.0);
+    std::shared_ptr<const PreparedSea> prepared;
+    try {
+      prepared = prepare_sea(a.seeds, a.barriers, g, ellipsoid ? on_the_ellipsoid() : SeaOptions{});
+    } catch (const Error& e) {
+      ASSERT_EQ(e.kind(), ErrorKind::invalid_input) << e.what();  // a port on an island or the boom
+      continue;
+    }
+    const sea::Prepared& p = prepared->prepared;
+    const sea::Searches& s = prepared->search;
+    for (size_t k = 0; k < s.nodes.size(); ++k) {
+      if (!std::isfinite(s.dist[k].d)) continue;
+      const sea::Node& n = s.nodes[k];
+      const Vec2 v = p.vis.vertex(n.vertex);
+      const double scale = std::max(std::hypot(s.from[k].x - v.x, s.from[k].y - v.y), 1e-9);
+      for (int b = 0; b < 40; ++b) {
+        // A box of a random size (a thousandth of the arrival's length to four times it),
+        // centred anywhere within three sizes of the vertex.
+        const double size = scale * std::pow(10.0, -3.0 + 3.6 * u(rng));
+        const double cx = v.x + 3.0 * size * (2.0 * u(rng) - 1.0), cy = v.y + 3.0 * size * (2.0 * u(rng) - 1.0);
+        const Vec2 lo{cx - size * u(rng), cy - size * u(rng)}, hi{cx + size * u(rng), cy + size * u(rng)};
+        const bool untaut = sea::never_taut(p.vis, n, s.from[k], lo, hi);
+        bool any = false;
+        for (int i = 0; i < 12; ++i)
+          for (int j = 0; j < 12; ++j) {
+            const Vec2 x{lo.x + (hi.x - lo.x) * i / 11.0, lo.y + (hi.y - lo.y) * j / 11.0};
+            if (x.x == v.x && x.y == v.y) continue;
+            ++points;
+            if (sea::taut(p.vis, n, s.from[k], x)) {
+              any = true;
+              ASSERT_FALSE(untaut) << "round " << round << " node " << k << ": (" << x.x << ", " << x.y
+                                   << ") is a taut departure in a box proved untaut";
+            }
+          }
+        proved += untaut;
+        taut_boxes += any;
+      }
+    }
+  }
+  std::printf("%lld boxes proved untaut, %lld boxes holding taut departures, %lld points\n",
+              static_cast<long long>(proved), static_cast<long long>(taut_boxes), static_cast<long long>(points));
+  EXPECT_GT(proved, 2000);
+  EXPECT_GT(taut_boxes, 2000);
+}
+
+// Blocks on a fine grid on the ellipsoid, where most cells whose path bends take their length
+// from a patch: the same field as every cell alone, to the bit (owner, via, distance, the largest
+// detour), with no maximum distance and with one that cuts through the bent cells.
+TEST(SeaBlocks, PatchedBlocksAnswerAsEveryCellAlone) {
+  std::mt19937_64 rng(4);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  int rounds = 0;
+  int64_t interpolated = 0, patches = 0, via_cells = 0;
+  for (int round = 0; round < 4; ++round) {
+    Barriers b;
+    for (int k = 0; k < 5; ++k) {  // islands with long coasts across the middle
+      const double x = 12.05 + 0.12 * k + 0.03 * u(rng), y = 55.4 + 0.15 * u(rng);
+      const double w = 0.05 + 0.04 * u(rng), h = 0.08 + 0.1 * u(rng);
+      b.add_polygon(std::vector<Ring>{{{x, y}, {x + w, y + 0.01}, {x + w * 0.7, y + h}, {x - 0.01, y + h * 0.9}}},
+                    "island");
+    }
+    SeedSet s;
+    for (int k = 0; k < 4; ++k)
+      s.add_point(s.add_feature(s.owner_code(k % 2 ? "A" : "B")), {12.0 + 0.7 * u(rng), 55.3 + 0.05 * u(rng)});
+    const GridSpec g = test::grid_of(360, 240, 0.002, 12.0, 55.8);
+    SeaOptions options = on_the_ellipsoid();
+    if (round >= 2) options.max_distance = 18000.0 + 4000.0 * u(rng);
+    SeaField f;
+    try {
+      f = test::blocks_agree(s, b, g, options);
+    } catch (const Error& e) {
+      ASSERT_EQ(e.kind(), ErrorKind::invalid_input) << e.what();
+      continue;
+    }
+    if (HasFailure()) return;
+    ++rounds;
+    interpolated += f.interpolated_cells;
+    patches += f.length_patches;
+    for (int64_t r = 0; r < g.height; ++r)
+      for (int64_t c = 0; c < g.width; ++c) via_cells += f.via.at(c, r) != kNoVia;
+  }
+  std::printf("%d rounds: %lld cells by way of a bend, %lld of them from %lld patches\n", rounds,
+              static_cast<long long>(via_cells), static_cast<long long>(interpolated), static_cast<long long>(patches));
+  EXPECT_GE(rounds, 3);
+  EXPECT_GT(via_cells, 20000);
+  EXPECT_GT(interpolated, via_cells / 2);
+}
+
+// A layout mirrored about the meridian 12.5 E on the ellipsoid (no barrier vertex on it), a cell
+// column on it: behind the islands the cells near the axis are reached round mirrored corners by
+// paths of the same length to within rounding, closer than any patch can tell apart. Such cells
+// are weighed again exactly (length_retries), and the field is every cell's own, to the bit.
+TEST(SeaBlocks, MirroredRootsAreToldApartExactly) {
+  Barriers b;
+  auto mirrored = [&](std::vector<Vec2> west) {
+    std::vector<Vec2> east;
+    for (auto it = west.rbegin(); it != west.rend(); ++it) east.push_back(Vec2{25.0 - it->x, it->y});
+    b.add_polygon(std::vector<Ring>{west}, "west");
+    b.add_polygon(std::vector<Ring>{east}, "east");
+  };
+  mirrored({{12.30, 55.40}, {12.46, 55.41}, {12.47, 55.50}, {12.31, 55.49}});
+  mirrored({{12.20, 55.58}, {12.42, 55.60}, {12.40, 55.64}});
+  SeedSet s;
+  s.add_point(s.add_feature(s.owner_code("A")), {12.28, 55.32});
+  s.add_point(s.add_feature(s.owner_code("B")), {25.0 - 12.28, 55.32});
+  const GridSpec g = test::grid_of(301, 200, 0.002, 12.5 - 150.5 * 0.002, 55.75);
+  const SeaField f = test::blocks_agree(s, b, g, on_the_ellipsoid());
+  if (HasFailure()) return;
+  int64_t axis_bent = 0;
+  for (int64_t r = 0; r < g.height; ++r) axis_bent += f.via.at(150, r) != kNoVia;
+  std::printf("%lld cells on the axis by way of a bend; %lld cells from patches, %lld weighed again\n",
+              static_cast<long long>(axis_bent), static_cast<long long>(f.interpolated_cells),
+              static_cast<long long>(f.length_retries));
+  EXPECT_GT(axis_bent, 50);
+  EXPECT_GT(f.interpolated_cells, 5000);
+  EXPECT_GT(f.length_retries, 50);
+}
+
+}  // namespace
+}  // namespace rv
