@@ -17,6 +17,8 @@
 #pragma once
 
 #include <cstdint>
+#include <memory>
+#include <unordered_map>
 
 #include "sea/sea_prepare.hpp"
 
@@ -54,6 +56,31 @@ class LengthPatch {
   PatchBlock block_;
   double q_[4][4] = {};
   bool usable_ = false;
+};
+
+// One worker's patches over the tiles of a window (square tiles of `side` cells from its first
+// cell, a whole number of the engine's blocks): one per (root, tile), shared by every block of
+// the tile, built once the root's length has been measured exactly for a few cells there, and
+// kept while the worker stays in the tile's row of tiles. Not thread-safe: one per worker.
+class PatchTiles {
+ public:
+  struct Entry {
+    int uses = 0;
+    std::unique_ptr<LengthPatch> patch;
+  };
+  // The entry of root `item` in tile (tx, ty), made empty on first use; entries of other rows of
+  // tiles are dropped first (references to them with them).
+  Entry& at(int32_t item, int64_t tx, int64_t ty) {
+    if (ty != row_) {
+      entries_.clear();
+      row_ = ty;
+    }
+    return entries_[(static_cast<uint64_t>(static_cast<uint32_t>(item)) << 32) | static_cast<uint64_t>(tx)];
+  }
+
+ private:
+  int64_t row_ = -1;
+  std::unordered_map<uint64_t, Entry> entries_;
 };
 
 }  // namespace rv::sea

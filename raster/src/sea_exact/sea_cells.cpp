@@ -172,9 +172,22 @@ struct Valued {
 // Else the cell is weighed again exactly.
 class BlockLengths {
  public:
-  BlockLengths(const CellRun& run, CellWorker& w, size_t candidates, const PatchBlock& block)
-      : run_(run), w_(w), block_(block), slots_(candidates) {}
-  bool enabled = false;
+  // Over the candidates of the block whose first cell is (c0, r0).
+  BlockLengths(const CellRun& run, CellWorker& w, size_t candidates, int64_t c0, int64_t r0)
+      : run_(run), w_(w), slots_(candidates) {
+    const int64_t side = run.patch_tile;
+    if (side == 0) return;
+    tx_ = c0 / side;
+    ty_ = r0 / side;
+    const int64_t tc0 = tx_ * side, tr0 = ty_ * side;
+    const int64_t tc1 = std::min(tc0 + side, run.window.width) - 1, tr1 = std::min(tr0 + side, run.window.height) - 1;
+    if (tc1 - tc0 < 3 || tr1 - tr0 < 3) return;  // (a tile clipped by the window's edge)
+    auto ll = [&](int64_t c, int64_t r) {
+      return Vec2{run.grid.centre_x(run.window.col0 + c), run.grid.centre_y(run.window.row0 + r)};
+    };
+    tile_ = PatchBlock{tc0, tr0, tc1, tr1, ll(tc0, tr0), ll(tc1, tr1)};
+    enabled_ = true;
+  }
 
   // Candidate `cand` (index j) as the last leg of a path to cell (c, r) (`at`, `spot`, `xyz`)
   // whose length could be below `upper`: its value, and true; false where it cannot be a root
@@ -260,8 +273,7 @@ class BlockLengths {
   // problems; most candidates measured for a few cells are never measured again).
   static constexpr int kExactUses = 3;
   struct Slot {
-    int uses = 0;
-    std::optional<LengthPatch> patch;
+    const LengthPatch* patch = nullptr;  // the tile's, once built
   };
 
   // The length from candidate j's point (`item`'s: `ll`, `pxyz`) to the cell: from its patch
@@ -269,9 +281,13 @@ class BlockLengths {
   double length(size_t j, int32_t item, int64_t c, int64_t r, const Prepared::Xyz& xyz, Vec2 ll,
                 const Prepared::Xyz& pxyz, const Spot& spot, double& err) {
     Slot& s = slots_[j];
-    if (enabled && !s.patch && ++s.uses > kExactUses) {
-      s.patch.emplace(run_.p(), ll, pxyz, block_);
-      ++w_.patches;
+    if (enabled_ && !s.patch) {
+      PatchTiles::Entry& e = w_.tiles.at(item, tx_, ty_);
+      if (!e.patch && ++e.uses > kExactUses) {
+        e.patch = std::make_unique<LengthPatch>(run_.p(), ll, pxyz, tile_);
+        ++w_.patches;
+      }
+      s.patch = e.patch.get();
     }
     if (s.patch && s.patch->usable()) {
       err = kPatchError;
@@ -295,8 +311,10 @@ class BlockLengths {
 
   const CellRun& run_;
   CellWorker& w_;
-  PatchBlock block_;
   std::vector<Slot> slots_;
+  bool enabled_ = false;  // patches over the block's tile
+  int64_t tx_ = 0, ty_ = 0;
+  PatchBlock tile_{};
 };
 
 // The roots that could give a cell of the block [lo, hi] its answer: those whose bound over the
@@ -387,10 +405,7 @@ void answer_bent_block(const CellRun& run, CellWorker& w, int64_t c0, int64_t c1
   const double upper = upper0 + reach_from(p, cells[mid], xyz[mid], cells, xyz);
   const std::vector<Candidate> cands = block_roots(run, w, lo, hi, upper, cells[mid]);
   std::vector<double> lower(cands.size());
-  BlockLengths lengths(run, w, cands.size(),
-                       PatchBlock{c0, r0, c1 - 1, r1 - 1, spots[0][static_cast<size_t>(c0)].ll,
-                                  spots[static_cast<size_t>(r1 - 1 - r0)][static_cast<size_t>(c1 - 1)].ll});
-  lengths.enabled = p.geodesic && !p.geolocator && c1 - c0 >= 4 && r1 - r0 >= 4;
+  BlockLengths lengths(run, w, cands.size(), c0, r0);
   std::vector<Valued> valued;
   size_t last_winner = 0;  // the candidate that won the last cell answered by patches
   for (size_t i = 0; i < bent.size(); ++i) {
@@ -422,7 +437,7 @@ void answer_bent_block(const CellRun& run, CellWorker& w, int64_t c0, int64_t c1
     // mostly share their last bend), then the others in order of their bound over the block until
     // one is beyond the best so far. The answer when one root wins by more than the patches' error
     // (BlockLengths says why that is the exact answer), else weighed again exactly.
-    if (lengths.enabled && !cands.empty()) {
+    if (run.patch_tile > 0 && !cands.empty()) {
       valued.clear();
       double upper = std::numeric_limits<double>::infinity();
       auto value = [&](size_t j) {

@@ -23,6 +23,7 @@
 #include "rv/field/interior.hpp"
 #include "rv/sea/sea_field.hpp"
 #include "sea/bend_settle.hpp"
+#include "sea_exact/length_patch.hpp"
 
 namespace rv::sea {
 
@@ -34,6 +35,11 @@ struct CellRun {
   const InteriorSpans& interiors;
   double max_distance;
   SeaField& out;  // each cell written by the worker that answers it
+  const GridSpec& grid;
+  const Window& window;
+  // The side of the tiles bent blocks share their length patches over (sea_exact/length_patch.hpp),
+  // in cells, a multiple of every block's; 0: no patches (a planar or projected grid).
+  int64_t patch_tile = 0;
   const Prepared& p() const { return prepared.prepared; }
   const Searches& search() const { return prepared.search; }
   bool adjusted() const { return !prepared.classes.empty(); }
@@ -48,6 +54,7 @@ struct ClassHints {
 // One worker's hints and counts.
 struct CellWorker {
   int64_t land = 0, unreachable = 0, tests = 0, block_cells = 0;
+  PatchTiles tiles;
   // Bent blocks' lengths (length_patch.hpp): patches built, cells answered from them, cells
   // weighed again exactly because two roots came within the patches' error.
   int64_t patches = 0, interpolated = 0, patch_retries = 0;

@@ -145,7 +145,10 @@ SeaField compute_sea(const SeedSet& seeds, const Barriers& barriers, const GridS
   straight.prepared = options.straight;
   const NearestField straight_field = adjusted ? NearestField{} : compute(seeds, grid, straight);
   const int workers = resolve_threads(options.threads);
-  const CellRun run{*prepared, seeds, straight_field, interiors, options.max_distance, out};
+  CellRun run{*prepared, seeds, straight_field, interiors, options.max_distance, out, grid, window};
+  // Patches on a longitude/latitude grid over tiles of up to 4 x 4 blocks within kPatchSpan.
+  if (p.geodesic && !p.geolocator)
+    run.patch_tile = kBlock * std::clamp<int64_t>(static_cast<int64_t>(kPatchSpan / grid.res) / kBlock, 1, 4);
   std::vector<CellWorker> cell_workers(static_cast<size_t>(workers));
   for (CellWorker& w : cell_workers) {
     w.blockers.assign(static_cast<size_t>(search.site_items()) + search.nodes.size(), -1);
