@@ -361,8 +361,8 @@ std::vector<Candidate> block_roots(const CellRun& run, CellWorker& w, Vec2 lo, V
 // The block's cells whose path bends (`bent`: (row - r0) * stride + (column - c0) each), more
 // than a few: one answered alone gives an upper bound of them all, and the roots within it are
 // weighed for each (see the header).
-void answer_bent_block(const CellRun& run, CellWorker& w, int64_t c0, int64_t c1, int64_t r0, int64_t r1, Vec2 lo,
-                       Vec2 hi, const std::vector<Spot>* spots, const std::vector<int64_t>& bent, int64_t stride) {
+void answer_bent_block(const CellRun& run, CellWorker& w, int64_t c0, int64_t r0, Vec2 lo, Vec2 hi,
+                       const std::vector<Spot>* spots, const std::vector<int64_t>& bent, int64_t stride) {
   const Prepared& p = run.p();
   const Searches& s = run.search();
   auto spot_of = [&](int64_t k) -> const Spot& {
@@ -543,7 +543,7 @@ bool answer_block(const CellRun& run, CellWorker& w, int64_t c0, int64_t c1, int
     }
     return true;
   }
-  answer_bent_block(run, w, c0, c1, r0, r1, lo, hi, spots, bent, stride);
+  answer_bent_block(run, w, c0, r0, lo, hi, spots, bent, stride);
   return true;
 }
 
