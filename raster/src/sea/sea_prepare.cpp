@@ -331,8 +331,8 @@ bool never_taut(const Visibility& vis, const Node& node, Vec2 from, Vec2 lo, Vec
   const double lx = land_end.x - v.x, ly = land_end.y - v.y, ll = std::hypot(lx, ly);
   const double r = rounding_slack(v, from);
   const Vec2 corners[4] = {lo, Vec2{hi.x, lo.y}, Vec2{lo.x, hi.y}, hi};
-  bool out_arrival = true, out_ray = true;  // every corner outside that half-plane
-  bool one_side = true, behind = true;      // no corner near the straight continuation
+  bool out_arrival = true, out_ray = true;        // every corner outside that half-plane
+  bool left = true, right = true, behind = true;  // no point of the box near the straight continuation
   for (const Vec2& c : corners) {
     const double bx = c.x - v.x, by = c.y - v.y;
     const double margin = vis.slack(v, c);
@@ -341,12 +341,14 @@ bool never_taut(const Visibility& vis, const Node& node, Vec2 from, Vec2 lo, Vec
     const double dl = (lx * by - ly * bx) / ll;                       // > 0: left of the land's far ray
     if (!(side > 0 ? da < -straight_on : da > straight_on)) out_arrival = false;
     if (!(side > 0 ? dl < -margin : dl > margin)) out_ray = false;
-    if (std::abs(da) <= straight_on) one_side = false;
+    if (!(da > straight_on)) left = false;
+    if (!(da < -straight_on)) right = false;
     if (!(ax * bx + ay * by > la * margin)) behind = false;
   }
   // (Beside the ray alone, the box must also keep off the straight continuation, which taut()
-  // accepts within rounding whatever the ray.)
-  return out_arrival || (out_ray && (one_side || behind));
+  // accepts within rounding whatever the ray: wholly on one side of the arrival's line, or
+  // wholly behind the node.)
+  return out_arrival || (out_ray && (left || right || behind));
 }
 
 }  // namespace rv::sea

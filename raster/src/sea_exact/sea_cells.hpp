@@ -6,12 +6,15 @@
 // barrier near it is answered from proofs made once for the block (Visibility::clear_box,
 // sees_box): its ground; the straight nearest sites that see the whole block; and, for the
 // cells whose path bends, the roots that could give any of them its answer (those within an
-// upper bound of the block's distances, as RootTree bounds them), each proved to see the whole
-// block or tested per cell as before. Every cell's answer is the one answer_cell gives it, to
-// the bit: the same roots weighed the same way (Searches::consider), only the order and the
-// proofs of visibility differ. The upper bound rests on the statement's triangle inequality (a
-// cell's distance is at most that of a cell it sees plus the way between), which needs the
-// points where seeds' edges meet barriers among the roots (Prepared::touches).
+// upper bound of the block's distances, as RootTree bounds them, less the bends no cell of the
+// block could leave taut: never_taut), each proved to see the whole block or tested per cell as
+// before. On a longitude/latitude grid the lengths from those roots come from patches over the
+// block's tile (length_patch.hpp) wherever the answer cannot depend on the patches' error.
+// Every cell's answer is the one answer_cell gives it, to the bit: the same roots weighed the
+// same way (Searches::consider), only the order, the proofs of visibility and which lengths are
+// solved differ. The upper bound rests on the statement's triangle inequality (a cell's distance
+// is at most that of a cell it sees plus the way between), which needs the points where seeds'
+// edges meet barriers among the roots (Prepared::touches).
 // Thread safety: a CellRun is shared read-only by the workers (each writes its own cells of
 // `out`); a CellWorker belongs to one worker.
 #pragma once

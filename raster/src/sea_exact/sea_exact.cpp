@@ -13,8 +13,9 @@
 // - Cells: the straight field of the window first (the straight exact engine's, rv/engine), then
 //   per cell its nearest site if seen (the straight field's answer, bit for bit), else the best
 //   site seen and the best settled node seen, each searched in order of its bound. Where no
-//   barrier is near a block of cells, its proofs are made once for the block and each cell gets
-//   the answer it would get alone (sea_exact/sea_cells.hpp).
+//   barrier is near a block of cells (a quadtree of 16 down to 4 cells), its proofs are made
+//   once for the block, the lengths from its roots interpolated over the block's tile, and each
+//   cell gets the answer it would get alone (sea_exact/sea_cells.hpp).
 // - Seeds with weights or reaches: the same per class of (weight, reach) (sea::site_classes),
 //   each with its own settled nodes, and the cheapest class's path (adjusted_path below).
 #include <algorithm>
