@@ -159,9 +159,11 @@ struct Prepared {
   // The chord between two positions less its rounding (coordinates of 6.4e6 m carry errors of
   // nanometres) and GeographicLib's own error (15 nm): never above the distance the inverse
   // problem returns for the same two points.
-  static double chord_below(const Xyz& a, const Xyz& b) {
+  static double chord_below(const Xyz& a, const Xyz& b) { return chord(a, b) * (1.0 - 1e-12) - 1e-6; }
+  // The chord itself, as computed (metres).
+  static double chord(const Xyz& a, const Xyz& b) {
     const double dx = a.x - b.x, dy = a.y - b.y, dz = a.z - b.z;
-    return std::sqrt(dx * dx + dy * dy + dz * dz) * (1.0 - 1e-12) - 1e-6;
+    return std::sqrt(dx * dx + dy * dy + dz * dz);
   }
 };
 

@@ -9,11 +9,6 @@
 namespace rv::sea {
 namespace {
 
-double chord(const Prepared::Xyz& a, const Prepared::Xyz& b) {
-  const double dx = a.x - b.x, dy = a.y - b.y, dz = a.z - b.z;
-  return std::sqrt(dx * dx + dy * dy + dz * dz);
-}
-
 // (A node within a millimetre of the point cannot form length / chord.)
 constexpr double kMinChord = 1e-3;
 
@@ -28,7 +23,7 @@ LengthPatch::LengthPatch(const Prepared& p, Vec2 ll, const Prepared::Xyz& xyz, c
   for (int i = 0; i < 4; ++i)
     for (int j = 0; j < 4; ++j) {
       const Vec2 at = node(j / 3.0, i / 3.0);
-      const double ch = chord(p.xyz(at), xyz);
+      const double ch = Prepared::chord(p.xyz(at), xyz);
       if (ch < kMinChord) return;
       q_[i][j] = p.geodesic->point_distance(ll, at) / ch;
     }
@@ -40,7 +35,7 @@ LengthPatch::LengthPatch(const Prepared& p, Vec2 ll, const Prepared::Xyz& xyz, c
   double q = 0.0;
   for (int i = 0; i < 4; ++i)
     for (int j = 0; j < 4; ++j) q += w[i] * w[j] * q_[i][j];
-  usable_ = std::abs(q * chord(mid_xyz, xyz) - p.geodesic->point_distance(ll, mid)) <= kPatchCheck;
+  usable_ = std::abs(q * Prepared::chord(mid_xyz, xyz) - p.geodesic->point_distance(ll, mid)) <= kPatchCheck;
 }
 
 double LengthPatch::length(int64_t c, int64_t r, const Prepared::Xyz& at) const {
@@ -49,7 +44,7 @@ double LengthPatch::length(int64_t c, int64_t r, const Prepared::Xyz& at) const 
   detail::cubic_weights(static_cast<double>(c - block_.c0) / static_cast<double>(block_.c1 - block_.c0), wc);
   double q = 0.0;
   for (int i = 0; i < 4; ++i) q += wr[i] * (wc[0] * q_[i][0] + wc[1] * q_[i][1] + wc[2] * q_[i][2] + wc[3] * q_[i][3]);
-  return q * chord(at, xyz_);
+  return q * Prepared::chord(at, xyz_);
 }
 
 }  // namespace rv::sea

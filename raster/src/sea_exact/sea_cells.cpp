@@ -103,8 +103,7 @@ double reach_from(const Prepared& p, const Spot& x0, const Prepared::Xyz& xyz0, 
       reach = std::max(reach, length(x0.at, spots[i].at));
       continue;
     }
-    const double dx = xyz0.x - xyz[i].x, dy = xyz0.y - xyz[i].y, dz = xyz0.z - xyz[i].z;
-    const double chord = std::sqrt(dx * dx + dy * dy + dz * dz);
+    const double chord = Prepared::chord(xyz0, xyz[i]);
     reach =
         std::max(reach, chord <= 5e4 ? chord * (1.0 + 1e-5) + 1e-6 : p.geodesic->point_distance(x0.ll, spots[i].ll));
   }
@@ -174,7 +173,7 @@ class BlockLengths {
  public:
   // Over the candidates of the block whose first cell is (c0, r0).
   BlockLengths(const CellRun& run, CellWorker& w, size_t candidates, int64_t c0, int64_t r0)
-      : run_(run), w_(w), slots_(candidates) {
+      : run_(run), w_(w), patches_(candidates, nullptr) {
     const int64_t side = run.patch_tile;
     if (side == 0) return;
     tx_ = c0 / side;
@@ -272,26 +271,23 @@ class BlockLengths {
   // Uses of a candidate's exact length before its patch is built (a patch costs 17 inverse
   // problems; most candidates measured for a few cells are never measured again).
   static constexpr int kExactUses = 3;
-  struct Slot {
-    const LengthPatch* patch = nullptr;  // the tile's, once built
-  };
 
   // The length from candidate j's point (`item`'s: `ll`, `pxyz`) to the cell: from its patch
   // (err kPatchError) or exact (err 0, as exact_of measures it).
   double length(size_t j, int32_t item, int64_t c, int64_t r, const Prepared::Xyz& xyz, Vec2 ll,
                 const Prepared::Xyz& pxyz, const Spot& spot, double& err) {
-    Slot& s = slots_[j];
-    if (enabled_ && !s.patch) {
+    const LengthPatch*& patch = patches_[j];
+    if (enabled_ && !patch) {
       PatchTiles::Entry& e = w_.tiles.at(item, tx_, ty_);
       if (!e.patch && ++e.uses > kExactUses) {
         e.patch = std::make_unique<LengthPatch>(run_.p(), ll, pxyz, tile_);
         ++w_.patches;
       }
-      s.patch = e.patch.get();
+      patch = e.patch.get();
     }
-    if (s.patch && s.patch->usable()) {
+    if (patch && patch->usable()) {
       err = kPatchError;
-      return s.patch->length(c, r, xyz);
+      return patch->length(c, r, xyz);
     }
     err = 0.0;
     return exact_of(item, spot, false);
@@ -311,8 +307,8 @@ class BlockLengths {
 
   const CellRun& run_;
   CellWorker& w_;
-  std::vector<Slot> slots_;
-  bool enabled_ = false;  // patches over the block's tile
+  std::vector<const LengthPatch*> patches_;  // per candidate: its tile's patch, once built
+  bool enabled_ = false;                     // patches over the block's tile
   int64_t tx_ = 0, ty_ = 0;
   PatchBlock tile_{};
 };
