@@ -1,5 +1,6 @@
 // Geodesic measuring: prepared sites, the point-to-geodesic-segment iteration, and the bounds.
 // See rv/geodesic/geodesic.hpp for the contract and geodesic_sites.hpp for the proofs of the bounds.
+#include <GeographicLib/GeodesicLine.hpp>
 #include <GeographicLib/Math.hpp>
 
 #include <algorithm>
@@ -422,6 +423,20 @@ struct GeodesicMeasure::Impl {
   GeographicLib::Geodesic geod;
 };
 
+namespace {
+
+constexpr double kRad = std::numbers::pi / 180.0;
+
+// The radii of curvature at latitude `lat` (degrees), metres: across the meridian (N: a degree of
+// longitude is N cos(lat) kRad metres) and along it (M: a degree of latitude is M kRad metres).
+Vec2 radii(const GeographicLib::Geodesic& g, double lat) {
+  const double a = g.EquatorialRadius(), f = g.Flattening(), e2 = f * (2.0 - f);
+  const double sphi = std::sin(lat * kRad), w2 = 1.0 - e2 * sphi * sphi;
+  return Vec2{a / std::sqrt(w2), a * (1.0 - e2) / (w2 * std::sqrt(w2))};
+}
+
+}  // namespace
+
 GeodesicMeasure::GeodesicMeasure(const MetricSpec& metric) {
   if (metric.kind != MetricSpec::geodesic)
     throw Error(ErrorKind::invalid_argument, "GeodesicMeasure needs a geodesic metric spec");
@@ -450,19 +465,77 @@ double GeodesicMeasure::point_distance(Vec2 p, Vec2 q, Vec2& gradient) const {
   return d;
 }
 
-std::vector<Vec2> GeodesicMeasure::along(Vec2 a, Vec2 b, double step) const {
+std::vector<Vec2> GeodesicMeasure::chords(Vec2 a, Vec2 b, double tolerance, const Geolocator* grid) const {
   if (!(a.y >= -90.0 && a.y <= 90.0 && b.y >= -90.0 && b.y <= 90.0))
     throw Error(ErrorKind::invalid_argument, "latitude outside [-90, 90]");
-  double s12, azi1, azi2;
-  impl_->geod.Inverse(a.y, a.x, b.y, b.x, s12, azi1, azi2);
-  const auto n = static_cast<int64_t>(std::ceil(s12 / step));
-  std::vector<Vec2> out{a};
-  for (int64_t k = 1; k < n; ++k) {
+  if (!(tolerance > 0.0)) throw Error(ErrorKind::invalid_argument, "a chord tolerance must be above 0");
+  const GeographicLib::Geodesic& g = impl_->geod;
+  const GeographicLib::GeodesicLine line = g.InverseLine(a.y, a.x, b.y, b.x);
+  const double length = line.Distance();
+  auto at = [&](double s) {
+    if (s <= 0.0) return a;
+    if (s >= length) return b;
     double lat, lon;
-    impl_->geod.Direct(a.y, a.x, azi1, s12 * static_cast<double>(k) / static_cast<double>(n), lat, lon);
-    out.push_back(Vec2{a.x + std::remainder(lon - a.x, 360.0), lat});
+    line.Position(s, lat, lon);
+    return Vec2{a.x + std::remainder(lon - a.x, 360.0), lat};
+  };
+  // How far m (on the geodesic) lies from the chord p-q: the chord's point nearest to m in the
+  // plane the chord is straight in (longitude/latitude scaled to metres at m, or the grid's CRS),
+  // measured back on the ellipsoid. (Not the distance to the chord's midpoint: along a meridian
+  // the geodesic's middle is not the latitudes' middle, though the chord is the geodesic.)
+  auto off_chord = [&](Vec2 p, Vec2 q, Vec2 m) {
+    Vec2 pp, qq, mm;
+    if (grid) {
+      const double lon[3] = {p.x, q.x, m.x}, lat[3] = {p.y, q.y, m.y};
+      double x[3], y[3];
+      grid->to_grid(lon, lat, x, y, 3);
+      pp = {x[0], y[0]};
+      qq = {x[1], y[1]};
+      mm = {x[2], y[2]};
+    } else {
+      const Vec2 r = radii(g, m.y);
+      const double sx = r.x * std::cos(m.y * kRad) * kRad, sy = r.y * kRad;
+      pp = {(p.x - m.x) * sx, (p.y - m.y) * sy};
+      qq = {(q.x - m.x) * sx, (q.y - m.y) * sy};
+      mm = {0.0, 0.0};
+    }
+    const double dx = qq.x - pp.x, dy = qq.y - pp.y, l2 = dx * dx + dy * dy;
+    const double u = l2 > 0.0 ? std::clamp(((mm.x - pp.x) * dx + (mm.y - pp.y) * dy) / l2, 0.0, 1.0) : 0.0;
+    Vec2 foot;
+    if (grid) {
+      const double fx = pp.x + u * dx, fy = pp.y + u * dy;
+      grid->to_lonlat(&fx, &fy, &foot.x, &foot.y, 1);
+      foot.x = m.x + std::remainder(foot.x - m.x, 360.0);
+    } else {
+      foot = {p.x + u * (q.x - p.x), p.y + u * (q.y - p.y)};
+    }
+    return point_distance(m, foot);
+  };
+  std::vector<Vec2> out{a};
+  if (a == b) return out;
+  // Depth first from the start, so the points come out in order: (s0, s1, its end point).
+  struct Piece {
+    double s0, s1;
+    Vec2 p, q;
+    int depth;
+  };
+  std::vector<Piece> stack{{0.0, length, a, b, 0}};
+  while (!stack.empty()) {
+    const Piece piece = stack.back();
+    stack.pop_back();
+    const double sm = 0.5 * (piece.s0 + piece.s1);
+    const Vec2 m = at(sm);
+    // (A piece shorter than the tolerance cannot stray farther than that; depth 60 is far below
+    // a millimetre on any geodesic.)
+    const bool flat =
+        piece.s1 - piece.s0 <= tolerance || piece.depth >= 60 || off_chord(piece.p, piece.q, m) <= 0.5 * tolerance;
+    if (flat) {
+      out.push_back(piece.q);
+      continue;
+    }
+    stack.push_back({sm, piece.s1, m, piece.q, piece.depth + 1});
+    stack.push_back({piece.s0, sm, piece.p, m, piece.depth + 1});
   }
-  if (!(a == b)) out.push_back(b);
   return out;
 }
 
@@ -470,11 +543,8 @@ Vec2 GeodesicMeasure::gradient(Vec2 p, double azimuth) const {
   // Moving p by (dlon, dlat) degrees moves it N cos(lat) dlon east and M dlat north (N, M the
   // radii of curvature across and along the meridian); the distance grows by the move's
   // component along the azimuth.
-  const double a = impl_->geod.EquatorialRadius(), f = impl_->geod.Flattening(), e2 = f * (2.0 - f);
-  const double rad = std::numbers::pi / 180.0;
-  const double sphi = std::sin(p.y * rad), w2 = 1.0 - e2 * sphi * sphi;
-  const double n = a / std::sqrt(w2), m = a * (1.0 - e2) / (w2 * std::sqrt(w2));
-  return Vec2{n * std::cos(p.y * rad) * std::sin(azimuth * rad) * rad, m * std::cos(azimuth * rad) * rad};
+  const Vec2 r = radii(impl_->geod, p.y);
+  return Vec2{r.x * std::cos(p.y * kRad) * std::sin(azimuth * kRad) * kRad, r.y * std::cos(azimuth * kRad) * kRad};
 }
 
 double GeodesicMeasure::segment_distance(Vec2 p, Vec2 a, Vec2 b) const {

@@ -46,20 +46,24 @@ std::unique_ptr<SiteMetric> site_metric(const PreparedJob& job, const JobRun& ru
 }
 
 // By sea: the barriers' rings (closed) and lines in the grid's CRS, for the regions' faces. On the
-// ellipsoid an edge is a geodesic: followed in steps of a fifth of a cell (its chord then lies
-// within a few micrometres of it), located back into a projected grid's CRS.
+// ellipsoid an edge is a geodesic: followed by chords (straight in the grid's CRS) within the line
+// tolerance of it, as every region edge is, and within a ten-thousandth of a cell whatever the
+// tolerance (a line ending on a barrier is carried a thousandth of a cell across it to close the
+// faces: it must cross the chord too); located back into a projected grid's CRS.
 // `cell_length`: one cell in metric units near the grid's centre.
 std::vector<std::vector<Vec2>> barrier_linework(const PreparedJob& job, double cell_length) {
   const Barriers& barriers = job.sea->loaded.barriers;
   std::vector<std::vector<Vec2>> out;
   std::optional<GeodesicMeasure> measure;
   if (job.metric.kind == MetricSpec::geodesic) measure.emplace(job.metric);
-  const double step = 0.2 * cell_length;
+  const double fine = 1e-4 * cell_length;
+  const double tolerance = job.line_tolerance > 0.0 ? std::min(job.line_tolerance, fine) : fine;
+  const Geolocator* grid = job.compute.geolocator.get();
   auto add = [&](const std::vector<Vec2>& pts) {
     std::vector<Vec2> line;
     for (size_t i = 0; i + 1 < pts.size(); ++i) {
       const std::vector<Vec2> piece =
-          measure ? measure->along(pts[i], pts[i + 1], step) : std::vector<Vec2>{pts[i], pts[i + 1]};
+          measure ? measure->chords(pts[i], pts[i + 1], tolerance, grid) : std::vector<Vec2>{pts[i], pts[i + 1]};
       line.insert(line.end(), piece.begin() + (line.empty() ? 0 : 1), piece.end());
     }
     if (job.compute.geolocator)

@@ -12,6 +12,7 @@
 #include "rv/field/error.hpp"
 #include "rv/field/metric.hpp"
 #include "rv/geodesic/geodesic.hpp"
+#include "utm33.hpp"
 
 namespace rv {
 namespace {
@@ -192,6 +193,119 @@ TEST(GeodesicMeasure, DegenerateSegmentIsAPoint) {
   const GeodesicMeasure measure(wgs84());
   const double as_point = measure.point_distance({5, 5}, {180, 10});
   EXPECT_NEAR(measure.segment_distance({5, 5}, {180, 10}, {-180, 10}), as_point, 1e-9);
+}
+
+// The least distance (metres) from g to the straight chord p-q, the chord straight in
+// longitude/latitude or, with a grid, in the grid's CRS: a golden-section search along it.
+double chord_distance(const Geodesic& geod, Vec2 g, Vec2 p, Vec2 q, const test::Utm33* grid) {
+  Vec2 gp = p, gq = q;
+  if (grid) {
+    const double lon[2] = {p.x, q.x}, lat[2] = {p.y, q.y};
+    double x[2], y[2];
+    grid->to_grid(lon, lat, x, y, 2);
+    gp = {x[0], y[0]};
+    gq = {x[1], y[1]};
+  }
+  auto at = [&](double u) {
+    Vec2 c{gp.x + u * (gq.x - gp.x), gp.y + u * (gq.y - gp.y)};
+    if (grid) {
+      Vec2 ll;
+      grid->to_lonlat(&c.x, &c.y, &ll.x, &ll.y, 1);
+      c = ll;
+    }
+    double s12;
+    geod.Inverse(g.y, g.x, c.y, c.x, s12);
+    return s12;
+  };
+  double lo = 0.0, hi = 1.0;
+  const double r = (std::sqrt(5.0) - 1.0) / 2.0;
+  for (int i = 0; i < 40; ++i) {  // (to a ten-millionth of the chord)
+    const double m1 = hi - r * (hi - lo), m2 = lo + r * (hi - lo);
+    if (at(m1) < at(m2))
+      hi = m2;
+    else
+      lo = m1;
+  }
+  return at(0.5 * (lo + hi));
+}
+
+// Chords along a geodesic: each within the tolerance of the geodesic between its ends (8 points
+// sampled along each, GeographicLib's), every point on the geodesic, the ends as given; not four
+// times as many as a uniform split needs; none added where the geodesic is straight already
+// (a meridian, the equator); straight in a grid's CRS with a Geolocator.
+TEST(GeodesicMeasure, ChordsFollowTheGeodesicWithinTheTolerance) {
+  const GeodesicMeasure measure(wgs84());
+  const Geodesic& geod = Geodesic::WGS84();
+  const test::Utm33 utm;
+  std::mt19937_64 rng(71);
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  int64_t chords = 0, edges_split = 0;
+  double worst = 0.0;
+  for (int round = 0; round < 120; ++round) {
+    const bool projected = round % 3 == 2;
+    const double tolerance = round % 2 == 0 ? 1e-3 : 2e-2;
+    // Regional edges 10 m to 300 km long; projected ones within UTM 33N's reach.
+    const Vec2 a = projected ? Vec2{12.0 + 6.0 * unit(rng), 50.0 + 10.0 * unit(rng)}
+                             : Vec2{-180.0 + 360.0 * unit(rng), -70.0 + 140.0 * unit(rng)};
+    const double length = std::exp(std::log(10.0) + unit(rng) * std::log(3e4)), azimuth = 360.0 * unit(rng);
+    Vec2 b;
+    geod.Direct(a.y, a.x, azimuth, length, b.y, b.x);
+    const std::vector<Vec2> pts = measure.chords(a, b, tolerance, projected ? &utm : nullptr);
+    ASSERT_GE(pts.size(), 2u);
+    ASSERT_TRUE(pts.front() == a) << round;
+    ASSERT_TRUE(pts.back() == b) << round;
+    chords += static_cast<int64_t>(pts.size()) - 1;
+    edges_split += pts.size() > 2;
+    for (size_t k = 0; k + 1 < pts.size(); ++k) {
+      const Vec2 p = pts[k], q = pts[k + 1];
+      ASSERT_LT(measure.segment_distance(p, a, b), 1e-6) << round;
+      const GeodesicLine line = geod.InverseLine(p.y, p.x, q.y, q.x);
+      for (int i = 1; i <= 8; ++i) {
+        Vec2 g;
+        line.Position(line.Distance() * i / 9.0, g.y, g.x);
+        const double off = chord_distance(geod, g, p, q, projected ? &utm : nullptr);
+        worst = std::max(worst, off / tolerance);
+        ASSERT_LE(off, tolerance) << round << " piece " << k << " of " << pts.size() - 1;
+      }
+    }
+    // A uniform split into a quarter as many pieces strays beyond the tolerance somewhere.
+    const auto quarter = static_cast<int>((pts.size() - 1) / 4);
+    if (quarter < 2) continue;
+    const GeodesicLine whole = geod.InverseLine(a.y, a.x, b.y, b.x);
+    double beyond = 0.0;
+    for (int k = 0; k < quarter; ++k) {
+      Vec2 p, q, g;
+      whole.Position(whole.Distance() * k / quarter, p.y, p.x);
+      whole.Position(whole.Distance() * (k + 1) / quarter, q.y, q.x);
+      whole.Position(whole.Distance() * (k + 0.5) / quarter, g.y, g.x);
+      beyond = std::max(beyond, chord_distance(geod, g, p, q, projected ? &utm : nullptr));
+    }
+    EXPECT_GT(beyond, tolerance) << round << ": " << pts.size() - 1 << " chords where fewer would do";
+  }
+  EXPECT_GT(edges_split, 30);  // (the cases reach the refinement)
+  RecordProperty("chords", std::to_string(chords));
+  RecordProperty("worst_over_tolerance", std::to_string(worst));
+  // Straight already: a meridian and the equator keep their ends alone; so does a point.
+  EXPECT_EQ(measure.chords({10.0, 40.0}, {10.0, 45.0}, 1e-3).size(), 2u);
+  EXPECT_EQ(measure.chords({10.0, 0.0}, {13.0, 0.0}, 1e-3).size(), 2u);
+  EXPECT_EQ(measure.chords({10.0, 40.0}, {10.0, 40.0}, 1e-3).size(), 1u);
+  // A clip edge along 53.8 N, 4.5 degrees long: its geodesic bows kilometres north of the
+  // parallel, and the chords follow it there (their northmost point at its middle).
+  const std::vector<Vec2> clip = measure.chords({9.0, 53.8}, {13.5, 53.8}, 1e-3);
+  EXPECT_GT(clip.size(), 100u);
+  Vec2 north{0.0, 0.0};
+  for (const Vec2& p : clip)
+    if (p.y > north.y) north = p;
+  const GeodesicLine edge = geod.InverseLine(53.8, 9.0, 53.8, 13.5);
+  Vec2 middle;
+  edge.Position(0.5 * edge.Distance(), middle.y, middle.x);
+  double bow, off;
+  geod.Inverse(53.8, middle.x, middle.y, middle.x, bow);
+  geod.Inverse(north.y, north.x, middle.y, middle.x, off);
+  EXPECT_GT(bow, 2000.0);
+  EXPECT_LT(off, 1e-3 * edge.Distance() / static_cast<double>(clip.size()) + 1.0);
+  EXPECT_EQ(kind_of([&] { measure.chords({0, 0}, {1, 1}, 0.0); }), ErrorKind::invalid_argument);
+  EXPECT_EQ(kind_of([&] { measure.chords({0, 91}, {1, 1}, 1e-3); }), ErrorKind::invalid_argument);
 }
 
 }  // namespace

@@ -16,6 +16,7 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -248,7 +249,7 @@ void expect_lines_by_sea(const JobSpec& s, double on_coast) {
     }
     EXPECT_EQ(f->GetFieldAsDouble("land_area"), 0.0);
     // (Areas in the grid's plane, square degrees on the ellipsoid: the regions follow the coast's
-    // geodesics in steps of a fifth of a cell, the land here in steps of 50 m.)
+    // geodesics within the line tolerance, the land here in steps of 50 m.)
     // (The intersection may be a polygon, lines where a region runs along the coast, or a
     // collection of both; OGR_G_Area gives any of them its area, none for lines.)
     std::unique_ptr<OGRGeometry> wet(f->GetGeometryRef()->Intersection(land_union));
@@ -272,6 +273,64 @@ TEST_F(SeaLinesJob, OnTheEllipsoidToo) {
   s.grid.extent = std::array<double, 4>{12.3, 55.4, 13.0, 56.15};
   s.grid.resolution = 0.005;
   expect_lines_by_sea(s, 1e-3);
+}
+
+// On the ellipsoid the regions' coasts are the barriers' geodesic edges, followed by chords within
+// the line tolerance (1 mm) of them: every chord between two points of a coast has its midpoint
+// within the tolerance of it. The chords follow the geodesic, not the grid: a grid of half the
+// cell gives the same coast points, fewer than one every 60 m.
+TEST_F(SeaLinesJob, OnTheEllipsoidTheRegionsCoastsFollowTheGeodesicsWithinTheLineTolerance) {
+  std::map<double, std::set<std::pair<double, double>>> coast_points;
+  for (const double res : {0.005, 0.0025}) {
+    JobSpec s = spec(res == 0.005 ? "geo" : "fine");
+    s.seeds.target_crs.clear();
+    s.metric = MetricRequest::automatic;
+    s.grid.extent = std::array<double, 4>{12.3, 55.4, 13.0, 56.15};
+    s.grid.resolution = res;
+    s.outputs.margin.clear();
+    s.outputs.preview.clear();
+    run_job(s);
+    const PreparedJob job = prepare_job(s);
+    ASSERT_EQ(job.metric.kind, MetricSpec::geodesic);
+    const Barriers& land = job.sea->loaded.barriers;
+    GDALDataset* rd = GDALDataset::Open(s.outputs.regions.c_str(), GDAL_OF_VECTOR);
+    ASSERT_NE(rd, nullptr);
+    OGRLayer* rl = rd->GetLayerByName("regions");
+    ASSERT_NE(rl, nullptr);
+    int64_t chords = 0;
+    double worst = 0.0, coast_length = 0.0;
+    auto ring = [&](const OGRLinearRing* r) {
+      for (int i = 0; i + 1 < r->getNumPoints(); ++i) {
+        const Vec2 u{r->getX(i), r->getY(i)}, w{r->getX(i + 1), r->getY(i + 1)};
+        if (to_coast(land, u, true) > 1e-6 || to_coast(land, w, true) > 1e-6) continue;
+        coast_points[res].insert({u.x, u.y});
+        const double off = to_coast(land, Vec2{0.5 * (u.x + w.x), 0.5 * (u.y + w.y)}, true);
+        worst = std::max(worst, off);
+        coast_length += test::metres(u, w);
+        ++chords;
+      }
+    };
+    for (OGRFeature* f; (f = rl->GetNextFeature()) != nullptr; OGRFeature::DestroyFeature(f)) {
+      const OGRGeometry* g = f->GetGeometryRef();
+      std::vector<const OGRPolygon*> polys;
+      if (wkbFlatten(g->getGeometryType()) == wkbPolygon)
+        polys.push_back(g->toPolygon());
+      else
+        for (const OGRGeometry* part : *g->toMultiPolygon()) polys.push_back(part->toPolygon());
+      for (const OGRPolygon* poly : polys) {
+        ring(poly->getExteriorRing());
+        for (int k = 0; k < poly->getNumInteriorRings(); ++k) ring(poly->getInteriorRing(k));
+      }
+    }
+    GDALClose(GDALDataset::ToHandle(rd));
+    std::printf("%.4f deg: %lld chords along the coasts (%.0f km), worst midpoint %.2e m off its geodesic\n", res,
+                static_cast<long long>(chords), coast_length / 1000.0, worst);
+    EXPECT_GT(chords, 500) << res;
+    EXPECT_LE(worst, 1e-3 + 1e-6) << res;
+    // (The former rule, a point every fifth of a cell, takes more on the finer grid.)
+    EXPECT_LT(static_cast<double>(chords), coast_length / 60.0) << res;
+  }
+  EXPECT_EQ(coast_points[0.005], coast_points[0.0025]);
 }
 
 // A 5 km limit by sea: every vertex is 5 km by sea from the nearest port (the exact engine at

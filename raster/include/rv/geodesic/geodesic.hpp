@@ -35,6 +35,7 @@
 #include <memory>
 #include <vector>
 
+#include "rv/field/geolocate.hpp"
 #include "rv/field/metric.hpp"
 #include "rv/field/seeds.hpp"
 
@@ -56,9 +57,15 @@ class GeodesicMeasure {
   // The gradient at p (metres per degree of longitude and latitude) of a distance that grows at
   // one metre per metre in the direction `azimuth` (degrees clockwise from north) and not across it.
   Vec2 gradient(Vec2 p, double azimuth) const;
-  // Points along the geodesic from a to b at most `step` metres apart, a and b included (as
-  // given), longitudes continuous from a's.
-  std::vector<Vec2> along(Vec2 a, Vec2 b, double step) const;
+  // Points on the geodesic from a to b (longitude/latitude), a and b included as given,
+  // longitudes continuous from a's, as few as keep every straight chord between two consecutive
+  // ones within `tolerance` metres (> 0) of the geodesic between them: chords straight in
+  // longitude/latitude, or with `grid`, straight in the grid's CRS (the points still returned in
+  // longitude/latitude). A piece is halved until its geodesic midpoint lies within half the
+  // tolerance of its chord (where a chord departs most on so flat an arc; the half a margin for
+  // the rest), so a meridian or the equator keeps its two ends. Throws
+  // rv::Error(invalid_argument) for a latitude beyond +-90 or a tolerance not above 0.
+  std::vector<Vec2> chords(Vec2 a, Vec2 b, double tolerance, const Geolocator* grid = nullptr) const;
   // Distance in metres from p to the geodesic segment a-b (a == b: the point distance).
   // Prepares the edge on every call (one more inverse problem); for many cells against the same
   // edges use compute(). Throws rv::Error(invalid_argument) for a latitude beyond +-90.
