@@ -212,6 +212,7 @@ VisibleRegion visible_region(const Visibility& vis, const Visibility::Place& fro
   if (!wedge_of(vis, from, start, width)) return region;
 
   std::vector<Piece> pieces = pieces_round(o, start, lo, hi, edges, near, region.margin, region.blurred);
+  if (region.blurred) return region;  // (no ring: see the header)
   std::vector<double> angles{0.0, width};
   for (const Piece& p : pieces)
     for (const double t : {p.t0, p.t1})

@@ -33,13 +33,13 @@ namespace rv::sea {
 struct VisibleRegion {
   Vec2 from;
   // Counter-clockwise, star-shaped from `from` (which is a vertex of it when the point's wedge is
-  // narrower than a whole turn). Empty when the wedge is land.
+  // narrower than a whole turn). Empty when the wedge is land, or `blurred`.
   std::vector<Vec2> ring;
   // Plane units: points farther than this from the ring's boundary are seen exactly when inside.
   double margin = 0.0;
   // A barrier edge that does not end at the point passes within `margin` of it (a vertex a
   // rounding apart from another, an edge through the point): which side of it the point lies on
-  // is the exact predicates' to say, so the ring holds nothing; the point's cells are for them.
+  // is the exact predicates' to say, so the ring is left empty and the point's cells are theirs.
   bool blurred = false;
   // Even-odd test against the ring (a point within `margin` of its boundary: either answer).
   bool contains(Vec2 x) const;

@@ -45,12 +45,12 @@ void check_region(const Visibility& vis, const Visibility::Place& from, Vec2 lo,
                   const std::vector<sea::EdgeIndex::Segment>& edges, std::mt19937_64& rng,
                   const std::vector<Vec2>& lattice, Counts& counts) {
   const VisibleRegion region = sea::visible_region(vis, from, lo, hi, edges);
-  if (region.ring.empty()) {
-    ++counts.land_wedges;
-    return;
-  }
   if (region.blurred) {
     ++counts.blurred;
+    return;
+  }
+  if (region.ring.empty()) {
+    ++counts.land_wedges;
     return;
   }
   ++counts.regions;
