@@ -21,6 +21,7 @@ struct Piece {
   Vec2 a, b;
   double t0, t1;
   bool split = false;  // the half from angle 0 of a piece across the first side
+  bool side = false;   // a side of the box
 };
 
 // Angle of p seen from o, from `start` counter-clockwise, in [0, 2 pi).
@@ -131,10 +132,12 @@ std::vector<Piece> pieces_round(Vec2 o, double start, Vec2 lo, Vec2 hi, const st
   } else {
     for (const auto& e : edges) add(e.a, e.b);
   }
+  const size_t barriers = out.size();
   add(Vec2{lo.x, lo.y}, Vec2{hi.x, lo.y});
   add(Vec2{hi.x, lo.y}, Vec2{hi.x, hi.y});
   add(Vec2{hi.x, hi.y}, Vec2{lo.x, hi.y});
   add(Vec2{lo.x, hi.y}, Vec2{lo.x, lo.y});
+  for (size_t i = barriers; i < out.size(); ++i) out[i].side = true;
   return out;
 }
 
@@ -197,8 +200,6 @@ std::vector<EdgeIndex::Segment> barrier_edges(const Visibility& vis) {
 VisibleRegion visible_region(const Visibility& vis, const Visibility::Place& from, Vec2 lo, Vec2 hi,
                              const std::vector<EdgeIndex::Segment>& edges, const std::vector<int32_t>* near) {
   const Vec2 o = from.at;
-  if (vis.frame())
-    throw Error(ErrorKind::unsupported, "visible_region: the planar reading only, as yet (see the header)");
   if (!(lo.x < o.x && o.x < hi.x && lo.y < o.y && o.y < hi.y))
     throw Error(ErrorKind::invalid_argument, "visible_region: the box must hold the point strictly inside");
   VisibleRegion region;
@@ -207,7 +208,7 @@ VisibleRegion visible_region(const Visibility& vis, const Visibility::Place& fro
   // coordinates; a billionth of their magnitude leaves room for it, as Visibility's box proofs do.
   const double magnitude =
       std::max({std::abs(lo.x), std::abs(lo.y), std::abs(hi.x), std::abs(hi.y), hi.x - lo.x, hi.y - lo.y});
-  region.margin = 1e-9 * magnitude;
+  region.margin = 1e-9 * magnitude + (vis.frame() ? 2.0 * vis.frame()->deviation() + 1e-6 : 0.0);
   double start = 0.0, width = kTurn;
   if (!wedge_of(vis, from, start, width)) return region;
 
@@ -236,10 +237,16 @@ VisibleRegion visible_region(const Visibility& vis, const Visibility::Place& fro
   // half of a piece split there is across it).
   auto across = [](const Piece* p, double t) { return (p->t0 < t || (t == 0.0 && p->split)) && t < p->t1; };
   std::vector<const Piece*> active;
+  // A piece met within the margin of one of its ends is taken as ending on the ray, whatever
+  // the rounding of its angles says: a spike too many only hands points to the exact rule.
+  const double margin2 = region.margin * region.margin;
   auto ray_end = [&](double t) {
     double best = kInf;
-    for (const Piece* p : active)
-      if (across(p, t)) best = std::min(best, dist2(o, meet(o, ray(t), *p)));
+    for (const Piece* p : active) {
+      if (!across(p, t)) continue;
+      const Vec2 q = meet(o, ray(t), *p);
+      if (p->side || std::min(dist2(q, p->a), dist2(q, p->b)) > margin2) best = std::min(best, dist2(o, q));
+    }
     return best;
   };
   auto spike_point = [&](double t, double reach2) {

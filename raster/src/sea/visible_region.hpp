@@ -13,10 +13,9 @@
 // barrier vertex, runs along an edge pointing at the point, or passes between two polygons that
 // meet, lies along the ring's boundary, so it needs no case of its own here.
 //
-// The planar reading only, as yet: a Visibility with a geodesic frame is refused. Read in the
-// frame's plane with the frame's deviation() in the margin, random archipelagos on the ellipsoid
-// gave rings that disagreed with the exact rule 2.8 km from their boundary, near vertices a
-// rounding apart; until that is understood the geodesic reading is not offered.
+// Geodesic reading: pieces are the chords of the edges' images and rays straight lines in the
+// frame's plane; both bend off by at most the frame's deviation(), which the margin includes
+// twice (an edge's and a path's), plus a micrometre.
 //
 // Cost: O(n log n + n k) for n edges meeting the box, k of them across one ray at once.
 // Thread safety: pure functions; const access to the Visibility from any number of threads.
@@ -57,7 +56,7 @@ std::vector<EdgeIndex::Segment> barrier_edges(const Visibility& vis);
 // read with Visibility::star_at). `edges`: barrier_edges(vis); `near`: the indices of those that
 // may meet the box (an EdgeIndex::cover's answer, a superset), or null for all of them.
 // Throws rv::Error(invalid_argument) for a box that does not hold the point, or a vertex of
-// several wedges without one chosen; rv::Error(unsupported) for the geodesic reading.
+// several wedges without one chosen.
 VisibleRegion visible_region(const Visibility& vis, const Visibility::Place& from, Vec2 lo, Vec2 hi,
                              const std::vector<EdgeIndex::Segment>& edges, const std::vector<int32_t>* near = nullptr);
 
