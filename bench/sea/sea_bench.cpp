@@ -7,12 +7,16 @@
 // check that an optimisation changes no cell).
 //
 //   sea_bench [--data fixtures/baltic_west.gpkg | --wiggly N] [--ports 200] [--res 1000] [--runs 3] [--threads 0]
-//             [--geodesic 1] [--ports-out FILE.geojson] [--cell-by-cell 1]
+//             [--geodesic 1] [--ports-out FILE.geojson] [--cell-by-cell 1] [--sweeps 1]
 //
 // --geodesic 1: the fixture in longitude/latitude, the grid in degrees (--res 0.01), both fields
 // geodesic (the straight one the exact geodesic engine's). --ports-out: the ports chosen, as a
 // GeoJSON file (owner field "owner"), for timing whole jobs with the CLI. --cell-by-cell 1: the
 // exact engine answers every cell alone (SeaOptions::cell_by_cell), the reference of its blocks.
+// --sweeps 1: afterwards, what a shortest-path-map engine's visibility sweeps would cost: from
+// every bend node of every last bend the field uses, the region it sees (sea/visible_region.hpp)
+// within a square of k times that bend's region's radius (its farthest cell), k = 1, 2, 4, one
+// thread, timed with the edges gathered from an index.
 //
 // --wiggly N: instead of the fixture, a synthetic archipelago of nine fractal-like islands of
 // N vertices in all (each island's radius a sum of random harmonics), over the fixture's box in
@@ -33,6 +37,9 @@
 #include "rv/sea/geodesic_frame.hpp"
 #include "rv/sea/sea_field.hpp"
 #include "rv/sea/visibility.hpp"
+#include "sea/edge_index.hpp"
+#include "sea/sea_prepare.hpp"
+#include "sea/visible_region.hpp"
 
 using namespace rv;
 
@@ -53,6 +60,73 @@ Ring wiggly_ring(double cx, double cy, double radius, int n, std::mt19937_64& rn
   return ring;
 }
 
+// The sweeps of --sweeps (see the head of this file).
+void measure_sweeps(const Visibility& vis, const GeodesicFrame* frame, const GridSpec& grid, const SeaField& field) {
+  std::vector<double> radius(static_cast<size_t>(vis.vertex_count()), 0.0);
+  std::vector<Vec2> row(static_cast<size_t>(grid.width));
+  for (int64_t r = 0; r < grid.height; ++r) {
+    bool bent = false;
+    for (int64_t c = 0; c < grid.width && !bent; ++c) bent = field.via.at(c, r) != kNoVia;
+    if (!bent) continue;
+    if (frame) {
+      frame->forward_row(grid.centre_y(r), grid.centre_x(0), grid.res, grid.width, row.data());
+    } else {
+      for (int64_t c = 0; c < grid.width; ++c) row[static_cast<size_t>(c)] = {grid.centre_x(c), grid.centre_y(r)};
+    }
+    for (int64_t c = 0; c < grid.width; ++c) {
+      const int32_t v = field.via.at(c, r);
+      if (v == kNoVia) continue;
+      const Vec2 a = row[static_cast<size_t>(c)], b = vis.vertex(v);
+      radius[static_cast<size_t>(v)] = std::max(radius[static_cast<size_t>(v)], std::hypot(a.x - b.x, a.y - b.y));
+    }
+  }
+  auto t0 = std::chrono::steady_clock::now();
+  const auto edges = sea::barrier_edges(vis);
+  std::vector<Vec2> ends;
+  for (const auto& e : edges) {
+    ends.push_back(e.a);
+    ends.push_back(e.b);
+  }
+  const sea::EdgeIndex index(edges, ends);
+  const auto nodes = sea::bend_nodes(vis);
+  const double prepare_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  std::printf("sweeps: %zu barrier edges once cut where they cross, %zu bend nodes; edges cut and indexed in %.3f s\n",
+              edges.size(), nodes.size(), prepare_s);
+  std::vector<int32_t> near;
+  std::vector<uint32_t> stamp(edges.size(), 0);
+  uint32_t mark = 0;
+  for (const double k : {1.0, 2.0, 4.0}) {
+    int64_t roots = 0, read = 0, corners = 0, blurred = 0;
+    t0 = std::chrono::steady_clock::now();
+    for (const sea::Node& node : nodes) {
+      const double reach = k * radius[static_cast<size_t>(node.vertex)];
+      if (reach <= 0.0) continue;
+      const Vec2 o = vis.vertex(node.vertex), lo{o.x - reach, o.y - reach}, hi{o.x + reach, o.y + reach};
+      const Vec2 square[4] = {lo, {hi.x, lo.y}, hi, {lo.x, hi.y}};
+      near.clear();
+      ++mark;
+      index.cover(square, 4, 0.0, [&](const int32_t* ids, size_t n, const int32_t*, size_t) {
+        for (size_t i = 0; i < n; ++i)
+          if (stamp[static_cast<size_t>(ids[i])] != mark) {
+            stamp[static_cast<size_t>(ids[i])] = mark;
+            near.push_back(ids[i]);
+          }
+        return true;
+      });
+      const auto region = sea::visible_region(vis, vis.at_vertex(node.vertex, node.wedge), lo, hi, edges, &near);
+      ++roots;
+      read += static_cast<int64_t>(near.size());
+      corners += static_cast<int64_t>(region.ring.size());
+      blurred += region.blurred;
+    }
+    const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    std::printf(
+        "sweeps at %g x the region radius: %lld roots, %lld edges read, %lld ring corners, %lld blurred, %.3f s\n", k,
+        static_cast<long long>(roots), static_cast<long long>(read), static_cast<long long>(corners),
+        static_cast<long long>(blurred), s);
+  }
+}
+
 double median(std::vector<double> v) {
   std::sort(v.begin(), v.end());
   return v[v.size() / 2];
@@ -62,7 +136,7 @@ double median(std::vector<double> v) {
 
 int main(int argc, char** argv) {
   std::string data = "fixtures/baltic_west.gpkg", ports_out;
-  int ports = 200, runs = 3, threads = 0, wiggly = 0, geodesic = 0, cell_by_cell = 0;
+  int ports = 200, runs = 3, threads = 0, wiggly = 0, geodesic = 0, cell_by_cell = 0, sweeps = 0;
   double res = 1000.0;
   for (int i = 1; i + 1 < argc; i += 2) {
     const std::string a = argv[i];
@@ -82,6 +156,8 @@ int main(int argc, char** argv) {
       geodesic = std::atoi(argv[i + 1]);
     else if (a == "--cell-by-cell")
       cell_by_cell = std::atoi(argv[i + 1]);
+    else if (a == "--sweeps")
+      sweeps = std::atoi(argv[i + 1]);
     else if (a == "--ports-out")
       ports_out = argv[i + 1];
     else {
@@ -220,5 +296,6 @@ int main(int argc, char** argv) {
     mix(static_cast<uint32_t>(last.via.cells()[c]));
   }
   std::printf("field digest %016llx\n", static_cast<unsigned long long>(h));
+  if (sweeps) measure_sweeps(vis, frame.get(), grid, last);
   return 0;
 }
