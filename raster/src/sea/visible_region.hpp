@@ -5,13 +5,14 @@
 // Made by a rotational sweep in the plane of the visibility's reading. The barrier edges that
 // meet the box, cut where they cross (overlapping polygons, lines across land), are clipped to
 // it and the box's sides added, so every ray from the point ends on a piece, and pieces meet
-// only at their ends. Between two consecutive angles at which a piece
-// ends, one piece is nearest along every ray: that piece bounds the region there. Floating point
-// throughout: the answer is the exact rule's (Visibility::sees) for every point of the box
-// farther than `margin` from the ring's boundary (the segments from the point along its wedge's
-// sides included); nearer points are for the exact predicates to decide. A ray that grazes a
-// barrier vertex, runs along an edge pointing at the point, or passes between two polygons that
-// meet, lies along the ring's boundary, so it needs no case of its own here.
+// only at their ends. Between two consecutive angles at which a piece ends, one piece is nearest
+// along every ray: that piece bounds the region there. Floating point throughout: the answer is
+// the exact rule's (Visibility::sees) for every point of the box farther than `margin` from the
+// ring's boundary (the segments from the point along its wedge's sides included); nearer points
+// are for the exact predicates to decide. A ray at one of those angles may see past the pieces
+// on both sides of it (it grazes vertices, runs along an edge, passes between two polygons that
+// meet, or is stopped there, which the sweep cannot tell apart): the ring runs out along it and
+// back, a spike of no width, so that the points on it lie on the boundary, for the exact rule.
 //
 // Geodesic reading: pieces are the chords of the edges' images and rays straight lines in the
 // frame's plane; both bend off by at most the frame's deviation(), which the margin includes
