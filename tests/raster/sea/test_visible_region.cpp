@@ -74,14 +74,12 @@ void check_region(const Visibility& vis, const Visibility::Place& from, Vec2 lo,
       ++counts.undecided;
       continue;
     }
-    int32_t blocker = -1;
-    const bool seen = vis.sees(from, Visibility::Place{x}, &blocker);
-    ASSERT_EQ(region.contains(x), seen)
-        << "blocker " << blocker << " "
-        << (blocker >= 0 ? ring_text(VisibleRegion{{}, {edges[blocker].a, edges[blocker].b}}) : "") << "from ("
-        << from.at.x << ", " << from.at.y << ") vertex " << from.vertex << " wedge " << from.wedge << " to (" << x.x
-        << ", " << x.y << ") at " << region.boundary_distance(x) << " from the boundary (margin " << region.margin
-        << "), box (" << lo.x << ", " << lo.y << ") - (" << hi.x << ", " << hi.y << "), ring " << ring_text(region);
+    const bool seen = vis.sees(from, Visibility::Place{x});
+    ASSERT_EQ(region.contains(x), seen) << "from (" << from.at.x << ", " << from.at.y << ") vertex " << from.vertex
+                                        << " wedge " << from.wedge << " to (" << x.x << ", " << x.y << ") at "
+                                        << region.boundary_distance(x) << " from the boundary (margin " << region.margin
+                                        << "), box (" << lo.x << ", " << lo.y << ") - (" << hi.x << ", " << hi.y
+                                        << "), ring " << ring_text(region);
     ++(seen ? counts.seen : counts.hidden);
   }
 }
@@ -115,7 +113,7 @@ void check_layout(const Visibility& vis, Vec2 port, Vec2 lo, Vec2 hi, const std:
     around(at);
     if (::testing::Test::HasFatalFailure()) return;
   }
-  // The port on a coast (a point on an edge's interior: two wedges, the sea one chosen).
+  // The port on a coast (a point inside an edge: two wedges, the land one giving no ring).
   const Visibility::Star star = vis.star_at(port);
   for (int w = 0; w < star.wedges(); ++w) {
     Visibility::Place at{port};
