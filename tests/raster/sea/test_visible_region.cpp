@@ -37,6 +37,11 @@ std::string ring_text(const VisibleRegion& region) {
 
 struct Counts {
   int64_t seen = 0, hidden = 0, undecided = 0, regions = 0, land_wedges = 0, blurred = 0;
+  void print(const char* reading) const {
+    std::printf("%s: %lld regions, %lld land wedges, %lld blurred, %lld seen, %lld hidden, %lld undecided\n", reading,
+                static_cast<long long>(regions), static_cast<long long>(land_wedges), static_cast<long long>(blurred),
+                static_cast<long long>(seen), static_cast<long long>(hidden), static_cast<long long>(undecided));
+  }
 };
 
 // Every sample of the box farther than the margin from the ring's boundary: inside exactly when
@@ -141,10 +146,7 @@ TEST(VisibleRegion, AgreesWithTheExactRuleAwayFromItsBoundaryPlanar) {
   EXPECT_GT(counts.hidden, 200000);
   EXPECT_LT(counts.undecided, (counts.seen + counts.hidden) / 50);
   EXPECT_EQ(counts.blurred, 0);  // whole-number corners: no vertex a rounding off another's edge
-  std::printf("planar: %lld regions, %lld land wedges, %lld seen, %lld hidden, %lld undecided\n",
-              static_cast<long long>(counts.regions), static_cast<long long>(counts.land_wedges),
-              static_cast<long long>(counts.seen), static_cast<long long>(counts.hidden),
-              static_cast<long long>(counts.undecided));
+  counts.print("planar");
 }
 
 TEST(VisibleRegion, AgreesWithTheExactRuleAwayFromItsBoundaryOnTheEllipsoid) {
@@ -178,10 +180,7 @@ TEST(VisibleRegion, AgreesWithTheExactRuleAwayFromItsBoundaryOnTheEllipsoid) {
   // Corners computed as x + 0.6 w may land a rounding off another island's corner or edge: the
   // points there are left to the exact predicates, and they are few.
   EXPECT_LT(counts.blurred, counts.regions / 20);
-  std::printf("ellipsoid: %lld regions, %lld blurred, %lld seen, %lld hidden, %lld undecided\n",
-              static_cast<long long>(counts.regions), static_cast<long long>(counts.blurred),
-              static_cast<long long>(counts.seen), static_cast<long long>(counts.hidden),
-              static_cast<long long>(counts.undecided));
+  counts.print("ellipsoid");
 }
 
 TEST(VisibleRegion, AWallsShadowIsTheClosedForm) {
