@@ -82,12 +82,7 @@ void measure_sweeps(const Visibility& vis, const GeodesicFrame* frame, const Gri
   }
   auto t0 = std::chrono::steady_clock::now();
   const auto edges = sea::barrier_edges(vis);
-  std::vector<Vec2> ends;
-  for (const auto& e : edges) {
-    ends.push_back(e.a);
-    ends.push_back(e.b);
-  }
-  const sea::EdgeIndex index(edges, ends);
+  const sea::EdgeIndex index(edges, {});
   const auto nodes = sea::bend_nodes(vis);
   const double prepare_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   std::printf("sweeps: %zu barrier edges once cut where they cross, %zu bend nodes; edges cut and indexed in %.3f s\n",

@@ -13,13 +13,19 @@ int64_t EdgeIndex::row(double y) const {
 }
 
 EdgeIndex::EdgeIndex(const std::vector<Segment>& edges, const std::vector<Vec2>& vertices, double slack) {
-  if (vertices.empty()) return;
-  double xmin = vertices[0].x, xmax = xmin, ymin = vertices[0].y, ymax = ymin;
-  for (const Vec2& v : vertices) {
+  if (vertices.empty() && edges.empty()) return;
+  const Vec2 first = vertices.empty() ? edges[0].a : vertices[0];
+  double xmin = first.x, xmax = xmin, ymin = first.y, ymax = ymin;
+  auto span = [&](const Vec2& v) {
     xmin = std::min(xmin, v.x);
     xmax = std::max(xmax, v.x);
     ymin = std::min(ymin, v.y);
     ymax = std::max(ymax, v.y);
+  };
+  for (const Vec2& v : vertices) span(v);
+  for (const Segment& e : edges) {
+    span(e.a);
+    span(e.b);
   }
   const double w = std::max(xmax - xmin, 0.0), h = std::max(ymax - ymin, 0.0);
   const double wanted = 2.0 * static_cast<double>(std::max<size_t>(edges.size(), 1));

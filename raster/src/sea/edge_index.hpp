@@ -22,7 +22,8 @@ class EdgeIndex {
   struct Segment {
     Vec2 a, b;
   };
-  // About two buckets per edge over the vertices' bounding box, at most 4096 a side. `slack`: how
+  // About two buckets per edge over the bounding box of the vertices and the edges' ends, at most
+  // 4096 a side. `slack`: how
   // far a segment's true course may stray from its chord (a geodesic's image: the frame's
   // deviation); the walk widens by it.
   EdgeIndex(const std::vector<Segment>& edges, const std::vector<Vec2>& vertices, double slack = 0.0);

@@ -7,6 +7,7 @@
 #include <utility>
 
 #include "rv/field/error.hpp"
+#include "sea/orient.hpp"
 
 namespace rv::sea {
 
@@ -152,16 +153,10 @@ std::vector<EdgeIndex::Segment> barrier_edges(const Visibility& vis) {
     for (size_t i = 0; i + 1 < line.vertices.size(); ++i) raw.push_back({line.vertices[i], line.vertices[i + 1]});
   // Overlapping polygons and lines across them cross each other's edges, and a vertex may lie
   // inside another's edge: each edge is cut there, so that the sweep's pieces meet only at ends.
-  std::vector<Vec2> ends;  // (the index spans its vertices' box)
-  for (const auto& e : raw) {
-    ends.push_back(e.a);
-    ends.push_back(e.b);
-  }
-  const EdgeIndex index(raw, ends);
+  const EdgeIndex index(raw, {});
   std::vector<EdgeIndex::Segment> out;
   std::vector<int32_t> near, unused;
   std::vector<std::pair<double, Vec2>> cuts;  // (where along the edge, the point)
-  auto cross = [](Vec2 o, Vec2 a, Vec2 b) { return (a.x - o.x) * (b.y - o.y) - (a.y - o.y) * (b.x - o.x); };
   for (size_t i = 0; i < raw.size(); ++i) {
     const Vec2 a = raw[i].a, b = raw[i].b;
     near.clear();
@@ -174,14 +169,16 @@ std::vector<EdgeIndex::Segment> barrier_edges(const Visibility& vis) {
     for (const int32_t j : near) {
       if (static_cast<size_t>(j) == i) continue;
       const Vec2 c = raw[static_cast<size_t>(j)].a, d = raw[static_cast<size_t>(j)].b;
-      const double c1 = cross(a, b, c), c2 = cross(a, b, d), c3 = cross(c, d, a), c4 = cross(c, d, b);
-      if (((c1 < 0 && c2 > 0) || (c1 > 0 && c2 < 0)) && ((c3 < 0 && c4 > 0) || (c3 > 0 && c4 < 0))) {
+      // Which side is which, by the exact predicate: a vertex on this edge is found as such.
+      if (orient(a, b, c) * orient(a, b, d) < 0 && orient(c, d, a) * orient(c, d, b) < 0) {
+        const double c3 = (d.x - c.x) * (a.y - c.y) - (d.y - c.y) * (a.x - c.x);
+        const double c4 = (d.x - c.x) * (b.y - c.y) - (d.y - c.y) * (b.x - c.x);
         const double t = c3 / (c3 - c4);  // a proper crossing
         cuts.push_back({t, Vec2{a.x + t * dx, a.y + t * dy}});
         continue;
       }
       for (const Vec2 e : {c, d}) {  // the other's end inside this edge
-        if (cross(a, b, e) != 0.0) continue;
+        if (orient(a, b, e) != 0) continue;
         const double t = at(e);
         if (t > 0.0 && t < 1.0) cuts.push_back({t, e});  // (the end itself: a vertex stays one)
       }
