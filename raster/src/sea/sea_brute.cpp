@@ -184,7 +184,8 @@ SeaField brute_force_sea(const SeedSet& seeds, const Barriers& barriers, const G
     const auto& spans = interiors.rows[static_cast<size_t>(r)];
     std::vector<std::pair<double, int32_t>> order;
     int64_t asked = 0;
-    const std::vector<Spot> row = p.row_cells(grid, window, r);
+    std::vector<Spot> row;
+    p.row_cells(grid, window, r, row);
     for (int64_t c = 0; c < window.width; ++c) {
       const Spot& spot = row[static_cast<size_t>(c)];
       const Vec2 x = spot.at;

@@ -217,12 +217,12 @@ void check_seeds(Prepared& p, const SeedSet& seeds) {
   }
 }
 
-std::vector<Spot> Prepared::row_cells(const GridSpec& grid, const Window& window, int64_t r) const {
-  std::vector<Spot> spots(static_cast<size_t>(window.width));
+void Prepared::row_cells(const GridSpec& grid, const Window& window, int64_t r, std::vector<Spot>& out) const {
+  out.resize(static_cast<size_t>(window.width));
   if (!geodesic) {
     for (int64_t c = 0; c < window.width; ++c)
-      spots[static_cast<size_t>(c)] = Spot{Vec2{grid.local_x(window.col0 + c), grid.local_y(window.row0 + r)}, Vec2{}};
-    return spots;
+      out[static_cast<size_t>(c)] = Spot{Vec2{grid.local_x(window.col0 + c), grid.local_y(window.row0 + r)}, Vec2{}};
+    return;
   }
   if (geolocator) {  // a projected grid's row, located as one batch
     std::vector<double> x(static_cast<size_t>(window.width)), y(x.size(), grid.centre_y(window.row0 + r));
@@ -231,16 +231,17 @@ std::vector<Spot> Prepared::row_cells(const GridSpec& grid, const Window& window
     geolocator->to_lonlat(x.data(), y.data(), lon.data(), lat.data(), x.size());
     for (size_t c = 0; c < x.size(); ++c) {
       const Vec2 ll{lon[c], lat[c]};
-      spots[c] = Spot{vis.frame()->forward(ll), ll};
+      out[c] = Spot{vis.frame()->forward(ll), ll};
     }
-    return spots;
+    return;
   }
-  std::vector<Vec2> plane(static_cast<size_t>(window.width));
+  // (The plane's positions in a buffer of the thread's own, kept between rows for the same reason.)
+  thread_local std::vector<Vec2> plane;
+  plane.resize(static_cast<size_t>(window.width));
   const double lat = grid.centre_y(window.row0 + r);
   vis.frame()->forward_row(lat, grid.centre_x(window.col0), grid.res, window.width, plane.data());
   for (int64_t c = 0; c < window.width; ++c)
-    spots[static_cast<size_t>(c)] = Spot{plane[static_cast<size_t>(c)], Vec2{grid.centre_x(window.col0 + c), lat}};
-  return spots;
+    out[static_cast<size_t>(c)] = Spot{plane[static_cast<size_t>(c)], Vec2{grid.centre_x(window.col0 + c), lat}};
 }
 
 SeaField empty_field(const Prepared& p, const GridSpec& grid, const Window& window, const MetricSpec& metric) {

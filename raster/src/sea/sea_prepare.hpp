@@ -140,8 +140,10 @@ struct Prepared {
   // The centres of row r of the window, where every engine holds them: planar, the grid's local
   // frame; geodesic, a row of a longitude/latitude grid projected as one parallel
   // (GeodesicFrame::forward_row, within 1e-8 m of each point's forward problem), a projected
-  // grid's centres located as one batch and each projected.
-  std::vector<Spot> row_cells(const GridSpec& grid, const Window& window, int64_t r) const;
+  // grid's centres located as one batch and each projected. Written into `out` (resized to the
+  // window's width), so that a caller that keeps it allocates once: a band's rows are megabytes,
+  // and freeing them every band gave the pages back to the kernel to be faulted in again.
+  void row_cells(const GridSpec& grid, const Window& window, int64_t r, std::vector<Spot>& out) const;
   // Lower bounds in the measure's units from plane distances: d * lower_scale().
   double lower_scale() const { return 1.0 / max_scale; }
 
