@@ -8,6 +8,7 @@
 #include <queue>
 
 #include "rv/field/error.hpp"
+#include "sea/near_bends.hpp"
 
 namespace rv::sea {
 
@@ -97,11 +98,15 @@ struct Settling::State {
   std::vector<int32_t> last_root;  // and the item of `all` it came from (-1: none yet)
   std::vector<uint64_t> seen_at;   // and the stamp of `all` then
   std::vector<double> seen_bound;  // and the bound its roots were searched to then
+  // With near bends: below this, every path over a root the node's best (last_val) does not
+  // account for is longer (the roots searched to seen_bound; those settled since and not near
+  // it, at least a reach past the least key then); its key is the smaller of the two.
+  std::vector<double> beyond;
   double diameter = 0.0, farthest = 0.0;
   int64_t steps = 0;
 };
 
-Settling::Settling(Searches& b) : b_(b), st_(std::make_unique<State>()) {
+Settling::Settling(Searches& b, const NearBends* near) : b_(b), near_(near), st_(std::make_unique<State>()) {
   const Prepared& p = b.p;
   const Visibility& vis = p.vis;
   State& st = *st_;
@@ -116,6 +121,7 @@ Settling::Settling(Searches& b) : b_(b), st_(std::make_unique<State>()) {
     st.open->set_weight(static_cast<int32_t>(i), st.key[i]);
     st.queue.emplace(st.key[i], static_cast<int32_t>(i));
   }
+  st.beyond = st.key;
   st.settled.assign(n, 0);
   st.hint.assign(static_cast<size_t>(b.site_items()) + n, -1);
   st.last_val.assign(n, Best{});
@@ -147,7 +153,37 @@ Settling::Settling(Searches& b) : b_(b), st_(std::make_unique<State>()) {
 
 Settling::~Settling() = default;
 
+void Settling::settle(size_t u) {
+  Searches& b = b_;
+  const Prepared& p = b.p;
+  const Visibility& vis = p.vis;
+  State& st = *st_;
+  const Best& val = st.last_val[u];
+  const auto i = static_cast<int32_t>(u);
+  const Place at = vis.at_vertex(b.nodes[u].vertex, b.nodes[u].wedge);
+  st.settled[u] = 1;
+  b.dist[u] = val;
+  b.prev[u] = st.last_root[u] >= b.site_items() ? st.last_root[u] - b.site_items() : -1;
+  if (val.via != kNoVia)
+    b.from[u] = vis.vertex(val.via);
+  else if (val.d == 0.0)
+    b.from[u] = at.at;
+  else if (const int32_t root = st.last_root[u]; root >= b.touch_first && root < b.site_items())
+    b.from[u] = p.touches[static_cast<size_t>(b.touch_of[static_cast<size_t>(root - b.touch_first)])].at.at;
+  else if (val.site != kNoSite)
+    b.from[u] = p.site_place(val.site, p.vertex_spot(b.nodes[u].vertex)).at;
+  if (!near_) st.open->set_weight(i, std::numeric_limits<double>::infinity());
+  if (std::isfinite(val.d)) {
+    b.all.set_weight(b.site_items() + i, val.d);
+    st.farthest = std::max(st.farthest, val.d);
+  }
+}
+
 void Settling::run(int64_t& tests, const std::atomic<bool>* cancel, double within) {
+  if (near_) {
+    run_near(tests, cancel, within);
+    return;
+  }
   Searches& b = b_;
   const Prepared& p = b.p;
   const Visibility& vis = p.vis;
@@ -193,22 +229,7 @@ void Settling::run(int64_t& tests, const std::atomic<bool>* cancel, double withi
     st.seen_at[u] = b.all.stamp();
     st.seen_bound[u] = bound;
     if (val.d < bound || !std::isfinite(bound)) {
-      st.settled[u] = 1;
-      b.dist[u] = val;
-      b.prev[u] = st.last_root[u] >= b.site_items() ? st.last_root[u] - b.site_items() : -1;
-      if (val.via != kNoVia)
-        b.from[u] = vis.vertex(val.via);
-      else if (val.d == 0.0)
-        b.from[u] = at.at;
-      else if (const int32_t root = st.last_root[u]; root >= b.touch_first && root < b.site_items())
-        b.from[u] = p.touches[static_cast<size_t>(b.touch_of[static_cast<size_t>(root - b.touch_first)])].at.at;
-      else if (val.site != kNoSite)
-        b.from[u] = p.site_place(val.site, p.vertex_spot(node.vertex)).at;
-      open.set_weight(i, std::numeric_limits<double>::infinity());
-      if (std::isfinite(val.d)) {
-        b.all.set_weight(b.site_items() + i, val.d);
-        st.farthest = std::max(st.farthest, val.d);
-      }
+      settle(u);
       continue;
     }
     // Not yet final: back in the queue with the larger bound (at least one step of rounding up,
@@ -216,6 +237,84 @@ void Settling::run(int64_t& tests, const std::atomic<bool>* cancel, double withi
     key[u] = std::max(bound, std::nextafter(k, std::numeric_limits<double>::infinity()));
     open.set_weight(i, key[u]);
     queue.emplace(key[u], i);
+  }
+}
+
+// Dijkstra over the roots settled so far (see the header): a node is taken from the queue at
+// the least key, which is the smaller of its best path so far (last_val) and the bound below
+// which every path it does not account for lies (beyond). When its best is below that bound it
+// is the least of every unsettled node's paths over settled roots, so it is final (the first
+// unsettled node on any path to it would be at least as far). Else its roots are searched up to
+// the key plus its reach: a root settled later is at least that far from it (settled distances
+// only grow, from the least key on) unless it is near, and a near root hands its path over when
+// it settles.
+void Settling::run_near(int64_t& tests, const std::atomic<bool>* cancel, double within) {
+  Searches& b = b_;
+  const Prepared& p = b.p;
+  const Visibility& vis = p.vis;
+  const NearBends& near = *near_;
+  State& st = *st_;
+  auto& queue = st.queue;
+  auto& key = st.key;
+  // (`queued`: the node's entry is still in the queue, valid while its key stays.)
+  auto rekey = [&](size_t v, bool queued) {
+    const double k = std::min(st.last_val[v].d, st.beyond[v]);
+    if (queued && k == key[v]) return;
+    key[v] = k;
+    queue.emplace(k, static_cast<int32_t>(v));
+  };
+  while (!queue.empty()) {
+    const auto [k, i] = queue.top();
+    const auto u = static_cast<size_t>(i);
+    if (st.settled[u] || k != key[u]) {
+      queue.pop();
+      continue;
+    }
+    if (k > (st.farthest + st.diameter) * (1 + 1e-9)) {  // the rest is unreachable
+      queue = {};
+      break;
+    }
+    if (k > within) break;
+    if (cancel && (++st.steps & 255) == 0 && cancel->load(std::memory_order_relaxed))
+      throw Error(ErrorKind::cancelled, "computation cancelled");
+    queue.pop();
+    const Node& node = b.nodes[u];
+    if (st.last_val[u].d < st.beyond[u]) {
+      settle(u);
+      // Its path handed to the near nodes it sees, as Searches::through weighs a root.
+      const Best& from = b.dist[u];
+      if (!std::isfinite(from.d)) continue;
+      for (int32_t t = near.first[u]; t < near.first[u + 1]; ++t) {
+        const auto v = static_cast<size_t>(near.to[static_cast<size_t>(t)]);
+        if (st.settled[v]) continue;
+        const Spot spot = p.vertex_spot(b.nodes[v].vertex);
+        const Prepared::Xyz xyz = p.geodesic ? p.vertex_xyz[static_cast<size_t>(b.nodes[v].vertex)] : Prepared::Xyz{};
+        const double d = b.through(
+            u, spot, xyz, st.last_val[v].d,
+            [&](double length) {
+              return Best{length, from.site, node.vertex} < st.last_val[v];
+            },
+            [](const Place&) { return true; });
+        if (!std::isfinite(d)) continue;
+        st.last_val[v] = Best{d, from.site, node.vertex};
+        st.last_root[v] = b.site_items() + i;
+        rekey(v, true);
+      }
+      continue;
+    }
+    ++b.evaluations;
+    // (At least one step of rounding up, so that the queue moves on.)
+    const double cap = std::max(k + near.reach[u], std::nextafter(k, std::numeric_limits<double>::infinity()));
+    const Place at = vis.at_vertex(node.vertex, node.wedge);
+    int32_t won = -1;
+    const Best val = b.best_path(at, p.vertex_spot(node.vertex), st.last_val[u], tests, node.vertex, &st.hint, -1, &won,
+                                 st.seen_at[u], st.seen_bound[u], cap);
+    if (won >= 0) st.last_root[u] = won;
+    st.last_val[u] = val;
+    st.seen_at[u] = b.all.stamp();
+    st.seen_bound[u] = cap;
+    st.beyond[u] = cap;
+    rekey(u, false);
   }
 }
 

@@ -166,9 +166,16 @@ struct Searches {
 // settled nodes is found as before, and one through a node not settled is longer than `within`.
 // Thread safety: run() writes the Searches (b.dist, b.from, b.prev; b.all weighted): no other
 // use of either meanwhile. Keeps a reference to `b`, which must outlive it and not move.
+//
+// With `near` (near_bends.hpp, over b's nodes; it must outlive the settling), a settled node
+// hands its distance to the nearby nodes it sees at once, and a node's search asks only for the
+// roots beyond its reach: its bound rises a reach at a time, not by the gap to its nearest
+// unsettled neighbour. Every node's answer is the same with or without it, to the bit (the least
+// path over every root, ties by Best's order).
+struct NearBends;
 class Settling {
  public:
-  explicit Settling(Searches& b);
+  explicit Settling(Searches& b, const NearBends* near = nullptr);
   ~Settling();
   // Counts the straight paths tested into `tests`. Throws rv::Error(cancelled) when `cancel`
   // becomes true; the settling is then in no state to go on (make a new Searches and Settling).
@@ -176,7 +183,12 @@ class Settling {
 
  private:
   struct State;
+  // The settling with near bends (run() with `near`).
+  void run_near(int64_t& tests, const std::atomic<bool>* cancel, double within);
+  // Node u settled at its best path so far (State::last_val), which came from root item `root`.
+  void settle(size_t u);
   Searches& b_;
+  const NearBends* near_;
   std::unique_ptr<State> st_;
 };
 

@@ -15,6 +15,7 @@
 #include "rv/field/error.hpp"
 #include "rv/field/parallel.hpp"
 #include "sea/bend_settle.hpp"
+#include "sea/near_bends.hpp"
 
 namespace rv {
 namespace {
@@ -441,14 +442,20 @@ class SeaSiteMetric final : public SiteMetric {
     const auto start = std::chrono::steady_clock::now();
     groups_.clear();
     groups_.resize(sites.size());
+    // (Made once for every owner: which bend nodes see each other nearby depends on the barriers
+    // alone. An owner's nodes deep in another's waters would otherwise be searched again at every
+    // step of their bound.)
+    if (!near_)
+      near_ = std::make_unique<NearBends>(near_bends(pr, bend_nodes(pr.vis), kNearVertices, threads_, cancel_));
     detail::parallel_for(resolve_threads(threads_), static_cast<int64_t>(sites.size()), [&](int64_t g, int) {
       Group& group = groups_[static_cast<size_t>(g)];
       group.search = std::make_unique<Searches>(pr, sites[static_cast<size_t>(g)]);
-      group.settling = std::make_unique<Settling>(*group.search);
+      group.settling = std::make_unique<Settling>(*group.search, near_.get());
     });
     if (stats_) {
       *stats_ = SeaMetricStats{};
       stats_->seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+      stats_->bend_tests = near_->tests;
     }
     run_groups();
   }
@@ -558,6 +565,10 @@ class SeaSiteMetric final : public SiteMetric {
     std::unique_ptr<Settling> settling;
   };
   std::vector<Group> groups_;
+  // The near bends every group's settling shares (near_bends.hpp): each node's nearest
+  // kNearVertices other vertices.
+  static constexpr int kNearVertices = 16;
+  std::unique_ptr<NearBends> near_;
   std::vector<int32_t> group_owner_;  // per group, its owner's code
   std::vector<SiteRoots> roots_;
   size_t hint_count_ = 0;                          // sites, then every group's nodes

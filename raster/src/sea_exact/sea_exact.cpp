@@ -68,6 +68,23 @@ void fill_grounds(const Prepared& p, const std::vector<Spot>& spots, Visibility:
     if (grounds[c] == unknown) grounds[c] = row[static_cast<size_t>(c)];
 }
 
+constexpr auto kUnknown = static_cast<Visibility::Ground>(-1);
+
+// A worker's band of rows: their centres, grounds (kUnknown until known) and which cells are
+// answered. Kept from band to band: a band's rows are megabytes, and allocated afresh their pages
+// went back to the kernel and were faulted in again every band.
+struct Band {
+  std::vector<std::vector<Spot>> spots;
+  std::vector<Visibility::Ground> grounds;
+  std::vector<uint8_t> answered;
+  void start(const Prepared& p, const GridSpec& grid, const Window& window, int64_t r0, int64_t r1) {
+    spots.resize(static_cast<size_t>(r1 - r0));
+    for (int64_t r = r0; r < r1; ++r) p.row_cells(grid, window, r, spots[static_cast<size_t>(r - r0)]);
+    grounds.assign(static_cast<size_t>((r1 - r0) * window.width), kUnknown);
+    answered.assign(grounds.size(), 0);
+  }
+};
+
 // Whether any cell of [c0, c1) x [r0, r1) lies inside a seed polygon.
 bool inside_any(const InteriorSpans& interiors, int64_t r0, int64_t r1, int64_t c0, int64_t c1) {
   for (int64_t r = r0; r < r1; ++r)
@@ -161,13 +178,6 @@ SeaField compute_sea(const SeedSet& seeds, const Barriers& barriers, const GridS
   const bool blocks = !adjusted && !options.cell_by_cell;
   const int64_t bands = (window.height + kBlock - 1) / kBlock;
   std::atomic<int64_t> rows_done{0};
-  // Each worker's band: kept from band to band (a band's rows are megabytes; allocated afresh,
-  // their pages went back to the kernel and were faulted in again every band).
-  struct Band {
-    std::vector<std::vector<Spot>> spots;
-    std::vector<Visibility::Ground> grounds;
-    std::vector<uint8_t> answered;
-  };
   std::vector<Band> band_of(static_cast<size_t>(workers));
   detail::parallel_for(workers, bands, [&](int64_t band, int worker) {
     if (options.cancel && options.cancel->load(std::memory_order_relaxed))
@@ -175,14 +185,10 @@ SeaField compute_sea(const SeedSet& seeds, const Barriers& barriers, const GridS
     CellWorker& w = cell_workers[static_cast<size_t>(worker)];
     const int64_t r0 = band * kBlock, r1 = std::min(r0 + kBlock, window.height);
     Band& b = band_of[static_cast<size_t>(worker)];
-    std::vector<std::vector<Spot>>& spots = b.spots;
-    spots.resize(static_cast<size_t>(r1 - r0));
-    for (int64_t r = r0; r < r1; ++r) p.row_cells(grid, window, r, spots[static_cast<size_t>(r - r0)]);
-    constexpr auto kUnknown = static_cast<Visibility::Ground>(-1);
+    b.start(p, grid, window, r0, r1);
+    const std::vector<std::vector<Spot>>& spots = b.spots;
     std::vector<Visibility::Ground>& grounds = b.grounds;
-    grounds.assign(static_cast<size_t>((r1 - r0) * window.width), kUnknown);
     std::vector<uint8_t>& answered = b.answered;
-    answered.assign(grounds.size(), 0);
     auto try_block = [&](auto&& self, int64_t c0, int64_t c1, int64_t b0, int64_t b1, int64_t side) -> void {
       if (!inside_any(interiors, b0, b1, c0, c1) &&
           answer_block(run, w, c0, c1, b0, b1, &spots[static_cast<size_t>(b0 - r0)],
