@@ -51,7 +51,7 @@ Searches::Searches(const Prepared& prepared, const std::vector<int32_t>& geometr
 
 Best Searches::best_path(const Place& at, const Spot& spot, Best best, int64_t& tests, int32_t skip_vertex,
                          std::vector<int32_t>* blockers, int32_t first, int32_t* winner, uint64_t since,
-                         double searched, double cap) const {
+                         double searched, double cap, double near_radius) const {
   const Vec2 x = at.at;
   int32_t won = -1;
   // On the ellipsoid a candidate's chord decides most candidates before its inverse problem.
@@ -74,6 +74,9 @@ Best Searches::best_path(const Place& at, const Spot& spot, Best best, int64_t& 
     return p.vis.sees(at, to);
   };
   auto consider_item = [&](int32_t item) {
+    if (near_radius >= 0.0 && item >= site_items() &&
+        length(x, p.vis.vertex(nodes[static_cast<size_t>(item - site_items())].vertex)) <= near_radius)
+      return;
     if (consider(item, at, spot, xyz, skip_vertex, best, seen)) won = item;
   };
   if (first >= 0 && std::isfinite(all.weight(first))) consider_item(first);
@@ -307,8 +310,9 @@ void Settling::run_near(int64_t& tests, const std::atomic<bool>* cancel, double 
     const double cap = std::max(k + near.reach[u], std::nextafter(k, std::numeric_limits<double>::infinity()));
     const Place at = vis.at_vertex(node.vertex, node.wedge);
     int32_t won = -1;
+    // (The near nodes are left out: each hands its path over when it settles.)
     const Best val = b.best_path(at, p.vertex_spot(node.vertex), st.last_val[u], tests, node.vertex, &st.hint, -1, &won,
-                                 st.seen_at[u], st.seen_bound[u], cap);
+                                 st.seen_at[u], st.seen_bound[u], cap, near.radius[u]);
     if (won >= 0) st.last_root[u] = won;
     st.last_val[u] = val;
     st.seen_at[u] = b.all.stamp();

@@ -76,6 +76,9 @@ struct Searches {
   //
   // `cap`: only roots whose bound is at most cap are searched (the answer is exact when below
   // it; else it is some path, or none).
+  //
+  // `near_radius` (>= 0): bend nodes whose vertex lies within it of `at` in the plane (length())
+  // are not searched either: a settling with near bends hands their paths over itself.
   // Settled node k as the last bend of a path to `spot` (`xyz`: Prepared::spot_xyz(spot)): the
   // path's length when it is taut at the node, `better(length)` holds and `seen(place)` says the
   // node's place sees the spot; else +infinity. A length above `limit` is never better. The tests
@@ -155,7 +158,7 @@ struct Searches {
   Best best_path(const Place& at, const Spot& spot, Best best, int64_t& tests, int32_t skip_vertex = -1,
                  std::vector<int32_t>* blockers = nullptr, int32_t first = -1, int32_t* winner = nullptr,
                  uint64_t since = 0, double searched = std::numeric_limits<double>::infinity(),
-                 double cap = std::numeric_limits<double>::infinity()) const;
+                 double cap = std::numeric_limits<double>::infinity(), double near_radius = -1.0) const;
 };
 
 // The settling of a Searches' bend nodes, resumable: run(within) settles every node whose

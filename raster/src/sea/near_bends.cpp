@@ -1,6 +1,7 @@
 // The bend nodes each node sees nearby: see near_bends.hpp.
 #include "sea/near_bends.hpp"
 
+#include <algorithm>
 #include <chrono>
 
 #include "rv/field/error.hpp"
@@ -15,6 +16,7 @@ NearBends near_bends(const Prepared& p, const std::vector<Node>& nodes, int k, i
   const Visibility& vis = p.vis;
   const size_t n = nodes.size();
   NearBends out;
+  out.radius.assign(n, 0.0);
   out.reach.assign(n, 0.0);
   std::vector<RootTree::Box> boxes;
   boxes.reserve(n);
@@ -30,22 +32,26 @@ NearBends near_bends(const Prepared& p, const std::vector<Node>& nodes, int k, i
     const Node& node = nodes[v];
     const Visibility::Place at = vis.at_vertex(node.vertex, node.wedge);
     // Nodes in increasing plane distance: up to the k-th other vertex, and every node as near.
-    int distinct = 0;
-    int32_t last_vertex = -1;
+    std::vector<int32_t> vertices;  // the other vertices met so far
     double radius = std::numeric_limits<double>::infinity();
     std::vector<int32_t> near;
+    // (Membership by length(), as Searches::best_path leaves the near nodes out; the tree's bound
+    // for a point is the same number.)
     tree.nearest(at.at, [&](int32_t item, double bound) {
       if (bound > radius) return false;
       const Node& r = nodes[static_cast<size_t>(item)];
-      if (r.vertex == node.vertex) return true;
+      const double gap = length(at.at, vis.vertex(r.vertex));
+      if (r.vertex == node.vertex || gap > radius) return true;
       near.push_back(item);
-      if (r.vertex != last_vertex) {
-        last_vertex = r.vertex;
-        if (++distinct == k) radius = bound;
+      // (A vertex's wedges come one after another unless another vertex lies as near.)
+      if (std::find(vertices.begin(), vertices.end(), r.vertex) == vertices.end()) {
+        vertices.push_back(r.vertex);
+        if (static_cast<int>(vertices.size()) == k) radius = gap;
       }
       return true;
     });
     // (Fewer than k other vertices: every node is near, and no root lies beyond.)
+    out.radius[v] = radius;
     out.reach[v] = std::isfinite(radius) ? radius * p.lower_scale() * (1.0 - 1e-9) : radius;
     for (int32_t r : near) {
       const Node& root = nodes[static_cast<size_t>(r)];

@@ -23,9 +23,10 @@
 namespace rv::sea {
 
 struct NearBends {
-  // Per node: metres within which every root of its paths is near (a near root that does not
-  // see it is no root of it).
-  std::vector<double> reach;
+  // Per node: the plane distance (length()) from its vertex within which every node at another
+  // vertex is near it (+infinity: every node), and the same in metres as a lower bound, less a
+  // billionth: every root of its paths that is not near is at least `reach` away.
+  std::vector<double> radius, reach;
   // Per node r, the nodes r is a near root of (ascending): first[r] .. first[r + 1] in `to`.
   std::vector<int32_t> first, to;
   int64_t tests = 0;  // visibility tests made
