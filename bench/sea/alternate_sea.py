@@ -8,11 +8,13 @@ The cases are the ones bench/RESULTS-sea.md has timed since session 66:
 - ports:  the western Baltic's 200 ports (fixtures/baltic_west_ports.geojson) as seeds, its land
           (fixtures/baltic_west.gpkg) as barriers, geodesic, at each grid of --grids;
 - states: the four states as both seeds and land, 0.02 deg;
+- zealand: the ports with Zealand's at half effect (fixtures/baltic_west_ports_zealand_half.geojson),
+          0.01 deg;
 - oresund: the Øresund's 12 ports with the two states' land, in UTM 33N at 250 m (planar).
 Outputs: ownership, distance, boundaries, regions and the report; --threads 2.
 
 usage:
-  bench/sea/alternate_sea.py [--rounds 3] [--grids 0.02,0.005,0.001] [--only ports,states,oresund]
+  bench/sea/alternate_sea.py [--rounds 3] [--grids 0.02,0.005,0.001] [--only ports,states,zealand,oresund]
                              OLD_BINARY NEW_BINARY
 Debian's /usr/bin/python3. Run it on an otherwise idle machine (no build beside it).
 """
@@ -44,6 +46,11 @@ def cases(grids, only):
         out.append(("states as seeds and land, 0.02 deg",
                     [os.path.join(FIX, "baltic_west.gpkg"), "--owner-field", "iso2", "--on-conflict", "lower-code",
                      "--barriers", os.path.join(FIX, "baltic_west.gpkg"), *BALTIC, "--resolution", "0.02"]))
+    if "zealand" in only:
+        out.append(("Zealand's ports at half effect by sea, 0.01 deg",
+                    [os.path.join(FIX, "baltic_west_ports_zealand_half.geojson"), "--owner-field", "owner",
+                     "--effect-field", "effect", "--barriers", os.path.join(FIX, "baltic_west.gpkg"), *BALTIC,
+                     "--resolution", "0.01"]))
     if "oresund" in only:
         out.append(("Øresund ports by sea, 250 m (planar)",
                     [os.path.join(FIX, "oresund_ports.geojson"), "--owner-field", "owner", "--barriers",
@@ -71,7 +78,7 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--rounds", type=int, default=3)
     ap.add_argument("--grids", default="0.02,0.005,0.001")
-    ap.add_argument("--only", default="ports,states,oresund")
+    ap.add_argument("--only", default="ports,states,zealand,oresund")
     ap.add_argument("old")
     ap.add_argument("new")
     args = ap.parse_args()

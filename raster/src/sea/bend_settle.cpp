@@ -62,16 +62,29 @@ Best Searches::best_path(const Place& at, const Spot& spot, Best best, int64_t& 
     const int32_t b = (*blockers)[static_cast<size_t>(item)];
     return b >= 0 && p.vis.crosses(b, at, to);
   };
-  // (`hint_tested`: the caller has just asked hinted() and it said no.)
-  auto seen = [&](int32_t item, const Place& to, bool hint_tested = false) {
-    if (blockers) {
-      int32_t& b = (*blockers)[static_cast<size_t>(item)];
-      if (!hint_tested && hinted(item, to)) return false;
-      ++tests;
-      return p.vis.sees(at, to, &b);
+  // The edges that hid the last roots tested from this point, newest first: the roots a point
+  // does not see lie mostly behind the same few headlands (one crossing test each).
+  int32_t recent[kRecentBlockers];
+  std::fill_n(recent, kRecentBlockers, -1);
+  auto seen = [&](int32_t item, const Place& to) {
+    int32_t* b = blockers ? &(*blockers)[static_cast<size_t>(item)] : nullptr;
+    if (hinted(item, to)) return false;
+    for (const int32_t e : recent) {
+      if (e < 0) break;
+      if ((!b || e != *b) && p.vis.crosses(e, at, to)) {
+        if (b) *b = e;
+        return false;
+      }
     }
     ++tests;
-    return p.vis.sees(at, to);
+    int32_t found = -1;
+    const bool free = p.vis.sees(at, to, &found);
+    if (b) *b = found;
+    if (!free && found >= 0 && found != recent[0]) {
+      std::copy_backward(recent, recent + kRecentBlockers - 1, recent + kRecentBlockers);
+      recent[0] = found;
+    }
+    return free;
   };
   auto consider_item = [&](int32_t item) {
     if (near_radius >= 0.0 && item >= site_items() &&

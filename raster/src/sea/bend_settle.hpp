@@ -155,6 +155,7 @@ struct Searches {
     return true;
   }
 
+  static constexpr int kRecentBlockers = 4;
   Best best_path(const Place& at, const Spot& spot, Best best, int64_t& tests, int32_t skip_vertex = -1,
                  std::vector<int32_t>* blockers = nullptr, int32_t first = -1, int32_t* winner = nullptr,
                  uint64_t since = 0, double searched = std::numeric_limits<double>::infinity(),

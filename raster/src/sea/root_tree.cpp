@@ -1,6 +1,7 @@
 #include "sea/root_tree.hpp"
 
 #include <algorithm>
+#include <cmath>
 
 namespace rv::sea {
 
@@ -58,15 +59,21 @@ void RootTree::set_weight(int32_t item, double weight) {
   for (int32_t n = leaf_[static_cast<size_t>(item)]; n >= 0; n = nodes_[static_cast<size_t>(n)].parent) {
     Node& node = nodes_[static_cast<size_t>(n)];
     node.max_stamp = stamp;  // the newest: every subtree above holds it
-    double m = std::numeric_limits<double>::infinity();
+    double m = std::numeric_limits<double>::infinity(), top = -m;
     if (node.left < 0) {
-      for (int32_t i = node.first; i < node.first + node.count; ++i)
-        m = std::min(m, weight_[static_cast<size_t>(order_[static_cast<size_t>(i)])]);
+      for (int32_t i = node.first; i < node.first + node.count; ++i) {
+        const double w = weight_[static_cast<size_t>(order_[static_cast<size_t>(i)])];
+        m = std::min(m, w);
+        if (std::isfinite(w)) top = std::max(top, w);
+      }
     } else {
-      m = std::min(nodes_[static_cast<size_t>(node.left)].min_weight,
-                   nodes_[static_cast<size_t>(node.right)].min_weight);
+      const Node& l = nodes_[static_cast<size_t>(node.left)];
+      const Node& r = nodes_[static_cast<size_t>(node.right)];
+      m = std::min(l.min_weight, r.min_weight);
+      top = std::max(l.max_weight, r.max_weight);
     }
     node.min_weight = m;
+    node.max_weight = top;
   }
 }
 

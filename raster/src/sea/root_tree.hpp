@@ -43,18 +43,20 @@ class RootTree {
   // lower it as it finds better). Without a priority queue: the cheaper search when the caller
   // starts from a good limit.
   // `since`, `seen`: an item stamped no later than `since` is skipped when its bound is at most
-  // `seen` (searched before up to that bound); seen +infinity (the default): every such item,
-  // whole subtrees at once.
+  // `seen` (searched before up to that bound); seen +infinity (the default): every such item.
+  // Either way whole subtrees at once where every item is such, so a search resumed from a
+  // larger bound walks little more than the ring between the two bounds and what is new.
   template <class L, class F>
   void within(Vec2 x, L&& limit, F&& visit, uint64_t since = 0,
               double seen = std::numeric_limits<double>::infinity()) const {
-    within_by([&](const Box& b) { return box_distance(b, x); }, limit, visit, since, seen);
+    within_by([&](const Box& b) { return box_distance(b, x); }, [&](const Box& b) { return far_distance(b, x); }, limit,
+              visit, since, seen);
   }
   // The same for every point of box q at once: bounds of weight + the distance between the
   // item's box and q (a lower bound for each point of q).
   template <class L, class F>
   void within(const Box& q, L&& limit, F&& visit) const {
-    within_by([&](const Box& b) { return boxes_distance(b, q); }, limit, visit, 0,
+    within_by([&](const Box& b) { return boxes_distance(b, q); }, [](const Box&) { return 0.0; }, limit, visit, 0,
               std::numeric_limits<double>::infinity());
   }
 
@@ -63,6 +65,7 @@ class RootTree {
   struct Node {
     Box box;
     double min_weight = std::numeric_limits<double>::infinity();
+    double max_weight = -std::numeric_limits<double>::infinity();  // of the present items
     uint64_t max_stamp = 0;
     int32_t first = 0, count = 0;  // a leaf's items in order_
     int32_t left = -1, right = -1, parent = -1;
@@ -73,14 +76,22 @@ class RootTree {
     const double dy = std::max({b.lo.y - x.y, 0.0, x.y - b.hi.y});
     return std::sqrt(dx * dx + dy * dy) * scale_;
   }
+  // At least box_distance(c, x) for every box c inside b, as computed (the same operations on
+  // operands at least as large).
+  double far_distance(const Box& b, Vec2 x) const {
+    const double dx = std::max(x.x - b.lo.x, b.hi.x - x.x);
+    const double dy = std::max(x.y - b.lo.y, b.hi.y - x.y);
+    return std::sqrt(dx * dx + dy * dy) * scale_;
+  }
 
   double boxes_distance(const Box& b, const Box& q) const {
     const double dx = std::max({b.lo.x - q.hi.x, 0.0, q.lo.x - b.hi.x});
     const double dy = std::max({b.lo.y - q.hi.y, 0.0, q.lo.y - b.hi.y});
     return std::sqrt(dx * dx + dy * dy) * scale_;
   }
-  template <class D, class L, class F>
-  void within_by(D&& distance, L&& limit, F&& visit, uint64_t since, double seen) const;
+  // `far(b)`: at least distance(c) for every box c inside b (read only while `seen` is finite).
+  template <class D, class Far, class L, class F>
+  void within_by(D&& distance, Far&& far, L&& limit, F&& visit, uint64_t since, double seen) const;
 
   double scale_ = 1.0;
   std::vector<Node> nodes_;
@@ -122,8 +133,8 @@ void RootTree::nearest(Vec2 x, F&& visit) const {
   }
 }
 
-template <class D, class L, class F>
-void RootTree::within_by(D&& distance, L&& limit, F&& visit, uint64_t since, double seen) const {
+template <class D, class Far, class L, class F>
+void RootTree::within_by(D&& distance, Far&& far, L&& limit, F&& visit, uint64_t since, double seen) const {
   if (nodes_.empty()) return;
   const bool all_seen = std::isinf(seen) && seen > 0.0;
   int32_t stack[128];
@@ -131,8 +142,10 @@ void RootTree::within_by(D&& distance, L&& limit, F&& visit, uint64_t since, dou
   stack[top++] = 0;
   while (top > 0) {
     const Node& n = nodes_[static_cast<size_t>(stack[--top])];
-    if ((all_seen && n.max_stamp <= since) || !std::isfinite(n.min_weight) || n.min_weight + distance(n.box) > limit())
-      continue;
+    if (!std::isfinite(n.min_weight) || n.min_weight + distance(n.box) > limit()) continue;
+    // (Every item searched before: stamped by then, and its bound at most `seen`, which the
+    // heaviest item at the box's farthest corner bounds.)
+    if (n.max_stamp <= since && (all_seen || n.max_weight + far(n.box) <= seen)) continue;
     if (n.left < 0) {
       for (int32_t i = n.first; i < n.first + n.count; ++i) {
         const int32_t item = order_[static_cast<size_t>(i)];
