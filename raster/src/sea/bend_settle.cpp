@@ -130,11 +130,12 @@ Settling::Settling(Searches& b, const NearBends* near) : b_(b), near_(near), st_
   std::vector<RootTree::Box> boxes;
   boxes.reserve(n);
   for (const Node& node : b.nodes) boxes.push_back({vis.vertex(node.vertex), vis.vertex(node.vertex)});
-  st.open = std::make_unique<RootTree>(boxes, p.lower_scale());
+  // (The unsettled nodes' tree bounds their keys without near bends only.)
+  if (!near_) st.open = std::make_unique<RootTree>(boxes, p.lower_scale());
   st.key.resize(n);
   for (size_t i = 0; i < n; ++i) {
     st.key[i] = std::sqrt(b.straight(p.vertex_spot(b.nodes[i].vertex)).first);
-    st.open->set_weight(static_cast<int32_t>(i), st.key[i]);
+    if (!near_) st.open->set_weight(static_cast<int32_t>(i), st.key[i]);
     st.queue.emplace(st.key[i], static_cast<int32_t>(i));
   }
   st.beyond = st.key;

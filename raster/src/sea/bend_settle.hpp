@@ -189,7 +189,7 @@ class Settling {
   struct State;
   // The settling with near bends (run() with `near`).
   void run_near(int64_t& tests, const std::atomic<bool>* cancel, double within);
-  // Node u settled at its best path so far (State::last_val), which came from root item `root`.
+  // Node u settled at its best path so far (State::last_val, from the root State::last_root).
   void settle(size_t u);
   Searches& b_;
   const NearBends* near_;

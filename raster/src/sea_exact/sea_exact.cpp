@@ -9,7 +9,12 @@
 //   last bend of any better path would be a node not yet settled, r, and such a path is at least
 //   key(r) + |r - v|; so when the evaluated path is shorter than the least of those (searched
 //   the same way) it is final, else the node goes back with that bound as its key, which is
-//   larger than the key it had: every step settles a node or raises a key.
+//   larger than the key it had: every step settles a node or raises a key. The owners'
+//   settlings for the lines (sea/sea_metric.cpp) run it with near bends (sea/near_bends.hpp):
+//   a node's nearby nodes that see it hand their paths over when they settle, as a graph's
+//   Dijkstra relaxes edges, and its other roots are searched a reach at a time (bend_settle.cpp,
+//   Settling::run_near), so a node deep in a shadow is not raised by the small gaps between
+//   unsettled neighbours, each raise another search.
 // - Cells: the straight field of the window first (the straight exact engine's, rv/engine), then
 //   per cell its nearest site if seen (the straight field's answer, bit for bit), else the best
 //   site seen and the best settled node seen, each searched in order of its bound. Where no
