@@ -196,6 +196,31 @@ void Settling::settle(size_t u) {
   }
 }
 
+bool Settling::next(const std::atomic<bool>* cancel, double within, double& k, size_t& u) {
+  State& st = *st_;
+  auto& queue = st.queue;
+  while (!queue.empty()) {
+    const auto [key, i] = queue.top();
+    u = static_cast<size_t>(i);
+    if (st.settled[u] || key != st.key[u]) {  // (an older entry of a node since settled or raised)
+      queue.pop();
+      continue;
+    }
+    if (key > (st.farthest + st.diameter) * (1 + 1e-9)) {  // the rest is unreachable
+      queue = {};
+      return false;
+    }
+    // (A key is a lower bound: every node left is farther. The entry stays for the next run.)
+    if (key > within) return false;
+    if (cancel && (++st.steps & 255) == 0 && cancel->load(std::memory_order_relaxed))
+      throw Error(ErrorKind::cancelled, "computation cancelled");
+    queue.pop();
+    k = key;
+    return true;
+  }
+  return false;
+}
+
 void Settling::run(int64_t& tests, const std::atomic<bool>* cancel, double within) {
   if (near_) {
     run_near(tests, cancel, within);
@@ -208,22 +233,10 @@ void Settling::run(int64_t& tests, const std::atomic<bool>* cancel, double withi
   RootTree& open = *st.open;
   auto& queue = st.queue;
   auto& key = st.key;
-  while (!queue.empty()) {
-    const auto [k, i] = queue.top();
-    const auto u = static_cast<size_t>(i);
-    if (st.settled[u] || k != key[u]) {  // (an older entry of a node since settled or raised)
-      queue.pop();
-      continue;
-    }
-    if (k > (st.farthest + st.diameter) * (1 + 1e-9)) {  // the rest is unreachable
-      queue = {};
-      break;
-    }
-    // (A key is a lower bound: every node left is farther. The entry stays for the next run.)
-    if (k > within) break;
-    if (cancel && (++st.steps & 255) == 0 && cancel->load(std::memory_order_relaxed))
-      throw Error(ErrorKind::cancelled, "computation cancelled");
-    queue.pop();
+  double k = 0.0;
+  size_t u = 0;
+  while (next(cancel, within, k, u)) {
+    const auto i = static_cast<int32_t>(u);
     const Node& node = b.nodes[u];
     ++b.evaluations;
     const Place at = vis.at_vertex(node.vertex, node.wedge);
@@ -280,21 +293,10 @@ void Settling::run_near(int64_t& tests, const std::atomic<bool>* cancel, double 
     key[v] = k;
     queue.emplace(k, static_cast<int32_t>(v));
   };
-  while (!queue.empty()) {
-    const auto [k, i] = queue.top();
-    const auto u = static_cast<size_t>(i);
-    if (st.settled[u] || k != key[u]) {
-      queue.pop();
-      continue;
-    }
-    if (k > (st.farthest + st.diameter) * (1 + 1e-9)) {  // the rest is unreachable
-      queue = {};
-      break;
-    }
-    if (k > within) break;
-    if (cancel && (++st.steps & 255) == 0 && cancel->load(std::memory_order_relaxed))
-      throw Error(ErrorKind::cancelled, "computation cancelled");
-    queue.pop();
+  double k = 0.0;
+  size_t u = 0;
+  while (next(cancel, within, k, u)) {
+    const auto i = static_cast<int32_t>(u);
     const Node& node = b.nodes[u];
     if (st.last_val[u].d < st.beyond[u]) {
       settle(u);

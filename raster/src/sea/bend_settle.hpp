@@ -187,6 +187,9 @@ class Settling {
 
  private:
   struct State;
+  // The next node to evaluate, taken from the queue: its key `k` and index `u`; false when the
+  // queue is empty, what is left is unreachable, or the least key is above `within`.
+  bool next(const std::atomic<bool>* cancel, double within, double& k, size_t& u);
   // The settling with near bends (run() with `near`).
   void run_near(int64_t& tests, const std::atomic<bool>* cancel, double within);
   // Node u settled at its best path so far (State::last_val, from the root State::last_root).

@@ -148,7 +148,9 @@ void compare_settlings(const Layout& layout, Counts& counts) {
         for (size_t n = 0; n < want.nodes.size(); ++n) {
           const bool in = want.dist[n].d <= within;
           ASSERT_EQ(std::isfinite(paused.dist[n].d), in) << "paused at " << within << ": node " << n;
-          if (in) ASSERT_EQ(std::bit_cast<uint64_t>(paused.dist[n].d), std::bit_cast<uint64_t>(want.dist[n].d));
+          if (in) {
+            ASSERT_EQ(std::bit_cast<uint64_t>(paused.dist[n].d), std::bit_cast<uint64_t>(want.dist[n].d));
+          }
         }
         ++counts.paused;
       }
