@@ -12,6 +12,11 @@
 
 namespace rv::sea {
 
+namespace {
+// The blocking edges a search remembers (Searches::best_path).
+constexpr int kRecentBlockers = 4;
+}  // namespace
+
 Searches::Searches(const Prepared& prepared) : Searches(prepared, prepared.geometric) {}
 
 Searches::Searches(const Prepared& prepared, const std::vector<int32_t>& geometric)
@@ -127,11 +132,13 @@ Settling::Settling(Searches& b, const NearBends* near) : b_(b), near_(near), st_
   const Visibility& vis = p.vis;
   State& st = *st_;
   const size_t n = b.nodes.size();
-  std::vector<RootTree::Box> boxes;
-  boxes.reserve(n);
-  for (const Node& node : b.nodes) boxes.push_back({vis.vertex(node.vertex), vis.vertex(node.vertex)});
   // (The unsettled nodes' tree bounds their keys without near bends only.)
-  if (!near_) st.open = std::make_unique<RootTree>(boxes, p.lower_scale());
+  if (!near_) {
+    std::vector<RootTree::Box> boxes;
+    boxes.reserve(n);
+    for (const Node& node : b.nodes) boxes.push_back({vis.vertex(node.vertex), vis.vertex(node.vertex)});
+    st.open = std::make_unique<RootTree>(boxes, p.lower_scale());
+  }
   st.key.resize(n);
   for (size_t i = 0; i < n; ++i) {
     st.key[i] = std::sqrt(b.straight(p.vertex_spot(b.nodes[i].vertex)).first);

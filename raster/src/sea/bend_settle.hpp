@@ -59,26 +59,6 @@ struct Searches {
     return best;
   }
 
-  // The best path from `at` over the sites it sees and the settled bends it sees (taut there),
-  // if better than `best`; bends at `skip_vertex` are not roots (a path cannot turn from one
-  // wedge of a vertex into another).
-  //
-  // `blockers` (one entry per item of `all`, or null): the edge that last blocked each root
-  // from a neighbouring point. A root still blocked by it is hidden at the cost of one crossing
-  // test instead of a walk along the path; the entries are hints, every answer is exact.
-  //
-  // `first` (an item of `all`, or -1): tried before the search (a neighbour's root), so that the
-  // search starts from a good limit.
-  //
-  // `since`, `searched` (a stamp of `all` and a bound): the roots settled by then whose bound is
-  // at most `searched` were searched before (a node evaluated again) and are skipped; `best` is then
-  // the answer over them.
-  //
-  // `cap`: only roots whose bound is at most cap are searched (the answer is exact when below
-  // it; else it is some path, or none).
-  //
-  // `near_radius` (>= 0): bend nodes whose vertex lies within it of `at` in the plane (length())
-  // are not searched either: a settling with near bends hands their paths over itself.
   // Settled node k as the last bend of a path to `spot` (`xyz`: Prepared::spot_xyz(spot)): the
   // path's length when it is taut at the node, `better(length)` holds and `seen(place)` says the
   // node's place sees the spot; else +infinity. A length above `limit` is never better. The tests
@@ -155,7 +135,27 @@ struct Searches {
     return true;
   }
 
-  static constexpr int kRecentBlockers = 4;
+  // The best path from `at` over the sites it sees and the settled bends it sees (taut there),
+  // if better than `best`; bends at `skip_vertex` are not roots (a path cannot turn from one
+  // wedge of a vertex into another).
+  //
+  // `blockers` (one entry per item of `all`, or null): the edge that last blocked each root
+  // from a neighbouring point. A root still blocked by it is hidden at the cost of one crossing
+  // test instead of a walk along the path; the entries are hints, every answer is exact. The
+  // search also tries, before each walk, the edges that hid its own last few roots.
+  //
+  // `first` (an item of `all`, or -1): tried before the search (a neighbour's root), so that the
+  // search starts from a good limit.
+  //
+  // `since`, `searched` (a stamp of `all` and a bound): the roots settled by then whose bound is
+  // at most `searched` were searched before (a node evaluated again) and are skipped; `best` is then
+  // the answer over them.
+  //
+  // `cap`: only roots whose bound is at most cap are searched (the answer is exact when below
+  // it; else it is some path, or none).
+  //
+  // `near_radius` (>= 0): bend nodes whose vertex lies within it of `at` in the plane (length())
+  // are not searched either: a settling with near bends hands their paths over itself.
   Best best_path(const Place& at, const Spot& spot, Best best, int64_t& tests, int32_t skip_vertex = -1,
                  std::vector<int32_t>* blockers = nullptr, int32_t first = -1, int32_t* winner = nullptr,
                  uint64_t since = 0, double searched = std::numeric_limits<double>::infinity(),

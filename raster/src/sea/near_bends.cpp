@@ -2,7 +2,8 @@
 #include "sea/near_bends.hpp"
 
 #include <algorithm>
-#include <chrono>
+#include <cmath>
+#include <limits>
 
 #include "rv/field/error.hpp"
 #include "rv/field/parallel.hpp"
@@ -12,7 +13,6 @@ namespace rv::sea {
 
 NearBends near_bends(const Prepared& p, const std::vector<Node>& nodes, int k, int threads,
                      const std::atomic<bool>* cancel) {
-  const auto start = std::chrono::steady_clock::now();
   const Visibility& vis = p.vis;
   const size_t n = nodes.size();
   NearBends out;
@@ -69,7 +69,6 @@ NearBends near_bends(const Prepared& p, const std::vector<Node>& nodes, int k, i
   std::vector<int32_t> fill(out.first.begin(), out.first.end() - 1);
   for (size_t v = 0; v < n; ++v)
     for (int32_t r : near_of[v]) out.to[static_cast<size_t>(fill[static_cast<size_t>(r)]++)] = static_cast<int32_t>(v);
-  out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return out;
 }
 

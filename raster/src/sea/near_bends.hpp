@@ -30,7 +30,6 @@ struct NearBends {
   // Per node r, the nodes r is a near root of (ascending): first[r] .. first[r + 1] in `to`.
   std::vector<int32_t> first, to;
   int64_t tests = 0;  // visibility tests made
-  double seconds = 0.0;
 };
 
 // Over `nodes` (bend_nodes(p.vis): every Searches of `p` numbers its nodes so). `k` >= 1.
