@@ -7,16 +7,20 @@
 // check that an optimisation changes no cell).
 //
 //   sea_bench [--data fixtures/baltic_west.gpkg | --wiggly N] [--ports 200] [--res 1000] [--runs 3] [--threads 0]
-//             [--geodesic 1] [--ports-out FILE.geojson] [--cell-by-cell 1] [--sweeps 1]
+//             [--geodesic 1] [--ports-out FILE.geojson] [--cell-by-cell 1] [--sweeps 1] [--grounds 1]
 //
 // --geodesic 1: the fixture in longitude/latitude, the grid in degrees (--res 0.01), both fields
 // geodesic (the straight one the exact geodesic engine's). --ports-out: the ports chosen, as a
 // GeoJSON file (owner field "owner"), for timing whole jobs with the CLI. --cell-by-cell 1: the
 // exact engine answers every cell alone (SeaOptions::cell_by_cell), the reference of its blocks.
 // --sweeps 1: afterwards, what a shortest-path-map engine's visibility sweeps would cost: from
-// every bend node of every last bend the field uses, the region it sees (sea/visible_region.hpp)
+// every bend node of every last bend the field uses, the region it sees (sea_map/visible_region.hpp)
 // within a square of k times that bend's region's radius (its farthest cell), k = 1, 2, 4, one
 // thread, timed with the edges gathered from an index.
+// --grounds 1: afterwards, every cell's ground drawn row by row (sea_map/ground_rows.hpp) against
+// each row's cells projected into the frame and classified along the row (Visibility::
+// classify_next, as the engine does where no block proves them at once), one thread, three rounds
+// in turn; every cell compared (the exit status is 1 where any differs).
 //
 // --wiggly N: instead of the fixture, a synthetic archipelago of nine fractal-like islands of
 // N vertices in all (each island's radius a sum of random harmonics), over the fixture's box in
@@ -38,8 +42,9 @@
 #include "rv/sea/sea_field.hpp"
 #include "rv/sea/visibility.hpp"
 #include "sea/edge_index.hpp"
+#include "sea_map/ground_rows.hpp"
 #include "sea/sea_prepare.hpp"
-#include "sea/visible_region.hpp"
+#include "sea_map/visible_region.hpp"
 
 using namespace rv;
 
@@ -58,6 +63,51 @@ Ring wiggly_ring(double cx, double cy, double radius, int n, std::mt19937_64& rn
     ring.push_back({cx + radius * r * std::cos(t), cy + radius * r * std::sin(t)});
   }
   return ring;
+}
+
+double median(std::vector<double> v) {
+  std::sort(v.begin(), v.end());
+  return v[v.size() / 2];
+}
+
+// The grounds of --grounds (see the head of this file). Returns whether every cell agreed.
+bool measure_grounds(const SeedSet& seeds, const Barriers& barriers, const GridSpec& grid, const MetricSpec& metric) {
+  using Ground = Visibility::Ground;
+  const sea::Prepared p = sea::prepare(seeds, barriers, grid, metric);
+  const Window window = grid.full_window();
+  const auto width = static_cast<size_t>(window.width);
+  std::vector<Ground> by_cells(width * static_cast<size_t>(window.height)), drawn(by_cells.size());
+  std::vector<double> cells_s, drawn_s;
+  int64_t exact = 0, pieces = 0;
+  std::vector<sea::Spot> spots;
+  for (int round = 0; round < 3; ++round) {
+    auto t0 = std::chrono::steady_clock::now();
+    for (int64_t r = 0; r < window.height; ++r) {
+      p.row_cells(grid, window, r, spots);
+      Ground* g = by_cells.data() + static_cast<size_t>(r) * width;
+      for (size_t c = 0; c < width; ++c)
+        g[c] = c == 0 ? p.vis.classify(spots[c].at) : p.vis.classify_next(spots[c - 1].at, g[c - 1], spots[c].at);
+    }
+    auto t1 = std::chrono::steady_clock::now();
+    const sea::GroundRows rows(p, metric, grid, window);
+    exact = 0;
+    for (int64_t r = 0; r < window.height; ++r) exact += rows.row(r, drawn.data() + static_cast<size_t>(r) * width);
+    auto t2 = std::chrono::steady_clock::now();
+    pieces = rows.piece_count();
+    cells_s.push_back(std::chrono::duration<double>(t1 - t0).count());
+    drawn_s.push_back(std::chrono::duration<double>(t2 - t1).count());
+  }
+  int64_t differ = 0, land = 0;
+  for (size_t i = 0; i < drawn.size(); ++i) {
+    differ += drawn[i] != by_cells[i];
+    land += by_cells[i] == Ground::land;
+  }
+  std::printf(
+      "grounds, one thread: projected and classified cell by cell median %.3f s; drawn row by row median %.3f s "
+      "(%lld pieces, %lld cells classified exactly); %lld land cells; %lld cells differ\n",
+      median(cells_s), median(drawn_s), static_cast<long long>(pieces), static_cast<long long>(exact),
+      static_cast<long long>(land), static_cast<long long>(differ));
+  return differ == 0;
 }
 
 // The sweeps of --sweeps (see the head of this file).
@@ -122,16 +172,11 @@ void measure_sweeps(const Visibility& vis, const GeodesicFrame* frame, const Gri
   }
 }
 
-double median(std::vector<double> v) {
-  std::sort(v.begin(), v.end());
-  return v[v.size() / 2];
-}
-
 }  // namespace
 
 int main(int argc, char** argv) {
   std::string data = "fixtures/baltic_west.gpkg", ports_out;
-  int ports = 200, runs = 3, threads = 0, wiggly = 0, geodesic = 0, cell_by_cell = 0, sweeps = 0;
+  int ports = 200, runs = 3, threads = 0, wiggly = 0, geodesic = 0, cell_by_cell = 0, sweeps = 0, grounds = 0;
   double res = 1000.0;
   for (int i = 1; i + 1 < argc; i += 2) {
     const std::string a = argv[i];
@@ -153,6 +198,8 @@ int main(int argc, char** argv) {
       cell_by_cell = std::atoi(argv[i + 1]);
     else if (a == "--sweeps")
       sweeps = std::atoi(argv[i + 1]);
+    else if (a == "--grounds")
+      grounds = std::atoi(argv[i + 1]);
     else if (a == "--ports-out")
       ports_out = argv[i + 1];
     else {
@@ -292,5 +339,6 @@ int main(int argc, char** argv) {
   }
   std::printf("field digest %016llx\n", static_cast<unsigned long long>(h));
   if (sweeps) measure_sweeps(vis, frame.get(), grid, last);
+  if (grounds && !measure_grounds(seeds, barriers, grid, metric)) return 1;
   return 0;
 }

@@ -125,38 +125,55 @@ Vec2 GeodesicFrame::forward(Vec2 lonlat) const {
   return Vec2{x, y};
 }
 
+namespace {
+
+// Rows: exact points (knots) about kRowSpacing apart, at most kRowMaxStep cells; between, Lagrange's
+// quintic through six knots around the point. Its error falls as the sixth power of the spacing
+// (RowsProjectAsTheirPointsDo measures it): one forward problem serves dozens of cells.
+constexpr double kRowSpacing = 4000.0;  // metres
+constexpr int64_t kRowMaxStep = 64;     // cells
+
+// Lagrange's weights of six knots (at 0 .. 5) at u in [0, 5].
+void lagrange_weights(double u, std::array<double, 6>& w) {
+  for (int k = 0; k < 6; ++k) {
+    double p = 1.0;
+    for (int m = 0; m < 6; ++m)
+      if (m != k) p *= (u - m) / static_cast<double>(k - m);
+    w[static_cast<size_t>(k)] = p;
+  }
+}
+
+Vec2 weighted(const std::array<double, 6>& w, const Vec2* knots) {
+  Vec2 p{0.0, 0.0};
+  for (int k = 0; k < 6; ++k) {
+    p.x += w[static_cast<size_t>(k)] * knots[k].x;
+    p.y += w[static_cast<size_t>(k)] * knots[k].y;
+  }
+  return p;
+}
+
+}  // namespace
+
+int64_t GeodesicFrame::row_step(double lat, double lon0, double dlon, int64_t n) const {
+  if (n <= 1) return 1;
+  const Vec2 a = forward(Vec2{lon0, lat}), b = forward(Vec2{lon0 + dlon, lat});
+  const double spacing = std::hypot(b.x - a.x, b.y - a.y);
+  return spacing > 0.0 ? std::clamp<int64_t>(static_cast<int64_t>(kRowSpacing / spacing), 1, kRowMaxStep) : 1;
+}
+
 void GeodesicFrame::forward_row(double lat, double lon0, double dlon, int64_t n, Vec2* out) const {
   if (n <= 0) return;
-  // Exact points (knots) about kSpacing apart; between, Lagrange's quintic through six knots
-  // around the point. Its error falls as the sixth power of the spacing
-  // (RowsProjectAsTheirPointsDo measures it): one forward problem serves dozens of cells.
-  constexpr double kSpacing = 4000.0;  // metres
-  constexpr int64_t kMaxStep = 64;     // cells
-  int64_t step = 1;
-  if (n > 1) {
-    const Vec2 a = forward(Vec2{lon0, lat}), b = forward(Vec2{lon0 + dlon, lat});
-    const double spacing = std::hypot(b.x - a.x, b.y - a.y);
-    if (spacing > 0.0) step = std::clamp<int64_t>(static_cast<int64_t>(kSpacing / spacing), 1, kMaxStep);
-  }
+  const int64_t step = row_step(lat, lon0, dlon, n);
   // (The last knot at or past the row's last point: no point lies beyond the knots.)
   const int64_t knots = (n - 1 + step - 1) / step + 1;
   std::vector<Vec2> at(static_cast<size_t>(knots));
   for (int64_t j = 0; j < knots; ++j)
     at[static_cast<size_t>(j)] = forward(Vec2{lon0 + static_cast<double>(j * step) * dlon, lat});
-  // Lagrange's weights of six knots (at 0 .. 5) at u in [0, 5].
-  auto weights_at = [](double u, std::array<double, 6>& w) {
-    for (int k = 0; k < 6; ++k) {
-      double p = 1.0;
-      for (int m = 0; m < 6; ++m)
-        if (m != k) p *= (u - m) / static_cast<double>(k - m);
-      w[static_cast<size_t>(k)] = p;
-    }
-  };
   // Inside the row the knots j-2 .. j+3 (u in [2, 3)); within two knots of its ends the six
   // knots at that end.
   std::vector<std::array<double, 6>> middle(static_cast<size_t>(step));
   for (int64_t r = 0; r < step; ++r)
-    weights_at(2.0 + static_cast<double>(r) / static_cast<double>(step), middle[static_cast<size_t>(r)]);
+    lagrange_weights(2.0 + static_cast<double>(r) / static_cast<double>(step), middle[static_cast<size_t>(r)]);
   std::array<double, 6> edge{};
   for (int64_t i = 0; i < n; ++i) {
     const int64_t j = i / step, r = i % step;
@@ -171,17 +188,30 @@ void GeodesicFrame::forward_row(double lat, double lon0, double dlon, int64_t n,
     const int64_t first = std::clamp<int64_t>(j - 2, 0, knots - 6);
     const std::array<double, 6>* w = &middle[static_cast<size_t>(r)];
     if (first != j - 2) {
-      weights_at(static_cast<double>(i - first * step) / static_cast<double>(step), edge);
+      lagrange_weights(static_cast<double>(i - first * step) / static_cast<double>(step), edge);
       w = &edge;
     }
-    Vec2 p{0.0, 0.0};
-    for (int k = 0; k < 6; ++k) {
-      const Vec2& q = at[static_cast<size_t>(first + k)];
-      p.x += (*w)[static_cast<size_t>(k)] * q.x;
-      p.y += (*w)[static_cast<size_t>(k)] * q.y;
-    }
-    out[i] = p;
+    out[i] = weighted(*w, &at[static_cast<size_t>(first)]);
   }
+}
+
+Vec2 GeodesicFrame::forward_row_point(double lat, double lon0, double dlon, int64_t n, int64_t i) const {
+  // forward_row()'s arithmetic for the one point, operation for operation.
+  const int64_t step = row_step(lat, lon0, dlon, n);
+  const int64_t knots = (n - 1 + step - 1) / step + 1;
+  const int64_t j = i / step, r = i % step;
+  auto knot = [&](int64_t k) { return forward(Vec2{lon0 + static_cast<double>(k * step) * dlon, lat}); };
+  if (r == 0) return knot(j);
+  if (knots < 6) return forward(Vec2{lon0 + static_cast<double>(i) * dlon, lat});
+  const int64_t first = std::clamp<int64_t>(j - 2, 0, knots - 6);
+  std::array<double, 6> w{};
+  if (first != j - 2)
+    lagrange_weights(static_cast<double>(i - first * step) / static_cast<double>(step), w);
+  else
+    lagrange_weights(2.0 + static_cast<double>(r) / static_cast<double>(step), w);
+  std::array<Vec2, 6> at{};
+  for (int k = 0; k < 6; ++k) at[static_cast<size_t>(k)] = knot(first + k);
+  return weighted(w, at.data());
 }
 
 Vec2 GeodesicFrame::reverse(Vec2 plane) const {

@@ -244,6 +244,19 @@ void Prepared::row_cells(const GridSpec& grid, const Window& window, int64_t r, 
     out[static_cast<size_t>(c)] = Spot{plane[static_cast<size_t>(c)], Vec2{grid.centre_x(window.col0 + c), lat}};
 }
 
+Spot Prepared::cell_spot(const GridSpec& grid, const Window& window, int64_t r, int64_t c) const {
+  if (!geodesic) return Spot{Vec2{grid.local_x(window.col0 + c), grid.local_y(window.row0 + r)}, Vec2{}};
+  if (geolocator) {
+    const double x = grid.centre_x(window.col0 + c), y = grid.centre_y(window.row0 + r);
+    Vec2 ll;
+    geolocator->to_lonlat(&x, &y, &ll.x, &ll.y, 1);
+    return Spot{vis.frame()->forward(ll), ll};
+  }
+  const double lat = grid.centre_y(window.row0 + r);
+  return Spot{vis.frame()->forward_row_point(lat, grid.centre_x(window.col0), grid.res, window.width, c),
+              Vec2{grid.centre_x(window.col0 + c), lat}};
+}
+
 SeaField empty_field(const Prepared& p, const GridSpec& grid, const Window& window, const MetricSpec& metric) {
   SeaField out;
   out.field.site = Raster<int32_t>(grid, window, kNoSite);

@@ -144,6 +144,8 @@ struct Prepared {
   // window's width), so that a caller that keeps it allocates once: a band's rows are megabytes,
   // and freeing them every band gave the pages back to the kernel to be faulted in again.
   void row_cells(const GridSpec& grid, const Window& window, int64_t r, std::vector<Spot>& out) const;
+  // Cell c of row r of the window, as row_cells() holds it (to the bit), alone.
+  Spot cell_spot(const GridSpec& grid, const Window& window, int64_t r, int64_t c) const;
   // Lower bounds in the measure's units from plane distances: d * lower_scale().
   double lower_scale() const { return 1.0 / max_scale; }
 

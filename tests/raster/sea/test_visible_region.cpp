@@ -1,4 +1,4 @@
-// The region a point sees within a box (sea/visible_region.hpp) against the exact rule
+// The region a point sees within a box (sea_map/visible_region.hpp) against the exact rule
 // (Visibility::sees), point by point: random archipelagos whose whole-number corners make
 // collinear and coincident cases often (islands that overlap and touch, a boom across them), seen
 // from every barrier vertex in each of its wedges, from points at sea and from a port on a coast,
@@ -18,7 +18,7 @@
 #include "rv/field/error.hpp"
 #include "rv/sea/geodesic_frame.hpp"
 #include "rv/sea/visibility.hpp"
-#include "sea/visible_region.hpp"
+#include "sea_map/visible_region.hpp"
 
 namespace rv {
 namespace {

@@ -54,6 +54,9 @@ class GeodesicFrame {
   // on the western Baltic's rows and on a frame 50 by 30 degrees, below GeographicLib's own
   // error). Fine rows cost a small fraction of forward() per point.
   void forward_row(double lat, double lon0, double dlon, int64_t n, Vec2* out) const;
+  // Point i of forward_row(lat, lon0, dlon, n, ...), the same to the bit, alone (eight forward
+  // problems): for a cell of a row whose other cells are not wanted.
+  Vec2 forward_row_point(double lat, double lon0, double dlon, int64_t n, int64_t i) const;
   // The largest distance (metres) between a geodesic's image and the straight line through any
   // two of its points, over the box, as the predicate allows for it.
   double deviation() const { return deviation_; }
@@ -71,6 +74,7 @@ class GeodesicFrame {
   int64_t exact_tests() const { return exact_tests_.load(std::memory_order_relaxed); }
 
  private:
+  int64_t row_step(double lat, double lon0, double dlon, int64_t n) const;
   int orient_exact(const Vec2& a, const Vec2& b, const Vec2& c) const;
 
   struct Impl;

@@ -1,4 +1,4 @@
-#include "sea/visible_region.hpp"
+#include "sea_map/visible_region.hpp"
 
 #include <algorithm>
 #include <cmath>
