@@ -42,8 +42,9 @@
 #include "rv/sea/sea_field.hpp"
 #include "rv/sea/visibility.hpp"
 #include "sea/edge_index.hpp"
-#include "sea_map/ground_rows.hpp"
 #include "sea/sea_prepare.hpp"
+#include "sea_map/ground_rows.hpp"
+#include "sea_map/site_sight.hpp"
 #include "sea_map/visible_region.hpp"
 
 using namespace rv;
@@ -71,7 +72,8 @@ double median(std::vector<double> v) {
 }
 
 // The grounds of --grounds (see the head of this file). Returns whether every cell agreed.
-bool measure_grounds(const SeedSet& seeds, const Barriers& barriers, const GridSpec& grid, const MetricSpec& metric) {
+bool measure_grounds(const SeedSet& seeds, const Barriers& barriers, const GridSpec& grid, const MetricSpec& metric,
+                     const SeaField& field) {
   using Ground = Visibility::Ground;
   const sea::Prepared p = sea::prepare(seeds, barriers, grid, metric);
   const Window window = grid.full_window();
@@ -107,7 +109,44 @@ bool measure_grounds(const SeedSet& seeds, const Barriers& barriers, const GridS
       "(%lld pieces, %lld cells classified exactly); %lld land cells; %lld cells differ\n",
       median(cells_s), median(drawn_s), static_cast<long long>(pieces), static_cast<long long>(exact),
       static_cast<long long>(land), static_cast<long long>(differ));
-  return differ == 0;
+  // Which cells see their straight nearest site, drawn from the sites' regions, against the field
+  // by sea (a cell sees its straight nearest point site exactly when its answer is that site,
+  // reached directly).
+  ComputeOptions o;
+  o.metric = metric;
+  o.threads = 1;
+  const NearestField straight = compute(seeds, grid, o);
+  std::vector<sea::SiteSight::Sight> sight(width);
+  std::vector<double> sight_s;
+  int64_t seen = 0, hidden = 0, unknown = 0, wrong = 0, regions = 0;
+  for (int round = 0; round < 3; ++round) {
+    seen = hidden = unknown = wrong = 0;
+    auto t0 = std::chrono::steady_clock::now();
+    const sea::SiteSight sites(p, metric, grid, window, straight.site);
+    for (int64_t r = 0; r < window.height; ++r) {
+      sites.row(r, sight.data());
+      for (size_t c = 0; c < width; ++c) {
+        const int32_t s = straight.site.at(static_cast<int64_t>(c), r);
+        if (s == kNoSite || drawn[static_cast<size_t>(r) * width + c] == Ground::land) continue;
+        const bool direct =
+            field.via.at(static_cast<int64_t>(c), r) == kNoVia && field.field.site.at(static_cast<int64_t>(c), r) == s;
+        if (sight[c] == sea::SiteSight::unknown) {
+          ++unknown;
+        } else {
+          ((sight[c] == sea::SiteSight::seen) ? seen : hidden) += 1;
+          wrong += (sight[c] == sea::SiteSight::seen) != direct;
+        }
+      }
+    }
+    sight_s.push_back(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+    regions = sites.regions();
+  }
+  std::printf(
+      "sites' sight, one thread: drawn from %lld regions with the rows compared, median %.3f s; sea cells: %lld "
+      "seen, %lld hidden, %lld unknown; %lld disagree with the field\n",
+      static_cast<long long>(regions), median(sight_s), static_cast<long long>(seen), static_cast<long long>(hidden),
+      static_cast<long long>(unknown), static_cast<long long>(wrong));
+  return differ == 0 && wrong == 0;
 }
 
 // The sweeps of --sweeps (see the head of this file).
@@ -339,6 +378,6 @@ int main(int argc, char** argv) {
   }
   std::printf("field digest %016llx\n", static_cast<unsigned long long>(h));
   if (sweeps) measure_sweeps(vis, frame.get(), grid, last);
-  if (grounds && !measure_grounds(seeds, barriers, grid, metric)) return 1;
+  if (grounds && !measure_grounds(seeds, barriers, grid, metric, last)) return 1;
   return 0;
 }

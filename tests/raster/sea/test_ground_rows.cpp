@@ -15,8 +15,8 @@
 
 #include "geodesic_oracle.hpp"
 #include "random_archipelago.hpp"
-#include "sea_map/ground_rows.hpp"
 #include "sea/sea_prepare.hpp"
+#include "sea_map/ground_rows.hpp"
 #include "seed_gen.hpp"
 
 namespace rv {
@@ -139,7 +139,7 @@ TEST(GroundRows, ReadALongEdgeAsItsGeodesic) {
   check_grid(p, metric, grid, counts);
   if (HasFatalFailure()) return;
   const GroundRows rows(p, metric, grid, grid.full_window());
-  EXPECT_GT(rows.piece_count(), 30);  // the long edge was cut
+  EXPECT_GT(rows.piece_count(), 30);  // the long edges were cut
   std::vector<Ground> row(static_cast<size_t>(grid.width));
   // The row at 53.811 N: land in the middle (the geodesic above it), sea near the ends.
   const auto r = static_cast<int64_t>((grid.ymax - 53.811) / grid.res);
