@@ -112,7 +112,8 @@ double reach_from(const Prepared& p, const Spot& x0, const Prepared::Xyz& xyz0, 
 
 }  // namespace
 
-void answer_cell(const CellRun& run, CellWorker& w, int64_t c, int64_t r, const Spot& spot, Visibility::Ground ground) {
+void answer_cell(const CellRun& run, CellWorker& w, int64_t c, int64_t r, const Spot& spot, Visibility::Ground ground,
+                 bool hidden) {
   const Prepared& p = run.p();
   Place at{spot.at};
   at.open = ground == Visibility::Ground::open_sea;
@@ -134,12 +135,33 @@ void answer_cell(const CellRun& run, CellWorker& w, int64_t c, int64_t r, const 
   // within the maximum distance: no path by sea is shorter than the straight line.)
   const int32_t nearest = run.straight.site.at(c, r);
   if (nearest == kNoSite) return;
-  ++w.tests;
-  if (p.vis.sees(at, p.site_place(nearest, spot))) {
+  if (!hidden && (++w.tests, p.vis.sees(at, p.site_place(nearest, spot)))) {
     write_straight(run, c, r);
     return;
   }
   answer_bent(run, w, c, r, at, spot);
+}
+
+void answer_drawn(const CellRun& run, CellWorker& w, int64_t r, const Visibility::Ground* grounds,
+                  const SiteSight::Sight* sight, uint8_t* answered) {
+  const auto& spans = run.interiors.rows[static_cast<size_t>(r)];
+  auto span = spans.begin();
+  for (int64_t c = 0; c < run.window.width; ++c) {
+    if (answered[c]) continue;
+    if (grounds[c] == Visibility::Ground::land) {
+      ++w.land;
+      ++w.drawn;
+      answered[c] = 1;
+      continue;
+    }
+    if (!sight || sight[c] != SiteSight::seen || grounds[c] != Visibility::Ground::open_sea) continue;
+    while (span != spans.end() && span->col1 <= c) ++span;
+    if (span != spans.end() && c >= span->col0) continue;
+    if (run.straight.site.at(c, r) == kNoSite) continue;
+    write_straight(run, c, r);
+    ++w.drawn;
+    answered[c] = 1;
+  }
 }
 
 namespace {
@@ -477,7 +499,8 @@ void answer_bent_block(const CellRun& run, CellWorker& w, int64_t c0, int64_t r0
 }  // namespace
 
 bool answer_block(const CellRun& run, CellWorker& w, int64_t c0, int64_t c1, int64_t r0, int64_t r1,
-                  const std::vector<Spot>* spots, Visibility::Ground* grounds, int64_t stride) {
+                  const std::vector<Spot>* spots, Visibility::Ground* grounds, int64_t stride, const uint8_t* answered,
+                  const SiteSight::Sight* sight_drawn) {
   const Prepared& p = run.p();
   Vec2 lo{std::numeric_limits<double>::infinity(), std::numeric_limits<double>::infinity()}, hi{-lo.x, -lo.y};
   for (int64_t r = r0; r < r1; ++r)
@@ -493,7 +516,8 @@ bool answer_block(const CellRun& run, CellWorker& w, int64_t c0, int64_t c1, int
   for (int64_t r = r0; r < r1; ++r)
     for (int64_t c = c0; c < c1; ++c) grounds[(r - r0) * stride + c] = ground;
   if (ground == Visibility::Ground::land) {
-    w.land += (r1 - r0) * (c1 - c0);
+    for (int64_t r = r0; r < r1; ++r)
+      for (int64_t c = c0; c < c1; ++c) w.land += answered[(r - r0) * stride + c] ? 0 : 1;
     return true;
   }
   // The straight nearest sites: each proved to see the whole block once, or per cell.
@@ -511,8 +535,14 @@ bool answer_block(const CellRun& run, CellWorker& w, int64_t c0, int64_t c1, int
   bent.clear();
   for (int64_t r = r0; r < r1; ++r)
     for (int64_t c = c0; c < c1; ++c) {
+      const int64_t k = (r - r0) * stride + (c - c0);
+      if (answered[k + c0]) continue;
       const int32_t nearest = run.straight.site.at(c, r);
       if (nearest == kNoSite) continue;
+      if (sight_drawn && sight_drawn[k + c0] == SiteSight::hidden) {
+        bent.push_back(k);
+        continue;
+      }
       const Spot& spot = spots[static_cast<size_t>(r - r0)][static_cast<size_t>(c)];
       const Visibility::Sight sight = sight_of(nearest, spot);
       if (sight == Visibility::Sight::seen) {
@@ -525,7 +555,7 @@ bool answer_block(const CellRun& run, CellWorker& w, int64_t c0, int64_t c1, int
         write_straight(run, c, r);
         continue;
       }
-      bent.push_back((r - r0) * stride + (c - c0));
+      bent.push_back(k);
     }
   // Fewer bent cells than a few: each alone.
   constexpr size_t kFew = 3;

@@ -27,6 +27,7 @@
 #include "rv/sea/sea_field.hpp"
 #include "sea/bend_settle.hpp"
 #include "sea_exact/length_patch.hpp"
+#include "sea_map/site_sight.hpp"
 
 namespace rv::sea {
 
@@ -56,7 +57,7 @@ struct ClassHints {
 
 // One worker's hints and counts.
 struct CellWorker {
-  int64_t land = 0, unreachable = 0, tests = 0, block_cells = 0;
+  int64_t land = 0, unreachable = 0, tests = 0, block_cells = 0, drawn = 0;
   PatchTiles tiles;
   // Bent blocks' lengths (length_patch.hpp): patches built, cells answered from them, cells
   // weighed again exactly because two roots came within the patches' error.
@@ -73,13 +74,25 @@ struct CellWorker {
 };
 
 // Cell (c, r) of the window (its centre `spot`, its ground not land, not inside a seed polygon).
-void answer_cell(const CellRun& run, CellWorker& w, int64_t c, int64_t r, const Spot& spot, Visibility::Ground ground);
+// `hidden`: its straight nearest site is known not to be seen from it (SiteSight drew it so).
+void answer_cell(const CellRun& run, CellWorker& w, int64_t c, int64_t r, const Spot& spot, Visibility::Ground ground,
+                 bool hidden = false);
+
+// Row r of the window from what was drawn before any proof (sea_map/ground_rows.hpp,
+// site_sight.hpp): grounds[c] for every cell, sight[c] (SiteSight::Sight) or null. Answers the
+// land cells (counted) and the open-sea cells that see their straight nearest site and lie in no
+// seed polygon (the straight field's answer, as answer_cell gives it), marking them in
+// answered[c]; cells already marked are left alone.
+void answer_drawn(const CellRun& run, CellWorker& w, int64_t r, const Visibility::Ground* grounds,
+                  const SiteSight::Sight* sight, uint8_t* answered);
 
 // Cells [c0, c1) x [r0, r1) of the window (spots[r - r0][c]: their centres; none inside a seed
 // polygon; seeds not adjusted) when the block is clear of barriers (clear_box): answered, their
 // grounds written to grounds[(r - r0) * stride + c] (land or open sea), and true; else nothing
-// done and false.
+// done and false. Cells marked in `answered` (same layout) are left alone; `sight` (same layout,
+// or null): cells drawn as not seeing their straight nearest site need no proof of it.
 bool answer_block(const CellRun& run, CellWorker& w, int64_t c0, int64_t c1, int64_t r0, int64_t r1,
-                  const std::vector<Spot>* spots, Visibility::Ground* grounds, int64_t stride);
+                  const std::vector<Spot>* spots, Visibility::Ground* grounds, int64_t stride, const uint8_t* answered,
+                  const SiteSight::Sight* sight_drawn);
 
 }  // namespace rv::sea

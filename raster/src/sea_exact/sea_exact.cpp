@@ -27,6 +27,7 @@
 #include <atomic>
 #include <chrono>
 #include <cmath>
+#include <optional>
 #include <queue>
 
 #include "rv/field/error.hpp"
@@ -35,6 +36,8 @@
 #include "rv/sea/sea_field.hpp"
 #include "sea/bend_settle.hpp"
 #include "sea_exact/sea_cells.hpp"
+#include "sea_map/ground_rows.hpp"
+#include "sea_map/site_sight.hpp"
 
 namespace rv {
 namespace {
@@ -75,20 +78,59 @@ void fill_grounds(const Prepared& p, const std::vector<Spot>& spots, Visibility:
 
 constexpr auto kUnknown = static_cast<Visibility::Ground>(-1);
 
-// A worker's band of rows: their centres, grounds (kUnknown until known) and which cells are
-// answered. Kept from band to band: a band's rows are megabytes, and allocated afresh their pages
-// went back to the kernel and were faulted in again every band.
+// What the shortest-path map's parts draw before any cell is proved (sea_map/): every cell's
+// ground, and which cells see their straight nearest point site. Empty for adjusted seeds (each
+// class has its own straight field), for the cell-by-cell reference, and on a projected grid.
+struct Drawing {
+  std::optional<GroundRows> ground;
+  std::optional<SiteSight> sight;
+  Drawing(const Prepared& p, const SeaOptions& options, const GridSpec& grid, const Window& window,
+          const NearestField& straight, bool adjusted) {
+    if (adjusted || options.cell_by_cell || (p.geodesic && p.geolocator)) return;
+    ground.emplace(p, options.metric, grid, window);
+    sight.emplace(p, options.metric, grid, window, straight.site);
+  }
+};
+
+// A worker's band of rows: their centres, grounds (kUnknown until known), what was drawn of the
+// cells' sight of their straight nearest sites, and which cells are answered. Kept from band to
+// band: a band's rows are megabytes, and allocated afresh their pages went back to the kernel and
+// were faulted in again every band.
 struct Band {
   std::vector<std::vector<Spot>> spots;
   std::vector<Visibility::Ground> grounds;
+  std::vector<SiteSight::Sight> sight;
   std::vector<uint8_t> answered;
-  void start(const Prepared& p, const GridSpec& grid, const Window& window, int64_t r0, int64_t r1) {
+  void start(const Prepared& p, const GridSpec& grid, const Window& window, int64_t r0, int64_t r1,
+             const Drawing& drawing) {
     spots.resize(static_cast<size_t>(r1 - r0));
     for (int64_t r = r0; r < r1; ++r) p.row_cells(grid, window, r, spots[static_cast<size_t>(r - r0)]);
     grounds.assign(static_cast<size_t>((r1 - r0) * window.width), kUnknown);
     answered.assign(grounds.size(), 0);
+    sight.assign(drawing.sight ? grounds.size() : 0, SiteSight::unknown);
+    for (int64_t r = r0; r < r1; ++r) {
+      const auto at = static_cast<size_t>((r - r0) * window.width);
+      if (drawing.ground) drawing.ground->row(r, grounds.data() + at);
+      if (drawing.sight) drawing.sight->row(r, sight.data() + at);
+    }
+  }
+  const SiteSight::Sight* sight_at(size_t k) const { return sight.empty() ? nullptr : sight.data() + k; }
+  // The cells answered from the drawing (sea_cells.hpp answer_drawn), rows [r0, r1).
+  void answer_drawn(const CellRun& run, CellWorker& w, int64_t r0, int64_t r1) {
+    for (int64_t r = r0; r < r1; ++r) {
+      const auto at = static_cast<size_t>((r - r0) * run.window.width);
+      sea::answer_drawn(run, w, r, grounds.data() + at, sight_at(at), answered.data() + at);
+    }
   }
 };
+
+// Whether every cell of columns [c0, c1) of `rows` rows from `answered` (rows `stride` apart) is.
+bool all_answered(const uint8_t* answered, int64_t stride, int64_t c0, int64_t c1, int64_t rows) {
+  for (int64_t r = 0; r < rows; ++r)
+    for (int64_t c = c0; c < c1; ++c)
+      if (!answered[r * stride + c]) return false;
+  return true;
+}
 
 // Whether any cell of [c0, c1) x [r0, r1) lies inside a seed polygon.
 bool inside_any(const InteriorSpans& interiors, int64_t r0, int64_t r1, int64_t c0, int64_t c1) {
@@ -183,6 +225,7 @@ SeaField compute_sea(const SeedSet& seeds, const Barriers& barriers, const GridS
   const bool blocks = !adjusted && !options.cell_by_cell;
   const int64_t bands = (window.height + kBlock - 1) / kBlock;
   std::atomic<int64_t> rows_done{0};
+  const Drawing drawing(p, options, grid, window, straight_field, adjusted);
   std::vector<Band> band_of(static_cast<size_t>(workers));
   detail::parallel_for(workers, bands, [&](int64_t band, int worker) {
     if (options.cancel && options.cancel->load(std::memory_order_relaxed))
@@ -190,14 +233,17 @@ SeaField compute_sea(const SeedSet& seeds, const Barriers& barriers, const GridS
     CellWorker& w = cell_workers[static_cast<size_t>(worker)];
     const int64_t r0 = band * kBlock, r1 = std::min(r0 + kBlock, window.height);
     Band& b = band_of[static_cast<size_t>(worker)];
-    b.start(p, grid, window, r0, r1);
+    b.start(p, grid, window, r0, r1, drawing);
     const std::vector<std::vector<Spot>>& spots = b.spots;
     std::vector<Visibility::Ground>& grounds = b.grounds;
     std::vector<uint8_t>& answered = b.answered;
+    if (drawing.ground) b.answer_drawn(run, w, r0, r1);
     auto try_block = [&](auto&& self, int64_t c0, int64_t c1, int64_t b0, int64_t b1, int64_t side) -> void {
+      if (all_answered(answered.data() + (b0 - r0) * window.width, window.width, c0, c1, b1 - b0)) return;
+      const auto at = static_cast<size_t>((b0 - r0) * window.width);
       if (!inside_any(interiors, b0, b1, c0, c1) &&
-          answer_block(run, w, c0, c1, b0, b1, &spots[static_cast<size_t>(b0 - r0)],
-                       grounds.data() + (b0 - r0) * window.width, window.width)) {
+          answer_block(run, w, c0, c1, b0, b1, &spots[static_cast<size_t>(b0 - r0)], grounds.data() + at, window.width,
+                       answered.data() + at, b.sight_at(at))) {
         for (int64_t r = b0; r < b1; ++r)
           std::fill_n(answered.begin() + (r - r0) * window.width + c0, c1 - c0, uint8_t{1});
         return;
@@ -231,7 +277,8 @@ SeaField compute_sea(const SeedSet& seeds, const Barriers& barriers, const GridS
           out.field.distance.at(c, r) = 0.0f;
           continue;
         }
-        answer_cell(run, w, c, r, row[static_cast<size_t>(c)], g[c]);
+        const SiteSight::Sight* sight = b.sight_at(static_cast<size_t>((r - r0) * window.width));
+        answer_cell(run, w, c, r, row[static_cast<size_t>(c)], g[c], sight && sight[c] == SiteSight::hidden);
       }
       const int64_t done = rows_done.fetch_add(1) + 1;
       if (options.progress && (done * 100 / window.height) != ((done - 1) * 100 / window.height))
@@ -246,6 +293,7 @@ SeaField compute_sea(const SeedSet& seeds, const Barriers& barriers, const GridS
     out.unreachable_cells += w.unreachable;
     out.visibility_tests += w.tests;
     out.block_cells += w.block_cells;
+    out.drawn_cells += w.drawn;
     out.interpolated_cells += w.interpolated;
     out.length_patches += w.patches;
     out.length_retries += w.patch_retries;

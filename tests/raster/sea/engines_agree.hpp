@@ -44,7 +44,8 @@ inline SeaField engines_agree(const SeedSet& seeds, const Barriers& barriers, co
   return exact;
 }
 
-// The exact engine's blocks (SeaOptions::cell_by_cell false) against every cell answered alone:
+// The exact engine's drawing and blocks (SeaOptions::cell_by_cell false) against every cell
+// answered alone:
 // the same field cell for cell (owner, via, distance to the bit) and counts. Returns the blocks'
 // field (the first difference fails the test and returns at once).
 inline SeaField blocks_agree(const SeedSet& seeds, const Barriers& barriers, const GridSpec& g,
@@ -54,6 +55,7 @@ inline SeaField blocks_agree(const SeedSet& seeds, const Barriers& barriers, con
   options.cell_by_cell = false;
   const SeaField blocks = compute_sea(seeds, barriers, g, g.full_window(), options);
   EXPECT_EQ(alone.block_cells, 0);
+  EXPECT_EQ(alone.drawn_cells, 0);  // (the reference draws nothing either)
   if (!same_cells(blocks, alone, g)) return blocks;
   EXPECT_EQ(blocks.land_cells, alone.land_cells);
   EXPECT_EQ(blocks.unreachable_cells, alone.unreachable_cells);

@@ -85,6 +85,9 @@ struct SeaField {
   int64_t bend_nodes = 0;        // (vertex, sea wedge) pairs wider than a half-turn: where paths may bend
   int64_t visibility_tests = 0;  // straight paths tested, all told (a block's proof for a root counts one)
   int64_t block_cells = 0;       // the exact engine: cells answered in blocks clear of barriers (proofs per block)
+  // The exact engine: cells answered from what was drawn row by row before any proof (land, and
+  // sea that sees its straight nearest site: raster/src/sea_map), before the blocks.
+  int64_t drawn_cells = 0;
   // The exact engine on a longitude/latitude grid: cells of such blocks whose path bends answered
   // with the length from their last bend interpolated over the block (each such answer is the
   // one the inverse problem gives, to the bit), and the interpolations built.
