@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include "rv/field/error.hpp"
 
@@ -21,11 +22,23 @@ double rounding_band(double u1, double v1, double u2, double v2) {
   return 1e-6 + 1e-9 * magnitude;
 }
 
-// The distance from m to the line through p and q (to p when they coincide).
-double off_line(Vec2 p, Vec2 q, Vec2 m) {
-  const double du = q.x - p.x, dv = q.y - p.y, len = std::hypot(du, dv);
-  if (len == 0.0) return std::hypot(m.x - p.x, m.y - p.y);
-  return std::abs(du * (m.y - p.y) - dv * (m.x - p.x)) / len;
+constexpr double kRadian = 3.14159265358979323846 / 180.0;
+
+// How far (degrees) the geodesic from a to b (longitude, latitude) may lie from the chord between
+// them in longitude/latitude. On a sphere, along a geodesic by its arc sigma (radians) at azimuth
+// az, d2 lat / d sigma2 = -sin^2(az) tan(lat) and d2 lon / d sigma2 = 2 sin(az) cos(az) tan(lat) /
+// cos(lat), so the arc lies within sigma^2 / 8 tan(lat) sqrt(1 + 1 / cos^2(lat)) radians of its
+// chord, lat the largest on the arc. sigma is at most sqrt(2) times the ends' spread in degrees
+// (the way along a meridian, then a parallel, is no shorter); the arc's largest latitude exceeds
+// its ends' by at most sigma^2 / 4 tan(lat). The ellipsoid moves these by under one per cent:
+// twice the bound is taken.
+double geodesic_bend(Vec2 a, Vec2 b) {
+  const double sigma = std::sqrt(2.0) * std::hypot(b.x - a.x, b.y - a.y) * kRadian;
+  const double ends = std::max(std::abs(a.y), std::abs(b.y));
+  const double top =
+      std::min(89.99, ends + sigma * sigma / 4.0 * std::tan(std::min(ends + 1.0, 89.0) * kRadian) / kRadian);
+  const double t = std::tan(top * kRadian), c = std::cos(top * kRadian);
+  return 2.0 * sigma * sigma / 8.0 * t * std::sqrt(1.0 + 1.0 / (c * c)) / kRadian;
 }
 
 }  // namespace
@@ -59,35 +72,32 @@ void RowPieces::add_edge(Vec2 a, Vec2 b, bool counted, double band) {
   b.x = a.x + std::remainder(b.x - a.x, 360.0);
   auto cell = [&](Vec2 ll) { return Vec2{(ll.x - lon0) / grid_.res, (lat0 - ll.y) / grid_.res}; };
   const Vec2 ca = cell(a), cb = cell(b);
-  if (a == b) {
-    push(ca.x, ca.y, cb.x, cb.y, band, counted);
+  // How far the geodesic may stray from the chord in cells (geodesic_bend), and so from the rows of
+  // its ends: an edge that cannot come within a band of the window's rows is left out before any
+  // geodesic is solved (a strip's window holds a few of the edges).
+  const double bend = geodesic_bend(a, b) / grid_.res;
+  const double lo = std::min(ca.y, cb.y) - bend - band - 1.0, hi = std::max(ca.y, cb.y) + bend + band + 1.0;
+  if (hi < 0.0 || lo > static_cast<double>(window_.height)) return;
+  // Pieces of equal length along the geodesic, few enough that each one's bound (which falls as
+  // the square of its length) is within the tolerance: most edges are one piece, with no
+  // geodesic solved.
+  const auto n = static_cast<int64_t>(std::min(1e5, std::ceil(std::sqrt(bend / kChordTolerance))));
+  if (n <= 1 || a == b) {
+    push(ca.x, ca.y, cb.x, cb.y, band + bend, counted);
     return;
   }
   const GeographicLib::GeodesicLine line = geod_->InverseLine(a.y, a.x, b.y, b.x);
-  auto at = [&](double s) {
-    double lat, lon;
-    line.Position(s, lat, lon);
-    return cell(Vec2{a.x + std::remainder(lon - a.x, 360.0), lat});
-  };
-  // Depth first from a, so the pieces follow the edge.
-  struct Part {
-    double s0, s1;
-    Vec2 p, q;
-    int depth;
-  };
-  std::vector<Part> stack{{0.0, line.Distance(), ca, cb, 0}};
-  while (!stack.empty()) {
-    const Part part = stack.back();
-    stack.pop_back();
-    const double s = 0.5 * (part.s0 + part.s1);
-    const Vec2 m = at(s);
-    const double off = off_line(part.p, part.q, m);
-    if (off <= 0.25 * kChordTolerance || part.depth >= 40) {
-      push(part.p.x, part.p.y, part.q.x, part.q.y, band + std::max(kChordTolerance, 4.0 * off), counted);
-      continue;
+  const double piece_bend = bend / static_cast<double>(n * n);
+  Vec2 p = ca;
+  for (int64_t k = 1; k <= n; ++k) {
+    Vec2 q = cb;
+    if (k < n) {
+      double lat, lon;
+      line.Position(line.Distance() * static_cast<double>(k) / static_cast<double>(n), lat, lon);
+      q = cell(Vec2{a.x + std::remainder(lon - a.x, 360.0), lat});
     }
-    stack.push_back(Part{s, part.s1, m, part.q, part.depth + 1});
-    stack.push_back(Part{part.s0, s, part.p, m, part.depth + 1});
+    push(p.x, p.y, q.x, q.y, band + piece_bend, counted);
+    p = q;
   }
 }
 

@@ -6,11 +6,10 @@
 // at whole numbers):
 // - planar: the grid's local frame (GridSpec::local_x/y) scaled, edges straight;
 // - geodesic on a longitude/latitude grid: an edge is the geodesic between its ends' longitudes
-//   and latitudes, cut into chords straight in longitude/latitude, each halved until its geodesic
-//   midpoint lies within a quarter of kChordTolerance of the chord. A geodesic's curvature in
-//   longitude/latitude changes little along such a piece, so the piece then lies within the
-//   tolerance of its chord (four times the deviation at its middle, where a circular arc
-//   departs most).
+//   and latitudes, cut into pieces of equal length along it whose chords, straight in
+//   longitude/latitude, lie within kChordTolerance of the geodesic by a bound on a geodesic's
+//   bend in longitude/latitude (row_pieces.cpp, geodesic_bend): an edge shorter than a few
+//   kilometres is one chord, with no geodesic solved.
 // Each piece carries a band (cells): its tolerance, the caller's allowance for the edge, and a
 // rounding margin. A row gives its crossings by the counted edges (ring edges: a winding number
 // from them) and the cells within some piece's band, which the caller decides exactly.

@@ -15,9 +15,17 @@ namespace {
 
 constexpr double kPi = 3.14159265358979323846;
 
+// A site's region is drawn when it has at least this many cells per edge its sweep reads (a
+// sweep and its drawing cost a few times a cell's proof per edge).
+constexpr int64_t kCellsPerEdge = 4;
+// Fewer cells than this many edges' worth: no sweep, whatever the edges (its box and its edges
+// cost more than a few cells' proofs).
+constexpr int64_t kFewestEdges = 64;
+
 // Each site's cells in the window: the least and greatest column and row.
 struct CellBox {
   int64_t c0 = std::numeric_limits<int64_t>::max(), c1 = -1, r0 = std::numeric_limits<int64_t>::max(), r1 = -1;
+  int64_t cells = 0;
   bool empty() const { return c1 < 0; }
 };
 
@@ -36,6 +44,7 @@ std::vector<CellBox> cell_boxes(const Raster<int32_t>& nearest, size_t sites) {
         b.c1 = std::max(b.c1, end - 1);
         b.r0 = std::min(b.r0, r);
         b.r1 = std::max(b.r1, r);
+        b.cells += end - c;
       }
       c = end;
     }
@@ -73,6 +82,10 @@ SiteSight::SiteSight(const Prepared& p, const MetricSpec& metric, const GridSpec
   for (size_t s = 0; s < sites; ++s) {
     const CellBox& cells = boxes[s];
     if (cells.empty() || p.segment(static_cast<int32_t>(s))) continue;
+    if (cells.cells < kCellsPerEdge * kFewestEdges) {  // (fewer cells than any sweep's worth)
+      ++undrawn_;
+      continue;
+    }
     const Vec2 at{p.local[s].ax, p.local[s].ay};
     // The box round the site's cells (one cell more all round) and the site itself, in the plane:
     // geodesic, the images of points along its sides (parallels bend in the plane), widened by a
@@ -88,7 +101,9 @@ SiteSight::SiteSight(const Prepared& p, const MetricSpec& metric, const GridSpec
       take({grid.local_x(c0), grid.local_y(r0)});
       take({grid.local_x(c1), grid.local_y(r1)});
     } else {
-      constexpr int kSides = 64;
+      // (Between samples a parallel's image strays from their chord by metres; the box is widened
+      // by a hundredth of its size.)
+      constexpr int kSides = 8;
       for (int k = 0; k <= kSides; ++k) {
         const double f = static_cast<double>(k) / kSides;
         const double lon = grid.centre_x(c0) + f * (grid.centre_x(c1) - grid.centre_x(c0));
@@ -113,6 +128,11 @@ SiteSight::SiteSight(const Prepared& p, const MetricSpec& metric, const GridSpec
         }
       return true;
     });
+    // Not worth a sweep for fewer cells.
+    if (cells.cells < kCellsPerEdge * static_cast<int64_t>(near.size())) {
+      ++undrawn_;
+      continue;
+    }
     // A path to the site may reach it in any of its sea wedges (Place::wedge -1): drawn where
     // there is one (a port on a coast's edge or corner; its land wedges see nothing).
     Place from{at};
@@ -133,15 +153,11 @@ SiteSight::SiteSight(const Prepared& p, const MetricSpec& metric, const GridSpec
     // Twice the ring's margin and the frame's deviation, in cells.
     const double band = 2.0 * (region.margin + (frame ? frame->deviation() : 0.0)) / plane_per_cell;
     auto ring = std::make_unique<RowPieces>(grid, window, metric, geodesic);
-    const std::vector<Vec2>& corners = region.ring;
-    for (size_t k = 0; k < corners.size(); ++k) {
-      Vec2 a = corners[k], b = corners[(k + 1) % corners.size()];
-      if (geodesic) {
-        a = frame->reverse(a);
-        b = frame->reverse(b);
-      }
-      ring->add_edge(a, b, true, band);
-    }
+    std::vector<Vec2> corners = region.ring;
+    if (geodesic)
+      for (Vec2& x : corners) x = frame->reverse(x);
+    for (size_t k = 0; k < corners.size(); ++k)
+      ring->add_edge(corners[k], corners[(k + 1) % corners.size()], true, band);
     ring->index();
     rings_[s] = std::move(ring);
     ++regions_;

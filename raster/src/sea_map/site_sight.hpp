@@ -11,7 +11,8 @@
 // Unknown too: cells whose straight nearest site is a segment (its nearest point moves from
 // cell to cell), or a point whose region is blurred (an edge passes within the margin of it) or
 // that has several sea wedges (a line's inner vertex, a corner two islands share): a path may
-// reach it in any of them.
+// reach it in any of them; or a point with fewer than four cells per edge its sweep would read
+// (a sweep and its drawing cost a few cells' proofs per edge: on coarse grids proofs are cheaper).
 //
 // A site's own place is read as answer_cell's test reads it (Prepared::site_place: the point,
 // any wedge); where it has one sea wedge (a port on a coast) its region is that wedge's.
@@ -43,7 +44,8 @@ class SiteSight {
             const Raster<int32_t>& nearest);
   // Row r of the window: out[c] for every cell c of it.
   void row(int64_t r, Sight* out) const;
-  // Sites whose region was drawn, and those left unknown (blurred, or no sweep).
+  // Sites whose region was drawn, and those left unknown (blurred, several sea wedges, or too
+  // few cells for their sweep).
   int64_t regions() const { return regions_; }
   int64_t undrawn() const { return undrawn_; }
 

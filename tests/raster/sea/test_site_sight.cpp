@@ -93,6 +93,9 @@ void check_layout(const test::Archipelago& layout, const MetricSpec& metric, con
       *p, layout.seeds, metric, grid,
       Window{grid.width / 10 + 7, grid.height / 10 + 3, grid.width - grid.width / 4, grid.height - grid.height / 4},
       counts);
+  if (testing::Test::HasFatalFailure()) return;
+  // A strip of five rows, as the streamed jobs compute.
+  check_window(*p, layout.seeds, metric, grid, Window{0, grid.height / 2, grid.width, 5}, counts);
 }
 
 TEST(SiteSight, AgreesWithSeesAtEveryDecidedCellPlanar) {
@@ -145,7 +148,7 @@ TEST(SiteSight, LeavesCellsOnGrazingRaysToTheExactRule) {
   counts.print("grazing rays");
   EXPECT_EQ(counts.layouts, 1);
   EXPECT_GT(counts.unknown, 20);
-  EXPECT_LT(counts.unknown, counts.cells / 50);
+  EXPECT_LT(counts.unknown, counts.cells / 25);  // (the strip's sites have too few cells to sweep)
 }
 
 }  // namespace
