@@ -88,7 +88,7 @@ struct Drawing {
           const NearestField& straight, bool adjusted) {
     if (adjusted || options.cell_by_cell || (p.geodesic && p.geolocator)) return;
     ground.emplace(p, options.metric, grid, window);
-    sight.emplace(p, options.metric, grid, window, straight.site);
+    sight.emplace(p, options.metric, grid, window, straight.site, resolve_threads(options.threads));
   }
 };
 

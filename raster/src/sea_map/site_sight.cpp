@@ -6,6 +6,7 @@
 #include <utility>
 
 #include "rv/field/error.hpp"
+#include "rv/field/parallel.hpp"
 #include "sea/edge_index.hpp"
 #include "sea_map/visible_region.hpp"
 
@@ -55,7 +56,7 @@ std::vector<CellBox> cell_boxes(const Raster<int32_t>& nearest, size_t sites) {
 }  // namespace
 
 SiteSight::SiteSight(const Prepared& p, const MetricSpec& metric, const GridSpec& grid, const Window& window,
-                     const Raster<int32_t>& nearest)
+                     const Raster<int32_t>& nearest, int threads)
     : p_(&p), nearest_(&nearest), window_(window) {
   const size_t sites = p.local.size();
   rings_.resize(sites);
@@ -65,9 +66,15 @@ SiteSight::SiteSight(const Prepared& p, const MetricSpec& metric, const GridSpec
   const std::vector<CellBox> boxes = cell_boxes(nearest, sites);
   const std::vector<EdgeIndex::Segment> edges = barrier_edges(p.vis);
   const EdgeIndex index(edges, {});
-  std::vector<int32_t> near;
-  std::vector<uint32_t> stamp(edges.size(), 0);
-  uint32_t mark = 0;
+  // Each worker's edges near a box, found once each (stamped).
+  struct Scratch {
+    std::vector<int32_t> near;
+    std::vector<uint32_t> stamp;
+    uint32_t mark = 0;
+  };
+  std::vector<Scratch> scratch(static_cast<size_t>(std::max(1, threads)));
+  enum : uint8_t { none, drawn, undrawn };
+  std::vector<uint8_t> status(sites, none);
   // Plane units to cells: planar, the resolution; geodesic, a plane distance is at least the
   // distance on the ellipsoid (the gnomonic projection stretches), and a cell is at least this
   // many metres a side over the window (a sphere of the semi-minor axis, cos of the largest
@@ -79,13 +86,13 @@ SiteSight::SiteSight(const Prepared& p, const MetricSpec& metric, const GridSpec
     const double minor = metric.semi_major * (1.0 - metric.flattening);
     plane_per_cell = minor * grid.res * kPi / 180.0 * std::cos(std::min(89.0, lat + grid.res) * kPi / 180.0);
   }
-  for (size_t s = 0; s < sites; ++s) {
+  // Each site's region on its own: the sites are shared out among the workers.
+  detail::parallel_for(std::max(1, threads), static_cast<int64_t>(sites), [&](int64_t task, int worker) {
+    const auto s = static_cast<size_t>(task);
     const CellBox& cells = boxes[s];
-    if (cells.empty() || p.segment(static_cast<int32_t>(s))) continue;
-    if (cells.cells < kCellsPerEdge * kFewestEdges) {  // (fewer cells than any sweep's worth)
-      ++undrawn_;
-      continue;
-    }
+    if (cells.empty() || p.segment(static_cast<int32_t>(s))) return;
+    status[s] = undrawn;
+    if (cells.cells < kCellsPerEdge * kFewestEdges) return;  // (fewer cells than any sweep's worth)
     const Vec2 at{p.local[s].ax, p.local[s].ay};
     // The box round the site's cells (one cell more all round) and the site itself, in the plane:
     // geodesic, the images of points along its sides (parallels bend in the plane), widened by a
@@ -118,38 +125,30 @@ SiteSight::SiteSight(const Prepared& p, const MetricSpec& metric, const GridSpec
     lo = {lo.x - widen, lo.y - widen};
     hi = {hi.x + widen, hi.y + widen};
     const Vec2 square[4] = {lo, {hi.x, lo.y}, hi, {lo.x, hi.y}};
-    near.clear();
-    ++mark;
+    Scratch& sc = scratch[static_cast<size_t>(worker)];
+    if (sc.stamp.empty()) sc.stamp.assign(edges.size(), 0);
+    sc.near.clear();
+    ++sc.mark;
     index.cover(square, 4, 0.0, [&](const int32_t* ids, size_t n, const int32_t*, size_t) {
       for (size_t i = 0; i < n; ++i)
-        if (stamp[static_cast<size_t>(ids[i])] != mark) {
-          stamp[static_cast<size_t>(ids[i])] = mark;
-          near.push_back(ids[i]);
+        if (sc.stamp[static_cast<size_t>(ids[i])] != sc.mark) {
+          sc.stamp[static_cast<size_t>(ids[i])] = sc.mark;
+          sc.near.push_back(ids[i]);
         }
       return true;
     });
-    // Not worth a sweep for fewer cells.
-    if (cells.cells < kCellsPerEdge * static_cast<int64_t>(near.size())) {
-      ++undrawn_;
-      continue;
-    }
+    if (cells.cells < kCellsPerEdge * static_cast<int64_t>(sc.near.size())) return;  // (not worth a sweep)
     // A path to the site may reach it in any of its sea wedges (Place::wedge -1): drawn where
     // there is one (a port on a coast's edge or corner; its land wedges see nothing).
     Place from{at};
     from.vertex = p.vis.vertex_at(at);
     const Visibility::Star star = from.vertex >= 0 ? p.vis.vertex_star(from.vertex) : p.vis.star_at(at);
     if (star.wedges() > 1) {
-      if (std::count(star.sea.begin(), star.sea.end(), uint8_t{1}) != 1) {
-        ++undrawn_;
-        continue;
-      }
+      if (std::count(star.sea.begin(), star.sea.end(), uint8_t{1}) != 1) return;
       from.wedge = static_cast<int>(std::find(star.sea.begin(), star.sea.end(), uint8_t{1}) - star.sea.begin());
     }
-    const VisibleRegion region = visible_region(p.vis, from, lo, hi, edges, &near);
-    if (region.blurred) {
-      ++undrawn_;
-      continue;
-    }
+    const VisibleRegion region = visible_region(p.vis, from, lo, hi, edges, &sc.near);
+    if (region.blurred) return;
     // Twice the ring's margin and the frame's deviation, in cells.
     const double band = 2.0 * (region.margin + (frame ? frame->deviation() : 0.0)) / plane_per_cell;
     auto ring = std::make_unique<RowPieces>(grid, window, metric, geodesic);
@@ -160,8 +159,10 @@ SiteSight::SiteSight(const Prepared& p, const MetricSpec& metric, const GridSpec
       ring->add_edge(corners[k], corners[(k + 1) % corners.size()], true, band);
     ring->index();
     rings_[s] = std::move(ring);
-    ++regions_;
-  }
+    status[s] = drawn;
+  });
+  regions_ = std::count(status.begin(), status.end(), drawn);
+  undrawn_ = std::count(status.begin(), status.end(), undrawn);
 }
 
 void SiteSight::row(int64_t r, Sight* out) const {

@@ -39,9 +39,10 @@ class SiteSight {
   enum Sight : uint8_t { unknown = 0, seen = 1, hidden = 2 };
 
   // `nearest`: the window's straight nearest site per cell (kNoSite: none), `window` its window
-  // of `grid`. On a projected grid with a geolocator nothing is drawn (every cell unknown).
+  // of `grid`. On a projected grid with a geolocator nothing is drawn (every cell unknown). The
+  // sites' regions are made on `threads` threads (the same whatever their number).
   SiteSight(const Prepared& p, const MetricSpec& metric, const GridSpec& grid, const Window& window,
-            const Raster<int32_t>& nearest);
+            const Raster<int32_t>& nearest, int threads = 1);
   // Row r of the window: out[c] for every cell c of it.
   void row(int64_t r, Sight* out) const;
   // Sites whose region was drawn, and those left unknown (blurred, several sea wedges, or too

@@ -45,12 +45,16 @@ void check_window(const sea::Prepared& p, const SeedSet& seeds, const MetricSpec
   o.threads = 1;
   const NearestField straight = compute(seeds, grid, o);
   const SiteSight sight(p, metric, grid, window, straight.site);
+  const SiteSight on_two(p, metric, grid, window, straight.site, 2);  // the same on two threads
   counts.regions += sight.regions();
   counts.undrawn += sight.undrawn();
-  std::vector<SiteSight::Sight> row(static_cast<size_t>(window.width));
+  EXPECT_EQ(on_two.regions(), sight.regions());
+  std::vector<SiteSight::Sight> row(static_cast<size_t>(window.width)), row_two(row.size());
   std::vector<sea::Spot> spots;
   for (int64_t r = 0; r < window.height; ++r) {
     sight.row(r, row.data());
+    on_two.row(r, row_two.data());
+    ASSERT_EQ(row, row_two) << "row " << r;
     p.row_cells(grid, window, r, spots);
     for (int64_t c = 0; c < window.width; ++c) {
       const int32_t site = straight.site.at(c, r);
