@@ -122,7 +122,8 @@ bool measure_grounds(const SeedSet& seeds, const Barriers& barriers, const GridS
   for (int round = 0; round < 3; ++round) {
     seen = hidden = unknown = wrong = 0;
     auto t0 = std::chrono::steady_clock::now();
-    const sea::SiteSight sites(p, metric, grid, window, straight.site);
+    const auto edges = sea::barrier_edges(p.vis);
+    const sea::SiteSight sites(p, metric, grid, window, straight.site, edges, sea::EdgeIndex(edges, {}));
     for (int64_t r = 0; r < window.height; ++r) {
       sites.row(r, sight.data());
       for (size_t c = 0; c < width; ++c) {

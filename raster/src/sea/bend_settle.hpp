@@ -9,10 +9,12 @@
 #include <cstdint>
 #include <limits>
 #include <memory>
+#include <mutex>
 #include <utility>
 #include <vector>
 
 #include "rv/sea/sea_field.hpp"
+#include "sea/edge_index.hpp"
 #include "sea/root_tree.hpp"
 #include "sea/sea_prepare.hpp"
 
@@ -232,6 +234,18 @@ class PreparedSea {
     for (const Class& c : classes) n += c.search->evaluations;
     return n;
   }
+  // The barrier edges cut where they cross, as visible regions read them
+  // (sea_map/visible_region.hpp barrier_edges), and their index: made at the first call (from
+  // any thread) and kept for every window drawn from this preparation (sea_exact.cpp).
+  struct CutEdges {
+    std::vector<sea::EdgeIndex::Segment> edges;
+    sea::EdgeIndex index;
+  };
+  const CutEdges& cut_edges() const;
+
+ private:
+  mutable std::once_flag cut_once_;
+  mutable std::unique_ptr<CutEdges> cut_;
 };
 
 }  // namespace rv

@@ -38,6 +38,7 @@
 #include "sea_exact/sea_cells.hpp"
 #include "sea_map/ground_rows.hpp"
 #include "sea_map/site_sight.hpp"
+#include "sea_map/visible_region.hpp"
 
 namespace rv {
 namespace {
@@ -84,11 +85,14 @@ constexpr auto kUnknown = static_cast<Visibility::Ground>(-1);
 struct Drawing {
   std::optional<GroundRows> ground;
   std::optional<SiteSight> sight;
-  Drawing(const Prepared& p, const SeaOptions& options, const GridSpec& grid, const Window& window,
+  Drawing(const PreparedSea& prepared, const SeaOptions& options, const GridSpec& grid, const Window& window,
           const NearestField& straight, bool adjusted) {
+    const Prepared& p = prepared.prepared;
     if (adjusted || options.cell_by_cell || (p.geodesic && p.geolocator)) return;
     ground.emplace(p, options.metric, grid, window);
-    sight.emplace(p, options.metric, grid, window, straight.site, resolve_threads(options.threads));
+    const PreparedSea::CutEdges& cut = prepared.cut_edges();
+    sight.emplace(p, options.metric, grid, window, straight.site, cut.edges, cut.index,
+                  resolve_threads(options.threads));
   }
 };
 
@@ -154,6 +158,16 @@ ComputeOptions straight_options(const SeaOptions& options) {
 }
 
 }  // namespace
+
+const PreparedSea::CutEdges& PreparedSea::cut_edges() const {
+  std::call_once(cut_once_, [&] {
+    auto cut = std::make_unique<CutEdges>();
+    cut->edges = sea::barrier_edges(prepared.vis);
+    cut->index = sea::EdgeIndex(cut->edges, {});
+    cut_ = std::move(cut);
+  });
+  return *cut_;
+}
 
 std::shared_ptr<const PreparedSeeds> prepare_straight(const SeedSet& seeds, const GridSpec& grid,
                                                       const SeaOptions& options) {
@@ -225,7 +239,7 @@ SeaField compute_sea(const SeedSet& seeds, const Barriers& barriers, const GridS
   const bool blocks = !adjusted && !options.cell_by_cell;
   const int64_t bands = (window.height + kBlock - 1) / kBlock;
   std::atomic<int64_t> rows_done{0};
-  const Drawing drawing(p, options, grid, window, straight_field, adjusted);
+  const Drawing drawing(*prepared, options, grid, window, straight_field, adjusted);
   std::vector<Band> band_of(static_cast<size_t>(workers));
   detail::parallel_for(workers, bands, [&](int64_t band, int worker) {
     if (options.cancel && options.cancel->load(std::memory_order_relaxed))

@@ -7,7 +7,6 @@
 
 #include "rv/field/error.hpp"
 #include "rv/field/parallel.hpp"
-#include "sea/edge_index.hpp"
 #include "sea_map/visible_region.hpp"
 
 namespace rv::sea {
@@ -56,7 +55,8 @@ std::vector<CellBox> cell_boxes(const Raster<int32_t>& nearest, size_t sites) {
 }  // namespace
 
 SiteSight::SiteSight(const Prepared& p, const MetricSpec& metric, const GridSpec& grid, const Window& window,
-                     const Raster<int32_t>& nearest, int threads)
+                     const Raster<int32_t>& nearest, const std::vector<EdgeIndex::Segment>& edges,
+                     const EdgeIndex& index, int threads)
     : p_(&p), nearest_(&nearest), window_(window) {
   const size_t sites = p.local.size();
   rings_.resize(sites);
@@ -64,8 +64,6 @@ SiteSight::SiteSight(const Prepared& p, const MetricSpec& metric, const GridSpec
   const bool geodesic = p.geodesic != nullptr;
   const GeodesicFrame* frame = p.vis.frame();
   const std::vector<CellBox> boxes = cell_boxes(nearest, sites);
-  const std::vector<EdgeIndex::Segment> edges = barrier_edges(p.vis);
-  const EdgeIndex index(edges, {});
   // Each worker's edges near a box, found once each (stamped).
   struct Scratch {
     std::vector<int32_t> near;

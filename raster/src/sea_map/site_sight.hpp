@@ -29,6 +29,7 @@
 #include "rv/field/grid.hpp"
 #include "rv/field/metric.hpp"
 #include "rv/field/raster.hpp"
+#include "sea/edge_index.hpp"
 #include "sea/sea_prepare.hpp"
 #include "sea_map/row_pieces.hpp"
 
@@ -41,8 +42,10 @@ class SiteSight {
   // `nearest`: the window's straight nearest site per cell (kNoSite: none), `window` its window
   // of `grid`. On a projected grid with a geolocator nothing is drawn (every cell unknown). The
   // sites' regions are made on `threads` threads (the same whatever their number).
+  // `edges`, `index`: the barrier edges cut where they cross (barrier_edges) and an index of them.
   SiteSight(const Prepared& p, const MetricSpec& metric, const GridSpec& grid, const Window& window,
-            const Raster<int32_t>& nearest, int threads = 1);
+            const Raster<int32_t>& nearest, const std::vector<EdgeIndex::Segment>& edges, const EdgeIndex& index,
+            int threads = 1);
   // Row r of the window: out[c] for every cell c of it.
   void row(int64_t r, Sight* out) const;
   // Sites whose region was drawn, and those left unknown (blurred, several sea wedges, or too

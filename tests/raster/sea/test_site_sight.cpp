@@ -18,6 +18,7 @@
 #include "rv/field/error.hpp"
 #include "sea/sea_prepare.hpp"
 #include "sea_map/site_sight.hpp"
+#include "sea_map/visible_region.hpp"
 #include "seed_gen.hpp"
 
 namespace rv {
@@ -44,8 +45,10 @@ void check_window(const sea::Prepared& p, const SeedSet& seeds, const MetricSpec
   o.window = window;
   o.threads = 1;
   const NearestField straight = compute(seeds, grid, o);
-  const SiteSight sight(p, metric, grid, window, straight.site);
-  const SiteSight on_two(p, metric, grid, window, straight.site, 2);  // the same on two threads
+  const std::vector<sea::EdgeIndex::Segment> edges = sea::barrier_edges(p.vis);
+  const sea::EdgeIndex index(edges, {});
+  const SiteSight sight(p, metric, grid, window, straight.site, edges, index);
+  const SiteSight on_two(p, metric, grid, window, straight.site, edges, index, 2);  // the same on two threads
   counts.regions += sight.regions();
   counts.undrawn += sight.undrawn();
   EXPECT_EQ(on_two.regions(), sight.regions());
