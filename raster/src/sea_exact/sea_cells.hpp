@@ -1,5 +1,6 @@
-// The exact engine's answers for cells (internal to rv_raster; sea_exact.cpp runs them): one
-// cell alone, or a block of cells at once where the block's proofs hold.
+// The exact engine's answers for cells (internal to rv_raster; sea_exact.cpp runs them): the
+// cells answered from what was drawn row by row (answer_drawn), one cell alone, or a block of
+// cells at once where the block's proofs hold.
 //
 // A cell's answer is its nearest site when it sees it (the straight field's answer, bit for bit),
 // else the best path over the roots it sees (Searches::best_path). A block of open sea with no

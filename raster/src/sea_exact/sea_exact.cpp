@@ -17,7 +17,10 @@
 //   unsettled neighbours, each raise another search.
 // - Cells: the straight field of the window first (the straight exact engine's, rv/engine), then
 //   per cell its nearest site if seen (the straight field's answer, bit for bit), else the best
-//   site seen and the best settled node seen, each searched in order of its bound. Where no
+//   site seen and the best settled node seen, each searched in order of its bound. Before any
+//   proof, every cell's ground and which cells see their straight nearest point site are drawn
+//   row by row (sea_map/ground_rows.hpp, site_sight.hpp; the cells those drawings leave unknown
+//   are proved as before): land and the cells that see it are answered at once. Where no
 //   barrier is near a block of cells (a quadtree of 16 down to 4 cells), its proofs are made
 //   once for the block, the lengths from its roots interpolated over the block's tile, and each
 //   cell gets the answer it would get alone (sea_exact/sea_cells.hpp).

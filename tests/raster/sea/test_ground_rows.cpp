@@ -10,10 +10,12 @@
 #include <bit>
 #include <cstdint>
 #include <cstdio>
+#include <functional>
 #include <random>
 #include <vector>
 
 #include "geodesic_oracle.hpp"
+#include "lattice_grids.hpp"
 #include "random_archipelago.hpp"
 #include "sea/sea_prepare.hpp"
 #include "sea_map/ground_rows.hpp"
@@ -82,51 +84,38 @@ void check_grid(const Prepared& p, const MetricSpec& metric, const GridSpec& gri
   check_window(p, metric, grid, Window{0, grid.height / 2, grid.width, 3}, counts);
 }
 
-TEST(GroundRows, AreClassifysAtEveryCellPlanar) {
-  // Cells 0.25 units wide whose centres fall on every whole number: corners, edges and the boom
-  // pass through cell centres.
-  const GridSpec grid = test::grid_of(176, 176, 0.25, -2.125, 41.875);
-  const MetricSpec planar;
+// Every layout of `rounds` from `seed` on `grid` (mapped by `to`), with one port at `port`.
+Counts check_layouts(const MetricSpec& metric, const GridSpec& grid, int rounds, uint64_t seed, Vec2 port,
+                     const std::function<Vec2(Vec2)>& to, const char* what) {
   Counts counts;
-  for (int round = 0; round < 12; ++round) {
-    std::mt19937_64 rng(7400 + round);
-    const auto layout = test::random_archipelago(rng, round);
-    const Prepared p = sea::prepare(one_port({-1.5, -1.5}), layout.barriers, grid, planar);
-    check_grid(p, planar, grid, counts);
-    if (HasFatalFailure()) return;
+  for (int round = 0; round < rounds; ++round) {
+    std::mt19937_64 rng(seed + static_cast<uint64_t>(round));
+    const auto layout = test::random_archipelago(rng, round, to);
+    const Prepared p = sea::prepare(one_port(port), layout.barriers, grid, metric);
+    check_grid(p, metric, grid, counts);
+    if (testing::Test::HasFatalFailure()) return counts;
   }
-  std::printf("planar: %lld cells, %lld land, %lld open sea, %lld on a barrier, %lld classified exactly\n",
+  std::printf("%s: %lld cells, %lld land, %lld open sea, %lld on a barrier, %lld classified exactly\n", what,
               static_cast<long long>(counts.cells), static_cast<long long>(counts.land),
               static_cast<long long>(counts.sea), static_cast<long long>(counts.on_barrier),
               static_cast<long long>(counts.exact));
-  EXPECT_GT(counts.on_barrier, 1000);
   EXPECT_GT(counts.land, counts.cells / 25);
   EXPECT_GT(counts.sea, counts.cells / 4);
   EXPECT_LT(counts.exact, counts.cells / 20);
+  return counts;
+}
+
+TEST(GroundRows, AreClassifysAtEveryCellPlanar) {
+  // Corners, edges and the boom pass through cell centres.
+  const Counts counts = check_layouts(
+      MetricSpec{}, test::planar_lattice_grid(), 12, 7400, {-1.5, -1.5}, [](Vec2 v) { return v; }, "planar");
+  EXPECT_GT(counts.on_barrier, 1000);
 }
 
 TEST(GroundRows, AreClassifysAtEveryCellOnTheEllipsoid) {
-  // The 40-unit layouts over 0.8 degrees of longitude and 0.5 of latitude at 55 N; cells of
-  // 0.0025 degrees whose centres fall on every whole unit of longitude and every fifth of latitude.
-  const MetricSpec metric = test::geodesic_metric();
-  const GridSpec grid = test::grid_of(368, 224, 0.0025, 11.94875, 55.55125);
-  auto to_ll = [](Vec2 v) { return Vec2{12.0 + v.x * 0.02, 55.0 + v.y * 0.0125}; };
-  Counts counts;
-  for (int round = 0; round < 5; ++round) {
-    std::mt19937_64 rng(7500 + round);
-    const auto layout = test::random_archipelago(rng, round, to_ll);
-    const Prepared p = sea::prepare(one_port({11.96, 54.995}), layout.barriers, grid, metric);
-    check_grid(p, metric, grid, counts);
-    if (HasFatalFailure()) return;
-  }
-  std::printf("ellipsoid: %lld cells, %lld land, %lld open sea, %lld on a barrier, %lld classified exactly\n",
-              static_cast<long long>(counts.cells), static_cast<long long>(counts.land),
-              static_cast<long long>(counts.sea), static_cast<long long>(counts.on_barrier),
-              static_cast<long long>(counts.exact));
+  const Counts counts = check_layouts(test::geodesic_metric(), test::ellipsoid_lattice_grid(), 5, 7500, {11.96, 54.995},
+                                      test::lattice_ll, "ellipsoid");
   EXPECT_GT(counts.on_barrier, 20);
-  EXPECT_GT(counts.land, counts.cells / 25);
-  EXPECT_GT(counts.sea, counts.cells / 4);
-  EXPECT_LT(counts.exact, counts.cells / 20);
 }
 
 TEST(GroundRows, ReadALongEdgeAsItsGeodesic) {

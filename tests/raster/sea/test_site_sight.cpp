@@ -8,11 +8,13 @@
 
 #include <cstdint>
 #include <cstdio>
+#include <functional>
 #include <optional>
 #include <random>
 #include <vector>
 
 #include "geodesic_oracle.hpp"
+#include "lattice_grids.hpp"
 #include "random_archipelago.hpp"
 #include "rv/engine/engine.hpp"
 #include "rv/field/error.hpp"
@@ -105,36 +107,29 @@ void check_layout(const test::Archipelago& layout, const MetricSpec& metric, con
   check_window(*p, layout.seeds, metric, grid, Window{0, grid.height / 2, grid.width, 5}, counts);
 }
 
-TEST(SiteSight, AgreesWithSeesAtEveryDecidedCellPlanar) {
-  const GridSpec grid = test::grid_of(176, 176, 0.25, -2.125, 41.875);
+// Every layout of `rounds` from `seed` on `grid` (mapped by `to`).
+void check_layouts(const MetricSpec& metric, const GridSpec& grid, int rounds, uint64_t seed,
+                   const std::function<Vec2(Vec2)>& to, int at_least, const char* what) {
   Counts counts;
-  for (int round = 0; round < 16; ++round) {
-    std::mt19937_64 rng(7600 + round);
-    check_layout(test::random_archipelago(rng, round), MetricSpec{}, grid, counts);
-    if (HasFatalFailure()) return;
+  for (int round = 0; round < rounds; ++round) {
+    std::mt19937_64 rng(seed + static_cast<uint64_t>(round));
+    check_layout(test::random_archipelago(rng, round, to), metric, grid, counts);
+    if (testing::Test::HasFatalFailure()) return;
   }
-  counts.print("planar");
-  EXPECT_GE(counts.layouts, 8);
+  counts.print(what);
+  EXPECT_GE(counts.layouts, at_least);
   EXPECT_GT(counts.seen, 100000);
   EXPECT_GT(counts.hidden, 20000);
   EXPECT_LT(counts.unknown, counts.cells / 50);
 }
 
+TEST(SiteSight, AgreesWithSeesAtEveryDecidedCellPlanar) {
+  check_layouts(
+      MetricSpec{}, test::planar_lattice_grid(), 16, 7600, [](Vec2 v) { return v; }, 8, "planar");
+}
+
 TEST(SiteSight, AgreesWithSeesAtEveryDecidedCellOnTheEllipsoid) {
-  const MetricSpec metric = test::geodesic_metric();
-  const GridSpec grid = test::grid_of(368, 224, 0.0025, 11.94875, 55.55125);
-  auto to_ll = [](Vec2 v) { return Vec2{12.0 + v.x * 0.02, 55.0 + v.y * 0.0125}; };
-  Counts counts;
-  for (int round = 0; round < 6; ++round) {
-    std::mt19937_64 rng(7700 + round);
-    check_layout(test::random_archipelago(rng, round, to_ll), metric, grid, counts);
-    if (HasFatalFailure()) return;
-  }
-  counts.print("ellipsoid");
-  EXPECT_GE(counts.layouts, 3);
-  EXPECT_GT(counts.seen, 100000);
-  EXPECT_GT(counts.hidden, 20000);
-  EXPECT_LT(counts.unknown, counts.cells / 50);
+  check_layouts(test::geodesic_metric(), test::ellipsoid_lattice_grid(), 6, 7700, test::lattice_ll, 3, "ellipsoid");
 }
 
 TEST(SiteSight, LeavesCellsOnGrazingRaysToTheExactRule) {
