@@ -261,7 +261,9 @@ TEST(SeaLines, AnOwnersSearchBySeaFindsTheSameSiteFromAnyStart) {
           ++within_checked;
           if (d <= bound) {
             ASSERT_EQ(std::bit_cast<uint64_t>(w), std::bit_cast<uint64_t>(d)) << round << ": site " << site;
-            if (!std::isnan(gd.x)) ASSERT_EQ(std::bit_cast<uint64_t>(gw.x), std::bit_cast<uint64_t>(gd.x));
+            if (!std::isnan(gd.x)) {
+              ASSERT_EQ(std::bit_cast<uint64_t>(gw.x), std::bit_cast<uint64_t>(gd.x));
+            }
           } else {
             ASSERT_GT(w, bound) << round << ": site " << site << " at " << p.x << "," << p.y;
             cut += w > d;  // (left unmeasured: something above the bound stands for it)
@@ -320,9 +322,10 @@ TEST(SeaLines, TheSearchOfACoastLeavesOutOnlyEdgesWhereTheCostsCannotBalance) {
     }
     const OwnerIndex index(*metric);
     const double slope = 2.0 * index.cost_slope();
-    if (variant == 0) EXPECT_EQ(slope, 2.0);
-    if (variant == 1) EXPECT_EQ(slope, 4.0);
-    if (variant == 2) EXPECT_EQ(slope, std::numeric_limits<double>::infinity());
+    const double want[] = {2.0, 4.0, std::numeric_limits<double>::infinity()};
+    if (variant <= 2) {
+      EXPECT_EQ(slope, want[variant]);
+    }
     const int32_t owners = a.seeds.owner_count();
     for (int k = 0; k < 60; ++k) {
       const Vec2 end{u(rng), u(rng)};
@@ -893,7 +896,9 @@ TEST(SeaLines, AChangeOfOwnerInAChannelWithNoCellIsALineAcrossIt) {
       EXPECT_GT(x.p.y, 15.0);
       EXPECT_LT(x.p.y, 25.0);
     }
-    if (!bent) EXPECT_NEAR(v.front().p.y, 19.9, 1e-9);  // the bisector of the two ports
+    if (!bent) {
+      EXPECT_NEAR(v.front().p.y, 19.9, 1e-9);  // the bisector of the two ports
+    }
     EXPECT_EQ(r.stats.channels_crossed, 1) << bent;
     EXPECT_EQ(r.stats.coast_changes_unexplained, 0) << bent;
     EXPECT_EQ(r.stats.crossings, 0) << bent;  // (no cell shows the change)
