@@ -11,8 +11,9 @@
 // Unknown too: cells whose straight nearest site is a segment (its nearest point moves from
 // cell to cell), or a point whose region is blurred (an edge passes within the margin of it) or
 // that has several sea wedges (a line's inner vertex, a corner two islands share): a path may
-// reach it in any of them; or a point with fewer than four cells per edge its sweep would read
-// (a sweep and its drawing cost a few cells' proofs per edge: on coarse grids proofs are cheaper).
+// reach it in any of them; or a point with fewer than four cells per edge its sweep would read,
+// or fewer than 256 cells (a sweep and its drawing cost a few cells' proofs per edge: on coarse
+// grids and in thin strips the cells' own proofs are cheaper).
 //
 // A site's own place is read as answer_cell's test reads it (Prepared::site_place: the point,
 // any wedge); where it has one sea wedge (a port on a coast) its region is that wedge's.
