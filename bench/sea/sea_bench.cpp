@@ -20,7 +20,9 @@
 // --grounds 1: afterwards, every cell's ground drawn row by row (sea_map/ground_rows.hpp) against
 // each row's cells projected into the frame and classified along the row (Visibility::
 // classify_next, as the engine does where no block proves them at once), one thread, three rounds
-// in turn; every cell compared (the exit status is 1 where any differs).
+// in turn; every cell compared. Then which cells see their straight nearest site, drawn from the
+// sites' regions (sea_map/site_sight.hpp), against the field by sea, three rounds. The exit status
+// is 1 where any cell differs.
 //
 // --wiggly N: instead of the fixture, a synthetic archipelago of nine fractal-like islands of
 // N vertices in all (each island's radius a sum of random harmonics), over the fixture's box in
@@ -178,8 +180,7 @@ void measure_sweeps(const Visibility& vis, const GeodesicFrame* frame, const Gri
   std::printf("sweeps: %zu barrier edges once cut where they cross, %zu bend nodes; edges cut and indexed in %.3f s\n",
               edges.size(), nodes.size(), prepare_s);
   std::vector<int32_t> near;
-  std::vector<uint32_t> stamp(edges.size(), 0);
-  uint32_t mark = 0;
+  sea::EdgeIndex::Stamps stamps;
   for (const double k : {1.0, 2.0, 4.0}) {
     int64_t roots = 0, read = 0, corners = 0, blurred = 0;
     t0 = std::chrono::steady_clock::now();
@@ -187,17 +188,7 @@ void measure_sweeps(const Visibility& vis, const GeodesicFrame* frame, const Gri
       const double reach = k * radius[static_cast<size_t>(node.vertex)];
       if (reach <= 0.0) continue;
       const Vec2 o = vis.vertex(node.vertex), lo{o.x - reach, o.y - reach}, hi{o.x + reach, o.y + reach};
-      const Vec2 square[4] = {lo, {hi.x, lo.y}, hi, {lo.x, hi.y}};
-      near.clear();
-      ++mark;
-      index.cover(square, 4, 0.0, [&](const int32_t* ids, size_t n, const int32_t*, size_t) {
-        for (size_t i = 0; i < n; ++i)
-          if (stamp[static_cast<size_t>(ids[i])] != mark) {
-            stamp[static_cast<size_t>(ids[i])] = mark;
-            near.push_back(ids[i]);
-          }
-        return true;
-      });
+      index.edges_in_box(lo, hi, stamps, near);
       const auto region = sea::visible_region(vis, vis.at_vertex(node.vertex, node.wedge), lo, hi, edges, &near);
       ++roots;
       read += static_cast<int64_t>(near.size());

@@ -12,7 +12,8 @@ int64_t EdgeIndex::row(double y) const {
   return std::clamp<int64_t>(static_cast<int64_t>(std::floor((y - y0_) / size_)), 0, rows_ - 1);
 }
 
-EdgeIndex::EdgeIndex(const std::vector<Segment>& edges, const std::vector<Vec2>& vertices, double slack) {
+EdgeIndex::EdgeIndex(const std::vector<Segment>& edges, const std::vector<Vec2>& vertices, double slack)
+    : edge_count_(edges.size()) {
   if (vertices.empty() && edges.empty()) return;
   const Vec2 first = vertices.empty() ? edges[0].a : vertices[0];
   double xmin = first.x, xmax = xmin, ymin = first.y, ymax = ymin;
@@ -72,6 +73,24 @@ void EdgeIndex::along(Vec2 p, Vec2 q, std::vector<int32_t>& edges, std::vector<i
     const auto i = static_cast<size_t>(b);
     edges.insert(edges.end(), edge_ids_.begin() + edge_start_[i], edge_ids_.begin() + edge_start_[i + 1]);
     vertices.insert(vertices.end(), vertex_ids_.begin() + vertex_start_[i], vertex_ids_.begin() + vertex_start_[i + 1]);
+    return true;
+  });
+}
+
+void EdgeIndex::edges_in_box(Vec2 lo, Vec2 hi, Stamps& stamps, std::vector<int32_t>& out) const {
+  out.clear();
+  if (stamps.of.size() < edge_count_) stamps.of.assign(edge_count_, 0);
+  if (++stamps.now == 0) {  // (wrapped: every old stamp forgotten)
+    std::fill(stamps.of.begin(), stamps.of.end(), 0u);
+    stamps.now = 1;
+  }
+  const Vec2 square[4] = {lo, {hi.x, lo.y}, hi, {lo.x, hi.y}};
+  cover(square, 4, 0.0, [&](const int32_t* ids, size_t n, const int32_t*, size_t) {
+    for (size_t i = 0; i < n; ++i)
+      if (stamps.of[static_cast<size_t>(ids[i])] != stamps.now) {
+        stamps.of[static_cast<size_t>(ids[i])] = stamps.now;
+        out.push_back(ids[i]);
+      }
     return true;
   });
 }

@@ -55,10 +55,20 @@ class EdgeIndex {
 
   int64_t bucket_count() const { return cols_ * rows_; }
 
+  // The edges of every bucket the box [lo, hi] meets, each once, in `out` (cleared first): a
+  // superset of those that meet the box. `stamps`: the caller's scratch, kept from call to call
+  // (one entry per edge once used), so that repeated boxes cost their buckets, not the edges.
+  struct Stamps {
+    std::vector<uint32_t> of;
+    uint32_t now = 0;
+  };
+  void edges_in_box(Vec2 lo, Vec2 hi, Stamps& stamps, std::vector<int32_t>& out) const;
+
  private:
   int64_t column(double x) const;
   int64_t row(double y) const;
 
+  size_t edge_count_ = 0;
   double x0_ = 0, y0_ = 0, size_ = 1, pad_ = 0;
   int64_t cols_ = 0, rows_ = 0;
   std::vector<uint32_t> edge_start_, vertex_start_;  // per bucket, then one past the last

@@ -17,8 +17,9 @@
 //   (Prepared::cell_spot). Those are a few per hundred crossings.
 // A projected grid whose centres a geolocator locates (its rows are no parallels) is not drawn:
 // drawn() is false, and the caller classifies its cells.
-// Cost: building, O(E) pieces (a GeographicLib line and a midpoint each, geodesic); a row, its
-// crossings sorted, the cells written, and the few cells in bands classified.
+// Cost: building, the edges that may reach the window's rows as pieces (geodesic, a GeographicLib
+// line only for an edge longer than a few kilometres); a row, its crossings sorted, the cells
+// written, and the few cells in bands classified.
 // Thread safety: immutable once built; row() from any number of threads. Holds a pointer to the
 // Prepared, which must outlive it.
 #pragma once

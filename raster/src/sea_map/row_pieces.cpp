@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <numbers>
 
 #include "rv/field/error.hpp"
 
@@ -22,7 +23,7 @@ double rounding_band(double u1, double v1, double u2, double v2) {
   return 1e-6 + 1e-9 * magnitude;
 }
 
-constexpr double kRadian = 3.14159265358979323846 / 180.0;
+constexpr double kRadian = std::numbers::pi / 180.0;
 
 // How far (degrees) the geodesic from a to b (longitude, latitude) may lie from the chord between
 // them in longitude/latitude. On a sphere, along a geodesic by its arc sigma (radians) at azimuth

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <numbers>
 #include <utility>
 
 #include "rv/field/error.hpp"
@@ -13,7 +14,7 @@ namespace rv::sea {
 
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
+constexpr double kRadian = std::numbers::pi / 180.0;
 
 // A site's region is drawn when it has at least this many cells per edge its sweep reads (a
 // sweep and its drawing cost a few times a cell's proof per edge).
@@ -57,18 +58,17 @@ std::vector<CellBox> cell_boxes(const Raster<int32_t>& nearest, size_t sites) {
 SiteSight::SiteSight(const Prepared& p, const MetricSpec& metric, const GridSpec& grid, const Window& window,
                      const Raster<int32_t>& nearest, const std::vector<EdgeIndex::Segment>& edges,
                      const EdgeIndex& index, int threads)
-    : p_(&p), nearest_(&nearest), window_(window) {
+    : nearest_(&nearest), window_(window) {
   const size_t sites = p.local.size();
   rings_.resize(sites);
   if (p.geodesic && p.geolocator) return;
   const bool geodesic = p.geodesic != nullptr;
   const GeodesicFrame* frame = p.vis.frame();
   const std::vector<CellBox> boxes = cell_boxes(nearest, sites);
-  // Each worker's edges near a box, found once each (stamped).
+  // Each worker's edges near a box.
   struct Scratch {
     std::vector<int32_t> near;
-    std::vector<uint32_t> stamp;
-    uint32_t mark = 0;
+    EdgeIndex::Stamps stamps;
   };
   std::vector<Scratch> scratch(static_cast<size_t>(std::max(1, threads)));
   enum : uint8_t { none, drawn, undrawn };
@@ -82,7 +82,7 @@ SiteSight::SiteSight(const Prepared& p, const MetricSpec& metric, const GridSpec
     const double lat =
         std::max(std::abs(grid.centre_y(window.row0)), std::abs(grid.centre_y(window.row0 + window.height - 1)));
     const double minor = metric.semi_major * (1.0 - metric.flattening);
-    plane_per_cell = minor * grid.res * kPi / 180.0 * std::cos(std::min(89.0, lat + grid.res) * kPi / 180.0);
+    plane_per_cell = minor * grid.res * kRadian * std::cos(std::min(89.0, lat + grid.res) * kRadian);
   }
   // Each site's region on its own: the sites are shared out among the workers.
   detail::parallel_for(std::max(1, threads), static_cast<int64_t>(sites), [&](int64_t task, int worker) {
@@ -122,19 +122,8 @@ SiteSight::SiteSight(const Prepared& p, const MetricSpec& metric, const GridSpec
     const double widen = 0.01 * std::max(hi.x - lo.x, hi.y - lo.y) + 2.0 * plane_per_cell;
     lo = {lo.x - widen, lo.y - widen};
     hi = {hi.x + widen, hi.y + widen};
-    const Vec2 square[4] = {lo, {hi.x, lo.y}, hi, {lo.x, hi.y}};
     Scratch& sc = scratch[static_cast<size_t>(worker)];
-    if (sc.stamp.empty()) sc.stamp.assign(edges.size(), 0);
-    sc.near.clear();
-    ++sc.mark;
-    index.cover(square, 4, 0.0, [&](const int32_t* ids, size_t n, const int32_t*, size_t) {
-      for (size_t i = 0; i < n; ++i)
-        if (sc.stamp[static_cast<size_t>(ids[i])] != sc.mark) {
-          sc.stamp[static_cast<size_t>(ids[i])] = sc.mark;
-          sc.near.push_back(ids[i]);
-        }
-      return true;
-    });
+    index.edges_in_box(lo, hi, sc.stamps, sc.near);
     if (cells.cells < kCellsPerEdge * static_cast<int64_t>(sc.near.size())) return;  // (not worth a sweep)
     // A path to the site may reach it in any of its sea wedges (Place::wedge -1): drawn where
     // there is one (a port on a coast's edge or corner; its land wedges see nothing).

@@ -19,8 +19,8 @@
 // any wedge); where it has one sea wedge (a port on a coast) its region is that wedge's.
 // Cost: one rotational sweep per site over the edges that may meet its box; a row, per run of
 // cells sharing a site, the crossings of that site's ring.
-// Thread safety: immutable once built; row() from any number of threads. Holds a pointer to the
-// Prepared, which must outlive it.
+// Thread safety: immutable once built; row() from any number of threads. Holds a pointer to
+// `nearest`, which must outlive it.
 #pragma once
 
 #include <cstdint>
@@ -55,7 +55,6 @@ class SiteSight {
   int64_t undrawn() const { return undrawn_; }
 
  private:
-  const Prepared* p_;
   const Raster<int32_t>* nearest_;
   Window window_;
   std::vector<std::unique_ptr<RowPieces>> rings_;  // per site; null: unknown
