@@ -52,6 +52,7 @@ Searches::Searches(const Prepared& prepared, const std::vector<int32_t>& geometr
   dist.assign(nodes.size(), Best{});
   from.assign(nodes.size(), Vec2{});
   prev.assign(nodes.size(), -1);
+  tauts.assign(nodes.size(), TautTest{});
 }
 
 Best Searches::best_path(const Place& at, const Spot& spot, Best best, int64_t& tests, int32_t skip_vertex,
@@ -196,6 +197,7 @@ void Settling::settle(size_t u) {
     b.from[u] = p.touches[static_cast<size_t>(b.touch_of[static_cast<size_t>(root - b.touch_first)])].at.at;
   else if (val.site != kNoSite)
     b.from[u] = p.site_place(val.site, p.vertex_spot(b.nodes[u].vertex)).at;
+  b.tauts[u] = taut_test(vis, b.nodes[u], b.from[u]);
   if (!near_) st.open->set_weight(i, std::numeric_limits<double>::infinity());
   if (std::isfinite(val.d)) {
     b.all.set_weight(b.site_items() + i, val.d);

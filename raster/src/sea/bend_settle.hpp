@@ -38,9 +38,10 @@ struct Searches {
   std::vector<int32_t> touch_of;         // touch item - touch_first -> index in Prepared::touches
   std::vector<Prepared::Xyz> touch_xyz;  // (geodesic) their positions on the ellipsoid
   std::vector<Node> nodes;
-  std::vector<Best> dist;     // per node, once settled
-  std::vector<Vec2> from;     // where each node's path came from: its previous bend or its site's point
-  std::vector<int32_t> prev;  // per settled node: its previous bend (a node), or -1 (it sees its site)
+  std::vector<Best> dist;       // per node, once settled
+  std::vector<Vec2> from;       // where each node's path came from: its previous bend or its site's point
+  std::vector<int32_t> prev;    // per settled node: its previous bend (a node), or -1 (it sees its site)
+  std::vector<TautTest> tauts;  // per settled node: taut() from its arrival (`from`)
   int64_t evaluations = 0;
 
   // Over `sites` (geometric sites of `prepared`, ascending: one owner's, for its own distances by
@@ -75,7 +76,7 @@ struct Searches {
     const double weight = dist[k].d;
     if (p.geodesic && weight + Prepared::chord_below(p.vertex_xyz[static_cast<size_t>(n.vertex)], xyz) > limit)
       return kNone;
-    if (!taut(p.vis, n, from[k], spot.at)) return kNone;
+    if (!taut(p.vis, tauts[k], spot.at)) return kNone;
     const Place to = p.vis.at_vertex(n.vertex, n.wedge);
     if (p.geodesic && !seen(to)) return kNone;  // (what the chord lets through is mostly hidden)
     const double d = weight + p.vertex_length(n.vertex, spot);

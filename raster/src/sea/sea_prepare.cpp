@@ -277,54 +277,63 @@ std::vector<Node> bend_nodes(const Visibility& vis) {
   return nodes;
 }
 
-namespace {
-
-// Ranks of directions from `at` by their counter-clockwise angle from the direction of `a`:
-// whether the angle to d1 is less than the angle to d2 (a itself has angle 0).
-bool before(const Visibility& vis, Vec2 at, Vec2 a, Vec2 d1, Vec2 d2) {
-  auto half = [&](Vec2 d) {
-    const int o = vis.orient(at, a, d);
-    if (o > 0) return 0;
-    if (o < 0) return 1;
-    // On the line through a: angle 0 when in a's direction, else a half-turn.
-    const bool same = (d.x - at.x) * (a.x - at.x) + (d.y - at.y) * (a.y - at.y) > 0;
-    return same ? -1 : 1;
-  };
-  const int h1 = half(d1), h2 = half(d2);
-  if (h1 != h2) return h1 < h2;
-  if (h1 == -1) return false;
-  return vis.orient(at, d1, d2) > 0;
-}
-
-}  // namespace
-
-bool taut(const Visibility& vis, const Node& node, Vec2 from, Vec2 x) {
+TautTest taut_test(const Visibility& vis, const Node& node, Vec2 from) {
   const Visibility::Star& s = vis.vertex_star(node.vertex);
-  if (from == s.at) return true;
-  // (Squared lengths: this runs for every root a search weighs.)
-  const double ax = from.x - s.at.x, ay = from.y - s.at.y, bx = x.x - s.at.x, by = x.y - s.at.y;
+  TautTest t;
+  t.at = s.at;
+  t.from = from;
+  t.ax = from.x - s.at.x;
+  t.ay = from.y - s.at.y;
   // A site's nearest point from the node computed a hair off it: the seed's end is on the node.
   const double near = vis.slack(s.at, from);
-  if (ax * ax + ay * ay <= near * near) return true;
-  const int o = vis.orient(s.at, from, x);
+  t.any = from == s.at || t.ax * t.ax + t.ay * t.ay <= near * near;
+  if (t.any) return t;
+  t.slack = rounding_slack(s.at, from);
+  t.line_bend = vis.frame() ? std::sqrt(t.ax * t.ax + t.ay * t.ay) * vis.frame()->deviation() : 0.0;
+  t.from_vertex = vis.vertex_at(from) >= 0;
+  // The land next to this wedge runs counter-clockwise from ray k + 1 to ray k: its far ray (k),
+  // ranked from the arrival's direction as before() ranks it.
+  const int n = static_cast<int>(s.rays.size());
+  if (n == 0) return t;  // (no node: a vertex with no edges has no land to bend round)
+  t.land_end = s.rays[static_cast<size_t>(node.wedge % n)];
+  const int o = vis.orient(s.at, from, t.land_end);
+  const bool ahead = (t.land_end.x - s.at.x) * (from.x - s.at.x) + (t.land_end.y - s.at.y) * (from.y - s.at.y) > 0;
+  t.land_at_arrival = o == 0 && ahead;
+  t.land_half = o > 0 ? 0 : o < 0 ? 1 : ahead ? -1 : 1;
+  return t;
+}
+
+bool taut(const Visibility& vis, const TautTest& t, Vec2 x) {
+  if (t.any) return true;
+  // (Squared lengths and an inline filter: this runs for every root a search weighs.)
+  const double bx = x.x - t.at.x, by = x.y - t.at.y;
+  // vis.orient(at, from, x): the filter of the reading's predicate (rv/sea orient.hpp; the
+  // frame's adds the geodesic's bend off its chord), the predicate itself when it cannot decide.
+  const double l = t.ax * by, r = t.ay * bx, det = l - r;
+  const double bound = 4.0e-16 * (std::abs(l) + std::abs(r)) + t.line_bend;
+  const int o = det > bound ? 1 : det < -bound ? -1 : vis.orient(t.at, t.from, x);
   // Straight on past the node, from a site's computed point (the foot of a perpendicular lies on
   // the straight path to rounding): the path grazes the node, and that rounding may have put the
   // straight path itself through the node's land. Its length is the straight one's.
-  if (ax * bx + ay * by < 0) {
-    const double cross = ax * by - ay * bx, r = rounding_slack(s.at, from);
-    if ((o == 0 || cross * cross <= r * r * (bx * bx + by * by)) && vis.vertex_at(from) < 0) return true;
+  if (t.ax * bx + t.ay * by < 0) {
+    const double cross = t.ax * by - t.ay * bx;
+    if ((o == 0 || cross * cross <= t.slack * t.slack * (bx * bx + by * by)) && !t.from_vertex) return true;
   }
   if (o == 0) return false;  // straight on (between barrier vertices), or straight back: no bend
-  // The land next to this wedge runs counter-clockwise from ray k + 1 to ray k; it lies in the
-  // counter-clockwise sweep from the arrival to the departure when its far ray (k) comes after
-  // the arrival's direction and no later than the departure's.
-  const int n = static_cast<int>(s.rays.size());
-  const Vec2 land_end = s.rays[static_cast<size_t>(node.wedge % n)];
-  const bool land_at_arrival =
-      vis.orient(s.at, from, land_end) == 0 &&
-      (land_end.x - s.at.x) * (from.x - s.at.x) + (land_end.y - s.at.y) * (from.y - s.at.y) > 0;
-  const bool land_ccw = !land_at_arrival && !before(vis, s.at, from, x, land_end);
+  // The land lies in the counter-clockwise sweep from the arrival to the departure when its far
+  // ray comes after the arrival's direction and no later than the departure's (before(): the
+  // departure's half is o's).
+  bool land_ccw = false;
+  if (!t.land_at_arrival) {
+    const int half = o > 0 ? 0 : 1;
+    const bool departure_first = half != t.land_half ? half < t.land_half : vis.orient(t.at, x, t.land_end) > 0;
+    land_ccw = !departure_first;
+  }
   return land_ccw ? o > 0 : o < 0;
+}
+
+bool taut(const Visibility& vis, const Node& node, Vec2 from, Vec2 x) {
+  return taut(vis, taut_test(vis, node, from), x);
 }
 
 bool never_taut(const Visibility& vis, const Node& node, Vec2 from, Vec2 lo, Vec2 hi) {

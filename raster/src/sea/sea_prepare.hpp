@@ -213,6 +213,24 @@ std::vector<Node> bend_nodes(const Visibility& vis);
 // measured to rounding) may leave in any direction. Necessary for a shortest path's bend; exact.
 bool taut(const Visibility& vis, const Node& node, Vec2 from, Vec2 x);
 
+// taut() with the node and the arrival fixed (a settled node's: every search weighs it against
+// many departures): what does not depend on the departure is worked out once, and the arrival
+// line's orientation is filtered inline before the reading's predicate. taut(vis, t, x) equals
+// taut(vis, node, from, x) for every x, to the bit (the same predicates, decided alike).
+// A value type; valid while `vis` lives.
+struct TautTest {
+  Vec2 at{}, from{}, land_end{};
+  double ax = 0.0, ay = 0.0;  // from - at
+  double slack = 0.0;         // rounding_slack(at, from): the straight-on allowance
+  double line_bend = 0.0;     // |from - at| times the frame's deviation (0 planar)
+  bool any = false;           // from the node itself (or within Visibility::slack): any departure
+  bool from_vertex = false;   // from is a barrier vertex
+  bool land_at_arrival = false;
+  int land_half = 0;  // where land_end lies from the arrival's direction: 0 left, 1 right or straight back, -1 ahead
+};
+TautTest taut_test(const Visibility& vis, const Node& node, Vec2 from);
+bool taut(const Visibility& vis, const TautTest& t, Vec2 x);
+
 // Whether taut(vis, node, from, x) is false for every x of the box [lo, hi] (plane coordinates),
 // proved from the box's corners: the departures taut() accepts lie in the sector between the
 // land's far ray at the node and the arrival's straight continuation (narrower than a half-turn),

@@ -225,7 +225,7 @@ class BlockLengths {
       const double weight = s.dist[k].d;
       const auto vx = static_cast<size_t>(n.vertex);
       if (!std::isfinite(weight) || weight + Prepared::chord_below(p.vertex_xyz[vx], xyz) > upper) return false;
-      if (!taut(p.vis, n, s.from[k], spot.at) || !sees(p.vis.at_vertex(n.vertex, n.wedge))) return false;
+      if (!taut(p.vis, s.tauts[k], spot.at) || !sees(p.vis.at_vertex(n.vertex, n.wedge))) return false;
       v = Valued{0.0, 0.0, s.dist[k].site, n.vertex, j};
       v.d = weight + length(j, cand.item, c, r, xyz, p.vertex_ll[vx], p.vertex_xyz[vx], spot, v.err);
       return true;

@@ -3,7 +3,8 @@
 // what it stands in for.
 // - A length patch (sea_exact/length_patch.hpp) against GeographicLib's inverse problem, cell by cell.
 // - never_taut (sea/sea_prepare.hpp), which leaves a bend out of a block before its visibility
-//   proof, against taut() at points all over the box.
+//   proof, against taut() at points all over the box; taut() itself against the turn read from
+//   angles.
 // - Blocks with patches against every cell answered alone, to the bit, with and without a
 //   maximum distance.
 #include <gtest/gtest.h>
@@ -148,6 +149,77 @@ TEST(SeaBlocks, ABoxProvedUntautHoldsNoTautDeparture) {
               static_cast<long long>(proved), static_cast<long long>(taut_boxes), static_cast<long long>(points));
   EXPECT_GT(proved, 2000);
   EXPECT_GT(taut_boxes, 2000);
+}
+
+// A settled node's taut test (sea::TautTest, the arrival worked out once) against the turn read
+// from angles: a path that reached the node from `from` and leaves towards x, both directions in
+// the node's sea wedge, is taut exactly when the shorter way round from the one to the other
+// passes over the land beside the wedge (both of its sides, rays k and k + 1, strictly inside
+// that arc). Decided only where every angle is clear of the others by more than rounding and
+// the frame's bend could move it; departures at random distances round every settled node.
+TEST(SeaBlocks, ATautTestTurnsRoundTheLand) {
+  std::mt19937_64 rng(31);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  constexpr double kTurn = 2.0 * M_PI;
+  auto ccw = [&](double from, double to) { return std::fmod(std::fmod(to - from, kTurn) + kTurn, kTurn); };
+  int64_t taut = 0, untaut = 0;
+  for (int round = 0; round < 12; ++round) {
+    const bool ellipsoid = round % 2 == 1;
+    auto to = [&](Vec2 v) { return ellipsoid ? Vec2{12.0 + 0.02 * v.x, 55.3 + 0.0125 * v.y} : v; };
+    const test::Archipelago a = test::random_archipelago(rng, round, to);
+    const GridSpec g = ellipsoid ? test::grid_of(40, 25, 0.02, 12.0, 55.8) : test::grid_of(40, 40, 1.0);
+    std::shared_ptr<const PreparedSea> prepared;
+    try {
+      prepared = prepare_sea(a.seeds, a.barriers, g, ellipsoid ? on_the_ellipsoid() : SeaOptions{});
+    } catch (const Error& e) {
+      ASSERT_EQ(e.kind(), ErrorKind::invalid_input) << e.what();  // a port on an island or the boom
+      continue;
+    }
+    const sea::Prepared& p = prepared->prepared;
+    const sea::Searches& s = prepared->search;
+    const double bend = p.vis.frame() ? p.vis.frame()->deviation() : 0.0;
+    for (size_t k = 0; k < s.nodes.size(); ++k) {
+      if (!std::isfinite(s.dist[k].d)) continue;
+      const sea::Node& n = s.nodes[k];
+      const Visibility::Star& star = p.vis.vertex_star(n.vertex);
+      const Vec2 v = star.at, from = s.from[k];
+      const double arrival = std::hypot(from.x - v.x, from.y - v.y);
+      if (arrival < 1e-6 * (1.0 + std::abs(v.x) + std::abs(v.y))) continue;  // a path that starts here
+      const size_t m = star.rays.size();
+      const auto w = static_cast<size_t>(n.wedge) % m;
+      const Vec2 first = star.rays[w], last = star.rays[(w + 1) % m];  // the sea wedge's sides (ccw)
+      auto angle = [&](Vec2 q) { return std::atan2(q.y - v.y, q.x - v.x); };
+      const double side0 = angle(first), side1 = angle(last);
+      const double wedge = m == 1 ? kTurn : ccw(side0, side1);
+      // How far an angle seen over `length` may be off: rounding, and the frame's bend at both ends.
+      auto blur = [&](double length) { return 1e-9 + 4.0 * bend / length; };
+      const double near =
+          std::min({arrival, std::hypot(first.x - v.x, first.y - v.y), std::hypot(last.x - v.x, last.y - v.y)});
+      const double alpha = angle(from);
+      if (ccw(side0, alpha) < blur(near) || ccw(alpha, side1) < blur(near) || ccw(side0, alpha) > wedge) continue;
+      for (int i = 0; i < 200; ++i) {
+        const double beta = side0 + wedge * u(rng);
+        const double r = arrival * std::pow(10.0, -2.0 + 3.0 * u(rng));
+        const Vec2 x{v.x + r * std::cos(beta), v.y + r * std::sin(beta)};
+        const double clear = blur(std::min(near, r));
+        // (Clear of the wedge's sides, of the arrival, and of straight on past the node.)
+        if (ccw(side0, beta) < clear || ccw(beta, side1) < clear || std::abs(ccw(alpha, beta)) < clear ||
+            std::abs(ccw(alpha, beta) - M_PI) < clear)
+          continue;
+        // The shorter way round from alpha to beta, and whether the land's sides lie inside it.
+        const bool left = ccw(alpha, beta) < M_PI;
+        const double a0 = left ? alpha : beta, span = left ? ccw(alpha, beta) : ccw(beta, alpha);
+        const bool over_land = ccw(a0, side0) < span && ccw(a0, side1) < span;
+        const bool got = sea::taut(p.vis, s.tauts[k], x);
+        ASSERT_EQ(got, over_land) << "round " << round << " node " << k << " departure (" << x.x << ", " << x.y << ")";
+        ASSERT_EQ(got, sea::taut(p.vis, n, from, x));
+        (got ? taut : untaut) += 1;
+      }
+    }
+  }
+  std::printf("%lld departures taut, %lld not\n", static_cast<long long>(taut), static_cast<long long>(untaut));
+  EXPECT_GT(taut, 5000);
+  EXPECT_GT(untaut, 20000);
 }
 
 // Blocks on a fine grid on the ellipsoid, where most cells whose path bends take their length
