@@ -313,6 +313,10 @@ Visibility::Star Visibility::build_star(Vec2 p) const {
   s.rays.erase(std::unique(s.rays.begin(), s.rays.end(), [&](Vec2 a, Vec2 b) { return same_direction(f, p, a, b); }),
                s.rays.end());
   const int n = static_cast<int>(s.rays.size());
+  if (n == 2) {  // (wedge 0 runs counter-clockwise from ray 0 to ray 1: wide when ray 1 is right of ray 0)
+    const int o = turn(f, p, s.rays[0], s.rays[1]);
+    s.wide = o < 0 ? 0 : o > 0 ? 1 : -1;
+  }
   s.sea.assign(static_cast<size_t>(std::max(1, n)), inside_land ? 0 : 1);
   auto index_of = [&](Vec2 e) { return s.wedge_towards(e, true); };  // on a ray: that ray's index
   for (const Cone& c : cones) {
@@ -437,6 +441,23 @@ void Visibility::classify_row(double y, const double* xs, int64_t n, Ground* out
 
 double Visibility::slack(Vec2 p, Vec2 q) const { return end_slack(frame_.get(), p, q); }
 
+namespace {
+
+// Whether the direction from s.at towards x lies in wedge w of s, its sides included (either of
+// wedge_towards' readings on a side gives w). The wide wedge of two rays (every bend node's sea
+// wedge): x is outside it exactly when strictly inside the other, narrower one, left of its
+// first side and right of its last (two orientations, where ranking x among the rays takes
+// several); else by wedge_towards.
+bool in_wedge(const GeodesicFrame* f, const Visibility::Star& s, int w, Vec2 x) {
+  if (w == s.wide) {
+    const Vec2 first = s.rays[static_cast<size_t>(w)], last = s.rays[static_cast<size_t>(1 - w)];
+    return !(turn(f, s.at, last, x) > 0 && turn(f, s.at, first, x) < 0);
+  }
+  return s.wedge_towards(x, true) == w || s.wedge_towards(x, false) == w;
+}
+
+}  // namespace
+
 bool Visibility::crossing(const Edge& e, Vec2 p, Vec2 q, double slack) const {
   // (Boxes apart by more than the images' bending, geodesic.)
   const double bend = frame_ ? frame_->deviation() : 0.0;
@@ -482,15 +503,15 @@ bool Visibility::sees(const Place& from, const Place& to, int32_t* blocker) cons
   // The ends' wedges first (a few exact tests): a path that cannot leave its start's wedge, or
   // reach its end's, is blocked before any walk along it.
   {
-    bool leaves = false, arrives = !(to.vertex >= 0 && to.wedge >= 0);
-    for (int s = 0; s < 2; ++s) {
-      const int k = ps.wedge_towards(toward, s == 0);
-      leaves = leaves || (ps.sea[static_cast<size_t>(k)] && (from.wedge < 0 || k == from.wedge));
-      if (!arrives) {
-        const Star& qs = stars_[static_cast<size_t>(to.vertex)];
-        const int back = qs.wedge_towards(p, s == 1);
-        arrives = qs.sea[static_cast<size_t>(back)] && back == to.wedge;
-      }
+    bool leaves = false, arrives = true;
+    if (from.wedge >= 0) {
+      leaves = ps.sea[static_cast<size_t>(from.wedge)] && in_wedge(frame_.get(), ps, from.wedge, toward);
+    } else {
+      for (int s = 0; s < 2; ++s) leaves = leaves || ps.sea[static_cast<size_t>(ps.wedge_towards(toward, s == 0))];
+    }
+    if (to.vertex >= 0 && to.wedge >= 0) {
+      const Star& qs = stars_[static_cast<size_t>(to.vertex)];
+      arrives = qs.sea[static_cast<size_t>(to.wedge)] && in_wedge(frame_.get(), qs, to.wedge, p);
     }
     if (!leaves || !arrives) return false;
   }

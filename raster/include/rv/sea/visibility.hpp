@@ -71,6 +71,8 @@ class Visibility {
     std::vector<Vec2> rays;
     std::vector<uint8_t> sea;              // one entry per wedge: max(1, rays.size())
     const GeodesicFrame* frame = nullptr;  // the reading its directions are ordered in
+    // Of two rays, the wedge wider than a half-turn (0 or 1; -1: none, or not two rays).
+    int wide = -1;
     int wedges() const { return static_cast<int>(sea.size()); }
     // The wedge the direction towards `x` (x != at) lies in; on a ray, the wedge on its
     // counter-clockwise side when `ccw`, else the one on its clockwise side.
