@@ -257,14 +257,24 @@ Spot Prepared::cell_spot(const GridSpec& grid, const Window& window, int64_t r, 
               Vec2{grid.centre_x(window.col0 + c), lat}};
 }
 
-SeaField empty_field(const Prepared& p, const GridSpec& grid, const Window& window, const MetricSpec& metric) {
+SeaField empty_field(const Prepared& p, const GridSpec& grid, const Window& window, const MetricSpec& metric,
+                     bool filled) {
   SeaField out;
-  out.field.site = Raster<int32_t>(grid, window, kNoSite);
-  out.field.distance = Raster<float>(grid, window, kNoDistance);
+  out.field.site = Raster<int32_t>(grid, window, Uninitialized{});
+  out.field.distance = Raster<float>(grid, window, Uninitialized{});
   out.field.metric = metric;
-  out.via = Raster<int32_t>(grid, window, kNoVia);
+  out.via = Raster<int32_t>(grid, window, Uninitialized{});
   out.barrier_vertices = p.vis.vertex_count();
+  if (filled) empty_rows(out, 0, window.height);
   return out;
+}
+
+void empty_rows(SeaField& field, int64_t r0, int64_t r1) {
+  const int64_t w = field.via.window().width;
+  const auto first = static_cast<ptrdiff_t>(r0 * w), count = static_cast<ptrdiff_t>((r1 - r0) * w);
+  std::fill_n(field.field.site.cells().begin() + first, count, kNoSite);
+  std::fill_n(field.field.distance.cells().begin() + first, count, kNoDistance);
+  std::fill_n(field.via.cells().begin() + first, count, kNoVia);
 }
 
 std::vector<Node> bend_nodes(const Visibility& vis) {

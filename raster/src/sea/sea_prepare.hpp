@@ -239,8 +239,12 @@ bool taut(const Visibility& vis, const TautTest& t, Vec2 x);
 bool never_taut(const Visibility& vis, const Node& node, Vec2 from, Vec2 lo, Vec2 hi);
 
 // An empty field of the window (no owner anywhere) with the barriers' vertex count, and the
-// straight key a maximum distance allows (+infinity for none).
-SeaField empty_field(const Prepared& p, const GridSpec& grid, const Window& window, const MetricSpec& metric);
+// straight key a maximum distance allows (+infinity for none). Not `filled`: the rasters' cells
+// are left for the caller to empty row by row with empty_rows() (on the threads that go on to
+// write them, so that the pages are first touched in parallel) before any is read.
+SeaField empty_field(const Prepared& p, const GridSpec& grid, const Window& window, const MetricSpec& metric,
+                     bool filled = true);
+void empty_rows(SeaField& field, int64_t r0, int64_t r1);
 inline double max_key_of(double max_distance) {
   return std::isfinite(max_distance) ? max_distance * max_distance : std::numeric_limits<double>::infinity();
 }

@@ -213,7 +213,8 @@ SeaField compute_sea(const SeedSet& seeds, const Barriers& barriers, const GridS
   const Searches& search = prepared->search;
   const int64_t bend_tests = shared ? 0 : prepared->bend_tests;
 
-  SeaField out = sea::empty_field(p, grid, window, options.metric);
+  // (Its rows emptied by the bands that answer them.)
+  SeaField out = sea::empty_field(p, grid, window, options.metric, false);
   out.bend_nodes = static_cast<int64_t>(search.nodes.size());
   out.bends_seconds = shared ? 0.0 : prepared->bends_seconds;
   const InteriorSpans interiors = interiors_of(seeds, options.grid_polygons.get(), grid, window);
@@ -250,6 +251,7 @@ SeaField compute_sea(const SeedSet& seeds, const Barriers& barriers, const GridS
     CellWorker& w = cell_workers[static_cast<size_t>(worker)];
     const int64_t r0 = band * kBlock, r1 = std::min(r0 + kBlock, window.height);
     Band& b = band_of[static_cast<size_t>(worker)];
+    sea::empty_rows(out, r0, r1);
     b.start(p, grid, window, r0, r1, drawing);
     const std::vector<std::vector<Spot>>& spots = b.spots;
     std::vector<Visibility::Ground>& grounds = b.grounds;
