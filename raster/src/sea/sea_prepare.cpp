@@ -301,8 +301,9 @@ TautTest taut_test(const Visibility& vis, const Node& node, Vec2 from) {
   t.slack = rounding_slack(s.at, from);
   t.line_bend = vis.frame() ? std::sqrt(t.ax * t.ax + t.ay * t.ay) * vis.frame()->deviation() : 0.0;
   t.from_vertex = vis.vertex_at(from) >= 0;
-  // The land next to this wedge runs counter-clockwise from ray k + 1 to ray k: its far ray (k),
-  // ranked from the arrival's direction as before() ranks it.
+  // The land next to this wedge runs counter-clockwise from ray k + 1 to ray k. Its far ray (k),
+  // by its counter-clockwise angle from the arrival's direction: in the left half-turn (0), the
+  // right one or straight back (1), or straight ahead at angle 0 (-1).
   const int n = static_cast<int>(s.rays.size());
   if (n == 0) return t;  // (no node: a vertex with no edges has no land to bend round)
   t.land_end = s.rays[static_cast<size_t>(node.wedge % n)];
@@ -331,8 +332,9 @@ bool taut(const Visibility& vis, const TautTest& t, Vec2 x) {
   }
   if (o == 0) return false;  // straight on (between barrier vertices), or straight back: no bend
   // The land lies in the counter-clockwise sweep from the arrival to the departure when its far
-  // ray comes after the arrival's direction and no later than the departure's (before(): the
-  // departure's half is o's).
+  // ray comes after the arrival's direction and no later than the departure's: ranked by their
+  // half-turns from the arrival's direction (the departure's is o's), then in one half-turn by
+  // their own orientation.
   bool land_ccw = false;
   if (!t.land_at_arrival) {
     const int half = o > 0 ? 0 : 1;

@@ -445,13 +445,13 @@ namespace {
 
 // Whether the direction from s.at towards x lies in wedge w of s, its sides included (either of
 // wedge_towards' readings on a side gives w). The wide wedge of two rays (every bend node's sea
-// wedge): x is outside it exactly when strictly inside the other, narrower one, left of its
-// first side and right of its last (two orientations, where ranking x among the rays takes
-// several); else by wedge_towards.
+// wedge): x is outside it exactly when strictly inside the other, narrower one, which runs
+// counter-clockwise from ray 1 - w to ray w: left of the first and right of the second (two
+// orientations, where ranking x among the rays takes several); else by wedge_towards.
 bool in_wedge(const GeodesicFrame* f, const Visibility::Star& s, int w, Vec2 x) {
   if (w == s.wide) {
-    const Vec2 first = s.rays[static_cast<size_t>(w)], last = s.rays[static_cast<size_t>(1 - w)];
-    return !(turn(f, s.at, last, x) > 0 && turn(f, s.at, first, x) < 0);
+    const Vec2 narrow_from = s.rays[static_cast<size_t>(1 - w)], narrow_to = s.rays[static_cast<size_t>(w)];
+    return !(turn(f, s.at, narrow_from, x) > 0 && turn(f, s.at, narrow_to, x) < 0);
   }
   return s.wedge_towards(x, true) == w || s.wedge_towards(x, false) == w;
 }
