@@ -36,6 +36,27 @@ SeaOptions on_the_ellipsoid() {
   return o;
 }
 
+// Twelve random archipelagos with their ports, planar and on the ellipsoid in turn, each
+// prepared by sea (its bend nodes settled) and handed to `use` (round, the preparation); a layout
+// refused as input (a port on an island or the boom) is skipped.
+template <class Use>
+void for_each_settled_archipelago(std::mt19937_64& rng, Use&& use) {
+  for (int round = 0; round < 12; ++round) {
+    const bool ellipsoid = round % 2 == 1;
+    auto to = [&](Vec2 v) { return ellipsoid ? Vec2{12.0 + 0.02 * v.x, 55.3 + 0.0125 * v.y} : v; };
+    const test::Archipelago a = test::random_archipelago(rng, round, to);
+    const GridSpec g = ellipsoid ? test::grid_of(40, 25, 0.02, 12.0, 55.8) : test::grid_of(40, 40, 1.0);
+    std::shared_ptr<const PreparedSea> prepared;
+    try {
+      prepared = prepare_sea(a.seeds, a.barriers, g, ellipsoid ? on_the_ellipsoid() : SeaOptions{});
+    } catch (const Error& e) {
+      EXPECT_EQ(e.kind(), ErrorKind::invalid_input) << e.what();
+      continue;
+    }
+    use(round, *prepared);
+  }
+}
+
 // Patches over blocks of 4 to 32 cells of grids from 0.0002 to 0.02 degrees across the western
 // Baltic's latitudes, from points anywhere within 3 degrees (inside the block too, metres from a
 // cell): every usable patch's length at every cell is within a hundredth of kPatchError of
@@ -102,20 +123,9 @@ TEST(SeaBlocks, ABoxProvedUntautHoldsNoTautDeparture) {
   std::mt19937_64 rng(77);
   std::uniform_real_distribution<double> u(0.0, 1.0);
   int64_t proved = 0, taut_boxes = 0, points = 0;
-  for (int round = 0; round < 12; ++round) {
-    const bool ellipsoid = round % 2 == 1;
-    auto to = [&](Vec2 v) { return ellipsoid ? Vec2{12.0 + 0.02 * v.x, 55.3 + 0.0125 * v.y} : v; };
-    const test::Archipelago a = test::random_archipelago(rng, round, to);
-    const GridSpec g = ellipsoid ? test::grid_of(40, 25, 0.02, 12.0, 55.8) : test::grid_of(40, 40, 1.0);
-    std::shared_ptr<const PreparedSea> prepared;
-    try {
-      prepared = prepare_sea(a.seeds, a.barriers, g, ellipsoid ? on_the_ellipsoid() : SeaOptions{});
-    } catch (const Error& e) {
-      ASSERT_EQ(e.kind(), ErrorKind::invalid_input) << e.what();  // a port on an island or the boom
-      continue;
-    }
-    const sea::Prepared& p = prepared->prepared;
-    const sea::Searches& s = prepared->search;
+  for_each_settled_archipelago(rng, [&](int round, const PreparedSea& prepared) {
+    const sea::Prepared& p = prepared.prepared;
+    const sea::Searches& s = prepared.search;
     for (size_t k = 0; k < s.nodes.size(); ++k) {
       if (!std::isfinite(s.dist[k].d)) continue;
       const sea::Node& n = s.nodes[k];
@@ -144,7 +154,7 @@ TEST(SeaBlocks, ABoxProvedUntautHoldsNoTautDeparture) {
         taut_boxes += any;
       }
     }
-  }
+  });
   std::printf("%lld boxes proved untaut, %lld boxes holding taut departures, %lld points\n",
               static_cast<long long>(proved), static_cast<long long>(taut_boxes), static_cast<long long>(points));
   EXPECT_GT(proved, 2000);
@@ -163,20 +173,9 @@ TEST(SeaBlocks, ATautTestTurnsRoundTheLand) {
   constexpr double kTurn = 2.0 * M_PI;
   auto ccw = [&](double from, double to) { return std::fmod(std::fmod(to - from, kTurn) + kTurn, kTurn); };
   int64_t taut = 0, untaut = 0;
-  for (int round = 0; round < 12; ++round) {
-    const bool ellipsoid = round % 2 == 1;
-    auto to = [&](Vec2 v) { return ellipsoid ? Vec2{12.0 + 0.02 * v.x, 55.3 + 0.0125 * v.y} : v; };
-    const test::Archipelago a = test::random_archipelago(rng, round, to);
-    const GridSpec g = ellipsoid ? test::grid_of(40, 25, 0.02, 12.0, 55.8) : test::grid_of(40, 40, 1.0);
-    std::shared_ptr<const PreparedSea> prepared;
-    try {
-      prepared = prepare_sea(a.seeds, a.barriers, g, ellipsoid ? on_the_ellipsoid() : SeaOptions{});
-    } catch (const Error& e) {
-      ASSERT_EQ(e.kind(), ErrorKind::invalid_input) << e.what();  // a port on an island or the boom
-      continue;
-    }
-    const sea::Prepared& p = prepared->prepared;
-    const sea::Searches& s = prepared->search;
+  for_each_settled_archipelago(rng, [&](int round, const PreparedSea& prepared) {
+    const sea::Prepared& p = prepared.prepared;
+    const sea::Searches& s = prepared.search;
     const double bend = p.vis.frame() ? p.vis.frame()->deviation() : 0.0;
     for (size_t k = 0; k < s.nodes.size(); ++k) {
       if (!std::isfinite(s.dist[k].d)) continue;
@@ -216,7 +215,7 @@ TEST(SeaBlocks, ATautTestTurnsRoundTheLand) {
         (got ? taut : untaut) += 1;
       }
     }
-  }
+  });
   std::printf("%lld departures taut, %lld not\n", static_cast<long long>(taut), static_cast<long long>(untaut));
   EXPECT_GT(taut, 5000);
   EXPECT_GT(untaut, 20000);
