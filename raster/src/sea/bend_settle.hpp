@@ -171,7 +171,7 @@ struct Searches {
 // run(farther) goes on from there, settling exactly what one run to `farther` would have. Nodes
 // not yet settled have dist +infinity, as if no seed reached them: a path that bends only at
 // settled nodes is found as before, and one through a node not settled is longer than `within`.
-// Thread safety: run() writes the Searches (b.dist, b.from, b.prev; b.all weighted): no other
+// Thread safety: run() writes the Searches (b.dist, b.from, b.prev, b.tauts; b.all weighted): no other
 // use of either meanwhile. Keeps a reference to `b`, which must outlive it and not move.
 //
 // With `near` (near_bends.hpp, over b's nodes; it must outlive the settling), a settled node
