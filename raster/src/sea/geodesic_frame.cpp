@@ -11,6 +11,8 @@
 #include <cmath>
 #include <vector>
 
+#include "sea/orient.hpp"
+
 #include "rv/field/error.hpp"
 
 namespace rv {
@@ -224,14 +226,11 @@ int GeodesicFrame::orient(const Vec2& a, const Vec2& b, const Vec2& c) const {
   if (a == b || c == a || c == b) return 0;
   const double l = (b.x - a.x) * (c.y - a.y);
   const double r = (b.y - a.y) * (c.x - a.x);
-  const double det = l - r;
-  // det is |b - a| times c's distance from the straight line through a and b; the geodesic's
-  // image lies within deviation() of that line, and the rounding of det within the planar
-  // predicate's bound (rv/sea orient.hpp) of it.
+  // The determinant is |b - a| times c's distance from the straight line through a and b; the
+  // geodesic's image lies within deviation() of that line, and the rounding of the determinant
+  // within the planar predicate's bound (rv/sea orient.hpp) of it.
   const double dx = b.x - a.x, dy = b.y - a.y;
-  const double bound = 4.0e-16 * (std::abs(l) + std::abs(r)) + std::sqrt(dx * dx + dy * dy) * deviation_;
-  if (det > bound) return 1;
-  if (det < -bound) return -1;
+  if (const int sign = sea::filtered_sign(l, r, std::sqrt(dx * dx + dy * dy) * deviation_)) return sign;
   return orient_exact(a, b, c);
 }
 

@@ -19,15 +19,21 @@ namespace rv::sea {
 // The exact evaluation, for the calls the filter below cannot decide.
 int orient_exact(const Vec2& a, const Vec2& b, const Vec2& c);
 
-inline int orient(const Vec2& a, const Vec2& b, const Vec2& c) {
-  const double l = (b.x - a.x) * (c.y - a.y);
-  const double r = (b.y - a.y) * (c.x - a.x);
+// The sign of an orientation determinant l - r (l and r its two products, as orient() forms them)
+// when the rounded difference lies farther from zero than its rounding error plus `beyond` (a
+// reading's own allowance: 0 in the plane); else 0, for an exact test to decide.
+inline int filtered_sign(double l, double r, double beyond = 0.0) {
   const double det = l - r;
   // The rounded determinant's error is below (3 + 16 eps) eps (|l| + |r|) (Shewchuk 1997, the
   // "ccwerrboundA" bound); the factor here is larger and safe.
-  const double bound = 4.0e-16 * (std::abs(l) + std::abs(r));
-  if (det > bound) return 1;
-  if (det < -bound) return -1;
+  const double bound = 4.0e-16 * (std::abs(l) + std::abs(r)) + beyond;
+  return det > bound ? 1 : det < -bound ? -1 : 0;
+}
+
+inline int orient(const Vec2& a, const Vec2& b, const Vec2& c) {
+  const double l = (b.x - a.x) * (c.y - a.y);
+  const double r = (b.y - a.y) * (c.x - a.x);
+  if (const int sign = filtered_sign(l, r)) return sign;
   // A difference of two doubles is zero exactly when they are equal, so a factor that rounds to
   // zero is zero: both products are then exactly zero, and so is the determinant.
   if ((b.x == a.x || c.y == a.y) && (b.y == a.y || c.x == a.x)) return 0;

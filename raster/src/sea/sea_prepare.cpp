@@ -295,8 +295,8 @@ TautTest taut_test(const Visibility& vis, const Node& node, Vec2 from) {
   t.ax = from.x - s.at.x;
   t.ay = from.y - s.at.y;
   // A site's nearest point from the node computed a hair off it: the seed's end is on the node.
-  const double near = vis.slack(s.at, from);
-  t.any = from == s.at || t.ax * t.ax + t.ay * t.ay <= near * near;
+  t.near = vis.slack(s.at, from);
+  t.any = from == s.at || t.ax * t.ax + t.ay * t.ay <= t.near * t.near;
   if (t.any) return t;
   t.slack = rounding_slack(s.at, from);
   t.line_bend = vis.frame() ? std::sqrt(t.ax * t.ax + t.ay * t.ay) * vis.frame()->deviation() : 0.0;
@@ -307,10 +307,10 @@ TautTest taut_test(const Visibility& vis, const Node& node, Vec2 from) {
   const int n = static_cast<int>(s.rays.size());
   if (n == 0) return t;  // (no node: a vertex with no edges has no land to bend round)
   t.land_end = s.rays[static_cast<size_t>(node.wedge % n)];
-  const int o = vis.orient(s.at, from, t.land_end);
+  t.land_side = vis.orient(s.at, from, t.land_end);
   const bool ahead = (t.land_end.x - s.at.x) * (from.x - s.at.x) + (t.land_end.y - s.at.y) * (from.y - s.at.y) > 0;
-  t.land_at_arrival = o == 0 && ahead;
-  t.land_half = o > 0 ? 0 : o < 0 ? 1 : ahead ? -1 : 1;
+  t.land_at_arrival = t.land_side == 0 && ahead;
+  t.land_half = t.land_side > 0 ? 0 : t.land_side < 0 ? 1 : ahead ? -1 : 1;
   return t;
 }
 
@@ -320,9 +320,8 @@ bool taut(const Visibility& vis, const TautTest& t, Vec2 x) {
   const double bx = x.x - t.at.x, by = x.y - t.at.y;
   // vis.orient(at, from, x): the filter of the reading's predicate (rv/sea orient.hpp; the
   // frame's adds the geodesic's bend off its chord), the predicate itself when it cannot decide.
-  const double l = t.ax * by, r = t.ay * bx, det = l - r;
-  const double bound = 4.0e-16 * (std::abs(l) + std::abs(r)) + t.line_bend;
-  const int o = det > bound ? 1 : det < -bound ? -1 : vis.orient(t.at, t.from, x);
+  int o = filtered_sign(t.ax * by, t.ay * bx, t.line_bend);
+  if (o == 0) o = vis.orient(t.at, t.from, x);
   // Straight on past the node, from a site's computed point (the foot of a perpendicular lies on
   // the straight path to rounding): the path grazes the node, and that rounding may have put the
   // straight path itself through the node's land. Its length is the straight one's.
@@ -348,23 +347,20 @@ bool taut(const Visibility& vis, const Node& node, Vec2 from, Vec2 x) {
   return taut(vis, taut_test(vis, node, from), x);
 }
 
-bool never_taut(const Visibility& vis, const Node& node, Vec2 from, Vec2 lo, Vec2 hi) {
+bool never_taut(const Visibility& vis, const TautTest& t, Vec2 lo, Vec2 hi) {
   // taut()'s cases by the land's far ray (angle L counter-clockwise from the arrival's
   // direction): L within the half-turn (side > 0), the departures are those with angle in
   // [L, half-turn): left of the arrival's line and not right of the ray; beyond it (side < 0),
   // in (half-turn, L): right of the arrival's line and right of the ray. On the arrival's line
-  // (side 0) or from the node itself, no proof is tried.
-  const Visibility::Star& s = vis.vertex_star(node.vertex);
-  const Vec2 v = s.at;
-  const double ax = from.x - v.x, ay = from.y - v.y;
-  const double near = vis.slack(v, from);
-  if (from == v || ax * ax + ay * ay <= 4.0 * near * near || s.rays.empty()) return false;
-  const Vec2 land_end = s.rays[static_cast<size_t>(node.wedge % static_cast<int>(s.rays.size()))];
-  const int side = vis.orient(v, from, land_end);
-  if (side == 0) return false;
+  // (side 0), from the node itself or from within twice the reading's slack of it, no proof is
+  // tried.
+  const Vec2 v = t.at, land_end = t.land_end;
+  const double ax = t.ax, ay = t.ay;
+  const int side = t.land_side;
+  if (t.any || side == 0 || ax * ax + ay * ay <= 4.0 * t.near * t.near) return false;
   const double la = std::hypot(ax, ay);
   const double lx = land_end.x - v.x, ly = land_end.y - v.y, ll = std::hypot(lx, ly);
-  const double r = rounding_slack(v, from);
+  const double r = t.slack;
   const Vec2 corners[4] = {lo, Vec2{hi.x, lo.y}, Vec2{lo.x, hi.y}, hi};
   bool out_arrival = true, out_ray = true;        // every corner outside that half-plane
   bool left = true, right = true, behind = true;  // no point of the box near the straight continuation

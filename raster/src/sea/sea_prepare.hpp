@@ -221,22 +221,24 @@ bool taut(const Visibility& vis, const Node& node, Vec2 from, Vec2 x);
 struct TautTest {
   Vec2 at{}, from{}, land_end{};
   double ax = 0.0, ay = 0.0;  // from - at
+  double near = 0.0;          // Visibility::slack(at, from)
   double slack = 0.0;         // rounding_slack(at, from): the straight-on allowance
   double line_bend = 0.0;     // |from - at| times the frame's deviation (0 planar)
-  bool any = false;           // from the node itself (or within Visibility::slack): any departure
+  bool any = false;           // from the node itself (or within `near`): any departure
   bool from_vertex = false;   // from is a barrier vertex
   bool land_at_arrival = false;
+  int land_side = 0;  // orient(at, from, land_end); 0 also for a vertex without rays
   int land_half = 0;  // where land_end lies from the arrival's direction: 0 left, 1 right or straight back, -1 ahead
 };
 TautTest taut_test(const Visibility& vis, const Node& node, Vec2 from);
 bool taut(const Visibility& vis, const TautTest& t, Vec2 x);
 
-// Whether taut(vis, node, from, x) is false for every x of the box [lo, hi] (plane coordinates),
-// proved from the box's corners: the departures taut() accepts lie in the sector between the
-// land's far ray at the node and the arrival's straight continuation (narrower than a half-turn),
-// and the box lies wholly outside one of the two half-planes that bound it, by more than the
-// reading's slack (and, beside the arrival's line, the straight-on allowance). False when unsure.
-bool never_taut(const Visibility& vis, const Node& node, Vec2 from, Vec2 lo, Vec2 hi);
+// Whether taut(vis, t, x) is false for every x of the box [lo, hi] (plane coordinates), proved
+// from the box's corners: the departures taut() accepts lie in the sector between the land's far
+// ray at the node and the arrival's straight continuation (narrower than a half-turn), and the
+// box lies wholly outside one of the two half-planes that bound it, by more than the reading's
+// slack (and, beside the arrival's line, the straight-on allowance). False when unsure.
+bool never_taut(const Visibility& vis, const TautTest& t, Vec2 lo, Vec2 hi);
 
 // An empty field of the window (no owner anywhere) with the barriers' vertex count, and the
 // straight key a maximum distance allows (+infinity for none). Not `filled`: the rasters' cells

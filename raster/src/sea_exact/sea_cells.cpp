@@ -361,7 +361,7 @@ std::vector<Candidate> block_roots(const CellRun& run, CellWorker& w, Vec2 lo, V
       // its proof, the dearer test.)
       const auto k = static_cast<size_t>(cand.item - s.site_items());
       const Node& n = s.nodes[k];
-      if (never_taut(p.vis, n, s.from[k], lo, hi)) continue;
+      if (never_taut(p.vis, s.tauts[k], lo, hi)) continue;
       sight = p.vis.sight_box(p.vis.at_vertex(n.vertex, n.wedge), lo, hi);
     }
     ++w.tests;

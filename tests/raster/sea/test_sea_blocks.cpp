@@ -137,7 +137,7 @@ TEST(SeaBlocks, ABoxProvedUntautHoldsNoTautDeparture) {
         const double size = scale * std::pow(10.0, -3.0 + 3.6 * u(rng));
         const double cx = v.x + 3.0 * size * (2.0 * u(rng) - 1.0), cy = v.y + 3.0 * size * (2.0 * u(rng) - 1.0);
         const Vec2 lo{cx - size * u(rng), cy - size * u(rng)}, hi{cx + size * u(rng), cy + size * u(rng)};
-        const bool untaut = sea::never_taut(p.vis, n, s.from[k], lo, hi);
+        const bool untaut = sea::never_taut(p.vis, s.tauts[k], lo, hi);
         bool any = false;
         for (int i = 0; i < 12; ++i)
           for (int j = 0; j < 12; ++j) {
