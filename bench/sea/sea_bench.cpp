@@ -8,6 +8,7 @@
 //
 //   sea_bench [--data fixtures/baltic_west.gpkg | --wiggly N] [--ports 200] [--res 1000] [--runs 3] [--threads 0]
 //             [--geodesic 1] [--ports-out FILE.geojson] [--cell-by-cell 1] [--sweeps 1] [--grounds 1]
+//             [--paint 1|2]
 //
 // --geodesic 1: the fixture in longitude/latitude, the grid in degrees (--res 0.01), both fields
 // geodesic (the straight one the exact geodesic engine's). --ports-out: the ports chosen, as a
@@ -24,6 +25,10 @@
 // sites' regions (sea_map/site_sight.hpp), against the field by sea, three rounds. The exit status
 // is 1 where any cell differs.
 //
+// --paint 1 (or 2, planar only): afterwards, the field painted root by root in increasing order
+// of distance, each root's square grown while it still wins on its sides, compared with the field
+// cell by cell (paint_measure.cpp); the exit status is 1 where a cell it decided differs.
+//
 // --wiggly N: instead of the fixture, a synthetic archipelago of nine fractal-like islands of
 // N vertices in all (each island's radius a sum of random harmonics), over the fixture's box in
 // UTM 33N, four owners: how the engine's time grows with the coast's vertex count.
@@ -38,6 +43,7 @@
 #include <string>
 #include <vector>
 
+#include "paint_measure.hpp"
 #include "rv/engine/engine.hpp"
 #include "rv/gdal/seed_reader.hpp"
 #include "rv/sea/geodesic_frame.hpp"
@@ -207,7 +213,8 @@ void measure_sweeps(const Visibility& vis, const GeodesicFrame* frame, const Gri
 
 int main(int argc, char** argv) {
   std::string data = "fixtures/baltic_west.gpkg", ports_out;
-  int ports = 200, runs = 3, threads = 0, wiggly = 0, geodesic = 0, cell_by_cell = 0, sweeps = 0, grounds = 0;
+  int ports = 200, runs = 3, threads = 0, wiggly = 0, geodesic = 0, cell_by_cell = 0, sweeps = 0, grounds = 0,
+      paint = 0;
   double res = 1000.0;
   for (int i = 1; i + 1 < argc; i += 2) {
     const std::string a = argv[i];
@@ -227,6 +234,8 @@ int main(int argc, char** argv) {
       geodesic = std::atoi(argv[i + 1]);
     else if (a == "--cell-by-cell")
       cell_by_cell = std::atoi(argv[i + 1]);
+    else if (a == "--paint")
+      paint = std::atoi(argv[i + 1]);
     else if (a == "--sweeps")
       sweeps = std::atoi(argv[i + 1]);
     else if (a == "--grounds")
@@ -371,5 +380,6 @@ int main(int argc, char** argv) {
   std::printf("field digest %016llx\n", static_cast<unsigned long long>(h));
   if (sweeps) measure_sweeps(vis, frame.get(), grid, last);
   if (grounds && !measure_grounds(seeds, barriers, grid, metric, last)) return 1;
+  if (paint && !measure_paint(seeds, barriers, grid, metric, last, paint == 2)) return 1;
   return 0;
 }
