@@ -3,7 +3,7 @@
 // The cells that see their straight nearest site take its distance (sea_map/site_sight.hpp);
 // every other sea cell starts at +infinity. Then every root (the point sites at 0, the settled
 // bend nodes at their distance D) in increasing order of D draws the region it sees
-// (sea_map/visible_region.hpp) over a square round it, and each cell of that region where the
+// (sea/visible_region.hpp) over a square round it, and each cell of that region where the
 // path is taut at the root takes D + length when that is less than what the cell holds. A
 // root's region is star-shaped from it (a point on the way from a root to a cell it serves is
 // served by it), so the square needs to grow only while the root still wins somewhere on its
@@ -38,10 +38,10 @@
 #include "sea/bend_settle.hpp"
 #include "sea/edge_index.hpp"
 #include "sea/sea_prepare.hpp"
+#include "sea/visible_region.hpp"
 #include "sea_map/ground_rows.hpp"
 #include "sea_map/row_pieces.hpp"
 #include "sea_map/site_sight.hpp"
-#include "sea_map/visible_region.hpp"
 
 using namespace rv;
 

@@ -15,7 +15,7 @@
 // GeoJSON file (owner field "owner"), for timing whole jobs with the CLI. --cell-by-cell 1: the
 // exact engine answers every cell alone (SeaOptions::cell_by_cell), the reference of its blocks.
 // --sweeps 1: afterwards, what a shortest-path-map engine's visibility sweeps would cost: from
-// every bend node of every last bend the field uses, the region it sees (sea_map/visible_region.hpp)
+// every bend node of every last bend the field uses, the region it sees (sea/visible_region.hpp)
 // within a square of k times that bend's region's radius (its farthest cell), k = 1, 2, 4, one
 // thread, timed with the edges gathered from an index.
 // --grounds 1: afterwards, every cell's ground drawn row by row (sea_map/ground_rows.hpp) against
@@ -51,9 +51,9 @@
 #include "rv/sea/visibility.hpp"
 #include "sea/edge_index.hpp"
 #include "sea/sea_prepare.hpp"
+#include "sea/visible_region.hpp"
 #include "sea_map/ground_rows.hpp"
 #include "sea_map/site_sight.hpp"
-#include "sea_map/visible_region.hpp"
 
 using namespace rv;
 

@@ -38,10 +38,10 @@
 #include "rv/field/parallel.hpp"
 #include "rv/sea/sea_field.hpp"
 #include "sea/bend_settle.hpp"
+#include "sea/visible_region.hpp"
 #include "sea_exact/sea_cells.hpp"
 #include "sea_map/ground_rows.hpp"
 #include "sea_map/site_sight.hpp"
-#include "sea_map/visible_region.hpp"
 
 namespace rv {
 namespace {

@@ -8,7 +8,7 @@
 
 #include "rv/field/error.hpp"
 #include "rv/field/parallel.hpp"
-#include "sea_map/visible_region.hpp"
+#include "sea/visible_region.hpp"
 
 namespace rv::sea {
 

@@ -19,8 +19,8 @@
 #include "rv/engine/engine.hpp"
 #include "rv/field/error.hpp"
 #include "sea/sea_prepare.hpp"
+#include "sea/visible_region.hpp"
 #include "sea_map/site_sight.hpp"
-#include "sea_map/visible_region.hpp"
 #include "seed_gen.hpp"
 
 namespace rv {

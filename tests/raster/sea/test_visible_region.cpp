@@ -1,4 +1,4 @@
-// The region a point sees within a box (sea_map/visible_region.hpp) against the exact rule
+// The region a point sees within a box (sea/visible_region.hpp) against the exact rule
 // (Visibility::sees), point by point: random archipelagos whose whole-number corners make
 // collinear and coincident cases often (islands that overlap and touch, a boom across them), seen
 // from every barrier vertex in each of its wedges, from points at sea and from a port on a coast,
@@ -9,6 +9,7 @@
 #include <cmath>
 #include <cstdio>
 #include <memory>
+#include <numbers>
 #include <random>
 #include <sstream>
 #include <string>
@@ -18,7 +19,7 @@
 #include "rv/field/error.hpp"
 #include "rv/sea/geodesic_frame.hpp"
 #include "rv/sea/visibility.hpp"
-#include "sea_map/visible_region.hpp"
+#include "sea/visible_region.hpp"
 
 namespace rv {
 namespace {
@@ -207,6 +208,44 @@ TEST(VisibleRegion, AWallsShadowIsTheClosedForm) {
   // Three of the box's corners (the fourth is in the shadow), the wall's ends, and where the
   // shadow's sides meet the box.
   EXPECT_EQ(region.ring.size(), 7u);
+}
+
+// A coast that goes on all but straight past the end of a vertex's wedge side: the next edge's
+// far end a rounding off the side's line, so that its angle from the side may come out a
+// rounding below a whole turn while the orientation puts it a rounding above none. That piece
+// was once taken as spanning the whole turn, and the ring collapsed onto the side's end (found by
+// near_bends' far sight on an archipelago on the ellipsoid). Random directions and offsets of a
+// few units in the last place, every wedge of the vertex, the contract checked.
+TEST(VisibleRegion, AnEdgeAllButAlongAWedgesSideSpansNoWholeTurn) {
+  std::mt19937_64 rng(2076);
+  std::uniform_real_distribution<double> angle(0.0, 2.0 * std::numbers::pi), ulps(-4.0, 4.0);
+  Counts counts;
+  for (int trial = 0; trial < 400; ++trial) {
+    const double t = angle(rng), c = std::cos(t), s = std::sin(t);
+    const Vec2 o{1000.0 * c + 20000.0, 1000.0 * s - 20000.0};
+    const Vec2 p{o.x + 5000.0 * c, o.y + 5000.0 * s};
+    // Beyond p on the line from o, moved across it by a few units in the last place.
+    const double off = ulps(rng) * 4e-12;
+    const Vec2 x{p.x + 2000.0 * c - off * s, p.y + 2000.0 * s + off * c};
+    // Land on one side of o-p-x (either, by the trial's parity).
+    const double side = trial % 2 == 0 ? 1.0 : -1.0;
+    const Vec2 x2{x.x - side * 3000.0 * s, x.y + side * 3000.0 * c},
+        o2{o.x - side * 3000.0 * s, o.y + side * 3000.0 * c};
+    Barriers b;
+    b.add_polygon({{o, p, x, x2, o2}}, "coast");
+    const Visibility vis(b);
+    const int32_t v = vis.vertex_at(o);
+    ASSERT_GE(v, 0);
+    const auto edges = sea::barrier_edges(vis);
+    for (int w = 0; w < vis.vertex_star(v).wedges(); ++w) {
+      check_region(vis, vis.at_vertex(v, w), {o.x - 6000.0, o.y - 6000.0}, {o.x + 6000.0, o.y + 6000.0}, edges, rng, {},
+                   counts);
+      if (HasFatalFailure()) return;
+    }
+  }
+  counts.print("edges all but along a side");
+  EXPECT_GE(counts.regions, 400);
+  EXPECT_GT(counts.seen, 50000);
 }
 
 TEST(VisibleRegion, RefusesABoxWithoutThePointAndAnUnchosenWedge) {

@@ -1,4 +1,4 @@
-#include "sea_map/visible_region.hpp"
+#include "sea/visible_region.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -116,8 +116,12 @@ std::vector<Piece> pieces_round(Vec2 o, double start, Vec2 lo, Vec2 hi, const st
     if (cross < 0.0) std::swap(a, b);
     double t0 = angle_from(start, o, a), t1 = angle_from(start, o, b);
     // A piece subtends less than a half-turn: the other way round means the sign of `cross`
-    // and the angles disagree by rounding (a piece all but radial), and the angles decide.
-    if (std::fmod(t1 - t0 + kTurn, kTurn) > std::numbers::pi) {
+    // and the angles disagree by rounding (a piece all but radial), and the angles decide. (The
+    // way round from t0 to t1 taken without fmod(t1 - t0 + 2 pi, 2 pi): with t0 = 0 and t1 a
+    // rounding below 2 pi, the sum rounded to 4 pi and the piece, all but radial along the
+    // first side, was taken as spanning the whole turn.)
+    const double way = t1 >= t0 ? t1 - t0 : t1 - t0 + kTurn;
+    if (way > std::numbers::pi) {
       std::swap(a, b);
       std::swap(t0, t1);
     }

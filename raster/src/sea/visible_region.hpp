@@ -1,6 +1,7 @@
 // The part of a box a point sees past the barriers: a star-shaped ring round the point, for an
 // engine that draws a root's region row by row (the shortest-path map) instead of proving
-// visibility block by block or cell by cell (internal to rv_raster).
+// visibility block by block or cell by cell (sea_map/site_sight.hpp), and for the directions in
+// which a bend node sees far (near_bends.hpp's far sight). Internal to rv_raster.
 //
 // Made by a rotational sweep in the plane of the visibility's reading. The barrier edges that
 // meet the box, cut where they cross (overlapping polygons, lines across land), are clipped to
