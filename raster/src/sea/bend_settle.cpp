@@ -57,7 +57,7 @@ Searches::Searches(const Prepared& prepared, const std::vector<int32_t>& geometr
 
 Best Searches::best_path(const Place& at, const Spot& spot, Best best, int64_t& tests, int32_t skip_vertex,
                          std::vector<int32_t>* blockers, int32_t first, int32_t* winner, uint64_t since,
-                         double searched, double cap, double near_radius) const {
+                         double searched, double cap, double near_radius, const NearBends* far, size_t far_node) const {
   const Vec2 x = at.at;
   int32_t won = -1;
   // On the ellipsoid a candidate's chord decides most candidates before its inverse problem.
@@ -101,7 +101,7 @@ Best Searches::best_path(const Place& at, const Spot& spot, Best best, int64_t& 
   if (first >= 0 && std::isfinite(all.weight(first))) consider_item(first);
   all.within(
       x, [&] { return std::min(best.d + 1e-12 * best.d, cap); }, [&](int32_t item, double) { consider_item(item); },
-      since, searched);
+      since, searched, [&](const RootTree::Box& box) { return !far || far->may_see(far_node, x, box.lo, box.hi); });
   if (winner) *winner = won >= 0 ? won : first;
   return best;
 }
@@ -337,7 +337,7 @@ void Settling::run_near(int64_t& tests, const std::atomic<bool>* cancel, double 
     int32_t won = -1;
     // (The near nodes are left out: each hands its path over when it settles.)
     const Best val = b.best_path(at, p.vertex_spot(node.vertex), st.last_val[u], tests, node.vertex, &st.hint, -1, &won,
-                                 st.seen_at[u], st.seen_bound[u], cap, near.radius[u]);
+                                 st.seen_at[u], st.seen_bound[u], cap, near.radius[u], &near, u);
     if (won >= 0) st.last_root[u] = won;
     st.last_val[u] = val;
     st.seen_at[u] = b.all.stamp();

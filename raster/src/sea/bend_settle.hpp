@@ -26,6 +26,8 @@ inline bool beyond(double bound, double best) { return bound > best + 1e-12 * be
 
 // The searches every evaluation runs: the straight nearest site, and the best path over the
 // sites seen and the bend nodes settled so far, in one tree ordered by weight plus distance.
+struct NearBends;  // near_bends.hpp
+
 struct Searches {
   const Prepared& p;
   RootTree sites;  // the geometric sites by their boxes, weight 0
@@ -159,10 +161,14 @@ struct Searches {
   //
   // `near_radius` (>= 0): bend nodes whose vertex lies within it of `at` in the plane (length())
   // are not searched either: a settling with near bends hands their paths over itself.
+  //
+  // `far` (with `at` node `far_node`'s place): the roots its far sight proves hidden
+  // (NearBends::may_see) are passed over unweighed, whole subtrees of them at once.
   Best best_path(const Place& at, const Spot& spot, Best best, int64_t& tests, int32_t skip_vertex = -1,
                  std::vector<int32_t>* blockers = nullptr, int32_t first = -1, int32_t* winner = nullptr,
                  uint64_t since = 0, double searched = std::numeric_limits<double>::infinity(),
-                 double cap = std::numeric_limits<double>::infinity(), double near_radius = -1.0) const;
+                 double cap = std::numeric_limits<double>::infinity(), double near_radius = -1.0,
+                 const NearBends* far = nullptr, size_t far_node = 0) const;
 };
 
 // The settling of a Searches' bend nodes, resumable: run(within) settles every node whose
@@ -177,9 +183,9 @@ struct Searches {
 // With `near` (near_bends.hpp, over b's nodes; it must outlive the settling), a settled node
 // hands its distance to the nearby nodes it sees at once, and a node's search asks only for the
 // roots beyond its reach: its bound rises a reach at a time, not by the gap to its nearest
-// unsettled neighbour. Every node's answer is the same with or without it, to the bit (the least
-// path over every root, ties by Best's order).
-struct NearBends;
+// unsettled neighbour; its search passes over the roots the node's far sight proves hidden. Every
+// node's answer is the same with or without it, to the bit (the least path over every root, ties
+// by Best's order).
 class Settling {
  public:
   explicit Settling(Searches& b, const NearBends* near = nullptr);
@@ -236,7 +242,7 @@ class PreparedSea {
     return n;
   }
   // The barrier edges cut where they cross, as visible regions read them
-  // (sea_map/visible_region.hpp barrier_edges), and their index: made at the first call (from
+  // (sea/visible_region.hpp barrier_edges), and their index: made at the first call (from
   // any thread) and kept for every window drawn from this preparation (sea_exact.cpp).
   struct CutEdges {
     std::vector<sea::EdgeIndex::Segment> edges;

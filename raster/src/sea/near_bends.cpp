@@ -7,12 +7,67 @@
 
 #include "rv/field/error.hpp"
 #include "rv/field/parallel.hpp"
+#include "rv/sea/geodesic_frame.hpp"
+#include "sea/edge_index.hpp"
 #include "sea/root_tree.hpp"
+#include "sea/visible_region.hpp"
 
 namespace rv::sea {
 
+namespace {
+
+// The directions from `at` to the parts of `region`'s ring within `tol` of the sides of its
+// square [lo, hi] (a spike's tip on a side is such a part), widened by `w`, into `out`.
+void far_cones(Vec2 at, const VisibleRegion& region, Vec2 lo, Vec2 hi, double tol, double w,
+               std::vector<std::pair<double, double>>& out) {
+  const Vec2 in_lo{lo.x + tol, lo.y + tol}, in_hi{hi.x - tol, hi.y - tol};
+  auto add = [&](Vec2 a, Vec2 b) {
+    double p = pseudo_angle(a.x - at.x, a.y - at.y), q = pseudo_angle(b.x - at.x, b.y - at.y);
+    if (p > q) std::swap(p, q);
+    // (A segment clear of `at` spans less than a half-turn: the other way round when wider.)
+    if (q - p > 2.0) {
+      out.emplace_back(q - w, 4.0);
+      out.emplace_back(0.0, p + w);
+      return;
+    }
+    const double c0 = p - w, c1 = q + w;
+    out.emplace_back(std::max(0.0, c0), std::min(4.0, c1));
+    if (c0 < 0.0) out.emplace_back(c0 + 4.0, 4.0);
+    if (c1 > 4.0) out.emplace_back(0.0, c1 - 4.0);
+  };
+  const size_t n = region.ring.size();
+  for (size_t i = 0; i < n; ++i) {
+    const Vec2 a = region.ring[i], b = region.ring[(i + 1) % n];
+    // The part of a-b inside the inner square (parameters t0 .. t1, Liang-Barsky); the rest is
+    // within tol of a side.
+    double t0 = 0.0, t1 = 1.0;
+    const double d[2] = {b.x - a.x, b.y - a.y}, o[2] = {a.x, a.y}, l[2] = {in_lo.x, in_lo.y}, h[2] = {in_hi.x, in_hi.y};
+    bool inside = true;
+    for (int axis = 0; axis < 2 && inside; ++axis) {
+      if (d[axis] == 0.0) {
+        inside = o[axis] >= l[axis] && o[axis] <= h[axis];
+        continue;
+      }
+      double s0 = (l[axis] - o[axis]) / d[axis], s1 = (h[axis] - o[axis]) / d[axis];
+      if (s0 > s1) std::swap(s0, s1);
+      t0 = std::max(t0, s0);
+      t1 = std::min(t1, s1);
+      inside = t0 <= t1;
+    }
+    auto at_t = [&](double t) { return Vec2{a.x + t * d[0], a.y + t * d[1]}; };
+    if (!inside) {
+      add(a, b);
+      continue;
+    }
+    if (t0 > 0.0) add(a, at_t(t0));
+    if (t1 < 1.0) add(at_t(t1), b);
+  }
+}
+
+}  // namespace
+
 NearBends near_bends(const Prepared& p, const std::vector<Node>& nodes, int k, int threads,
-                     const std::atomic<bool>* cancel) {
+                     const std::atomic<bool>* cancel, double far_factor) {
   const Visibility& vis = p.vis;
   const size_t n = nodes.size();
   NearBends out;
@@ -25,6 +80,13 @@ NearBends near_bends(const Prepared& p, const std::vector<Node>& nodes, int k, i
   for (size_t i = 0; i < n; ++i) tree.set_weight(static_cast<int32_t>(i), 0.0);
   std::vector<std::vector<int32_t>> near_of(n);  // per node, its near roots that see it
   std::vector<int64_t> tests(n, 0);
+  out.far_half.assign(n, 0.0);
+  std::vector<std::vector<std::pair<double, double>>> cones(n);
+  std::vector<int64_t> far_edges(n, 0);
+  const std::vector<EdgeIndex::Segment> edges =
+      far_factor > 0.0 ? barrier_edges(vis) : std::vector<EdgeIndex::Segment>{};
+  const EdgeIndex index(edges, {});
+  const double deviation = vis.frame() ? vis.frame()->deviation() : 0.0;
   detail::parallel_for(resolve_threads(threads), static_cast<int64_t>(n), [&](int64_t task, int) {
     if (cancel && (task & 63) == 0 && cancel->load(std::memory_order_relaxed))
       throw Error(ErrorKind::cancelled, "computation cancelled");
@@ -58,7 +120,39 @@ NearBends near_bends(const Prepared& p, const std::vector<Node>& nodes, int k, i
       ++tests[v];
       if (vis.sees(at, vis.at_vertex(root.vertex, root.wedge))) near_of[v].push_back(r);
     }
+    // Far sight.
+    const double h = far_factor * radius;
+    if (!(h > 0.0) || !std::isfinite(h)) return;
+    thread_local std::vector<int32_t> meet;
+    thread_local EdgeIndex::Stamps stamps;
+    const Vec2 lo{at.at.x - h, at.at.y - h}, hi{at.at.x + h, at.at.y + h};
+    index.edges_in_box(lo, hi, stamps, meet);
+    far_edges[v] = static_cast<int64_t>(meet.size());
+    const VisibleRegion region = visible_region(vis, at, lo, hi, edges, &meet);
+    if (region.blurred || region.ring.empty()) return;
+    const double tol = 4.0 * region.margin + 2.0 * deviation + 1e-9 * h;
+    if (!(tol < 0.25 * h)) return;
+    std::vector<std::pair<double, double>>& c = cones[v];
+    far_cones(at.at, region, lo, hi, tol, 4.0 * tol / h, c);
+    // Merged.
+    std::sort(c.begin(), c.end());
+    size_t m = 0;
+    for (const auto& iv : c) {
+      if (m > 0 && iv.first <= c[m - 1].second) {
+        c[m - 1].second = std::max(c[m - 1].second, iv.second);
+      } else {
+        c[m++] = iv;
+      }
+    }
+    c.resize(m);
+    out.far_half[v] = h;
   });
+  out.cone_first.assign(n + 1, 0);
+  for (size_t v = 0; v < n; ++v) {
+    out.far_edges += far_edges[v];
+    out.cone_first[v + 1] = out.cone_first[v] + static_cast<int32_t>(cones[v].size());
+    out.cones.insert(out.cones.end(), cones[v].begin(), cones[v].end());
+  }
   out.first.assign(n + 1, 0);
   for (size_t v = 0; v < n; ++v) {
     out.tests += tests[v];

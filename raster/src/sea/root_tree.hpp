@@ -49,15 +49,21 @@ class RootTree {
   template <class L, class F>
   void within(Vec2 x, L&& limit, F&& visit, uint64_t since = 0,
               double seen = std::numeric_limits<double>::infinity()) const {
+    within(x, limit, visit, since, seen, [](const Box&) { return true; });
+  }
+  // The same over the items and subtrees whose box `keep(box)` holds: the caller's proof that
+  // none of the others can serve (for a subtree's box, none of the items inside it).
+  template <class L, class F, class K>
+  void within(Vec2 x, L&& limit, F&& visit, uint64_t since, double seen, K&& keep) const {
     within_by([&](const Box& b) { return box_distance(b, x); }, [&](const Box& b) { return far_distance(b, x); }, limit,
-              visit, since, seen);
+              visit, since, seen, keep);
   }
   // The same for every point of box q at once: bounds of weight + the distance between the
   // item's box and q (a lower bound for each point of q).
   template <class L, class F>
   void within(const Box& q, L&& limit, F&& visit) const {
     within_by([&](const Box& b) { return boxes_distance(b, q); }, [](const Box&) { return 0.0; }, limit, visit, 0,
-              std::numeric_limits<double>::infinity());
+              std::numeric_limits<double>::infinity(), [](const Box&) { return true; });
   }
 
  private:
@@ -90,8 +96,8 @@ class RootTree {
     return std::sqrt(dx * dx + dy * dy) * scale_;
   }
   // `far(b)`: at least distance(c) for every box c inside b (read only while `seen` is finite).
-  template <class D, class Far, class L, class F>
-  void within_by(D&& distance, Far&& far, L&& limit, F&& visit, uint64_t since, double seen) const;
+  template <class D, class Far, class L, class F, class K>
+  void within_by(D&& distance, Far&& far, L&& limit, F&& visit, uint64_t since, double seen, K&& keep) const;
 
   double scale_ = 1.0;
   std::vector<Node> nodes_;
@@ -133,8 +139,8 @@ void RootTree::nearest(Vec2 x, F&& visit) const {
   }
 }
 
-template <class D, class Far, class L, class F>
-void RootTree::within_by(D&& distance, Far&& far, L&& limit, F&& visit, uint64_t since, double seen) const {
+template <class D, class Far, class L, class F, class K>
+void RootTree::within_by(D&& distance, Far&& far, L&& limit, F&& visit, uint64_t since, double seen, K&& keep) const {
   if (nodes_.empty()) return;
   const bool all_seen = std::isinf(seen) && seen > 0.0;
   int32_t stack[128];
@@ -146,6 +152,7 @@ void RootTree::within_by(D&& distance, Far&& far, L&& limit, F&& visit, uint64_t
     // (Every item searched before: stamped by then, and its bound at most `seen`, which the
     // heaviest item at the box's farthest corner bounds.)
     if (n.max_stamp <= since && (all_seen || n.max_weight + far(n.box) <= seen)) continue;
+    if (!keep(n.box)) continue;
     if (n.left < 0) {
       for (int32_t i = n.first; i < n.first + n.count; ++i) {
         const int32_t item = order_[static_cast<size_t>(i)];
@@ -153,7 +160,7 @@ void RootTree::within_by(D&& distance, Far&& far, L&& limit, F&& visit, uint64_t
         if (!std::isfinite(w) || (all_seen && stamp_[static_cast<size_t>(item)] <= since)) continue;
         const double bound = w + distance(boxes_[static_cast<size_t>(item)]);
         if (stamp_[static_cast<size_t>(item)] <= since && bound <= seen) continue;
-        if (bound <= limit()) visit(item, bound);
+        if (bound <= limit() && keep(boxes_[static_cast<size_t>(item)])) visit(item, bound);
       }
       continue;
     }

@@ -11,7 +11,9 @@
 #include <cstdint>
 #include <limits>
 #include <memory>
+#include <numbers>
 #include <random>
+#include <tuple>
 #include <vector>
 
 #include "geodesic_oracle.hpp"
@@ -112,6 +114,7 @@ void expect_same_nodes(const sea::Searches& want, const sea::Searches& got, cons
 struct Counts {
   int64_t layouts = 0, settlings = 0, nodes = 0, settled = 0, paused = 0;
   int64_t evaluations_without = 0, evaluations_with = 0;
+  int64_t tests_far = 0, tests_near_only = 0;  // visibility tests with k = 1, with and without far sight
 };
 
 // Over every owner's sites of the layout: the settling without near bends, and with them for
@@ -131,13 +134,17 @@ void compare_settlings(const Layout& layout, Counts& counts) {
     std::sort(ds.begin(), ds.end());
     counts.nodes += static_cast<int64_t>(want.nodes.size());
     counts.settled += static_cast<int64_t>(ds.size());
-    for (const int k : {1, 3, 16}) {
-      const sea::NearBends near = sea::near_bends(p, nodes, k, k == 3 ? 2 : 1, nullptr);
+    // (k = 1 twice: with far sight and without, the one that passes roots over unweighed.)
+    for (const auto& [k, far] :
+         {std::pair{1, sea::kFarFactor}, {1, 0.0}, {3, sea::kFarFactor}, {16, sea::kFarFactor}}) {
+      const sea::NearBends near = sea::near_bends(p, nodes, k, k == 3 ? 2 : 1, nullptr, far);
       sea::Searches got(p, sites);
-      sea::Settling(got, &near).run(tests, nullptr);
+      int64_t run_tests = 0;
+      sea::Settling(got, &near).run(run_tests, nullptr);
       ++counts.settlings;
       if (k == 16) counts.evaluations_with += got.evaluations;
-      expect_same_nodes(want, got, "one run");
+      if (k == 1) (far > 0.0 ? counts.tests_far : counts.tests_near_only) += run_tests;
+      expect_same_nodes(want, got, far > 0.0 ? "one run" : "one run without far sight");
       if (ds.empty()) continue;
       // Paused at a fifth, a half and all but the last of the distances, then resumed: the nodes
       // settled at each pause are exactly those within it.
@@ -175,16 +182,132 @@ TEST(NearBends, ASettlingWithNearBendsSettlesEveryNodeAsTheOneWithout) {
   for (const auto& [name, c] : {std::pair{"planar", planar}, {"ellipsoid", ellipsoid}, {"bay", shadows}})
     std::printf(
         "%-9s layouts %lld, settlings %lld, nodes %lld (settled %lld), pauses %lld; evaluations without "
-        "near bends %lld, with (k = 16) %lld\n",
+        "near bends %lld, with (k = 16) %lld; visibility tests (k = 1) %lld with far sight, %lld without\n",
         name, static_cast<long long>(c.layouts), static_cast<long long>(c.settlings), static_cast<long long>(c.nodes),
         static_cast<long long>(c.settled), static_cast<long long>(c.paused),
-        static_cast<long long>(c.evaluations_without), static_cast<long long>(c.evaluations_with));
+        static_cast<long long>(c.evaluations_without), static_cast<long long>(c.evaluations_with),
+        static_cast<long long>(c.tests_far), static_cast<long long>(c.tests_near_only));
   EXPECT_GE(planar.layouts, 15);
   EXPECT_GE(ellipsoid.layouts, 6);
   EXPECT_GT(planar.settled, 1000);
   EXPECT_GT(ellipsoid.settled, 300);
-  // What they are for: nodes in shadows searched far fewer times.
+  // What they are for: nodes in shadows searched far fewer times; roots far sight proves hidden
+  // not tested at all.
   EXPECT_LT(shadows.evaluations_with * 2, shadows.evaluations_without);
+  EXPECT_LT(planar.tests_far, planar.tests_near_only);
+  EXPECT_LT(ellipsoid.tests_far, ellipsoid.tests_near_only);
+  EXPECT_LT(shadows.tests_far, shadows.tests_near_only);
+}
+
+// Far sight against sees(): every root, site, point and box a node's far sight passes over is
+// hidden from it, over random archipelagos in the plane and on the ellipsoid and the bay, with
+// squares of one and four radii; the cones sorted, apart and within [0, 4]; the same on one
+// thread and two. And pseudo_angle rises with the angle.
+TEST(NearBends, FarSightPassesOverOnlyWhatANodeCannotSee) {
+  std::mt19937_64 rng(76);
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  {
+    std::vector<std::pair<double, double>> by;
+    for (int i = 0; i < 20000; ++i) {
+      const double t = 2.0 * std::numbers::pi * unit(rng), r = 0.001 + 1000.0 * unit(rng);
+      const double dx = r * std::cos(t), dy = r * std::sin(t);
+      by.emplace_back(std::atan2(dy, dx) < 0.0 ? std::atan2(dy, dx) + 2.0 * std::numbers::pi : std::atan2(dy, dx),
+                      sea::pseudo_angle(dx, dy));
+    }
+    for (const auto& [dx, dy, want] : {std::tuple{1.0, 0.0, 0.0}, {0.0, 1.0, 1.0}, {-1.0, 0.0, 2.0}, {0.0, -1.0, 3.0}})
+      EXPECT_EQ(sea::pseudo_angle(dx, dy), want);
+    std::sort(by.begin(), by.end());
+    for (size_t i = 1; i < by.size(); ++i) {
+      ASSERT_LE(by[i - 1].second, by[i].second) << "at angle " << by[i].first;
+      ASSERT_GE(by[i].second, 0.0);
+      ASSERT_LT(by[i].second, 4.0);
+    }
+  }
+  int64_t nodes_with = 0, passed_over = 0, kept_hidden = 0, kept_seen = 0, boxes_passed = 0;
+  auto check = [&](const Layout& layout) {
+    const sea::Prepared& p = layout.prepared->prepared;
+    const Visibility& vis = p.vis;
+    const std::vector<sea::Node> nodes = sea::bend_nodes(vis);
+    Vec2 lo{kInf, kInf}, hi{-kInf, -kInf};
+    for (const sea::Node& n : nodes) {
+      const Vec2 v = vis.vertex(n.vertex);
+      lo = {std::min(lo.x, v.x), std::min(lo.y, v.y)};
+      hi = {std::max(hi.x, v.x), std::max(hi.y, v.y)};
+    }
+    const Vec2 span{hi.x - lo.x, hi.y - lo.y};
+    lo = {lo.x - 0.1 * span.x, lo.y - 0.1 * span.y};
+    auto random_point = [&] { return Vec2{lo.x + 1.2 * span.x * unit(rng), lo.y + 1.2 * span.y * unit(rng)}; };
+    for (const double factor : {1.0, sea::kFarFactor}) {
+      const sea::NearBends near = sea::near_bends(p, nodes, 3, 1, nullptr, factor);
+      const sea::NearBends twice = sea::near_bends(p, nodes, 3, 2, nullptr, factor);
+      ASSERT_EQ(near.far_half, twice.far_half);
+      ASSERT_EQ(near.cone_first, twice.cone_first);
+      ASSERT_EQ(near.cones, twice.cones);
+      for (size_t v = 0; v < nodes.size(); ++v) {
+        if (!(near.far_half[v] > 0.0)) continue;
+        ++nodes_with;
+        for (int32_t i = near.cone_first[v]; i < near.cone_first[v + 1]; ++i) {
+          const auto& [c0, c1] = near.cones[static_cast<size_t>(i)];
+          ASSERT_LE(0.0, c0);
+          ASSERT_LE(c0, c1);
+          ASSERT_LE(c1, 4.0);
+          if (i > near.cone_first[v]) {
+            ASSERT_LT(near.cones[static_cast<size_t>(i) - 1].second, c0);
+          }
+        }
+        const Visibility::Place at = vis.at_vertex(nodes[v].vertex, nodes[v].wedge);
+        auto hidden = [&](const Visibility::Place& to, const char* what) {
+          if (near.may_see(v, at.at, to.at, to.at)) {
+            (vis.sees(at, to) ? kept_seen : kept_hidden) += 1;
+            return;
+          }
+          ++passed_over;
+          ASSERT_FALSE(vis.sees(at, to)) << what << " (" << to.at.x << ", " << to.at.y << ") from node " << v
+                                         << ", square " << near.far_half[v];
+        };
+        for (const sea::Node& r : nodes) {
+          if (r.vertex == nodes[v].vertex) continue;
+          hidden(vis.at_vertex(r.vertex, r.wedge), "node");
+          if (HasFatalFailure()) return;
+        }
+        for (const LocalSite& s : p.local) hidden(Visibility::Place{Vec2{s.ax, s.ay}}, "site");
+        for (int i = 0; i < 40; ++i) {
+          const Vec2 x = random_point();
+          if (!vis.on_land(x)) hidden(Visibility::Place{x}, "point");
+          // A box: hidden at its corners, centre and points inside when passed over.
+          const Vec2 y = random_point();
+          const Vec2 b0{std::min(x.x, y.x), std::min(x.y, y.y)}, b1{std::max(x.x, y.x), std::max(x.y, y.y)};
+          const Vec2 box_hi{b0.x + 0.2 * (b1.x - b0.x), b0.y + 0.2 * (b1.y - b0.y)};
+          if (near.may_see(v, at.at, b0, box_hi)) continue;
+          ++boxes_passed;
+          for (int j = 0; j < 9; ++j) {
+            const Vec2 q{b0.x + (j == 0 ? 0.0 : unit(rng)) * (box_hi.x - b0.x),
+                         b0.y + (j == 0 ? 0.0 : unit(rng)) * (box_hi.y - b0.y)};
+            if (!vis.on_land(q)) {
+              ASSERT_FALSE(vis.sees(at, Visibility::Place{q})) << "in a box, from node " << v;
+            }
+          }
+        }
+        if (HasFatalFailure()) return;
+      }
+    }
+  };
+  for (int round = 0; round < 18; ++round) {
+    const Layout layout = archipelago(rng, round, round % 3 == 2);
+    if (!layout.prepared) continue;
+    check(layout);
+    if (HasFatalFailure()) return;
+  }
+  check(bay());
+  std::printf(
+      "nodes with far sight %lld: passed over %lld (all hidden), kept %lld seen and %lld hidden; boxes passed "
+      "over %lld\n",
+      static_cast<long long>(nodes_with), static_cast<long long>(passed_over), static_cast<long long>(kept_seen),
+      static_cast<long long>(kept_hidden), static_cast<long long>(boxes_passed));
+  EXPECT_GT(nodes_with, 1000);
+  EXPECT_GT(passed_over, 20000);
+  EXPECT_GT(kept_seen, 5000);
+  EXPECT_GT(boxes_passed, 1000);
 }
 
 // Each node's near roots against the definition, read by brute force: the nodes at its nearest k
