@@ -72,6 +72,12 @@ inline bool NearBends::may_see(size_t v, Vec2 at, Vec2 lo, Vec2 hi) const {
   const double h = far_half[v];
   if (!(h > 0.0)) return true;
   if (hi.x >= at.x - h && lo.x <= at.x + h && hi.y >= at.y - h && lo.y <= at.y + h) return true;  // meets the square
+  if (lo.x == hi.x && lo.y == hi.y) {  // (a point: its one direction)
+    const double q = pseudo_angle(lo.x - at.x, lo.y - at.y);
+    for (int32_t i = cone_first[v]; i < cone_first[v + 1]; ++i)
+      if (cones[static_cast<size_t>(i)].first <= q && q <= cones[static_cast<size_t>(i)].second) return true;
+    return false;
+  }
   // The box's directions: between its corners' (it does not hold `at`); one that meets the ray
   // towards +x east of `at` spans the angle 0.
   const double p[4] = {pseudo_angle(lo.x - at.x, lo.y - at.y), pseudo_angle(hi.x - at.x, lo.y - at.y),
