@@ -7,10 +7,11 @@
 // path is taut at the root takes D + length when that is less than what the cell holds. A
 // root's region is star-shaped from it (a point on the way from a root to a cell it serves is
 // served by it), so the square needs to grow only while the root still wins somewhere on its
-// sides: along every part of the ring that runs on a side, the cells round each sample are
-// checked against the root's length less twice a cell's diagonal (a cell's value moves by at
-// most its diagonal across it). Cells within a ring's bands where the root could win are left
-// to the exact predicates (counted as unsure).
+// sides: along every part of the ring that runs on a side, every half cell, a sample y is
+// refuted only by a witness, a cell round y that sees y (one exact sees()) and holds a path
+// that, carried on to y, is shorter than the root's; an unrefuted sample grows the square. Cells
+// within a ring's bands where the root could win are left to the exact predicates (counted as
+// unsure), and so are the cells of a root whose region is blurred.
 //
 // In increasing order of D every cell whose distance is below the root's D already holds it, so
 // a root draws only where its paths are at least D long.
@@ -267,7 +268,7 @@ class Painter {
                               : std::sqrt(p_.site_key(x, site)));
       };
       t0 = std::chrono::steady_clock::now();
-      const bool grow = !covers && wins_on_sides(region, lo, hi, value_at, taut_at);
+      const bool grow = !covers && wins_on_sides(region, lo, hi, value_at);
       counts.sides_s += since(t0);
       if (!grow) return;
       old_lo = lo;
@@ -312,11 +313,11 @@ class Painter {
     r0 = std::clamp<int64_t>(static_cast<int64_t>(std::floor(fr0 - widen)), 0, window_.height - 1);
     r1 = std::clamp<int64_t>(static_cast<int64_t>(std::ceil(fr1 + widen)), 0, window_.height - 1);
   }
-  // Along the ring's parts on the square's sides, every half cell: the cells round each sample
-  // (the nearest centre and its eight neighbours) where the root's path, less two diagonals, is
-  // not beaten by what the cell holds.
-  template <class ValueAt, class Taut>
-  bool wins_on_sides(const sea::VisibleRegion& region, Vec2 lo, Vec2 hi, ValueAt&& value_at, Taut&& taut_at) {
+  // Whether the root may still win somewhere on the square's sides: along the ring's parts on
+  // them, every half cell, a sample is refuted only by a witness among the cells round it (the
+  // nearest centre and its eight neighbours) that sees it and holds a shorter path to it.
+  template <class ValueAt>
+  bool wins_on_sides(const sea::VisibleRegion& region, Vec2 lo, Vec2 hi, ValueAt&& value_at) {
     const double eps = 1e-9 * std::max(hi.x - lo.x, hi.y - lo.y);
     // The side both ends of a ring edge lie on (a corner lies on two), or -1.
     auto on = [&](Vec2 x, int s) {
@@ -337,7 +338,6 @@ class Painter {
         const double f = static_cast<double>(j) / static_cast<double>(steps);
         const Vec2 y{a.x + f * (b.x - a.x), a.y + f * (b.y - a.y)};
         ++counts.rim_samples;
-        (void)taut_at;
         // The root loses at y when some cell seeing y holds a path that, carried on to y, is
         // shorter; else the square grows.
         const sea::Spot ys{y, lonlat(y)};
@@ -481,7 +481,7 @@ bool measure_paint(const SeedSet& seeds, const Barriers& barriers, const GridSpe
       const double d = field.field.distance.at(c, r);
       const double tol = 1e-6 * std::max(1.0, d);
       if (val[i] > d + tol) {
-        if (worse < 8)
+        if (worse < 8)  // (the first few, to look at)
           std::printf("longer: cell %lld %lld painted %.3f label %d, field %.3f site %d via %d\n", (long long)c,
                       (long long)r, val[i], lab[i], d, s, via);
         ++worse;
