@@ -201,8 +201,8 @@ TEST(NearBends, ASettlingWithNearBendsSettlesEveryNodeAsTheOneWithout) {
 
 // Far sight against sees(): every root, site, point and box a node's far sight passes over is
 // hidden from it, over random archipelagos in the plane and on the ellipsoid and the bay, with
-// squares of one and four radii; the cones sorted, apart and within [0, 4]; the same on one
-// thread and two. And pseudo_angle rises with the angle.
+// squares of one radius and of kFarFactor; the cones sorted, apart and within [0, 4]; the same on
+// one thread and two. And pseudo_angle rises with the angle.
 TEST(NearBends, FarSightPassesOverOnlyWhatANodeCannotSee) {
   std::mt19937_64 rng(76);
   std::uniform_real_distribution<double> unit(0.0, 1.0);
@@ -274,7 +274,7 @@ TEST(NearBends, FarSightPassesOverOnlyWhatANodeCannotSee) {
         for (int i = 0; i < 40; ++i) {
           const Vec2 x = random_point();
           if (!vis.on_land(x)) hidden(Visibility::Place{x}, "point");
-          // A box: hidden at its corners, centre and points inside when passed over.
+          // A box: when passed over, hidden at its low corner and at eight random points inside.
           const Vec2 y = random_point();
           const Vec2 b0{std::min(x.x, y.x), std::min(x.y, y.y)}, b1{std::max(x.x, y.x), std::max(x.y, y.y)};
           const Vec2 box_hi{b0.x + 0.2 * (b1.x - b0.x), b0.y + 0.2 * (b1.y - b0.y)};
