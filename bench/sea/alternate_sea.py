@@ -10,11 +10,14 @@ The cases are the ones bench/RESULTS-sea.md has timed since session 66:
 - states: the four states as both seeds and land, 0.02 deg;
 - zealand: the ports with Zealand's at half effect (fixtures/baltic_west_ports_zealand_half.geojson),
           0.01 deg;
-- oresund: the Øresund's 12 ports with the two states' land, in UTM 33N at 250 m (planar).
+- oresund: the Øresund's 12 ports with the two states' land, in UTM 33N at 250 m (planar);
+- gshhg (only when asked for, with --gshhg COAST,PORTS): a detailed coast, GSHHG's land of the
+          same extent and 200 ports on it (gshhg_coast.py, then gshhg_ports.py), 0.02 deg.
 Outputs: ownership, distance, boundaries, regions and the report; --threads 2.
 
 usage:
   bench/sea/alternate_sea.py [--rounds 3] [--grids 0.02,0.005,0.001] [--only ports,states,zealand,oresund]
+                             [--gshhg /tmp/baltic_gshhg_f.gpkg,/tmp/gshhg_ports_owned.geojson]
                              OLD_BINARY NEW_BINARY
 Debian's /usr/bin/python3. Run it on an otherwise idle machine (no build beside it).
 """
@@ -35,7 +38,7 @@ OUTPUTS = [("--ownership", "own.tif"), ("--distance", "dist.tif"), ("--boundarie
            ("--regions", "regions.geojson")]
 
 
-def cases(grids, only):
+def cases(grids, only, gshhg=None):
     out = []
     if "ports" in only:
         for g in grids:
@@ -56,6 +59,12 @@ def cases(grids, only):
                     [os.path.join(FIX, "oresund_ports.geojson"), "--owner-field", "owner", "--barriers",
                      os.path.join(FIX, "oresund.gpkg"), "--crs", "EPSG:32633", "--extent", "330000", "6150000",
                      "370000", "6220000", "--resolution", "250"]))
+    if "gshhg" in only:
+        if not gshhg:
+            sys.exit("alternate_sea: the gshhg case needs --gshhg COAST,PORTS (bench/sea/gshhg_ports.py)")
+        coast, ports = gshhg.split(",")
+        out.append(("200 ports on GSHHG's full coast by sea, 0.02 deg",
+                    [ports, "--owner-field", "owner", "--barriers", coast, *BALTIC, "--resolution", "0.02"]))
     return out
 
 
@@ -79,10 +88,14 @@ def main():
     ap.add_argument("--rounds", type=int, default=3)
     ap.add_argument("--grids", default="0.02,0.005,0.001")
     ap.add_argument("--only", default="ports,states,zealand,oresund")
+    ap.add_argument("--gshhg", help="COAST,PORTS: the detailed coast's files (the gshhg case)")
     ap.add_argument("old")
     ap.add_argument("new")
     args = ap.parse_args()
-    todo = cases(args.grids.split(","), set(args.only.split(",")))
+    only = set(args.only.split(","))
+    if args.gshhg:
+        only.add("gshhg")
+    todo = cases(args.grids.split(","), only, args.gshhg)
     times = {(label, which): [] for label, _ in todo for which in ("old", "new")}
     differ = set()
     with tempfile.TemporaryDirectory() as work:
