@@ -9,6 +9,7 @@
 
 #include "rv/field/error.hpp"
 #include "sea/near_bends.hpp"
+#include "sea/visible_region.hpp"
 
 namespace rv::sea {
 
@@ -366,6 +367,16 @@ PreparedSea::PreparedSea(const SeedSet& seeds, const Barriers& barriers, const G
     }
   }
   bends_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
+const PreparedSea::CutEdges& PreparedSea::cut_edges() const {
+  std::call_once(cut_once_, [&] {
+    auto cut = std::make_unique<CutEdges>();
+    cut->edges = sea::barrier_edges(prepared.vis);
+    cut->index = sea::EdgeIndex(cut->edges, {});
+    cut_ = std::move(cut);
+  });
+  return *cut_;
 }
 
 }  // namespace rv

@@ -243,7 +243,8 @@ class PreparedSea {
   }
   // The barrier edges cut where they cross, as visible regions read them
   // (sea/visible_region.hpp barrier_edges), and their index: made at the first call (from
-  // any thread) and kept for every window drawn from this preparation (sea_exact.cpp).
+  // any thread) and kept for every window drawn from this preparation (sea_exact.cpp) and for the
+  // owners' far sight (sea_metric.cpp, near_bends.hpp).
   struct CutEdges {
     std::vector<sea::EdgeIndex::Segment> edges;
     sea::EdgeIndex index;

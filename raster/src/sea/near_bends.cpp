@@ -8,7 +8,6 @@
 #include "rv/field/error.hpp"
 #include "rv/field/parallel.hpp"
 #include "rv/sea/geodesic_frame.hpp"
-#include "sea/edge_index.hpp"
 #include "sea/root_tree.hpp"
 #include "sea/visible_region.hpp"
 
@@ -35,39 +34,27 @@ void far_cones(Vec2 at, const VisibleRegion& region, Vec2 lo, Vec2 hi, double to
     if (c0 < 0.0) out.emplace_back(c0 + 4.0, 4.0);
     if (c1 > 4.0) out.emplace_back(0.0, c1 - 4.0);
   };
+  // A point outside the inner square: within tol of a side.
+  auto outside = [&](Vec2 x) { return x.x < in_lo.x || x.x > in_hi.x || x.y < in_lo.y || x.y > in_hi.y; };
   const size_t n = region.ring.size();
   for (size_t i = 0; i < n; ++i) {
     const Vec2 a = region.ring[i], b = region.ring[(i + 1) % n];
-    // The part of a-b inside the inner square (parameters t0 .. t1, Liang-Barsky); the rest is
-    // within tol of a side.
-    double t0 = 0.0, t1 = 1.0;
-    const double d[2] = {b.x - a.x, b.y - a.y}, o[2] = {a.x, a.y}, l[2] = {in_lo.x, in_lo.y}, h[2] = {in_hi.x, in_hi.y};
-    bool inside = true;
-    for (int axis = 0; axis < 2 && inside; ++axis) {
-      if (d[axis] == 0.0) {
-        inside = o[axis] >= l[axis] && o[axis] <= h[axis];
-        continue;
-      }
-      double s0 = (l[axis] - o[axis]) / d[axis], s1 = (h[axis] - o[axis]) / d[axis];
-      if (s0 > s1) std::swap(s0, s1);
-      t0 = std::max(t0, s0);
-      t1 = std::min(t1, s1);
-      inside = t0 <= t1;
-    }
-    auto at_t = [&](double t) { return Vec2{a.x + t * d[0], a.y + t * d[1]}; };
-    if (!inside) {
+    // The parts of a-b outside its part inside the inner square.
+    Vec2 ia = a, ib = b;
+    if (!clip_to_box(ia, ib, in_lo, in_hi)) {
       add(a, b);
       continue;
     }
-    if (t0 > 0.0) add(a, at_t(t0));
-    if (t1 < 1.0) add(at_t(t1), b);
+    if (!(ia == a) || outside(a)) add(a, ia);
+    if (!(ib == b) || outside(b)) add(ib, b);
   }
 }
 
 }  // namespace
 
 NearBends near_bends(const Prepared& p, const std::vector<Node>& nodes, int k, int threads,
-                     const std::atomic<bool>* cancel, double far_factor) {
+                     const std::atomic<bool>* cancel, const std::vector<EdgeIndex::Segment>& edges,
+                     const EdgeIndex& index, double far_factor) {
   const Visibility& vis = p.vis;
   const size_t n = nodes.size();
   NearBends out;
@@ -82,10 +69,6 @@ NearBends near_bends(const Prepared& p, const std::vector<Node>& nodes, int k, i
   std::vector<int64_t> tests(n, 0);
   out.far_half.assign(n, 0.0);
   std::vector<std::vector<std::pair<double, double>>> cones(n);
-  std::vector<int64_t> far_edges(n, 0);
-  const std::vector<EdgeIndex::Segment> edges =
-      far_factor > 0.0 ? barrier_edges(vis) : std::vector<EdgeIndex::Segment>{};
-  const EdgeIndex index(edges, {});
   const double deviation = vis.frame() ? vis.frame()->deviation() : 0.0;
   detail::parallel_for(resolve_threads(threads), static_cast<int64_t>(n), [&](int64_t task, int) {
     if (cancel && (task & 63) == 0 && cancel->load(std::memory_order_relaxed))
@@ -127,7 +110,6 @@ NearBends near_bends(const Prepared& p, const std::vector<Node>& nodes, int k, i
     thread_local EdgeIndex::Stamps stamps;
     const Vec2 lo{at.at.x - h, at.at.y - h}, hi{at.at.x + h, at.at.y + h};
     index.edges_in_box(lo, hi, stamps, meet);
-    far_edges[v] = static_cast<int64_t>(meet.size());
     const VisibleRegion region = visible_region(vis, at, lo, hi, edges, &meet);
     if (region.blurred || region.ring.empty()) return;
     const double tol = 4.0 * region.margin + 2.0 * deviation + 1e-9 * h;
@@ -149,7 +131,6 @@ NearBends near_bends(const Prepared& p, const std::vector<Node>& nodes, int k, i
   });
   out.cone_first.assign(n + 1, 0);
   for (size_t v = 0; v < n; ++v) {
-    out.far_edges += far_edges[v];
     out.cone_first[v + 1] = out.cone_first[v] + static_cast<int32_t>(cones[v].size());
     out.cones.insert(out.cones.end(), cones[v].begin(), cones[v].end());
   }

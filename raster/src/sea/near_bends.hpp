@@ -33,6 +33,7 @@
 #include <utility>
 #include <vector>
 
+#include "sea/edge_index.hpp"
 #include "sea/sea_prepare.hpp"
 
 namespace rv::sea {
@@ -51,7 +52,6 @@ struct NearBends {
   std::vector<double> far_half;
   std::vector<int32_t> cone_first;
   std::vector<std::pair<double, double>> cones;
-  int64_t far_edges = 0;  // barrier edges the squares' sweeps read
 
   // Whether node v (its vertex at `at`) may see some point of the box [lo, hi]: false only when
   // far sight proves every point of it hidden.
@@ -101,8 +101,10 @@ inline bool NearBends::may_see(size_t v, Vec2 at, Vec2 lo, Vec2 hi) const {
 }
 
 // Over `nodes` (bend_nodes(p.vis): every Searches of `p` numbers its nodes so). `k` >= 1.
-// Throws rv::Error(cancelled) when `cancel` becomes true.
+// `edges`, `index`: barrier_edges(p.vis) and an index of them (PreparedSea::cut_edges()), which
+// the far sight's sweeps read. Throws rv::Error(cancelled) when `cancel` becomes true.
 NearBends near_bends(const Prepared& p, const std::vector<Node>& nodes, int k, int threads,
-                     const std::atomic<bool>* cancel, double far_factor = kFarFactor);
+                     const std::atomic<bool>* cancel, const std::vector<EdgeIndex::Segment>& edges,
+                     const EdgeIndex& index, double far_factor = kFarFactor);
 
 }  // namespace rv::sea

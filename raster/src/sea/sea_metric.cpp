@@ -445,8 +445,11 @@ class SeaSiteMetric final : public SiteMetric {
     // (Made once for every owner: which bend nodes see each other nearby depends on the barriers
     // alone. An owner's nodes deep in another's waters would otherwise be searched again at every
     // step of their bound.)
-    if (!near_)
-      near_ = std::make_unique<NearBends>(near_bends(pr, bend_nodes(pr.vis), kNearVertices, threads_, cancel_));
+    if (!near_) {
+      const PreparedSea::CutEdges& cut = sea_->cut_edges();
+      near_ = std::make_unique<NearBends>(
+          near_bends(pr, bend_nodes(pr.vis), kNearVertices, threads_, cancel_, cut.edges, cut.index));
+    }
     detail::parallel_for(resolve_threads(threads_), static_cast<int64_t>(sites.size()), [&](int64_t g, int) {
       Group& group = groups_[static_cast<size_t>(g)];
       group.search = std::make_unique<Searches>(pr, sites[static_cast<size_t>(g)]);

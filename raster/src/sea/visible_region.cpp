@@ -33,29 +33,6 @@ double angle_from(double start, Vec2 o, Vec2 p) {
   return t;
 }
 
-// Liang-Barsky: the part of a-b inside the box, or false.
-bool clip(Vec2& a, Vec2& b, Vec2 lo, Vec2 hi) {
-  double t0 = 0.0, t1 = 1.0;
-  const double dx = b.x - a.x, dy = b.y - a.y;
-  const double p[4] = {-dx, dx, -dy, dy}, q[4] = {a.x - lo.x, hi.x - a.x, a.y - lo.y, hi.y - a.y};
-  for (int i = 0; i < 4; ++i) {
-    if (p[i] == 0.0) {
-      if (q[i] < 0.0) return false;
-      continue;
-    }
-    const double r = q[i] / p[i];
-    if (p[i] < 0.0)
-      t0 = std::max(t0, r);
-    else
-      t1 = std::min(t1, r);
-    if (t0 > t1) return false;
-  }
-  const Vec2 a0 = a;
-  if (t1 < 1.0) b = Vec2{a0.x + t1 * dx, a0.y + t1 * dy};
-  if (t0 > 0.0) a = Vec2{a0.x + t0 * dx, a0.y + t0 * dy};
-  return true;
-}
-
 // Where the ray from o in direction u meets the piece's line, kept on the piece: a ray along
 // which the piece is nearly radial meets it, to rounding, at the end nearer the ray.
 Vec2 meet(Vec2 o, Vec2 u, const Piece& p) {
@@ -112,7 +89,7 @@ std::vector<Piece> pieces_round(Vec2 o, double start, Vec2 lo, Vec2 hi, const st
     const double cross = (a.x - o.x) * (b.y - o.y) - (a.y - o.y) * (b.x - o.x);
     if (cross == 0.0) return;  // radial, or through the point: blocks no open angle
     if (segment_distance(o, a, b) <= margin) blurred = true;
-    if (!clip(a, b, lo, hi) || a == b) return;
+    if (!clip_to_box(a, b, lo, hi) || a == b) return;
     if (cross < 0.0) std::swap(a, b);
     double t0 = angle_from(start, o, a), t1 = angle_from(start, o, b);
     // A piece subtends less than a half-turn: the other way round means the sign of `cross`
@@ -147,6 +124,28 @@ std::vector<Piece> pieces_round(Vec2 o, double start, Vec2 lo, Vec2 hi, const st
 }
 
 }  // namespace
+
+bool clip_to_box(Vec2& a, Vec2& b, Vec2 lo, Vec2 hi) {
+  double t0 = 0.0, t1 = 1.0;
+  const double dx = b.x - a.x, dy = b.y - a.y;
+  const double p[4] = {-dx, dx, -dy, dy}, q[4] = {a.x - lo.x, hi.x - a.x, a.y - lo.y, hi.y - a.y};
+  for (int i = 0; i < 4; ++i) {
+    if (p[i] == 0.0) {
+      if (q[i] < 0.0) return false;
+      continue;
+    }
+    const double r = q[i] / p[i];
+    if (p[i] < 0.0)
+      t0 = std::max(t0, r);
+    else
+      t1 = std::min(t1, r);
+    if (t0 > t1) return false;
+  }
+  const Vec2 a0 = a;
+  if (t1 < 1.0) b = Vec2{a0.x + t1 * dx, a0.y + t1 * dy};
+  if (t0 > 0.0) a = Vec2{a0.x + t0 * dx, a0.y + t0 * dy};
+  return true;
+}
 
 std::vector<EdgeIndex::Segment> barrier_edges(const Visibility& vis) {
   std::vector<EdgeIndex::Segment> raw;

@@ -48,6 +48,10 @@ struct VisibleRegion {
   double boundary_distance(Vec2 x) const;
 };
 
+// The part of segment a-b inside the box [lo, hi], its ends included (Liang-Barsky): a and b
+// moved to that part's ends, or false where there is none.
+bool clip_to_box(Vec2& a, Vec2& b, Vec2 lo, Vec2 hi);
+
 // The barrier edges of `vis` in its plane (every polygon ring's, then every line's), each cut
 // where another edge crosses it or ends inside it, as visible_region reads them.
 std::vector<EdgeIndex::Segment> barrier_edges(const Visibility& vis);

@@ -38,7 +38,6 @@
 #include "rv/field/parallel.hpp"
 #include "rv/sea/sea_field.hpp"
 #include "sea/bend_settle.hpp"
-#include "sea/visible_region.hpp"
 #include "sea_exact/sea_cells.hpp"
 #include "sea_map/ground_rows.hpp"
 #include "sea_map/site_sight.hpp"
@@ -161,16 +160,6 @@ ComputeOptions straight_options(const SeaOptions& options) {
 }
 
 }  // namespace
-
-const PreparedSea::CutEdges& PreparedSea::cut_edges() const {
-  std::call_once(cut_once_, [&] {
-    auto cut = std::make_unique<CutEdges>();
-    cut->edges = sea::barrier_edges(prepared.vis);
-    cut->index = sea::EdgeIndex(cut->edges, {});
-    cut_ = std::move(cut);
-  });
-  return *cut_;
-}
 
 std::shared_ptr<const PreparedSeeds> prepare_straight(const SeedSet& seeds, const GridSpec& grid,
                                                       const SeaOptions& options) {

@@ -137,7 +137,8 @@ void compare_settlings(const Layout& layout, Counts& counts) {
     // (k = 1 twice: with far sight and without, the one that passes roots over unweighed.)
     for (const auto& [k, far] :
          {std::pair{1, sea::kFarFactor}, {1, 0.0}, {3, sea::kFarFactor}, {16, sea::kFarFactor}}) {
-      const sea::NearBends near = sea::near_bends(p, nodes, k, k == 3 ? 2 : 1, nullptr, far);
+      const PreparedSea::CutEdges& cut = layout.prepared->cut_edges();
+      const sea::NearBends near = sea::near_bends(p, nodes, k, k == 3 ? 2 : 1, nullptr, cut.edges, cut.index, far);
       sea::Searches got(p, sites);
       int64_t run_tests = 0;
       sea::Settling(got, &near).run(run_tests, nullptr);
@@ -238,8 +239,9 @@ TEST(NearBends, FarSightPassesOverOnlyWhatANodeCannotSee) {
     lo = {lo.x - 0.1 * span.x, lo.y - 0.1 * span.y};
     auto random_point = [&] { return Vec2{lo.x + 1.2 * span.x * unit(rng), lo.y + 1.2 * span.y * unit(rng)}; };
     for (const double factor : {1.0, sea::kFarFactor}) {
-      const sea::NearBends near = sea::near_bends(p, nodes, 3, 1, nullptr, factor);
-      const sea::NearBends twice = sea::near_bends(p, nodes, 3, 2, nullptr, factor);
+      const PreparedSea::CutEdges& cut = layout.prepared->cut_edges();
+      const sea::NearBends near = sea::near_bends(p, nodes, 3, 1, nullptr, cut.edges, cut.index, factor);
+      const sea::NearBends twice = sea::near_bends(p, nodes, 3, 2, nullptr, cut.edges, cut.index, factor);
       ASSERT_EQ(near.far_half, twice.far_half);
       ASSERT_EQ(near.cone_first, twice.cone_first);
       ASSERT_EQ(near.cones, twice.cones);
@@ -324,8 +326,9 @@ TEST(NearBends, EachNodesNearRootsAreTheNearbyNodesThatSeeIt) {
     const sea::Prepared& p = layout.prepared->prepared;
     const std::vector<sea::Node> nodes = sea::bend_nodes(p.vis);
     for (const int k : {1, 4, 16}) {
-      const sea::NearBends near = sea::near_bends(p, nodes, k, 1, nullptr);
-      const sea::NearBends twice = sea::near_bends(p, nodes, k, 2, nullptr);
+      const PreparedSea::CutEdges& cut = layout.prepared->cut_edges();
+      const sea::NearBends near = sea::near_bends(p, nodes, k, 1, nullptr, cut.edges, cut.index);
+      const sea::NearBends twice = sea::near_bends(p, nodes, k, 2, nullptr, cut.edges, cut.index);
       ASSERT_EQ(near.first, twice.first);
       ASSERT_EQ(near.to, twice.to);
       ASSERT_EQ(near.reach.size(), nodes.size());
