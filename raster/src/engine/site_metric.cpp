@@ -109,9 +109,9 @@ void Box3::include(const Box3& b) {
 }
 
 double SiteMetric::lower_bound(const Vec3& q, const Box3& b) {
-  const double dx = std::max({b.x0 - q.x, 0.0, q.x - b.x1});
-  const double dy = std::max({b.y0 - q.y, 0.0, q.y - b.y1});
-  const double dz = std::max({b.z0 - q.z, 0.0, q.z - b.z1});
+  const double dx = std::max(std::max(b.x0 - q.x, 0.0), q.x - b.x1);
+  const double dy = std::max(std::max(b.y0 - q.y, 0.0), q.y - b.y1);
+  const double dz = std::max(std::max(b.z0 - q.z, 0.0), q.z - b.z1);
   // A relative shave keeps the bound below the site distance despite rounding.
   return std::sqrt(dx * dx + dy * dy + dz * dz) * (1.0 - 1e-12);
 }

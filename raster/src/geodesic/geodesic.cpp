@@ -191,7 +191,8 @@ double GeoSites::lower_bound(const EcefBox& box, const BoxBall& ball, int32_t id
   // within h of the centre. The direct box distance is another valid chord bound.
   const double cx = ball.x, cy = ball.y, cz = ball.z, half = ball.half;
   if (!s.segment)
-    return std::max({box_distance(box, s.x, s.y, s.z), point_lower_bound(s.x, s.y, s.z, cx, cy, cz, half), 0.0});
+    return std::max(std::max(box_distance(box, s.x, s.y, s.z), point_lower_bound(s.x, s.y, s.z, cx, cy, cz, half)),
+                    0.0);
   double lb = std::numeric_limits<double>::infinity();
   for (int32_t k = s.piece0; k < s.piece0 + s.piece_count; ++k) {
     const GeoPiece& piece = pieces_[static_cast<size_t>(k)];

@@ -44,7 +44,7 @@ inline int orient(const Vec2& a, const Vec2& b, const Vec2& c) {
 // How far a point computed from p and q (a foot of a perpendicular, a crossing) may lie off where
 // it belongs in the plane: a few units in the last place of their coordinates.
 inline double rounding_slack(const Vec2& p, const Vec2& q) {
-  const double m = std::max({std::abs(q.x), std::abs(q.y), std::abs(p.x - q.x), std::abs(p.y - q.y)});
+  const double m = std::max(std::max(std::abs(q.x), std::abs(q.y)), std::max(std::abs(p.x - q.x), std::abs(p.y - q.y)));
   return 64.0 * DBL_EPSILON * m;
 }
 

@@ -77,9 +77,11 @@ class RootTree {
     int32_t left = -1, right = -1, parent = -1;
   };
   int32_t build(int32_t first, int32_t count, int32_t parent, int depth, const std::vector<Box>& items);
+  // (Maxima of two: an initializer list's stack array is not inlined away in the sanitizer build,
+  // where these bounds are most of a search's time.)
   double box_distance(const Box& b, Vec2 x) const {
-    const double dx = std::max({b.lo.x - x.x, 0.0, x.x - b.hi.x});
-    const double dy = std::max({b.lo.y - x.y, 0.0, x.y - b.hi.y});
+    const double dx = std::max(std::max(b.lo.x - x.x, 0.0), x.x - b.hi.x);
+    const double dy = std::max(std::max(b.lo.y - x.y, 0.0), x.y - b.hi.y);
     return std::sqrt(dx * dx + dy * dy) * scale_;
   }
   // At least box_distance(c, x) for every box c inside b, as computed (the same operations on
@@ -91,8 +93,8 @@ class RootTree {
   }
 
   double boxes_distance(const Box& b, const Box& q) const {
-    const double dx = std::max({b.lo.x - q.hi.x, 0.0, q.lo.x - b.hi.x});
-    const double dy = std::max({b.lo.y - q.hi.y, 0.0, q.lo.y - b.hi.y});
+    const double dx = std::max(std::max(b.lo.x - q.hi.x, 0.0), q.lo.x - b.hi.x);
+    const double dy = std::max(std::max(b.lo.y - q.hi.y, 0.0), q.lo.y - b.hi.y);
     return std::sqrt(dx * dx + dy * dy) * scale_;
   }
   // `far(b)`: at least distance(c) for every box c inside b (read only while `seen` is finite).
