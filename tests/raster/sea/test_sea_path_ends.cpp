@@ -11,6 +11,7 @@
 #include "engines_agree.hpp"
 #include "random_archipelago.hpp"
 #include "relevant_strips.hpp"
+#include "rounds.hpp"
 #include "rv/engine/engine.hpp"
 #include "rv/field/error.hpp"
 #include "rv/field/interior.hpp"
@@ -264,7 +265,8 @@ TEST(SeaPathEnds, RandomArchipelagosOnAFineGridKeepTheTriangleInequality) {
   std::mt19937_64 rng(31);
   int rounds = 0;
   int64_t block_cells = 0, drawn_cells = 0;
-  for (int round = 0; round < 200; ++round) {
+  const int tried = test::rounds(200);
+  for (int round = 0; round < tried; ++round) {
     const test::Archipelago a = test::random_archipelago(rng, round);
     const GridSpec g = test::grid_of(230, 230, 0.2, -1.0, 45.0);
     SeaField f;
@@ -280,7 +282,7 @@ TEST(SeaPathEnds, RandomArchipelagosOnAFineGridKeepTheTriangleInequality) {
     drawn_cells += f.drawn_cells;
     ++rounds;
   }
-  EXPECT_GE(rounds, 150);
+  EXPECT_GE(rounds, tried * 3 / 4);
   EXPECT_GT(block_cells + drawn_cells, rounds * 230 * 230 / 2);
   EXPECT_GT(block_cells, rounds * 230 * 230 / 20);
 }

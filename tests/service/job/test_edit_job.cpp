@@ -27,6 +27,7 @@
 #include <nlohmann/json.hpp>
 
 #include "geotiff_compare.hpp"
+#include "rounds.hpp"
 #include "rv/field/checksum.hpp"
 #include "rv/field/error.hpp"
 #include "rv/gdal/raster_io.hpp"
@@ -296,7 +297,8 @@ void expect_same_job_files(const JobSpec& x, const JobSpec& y) {
 
 // Each round edits the seed file in place, runs the edit against the previous round's report,
 // and compares with a fresh run; the next round's base is this round's edit (a chain of edits).
-void run_random_edits(EditJob& t, const Case& c, uint32_t seed, int rounds) {
+void run_random_edits(EditJob& t, const Case& c, uint32_t seed, int plain_rounds) {
+  const int rounds = test::rounds(plain_rounds);
   std::mt19937 rng(seed);
   std::vector<Feat> feats = initial_seeds(c, rng);
   int next_id = 100;
