@@ -213,20 +213,23 @@ void expect_lines_by_sea(const JobSpec& s, double on_coast) {
   for (const Barriers::Polygon& poly : land.polygons()) {
     OGRPolygon p;
     for (const Ring& r : poly.rings) {
-      OGRLinearRing lr;
-      // (On the ellipsoid the coast's edges are geodesics: followed in steps of 50 m.)
+      // (On the ellipsoid the coast's edges are geodesics: followed in steps of 50 m. The ring's
+      // points set at once: OGR's addPoint grows it a point at a time.)
+      std::vector<OGRRawPoint> points;
       for (size_t i = 0; i < r.size(); ++i) {
         const Vec2 u = r[i], w = r[(i + 1) % r.size()];
-        lr.addPoint(u.x, u.y);
+        points.emplace_back(u.x, u.y);
         if (!geodesic) continue;
         const GeographicLib::GeodesicLine gl = test::wgs84().InverseLine(u.y, u.x, w.y, w.x);
         const int n = static_cast<int>(std::ceil(gl.Distance() / 50.0));
         for (int k = 1; k < n; ++k) {
           double lat, lon;
           gl.Position(gl.Distance() * k / n, lat, lon);
-          lr.addPoint(lon, lat);
+          points.emplace_back(lon, lat);
         }
       }
+      OGRLinearRing lr;
+      lr.setPoints(static_cast<int>(points.size()), points.data());
       lr.closeRings();
       p.addRing(&lr);
     }

@@ -22,6 +22,7 @@
 #include <ogr_p.h>
 #include <ogrsf_frmts.h>
 
+#include "common/gdal_util.hpp"
 #include "rv/field/error.hpp"
 #include "rv/gdal/seed_reader.hpp"
 #include "writing/geojson_text.hpp"
@@ -127,21 +128,11 @@ std::vector<Feature> random_features(std::mt19937_64& rng, double scale, int n, 
   return out;
 }
 
-// A curve's points set at once: GDAL 3.6 grows a curve one point at a time on addPoint, which the
-// sanitizers' realloc (always a copy) makes quadratic in a line of 12 000 points.
-template <class Curve>
-void set_points(Curve& c, const std::vector<Vec2>& points) {
-  std::vector<OGRRawPoint> raw;
-  raw.reserve(points.size());
-  for (const Vec2& p : points) raw.push_back(OGRRawPoint(p.x, p.y));
-  c.setPoints(static_cast<int>(raw.size()), raw.data());
-}
-
 OGRPolygon ogr_polygon(const std::vector<std::vector<Vec2>>& rings) {
   OGRPolygon poly;
   for (const auto& r : rings) {
     OGRLinearRing ring;
-    set_points(ring, r);
+    gdal::set_points(ring, r);  // (at once: addPoint grows the curve a point at a time)
     poly.addRing(&ring);
   }
   return poly;
@@ -151,7 +142,7 @@ std::unique_ptr<OGRGeometry> ogr_geometry(const Feature& f) {
   if (f.kind == 0) return std::make_unique<OGRPoint>(f.polys[0][0][0].x, f.polys[0][0][0].y);
   if (f.kind == 1) {
     auto ls = std::make_unique<OGRLineString>();
-    set_points(*ls, f.polys[0][0]);
+    gdal::set_points(*ls, f.polys[0][0]);
     return ls;
   }
   if (f.kind == 2) return std::make_unique<OGRPolygon>(ogr_polygon(f.polys[0]));
