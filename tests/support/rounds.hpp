@@ -8,11 +8,13 @@
 // met scales them by the rounds it ran.
 #pragma once
 
+#include <algorithm>
+
 namespace rv::test {
 
 constexpr int rounds(int plain) {
 #ifdef RV_SANITIZED
-  return plain / 4 >= 2 ? plain / 4 : (plain < 2 ? plain : 2);
+  return std::max(plain / 4, std::min(plain, 2));
 #else
   return plain;
 #endif
