@@ -201,7 +201,8 @@ void Settling::settle(size_t u) {
   b.tauts[u] = taut_test(vis, b.nodes[u], b.from[u]);
   if (!near_) st.open->set_weight(i, std::numeric_limits<double>::infinity());
   if (std::isfinite(val.d)) {
-    b.all.set_weight(b.site_items() + i, val.d);
+    // (A node whose path runs on into its land is the last bend of no path: no search weighs it.)
+    if (!DeadArrivals(vis, b.nodes[u]).from(b.from[u])) b.all.set_weight(b.site_items() + i, val.d);
     st.farthest = std::max(st.farthest, val.d);
   }
 }
@@ -312,7 +313,7 @@ void Settling::run_near(int64_t& tests, const std::atomic<bool>* cancel, double 
       settle(u);
       // Its path handed to the near nodes it sees, as Searches::through weighs a root.
       const Best& from = b.dist[u];
-      if (!std::isfinite(from.d)) continue;
+      if (!b.root(u)) continue;
       for (int32_t t = near.first[u]; t < near.first[u + 1]; ++t) {
         const auto v = static_cast<size_t>(near.to[static_cast<size_t>(t)]);
         if (st.settled[v]) continue;

@@ -45,6 +45,11 @@ struct Searches {
   std::vector<int32_t> prev;    // per settled node: its previous bend (a node), or -1 (it sees its site)
   std::vector<TautTest> tauts;  // per settled node: taut() from its arrival (`from`)
   int64_t evaluations = 0;
+  // Whether settled node k is a root of other paths: reached, and its path may bend on there
+  // (DeadArrivals, sea_prepare.hpp). Weighing any other node would find it not taut or not seen
+  // from every point, so `all` leaves it out (its weight stays +infinity), and so may any index
+  // of roots made from the settled nodes.
+  bool root(size_t k) const { return std::isfinite(all.weight(site_items() + static_cast<int32_t>(k))); }
 
   // Over `sites` (geometric sites of `prepared`, ascending: one owner's, for its own distances by
   // sea), or every geometric site.

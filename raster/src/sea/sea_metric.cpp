@@ -491,8 +491,7 @@ class SeaSiteMetric final : public SiteMetric {
       first_hint += static_cast<int32_t>(s->nodes.size());
       std::vector<std::vector<int32_t>> by_site(seeds.sites().size());
       for (size_t k = 0; k < s->nodes.size(); ++k)
-        if (std::isfinite(s->dist[k].d))
-          by_site[static_cast<size_t>(s->dist[k].site)].push_back(static_cast<int32_t>(k));
+        if (s->root(k)) by_site[static_cast<size_t>(s->dist[k].site)].push_back(static_cast<int32_t>(k));
       for (size_t site = 0; site < by_site.size(); ++site) {
         if (by_site[site].empty()) continue;
         SiteRoots roots;

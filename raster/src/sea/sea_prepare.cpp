@@ -347,6 +347,28 @@ bool taut(const Visibility& vis, const Node& node, Vec2 from, Vec2 x) {
   return taut(vis, taut_test(vis, node, from), x);
 }
 
+DeadArrivals::DeadArrivals(const Visibility& vis, const Node& node) {
+  const Visibility::Star& s = vis.vertex_star(node.vertex);
+  if (s.rays.size() != 2) return;
+  // (taut_test's reading: the land next to wedge k runs counter-clockwise from ray k + 1 to ray k.)
+  const auto k = static_cast<size_t>(node.wedge % 2);
+  const Vec2 near = s.rays[1 - k], far = s.rays[k];
+  at_ = s.at;
+  nx_ = near.x - at_.x;
+  ny_ = near.y - at_.y;
+  fx_ = far.x - at_.x;
+  fy_ = far.y - at_.y;
+  n1_ = std::hypot(nx_, ny_);
+  f1_ = std::hypot(fx_, fy_);
+  // The frame's orientation filter allows a ray's length times the deviation; the differences
+  // from `at` carry rounding of the coordinates' size.
+  const double bend = vis.frame() ? vis.frame()->deviation() : 0.0;
+  const double coords = 1e-12 * (1.0 + std::abs(at_.x) + std::abs(at_.y));
+  kn_ = n1_ * (bend + coords);
+  kf_ = f1_ * (bend + coords);
+  active_ = n1_ > 0.0 && f1_ > 0.0;
+}
+
 bool never_taut(const Visibility& vis, const TautTest& t, Vec2 lo, Vec2 hi) {
   // taut()'s cases by the land's far ray (angle L counter-clockwise from the arrival's
   // direction): L within the half-turn (side > 0), the departures are those with angle in

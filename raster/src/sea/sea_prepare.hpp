@@ -240,6 +240,39 @@ bool taut(const Visibility& vis, const TautTest& t, Vec2 x);
 // slack (and, beside the arrival's line, the straight-on allowance). False when unsure.
 bool never_taut(const Visibility& vis, const TautTest& t, Vec2 lo, Vec2 hi);
 
+// The arrivals at a bend node that no path goes on from. A straight path into node u from q whose
+// continuation past u runs strictly into the wedge next to u's own (for a vertex of two rays,
+// the land's: q strictly inside the wedge opposite it) leaves taut() only departures between
+// that continuation and the land's far ray, all inside that other wedge, which no path seen from
+// u's wedge leaves by (Visibility::sees). So a settled node whose own path arrives so is the last
+// bend of no path: the settlings leave it out of the roots (bend_settle.hpp, Searches::root).
+// About a third of the bend nodes of a real coast are such: reached head on from the open sea.
+// Decided in the plane with margins beyond rounding and the frame's bending (the reading's
+// orientation filter, rv/sea/geodesic_frame.hpp), so that in the reading's own predicates (on
+// the ellipsoid, azimuths at u) q's direction lies strictly inside the opposite wedge; unsure is
+// "may go on". At a vertex with other than two rays every arrival may go on.
+// A value type; valid while the Visibility it was made from lives.
+class DeadArrivals {
+ public:
+  DeadArrivals() = default;
+  DeadArrivals(const Visibility& vis, const Node& node);
+  // Whether an arrival from q is dead: q - at strictly right of the near ray and left of the far
+  // one, each beyond a relative margin plus the absolute one.
+  bool from(Vec2 q) const {
+    const double wx = q.x - at_.x, wy = q.y - at_.y, w1 = std::abs(wx) + std::abs(wy);
+    return active_ && nx_ * wy - ny_ * wx < -(kRelative * n1_ * w1 + kn_) &&
+           fx_ * wy - fy_ * wx > kRelative * f1_ * w1 + kf_;
+  }
+
+ private:
+  static constexpr double kRelative = 1e-8;
+  Vec2 at_{};
+  double nx_ = 0.0, ny_ = 0.0, fx_ = 0.0, fy_ = 0.0;  // the near and far rays of the other wedge
+  double n1_ = 0.0, f1_ = 0.0;                        // their lengths
+  double kn_ = 0.0, kf_ = 0.0;                        // absolute margins: bending, coordinates' rounding
+  bool active_ = false;
+};
+
 // An empty field of the window (no owner anywhere) with the barriers' vertex count, and the
 // straight key a maximum distance allows (+infinity for none). Not `filled`: the rasters' cells
 // are left for the caller to empty row by row with empty_rows() (on the threads that go on to

@@ -4,7 +4,8 @@
 // - A length patch (sea_exact/length_patch.hpp) against GeographicLib's inverse problem, cell by cell.
 // - never_taut (sea/sea_prepare.hpp), which leaves a bend out of a block before its visibility
 //   proof, against taut() at points all over the box; taut() itself against the turn read from
-//   angles.
+//   angles; DeadArrivals, which leaves a node out of the roots, against the angles and against
+//   taut() and sight from every departure.
 // - Blocks with patches against every cell answered alone, to the bit, with and without a
 //   maximum distance.
 #include <gtest/gtest.h>
@@ -219,6 +220,92 @@ TEST(SeaBlocks, ATautTestTurnsRoundTheLand) {
   std::printf("%lld departures taut, %lld not\n", static_cast<long long>(taut), static_cast<long long>(untaut));
   EXPECT_GT(taut, 5000);
   EXPECT_GT(untaut, 20000);
+}
+
+// DeadArrivals (sea/sea_prepare.hpp) over random archipelagos, planar and on the ellipsoid, round
+// every bend node at a vertex of two rays:
+// - against the angles: an arrival from q is dead exactly when q's direction from the node lies
+//   inside the wedge opposite the land (decided only where it is clear of that wedge's sides by
+//   more than rounding and the frame's bend could move it);
+// - the claim the settlings rest on: from a dead arrival no departure is both taut and in sight
+//   of the node's wedge, over departures in every direction, at every distance, along the rays.
+// And the settling: a node is left out of the roots exactly when its own arrival is dead, and
+// such a node is neither taut nor seen from any point tried.
+TEST(SeaBlocks, AnArrivalThatRunsIntoTheLandGoesOnNowhere) {
+  std::mt19937_64 rng(5);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  constexpr double kTurn = 2.0 * M_PI;
+  auto ccw = [&](double from, double to) { return std::fmod(std::fmod(to - from, kTurn) + kTurn, kTurn); };
+  int64_t dead = 0, live = 0, departures = 0, left_out = 0, roots = 0;
+  for_each_settled_archipelago(rng, [&](int round, const PreparedSea& prepared) {
+    const sea::Prepared& p = prepared.prepared;
+    const sea::Searches& s = prepared.search;
+    const double bend = p.vis.frame() ? p.vis.frame()->deviation() : 0.0;
+    for (size_t k = 0; k < s.nodes.size(); ++k) {
+      const sea::Node& n = s.nodes[k];
+      const Visibility::Star& star = p.vis.vertex_star(n.vertex);
+      const sea::DeadArrivals arrivals(p.vis, n);
+      const Visibility::Place node = p.vis.at_vertex(n.vertex, n.wedge);
+      // A settled node is a root exactly when its own arrival may go on; one that is not is
+      // taut and seen nowhere.
+      if (std::isfinite(s.dist[k].d)) {
+        ASSERT_EQ(s.root(k), !arrivals.from(s.from[k])) << "round " << round << " node " << k;
+        (s.root(k) ? roots : left_out) += 1;
+        const Vec2 v = star.at;
+        const double r0 = std::hypot(s.from[k].x - v.x, s.from[k].y - v.y);
+        for (int j = 0; j < (s.root(k) ? 0 : 200); ++j) {
+          const double b = kTurn * u(rng), d = r0 * std::pow(10.0, -3.0 + 4.0 * u(rng));
+          const Vec2 x{v.x + d * std::cos(b), v.y + d * std::sin(b)};
+          ASSERT_FALSE(sea::taut(p.vis, s.tauts[k], x) && p.vis.sees(Visibility::Place{x}, node))
+              << "round " << round << " node " << k << " left out, yet goes on to (" << x.x << ", " << x.y << ")";
+        }
+      }
+      if (star.rays.size() != 2) continue;
+      const Vec2 v = star.at;
+      const auto w = static_cast<size_t>(n.wedge) % 2;
+      const Vec2 far = star.rays[w], near = star.rays[1 - w];  // the land runs ccw from near to far
+      auto angle = [&](Vec2 q) { return std::atan2(q.y - v.y, q.x - v.x); };
+      const double n0 = angle(near) + M_PI, f0 = angle(far) + M_PI;  // the opposite wedge, ccw
+      const double opposite = ccw(n0, f0);
+      const double scale = std::min(std::hypot(near.x - v.x, near.y - v.y), std::hypot(far.x - v.x, far.y - v.y));
+      auto blur = [&](double length) { return 1e-7 + 4.0 * bend / std::min(length, scale); };
+      for (int i = 0; i < 60; ++i) {
+        const double r = scale * std::pow(10.0, -2.0 + 3.0 * u(rng));
+        const double a = kTurn * u(rng);
+        const Vec2 q{v.x + r * std::cos(a), v.y + r * std::sin(a)};
+        const bool got = arrivals.from(q);
+        const double in = ccw(n0, a);
+        if (std::min({in, kTurn - in, std::abs(in - opposite)}) > blur(r)) {
+          ASSERT_EQ(got, in < opposite) << "round " << round << " node " << k << " arrival (" << q.x << ", " << q.y
+                                        << ")";
+        }
+        if (!got) {
+          ++live;
+          continue;
+        }
+        ++dead;
+        // Departures: anywhere round the node, along its rays, straight on past it.
+        for (int j = 0; j < 40; ++j) {
+          const double b = j < 30 ? kTurn * u(rng) : j < 34 ? angle(j % 2 ? near : far) : a + M_PI;
+          const double d = scale * std::pow(10.0, -3.0 + 4.0 * u(rng));
+          const Vec2 x{v.x + d * std::cos(b), v.y + d * std::sin(b)};
+          ++departures;
+          ASSERT_FALSE(sea::taut(p.vis, n, q, x) && p.vis.sees(Visibility::Place{x}, node))
+              << "round " << round << " node " << k << ": from (" << q.x << ", " << q.y << ") on to (" << x.x << ", "
+              << x.y << ")";
+        }
+      }
+    }
+  });
+  std::printf(
+      "%lld arrivals dead, %lld live; %lld departures tried from the dead; settled nodes: %lld roots, %lld "
+      "left out\n",
+      static_cast<long long>(dead), static_cast<long long>(live), static_cast<long long>(departures),
+      static_cast<long long>(roots), static_cast<long long>(left_out));
+  EXPECT_GT(dead, 2000);
+  EXPECT_GT(live, 2 * dead);
+  EXPECT_GT(left_out, 20);
+  EXPECT_GT(roots, 3 * left_out);
 }
 
 // Blocks on a fine grid on the ellipsoid, where most cells whose path bends take their length
