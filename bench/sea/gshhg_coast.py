@@ -23,6 +23,7 @@ import argparse
 import os
 import subprocess
 import sys
+import tempfile
 
 REGION = (9.0, 15.5, 53.8, 56.2)  # the fixture's extent: west, east, south, north
 PACKAGES = {"h": "gmt-gshhg-high", "f": "gmt-gshhg-full", "i": "gmt-gshhg-high", "l": "gmt-gshhg-low"}
@@ -42,8 +43,10 @@ def ensure(packages, install):
 
 def pieces(res):
     w, e, s, n = REGION
-    out = subprocess.run(["gmt", "coast", f"-R{w}/{e}/{s}/{n}", f"-D{res}", "-A0/1/1", "-M", "-W"],
-                         capture_output=True, text=True, check=True).stdout
+    # (GMT writes its gmt.history where it runs: a scratch folder, not the caller's.)
+    with tempfile.TemporaryDirectory() as scratch:
+        out = subprocess.run(["gmt", "coast", f"-R{w}/{e}/{s}/{n}", f"-D{res}", "-A0/1/1", "-M", "-W"],
+                             capture_output=True, text=True, check=True, cwd=scratch).stdout
     lines, current = [], []
     for row in out.splitlines():
         if row.startswith(">"):
