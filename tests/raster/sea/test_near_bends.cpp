@@ -94,7 +94,8 @@ std::vector<std::vector<int32_t>> owners_sites(const SeedSet& seeds, const sea::
   return out;
 }
 
-// Every node's distance, site, last bend, previous node and arrival the same, to the bit.
+// Every node's distance, site, last bend, previous node and arrival the same, to the bit, and
+// whether it is a root (sea::DeadArrivals).
 void expect_same_nodes(const sea::Searches& want, const sea::Searches& got, const char* what) {
   ASSERT_EQ(want.nodes.size(), got.nodes.size());
   for (size_t k = 0; k < want.nodes.size(); ++k) {
@@ -108,6 +109,7 @@ void expect_same_nodes(const sea::Searches& want, const sea::Searches& got, cons
     ASSERT_EQ(want.prev[k], got.prev[k]) << what << ": node " << k;
     ASSERT_EQ(std::bit_cast<uint64_t>(want.from[k].x), std::bit_cast<uint64_t>(got.from[k].x)) << what << ": " << k;
     ASSERT_EQ(std::bit_cast<uint64_t>(want.from[k].y), std::bit_cast<uint64_t>(got.from[k].y)) << what << ": " << k;
+    ASSERT_EQ(want.root(k), got.root(k)) << what << ": node " << k;
   }
 }
 
