@@ -563,30 +563,33 @@ template <class F>
 bool LineRefiner::sea_bracket(F&& f, double& f0, double& f1, double& lo, double& hi) {
   // By sea an end of the perpendicular may lie on land (no cost there): walked out from the
   // middle both ways in sixteenths while the costs are finite, the sign change nearest the middle
-  // brackets the root (the locus point of this stretch at sea).
+  // brackets the root (the locus point of this stretch at sea). Where none does (a sliver of sea
+  // narrower than a step, between two states' land), again in sixteenths of the first step, and
+  // of that.
   constexpr int kSteps = 8;
   const double fm = f(0.5);
   if (!std::isfinite(fm)) return false;
   double best = 2.0;
-  for (const double dir : {1.0, -1.0}) {
-    double t_prev = 0.5, f_prev = fm;
-    for (int k = 1; k <= kSteps; ++k) {
-      const double t = 0.5 + dir * k / (2.0 * kSteps), ft = f(t);
-      if (!std::isfinite(ft)) break;
-      if ((ft < 0.0) != (f_prev < 0.0)) {
-        if (std::abs(t - 0.5) < best) {
-          best = std::abs(t - 0.5);
-          lo = std::min(t, t_prev);
-          hi = std::max(t, t_prev);
-          f0 = dir > 0 ? f_prev : ft;
-          f1 = dir > 0 ? ft : f_prev;
+  for (double scale = 1.0; scale >= 1.0 / 256.0 && best > 1.0; scale /= 16.0)
+    for (const double dir : {1.0, -1.0}) {
+      double t_prev = 0.5, f_prev = fm;
+      for (int k = 1; k <= kSteps; ++k) {
+        const double t = 0.5 + dir * scale * k / (2.0 * kSteps), ft = f(t);
+        if (!std::isfinite(ft)) break;
+        if ((ft < 0.0) != (f_prev < 0.0)) {
+          if (std::abs(t - 0.5) < best) {
+            best = std::abs(t - 0.5);
+            lo = std::min(t, t_prev);
+            hi = std::max(t, t_prev);
+            f0 = dir > 0 ? f_prev : ft;
+            f1 = dir > 0 ? ft : f_prev;
+          }
+          break;
         }
-        break;
+        t_prev = t;
+        f_prev = ft;
       }
-      t_prev = t;
-      f_prev = ft;
     }
-  }
   return best <= 1.0;
 }
 

@@ -645,6 +645,12 @@ TEST_F(SeaJob, StatesAsSeedsAndLandWhoseBorderIsASliverOfSeaMeetUpIt) {
   ASSERT_EQ(lines.at("features").size(), 2u);
   const nlohmann::json& st = report.at("deliverables").at("boundaries");
   EXPECT_EQ(st.at("ends_on_barriers").get<int64_t>(), 2);
+  // Within the line tolerance along their whole length, up to where the coasts cross: the ends
+  // lie on the crossing of the two coasts' geodesic edges (their chords' crossing in longitude
+  // and latitude was millimetres off it, and the last chord 1.25 mm off the locus).
+  const nlohmann::json& along = st.at("along_lines");
+  EXPECT_EQ(along.at("unresolved_segments").get<int64_t>(), 0);
+  EXPECT_LE(along.at("max_midpoint").get<double>(), along.at("tolerance").get<double>());
   // Each line's end on the island lies in its middle, where its sliver closes (53.91-53.92 N).
   for (const nlohmann::json& f : lines.at("features")) {
     const auto v = f.at("geometry").at("coordinates").get<std::vector<std::array<double, 2>>>();

@@ -13,6 +13,9 @@
 #include <memory>
 #include <vector>
 
+#include <GeographicLib/Geodesic.hpp>
+#include <GeographicLib/Gnomonic.hpp>
+
 #include "lines/boundary_stages.hpp"
 #include "lines/line_tools.hpp"
 #include "lines/locus_follow.hpp"
@@ -221,6 +224,29 @@ bool lines_meet(Vec2 p, Vec2 d, Vec2 q, Vec2 e, double& s, double& t) {
   s = (r.x * -e.y - r.y * -e.x) / det;
   t = (d.x * r.y - d.y * r.x) / det;
   return true;
+}
+
+// Where the geodesics a0-a1 and b0-b1 (longitude, latitude in degrees) cross, from `near` (their
+// chords' crossing in longitude and latitude, millimetres off it on Usedom, where edges of a
+// kilometre or more cross at a small angle): the crossing of their images in an ellipsoidal
+// gnomonic projection centred at the last estimate (straight lines on a sphere, all but straight
+// near the centre on the ellipsoid), three rounds.
+Vec2 geodesics_meet(Vec2 a0, Vec2 a1, Vec2 b0, Vec2 b1, Vec2 near) {
+  const GeographicLib::Gnomonic gnomonic(GeographicLib::Geodesic::WGS84());
+  Vec2 x = near;
+  for (int round = 0; round < 3; ++round) {
+    Vec2 q[4];
+    const Vec2* ends[4] = {&a0, &a1, &b0, &b1};
+    for (int k = 0; k < 4; ++k) gnomonic.Forward(x.y, x.x, ends[k]->y, ends[k]->x, q[k].x, q[k].y);
+    double s = 0.0, t = 0.0;
+    if (!lines_meet(q[0], Vec2{q[1].x - q[0].x, q[1].y - q[0].y}, q[2], Vec2{q[3].x - q[2].x, q[3].y - q[2].y}, s, t))
+      return x;
+    double lat = 0.0, lon = 0.0;
+    gnomonic.Reverse(x.y, x.x, q[0].x + s * (q[1].x - q[0].x), q[0].y + s * (q[1].y - q[0].y), lat, lon);
+    if (!std::isfinite(lat) || !std::isfinite(lon)) return x;
+    x = Vec2{lon, lat};
+  }
+  return x;
 }
 
 // The back end of `line` followed on along its locus to the coast (see end_at_barriers), in steps
@@ -441,11 +467,11 @@ locus_follow::Level narrow_level(const BoundaryGrid& b, int32_t oa, int32_t ob, 
     return std::min(n.a.distance, n.b.distance) / per;
   };
   level.meet = 1e-4 * b.g.res;
-  // Where the two sides meet: the crossing X of their nearest coast edges, or of one with the
-  // edge next to the other on its ring (where one side's vertex comes within a hair of the
-  // other's edge and their land overlaps beyond), within two cells, ahead; the locus runs
-  // straight there (the two edges' bisector) where the nearest sites halfway are still those
-  // edges or their neighbours.
+  // Where the two sides meet: the crossing X of their nearest coast edges (of their geodesics on
+  // a longitude/latitude grid), or of one with the edge next to the other on its ring (where one
+  // side's vertex comes within a hair of the other's edge and their land overlaps beyond), within
+  // two cells, ahead; the locus runs straight there (the two edges' bisector) where the nearest
+  // sites halfway are still those edges or their neighbours.
   level.meeting = [&b, oa, ob, hits](Vec2 p, Vec2& at) {
     const std::vector<Site>& sites = b.index.metric().seeds().sites();
     const int32_t sa = hits(p).a.site, sb = hits(p).b.site;
@@ -471,7 +497,9 @@ locus_follow::Level narrow_level(const BoundaryGrid& b, int32_t oa, int32_t ob, 
         const Vec2 du{u.b.x - u.a.x, u.b.y - u.a.y}, dw{w.b.x - w.a.x, w.b.y - w.a.y};
         double t, s;
         if (!lines_meet(u.a, du, w.a, dw, t, s) || !(t >= 0.0 && t <= 1.0 && s >= 0.0 && s <= 1.0)) continue;
-        const Vec2 x{u.a.x + t * du.x, u.a.y + t * du.y};
+        Vec2 x{u.a.x + t * du.x, u.a.y + t * du.y};
+        // (On a longitude/latitude grid the edges are geodesics: their own crossing.)
+        if (b.index.metric().kind() == SiteMetric::Kind::geodesic) x = geodesics_meet(u.a, u.b, w.a, w.b, x);
         const double d = std::hypot(x.x - p.x, x.y - p.y);
         if (!(d <= best)) continue;
         const Vec2 mid = lerp(p, x, 0.5);
