@@ -18,7 +18,8 @@ namespace rv {
 
 struct GeodesicSiteMetric::Impl {
   Impl(const SeedSet& seeds, const MetricSpec& m, std::shared_ptr<const PreparedSeeds> p)
-      : measure(m),
+      : spec(m),
+        measure(m),
         prepared(std::move(p)),
         geod(m.semi_major, m.flattening),
         earth(m.semi_major, m.flattening),
@@ -28,6 +29,7 @@ struct GeodesicSiteMetric::Impl {
     if (!prepared) own.emplace(m, seeds);
     sites = prepared ? &*prepared->geo : &*own;
   }
+  MetricSpec spec;
   GeodesicMeasure measure;
   // Every site prepared once, as the engine prepares them (its segments' geodesic lines and
   // pieces): a segment's distance is then its search alone, where GeodesicMeasure prepares the
@@ -54,6 +56,8 @@ GeodesicSiteMetric::GeodesicSiteMetric(const SeedSet& seeds, const MetricSpec& m
 }
 
 GeodesicSiteMetric::~GeodesicSiteMetric() = default;
+
+MetricSpec GeodesicSiteMetric::spec() const { return impl_->spec; }
 
 double GeodesicSiteMetric::distance(Vec2 p, int32_t site) const {
   const Site& s = seeds().sites()[static_cast<size_t>(site)];

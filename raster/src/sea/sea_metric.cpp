@@ -125,6 +125,7 @@ class SeaSiteMetric final : public SiteMetric {
   }
   Vec2 bend_position(int32_t vertex) const override { return via_position(*sea_, grid_, vertex); }
   Kind kind() const override { return inner_->kind(); }
+  MetricSpec spec() const override { return inner_->spec(); }
   bool straight() const override { return false; }
   double point_distance(Vec2 a, Vec2 b) const override { return inner_->point_distance(a, b); }
   Vec3 embed(Vec2 p) const override { return inner_->embed(p); }

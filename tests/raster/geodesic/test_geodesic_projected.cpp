@@ -302,6 +302,7 @@ TEST(GeodesicProjected, BoundaryVerticesAreEquidistantOnTheEllipsoid) {
   const ComputeOptions o = projected_options(Method::brute_force);
   const NearestField field = compute(seeds, g, o);
   const LocatedGeodesicSiteMetric metric(seeds, o.metric, o.geolocator, nullptr);
+  EXPECT_EQ(metric.spec(), o.metric);  // the ellipsoid the lines' geometry reads
   const OwnerIndex index(metric);
   const BoundaryResult b = extract_boundaries(field, index);
   const GeographicLib::Geodesic& geod = GeographicLib::Geodesic::WGS84();
@@ -357,6 +358,23 @@ ErrorKind kind_of(const SeedSet& seeds, const GridSpec& g, const ComputeOptions&
   }
   ADD_FAILURE() << "no error";
   return ErrorKind::internal;
+}
+
+// Each metric states the metric it measures with, and the ellipsoid is the one it was given
+// (the lines read geodesics' crossings on it): not WGS84 when the data's datum is another.
+TEST(GeodesicProjected, MetricsStateTheirEllipsoid) {
+  SeedSet seeds;
+  seeds.add_point(seeds.add_feature(seeds.owner_code("a")), Vec2{13.6, 55.1});
+  MetricSpec sphere;
+  sphere.kind = MetricSpec::geodesic;
+  sphere.semi_major = 6371000.0;
+  sphere.flattening = 0.0;
+  EXPECT_EQ(GeodesicSiteMetric(seeds, sphere).spec(), sphere);
+  MetricSpec bessel = sphere;
+  bessel.semi_major = 6377397.155;
+  bessel.flattening = 1.0 / 299.1528128;
+  EXPECT_EQ(GeodesicSiteMetric(seeds, bessel).spec(), bessel);
+  EXPECT_EQ(PlanarSiteMetric(seeds, Vec2{0.0, 0.0}).spec(), MetricSpec{});
 }
 
 TEST(GeodesicProjected, Refusals) {

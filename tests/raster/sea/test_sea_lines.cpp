@@ -149,6 +149,7 @@ class StartedElsewhere final : public SiteMetric {
   enum class Start { as_is, none, last };
   StartedElsewhere(const SiteMetric& m, Start start) : SiteMetric(m.seeds()), m_(m), start_(start) {}
   Kind kind() const override { return m_.kind(); }
+  MetricSpec spec() const override { return m_.spec(); }
   bool straight() const override { return m_.straight(); }
   double distance(Vec2 p, int32_t site) const override {
     ++measured;

@@ -62,6 +62,8 @@ class SiteMetric {
   enum class Kind { planar, geodesic, located_geodesic };
   virtual Kind kind() const = 0;
   virtual bool straight() const { return true; }
+  // The metric it measures with: planar, or geodesic on that ellipsoid (for the geodesic kinds).
+  virtual MetricSpec spec() const = 0;
 
   // Exact distance (metric units, >= 0) from p to the site: point -> to the point; segment ->
   // to the nearest point of the closed segment; area -> 0 when p is inside the polygon (even-odd
@@ -183,6 +185,7 @@ class PlanarSiteMetric final : public SiteMetric {
  public:
   PlanarSiteMetric(const SeedSet& seeds, Vec2 origin);
   Kind kind() const override { return Kind::planar; }
+  MetricSpec spec() const override { return MetricSpec{}; }
   double distance(Vec2 p, int32_t site) const override;
   double distance_at_vertex(Vec2 p, int32_t site, Vec2& gradient, VertexHit& hit) const override;
   Vec2 nearest_point(Vec2 p, int32_t site) const override;
@@ -208,6 +211,7 @@ class GeodesicSiteMetric final : public SiteMetric {
   GeodesicSiteMetric(const SeedSet& seeds, const MetricSpec& metric, std::shared_ptr<const PreparedSeeds> prepared);
   ~GeodesicSiteMetric() override;
   Kind kind() const override { return Kind::geodesic; }
+  MetricSpec spec() const override;
   double distance(Vec2 p, int32_t site) const override;
   double distance_at_vertex(Vec2 p, int32_t site, Vec2& gradient, VertexHit& hit) const override;
   bool ties_at_vertex(Vec2 p, int32_t site, const VertexHit& hit, double d) const override;
@@ -239,6 +243,7 @@ class LocatedGeodesicSiteMetric final : public SiteMetric {
                             std::shared_ptr<const Geolocator> geolocator,
                             std::shared_ptr<const std::vector<Polygon>> grid_polygons);
   Kind kind() const override { return Kind::located_geodesic; }
+  MetricSpec spec() const override { return geodesic_.spec(); }
   double distance(Vec2 p, int32_t site) const override;
   Vec2 nearest_point(Vec2 p, int32_t site) const override;
   double point_distance(Vec2 a, Vec2 b) const override;

@@ -226,13 +226,14 @@ bool lines_meet(Vec2 p, Vec2 d, Vec2 q, Vec2 e, double& s, double& t) {
   return true;
 }
 
-// Where the geodesics a0-a1 and b0-b1 (longitude, latitude in degrees) cross, from `near` (their
-// chords' crossing in longitude and latitude, millimetres off it on Usedom, where edges of a
-// kilometre or more cross at a small angle): the crossing of their images in an ellipsoidal
-// gnomonic projection centred at the last estimate (straight lines on a sphere, all but straight
-// near the centre on the ellipsoid), three rounds.
-Vec2 geodesics_meet(Vec2 a0, Vec2 a1, Vec2 b0, Vec2 b1, Vec2 near) {
-  const GeographicLib::Gnomonic gnomonic(GeographicLib::Geodesic::WGS84());
+// Where the geodesics a0-a1 and b0-b1 (longitude, latitude in degrees, on the ellipsoid of
+// `metric`) cross, from `near` (their chords' crossing in longitude and latitude, millimetres off
+// it on Usedom, where edges of a kilometre or more cross at a small angle): the crossing of their
+// images in an ellipsoidal gnomonic projection centred at the last estimate (straight lines on a
+// sphere, all but straight near the centre on the ellipsoid), three rounds.
+Vec2 geodesics_meet(const MetricSpec& metric, Vec2 a0, Vec2 a1, Vec2 b0, Vec2 b1, Vec2 near) {
+  const GeographicLib::Geodesic earth(metric.semi_major, metric.flattening);
+  const GeographicLib::Gnomonic gnomonic(earth);
   Vec2 x = near;
   for (int round = 0; round < 3; ++round) {
     Vec2 q[4];
@@ -499,7 +500,8 @@ locus_follow::Level narrow_level(const BoundaryGrid& b, int32_t oa, int32_t ob, 
         if (!lines_meet(u.a, du, w.a, dw, t, s) || !(t >= 0.0 && t <= 1.0 && s >= 0.0 && s <= 1.0)) continue;
         Vec2 x{u.a.x + t * du.x, u.a.y + t * du.y};
         // (On a longitude/latitude grid the edges are geodesics: their own crossing.)
-        if (b.index.metric().kind() == SiteMetric::Kind::geodesic) x = geodesics_meet(u.a, u.b, w.a, w.b, x);
+        if (b.index.metric().kind() == SiteMetric::Kind::geodesic)
+          x = geodesics_meet(b.index.metric().spec(), u.a, u.b, w.a, w.b, x);
         const double d = std::hypot(x.x - p.x, x.y - p.y);
         if (!(d <= best)) continue;
         const Vec2 mid = lerp(p, x, 0.5);
