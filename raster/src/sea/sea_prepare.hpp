@@ -254,7 +254,6 @@ bool never_taut(const Visibility& vis, const TautTest& t, Vec2 lo, Vec2 hi);
 // A value type; valid while the Visibility it was made from lives.
 class DeadArrivals {
  public:
-  DeadArrivals() = default;
   DeadArrivals(const Visibility& vis, const Node& node);
   // Whether an arrival from q is dead: q - at strictly right of the near ray and left of the far
   // one, each beyond a relative margin plus the absolute one.

@@ -234,11 +234,11 @@ bool lines_meet(Vec2 p, Vec2 d, Vec2 q, Vec2 e, double& s, double& t) {
 Vec2 geodesics_meet(const MetricSpec& metric, Vec2 a0, Vec2 a1, Vec2 b0, Vec2 b1, Vec2 near) {
   const GeographicLib::Geodesic earth(metric.semi_major, metric.flattening);
   const GeographicLib::Gnomonic gnomonic(earth);
+  const Vec2 ends[4] = {a0, a1, b0, b1};
   Vec2 x = near;
   for (int round = 0; round < 3; ++round) {
     Vec2 q[4];
-    const Vec2* ends[4] = {&a0, &a1, &b0, &b1};
-    for (int k = 0; k < 4; ++k) gnomonic.Forward(x.y, x.x, ends[k]->y, ends[k]->x, q[k].x, q[k].y);
+    for (int k = 0; k < 4; ++k) gnomonic.Forward(x.y, x.x, ends[k].y, ends[k].x, q[k].x, q[k].y);
     double s = 0.0, t = 0.0;
     if (!lines_meet(q[0], Vec2{q[1].x - q[0].x, q[1].y - q[0].y}, q[2], Vec2{q[3].x - q[2].x, q[3].y - q[2].y}, s, t))
       return x;
