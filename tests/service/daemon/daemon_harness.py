@@ -53,15 +53,31 @@ class Daemon:
         self.proc.wait(timeout=30)
 
     def stop(self, timeout=30):
+        """SIGTERM, then the exit code (None if it had to be killed). On return `log` holds every
+        line the daemon wrote: the reader has seen its stderr close."""
         if self.proc.poll() is None:
             self.proc.send_signal(signal.SIGTERM)
             try:
-                return self.proc.wait(timeout=timeout)
+                code = self.proc.wait(timeout=timeout)
             except subprocess.TimeoutExpired:
                 self.proc.kill()
                 self.proc.wait()
-                return None
-        return self.proc.returncode
+                code = None
+        else:
+            code = self.proc.returncode
+        self._reader.join(timeout=10)
+        return code
+
+    def logged(self, condition, seconds=10.0):
+        """Whether some line of the log meets `condition` within `seconds`. The log is read on a
+        thread of its own, so a line written before a response may reach `log` after it."""
+        end = time.time() + seconds
+        while True:
+            if any(condition(line) for line in list(self.log)):
+                return True
+            if time.time() >= end:
+                return False
+            time.sleep(0.05)
 
     def alive(self):
         return self.proc.poll() is None

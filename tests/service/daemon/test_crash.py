@@ -286,7 +286,7 @@ def disk_floor(tmp):
         jobs_dir = os.path.join(data, "jobs")
         left = os.listdir(jobs_dir) if os.path.isdir(jobs_dir) else []
         check(left == [], f"nothing written for the refused jobs: {left}")
-        check(any('"event":"disk_low"' in line for line in d.log), "the daemon logs that its disk is low")
+        check(d.logged(lambda line: '"event":"disk_low"' in line), "the daemon logs that its disk is low")
     finally:
         check(d.stop() == 0, "clean SIGTERM exit with the disk low")
     # The same daemon with the floor at what a small disk still has: it computes again.

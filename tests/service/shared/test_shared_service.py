@@ -374,7 +374,7 @@ def step_disk_floor(c):
     check(len(docs) == 6 and all(d["status"] == "successful" for d in docs),
           f"the queue's jobs ran on the other daemons: {[d.get('message') for d in docs]}")
     check(c.claims(2) == 0, f"the daemon short of disk claimed nothing: {c.claims(2)} claims")
-    check(any('"event":"disk_low"' in line for line in list(low.log)), "it logged that its disk is low")
+    check(low.logged(lambda line: '"event":"disk_low"' in line), "it logged that its disk is low")
     st, h, doc = low.json("POST", "/processes/voronoi/execution", body(4000, outputs=("ownership",)),
                           bearer("root"))
     check(st == 503 and "retry-after" in h and "min_free_disk_bytes" in (doc or {}).get("detail", ""),
@@ -496,7 +496,7 @@ def step_storage_outage(c, ref):
     back = results_health(c.daemons[(h + 2) % 3], True)
     check(back.get("results", {}).get("reachable") is True and back.get("status") == "ok",
           f"/health says the results storage is back: {back}")
-    check(any('"event":"results_unreachable"' in line for line in list(c.daemons[(h + 2) % 3].log)),
+    check(c.daemons[(h + 2) % 3].logged(lambda line: '"event":"results_unreachable"' in line),
           "the daemon logged the storage away")
     print(f"step 3b: the S3 server was stopped under d{h}'s job; it failed with: {doc.get('message')}", flush=True)
     b = body(1000)
