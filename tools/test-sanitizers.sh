@@ -8,7 +8,8 @@
 #      left to right where GCC goes right to left, so the main build (GCC) and this stage see both
 #      orders (clang's ASan found a use-after-free that GCC's order hid);
 #   2. the libFuzzer targets of tests/fuzz, each run for RV_FUZZ_SECONDS (default 15: twelve
-#      targets, three minutes, kept so since CI neared its hour) from its
+#      targets, three minutes of fuzzing, kept so since CI neared its hour; as many at once as
+#      there are cores) from its
 #      seed corpus in tests/fuzz/corpus/<target>/. A crash, sanitizer report, leak or timeout
 #      fails CI; the input is kept under build-asan/fuzz-artifacts/ to reproduce with
 #      `build-asan/tests/fuzz/<target> <file>`.
@@ -57,17 +58,41 @@ if [[ " $stages " == *" fuzz "* ]]; then
   export LSAN_OPTIONS="suppressions=$root/tools/lsan.supp:print_suppressions=0"
   export UBSAN_OPTIONS="print_stacktrace=1:halt_on_error=1"
   export ASAN_OPTIONS="abort_on_error=1:detect_leaks=1"
-  for t in $targets; do
-    work="build-asan/fuzz-corpus/$t"
+  # One fuzzer is one process on one core: the targets run $jobs at a time, each for its own
+  # RV_FUZZ_SECONDS, so every target gets the same time as one after the other, in 1/$jobs of it.
+  fuzz_one() {
+    local t=$1 s
+    local work="build-asan/fuzz-corpus/$t"
     mkdir -p "$work" build-asan/fuzz-artifacts
     s=$(stamp)
-    "build-asan/tests/fuzz/$t" -max_total_time="$fuzz_seconds" -timeout=20 -rss_limit_mb=2048 -print_final_stats=1 \
-      -artifact_prefix="build-asan/fuzz-artifacts/$t-" "$work" "tests/fuzz/corpus/$t" 2>"build-asan/fuzz-$t.log" || {
+    if ! "build-asan/tests/fuzz/$t" -max_total_time="$fuzz_seconds" -timeout=20 -rss_limit_mb=2048 -print_final_stats=1 \
+      -artifact_prefix="build-asan/fuzz-artifacts/$t-" "$work" "tests/fuzz/corpus/$t" 2>"build-asan/fuzz-$t.log"; then
       tail -n 60 "build-asan/fuzz-$t.log"
       echo "sanitizers: fuzz target $t FAILED (log: build-asan/fuzz-$t.log)"
-      exit 1
-    }
+      return 1
+    fi
+    local runs
     runs=$(grep -o 'stat::number_of_executed_units: *[0-9]*' "build-asan/fuzz-$t.log" | grep -o '[0-9]*$' || echo "?")
     echo "sanitizers: fuzz $t $(($(stamp) - s)) s, $runs runs, no findings"
+  }
+  t3=$(stamp)
+  failed=0
+  running=0
+  for t in $targets; do
+    if ((running >= jobs)); then
+      wait -n || failed=1
+      running=$((running - 1))
+    fi
+    fuzz_one "$t" &
+    running=$((running + 1))
   done
+  while ((running > 0)); do
+    wait -n || failed=1
+    running=$((running - 1))
+  done
+  echo "sanitizers: fuzzing $(($(stamp) - t3)) s"
+  if ((failed)); then
+    echo "sanitizers: fuzzing found something (above)"
+    exit 1
+  fi
 fi

@@ -412,8 +412,9 @@ TEST_F(Cli, APartialLineFromATurningPointOnAVertexRunsToTheGridsEdge) {
   for (const nlohmann::json& f : lines["features"]) {
     const nlohmann::json& c = f["geometry"]["coordinates"];
     ASSERT_GE(c.size(), 2u);
-    if (f["properties"]["closed"] == 0)
+    if (f["properties"]["closed"] == 0) {
       EXPECT_FALSE(c.front() == c.back()) << f["properties"]["label_a"] << "-" << f["properties"]["label_b"];
+    }
     if (f["properties"]["label_a"] != "DK" || f["properties"]["label_b"] != "SE") continue;
     const double north = std::max(c.front()[1].get<double>(), c.back()[1].get<double>());
     dk_se_from_north += std::abs(north - 56.195) < 1e-9;
