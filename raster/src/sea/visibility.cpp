@@ -169,6 +169,82 @@ struct Visibility::Index {
   sea::EdgeIndex buckets;
 };
 
+// Which polygons may hold a point: each polygon's box (its vertices' extent, widened by how far a
+// geodesic edge's image may bend off its chord), listed in the cells of a uniform grid it
+// overlaps. A point strictly inside a polygon, or on its boundary, lies in its box.
+struct Visibility::Lands {
+  struct Box {
+    Vec2 lo, hi;
+    bool holds(Vec2 p) const { return p.x >= lo.x && p.x <= hi.x && p.y >= lo.y && p.y <= hi.y; }
+  };
+  std::vector<Box> boxes;  // per polygon
+  Vec2 lo{0.0, 0.0};
+  double cell_w = 1.0, cell_h = 1.0;
+  int64_t nx = 0, ny = 0;
+  std::vector<int64_t> first;    // per cell, into `members` (nx * ny + 1 entries)
+  std::vector<int32_t> members;  // polygons by cell
+
+  Lands(const Barriers& barriers, double widen) {
+    const auto& polygons = barriers.polygons();
+    for (const auto& polygon : polygons) {
+      Box b{{std::numeric_limits<double>::infinity(), std::numeric_limits<double>::infinity()},
+            {-std::numeric_limits<double>::infinity(), -std::numeric_limits<double>::infinity()}};
+      for (const Ring& r : polygon.rings)
+        for (const Vec2& v : r) {
+          b.lo = {std::min(b.lo.x, v.x), std::min(b.lo.y, v.y)};
+          b.hi = {std::max(b.hi.x, v.x), std::max(b.hi.y, v.y)};
+        }
+      b.lo = {b.lo.x - widen, b.lo.y - widen};
+      b.hi = {b.hi.x + widen, b.hi.y + widen};
+      boxes.push_back(b);
+    }
+    if (boxes.empty()) return;
+    Vec2 hi = boxes[0].hi;
+    lo = boxes[0].lo;
+    for (const Box& b : boxes) {
+      lo = {std::min(lo.x, b.lo.x), std::min(lo.y, b.lo.y)};
+      hi = {std::max(hi.x, b.hi.x), std::max(hi.y, b.hi.y)};
+    }
+    // About as many cells as polygons, no more than 512 a side.
+    const double w = std::max(hi.x - lo.x, 1e-9), h = std::max(hi.y - lo.y, 1e-9);
+    const double side = std::sqrt(w * h / static_cast<double>(boxes.size()));
+    nx = std::clamp<int64_t>(static_cast<int64_t>(std::ceil(w / side)), 1, 512);
+    ny = std::clamp<int64_t>(static_cast<int64_t>(std::ceil(h / side)), 1, 512);
+    cell_w = w / static_cast<double>(nx);
+    cell_h = h / static_cast<double>(ny);
+    std::vector<int64_t> count(static_cast<size_t>(nx * ny) + 1, 0);
+    auto cover = [&](const Box& b, auto&& each) {
+      const int64_t x0 = column(b.lo.x), x1 = column(b.hi.x), y0 = row(b.lo.y), y1 = row(b.hi.y);
+      for (int64_t y = y0; y <= y1; ++y)
+        for (int64_t x = x0; x <= x1; ++x) each(y * nx + x);
+    };
+    for (const Box& b : boxes) cover(b, [&](int64_t c) { ++count[static_cast<size_t>(c) + 1]; });
+    for (size_t c = 1; c < count.size(); ++c) count[c] += count[c - 1];
+    first = count;
+    members.resize(static_cast<size_t>(count.back()));
+    for (size_t k = 0; k < boxes.size(); ++k)
+      cover(boxes[k], [&](int64_t c) {
+        members[static_cast<size_t>(count[static_cast<size_t>(c)]++)] = static_cast<int32_t>(k);
+      });
+  }
+  int64_t column(double x) const {
+    return std::clamp<int64_t>(static_cast<int64_t>(std::floor((x - lo.x) / cell_w)), 0, nx - 1);
+  }
+  int64_t row(double y) const {
+    return std::clamp<int64_t>(static_cast<int64_t>(std::floor((y - lo.y) / cell_h)), 0, ny - 1);
+  }
+  // The polygons whose boxes hold p, appended to `out`. (A cell holds every box that overlaps it,
+  // and a box that holds p overlaps p's cell: clamping only moves points outside every box.)
+  void holding(Vec2 p, std::vector<int32_t>& out) const {
+    if (boxes.empty()) return;
+    const int64_t c = row(p.y) * nx + column(p.x);
+    for (int64_t i = first[static_cast<size_t>(c)]; i < first[static_cast<size_t>(c) + 1]; ++i) {
+      const int32_t k = members[static_cast<size_t>(i)];
+      if (boxes[static_cast<size_t>(k)].holds(p)) out.push_back(k);
+    }
+  }
+};
+
 Visibility::Visibility(Barriers barriers, bool indexed, std::shared_ptr<const GeodesicFrame> frame)
     : barriers_(std::move(barriers)), frame_(std::move(frame)) {
   std::vector<Vec2> positions;
@@ -197,6 +273,7 @@ Visibility::Visibility(Barriers barriers, bool indexed, std::shared_ptr<const Ge
     if (first[i]) vertices.push_back(positions[i]);
   east_ = 1.0;
   for (const Vec2& v : vertices) east_ = std::max(east_, std::abs(v.x) + 1.0);
+  lands_ = std::make_shared<const Lands>(barriers_, frame_ ? frame_->deviation() : 0.0);
   if (indexed) {
     std::vector<sea::EdgeIndex::Segment> segments;
     segments.reserve(edges_.size());
@@ -260,11 +337,35 @@ Visibility::Star Visibility::build_star(Vec2 p) const {
     return met.back();
   };
   std::vector<int32_t> near_edges, near_vertices;
-  // The ray: planar, the horizontal from p east; geodesic, the geodesic from p to a point east of
-  // every vertex by more than any edge's image bends, so that it leaves every polygon. A vertex
-  // counts as below the ray when on it (half-open), the same for every edge that has it.
-  const Vec2 far{std::max(p.x + 1.0, east_) + (frame_ ? frame_->deviation() : 0.0), p.y};
-  auto above = [&](Vec2 v) { return frame_ ? turn(frame_.get(), p, far, v) > 0 : v.y > p.y; };
+  // Land is decided by the parity of a ray's crossings with each polygon that may hold p (its box
+  // does): the ray leaves every such box, by more than any edge's image bends, so it ends outside
+  // each of them. It runs along the axis direction in which they end nearest: east, west, north or
+  // south from p (planar: the axis line; geodesic: the geodesic to that point). Polygons whose
+  // boxes do not hold p cannot hold it, and their crossings are not counted. A vertex on the ray's
+  // line counts as right of it (half-open), the same for every edge that has it.
+  std::vector<int32_t> holding;
+  lands_->holding(p, holding);
+  const double bend = frame_ ? frame_->deviation() : 0.0;
+  double reach[4] = {p.x + 1.0, p.x - 1.0, p.y + 1.0, p.y - 1.0};  // east, west, north, south
+  for (int32_t k : holding) {
+    const Lands::Box& b = lands_->boxes[static_cast<size_t>(k)];
+    reach[0] = std::max(reach[0], b.hi.x);
+    reach[1] = std::min(reach[1], b.lo.x);
+    reach[2] = std::max(reach[2], b.hi.y);
+    reach[3] = std::min(reach[3], b.lo.y);
+  }
+  const double lengths[4] = {reach[0] - p.x, p.x - reach[1], reach[2] - p.y, p.y - reach[3]};
+  const int way = static_cast<int>(std::min_element(lengths, lengths + 4) - lengths);
+  const Vec2 far = way == 0   ? Vec2{reach[0] + bend, p.y}
+                   : way == 1 ? Vec2{reach[1] - bend, p.y}
+                   : way == 2 ? Vec2{p.x, reach[2] + bend}
+                              : Vec2{p.x, reach[3] - bend};
+  // (Left of the ray from p to far, exactly: for the axis directions, the coordinate comparisons
+  // the orientation predicate reduces to.)
+  auto above = [&](Vec2 v) {
+    if (frame_) return turn(frame_.get(), p, far, v) > 0;
+    return way == 0 ? v.y > p.y : way == 1 ? v.y < p.y : way == 2 ? v.x < p.x : v.x > p.x;
+  };
   candidates(p, far, near_edges, near_vertices);
   for (int32_t id : near_edges) {
     const Edge& e = edges_[static_cast<size_t>(id)];
@@ -280,6 +381,8 @@ Visibility::Star Visibility::build_star(Vec2 p) const {
       }
       continue;
     }
+    // (A polygon whose box does not hold p has p neither inside nor on its boundary.)
+    if (std::find(holding.begin(), holding.end(), e.polygon) == holding.end()) continue;
     Met& m = state(e.polygon);
     if (a == p) {
       m.on_boundary = true;

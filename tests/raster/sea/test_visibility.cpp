@@ -485,5 +485,154 @@ TEST(Visibility, MeetingsAreWhereASeedsEdgeMeetsABarrier) {
   EXPECT_EQ(meetings_of(v, {10, -2}, {10, 6}), "(10 0) (10 4)");  // along the whole boom and past it
 }
 
+// Land by the parity of crossings, decided independently: a coast of many islands beside a
+// mainland whose box holds nearly every point, lakes in it, islands overlapping it and each other,
+// and lines. Every point of the whole-number and half-number lattice (aligned with vertices in x,
+// y or both, where a ray's half-open rule decides), planar; and on the ellipsoid the points
+// farther than the images' bending from every edge, and the vertices. The oracle: a point is land
+// when strictly inside some polygon; on the boundary of one polygon only (inside none) it is sea
+// on a barrier; points on two polygons' boundaries (a shared border's rule) are left out.
+struct Layout {
+  std::vector<std::vector<Ring>> polygons;
+  std::vector<std::vector<Vec2>> lines;
+};
+
+Layout random_coast(std::mt19937_64& rng) {
+  Layout l;
+  std::uniform_int_distribution<int> coord(0, 56), size(1, 7), top(18, 34);
+  std::vector<Vec2> mainland{{0, 0}, {60, 0}};
+  for (int x = 60; x >= 0; x -= 4) mainland.push_back({static_cast<double>(x), static_cast<double>(top(rng))});
+  std::vector<Ring> rings{mainland};
+  for (int k = 0; k < 4; ++k) {  // lakes, apart: one per band of 14
+    const double x = 2 + 14 * k + coord(rng) % 6, y = 2 + coord(rng) % 8;
+    rings.push_back({{x, y}, {x, y + 3}, {x + 3, y + 3}, {x + 3, y}});  // (clockwise: a hole)
+  }
+  l.polygons.push_back(rings);
+  for (int k = 0; k < 30; ++k) {
+    const double x = coord(rng), y = coord(rng), w = size(rng), h = size(rng);
+    if (k % 3 == 0)
+      l.polygons.push_back({{{x, y}, {x + w, y}, {x, y + h}}});
+    else
+      l.polygons.push_back({{{x, y}, {x + w, y}, {x + w, y + h}, {x, y + h}}});
+  }
+  for (int k = 0; k < 5; ++k)
+    l.lines.push_back({{static_cast<double>(coord(rng)), static_cast<double>(coord(rng))},
+                       {static_cast<double>(coord(rng)), static_cast<double>(coord(rng))}});
+  return l;
+}
+
+// Whether p lies on segment a-b (closed), and whether the ray from p east crosses it (half-open:
+// an end on the ray's line counts as below), for coordinates whose products are exact.
+bool on_segment(Vec2 a, Vec2 b, Vec2 p) {
+  const double det = (b.x - a.x) * (p.y - a.y) - (b.y - a.y) * (p.x - a.x);
+  return det == 0 && p.x >= std::min(a.x, b.x) && p.x <= std::max(a.x, b.x) && p.y >= std::min(a.y, b.y) &&
+         p.y <= std::max(a.y, b.y);
+}
+bool crosses_east(Vec2 a, Vec2 b, Vec2 p) {
+  if ((a.y > p.y) == (b.y > p.y)) return false;
+  const double det = (b.x - a.x) * (p.y - a.y) - (b.y - a.y) * (p.x - a.x);
+  return b.y > p.y ? det > 0 : det < 0;
+}
+
+// The oracle's ground for p, or -1 to leave it out. `near`: whether p counts as on an edge
+// (exactly, or within the bending).
+template <class Near>
+int oracle_ground(const Layout& l, Vec2 p, Near&& near) {
+  int inside = 0, on = 0;
+  for (const auto& rings : l.polygons) {
+    bool boundary = false, odd = false;
+    for (const Ring& r : rings)
+      for (size_t i = 0; i < r.size(); ++i) {
+        const Vec2 a = r[i], b = r[(i + 1) % r.size()];
+        boundary = boundary || near(a, b, p);
+        odd = odd != crosses_east(a, b, p);
+      }
+    if (boundary)
+      ++on;
+    else if (odd)
+      ++inside;
+  }
+  if (inside > 0) return static_cast<int>(Visibility::Ground::land);
+  if (on > 1) return -1;
+  bool on_line = false;
+  for (const auto& line : l.lines)
+    for (size_t i = 0; i + 1 < line.size(); ++i) on_line = on_line || near(line[i], line[i + 1], p);
+  return static_cast<int>(on == 1 || on_line ? Visibility::Ground::on_barrier : Visibility::Ground::open_sea);
+}
+
+TEST(Visibility, LandIsEachPolygonsParity) {
+  int counts[3] = {0, 0, 0}, left_out = 0;
+  for (int round = 0; round < 6; ++round) {
+    std::mt19937_64 rng(300 + round);
+    const Layout l = random_coast(rng);
+    Barriers b;
+    for (const auto& rings : l.polygons) b.add_polygon(rings, "land");
+    for (const auto& line : l.lines) b.add_line(line, "line");
+    const Visibility indexed(b), full(b, false);
+    for (int iy = -4; iy <= 124; ++iy)
+      for (int ix = -4; ix <= 124; ++ix) {
+        const Vec2 p{ix * 0.5, iy * 0.5};
+        const int want = oracle_ground(l, p, on_segment);
+        if (want < 0) {
+          ++left_out;
+          continue;
+        }
+        ++counts[want];
+        ASSERT_EQ(static_cast<int>(indexed.classify(p)), want) << round << " " << p.x << " " << p.y;
+        ASSERT_EQ(static_cast<int>(full.classify(p)), want) << round << " " << p.x << " " << p.y;
+      }
+  }
+  std::printf("planar: land %d, open sea %d, on a barrier %d, left out %d\n", counts[0], counts[1], counts[2],
+              left_out);
+  EXPECT_GT(counts[static_cast<int>(Visibility::Ground::land)], 20000);
+  EXPECT_GT(counts[static_cast<int>(Visibility::Ground::open_sea)], 20000);
+  EXPECT_GT(counts[static_cast<int>(Visibility::Ground::on_barrier)], 2000);
+
+  // On the ellipsoid: the layout in hundredths of a degree over the Oresund, its images in a
+  // frame. The oracle reads chords in the frame's plane, so points within twice the bending (and
+  // a micrometre) of an edge's chord are left out but for the vertices themselves.
+  MetricSpec wgs84;
+  wgs84.kind = MetricSpec::geodesic;
+  const auto frame = std::make_shared<const GeodesicFrame>(wgs84, 11.9, 55.2, 12.8, 56.0);
+  int geo[3] = {0, 0, 0};
+  for (int round = 0; round < 2; ++round) {
+    std::mt19937_64 rng(400 + round);
+    Layout l = random_coast(rng);
+    auto image = [&](Vec2 q) { return frame->forward({12.0 + q.x * 0.01, 55.3 + q.y * 0.01}); };
+    for (auto& rings : l.polygons)
+      for (Ring& r : rings)
+        for (Vec2& v : r) v = image(v);
+    for (auto& line : l.lines)
+      for (Vec2& v : line) v = image(v);
+    Barriers b;
+    for (const auto& rings : l.polygons) b.add_polygon(rings, "land");
+    for (const auto& line : l.lines) b.add_line(line, "line");
+    const Visibility v(b, true, frame);
+    const double margin = 2 * frame->deviation() + 1e-6;
+    auto near = [&](Vec2 a, Vec2 c, Vec2 p) {
+      if (p == a || p == c) return true;
+      const Vec2 d{c.x - a.x, c.y - a.y};
+      const double t = std::clamp(((p.x - a.x) * d.x + (p.y - a.y) * d.y) / (d.x * d.x + d.y * d.y), 0.0, 1.0);
+      return std::hypot(p.x - a.x - t * d.x, p.y - a.y - t * d.y) <= margin;
+    };
+    for (int iy = -4; iy <= 124; ++iy)
+      for (int ix = -4; ix <= 124; ++ix) {
+        const Vec2 p = image({ix * 0.5, iy * 0.5});
+        bool vertex = false;
+        for (const auto& rings : l.polygons)
+          for (const Ring& r : rings) vertex = vertex || std::find(r.begin(), r.end(), p) != r.end();
+        int want = oracle_ground(l, p, near);
+        if (want == static_cast<int>(Visibility::Ground::on_barrier) && !vertex) want = -1;  // within the bending
+        if (want < 0) continue;
+        ++geo[want];
+        ASSERT_EQ(static_cast<int>(v.classify(p)), want) << round << " " << ix << " " << iy;
+      }
+  }
+  std::printf("ellipsoid: land %d, open sea %d, on a barrier (vertices) %d\n", geo[0], geo[1], geo[2]);
+  EXPECT_GT(geo[static_cast<int>(Visibility::Ground::land)], 5000);
+  EXPECT_GT(geo[static_cast<int>(Visibility::Ground::open_sea)], 5000);
+  EXPECT_GT(geo[static_cast<int>(Visibility::Ground::on_barrier)], 100);
+}
+
 }  // namespace
 }  // namespace rv

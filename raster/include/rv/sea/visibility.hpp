@@ -31,7 +31,8 @@
 // Costs, for V vertices and E edges. With the index (the default: a uniform grid of about 2E
 // buckets), sees() takes time in proportion to the buckets along the path and the edges and
 // vertices in them; a point's wedges (star_at, on_land, classify, and sees() from a start that
-// is neither a vertex nor Place::open) those along a ray from it to the east. Without the index
+// is neither a vertex nor Place::open) those along a ray from it out of the boxes of the polygons
+// whose boxes hold it (the shortest of the four axis directions), and a look-up of those boxes. Without the index
 // every query scans every edge and vertex: O(E + V), the reference the index is tested against.
 // Thread safety: immutable once built; const access from any number of threads.
 #pragma once
@@ -181,9 +182,11 @@ class Visibility {
   void candidates(Vec2 p, Vec2 q, std::vector<int32_t>& edges, std::vector<int32_t>& vertices) const;
 
   struct Index;
+  struct Lands;  // the polygons' boxes, and which may hold a given point
   Barriers barriers_;
   std::shared_ptr<const GeodesicFrame> frame_;
   std::shared_ptr<const Index> index_;
+  std::shared_ptr<const Lands> lands_;
   std::vector<Edge> edges_;
   std::vector<Star> stars_;           // per vertex
   std::vector<int32_t> by_position_;  // vertex indices sorted by (x, y)
