@@ -32,8 +32,9 @@
 // buckets), sees() takes time in proportion to the buckets along the path and the edges and
 // vertices in them; a point's wedges (star_at, on_land, classify, and sees() from a start that
 // is neither a vertex nor Place::open) those along a ray from it out of the boxes of the polygons
-// whose boxes hold it (the shortest of the four axis directions), and a look-up of those boxes. Without the index
-// every query scans every edge and vertex: O(E + V), the reference the index is tested against.
+// whose boxes hold it (the shortest of the four axis directions; the boxes found from a grid).
+// Without the index every query scans every edge and vertex: O(E + V), the reference the index
+// is tested against.
 // Thread safety: immutable once built; const access from any number of threads.
 #pragma once
 
