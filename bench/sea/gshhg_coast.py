@@ -11,8 +11,10 @@ script joins them into polygons:
      inside the region, as pieces;
   2. the pieces merged where they meet, noded with the region's outline, and polygonized;
   3. each face is land when most of it lies in the fixture's land (the faces alternate land and
-     sea across a shoreline, and the fixture's coasts are the same coasts at a coarser scale);
-     faces smaller than a cell of the bench (`--min-area`) are dropped either way.
+     sea across a shoreline, and the fixture's coasts are the same coasts at a coarser scale;
+     islands the fixture's land lacks are dropped as sea), or with `--land gshhg` when a point
+     inside it is GSHHG's land (`gmt select -N`: every island kept, and any `--region`); faces
+     smaller than a cell of the bench (`--min-area`) are dropped either way.
 
 The result (EPSG:4326, one polygon per feature, field `iso2` = "XX": the bench ignores owners of
 barriers) goes to the output file. Real vertices only: nothing is densified.
