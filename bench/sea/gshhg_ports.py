@@ -1,6 +1,6 @@
 #!/usr/bin/python3
-"""200 ports on a GSHHG coast (the western Baltic's by default), owned, for timing the whole job by sea on a
-detailed coast (bench/RESULTS-sea.md, sessions 73 to 76).
+"""200 ports on a GSHHG coast (the western Baltic's by default), owned, for timing the whole job by
+sea on a detailed coast (bench/RESULTS-sea.md, sessions 73 to 76 and 79).
 
 The ports are sea_bench's for that coast (`--ports-out`: every k-th coast vertex, owner "XX");
 each takes the owner of the nearest of the fixture's ports (fixtures/baltic_west_ports.geojson),
