@@ -495,6 +495,12 @@ TEST(Visibility, MeetingsAreWhereASeedsEdgeMeetsABarrier) {
 struct Layout {
   std::vector<std::vector<Ring>> polygons;
   std::vector<std::vector<Vec2>> lines;
+  Barriers barriers() const {
+    Barriers b;
+    for (const auto& rings : polygons) b.add_polygon(rings, "land");
+    for (const auto& line : lines) b.add_line(line, "line");
+    return b;
+  }
 };
 
 Layout random_coast(std::mt19937_64& rng) {
@@ -565,9 +571,7 @@ TEST(Visibility, LandIsEachPolygonsParity) {
   for (int round = 0; round < 6; ++round) {
     std::mt19937_64 rng(300 + round);
     const Layout l = random_coast(rng);
-    Barriers b;
-    for (const auto& rings : l.polygons) b.add_polygon(rings, "land");
-    for (const auto& line : l.lines) b.add_line(line, "line");
+    const Barriers b = l.barriers();
     const Visibility indexed(b), full(b, false);
     for (int iy = -4; iy <= 124; ++iy)
       for (int ix = -4; ix <= 124; ++ix) {
@@ -604,10 +608,7 @@ TEST(Visibility, LandIsEachPolygonsParity) {
         for (Vec2& v : r) v = image(v);
     for (auto& line : l.lines)
       for (Vec2& v : line) v = image(v);
-    Barriers b;
-    for (const auto& rings : l.polygons) b.add_polygon(rings, "land");
-    for (const auto& line : l.lines) b.add_line(line, "line");
-    const Visibility v(b, true, frame);
+    const Visibility v(l.barriers(), true, frame);
     const double margin = 2 * frame->deviation() + 1e-6;
     auto near = [&](Vec2 a, Vec2 c, Vec2 p) {
       if (p == a || p == c) return true;
