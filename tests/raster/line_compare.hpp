@@ -93,6 +93,7 @@ inline void expect_same_lines(const BoundaryResult& a, const BoundaryResult& b) 
   EXPECT_EQ(s.saddles, t.saddles);
   EXPECT_EQ(s.multi_owner_squares, t.multi_owner_squares);
   EXPECT_EQ(s.unresolved_tripoints, t.unresolved_tripoints);
+  EXPECT_EQ(s.repeated_loops, t.repeated_loops);
   EXPECT_EQ(s.vertices, t.vertices);
   EXPECT_EQ(s.vertices_before_simplify, t.vertices_before_simplify);
   EXPECT_EQ(s.max_residual, t.max_residual);

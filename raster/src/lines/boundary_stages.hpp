@@ -217,11 +217,16 @@ class LineRefiner {
   // segment's midpoint to the locus, metric units (land segments left out).
   double measure(int32_t owner_a, int32_t owner_b, const std::vector<BoundaryVertex>& vertices) const;
   double tolerance() const { return tol_; }
+  // A length in metric units as CRS units near p (over the smaller of the two scales there).
+  double crs_length(double length, Vec2 p) const {
+    const Vec2 s = scale_.at(p);
+    return length / std::min(s.x, s.y);
+  }
 
  private:
   struct End;
-  void between(const End& u, const End& v, int depth, int32_t a, int32_t b, std::vector<End>& out, Added& n,
-               std::vector<Bow>* bows = nullptr) const;
+  void between(const End& u, const End& v, int depth, bool lifted, int32_t a, int32_t b, std::vector<End>& out,
+               Added& n, std::vector<Bow>* bows = nullptr) const;
   // The distance from the chord's midpoint to the locus (metric units); NaN where not measured
   // (an owner has no site there).
   double midpoint_offset(const BoundaryVertex& u, const BoundaryVertex& v, int32_t a, int32_t b,
@@ -244,7 +249,15 @@ class LineRefiner {
   static bool sea_bracket(F&& f, double& f0, double& f1, double& lo, double& hi);
   // The ends' two sites' locus point from the chord's middle (Newton's method), within max_off.
   bool onto_locus(const End& u, const End& v, double max_off, End& out) const;
+  // Whether p is a locus point of owners a and b (each owner's nearest costs the same there, and
+  // no third owner's is lower), as `out` with its sites; checked() asks also within_chord().
   bool checked(Vec2 p, int32_t a, int32_t b, const End& u, const End& v, double max_off, End& out) const;
+  bool verified(Vec2 p, int32_t a, int32_t b, const End& u, const End& v, End& out) const;
+  // A tip (split(): a wedge of one owner narrower than a cell, cut across by the chord): the
+  // turning point where the changing side's two sites and the other side's cost the same, by
+  // Newton's method from where the ends' tangents meet and within half that point's distance
+  // from the chord's middle (and a chord) of it; anywhere along the chord, beyond its ends too.
+  bool tip_point(const End& u, const End& v, int32_t a, int32_t b, End& out) const;
   bool tie_apex(const End& u, const End& v, int32_t a, int32_t b, End& out) const;
   // By sea, the same two sites at both ends but one side's path bending last at another barrier
   // vertex at each (SiteMetric::last_bend): the corner where the two paths cost the same and the
@@ -294,6 +307,13 @@ using BoundaryMemo = SegmentMemo<BoundaryVertex, LineRefiner::Added>;
 void finish_lines(std::vector<BoundaryLine>& lines, const LineRefiner* refiner, double tol, BoundaryStats& stats,
                   int threads, const SegmentReuse<BoundaryVertex, LineRefiner::Added>* reuse = nullptr,
                   BoundaryMemo* record = nullptr);
+
+// The closed lines that run wholly along another line of the same two owners, to be dropped
+// (repeated_loops.cpp): each vertex and each segment's middle within twice the refiner's
+// tolerance of that line. Cells of a wedge narrower than a cell near its tip, cut off from the
+// rest of it, trace such a loop; refined, it follows the wedge's sides out to the tip, as the
+// main line does. Lines already found repeated are not compared against; the result is in order.
+std::vector<bool> repeated_loops(const std::vector<BoundaryLine>& lines, const LineRefiner& refiner);
 
 // The links chained into lines per owner pair, finished as finish_lines does (refined with
 // `refiner` when given, simplified with Douglas-Peucker at `tol` CRS units), in a deterministic

@@ -141,7 +141,7 @@ void LineRefiner::refine_segments(int32_t a, int32_t b, const std::vector<Bounda
     // Each segment counted on its own, then merged (the same sums and maxima, the first worst).
     Added s;
     out.clear();
-    between(u, v, 0, a, b, out, s, bows);
+    between(u, v, 0, false, a, b, out, s, bows);
     for (const End& e : out) result.push_back(e.v);
     result.push_back(v.v);
     (u.v.arc != 0 || v.v.arc != 0 ? s.arcs : s.locus).added += s.turning_points + s.arc_points;
@@ -257,11 +257,16 @@ bool LineRefiner::split(const End& u, const End& v, bool same, bool arcs, double
   // line out and back to a turning point). The locus may run back past an end's projection (south
   // of Copenhagen the corner lies beyond u): no order along the chord is asked.
   loose = true;
-  return across_middle(u, v, a, b, max_off, mid);
+  if (across_middle(u, v, a, b, max_off, mid)) return true;
+  // A tip: one owner's wedge narrower than a cell, between two sites of the other owner that take
+  // over from each other at its tip. The cells end the line where the wedge is still a cell wide,
+  // a chord across it, and the turning point lies beyond the chord, several chords away in a thin
+  // wedge (bench/RESULTS-sea.md, session 80).
+  return turning = tip_point(u, v, a, b, mid);
 }
 
-void LineRefiner::between(const End& u, const End& v, int depth, int32_t a, int32_t b, std::vector<End>& out, Added& n,
-                          std::vector<Bow>* bows) const {
+void LineRefiner::between(const End& u, const End& v, int depth, bool lifted, int32_t a, int32_t b,
+                          std::vector<End>& out, Added& n, std::vector<Bow>* bows) const {
   const double chord = std::hypot(v.v.p.x - u.v.p.x, v.v.p.y - u.v.p.y);
   const bool arcs = u.v.arc != 0 || v.v.arc != 0;
   LineResidual& r = arcs ? n.arcs : n.locus;
@@ -289,9 +294,9 @@ void LineRefiner::between(const End& u, const End& v, int depth, int32_t a, int3
     if (tie_edge(u.v, v.v, a, b, edge, off)) {
       if (depth < kMaxDepth && tol_ > 0.0 && off > kSplitAt * tol_) {
         ++n.arc_points;
-        between(u, edge, depth + 1, a, b, out, n, bows);
+        between(u, edge, depth + 1, lifted, a, b, out, n, bows);
         out.push_back(edge);
-        between(edge, v, depth + 1, a, b, out, n, bows);
+        between(edge, v, depth + 1, lifted, a, b, out, n, bows);
         return;
       }
       if (bows != nullptr) bows->push_back(Bow{});
@@ -306,9 +311,9 @@ void LineRefiner::between(const End& u, const End& v, int depth, int32_t a, int3
     End apex;
     if (tie_apex(u, v, a, b, apex)) {
       ++n.turning_points;
-      between(u, apex, depth + 1, a, b, out, n, bows);
+      between(u, apex, depth + 1, lifted, a, b, out, n, bows);
       out.push_back(apex);
-      between(apex, v, depth + 1, a, b, out, n, bows);
+      between(apex, v, depth + 1, lifted, a, b, out, n, bows);
       return;
     }
   }
@@ -330,9 +335,16 @@ void LineRefiner::between(const End& u, const End& v, int depth, int32_t a, int3
     const size_t out0 = out.size(), bows0 = bows != nullptr ? bows->size() : 0;
     const Added before = n;
     ++(turning ? n.turning_points : n.arc_points);
-    between(u, mid, depth + 1, a, b, out, n, bows);
+    // A tip's turning point lies beyond an end (split()): its halves are new stretches of the
+    // line, longer than the chord and as long as a line's first chords can be, and start the
+    // halvings afresh (once on a line's way down, so that the depth still bounds the refinement).
+    const Vec2 d{v.v.p.x - u.v.p.x, v.v.p.y - u.v.p.y};
+    const double along = ((mid.v.p.x - u.v.p.x) * d.x + (mid.v.p.y - u.v.p.y) * d.y) / (chord * chord);
+    const bool lift = !lifted && !(along >= 0.0 && along <= 1.0);
+    const int next = lift ? 0 : depth + 1;
+    between(u, mid, next, lifted || lift, a, b, out, n, bows);
     out.push_back(mid);
-    between(mid, v, depth + 1, a, b, out, n, bows);
+    between(mid, v, next, lifted || lift, a, b, out, n, bows);
     if (!loose || runs_simply(u.v.p, v.v.p, out, out0)) return true;
     out.resize(out0);
     if (bows != nullptr) bows->resize(bows0);
@@ -359,9 +371,9 @@ void LineRefiner::between(const End& u, const End& v, int depth, int32_t a, int3
   if (tol_ > 0.0 && depth <= kMaxDepth && same && !arcs && std::isfinite(off) && off > tol_ &&
       bend_corner(u, v, a, b, chord, mid)) {
     ++n.turning_points;
-    between(u, mid, depth + 1, a, b, out, n, bows);
+    between(u, mid, depth + 1, lifted, a, b, out, n, bows);
     out.push_back(mid);
-    between(mid, v, depth + 1, a, b, out, n, bows);
+    between(mid, v, depth + 1, lifted, a, b, out, n, bows);
     return;
   }
   if (bows != nullptr) bows->push_back(bow);
@@ -508,6 +520,42 @@ bool LineRefiner::turning_point(const End& u, const End& v, int32_t a, int32_t b
   return false;
 }
 
+bool LineRefiner::tip_point(const End& u, const End& v, int32_t a, int32_t b, End& out) const {
+  // Where the stretches leaving u and v along their tangents meet: the tip itself where both are
+  // straight (bisectors), and the start of the search elsewhere.
+  const Vec2 nu = normal_towards(u, v), nv = normal_towards(v, u);
+  const Vec2 tu{-nu.y, nu.x}, tv{-nv.y, nv.x};
+  const double det = tu.x * tv.y - tu.y * tv.x;
+  const double chord = std::hypot(v.v.p.x - u.v.p.x, v.v.p.y - u.v.p.y);
+  if (!(std::abs(det) > 1e-9 * std::hypot(tu.x, tu.y) * std::hypot(tv.x, tv.y)) || !std::isfinite(det)) return false;
+  const Vec2 d{v.v.p.x - u.v.p.x, v.v.p.y - u.v.p.y};
+  const double s = (d.x * tv.y - d.y * tv.x) / det;
+  const Vec2 meet{u.v.p.x + s * tu.x, u.v.p.y + s * tu.y};
+  const Vec2 mid = lerp(u.v.p, v.v.p, 0.5);
+  const double far = std::hypot(meet.x - mid.x, meet.y - mid.y);
+  if (!std::isfinite(far)) return false;
+  // The turning point is taken within half the meeting point's distance of it (and a chord): the
+  // curved stretches of a tip by sea bend away from their tangents, but not back across the chord.
+  const double bound = 0.5 * far + chord;
+  struct System {
+    int32_t s1, s2, t;
+  };
+  std::vector<System> systems;
+  if (!shares(u.v.site_a, u.alt_a, v.v.site_a, v.alt_a)) systems.push_back({u.v.site_a, v.v.site_a, u.v.site_b});
+  if (!shares(u.v.site_b, u.alt_b, v.v.site_b, v.alt_b)) systems.push_back({u.v.site_b, v.v.site_b, u.v.site_a});
+  for (const System& sys : systems) {
+    if (sys.s1 == kNoSite || sys.s2 == kNoSite || sys.t == kNoSite) continue;
+    Vec2 p;
+    if (!equal_costs_point(index_, sys.s1, sys.s2, sys.t, meet, bound, ftol_, p)) continue;
+    // Not at either end (a turning point solved onto an end adds nothing).
+    const double near_end =
+        std::min(std::hypot(p.x - u.v.p.x, p.y - u.v.p.y), std::hypot(p.x - v.v.p.x, p.y - v.v.p.y));
+    if (!(near_end > 1e-4 * chord)) continue;
+    if (verified(p, a, b, u, v, out)) return true;
+  }
+  return false;
+}
+
 bool LineRefiner::onto_locus(const End& u, const End& v, double max_off, End& out) const {
   const int32_t sa = u.v.site_a, sb = u.v.site_b;
   const Vec2 start = lerp(u.v.p, v.v.p, 0.5);
@@ -615,7 +663,10 @@ bool LineRefiner::within_chord(Vec2 p, const End& u, const End& v, double max_of
 }
 
 bool LineRefiner::checked(Vec2 p, int32_t a, int32_t b, const End& u, const End& v, double max_off, End& out) const {
-  if (!within_chord(p, u, v, max_off)) return false;
+  return within_chord(p, u, v, max_off) && verified(p, a, b, u, v, out);
+}
+
+bool LineRefiner::verified(Vec2 p, int32_t a, int32_t b, const End& u, const End& v, End& out) const {
   const OwnerIndex::Hit ha = index_.nearest_of(p, a, u.v.site_a), hb = index_.nearest_of(p, b, u.v.site_b);
   if (ha.site == kNoSite || hb.site == kNoSite) return false;
   const double residual = std::abs(ha.cost - hb.cost);
@@ -756,7 +807,6 @@ void finish_lines(std::vector<BoundaryLine>& lines, const LineRefiner* refiner, 
       record->append(std::move(b.kept), b.i0 == 0 ? &lines[b.line].vertices.front() : nullptr, b.out, b.bows);
       record->taken += b.taken;
     }
-  std::vector<int64_t> before(lines.size());
   if (refiner != nullptr) {
     std::vector<std::vector<BoundaryVertex>> joined(lines.size());
     for (size_t k = 0; k < lines.size(); ++k)
@@ -765,14 +815,29 @@ void finish_lines(std::vector<BoundaryLine>& lines, const LineRefiner* refiner, 
     for (Block& b : blocks) {
       joined[b.line].insert(joined[b.line].end(), b.out.begin(), b.out.end());
       lines[b.line].bows.insert(lines[b.line].bows.end(), b.bows.begin(), b.bows.end());
+    }
+    for (size_t k = 0; k < lines.size(); ++k)
+      if (!lines[k].vertices.empty()) lines[k].vertices = std::move(joined[k]);
+    // A loop that repeats another line is dropped, and so is what its refinement added.
+    const std::vector<bool> drop =
+        refiner->tolerance() > 0.0 ? repeated_loops(lines, *refiner) : std::vector<bool>(lines.size(), false);
+    for (const Block& b : blocks) {
+      if (drop[b.line]) continue;
       stats.turning_points += b.added.turning_points;
       stats.arc_points += b.added.arc_points;
       stats.locus.merge(b.added.locus);
       stats.arcs.merge(b.added.arcs);
     }
+    size_t kept = 0;
     for (size_t k = 0; k < lines.size(); ++k)
-      if (!lines[k].vertices.empty()) lines[k].vertices = std::move(joined[k]);
+      if (!drop[k]) {
+        if (kept != k) lines[kept] = std::move(lines[k]);
+        ++kept;
+      }
+    stats.repeated_loops += static_cast<int64_t>(lines.size() - kept);
+    lines.resize(kept);
   }
+  std::vector<int64_t> before(lines.size());
   std::vector<double> simplified(lines.size(), 0.0);
   detail::parallel_for(threads, static_cast<int64_t>(lines.size()), [&](int64_t k, int) {
     const auto i = static_cast<size_t>(k);

@@ -384,5 +384,42 @@ TEST(CloseMissingTripoints, ATripointACrowdedSquareMissed) {
   EXPECT_EQ(region_edges(r, index, g).dangling_ends, 0);
 }
 
+// repeated_loops: a closed line whose every vertex and every segment's middle lies within twice
+// the tolerance of another line of the same two owners goes (the stretches a thin wedge's cut-off
+// cells traced, refined onto the main line's); one a hair farther off anywhere, one of other
+// owners, and the line it runs along stay. (The lines are laid out by hand: the stage reads only
+// their vertices, owners and the refiner's tolerance.)
+TEST(RepeatedLoops, AClosedLineAlongAnotherOfTheSameOwnersGoes) {
+  const Case c(kThree);
+  const line_tools::CrsScale scale(c.metric, Vec2{50.0, 50.0}, 1.0);
+  const double tol = 1e-3;
+  const LineRefiner refiner(c.index, tol, 1e-9, scale, std::max(scale.at0.x, scale.at0.y));
+  auto line = [](int32_t a, int32_t b, bool closed, std::vector<Vec2> pts) {
+    BoundaryLine l{a, b, closed, {}, {}};
+    for (const Vec2 p : pts) l.vertices.push_back(BoundaryVertex{p, 0, 1, 1.0, 0.0});
+    return l;
+  };
+  // A V: out along one side to the tip at (0, 0) and back along the other.
+  const BoundaryLine main = line(1, 2, false, {{40, 4}, {20, 2}, {0, 0}, {20, -2}, {40, -4}});
+  // Round the tip and back, both sides of it, every point on the V within 1.5 thousandths.
+  const BoundaryLine along = line(1, 2, true, {{15, 1.5015}, {0, 0}, {10, -1}, {12, -1.2}, {0, 0.0005}, {10, 1}});
+  BoundaryLine off_vertex = along;
+  off_vertex.vertices[3].p.y -= 0.003;  // a vertex 3 thousandths off the V
+  // Every vertex on the V, but a chord across it from side to side (its middle a unit off).
+  const BoundaryLine off_middle = line(1, 2, true, {{0, 0}, {10, 1}, {10, -1}});
+  BoundaryLine others = along;
+  others.owner_b = 3;
+  const std::vector<BoundaryLine> lines{main, along, off_vertex, off_middle, others};
+  const std::vector<bool> drop = repeated_loops(lines, refiner);
+  EXPECT_EQ(drop, (std::vector<bool>{false, true, false, false, false}));
+  // Two copies of one loop along nothing else: one goes, not both.
+  const std::vector<bool> pair = repeated_loops({along, along}, refiner);
+  EXPECT_EQ(pair, (std::vector<bool>{true, false}));
+  // Measure only (tolerance 0): twice nothing is the coordinates' rounding alone, and the loop
+  // 1.5 thousandths off stays.
+  const LineRefiner measure(c.index, 0.0, 1e-9, scale, std::max(scale.at0.x, scale.at0.y));
+  EXPECT_EQ(repeated_loops(lines, measure), (std::vector<bool>(5, false)));
+}
+
 }  // namespace
 }  // namespace rv::boundary_stages

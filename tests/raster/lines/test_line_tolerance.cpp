@@ -11,6 +11,7 @@
 #include <cmath>
 #include <functional>
 #include <limits>
+#include <string>
 #include <vector>
 
 #include "rv/engine/engine.hpp"
@@ -354,6 +355,65 @@ TEST_P(PlanarTolerance, StraightLociStayTwoVertexSegments) {
 }
 
 INSTANTIATE_TEST_SUITE_P(Cells, PlanarTolerance, ::testing::Values(1000.0, 100.0));
+
+// A wedge of one owner narrower than a cell before its tip: the point B between two points A1, A2
+// of the other owner, ten units either side of it and one behind. B's region is a wedge of
+// half-angle 5.7 degrees whose tip T, 50.5 units behind B, is the three points' circumcentre:
+// there the line turns (A's nearest changes from A1 to A2). Within about 25 units of T the wedge
+// is narrower than a cell of 5, and the cells end the line across it, one chord standing for 50
+// units of the locus. The line goes out to T and back: a vertex at T, and every sampled point
+// within the tolerance of the two rays from T; with either owner on the side that changes, on a
+// layout turned by any angle. Turned, some of the wedge's cells near T are cut off from the rest:
+// the closed line they trace, refined onto the same rays, is dropped (repeated_loops), and the
+// main line is the only one.
+TEST(LineTolerance, ALineFollowsAWedgeNarrowerThanACellToItsTip) {
+  int64_t cases = 0, repeated = 0;
+  for (const double turn : {0.0, 0.3, 2.1})
+    for (const double res : {3.0, 5.0, 7.0})
+      for (const bool a_first : {true, false}) {
+        const double c = std::cos(turn), s = std::sin(turn);
+        auto at = [&](Vec2 p) { return Vec2{c * p.x - s * p.y, s * p.x + c * p.y}; };
+        const Vec2 b = at({0, 0}), a1 = at({-1, 10}), a2 = at({-1, -10}), tip = at({-50.5, 0});
+        SeedSet seeds;
+        auto add = [&](const char* owner, Vec2 p) { seeds.add_point(seeds.add_feature(seeds.owner_code(owner)), p); };
+        if (!a_first) add("B", b);
+        add("A", a1);
+        add("A", a2);
+        if (a_first) add("B", b);
+        const auto n = static_cast<int64_t>(std::ceil(160.0 / res));
+        const Planar k(seeds, test::grid_of(n, n, res, -80.0, 80.0));
+        const BoundaryResult r = extract_boundaries(k.field, *k.index);
+        const std::string name = "turn " + std::to_string(turn) + ", cells of " + std::to_string(res) +
+                                 (a_first ? ", A first" : ", B first");
+        ASSERT_EQ(r.lines.size(), 1u) << name;
+        EXPECT_EQ(r.stats.locus.unresolved, 0) << name;
+        EXPECT_LE(r.stats.locus.max_midpoint, kTol) << name;
+        EXPECT_GE(r.stats.turning_points, 1) << name;
+        double nearest_tip = kInf;
+        for (const BoundaryVertex& v : r.lines[0].vertices)
+          nearest_tip = std::min(nearest_tip, std::hypot(v.p.x - tip.x, v.p.y - tip.y));
+        EXPECT_LE(nearest_tip, 1e-6) << name;
+        // The locus: the bisector of B and A_i on A_i's side of T (A_i the nearer of the two).
+        auto to_ray = [&](Vec2 p, Vec2 ai, Vec2 aj) {
+          Vec2 d{-(ai.y - b.y), ai.x - b.x};
+          if (d.x * (ai.x - aj.x) + d.y * (ai.y - aj.y) < 0.0) d = Vec2{-d.x, -d.y};
+          const double len = std::hypot(d.x, d.y), along = ((p.x - tip.x) * d.x + (p.y - tip.y) * d.y) / len;
+          if (along <= 0.0) return std::hypot(p.x - tip.x, p.y - tip.y);
+          return std::abs((p.x - tip.x) * d.y - (p.y - tip.y) * d.x) / len;
+        };
+        double worst = 0.0;
+        int64_t samples = 0;
+        each_sample(r.lines, [&](Vec2 p) {
+          worst = std::max(worst, std::min(to_ray(p, a1, a2), to_ray(p, a2, a1)));
+          ++samples;
+        });
+        EXPECT_LE(worst, kTol) << name << ": " << samples << " samples";
+        repeated += r.stats.repeated_loops;
+        ++cases;
+      }
+  EXPECT_EQ(cases, 18);
+  EXPECT_GE(repeated, 4);
+}
 
 }  // namespace
 }  // namespace rv

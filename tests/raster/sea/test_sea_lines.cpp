@@ -628,6 +628,65 @@ TEST(SeaLines, ATurningPointWhereTheBisectorBecomesTheHyperbolaNamesTheBend) {
   EXPECT_EQ(found, 1);
 }
 
+// A tip by sea: B's paths west bend round the top b of a wall just west of it, so B's region is a
+// wedge between two hyperbola branches |B - b| + |b - x| = |x - A_i| of owner A's two points A1
+// and A2 (ten units either side, three behind), narrower than a cell for units before its tip
+// (17.4 units west of B), where A's nearest changes from A1 to A2 and all three paths are equally
+// long. The cells
+// end the line across the wedge; the line goes on out to the tip and back, every vertex a locus
+// point of the closed forms, one of them the tip, and every sampled point of every segment
+// within the tolerance of the locus.
+TEST(SeaLines, ALineFollowsAWedgeNarrowerThanACellToItsTipRoundAWallsEnd) {
+  const Vec2 a{1, -30}, b{1, 0.5}, s_b{2, 0}, a1{-1, 10}, a2{-1, -10};
+  auto cost_a = [&](Vec2 x) { return std::min(wall_path(a1, x, a, b), wall_path(a2, x, a, b)); };
+  auto cost_b = [&](Vec2 x) { return wall_path(s_b, x, a, b); };
+  // The tip lies on y = 0 (A1 and A2 mirror each other there): where |x - A1| = |B - b| + |b - x|.
+  double lo = -60.0, hi = -2.0;
+  for (int i = 0; i < 200; ++i) {
+    const double m = 0.5 * (lo + hi);
+    (wall_path(a1, {m, 0}, a, b) > cost_b({m, 0}) ? hi : lo) = m;
+  }
+  const Vec2 tip{0.5 * (lo + hi), 0.0};
+  for (const double res : {3.0, 5.0, 7.0}) {
+    const SeedSet seeds = test::named_points({{"A", a1}, {"A", a2}, {"B", s_b}});
+    const GridSpec g = test::grid_of(static_cast<int64_t>(std::ceil(170.0 / res)),
+                                     static_cast<int64_t>(std::ceil(80.0 / res)), res, -120.0, 40.0);
+    const test::WallSea sea(seeds, a, b, g);
+    const BoundaryResult lines = extract_boundaries(sea.field.field, *sea.index);
+    ASSERT_EQ(lines.lines.size(), 2u) << res;  // (each ends on the wall, one on either side of B)
+    EXPECT_EQ(lines.stats.locus.unresolved, 0) << res;
+    EXPECT_LE(lines.stats.locus.max_midpoint, 1e-3) << res;
+    int tips = 0;
+    double worst = 0.0;
+    Vec2 at{};
+    for (const BoundaryLine& line : lines.lines) {
+      for (const BoundaryVertex& v : line.vertices) {
+        const double d = cost_b(v.p);
+        EXPECT_NEAR(cost_a(v.p), d, 1e-9 * d) << res << ": " << v.p.x << "," << v.p.y;
+        if (std::abs(wall_path(a1, v.p, a, b) - d) <= 1e-9 * d && std::abs(wall_path(a2, v.p, a, b) - d) <= 1e-9 * d) {
+          ++tips;
+          at = v.p;
+        }
+      }
+      // The locus' distance from each sampled point, |f| / |grad f| by central differences.
+      for (size_t i = 0; i + 1 < line.vertices.size(); ++i)
+        for (int k = 1; k < 8; ++k) {
+          const Vec2 p = line_tools::lerp(line.vertices[i].p, line.vertices[i + 1].p, k / 8.0);
+          const double h = 1e-6;
+          auto f = [&](Vec2 x) { return cost_a(x) - cost_b(x); };
+          const double gx = (f({p.x + h, p.y}) - f({p.x - h, p.y})) / (2 * h);
+          const double gy = (f({p.x, p.y + h}) - f({p.x, p.y - h})) / (2 * h);
+          worst = std::max(worst, std::abs(f(p)) / std::hypot(gx, gy));
+        }
+    }
+    EXPECT_EQ(tips, 1) << res;
+    EXPECT_LT(dist(at, tip), 1e-6) << res << ": " << at.x << "," << at.y;
+    EXPECT_LE(worst, 1e-3) << res;
+    std::printf("a tip by sea at (%.6f, %.6f), cells of %g: chords within %.3g, samples within %.3g\n", tip.x, tip.y,
+                res, lines.stats.locus.max_midpoint, worst);
+  }
+}
+
 // Where one side's path changes the wall's end it bends round, with the same two seeds on both
 // sides: s1 lies behind the wall's middle, its path to the line round A below and round B above;
 // the line turns at the corner where both paths and s2's straight one are equally long. That

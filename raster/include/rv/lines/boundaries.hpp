@@ -155,6 +155,9 @@ struct BoundaryStats {
   // Tripoints a crowded square's search missed, found from the ends of their lines (also in
   // unresolved_tripoints, which counts the squares).
   int64_t missing_tripoints_found = 0;
+  // Closed lines dropped because, refined, they ran wholly along another line of the same owners:
+  // cells of a wedge narrower than a cell near its tip, cut off from the rest of it.
+  int64_t repeated_loops = 0;
 };
 
 struct BoundaryResult {

@@ -1,0 +1,89 @@
+// Closed lines that run wholly along another line of the same two owners
+// (boundary_stages.hpp, repeated_loops). Cells of a thin wedge cut off from it near its tip
+// trace a closed line of their own; refined, its chords across the wedge go out to the tip as the
+// main line's chord does, and every stretch of it lies on the stretches the main line follows.
+#include <algorithm>
+#include <cmath>
+#include <vector>
+
+#include "lines/boundary_stages.hpp"
+
+namespace rv::boundary_stages {
+
+namespace {
+
+struct Box {
+  double x0 = INFINITY, y0 = INFINITY, x1 = -INFINITY, y1 = -INFINITY;
+  void add(Vec2 p) {
+    x0 = std::min(x0, p.x);
+    y0 = std::min(y0, p.y);
+    x1 = std::max(x1, p.x);
+    y1 = std::max(y1, p.y);
+  }
+  bool meets(const Box& o, double pad) const {
+    return x0 <= o.x1 + pad && o.x0 <= x1 + pad && y0 <= o.y1 + pad && o.y0 <= y1 + pad;
+  }
+};
+
+Box box_of(const std::vector<BoundaryVertex>& v) {
+  Box b;
+  for (const BoundaryVertex& x : v) b.add(x.p);
+  return b;
+}
+
+double to_segment(Vec2 p, Vec2 a, Vec2 b) {
+  const double dx = b.x - a.x, dy = b.y - a.y, len2 = dx * dx + dy * dy;
+  const double t = len2 > 0.0 ? std::clamp(((p.x - a.x) * dx + (p.y - a.y) * dy) / len2, 0.0, 1.0) : 0.0;
+  return std::hypot(p.x - (a.x + t * dx), p.y - (a.y + t * dy));
+}
+
+// Whether every vertex of `loop` and the middle of each of its segments lie within `pad` of
+// `other`'s segments.
+bool runs_along(const std::vector<BoundaryVertex>& loop, const Box& box, const std::vector<BoundaryVertex>& other,
+                double pad) {
+  std::vector<std::pair<Vec2, Vec2>> near;
+  for (size_t i = 0; i + 1 < other.size(); ++i) {
+    Box s;
+    s.add(other[i].p);
+    s.add(other[i + 1].p);
+    if (s.meets(box, pad)) near.emplace_back(other[i].p, other[i + 1].p);
+  }
+  if (near.empty()) return false;
+  auto close = [&](Vec2 p) {
+    return std::any_of(near.begin(), near.end(),
+                       [&](const auto& s) { return to_segment(p, s.first, s.second) <= pad; });
+  };
+  for (size_t i = 0; i < loop.size(); ++i) {
+    const Vec2 p = loop[i].p, q = loop[(i + 1) % loop.size()].p;
+    if (!close(p) || !close(Vec2{0.5 * (p.x + q.x), 0.5 * (p.y + q.y)})) return false;
+  }
+  return true;
+}
+
+}  // namespace
+
+std::vector<bool> repeated_loops(const std::vector<BoundaryLine>& lines, const LineRefiner& refiner) {
+  std::vector<bool> drop(lines.size(), false);
+  std::vector<Box> boxes(lines.size());
+  for (size_t k = 0; k < lines.size(); ++k) boxes[k] = box_of(lines[k].vertices);
+  for (size_t k = 0; k < lines.size(); ++k) {
+    const BoundaryLine& loop = lines[k];
+    if (!loop.closed || loop.vertices.size() < 3) continue;
+    // Twice the tolerance each line's chords keep from the locus, in CRS units, and a billionth
+    // of the coordinates for their rounding.
+    const Vec2 at = loop.vertices.front().p;
+    const double pad =
+        2.0 * refiner.crs_length(refiner.tolerance(), at) + 1e-9 * std::max(std::abs(at.x), std::abs(at.y));
+    for (size_t m = 0; m < lines.size() && !drop[k]; ++m) {
+      const BoundaryLine& other = lines[m];
+      if (m == k || drop[m] || other.owner_a != loop.owner_a || other.owner_b != loop.owner_b) continue;
+      const Box& b = boxes[m];
+      const Box& l = boxes[k];
+      if (!(l.x0 >= b.x0 - pad && l.x1 <= b.x1 + pad && l.y0 >= b.y0 - pad && l.y1 <= b.y1 + pad)) continue;
+      drop[k] = runs_along(loop.vertices, l, other.vertices, pad);
+    }
+  }
+  return drop;
+}
+
+}  // namespace rv::boundary_stages
