@@ -377,7 +377,11 @@ void end_at_barriers(const BoundaryGrid& b, const std::vector<Tripoint>& tripoin
 // cells, the locus meets the coast before it would turn (the cells, a cell apart across a coast
 // that cuts their square's corner, linked the two stretches by one chord). The line is parted
 // there, each part ending at its junction with the coast (found as end_at_barriers finds one,
-// ahead of its end). Counts the partings in stats.turns_on_land, their ends in
+// ahead of its end). So is a line whose chord between two vertices crosses a barrier, or lies far
+// off the locus (a twentieth of the chord at its middle) by a coast, where the locus followed
+// from each vertex towards the other reaches a coast first (a bisector through an islet narrower
+// than a cell; one owner's sea touching an island's face between the two vertices): each part
+// ends where its walk met the coast. Counts the partings in stats.turns_on_land, their ends in
 // stats.ends_on_barriers.
 void part_where_turning_on_land(const BoundaryGrid& b, std::vector<BoundaryLine>& lines, BoundaryStats& stats);
 // By sea, two open ends of lines of the same two owners (off the frame, not at a tripoint, not on

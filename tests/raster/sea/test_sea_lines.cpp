@@ -687,6 +687,79 @@ TEST(SeaLines, ALineFollowsAWedgeNarrowerThanACellToItsTipRoundAWallsEnd) {
   }
 }
 
+// A bisector through an islet narrower than a cell: A and B see most of their locus directly
+// (near the coasts one path bends round a corner of the islet: `path`, the shortest way round the
+// square by its corners), so the line runs up to the islet's north coast and on from its south
+// coast. The cells, parted by no land (the islet holds no centre or lies
+// between them), link the two stretches by one chord across the islet. The line is parted there
+// (boundaries.turns_on_land): two lines, each ending on the islet's coast where A and B are
+// equally far, and no point of either on the islet.
+TEST(SeaLines, ABisectorThroughAnIsletNarrowerThanACellEndsOnItsCoasts) {
+  const Vec2 a{-3, 0.3}, b{3, -0.2};
+  Barriers islet;
+  islet.add_polygon({{{-0.5, -0.5}, {0.5, -0.5}, {0.5, 0.5}, {-0.5, 0.5}}}, "islet");
+  const SeedSet seeds = test::named_points({{"A", a}, {"B", b}});
+  // Whether the segment p-q passes through the islet's open interior (clipped to the square).
+  auto crosses = [](Vec2 p, Vec2 q) {
+    double t0 = 0.0, t1 = 1.0;
+    const double dx = q.x - p.x, dy = q.y - p.y;
+    for (const auto& [pk, qk] : {std::pair{-dx, p.x + 0.5}, {dx, 0.5 - p.x}, {-dy, p.y + 0.5}, {dy, 0.5 - p.y}}) {
+      if (pk == 0.0) {
+        if (qk <= 0.0) return false;
+        continue;
+      }
+      (pk < 0.0 ? t0 : t1) = pk < 0.0 ? std::max(t0, qk / pk) : std::min(t1, qk / pk);
+    }
+    if (!(t1 - t0 > 1e-12)) return false;
+    const Vec2 m = line_tools::lerp(p, q, 0.5 * (t0 + t1));
+    return std::abs(m.x) < 0.5 - 1e-12 && std::abs(m.y) < 0.5 - 1e-12;
+  };
+  // The shortest way from s to x round the islet: Dijkstra over s, its four corners and x.
+  auto path = [&](Vec2 s, Vec2 x) {
+    const std::array<Vec2, 6> node{s, Vec2{-0.5, -0.5}, Vec2{0.5, -0.5}, Vec2{0.5, 0.5}, Vec2{-0.5, 0.5}, x};
+    std::array<double, 6> d;
+    d.fill(std::numeric_limits<double>::infinity());
+    std::array<bool, 6> done{};
+    d[0] = 0.0;
+    for (int round = 0; round < 6; ++round) {
+      int k = -1;
+      for (int i = 0; i < 6; ++i)
+        if (!done[i] && (k < 0 || d[i] < d[k])) k = i;
+      done[k] = true;
+      for (int i = 0; i < 6; ++i)
+        if (!done[i] && !crosses(node[k], node[i])) d[i] = std::min(d[i], d[k] + dist(node[k], node[i]));
+    }
+    return d[5];
+  };
+  for (const double res : {2.0, 2.5, 3.7, 5.0}) {
+    const auto n = static_cast<int64_t>(std::ceil(20.0 / res));
+    const GridSpec g = test::grid_of(n, n, res, -10.0, 10.0);
+    const SeaField field = compute_sea(seeds, islet, g, g.full_window());
+    const std::unique_ptr<SiteMetric> metric = make_sea_site_metric(seeds, islet, g);
+    const OwnerIndex index(*metric);
+    const BoundaryResult lines = extract_boundaries(field.field, index);
+    ASSERT_EQ(lines.lines.size(), 2u) << res;
+    EXPECT_EQ(lines.stats.turns_on_land, 1) << res;
+    EXPECT_EQ(lines.stats.locus.unresolved, 0) << res;
+    int on_coast = 0;
+    for (const BoundaryLine& line : lines.lines) {
+      for (const BoundaryVertex& v : line.vertices)
+        EXPECT_NEAR(path(a, v.p), path(b, v.p), 1e-8) << res << ": " << v.p.x << "," << v.p.y;
+      for (size_t i = 0; i + 1 < line.vertices.size(); ++i)
+        for (int k = 0; k <= 64; ++k) {
+          const Vec2 p = line_tools::lerp(line.vertices[i].p, line.vertices[i + 1].p, k / 64.0);
+          EXPECT_FALSE(std::abs(p.x) < 0.5 - 1e-9 && std::abs(p.y) < 0.5 - 1e-9) << res << ": " << p.x << "," << p.y;
+        }
+      for (const BoundaryVertex* e : {&line.vertices.front(), &line.vertices.back()})
+        if (std::abs(std::abs(e->p.y) - 0.5) < 1e-9 && std::abs(e->p.x) <= 0.5) {
+          ++on_coast;
+          EXPECT_TRUE(e->on_barrier) << res;
+        }
+    }
+    EXPECT_EQ(on_coast, 2) << res;  // one on the north coast, one on the south
+  }
+}
+
 // Where one side's path changes the wall's end it bends round, with the same two seeds on both
 // sides: s1 lies behind the wall's middle, its path to the line round A below and round B above;
 // the line turns at the corner where both paths and s2's straight one are equally long. That

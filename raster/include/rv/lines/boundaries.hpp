@@ -143,7 +143,8 @@ struct BoundaryStats {
   // them (the line going on round land where its cells do not show it; end_at_barriers).
   int64_t ends_followed = 0;
   // By sea: lines parted where their locus would turn on land (it meets the coast first; the
-  // cells linked its two stretches across the coast's corner; part_where_turning_on_land).
+  // cells linked its two stretches across the coast's corner), or meets a coast between two
+  // vertices whose chord crosses land or lies far off it (part_where_turning_on_land).
   int64_t turns_on_land = 0;
   // By sea: lines across channels where no cell centre lies beside the change of owner, found
   // from the coasts (boundary_stages::cross_hidden_channels); and changes of owner along a coast

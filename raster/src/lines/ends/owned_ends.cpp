@@ -195,8 +195,8 @@ void append_walked(const BoundaryGrid& b, BoundaryLine& line, const std::vector<
     BoundaryVertex w = vertex_between(p, b.index.nearest_of(p, oa), b.index.nearest_of(p, ob));
     // Where one side's nearest site changes between two points walked the locus turns, at times
     // sharply (a tip, where the walk rounds the corner on a small circle): the turning point of
-    // the three sites is put between them. The refinement solves a turning point only within its
-    // chord, and at a tip it lies beyond both ends.
+    // the three sites is put between them, where the walk has the sites at hand (the refinement
+    // would look for it beyond the chord only once nothing nearer checks out).
     const BoundaryVertex& u = v.back();
     const bool a_changes = u.site_a != w.site_a, b_changes = u.site_b != w.site_b;
     Vec2 t;
@@ -266,6 +266,66 @@ bool follow_to_barrier(const BoundaryGrid& b, BoundaryLine& line) {
   return true;
 }
 
+// Where the stretches of a line by sea at consecutive vertices v[i] and v[i + 1] (one side's site
+// changes between them) would turn on land: their tangents (from the neighbouring vertices) meet
+// on land within four cells; j1 and j2 are each stretch's junction with the coast ahead.
+bool turned_on_land(const BoundaryGrid& b, const BoundaryLine& line, size_t i, Vec2& j1, Vec2& j2) {
+  const std::vector<BoundaryVertex>& v = line.vertices;
+  const BoundaryVertex &u = v[i], &w = v[i + 1];
+  const Vec2 d1{u.p.x - v[i - 1].p.x, u.p.y - v[i - 1].p.y}, d2{w.p.x - v[i + 2].p.x, w.p.y - v[i + 2].p.y};
+  double s, t;
+  if (!lines_meet(u.p, d1, w.p, d2, s, t) || !(s > 0.0) || !(t > 0.0)) return false;
+  const Vec2 turn{u.p.x + s * d1.x, u.p.y + s * d1.y};
+  const double reach =
+      1.5 * std::max(std::hypot(turn.x - u.p.x, turn.y - u.p.y), std::hypot(turn.x - w.p.x, turn.y - w.p.y));
+  if (b.index.metric().in_domain(turn) || !(reach <= 4.0 * b.g.res)) return false;
+  const Vec2 back1 = v[i - 1].p, back2 = v[i + 2].p;
+  return coast_junction(b, line.owner_a, line.owner_b, u.p, reach, &back1, j1) &&
+         coast_junction(b, line.owner_a, line.owner_b, w.p, reach, &back2, j2) &&
+         std::hypot(j2.x - j1.x, j2.y - j1.y) > 1e-6 * b.g.res;
+}
+
+// Where the locus from consecutive vertices v[i] and v[i + 1] of a line by sea meets a coast
+// before it gets from one to the other: the cells linked two stretches that end on a coast (one
+// owner's sea touching the coast between them, round an island's corner). Followed from each
+// vertex towards the other (locus_follow::follow_on, an eighth of a cell a step, over twice the
+// chord), both walks reach a coast without meeting the other vertex; j1 and j2 are where. Asked
+// only where a barrier edge lies within the chord of its middle, and the chord crosses one (a
+// straight bisector through an islet: the locus is at sea, the chord across land) or the locus
+// is off the chord's middle by over a twentieth of the chord, or the middle is on land.
+bool coast_between(const BoundaryGrid& b, const BoundaryLine& line, size_t i, Vec2& j1, Vec2& j2) {
+  const SiteMetric& m = b.index.metric();
+  const Vec2 u = line.vertices[i].p, w = line.vertices[i + 1].p;
+  const double chord = std::hypot(w.x - u.x, w.y - u.y);
+  const Vec2 mid = lerp(u, w, 0.5);
+  std::vector<int32_t> edges;
+  m.domain_edges_near(mid, chord, edges);
+  if (edges.empty()) return false;
+  if (m.open_between(u, w)) {
+    const double gap = cost_gap(b, line.owner_a, line.owner_b, mid);
+    if (std::isfinite(gap) && !(std::abs(gap) > 0.1 * b.index.cost_slope() * m.point_distance(u, w))) return false;
+  }
+  const locus_follow::Level level = pair_level(b, line.owner_a, line.owner_b);
+  const double step = b.g.res / kPerCell;
+  const auto steps = static_cast<int64_t>(std::min(kPerCell * kCells * 1.0, std::ceil(2.0 * chord / step) + 1.0));
+  // A walk that loses the level by a coast (the locus meets it beside a corner of the coast, and
+  // the step goes past the corner: the last point is off the locus) ends at the junction within
+  // three steps of its last point on the locus, ahead of it.
+  auto to_coast = [&](Vec2 from, Vec2 other, Vec2& j) {
+    const locus_follow::Followed f =
+        locus_follow::follow_on(level, from, Vec2{other.x - from.x, other.y - from.y}, step, steps, {other});
+    const size_t n = f.points.size();
+    j = f.points.back();
+    if (f.stop == locus_follow::Stop::coast) return true;
+    const double off = cost_gap(b, line.owner_a, line.owner_b, f.points.back());
+    if (f.stop != locus_follow::Stop::lost || n < 2 || (std::isfinite(off) && std::abs(off) <= 4.0 * b.ftol))
+      return false;
+    const Vec2 behind = n > 2 ? f.points[n - 3] : from;
+    return coast_junction(b, line.owner_a, line.owner_b, f.points[n - 2], 3.0 * step, &behind, j);
+  };
+  return to_coast(u, w, j1) && to_coast(w, u, j2) && std::hypot(j2.x - j1.x, j2.y - j1.y) > 1e-6 * b.g.res;
+}
+
 }  // namespace
 
 void end_at_barriers(const BoundaryGrid& b, const std::vector<Tripoint>& tripoints, std::vector<BoundaryLine>& lines,
@@ -305,25 +365,17 @@ void part_where_turning_on_land(const BoundaryGrid& b, std::vector<BoundaryLine>
   std::vector<BoundaryLine> parts;
   for (BoundaryLine& line : lines) {
     std::vector<BoundaryVertex>& v = line.vertices;
-    if (line.closed || v.size() < 4) continue;
+    if (line.closed || v.size() < 2) continue;
     const int32_t oa = line.owner_a, ob = line.owner_b;
     // From the back: each part split off is the line's tail, the rest scanned on.
-    for (size_t i = v.size() - 3; i >= 1; --i) {
+    for (size_t i = v.size() - 1; i-- > 0;) {
       const BoundaryVertex &u = v[i], &w = v[i + 1];
-      if (u.on_barrier || w.on_barrier || (u.site_a == w.site_a && u.site_b == w.site_b)) continue;
-      // The two stretches' tangents (from the neighbouring vertices) meet at the turn.
-      const Vec2 d1{u.p.x - v[i - 1].p.x, u.p.y - v[i - 1].p.y}, d2{w.p.x - v[i + 2].p.x, w.p.y - v[i + 2].p.y};
-      double s, t;
-      if (!lines_meet(u.p, d1, w.p, d2, s, t) || !(s > 0.0) || !(t > 0.0)) continue;
-      const Vec2 turn{u.p.x + s * d1.x, u.p.y + s * d1.y};
-      const double reach =
-          1.5 * std::max(std::hypot(turn.x - u.p.x, turn.y - u.p.y), std::hypot(turn.x - w.p.x, turn.y - w.p.y));
-      if (m.in_domain(turn) || !(reach <= 4.0 * b.g.res)) continue;
+      if (u.on_barrier || w.on_barrier) continue;
       Vec2 j1, j2;
-      const Vec2 back1 = v[i - 1].p, back2 = v[i + 2].p;
-      if (!coast_junction(b, oa, ob, u.p, reach, &back1, j1) || !coast_junction(b, oa, ob, w.p, reach, &back2, j2) ||
-          !(std::hypot(j2.x - j1.x, j2.y - j1.y) > 1e-6 * b.g.res))
-        continue;
+      // (The tangents need a vertex either side.)
+      const bool turns = i >= 1 && i + 2 < v.size() && !(u.site_a == w.site_a && u.site_b == w.site_b) &&
+                         turned_on_land(b, line, i, j1, j2);
+      if (!turns && !coast_between(b, line, i, j1, j2)) continue;
       BoundaryLine tail;
       tail.owner_a = line.owner_a;
       tail.owner_b = line.owner_b;
