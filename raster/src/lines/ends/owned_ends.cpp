@@ -19,6 +19,7 @@
 #include "lines/boundary_stages.hpp"
 #include "lines/line_tools.hpp"
 #include "lines/locus_follow.hpp"
+#include "rv/field/parallel.hpp"
 
 namespace rv::boundary_stages {
 
@@ -362,8 +363,29 @@ void end_at_barriers(const BoundaryGrid& b, const std::vector<Tripoint>& tripoin
 void part_where_turning_on_land(const BoundaryGrid& b, std::vector<BoundaryLine>& lines, BoundaryStats& stats) {
   const SiteMetric& m = b.index.metric();
   if (m.straight()) return;
+  // The walks along the locus first, every chord of every line at once on the threads (each
+  // chord's answer depends on its two vertices alone, and a parting keeps the vertices before it).
+  struct Cut {
+    size_t line = 0, i = 0;
+    bool found = false;
+    Vec2 j1, j2;
+  };
+  std::vector<Cut> cuts;
+  std::vector<size_t> first(lines.size() + 1, 0);  // line n's chords: cuts[first[n] .. first[n + 1])
+  for (size_t n = 0; n < lines.size(); ++n) {
+    first[n] = cuts.size();
+    if (!lines[n].closed)
+      for (size_t i = 0; i + 1 < lines[n].vertices.size(); ++i) cuts.push_back(Cut{n, i, false, {}, {}});
+  }
+  first[lines.size()] = cuts.size();
+  detail::parallel_for(b.threads, static_cast<int64_t>(cuts.size()), [&](int64_t k, int) {
+    Cut& c = cuts[static_cast<size_t>(k)];
+    const std::vector<BoundaryVertex>& v = lines[c.line].vertices;
+    if (!v[c.i].on_barrier && !v[c.i + 1].on_barrier) c.found = coast_between(b, lines[c.line], c.i, c.j1, c.j2);
+  });
   std::vector<BoundaryLine> parts;
-  for (BoundaryLine& line : lines) {
+  for (size_t n = 0; n < lines.size(); ++n) {
+    BoundaryLine& line = lines[n];
     std::vector<BoundaryVertex>& v = line.vertices;
     if (line.closed || v.size() < 2) continue;
     const int32_t oa = line.owner_a, ob = line.owner_b;
@@ -375,7 +397,12 @@ void part_where_turning_on_land(const BoundaryGrid& b, std::vector<BoundaryLine>
       // (The tangents need a vertex either side.)
       const bool turns = i >= 1 && i + 2 < v.size() && !(u.site_a == w.site_a && u.site_b == w.site_b) &&
                          turned_on_land(b, line, i, j1, j2);
-      if (!turns && !coast_between(b, line, i, j1, j2)) continue;
+      if (!turns) {
+        const Cut& walked = cuts[first[n] + i];
+        if (!walked.found) continue;
+        j1 = walked.j1;
+        j2 = walked.j2;
+      }
       BoundaryLine tail;
       tail.owner_a = line.owner_a;
       tail.owner_b = line.owner_b;
