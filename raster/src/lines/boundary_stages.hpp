@@ -240,6 +240,12 @@ class LineRefiner {
   // Whether the line u, out[from..], v is simple: no two of its segments cross, and it comes back
   // within a millionth of the chord to none of its vertices but the one before.
   static bool runs_simply(Vec2 u, Vec2 v, const std::vector<End>& out, size_t from);
+  // The systems of three sites that can hold a change between u and v: a changing side's two
+  // sites against the other side's at u (and, `both_ends`, at v where it differs).
+  struct System {
+    int32_t s1, s2, t;
+  };
+  static std::vector<System> systems(const End& u, const End& v, bool both_ends);
   bool turning_point(const End& u, const End& v, int32_t a, int32_t b, double max_off, End& out) const;
   bool across_middle(const End& u, const End& v, int32_t a, int32_t b, double max_off, End& out) const;
   // By sea, where an end of across_middle's perpendicular lies on land: the interval [lo, hi] of

@@ -494,24 +494,23 @@ bool LineRefiner::bend_corner(const End& u, const End& v, int32_t a, int32_t b, 
   return false;
 }
 
-bool LineRefiner::turning_point(const End& u, const End& v, int32_t a, int32_t b, double max_off, End& out) const {
-  // The systems that can hold the change: the changing side's two sites against the other
-  // side's site at either end.
-  struct System {
-    int32_t s1, s2, t;
-  };
-  std::vector<System> systems;
+std::vector<LineRefiner::System> LineRefiner::systems(const End& u, const End& v, bool both_ends) {
+  std::vector<System> out;
   if (!shares(u.v.site_a, u.alt_a, v.v.site_a, v.alt_a)) {
-    systems.push_back({u.v.site_a, v.v.site_a, u.v.site_b});
-    if (v.v.site_b != u.v.site_b) systems.push_back({u.v.site_a, v.v.site_a, v.v.site_b});
+    out.push_back({u.v.site_a, v.v.site_a, u.v.site_b});
+    if (both_ends && v.v.site_b != u.v.site_b) out.push_back({u.v.site_a, v.v.site_a, v.v.site_b});
   }
   if (!shares(u.v.site_b, u.alt_b, v.v.site_b, v.alt_b)) {
-    systems.push_back({u.v.site_b, v.v.site_b, u.v.site_a});
-    if (v.v.site_a != u.v.site_a) systems.push_back({u.v.site_b, v.v.site_b, v.v.site_a});
+    out.push_back({u.v.site_b, v.v.site_b, u.v.site_a});
+    if (both_ends && v.v.site_a != u.v.site_a) out.push_back({u.v.site_b, v.v.site_b, v.v.site_a});
   }
+  return out;
+}
+
+bool LineRefiner::turning_point(const End& u, const End& v, int32_t a, int32_t b, double max_off, End& out) const {
   const Vec2 mid = lerp(u.v.p, v.v.p, 0.5);
   const double chord = std::hypot(v.v.p.x - u.v.p.x, v.v.p.y - u.v.p.y);
-  for (const System& sys : systems) {
+  for (const System& sys : systems(u, v, true)) {
     if (sys.s1 == kNoSite || sys.s2 == kNoSite || sys.t == kNoSite) continue;
     Vec2 p;
     if (equal_costs_point(index_, sys.s1, sys.s2, sys.t, mid, chord, ftol_, p) && checked(p, a, b, u, v, max_off, out))
@@ -525,11 +524,13 @@ bool LineRefiner::tip_point(const End& u, const End& v, int32_t a, int32_t b, En
   // straight (bisectors), and the start of the search elsewhere.
   const Vec2 nu = normal_towards(u, v), nv = normal_towards(v, u);
   const Vec2 tu{-nu.y, nu.x}, tv{-nv.y, nv.x};
-  const double det = tu.x * tv.y - tu.y * tv.x;
   const double chord = std::hypot(v.v.p.x - u.v.p.x, v.v.p.y - u.v.p.y);
-  if (!(std::abs(det) > 1e-9 * std::hypot(tu.x, tu.y) * std::hypot(tv.x, tv.y)) || !std::isfinite(det)) return false;
-  const Vec2 d{v.v.p.x - u.v.p.x, v.v.p.y - u.v.p.y};
-  const double s = (d.x * tv.y - d.y * tv.x) / det;
+  // (Not all but parallel: the meeting point would be anywhere.)
+  const double cross = tu.x * tv.y - tu.y * tv.x;
+  double s = 0.0, t = 0.0;
+  if (!(std::abs(cross) > 1e-9 * std::hypot(tu.x, tu.y) * std::hypot(tv.x, tv.y)) ||
+      !lines_meet(u.v.p, tu, v.v.p, tv, s, t))
+    return false;
   const Vec2 meet{u.v.p.x + s * tu.x, u.v.p.y + s * tu.y};
   const Vec2 mid = lerp(u.v.p, v.v.p, 0.5);
   const double far = std::hypot(meet.x - mid.x, meet.y - mid.y);
@@ -537,13 +538,7 @@ bool LineRefiner::tip_point(const End& u, const End& v, int32_t a, int32_t b, En
   // The turning point is taken within half the meeting point's distance of it (and a chord): the
   // curved stretches of a tip by sea bend away from their tangents, but not back across the chord.
   const double bound = 0.5 * far + chord;
-  struct System {
-    int32_t s1, s2, t;
-  };
-  std::vector<System> systems;
-  if (!shares(u.v.site_a, u.alt_a, v.v.site_a, v.alt_a)) systems.push_back({u.v.site_a, v.v.site_a, u.v.site_b});
-  if (!shares(u.v.site_b, u.alt_b, v.v.site_b, v.alt_b)) systems.push_back({u.v.site_b, v.v.site_b, u.v.site_a});
-  for (const System& sys : systems) {
+  for (const System& sys : systems(u, v, false)) {
     if (sys.s1 == kNoSite || sys.s2 == kNoSite || sys.t == kNoSite) continue;
     Vec2 p;
     if (!equal_costs_point(index_, sys.s1, sys.s2, sys.t, meet, bound, ftol_, p)) continue;

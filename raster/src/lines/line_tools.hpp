@@ -35,6 +35,15 @@ inline double nearest_t(Vec2 a, Vec2 b, Vec2 p) {
   const double dx = b.x - a.x, dy = b.y - a.y, len2 = dx * dx + dy * dy;
   return len2 > 0.0 ? std::clamp(((p.x - a.x) * dx + (p.y - a.y) * dy) / len2, 0.0, 1.0) : 0.0;
 }
+// Where the lines p + s d and q + t e meet: s and t, false where they are parallel.
+inline bool lines_meet(Vec2 p, Vec2 d, Vec2 q, Vec2 e, double& s, double& t) {
+  const double det = d.x * -e.y - d.y * -e.x;
+  if (!(std::abs(det) > 0.0)) return false;
+  const Vec2 r{q.x - p.x, q.y - p.y};
+  s = (r.x * -e.y - r.y * -e.x) / det;
+  t = (d.x * r.y - d.y * r.x) / det;
+  return true;
+}
 // The centre of dual square (c, r): the grid corner shared by cells (c, r) .. (c + 1, r + 1).
 inline Vec2 square_mid(const GridSpec& g, int64_t c, int64_t r) {
   return Vec2{g.xmin + (static_cast<double>(c) + 1.0) * g.res, g.ymax - (static_cast<double>(r) + 1.0) * g.res};

@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "lines/boundary_stages.hpp"
+#include "lines/line_tools.hpp"
 
 namespace rv::boundary_stages {
 
@@ -32,9 +33,8 @@ Box box_of(const std::vector<BoundaryVertex>& v) {
 }
 
 double to_segment(Vec2 p, Vec2 a, Vec2 b) {
-  const double dx = b.x - a.x, dy = b.y - a.y, len2 = dx * dx + dy * dy;
-  const double t = len2 > 0.0 ? std::clamp(((p.x - a.x) * dx + (p.y - a.y) * dy) / len2, 0.0, 1.0) : 0.0;
-  return std::hypot(p.x - (a.x + t * dx), p.y - (a.y + t * dy));
+  const Vec2 foot = line_tools::lerp(a, b, line_tools::nearest_t(a, b, p));
+  return std::hypot(p.x - foot.x, p.y - foot.y);
 }
 
 // Whether every vertex of `loop` and the middle of each of its segments lie within `pad` of
@@ -55,7 +55,7 @@ bool runs_along(const std::vector<BoundaryVertex>& loop, const Box& box, const s
   };
   for (size_t i = 0; i < loop.size(); ++i) {
     const Vec2 p = loop[i].p, q = loop[(i + 1) % loop.size()].p;
-    if (!close(p) || !close(Vec2{0.5 * (p.x + q.x), 0.5 * (p.y + q.y)})) return false;
+    if (!close(p) || !close(line_tools::lerp(p, q, 0.5))) return false;
   }
   return true;
 }

@@ -217,16 +217,6 @@ void append_walked(const BoundaryGrid& b, BoundaryLine& line, const std::vector<
 // How far the ends are followed: an eighth of a cell a step, over at most eight cells.
 constexpr int kPerCell = 8, kCells = 8;
 
-// Where the lines p + s d and q + t e meet: s and t, false where they are parallel.
-bool lines_meet(Vec2 p, Vec2 d, Vec2 q, Vec2 e, double& s, double& t) {
-  const double det = d.x * -e.y - d.y * -e.x;
-  if (!(std::abs(det) > 0.0)) return false;
-  const Vec2 r{q.x - p.x, q.y - p.y};
-  s = (r.x * -e.y - r.y * -e.x) / det;
-  t = (d.x * r.y - d.y * r.x) / det;
-  return true;
-}
-
 // Where the geodesics a0-a1 and b0-b1 (longitude, latitude in degrees, on the ellipsoid of
 // `metric`) cross, from `near` (their chords' crossing in longitude and latitude, millimetres off
 // it on Usedom, where edges of a kilometre or more cross at a small angle): the crossing of their
@@ -371,13 +361,12 @@ void part_where_turning_on_land(const BoundaryGrid& b, std::vector<BoundaryLine>
     Vec2 j1, j2;
   };
   std::vector<Cut> cuts;
-  std::vector<size_t> first(lines.size() + 1, 0);  // line n's chords: cuts[first[n] .. first[n + 1])
+  std::vector<size_t> first(lines.size(), 0);  // line n's chord i: cuts[first[n] + i]
   for (size_t n = 0; n < lines.size(); ++n) {
     first[n] = cuts.size();
     if (!lines[n].closed)
       for (size_t i = 0; i + 1 < lines[n].vertices.size(); ++i) cuts.push_back(Cut{n, i, false, {}, {}});
   }
-  first[lines.size()] = cuts.size();
   detail::parallel_for(b.threads, static_cast<int64_t>(cuts.size()), [&](int64_t k, int) {
     Cut& c = cuts[static_cast<size_t>(k)];
     const std::vector<BoundaryVertex>& v = lines[c.line].vertices;
