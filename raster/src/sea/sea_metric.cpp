@@ -137,6 +137,10 @@ class SeaSiteMetric final : public SiteMetric {
   bool open_between(Vec2 a, Vec2 b) const override {
     const Where wa = where(a), wb = where(b);
     if (wa.ground == Visibility::Ground::land || wb.ground == Visibility::Ground::land) return false;
+    if (a.x == b.x && a.y == b.y) return prepared().vis.sees(place(wa), place(wb));
+    if ((wa.ground == Visibility::Ground::on_barrier && parts_the_sea(wa.spot.at)) ||
+        (wb.ground == Visibility::Ground::on_barrier && parts_the_sea(wb.spot.at)))
+      return false;
     return prepared().vis.sees(place(wa), place(wb));
   }
   void domain_edges_near(Vec2 p, double radius, std::vector<int32_t>& out) const override {
@@ -268,6 +272,17 @@ class SeaSiteMetric final : public SiteMetric {
     cached_at = p;
     cached = w;
     return w;
+  }
+  // Whether p (on a barrier, in the barriers' plane) has sea on more than one side: a line
+  // barrier's point (sea either side), or where two islands meet at a corner. Each sea wedge's
+  // paths reach p, and p takes the shortest of them, so every site whose shortest comes from
+  // another wedge jumps on leaving p into one, or along a ray (the points of a wall take the
+  // least of both sides too, which no point beside it does). No way from p is continuous
+  // (open_between's contract), and the deliverables put no equidistance point on one: the lines
+  // on either side end on the barrier where each side's locus meets it.
+  bool parts_the_sea(Vec2 p) const {
+    const Visibility::Star star = prepared().vis.star_at(p);
+    return std::count(star.sea.begin(), star.sea.end(), uint8_t{1}) >= 2;
   }
   static Visibility::Place place(const Where& w) {
     Visibility::Place at{w.spot.at};

@@ -693,7 +693,8 @@ TEST(SeaLines, ALineFollowsAWedgeNarrowerThanACellToItsTipRoundAWallsEnd) {
 // coast. The cells, parted by no land (the islet holds no centre or lies
 // between them), link the two stretches by one chord across the islet. The line is parted there
 // (boundaries.turns_on_land): two lines, each ending on the islet's coast where A and B are
-// equally far, and no point of either on the islet.
+// equally far, and no point of either on the islet. On cells of 3 and 7 a row of centres lies on
+// the south coast: the cells' crossing between two of them, on the coast, is that end already.
 TEST(SeaLines, ABisectorThroughAnIsletNarrowerThanACellEndsOnItsCoasts) {
   const Vec2 a{-3, 0.3}, b{3, -0.2};
   Barriers islet;
@@ -731,7 +732,7 @@ TEST(SeaLines, ABisectorThroughAnIsletNarrowerThanACellEndsOnItsCoasts) {
     }
     return d[5];
   };
-  for (const double res : {2.0, 2.5, 3.7, 5.0}) {
+  for (const double res : {2.0, 2.5, 3.0, 3.7, 5.0, 7.0}) {
     const auto n = static_cast<int64_t>(std::ceil(20.0 / res));
     const GridSpec g = test::grid_of(n, n, res, -10.0, 10.0);
     const SeaField field = compute_sea(seeds, islet, g, g.full_window());
@@ -1376,4 +1377,65 @@ TEST(SeaLines, ACancelledRaiseOfTheSettlingStartsAgainWhenNextAsked) {
 }
 
 }  // namespace
+// A wall through a column of cell centres (x = 0, from y = -20 to 20, on cells of 2 and 4):
+// those cells lie on the wall, sea on both its faces, and take the nearer of each face's paths,
+// which no point beside the wall does: the owners change between them and their neighbours by a
+// jump, not on a locus. So no way from them is open, and the lines on either side end on the
+// wall's faces where each side's locus meets it (a line of A's and B's cells along the wall, with
+// chords up to 15 units off the locus, before). Three layouts: both seeds above the wall's top,
+// one below either end, and one either side of it. Every vertex holds the closed form's equal
+// paths on the side it is approached from, every sampled point lies within the tolerance of the
+// locus, no segment runs along the wall, and the two ends on it are flagged on the barrier.
+TEST(SeaLines, LinesEndOnTheFacesOfAWallThroughACellCentreColumnAndNeverRunAlongIt) {
+  const Vec2 a{0, -20}, b{0, 20};
+  const std::array<std::pair<Vec2, Vec2>, 3> layouts{
+      std::pair{Vec2{-5, 30}, Vec2{6, 30}}, std::pair{Vec2{-7, -25}, Vec2{3, 28}}, std::pair{Vec2{-3, 5}, Vec2{4, -2}}};
+  for (const double res : {2.0, 4.0})
+    for (const auto& [sa, sb] : layouts) {
+      const SeedSet seeds = test::named_points({{"A", sa}, {"B", sb}});
+      const auto n = static_cast<int64_t>(80 / res) + 1;
+      const GridSpec g = test::grid_of(n, n, res, -40.0 - res / 2, 40.0 + res / 2);
+      ASSERT_EQ(g.centre_x(n / 2), 0.0);
+      const test::WallSea sea(seeds, a, b, g);
+      const BoundaryResult lines = extract_boundaries(sea.field.field, *sea.index);
+      const std::string at = std::to_string(res) + " (" + std::to_string(sa.x) + ", " + std::to_string(sa.y) + ")";
+      ASSERT_EQ(lines.lines.size(), 2u) << at;
+      EXPECT_EQ(lines.stats.locus.unresolved, 0) << at;
+      EXPECT_LE(lines.stats.locus.max_midpoint, 1e-3) << at;
+      // (An end carried onto the wall lies off it by the least amount that puts it on its side.)
+      auto on_wall = [&](Vec2 p) { return std::abs(p.x) <= 1e-9 && p.y > a.y && p.y < b.y; };
+      // A and B's paths' difference at p, on the side of the wall that `side` lies on.
+      auto gap = [&](Vec2 p, Vec2 side) {
+        const Vec2 q = on_wall(p) ? Vec2{std::copysign(1e-9, side.x), p.y} : p;
+        return wall_path(sa, q, a, b) - wall_path(sb, q, a, b);
+      };
+      int ends_on_wall = 0;
+      for (const BoundaryLine& line : lines.lines) {
+        const std::vector<BoundaryVertex>& v = line.vertices;
+        ASSERT_GE(v.size(), 2u) << at;
+        for (size_t i = 0; i < v.size(); ++i) {
+          const Vec2 side = v[i == 0 ? 1 : i - 1].p;
+          EXPECT_NEAR(gap(v[i].p, side), 0.0, 1e-6) << at << ": " << v[i].p.x << "," << v[i].p.y;
+          if (on_wall(v[i].p)) {
+            EXPECT_TRUE(i == 0 || i + 1 == v.size()) << at << ": " << v[i].p.y;
+            EXPECT_TRUE(v[i].on_barrier) << at << ": " << v[i].p.y;
+            ++ends_on_wall;
+          }
+        }
+        for (size_t i = 0; i + 1 < v.size(); ++i) {
+          EXPECT_FALSE(on_wall(v[i].p) && on_wall(v[i + 1].p)) << at << ": along the wall at " << v[i].p.y;
+          for (int k = 1; k < 8; ++k) {
+            const Vec2 p = line_tools::lerp(v[i].p, v[i + 1].p, k / 8.0);
+            const double h = 1e-7;
+            auto f = [&](Vec2 x) { return gap(x, p); };
+            const double gx = (f({p.x + h, p.y}) - f({p.x - h, p.y})) / (2 * h);
+            const double gy = (f({p.x, p.y + h}) - f({p.x, p.y - h})) / (2 * h);
+            EXPECT_LE(std::abs(f(p)) / std::hypot(gx, gy), 1e-3) << at << ": " << p.x << "," << p.y;
+          }
+        }
+      }
+      EXPECT_EQ(ends_on_wall, 2) << at;
+    }
+}
+
 }  // namespace rv

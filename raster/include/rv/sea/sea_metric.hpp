@@ -22,7 +22,9 @@
 // the straight metric (0 inside the polygon; its rings carry the distance outside).
 // Gradients: planar a unit vector, geodesic metres per degree, none (NaN) on a projected geodesic
 // grid. nearest_point(): the point of the site the path starts from. open_between(a, b): a and b
-// are sea and the straight way between them crosses no barrier.
+// are sea, the straight way between them crosses no barrier, and neither (a != b) lies on a
+// barrier with sea on more than one side (a line barrier, or where two islands meet at a corner:
+// such a point takes the shortest of its sides' paths, so the distances jump on leaving it).
 //
 // Thread safety: const functions from any number of threads (the lazy settling is synchronised).
 #pragma once

@@ -303,6 +303,12 @@ bool coast_between(const BoundaryGrid& b, const BoundaryLine& line, size_t i, Ve
   // the step goes past the corner: the last point is off the locus) ends at the junction within
   // three steps of its last point on the locus, ahead of it.
   auto to_coast = [&](Vec2 from, Vec2 other, Vec2& j) {
+    // A vertex on a coast's edge with land towards the other (a crossing between two cells whose
+    // centres lie on the coast, the way between them along it): the coast is the vertex itself.
+    // The least step towards the other crosses land there; any step from a point at sea would
+    // have to be shorter than a billionth of the chord to do so.
+    j = from;
+    if (!m.open_between(from, lerp(from, other, 1e-9))) return true;
     const locus_follow::Followed f =
         locus_follow::follow_on(level, from, Vec2{other.x - from.x, other.y - from.y}, step, steps, {other});
     const size_t n = f.points.size();
@@ -392,17 +398,19 @@ void part_where_turning_on_land(const BoundaryGrid& b, std::vector<BoundaryLine>
         j1 = walked.j1;
         j2 = walked.j2;
       }
+      // (A junction at the vertex itself, on the coast already, takes its place.)
+      const bool at_u = j1.x == u.p.x && j1.y == u.p.y, at_w = j2.x == w.p.x && j2.y == w.p.y;
       BoundaryLine tail;
       tail.owner_a = line.owner_a;
       tail.owner_b = line.owner_b;
       tail.vertices.push_back(on_barrier_at(b, oa, ob, j2));
-      tail.vertices.insert(tail.vertices.end(), v.begin() + static_cast<std::ptrdiff_t>(i + 1), v.end());
-      v.resize(i + 1);
+      tail.vertices.insert(tail.vertices.end(), v.begin() + static_cast<std::ptrdiff_t>(i + (at_w ? 2 : 1)), v.end());
+      v.resize(at_u ? i : i + 1);
       v.push_back(on_barrier_at(b, oa, ob, j1));
       stats.max_residual = std::max({stats.max_residual, v.back().residual, tail.vertices.front().residual});
       line.bows.clear();
       parts.push_back(std::move(tail));
-      stats.vertices += 2;
+      stats.vertices += (at_u ? 0 : 1) + (at_w ? 0 : 1);
       stats.ends_on_barriers += 2;
       ++stats.turns_on_land;
     }
