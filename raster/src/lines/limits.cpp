@@ -456,6 +456,7 @@ void chain_limit_lines(const Target& t, const LimitCrossings& x, const std::vect
     d.line.distance = t.D;
     d.line.owner = t.owner;
     d.line.closed = chains.closed[static_cast<size_t>(k)];
+    drop_repeated(v);  // (a level through a cell centre: that vertex once)
     d.before = static_cast<int64_t>(v.size());
     if (!(tol > 0.0) || v.size() <= 2) {  // nothing to simplify: the chain is the line
       d.line.vertices = std::move(v);

@@ -760,6 +760,33 @@ bool LineRefiner::checked_arc(Vec2 p, int8_t arc, int32_t site, int32_t a, int32
   return true;
 }
 
+namespace {
+
+// The line's vertices at the same point as the one before them gone (line_tools::unrepeated),
+// with their zero-length segments' bows; their flags kept on the one left. A line that would be
+// left with fewer than two vertices stays as it is.
+void drop_repeated_vertices(BoundaryLine& line) {
+  std::vector<BoundaryVertex>& v = line.vertices;
+  const std::vector<size_t> keep = unrepeated(v);
+  if (keep.size() == v.size() || keep.size() < 2) return;
+  const bool bows = line.bows.size() + 1 == v.size();
+  std::vector<BoundaryVertex> kept;
+  std::vector<Bow> kept_bows;
+  for (size_t k = 0; k < keep.size(); ++k) {
+    kept.push_back(v[keep[k]]);
+    for (size_t i = keep[k] + 1; i < (k + 1 < keep.size() ? keep[k + 1] : v.size()); ++i) {
+      kept.back().on_barrier = kept.back().on_barrier || v[i].on_barrier;
+      kept.back().tie = kept.back().tie || v[i].tie;
+    }
+    // (The segment into it from where the one before is.)
+    if (bows && k > 0) kept_bows.push_back(line.bows[keep[k] - 1]);
+  }
+  v = std::move(kept);
+  if (bows) line.bows = std::move(kept_bows);
+}
+
+}  // namespace
+
 void finish_lines(std::vector<BoundaryLine>& lines, const LineRefiner* refiner, double tol, BoundaryStats& stats,
                   int threads, const SegmentReuse<BoundaryVertex, LineRefiner::Added>* reuse, BoundaryMemo* record) {
   // The refinement runs over blocks of segments of every line at once: a coast's few long lines
@@ -837,6 +864,7 @@ void finish_lines(std::vector<BoundaryLine>& lines, const LineRefiner* refiner, 
   detail::parallel_for(threads, static_cast<int64_t>(lines.size()), [&](int64_t k, int) {
     const auto i = static_cast<size_t>(k);
     BoundaryLine& line = lines[i];
+    drop_repeated_vertices(line);
     before[i] = static_cast<int64_t>(line.vertices.size());
     if (tol > 0.0 && line.vertices.size() > 2) {
       std::vector<Vec2> pts;

@@ -44,6 +44,28 @@ inline bool lines_meet(Vec2 p, Vec2 d, Vec2 q, Vec2 e, double& s, double& t) {
   t = (d.x * r.y - d.y * r.x) / det;
   return true;
 }
+// The indices of a line's vertices (anything with a position `p`) left once each vertex at the
+// same point as the one before it goes: the first of each run. A cell centre on a locus or level
+// is the crossing of both ways from it, and both are linked; a zero-length segment is no part of
+// a line, and some GIS tools refuse it.
+template <class V>
+std::vector<size_t> unrepeated(const std::vector<V>& v) {
+  std::vector<size_t> keep;
+  keep.reserve(v.size());
+  for (size_t i = 0; i < v.size(); ++i)
+    if (keep.empty() || v[i].p.x != v[keep.back()].p.x || v[i].p.y != v[keep.back()].p.y) keep.push_back(i);
+  return keep;
+}
+// v's unrepeated() vertices alone, where at least two are left.
+template <class V>
+void drop_repeated(std::vector<V>& v) {
+  const std::vector<size_t> keep = unrepeated(v);
+  if (keep.size() == v.size() || keep.size() < 2) return;
+  std::vector<V> kept;
+  kept.reserve(keep.size());
+  for (const size_t i : keep) kept.push_back(v[i]);
+  v = std::move(kept);
+}
 // The centre of dual square (c, r): the grid corner shared by cells (c, r) .. (c + 1, r + 1).
 inline Vec2 square_mid(const GridSpec& g, int64_t c, int64_t r) {
   return Vec2{g.xmin + (static_cast<double>(c) + 1.0) * g.res, g.ymax - (static_cast<double>(r) + 1.0) * g.res};

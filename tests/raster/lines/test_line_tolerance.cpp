@@ -415,5 +415,73 @@ TEST(LineTolerance, ALineFollowsAWedgeNarrowerThanACellToItsTip) {
   EXPECT_GE(repeated, 4);
 }
 
+// Loci through cell centres: a centre on the locus is the crossing of both ways from it (each
+// way's end), and lines must not repeat it as a segment of length zero, which some GIS tools
+// refuse or report as invalid. A bisector along a diagonal of centres (every diagonal centre on
+// it, tied and given to the lower owner), the three points' wedge at cells of 3 (its lines pass
+// through two centres), and limits round a point seed at a centre: 3 (through the four nearest
+// centres) and 15 (through 12 centres, a 3-4-5 triangle's multiples). Each line's vertices are
+// distinct from their neighbours, on the locus or level, and nothing else of the line changes:
+// samples within the tolerance.
+TEST(LineTolerance, NoLineRepeatsAVertexWhereItsLocusPassesThroughCellCentres) {
+  auto distinct = [](const auto& lines, const std::string& name) {
+    int64_t vertices = 0;
+    for (const auto& line : lines) {
+      for (size_t i = 0; i + 1 < line.vertices.size(); ++i)
+        EXPECT_FALSE(line.vertices[i].p.x == line.vertices[i + 1].p.x &&
+                     line.vertices[i].p.y == line.vertices[i + 1].p.y)
+            << name << ": " << line.vertices[i].p.x << "," << line.vertices[i].p.y;
+      vertices += static_cast<int64_t>(line.vertices.size());
+    }
+    return vertices;
+  };
+  {
+    SeedSet s;
+    s.add_point(s.add_feature(s.owner_code("A")), Vec2{10.5, 30.5});
+    s.add_point(s.add_feature(s.owner_code("B")), Vec2{30.5, 10.5});
+    const Planar k(std::move(s), test::grid_of(40, 40));
+    const BoundaryResult r = extract_boundaries(k.field, *k.index);
+    ASSERT_EQ(r.lines.size(), 1u);
+    EXPECT_GE(distinct(r.lines, "diagonal"), 2);
+    each_sample(r.lines, [&](Vec2 p) { EXPECT_LE(std::abs(p.x - p.y) / std::sqrt(2.0), kTol) << p.x << "," << p.y; });
+  }
+  {
+    SeedSet s;
+    const Vec2 b{0, 0}, a1{-1, 10}, a2{-1, -10};
+    s.add_point(s.add_feature(s.owner_code("A")), a1);
+    s.add_point(s.add_feature(s.owner_code("A")), a2);
+    s.add_point(s.add_feature(s.owner_code("B")), b);
+    const Planar k(std::move(s), test::grid_of(54, 27, 3.0, -120.0, 40.0));
+    const BoundaryResult r = extract_boundaries(k.field, *k.index);
+    ASSERT_EQ(r.lines.size(), 1u);
+    distinct(r.lines, "wedge");
+    auto to_locus = [&](Vec2 p) {
+      const double da = std::min(std::hypot(p.x - a1.x, p.y - a1.y), std::hypot(p.x - a2.x, p.y - a2.y));
+      return std::abs(da - std::hypot(p.x - b.x, p.y - b.y));
+    };
+    for (const BoundaryVertex& v : r.lines[0].vertices) EXPECT_LE(to_locus(v.p), 1e-7) << v.p.x << "," << v.p.y;
+    int through_centres = 0;  // (the layout's point: its locus meets centres)
+    for (const BoundaryVertex& v : r.lines[0].vertices)
+      through_centres += std::fmod(v.p.x + 120.0, 3.0) == 1.5 && std::fmod(40.0 - v.p.y, 3.0) == 1.5 ? 1 : 0;
+    EXPECT_GE(through_centres, 2);
+  }
+  {
+    SeedSet s;
+    const Vec2 c{60.5, 60.5};
+    s.add_point(s.add_feature(s.owner_code("P")), c);
+    const Planar k(std::move(s), test::grid_of(121, 121));
+    const std::vector<double> at{3.0, 15.0};
+    const LimitResult r = extract_limits(k.field, *k.index, at);
+    ASSERT_EQ(r.lines.size(), 2u);
+    distinct(r.lines, "limits");
+    for (const LimitLine& line : r.lines)
+      for (const LimitVertex& v : line.vertices) {
+        const double d = std::hypot(v.p.x - c.x, v.p.y - c.y);
+        EXPECT_TRUE(std::abs(d - 3.0) <= 1e-9 || std::abs(d - 15.0) <= 1e-9) << v.p.x << "," << v.p.y;
+      }
+    EXPECT_LE(r.residual.max_midpoint, kTol);
+  }
+}
+
 }  // namespace
 }  // namespace rv
