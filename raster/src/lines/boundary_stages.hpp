@@ -33,6 +33,7 @@
 #include <vector>
 
 #include "lines/line_tools.hpp"
+#include "lines/locus_follow.hpp"
 #include "rv/engine/owner_index.hpp"
 #include "rv/engine/site_metric.hpp"
 #include "rv/lines/boundaries.hpp"
@@ -414,6 +415,17 @@ void join_parted_ends(const BoundaryGrid& b, const std::vector<Tripoint>& tripoi
 // axes' in the grid's middle (a step in CRS units from a length then errs short).
 void follow_open_ends(const BoundaryGrid& b, double max_distance, double per, const std::vector<Tripoint>& tripoints,
                       std::vector<BoundaryLine>& lines, BoundaryStats& stats);
+
+// The level of the locus of owners oa and ob for the follower (locus_follow.hpp): their balance
+// (cost_gap), and the band where no third owner is nearer.
+locus_follow::Level pair_level(const BoundaryGrid& b, int32_t oa, int32_t ob);
+// pair_level's, with steps of at most half the way to the nearer side (`per`: metric units per CRS
+// unit) and an end where the two sides meet (a sliver of sea along a land border walked up).
+locus_follow::Level narrow_level(const BoundaryGrid& b, int32_t oa, int32_t ob, double per);
+// Appends the points walked along the locus of `line`'s owners (points[0], the line's back end,
+// left out) as its vertices, with the turning point between two of them where one side's nearest
+// site changes.
+void append_walked(const BoundaryGrid& b, BoundaryLine& line, const std::vector<Vec2>& points);
 // By sea, a crossing linked to none (`lone`, lone_crossings) where the line crosses a channel
 // narrower than the squares around it (a barrier parts every other pair of their corners): made a
 // line of its own when it reaches a barrier on both sides (end_at_barriers' junction one way,
@@ -435,10 +447,15 @@ void cross_channels(const BoundaryGrid& b, std::vector<BoundaryLine>& lone, std:
 // vertices on the barriers (finish_lines refines the chord onto the locus). A junction left
 // within a cell of the grid's edge gets the line from it to the edge (the point of the nearest
 // side, within a cell and a half, where the costs are equal, the way open; region_edges leaves an
-// end on the edge where it is). Counts the lines in stats.channels_crossed and the junctions left
-// unpaired in stats.coast_changes_unexplained.
-void cross_hidden_channels(const BoundaryGrid& b, double max_distance, const std::vector<Tripoint>& tripoints,
-                           std::vector<BoundaryLine>& lines, BoundaryStats& stats);
+// end on the edge where it is). A junction left after that is followed along the locus from it
+// into the sea (narrow_level's walk, `per` as follow_open_ends'), and the points walked make its
+// line where the walk reaches a coast, another junction left, or an open end of a line of the
+// same owners (joined to it): a pocket of sea whose cells meet the rest only corner to corner,
+// the line from one coast across it to a coast the cells show. Counts the lines in
+// stats.channels_crossed and the junctions left unexplained in stats.coast_changes_unexplained.
+void cross_hidden_channels(const BoundaryGrid& b, double max_distance, double per,
+                           const std::vector<Tripoint>& tripoints, std::vector<BoundaryLine>& lines,
+                           BoundaryStats& stats);
 
 // Whether no owner but a and b comes between them at p: their nearest there into ha and hb, and no
 // third owner's cost below the lesser of theirs by more than 4 ftol (ties with it included).

@@ -286,10 +286,10 @@ struct BoundaryRun {
     join_parted_ends(b, t.tripoints, result.lines, result.stats);
     result.lone_crossings = lone_crossings(x, links);
     cross_channels(b, result.lone_crossings, result.lines, result.stats);
-    cross_hidden_channels(b, max_distance, t.tripoints, result.lines, result.stats);
     // Metric units per CRS unit in the grid's middle, the larger of the two axes'.
     const CrsScale scale(b.index.metric(), line_tools::centre(b.g, b.W / 2, b.H / 2), b.g.res);
     const double per = std::max(scale.at0.x, scale.at0.y);
+    cross_hidden_channels(b, max_distance, per, t.tripoints, result.lines, result.stats);
     follow_open_ends(b, max_distance, per, t.tripoints, result.lines, result.stats);
     const LineRefiner refiner(b.index, line_tolerance, b.ftol, scale, per);
     finish_lines(result.lines, &refiner, tol, result.stats, b.threads, reuse, record);

@@ -1438,4 +1438,109 @@ TEST(SeaLines, LinesEndOnTheFacesOfAWallThroughACellCentreColumnAndNeverRunAlong
     }
 }
 
+// Changes of owner along a coast the cells do not show, on random archipelagos at grids coarser
+// than their channels (cells of 2.3 to 4.7 on the 40-unit square): a pocket of sea whose cells
+// meet the rest only corner to corner, a sound narrower than a cell. The oracle walks every
+// barrier edge on each side in steps of a hundredth of a unit inside the grid, the owner at each
+// step from the index (checked against the brute force above): every change of owner between
+// two steps must be within three steps of an end of a line of those two owners, or of a
+// tripoint. Every vertex lies on its owners' locus with no third owner nearer, every sampled
+// point of every segment at sea, and no line runs along another of the same owners. The layouts
+// are those of the scan (seed 91) where a junction that no pair or grid edge took left a line
+// out: its line is now followed from it along the locus to a coast, the frame, another such
+// junction or a line's open end (boundaries.channels_crossed).
+TEST(SeaLines, EveryChangeOfOwnerAlongACoastTheCellsDoNotShowEndsALine) {
+  const std::vector<std::pair<int, double>> chosen{{7, 2.3},  {10, 2.3}, {26, 2.3}, {45, 2.3}, {45, 3.1},
+                                                   {47, 2.3}, {48, 3.1}, {53, 4.7}, {63, 2.3}, {72, 3.1}};
+  std::mt19937_64 rng(91);
+  int64_t checked = 0, changes = 0, crossed = 0;
+  for (int round = 0; round <= 72; ++round) {
+    Archipelago a;
+    if (!archipelago(rng, a)) continue;
+    for (const auto& [want_round, res] : chosen) {
+      if (want_round != round) continue;
+      const std::string at = std::to_string(round) + " at " + std::to_string(res);
+      const auto n = static_cast<int64_t>(std::ceil(40.0 / res));
+      const GridSpec g = test::grid_of(n, n, res, -0.5, 40.5);
+      const SeaField field = compute_sea(a.seeds, a.barriers, g, g.full_window());
+      const std::unique_ptr<SiteMetric> metric = make_sea_site_metric(a.seeds, a.barriers, g);
+      const OwnerIndex index(*metric);
+      const BoundaryResult lines = extract_boundaries(field.field, index);
+      ++checked;
+      crossed += lines.stats.channels_crossed;
+      EXPECT_EQ(lines.stats.coast_changes_unexplained, 0) << at;
+      auto owner = [&](Vec2 q) {
+        const OwnerIndex::Hit h = index.nearest(q);
+        return h.site == kNoSite ? 0 : a.seeds.site_owner(h.site);
+      };
+      std::vector<std::pair<Vec2, Vec2>> edges;
+      for (const Barriers::Polygon& poly : a.barriers.polygons())
+        for (const Ring& ring : poly.rings)
+          for (size_t k = 0; k < ring.size(); ++k) edges.emplace_back(ring[k], ring[(k + 1) % ring.size()]);
+      for (const Barriers::Line& line : a.barriers.lines())
+        for (size_t k = 0; k + 1 < line.vertices.size(); ++k)
+          edges.emplace_back(line.vertices[k], line.vertices[k + 1]);
+      constexpr double kStep = 0.01;
+      auto ends_a_line = [&](int lo, int hi, Vec2 p) {
+        for (const BoundaryLine& l : lines.lines)
+          if (l.owner_a == lo && l.owner_b == hi)
+            for (const BoundaryVertex* e : {&l.vertices.front(), &l.vertices.back()})
+              if (dist(e->p, p) <= 3 * kStep) return true;
+        return std::any_of(lines.tripoints.begin(), lines.tripoints.end(),
+                           [&](const Tripoint& t) { return dist(t.p, p) <= 3 * kStep; });
+      };
+      for (const auto& [e0, e1] : edges) {
+        const double len = dist(e0, e1);
+        const Vec2 normal{-(e1.y - e0.y) / len, (e1.x - e0.x) / len};
+        const auto steps = static_cast<int>(std::ceil(len / kStep));
+        for (const double side : {1.0, -1.0}) {
+          int before = 0;
+          for (int k = 1; k < steps; ++k) {
+            const Vec2 on = line_tools::lerp(e0, e1, static_cast<double>(k) / steps);
+            const Vec2 q{on.x + side * 1e-7 * normal.x, on.y + side * 1e-7 * normal.y};
+            const bool inside = q.x > g.xmin && q.x < g.xmax() && q.y > g.ymin() && q.y < g.ymax;
+            const int o = inside && metric->in_domain(q) ? owner(q) : 0;
+            if (before > 0 && o > 0 && o != before) {
+              ++changes;
+              EXPECT_TRUE(ends_a_line(std::min(o, before), std::max(o, before), on))
+                  << at << ": owners " << before << " and " << o << " at " << on.x << "," << on.y;
+            }
+            before = o;
+          }
+        }
+      }
+      for (size_t x = 0; x < lines.lines.size(); ++x) {
+        const BoundaryLine& u = lines.lines[x];
+        for (const BoundaryVertex& v : u.vertices) {
+          const OwnerIndex::Hit ha = index.nearest_of(v.p, u.owner_a), hb = index.nearest_of(v.p, u.owner_b);
+          EXPECT_NEAR(ha.cost, hb.cost, 1e-6 * std::max(1.0, ha.cost)) << at << ": " << v.p.x << "," << v.p.y;
+          const OwnerIndex::Hit third = index.nearest_third(v.p, u.owner_a, u.owner_b, std::max(ha.cost, hb.cost));
+          EXPECT_TRUE(third.site == kNoSite || third.cost >= std::min(ha.cost, hb.cost) - 1e-6) << at;
+        }
+        for (size_t k = 0; k + 1 < u.vertices.size(); ++k)
+          for (int s = 1; s < 8; ++s) {
+            const Vec2 p = line_tools::lerp(u.vertices[k].p, u.vertices[k + 1].p, s / 8.0);
+            EXPECT_TRUE(metric->in_domain(p)) << at << ": on land at " << p.x << "," << p.y;
+          }
+        for (size_t y = x + 1; y < lines.lines.size(); ++y) {
+          const BoundaryLine& w = lines.lines[y];
+          if (u.owner_a != w.owner_a || u.owner_b != w.owner_b) continue;
+          for (size_t k = 0; k + 1 < u.vertices.size(); ++k) {
+            const Vec2 m = line_tools::lerp(u.vertices[k].p, u.vertices[k + 1].p, 0.5);
+            for (size_t q = 0; q + 1 < w.vertices.size(); ++q) {
+              const Vec2 p0 = w.vertices[q].p, p1 = w.vertices[q + 1].p;
+              EXPECT_GT(dist(line_tools::lerp(p0, p1, line_tools::nearest_t(p0, p1, m)), m), 1e-3 * res)
+                  << at << ": two lines along each other at " << m.x << "," << m.y;
+            }
+          }
+        }
+      }
+    }
+  }
+  EXPECT_EQ(checked, static_cast<int64_t>(chosen.size()));
+  EXPECT_GE(crossed, static_cast<int64_t>(chosen.size()));
+  std::printf("coasts the cells do not show: %lld layouts, %lld changes of owner along coasts, %lld lines crossed\n",
+              static_cast<long long>(checked), static_cast<long long>(changes), static_cast<long long>(crossed));
+}
+
 }  // namespace rv

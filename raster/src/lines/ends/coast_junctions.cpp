@@ -12,7 +12,10 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstdio>
+#include <cstdlib>
 #include <limits>
+#include <numbers>
 #include <unordered_map>
 #include <vector>
 
@@ -30,6 +33,7 @@ struct Junction {
   Vec2 p;
   int32_t lo = 0, hi = 0;  // the owners, lo < hi
   BoundaryVertex v;
+  Vec2 into;  // off the edge's chord towards the side approached from (the sea there)
 };
 
 // The owner at p (0: none, or beyond max_distance), with `last` the site nearest to the position
@@ -70,6 +74,10 @@ bool junction_on(const BoundaryGrid& b, int32_t edge, Vec2 side, double t0, doub
   out.hi = std::max(oa, ob);
   out.v = oa < ob ? vertex_between(p, ha, hb) : vertex_between(p, hb, ha);
   out.v.on_barrier = true;
+  Vec2 e0, e1;
+  if (!m.domain_edge_ends(edge, e0, e1)) return false;
+  out.into = Vec2{-(e1.y - e0.y), e1.x - e0.x};
+  if (out.into.x * (side.x - e0.x) + out.into.y * (side.y - e0.y) < 0.0) out.into = Vec2{-out.into.x, -out.into.y};
   return true;
 }
 
@@ -223,10 +231,111 @@ bool to_grid_edge(const BoundaryGrid& b, const Junction& j, BoundaryVertex& out)
   return true;
 }
 
+// Where the locus of junction j's owners leaves it into the sea: the point a hundredth of a cell
+// from it where their costs are equal, over the half-turn towards j.into (bisected), in sight of
+// it; false where there is none. (The locus may leave at any angle to the coast; a walk from the
+// coast itself would take the costs' gradient across land.)
+bool leaving(const BoundaryGrid& b, const Junction& j, Vec2& out) {
+  const double r = 1e-2 * b.g.res, base = std::atan2(j.into.y, j.into.x);
+  auto at = [&](double a) { return Vec2{j.p.x + r * std::cos(base + a), j.p.y + r * std::sin(base + a)}; };
+  auto f = [&](double a) {
+    const Vec2 q = at(a);
+    return b.index.metric().in_domain(q) ? cost_gap(b, j.lo, j.hi, q) : std::numeric_limits<double>::quiet_NaN();
+  };
+  constexpr int kSamples = 32;
+  const double half = 0.5 * std::numbers::pi;
+  double a0 = -half, f0 = f(a0);
+  for (int k = 1; k <= kSamples; ++k) {
+    double a1 = -half + std::numbers::pi * k / kSamples;
+    const double f1 = f(a1);
+    if (std::isfinite(f0) && std::isfinite(f1) && (f0 <= 0.0) != (f1 <= 0.0)) {
+      out = at(root_in(f, a0, a1 - a0, f0, f1, b.ftol));
+      OwnerIndex::Hit ha, hb;
+      if (b.index.metric().open_between(j.p, out) && no_third_between(b, j.lo, j.hi, out, ha, hb)) return true;
+    }
+    a0 = a1;
+    f0 = f1;
+  }
+  return false;
+}
+
+// The junctions no pair or grid edge took (not `used`), each followed along the locus from it into
+// the sea (see the contract); the lines drawn (or lengthened) with `add`, the junctions a walk
+// reaches marked used.
+template <class Add>
+void follow_from_junctions(const BoundaryGrid& b, double per, const std::vector<Tripoint>& tripoints,
+                           const std::vector<Junction>& open, std::vector<bool>& used, std::vector<BoundaryLine>& lines,
+                           Add&& add) {
+  // (Steps of an eighth of a cell, fewer in a sliver: as follow_open_ends' walks.)
+  constexpr int kPerCell = 8;
+  constexpr int64_t kMaxSteps = 8192;
+  auto open_end = [&](const BoundaryVertex& v) {
+    return !v.on_barrier && !on_centre_frame(b.g, v.p) && !outside_frame(b.g, v.p) && !at_tripoint(tripoints, v.p);
+  };
+  for (size_t i = 0; i < open.size(); ++i) {
+    if (used[i]) continue;
+    const Junction& j = open[i];
+    // Where the walk may stop: the other junctions left of the same owners (their index), and the
+    // open ends of those owners' lines (line n's front as -2 - 2n, its back as -3 - 2n).
+    std::vector<Vec2> others;
+    std::vector<int64_t> what;
+    for (size_t k = 0; k < open.size(); ++k)
+      if (k != i && !used[k] && open[k].lo == j.lo && open[k].hi == j.hi) {
+        others.push_back(open[k].p);
+        what.push_back(static_cast<int64_t>(k));
+      }
+    for (size_t n = 0; n < lines.size(); ++n) {
+      const BoundaryLine& l = lines[n];
+      if (l.closed || l.vertices.size() < 2 || l.owner_a != j.lo || l.owner_b != j.hi) continue;
+      for (const int back : {0, 1})
+        if (open_end(back ? l.vertices.back() : l.vertices.front())) {
+          others.push_back(back ? l.vertices.back().p : l.vertices.front().p);
+          what.push_back(-2 - 2 * static_cast<int64_t>(n) - back);
+        }
+    }
+    Vec2 from;
+    if (!leaving(b, j, from)) continue;
+    locus_follow::Followed f =
+        locus_follow::follow_on(narrow_level(b, j.lo, j.hi, per), from, Vec2{from.x - j.p.x, from.y - j.p.y},
+                                b.g.res / kPerCell, kMaxSteps, others);
+    f.points.insert(f.points.begin(), j.p);
+    const bool coast = f.stop == locus_follow::Stop::coast || f.stop == locus_follow::Stop::frame,
+               target = f.stop == locus_follow::Stop::target;
+    if (f.points.size() < 2 || !(coast || target) || (target && f.other < 0) ||
+        std::hypot(f.points.back().x - j.p.x, f.points.back().y - j.p.y) <= 1e-4 * b.g.res)
+      continue;
+    used[i] = true;
+    BoundaryLine line{j.lo, j.hi, false, {j.v}, {}};
+    if (coast) {
+      append_walked(b, line, f.points);
+      line.vertices.back().on_barrier = f.stop == locus_follow::Stop::coast;
+      add(std::move(line), -1);
+      continue;
+    }
+    // Up to the point reached, which is its own vertex.
+    append_walked(b, line, std::vector<Vec2>(f.points.begin(), f.points.end() - 1));
+    const int64_t t = what[static_cast<size_t>(f.other)];
+    if (t >= 0) {
+      used[static_cast<size_t>(t)] = true;
+      line.vertices.push_back(open[static_cast<size_t>(t)].v);
+      add(std::move(line), -1);
+      continue;
+    }
+    const auto n = static_cast<size_t>((-2 - t) / 2);
+    const std::vector<BoundaryVertex>& o = lines[n].vertices;
+    if ((-2 - t) % 2 == 0)
+      line.vertices.insert(line.vertices.end(), o.begin(), o.end());
+    else
+      line.vertices.insert(line.vertices.end(), o.rbegin(), o.rend());
+    add(std::move(line), static_cast<int64_t>(n));
+  }
+}
+
 }  // namespace
 
-void cross_hidden_channels(const BoundaryGrid& b, double max_distance, const std::vector<Tripoint>& tripoints,
-                           std::vector<BoundaryLine>& lines, BoundaryStats& stats) {
+void cross_hidden_channels(const BoundaryGrid& b, double max_distance, double per,
+                           const std::vector<Tripoint>& tripoints, std::vector<BoundaryLine>& lines,
+                           BoundaryStats& stats) {
   const SiteMetric& m = b.index.metric();
   if (m.straight()) return;
   // Every domain edge that may come within the grid.
@@ -307,17 +416,21 @@ void cross_hidden_channels(const BoundaryGrid& b, double max_distance, const std
     }
   sort_nearest_first(pairs);
   std::vector<bool> used(open.size(), false);
+  // A line drawn: new, or in place of line `in_place` (>= 0), which it lengthens.
+  auto add = [&](BoundaryLine&& line, int64_t in_place) {
+    for (const BoundaryVertex& v : line.vertices) stats.max_residual = std::max(stats.max_residual, v.residual);
+    stats.vertices += static_cast<int64_t>(line.vertices.size()) -
+                      (in_place >= 0 ? static_cast<int64_t>(lines[static_cast<size_t>(in_place)].vertices.size()) : 0);
+    if (in_place >= 0)
+      lines[static_cast<size_t>(in_place)] = std::move(line);
+    else
+      lines.push_back(std::move(line));
+    ++stats.channels_crossed;
+  };
   // (A line of two vertices from junction i to `to`.)
   auto add_line = [&](size_t i, const BoundaryVertex& to) {
     used[i] = true;
-    BoundaryLine line;
-    line.owner_a = open[i].lo;
-    line.owner_b = open[i].hi;
-    line.vertices = {open[i].v, to};
-    for (const BoundaryVertex& v : line.vertices) stats.max_residual = std::max(stats.max_residual, v.residual);
-    stats.vertices += 2;
-    lines.push_back(std::move(line));
-    ++stats.channels_crossed;
+    add(BoundaryLine{open[i].lo, open[i].hi, false, {open[i].v, to}, {}}, -1);
   };
   for (const NearPair& pr : pairs) {
     if (used[pr.i] || used[pr.j]) continue;
@@ -331,6 +444,7 @@ void cross_hidden_channels(const BoundaryGrid& b, double max_distance, const std
     BoundaryVertex e;
     if (!used[i] && to_grid_edge(b, open[i], e)) add_line(i, e);
   }
+  follow_from_junctions(b, per, tripoints, open, used, lines, add);
   stats.coast_changes_unexplained += static_cast<int64_t>(std::count(used.begin(), used.end(), false));
 }
 

@@ -170,6 +170,8 @@ bool turned_back(const std::vector<BoundaryVertex>& v) {
   return (j.x - e.x) * (e.x - q.x) + (j.y - e.y) * (e.y - q.y) < 0.0;
 }
 
+}  // namespace
+
 // The level of the locus of `line`'s two owners, for the follower: their balance, and the band
 // where no third owner is nearer.
 locus_follow::Level pair_level(const BoundaryGrid& b, int32_t oa, int32_t ob) {
@@ -213,6 +215,8 @@ void append_walked(const BoundaryGrid& b, BoundaryLine& line, const std::vector<
     v.push_back(w);
   }
 }
+
+namespace {
 
 // How far the ends are followed: an eighth of a cell a step, over at most eight cells.
 constexpr int kPerCell = 8, kCells = 8;
@@ -519,8 +523,6 @@ void join_parted_ends(const BoundaryGrid& b, const std::vector<Tripoint>& tripoi
   lines = std::move(kept);
 }
 
-namespace {
-
 // The level of the locus of owners oa and ob for follow_open_ends: pair_level's, with steps of at
 // most half the way to the nearer side (`per`: metric units per CRS unit) and where the sides meet.
 locus_follow::Level narrow_level(const BoundaryGrid& b, int32_t oa, int32_t ob, double per) {
@@ -592,8 +594,6 @@ locus_follow::Level narrow_level(const BoundaryGrid& b, int32_t oa, int32_t ob, 
   };
   return level;
 }
-
-}  // namespace
 
 void follow_open_ends(const BoundaryGrid& b, double max_distance, double per, const std::vector<Tripoint>& tripoints,
                       std::vector<BoundaryLine>& lines, BoundaryStats& stats) {
