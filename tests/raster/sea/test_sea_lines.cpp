@@ -1391,7 +1391,8 @@ TEST(SeaLines, LinesEndOnTheFacesOfAWallThroughACellCentreColumnAndNeverRunAlong
   const std::array<std::pair<Vec2, Vec2>, 3> layouts{
       std::pair{Vec2{-5, 30}, Vec2{6, 30}}, std::pair{Vec2{-7, -25}, Vec2{3, 28}}, std::pair{Vec2{-3, 5}, Vec2{4, -2}}};
   for (const double res : {2.0, 4.0})
-    for (const auto& [sa, sb] : layouts) {
+    for (const std::pair<Vec2, Vec2>& layout : layouts) {
+      const Vec2 sa = layout.first, sb = layout.second;  // (lambdas below take them)
       const SeedSet seeds = test::named_points({{"A", sa}, {"B", sb}});
       const auto n = static_cast<int64_t>(80 / res) + 1;
       const GridSpec g = test::grid_of(n, n, res, -40.0 - res / 2, 40.0 + res / 2);
