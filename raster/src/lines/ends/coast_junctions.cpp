@@ -273,6 +273,8 @@ void follow_from_junctions(const BoundaryGrid& b, double per, const std::vector<
   for (size_t i = 0; i < open.size(); ++i) {
     if (used[i]) continue;
     const Junction& j = open[i];
+    Vec2 from;
+    if (!leaving(b, j, from)) continue;
     // Where the walk may stop: the other junctions left of the same owners (their index), and the
     // open ends of those owners' lines (line n's front as -2 - 2n, its back as -3 - 2n).
     std::vector<Vec2> others;
@@ -291,8 +293,6 @@ void follow_from_junctions(const BoundaryGrid& b, double per, const std::vector<
           what.push_back(-2 - 2 * static_cast<int64_t>(n) - back);
         }
     }
-    Vec2 from;
-    if (!leaving(b, j, from)) continue;
     locus_follow::Followed f =
         locus_follow::follow_on(narrow_level(b, j.lo, j.hi, per), from, Vec2{from.x - j.p.x, from.y - j.p.y},
                                 b.g.res / kPerCell, kMaxSteps, others);
