@@ -351,6 +351,13 @@ void join_close_tripoints(const std::vector<Tripoint>& tripoints, double cell, s
 // tripoint joined to it by a line of two vertices. Counts them in stats.missing_tripoints_found.
 // A tripoint beyond the field's `max_distance` (or, with an adjusted index, beyond a reach: the
 // index finds no site there) is not added: there the lines end on the owned area's edge.
+// The tripoint of the three `owners` near `start` (Newton's method on their nearest sites' costs,
+// the sites taken again where they change): no other owner nearer, within two cells of `start`,
+// within `max_distance`. False where none is found.
+bool solve_tripoint(const BoundaryGrid& b, std::array<int32_t, 3> owners, Vec2 start, double max_distance,
+                    Tripoint& out);
+// The vertex of the line of owners a and b (two of t's) that ends at tripoint t.
+BoundaryVertex tripoint_vertex(const Tripoint& t, int32_t a, int32_t b);
 void close_missing_tripoints(const BoundaryGrid& b, double max_distance, std::vector<Tripoint>& tripoints,
                              std::vector<BoundaryLine>& lines, BoundaryStats& stats);
 // Lines that stop where the reaches of an adjusted index (OwnerIndex::deepest, its cap, the
@@ -394,11 +401,12 @@ void part_where_turning_on_land(const BoundaryGrid& b, std::vector<BoundaryLine>
 // By sea, two open ends of lines of the same two owners (off the frame, not at a tripoint, not on
 // a barrier) within four cells of each other, with the way between them open and the locus
 // passing between them: the line broken where it passes a coast closer than a cell (the cells
-// beside it are parted by land, though the locus stays at sea). Joined, nearest pairs first (one
-// line's two ends make it a ring); finish_lines then refines the joining chord onto the locus.
-// Counts the joins in stats.ends_joined.
-void join_parted_ends(const BoundaryGrid& b, const std::vector<Tripoint>& tripoints, std::vector<BoundaryLine>& lines,
-                      BoundaryStats& stats);
+// beside it are parted by land, though the locus stays at sea). Joined, nearest pairs first,
+// where the locus walked on from one of the two reaches the other (narrow_level's walk, `per` as
+// follow_open_ends'; one line's two ends make it a ring); finish_lines then refines the joining
+// chord onto the locus. Counts the joins in stats.ends_joined.
+void join_parted_ends(const BoundaryGrid& b, double per, const std::vector<Tripoint>& tripoints,
+                      std::vector<BoundaryLine>& lines, BoundaryStats& stats);
 // By sea, each open end left (off the frame and the grid's edge, not at a tripoint, not on a
 // barrier: where the cells stop showing the locus, in a fjord narrower than two cells whose land
 // parts them, or short of a coast) followed on along its locus (locus_follow::follow_on, an eighth
@@ -415,6 +423,19 @@ void join_parted_ends(const BoundaryGrid& b, const std::vector<Tripoint>& tripoi
 // axes' in the grid's middle (a step in CRS units from a length then errs short).
 void follow_open_ends(const BoundaryGrid& b, double max_distance, double per, const std::vector<Tripoint>& tripoints,
                       std::vector<BoundaryLine>& lines, BoundaryStats& stats);
+// By sea, after follow_open_ends: each line end still open walked on along its locus as there,
+// and where the walk meets a third owner (its points leave the band of the two), carried to the
+// tripoint of the three solved there (solve_tripoint; one already known within a thousandth of a
+// cell, or a new one: stats.missing_tripoints_found) -- a tripoint whose square's centres are
+// land; the walk also stops at a tripoint of both owners lacking their line. Then each tripoint
+// off the frame lacking the line of two of its owners gets it: walked from the point a hundredth
+// of a cell off it where their locus leaves it away from the third owner (the one such point) to
+// a coast, the frame of the cell centres, an open end of their line (joined), another tripoint
+// lacking it, or a tripoint made where a fourth owner comes nearer, whose own missing lines are
+// walked in turn (stats.legs_walked). A walk that runs along a line of the same owners is not
+// taken. Not run where follow_open_ends is not.
+void complete_tripoints(const BoundaryGrid& b, double max_distance, double per, std::vector<Tripoint>& tripoints,
+                        std::vector<BoundaryLine>& lines, BoundaryStats& stats);
 
 // The level of the locus of owners oa and ob for the follower (locus_follow.hpp): their balance
 // (cost_gap), and the band where no third owner is nearer.

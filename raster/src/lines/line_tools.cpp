@@ -186,8 +186,13 @@ bool onto_domain_edge(const SiteMetric& m, Vec2 end, double radius, double ftol,
     // margin). A coast's edge may be far longer than a cell, and the locus can cross it again
     // far away; every crossing the window leaves out lies beyond the radius. A short edge is
     // searched whole.
+    // (An end of the edge may lie on other land, where no point of it is at sea, as a boom's end
+    // on an island: the window is then taken from the edge's ends, and the samples there are
+    // skipped.)
     Vec2 e0, e1;
-    if (!m.domain_edge_point(edge, kEnd, end, e0) || !m.domain_edge_point(edge, 1.0 - kEnd, end, e1)) continue;
+    if ((!m.domain_edge_point(edge, kEnd, end, e0) || !m.domain_edge_point(edge, 1.0 - kEnd, end, e1)) &&
+        !m.domain_edge_ends(edge, e0, e1))
+      continue;
     const Vec2 d{e1.x - e0.x, e1.y - e0.y};
     const double len = std::hypot(d.x, d.y);
     double lo = kEnd, hi = 1.0 - kEnd;
@@ -212,9 +217,14 @@ bool onto_domain_edge(const SiteMetric& m, Vec2 end, double radius, double ftol,
           continue;
       }
     }
-    // (A few samples across the window: it is short against the curves of the loci a cell holds.)
+    // (Samples a sixteenth of the radius apart, at least sixteen across the window: a window as
+    // long as the radius is short against the curves of the loci a cell holds, but a long edge's
+    // window (a boom across many cells) would otherwise put two crossings of one locus, or the
+    // crossings of a locus that turns along the edge, between two samples.)
     constexpr int kSamples = 16;
-    nearest_root_along([&](double t, Vec2& p) { return m.domain_edge_point(edge, t, end, p); }, lo, hi, kSamples, f,
+    const int samples =
+        std::max(kSamples, static_cast<int>(std::min(1024.0, std::ceil(kSamples * (hi - lo) * len / radius))));
+    nearest_root_along([&](double t, Vec2& p) { return m.domain_edge_point(edge, t, end, p); }, lo, hi, samples, f,
                        ftol, end,
                        [&](Vec2 p) {
                          const double gap = std::hypot(p.x - end.x, p.y - end.y);

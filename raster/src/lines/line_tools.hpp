@@ -345,7 +345,8 @@ inline bool on_centre_frame(const GridSpec& g, Vec2 p) {
 // Where a line that stops short of the metric's domain edge (SiteMetric::domain_edges_near: a
 // barrier by sea) meets it: on the edges within `radius` CRS units of `end`, approached from
 // `end`'s side (domain_edge_point), the points where `f` (the line's locus function, metric
-// units) changes sign -- sampled, then solved to `ftol` (Illinois) -- and of those `accept`s and
+// units) changes sign -- sampled a sixteenth of `radius` apart (at least sixteen samples an edge),
+// then solved to `ftol` (Illinois) -- and of those `accept`s and
 // that `end` sees (open_between), the nearest to `end`. False where there is none. An edge longer
 // than four radii is sampled only within four radii of `end`'s foot on it.
 // `away` (or null): only points on the far side of `end` from it (a line of one vertex, whose

@@ -15,6 +15,9 @@ using namespace line_tools;
 namespace {
 
 constexpr int kMaxDepth = 24;  // chord refinement, as the straight trace's
+// |balance| at a root, in ftol, beyond which the bracket closed on a jump, not a root (a converged
+// root is within ftol, or a bracket of 1e-15 of the segment across a slope of at most 2).
+constexpr double kJump = 1e3;
 
 double norm(Vec2 v) { return std::hypot(v.x, v.y); }
 
@@ -29,13 +32,18 @@ struct Follower {
 
   bool sees(Vec2 a, Vec2 b) const { return L.metric->open_between(a, b) && L.in_band(b); }
 
-  // The root of the balance on segment a-b (its ends of opposite signs), or false.
+  // The root of the balance on segment a-b (its ends of opposite signs), or false. Also false
+  // where the sign changes by a jump (the balance finite and far from 0 where the bracket closes):
+  // across a boom, each face's costs are its own, and the owners change there without a locus.
   bool root(Vec2 a, Vec2 b, Vec2& out) const {
     auto f = [&](double t) { return L.balance(lerp(a, b, t)); };
     const double fa = f(0.0), fb = f(1.0);
     if (!std::isfinite(fa) || !std::isfinite(fb) || (fa < 0.0) == (fb < 0.0)) return false;
     out = lerp(a, b, find_root(f, fa, fb, L.ftol, 1e-15));
-    return true;
+    // (A bracket across land closes on its coast, where the balance is undefined: the caller's
+    // sight test ends the walk there.)
+    const double at = L.balance(out);
+    return !(std::abs(at) > kJump * L.ftol);
   }
 
   // The first point of the locus from turning point `c`: on the circle of radius `step` round
@@ -105,7 +113,7 @@ struct Follower {
       const double a0 = w * k;
       const Vec2 p = on_circle(root_in([&](double a) { return L.balance(on_circle(a)); }, a0, w, f[k], f[m], L.ftol));
       const double along = ((p.x - c.x) * dir.x + (p.y - c.y) * dir.y) / r;
-      if (along <= best || !sees(c, p)) continue;
+      if (along <= best || std::abs(L.balance(p)) > kJump * L.ftol || !sees(c, p)) continue;
       best = along;
       out = p;
     }
@@ -190,7 +198,7 @@ struct Follower {
   // band, or back at pts.front() where `closing` (a loop: once more than three steps away from
   // it, back within one and a half). Appends the points walked; returns how the walk ended.
   Stop walk(std::vector<Vec2>& pts, Vec2 dir0, const Vec2* target, bool closing, const std::vector<Vec2>& others = {},
-            int* reached = nullptr, int64_t max_steps = -1) const {
+            int* reached = nullptr, int64_t max_steps = -1, Vec2* beyond = nullptr) const {
     // The target, or else the first of `others`, within `reach` of p (-2: none; -1: the target).
     auto near_target = [&](Vec2 p, double reach) {
       if (target && norm(Vec2{p.x - target->x, p.y - target->y}) <= reach) return -1;
@@ -276,6 +284,7 @@ struct Follower {
           pts.push_back(stop_at(k));
           return Stop::target;
         }
+        if (beyond) *beyond = r;
         return Stop::lost;
       }
       pts.push_back(r);
@@ -332,8 +341,13 @@ Followed follow_on(const Level& level, Vec2 from, Vec2 heading, double step, int
   LineResidual unused;  // (nothing is refined here)
   std::vector<Vec2> pts{from};
   int reached = -1;
-  const Stop stop = Follower{level, unused, step}.walk(pts, heading, nullptr, false, others, &reached, max_steps);
-  return Followed{std::move(pts), stop, stop == Stop::target ? reached : -1};
+  Vec2 beyond{std::numeric_limits<double>::quiet_NaN(), 0.0};
+  const Stop stop =
+      Follower{level, unused, step}.walk(pts, heading, nullptr, false, others, &reached, max_steps, &beyond);
+  Followed f{std::move(pts), stop, stop == Stop::target ? reached : -1};
+  f.left_band = stop == Stop::lost && std::isfinite(beyond.x);
+  f.beyond = beyond;
+  return f;
 }
 
 Followed follow(const Level& level, Vec2 start, const Vec2* target, LineResidual& residual,

@@ -73,6 +73,10 @@ struct Followed {
   std::vector<Vec2> points;  // from the start on, the start included
   Stop stop = Stop::lost;    // how its last point was reached
   int other = -1;            // Stop::target at others[other] (-1: at `target`, or not at a target)
+  // follow_on only: lost where the level's next point, `beyond`, lies out of the band (a third
+  // owner nearer there: the tripoint lies between the last point and it).
+  bool left_band = false;
+  Vec2 beyond{};
 };
 
 // The locus followed from `start` (a turning point, where L1 leaves L0) into the band, until
@@ -101,8 +105,8 @@ Through follow_through(const Level& level, Vec2 on, LineResidual& residual, doub
 // The locus followed on from `from` (a point of it where a line stops; `heading` the way the line
 // goes on there, any length) in steps of `step` CRS units, at most `max_steps` of them: to a coast
 // (the last point on a barrier's edge), the frame, or until the level is lost or leaves the band
-// (Stop::lost, also where the steps run out). The points walked, `from` first, unrefined: the
-// caller refines the chords as it does every other line's. Any two-owner locus will do (the
+// (Stop::lost, also where the steps run out; Followed::left_band where it leaves the band). The points walked, `from`
+// first, unrefined: the caller refines the chords as it does every other line's. Any two-owner locus will do (the
 // balance the difference of their costs, the band where no third owner is nearer).
 // `others`: points at which the walk stops as at a target (Stop::target, Followed::other its
 // index, the last point that point): other lines' ends on the same locus, to join.

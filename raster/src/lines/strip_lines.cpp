@@ -283,14 +283,15 @@ struct BoundaryRun {
     end_at_owned_edge(b, max_distance, t.tripoints, result.lines, result.stats);
     end_at_barriers(b, t.tripoints, result.lines, result.stats);
     part_where_turning_on_land(b, result.lines, result.stats);
-    join_parted_ends(b, t.tripoints, result.lines, result.stats);
-    result.lone_crossings = lone_crossings(x, links);
-    cross_channels(b, result.lone_crossings, result.lines, result.stats);
     // Metric units per CRS unit in the grid's middle, the larger of the two axes'.
     const CrsScale scale(b.index.metric(), line_tools::centre(b.g, b.W / 2, b.H / 2), b.g.res);
     const double per = std::max(scale.at0.x, scale.at0.y);
+    join_parted_ends(b, per, t.tripoints, result.lines, result.stats);
+    result.lone_crossings = lone_crossings(x, links);
+    cross_channels(b, result.lone_crossings, result.lines, result.stats);
     cross_hidden_channels(b, max_distance, per, t.tripoints, result.lines, result.stats);
     follow_open_ends(b, max_distance, per, t.tripoints, result.lines, result.stats);
+    complete_tripoints(b, max_distance, per, t.tripoints, result.lines, result.stats);
     const LineRefiner refiner(b.index, line_tolerance, b.ftol, scale, per);
     finish_lines(result.lines, &refiner, tol, result.stats, b.threads, reuse, record);
     for (const Tripoint& tp : t.tripoints) {

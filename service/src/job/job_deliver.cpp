@@ -414,6 +414,7 @@ BoundaryResult StripDeliverables::State::take_boundaries() {
                             {"coast_changes_unexplained", st.coast_changes_unexplained},
                             {"tie_vertices", st.tie_vertices},
                             {"missing_tripoints_found", st.missing_tripoints_found},
+                            {"legs_walked", st.legs_walked},
                             {"repeated_loops", st.repeated_loops},
                             {"sliver_crossings", st.sliver_crossings},
                             {"unresolved_slivers", st.unresolved_slivers},

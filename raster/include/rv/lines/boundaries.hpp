@@ -154,8 +154,13 @@ struct BoundaryStats {
   // By sea: the lines' vertices on the edge of a tie region (BoundaryVertex::tie).
   int64_t tie_vertices = 0;
   // Tripoints a crowded square's search missed, found from the ends of their lines (also in
-  // unresolved_tripoints, which counts the squares).
+  // unresolved_tripoints, which counts the squares); by sea also those no square showed (its
+  // centres on land), found where a line's walk along its locus met a third owner.
   int64_t missing_tripoints_found = 0;
+  // By sea: lines drawn from a tripoint along the locus of two of its owners, where the cells
+  // showed none of theirs ending there (the line runs along a coast beside land cells; its
+  // squares' centres are land).
+  int64_t legs_walked = 0;
   // Closed lines dropped because, refined, they ran wholly along another line of the same owners:
   // cells of a wedge narrower than a cell near its tip, cut off from the rest of it.
   int64_t repeated_loops = 0;

@@ -62,8 +62,8 @@ std::vector<LooseEnd> loose_ends(const BoundaryGrid& b, const std::vector<Tripoi
   return out;
 }
 
-// The tripoint of owners a, b, x near `start`: their nearest sites' costs equal, no other owner
-// nearer, within two cells of it. False where none is found.
+}  // namespace
+
 bool solve_tripoint(const BoundaryGrid& b, std::array<int32_t, 3> owners, Vec2 start, double max_distance,
                     Tripoint& out) {
   std::sort(owners.begin(), owners.end());
@@ -101,13 +101,11 @@ bool solve_tripoint(const BoundaryGrid& b, std::array<int32_t, 3> owners, Vec2 s
   return false;
 }
 
-BoundaryVertex vertex_of(const Tripoint& t, int32_t a, int32_t b) {
+BoundaryVertex tripoint_vertex(const Tripoint& t, int32_t a, int32_t b) {
   const int i = static_cast<int>(std::find(t.owners, t.owners + 3, a) - t.owners);
   const int k = static_cast<int>(std::find(t.owners, t.owners + 3, b) - t.owners);
   return BoundaryVertex{t.p, t.sites[i], t.sites[k], t.distance, t.residual, t.distances[i], t.distances[k]};
 }
-
-}  // namespace
 
 void close_missing_tripoints(const BoundaryGrid& b, double max_distance, std::vector<Tripoint>& tripoints,
                              std::vector<BoundaryLine>& lines, BoundaryStats& stats) {
@@ -134,14 +132,15 @@ void close_missing_tripoints(const BoundaryGrid& b, double max_distance, std::ve
           LooseEnd& le = ends[n];
           le.used = true;
           if (le.gap) {
-            added.push_back(BoundaryLine{le.lo,
-                                         le.hi,
-                                         false,
-                                         {vertex_of(tripoints[le.tripoint], le.lo, le.hi), vertex_of(t, le.lo, le.hi)},
-                                         {}});
+            added.push_back(
+                BoundaryLine{le.lo,
+                             le.hi,
+                             false,
+                             {tripoint_vertex(tripoints[le.tripoint], le.lo, le.hi), tripoint_vertex(t, le.lo, le.hi)},
+                             {}});
           } else {
             std::vector<BoundaryVertex>& v = lines[le.line].vertices;
-            const BoundaryVertex tv = vertex_of(t, le.lo, le.hi);
+            const BoundaryVertex tv = tripoint_vertex(t, le.lo, le.hi);
             if (le.front)
               v.insert(v.begin(), tv);
             else

@@ -162,6 +162,21 @@ bool onto_barrier(const BoundaryGrid& b, BoundaryLine& line, const Vec2* away = 
   return true;
 }
 
+// Whether the chord p-q runs along the locus of owners oa and ob: at sixteen points of it no third
+// owner between them (ties within 4 ftol aside), and their costs within a tenth of the chord's
+// length of each other (a point that far off the locus has them apart by as much or more).
+bool along_locus(const BoundaryGrid& b, int32_t oa, int32_t ob, Vec2 p, Vec2 q) {
+  constexpr int kSamples = 16;
+  const double apart = 0.1 * b.index.metric().point_distance(p, q);
+  for (int k = 1; k < kSamples; ++k) {
+    OwnerIndex::Hit ha, hb;
+    if (!no_third_between(b, oa, ob, lerp(p, q, static_cast<double>(k) / kSamples), ha, hb) ||
+        !(std::abs(ha.cost - hb.cost) <= apart))
+      return false;
+  }
+  return true;
+}
+
 // Whether the back end of `line`, just carried onto a barrier (its last vertex), turned back to get
 // there: the junction lies behind the end, seen along the line's last chord before it.
 bool turned_back(const std::vector<BoundaryVertex>& v) {
@@ -338,17 +353,25 @@ void end_at_barriers(const BoundaryGrid& b, const std::vector<Tripoint>& tripoin
       const Vec2 p = line.vertices.back().p;
       if (!on_centre_frame(b.g, p) && !at_tripoint(tripoints, p) && onto_barrier(b, line)) {
         // A junction behind the end is another stretch's: the line there goes on where its cells
-        // do not show it (round an islet in a channel narrower than a cell). It is followed on
-        // along the locus; the junction is kept only where the follower does not reach a coast.
-        if (turned_back(line.vertices)) {
-          const BoundaryVertex behind = line.vertices.back();
+        // do not show it (round an islet in a channel narrower than a cell). So is one more than a
+        // cell off whose chord from the end leaves the locus (along_locus): the end's locus may go
+        // on to a third owner where the cells do not show it (complete_tripoints finds the
+        // tripoint). Either is followed on along the locus instead; where the follower reaches no
+        // coast, the junction behind is kept, the one off the locus dropped (the end left open).
+        const BoundaryVertex junction = line.vertices.back();
+        const bool off_locus = std::hypot(junction.p.x - p.x, junction.p.y - p.y) > b.g.res &&
+                               !along_locus(b, line.owner_a, line.owner_b, p, junction.p);
+        if (off_locus || turned_back(line.vertices)) {
           line.vertices.pop_back();
           const auto before = static_cast<int64_t>(line.vertices.size());
           if (follow_to_barrier(b, line)) {
             stats.vertices += static_cast<int64_t>(line.vertices.size()) - before - 1;
             ++stats.ends_followed;
+          } else if (!off_locus) {
+            line.vertices.push_back(junction);
           } else {
-            line.vertices.push_back(behind);
+            if (end == 1) std::reverse(line.vertices.begin(), line.vertices.end());
+            continue;
           }
         }
         ++stats.vertices;
@@ -446,8 +469,8 @@ void cross_channels(const BoundaryGrid& b, std::vector<BoundaryLine>& lone, std:
   lone = std::move(left);
 }
 
-void join_parted_ends(const BoundaryGrid& b, const std::vector<Tripoint>& tripoints, std::vector<BoundaryLine>& lines,
-                      BoundaryStats& stats) {
+void join_parted_ends(const BoundaryGrid& b, double per, const std::vector<Tripoint>& tripoints,
+                      std::vector<BoundaryLine>& lines, BoundaryStats& stats) {
   const SiteMetric& metric = b.index.metric();
   if (metric.straight()) return;
   // The open ends left: (line, which end), neither on the frame, at a tripoint nor on a barrier.
@@ -493,11 +516,25 @@ void join_parted_ends(const BoundaryGrid& b, const std::vector<Tripoint>& tripoi
     while (merged_into[n] != n) n = merged_into[n];
     return n;
   };
+  // Whether the locus walked on from the end of line n at p reaches q, within three times their
+  // distance: the test above holds for any two ends of a locus that bends between them (a line's
+  // two ends round a tripoint or a coast the cells do not show), which the walk tells apart.
+  auto walks_to = [&](size_t n, Vec2 p, Vec2 q) {
+    const std::vector<BoundaryVertex>& v = lines[n].vertices;
+    if (v.size() < 2) return false;
+    const Vec2 before = v.front().p == p ? v[1].p : v[v.size() - 2].p;
+    const double step = b.g.res / kPerCell;
+    const auto steps = static_cast<int64_t>(std::ceil(3.0 * std::hypot(q.x - p.x, q.y - p.y) / step)) + kPerCell;
+    return locus_follow::follow_on(narrow_level(b, lines[n].owner_a, lines[n].owner_b, per), p,
+                                   Vec2{p.x - before.x, p.y - before.y}, step, steps, {q})
+               .stop == locus_follow::Stop::target;
+  };
   for (const NearPair& pr : pairs) {
     if (used[pr.i] || used[pr.j]) continue;
-    used[pr.i] = used[pr.j] = true;
     const size_t a = root(ends[pr.i].line), c = root(ends[pr.j].line);
     const Vec2 pa = ends[pr.i].p, pc = ends[pr.j].p;
+    if (!walks_to(a, pa, pc) && !walks_to(c, pc, pa)) continue;
+    used[pr.i] = used[pr.j] = true;
     if (a == c) {
       // Both ends of one line: a ring.
       BoundaryLine& l = lines[a];
