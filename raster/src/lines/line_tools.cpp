@@ -244,18 +244,41 @@ bool nearest_root_along(const std::function<bool(double, Vec2&)>& at, double lo,
   };
   auto sample = [&](int k) { return lo + (hi - lo) * static_cast<double>(k) / samples; };
   bool found = false;
-  double t0 = sample(0), f0 = along(t0);
-  for (int k = 1; k <= samples; ++k) {
-    const double t1 = sample(k), f1 = along(t1);
+  auto try_between = [&](double ta, double fa, double tb, double fb) {
     Vec2 p;
-    if (std::isfinite(f0) && std::isfinite(f1) && (f0 <= 0.0) != (f1 <= 0.0) &&
-        at(root_in(along, t0, t1 - t0, f0, f1, ftol), p)) {
+    if (std::isfinite(fa) && std::isfinite(fb) && (fa <= 0.0) != (fb <= 0.0) &&
+        at(root_in(along, ta, tb - ta, fa, fb, ftol), p)) {
       const double gap = std::hypot(p.x - near.x, p.y - near.y);
       if (gap < best_gap && accept(p)) {
         out = p;
         best_gap = gap;
         found = true;
       }
+    }
+  };
+  // Where f is undefined (the edge under other land) at one sample and not at the next, the
+  // stretch at sea is taken from where it begins (bisected to a millionth of the step): a root
+  // between that and the sample (a locus meeting the coast beside the other land) is not left
+  // out for the sample under land.
+  auto sea_end = [&](double t_land, double t_sea) {
+    for (int k = 0; k < 20; ++k) {
+      const double t = 0.5 * (t_land + t_sea);
+      (std::isfinite(along(t)) ? t_sea : t_land) = t;
+    }
+    return t_sea;
+  };
+  double t0 = sample(0), f0 = along(t0);
+  for (int k = 1; k <= samples; ++k) {
+    const double t1 = sample(k), f1 = along(t1);
+    if (std::isfinite(f0) != std::isfinite(f1)) {
+      const double te = std::isfinite(f0) ? sea_end(t1, t0) : sea_end(t0, t1);
+      const double fe = along(te);
+      if (std::isfinite(f0))
+        try_between(t0, f0, te, fe);
+      else
+        try_between(te, fe, t1, f1);
+    } else {
+      try_between(t0, f0, t1, f1);
     }
     t0 = t1;
     f0 = f1;

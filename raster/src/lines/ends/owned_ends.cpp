@@ -262,15 +262,20 @@ Vec2 geodesics_meet(const MetricSpec& metric, Vec2 a0, Vec2 a1, Vec2 b0, Vec2 b1
 
 // The back end of `line` followed on along its locus to the coast (see end_at_barriers), in steps
 // of an eighth of a cell over at most eight cells; true (the points walked appended, the last on
-// the barrier) where it gets there.
-bool follow_to_barrier(const BoundaryGrid& b, BoundaryLine& line) {
+// the barrier) where it gets there. `stops` (optional): a point of the coast on the locus first
+// (which the walk may pass where the locus only touches the coast between two steps; passing
+// within a step and a half of it ends the walk there, as on the coast), then open ends of other
+// lines of the same owners (reaching one of those, false: the two are to be joined).
+bool follow_to_barrier(const BoundaryGrid& b, BoundaryLine& line, const std::vector<Vec2>& stops = {}) {
   std::vector<BoundaryVertex>& v = line.vertices;
   if (v.size() < 2) return false;
   const locus_follow::Level level = pair_level(b, line.owner_a, line.owner_b);
   const Vec2 end = v.back().p, before = v[v.size() - 2].p;
   const locus_follow::Followed f = locus_follow::follow_on(level, end, Vec2{end.x - before.x, end.y - before.y},
-                                                           b.g.res / kPerCell, kPerCell * kCells);
-  if (f.stop != locus_follow::Stop::coast || f.points.size() < 2) return false;
+                                                           b.g.res / kPerCell, kPerCell * kCells, stops);
+  if (!(f.stop == locus_follow::Stop::coast || (f.stop == locus_follow::Stop::target && f.other == 0)) ||
+      f.points.size() < 2)
+    return false;
   append_walked(b, line, f.points);
   v.back().on_barrier = true;
   return true;
@@ -353,21 +358,37 @@ void end_at_barriers(const BoundaryGrid& b, const std::vector<Tripoint>& tripoin
       const Vec2 p = line.vertices.back().p;
       if (!on_centre_frame(b.g, p) && !at_tripoint(tripoints, p) && onto_barrier(b, line)) {
         // A junction behind the end is another stretch's: the line there goes on where its cells
-        // do not show it (round an islet in a channel narrower than a cell). So is one more than a
-        // cell off whose chord from the end leaves the locus (along_locus): the end's locus may go
-        // on to a third owner where the cells do not show it (complete_tripoints finds the
-        // tripoint). Either is followed on along the locus instead; where the follower reaches no
-        // coast, the junction behind is kept, the one off the locus dropped (the end left open).
+        // do not show it (round an islet in a channel narrower than a cell). So may be one more
+        // than a cell off: its chord from the end leaves the locus (along_locus), and the end's
+        // locus may go on to a third owner where the cells do not show it (complete_tripoints
+        // finds the tripoint); or an open end of another line of the same owners lies nearer (the
+        // line passes a coast closer than a cell there: join_parted_ends joins the two). Either is
+        // followed on along the locus instead. Where the follower reaches no coast, the junction
+        // behind is kept; the one far off is dropped and the end left open, as where the walk
+        // meets the other line's end.
         const BoundaryVertex junction = line.vertices.back();
-        const bool off_locus = std::hypot(junction.p.x - p.x, junction.p.y - p.y) > b.g.res &&
-                               !along_locus(b, line.owner_a, line.owner_b, p, junction.p);
-        if (off_locus || turned_back(line.vertices)) {
+        const double reach = std::hypot(junction.p.x - p.x, junction.p.y - p.y);
+        std::vector<Vec2> stops;
+        bool doubt = false;
+        if (reach > b.g.res) {
+          stops.push_back(junction.p);
+          for (const BoundaryLine& o : lines)
+            if (&o != &line && !o.closed && !o.vertices.empty() && o.owner_a == line.owner_a &&
+                o.owner_b == line.owner_b)
+              for (const BoundaryVertex* e : {&o.vertices.front(), &o.vertices.back()})
+                if (!e->on_barrier && !on_centre_frame(b.g, e->p) && !at_tripoint(tripoints, e->p)) {
+                  stops.push_back(e->p);
+                  doubt = doubt || std::hypot(e->p.x - p.x, e->p.y - p.y) < reach;
+                }
+          doubt = doubt || !along_locus(b, line.owner_a, line.owner_b, p, junction.p);
+        }
+        if (doubt || turned_back(line.vertices)) {
           line.vertices.pop_back();
           const auto before = static_cast<int64_t>(line.vertices.size());
-          if (follow_to_barrier(b, line)) {
+          if (follow_to_barrier(b, line, doubt ? stops : std::vector<Vec2>{})) {
             stats.vertices += static_cast<int64_t>(line.vertices.size()) - before - 1;
             ++stats.ends_followed;
-          } else if (!off_locus) {
+          } else if (!doubt) {
             line.vertices.push_back(junction);
           } else {
             if (end == 1) std::reverse(line.vertices.begin(), line.vertices.end());
