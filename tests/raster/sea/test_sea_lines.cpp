@@ -1545,3 +1545,117 @@ TEST(SeaLines, EveryChangeOfOwnerAlongACoastTheCellsDoNotShowEndsALine) {
 }
 
 }  // namespace rv
+
+namespace rv {
+namespace {
+
+// Where the cells hide a stretch of a boundary by sea (land centres on one side of it, one owner's
+// on the other; a tripoint whose square's centres are land), the lines still end only where a line
+// can: on a coast, on the frame of the cell centres or the grid's edge, at a tripoint, or closed
+// into a ring; every tripoint inside the frame has a line of each pair of its owners ending at it;
+// and every segment lies on its owners' locus (at seven points of it, their costs within a
+// hundredth of a cell of each other and no third owner nearer by as much), with no segment along
+// a boom and no two lines of the same owners along each other. The layouts are random
+// archipelagos (seed 91, as above) where, before, a walk along the locus stopped where a third
+// owner came nearer (no tripoint, its lines left open), a tripoint lacked a line, a coast junction
+// was taken across another owner's sea or past another line's end, or a boom's edge with an end
+// on an island was not searched; and (rounds 144) where a tripoint's walked line would have
+// followed a boom's jump of owners for its locus.
+TEST(SeaLines, EveryLineEndsOnACoastTheFrameOrATripointAndEveryTripointHasItsThreeLines) {
+  const std::vector<std::pair<int, double>> chosen{{0, 3.1},  {0, 4.7},  {3, 2.3},  {10, 4.7}, {16, 2.3},
+                                                   {19, 3.1}, {20, 4.7}, {25, 2.3}, {25, 3.1}};
+  const std::vector<std::pair<int, double>> booms{{144, 2.3}, {144, 4.7}};
+  std::mt19937_64 rng(91);
+  int64_t checked = 0, tripoints = 0, ends = 0;
+  for (int round = 0; round <= 144; ++round) {
+    Archipelago a;
+    if (!archipelago(rng, a)) continue;
+    for (const bool full : {true, false})
+      for (const auto& [want_round, res] : full ? chosen : booms) {
+        if (want_round != round) continue;
+        const std::string at = std::to_string(round) + " at " + std::to_string(res);
+        const auto n = static_cast<int64_t>(std::ceil(40.0 / res));
+        const GridSpec g = test::grid_of(n, n, res, -0.5, 40.5);
+        const SeaField field = compute_sea(a.seeds, a.barriers, g, g.full_window());
+        const std::unique_ptr<SiteMetric> metric = make_sea_site_metric(a.seeds, a.barriers, g);
+        const OwnerIndex index(*metric);
+        const BoundaryResult lines = extract_boundaries(field.field, index);
+        ++checked;
+        // No segment along the boom: both its ends on the boom's line.
+        for (const Barriers::Line& boom : a.barriers.lines())
+          for (const BoundaryLine& l : lines.lines)
+            for (size_t k = 0; k + 1 < l.vertices.size(); ++k) {
+              const Vec2 b0 = boom.vertices.front(), b1 = boom.vertices.back();
+              auto on_boom = [&](Vec2 p) {
+                return dist(line_tools::lerp(b0, b1, line_tools::nearest_t(b0, b1, p)), p) <= 1e-9;
+              };
+              EXPECT_FALSE(on_boom(l.vertices[k].p) && on_boom(l.vertices[k + 1].p))
+                  << at << ": along the boom at " << l.vertices[k].p.x << "," << l.vertices[k].p.y;
+            }
+        if (!full) continue;
+        auto on_tripoint = [&](Vec2 p) {
+          return std::any_of(lines.tripoints.begin(), lines.tripoints.end(),
+                             [&](const Tripoint& t) { return t.p == p; });
+        };
+        auto on_frame = [&](Vec2 p) {
+          return p.x == g.centre_x(0) || p.x == g.centre_x(n - 1) || p.y == g.centre_y(0) || p.y == g.centre_y(n - 1) ||
+                 p.x == g.xmin || p.x == g.xmax() || p.y == g.ymin() || p.y == g.ymax;
+        };
+        for (const BoundaryLine& l : lines.lines) {
+          if (l.closed) continue;
+          for (const BoundaryVertex* e : {&l.vertices.front(), &l.vertices.back()}) {
+            EXPECT_TRUE(e->on_barrier || on_frame(e->p) || on_tripoint(e->p))
+                << at << ": owners " << l.owner_a << " and " << l.owner_b << " end in the open at " << e->p.x << ","
+                << e->p.y;
+            ++ends;
+          }
+        }
+        for (const Tripoint& t : lines.tripoints) {
+          if (t.p.x <= g.centre_x(0) || t.p.x >= g.centre_x(n - 1) || t.p.y >= g.centre_y(0) ||
+              t.p.y <= g.centre_y(n - 1))
+            continue;
+          ++tripoints;
+          for (const std::pair<int, int> pair : {std::pair{0, 1}, std::pair{0, 2}, std::pair{1, 2}}) {
+            const int i = pair.first, k = pair.second;  // (lambdas below take them)
+            const bool has = std::any_of(lines.lines.begin(), lines.lines.end(), [&](const BoundaryLine& l) {
+              return l.owner_a == t.owners[i] && l.owner_b == t.owners[k] &&
+                     (l.vertices.front().p == t.p || l.vertices.back().p == t.p);
+            });
+            EXPECT_TRUE(has) << at << ": the tripoint at " << t.p.x << "," << t.p.y << " lacks the line of owners "
+                             << t.owners[i] << " and " << t.owners[k];
+          }
+        }
+        for (size_t x = 0; x < lines.lines.size(); ++x) {
+          const BoundaryLine& u = lines.lines[x];
+          for (size_t k = 0; k + 1 < u.vertices.size(); ++k)
+            for (int s = 1; s < 8; ++s) {
+              const Vec2 p = line_tools::lerp(u.vertices[k].p, u.vertices[k + 1].p, s / 8.0);
+              const OwnerIndex::Hit ha = index.nearest_of(p, u.owner_a), hb = index.nearest_of(p, u.owner_b);
+              const OwnerIndex::Hit third = index.nearest_third(p, u.owner_a, u.owner_b, std::max(ha.cost, hb.cost));
+              EXPECT_LE(std::abs(ha.cost - hb.cost), 1e-2 * res) << at << ": off the locus at " << p.x << "," << p.y;
+              EXPECT_TRUE(third.site == kNoSite || third.cost >= std::min(ha.cost, hb.cost) - 1e-2 * res)
+                  << at << ": a third owner nearer at " << p.x << "," << p.y;
+            }
+          for (size_t y = x + 1; y < lines.lines.size(); ++y) {
+            const BoundaryLine& w = lines.lines[y];
+            if (u.owner_a != w.owner_a || u.owner_b != w.owner_b) continue;
+            for (size_t k = 0; k + 1 < u.vertices.size(); ++k) {
+              const Vec2 m = line_tools::lerp(u.vertices[k].p, u.vertices[k + 1].p, 0.5);
+              for (size_t q = 0; q + 1 < w.vertices.size(); ++q) {
+                const Vec2 p0 = w.vertices[q].p, p1 = w.vertices[q + 1].p;
+                EXPECT_GT(dist(line_tools::lerp(p0, p1, line_tools::nearest_t(p0, p1, m)), m), 1e-3 * res)
+                    << at << ": two lines along each other at " << m.x << "," << m.y;
+              }
+            }
+          }
+        }
+      }
+  }
+  EXPECT_EQ(checked, static_cast<int64_t>(chosen.size() + booms.size()));
+  EXPECT_GT(tripoints, 10);
+  std::printf("lines by sea where the cells hide them: %lld layouts, %lld line ends, %lld tripoints\n",
+              static_cast<long long>(checked), static_cast<long long>(ends), static_cast<long long>(tripoints));
+}
+
+}  // namespace
+}  // namespace rv
