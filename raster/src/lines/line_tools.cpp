@@ -186,13 +186,15 @@ bool onto_domain_edge(const SiteMetric& m, Vec2 end, double radius, double ftol,
     // margin). A coast's edge may be far longer than a cell, and the locus can cross it again
     // far away; every crossing the window leaves out lies beyond the radius. A short edge is
     // searched whole.
-    // (An end of the edge may lie on other land, where no point of it is at sea, as a boom's end
+    // (One end of the edge may lie on other land, where no point of it is at sea, as a boom's end
     // on an island: the window is then taken from the edge's ends, and the samples there are
-    // skipped.)
+    // skipped. An edge with both ends on other land -- a land border two polygons share -- is
+    // left out: it is seldom at sea between, and a point of an edge under land costs a search.)
     Vec2 e0, e1;
-    if ((!m.domain_edge_point(edge, kEnd, end, e0) || !m.domain_edge_point(edge, 1.0 - kEnd, end, e1)) &&
-        !m.domain_edge_ends(edge, e0, e1))
-      continue;
+    const bool at_sea0 = m.domain_edge_point(edge, kEnd, end, e0),
+               at_sea1 = m.domain_edge_point(edge, 1.0 - kEnd, end, e1);
+    if (!at_sea0 && !at_sea1) continue;
+    if (!(at_sea0 && at_sea1) && !m.domain_edge_ends(edge, e0, e1)) continue;
     const Vec2 d{e1.x - e0.x, e1.y - e0.y};
     const double len = std::hypot(d.x, d.y);
     double lo = kEnd, hi = 1.0 - kEnd;
@@ -217,27 +219,29 @@ bool onto_domain_edge(const SiteMetric& m, Vec2 end, double radius, double ftol,
           continue;
       }
     }
-    // (Samples a sixteenth of the radius apart, at least sixteen across the window: a window as
-    // long as the radius is short against the curves of the loci a cell holds, but a long edge's
-    // window (a boom across many cells) would otherwise put two crossings of one locus, or the
-    // crossings of a locus that turns along the edge, between two samples.)
+    // (A few samples across the window: it is short against the curves of the loci a cell holds.)
     constexpr int kSamples = 16;
-    const int samples =
-        std::max(kSamples, static_cast<int>(std::min(1024.0, std::ceil(kSamples * (hi - lo) * len / radius))));
-    nearest_root_along([&](double t, Vec2& p) { return m.domain_edge_point(edge, t, end, p); }, lo, hi, samples, f,
+    // (f, of value fa at ta, reaches 0 by tb only within `slope` of their distance; on the edge's
+    // chord, with room for a geodesic edge's bow.)
+    auto may_reach = [&](double ta, double fa, double tb) {
+      return !(std::isfinite(slope) && slope > 0.0) ||
+             std::abs(fa) <= 1.5 * slope * m.point_distance(lerp(e0, e1, ta), lerp(e0, e1, tb)) + ftol;
+    };
+    nearest_root_along([&](double t, Vec2& p) { return m.domain_edge_point(edge, t, end, p); }, lo, hi, kSamples, f,
                        ftol, end,
                        [&](Vec2 p) {
                          const double gap = std::hypot(p.x - end.x, p.y - end.y);
                          return gap <= radius && ahead(p) && accept(p) && m.open_between(end, p);
                        },
-                       best_gap, out);
+                       best_gap, out, may_reach);
   }
   return std::isfinite(best_gap);
 }
 
 bool nearest_root_along(const std::function<bool(double, Vec2&)>& at, double lo, double hi, int samples,
                         const std::function<double(Vec2)>& f, double ftol, Vec2 near,
-                        const std::function<bool(Vec2)>& accept, double& best_gap, Vec2& out) {
+                        const std::function<bool(Vec2)>& accept, double& best_gap, Vec2& out,
+                        const std::function<bool(double ta, double fa, double tb)>& may_reach) {
   auto along = [&](double t) {
     Vec2 p;
     return at(t, p) ? f(p) : std::numeric_limits<double>::quiet_NaN();
@@ -257,11 +261,11 @@ bool nearest_root_along(const std::function<bool(double, Vec2&)>& at, double lo,
     }
   };
   // Where f is undefined (the edge under other land) at one sample and not at the next, the
-  // stretch at sea is taken from where it begins (bisected to a millionth of the step): a root
-  // between that and the sample (a locus meeting the coast beside the other land) is not left
-  // out for the sample under land.
+  // stretch at sea is taken from where it begins (bisected to a four-thousandth of the step): a
+  // root between that and the sample (a locus meeting the coast beside the other land) is not
+  // left out for the sample under land.
   auto sea_end = [&](double t_land, double t_sea) {
-    for (int k = 0; k < 20; ++k) {
+    for (int k = 0; k < 12; ++k) {
       const double t = 0.5 * (t_land + t_sea);
       (std::isfinite(along(t)) ? t_sea : t_land) = t;
     }
@@ -271,6 +275,11 @@ bool nearest_root_along(const std::function<bool(double, Vec2&)>& at, double lo,
   for (int k = 1; k <= samples; ++k) {
     const double t1 = sample(k), f1 = along(t1);
     if (std::isfinite(f0) != std::isfinite(f1)) {
+      if (may_reach && !(std::isfinite(f0) ? may_reach(t0, f0, t1) : may_reach(t1, f1, t0))) {
+        t0 = t1;
+        f0 = f1;
+        continue;
+      }
       const double te = std::isfinite(f0) ? sea_end(t1, t0) : sea_end(t0, t1);
       const double fe = along(te);
       if (std::isfinite(f0))

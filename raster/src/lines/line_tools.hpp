@@ -121,10 +121,14 @@ double root_in(F&& f, double t0, double w, double f0, double f1, double ftol) {
 // Along a path at(t) (false: no point there), t in [lo, hi] sampled in `samples` equal steps:
 // each place where f changes sign between two samples (both finite), solved to `ftol`; of the
 // roots nearer `near` than `best_gap` that `accept` takes, the nearest goes to `out` and its
-// distance to `best_gap` (the first of equals). True where one did.
+// distance to `best_gap` (the first of equals). True where one did. Where the path has no point
+// at one sample and has at the next, the first t with a point between them is bisected for (and
+// f's sign compared there) unless `may_reach` (when given) says f, of value fa at ta, cannot
+// reach 0 by tb.
 bool nearest_root_along(const std::function<bool(double, Vec2&)>& at, double lo, double hi, int samples,
                         const std::function<double(Vec2)>& f, double ftol, Vec2 near,
-                        const std::function<bool(Vec2)>& accept, double& best_gap, Vec2& out);
+                        const std::function<bool(Vec2)>& accept, double& best_gap, Vec2& out,
+                        const std::function<bool(double ta, double fa, double tb)>& may_reach = {});
 
 // Newton's method for a root of f in [lo, hi], where f(lo) <= 0 <= f(hi) when `rising` (the
 // reverse otherwise) is known without f having been measured there: g(t) gives {f(t), f'(t)}.
@@ -345,8 +349,7 @@ inline bool on_centre_frame(const GridSpec& g, Vec2 p) {
 // Where a line that stops short of the metric's domain edge (SiteMetric::domain_edges_near: a
 // barrier by sea) meets it: on the edges within `radius` CRS units of `end`, approached from
 // `end`'s side (domain_edge_point), the points where `f` (the line's locus function, metric
-// units) changes sign -- sampled a sixteenth of `radius` apart (at least sixteen samples an edge),
-// then solved to `ftol` (Illinois) -- and of those `accept`s and
+// units) changes sign -- sampled, then solved to `ftol` (Illinois) -- and of those `accept`s and
 // that `end` sees (open_between), the nearest to `end`. False where there is none. An edge longer
 // than four radii is sampled only within four radii of `end`'s foot on it.
 // `away` (or null): only points on the far side of `end` from it (a line of one vertex, whose
