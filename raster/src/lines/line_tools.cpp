@@ -227,7 +227,9 @@ bool onto_domain_edge(const SiteMetric& m, Vec2 end, double radius, double ftol,
       return !(std::isfinite(slope) && slope > 0.0) ||
              std::abs(fa) <= 1.5 * slope * m.point_distance(lerp(e0, e1, ta), lerp(e0, e1, tb)) + ftol;
     };
-    nearest_root_along([&](double t, Vec2& p) { return m.domain_edge_point(edge, t, end, p); }, lo, hi, kSamples, f,
+    const int samples =
+        std::max(kSamples, static_cast<int>(std::min(1024.0, std::ceil(kSamples * (hi - lo) * len / radius))));
+    nearest_root_along([&](double t, Vec2& p) { return m.domain_edge_point(edge, t, end, p); }, lo, hi, samples, f,
                        ftol, end,
                        [&](Vec2 p) {
                          const double gap = std::hypot(p.x - end.x, p.y - end.y);
