@@ -36,13 +36,20 @@ struct Follower {
   // where the sign changes by a jump (the balance finite and far from 0 where the bracket closes):
   // across a boom, each face's costs are its own, and the owners change there without a locus.
   bool root(Vec2 a, Vec2 b, Vec2& out) const {
-    auto f = [&](double t) { return L.balance(lerp(a, b, t)); };
+    // (find_root returns a point it evaluated: its value is kept, not asked for again.)
+    double last_t = 0.0, last_f = 0.0;
+    auto f = [&](double t) {
+      last_t = t;
+      last_f = L.balance(lerp(a, b, t));
+      return last_f;
+    };
     const double fa = f(0.0), fb = f(1.0);
     if (!std::isfinite(fa) || !std::isfinite(fb) || (fa < 0.0) == (fb < 0.0)) return false;
-    out = lerp(a, b, find_root(f, fa, fb, L.ftol, 1e-15));
+    const double t = find_root(f, fa, fb, L.ftol, 1e-15);
+    out = lerp(a, b, t);
+    const double at = t == last_t ? last_f : t == 0.0 ? fa : t == 1.0 ? fb : L.balance(out);
     // (A bracket across land closes on its coast, where the balance is undefined: the caller's
     // sight test ends the walk there.)
-    const double at = L.balance(out);
     return !(std::abs(at) > kJump * L.ftol);
   }
 
