@@ -1,6 +1,7 @@
 #include "lines/line_tools.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 #include <numeric>
@@ -198,9 +199,9 @@ bool onto_domain_edge(const SiteMetric& m, Vec2 end, double radius, double ftol,
     const Vec2 d{e1.x - e0.x, e1.y - e0.y};
     const double len = std::hypot(d.x, d.y);
     double lo = kEnd, hi = 1.0 - kEnd;
-    if (len > 4.0 * radius) {
+    if (len > 1.5 * radius) {
       const double foot = std::clamp(((end.x - e0.x) * d.x + (end.y - e0.y) * d.y) / (len * len), 0.0, 1.0);
-      const double w = 4.0 * radius / len;
+      const double w = 1.5 * radius / len;
       lo = std::max(lo, foot - w);
       hi = std::min(hi, foot + w);
     }
@@ -227,8 +228,7 @@ bool onto_domain_edge(const SiteMetric& m, Vec2 end, double radius, double ftol,
       return !(std::isfinite(slope) && slope > 0.0) ||
              std::abs(fa) <= 1.5 * slope * m.point_distance(lerp(e0, e1, ta), lerp(e0, e1, tb)) + ftol;
     };
-    const int samples =
-        std::max(kSamples, static_cast<int>(std::min(1024.0, std::ceil(kSamples * (hi - lo) * len / radius))));
+    const int samples = std::max(kSamples, static_cast<int>(std::ceil(kSamples * (hi - lo) * len / radius)));
     nearest_root_along([&](double t, Vec2& p) { return m.domain_edge_point(edge, t, end, p); }, lo, hi, samples, f,
                        ftol, end,
                        [&](Vec2 p) {
@@ -244,16 +244,41 @@ bool nearest_root_along(const std::function<bool(double, Vec2&)>& at, double lo,
                         const std::function<double(Vec2)>& f, double ftol, Vec2 near,
                         const std::function<bool(Vec2)>& accept, double& best_gap, Vec2& out,
                         const std::function<bool(double ta, double fa, double tb)>& may_reach) {
+  // |f| at a root, in ftol, beyond which the bracket closed on a jump (a converged root is within
+  // ftol, or a bracket of 1e-15 of the step across a slope of at most 2).
+  constexpr double kJump = 1e3;
   auto along = [&](double t) {
     Vec2 p;
     return at(t, p) ? f(p) : std::numeric_limits<double>::quiet_NaN();
   };
   auto sample = [&](int k) { return lo + (hi - lo) * static_cast<double>(k) / samples; };
   bool found = false;
-  auto try_between = [&](double ta, double fa, double tb, double fb) {
-    Vec2 p;
-    if (std::isfinite(fa) && std::isfinite(fb) && (fa <= 0.0) != (fb <= 0.0) &&
-        at(root_in(along, ta, tb - ta, fa, fb, ftol), p)) {
+  // A sign change by a jump -- f far from 0 where the bracket closes -- is no root (the costs by
+  // sea along a coast part where a sightline grazes a vertex); a root beside it, in the same
+  // bracket, is looked for on either side of it (to three jumps deep).
+  auto try_between = [&](double ta0, double fa0, double tb0, double fb0) {
+    struct Bracket {
+      double ta, fa, tb, fb;
+      int depth;
+    };
+    // (Each jump puts two brackets for one: seven at most, three deep.)
+    std::array<Bracket, 8> todo;
+    size_t n = 0;
+    todo[n++] = Bracket{ta0, fa0, tb0, fb0, 0};
+    while (n > 0) {
+      const Bracket k = todo[--n];
+      if (!std::isfinite(k.fa) || !std::isfinite(k.fb) || (k.fa <= 0.0) == (k.fb <= 0.0)) continue;
+      const double t = root_in(along, k.ta, k.tb - k.ta, k.fa, k.fb, ftol);
+      Vec2 p;
+      if (!at(t, p)) continue;
+      if (!(std::abs(f(p)) <= kJump * ftol)) {
+        const double d = 1e-9 * (k.tb - k.ta);
+        if (k.depth < 3 && t - d > k.ta && t + d < k.tb) {
+          todo[n++] = Bracket{k.ta, k.fa, t - d, along(t - d), k.depth + 1};
+          todo[n++] = Bracket{t + d, along(t + d), k.tb, k.fb, k.depth + 1};
+        }
+        continue;
+      }
       const double gap = std::hypot(p.x - near.x, p.y - near.y);
       if (gap < best_gap && accept(p)) {
         out = p;
