@@ -1439,6 +1439,42 @@ TEST(SeaLines, LinesEndOnTheFacesOfAWallThroughACellCentreColumnAndNeverRunAlong
     }
 }
 
+// A random archipelago's lines by sea on the 40-unit square at cells of `res` (the scans'
+// grids): the field, the metric and its index, and the boundaries extracted.
+struct ArchipelagoLines {
+  ArchipelagoLines(const Archipelago& a, double res)
+      : n(static_cast<int64_t>(std::ceil(40.0 / res))),
+        g(test::grid_of(n, n, res, -0.5, 40.5)),
+        field(compute_sea(a.seeds, a.barriers, g, g.full_window())),
+        metric(make_sea_site_metric(a.seeds, a.barriers, g)),
+        index(*metric),
+        lines(extract_boundaries(field.field, index)) {}
+  int64_t n;
+  GridSpec g;
+  SeaField field;
+  std::unique_ptr<SiteMetric> metric;
+  OwnerIndex index;
+  BoundaryResult lines;
+};
+
+// No two lines of the same owners run along each other: no segment's middle within a
+// thousandth of a cell of another such line.
+void expect_no_two_lines_along_each_other(const BoundaryResult& lines, double res, const std::string& at) {
+  for (size_t x = 0; x < lines.lines.size(); ++x)
+    for (size_t y = x + 1; y < lines.lines.size(); ++y) {
+      const BoundaryLine &u = lines.lines[x], &w = lines.lines[y];
+      if (u.owner_a != w.owner_a || u.owner_b != w.owner_b) continue;
+      for (size_t k = 0; k + 1 < u.vertices.size(); ++k) {
+        const Vec2 m = line_tools::lerp(u.vertices[k].p, u.vertices[k + 1].p, 0.5);
+        for (size_t q = 0; q + 1 < w.vertices.size(); ++q) {
+          const Vec2 p0 = w.vertices[q].p, p1 = w.vertices[q + 1].p;
+          EXPECT_GT(dist(line_tools::lerp(p0, p1, line_tools::nearest_t(p0, p1, m)), m), 1e-3 * res)
+              << at << ": two lines along each other at " << m.x << "," << m.y;
+        }
+      }
+    }
+}
+
 // Changes of owner along a coast the cells do not show, on random archipelagos at grids coarser
 // than their channels (cells of 2.3 to 4.7 on the 40-unit square): a pocket of sea whose cells
 // meet the rest only corner to corner, a sound narrower than a cell. The oracle walks every
@@ -1461,12 +1497,11 @@ TEST(SeaLines, EveryChangeOfOwnerAlongACoastTheCellsDoNotShowEndsALine) {
     for (const auto& [want_round, res] : chosen) {
       if (want_round != round) continue;
       const std::string at = std::to_string(round) + " at " + std::to_string(res);
-      const auto n = static_cast<int64_t>(std::ceil(40.0 / res));
-      const GridSpec g = test::grid_of(n, n, res, -0.5, 40.5);
-      const SeaField field = compute_sea(a.seeds, a.barriers, g, g.full_window());
-      const std::unique_ptr<SiteMetric> metric = make_sea_site_metric(a.seeds, a.barriers, g);
-      const OwnerIndex index(*metric);
-      const BoundaryResult lines = extract_boundaries(field.field, index);
+      const ArchipelagoLines layout(a, res);
+      const GridSpec& g = layout.g;
+      const std::unique_ptr<SiteMetric>& metric = layout.metric;
+      const OwnerIndex& index = layout.index;
+      const BoundaryResult& lines = layout.lines;
       ++checked;
       crossed += lines.stats.channels_crossed;
       EXPECT_EQ(lines.stats.coast_changes_unexplained, 0) << at;
@@ -1523,19 +1558,8 @@ TEST(SeaLines, EveryChangeOfOwnerAlongACoastTheCellsDoNotShowEndsALine) {
             const Vec2 p = line_tools::lerp(u.vertices[k].p, u.vertices[k + 1].p, s / 8.0);
             EXPECT_TRUE(metric->in_domain(p)) << at << ": on land at " << p.x << "," << p.y;
           }
-        for (size_t y = x + 1; y < lines.lines.size(); ++y) {
-          const BoundaryLine& w = lines.lines[y];
-          if (u.owner_a != w.owner_a || u.owner_b != w.owner_b) continue;
-          for (size_t k = 0; k + 1 < u.vertices.size(); ++k) {
-            const Vec2 m = line_tools::lerp(u.vertices[k].p, u.vertices[k + 1].p, 0.5);
-            for (size_t q = 0; q + 1 < w.vertices.size(); ++q) {
-              const Vec2 p0 = w.vertices[q].p, p1 = w.vertices[q + 1].p;
-              EXPECT_GT(dist(line_tools::lerp(p0, p1, line_tools::nearest_t(p0, p1, m)), m), 1e-3 * res)
-                  << at << ": two lines along each other at " << m.x << "," << m.y;
-            }
-          }
-        }
       }
+      expect_no_two_lines_along_each_other(lines, res, at);
     }
   }
   EXPECT_EQ(checked, static_cast<int64_t>(chosen.size()));
@@ -1574,12 +1598,11 @@ TEST(SeaLines, EveryLineEndsOnACoastTheFrameOrATripointAndEveryTripointHasItsThr
       for (const auto& [want_round, res] : full ? chosen : booms) {
         if (want_round != round) continue;
         const std::string at = std::to_string(round) + " at " + std::to_string(res);
-        const auto n = static_cast<int64_t>(std::ceil(40.0 / res));
-        const GridSpec g = test::grid_of(n, n, res, -0.5, 40.5);
-        const SeaField field = compute_sea(a.seeds, a.barriers, g, g.full_window());
-        const std::unique_ptr<SiteMetric> metric = make_sea_site_metric(a.seeds, a.barriers, g);
-        const OwnerIndex index(*metric);
-        const BoundaryResult lines = extract_boundaries(field.field, index);
+        const ArchipelagoLines layout(a, res);
+        const int64_t n = layout.n;
+        const GridSpec& g = layout.g;
+        const OwnerIndex& index = layout.index;
+        const BoundaryResult& lines = layout.lines;
         ++checked;
         // No segment along the boom: both its ends on the boom's line.
         for (const Barriers::Line& boom : a.barriers.lines())
@@ -1615,7 +1638,7 @@ TEST(SeaLines, EveryLineEndsOnACoastTheFrameOrATripointAndEveryTripointHasItsThr
               t.p.y <= g.centre_y(n - 1))
             continue;
           ++tripoints;
-          for (const std::pair<int, int> pair : {std::pair{0, 1}, std::pair{0, 2}, std::pair{1, 2}}) {
+          for (const std::pair<int, int>& pair : {std::pair{0, 1}, std::pair{0, 2}, std::pair{1, 2}}) {
             const int i = pair.first, k = pair.second;  // (lambdas below take them)
             const bool has = std::any_of(lines.lines.begin(), lines.lines.end(), [&](const BoundaryLine& l) {
               return l.owner_a == t.owners[i] && l.owner_b == t.owners[k] &&
@@ -1636,19 +1659,8 @@ TEST(SeaLines, EveryLineEndsOnACoastTheFrameOrATripointAndEveryTripointHasItsThr
               EXPECT_TRUE(third.site == kNoSite || third.cost >= std::min(ha.cost, hb.cost) - 1e-2 * res)
                   << at << ": a third owner nearer at " << p.x << "," << p.y;
             }
-          for (size_t y = x + 1; y < lines.lines.size(); ++y) {
-            const BoundaryLine& w = lines.lines[y];
-            if (u.owner_a != w.owner_a || u.owner_b != w.owner_b) continue;
-            for (size_t k = 0; k + 1 < u.vertices.size(); ++k) {
-              const Vec2 m = line_tools::lerp(u.vertices[k].p, u.vertices[k + 1].p, 0.5);
-              for (size_t q = 0; q + 1 < w.vertices.size(); ++q) {
-                const Vec2 p0 = w.vertices[q].p, p1 = w.vertices[q + 1].p;
-                EXPECT_GT(dist(line_tools::lerp(p0, p1, line_tools::nearest_t(p0, p1, m)), m), 1e-3 * res)
-                    << at << ": two lines along each other at " << m.x << "," << m.y;
-              }
-            }
-          }
         }
+        expect_no_two_lines_along_each_other(lines, res, at);
       }
   }
   EXPECT_EQ(checked, static_cast<int64_t>(chosen.size() + booms.size()));
