@@ -342,6 +342,13 @@ std::vector<TripointGap> tripoint_gaps(const std::vector<Tripoint>& tripoints, c
 // from: each such pair of tripoints, both without a line of that owner pair, gets the line
 // between them (two vertices) appended to `lines`. `cell`: the grid's cell size (CRS units).
 void join_close_tripoints(const std::vector<Tripoint>& tripoints, double cell, std::vector<BoundaryLine>& lines);
+// The tripoint of the three `owners` near `start` (Newton's method on their nearest sites' costs,
+// the sites taken again where they change): no other owner nearer, within two cells of `start`,
+// within `max_distance`. False where none is found.
+bool solve_tripoint(const BoundaryGrid& b, std::array<int32_t, 3> owners, Vec2 start, double max_distance,
+                    Tripoint& out);
+// The vertex of the line of owners a and b (two of t's) that ends at tripoint t.
+BoundaryVertex tripoint_vertex(const Tripoint& t, int32_t a, int32_t b);
 // Where more owners meet in a dual square than its tripoint search resolved, a tripoint of
 // owners a, b, x can be missing: its three lines then show as a line of a and b ending in the
 // open and two of (a, x), (b, x) -- each a line ending in the open or a tripoint lacking that
@@ -351,13 +358,6 @@ void join_close_tripoints(const std::vector<Tripoint>& tripoints, double cell, s
 // tripoint joined to it by a line of two vertices. Counts them in stats.missing_tripoints_found.
 // A tripoint beyond the field's `max_distance` (or, with an adjusted index, beyond a reach: the
 // index finds no site there) is not added: there the lines end on the owned area's edge.
-// The tripoint of the three `owners` near `start` (Newton's method on their nearest sites' costs,
-// the sites taken again where they change): no other owner nearer, within two cells of `start`,
-// within `max_distance`. False where none is found.
-bool solve_tripoint(const BoundaryGrid& b, std::array<int32_t, 3> owners, Vec2 start, double max_distance,
-                    Tripoint& out);
-// The vertex of the line of owners a and b (two of t's) that ends at tripoint t.
-BoundaryVertex tripoint_vertex(const Tripoint& t, int32_t a, int32_t b);
 void close_missing_tripoints(const BoundaryGrid& b, double max_distance, std::vector<Tripoint>& tripoints,
                              std::vector<BoundaryLine>& lines, BoundaryStats& stats);
 // Lines that stop where the reaches of an adjusted index (OwnerIndex::deepest, its cap, the

@@ -21,6 +21,10 @@
 // frame, or round to where it began (follow_through). That holds for the straight metric as well
 // (no land: every step open).
 //
+// A point of the locus is a root of the balance: where its sign changes by a jump instead (across
+// a boom, each face's costs are its own; the balance far from 0 where the bracket closes), there is
+// no locus, and the walk does not take one.
+//
 // Internal to rv_raster. Thread safety: pure over its arguments (the functions must be callable
 // from the calling thread).
 #pragma once
@@ -105,9 +109,10 @@ Through follow_through(const Level& level, Vec2 on, LineResidual& residual, doub
 // The locus followed on from `from` (a point of it where a line stops; `heading` the way the line
 // goes on there, any length) in steps of `step` CRS units, at most `max_steps` of them: to a coast
 // (the last point on a barrier's edge), the frame, or until the level is lost or leaves the band
-// (Stop::lost, also where the steps run out; Followed::left_band where it leaves the band). The points walked, `from`
-// first, unrefined: the caller refines the chords as it does every other line's. Any two-owner locus will do (the
-// balance the difference of their costs, the band where no third owner is nearer).
+// (Stop::lost, also where the steps run out; Followed::left_band where it leaves the band). The
+// points walked, `from` first, unrefined: the caller refines the chords as it does every other
+// line's. Any two-owner locus will do (the balance the difference of their costs, the band where
+// no third owner is nearer).
 // `others`: points at which the walk stops as at a target (Stop::target, Followed::other its
 // index, the last point that point): other lines' ends on the same locus, to join.
 Followed follow_on(const Level& level, Vec2 from, Vec2 heading, double step, int64_t max_steps,
