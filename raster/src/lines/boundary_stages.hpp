@@ -498,6 +498,13 @@ inline bool at_tripoint(const std::vector<Tripoint>& tripoints, Vec2 p) {
   return std::any_of(tripoints.begin(), tripoints.end(), [&](const Tripoint& t) { return t.p == p; });
 }
 
+// Whether a line's end is open: not on a barrier, on or beyond the frame of the cell centres, nor
+// at one of `tripoints` (where the cells stopped showing its locus).
+inline bool open_line_end(const BoundaryGrid& b, const std::vector<Tripoint>& tripoints, const BoundaryVertex& v) {
+  return !v.on_barrier && !line_tools::on_centre_frame(b.g, v.p) && !line_tools::outside_frame(b.g, v.p) &&
+         !at_tripoint(tripoints, v.p);
+}
+
 // Whether a point found on the locus of a and o (a root of cost_gap) counts as one: no third owner
 // between them, and their costs within 1e3 ftol (the root finder's tolerance, with room for a
 // search along a coast's edge). Their nearest into ha and hb.

@@ -267,9 +267,7 @@ void follow_from_junctions(const BoundaryGrid& b, double per, const std::vector<
   // (Steps of an eighth of a cell, fewer in a sliver: as follow_open_ends' walks.)
   constexpr int kPerCell = 8;
   constexpr int64_t kMaxSteps = 8192;
-  auto open_end = [&](const BoundaryVertex& v) {
-    return !v.on_barrier && !on_centre_frame(b.g, v.p) && !outside_frame(b.g, v.p) && !at_tripoint(tripoints, v.p);
-  };
+  auto open_end = [&](const BoundaryVertex& v) { return open_line_end(b, tripoints, v); };
   for (size_t i = 0; i < open.size(); ++i) {
     if (used[i]) continue;
     const Junction& j = open[i];

@@ -376,7 +376,7 @@ void end_at_barriers(const BoundaryGrid& b, const std::vector<Tripoint>& tripoin
             if (&o != &line && !o.closed && !o.vertices.empty() && o.owner_a == line.owner_a &&
                 o.owner_b == line.owner_b)
               for (const BoundaryVertex* e : {&o.vertices.front(), &o.vertices.back()})
-                if (!e->on_barrier && !on_centre_frame(b.g, e->p) && !at_tripoint(tripoints, e->p)) {
+                if (open_line_end(b, tripoints, *e)) {
                   stops.push_back(e->p);
                   doubt = doubt || std::hypot(e->p.x - p.x, e->p.y - p.y) < reach;
                 }
@@ -658,9 +658,7 @@ void follow_open_ends(const BoundaryGrid& b, double max_distance, double per, co
   // (Where a maximum distance or a reach ends the owned area, lines end on its edge, which the
   // walk does not know: it is not taken there.)
   if (b.index.metric().straight() || std::isfinite(max_distance) || !std::isfinite(b.index.cost_slope())) return;
-  auto open = [&](const BoundaryVertex& v) {
-    return !v.on_barrier && !on_centre_frame(b.g, v.p) && !outside_frame(b.g, v.p) && !at_tripoint(tripoints, v.p);
-  };
+  auto open = [&](const BoundaryVertex& v) { return open_line_end(b, tripoints, v); };
   // The open ends, by line and position (a line's ends move to another line when it is joined).
   struct End {
     size_t line;

@@ -106,9 +106,7 @@ class Completer {
   }
 
  private:
-  bool open_end(const BoundaryVertex& v) const {
-    return !v.on_barrier && !on_centre_frame(b_.g, v.p) && !outside_frame(b_.g, v.p) && !at_tripoint(tripoints_, v.p);
-  }
+  bool open_end(const BoundaryVertex& v) const { return open_line_end(b_, tripoints_, v); }
 
   bool has_pair(const Tripoint& t, int32_t lo, int32_t hi) const {
     return std::count(t.owners, t.owners + 3, lo) > 0 && std::count(t.owners, t.owners + 3, hi) > 0;
