@@ -664,6 +664,13 @@ struct SquareLinks {
   const Crossing& cross(size_t item) const { return x.crossings[static_cast<size_t>(items[item].second)]; }
   int32_t node(size_t item) const { return items[item].second; }
   int64_t pair_of(size_t item) const { return pair_key(cross(item).owner_lo, cross(item).owner_hi); }
+  // By sea, a line joins a crossing to a tripoint only where the way between them is open: a
+  // barrier across the square parts the two sides' costs (a boom's faces, an islet between the
+  // centres), and the tripoint solved on one side is no end of a line on the other. Such a
+  // crossing is left an open end (end_at_barriers takes it to the barrier; complete_tripoints
+  // walks the tripoint's own line if it lacks one).
+  bool clear(Vec2 u, Vec2 w) const { return b.index.metric().straight() || b.index.metric().open_between(u, w); }
+  Vec2 tripoint_at(int32_t id) const { return t.tripoints[static_cast<size_t>(id)].p; }
 
   // Crossings end at the nearest tripoint of their pair filed in this square. A tripoint filed
   // here from the half cell beyond the outermost centres (see square_of) lies outside the square:
@@ -708,6 +715,7 @@ struct SquareLinks {
         const auto it = nearest_to_outside.find({target[i], pair_of(i)});
         ends_here = it == nearest_to_outside.end() || it->second == i;
       }
+      if (ends_here && !clear(cross(i).v.p, tripoint_at(target[i]))) continue;
       if (ends_here)
         out.add(node(i), tripoint_node(target[i]), pair_of(i), static_cast<int32_t>(r));
       else
@@ -721,7 +729,7 @@ struct SquareLinks {
         std::vector<int32_t> shared;
         for (int32_t a : ti.owners)
           if (has(tj, a)) shared.push_back(a);
-        if (shared.size() == 2)
+        if (shared.size() == 2 && clear(ti.p, tj.p))
           out.add(tripoint_node(here[i]), tripoint_node(here[j]), pair_key(shared[0], shared[1]),
                   static_cast<int32_t>(r));
       }
@@ -792,7 +800,7 @@ struct SquareLinks {
         }
       });
       const int32_t tp = nearest_tripoint(t, cross(k), around);
-      if (tp >= 0) out.add(node(k), tripoint_node(tp), pair, static_cast<int32_t>(r));
+      if (tp >= 0 && clear(e, tripoint_at(tp))) out.add(node(k), tripoint_node(tp), pair, static_cast<int32_t>(r));
     }
   }
 };

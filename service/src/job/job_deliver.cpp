@@ -415,6 +415,7 @@ BoundaryResult StripDeliverables::State::take_boundaries() {
                             {"tie_vertices", st.tie_vertices},
                             {"missing_tripoints_found", st.missing_tripoints_found},
                             {"legs_walked", st.legs_walked},
+                            {"legs_detached", st.legs_detached},
                             {"repeated_loops", st.repeated_loops},
                             {"sliver_crossings", st.sliver_crossings},
                             {"unresolved_slivers", st.unresolved_slivers},

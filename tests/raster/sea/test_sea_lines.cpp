@@ -1586,12 +1586,19 @@ namespace {
 // on an island was not searched; and (rounds 144) where a tripoint's walked line would have
 // followed a boom's jump of owners for its locus.
 TEST(SeaLines, EveryLineEndsOnACoastTheFrameOrATripointAndEveryTripointHasItsThreeLines) {
-  const std::vector<std::pair<int, double>> chosen{{0, 3.1},  {0, 4.7},  {3, 2.3},  {10, 4.7}, {16, 2.3},
-                                                   {19, 3.1}, {20, 4.7}, {25, 2.3}, {25, 3.1}};
+  // The second row: a square whose three owners' lines end on an islet inside it (7), two
+  // tripoints of the same owners a cell apart with the lines near both linked to one (17, 20, 122,
+  // 129), crossings linked to a tripoint across a boom (59) or an island (207, 287; 37, 101 and
+  // 188, where the line then ran along the one walked to that tripoint on its own side), a coast
+  // point behind a line's end taken though the locus goes on from the end to a tripoint (28, 29).
+  const std::vector<std::pair<int, double>> chosen{
+      {0, 3.1},   {0, 4.7},  {3, 2.3},   {10, 4.7},  {16, 2.3}, {19, 3.1},  {20, 4.7},  {25, 2.3},
+      {25, 3.1},  {7, 4.7},  {17, 2.3},  {20, 3.1},  {59, 2.3}, {122, 2.3}, {129, 3.1}, {207, 3.1},
+      {287, 2.3}, {37, 3.1}, {101, 2.3}, {188, 2.3}, {28, 3.1}, {29, 2.3}};
   const std::vector<std::pair<int, double>> booms{{144, 2.3}, {144, 4.7}};
   std::mt19937_64 rng(91);
   int64_t checked = 0, tripoints = 0, ends = 0;
-  for (int round = 0; round <= 144; ++round) {
+  for (int round = 0; round <= 287; ++round) {
     Archipelago a;
     if (!archipelago(rng, a)) continue;
     for (const bool full : {true, false})
@@ -1650,7 +1657,11 @@ TEST(SeaLines, EveryLineEndsOnACoastTheFrameOrATripointAndEveryTripointHasItsThr
         }
         for (size_t x = 0; x < lines.lines.size(); ++x) {
           const BoundaryLine& u = lines.lines[x];
-          for (size_t k = 0; k + 1 < u.vertices.size(); ++k)
+          for (size_t k = 0; k + 1 < u.vertices.size(); ++k) {
+            EXPECT_TRUE(layout.metric->open_between(u.vertices[k].p, u.vertices[k + 1].p))
+                << at << ": owners " << u.owner_a << " and " << u.owner_b << " across a barrier from "
+                << u.vertices[k].p.x << "," << u.vertices[k].p.y << " to " << u.vertices[k + 1].p.x << ","
+                << u.vertices[k + 1].p.y;
             for (int s = 1; s < 8; ++s) {
               const Vec2 p = line_tools::lerp(u.vertices[k].p, u.vertices[k + 1].p, s / 8.0);
               const OwnerIndex::Hit ha = index.nearest_of(p, u.owner_a), hb = index.nearest_of(p, u.owner_b);
@@ -1659,6 +1670,7 @@ TEST(SeaLines, EveryLineEndsOnACoastTheFrameOrATripointAndEveryTripointHasItsThr
               EXPECT_TRUE(third.site == kNoSite || third.cost >= std::min(ha.cost, hb.cost) - 1e-2 * res)
                   << at << ": a third owner nearer at " << p.x << "," << p.y;
             }
+          }
         }
         expect_no_two_lines_along_each_other(lines, res, at);
       }

@@ -161,6 +161,10 @@ struct BoundaryStats {
   // showed none of theirs ending there (the line runs along a coast beside land cells; its
   // squares' centres are land).
   int64_t legs_walked = 0;
+  // By sea: line ends taken off a tripoint because their last chord to it left the two owners'
+  // locus (two tripoints of the same owners in one square, the lines near both linked to one),
+  // then walked along the locus to their own.
+  int64_t legs_detached = 0;
   // Closed lines dropped because, refined, they ran wholly along another line of the same owners:
   // cells of a wedge narrower than a cell near its tip, cut off from the rest of it.
   int64_t repeated_loops = 0;

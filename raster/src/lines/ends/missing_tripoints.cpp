@@ -113,6 +113,22 @@ void close_missing_tripoints(const BoundaryGrid& b, double max_distance, std::ve
   const double near = 2.0 * b.g.res;
   auto close = [&](const LooseEnd& u, const LooseEnd& v) { return std::hypot(u.p.x - v.p.x, u.p.y - v.p.y) <= near; };
   std::vector<BoundaryLine> added;
+  // By sea, the three ends' ways to the tripoint must be open (a barrier between parts the
+  // owners' costs: a tripoint solved across it is no end of theirs), a tripoint lacking a line
+  // joined to it only along their locus (the line it lacks may leave it the other way, to a coast
+  // the cells do not show), and a tripoint already known is not made again: the lines it lacks
+  // are walked from it (complete_tripoints), and open ends are walked to it.
+  const SiteMetric& metric = b.index.metric();
+  auto reachable = [&](const Tripoint& t, std::array<size_t, 3> which) {
+    if (metric.straight()) return true;
+    for (const size_t n : which)
+      if (!metric.open_between(ends[n].p, t.p) ||
+          (ends[n].gap && !along_locus(b, ends[n].lo, ends[n].hi, ends[n].p, t.p)))
+        return false;
+    return std::none_of(tripoints.begin(), tripoints.end(), [&](const Tripoint& o) {
+      return std::equal(o.owners, o.owners + 3, t.owners) && std::hypot(o.p.x - t.p.x, o.p.y - t.p.y) <= 1e-3 * b.g.res;
+    });
+  };
   for (size_t e = 0; e < ends.size(); ++e) {
     if (ends[e].gap || ends[e].used) continue;
     const int32_t a = ends[e].lo, c = ends[e].hi;
@@ -127,7 +143,7 @@ void close_missing_tripoints(const BoundaryGrid& b, double max_distance, std::ve
         if (g == e || g == f || ends[g].used || !close(ends[e], ends[g]) || !ends[g].has(x) || !ends[g].has(y))
           continue;
         Tripoint t;
-        if (!solve_tripoint(b, {a, c, x}, ends[e].p, max_distance, t)) continue;
+        if (!solve_tripoint(b, {a, c, x}, ends[e].p, max_distance, t) || !reachable(t, {e, f, g})) continue;
         for (const size_t n : {e, f, g}) {
           LooseEnd& le = ends[n];
           le.used = true;

@@ -162,9 +162,16 @@ bool onto_barrier(const BoundaryGrid& b, BoundaryLine& line, const Vec2* away = 
   return true;
 }
 
-// Whether the chord p-q runs along the locus of owners oa and ob: at sixteen points of it no third
-// owner between them (ties within 4 ftol aside), and their costs within a tenth of the chord's
-// length of each other (a point that far off the locus has them apart by as much or more).
+// Whether the back end of `line`, just carried onto a barrier (its last vertex), turned back to get
+// there: the junction lies behind the end, seen along the line's last chord before it.
+bool turned_back(const std::vector<BoundaryVertex>& v) {
+  if (v.size() < 3) return false;
+  const Vec2 j = v.back().p, e = v[v.size() - 2].p, q = v[v.size() - 3].p;
+  return (j.x - e.x) * (e.x - q.x) + (j.y - e.y) * (e.y - q.y) < 0.0;
+}
+
+}  // namespace
+
 bool along_locus(const BoundaryGrid& b, int32_t oa, int32_t ob, Vec2 p, Vec2 q) {
   constexpr int kSamples = 16;
   const double apart = 0.1 * b.index.metric().point_distance(p, q);
@@ -176,16 +183,6 @@ bool along_locus(const BoundaryGrid& b, int32_t oa, int32_t ob, Vec2 p, Vec2 q) 
   }
   return true;
 }
-
-// Whether the back end of `line`, just carried onto a barrier (its last vertex), turned back to get
-// there: the junction lies behind the end, seen along the line's last chord before it.
-bool turned_back(const std::vector<BoundaryVertex>& v) {
-  if (v.size() < 3) return false;
-  const Vec2 j = v.back().p, e = v[v.size() - 2].p, q = v[v.size() - 3].p;
-  return (j.x - e.x) * (e.x - q.x) + (j.y - e.y) * (e.y - q.y) < 0.0;
-}
-
-}  // namespace
 
 // The level of the locus of `line`'s two owners, for the follower: their balance, and the band
 // where no third owner is nearer.
@@ -265,14 +262,17 @@ Vec2 geodesics_meet(const MetricSpec& metric, Vec2 a0, Vec2 a1, Vec2 b0, Vec2 b1
 // the barrier) where it gets there. `stops` (optional): a point of the coast on the locus first
 // (which the walk may pass where the locus only touches the coast between two steps; passing
 // within a step and a half of it ends the walk there, as on the coast), then open ends of other
-// lines of the same owners (reaching one of those, false: the two are to be joined).
-bool follow_to_barrier(const BoundaryGrid& b, BoundaryLine& line, const std::vector<Vec2>& stops = {}) {
+// lines of the same owners (reaching one of those, false: the two are to be joined). `left_band`
+// (optional): whether the walk stopped where a third owner came nearer.
+bool follow_to_barrier(const BoundaryGrid& b, BoundaryLine& line, const std::vector<Vec2>& stops = {},
+                       bool* left_band = nullptr) {
   std::vector<BoundaryVertex>& v = line.vertices;
   if (v.size() < 2) return false;
   const locus_follow::Level level = pair_level(b, line.owner_a, line.owner_b);
   const Vec2 end = v.back().p, before = v[v.size() - 2].p;
   const locus_follow::Followed f = locus_follow::follow_on(level, end, Vec2{end.x - before.x, end.y - before.y},
                                                            b.g.res / kPerCell, kPerCell * kCells, stops);
+  if (left_band) *left_band = f.left_band;
   if (!(f.stop == locus_follow::Stop::coast || (f.stop == locus_follow::Stop::target && f.other == 0)) ||
       f.points.size() < 2)
     return false;
@@ -364,8 +364,10 @@ void end_at_barriers(const BoundaryGrid& b, const std::vector<Tripoint>& tripoin
         // finds the tripoint); or an open end of another line of the same owners lies nearer (the
         // line passes a coast closer than a cell there: join_parted_ends joins the two). Either is
         // followed on along the locus instead. Where the follower reaches no coast, the junction
-        // behind is kept; the one far off is dropped and the end left open, as where the walk
-        // meets the other line's end.
+        // behind is kept, unless the walk met a third owner (the locus goes on from the end to a
+        // tripoint, and the junction behind lies on the line's own stretch: complete_tripoints
+        // walks the end there); the one far off is dropped and the end left open, as where the
+        // walk meets the other line's end.
         const BoundaryVertex junction = line.vertices.back();
         const double reach = std::hypot(junction.p.x - p.x, junction.p.y - p.y);
         std::vector<Vec2> stops;
@@ -385,10 +387,11 @@ void end_at_barriers(const BoundaryGrid& b, const std::vector<Tripoint>& tripoin
         if (doubt || turned_back(line.vertices)) {
           line.vertices.pop_back();
           const auto before = static_cast<int64_t>(line.vertices.size());
-          if (follow_to_barrier(b, line, doubt ? stops : std::vector<Vec2>{})) {
+          bool third = false;
+          if (follow_to_barrier(b, line, doubt ? stops : std::vector<Vec2>{}, &third)) {
             stats.vertices += static_cast<int64_t>(line.vertices.size()) - before - 1;
             ++stats.ends_followed;
-          } else if (!doubt) {
+          } else if (!doubt && !third) {
             line.vertices.push_back(junction);
           } else {
             if (end == 1) std::reverse(line.vertices.begin(), line.vertices.end());

@@ -45,6 +45,29 @@ class Completer {
             std::vector<BoundaryLine>& lines, BoundaryStats& stats)
       : b_(b), max_distance_(max_distance), per_(per), tripoints_(tripoints), lines_(lines), stats_(stats) {}
 
+  // A line whose last chord to a tripoint leaves its owners' locus (along_locus) is taken off the
+  // tripoint, its end left open for walk_open_ends: a square where two tripoints of the same owners
+  // lie within a cell or two shows one of them, and every crossing near it was linked to that one.
+  // (Not where the line would be left a single point.)
+  void detach_off_locus() {
+    for (BoundaryLine& line : lines_) {
+      if (line.closed) continue;
+      for (const bool back : {false, true}) {
+        std::vector<BoundaryVertex>& v = line.vertices;
+        if (v.size() < 3) break;
+        const BoundaryVertex& end = back ? v.back() : v.front();
+        const BoundaryVertex& next = back ? v[v.size() - 2] : v[1];
+        if (!at_tripoint(tripoints_, end.p) || along_locus(b_, line.owner_a, line.owner_b, next.p, end.p)) continue;
+        if (back)
+          v.pop_back();
+        else
+          v.erase(v.begin());
+        line.bows.clear();
+        ++stats_.legs_detached;
+      }
+    }
+  }
+
   // Each open end walked on along its locus: to a tripoint, one made where a third owner comes
   // nearer, or (as follow_open_ends) a coast or another open end.
   void walk_open_ends() {
@@ -282,6 +305,7 @@ void complete_tripoints(const BoundaryGrid& b, double max_distance, double per, 
   if (b.index.metric().straight() || std::isfinite(max_distance) || !std::isfinite(b.index.cost_slope())) return;
   const int64_t before = vertex_count(lines);
   Completer c(b, max_distance, per, tripoints, lines, stats);
+  c.detach_off_locus();
   c.walk_open_ends();
   c.drop_joined();
   c.walk_missing_legs();
