@@ -382,9 +382,10 @@ void end_at_owned_edge(const BoundaryGrid& b, double max_distance, const std::ve
 // where no cells show it (round an islet in a channel narrower than a cell, the junction then on
 // another stretch of the locus): the end is followed along the locus instead
 // (locus_follow::follow_on, an eighth of a cell a step, up to eight cells) to the coast it
-// reaches, and keeps the junction only where the follower gets to none and meets no third owner
-// (where it does, the end goes on to a tripoint: left open for complete_tripoints). Counts the
-// ends moved in stats.ends_on_barriers, those followed also in stats.ends_followed.
+// reaches, and keeps the junction only where the follower gets to none, meets no third owner
+// (the end goes on to a tripoint: left open for complete_tripoints) and no open end of the same
+// owners (left to be joined), and the way back to the junction does not run along the line itself.
+// Counts the ends moved in stats.ends_on_barriers, those followed also in stats.ends_followed.
 void end_at_barriers(const BoundaryGrid& b, const std::vector<Tripoint>& tripoints, std::vector<BoundaryLine>& lines,
                      BoundaryStats& stats);
 // By sea, a line whose locus turns on land: where one side's site changes between two vertices
@@ -448,6 +449,11 @@ locus_follow::Level narrow_level(const BoundaryGrid& b, int32_t oa, int32_t ob, 
 // owner between them (ties within 4 ftol aside), and their costs within a tenth of the chord's
 // length of each other (a point that far off the locus has them apart by as much or more).
 bool along_locus(const BoundaryGrid& b, int32_t oa, int32_t ob, Vec2 p, Vec2 q);
+// Whether points walked along the locus of owners oa and ob (a quarter of a cell from either end
+// aside) run along a line of theirs other than lines[own] (-1: none), within a fiftieth of a cell:
+// the cells showed that stretch.
+bool walk_runs_along(const BoundaryGrid& b, const std::vector<BoundaryLine>& lines, const std::vector<Vec2>& points,
+                     int32_t oa, int32_t ob, int64_t own);
 // Appends the points walked along the locus of `line`'s owners (points[0], the line's back end,
 // left out) as its vertices, with the turning point between two of them where one side's nearest
 // site changes.

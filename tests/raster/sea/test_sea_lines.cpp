@@ -1590,11 +1590,15 @@ TEST(SeaLines, EveryLineEndsOnACoastTheFrameOrATripointAndEveryTripointHasItsThr
   // tripoints of the same owners a cell apart with the lines near both linked to one (17, 20, 122,
   // 129), crossings linked to a tripoint across a boom (59) or an island (207, 287; 37, 101 and
   // 188, where the line then ran along the one walked to that tripoint on its own side), a coast
-  // point behind a line's end taken though the locus goes on from the end to a tripoint (28, 29).
+  // point behind a line's end taken though the locus goes on from the end to a tripoint (28, 29),
+  // or lies on the line's own stretch (1, 69, 123, 207 at 2.3, 148, 14), an end walked past
+  // another line's open end (100, 54), an open end's walk along a line already drawn (255), two
+  // crossings at one cell centre linked into a line of no length (41).
   const std::vector<std::pair<int, double>> chosen{
-      {0, 3.1},   {0, 4.7},  {3, 2.3},   {10, 4.7},  {16, 2.3}, {19, 3.1},  {20, 4.7},  {25, 2.3},
-      {25, 3.1},  {7, 4.7},  {17, 2.3},  {20, 3.1},  {59, 2.3}, {122, 2.3}, {129, 3.1}, {207, 3.1},
-      {287, 2.3}, {37, 3.1}, {101, 2.3}, {188, 2.3}, {28, 3.1}, {29, 2.3}};
+      {0, 3.1},   {0, 4.7},   {3, 2.3},   {10, 4.7},  {16, 2.3},  {19, 3.1},  {20, 4.7},  {25, 2.3},
+      {25, 3.1},  {7, 4.7},   {17, 2.3},  {20, 3.1},  {59, 2.3},  {122, 2.3}, {129, 3.1}, {207, 3.1},
+      {287, 2.3}, {37, 3.1},  {101, 2.3}, {188, 2.3}, {28, 3.1},  {29, 2.3},  {1, 3.1},   {69, 3.1},
+      {123, 3.1}, {207, 2.3}, {255, 2.3}, {41, 2.3},  {148, 2.3}, {14, 3.1},  {100, 2.3}, {54, 4.7}};
   const std::vector<std::pair<int, double>> booms{{144, 2.3}, {144, 4.7}};
   std::mt19937_64 rng(91);
   int64_t checked = 0, tripoints = 0, ends = 0;
@@ -1633,6 +1637,9 @@ TEST(SeaLines, EveryLineEndsOnACoastTheFrameOrATripointAndEveryTripointHasItsThr
         };
         for (const BoundaryLine& l : lines.lines) {
           if (l.closed) continue;
+          EXPECT_GT(dist(l.vertices.front().p, l.vertices.back().p), 1e-3 * res)
+              << at << ": owners " << l.owner_a << " and " << l.owner_b << " end where they begin, at "
+              << l.vertices.front().p.x << "," << l.vertices.front().p.y;
           for (const BoundaryVertex* e : {&l.vertices.front(), &l.vertices.back()}) {
             EXPECT_TRUE(e->on_barrier || on_frame(e->p) || on_tripoint(e->p))
                 << at << ": owners " << l.owner_a << " and " << l.owner_b << " end in the open at " << e->p.x << ","

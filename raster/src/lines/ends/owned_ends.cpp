@@ -162,6 +162,19 @@ bool onto_barrier(const BoundaryGrid& b, BoundaryLine& line, const Vec2* away = 
   return true;
 }
 
+// Whether the way back from the end of `v` to q runs along the line itself: q, or the middle of
+// the chord from the end to it, within `near` of one of its chords (q then lies on the line's own
+// stretch of the locus, at or beyond its other end).
+bool back_along_itself(const std::vector<BoundaryVertex>& v, Vec2 q, double near) {
+  const Vec2 mid = lerp(v.back().p, q, 0.5);
+  for (size_t k = 0; k + 1 < v.size(); ++k)
+    for (const Vec2 x : {q, mid}) {
+      const Vec2 a = v[k].p, c = v[k + 1].p, m = lerp(a, c, nearest_t(a, c, x));
+      if (std::hypot(m.x - x.x, m.y - x.y) <= near) return true;
+    }
+  return false;
+}
+
 // Whether the back end of `line`, just carried onto a barrier (its last vertex), turned back to get
 // there: the junction lies behind the end, seen along the line's last chord before it.
 bool turned_back(const std::vector<BoundaryVertex>& v) {
@@ -182,6 +195,22 @@ bool along_locus(const BoundaryGrid& b, int32_t oa, int32_t ob, Vec2 p, Vec2 q) 
       return false;
   }
   return true;
+}
+
+bool walk_runs_along(const BoundaryGrid& b, const std::vector<BoundaryLine>& lines, const std::vector<Vec2>& points,
+                     int32_t oa, int32_t ob, int64_t own) {
+  const double near = 2e-2 * b.g.res;
+  for (size_t n = 0; n < lines.size(); ++n) {
+    const BoundaryLine& l = lines[n];
+    if (static_cast<int64_t>(n) == own || l.owner_a != oa || l.owner_b != ob) continue;
+    for (size_t k = 2; k + 2 < points.size(); ++k)
+      for (size_t s = 0; s + 1 < l.vertices.size(); ++s) {
+        const Vec2 u = l.vertices[s].p, w = l.vertices[s + 1].p;
+        const Vec2 q = lerp(u, w, nearest_t(u, w, points[k]));
+        if (std::hypot(q.x - points[k].x, q.y - points[k].y) <= near) return true;
+      }
+  }
+  return false;
 }
 
 // The level of the locus of `line`'s two owners, for the follower: their balance, and the band
@@ -259,21 +288,25 @@ Vec2 geodesics_meet(const MetricSpec& metric, Vec2 a0, Vec2 a1, Vec2 b0, Vec2 b1
 
 // The back end of `line` followed on along its locus to the coast (see end_at_barriers), in steps
 // of an eighth of a cell over at most eight cells; true (the points walked appended, the last on
-// the barrier) where it gets there. `stops` (optional): a point of the coast on the locus first
-// (which the walk may pass where the locus only touches the coast between two steps; passing
-// within a step and a half of it ends the walk there, as on the coast), then open ends of other
-// lines of the same owners (reaching one of those, false: the two are to be joined). `left_band`
-// (optional): whether the walk stopped where a third owner came nearer.
-bool follow_to_barrier(const BoundaryGrid& b, BoundaryLine& line, const std::vector<Vec2>& stops = {},
-                       bool* left_band = nullptr) {
+// the barrier) where it gets there. `coast` (or null): a point of the coast on the locus, which
+// the walk may pass where the locus only touches the coast between two steps (passing within a
+// step and a half of it ends the walk there, as on the coast). `ends`: open ends of other lines of
+// the same owners (reaching one of those, false: the two are to be joined). `elsewhere`
+// (optional): whether the walk stopped where a third owner came nearer, or at one of those ends.
+bool follow_to_barrier(const BoundaryGrid& b, BoundaryLine& line, const Vec2* coast, const std::vector<Vec2>& ends,
+                       bool* elsewhere = nullptr) {
   std::vector<BoundaryVertex>& v = line.vertices;
   if (v.size() < 2) return false;
   const locus_follow::Level level = pair_level(b, line.owner_a, line.owner_b);
   const Vec2 end = v.back().p, before = v[v.size() - 2].p;
+  std::vector<Vec2> stops;
+  if (coast) stops.push_back(*coast);
+  stops.insert(stops.end(), ends.begin(), ends.end());
+  const int first_end = coast ? 1 : 0;
   const locus_follow::Followed f = locus_follow::follow_on(level, end, Vec2{end.x - before.x, end.y - before.y},
                                                            b.g.res / kPerCell, kPerCell * kCells, stops);
-  if (left_band) *left_band = f.left_band;
-  if (!(f.stop == locus_follow::Stop::coast || (f.stop == locus_follow::Stop::target && f.other == 0)) ||
+  if (elsewhere) *elsewhere = f.left_band || (f.stop == locus_follow::Stop::target && f.other >= first_end);
+  if (!(f.stop == locus_follow::Stop::coast || (coast && f.stop == locus_follow::Stop::target && f.other == 0)) ||
       f.points.size() < 2)
     return false;
   append_walked(b, line, f.points);
@@ -365,33 +398,32 @@ void end_at_barriers(const BoundaryGrid& b, const std::vector<Tripoint>& tripoin
         // line passes a coast closer than a cell there: join_parted_ends joins the two). Either is
         // followed on along the locus instead. Where the follower reaches no coast, the junction
         // behind is kept, unless the walk met a third owner (the locus goes on from the end to a
-        // tripoint, and the junction behind lies on the line's own stretch: complete_tripoints
-        // walks the end there); the one far off is dropped and the end left open, as where the
-        // walk meets the other line's end.
+        // tripoint: complete_tripoints walks the end there) or another open end of the same
+        // owners (follow_open_ends joins the two), or the way back to the junction runs along the
+        // line itself (the junction is its own stretch's, at or beyond its other end); the one far
+        // off is dropped and the end left open, as where the walk meets the other line's end.
         const BoundaryVertex junction = line.vertices.back();
         const double reach = std::hypot(junction.p.x - p.x, junction.p.y - p.y);
-        std::vector<Vec2> stops;
+        std::vector<Vec2> ends;
         bool doubt = false;
-        if (reach > b.g.res) {
-          stops.push_back(junction.p);
-          for (const BoundaryLine& o : lines)
-            if (&o != &line && !o.closed && !o.vertices.empty() && o.owner_a == line.owner_a &&
-                o.owner_b == line.owner_b)
-              for (const BoundaryVertex* e : {&o.vertices.front(), &o.vertices.back()})
-                if (open_line_end(b, tripoints, *e)) {
-                  stops.push_back(e->p);
-                  doubt = doubt || std::hypot(e->p.x - p.x, e->p.y - p.y) < reach;
-                }
-          doubt = doubt || !along_locus(b, line.owner_a, line.owner_b, p, junction.p);
-        }
+        for (const BoundaryLine& o : lines)
+          if (&o != &line && !o.closed && !o.vertices.empty() && o.owner_a == line.owner_a && o.owner_b == line.owner_b)
+            for (const BoundaryVertex* e : {&o.vertices.front(), &o.vertices.back()})
+              if (open_line_end(b, tripoints, *e)) {
+                ends.push_back(e->p);
+                doubt = doubt || (reach > b.g.res && std::hypot(e->p.x - p.x, e->p.y - p.y) < reach);
+              }
+        doubt = doubt || (reach > b.g.res && !along_locus(b, line.owner_a, line.owner_b, p, junction.p));
         if (doubt || turned_back(line.vertices)) {
           line.vertices.pop_back();
           const auto before = static_cast<int64_t>(line.vertices.size());
-          bool third = false;
-          if (follow_to_barrier(b, line, doubt ? stops : std::vector<Vec2>{}, &third)) {
+          bool elsewhere = false;
+          // (The junction is a stop of the walk only where it is in doubt: one just behind the end
+          // is passed on the first step, and is not the coast the locus goes on to.)
+          if (follow_to_barrier(b, line, doubt ? &junction.p : nullptr, ends, &elsewhere)) {
             stats.vertices += static_cast<int64_t>(line.vertices.size()) - before - 1;
             ++stats.ends_followed;
-          } else if (!doubt && !third) {
+          } else if (!doubt && !elsewhere && !back_along_itself(line.vertices, junction.p, 0.1 * b.g.res)) {
             line.vertices.push_back(junction);
           } else {
             if (end == 1) std::reverse(line.vertices.begin(), line.vertices.end());
@@ -712,7 +744,10 @@ void follow_open_ends(const BoundaryGrid& b, double max_distance, double per, co
     const locus_follow::Level level = narrow_level(b, line.owner_a, line.owner_b, per);
     const locus_follow::Followed f = locus_follow::follow_on(level, end, Vec2{end.x - before.x, end.y - before.y},
                                                              b.g.res / kPerCell, kMaxNarrowSteps, others);
-    if (f.points.size() < 2) continue;
+    // (A walk along another line of the same owners is not taken: that stretch is drawn, and the
+    // end is one to be carried to a tripoint or joined by complete_tripoints.)
+    if (f.points.size() < 2 || walk_runs_along(b, lines, f.points, line.owner_a, line.owner_b, static_cast<int64_t>(n)))
+      continue;
     // (A walk that reaches the frame of the cell centres is not taken: by sea a line there goes on
     // to the grid's edge, which cross_hidden_channels draws.)
     if (f.stop == locus_follow::Stop::coast) {

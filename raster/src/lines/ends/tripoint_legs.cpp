@@ -90,8 +90,10 @@ class Completer {
           const std::vector<Target> to = targets(line.owner_a, line.owner_b, static_cast<int64_t>(n), back);
           const locus_follow::Followed f =
               walk(line.owner_a, line.owner_b, end, Vec2{end.x - before.x, end.y - before.y}, to);
-          // (A walk may leave the band at its first step: the end is then its last point in it.)
-          if (f.points.empty() || runs_along(f.points, grown, static_cast<int64_t>(n)) ||
+          // (A walk may leave the band at its first step: the end is then its last point in it. One
+          // that runs along a line already drawn, the end's own line too -- turned back round a
+          // boom's tip -- draws nothing new.)
+          if (f.points.empty() || walk_runs_along(b_, lines_, f.points, line.owner_a, line.owner_b, -1) ||
               !extend(grown, f, to, static_cast<int64_t>(n)))
             continue;
           lines_[n] = std::move(grown);
@@ -117,7 +119,7 @@ class Completer {
         locus_follow::Followed f = walk(lo, hi, from, Vec2{from.x - tp.p.x, from.y - tp.p.y}, to);
         f.points.insert(f.points.begin(), tp.p);
         BoundaryLine line{lo, hi, false, {tripoint_vertex(tp, lo, hi)}, {}};
-        if (runs_along(f.points, line, -1) || !extend(line, f, to, -1)) continue;
+        if (walk_runs_along(b_, lines_, f.points, lo, hi, -1) || !extend(line, f, to, -1)) continue;
         lines_.push_back(std::move(line));
         ++stats_.legs_walked;
       }
@@ -199,24 +201,6 @@ class Completer {
       f0 = f1;
     }
     return found == 1;
-  }
-
-  // Whether the points walked (a quarter of a cell from either end aside) run along a line of
-  // the same owners other than `own`: the cells showed that stretch after all.
-  bool runs_along(const std::vector<Vec2>& points, const BoundaryLine& line, int64_t own) const {
-    const double near = 2e-2 * b_.g.res;
-    for (size_t n = 0; n < lines_.size(); ++n) {
-      const BoundaryLine& l = lines_[n];
-      if (static_cast<int64_t>(n) == own || l.owner_a != line.owner_a || l.owner_b != line.owner_b) continue;
-      for (size_t k = 2; k + 2 < points.size(); ++k)
-        for (size_t s = 0; s + 1 < l.vertices.size(); ++s) {
-          const Vec2 u = l.vertices[s].p, w = l.vertices[s + 1].p;
-          if (std::hypot(lerp(u, w, nearest_t(u, w, points[k])).x - points[k].x,
-                         lerp(u, w, nearest_t(u, w, points[k])).y - points[k].y) <= near)
-            return true;
-        }
-    }
-    return false;
   }
 
   // The tripoint where a walk of lo and hi's locus left their band between `last` and `beyond`
