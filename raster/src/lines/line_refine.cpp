@@ -789,15 +789,6 @@ void drop_repeated_vertices(BoundaryLine& line) {
 
 void finish_lines(std::vector<BoundaryLine>& lines, const LineRefiner* refiner, double tol, BoundaryStats& stats,
                   int threads, const SegmentReuse<BoundaryVertex, LineRefiner::Added>* reuse, BoundaryMemo* record) {
-  // A line of no length (its vertices all one point, to a billionth of the coordinates: two
-  // crossings placed at one cell centre on the locus, linked) draws nothing and is no line.
-  std::erase_if(lines, [](const BoundaryLine& l) {
-    if (l.closed || l.vertices.empty()) return false;
-    const Vec2 p = l.vertices.front().p;
-    const double same = 1e-9 * (1.0 + std::abs(p.x) + std::abs(p.y));
-    return std::all_of(l.vertices.begin(), l.vertices.end(),
-                       [&](const BoundaryVertex& v) { return std::abs(v.p.x - p.x) + std::abs(v.p.y - p.y) <= same; });
-  });
   // The refinement runs over blocks of segments of every line at once: a coast's few long lines
   // would leave threads idle were each line one task. Blocks are cut by position alone, and each
   // segment is refined on its own, so the result does not depend on the threads.

@@ -291,6 +291,17 @@ struct BoundaryRun {
     cross_channels(b, result.lone_crossings, result.lines, result.stats);
     cross_hidden_channels(b, max_distance, per, t.tripoints, result.lines, result.stats);
     follow_open_ends(b, max_distance, per, t.tripoints, result.lines, result.stats);
+    // A line of no length (its vertices all within a millionth of a cell of its first: two
+    // crossings placed at one cell centre on the locus, each to the root's tolerance, linked)
+    // draws nothing and is no line (two tripoints a thousandth of a cell apart keep theirs). Taken
+    // out before complete_tripoints, which would take one at a tripoint for its line there.
+    std::erase_if(result.lines, [&](const BoundaryLine& l) {
+      if (l.closed || l.vertices.empty()) return false;
+      const Vec2 p = l.vertices.front().p;
+      return std::all_of(l.vertices.begin(), l.vertices.end(), [&](const BoundaryVertex& v) {
+        return std::hypot(v.p.x - p.x, v.p.y - p.y) <= 1e-6 * b.g.res;
+      });
+    });
     complete_tripoints(b, max_distance, per, t.tripoints, result.lines, result.stats);
     const LineRefiner refiner(b.index, line_tolerance, b.ftol, scale, per);
     finish_lines(result.lines, &refiner, tol, result.stats, b.threads, reuse, record);

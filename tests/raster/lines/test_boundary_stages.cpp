@@ -384,6 +384,39 @@ TEST(CloseMissingTripoints, ATripointACrowdedSquareMissed) {
   EXPECT_EQ(region_edges(r, index, g).dangling_ends, 0);
 }
 
+// Two tripoints two millimetres apart in metres of UTM (six million in y): the line between them is
+// kept (a line of no length is dropped, but only within a millionth of a cell: a billionth of the
+// coordinates is six millimetres here).
+TEST(ShortLines, TheLineBetweenTwoTripointsMillimetresApartIsKept) {
+  const std::vector<std::pair<Vec2, int>> points = {
+      {{400723.5677488056, 6000359.763453556}, 469},  {{400689.67887646385, 6000369.549684629}, 525},
+      {{400705.751226474, 6000347.602094712}, 4895},  {{400685.1036223742, 6000346.716062125}, 5119},
+      {{400703.7996344647, 6000373.183815254}, 5547}, {{400702.2968966066, 6000370.000563763}, 6032},
+      {{400692.2898739421, 6000382.433297586}, 8813}};
+  SeedSet s;
+  for (const auto& [p, id] : points) s.add_point(s.add_feature(s.owner_code(std::to_string(id))), p);
+  const GridSpec g = test::grid_of(60, 60, 1.0, 400670.0, 6000400.0);
+  const NearestField field = compute(s, g, ComputeOptions{});
+  const PlanarSiteMetric metric(s, Vec2{g.xmin, g.ymax});
+  const OwnerIndex index(metric);
+  const BoundaryResult r = extract_boundaries(field, index);
+  const int32_t a = std::min(s.owner_code("525"), s.owner_code("5547")),
+                b = std::max(s.owner_code("525"), s.owner_code("5547"));
+  int found = 0;
+  for (const BoundaryLine& l : r.lines) {
+    if (l.owner_a != a || l.owner_b != b) continue;
+    ++found;
+    const Vec2 u = l.vertices.front().p, w = l.vertices.back().p;
+    EXPECT_GT(std::hypot(w.x - u.x, w.y - u.y), 1e-3);
+    EXPECT_LT(std::hypot(w.x - u.x, w.y - u.y), 3e-3);
+    for (const Vec2 e : {u, w})
+      EXPECT_TRUE(std::any_of(r.tripoints.begin(), r.tripoints.end(), [&](const Tripoint& t) { return t.p == e; }))
+          << e.x << ", " << e.y;
+  }
+  EXPECT_EQ(found, 1);
+  EXPECT_EQ(region_edges(r, index, g).dangling_ends, 0);
+}
+
 // repeated_loops: a closed line whose every vertex and every segment's middle lies within twice
 // the tolerance of another line of the same two owners goes (the stretches a thin wedge's cut-off
 // cells traced, refined onto the main line's); one a hair farther off anywhere, one of other
