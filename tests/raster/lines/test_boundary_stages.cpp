@@ -8,6 +8,7 @@
 #include <cmath>
 #include <limits>
 #include <map>
+#include <string>
 #include <tuple>
 #include <vector>
 
@@ -346,6 +347,24 @@ TEST(EndAtOwnedEdge, ALineEndsWhereBothOwnersAreAtTheMaxDistance) {
 // holds two tripoints and the meeting of 686, 7528 and 8248 between them, which its search
 // misses. The tripoint is found from its lines' ends: every line ends at a tripoint or on the
 // frame, the three owners are equidistant there and no other is nearer, and the regions close.
+// Points of one owner each (named by the numbers), on a grid of 1 m cells in UTM metres, and the
+// lines extracted from their field.
+struct NamedPointLines : test::PointsField {
+  BoundaryResult r;
+  NamedPointLines(const std::vector<std::pair<Vec2, int>>& named, const GridSpec& g)
+      : PointsField(positions(named), names(named), g), r(extract_boundaries(field, index)) {}
+  static std::vector<Vec2> positions(const std::vector<std::pair<Vec2, int>>& named) {
+    std::vector<Vec2> out;
+    for (const auto& n : named) out.push_back(n.first);
+    return out;
+  }
+  static std::vector<std::string> names(const std::vector<std::pair<Vec2, int>>& named) {
+    std::vector<std::string> out;
+    for (const auto& n : named) out.push_back(std::to_string(n.second));
+    return out;
+  }
+};
+
 TEST(CloseMissingTripoints, ATripointACrowdedSquareMissed) {
   const std::vector<std::pair<Vec2, int>> points = {
       {{400638.24720255716, 6001625.698194801}, 686},  {{400646.4424630304, 6001633.527788706}, 1543},
@@ -354,13 +373,11 @@ TEST(CloseMissingTripoints, ATripointACrowdedSquareMissed) {
       {{400616.49730679387, 6001603.452812286}, 7719}, {{400629.4328741445, 6001634.248928863}, 8248},
       {{400615.7515478986, 6001635.583983469}, 8264},  {{400629.02444605, 6001634.267238516}, 8676},
       {{400643.505823071, 6001646.051668534}, 9298}};
-  SeedSet s;
-  for (const auto& [p, id] : points) s.add_point(s.add_feature(s.owner_code(std::to_string(id))), p);
-  const GridSpec g = test::grid_of(60, 60, 1.0, 400600.0, 6001660.0);
-  const NearestField field = compute(s, g, ComputeOptions{});
-  const PlanarSiteMetric metric(s, Vec2{g.xmin, g.ymax});
-  const OwnerIndex index(metric);
-  const BoundaryResult r = extract_boundaries(field, index);
+  NamedPointLines run(points, test::grid_of(60, 60, 1.0, 400600.0, 6001660.0));
+  SeedSet& s = run.seeds;
+  const GridSpec& g = run.grid;
+  const OwnerIndex& index = run.index;
+  const BoundaryResult& r = run.r;
   EXPECT_EQ(r.stats.missing_tripoints_found, 1);
   for (const BoundaryLine& l : r.lines) {
     if (l.closed) continue;
@@ -393,13 +410,9 @@ TEST(ShortLines, TheLineBetweenTwoTripointsMillimetresApartIsKept) {
       {{400705.751226474, 6000347.602094712}, 4895},  {{400685.1036223742, 6000346.716062125}, 5119},
       {{400703.7996344647, 6000373.183815254}, 5547}, {{400702.2968966066, 6000370.000563763}, 6032},
       {{400692.2898739421, 6000382.433297586}, 8813}};
-  SeedSet s;
-  for (const auto& [p, id] : points) s.add_point(s.add_feature(s.owner_code(std::to_string(id))), p);
-  const GridSpec g = test::grid_of(60, 60, 1.0, 400670.0, 6000400.0);
-  const NearestField field = compute(s, g, ComputeOptions{});
-  const PlanarSiteMetric metric(s, Vec2{g.xmin, g.ymax});
-  const OwnerIndex index(metric);
-  const BoundaryResult r = extract_boundaries(field, index);
+  NamedPointLines run(points, test::grid_of(60, 60, 1.0, 400670.0, 6000400.0));
+  SeedSet& s = run.seeds;
+  const BoundaryResult& r = run.r;
   const int32_t a = std::min(s.owner_code("525"), s.owner_code("5547")),
                 b = std::max(s.owner_code("525"), s.owner_code("5547"));
   int found = 0;
@@ -414,7 +427,7 @@ TEST(ShortLines, TheLineBetweenTwoTripointsMillimetresApartIsKept) {
           << e.x << ", " << e.y;
   }
   EXPECT_EQ(found, 1);
-  EXPECT_EQ(region_edges(r, index, g).dangling_ends, 0);
+  EXPECT_EQ(region_edges(r, run.index, run.grid).dangling_ends, 0);
 }
 
 // repeated_loops: a closed line whose every vertex and every segment's middle lies within twice
