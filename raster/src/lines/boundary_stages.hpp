@@ -414,8 +414,9 @@ void join_parted_ends(const BoundaryGrid& b, double per, const std::vector<Tripo
 // parts them, or short of a coast) followed on along its locus (locus_follow::follow_on, an eighth
 // of a cell a step, up to eight cells) to another open end of the same two owners (the two lines
 // joined through the points walked; its own other end makes a ring) or a coast; left as it was
-// where the walk is lost or reaches the frame of the cell centres (a line there goes on to the
-// grid's edge). Counts the ends followed in stats.ends_followed, the joins also in
+// where the walk is lost, runs along another line of the same owners (walk_runs_along: a stretch
+// the cells showed), or reaches the frame of the cell centres (a line there goes on to the grid's
+// edge). Counts the ends followed in stats.ends_followed, the joins also in
 // stats.ends_joined, the coasts reached in stats.ends_on_barriers. The walk's steps are at most
 // half the way to the nearer side (locus_follow::Level::clearance), so a locus going on up a
 // sliver of sea metres wide between two owners' land is walked up it, to where the two coasts
