@@ -178,8 +178,9 @@ bool onto_domain_edge(const SiteMetric& m, Vec2 end, double radius, double ftol,
   double best_gap = std::numeric_limits<double>::infinity();
   // (Not at the edges' ends themselves: a point of one edge within a micrometre of its end, on a
   // geodesic edge, has no reliable direction towards that vertex, and its visibility can say it
-  // sees through the land behind the vertex. A level crossing the coast at the vertex itself,
-  // within a millionth of the edge, is missed and the line's end left where it was.)
+  // sees through the land behind the vertex. A level through the vertex itself is taken at the
+  // vertex, below; one crossing the coast within a millionth of the edge of it, not through it, is
+  // missed and the line's end left where it was.)
   constexpr double kEnd = 1e-6;
   for (int32_t edge : edges) {
     // Each edge is searched only near `end`: within four radii each way of the foot of `end` on
@@ -229,13 +230,25 @@ bool onto_domain_edge(const SiteMetric& m, Vec2 end, double radius, double ftol,
              std::abs(fa) <= 1.5 * slope * m.point_distance(lerp(e0, e1, ta), lerp(e0, e1, tb)) + ftol;
     };
     const int samples = std::max(kSamples, static_cast<int>(std::ceil(kSamples * (hi - lo) * len / radius)));
+    auto usable = [&](Vec2 p) {
+      const double gap = std::hypot(p.x - end.x, p.y - end.y);
+      return gap <= radius && ahead(p) && accept(p) && m.open_between(end, p);
+    };
     nearest_root_along([&](double t, Vec2& p) { return m.domain_edge_point(edge, t, end, p); }, lo, hi, samples, f,
-                       ftol, end,
-                       [&](Vec2 p) {
-                         const double gap = std::hypot(p.x - end.x, p.y - end.y);
-                         return gap <= radius && ahead(p) && accept(p) && m.open_between(end, p);
-                       },
-                       best_gap, out, may_reach);
+                       ftol, end, usable, best_gap, out, may_reach);
+    // A locus through the edge's end vertex itself (an island's corner, a boom's tip on a bisector)
+    // changes sign between two edges, or between a boom's two faces, and no bracket along one face
+    // holds it: the vertex is taken where f is zero there to the root's tolerance. (The vertex
+    // itself, not a point a hair along the edge: its direction from `end` is exact.)
+    for (const auto& [t, inside] : {std::pair{0.0, lo <= kEnd}, std::pair{1.0, hi >= 1.0 - kEnd}}) {
+      Vec2 v;
+      if (!inside || !m.domain_edge_point(edge, t, end, v)) continue;
+      const double fv = f(v), gap = std::hypot(v.x - end.x, v.y - end.y);
+      if (std::abs(fv) <= ftol && gap < best_gap && usable(v)) {
+        best_gap = gap;
+        out = v;
+      }
+    }
   }
   return std::isfinite(best_gap);
 }
