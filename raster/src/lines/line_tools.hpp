@@ -352,9 +352,11 @@ inline bool on_centre_frame(const GridSpec& g, Vec2 p) {
 // units) changes sign -- sampled a sixteenth of the radius apart, then solved to `ftol` (Illinois)
 // -- and of those `accept`s and that `end` sees (open_between), the nearest to `end`; an end
 // vertex of a searched edge counts too where f is 0 there within `ftol` (a locus through an
-// island's corner or a boom's tip). False where there is none. An edge longer than one and a half radii is sampled only
-// within that of `end`'s foot on it; one with both ends under other land is left out. `away` (or null): only points on
-// the far side of `end` from it (a line of one vertex, whose other end went towards `away`, leaves the other way).
+// island's corner or a boom's tip). False where there is none. An edge longer than one and a
+// half radii is sampled only within that of `end`'s foot on it; one with both ends under other
+// land is left out.
+// `away` (or null): only points on the far side of `end` from it (a line of one vertex, whose
+// other end went towards `away`, leaves the other way).
 // `slope` (or +infinity): a bound of how fast f changes along a way at sea, per metric unit (two
 // owners' costs: twice OwnerIndex::cost_slope). An edge whose searched stretch is open along
 // itself and whose two ends' values have one sign and too large for f to reach 0 between them is

@@ -343,10 +343,6 @@ TEST(EndAtOwnedEdge, ALineEndsWhereBothOwnersAreAtTheMaxDistance) {
   EXPECT_NEAR(std::abs(short_of.lines[0].vertices.front().p.y - 6000000.0), 33250.0, 1e-6);
 }
 
-// close_missing_tripoints: eleven basepoints from a random set (1 m cells) where one dual square
-// holds two tripoints and the meeting of 686, 7528 and 8248 between them, which its search
-// misses. The tripoint is found from its lines' ends: every line ends at a tripoint or on the
-// frame, the three owners are equidistant there and no other is nearer, and the regions close.
 // Points of one owner each (named by the numbers), on a grid of 1 m cells in UTM metres, and the
 // lines extracted from their field.
 struct NamedPointLines : test::PointsField {
@@ -365,6 +361,10 @@ struct NamedPointLines : test::PointsField {
   }
 };
 
+// close_missing_tripoints: eleven basepoints from a random set (1 m cells) where one dual square
+// holds two tripoints and the meeting of 686, 7528 and 8248 between them, which its search
+// misses. The tripoint is found from its lines' ends: every line ends at a tripoint or on the
+// frame, the three owners are equidistant there and no other is nearer, and the regions close.
 TEST(CloseMissingTripoints, ATripointACrowdedSquareMissed) {
   const std::vector<std::pair<Vec2, int>> points = {
       {{400638.24720255716, 6001625.698194801}, 686},  {{400646.4424630304, 6001633.527788706}, 1543},
