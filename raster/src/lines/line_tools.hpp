@@ -35,6 +35,25 @@ inline double nearest_t(Vec2 a, Vec2 b, Vec2 p) {
   const double dx = b.x - a.x, dy = b.y - a.y, len2 = dx * dx + dy * dy;
   return len2 > 0.0 ? std::clamp(((p.x - a.x) * dx + (p.y - a.y) * dy) / len2, 0.0, 1.0) : 0.0;
 }
+// The distance from p to the segment a-b (CRS units).
+inline double segment_distance(Vec2 p, Vec2 a, Vec2 b) {
+  const Vec2 foot = lerp(a, b, nearest_t(a, b, p));
+  return std::hypot(p.x - foot.x, p.y - foot.y);
+}
+// The axis-aligned bounds of the points added (empty until one is), and whether two bounds come
+// within `pad` of each other: a cheap test before distances to segments.
+struct Bounds {
+  double x0 = INFINITY, y0 = INFINITY, x1 = -INFINITY, y1 = -INFINITY;
+  void add(Vec2 p) {
+    x0 = std::min(x0, p.x);
+    y0 = std::min(y0, p.y);
+    x1 = std::max(x1, p.x);
+    y1 = std::max(y1, p.y);
+  }
+  bool meets(const Bounds& o, double pad) const {
+    return x0 <= o.x1 + pad && o.x0 <= x1 + pad && y0 <= o.y1 + pad && o.y0 <= y1 + pad;
+  }
+};
 // Where the lines p + s d and q + t e meet: s and t, false where they are parallel.
 inline bool lines_meet(Vec2 p, Vec2 d, Vec2 q, Vec2 e, double& s, double& t) {
   const double det = d.x * -e.y - d.y * -e.x;

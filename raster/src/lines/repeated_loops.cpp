@@ -13,28 +13,12 @@ namespace rv::boundary_stages {
 
 namespace {
 
-struct Box {
-  double x0 = INFINITY, y0 = INFINITY, x1 = -INFINITY, y1 = -INFINITY;
-  void add(Vec2 p) {
-    x0 = std::min(x0, p.x);
-    y0 = std::min(y0, p.y);
-    x1 = std::max(x1, p.x);
-    y1 = std::max(y1, p.y);
-  }
-  bool meets(const Box& o, double pad) const {
-    return x0 <= o.x1 + pad && o.x0 <= x1 + pad && y0 <= o.y1 + pad && o.y0 <= y1 + pad;
-  }
-};
+using Box = line_tools::Bounds;
 
 Box box_of(const std::vector<BoundaryVertex>& v) {
   Box b;
   for (const BoundaryVertex& x : v) b.add(x.p);
   return b;
-}
-
-double to_segment(Vec2 p, Vec2 a, Vec2 b) {
-  const Vec2 foot = line_tools::lerp(a, b, line_tools::nearest_t(a, b, p));
-  return std::hypot(p.x - foot.x, p.y - foot.y);
 }
 
 // Whether every vertex of `loop` and the middle of each of its segments lie within `pad` of
@@ -51,7 +35,7 @@ bool runs_along(const std::vector<BoundaryVertex>& loop, const Box& box, const s
   if (near.empty()) return false;
   auto close = [&](Vec2 p) {
     return std::any_of(near.begin(), near.end(),
-                       [&](const auto& s) { return to_segment(p, s.first, s.second) <= pad; });
+                       [&](const auto& s) { return line_tools::segment_distance(p, s.first, s.second) <= pad; });
   };
   for (size_t i = 0; i < loop.size(); ++i) {
     const Vec2 p = loop[i].p, q = loop[(i + 1) % loop.size()].p;

@@ -168,10 +168,8 @@ bool onto_barrier(const BoundaryGrid& b, BoundaryLine& line, const Vec2* away = 
 bool back_along_itself(const std::vector<BoundaryVertex>& v, Vec2 q, double near) {
   const Vec2 mid = lerp(v.back().p, q, 0.5);
   for (size_t k = 0; k + 1 < v.size(); ++k)
-    for (const Vec2 x : {q, mid}) {
-      const Vec2 a = v[k].p, c = v[k + 1].p, m = lerp(a, c, nearest_t(a, c, x));
-      if (std::hypot(m.x - x.x, m.y - x.y) <= near) return true;
-    }
+    for (const Vec2 x : {q, mid})
+      if (segment_distance(x, v[k].p, v[k + 1].p) <= near) return true;
   return false;
 }
 
@@ -200,15 +198,22 @@ bool along_locus(const BoundaryGrid& b, int32_t oa, int32_t ob, Vec2 p, Vec2 q) 
 bool walk_runs_along(const BoundaryGrid& b, const std::vector<BoundaryLine>& lines, const std::vector<Vec2>& points,
                      int32_t oa, int32_t ob, int64_t own) {
   const double near = 2e-2 * b.g.res;
+  // (A walk can be thousands of steps and a line thousands of vertices: only the segments that
+  // come within `near` of the walk's bounds are measured.)
+  Bounds walked;
+  for (size_t k = 2; k + 2 < points.size(); ++k) walked.add(points[k]);
   for (size_t n = 0; n < lines.size(); ++n) {
     const BoundaryLine& l = lines[n];
     if (static_cast<int64_t>(n) == own || l.owner_a != oa || l.owner_b != ob) continue;
-    for (size_t k = 2; k + 2 < points.size(); ++k)
-      for (size_t s = 0; s + 1 < l.vertices.size(); ++s) {
-        const Vec2 u = l.vertices[s].p, w = l.vertices[s + 1].p;
-        const Vec2 q = lerp(u, w, nearest_t(u, w, points[k]));
-        if (std::hypot(q.x - points[k].x, q.y - points[k].y) <= near) return true;
-      }
+    for (size_t s = 0; s + 1 < l.vertices.size(); ++s) {
+      const Vec2 u = l.vertices[s].p, w = l.vertices[s + 1].p;
+      Bounds segment;
+      segment.add(u);
+      segment.add(w);
+      if (!segment.meets(walked, near)) continue;
+      for (size_t k = 2; k + 2 < points.size(); ++k)
+        if (segment_distance(points[k], u, w) <= near) return true;
+    }
   }
   return false;
 }
@@ -404,17 +409,21 @@ void end_at_barriers(const BoundaryGrid& b, const std::vector<Tripoint>& tripoin
         // off is dropped and the end left open, as where the walk meets the other line's end.
         const BoundaryVertex junction = line.vertices.back();
         const double reach = std::hypot(junction.p.x - p.x, junction.p.y - p.y);
+        const bool far = reach > b.g.res, behind = turned_back(line.vertices);
         std::vector<Vec2> ends;
         bool doubt = false;
-        for (const BoundaryLine& o : lines)
-          if (&o != &line && !o.closed && !o.vertices.empty() && o.owner_a == line.owner_a && o.owner_b == line.owner_b)
-            for (const BoundaryVertex* e : {&o.vertices.front(), &o.vertices.back()})
-              if (open_line_end(b, tripoints, *e)) {
-                ends.push_back(e->p);
-                doubt = doubt || (reach > b.g.res && std::hypot(e->p.x - p.x, e->p.y - p.y) < reach);
-              }
-        doubt = doubt || (reach > b.g.res && !along_locus(b, line.owner_a, line.owner_b, p, junction.p));
-        if (doubt || turned_back(line.vertices)) {
+        // (The other open ends matter only to an end that is followed: one far off or behind.)
+        if (far || behind)
+          for (const BoundaryLine& o : lines)
+            if (&o != &line && !o.closed && !o.vertices.empty() && o.owner_a == line.owner_a &&
+                o.owner_b == line.owner_b)
+              for (const BoundaryVertex* e : {&o.vertices.front(), &o.vertices.back()})
+                if (open_line_end(b, tripoints, *e)) {
+                  ends.push_back(e->p);
+                  doubt = doubt || (far && std::hypot(e->p.x - p.x, e->p.y - p.y) < reach);
+                }
+        doubt = doubt || (far && !along_locus(b, line.owner_a, line.owner_b, p, junction.p));
+        if (doubt || behind) {
           line.vertices.pop_back();
           const auto before = static_cast<int64_t>(line.vertices.size());
           bool elsewhere = false;
