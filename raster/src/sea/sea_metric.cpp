@@ -179,8 +179,17 @@ class SeaSiteMetric final : public SiteMetric {
     if (o < 0) n = Vec2{-n.x, -n.y};
     const double bend = pr.vis.frame() ? pr.vis.frame()->deviation() : 0.0;
     const double scale = std::max({std::abs(q.x), std::abs(q.y), len, std::abs(grid_.xmin), std::abs(grid_.ymax)});
-    for (double eps = 16.0 * std::numeric_limits<double>::epsilon() * scale; eps <= 1e-6 * len + 2.0 * bend;
-         eps *= 4.0) {
+    // On the ellipsoid at least a tenth of a micrometre off the edge. The geodesic reading decides
+    // a point within a few units in the last place of its longitude and latitude (a nanometre) of
+    // the edge from each triple's own inverse problems, so a point nearer than that may lie on the
+    // sea side by the edge's orientation and on the land side by another triple's: a path from it
+    // along the edge to the edge's own end then turned the wrong way round the land there, and
+    // the owners' costs along a coast jumped by a kilometre at a few points in a hundred.
+    constexpr double kGeodesicOff = 1e-7;
+    const double upper = 1e-6 * len + 2.0 * bend;
+    double eps = 16.0 * std::numeric_limits<double>::epsilon() * scale;
+    if (geod_) eps = std::min(std::max(eps, kGeodesicOff), upper);
+    for (; eps <= upper; eps *= 4.0) {
       // (Tested where the grid's coordinates put it: their rounding may take back a small move.)
       const Vec2 at = grid_of(Vec2{q.x + eps * n.x, q.y + eps * n.y}), back = plane_of(at);
       if (pr.vis.orient(e.a, e.b, back) != o || pr.vis.classify(back) == Visibility::Ground::land) continue;

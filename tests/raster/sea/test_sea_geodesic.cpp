@@ -23,6 +23,7 @@
 #include "rv/field/error.hpp"
 #include "rv/sea/geodesic_frame.hpp"
 #include "rv/sea/sea_field.hpp"
+#include "rv/sea/sea_metric.hpp"
 #include "rv/sea/visibility.hpp"
 #include "sea/sea_prepare.hpp"
 #include "seed_gen.hpp"
@@ -519,6 +520,63 @@ TEST(SeaGeodesic, ASeedsEndWhereTwoIslandsMeetIsReachedFromTheirOtherSide) {
   EXPECT_GT(cells, 500);
   EXPECT_GE(past_the_land, 5);
   EXPECT_TRUE(test::same_cells(test::blocks_agree(s, b, g, on_the_ellipsoid()), f, g));
+}
+
+// Points of a coast taken just off it (SiteMetric::domain_edge_point) on the ellipsoid: along an
+// islet's edge whose points a port reaches round the edge's own end, every orientation reads them
+// on the sea side alike, so the path round that end is found at every one: the distance by sea
+// changes along the coast by at most the way along it (1-Lipschitz). (Points put a nanometre off
+// the edge had been read on the land side by some tests: at a few in a hundred the path went round
+// the far side of the archipelago instead, a kilometre longer.)
+TEST(SeaGeodesic, ADistanceAlongACoastTakenJustOffItChangesNoFasterThanTheWayAlongIt) {
+  // (An islet of the Archipelago Sea's GSHHG coast, 21.03 E 60.59 N, and a port north-west of it
+  // that sees its north edge and reaches its north-east edge round their common corner.)
+  Barriers b;
+  b.add_polygon({{{21.0308385, 60.5875029},
+                  {21.0308385, 60.5857786},
+                  {21.0316320, 60.5853819},
+                  {21.0332799, 60.5862211},
+                  {21.0350042, 60.5862211},
+                  {21.0358129, 60.5866331},
+                  {21.0332799, 60.5878843},
+                  {21.0316320, 60.5878843}}},
+                "islet");
+  SeedSet s;
+  const Vec2 port{21.0, 60.5895};
+  s.add_point(s.add_feature(s.owner_code("P")), port);
+  const GridSpec g = test::grid_of(40, 20, 0.001, 21.0, 60.6);
+  const std::unique_ptr<SiteMetric> m = make_sea_site_metric(s, b, g, on_the_ellipsoid());
+  std::vector<int32_t> edges;
+  m->domain_edges_near(Vec2{21.033, 60.587}, 0.01, edges);
+  ASSERT_EQ(edges.size(), 8u);
+  const Vec2 corner{21.0332799, 60.5878843}, tip{21.0358129, 60.5866331};
+  int64_t samples = 0, round_the_corner = 0;
+  for (const int32_t e : edges) {
+    Vec2 e0, e1;
+    ASSERT_TRUE(m->domain_edge_ends(e, e0, e1));
+    const Vec2 mid{0.5 * (e0.x + e1.x), 0.5 * (e0.y + e1.y)};
+    const Vec2 sea{mid.x + (e1.y - e0.y), mid.y - (e1.x - e0.x)};  // (counter-clockwise: sea on the right)
+    constexpr int kSteps = 2000;
+    double before = NAN;
+    Vec2 at_before{};
+    for (int k = 0; k <= kSteps; ++k) {
+      Vec2 q;
+      ASSERT_TRUE(m->domain_edge_point(e, static_cast<double>(k) / kSteps, sea, q)) << e << " " << k;
+      ASSERT_TRUE(m->in_domain(q));
+      const double d = m->distance(q, 0);
+      if (k > 0) EXPECT_LE(std::abs(d - before), metres(q, at_before) + 1e-6) << e << " at " << k;
+      before = d;
+      at_before = q;
+      ++samples;
+      // (On the north-east edge the path bends at the corner: the corner's path and the rest.)
+      if (e0 == tip && e1 == corner && k > 0 && k < kSteps) {
+        EXPECT_NEAR(d, metres(port, corner) + metres(corner, q), 1e-6) << k;
+        ++round_the_corner;
+      }
+    }
+  }
+  EXPECT_EQ(round_the_corner, 1999);
+  EXPECT_EQ(samples, 8 * 2001);
 }
 
 }  // namespace

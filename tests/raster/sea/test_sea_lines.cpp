@@ -1485,10 +1485,14 @@ void expect_no_two_lines_along_each_other(const BoundaryResult& lines, double re
 // point of every segment at sea, and no line runs along another of the same owners. The layouts
 // are those of the scan (seed 91) where a junction that no pair or grid edge took left a line
 // out: its line is now followed from it along the locus to a coast, the frame, another such
-// junction or a line's open end (boundaries.channels_crossed).
+// junction or a line's open end (boundaries.channels_crossed). The last six had a change the
+// cells do show, in a dual square with every corner at sea (a sound between two islands inside
+// it), that no line ended at: the coast between two line ends of an island whose owners there
+// disagree is now walked whole, round after round as the lines drawn reach further islands.
 TEST(SeaLines, EveryChangeOfOwnerAlongACoastTheCellsDoNotShowEndsALine) {
-  const std::vector<std::pair<int, double>> chosen{{7, 2.3},  {10, 2.3}, {26, 2.3}, {45, 2.3}, {45, 3.1},
-                                                   {47, 2.3}, {48, 3.1}, {53, 4.7}, {63, 2.3}, {72, 3.1}};
+  const std::vector<std::pair<int, double>> chosen{{7, 2.3},  {10, 2.3}, {26, 2.3}, {45, 2.3}, {45, 3.1}, {47, 2.3},
+                                                   {48, 3.1}, {53, 4.7}, {63, 2.3}, {72, 3.1}, {5, 3.1},  {13, 2.3},
+                                                   {17, 4.7}, {36, 2.3}, {50, 4.7}, {67, 2.3}};
   std::mt19937_64 rng(91);
   int64_t checked = 0, changes = 0, crossed = 0;
   for (int round = 0; round <= 72; ++round) {

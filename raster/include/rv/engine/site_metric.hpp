@@ -142,7 +142,8 @@ class SiteMetric {
   virtual void domain_edges_near(Vec2 p, double radius, std::vector<int32_t>& out) const;
   // The point of domain edge `edge` at fraction t in [0, 1] of its length from its first end, as
   // approached from the side where `side` lies: moved off the edge by the least amount (a few
-  // units in the last place of the edge's length, at most a micrometre's order) that puts it on
+  // units in the last place of the edge's length, at most a micrometre's order; on the ellipsoid
+  // at least 0.1 um, where every orientation test reads it on that side alike) that puts it on
   // that side and in the domain. Grid-CRS coordinates into `out`; false where there is none
   // (`side` on the edge's line, or the edge's side towards it is not the domain's).
   virtual bool domain_edge_point(int32_t edge, double t, Vec2 side, Vec2& out) const;

@@ -54,7 +54,8 @@ struct BoundaryVertex {
   // 0, the locus. `residual` is then |d - reach| of that site.
   int8_t arc = 0;
   // By sea: the line's end on a barrier's edge (BoundaryStats::ends_on_barriers), on the side it
-  // comes from (within a few units in the last place of the coordinates).
+  // comes from (within a few units in the last place of the coordinates; on the ellipsoid within
+  // a micrometre, SiteMetric::domain_edge_point).
   bool on_barrier = false;
   // By sea: on the edge of a tie region. Behind a barrier vertex equidistant by sea from both
   // owners, where both owners' paths bend last at that vertex, the two costs are equal to the

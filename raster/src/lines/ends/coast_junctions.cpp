@@ -12,6 +12,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <iterator>
 #include <limits>
 #include <numbers>
 #include <unordered_map>
@@ -85,6 +86,8 @@ struct Carry {
   Vec2 end{std::numeric_limits<double>::quiet_NaN(), 0.0};
   int32_t owner = -1;  // -1: not known (the edge had two sea sides, or none)
   int32_t last = kNoSite;
+  int32_t edge = -1;  // the edge, and the side of it walked
+  Vec2 side;
 };
 
 // Whether the cells may not show the coast at p: p lies within a cell of the grid's edge (beyond
@@ -130,9 +133,10 @@ int edge_pieces(const BoundaryGrid& b, Vec2 e0, Vec2 e1) {
 }
 
 // The owners' changes along domain edge `edge` where the cells do not show its coast (see the
-// contract), appended to `out`, on each of its sides that is sea.
+// contract), or along all of it where `whole`, appended to `out`, on each of its sides that is
+// sea.
 void junctions_on(const BoundaryGrid& b, double max_distance, int32_t edge, Vec2 e0, Vec2 e1, Hidden& hidden,
-                  Carry& carry, std::vector<Junction>& out) {
+                  bool whole, Carry& carry, std::vector<Junction>& out) {
   const SiteMetric& m = b.index.metric();
   auto inside = [&](Vec2 p) { return p.x > b.g.xmin && p.x < b.g.xmax() && p.y > b.g.ymin() && p.y < b.g.ymax; };
   // A point off either side of the edge's chord (a polygon's edge has sea on one, a line's on
@@ -171,7 +175,7 @@ void junctions_on(const BoundaryGrid& b, double max_distance, int32_t edge, Vec2
       Sample& x = samples[static_cast<size_t>(k)];
       x.t = k == 0 ? kEnd : k == pieces ? 1.0 - kEnd : static_cast<double>(k) / pieces;
       x.in = m.domain_edge_point(edge, x.t, side, x.p) && inside(x.p);
-      x.hidden = x.in && hidden(x.p);
+      x.hidden = x.in && (whole || hidden(x.p));
       x.owner = 0;
     }
     // Owners asked where the coast is hidden and at the samples beside such stretches (a change
@@ -181,9 +185,15 @@ void junctions_on(const BoundaryGrid& b, double max_distance, int32_t edge, Vec2
       const bool near_hidden = x.hidden || (k > 0 && samples[static_cast<size_t>(k) - 1].hidden) ||
                                (k < pieces && samples[static_cast<size_t>(k) + 1].hidden);
       if (!x.in || !near_hidden) continue;
-      x.owner = k == 0 && carried ? carry.owner : owner_at(b, max_distance, x.p, carry.last);
-      const Sample& w = samples[static_cast<size_t>(k > 0 ? k - 1 : 0)];
+      x.owner = k == 0 && carried && !whole ? carry.owner : owner_at(b, max_distance, x.p, carry.last);
+      // (Walked whole, the owner is asked again past the vertex: a locus through the vertex itself
+      // changes it there, on either edge's side of it.)
       Junction j;
+      if (k == 0 && carried && whole && x.owner != 0 && carry.owner != 0 && x.owner != carry.owner &&
+          (junction_on(b, edge, side, 0.0, x.t, carry.owner, x.owner, j) ||
+           junction_on(b, carry.edge, carry.side, 1.0 - kEnd, 1.0, carry.owner, x.owner, j)))
+        out.push_back(j);
+      const Sample& w = samples[static_cast<size_t>(k > 0 ? k - 1 : 0)];
       if (k > 0 && x.owner != 0 && w.owner != 0 && x.owner != w.owner &&
           junction_on(b, edge, side, w.t, x.t, w.owner, x.owner, j))
         out.push_back(j);
@@ -192,6 +202,114 @@ void junctions_on(const BoundaryGrid& b, double max_distance, int32_t edge, Vec2
   }
   carry.end = e1;
   carry.owner = n_sides == 1 ? end_owner : -1;
+  carry.edge = edge;
+  carry.side = n_sides == 1 ? sea_sides[0] : Vec2{};
+}
+
+// The coasts between line ends whose owners disagree (see the contract): the ids of the edges
+// of every stretch of a closed ring, between two of its line ends next to each other along it,
+// where the owner just past the first end is not the owner just before the second, sorted. Such
+// a stretch holds a change of owner that no line ends at, wherever the cells lie: the locus may
+// cross a channel narrower than a cell inside one dual square whose four corners are at sea.
+// `edges`: every domain edge near the grid, in id order (a ring's edges are consecutive ids).
+std::vector<int32_t> disagreeing_stretches(const BoundaryGrid& b, double max_distance,
+                                           const std::vector<int32_t>& edges, const std::vector<BoundaryLine>& lines) {
+  const SiteMetric& m = b.index.metric();
+  std::vector<Vec2> ends;
+  for (const BoundaryLine& l : lines)
+    if (!l.closed && !l.vertices.empty())
+      for (const BoundaryVertex* e : {&l.vertices.front(), &l.vertices.back()})
+        if (e->on_barrier) ends.push_back(e->p);
+  std::vector<int32_t> out;
+  if (ends.empty()) return out;
+  const GridSpec& g = b.g;
+  auto inside = [&](Vec2 p) { return p.x > g.xmin && p.x < g.xmax() && p.y > g.ymin() && p.y < g.ymax; };
+  // (An end lies on its edge's geodesic, which an edge of a few cells leaves by far less than a
+  // hundredth of a cell; the nearest edge within that is the one it ends on.)
+  const double on_edge = 1e-2 * g.res;
+  struct At {
+    double s;  // along the ring from its first vertex, in grid-CRS units along the chords
+    size_t k;  // the edge's index in the ring
+  };
+  std::vector<Vec2> e0s, e1s;
+  std::vector<double> from;  // the ring's length up to each edge's first end
+  for (size_t first = 0; first < edges.size();) {
+    // A ring: consecutive ids, each edge starting where the one before ends, the last ending where
+    // the first starts.
+    e0s.clear();
+    e1s.clear();
+    size_t last = first;
+    for (;; ++last) {
+      Vec2 a, c;
+      if (!m.domain_edge_ends(edges[last], a, c)) return out;
+      if (last > first && !(edges[last] == edges[last - 1] + 1 && a == e1s.back())) break;
+      e0s.push_back(a);
+      e1s.push_back(c);
+      if (last + 1 == edges.size()) {
+        ++last;
+        break;
+      }
+    }
+    const size_t n = e0s.size(), ring0 = first;
+    first = last;
+    if (n < 3 || !(e1s.back() == e0s.front())) continue;
+    line_tools::Bounds box;
+    for (const Vec2& v : e0s) box.add(v);
+    from.assign(n + 1, 0.0);
+    for (size_t k = 0; k < n; ++k) from[k + 1] = from[k] + std::hypot(e1s[k].x - e0s[k].x, e1s[k].y - e0s[k].y);
+    const double length = from[n];
+    std::vector<At> at;
+    for (const Vec2& p : ends) {
+      line_tools::Bounds at_p;
+      at_p.add(p);
+      if (!box.meets(at_p, on_edge)) continue;
+      double best = on_edge;
+      At found{-1.0, 0};
+      for (size_t k = 0; k < n; ++k) {
+        const double d = line_tools::segment_distance(p, e0s[k], e1s[k]);
+        if (d <= best) {
+          best = d;
+          found = At{from[k] + line_tools::nearest_t(e0s[k], e1s[k], p) * (from[k + 1] - from[k]), k};
+        }
+      }
+      if (found.s >= 0.0) at.push_back(found);
+    }
+    if (at.empty()) continue;
+    std::sort(at.begin(), at.end(), [](const At& x, const At& y) { return x.s < y.s; });
+    // The owner at s along the ring, on its sea side; 0 where that is not known (outside the grid,
+    // no sea side, or no owner).
+    int32_t last_site = kNoSite;
+    auto owner_along = [&](double s) {
+      s = std::fmod(s + length, length);
+      const size_t k = std::min<size_t>(
+          n - 1, static_cast<size_t>(std::upper_bound(from.begin(), from.end(), s) - from.begin()) - 1);
+      const double t = std::clamp((s - from[k]) / std::max(from[k + 1] - from[k], 1e-300), 0.0, 1.0);
+      const Vec2 mid = lerp(e0s[k], e1s[k], 0.5), nrm{-(e1s[k].y - e0s[k].y), e1s[k].x - e0s[k].x};
+      for (const double side : {1.0, -1.0}) {
+        Vec2 p;
+        if (m.domain_edge_point(edges[ring0 + k], t, Vec2{mid.x + side * nrm.x, mid.y + side * nrm.y}, p))
+          return inside(p) ? owner_at(b, max_distance, p, last_site) : 0;
+      }
+      return 0;
+    };
+    for (size_t i = 0; i < at.size(); ++i) {
+      const At& x = at[i];
+      const At& y = at[(i + 1) % at.size()];
+      const double gap = at.size() == 1 ? length : std::fmod(y.s - x.s + length, length);
+      // (Two ends at one point: a line through a vertex, or two tripoints' lines.)
+      if (!(gap > 1e-6 * g.res)) continue;
+      const double d = std::min(1e-3 * g.res, 0.25 * gap);
+      const int32_t after = owner_along(x.s + d), before = owner_along(x.s + gap - d);
+      if (after == 0 || before == 0 || after == before) continue;
+      // (From the first end's edge to the second's; round the whole ring where the second lies
+      // on the same edge behind the first.)
+      const size_t count = y.k == x.k && (at.size() == 1 || y.s < x.s) ? n : (y.k + n - x.k) % n + 1;
+      for (size_t c = 0; c < count; ++c) out.push_back(edges[ring0 + (x.k + c) % n]);
+    }
+  }
+  std::sort(out.begin(), out.end());
+  out.erase(std::unique(out.begin(), out.end()), out.end());
+  return out;
 }
 
 // Where the locus of junction j's two owners meets the grid's edge beside it, for a junction
@@ -297,8 +415,11 @@ void follow_from_junctions(const BoundaryGrid& b, double per, const std::vector<
     f.points.insert(f.points.begin(), j.p);
     const bool coast = f.stop == locus_follow::Stop::coast || f.stop == locus_follow::Stop::frame,
                target = f.stop == locus_follow::Stop::target;
+    // (Not a walk along a line the cells showed: the junction is that line's other change,
+    // misplaced, and its stretch is drawn.)
     if (f.points.size() < 2 || !(coast || target) || (target && f.other < 0) ||
-        std::hypot(f.points.back().x - j.p.x, f.points.back().y - j.p.y) <= 1e-4 * b.g.res)
+        std::hypot(f.points.back().x - j.p.x, f.points.back().y - j.p.y) <= 1e-4 * b.g.res ||
+        walk_runs_along(b, lines, f.points, j.lo, j.hi, -1))
       continue;
     used[i] = true;
     BoundaryLine line{j.lo, j.hi, false, {j.v}, {}};
@@ -327,27 +448,25 @@ void follow_from_junctions(const BoundaryGrid& b, double per, const std::vector<
   }
 }
 
-}  // namespace
-
-void cross_hidden_channels(const BoundaryGrid& b, double max_distance, double per,
-                           const std::vector<Tripoint>& tripoints, std::vector<BoundaryLine>& lines,
-                           BoundaryStats& stats) {
+// One round of cross_hidden_channels (see the contract) over `edges`, every domain edge near the
+// grid: the edges in `whole` (sorted) walked whole, and where `hidden_too` the coast the cells do
+// not show on every other edge; the junctions found that no line explains joined, carried to the
+// grid's edge or followed.
+void channels_round(const BoundaryGrid& b, double max_distance, double per, const std::vector<Tripoint>& tripoints,
+                    const std::vector<int32_t>& edges, const std::vector<int32_t>& whole, bool hidden_too,
+                    std::vector<BoundaryLine>& lines, BoundaryStats& stats) {
   const SiteMetric& m = b.index.metric();
-  if (m.straight()) return;
-  // Every domain edge that may come within the grid.
-  std::vector<int32_t> edges;
-  const Vec2 middle{b.g.xmin + 0.5 * static_cast<double>(b.W) * b.g.res,
-                    b.g.ymax - 0.5 * static_cast<double>(b.H) * b.g.res};
-  m.domain_edges_near(middle, std::hypot(static_cast<double>(b.W), static_cast<double>(b.H)) * b.g.res, edges);
-  if (edges.empty()) return;
   // Only coast the cells do not show is walked (hidden, above): an edge with a sample there, by
   // its chord (an edge's samples on its geodesic are found only for the edges walked). Elsewhere
-  // a line that meets the coast passes between sea cells, which place it (end_at_barriers).
-  auto walked_edge = [&](Vec2 e0, Vec2 e1, Hidden& hidden) {
+  // a line that meets the coast passes between sea cells, which place it (end_at_barriers), but
+  // for the stretches between two line ends whose owners disagree, walked whole.
+  auto walked_edge = [&](Vec2 e0, Vec2 e1, bool in_whole, Hidden& hidden) {
     // (Not an edge along the grid's outline: land clipped to the grid's extent has no sea there.)
     if ((e0.x == e1.x && (e0.x <= b.g.xmin || e0.x >= b.g.xmax())) ||
         (e0.y == e1.y && (e0.y <= b.g.ymin() || e0.y >= b.g.ymax)))
       return false;
+    if (in_whole) return true;
+    if (!hidden_too) return false;
     const int pieces = edge_pieces(b, e0, e1);
     for (int k = 0; k <= pieces; ++k)
       if (hidden(lerp(e0, e1, static_cast<double>(k) / pieces))) return true;
@@ -364,11 +483,12 @@ void cross_hidden_channels(const BoundaryGrid& b, double max_distance, double pe
     for (size_t k = static_cast<size_t>(r) * kRun; k < std::min(edges.size(), (static_cast<size_t>(r) + 1) * kRun);
          ++k) {
       Vec2 e0, e1;
-      if (!m.domain_edge_ends(edges[k], e0, e1) || e0 == e1 || !walked_edge(e0, e1, hidden)) {
+      const bool in_whole = std::binary_search(whole.begin(), whole.end(), edges[k]);
+      if (!m.domain_edge_ends(edges[k], e0, e1) || e0 == e1 || !walked_edge(e0, e1, in_whole, hidden)) {
         carry.owner = -1;
         continue;
       }
-      junctions_on(b, max_distance, edges[k], e0, e1, hidden, carry, found[static_cast<size_t>(r)]);
+      junctions_on(b, max_distance, edges[k], e0, e1, hidden, in_whole, carry, found[static_cast<size_t>(r)]);
     }
   });
   std::vector<Junction> all;
@@ -442,6 +562,36 @@ void cross_hidden_channels(const BoundaryGrid& b, double max_distance, double pe
   }
   follow_from_junctions(b, per, tripoints, open, used, lines, add);
   stats.coast_changes_unexplained += static_cast<int64_t>(std::count(used.begin(), used.end(), false));
+}
+
+}  // namespace
+
+void cross_hidden_channels(const BoundaryGrid& b, double max_distance, double per,
+                           const std::vector<Tripoint>& tripoints, std::vector<BoundaryLine>& lines,
+                           BoundaryStats& stats) {
+  const SiteMetric& m = b.index.metric();
+  if (m.straight()) return;
+  // Every domain edge that may come within the grid.
+  std::vector<int32_t> edges;
+  const Vec2 middle{b.g.xmin + 0.5 * static_cast<double>(b.W) * b.g.res,
+                    b.g.ymax - 0.5 * static_cast<double>(b.H) * b.g.res};
+  m.domain_edges_near(middle, std::hypot(static_cast<double>(b.W), static_cast<double>(b.H)) * b.g.res, edges);
+  if (edges.empty()) return;
+  // A line a round draws from a coast to an island ends there, and that island's other change of
+  // owner may be hidden in turn: a chain of islands inside cells, one more each round. An edge is
+  // walked whole once; a stretch that still disagrees after that is left as it is.
+  constexpr int kRounds = 16;
+  std::vector<int32_t> walked, fresh, both;
+  for (int round = 0; round < kRounds; ++round) {
+    const std::vector<int32_t> whole = disagreeing_stretches(b, max_distance, edges, lines);
+    fresh.clear();
+    std::set_difference(whole.begin(), whole.end(), walked.begin(), walked.end(), std::back_inserter(fresh));
+    if (round > 0 && fresh.empty()) break;
+    channels_round(b, max_distance, per, tripoints, edges, fresh, round == 0, lines, stats);
+    both.clear();
+    std::set_union(walked.begin(), walked.end(), fresh.begin(), fresh.end(), std::back_inserter(both));
+    walked.swap(both);
+  }
 }
 
 }  // namespace rv::boundary_stages
