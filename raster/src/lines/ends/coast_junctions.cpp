@@ -276,6 +276,13 @@ std::vector<int32_t> disagreeing_stretches(const BoundaryGrid& b, double max_dis
     }
     if (at.empty()) continue;
     std::sort(at.begin(), at.end(), [](const At& x, const At& y) { return x.s < y.s; });
+    // The point of ring edge k at t on its sea side (the first side found); false where neither is.
+    auto sea_point = [&](size_t k, double t, Vec2& p) {
+      const Vec2 mid = lerp(e0s[k], e1s[k], 0.5), nrm{-(e1s[k].y - e0s[k].y), e1s[k].x - e0s[k].x};
+      for (const double side : {1.0, -1.0})
+        if (m.domain_edge_point(edges[ring0 + k], t, Vec2{mid.x + side * nrm.x, mid.y + side * nrm.y}, p)) return true;
+      return false;
+    };
     // The owner at s along the ring, on its sea side; 0 where that is not known (outside the grid,
     // no sea side, or no owner).
     int32_t last_site = kNoSite;
@@ -284,13 +291,13 @@ std::vector<int32_t> disagreeing_stretches(const BoundaryGrid& b, double max_dis
       const size_t k = std::min<size_t>(
           n - 1, static_cast<size_t>(std::upper_bound(from.begin(), from.end(), s) - from.begin()) - 1);
       const double t = std::clamp((s - from[k]) / std::max(from[k + 1] - from[k], 1e-300), 0.0, 1.0);
-      const Vec2 mid = lerp(e0s[k], e1s[k], 0.5), nrm{-(e1s[k].y - e0s[k].y), e1s[k].x - e0s[k].x};
-      for (const double side : {1.0, -1.0}) {
-        Vec2 p;
-        if (m.domain_edge_point(edges[ring0 + k], t, Vec2{mid.x + side * nrm.x, mid.y + side * nrm.y}, p))
-          return inside(p) ? owner_at(b, max_distance, p, last_site) : 0;
-      }
-      return 0;
+      Vec2 p;
+      return sea_point(k, t, p) && inside(p) ? owner_at(b, max_distance, p, last_site) : 0;
+    };
+    // Whether ring edge k has sea beside it at both ends and its middle.
+    auto coastal = [&](size_t k) {
+      Vec2 p;
+      return sea_point(k, 1e-6, p) && sea_point(k, 0.5, p) && sea_point(k, 1.0 - 1e-6, p);
     };
     for (size_t i = 0; i < at.size(); ++i) {
       const At& x = at[i];
@@ -304,6 +311,13 @@ std::vector<int32_t> disagreeing_stretches(const BoundaryGrid& b, double max_dis
       // (From the first end's edge to the second's; round the whole ring where the second lies
       // on the same edge behind the first.)
       const size_t count = y.k == x.k && (at.size() == 1 || y.s < x.s) ? n : (y.k + n - x.k) % n + 1;
+      // (Not a stretch that leaves the grid, where its change may be a line's end on the frame, or
+      // that runs inside other land, overlapping islands or states' land borders, where the sea's
+      // coast goes on along the other ring.)
+      bool within = true;
+      for (size_t c = 1; c < count && within; ++c) within = inside(e0s[(x.k + c) % n]);
+      for (size_t c = 0; c < count && within; ++c) within = coastal((x.k + c) % n);
+      if (!within) continue;
       for (size_t c = 0; c < count; ++c) out.push_back(edges[ring0 + (x.k + c) % n]);
     }
   }
