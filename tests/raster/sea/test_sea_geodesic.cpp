@@ -3,7 +3,8 @@
 // geodesic where seen, else the shorter way round an end, each leg GeographicLib's inverse
 // problem, the wall's shadow from an azimuth oracle), and the exact engine against the reference
 // cell for cell on random archipelagos of longitude/latitude; coast lines and islands as seeds
-// (against GeographicLib along the line, and the straight geodesic field where coasts are land).
+// (against GeographicLib along the line, and the straight geodesic field where coasts are land);
+// the sea metric's distance at points taken just off a coast (continuous along it).
 #include <gtest/gtest.h>
 
 #include <GeographicLib/Geodesic.hpp>
