@@ -35,6 +35,16 @@ struct Junction {
   Vec2 into;  // off the edge's chord towards the side approached from (the sea there)
 };
 
+// Whether p lies strictly inside the grid's extent.
+bool inside_grid(const GridSpec& g, Vec2 p) { return p.x > g.xmin && p.x < g.xmax() && p.y > g.ymin() && p.y < g.ymax; }
+
+// A point off the chord e0-e1 on its left (s = 1) or right (s = -1), an edge's length from its
+// middle: the side a point of the edge is approached from (SiteMetric::domain_edge_point).
+Vec2 off_chord(Vec2 e0, Vec2 e1, double s) {
+  const Vec2 mid = lerp(e0, e1, 0.5), n{-(e1.y - e0.y), e1.x - e0.x};
+  return Vec2{mid.x + s * n.x, mid.y + s * n.y};
+}
+
 // The owner at p (0: none, or beyond max_distance), with `last` the site nearest to the position
 // asked before: measured here, it is the search's first bound (along a coast it mostly stays the
 // nearest; the answer is the same with or without it), and it becomes this one's.
@@ -138,7 +148,6 @@ int edge_pieces(const BoundaryGrid& b, Vec2 e0, Vec2 e1) {
 void junctions_on(const BoundaryGrid& b, double max_distance, int32_t edge, Vec2 e0, Vec2 e1, Hidden& hidden,
                   bool whole, Carry& carry, std::vector<Junction>& out) {
   const SiteMetric& m = b.index.metric();
-  auto inside = [&](Vec2 p) { return p.x > b.g.xmin && p.x < b.g.xmax() && p.y > b.g.ymin() && p.y < b.g.ymax; };
   // A point off either side of the edge's chord (a polygon's edge has sea on one, a line's on
   // both).
   const Vec2 mid = lerp(e0, e1, 0.5), n{-(e1.y - e0.y), e1.x - e0.x};
@@ -150,7 +159,7 @@ void junctions_on(const BoundaryGrid& b, double max_distance, int32_t edge, Vec2
   std::array<Vec2, 2> sea_sides;
   int n_sides = 0;
   for (const double s : {1.0, -1.0}) {
-    const Vec2 side{mid.x + s * n.x, mid.y + s * n.y};
+    const Vec2 side = off_chord(e0, e1, s);
     // (A short edge's land side is told at once by a point a thousandth of its length off its
     // middle, before the search along its normal that would fail there: along an edge of two
     // cells or less the chord and the geodesic part by far less.)
@@ -174,7 +183,7 @@ void junctions_on(const BoundaryGrid& b, double max_distance, int32_t edge, Vec2
     for (int k = 0; k <= pieces; ++k) {
       Sample& x = samples[static_cast<size_t>(k)];
       x.t = k == 0 ? kEnd : k == pieces ? 1.0 - kEnd : static_cast<double>(k) / pieces;
-      x.in = m.domain_edge_point(edge, x.t, side, x.p) && inside(x.p);
+      x.in = m.domain_edge_point(edge, x.t, side, x.p) && inside_grid(b.g, x.p);
       x.hidden = x.in && (whole || hidden(x.p));
       x.owner = 0;
     }
@@ -206,13 +215,52 @@ void junctions_on(const BoundaryGrid& b, double max_distance, int32_t edge, Vec2
   carry.side = n_sides == 1 ? sea_sides[0] : Vec2{};
 }
 
+// A closed ring of domain edges: consecutive ids from `first` (an index into the edges near the
+// grid), each edge starting where the one before ends, the last ending where the first starts;
+// its edges' ends, the length along its chords up to each edge's first end (and the whole length
+// last), and its bounds.
+struct Ring {
+  size_t first = 0;
+  std::vector<Vec2> e0, e1;
+  std::vector<double> from;
+  line_tools::Bounds box;
+};
+
+// The closed rings among `edges` (every domain edge near the grid, in id order: a ring's edges
+// are consecutive ids); a barrier line's chain, or a ring cut by the selection, is none.
+std::vector<Ring> closed_rings(const SiteMetric& m, const std::vector<int32_t>& edges) {
+  std::vector<Ring> rings;
+  for (size_t first = 0; first < edges.size();) {
+    Ring r;
+    r.first = first;
+    size_t last = first;
+    for (; last < edges.size(); ++last) {
+      Vec2 a, c;
+      if (!m.domain_edge_ends(edges[last], a, c)) return rings;
+      if (last > first && !(edges[last] == edges[last - 1] + 1 && a == r.e1.back())) break;
+      r.e0.push_back(a);
+      r.e1.push_back(c);
+    }
+    first = last;
+    const size_t n = r.e0.size();
+    if (n < 3 || !(r.e1.back() == r.e0.front())) continue;
+    r.from.assign(n + 1, 0.0);
+    for (size_t k = 0; k < n; ++k) {
+      r.from[k + 1] = r.from[k] + std::hypot(r.e1[k].x - r.e0[k].x, r.e1[k].y - r.e0[k].y);
+      r.box.add(r.e0[k]);
+    }
+    rings.push_back(std::move(r));
+  }
+  return rings;
+}
+
 // The coasts between line ends whose owners disagree (see the contract): the ids of the edges
-// of every stretch of a closed ring, between two of its line ends next to each other along it,
-// where the owner just past the first end is not the owner just before the second, sorted. Such
-// a stretch holds a change of owner that no line ends at, wherever the cells lie: the locus may
-// cross a channel narrower than a cell inside one dual square whose four corners are at sea.
-// `edges`: every domain edge near the grid, in id order (a ring's edges are consecutive ids).
-std::vector<int32_t> disagreeing_stretches(const BoundaryGrid& b, double max_distance,
+// of every stretch of a closed ring (`rings`, of `edges`), between two of its line ends next to
+// each other along it, where the owner just past the first end is not the owner just before the
+// second, sorted. Such a stretch holds a change of owner that no line ends at, wherever the cells
+// lie: the locus may cross a channel narrower than a cell inside one dual square whose four
+// corners are at sea.
+std::vector<int32_t> disagreeing_stretches(const BoundaryGrid& b, double max_distance, const std::vector<Ring>& rings,
                                            const std::vector<int32_t>& edges, const std::vector<BoundaryLine>& lines) {
   const SiteMetric& m = b.index.metric();
   std::vector<Vec2> ends;
@@ -223,7 +271,6 @@ std::vector<int32_t> disagreeing_stretches(const BoundaryGrid& b, double max_dis
   std::vector<int32_t> out;
   if (ends.empty()) return out;
   const GridSpec& g = b.g;
-  auto inside = [&](Vec2 p) { return p.x > g.xmin && p.x < g.xmax() && p.y > g.ymin() && p.y < g.ymax; };
   // (An end lies on its edge's geodesic, which an edge of a few cells leaves by far less than a
   // hundredth of a cell; the nearest edge within that is the one it ends on.)
   const double on_edge = 1e-2 * g.res;
@@ -231,45 +278,21 @@ std::vector<int32_t> disagreeing_stretches(const BoundaryGrid& b, double max_dis
     double s;  // along the ring from its first vertex, in grid-CRS units along the chords
     size_t k;  // the edge's index in the ring
   };
-  std::vector<Vec2> e0s, e1s;
-  std::vector<double> from;  // the ring's length up to each edge's first end
-  for (size_t first = 0; first < edges.size();) {
-    // A ring: consecutive ids, each edge starting where the one before ends, the last ending where
-    // the first starts.
-    e0s.clear();
-    e1s.clear();
-    size_t last = first;
-    for (;; ++last) {
-      Vec2 a, c;
-      if (!m.domain_edge_ends(edges[last], a, c)) return out;
-      if (last > first && !(edges[last] == edges[last - 1] + 1 && a == e1s.back())) break;
-      e0s.push_back(a);
-      e1s.push_back(c);
-      if (last + 1 == edges.size()) {
-        ++last;
-        break;
-      }
-    }
-    const size_t n = e0s.size(), ring0 = first;
-    first = last;
-    if (n < 3 || !(e1s.back() == e0s.front())) continue;
-    line_tools::Bounds box;
-    for (const Vec2& v : e0s) box.add(v);
-    from.assign(n + 1, 0.0);
-    for (size_t k = 0; k < n; ++k) from[k + 1] = from[k] + std::hypot(e1s[k].x - e0s[k].x, e1s[k].y - e0s[k].y);
-    const double length = from[n];
+  for (const Ring& r : rings) {
+    const size_t n = r.e0.size();
+    const double length = r.from[n];
     std::vector<At> at;
     for (const Vec2& p : ends) {
       line_tools::Bounds at_p;
       at_p.add(p);
-      if (!box.meets(at_p, on_edge)) continue;
+      if (!r.box.meets(at_p, on_edge)) continue;
       double best = on_edge;
       At found{-1.0, 0};
       for (size_t k = 0; k < n; ++k) {
-        const double d = line_tools::segment_distance(p, e0s[k], e1s[k]);
+        const double d = line_tools::segment_distance(p, r.e0[k], r.e1[k]);
         if (d <= best) {
           best = d;
-          found = At{from[k] + line_tools::nearest_t(e0s[k], e1s[k], p) * (from[k + 1] - from[k]), k};
+          found = At{r.from[k] + line_tools::nearest_t(r.e0[k], r.e1[k], p) * (r.from[k + 1] - r.from[k]), k};
         }
       }
       if (found.s >= 0.0) at.push_back(found);
@@ -278,9 +301,8 @@ std::vector<int32_t> disagreeing_stretches(const BoundaryGrid& b, double max_dis
     std::sort(at.begin(), at.end(), [](const At& x, const At& y) { return x.s < y.s; });
     // The point of ring edge k at t on its sea side (the first side found); false where neither is.
     auto sea_point = [&](size_t k, double t, Vec2& p) {
-      const Vec2 mid = lerp(e0s[k], e1s[k], 0.5), nrm{-(e1s[k].y - e0s[k].y), e1s[k].x - e0s[k].x};
       for (const double side : {1.0, -1.0})
-        if (m.domain_edge_point(edges[ring0 + k], t, Vec2{mid.x + side * nrm.x, mid.y + side * nrm.y}, p)) return true;
+        if (m.domain_edge_point(edges[r.first + k], t, off_chord(r.e0[k], r.e1[k], side), p)) return true;
       return false;
     };
     // The owner at s along the ring, on its sea side; 0 where that is not known (outside the grid,
@@ -289,10 +311,10 @@ std::vector<int32_t> disagreeing_stretches(const BoundaryGrid& b, double max_dis
     auto owner_along = [&](double s) {
       s = std::fmod(s + length, length);
       const size_t k = std::min<size_t>(
-          n - 1, static_cast<size_t>(std::upper_bound(from.begin(), from.end(), s) - from.begin()) - 1);
-      const double t = std::clamp((s - from[k]) / std::max(from[k + 1] - from[k], 1e-300), 0.0, 1.0);
+          n - 1, static_cast<size_t>(std::upper_bound(r.from.begin(), r.from.end(), s) - r.from.begin()) - 1);
+      const double t = std::clamp((s - r.from[k]) / std::max(r.from[k + 1] - r.from[k], 1e-300), 0.0, 1.0);
       Vec2 p;
-      return sea_point(k, t, p) && inside(p) ? owner_at(b, max_distance, p, last_site) : 0;
+      return sea_point(k, t, p) && inside_grid(g, p) ? owner_at(b, max_distance, p, last_site) : 0;
     };
     // Whether ring edge k has sea beside it at both ends and its middle.
     auto coastal = [&](size_t k) {
@@ -315,10 +337,10 @@ std::vector<int32_t> disagreeing_stretches(const BoundaryGrid& b, double max_dis
       // that runs inside other land, overlapping islands or states' land borders, where the sea's
       // coast goes on along the other ring.)
       bool within = true;
-      for (size_t c = 1; c < count && within; ++c) within = inside(e0s[(x.k + c) % n]);
+      for (size_t c = 1; c < count && within; ++c) within = inside_grid(g, r.e0[(x.k + c) % n]);
       for (size_t c = 0; c < count && within; ++c) within = coastal((x.k + c) % n);
       if (!within) continue;
-      for (size_t c = 0; c < count; ++c) out.push_back(edges[ring0 + (x.k + c) % n]);
+      for (size_t c = 0; c < count; ++c) out.push_back(edges[r.first + (x.k + c) % n]);
     }
   }
   std::sort(out.begin(), out.end());
@@ -595,9 +617,10 @@ void cross_hidden_channels(const BoundaryGrid& b, double max_distance, double pe
   // owner may be hidden in turn: a chain of islands inside cells, one more each round. An edge is
   // walked whole once; a stretch that still disagrees after that is left as it is.
   constexpr int kRounds = 16;
+  const std::vector<Ring> rings = closed_rings(m, edges);
   std::vector<int32_t> walked, fresh, both;
   for (int round = 0; round < kRounds; ++round) {
-    const std::vector<int32_t> whole = disagreeing_stretches(b, max_distance, edges, lines);
+    const std::vector<int32_t> whole = disagreeing_stretches(b, max_distance, rings, edges, lines);
     fresh.clear();
     std::set_difference(whole.begin(), whole.end(), walked.begin(), walked.end(), std::back_inserter(fresh));
     if (round > 0 && fresh.empty()) break;
