@@ -316,11 +316,6 @@ std::vector<int32_t> disagreeing_stretches(const BoundaryGrid& b, double max_dis
       Vec2 p;
       return sea_point(k, t, p) && inside_grid(g, p) ? owner_at(b, max_distance, p, last_site) : 0;
     };
-    // Whether ring edge k has sea beside it at both ends and its middle.
-    auto coastal = [&](size_t k) {
-      Vec2 p;
-      return sea_point(k, 1e-6, p) && sea_point(k, 0.5, p) && sea_point(k, 1.0 - 1e-6, p);
-    };
     for (size_t i = 0; i < at.size(); ++i) {
       const At& x = at[i];
       const At& y = at[(i + 1) % at.size()];
@@ -333,12 +328,10 @@ std::vector<int32_t> disagreeing_stretches(const BoundaryGrid& b, double max_dis
       // (From the first end's edge to the second's; round the whole ring where the second lies
       // on the same edge behind the first.)
       const size_t count = y.k == x.k && (at.size() == 1 || y.s < x.s) ? n : (y.k + n - x.k) % n + 1;
-      // (Not a stretch that leaves the grid, where its change may be a line's end on the frame, or
-      // that runs inside other land, overlapping islands or states' land borders, where the sea's
-      // coast goes on along the other ring.)
+      // (Not a stretch that leaves the grid: its change may be a line's end on the frame, and a
+      // mainland's coast clipped to the grid runs for hundreds of cells.)
       bool within = true;
       for (size_t c = 1; c < count && within; ++c) within = inside_grid(g, r.e0[(x.k + c) % n]);
-      for (size_t c = 0; c < count && within; ++c) within = coastal((x.k + c) % n);
       if (!within) continue;
       for (size_t c = 0; c < count; ++c) out.push_back(edges[r.first + (x.k + c) % n]);
     }
