@@ -474,25 +474,24 @@ void cross_channels(const BoundaryGrid& b, std::vector<BoundaryLine>& lone, std:
 // stretch of a closed ring inside the grid between two line ends next to each other along it (ends
 // on the barrier) where the owner just past the first is not the owner just before the second: a
 // sound between two islands inside one dual square whose corners are all at sea hides a change
-// there, and the owner is asked afresh past each vertex of such a stretch (a locus through the
-// vertex itself). Where the owner changes (both owned, within `max_distance`) the junction is
-// solved as end_at_barriers solves it. A junction that no end of a line of its two owners explains
-// (an end on the barrier at the same point, an open end within two cells, a tripoint of both within
-// two cells) is a line missing: such junctions of the same two owners within four cells of each
-// other, the way between them open and their costs nearly equal at its middle (within a quarter of
-// the chord's length), are paired nearest first and each pair appended as a line of two vertices on
-// the barriers (finish_lines refines the chord onto the locus). A junction left within a cell of
-// the grid's edge gets the line from it to the edge (the point of the nearest side, within a cell
-// and a half, where the costs are equal, the way open; region_edges leaves an end on the edge where
-// it is). A junction left after that is followed along the locus from it into the sea
-// (narrow_level's walk, `per` as follow_open_ends'), and the points walked make its line where the
-// walk reaches a coast, another junction left, or an open end of a line of the same owners (joined
-// to it), and does not run along a line of theirs (walk_runs_along): a pocket of sea whose cells
-// meet the rest only corner to corner, the line from one coast across it to a coast the cells show.
-// A line drawn to an island may leave that island's other change hidden in turn, so the stretches
-// are found again from the lines drawn, and the new ones walked, up to 16 rounds (a chain of
-// islands inside cells, one more a round). Counts the lines in stats.channels_crossed and the
-// junctions left unexplained in stats.coast_changes_unexplained.
+// there. Where the owner changes (both owned, within `max_distance`) the junction is solved as
+// end_at_barriers solves it. A junction that no end of a line of its two owners explains (an end on
+// the barrier at the same point, an open end within two cells, a tripoint of both within two cells)
+// is a line missing: such junctions of the same two owners within four cells of each other, the way
+// between them open and their costs nearly equal at its middle (within a quarter of the chord's
+// length), are paired nearest first and each pair appended as a line of two vertices on the
+// barriers (finish_lines refines the chord onto the locus). A junction left within a cell of the
+// grid's edge gets the line from it to the edge (the point of the nearest side, within a cell and a
+// half, where the costs are equal, the way open; region_edges leaves an end on the edge where it
+// is). A junction left after that is followed along the locus from it into the sea (narrow_level's
+// walk, `per` as follow_open_ends'), and the points walked make its line where the walk reaches a
+// coast, another junction left, or an open end of a line of the same owners (joined to it), and
+// does not run along a line of theirs (walk_runs_along): a pocket of sea whose cells meet the rest
+// only corner to corner, the line from one coast across it to a coast the cells show. A line drawn
+// to an island may leave that island's other change hidden in turn, so the stretches are found
+// again from the lines drawn, and the new ones walked, up to 16 rounds (a chain of islands inside
+// cells, one more a round). Counts the lines in stats.channels_crossed and the junctions left
+// unexplained in stats.coast_changes_unexplained.
 void cross_hidden_channels(const BoundaryGrid& b, double max_distance, double per,
                            const std::vector<Tripoint>& tripoints, std::vector<BoundaryLine>& lines,
                            BoundaryStats& stats);

@@ -96,8 +96,6 @@ struct Carry {
   Vec2 end{std::numeric_limits<double>::quiet_NaN(), 0.0};
   int32_t owner = -1;  // -1: not known (the edge had two sea sides, or none)
   int32_t last = kNoSite;
-  int32_t edge = -1;  // the edge, and the side of it walked
-  Vec2 side;
 };
 
 // Whether the cells may not show the coast at p: p lies within a cell of the grid's edge (beyond
@@ -194,15 +192,11 @@ void junctions_on(const BoundaryGrid& b, double max_distance, int32_t edge, Vec2
       const bool near_hidden = x.hidden || (k > 0 && samples[static_cast<size_t>(k) - 1].hidden) ||
                                (k < pieces && samples[static_cast<size_t>(k) + 1].hidden);
       if (!x.in || !near_hidden) continue;
+      // (Walked whole, it is asked again past the vertex too: where the owner changes within a
+      // micrometre of the vertex the carried one is not this edge's, and would hide its change.)
       x.owner = k == 0 && carried && !whole ? carry.owner : owner_at(b, max_distance, x.p, carry.last);
-      // (Walked whole, the owner is asked again past the vertex: a locus through the vertex itself
-      // changes it there, on either edge's side of it.)
-      Junction j;
-      if (k == 0 && carried && whole && x.owner != 0 && carry.owner != 0 && x.owner != carry.owner &&
-          (junction_on(b, edge, side, 0.0, x.t, carry.owner, x.owner, j) ||
-           junction_on(b, carry.edge, carry.side, 1.0 - kEnd, 1.0, carry.owner, x.owner, j)))
-        out.push_back(j);
       const Sample& w = samples[static_cast<size_t>(k > 0 ? k - 1 : 0)];
+      Junction j;
       if (k > 0 && x.owner != 0 && w.owner != 0 && x.owner != w.owner &&
           junction_on(b, edge, side, w.t, x.t, w.owner, x.owner, j))
         out.push_back(j);
@@ -211,8 +205,6 @@ void junctions_on(const BoundaryGrid& b, double max_distance, int32_t edge, Vec2
   }
   carry.end = e1;
   carry.owner = n_sides == 1 ? end_owner : -1;
-  carry.edge = edge;
-  carry.side = n_sides == 1 ? sea_sides[0] : Vec2{};
 }
 
 // A closed ring of domain edges: consecutive ids from `first` (an index into the edges near the
