@@ -1,7 +1,7 @@
-// The core's part of regions (raster/src/lines/regions.cpp): boundary lines carried to the grid's edge
-// on the equidistance locus, the owner of a position by the engine's rule, and ring areas,
-// planar (shoelace) and on the ellipsoid against the closed form for a longitude/latitude
-// rectangle (zones of the authalic sphere).
+// The core's part of regions (raster/src/lines/regions/regions.cpp): boundary lines carried to
+// the grid's edge on the equidistance locus, the owner of a position by the engine's rule, and
+// ring areas, planar (shoelace) and on the ellipsoid against the closed form for a
+// longitude/latitude rectangle (zones of the authalic sphere).
 #include <gtest/gtest.h>
 
 #include <GeographicLib/Ellipsoid.hpp>

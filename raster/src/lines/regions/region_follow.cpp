@@ -8,7 +8,7 @@
 // locus function's gradient, in metric units) gives the bow b, and 2/3 b c is the sliver of the
 // parabola through the three points -- a circle's to b^2 / R of it -- so closed forms come out
 // to 1e-9.
-#include "lines/region_follow.hpp"
+#include "lines/regions/region_follow.hpp"
 
 #include <array>
 #include <cmath>

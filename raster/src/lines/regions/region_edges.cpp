@@ -16,7 +16,7 @@
 
 #include "lines/boundary_stages.hpp"
 #include "lines/line_tools.hpp"
-#include "lines/region_follow.hpp"
+#include "lines/regions/region_follow.hpp"
 #include "rv/engine/owner_index.hpp"
 #include "rv/lines/boundaries.hpp"
 #include "rv/lines/limits.hpp"
