@@ -5,23 +5,23 @@
 #include <map>
 
 namespace rv {
+
+int64_t first_column_at_or_after(const GridSpec& g, double x) {
+  double c = std::ceil(x / g.res - 0.5);
+  c = std::clamp(c, -1.0, static_cast<double>(g.width) + 1.0);
+  auto col = static_cast<int64_t>(c);
+  // The floating estimate corrected, so that the test is exactly the one brute force uses.
+  while (col > -1 && g.local_x(col - 1) >= x) --col;
+  while (col <= g.width && g.local_x(col) < x) ++col;
+  return col;
+}
+
 namespace {
 
 struct Crossing {
   int64_t row;  // window-relative
   double x;     // local frame
 };
-
-// First window column whose centre x is >= x (columns may run past the window; clamped later).
-int64_t first_col_at_or_after(const GridSpec& g, const Window& w, double x) {
-  double c = std::ceil(x / g.res - 0.5);
-  c = std::clamp(c, -1.0, static_cast<double>(g.width) + 1.0);
-  auto col = static_cast<int64_t>(c);
-  // Correct the floating estimate so that the test below is exactly the one brute force uses.
-  while (col > -1 && g.local_x(col - 1) >= x) --col;
-  while (col <= g.width && g.local_x(col) < x) ++col;
-  return col - w.col0;
-}
 
 // Adds the spans of one polygon to `out` (unresolved: may overlap other polygons' spans).
 void polygon_spans(const Polygon& poly, const GridSpec& g, const Window& w, std::vector<std::vector<Span>>& out,
@@ -60,8 +60,8 @@ void polygon_spans(const Polygon& poly, const GridSpec& g, const Window& w, std:
     while (j < scratch.size() && scratch[j].row == row) ++j;
     // Even-odd: centres in [x0, x1), [x2, x3), ... are inside.
     for (size_t k = i; k + 1 < j; k += 2) {
-      int64_t c0 = first_col_at_or_after(g, w, scratch[k].x);
-      int64_t c1 = first_col_at_or_after(g, w, scratch[k + 1].x);
+      int64_t c0 = first_column_at_or_after(g, scratch[k].x) - w.col0;
+      int64_t c1 = first_column_at_or_after(g, scratch[k + 1].x) - w.col0;
       c0 = std::max<int64_t>(c0, 0);
       c1 = std::min<int64_t>(c1, w.width);
       if (c0 < c1) out[row].push_back(Span{c0, c1, poly.area_site});

@@ -37,6 +37,11 @@ struct InteriorSpans {
 
 InteriorSpans build_interiors(const SeedSet& seeds, const GridSpec& grid, const Window& window);
 
+// The first column whose centre's local x (GridSpec::local_x) is >= `local_x`, clamped to
+// [-1, width + 1]: the interiors' test of a centre against a ring's crossing of its row (a
+// centre on the crossing is on the span's side that starts there).
+int64_t first_column_at_or_after(const GridSpec& grid, double local_x);
+
 // The same for a replacement list of polygons (their area_site indices refer to seeds' sites;
 // the same site may appear in several polygons, e.g. copies of a polygon one turn of longitude
 // apart on geodesic grids).
