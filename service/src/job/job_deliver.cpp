@@ -9,6 +9,7 @@
 #include <map>
 #include <memory>
 #include <optional>
+#include <sstream>
 
 #include <GeographicLib/Geodesic.hpp>
 
@@ -25,6 +26,7 @@
 #include "rv/lines/boundaries.hpp"
 #include "rv/lines/limits.hpp"
 #include "rv/lines/margin.hpp"
+#include "rv/lines/region_check.hpp"
 #include "rv/lines/regions.hpp"
 #include "rv/lines/relevant_coasts.hpp"
 #include "rv/lines/strip_lines.hpp"
@@ -92,7 +94,10 @@ struct StripDeliverables::State {
   std::unique_ptr<SiteMetric> metric;
   std::unique_ptr<OwnerIndex> index;
   double cell_length = 0.0;  // one cell in metric units near the grid's centre (degrees are not metres)
-  SiteCodes owner_codes;     // site -> owner code (the preview)
+  SiteCodes owner_codes;     // site -> owner code (the preview, the regions' check)
+  // The regions' check against the cells (rv/lines/region_check.hpp): every cell's owner, by rows.
+  std::optional<CellOwners> cell_owners;
+  nlohmann::json region_check;  // its report entry
   std::optional<StripLines> boundaries, limits;
   // Regions where the owned area ends: the line at the max distance, or, with adjusted seeds
   // (reaches, or weights with the max distance as a cap), the edge of what the reaches cover.
@@ -142,6 +147,12 @@ struct StripDeliverables::State {
   LimitResult take_limits();
   double write_limit_file(const LimitResult& limits) const;
   void write_region_polygons(const BoundaryResult& boundaries);
+  // The rows of a strip into cell_owners (an edit's: its fed rows alone, the others' cells are not
+  // all computed).
+  void add_cell_owners(const NearestField& strip);
+  // The regions' faces against the cells: reported, and refused where an owned cell lies clear of
+  // the faces' edges in another owner's face or in none.
+  void check_regions(std::span<const OwnedFace> faces);
   // The disproportionality test's report entry, from the regions' areas within the relevant area.
   nlohmann::json relevance(const RegionStats& rs, const std::string& area_units);
   void finish_margin();
@@ -299,6 +310,7 @@ StripDeliverables::StripDeliverables(JobRun& run, const PreparedJob& job, bool s
     r.limit.threads = run.spec.threads;
     s.reach.emplace(g, *s.index, r);
   }
+  if (out.regions_wanted()) s.cell_owners.emplace(g);
   if (!out.preview.empty()) s.preview.emplace(g, g.full_window());
   if (streamed && !out.margin.empty()) {
     run.will_write(out.margin);
@@ -345,6 +357,7 @@ void StripDeliverables::add(const NearestField& strip, const NearestField* measu
     s.preview->add_rows(strip.site.data(), strip.site.window().row0, strip.site.height(), &s.owner_codes,
                         strip.distance.data());
   if (s.reach) s.region_seconds += seconds([&] { s.feed(*s.reach, "reach", lines_from); });
+  if (s.cell_owners) s.region_seconds += seconds([&] { s.add_cell_owners(strip); });
   if (s.relevant_coasts) s.region_seconds += seconds([&] { s.relevant_coasts->add(strip); });
   if (!out.margin.empty()) {
     s.margin_seconds += seconds([&] {
@@ -516,6 +529,7 @@ void StripDeliverables::State::write_region_polygons(const BoundaryResult& bound
   };
   lr.area_units = s.job.unit + "^2";
   if (s.job.relevant_area) lr.relevant = &s.job.relevant_area->seeds.polygons();
+  lr.verify = [&s](std::span<const OwnedFace> faces) { s.check_regions(faces); };
   const RegionStats rs = write_line_regions(
       out.regions, lr, seeds, s.job.loaded.grid_polygons ? *s.job.loaded.grid_polygons : seeds.polygons(), s.vector);
   if (!out.regions.empty()) run.wrote("regions", out.regions);
@@ -530,6 +544,7 @@ void StripDeliverables::State::write_region_polygons(const BoundaryResult& bound
   s.report["regions"] = {
       {"owners", rs.owners}, {"polygons", rs.polygons}, {"areas", areas}, {"area_units", lr.area_units}};
   s.report["regions"]["along_edges"] = s.residual_json(along_edges, 0.0);
+  s.report["regions"]["against_cells"] = s.region_check;
   // The edge of the owned area (reaches), or the max-distance line, as the regions' edges.
   if (s.reach)
     s.report["regions"][s.job.loaded.seeds.adjusted() ? "owned_edge" : "max_distance_line"] = {
@@ -542,6 +557,63 @@ void StripDeliverables::State::write_region_polygons(const BoundaryResult& bound
           {"max_midpoint", reach_lines.residual.max_midpoint * s.job.to_output}}}};
   if (s.job.relevant_area) s.report["regions"]["relevant_area"] = relevance(rs, lr.area_units);
   s.times["regions"] = s.region_seconds + seconds_since(t);
+}
+
+void StripDeliverables::State::add_cell_owners(const NearestField& strip) {
+  const Window w = strip.site.window();
+  std::vector<int32_t> row(static_cast<size_t>(w.width));
+  auto add = [&](int64_t lo, int64_t hi) {
+    for (int64_t r = std::max(lo, w.row0); r < std::min(hi, w.row0 + w.height); ++r) {
+      owner_codes.apply(strip.site.row(r - w.row0), row.data(), w.width);
+      cell_owners->add_row(r, row);
+    }
+  };
+  if (!taking) {
+    add(w.row0, w.row0 + w.height);
+    return;
+  }
+  for (const auto& [a, b] : taking->fed) add(a, b);
+}
+
+void StripDeliverables::State::check_regions(std::span<const OwnedFace> faces) {
+  const GridSpec& g = job.grid;
+  // The centres a face edge may pass on either side of, and still follow the lines: the lines'
+  // tolerance (four times, in the grid's narrowest cell side), their simplification, and a
+  // thousandth of a cell (a line ending on a barrier is carried that far across it).
+  double side = cell_length;
+  for (const int64_t row : {int64_t{0}, g.height - 1}) {
+    const Vec2 p{g.centre_x(g.width / 2), g.centre_y(row)};
+    side = std::min(
+        {side, metric->point_distance(p, Vec2{p.x + g.res, p.y}), metric->point_distance(p, Vec2{p.x, p.y + g.res})});
+  }
+  const double cells = std::max(1e-3, 4.0 * job.line_tolerance / side) + out().simplify_cells;
+  const RegionCellCheck c = check_regions_against_cells(faces, *cell_owners, cells * g.res);
+  nlohmann::json first = nlohmann::json::array();
+  const std::vector<std::string>& labels = job.loaded.seeds.owner_labels();
+  auto label = [&](int32_t o) { return o == 0 ? std::string() : labels[static_cast<size_t>(o - 1)]; };
+  for (const RegionCellCheck::Misplaced& m : c.first)
+    first.push_back({{"x", g.centre_x(m.col)},
+                     {"y", g.centre_y(m.row)},
+                     {"owner", label(m.owner)},
+                     {"region", m.region == 0 ? nlohmann::json(nullptr) : nlohmann::json(label(m.region))}});
+  region_check = {{"rows", c.rows},
+                  {"cells_checked", c.checked},
+                  {"cells_near_edges", c.near_edges},
+                  {"margin_cells", cells},
+                  {"cells_in_another_region", c.misplaced},
+                  {"first", first}};
+  if (c.misplaced == 0) return;
+  const RegionCellCheck::Misplaced& m = c.first.front();
+  std::ostringstream text;
+  text.precision(10);
+  text << "regions: " << c.misplaced
+       << " owned cell(s) lie in another owner's region, clear of its edges (the first at " << g.centre_x(m.col) << " "
+       << g.centre_y(m.row) << ": a cell of " << label(m.owner) << " in "
+       << (m.region == 0 ? std::string("no owner's region") : label(m.region) + "'s region")
+       << "); the lines miss a change of owner there (a defect of the extraction, often where a strait or a "
+          "sound is narrower than a cell), and the regions' areas would give those cells to the wrong owner. "
+          "Leave out the regions, try a finer grid, or report this case";
+  throw Error(ErrorKind::internal, text.str());
 }
 
 nlohmann::json StripDeliverables::State::relevance(const RegionStats& rs, const std::string& area_units) {

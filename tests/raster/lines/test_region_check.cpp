@@ -10,6 +10,7 @@
 #include <random>
 #include <vector>
 
+#include "deliverables_check.hpp"
 #include "rv/field/error.hpp"
 #include "rv/lines/region_check.hpp"
 
@@ -178,21 +179,7 @@ TEST(RegionCheck, RowsNotFedAreNotChecked) {
   EXPECT_THROW(c.add_row(0, std::vector<int32_t>(5, 1)), Error);
 }
 
-double segment_distance(Vec2 p, Vec2 a, Vec2 b) {
-  const double dx = b.x - a.x, dy = b.y - a.y, l2 = dx * dx + dy * dy;
-  const double t = l2 > 0.0 ? std::clamp(((p.x - a.x) * dx + (p.y - a.y) * dy) / l2, 0.0, 1.0) : 0.0;
-  return std::hypot(p.x - (a.x + t * dx), p.y - (a.y + t * dy));
-}
-
-bool holds(const OwnedFace& f, Vec2 p) {
-  bool in = false;
-  for (const auto& ring : f.rings)
-    for (size_t i = 0, j = ring.size() - 1; i < ring.size(); j = i++)
-      if ((ring[i].y > p.y) != (ring[j].y > p.y) &&
-          p.x < ring[j].x + (p.y - ring[j].y) * (ring[i].x - ring[j].x) / (ring[i].y - ring[j].y))
-        in = !in;
-  return in;
-}
+bool holds(const OwnedFace& f, Vec2 p) { return test::inside_polygon(p, Polygon{0, 0, f.rings}); }
 
 TEST(RegionCheck, RandomTilingsOfSlantedTrianglesAgreeWithBruteForce) {
   std::mt19937_64 rng(56);
@@ -253,7 +240,7 @@ TEST(RegionCheck, RandomTilingsOfSlantedTrianglesAgreeWithBruteForce) {
         for (const OwnedFace& f : faces) {
           for (const auto& ring : f.rings)
             for (size_t i = 0; i < ring.size(); ++i)
-              d = std::min(d, segment_distance(p, ring[i], ring[(i + 1) % ring.size()]));
+              d = std::min(d, test::segment_distance(p, ring[i], ring[(i + 1) % ring.size()]));
           placed = placed || (f.owner == o && holds(f, p));
         }
         if (d <= margin) {

@@ -83,6 +83,15 @@ TEST_F(DeliverJob, WritesEveryDeliverableAndTheyPassTheChecks) {
   const auto& grid = r.report["grid"];
   const double grid_area = grid["width"].get<double>() * grid["height"].get<double>() * 250.0 * 250.0;
   EXPECT_NEAR(total, grid_area, 1e-6 * grid_area);
+  // The regions checked against the cells before they were written: every row, every cell (all
+  // owned) either checked or on an edge, none in another owner's region.
+  const auto& check = d["regions"]["against_cells"];
+  EXPECT_EQ(check["rows"], grid["height"]);
+  EXPECT_EQ(check["cells_checked"].get<int64_t>() + check["cells_near_edges"].get<int64_t>(),
+            grid["width"].get<int64_t>() * grid["height"].get<int64_t>());
+  EXPECT_GT(check["cells_checked"].get<int64_t>(), 0);
+  EXPECT_EQ(check["cells_in_another_region"], 0);
+  EXPECT_TRUE(check["first"].empty());
   const auto& times = r.report["timings_s"]["deliverables"];
   for (const char* k : {"boundaries", "limits", "regions", "margin", "preview", "exact_field", "wall"})
     EXPECT_TRUE(times.contains(k)) << k;
@@ -325,6 +334,14 @@ TEST_F(DeliverJob, GeodesicOresund) {
   EXPECT_NEAR(d["limits"]["distances"][0].get<double>(), 12.0, 1e-12);
   EXPECT_NEAR(d["limits"]["distances"][1].get<double>(), 20000.0 / 1852.0, 1e-12);
   EXPECT_EQ(d["regions"]["owners"].get<int>(), 2);
+  // Checked against the cells (the states' land is owned too): the rows, all owned cells, none
+  // in the other state's region.
+  const Raster<int32_t> own = read_int32(path("own.tif"));
+  const auto& check = d["regions"]["against_cells"];
+  EXPECT_EQ(check["rows"].get<int64_t>(), own.height());
+  EXPECT_EQ(check["cells_checked"].get<int64_t>() + check["cells_near_edges"].get<int64_t>(),
+            std::count_if(own.cells().begin(), own.cells().end(), [](int32_t o) { return o != 0; }));
+  EXPECT_EQ(check["cells_in_another_region"], 0);
   const Raster<float> m = read_float32(path("m.tif"));
   float largest = 0.0f;
   for (float v : m.cells()) largest = std::max(largest, v);

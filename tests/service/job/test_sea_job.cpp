@@ -447,6 +447,13 @@ TEST_F(SeaJob, AnIslandOfHalfEffectTakesEachCellFromTheFullOrTheNilRun) {
   EXPECT_EQ(lines.at("along_lines").at("unresolved_segments").get<int64_t>(), 0);
   EXPECT_GT(report.at("sea").at("land_cells").get<int64_t>(), 0);
   EXPECT_TRUE(report.contains("partial_effect_by_sea"));
+  // The rule's regions checked against the rule's cells: every sea cell checked or on an edge,
+  // none in the other owner's region.
+  const nlohmann::json& check = report.at("deliverables").at("regions").at("against_cells");
+  EXPECT_EQ(check.at("rows").get<int64_t>(), own.height());
+  EXPECT_EQ(check.at("cells_checked").get<int64_t>() + check.at("cells_near_edges").get<int64_t>(),
+            std::count_if(own.cells().begin(), own.cells().end(), [](int32_t o) { return o != 0; }));
+  EXPECT_EQ(check.at("cells_in_another_region").get<int64_t>(), 0);
 }
 
 // A port of X's that an island of B's shuts in at full effect (a synthetic strait in UTM 33N:

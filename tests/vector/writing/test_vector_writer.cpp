@@ -22,6 +22,7 @@
 #include "rv/gdal/vector_writer.hpp"
 #include "rv/lines/boundaries.hpp"
 #include "rv/lines/limits.hpp"
+#include "rv/lines/region_check.hpp"
 #include "rv/lines/regions.hpp"
 
 namespace rv {
@@ -237,9 +238,23 @@ TEST_F(VectorWriter, LineRegionsFollowTheBoundaryLines) {
     lr.owner_of = [&](Vec2 p) { return owner_at(index, p, reach); };
     lr.area = [](std::span<const Vec2> ring) { return ring_area(ring, MetricSpec{}, nullptr, 1.0); };
     lr.area_units = "m^2";
+    // The faces handed to the check: every owned centre clear of their edges in its owner's.
+    const Raster<int32_t> owners = owner_raster(seeds, field, 2);
+    CellOwners cells(g);
+    for (int64_t r = 0; r < g.height; ++r)
+      cells.add_row(r, std::span<const int32_t>(owners.row(r), static_cast<size_t>(g.width)));
+    int64_t faces_seen = 0;
+    lr.verify = [&](std::span<const OwnedFace> faces) {
+      faces_seen = static_cast<int64_t>(faces.size());
+      const RegionCellCheck c = check_regions_against_cells(faces, cells, 1e-3);
+      EXPECT_EQ(c.misplaced, 0);
+      EXPECT_EQ(c.checked + c.near_edges,
+                std::count_if(owners.cells().begin(), owners.cells().end(), [](int32_t v) { return v != 0; }));
+    };
     const std::string p = path("line_regions_" + std::to_string(trial) + ".gpkg");
     const RegionStats st = write_line_regions(p, lr, seeds, seeds.polygons(), {});
     EXPECT_EQ(st.owners, seeds.owner_count());
+    EXPECT_GE(faces_seen, st.polygons);
 
     Opened in(p);
     ASSERT_NE(in.ds, nullptr);
@@ -261,7 +276,6 @@ TEST_F(VectorWriter, LineRegionsFollowTheBoundaryLines) {
       total += area;
       regions.emplace_back(f->GetFieldAsInteger("owner"), std::unique_ptr<OGRGeometry>(f->StealGeometry()));
     }
-    const Raster<int32_t> owners = owner_raster(seeds, field, 2);
     if (std::isfinite(reach)) {
       // The owned area: about one cell per owned cell (the regions end between cells).
       const auto owned = static_cast<double>(
@@ -329,6 +343,61 @@ TEST_F(VectorWriter, LineRegionsFollowTheBoundaryLines) {
     ASSERT_TRUE(land && sea);
     EXPECT_EQ(land->GetFeatureCount(), 1);
     EXPECT_EQ(sea->GetFeatureCount(), seeds.owner_count());
+  }
+}
+
+// A boundary line lost merges two owners' faces: the faces the regions are about to write put
+// one owner's cells in the other's region, the check finds them, and what it throws leaves no
+// file behind.
+TEST_F(VectorWriter, LineRegionsWithALineLostAreFoundByTheirCellsAndNotWritten) {
+  SeedSet seeds;
+  for (const auto& [owner, p] : std::vector<std::pair<std::string, Vec2>>{
+           {"A", {12.3, 30.1}}, {"B", {47.9, 28.7}}, {"C", {30.2, 8.4}}, {"A", {9.1, 10.2}}})
+    seeds.add_point(seeds.add_feature(seeds.owner_code(owner)), p);
+  const GridSpec g = grid_60x45();
+  ComputeOptions co;
+  co.threads = 2;
+  const NearestField field = compute(seeds, g, co);
+  const PlanarSiteMetric metric(seeds, Vec2{g.xmin, g.ymax});
+  const OwnerIndex index(metric);
+  const BoundaryResult b = extract_boundaries(field, index);
+  const RegionEdges re = region_edges(b, index, g);
+  ASSERT_EQ(re.dangling_ends, 0);
+  const Raster<int32_t> owners = owner_raster(seeds, field, 2);
+  CellOwners cells(g);
+  for (int64_t r = 0; r < g.height; ++r)
+    cells.add_row(r, std::span<const int32_t>(owners.row(r), static_cast<size_t>(g.width)));
+  LineRegions lr;
+  lr.grid = g;
+  lr.owner_of = [&](Vec2 p) { return owner_at(index, p); };
+  lr.area = [](std::span<const Vec2> ring) { return ring_area(ring, MetricSpec{}, nullptr, 1.0); };
+  lr.area_units = "m^2";
+  RegionCellCheck found;
+  lr.verify = [&](std::span<const OwnedFace> faces) {
+    found = check_regions_against_cells(faces, cells, 1e-3);
+    if (found.misplaced > 0) throw Error(ErrorKind::internal, "regions: cells in another owner's region");
+  };
+  // Whole, the regions pass.
+  lr.edges = re.edges;
+  const std::string whole = path("regions_whole.gpkg");
+  EXPECT_NO_THROW(write_line_regions(whole, lr, seeds, seeds.polygons(), {}));
+  EXPECT_EQ(found.misplaced, 0);
+  EXPECT_GT(found.checked, 2000);
+  EXPECT_TRUE(fs::exists(whole));
+  // Each line lost in turn: its two owners' faces merge into one.
+  ASSERT_GE(re.edges.size(), 3u);
+  for (size_t lost = 0; lost < re.edges.size(); ++lost) {
+    SCOPED_TRACE("line " + std::to_string(lost) + " lost");
+    lr.edges = re.edges;
+    lr.edges.erase(lr.edges.begin() + static_cast<std::ptrdiff_t>(lost));
+    const std::string broken = path("regions_broken_" + std::to_string(lost) + ".gpkg");
+    EXPECT_THROW(write_line_regions(broken, lr, seeds, seeds.polygons(), {}), Error);
+    EXPECT_GT(found.misplaced, 0);
+    ASSERT_FALSE(found.first.empty());
+    const RegionCellCheck::Misplaced& m = found.first.front();
+    EXPECT_EQ(owners.at(m.col, m.row), m.owner);
+    EXPECT_NE(m.region, m.owner);
+    EXPECT_FALSE(fs::exists(broken));
   }
 }
 

@@ -620,19 +620,26 @@ RegionStats write_line_regions(const std::string& path, const LineRegions& r, co
   std::map<int32_t, std::unique_ptr<OGRMultiPolygon>> by_owner;
   RegionStats stats;
   const std::unique_ptr<OGRMultiPolygon> face_list = polygons_of(faces.get());
+  std::vector<OwnedFace> owned;
   for (const OGRPolygon* face : *face_list) {
     // A point strictly inside the face (GEOS); OGRSurface::PointOnSurface fails on GDAL 3.6.
     const GeometryPtr inside(
         OGRGeometry::FromHandle(OGR_G_PointOnSurface(OGRGeometry::ToHandle(const_cast<OGRPolygon*>(face)))));
-    if (!inside || wkbFlatten(inside->getGeometryType()) != wkbPoint || inside->IsEmpty()) continue;
-    const OGRPoint* at = inside->toPoint();
-    const int32_t owner = face_owner(*face, Vec2{at->getX(), at->getY()}, r);
+    const bool has_inside = inside && wkbFlatten(inside->getGeometryType()) == wkbPoint && !inside->IsEmpty();
+    const int32_t owner =
+        has_inside ? face_owner(*face, Vec2{inside->toPoint()->getX(), inside->toPoint()->getY()}, r) : 0;
+    if (r.verify) {
+      OwnedFace f{owner, {ring_points(*face->getExteriorRing())}};
+      for (int k = 0; k < face->getNumInteriorRings(); ++k) f.rings.push_back(ring_points(*face->getInteriorRing(k)));
+      owned.push_back(std::move(f));
+    }
     if (owner == 0) continue;
     auto& mp = by_owner[owner];
     if (!mp) mp = std::make_unique<OGRMultiPolygon>();
     mp->addGeometry(face);
     ++stats.polygons;
   }
+  if (r.verify) r.verify(owned);
   // Each owner's land: its seed polygons, made valid and merged.
   std::map<int32_t, OGRMultiPolygon> land_of;
   for (const Polygon& poly : polygons) {

@@ -22,6 +22,7 @@
 #include "rv/field/seeds.hpp"
 #include "rv/lines/boundaries.hpp"
 #include "rv/lines/limits.hpp"
+#include "rv/lines/region_check.hpp"
 
 namespace rv {
 
@@ -91,6 +92,10 @@ struct LineRegions {
   // The disproportionality test's relevant area (polygons in the grid's CRS, made valid and
   // merged), or null: each owner's area, land and sea within it too (RegionStats::OwnerArea).
   const std::vector<Polygon>* relevant = nullptr;
+  // Called once with every face and the owner it was given (0: nobody's, left out), after the
+  // faces are owned and before anything is written; what it throws refuses the regions (the
+  // job's check of the faces against its cells, rv/lines/region_check.hpp). May be empty.
+  std::function<void(std::span<const OwnedFace>)> verify;
 };
 // An empty `path` measures the regions without writing a file.
 RegionStats write_line_regions(const std::string& path, const LineRegions& regions, const SeedSet& seeds,
