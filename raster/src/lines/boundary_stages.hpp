@@ -402,9 +402,13 @@ void end_at_barriers(const BoundaryGrid& b, const std::vector<Tripoint>& tripoin
 void part_where_turning_on_land(const BoundaryGrid& b, std::vector<BoundaryLine>& lines, BoundaryStats& stats);
 // By sea, two open ends of lines of the same two owners (off the frame, not at a tripoint, not on
 // a barrier) within four cells of each other, with the way between them open and the locus
-// passing between them: the line broken where it passes a coast closer than a cell (the cells
-// beside it are parted by land, though the locus stays at sea). Joined, nearest pairs first,
-// where the locus walked on from one of the two reaches the other (narrow_level's walk, `per` as
+// passing between them (the two owners' costs change sign on the chord's perpendicular through its
+// middle, within a sixteenth, an eighth, a quarter or half the chord's length as far as the way
+// from the middle is open: an islet beside the chord leaves the nearer points to tell): the line
+// broken where it passes a coast closer than a cell (the cells beside it are parted by land, though
+// the locus stays at sea). Joined, nearest pairs first, where the locus walked on from one of the
+// two reaches the other without running along a line of the same owners (walk_runs_along: it would
+// come round that line's far end, and draw the line twice) (narrow_level's walk, `per` as
 // follow_open_ends'; one line's two ends make it a ring); finish_lines then refines the joining
 // chord onto the locus. Counts the joins in stats.ends_joined.
 void join_parted_ends(const BoundaryGrid& b, double per, const std::vector<Tripoint>& tripoints,

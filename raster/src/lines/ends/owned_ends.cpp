@@ -534,6 +534,30 @@ void cross_channels(const BoundaryGrid& b, std::vector<BoundaryLine>& lone, std:
   lone = std::move(left);
 }
 
+namespace {
+
+// Whether the locus of owners oa and ob passes between p and q: the two owners' costs of opposite
+// signs across the chord's middle, on the chord's perpendicular there, at a sixteenth, an eighth, a
+// quarter or half the chord's length either side, as far as the way is open from the middle (an
+// islet beside the chord, or land on one side, leaves the nearer points to tell).
+bool locus_between(const BoundaryGrid& b, int32_t oa, int32_t ob, Vec2 p, Vec2 q) {
+  const SiteMetric& metric = b.index.metric();
+  const Vec2 mid = lerp(p, q, 0.5), across{-(q.y - p.y) * 0.5, (q.x - p.x) * 0.5};
+  const double fm = cost_gap(b, oa, ob, mid);
+  if (fm == 0.0) return true;
+  if (!std::isfinite(fm)) return false;
+  for (const double side : {-1.0, 1.0})
+    for (const double t : {0.125, 0.25, 0.5, 1.0}) {
+      const Vec2 x{mid.x + side * t * across.x, mid.y + side * t * across.y};
+      const double fx = cost_gap(b, oa, ob, x);
+      if (!std::isfinite(fx) || !metric.open_between(mid, x)) break;
+      if ((fx < 0.0) != (fm < 0.0)) return true;
+    }
+  return false;
+}
+
+}  // namespace
+
 void join_parted_ends(const BoundaryGrid& b, double per, const std::vector<Tripoint>& tripoints,
                       std::vector<BoundaryLine>& lines, BoundaryStats& stats) {
   const SiteMetric& metric = b.index.metric();
@@ -565,13 +589,7 @@ void join_parted_ends(const BoundaryGrid& b, double per, const std::vector<Tripo
       const Vec2 p = ends[i].p, q = ends[j].p;
       const double d = std::hypot(q.x - p.x, q.y - p.y);
       if (!(d <= 4.0 * b.g.res) || !metric.open_between(p, q)) continue;
-      const Vec2 mid = lerp(p, q, 0.5), across{-(q.y - p.y) * 0.5, (q.x - p.x) * 0.5};
-      auto f = [&](Vec2 x) { return cost_gap(b, li.owner_a, li.owner_b, x); };
-      const Vec2 u{mid.x - across.x, mid.y - across.y}, w{mid.x + across.x, mid.y + across.y};
-      const double fm = f(mid);
-      const bool between = fm == 0.0 || ((f(u) < 0.0) != (fm < 0.0) && metric.open_between(mid, u)) ||
-                           ((f(w) < 0.0) != (fm < 0.0) && metric.open_between(mid, w));
-      if (between) pairs.push_back(NearPair{d, i, j});
+      if (locus_between(b, li.owner_a, li.owner_b, p, q)) pairs.push_back(NearPair{d, i, j});
     }
   sort_nearest_first(pairs);
   std::vector<bool> used(ends.size(), false), gone(lines.size(), false);
@@ -590,9 +608,12 @@ void join_parted_ends(const BoundaryGrid& b, double per, const std::vector<Tripo
     const Vec2 before = v.front().p == p ? v[1].p : v[v.size() - 2].p;
     const double step = b.g.res / kPerCell;
     const auto steps = static_cast<int64_t>(std::ceil(3.0 * std::hypot(q.x - p.x, q.y - p.y) / step)) + kPerCell;
-    return locus_follow::follow_on(narrow_level(b, lines[n].owner_a, lines[n].owner_b, per), p,
-                                   Vec2{p.x - before.x, p.y - before.y}, step, steps, {q})
-               .stop == locus_follow::Stop::target;
+    const locus_follow::Followed w = locus_follow::follow_on(narrow_level(b, lines[n].owner_a, lines[n].owner_b, per),
+                                                             p, Vec2{p.x - before.x, p.y - before.y}, step, steps, {q});
+    // (A walk that reaches q along a line of the same owners came round that line's other end:
+    // joined, the line would be drawn twice.)
+    return w.stop == locus_follow::Stop::target &&
+           !walk_runs_along(b, lines, w.points, lines[n].owner_a, lines[n].owner_b, static_cast<int64_t>(n));
   };
   for (const NearPair& pr : pairs) {
     if (used[pr.i] || used[pr.j]) continue;
