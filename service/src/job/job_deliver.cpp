@@ -20,6 +20,7 @@
 #include "rv/engine/owner_index.hpp"
 #include "rv/engine/site_metric.hpp"
 #include "rv/field/geolocate.hpp"
+#include "rv/field/parallel.hpp"
 #include "rv/gdal/raster_io.hpp"
 #include "rv/gdal/vector_writer.hpp"
 #include "rv/geodesic/geodesic.hpp"
@@ -561,12 +562,16 @@ void StripDeliverables::State::write_region_polygons(const BoundaryResult& bound
 
 void StripDeliverables::State::add_cell_owners(const NearestField& strip) {
   const Window w = strip.site.window();
-  std::vector<int32_t> row(static_cast<size_t>(w.width));
+  // (Rows apart on the threads: each writes its own row of cell_owners.)
   auto add = [&](int64_t lo, int64_t hi) {
-    for (int64_t r = std::max(lo, w.row0); r < std::min(hi, w.row0 + w.height); ++r) {
-      owner_codes.apply(strip.site.row(r - w.row0), row.data(), w.width);
-      cell_owners->add_row(r, row);
-    }
+    lo = std::max(lo, w.row0);
+    hi = std::min(hi, w.row0 + w.height);
+    if (lo >= hi) return;
+    detail::parallel_for(run.spec.threads, hi - lo, [&](int64_t k, int) {
+      const int64_t r = lo + k;
+      cell_owners->add_sites(r, std::span<const int32_t>(strip.site.row(r - w.row0), static_cast<size_t>(w.width)),
+                             owner_codes);
+    });
   };
   if (!taking) {
     add(w.row0, w.row0 + w.height);
@@ -587,7 +592,9 @@ void StripDeliverables::State::check_regions(std::span<const OwnedFace> faces) {
         {side, metric->point_distance(p, Vec2{p.x + g.res, p.y}), metric->point_distance(p, Vec2{p.x, p.y + g.res})});
   }
   const double cells = std::max(1e-3, 4.0 * job.line_tolerance / side) + out().simplify_cells;
+  const auto started = Clock::now();
   const RegionCellCheck c = check_regions_against_cells(faces, *cell_owners, cells * g.res);
+  times["regions_check"] = seconds_since(started);
   nlohmann::json first = nlohmann::json::array();
   const std::vector<std::string>& labels = job.loaded.seeds.owner_labels();
   auto label = [&](int32_t o) { return o == 0 ? std::string() : labels[static_cast<size_t>(o - 1)]; };

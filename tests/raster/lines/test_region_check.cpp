@@ -179,6 +179,33 @@ TEST(RegionCheck, RowsNotFedAreNotChecked) {
   EXPECT_THROW(c.add_row(0, std::vector<int32_t>(5, 1)), Error);
 }
 
+TEST(RegionCheck, RowsOfSitesGiveTheRunsOfTheirOwners) {
+  // Sites 0 and 2 of owner A, 1 of B, 3 of C; kNoSite no owner.
+  SeedSet seeds;
+  for (const char* owner : {"A", "B", "A", "C"})
+    seeds.add_point(seeds.add_feature(seeds.owner_code(owner)), Vec2{0.0, 0.0});
+  const SiteCodes codes = SiteCodes::owners(seeds);
+  const GridSpec g = grid(12, 2);
+  const std::vector<int32_t> sites{0, 0, 2, 2, 1, kNoSite, kNoSite, 3, 3, 0, 2, 1};
+  std::vector<int32_t> owners(sites.size());
+  codes.apply(sites.data(), owners.data(), static_cast<int64_t>(sites.size()));
+  CellOwners from_sites(g), from_owners(g);
+  from_sites.add_sites(1, sites, codes);
+  from_owners.add_row(1, owners);
+  EXPECT_FALSE(from_sites.has(0));
+  ASSERT_TRUE(from_sites.has(1));
+  const std::vector<CellOwners::Run>&a = from_sites.row(1), &b = from_owners.row(1);
+  ASSERT_EQ(a.size(), b.size());
+  ASSERT_EQ(a.size(), 6u);  // A (0-3), B, none, C, A (9-10), B
+  for (size_t k = 0; k < a.size(); ++k) {
+    EXPECT_EQ(a[k].col0, b[k].col0) << k;
+    EXPECT_EQ(a[k].owner, b[k].owner) << k;
+  }
+  EXPECT_EQ(a[4].col0, 9);
+  EXPECT_EQ(a[4].owner, seeds.owner_code("A"));
+  EXPECT_THROW(from_sites.add_sites(0, std::vector<int32_t>(11, 0), codes), Error);
+}
+
 bool holds(const OwnedFace& f, Vec2 p) { return test::inside_polygon(p, Polygon{0, 0, f.rings}); }
 
 TEST(RegionCheck, RandomTilingsOfSlantedTrianglesAgreeWithBruteForce) {

@@ -14,6 +14,7 @@
 #include <span>
 #include <vector>
 
+#include "rv/engine/outputs.hpp"
 #include "rv/field/grid.hpp"
 #include "rv/field/seeds.hpp"
 
@@ -21,6 +22,7 @@ namespace rv {
 
 // The owner codes of a grid's cells, row by row as runs, fed strip by strip. Rows never fed are
 // not checked. Memory: 16 bytes a run (a change of owner, or of owned and unowned, along a row).
+// Thread safety: rows may be fed from several threads at once, each row by one.
 class CellOwners {
  public:
   struct Run {
@@ -31,6 +33,9 @@ class CellOwners {
   // Row `row` (in [0, grid.height)) of owner codes, `owners.size()` == grid.width (0: no owner).
   // A row fed again replaces the earlier one.
   void add_row(int64_t row, std::span<const int32_t> owners);
+  // The same from a row of a field's sites (kNoSite: no owner), each site's owner by `codes`: the
+  // owner looked up only where the site changes along the row.
+  void add_sites(int64_t row, std::span<const int32_t> sites, const SiteCodes& codes);
   const GridSpec& grid() const { return grid_; }
   bool has(int64_t row) const { return fed_[static_cast<size_t>(row)] != 0; }
   const std::vector<Run>& row(int64_t r) const { return rows_[static_cast<size_t>(r)]; }

@@ -30,6 +30,21 @@ void CellOwners::add_row(int64_t row, std::span<const int32_t> owners) {
   fed_[static_cast<size_t>(row)] = 1;
 }
 
+void CellOwners::add_sites(int64_t row, std::span<const int32_t> sites, const SiteCodes& codes) {
+  if (row < 0 || row >= grid_.height || static_cast<int64_t>(sites.size()) != grid_.width)
+    throw Error(ErrorKind::internal, "CellOwners::add_sites: a whole row of the grid is needed");
+  std::vector<Run>& runs = rows_[static_cast<size_t>(row)];
+  runs.clear();
+  for (size_t c = 0; c < sites.size();) {
+    const int32_t site = sites[c], owner = codes.code(site);
+    if (runs.empty() || runs.back().owner != owner) runs.push_back(Run{static_cast<int64_t>(c), owner});
+    while (++c < sites.size() && sites[c] == site) {
+    }
+  }
+  runs.shrink_to_fit();
+  fed_[static_cast<size_t>(row)] = 1;
+}
+
 int64_t CellOwners::rows_fed() const {
   int64_t n = 0;
   for (uint8_t f : fed_) n += f;
