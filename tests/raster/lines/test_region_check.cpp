@@ -13,19 +13,12 @@
 #include "deliverables_check.hpp"
 #include "rv/field/error.hpp"
 #include "rv/lines/region_check.hpp"
+#include "seed_gen.hpp"
 
 namespace rv {
 namespace {
 
-GridSpec grid(int64_t w, int64_t h) {
-  GridSpec g;
-  g.xmin = 0.0;
-  g.ymax = static_cast<double>(h);
-  g.res = 1.0;
-  g.width = w;
-  g.height = h;
-  return g;
-}
+GridSpec grid(int64_t w, int64_t h) { return test::grid_of(w, h); }
 
 OwnedFace box(int32_t owner, double x0, double y0, double x1, double y1) {
   return OwnedFace{owner, {{Vec2{x0, y0}, Vec2{x1, y0}, Vec2{x1, y1}, Vec2{x0, y1}, Vec2{x0, y0}}}};
