@@ -409,8 +409,9 @@ void part_where_turning_on_land(const BoundaryGrid& b, std::vector<BoundaryLine>
 // the locus stays at sea). Joined, nearest pairs first, where the locus walked on from one of the
 // two reaches the other without running along a line of the same owners (walk_runs_along: it would
 // come round that line's far end, and draw the line twice) (narrow_level's walk, `per` as
-// follow_open_ends'; one line's two ends make it a ring); finish_lines then refines the joining
-// chord onto the locus. Counts the joins in stats.ends_joined.
+// follow_open_ends'; one line's two ends make it a ring); the points walked are the join's own
+// vertices (a chord between the two ends may cut an islet's corner that the locus goes round),
+// which finish_lines then refines. Counts the joins in stats.ends_joined.
 void join_parted_ends(const BoundaryGrid& b, double per, const std::vector<Tripoint>& tripoints,
                       std::vector<BoundaryLine>& lines, BoundaryStats& stats);
 // By sea, each open end left (off the frame and the grid's edge, not at a tripoint, not on a

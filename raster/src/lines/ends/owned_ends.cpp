@@ -11,6 +11,7 @@
 #include <cmath>
 #include <limits>
 #include <memory>
+#include <optional>
 #include <vector>
 
 #include <GeographicLib/Geodesic.hpp>
@@ -602,38 +603,47 @@ void join_parted_ends(const BoundaryGrid& b, double per, const std::vector<Tripo
   // Whether the locus walked on from the end of line n at p reaches q, within three times their
   // distance: the test above holds for any two ends of a locus that bends between them (a line's
   // two ends round a tripoint or a coast the cells do not show), which the walk tells apart.
-  auto walks_to = [&](size_t n, Vec2 p, Vec2 q) {
+  auto walk_to = [&](size_t n, Vec2 p, Vec2 q) -> std::optional<std::vector<Vec2>> {
     const std::vector<BoundaryVertex>& v = lines[n].vertices;
-    if (v.size() < 2) return false;
+    if (v.size() < 2) return std::nullopt;
     const Vec2 before = v.front().p == p ? v[1].p : v[v.size() - 2].p;
     const double step = b.g.res / kPerCell;
     const auto steps = static_cast<int64_t>(std::ceil(3.0 * std::hypot(q.x - p.x, q.y - p.y) / step)) + kPerCell;
-    const locus_follow::Followed w = locus_follow::follow_on(narrow_level(b, lines[n].owner_a, lines[n].owner_b, per),
-                                                             p, Vec2{p.x - before.x, p.y - before.y}, step, steps, {q});
+    locus_follow::Followed w = locus_follow::follow_on(narrow_level(b, lines[n].owner_a, lines[n].owner_b, per), p,
+                                                       Vec2{p.x - before.x, p.y - before.y}, step, steps, {q});
     // (A walk that reaches q along a line of the same owners came round that line's other end:
     // joined, the line would be drawn twice.)
-    return w.stop == locus_follow::Stop::target &&
-           !walk_runs_along(b, lines, w.points, lines[n].owner_a, lines[n].owner_b, static_cast<int64_t>(n));
+    if (w.stop != locus_follow::Stop::target ||
+        walk_runs_along(b, lines, w.points, lines[n].owner_a, lines[n].owner_b, static_cast<int64_t>(n)))
+      return std::nullopt;
+    return std::move(w.points);
   };
   for (const NearPair& pr : pairs) {
     if (used[pr.i] || used[pr.j]) continue;
     const size_t a = root(ends[pr.i].line), c = root(ends[pr.j].line);
     const Vec2 pa = ends[pr.i].p, pc = ends[pr.j].p;
-    if (!walks_to(a, pa, pc) && !walks_to(c, pc, pa)) continue;
+    // The way between them, pa first: the points walked, the join's own vertices (a chord between
+    // them may cut an islet's corner the locus goes round, where refining it could not follow).
+    std::optional<std::vector<Vec2>> way = walk_to(a, pa, pc);
+    if (!way && (way = walk_to(c, pc, pa))) std::reverse(way->begin(), way->end());
+    if (!way) continue;
+    way->pop_back();  // pc: the other line's own end
     used[pr.i] = used[pr.j] = true;
+    BoundaryLine& la = lines[a];
+    if (!(la.vertices.back().p == pa)) std::reverse(la.vertices.begin(), la.vertices.end());
+    const size_t before_count = la.vertices.size();
+    append_walked(b, la, *way);
+    stats.vertices += static_cast<int64_t>(la.vertices.size() - before_count);
+    la.bows.clear();
     if (a == c) {
       // Both ends of one line: a ring.
-      BoundaryLine& l = lines[a];
-      if (!(l.vertices.front().p == pa)) std::reverse(l.vertices.begin(), l.vertices.end());
-      l.vertices.push_back(l.vertices.front());
-      l.closed = true;
+      la.vertices.push_back(la.vertices.front());
+      la.closed = true;
     } else {
       // Line a ends at pa, line c starts at pc: c appended to a.
-      BoundaryLine &la = lines[a], &lc = lines[c];
-      if (!(la.vertices.back().p == pa)) std::reverse(la.vertices.begin(), la.vertices.end());
+      BoundaryLine& lc = lines[c];
       if (!(lc.vertices.front().p == pc)) std::reverse(lc.vertices.begin(), lc.vertices.end());
       la.vertices.insert(la.vertices.end(), lc.vertices.begin(), lc.vertices.end());
-      la.bows.clear();
       lc.vertices.clear();
       gone[c] = true;
       merged_into[c] = a;
