@@ -1040,6 +1040,55 @@ TEST(SeaLines, AChangeOfOwnerInAChannelWithNoCellIsALineAcrossIt) {
   }
 }
 
+// Two ports either side of islets scattered along their bisector (a layout found by a random
+// search in session 85): where an islet parts the cells beside the line, its two open ends are
+// joined along the locus walked between them. Joined by a chord, four segments were left off the
+// locus by more than the tolerance (the chord cut past an islet's corner the locus goes round).
+TEST(SeaLines, PartedEndsAreJoinedAlongTheLocusWalkedBetweenThem) {
+  Barriers land;
+  const std::vector<std::vector<Vec2>> islets{
+      {{18.454825, 19.659996},
+       {18.464117, 19.359116},
+       {18.691801, 19.049286},
+       {18.980310, 19.307523},
+       {18.952862, 19.740273}},
+      {{19.587847, 25.929181}, {19.396197, 25.660868}, {19.749637, 25.480404}, {19.902883, 25.808436}},
+      {{20.448485, 21.957796}, {20.875175, 21.899202}, {20.691694, 22.408772}},
+      {{18.899864, 18.095114}, {19.659972, 17.919314}, {19.810126, 18.783985}, {18.990187, 18.687897}},
+      {{18.713704, 24.135522}, {18.586469, 24.310798}, {18.526912, 24.124370}},
+      {{20.099947, 14.368041},
+       {20.492967, 14.551428},
+       {20.601194, 15.077568},
+       {20.093659, 15.248504},
+       {19.722947, 15.028938},
+       {19.742452, 14.569244}}};
+  for (size_t k = 0; k < islets.size(); ++k) land.add_polygon({islets[k]}, "islet " + std::to_string(k));
+  const GridSpec g = test::grid_of(40, 40);
+  const Vec2 west{5.0, 20.0}, east{35.0, 20.0};
+  BoundaryOptions options;
+  options.line_tolerance = 1e-6;
+  const BoundaryResult r = two_ports_by_sea(land, g, {"W", west}, {"E", east}, options);
+  EXPECT_GE(r.stats.ends_joined, 1);
+  EXPECT_EQ(r.stats.locus.unresolved, 0);
+  EXPECT_LE(r.stats.locus.max_midpoint, 1e-6);
+  // Every vertex on the locus, and no segment across an islet.
+  SeedSet seeds;  // (the metric refers to them)
+  seeds.add_point(seeds.add_feature(seeds.owner_code("W")), west);
+  seeds.add_point(seeds.add_feature(seeds.owner_code("E")), east);
+  const std::unique_ptr<SiteMetric> metric = make_sea_site_metric(seeds, land, g);
+  int64_t vertices = 0;
+  for (const BoundaryLine& l : r.lines)
+    for (size_t k = 0; k < l.vertices.size(); ++k) {
+      const Vec2 p = l.vertices[k].p;
+      EXPECT_NEAR(metric->distance(p, 0), metric->distance(p, 1), 1e-6) << p.x << "," << p.y;
+      if (k + 1 < l.vertices.size()) {
+        EXPECT_TRUE(metric->open_between(p, l.vertices[k + 1].p)) << "across land from " << p.x << "," << p.y;
+      }
+      ++vertices;
+    }
+  EXPECT_GT(vertices, 40);
+}
+
 // A channel along the diagonal y = x through a square of land, 0.42 cells wide: its cells meet
 // only corner to corner (the centres beside them on land), so no two 4-neighbours of the two
 // ports' cells lie either side of the change of owner inside it. Its coasts show it: the line
