@@ -600,9 +600,10 @@ void join_parted_ends(const BoundaryGrid& b, double per, const std::vector<Tripo
     while (merged_into[n] != n) n = merged_into[n];
     return n;
   };
-  // Whether the locus walked on from the end of line n at p reaches q, within three times their
-  // distance: the test above holds for any two ends of a locus that bends between them (a line's
-  // two ends round a tripoint or a coast the cells do not show), which the walk tells apart.
+  // The points walked on along the locus from the end of line n at p to q (both included), where
+  // the walk reaches q within three times their distance: the test above holds for any two ends
+  // of a locus that bends between them (a line's two ends round a tripoint or a coast the cells do
+  // not show), which the walk tells apart.
   auto walk_to = [&](size_t n, Vec2 p, Vec2 q) -> std::optional<std::vector<Vec2>> {
     const std::vector<BoundaryVertex>& v = lines[n].vertices;
     if (v.size() < 2) return std::nullopt;
