@@ -130,7 +130,8 @@ class Session {
   nlohmann::json undo();
   nlohmann::json redo();
 
-  // Grid, owners, areas, memory, edits made, undo and redo depth.
+  // Grid, owners, areas, memory, edits made, undo and redo depth; with regions, their check
+  // against the cells (regions_check: a job report's deliverables.regions.against_cells).
   nlohmann::json info() const;
   // The seed features as a GeoJSON FeatureCollection (ids as above; properties owner, weight,
   // reach, kind), coordinates in the seeds' CRS; a CRS other than longitude/latitude is named

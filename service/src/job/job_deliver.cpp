@@ -148,8 +148,8 @@ struct StripDeliverables::State {
   LimitResult take_limits();
   double write_limit_file(const LimitResult& limits) const;
   void write_region_polygons(const BoundaryResult& boundaries);
-  // The rows of a strip into cell_owners (an edit's: its fed rows alone, the others' cells are not
-  // all computed).
+  // The rows of a strip into cell_owners (a streamed edit's: its fed rows alone, the others' cells
+  // are not all computed).
   void add_cell_owners(const NearestField& strip);
   // The regions' faces against the cells: reported, and refused where an owned cell lies clear of
   // the faces' edges in another owner's face or in none.
@@ -573,7 +573,9 @@ void StripDeliverables::State::add_cell_owners(const NearestField& strip) {
                              owner_codes);
     });
   };
-  if (!taking) {
+  // (A streamed edit's strips hold valid cells on its fed rows alone; a field kept whole, as a
+  // session's, on every row.)
+  if (!taking || !streamed) {
     add(w.row0, w.row0 + w.height);
     return;
   }

@@ -785,25 +785,30 @@ json Session::info() const {
   json owners = json::array();
   for (size_t c = 0; c < st.job.loaded.seeds.owner_labels().size(); ++c)
     owners.push_back({{"code", c + 1}, {"label", st.job.loaded.seeds.owner_labels()[c]}});
-  return {{"grid",
-           {{"xmin", g.xmin},
-            {"ymax", g.ymax},
-            {"res", g.res},
-            {"width", g.width},
-            {"height", g.height},
-            {"crs", st.job.loaded.crs.name}}},
-          {"metric", st.job.metric.kind == MetricSpec::geodesic ? "geodesic" : "planar"},
-          {"distance_units", st.job.unit},
-          {"owners", owners},
-          {"features", st.job.loaded.seeds.features().size()},
-          {"areas", st.areas_json()},
-          {"area_units", st.report.contains("regions") ? st.report["regions"]["area_units"] : json(st.job.unit + "^2")},
-          {"deliverables", deliverables()},
-          {"memory_bytes", bytes},
-          {"bytes_per_cell", static_cast<double>(bytes) / static_cast<double>(std::max<int64_t>(1, g.cell_count()))},
-          {"steps", st.steps},
-          {"undo", st.undo.size()},
-          {"redo", st.redo.size()}};
+  json out = {
+      {"grid",
+       {{"xmin", g.xmin},
+        {"ymax", g.ymax},
+        {"res", g.res},
+        {"width", g.width},
+        {"height", g.height},
+        {"crs", st.job.loaded.crs.name}}},
+      {"metric", st.job.metric.kind == MetricSpec::geodesic ? "geodesic" : "planar"},
+      {"distance_units", st.job.unit},
+      {"owners", owners},
+      {"features", st.job.loaded.seeds.features().size()},
+      {"areas", st.areas_json()},
+      {"area_units", st.report.contains("regions") ? st.report["regions"]["area_units"] : json(st.job.unit + "^2")},
+      {"deliverables", deliverables()},
+      {"memory_bytes", bytes},
+      {"bytes_per_cell", static_cast<double>(bytes) / static_cast<double>(std::max<int64_t>(1, g.cell_count()))},
+      {"steps", st.steps},
+      {"undo", st.undo.size()},
+      {"redo", st.redo.size()}};
+  // The regions checked against the session's cells, as a job's (every row: the field is whole).
+  if (st.report.contains("regions") && st.report["regions"].contains("against_cells"))
+    out["regions_check"] = st.report["regions"]["against_cells"];
+  return out;
 }
 
 json Session::features() const {

@@ -195,6 +195,14 @@ class SessionTest : public ::testing::Test {
     }
     // The areas: the regions' as the fresh job's, the cells' as the fresh field's.
     const json info = session.info();
+    // The regions checked against every row of the session's field, whatever the step took from
+    // the one before.
+    const std::vector<std::string> made = session.deliverables();
+    if (std::find(made.begin(), made.end(), "regions") != made.end()) {
+      EXPECT_EQ(info.at("regions_check").at("rows").get<int64_t>(), session.grid().height);
+      EXPECT_EQ(info.at("regions_check").at("cells_in_another_region").get<int64_t>(), 0);
+      ++regions_checked;
+    }
     std::map<std::string, double> region_area, cells;
     for (const json& a : r.report["deliverables"]["regions"]["areas"])
       region_area[a["label"].get<std::string>()] = a["area"].get<double>();
@@ -263,6 +271,7 @@ class SessionTest : public ::testing::Test {
 
   fs::path dir_;
   int runs_ = 0;
+  int64_t regions_checked = 0;  // check_fresh's: steps whose regions' check was read
   NearestField previous_;
   std::vector<std::string> previous_labels_;
   std::vector<int32_t> previous_owner_;
@@ -615,6 +624,7 @@ TEST_F(SessionTest, BalticGeodesicEditsEqualFreshRuns) {
   check_fresh(*session, s, answer, "remove");
   answer = session->undo();
   check_fresh(*session, s, answer, "undo");
+  EXPECT_GT(regions_checked, 2);
 }
 
 }  // namespace
