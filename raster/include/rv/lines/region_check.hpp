@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "rv/engine/outputs.hpp"
+#include "rv/field/error.hpp"
 #include "rv/field/grid.hpp"
 #include "rv/field/seeds.hpp"
 
@@ -42,6 +43,24 @@ class CellOwners {
   int64_t rows_fed() const;
 
  private:
+  // Row `row`'s runs from `keys` (a whole row), each key's owner by `owner_of`: looked up only
+  // where the key changes along the row.
+  template <class OwnerOf>
+  void store(int64_t row, std::span<const int32_t> keys, OwnerOf&& owner_of) {
+    if (row < 0 || row >= grid_.height || static_cast<int64_t>(keys.size()) != grid_.width)
+      throw Error(ErrorKind::internal, "CellOwners: a whole row of the grid is needed");
+    std::vector<Run>& runs = rows_[static_cast<size_t>(row)];
+    runs.clear();
+    for (size_t c = 0; c < keys.size();) {
+      const int32_t key = keys[c], owner = owner_of(key);
+      if (runs.empty() || runs.back().owner != owner) runs.push_back(Run{static_cast<int64_t>(c), owner});
+      while (++c < keys.size() && keys[c] == key) {
+      }
+    }
+    runs.shrink_to_fit();
+    fed_[static_cast<size_t>(row)] = 1;
+  }
+
   GridSpec grid_;
   std::vector<std::vector<Run>> rows_;
   std::vector<uint8_t> fed_;

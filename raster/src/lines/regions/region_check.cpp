@@ -20,29 +20,11 @@ CellOwners::CellOwners(const GridSpec& grid)
     : grid_(grid), rows_(static_cast<size_t>(grid.height)), fed_(static_cast<size_t>(grid.height), 0) {}
 
 void CellOwners::add_row(int64_t row, std::span<const int32_t> owners) {
-  if (row < 0 || row >= grid_.height || static_cast<int64_t>(owners.size()) != grid_.width)
-    throw Error(ErrorKind::internal, "CellOwners::add_row: a whole row of the grid is needed");
-  std::vector<Run>& runs = rows_[static_cast<size_t>(row)];
-  runs.clear();
-  for (size_t c = 0; c < owners.size(); ++c)
-    if (runs.empty() || runs.back().owner != owners[c]) runs.push_back(Run{static_cast<int64_t>(c), owners[c]});
-  runs.shrink_to_fit();
-  fed_[static_cast<size_t>(row)] = 1;
+  store(row, owners, [](int32_t owner) { return owner; });
 }
 
 void CellOwners::add_sites(int64_t row, std::span<const int32_t> sites, const SiteCodes& codes) {
-  if (row < 0 || row >= grid_.height || static_cast<int64_t>(sites.size()) != grid_.width)
-    throw Error(ErrorKind::internal, "CellOwners::add_sites: a whole row of the grid is needed");
-  std::vector<Run>& runs = rows_[static_cast<size_t>(row)];
-  runs.clear();
-  for (size_t c = 0; c < sites.size();) {
-    const int32_t site = sites[c], owner = codes.code(site);
-    if (runs.empty() || runs.back().owner != owner) runs.push_back(Run{static_cast<int64_t>(c), owner});
-    while (++c < sites.size() && sites[c] == site) {
-    }
-  }
-  runs.shrink_to_fit();
-  fed_[static_cast<size_t>(row)] = 1;
+  store(row, sites, [&codes](int32_t site) { return codes.code(site); });
 }
 
 int64_t CellOwners::rows_fed() const {
@@ -76,7 +58,7 @@ void merge(std::vector<Interval>& v) {
 
 // Per row: the faces' spans by owner, and the centres near a face edge.
 struct RowFaces {
-  std::vector<std::vector<OwnerSpan>> spans;  // sorted by (owner, c0), one owner's merged
+  std::vector<std::vector<OwnerSpan>> spans;  // sorted by (owner, c0) when checked
   std::vector<std::vector<Interval>> near;    // merged
 };
 
