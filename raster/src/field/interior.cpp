@@ -16,18 +16,10 @@ int64_t first_column_at_or_after(const GridSpec& g, double x) {
   return col;
 }
 
-namespace {
-
-struct Crossing {
-  int64_t row;  // window-relative
-  double x;     // local frame
-};
-
-// Adds the spans of one polygon to `out` (unresolved: may overlap other polygons' spans).
-void polygon_spans(const Polygon& poly, const GridSpec& g, const Window& w, std::vector<std::vector<Span>>& out,
-                   std::vector<Crossing>& scratch) {
+void ring_spans(std::span<const Ring> rings, const GridSpec& g, const Window& w, std::vector<RingCrossing>& scratch,
+                const std::function<void(int64_t row, int64_t c0, int64_t c1)>& add) {
   scratch.clear();
-  for (const Ring& ring : poly.rings) {
+  for (const Ring& ring : rings) {
     for (size_t i = 0; i < ring.size(); ++i) {
       const Vec2 a{ring[i].x - g.xmin, ring[i].y - g.ymax};
       const Vec2& rb = ring[(i + 1) % ring.size()];
@@ -48,12 +40,12 @@ void polygon_spans(const Polygon& poly, const GridSpec& g, const Window& w, std:
         const double y = g.local_y(r);
         if ((a.y <= y) == (b.y <= y)) continue;
         const double x = a.x + (y - a.y) * (b.x - a.x) / (b.y - a.y);
-        scratch.push_back(Crossing{r - w.row0, x});
+        scratch.push_back(RingCrossing{r - w.row0, x});
       }
     }
   }
   std::sort(scratch.begin(), scratch.end(),
-            [](const Crossing& p, const Crossing& q) { return p.row != q.row ? p.row < q.row : p.x < q.x; });
+            [](const RingCrossing& p, const RingCrossing& q) { return p.row != q.row ? p.row < q.row : p.x < q.x; });
   for (size_t i = 0; i + 1 < scratch.size();) {
     const int64_t row = scratch[i].row;
     size_t j = i;
@@ -64,13 +56,11 @@ void polygon_spans(const Polygon& poly, const GridSpec& g, const Window& w, std:
       int64_t c1 = first_column_at_or_after(g, scratch[k + 1].x) - w.col0;
       c0 = std::max<int64_t>(c0, 0);
       c1 = std::min<int64_t>(c1, w.width);
-      if (c0 < c1) out[row].push_back(Span{c0, c1, poly.area_site});
+      if (c0 < c1) add(row, c0, c1);
     }
     i = j;
   }
 }
-
-}  // namespace
 
 int64_t InteriorSpans::cell_count() const {
   int64_t n = 0;
@@ -106,8 +96,12 @@ InteriorSpans build_interiors(const SeedSet& seeds, const std::vector<Polygon>& 
   result.rows.resize(static_cast<size_t>(window.height));
   if (polygons.empty()) return result;
 
-  std::vector<Crossing> scratch;
-  for (const Polygon& poly : polygons) polygon_spans(poly, grid, window, result.rows, scratch);
+  // (Unresolved: a polygon's spans may overlap other polygons'.)
+  std::vector<RingCrossing> scratch;
+  for (const Polygon& poly : polygons)
+    ring_spans(poly.rings, grid, window, scratch, [&](int64_t row, int64_t c0, int64_t c1) {
+      result.rows[static_cast<size_t>(row)].push_back(Span{c0, c1, poly.area_site});
+    });
 
   // Resolve overlaps per row: the lowest area site wins each cell.
   for (auto& row : result.rows) {

@@ -11,6 +11,8 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
+#include <span>
 #include <vector>
 
 #include "rv/field/grid.hpp"
@@ -41,6 +43,18 @@ InteriorSpans build_interiors(const SeedSet& seeds, const GridSpec& grid, const 
 // [-1, width + 1]: the interiors' test of a centre against a ring's crossing of its row (a
 // centre on the crossing is on the span's side that starts there).
 int64_t first_column_at_or_after(const GridSpec& grid, double local_x);
+
+// The centres of `window` inside `rings` (even-odd; a centre on a crossing belongs to the span
+// that starts there): add(row, c0, c1) for each span of window-relative columns [c0, c1) of
+// window row `row`, non-empty and clipped to the window, rows in order. `scratch` is reused
+// between calls.
+struct RingCrossing {
+  int64_t row;  // window-relative
+  double x;     // local frame (GridSpec::local_x)
+};
+void ring_spans(std::span<const Ring> rings, const GridSpec& grid, const Window& window,
+                std::vector<RingCrossing>& scratch,
+                const std::function<void(int64_t row, int64_t c0, int64_t c1)>& add);
 
 // The same for a replacement list of polygons (their area_site indices refer to seeds' sites;
 // the same site may appear in several polygons, e.g. copies of a polygon one turn of longitude

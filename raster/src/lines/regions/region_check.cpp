@@ -1,8 +1,8 @@
 // The regions' faces against the cells (rv/lines/region_check.hpp). Each face is put on the
-// rows as spans of the centres it holds, as the interiors of seed polygons are
-// (first_column_at_or_after, even-odd); every face edge marks the centres within the margin of
-// it; then each run of one owner is compared with its owner's spans, all by column intervals,
-// so that the work grows with the runs and the faces' edges, not with the cells.
+// rows as spans of the centres it holds, as the interiors of seed polygons are (ring_spans);
+// every face edge marks the centres within the margin of it; then each run of one owner is
+// compared with its owner's spans, all by column intervals, so that the work grows with the runs
+// and the faces' edges, not with the cells.
 #include "rv/lines/region_check.hpp"
 
 #include <algorithm>
@@ -62,12 +62,6 @@ struct RowFaces {
   std::vector<std::vector<Interval>> near;    // merged
 };
 
-// The crossing of the row centre line with one face edge, as the interiors take it.
-struct Crossing {
-  int64_t row;
-  double x;  // local frame (GridSpec::local_x)
-};
-
 // The points of the line at height y within distance m of segment ab: [x0, x1], or none. The
 // set within m of the segment is convex (the segment's two discs and the band between them), so
 // its cut by the line is one interval: the hull of the discs' and the band's cuts.
@@ -104,8 +98,8 @@ std::optional<std::pair<double, double>> near_on_row(Vec2 a, Vec2 b, double m, d
   return std::pair<double, double>{x0, x1};
 }
 
-void add_face(const OwnedFace& face, const GridSpec& g, double margin, RowFaces& out, std::vector<Crossing>& scratch) {
-  scratch.clear();
+void add_face(const OwnedFace& face, const GridSpec& g, double margin, RowFaces& out,
+              std::vector<RingCrossing>& scratch) {
   const double last_row = static_cast<double>(g.height - 1);
   // The rows whose centre's local y is in [lo, hi], and one more on each side.
   auto rows_between = [&](double lo, double hi) {
@@ -128,27 +122,12 @@ void add_face(const OwnedFace& face, const GridSpec& g, double margin, RowFaces&
         const int64_t c1 = std::min(first_column_at_or_after(g, std::nextafter(x->second, HUGE_VAL)), g.width);
         if (c0 < c1) out.near[static_cast<size_t>(r)].push_back(Interval{c0, c1});
       }
-      if (a.y == b.y) continue;  // horizontal edges never cross a row centre line
-      const auto [r0, r1] = rows_between(lo, hi);
-      for (int64_t r = std::max<int64_t>(r0, 0); r <= std::min(r1, g.height - 1); ++r) {
-        const double y = g.local_y(r);
-        if ((a.y <= y) == (b.y <= y)) continue;
-        scratch.push_back(Crossing{r, a.x + (y - a.y) * (b.x - a.x) / (b.y - a.y)});
-      }
     }
   }
-  std::sort(scratch.begin(), scratch.end(),
-            [](const Crossing& p, const Crossing& q) { return p.row != q.row ? p.row < q.row : p.x < q.x; });
-  for (size_t i = 0; i < scratch.size();) {
-    size_t j = i;
-    while (j < scratch.size() && scratch[j].row == scratch[i].row) ++j;
-    for (size_t k = i; k + 1 < j; k += 2) {  // even-odd: centres in [x0, x1), [x2, x3), ...
-      const int64_t c0 = std::max<int64_t>(first_column_at_or_after(g, scratch[k].x), 0);
-      const int64_t c1 = std::min(first_column_at_or_after(g, scratch[k + 1].x), g.width);
-      if (c0 < c1) out.spans[static_cast<size_t>(scratch[i].row)].push_back(OwnerSpan{face.owner, c0, c1});
-    }
-    i = j;
-  }
+  // The centres inside the face, as seed polygons' interiors are found.
+  ring_spans(face.rings, g, g.full_window(), scratch, [&](int64_t row, int64_t c0, int64_t c1) {
+    out.spans[static_cast<size_t>(row)].push_back(OwnerSpan{face.owner, c0, c1});
+  });
 }
 
 // The cells of [c0, c1) not in `near` (merged, sorted).
@@ -178,7 +157,7 @@ RegionCellCheck check_regions_against_cells(std::span<const OwnedFace> faces, co
   RowFaces rf;
   rf.spans.resize(static_cast<size_t>(g.height));
   rf.near.resize(static_cast<size_t>(g.height));
-  std::vector<Crossing> scratch;
+  std::vector<RingCrossing> scratch;
   for (const OwnedFace& f : faces) add_face(f, g, std::max(margin, 0.0), rf, scratch);
   RegionCellCheck out;
   std::vector<Interval> own;
