@@ -142,6 +142,8 @@ bool SiteMetric::domain_edge_point(int32_t, double, Vec2, Vec2&) const { return 
 
 bool SiteMetric::domain_edge_ends(int32_t, Vec2&, Vec2&) const { return false; }
 
+double SiteMetric::domain_edge_bow(int32_t) const { return 0.0; }
+
 bool SiteMetric::in_domain(Vec2) const { return true; }
 
 double SiteMetric::distance_lower_bound(Vec2 p, int32_t site) const { return lower_bound(embed(p), site_bounds(site)); }

@@ -175,6 +175,25 @@ bool onto_domain_edge(const SiteMetric& m, Vec2 end, double radius, double ftol,
   };
   std::vector<int32_t> edges;
   m.domain_edges_near(end, radius, edges);
+  // The edges nearest first, by the least distance any point of theirs can have from `end` (its
+  // segment's, less its bow): once that exceeds the nearest point found, no later edge has a
+  // nearer one. Among thousands of islands' edges within the radius of a coarse grid's cells, the
+  // point is found on the first few, and each edge searched costs the owners' costs at least
+  // twice. (An edge beyond the radius has no point usable.)
+  struct Near {
+    double least;
+    int32_t edge;
+  };
+  std::vector<Near> near;
+  near.reserve(edges.size());
+  for (const int32_t edge : edges) {
+    Vec2 a, b;
+    if (!m.domain_edge_ends(edge, a, b)) continue;
+    const double least = segment_distance(end, a, b) - m.domain_edge_bow(edge);
+    if (least <= radius) near.push_back(Near{least, edge});
+  }
+  std::sort(near.begin(), near.end(),
+            [](const Near& u, const Near& v) { return u.least < v.least || (u.least == v.least && u.edge < v.edge); });
   double best_gap = std::numeric_limits<double>::infinity();
   // (Not at the edges' ends themselves: a point of one edge within a micrometre of its end, on a
   // geodesic edge, has no reliable direction towards that vertex, and its visibility can say it
@@ -182,7 +201,8 @@ bool onto_domain_edge(const SiteMetric& m, Vec2 end, double radius, double ftol,
   // vertex, below; one crossing the coast within a millionth of the edge of it, not through it, is
   // missed and the line's end left where it was.)
   constexpr double kEnd = 1e-6;
-  for (int32_t edge : edges) {
+  for (const auto& [least, edge] : near) {
+    if (least > best_gap) break;
     // Each edge is searched only near `end`: within four radii each way of the foot of `end` on
     // the edge's chord (a geodesic edge's parameter is not the chord's fraction, hence the
     // margin). A coast's edge may be far longer than a cell, and the locus can cross it again

@@ -373,7 +373,8 @@ inline bool on_centre_frame(const GridSpec& g, Vec2 p) {
 // vertex of a searched edge counts too where f is 0 there within `ftol` (a locus through an
 // island's corner or a boom's tip). False where there is none. An edge longer than one and a
 // half radii is sampled only within that of `end`'s foot on it; one with both ends under other
-// land is left out.
+// land is left out. The edges are searched nearest first (by their chord's distance less
+// SiteMetric::domain_edge_bow), up to the first whose every point lies beyond the nearest found.
 // `away` (or null): only points on the far side of `end` from it (a line of one vertex, whose
 // other end went towards `away`, leaves the other way).
 // `slope` (or +infinity): a bound of how fast f changes along a way at sea, per metric unit (two

@@ -3,10 +3,12 @@
 
 #include <GeographicLib/Geodesic.hpp>
 
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <cmath>
 #include <limits>
+#include <memory>
 #include <mutex>
 #include <span>
 #include <utility>
@@ -164,20 +166,12 @@ class SeaSiteMetric final : public SiteMetric {
   bool domain_edge_point(int32_t edge, double t, Vec2 side, Vec2& out) const override {
     const Prepared& pr = prepared();
     const Edge& e = edges_[static_cast<size_t>(edge)];
-    Vec2 q;
-    if (!geod_) {
-      q = Vec2{e.a.x + t * (e.b.x - e.a.x), e.a.y + t * (e.b.y - e.a.y)};
-    } else {  // (on the geodesic itself, then in the plane)
-      double lat, lon;
-      geod_->Direct(e.a_ll.y, e.a_ll.x, e.azimuth, t * e.metres, lat, lon);
-      q = pr.vis.frame()->forward(Vec2{e.a_ll.x + std::remainder(lon - e.a_ll.x, 360.0), lat});
-    }
+    const Vec2 q = point_on(e, t);
     const int o = pr.vis.orient(e.a, e.b, plane_of(side));
     if (o == 0) return false;
     const double len = length(e.a, e.b);
-    Vec2 n{-(e.b.y - e.a.y) / len, (e.b.x - e.a.x) / len};  // to the left of a -> b
+    Vec2 n = left_normal(e);
     if (o < 0) n = Vec2{-n.x, -n.y};
-    const double bend = pr.vis.frame() ? pr.vis.frame()->deviation() : 0.0;
     const double scale = std::max({std::abs(q.x), std::abs(q.y), len, std::abs(grid_.xmin), std::abs(grid_.ymax)});
     // On the ellipsoid at least a tenth of a micrometre off the edge. The geodesic reading decides
     // a point within a few units in the last place of its longitude and latitude (a nanometre) of
@@ -186,7 +180,7 @@ class SeaSiteMetric final : public SiteMetric {
     // along the edge to the edge's own end then turned the wrong way round the land there, and
     // the owners' costs along a coast jumped by a kilometre at a few points in a hundred.
     constexpr double kGeodesicOff = 1e-7;
-    const double upper = 1e-6 * len + 2.0 * bend;
+    const double upper = farthest_off(e);
     double eps = 16.0 * std::numeric_limits<double>::epsilon() * scale;
     if (geod_) eps = std::min(std::max(eps, kGeodesicOff), upper);
     for (; eps <= upper; eps *= 4.0) {
@@ -197,6 +191,28 @@ class SeaSiteMetric final : public SiteMetric {
       return true;
     }
     return false;
+  }
+  double domain_edge_bow(int32_t edge) const override {
+    std::atomic<double>& cached = bows_[static_cast<size_t>(edge)];
+    double bow = cached.load(std::memory_order_relaxed);
+    if (bow >= 0.0) return bow;
+    // The edge's points at its quarters, from its ends' chord in the grid's coordinates: a
+    // geodesic's image there is a flat arc (over an edge of a few degrees, its curvature all but
+    // constant), which twice its farthest quarter bounds. Then the farthest move off the edge,
+    // either side, at its middle.
+    const Edge& e = edges_[static_cast<size_t>(edge)];
+    const Vec2 g0 = grid_of(e.a), g1 = grid_of(e.b);
+    double dev = 0.0;
+    for (const double t : {0.25, 0.5, 0.75}) dev = std::max(dev, segment_distance(grid_of(point_on(e, t)), g0, g1));
+    const Vec2 mid = point_on(e, 0.5), gm = grid_of(mid), n = left_normal(e);
+    const double off = farthest_off(e);
+    double move = 0.0;
+    for (const double side : {-1.0, 1.0})
+      move = std::max(move, length(gm, grid_of(Vec2{mid.x + side * off * n.x, mid.y + side * off * n.y})));
+    const double scale = std::max({std::abs(g0.x), std::abs(g0.y), std::abs(g1.x), std::abs(g1.y)});
+    bow = 2.0 * dev + 2.0 * move + 64.0 * std::numeric_limits<double>::epsilon() * scale;
+    cached.store(bow, std::memory_order_relaxed);
+    return bow;
   }
 
  private:
@@ -235,11 +251,30 @@ class SeaSiteMetric final : public SiteMetric {
         for (size_t i = 0; i < r.size(); ++i) add(r[i], r[(i + 1) % r.size()]);
     for (const Barriers::Line& l : pr.vis.barriers().lines())
       for (size_t i = 0; i + 1 < l.vertices.size(); ++i) add(l.vertices[i], l.vertices[i + 1]);
+    bows_ = std::make_unique<std::atomic<double>[]>(edges_.size());
+    for (size_t i = 0; i < edges_.size(); ++i) bows_[i].store(-1.0, std::memory_order_relaxed);
   }
   static double segment_distance(Vec2 p, Vec2 a, Vec2 b) {
     const double dx = b.x - a.x, dy = b.y - a.y, l2 = dx * dx + dy * dy;
     const double t = l2 > 0.0 ? std::clamp(((p.x - a.x) * dx + (p.y - a.y) * dy) / l2, 0.0, 1.0) : 0.0;
     return length(p, Vec2{a.x + t * dx, a.y + t * dy});
+  }
+  // The point of edge e at fraction t of its length, in the plane: on the geodesic itself, then
+  // projected (geodesic), or on the segment.
+  Vec2 point_on(const Edge& e, double t) const {
+    if (!geod_) return Vec2{e.a.x + t * (e.b.x - e.a.x), e.a.y + t * (e.b.y - e.a.y)};
+    double lat, lon;
+    geod_->Direct(e.a_ll.y, e.a_ll.x, e.azimuth, t * e.metres, lat, lon);
+    return prepared().vis.frame()->forward(Vec2{e.a_ll.x + std::remainder(lon - e.a_ll.x, 360.0), lat});
+  }
+  static Vec2 left_normal(const Edge& e) {  // (of a -> b, in the plane, unit)
+    const double len = length(e.a, e.b);
+    return Vec2{-(e.b.y - e.a.y) / len, (e.b.x - e.a.x) / len};
+  }
+  // The farthest domain_edge_point moves a point off edge e, in plane units.
+  double farthest_off(const Edge& e) const {
+    const double bend = prepared().vis.frame() ? prepared().vis.frame()->deviation() : 0.0;
+    return 1e-6 * length(e.a, e.b) + 2.0 * bend;
   }
 
   // Grid-CRS positions to the plane the engines decide in, and back.
@@ -601,6 +636,7 @@ class SeaSiteMetric final : public SiteMetric {
   size_t hint_count_ = 0;                          // sites, then every group's nodes
   std::vector<int32_t> roots_of_site_;             // site -> its entry of roots_, or -1
   std::vector<Edge> edges_;                        // the domain's edges: every barrier edge
+  std::unique_ptr<std::atomic<double>[]> bows_;    // per edge, domain_edge_bow once asked (else -1)
   std::vector<size_t> touch_start_;                // per site, its first entry of touch_list_ (and one past)
   std::vector<int32_t> touch_list_;                // Prepared::touches by site
   std::unique_ptr<GeographicLib::Geodesic> geod_;  // geodesic: points along an edge

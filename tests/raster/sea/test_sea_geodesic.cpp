@@ -582,5 +582,90 @@ TEST(SeaGeodesic, ADistanceAlongACoastTakenJustOffItChangesNoFasterThanTheWayAlo
   EXPECT_EQ(samples, 8 * 2001);
 }
 
+// How far an edge's points (SiteMetric::domain_edge_point) lie from the chord of its ends in the
+// grid's coordinates is bounded by domain_edge_bow, which the search for a line's junction on a
+// coast orders the edges by: the western Baltic's 4.5-degree edge along 53.8 N (its geodesic about
+// 2.4 km north of the parallel at its middle), long random edges of a few degrees, on a
+// longitude/latitude grid and on a projected one (UTM 33N); on a planar metric the bow is the
+// edge's rounding alone.
+TEST(SeaGeodesic, AnEdgesPointsLieWithinItsBowOfItsChord) {
+  auto off_chord = [](Vec2 p, Vec2 a, Vec2 b) {
+    const double dx = b.x - a.x, dy = b.y - a.y;
+    const double t = std::clamp(((p.x - a.x) * dx + (p.y - a.y) * dy) / (dx * dx + dy * dy), 0.0, 1.0);
+    return std::hypot(p.x - (a.x + t * dx), p.y - (a.y + t * dy));
+  };
+  Barriers b;
+  b.add_polygon({{{9.5, 53.8}, {14.0, 53.8}, {14.0, 54.0}, {9.5, 54.0}}}, "strip");
+  std::mt19937 rng(56);
+  std::uniform_real_distribution<double> lon(9.2, 15.3), lat(54.3, 56.0);
+  for (int k = 0; k < 6; ++k) b.add_line(std::vector<Vec2>{{lon(rng), lat(rng)}, {lon(rng), lat(rng)}}, "boom");
+  SeedSet s;
+  s.add_point(s.add_feature(s.owner_code("P")), Vec2{12.0, 54.2});
+  struct Case {
+    const char* name;
+    GridSpec g;
+    SeaOptions options;
+    bool planar;
+  };
+  std::vector<Case> cases;
+  cases.push_back(Case{"lon/lat", test::grid_of(130, 48, 0.05, 9.0, 56.2), on_the_ellipsoid(), false});
+  GridSpec utm;  // (UTM 33N over the same sea; the barriers are given in longitude and latitude)
+  utm.xmin = 180000.0;
+  utm.ymax = 6240000.0;
+  utm.res = 5000.0;
+  utm.width = 90;
+  utm.height = 56;
+  SeaOptions located = on_the_ellipsoid();
+  located.geolocator = std::make_shared<const test::Utm33>();
+  cases.push_back(Case{"UTM 33N", utm, located, false});
+  SeaOptions planar;  // (the same numbers read as a plane)
+  cases.push_back(Case{"planar", test::grid_of(130, 48, 0.05, 9.0, 56.2), planar, true});
+  for (const Case& c : cases) {
+    const std::unique_ptr<SiteMetric> m = make_sea_site_metric(s, b, c.g, c.options);
+    std::vector<int32_t> edges;
+    m->domain_edges_near(Vec2{c.g.xmin + 0.5 * c.g.res * static_cast<double>(c.g.width),
+                              c.g.ymax - 0.5 * c.g.res * static_cast<double>(c.g.height)},
+                         0.5 * c.g.res * std::hypot(static_cast<double>(c.g.width), static_cast<double>(c.g.height)),
+                         edges);
+    ASSERT_EQ(edges.size(), 10u) << c.name;
+    double longest_bow = 0.0;
+    for (const int32_t e : edges) {
+      Vec2 e0, e1;
+      ASSERT_TRUE(m->domain_edge_ends(e, e0, e1));
+      const double bow = m->domain_edge_bow(e), chord = std::hypot(e1.x - e0.x, e1.y - e0.y);
+      EXPECT_EQ(bow, m->domain_edge_bow(e));  // (kept once found)
+      const Vec2 mid{0.5 * (e0.x + e1.x), 0.5 * (e0.y + e1.y)};
+      double farthest = 0.0;
+      int64_t points = 0;
+      for (const double side : {-1.0, 1.0}) {
+        const Vec2 toward{mid.x - side * (e1.y - e0.y), mid.y + side * (e1.x - e0.x)};
+        constexpr int kSteps = 400;
+        for (int k = 0; k <= kSteps; ++k) {
+          Vec2 q;
+          if (!m->domain_edge_point(e, static_cast<double>(k) / kSteps, toward, q)) continue;
+          const double off = off_chord(q, e0, e1);
+          EXPECT_LE(off, bow) << c.name << " edge " << e << " at " << k;
+          farthest = std::max(farthest, off);
+          ++points;
+        }
+      }
+      EXPECT_GE(points, 401) << c.name << " edge " << e;
+      if (c.planar) {
+        EXPECT_LE(bow, 1e-5 * chord) << c.name << " edge " << e;  // (the move off it, a millionth)
+      } else {
+        // Not loose: a curve's farthest point from its chord is near its middle (and the move off
+        // the edge that domain_edge_point may make is metres at most: 1e-4 degrees, 10 m).
+        EXPECT_LE(bow, 2.5 * farthest + (c.options.geolocator ? 10.0 : 1e-4)) << c.name << " edge " << e;
+      }
+      if (std::abs(e0.y - e1.y) < 1e-9 && std::abs(e0.y - 53.8) < 1e-9 && chord > 4.0) longest_bow = bow;
+    }
+    if (c.options.metric.kind == MetricSpec::geodesic && !c.options.geolocator) {
+      // (2.4 km north of 53.8 N at its middle: 0.021 degrees of latitude.)
+      EXPECT_GT(longest_bow, 0.02) << c.name;
+      EXPECT_LT(longest_bow, 0.06) << c.name;
+    }
+  }
+}
+
 }  // namespace
 }  // namespace rv

@@ -153,6 +153,13 @@ class SiteMetric {
   // The two ends of domain edge `edge` (an id from domain_edges_near), in grid-CRS coordinates,
   // first end first; false where the metric has no domain edges.
   virtual bool domain_edge_ends(int32_t edge, Vec2& first, Vec2& second) const;
+  // A bound, in grid-CRS units, of how far any point domain_edge_point gives for `edge` lies from
+  // the straight segment between its two ends (domain_edge_ends): a geodesic edge's bow in the
+  // grid's coordinates, and the move off the edge. A search for the nearest point of the edges
+  // may pass over an edge whose segment lies farther than the best found by more than this.
+  // Default: 0 (no domain edges). Thread safety: as every const member (a metric may fill a cache
+  // of these on first use).
+  virtual double domain_edge_bow(int32_t edge) const;
 
   // Lower bound of the metric distance from the embedded position q to anything in the box.
   static double lower_bound(const Vec3& q, const Box3& b);
