@@ -201,8 +201,9 @@ bool onto_domain_edge(const SiteMetric& m, Vec2 end, double radius, double ftol,
   // vertex, below; one crossing the coast within a millionth of the edge of it, not through it, is
   // missed and the line's end left where it was.)
   constexpr double kEnd = 1e-6;
-  for (const auto& [least, edge] : near) {
-    if (least > best_gap) break;
+  for (const Near& n : near) {
+    if (n.least > best_gap) break;
+    const int32_t edge = n.edge;
     // Each edge is searched only near `end`: within four radii each way of the foot of `end` on
     // the edge's chord (a geodesic edge's parameter is not the chord's fraction, hence the
     // margin). A coast's edge may be far longer than a cell, and the locus can cross it again

@@ -609,15 +609,10 @@ TEST(SeaGeodesic, AnEdgesPointsLieWithinItsBowOfItsChord) {
   };
   std::vector<Case> cases;
   cases.push_back(Case{"lon/lat", test::grid_of(130, 48, 0.05, 9.0, 56.2), on_the_ellipsoid(), false});
-  GridSpec utm;  // (UTM 33N over the same sea; the barriers are given in longitude and latitude)
-  utm.xmin = 180000.0;
-  utm.ymax = 6240000.0;
-  utm.res = 5000.0;
-  utm.width = 90;
-  utm.height = 56;
+  // (UTM 33N over the same sea, in 5 km cells; the barriers are given in longitude and latitude.)
   SeaOptions located = on_the_ellipsoid();
   located.geolocator = std::make_shared<const test::Utm33>();
-  cases.push_back(Case{"UTM 33N", utm, located, false});
+  cases.push_back(Case{"UTM 33N", test::grid_of(90, 56, 5000.0, 180000.0, 6240000.0), located, false});
   SeaOptions planar;  // (the same numbers read as a plane)
   cases.push_back(Case{"planar", test::grid_of(130, 48, 0.05, 9.0, 56.2), planar, true});
   for (const Case& c : cases) {
