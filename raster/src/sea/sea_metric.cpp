@@ -201,10 +201,9 @@ class SeaSiteMetric final : public SiteMetric {
     // constant), which twice its farthest quarter bounds. Then the farthest move off the edge,
     // either side, at its middle.
     const Edge& e = edges_[static_cast<size_t>(edge)];
-    const Vec2 g0 = grid_of(e.a), g1 = grid_of(e.b);
-    double dev = 0.0;
-    for (const double t : {0.25, 0.5, 0.75}) dev = std::max(dev, segment_distance(grid_of(point_on(e, t)), g0, g1));
-    const Vec2 mid = point_on(e, 0.5), gm = grid_of(mid), n = left_normal(e);
+    const Vec2 g0 = grid_of(e.a), g1 = grid_of(e.b), mid = point_on(e, 0.5), gm = grid_of(mid), n = left_normal(e);
+    double dev = segment_distance(gm, g0, g1);
+    for (const double t : {0.25, 0.75}) dev = std::max(dev, segment_distance(grid_of(point_on(e, t)), g0, g1));
     const double off = farthest_off(e);
     double move = 0.0;
     for (const double side : {-1.0, 1.0})

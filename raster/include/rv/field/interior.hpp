@@ -44,14 +44,15 @@ InteriorSpans build_interiors(const SeedSet& seeds, const GridSpec& grid, const 
 // centre on the crossing is on the span's side that starts there).
 int64_t first_column_at_or_after(const GridSpec& grid, double local_x);
 
-// The centres of `window` inside `rings` (even-odd; a centre on a crossing belongs to the span
-// that starts there): add(row, c0, c1) for each span of window-relative columns [c0, c1) of
-// window row `row`, non-empty and clipped to the window, rows in order. `scratch` is reused
-// between calls.
+// Where a ring's edge crosses a row's centre line (ring_spans' scratch).
 struct RingCrossing {
   int64_t row;  // window-relative
   double x;     // local frame (GridSpec::local_x)
 };
+// The centres of `window` inside `rings` (even-odd; a centre on a crossing belongs to the span
+// that starts there): add(row, c0, c1) for each span of window-relative columns [c0, c1) of
+// window row `row`, non-empty and clipped to the window, rows in order. `scratch` is reused
+// between calls.
 void ring_spans(std::span<const Ring> rings, const GridSpec& grid, const Window& window,
                 std::vector<RingCrossing>& scratch,
                 const std::function<void(int64_t row, int64_t c0, int64_t c1)>& add);
