@@ -29,6 +29,8 @@ struct Follower {
   // How far across the level a step's root is looked for (CRS units; with Level::clearance, just
   // under the way to the nearer side).
   mutable double across = std::numeric_limits<double>::infinity();
+  // The coast point a walk leaves (follow_on's `left`), or null.
+  const Vec2* left = nullptr;
 
   bool sees(Vec2 a, Vec2 b) const { return L.metric->open_between(a, b) && L.in_band(b); }
 
@@ -168,11 +170,17 @@ struct Follower {
   // Where the locus from c (at sea, within two steps of land) meets the coast: the nearest point
   // of a barrier edge within two steps, approached from c's side, where the balance is 0, that c
   // sees and that lies in the band (line_tools::onto_domain_edge, which searches a long coast edge
-  // only near c).
+  // only near c); not the coast point the walk left (`left`, within a ten-thousandth of a cell).
+  // (A walk from a coast across a sound narrower than two steps is nearer the point it left than
+  // the coast ahead when its first step finds no root.)
   bool onto_coast(Vec2 c, Vec2& out) const {
+    const double hair = 1e-4 * L.grid.res;
     return line_tools::onto_domain_edge(
         *L.metric, c, 2.0 * step, L.ftol, [this](Vec2 p) { return L.balance(p); },
-        [this](Vec2 p) { return L.in_band(p); }, out, nullptr, L.slope);
+        [this, hair](Vec2 p) {
+          return L.in_band(p) && !(left && norm(Vec2{p.x - left->x, p.y - left->y}) <= hair);
+        },
+        out, nullptr, L.slope);
   }
 
   // Midpoints where a chord strays from the locus by more than the tolerance.
@@ -344,13 +352,14 @@ struct Follower {
 }  // namespace
 
 Followed follow_on(const Level& level, Vec2 from, Vec2 heading, double step, int64_t max_steps,
-                   const std::vector<Vec2>& others) {
+                   const std::vector<Vec2>& others, const Vec2* left) {
   LineResidual unused;  // (nothing is refined here)
   std::vector<Vec2> pts{from};
   int reached = -1;
   Vec2 beyond{std::numeric_limits<double>::quiet_NaN(), 0.0};
-  const Stop stop =
-      Follower{level, unused, step}.walk(pts, heading, nullptr, false, others, &reached, max_steps, &beyond);
+  Follower walker{level, unused, step};
+  walker.left = left;
+  const Stop stop = walker.walk(pts, heading, nullptr, false, others, &reached, max_steps, &beyond);
   Followed f{std::move(pts), stop, stop == Stop::target ? reached : -1};
   f.left_band = stop == Stop::lost && std::isfinite(beyond.x);
   f.beyond = beyond;

@@ -115,7 +115,10 @@ Through follow_through(const Level& level, Vec2 on, LineResidual& residual, doub
 // no third owner is nearer).
 // `others`: points at which the walk stops as at a target (Stop::target, Followed::other its
 // index, the last point that point): other lines' ends on the same locus, to join.
+// `left` (or null): the coast point the walk leaves from (a junction of the locus with a barrier's
+// edge, `from` just off it); the walk does not end back on it (within a ten-thousandth of a cell)
+// but on the coast it reaches.
 Followed follow_on(const Level& level, Vec2 from, Vec2 heading, double step, int64_t max_steps,
-                   const std::vector<Vec2>& others = {});
+                   const std::vector<Vec2>& others = {}, const Vec2* left = nullptr);
 
 }  // namespace rv::locus_follow

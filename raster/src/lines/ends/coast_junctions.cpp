@@ -432,7 +432,7 @@ void follow_from_junctions(const BoundaryGrid& b, double per, const std::vector<
     }
     locus_follow::Followed f =
         locus_follow::follow_on(narrow_level(b, j.lo, j.hi, per), from, Vec2{from.x - j.p.x, from.y - j.p.y},
-                                b.g.res / kPerCell, kMaxSteps, others);
+                                b.g.res / kPerCell, kMaxSteps, others, &j.p);
     f.points.insert(f.points.begin(), j.p);
     const bool coast = f.stop == locus_follow::Stop::coast || f.stop == locus_follow::Stop::frame,
                target = f.stop == locus_follow::Stop::target;
