@@ -464,6 +464,12 @@ bool walk_runs_along(const BoundaryGrid& b, const std::vector<BoundaryLine>& lin
 // left out) as its vertices, with the turning point between two of them where one side's nearest
 // site changes.
 void append_walked(const BoundaryGrid& b, BoundaryLine& line, const std::vector<Vec2>& points);
+// A change of owner along a coast (a junction of the owners' locus with a barrier's edge): where,
+// and the two owners, lo < hi.
+struct CoastChange {
+  Vec2 p;
+  int32_t lo = 0, hi = 0;
+};
 // By sea, a crossing linked to none (`lone`, lone_crossings) where the line crosses a channel
 // narrower than the squares around it (a barrier parts every other pair of their corners): made a
 // line of its own when it reaches a barrier on both sides (end_at_barriers' junction one way,
@@ -495,11 +501,19 @@ void cross_channels(const BoundaryGrid& b, std::vector<BoundaryLine>& lone, std:
 // only corner to corner, the line from one coast across it to a coast the cells show. A line drawn
 // to an island may leave that island's other change hidden in turn, so the stretches are found
 // again from the lines drawn, and the new ones walked, up to 16 rounds (a chain of islands inside
-// cells, one more a round). Counts the lines in stats.channels_crossed and the junctions left
-// unexplained in stats.coast_changes_unexplained.
+// cells, one more a round). Where islands overlap (or states' land meets), each ring whose land
+// meets that of a ring with such a stretch is walked whole too: the change may lie on its coast,
+// between where the first ring's coast goes under its land and where it comes out. Counts the
+// lines in stats.channels_crossed; appends the junctions no round explained to `left` (a later
+// stage may still draw their lines: unexplained_changes counts them at the end).
 void cross_hidden_channels(const BoundaryGrid& b, double max_distance, double per,
                            const std::vector<Tripoint>& tripoints, std::vector<BoundaryLine>& lines,
-                           BoundaryStats& stats);
+                           BoundaryStats& stats, std::vector<CoastChange>& left);
+// How many of the changes of owner along coasts in `left` (cross_hidden_channels') no end of
+// `lines` explains (an end on the barrier at it, an open end or a tripoint of both owners within
+// two cells), each counted once: stats.coast_changes_unexplained.
+int64_t unexplained_changes(const BoundaryGrid& b, const std::vector<Tripoint>& tripoints,
+                            const std::vector<BoundaryLine>& lines, const std::vector<CoastChange>& left);
 
 // Whether no owner but a and b comes between them at p: their nearest there into ha and hb, and no
 // third owner's cost below the lesser of theirs by more than 4 ftol (ties with it included).

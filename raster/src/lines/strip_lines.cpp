@@ -289,7 +289,8 @@ struct BoundaryRun {
     join_parted_ends(b, per, t.tripoints, result.lines, result.stats);
     result.lone_crossings = lone_crossings(x, links);
     cross_channels(b, result.lone_crossings, result.lines, result.stats);
-    cross_hidden_channels(b, max_distance, per, t.tripoints, result.lines, result.stats);
+    std::vector<CoastChange> changes_left;
+    cross_hidden_channels(b, max_distance, per, t.tripoints, result.lines, result.stats, changes_left);
     follow_open_ends(b, max_distance, per, t.tripoints, result.lines, result.stats);
     // A line of no length (its vertices all within a millionth of a cell of its first: two
     // crossings placed at one cell centre on the locus, each to the root's tolerance, linked)
@@ -303,6 +304,7 @@ struct BoundaryRun {
       });
     });
     complete_tripoints(b, max_distance, per, t.tripoints, result.lines, result.stats);
+    result.stats.coast_changes_unexplained += unexplained_changes(b, t.tripoints, result.lines, changes_left);
     const LineRefiner refiner(b.index, line_tolerance, b.ftol, scale, per);
     finish_lines(result.lines, &refiner, tol, result.stats, b.threads, reuse, record);
     for (const Tripoint& tp : t.tripoints) {

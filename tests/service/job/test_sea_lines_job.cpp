@@ -587,6 +587,33 @@ TEST_F(SeaLinesJob, ALineWhoseLocusWouldTurnOnLandEndsOnTheCoastBothWays) {
   EXPECT_LE(b.at("along_lines").at("max_midpoint").get<double>(), b.at("along_lines").at("tolerance").get<double>());
 }
 
+// A piece of the Archipelago Sea (GSHHG's full coast, 112 islands between Aland and Finland) with
+// the ports of both near it, at 0.005 deg: the Aland-Finland line runs through a chain of islets
+// whose sounds hold no cell, found from their coasts. Two such changes of owner 1 km apart, in
+// sight of each other, were joined by a chord that cut past an islet the locus goes round: 100 m
+// off the locus, beyond what the refinement could mend (unresolved), and 0.04 km2 of Finland's
+// sea in Aland's region. A pair more than a cell apart is now joined along the locus walked
+// between them: every segment within the tolerance.
+TEST_F(SeaLinesJob, TwoChangesOfOwnerOnIsletsACellApartAreJoinedAlongTheLocus) {
+  JobSpec s;
+  s.seeds.paths = {fixture("archipelago_islets_ports.geojson")};
+  s.seeds.owner_field = "owner";
+  s.barriers = {fixture("archipelago_islets.geojson")};
+  s.grid.resolution = 0.005;
+  s.grid.extent = std::array<double, 4>{21.0, 60.36, 21.16, 60.46};
+  fs::create_directories(dir_ / "islets");
+  s.outputs.ownership = (dir_ / "islets" / "own.tif").string();
+  s.outputs.regions = (dir_ / "islets" / "regions.gpkg").string();
+  s.outputs.report = (dir_ / "islets" / "report.json").string();
+  EXPECT_GT(expect_regions_are_the_owned_cells(s, 2, 0.05), 300);
+  const nlohmann::json report = nlohmann::json::parse(std::ifstream(s.outputs.report));
+  const nlohmann::json& b = report.at("deliverables").at("boundaries");
+  EXPECT_GE(b.at("channels_crossed").get<int64_t>(), 1);
+  EXPECT_EQ(b.at("coast_changes_unexplained").get<int64_t>(), 0);
+  EXPECT_EQ(b.at("along_lines").at("unresolved_segments").get<int64_t>(), 0);
+  EXPECT_LE(b.at("along_lines").at("max_midpoint").get<double>(), b.at("along_lines").at("tolerance").get<double>());
+}
+
 // Partial effect by sea on Wolin: the western Baltic's ports at 0.01 deg round the Szczecin
 // Lagoon's mouths, Wolin's four Polish ports at half effect. In the Swina, the channel between
 // Usedom and Wolin (a third of a cell wide), the rule's cells change owner from Polish to German,

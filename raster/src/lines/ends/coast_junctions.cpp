@@ -90,6 +90,31 @@ bool junction_on(const BoundaryGrid& b, int32_t edge, Vec2 side, double t0, doub
   return true;
 }
 
+// Two solutions of one junction agree to far less than this many cells: each is solved to the root
+// finder's tolerance on the same edge.
+constexpr double kSame = 1e-4;
+
+// Whether change c is explained by an end of a line of its two owners: on the barrier at it (the
+// same point, found by another search of the same edge), or left in the open within two cells (a
+// line the later stages could not carry; not drawn twice), or by a tripoint of both owners beside
+// it.
+bool explained(const BoundaryGrid& b, const std::vector<Tripoint>& tripoints, const std::vector<BoundaryLine>& lines,
+               const CoastChange& c) {
+  const double same = kSame * b.g.res, near = 2.0 * b.g.res;
+  for (const BoundaryLine& l : lines) {
+    if (l.owner_a != c.lo || l.owner_b != c.hi || l.vertices.empty()) continue;
+    for (const BoundaryVertex* e : {&l.vertices.front(), &l.vertices.back()}) {
+      const double d = std::hypot(e->p.x - c.p.x, e->p.y - c.p.y);
+      if (d <= (e->on_barrier ? same : near)) return true;
+    }
+  }
+  for (const Tripoint& t : tripoints) {
+    const bool both = std::count(t.owners, t.owners + 3, c.lo) > 0 && std::count(t.owners, t.owners + 3, c.hi) > 0;
+    if (both && std::hypot(t.p.x - c.p.x, t.p.y - c.p.y) <= near) return true;
+  }
+  return false;
+}
+
 // What one edge's walk hands the next along a coast: its second end and the owner there (on its
 // one sea side), and the site nearest to the last position asked (owner_at's hint).
 struct Carry {
@@ -246,6 +271,49 @@ std::vector<Ring> closed_rings(const SiteMetric& m, const std::vector<int32_t>& 
   return rings;
 }
 
+// Whether two rings' edges cross or touch (their land overlaps or meets).
+bool rings_meet(const Ring& r, const Ring& s) {
+  for (size_t i = 0; i < r.e0.size(); ++i) {
+    line_tools::Bounds ei;
+    ei.add(r.e0[i]);
+    ei.add(r.e1[i]);
+    if (!ei.meets(s.box, 0.0)) continue;
+    const Vec2 d{r.e1[i].x - r.e0[i].x, r.e1[i].y - r.e0[i].y};
+    for (size_t k = 0; k < s.e0.size(); ++k) {
+      const Vec2 e{s.e1[k].x - s.e0[k].x, s.e1[k].y - s.e0[k].y};
+      double t, u;
+      if (line_tools::lines_meet(r.e0[i], d, s.e0[k], e, t, u) && t >= 0.0 && t <= 1.0 && u >= 0.0 && u <= 1.0)
+        return true;
+    }
+  }
+  return false;
+}
+
+// Adds to `out` every edge of each ring inside the grid whose land meets that of a ring marked in
+// `whole` (a stretch of it walked), and of the rings that meet those in turn. Why: where islands
+// overlap (or states' land meets at a border) a ring's coast dips under the other's land, and the
+// change of owner a stretch of it holds may lie on the other ring's coast, between where the first
+// goes under and where it comes out; no line ends on that ring, so no stretch of it is walked.
+void with_overlapping_rings(const GridSpec& g, const std::vector<Ring>& rings, const std::vector<int32_t>& edges,
+                            std::vector<bool> whole, std::vector<int32_t>& out) {
+  std::vector<size_t> queue;
+  for (size_t ri = 0; ri < rings.size(); ++ri)
+    if (whole[ri]) queue.push_back(ri);
+  while (!queue.empty()) {
+    const Ring& r = rings[queue.back()];
+    queue.pop_back();
+    for (size_t si = 0; si < rings.size(); ++si) {
+      const Ring& s = rings[si];
+      if (whole[si] || !r.box.meets(s.box, 0.0) ||
+          !std::all_of(s.e0.begin(), s.e0.end(), [&](Vec2 v) { return inside_grid(g, v); }) || !rings_meet(r, s))
+        continue;
+      whole[si] = true;
+      queue.push_back(si);
+      for (size_t k = 0; k < s.e0.size(); ++k) out.push_back(edges[s.first + k]);
+    }
+  }
+}
+
 // The coasts between line ends whose owners disagree (see the contract): the ids of the edges
 // of every stretch of a closed ring (`rings`, of `edges`), between two of its line ends next to
 // each other along it, where the owner just past the first end is not the owner just before the
@@ -255,6 +323,7 @@ std::vector<Ring> closed_rings(const SiteMetric& m, const std::vector<int32_t>& 
 std::vector<int32_t> disagreeing_stretches(const BoundaryGrid& b, double max_distance, const std::vector<Ring>& rings,
                                            const std::vector<int32_t>& edges, const std::vector<BoundaryLine>& lines) {
   const SiteMetric& m = b.index.metric();
+  std::vector<bool> whole_ring(rings.size(), false);  // a stretch of it is walked
   std::vector<Vec2> ends;
   for (const BoundaryLine& l : lines)
     if (!l.closed && !l.vertices.empty())
@@ -270,7 +339,8 @@ std::vector<int32_t> disagreeing_stretches(const BoundaryGrid& b, double max_dis
     double s;  // along the ring from its first vertex, in grid-CRS units along the chords
     size_t k;  // the edge's index in the ring
   };
-  for (const Ring& r : rings) {
+  for (size_t ri = 0; ri < rings.size(); ++ri) {
+    const Ring& r = rings[ri];
     const size_t n = r.e0.size();
     const double length = r.from[n];
     std::vector<At> at;
@@ -326,8 +396,10 @@ std::vector<int32_t> disagreeing_stretches(const BoundaryGrid& b, double max_dis
       for (size_t c = 1; c < count && within; ++c) within = inside_grid(g, r.e0[(x.k + c) % n]);
       if (!within) continue;
       for (size_t c = 0; c < count; ++c) out.push_back(edges[r.first + (x.k + c) % n]);
+      whole_ring[ri] = true;
     }
   }
+  with_overlapping_rings(g, rings, edges, whole_ring, out);
   std::sort(out.begin(), out.end());
   out.erase(std::unique(out.begin(), out.end()), out.end());
   return out;
@@ -394,6 +466,23 @@ bool leaving(const BoundaryGrid& b, const Junction& j, Vec2& out) {
     f0 = f1;
   }
   return false;
+}
+
+// The locus walked from junction u to junction w of the same owners (narrow_level's walk, `per` as
+// follow_open_ends'), into `points`: u's point, the points walked, w's point left out; false where
+// the walk does not reach w within three times their distance.
+bool walk_between(const BoundaryGrid& b, double per, const Junction& u, const Junction& w, std::vector<Vec2>& points) {
+  constexpr int kPerCell = 8;
+  Vec2 from;
+  if (!leaving(b, u, from)) return false;
+  const double step = b.g.res / kPerCell;
+  const auto steps = static_cast<int64_t>(std::ceil(3.0 * std::hypot(w.p.x - u.p.x, w.p.y - u.p.y) / step)) + kPerCell;
+  locus_follow::Followed f = locus_follow::follow_on(narrow_level(b, u.lo, u.hi, per), from,
+                                                     Vec2{from.x - u.p.x, from.y - u.p.y}, step, steps, {w.p}, &u.p);
+  if (f.stop != locus_follow::Stop::target || f.other != 0) return false;
+  points.assign(1, u.p);
+  points.insert(points.end(), f.points.begin(), f.points.end() - 1);
+  return true;
 }
 
 // The junctions no pair or grid edge took (not `used`), each followed along the locus from it into
@@ -475,7 +564,7 @@ void follow_from_junctions(const BoundaryGrid& b, double per, const std::vector<
 // grid's edge or followed.
 void channels_round(const BoundaryGrid& b, double max_distance, double per, const std::vector<Tripoint>& tripoints,
                     const std::vector<int32_t>& edges, const std::vector<int32_t>& whole, bool hidden_too,
-                    std::vector<BoundaryLine>& lines, BoundaryStats& stats) {
+                    std::vector<BoundaryLine>& lines, BoundaryStats& stats, std::vector<CoastChange>& left) {
   const SiteMetric& m = b.index.metric();
   // Only coast the cells do not show is walked (hidden, above): an edge with a sample there, by
   // its chord (an edge's samples on its geodesic are found only for the edges walked). Elsewhere
@@ -515,30 +604,10 @@ void channels_round(const BoundaryGrid& b, double max_distance, double per, cons
   std::vector<Junction> all;
   for (std::vector<Junction>& f : found) all.insert(all.end(), f.begin(), f.end());
   if (all.empty()) return;
-  // A junction is explained by an end of a line of its two owners: on the barrier at it (the
-  // same point, found by another search of the same edge), or left in the open within two cells
-  // (a line the later stages could not carry; not drawn twice), or by a tripoint of both owners
-  // beside it.
-  // (Two solutions of one junction agree to far less than `same`: each is solved to the root
-  // finder's tolerance on the same edge.)
-  const double same = 1e-4 * b.g.res, near = 2.0 * b.g.res;
-  auto explained = [&](const Junction& j) {
-    for (const BoundaryLine& l : lines) {
-      if (l.owner_a != j.lo || l.owner_b != j.hi || l.vertices.empty()) continue;
-      for (const BoundaryVertex* e : {&l.vertices.front(), &l.vertices.back()}) {
-        const double d = std::hypot(e->p.x - j.p.x, e->p.y - j.p.y);
-        if (d <= (e->on_barrier ? same : near)) return true;
-      }
-    }
-    for (const Tripoint& t : tripoints) {
-      const bool both = std::count(t.owners, t.owners + 3, j.lo) > 0 && std::count(t.owners, t.owners + 3, j.hi) > 0;
-      if (both && std::hypot(t.p.x - j.p.x, t.p.y - j.p.y) <= near) return true;
-    }
-    return false;
-  };
+  const double same = kSame * b.g.res;
   std::vector<Junction> open;
   for (const Junction& j : all)
-    if (!explained(j)) open.push_back(j);
+    if (!explained(b, tripoints, lines, CoastChange{j.p, j.lo, j.hi})) open.push_back(j);
   // Pairs across a channel: the same two owners, within four cells, the way between them open and
   // the locus along it (the owners' costs at its middle nearly equal, against the chord's length).
   std::vector<NearPair> pairs;
@@ -571,8 +640,21 @@ void channels_round(const BoundaryGrid& b, double max_distance, double per, cons
   };
   for (const NearPair& pr : pairs) {
     if (used[pr.i] || used[pr.j]) continue;
-    used[pr.j] = true;
-    add_line(pr.i, open[pr.j].v);
+    if (pr.d <= b.g.res) {
+      used[pr.j] = true;
+      add_line(pr.i, open[pr.j].v);
+      continue;
+    }
+    // (A chord longer than a cell may cut past an islet the locus goes round, off it by more than
+    // the refinement can mend: the pair's line is walked along the locus, and left to the walks
+    // below where it does not reach the other junction.)
+    std::vector<Vec2> walked;
+    if (!walk_between(b, per, open[pr.i], open[pr.j], walked)) continue;
+    used[pr.i] = used[pr.j] = true;
+    BoundaryLine line{open[pr.i].lo, open[pr.i].hi, false, {open[pr.i].v}, {}};
+    append_walked(b, line, walked);
+    line.vertices.push_back(open[pr.j].v);
+    add(std::move(line), -1);
   }
   // A junction left within a cell of the grid's edge: its line runs out to the edge (past the
   // outermost cells without passing between two; region_edges carries the lines that end on the
@@ -582,14 +664,15 @@ void channels_round(const BoundaryGrid& b, double max_distance, double per, cons
     if (!used[i] && to_grid_edge(b, open[i], e)) add_line(i, e);
   }
   follow_from_junctions(b, per, tripoints, open, used, lines, add);
-  stats.coast_changes_unexplained += static_cast<int64_t>(std::count(used.begin(), used.end(), false));
+  for (size_t i = 0; i < open.size(); ++i)
+    if (!used[i]) left.push_back(CoastChange{open[i].p, open[i].lo, open[i].hi});
 }
 
 }  // namespace
 
 void cross_hidden_channels(const BoundaryGrid& b, double max_distance, double per,
                            const std::vector<Tripoint>& tripoints, std::vector<BoundaryLine>& lines,
-                           BoundaryStats& stats) {
+                           BoundaryStats& stats, std::vector<CoastChange>& left) {
   const SiteMetric& m = b.index.metric();
   if (m.straight()) return;
   // Every domain edge that may come within the grid.
@@ -609,11 +692,27 @@ void cross_hidden_channels(const BoundaryGrid& b, double max_distance, double pe
     fresh.clear();
     std::set_difference(whole.begin(), whole.end(), walked.begin(), walked.end(), std::back_inserter(fresh));
     if (round > 0 && fresh.empty()) break;
-    channels_round(b, max_distance, per, tripoints, edges, fresh, round == 0, lines, stats);
+    channels_round(b, max_distance, per, tripoints, edges, fresh, round == 0, lines, stats, left);
     both.clear();
     std::set_union(walked.begin(), walked.end(), fresh.begin(), fresh.end(), std::back_inserter(both));
     walked.swap(both);
   }
+}
+
+int64_t unexplained_changes(const BoundaryGrid& b, const std::vector<Tripoint>& tripoints,
+                            const std::vector<BoundaryLine>& lines, const std::vector<CoastChange>& left) {
+  const double same = kSame * b.g.res;
+  int64_t n = 0;
+  for (size_t i = 0; i < left.size(); ++i) {
+    const CoastChange& c = left[i];
+    // (Found again by a later round, on an edge it walked whole: counted once.)
+    const bool again =
+        std::any_of(left.begin(), left.begin() + static_cast<std::ptrdiff_t>(i), [&](const CoastChange& o) {
+          return o.lo == c.lo && o.hi == c.hi && std::hypot(o.p.x - c.p.x, o.p.y - c.p.y) <= same;
+        });
+    if (!again && !explained(b, tripoints, lines, c)) ++n;
+  }
+  return n;
 }
 
 }  // namespace rv::boundary_stages
