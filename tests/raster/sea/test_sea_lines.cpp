@@ -1615,6 +1615,17 @@ void expect_lines_on_their_locus_at_sea(const ArchipelagoLines& layout, const st
   }
 }
 
+// No junction counted unexplained, every change of owner along a coast ending a line (the oracle
+// above), every line on its locus and at sea, and no two along each other. Returns the changes
+// the oracle saw.
+int64_t expect_coasts_explained(const Archipelago& a, const ArchipelagoLines& layout, const std::string& at) {
+  EXPECT_EQ(layout.lines.stats.coast_changes_unexplained, 0) << at;
+  const int64_t changes = expect_every_coast_change_ends_a_line(a, layout, at);
+  expect_lines_on_their_locus_at_sea(layout, at);
+  expect_no_two_lines_along_each_other(layout.lines, layout.g.res, at);
+  return changes;
+}
+
 // Changes of owner along a coast the cells do not show, on random archipelagos at grids coarser
 // than their channels (cells of 2.3 to 4.7 on the 40-unit square): a pocket of sea whose cells
 // meet the rest only corner to corner, a sound narrower than a cell. The oracle walks every
@@ -1638,10 +1649,7 @@ TEST(SeaLines, EveryChangeOfOwnerAlongACoastTheCellsDoNotShowEndsALine) {
   const int64_t checked = for_chosen_layouts(
       91, archipelagos, chosen, [&](const Archipelago& a, const ArchipelagoLines& layout, const std::string& at) {
         crossed += layout.lines.stats.channels_crossed;
-        EXPECT_EQ(layout.lines.stats.coast_changes_unexplained, 0) << at;
-        changes += expect_every_coast_change_ends_a_line(a, layout, at);
-        expect_lines_on_their_locus_at_sea(layout, at);
-        expect_no_two_lines_along_each_other(layout.lines, layout.g.res, at);
+        changes += expect_coasts_explained(a, layout, at);
       });
   EXPECT_EQ(checked, static_cast<int64_t>(chosen.size()));
   EXPECT_GE(crossed, static_cast<int64_t>(chosen.size()));
@@ -1732,10 +1740,7 @@ TEST(SeaLines, ChangesOfOwnerWhereIsletsOverlapEndLinesAndOnlyTheUnexplainedAreC
   int64_t changes = 0;
   const int checked = for_chosen_layouts(
       7, islet_chains, chosen, [&](const Archipelago& a, const ArchipelagoLines& layout, const std::string& at) {
-        EXPECT_EQ(layout.lines.stats.coast_changes_unexplained, 0) << at;
-        changes += expect_every_coast_change_ends_a_line(a, layout, at);
-        expect_lines_on_their_locus_at_sea(layout, at);
-        expect_no_two_lines_along_each_other(layout.lines, layout.g.res, at);
+        changes += expect_coasts_explained(a, layout, at);
       });
   EXPECT_EQ(checked, static_cast<int>(chosen.size()));
   EXPECT_GE(changes, static_cast<int64_t>(chosen.size()));
