@@ -304,9 +304,9 @@ void with_overlapping_rings(const GridSpec& g, const std::vector<Ring>& rings, c
     queue.pop_back();
     for (size_t si = 0; si < rings.size(); ++si) {
       const Ring& s = rings[si];
-      if (whole[si] || !r.box.meets(s.box, 0.0) ||
-          !std::all_of(s.e0.begin(), s.e0.end(), [&](Vec2 v) { return inside_grid(g, v); }) || !rings_meet(r, s))
-        continue;
+      // (Every vertex strictly inside the grid: its bounds are.)
+      const bool inside = s.box.x0 > g.xmin && s.box.x1 < g.xmax() && s.box.y0 > g.ymin() && s.box.y1 < g.ymax;
+      if (whole[si] || !inside || !r.box.meets(s.box, 0.0) || !rings_meet(r, s)) continue;
       whole[si] = true;
       queue.push_back(si);
       for (size_t k = 0; k < s.e0.size(); ++k) out.push_back(edges[s.first + k]);
@@ -468,11 +468,14 @@ bool leaving(const BoundaryGrid& b, const Junction& j, Vec2& out) {
   return false;
 }
 
+// A walk's steps along the locus from a junction: an eighth of a cell, fewer in a sliver (as
+// follow_open_ends' walks).
+constexpr int kPerCell = 8;
+
 // The locus walked from junction u to junction w of the same owners (narrow_level's walk, `per` as
 // follow_open_ends'), into `points`: u's point, the points walked, w's point left out; false where
 // the walk does not reach w within three times their distance.
 bool walk_between(const BoundaryGrid& b, double per, const Junction& u, const Junction& w, std::vector<Vec2>& points) {
-  constexpr int kPerCell = 8;
   Vec2 from;
   if (!leaving(b, u, from)) return false;
   const double step = b.g.res / kPerCell;
@@ -492,8 +495,6 @@ template <class Add>
 void follow_from_junctions(const BoundaryGrid& b, double per, const std::vector<Tripoint>& tripoints,
                            const std::vector<Junction>& open, std::vector<bool>& used, std::vector<BoundaryLine>& lines,
                            Add&& add) {
-  // (Steps of an eighth of a cell, fewer in a sliver: as follow_open_ends' walks.)
-  constexpr int kPerCell = 8;
   constexpr int64_t kMaxSteps = 8192;
   auto open_end = [&](const BoundaryVertex& v) { return open_line_end(b, tripoints, v); };
   for (size_t i = 0; i < open.size(); ++i) {
